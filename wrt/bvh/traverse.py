@@ -1,0 +1,138 @@
+"""Traversal of the flat binary BVH: closest hit (``bvh_intersect``) and any hit (``bvh_occluded``).
+
+Both visit the nearer child first (ordered by box entry distance), keep the far child on a fixed stack of
+``MAX_DEPTH`` entries (the builder guarantees the depth), and store each entry distance beside it so that a
+popped node lying beyond the best hit so far is culled without touching memory.
+
+Tie rule: hits at exactly the same ``t`` are resolved towards the smaller triangle id, so the result does not
+depend on the tree or the visiting order. Boxes are entered when their entry distance is ``<=`` the best ``t``
+(not ``<``), which keeps ties reachable.
+"""
+
+import warp as wp
+
+from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
+from .build import MAX_DEPTH
+from .layout import DeviceBvh
+
+
+@wp.func
+def reachable(t_entry: float, best_t: float):
+    """A box entered at ``t_entry`` (``inf`` = missed) may hold a hit that wins against ``best_t``."""
+    return t_entry < wp.inf and t_entry <= best_t
+
+
+@wp.func
+def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+    """Closest hit with ``t_min <= t < t_max``.
+
+    Returns:
+        ``(t, u, v, prim, nodes_visited, triangles_tested)``; ``prim = -1`` and ``t = inf`` on a miss.
+    """
+    best_t = t_max
+    best_u = float(0.0)
+    best_v = float(0.0)
+    best_slot = int(-1)
+    nodes = int(0)
+    tests = int(0)
+    if bvh.num_prims > 0 and ray_is_valid(direction):
+        ray = make_sheared_ray(origin, direction)
+        inv_dir = safe_inverse(direction)
+        stack = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
+        stack_t = wp.zeros(shape=MAX_DEPTH, dtype=float)
+        top = int(0)
+        node = int(-1)
+        if reachable(intersect_ray_box(origin, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, best_t), best_t):
+            node = 0
+        while node >= 0:
+            nodes += 1
+            count = bvh.prim_count[node]
+            first = bvh.left_first[node]
+            if count > 0:
+                # Leaf: test its triangles, stored in slot order.
+                for s in range(first, first + count):
+                    tests += 1
+                    hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
+                    if hit and t >= t_min:
+                        if t < best_t or (t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]):
+                            best_t = t
+                            best_u = u
+                            best_v = v
+                            best_slot = s
+                node = -1
+            else:
+                # Inner node: go to the nearer child that the ray enters, push the other one.
+                left = first
+                right = first + 1
+                t_left = intersect_ray_box(origin, inv_dir, bvh.lowers[left], bvh.uppers[left], t_min, best_t)
+                t_right = intersect_ray_box(origin, inv_dir, bvh.lowers[right], bvh.uppers[right], t_min, best_t)
+                if t_right < t_left:
+                    tmp = left
+                    left = right
+                    right = tmp
+                    tmp_t = t_left
+                    t_left = t_right
+                    t_right = tmp_t
+                node = -1
+                if reachable(t_left, best_t):
+                    node = left
+                    if reachable(t_right, best_t):
+                        stack[top] = right
+                        stack_t[top] = t_right
+                        top += 1
+            # Pop the next node that may still hold a hit no farther than the best one.
+            while node < 0 and top > 0:
+                top -= 1
+                if stack_t[top] <= best_t:
+                    node = stack[top]
+    prim = int(-1)
+    if best_slot >= 0:
+        prim = bvh.prim_ids[best_slot]
+    else:
+        best_t = wp.inf
+    return best_t, best_u, best_v, prim, nodes, tests
+
+
+@wp.func
+def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+    """Any hit with ``t_min <= t < t_max``: True as soon as one is found."""
+    found = bool(False)
+    if bvh.num_prims > 0 and ray_is_valid(direction):
+        ray = make_sheared_ray(origin, direction)
+        inv_dir = safe_inverse(direction)
+        stack = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
+        top = int(0)
+        node = int(-1)
+        if intersect_ray_box(origin, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, t_max) < wp.inf:
+            node = 0
+        while node >= 0 and not found:
+            count = bvh.prim_count[node]
+            first = bvh.left_first[node]
+            if count > 0:
+                for s in range(first, first + count):
+                    hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
+                    if hit and t >= t_min and t < t_max:
+                        found = True
+                node = -1
+            else:
+                left = first
+                right = first + 1
+                t_left = intersect_ray_box(origin, inv_dir, bvh.lowers[left], bvh.uppers[left], t_min, t_max)
+                t_right = intersect_ray_box(origin, inv_dir, bvh.lowers[right], bvh.uppers[right], t_min, t_max)
+                if t_right < t_left:
+                    tmp = left
+                    left = right
+                    right = tmp
+                    tmp_t = t_left
+                    t_left = t_right
+                    t_right = tmp_t
+                node = -1
+                if t_left < wp.inf:
+                    node = left
+                    if t_right < wp.inf:
+                        stack[top] = right
+                        top += 1
+            if node < 0 and top > 0:
+                top -= 1
+                node = stack[top]
+    return found

@@ -1,0 +1,227 @@
+"""Cameras: the Python ``Camera`` object and the kernel that turns pixels into rays.
+
+Conventions, stated once:
+
+- A camera looks down its local -Z axis with +Y up and +X to the right, as ``UsdGeom.Camera`` does.
+- ``Camera.to_world`` is a ``(4, 4)`` matrix in column-vector convention: ``p_world = to_world @ [p, 1]``.
+  (USD's ``Gf.Matrix4d`` is row-vector, so it is transposed on the way in.)
+- Film quantities follow USD: focal length and apertures share one unit (so only their ratios matter for
+  perspective); for orthographic cameras the apertures are in tenths of a scene unit (``Gf.Camera.APERTURE_UNIT``).
+- ``fit="horizontal"`` keeps the horizontal aperture and lets the vertical extent follow the image aspect,
+  as usdview does. ``Camera.look_at`` uses ``fit="vertical"`` so that its ``fov_y_deg`` holds at any aspect.
+- Image row 0 is the top. Pixel ``(i, j)`` samples film position ``((j + sx) / W, (i + sy) / H)`` where
+  ``(sx, sy) = (0.5, 0.5)`` at one sample per pixel.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import warp as wp
+
+APERTURE_UNIT = 0.1  # orthographic apertures are in tenths of a scene unit, as in Gf.Camera
+
+
+@wp.struct
+class DeviceCamera:
+    """Camera data in the form the ray-generation kernel needs."""
+
+    origin: wp.vec3  # eye position, world space
+    right: wp.vec3  # world-space camera +X
+    up: wp.vec3  # world-space camera +Y
+    forward: wp.vec3  # world-space camera -Z (viewing direction)
+    film_width: float  # film extent along right, in focal-length units (perspective) or scene units (ortho)
+    film_height: float  # film extent along up, same unit
+    film_offset: wp.vec2  # film window shift (x, y), same unit
+    orthographic: int  # 1 for orthographic projection
+    near: float  # clipping range, distance along forward
+    far: float
+
+
+@wp.func
+def camera_ray(cam: DeviceCamera, fx: float, fy: float):
+    """Ray through film position ``(fx, fy)`` in [0, 1]^2 (y down). Returns origin, unit direction, t range."""
+    x = (fx - 0.5) * cam.film_width + cam.film_offset[0]
+    y = (0.5 - fy) * cam.film_height + cam.film_offset[1]
+    origin = cam.origin
+    direction = cam.forward
+    if cam.orthographic == 1:
+        origin = cam.origin + x * cam.right + y * cam.up
+    else:
+        direction = wp.normalize(cam.forward + x * cam.right + y * cam.up)
+    # Clipping planes are planes of constant depth; convert them to distances along this ray.
+    cos_theta = wp.dot(direction, cam.forward)
+    return origin, direction, cam.near / cos_theta, cam.far / cos_theta
+
+
+@wp.kernel
+def generate_rays_kernel(
+    cam: DeviceCamera,
+    width: int,
+    height: int,
+    # outputs
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+):
+    """One pinhole ray through the centre of each pixel, row-major from the top-left."""
+    tid = wp.tid()
+    i = tid // width
+    j = tid - i * width
+    o, d, t0, t1 = camera_ray(cam, (float(j) + 0.5) / float(width), (float(i) + 0.5) / float(height))
+    origins[tid] = o
+    directions[tid] = d
+    t_mins[tid] = t0
+    t_maxs[tid] = t1
+
+
+def _normalized(v) -> np.ndarray:
+    v = np.asarray(v, dtype=np.float64)
+    n = np.linalg.norm(v)
+    if not np.isfinite(n) or n == 0.0:
+        raise ValueError(f"cannot normalise vector {v.tolist()}")
+    return v / n
+
+
+@dataclasses.dataclass
+class Camera:
+    """A camera, perspective or orthographic, with USD's film model.
+
+    Attributes:
+        to_world: ``(4, 4)`` float64 camera-to-world matrix, column-vector convention (see module docstring).
+        focal_length: focal length, in the film unit.
+        horizontal_aperture: film width, in the film unit.
+        vertical_aperture: film height, in the film unit (used only with ``fit="vertical"``).
+        horizontal_aperture_offset: film shift along +X, in the film unit.
+        vertical_aperture_offset: film shift along +Y, in the film unit.
+        clipping_range: ``(near, far)`` depth range, scene units.
+        projection: ``"perspective"`` or ``"orthographic"``.
+        fit: which aperture is kept when the image aspect differs: ``"horizontal"`` or ``"vertical"``.
+        f_stop: lens f-number; 0 means a pinhole.
+        focus_distance: distance to the plane in focus, scene units.
+        path: prim path when read from USD.
+    """
+
+    to_world: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(4))
+    focal_length: float = 50.0
+    horizontal_aperture: float = 20.955
+    vertical_aperture: float = 15.2908
+    horizontal_aperture_offset: float = 0.0
+    vertical_aperture_offset: float = 0.0
+    clipping_range: tuple[float, float] = (0.01, 1.0e6)
+    projection: str = "perspective"
+    fit: str = "horizontal"
+    f_stop: float = 0.0
+    focus_distance: float = 0.0
+    path: str = ""
+
+    def __post_init__(self):
+        self.to_world = np.asarray(self.to_world, dtype=np.float64).reshape(4, 4)
+        if self.projection not in ("perspective", "orthographic"):
+            raise ValueError(f"camera projection must be 'perspective' or 'orthographic', not {self.projection!r}")
+        if self.fit not in ("horizontal", "vertical"):
+            raise ValueError(f"camera fit must be 'horizontal' or 'vertical', not {self.fit!r}")
+        if not (self.focal_length > 0 and self.horizontal_aperture > 0 and self.vertical_aperture > 0):
+            raise ValueError(
+                f"camera {self.path or ''} needs positive focalLength and apertures, got focal_length="
+                f"{self.focal_length}, apertures={self.horizontal_aperture}x{self.vertical_aperture}"
+            )
+        near, far = self.clipping_range
+        if not (0 <= near < far):
+            raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
+        if not np.all(np.isfinite(self.to_world)):
+            raise ValueError(f"camera {self.path or ''} transform is not finite")
+
+    @classmethod
+    def look_at(cls, eye, target, up=(0.0, 1.0, 0.0), fov_y_deg: float = 45.0, **kwargs) -> Camera:
+        """A perspective camera at ``eye`` looking at ``target``, with a vertical field of view in degrees."""
+        if not 0.0 < fov_y_deg < 180.0:
+            raise ValueError(f"fov_y_deg must lie in (0, 180), got {fov_y_deg}")
+        aperture = 2.0 * kwargs.get("focal_length", 50.0) * math.tan(math.radians(fov_y_deg) / 2.0)
+        kwargs.setdefault("vertical_aperture", aperture)
+        kwargs.setdefault("horizontal_aperture", aperture)
+        return cls(to_world=_look_at_matrix(eye, target, up), fit="vertical", **kwargs)
+
+    @classmethod
+    def orthographic(cls, eye, target, up=(0.0, 1.0, 0.0), height: float = 2.0, **kwargs) -> Camera:
+        """An orthographic camera at ``eye`` looking at ``target`` whose view is ``height`` scene units tall."""
+        if not height > 0:
+            raise ValueError(f"orthographic height must be positive, got {height}")
+        aperture = height / APERTURE_UNIT
+        return cls(
+            to_world=_look_at_matrix(eye, target, up),
+            projection="orthographic",
+            fit="vertical",
+            vertical_aperture=aperture,
+            horizontal_aperture=aperture,
+            **kwargs,
+        )
+
+    @property
+    def eye(self) -> np.ndarray:
+        """``(3,)`` world-space position."""
+        return self.to_world[:3, 3].copy()
+
+    def film_size(self, width: int, height: int) -> tuple[float, float]:
+        """Film ``(width, height)`` in the film unit for an image of ``width x height`` pixels."""
+        aspect = width / height
+        if self.fit == "horizontal":
+            return self.horizontal_aperture, self.horizontal_aperture / aspect
+        return self.vertical_aperture * aspect, self.vertical_aperture
+
+    def to_struct(self, width: int, height: int) -> DeviceCamera:
+        """The :class:`DeviceCamera` for an image of ``width x height`` pixels."""
+        m = self.to_world
+        # Columns of the rotation part; normalising removes scale baked into the camera's transform.
+        right, up, back = (_normalized(m[:3, k]) for k in range(3))
+        film_w, film_h = self.film_size(width, height)
+        offset = np.array([self.horizontal_aperture_offset, self.vertical_aperture_offset])
+        if self.projection == "perspective":
+            scale = 1.0 / self.focal_length  # film units -> direction units at unit depth
+        else:
+            scale = APERTURE_UNIT  # film units -> scene units
+        s = DeviceCamera()
+        s.origin = wp.vec3(*m[:3, 3])
+        s.right = wp.vec3(*right)
+        s.up = wp.vec3(*up)
+        s.forward = wp.vec3(*(-back))
+        s.film_width = float(film_w * scale)
+        s.film_height = float(film_h * scale)
+        s.film_offset = wp.vec2(*(offset * scale))
+        s.orthographic = 1 if self.projection == "orthographic" else 0
+        s.near = float(self.clipping_range[0])
+        s.far = float(self.clipping_range[1])
+        return s
+
+
+def _look_at_matrix(eye, target, up) -> np.ndarray:
+    eye = np.asarray(eye, dtype=np.float64)
+    back = _normalized(eye - np.asarray(target, dtype=np.float64))
+    right = np.cross(np.asarray(up, dtype=np.float64), back)
+    if np.linalg.norm(right) < 1e-12:
+        raise ValueError("look_at: up is parallel to the viewing direction")
+    right = _normalized(right)
+    true_up = np.cross(back, right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, true_up, back, eye
+    return m
+
+
+def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Camera:
+    """A perspective camera that sees the whole box ``[lower, upper]`` from the front and above."""
+    lower = np.asarray(lower, dtype=np.float64)
+    upper = np.asarray(upper, dtype=np.float64)
+    center = (lower + upper) / 2.0
+    radius = max(float(np.linalg.norm(upper - lower)) / 2.0, 1e-6)
+    distance = radius / math.sin(math.radians(fov_y_deg) / 2.0)
+    if up_axis == "Z":
+        up, view = np.array([0.0, 0.0, 1.0]), np.array([0.4, -1.0, 0.5])
+    else:
+        up, view = np.array([0.0, 1.0, 0.0]), np.array([0.4, 0.5, 1.0])
+    eye = center + _normalized(view) * distance
+    return Camera.look_at(
+        eye, center, up, fov_y_deg, clipping_range=(distance * 1e-4, distance + 4.0 * radius)
+    )

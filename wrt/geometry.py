@@ -1,0 +1,138 @@
+"""Device math shared by every traversal: the watertight ray-triangle test and the robust ray-box test.
+
+- Triangles: Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection", JCGT 2013. The ray is sheared so it
+  runs along +Z; the three 2D edge functions are then evaluated with the same operands for an edge shared by two
+  triangles, so a ray can never slip between them. Edge functions that come out exactly zero are recomputed in
+  double precision, as the paper prescribes. The test is two-sided.
+- Boxes: the slab test with the far distance scaled up by ``1 + 2 * gamma(3)`` (Ize, "Robust BVH Ray Traversal",
+  JCGT 2013), so rounding can never cull a box that the ray touches.
+
+Barycentrics follow wrt's contract: ``hit = (1 - u - v) * p0 + u * p1 + v * p2``.
+"""
+
+import warp as wp
+
+ROBUST_FAR_SCALE = wp.constant(1.0 + 2.0 * 3.0 * 5.9604645e-08 / (1.0 - 3.0 * 5.9604645e-08))  # 1 + 2*gamma(3), Ize
+
+
+@wp.struct
+class ShearedRay:
+    """Per-ray constants of the watertight test, computed once per ray instead of once per triangle."""
+
+    origin: wp.vec3  # ray origin, world space
+    kx: int  # axis mapped to x after the permutation
+    ky: int  # axis mapped to y
+    kz: int  # axis of largest |direction| component, mapped to z
+    sx: float  # shear constants: x' = x - sx * z, y' = y - sy * z, z' = sz * z
+    sy: float
+    sz: float
+
+
+@wp.func
+def make_sheared_ray(origin: wp.vec3, direction: wp.vec3):
+    """Precomputes the permutation and shear of the watertight test for one ray."""
+    ax = wp.abs(direction[0])
+    ay = wp.abs(direction[1])
+    az = wp.abs(direction[2])
+    kz = int(2)
+    if ax > ay and ax > az:
+        kz = 0
+    elif ay > az:
+        kz = 1
+    kx = kz + 1
+    if kx == 3:
+        kx = 0
+    ky = kx + 1
+    if ky == 3:
+        ky = 0
+    # Swap x and y when the dominant component is negative, so the winding of the triangle is preserved.
+    if direction[kz] < 0.0:
+        tmp = kx
+        kx = ky
+        ky = tmp
+    r = ShearedRay()
+    r.origin = origin
+    r.kx = kx
+    r.ky = ky
+    r.kz = kz
+    r.sx = direction[kx] / direction[kz]
+    r.sy = direction[ky] / direction[kz]
+    r.sz = 1.0 / direction[kz]
+    return r
+
+
+@wp.func
+def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3):
+    """Watertight, two-sided ray-triangle test.
+
+    Returns:
+        ``(hit, t, u, v)``: ``t`` in units of the ray direction's length; valid only when ``hit`` and ``t >= 0``
+        is not checked here (the caller clips against its own ``[t_min, t_max)``).
+    """
+    a = p0 - ray.origin
+    b = p1 - ray.origin
+    c = p2 - ray.origin
+    ax = a[ray.kx] - ray.sx * a[ray.kz]
+    ay = a[ray.ky] - ray.sy * a[ray.kz]
+    bx = b[ray.kx] - ray.sx * b[ray.kz]
+    by = b[ray.ky] - ray.sy * b[ray.kz]
+    cx = c[ray.kx] - ray.sx * c[ray.kz]
+    cy = c[ray.ky] - ray.sy * c[ray.kz]
+    # Scaled barycentric weights of p0, p1, p2 (2D edge functions).
+    e0 = cx * by - cy * bx
+    e1 = ax * cy - ay * cx
+    e2 = bx * ay - by * ax
+    if e0 == 0.0 or e1 == 0.0 or e2 == 0.0:
+        e0 = float(wp.float64(cx) * wp.float64(by) - wp.float64(cy) * wp.float64(bx))
+        e1 = float(wp.float64(ax) * wp.float64(cy) - wp.float64(ay) * wp.float64(cx))
+        e2 = float(wp.float64(bx) * wp.float64(ay) - wp.float64(by) * wp.float64(ax))
+    hit = True
+    if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
+        hit = False
+    det = e0 + e1 + e2
+    if det == 0.0:
+        hit = False
+    t = float(0.0)
+    u = float(0.0)
+    v = float(0.0)
+    if hit:
+        big_t = e0 * (ray.sz * a[ray.kz]) + e1 * (ray.sz * b[ray.kz]) + e2 * (ray.sz * c[ray.kz])
+        inv_det = 1.0 / det
+        t = big_t * inv_det
+        u = e1 * inv_det
+        v = e2 * inv_det
+    return hit, t, u, v
+
+
+@wp.func
+def safe_inverse(direction: wp.vec3):
+    """Component-wise ``1 / direction`` with zeros replaced by a huge finite value of the right sign, so the slab
+    test never computes ``0 * inf``."""
+    inv = wp.vec3()
+    for k in range(3):
+        d = direction[k]
+        if wp.abs(d) < 1.0e-30:
+            inv[k] = wp.copysign(1.0e30, d)
+        else:
+            inv[k] = 1.0 / d
+    return inv
+
+
+@wp.func
+def intersect_ray_box(origin: wp.vec3, inv_dir: wp.vec3, lower: wp.vec3, upper: wp.vec3, t_min: float, t_max: float):
+    """Robust slab test. Returns the entry distance, or ``+inf`` when the ray misses ``[t_min, t_max]``."""
+    t0 = wp.cw_mul(lower - origin, inv_dir)
+    t1 = wp.cw_mul(upper - origin, inv_dir)
+    near = wp.max(wp.max(wp.min(t0[0], t1[0]), wp.min(t0[1], t1[1])), wp.max(wp.min(t0[2], t1[2]), t_min))
+    far = wp.min(wp.min(wp.max(t0[0], t1[0]), wp.max(t0[1], t1[1])), wp.min(wp.max(t0[2], t1[2]), t_max))
+    result = wp.inf
+    if near <= far * ROBUST_FAR_SCALE:
+        result = near
+    return result
+
+
+@wp.func
+def ray_is_valid(direction: wp.vec3):
+    """False for zero, NaN or infinite directions, which can hit nothing."""
+    n = wp.dot(direction, direction)
+    return n > 0.0 and wp.isfinite(n)
