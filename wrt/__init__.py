@@ -3,26 +3,29 @@
 Pipeline: USD stage -> :class:`Scene` -> BVH -> trace kernels (:class:`Hits`) -> shade kernels -> :class:`Image`.
 """
 
-import warp as _wp
-
-_wp.config.quiet = True
-
-from .bvh import FlatBvh, build_bvh  # noqa: E402
-from .camera import Camera  # noqa: E402
-from .errors import SceneError  # noqa: E402
-from .scene import DistantLight, Mesh, Scene  # noqa: E402
-from .trace import Hits, occluded, trace  # noqa: E402
+from .bvh import FlatBvh, build_bvh
+from .camera import Camera
+from .errors import SceneError
+from .image import Image
+from .render import Renderer, render
+from .scene import DistantLight, Mesh, Scene
+from .trace import Hits, occluded, trace
+from .usd import load_usd
 
 __all__ = [
     "Camera",
     "DistantLight",
     "FlatBvh",
     "Hits",
+    "Image",
     "Mesh",
+    "Renderer",
     "Scene",
     "SceneError",
     "build_bvh",
+    "load_usd",
     "occluded",
+    "render",
     "trace",
 ]
 __version__ = "0.1.0"

@@ -61,17 +61,26 @@ def generate_rays_kernel(
     cam: DeviceCamera,
     width: int,
     height: int,
+    sample: int,
+    seed: int,
     # outputs
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     t_mins: wp.array[float],
     t_maxs: wp.array[float],
 ):
-    """One pinhole ray through the centre of each pixel, row-major from the top-left."""
+    """One ray per pixel, row-major from the top-left: through the pixel centre for ``sample == 0``, through a
+    uniformly jittered point of the pixel (deterministic in ``seed``, pixel and sample) otherwise."""
     tid = wp.tid()
     i = tid // width
     j = tid - i * width
-    o, d, t0, t1 = camera_ray(cam, (float(j) + 0.5) / float(width), (float(i) + 0.5) / float(height))
+    sx = float(0.5)
+    sy = float(0.5)
+    if sample > 0:
+        rng = wp.rand_init(seed, tid + sample * width * height)
+        sx = wp.randf(rng)
+        sy = wp.randf(rng)
+    o, d, t0, t1 = camera_ray(cam, (float(j) + sx) / float(width), (float(i) + sy) / float(height))
     origins[tid] = o
     directions[tid] = d
     t_mins[tid] = t0

@@ -136,3 +136,23 @@ def ray_is_valid(direction: wp.vec3):
     """False for zero, NaN or infinite directions, which can hit nothing."""
     n = wp.dot(direction, direction)
     return n > 0.0 and wp.isfinite(n)
+
+
+@wp.func
+def offset_ray_origin(p: wp.vec3, n: wp.vec3):
+    """Moves a hit point off its surface along ``n`` by a few float ULPs, so a ray started there cannot hit the
+    same surface again (Wächter and Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing
+    Gems, 2019). Near the origin, where ULPs are tiny, a fixed offset is used instead."""
+    result = wp.vec3()
+    for k in range(3):
+        ulps = int(256.0 * n[k])
+        bits = wp.cast(p[k], wp.int32)
+        if p[k] < 0.0:
+            bits -= ulps
+        else:
+            bits += ulps
+        moved = wp.cast(bits, wp.float32)
+        if wp.abs(p[k]) < 1.0 / 32.0:
+            moved = p[k] + (1.0 / 65536.0) * n[k]
+        result[k] = moved
+    return result

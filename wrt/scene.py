@@ -15,8 +15,20 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import warp as wp
 
 from .camera import Camera
+
+
+@wp.struct
+class DeviceScene:
+    """Per-triangle shading data on the device, indexed by triangle id (``prim``)."""
+
+    points: wp.array[wp.vec3]  # world-space vertex positions
+    indices: wp.array2d[wp.int32]  # (T, 3) triangle vertex indices
+    normals: wp.array2d[wp.vec3]  # (T, 3) shading normal per corner; zero when the mesh has none
+    colors: wp.array2d[wp.vec3]  # (T, 3) linear albedo per corner
+    num_prims: int  # number of triangles
 
 
 @dataclasses.dataclass
@@ -142,6 +154,26 @@ class Scene:
                 colors.append(m.colors if m.colors is not None else np.full((n, 3, 3), 0.5, np.float32))
             empty = np.zeros((0, 3, 3), np.float32)
             self._cache[key] = (np.concatenate(normals or [empty]), np.concatenate(colors or [empty]))
+        return self._cache[key]
+
+    def to_device(self, device) -> DeviceScene:
+        """The :class:`DeviceScene` on ``device``, uploaded on first use and cached."""
+        device = wp.get_device(device)
+        key = ("device_scene", str(device))
+        if key not in self._cache:
+            points, indices = self.triangles()
+            normals, colors = self.corner_attributes()
+            n = len(indices)
+            if n == 0:  # keep arrays non-empty so kernels can bind them; num_prims = 0 marks the scene empty
+                points, indices = np.zeros((1, 3), np.float32), np.zeros((1, 3), np.int32)
+                normals = colors = np.zeros((1, 3, 3), np.float32)
+            s = DeviceScene()
+            s.points = wp.array(points, dtype=wp.vec3, device=device)
+            s.indices = wp.array(indices, dtype=wp.int32, device=device)
+            s.normals = wp.array(normals, dtype=wp.vec3, device=device)
+            s.colors = wp.array(colors, dtype=wp.vec3, device=device)
+            s.num_prims = n
+            self._cache[key] = s
         return self._cache[key]
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
