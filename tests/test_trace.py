@@ -1,0 +1,233 @@
+"""wrt's BVH against Warp's wp.Mesh, ray by ray, on real scenes; and against a brute-force oracle."""
+
+import numpy as np
+import pytest
+import warp as wp
+from conftest import WARP_USD_ASSETS, warp_assets
+
+import wrt
+from wrt.compare import compare_hits
+from wrt.geometry import intersect_ray_triangle, make_sheared_ray
+from wrt.rays import camera_rays, random_rays
+
+SHARED_SCENES = (
+    "cornell_box",
+    "spot_control_ngons",
+    "xform_complex",
+    "xform_weird_matrix",
+    "mesh_mixed_counts",
+    "stage_upaxis_z",
+)
+MAX_TIE_FRACTION = 1e-4  # disagreements allowed on rays through edges/vertices (documented exact ties)
+
+
+def agreement_rays(scene):
+    """1e5 rays: 5e4 camera rays and 5e4 random rays."""
+    o1, d1 = camera_rays(scene, width=250, height=200)
+    o2, d2 = random_rays(scene, 50_000, seed=7)
+    return np.concatenate([o1, o2]), np.concatenate([d1, d2])
+
+
+def check_agreement(scene):
+    origins, directions = agreement_rays(scene)
+    assert len(origins) == 100_000
+    ours = wrt.trace(scene, origins, directions, accel="wrt")
+    theirs = wrt.trace(scene, origins, directions, accel="warp")
+    points = scene.triangles()[0]
+    scale = float(np.abs(points).max()) if len(points) else 0.0
+    report = compare_hits(ours, theirs, directions=directions, scale=scale)
+    assert report["disagreements"] == 0, report
+    assert report["tie_disagreements"] <= MAX_TIE_FRACTION * report["rays"], report
+    return report
+
+
+@pytest.mark.parametrize("name", WARP_USD_ASSETS)
+def test_agrees_with_wp_mesh_on_warp_assets(name):
+    scene = wrt.load_usd(warp_assets(name))
+    assert scene.stats()["rendered_triangles"] > 0
+    report = check_agreement(scene)
+    assert report["hits_a"] > 0
+
+
+@pytest.mark.parametrize("asset_id", SHARED_SCENES)
+def test_agrees_with_wp_mesh_on_shared_scenes(assets, asset_id):
+    scene = wrt.load_usd(assets(asset_id))
+    check_agreement(scene)
+
+
+@wp.kernel
+def brute_force_kernel(
+    points: wp.array[wp.vec3],
+    indices: wp.array2d[wp.int32],
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    # outputs
+    ts: wp.array[float],
+    prims: wp.array[wp.int32],
+):
+    """O(n) oracle: test every triangle, keep the nearest (ties to the smaller id)."""
+    i = wp.tid()
+    ray = make_sheared_ray(origins[i], directions[i])
+    best_t = float(wp.inf)
+    best = int(-1)
+    for k in range(indices.shape[0]):
+        hit, t, u, v = intersect_ray_triangle(ray, points[indices[k, 0]], points[indices[k, 1]], points[indices[k, 2]])
+        if hit and t >= 0.0 and t < best_t:
+            best_t = t
+            best = k
+    ts[i] = best_t
+    prims[i] = best
+
+
+def brute_force(points, indices, origins, directions):
+    n = len(origins)
+    ts = wp.empty(n, dtype=float, device="cpu")
+    prims = wp.empty(n, dtype=wp.int32, device="cpu")
+    inputs = [
+        wp.array(points, dtype=wp.vec3, device="cpu"),
+        wp.array(indices, dtype=wp.int32, device="cpu"),
+        wp.array(origins, dtype=wp.vec3, device="cpu"),
+        wp.array(directions, dtype=wp.vec3, device="cpu"),
+    ]
+    wp.launch(brute_force_kernel, n, inputs=inputs, outputs=[ts, prims], device="cpu")
+    return ts.numpy(), prims.numpy()
+
+
+def random_soup(rng, n_tris):
+    centers = rng.uniform(-1, 1, (n_tris, 1, 3))
+    points = (centers + rng.normal(scale=0.15, size=(n_tris, 3, 3))).reshape(-1, 3).astype(np.float32)
+    return points, np.arange(3 * n_tris, dtype=np.int32).reshape(-1, 3)
+
+
+@pytest.mark.parametrize("builder", ["sah", "middle"])
+@pytest.mark.parametrize("leaf_size", [1, 4, 8])
+def test_brute_force_oracle_on_triangle_soup(builder, leaf_size, np_rng):
+    points, indices = random_soup(np_rng, 300)
+    scene = wrt.Scene.from_triangles(points, indices)
+    origins, directions = random_rays(scene, 4000, seed=3)
+    bvh = wrt.build_bvh(points, indices, builder, leaf_size=leaf_size, device="cpu")
+    bvh.validate()
+    # Trace through this exact tree (not the cached default one).
+    scene._cache[("accel", "wrt", builder, "cpu")] = _accel_for(scene, bvh)
+    hits = wrt.trace(scene, origins, directions, builder=builder)
+    t_ref, prim_ref = brute_force(points, indices, origins, directions)
+    # Same triangle test, same tie rule: identical answers, bit for bit.
+    np.testing.assert_array_equal(hits.prim, prim_ref)
+    np.testing.assert_array_equal(hits.t, t_ref)
+    assert 0.2 < hits.hit.mean() < 1.0
+
+
+def _accel_for(scene, bvh):
+    from wrt.trace import BvhAccelerator
+
+    acc = BvhAccelerator.__new__(BvhAccelerator)
+    points, indices = scene.triangles()
+    acc.bvh, acc.device = bvh, wp.get_device("cpu")
+    acc.device_bvh = bvh.to_device(points, indices, "cpu")
+    return acc
+
+
+def test_barycentrics_reconstruct_the_hit_point(np_rng):
+    points, indices = random_soup(np_rng, 200)
+    scene = wrt.Scene.from_triangles(points, indices)
+    origins, directions = random_rays(scene, 5000, seed=1)
+    hits = wrt.trace(scene, origins, directions)
+    h = hits.hit
+    p0, p1, p2 = (points[indices[hits.prim[h], k]] for k in range(3))
+    w = (1 - hits.u[h] - hits.v[h])[:, None]
+    from_bary = w * p0 + hits.u[h][:, None] * p1 + hits.v[h][:, None] * p2
+    from_ray = origins[h] + hits.t[h][:, None] * directions[h]
+    np.testing.assert_allclose(from_bary, from_ray, atol=1e-5)
+    assert np.all(hits.u[h] >= 0) and np.all(hits.v[h] >= 0) and np.all(hits.u[h] + hits.v[h] <= 1 + 1e-6)
+
+
+def test_t_is_in_units_of_direction_length():
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins = np.array([[0, 0, 5], [0, 0, 5]], np.float32)
+    directions = np.array([[0, 0, -1], [0, 0, -2]], np.float32)
+    for accel in ("wrt", "warp"):
+        hits = wrt.trace(scene, origins, directions, accel=accel)
+        np.testing.assert_allclose(hits.t, [5.0, 2.5], rtol=1e-6)
+        np.testing.assert_allclose(hits.u, [0.25, 0.25], atol=1e-6)
+        np.testing.assert_allclose(hits.v, [0.5, 0.5], atol=1e-6)
+
+
+def test_t_max_is_exclusive_and_per_ray():
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins = np.array([[0, 0, 5]] * 3, np.float32)
+    directions = np.array([[0, 0, -1]] * 3, np.float32)
+    for accel in ("wrt", "warp"):
+        hits = wrt.trace(scene, origins, directions, t_max=np.array([4.0, 5.0, 6.0]), accel=accel)
+        assert hits.prim.tolist() == [-1, -1, 0]
+        assert np.isinf(hits.t[:2]).all()
+
+
+def test_ties_go_to_the_smaller_triangle_id():
+    # Two coincident triangles: every hit is an exact tie in t.
+    tri = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
+    points = np.concatenate([tri, tri])
+    scene = wrt.Scene.from_triangles(points, [[3, 4, 5], [0, 1, 2]])
+    origins = np.array([[0, 0, 1], [0, 0, -1]], np.float32)
+    hits = wrt.trace(scene, origins, np.array([[0, 0, -1], [0, 0, 1]], np.float32))
+    assert hits.prim.tolist() == [0, 0]
+
+
+def test_degenerate_and_invalid_rays_miss():
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins = np.zeros((4, 3), np.float32)
+    origins[:, 2] = 1
+    directions = np.array([[0, 0, 0], [np.nan, 0, -1], [0, 0, np.inf], [1e-45, 0, -1]], np.float32)
+    hits = wrt.trace(scene, origins, directions)
+    assert hits.prim.tolist() == [-1, -1, -1, 0]
+
+
+def test_axis_aligned_rays_through_shared_edges_never_leak():
+    # A flat grid of 2x2-split quads; rays straight down through every vertex and edge midpoint hit.
+    n = 8
+    xs = np.linspace(-1, 1, n + 1, dtype=np.float32)
+    gx, gy = np.meshgrid(xs, xs, indexing="ij")
+    points = np.stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)], 1).astype(np.float32)
+    tris = []
+    for i in range(n):
+        for j in range(n):
+            a, b, c, d = i * (n + 1) + j, (i + 1) * (n + 1) + j, (i + 1) * (n + 1) + j + 1, i * (n + 1) + j + 1
+            tris += [[a, b, c], [a, c, d]]
+    scene = wrt.Scene.from_triangles(points, tris)
+    probe = np.linspace(-1, 1, 2 * n + 1, dtype=np.float32)[1:-1]
+    px, py = np.meshgrid(probe, probe, indexing="ij")
+    origins = np.stack([px.ravel(), py.ravel(), np.full(px.size, 2.0)], 1).astype(np.float32)
+    directions = np.tile(np.array([[0, 0, -1]], np.float32), (len(origins), 1))
+    hits = wrt.trace(scene, origins, directions)
+    assert hits.hit.all()
+    np.testing.assert_allclose(hits.t, 2.0)
+
+
+def test_empty_scene_misses_everything():
+    scene = wrt.Scene()
+    hits = wrt.trace(scene, np.zeros((3, 3)), np.ones((3, 3)))
+    assert hits.prim.tolist() == [-1, -1, -1] and np.isinf(hits.t).all()
+    hits = wrt.trace(scene, np.zeros((3, 3)), np.ones((3, 3)), accel="warp")
+    assert hits.prim.tolist() == [-1, -1, -1]
+
+
+def test_occluded_matches_closest_hit(np_rng):
+    points, indices = random_soup(np_rng, 200)
+    scene = wrt.Scene.from_triangles(points, indices)
+    origins, directions = random_rays(scene, 5000, seed=2)
+    hits = wrt.trace(scene, origins, directions)
+    t_max = np.where(np_rng.random(len(origins)) < 0.5, np.inf, 0.5).astype(np.float32)
+    for accel in ("wrt", "warp"):
+        blocked = wrt.occluded(scene, origins, directions, t_max=t_max, accel=accel)
+        np.testing.assert_array_equal(blocked, hits.t < t_max)
+
+
+def test_bad_trace_arguments_raise_value_error():
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    with pytest.raises(ValueError, match="valid accelerators"):
+        wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), accel="embree2")
+    with pytest.raises(ValueError, match="valid builders"):
+        wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), builder="octree")
+    with pytest.raises(ValueError, match=r"\(N, 3\)"):
+        wrt.trace(scene, np.zeros((2, 3)), np.ones((3, 3)))
+    with pytest.raises(ValueError, match="available devices"):
+        wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), device="tpu:7")
