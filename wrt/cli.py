@@ -33,6 +33,13 @@ class _Progress:
             print(f"wrt: {message}{suffix}", file=sys.stderr, flush=True)
 
 
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors are one line (``wrt: error: ...``) and exit status 2."""
+
+    def error(self, message):
+        self.exit(EXIT_BAD_INPUT, f"wrt: error: {message} (see '{self.prog} --help')\n")
+
+
 def _positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -101,7 +108,7 @@ def _run_render(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``wrt`` argument parser with every subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="wrt",
         description="wrt: a ray tracer for USD scenes written in NVIDIA Warp kernels.",
         epilog="Run 'wrt COMMAND --help' for the options of a command.",

@@ -1,0 +1,144 @@
+"""BVH builders: structural invariants, the depth guarantee and degenerate input."""
+
+import numpy as np
+import pytest
+
+import wrt
+from wrt.bvh import MAX_DEPTH, Builder, build_bvh
+
+BUILDERS = ["sah", "middle"]
+
+
+def soup(rng, n, spread=1.0, size=0.05):
+    centers = rng.uniform(-spread, spread, (n, 1, 3))
+    return (centers + rng.normal(scale=size, size=(n, 3, 3))).reshape(-1, 3).astype(np.float32), np.arange(
+        3 * n, dtype=np.int32
+    ).reshape(-1, 3)
+
+
+def trace_through(points, indices, origins, directions, builder):
+    scene = wrt.Scene.from_triangles(points, indices)
+    return wrt.trace(scene, origins, directions, builder=builder), wrt.trace(scene, origins, directions, accel="warp")
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_invariants_on_random_soup(builder, np_rng):
+    points, indices = soup(np_rng, 5000)
+    bvh = build_bvh(points, indices, builder, device="cpu")
+    bvh.validate()
+    assert bvh.num_prims == 5000
+    assert bvh.prim_count.max() <= 8
+    # Every node box contains the triangles below it: check the leaves directly.
+    leaves = np.flatnonzero(bvh.prim_count > 0)
+    for leaf in leaves[:200]:
+        first, count = bvh.left_first[leaf], bvh.prim_count[leaf]
+        tri = points[indices[bvh.prim_ids[first : first + count]]].reshape(-1, 3)
+        assert np.all(tri >= bvh.lowers[leaf]) and np.all(tri <= bvh.uppers[leaf])
+
+
+def test_build_is_deterministic(np_rng):
+    points, indices = soup(np_rng, 3000)
+    a = build_bvh(points, indices, device="cpu")
+    b = build_bvh(points, indices, device="cpu")
+    for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+
+
+def test_leaf_size_is_respected(np_rng):
+    points, indices = soup(np_rng, 2000)
+    for leaf_size in (1, 2, 16):
+        bvh = build_bvh(points, indices, leaf_size=leaf_size, device="cpu")
+        bvh.validate()
+        assert bvh.prim_count.max() <= leaf_size
+
+
+def test_validate_catches_a_broken_tree(np_rng):
+    points, indices = soup(np_rng, 100)
+    bvh = build_bvh(points, indices, device="cpu")
+    bvh.prim_ids[0] = bvh.prim_ids[1]
+    with pytest.raises(AssertionError, match="permutation|exactly once"):
+        bvh.validate()
+    bvh = build_bvh(points, indices, device="cpu")
+    inner = np.flatnonzero(bvh.prim_count == 0)[0]
+    bvh.lowers[bvh.left_first[inner]] -= 1.0
+    with pytest.raises(AssertionError, match="below its parent"):
+        bvh.validate()
+
+
+def degenerate_cases():
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    rng = np.random.default_rng(5)
+    cases = {}
+    cases["identical"] = (np.tile(tri, (2000, 1)), np.arange(6000).reshape(-1, 3))
+    # Different triangles with one common bounds centre: every centroid is equal.
+    scales = rng.uniform(0.1, 1.0, (1000, 1, 1)).astype(np.float32)
+    sym = np.array([[-1, -1, -1], [1, 1, 1], [1, -1, 1]], np.float32)
+    cases["equal_centroids"] = ((sym * scales).reshape(-1, 3), np.arange(3000).reshape(-1, 3))
+    cases["zero_area"] = (np.tile(np.array([[0, 0, 0], [1, 1, 1], [2, 2, 2]], np.float32), (500, 1)), np.arange(1500).reshape(-1, 3))
+    cases["single"] = (tri, np.array([[0, 1, 2]]))
+    line = np.linspace(0, 1, 3000, dtype=np.float32)
+    cases["collinear"] = (np.stack([line, 2 * line, 3 * line], 1), np.arange(3000).reshape(-1, 3))
+    flat = rng.uniform(-1, 1, (3000, 3)).astype(np.float32)
+    flat[:, 2] = 0.5
+    cases["coplanar"] = (flat, np.arange(3000).reshape(-1, 3))
+    cases["huge"] = (tri * np.float32(1e30) + np.float32(1e30), np.array([[0, 1, 2]]))
+    tiny, tiny_idx = soup(rng, 500, spread=1.0, size=0.1)
+    cases["tiny"] = (tiny * np.float32(1e-30), tiny_idx)
+    return cases
+
+
+@pytest.mark.parametrize("builder", BUILDERS)
+@pytest.mark.parametrize("case", list(degenerate_cases()))
+def test_degenerate_input_builds_and_traces(builder, case):
+    points, indices = degenerate_cases()[case]
+    points = np.asarray(points, np.float32)
+    indices = np.asarray(indices, np.int32)
+    bvh = build_bvh(points, indices, builder, device="cpu")
+    bvh.validate()
+    assert bvh.depths().max() <= MAX_DEPTH - 1
+    # Rays aimed at triangle centres (axis-aligned where the geometry allows): compare with wp.Mesh.
+    centers = points[indices].mean(axis=1)
+    lower, upper = points.min(0), points.max(0)
+    extent = np.maximum(upper - lower, np.abs(upper) * 1e-3 + 1e-35)
+    origins = (centers + np.array([0.31, 0.27, 1.0], np.float32) * extent * 2).astype(np.float32)
+    directions = (centers - origins).astype(np.float32)
+    ours, theirs = trace_through(points, indices, origins, directions, builder)
+    np.testing.assert_array_equal(ours.hit, theirs.hit)
+    both = ours.hit & theirs.hit
+    np.testing.assert_allclose(ours.t[both], theirs.t[both], rtol=1e-5)
+
+
+def test_million_copies_of_one_triangle_stay_within_the_stack():
+    n = 1_000_000
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    indices = np.zeros((n, 3), np.int32)
+    indices[:, 1], indices[:, 2] = 1, 2
+    bvh = build_bvh(points, indices, device="cpu")
+    bvh.validate()
+    assert bvh.depths().max() <= MAX_DEPTH - 1
+    scene = wrt.Scene.from_triangles(points, indices)
+    hits = wrt.trace(scene, np.array([[0.2, 0.2, 1.0]]), np.array([[0.0, 0.0, -1.0]]))
+    assert hits.prim[0] == 0 and hits.t[0] == pytest.approx(1.0)
+
+
+def test_builder_names():
+    assert Builder.from_str("binned_sah") is Builder.SAH
+    assert Builder.from_str("SAH") is Builder.SAH
+    with pytest.raises(ValueError, match="valid builders: sah, middle"):
+        Builder.from_str("kdtree")
+
+
+def test_bad_build_input_raises():
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    with pytest.raises(ValueError, match="finite"):
+        build_bvh(np.array([[0, 0, 0], [1, np.nan, 0], [0, 1, 0]], np.float32), [[0, 1, 2]], device="cpu")
+    with pytest.raises(ValueError, match="indices"):
+        build_bvh(tri, [[0, 1, 3]], device="cpu")
+    with pytest.raises(ValueError, match="leaf_size"):
+        build_bvh(tri, [[0, 1, 2]], leaf_size=0, device="cpu")
+
+
+def test_empty_input_gives_an_empty_tree():
+    bvh = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device="cpu")
+    bvh.validate()
+    assert bvh.num_prims == 0

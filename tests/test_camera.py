@@ -1,0 +1,105 @@
+"""Camera conventions: usdview's film mapping, row 0 at the top, pixel centres, orthographic cameras."""
+
+import math
+
+import numpy as np
+import pytest
+from pxr import Gf, Usd, UsdGeom
+
+import wrt
+from wrt.rays import camera_rays
+
+
+def quad_scene(x0, x1, y0, y1, z):
+    points = [[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]]
+    return wrt.Scene.from_triangles(points, [[0, 1, 2], [0, 2, 3]])
+
+
+def test_pixel_centres_and_horizontal_aperture_fit():
+    # Camera at the origin looking down -Z; focal 50, horizontal aperture 36 -> half width 3.6 at depth 10.
+    cam = wrt.Camera(focal_length=50.0, horizontal_aperture=36.0, vertical_aperture=24.0)
+    scene = quad_scene(1.8, 100.0, -100.0, 100.0, -10.0)  # covers film x >= 0.5 of the half width
+    for height in (100, 300):  # the vertical aperture follows the aspect; the column boundary does not move
+        img = wrt.render(scene, camera=cam, width=200, height=height, device="cpu")
+        hit_cols = np.flatnonzero(img.aovs["prim"][height // 2] >= 0)
+        assert hit_cols.min() == 150 and hit_cols.max() == 199
+
+
+def test_row_zero_is_the_top_of_the_image():
+    cam = wrt.Camera(focal_length=50.0, horizontal_aperture=36.0)
+    # 200x100: film height 18 -> half height 1.8 at depth 10. A quad above y = 0.9 covers the top quarter.
+    scene = quad_scene(-100.0, 100.0, 0.9, 100.0, -10.0)
+    img = wrt.render(scene, camera=cam, width=200, height=100, device="cpu")
+    rows = np.flatnonzero(img.aovs["prim"][:, 100] >= 0)
+    assert rows.min() == 0 and rows.max() == 24
+
+
+def test_depth_is_distance_along_the_primary_ray():
+    cam = wrt.Camera(focal_length=50.0, horizontal_aperture=36.0)
+    scene = quad_scene(-100.0, 100.0, -100.0, 100.0, -10.0)
+    width, height = 64, 48
+    img = wrt.render(scene, camera=cam, width=width, height=height, device="cpu")
+    film_h = 36.0 * height / width
+    j, i = np.meshgrid(np.arange(width), np.arange(height))
+    x = ((j + 0.5) / width - 0.5) * 36.0 / 50.0
+    y = (0.5 - (i + 0.5) / height) * film_h / 50.0
+    expected = 10.0 * np.sqrt(1.0 + x**2 + y**2)
+    np.testing.assert_allclose(img.aovs["depth"], expected, rtol=1e-5)
+
+
+def test_look_at_fov_is_vertical():
+    cam = wrt.Camera.look_at(eye=(0, 0, 0), target=(0, 0, -1), up=(0, 1, 0), fov_y_deg=90.0)
+    scene = quad_scene(-1000.0, 1000.0, -1000.0, 1000.0, -10.0)
+    origins, directions = camera_rays(scene, cam, width=40, height=20)
+    d = directions.reshape(20, 40, 3)
+    # The top row's rays are 0.5 pixel inside the 45-degree edge of the frustum.
+    top = math.degrees(math.atan2(d[0, 20, 1], -d[0, 20, 2]))
+    assert top == pytest.approx(math.degrees(math.atan((1.0 - 1.0 / 20) * 1.0)), abs=1e-3)
+    np.testing.assert_allclose(origins, 0.0)
+
+
+def test_orthographic_camera_rays_are_parallel():
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=2.0)
+    scene = quad_scene(-0.5, 0.5, -0.5, 0.5, 0.0)
+    img = wrt.render(scene, camera=cam, width=40, height=40, device="cpu")
+    hit = img.aovs["prim"] >= 0
+    assert hit.sum() == 20 * 20  # the unit quad covers half the 2-unit view on each axis
+    np.testing.assert_allclose(img.aovs["depth"][hit], 5.0, rtol=1e-6)
+
+
+def test_usd_camera_maps_as_usdview(tmp_path):
+    stage = Usd.Stage.CreateNew(str(tmp_path / "cam.usda"))
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.CreateFocalLengthAttr(50.0)
+    cam.CreateHorizontalApertureAttr(36.0)
+    cam.CreateVerticalApertureAttr(10.0)  # ignored: the image aspect decides the vertical extent
+    cam.CreateClippingRangeAttr(Gf.Vec2f(0.1, 1000.0))
+    cam.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 10.0))
+    mesh = UsdGeom.Mesh.Define(stage, "/Quad")
+    mesh.CreatePointsAttr([(1.8, -100, 0), (100, -100, 0), (100, 100, 0), (1.8, 100, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    stage.Save()
+    scene = wrt.load_usd(tmp_path / "cam.usda")
+    img = wrt.render(scene, camera="/Cam", width=200, height=150, device="cpu")
+    hit_cols = np.flatnonzero(img.aovs["prim"][75] >= 0)
+    assert hit_cols.min() == 150 and hit_cols.max() == 199
+    np.testing.assert_allclose(img.aovs["depth"][75, 199], 10.0 * math.hypot(1.0, (199.5 / 200 - 0.5) * 0.72), rtol=1e-5)
+
+
+def test_clipping_range_limits_depth():
+    cam = wrt.Camera(focal_length=50.0, horizontal_aperture=36.0, clipping_range=(0.1, 5.0))
+    scene = quad_scene(-100.0, 100.0, -100.0, 100.0, -10.0)
+    img = wrt.render(scene, camera=cam, width=8, height=8, device="cpu")
+    assert (img.aovs["prim"] == -1).all()
+
+
+def test_bad_camera_values_raise():
+    with pytest.raises(ValueError, match="fov_y_deg"):
+        wrt.Camera.look_at((0, 0, 0), (0, 0, -1), fov_y_deg=0.0)
+    with pytest.raises(ValueError, match="parallel"):
+        wrt.Camera.look_at((0, 0, 0), (0, 1, 0), up=(0, 1, 0))
+    with pytest.raises(ValueError, match="projection"):
+        wrt.Camera(projection="fisheye")
+    with pytest.raises(ValueError, match="clipping"):
+        wrt.Camera(clipping_range=(5.0, 1.0))
