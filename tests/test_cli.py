@@ -1,0 +1,92 @@
+"""The ``wrt`` command line: the default render, options, and one-line errors with exit status 2."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import warp_assets
+from PIL import Image as PilImage
+
+from wrt.cli import main
+
+
+def run_cli(*args, cwd=None):
+    """Runs ``python -m wrt.cli ARGS`` in a fresh interpreter, as a user would."""
+    return subprocess.run(
+        [sys.executable, "-m", "wrt.cli", *args], cwd=cwd, capture_output=True, text=True, timeout=600
+    )
+
+
+def error_lines(stderr: str) -> list[str]:
+    """stderr lines that are not Warp's own start-up notices."""
+    return [line for line in stderr.splitlines() if line.strip() and not line.startswith("Warp")]
+
+
+def test_render_with_no_arguments_writes_the_default_scene(tmp_path):
+    result = run_cli("render", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    with PilImage.open(tmp_path / "wrt.png") as png:
+        assert png.size == (640, 480)
+        pixels = np.asarray(png).astype(float)
+    assert pixels.std() > 20  # a real picture, not a flat colour
+    assert "rendered 640x480" in result.stderr  # a timing line
+
+
+def test_render_options_and_aovs(tmp_path):
+    out, aovs = tmp_path / "bunny.png", tmp_path / "aovs"
+    code = main(
+        ["render", str(warp_assets("bunny.usd")), "-o", str(out), "--width", "80", "--height", "60"]
+        + ["--spp", "2", "--builder", "binned_sah", "--accel", "wrt", "--device", "cpu", "--aov-dir", str(aovs), "-q"]
+    )
+    assert code == 0
+    with PilImage.open(out) as png:
+        assert png.size == (80, 60)
+    depth, prim = np.load(aovs / "depth.npy"), np.load(aovs / "prim.npy")
+    normal = np.load(aovs / "normal.npy")
+    assert depth.shape == (60, 80) and prim.shape == (60, 80) and normal.shape == (60, 80, 3)
+    assert (prim >= 0).any() and np.isfinite(depth[prim >= 0]).all()
+
+
+def test_camera_option_and_npy_output(tmp_path):
+    out = tmp_path / "room.npy"
+    assert main(["render", "--camera", "/World/Camera", "-o", str(out), "--width", "32", "--height", "24", "-q"]) == 0
+    assert np.load(out).shape == (24, 32, 3)
+
+
+def test_help_explains_the_options():
+    result = run_cli("render", "--help")
+    assert result.returncode == 0
+    for option in ("--camera", "--width", "--height", "--spp", "--device", "--builder", "--accel", "--time", "--aov-dir"):
+        assert option in result.stdout
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["render", "no/such/file.usda"], "file.usda"),
+        (["render", "--builder", "octree"], "octree"),
+        (["render", "--width", "0"], "positive"),
+        (["render", "--device", "cuda:7"], "available devices"),
+        (["render", "--camera", "/Nope"], "/Nope"),
+        (["render", "-o", "out.gif"], "supported image formats"),
+        (["frobnicate"], "frobnicate"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, args, needle):
+    with pytest.raises(SystemExit) as exit_info:
+        sys.exit(main(args + ["--width", "8", "--height", "8"] if args[0] == "render" and "--width" not in args else args))
+    assert exit_info.value.code == 2
+    lines = error_lines(capsys.readouterr().err)
+    errors = [line for line in lines if line.startswith("wrt: error:")]
+    assert len(errors) == 1 and needle in errors[0]
+    assert not any("Traceback" in line for line in lines)
+
+
+def test_broken_usd_file_names_file_in_one_line(tmp_path):
+    bad = tmp_path / "broken.usda"
+    bad.write_bytes(b"#usda 1.0\n(\n this is not usd {{{\n")
+    result = run_cli("render", str(bad), "-o", str(tmp_path / "x.png"))
+    assert result.returncode == 2
+    lines = error_lines(result.stderr)
+    assert len(lines) == 1 and "broken.usda" in lines[0] and "Traceback" not in result.stderr

@@ -1,0 +1,153 @@
+"""render(): image layout, AOVs, shading, determinism and agreement between accelerators."""
+
+import numpy as np
+import pytest
+from conftest import warp_assets
+from pxr import Usd, UsdGeom
+
+import wrt
+from wrt.cli import default_scene_path
+from wrt.rays import camera_rays
+from wrt.shade import BACKGROUND
+
+
+@pytest.fixture(scope="module")
+def room():
+    return wrt.load_usd(default_scene_path())
+
+
+def test_image_and_aov_layout(room):
+    img = wrt.render(room, width=96, height=64, device="cpu")
+    assert img.rgb.shape == (64, 96, 3) and img.rgb.dtype == np.float32
+    assert img.aovs["depth"].shape == (64, 96) and img.aovs["depth"].dtype == np.float32
+    assert img.aovs["normal"].shape == (64, 96, 3) and img.aovs["normal"].dtype == np.float32
+    assert img.aovs["prim"].shape == (64, 96) and img.aovs["prim"].dtype == np.int32
+    hit = img.aovs["prim"] >= 0
+    assert 0.5 < hit.mean() < 1.0  # the room fills most of the view, the sky shows above
+    np.testing.assert_allclose(np.linalg.norm(img.aovs["normal"][hit], axis=-1), 1.0, atol=1e-5)
+    assert np.isinf(img.aovs["depth"][~hit]).all() and np.isfinite(img.aovs["depth"][hit]).all()
+
+
+def test_aovs_match_trace_of_the_same_camera_rays(room):
+    img = wrt.render(room, width=80, height=60, device="cpu")
+    origins, directions = camera_rays(room, width=80, height=60)
+    hits = wrt.trace(room, origins, directions)
+    np.testing.assert_array_equal(img.aovs["prim"].ravel(), hits.prim)
+    hit = hits.hit
+    np.testing.assert_allclose(img.aovs["depth"].ravel()[hit], hits.t[hit], rtol=1e-6)
+
+
+def test_normals_face_the_camera(room):
+    img = wrt.render(room, width=64, height=48, device="cpu")
+    _, directions = camera_rays(room, width=64, height=48)
+    normals = img.aovs["normal"].reshape(-1, 3)
+    hit = img.aovs["prim"].ravel() >= 0
+    assert np.all(np.einsum("ij,ij->i", normals[hit], directions[hit]) <= 1e-6)
+
+
+def test_wrt_and_warp_accelerators_render_the_same_image(room):
+    a = wrt.render(room, width=120, height=90, device="cpu", accel="wrt")
+    b = wrt.render(room, width=120, height=90, device="cpu", accel="warp")
+    same_prim = a.aovs["prim"] == b.aovs["prim"]
+    assert same_prim.mean() > 0.999
+    close = np.all(np.abs(a.rgb - b.rgb) < 1e-4, axis=-1)
+    assert close.mean() > 0.995  # pixels can differ only where shadow rays graze an edge
+
+
+def test_renders_are_deterministic(room):
+    a = wrt.render(room, width=48, height=32, spp=3, seed=5, device="cpu")
+    b = wrt.render(room, width=48, height=32, spp=3, seed=5, device="cpu")
+    c = wrt.render(room, width=48, height=32, spp=3, seed=6, device="cpu")
+    np.testing.assert_array_equal(a.rgb, b.rgb)
+    assert not np.array_equal(a.rgb, c.rgb)  # the jitter depends on the seed
+
+
+def test_shadows_darken_the_floor_under_an_occluder():
+    floor = [[-5, 0, -5], [5, 0, -5], [5, 0, 5], [-5, 0, 5]]
+    blocker = [[-1, 1, -1], [1, 1, -1], [1, 1, 1], [-1, 1, 1]]
+    scene = wrt.Scene.from_triangles(floor + blocker, [[0, 2, 1], [0, 3, 2], [4, 6, 5], [4, 7, 6]])
+    scene.lights.append(wrt.DistantLight(direction=np.array([0.0, -1.0, 0.0]), color=np.full(3, np.pi)))
+    cam = wrt.Camera.look_at(eye=(0, 3, 8), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=60)
+    img = wrt.render(scene, camera=cam, width=100, height=80, device="cpu")
+    prims = img.aovs["prim"]
+    floor_px = (prims == 0) | (prims == 1)
+    luminance = img.rgb.mean(axis=-1)
+    # Lit floor: albedo 0.5 * E/pi * cos 0 = 0.5 plus ambient 0.5 * 0.2 = 0.1 -> 0.6; shadowed: ambient 0.1.
+    values = luminance[floor_px]
+    shadowed, lit = np.isclose(values, 0.1, atol=1e-5), np.isclose(values, 0.6, atol=1e-5)
+    assert np.all(shadowed | lit)
+    assert shadowed.sum() > 50 and lit.sum() > 500
+
+
+def test_smooth_normals_are_interpolated():
+    points = [[-1, -1, 0], [1, -1, 0], [0, 1, 0]]
+    corner_normals = np.array([[[-0.6, 0, 0.8], [0.6, 0, 0.8], [0, 0, 1]]], np.float32)
+    mesh = wrt.Mesh("/tri", points, [[0, 1, 2]], [0], normals=corner_normals)
+    scene = wrt.Scene(meshes=[mesh])
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    img = wrt.render(scene, camera=cam, width=64, height=64, device="cpu")
+    normals = img.aovs["normal"]
+    left, right = normals[40, 20], normals[40, 43]
+    assert left[0] < -0.1 and right[0] > 0.1  # the normal turns across the flat triangle
+    np.testing.assert_allclose(np.linalg.norm(normals[img.aovs["prim"] >= 0], axis=-1), 1.0, atol=1e-5)
+
+
+def test_empty_stage_renders_background_with_a_warning(tmp_path):
+    path = tmp_path / "empty.usda"
+    Usd.Stage.CreateNew(str(path)).Save()
+    scene = wrt.load_usd(path)
+    with pytest.warns(UserWarning, match="nothing to render"):
+        img = wrt.render(scene, width=16, height=8, device="cpu")
+    np.testing.assert_allclose(img.rgb, np.broadcast_to(np.array(BACKGROUND, np.float32), (8, 16, 3)))
+    assert (img.aovs["prim"] == -1).all()
+
+
+def test_stage_without_camera_is_framed(tmp_path):
+    scene = wrt.load_usd(warp_assets("bunny.usd"))
+    assert not scene.cameras
+    img = wrt.render(scene, width=64, height=48, device="cpu")
+    hit = img.aovs["prim"] >= 0
+    assert 0.05 < hit.mean() < 0.9
+    rows, cols = np.nonzero(hit)
+    assert rows.min() > 0 and rows.max() < 47 and cols.min() > 0 and cols.max() < 63  # fully in view
+
+
+def test_camera_by_path_and_bad_camera(tmp_path):
+    scene = wrt.load_usd(default_scene_path())
+    img = wrt.render(scene, camera="/World/Camera", width=32, height=24, device="cpu")
+    assert (img.aovs["prim"] >= 0).any()
+    with pytest.raises(ValueError, match="/World/Camera"):
+        wrt.render(scene, camera="/World/Nope", width=32, height=24, device="cpu")
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"width": 0}, "width"),
+        ({"height": -3}, "height"),
+        ({"spp": 0}, "spp"),
+        ({"builder": "bogus"}, "valid builders"),
+        ({"accel": "optix"}, "valid accelerators"),
+        ({"device": "cuda:9"}, "available devices"),
+        ({"width": 100_000, "height": 100_000}, "pixels"),
+    ],
+)
+def test_bad_render_options_raise_value_error(kwargs, message):
+    scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    options = {"width": 8, "height": 8, "device": "cpu", **kwargs}
+    with pytest.raises(ValueError, match=message):
+        wrt.render(scene, **options)
+
+
+def test_png_is_8bit_srgb(tmp_path, room):
+    from PIL import Image as PilImage
+
+    img = wrt.render(room, width=40, height=30, device="cpu")
+    path = img.save(tmp_path / "x.png")
+    with PilImage.open(path) as png:
+        assert png.size == (40, 30) and png.mode == "RGB"
+        data = np.asarray(png)
+    expected = np.where(img.rgb <= 0.0031308, 12.92 * img.rgb, 1.055 * np.clip(img.rgb, 0, 1) ** (1 / 2.4) - 0.055)
+    np.testing.assert_allclose(data / 255.0, np.clip(expected, 0, 1), atol=0.5 / 255 + 1e-6)
+    with pytest.raises(ValueError, match="supported image formats"):
+        img.save(tmp_path / "x.tiff")
