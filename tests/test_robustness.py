@@ -76,11 +76,16 @@ def edge_and_vertex_targets(points, faces, rng, per_edge: int):
     direction is the bisector), vertices when every incident face normal is within 60 degrees of the area-weighted
     vertex normal. A ray arriving within 30 degrees of the outward direction therefore meets every adjacent face
     from the front, and passing between them would be a crack.
+
+    Only well-shaped faces count (no angle below about 2 degrees): slivers and zero-area triangles, such as fan
+    triangulation makes of non-convex n-gons, leave gaps in the mesh itself that no ray tracer can close.
     """
     p = points.astype(np.float64)
     face_n = np.cross(p[faces[:, 1]] - p[faces[:, 0]], p[faces[:, 2]] - p[faces[:, 0]])
     area2 = np.linalg.norm(face_n, axis=1)
     face_u = face_n / np.where(area2 > 0, area2, 1.0)[:, None]
+    longest = np.max([np.linalg.norm(p[faces[:, k]] - p[faces[:, (k + 1) % 3]], axis=1) for k in range(3)], axis=0)
+    shaped = area2 > 0.03 * longest**2  # twice the area over the longest edge squared: ~ the smallest angle
 
     # Edges shared by exactly two faces, not too sharp.
     corners = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
@@ -93,7 +98,7 @@ def edge_and_vertex_targets(points, faces, rng, per_edge: int):
     counts = np.diff(np.concatenate([starts, [len(key)]]))
     pairs = starts[counts == 2]
     fa, fb = owner[pairs], owner[pairs + 1]
-    keep = (np.einsum("ij,ij->i", face_u[fa], face_u[fb]) > -0.5) & (area2[fa] > 0) & (area2[fb] > 0)
+    keep = (np.einsum("ij,ij->i", face_u[fa], face_u[fb]) > -0.5) & shaped[fa] & shaped[fb]
     edges, bisector = key[pairs][keep], face_u[fa][keep] + face_u[fb][keep]
     bisector /= np.linalg.norm(bisector, axis=1, keepdims=True)
 
@@ -105,7 +110,8 @@ def edge_and_vertex_targets(points, faces, rng, per_edge: int):
     vertex_n = vertex_n / np.where(length > 0, length, 1.0)
     worst = np.full(len(p), np.inf)
     for k in range(3):
-        np.minimum.at(worst, faces[:, k], np.einsum("ij,ij->i", face_u, vertex_n[faces[:, k]]))
+        cosine = np.where(shaped, np.einsum("ij,ij->i", face_u, vertex_n[faces[:, k]]), -np.inf)
+        np.minimum.at(worst, faces[:, k], cosine)
     vertices = np.flatnonzero((worst > 0.5) & (length[:, 0] > 0))
 
     s = np.concatenate([np.full(len(edges), 0.5), rng.random(len(edges) * (per_edge - 1))])[:, None]
