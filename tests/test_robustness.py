@@ -285,3 +285,26 @@ def test_stage_that_hangs_usd_time_queries_does_not_hang_wrt(assets, tmp_path):
     assert result.returncode in (0, 2), result.stderr
     if result.returncode == 2:
         assert "timeCodesPerSecond" in result.stderr
+
+
+def test_time_outside_the_stage_range_is_a_one_line_error(tmp_path, capsys):
+    from pxr import Usd, UsdGeom
+
+    from wrt.cli import main
+
+    path = tmp_path / "anim.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(48)
+    mesh = UsdGeom.Mesh.Define(stage, "/M")
+    mesh.CreateFaceVertexCountsAttr([3])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    for t, z in ((1, 0.0), (48, 1.0)):
+        mesh.CreatePointsAttr().Set([(0, 0, z), (1, 0, z), (0, 1, z)], t)
+    stage.Save()
+    assert wrt.load_usd(path, time=24).triangles()[0][0, 2] == pytest.approx(23 / 47)
+    with pytest.raises(ValueError, match=r"time 500 is outside the stage's time range \[1, 48\]"):
+        wrt.load_usd(path, time=500)
+    assert main(["render", str(path), "--time", "-3", "-o", str(tmp_path / "x.png"), "--width", "8", "--height", "8"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(err) == 1 and "[1, 48]" in err[0]

@@ -96,7 +96,20 @@ def load_usd(path, *, time=None) -> Scene:
         time_code = Usd.TimeCode(time)
 
     stage = _open_stage(source)
+    if not time_code.IsDefault():
+        _check_time_in_range(stage, source, time_code.GetValue())
     return _StageReader(stage, source, time_code).read()
+
+
+def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
+    """Rejects a time outside the stage's authored ``[startTimeCode, endTimeCode]``; a stage without an authored
+    range accepts any time (USD holds the nearest sample). Reads only layer metadata, never time samples, which
+    can hang usd-core on stages with ``timeCodesPerSecond = 0``."""
+    if not stage.HasAuthoredTimeCodeRange():
+        return
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    if not start <= time <= end:
+        raise ValueError(f"{os.path.basename(source)}: time {time:g} is outside the stage's time range [{start:g}, {end:g}]")
 
 
 def _open_stage(source: str) -> Usd.Stage:
