@@ -6,7 +6,7 @@ import pytest
 import wrt
 from wrt.bvh import MAX_DEPTH, Builder, build_bvh
 
-BUILDERS = ["sah", "middle"]
+BUILDERS = [b.value for b in Builder]  # every builder: sah, sweep_sah, median, middle, lbvh, ploc
 
 
 def soup(rng, n, spread=1.0, size=0.05):
@@ -28,6 +28,7 @@ def test_invariants_on_random_soup(builder, np_rng):
     bvh.validate()
     assert bvh.num_prims == 5000
     assert bvh.prim_count.max() <= 8
+    assert bvh.builder == builder
     # Every node box contains the triangles below it: check the leaves directly.
     leaves = np.flatnonzero(bvh.prim_count > 0)
     for leaf in leaves[:200]:
@@ -36,12 +37,63 @@ def test_invariants_on_random_soup(builder, np_rng):
         assert np.all(tri >= bvh.lowers[leaf]) and np.all(tri <= bvh.uppers[leaf])
 
 
-def test_build_is_deterministic(np_rng):
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_build_is_deterministic(builder, np_rng):
     points, indices = soup(np_rng, 3000)
-    a = build_bvh(points, indices, device="cpu")
-    b = build_bvh(points, indices, device="cpu")
+    a = build_bvh(points, indices, builder, device="cpu")
+    b = build_bvh(points, indices, builder, device="cpu")
     for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
         np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+
+
+def test_cpu_threads_do_not_change_the_tree(np_rng):
+    points, indices = soup(np_rng, 20000)
+    a = build_bvh(points, indices, "sah", threads=1, device="cpu")
+    b = build_bvh(points, indices, "sah", threads=2, device="cpu")
+    for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+
+
+@pytest.mark.parametrize(
+    "builder,options",
+    [
+        ("lbvh", {"morton_bits": 63}),
+        ("ploc", {"morton_bits": 63}),
+        ("ploc", {"ploc_radius": 1}),
+        ("ploc", {"ploc_radius": 32}),
+        ("sah", {"bins": 64}),
+        ("sah", {"bins": 2}),
+    ],
+)
+def test_builder_options(builder, options, np_rng):
+    points, indices = soup(np_rng, 3000)
+    bvh = build_bvh(points, indices, builder, device="cpu", **options)
+    bvh.validate()
+    assert bvh.num_prims == 3000
+
+
+def test_device_build_and_wp_array_input(np_rng):
+    import warp as wp
+
+    from wrt.bvh import build_bvh_device
+
+    points, indices = soup(np_rng, 2000)
+    for builder in BUILDERS:
+        tree = build_bvh_device(
+            wp.array(points, dtype=wp.vec3), wp.array(indices, dtype=wp.int32), builder, device="cpu"
+        )
+        assert isinstance(tree.left_first, wp.array) and tree.builder == builder
+        host = tree.to_host()
+        host.validate()
+        ref = build_bvh(points, indices, builder, device="cpu")
+        np.testing.assert_array_equal(host.prim_ids, ref.prim_ids)
+        np.testing.assert_array_equal(host.left_first, ref.left_first)
+
+
+def test_top_level_api_accepts_aliases_and_options(np_rng):
+    points, indices = soup(np_rng, 500)
+    bvh = wrt.build_bvh(points, indices, builder="binned_sah", leaf_size=2, device="cpu")
+    assert bvh.builder == "sah" and bvh.prim_count.max() <= 2
 
 
 def test_leaf_size_is_respected(np_rng):
@@ -74,7 +126,10 @@ def degenerate_cases():
     scales = rng.uniform(0.1, 1.0, (1000, 1, 1)).astype(np.float32)
     sym = np.array([[-1, -1, -1], [1, 1, 1], [1, -1, 1]], np.float32)
     cases["equal_centroids"] = ((sym * scales).reshape(-1, 3), np.arange(3000).reshape(-1, 3))
-    cases["zero_area"] = (np.tile(np.array([[0, 0, 0], [1, 1, 1], [2, 2, 2]], np.float32), (500, 1)), np.arange(1500).reshape(-1, 3))
+    cases["zero_area"] = (
+        np.tile(np.array([[0, 0, 0], [1, 1, 1], [2, 2, 2]], np.float32), (500, 1)),
+        np.arange(1500).reshape(-1, 3),
+    )
     cases["single"] = (tri, np.array([[0, 1, 2]]))
     line = np.linspace(0, 1, 3000, dtype=np.float32)
     cases["collinear"] = (np.stack([line, 2 * line, 3 * line], 1), np.arange(3000).reshape(-1, 3))
@@ -108,23 +163,24 @@ def test_degenerate_input_builds_and_traces(builder, case):
     np.testing.assert_allclose(ours.t[both], theirs.t[both], rtol=1e-5)
 
 
-def test_million_copies_of_one_triangle_stay_within_the_stack():
+@pytest.mark.parametrize("builder", BUILDERS)
+def test_million_copies_of_one_triangle_stay_within_the_stack(builder):
     n = 1_000_000
     points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
     indices = np.zeros((n, 3), np.int32)
     indices[:, 1], indices[:, 2] = 1, 2
-    bvh = build_bvh(points, indices, device="cpu")
+    bvh = build_bvh(points, indices, builder, device="cpu")
     bvh.validate()
     assert bvh.depths().max() <= MAX_DEPTH - 1
     scene = wrt.Scene.from_triangles(points, indices)
-    hits = wrt.trace(scene, np.array([[0.2, 0.2, 1.0]]), np.array([[0.0, 0.0, -1.0]]))
+    hits = wrt.trace(scene, np.array([[0.2, 0.2, 1.0]]), np.array([[0.0, 0.0, -1.0]]), builder=builder)
     assert hits.prim[0] == 0 and hits.t[0] == pytest.approx(1.0)
 
 
 def test_builder_names():
     assert Builder.from_str("binned_sah") is Builder.SAH
     assert Builder.from_str("SAH") is Builder.SAH
-    with pytest.raises(ValueError, match="valid builders: sah, middle"):
+    with pytest.raises(ValueError, match="valid builders: sah, sweep_sah, median, middle, lbvh, ploc, binned_sah"):
         Builder.from_str("kdtree")
 
 
@@ -136,6 +192,14 @@ def test_bad_build_input_raises():
         build_bvh(tri, [[0, 1, 3]], device="cpu")
     with pytest.raises(ValueError, match="leaf_size"):
         build_bvh(tri, [[0, 1, 2]], leaf_size=0, device="cpu")
+    with pytest.raises(ValueError, match="morton_bits"):
+        build_bvh(tri, [[0, 1, 2]], "lbvh", morton_bits=31, device="cpu")
+    with pytest.raises(ValueError, match="ploc_radius"):
+        build_bvh(tri, [[0, 1, 2]], "ploc", ploc_radius=0, device="cpu")
+    with pytest.raises(ValueError, match="threads"):
+        build_bvh(tri, [[0, 1, 2]], threads=0, device="cpu")
+    with pytest.raises(ValueError, match="bins"):
+        build_bvh(tri, [[0, 1, 2]], bins=65, device="cpu")
 
 
 def test_empty_input_gives_an_empty_tree():

@@ -1,4 +1,6 @@
-"""FlatBvh: the canonical flat binary BVH that every builder hands over, and its device form.
+"""FlatBvh: the canonical flat binary BVH that every builder hands over, its device form, and the registry of the
+other layouts, which are conversions from it (``convert_layout``): ``compact`` (``compact.py``, child boxes in the
+parent) and ``wide``/``wide8`` (``wide.py``, BVH4/BVH8 collapsed by SAH).
 
 Node ``i`` has a box ``lowers[i], uppers[i]``. A leaf has ``prim_count[i] > 0`` and owns the slots
 ``[left_first[i], left_first[i] + prim_count[i])``; slot ``s`` holds triangle ``prim_ids[s]``. An inner node
@@ -44,6 +46,8 @@ class FlatBvh:
         prim_ids: ``(N,)`` int32 slot -> triangle id.
         builder: name of the builder that made it.
         build_seconds: wall time of the build, seconds.
+        points: the ``(V, 3)`` vertices it was built over (numpy or ``wp.array``), for :meth:`stats`; optional.
+        indices: the ``(T, 3)`` triangles it was built over, for :meth:`stats`; optional.
     """
 
     lowers: np.ndarray
@@ -53,11 +57,14 @@ class FlatBvh:
     prim_ids: np.ndarray
     builder: str = ""
     build_seconds: float = 0.0
+    points: object = dataclasses.field(default=None, repr=False, compare=False)
+    indices: object = dataclasses.field(default=None, repr=False, compare=False)
 
     @classmethod
-    def empty(cls) -> FlatBvh:
+    def empty(cls, builder: str = "") -> FlatBvh:
         """A tree over no triangles: one inner-looking root whose inverted box no ray can enter."""
         return cls(
+            builder=builder,
             lowers=np.full((1, 3), np.inf, np.float32),
             uppers=np.full((1, 3), -np.inf, np.float32),
             left_first=np.zeros(1, np.int32),
@@ -74,6 +81,11 @@ class FlatBvh:
     def num_prims(self) -> int:
         """Number of triangles."""
         return len(self.prim_ids)
+
+    @property
+    def bytes(self) -> int:
+        """Node bytes (32 per node) plus slot -> triangle id bytes (the triangles themselves not counted)."""
+        return 32 * self.num_nodes + 4 * self.num_prims
 
     def depths(self) -> np.ndarray:
         """``(M,)`` int depth of every node (root 0), computed level by level."""
@@ -96,7 +108,7 @@ class FlatBvh:
         Every triangle sits in exactly one leaf, every node is reached exactly once, child boxes lie inside their
         parent's, no inner node is empty, and no leaf is deeper than ``max_depth - 1`` (the traversal stack).
         """
-        from .build import MAX_DEPTH
+        from .common import MAX_DEPTH
 
         max_depth = MAX_DEPTH if max_depth is None else max_depth
         m, n = self.num_nodes, self.num_prims
@@ -126,6 +138,46 @@ class FlatBvh:
         depth = self.depths()
         assert depth.max() <= max_depth - 1, f"depth {depth.max()} exceeds the traversal stack ({max_depth})"
 
+    def stats(
+        self,
+        traversal_cost: float = 1.0,
+        intersection_cost: float = 1.0,
+        *,
+        points=None,
+        indices=None,
+        epo_samples: int | None = None,
+    ) -> dict:
+        """Quality and size statistics (see ``stats.py`` for the definitions).
+
+        Args:
+            traversal_cost: SAH/EPO cost of visiting an inner node.
+            intersection_cost: SAH/EPO cost of one ray-triangle test.
+            points: ``(V, 3)`` vertices for the EPO estimate; default: the ones the tree was built over.
+            indices: ``(T, 3)`` triangles for the EPO estimate; default: the ones the tree was built over.
+            epo_samples: surface samples of the EPO estimate (``stats.EPO_SAMPLES`` when ``None``); 0 skips EPO.
+
+        Returns:
+            dict with ``sah_cost``, ``epo`` (``None`` without triangles), ``epo_stderr``, ``nodes``,
+            ``inner_nodes``, ``leaves``, ``max_depth``, ``mean_leaf_depth``, ``mean_prim_depth``,
+            ``mean_leaf_size``, ``leaf_size_histogram`` (size -> leaves), ``node_bytes``, ``bytes``,
+            ``build_seconds``, the cost constants and the builder name.
+        """
+        from .stats import EPO_SAMPLES, bvh_stats
+
+        points = self.points if points is None else points
+        indices = self.indices if indices is None else indices
+        if points is not None and indices is not None:
+            points = points.numpy() if isinstance(points, wp.array) else points
+            indices = indices.numpy() if isinstance(indices, wp.array) else indices
+        return bvh_stats(
+            self,
+            points,
+            indices,
+            traversal_cost,
+            intersection_cost,
+            EPO_SAMPLES if epo_samples is None else int(epo_samples),
+        )
+
     def to_device(self, points: np.ndarray, indices: np.ndarray, device=None) -> DeviceBvh:
         """Uploads the tree and its triangles, in slot order, to ``device``.
 
@@ -135,20 +187,67 @@ class FlatBvh:
             device: Warp device.
         """
         device = wp.get_device(device)
-        corners = np.asarray(points, np.float32)[np.asarray(indices)[self.prim_ids]] if self.num_prims else None
-        if corners is None:
-            corners = np.zeros((1, 3, 3), np.float32)  # keep arrays non-empty; num_prims = 0 stops traversal
         s = DeviceBvh()
         s.lowers = wp.array(self.lowers, dtype=wp.vec3, device=device)
         s.uppers = wp.array(self.uppers, dtype=wp.vec3, device=device)
         s.left_first = wp.array(self.left_first, dtype=wp.int32, device=device)
         s.prim_count = wp.array(self.prim_count, dtype=wp.int32, device=device)
-        s.prim_ids = wp.array(self.prim_ids if self.num_prims else np.zeros(1, np.int32), dtype=wp.int32, device=device)
-        s.v0 = wp.array(np.ascontiguousarray(corners[:, 0]), dtype=wp.vec3, device=device)
-        s.v1 = wp.array(np.ascontiguousarray(corners[:, 1]), dtype=wp.vec3, device=device)
-        s.v2 = wp.array(np.ascontiguousarray(corners[:, 2]), dtype=wp.vec3, device=device)
+        s.prim_ids, s.v0, s.v1, s.v2 = upload_triangles(self.prim_ids, points, indices, device)
         s.num_prims = self.num_prims
         return s
+
+
+@dataclasses.dataclass
+class DeviceFlatBvh:
+    """The canonical layout in device memory, as a builder leaves it; :meth:`to_host` makes the :class:`FlatBvh`.
+
+    Attributes:
+        lowers: ``(M,)`` vec3 node box minima.
+        uppers: ``(M,)`` vec3 node box maxima.
+        left_first: ``(M,)`` int32 left child or first slot.
+        prim_count: ``(M,)`` int32 triangle count of a leaf, 0 for inner nodes.
+        prim_ids: ``(N,)`` int32 slot -> triangle id.
+        builder: name of the builder that made it.
+    """
+
+    lowers: wp.array
+    uppers: wp.array
+    left_first: wp.array
+    prim_count: wp.array
+    prim_ids: wp.array
+    builder: str = ""
+
+    @property
+    def num_nodes(self) -> int:
+        """Number of nodes."""
+        return len(self.left_first)
+
+    def to_host(self) -> FlatBvh:
+        """Copies the tree to the host."""
+        return FlatBvh(
+            lowers=self.lowers.numpy().reshape(-1, 3),
+            uppers=self.uppers.numpy().reshape(-1, 3),
+            left_first=self.left_first.numpy(),
+            prim_count=self.prim_count.numpy(),
+            prim_ids=self.prim_ids.numpy(),
+            builder=self.builder,
+        )
+
+
+def upload_triangles(prim_ids: np.ndarray, points: np.ndarray, indices: np.ndarray, device) -> tuple:
+    """``(prim_ids, v0, v1, v2)`` on ``device``: the slot -> triangle map and the triangles' vertices in slot order.
+
+    Arrays stay non-empty for a tree over no triangles (whose ``num_prims = 0`` stops every traversal).
+    """
+    n = len(prim_ids)
+    corners = np.asarray(points, np.float32)[np.asarray(indices)[prim_ids]] if n else np.zeros((1, 3, 3), np.float32)
+    ids = prim_ids if n else np.zeros(1, np.int32)
+    return (
+        wp.array(ids, dtype=wp.int32, device=device),
+        wp.array(np.ascontiguousarray(corners[:, 0]), dtype=wp.vec3, device=device),
+        wp.array(np.ascontiguousarray(corners[:, 1]), dtype=wp.vec3, device=device),
+        wp.array(np.ascontiguousarray(corners[:, 2]), dtype=wp.vec3, device=device),
+    )
 
 
 def _ranges(counts: np.ndarray) -> np.ndarray:
@@ -159,3 +258,42 @@ def _ranges(counts: np.ndarray) -> np.ndarray:
         return np.zeros(0, np.int64)
     starts = np.repeat(np.cumsum(counts) - counts, counts)
     return np.arange(total) - starts
+
+
+LAYOUTS = ("binary", "compact", "wide", "wide8")  # names accepted by layout=
+
+
+def check_layout(layout: str) -> str:
+    """Returns ``layout`` if it is a known layout name; raises ``ValueError`` listing the valid ones."""
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown BVH layout {layout!r}; valid layouts: {', '.join(LAYOUTS)}")
+    return layout
+
+
+def convert_layout(bvh: FlatBvh, layout: str):
+    """The tree in ``layout``: the FlatBvh itself for ``binary``, else a ``CompactBvh`` or ``WideBvh``; each has
+    ``to_device(points, indices, device)``, ``num_nodes`` and ``bytes``."""
+    check_layout(layout)
+    if layout == "binary":
+        return bvh
+    if layout == "compact":
+        from .compact import convert_compact
+
+        return convert_compact(bvh)
+    from .wide import convert_wide
+
+    return convert_wide(bvh, 4 if layout == "wide" else 8)
+
+
+def layout_kernels(layout: str) -> tuple:
+    """``(trace_kernel, occluded_kernel)`` of a non-binary layout (the binary ones live in ``wrt/trace.py``)."""
+    check_layout(layout)
+    if layout == "compact":
+        from .compact import occluded_compact_kernel, trace_compact_kernel
+
+        return trace_compact_kernel, occluded_compact_kernel
+    if layout in ("wide", "wide8"):
+        from .wide import occluded_wide_kernel, trace_wide_kernel
+
+        return trace_wide_kernel, occluded_wide_kernel
+    raise ValueError("the binary layout's kernels live in wrt.trace")

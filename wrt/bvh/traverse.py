@@ -12,7 +12,7 @@ depend on the tree or the visiting order. Boxes are entered when their entry dis
 import warp as wp
 
 from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
-from .build import MAX_DEPTH
+from .common import MAX_DEPTH
 from .layout import DeviceBvh
 
 

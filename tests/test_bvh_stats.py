@@ -1,0 +1,191 @@
+"""BVH statistics (SAH cost, EPO, counts), Warp's own trees read from wp.Mesh, the quality order of the builders,
+and the ``wrt bvh-stats`` command."""
+
+import json
+
+import numpy as np
+import pytest
+from conftest import warp_assets
+
+import wrt
+from wrt.bvh import Builder, FlatBvh, build_bvh
+from wrt.bvh.report import collect_stats, parse_builders
+from wrt.bvh.stats import sah_cost
+from wrt.bvh.warp_mesh import read_warp_bvh, warp_mesh_bvh
+from wrt.cli import main
+from wrt.compare import compare_hits
+from wrt.rays import random_rays
+
+
+def two_triangles(gap: float):
+    """Two unit right triangles in the z=0 plane, the second shifted by ``1 + gap`` along x."""
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    return np.concatenate([tri, tri + np.float32([1 + gap, 0, 0])]), np.arange(6, dtype=np.int32).reshape(2, 3)
+
+
+def test_sah_cost_by_hand():
+    points, indices = two_triangles(1.0)
+    bvh = build_bvh(points, indices, leaf_size=1, device="cpu")
+    assert bvh.num_nodes == 3
+    # Flat boxes: half area = x * y. Root 3 x 1, leaves 1 x 1: (C_t * 3 + C_i * (1 + 1)) / 3.
+    assert sah_cost(bvh, 1.0, 1.0) == pytest.approx((3 + 2) / 3)
+    assert sah_cost(bvh, 2.0, 0.5) == pytest.approx((2 * 3 + 0.5 * 2) / 3)
+    stats = bvh.stats(2.0, 0.5)
+    assert stats["sah_cost"] == pytest.approx((2 * 3 + 0.5 * 2) / 3)
+    assert (stats["traversal_cost"], stats["intersection_cost"]) == (2.0, 0.5)
+
+
+def test_epo_is_zero_without_overlap_and_positive_with_it():
+    points, indices = two_triangles(1.0)
+    assert build_bvh(points, indices, leaf_size=1, device="cpu").stats()["epo"] == 0.0
+    # A small triangle inside the box of a big one: its area lies in the other leaf's box.
+    big = np.array([[0, 0, 0], [4, 0, 0], [0, 4, 0]], np.float32)
+    small = np.array([[2.5, 2.5, 0], [3, 2.5, 0], [2.5, 3, 0]], np.float32) * np.float32([1, 1, 0]) + np.float32(
+        [0, 0, 0]
+    )
+    points = np.concatenate([big, small])
+    bvh = build_bvh(points, np.arange(6).reshape(2, 3), leaf_size=1, device="cpu")
+    stats = bvh.stats()
+    # The small triangle (area 0.125 of 8.125) lies in the big leaf's box: EPO = C_i * 1 * 0.125 / 8.125.
+    assert stats["epo"] == pytest.approx(0.125 / 8.125, abs=4 * stats["epo_stderr"] + 1e-3)
+
+
+def test_stats_are_consistent(np_rng):
+    n = 2000
+    centers = np_rng.uniform(-1, 1, (n, 1, 3))
+    points = (centers + np_rng.normal(scale=0.05, size=(n, 3, 3))).reshape(-1, 3).astype(np.float32)
+    indices = np.arange(3 * n, dtype=np.int32).reshape(-1, 3)
+    for builder in [b.value for b in Builder]:
+        s = build_bvh(points, indices, builder, device="cpu").stats(epo_samples=4096)
+        assert s["builder"] == builder and s["triangles"] == n
+        assert s["nodes"] == s["inner_nodes"] + s["leaves"] and s["leaves"] == s["inner_nodes"] + 1
+        assert sum(s["leaf_size_histogram"].values()) == s["leaves"]
+        assert sum(k * v for k, v in s["leaf_size_histogram"].items()) == n
+        assert max(s["leaf_size_histogram"]) <= 8
+        assert 0 < s["mean_leaf_depth"] <= s["max_depth"] < 64
+        assert s["sah_cost"] > 1.0 and s["epo"] > 0.0 and s["bytes"] == 32 * s["nodes"] + 4 * n
+        assert s["build_seconds"] > 0.0
+
+
+def test_empty_tree_stats():
+    s = FlatBvh.empty().stats()
+    assert s["sah_cost"] == 0.0 and s["triangles"] == 0 and s["leaves"] == 0
+
+
+@pytest.fixture(scope="module")
+def bunny():
+    scene = wrt.load_usd(warp_assets("bunny.usd"))
+    return scene.triangles()
+
+
+@pytest.mark.parametrize("constructor", ["sah", "median", "cubql"])
+def test_warp_trees_read_back_valid_and_trace_like_warp(bunny, constructor):
+    points, indices = bunny
+    bvh = warp_mesh_bvh(points, indices, constructor)
+    bvh.validate()
+    assert bvh.builder == f"warp:{constructor}" and bvh.num_prims == len(indices)
+    if constructor != "cubql":
+        assert bvh.prim_count.max() <= 4  # Warp's default bvh_leaf_size
+    # Warp's tree, traversed by wrt's kernels, hits what wp.Mesh hits.
+    scene = wrt.Scene.from_triangles(points, indices)
+    origins, directions = random_rays(scene, 5000, seed=4)
+    import warp as wp
+
+    from wrt.trace import BvhAccelerator
+
+    acc = BvhAccelerator.__new__(BvhAccelerator)
+    acc.bvh, acc.device, acc.device_bvh = bvh, wp.get_device("cpu"), bvh.to_device(points, indices, "cpu")
+    scene._cache[("accel", "wrt", "sah", "cpu")] = acc
+    report = compare_hits(wrt.trace(scene, origins, directions), wrt.trace(scene, origins, directions, accel="warp"))
+    assert report["disagreements"] == 0, report
+
+
+def test_read_warp_bvh_reads_a_mesh_made_elsewhere(bunny):
+    import warp as wp
+
+    points, indices = bunny
+    mesh = wp.Mesh(wp.array(points, dtype=wp.vec3), wp.array(indices.reshape(-1), dtype=wp.int32), bvh_leaf_size=2)
+    bvh = read_warp_bvh(mesh)
+    bvh.validate()
+    assert bvh.prim_count.max() <= 2
+
+
+def test_quality_order_on_bunny(bunny):
+    points, indices = bunny
+    rows = {r["builder"]: r for r in collect_stats(points, indices, "sweep_sah,sah,median,warp:sah", epo_samples=1024)}
+    sweep, binned, median = (rows[b]["sah_cost"] for b in ("sweep_sah", "sah", "median"))
+    assert sweep <= binned <= median
+    assert binned <= 1.03 * sweep
+    assert binned <= rows["warp:sah"]["sah_cost"]
+
+
+def test_quality_order_on_turbineblade(assets):
+    scene = wrt.load_usd(assets("turbineblade_199k"))
+    points, indices = scene.triangles()
+    costs = {b: build_bvh(points, indices, b, device="cpu").stats()["sah_cost"] for b in ("sweep_sah", "sah", "median")}
+    warp_cost = warp_mesh_bvh(points, indices, "sah").stats()["sah_cost"]
+    assert costs["sweep_sah"] <= costs["sah"] <= costs["median"]
+    assert costs["sah"] <= 1.03 * costs["sweep_sah"]
+    assert costs["sah"] <= warp_cost
+
+
+def test_parse_builders():
+    assert parse_builders("binned_sah, warp:sah") == ["sah", "warp:sah"]
+    assert parse_builders(["all"]) == [b.value for b in Builder]
+    with pytest.raises(ValueError, match="valid Warp builders"):
+        parse_builders("warp:kd")
+    with pytest.raises(ValueError, match="valid builders"):
+        parse_builders("kd")
+
+
+def test_cli_bvh_stats_table_and_json(capsys):
+    path = str(warp_assets("bunny.usd"))
+    assert (
+        main(
+            [
+                "bvh-stats",
+                path,
+                "--builder",
+                "sah,lbvh",
+                "--builder",
+                "warp:sah",
+                "--layout",
+                "wide",
+                "--epo-samples",
+                "512",
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "| builder | build s | SAH cost | EPO |" in out
+    assert "| sah |" in out and "| lbvh |" in out and "| warp:sah |" in out
+    assert main(["bvh-stats", path, "--json", "--leaf-size", "2", "--epo-samples", "512"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert rows[0]["builder"] == "sah" and max(map(int, rows[0]["leaf_size_histogram"])) <= 2
+
+
+@pytest.mark.parametrize(
+    "args,needle",
+    [
+        (["--builder", "kdtree"], "valid builders"),
+        (["--builder", "warp:kd"], "valid Warp builders"),
+        (["--bins", "1"], "bins must lie"),
+        (["--layout", "bvh16"], "invalid choice"),
+        (["--device", "tpu"], "available devices"),
+    ],
+)
+def test_cli_bvh_stats_bad_input_is_one_line_and_exit_2(capsys, args, needle):
+    with pytest.raises(SystemExit) as e:
+        import sys
+
+        sys.exit(main(["bvh-stats", str(warp_assets("bunny.usd")), *args]))
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0], err
+
+
+def test_cli_bvh_stats_missing_file(capsys, tmp_path):
+    assert main(["bvh-stats", str(tmp_path / "missing.usd")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "missing.usd" in err[0]

@@ -1,0 +1,229 @@
+"""Device math and host plumbing shared by every BVH builder: triangle bounds, the SAH leaf-or-split rule, the
+depth guarantee and the checks on build input.
+
+Depth guarantee: a node at depth ``d`` holding ``c`` primitives can always be finished by ``d + ceil(log2 c)``
+by halving. Every builder keeps ``d + ceil(log2 c) <= MAX_DEPTH - 1`` for every node it emits and falls back to a
+split that halves the count whenever its own split would break that (top-down builders decide this per node;
+the bottom-up builders re-split their trees while flattening, see ``flatten.py``). Traversal can therefore use a
+fixed stack of ``MAX_DEPTH`` entries.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+wp.set_module_options({"enable_backward": False})
+
+MAX_DEPTH = 64  # deepest leaf is at depth MAX_DEPTH - 1; traversal stacks hold MAX_DEPTH entries
+MAX_BINS = 64  # upper bound on SAH bins per axis
+MAX_LEAF_SIZE = 1 << 16  # upper bound on leaf_size
+REDUCE_THREADS = 1 << 16  # threads of the bounds reduction (each folds a grid-strided share)
+
+ACTION_LEAF = wp.constant(0)  # node becomes a leaf
+ACTION_SPLIT = wp.constant(1)  # node splits where its builder chose
+ACTION_HALVE = wp.constant(2)  # node splits its slot range in half (depth guarantee, coincident centroids)
+
+
+@wp.func
+def ceil_log2(n: int):
+    """Smallest ``k`` with ``2**k >= n`` (0 for ``n <= 1``)."""
+    k = int(0)
+    while (1 << k) < n:
+        k += 1
+    return k
+
+
+@wp.func
+def half_area(lower: wp.vec3, upper: wp.vec3):
+    """Half the surface area of a box; 0 for an empty (inverted) box."""
+    d = wp.max(upper - lower, wp.vec3(0.0))
+    return d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+
+
+@wp.func
+def widest_axis(extent: wp.vec3):
+    """Axis of the largest component of ``extent`` (the first one on ties)."""
+    axis = int(0)
+    if extent[1] > extent[axis]:
+        axis = 1
+    if extent[2] > extent[axis]:
+        axis = 2
+    return axis
+
+
+@wp.func
+def choose_action(
+    count: int,
+    depth: int,
+    area: float,
+    has_split: bool,
+    split_cost: float,
+    n_left: int,
+    use_sah: int,
+    max_leaf_size: int,
+    traversal_cost: float,
+    intersection_cost: float,
+    max_depth: int,
+):
+    """Leaf, the builder's split, or halving, for a node of ``count`` primitives at ``depth``.
+
+    ``split_cost`` is the SAH numerator of the split, ``A(L) N(L) + A(R) N(R)``; with ``use_sah`` a node of at
+    most ``max_leaf_size`` primitives stays a leaf unless splitting is expected to be cheaper,
+    ``C_i N <= C_t + C_i split_cost / A`` (SAH leaf termination). Nodes above ``max_leaf_size`` always split.
+    A split is taken only if both children can still be finished within ``max_depth`` by halving.
+    """
+    leaf_ok = count <= max_leaf_size
+    if use_sah == 1 and leaf_ok and has_split and area > 0.0:
+        leaf_ok = intersection_cost * float(count) <= traversal_cost + intersection_cost * split_cost / area
+    action = ACTION_HALVE
+    if count <= 1 or leaf_ok:
+        action = ACTION_LEAF
+    elif has_split and depth + 1 + ceil_log2(wp.max(n_left, count - n_left)) <= max_depth - 1:
+        action = ACTION_SPLIT
+    return action
+
+
+@wp.kernel
+def compute_prim_bounds_kernel(
+    points: wp.array[wp.vec3],
+    indices: wp.array2d[wp.int32],
+    # outputs
+    prim_lowers: wp.array[wp.vec3],
+    prim_uppers: wp.array[wp.vec3],
+    centroids: wp.array[wp.vec3],
+):
+    """Bounds and bounds-centre of every triangle."""
+    i = wp.tid()
+    a = points[indices[i, 0]]
+    b = points[indices[i, 1]]
+    c = points[indices[i, 2]]
+    lo = wp.min(wp.min(a, b), c)
+    hi = wp.max(wp.max(a, b), c)
+    prim_lowers[i] = lo
+    prim_uppers[i] = hi
+    centroids[i] = 0.5 * (lo + hi)
+
+
+@wp.kernel
+def check_input_kernel(
+    points: wp.array[wp.vec3],
+    indices: wp.array2d[wp.int32],
+    # outputs
+    errors: wp.array[wp.int32],
+):
+    """Flags out-of-range indices (``errors[0]``) and non-finite vertices (``errors[1]``)."""
+    i = wp.tid()
+    n = points.shape[0]
+    for k in range(3):
+        v = indices[i, k]
+        if v < 0 or v >= n:
+            errors[0] = 1
+        else:
+            p = points[v]
+            if not (wp.isfinite(p[0]) and wp.isfinite(p[1]) and wp.isfinite(p[2])):
+                errors[1] = 1
+
+
+@wp.kernel
+def reduce_bounds_kernel(
+    prim_lowers: wp.array[wp.vec3],
+    prim_uppers: wp.array[wp.vec3],
+    centroids: wp.array[wp.vec3],
+    # outputs
+    bounds: wp.array[wp.vec3],
+):
+    """``bounds = [lower, upper, centroid lower, centroid upper]`` of all primitives: each thread reduces a
+    grid-strided share (coalesced), then folds it in with four float min/max atomics."""
+    t = wp.tid()
+    stride = REDUCE_THREADS
+    big = wp.vec3(wp.inf)
+    lo = big
+    hi = -big
+    c_lo = big
+    c_hi = -big
+    for i in range(t, prim_lowers.shape[0], stride):
+        lo = wp.min(lo, prim_lowers[i])
+        hi = wp.max(hi, prim_uppers[i])
+        c_lo = wp.min(c_lo, centroids[i])
+        c_hi = wp.max(c_hi, centroids[i])
+    wp.atomic_min(bounds, 0, lo)
+    wp.atomic_max(bounds, 1, hi)
+    wp.atomic_min(bounds, 2, c_lo)
+    wp.atomic_max(bounds, 3, c_hi)
+
+
+class BuildInput:
+    """Checked build input on one device: vertex and index arrays and the per-triangle bounds.
+
+    Args:
+        points: ``(V, 3)`` float32 vertex positions, numpy or ``wp.array`` (``vec3``).
+        indices: ``(T, 3)`` int32 triangle vertex indices, numpy or ``wp.array``.
+        device: Warp device to build on.
+
+    Raises:
+        ValueError: for out-of-range indices, non-finite vertices used by a triangle, or too many triangles.
+    """
+
+    def __init__(self, points, indices, device):
+        self.device = wp.get_device(device)
+        self.points = _as_device(points, wp.vec3, self.device, (-1,))
+        self.indices = _as_device(indices, wp.int32, self.device, (-1, 3))
+        self.num_prims = self.indices.shape[0]
+        if self.num_prims >= 1 << 30:
+            raise ValueError(f"too many triangles for one BVH: {self.num_prims}")
+        if self.num_prims == 0:
+            return
+        errors = wp.zeros(2, dtype=wp.int32, device=self.device)
+        wp.launch(
+            check_input_kernel, self.num_prims, inputs=[self.points, self.indices], outputs=[errors], device=self.device
+        )
+        bad_index, bad_point = errors.numpy()
+        if bad_index:
+            raise ValueError(f"triangle indices must lie in [0, {len(self.points)})")
+        if bad_point:
+            raise ValueError("triangle vertices must be finite (found NaN or inf)")
+        n = self.num_prims
+        self.prim_lowers = wp.empty(n, dtype=wp.vec3, device=self.device)  # triangle box minimum
+        self.prim_uppers = wp.empty(n, dtype=wp.vec3, device=self.device)  # triangle box maximum
+        self.centroids = wp.empty(n, dtype=wp.vec3, device=self.device)  # triangle box centre
+        wp.launch(
+            compute_prim_bounds_kernel,
+            n,
+            inputs=[self.points, self.indices],
+            outputs=[self.prim_lowers, self.prim_uppers, self.centroids],
+            device=self.device,
+        )
+
+    def root_bounds(self) -> wp.array:
+        """``(4,)`` vec3 device array: box lower, box upper, centroid lower, centroid upper of all triangles."""
+        big = np.full(3, np.inf, np.float32)
+        bounds = wp.array(np.stack([big, -big, big, -big]), dtype=wp.vec3, device=self.device)
+        wp.launch(
+            reduce_bounds_kernel,
+            min(self.num_prims, REDUCE_THREADS),
+            inputs=[self.prim_lowers, self.prim_uppers, self.centroids],
+            outputs=[bounds],
+            device=self.device,
+        )
+        return bounds
+
+
+def _as_device(data, dtype, device, shape) -> wp.array:
+    """``data`` as a contiguous Warp array of ``dtype`` on ``device``, reshaped to ``shape``."""
+    if isinstance(data, wp.array):
+        if data.device == device and data.is_contiguous:
+            if dtype == wp.vec3 and data.dtype == wp.vec3:
+                return data
+            if dtype == wp.int32 and data.dtype == wp.int32:
+                return data.reshape(shape)
+        data = data.numpy()
+    array = np.ascontiguousarray(np.asarray(data, dtype=np.float32 if dtype == wp.vec3 else np.int32))
+    if dtype == wp.vec3:
+        return wp.array(array.reshape(-1, 3), dtype=wp.vec3, device=device)
+    return wp.array(array.reshape(shape), dtype=wp.int32, device=device)
+
+
+def read_int(array: wp.array, index: int) -> int:
+    """One element of a device array, as a Python int (synchronizes)."""
+    return int(array[index : index + 1].numpy()[0])

@@ -1,0 +1,192 @@
+"""Side-by-side BVH statistics for one mesh: wrt's builders and Warp's own trees (``warp:sah``, ``warp:median``,
+``warp:lbvh``, ``warp:cubql``), and the ``wrt bvh-stats`` command built on them.
+
+Every row is a :meth:`FlatBvh.stats` dict (Warp's trees are read through ``warp_mesh.read_warp_bvh`` into the same
+canonical layout), so both sides are measured by the same code under the same cost constants.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from .build import Builder, build_bvh, builder_names
+from .layout import LAYOUTS, convert_layout
+
+WARP_PREFIX = "warp:"  # builder names of the form "warp:<bvh_constructor>" read wp.Mesh's tree
+WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor values
+
+
+def parse_builders(text) -> list[str]:
+    """Builder names from a comma-separated list (or a list of them); ``all`` means every wrt builder.
+
+    Raises:
+        ValueError: for an unknown wrt or Warp builder name.
+    """
+    items = text if isinstance(text, (list, tuple)) else [text]
+    names = []
+    for item in items:
+        for name in str(item).split(","):
+            name = name.strip().lower()
+            if not name:
+                continue
+            if name == "all":
+                names += [b.value for b in Builder]
+            elif name.startswith(WARP_PREFIX):
+                if name[len(WARP_PREFIX) :] not in WARP_BUILDERS:
+                    valid = ", ".join(WARP_PREFIX + b for b in WARP_BUILDERS)
+                    raise ValueError(f"unknown Warp builder {name!r}; valid Warp builders: {valid}")
+                names.append(name)
+            else:
+                names.append(Builder.from_str(name).value)
+    if not names:
+        raise ValueError(f"no builder given; valid builders: {', '.join(builder_names())}, all, warp:<name>")
+    return list(dict.fromkeys(names))
+
+
+def collect_stats(
+    points,
+    indices,
+    builders,
+    *,
+    layout: str = "binary",
+    leaf_size: int | None = None,
+    warp_leaf_size: int | None = None,
+    bins: int = 16,
+    traversal_cost: float = 1.0,
+    intersection_cost: float = 1.0,
+    epo_samples: int | None = None,
+    device="cpu",
+) -> list[dict]:
+    """One statistics row per builder over the triangles ``points[indices]``.
+
+    Args:
+        points: ``(V, 3)`` float32 vertices.
+        indices: ``(T, 3)`` int32 triangles.
+        builders: names as accepted by :func:`parse_builders`.
+        layout: layout whose node count and bytes are added as ``layout_nodes`` / ``layout_bytes``.
+        leaf_size: wrt's ``leaf_size`` (its default when ``None``).
+        warp_leaf_size: Warp's ``bvh_leaf_size`` (Warp's default when ``None``).
+        bins: SAH bins of ``sah``.
+        traversal_cost: SAH/EPO ``C_t``, also used by the SAH builders.
+        intersection_cost: SAH/EPO ``C_i``.
+        epo_samples: surface samples of the EPO estimate (default when ``None``).
+        device: Warp device to build on.
+    """
+    from .warp_mesh import warp_mesh_bvh
+
+    rows = []
+    for name in parse_builders(builders):
+        if name.startswith(WARP_PREFIX):
+            bvh = warp_mesh_bvh(points, indices, name[len(WARP_PREFIX) :], warp_leaf_size, device)
+        else:
+            options = {} if leaf_size is None else {"leaf_size": int(leaf_size)}
+            bvh = build_bvh(
+                points,
+                indices,
+                name,
+                bins=bins,
+                traversal_cost=traversal_cost,
+                intersection_cost=intersection_cost,
+                device=device,
+                **options,
+            )
+        bvh.validate()
+        row = bvh.stats(traversal_cost, intersection_cost, epo_samples=epo_samples)
+        converted = convert_layout(bvh, layout)
+        row.update(layout=layout, layout_nodes=int(converted.num_nodes), layout_bytes=int(converted.bytes))
+        rows.append(row)
+    return rows
+
+
+def histogram_text(histogram: dict, limit: int = 8) -> str:
+    """``size:count`` pairs of a leaf-size histogram, the ``limit`` smallest sizes."""
+    items = sorted(histogram.items())
+    text = " ".join(f"{s}:{c}" for s, c in items[:limit])
+    return text + (" ..." if len(items) > limit else "")
+
+
+def format_table(rows: list[dict]) -> str:
+    """A markdown table of statistics rows."""
+    header = (
+        "| builder | build s | SAH cost | EPO | nodes | leaves | max depth | mean leaf depth | layout | layout MB "
+        "| leaf sizes (size:leaves) |"
+    )
+    lines = [header, "|" + "|".join(["---"] * (header.count("|") - 1)) + "|"]
+    for r in rows:
+        epo = "n/a" if r["epo"] is None else f"{r['epo']:.3f}"
+        lines.append(
+            f"| {r['builder']} | {r['build_seconds']:.3f} | {r['sah_cost']:.2f} | {epo} | {r['nodes']} | {r['leaves']} "
+            f"| {r['max_depth']} | {r['mean_leaf_depth']:.1f} | {r['layout']} | {r['layout_bytes'] / 1e6:.1f} "
+            f"| {histogram_text(r['leaf_size_histogram'])} |"
+        )
+    return "\n".join(lines)
+
+
+def add_bvh_stats(sub) -> None:
+    """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
+    from ..cli import _positive_int
+
+    p = sub.add_parser(
+        "bvh-stats",
+        help="BVH quality and size statistics of a scene, for wrt's builders and Warp's",
+        description="Build BVHs over a USD scene's triangles and report SAH cost, EPO (end-point overlap, estimated), "
+        "node and leaf counts, depths, leaf sizes, bytes and build time. Warp's own trees are read from wp.Mesh "
+        "with --builder warp:sah (or warp:median, warp:lbvh on CUDA, warp:cubql).",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument("scene", help="USD file (.usd, .usda, .usdc, .usdz)")
+    p.add_argument(
+        "--builder",
+        action="append",
+        help=f"builders, comma-separated or repeated: {', '.join(builder_names())}, all, or warp:<name> for "
+        "wp.Mesh's tree (default: sah)",
+    )
+    p.add_argument("--layout", default="binary", choices=LAYOUTS, help="layout whose node count and bytes are shown")
+    p.add_argument("--leaf-size", type=_positive_int, default=None, help="wrt's most triangles per leaf (default 8)")
+    p.add_argument("--warp-leaf-size", type=_positive_int, default=None, help="Warp's bvh_leaf_size (default: Warp's)")
+    p.add_argument("--bins", type=_positive_int, default=16, help="SAH bins per axis for sah")
+    p.add_argument("--traversal-cost", type=float, default=1.0, help="SAH constant C_t (node visit)")
+    p.add_argument("--intersection-cost", type=float, default=1.0, help="SAH constant C_i (triangle test)")
+    p.add_argument("--epo-samples", type=_positive_int, default=1 << 16, help="surface samples of the EPO estimate")
+    p.add_argument("--device", default="cpu", help="Warp device to build on, e.g. cpu or cuda:0")
+    p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--json", action="store_true", help="print JSON rows instead of a table")
+    p.set_defaults(run=run_bvh_stats)
+
+
+def run_bvh_stats(args) -> int:
+    """Runs ``wrt bvh-stats``; returns the exit status."""
+    import sys
+
+    import wrt
+
+    from ..trace import resolve_device
+
+    builders = parse_builders(args.builder or ["sah"])
+    device = resolve_device(args.device)
+    scene = wrt.load_usd(args.scene, time=args.time)
+    points, indices = scene.triangles()
+    rows = collect_stats(
+        points,
+        indices,
+        builders,
+        layout=args.layout,
+        leaf_size=args.leaf_size,
+        warp_leaf_size=args.warp_leaf_size,
+        bins=args.bins,
+        traversal_cost=args.traversal_cost,
+        intersection_cost=args.intersection_cost,
+        epo_samples=args.epo_samples,
+        device=device,
+    )
+    if args.json:
+        print(json.dumps(rows, indent=1))
+    else:
+        print(
+            f"{args.scene}: {len(indices)} triangles; SAH/EPO with C_t={args.traversal_cost}, "
+            f"C_i={args.intersection_cost}; device {device}"
+        )
+        print(format_table(rows))
+    sys.stdout.flush()
+    return 0

@@ -1,0 +1,336 @@
+"""Wide layout: BVH4 or BVH8 collapsed from the canonical binary tree (Wald et al., "Getting Rid of Packets",
+2008; Ernst and Greiner, "Multi Bounding Volume Hierarchies", 2008; tinybvh's ``BVH4``/``BVH8`` conversions).
+
+Collapse by SAH: a wide node starts with the two children of a binary inner node and repeatedly replaces the inner
+child of largest surface area by its two children, until it has ``width`` children or only leaves. Opening the
+largest child first removes the most expected traversal cost (the SAH term ``C_t A(n) / A(root)``) per opened node.
+Every remaining inner child becomes a wide node of the next level. The conversion is vectorized over each level.
+
+Storage is structure of arrays with ``width`` child slots per node: child box, reference and count, where
+``count > 0`` is a leaf over slots ``[ref, ref + count)``, ``count == 0`` an inner wide node ``ref`` and
+``count < 0`` an empty slot. Triangles are stored in slot (leaf) order next to the nodes.
+
+Traversal tests all child boxes of a node, sorts the entered ones by entry distance, continues with the nearest
+and pushes the others far to near; each wide level pushes at most ``width - 1`` entries, and the wide tree is no
+deeper than the binary one, so a stack of ``8 * MAX_DEPTH`` entries suffices for both widths. Tie rule and culling
+are the binary traversal's, so results agree ray by ray.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import warp as wp
+
+from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
+from .common import MAX_DEPTH
+from .layout import FlatBvh, upload_triangles
+from .stats import half_areas
+from .traverse import reachable
+
+wp.set_module_options({"enable_backward": False})
+
+MAX_WIDTH = 8  # widest supported node
+WIDE_STACK = MAX_WIDTH * MAX_DEPTH  # traversal stack entries: up to width pushes per wide level
+WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
+
+
+@wp.struct
+class DeviceWideBvh:
+    """A WideBvh and its triangles in device memory."""
+
+    lowers: wp.array[wp.vec3]  # child box minimum, ``width`` slots per node
+    uppers: wp.array[wp.vec3]  # child box maximum
+    refs: wp.array[wp.int32]  # wide node (inner child) or first slot (leaf child)
+    counts: wp.array[wp.int32]  # triangles of a leaf child, 0 for an inner child, -1 for an empty slot
+    width: int  # child slots per node: 4 or 8
+    prim_ids: wp.array[wp.int32]  # slot -> triangle id
+    v0: wp.array[wp.vec3]  # triangle vertices in slot order
+    v1: wp.array[wp.vec3]
+    v2: wp.array[wp.vec3]
+    num_prims: int  # triangles in the tree; 0 means every ray misses
+
+
+@dataclasses.dataclass
+class WideBvh:
+    """Host form of the wide layout (see module docstring).
+
+    Attributes:
+        lowers: ``(K * width, 3)`` float32 child box minima; child ``j`` of node ``k`` is entry ``k * width + j``.
+        uppers: ``(K * width, 3)`` float32 child box maxima.
+        refs: ``(K * width,)`` int32 child references.
+        counts: ``(K * width,)`` int32 child triangle counts (0 inner, -1 empty).
+        width: children per node, 4 or 8.
+        depth: deepest wide level (root 0).
+        prim_ids: ``(N,)`` int32 slot -> triangle id (the FlatBvh's).
+    """
+
+    lowers: np.ndarray
+    uppers: np.ndarray
+    refs: np.ndarray
+    counts: np.ndarray
+    width: int
+    depth: int
+    prim_ids: np.ndarray
+
+    @property
+    def num_nodes(self) -> int:
+        """Number of wide nodes."""
+        return len(self.refs) // self.width
+
+    @property
+    def num_prims(self) -> int:
+        """Number of triangles."""
+        return len(self.prim_ids)
+
+    @property
+    def bytes(self) -> int:
+        """Node bytes plus slot -> triangle id bytes (the triangles themselves not counted)."""
+        return WIDE_CHILD_BYTES * len(self.refs) + 4 * self.num_prims
+
+    def fill(self) -> float:
+        """Mean fraction of child slots in use."""
+        return float((self.counts >= 0).mean()) if len(self.counts) else 0.0
+
+    def to_device(self, points: np.ndarray, indices: np.ndarray, device=None) -> DeviceWideBvh:
+        """Uploads the nodes and the triangles, in slot order, to ``device``."""
+        device = wp.get_device(device)
+        s = DeviceWideBvh()
+        n = max(len(self.refs), 1)
+        s.lowers = wp.array(
+            self.lowers if len(self.refs) else np.zeros((1, 3), np.float32), dtype=wp.vec3, device=device
+        )
+        s.uppers = wp.array(
+            self.uppers if len(self.refs) else np.zeros((1, 3), np.float32), dtype=wp.vec3, device=device
+        )
+        s.refs = wp.array(self.refs if len(self.refs) else np.zeros(n, np.int32), dtype=wp.int32, device=device)
+        s.counts = wp.array(self.counts if len(self.refs) else np.full(n, -1, np.int32), dtype=wp.int32, device=device)
+        s.width = int(self.width)
+        s.prim_ids, s.v0, s.v1, s.v2 = upload_triangles(self.prim_ids, points, indices, device)
+        s.num_prims = self.num_prims
+        return s
+
+
+def convert_wide(bvh: FlatBvh, width: int = 4) -> WideBvh:
+    """Collapses the canonical binary tree into a ``width``-wide one (see module docstring)."""
+    if width not in (4, 8):
+        raise ValueError(f"wide layout width must be 4 or 8, got {width}")
+    if bvh.num_prims == 0:
+        z = np.zeros((0, 3), np.float32)
+        return WideBvh(z, z.copy(), np.zeros(0, np.int32), np.zeros(0, np.int32), width, 0, bvh.prim_ids.copy())
+    leaf = bvh.prim_count > 0
+    areas = half_areas(bvh.lowers, bvh.uppers)
+    levels = []  # per wide level: (K, width) binary node ids of the children, -1 for empty
+    if leaf[0]:
+        slots = np.full((1, width), -1, np.int64)
+        slots[0, 0] = 0
+        levels.append(slots)
+    else:
+        sources = np.array([0])
+        while len(sources):
+            k = len(sources)
+            rows = np.arange(k)
+            slots = np.full((k, width), -1, np.int64)
+            slots[:, 0] = bvh.left_first[sources]
+            slots[:, 1] = bvh.left_first[sources] + 1
+            # Open the inner child of largest area until the node is full (a row that stops never resumes).
+            for step in range(width - 2):
+                used = slots >= 0
+                open_area = np.where(used & ~leaf[np.maximum(slots, 0)], areas[np.maximum(slots, 0)], -np.inf)
+                j = np.argmax(open_area, axis=1)
+                ok = open_area[rows, j] > -np.inf
+                c = slots[rows[ok], j[ok]]
+                slots[rows[ok], j[ok]] = bvh.left_first[c]
+                slots[rows[ok], step + 2] = bvh.left_first[c] + 1
+            levels.append(slots)
+            sources = slots[(slots >= 0) & ~leaf[np.maximum(slots, 0)]]
+    # Number the wide nodes level by level and fill the child slots.
+    offsets = np.cumsum([0] + [len(s) for s in levels])
+    refs, counts, lows, highs = [], [], [], []
+    for d, slots in enumerate(levels):
+        flat = slots.reshape(-1)
+        valid = flat >= 0
+        c = np.maximum(flat, 0)
+        is_leaf = valid & leaf[c]
+        is_inner = valid & ~leaf[c]
+        ref = np.zeros(len(flat), np.int64)
+        ref[is_leaf] = bvh.left_first[c[is_leaf]]
+        ref[is_inner] = offsets[d + 1] + np.arange(int(is_inner.sum()))
+        count = np.where(is_leaf, bvh.prim_count[c], np.where(is_inner, 0, -1))
+        lo = np.where(valid[:, None], bvh.lowers[c], np.inf)
+        hi = np.where(valid[:, None], bvh.uppers[c], -np.inf)
+        refs.append(ref)
+        counts.append(count)
+        lows.append(lo)
+        highs.append(hi)
+    depth = len(levels) - 1
+    assert (width - 1) * depth + width <= WIDE_STACK, "wide tree deeper than the traversal stack"
+    return WideBvh(
+        lowers=np.concatenate(lows).astype(np.float32),
+        uppers=np.concatenate(highs).astype(np.float32),
+        refs=np.concatenate(refs).astype(np.int32),
+        counts=np.concatenate(counts).astype(np.int32),
+        width=width,
+        depth=depth,
+        prim_ids=bvh.prim_ids.copy(),
+    )
+
+
+@wp.func
+def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+    """Closest hit with ``t_min <= t < t_max``.
+
+    Returns:
+        ``(t, u, v, prim, nodes_visited, triangles_tested)``; ``prim = -1`` and ``t = inf`` on a miss.
+        ``nodes_visited`` counts wide nodes and leaves entered.
+    """
+    best_t = t_max
+    best_u = float(0.0)
+    best_v = float(0.0)
+    best_slot = int(-1)
+    nodes = int(0)
+    tests = int(0)
+    if bvh.num_prims > 0 and ray_is_valid(direction):
+        ray = make_sheared_ray(origin, direction)
+        inv_dir = safe_inverse(direction)
+        stack_ref = wp.zeros(shape=WIDE_STACK, dtype=wp.int32)
+        stack_count = wp.zeros(shape=WIDE_STACK, dtype=wp.int32)
+        stack_t = wp.zeros(shape=WIDE_STACK, dtype=float)
+        hit_ref = wp.zeros(shape=MAX_WIDTH, dtype=wp.int32)
+        hit_count = wp.zeros(shape=MAX_WIDTH, dtype=wp.int32)
+        hit_t = wp.zeros(shape=MAX_WIDTH, dtype=float)
+        top = int(0)
+        ref = int(0)  # current wide node or leaf; the root is wide node 0
+        count = int(0)
+        while ref >= 0:
+            nodes += 1
+            if count > 0:
+                # Leaf: test its triangles, stored in slot order.
+                for s in range(ref, ref + count):
+                    tests += 1
+                    hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
+                    if hit and t >= t_min:
+                        if t < best_t or (t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]):
+                            best_t = t
+                            best_u = u
+                            best_v = v
+                            best_slot = s
+                ref = -1
+            else:
+                # Wide node: test every child box, keep the entered ones sorted by entry distance.
+                m = int(0)
+                for j in range(bvh.width):
+                    c = ref * bvh.width + j
+                    if bvh.counts[c] >= 0:
+                        t = intersect_ray_box(origin, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, best_t)
+                        if reachable(t, best_t):
+                            k = m
+                            while k > 0 and hit_t[k - 1] > t:
+                                hit_t[k] = hit_t[k - 1]
+                                hit_ref[k] = hit_ref[k - 1]
+                                hit_count[k] = hit_count[k - 1]
+                                k -= 1
+                            hit_t[k] = t
+                            hit_ref[k] = bvh.refs[c]
+                            hit_count[k] = bvh.counts[c]
+                            m += 1
+                # Continue with the nearest child; push the others far to near.
+                ref = -1
+                if m > 0:
+                    for k in range(m - 1, 0, -1):
+                        stack_ref[top] = hit_ref[k]
+                        stack_count[top] = hit_count[k]
+                        stack_t[top] = hit_t[k]
+                        top += 1
+                    ref = hit_ref[0]
+                    count = hit_count[0]
+            # Pop the next node that may still hold a hit no farther than the best one.
+            while ref < 0 and top > 0:
+                top -= 1
+                if stack_t[top] <= best_t:
+                    ref = stack_ref[top]
+                    count = stack_count[top]
+    prim = int(-1)
+    if best_slot >= 0:
+        prim = bvh.prim_ids[best_slot]
+    else:
+        best_t = wp.inf
+    return best_t, best_u, best_v, prim, nodes, tests
+
+
+@wp.func
+def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+    """Any hit with ``t_min <= t < t_max``: True as soon as one is found."""
+    found = bool(False)
+    if bvh.num_prims > 0 and ray_is_valid(direction):
+        ray = make_sheared_ray(origin, direction)
+        inv_dir = safe_inverse(direction)
+        stack_ref = wp.zeros(shape=WIDE_STACK, dtype=wp.int32)
+        stack_count = wp.zeros(shape=WIDE_STACK, dtype=wp.int32)
+        top = int(0)
+        ref = int(0)
+        count = int(0)
+        while ref >= 0 and not found:
+            if count > 0:
+                for s in range(ref, ref + count):
+                    hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
+                    if hit and t >= t_min and t < t_max:
+                        found = True
+                ref = -1
+            else:
+                # Any hit: no ordering needed; push every entered child.
+                node = ref
+                ref = -1
+                for j in range(bvh.width):
+                    c = node * bvh.width + j
+                    if bvh.counts[c] >= 0:
+                        t = intersect_ray_box(origin, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, t_max)
+                        if t < wp.inf:
+                            stack_ref[top] = bvh.refs[c]
+                            stack_count[top] = bvh.counts[c]
+                            top += 1
+            if ref < 0 and top > 0:
+                top -= 1
+                ref = stack_ref[top]
+                count = stack_count[top]
+    return found
+
+
+@wp.kernel
+def trace_wide_kernel(
+    bvh: DeviceWideBvh,
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    # outputs
+    ts: wp.array[float],
+    us: wp.array[float],
+    vs: wp.array[float],
+    prims: wp.array[wp.int32],
+    costs: wp.array[wp.vec2i],
+):
+    """Closest hit of every ray through the wide layout; ``costs`` gets (nodes visited, triangles tested)."""
+    i = wp.tid()
+    t, u, v, prim, nodes, tests = wide_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
+    ts[i] = t
+    us[i] = u
+    vs[i] = v
+    prims[i] = prim
+    costs[i] = wp.vec2i(nodes, tests)
+
+
+@wp.kernel
+def occluded_wide_kernel(
+    bvh: DeviceWideBvh,
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    # outputs
+    blocked: wp.array[wp.int32],
+):
+    """1 for every ray that hits anything in ``[t_min, t_max)``."""
+    i = wp.tid()
+    blocked[i] = wp.where(wide_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
