@@ -308,3 +308,49 @@ def test_time_outside_the_stage_range_is_a_one_line_error(tmp_path, capsys):
     assert main(["render", str(path), "--time", "-3", "-o", str(tmp_path / "x.png"), "--width", "8", "--height", "8"]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     assert len(err) == 1 and "[1, 48]" in err[0]
+
+
+def test_batch_render_survives_a_bad_scene_and_keeps_finished_work(tmp_path, capsys):
+    import json
+
+    from wrt.cli import default_scene_path, main
+
+    bad = tmp_path / "bad.usda"
+    bad.write_text("#usda 1.0\n(\n garbage {{\n")
+    scenes = [str(default_scene_path()), str(bad), str(warp_assets("bunny.usd"))]
+    code = main(["render", *scenes, "-o", str(tmp_path / "out" / "{stem}.png"), "--width", "32", "--height", "24", "-q"])
+    assert code == 1
+    rows = [json.loads(line) for line in (tmp_path / "out" / "render-log.jsonl").read_text().splitlines()]
+    assert [r["status"] for r in rows] == ["ok", "error", "ok"]
+    assert "bad.usda" in rows[1]["error"]
+    assert (tmp_path / "out" / "default_room.png").exists() and (tmp_path / "out" / "bunny.png").exists()
+    err = capsys.readouterr().err
+    assert "1 of 3 scenes failed: bad.usda" in err
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--max-memory", "1M"], "--max-memory"),
+        (["--max-memory", "lots"], "memory size"),
+        (["--width", "100000", "--height", "100000"], "pixels"),
+    ],
+)
+def test_memory_limits_are_clear_errors_before_allocating(tmp_path, capsys, args, needle):
+    from wrt.cli import main
+
+    assert main(["render", "-o", str(tmp_path / "x.png"), *args]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(errors) == 1 and needle in errors[0]
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_memory_estimate_and_parsing():
+    from wrt.resources import check_memory, estimate_render_bytes, parse_bytes
+
+    assert parse_bytes("2G") == 2 << 30 and parse_bytes("512m") == 512 << 20 and parse_bytes("1.5KiB") == 1536
+    needed = estimate_render_bytes(1_000_000, 1920, 1080)
+    assert 200e6 < needed < 2e9
+    check_memory(needed, "cpu", parse_bytes("4G"))
+    with pytest.raises(MemoryError, match="needs about"):
+        check_memory(needed, "cpu", parse_bytes("100M"))

@@ -231,3 +231,19 @@ def test_bad_trace_arguments_raise_value_error():
         wrt.trace(scene, np.zeros((2, 3)), np.ones((3, 3)))
     with pytest.raises(ValueError, match="available devices"):
         wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), device="tpu:7")
+
+
+def test_threaded_cpu_trace_gives_the_same_hits(np_rng):
+    points, indices = random_soup(np_rng, 500)
+    scene = wrt.Scene.from_triangles(points, indices)
+    origins, directions = random_rays(scene, 100_000, seed=9)
+    one = wrt.trace(scene, origins, directions, threads=1)
+    for accel in ("wrt", "warp"):
+        reference = one if accel == "wrt" else wrt.trace(scene, origins, directions, accel=accel, threads=1)
+        many = wrt.trace(scene, origins, directions, accel=accel, threads=3)
+        np.testing.assert_array_equal(many.prim, reference.prim)
+        np.testing.assert_array_equal(many.t, reference.t)
+        blocked = wrt.occluded(scene, origins, directions, accel=accel, threads=3)
+        np.testing.assert_array_equal(blocked, reference.hit)
+    with pytest.raises(ValueError, match="threads"):
+        wrt.trace(scene, origins[:1], directions[:1], threads=0)

@@ -40,3 +40,73 @@ def random_rays(scene: Scene, n: int, seed: int = 0) -> tuple[np.ndarray, np.nda
     origins = np.concatenate([origins_out, origins_in]).astype(np.float32)
     directions = np.concatenate([targets - origins_out, directions_in]).astype(np.float32)
     return origins, directions
+
+
+RAY_KINDS = ("primary", "shadow", "diffuse", "incoherent")  # ray sets of the benchmark grid
+DEFAULT_SUN = np.array([0.35, 0.85, 0.4]) / np.linalg.norm([0.35, 0.85, 0.4])  # direction to the light, Y-up
+
+
+def incoherent_rays(scene: Scene, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` rays from uniformly random points of the scene box in uniformly random unit directions."""
+    rng = np.random.default_rng(seed)
+    lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
+    origins = rng.uniform(lower, upper, (n, 3))
+    directions = rng.normal(size=(n, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    return origins.astype(np.float32), directions.astype(np.float32)
+
+
+def _surface_points(scene: Scene, origins, directions, hits):
+    """World-space hit points and unit geometric normals (facing the incoming ray) of the rays that hit."""
+    points, indices = scene.triangles()
+    h = hits.prim >= 0
+    p0, p1, p2 = (points[indices[hits.prim[h], k]].astype(np.float64) for k in range(3))
+    position = origins[h].astype(np.float64) + hits.t[h, None].astype(np.float64) * directions[h]
+    normal = np.cross(p1 - p0, p2 - p0)
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.where(length > 0, normal / np.where(length > 0, length, 1.0), -directions[h])
+    facing = np.einsum("ij,ij->i", normal, directions[h]) > 0
+    normal[facing] *= -1
+    # Offset along the normal, relative to the coordinate magnitude, so secondary rays leave the surface.
+    position += normal * (1e-4 * (1.0 + np.abs(position).max(axis=1, keepdims=True)))
+    return position, normal
+
+
+def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int = 0):
+    """Shadow rays (towards the scene's first distant light, else :data:`DEFAULT_SUN` rotated to the up axis) or
+    cosine-weighted diffuse bounce rays from the hits of a primary ray set."""
+    position, normal = _surface_points(scene, origins, directions, hits)
+    if kind == "shadow":
+        if scene.lights:
+            to_light = -np.asarray(scene.lights[0].direction, np.float64)
+        else:
+            to_light = DEFAULT_SUN if scene.up_axis != "Z" else DEFAULT_SUN[[0, 2, 1]]
+        out = np.broadcast_to(to_light / np.linalg.norm(to_light), position.shape)
+    elif kind == "diffuse":
+        rng = np.random.default_rng(seed)
+        # Cosine-weighted: a uniform point on the unit sphere added to the normal (Malley-equivalent).
+        sphere = rng.normal(size=position.shape)
+        sphere /= np.linalg.norm(sphere, axis=1, keepdims=True)
+        out = normal + sphere
+        out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-12)
+    else:
+        raise ValueError(f"unknown secondary ray kind {kind!r}; valid: shadow, diffuse")
+    return position.astype(np.float32), np.ascontiguousarray(out, dtype=np.float32)
+
+
+def ray_set(scene: Scene, kind: str, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """About ``n`` rays of one benchmark kind (see :data:`RAY_KINDS`). Shadow and diffuse rays start at the hits of
+    ``n`` primary rays, so there are as many of them as primary rays hit."""
+    if kind not in RAY_KINDS:
+        raise ValueError(f"unknown ray kind {kind!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
+    if kind == "incoherent":
+        return incoherent_rays(scene, n, seed)
+    width = max(int(round(np.sqrt(n * 4.0 / 3.0))), 1)
+    height = max(n // width, 1)
+    origins, directions = camera_rays(scene, width=width, height=height)
+    if kind == "primary":
+        return origins, directions
+    from .trace import trace
+
+    hits = trace(scene, origins, directions)
+    return secondary_rays(scene, kind, origins, directions, hits, seed)

@@ -8,15 +8,20 @@ both. ``Hits.t`` is in units of ``|direction|``; barycentrics follow ``hit = (1-
 from __future__ import annotations
 
 import dataclasses
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import warp as wp
 
 from .bvh import DeviceBvh, build_bvh
+from .bvh.build import Builder
+from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.traverse import bvh_intersect, bvh_occluded
 from .scene import Scene
 
 ACCELERATORS = ("wrt", "warp")  # names accepted by accel=
+MIN_RAYS_PER_THREAD = 1 << 14  # smaller CPU launches are not split across threads
 WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor values
 
 
@@ -135,44 +140,102 @@ class HitBuffer:
         """The arrays in the order trace kernels take them."""
         return [self.t, self.u, self.v, self.prim, self.cost]
 
+    def slice(self, start: int, end: int) -> HitBuffer:
+        """A view of rays ``[start, end)``."""
+        view = HitBuffer.__new__(HitBuffer)
+        view.t, view.u, view.v, view.prim, view.cost = (a[start:end] for a in self.outputs)
+        return view
+
+
+def resolve_threads(threads, device) -> int:
+    """Worker threads for a launch: 1 on GPUs; all cores for ``None`` on the CPU."""
+    if not device.is_cpu:
+        return 1
+    if threads is None:
+        return max(os.cpu_count() or 1, 1)
+    if not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
+    return int(threads)
+
+
+def run_in_chunks(work, n: int, threads: int) -> None:
+    """Calls ``work(start, end)`` over ``[0, n)``: in one piece, or in ``threads`` pieces on a thread pool.
+
+    Warp's CPU launches run one kernel on one thread but release the GIL, so pieces of one ray batch run on
+    several cores at once. Every ray is independent, so the result does not depend on the split.
+    """
+    pieces = min(threads, n // MIN_RAYS_PER_THREAD)
+    if pieces <= 1:
+        work(0, n)
+        return
+    bounds = np.linspace(0, n, pieces + 1).astype(int)
+    with ThreadPoolExecutor(pieces) as pool:
+        for future in [pool.submit(work, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]:
+            future.result()
+
 
 class Accelerator:
-    """A ray-scene query structure on one device: closest hit and any hit over ray arrays."""
+    """A ray-scene query structure on one device: closest hit and any hit over ray arrays.
+
+    Subclasses implement ``_intersect`` and ``_occluded`` for one launch; the public methods split CPU launches
+    across ``threads`` worker threads.
+    """
 
     name = ""
+    device = None
 
-    def intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
+    def intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, threads=None) -> None:
         """Fills ``hits`` with the closest hit of each ray (all arguments are device arrays)."""
+
+        def work(a, b):
+            self._intersect(origins[a:b], directions[a:b], t_mins[a:b], t_maxs[a:b], hits.slice(a, b))
+
+        run_in_chunks(work, len(origins), resolve_threads(threads, wp.get_device(self.device)))
+
+    def occluded(self, origins, directions, t_mins, t_maxs, blocked, threads=None) -> None:
+        """Sets ``blocked[i] = 1`` where ray ``i`` hits anything."""
+
+        def work(a, b):
+            self._occluded(origins[a:b], directions[a:b], t_mins[a:b], t_maxs[a:b], blocked[a:b])
+
+        run_in_chunks(work, len(origins), resolve_threads(threads, wp.get_device(self.device)))
+
+    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
         raise NotImplementedError
 
-    def occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
-        """Sets ``blocked[i] = 1`` where ray ``i`` hits anything."""
+    def _occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
         raise NotImplementedError
 
 
 class BvhAccelerator(Accelerator):
-    """wrt's own BVH."""
+    """wrt's own BVH, in one of the layouts of ``wrt.bvh.layout.LAYOUTS`` (all give identical hits)."""
 
     name = "wrt"
+    layout = "binary"  # the canonical FlatBvh; other layouts are conversions with their own kernels
+    trace_kernel = trace_bvh_kernel
+    occluded_kernel = occluded_bvh_kernel
 
-    def __init__(self, scene: Scene, builder: str, device, **build_options):
+    def __init__(self, scene: Scene, builder: str, device, layout: str = "binary", **build_options):
         points, indices = scene.triangles()
         self.bvh = build_bvh(points, indices, builder, device=device, **build_options)
-        self.device_bvh = self.bvh.to_device(points, indices, device)
+        self.layout = check_layout(layout)
+        self.device_bvh = convert_layout(self.bvh, layout).to_device(points, indices, device)
+        if layout != "binary":
+            self.trace_kernel, self.occluded_kernel = layout_kernels(layout)
         self.device = device
 
-    def intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
+    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
         wp.launch(
-            trace_bvh_kernel,
+            self.trace_kernel,
             len(origins),
             inputs=[self.device_bvh, origins, directions, t_mins, t_maxs],
             outputs=hits.outputs,
             device=self.device,
         )
 
-    def occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
+    def _occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
         wp.launch(
-            occluded_bvh_kernel,
+            self.occluded_kernel,
             len(origins),
             inputs=[self.device_bvh, origins, directions, t_mins, t_maxs],
             outputs=[blocked],
@@ -205,27 +268,34 @@ class WarpMeshAccelerator(Accelerator):
             return
         wp.launch(kernel, n, inputs=[self.mesh.id, *inputs], outputs=outputs, device=self.device)
 
-    def intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
+    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
         misses = [np.inf, 0.0, 0.0, -1, wp.vec2i(0, 0)]
         self._launch(trace_mesh_kernel, len(origins), [origins, directions, t_mins, t_maxs], hits.outputs, misses)
 
-    def occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
+    def _occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
         self._launch(occluded_mesh_kernel, len(origins), [origins, directions, t_mins, t_maxs], [blocked], [0])
 
 
-def get_accelerator(scene: Scene, accel: str = "wrt", builder: str = "sah", device=None) -> Accelerator:
+def get_accelerator(
+    scene: Scene, accel: str = "wrt", builder: str = "sah", device=None, layout: str = "binary"
+) -> Accelerator:
     """The accelerator for ``scene`` on ``device``, built on first use and cached on the scene.
 
     Raises:
-        ValueError: for an unknown ``accel`` or ``builder``.
+        ValueError: for an unknown ``accel``, ``builder`` or ``layout`` (layouts other than ``binary`` are wrt's).
     """
     if accel not in ACCELERATORS:
         raise ValueError(f"unknown accelerator {accel!r}; valid accelerators: {', '.join(ACCELERATORS)}")
+    check_layout(layout)
+    if accel == "wrt":
+        builder = Builder.from_str(builder).value  # "binned_sah" and "sah" share one cached tree
+    elif layout != "binary":
+        raise ValueError(f"layout={layout!r} applies to accel='wrt' only; wp.Mesh has its own layout")
     device = resolve_device(device)
-    key = ("accel", accel, builder, str(device))
+    key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
     if key not in scene._cache:
         if accel == "wrt":
-            scene._cache[key] = BvhAccelerator(scene, builder, device)
+            scene._cache[key] = BvhAccelerator(scene, builder, device, layout)
         else:
             scene._cache[key] = WarpMeshAccelerator(scene, "sah" if builder == "binned_sah" else builder, device)
     return scene._cache[key]
@@ -274,6 +344,19 @@ def _as_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(o), np.ascontiguousarray(d)
 
 
+def _upload_rays(origins, directions, t_max, device) -> list:
+    """Checks and uploads a ray batch: ``[origins, directions, t_mins (zeros), t_maxs]`` as device arrays."""
+    o, d = _as_rays(origins, directions)
+    n = len(o)
+    t_maxs = np.broadcast_to(np.asarray(t_max, dtype=np.float32), (n,)).copy()
+    return [
+        wp.array(o, dtype=wp.vec3, device=device),
+        wp.array(d, dtype=wp.vec3, device=device),
+        wp.zeros(n, dtype=float, device=device),
+        wp.array(t_maxs, dtype=float, device=device),
+    ]
+
+
 def trace(
     scene: Scene,
     origins,
@@ -283,6 +366,8 @@ def trace(
     accel: str = "wrt",
     builder: str = "sah",
     device="cpu",
+    threads: int | None = None,
+    layout: str = "binary",
 ) -> Hits:
     """Closest hit of each ray ``origins[i] + t * directions[i]``, ``0 <= t < t_max``.
 
@@ -294,42 +379,38 @@ def trace(
         accel: ``"wrt"`` (own BVH) or ``"warp"`` (``wp.Mesh`` + ``wp.mesh_query_ray``).
         builder: BVH builder name; for ``accel="warp"`` one of Warp's constructors.
         device: Warp device to trace on.
+        threads: CPU worker threads (``None``: all cores); ignored on GPUs.
+        layout: node layout of wrt's BVH: ``binary``, ``compact``, ``wide`` (BVH4) or ``wide8``; same hits.
 
     Returns:
         :class:`Hits` with numpy arrays.
     """
-    o, d = _as_rays(origins, directions)
-    n = len(o)
-    t_maxs = np.broadcast_to(np.asarray(t_max, dtype=np.float32), (n,)).copy()
-    acc = get_accelerator(scene, accel, builder, device)
-    dev = acc.device
-    hits = HitBuffer(n, dev)
-    if n:
-        acc.intersect(
-            wp.array(o, dtype=wp.vec3, device=dev),
-            wp.array(d, dtype=wp.vec3, device=dev),
-            wp.zeros(n, dtype=float, device=dev),
-            wp.array(t_maxs, dtype=float, device=dev),
-            hits,
-        )
+    acc = get_accelerator(scene, accel, builder, device, layout)
+    rays = _upload_rays(origins, directions, t_max, acc.device)
+    hits = HitBuffer(len(rays[0]), acc.device)
+    if len(rays[0]):
+        acc.intersect(*rays, hits, threads=threads)
     cost = hits.cost.numpy().reshape(-1, 2)
     return Hits(hits.t.numpy(), hits.u.numpy(), hits.v.numpy(), hits.prim.numpy(), cost[:, 0].copy(), cost[:, 1].copy())
 
 
-def occluded(scene: Scene, origins, directions, *, t_max=np.inf, accel="wrt", builder="sah", device="cpu") -> np.ndarray:
-    """Any-hit query: ``(N,)`` bool, True where ray ``i`` hits something with ``0 <= t < t_max``."""
-    o, d = _as_rays(origins, directions)
-    n = len(o)
-    t_maxs = np.broadcast_to(np.asarray(t_max, dtype=np.float32), (n,)).copy()
-    acc = get_accelerator(scene, accel, builder, device)
-    dev = acc.device
-    blocked = wp.zeros(n, dtype=wp.int32, device=dev)
-    if n:
-        acc.occluded(
-            wp.array(o, dtype=wp.vec3, device=dev),
-            wp.array(d, dtype=wp.vec3, device=dev),
-            wp.zeros(n, dtype=float, device=dev),
-            wp.array(t_maxs, dtype=float, device=dev),
-            blocked,
-        )
+def occluded(
+    scene: Scene,
+    origins,
+    directions,
+    *,
+    t_max=np.inf,
+    accel="wrt",
+    builder="sah",
+    device="cpu",
+    threads=None,
+    layout: str = "binary",
+) -> np.ndarray:
+    """Any-hit query: ``(N,)`` bool, True where ray ``i`` hits something with ``0 <= t < t_max``. The arguments
+    are those of :func:`trace`."""
+    acc = get_accelerator(scene, accel, builder, device, layout)
+    rays = _upload_rays(origins, directions, t_max, acc.device)
+    blocked = wp.zeros(len(rays[0]), dtype=wp.int32, device=acc.device)
+    if len(rays[0]):
+        acc.occluded(*rays, blocked, threads=threads)
     return blocked.numpy().astype(bool)

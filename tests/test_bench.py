@@ -1,0 +1,118 @@
+"""The benchmark harness: rows, ratios, error rows, resume, flushing, plots, the CLI."""
+
+import json
+
+import numpy as np
+import pytest
+
+import wrt
+from wrt.bench import Grid, fit_slope, markdown_table, run_grid
+from wrt.cli import main
+from wrt.procedural import displaced_sphere
+from wrt.rays import RAY_KINDS, ray_set
+
+
+def tiny_grid(**kwargs):
+    options = dict(
+        scenes=["sphere:2000"], accels=["warp:sah", "wrt:sah"], rays=["primary", "shadow"], n_rays=3000, repeats=3
+    )
+    options.update(kwargs)
+    return Grid(**options)
+
+
+def read_rows(out):
+    return [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
+
+
+def test_rows_ratios_and_agreement(tmp_path):
+    rows = run_grid(tiny_grid(), tmp_path, progress=False)
+    assert len(rows) == 4 and not any("error" in r for r in rows)
+    assert read_rows(tmp_path) == rows  # every row is on disk
+    for r in rows:
+        assert r["mrays"] > 0 and r["mrays_min"] <= r["mrays"] <= r["mrays_max"]
+        assert r["agreement"] == 1.0  # same rays, same answers as wp.Mesh
+        assert r["n_rays"] > 0 and 0.0 <= r["hit_fraction"] <= 1.0
+        assert r["cpu"] and r["warp"] == "1.19.0"
+    table = (tmp_path / "table.md").read_text()
+    assert "x warp:sah" in table and "CPU" in table
+    assert (tmp_path / "mrays.png").stat().st_size > 1000
+
+
+def test_failing_scene_and_accel_become_error_rows_and_the_run_goes_on(tmp_path):
+    grid = tiny_grid(scenes=["no/such/scene.usda", "sphere:2000"], accels=["warp:sah", "wrt:octree"], rays=["primary"])
+    rows = run_grid(grid, tmp_path, progress=False)
+    errors = [r for r in rows if "error" in r]
+    assert any("scene.usda" in r["error"] for r in errors)
+    assert any(r["accel"] == "wrt:octree" and "valid builders" in r["error"] for r in errors)
+    assert any(r["scene"] == "sphere:2000" and r["accel"] == "warp:sah" and "mrays" in r for r in rows)
+    assert "error" in (tmp_path / "table.md").read_text()
+
+
+def test_resume_skips_measured_rows(tmp_path):
+    run_grid(tiny_grid(rays=["primary"]), tmp_path, progress=False)
+    before = read_rows(tmp_path)
+    rows = run_grid(tiny_grid(rays=["primary", "shadow"]), tmp_path, resume=True, progress=False)
+    after = read_rows(tmp_path)
+    assert after[: len(before)] == before  # kept, not re-measured
+    assert len(after) == len(before) + 2 and len(rows) == len(after)
+
+
+def test_interrupted_run_keeps_finished_rows(tmp_path, monkeypatch):
+    import wrt.bench as bench
+
+    calls = {"n": 0}
+    original = bench.time_runs
+
+    def flaky(run, repeats):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        return original(run, repeats)
+
+    monkeypatch.setattr(bench, "time_runs", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        run_grid(tiny_grid(), tmp_path, progress=False)
+    assert len(read_rows(tmp_path)) == 2
+
+
+def test_ray_kinds():
+    scene = wrt.Scene.from_triangles(*displaced_sphere(5000))
+    for kind in RAY_KINDS:
+        origins, directions = ray_set(scene, kind, 4000, seed=2)
+        assert origins.shape == directions.shape and origins.shape[1] == 3 and len(origins) > 0
+        assert np.isfinite(origins).all() and np.isfinite(directions).all()
+    # Diffuse rays leave the surface into the hemisphere of the normal: a convex-ish sphere mostly lets them escape.
+    origins, directions = ray_set(scene, "diffuse", 4000, seed=2)
+    assert wrt.trace(scene, origins, directions).hit.mean() < 0.5
+    with pytest.raises(ValueError, match="valid ray kinds"):
+        ray_set(scene, "specular", 10)
+
+
+def test_displaced_sphere_is_closed_and_sized():
+    points, indices = displaced_sphere(100_000)
+    assert 0.9e5 < len(indices) < 1.1e5
+    edges = np.sort(np.concatenate([indices[:, [0, 1]], indices[:, [1, 2]], indices[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert (counts == 2).all()  # closed 2-manifold
+
+
+def test_fit_slope():
+    n = np.array([1e3, 1e4, 1e5])
+    assert fit_slope(n, 3 * n**1.1) == pytest.approx(1.1)
+
+
+def test_markdown_table_names_hardware():
+    rows = [{"scene": "s", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "warp:sah", "threads": 1,
+             "build_ms": 1.0, "mrays": 2.0, "mrays_min": 1.0, "mrays_max": 3.0, "hit_fraction": 0.5, "agreement": 1.0,
+             "cpu": "Some CPU", "cpu_cores": 2, "gpu": None, "driver": None, "warp": "1.19.0"}]
+    table = markdown_table(rows)
+    assert "Some CPU" in table and "| 1.00 |" in table
+
+
+def test_cli_bench_exit_status_summarises_failures(tmp_path, capsys):
+    code = main(["bench", "--scenes", "sphere:1500,missing.usda", "--accels", "warp:sah", "--rays", "primary",
+                 "--n-rays", "2000", "--repeats", "2", "-o", str(tmp_path), "-q"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "1 failed" in err and "missing.usda" in err
+    assert main(["bench", "--rays", "sideways", "-o", str(tmp_path), "-q"]) == 2

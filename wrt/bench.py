@@ -1,0 +1,441 @@
+"""Benchmark harness: scenes x accelerators x devices x ray kinds, timed side by side on the same rays.
+
+One *row group* is (scene, device, ray kind): its rays are made once, then every accelerator in the grid traces
+that same buffer in the same process, so ratios between rows are honest. Per row the harness records build time,
+trace throughput (median, min and max over timed launches after a warm-up, device synchronised, kernel compilation
+excluded), hit fraction, tree statistics where the accelerator exposes them, and agreement with ``warp:sah`` on the
+same rays. Rows go to a JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an
+error row and the run goes on; ``resume`` skips rows already in the file.
+
+Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layouts exist), ``warp:BUILDER``
+(``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
+Scene names: a file path, ``warp:NAME`` (a USD file shipped with warp-lang), ``asset:ID`` (an entry of the shared
+asset manifest, found through ``$WRT_ASSETS`` or ``../shared/assets``) or ``sphere:N`` (a procedural displaced
+sphere of about N triangles).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import platform
+import statistics
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+import warp as wp
+
+from .compare import compare_hits
+from .rays import RAY_KINDS, ray_set
+from .scene import Scene
+from .trace import HitBuffer, Hits, get_accelerator, resolve_device
+
+SUITES_DIR = Path(__file__).resolve().parent.parent / "benchmarks" / "suites"
+REFERENCE = "warp:sah"  # agreement and ratios are measured against this accelerator
+ANY_HIT_KINDS = ("shadow",)  # ray kinds traced with the any-hit query
+
+
+@dataclasses.dataclass
+class Grid:
+    """What to measure. Every field is a list; ``threads`` entries are ints or ``"all"``."""
+
+    scenes: list
+    accels: list
+    devices: list = dataclasses.field(default_factory=lambda: ["cpu"])
+    rays: list = dataclasses.field(default_factory=lambda: list(RAY_KINDS))
+    n_rays: int = 1_000_000
+    repeats: int = 10
+    threads: list = dataclasses.field(default_factory=lambda: [1])
+    scaling: dict | None = None  # {"sizes": [...], "accels": [...], "rays": kind, "n_rays": n}
+
+    @classmethod
+    def from_suite(cls, path) -> Grid:
+        """Reads a suite file (JSON); ``path`` may also name a file in ``benchmarks/suites`` without ``.json``."""
+        path = Path(path)
+        if not path.exists() and (SUITES_DIR / f"{path}.json").exists():
+            path = SUITES_DIR / f"{path}.json"
+        if not path.exists():
+            known = ", ".join(sorted(p.stem for p in SUITES_DIR.glob("*.json"))) if SUITES_DIR.exists() else "none"
+            raise FileNotFoundError(f"no benchmark suite {str(path)!r}; suites in {SUITES_DIR}: {known}")
+        data = json.loads(path.read_text())
+        unknown = set(data) - {f.name for f in dataclasses.fields(cls)} - {"description"}
+        if unknown:
+            raise ValueError(f"{path.name}: unknown suite keys {sorted(unknown)}")
+        data.pop("description", None)
+        return cls(**data)
+
+
+def hardware(device) -> dict:
+    """CPU model, GPU name and driver, Warp version: printed with every table."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    info = {"cpu": cpu, "cpu_cores": os.cpu_count(), "warp": wp.config.version, "gpu": None, "driver": None}
+    dev = wp.get_device(device)
+    if dev.is_cuda:
+        info["gpu"] = dev.name
+        driver = wp.get_cuda_driver_version()  # an int such as 13000 for CUDA 13.0
+        info["driver"] = f"CUDA {driver // 1000}.{driver % 1000 // 10}" if isinstance(driver, int) else driver
+        info["gpu_driver"] = _nvidia_driver()
+    return info
+
+
+def _nvidia_driver() -> str | None:
+    """The NVIDIA kernel driver version, from nvidia-smi, if it is there."""
+    import subprocess
+
+    try:
+        out = subprocess.run(
+            ["nvidia-smi", "--query-gpu=driver_version", "--format=csv,noheader"], capture_output=True, text=True, timeout=20
+        )
+        return out.stdout.strip().splitlines()[0] if out.returncode == 0 and out.stdout.strip() else None
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
+def resolve_scene(name: str) -> Scene:
+    """Loads a scene named as in the module docstring."""
+    from .usd import load_usd
+
+    if name.startswith("sphere:"):
+        from .procedural import displaced_sphere_scene
+
+        return displaced_sphere_scene(int(float(name.split(":", 1)[1])))
+    if name.startswith("warp:"):
+        import warp.examples
+
+        return load_usd(Path(warp.examples.get_asset_directory()) / name.split(":", 1)[1])
+    if name.startswith("asset:"):
+        return load_usd(asset_path(name.split(":", 1)[1]))
+    return load_usd(name)
+
+
+def asset_path(asset_id: str) -> Path:
+    """Path of a shared asset by manifest id."""
+    candidates = [Path(os.environ["WRT_ASSETS"])] if os.environ.get("WRT_ASSETS") else []
+    candidates += [Path.cwd().parent / "shared" / "assets", Path(__file__).resolve().parents[2] / "shared" / "assets"]
+    for root in candidates:
+        manifest = root / "manifest.json"
+        if manifest.is_file():
+            entries = {e["id"]: e for e in json.loads(manifest.read_text())["assets"]}
+            if asset_id not in entries:
+                raise ValueError(f"no asset {asset_id!r} in {manifest}")
+            return root / entries[asset_id]["path"]
+    raise FileNotFoundError(f"asset {asset_id!r}: no shared asset folder found (set WRT_ASSETS)")
+
+
+class _Subject:
+    """One accelerator prepared for timing: ``run()`` traces the prepared rays once, synchronously."""
+
+    def __init__(self, spec: str, scene: Scene, device, threads: int):
+        self.spec, self.device, self.threads = spec, device, threads
+        kind, _, rest = spec.partition(":")
+        self.stats = {}
+        if kind == "embree":
+            if not device.is_cpu:
+                raise ValueError("embree runs on the CPU only")
+            try:
+                from embreex import rtcore_scene
+                from embreex.mesh_construction import TriangleMesh
+            except ImportError as e:
+                raise ImportError("embree needs the optional package embreex: pip install 'wrt[bench]'") from e
+            points, indices = scene.triangles()
+            start = time.perf_counter()
+            self.embree = rtcore_scene.EmbreeScene()
+            TriangleMesh(self.embree, points, indices)
+            self.embree.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))  # Embree builds lazily
+            self.build_seconds = time.perf_counter() - start
+        elif kind in ("wrt", "warp"):
+            builder, _, layout = rest.partition(":")
+            options = {"layout": layout} if layout else {}
+            if kind == "wrt":  # compile the builder's kernels outside the timed build
+                warm = Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]] * 3, np.arange(9).reshape(3, 3))
+                get_accelerator(warm, kind, builder or "sah", device, **options)
+            scene._cache.pop(("accel", kind, builder or "sah", str(device)), None)
+            wp.synchronize_device(device)
+            start = time.perf_counter()
+            self.accel = get_accelerator(scene, kind, builder or "sah", device, **options)
+            wp.synchronize_device(device)
+            self.build_seconds = time.perf_counter() - start
+            bvh = getattr(self.accel, "bvh", None)
+            if bvh is not None and hasattr(bvh, "stats"):
+                self.stats = {k: v for k, v in bvh.stats().items() if k in ("sah_cost", "bytes", "nodes", "leaves")}
+        else:
+            raise ValueError(f"unknown accelerator {spec!r}; use wrt:BUILDER[:LAYOUT], warp:BUILDER or embree")
+
+    def prepare(self, origins: np.ndarray, directions: np.ndarray, any_hit: bool):
+        self.any_hit, n = any_hit, len(origins)
+        if hasattr(self, "embree"):
+            self.host = (origins, directions)
+            return
+        dev = self.device
+        self.rays = [
+            wp.array(origins, dtype=wp.vec3, device=dev),
+            wp.array(directions, dtype=wp.vec3, device=dev),
+            wp.zeros(n, dtype=float, device=dev),
+            wp.full(n, np.inf, dtype=float, device=dev),
+        ]
+        self.hits = HitBuffer(n, dev)
+        self.blocked = wp.zeros(n, dtype=wp.int32, device=dev)
+
+    def run(self):
+        if hasattr(self, "embree"):
+            query = "OCCLUDED" if self.any_hit else "INTERSECT"
+            self.result = self.embree.run(*self.host, query=query, output=None if self.any_hit else 1)
+            return
+        if self.any_hit:
+            self.accel.occluded(*self.rays, self.blocked, threads=self.threads)
+        else:
+            self.accel.intersect(*self.rays, self.hits, threads=self.threads)
+        wp.synchronize_device(self.device)
+
+    def answer(self):
+        """``Hits`` (closest hit) or a bool array (any hit) of the last run, on the host."""
+        if hasattr(self, "embree"):
+            if self.any_hit:
+                return np.asarray(self.result) == 0  # embreex: 0 = occluded, -1 = not
+            r = self.result
+            prim = r["primID"].astype(np.int32)
+            t = np.where(prim >= 0, r["tfar"], np.inf).astype(np.float32)
+            zeros = np.zeros_like(prim)
+            return Hits(t, r["u"], r["v"], prim, zeros, zeros)
+        if self.any_hit:
+            return self.blocked.numpy().astype(bool)
+        c = self.hits.cost.numpy().reshape(-1, 2)
+        h = self.hits
+        return Hits(h.t.numpy(), h.u.numpy(), h.v.numpy(), h.prim.numpy(), c[:, 0].copy(), c[:, 1].copy())
+
+
+def _has_embree() -> bool:
+    try:
+        import embreex  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def time_runs(run, repeats: int) -> list[float]:
+    """Wall seconds of ``repeats`` synchronous runs after one warm-up run."""
+    run()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - start)
+    return times
+
+
+def row_key(row: dict) -> tuple:
+    """What identifies a row, for ``resume``."""
+    return (row["scene"], row["accel"], row["device"], row["rays"], row["threads"])
+
+
+def _agreement(answer, reference, directions, scale) -> float:
+    if isinstance(answer, np.ndarray):
+        return float(np.mean(answer == reference))
+    return compare_hits(answer, reference, directions=directions, scale=scale)["agreement"]
+
+
+def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_counts, emit, skip) -> None:
+    """Measures every (accel, threads) row of one (scene, device, ray kind) group and hands each row to ``emit``."""
+    origins, directions = ray_set(scene, kind, grid.n_rays, seed=1)
+    any_hit = kind in ANY_HIT_KINDS
+    points = scene.triangles()[0]
+    scale = float(np.abs(points).max()) if len(points) else 0.0
+    base = {"scene": scene_name, "triangles": scene.stats()["rendered_triangles"], "device": str(device), "rays": kind}
+    base["n_rays"] = int(len(origins))
+    reference = None
+    ordered = sorted(accels, key=lambda a: a != REFERENCE)  # the reference first, so others can be compared
+    for spec in ordered:
+        for threads in thread_counts if device.is_cpu else [1]:
+            row = dict(base, accel=spec, threads=threads)
+            if skip(row):
+                continue
+            try:
+                subject = _Subject(spec, scene, device, threads)
+                subject.prepare(origins, directions, any_hit)
+                times = time_runs(subject.run, grid.repeats)
+                answer = subject.answer()
+                if spec == REFERENCE and reference is None:
+                    reference = answer
+                hit = answer if any_hit else answer.prim >= 0
+                row.update(
+                    build_ms=1000.0 * subject.build_seconds,
+                    mrays=len(origins) / statistics.median(times) / 1e6,
+                    mrays_min=len(origins) / max(times) / 1e6,
+                    mrays_max=len(origins) / min(times) / 1e6,
+                    hit_fraction=float(np.mean(hit)) if len(hit) else 0.0,
+                    agreement=_agreement(answer, reference, directions, scale) if reference is not None else None,
+                    **subject.stats,
+                )
+            except Exception as e:  # noqa: BLE001: one failing accelerator must not stop the grid
+                row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
+                row["traceback"] = traceback.format_exc(limit=3)
+            emit(row)
+
+
+def run_grid(grid: Grid, out: Path | None = None, resume: bool = False, progress: bool = True) -> list[dict]:
+    """Runs the whole grid; returns the rows (also appended to ``out/rows.jsonl`` as they come)."""
+    from tqdm import tqdm
+
+    rows, done = [], set()
+    jsonl = None
+    if out is not None:
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        jsonl = out / "rows.jsonl"
+        if resume and jsonl.exists():
+            for line in jsonl.read_text().splitlines():
+                if line.strip():
+                    previous = json.loads(line)
+                    rows.append(previous)
+                    if "error" not in previous:
+                        done.add(row_key(previous))
+        elif jsonl.exists():
+            jsonl.unlink()
+
+    missing = [a for a in grid.accels if a == "embree" and not _has_embree()]
+    if missing:
+        import warnings
+
+        warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
+        grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing])
+    devices = [resolve_device(d) for d in grid.devices]
+    thread_counts = [os.cpu_count() if t == "all" else int(t) for t in grid.threads]
+    groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
+    scaling = grid.scaling or {}
+    groups += [(f"sphere:{int(float(n))}", d, scaling.get("rays", "incoherent")) for n in scaling.get("sizes", []) for d in devices]
+    bar = tqdm(total=len(groups), desc="wrt bench", unit="group", disable=not progress)
+    info = {str(d): hardware(d) for d in devices}
+
+    def emit(row):
+        row.update(info[row["device"]])
+        rows.append(row)
+        if jsonl is not None:
+            with open(jsonl, "a") as f:  # one row per write, flushed: an interrupted run loses nothing
+                f.write(json.dumps(row) + "\n")
+                f.flush()
+        if "error" in row:
+            tqdm.write(f"wrt bench: {row['scene']} / {row['accel']} / {row['rays']}: {row['error']}")
+
+    loaded = {}
+    for scene_name, device, kind in groups:
+        bar.set_postfix_str(f"{scene_name} {device} {kind}")
+        is_scaling = scene_name.startswith("sphere:") and scene_name not in grid.scenes
+        accels = scaling.get("accels", grid.accels) if is_scaling else grid.accels
+        local = dataclasses.replace(grid, n_rays=int(scaling.get("n_rays", grid.n_rays))) if is_scaling else grid
+        try:
+            if scene_name not in loaded:
+                loaded.clear()  # keep one scene in memory at a time
+                loaded[scene_name] = resolve_scene(scene_name)
+            sink = (lambda row: emit(dict(row, sweep=True))) if is_scaling else emit
+            measure_group(scene_name, loaded[scene_name], device, kind, local, accels, thread_counts, sink,
+                          lambda r: row_key(r) in done)
+        except Exception as e:  # noqa: BLE001: a broken scene becomes one error row
+            emit({"scene": scene_name, "accel": "*", "device": str(device), "rays": kind, "threads": None,
+                  "error": f"{type(e).__name__}: {e}".splitlines()[0]})
+        bar.update()
+    bar.close()
+    if out is not None:
+        (out / "table.md").write_text(markdown_table(rows))
+        try:
+            plot(rows, out)
+        except ImportError:
+            pass
+    return rows
+
+
+def _ratio(row, rows, accel) -> float | None:
+    for other in rows:
+        if other.get("accel") == accel and "mrays" in other and row_key(other)[2:] == row_key(row)[2:] and other["scene"] == row["scene"]:
+            return row["mrays"] / other["mrays"] if other["mrays"] else None
+    return None
+
+
+def markdown_table(rows: list[dict]) -> str:
+    """The rows as a markdown table with ratios to ``warp:sah`` and to Embree, plus the hardware."""
+    head = "| scene | tris | device | rays | accel | threads | build ms | Mrays/s (min-max) | hit % | agree % | x warp:sah | x embree | SAH |"
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['scene']} | | {r['device']} | {r['rays']} | {r['accel']} | {r.get('threads')} | error: {r['error']} | | | | | | |")
+            continue
+        ratio_w, ratio_e = _ratio(r, rows, REFERENCE), _ratio(r, rows, "embree")
+        fmt = lambda x, spec: "" if x is None else format(x, spec)  # noqa: E731
+        agree = fmt(None if r.get("agreement") is None else 100 * r["agreement"], ".3f")
+        lines.append(
+            f"| {r['scene']} | {r['triangles']} | {r['device']} | {r['rays']} | {r['accel']} | {r['threads']} | "
+            f"{r['build_ms']:.1f} | {r['mrays']:.2f} ({r['mrays_min']:.2f}-{r['mrays_max']:.2f}) | "
+            f"{100 * r['hit_fraction']:.1f} | {agree} | {fmt(ratio_w, '.2f')} | {fmt(ratio_e, '.2f')} | {fmt(r.get('sah_cost'), '.2f')} |"
+        )
+    hardware_lines = sorted({f"- {r['device']}: CPU {r.get('cpu')} ({r.get('cpu_cores')} cores), GPU {r.get('gpu')}, "
+                             f"driver {r.get('gpu_driver')} ({r.get('driver')}), Warp {r.get('warp')}" for r in rows if "cpu" in r})
+    return "\n".join(lines + [""] + hardware_lines) + "\n"
+
+
+def fit_slope(x, y) -> float:
+    """Least-squares slope of ``log y`` against ``log x``."""
+    return float(np.polyfit(np.log(np.asarray(x, float)), np.log(np.asarray(y, float)), 1)[0])
+
+
+def plot(rows: list[dict], out: Path) -> list[Path]:
+    """Writes ``mrays.png``, ``build_vs_quality.png`` and, for scaling rows, ``scaling.png``; returns the paths."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    good = [r for r in rows if "error" not in r]
+    paths = []
+    if good:
+        labels = sorted({(r["scene"], r["rays"]) for r in good})
+        accels = sorted({(r["accel"], r["threads"]) for r in good}, key=str)
+        fig, ax = plt.subplots(figsize=(max(6, 1.2 * len(labels)), 4))
+        width = 0.8 / max(len(accels), 1)
+        for i, (accel, threads) in enumerate(accels):
+            values = [next((r["mrays"] for r in good if (r["scene"], r["rays"]) == lab and r["accel"] == accel and r["threads"] == threads), 0) for lab in labels]
+            ax.bar(np.arange(len(labels)) + i * width, values, width, label=f"{accel} x{threads}")
+        ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, [f"{s}\n{k}" for s, k in labels], fontsize=7)
+        ax.set_ylabel("Mrays/s (median)")
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        paths.append(out / "mrays.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+
+        with_sah = [r for r in good if r.get("sah_cost") is not None]
+        fig, ax = plt.subplots(figsize=(5, 4))
+        for r in with_sah:
+            ax.scatter(r["build_ms"], r["sah_cost"])
+            ax.annotate(f"{r['accel']} {r['scene']}", (r["build_ms"], r["sah_cost"]), fontsize=6)
+        ax.set_xlabel("build ms")
+        ax.set_ylabel("SAH cost")
+        ax.set_xscale("log")
+        fig.tight_layout()
+        paths.append(out / "build_vs_quality.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+
+    scaling = [r for r in good if r.get("sweep")]
+    if scaling:
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
+        for accel in sorted({r["accel"] for r in scaling}):
+            pts = sorted((r["triangles"], r["build_ms"], 1e3 / r["mrays"]) for r in scaling if r["accel"] == accel and r["threads"] == min(x["threads"] for x in scaling))
+            n, build, ns_per_ray = zip(*pts)
+            a1.loglog(n, build, "o-", label=f"{accel} slope {fit_slope(n, build):.2f}")
+            a2.loglog(n, ns_per_ray, "o-", label=f"{accel} slope {fit_slope(n, ns_per_ray):.2f}")
+        a1.set_xlabel("triangles"), a1.set_ylabel("build ms"), a1.legend(fontsize=7)
+        a2.set_xlabel("triangles"), a2.set_ylabel("ns per ray"), a2.legend(fontsize=7)
+        fig.tight_layout()
+        paths.append(out / "scaling.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    return paths

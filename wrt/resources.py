@@ -1,0 +1,55 @@
+"""Memory planning: predict what a render will allocate and refuse it before allocating when it cannot fit.
+
+The estimate counts the large buffers: triangles and per-corner shading data, the BVH (at most ``2N - 1`` nodes of
+32 bytes plus ``40`` bytes of leaf-ordered triangle data per triangle) and about ``PIXEL_BYTES`` of ray, hit and
+image buffers per pixel. It is an upper bound within a small factor, good enough to turn an absurd request into a
+clear message instead of an allocation failure deep inside a kernel launch.
+"""
+
+from __future__ import annotations
+
+import re
+
+PIXEL_BYTES = 256  # ray, hit, shadow, radiance, AOV and accumulation buffers per pixel (upper bound)
+TRIANGLE_BYTES = 12 * 3 + 36 * 2 + 64 + 40 + 4  # points, corner normals and colours, BVH nodes, leaf copies, ids
+
+_UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+
+
+def parse_bytes(text: str) -> int:
+    """``"512M"``, ``"2G"``, ``"1.5g"``, ``"1000000"`` -> bytes; raises ``ValueError`` naming the format."""
+    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([kKmMgGtT]?)[iI]?[bB]?\s*", str(text))
+    if not match:
+        raise ValueError(f"cannot read memory size {text!r}; use a number with an optional K, M, G or T suffix")
+    return int(float(match.group(1)) * _UNITS[match.group(2).lower()])
+
+
+def estimate_render_bytes(triangles: int, width: int, height: int) -> int:
+    """Upper-bound bytes a render of ``width x height`` pixels over ``triangles`` triangles allocates."""
+    return int(triangles) * TRIANGLE_BYTES + int(width) * int(height) * PIXEL_BYTES
+
+
+def format_bytes(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if n < 1024 or unit == "TiB":
+            return f"{n:.1f} {unit}" if unit != "B" else f"{int(n)} B"
+        n /= 1024
+
+
+def check_memory(needed: int, device, max_memory: int | None = None) -> None:
+    """Raises ``MemoryError`` when ``needed`` bytes exceed ``max_memory`` or the free memory of a CUDA device."""
+    if max_memory is not None and needed > max_memory:
+        raise MemoryError(
+            f"this render needs about {format_bytes(needed)}, more than --max-memory {format_bytes(max_memory)}; "
+            "lower the resolution or raise the limit"
+        )
+    from .trace import resolve_device
+
+    dev = resolve_device(device)
+    if dev.is_cuda:
+        free = getattr(dev, "free_memory", None)
+        if free is not None and needed > free:
+            raise MemoryError(
+                f"this render needs about {format_bytes(needed)} but {dev.alias} has {format_bytes(free)} free; "
+                "lower the resolution or use another device"
+            )
