@@ -1,0 +1,287 @@
+"""Previews with pyvista, rendered off-screen: PNGs from ``wrt preview``, ``to_pyvista`` counts, and the geometry
+of what is drawn (frustum, BVH cut, rays) checked against the camera, the tree and the renderer."""
+
+import os
+import subprocess
+import sys
+import types
+
+import numpy as np
+import pytest
+from conftest import warp_assets
+from PIL import Image as PilImage
+
+pv = pytest.importorskip("pyvista")
+pv.OFF_SCREEN = True
+
+import wrt  # noqa: E402
+from wrt.cli import default_scene_path, main  # noqa: E402
+from wrt.preview import (  # noqa: E402
+    PreviewUnavailable,
+    bvh_boxes,
+    cluster_vertices,
+    frustum_corners,
+    import_pyvista,
+    sample_rays,
+    select_bvh_nodes,
+    subtree_prim_counts,
+    to_pyvista,
+    triangle_colors,
+)
+from wrt.render import resolve_camera  # noqa: E402
+from wrt.trace import get_accelerator  # noqa: E402
+
+preview_module = sys.modules["wrt.preview"]  # ``wrt.preview`` itself is the function
+
+
+@pytest.fixture(scope="module")
+def room():
+    """The bundled default room: 8 meshes with displayColor, one camera."""
+    return wrt.load_usd(default_scene_path())
+
+
+@pytest.fixture(scope="module")
+def bunny():
+    """warp's bunny: one mesh of 12,200 triangles, no camera."""
+    return wrt.load_usd(warp_assets("bunny.usd"))
+
+
+def scene_path(assets, name):
+    return warp_assets("bunny.usd") if name == "bunny" else assets(name)
+
+
+def read_png(path) -> np.ndarray:
+    with PilImage.open(path) as png:
+        return np.asarray(png.convert("RGB")).astype(np.int32)
+
+
+@pytest.mark.parametrize("name", ["bunny", "cornell_box", "teapot_scene_1000"])
+def test_cli_writes_pngs_that_change_with_bvh_depth(assets, tmp_path, name):
+    path = scene_path(assets, name)
+    pngs = []
+    for depth in (1, 5):
+        out = tmp_path / f"{name}_{depth}.png"
+        args = ["preview", str(path), "--bvh-depth", str(depth), "--rays", "16", "-o", str(out), "--window", "320x240"]
+        assert main(args + ["-q"]) == 0
+        pngs.append(read_png(out))
+    for pixels in pngs:
+        assert pixels.shape == (240, 320, 3)
+        background = np.all(pixels == 255, axis=-1)  # white
+        assert 0.01 < 1.0 - background.mean() < 0.99, "the picture is (nearly) blank"
+        assert pixels.std() > 10
+    changed = np.any(pngs[0] != pngs[1], axis=-1).mean()
+    assert changed > 0.001, "--bvh-depth 1 and 5 drew the same picture"
+
+
+@pytest.mark.parametrize("name", ["room", "bunny", "cornell_box"])
+def test_to_pyvista_counts_match_scene_stats(assets, room, name):
+    scene = room if name == "room" else wrt.load_usd(scene_path(assets, name))
+    stats = scene.stats()
+    blocks = to_pyvista(scene)
+    assert isinstance(blocks, pv.MultiBlock)
+    assert blocks.n_blocks == stats["meshes"]
+    assert sum(b.n_points for b in blocks) == stats["points"]
+    assert sum(b.n_cells for b in blocks) == stats["rendered_triangles"]
+    assert list(blocks.keys()) == [m.path for m in scene.meshes]
+    # Cells are the scene's triangles, in order, with their ids and colours.
+    prims = np.concatenate([b.cell_data["prim"] for b in blocks])
+    np.testing.assert_array_equal(prims, np.arange(stats["rendered_triangles"]))
+    for block, mesh in zip(blocks, scene.meshes):
+        np.testing.assert_allclose(block.points, mesh.points)
+        np.testing.assert_array_equal(block.regular_faces, mesh.indices)
+    np.testing.assert_array_equal(np.concatenate([b.cell_data["color"] for b in blocks]), triangle_colors(scene))
+
+
+def test_triangle_colors_follow_display_color(room, bunny):
+    colors = triangle_colors(room)
+    assert colors.shape == (room.stats()["rendered_triangles"], 3) and colors.dtype == np.uint8
+    assert len(np.unique(colors, axis=0)) > 3  # the room's meshes differ in colour
+    np.testing.assert_array_equal(triangle_colors(bunny), 188)  # no displayColor: the renderer's 0.5 grey in sRGB
+
+
+def test_triangle_colors_prefer_the_bound_material():
+    scene = wrt.Scene.from_triangles(np.eye(3), [[0, 1, 2], [0, 2, 1], [1, 0, 2]])
+    scene.meshes[0].colors = np.full((3, 3, 3), 0.5, np.float32)
+    scene.meshes[0].material_ids = np.array([0, -1, 1], np.int32)
+    red = types.SimpleNamespace(diffuse_color=np.array([1.0, 0.0, 0.0]), diffuse_from_display_color=False)
+    display = types.SimpleNamespace(diffuse_color=np.array([0.0, 0.0, 1.0]), diffuse_from_display_color=True)
+    scene.materials = [red, display]
+    np.testing.assert_array_equal(triangle_colors(scene), [[255, 0, 0], [188, 188, 188], [188, 188, 188]])
+
+
+def test_frustum_points_where_the_camera_looks_and_holds_the_rays(room):
+    cam = resolve_camera(room, None)
+    width, height = 64, 48
+    eye = cam.to_world[:3, 3]
+    view = -cam.to_world[:3, 2] / np.linalg.norm(cam.to_world[:3, 2])  # cameras look down -Z
+    corners = frustum_corners(cam, width, height, 5.0)
+    centre = corners.mean(axis=0) - eye
+    np.testing.assert_allclose(centre / np.linalg.norm(centre), view, atol=1e-6)  # no film offset here
+    np.testing.assert_allclose((corners - eye) @ view, 5.0, rtol=1e-6)
+    # Every hit lies inside the frustum; ray 0 goes through the top-left of the film.
+    origins, directions, t = sample_rays(room, cam, width, height, 48)
+    hit = np.isfinite(t)
+    assert hit.sum() > 40
+    p = origins[hit] + t[hit, None] * directions[hit]
+    depth = (p - eye) @ view
+    tl, tr, _, bl = (eye + depth[:, None] * (c - eye) / 5.0 for c in corners)
+    u = np.einsum("ij,ij->i", p - tl, tr - tl) / np.einsum("ij,ij->i", tr - tl, tr - tl)
+    v = np.einsum("ij,ij->i", p - tl, bl - tl) / np.einsum("ij,ij->i", bl - tl, bl - tl)
+    assert np.all((u > 0) & (u < 1) & (v > 0) & (v < 1))
+    assert u[0] < 0.2 and v[0] < 0.2
+
+
+def test_sample_rays_are_the_renderers_rays(room):
+    """With a ray grid equal to the image, the preview's rays end where the renderer's depth AOV says."""
+    width, height = 8, 6
+    _, _, t = sample_rays(room, resolve_camera(room, None), width, height, width * height)
+    depth = wrt.render(room, width=width, height=height, device="cpu").aovs["depth"].reshape(-1)
+    np.testing.assert_array_equal(np.isfinite(t), np.isfinite(depth))
+    np.testing.assert_allclose(t[np.isfinite(t)], depth[np.isfinite(depth)], rtol=1e-6)
+
+
+@pytest.mark.parametrize("cut", [0, 3, 8, 100, "leaves"])
+def test_bvh_cut_partitions_the_triangles_and_its_boxes_enclose_them(bunny, cut):
+    bvh = get_accelerator(bunny, "wrt", "sah", "cpu").bvh
+    nodes = select_bvh_nodes(bvh, None if cut == "leaves" else cut, leaves=cut == "leaves")
+    depths = bvh.depths()
+    if cut == "leaves":
+        np.testing.assert_array_equal(nodes, np.flatnonzero(bvh.prim_count > 0))
+    elif cut == 0:
+        np.testing.assert_array_equal(nodes, [0])
+    else:
+        assert np.all(depths[nodes] <= cut)
+    assert subtree_prim_counts(bvh)[nodes].sum() == bvh.num_prims
+    points, indices = bunny.triangles()
+    owner = np.full(bvh.num_prims, -1)
+    for node in nodes:
+        stack = [node]
+        while stack:
+            n = stack.pop()
+            if bvh.prim_count[n] > 0:
+                slots = bvh.prim_ids[bvh.left_first[n] : bvh.left_first[n] + bvh.prim_count[n]]
+                assert np.all(owner[slots] == -1), "a triangle lies under two shown boxes"
+                owner[slots] = node
+            else:
+                stack += [bvh.left_first[n], bvh.left_first[n] + 1]
+    assert np.all(owner >= 0), "a triangle lies under no shown box"
+    corners = points[indices]  # (T, 3, 3)
+    assert np.all(corners >= bvh.lowers[owner][:, None, :] - 1e-6)
+    assert np.all(corners <= bvh.uppers[owner][:, None, :] + 1e-6)
+
+
+def test_bvh_boxes_polydata(bunny):
+    bvh = get_accelerator(bunny, "wrt", "sah", "cpu").bvh
+    nodes = select_bvh_nodes(bvh, 4)
+    boxes = bvh_boxes(bvh, nodes, "depth")
+    assert boxes.n_cells == 12 * len(nodes) and boxes.n_points == 8 * len(nodes)
+    np.testing.assert_allclose(boxes.points.min(axis=0), bvh.lowers[0], atol=1e-6)
+    np.testing.assert_allclose(boxes.points.max(axis=0), bvh.uppers[0], atol=1e-6)
+    sah = bvh_boxes(bvh, nodes, "sah").cell_data["sah_share"]
+    assert np.isclose(sah.sum() / 12, 1.0) and np.all(sah > 0)
+    leaves = select_bvh_nodes(bvh, leaves=True)
+    few = bvh_boxes(bvh, leaves, "depth", max_boxes=100)
+    assert few.n_cells == 1200 and few.field_data["boxes_total"][0] == len(leaves)
+    with pytest.raises(ValueError, match="valid: depth, sah"):
+        bvh_boxes(bvh, nodes, "rainbow")
+
+
+def test_cluster_vertices_meets_the_budget(bunny):
+    points, indices = bunny.triangles()
+    colors = np.arange(len(indices))[:, None].repeat(3, axis=1)
+    p, i, c = cluster_vertices(points, indices, colors, 2000)
+    assert 200 < len(i) <= 2000
+    assert i.min() >= 0 and i.max() < len(p)
+    assert np.all((i[:, 0] != i[:, 1]) & (i[:, 1] != i[:, 2]) & (i[:, 0] != i[:, 2]))
+    assert len(np.unique(np.sort(i, axis=1), axis=0)) == len(i)
+    assert np.all(np.diff(c[:, 0]) > 0)  # surviving triangles keep their attributes, in order
+    lower, upper = points.min(axis=0), points.max(axis=0)
+    assert np.all(p >= lower - 1e-5) and np.all(p <= upper + 1e-5)
+
+
+def test_preview_draws_everything_and_says_when_it_simplifies(room):
+    plotter = wrt.preview(
+        room, bvh_leaves=True, bvh_color="sah", rays=20, image=True, max_triangles=500, width=64, height=48,
+        window_size=(320, 240),
+    )
+    try:
+        assert isinstance(plotter, pv.Plotter)
+        for actor in ("frustum", "eye", "bvh", "rays_hit", "hits", "image", "summary"):
+            assert actor in plotter.actors, actor
+        assert "scene" in plotter.actors or "scene_double_sided" in plotter.actors
+        assert "simplified for display" in plotter.title and "of 1,070 triangles" in plotter.title
+        meshes = [plotter.actors[a].mapper.dataset for a in ("scene", "scene_double_sided") if a in plotter.actors]
+        assert sum(m.n_cells for m in meshes) <= 500
+        pixels = plotter.screenshot()
+        assert pixels.shape == (240, 320, 3) and pixels.std() > 10
+    finally:
+        plotter.close()
+
+
+def test_preview_rejects_bad_arguments(room):
+    with pytest.raises(ValueError, match="not both"):
+        wrt.preview(room, bvh_depth=2, bvh_leaves=True)
+    with pytest.raises(ValueError, match="valid: depth, sah"):
+        wrt.preview(room, bvh_depth=2, bvh_color="rainbow")
+    with pytest.raises(ValueError, match="rays"):
+        wrt.preview(room, rays=-1)
+    with pytest.raises(ValueError, match="no camera at"):
+        wrt.preview(room, camera="/nope")
+    with pytest.raises(TypeError, match="wrt.Scene or a USD file path"):
+        wrt.preview(42)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--camera", "/nope", "-o", "x.png"], "no camera at '/nope'"),
+        (["-o", "x.jpg"], "previews are written as .png"),
+        (["--window", "12x"], "is not WIDTHxHEIGHT"),
+        (["--bvh-depth", "2", "--bvh-leaves"], "not allowed with"),
+        (["--rays", "-3"], "non-negative"),
+    ],
+)
+def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch, args, message):
+    monkeypatch.chdir(tmp_path)
+    try:
+        code = main(["preview", *args, "-q"])
+    except SystemExit as e:  # argparse errors leave through parser.exit
+        code = e.code
+    assert code == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and message in errors[0]
+    assert not list(tmp_path.iterdir())
+
+
+def test_missing_pyvista_says_how_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "pyvista", None)
+    with pytest.raises(PreviewUnavailable, match=r"pip install 'wrt\[preview\]'"):
+        import_pyvista()
+
+
+def test_no_offscreen_backend_is_a_clear_error_not_a_crash(monkeypatch):
+    monkeypatch.setattr(preview_module, "_backend", None)
+    monkeypatch.setattr(preview_module, "has_display", lambda: False)
+    monkeypatch.setattr(preview_module, "_PROBE", "import sys; sys.exit(3)")  # as if VTK had crashed
+    monkeypatch.delenv("VTK_DEFAULT_OPENGL_WINDOW", raising=False)
+    with pytest.raises(PreviewUnavailable, match="apt-get install libegl1"):
+        preview_module.offscreen_backend()
+
+
+def test_import_wrt_does_not_import_pyvista():
+    code = "import sys, wrt; assert callable(wrt.preview); sys.exit('pyvista' in sys.modules or 'vtk' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], timeout=300).returncode == 0
+
+
+def test_cli_without_a_working_backend_fails_cleanly(tmp_path):
+    """Force VTK's OSMesa window: where libOSMesa is missing VTK would crash; wrt must answer with one line."""
+    env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW="vtkOSOpenGLRenderWindow")
+    env.pop("DISPLAY", None)
+    cmd = [sys.executable, "-m", "wrt.cli", "preview", "-o", str(tmp_path / "p.png"), "--window", "64x48", "-q"]
+    result = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    if result.returncode == 0:  # OSMesa is installed here: then it simply works
+        assert (tmp_path / "p.png").is_file()
+        return
+    assert result.returncode == 1, result.stderr
+    errors = [line for line in result.stderr.splitlines() if line.startswith("wrt: error")]
+    assert len(errors) == 1 and "apt-get install" in errors[0]

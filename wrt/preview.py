@@ -1,0 +1,626 @@
+"""Previews with pyvista: the scene, the camera frustum, BVH boxes and sample camera rays in one 3D view.
+
+A preview shows what wrt will trace before any GPU time is spent: the meshes as ``Scene`` holds them (world
+space, one colour per triangle from its material or ``displayColor``), the frustum of the render camera, the BVH's boxes at one
+depth or its leaves, and a few camera rays from the eye to their closest hits (through :mod:`wrt.trace`, exactly
+as the renderer's first sample casts them). Optionally the wrt-rendered image hangs on the frustum's image plane.
+
+pyvista is optional (``pip install 'wrt[preview]'``) and imported only inside the functions that need it, so
+``import wrt`` stays light. On Linux without an X display, plotting is off-screen: :func:`offscreen_backend`
+probes VTK's EGL and OSMesa windows in a subprocess (a missing OpenGL library makes VTK crash, not raise)
+and raises :class:`PreviewUnavailable` with the packages to install when neither works.
+
+What is drawn, in the frustum's terms (see :mod:`wrt.camera` for the film conventions):
+
+- The frustum runs from the eye to a *display far plane*: the camera's far clipping plane, pulled in to the
+  deepest corner of the scene's bounding box (far planes are often 1e6 units away). Rays that miss end there.
+- The *image plane* rectangle sits at 80 % of the depth of the nearest sample hit (or of the scene's nearest
+  corner), where the ``image=True`` quad is drawn.
+- BVH boxes are either the *cut at depth K* (every node at depth ``K`` plus the leaves above it, so every
+  triangle lies in exactly one shown box) or all leaves. They are coloured by node depth or by their *SAH cost
+  share* ``A(n) N(n) / sum_m A(m) N(m)`` over the shown boxes ``m``, where ``A`` is the box surface area and
+  ``N`` the number of triangles below the node: the part of the SAH traversal cost (MacDonald and Booth,
+  "Heuristics for ray tracing using space subdivision", 1990) that the box would carry were the cut the leaves.
+- Scenes above ``max_triangles`` are simplified for display by vertex clustering (Rossignac and Borrel,
+  "Multi-resolution 3D approximations for rendering complex scenes", 1993); the window title says so.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import warp as wp
+
+from .bvh import FlatBvh
+from .camera import Camera, generate_rays_kernel
+from .image import to_srgb8
+from .render import render, resolve_camera
+from .scene import Scene
+from .trace import HitBuffer, get_accelerator, resolve_device
+
+TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
+MAX_CLUSTER_GRID = 4096  # finest clustering grid, cells along the longest side of the scene box
+CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the triangle budget
+BOX_BUDGET = 50_000  # most BVH boxes drawn; more are subsampled evenly in node order
+BVH_COLORINGS = ("depth", "sah")  # values of bvh_color
+IMAGE_PLANE_FRACTION = 0.8  # image plane depth, as a fraction of the nearest sample hit's depth
+GREY = 0.5  # linear albedo shown for meshes without displayColor (the renderer's default)
+BACKGROUND = "white"
+DEPTH_COLORS = ["#440154", "#3b528b", "#21918c", "#5ec962", "#b5c900"]  # viridis without its pale yellow end
+SAH_COLORS = ["#0d0887", "#7e03a8", "#cc4778", "#f89540", "#e0a800"]  # plasma, likewise, so all boxes show on white
+FRUSTUM_COLOR = "crimson"
+HIT_COLOR = "darkorange"
+MISS_COLOR = "steelblue"
+INSTALL_HINT = (
+    "install Mesa's EGL (apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri) or OSMesa (apt-get install "
+    "libosmesa6), or run under xvfb-run"
+)
+
+_PROBE = """
+import vtkmodules.vtkRenderingOpenGL2
+from vtkmodules.vtkRenderingCore import vtkRenderWindow, vtkRenderer
+window = vtkRenderWindow()
+window.SetOffScreenRendering(1)
+window.SetSize(8, 8)
+window.AddRenderer(vtkRenderer())
+window.Render()
+print(window.GetClassName())
+"""  # renders one tiny frame; run in a subprocess because a missing GL library crashes VTK
+_backend = None  # VTK window class found by offscreen_backend(), cached per process
+
+
+class PreviewUnavailable(RuntimeError):
+    """pyvista is missing, or VTK has no way to draw on this machine."""
+
+
+def import_pyvista():
+    """``pyvista``, or :class:`PreviewUnavailable` saying how to install it."""
+    try:
+        import pyvista
+    except ImportError as e:
+        raise PreviewUnavailable(f"previews need pyvista ({e}): pip install 'wrt[preview]'") from None
+    return pyvista
+
+
+def has_display() -> bool:
+    """Whether an interactive window can open: on Linux, an X server answers at ``$DISPLAY``; elsewhere, True."""
+    if not sys.platform.startswith("linux"):
+        return True
+    if not os.environ.get("DISPLAY"):
+        return False
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("X11") or "libX11.so.6"
+    try:
+        xlib = ctypes.CDLL(name)
+    except OSError:
+        return False
+    xlib.XOpenDisplay.restype = ctypes.c_void_p
+    xlib.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    xlib.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    display = xlib.XOpenDisplay(None)
+    if not display:
+        return False
+    xlib.XCloseDisplay(display)
+    return True
+
+
+def offscreen_backend() -> str:
+    """Makes sure VTK can render off-screen here and returns the VTK window class it will use.
+
+    With a display (or off Linux) VTK's default window works. Without one, the EGL and then the OSMesa window
+    are tried in a subprocess (``$VTK_DEFAULT_OPENGL_WINDOW`` alone when the user set it); the first that
+    renders is exported in ``$VTK_DEFAULT_OPENGL_WINDOW`` for this process. The answer is cached.
+
+    Raises:
+        PreviewUnavailable: no backend renders; the message names the packages to install.
+    """
+    global _backend
+    if _backend is not None:
+        return _backend
+    if has_display():
+        _backend = "default"
+        return _backend
+    chosen = os.environ.get("VTK_DEFAULT_OPENGL_WINDOW")
+    candidates = [chosen] if chosen else ["vtkEGLRenderWindow", "vtkOSOpenGLRenderWindow"]
+    failures = []
+    for candidate in candidates:
+        env = dict(os.environ, VTK_DEFAULT_OPENGL_WINDOW=candidate)
+        try:
+            run = subprocess.run(
+                [sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, timeout=120, check=False
+            )
+        except (OSError, subprocess.TimeoutExpired) as e:
+            failures.append(f"{candidate}: {e}")
+            continue
+        if run.returncode == 0 and run.stdout.strip():
+            os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = candidate
+            _backend = candidate
+            return _backend
+        failures.append(f"{candidate}: exit status {run.returncode}")
+    raise PreviewUnavailable(f"no display and no off-screen OpenGL for VTK ({'; '.join(failures)}); {INSTALL_HINT}")
+
+
+def triangle_colors(scene: Scene) -> np.ndarray:
+    """``(T, 3)`` uint8 sRGB display colour of every triangle, in triangle order.
+
+    A triangle bound to a material (``Mesh.material_ids``) shows the material's constant ``diffuse_color`` (a
+    texture's fallback, for textured ones); otherwise the mean of its three corner ``displayColor`` values; the
+    renderer's grey for meshes with neither.
+    """
+    materials = getattr(scene, "materials", None) or []
+    table = np.array([np.asarray(m.diffuse_color, np.float32).reshape(3) for m in materials] or np.zeros((0, 3)))
+    from_display = np.array([bool(getattr(m, "diffuse_from_display_color", False)) for m in materials], bool)
+    parts = []
+    for mesh in scene.meshes:
+        if mesh.colors is not None:
+            linear = mesh.colors.mean(axis=1)
+        else:
+            linear = np.full((len(mesh.indices), 3), GREY, np.float32)
+        ids = getattr(mesh, "material_ids", None)
+        if ids is not None and len(table):
+            bound = (ids >= 0) & (ids < len(table))
+            bound[bound] &= ~from_display[ids[bound]]
+            linear[bound] = table[ids[bound]]
+        parts.append(linear)
+    linear = np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
+    return to_srgb8(linear)
+
+
+def to_pyvista(scene):
+    """The scene's meshes as a ``pyvista.MultiBlock``, one ``PolyData`` block per mesh, named by prim path.
+
+    Every block carries all of its mesh's points (world space) and one triangle cell per triangle, so the
+    points, cells and blocks add up to ``Scene.stats()``'s ``points``, ``rendered_triangles`` and ``meshes``.
+    Cell arrays: ``"color"`` ``(T, 3)`` uint8 sRGB (see :func:`triangle_colors`), ``"prim"`` int32 triangle id
+    (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face.
+
+    Args:
+        scene: a :class:`wrt.Scene`, or a USD file to load.
+    """
+    pv = import_pyvista()
+    scene = _as_scene(scene)
+    colors = triangle_colors(scene)
+    blocks = pv.MultiBlock()
+    first = 0
+    for k, mesh in enumerate(scene.meshes):
+        n = len(mesh.indices)
+        poly = pv.PolyData.from_regular_faces(mesh.points, mesh.indices) if n else pv.PolyData(mesh.points)
+        poly.cell_data["color"] = colors[first : first + n]
+        poly.cell_data["prim"] = np.arange(first, first + n, dtype=np.int32)
+        poly.cell_data["face_id"] = mesh.face_ids
+        poly.field_data["path"] = [mesh.path]
+        name = mesh.path if mesh.path not in blocks.keys() else f"{mesh.path}#{k}"
+        blocks.append(poly, name)
+        first += n
+    return blocks
+
+
+def cluster_vertices(points, indices, colors, max_triangles: int):
+    """Simplifies a triangle soup to at most ``max_triangles`` by vertex clustering.
+
+    Points are snapped to the mean of their cell in a uniform grid, triangles whose corners fall into fewer than
+    three cells are dropped, and duplicates are removed (Rossignac and Borrel 1993). The grid resolution is
+    searched (geometric bisection from a guess based on surface area) for a result between 70 % and 100 % of the
+    budget, in at most ``CLUSTER_STEPS`` clusterings; the finest grid that fits wins.
+
+    Args:
+        points: ``(V, 3)`` float32, world space.
+        indices: ``(T, 3)`` int32.
+        colors: ``(T, C)`` per-triangle values that follow their triangle.
+        max_triangles: triangle budget.
+
+    Returns:
+        ``(points, indices, colors)`` of the simplified soup.
+    """
+    points = np.asarray(points, np.float64)
+    indices = np.asarray(indices, np.int64)
+    used = np.flatnonzero(np.bincount(indices.reshape(-1), minlength=len(points)))
+    lower = points[used].min(axis=0)
+    extent = max(float((points[used].max(axis=0) - lower).max()), 1e-30)
+
+    def cluster(resolution: int):
+        cells = np.minimum((points[used] - lower) * (resolution / extent), resolution - 1).astype(np.int64)
+        keys = (cells[:, 0] * (resolution + 1) + cells[:, 1]) * (resolution + 1) + cells[:, 2]
+        uniq, ids = np.unique(keys, return_inverse=True)
+        remap = np.zeros(len(points), np.int64)
+        remap[used] = ids.reshape(-1)
+        tris = remap[indices]
+        keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
+        # Drop duplicates: the same three clusters in any order.
+        ordered = np.sort(tris[keep], axis=1)
+        if len(uniq) < (1 << 21):  # pack three cluster ids into one int64 key: a much faster unique
+            packed = (ordered[:, 0] << 42) | (ordered[:, 1] << 21) | ordered[:, 2]
+            first = np.unique(packed, return_index=True)[1]
+        else:
+            first = np.unique(ordered, axis=0, return_index=True)[1]
+        rows = np.flatnonzero(keep)[np.sort(first)]
+        # Place each cluster at the mean of its points.
+        ids = ids.reshape(-1)
+        sums = np.stack([np.bincount(ids, points[used, k], minlength=len(uniq)) for k in range(3)], axis=1)
+        centres = sums / np.bincount(ids, minlength=len(uniq))[:, None]
+        return centres.astype(np.float32), tris[rows].astype(np.int32), np.asarray(colors)[rows]
+
+    # First guess: a surface of area A cut into cells of side h keeps about 2 A / h^2 triangles.
+    corners = points.astype(np.float32)[indices]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    area = 0.5 * float(np.sqrt(np.einsum("ij,ij->i", normals, normals)).sum(dtype=np.float64))
+    resolution = int(np.clip(extent * math.sqrt(max_triangles / max(2.0 * area, 1e-30)), 2, MAX_CLUSTER_GRID))
+    fits, too_fine = None, None  # (resolution, result) of the finest grid that fits; coarsest one that does not
+    for _ in range(CLUSTER_STEPS):
+        result = cluster(resolution)
+        n = len(result[1])
+        if n <= max_triangles:
+            if fits is None or resolution > fits[0]:
+                fits = (resolution, result)
+            if n >= 0.7 * max_triangles or resolution >= MAX_CLUSTER_GRID:
+                break
+        elif too_fine is None or resolution < too_fine:
+            too_fine = resolution
+        # Next resolution: bisect (geometrically) a bracket, else step by the square-root rule.
+        if fits is not None and too_fine is not None:
+            following = int(math.sqrt(fits[0] * too_fine))
+            if following in (fits[0], too_fine):
+                break
+        else:
+            step = math.sqrt(max_triangles / max(n, 1))
+            step = min(0.95 * step, 0.8) if n > max_triangles else max(min(step, 4.0), 1.25)
+            following = int(np.clip(resolution * step, 2, MAX_CLUSTER_GRID))
+            if following == resolution:
+                break
+        resolution = following
+    if fits is None:  # even a 2x2x2 grid is over budget: keep every k-th triangle
+        result = cluster(2)
+        keep = np.linspace(0, len(result[1]) - 1, max_triangles).astype(np.int64)
+        return result[0], result[1][keep], result[2][keep]
+    return fits[1]
+
+
+def subtree_prim_counts(bvh: FlatBvh, depths: np.ndarray | None = None) -> np.ndarray:
+    """``(M,)`` int64 number of triangles below every node (its own for a leaf)."""
+    depths = bvh.depths() if depths is None else depths
+    counts = bvh.prim_count.astype(np.int64)
+    # Sum children into parents, deepest level first.
+    for d in range(int(depths.max(initial=0)), -1, -1):
+        inner = np.flatnonzero((depths == d) & (bvh.prim_count == 0))
+        if bvh.num_prims and len(inner):
+            children = bvh.left_first[inner]
+            counts[inner] = counts[children] + counts[children + 1]
+    return counts
+
+
+def select_bvh_nodes(bvh: FlatBvh, depth: int | None = None, leaves: bool = False) -> np.ndarray:
+    """Node ids to draw: the cut at ``depth`` (nodes at that depth plus shallower leaves) or, with ``leaves``,
+    every leaf. Either way every triangle lies in exactly one selected node."""
+    if bvh.num_prims == 0:
+        return np.zeros(0, np.int64)
+    depths = bvh.depths()
+    is_leaf = bvh.prim_count > 0
+    if leaves:
+        return np.flatnonzero(is_leaf)
+    if depth is None or depth < 0:
+        raise ValueError(f"BVH depth must be a non-negative integer, got {depth!r}")
+    return np.flatnonzero((depths == depth) | (is_leaf & (depths < depth)))
+
+
+def bvh_boxes(bvh: FlatBvh, nodes, color: str = "depth", max_boxes: int = BOX_BUDGET):
+    """Wireframe boxes of the BVH nodes ``nodes``, as one ``pyvista.PolyData`` of 12 line cells per box.
+
+    Args:
+        bvh: the tree.
+        nodes: ``(K,)`` int node ids, e.g. from :func:`select_bvh_nodes`.
+        color: ``"depth"`` (cell array ``"depth"``) or ``"sah"`` (cell array ``"sah_share"``, see module
+            docstring); the SAH share is computed over all of ``nodes``, before any subsampling.
+        max_boxes: above this many nodes, an evenly spaced subset in node order is drawn.
+
+    Returns:
+        The ``PolyData``; its ``field_data["boxes_total"]`` is ``len(nodes)``.
+    """
+    pv = import_pyvista()
+    if color not in BVH_COLORINGS:
+        raise ValueError(f"unknown BVH colouring {color!r}; valid: {', '.join(BVH_COLORINGS)}")
+    nodes = np.asarray(nodes, np.int64)
+    total = len(nodes)
+    depths = bvh.depths()
+    if color == "sah":
+        extent = np.maximum(bvh.uppers[nodes] - bvh.lowers[nodes], 0.0).astype(np.float64)
+        area = extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0]
+        cost = area * subtree_prim_counts(bvh, depths)[nodes]
+        values = cost / max(float(cost.sum()), 1e-300)
+        name = "sah_share"
+    else:
+        values = depths[nodes].astype(np.float64)
+        name = "depth"
+    if total > max_boxes:
+        pick = np.round(np.linspace(0, total - 1, max_boxes)).astype(np.int64)
+        nodes, values = nodes[pick], values[pick]
+    # Corner c of a box has coordinate bits (x, y, z) = (c & 1, c & 2, c & 4); edges join corners one bit apart.
+    bits = np.array([[(c >> 0) & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], np.float32)
+    lo, hi = bvh.lowers[nodes][:, None, :], bvh.uppers[nodes][:, None, :]
+    corners = (lo + bits[None] * (hi - lo)).reshape(-1, 3)
+    edges = np.array([(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1], np.int64)
+    base = (np.arange(len(nodes), dtype=np.int64) * 8)[:, None, None]
+    segments = (base + edges[None]).reshape(-1, 2)
+    lines = np.hstack([np.full((len(segments), 1), 2, np.int64), segments]).ravel()
+    poly = pv.PolyData(corners, lines=lines) if len(nodes) else pv.PolyData()
+    if len(nodes):
+        poly.cell_data[name] = np.repeat(values, len(edges))
+    poly.field_data["boxes_total"] = [total]
+    return poly
+
+
+def frustum_corners(cam: Camera, width: int, height: int, depth: float) -> np.ndarray:
+    """``(4, 3)`` world-space corners of the film rectangle at ``depth`` along the view direction, in the
+    order top-left, top-right, bottom-right, bottom-left (as seen through the camera)."""
+    s = cam.to_struct(width, height)
+    eye, right, up, forward = (np.array(v, np.float64) for v in (s.origin, s.right, s.up, s.forward))
+    offset = np.array(s.film_offset, np.float64)
+    xs = np.array([-0.5, 0.5, 0.5, -0.5]) * s.film_width + offset[0]
+    ys = np.array([0.5, 0.5, -0.5, -0.5]) * s.film_height + offset[1]
+    across = xs[:, None] * right + ys[:, None] * up
+    if s.orthographic:
+        return eye + across + depth * forward
+    return eye + depth * (forward + across)
+
+
+def camera_frame(cam: Camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """The eye and the unit view direction of ``cam``, ``(3,)`` float64 each, world space."""
+    s = cam.to_struct(width, height)
+    return np.array(s.origin, np.float64), np.array(s.forward, np.float64)
+
+
+def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, builder="sah", device="cpu"):
+    """``n`` camera rays through an even grid of the ``width x height`` film, traced as the renderer traces
+    its first sample (same kernel, same ``[near, far]`` range, same accelerator).
+
+    Returns:
+        ``origins`` ``(n, 3)``, unit ``directions`` ``(n, 3)`` (float32, world space), ``t`` ``(n,)`` float32
+        hit distance (``inf`` on a miss).
+    """
+    gw = max(1, round(math.sqrt(n * width / height)))
+    gh = max(1, math.ceil(n / gw))
+    device = resolve_device(device)
+    total = gw * gh
+    out = [wp.empty(total, dtype=wp.vec3, device=device) for _ in range(2)]
+    out += [wp.empty(total, dtype=float, device=device) for _ in range(2)]
+    # The film size comes from the width x height camera; only the sampling grid is gw x gh.
+    inputs = [cam.to_struct(width, height), gw, gh, 0, 0]
+    wp.launch(generate_rays_kernel, total, inputs=inputs, outputs=out, device=device)
+    hits = HitBuffer(total, device)
+    get_accelerator(scene, "wrt", builder, device).intersect(*out, hits)
+    pick = np.round(np.linspace(0, total - 1, n)).astype(np.int64)
+    return out[0].numpy()[pick], out[1].numpy()[pick], hits.t.numpy()[pick]
+
+
+def preview(
+    scene,
+    *,
+    camera=None,
+    bvh_depth: int | None = None,
+    bvh_leaves: bool = False,
+    bvh_color: str = "depth",
+    rays: int = 0,
+    image: bool = False,
+    width: int = 640,
+    height: int = 480,
+    builder: str = "sah",
+    device="cpu",
+    window_size=(1280, 800),
+    max_triangles: int = TRIANGLE_BUDGET,
+    max_boxes: int = BOX_BUDGET,
+    off_screen: bool | None = None,
+    show_text: bool = True,
+):
+    """A ``pyvista.Plotter`` showing the scene, the camera frustum and, on request, BVH boxes, rays and the image.
+
+    Nothing is shown yet: call ``.show()`` (a window, or inline in a notebook) or ``.screenshot(path)``.
+
+    Args:
+        scene: a :class:`wrt.Scene`, or a USD file to load.
+        camera: the camera, as for :func:`wrt.render` (``None``: the stage's first camera, else one framing it).
+        bvh_depth: draw the BVH cut at this depth (see module docstring).
+        bvh_leaves: draw every BVH leaf instead.
+        bvh_color: ``"depth"`` or ``"sah"`` (SAH cost share), the colouring of the boxes.
+        rays: number of sample camera rays to draw.
+        image: render the scene with wrt and show the picture on the frustum's image plane.
+        width: image width in pixels; the frustum, rays and image use this film aspect.
+        height: image height in pixels.
+        builder: BVH builder for the boxes, the rays and the image.
+        device: Warp device for building, tracing and rendering.
+        window_size: ``(width, height)`` of the preview window in pixels.
+        max_triangles: above this many triangles the scene is simplified for display (the title says so).
+        max_boxes: above this many BVH boxes an even subset is drawn (the text says so).
+        off_screen: render off-screen; ``None`` means off-screen when there is no display or ``pyvista.OFF_SCREEN``.
+        show_text: write a summary in the top-left corner of the view.
+
+    Raises:
+        PreviewUnavailable: pyvista is missing, or VTK cannot render on this machine.
+        ValueError: bad arguments (unknown camera, builder or colouring, both ``bvh_depth`` and ``bvh_leaves``).
+    """
+    pv = import_pyvista()
+    if bvh_depth is not None and bvh_leaves:
+        raise ValueError("give bvh_depth or bvh_leaves, not both")
+    if bvh_depth is not None and (not isinstance(bvh_depth, (int, np.integer)) or bvh_depth < 0):
+        raise ValueError(f"bvh_depth must be a non-negative integer, got {bvh_depth!r}")
+    if bvh_color not in BVH_COLORINGS:
+        raise ValueError(f"unknown BVH colouring {bvh_color!r}; valid: {', '.join(BVH_COLORINGS)}")
+    if not isinstance(rays, (int, np.integer)) or rays < 0:
+        raise ValueError(f"rays must be a non-negative integer, got {rays!r}")
+    for label, value in (("width", width), ("height", height)):
+        if not isinstance(value, (int, np.integer)) or value <= 0:
+            raise ValueError(f"{label} must be a positive integer, got {value!r}")
+    scene = _as_scene(scene)
+    cam = resolve_camera(scene, camera)
+    if off_screen is None:
+        off_screen = bool(pv.OFF_SCREEN) or not has_display()
+    if off_screen:
+        offscreen_backend()
+
+    name = Path(scene.source).name if scene.source else "scene"
+    stats = scene.stats()
+    meshes = f"{stats['meshes']:,} mesh" + ("es" if stats["meshes"] != 1 else "")
+    title = f"wrt preview: {name}, {stats['rendered_triangles']:,} triangles in {meshes}"
+    plotter = pv.Plotter(off_screen=off_screen, window_size=list(window_size), title=title)
+    plotter.set_background(BACKGROUND)
+    lines = [title.removeprefix("wrt preview: ")]  # the summary text
+
+    note = _add_scene(pv, plotter, scene, max_triangles)
+    if note:
+        title += f", {note}"
+        lines.append(note)
+    # Trace the sample rays before drawing the frustum: their hits place the image plane.
+    lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
+    eye, forward = camera_frame(cam, width, height)
+    ray_data = sample_rays(scene, cam, width, height, rays, builder, device) if rays else None
+    far, image_depth = _display_depths(cam, eye, forward, lower, upper, ray_data)
+    diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
+    _add_frustum(pv, plotter, cam, width, height, far, image_depth, eye_radius=min(0.01 * diagonal, 0.2 * image_depth))
+    label = cam.path or ("(given)" if isinstance(camera, Camera) else "(framing the scene)")
+    lines.append(f"camera {label}: {cam.projection}, film {width}x{height}")
+    if bvh_depth is not None or bvh_leaves:
+        bvh = get_accelerator(scene, "wrt", builder, device).bvh
+        lines.append(f"BVH ({builder}) " + _add_bvh(plotter, bvh, bvh_depth, bvh_color, max_boxes))
+    if ray_data is not None:
+        lines.append(_add_rays(pv, plotter, *ray_data, forward, far))
+    if image:
+        picture = render(scene, camera=cam, width=width, height=height, device=device, builder=builder)
+        quad = pv.PolyData(frustum_corners(cam, width, height, image_depth), faces=[4, 0, 1, 2, 3])
+        quad.active_texture_coordinates = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)  # row 0 on top
+        plotter.add_mesh(quad, texture=pv.Texture(to_srgb8(picture.rgb)), lighting=False, name="image")
+        lines.append("image: wrt render on the image plane")
+
+    # Look at everything from above, behind and beside the camera, so the frustum is seen from outside.
+    up = np.array([0.0, 0.0, 1.0]) if scene.up_axis == "Z" else np.array([0.0, 1.0, 0.0])
+    side = np.cross(forward, up)
+    if np.linalg.norm(side) < 1e-6:  # camera looks straight up or down
+        side = np.cross(forward, np.roll(up, 1))
+    side /= np.linalg.norm(side)
+    view = 0.3 * side + 1.1 * up - 0.9 * forward
+    focus = 0.5 * (lower + upper)
+    plotter.camera_position = [focus + view * diagonal, focus, up]
+    plotter.reset_camera()
+    plotter.title = title
+    if show_text:
+        plotter.add_text("\n".join(lines), position="upper_left", font_size=9, color="black", name="summary")
+    return plotter
+
+
+def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
+    """Draws the meshes, simplified above ``max_triangles``; returns a note saying so, or ``""``.
+
+    Back faces of single-sided meshes are culled, as they are invisible to a single-sided renderer: seen from
+    outside a room, its walls vanish and show the inside.
+    """
+    points, indices = scene.triangles()
+    sided = [np.full(len(m.indices), m.double_sided, np.uint8) for m in scene.meshes]
+    attributes = np.column_stack([triangle_colors(scene), np.concatenate(sided or [np.zeros(0, np.uint8)])])
+    note = ""
+    if len(indices) > max_triangles:
+        points, indices, attributes = cluster_vertices(points, indices, attributes, max_triangles)
+        note = f"showing {len(indices):,} of {scene.stats()['rendered_triangles']:,} triangles (simplified for display)"
+    for double_sided, label in ((0, "scene"), (1, "scene_double_sided")):
+        rows = attributes[:, 3] == double_sided
+        if rows.any():
+            mesh = pv.PolyData.from_regular_faces(points, indices[rows])
+            mesh.cell_data["color"] = attributes[rows, :3]
+            culling = None if double_sided else "back"
+            plotter.add_mesh(mesh, scalars="color", rgb=True, show_scalar_bar=False, culling=culling, name=label)
+    return note
+
+
+def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_depth: float, eye_radius: float):
+    """Draws the frustum (eye to the far rectangle), the image-plane rectangle and a dot at the eye."""
+    frame = np.concatenate([frustum_corners(cam, width, height, d) for d in (0.0, far, image_depth)])
+    segments = [(k, 4 + k) for k in range(4)] + [(4 + k, 4 + (k + 1) % 4) for k in range(4)]
+    segments += [(8 + k, 8 + (k + 1) % 4) for k in range(4)]
+    if cam.projection == "orthographic":  # the depth-0 corners are distinct: close the box
+        segments += [(k, (k + 1) % 4) for k in range(4)]
+    lines = np.hstack([np.full((len(segments), 1), 2), np.array(segments)]).ravel()
+    plotter.add_mesh(pv.PolyData(frame, lines=lines), color=FRUSTUM_COLOR, line_width=2, name="frustum")
+    eye, _ = camera_frame(cam, width, height)
+    plotter.add_mesh(pv.Sphere(radius=eye_radius, center=eye), color=FRUSTUM_COLOR, name="eye")
+
+
+def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> str:
+    """Draws the BVH cut at ``depth`` (every leaf when ``None``); returns a summary for the text."""
+    from matplotlib.colors import LinearSegmentedColormap
+
+    nodes = select_bvh_nodes(bvh, depth, leaves=depth is None)
+    boxes = bvh_boxes(bvh, nodes, color, max_boxes)
+    shown = boxes.n_cells // 12
+    if shown:
+        scalars = "sah_share" if color == "sah" else "depth"
+        values = boxes.cell_data[scalars]
+        low, high = float(values.min()), float(values.max())
+        if color == "depth":
+            levels = int(high - low) + 1
+            clim = [low, high] if levels > 1 else [low - 0.5, low + 0.5]
+            bar = {"title": "BVH node depth", "fmt": "%.0f", "n_labels": levels if levels <= 8 else 5}
+            cmap = LinearSegmentedColormap.from_list("wrt_depth", DEPTH_COLORS)
+            style = {"cmap": cmap, "n_colors": levels, "show_scalar_bar": levels > 1}
+        else:
+            clim = [low, high] if high > low else [0.5 * low, 2.0 * low]
+            bar = {"title": "SAH cost share", "fmt": "%.1e"}
+            style = {"cmap": LinearSegmentedColormap.from_list("wrt_sah", SAH_COLORS), "log_scale": clim[0] > 0}
+        plotter.add_mesh(boxes, scalars=scalars, clim=clim, line_width=2, scalar_bar_args=bar, name="bvh", **style)
+    what = "leaves" if depth is None else f"cut at depth {depth}"
+    count = f"{len(nodes):,} boxes" if shown == len(nodes) else f"{shown:,} of {len(nodes):,} boxes"
+    levels = int(bvh.depths().max(initial=0))
+    return f"{bvh.num_nodes:,} nodes, depth {levels}: {what}, {count}"
+
+
+def _add_rays(pv, plotter, origins, directions, t, forward, far: float) -> str:
+    """Draws rays from their origin to their hit (with a dot) or, on a miss, to the display far plane."""
+    origins, directions, t = (np.asarray(a, np.float64) for a in (origins, directions, t))
+    hit = np.isfinite(t)
+    t_end = np.where(hit, t, far / np.maximum(directions @ forward, 1e-6))
+    ends = origins + t_end[:, None] * directions
+    for mask, color, label in ((hit, HIT_COLOR, "rays_hit"), (~hit, MISS_COLOR, "rays_miss")):
+        k = int(mask.sum())
+        if k:
+            segments = np.stack([np.full(k, 2), np.arange(k), np.arange(k) + k], axis=1).ravel()
+            rays = pv.PolyData(np.concatenate([origins[mask], ends[mask]]), lines=segments)
+            plotter.add_mesh(rays, color=color, line_width=1, name=label)
+    if hit.any():
+        dots = pv.PolyData(ends[hit])
+        plotter.add_mesh(dots, color=HIT_COLOR, point_size=8, render_points_as_spheres=True, name="hits")
+    return f"rays: {len(t)} ({int(hit.sum())} hit, {int((~hit).sum())} miss)"
+
+
+def _as_scene(scene) -> Scene:
+    if isinstance(scene, Scene):
+        return scene
+    if isinstance(scene, (str, os.PathLike)):
+        from .usd import load_usd
+
+        return load_usd(scene)
+    raise TypeError(f"scene must be a wrt.Scene or a USD file path, not {type(scene).__name__}")
+
+
+def _display_depths(cam: Camera, eye, forward, lower, upper, ray_data) -> tuple[float, float]:
+    """Depths (along the view direction) of the display far plane and of the image plane."""
+    near, far = (float(v) for v in cam.clipping_range)
+    corners = np.stack(np.meshgrid(*zip(lower, upper), indexing="ij"), axis=-1).reshape(-1, 3)
+    depths = (corners - eye) @ forward
+    diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
+    deepest = float(depths.max()) if depths.max() > near else near + diagonal  # scene behind the camera
+    display_far = min(far, deepest)
+    nearest = None
+    if ray_data is not None:
+        origins, directions, t = ray_data
+        hit = np.isfinite(t)
+        if hit.any():
+            ends = origins[hit] + t[hit, None] * directions[hit]
+            nearest = float(np.min((ends - eye) @ forward))
+    if nearest is None and depths.min() > near:
+        nearest = float(depths.min())
+    if nearest is None or nearest <= near:
+        nearest = 0.3 * display_far
+    image_depth = min(max(IMAGE_PLANE_FRACTION * nearest, near), display_far)
+    return display_far, image_depth
