@@ -72,9 +72,9 @@ def test_shadows_darken_the_floor_under_an_occluder():
     prims = img.aovs["prim"]
     floor_px = (prims == 0) | (prims == 1)
     luminance = img.rgb.mean(axis=-1)
-    # Lit floor: albedo 0.5 * E/pi * cos 0 = 0.5 plus ambient 0.5 * 0.2 = 0.1 -> 0.6; shadowed: ambient 0.1.
+    # Lit floor: albedo 0.5 * E/pi * cos 0 = 0.5; shadowed: 0 (the stage has a light, so no default dome).
     values = luminance[floor_px]
-    shadowed, lit = np.isclose(values, 0.1, atol=1e-5), np.isclose(values, 0.6, atol=1e-5)
+    shadowed, lit = np.isclose(values, 0.0, atol=1e-5), np.isclose(values, 0.5, atol=1e-5)
     assert np.all(shadowed | lit)
     assert shadowed.sum() > 50 and lit.sum() > 500
 

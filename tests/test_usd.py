@@ -528,11 +528,11 @@ def DistantLight "Off"
     token visibility = "invisible"
 }
 
-def SphereLight "Bulb"
+def PortalLight "Portal"
 {
 }
 """
-    with pytest.warns(UserWarning, match="SphereLight"):
+    with pytest.warns(UserWarning, match="PortalLight"):
         scene = load_usd(write_usda(tmp_path, body))
     sun, default = scene.lights
     assert sun.path == "/Sun" and default.path == "/Default"

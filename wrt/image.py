@@ -1,4 +1,10 @@
-"""Image: the rendered picture (linear RGB, top row first) plus its AOVs, and writing them to disk."""
+"""Image: the rendered picture (linear RGB, top row first) plus its AOVs, and writing them to disk.
+
+Formats: ``.exr`` linear HDR (OpenEXR, 32-bit float), ``.npy`` raw linear float32, ``.png`` 8-bit sRGB after
+``2^exposure`` scaling and clipping to [0, 1] (no other tone curve). AOVs are written as ``.npy`` and, for a
+quick look, as colour-mapped PNGs (:func:`aov_preview`): the traversal cost as a heat map of nodes visited and
+triangles tested, normals as ``0.5 (n + 1)``, depths and ids as grey levels and random colours.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +12,11 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+
+IMAGE_FORMATS = (".png", ".exr", ".npy")  # extensions Image.save writes
+HEAT_STOPS = np.array(  # black -> blue -> magenta -> orange -> yellow -> white, sRGB (an inferno-like ramp)
+    [[0, 0, 0], [40, 11, 84], [159, 42, 99], [238, 110, 28], [250, 200, 40], [252, 255, 164]], np.float64
+) / 255.0
 
 
 def linear_to_srgb(x: np.ndarray) -> np.ndarray:
@@ -19,15 +30,104 @@ def to_srgb8(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     return np.round(linear_to_srgb(np.asarray(rgb, np.float32) * 2.0**exposure) * 255.0).astype(np.uint8)
 
 
+def heat_map(values: np.ndarray, vmax: float | None = None) -> np.ndarray:
+    """``(H, W)`` non-negative values -> ``(H, W, 3)`` uint8 colours, 0 black and ``vmax`` (default: the maximum)
+    white-yellow."""
+    v = np.asarray(values, np.float64)
+    top = float(vmax if vmax is not None else (v.max() if v.size else 1.0)) or 1.0
+    x = np.clip(v / top, 0.0, 1.0) * (len(HEAT_STOPS) - 1)
+    k = np.minimum(x.astype(int), len(HEAT_STOPS) - 2)
+    f = (x - k)[..., None]
+    rgb = HEAT_STOPS[k] * (1.0 - f) + HEAT_STOPS[k + 1] * f
+    return np.round(rgb * 255.0).astype(np.uint8)
+
+
+def _id_colors(ids: np.ndarray) -> np.ndarray:
+    """Distinct pseudo-random colours per integer id; -1 (nothing) is black."""
+    ids = np.asarray(ids, np.int64)
+    h = (ids * 2654435761) & 0xFFFFFFFF
+    rgb = np.stack([(h >> 16) & 255, (h >> 8) & 255, h & 255], axis=-1).astype(np.uint8) // 2 + 64
+    rgb[ids < 0] = 0
+    return rgb
+
+
+def _labelled_panels(panels: list[tuple[np.ndarray, str]]) -> np.ndarray:
+    """Side-by-side uint8 images with a caption strip under each."""
+    from PIL import Image as PilImage
+    from PIL import ImageDraw
+
+    h, w = panels[0][0].shape[:2]
+    strip = 14
+    canvas = PilImage.new("RGB", (w * len(panels) + 4 * (len(panels) - 1), h + strip), (255, 255, 255))
+    draw = ImageDraw.Draw(canvas)
+    for k, (img, label) in enumerate(panels):
+        x = k * (w + 4)
+        canvas.paste(PilImage.fromarray(img, mode="RGB"), (x, 0))
+        draw.text((x + 2, h + 1), label, fill=(0, 0, 0))
+    return np.asarray(canvas)
+
+
+def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
+    """A viewable ``(H, W, 3)`` uint8 picture of AOV ``name``.
+
+    ``cost`` becomes two heat maps side by side (nodes visited | triangles tested), each scaled to its maximum,
+    which its caption states; normals map to ``0.5 (n + 1)``; depths to grey (near dark, far light); ids to random
+    colours; albedo to sRGB.
+    """
+    value = np.asarray(value)
+    if name == "cost":
+        nodes, tris = value[..., 0], value[..., 1]
+        return _labelled_panels(
+            [
+                (heat_map(nodes), f"nodes visited (max {int(nodes.max()) if nodes.size else 0})"),
+                (heat_map(tris), f"triangles tested (max {int(tris.max()) if tris.size else 0})"),
+            ]
+        )
+    if value.ndim == 3 and value.shape[-1] == 3:
+        if "normal" in name:
+            return np.round(np.clip(0.5 * (value + 1.0), 0, 1) * 255 * (np.abs(value).sum(-1, keepdims=True) > 0)).astype(np.uint8)
+        return to_srgb8(value)
+    if value.dtype.kind in "iu":
+        return _id_colors(value)
+    finite = np.isfinite(value)
+    grey = np.zeros(value.shape, np.float64)
+    if finite.any():
+        lo, hi = float(value[finite].min()), float(value[finite].max())
+        grey[finite] = (value[finite] - lo) / ((hi - lo) or 1.0) * 0.9 + 0.1
+    return np.round(np.repeat(grey[..., None], 3, axis=-1) * 255).astype(np.uint8)
+
+
+def write_exr(path: Path, channels: dict[str, np.ndarray]) -> None:
+    """Writes float32 ``(H, W)`` channels (e.g. ``{"R": r, "G": g, "B": b}``) to an OpenEXR file."""
+    try:
+        import OpenEXR
+    except ImportError:
+        raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package (pip install OpenEXR)") from None
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    data = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
+    with OpenEXR.File(header, data) as f:
+        f.write(str(path))
+
+
 @dataclasses.dataclass
 class Image:
     """A rendered image.
 
     Attributes:
-        rgb: ``(H, W, 3)`` float32 linear radiance; row 0 is the top of the image.
-        aovs: named per-pixel outputs: ``"depth"`` ``(H, W)`` float32 distance along the primary ray (``inf`` on
-            a miss), ``"normal"`` ``(H, W, 3)`` float32 world-space shading normal, ``"prim"`` ``(H, W)`` int32
-            triangle id (-1 on a miss), ``"albedo"`` ``(H, W, 3)`` float32.
+        rgb: ``(H, W, 3)`` float32 linear radiance (``path``, ``whitted``) or the quick look of the integrator;
+            row 0 is the top of the image.
+        aovs: per-pixel data of the camera ray through each pixel centre (sample 0), all ``(H, W, ...)``:
+
+            - ``"depth"`` float32 distance along the ray (``inf`` on a miss);
+            - ``"z"`` float32 camera-space depth: distance along the viewing axis (``inf`` on a miss);
+            - ``"normal"`` ``(H, W, 3)`` float32 world-space shading normal, facing the camera (0 on a miss);
+            - ``"geometric_normal"`` ``(H, W, 3)`` float32 world-space face normal, facing the camera;
+            - ``"albedo"`` ``(H, W, 3)`` float32 diffuseColor (textured) of the hit material;
+            - ``"prim"`` int32 triangle id (-1 on a miss);
+            - ``"instance"`` int32 instance id: 0 on a hit (no instancing yet), -1 on a miss;
+            - ``"material"`` int32 index into ``Scene.materials`` (-1 on a miss or for the default material);
+            - ``"cost"`` ``(H, W, 2)`` int32 BVH nodes visited and triangles tested by the ray (0 for
+              ``accel="warp"``), including re-traces past culled back faces.
     """
 
     rgb: np.ndarray
@@ -44,31 +144,52 @@ class Image:
         return self.rgb.shape[0]
 
     def save(self, path, exposure: float = 0.0) -> Path:
-        """Writes the colour image: ``.png`` as 8-bit sRGB, ``.npy`` as raw linear float32.
+        """Writes the colour image: ``.exr`` linear HDR float32, ``.npy`` raw linear float32, ``.png`` 8-bit sRGB
+        of ``rgb * 2**exposure`` clipped to [0, 1] (``exposure`` applies to PNG only).
 
         Raises:
-            ValueError: for any other extension.
+            ValueError: for any other extension, or ``.exr`` without the OpenEXR package.
         """
         path = Path(path)
         suffix = path.suffix.lower()
+        if suffix not in IMAGE_FORMATS:
+            raise ValueError(f"cannot write {path.name}: supported image formats are {', '.join(IMAGE_FORMATS)}")
+        path.parent.mkdir(parents=True, exist_ok=True)
         if suffix == ".png":
             from PIL import Image as PilImage
 
-            path.parent.mkdir(parents=True, exist_ok=True)
             PilImage.fromarray(to_srgb8(self.rgb, exposure), mode="RGB").save(path)
-        elif suffix == ".npy":
-            path.parent.mkdir(parents=True, exist_ok=True)
-            np.save(path, self.rgb.astype(np.float32))
+        elif suffix == ".exr":
+            rgb = np.asarray(self.rgb, np.float32)
+            write_exr(path, {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
         else:
-            raise ValueError(f"cannot write {path.name}: supported image formats are .png and .npy")
+            np.save(path, self.rgb.astype(np.float32))
         return path
 
-    def save_aovs(self, directory) -> list[Path]:
-        """Writes every AOV as ``DIRECTORY/NAME.npy``; returns the paths."""
+    def save_aovs(self, directory, names=None, png: bool = False) -> list[Path]:
+        """Writes AOVs as ``DIRECTORY/NAME.npy`` (and ``NAME.png`` previews with ``png``, see :func:`aov_preview`);
+        ``names`` selects some (default: all). Returns the paths written."""
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
+        names = list(self.aovs) if names is None else list(names)
+        unknown = [n for n in names if n not in self.aovs]
+        if unknown:
+            raise ValueError(f"unknown AOV {', '.join(unknown)}; available: {', '.join(self.aovs)}")
         paths = []
-        for name, value in self.aovs.items():
+        for name in names:
             paths.append(directory / f"{name}.npy")
-            np.save(paths[-1], value)
+            np.save(paths[-1], self.aovs[name])
+            if png:
+                paths.append(self.save_aov_png(name, directory / f"{name}.png"))
         return paths
+
+    def save_aov_png(self, name: str, path) -> Path:
+        """Writes the :func:`aov_preview` of AOV ``name`` as a PNG."""
+        from PIL import Image as PilImage
+
+        if name not in self.aovs:
+            raise ValueError(f"unknown AOV {name!r}; available: {', '.join(self.aovs)}")
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        PilImage.fromarray(aov_preview(name, self.aovs[name]), mode="RGB").save(path)
+        return path

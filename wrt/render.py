@@ -1,4 +1,13 @@
-"""Rendering: camera rays -> trace -> shade -> :class:`Image`, as a reusable :class:`Renderer` and ``render()``."""
+"""Rendering: camera paths -> trace -> shade, bounce by bounce, into an :class:`Image`, as a reusable
+:class:`Renderer` and ``render()``.
+
+The loop is a wavefront (generate -> intersect -> shade/extend -> occluded -> accumulate, per bounce): every kernel
+works on the arrays of all live paths, and all ray queries go through the :class:`wrt.trace.Accelerator`, so
+``accel="wrt"`` and ``accel="warp"`` serve every integrator (see :mod:`wrt.integrators`).
+
+Samples are deterministic in ``(seed, pixel, sample index)`` and are summed in sample order, so an image does not
+depend on how its samples are split into launches (``batch``). ``Image.rgb`` is their mean: linear radiance.
+"""
 
 from __future__ import annotations
 
@@ -8,19 +17,30 @@ import warnings
 import numpy as np
 import warp as wp
 
-from .camera import Camera, frame_scene, generate_rays_kernel
+from .camera import Camera, frame_scene
 from .image import Image
+from .integrators import INTEGRATORS
+from .integrators.ao import ao_value_kernel, shade_ao_kernel
+from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_path_kernel
+from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
+from .lights import LIGHT_DOME, build_lights, default_lights
+from .materials import emission_estimates, upload_materials
 from .scene import Scene
 from .shade import (
-    HEADLIGHT_IRRADIANCE,
-    accumulate_kernel,
-    accumulate_light_kernel,
-    prepare_shadow_rays_kernel,
-    shade_base_kernel,
+    CullScratch,
+    DeviceSurfaces,
+    accumulate_samples_kernel,
+    intersect_visible,
+    primary_aovs_kernel,
+    start_paths_kernel,
 )
 from .trace import HitBuffer, get_accelerator, resolve_device
 
 MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
+MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
+DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
+RR_DEPTH = 3  # Russian roulette starts after this many bounces
+MM_PER_METER = 1000.0  # camera focal lengths are read as millimetres for the thin lens
 
 
 def resolve_camera(scene: Scene, camera) -> Camera:
@@ -41,11 +61,88 @@ def resolve_camera(scene: Scene, camera) -> Camera:
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
 
 
-class Renderer:
-    """Renders one scene from one camera at one resolution; reusable across calls and seeds.
+def shading_data(scene: Scene, device) -> tuple:
+    """``(DeviceMaterials, uvs, materials, double_sided, emission estimates)`` of ``scene`` on ``device``, cached."""
+    key = ("shading", str(device))
+    if key not in scene._cache:
+        mats = upload_materials(scene.materials, scene.textures, device)
+        uvs = scene.corner_uvs()
+        tri_materials = scene.triangle_materials()
+        sided = scene.triangle_double_sided().astype(np.int32)
+        if len(tri_materials) == 0:  # keep arrays non-empty so kernels can bind them
+            uvs, tri_materials, sided = np.zeros((1, 3, 2), np.float32), np.zeros(1, np.int32), np.ones(1, np.int32)
+        arrays = (
+            wp.array(uvs, dtype=wp.vec2, device=device),
+            wp.array(tri_materials, dtype=wp.int32, device=device),
+            wp.array(sided, dtype=wp.int32, device=device),
+        )
+        scene._cache[key] = (mats, *arrays, emission_estimates(scene.materials, scene.textures))
+    return scene._cache[key]
 
-    ``__init__`` resolves the camera, builds (or reuses) the accelerator and allocates every buffer; ``render()``
-    only launches kernels. Wall times of each stage land in ``timers`` (seconds).
+
+class _Wavefront:
+    """Per-path device arrays for ``n`` paths; :meth:`view` gives the first ``m`` of them."""
+
+    FIELDS = {
+        "origins": wp.vec3,
+        "directions": wp.vec3,
+        "t_mins": float,
+        "t_maxs": float,
+        "rng": wp.uint32,
+        "throughput": wp.vec3,
+        "radiance": wp.vec3,
+        "alive": wp.int32,
+        "pdf_prev": float,
+        "prev_normal": wp.vec3,
+        "shadow_origins": wp.vec3,
+        "shadow_dirs": wp.vec3,
+        "shadow_t_maxs": float,
+        "blocked": wp.int32,
+        "nee": wp.vec3,
+        "active": wp.int32,
+    }
+
+    def __init__(self, n: int, device, all_double_sided: bool):
+        self.n = n
+        self.device = device
+        for name, dtype in self.FIELDS.items():
+            setattr(self, name, wp.empty(n, dtype=dtype, device=device))
+        self.shadow_t_mins = wp.zeros(n, dtype=float, device=device)
+        self.hits = HitBuffer(n, device)
+        self.scratch = CullScratch(n, device, all_double_sided)
+        self.counter = wp.zeros(1, dtype=wp.int32, device=device)
+
+    def view(self, m: int) -> _Wavefront:
+        if m == self.n:
+            return self
+        v = object.__new__(_Wavefront)
+        v.n, v.device, v.counter = m, self.device, self.counter
+        for name in list(self.FIELDS) + ["shadow_t_mins"]:
+            setattr(v, name, getattr(self, name)[:m])
+        v.hits = _slice_hits(self.hits, m)
+        s = object.__new__(CullScratch)
+        s.device, s.all_double_sided, s.retries = self.device, self.scratch.all_double_sided, self.scratch.retries
+        s.t_mins, s.t_maxs, s.hits = self.scratch.t_mins[:m], self.scratch.t_maxs[:m], _slice_hits(self.scratch.hits, m)
+        v.scratch = s
+        return v
+
+    @property
+    def rays(self) -> list:
+        return [self.origins, self.directions, self.t_mins, self.t_maxs]
+
+
+def _slice_hits(hits: HitBuffer, m: int) -> HitBuffer:
+    out = object.__new__(HitBuffer)
+    out.t, out.u, out.v, out.prim, out.cost = hits.t[:m], hits.u[:m], hits.v[:m], hits.prim[:m], hits.cost[:m]
+    return out
+
+
+class Renderer:
+    """Renders one scene from one camera at one resolution with one integrator; reusable across calls and seeds.
+
+    ``__init__`` resolves the camera, builds (or reuses) the accelerator and uploads materials and lights;
+    ``render()`` only allocates path buffers (once per batch size) and launches kernels. Wall times of each stage
+    land in ``timers`` (milliseconds, as ``wp.ScopedTimer`` records them).
 
     Args:
         scene: the scene to render.
@@ -55,111 +152,297 @@ class Renderer:
         device: Warp device; Warp's default device when ``None``.
         builder: BVH builder name.
         accel: ``"wrt"`` or ``"warp"``.
+        integrator: one of :data:`wrt.integrators.INTEGRATORS` (see the README): ``"whitted"``, ``"path"``,
+            ``"ao"``, ``"normals"``, ``"depth"`` or ``"albedo"``.
+        max_depth: surface interactions per path (``path``) or mirror/refraction bounces (``whitted``); default
+            from :data:`DEFAULT_MAX_DEPTH`.
+        ao_radius: occlusion distance of ``ao`` in scene units; default a tenth of the scene's bounding-box
+            diagonal.
     """
 
-    def __init__(self, scene: Scene, *, camera=None, width=640, height=480, device=None, builder="sah", accel="wrt"):
+    def __init__(
+        self,
+        scene: Scene,
+        *,
+        camera=None,
+        width=640,
+        height=480,
+        device=None,
+        builder="sah",
+        accel="wrt",
+        integrator="whitted",
+        max_depth=None,
+        ao_radius=None,
+    ):
         for name, value in (("width", width), ("height", height)):
             if not isinstance(value, (int, np.integer)) or value <= 0:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if width * height > MAX_PIXELS:
             raise ValueError(f"{width}x{height} is {width * height} pixels; at most {MAX_PIXELS} are supported")
+        if integrator not in INTEGRATORS:
+            raise ValueError(f"unknown integrator {integrator!r}; valid integrators: {', '.join(INTEGRATORS)}")
+        if max_depth is None:
+            max_depth = DEFAULT_MAX_DEPTH.get(integrator, 1)
+        if not isinstance(max_depth, (int, np.integer)) or max_depth < 0:
+            raise ValueError(f"max_depth must be a non-negative integer, got {max_depth!r}")
+        lower, upper = scene.bounds()
+        if ao_radius is None:
+            ao_radius = 0.1 * float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) or 1.0
+        if not (isinstance(ao_radius, (int, float, np.floating)) and math.isfinite(ao_radius) and ao_radius > 0):
+            raise ValueError(f"ao_radius must be a positive number, got {ao_radius!r}")
         self.scene = scene
         self.width, self.height = int(width), int(height)
         self.camera = resolve_camera(scene, camera)
         self.device = resolve_device(device)
+        self.integrator = integrator
+        self.max_depth = int(max_depth)
+        self.ao_radius = float(ao_radius)
         self.timers = {}
         if scene.stats()["rendered_triangles"] == 0:
             warnings.warn(f"{scene.source or 'scene'}: nothing to render (no triangles); the image is background only")
         with wp.ScopedTimer("build", print=False, dict=self.timers, synchronize=True):
             self.accel = get_accelerator(scene, accel, builder, self.device)
             self.device_scene = scene.to_device(self.device)
-        self._allocate()
+            self._upload_shading()
+        self._wavefront = None
+        self.dropped_samples = 0  # non-finite samples left out of the last render
 
-    def _allocate(self):
-        n, dev = self.width * self.height, self.device
-        self.origins = wp.empty(n, dtype=wp.vec3, device=dev)
-        self.directions = wp.empty(n, dtype=wp.vec3, device=dev)
-        self.t_mins = wp.empty(n, dtype=float, device=dev)
-        self.t_maxs = wp.empty(n, dtype=float, device=dev)
-        self.hits = HitBuffer(n, dev)
-        self.shadow_origins = wp.empty(n, dtype=wp.vec3, device=dev)
-        self.shadow_dirs = wp.empty(n, dtype=wp.vec3, device=dev)
-        self.shadow_t_mins = wp.zeros(n, dtype=float, device=dev)
-        self.shadow_t_maxs = wp.empty(n, dtype=float, device=dev)
-        self.blocked = wp.empty(n, dtype=wp.int32, device=dev)
-        self.radiance = wp.empty(n, dtype=wp.vec3, device=dev)
-        self.image = wp.zeros(n, dtype=wp.vec3, device=dev)
-        self.depth = wp.empty(n, dtype=float, device=dev)
-        self.normal = wp.empty(n, dtype=wp.vec3, device=dev)
-        self.albedo = wp.empty(n, dtype=wp.vec3, device=dev)
-        self.prim = wp.empty(n, dtype=wp.int32, device=dev)
-        lights = self.scene.lights
-        dirs = [np.asarray(l.direction, np.float32) for l in lights] or [np.zeros(3, np.float32)]
-        irradiance = [np.asarray(l.color, np.float32) for l in lights] or [np.full(3, HEADLIGHT_IRRADIANCE, np.float32)]
-        self.light_dirs = wp.array(np.array(dirs), dtype=wp.vec3, device=dev)
-        self.light_irradiance = wp.array(np.array(irradiance), dtype=wp.vec3, device=dev)
+    def _upload_shading(self):
+        scene, dev = self.scene, self.device
+        mats, uvs, tri_materials, sided, emission = shading_data(scene, dev)
+        self.materials = mats
+        cam = self.camera.to_struct(self.width, self.height)
+        used = np.unique(scene.triangle_materials()) if scene.meshes else np.zeros(0, np.int32)
+        emissive_used = any(float(np.max(emission[k])) > 0.0 for k in used)
+        # A stage with no light source at all gets the documented default lights.
+        self.lights = list(scene.lights) if (scene.lights or emissive_used) else default_lights(np.array(cam.forward))
+        self.device_lights = build_lights(self.lights, scene, emission, dev)
+        emitters = np.full(max(len(tri_materials), 1), -1, np.int32)
+        kinds = self.device_lights.kinds.numpy()
+        prims = self.device_lights.prims.numpy()
+        for k in range(self.device_lights.num_analytic, self.device_lights.count):
+            emitters[prims[k]] = k
+        s = DeviceSurfaces()
+        s.uvs, s.materials, s.double_sided = uvs, tri_materials, sided
+        s.emitters = wp.array(emitters, dtype=wp.int32, device=dev)
+        self.surfaces = s
+        self.all_double_sided = bool(scene.triangle_double_sided().all()) if scene.meshes else True
+        # Whitted lights each UsdLux light (but the dome) separately and all emissive triangles as one light.
+        n_analytic = self.device_lights.num_analytic
+        self._whitted_groups = [(k, 1) for k in range(n_analytic) if kinds[k] != int(LIGHT_DOME)]
+        if self.device_lights.count > n_analytic:
+            self._whitted_groups.append((n_analytic, self.device_lights.count - n_analytic))
 
-    def render(self, spp: int = 1, seed: int = 0) -> Image:
-        """Renders ``spp`` samples per pixel and returns the :class:`Image`; AOVs come from the centre sample."""
+    def _lens(self) -> tuple[float, float]:
+        """Thin-lens radius and focus distance (scene units); radius 0 for a pinhole.
+
+        The aperture diameter is ``focalLength / fStop`` with the focal length in millimetres, converted to scene
+        units through the stage's ``metersPerUnit`` (on a centimetre stage this is USD's "tenths of a scene unit").
+        """
+        cam = self.camera
+        if cam.projection != "perspective" or not cam.f_stop > 0.0 or not cam.focus_distance > 0.0:
+            return 0.0, 1.0
+        units_per_mm = 1.0 / (MM_PER_METER * self.scene.meters_per_unit)
+        return cam.focal_length * units_per_mm / (2.0 * cam.f_stop), float(cam.focus_distance)
+
+    def render(self, spp: int = 1, seed: int = 0, *, batch: int | None = None, progress: bool = False) -> Image:
+        """Renders ``spp`` samples per pixel and returns the :class:`Image`; AOVs come from sample 0.
+
+        Args:
+            spp: samples per pixel (the quick-look integrators ``normals``, ``depth`` and ``albedo`` use one).
+            seed: seed of every random decision; the same seed gives the same image on the same device.
+            batch: samples per pixel per launch; default: as many as fit in :data:`MAX_PATHS_PER_LAUNCH` paths.
+                The image does not depend on it.
+            progress: show a progress bar (tqdm) over the samples.
+        """
         if not isinstance(spp, (int, np.integer)) or spp < 1:
             raise ValueError(f"spp must be a positive integer, got {spp!r}")
-        n, dev = self.width * self.height, self.device
-        cam = self.camera.to_struct(self.width, self.height)
-        self.image.zero_()
-        with wp.ScopedTimer("render", print=False, dict=self.timers, synchronize=True), wp.ScopedDevice(dev):
-            for sample in range(int(spp)):
-                rays = [self.origins, self.directions, self.t_mins, self.t_maxs]
-                wp.launch(generate_rays_kernel, n, inputs=[cam, self.width, self.height, sample, int(seed)], outputs=rays)
-                self.accel.intersect(*rays, self.hits)
-                hit = [self.hits.t, self.hits.u, self.hits.v, self.hits.prim]
-                aovs = [self.depth, self.normal, self.albedo]
-                wp.launch(
-                    shade_base_kernel,
-                    n,
-                    inputs=[self.device_scene, self.directions, *hit],
-                    outputs=[self.radiance, *aovs] if sample == 0 else [self.radiance, *self._scratch_aovs()],
-                )
-                if sample == 0:
-                    wp.copy(self.prim, self.hits.prim)
-                for light in range(len(self.light_dirs)):
-                    shadow = [self.shadow_origins, self.shadow_dirs, self.shadow_t_maxs]
-                    wp.launch(
-                        prepare_shadow_rays_kernel,
-                        n,
-                        inputs=[self.device_scene, self.origins, self.directions, *hit, self.light_dirs, light],
-                        outputs=shadow,
-                    )
-                    self.accel.occluded(
-                        self.shadow_origins, self.shadow_dirs, self.shadow_t_mins, self.shadow_t_maxs, self.blocked
-                    )
-                    wp.launch(
-                        accumulate_light_kernel,
-                        n,
-                        inputs=[self.device_scene, self.directions, self.hits.u, self.hits.v, self.hits.prim]
-                        + [self.shadow_t_maxs, self.blocked, self.light_dirs, self.light_irradiance, light],
-                        outputs=[self.radiance],
-                    )
-                wp.launch(accumulate_kernel, n, inputs=[self.radiance, 1.0 / spp], outputs=[self.image])
-        h, w = self.height, self.width
-        return Image(
-            rgb=self.image.numpy().reshape(h, w, 3),
-            aovs={
-                "depth": self.depth.numpy().reshape(h, w),
-                "normal": self.normal.numpy().reshape(h, w, 3),
-                "albedo": self.albedo.numpy().reshape(h, w, 3),
-                "prim": self.prim.numpy().reshape(h, w),
-            },
-        )
+        if batch is not None and (not isinstance(batch, (int, np.integer)) or batch < 1):
+            raise ValueError(f"batch must be a positive integer, got {batch!r}")
+        spp, seed = int(spp), int(seed) & 0x7FFFFFFF
+        n_pixels = self.width * self.height
+        if self.integrator in ("normals", "depth", "albedo"):
+            spp = 1
+        if batch is None:
+            batch = max(1, min(spp, MAX_PATHS_PER_LAUNCH // n_pixels))
+        batch = min(int(batch), spp)
+        n = n_pixels * batch
+        if self._wavefront is None or self._wavefront.n < n:
+            self._wavefront = _Wavefront(n, self.device, self.all_double_sided)
+        dev = self.device
+        image = wp.zeros(n_pixels, dtype=wp.vec3, device=dev)
+        dropped = wp.zeros(1, dtype=wp.int32, device=dev)
+        aovs = _AovBuffers(n_pixels, dev)
 
-    def _scratch_aovs(self):
-        if not hasattr(self, "_scratch"):
-            n, dev = self.width * self.height, self.device
-            self._scratch = [
-                wp.empty(n, dtype=float, device=dev),
-                wp.empty(n, dtype=wp.vec3, device=dev),
-                wp.empty(n, dtype=wp.vec3, device=dev),
-            ]
-        return self._scratch
+        from tqdm import tqdm
+
+        bar = tqdm(total=spp, unit="spp", desc=f"wrt {self.integrator}", disable=not progress, leave=False)
+        with wp.ScopedTimer("render", print=False, dict=self.timers, synchronize=True), wp.ScopedDevice(dev):
+            first = 0
+            while first < spp:
+                count = min(batch, spp - first)
+                w = self._wavefront.view(n_pixels * count)
+                self._render_batch(w, first, seed, aovs if first == 0 else None)
+                wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count], outputs=[image, dropped])
+                first += count
+                bar.update(count)
+        bar.close()
+        self.dropped_samples = int(dropped.numpy()[0])
+        return self._image(image.numpy() / spp, aovs)
+
+    def _render_batch(self, w: _Wavefront, first_sample: int, seed: int, aovs):
+        cam = self.camera.to_struct(self.width, self.height)
+        lens_radius, focus = self._lens()
+        wp.launch(
+            start_paths_kernel,
+            w.n,
+            inputs=[cam, lens_radius, focus, self.width, self.height, first_sample, seed],
+            outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal],
+        )
+        if self.integrator == "path":
+            self._trace_paths(w, aovs, cam)
+        elif self.integrator == "whitted":
+            self._trace_whitted(w, aovs, cam)
+        else:
+            self._intersect(w, aovs, cam)
+            if self.integrator == "ao":
+                self._trace_ao(w)
+            else:
+                w.radiance.zero_()
+
+    def _intersect(self, w: _Wavefront, aovs, cam, camera_rays: bool = True):
+        """Closest hits of the current rays (for camera rays: the visible ones, past culled back faces); the first
+        time, also the AOVs of sample 0."""
+        if camera_rays:
+            intersect_visible(self.accel, self.surfaces, self.device_scene, w.rays, w.hits, w.scratch)
+        else:
+            self.accel.intersect(*w.rays, w.hits)
+        if aovs is not None and not aovs.done:
+            n = aovs.n
+            h = w.hits
+            wp.launch(
+                primary_aovs_kernel,
+                n,
+                inputs=[self.device_scene, self.surfaces, self.materials, cam.origin, cam.forward]
+                + [w.origins[:n], w.directions[:n], h.t[:n], h.u[:n], h.v[:n], h.prim[:n], h.cost[:n]],
+                outputs=aovs.outputs,
+            )
+            aovs.done = True
+
+    def _occlude_and_add(self, w: _Wavefront):
+        self.accel.occluded(w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs, w.blocked)
+        wp.launch(add_unoccluded_kernel, w.n, inputs=[w.nee, w.shadow_t_maxs, w.blocked], outputs=[w.radiance])
+
+    def _any_alive(self, w: _Wavefront) -> bool:
+        w.counter.zero_()
+        wp.launch(count_alive_kernel, w.n, inputs=[w.alive], outputs=[w.counter])
+        return int(w.counter.numpy()[0]) > 0
+
+    def _trace_paths(self, w: _Wavefront, aovs, cam):
+        ds, surf, mats, lights = self.device_scene, self.surfaces, self.materials, self.device_lights
+        for bounce in range(self.max_depth + 1):
+            self._intersect(w, aovs, cam, camera_rays=bounce == 0)
+            h = w.hits
+            wp.launch(
+                shade_path_kernel,
+                w.n,
+                inputs=[ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim],
+                outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal]
+                + [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
+            )
+            self._occlude_and_add(w)
+            if not self._any_alive(w):
+                break
+
+    def _trace_whitted(self, w: _Wavefront, aovs, cam):
+        ds, surf, mats, lights = self.device_scene, self.surfaces, self.materials, self.device_lights
+        for bounce in range(self.max_depth + 1):
+            self._intersect(w, aovs, cam, camera_rays=bounce == 0)
+            h = w.hits
+            hit = [h.t, h.u, h.v, h.prim]
+            wp.launch(
+                shade_whitted_kernel,
+                w.n,
+                inputs=[ds, surf, mats, lights, *hit],
+                outputs=[w.origins, w.t_mins, w.t_maxs, w.directions, w.throughput, w.radiance, w.alive, w.active],
+            )
+            for first, count in self._whitted_groups:
+                wp.launch(
+                    whitted_light_kernel,
+                    w.n,
+                    inputs=[ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.active],
+                    outputs=[w.rng, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
+                )
+                self._occlude_and_add(w)
+            wp.launch(
+                continue_whitted_kernel,
+                w.n,
+                inputs=[ds, surf, mats, bounce, self.max_depth, *hit, w.active],
+                outputs=[*w.rays, w.rng, w.throughput, w.alive],
+            )
+            if not self._any_alive(w):
+                break
+
+    def _trace_ao(self, w: _Wavefront):
+        h = w.hits
+        wp.launch(
+            shade_ao_kernel,
+            w.n,
+            inputs=[self.device_scene, self.surfaces, self.ao_radius, w.origins, w.directions, h.t, h.u, h.v, h.prim, w.rng],
+            outputs=[w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs],
+        )
+        self.accel.occluded(w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs, w.blocked)
+        wp.launch(ao_value_kernel, w.n, inputs=[w.shadow_t_maxs, w.blocked], outputs=[w.radiance])
+
+    def _image(self, rgb: np.ndarray, aovs: _AovBuffers) -> Image:
+        h, w = self.height, self.width
+        out = aovs.numpy(h, w)
+        rgb = rgb.reshape(h, w, 3).astype(np.float32)
+        hit = out["prim"] >= 0
+        if self.integrator == "normals":
+            rgb = np.where(hit[..., None], 0.5 * (out["normal"] + 1.0), 0.0).astype(np.float32)
+        elif self.integrator == "albedo":
+            rgb = out["albedo"].copy()
+        elif self.integrator == "depth":
+            depth = np.where(hit, out["depth"], 0.0)
+            far = float(depth.max()) if hit.any() else 1.0
+            rgb = np.repeat((depth / (far or 1.0))[..., None], 3, axis=-1).astype(np.float32)
+        return Image(rgb=rgb, aovs=out)
+
+
+class _AovBuffers:
+    """Device buffers of the sample-0 AOVs of every pixel."""
+
+    SPEC = {
+        "depth": float,
+        "z": float,
+        "normal": wp.vec3,
+        "geometric_normal": wp.vec3,
+        "albedo": wp.vec3,
+        "prim": wp.int32,
+        "instance": wp.int32,
+        "material": wp.int32,
+        "cost": wp.vec2i,
+    }
+
+    def __init__(self, n: int, device):
+        self.n = n
+        self.done = False
+        self.arrays = {name: wp.empty(n, dtype=dtype, device=device) for name, dtype in self.SPEC.items()}
+
+    @property
+    def outputs(self) -> list:
+        return list(self.arrays.values())
+
+    def numpy(self, h: int, w: int) -> dict:
+        out = {}
+        for name, arr in self.arrays.items():
+            a = arr.numpy()
+            out[name] = a.reshape(h, w, *a.shape[1:])
+        return out
+
+
+AOV_NAMES = tuple(_AovBuffers.SPEC)  # the keys of Image.aovs
 
 
 def render(
@@ -173,8 +456,27 @@ def render(
     seed: int = 0,
     builder: str = "sah",
     accel: str = "wrt",
+    integrator: str = "whitted",
+    max_depth: int | None = None,
+    ao_radius: float | None = None,
+    batch: int | None = None,
+    progress: bool = False,
 ) -> Image:
-    """Renders ``scene`` and returns an :class:`Image` (linear ``rgb`` plus ``depth``/``normal``/``albedo``/``prim``
-    AOVs). See :class:`Renderer` for the arguments; ``seed`` fixes the pixel jitter when ``spp > 1``."""
-    renderer = Renderer(scene, camera=camera, width=width, height=height, device=device, builder=builder, accel=accel)
-    return renderer.render(spp=spp, seed=seed)
+    """Renders ``scene`` and returns an :class:`Image`: linear radiance ``rgb`` plus AOVs.
+
+    See :class:`Renderer` for the arguments and :meth:`Renderer.render` for ``spp``, ``seed``, ``batch`` and
+    ``progress``.
+    """
+    renderer = Renderer(
+        scene,
+        camera=camera,
+        width=width,
+        height=height,
+        device=device,
+        builder=builder,
+        accel=accel,
+        integrator=integrator,
+        max_depth=max_depth,
+        ao_radius=ao_radius,
+    )
+    return renderer.render(spp=spp, seed=seed, batch=batch, progress=progress)

@@ -13,6 +13,7 @@ so on, each face fan-triangulated around its first vertex, so face ``f`` with ``
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import warp as wp
@@ -44,7 +45,11 @@ class Mesh:
         normals: ``(T, 3, 3)`` float32 unit world-space shading normal at each triangle corner, or ``None``
             when the mesh authors none (then the face normal is used).
         colors: ``(T, 3, 3)`` float32 linear displayColor at each triangle corner, or ``None``.
-        double_sided: the mesh's ``doubleSided`` attribute.
+        double_sided: the mesh's ``doubleSided`` attribute: when False, camera rays that reach a triangle from its
+            back pass through it (back-face culling); bounce and shadow rays still meet it.
+        uvs: ``(T, 3, 2)`` float32 texture coordinates at each triangle corner, or ``None``.
+        material_ids: ``(T,)`` int32 index into :attr:`Scene.materials` of each triangle (-1: the default material),
+            or ``None`` for the default material everywhere.
     """
 
     path: str
@@ -54,6 +59,8 @@ class Mesh:
     normals: np.ndarray | None = None
     colors: np.ndarray | None = None
     double_sided: bool = False
+    uvs: np.ndarray | None = None
+    material_ids: np.ndarray | None = None
 
     def __post_init__(self):
         self.points = np.ascontiguousarray(self.points, dtype=np.float32).reshape(-1, 3)
@@ -63,21 +70,47 @@ class Mesh:
             self.normals = np.ascontiguousarray(self.normals, dtype=np.float32).reshape(-1, 3, 3)
         if self.colors is not None:
             self.colors = np.ascontiguousarray(self.colors, dtype=np.float32).reshape(-1, 3, 3)
+        if self.uvs is not None:
+            self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float32).reshape(-1, 3, 2)
+        if self.material_ids is not None:
+            self.material_ids = np.ascontiguousarray(self.material_ids, dtype=np.int32).reshape(-1)
 
 
 @dataclasses.dataclass
 class DistantLight:
-    """A light at infinity, as ``UsdLux.DistantLight``.
+    """A light at infinity, as ``UsdLux.DistantLight`` (the other light types live in :mod:`wrt.lights`).
 
     Attributes:
         direction: ``(3,)`` unit world-space direction the light travels in (the light's -Z axis).
-        color: ``(3,)`` linear RGB, already multiplied by ``intensity * 2**exposure``.
+        color: ``(3,)`` linear RGB, ``intensity * 2**exposure * color``. With ``angle = 0`` or ``normalize`` on it is
+            the illuminance at normal incidence; otherwise it is the radiance of the sun disc (see :mod:`wrt.lights`).
         path: prim path of the source light, if any.
+        angle: angular diameter in degrees; 0 makes a delta light.
+        normalize: ``inputs:normalize``.
     """
 
     direction: np.ndarray
     color: np.ndarray
     path: str = ""
+    angle: float = 0.0
+    normalize: bool = False
+
+    def __post_init__(self):
+        self.direction = np.asarray(self.direction, np.float64).reshape(3)
+        self.color = np.asarray(self.color, np.float32).reshape(3)
+
+    @property
+    def solid_angle_factor(self) -> float:
+        """``pi sin^2(angle / 2)``: illuminance at normal incidence per unit radiance of the sun disc."""
+        half = min(math.radians(max(self.angle, 0.0)) / 2.0, math.pi / 2.0)
+        return math.pi * math.sin(half) ** 2
+
+    @property
+    def illuminance(self) -> np.ndarray:
+        """``(3,)`` illuminance ``E`` at normal incidence."""
+        if self.normalize or self.angle <= 0.0:
+            return self.color.copy()
+        return (self.color * self.solid_angle_factor).astype(np.float32)
 
 
 @dataclasses.dataclass
@@ -87,7 +120,9 @@ class Scene:
     Attributes:
         meshes: triangle meshes in world space; their order defines triangle ids (see module docstring).
         cameras: prim path -> :class:`wrt.Camera`, in stage order.
-        lights: distant lights of the stage.
+        lights: the stage's lights: :class:`DistantLight` and the classes of :mod:`wrt.lights`.
+        materials: :class:`wrt.materials.Material` list that ``Mesh.material_ids`` index.
+        textures: ``(H, W, 4)`` float32 linear RGBA images that material textures index.
         up_axis: ``"Y"`` or ``"Z"``, the stage's upAxis.
         meters_per_unit: the stage's metersPerUnit.
         source: the file the scene was read from, if any.
@@ -95,7 +130,9 @@ class Scene:
 
     meshes: list[Mesh] = dataclasses.field(default_factory=list)
     cameras: dict[str, Camera] = dataclasses.field(default_factory=dict)
-    lights: list[DistantLight] = dataclasses.field(default_factory=list)
+    lights: list = dataclasses.field(default_factory=list)
+    materials: list = dataclasses.field(default_factory=list)
+    textures: list = dataclasses.field(default_factory=list)
     up_axis: str = "Y"
     meters_per_unit: float = 0.01
     source: str | None = None
@@ -118,7 +155,7 @@ class Scene:
             from .errors import SceneError
 
             raise SceneError(f"triangle indices must lie in [0, {len(points)})", prim=name)
-        mesh = Mesh(name, points, indices, np.arange(len(indices), dtype=np.int32))
+        mesh = Mesh(name, points, indices, np.arange(len(indices), dtype=np.int32), double_sided=True)
         return cls(meshes=[mesh])
 
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
@@ -154,6 +191,32 @@ class Scene:
                 colors.append(m.colors if m.colors is not None else np.full((n, 3, 3), 0.5, np.float32))
             empty = np.zeros((0, 3, 3), np.float32)
             self._cache[key] = (np.concatenate(normals or [empty]), np.concatenate(colors or [empty]))
+        return self._cache[key]
+
+    def triangle_materials(self) -> np.ndarray:
+        """``(T,)`` int32 material of every triangle as a device material index: 0 for the default material,
+        ``k + 1`` for ``materials[k]``."""
+        key = ("triangle_materials",)
+        if key not in self._cache:
+            parts = [
+                (m.material_ids + 1 if m.material_ids is not None else np.zeros(len(m.indices), np.int32))
+                for m in self.meshes
+            ]
+            ids = np.concatenate(parts or [np.zeros(0, np.int32)]).astype(np.int32)
+            self._cache[key] = np.where((ids >= 0) & (ids <= len(self.materials)), ids, 0).astype(np.int32)
+        return self._cache[key]
+
+    def triangle_double_sided(self) -> np.ndarray:
+        """``(T,)`` bool: each triangle's mesh is double-sided."""
+        parts = [np.full(len(m.indices), bool(m.double_sided)) for m in self.meshes]
+        return np.concatenate(parts or [np.zeros(0, bool)])
+
+    def corner_uvs(self) -> np.ndarray:
+        """``(T, 3, 2)`` float32 texture coordinates per triangle corner (zero where a mesh has none)."""
+        key = ("corner_uvs",)
+        if key not in self._cache:
+            parts = [m.uvs if m.uvs is not None else np.zeros((len(m.indices), 3, 2), np.float32) for m in self.meshes]
+            self._cache[key] = np.concatenate(parts or [np.zeros((0, 3, 2), np.float32)]).astype(np.float32)
         return self._cache[key]
 
     def to_device(self, device) -> DeviceScene:

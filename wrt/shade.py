@@ -1,43 +1,77 @@
-"""Shading: hit buffer -> radiance and AOVs, with Lambert surfaces, distant lights and hard shadows.
+"""Shading building blocks shared by every integrator: from a hit buffer entry to a shading point, camera paths,
+back-face culling through the accelerator, AOVs and sample accumulation.
 
-Model (the spine's integrator; later integrators build on the same hit buffer):
+The pipeline is a wavefront: kernels generate rays, an :class:`wrt.trace.Accelerator` fills a hit buffer
+(``t, u, v, prim``), and shade kernels read it and write the next rays, so both accelerators serve every
+integrator and no shading kernel traverses a BVH itself.
 
-- Surfaces are Lambertian with albedo = interpolated displayColor (neutral grey 0.5 without one).
-- Each ``UsdLux.DistantLight`` of the stage adds ``albedo / pi * E * max(0, n . l)`` where ``E`` is its
-  illuminance ``intensity * 2**exposure * color``, unless an any-hit shadow ray towards it is blocked.
-- A stage without lights gets a headlight: a distant light along the view direction with ``E = 0.8 pi``,
-  so a white surface facing the camera shows 0.8.
-- A constant, unoccluded ambient term ``albedo * AMBIENT`` keeps shadows readable.
-- Rays that miss show ``BACKGROUND``.
+Conventions:
 
-Normals: the geometric normal is turned to face the incoming ray (surfaces are two-sided); the shading normal
-(barycentric interpolation of the mesh's normals, or the face normal when it has none) is turned to the same side.
+- Surfaces: the geometric normal (from the winding, ``cross(p1 - p0, p2 - p0)``) is turned to face the incoming
+  ray; the shading normal (barycentric interpolation of the mesh's normals, or the face normal when it has none)
+  is turned to the same side. ``front`` records whether the ray arrived on the winding's front side.
+- Back faces of single-sided meshes (``doubleSided = false``) are invisible to camera rays, as in usdview: they
+  are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`). Bounce and shadow rays see both
+  sides, so closed glass objects refract twice and single-sided walls still cast shadows.
+- Sample 0 of every pixel goes through the pixel centre and the lens centre; later samples jitter both
+  (deterministic in ``seed``, pixel and sample index). AOVs come from sample 0.
 """
 
 import warp as wp
 
-from .geometry import offset_ray_origin
+from .bsdf import surface_albedo
+from .camera import DeviceCamera, camera_ray
+from .lights import DEFAULT_DOME_RADIANCE
+from .materials import DeviceMaterials, eval_surface
+from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
 
-AMBIENT = wp.constant(0.2)  # radiance of the constant ambient term, for a white surface
-BACKGROUND = wp.constant(wp.vec3(0.05, 0.06, 0.08))  # radiance of rays that miss, linear RGB
-HEADLIGHT_IRRADIANCE = 0.8 * 3.14159265  # illuminance of the default headlight
+BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights
+CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
+MAX_CULL_PASSES = 8  # re-traces after culled back faces; a ray still on a back face after that shows it
+
+
+@wp.struct
+class DeviceSurfaces:
+    """Per-triangle shading data, indexed by triangle id (``prim``)."""
+
+    uvs: wp.array2d[wp.vec2]  # (T, 3) texture coordinates per corner
+    materials: wp.array[wp.int32]  # (T,) device material (0: the default material)
+    double_sided: wp.array[wp.int32]  # (T,) 1 for triangles of double-sided meshes
+    emitters: wp.array[wp.int32]  # (T,) light index of emissive triangles, -1 otherwise
+
+
+@wp.struct
+class HitPoint:
+    """A hit reconstructed from the hit buffer."""
+
+    p: wp.vec3  # world-space position
+    ng: wp.vec3  # unit geometric normal facing the ray origin
+    ns: wp.vec3  # unit shading normal on the side of ng
+    front: int  # 1 when the ray hit the front (winding) side
+    st: wp.vec2  # texture coordinates
+    material: int  # device material index
+    display: wp.vec3  # interpolated displayColor (grey 0.5 without one)
 
 
 @wp.func
-def surface_at(scene: DeviceScene, prim: int, u: float, v: float, ray_dir: wp.vec3):
-    """Geometric normal, shading normal (both unit, facing the ray's origin) and albedo at a hit."""
+def hit_point(scene: DeviceScene, surf: DeviceSurfaces, prim: int, u: float, v: float, o: wp.vec3, d: wp.vec3, t: float):
+    """Position, normals, texture coordinates and material of the hit ``(t, u, v, prim)`` of ray ``(o, d)``."""
+    h = HitPoint()
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
+    w = 1.0 - u - v
+    h.p = w * a + u * b + v * c
     ng = wp.cross(b - a, c - a)
+    h.front = 1
     if wp.length(ng) > 0.0:
         ng = wp.normalize(ng)
     else:
-        ng = -wp.normalize(ray_dir)  # a degenerate triangle can only be hit edge-on: face the ray
-    if wp.dot(ng, ray_dir) > 0.0:
+        ng = -wp.normalize(d)  # a degenerate triangle can only be hit edge-on: face the ray
+    if wp.dot(ng, d) > 0.0:
         ng = -ng
-    w = 1.0 - u - v
+        h.front = 0
     ns = w * scene.normals[prim, 0] + u * scene.normals[prim, 1] + v * scene.normals[prim, 2]
     if wp.length(ns) > 0.0:
         ns = wp.normalize(ns)
@@ -45,114 +79,296 @@ def surface_at(scene: DeviceScene, prim: int, u: float, v: float, ray_dir: wp.ve
             ns = -ns
     else:
         ns = ng
-    albedo = w * scene.colors[prim, 0] + u * scene.colors[prim, 1] + v * scene.colors[prim, 2]
-    return ng, ns, albedo
+    h.ng = ng
+    h.ns = ns
+    h.st = w * surf.uvs[prim, 0] + u * surf.uvs[prim, 1] + v * surf.uvs[prim, 2]
+    h.material = surf.materials[prim]
+    h.display = w * scene.colors[prim, 0] + u * scene.colors[prim, 1] + v * scene.colors[prim, 2]
+    return h
+
+
+@wp.func
+def camera_sample(
+    cam: DeviceCamera,
+    lens_radius: float,
+    focus_distance: float,
+    width: int,
+    height: int,
+    pixel: int,
+    sample: int,
+    state: wp.uint32,
+):
+    """Camera ray of ``sample`` at ``pixel``: origin, unit direction, ``t`` range and the advanced RNG state.
+
+    Sample 0 goes through the pixel centre and the lens centre; others are jittered over the pixel and, with
+    ``lens_radius > 0``, over the thin lens focused at ``focus_distance`` (measured along the view axis).
+    """
+    i = pixel // width
+    j = pixel - i * width
+    sx = float(0.5)
+    sy = float(0.5)
+    lx = float(0.5)
+    ly = float(0.5)
+    if sample > 0:
+        sx, state = rand01(state)
+        sy, state = rand01(state)
+        lx, state = rand01(state)
+        ly, state = rand01(state)
+    o, d, t0, t1 = camera_ray(cam, (float(j) + sx) / float(width), (float(i) + sy) / float(height))
+    if lens_radius > 0.0 and cam.orthographic == 0 and sample > 0:
+        cos_t = wp.dot(d, cam.forward)
+        focus = o + (focus_distance / cos_t) * d
+        lens = sample_concentric_disk(lx, ly) * lens_radius
+        o = o + lens[0] * cam.right + lens[1] * cam.up
+        d = wp.normalize(focus - o)
+        cos_t = wp.dot(d, cam.forward)
+        t0 = cam.near / cos_t
+        t1 = cam.far / cos_t
+    return o, d, t0, t1, state
+
+
+@wp.func
+def path_rng(seed: int, pixel: int, sample: int):
+    """The RNG state of a path: decorrelated across seeds, samples and pixels."""
+    return wp.rand_init(int(wp.rand_init(seed, sample)), pixel)
 
 
 @wp.kernel
-def prepare_shadow_rays_kernel(
+def start_paths_kernel(
+    cam: DeviceCamera,
+    lens_radius: float,
+    focus_distance: float,
+    width: int,
+    height: int,
+    first_sample: int,
+    seed: int,
+    # outputs
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    rng: wp.array[wp.uint32],
+    throughput: wp.array[wp.vec3],
+    radiance: wp.array[wp.vec3],
+    alive: wp.array[wp.int32],
+    pdf_prev: wp.array[float],
+    prev_normal: wp.array[wp.vec3],
+):
+    """Starts one path per (sample, pixel); entry ``i`` is pixel ``i % (W H)`` of sample ``first_sample + i // (W H)``."""
+    i = wp.tid()
+    n_pixels = width * height
+    pixel = i % n_pixels
+    sample = first_sample + i // n_pixels
+    state = path_rng(seed, pixel, sample)
+    o, d, t0, t1, state = camera_sample(cam, lens_radius, focus_distance, width, height, pixel, sample, state)
+    origins[i] = o
+    directions[i] = d
+    t_mins[i] = t0
+    t_maxs[i] = t1
+    rng[i] = state
+    throughput[i] = wp.vec3(1.0)
+    radiance[i] = wp.vec3(0.0)
+    alive[i] = 1
+    pdf_prev[i] = 0.0
+    prev_normal[i] = wp.vec3(0.0)
+
+
+@wp.kernel
+def cull_back_faces_kernel(
     scene: DeviceScene,
+    surf: DeviceSurfaces,
+    directions: wp.array[wp.vec3],
+    t_maxs: wp.array[float],
+    hit_t: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    # outputs
+    retry_t_mins: wp.array[float],
+    retry_t_maxs: wp.array[float],
+    retries: wp.array[wp.int32],
+):
+    """Marks rays whose closest hit is the back of a single-sided triangle: they are re-traced from just past it
+    (``retry_t_maxs > 0``); every other ray gets an empty range."""
+    i = wp.tid()
+    retry_t_mins[i] = 0.0
+    retry_t_maxs[i] = 0.0
+    prim = hit_prim[i]
+    if prim < 0 or surf.double_sided[prim] == 1:
+        return
+    a = scene.points[scene.indices[prim, 0]]
+    b = scene.points[scene.indices[prim, 1]]
+    c = scene.points[scene.indices[prim, 2]]
+    if wp.dot(wp.cross(b - a, c - a), directions[i]) <= 0.0:
+        return
+    t = hit_t[i]
+    retry_t_mins[i] = t + wp.max(t * CULL_EPSILON, 1.0e-9)
+    retry_t_maxs[i] = t_maxs[i]
+    wp.atomic_add(retries, 0, 1)
+
+
+@wp.kernel
+def merge_hits_kernel(
+    retry_t_maxs: wp.array[float],
+    t2: wp.array[float],
+    u2: wp.array[float],
+    v2: wp.array[float],
+    prim2: wp.array[wp.int32],
+    cost2: wp.array[wp.vec2i],
+    # outputs
+    t: wp.array[float],
+    u: wp.array[float],
+    v: wp.array[float],
+    prim: wp.array[wp.int32],
+    cost: wp.array[wp.vec2i],
+):
+    """Takes the re-traced hit of every culled ray and adds its traversal cost."""
+    i = wp.tid()
+    if retry_t_maxs[i] > 0.0:
+        t[i] = t2[i]
+        u[i] = u2[i]
+        v[i] = v2[i]
+        prim[i] = prim2[i]
+        cost[i] = cost[i] + cost2[i]
+
+
+def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays, hits, scratch) -> None:
+    """``accel.intersect`` that skips back faces of single-sided meshes (see the module docstring).
+
+    Args:
+        accel: the :class:`wrt.trace.Accelerator`.
+        surfaces: per-triangle shading data (for ``double_sided``).
+        scene: the device scene.
+        rays: ``[origins, directions, t_mins, t_maxs]`` device arrays.
+        hits: the :class:`wrt.trace.HitBuffer` to fill.
+        scratch: a :class:`CullScratch` of the same size.
+    """
+    origins, directions, _, t_maxs = rays
+    accel.intersect(*rays, hits)
+    if scratch.all_double_sided:
+        return
+    n = len(origins)
+    for _ in range(MAX_CULL_PASSES):
+        scratch.retries.zero_()
+        wp.launch(
+            cull_back_faces_kernel,
+            n,
+            inputs=[scene, surfaces, directions, t_maxs, hits.t, hits.prim],
+            outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries],
+            device=scratch.device,
+        )
+        if int(scratch.retries.numpy()[0]) == 0:
+            return
+        accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, scratch.hits)
+        h2 = scratch.hits
+        wp.launch(
+            merge_hits_kernel,
+            n,
+            inputs=[scratch.t_maxs, h2.t, h2.u, h2.v, h2.prim, h2.cost],
+            outputs=[hits.t, hits.u, hits.v, hits.prim, hits.cost],
+            device=scratch.device,
+        )
+
+
+class CullScratch:
+    """Buffers for :func:`intersect_visible` (``n`` rays on ``device``)."""
+
+    def __init__(self, n: int, device, all_double_sided: bool):
+        from .trace import HitBuffer
+
+        self.device = device
+        self.all_double_sided = all_double_sided  # nothing to cull: skip the extra pass
+        self.t_mins = wp.empty(n, dtype=float, device=device)
+        self.t_maxs = wp.empty(n, dtype=float, device=device)
+        self.retries = wp.zeros(1, dtype=wp.int32, device=device)
+        self.hits = HitBuffer(n, device)
+
+
+@wp.kernel
+def primary_aovs_kernel(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    eye: wp.vec3,
+    forward: wp.vec3,
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     hit_t: wp.array[float],
     hit_u: wp.array[float],
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
-    light_dirs: wp.array[wp.vec3],
-    light: int,
+    hit_cost: wp.array[wp.vec2i],
     # outputs
-    shadow_origins: wp.array[wp.vec3],
-    shadow_dirs: wp.array[wp.vec3],
-    shadow_t_maxs: wp.array[float],
-):
-    """A shadow ray from each hit towards light ``light`` (``t_max = 0``, i.e. no ray, for misses and back-lit
-    points). ``light_dirs`` holds the direction each light travels in; a zero entry means the headlight."""
-    i = wp.tid()
-    prim = hit_prim[i]
-    shadow_t_maxs[i] = 0.0
-    shadow_origins[i] = origins[i]
-    shadow_dirs[i] = directions[i]
-    if prim < 0:
-        return
-    d = directions[i]
-    ng, ns, albedo = surface_at(scene, prim, hit_u[i], hit_v[i], d)
-    to_light = -light_dirs[light]
-    if wp.length(to_light) == 0.0:
-        to_light = -wp.normalize(d)
-    if wp.dot(ng, to_light) <= 0.0:
-        return
-    shadow_origins[i] = offset_ray_origin(origins[i] + hit_t[i] * d, ng)
-    shadow_dirs[i] = to_light
-    shadow_t_maxs[i] = wp.inf
-
-
-@wp.kernel
-def accumulate_light_kernel(
-    scene: DeviceScene,
-    directions: wp.array[wp.vec3],
-    hit_u: wp.array[float],
-    hit_v: wp.array[float],
-    hit_prim: wp.array[wp.int32],
-    shadow_t_maxs: wp.array[float],
-    blocked: wp.array[wp.int32],
-    light_dirs: wp.array[wp.vec3],
-    light_irradiance: wp.array[wp.vec3],
-    light: int,
-    # outputs
-    radiance: wp.array[wp.vec3],
-):
-    """Adds the unshadowed Lambert contribution of light ``light`` to each pixel sample."""
-    i = wp.tid()
-    prim = hit_prim[i]
-    if prim < 0 or shadow_t_maxs[i] == 0.0 or blocked[i] == 1:
-        return
-    d = directions[i]
-    ng, ns, albedo = surface_at(scene, prim, hit_u[i], hit_v[i], d)
-    to_light = -light_dirs[light]
-    if wp.length(to_light) == 0.0:
-        to_light = -wp.normalize(d)
-    cos_theta = wp.max(wp.dot(ns, wp.normalize(to_light)), 0.0)
-    radiance[i] = radiance[i] + wp.cw_mul(albedo, light_irradiance[light]) * (cos_theta / wp.pi)
-
-
-@wp.kernel
-def shade_base_kernel(
-    scene: DeviceScene,
-    directions: wp.array[wp.vec3],
-    hit_t: wp.array[float],
-    hit_u: wp.array[float],
-    hit_v: wp.array[float],
-    hit_prim: wp.array[wp.int32],
-    # outputs
-    radiance: wp.array[wp.vec3],
     depth: wp.array[float],
+    z: wp.array[float],
     normal: wp.array[wp.vec3],
-    albedo_out: wp.array[wp.vec3],
+    geometric_normal: wp.array[wp.vec3],
+    albedo: wp.array[wp.vec3],
+    prim_out: wp.array[wp.int32],
+    instance: wp.array[wp.int32],
+    material: wp.array[wp.int32],
+    cost: wp.array[wp.vec2i],
 ):
-    """Starts each pixel sample's radiance (ambient or background) and writes its AOVs."""
+    """Data outputs of the camera rays (see :class:`wrt.image.Image` for their meaning)."""
     i = wp.tid()
     prim = hit_prim[i]
+    prim_out[i] = prim
+    cost[i] = hit_cost[i]
     if prim < 0:
-        radiance[i] = BACKGROUND
         depth[i] = wp.inf
+        z[i] = wp.inf
         normal[i] = wp.vec3(0.0)
-        albedo_out[i] = wp.vec3(0.0)
+        geometric_normal[i] = wp.vec3(0.0)
+        albedo[i] = wp.vec3(0.0)
+        instance[i] = -1
+        material[i] = -1
         return
     d = directions[i]
-    ng, ns, albedo = surface_at(scene, prim, hit_u[i], hit_v[i], d)
-    radiance[i] = albedo * AMBIENT
+    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], origins[i], d, hit_t[i])
+    s = eval_surface(mats, h.material, h.st, h.display)
     depth[i] = hit_t[i] * wp.length(d)
-    normal[i] = ns
-    albedo_out[i] = albedo
+    z[i] = wp.dot(h.p - eye, forward)
+    normal[i] = h.ns
+    geometric_normal[i] = h.ng
+    albedo[i] = s.base_color
+    instance[i] = 0
+    material[i] = h.material - 1
 
 
 @wp.kernel
-def accumulate_kernel(
+def accumulate_samples_kernel(
     radiance: wp.array[wp.vec3],
-    weight: float,
+    n_pixels: int,
+    samples: int,
     # outputs
     image: wp.array[wp.vec3],
+    dropped: wp.array[wp.int32],
 ):
-    """``image += weight * radiance``: averages pixel samples."""
+    """``image[p] += radiance`` of each sample of pixel ``p`` in sample order (so any split of the samples into
+    launches gives the same sums); non-finite samples are dropped and counted."""
+    p = wp.tid()
+    acc = image[p]
+    for s in range(samples):
+        v = radiance[s * n_pixels + p]
+        if wp.isfinite(v[0]) and wp.isfinite(v[1]) and wp.isfinite(v[2]):
+            acc = acc + v
+        else:
+            wp.atomic_add(dropped, 0, 1)
+    image[p] = acc
+
+
+@wp.kernel
+def scale_image_kernel(
+    image: wp.array[wp.vec3],
+    scale: float,
+    # outputs
+    out: wp.array[wp.vec3],
+):
+    """``out = scale * image``."""
     i = wp.tid()
-    image[i] = image[i] + weight * radiance[i]
+    out[i] = image[i] * scale
+
+
+@wp.func
+def diffuse_albedo_of(mats: DeviceMaterials, h: HitPoint):
+    """Albedo of the diffuse lobe at a hit (used by the whitted integrator's dome term)."""
+    s = eval_surface(mats, h.material, h.st, h.display)
+    return surface_albedo(s)

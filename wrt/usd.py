@@ -1,11 +1,12 @@
-"""Reads a USD stage into a :class:`wrt.scene.Scene`: world-space triangles, cameras and distant lights.
+"""Reads a USD stage into a :class:`wrt.scene.Scene`: world-space triangles, materials, cameras and lights.
 
 :func:`load_usd` walks the stage in pre-order (instance proxies included, so native instances are expanded),
 keeps every visible ``UsdGeom.Mesh`` whose purpose is ``default`` or ``render``, fan-triangulates its faces
-with :func:`triangulate`, bakes the world transform into the points, and carries shading normals and
-``displayColor`` per triangle corner. Bad topology raises :class:`wrt.errors.SceneError` naming the file and
-the prim; things that are skipped but a user might expect to see (other gprims, PointInstancers, other light
-types) produce one warning each.
+with :func:`triangulate`, bakes the world transform into the points, and carries shading normals,
+``displayColor``, texture coordinates and the bound material (:mod:`wrt.materials`) per triangle. UsdLux lights
+are read by :mod:`wrt.lights`. Bad topology raises :class:`wrt.errors.SceneError` naming the file and
+the prim; things that are skipped but a user might expect to see (other gprims, PointInstancers, unsupported
+lights or shaders) produce one warning each.
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute that has no default value but has
 time samples is read at its earliest sample instead, so meshes animated from frame 1 still load. Transforms
@@ -24,7 +25,9 @@ from pxr import Gf, Tf, Usd, UsdGeom, UsdLux
 
 from .camera import Camera
 from .errors import SceneError
-from .scene import DistantLight, Mesh, Scene
+from .lights import read_light
+from .materials import MaterialReader
+from .scene import Mesh, Scene
 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -71,7 +74,7 @@ def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
 
 
 def load_usd(path, *, time=None) -> Scene:
-    """Reads the meshes, cameras and distant lights of a USD stage.
+    """Reads the meshes, materials, cameras and lights of a USD stage.
 
     Args:
         path: a file USD can open (``.usd``, ``.usda``, ``.usdc``, ``.usdz``).
@@ -145,7 +148,7 @@ def _get(attr: Usd.Attribute, time: Usd.TimeCode):
 class _LocalMesh:
     """A mesh's data in its own space, before the world transform; shared by all instances of a prototype."""
 
-    def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided):
+    def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs=None):
         self.points = points  # (V, 3) float64, local space
         self.vertex_ids = vertex_ids  # (T, 3) int64 rows into points, winding as authored
         self.face_ids = face_ids  # (T,) int64 source face
@@ -153,6 +156,7 @@ class _LocalMesh:
         self.normals = normals  # (values (K, 3) float64 local, corner index (T, 3) into values) or None
         self.colors = colors  # (values (K, 3) float32, corner index (T, 3)) or None
         self.double_sided = double_sided
+        self.uvs = uvs  # (values (K, 2) float64, corner index (T, 3)) or None
 
 
 class _StageReader:
@@ -163,7 +167,8 @@ class _StageReader:
         self.source = source
         self.time = time
         self.xforms = UsdGeom.XformCache(time)
-        self.prototype_cache = {}  # prototype prim path -> _LocalMesh or None, for instance proxies
+        self.prototype_cache = {}  # (prototype prim path, uv set) -> _LocalMesh or None, for instance proxies
+        self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
 
     def read(self) -> Scene:
@@ -181,6 +186,8 @@ class _StageReader:
                 raise
             except (Tf.ErrorException, ValueError, TypeError) as e:
                 raise self._error(f"cannot read this prim ({_tf_message(e)})", prim) from e
+        scene.materials = self.materials.materials
+        scene.textures = self.materials.textures
         self._warn_skipped()
         return scene
 
@@ -202,12 +209,11 @@ class _StageReader:
                 self._skip("gprims other than Mesh are not supported yet; skipped", prim, prim.GetTypeName())
         elif prim.IsA(UsdGeom.Camera):
             scene.cameras[str(prim.GetPath())] = self._read_camera(prim)
-        elif prim.IsA(UsdLux.DistantLight):
+        elif prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
             if self._visible(prim):
-                scene.lights.append(self._read_distant_light(prim))
-        elif prim.HasAPI(UsdLux.LightAPI):
-            if self._visible(prim):
-                self._skip("lights other than DistantLight are not supported; skipped", prim, prim.GetTypeName())
+                light = read_light(prim, self.xforms, self.time, scene.up_axis, self._skip)
+                if light is not None:
+                    scene.lights.append(light)
 
     # Filters
 
@@ -220,13 +226,18 @@ class _StageReader:
     # Meshes
 
     def _read_mesh(self, prim: Usd.Prim) -> Mesh | None:
+        # Materials first: the texture-coordinate primvar to read depends on them.
+        counts = _get(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr(), self.time)
+        n_faces = len(counts) if counts is not None else 0
+        face_materials = self.materials.face_materials(prim, n_faces)
+        uv_set = self.materials.uv_set(face_materials)
         if prim.IsInstanceProxy():
-            key = prim.GetPrimInPrototype().GetPath()
+            key = (prim.GetPrimInPrototype().GetPath(), uv_set)
             if key not in self.prototype_cache:
-                self.prototype_cache[key] = self._read_local_mesh(prim)
+                self.prototype_cache[key] = self._read_local_mesh(prim, uv_set)
             local = self.prototype_cache[key]
         else:
-            local = self._read_local_mesh(prim)
+            local = self._read_local_mesh(prim, uv_set)
         if local is None:
             return None
 
@@ -265,6 +276,14 @@ class _StageReader:
             values, corner_index = local.colors
             colors = values[corner_index[:, order]]
 
+        uvs = None
+        if local.uvs is not None:
+            values, corner_index = local.uvs
+            uvs = values.astype(np.float32)[corner_index[:, order]]
+        material_ids = None
+        if face_materials is not None:
+            material_ids = face_materials[np.clip(local.face_ids, 0, max(n_faces - 1, 0))]
+
         return Mesh(
             path=str(prim.GetPath()),
             points=points,
@@ -273,9 +292,11 @@ class _StageReader:
             normals=normals,
             colors=colors,
             double_sided=local.double_sided,
+            uvs=uvs,
+            material_ids=material_ids,
         )
 
-    def _read_local_mesh(self, prim: Usd.Prim) -> _LocalMesh | None:
+    def _read_local_mesh(self, prim: Usd.Prim, uv_set: str | None = None) -> _LocalMesh | None:
         mesh = UsdGeom.Mesh(prim)
         t = self.time
         counts = _get(mesh.GetFaceVertexCountsAttr(), t)
@@ -314,9 +335,10 @@ class _StageReader:
         topology = (counts, face_indices, tri_corners, face_ids, len(points))
         normals = self._read_normals(prim, mesh, topology)
         colors = self._read_colors(prim, mesh, topology)
+        uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
         flip = _get(mesh.GetOrientationAttr(), t) == UsdGeom.Tokens.leftHanded
         double_sided = bool(_get(mesh.GetDoubleSidedAttr(), t))
-        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided)
+        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs)
 
     def _check_topology(self, prim, counts, face_indices, points):
         mesh = UsdGeom.Mesh(prim)
@@ -366,19 +388,34 @@ class _StageReader:
         values, corner_index = found
         return values.astype(np.float32), corner_index
 
-    def _read_primvar(self, prim, attr, interpolation, primvar, topology):
-        """Reads a 3-vector primvar and maps it to triangle corners.
+    def _read_uvs(self, prim, topology, uv_set: str):
+        """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (when missing:
+        the mesh's only 2-vector primvar, if it has exactly one), or None."""
+        api = UsdGeom.PrimvarsAPI(prim)
+        primvar = api.GetPrimvar(uv_set)
+        if not (primvar and primvar.HasValue()):
+            candidates = [
+                p for p in api.GetPrimvarsWithValues() if str(p.GetTypeName()).rstrip("[]") in ("texCoord2f", "float2")
+            ]
+            if len(candidates) != 1:
+                self._skip("meshes without the texture-coordinate primvar their material reads were left untextured", prim, uv_set)
+                return None
+            primvar = candidates[0]
+        return self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, components=2)
 
-        Returns ``(values (K, 3) float64, corner_index (T, 3) int64)`` so that ``values[corner_index]`` is the
-        per-corner data, or None (with a warning) when the value is not an array of 3-vectors.
+    def _read_primvar(self, prim, attr, interpolation, primvar, topology, components=3):
+        """Reads a primvar of ``components``-vectors and maps it to triangle corners.
+
+        Returns ``(values (K, components) float64, corner_index (T, 3) int64)`` so that ``values[corner_index]`` is
+        the per-corner data, or None (with a warning) when the value is not an array of such vectors.
         """
         counts, face_indices, tri_corners, face_ids, n_points = topology
         name = attr.GetName()
         raw = _get(attr, self.time)
-        values = np.asarray(raw) if raw is not None else np.zeros((0, 3))
-        if values.ndim != 2 or values.shape[1] != 3 or values.dtype.kind not in "fiu":
+        values = np.asarray(raw) if raw is not None else np.zeros((0, components))
+        if values.ndim != 2 or values.shape[1] != components or values.dtype.kind not in "fiu":
             self._skip(
-                f"{name} values that are not an array of 3-vectors were ignored",
+                f"{name} values that are not an array of {components}-vectors were ignored",
                 prim,
                 f"{attr.GetTypeName()} holding {type(raw).__name__}",
             )
@@ -453,28 +490,6 @@ class _StageReader:
             )
         except ValueError as e:
             raise self._error(f"invalid camera: {e}", prim) from None
-
-    def _read_distant_light(self, prim: Usd.Prim) -> DistantLight:
-        light = UsdLux.DistantLight(prim)
-        t = self.time
-        color = _get(light.GetColorAttr(), t)
-        color = np.array((1.0, 1.0, 1.0) if color is None else color, dtype=np.float64)
-        intensity = _get(light.GetIntensityAttr(), t)
-        exposure = _get(light.GetExposureAttr(), t)
-        intensity = 1.0 if intensity is None else float(intensity)
-        exposure = 0.0 if exposure is None else float(exposure)
-        if _get(light.GetEnableColorTemperatureAttr(), t):
-            kelvin = _get(light.GetColorTemperatureAttr(), t)
-            kelvin = 6500.0 if kelvin is None else kelvin
-            color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(float(kelvin)), dtype=np.float64)
-        color = color * intensity * 2.0**exposure
-        # The light travels along its local -Z axis (row-vector convention).
-        m = np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64)
-        direction = np.array([0.0, 0.0, -1.0]) @ m[:3, :3]
-        length = np.linalg.norm(direction)
-        if not (np.all(np.isfinite(color)) and np.isfinite(length) and length > 0.0):
-            raise self._error("distant light has a non-finite colour or a degenerate transform", prim)
-        return DistantLight(direction=direction / length, color=color.astype(np.float32), path=str(prim.GetPath()))
 
     # Errors and warnings
 

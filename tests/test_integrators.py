@@ -1,0 +1,264 @@
+"""Integrators: energy conservation (white furnace), the Cornell box against stored reference statistics, Whitted
+mirrors and glass, ambient occlusion, quick looks, depth of field, determinism across launches and devices."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import warp as wp
+from shading_helpers import quad, uv_sphere
+
+import wrt
+from wrt.lights import DomeLight
+from wrt.materials import Material
+
+DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+REFERENCE = Path(__file__).parent / "data" / "cornell_box_reference.json"
+
+
+def furnace_scene():
+    sphere = uv_sphere(radius=1.0, rings=24, segments=48)  # flat shaded: a convex polyhedron
+    sphere.colors = np.ones((len(sphere.indices), 3, 3), np.float32)  # albedo 1 (default Lambertian material)
+    return wrt.Scene(meshes=[sphere], lights=[DomeLight(color=np.ones(3, np.float32))])
+
+
+def test_white_furnace_converges_to_one():
+    scene = furnace_scene()
+    cam = wrt.Camera.look_at(eye=(0, 0, 4), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=35)
+    img = wrt.render(scene, camera=cam, width=32, height=32, spp=16, device="cpu", integrator="path")
+    hit = img.aovs["prim"] >= 0
+    assert hit.mean() > 0.3
+    assert abs(img.rgb[hit].mean() - 1.0) < 0.01  # every absorbed-free bounce returns all of the dome's light
+    np.testing.assert_allclose(img.rgb[~hit], 1.0, rtol=1e-6)  # the dome itself
+
+
+def cornell_wall_means(scene, img) -> dict:
+    """Mean linear RGB of the back, left and right walls (pixels whose camera ray hits that mesh)."""
+    offsets = np.cumsum([0] + [len(m.indices) for m in scene.meshes])
+    out = {}
+    for name in ("back_wall", "left_wall", "right_wall"):
+        k = next(i for i, m in enumerate(scene.meshes) if m.path.endswith("/" + name))
+        mask = (img.aovs["prim"] >= offsets[k]) & (img.aovs["prim"] < offsets[k + 1])
+        out[name] = img.rgb[mask].mean(axis=0).tolist()
+    return out
+
+
+def test_cornell_box_matches_the_reference_render(assets):
+    ref = json.loads(REFERENCE.read_text())
+    scene = wrt.load_usd(assets("cornell_box"))
+    settings = ref["settings"]
+    img = wrt.render(
+        scene,
+        width=settings["width"],
+        height=settings["height"],
+        spp=64,
+        seed=7,
+        device="cpu",
+        integrator="path",
+        max_depth=settings["max_depth"],
+    )
+    means = cornell_wall_means(scene, img)
+    for wall, expected in ref["wall_means"].items():
+        np.testing.assert_allclose(means[wall], expected, rtol=0.05, err_msg=wall)
+
+
+def mirror_scene():
+    mirror = Material(diffuse_color=1.0, metallic=1.0, roughness=0.0)
+    red = Material(diffuse_color=0.0, emissive_color=(1.0, 0.0, 0.0))
+    green = Material(diffuse_color=0.0, emissive_color=(0.0, 1.0, 0.0))
+    sphere = uv_sphere(radius=1.0, material=0, smooth=True)
+    behind_camera = quad((0, 0, 8), (40, 0, 0), (0, -40, 0), name="/red", material=1)  # faces -Z
+    floor = quad((0, -3, 0), (40, 0, 0), (0, 0, -40), name="/green", material=2)  # faces +Y
+    return wrt.Scene(meshes=[sphere, behind_camera, floor], materials=[mirror, red, green])
+
+
+def test_whitted_mirror_sphere_reflects_the_wall_behind_the_camera():
+    scene = mirror_scene()
+    cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=30)
+    img = wrt.render(scene, camera=cam, width=64, height=64, device="cpu", integrator="whitted")
+    sphere = img.aovs["prim"] < len(scene.meshes[0].indices)
+    sphere &= img.aovs["prim"] >= 0
+    rows, cols = np.nonzero(sphere)
+    cy, cx = rows.mean(), cols.mean()
+    radius = np.sqrt(sphere.sum() / np.pi)
+    yy, xx = np.mgrid[:64, :64]
+    centre = sphere & ((yy - cy) ** 2 + (xx - cx) ** 2 < (0.15 * radius) ** 2)  # reflects rays back past the camera
+    bottom = sphere & (yy > cy + 0.75 * radius)
+    assert centre.sum() >= 4 and bottom.sum() > 5
+    np.testing.assert_allclose(img.rgb[centre].mean(axis=0), [1.0, 0.0, 0.0], atol=0.02)  # F = 1 for a white metal
+    g = img.rgb[bottom].mean(axis=0)
+    assert g[1] > 0.8 and g[0] < 0.2  # the floor below shows in the sphere's lower rim
+
+
+def glass_scene(opacity=0.0):
+    glass = Material(diffuse_color=1.0, opacity=opacity, ior=1.5, roughness=0.0)
+    red = Material(diffuse_color=0.0, emissive_color=(1.0, 0.0, 0.0))
+    blue = Material(diffuse_color=0.0, emissive_color=(0.0, 0.0, 1.0))
+    sphere = uv_sphere(radius=1.0, material=0, smooth=True)
+    top = quad((0, 10, -6), (40, 0, 0), (0, 20, 0), name="/top", material=1)  # faces +Z, towards the camera
+    bottom = quad((0, -10, -6), (40, 0, 0), (0, 20, 0), name="/bottom", material=2)
+    return wrt.Scene(meshes=[sphere, top, bottom], materials=[glass, red, blue])
+
+
+def test_whitted_glass_sphere_inverts_the_image_behind_it():
+    scene = glass_scene()
+    cam = wrt.Camera.look_at(eye=(0, 0, 6), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=25)
+    img = wrt.render(scene, camera=cam, width=64, height=64, spp=16, device="cpu", integrator="whitted")
+    sphere = (img.aovs["prim"] >= 0) & (img.aovs["prim"] < len(scene.meshes[0].indices))
+    rows, cols = np.nonzero(sphere)
+    cy, cx, radius = rows.mean(), cols.mean(), np.sqrt(sphere.sum() / np.pi)
+    yy, xx = np.mgrid[:64, :64]
+    inner = sphere & ((yy - cy) ** 2 + (xx - cx) ** 2 < (0.6 * radius) ** 2)
+    upper, lower = inner & (yy < cy - 0.15 * radius), inner & (yy > cy + 0.15 * radius)
+    up, low = img.rgb[upper].mean(axis=0), img.rgb[lower].mean(axis=0)
+    assert up[2] > 0.7 and up[0] < 0.1  # the upper half of the ball shows the blue lower backdrop
+    assert low[0] > 0.7 and low[2] < 0.1  # and the lower half the red upper one
+    outside_top = ~sphere & (yy < cy - 1.2 * radius)
+    outside_bottom = ~sphere & (yy > cy + 1.2 * radius)
+    assert img.rgb[outside_top][:, 0].min() > 0.99 and img.rgb[outside_bottom][:, 2].min() > 0.99
+
+
+def test_path_tracer_agrees_with_whitted_on_direct_light():
+    """Two integrators, one answer: a diffuse plane under a delta distant light (no indirect light possible)."""
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (4, 0, 0), (0, 4, 0))])
+    scene.lights.append(wrt.DistantLight(direction=np.array([0.3, 0.0, -1.0]) / np.hypot(0.3, 1.0), color=np.full(3, 2.0)))
+    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), height=1.0)
+    a = wrt.render(scene, camera=cam, width=8, height=8, spp=4, device="cpu", integrator="path")
+    b = wrt.render(scene, camera=cam, width=8, height=8, device="cpu", integrator="whitted")
+    np.testing.assert_allclose(a.rgb, b.rgb, rtol=1e-5)
+    np.testing.assert_allclose(b.rgb, 0.5 * 2.0 / np.hypot(0.3, 1.0) / np.pi, rtol=1e-5)
+
+
+def test_ambient_occlusion():
+    floor = quad((0, 0, 0), (20, 0, 0), (0, 20, 0), name="/floor")
+    wall = quad((0, 0.05, 1), (20, 0, 0), (0, 0, 2), name="/wall")  # a wall standing on the floor along y = 0.05
+    scene = wrt.Scene(meshes=[floor, wall])
+    cam = wrt.Camera.orthographic(eye=(0, -1, 5), target=(0, -1, 0), up=(0, 1, 0), height=2.0)
+    img = wrt.render(scene, camera=cam, width=16, height=16, spp=64, device="cpu", integrator="ao", ao_radius=0.5)
+    v = img.rgb[..., 0]
+    np.testing.assert_allclose(img.rgb[..., 1], v)
+    assert v[:, :].min() >= 0.0 and v.max() <= 1.0
+    near_wall, far = v[0].mean(), v[-1].mean()  # image top is +y: next to the wall
+    assert far > 0.97 and near_wall < 0.8
+
+
+@pytest.mark.parametrize("integrator", ["normals", "depth", "albedo"])
+def test_quick_looks(integrator):
+    from wrt.cli import default_scene_path
+
+    scene = wrt.load_usd(default_scene_path())
+    img = wrt.render(scene, width=32, height=24, device="cpu", integrator=integrator)
+    hit = img.aovs["prim"] >= 0
+    assert img.rgb.shape == (24, 32, 3) and np.isfinite(img.rgb).all()
+    if integrator == "normals":
+        np.testing.assert_allclose(img.rgb[hit], 0.5 * (img.aovs["normal"][hit] + 1), rtol=1e-6)
+    elif integrator == "albedo":
+        np.testing.assert_allclose(img.rgb, img.aovs["albedo"])
+    else:
+        assert img.rgb.max() == pytest.approx(1.0) and (img.rgb[~hit] == 0).all()
+
+
+def test_splitting_samples_across_launches_gives_the_same_image():
+    scene = glass_scene(opacity=0.5)
+    scene.lights.append(DomeLight(color=np.full(3, 0.5, np.float32)))
+    cam = wrt.Camera.look_at(eye=(0, 0, 6), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=25)
+    renderer = wrt.Renderer(scene, camera=cam, width=16, height=16, device="cpu", integrator="path")
+    a = renderer.render(spp=6, seed=3, batch=6)
+    b = renderer.render(spp=6, seed=3, batch=4)
+    c = renderer.render(spp=6, seed=3, batch=1)
+    np.testing.assert_array_equal(a.rgb, b.rgb)
+    np.testing.assert_array_equal(a.rgb, c.rgb)
+    assert not np.array_equal(a.rgb, renderer.render(spp=6, seed=4).rgb)
+
+
+def test_depth_of_field_blurs_only_out_of_focus_objects():
+    # Two bright bars: one in the focus plane, one far behind it.
+    white = Material(diffuse_color=0.0, emissive_color=1.0)
+    near = quad((0, 0, 0), (0.2, 0, 0), (0, 2, 0), name="/near", material=0)
+    far = quad((5.0, 0, -8), (1.0, 0, 0), (0, 6, 0), name="/far", material=0)
+    scene = wrt.Scene(meshes=[near, far], materials=[white], meters_per_unit=0.01)  # 50 mm = 5 units
+    sharp = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30)
+    lens = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30, f_stop=2.0, focus_distance=5.0)
+    a = wrt.render(scene, camera=sharp, width=64, height=16, spp=64, device="cpu", integrator="path")
+    b = wrt.render(scene, camera=lens, width=64, height=16, spp=64, device="cpu", integrator="path")
+    row_a, row_b = a.rgb[8, :, 0], b.rgb[8, :, 0]
+    near_cols = slice(29, 35)
+    np.testing.assert_allclose(row_b[near_cols].sum(), row_a[near_cols].sum(), rtol=0.1)  # in focus: unchanged
+    far_a, far_b = row_a[35:], row_b[35:]
+    assert far_b.sum() == pytest.approx(far_a.sum(), rel=0.15)  # the far bar's light is spread, not lost
+    assert (far_b > 0.05).sum() > 2 * (far_a > 0.05).sum()  # over more columns
+    assert far_b.max() < 0.6 * far_a.max()
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_path_tracer_is_deterministic_and_device_independent(device):
+    scene = mirror_scene()
+    scene.lights.append(DomeLight(color=np.full(3, 0.3, np.float32)))
+    cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=30)
+    kwargs = dict(camera=cam, width=24, height=24, spp=4, seed=11, integrator="path")
+    a = wrt.render(scene, device=device, **kwargs)
+    b = wrt.render(scene, device=device, **kwargs)
+    np.testing.assert_array_equal(a.rgb, b.rgb)
+    if device != "cpu":
+        ref = wrt.render(scene, device="cpu", **kwargs)
+        close = np.isclose(a.rgb, ref.rgb, rtol=1e-3, atol=1e-4).all(axis=-1)
+        assert close.mean() > 0.99  # a path may only diverge where float rounding flips a decision
+        np.testing.assert_allclose(a.rgb.mean(), ref.rgb.mean(), rtol=1e-3)
+
+
+@pytest.mark.parametrize("accel", ["wrt", "warp"])
+def test_both_accelerators_serve_the_path_tracer(accel):
+    scene = furnace_scene()
+    cam = wrt.Camera.look_at(eye=(0, 0, 4), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=35)
+    img = wrt.render(scene, camera=cam, width=16, height=16, spp=4, device="cpu", integrator="path", accel=accel)
+    hit = img.aovs["prim"] >= 0
+    assert abs(img.rgb[hit].mean() - 1.0) < 0.02
+
+
+def test_bad_integrator_options():
+    scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    with pytest.raises(ValueError, match="valid integrators"):
+        wrt.render(scene, width=4, height=4, device="cpu", integrator="radiosity")
+    with pytest.raises(ValueError, match="max_depth"):
+        wrt.render(scene, width=4, height=4, device="cpu", integrator="path", max_depth=-1)
+    with pytest.raises(ValueError, match="ao_radius"):
+        wrt.render(scene, width=4, height=4, device="cpu", integrator="ao", ao_radius=0.0)
+    with pytest.raises(ValueError, match="batch"):
+        wrt.render(scene, width=4, height=4, device="cpu", batch=0)
+
+
+def bsdf_albedo(base, metallic, roughness, ior=1.5, n=400):
+    """Directional albedo at normal view of the model in wrt/bsdf.py, by midpoint quadrature over the hemisphere."""
+    theta = (np.arange(n) + 0.5) / n * (np.pi / 2)
+    phi = (np.arange(2 * n) + 0.5) / (2 * n) * (2 * np.pi)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    wi = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
+    wo = np.array([0.0, 0.0, 1.0])
+    h = wi + wo
+    h /= np.linalg.norm(h, axis=-1, keepdims=True)
+    cos_i, cos_h, cos_vh = wi[..., 2], h[..., 2], h @ wo
+    f0 = (1 - metallic) * ((1 - ior) / (1 + ior)) ** 2 + metallic * base
+    f90 = min(1.0, 50 * f0)
+    fresnel = f0 + (f90 - f0) * (1 - cos_vh) ** 5
+    a = max(roughness**2, 4e-4)
+    d = a * a / (np.pi * (cos_h**2 * (a * a - 1) + 1) ** 2)
+
+    def lam(c):
+        return 0.5 * (np.sqrt(1 + a * a * (1 - c * c) / (c * c)) - 1)
+
+    g = 1 / (1 + lam(1.0) + lam(cos_i))
+    f = (1 - fresnel) * base * (1 - metallic) / np.pi + fresnel * d * g / (4 * cos_i)
+    weights = np.sin(t) * (np.pi / 2 / n) * (2 * np.pi / (2 * n))
+    return float((f * cos_i * weights).sum())
+
+
+@pytest.mark.parametrize("base, metallic, roughness", [(1.0, 1.0, 0.5), (1.0, 1.0, 0.2), (0.6, 0.0, 0.3)])
+def test_rough_surfaces_under_a_constant_dome_match_their_albedo(base, metallic, roughness):
+    """Light sampling, GGX sampling and their MIS weights must add up to the BSDF's albedo (an unbiasedness check)."""
+    material = Material(diffuse_color=base, metallic=metallic, roughness=roughness)
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), material=0)
+    scene = wrt.Scene(meshes=[plane], materials=[material], lights=[DomeLight(color=np.ones(3, np.float32))])
+    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=16, height=16, spp=32, device="cpu", integrator="path", max_depth=1)
+    assert img.rgb.mean() == pytest.approx(bsdf_albedo(base, metallic, roughness), rel=0.015)

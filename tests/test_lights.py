@@ -1,0 +1,287 @@
+"""Lights: irradiance on a plane against closed-form values, UsdLux radiometry (intensity, exposure, colour,
+normalize) read from USD, and the default lights of a stage without any."""
+
+import math
+
+import numpy as np
+import pytest
+from pxr import Gf, Usd, UsdGeom, UsdLux
+from shading_helpers import pixel_points, quad, top_down_camera
+
+import wrt
+from wrt.lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
+
+ALBEDO = 0.5  # the default material's grey: radiance = ALBEDO * E / pi
+RES = 16  # pixels per side of the patch that is checked
+PATCH = 0.8  # side of the checked patch of the plane, scene units
+
+
+def render_plane(lights, spp=64, patch=PATCH, center=(0.0, 0.0, 0.0), seed=1):
+    """Radiance ``(H, W)`` of a large grey plane z = 0 lit only by ``lights`` (direct light only), and the world
+    point under each pixel."""
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")], lights=list(lights))
+    cam = top_down_camera(center, height=patch)
+    img = wrt.render(scene, camera=cam, width=RES, height=RES, spp=spp, seed=seed, device="cpu", integrator="path", max_depth=1)
+    assert (img.aovs["prim"] >= 0).all()
+    return img.rgb.mean(axis=-1), pixel_points(center, patch, RES, RES)
+
+
+def rect_corner_factor(a, b, c):
+    """View factor from a differential area to a parallel a x b rectangle at height c with one corner above it."""
+    A, B = a / c, b / c
+    sa, sb = np.sqrt(1 + A * A), np.sqrt(1 + B * B)
+    return (A / sa * np.arctan(B / sa) + B / sb * np.arctan(A / sb)) / (2 * np.pi)
+
+
+def rect_irradiance(points, half_w, half_h, height, radiance):
+    """Irradiance at ``points`` (inside the footprint) from a parallel rectangle centred above the origin."""
+    x, y = points[..., 0], points[..., 1]
+    total = 0.0
+    for a in (half_w - x, half_w + x):
+        for b in (half_h - y, half_h + y):
+            total = total + rect_corner_factor(a, b, height)
+    return np.pi * radiance * total
+
+
+def check(rendered, expected, tol=0.02, pixel_tol=0.25):
+    ratio = rendered.mean() / expected.mean()
+    assert abs(ratio - 1) < tol, f"mean radiance {rendered.mean():.5f} vs closed form {expected.mean():.5f}"
+    assert np.abs(rendered / expected - 1).max() < pixel_tol  # no pixel is far off
+
+
+def test_distant_light_illuminance_is_exact():
+    direction = np.array([0.3, 0.2, -1.0]) / np.linalg.norm([0.3, 0.2, -1.0])
+    light = wrt.DistantLight(direction=direction, color=np.full(3, 2.0))  # angle 0: color is E at normal incidence
+    rendered, _ = render_plane([light], spp=4)
+    np.testing.assert_allclose(rendered, ALBEDO * 2.0 * -direction[2] / np.pi, rtol=1e-4)
+
+
+def test_soft_normalized_distant_light_illuminance():
+    direction = np.array([0.0, 0.5, -1.0]) / np.linalg.norm([0.0, 0.5, -1.0])
+    light = wrt.DistantLight(direction=direction, color=np.full(3, 3.0), angle=20.0, normalize=True)
+    rendered, _ = render_plane([light])
+    # A uniform disc centred on the axis gives E = E_normal * cos(theta) exactly.
+    check(rendered, np.full_like(rendered, ALBEDO * 3.0 * -direction[2] / np.pi))
+
+
+def test_unnormalized_distant_light_radiance_times_disc():
+    light = wrt.DistantLight(direction=(0, 0, -1), color=np.full(3, 1000.0), angle=4.0)
+    expected_e = 1000.0 * np.pi * math.sin(math.radians(2.0)) ** 2
+    np.testing.assert_allclose(light.illuminance, expected_e, rtol=1e-6)
+    rendered, _ = render_plane([light])
+    check(rendered, np.full_like(rendered, ALBEDO * expected_e / np.pi))
+
+
+def test_sphere_light_irradiance():
+    radiance, radius, center = 4.0, 0.5, np.array([1.2, -0.3, 1.5])  # out of the camera's view
+    light = SphereLight(position=center, radius=radius, color=np.full(3, radiance))
+    rendered, points = render_plane([light])
+    to_light = center - points
+    d2 = (to_light**2).sum(-1)
+    cos = to_light[..., 2] / np.sqrt(d2)
+    expected = np.pi * radiance * radius**2 * cos / d2  # a Lambertian sphere above the horizon acts as a point
+    check(rendered, ALBEDO * expected / np.pi)
+
+
+def test_sphere_light_treated_as_point():
+    radius, center = 0.5, np.array([0.0, 0.0, 2.0])
+    light = SphereLight(position=center, radius=radius, color=np.full(3, 4.0), treat_as_point=True)
+    rendered, points = render_plane([light], spp=1)  # one sample: through the pixel centres
+    to_light = center - points
+    d2 = (to_light**2).sum(-1)
+    expected = np.pi * radius**2 * 4.0 * (to_light[..., 2] / np.sqrt(d2)) / d2
+    np.testing.assert_allclose(rendered, ALBEDO * expected / np.pi, rtol=1e-4)
+
+
+@pytest.mark.parametrize("normalize", [False, True])
+def test_rect_light_irradiance(normalize):
+    width, height, elevation, intensity = 2.0, 1.5, 1.0, 3.0
+    to_world = np.eye(4)
+    to_world[:3, 3] = (0, 0, elevation)  # local -Z (the emitting side) points down at the plane
+    light = RectLight(to_world=to_world, width=width, height=height, color=np.full(3, intensity), normalize=normalize)
+    radiance = intensity / (width * height) if normalize else intensity
+    np.testing.assert_allclose(light.radiance, radiance, rtol=1e-6)
+    rendered, points = render_plane([light])
+    check(rendered, ALBEDO * rect_irradiance(points, width / 2, height / 2, elevation, radiance) / np.pi)
+
+
+def test_rect_light_emits_from_its_minus_z_side_only():
+    down = np.eye(4)
+    down[:3, 3] = (1.5, 0, 1.0)  # beside the camera's view
+    up = down @ np.diag([1.0, 1.0, -1.0, 1.0])  # flipped: -Z points up, away from the plane
+    lit, _ = render_plane([RectLight(to_world=down, width=2.0, height=2.0, color=np.full(3, 3.0))], spp=8)
+    dark, _ = render_plane([RectLight(to_world=up, width=2.0, height=2.0, color=np.full(3, 3.0))], spp=8)
+    assert lit.min() > 0.05 and dark.max() == 0.0
+
+
+def numeric_irradiance(points, samples, normals, area, radiance):
+    """Irradiance at ``points`` from an emitter given by dense samples (positions, emitting normals, area each)."""
+    e = np.zeros(points.shape[:-1])
+    for q, n in zip(samples, normals):
+        to = q - points
+        d2 = (to**2).sum(-1)
+        cos_r = np.clip(to[..., 2] / np.sqrt(d2), 0, None)
+        cos_l = np.clip(-(to @ n) / np.sqrt(d2), 0, None)
+        e += radiance * cos_r * cos_l / d2 * area
+    return e
+
+
+def test_disk_light_irradiance():
+    radius, elevation, radiance = 0.8, 1.2, 2.0
+    to_world = np.eye(4)
+    to_world[:3, 3] = (0, 0, elevation)
+    light = DiskLight(to_world=to_world, radius=radius, color=np.full(3, radiance))
+    rendered, points = render_plane([light])
+    rng = np.random.default_rng(3)
+    r, phi = radius * np.sqrt(rng.random(20000)), 2 * np.pi * rng.random(20000)
+    samples = np.stack([r * np.cos(phi), r * np.sin(phi), np.full_like(r, elevation)], -1)
+    expected = numeric_irradiance(points, samples, np.tile([0, 0, -1.0], (len(r), 1)), np.pi * radius**2 / len(r), radiance)
+    check(rendered, ALBEDO * expected / np.pi, tol=0.03)
+
+
+def test_cylinder_light_irradiance():
+    length, radius, elevation, radiance = 3.0, 0.2, 1.0, 2.0
+    to_world = np.eye(4)
+    to_world[:3, 3] = (0, 0.8, elevation)  # beside the camera's view: lights are visible to camera rays
+    light = CylinderLight(to_world=to_world, length=length, radius=radius, color=np.full(3, radiance))
+    rendered, points = render_plane([light])
+    rng = np.random.default_rng(4)
+    x, phi = length * (rng.random(40000) - 0.5), 2 * np.pi * rng.random(40000)
+    normals = np.stack([np.zeros_like(x), np.cos(phi), np.sin(phi)], -1)
+    samples = np.stack([x, 0.8 + radius * np.cos(phi), elevation + radius * np.sin(phi)], -1)
+    area = 2 * np.pi * radius * length / len(x)
+    expected = numeric_irradiance(points, samples, normals, area, radiance)
+    check(rendered, ALBEDO * expected / np.pi, tol=0.03, pixel_tol=0.5)  # a long tube: noisier pixels
+
+
+def test_constant_dome_lights_an_open_plane():
+    rendered, _ = render_plane([DomeLight(color=np.full(3, 0.7))], spp=16)
+    np.testing.assert_allclose(rendered, ALBEDO * 0.7, rtol=1e-4)  # cosine sampling is exact here
+
+
+def write_stage(tmp_path, build) -> str:
+    path = str(tmp_path / "lights.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    build(stage)
+    stage.Save()
+    return path
+
+
+def test_usd_light_radiometry(tmp_path):
+    def build(stage):
+        rect = UsdLux.RectLight.Define(stage, "/Rect")
+        rect.CreateWidthAttr(2.0)
+        rect.CreateHeightAttr(0.5)
+        rect.CreateIntensityAttr(3.0)
+        rect.CreateExposureAttr(1.0)
+        rect.CreateColorAttr(Gf.Vec3f(1.0, 0.5, 0.25))
+        rect.CreateNormalizeAttr(True)
+        UsdGeom.XformCommonAPI(rect).SetScale(Gf.Vec3f(2.0, 1.0, 1.0))
+        sphere = UsdLux.SphereLight.Define(stage, "/Sphere")
+        sphere.CreateRadiusAttr(0.25)
+        sphere.CreateIntensityAttr(10.0)
+        UsdGeom.XformCommonAPI(sphere).SetTranslate(Gf.Vec3d(1, 2, 3))
+        sun = UsdLux.DistantLight.Define(stage, "/Sun")
+        sun.CreateIntensityAttr(5.0)
+        sun.CreateNormalizeAttr(True)
+        UsdLux.DiskLight.Define(stage, "/Disk").CreateRadiusAttr(0.1)
+        UsdLux.CylinderLight.Define(stage, "/Tube").CreateLengthAttr(2.0)
+        UsdLux.DomeLight.Define(stage, "/Dome").CreateIntensityAttr(0.5)
+
+    scene = wrt.load_usd(write_stage(tmp_path, build))
+    by_path = {light.path: light for light in scene.lights}
+    assert set(by_path) == {"/Rect", "/Sphere", "/Sun", "/Disk", "/Tube", "/Dome"}
+    rect = by_path["/Rect"]
+    assert rect.area == pytest.approx(2.0 * 2.0 * 0.5)  # the transform's scale counts
+    np.testing.assert_allclose(rect.radiance, np.array([1.0, 0.5, 0.25]) * 3.0 * 2.0 / 2.0, rtol=1e-6)
+    sphere = by_path["/Sphere"]
+    np.testing.assert_allclose(sphere.position, (1, 2, 3))
+    assert sphere.radius == pytest.approx(0.25) and not sphere.treat_as_point
+    np.testing.assert_allclose(by_path["/Sun"].illuminance, 5.0)
+    np.testing.assert_allclose(by_path["/Dome"].color, 0.5)
+
+
+def test_usd_rect_light_faces_its_minus_z_axis(tmp_path):
+    def build(stage):
+        plane = UsdGeom.Mesh.Define(stage, "/Plane")
+        plane.CreatePointsAttr([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)])
+        plane.CreateFaceVertexCountsAttr([4])
+        plane.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        rect = UsdLux.RectLight.Define(stage, "/Rect")
+        rect.CreateIntensityAttr(2.0)
+        rect.CreateWidthAttr(4.0)
+        rect.CreateHeightAttr(4.0)
+        UsdGeom.XformCommonAPI(rect).SetTranslate(Gf.Vec3d(0, 0, 1))
+
+    scene = wrt.load_usd(write_stage(tmp_path, build))
+    img = wrt.render(scene, camera=top_down_camera(height=0.4), width=8, height=8, spp=32, device="cpu", integrator="path", max_depth=1)
+    expected = ALBEDO * rect_irradiance(pixel_points((0, 0, 0), 0.4, 8, 8), 2.0, 2.0, 1.0, 2.0) / np.pi
+    check(img.rgb.mean(axis=-1), expected)
+
+
+def test_stage_without_lights_gets_headlight_and_dome():
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (4, 0, 0), (0, 4, 0))])
+    img = wrt.render(scene, camera=top_down_camera(height=1.0), width=8, height=8, device="cpu")
+    # Headlight along the view (E = 0.8 pi, normal incidence) plus the dome term of whitted: 0.5 * (0.8 + 0.2).
+    np.testing.assert_allclose(img.rgb, ALBEDO * 1.0, rtol=1e-5)
+
+
+def test_emissive_mesh_irradiance_matches_the_rect_light():
+    from wrt.materials import Material
+
+    width, height, elevation, radiance = 2.0, 1.5, 1.0, 3.0
+    # An emissive quad facing down (front = -Z), beside nothing else: it is a light like the RectLight above.
+    emitter = quad((0, 0, elevation), (0, height, 0), (width, 0, 0), name="/emitter", material=0, double_sided=False)
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")
+    scene = wrt.Scene(meshes=[plane, emitter], materials=[Material(diffuse_color=0, emissive_color=radiance)])
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 0), up=(0, 1, 0), height=PATCH)  # below the emitter
+    img = wrt.render(scene, camera=cam, width=RES, height=RES, spp=64, device="cpu", integrator="path", max_depth=1)
+    points = pixel_points((0, 0, 0), PATCH, RES, RES)
+    check(img.rgb.mean(axis=-1), ALBEDO * rect_irradiance(points, width / 2, height / 2, elevation, radiance) / np.pi)
+
+
+def dome_lit_plane(texture, facing_z, spp=64, to_world=None):
+    """Radiance of a grey plane through the origin whose front faces ``facing_z`` (+1 or -1 along Z) or +Y
+    (``facing_z = 0``), lit only by a textured dome; the camera looks at the plane's front."""
+    if facing_z == 0:
+        plane = quad((0, 0, 0), (40, 0, 0), (0, 0, -40), name="/plane")  # front +Y
+        cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    else:
+        plane = quad((0, 0, 0), (40, 0, 0), (0, 40 * facing_z, 0), name="/plane")
+        cam = wrt.Camera.orthographic(eye=(0, 0, 3 * facing_z), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
+    plane.double_sided = False
+    dome = DomeLight(color=np.ones(3, np.float32), texture=texture, to_world=np.eye(4) if to_world is None else to_world)
+    scene = wrt.Scene(meshes=[plane], lights=[dome])
+    img = wrt.render(scene, camera=cam, width=4, height=4, spp=spp, device="cpu", integrator="path", max_depth=1)
+    return img.rgb.mean()
+
+
+def latlong(height=32, fn=None):
+    """A (H, 2H, 4) lat-long texture with value ``fn(direction)`` per texel (OpenEXR convention, +Y pole)."""
+    v = (np.arange(height) + 0.5) / height
+    u = (np.arange(2 * height) + 0.5) / (2 * height)
+    lat = np.pi * (0.5 - v)[:, None]
+    lon = np.pi * (1 - 2 * u)[None, :]
+    d = np.stack(np.broadcast_arrays(np.cos(lat) * np.sin(lon), np.sin(lat), np.cos(lat) * np.cos(lon)), -1)
+    tex = np.ones((height, 2 * height, 4), np.float32)
+    tex[..., :3] = fn(d)[..., None]
+    return tex
+
+
+def test_textured_dome_sky_lights_the_upper_hemisphere():
+    sky = latlong(fn=lambda d: (d[..., 1] > 0).astype(np.float32))  # 1 above the horizon (+Y), 0 below
+    up = dome_lit_plane(sky, facing_z=0)
+    assert up == pytest.approx(ALBEDO * 1.0, rel=0.02)  # an upward plane sees the whole sky: E = pi
+    side = dome_lit_plane(sky, facing_z=1)
+    assert side == pytest.approx(ALBEDO * 0.5, rel=0.04)  # a vertical plane sees half of it
+
+
+def test_textured_dome_orientation_follows_openexr_latlong():
+    front = latlong(fn=lambda d: (d[..., 2] > 0.5).astype(np.float32))  # a bright cap around +Z (longitude 0)
+    facing = dome_lit_plane(front, facing_z=1)
+    away = dome_lit_plane(front, facing_z=-1)
+    assert facing > 0.1 and away == 0.0
+    turned = np.eye(4)
+    turned[:3, :3] = [[-1, 0, 0], [0, 1, 0], [0, 0, -1]]  # the dome turned 180 degrees about +Y
+    assert dome_lit_plane(front, facing_z=-1, to_world=turned) == pytest.approx(facing, rel=0.05)

@@ -1,0 +1,322 @@
+"""Materials from USD: UsdPreviewSurface inputs, binding rules (subsets, collections, purpose), fallbacks for other
+shaders, UsdUVTexture lookups (colour spaces, wrap modes, UsdTransform2d), cut-outs and doubleSided culling."""
+
+import warnings
+
+import numpy as np
+import pytest
+from PIL import Image as PilImage
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+
+import wrt
+from wrt.textures import srgb_to_linear
+
+
+def new_stage(tmp_path, name="m.usda"):
+    path = str(tmp_path / name)
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    return stage, path
+
+
+def add_quad(stage, path, center=(0, 0, 0), size=2.0, st_range=1.0, faces=1, double_sided=None):
+    """A square in the z = c plane facing +Z, split into ``faces`` vertical strips, with ``st`` over [0, st_range]."""
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    xs = np.linspace(-size / 2, size / 2, faces + 1)
+    pts, st = [], []
+    for y in (-size / 2, size / 2):
+        for x in xs:
+            pts.append(Gf.Vec3f(center[0] + x, center[1] + y, center[2]))
+            st.append(Gf.Vec2f((x / size + 0.5) * st_range, (y / size + 0.5) * st_range))
+    n = faces + 1
+    counts, indices = [], []
+    for f in range(faces):
+        counts.append(4)
+        indices += [f, f + 1, n + f + 1, n + f]
+    mesh.CreatePointsAttr(Vt.Vec3fArray(pts))
+    mesh.CreateFaceVertexCountsAttr(counts)
+    mesh.CreateFaceVertexIndicesAttr(indices)
+    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(st)
+    if double_sided is not None:
+        mesh.CreateDoubleSidedAttr(double_sided)
+    return mesh
+
+
+def preview_material(stage, path, **inputs):
+    """A Material with a UsdPreviewSurface; ``inputs`` are constant values (name -> value)."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    types = {
+        "diffuseColor": Sdf.ValueTypeNames.Color3f,
+        "emissiveColor": Sdf.ValueTypeNames.Color3f,
+        "specularColor": Sdf.ValueTypeNames.Color3f,
+        "useSpecularWorkflow": Sdf.ValueTypeNames.Int,
+    }
+    for name, value in inputs.items():
+        shader.CreateInput(name, types.get(name, Sdf.ValueTypeNames.Float)).Set(value)
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material, shader
+
+
+def bind(prim, material, purpose=None):
+    api = UsdShade.MaterialBindingAPI.Apply(prim.GetPrim() if hasattr(prim, "GetPrim") else prim)
+    if purpose:
+        api.Bind(material, UsdShade.Tokens.weakerThanDescendants, purpose)
+    else:
+        api.Bind(material)
+
+
+def test_preview_surface_inputs(tmp_path):
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material, _ = preview_material(
+        stage,
+        "/Looks/Gold",
+        diffuseColor=Gf.Vec3f(1.0, 0.8, 0.3),
+        emissiveColor=Gf.Vec3f(0.1, 0.2, 0.3),
+        metallic=0.9,
+        roughness=0.25,
+        opacity=0.5,
+        ior=1.33,
+        clearcoat=0.7,
+        clearcoatRoughness=0.2,
+        opacityThreshold=0.0,
+        useSpecularWorkflow=1,
+        specularColor=Gf.Vec3f(0.5, 0.5, 0.5),
+    )
+    bind(quad, material)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    (mat,) = scene.materials
+    assert mat.path == "/Looks/Gold"
+    np.testing.assert_allclose(mat.diffuse_color, (1.0, 0.8, 0.3))
+    np.testing.assert_allclose(mat.emissive_color, (0.1, 0.2, 0.3))
+    np.testing.assert_allclose(mat.specular_color, 0.5)
+    assert mat.use_specular_workflow and mat.metallic == pytest.approx(0.9) and mat.roughness == pytest.approx(0.25)
+    assert mat.opacity == pytest.approx(0.5) and mat.ior == pytest.approx(1.33)
+    assert mat.clearcoat == pytest.approx(0.7) and mat.clearcoat_roughness == pytest.approx(0.2)
+    assert (scene.meshes[0].material_ids == 0).all()
+
+
+def test_material_interface_inputs_are_followed(tmp_path):
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material, shader = preview_material(stage, "/Looks/M")
+    exposed = material.CreateInput("tint", Sdf.ValueTypeNames.Color3f)
+    exposed.Set(Gf.Vec3f(0.2, 0.4, 0.6))
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(exposed)
+    bind(quad, material)
+    stage.Save()
+    np.testing.assert_allclose(wrt.load_usd(path).materials[0].diffuse_color, (0.2, 0.4, 0.6), rtol=1e-6)
+
+
+def test_geom_subset_bindings_override_the_mesh(tmp_path):
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad", faces=3)
+    red, _ = preview_material(stage, "/Looks/Red", diffuseColor=Gf.Vec3f(1, 0, 0))
+    blue, _ = preview_material(stage, "/Looks/Blue", diffuseColor=Gf.Vec3f(0, 0, 1))
+    bind(quad, red)
+    subset = UsdShade.MaterialBindingAPI(quad.GetPrim()).CreateMaterialBindSubset("right", Vt.IntArray([2]))
+    bind(subset, blue)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    names = [scene.materials[k].path for k in scene.meshes[0].material_ids]
+    assert names == ["/Looks/Red"] * 4 + ["/Looks/Blue"] * 2  # two triangles per quad face
+
+
+def test_full_purpose_and_collection_bindings(tmp_path):
+    stage, path = new_stage(tmp_path)
+    group = UsdGeom.Xform.Define(stage, "/Group")
+    a = add_quad(stage, "/Group/A")
+    b = add_quad(stage, "/Group/B", center=(3, 0, 0))
+    preview, _ = preview_material(stage, "/Looks/Preview", diffuseColor=Gf.Vec3f(0.1, 0.1, 0.1))
+    full, _ = preview_material(stage, "/Looks/Full", diffuseColor=Gf.Vec3f(0.9, 0.9, 0.9))
+    via_collection, _ = preview_material(stage, "/Looks/Coll", diffuseColor=Gf.Vec3f(0, 1, 0))
+    bind(a, preview, UsdShade.Tokens.preview)
+    bind(a, full, UsdShade.Tokens.full)
+    # B gets its material through a collection binding authored on the group.
+    collection = Usd.CollectionAPI.Apply(group.GetPrim(), "greens")
+    collection.CreateIncludesRel().AddTarget(b.GetPath())
+    UsdShade.MaterialBindingAPI.Apply(group.GetPrim()).Bind(collection, via_collection)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    by_mesh = {m.path: scene.materials[m.material_ids[0]].path for m in scene.meshes}
+    assert by_mesh == {"/Group/A": "/Looks/Full", "/Group/B": "/Looks/Coll"}
+
+
+def test_unsupported_shaders_fall_back_with_one_warning_per_material(tmp_path):
+    stage, path = new_stage(tmp_path)
+    for k, shader_id in enumerate(["ND_standard_surface_surfaceshader", "ND_open_pbr_surface_surfaceshader"]):
+        quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
+        quad.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0.2, 0.7, 0.1)])
+        material = UsdShade.Material.Define(stage, f"/Looks/X{k}")
+        shader = UsdShade.Shader.Define(stage, f"/Looks/X{k}/Surface")
+        shader.CreateIdAttr(shader_id)
+        material.CreateSurfaceOutput("mtlx").ConnectToSource(shader.ConnectableAPI(), "out")
+        bind(quad, material)
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    messages = [str(w.message) for w in caught]
+    assert sum("/Looks/X0" in m for m in messages) == 1 and sum("/Looks/X1" in m for m in messages) == 1
+    assert scene.materials == [] and all((m.material_ids == -1).all() for m in scene.meshes)  # -1: default material
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu")
+    np.testing.assert_allclose(img.aovs["albedo"], np.broadcast_to([0.2, 0.7, 0.1], (4, 4, 3)), rtol=1e-6)
+
+
+def write_png(path, pixels):
+    PilImage.fromarray(np.asarray(pixels, np.uint8)).save(path)
+    return str(path)
+
+
+def textured_stage(tmp_path, png, st_range=1.0, wrap=None, color_space=None, transform=None, channel="rgb", input_name="diffuseColor"):
+    stage, path = new_stage(tmp_path, f"textured{len(list(tmp_path.glob('*.usda')))}.usda")
+    quad = add_quad(stage, "/Quad", st_range=st_range)
+    material, shader = preview_material(stage, "/Looks/Tex")
+    reader = UsdShade.Shader.Define(stage, "/Looks/Tex/St")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    st_source = reader.ConnectableAPI(), "result"
+    if transform is not None:
+        xf = UsdShade.Shader.Define(stage, "/Looks/Tex/Xf")
+        xf.CreateIdAttr("UsdTransform2d")
+        xf.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source)
+        for key, value in transform.items():
+            xf.CreateInput(key, Sdf.ValueTypeNames.Float if key == "rotation" else Sdf.ValueTypeNames.Float2).Set(value)
+        st_source = xf.ConnectableAPI(), "result"
+    tex = UsdShade.Shader.Define(stage, "/Looks/Tex/Image")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source)
+    if wrap:
+        tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set(wrap)
+        tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set(wrap)
+    if color_space:
+        tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(color_space)
+    out_type = Sdf.ValueTypeNames.Float3 if channel == "rgb" else Sdf.ValueTypeNames.Float
+    tex.CreateOutput(channel, out_type)
+    in_type = Sdf.ValueTypeNames.Color3f if input_name.endswith("Color") else Sdf.ValueTypeNames.Float
+    shader.CreateInput(input_name, in_type).ConnectToSource(tex.ConnectableAPI(), channel)
+    bind(quad, material)
+    stage.Save()
+    return path
+
+
+def albedo(path, res=4):
+    scene = wrt.load_usd(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    return wrt.render(scene, camera=cam, width=res, height=res, device="cpu", integrator="albedo").rgb
+
+
+# 2x2 blocks of 4x4 texels (rows from the top), so bilinear lookups at pixel centres never mix two blocks.
+CHECKER = np.repeat(np.repeat(np.array([[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [128, 128, 128]]]), 4, 0), 4, 1)
+
+
+def test_texture_lookup_and_srgb_decoding(tmp_path):
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    img = albedo(textured_stage(tmp_path, png))  # 4x4 pixels: 2x2 per texel, st (0,0) at the bottom-left
+    grey = float(srgb_to_linear(np.float32(128 / 255)))
+    np.testing.assert_allclose(img[0, 0], (1, 0, 0), atol=1e-3)  # top-left texel
+    np.testing.assert_allclose(img[0, 3], (0, 1, 0), atol=1e-3)
+    np.testing.assert_allclose(img[3, 0], (0, 0, 1), atol=1e-3)
+    np.testing.assert_allclose(img[3, 3], (grey, grey, grey), atol=2e-3)
+    raw = albedo(textured_stage(tmp_path, png, color_space="raw"))
+    np.testing.assert_allclose(raw[3, 3], 128 / 255, atol=2e-3)
+
+
+@pytest.mark.parametrize(
+    "wrap, expected_right_half",
+    [
+        ("repeat", "same"),  # st in [1, 2] repeats the image
+        ("mirror", "mirrored"),
+        ("clamp", "edge"),
+        ("black", "black"),
+    ],
+)
+def test_wrap_modes(tmp_path, wrap, expected_right_half):
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    img = albedo(textured_stage(tmp_path, png, st_range=2.0, wrap=wrap, color_space="raw"), res=8)
+    left = img[6:8, 0:2]  # st in [0, 0.5]^2: the bottom-left texel (blue)
+    np.testing.assert_allclose(left, np.broadcast_to([0, 0, 1], left.shape), atol=1e-3)
+    right = img[6:8, 6:8].mean(axis=(0, 1))  # st around (1.75, 0.25)
+    expected = {
+        "same": [128 / 255] * 3,  # texel (1, 0) of the image: grey
+        "mirrored": [0, 0, 1],  # mirrored back onto texel (0, 0): blue
+        "edge": [128 / 255] * 3,  # the right edge column, bottom row: grey
+        "black": [0, 0, 0],
+    }[expected_right_half]
+    np.testing.assert_allclose(right, expected, atol=2e-3)
+
+
+def test_transform2d_scales_and_translates_st(tmp_path):
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    # st -> st * 0.5 + (0.5, 0): the quad shows only the right half of the image (green over grey).
+    path = textured_stage(tmp_path, png, transform={"scale": (0.5, 1.0), "translation": (0.5, 0.0)}, color_space="raw")
+    img = albedo(path)
+    np.testing.assert_allclose(img[0, 1], (0, 1, 0), atol=1e-3)
+    np.testing.assert_allclose(img[3, 1], [128 / 255] * 3, atol=2e-3)
+
+
+def test_single_channel_texture_drives_a_float_input(tmp_path):
+    png = write_png(tmp_path / "rough.png", [[[51, 0, 0], [51, 0, 0]], [[51, 0, 0], [51, 0, 0]]])
+    scene = wrt.load_usd(textured_stage(tmp_path, png, channel="r", input_name="roughness", color_space="raw"))
+    tex = scene.materials[0].textures["roughness"]
+    assert tex.channel == "r" and scene.textures[tex.image].shape == (2, 2, 4)
+    np.testing.assert_allclose(scene.textures[tex.image][..., 0], 0.2, atol=1e-6)
+
+
+def test_missing_texture_uses_the_fallback_with_a_warning(tmp_path):
+    path = textured_stage(tmp_path, str(tmp_path / "nope.png"))
+    with pytest.warns(UserWarning, match="nope.png"):
+        scene = wrt.load_usd(path)
+    assert scene.materials[0].textures == {}
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
+
+
+def test_single_sided_back_faces_are_culled_for_camera_rays(tmp_path):
+    stage, path = new_stage(tmp_path)
+    add_quad(stage, "/Front", center=(-1.5, 0, 0), size=2.0)  # faces +Z, towards the camera
+    back = add_quad(stage, "/Back", center=(1.5, 0, 0), size=2.0)
+    back.CreateOrientationAttr(UsdGeom.Tokens.leftHanded)  # faces -Z, away from the camera
+    both = add_quad(stage, "/Both", center=(1.5, 0, -1), size=2.0, double_sided=True)
+    both.CreateOrientationAttr(UsdGeom.Tokens.leftHanded)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    img = wrt.render(scene, camera=cam, width=32, height=8, device="cpu")
+    offsets = np.cumsum([0] + [len(m.indices) for m in scene.meshes])
+    mesh_of = np.searchsorted(offsets, img.aovs["prim"], side="right") - 1
+    assert (mesh_of[:, 7:13] == 0).all()  # the front-facing quad
+    assert (mesh_of[:, 19:25] == 2).all()  # through the culled back face onto the double-sided quad behind
+    assert (img.aovs["cost"][:, 19:25, 1] >= 2).all()  # the retrace counts in the traversal cost
+
+
+def test_opacity_threshold_cuts_holes(tmp_path):
+    stage, path = new_stage(tmp_path)
+    front = add_quad(stage, "/Cutout", center=(0, 0, 1), size=2.0)
+    add_quad(stage, "/Behind", center=(0, 0, 0), size=2.0)
+    hole, _ = preview_material(stage, "/Looks/Hole", opacity=0.2, opacityThreshold=0.5, diffuseColor=Gf.Vec3f(1, 0, 0))
+    bind(front, hole)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    for integrator in ("whitted", "path"):
+        img = wrt.render(scene, camera=cam, width=4, height=4, spp=2, device="cpu", integrator=integrator)
+        assert img.rgb.min() > 0.05  # lit by the default dome (cut-outs still block shadow rays)
+        np.testing.assert_allclose(img.rgb[..., 0], img.rgb[..., 1], atol=1e-6)  # the grey quad behind, not red
+
+
+def test_emissive_material_lights_the_scene(tmp_path):
+    stage, path = new_stage(tmp_path)
+    glow = add_quad(stage, "/Glow")
+    material, _ = preview_material(stage, "/Looks/Glow", emissiveColor=Gf.Vec3f(2, 1, 0.5), diffuseColor=Gf.Vec3f(0, 0, 0))
+    bind(glow, material)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    renderer = wrt.Renderer(scene, camera=cam, width=4, height=4, device="cpu")
+    assert renderer.lights == []  # an emissive surface is a light source: no default lights are added
+    np.testing.assert_allclose(renderer.render().rgb, np.broadcast_to([2, 1, 0.5], (4, 4, 3)), rtol=1e-6)

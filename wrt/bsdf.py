@@ -1,0 +1,337 @@
+"""The UsdPreviewSurface BSDF: Lambert diffuse under a GGX microfacet specular lobe, a clearcoat and a smooth
+dielectric for ``opacity < 1``; evaluation, importance sampling and pdfs for the integrators.
+
+Model (an approximation of the UsdPreviewSurface specification, stated once):
+
+- Metallic workflow: ``F0 = mix(((1 - ior) / (1 + ior))^2, diffuseColor, metallic)``, diffuse albedo
+  ``diffuseColor * (1 - metallic)``. Specular workflow (``useSpecularWorkflow = 1``): ``F0 = specularColor``,
+  diffuse albedo ``diffuseColor``.
+- ``f = (1 - F) * (1 - clearcoat * Fc) * albedo / pi + (1 - clearcoat * Fc) * D G F / (4 cos_o cos_i)
+  + clearcoat * Dc Gc Fc / (4 cos_o cos_i)`` with Schlick's Fresnel ``F`` at the half vector, the GGX (Trowbridge-
+  Reitz) distribution ``D`` with ``alpha = roughness^2`` and the height-correlated Smith term ``G`` (Heitz 2014);
+  the grazing reflectance of Schlick's ``F`` is ``min(1, 50 max(F0))``.
+  The clearcoat lobe has ``F0 = 0.04`` and ``alpha = clearcoatRoughness^2``. With ``F0 = 0`` the BSDF is exactly
+  Lambertian: a surface of albedo ``rho`` under illuminance ``E`` shows ``rho * E / pi``.
+- Lobes with ``roughness < DELTA_ROUGHNESS`` are perfect mirrors (delta distributions): they are sampled, never
+  evaluated, and carry no MIS weight.
+- ``opacity < 1`` (with ``opacityThreshold = 0``): a fraction ``1 - opacity`` of the light meets a smooth
+  dielectric interface of index ``ior`` (Snell refraction, exact Fresnel reflectance), the rest meets the opaque
+  BSDF above. ``opacityThreshold > 0`` is a cut-out instead, handled by the integrators.
+
+Sampling draws one lobe with probability proportional to its estimated albedo and samples GGX through its
+distribution of visible normals (Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 2018); the pdf of
+a direction is the mixture over all non-delta lobes, so one-sample MIS between lobes is implicit.
+Directions ``wo`` (towards the viewer) and ``wi`` (towards the light) point away from the surface.
+"""
+
+import warp as wp
+
+from .sampling import INV_PI, PI, luminance, sample_cosine_hemisphere, to_local, to_world
+
+DELTA_ROUGHNESS = wp.constant(0.02)  # below this roughness a lobe is a perfect mirror
+MIN_ALPHA = wp.constant(4.0e-4)  # smallest GGX alpha evaluated (= DELTA_ROUGHNESS^2)
+CLEARCOAT_F0 = wp.constant(0.04)  # reflectance of the clearcoat layer at normal incidence (ior 1.5)
+
+
+@wp.struct
+class Surface:
+    """The UsdPreviewSurface inputs evaluated at one hit (textures already looked up)."""
+
+    base_color: wp.vec3  # diffuseColor, linear RGB
+    emission: wp.vec3  # emissiveColor: emitted radiance, linear RGB
+    specular_color: wp.vec3  # specularColor: F0 of the specular workflow
+    metallic: float  # 0 dielectric .. 1 metal (metallic workflow)
+    roughness: float  # perceptual roughness in [0, 1]; GGX alpha = roughness^2
+    opacity: float  # 1 opaque; below 1 a smooth dielectric lets 1 - opacity through
+    ior: float  # index of refraction of the dielectric interface
+    clearcoat: float  # clearcoat weight in [0, 1]
+    clearcoat_roughness: float  # roughness of the clearcoat lobe
+    opacity_threshold: float  # > 0: cut-out mode (opacity < threshold is a hole)
+    specular_workflow: int  # 1: F0 = specularColor; 0: metallic workflow
+
+
+@wp.func
+def fresnel_schlick(f0: wp.vec3, cos_theta: float):
+    """Schlick's approximation of the Fresnel reflectance for reflectance ``f0`` at normal incidence. The grazing
+    reflectance is ``f90 = min(1, 50 max(f0))`` (as in Filament), so ``f0 = 0`` means no specular reflection."""
+    m = wp.clamp(1.0 - cos_theta, 0.0, 1.0)
+    m5 = m * m * m * m * m
+    f90 = wp.min(1.0, 50.0 * wp.max(f0[0], wp.max(f0[1], f0[2])))
+    return f0 + (wp.vec3(f90) - f0) * m5
+
+
+@wp.func
+def fresnel_schlick_scalar(f0: float, cos_theta: float):
+    """Scalar :func:`fresnel_schlick`."""
+    m = wp.clamp(1.0 - cos_theta, 0.0, 1.0)
+    f90 = wp.min(1.0, 50.0 * f0)
+    return f0 + (f90 - f0) * m * m * m * m * m
+
+
+@wp.func
+def fresnel_dielectric(cos_i: float, eta: float):
+    """Exact unpolarised Fresnel reflectance of a smooth dielectric interface; ``eta = n_t / n_i``, ``cos_i > 0``
+    on the incident side. Returns 1 for total internal reflection."""
+    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+    if sin2_t >= 1.0:
+        return 1.0
+    cos_t = wp.sqrt(1.0 - sin2_t)
+    r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    return 0.5 * (r_parl * r_parl + r_perp * r_perp)
+
+
+@wp.func
+def reflect(wo: wp.vec3, n: wp.vec3):
+    """Mirror direction of ``wo`` about ``n`` (both pointing away from the surface)."""
+    return 2.0 * wp.dot(wo, n) * n - wo
+
+
+@wp.func
+def refract(wo: wp.vec3, n: wp.vec3, eta: float):
+    """Snell refraction of ``wo`` (on the side of ``n``) through the interface, ``eta = n_t / n_i``; the result
+    points away from the surface on the other side. Zero for total internal reflection."""
+    cos_i = wp.dot(n, wo)
+    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+    if sin2_t >= 1.0:
+        return wp.vec3(0.0)
+    cos_t = wp.sqrt(1.0 - sin2_t)
+    return -wo / eta + (cos_i / eta - cos_t) * n
+
+
+@wp.func
+def ggx_d(cos_h: float, alpha: float):
+    """GGX normal distribution ``D(h)`` for ``cos_h = n . h``."""
+    if cos_h <= 0.0:
+        return 0.0
+    a2 = alpha * alpha
+    t = cos_h * cos_h * (a2 - 1.0) + 1.0
+    return a2 / (PI * t * t)
+
+
+@wp.func
+def ggx_lambda(cos_t: float, alpha: float):
+    """Smith's ``Lambda`` for GGX at a direction with ``cos_t = n . w``."""
+    c2 = wp.max(cos_t * cos_t, 1.0e-12)
+    tan2 = wp.max(1.0 - c2, 0.0) / c2
+    return 0.5 * (wp.sqrt(1.0 + alpha * alpha * tan2) - 1.0)
+
+
+@wp.func
+def ggx_g1(cos_t: float, alpha: float):
+    """Smith masking of one direction."""
+    return 1.0 / (1.0 + ggx_lambda(cos_t, alpha))
+
+
+@wp.func
+def ggx_g2(cos_o: float, cos_i: float, alpha: float):
+    """Height-correlated Smith masking-shadowing (Heitz 2014)."""
+    return 1.0 / (1.0 + ggx_lambda(cos_o, alpha) + ggx_lambda(cos_i, alpha))
+
+
+@wp.func
+def ggx_alpha(roughness: float):
+    """GGX alpha of a perceptual roughness."""
+    return wp.max(roughness * roughness, MIN_ALPHA)
+
+
+@wp.func
+def sample_ggx_vndf(wo: wp.vec3, alpha: float, u1: float, u2: float):
+    """A microfacet normal (local frame, +Z up) drawn from GGX's distribution of visible normals (Heitz 2018)."""
+    vh = wp.normalize(wp.vec3(alpha * wo[0], alpha * wo[1], wo[2]))
+    lensq = vh[0] * vh[0] + vh[1] * vh[1]
+    t1 = wp.vec3(1.0, 0.0, 0.0)
+    if lensq > 1.0e-12:
+        t1 = wp.vec3(-vh[1], vh[0], 0.0) / wp.sqrt(lensq)
+    t2 = wp.cross(vh, t1)
+    r = wp.sqrt(u1)
+    phi = 2.0 * PI * u2
+    p1 = r * wp.cos(phi)
+    p2 = r * wp.sin(phi)
+    s = 0.5 * (1.0 + vh[2])
+    p2 = (1.0 - s) * wp.sqrt(wp.max(0.0, 1.0 - p1 * p1)) + s * p2
+    nh = p1 * t1 + p2 * t2 + wp.sqrt(wp.max(0.0, 1.0 - p1 * p1 - p2 * p2)) * vh
+    return wp.normalize(wp.vec3(alpha * nh[0], alpha * nh[1], wp.max(1.0e-6, nh[2])))
+
+
+@wp.func
+def ggx_reflection_pdf(cos_o: float, cos_h: float, alpha: float):
+    """Solid-angle pdf of a reflected direction sampled through :func:`sample_ggx_vndf`: ``G1(wo) D(h) / (4 cos_o)``."""
+    return ggx_g1(cos_o, alpha) * ggx_d(cos_h, alpha) / (4.0 * cos_o)
+
+
+@wp.func
+def surface_f0(s: Surface):
+    """Specular reflectance at normal incidence (see the module docstring)."""
+    if s.specular_workflow == 1:
+        return s.specular_color
+    r = (1.0 - s.ior) / (1.0 + s.ior)
+    return wp.lerp(wp.vec3(r * r), s.base_color, s.metallic)
+
+
+@wp.func
+def surface_albedo(s: Surface):
+    """Albedo of the diffuse lobe."""
+    if s.specular_workflow == 1:
+        return s.base_color
+    return s.base_color * (1.0 - s.metallic)
+
+
+@wp.func
+def is_glass(s: Surface):
+    """True where part of the light is refracted (``opacity < 1`` and no cut-out threshold)."""
+    return s.opacity < 1.0 and s.opacity_threshold <= 0.0
+
+
+@wp.func
+def opaque_fraction(s: Surface):
+    """Weight of the opaque BSDF (``opacity`` for glass, else 1)."""
+    if is_glass(s):
+        return wp.clamp(s.opacity, 0.0, 1.0)
+    return 1.0
+
+
+@wp.func
+def lobe_weights(s: Surface, cos_o: float):
+    """Probabilities ``(diffuse, specular, clearcoat)`` of sampling each opaque lobe for a viewer at ``cos_o``."""
+    f0 = surface_f0(s)
+    fs = luminance(fresnel_schlick(f0, cos_o))
+    fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
+    wd = luminance(surface_albedo(s)) * (1.0 - fs) * (1.0 - fc)
+    ws = fs * (1.0 - fc)
+    wc = fc
+    total = wd + ws + wc
+    if total <= 0.0:
+        return wp.vec3(1.0, 0.0, 0.0)
+    return wp.vec3(wd, ws, wc) / total
+
+
+@wp.func
+def eval_opaque(s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
+    """The opaque BSDF's non-delta lobes: ``(f, pdf)`` for light from ``wi`` seen from ``wo``.
+
+    ``n`` is the shading normal and ``ng`` the geometric normal, both on the side of ``wo``. ``f`` excludes the
+    cosine; ``pdf`` is the solid-angle density with which :func:`sample_bsdf` draws ``wi`` from its opaque lobes.
+    """
+    cos_o = wp.dot(n, wo)
+    cos_i = wp.dot(n, wi)
+    if cos_o <= 0.0 or cos_i <= 0.0 or wp.dot(ng, wi) <= 0.0:
+        return wp.vec3(0.0), 0.0
+    h = wp.normalize(wo + wi)
+    cos_h = wp.dot(n, h)
+    cos_vh = wp.max(wp.dot(wo, h), 0.0)
+    f0 = surface_f0(s)
+    f_spec = fresnel_schlick(f0, cos_vh)
+    fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_vh)
+    w = lobe_weights(s, cos_o)
+
+    f = wp.cw_mul(wp.vec3(1.0) - f_spec, surface_albedo(s)) * (INV_PI * (1.0 - fc))
+    pdf = w[0] * cos_i * INV_PI
+    if s.roughness >= DELTA_ROUGHNESS:
+        a = ggx_alpha(s.roughness)
+        f += f_spec * ((1.0 - fc) * ggx_d(cos_h, a) * ggx_g2(cos_o, cos_i, a) / (4.0 * cos_o * cos_i))
+        pdf += w[1] * ggx_reflection_pdf(cos_o, cos_h, a)
+    if s.clearcoat > 0.0 and s.clearcoat_roughness >= DELTA_ROUGHNESS:
+        ac = ggx_alpha(s.clearcoat_roughness)
+        f += wp.vec3(fc * ggx_d(cos_h, ac) * ggx_g2(cos_o, cos_i, ac) / (4.0 * cos_o * cos_i))
+        pdf += w[2] * ggx_reflection_pdf(cos_o, cos_h, ac)
+    return f, pdf
+
+
+@wp.func
+def eval_bsdf(s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
+    """The whole BSDF's non-delta part: ``(f, pdf)`` with the opaque fraction applied (see :func:`eval_opaque`)."""
+    f, pdf = eval_opaque(s, n, ng, wo, wi)
+    k = opaque_fraction(s)
+    return f * k, pdf * k
+
+
+@wp.struct
+class BsdfSample:
+    """A direction drawn by :func:`sample_bsdf`."""
+
+    wi: wp.vec3  # unit direction towards the light, world space
+    weight: wp.vec3  # f * |cos| / pdf: the throughput factor of this bounce (zero: the path ends)
+    pdf: float  # solid-angle pdf of ``wi`` (0 for delta events)
+    delta: int  # 1 when a delta lobe (mirror, refraction) was sampled: no MIS on the next hit
+    transmitted: int  # 1 when ``wi`` crossed the surface
+
+
+@wp.func
+def sample_bsdf(
+    s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, front: int, u0: float, u1: float, u2: float, u3: float
+):
+    """Draws ``wi`` for viewer ``wo`` from four uniform numbers.
+
+    Args:
+        s: the surface.
+        n: shading normal on the side of ``wo``.
+        ng: geometric normal on the side of ``wo``.
+        wo: unit direction towards the viewer.
+        front: 1 when ``wo`` is on the front side of the surface (decides ``eta`` for refraction).
+        u0: picks glass vs opaque.
+        u1: picks the lobe (and reflection vs refraction).
+        u2: direction.
+        u3: direction.
+    """
+    out = BsdfSample()
+    out.wi = wp.vec3(0.0)
+    out.weight = wp.vec3(0.0)
+    out.pdf = 0.0
+    out.delta = 0
+    out.transmitted = 0
+    cos_o = wp.dot(n, wo)
+    if cos_o <= 0.0:
+        return out
+
+    # Glass: the dielectric interface takes 1 - opacity of the light; reflect or refract by its Fresnel term.
+    k = opaque_fraction(s)
+    if u0 >= k:
+        eta = s.ior
+        if front == 0:
+            eta = 1.0 / s.ior
+        fr = fresnel_dielectric(cos_o, eta)
+        out.delta = 1
+        if u1 < fr:
+            out.wi = reflect(wo, n)
+            out.weight = wp.vec3(1.0)
+        else:
+            out.wi = wp.normalize(refract(wo, n, eta))
+            out.weight = wp.vec3(1.0 / (eta * eta))  # radiance is compressed entering a denser medium
+            out.transmitted = 1
+        return out
+
+    # Opaque: pick a lobe, then a direction in it.
+    w = lobe_weights(s, cos_o)
+    wo_local = to_local(wo, n)
+    if u1 < w[0]:
+        out.wi = to_world(sample_cosine_hemisphere(u2, u3), n)
+    elif u1 < w[0] + w[1]:
+        if s.roughness < DELTA_ROUGHNESS:
+            f0 = surface_f0(s)
+            fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
+            out.wi = reflect(wo, n)
+            out.weight = fresnel_schlick(f0, cos_o) * ((1.0 - fc) / w[1])
+            out.delta = 1
+            if wp.dot(ng, out.wi) <= 0.0:
+                out.weight = wp.vec3(0.0)
+            return out
+        h = to_world(sample_ggx_vndf(wo_local, ggx_alpha(s.roughness), u2, u3), n)
+        out.wi = reflect(wo, h)
+    else:
+        if s.clearcoat_roughness < DELTA_ROUGHNESS:
+            fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
+            out.wi = reflect(wo, n)
+            out.weight = wp.vec3(fc / w[2])
+            out.delta = 1
+            if wp.dot(ng, out.wi) <= 0.0:
+                out.weight = wp.vec3(0.0)
+            return out
+        h = to_world(sample_ggx_vndf(wo_local, ggx_alpha(s.clearcoat_roughness), u2, u3), n)
+        out.wi = reflect(wo, h)
+
+    f, pdf = eval_opaque(s, n, ng, wo, out.wi)
+    if pdf > 0.0:
+        out.weight = f * (wp.dot(n, out.wi) / pdf)
+        out.pdf = pdf * k
+    return out

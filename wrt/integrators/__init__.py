@@ -1,0 +1,11 @@
+"""Integrators: kernels that turn hit buffers into radiance, one module per integrator.
+
+- :mod:`.path`: unbiased path tracing with next-event estimation and multiple importance sampling.
+- :mod:`.whitted`: Whitted-style ray tracing: shadow rays to every light, mirror reflection and refraction.
+- :mod:`.ao`: ambient occlusion.
+- ``normals``, ``depth`` and ``albedo`` are quick looks computed from the AOVs in :mod:`wrt.render`.
+
+:mod:`.emitters` holds the radiance that rays pick up from lights, shared by the path and whitted integrators.
+"""
+
+INTEGRATORS = ("whitted", "path", "ao", "normals", "depth", "albedo")  # names accepted by integrator=

@@ -1,0 +1,58 @@
+"""Radiance that a ray segment picks up from lights: analytic area lights it passes through and, for rays that
+escape, the dome and the discs of soft distant lights; each weighted against BSDF sampling by MIS."""
+
+import warp as wp
+
+from ..lights import (
+    LIGHT_CYLINDER,
+    LIGHT_DISK,
+    LIGHT_DISTANT,
+    LIGHT_DOME,
+    LIGHT_RECT,
+    LIGHT_SPHERE,
+    DeviceLights,
+    area_light_pdf,
+    distant_in_cone,
+    dome_pdf,
+    dome_radiance,
+    intersect_light,
+)
+from ..sampling import power_heuristic
+
+
+@wp.func
+def mis_weight(pdf_bsdf: float, pdf_light: float):
+    """Weight of a BSDF-sampled hit on a light: 1 after delta events or for camera rays (``pdf_bsdf = 0``)."""
+    if pdf_bsdf <= 0.0:
+        return 1.0
+    return power_heuristic(pdf_bsdf, pdf_light)
+
+
+@wp.func
+def lights_on_segment(lights: DeviceLights, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float, pdf_bsdf: float):
+    """Radiance of every analytic area light that unit ray ``(o, d)`` passes through in ``(t_min, t_max)``."""
+    total = wp.vec3(0.0)
+    for k in range(lights.num_analytic):
+        kind = lights.kinds[k]
+        if kind == LIGHT_SPHERE or kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER:
+            t, cos_l = intersect_light(lights, k, o, d)
+            if t > t_min and t < t_max:
+                pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, t, cos_l)
+                total += lights.radiance[k] * mis_weight(pdf_bsdf, pdf_l)
+    return total
+
+
+@wp.func
+def environment(lights: DeviceLights, d: wp.vec3, pdf_bsdf: float, n_prev: wp.vec3):
+    """Radiance arriving along an escaped ray ``d``: the dome and the discs of soft distant lights."""
+    total = wp.vec3(0.0)
+    for k in range(lights.num_analytic):
+        kind = lights.kinds[k]
+        if kind == LIGHT_DOME:
+            pdf_l = lights.pmf[k] * dome_pdf(lights, d, n_prev)
+            total += dome_radiance(lights, d) * mis_weight(pdf_bsdf, pdf_l)
+        elif kind == LIGHT_DISTANT:
+            if distant_in_cone(lights, k, d):
+                pdf_l = lights.pmf[k] / lights.params[k][1]
+                total += lights.radiance[k] * mis_weight(pdf_bsdf, pdf_l)
+    return total

@@ -1,0 +1,195 @@
+"""Path tracing: unbiased Monte Carlo estimation of the rendering equation, one wavefront bounce per launch.
+
+Each bounce runs ``intersect -> shade_path_kernel -> occluded -> add_unoccluded_kernel`` over every live path.
+At a hit the kernel adds emission, draws one light for next-event estimation (its shadow ray is traced by the
+accelerator afterwards) and samples the BSDF for the next ray. Light sampling and BSDF sampling are combined with
+Veach's power heuristic (multiple importance sampling); delta lobes and delta lights take weight 1. After
+``rr_depth`` bounces Russian roulette ends paths with probability ``1 - min(1, max(throughput))`` (at least
+0.05 survives), dividing the survivors' throughput by their survival probability. ``max_depth`` counts surface
+interactions: 1 gives direct lighting only.
+
+Cut-out surfaces (``opacity < opacityThreshold``) are passed straight through; this uses up a bounce.
+"""
+
+import warp as wp
+
+from ..bsdf import eval_bsdf, sample_bsdf
+from ..geometry import offset_ray_origin
+from ..lights import DeviceLights, sample_light, triangle_light_pdf
+from ..materials import DeviceMaterials, eval_surface
+from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
+from ..scene import DeviceScene
+from ..shade import DeviceSurfaces, hit_point
+from .emitters import environment, lights_on_segment, mis_weight
+
+SHADOW_SHORTEN = wp.constant(1.0e-4)  # shadow rays to lights at finite distance stop this fraction short
+
+
+@wp.kernel
+def shade_path_kernel(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    lights: DeviceLights,
+    bounce: int,
+    max_depth: int,
+    rr_depth: int,
+    hit_t: wp.array[float],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    # outputs (paths are updated in place)
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    rng: wp.array[wp.uint32],
+    throughput: wp.array[wp.vec3],
+    radiance: wp.array[wp.vec3],
+    alive: wp.array[wp.int32],
+    pdf_prev: wp.array[float],
+    prev_normal: wp.array[wp.vec3],
+    shadow_origins: wp.array[wp.vec3],
+    shadow_dirs: wp.array[wp.vec3],
+    shadow_t_maxs: wp.array[float],
+    nee: wp.array[wp.vec3],
+):
+    """One bounce of every path: emission, next-event estimation (shadow ray + its contribution if unblocked) and
+    the next ray."""
+    i = wp.tid()
+    shadow_t_maxs[i] = 0.0
+    nee[i] = wp.vec3(0.0)
+    if alive[i] == 0:
+        t_maxs[i] = 0.0
+        return
+    o = origins[i]
+    d = directions[i]
+    T = throughput[i]
+    L = radiance[i]
+    state = rng[i]
+    pdf_b = pdf_prev[i]
+    prim = hit_prim[i]
+    t_hit = hit_t[i]
+
+    # Add the analytic lights the segment passes through, then what an escaped ray sees.
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, pdf_b))
+    if prim < 0:
+        L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i]))
+        radiance[i] = L
+        alive[i] = 0
+        t_maxs[i] = 0.0
+        return
+
+    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], o, d, t_hit)
+    s = eval_surface(mats, h.material, h.st, h.display)
+
+    # Cut-out: continue straight through the hole.
+    if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
+        origins[i] = offset_ray_origin(h.p, -h.ng)
+        t_mins[i] = 0.0
+        t_maxs[i] = wp.inf
+        radiance[i] = L
+        if bounce >= max_depth:
+            alive[i] = 0
+            t_maxs[i] = 0.0
+        return
+
+    # Emission, weighted against light sampling of this triangle.
+    if luminance(s.emission) > 0.0 and (h.front == 1 or surf.double_sided[prim] == 1):
+        w = float(1.0)
+        e = surf.emitters[prim]
+        if e >= 0 and pdf_b > 0.0:
+            pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, o, d, t_hit)
+            w = power_heuristic(pdf_b, pdf_l)
+        L += wp.cw_mul(T, s.emission) * w
+    if bounce >= max_depth:
+        radiance[i] = L
+        alive[i] = 0
+        t_maxs[i] = 0.0
+        return
+
+    wo = -d
+    # Next-event estimation: one light, one point on it.
+    u_pick, state = rand01(state)
+    u1, state = rand01(state)
+    u2, state = rand01(state)
+    if lights.count > 0:
+        k = sample_cdf(lights.cdf, 0, lights.count, u_pick)
+        pmf = lights.pmf[k]
+        ls = sample_light(lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, h.p, h.ns, u1, u2)
+        if pmf > 0.0 and max_component(ls.value) > 0.0:
+            f, pdf_f = eval_bsdf(s, h.ns, h.ng, wo, ls.wi)
+            if max_component(f) > 0.0:
+                w = float(1.0)
+                if ls.pdf > 0.0:
+                    w = power_heuristic(pmf * ls.pdf, pdf_f)
+                cos_i = wp.abs(wp.dot(h.ns, ls.wi))
+                nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
+                shadow_origins[i] = offset_ray_origin(h.p, h.ng)
+                shadow_dirs[i] = ls.wi
+                if ls.dist < wp.inf:
+                    shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
+                else:
+                    shadow_t_maxs[i] = wp.inf
+
+    # Sample the BSDF for the next ray.
+    u0, state = rand01(state)
+    u3, state = rand01(state)
+    u4, state = rand01(state)
+    u5, state = rand01(state)
+    bs = sample_bsdf(s, h.ns, h.ng, wo, h.front, u0, u3, u4, u5)
+    T = wp.cw_mul(T, bs.weight)
+    keep = max_component(T) > 0.0
+    if keep and bounce + 1 >= rr_depth:
+        q = wp.max(0.05, 1.0 - wp.min(1.0, max_component(T)))
+        u_rr, state = rand01(state)
+        if u_rr < q:
+            keep = False
+        else:
+            T = T / (1.0 - q)
+    radiance[i] = L
+    rng[i] = state
+    if not keep:
+        alive[i] = 0
+        t_maxs[i] = 0.0
+        return
+    throughput[i] = T
+    if bs.transmitted == 1:
+        origins[i] = offset_ray_origin(h.p, -h.ng)
+        prev_normal[i] = -h.ns
+    else:
+        origins[i] = offset_ray_origin(h.p, h.ng)
+        prev_normal[i] = h.ns
+    directions[i] = bs.wi
+    t_mins[i] = 0.0
+    t_maxs[i] = wp.inf
+    pdf_prev[i] = wp.where(bs.delta == 1, 0.0, bs.pdf)
+
+
+@wp.kernel
+def add_unoccluded_kernel(
+    contribution: wp.array[wp.vec3],
+    shadow_t_maxs: wp.array[float],
+    blocked: wp.array[wp.int32],
+    # outputs
+    radiance: wp.array[wp.vec3],
+):
+    """Adds each next-event contribution whose shadow ray reached its light."""
+    i = wp.tid()
+    if shadow_t_maxs[i] > 0.0 and blocked[i] == 0:
+        radiance[i] = radiance[i] + contribution[i]
+
+
+@wp.kernel
+def count_alive_kernel(
+    alive: wp.array[wp.int32],
+    # outputs
+    count: wp.array[wp.int32],
+):
+    """``count[0] += number of live paths``."""
+    i = wp.tid()
+    if alive[i] == 1:
+        wp.atomic_add(count, 0, 1)
+
+
+__all__ = ["add_unoccluded_kernel", "count_alive_kernel", "mis_weight", "shade_path_kernel"]

@@ -1,0 +1,212 @@
+"""Whitted-style recursive ray tracing (Whitted 1980), as wavefront kernels.
+
+At every hit: emission; direct light from every light with a shadow ray each (area and soft lights get one random
+point per sample, so their shadows soften as ``spp`` grows; all emissive triangles together count as one light);
+the dome light as an unoccluded term ``albedo * mean dome radiance`` (exact for an unoccluded Lambertian surface
+under a constant dome; use ``path`` for occluded sky light). Then one continuation ray: the mirror direction
+for metals (weight ``metallic * F``) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with
+probability proportional to their Fresnel weights). Other surfaces end the ray. ``max_depth`` bounds the number of
+mirror/refraction bounces.
+"""
+
+import warp as wp
+
+from ..bsdf import eval_bsdf, fresnel_dielectric, fresnel_schlick, is_glass, opaque_fraction, reflect, refract, surface_albedo, surface_f0
+from ..geometry import offset_ray_origin
+from ..lights import DeviceLights, sample_light
+from ..materials import DeviceMaterials, eval_surface
+from ..sampling import luminance, max_component, rand01, sample_cdf
+from ..scene import DeviceScene
+from ..shade import DeviceSurfaces, hit_point
+from .emitters import environment, lights_on_segment
+from .path import SHADOW_SHORTEN
+
+
+@wp.kernel
+def shade_whitted_kernel(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    lights: DeviceLights,
+    hit_t: wp.array[float],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    # outputs
+    origins: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    directions: wp.array[wp.vec3],
+    throughput: wp.array[wp.vec3],
+    radiance: wp.array[wp.vec3],
+    alive: wp.array[wp.int32],
+    active: wp.array[wp.int32],
+):
+    """Emission, light passed through, the environment of escaped rays and the dome term; ``active = 1`` marks
+    paths whose hit gets direct lighting and a continuation."""
+    i = wp.tid()
+    active[i] = 0
+    if alive[i] == 0:
+        return
+    o = origins[i]
+    d = directions[i]
+    T = throughput[i]
+    L = radiance[i]
+    prim = hit_prim[i]
+    t_hit = hit_t[i]
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, 0.0))
+    if prim < 0:
+        L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0)))
+        radiance[i] = L
+        alive[i] = 0
+        return
+    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], o, d, t_hit)
+    s = eval_surface(mats, h.material, h.st, h.display)
+    if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
+        origins[i] = offset_ray_origin(h.p, -h.ng)  # a hole: carry on in the same direction
+        t_mins[i] = 0.0
+        t_maxs[i] = wp.inf
+        radiance[i] = L
+        return
+    if h.front == 1 or surf.double_sided[prim] == 1:
+        L += wp.cw_mul(T, s.emission)
+    if lights.dome >= 0:
+        L += wp.cw_mul(wp.cw_mul(T, surface_albedo(s)), lights.dome_mean) * opaque_fraction(s)
+    radiance[i] = L
+    active[i] = 1
+
+
+@wp.kernel
+def whitted_light_kernel(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    lights: DeviceLights,
+    first: int,
+    count: int,
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    hit_t: wp.array[float],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    throughput: wp.array[wp.vec3],
+    active: wp.array[wp.int32],
+    # outputs
+    rng: wp.array[wp.uint32],
+    shadow_origins: wp.array[wp.vec3],
+    shadow_dirs: wp.array[wp.vec3],
+    shadow_t_maxs: wp.array[float],
+    contribution: wp.array[wp.vec3],
+):
+    """Direct light from lights ``[first, first + count)`` (one of them, picked by power, when ``count > 1``):
+    its contribution if unoccluded and the shadow ray that decides it."""
+    i = wp.tid()
+    shadow_t_maxs[i] = 0.0
+    contribution[i] = wp.vec3(0.0)
+    if active[i] == 0:
+        return
+    o = origins[i]
+    d = directions[i]
+    prim = hit_prim[i]
+    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], o, d, hit_t[i])
+    s = eval_surface(mats, h.material, h.st, h.display)
+    state = rng[i]
+    u_pick, state = rand01(state)
+    u1, state = rand01(state)
+    u2, state = rand01(state)
+    rng[i] = state
+    k = first
+    p_pick = float(1.0)
+    if count > 1:
+        k = first + sample_cdf(lights.cdf, first, count, u_pick)
+        p_pick = lights.pmf[k] / (lights.cdf[first + count] - lights.cdf[first])
+    ls = sample_light(lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, h.p, h.ns, u1, u2)
+    if max_component(ls.value) <= 0.0 or p_pick <= 0.0:
+        return
+    f, pdf_f = eval_bsdf(s, h.ns, h.ng, -d, ls.wi)
+    if max_component(f) <= 0.0:
+        return
+    cos_i = wp.abs(wp.dot(h.ns, ls.wi))
+    contribution[i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
+    shadow_origins[i] = offset_ray_origin(h.p, h.ng)
+    shadow_dirs[i] = ls.wi
+    if ls.dist < wp.inf:
+        shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
+    else:
+        shadow_t_maxs[i] = wp.inf
+
+
+@wp.kernel
+def continue_whitted_kernel(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    bounce: int,
+    max_depth: int,
+    hit_t: wp.array[float],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    active: wp.array[wp.int32],
+    # outputs
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    rng: wp.array[wp.uint32],
+    throughput: wp.array[wp.vec3],
+    alive: wp.array[wp.int32],
+):
+    """The mirror or refracted continuation of each shaded path, or its end."""
+    i = wp.tid()
+    if alive[i] == 0:
+        t_maxs[i] = 0.0
+        return
+    if active[i] == 0:
+        if bounce >= max_depth:  # a cut-out pass-through that ran out of bounces
+            alive[i] = 0
+            t_maxs[i] = 0.0
+        return
+    d = directions[i]
+    prim = hit_prim[i]
+    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], origins[i], d, hit_t[i])
+    s = eval_surface(mats, h.material, h.st, h.display)
+    wo = -d
+    cos_o = wp.max(wp.dot(h.ns, wo), 0.0)
+    op = opaque_fraction(s)
+    w_reflect = wp.vec3(0.0)
+    w_refract = float(0.0)
+    if s.specular_workflow == 0 and s.metallic > 0.0:
+        w_reflect = fresnel_schlick(surface_f0(s), cos_o) * (s.metallic * op)
+    eta = s.ior
+    if h.front == 0:
+        eta = 1.0 / s.ior
+    if is_glass(s):
+        fr = fresnel_dielectric(cos_o, eta)
+        w_reflect += wp.vec3(fr * (1.0 - op))
+        w_refract = (1.0 - fr) * (1.0 - op)
+    p_reflect = luminance(w_reflect)
+    total = p_reflect + w_refract
+    if bounce >= max_depth or total <= 0.0 or cos_o <= 0.0:
+        alive[i] = 0
+        t_maxs[i] = 0.0
+        return
+    state = rng[i]
+    u, state = rand01(state)
+    rng[i] = state
+    T = throughput[i]
+    if u * total < p_reflect:
+        directions[i] = reflect(wo, h.ns)
+        origins[i] = offset_ray_origin(h.p, h.ng)
+        T = wp.cw_mul(T, w_reflect) * (total / p_reflect)
+    else:
+        directions[i] = wp.normalize(refract(wo, h.ns, eta))
+        origins[i] = offset_ray_origin(h.p, -h.ng)
+        T = T * (w_refract * total / w_refract / (eta * eta))
+    throughput[i] = T
+    t_mins[i] = 0.0
+    t_maxs[i] = wp.inf
+    if max_component(T) <= 0.0:
+        alive[i] = 0
+        t_maxs[i] = 0.0

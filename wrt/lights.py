@@ -1,0 +1,929 @@
+"""Lights: UsdLux lights and emissive triangles, their radiometry, and sampling them from a shading point.
+
+Radiometry (every quantity is linear RGB; ``color`` below always means ``intensity * 2^exposure * color``,
+times the blackbody colour when ``enableColorTemperature`` is on):
+
+- **Area lights** (``SphereLight``, ``RectLight``, ``DiskLight``, ``CylinderLight``) emit radiance
+  ``L = color``, or ``color / A`` with ``normalize`` on, where ``A`` is the world-space emitting area
+  (``4 pi r^2``, ``w h``, ``pi r^2``, ``2 pi r l``; transforms included). Rect and disk lights emit from their
+  -Z side only; spheres and cylinders (no caps) emit outwards.
+- ``SphereLight`` with ``treatAsPoint``: a point light of radiant intensity ``I = pi r^2 L`` (the sphere's
+  intensity seen from afar), ``I = color / 4`` with ``normalize``.
+- **DistantLight** with ``normalize`` on: ``color`` is the illuminance ``E`` at normal incidence. With ``normalize``
+  off, ``color`` is the radiance of the sun disc of angular diameter ``angle``, so ``E = color * pi sin^2(angle/2)``.
+  ``angle = 0`` makes a delta light whose ``color`` is ``E`` either way.
+- **DomeLight**: radiance ``color * texture(direction)`` (``texture = 1`` without a file; ``normalize`` is
+  ignored). Latitude-longitude textures follow the OpenEXR convention: +Y is the pole, longitude 0 is +Z,
+  longitude pi/2 is +X, the left image edge is longitude +pi. ``DomeLight_1`` with ``poleAxis = "Z"`` (or
+  ``"scene"`` on a Z-up stage) is turned so its pole is +Z.
+- **Emissive triangles**: UsdPreviewSurface ``emissiveColor`` is the surface radiance, from the front side of
+  single-sided meshes and from both sides of double-sided ones.
+- A Lambertian surface of albedo ``rho`` under illuminance ``E`` therefore shows radiance ``rho E / pi``.
+
+Lights are invisible to shadow rays (they never occlude) but visible to camera and bounce rays, which pass through
+them and pick up their radiance. Stages with no UsdLux light and no emissive material get :func:`default_lights`:
+a headlight along the view direction and a grey dome.
+
+Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count``; spheres are sampled by
+the cone they subtend, rect, disk, cylinder and triangle lights uniformly by area, soft distant lights uniformly in
+their cone (cylinders: the half facing the shading point), a constant dome cosine-weighted about the shading normal and a textured dome by its luminance
+(piecewise-constant 2D distribution, Pharr et al., PBRT 4th ed., A.5 and 12.5).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+import warp as wp
+
+from .materials import DeviceMaterials, eval_emission
+from .sampling import (
+    INV_PI,
+    PI,
+    basis_x,
+    basis_y,
+    sample_cdf,
+    sample_concentric_disk,
+    sample_cosine_hemisphere,
+    sample_uniform_cone,
+    sample_uniform_sphere,
+    to_world,
+)
+from .scene import DeviceScene, DistantLight
+
+LIGHT_DISTANT = wp.constant(0)
+LIGHT_SPHERE = wp.constant(1)
+LIGHT_RECT = wp.constant(2)
+LIGHT_DISK = wp.constant(3)
+LIGHT_CYLINDER = wp.constant(4)
+LIGHT_DOME = wp.constant(5)
+LIGHT_POINT = wp.constant(6)
+LIGHT_TRIANGLE = wp.constant(7)
+
+HEADLIGHT_ILLUMINANCE = 0.8 * math.pi  # default headlight: a white surface facing the camera shows 0.8 from it
+DEFAULT_DOME_RADIANCE = (0.2, 0.2, 0.2)  # default dome: adds 0.2 * albedo to an unoccluded surface
+
+
+# Host-side lights -------------------------------------------------------------------------------------------------
+
+
+def _axes(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Columns X, Y, Z (scaled) and the origin of a column-vector ``(4, 4)`` transform."""
+    m = np.asarray(to_world, np.float64).reshape(4, 4)
+    return m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3]
+
+
+@dataclasses.dataclass
+class SphereLight:
+    """``UsdLux.SphereLight``: a sphere emitting outwards.
+
+    Attributes:
+        position: ``(3,)`` world-space centre.
+        radius: world-space radius.
+        color: ``(3,)`` ``intensity * 2**exposure * color``.
+        normalize: divide by the area ``4 pi r^2``.
+        treat_as_point: render as a point light.
+        path: prim path.
+    """
+
+    position: np.ndarray
+    radius: float
+    color: np.ndarray
+    normalize: bool = False
+    treat_as_point: bool = False
+    path: str = ""
+
+    @property
+    def area(self) -> float:
+        return 4.0 * math.pi * self.radius**2
+
+    @property
+    def radiance(self) -> np.ndarray:
+        """``(3,)`` emitted radiance."""
+        return _normalized(self.color, self.area, self.normalize)
+
+    @property
+    def intensity(self) -> np.ndarray:
+        """``(3,)`` radiant intensity when treated as a point."""
+        if self.normalize:
+            return np.asarray(self.color, np.float32) / 4.0
+        return (np.asarray(self.color, np.float32) * math.pi * self.radius**2).astype(np.float32)
+
+
+@dataclasses.dataclass
+class RectLight:
+    """``UsdLux.RectLight``: a ``width x height`` rectangle in the local XY plane emitting along local -Z.
+
+    Attributes:
+        to_world: ``(4, 4)`` column-vector local-to-world transform.
+        width: along local X.
+        height: along local Y.
+        color: ``(3,)`` ``intensity * 2**exposure * color``.
+        normalize: divide by the world-space area.
+        path: prim path.
+    """
+
+    to_world: np.ndarray
+    width: float
+    height: float
+    color: np.ndarray
+    normalize: bool = False
+    path: str = ""
+
+    def edges(self) -> tuple[np.ndarray, np.ndarray]:
+        x, y, _, _ = _axes(self.to_world)
+        return x * self.width, y * self.height
+
+    @property
+    def area(self) -> float:
+        u, v = self.edges()
+        return float(np.linalg.norm(np.cross(u, v)))
+
+    @property
+    def radiance(self) -> np.ndarray:
+        return _normalized(self.color, self.area, self.normalize)
+
+
+@dataclasses.dataclass
+class DiskLight:
+    """``UsdLux.DiskLight``: a disk of ``radius`` in the local XY plane emitting along local -Z.
+
+    Attributes:
+        to_world: ``(4, 4)`` column-vector local-to-world transform.
+        radius: local radius.
+        color: ``(3,)`` ``intensity * 2**exposure * color``.
+        normalize: divide by the world-space area.
+        path: prim path.
+    """
+
+    to_world: np.ndarray
+    radius: float
+    color: np.ndarray
+    normalize: bool = False
+    path: str = ""
+
+    @property
+    def area(self) -> float:
+        x, y, _, _ = _axes(self.to_world)
+        return float(math.pi * np.linalg.norm(np.cross(x * self.radius, y * self.radius)))
+
+    @property
+    def radiance(self) -> np.ndarray:
+        return _normalized(self.color, self.area, self.normalize)
+
+
+@dataclasses.dataclass
+class CylinderLight:
+    """``UsdLux.CylinderLight``: a tube of ``length`` along local X and ``radius``, emitting outwards (no caps).
+
+    Attributes:
+        to_world: ``(4, 4)`` column-vector local-to-world transform.
+        length: along local X.
+        radius: local radius.
+        color: ``(3,)`` ``intensity * 2**exposure * color``.
+        normalize: divide by the world-space area.
+        path: prim path.
+    """
+
+    to_world: np.ndarray
+    length: float
+    radius: float
+    color: np.ndarray
+    normalize: bool = False
+    path: str = ""
+
+    def world_shape(self) -> tuple[np.ndarray, float]:
+        """World-space axis vector (full length) and radius (mean of the Y and Z scales)."""
+        x, y, z, _ = _axes(self.to_world)
+        return x * self.length, self.radius * 0.5 * (np.linalg.norm(y) + np.linalg.norm(z))
+
+    @property
+    def area(self) -> float:
+        axis, r = self.world_shape()
+        return float(2.0 * math.pi * r * np.linalg.norm(axis))
+
+    @property
+    def radiance(self) -> np.ndarray:
+        return _normalized(self.color, self.area, self.normalize)
+
+
+@dataclasses.dataclass
+class DomeLight:
+    """``UsdLux.DomeLight``: radiance arriving from every direction.
+
+    Attributes:
+        color: ``(3,)`` ``intensity * 2**exposure * color``.
+        to_world: ``(4, 4)`` column-vector transform; its rotation turns the texture.
+        texture: ``(H, W, 4)`` float32 linear latitude-longitude image, or None for a constant dome.
+        texture_path: file the texture came from.
+        path: prim path.
+    """
+
+    color: np.ndarray
+    to_world: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(4))
+    texture: np.ndarray | None = None
+    texture_path: str = ""
+    path: str = ""
+
+
+def _normalized(color, area: float, normalize: bool) -> np.ndarray:
+    color = np.asarray(color, np.float32)
+    if not normalize:
+        return color.copy()
+    return (color / area).astype(np.float32) if area > 0.0 else np.zeros(3, np.float32)
+
+
+def default_lights(forward) -> list:
+    """The lights of a stage with none: a headlight travelling along ``forward`` (illuminance
+    :data:`HEADLIGHT_ILLUMINANCE`) and a constant dome of radiance :data:`DEFAULT_DOME_RADIANCE`."""
+    forward = np.asarray(forward, np.float64)
+    return [
+        DistantLight(direction=forward / np.linalg.norm(forward), color=np.full(3, HEADLIGHT_ILLUMINANCE), path="<headlight>"),
+        DomeLight(color=np.asarray(DEFAULT_DOME_RADIANCE, np.float32), path="<dome>"),
+    ]
+
+
+# Reading USD ---------------------------------------------------------------------------------------------------
+
+
+def read_light(prim, xforms, time, up_axis: str, skip):
+    """The light of a ``UsdLux`` light prim, or None (recorded through ``skip``) for unsupported kinds.
+
+    Args:
+        prim: a prim with ``UsdLux.LightAPI``.
+        xforms: a ``UsdGeom.XformCache`` at ``time``.
+        time: ``Usd.TimeCode``.
+        up_axis: the stage's up axis, for ``DomeLight_1``'s ``poleAxis``.
+        skip: ``skip(reason, prim, detail=None)``.
+    """
+    from pxr import UsdLux
+
+    def get(attr, default):
+        value = attr.Get(time) if attr else None
+        if value is None and attr and time.IsDefault() and attr.HasValue():
+            from pxr import Usd
+
+            value = attr.Get(Usd.TimeCode.EarliestTime())
+        return default if value is None else value
+
+    light = UsdLux.LightAPI(prim)
+    color = np.array(get(light.GetColorAttr(), (1.0, 1.0, 1.0)), dtype=np.float64)
+    intensity = float(get(light.GetIntensityAttr(), 1.0))
+    exposure = float(get(light.GetExposureAttr(), 0.0))
+    if get(light.GetEnableColorTemperatureAttr(), False):
+        kelvin = float(get(light.GetColorTemperatureAttr(), 6500.0))
+        color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
+    color = (color * intensity * 2.0**exposure).astype(np.float32)
+    normalize = bool(get(light.GetNormalizeAttr(), False))
+    m = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
+    path = str(prim.GetPath())
+    if not (np.all(np.isfinite(color)) and np.all(np.isfinite(m))):
+        skip("lights with a non-finite colour or transform were skipped", prim)
+        return None
+
+    if prim.IsA(UsdLux.DistantLight):
+        d = UsdLux.DistantLight(prim)
+        direction = m[:3, :3] @ np.array([0.0, 0.0, -1.0])
+        length = np.linalg.norm(direction)
+        if not length > 0.0:
+            skip("lights with a degenerate transform were skipped", prim)
+            return None
+        angle = float(get(d.GetAngleAttr(), 0.53))
+        return DistantLight(direction=direction / length, color=color, path=path, angle=angle, normalize=normalize)
+    if prim.IsA(UsdLux.SphereLight):
+        s = UsdLux.SphereLight(prim)
+        scale = float(np.mean(np.linalg.norm(m[:3, :3], axis=0)))
+        radius = float(get(s.GetRadiusAttr(), 0.5)) * scale
+        treat = bool(get(s.GetTreatAsPointAttr(), False))
+        return SphereLight(m[:3, 3].copy(), radius, color, normalize, treat or radius <= 0.0, path)
+    if prim.IsA(UsdLux.RectLight):
+        r = UsdLux.RectLight(prim)
+        if get(r.GetTextureFileAttr(), None):
+            skip("RectLight textures are not supported; the light's colour is used", prim)
+        return RectLight(m, float(get(r.GetWidthAttr(), 1.0)), float(get(r.GetHeightAttr(), 1.0)), color, normalize, path)
+    if prim.IsA(UsdLux.DiskLight):
+        return DiskLight(m, float(get(UsdLux.DiskLight(prim).GetRadiusAttr(), 0.5)), color, normalize, path)
+    if prim.IsA(UsdLux.CylinderLight):
+        c = UsdLux.CylinderLight(prim)
+        return CylinderLight(m, float(get(c.GetLengthAttr(), 1.0)), float(get(c.GetRadiusAttr(), 0.5)), color, normalize, path)
+    dome_types = [UsdLux.DomeLight] + ([UsdLux.DomeLight_1] if hasattr(UsdLux, "DomeLight_1") else [])
+    if any(prim.IsA(t) for t in dome_types):
+        return _read_dome(prim, m, color, time, up_axis, skip, get)
+    skip(f"{prim.GetTypeName() or 'this'} lights are not supported; skipped", prim, prim.GetTypeName())
+    return None
+
+
+def _read_dome(prim, m, color, time, up_axis, skip, get):
+    from pxr import UsdLux
+
+    from .textures import TextureError, load_image
+
+    rotation = m.copy()
+    if hasattr(UsdLux, "DomeLight_1") and prim.IsA(UsdLux.DomeLight_1):
+        pole = str(get(prim.GetAttribute("poleAxis"), "scene"))
+        if pole == "Z" or (pole == "scene" and up_axis == "Z"):
+            to_z = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], np.float64)  # +Y -> +Z
+            rotation = m @ to_z
+    dome = DomeLight(color=color, to_world=rotation, path=str(prim.GetPath()))
+    attr = prim.GetAttribute("inputs:texture:file")
+    asset = get(attr, None) if attr else None
+    if asset is not None and (getattr(asset, "path", "") or ""):
+        fmt = str(get(prim.GetAttribute("inputs:texture:format"), "automatic"))
+        if fmt not in ("automatic", "latlong"):
+            skip(f"DomeLight texture format {fmt!r} is not supported; the dome is constant", prim)
+            return dome
+        resolved = getattr(asset, "resolvedPath", "") or ""
+        if not resolved:
+            skip(f"DomeLight texture {asset.path} was not found; the dome is constant", prim)
+            return dome
+        try:
+            dome.texture = load_image(resolved, "auto")
+            dome.texture_path = resolved
+        except TextureError as e:
+            skip(f"DomeLight texture: {e}; the dome is constant", prim)
+    return dome
+
+
+# Device side -----------------------------------------------------------------------------------------------------
+
+
+@wp.struct
+class DeviceLights:
+    """Every light on the device: ``[0, num_analytic)`` are UsdLux lights, the rest emissive triangles."""
+
+    kinds: wp.array[wp.int32]  # LIGHT_* kind
+    radiance: wp.array[wp.vec3]  # L (area, dome, soft distant), E (delta distant), I (point); triangles: unused
+    position: wp.array[wp.vec3]  # centre; for distant lights the direction of travel
+    axis_u: wp.array[wp.vec3]  # rect: full X edge; disk: X radius vector; cylinder: full axis
+    axis_v: wp.array[wp.vec3]  # rect: full Y edge; disk: Y radius vector
+    normal: wp.array[wp.vec3]  # rect, disk: unit emitting normal
+    params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of the cone, area, 0)
+    prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
+    pmf: wp.array[float]  # selection probability of each light
+    cdf: wp.array[float]  # (count + 1) running sum of pmf
+    count: int  # number of lights
+    num_analytic: int  # number of UsdLux lights (they come first)
+    dome: int  # index of the dome light, -1 without one
+    dome_to_local: wp.mat33  # world direction -> dome frame
+    dome_textured: int  # 1 when the dome has a texture
+    dome_texels: wp.array2d[wp.vec3]  # (H, W) latitude-longitude texture (1x1 white when untextured)
+    dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of luminance * sin(theta)
+    dome_col_cdf: wp.array2d[float]  # (H, W + 1) CDF over columns in each row
+    dome_mean: wp.vec3  # radiance averaged over the sphere
+
+
+@wp.struct
+class LightSample:
+    """A sampled direction towards a light."""
+
+    wi: wp.vec3  # unit direction from the shading point towards the light
+    dist: float  # distance to the sampled point (inf for distant and dome lights)
+    value: wp.vec3  # incident radiance / solid-angle pdf; for delta lights the illuminance E (or I / d^2)
+    pdf: float  # solid-angle pdf of the light sampling strategy (0 for delta lights)
+
+
+@dataclasses.dataclass
+class HostLights:
+    """The flattened light list (numpy) before upload; see :class:`DeviceLights`."""
+
+    kinds: list
+    radiance: list
+    position: list
+    axis_u: list
+    axis_v: list
+    normal: list
+    params: list
+    prims: list
+    power: list
+
+
+def _emitter_triangles(scene, materials_emission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Triangle ids, power weights and double-sidedness of every emissive triangle."""
+    points, indices = scene.triangles()
+    tri_materials = scene.triangle_materials()
+    emissive = np.array([luminance_np(e) for e in materials_emission], np.float64)
+    ids = np.nonzero(emissive[tri_materials] > 0.0)[0]
+    if len(ids) == 0:
+        return ids.astype(np.int32), np.zeros(0), np.zeros(0, bool)
+    a, b, c = (points[indices[ids, k]].astype(np.float64) for k in range(3))
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    sided = scene.triangle_double_sided()[ids]
+    power = math.pi * area * emissive[tri_materials[ids]] * np.where(sided, 2.0, 1.0)
+    return ids.astype(np.int32), power, sided
+
+
+def luminance_np(c) -> float:
+    c = np.asarray(c, np.float64)
+    return float(0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
+
+
+def build_lights(lights: list, scene, material_emission: list, device) -> DeviceLights:
+    """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`.
+
+    Args:
+        lights: the UsdLux lights (scene lights or :func:`default_lights`).
+        scene: the :class:`wrt.Scene` (for emissive triangles and the scene radius).
+        material_emission: per device material (index 0 = default material) a ``(3,)`` emission estimate.
+        device: Warp device.
+    """
+    lower, upper = scene.bounds()
+    radius = max(float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) / 2.0, 1e-6)
+    h = HostLights([], [], [], [], [], [], [], [], [])
+    zero = np.zeros(3)
+    domes = [l for l in lights if isinstance(l, DomeLight)]
+    if len(domes) > 1:
+        warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used", stacklevel=3)
+    dome_index, dome = -1, None
+    for light in lights:
+        if isinstance(light, DomeLight):
+            if light is not domes[0]:
+                continue
+            dome_index, dome = len(h.kinds), light
+            _add(h, LIGHT_DOME, light.color, zero, zero, zero, zero, (0, 0, 0, 0), 0, 0.0)
+        elif isinstance(light, DistantLight):
+            d = np.asarray(light.direction, np.float64)
+            e = light.illuminance
+            if light.angle > 0.0:
+                half = math.radians(min(light.angle, 180.0)) / 2.0
+                cone = 2.0 * math.pi * (1.0 - math.cos(half))
+                radiance = e / max(light.solid_angle_factor, 1e-30)
+                _add(h, LIGHT_DISTANT, radiance, d, zero, zero, zero, (math.cos(half), cone, 0, 0), 0, 0.0)
+            else:
+                _add(h, LIGHT_DISTANT, e, d, zero, zero, zero, (1.0, 0.0, 0, 0), 0, 0.0)
+            h.power[-1] = luminance_np(e) * math.pi * radius**2
+        elif isinstance(light, SphereLight):
+            if light.treat_as_point:
+                i = light.intensity
+                _add(h, LIGHT_POINT, i, light.position, zero, zero, zero, (0, 0, 0, 0), 0, 4.0 * math.pi * luminance_np(i))
+            else:
+                L = light.radiance
+                _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero, (light.radius, 0, light.area, 0), 0,
+                     math.pi * light.area * luminance_np(L))
+        elif isinstance(light, RectLight):
+            u, v = light.edges()
+            _, _, z, origin = _axes(light.to_world)
+            n = _emitting_normal(u, v, z)
+            L = light.radiance
+            _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, 0), 0, math.pi * light.area * luminance_np(L))
+        elif isinstance(light, DiskLight):
+            x, y, z, origin = _axes(light.to_world)
+            u, v = x * light.radius, y * light.radius
+            n = _emitting_normal(u, v, z)
+            L = light.radiance
+            _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, 0), 0, math.pi * light.area * luminance_np(L))
+        elif isinstance(light, CylinderLight):
+            axis, r = light.world_shape()
+            origin = _axes(light.to_world)[3]
+            L = light.radiance
+            _add(h, LIGHT_CYLINDER, L, origin, axis, zero, zero, (r, 0, light.area, 0), 0,
+                 math.pi * light.area * luminance_np(L))
+        else:
+            raise TypeError(f"unsupported light {type(light).__name__}")
+    num_analytic = len(h.kinds)
+
+    # Emissive triangles.
+    tri_ids, tri_power, _ = _emitter_triangles(scene, material_emission)
+    for prim, power in zip(tri_ids, tri_power):
+        _add(h, LIGHT_TRIANGLE, zero, zero, zero, zero, zero, (0, 0, 0, 0), int(prim), float(power))
+
+    # Dome texture and its sampling distribution.
+    texels = np.ones((1, 1, 3), np.float32)
+    row_cdf = np.array([0.0, 1.0], np.float32)
+    col_cdf = np.array([[0.0, 1.0]], np.float32)
+    dome_mean = np.zeros(3, np.float32)
+    dome_rot = np.eye(3)
+    if dome is not None:
+        r = np.asarray(dome.to_world, np.float64)[:3, :3]
+        r = r / np.maximum(np.linalg.norm(r, axis=0, keepdims=True), 1e-30)
+        dome_rot = np.linalg.inv(r)
+        dome_mean = np.asarray(dome.color, np.float32)
+        if dome.texture is not None:
+            texels = np.ascontiguousarray(dome.texture[..., :3], np.float32)
+            texels = np.nan_to_num(np.maximum(texels, 0.0), nan=0.0, posinf=0.0)
+            row_cdf, col_cdf, mean = _dome_distribution(texels)
+            dome_mean = (dome_mean * mean).astype(np.float32)
+        if num_analytic:
+            h.power[dome_index] = 4.0 * math.pi**2 * radius**2 * luminance_np(dome_mean)
+
+    # Selection probabilities.
+    n = len(h.kinds)
+    power = np.maximum(np.nan_to_num(np.asarray(h.power, np.float64), nan=0.0), 0.0)
+    pmf = np.zeros(max(n, 1))
+    if n:
+        pmf[:n] = 0.5 / n + (0.5 * power / power.sum() if power.sum() > 0 else 0.5 / n)
+        pmf[:n] /= pmf[:n].sum()
+    cdf = np.concatenate([[0.0], np.cumsum(pmf[:n])]) if n else np.array([0.0, 1.0])
+    if n:
+        cdf[-1] = 1.0
+
+    def arr(values, dtype, width=3):
+        data = np.asarray(values if values else [np.zeros(width) if width > 1 else 0], np.float32 if dtype != wp.int32 else np.int32)
+        return wp.array(data, dtype=dtype, device=device)
+
+    d = DeviceLights()
+    d.kinds = arr(h.kinds, wp.int32, 1)
+    d.radiance = arr(h.radiance, wp.vec3)
+    d.position = arr(h.position, wp.vec3)
+    d.axis_u = arr(h.axis_u, wp.vec3)
+    d.axis_v = arr(h.axis_v, wp.vec3)
+    d.normal = arr(h.normal, wp.vec3)
+    d.params = arr(h.params, wp.vec4, 4)
+    d.prims = arr(h.prims, wp.int32, 1)
+    d.pmf = wp.array(pmf.astype(np.float32), dtype=float, device=device)
+    d.cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
+    d.count = n
+    d.num_analytic = num_analytic
+    d.dome = dome_index
+    d.dome_to_local = wp.mat33(*dome_rot.astype(np.float32).reshape(-1))
+    d.dome_textured = 1 if (dome is not None and dome.texture is not None) else 0
+    d.dome_texels = wp.array(texels, dtype=wp.vec3, device=device)
+    d.dome_row_cdf = wp.array(row_cdf, dtype=float, device=device)
+    d.dome_col_cdf = wp.array(col_cdf, dtype=float, device=device)
+    d.dome_mean = wp.vec3(*dome_mean.tolist())
+    return d
+
+
+def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, power):
+    h.kinds.append(int(kind))
+    h.radiance.append(np.asarray(radiance, np.float32))
+    h.position.append(np.asarray(position, np.float32))
+    h.axis_u.append(np.asarray(u, np.float32))
+    h.axis_v.append(np.asarray(v, np.float32))
+    h.normal.append(np.asarray(normal, np.float32))
+    h.params.append(np.asarray(params, np.float32))
+    h.prims.append(int(prim))
+    h.power.append(float(power))
+
+
+def _emitting_normal(u, v, z) -> np.ndarray:
+    """Unit normal of the plane spanned by ``u, v`` on the side of the light's -Z axis."""
+    n = np.cross(u, v)
+    length = np.linalg.norm(n)
+    if length == 0.0:
+        return np.zeros(3)
+    n = n / length
+    return n if np.dot(n, -np.asarray(z)) >= 0.0 else -n
+
+
+def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Row and column CDFs of ``luminance * sin(theta)`` over a ``(H, W, 3)`` lat-long image, and its mean radiance
+    over the sphere."""
+    hgt, wid = texels.shape[:2]
+    theta = (np.arange(hgt) + 0.5) / hgt * np.pi
+    sin_t = np.sin(theta)[:, None]
+    lum = 0.2126 * texels[..., 0] + 0.7152 * texels[..., 1] + 0.0722 * texels[..., 2]
+    f = lum * sin_t + 1e-8 * (sin_t + 1e-6)  # keep every direction reachable
+    col = np.concatenate([np.zeros((hgt, 1)), np.cumsum(f, axis=1)], axis=1)
+    row_sums = col[:, -1]
+    row = np.concatenate([[0.0], np.cumsum(row_sums)])
+    # Mean over the sphere: sum(L sin(theta)) dtheta dphi / (4 pi).
+    weights = sin_t * (np.pi / hgt) * (2 * np.pi / wid)
+    mean = (texels * weights[..., None]).sum(axis=(0, 1)) / (4 * np.pi)
+    return row.astype(np.float32), col.astype(np.float32), mean.astype(np.float32)
+
+
+# Device functions ------------------------------------------------------------------------------------------------
+
+
+@wp.func
+def dome_direction_uv(lights: DeviceLights, d: wp.vec3):
+    """Lat-long texture coordinates ``(u, v)`` in [0, 1] (v = 0 at the top row) of world direction ``d``."""
+    l = lights.dome_to_local * d
+    lon = wp.atan2(l[0], l[2])
+    lat = wp.asin(wp.clamp(l[1], -1.0, 1.0))
+    return wp.vec2(0.5 * (1.0 - lon / PI), 0.5 - lat / PI)
+
+
+@wp.func
+def dome_radiance(lights: DeviceLights, d: wp.vec3):
+    """Radiance of the dome light arriving from world direction ``-d`` (i.e. seen along ``d``)."""
+    k = lights.dome
+    if k < 0:
+        return wp.vec3(0.0)
+    L = lights.radiance[k]
+    if lights.dome_textured == 0:
+        return L
+    uv = dome_direction_uv(lights, d)
+    h = lights.dome_texels.shape[0]
+    w = lights.dome_texels.shape[1]
+    x = wp.clamp(int(uv[0] * float(w)), 0, w - 1)
+    y = wp.clamp(int(uv[1] * float(h)), 0, h - 1)
+    return wp.cw_mul(L, lights.dome_texels[y, x])
+
+
+@wp.func
+def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
+    """Solid-angle pdf with which :func:`sample_light` draws direction ``d`` from the dome (``n``: shading normal)."""
+    if lights.dome_textured == 0:
+        if wp.length(n) == 0.0:
+            return 0.25 * INV_PI
+        return wp.max(wp.dot(n, d), 0.0) * INV_PI
+    uv = dome_direction_uv(lights, d)
+    h = lights.dome_texels.shape[0]
+    w = lights.dome_texels.shape[1]
+    x = wp.clamp(int(uv[0] * float(w)), 0, w - 1)
+    y = wp.clamp(int(uv[1] * float(h)), 0, h - 1)
+    total = lights.dome_row_cdf[h]
+    if total <= 0.0:
+        return 0.0
+    f = lights.dome_col_cdf[y, x + 1] - lights.dome_col_cdf[y, x]
+    pdf_uv = f / total * float(w * h)
+    sin_t = wp.sin((float(y) + 0.5) / float(h) * PI)
+    if sin_t <= 0.0:
+        return 0.0
+    return pdf_uv / (2.0 * PI * PI * sin_t)
+
+
+@wp.func
+def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
+    """``(cos_max, 1 - cos_max)`` of the cone the sphere light subtends at ``p``; ``cos_max = 2`` when inside."""
+    c = lights.position[k]
+    r = lights.params[k][0]
+    d2 = wp.length_sq(c - p)
+    if d2 <= r * r:
+        return 2.0, 0.0
+    sin2 = r * r / d2
+    cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
+    one_minus = sin2 / (1.0 + cos_max)  # 1 - cos_max without cancellation
+    return cos_max, one_minus
+
+
+@wp.func
+def intersect_sphere(c: wp.vec3, r: float, o: wp.vec3, d: wp.vec3):
+    """Nearest ``t > 0`` where unit ray ``o + t d`` enters the sphere from outside; inf if none."""
+    oc = o - c
+    b = wp.dot(oc, d)
+    cc = wp.dot(oc, oc) - r * r
+    if cc <= 0.0:
+        return float(wp.inf)
+    disc = b * b - cc
+    if disc < 0.0:
+        return float(wp.inf)
+    t = -b - wp.sqrt(disc)
+    if t <= 0.0:
+        return float(wp.inf)
+    return t
+
+
+@wp.func
+def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
+    """Distance along unit ray ``(o, d)`` to the emitting side of analytic light ``k`` (inf if missed or not
+    emitting towards the ray) and the cosine at the light (1 for spheres)."""
+    kind = lights.kinds[k]
+    c = lights.position[k]
+    if kind == LIGHT_SPHERE:
+        return intersect_sphere(c, lights.params[k][0], o, d), 1.0
+    if kind == LIGHT_RECT or kind == LIGHT_DISK:
+        n = lights.normal[k]
+        denom = wp.dot(d, n)
+        if denom >= 0.0:
+            return float(wp.inf), 0.0
+        t = wp.dot(c - o, n) / denom
+        if t <= 0.0:
+            return float(wp.inf), 0.0
+        q = o + t * d - c
+        u = lights.axis_u[k]
+        v = lights.axis_v[k]
+        a = wp.dot(q, u) / wp.length_sq(u)
+        b = wp.dot(q, v) / wp.length_sq(v)
+        inside = False
+        if kind == LIGHT_RECT:
+            inside = wp.abs(a) <= 0.5 and wp.abs(b) <= 0.5
+        else:
+            inside = a * a + b * b <= 1.0
+        if inside:
+            return t, -denom
+        return float(wp.inf), 0.0
+    if kind == LIGHT_CYLINDER:
+        axis = lights.axis_u[k]
+        half = 0.5 * wp.length(axis)
+        if half <= 0.0:
+            return float(wp.inf), 0.0
+        w = axis / (2.0 * half)
+        r = lights.params[k][0]
+        oc = o - c
+        dp = d - wp.dot(d, w) * w
+        op = oc - wp.dot(oc, w) * w
+        a = wp.dot(dp, dp)
+        b = wp.dot(op, dp)
+        cc = wp.dot(op, op) - r * r
+        if a <= 0.0 or cc <= 0.0:
+            return float(wp.inf), 0.0
+        disc = b * b - a * cc
+        if disc < 0.0:
+            return float(wp.inf), 0.0
+        t = (-b - wp.sqrt(disc)) / a
+        if t <= 0.0 or wp.abs(wp.dot(oc + t * d, w)) > half:
+            return float(wp.inf), 0.0
+        radial = op + t * dp
+        return t, wp.max(-wp.dot(d, radial / r), 0.0)
+    return float(wp.inf), 0.0
+
+
+@wp.func
+def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, dist: float, cos_l: float):
+    """Solid-angle pdf (without the selection probability) of analytic light ``k`` sampled from ``p`` and seen at
+    distance ``dist`` with cosine ``cos_l``."""
+    kind = lights.kinds[k]
+    if kind == LIGHT_SPHERE:
+        cos_max, one_minus = sphere_cone(lights, k, p)
+        if cos_max > 1.0 or one_minus <= 0.0:
+            return 0.0
+        return 1.0 / (2.0 * PI * one_minus)
+    area = lights.params[k][2]
+    if kind == LIGHT_CYLINDER:
+        area = 0.5 * area  # sampling covers the half facing the shading point
+    if cos_l <= 0.0 or area <= 0.0:
+        return 0.0
+    return dist * dist / (cos_l * area)
+
+
+@wp.func
+def distant_in_cone(lights: DeviceLights, k: int, d: wp.vec3):
+    """True when a ray along ``d`` looks into the disc of soft distant light ``k``."""
+    cone = lights.params[k][1]
+    return cone > 0.0 and wp.dot(-lights.position[k], d) >= lights.params[k][0]
+
+
+@wp.func
+def triangle_light_pdf(scene: DeviceScene, double_sided: int, prim: int, o: wp.vec3, d: wp.vec3, dist: float):
+    """Solid-angle pdf of uniform area sampling of triangle ``prim`` seen from ``o`` along unit ``d``; 0 from its
+    back when it is single-sided."""
+    a = scene.points[scene.indices[prim, 0]]
+    b = scene.points[scene.indices[prim, 1]]
+    c = scene.points[scene.indices[prim, 2]]
+    cr = wp.cross(b - a, c - a)
+    area2 = wp.length(cr)
+    if area2 <= 0.0:
+        return 0.0
+    cos_l = -wp.dot(d, cr / area2)
+    if double_sided == 1:
+        cos_l = wp.abs(cos_l)
+    if cos_l <= 0.0:
+        return 0.0
+    return dist * dist / (cos_l * 0.5 * area2)
+
+
+@wp.func
+def sample_light(
+    lights: DeviceLights,
+    scene: DeviceScene,
+    mats: DeviceMaterials,
+    uvs: wp.array2d[wp.vec2],
+    tri_materials: wp.array[wp.int32],
+    tri_double_sided: wp.array[wp.int32],
+    k: int,
+    p: wp.vec3,
+    n: wp.vec3,
+    u1: float,
+    u2: float,
+):
+    """A direction from ``p`` (shading normal ``n``, zero if none) towards light ``k``; see :class:`LightSample`."""
+    out = LightSample()
+    out.wi = wp.vec3(0.0, 0.0, 1.0)
+    out.dist = float(wp.inf)
+    out.value = wp.vec3(0.0)
+    out.pdf = 0.0
+    kind = lights.kinds[k]
+    if kind == LIGHT_DISTANT:
+        d = -lights.position[k]
+        cone = lights.params[k][1]
+        if cone > 0.0:
+            out.wi = to_world(sample_uniform_cone(u1, u2, lights.params[k][0]), d)
+            out.pdf = 1.0 / cone
+            out.value = lights.radiance[k] * cone
+        else:
+            out.wi = d
+            out.value = lights.radiance[k]
+        return out
+    if kind == LIGHT_POINT:
+        to = lights.position[k] - p
+        d2 = wp.length_sq(to)
+        if d2 > 0.0:
+            out.dist = wp.sqrt(d2)
+            out.wi = to / out.dist
+            out.value = lights.radiance[k] / d2
+        return out
+    if kind == LIGHT_DOME:
+        if lights.dome_textured == 0:
+            if wp.length(n) > 0.0:
+                out.wi = to_world(sample_cosine_hemisphere(u1, u2), n)
+            else:
+                out.wi = sample_uniform_sphere(u1, u2)
+        else:
+            h = lights.dome_texels.shape[0]
+            w = lights.dome_texels.shape[1]
+            y = sample_cdf(lights.dome_row_cdf, 0, h, u1)
+            row_lo = lights.dome_row_cdf[y]
+            row_w = lights.dome_row_cdf[y + 1] - row_lo
+            fy = wp.clamp((u1 * lights.dome_row_cdf[h] - row_lo) / wp.max(row_w, 1.0e-30), 0.0, 1.0)
+            x = int(0)
+            # Search the row's column CDF (a 2D array row: copy the bounds into a binary search).
+            lo = int(0)
+            hi = w
+            target = u2 * lights.dome_col_cdf[y, w]
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if lights.dome_col_cdf[y, mid] <= target:
+                    lo = mid
+                else:
+                    hi = mid
+            x = lo
+            col_lo = lights.dome_col_cdf[y, x]
+            col_w = lights.dome_col_cdf[y, x + 1] - col_lo
+            fx = wp.clamp((target - col_lo) / wp.max(col_w, 1.0e-30), 0.0, 1.0)
+            uu = (float(x) + fx) / float(w)
+            vv = (float(y) + fy) / float(h)
+            lon = PI * (1.0 - 2.0 * uu)
+            lat = PI * (0.5 - vv)
+            local = wp.vec3(wp.cos(lat) * wp.sin(lon), wp.sin(lat), wp.cos(lat) * wp.cos(lon))
+            out.wi = wp.normalize(wp.transpose(lights.dome_to_local) * local)
+        out.pdf = dome_pdf(lights, out.wi, n)
+        if out.pdf > 0.0:
+            out.value = dome_radiance(lights, out.wi) / out.pdf
+        return out
+    if kind == LIGHT_SPHERE:
+        c = lights.position[k]
+        r = lights.params[k][0]
+        cos_max, one_minus = sphere_cone(lights, k, p)
+        if cos_max > 1.0 or one_minus <= 0.0:
+            return out  # inside the sphere: it emits outwards only
+        axis = wp.normalize(c - p)
+        cos_t = 1.0 - u1 * one_minus
+        sin_t = wp.sqrt(wp.max(0.0, 1.0 - cos_t * cos_t))
+        phi = 2.0 * PI * u2
+        out.wi = wp.normalize(to_world(wp.vec3(sin_t * wp.cos(phi), sin_t * wp.sin(phi), cos_t), axis))
+        t = intersect_sphere(c, r, p, out.wi)
+        if t == wp.inf:
+            t = wp.dot(c - p, out.wi)  # grazing: rounding missed the sphere by a hair
+        out.dist = t
+        out.pdf = 1.0 / (2.0 * PI * one_minus)
+        out.value = lights.radiance[k] * (2.0 * PI * one_minus)
+        return out
+
+    # Area sampling: rect, disk, cylinder, triangle.
+    q = wp.vec3(0.0)
+    ln = wp.vec3(0.0)
+    area = float(0.0)
+    L = wp.vec3(0.0)
+    two_sided = int(0)
+    if kind == LIGHT_RECT:
+        q = lights.position[k] + (u1 - 0.5) * lights.axis_u[k] + (u2 - 0.5) * lights.axis_v[k]
+        ln = lights.normal[k]
+        area = lights.params[k][2]
+        L = lights.radiance[k]
+    elif kind == LIGHT_DISK:
+        dd = sample_concentric_disk(u1, u2)
+        q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
+        ln = lights.normal[k]
+        area = lights.params[k][2]
+        L = lights.radiance[k]
+    elif kind == LIGHT_CYLINDER:
+        # Only the half of the tube facing p can be seen from it: sample that half uniformly by area.
+        axis = lights.axis_u[k]
+        along = wp.normalize(axis)
+        to_p = p - lights.position[k]
+        phi0 = wp.atan2(wp.dot(to_p, basis_y(along)), wp.dot(to_p, basis_x(along)))
+        phi = phi0 + (u2 - 0.5) * PI
+        radial = wp.cos(phi) * basis_x(along) + wp.sin(phi) * basis_y(along)
+        q = lights.position[k] + (u1 - 0.5) * axis + lights.params[k][0] * radial
+        ln = radial
+        area = 0.5 * lights.params[k][2]
+        L = lights.radiance[k]
+    else:
+        prim = lights.prims[k]
+        a = scene.points[scene.indices[prim, 0]]
+        b = scene.points[scene.indices[prim, 1]]
+        c = scene.points[scene.indices[prim, 2]]
+        su = wp.sqrt(u1)
+        bu = u2 * su  # weight of b
+        bv = 1.0 - su  # weight of c ... (any uniform barycentric split works)
+        bw = 1.0 - bu - bv
+        q = bw * a + bu * b + bv * c
+        cr = wp.cross(b - a, c - a)
+        area = 0.5 * wp.length(cr)
+        if area <= 0.0:
+            return out
+        ln = cr / (2.0 * area)
+        st = bw * uvs[prim, 0] + bu * uvs[prim, 1] + bv * uvs[prim, 2]
+        L = eval_emission(mats, tri_materials[prim], st)
+        two_sided = tri_double_sided[prim]
+    to = q - p
+    d2 = wp.length_sq(to)
+    if d2 <= 0.0 or area <= 0.0:
+        return out
+    dist = wp.sqrt(d2)
+    wi = to / dist
+    cos_l = -wp.dot(wi, ln)
+    if two_sided == 1:
+        cos_l = wp.abs(cos_l)
+    if cos_l <= 0.0:
+        return out
+    out.wi = wi
+    out.dist = dist
+    out.pdf = d2 / (cos_l * area)
+    out.value = L / out.pdf
+    return out

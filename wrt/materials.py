@@ -1,0 +1,563 @@
+"""Materials: UsdPreviewSurface read through UsdShade bindings, uploaded to the device and evaluated per hit.
+
+Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
+
+- Each mesh's material is ``UsdShade.MaterialBindingAPI.ComputeBoundMaterial(purpose="full")``, which applies
+  USD's rules: direct and ``collection`` bindings, ``bindMaterialAs`` strength, inheritance down namespace, and
+  ``material:binding:full`` over all-purpose bindings. ``GeomSubset``\\ s of family ``materialBind`` override the
+  mesh's material on their faces.
+- The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``. Anything else (MaterialX,
+  MDL, no surface) falls back to the default material (displayColor, else grey) with one warning per material,
+  never an error.
+- Inputs read: ``diffuseColor``, ``emissiveColor``, ``useSpecularWorkflow``, ``specularColor``, ``metallic``,
+  ``roughness``, ``clearcoat``, ``clearcoatRoughness``, ``opacity``, ``opacityThreshold``, ``ior``. Any of them may
+  be a constant or a ``UsdUVTexture`` output (``r``/``g``/``b``/``a``/``rgb``) with ``file``, ``st`` (from a
+  ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``), ``wrapS``/``wrapT``, ``scale``, ``bias``,
+  ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a ``UsdPrimvarReader_float3`` of
+  ``displayColor``. ``normal``, ``occlusion`` and ``displacement`` are ignored.
+- A texture that cannot be read is replaced by its ``fallback`` value, with one warning per file.
+
+Device side: :class:`DeviceMaterials` holds every material (index 0 is the default material: Lambertian, albedo =
+displayColor or grey 0.5) and every texture; :func:`eval_surface` returns the :class:`wrt.bsdf.Surface` at a hit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import warp as wp
+
+from .bsdf import Surface
+from .textures import WRAP_MODES, TextureError, load_image, pack_images, sample_image
+
+SLOTS = (  # the texturable inputs, in device slot order
+    "diffuseColor",
+    "emissiveColor",
+    "specularColor",
+    "metallic",
+    "roughness",
+    "opacity",
+    "clearcoat",
+    "clearcoatRoughness",
+)
+SLOT_DIFFUSE = wp.constant(0)
+SLOT_EMISSIVE = wp.constant(1)
+SLOT_SPECULAR = wp.constant(2)
+SLOT_METALLIC = wp.constant(3)
+SLOT_ROUGHNESS = wp.constant(4)
+SLOT_OPACITY = wp.constant(5)
+SLOT_CLEARCOAT = wp.constant(6)
+SLOT_CLEARCOAT_ROUGHNESS = wp.constant(7)
+NUM_SLOTS = len(SLOTS)
+CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3, "rgb": 4, "rgba": 4}  # UsdUVTexture outputs
+FLAG_SPECULAR_WORKFLOW = wp.constant(1)  # useSpecularWorkflow = 1
+FLAG_DISPLAY_COLOR = wp.constant(2)  # diffuseColor comes from the displayColor primvar
+DEFAULT_GREY = 0.5  # albedo of meshes with neither a material nor displayColor
+
+
+@dataclasses.dataclass
+class TextureInput:
+    """One ``UsdUVTexture`` feeding a material input.
+
+    Attributes:
+        image: index into ``Scene.textures``.
+        channel: ``"r"``, ``"g"``, ``"b"``, ``"a"`` or ``"rgb"``: the texture output the input reads.
+        wrap: ``(wrapS, wrapT)`` tokens: ``repeat``, ``mirror``, ``clamp`` or ``black``.
+        scale: ``(4,)`` multiplies the texel.
+        bias: ``(4,)`` is added after ``scale``.
+        transform: ``(3, 3)`` affine map applied to ``st`` (``UsdTransform2d``), column-vector convention.
+        uv_set: name of the texture-coordinate primvar.
+    """
+
+    image: int
+    channel: str = "rgb"
+    wrap: tuple[str, str] = ("repeat", "repeat")
+    scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(4, np.float32))
+    bias: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4, np.float32))
+    transform: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3, dtype=np.float32))
+    uv_set: str = "st"
+
+
+@dataclasses.dataclass
+class Material:
+    """A UsdPreviewSurface; constants use the schema's fallback values.
+
+    Attributes:
+        path: prim path of the ``UsdShade.Material``.
+        diffuse_color: ``(3,)`` linear RGB.
+        emissive_color: ``(3,)`` emitted radiance, linear RGB.
+        specular_color: ``(3,)`` F0 in the specular workflow.
+        use_specular_workflow: ``useSpecularWorkflow``.
+        metallic: 0 .. 1.
+        roughness: 0 .. 1 (GGX alpha = roughness^2).
+        opacity: 1 opaque; below 1 a smooth dielectric (see :mod:`wrt.bsdf`).
+        opacity_threshold: > 0 turns opacity into a cut-out mask.
+        ior: index of refraction.
+        clearcoat: clearcoat weight.
+        clearcoat_roughness: clearcoat roughness.
+        diffuse_from_display_color: diffuseColor is read from the mesh's ``displayColor``.
+        textures: input name (one of :data:`SLOTS`) -> :class:`TextureInput`.
+    """
+
+    path: str = ""
+    diffuse_color: np.ndarray = dataclasses.field(default_factory=lambda: np.full(3, 0.18, np.float32))
+    emissive_color: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3, np.float32))
+    specular_color: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3, np.float32))
+    use_specular_workflow: bool = False
+    metallic: float = 0.0
+    roughness: float = 0.5
+    opacity: float = 1.0
+    opacity_threshold: float = 0.0
+    ior: float = 1.5
+    clearcoat: float = 0.0
+    clearcoat_roughness: float = 0.01
+    diffuse_from_display_color: bool = False
+    textures: dict = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        for name in ("diffuse_color", "emissive_color", "specular_color"):
+            setattr(self, name, np.broadcast_to(np.asarray(getattr(self, name), np.float32), (3,)).copy())
+        unknown = set(self.textures) - set(SLOTS)
+        if unknown:
+            raise ValueError(f"textures on unknown inputs {sorted(unknown)}; texturable inputs: {SLOTS}")
+
+    @property
+    def uv_set(self) -> str:
+        """The texture-coordinate primvar its textures read (``"st"`` when untextured)."""
+        for tex in self.textures.values():
+            return tex.uv_set
+        return "st"
+
+    @property
+    def emissive(self) -> bool:
+        """True when the material emits light."""
+        return bool(np.any(self.emissive_color > 0.0)) or "emissiveColor" in self.textures
+
+
+@wp.struct
+class DeviceMaterials:
+    """Every material and texture on the device; material 0 is the default (displayColor Lambert)."""
+
+    colors: wp.array2d[wp.vec3]  # (M, 3) diffuseColor, emissiveColor, specularColor
+    params: wp.array2d[float]  # (M, 8) metallic, roughness, opacity, opacityThreshold, ior, clearcoat, clearcoatRoughness, 0
+    flags: wp.array[wp.int32]  # (M,) FLAG_* bits
+    slots: wp.array2d[wp.int32]  # (M, NUM_SLOTS) texture binding per input, -1 for a constant
+    tex_image: wp.array[wp.int32]  # (B,) image of each texture binding
+    tex_channel: wp.array[wp.int32]  # (B,) 0..3 one channel, 4 rgb
+    tex_wrap: wp.array[wp.vec2i]  # (B,) wrapS, wrapT codes (textures.WRAP_MODES)
+    tex_scale: wp.array[wp.vec4]  # (B,)
+    tex_bias: wp.array[wp.vec4]  # (B,)
+    tex_transform: wp.array[wp.mat33]  # (B,) st transform
+    image_offsets: wp.array[wp.int32]  # (K,) first texel of each image
+    image_sizes: wp.array[wp.vec2i]  # (K,) width, height
+    texels: wp.array[wp.vec4h]  # all images, linear RGBA half floats
+    count: int  # number of materials including the default
+
+
+def default_material() -> Material:
+    """Material 0: Lambertian with albedo from displayColor (grey 0.5 without one), no specular lobe."""
+    return Material(
+        path="",
+        diffuse_color=np.full(3, DEFAULT_GREY, np.float32),
+        use_specular_workflow=True,
+        specular_color=np.zeros(3, np.float32),
+        roughness=1.0,
+        diffuse_from_display_color=True,
+    )
+
+
+def upload_materials(materials: list[Material], textures: list[np.ndarray], device) -> DeviceMaterials:
+    """Packs ``[default_material()] + materials`` and ``textures`` into a :class:`DeviceMaterials` on ``device``."""
+    all_materials = [default_material()] + list(materials)
+    m = len(all_materials)
+    colors = np.zeros((m, 3, 3), np.float32)
+    params = np.zeros((m, 8), np.float32)
+    flags = np.zeros(m, np.int32)
+    slots = np.full((m, NUM_SLOTS), -1, np.int32)
+    bindings = []
+    for k, mat in enumerate(all_materials):
+        colors[k] = (mat.diffuse_color, mat.emissive_color, mat.specular_color)
+        params[k] = (
+            mat.metallic,
+            mat.roughness,
+            mat.opacity,
+            mat.opacity_threshold,
+            mat.ior,
+            mat.clearcoat,
+            mat.clearcoat_roughness,
+            0.0,
+        )
+        flags[k] = (int(FLAG_SPECULAR_WORKFLOW) if mat.use_specular_workflow else 0) | (
+            int(FLAG_DISPLAY_COLOR) if mat.diffuse_from_display_color else 0
+        )
+        for name, tex in mat.textures.items():
+            if not 0 <= tex.image < len(textures):
+                raise ValueError(f"material {mat.path}: {name} uses texture {tex.image}, but there are {len(textures)}")
+            slots[k, SLOTS.index(name)] = len(bindings)
+            bindings.append(tex)
+    b = max(len(bindings), 1)
+    image = np.zeros(b, np.int32)
+    channel = np.full(b, 4, np.int32)
+    wrap = np.zeros((b, 2), np.int32)
+    scale = np.ones((b, 4), np.float32)
+    bias = np.zeros((b, 4), np.float32)
+    transform = np.tile(np.eye(3, dtype=np.float32), (b, 1, 1))
+    for k, tex in enumerate(bindings):
+        image[k] = tex.image
+        channel[k] = CHANNELS[tex.channel]
+        wrap[k] = (WRAP_MODES[tex.wrap[0]], WRAP_MODES[tex.wrap[1]])
+        scale[k] = tex.scale
+        bias[k] = tex.bias
+        transform[k] = tex.transform
+    texels, offsets, sizes = pack_images(textures)
+
+    d = DeviceMaterials()
+    d.colors = wp.array(colors, dtype=wp.vec3, device=device)
+    d.params = wp.array(params, dtype=float, device=device)
+    d.flags = wp.array(flags, dtype=wp.int32, device=device)
+    d.slots = wp.array(slots, dtype=wp.int32, device=device)
+    d.tex_image = wp.array(image, dtype=wp.int32, device=device)
+    d.tex_channel = wp.array(channel, dtype=wp.int32, device=device)
+    d.tex_wrap = wp.array(wrap, dtype=wp.vec2i, device=device)
+    d.tex_scale = wp.array(scale, dtype=wp.vec4, device=device)
+    d.tex_bias = wp.array(bias, dtype=wp.vec4, device=device)
+    d.tex_transform = wp.array(transform, dtype=wp.mat33, device=device)
+    d.image_offsets = wp.array(offsets, dtype=wp.int32, device=device)
+    d.image_sizes = wp.array(sizes, dtype=wp.vec2i, device=device)
+    d.texels = wp.array(texels, dtype=wp.vec4h, device=device)
+    d.count = m
+    return d
+
+
+@wp.func
+def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
+    """The value of texture binding ``b`` at ``st``: ``texel * scale + bias``, one channel broadcast or RGBA."""
+    xf = mats.tex_transform[b]
+    p = xf * wp.vec3(st[0], st[1], 1.0)
+    k = mats.tex_image[b]
+    c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], wp.vec2(p[0], p[1]), mats.tex_wrap[b])
+    c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
+    ch = mats.tex_channel[b]
+    if ch < 4:
+        return wp.vec4(c[ch])
+    return c
+
+
+@wp.func
+def input_color(mats: DeviceMaterials, m: int, slot: int, st: wp.vec2, constant: wp.vec3):
+    """A colour input: its texture when bound, else ``constant``."""
+    b = mats.slots[m, slot]
+    if b < 0:
+        return constant
+    c = lookup_binding(mats, b, st)
+    return wp.vec3(c[0], c[1], c[2])
+
+
+@wp.func
+def input_float(mats: DeviceMaterials, m: int, slot: int, st: wp.vec2, constant: float):
+    """A scalar input: its texture when bound, else ``constant``."""
+    b = mats.slots[m, slot]
+    if b < 0:
+        return constant
+    return lookup_binding(mats, b, st)[0]
+
+
+@wp.func
+def eval_emission(mats: DeviceMaterials, m: int, st: wp.vec2):
+    """``emissiveColor`` of material ``m`` at ``st``."""
+    return input_color(mats, m, SLOT_EMISSIVE, st, mats.colors[m, 1])
+
+
+@wp.func
+def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.vec3):
+    """Every UsdPreviewSurface input of material ``m`` at texture coordinate ``st``."""
+    s = Surface()
+    flags = mats.flags[m]
+    base = mats.colors[m, 0]
+    if (flags & FLAG_DISPLAY_COLOR) != 0:
+        base = display_color
+    s.base_color = input_color(mats, m, SLOT_DIFFUSE, st, base)
+    s.emission = input_color(mats, m, SLOT_EMISSIVE, st, mats.colors[m, 1])
+    s.specular_color = input_color(mats, m, SLOT_SPECULAR, st, mats.colors[m, 2])
+    s.metallic = wp.clamp(input_float(mats, m, SLOT_METALLIC, st, mats.params[m, 0]), 0.0, 1.0)
+    s.roughness = wp.clamp(input_float(mats, m, SLOT_ROUGHNESS, st, mats.params[m, 1]), 0.0, 1.0)
+    s.opacity = wp.clamp(input_float(mats, m, SLOT_OPACITY, st, mats.params[m, 2]), 0.0, 1.0)
+    s.opacity_threshold = mats.params[m, 3]
+    s.ior = wp.max(mats.params[m, 4], 1.0e-3)
+    s.clearcoat = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT, st, mats.params[m, 5]), 0.0, 1.0)
+    s.clearcoat_roughness = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT_ROUGHNESS, st, mats.params[m, 6]), 0.0, 1.0)
+    s.specular_workflow = wp.where((flags & FLAG_SPECULAR_WORKFLOW) != 0, 1, 0)
+    # Keep colours physical: negative texels (or biases) would make energy from nothing.
+    s.base_color = wp.vec3(wp.max(s.base_color[0], 0.0), wp.max(s.base_color[1], 0.0), wp.max(s.base_color[2], 0.0))
+    s.emission = wp.vec3(wp.max(s.emission[0], 0.0), wp.max(s.emission[1], 0.0), wp.max(s.emission[2], 0.0))
+    return s
+
+
+# Reading USD ---------------------------------------------------------------------------------------------------
+
+
+def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
+    """``UsdTransform2d``: ``st * scale``, rotated counter-clockwise, then translated, as a 3x3 matrix."""
+    c, s = math.cos(math.radians(rotation_deg)), math.sin(math.radians(rotation_deg))
+    m = np.array([[c * scale[0], -s * scale[1], translation[0]], [s * scale[0], c * scale[1], translation[1]], [0, 0, 1]])
+    return m.astype(np.float32)
+
+
+class MaterialReader:
+    """Reads materials bound to meshes of one stage, once each; collects textures and fallback warnings.
+
+    Args:
+        time: ``Usd.TimeCode`` to read inputs at.
+        skip: ``skip(reason, prim, detail=None)`` records a warning (see ``wrt.usd``); one reason per material.
+    """
+
+    def __init__(self, time, skip):
+        self.time = time
+        self.skip = skip
+        self.materials: list[Material] = []
+        self.textures: list[np.ndarray] = []
+        self.texture_paths: list[str] = []
+        self._by_path: dict[str, int] = {}  # material prim path -> index into materials, -1 for the default
+        self._images: dict[tuple[str, str], int] = {}  # (resolved path, colour space) -> image index, -1 unreadable
+
+    # Bindings
+
+    def face_materials(self, prim, n_faces: int) -> np.ndarray | None:
+        """``(F,)`` int32 material index of each face of mesh ``prim`` (-1: default material), or None when the
+        mesh and its subsets bind no material at all."""
+        from pxr import UsdGeom, UsdShade
+
+        purpose = UsdShade.Tokens.full
+        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(purpose)
+        base = self.material_index(material) if material else -1
+        faces = np.full(n_faces, base, np.int32)
+        bound = bool(material)
+        for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
+            sub_material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial(purpose)
+            if not sub_material:
+                continue
+            indices = UsdGeom.Subset(subset.GetPrim()).GetIndicesAttr().Get(self.time)
+            indices = np.asarray(indices if indices is not None else [], np.int64).reshape(-1)
+            indices = indices[(indices >= 0) & (indices < n_faces)]
+            faces[indices] = self.material_index(sub_material)
+            bound = True
+        return faces if bound else None
+
+    def uv_set(self, face_materials: np.ndarray | None) -> str | None:
+        """The texture-coordinate primvar to read for a mesh whose faces use ``face_materials``; None when none of
+        them is textured."""
+        if face_materials is not None:
+            for k in np.unique(face_materials):
+                if k >= 0 and self.materials[k].textures:
+                    return self.materials[k].uv_set
+        return None
+
+    # Materials
+
+    def material_index(self, material) -> int:
+        """Index of ``material`` (a ``UsdShade.Material``) in :attr:`materials`, reading it on first use."""
+        path = str(material.GetPath())
+        if path not in self._by_path:
+            mat = self._read_material(material)
+            if mat is None:
+                self._by_path[path] = -1
+            else:
+                self._by_path[path] = len(self.materials)
+                self.materials.append(mat)
+        return self._by_path[path]
+
+    def _read_material(self, material) -> Material | None:
+        prim = material.GetPrim()
+        path = str(prim.GetPath())
+        shader, _, _ = material.ComputeSurfaceSource("")
+        shader_id = shader.GetShaderId() if shader else None
+        if shader_id != "UsdPreviewSurface":
+            if not shader:
+                found = [o.GetBaseName() for o in material.GetSurfaceOutputs() if o.HasConnectedSource()]
+                what = f"no universal surface output (found: {', '.join(found) or 'none'})"
+            else:
+                what = f"shader {shader_id or 'without info:id'} is not supported"
+            self.skip(f"material {path}: {what}; it falls back to displayColor or grey", prim)
+            return None
+        mat = Material(path=path)
+        for name in SLOTS:
+            self._read_input(shader, name, mat)
+        for name, field in (("useSpecularWorkflow", "use_specular_workflow"), ("opacityThreshold", "opacity_threshold")):
+            value = self._constant(shader, name)
+            if value is not None:
+                setattr(mat, field, type(getattr(mat, field))(value))
+        ior = self._constant(shader, "ior")
+        if ior is not None:
+            mat.ior = float(ior)
+        return mat
+
+    def _producer(self, shader, name):
+        """What feeds input ``name``: ``("value", v)``, ``("shader", source, output_name)`` or None."""
+        from pxr import UsdShade
+
+        inp = shader.GetInput(name)
+        if not inp:
+            return None
+        for attr in inp.GetValueProducingAttributes():
+            if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
+                base, _ = UsdShade.Utils.GetBaseNameAndType(attr.GetName())
+                return ("shader", UsdShade.Shader(attr.GetPrim()), str(base))
+            value = attr.Get(self.time)
+            return None if value is None else ("value", value)
+        return None
+
+    def _constant(self, shader, name):
+        """The constant value of input ``name`` (following interface connections), or None."""
+        found = self._producer(shader, name)
+        return found[1] if found and found[0] == "value" else None
+
+    def _read_input(self, shader, name: str, mat: Material):
+        field = {"diffuseColor": "diffuse_color", "emissiveColor": "emissive_color", "specularColor": "specular_color",
+                 "clearcoatRoughness": "clearcoat_roughness"}.get(name, name)
+        is_color = name.endswith("Color")
+        found = self._producer(shader, name)
+        if found is None:
+            return
+        if found[0] == "value":
+            self._set_constant(mat, field, is_color, found[1])
+            return
+        source, output = found[1], found[2]
+        source_id = source.GetShaderId() or ""
+        if source_id == "UsdUVTexture":
+            tex, fallback = self._texture(source, output, mat.path)
+            if tex is not None:
+                mat.textures[name] = tex
+            else:
+                self._set_constant(mat, field, is_color, fallback)
+        elif source_id.startswith("UsdPrimvarReader"):
+            varname = self._constant(source, "varname")
+            if name == "diffuseColor" and str(varname) == "displayColor":
+                mat.diffuse_from_display_color = True
+                return
+            fallback = self._constant(source, "fallback")
+            if fallback is not None:
+                self._set_constant(mat, field, is_color, fallback)
+            self.skip(
+                f"material {mat.path}: {name} reads primvar {varname!r}, which is not supported; its fallback is used",
+                source.GetPrim(),
+            )
+        else:
+            self.skip(
+                f"material {mat.path}: {name} is connected to an unsupported shader ({source_id or 'no info:id'}); "
+                "its constant value is used",
+                source.GetPrim(),
+            )
+
+    @staticmethod
+    def _set_constant(mat: Material, field: str, is_color: bool, value):
+        v = np.asarray(value, np.float64).reshape(-1)
+        if v.size == 0 or not np.all(np.isfinite(v)):
+            return
+        if is_color:
+            setattr(mat, field, np.resize(v, 3).astype(np.float32) if v.size >= 3 else np.full(3, v[0], np.float32))
+        else:
+            setattr(mat, field, float(v[0]))
+
+    def _texture(self, tex, output: str, material_path: str):
+        """A :class:`TextureInput` for ``UsdUVTexture`` ``tex`` read through ``output``, or ``(None, fallback)``
+        when its image cannot be read."""
+        channel = output if output in CHANNELS else "rgb"
+        channel = "rgb" if channel == "rgba" else channel
+        fallback = self._constant(tex, "fallback")
+        fallback = np.asarray(fallback if fallback is not None else (0.0, 0.0, 0.0, 1.0), np.float32).reshape(-1)
+        fallback = np.resize(fallback, 4)
+        fallback_value = fallback[:3] if channel == "rgb" else np.full(3, fallback[CHANNELS[channel]], np.float32)
+
+        asset = self._constant(tex, "file")
+        color_space = str(self._constant(tex, "sourceColorSpace") or "auto")
+        if color_space not in ("auto", "sRGB", "raw"):
+            color_space = "auto"
+        image = self._image(asset, color_space, tex.GetPrim(), material_path)
+        if image < 0:
+            return None, fallback_value
+
+        wraps = []
+        for key in ("wrapS", "wrapT"):
+            token = str(self._constant(tex, key) or "useMetadata")
+            wraps.append(token if token in WRAP_MODES else "repeat")  # useMetadata: no metadata is read -> repeat
+        scale = self._constant(tex, "scale")
+        bias = self._constant(tex, "bias")
+        uv_set, transform = self._st_source(tex)
+        return (
+            TextureInput(
+                image=image,
+                channel=channel,
+                wrap=(wraps[0], wraps[1]),
+                scale=np.resize(np.asarray(scale if scale is not None else (1, 1, 1, 1), np.float32), 4),
+                bias=np.resize(np.asarray(bias if bias is not None else (0, 0, 0, 0), np.float32), 4),
+                transform=transform,
+                uv_set=uv_set,
+            ),
+            fallback_value,
+        )
+
+    def _st_source(self, tex) -> tuple[str, np.ndarray]:
+        """The primvar feeding ``tex``'s ``st`` and the ``UsdTransform2d`` applied on the way (identity if none)."""
+        transform = np.eye(3, dtype=np.float32)
+        found = self._producer(tex, "st")
+        for _ in range(8):  # follow a short chain of transforms
+            if found is None or found[0] != "shader":
+                return "st", transform
+            node = found[1]
+            node_id = node.GetShaderId() or ""
+            if node_id.startswith("UsdPrimvarReader"):
+                varname = self._constant(node, "varname")
+                return (str(varname) if varname else "st"), transform
+            if node_id == "UsdTransform2d":
+                rotation = float(self._constant(node, "rotation") or 0.0)
+                scale = self._constant(node, "scale")
+                translation = self._constant(node, "translation")
+                scale = (1.0, 1.0) if scale is None else tuple(scale)
+                translation = (0.0, 0.0) if translation is None else tuple(translation)
+                transform = transform @ _transform2d(rotation, scale, translation)
+                found = self._producer(node, "in")
+                continue
+            return "st", transform
+        return "st", transform
+
+    def _image(self, asset, color_space: str, prim, material_path: str) -> int:
+        """Index of the image behind ``asset`` (an ``Sdf.AssetPath``) in :attr:`textures`; -1 (with a warning) when
+        it cannot be read."""
+        if asset is None:
+            return -1
+        resolved = getattr(asset, "resolvedPath", "") or ""
+        authored = getattr(asset, "path", "") or str(asset)
+        key = (resolved or authored, color_space)
+        if key not in self._images:
+            if not resolved:
+                reason = "<UDIM> textures are not supported" if "<UDIM>" in authored else "the file was not found"
+                self.skip(f"texture {authored}: {reason}; the texture's fallback value is used", prim)
+                self._images[key] = -1
+            else:
+                try:
+                    pixels = load_image(resolved, color_space)
+                except TextureError as e:
+                    self.skip(f"texture {authored}: {e}; the texture's fallback value is used", prim)
+                    self._images[key] = -1
+                else:
+                    self._images[key] = len(self.textures)
+                    self.textures.append(pixels)
+                    self.texture_paths.append(resolved)
+        return self._images[key]
+
+
+def emission_estimates(materials: list[Material], textures: list[np.ndarray]) -> list[np.ndarray]:
+    """Per device material (``[default] + materials``) a ``(3,)`` estimate of its emitted radiance: the constant
+    ``emissiveColor``, or the mean of its texture (after scale and bias). Used to find and weigh light sources."""
+    out = [np.zeros(3, np.float32)]
+    for mat in materials:
+        tex = mat.textures.get("emissiveColor")
+        if tex is None:
+            out.append(np.maximum(np.asarray(mat.emissive_color, np.float32), 0.0))
+            continue
+        mean = textures[tex.image].reshape(-1, 4).mean(axis=0) * tex.scale + tex.bias
+        value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
+        out.append(np.maximum(value.astype(np.float32), 0.0))
+    return out

@@ -1,0 +1,143 @@
+"""Monte Carlo sampling helpers shared by the integrators: random numbers, frames and warps of the unit square.
+
+Every function is a ``@wp.func`` and deterministic in its inputs, so a path draws the same numbers on ``cpu``
+and ``cuda``. Random numbers come from Warp's PCG generator (``wp.rand_init`` / ``wp.randf``); a path's state
+is seeded from ``(seed, pixel + sample * pixels)`` and carried between kernels in a ``uint32`` array.
+
+Warps follow Pharr, Jakob and Humphreys, *Physically Based Rendering* (4th ed.), chapter A.5: cosine-weighted
+hemisphere via Shirley and Chiu's concentric disk mapping, uniform cones and spheres. The orthonormal basis is
+Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017.
+"""
+
+import warp as wp
+
+PI = wp.constant(3.14159265358979)
+INV_PI = wp.constant(0.31830988618379)
+ONE_MINUS_EPSILON = wp.constant(0.99999994)  # largest float32 below 1
+
+
+@wp.func
+def rand01(state: wp.uint32):
+    """A uniform float in ``[0, 1)`` and the advanced generator state."""
+    x = wp.randf(state)  # advances ``state`` in place
+    return wp.min(x, ONE_MINUS_EPSILON), state
+
+
+@wp.func
+def luminance(c: wp.vec3):
+    """Rec. 709 luminance of a linear RGB colour."""
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+
+
+@wp.func
+def max_component(c: wp.vec3):
+    """Largest of the three components."""
+    return wp.max(c[0], wp.max(c[1], c[2]))
+
+
+@wp.func
+def basis_x(n: wp.vec3):
+    """First tangent of the orthonormal basis around unit ``n`` (Duff et al. 2017)."""
+    sign = wp.where(n[2] >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    return wp.vec3(1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0])
+
+
+@wp.func
+def basis_y(n: wp.vec3):
+    """Second tangent of the orthonormal basis around unit ``n`` (Duff et al. 2017)."""
+    sign = wp.where(n[2] >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    return wp.vec3(b, sign + n[1] * n[1] * a, -n[1])
+
+
+@wp.func
+def to_world(v: wp.vec3, n: wp.vec3):
+    """``v`` given in the frame ``(basis_x(n), basis_y(n), n)``, expressed in world space."""
+    return v[0] * basis_x(n) + v[1] * basis_y(n) + v[2] * n
+
+
+@wp.func
+def to_local(v: wp.vec3, n: wp.vec3):
+    """World-space ``v`` in the frame ``(basis_x(n), basis_y(n), n)``."""
+    return wp.vec3(wp.dot(v, basis_x(n)), wp.dot(v, basis_y(n)), wp.dot(v, n))
+
+
+@wp.func
+def sample_concentric_disk(u1: float, u2: float):
+    """Uniform point on the unit disk (Shirley and Chiu 1997)."""
+    a = 2.0 * u1 - 1.0
+    b = 2.0 * u2 - 1.0
+    if a == 0.0 and b == 0.0:
+        return wp.vec2(0.0, 0.0)
+    r = float(0.0)
+    theta = float(0.0)
+    if wp.abs(a) > wp.abs(b):
+        r = a
+        theta = (PI / 4.0) * (b / a)
+    else:
+        r = b
+        theta = PI / 2.0 - (PI / 4.0) * (a / b)
+    return wp.vec2(r * wp.cos(theta), r * wp.sin(theta))
+
+
+@wp.func
+def sample_cosine_hemisphere(u1: float, u2: float):
+    """Cosine-weighted direction about +Z (pdf ``cos(theta) / pi``)."""
+    d = sample_concentric_disk(u1, u2)
+    z = wp.sqrt(wp.max(0.0, 1.0 - d[0] * d[0] - d[1] * d[1]))
+    return wp.vec3(d[0], d[1], z)
+
+
+@wp.func
+def sample_uniform_sphere(u1: float, u2: float):
+    """Uniform direction on the unit sphere (pdf ``1 / (4 pi)``)."""
+    z = 1.0 - 2.0 * u1
+    r = wp.sqrt(wp.max(0.0, 1.0 - z * z))
+    phi = 2.0 * PI * u2
+    return wp.vec3(r * wp.cos(phi), r * wp.sin(phi), z)
+
+
+@wp.func
+def sample_uniform_cone(u1: float, u2: float, cos_max: float):
+    """Uniform direction in the cone of half-angle ``acos(cos_max)`` about +Z (pdf ``1 / (2 pi (1 - cos_max))``)."""
+    cos_t = (1.0 - u1) + u1 * cos_max
+    sin_t = wp.sqrt(wp.max(0.0, 1.0 - cos_t * cos_t))
+    phi = 2.0 * PI * u2
+    return wp.vec3(sin_t * wp.cos(phi), sin_t * wp.sin(phi), cos_t)
+
+
+@wp.func
+def power_heuristic(pdf_a: float, pdf_b: float):
+    """Veach's power heuristic (beta = 2) weight of strategy ``a`` against ``b``, one sample each."""
+    a = pdf_a * pdf_a
+    b = pdf_b * pdf_b
+    if a + b <= 0.0:
+        return 0.0
+    if wp.isinf(a):
+        return 1.0
+    return a / (a + b)
+
+
+@wp.func
+def sample_cdf(cdf: wp.array[float], start: int, count: int, u: float):
+    """Index ``k`` in ``[0, count)`` with ``cdf[start + k] <= target < cdf[start + k + 1]`` by binary search, where
+    ``target = cdf[start] + u * (cdf[start + count] - cdf[start])``.
+
+    ``cdf[start .. start + count]`` holds ``count + 1`` non-decreasing values.
+    """
+    target = cdf[start] + u * (cdf[start + count] - cdf[start])
+    lo = int(0)
+    hi = count
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if cdf[start + mid] <= target:
+            lo = mid
+        else:
+            hi = mid
+    # Skip zero-width entries (a sample must never land on a zero-probability bin).
+    while lo < count - 1 and cdf[start + lo + 1] <= cdf[start + lo]:
+        lo += 1
+    return lo

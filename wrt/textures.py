@@ -1,0 +1,208 @@
+"""Textures: reading images (Pillow, OpenEXR) into linear RGBA, and bilinear lookups with UsdUVTexture's wrap modes.
+
+Conventions, stated once:
+
+- Images are kept as ``(H, W, 4)`` float32 linear RGBA, row 0 at the top; on the device they are packed into one
+  ``wp.vec4h`` (half float) array with per-image offsets.
+- Texture coordinates follow USD: ``st = (0, 0)`` is the bottom-left corner of the image, ``(1, 1)`` the top-right.
+  Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping).
+- ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
+  keeps values; ``"auto"`` means sRGB for 8-bit RGB/RGBA images and raw for everything else (greyscale, 16-bit,
+  float), as Hydra's image reader decides. Missing channels read as grey ``L`` -> ``(L, L, L)`` and alpha 1.
+- No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
+"""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import warp as wp
+
+WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3}  # UsdUVTexture wrapS/wrapT tokens
+WRAP_REPEAT = wp.constant(0)
+WRAP_MIRROR = wp.constant(1)
+WRAP_CLAMP = wp.constant(2)
+WRAP_BLACK = wp.constant(3)
+HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
+
+
+class TextureError(ValueError):
+    """An image file cannot be read."""
+
+
+def srgb_to_linear(x: np.ndarray) -> np.ndarray:
+    """The inverse sRGB transfer function (IEC 61966-2-1)."""
+    x = np.asarray(x, np.float32)
+    return np.where(x <= 0.04045, x / 12.92, np.power((x + 0.055) / 1.055, 2.4)).astype(np.float32)
+
+
+def read_asset_bytes(resolved_path: str) -> bytes:
+    """The bytes of a resolved USD asset path, including files packed inside ``.usdz`` archives."""
+    from pxr import Ar
+
+    asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved_path))
+    if asset is None:
+        raise TextureError(f"cannot open {resolved_path}")
+    return bytes(asset.GetBuffer())
+
+
+def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
+    """Reads an image into ``(H, W, 4)`` float32 linear RGBA (see the module docstring for ``color_space``).
+
+    Raises:
+        TextureError: the file is missing or no reader understands it.
+    """
+    try:
+        data = read_asset_bytes(resolved_path)
+    except Exception as e:  # noqa: BLE001 - Ar raises Tf errors of various kinds
+        raise TextureError(f"cannot open {resolved_path}: {e}") from None
+    name = resolved_path.lower().rstrip("]")
+    if name.endswith(".exr") or data[:4] == b"\x76\x2f\x31\x01":
+        rgba, is_8bit_color = _read_exr(data, resolved_path), False
+    else:
+        rgba, is_8bit_color = _read_pillow(data, resolved_path)
+    if color_space == "sRGB" or (color_space == "auto" and is_8bit_color):
+        rgba[..., :3] = srgb_to_linear(rgba[..., :3])
+    return np.ascontiguousarray(rgba, dtype=np.float32)
+
+
+def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
+    from PIL import Image as PilImage
+
+    try:
+        img = PilImage.open(io.BytesIO(data))
+        img.load()
+    except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
+        raise TextureError(f"cannot read image {name}: {e}") from None
+    mode = img.mode
+    if mode in ("I;16", "I;16B", "I;16L", "I"):
+        grey = np.asarray(img, dtype=np.float32) / (65535.0 if mode.startswith("I;16") else max(1.0, float(np.max(img))))
+        return _grey_rgba(grey, None), False
+    if mode == "F":
+        return _grey_rgba(np.asarray(img, dtype=np.float32), None), False
+    if mode in ("L", "LA"):
+        arr = np.asarray(img.convert("LA"), dtype=np.float32) / 255.0
+        return _grey_rgba(arr[..., 0], arr[..., 1] if mode == "LA" else None), False
+    arr = np.asarray(img.convert("RGBA"), dtype=np.float32) / 255.0
+    return arr, True
+
+
+def _grey_rgba(grey: np.ndarray, alpha: np.ndarray | None) -> np.ndarray:
+    rgba = np.empty(grey.shape + (4,), np.float32)
+    rgba[..., 0] = rgba[..., 1] = rgba[..., 2] = grey
+    rgba[..., 3] = 1.0 if alpha is None else alpha
+    return rgba
+
+
+def _read_exr(data: bytes, name: str) -> np.ndarray:
+    try:
+        import OpenEXR
+    except ImportError:
+        raise TextureError(f"reading {name} needs the OpenEXR package: pip install OpenEXR") from None
+    import tempfile
+
+    with tempfile.NamedTemporaryFile(suffix=".exr") as tmp:  # OpenEXR.File reads from a path
+        tmp.write(data)
+        tmp.flush()
+        try:
+            with OpenEXR.File(tmp.name) as f:
+                channels = {k: np.asarray(v.pixels, dtype=np.float32) for k, v in f.channels().items()}
+        except Exception as e:  # noqa: BLE001
+            raise TextureError(f"cannot read EXR {name}: {e}") from None
+    for packed in ("RGBA", "RGB"):
+        if packed in channels:
+            arr = channels[packed]
+            rgba = np.ones(arr.shape[:2] + (4,), np.float32)
+            rgba[..., : arr.shape[2]] = arr
+            return rgba
+    single = {k.split(".")[-1].upper(): v for k, v in channels.items() if v.ndim == 2}
+    if all(c in single for c in "RGB"):
+        rgba = np.ones(single["R"].shape + (4,), np.float32)
+        for k, c in enumerate("RGBA"):
+            if c in single:
+                rgba[..., k] = single[c]
+        return rgba
+    if "Y" in single:
+        return _grey_rgba(single["Y"], single.get("A"))
+    if len(single) == 1:
+        return _grey_rgba(next(iter(single.values())), None)
+    raise TextureError(f"EXR {name} has no RGB or Y channels (found {sorted(channels)})")
+
+
+def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Concatenates ``(H, W, 4)`` images into one texel array.
+
+    Returns:
+        ``texels`` ``(N, 4)`` float16 (at least one texel), ``offsets`` ``(K,)`` int32 first texel of each image and
+        ``sizes`` ``(K, 2)`` int32 ``(width, height)``.
+    """
+    offsets, sizes, parts, total = [], [], [], 0
+    for img in images:
+        h, w = img.shape[:2]
+        offsets.append(total)
+        sizes.append((w, h))
+        parts.append(np.clip(np.nan_to_num(img.reshape(-1, 4), nan=0.0), -HALF_MAX, HALF_MAX).astype(np.float16))
+        total += w * h
+    if total >= 2**31:
+        raise ValueError(f"textures hold {total} texels; at most 2^31 are supported")
+    texels = np.concatenate(parts) if parts else np.zeros((1, 4), np.float16)
+    offsets = np.asarray(offsets or [0], np.int32)
+    sizes = np.asarray(sizes or [(1, 1)], np.int32).reshape(-1, 2)
+    return texels, offsets, sizes
+
+
+@wp.func
+def wrap_coord(x: int, n: int, mode: int):
+    """Texel index ``x`` wrapped into ``[0, n)``; -1 for ``black`` outside the image."""
+    if mode == WRAP_CLAMP:
+        return wp.clamp(x, 0, n - 1)
+    if mode == WRAP_BLACK:
+        if x < 0 or x >= n:
+            return -1
+        return x
+    if mode == WRAP_MIRROR:
+        period = 2 * n
+        m = x % period
+        if m < 0:
+            m += period
+        if m >= n:
+            m = period - 1 - m
+        return m
+    m = x % n
+    if m < 0:
+        m += n
+    return m
+
+
+@wp.func
+def fetch_texel(texels: wp.array[wp.vec4h], offset: int, size: wp.vec2i, x: int, y: int, wrap: wp.vec2i):
+    """One texel (``y`` = row from the top) after wrapping; zero where ``black`` wrapping leaves the image."""
+    xi = wrap_coord(x, size[0], wrap[0])
+    yi = wrap_coord(y, size[1], wrap[1])
+    if xi < 0 or yi < 0:
+        return wp.vec4(0.0)
+    return wp.vec4(texels[offset + yi * size[0] + xi])
+
+
+@wp.func
+def sample_image(texels: wp.array[wp.vec4h], offset: int, size: wp.vec2i, st: wp.vec2, wrap: wp.vec2i):
+    """Bilinear lookup at texture coordinate ``st`` (USD convention: ``t = 0`` is the bottom row)."""
+    x = st[0] * float(size[0]) - 0.5
+    y = (1.0 - st[1]) * float(size[1]) - 0.5
+    if not (wp.isfinite(x) and wp.isfinite(y)):
+        return wp.vec4(0.0)
+    # Keep the integer part in range before converting (huge coordinates would overflow int).
+    x = wp.clamp(x, -1.0e8, 1.0e8)
+    y = wp.clamp(y, -1.0e8, 1.0e8)
+    x0f = wp.floor(x)
+    y0f = wp.floor(y)
+    fx = x - x0f
+    fy = y - y0f
+    x0 = int(x0f)
+    y0 = int(y0f)
+    c00 = fetch_texel(texels, offset, size, x0, y0, wrap)
+    c10 = fetch_texel(texels, offset, size, x0 + 1, y0, wrap)
+    c01 = fetch_texel(texels, offset, size, x0, y0 + 1, wrap)
+    c11 = fetch_texel(texels, offset, size, x0 + 1, y0 + 1, wrap)
+    return (c00 * (1.0 - fx) + c10 * fx) * (1.0 - fy) + (c01 * (1.0 - fx) + c11 * fx) * fy
