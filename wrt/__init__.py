@@ -7,6 +7,9 @@ from .bvh import FlatBvh, build_bvh
 from .camera import Camera
 from .errors import SceneError
 from .image import Image
+from .lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
+from .materials import Material, TextureInput
+from .preview import preview, to_pyvista  # pyvista itself is imported only when these are called
 from .render import Renderer, render
 from .scene import DistantLight, Mesh, Scene
 from .trace import Hits, occluded, trace
@@ -14,18 +17,27 @@ from .usd import load_usd
 
 __all__ = [
     "Camera",
+    "CylinderLight",
+    "DiskLight",
     "DistantLight",
+    "DomeLight",
     "FlatBvh",
     "Hits",
     "Image",
+    "Material",
     "Mesh",
+    "RectLight",
     "Renderer",
     "Scene",
     "SceneError",
+    "SphereLight",
+    "TextureInput",
     "build_bvh",
     "load_usd",
     "occluded",
+    "preview",
     "render",
+    "to_pyvista",
     "trace",
 ]
 __version__ = "0.1.0"

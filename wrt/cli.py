@@ -1,4 +1,4 @@
-"""Command-line entry point: ``wrt render`` (more subcommands join as they land).
+"""Command-line entry point: ``wrt render`` and ``wrt preview`` (more subcommands join as they land).
 
 Bad input (a missing or broken file, an unknown option value) ends with one line on stderr and exit status 2;
 no traceback is shown for it.
@@ -60,32 +60,70 @@ def _add_render(sub) -> None:
         description="Render a USD scene with wrt's ray tracer. With no SCENE, renders the bundled default room.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    p.add_argument("scene", nargs="?", help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
-    p.add_argument("-o", "--output", default="wrt.png", help="output image (.png 8-bit sRGB, .npy linear float)")
+    p.add_argument(
+        "scene",
+        nargs="*",
+        help="USD files (.usd, .usda, .usdc, .usdz); default: the bundled room. With several, each is rendered in "
+        "turn, a failing one is recorded in the log and the others go on",
+    )
+    p.add_argument(
+        "-o",
+        "--output",
+        help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png. With several scenes: a pattern "
+        "with {stem} (the scene file name without extension) or a folder; default {stem}.png",
+    )
+    p.add_argument("--log", help="JSON-lines log, one flushed row per scene; default with several scenes: "
+                   "render-log.jsonl beside the images")
+    p.add_argument("--max-memory", help="refuse renders predicted to need more than this, e.g. 4G")
     p.add_argument("--width", type=_positive_int, default=640, help="image width in pixels")
     p.add_argument("--height", type=_positive_int, default=480, help="image height in pixels")
     p.add_argument("--camera", help="camera prim path; default: the stage's first camera, else one framing the scene")
     p.add_argument("--spp", type=_positive_int, default=1, help="samples per pixel")
-    p.add_argument("--seed", type=int, default=0, help="seed of the pixel jitter")
+    p.add_argument("--seed", type=int, default=0, help="seed of every random decision (jitter, lens, paths)")
     p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
     p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh")
     p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
-    p.add_argument("--aov-dir", help="also write depth.npy, normal.npy, albedo.npy and prim.npy into this folder")
+    p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder (depth, z, normal, "
+                   "geometric_normal, albedo, prim, instance, material, cost)")
+    from .integrators import INTEGRATORS
+
+    p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
+                   "mirrors, glass), path (Monte Carlo path tracing), ao, or the quick looks normals/depth/albedo")
+    p.add_argument("--max-depth", type=int, default=None, help="bounces per path; default 10 (path), 8 (whitted)")
+    p.add_argument("--ao-radius", type=float, default=None, help="ao distance; default a tenth of the scene's size")
+    p.add_argument("--exposure", type=float, default=0.0, help="PNG only: scale the image by 2^EXPOSURE before sRGB")
+    from .render import AOV_NAMES
+
+    p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a colour-mapped PNG of this "
+                   "AOV beside the image as OUTPUT.NAME.png (repeatable); cost: heat maps of nodes visited and "
+                   "triangles tested")
     p.add_argument("-q", "--quiet", action="store_true", help="print no progress lines")
     p.set_defaults(run=_run_render)
 
 
-def _run_render(args) -> int:
+def _output_for(args, path: Path, several: bool) -> Path:
+    """Where the image of scene ``path`` goes (see ``--output``)."""
+    if not several:
+        return Path(args.output or "wrt.png")
+    pattern = args.output or "{stem}.png"
+    if "{stem}" in pattern:
+        return Path(pattern.format(stem=path.stem))
+    return Path(pattern) / f"{path.stem}.png"
+
+
+def _render_one(args, path: Path, output: Path, progress) -> Path:
     import wrt
 
-    progress = _Progress(args.quiet)
-    path = Path(args.scene) if args.scene else default_scene_path()
+    from .resources import check_memory, estimate_render_bytes, parse_bytes
+
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time)
     stats = scene.stats()
     progress(f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes", time.perf_counter() - start)
+    limit = parse_bytes(args.max_memory) if args.max_memory else None
+    check_memory(estimate_render_bytes(stats["rendered_triangles"], args.width, args.height), args.device, limit)
     renderer = wrt.Renderer(
         scene,
         camera=args.camera,
@@ -94,16 +132,230 @@ def _run_render(args) -> int:
         device=args.device,
         builder=args.builder,
         accel=args.accel,
+        integrator=args.integrator,
+        max_depth=args.max_depth,
+        ao_radius=args.ao_radius,
     )
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
-    image = renderer.render(spp=args.spp, seed=args.seed)
-    progress(f"rendered {args.width}x{args.height} at {args.spp} spp", renderer.timers["render"][0] / 1000.0)
-    out = image.save(args.output)
+    image = renderer.render(spp=args.spp, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
+    progress(
+        f"rendered {args.width}x{args.height} at {args.spp} spp ({args.integrator})", renderer.timers["render"][0] / 1000.0
+    )
+    out = image.save(output, exposure=args.exposure)
     progress(f"wrote {out}")
+    for name in args.aov:
+        progress(f"wrote {image.save_aov_png(name, Path(out).with_name(f'{Path(out).stem}.{name}.png'))}")
     if args.aov_dir:
-        for p in image.save_aovs(args.aov_dir):
+        aov_dir = Path(args.aov_dir) / path.stem if len(args.scene) > 1 else Path(args.aov_dir)
+        for p in image.save_aovs(aov_dir):
             progress(f"wrote {p}")
+    return out
+
+
+def _run_render(args) -> int:
+    import json
+
+    from .errors import SceneError
+
+    progress = _Progress(args.quiet)
+    paths = [Path(s) for s in args.scene] or [default_scene_path()]
+    several = len(paths) > 1
+    if not several and not args.log:
+        _render_one(args, paths[0], _output_for(args, paths[0], False), progress)  # errors: one line, exit 2
+        return 0
+    outputs = [_output_for(args, p, several) for p in paths]
+    log = Path(args.log) if args.log else outputs[0].parent / "render-log.jsonl"
+    log.parent.mkdir(parents=True, exist_ok=True)
+    failures = []
+    for path, output in zip(paths, outputs):
+        start = time.perf_counter()
+        row = {"scene": str(path), "output": str(output)}
+        try:
+            _render_one(args, path, output, progress)
+            row["status"] = "ok"
+        except (SceneError, ValueError, TypeError, FileNotFoundError, MemoryError, RuntimeError) as e:
+            message = str(e).splitlines()[0] if str(e) else type(e).__name__
+            row.update(status="error", error=f"{type(e).__name__}: {message}")
+            failures.append(row)
+            print(f"wrt: error: {message if path.name in message else f'{path}: {message}'}", file=sys.stderr)
+        row["seconds"] = round(time.perf_counter() - start, 3)
+        with open(log, "a") as f:  # flushed per scene: an interrupted batch keeps every finished row
+            f.write(json.dumps(row) + "\n")
+    progress(f"{len(paths) - len(failures)} of {len(paths)} scenes rendered; log in {log}")
+    if failures:
+        print(f"wrt: {len(failures)} of {len(paths)} scenes failed: " + ", ".join(Path(r["scene"]).name for r in failures), file=sys.stderr)
+        return 1
     return 0
+
+
+def _window_size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT, e.g. 1280x800") from None
+    if width <= 0 or height <= 0:
+        raise argparse.ArgumentTypeError(f"window size must be positive, got {text!r}")
+    return width, height
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {value}")
+    return value
+
+
+def _add_preview(sub) -> None:
+    from .bvh.build import Builder
+    from .preview import BVH_COLORINGS, TRIANGLE_BUDGET
+
+    p = sub.add_parser(
+        "preview",
+        help="show a USD scene, its camera, BVH and rays in a 3D view (pyvista)",
+        description="Show the scene as wrt reads it, the camera frustum and, on request, BVH boxes, sample camera "
+        "rays and the rendered image, in an interactive pyvista window. With -o, or when there is no display, "
+        "the view is rendered off-screen to a PNG instead. Needs pyvista: pip install 'wrt[preview]'.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument("scene", nargs="?", help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
+    p.add_argument("-o", "--output", help="write the view to this PNG instead of a window (no display: preview.png)")
+    p.add_argument("--camera", help="camera prim path; default: the stage's first camera, else one framing the scene")
+    bvh = p.add_mutually_exclusive_group()
+    bvh.add_argument(
+        "--bvh-depth",
+        type=_non_negative_int,
+        metavar="K",
+        help="draw the BVH cut at depth K (nodes at depth K plus shallower leaves)",
+    )
+    bvh.add_argument("--bvh-leaves", action="store_true", help="draw every BVH leaf")
+    p.add_argument("--bvh-color", default="depth", choices=BVH_COLORINGS, help="BVH box colour: depth or SAH share")
+    p.add_argument(
+        "--rays",
+        type=_non_negative_int,
+        default=0,
+        metavar="N",
+        help="draw N camera rays from the eye to their hits (misses end at the far plane)",
+    )
+    p.add_argument("--image", action="store_true", help="render with wrt and show the image on the image plane")
+    p.add_argument("--width", type=_positive_int, default=640, help="image width in pixels (frustum aspect, --image)")
+    p.add_argument("--height", type=_positive_int, default=480, help="image height in pixels")
+    p.add_argument("--window", type=_window_size, default="1280x800", metavar="WxH", help="window (or PNG) size")
+    p.add_argument(
+        "--max-triangles",
+        type=_positive_int,
+        default=TRIANGLE_BUDGET,
+        help="simplify the scene for display above this many triangles",
+    )
+    p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
+    builders = [b.value for b in Builder] + ["binned_sah"]
+    p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
+    p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
+    p.add_argument("-q", "--quiet", action="store_true", help="print no progress lines")
+    p.set_defaults(run=_run_preview)
+
+
+def _run_preview(args) -> int:
+    import wrt
+    from .preview import PreviewUnavailable, has_display, preview
+
+    progress = _Progress(args.quiet)
+    path = Path(args.scene) if args.scene else default_scene_path()
+    start = time.perf_counter()
+    scene = wrt.load_usd(path, time=args.time)
+    stats = scene.stats()
+    loaded = f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes"
+    progress(loaded, time.perf_counter() - start)
+    output = args.output
+    if output is not None and Path(output).suffix.lower() != ".png":
+        raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
+    if output is None and not has_display():
+        output = "preview.png"
+        progress("no display found: rendering off-screen to preview.png")
+    start = time.perf_counter()
+    try:
+        plotter = preview(
+            scene,
+            camera=args.camera,
+            bvh_depth=args.bvh_depth,
+            bvh_leaves=args.bvh_leaves,
+            bvh_color=args.bvh_color,
+            rays=args.rays,
+            image=args.image,
+            width=args.width,
+            height=args.height,
+            builder=args.builder,
+            device=args.device,
+            window_size=args.window,
+            max_triangles=args.max_triangles,
+            off_screen=output is not None,
+        )
+    except PreviewUnavailable as e:
+        print(f"wrt: error: {e}", file=sys.stderr)
+        return 1  # the machine, not the input, is the problem
+    progress(plotter.title.removeprefix("wrt "), time.perf_counter() - start)
+    if output is None:
+        plotter.show()
+        return 0
+    out = Path(output)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    pixels = plotter.screenshot(str(out))
+    plotter.close()
+    if pixels is None or pixels.std() == 0:
+        warnings.warn(f"{out}: the off-screen view came out blank; VTK's OpenGL backend may be broken")
+    progress(f"wrote {out}", time.perf_counter() - start)
+    return 0
+
+
+def _csv(text: str) -> list[str]:
+    return [item.strip() for item in text.split(",") if item.strip()]
+
+
+def _add_bench(sub) -> None:
+    p = sub.add_parser(
+        "bench",
+        help="benchmark accelerators: scenes x accels x devices x ray kinds",
+        description="Time wrt's BVH against Warp's wp.Mesh (and Embree) on the same rays. Rows are appended to "
+        "OUT/rows.jsonl as they are measured; OUT/table.md and plots are written at the end. SUITE is a JSON file "
+        "or the name of one in benchmarks/suites (quick, cpu, gpu). Options given here override the suite.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument("suite", nargs="?", default="quick", help="suite file or name")
+    p.add_argument("--quick", action="store_true", help="run the small 'quick' suite (about 2 minutes on a CPU)")
+    p.add_argument("--scenes", type=_csv, help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N")
+    p.add_argument("--accels", type=_csv, help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree")
+    p.add_argument("--devices", type=_csv, help="comma-separated Warp devices, e.g. cpu,cuda:0")
+    p.add_argument("--rays", type=_csv, help="comma-separated ray kinds: primary, shadow, diffuse, incoherent")
+    p.add_argument("--n-rays", type=_positive_int, help="rays per group")
+    p.add_argument("--repeats", type=_positive_int, help="timed launches per row (median reported)")
+    p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all")
+    p.add_argument("-o", "--out", default="bench-out", help="output folder")
+    p.add_argument("--resume", action="store_true", help="keep rows already in OUT/rows.jsonl and skip them")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=_run_bench)
+
+
+def _run_bench(args) -> int:
+    import dataclasses
+
+    from .bench import Grid, run_grid
+    from .rays import RAY_KINDS
+
+    grid = Grid.from_suite("quick" if args.quick else args.suite)
+    overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
+    grid = dataclasses.replace(grid, **{k: v for k, v in overrides.items() if v is not None})
+    bad = [k for k in grid.rays if k not in RAY_KINDS]
+    if bad:
+        raise ValueError(f"unknown ray kind {bad[0]!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
+    rows = run_grid(grid, Path(args.out), resume=args.resume, progress=not args.quiet)
+    failed = [r for r in rows if "error" in r]
+    print(f"wrt: {len(rows) - len(failed)} rows measured, {len(failed)} failed; results in {args.out}/", file=sys.stderr)
+    for r in failed:
+        print(f"wrt: failed: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['error']}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -116,6 +368,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     _add_render(sub)
+    _add_preview(sub)
+    _add_bench(sub)
+    from .bvh.report import add_bvh_stats
+
+    add_bvh_stats(sub)
     return parser
 
 
