@@ -33,7 +33,7 @@ from .rays import RAY_KINDS, ray_set
 from .scene import Scene
 from .trace import HitBuffer, Hits, get_accelerator, resolve_device
 
-SUITES_DIR = Path(__file__).resolve().parent.parent / "benchmarks" / "suites"
+SUITES_DIR = Path(__file__).resolve().parent / "data" / "suites"  # benchmarks/suites, shipped with the package
 REFERENCE = "warp:sah"  # agreement and ratios are measured against this accelerator
 ANY_HIT_KINDS = ("shadow",)  # ray kinds traced with the any-hit query
 
