@@ -31,9 +31,10 @@ def main(argv=None) -> int:
     parser.add_argument("-o", "--output", default=str(ROOT / "tests" / "data" / "cornell_box_reference.json"))
     args = parser.parse_args(argv)
 
-    import wrt
     from conftest import assets_dir, manifest
     from test_integrators import cornell_wall_means
+
+    import wrt
 
     path = assets_dir() / manifest()["cornell_box"]["path"]
     scene = wrt.load_usd(path)

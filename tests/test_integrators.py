@@ -170,6 +170,11 @@ def test_splitting_samples_across_launches_gives_the_same_image():
     np.testing.assert_array_equal(a.rgb, b.rgb)
     np.testing.assert_array_equal(a.rgb, c.rgb)
     assert not np.array_equal(a.rgb, renderer.render(spp=6, seed=4).rgb)
+    # Progressive: 2 + 4 samples in two calls are the 6-sample image.
+    renderer.render(spp=2, seed=3)
+    d = renderer.render(spp=4, seed=3, resume=True)
+    np.testing.assert_array_equal(a.rgb, d.rgb)
+    np.testing.assert_array_equal(a.aovs["prim"], d.aovs["prim"])
 
 
 def test_depth_of_field_blurs_only_out_of_focus_objects():
@@ -196,7 +201,7 @@ def test_path_tracer_is_deterministic_and_device_independent(device):
     scene = mirror_scene()
     scene.lights.append(DomeLight(color=np.full(3, 0.3, np.float32)))
     cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=30)
-    kwargs = dict(camera=cam, width=24, height=24, spp=4, seed=11, integrator="path")
+    kwargs = {"camera": cam, "width": 24, "height": 24, "spp": 4, "seed": 11, "integrator": "path"}
     a = wrt.render(scene, device=device, **kwargs)
     b = wrt.render(scene, device=device, **kwargs)
     np.testing.assert_array_equal(a.rgb, b.rgb)

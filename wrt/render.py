@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import ClassVar
 
 import numpy as np
 import warp as wp
@@ -35,6 +36,11 @@ from .shade import (
     start_paths_kernel,
 )
 from .trace import HitBuffer, get_accelerator, resolve_device
+
+try:  # CPU launches split over threads, as the accelerators do (absent in older trees: one launch then)
+    from .trace import resolve_threads, run_in_chunks
+except ImportError:  # pragma: no cover
+    resolve_threads = run_in_chunks = None
 
 MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
 MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
@@ -83,7 +89,7 @@ def shading_data(scene: Scene, device) -> tuple:
 class _Wavefront:
     """Per-path device arrays for ``n`` paths; :meth:`view` gives the first ``m`` of them."""
 
-    FIELDS = {
+    FIELDS: ClassVar[dict] = {
         "origins": wp.vec3,
         "directions": wp.vec3,
         "t_mins": float,
@@ -129,6 +135,22 @@ class _Wavefront:
     @property
     def rays(self) -> list:
         return [self.origins, self.directions, self.t_mins, self.t_maxs]
+
+
+def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None:
+    """``wp.launch`` of a kernel whose thread ``i`` touches only entry ``i`` of its length-``n`` arrays; on the CPU
+    the launch is split into pieces run on a thread pool (Warp runs one CPU launch on one thread)."""
+
+    def work(start: int, end: int):
+        def piece(x):
+            return x[start:end] if isinstance(x, wp.array) and x.ndim == 1 and len(x) == n and (start, end) != (0, n) else x
+
+        wp.launch(kernel, end - start, inputs=[piece(x) for x in inputs], outputs=[piece(x) for x in outputs], device=device)
+
+    if run_in_chunks is None or not device.is_cpu:
+        work(0, n)
+    else:
+        run_in_chunks(work, n, resolve_threads(None, device))
 
 
 def _slice_hits(hits: HitBuffer, m: int) -> HitBuffer:
@@ -205,6 +227,7 @@ class Renderer:
             self.device_scene = scene.to_device(self.device)
             self._upload_shading()
         self._wavefront = None
+        self._progressive = None  # running sums of the last render, for render(resume=True)
         self.dropped_samples = 0  # non-finite samples left out of the last render
 
     def _upload_shading(self):
@@ -220,8 +243,8 @@ class Renderer:
         emitters = np.full(max(len(tri_materials), 1), -1, np.int32)
         kinds = self.device_lights.kinds.numpy()
         prims = self.device_lights.prims.numpy()
-        for k in range(self.device_lights.num_analytic, self.device_lights.count):
-            emitters[prims[k]] = k
+        first, count = self.device_lights.num_analytic, self.device_lights.count
+        emitters[prims[first:count]] = np.arange(first, count, dtype=np.int32)
         s = DeviceSurfaces()
         s.uvs, s.materials, s.double_sided = uvs, tri_materials, sided
         s.emitters = wp.array(emitters, dtype=wp.int32, device=dev)
@@ -245,7 +268,9 @@ class Renderer:
         units_per_mm = 1.0 / (MM_PER_METER * self.scene.meters_per_unit)
         return cam.focal_length * units_per_mm / (2.0 * cam.f_stop), float(cam.focus_distance)
 
-    def render(self, spp: int = 1, seed: int = 0, *, batch: int | None = None, progress: bool = False) -> Image:
+    def render(
+        self, spp: int = 1, seed: int = 0, *, batch: int | None = None, progress: bool = False, resume: bool = False
+    ) -> Image:
         """Renders ``spp`` samples per pixel and returns the :class:`Image`; AOVs come from sample 0.
 
         Args:
@@ -254,6 +279,8 @@ class Renderer:
             batch: samples per pixel per launch; default: as many as fit in :data:`MAX_PATHS_PER_LAUNCH` paths.
                 The image does not depend on it.
             progress: show a progress bar (tqdm) over the samples.
+            resume: progressive rendering: add ``spp`` samples to those of the previous call (same ``seed``) and
+                return the mean of all of them, exactly the image one call with the total would give.
         """
         if not isinstance(spp, (int, np.integer)) or spp < 1:
             raise ValueError(f"spp must be a positive integer, got {spp!r}")
@@ -270,25 +297,32 @@ class Renderer:
         if self._wavefront is None or self._wavefront.n < n:
             self._wavefront = _Wavefront(n, self.device, self.all_double_sided)
         dev = self.device
-        image = wp.zeros(n_pixels, dtype=wp.vec3, device=dev)
-        dropped = wp.zeros(1, dtype=wp.int32, device=dev)
-        aovs = _AovBuffers(n_pixels, dev)
+        state = self._progressive
+        if resume and state is not None and state["seed"] == seed and self.integrator not in ("normals", "depth", "albedo"):
+            image, dropped, aovs, done = state["sum"], state["dropped"], state["aovs"], state["samples"]
+        else:
+            image = wp.zeros(n_pixels, dtype=wp.vec3, device=dev)
+            dropped = wp.zeros(1, dtype=wp.int32, device=dev)
+            aovs = _AovBuffers(n_pixels, dev)
+            done = 0
 
         from tqdm import tqdm
 
         bar = tqdm(total=spp, unit="spp", desc=f"wrt {self.integrator}", disable=not progress, leave=False)
+        total = done + spp
         with wp.ScopedTimer("render", print=False, dict=self.timers, synchronize=True), wp.ScopedDevice(dev):
-            first = 0
-            while first < spp:
-                count = min(batch, spp - first)
+            first = done
+            while first < total:
+                count = min(batch, total - first)
                 w = self._wavefront.view(n_pixels * count)
                 self._render_batch(w, first, seed, aovs if first == 0 else None)
                 wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count], outputs=[image, dropped])
                 first += count
                 bar.update(count)
         bar.close()
+        self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": total}
         self.dropped_samples = int(dropped.numpy()[0])
-        return self._image(image.numpy() / spp, aovs)
+        return self._image(image.numpy() / total, aovs)
 
     def _render_batch(self, w: _Wavefront, first_sample: int, seed: int, aovs):
         cam = self.camera.to_struct(self.width, self.height)
@@ -331,7 +365,7 @@ class Renderer:
 
     def _occlude_and_add(self, w: _Wavefront):
         self.accel.occluded(w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs, w.blocked)
-        wp.launch(add_unoccluded_kernel, w.n, inputs=[w.nee, w.shadow_t_maxs, w.blocked], outputs=[w.radiance])
+        launch_per_path(add_unoccluded_kernel, w.n, [w.nee, w.shadow_t_maxs, w.blocked], [w.radiance], self.device)
 
     def _any_alive(self, w: _Wavefront) -> bool:
         w.counter.zero_()
@@ -343,12 +377,13 @@ class Renderer:
         for bounce in range(self.max_depth + 1):
             self._intersect(w, aovs, cam, camera_rays=bounce == 0)
             h = w.hits
-            wp.launch(
+            launch_per_path(
                 shade_path_kernel,
                 w.n,
-                inputs=[ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim],
-                outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal]
+                [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim],
+                [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal]
                 + [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
+                self.device,
             )
             self._occlude_and_add(w)
             if not self._any_alive(w):
@@ -360,36 +395,40 @@ class Renderer:
             self._intersect(w, aovs, cam, camera_rays=bounce == 0)
             h = w.hits
             hit = [h.t, h.u, h.v, h.prim]
-            wp.launch(
+            launch_per_path(
                 shade_whitted_kernel,
                 w.n,
-                inputs=[ds, surf, mats, lights, *hit],
-                outputs=[w.origins, w.t_mins, w.t_maxs, w.directions, w.throughput, w.radiance, w.alive, w.active],
+                [ds, surf, mats, lights, *hit],
+                [w.origins, w.t_mins, w.t_maxs, w.directions, w.throughput, w.radiance, w.alive, w.active],
+                self.device,
             )
             for first, count in self._whitted_groups:
-                wp.launch(
+                launch_per_path(
                     whitted_light_kernel,
                     w.n,
-                    inputs=[ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.active],
-                    outputs=[w.rng, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
+                    [ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.active],
+                    [w.rng, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
+                    self.device,
                 )
                 self._occlude_and_add(w)
-            wp.launch(
+            launch_per_path(
                 continue_whitted_kernel,
                 w.n,
-                inputs=[ds, surf, mats, bounce, self.max_depth, *hit, w.active],
-                outputs=[*w.rays, w.rng, w.throughput, w.alive],
+                [ds, surf, mats, bounce, self.max_depth, *hit, w.active],
+                [*w.rays, w.rng, w.throughput, w.alive],
+                self.device,
             )
             if not self._any_alive(w):
                 break
 
     def _trace_ao(self, w: _Wavefront):
         h = w.hits
-        wp.launch(
+        launch_per_path(
             shade_ao_kernel,
             w.n,
-            inputs=[self.device_scene, self.surfaces, self.ao_radius, w.origins, w.directions, h.t, h.u, h.v, h.prim, w.rng],
-            outputs=[w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs],
+            [self.device_scene, self.surfaces, self.ao_radius, w.origins, w.directions, h.t, h.u, h.v, h.prim, w.rng],
+            [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs],
+            self.device,
         )
         self.accel.occluded(w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs, w.blocked)
         wp.launch(ao_value_kernel, w.n, inputs=[w.shadow_t_maxs, w.blocked], outputs=[w.radiance])
@@ -413,7 +452,7 @@ class Renderer:
 class _AovBuffers:
     """Device buffers of the sample-0 AOVs of every pixel."""
 
-    SPEC = {
+    SPEC: ClassVar[dict] = {
         "depth": float,
         "z": float,
         "normal": wp.vec3,

@@ -19,7 +19,6 @@ Conventions:
 
 import warp as wp
 
-from .bsdf import surface_albedo
 from .camera import DeviceCamera, camera_ray
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface
@@ -365,10 +364,3 @@ def scale_image_kernel(
     """``out = scale * image``."""
     i = wp.tid()
     out[i] = image[i] * scale
-
-
-@wp.func
-def diffuse_albedo_of(mats: DeviceMaterials, h: HitPoint):
-    """Albedo of the diffuse lobe at a hit (used by the whitted integrator's dome term)."""
-    s = eval_surface(mats, h.material, h.st, h.display)
-    return surface_albedo(s)

@@ -11,7 +11,17 @@ mirror/refraction bounces.
 
 import warp as wp
 
-from ..bsdf import eval_bsdf, fresnel_dielectric, fresnel_schlick, is_glass, opaque_fraction, reflect, refract, surface_albedo, surface_f0
+from ..bsdf import (
+    eval_bsdf,
+    fresnel_dielectric,
+    fresnel_schlick,
+    is_glass,
+    opaque_fraction,
+    reflect,
+    refract,
+    surface_albedo,
+    surface_f0,
+)
 from ..geometry import offset_ray_origin
 from ..lights import DeviceLights, sample_light
 from ..materials import DeviceMaterials, eval_surface
@@ -124,7 +134,7 @@ def whitted_light_kernel(
     ls = sample_light(lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, h.p, h.ns, u1, u2)
     if max_component(ls.value) <= 0.0 or p_pick <= 0.0:
         return
-    f, pdf_f = eval_bsdf(s, h.ns, h.ng, -d, ls.wi)
+    f, _ = eval_bsdf(s, h.ns, h.ng, -d, ls.wi)
     if max_component(f) <= 0.0:
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
