@@ -46,12 +46,25 @@ def test_build_is_deterministic(builder, np_rng):
         np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
 
 
-def test_cpu_threads_do_not_change_the_tree(np_rng):
+def test_cpu_threads_and_build_phases_do_not_change_the_tree(np_rng):
+    from wrt.bvh.binned import build_binned
+    from wrt.bvh.common import BuildInput
+
     points, indices = soup(np_rng, 20000)
     a = build_bvh(points, indices, "sah", threads=1, device="cpu")
     b = build_bvh(points, indices, "sah", threads=2, device="cpu")
     for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
         np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+    # Level phase down to 64 triangles vs. one subtree for the whole mesh: same tree, up to node numbering.
+    options = {"use_sah": True, "leaf_size": 8, "bins": 16, "traversal_cost": 1.0, "intersection_cost": 1.0}
+    data = BuildInput(points, indices, "cpu")
+    deep = build_binned(data, builder="sah", subtree_size=64, **options).to_host()
+    whole = build_binned(data, builder="sah", subtree_size=1 << 20, **options).to_host()
+    for tree in (deep, whole):
+        tree.validate()
+    np.testing.assert_array_equal(deep.prim_ids, whole.prim_ids)
+    assert deep.num_nodes == whole.num_nodes == a.num_nodes
+    np.testing.assert_allclose(deep.stats(epo_samples=0)["sah_cost"], whole.stats(epo_samples=0)["sah_cost"])
 
 
 @pytest.mark.parametrize(

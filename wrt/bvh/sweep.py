@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .binned import flat_from_nodes, make_children_kernel
+from .binned import make_children_kernel
 from .common import ACTION_LEAF, ACTION_SPLIT, MAX_DEPTH, BuildInput, choose_action, half_area, read_int, widest_axis
 from .layout import DeviceFlatBvh
 
@@ -194,6 +194,25 @@ def split_sorted_kernel(
     child_uppers[2 * k + 1] = r_hi
 
 
+@wp.kernel
+def finish_nodes_kernel(
+    node_lefts: wp.array[wp.int32],
+    node_starts: wp.array[wp.int32],
+    node_counts: wp.array[wp.int32],
+    # outputs
+    left_first: wp.array[wp.int32],
+    prim_count: wp.array[wp.int32],
+):
+    """Canonical node fields: an inner node points at its left child, a leaf at its first slot."""
+    n = wp.tid()
+    if node_lefts[n] >= 0:
+        left_first[n] = node_lefts[n]
+        prim_count[n] = 0
+    else:
+        left_first[n] = node_starts[n]
+        prim_count[n] = node_counts[n]
+
+
 def build_sweep(
     data: BuildInput,
     *,
@@ -279,6 +298,10 @@ def build_sweep(
             num_nodes += 2 * num_splits
             num_active = 2 * num_splits
 
-        return flat_from_nodes(
-            num_nodes, node_lowers, node_uppers, node_starts, node_counts, node_lefts, out_prims, builder
+        m = num_nodes
+        left_first = wp.empty(m, dtype=wp.int32)
+        prim_count = wp.empty(m, dtype=wp.int32)
+        wp.launch(
+            finish_nodes_kernel, m, inputs=[node_lefts, node_starts, node_counts], outputs=[left_first, prim_count]
         )
+        return DeviceFlatBvh(node_lowers[:m], node_uppers[:m], left_first, prim_count, out_prims, builder)
