@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# One measurement step on a CUDA machine, logged to $OUT/STEP.log (and bench rows to $OUT/bench-STEP/).
+#   tests  - the device-parametrised tests on cuda:0 (trace agreement, build, render, path tracer CPU = GPU)
+#   build  - benchmarks/gpu_build.py: 10M-triangle lbvh/ploc builds against wp.Mesh(lbvh)
+#   bench  - wrt bench with benchmarks/suites/gpu.json
+# Assets: set WRT_ASSETS to a copy of the shared asset folder.
+set -uo pipefail
+step=${1:?usage: gpu_session.sh tests|build|bench}
+out=${OUT:-/tmp/out}
+mkdir -p "$out"
+export PYTHONUNBUFFERED=1
+nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv > "$out/gpu.txt" 2>&1
+case "$step" in
+    tests) python3 -m pytest -q -p no:cacheprovider -k "cuda" tests/test_devices.py tests/test_integrators.py 2>&1 | tee "$out/tests.log" | tail -5 ;;
+    build) python3 benchmarks/gpu_build.py "${@:2}" 2>&1 | tee "$out/build.log" | tail -40 ;;
+    bench) python3 -m wrt.cli bench gpu -o "$out/bench-gpu" -q "${@:2}" 2>&1 | tee "$out/bench.log" | tail -5
+           cp "$out/bench-gpu/table.md" "$out/bench-table.md" 2>/dev/null ;;
+    *) echo "unknown step $step" >&2; exit 2 ;;
+esac
