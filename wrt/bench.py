@@ -262,7 +262,7 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     reference = None
     ordered = sorted(accels, key=lambda a: a != REFERENCE)  # the reference first, so others can be compared
     for spec in ordered:
-        for threads in thread_counts if device.is_cpu else [1]:
+        for threads in thread_counts if device.is_cpu and spec != "embree" else [1]:  # embreex: one thread
             row = dict(base, accel=spec, threads=threads)
             if skip(row):
                 continue
