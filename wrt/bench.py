@@ -83,8 +83,8 @@ def hardware(device) -> dict:
     dev = wp.get_device(device)
     if dev.is_cuda:
         info["gpu"] = dev.name
-        driver = wp.get_cuda_driver_version()  # an int such as 13000 for CUDA 13.0
-        info["driver"] = f"CUDA {driver // 1000}.{driver % 1000 // 10}" if isinstance(driver, int) else driver
+        driver = wp.get_cuda_driver_version()  # (major, minor) of the CUDA driver API, e.g. (13, 0)
+        info["driver"] = "CUDA " + ".".join(map(str, driver)) if isinstance(driver, (tuple, list)) else str(driver)
         info["gpu_driver"] = _nvidia_driver()
     return info
 
@@ -388,9 +388,14 @@ def markdown_table(rows: list[dict]) -> str:
     return "\n".join(lines + [""] + hardware_lines) + "\n"
 
 
-def fit_slope(x, y) -> float:
-    """Least-squares slope of ``log y`` against ``log x``."""
-    return float(np.polyfit(np.log(np.asarray(x, float)), np.log(np.asarray(y, float)), 1)[0])
+SLOPE_FROM = 1e4  # scaling slopes are fitted from this many triangles up, so fixed costs do not dominate
+
+
+def fit_slope(x, y, x_min: float = 0.0) -> float:
+    """Least-squares slope of ``log y`` against ``log x``, over the points with ``x >= x_min``."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    keep = x >= x_min
+    return float(np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)[0])
 
 
 def plot(rows: list[dict], out: Path) -> list[Path]:
@@ -437,8 +442,8 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         for accel in sorted({r["accel"] for r in scaling}):
             pts = sorted((r["triangles"], r["build_ms"], 1e3 / r["mrays"]) for r in scaling if r["accel"] == accel and r["threads"] == min(x["threads"] for x in scaling))
             n, build, ns_per_ray = zip(*pts)
-            a1.loglog(n, build, "o-", label=f"{accel} slope {fit_slope(n, build):.2f}")
-            a2.loglog(n, ns_per_ray, "o-", label=f"{accel} slope {fit_slope(n, ns_per_ray):.2f}")
+            a1.loglog(n, build, "o-", label=f"{accel} slope {fit_slope(n, build, SLOPE_FROM):.2f}")
+            a2.loglog(n, ns_per_ray, "o-", label=f"{accel} slope {fit_slope(n, ns_per_ray, SLOPE_FROM):.2f}")
         a1.set_xlabel("triangles"), a1.set_ylabel("build ms"), a1.legend(fontsize=7)
         a2.set_xlabel("triangles"), a2.set_ylabel("ns per ray"), a2.legend(fontsize=7)
         fig.tight_layout()
