@@ -354,3 +354,21 @@ def test_memory_estimate_and_parsing():
     check_memory(needed, "cpu", parse_bytes("4G"))
     with pytest.raises(MemoryError, match="needs about"):
         check_memory(needed, "cpu", parse_bytes("100M"))
+
+
+def test_allocation_failure_is_a_clean_one_line_error(tmp_path, capsys, monkeypatch):
+    import warp
+
+    from wrt.cli import main
+
+    real_empty = warp.empty
+
+    def failing_empty(shape=None, *args, **kwargs):
+        if isinstance(shape, int) and shape >= 64 * 48:  # the image-sized buffers
+            raise RuntimeError(f"Failed to allocate {shape * 12} bytes on device 'cpu'")
+        return real_empty(shape, *args, **kwargs)
+
+    monkeypatch.setattr(warp, "empty", failing_empty)
+    assert main(["render", "-o", str(tmp_path / "x.png"), "--width", "64", "--height", "48", "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(errors) == 1 and "out of memory" in errors[0] and "Traceback" not in errors[0]

@@ -394,6 +394,12 @@ def main(argv: list[str] | None = None) -> int:
         message = str(e).splitlines()[0] if str(e) else type(e).__name__
         print(f"wrt: error: {message}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except RuntimeError as e:
+        if not str(e).startswith("Failed to allocate"):  # Warp's words when a device allocation fails
+            raise
+        print(f"wrt: error: out of memory: {str(e).splitlines()[0]}; lower the resolution or the spp batch, or use "
+              "another device", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("wrt: interrupted", file=sys.stderr)
         return 130
