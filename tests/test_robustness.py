@@ -11,6 +11,7 @@ from conftest import warp_assets
 import wrt
 from wrt.geometry import offset_ray_origin
 
+DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 WATERTIGHT_RAYS = 10_000_000  # rays aimed at shared edges and vertices, over all closed meshes together
 
 
@@ -222,8 +223,9 @@ def test_no_shadow_acne_at_grazing_angles():
     assert int(wrt.occluded(scene, hit_points, to_light).sum()) > 100
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("accel", ["wrt", "warp"])
-def test_coplanar_overlapping_triangles_have_a_deterministic_winner(accel):
+def test_coplanar_overlapping_triangles_have_a_deterministic_winner(accel, device):
     rng = np.random.default_rng(3)
     big = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
     small = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0, 0.5, 0]], np.float32)
@@ -232,8 +234,8 @@ def test_coplanar_overlapping_triangles_have_a_deterministic_winner(accel):
     winners = []
     for order in ([big, small], [small, big]):
         scene = wrt.Scene.from_triangles(np.concatenate(order), [[0, 1, 2], [3, 4, 5]])
-        first = wrt.trace(scene, origins, directions, accel=accel)
-        again = wrt.trace(scene, origins, directions, accel=accel)
+        first = wrt.trace(scene, origins, directions, accel=accel, device=device)
+        again = wrt.trace(scene, origins, directions, accel=accel, device=device)
         np.testing.assert_array_equal(first.prim, again.prim)  # repeatable
         winners.append(first.prim)
     if accel == "wrt":  # documented rule: the smaller triangle id wins an exact tie, whatever the tree
@@ -262,13 +264,14 @@ def test_scene_far_from_the_origin_renders_without_cracks():
     np.testing.assert_allclose(b.aovs["depth"][interior], a.aovs["depth"][interior], rtol=1e-3)
 
 
-def test_renders_are_bit_identical_on_the_same_device():
+@pytest.mark.parametrize("device", DEVICES)
+def test_renders_are_bit_identical_on_the_same_device(device):
     scene = closed_box_scene(np.zeros(3), n=6)
     scene.lights.append(wrt.DistantLight(direction=np.array([-0.3, -1.0, -0.2]) / 1.063, color=np.ones(3)))
     cam = wrt.Camera.look_at(eye=(2500.0, 1800.0, 3000.0), target=(0.0, 0.0, 0.0), fov_y_deg=45.0)
-    a = wrt.render(scene, camera=cam, width=64, height=48, spp=2, device="cpu")
+    a = wrt.render(scene, camera=cam, width=64, height=48, spp=2, device=device)
     scene._cache.clear()  # rebuild the BVH too
-    b = wrt.render(scene, camera=cam, width=64, height=48, spp=2, device="cpu")
+    b = wrt.render(scene, camera=cam, width=64, height=48, spp=2, device=device)
     np.testing.assert_array_equal(a.rgb, b.rgb)
     for name in a.aovs:
         np.testing.assert_array_equal(a.aovs[name], b.aovs[name])
