@@ -11,7 +11,7 @@ mkdir -p "$out"
 export PYTHONUNBUFFERED=1
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv > "$out/gpu.txt" 2>&1
 case "$step" in
-    tests) python3 -m pytest -q -p no:cacheprovider -k "cuda" tests/test_devices.py tests/test_integrators.py 2>&1 | tee "$out/tests.log" | tail -5 ;;
+    tests) python3 -m pytest -q -p no:cacheprovider -k "cuda" tests/test_devices.py tests/test_integrators.py tests/test_robustness.py 2>&1 | tee "$out/tests.log" | tail -5 ;;
     build) python3 benchmarks/gpu_build.py "${@:2}" 2>&1 | tee "$out/build.log" | tail -40 ;;
     bench) python3 -m wrt.cli bench gpu -o "$out/bench-gpu" -q "${@:2}" 2>&1 | tee "$out/bench.log" | tail -5
            cp "$out/bench-gpu/table.md" "$out/bench-table.md" 2>/dev/null ;;
