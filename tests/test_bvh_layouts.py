@@ -38,7 +38,7 @@ def scene_and_reference(source: str, name: str):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         path = warp_assets(name) if source == "warp" else assets_dir() / manifest()[name]["path"]
-        scene = wrt.load_usd(path)
+        scene = wrt.load_usd(path, tessellate_gprims=True)  # wp.Mesh and the layouts trace triangles only
     o1, d1 = camera_rays(scene, width=250, height=200)
     o2, d2 = random_rays(scene, 50_000, seed=7)
     origins, directions = np.concatenate([o1, o2]), np.concatenate([d1, d2])

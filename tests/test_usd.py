@@ -415,7 +415,7 @@ def test_visibility_purpose_and_activation(tmp_path):
     assert [m.path for m in scene.meshes] == ["/Shown", "/Render"]
 
 
-def test_instance_proxies_are_expanded(tmp_path):
+def test_native_instances_share_one_prototype(tmp_path):
     body = (
         'class Xform "Proto"\n{\n'
         + mesh_usda("Tri", points=[(0, 0, 0), (1, 0, 0), (0, 1, 0)], counts=[3], indices=[0, 1, 2])
@@ -435,22 +435,28 @@ def Xform "{name}" (
     path = write_usda(tmp_path, body)
     assert Usd.Stage.Open(path).GetPrimAtPath("/A").IsInstance()
     scene = load(path)
-    assert [m.path for m in scene.meshes] == ["/A/Tri", "/B/Tri"]
-    np.testing.assert_allclose(scene.meshes[0].points, [(10, 0, 0), (11, 0, 0), (10, 1, 0)])
-    np.testing.assert_allclose(scene.meshes[1].points, [(20, 0, 0), (21, 0, 0), (20, 1, 0)])
-    assert len(scene.triangles()[1]) == 2
+    # The prototype is read once, in its own space; each instanceable prim is one instance of it.
+    assert scene.meshes == [] and len(scene.prototypes) == 1 and len(scene.instances) == 2
+    assert [m.path for m in scene.prototypes[0].meshes] == ["/__Prototype_1/Tri"]
+    assert [scene.instances.path(i) for i in range(2)] == ["/A", "/B"]
+    # Scene.triangles() still expands them, in instance order.
+    points, indices = scene.triangles()
+    np.testing.assert_allclose(points[indices], [[(10, 0, 0), (11, 0, 0), (10, 1, 0)], [(20, 0, 0), (21, 0, 0), (20, 1, 0)]])
+    assert scene.stats()["rendered_triangles"] == 2 and scene.stats()["unique_triangles"] == 1
 
 
-def test_other_gprims_warn_once_and_empty_stage(tmp_path):
+def test_gprims_load_as_analytic_shapes_and_unsupported_ones_warn_once(tmp_path):
     body = 'def Cube "C1"\n{\n}\ndef Cube "C2"\n{\n}\ndef Sphere "S"\n{\n}\n' + mesh_usda(
         "Empty", points=[], counts=[], indices=[]
     )
+    body += 'def Cylinder_1 "T1"\n{\n}\ndef Cylinder_1 "T2"\n{\n}\n'
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = load_usd(write_usda(tmp_path, body))
     (warning,) = caught
-    assert "3 prim(s) (Cube: 2, Sphere: 1)" in str(warning.message)
-    assert scene.meshes == [] and len(scene.triangles()[1]) == 0
+    assert "2 prim(s) (Cylinder_1: 2)" in str(warning.message)
+    assert scene.meshes == [] and len(scene.triangles()[1]) == 0  # shapes are not triangles
+    assert [(s.path, s.kind) for s in scene.shapes] == [("/C1", "box"), ("/C2", "box"), ("/S", "sphere")]
 
 
 def test_degenerate_faces_consume_indices(tmp_path):

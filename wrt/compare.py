@@ -11,6 +11,12 @@ Ties: a ray that passes within ``edge_eps`` (barycentric) of a triangle's edge o
 is an *exact tie*: the two watertight tests may round it to different sides of the edge, e.g. onto the next triangle
 or off a silhouette. Disagreements on such rays are counted separately as ``tie_disagreements``; all other
 disagreements are real (``disagreements``).
+
+Instances: an instance traced in its own space (``accel="wrt"``) and its flattened world-space copy in
+``Scene.triangles()`` (``accel="warp"``) are the same triangles rounded differently to float32, by up to a few ulps
+of the world coordinates. A ray that meets such a triangle at grazing incidence moves along it by that amount
+divided by the cosine of incidence, which can cross an edge far from ``edge_eps``. :func:`near_edge_world` marks
+those rays (hit within ``COORD_ULPS`` ulps of ``scale`` / ``|cos|`` of an edge); pass them as ``ties``.
 """
 
 from __future__ import annotations
@@ -27,7 +33,41 @@ def near_edge(hits, edge_eps: float = EDGE_EPS) -> np.ndarray:
     return (hits.prim >= 0) & (np.minimum(np.minimum(w, hits.u), hits.v) < edge_eps)
 
 
-def compare_hits(a, b, rtol: float = 1e-5, edge_eps: float = EDGE_EPS, directions=None, scale: float = 0.0) -> dict:
+def near_edge_world(scene, hits, origins, directions, scale: float) -> np.ndarray:
+    """bool mask of hits lying within the float32 rounding of the scene's coordinates of an edge of their triangle,
+    as seen along the ray: distance to the nearest edge below ``COORD_ULPS`` ulps of ``scale`` divided by the
+    cosine of incidence (see the module docstring).
+
+    Args:
+        scene: the :class:`wrt.Scene` whose ``triangles()`` rows ``hits.prim`` indexes.
+        hits: a :class:`wrt.Hits`.
+        origins: ``(N, 3)`` ray origins.
+        directions: ``(N, 3)`` ray directions.
+        scale: largest coordinate magnitude of the scene.
+    """
+    out = np.zeros(len(hits.prim), bool)
+    h = np.flatnonzero(hits.prim >= 0)
+    if len(h) == 0:
+        return out
+    points, indices = scene.triangles()
+    tri = points[indices[hits.prim[h]]].astype(np.float64)
+    d = np.asarray(directions, np.float64)[h]
+    p = np.asarray(origins, np.float64)[h] + hits.t[h, None].astype(np.float64) * d
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.abs(np.einsum("ij,ij->i", n, d)) / (np.linalg.norm(n, axis=1) * np.linalg.norm(d, axis=1))
+        dist = np.full(len(h), np.inf)
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            edge = tri[:, b] - tri[:, a]
+            dist = np.minimum(dist, np.linalg.norm(np.cross(edge, p - tri[:, a]), axis=1) / np.linalg.norm(edge, axis=1))
+        delta = COORD_ULPS * np.finfo(np.float32).eps * scale
+        out[h] = ~(dist * cos >= delta)  # NaN (degenerate triangles) counts as a tie
+    return out
+
+
+def compare_hits(
+    a, b, rtol: float = 1e-5, edge_eps: float = EDGE_EPS, directions=None, scale: float = 0.0, ties=None
+) -> dict:
     """Counts agreement between hit sets ``a`` and ``b`` (see module docstring).
 
     Args:
@@ -37,6 +77,7 @@ def compare_hits(a, b, rtol: float = 1e-5, edge_eps: float = EDGE_EPS, direction
         edge_eps: barycentric distance to an edge that makes a ray an exact tie.
         directions: ``(N, 3)`` ray directions, for the absolute tolerance; none without them.
         scale: largest coordinate magnitude of the scene, for the absolute tolerance.
+        ties: optional ``(N,)`` bool mask of further rays to count as exact ties (e.g. :func:`near_edge_world`).
 
     Returns:
         dict with ``rays``, ``hits_a``, ``hits_b``, ``hit_mismatch`` (one hits, the other misses),
@@ -53,6 +94,8 @@ def compare_hits(a, b, rtol: float = 1e-5, edge_eps: float = EDGE_EPS, direction
         t_bad[both] = np.abs(a.t[both] - b.t[both]) > rtol * np.abs(b.t[both]) + atol[both]
     mismatch = (hit_a != hit_b) | t_bad
     tie = near_edge(a, edge_eps) | near_edge(b, edge_eps)
+    if ties is not None:
+        tie = tie | np.asarray(ties, bool)
     n = len(a.prim)
     return {
         "rays": int(n),

@@ -401,11 +401,12 @@ class HostLights:
 
 
 def _emitter_triangles(scene, materials_emission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Triangle ids, power weights and double-sidedness of every emissive triangle."""
-    points, indices = scene.triangles()
+    """Geometry ids, power weights and double-sidedness of every emissive triangle that is not instanced (emissive
+    prototype triangles still emit where rays hit them, but are not sampled as lights)."""
+    points, indices = scene.geometry()
     tri_materials = scene.triangle_materials()
     emissive = np.array([luminance_np(e) for e in materials_emission], np.float64)
-    ids = np.nonzero(emissive[tri_materials] > 0.0)[0]
+    ids = np.nonzero(emissive[tri_materials[: scene.num_flat_triangles]] > 0.0)[0]
     if len(ids) == 0:
         return ids.astype(np.int32), np.zeros(0), np.zeros(0, bool)
     a, b, c = (points[indices[ids, k]].astype(np.float64) for k in range(3))

@@ -44,6 +44,9 @@ from .scene import Scene
 from .trace import HitBuffer, get_accelerator, resolve_device
 
 TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
+EXPAND_FACTOR = 4  # instanced scenes above EXPAND_FACTOR * budget show only the instances within the budget
+SHAPE_SEGMENTS = 24  # analytic shapes are drawn tessellated with this many segments per circle
+SHAPE_BUDGET = 20_000  # most analytic shapes drawn
 MAX_CLUSTER_GRID = 4096  # finest clustering grid, cells along the longest side of the scene box
 CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the triangle budget
 BOX_BUDGET = 50_000  # most BVH boxes drawn; more are subsampled evenly in node order
@@ -148,7 +151,8 @@ def offscreen_backend() -> str:
 
 
 def triangle_colors(scene: Scene) -> np.ndarray:
-    """``(T, 3)`` uint8 sRGB display colour of every triangle, in triangle order.
+    """``(T, 3)`` uint8 sRGB display colour of every triangle, in triangle order (``Scene.triangles()`` rows, instances
+    expanded).
 
     A triangle bound to a material (``Mesh.material_ids``) shows the material's constant ``diffuse_color`` (a
     texture's fallback, for textured ones); otherwise the mean of its three corner ``displayColor`` values; the
@@ -158,7 +162,8 @@ def triangle_colors(scene: Scene) -> np.ndarray:
     table = np.array([np.asarray(m.diffuse_color, np.float32).reshape(3) for m in materials] or np.zeros((0, 3)))
     from_display = np.array([bool(getattr(m, "diffuse_from_display_color", False)) for m in materials], bool)
     parts = []
-    for mesh in scene.meshes:
+    meshes = scene._geometry_meshes() if hasattr(scene, "_geometry_meshes") else scene.meshes
+    for mesh in meshes:
         if mesh.colors is not None:
             linear = mesh.colors.mean(axis=1)
         else:
@@ -170,23 +175,58 @@ def triangle_colors(scene: Scene) -> np.ndarray:
             linear[bound] = table[ids[bound]]
         parts.append(linear)
     linear = np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
-    return to_srgb8(linear)
+    return to_srgb8(_expand_rows(scene, linear))
 
 
-def to_pyvista(scene):
-    """The scene's meshes as a ``pyvista.MultiBlock``, one ``PolyData`` block per mesh, named by prim path.
+def _expand_rows(scene: Scene, values: np.ndarray) -> np.ndarray:
+    """Per-triangle ``values`` in geometry order -> in ``Scene.triangles()`` order (instances expanded)."""
+    values = values[: getattr(scene, "num_geometry_triangles", len(values))]  # analytic shapes are not triangles
+    if not len(getattr(scene, "instances", ())):
+        return values
+    rows = np.arange(scene.stats()["rendered_triangles"], dtype=np.int64)
+    return values[scene.split_ids(rows)[0]]
+
+
+def _instances_within(scene: Scene, max_triangles: int) -> int:
+    """How many instances, taken in order, fit in ``max_triangles`` together with the non-instanced meshes."""
+    if not len(scene.instances):
+        return 0
+    offsets = scene.instance_offsets()
+    return int(np.searchsorted(offsets[1:], max_triangles, side="right"))
+
+
+def _first_instances(scene: Scene, n: int) -> Scene:
+    """``scene`` with only its first ``n`` instances (for drawing)."""
+    import dataclasses
+
+    from .instancing import Instances
+
+    inst = scene.instances
+    keep = Instances(inst.prototype[:n], inst.to_world[:n], inst.source[:n], inst.index[:n], inst.sources)
+    return dataclasses.replace(scene, instances=keep)
+
+
+def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
+    """The scene's meshes as a ``pyvista.MultiBlock``: one ``PolyData`` block per non-instanced mesh, named by prim
+    path, then one block per instance (its prototype's meshes merged, moved to world space), named by the instance's
+    path (``/instancer[index]`` for a PointInstancer's).
 
     Every block carries all of its mesh's points (world space) and one triangle cell per triangle, so the
-    points, cells and blocks add up to ``Scene.stats()``'s ``points``, ``rendered_triangles`` and ``meshes``.
-    Cell arrays: ``"color"`` ``(T, 3)`` uint8 sRGB (see :func:`triangle_colors`), ``"prim"`` int32 triangle id
-    (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face.
+    points, cells and blocks add up to ``Scene.stats()``'s ``points``, ``rendered_triangles`` and ``meshes`` plus
+    ``instances``. Cell arrays: ``"color"`` ``(T, 3)`` uint8 sRGB (see :func:`triangle_colors`), ``"prim"`` triangle
+    id (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face. Instances are
+    added in order while the total stays within ``max_triangles``; the others are left out, and the MultiBlock's
+    ``field_data["instances_left_out"]`` counts them.
 
     Args:
         scene: a :class:`wrt.Scene`, or a USD file to load.
+        max_triangles: triangle budget for the instance blocks.
     """
     pv = import_pyvista()
     scene = _as_scene(scene)
-    colors = triangle_colors(scene)
+    shown = _instances_within(scene, max_triangles)
+    drawn = _first_instances(scene, shown) if shown < len(scene.instances) else scene
+    colors = triangle_colors(drawn)
     blocks = pv.MultiBlock()
     first = 0
     for k, mesh in enumerate(scene.meshes):
@@ -199,6 +239,23 @@ def to_pyvista(scene):
         name = mesh.path if mesh.path not in blocks.keys() else f"{mesh.path}#{k}"
         blocks.append(poly, name)
         first += n
+    if shown:
+        points, indices = drawn.triangles()
+        offsets = drawn.instance_offsets()
+        vertex = np.cumsum([0] + [sum(len(m.points) for m in drawn.prototypes[p].meshes) for p in drawn.instances.prototype])
+        vertex += sum(len(m.points) for m in scene.meshes)
+        for i in range(shown):
+            a, b = int(offsets[i]), int(offsets[i + 1])
+            pts = points[vertex[i] : vertex[i + 1]]
+            poly = pv.PolyData.from_regular_faces(pts, indices[a:b] - vertex[i]) if b > a else pv.PolyData(pts)
+            proto = drawn.prototypes[drawn.instances.prototype[i]]
+            poly.cell_data["color"] = colors[a:b]
+            poly.cell_data["prim"] = np.arange(a, b, dtype=np.int64 if b > np.iinfo(np.int32).max else np.int32)
+            poly.cell_data["face_id"] = np.concatenate([m.face_ids for m in proto.meshes] or [np.zeros(0, np.int32)])
+            path = drawn.instances.path(i)
+            poly.field_data["path"] = [path]
+            blocks.append(poly, path if path not in blocks.keys() else f"{path}#{i}")
+    blocks.field_data["instances_left_out"] = [len(scene.instances) - shown]
     return blocks
 
 
@@ -517,10 +574,15 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
     Back faces of single-sided meshes are culled, as they are invisible to a single-sided renderer: seen from
     outside a room, its walls vanish and show the inside.
     """
-    points, indices = scene.triangles()
-    sided = [np.full(len(m.indices), m.double_sided, np.uint8) for m in scene.meshes]
-    attributes = np.column_stack([triangle_colors(scene), np.concatenate(sided or [np.zeros(0, np.uint8)])])
     note = ""
+    if len(scene.instances) and scene.stats()["rendered_triangles"] > EXPAND_FACTOR * max_triangles:
+        # Too many to flatten for display: the instances that fit in the budget.
+        shown = _instances_within(scene, max_triangles)
+        note = f"showing {shown:,} of {len(scene.instances):,} instances"
+        scene = _first_instances(scene, shown)
+    points, indices = scene.triangles()
+    sided = _expand_rows(scene, scene.triangle_double_sided().astype(np.uint8))
+    attributes = np.column_stack([triangle_colors(scene), sided])
     if len(indices) > max_triangles:
         points, indices, attributes = cluster_vertices(points, indices, attributes, max_triangles)
         note = f"showing {len(indices):,} of {scene.stats()['rendered_triangles']:,} triangles (simplified for display)"
@@ -531,7 +593,36 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
             mesh.cell_data["color"] = attributes[rows, :3]
             culling = None if double_sided else "back"
             plotter.add_mesh(mesh, scalars="color", rgb=True, show_scalar_bar=False, culling=culling, name=label)
+    shapes = shape_meshes(scene)
+    if shapes is not None:
+        plotter.add_mesh(shapes, scalars="color", rgb=True, show_scalar_bar=False, name="shapes")
     return note
+
+
+def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int = SHAPE_BUDGET):
+    """The scene's analytic shapes (non-instanced, then each instance's) tessellated for display as one
+    ``pyvista.PolyData`` with a ``"color"`` cell array, or None without shapes; at most ``max_shapes`` are drawn."""
+    from .primitives import tessellate
+
+    placed = [(s, np.eye(4)) for s in getattr(scene, "shapes", [])]
+    for i, p in enumerate(scene.instances.prototype if len(getattr(scene, "instances", ())) else []):
+        placed += [(s, scene.instances.to_world[i]) for s in getattr(scene.prototypes[p], "shapes", [])]
+        if len(placed) >= max_shapes:
+            break
+    if not placed:
+        return None
+    pv = import_pyvista()
+    points, faces, colors, base = [], [], [], 0
+    for shape, to_world in placed[:max_shapes]:
+        moved = type(shape)(shape.path, shape.kind, to_world @ shape.to_world, shape.params, shape.color)
+        pts, tris, _ = tessellate(moved, segments)
+        points.append(pts)
+        faces.append(tris + base)
+        colors.append(np.repeat(to_srgb8(shape.color[None]), len(tris), axis=0))
+        base += len(pts)
+    mesh = pv.PolyData.from_regular_faces(np.concatenate(points).astype(np.float32), np.concatenate(faces))
+    mesh.cell_data["color"] = np.concatenate(colors)
+    return mesh
 
 
 def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_depth: float, eye_radius: float):

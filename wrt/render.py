@@ -156,6 +156,7 @@ def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None
 def _slice_hits(hits: HitBuffer, m: int) -> HitBuffer:
     out = object.__new__(HitBuffer)
     out.t, out.u, out.v, out.prim, out.cost = hits.t[:m], hits.u[:m], hits.v[:m], hits.prim[:m], hits.cost[:m]
+    out.instance = hits.instance[:m]
     return out
 
 
@@ -220,7 +221,8 @@ class Renderer:
         self.max_depth = int(max_depth)
         self.ao_radius = float(ao_radius)
         self.timers = {}
-        if scene.stats()["rendered_triangles"] == 0:
+        stats = scene.stats()
+        if stats["rendered_triangles"] == 0 and stats.get("rendered_shapes", 0) == 0:
             warnings.warn(f"{scene.source or 'scene'}: nothing to render (no triangles); the image is background only")
         with wp.ScopedTimer("build", print=False, dict=self.timers, synchronize=True):
             self.accel = get_accelerator(scene, accel, builder, self.device)
@@ -235,7 +237,7 @@ class Renderer:
         mats, uvs, tri_materials, sided, emission = shading_data(scene, dev)
         self.materials = mats
         cam = self.camera.to_struct(self.width, self.height)
-        used = np.unique(scene.triangle_materials()) if scene.meshes else np.zeros(0, np.int32)
+        used = np.unique(scene.triangle_materials())
         emissive_used = any(float(np.max(emission[k])) > 0.0 for k in used)
         # A stage with no light source at all gets the documented default lights.
         self.lights = list(scene.lights) if (scene.lights or emissive_used) else default_lights(np.array(cam.forward))
@@ -249,7 +251,7 @@ class Renderer:
         s.uvs, s.materials, s.double_sided = uvs, tri_materials, sided
         s.emitters = wp.array(emitters, dtype=wp.int32, device=dev)
         self.surfaces = s
-        self.all_double_sided = bool(scene.triangle_double_sided().all()) if scene.meshes else True
+        self.all_double_sided = bool(scene.triangle_double_sided().all())
         # Whitted lights each UsdLux light (but the dome) separately and all emissive triangles as one light.
         n_analytic = self.device_lights.num_analytic
         self._whitted_groups = [(k, 1) for k in range(n_analytic) if kinds[k] != int(LIGHT_DOME)]
@@ -358,7 +360,7 @@ class Renderer:
                 primary_aovs_kernel,
                 n,
                 inputs=[self.device_scene, self.surfaces, self.materials, cam.origin, cam.forward]
-                + [w.origins[:n], w.directions[:n], h.t[:n], h.u[:n], h.v[:n], h.prim[:n], h.cost[:n]],
+                + [w.origins[:n], w.directions[:n], h.t[:n], h.u[:n], h.v[:n], h.prim[:n], h.instance[:n], h.cost[:n]],
                 outputs=aovs.outputs,
             )
             aovs.done = True
@@ -380,7 +382,7 @@ class Renderer:
             launch_per_path(
                 shade_path_kernel,
                 w.n,
-                [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim],
+                [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim, h.instance],
                 [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal]
                 + [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
                 self.device,
@@ -394,7 +396,7 @@ class Renderer:
         for bounce in range(self.max_depth + 1):
             self._intersect(w, aovs, cam, camera_rays=bounce == 0)
             h = w.hits
-            hit = [h.t, h.u, h.v, h.prim]
+            hit = [h.t, h.u, h.v, h.prim, h.instance]
             launch_per_path(
                 shade_whitted_kernel,
                 w.n,
@@ -426,7 +428,7 @@ class Renderer:
         launch_per_path(
             shade_ao_kernel,
             w.n,
-            [self.device_scene, self.surfaces, self.ao_radius, w.origins, w.directions, h.t, h.u, h.v, h.prim, w.rng],
+            [self.device_scene, self.surfaces, self.ao_radius, w.origins, w.directions, h.t, h.u, h.v, h.prim, h.instance, w.rng],
             [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs],
             self.device,
         )
@@ -436,6 +438,8 @@ class Renderer:
     def _image(self, rgb: np.ndarray, aovs: _AovBuffers) -> Image:
         h, w = self.height, self.width
         out = aovs.numpy(h, w)
+        if len(self.scene.instances):  # report rows of Scene.triangles(), as Hits.prim does
+            out["prim"] = self.scene.expanded_ids(out["prim"].reshape(-1), out["instance"].reshape(-1)).reshape(h, w)
         rgb = rgb.reshape(h, w, 3).astype(np.float32)
         hit = out["prim"] >= 0
         if self.integrator == "normals":

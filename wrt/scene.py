@@ -7,7 +7,18 @@ wraps raw arrays. Everything downstream (BVH, trace, render) reads only this cla
 Triangle order (the meaning of ``Hits.prim``): meshes in the order of :attr:`Scene.meshes` (for USD stages,
 the pre-order traversal of the stage), and inside each mesh the triangles of face 0 first, then face 1, and
 so on, each face fan-triangulated around its first vertex, so face ``f`` with ``n`` vertices gives
-``n - 2`` consecutive triangles.
+``n - 2`` consecutive triangles. Instances come after them: each instance's prototype triangles in instance order
+(:mod:`wrt.instancing`), which is how :meth:`Scene.triangles` expands them.
+
+Geometry order (the meaning of ``prim`` in device hit buffers and of the per-triangle shading arrays): every
+*unique* triangle once, the non-instanced meshes first (world space, the same rows as in ``triangles()``), then
+each prototype's meshes (prototype space), :meth:`Scene.geometry`; then every unique analytic shape
+(:mod:`wrt.primitives`): the non-instanced ones (:attr:`Scene.shapes`), then each prototype's. Without instances and
+shapes both orders coincide.
+
+Analytic shapes are not triangles: they are not in :meth:`Scene.triangles`. Their ids in ``Hits.prim`` come after
+the rendered triangles: ``stats()["rendered_triangles"] + k`` for the ``k``-th rendered shape, the non-instanced
+ones first, then each instance's prototype shapes in instance order.
 """
 
 from __future__ import annotations
@@ -19,17 +30,26 @@ import numpy as np
 import warp as wp
 
 from .camera import Camera
+from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
+from .transforms import mat34
 
 
 @wp.struct
 class DeviceScene:
-    """Per-triangle shading data on the device, indexed by triangle id (``prim``)."""
+    """Per-triangle shading data on the device, indexed by geometry id (``prim`` of a hit buffer), plus the
+    transforms of the instances."""
 
-    points: wp.array[wp.vec3]  # world-space vertex positions
+    points: wp.array[wp.vec3]  # vertex positions: world space, prototype space for prototype triangles
     indices: wp.array2d[wp.int32]  # (T, 3) triangle vertex indices
-    normals: wp.array2d[wp.vec3]  # (T, 3) shading normal per corner; zero when the mesh has none
+    normals: wp.array2d[wp.vec3]  # (T, 3) shading normal per corner (same space); zero when the mesh has none
     colors: wp.array2d[wp.vec3]  # (T, 3) linear albedo per corner
-    num_prims: int  # number of triangles
+    num_prims: int  # number of unique triangles
+    world_to_local: wp.array[mat34]  # (N,) world -> prototype space of each instance (at least one entry)
+    num_instances: int  # number of instances; hits with instance -1 are world-space geometry
+    shape_kinds: wp.array[wp.int32]  # (S,) primitives.SHAPE_* of each unique analytic shape (geometry id T + s)
+    shape_params: wp.array[wp.vec4]  # (S,) the shape's parameters (primitives.Shape.params)
+    shape_to_local: wp.array[mat34]  # (S,) world (or prototype) space -> the shape's canonical space
+    num_shapes: int  # number of unique analytic shapes
 
 
 @dataclasses.dataclass
@@ -118,7 +138,12 @@ class Scene:
     """Everything that is rendered, as host arrays.
 
     Attributes:
-        meshes: triangle meshes in world space; their order defines triangle ids (see module docstring).
+        meshes: triangle meshes in world space that are not instanced; their order defines triangle ids (see
+            module docstring).
+        shapes: :class:`wrt.primitives.Shape` list: analytic primitives in world space that are not instanced.
+        prototypes: :class:`wrt.instancing.Prototype` list: meshes and shapes in their own space, drawn through
+            ``instances``.
+        instances: :class:`wrt.instancing.Instances` placing the prototypes in the world.
         cameras: prim path -> :class:`wrt.Camera`, in stage order.
         lights: the stage's lights: :class:`DistantLight` and the classes of :mod:`wrt.lights`.
         materials: :class:`wrt.materials.Material` list that ``Mesh.material_ids`` index.
@@ -129,6 +154,9 @@ class Scene:
     """
 
     meshes: list[Mesh] = dataclasses.field(default_factory=list)
+    shapes: list = dataclasses.field(default_factory=list)
+    prototypes: list = dataclasses.field(default_factory=list)
+    instances: Instances = dataclasses.field(default_factory=Instances.empty)
     cameras: dict[str, Camera] = dataclasses.field(default_factory=dict)
     lights: list = dataclasses.field(default_factory=list)
     materials: list = dataclasses.field(default_factory=list)
@@ -158,25 +186,142 @@ class Scene:
         mesh = Mesh(name, points, indices, np.arange(len(indices), dtype=np.int32), double_sided=True)
         return cls(meshes=[mesh])
 
+    def _geometry_meshes(self) -> list[Mesh]:
+        """The meshes in geometry order: non-instanced meshes, then each prototype's meshes."""
+        return list(self.meshes) + [m for p in self.prototypes for m in p.meshes]
+
+    def _geometry_shapes(self) -> list:
+        """The analytic shapes in geometry order: non-instanced shapes, then each prototype's shapes."""
+        return list(self.shapes) + [s for p in self.prototypes for s in getattr(p, "shapes", [])]
+
+    @property
+    def num_geometry_triangles(self) -> int:
+        """Unique triangles: the rows of :meth:`geometry`; analytic shapes have the geometry ids after them."""
+        return self.num_flat_triangles + sum(p.num_triangles for p in self.prototypes)
+
+    def prototype_shape_ranges(self) -> np.ndarray:
+        """``(P, 2)`` int64 first geometry id and count of each prototype's analytic shapes."""
+        counts = np.array([len(getattr(p, "shapes", [])) for p in self.prototypes], np.int64)
+        first = self.num_geometry_triangles + len(self.shapes) + np.cumsum(counts) - counts
+        return np.stack([first, counts], axis=1).reshape(-1, 2)
+
+    def instance_shape_offsets(self) -> np.ndarray:
+        """``(N + 1,)`` int64: rendered shape index (see the module docstring) where each instance's shapes start."""
+        counts = (
+            self.prototype_shape_ranges()[:, 1][self.instances.prototype] if len(self.instances) else np.zeros(0, np.int64)
+        )
+        return len(self.shapes) + np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+    @property
+    def num_flat_triangles(self) -> int:
+        """Triangles of the non-instanced meshes (the first rows of both orders)."""
+        return sum(len(m.indices) for m in self.meshes)
+
+    def geometry(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every unique triangle once, in geometry order (module docstring): non-instanced meshes in world space,
+        then prototype meshes in prototype space. Without instances this is :meth:`triangles`.
+
+        Returns:
+            ``points`` ``(V, 3)`` float32 and ``indices`` ``(T, 3)`` int32; row ``k`` is geometry id ``k``.
+        """
+        if not self.prototypes:
+            return self.triangles()
+        key = ("geometry",)
+        if key not in self._cache:
+            self._cache[key] = _concatenate_meshes(self._geometry_meshes())
+        return self._cache[key]
+
+    def prototype_ranges(self) -> np.ndarray:
+        """``(P, 2)`` int64 first geometry id and triangle count of each prototype."""
+        counts = np.array([p.num_triangles for p in self.prototypes], np.int64)
+        first = self.num_flat_triangles + np.cumsum(counts) - counts
+        return np.stack([first, counts], axis=1).reshape(-1, 2)
+
+    def instance_offsets(self) -> np.ndarray:
+        """``(N + 1,)`` int64: row of :meth:`triangles` where each instance's triangles start; the last entry is
+        the number of rendered triangles."""
+        counts = self.prototype_ranges()[:, 1][self.instances.prototype] if len(self.instances) else np.zeros(0, np.int64)
+        return self.num_flat_triangles + np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+    def expanded_ids(self, prim, instance) -> np.ndarray:
+        """Rows of :meth:`triangles` of hits given as ``(geometry id, instance)`` (``-1`` prims stay ``-1``).
+
+        Args:
+            prim: ``(N,)`` int geometry ids (:meth:`geometry` rows), -1 for a miss.
+            instance: ``(N,)`` int instance ids, -1 for non-instanced geometry.
+
+        Returns:
+            ``(N,)`` int32, or int64 when the scene has more than ``2**31 - 1`` rendered triangles.
+        """
+        prim = np.asarray(prim, np.int64)
+        instance = np.asarray(instance, np.int64)
+        out = prim.copy()
+        tris = self.num_geometry_triangles
+        rendered = int(self.instance_offsets()[-1])
+        inst = (prim >= 0) & (prim < tris) & (instance >= 0)
+        if inst.any():
+            first = self.prototype_ranges()[:, 0][self.instances.prototype[instance[inst]]]
+            out[inst] = self.instance_offsets()[instance[inst]] + prim[inst] - first
+        shape = prim >= tris
+        if shape.any():
+            flat = shape & (instance < 0)
+            out[flat] = rendered + prim[flat] - tris
+            inst = shape & (instance >= 0)
+            if inst.any():
+                first = self.prototype_shape_ranges()[:, 0][self.instances.prototype[instance[inst]]]
+                out[inst] = rendered + self.instance_shape_offsets()[instance[inst]] + prim[inst] - first
+        total = rendered + int(self.instance_shape_offsets()[-1])
+        return out.astype(np.int64 if total > ROW_DTYPE_LIMIT else np.int32)
+
+    def split_ids(self, rows) -> tuple[np.ndarray, np.ndarray]:
+        """The inverse of :meth:`expanded_ids`: ``(geometry id, instance)`` int64 of rows of :meth:`triangles`."""
+        rows = np.asarray(rows, np.int64)
+        prim = rows.copy()
+        instance = np.full(len(rows), -1, np.int64)
+        offsets = self.instance_offsets()
+        rendered = int(offsets[-1])
+        inst = (rows >= self.num_flat_triangles) & (rows < rendered)
+        if inst.any() and len(self.instances):
+            i = np.searchsorted(offsets, rows[inst], side="right") - 1
+            instance[inst] = i
+            prim[inst] = self.prototype_ranges()[:, 0][self.instances.prototype[i]] + rows[inst] - offsets[i]
+        shape = rows >= rendered
+        if shape.any():
+            k = rows - rendered
+            flat = shape & (k < len(self.shapes))
+            prim[flat] = self.num_geometry_triangles + k[flat]
+            inst = shape & ~flat
+            if inst.any():
+                shape_offsets = self.instance_shape_offsets()
+                i = np.searchsorted(shape_offsets, k[inst], side="right") - 1
+                instance[inst] = i
+                first = self.prototype_shape_ranges()[:, 0][self.instances.prototype[i]]
+                prim[inst] = first + k[inst] - shape_offsets[i]
+        return prim, instance
+
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
-        """All triangles in world space, in the documented order.
+        """All triangles in world space, instances expanded, in the documented order (module docstring).
+
+        This flattens every instance: for scenes drawn through many instances it can be far larger than
+        :meth:`geometry`, which the renderer uses.
 
         Returns:
             ``points`` ``(V, 3)`` float32 and ``indices`` ``(T, 3)`` int32; row ``k`` of ``indices`` is prim ``k``.
         """
         key = ("triangles",)
         if key not in self._cache:
-            offsets = np.cumsum([0] + [len(m.points) for m in self.meshes])
-            points = [m.points for m in self.meshes] or [np.zeros((0, 3), np.float32)]
-            indices = [m.indices + o for m, o in zip(self.meshes, offsets)] or [np.zeros((0, 3), np.int32)]
-            self._cache[key] = (
-                np.ascontiguousarray(np.concatenate(points), dtype=np.float32),
-                np.ascontiguousarray(np.concatenate(indices), dtype=np.int32),
-            )
+            points, indices = _concatenate_meshes(self.meshes)
+            if len(self.instances):
+                more_points, more_indices = expand_instance_triangles(self.prototypes, self.instances)
+                if len(points) + len(more_points) > ROW_DTYPE_LIMIT:
+                    raise ValueError(f"{len(points) + len(more_points)} points are too many to flatten into one array")
+                indices = np.concatenate([indices, (more_indices + len(points)).astype(np.int32)])
+                points = np.concatenate([points, more_points])
+            self._cache[key] = (points, indices)
         return self._cache[key]
 
     def corner_attributes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per-corner shading normals and colours for every triangle, in triangle order.
+        """Per-corner shading normals and colours for every triangle, in geometry order (:meth:`geometry`).
 
         Returns:
             ``normals`` ``(T, 3, 3)`` float32 (zero rows where a mesh has no normals: shade with the face normal)
@@ -185,37 +330,43 @@ class Scene:
         key = ("corners",)
         if key not in self._cache:
             normals, colors = [], []
-            for m in self.meshes:
+            for m in self._geometry_meshes():
                 n = len(m.indices)
                 normals.append(m.normals if m.normals is not None else np.zeros((n, 3, 3), np.float32))
                 colors.append(m.colors if m.colors is not None else np.full((n, 3, 3), 0.5, np.float32))
+            for s in self._geometry_shapes():  # analytic shapes: normals come from the shape
+                normals.append(np.zeros((1, 3, 3), np.float32))
+                colors.append(np.broadcast_to(s.color.astype(np.float32), (1, 3, 3)))
             empty = np.zeros((0, 3, 3), np.float32)
             self._cache[key] = (np.concatenate(normals or [empty]), np.concatenate(colors or [empty]))
         return self._cache[key]
 
     def triangle_materials(self) -> np.ndarray:
-        """``(T,)`` int32 material of every triangle as a device material index: 0 for the default material,
-        ``k + 1`` for ``materials[k]``."""
+        """``(T,)`` int32 material of every triangle (geometry order) as a device material index: 0 for the default
+        material, ``k + 1`` for ``materials[k]``."""
         key = ("triangle_materials",)
         if key not in self._cache:
             parts = [
                 (m.material_ids + 1 if m.material_ids is not None else np.zeros(len(m.indices), np.int32))
-                for m in self.meshes
-            ]
+                for m in self._geometry_meshes()
+            ] + [np.array([s.material_id + 1], np.int32) for s in self._geometry_shapes()]
             ids = np.concatenate(parts or [np.zeros(0, np.int32)]).astype(np.int32)
             self._cache[key] = np.where((ids >= 0) & (ids <= len(self.materials)), ids, 0).astype(np.int32)
         return self._cache[key]
 
     def triangle_double_sided(self) -> np.ndarray:
-        """``(T,)`` bool: each triangle's mesh is double-sided."""
-        parts = [np.full(len(m.indices), bool(m.double_sided)) for m in self.meshes]
+        """``(T,)`` bool: each triangle's mesh is double-sided (geometry order)."""
+        parts = [np.full(len(m.indices), bool(m.double_sided)) for m in self._geometry_meshes()]
+        parts += [np.array([bool(s.double_sided)]) for s in self._geometry_shapes()]
         return np.concatenate(parts or [np.zeros(0, bool)])
 
     def corner_uvs(self) -> np.ndarray:
-        """``(T, 3, 2)`` float32 texture coordinates per triangle corner (zero where a mesh has none)."""
+        """``(T, 3, 2)`` float32 texture coordinates per triangle corner (geometry order; zero where a mesh has none)."""
         key = ("corner_uvs",)
         if key not in self._cache:
-            parts = [m.uvs if m.uvs is not None else np.zeros((len(m.indices), 3, 2), np.float32) for m in self.meshes]
+            meshes = self._geometry_meshes()
+            parts = [m.uvs if m.uvs is not None else np.zeros((len(m.indices), 3, 2), np.float32) for m in meshes]
+            parts += [np.zeros((len(self._geometry_shapes()), 3, 2), np.float32)]
             self._cache[key] = np.concatenate(parts or [np.zeros((0, 3, 2), np.float32)]).astype(np.float32)
         return self._cache[key]
 
@@ -224,11 +375,16 @@ class Scene:
         device = wp.get_device(device)
         key = ("device_scene", str(device))
         if key not in self._cache:
-            points, indices = self.triangles()
+            points, indices = self.geometry()
             normals, colors = self.corner_attributes()
             n = len(indices)
-            if n == 0:  # keep arrays non-empty so kernels can bind them; num_prims = 0 marks the scene empty
-                points, indices = np.zeros((1, 3), np.float32), np.zeros((1, 3), np.int32)
+            shapes = self._geometry_shapes()
+            if shapes:  # shapes have geometry ids after the triangles: give them placeholder rows
+                indices = np.concatenate([indices, np.zeros((len(shapes), 3), np.int32)])
+            if len(points) == 0:
+                points = np.zeros((1, 3), np.float32)
+            if len(indices) == 0:  # keep arrays non-empty so kernels can bind them; num_prims = 0 marks the scene empty
+                indices = np.zeros((1, 3), np.int32)
                 normals = colors = np.zeros((1, 3, 3), np.float32)
             s = DeviceScene()
             s.points = wp.array(points, dtype=wp.vec3, device=device)
@@ -236,26 +392,107 @@ class Scene:
             s.normals = wp.array(normals, dtype=wp.vec3, device=device)
             s.colors = wp.array(colors, dtype=wp.vec3, device=device)
             s.num_prims = n
+            s.world_to_local = self.world_to_local(device)
+            s.num_instances = len(self.instances)
+            s.shape_kinds, s.shape_params, s.shape_to_local = self.shape_arrays(device)
+            s.num_shapes = len(shapes)
             self._cache[key] = s
         return self._cache[key]
 
+    def shape_arrays(self, device) -> tuple:
+        """``(kinds, params, to_local)`` device arrays of the unique analytic shapes in geometry order (at least one
+        entry each), uploaded once and shared by the accelerator and the shading data."""
+        from .primitives import SHAPE_KINDS
+
+        device = wp.get_device(device)
+        key = ("shape_arrays", str(device))
+        if key not in self._cache:
+            shapes = self._geometry_shapes()
+            kinds = np.array([SHAPE_KINDS[s.kind] for s in shapes] or [0], np.int32)
+            params = np.array([s.params for s in shapes] or [np.zeros(4)], np.float32)
+            to_world = np.array([s.to_world for s in shapes] or [np.eye(4)], np.float64)
+            to_local, _ = invert_transforms(to_world)
+            self._cache[key] = (
+                wp.array(kinds, dtype=wp.int32, device=device),
+                wp.array(params, dtype=wp.vec4, device=device),
+                wp.array(to_local.astype(np.float32), dtype=mat34, device=device),
+            )
+        return self._cache[key]
+
+    def world_to_local(self, device) -> wp.array:
+        """``(max(N, 1),)`` mat34 world-to-prototype transforms of the instances on ``device`` (zero for a singular
+        transform), uploaded once and shared by the accelerator and the shading data."""
+        device = wp.get_device(device)
+        key = ("world_to_local", str(device))
+        if key not in self._cache:
+            inverse, _ = invert_transforms(self.instances.to_world)
+            if len(inverse) == 0:
+                inverse = np.zeros((1, 3, 4))
+            self._cache[key] = wp.array(inverse.astype(np.float32), dtype=mat34, device=device)
+        return self._cache[key]
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """World-space axis-aligned bounds ``(lower, upper)`` of all points; unit cube around 0 when empty."""
-        points, indices = self.triangles()
-        if len(indices) == 0:
-            return np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32)
-        used = points[indices.reshape(-1)]
-        return used.min(axis=0), used.max(axis=0)
+        """World-space axis-aligned bounds ``(lower, upper)`` of all points; unit cube around 0 when empty.
+
+        An instance contributes the box of its prototype's box moved by its transform, which bounds its points
+        (tightly for translations and axis-aligned scales) without expanding it.
+        """
+        key = ("bounds",)
+        if key in self._cache:
+            return self._cache[key]
+        points, indices = _concatenate_meshes(self.meshes)
+        lower = np.full(3, np.inf)
+        upper = np.full(3, -np.inf)
+        if len(indices):
+            used = points[indices.reshape(-1)]
+            lower, upper = used.min(axis=0).astype(np.float64), used.max(axis=0).astype(np.float64)
+        for shape in self.shapes:
+            lo, hi = world_boxes(*shape.local_bounds(), shape.to_world[None])
+            lower, upper = np.minimum(lower, lo[0]), np.maximum(upper, hi[0])
+        for p, proto in enumerate(self.prototypes):
+            mine = self.instances.prototype == p
+            lo, hi = proto.bounds()
+            if mine.any() and np.all(lo <= hi):
+                boxes = world_boxes(lo, hi, self.instances.to_world[mine])
+                lower = np.minimum(lower, boxes[0].min(axis=0))
+                upper = np.maximum(upper, boxes[1].max(axis=0))
+        if not np.all(lower <= upper):
+            result = np.full(3, -1.0, np.float32), np.full(3, 1.0, np.float32)
+        else:
+            result = lower.astype(np.float32), upper.astype(np.float32)
+        self._cache[key] = result
+        return result
 
     def stats(self) -> dict:
-        """Counts describing the scene: ``meshes``, ``points``, ``rendered_triangles``, ``unique_triangles``,
-        ``cameras`` and ``lights``. Without instancing, rendered and unique triangle counts are equal."""
-        points, indices = self.triangles()
+        """Counts describing the scene, computed without expanding instances: ``meshes`` (non-instanced),
+        ``points`` and ``rendered_triangles`` (as :meth:`triangles` would hold them), ``unique_triangles`` (as
+        :meth:`geometry` holds them: each prototype once), ``shapes`` (unique analytic shapes) and
+        ``rendered_shapes``, ``prototypes``, ``prototype_meshes``, ``instances``, ``cameras`` and ``lights``. Without
+        instancing, rendered and unique counts are equal."""
+        flat_points = sum(len(m.points) for m in self.meshes)
+        proto_points = np.array([sum(len(m.points) for m in p.meshes) for p in self.prototypes], np.int64)
+        rendered_points = flat_points + int(proto_points[self.instances.prototype].sum()) if len(self.instances) else flat_points
         return {
             "meshes": len(self.meshes),
-            "points": int(len(points)),
-            "rendered_triangles": int(len(indices)),
-            "unique_triangles": int(len(indices)),
+            "points": int(rendered_points),
+            "rendered_triangles": int(self.instance_offsets()[-1]),
+            "unique_triangles": int(self.num_geometry_triangles),
+            "shapes": len(self._geometry_shapes()),
+            "rendered_shapes": int(self.instance_shape_offsets()[-1]),
+            "prototypes": len(self.prototypes),
+            "prototype_meshes": sum(len(p.meshes) for p in self.prototypes),
+            "instances": len(self.instances),
             "cameras": len(self.cameras),
             "lights": len(self.lights),
         }
+
+
+def _concatenate_meshes(meshes: list[Mesh]) -> tuple[np.ndarray, np.ndarray]:
+    """``(points (V, 3) float32, indices (T, 3) int32)`` of ``meshes`` one after another."""
+    offsets = np.cumsum([0] + [len(m.points) for m in meshes])
+    points = [m.points for m in meshes] or [np.zeros((0, 3), np.float32)]
+    indices = [m.indices + o for m, o in zip(meshes, offsets)] or [np.zeros((0, 3), np.int32)]
+    return (
+        np.ascontiguousarray(np.concatenate(points), dtype=np.float32),
+        np.ascontiguousarray(np.concatenate(indices), dtype=np.int32),
+    )

@@ -24,6 +24,8 @@ from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface
 from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
+from .primitives import shape_surface
+from .transforms import inverse_transform_point, normal_to_world, transform_point, transform_vector
 
 BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights
 CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
@@ -54,8 +56,47 @@ class HitPoint:
 
 
 @wp.func
-def hit_point(scene: DeviceScene, surf: DeviceSurfaces, prim: int, u: float, v: float, o: wp.vec3, d: wp.vec3, t: float):
-    """Position, normals, texture coordinates and material of the hit ``(t, u, v, prim)`` of ray ``(o, d)``."""
+def unit_or_zero(n: wp.vec3):
+    """``n`` normalised, or zero when it has no length (a corner without a normal)."""
+    length = wp.length(n)
+    if length > 0.0:
+        return n / length
+    return wp.vec3(0.0)
+
+
+@wp.func
+def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.vec3, t: float):
+    """World-space point and front normal (not normalised) of the hit at ``t`` on analytic shape ``prim``: the ray
+    point is moved into the shape's canonical space, snapped onto the surface, and moved back."""
+    j = prim - scene.num_prims
+    p = o + t * d
+    if instance >= 0:
+        p = transform_point(scene.world_to_local[instance], p)
+    m = scene.shape_to_local[j]
+    q, n = shape_surface(scene.shape_kinds[j], scene.shape_params[j], transform_point(m, p))
+    n = normal_to_world(m, n)
+    p = inverse_transform_point(m, q)
+    if instance >= 0:
+        mi = scene.world_to_local[instance]
+        n = normal_to_world(mi, n)
+        p = inverse_transform_point(mi, p)
+    return p, n
+
+
+@wp.func
+def hit_point(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    prim: int,
+    instance: int,
+    u: float,
+    v: float,
+    o: wp.vec3,
+    d: wp.vec3,
+    t: float,
+):
+    """Position, normals, texture coordinates and material of the hit ``(t, u, v, prim, instance)`` of ray
+    ``(o, d)``; for an instance (``instance >= 0``) the prototype-space triangle is moved to world space."""
     h = HitPoint()
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
@@ -63,6 +104,27 @@ def hit_point(scene: DeviceScene, surf: DeviceSurfaces, prim: int, u: float, v: 
     w = 1.0 - u - v
     h.p = w * a + u * b + v * c
     ng = wp.cross(b - a, c - a)
+    n0 = scene.normals[prim, 0]
+    n1 = scene.normals[prim, 1]
+    n2 = scene.normals[prim, 2]
+    if prim >= scene.num_prims:
+        # An analytic shape: the point and normal come from the shape itself.
+        p, n = shape_frame(scene, prim, instance, o, d, t)
+        h.p = p
+        ng = n
+        n0 = n
+        n1 = n
+        n2 = n
+    elif instance >= 0:
+        # Normals move by the inverse transpose, so the front side stays the front side under mirroring. Corner
+        # normals are moved and renormalised before interpolation, exactly as a flattened copy stores them.
+        m = scene.world_to_local[instance]
+        h.p = inverse_transform_point(m, h.p)
+        ng = normal_to_world(m, ng)
+        n0 = unit_or_zero(normal_to_world(m, n0))
+        n1 = unit_or_zero(normal_to_world(m, n1))
+        n2 = unit_or_zero(normal_to_world(m, n2))
+    ns = w * n0 + u * n1 + v * n2
     h.front = 1
     if wp.length(ng) > 0.0:
         ng = wp.normalize(ng)
@@ -71,7 +133,6 @@ def hit_point(scene: DeviceScene, surf: DeviceSurfaces, prim: int, u: float, v: 
     if wp.dot(ng, d) > 0.0:
         ng = -ng
         h.front = 0
-    ns = w * scene.normals[prim, 0] + u * scene.normals[prim, 1] + v * scene.normals[prim, 2]
     if wp.length(ns) > 0.0:
         ns = wp.normalize(ns)
         if wp.dot(ns, ng) < 0.0:
@@ -176,10 +237,12 @@ def start_paths_kernel(
 def cull_back_faces_kernel(
     scene: DeviceScene,
     surf: DeviceSurfaces,
+    origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     t_maxs: wp.array[float],
     hit_t: wp.array[float],
     hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
     # outputs
     retry_t_mins: wp.array[float],
     retry_t_maxs: wp.array[float],
@@ -196,8 +259,17 @@ def cull_back_faces_kernel(
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
-    if wp.dot(wp.cross(b - a, c - a), directions[i]) <= 0.0:
-        return
+    d = directions[i]
+    instance = hit_instance[i]
+    if prim >= scene.num_prims:
+        p, n = shape_frame(scene, prim, instance, origins[i], d, hit_t[i])
+        if wp.dot(n, d) <= 0.0:
+            return
+    else:
+        if instance >= 0:
+            d = transform_vector(scene.world_to_local[instance], d)  # n_world . d = n_local . (A d)
+        if wp.dot(wp.cross(b - a, c - a), d) <= 0.0:
+            return
     t = hit_t[i]
     retry_t_mins[i] = t + wp.max(t * CULL_EPSILON, 1.0e-9)
     retry_t_maxs[i] = t_maxs[i]
@@ -212,12 +284,14 @@ def merge_hits_kernel(
     v2: wp.array[float],
     prim2: wp.array[wp.int32],
     cost2: wp.array[wp.vec2i],
+    instance2: wp.array[wp.int32],
     # outputs
     t: wp.array[float],
     u: wp.array[float],
     v: wp.array[float],
     prim: wp.array[wp.int32],
     cost: wp.array[wp.vec2i],
+    instance: wp.array[wp.int32],
 ):
     """Takes the re-traced hit of every culled ray and adds its traversal cost."""
     i = wp.tid()
@@ -227,6 +301,7 @@ def merge_hits_kernel(
         v[i] = v2[i]
         prim[i] = prim2[i]
         cost[i] = cost[i] + cost2[i]
+        instance[i] = instance2[i]
 
 
 def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays, hits, scratch) -> None:
@@ -250,7 +325,7 @@ def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays,
         wp.launch(
             cull_back_faces_kernel,
             n,
-            inputs=[scene, surfaces, directions, t_maxs, hits.t, hits.prim],
+            inputs=[scene, surfaces, origins, directions, t_maxs, hits.t, hits.prim, hits.instance],
             outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries],
             device=scratch.device,
         )
@@ -261,8 +336,8 @@ def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays,
         wp.launch(
             merge_hits_kernel,
             n,
-            inputs=[scratch.t_maxs, h2.t, h2.u, h2.v, h2.prim, h2.cost],
-            outputs=[hits.t, hits.u, hits.v, hits.prim, hits.cost],
+            inputs=[scratch.t_maxs, h2.t, h2.u, h2.v, h2.prim, h2.cost, h2.instance],
+            outputs=[hits.t, hits.u, hits.v, hits.prim, hits.cost, hits.instance],
             device=scratch.device,
         )
 
@@ -294,6 +369,7 @@ def primary_aovs_kernel(
     hit_u: wp.array[float],
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
     hit_cost: wp.array[wp.vec2i],
     # outputs
     depth: wp.array[float],
@@ -321,14 +397,14 @@ def primary_aovs_kernel(
         material[i] = -1
         return
     d = directions[i]
-    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], origins[i], d, hit_t[i])
+    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display)
     depth[i] = hit_t[i] * wp.length(d)
     z[i] = wp.dot(h.p - eye, forward)
     normal[i] = h.ns
     geometric_normal[i] = h.ng
     albedo[i] = s.base_color
-    instance[i] = 0
+    instance[i] = hit_instance[i]
     material[i] = h.material - 1
 
 

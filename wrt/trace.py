@@ -1,8 +1,14 @@
 """Tracing rays against a scene, through wrt's BVH or through Warp's ``wp.Mesh``, behind one interface.
 
-Both accelerators fill the same hit buffer (``t, u, v, prim``), so shading code and a plain array diff serve
-both. ``Hits.t`` is in units of ``|direction|``; barycentrics follow ``hit = (1-u-v) p0 + u p1 + v p2``.
+Both accelerators fill the same hit buffer (``t, u, v, prim, instance``), so shading code and a plain array diff
+serve both. ``Hits.t`` is in units of ``|direction|``; barycentrics follow ``hit = (1-u-v) p0 + u p1 + v p2``.
 ``wp.mesh_query_ray`` reports the weights of ``p0`` and ``p1``; the adapter converts them.
+
+Instancing: in a hit buffer ``prim`` is a geometry id (a row of :meth:`wrt.Scene.geometry`, where each prototype's
+triangles appear once) and ``instance`` the instance hit (-1 for non-instanced geometry). For scenes with instances
+``accel="wrt"`` is the two-level BVH of :mod:`wrt.tlas`; ``accel="warp"`` has no instancing and traces
+``Scene.triangles()`` flattened (up to :data:`WARP_MAX_TRIANGLES`), then maps its rows back to
+``(geometry id, instance)``. :func:`trace` reports rows of ``Scene.triangles()`` in ``Hits.prim`` either way.
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ from .scene import Scene
 ACCELERATORS = ("wrt", "warp")  # names accepted by accel=
 MIN_RAYS_PER_THREAD = 1 << 14  # smaller CPU launches are not split across threads
 WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor values
+WARP_MAX_TRIANGLES = 1 << 27  # accel="warp" flattens instances; larger instanced scenes are refused
 
 
 @wp.kernel
@@ -125,6 +132,43 @@ def occluded_mesh_kernel(
     blocked[i] = wp.where(hit, 1, 0)
 
 
+@wp.kernel
+def split_rows_kernel(
+    offsets: wp.array[wp.int64],
+    instance_first: wp.array[wp.int32],
+    instance_mirrored: wp.array[wp.int32],
+    num_flat: int,
+    # outputs
+    us: wp.array[float],
+    vs: wp.array[float],
+    prims: wp.array[wp.int32],
+    instances: wp.array[wp.int32],
+):
+    """Rows of ``Scene.triangles()`` -> ``(geometry id, instance)``, with ``u, v`` swapped back on mirrored
+    instances (whose rows have their corners 1 and 2 swapped). ``offsets`` is ``Scene.instance_offsets()``."""
+    i = wp.tid()
+    row = prims[i]
+    instances[i] = -1
+    if row < num_flat:
+        return
+    # Binary search for the instance whose rows contain this one.
+    lo = int(0)
+    hi = offsets.shape[0] - 1
+    r = wp.int64(row)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if offsets[mid] <= r:
+            lo = mid
+        else:
+            hi = mid
+    prims[i] = instance_first[lo] + int(r - offsets[lo])
+    instances[i] = lo
+    if instance_mirrored[lo] == 1:
+        u = us[i]
+        us[i] = vs[i]
+        vs[i] = u
+
+
 class HitBuffer:
     """Device arrays that trace kernels fill, one entry per ray."""
 
@@ -132,18 +176,22 @@ class HitBuffer:
         self.t = wp.empty(n, dtype=float, device=device)  # distance in units of |direction|, inf on a miss
         self.u = wp.empty(n, dtype=float, device=device)  # barycentric weight of p1
         self.v = wp.empty(n, dtype=float, device=device)  # barycentric weight of p2
-        self.prim = wp.empty(n, dtype=wp.int32, device=device)  # triangle id, -1 on a miss
+        self.prim = wp.empty(n, dtype=wp.int32, device=device)  # geometry id (Scene.geometry() row), -1 on a miss
         self.cost = wp.empty(n, dtype=wp.vec2i, device=device)  # (nodes visited, triangles tested)
+        self.instance = wp.full(n, -1, dtype=wp.int32, device=device)  # instance hit, -1: none (kept by non-
+        # instanced accelerators, which never write it)
 
     @property
     def outputs(self) -> list:
-        """The arrays in the order trace kernels take them."""
+        """The arrays in the order trace kernels take them (``instance`` is not among them: only instancing
+        accelerators write it, as an extra output)."""
         return [self.t, self.u, self.v, self.prim, self.cost]
 
     def slice(self, start: int, end: int) -> HitBuffer:
         """A view of rays ``[start, end)``."""
         view = HitBuffer.__new__(HitBuffer)
         view.t, view.u, view.v, view.prim, view.cost = (a[start:end] for a in self.outputs)
+        view.instance = self.instance[start:end]
         return view
 
 
@@ -207,15 +255,60 @@ class Accelerator:
         raise NotImplementedError
 
 
+def check_flattenable(scene: Scene, what: str) -> None:
+    """Raises ``ValueError`` when ``what`` (an accelerator without instancing) cannot trace ``scene``: it has
+    analytic shapes, or flattening its instances would exceed :data:`WARP_MAX_TRIANGLES` triangles."""
+    stats = scene.stats()
+    if stats["rendered_shapes"]:
+        raise ValueError(
+            f"{what} traces triangles only and this scene has {stats['rendered_shapes']} analytic shape(s); "
+            "use accel='wrt' (binary layout), or load it with tessellate_gprims=True"
+        )
+    rendered = stats["rendered_triangles"]
+    if len(scene.instances) and rendered > WARP_MAX_TRIANGLES:
+        raise ValueError(
+            f"{what} has no instancing and would flatten {rendered:,} triangles (more than "
+            f"{WARP_MAX_TRIANGLES:,}); use accel='wrt' (binary layout), which builds one BVH per prototype"
+        )
+
+
+class RowSplitter:
+    """Maps hits on the flattened ``Scene.triangles()`` of an instanced scene back to ``(geometry id, instance)``
+    in a hit buffer (see :func:`split_rows_kernel`)."""
+
+    def __init__(self, scene: Scene, device):
+        ranges = scene.prototype_ranges()
+        self.device = device
+        self.inputs = [
+            wp.array(scene.instance_offsets(), dtype=wp.int64, device=device),
+            wp.array(ranges[:, 0][scene.instances.prototype].astype(np.int32), dtype=wp.int32, device=device),
+            wp.array(scene.instances.mirrored.astype(np.int32), dtype=wp.int32, device=device),
+            scene.num_flat_triangles,
+        ]
+
+    def __call__(self, hits: HitBuffer) -> None:
+        wp.launch(
+            split_rows_kernel,
+            len(hits.t),
+            inputs=self.inputs,
+            outputs=[hits.u, hits.v, hits.prim, hits.instance],
+            device=self.device,
+        )
+
+
 class BvhAccelerator(Accelerator):
-    """wrt's own BVH, in one of the layouts of ``wrt.bvh.layout.LAYOUTS`` (all give identical hits)."""
+    """wrt's own BVH, in one of the layouts of ``wrt.bvh.layout.LAYOUTS`` (all give identical hits). On a scene with
+    instances it traces the flattened ``Scene.triangles()`` (layouts other than binary have no instancing)."""
 
     name = "wrt"
     layout = "binary"  # the canonical FlatBvh; other layouts are conversions with their own kernels
     trace_kernel = trace_bvh_kernel
     occluded_kernel = occluded_bvh_kernel
+    split = None  # RowSplitter of an instanced scene
 
     def __init__(self, scene: Scene, builder: str, device, layout: str = "binary", **build_options):
+        check_flattenable(scene, f"layout={layout!r}")
+        self.split = RowSplitter(scene, device) if len(scene.instances) else None
         points, indices = scene.triangles()
         self.bvh = build_bvh(points, indices, builder, device=device, **build_options)
         self.layout = check_layout(layout)
@@ -232,6 +325,8 @@ class BvhAccelerator(Accelerator):
             outputs=hits.outputs,
             device=self.device,
         )
+        if self.split is not None:
+            self.split(hits)
 
     def _occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
         wp.launch(
@@ -251,8 +346,10 @@ class WarpMeshAccelerator(Accelerator):
     def __init__(self, scene: Scene, builder: str, device):
         if builder not in WARP_BUILDERS:
             raise ValueError(f"wp.Mesh has no builder {builder!r}; valid builders for accel='warp': {WARP_BUILDERS}")
+        check_flattenable(scene, "accel='warp'")
         points, indices = scene.triangles()
         self.device = device
+        self.split = RowSplitter(scene, device) if len(scene.instances) else None
         self.num_prims = len(indices)
         if self.num_prims == 0:
             self.mesh = None
@@ -271,6 +368,8 @@ class WarpMeshAccelerator(Accelerator):
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
         misses = [np.inf, 0.0, 0.0, -1, wp.vec2i(0, 0)]
         self._launch(trace_mesh_kernel, len(origins), [origins, directions, t_mins, t_maxs], hits.outputs, misses)
+        if self.split is not None and self.mesh is not None:
+            self.split(hits)
 
     def _occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
         self._launch(occluded_mesh_kernel, len(origins), [origins, directions, t_mins, t_maxs], [blocked], [0])
@@ -294,7 +393,11 @@ def get_accelerator(
     device = resolve_device(device)
     key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
     if key not in scene._cache:
-        if accel == "wrt":
+        if accel == "wrt" and layout == "binary" and (len(scene.instances) or scene.shapes):
+            from .tlas import InstancedAccelerator
+
+            scene._cache[key] = InstancedAccelerator(scene, builder, device)
+        elif accel == "wrt":
             scene._cache[key] = BvhAccelerator(scene, builder, device, layout)
         else:
             scene._cache[key] = WarpMeshAccelerator(scene, "sah" if builder == "binned_sah" else builder, device)
@@ -318,9 +421,14 @@ class Hits:
         t: float32 distance in units of ``|direction|``; ``inf`` on a miss.
         u: float32 barycentric weight of the triangle's second vertex.
         v: float32 barycentric weight of the third vertex: ``hit = (1-u-v) p0 + u p1 + v p2``.
-        prim: int32 row of ``Scene.triangles()``, -1 on a miss.
-        nodes_visited: int32 BVH nodes visited per ray (0 for ``accel="warp"``).
+        prim: row of ``Scene.triangles()`` (instances expanded), -1 on a miss; int32, or int64 for scenes of more
+            than ``2**31 - 1`` rendered triangles.
+        nodes_visited: int32 BVH nodes visited per ray, top- and bottom-level together (0 for ``accel="warp"``).
         triangles_tested: int32 ray-triangle tests per ray (0 for ``accel="warp"``).
+        instance: int32 index into ``Scene.instances`` of the instance hit; -1 on a miss or on non-instanced
+            geometry.
+        local_prim: int32 geometry id of the hit triangle (row of ``Scene.geometry()``: the prototype's triangle
+            for an instance, equal to ``prim`` for non-instanced geometry), -1 on a miss.
     """
 
     t: np.ndarray
@@ -329,6 +437,14 @@ class Hits:
     prim: np.ndarray
     nodes_visited: np.ndarray
     triangles_tested: np.ndarray
+    instance: np.ndarray | None = None
+    local_prim: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.instance is None:
+            self.instance = np.full(len(self.prim), -1, np.int32)
+        if self.local_prim is None:
+            self.local_prim = np.asarray(self.prim, np.int32).copy()
 
     @property
     def hit(self) -> np.ndarray:
@@ -391,7 +507,16 @@ def trace(
     if len(rays[0]):
         acc.intersect(*rays, hits, threads=threads)
     cost = hits.cost.numpy().reshape(-1, 2)
-    return Hits(hits.t.numpy(), hits.u.numpy(), hits.v.numpy(), hits.prim.numpy(), cost[:, 0].copy(), cost[:, 1].copy())
+    t, u, v, prim = hits.t.numpy(), hits.u.numpy(), hits.v.numpy(), hits.prim.numpy()
+    if not len(scene.instances):
+        return Hits(t, u, v, prim, cost[:, 0].copy(), cost[:, 1].copy())
+    # Report rows of Scene.triangles(): mirrored instances have corners 1 and 2 swapped there.
+    instance = hits.instance.numpy()
+    swap = instance >= 0
+    swap[swap] = scene.instances.mirrored[instance[swap]]
+    u, v = np.where(swap, v, u), np.where(swap, u, v)
+    rows = scene.expanded_ids(prim, instance)
+    return Hits(t, u, v, rows, cost[:, 0].copy(), cost[:, 1].copy(), instance=instance, local_prim=prim)
 
 
 def occluded(

@@ -1,12 +1,34 @@
 """Reads a USD stage into a :class:`wrt.scene.Scene`: world-space triangles, materials, cameras and lights.
 
-:func:`load_usd` walks the stage in pre-order (instance proxies included, so native instances are expanded),
-keeps every visible ``UsdGeom.Mesh`` whose purpose is ``default`` or ``render``, fan-triangulates its faces
-with :func:`triangulate`, bakes the world transform into the points, and carries shading normals,
-``displayColor``, texture coordinates and the bound material (:mod:`wrt.materials`) per triangle. UsdLux lights
-are read by :mod:`wrt.lights`. Bad topology raises :class:`wrt.errors.SceneError` naming the file and
-the prim; things that are skipped but a user might expect to see (other gprims, PointInstancers, unsupported
-lights or shaders) produce one warning each.
+:func:`load_usd` walks the stage in pre-order, keeps every visible ``UsdGeom.Mesh`` whose purpose is ``default`` or
+``render``, fan-triangulates its faces with :func:`triangulate`, bakes the world transform into the points, and
+carries shading normals, ``displayColor``, texture coordinates and the bound material (:mod:`wrt.materials`) per
+triangle. UsdLux lights are read by :mod:`wrt.lights`. Bad topology raises :class:`wrt.errors.SceneError` naming the
+file and the prim; things that are skipped but a user might expect to see (unsupported gprims, lights or
+shaders) produce one warning each.
+
+Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``size``), ``Cylinder`` and ``Cone``
+(``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``) and
+``Plane`` (``width``, ``length``, ``axis``, ``doubleSided``) become analytic shapes intersected in their own space,
+with ``displayColor`` (constant; other interpolations use the mean), material binding, ``doubleSided`` and
+``orientation``. With ``tessellate_gprims`` they become triangle meshes instead (vertices on the surface, analytic
+vertex normals; see :func:`wrt.primitives.tessellate`). Gprims whose size is zero, negative or not finite are
+skipped with a warning; ``Cylinder_1``/``Capsule_1`` and other gprim types are skipped with a warning.
+
+Instancing (:mod:`wrt.instancing`): native instances (``instanceable`` prims) and ``UsdGeom.PointInstancer``
+instances are not flattened. Each native prototype and each prim a PointInstancer's ``prototypes`` relationship
+targets is read once, in its own space, into a ``Scene.prototypes`` entry, and every instance becomes one row of
+``Scene.instances`` (prototype index and 4x4 transform). Nesting (instancers and instances inside prototypes, at any
+depth) is resolved into that single level. PointInstancers read ``protoIndices``, ``positions``, ``orientations``
+(or ``orientationsf``), ``scales``, ``invisibleIds`` and ``inactiveIds`` (``ComputeMaskAtTime``); the instance
+transform is ``translate(position) * rotate(orientation) * scale(scale)`` after the prototype root's own transform
+(``IncludeProtoXform``), as ``ComputeInstanceTransformsAtTime`` computes it; ``velocities`` and
+``accelerations`` are ignored. A ``protoIndices`` entry out of range, a prototype target that does not exist, or
+per-instance arrays shorter than ``protoIndices`` raise :class:`wrt.errors.SceneError` naming the instancer;
+instances whose transform is singular (a zero scale) are skipped with a warning naming each one
+(``/instancer[index]``). Visibility and purpose inside a PointInstancer's prototype are taken from the prototype
+root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
+bound above a native instance applies to the prototype's meshes that bind none themselves.
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute that has no default value but has
 time samples is read at its earliest sample instead, so meshes animated from frame 1 still load. Transforms
@@ -21,12 +43,14 @@ import re
 import warnings
 
 import numpy as np
-from pxr import Gf, Tf, Usd, UsdGeom, UsdLux
+from pxr import Gf, Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
 from .lights import read_light
 from .materials import MaterialReader
+from .instancing import Instances, Prototype, invert_transforms
+from .primitives import DEFAULT_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import Mesh, Scene
 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
@@ -73,13 +97,15 @@ def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
     return tri_corners, face_ids
 
 
-def load_usd(path, *, time=None) -> Scene:
-    """Reads the meshes, materials, cameras and lights of a USD stage.
+def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene:
+    """Reads the meshes, gprims, instances, materials, cameras and lights of a USD stage.
 
     Args:
         path: a file USD can open (``.usd``, ``.usda``, ``.usdc``, ``.usdz``).
         time: the time code to read; ``None`` means ``Usd.TimeCode.Default()`` (see the module docstring for
             the fallback to the earliest time sample).
+        tessellate_gprims: ``False``: gprims are analytic shapes; ``True``: triangle meshes of
+            ``wrt.primitives.DEFAULT_SEGMENTS`` segments per circle; an int: that many segments.
 
     Returns:
         The :class:`wrt.scene.Scene`; triangle ids follow the stage's pre-order traversal.
@@ -101,7 +127,14 @@ def load_usd(path, *, time=None) -> Scene:
     stage = _open_stage(source)
     if not time_code.IsDefault():
         _check_time_in_range(stage, source, time_code.GetValue())
-    return _StageReader(stage, source, time_code).read()
+    segments = 0
+    if tessellate_gprims is True:
+        segments = DEFAULT_SEGMENTS
+    elif tessellate_gprims is not False and tessellate_gprims is not None:
+        if not isinstance(tessellate_gprims, (int, np.integer)) or tessellate_gprims < 3:
+            raise ValueError(f"tessellate_gprims must be a bool or an int >= 3, got {tessellate_gprims!r}")
+        segments = int(tessellate_gprims)
+    return _StageReader(stage, source, time_code, segments).read()
 
 
 def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
@@ -159,15 +192,40 @@ class _LocalMesh:
         self.uvs = uvs  # (values (K, 2) float64, corner index (T, 3)) or None
 
 
-class _StageReader:
-    """One pass over a stage; collects meshes, cameras and lights and the warnings to emit."""
+class _Content:
+    """What one subtree draws, in one space (the world, or a prototype's): meshes, and instances of other contents."""
 
-    def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode):
+    def __init__(self, path: str):
+        self.path = path  # prim path of the subtree root
+        self.meshes: list[Mesh] = []  # in this content's space
+        self.shapes: list[Shape] = []  # analytic gprims, in this content's space
+        self.instances: list = []  # (content key, (K, 4, 4) column-vector transforms to this space, source, indices)
+        self.uses_outer = False  # a mesh binds no material itself: a material bound above an instance applies
+        self.prototype = -1  # index into Scene.prototypes once its meshes are placed there
+
+
+class _Context:
+    """Where a walk is: the content being filled, how to reach its space, and what applies from outside."""
+
+    def __init__(self, content: _Content, space_root: Usd.Prim | None = None, outer_material=None, world=False):
+        self.content = content
+        self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
+        self.stop = space_root  # visibility and purpose are inherited from below this prim (None: everything)
+        self.outer_material = outer_material  # material index bound above a native instance, or None
+        self.world = world  # the stage itself (cameras and lights are read only here)
+
+
+class _StageReader:
+    """One pass over a stage; collects meshes, instances, cameras and lights and the warnings to emit."""
+
+    def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0):
         self.stage = stage
         self.source = source
         self.time = time
+        self.segments = segments  # > 0: gprims become meshes of this many segments per circle
         self.xforms = UsdGeom.XformCache(time)
-        self.prototype_cache = {}  # (prototype prim path, uv set) -> _LocalMesh or None, for instance proxies
+        self.contents = {}  # (kind, root path, outer material) -> _Content, each prototype read once
+        self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
 
@@ -177,74 +235,252 @@ class _StageReader:
             meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
             source=self.source,
         )
-        predicate = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)  # active, defined, loaded, concrete
-        it = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), predicate))
-        for prim in it:
-            try:
-                self._read_prim(prim, it, scene)
-            except SceneError:
-                raise
-            except (Tf.ErrorException, ValueError, TypeError) as e:
-                raise self._error(f"cannot read this prim ({_tf_message(e)})", prim) from e
+        self.scene = scene
+        world = _Content("/")
+        self._walk(self.stage.GetPseudoRoot(), _Context(world, world=True))
+        scene.meshes = world.meshes
+        scene.shapes = world.shapes
+        self._place_instances(world, scene)
         scene.materials = self.materials.materials
         scene.textures = self.materials.textures
         self._warn_skipped()
         return scene
 
-    def _read_prim(self, prim: Usd.Prim, it, scene: Scene):
-        if prim.IsPseudoRoot():
+    def _walk(self, root: Usd.Prim, ctx: _Context):
+        """Reads the subtree at ``root`` into ``ctx.content`` (native instances are not entered: their prototype is
+        read once, as its own content)."""
+        it = iter(Usd.PrimRange(root, Usd.PrimDefaultPredicate))  # active, defined, loaded, concrete
+        for prim in it:
+            try:
+                self._read_prim(prim, it, ctx)
+            except SceneError:
+                raise
+            except (Tf.ErrorException, ValueError, TypeError) as e:
+                raise self._error(f"cannot read this prim ({_tf_message(e)})", prim) from e
+
+    def _read_prim(self, prim: Usd.Prim, it, ctx: _Context):
+        if prim.IsPseudoRoot() or prim.IsPrototype():
             return
-        if prim.IsA(UsdGeom.PointInstancer):
-            # Its prototypes are only drawn through the instancer, so the whole subtree is left out.
-            if self._rendered(prim):
-                self._skip("PointInstancer prims are not supported yet; skipped", prim)
+        if prim.IsInstance():
+            if self._rendered(prim, ctx.stop):
+                self._read_native_instance(prim, ctx)
+            it.PruneChildren()
+        elif prim.IsA(UsdGeom.PointInstancer):
+            # Its prototypes are drawn through the instancer only, so its subtree is not walked in place.
+            if self._rendered(prim, ctx.stop):
+                self._read_instancer(prim, ctx)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.Mesh):
-            if self._rendered(prim):
-                mesh = self._read_mesh(prim)
+            if self._rendered(prim, ctx.stop):
+                mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
                 if mesh is not None:
-                    scene.meshes.append(mesh)
+                    ctx.content.meshes.append(mesh)
         elif prim.IsA(UsdGeom.Gprim):
-            if self._rendered(prim):
-                self._skip("gprims other than Mesh are not supported yet; skipped", prim, prim.GetTypeName())
+            if self._rendered(prim, ctx.stop):
+                shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
+                if shape is not None and self.segments:
+                    ctx.content.meshes.append(self._tessellated(shape, prim))
+                elif shape is not None:
+                    ctx.content.shapes.append(shape)
         elif prim.IsA(UsdGeom.Camera):
-            scene.cameras[str(prim.GetPath())] = self._read_camera(prim)
+            if ctx.world:
+                scene = self.scene
+                scene.cameras[str(prim.GetPath())] = self._read_camera(prim)
         elif prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
-            if self._visible(prim):
-                light = read_light(prim, self.xforms, self.time, scene.up_axis, self._skip)
+            if not ctx.world:
+                self._skip("lights inside instance prototypes are not supported; skipped", prim)
+            elif self._visible(prim):
+                light = read_light(prim, self.xforms, self.time, self.scene.up_axis, self._skip)
                 if light is not None:
-                    scene.lights.append(light)
+                    self.scene.lights.append(light)
 
     # Filters
 
     def _visible(self, prim: Usd.Prim) -> bool:
         return UsdGeom.Imageable(prim).ComputeVisibility(self.time) != UsdGeom.Tokens.invisible
 
-    def _rendered(self, prim: Usd.Prim) -> bool:
-        return self._visible(prim) and UsdGeom.Imageable(prim).ComputePurpose() in _RENDERED_PURPOSES
+    def _rendered(self, prim: Usd.Prim, stop: Usd.Prim | None = None) -> bool:
+        """Visible with purpose default or render; with ``stop``, only the prims below ``stop`` count."""
+        if stop is None:
+            return self._visible(prim) and UsdGeom.Imageable(prim).ComputePurpose() in _RENDERED_PURPOSES
+        purpose = None
+        p = prim
+        while p and p != stop and not p.IsPseudoRoot():
+            img = UsdGeom.Imageable(p)
+            if img:
+                if _get(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible:
+                    return False
+                attr = img.GetPurposeAttr()
+                if purpose is None and attr.HasAuthoredValue():
+                    purpose = attr.Get()
+            p = p.GetParent()
+        return (purpose or UsdGeom.Tokens.default_) in _RENDERED_PURPOSES
+
+    # Transforms and instances
+
+    def _to_space(self, prim: Usd.Prim, ctx: _Context) -> np.ndarray:
+        """``(4, 4)`` row-vector (USD) transform from ``prim`` to the space of ``ctx``'s content."""
+        if ctx.space_root is None:
+            m = self.xforms.GetLocalToWorldTransform(prim)
+        else:
+            m, _ = self.xforms.ComputeRelativeTransform(prim, ctx.space_root)
+        m = np.array(m, dtype=np.float64)
+        if not np.all(np.isfinite(m)):
+            raise self._error("world transform is not finite", prim)
+        return m
+
+    def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material) -> _Content:
+        """The content of a prototype, read on first use."""
+        if key not in self.contents:
+            if key in self.reading:
+                raise self._error("prototype contains an instance of itself", root)
+            self.reading.add(key)
+            content = _Content(str(root.GetPath()))
+            self._walk(root, _Context(content, space_root, outer_material))
+            self.reading.discard(key)
+            self.contents[key] = content
+        return self.contents[key]
+
+    def _read_native_instance(self, prim: Usd.Prim, ctx: _Context):
+        prototype = prim.GetPrototype()
+        if not prototype:
+            self._skip("instances without a prototype were skipped", prim)
+            return
+        outer = ctx.outer_material
+        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
+        if material:
+            outer = self.materials.material_index(material)
+        key = ("native", str(prototype.GetPath()), None)
+        content = self._content(key, prototype, None, None)
+        if content.uses_outer and outer is not None:
+            key = ("native", str(prototype.GetPath()), outer)
+            content = self._content(key, prototype, None, outer)
+        m = self._to_space(prim, ctx).T  # column vectors
+        ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32)))
+
+    def _read_instancer(self, prim: Usd.Prim, ctx: _Context):
+        """Instances of a ``UsdGeom.PointInstancer`` (see the module docstring)."""
+        pi = UsdGeom.PointInstancer(prim)
+        t = self.time
+        targets = pi.GetPrototypesRel().GetTargets()
+        protos = []
+        for k, path in enumerate(targets):
+            target = self.stage.GetPrimAtPath(path)
+            if not target or not target.IsValid():
+                raise self._error(f"prototypes[{k}] targets {path}, which does not exist", prim, None)
+            protos.append(target)
+        raw = _get(pi.GetProtoIndicesAttr(), t)
+        proto_indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
+        n = len(proto_indices)
+        if n == 0:
+            return
+        bad = (proto_indices < 0) | (proto_indices >= len(protos))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise self._error(
+                f"protoIndices[{i}] = {proto_indices[i]} is out of range for {len(protos)} prototype(s)",
+                prim,
+                pi.GetProtoIndicesAttr(),
+            )
+
+        def per_instance(attr, width, name, default):
+            value = _get(attr, t) if attr.HasValue() else None
+            if value is None or len(value) == 0:
+                return None if default is None else np.tile(default, (n, 1))
+            array = np.asarray(value, np.float64).reshape(len(value), -1)
+            if array.shape != (len(value), width) or len(array) < n:
+                raise self._error(f"{name} has {len(array)} entries; protoIndices has {n}", prim, attr)
+            if not np.all(np.isfinite(array[:n])):
+                i = int(np.argmax(~np.isfinite(array[:n]).all(axis=1)))
+                raise self._error(f"{name}[{i}] is not finite", prim, attr)
+            return array[:n]
+
+        positions = per_instance(pi.GetPositionsAttr(), 3, "positions", None)
+        if positions is None:
+            raise self._error("positions is missing (PointInstancer needs one per protoIndices entry)", prim)
+        orient_attr = pi.GetOrientationsfAttr() if pi.GetOrientationsfAttr().HasValue() else pi.GetOrientationsAttr()
+        quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]))
+        scales = per_instance(pi.GetScalesAttr(), 3, "scales", np.ones(3))
+
+        # Column-vector instance transforms: translate(position) @ rotate(orientation) @ scale(scale).
+        m = np.zeros((n, 4, 4))
+        m[:, :3, :3] = _quat_to_matrix(quats) * scales[:, None, :]
+        m[:, :3, 3] = positions
+        m[:, 3, 3] = 1.0
+        keep = np.ones(n, bool)
+        mask = pi.ComputeMaskAtTime(t)
+        if mask is not None and len(mask):
+            keep &= np.asarray(mask, bool)[:n] if len(mask) >= n else np.ones(n, bool)
+        to_space = self._to_space(prim, ctx).T @ m
+        for k, target in enumerate(protos):
+            rows = np.flatnonzero(keep & (proto_indices == k))
+            if len(rows) == 0:
+                continue
+            # The prototype's space is its parent's: the root's own transform is the most local part.
+            key = ("pi", str(target.GetPath()), ctx.outer_material)
+            parent = target.GetParent()
+            self._content(key, target, parent, ctx.outer_material)
+            ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32)))
+
+    def _place_instances(self, world: _Content, scene: Scene):
+        """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
+        proto_ids, matrices, sources, source_ids, indices = [], [], [], {}, []
+
+        def place(content: _Content, to_world: np.ndarray, source: str, index: np.ndarray):
+            if content.meshes or content.shapes:
+                if content.prototype < 0:
+                    content.prototype = len(scene.prototypes)
+                    scene.prototypes.append(Prototype(content.path, content.meshes, content.shapes))
+                if source not in source_ids:
+                    source_ids[source] = len(sources)
+                    sources.append(source)
+                proto_ids.append(np.full(len(to_world), content.prototype, np.int32))
+                matrices.append(to_world)
+                indices.append(np.column_stack([np.full(len(to_world), source_ids[source]), index]))
+            for key, m, _, _ in content.instances:
+                # Nested instances keep the world-level source and index of the instance they are part of.
+                combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
+                place(self.contents[key], combined, source, np.repeat(index, len(m)))
+
+        for key, m, source, index in world.instances:
+            place(self.contents[key], m, source, index)
+        if not proto_ids:
+            return
+        # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
+        # instances nested inside one world-level instance stay together, in the order they were read.
+        ids = np.concatenate(indices)
+        order = np.lexsort((ids[:, 1], ids[:, 0]))  # stable
+        ids = ids[order]
+        instances = Instances(
+            np.concatenate(proto_ids)[order], np.concatenate(matrices)[order], ids[:, 0], ids[:, 1], sources
+        )
+        _, ok = invert_transforms(instances.to_world)
+        for i in np.flatnonzero(~ok):
+            self._skip_path("instances with a singular transform (a zero scale) were skipped", instances.path(i))
+        if not ok.all():
+            instances = Instances(
+                instances.prototype[ok], instances.to_world[ok], instances.source[ok], instances.index[ok], sources
+            )
+        scene.instances = instances
 
     # Meshes
 
-    def _read_mesh(self, prim: Usd.Prim) -> Mesh | None:
+    def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
+        """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         # Materials first: the texture-coordinate primvar to read depends on them.
         counts = _get(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr(), self.time)
         n_faces = len(counts) if counts is not None else 0
         face_materials = self.materials.face_materials(prim, n_faces)
+        if face_materials is None:
+            ctx.content.uses_outer = True
+            if ctx.outer_material is not None:
+                face_materials = np.full(n_faces, ctx.outer_material, np.int32)
         uv_set = self.materials.uv_set(face_materials)
-        if prim.IsInstanceProxy():
-            key = (prim.GetPrimInPrototype().GetPath(), uv_set)
-            if key not in self.prototype_cache:
-                self.prototype_cache[key] = self._read_local_mesh(prim, uv_set)
-            local = self.prototype_cache[key]
-        else:
-            local = self._read_local_mesh(prim, uv_set)
+        local = self._read_local_mesh(prim, uv_set)
         if local is None:
             return None
 
-        # Bake the world transform (row-vector convention: p_world = p @ M[:3, :3] + M[3, :3]).
-        m = np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64)
-        if not np.all(np.isfinite(m)):
-            raise self._error("world transform is not finite", prim)
+        # Bake the transform (row-vector convention: p_world = p @ M[:3, :3] + M[3, :3]).
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
             self._skip("world transform is projective; its last column was ignored", prim)
         linear = m[:3, :3]
@@ -295,6 +531,108 @@ class _StageReader:
             uvs=uvs,
             material_ids=material_ids,
         )
+
+    # Gprims
+
+    def _read_gprim(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Shape | None:
+        """The analytic shape of gprim ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space)
+        and USD's size parameters folded into its transform, or None (with a warning) when it is not supported."""
+        t = self.time
+
+        def number(attr, name):
+            value = _get(attr, t)
+            value = float(value) if value is not None else float("nan")
+            if not (math.isfinite(value) and value > 0.0):
+                self._skip("gprims with a zero, negative or non-finite size were skipped", prim, f"{name} = {value:g}")
+                return None
+            return value
+
+        def axis_of(schema):
+            axis = str(_get(schema.GetAxisAttr(), t) or "Z")
+            return axis_rotation(axis if axis in ("X", "Y", "Z") else "Z")
+
+        params = np.array([1.0, 0.0, 0.0, 1.0])
+        type_name = prim.GetTypeName()
+        if type_name == "Sphere":
+            r = number(UsdGeom.Sphere(prim).GetRadiusAttr(), "radius")
+            kind, linear = "sphere", None if r is None else np.eye(3) * r
+        elif type_name == "Cube":
+            size = number(UsdGeom.Cube(prim).GetSizeAttr(), "size")
+            kind, linear = "box", None if size is None else np.eye(3) * (size / 2.0)
+        elif type_name in ("Cylinder", "Cone"):
+            schema = UsdGeom.Cylinder(prim) if type_name == "Cylinder" else UsdGeom.Cone(prim)
+            h, r = number(schema.GetHeightAttr(), "height"), number(schema.GetRadiusAttr(), "radius")
+            kind = type_name.lower()
+            linear = None if h is None or r is None else axis_of(schema) @ np.diag([r, r, h / 2.0])
+        elif type_name == "Capsule":
+            schema = UsdGeom.Capsule(prim)
+            h, r = _get(schema.GetHeightAttr(), t), number(schema.GetRadiusAttr(), "radius")
+            h = float(h) if h is not None else float("nan")
+            if not (math.isfinite(h) and h >= 0.0):
+                self._skip("gprims with a zero, negative or non-finite size were skipped", prim, f"height = {h:g}")
+                return None
+            kind = "capsule"
+            linear = None if r is None else axis_of(schema) @ (np.eye(3) * r)
+            if r is not None:
+                params[0] = h / (2.0 * r)
+        elif type_name == "Plane":
+            schema = UsdGeom.Plane(prim)
+            w, length = number(schema.GetWidthAttr(), "width"), number(schema.GetLengthAttr(), "length")
+            kind = "plane"
+            linear = None if w is None or length is None else axis_of(schema) @ np.diag([w / 2.0, length / 2.0, 1.0])
+        else:
+            self._skip("gprims of this type are not supported; skipped", prim, type_name)
+            return None
+        if linear is None:
+            return None
+        gprim = UsdGeom.Gprim(prim)
+        if _get(gprim.GetOrientationAttr(), t) == UsdGeom.Tokens.leftHanded:
+            params[3] = -1.0
+        to_world = m.T @ shape_transform(linear)
+        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
+            self._skip("world transform is projective; its last column was ignored", prim)
+            to_world[3] = (0.0, 0.0, 0.0, 1.0)
+
+        color = np.full(3, 0.5, np.float32)
+        primvar = gprim.GetDisplayColorPrimvar()
+        if primvar and primvar.HasValue():
+            values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64).reshape(-1, 3)
+            if len(values) and np.all(np.isfinite(values)):
+                color = values.mean(axis=0).astype(np.float32)
+        material = self.materials.face_materials(prim, 1)
+        if material is None:
+            ctx.content.uses_outer = True
+            material_id = -1 if ctx.outer_material is None else int(ctx.outer_material)
+        else:
+            material_id = int(material[0])
+        return Shape(
+            path=str(prim.GetPath()),
+            kind=kind,
+            to_world=to_world,
+            params=params,
+            color=color,
+            material_id=material_id,
+            double_sided=bool(_get(gprim.GetDoubleSidedAttr(), t)),
+        )
+
+    def _tessellated(self, shape: Shape, prim: Usd.Prim) -> Mesh:
+        """``shape`` as a triangle mesh of ``self.segments`` segments per circle."""
+        points, indices, normals = tessellate(shape, self.segments)
+        n = len(indices)
+        if not np.all(np.isfinite(points.astype(np.float32))):
+            raise self._error("points are not finite after the world transform", prim)
+        return Mesh(
+            path=shape.path,
+            points=points,
+            indices=indices,
+            face_ids=np.arange(n, dtype=np.int32),
+            normals=normals,
+            colors=np.broadcast_to(shape.color, (n, 3, 3)),
+            double_sided=shape.double_sided,
+            material_ids=None if shape.material_id < 0 else np.full(n, shape.material_id, np.int32),
+        )
+
+    # Meshes
 
     def _read_local_mesh(self, prim: Usd.Prim, uv_set: str | None = None) -> _LocalMesh | None:
         mesh = UsdGeom.Mesh(prim)
@@ -507,7 +845,10 @@ class _StageReader:
 
     def _skip(self, reason: str, prim: Usd.Prim, detail: str | None = None):
         """Records a prim left out (or data ignored) for ``reason``; ``detail`` is tallied in the warning."""
-        self.skipped.setdefault(reason, []).append((str(prim.GetPath()), detail))
+        self._skip_path(reason, str(prim.GetPath()), detail)
+
+    def _skip_path(self, reason: str, path: str, detail: str | None = None):
+        self.skipped.setdefault(reason, []).append((path, detail))
 
     def _warn_skipped(self):
         """One warning per reason, with the count, a tally of details and the first few prim paths."""
@@ -520,6 +861,21 @@ class _StageReader:
             paths = [p for p, _ in found]
             shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
             warnings.warn(f"{self.source}: {reason}: {len(paths)} prim(s){kinds}: {shown}", stacklevel=4)
+
+
+def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """``(N, 3, 3)`` rotation matrices (column vectors) of ``(N, 4)`` quaternions stored ``(i, j, k, real)`` as
+    ``Gf.Quat*`` arrays are; normalised first, as ``GfRotation`` does."""
+    q = q / np.maximum(np.linalg.norm(q, axis=1, keepdims=True), 1e-30)
+    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=1),
+        ],
+        axis=1,
+    )
 
 
 __all__ = ["load_usd", "triangulate"]

@@ -20,6 +20,7 @@ def shade_ao_kernel(
     hit_u: wp.array[float],
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
     rng: wp.array[wp.uint32],
     # outputs
     shadow_origins: wp.array[wp.vec3],
@@ -33,7 +34,7 @@ def shade_ao_kernel(
     if prim < 0:
         return
     d = directions[i]
-    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], origins[i], d, hit_t[i])
+    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
     state = rng[i]
     u1, state = rand01(state)
     u2, state = rand01(state)

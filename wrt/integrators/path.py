@@ -38,6 +38,7 @@ def shade_path_kernel(
     hit_u: wp.array[float],
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
     # outputs (paths are updated in place)
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
@@ -80,7 +81,7 @@ def shade_path_kernel(
         t_maxs[i] = 0.0
         return
 
-    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], o, d, t_hit)
+    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display)
 
     # Cut-out: continue straight through the hole.

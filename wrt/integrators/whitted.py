@@ -42,6 +42,7 @@ def shade_whitted_kernel(
     hit_u: wp.array[float],
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
     # outputs
     origins: wp.array[wp.vec3],
     t_mins: wp.array[float],
@@ -70,7 +71,7 @@ def shade_whitted_kernel(
         radiance[i] = L
         alive[i] = 0
         return
-    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], o, d, t_hit)
+    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display)
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
         origins[i] = offset_ray_origin(h.p, -h.ng)  # a hole: carry on in the same direction
@@ -100,6 +101,7 @@ def whitted_light_kernel(
     hit_u: wp.array[float],
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
     throughput: wp.array[wp.vec3],
     active: wp.array[wp.int32],
     # outputs
@@ -119,7 +121,7 @@ def whitted_light_kernel(
     o = origins[i]
     d = directions[i]
     prim = hit_prim[i]
-    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], o, d, hit_t[i])
+    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display)
     state = rng[i]
     u_pick, state = rand01(state)
@@ -158,6 +160,7 @@ def continue_whitted_kernel(
     hit_u: wp.array[float],
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
     active: wp.array[wp.int32],
     # outputs
     origins: wp.array[wp.vec3],
@@ -180,7 +183,7 @@ def continue_whitted_kernel(
         return
     d = directions[i]
     prim = hit_prim[i]
-    h = hit_point(scene, surf, prim, hit_u[i], hit_v[i], origins[i], d, hit_t[i])
+    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display)
     wo = -d
     cos_o = wp.max(wp.dot(h.ns, wo), 0.0)

@@ -1,0 +1,88 @@
+"""The lecture's forest, small enough for a CPU: scenes/forest.py writes 1,000 instanced trees of 10,000 triangles
+(1e7 rendered triangles) that load as one prototype, render with sun shadows, cost at most 128 bytes of device
+memory per tree, and (at a tiny size) agree with wp.Mesh ray by ray on the flattened triangles.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import warp as wp
+
+wp.config.quiet = True
+pytest.importorskip("pxr")
+
+import wrt  # noqa: E402
+from wrt.rays import camera_rays, random_rays  # noqa: E402
+from wrt.trace import get_accelerator  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scenes"))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import forest  # noqa: E402
+
+from test_instancing import check_agreement  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def small_forest(tmp_path_factory):
+    path = tmp_path_factory.mktemp("forest") / "forest.usdc"
+    info = forest.write_forest(path, n_trees=1000, tree_triangles=10_000, seed=3)
+    return info, wrt.load_usd(path)
+
+
+def test_forest_loads_as_one_prototype_and_many_instances(small_forest):
+    info, scene = small_forest
+    stats = scene.stats()
+    assert info["tree_triangles"] == 10_000
+    assert stats["rendered_triangles"] == info["rendered_triangles"] == 1000 * 10_000 + 2
+    assert stats["unique_triangles"] == 10_000 + 2 and stats["instances"] == 1000 and stats["prototypes"] == 1
+    assert len(scene.cameras) == 1 and len(scene.lights) == 2
+
+
+def test_forest_renders_with_shadows_without_flattening(small_forest):
+    _, scene = small_forest
+    img = wrt.render(scene, width=128, height=72)
+    hit = img.aovs["prim"] >= 0
+    assert hit.mean() > 0.4 and len(np.unique(img.aovs["instance"][hit])) > 50
+    assert ("triangles",) not in scene._cache
+    # Ground points seen by the camera: some lie in the trees' shadows, some in the sun.
+    origins, directions = camera_rays(scene, width=128, height=72)
+    hits = wrt.trace(scene, origins, directions)
+    ground = hits.prim < 2  # the ground quad's two triangles come first
+    ground &= hits.hit
+    points = origins[ground] + hits.t[ground, None] * directions[ground] + [0, 1e-3, 0]
+    to_sun = -scene.lights[0].direction.astype(np.float32)
+    shadowed = wrt.occluded(scene, points.astype(np.float32), np.tile(to_sun, (len(points), 1)))
+    assert ground.sum() > 100 and 0.05 < shadowed.mean() < 0.95
+    # The renderer agrees: shadowed ground is darker than sunlit ground.
+    rgb = img.rgb.reshape(-1, 3)[ground.reshape(-1)]
+    assert rgb[shadowed].mean() < 0.5 * rgb[~shadowed].mean()
+
+
+def test_forest_memory_is_unique_geometry_plus_at_most_128_bytes_per_tree(small_forest):
+    _, scene = small_forest
+    sizes = get_accelerator(scene).device_bytes()
+    assert sizes["tlas"] <= 128 * len(scene.instances) + 4096, sizes
+    assert sizes["blas"] < 100 * scene.stats()["unique_triangles"], sizes  # not the 1e7 rendered ones
+
+
+def test_tiny_forest_agrees_with_wp_mesh(tmp_path):
+    path = tmp_path / "tiny.usda"
+    forest.write_forest(path, n_trees=30, tree_triangles=600, seed=1)
+    scene = wrt.load_usd(path)
+    o1, d1 = camera_rays(scene, width=160, height=90)
+    o2, d2 = random_rays(scene, 20_000, seed=4)
+    check_agreement(scene, np.concatenate([o1, o2]), np.concatenate([d1, d2]))
+
+
+def test_gpu_benchmark_script_runs_small_on_the_cpu(capsys):
+    import forest_gpu
+
+    assert forest_gpu.main(["--small", "--frames", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "| rendered triangles | 1,000,002 |" in out and "| frame ms (median; min) |" in out

@@ -1,0 +1,270 @@
+"""Analytic primitives: closed-form hits and normals of spheres, boxes, cylinders, cones, capsules, planes and disks
+(transformed: non-uniform scale, shear, mirroring), USD gprims mapped to them, tessellation converging as O(h^2),
+and real gprim scenes rendered analytically and tessellated.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+import warp as wp
+
+wp.config.quiet = True
+
+pxr = pytest.importorskip("pxr")
+from pxr import Gf, Usd, UsdGeom  # noqa: E402
+
+import wrt  # noqa: E402
+from wrt.compare import compare_hits  # noqa: E402
+from wrt.instancing import Instances, Prototype, world_boxes  # noqa: E402
+from wrt.primitives import Shape, axis_rotation, shape_transform  # noqa: E402
+from wrt.rays import camera_rays, random_rays  # noqa: E402
+
+
+def load(path, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return wrt.load_usd(path, **kwargs)
+
+
+def placed(linear=np.eye(3), translate=(0.0, 0.0, 0.0)) -> np.ndarray:
+    m = shape_transform(np.asarray(linear, np.float64))
+    m[:3, 3] = translate
+    return m
+
+
+def one_shape(kind, to_world, params=(1, 0, 0, 1), double_sided=True) -> wrt.Scene:
+    return wrt.Scene(shapes=[Shape("/s", kind, to_world, np.asarray(params, np.float32), double_sided=double_sided)])
+
+
+def trace_one(scene, origin, direction):
+    hits = wrt.trace(scene, np.array([origin], np.float32), np.array([direction], np.float32))
+    return float(hits.t[0])
+
+
+# Closed forms: (kind, transform, params, ray origin, ray direction, expected t), in canonical terms scaled by USD's
+# parameters. Rays start outside unless noted.
+R45 = np.array([[math.cos(math.pi / 4), -math.sin(math.pi / 4), 0], [math.sin(math.pi / 4), math.cos(math.pi / 4), 0], [0, 0, 1]])
+SHEAR = np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+CLOSED_FORMS = {
+    "sphere_r2": ("sphere", placed(2 * np.eye(3), (1, 2, 3)), (0, 0, 0, 1), (1, 2, 13), (0, 0, -1), 8.0),
+    "sphere_from_inside": ("sphere", placed(2 * np.eye(3), (1, 2, 3)), (0, 0, 0, 1), (1, 2, 3), (0, 0, 2), 1.0),
+    "ellipsoid_x": ("sphere", placed(np.diag([3, 1, 1])), (0, 0, 0, 1), (10, 0, 0), (-1, 0, 0), 7.0),
+    "ellipsoid_y": ("sphere", placed(np.diag([3, 1, 1])), (0, 0, 0, 1), (0, 10, 0), (0, -2, 0), 4.5),
+    "mirrored_sphere": ("sphere", placed(np.diag([-2, 2, 2])), (0, 0, 0, 1), (0, 0, 10), (0, 0, -1), 8.0),
+    "box_rotated_45": ("box", placed(R45), (0, 0, 0, 1), (5, 0, 0), (-1, 0, 0), 5 - math.sqrt(2)),
+    "box_sheared": ("box", placed(SHEAR), (0, 0, 0, 1), (5, 1, 0), (-1, 0, 0), 5 - 1.5),
+    "cylinder_side_axis_x": ("cylinder", placed(axis_rotation("X") @ np.diag([1, 1, 2])), (1, 0, 0, 1), (0, 5, 0), (0, -1, 0), 4.0),
+    "cylinder_cap_axis_x": ("cylinder", placed(axis_rotation("X") @ np.diag([1, 1, 2])), (1, 0, 0, 1), (5, 0, 0), (-1, 0, 0), 3.0),
+    "open_cylinder_inside": ("cylinder", placed(np.diag([1, 1, 2])), (0, 0, 0, 1), (0, 0, 5), (0, 0, -1), math.inf),
+    "cone_apex_axis_y": ("cone", placed(axis_rotation("Y")), (1, 0, 0, 1), (0, 5, 0), (0, -1, 0), 4.0),
+    "cone_base_axis_y": ("cone", placed(axis_rotation("Y")), (1, 0, 0, 1), (0, -5, 0), (0, 1, 0), 4.0),
+    "cone_side_axis_y": ("cone", placed(axis_rotation("Y")), (1, 0, 0, 1), (5, 0, 0), (-1, 0, 0), 4.5),
+    "capsule_top": ("capsule", placed(0.5 * np.eye(3)), (2.0, 0, 0, 1), (0, 0, 5), (0, 0, -1), 3.5),
+    "capsule_cap_side": ("capsule", placed(0.5 * np.eye(3)), (2.0, 0, 0, 1), (5, 0, 1.2), (-1, 0, 0), 5 - math.sqrt(0.21)),
+    "capsule_body": ("capsule", placed(0.5 * np.eye(3)), (2.0, 0, 0, 1), (5, 0, 0.3), (-1, 0, 0), 4.5),
+    "plane_axis_y_hit": ("plane", placed(axis_rotation("Y") @ np.diag([2, 1, 1])), (0, 0, 0, 1), (1.5, 3, 0.5), (0, -1, 0), 3.0),
+    "plane_axis_y_miss": ("plane", placed(axis_rotation("Y") @ np.diag([2, 1, 1])), (0, 0, 0, 1), (0, 3, 1.5), (0, -1, 0), math.inf),
+    "disk_edge_miss": ("disk", placed(), (0, 0, 0, 1), (0.8, 0.7, 1), (0, 0, -1), math.inf),
+    "disk_hit": ("disk", placed(), (0, 0, 0, 1), (0.6, 0.7, 1), (0, 0, -1), 1.0),
+}
+
+
+@pytest.mark.parametrize("case", list(CLOSED_FORMS))
+def test_analytic_hits_match_closed_forms(case):
+    kind, to_world, params, origin, direction, expected = CLOSED_FORMS[case]
+    t = trace_one(one_shape(kind, to_world, params), origin, direction)
+    if math.isinf(expected):
+        assert math.isinf(t)
+    else:
+        assert t == pytest.approx(expected, rel=1e-5)
+
+
+def render_normals(scene, camera, size=48):
+    img = wrt.render(scene, camera=camera, width=size, height=size, integrator="normals")
+    origins, directions = camera_rays(scene, camera, size, size)
+    hit = (img.aovs["prim"] >= 0).reshape(-1)
+    points = origins[hit] + img.aovs["depth"].reshape(-1)[hit, None] * directions[hit]
+    return img, hit, points
+
+
+def test_ellipsoid_and_sheared_normals_are_the_inverse_transpose():
+    """World normals of a sheared, non-uniformly scaled, mirrored sphere: the gradient of its implicit function."""
+    linear = np.array([[2.0, 0.6, 0.0], [0.0, -1.0, 0.3], [0.0, 0.0, 1.5]])  # det < 0: mirrored
+    scene = one_shape("sphere", placed(linear, (0.5, 0.2, -0.3)), double_sided=False)
+    camera = wrt.Camera.look_at((6, 5, 7), (0.5, 0.2, -0.3), (0, 1, 0), 40.0)
+    img, hit, points = render_normals(scene, camera)
+    assert hit.mean() > 0.05
+    inv = np.linalg.inv(linear)
+    local = (points - [0.5, 0.2, -0.3]) @ inv.T
+    np.testing.assert_allclose(np.linalg.norm(local, axis=1), 1.0, atol=1e-4)  # the hit lies on the surface
+    gradient = local @ inv  # grad of |A^-1 (p - c)|^2 / 2 = A^-T A^-1 (p - c)
+    expected = gradient / np.linalg.norm(gradient, axis=1, keepdims=True)
+    got = img.aovs["geometric_normal"].reshape(-1, 3)[hit]
+    np.testing.assert_allclose(got, expected, atol=1e-4)  # outward, as the camera sees the outside
+
+
+def test_left_handed_orientation_turns_the_inside_to_the_front():
+    """A single-sided sphere: camera rays see its near side; with orientation = leftHanded its outside is the back,
+    culled, and they see the inside of the far side instead."""
+    camera = wrt.Camera.look_at((0, 0, 10), (0, 0, 0), (0, 1, 0), 10.0)
+    depths = {}
+    for sign in (1.0, -1.0):
+        scene = one_shape("sphere", placed(np.diag([-2, 2, 2])), (0, 0, 0, sign), double_sided=False)
+        img = wrt.render(scene, camera=camera, width=9, height=9, integrator="depth")
+        depths[sign] = img.aovs["depth"][4, 4]
+    assert depths[1.0] == pytest.approx(8.0, rel=1e-5) and depths[-1.0] == pytest.approx(12.0, rel=1e-5)
+
+
+def test_shapes_trace_against_their_tessellations_converging_as_h_squared(tmp_path):
+    """A USD sphere traced analytically and tessellated with 8..64 segments: the largest position error of rays that
+    hit squarely falls by about 4 each time the segments double (the sagitta of a chord)."""
+    path = str(tmp_path / "sphere.usda")
+    stage = Usd.Stage.CreateNew(path)
+    sphere = UsdGeom.Sphere.Define(stage, "/S")
+    sphere.CreateRadiusAttr(1.5)
+    sphere.AddTranslateOp().Set((1, 2, 3))
+    stage.Save()
+    analytic = load(path)
+    rng = np.random.default_rng(5)
+    # Rays from 20 units away towards points within half a radius of the centre: incidence within 30 degrees.
+    n = 4000
+    directions = rng.normal(size=(n, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    targets = np.array([1, 2, 3]) + rng.uniform(-0.5, 0.5, (n, 3))
+    origins = (targets - 20 * directions).astype(np.float32)
+    directions = directions.astype(np.float32)
+    exact = wrt.trace(analytic, origins, directions)
+    assert exact.hit.all()
+    np.testing.assert_allclose(exact.prim, analytic.stats()["rendered_triangles"])  # the one shape's id
+    errors = []
+    for segments in (8, 16, 32, 64):
+        tess = wrt.trace(load(path, tessellate_gprims=segments), origins, directions)
+        assert tess.hit.all()
+        errors.append(float(np.max(np.abs(tess.t - exact.t))))
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all((ratios > 3.0) & (ratios < 5.5)), (errors, ratios)
+    assert errors[-1] < 1.5 * (1 - math.cos(2 * math.pi / 64)) * 2  # within a few sagittas of the chord
+
+
+def gprim_stage(tmp_path, kind, axis="Z", **attrs) -> tuple[str, str]:
+    path = str(tmp_path / f"{kind}_{axis}.usda")
+    stage = Usd.Stage.CreateNew(path)
+    schema = getattr(UsdGeom, kind).Define(stage, f"/{kind}")
+    for name, value in attrs.items():
+        getattr(schema, f"Create{name}Attr")(value)
+    if hasattr(schema, "CreateAxisAttr"):
+        schema.CreateAxisAttr(axis)
+    schema.AddTranslateOp().Set((1, -2, 3))
+    schema.AddRotateXYZOp().Set((10, 20, 30))
+    stage.Save()
+    return path, f"/{kind}"
+
+
+@pytest.mark.parametrize("axis", ["X", "Y", "Z"])
+@pytest.mark.parametrize(
+    "kind, attrs",
+    [
+        ("Sphere", {"Radius": 1.5}),
+        ("Cube", {"Size": 3.0}),
+        ("Cylinder", {"Height": 3.0, "Radius": 0.5}),
+        ("Cone", {"Height": 3.0, "Radius": 0.5}),
+        ("Capsule", {"Height": 3.0, "Radius": 0.5}),
+        ("Plane", {"Width": 3.0, "Length": 1.0}),
+    ],
+)
+def test_gprim_parameters_and_axis_match_usd_bounds(tmp_path, kind, attrs, axis):
+    """Each gprim's shape, moved to the world, has the world bounds USD computes for it (size, axis and transform)."""
+    path, prim_path = gprim_stage(tmp_path, kind, axis, **attrs)
+    (shape,) = load(path).shapes
+    stage = Usd.Stage.Open(path)
+    prim = stage.GetPrimAtPath(prim_path)
+    extent = np.array(UsdGeom.Boundable(prim).ComputeExtent(Usd.TimeCode.Default()), np.float64)
+    world = np.array(UsdGeom.XformCache().GetLocalToWorldTransform(prim)).T
+    expected = world_boxes(extent[0], extent[1], world[None])
+    got = world_boxes(*shape.local_bounds(), shape.to_world[None])
+    np.testing.assert_allclose(got, expected, atol=1e-6)
+
+
+def test_cone_apex_points_along_the_positive_axis(tmp_path):
+    path, _ = gprim_stage(tmp_path, "Cone", "X", Height=2.0, Radius=1.0)
+    (shape,) = load(path).shapes
+    apex = shape.to_world @ [0, 0, 1, 1]
+    base = shape.to_world @ [0, 0, -1, 1]
+    stage = Usd.Stage.Open(path)
+    world = np.array(UsdGeom.XformCache().GetLocalToWorldTransform(stage.GetPrimAtPath("/Cone"))).T
+    np.testing.assert_allclose(apex[:3], (world @ [1, 0, 0, 1])[:3], atol=1e-9)
+    np.testing.assert_allclose(base[:3], (world @ [-1, 0, 0, 1])[:3], atol=1e-9)
+
+
+def test_zero_size_gprims_are_skipped_with_a_warning_naming_them(tmp_path):
+    path, _ = gprim_stage(tmp_path, "Sphere", Radius=0.0)
+    with pytest.warns(UserWarning, match=r"zero, negative or non-finite size.*/Sphere"):
+        scene = wrt.load_usd(path)
+    assert scene.shapes == []
+
+
+def test_warp_accel_asks_for_tessellated_gprims(tmp_path):
+    path, _ = gprim_stage(tmp_path, "Sphere", Radius=1.0)
+    with pytest.raises(ValueError, match="tessellate_gprims=True"):
+        wrt.trace(load(path), np.zeros((1, 3)), np.ones((1, 3)), accel="warp")
+    tessellated = load(path, tessellate_gprims=True)
+    assert tessellated.shapes == [] and tessellated.stats()["rendered_triangles"] > 0
+
+
+def test_instanced_shapes_ids_round_trip():
+    """Shapes inside a prototype: each instance's copy has its own id after the rendered triangles."""
+    proto = Prototype("/P", [], [Shape("/P/S", "sphere", np.eye(4)), Shape("/P/B", "box", placed(0.5 * np.eye(3), (0, 3, 0)))])
+    m = np.tile(np.eye(4), (3, 1, 1))
+    m[:, 0, 3] = [0, 10, 20]
+    scene = wrt.Scene(shapes=[Shape("/W", "plane", placed(np.diag([40, 40, 1]), (0, 0, -5)))], prototypes=[proto],
+                      instances=Instances.from_transforms([0, 0, 0], m))
+    assert scene.stats()["rendered_shapes"] == 7 and scene.stats()["shapes"] == 3
+    origins = np.array([[0, 0, 10], [10, 3, 10], [20, 0, 10], [30, 30, 10]], np.float32)
+    hits = wrt.trace(scene, origins, np.tile([0, 0, -1], (4, 1)).astype(np.float32))
+    np.testing.assert_allclose(hits.t, [9, 9.5, 9, 15], rtol=1e-6)
+    np.testing.assert_array_equal(hits.instance, [0, 1, 2, -1])
+    np.testing.assert_array_equal(hits.prim, [1, 4, 5, 0])  # plane first, then per instance: sphere, box
+    prim, instance = scene.split_ids(hits.prim)
+    np.testing.assert_array_equal(scene.expanded_ids(prim, instance), hits.prim)
+
+
+# Real gprim scenes
+
+
+@pytest.mark.parametrize("asset_id", ["all_primitives", "simple_asset_scene", "xform_nested_scopes"])
+def test_gprim_scenes_render_analytically_like_their_tessellations(assets, asset_id):
+    analytic = load(assets(asset_id))
+    tessellated = load(assets(asset_id), tessellate_gprims=96)
+    assert analytic.stats()["rendered_shapes"] > 0 and analytic.stats()["rendered_triangles"] == 0
+    camera = wrt.camera.frame_scene(*analytic.bounds(), analytic.up_axis)
+    a = wrt.render(analytic, camera=camera, width=120, height=90)
+    b = wrt.render(tessellated, camera=camera, width=120, height=90)
+    hit_a, hit_b = a.aovs["prim"] >= 0, b.aovs["prim"] >= 0
+    assert hit_a.mean() > 0.005 and np.mean(hit_a != hit_b) < 0.01  # silhouettes differ by the chords
+    both = hit_a & hit_b
+    np.testing.assert_array_equal(a.aovs["instance"][both], b.aovs["instance"][both])
+    close = np.abs(a.aovs["depth"][both] - b.aovs["depth"][both]) < 1e-2 * a.aovs["depth"][both]
+    assert close.mean() > 0.97
+    dots = np.einsum("...k,...k->...", a.aovs["normal"][both], b.aovs["normal"][both])
+    assert np.mean(dots > 0.99) > 0.97
+    if asset_id == "simple_asset_scene":
+        assert analytic.stats()["rendered_shapes"] == 1000 and len(np.unique(a.aovs["instance"][hit_a])) > 50
+
+
+def test_cube_gprims_agree_with_their_exact_tessellation(assets):
+    """Boxes tessellate exactly: analytic cubes under nested transforms hit where their triangles do."""
+    analytic = load(assets("xform_nested_scopes"))
+    tessellated = load(assets("xform_nested_scopes"), tessellate_gprims=True)
+    o1, d1 = camera_rays(analytic, wrt.camera.frame_scene(*analytic.bounds(), "Y"), 200, 150)
+    o2, d2 = random_rays(analytic, 20_000, seed=2)
+    origins, directions = np.concatenate([o1, o2]), np.concatenate([d1, d2])
+    ours = wrt.trace(analytic, origins, directions)
+    theirs = wrt.trace(tessellated, origins, directions, accel="warp")
+    scale = float(np.abs(tessellated.triangles()[0]).max())
+    report = compare_hits(ours, theirs, directions=directions, scale=scale)
+    assert report["hits_a"] > 1000 and report["disagreements"] == 0, report
+    assert report["tie_disagreements"] <= 1e-4 * report["rays"], report

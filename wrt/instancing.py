@@ -1,0 +1,181 @@
+"""Instancing on the host: prototypes (geometry drawn only through instances) and the instances that place them.
+
+A :class:`Prototype` holds meshes in its own space, read once however often it is drawn. :class:`Instances` places
+prototypes in the world, one 4x4 transform each; nested instancing (a PointInstancer inside a prototype, a native
+instance inside a PointInstancer's prototype, ...) is resolved at load time into this single level, as a
+top-level acceleration structure over instances expects (:mod:`wrt.tlas`).
+
+Matrices here use the column-vector convention, ``p_world = M @ (p, 1)``: the transpose of USD's ``Gf.Matrix4d``.
+
+Instance order (for USD stages): the world-level instanceable prims and PointInstancers in stage pre-order, a
+PointInstancer's instances in index order (``invisibleIds``/``inactiveIds`` left out); instances nested inside
+one of them follow it, grouped by the prim inside its prototype that makes them.
+
+Expanded triangle order (the meaning of ``Hits.prim`` and of the rows of ``Scene.triangles()``): the triangles of
+the non-instanced meshes first (stage order), then for each instance in instance order the triangles of its
+prototype's meshes, in prototype order, transformed to world space. Instances whose transform mirrors
+(``det < 0``) get each triangle's corners 1 and 2 swapped, so ``cross(p1 - p0, p2 - p0)`` still points to the
+front side (the barycentrics ``u, v`` of a hit on such a row swap accordingly).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+ROW_DTYPE_LIMIT = (1 << 31) - 1  # expanded triangle ids up to this fit int32; larger scenes report int64 ids
+
+
+@dataclasses.dataclass
+class Prototype:
+    """Geometry that is drawn only through instances, in its own (prototype) space.
+
+    Attributes:
+        path: prim path of the prototype root (a native prototype ``/__Prototype_N``, or the prim a PointInstancer's
+            ``prototypes`` relationship targets), or a made-up name.
+        meshes: :class:`wrt.scene.Mesh` list in prototype space, in stage pre-order.
+        shapes: :class:`wrt.primitives.Shape` list in prototype space (analytic gprims), in stage pre-order.
+    """
+
+    path: str
+    meshes: list = dataclasses.field(default_factory=list)
+    shapes: list = dataclasses.field(default_factory=list)
+
+    @property
+    def num_triangles(self) -> int:
+        """Triangles in one copy of the prototype."""
+        return sum(len(m.indices) for m in self.meshes)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Prototype-space box ``(lower, upper)`` of the points its triangles use; an inverted box when empty."""
+        lower = np.full(3, np.inf)
+        upper = np.full(3, -np.inf)
+        for m in self.meshes:
+            if len(m.indices):
+                used = m.points[np.unique(m.indices)]
+                lower = np.minimum(lower, used.min(axis=0))
+                upper = np.maximum(upper, used.max(axis=0))
+        for s in self.shapes:
+            lo, hi = world_boxes(*s.local_bounds(), s.to_world[None])
+            lower, upper = np.minimum(lower, lo[0]), np.maximum(upper, hi[0])
+        return lower, upper
+
+
+@dataclasses.dataclass
+class Instances:
+    """Placements of prototypes in the world.
+
+    Attributes:
+        prototype: ``(N,)`` int32 index into ``Scene.prototypes``.
+        to_world: ``(N, 4, 4)`` float64 prototype-to-world transform (column vectors, ``p_world = M @ (p, 1)``).
+        source: ``(N,)`` int32 index into ``sources``: the world-level prim that made each instance (an instance
+            nested inside a prototype reports the world-level instance it is part of).
+        index: ``(N,)`` int32 position in that PointInstancer's arrays, -1 for a native instance.
+        sources: prim paths of the PointInstancers and instanceable prims that made the instances.
+    """
+
+    prototype: np.ndarray
+    to_world: np.ndarray
+    source: np.ndarray
+    index: np.ndarray
+    sources: list = dataclasses.field(default_factory=list)
+
+    def __post_init__(self):
+        self.prototype = np.ascontiguousarray(self.prototype, dtype=np.int32).reshape(-1)
+        self.to_world = np.ascontiguousarray(self.to_world, dtype=np.float64).reshape(-1, 4, 4)
+        self.source = np.ascontiguousarray(self.source, dtype=np.int32).reshape(-1)
+        self.index = np.ascontiguousarray(self.index, dtype=np.int32).reshape(-1)
+        n = len(self.prototype)
+        if not (len(self.to_world) == len(self.source) == len(self.index) == n):
+            raise ValueError("Instances arrays must all have one entry per instance")
+
+    @classmethod
+    def empty(cls) -> Instances:
+        """No instances."""
+        return cls(np.zeros(0, np.int32), np.zeros((0, 4, 4)), np.zeros(0, np.int32), np.zeros(0, np.int32), [])
+
+    @classmethod
+    def from_transforms(cls, prototype, to_world, name: str = "/instances") -> Instances:
+        """Instances made in Python: ``prototype`` ``(N,)`` int and ``to_world`` ``(N, 4, 4)`` (column vectors)."""
+        prototype = np.asarray(prototype, np.int32).reshape(-1)
+        n = len(prototype)
+        return cls(prototype, to_world, np.zeros(n, np.int32), np.arange(n, dtype=np.int32), [name])
+
+    def __len__(self) -> int:
+        return len(self.prototype)
+
+    def path(self, i: int) -> str:
+        """A name for instance ``i``: its source prim path, plus ``[index]`` for a PointInstancer's instance."""
+        name = self.sources[self.source[i]] if self.sources else "/instances"
+        return f"{name}[{self.index[i]}]" if self.index[i] >= 0 else name
+
+    @property
+    def mirrored(self) -> np.ndarray:
+        """``(N,)`` bool: the transform flips orientation (``det < 0``)."""
+        return np.linalg.det(self.to_world[:, :3, :3]) < 0.0 if len(self) else np.zeros(0, bool)
+
+
+def transform_points(points: np.ndarray, to_world: np.ndarray) -> np.ndarray:
+    """``(V, 3)`` points through one ``(4, 4)`` column-vector transform, in float64."""
+    return np.asarray(points, np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
+
+
+def world_boxes(lower: np.ndarray, upper: np.ndarray, to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World boxes of a prototype box ``(lower, upper)`` under ``(N, 4, 4)`` transforms: the boxes of its 8 moved
+    corners, computed per axis as ``t + sum_k min/max(M[:, k] lower_k, M[:, k] upper_k)`` (Arvo 1990)."""
+    linear = to_world[:, :3, :3]
+    a = linear * lower[None, None, :]
+    b = linear * upper[None, None, :]
+    lo = np.minimum(a, b).sum(axis=2) + to_world[:, :3, 3]
+    hi = np.maximum(a, b).sum(axis=2) + to_world[:, :3, 3]
+    return lo, hi
+
+
+def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(world_to_local (N, 3, 4) float64, ok (N,) bool)``: the affine inverses; ``ok`` is False (and the row zero)
+    where the linear part is singular or the inverse is not finite (a zero scale, for example)."""
+    linear = to_world[:, :3, :3]
+    det = np.linalg.det(linear) if len(linear) else np.zeros(0)
+    scale = np.abs(linear).reshape(len(linear), -1).max(axis=1) if len(linear) else np.zeros(0)
+    ok = np.isfinite(det) & (np.abs(det) > 1e-30 * np.maximum(scale, 1e-30) ** 3) & (scale > 0)
+    out = np.zeros((len(to_world), 3, 4))
+    if ok.any():
+        inv = np.linalg.inv(linear[ok])
+        out[ok, :, :3] = inv
+        out[ok, :, 3] = -np.einsum("nij,nj->ni", inv, to_world[ok, :3, 3])
+        good = np.isfinite(out[ok]).reshape(int(ok.sum()), -1).all(axis=1)
+        bad = np.flatnonzero(ok)[~good]
+        ok[bad] = False
+        out[bad] = 0.0
+    return out, ok
+
+
+def expand_instance_triangles(prototypes: list, instances: Instances) -> tuple[np.ndarray, np.ndarray]:
+    """World-space triangles of every instance, in the documented expanded order (see module docstring).
+
+    Returns:
+        ``points`` ``(V, 3)`` float32 and ``indices`` ``(T, 3)`` int64 into them.
+    """
+    local = []
+    for p in prototypes:
+        offsets = np.cumsum([0] + [len(m.points) for m in p.meshes])
+        pts = np.concatenate([m.points for m in p.meshes] or [np.zeros((0, 3), np.float32)]).astype(np.float64)
+        idx = np.concatenate([m.indices + o for m, o in zip(p.meshes, offsets)] or [np.zeros((0, 3), np.int32)])
+        local.append((pts, idx.astype(np.int64)))
+    points, indices = [], []
+    base = 0
+    mirrored = instances.mirrored
+    for i in range(len(instances)):
+        pts, idx = local[instances.prototype[i]]
+        if len(idx) == 0:
+            continue
+        points.append(transform_points(pts, instances.to_world[i]).astype(np.float32))
+        indices.append((idx[:, [0, 2, 1]] if mirrored[i] else idx) + base)
+        base += len(pts)
+    if not points:
+        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64)
+    return np.concatenate(points), np.concatenate(indices)
+
+
+__all__ = ["Instances", "Prototype", "expand_instance_triangles", "invert_transforms", "world_boxes"]

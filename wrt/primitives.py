@@ -1,0 +1,522 @@
+"""Analytic primitives: ray intersection with spheres, boxes, cylinders, cones, capsules, planes and disks, each in
+its own canonical space, plus the host-side :class:`Shape` that places one in the scene and its tessellation.
+
+Every shape is intersected in a *canonical* space by the inverse-transformed ray (the lecture's "transform the ray
+by the inverse transform": ``r'(t) = M^-1 p + t M^-1 d``, with ``t`` unchanged because the direction is not
+renormalised). USD's size parameters (``radius``, ``size``, ``height``, ``width``, ``length``) and ``axis`` are folded
+into the shape's transform, so one canonical shape per kind serves every gprim:
+
+============  =========================================================================  ======================
+kind          canonical shape                                                            parameters
+============  =========================================================================  ======================
+``sphere``    unit sphere at the origin                                                  -
+``box``       ``[-1, 1]^3``                                                              -
+``cylinder``  radius 1 around +Z, ``z`` in ``[-1, 1]``, caps at ``z = +-1``               ``capped`` (1 or 0)
+``cone``      apex at ``z = 1``, base radius 1 at ``z = -1`` (cap there)                 ``capped`` (1 or 0)
+``capsule``   radius 1 around +Z: a cylinder for ``|z| <= H`` plus two hemispheres        ``H`` = half-height / radius
+``plane``     the square ``|x|, |y| <= 1`` at ``z = 0``, front along +Z                   -
+``disk``      the unit disk at ``z = 0``, front along +Z                                 -
+============  =========================================================================  ======================
+
+Outward normals are the front side (``orientation = rightHanded``); ``params[3] = -1`` flips them
+(``leftHanded``). Quadratics are solved in the numerically stable form of pbrt (``q = -(b + sign(b) sqrt(disc))``,
+``t0 = q / a``, ``t1 = c / q``), with the discriminant of spheres and cylinders computed from the ray's closest
+approach to the axis (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems, 2019),
+so far-away rays keep their precision.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import warp as wp
+
+SHAPE_SPHERE = wp.constant(0)
+SHAPE_BOX = wp.constant(1)
+SHAPE_CYLINDER = wp.constant(2)
+SHAPE_CONE = wp.constant(3)
+SHAPE_CAPSULE = wp.constant(4)
+SHAPE_PLANE = wp.constant(5)
+SHAPE_DISK = wp.constant(6)
+SHAPE_KINDS = {"sphere": 0, "box": 1, "cylinder": 2, "cone": 3, "capsule": 4, "plane": 5, "disk": 6}  # name -> code
+CONE_SLOPE = wp.constant(0.5)  # canonical cone: radius = CONE_SLOPE * (1 - z)
+DEFAULT_SEGMENTS = 64  # tessellation: segments around a circle (rings of a sphere: half as many)
+
+
+# Device: intersections in canonical space
+
+
+@wp.func
+def nearest_root(t0: float, t1: float, t_min: float, t_max: float):
+    """The smaller of ``t0 <= t1`` inside ``[t_min, t_max)``, else inf."""
+    t = float(wp.inf)
+    if t0 >= t_min and t0 < t_max:
+        t = t0
+    elif t1 >= t_min and t1 < t_max:
+        t = t1
+    return t
+
+
+@wp.func
+def solve_quadratic(a: float, b_half: float, c: float, disc: float):
+    """Roots ``t0 <= t1`` of ``a t^2 + 2 b_half t + c`` given ``disc = b_half^2 - a c >= 0`` (pbrt's stable form)."""
+    root = wp.sqrt(wp.max(disc, 0.0))
+    q = -(b_half + wp.where(b_half >= 0.0, root, -root))
+    t0 = float(wp.inf)
+    t1 = float(wp.inf)
+    if q != 0.0:
+        t0 = q / a
+        t1 = c / q
+    elif a != 0.0:
+        t0 = 0.0
+        t1 = 0.0
+    if t0 > t1:
+        tmp = t0
+        t0 = t1
+        t1 = tmp
+    return t0, t1
+
+
+@wp.func
+def unit_sphere_roots(center_z: float, o: wp.vec3, d: wp.vec3):
+    """Both ``t0 <= t1`` where the line ``o + t d`` meets the unit sphere centred at ``(0, 0, center_z)`` (inf if
+    it misses)."""
+    oc = wp.vec3(o[0], o[1], o[2] - center_z)
+    a = wp.dot(d, d)
+    b_half = wp.dot(oc, d)
+    closest = oc - (b_half / a) * d
+    disc = a * (1.0 - wp.dot(closest, closest))
+    t0 = float(wp.inf)
+    t1 = float(wp.inf)
+    if disc >= 0.0:
+        t0, t1 = solve_quadratic(a, b_half, wp.dot(oc, oc) - 1.0, disc)
+    return t0, t1
+
+
+@wp.func
+def intersect_unit_sphere(center_z: float, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
+    """Unit sphere centred at ``(0, 0, center_z)``: the nearest ``t`` in ``[t_min, t_max)``, inf if none."""
+    t0, t1 = unit_sphere_roots(center_z, o, d)
+    return nearest_root(t0, t1, t_min, t_max)
+
+
+@wp.func
+def intersect_hemisphere(center_z: float, up: float, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
+    """The half of the unit sphere at ``(0, 0, center_z)`` with ``up * (z - center_z) >= 0``."""
+    t0, t1 = unit_sphere_roots(center_z, o, d)
+    if t0 < wp.inf and up * (o[2] + t0 * d[2] - center_z) < 0.0:
+        t0 = wp.inf
+    if t1 < wp.inf and up * (o[2] + t1 * d[2] - center_z) < 0.0:
+        t1 = wp.inf
+    return nearest_root(wp.min(t0, t1), wp.max(t0, t1), t_min, t_max)
+
+
+@wp.func
+def intersect_unit_cylinder_side(o: wp.vec3, d: wp.vec3, z_lo: float, z_hi: float, t_min: float, t_max: float):
+    """The side ``x^2 + y^2 = 1`` between ``z_lo`` and ``z_hi``: the nearest ``t`` in ``[t_min, t_max)``."""
+    t = float(wp.inf)
+    a = d[0] * d[0] + d[1] * d[1]
+    if a > 0.0:
+        b_half = o[0] * d[0] + o[1] * d[1]
+        cx = o[0] - (b_half / a) * d[0]
+        cy = o[1] - (b_half / a) * d[1]
+        disc = a * (1.0 - (cx * cx + cy * cy))
+        if disc >= 0.0:
+            t0, t1 = solve_quadratic(a, b_half, o[0] * o[0] + o[1] * o[1] - 1.0, disc)
+            z0 = o[2] + t0 * d[2]
+            z1 = o[2] + t1 * d[2]
+            if z0 < z_lo or z0 > z_hi:
+                t0 = wp.inf
+            if z1 < z_lo or z1 > z_hi:
+                t1 = wp.inf
+            t = nearest_root(wp.min(t0, t1), wp.max(t0, t1), t_min, t_max)
+    return t
+
+
+@wp.func
+def intersect_disk_at(z0: float, radius: float, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
+    """The disk of ``radius`` around the Z axis at height ``z0``."""
+    t = float(wp.inf)
+    if d[2] != 0.0:
+        s = (z0 - o[2]) / d[2]
+        if s >= t_min and s < t_max:
+            x = o[0] + s * d[0]
+            y = o[1] + s * d[1]
+            if x * x + y * y <= radius * radius:
+                t = s
+    return t
+
+
+@wp.func
+def intersect_unit_box(o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
+    """``[-1, 1]^3``: the entry distance, or the exit distance for rays that start inside."""
+    t_near = float(-wp.inf)
+    t_far = float(wp.inf)
+    for k in range(3):
+        if d[k] != 0.0:
+            inv = 1.0 / d[k]
+            a = (-1.0 - o[k]) * inv
+            b = (1.0 - o[k]) * inv
+            t_near = wp.max(t_near, wp.min(a, b))
+            t_far = wp.min(t_far, wp.max(a, b))
+        elif o[k] < -1.0 or o[k] > 1.0:
+            t_near = wp.inf
+    t = float(wp.inf)
+    if t_near <= t_far:
+        t = nearest_root(t_near, t_far, t_min, t_max)
+    return t
+
+
+@wp.func
+def intersect_unit_cone_side(o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
+    """The side ``x^2 + y^2 = (k (1 - z))^2`` for ``z`` in ``[-1, 1]`` (``k = CONE_SLOPE``)."""
+    k2 = CONE_SLOPE * CONE_SLOPE
+    w = 1.0 - o[2]
+    a = d[0] * d[0] + d[1] * d[1] - k2 * d[2] * d[2]
+    b_half = o[0] * d[0] + o[1] * d[1] + k2 * w * d[2]
+    c = o[0] * o[0] + o[1] * o[1] - k2 * w * w
+    t0 = float(wp.inf)
+    t1 = float(wp.inf)
+    if wp.abs(a) < 1.0e-12 * wp.dot(d, d):
+        # A ray parallel to the surface meets the cone once.
+        if b_half != 0.0:
+            t0 = -c / (2.0 * b_half)
+    else:
+        disc = b_half * b_half - a * c
+        if disc >= 0.0:
+            t0, t1 = solve_quadratic(a, b_half, c, disc)
+    z0 = o[2] + t0 * d[2]
+    z1 = o[2] + t1 * d[2]
+    if not (z0 >= -1.0 and z0 <= 1.0):
+        t0 = wp.inf
+    if not (z1 >= -1.0 and z1 <= 1.0):
+        t1 = wp.inf
+    return nearest_root(wp.min(t0, t1), wp.max(t0, t1), t_min, t_max)
+
+
+@wp.func
+def intersect_shape(kind: int, params: wp.vec4, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
+    """Nearest ``t`` in ``[t_min, t_max)`` where ray ``o + t d`` (canonical space) meets shape ``kind``; inf if none."""
+    t = float(wp.inf)
+    if kind == SHAPE_SPHERE:
+        t = intersect_unit_sphere(0.0, o, d, t_min, t_max)
+    elif kind == SHAPE_BOX:
+        t = intersect_unit_box(o, d, t_min, t_max)
+    elif kind == SHAPE_CYLINDER:
+        t = intersect_unit_cylinder_side(o, d, -1.0, 1.0, t_min, t_max)
+        if params[0] > 0.0:
+            t = wp.min(t, intersect_disk_at(1.0, 1.0, o, d, t_min, t_max))
+            t = wp.min(t, intersect_disk_at(-1.0, 1.0, o, d, t_min, t_max))
+    elif kind == SHAPE_CONE:
+        t = intersect_unit_cone_side(o, d, t_min, t_max)
+        if params[0] > 0.0:
+            t = wp.min(t, intersect_disk_at(-1.0, 1.0, o, d, t_min, t_max))
+    elif kind == SHAPE_CAPSULE:
+        h = params[0]
+        t = intersect_unit_cylinder_side(o, d, -h, h, t_min, t_max)
+        t = wp.min(t, intersect_hemisphere(h, 1.0, o, d, t_min, t_max))
+        t = wp.min(t, intersect_hemisphere(-h, -1.0, o, d, t_min, t_max))
+    elif kind == SHAPE_PLANE:
+        if d[2] != 0.0:
+            s = -o[2] / d[2]
+            if s >= t_min and s < t_max:
+                x = o[0] + s * d[0]
+                y = o[1] + s * d[1]
+                if wp.abs(x) <= 1.0 and wp.abs(y) <= 1.0:
+                    t = s
+    elif kind == SHAPE_DISK:
+        t = intersect_disk_at(0.0, 1.0, o, d, t_min, t_max)
+    return t
+
+
+@wp.func
+def shape_surface(kind: int, params: wp.vec4, p: wp.vec3):
+    """The point of the shape's surface nearest to ``p`` (a hit point off by rounding) and the outward normal there
+    (unit, canonical space; flipped when ``params[3] < 0``). At rims the nearer surface wins."""
+    q = p
+    n = wp.vec3(0.0, 0.0, 1.0)
+    if kind == SHAPE_SPHERE:
+        n = wp.normalize(p)
+        q = n
+    elif kind == SHAPE_BOX:
+        axis = int(0)
+        if wp.abs(p[1]) > wp.abs(p[axis]):
+            axis = 1
+        if wp.abs(p[2]) > wp.abs(p[axis]):
+            axis = 2
+        s = wp.where(p[axis] >= 0.0, 1.0, -1.0)
+        n = wp.vec3(0.0)
+        n[axis] = s
+        q[axis] = s
+    elif kind == SHAPE_CYLINDER or kind == SHAPE_CAPSULE:
+        h = float(1.0)
+        if kind == SHAPE_CAPSULE:
+            h = params[0]
+        r = wp.sqrt(p[0] * p[0] + p[1] * p[1])
+        radial = wp.vec3(1.0, 0.0, 0.0)
+        if r > 0.0:
+            radial = wp.vec3(p[0] / r, p[1] / r, 0.0)
+        if kind == SHAPE_CAPSULE and wp.abs(p[2]) > h:
+            c = wp.vec3(0.0, 0.0, wp.where(p[2] > 0.0, h, -h))
+            n = wp.normalize(p - c)
+            q = c + n
+        elif kind == SHAPE_CYLINDER and params[0] > 0.0 and wp.abs(1.0 - wp.abs(p[2])) < wp.abs(1.0 - r):
+            s = wp.where(p[2] >= 0.0, 1.0, -1.0)
+            n = wp.vec3(0.0, 0.0, s)
+            q = wp.vec3(p[0], p[1], s)
+        else:
+            n = radial
+            q = wp.vec3(radial[0], radial[1], p[2])
+    elif kind == SHAPE_CONE:
+        k = CONE_SLOPE
+        r = wp.sqrt(p[0] * p[0] + p[1] * p[1])
+        side = wp.abs(r - k * (1.0 - p[2])) / wp.sqrt(1.0 + k * k)
+        if params[0] > 0.0 and wp.abs(p[2] + 1.0) < side:
+            n = wp.vec3(0.0, 0.0, -1.0)
+            q = wp.vec3(p[0], p[1], -1.0)
+        else:
+            radial = wp.vec3(1.0, 0.0, 0.0)
+            if r > 0.0:
+                radial = wp.vec3(p[0] / r, p[1] / r, 0.0)
+            n = wp.normalize(radial + wp.vec3(0.0, 0.0, k))  # the gradient of r - k (1 - z)
+            q = p
+    else:
+        q = wp.vec3(p[0], p[1], 0.0)
+    if params[3] < 0.0:
+        n = -n
+    return q, n
+
+
+@wp.func
+def shape_uv(kind: int, params: wp.vec4, p: wp.vec3):
+    """Pseudo-barycentrics of a hit at canonical point ``p``, reported in hit buffers: ``u, v`` fall to 0 at the
+    rims of flat faces (box faces, plane and disk edges, caps), so ``wrt.compare`` sees hits there as edge ties just
+    as it does for triangle edges; elsewhere (curved surfaces) ``u = v = 1/3``. ``1 - u - v`` stays >= 1/3."""
+    u = float(1.0 / 3.0)
+    v = float(1.0 / 3.0)
+    if kind == SHAPE_BOX:
+        axis = int(0)
+        if wp.abs(p[1]) > wp.abs(p[axis]):
+            axis = 1
+        if wp.abs(p[2]) > wp.abs(p[axis]):
+            axis = 2
+        a = p[(axis + 1) % 3]
+        b = p[(axis + 2) % 3]
+        u = wp.clamp(1.0 - wp.abs(a), 0.0, 1.0) / 3.0
+        v = wp.clamp(1.0 - wp.abs(b), 0.0, 1.0) / 3.0
+    elif kind == SHAPE_PLANE:
+        u = wp.clamp(1.0 - wp.abs(p[0]), 0.0, 1.0) / 3.0
+        v = wp.clamp(1.0 - wp.abs(p[1]), 0.0, 1.0) / 3.0
+    elif kind == SHAPE_DISK or ((kind == SHAPE_CYLINDER or kind == SHAPE_CONE) and params[0] > 0.0):
+        r = wp.sqrt(p[0] * p[0] + p[1] * p[1])
+        if kind == SHAPE_DISK or wp.abs(wp.abs(p[2]) - 1.0) < 1.0e-4:
+            u = wp.clamp(1.0 - r, 0.0, 1.0) / 3.0
+    return u, v
+
+
+# Host: shapes in the scene
+
+
+@dataclasses.dataclass
+class Shape:
+    """One analytic primitive placed in the scene (world space) or in a prototype (prototype space).
+
+    Attributes:
+        path: prim path of the source gprim (or a made-up name).
+        kind: a key of :data:`SHAPE_KINDS`.
+        to_world: ``(4, 4)`` float64 canonical space -> world (or prototype) space, column vectors; USD's size
+            parameters and axis are part of it.
+        params: ``(4,)`` float32: ``[capped or H, 0, 0, orientation sign]`` (see the module docstring).
+        color: ``(3,)`` float32 linear displayColor (0.5 grey without one).
+        material_id: index into ``Scene.materials``, -1 for the default material.
+        double_sided: the gprim's ``doubleSided``: when False camera rays pass through its back (as for meshes).
+    """
+
+    path: str
+    kind: str
+    to_world: np.ndarray
+    params: np.ndarray = dataclasses.field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 1.0], np.float32))
+    color: np.ndarray = dataclasses.field(default_factory=lambda: np.full(3, 0.5, np.float32))
+    material_id: int = -1
+    double_sided: bool = False
+
+    def __post_init__(self):
+        if self.kind not in SHAPE_KINDS:
+            raise ValueError(f"unknown shape kind {self.kind!r}; valid kinds: {', '.join(SHAPE_KINDS)}")
+        self.to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)
+        self.params = np.asarray(self.params, np.float32).reshape(4)
+        self.color = np.asarray(self.color, np.float32).reshape(3)
+
+    def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Canonical-space box ``(lower, upper)``."""
+        if self.kind == "capsule":
+            h = float(self.params[0])
+            return np.array([-1.0, -1.0, -1.0 - h]), np.array([1.0, 1.0, 1.0 + h])
+        if self.kind in ("plane", "disk"):
+            return np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 0.0])
+        return np.full(3, -1.0), np.full(3, 1.0)
+
+
+def axis_rotation(axis: str) -> np.ndarray:
+    """``(3, 3)`` rotation taking canonical +Z to USD's ``axis`` (``"X"``, ``"Y"`` or ``"Z"``), with canonical X and Y
+    on the axes that ``UsdGeom.Plane`` gives its width and length (X: width along Z; Y: width along X, length along
+    Z; Z: width along X, length along Y)."""
+    columns = {"X": ([0, 0, 1], [0, -1, 0], [1, 0, 0]), "Y": ([1, 0, 0], [0, 0, -1], [0, 1, 0]), "Z": np.eye(3)}
+    if axis not in columns:
+        raise ValueError(f"axis must be X, Y or Z, got {axis!r}")
+    return np.array(columns[axis], np.float64).T
+
+
+def shape_transform(linear: np.ndarray) -> np.ndarray:
+    """A ``(4, 4)`` column-vector transform with ``linear`` as its 3x3 part."""
+    m = np.eye(4)
+    m[:3, :3] = linear
+    return m
+
+
+def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
+    """Triangles approximating ``shape`` in its own (world or prototype) space, every vertex on the surface.
+
+    A sphere gets ``segments`` meridians and ``segments // 2`` rings; circles of cylinders, cones and capsules get
+    ``segments`` sides (capsule caps ``segments // 4`` rings each); boxes, planes and their faces are exact. The
+    position error of the curved parts falls as ``O(h^2)`` with the edge length ``h`` (the sagitta of each chord).
+
+    Returns:
+        ``points`` ``(V, 3)`` float64, ``indices`` ``(T, 3)`` int32 with ``cross(p1 - p0, p2 - p0)`` towards the front
+        side, and ``normals`` ``(T, 3, 3)`` float64 unit shading normal per corner (the analytic normal; flat for
+        flat faces), all in the shape's space.
+    """
+    segments = max(int(segments), 3)
+    parts = []  # (points (V, 3), triangles (T, 3), corner normals (T, 3, 3)) in canonical space
+
+    def add(points, triangles, normals_at=None, flat=None):
+        points = np.asarray(points, np.float64)
+        triangles = np.asarray(triangles, np.int64).reshape(-1, 3)
+        if flat is not None:
+            normals = np.broadcast_to(np.asarray(flat, np.float64), (len(triangles), 3, 3))
+        else:
+            normals = normals_at(points)[triangles]
+        parts.append((points, triangles, normals))
+
+    phi = np.linspace(0.0, 2.0 * np.pi, segments, endpoint=False)
+    ring = np.stack([np.cos(phi), np.sin(phi)], axis=1)
+
+    def band(z_lo_ring, z_hi_ring):
+        """Triangles joining two rings of ``segments`` points (counter-clockwise seen from outside)."""
+        i = np.arange(segments)
+        j = (i + 1) % segments
+        lo, hi = z_lo_ring + i, z_lo_ring + j
+        return np.concatenate([np.stack([lo, hi, z_hi_ring + j], 1), np.stack([lo, z_hi_ring + j, z_hi_ring + i], 1)])
+
+    def lathe(profile):
+        """Surface of revolution through ``profile`` ``(R, 2)`` rows of (radius, z), bottom to top; poles (radius 0)
+        become single points."""
+        points, triangles = [], []
+        index = []
+        for r, z in profile:
+            index.append(len(points))
+            if r == 0.0:
+                points.append([0.0, 0.0, z])
+            else:
+                points += [[r * c, r * s, z] for c, s in ring]
+        for k in range(len(profile) - 1):
+            (r0, _), (r1, _) = profile[k], profile[k + 1]
+            a, b = index[k], index[k + 1]
+            i = np.arange(segments)
+            j = (i + 1) % segments
+            if r0 == 0.0:
+                triangles.append(np.stack([np.full(segments, a), b + j, b + i], 1))
+            elif r1 == 0.0:
+                triangles.append(np.stack([a + i, a + j, np.full(segments, b)], 1))
+            else:
+                triangles.append(band(a, b))
+        return np.array(points), np.concatenate(triangles)
+
+    def cap(z, up):
+        """A flat disk of radius 1 at ``z``, facing +Z when ``up``."""
+        points = np.concatenate([[[0.0, 0.0, z]], np.column_stack([ring, np.full(segments, z)])])
+        i = np.arange(segments)
+        j = (i + 1) % segments
+        tris = np.stack([np.zeros(segments, np.int64), 1 + i, 1 + j], 1) if up else np.stack([np.zeros(segments, np.int64), 1 + j, 1 + i], 1)
+        add(points, tris, flat=[0.0, 0.0, 1.0 if up else -1.0])
+
+    kind = shape.kind
+    if kind == "sphere":
+        theta = np.linspace(-np.pi / 2, np.pi / 2, max(segments // 2, 2) + 1)
+        points, tris = lathe([(math.cos(t) if abs(t) < np.pi / 2 else 0.0, math.sin(t)) for t in theta])
+        add(points, tris, normals_at=lambda p: p / np.linalg.norm(p, axis=1, keepdims=True))
+    elif kind == "box":
+        corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], np.float64)
+        faces = [(0, 2, 3, 1, [0, 0, -1]), (4, 5, 7, 6, [0, 0, 1]), (0, 1, 5, 4, [0, -1, 0]),
+                 (2, 6, 7, 3, [0, 1, 0]), (0, 4, 6, 2, [-1, 0, 0]), (1, 3, 7, 5, [1, 0, 0])]
+        for a, b, c, d, n in faces:
+            add(corners[[a, b, c, d]], [[0, 1, 2], [0, 2, 3]], flat=n)
+    elif kind == "cylinder":
+        points, tris = lathe([(1.0, -1.0), (1.0, 1.0)])
+        add(points, tris, normals_at=lambda p: p * [1.0, 1.0, 0.0])
+        if shape.params[0] > 0:
+            cap(1.0, True)
+            cap(-1.0, False)
+    elif kind == "cone":
+        k = float(CONE_SLOPE)
+        points, tris = lathe([(2.0 * k, -1.0), (0.0, 1.0)])
+
+        def cone_normals(p):
+            r = np.linalg.norm(p[:, :2], axis=1, keepdims=True)
+            radial = np.where(r > 0, p[:, :2] / np.where(r > 0, r, 1.0), [1.0, 0.0])
+            n = np.column_stack([radial, np.full(len(p), k)])
+            return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+        pts, tris_ = points, tris
+        # Apex normals: one per triangle (its own meridian), as the apex has no single normal.
+        normals = cone_normals(pts)[tris_]
+        apex = tris_ == len(pts) - 1
+        mid = pts[tris_[:, [0, 1]]].mean(axis=1)
+        normals[apex[:, 2], 2] = cone_normals(mid[apex[:, 2]])
+        parts.append((pts, tris_, normals))
+        if shape.params[0] > 0:
+            cap(-1.0, False)
+    elif kind == "capsule":
+        h = float(shape.params[0])
+        rings = max(segments // 4, 2)
+        theta = np.linspace(0.0, np.pi / 2, rings + 1)
+        bottom = [(math.sin(t) if t > 0 else 0.0, -h - math.cos(t)) for t in theta]
+        top = [(math.cos(t), h + math.sin(t)) if t < np.pi / 2 else (0.0, h + 1.0) for t in theta]
+        points, tris = lathe(bottom + top)
+
+        def capsule_normals(p):
+            c = np.clip(p[:, 2], -h, h)
+            n = p - np.column_stack([np.zeros((len(p), 2)), c])
+            return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+        add(points, tris, normals_at=capsule_normals)
+    elif kind == "plane":
+        add([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]], flat=[0.0, 0.0, 1.0])
+    elif kind == "disk":
+        cap(0.0, True)
+
+    # Concatenate, flip for leftHanded, move to the shape's space (normals by the inverse transpose).
+    offsets = np.cumsum([0] + [len(p) for p, _, _ in parts])
+    points = np.concatenate([p for p, _, _ in parts])
+    tris = np.concatenate([t + o for (_, t, _), o in zip(parts, offsets)])
+    normals = np.concatenate([n for _, _, n in parts])
+    if shape.params[3] < 0:
+        tris = tris[:, [0, 2, 1]]
+        normals = -normals[:, [0, 2, 1]]
+    m = shape.to_world
+    linear = m[:3, :3]
+    world_points = points @ linear.T + m[:3, 3]
+    det = np.linalg.det(linear)
+    if det < 0:  # a mirroring transform flips the winding
+        tris = tris[:, [0, 2, 1]]
+        normals = normals[:, [0, 2, 1]]
+    cofactor = np.linalg.inv(linear).T * np.sign(det) if det != 0 else np.zeros((3, 3))
+    world_normals = normals @ cofactor.T
+    length = np.linalg.norm(world_normals, axis=2, keepdims=True)
+    world_normals = np.where(length > 0, world_normals / np.where(length > 0, length, 1.0), 0.0)
+    return world_points, tris.astype(np.int32), world_normals
+
+
+__all__ = ["SHAPE_KINDS", "Shape", "axis_rotation", "intersect_shape", "shape_surface", "shape_uv", "tessellate"]

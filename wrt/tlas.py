@@ -1,0 +1,432 @@
+"""Two-level acceleration: a top-level BVH (TLAS) over instances, each pointing at a bottom-level BVH (BLAS).
+
+Every prototype gets one BLAS, built once in prototype space however many instances draw it; the non-instanced
+meshes of the scene form one more BLAS, in world space. The TLAS is a :class:`wrt.bvh.FlatBvh` over the world boxes
+of its *entries*: one per instance (its prototype's BLAS and its world-to-prototype transform) plus one for the
+world-space BLAS. It is built by the same builders as any BVH: each entry is handed over as a degenerate triangle
+``(lower, upper, lower)``, whose box is the entry's box and whose centroid is the box centre.
+
+Traversal (:func:`tlas_intersect`) walks the TLAS in world space; at a leaf it transforms the ray into each entry's
+space by the inverse transform (origin as a point, direction as a vector, not renormalised, so ``t`` is the same in
+both spaces) and runs the ordinary :func:`wrt.bvh.traverse.bvh_intersect` on the entry's BLAS with ``t_max`` set to
+the best hit so far. This is the lecture's "transform the ray, not the primitive", and Wald et al., "Ray tracing
+animated scenes using coherent grid traversal"/"two-level BVH" as in every production ray tracer (pbrt-v4
+``Transform``/``BVHAggregate`` over instances, Embree/OptiX instance acceleration structures).
+
+Analytic shapes (:mod:`wrt.primitives`) are entries of their own, one per shape and instance: the entry holds the
+world-to-canonical transform (the instance's and the shape's composed) and is intersected by
+:func:`wrt.primitives.intersect_shape` at the TLAS leaf, with no BLAS.
+
+Hits report the geometry id of the triangle or shape (:meth:`wrt.Scene.geometry` row, so prototype triangles appear
+once; shapes after the triangles) and the instance (-1 for world-space geometry). Shape hits carry the
+pseudo-barycentrics of :func:`wrt.primitives.shape_uv` (1/3 each on curved surfaces). Exact ties between entries go
+to the one visited first.
+
+Memory: the TLAS nodes, one world-to-prototype 3x4 float32 matrix (48 bytes) and two int32 per instance; the unique
+triangles once per prototype (:meth:`InstancedAccelerator.device_bytes`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .bvh import DeviceBvh, build_bvh
+from .bvh.traverse import bvh_intersect, bvh_occluded, reachable
+from .bvh.common import MAX_DEPTH
+from .geometry import intersect_ray_box, ray_is_valid, safe_inverse
+from .instancing import invert_transforms, world_boxes
+from .primitives import intersect_shape, shape_uv
+from .scene import Scene
+from .transforms import mat34, transform_point, transform_vector
+from .trace import Accelerator, HitBuffer
+
+TLAS_LEAF_SIZE = 2  # most entries per TLAS leaf (each costs a BLAS traversal, so leaves stay small)
+TLAS_INTERSECTION_COST = 4.0  # SAH cost of entering an entry relative to visiting a TLAS node
+
+
+@wp.struct
+class DeviceTlas:
+    """The two-level structure on the device; entry arrays are in TLAS slot order."""
+
+    lowers: wp.array[wp.vec3]  # TLAS node box minimum, world space
+    uppers: wp.array[wp.vec3]  # TLAS node box maximum
+    left_first: wp.array[wp.int32]  # left child (inner node) or first slot (leaf)
+    prim_count: wp.array[wp.int32]  # entries in a leaf, 0 for an inner node
+    entry_blas: wp.array[wp.int32]  # slot -> BLAS index into blases, or -1 - k for analytic shape entry k
+    entry_instance: wp.array[wp.int32]  # slot -> instance (row of world_to_local), -1: world space, no transform
+    world_to_local: wp.array[mat34]  # per instance: world -> prototype space
+    blases: wp.array[DeviceBvh]  # one BLAS per prototype (prototype space) plus the world-space one
+    blas_first: wp.array[wp.int32]  # geometry id of triangle 0 of each BLAS
+    shape_xforms: wp.array[mat34]  # per shape entry: world -> the shape's canonical space
+    shape_rows: wp.array[wp.int32]  # per shape entry: geometry id of the shape
+    shape_kinds: wp.array[wp.int32]  # per unique shape (geometry id - num_triangles): primitives.SHAPE_*
+    shape_params: wp.array[wp.vec4]  # per unique shape: its parameters
+    num_triangles: int  # unique triangles; geometry ids from here on are shapes
+    num_entries: int  # entries in the TLAS; 0 means every ray misses
+
+
+@wp.func
+def entry_ray(tlas: DeviceTlas, instance: int, origin: wp.vec3, direction: wp.vec3):
+    """The ray in an entry's space: unchanged for world-space geometry (``instance < 0``)."""
+    o = origin
+    d = direction
+    if instance >= 0:
+        m = tlas.world_to_local[instance]
+        o = transform_point(m, origin)
+        d = transform_vector(m, direction)
+    return o, d
+
+
+@wp.func
+def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+    """Closest hit with ``t_min <= t < t_max`` over every instance and the world-space geometry.
+
+    Returns:
+        ``(t, u, v, prim, instance, nodes_visited, triangles_tested)``; ``prim`` is the geometry id, ``-1`` (and
+        ``t = inf``) on a miss; ``nodes_visited`` counts TLAS and BLAS nodes.
+    """
+    best_t = t_max
+    best_u = float(0.0)
+    best_v = float(0.0)
+    best_prim = int(-1)
+    best_instance = int(-1)
+    nodes = int(0)
+    tests = int(0)
+    if tlas.num_entries > 0 and ray_is_valid(direction):
+        inv_dir = safe_inverse(direction)
+        stack = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
+        stack_t = wp.zeros(shape=MAX_DEPTH, dtype=float)
+        top = int(0)
+        node = int(-1)
+        if reachable(intersect_ray_box(origin, inv_dir, tlas.lowers[0], tlas.uppers[0], t_min, best_t), best_t):
+            node = 0
+        while node >= 0:
+            nodes += 1
+            count = tlas.prim_count[node]
+            first = tlas.left_first[node]
+            if count > 0:
+                # Leaf: trace each entry's BLAS with the ray moved into its space, up to the best hit so far.
+                for s in range(first, first + count):
+                    instance = tlas.entry_instance[s]
+                    b = tlas.entry_blas[s]
+                    if b >= 0:
+                        o, d = entry_ray(tlas, instance, origin, direction)
+                        t, u, v, prim, n, k = bvh_intersect(tlas.blases[b], o, d, t_min, best_t)
+                        nodes += n
+                        tests += k
+                        if prim >= 0 and t < best_t:
+                            best_t = t
+                            best_u = u
+                            best_v = v
+                            best_prim = tlas.blas_first[b] + prim
+                            best_instance = instance
+                    else:
+                        # An analytic shape, intersected in its canonical space.
+                        e = -1 - b
+                        m = tlas.shape_xforms[e]
+                        row = tlas.shape_rows[e]
+                        j = row - tlas.num_triangles
+                        o = transform_point(m, origin)
+                        d = transform_vector(m, direction)
+                        kind = tlas.shape_kinds[j]
+                        params = tlas.shape_params[j]
+                        t = intersect_shape(kind, params, o, d, t_min, best_t)
+                        tests += 1
+                        if t < best_t:
+                            best_t = t
+                            best_u, best_v = shape_uv(kind, params, o + t * d)
+                            best_prim = row
+                            best_instance = instance
+                node = -1
+            else:
+                # Inner node: go to the nearer child that the ray enters, push the other one.
+                left = first
+                right = first + 1
+                t_left = intersect_ray_box(origin, inv_dir, tlas.lowers[left], tlas.uppers[left], t_min, best_t)
+                t_right = intersect_ray_box(origin, inv_dir, tlas.lowers[right], tlas.uppers[right], t_min, best_t)
+                if t_right < t_left:
+                    tmp = left
+                    left = right
+                    right = tmp
+                    tmp_t = t_left
+                    t_left = t_right
+                    t_right = tmp_t
+                node = -1
+                if reachable(t_left, best_t):
+                    node = left
+                    if reachable(t_right, best_t):
+                        stack[top] = right
+                        stack_t[top] = t_right
+                        top += 1
+            # Pop the next node that may still hold a hit no farther than the best one.
+            while node < 0 and top > 0:
+                top -= 1
+                if stack_t[top] <= best_t:
+                    node = stack[top]
+    if best_prim < 0:
+        best_t = wp.inf
+        best_instance = -1
+    return best_t, best_u, best_v, best_prim, best_instance, nodes, tests
+
+
+@wp.func
+def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+    """Any hit with ``t_min <= t < t_max`` in any instance or the world-space geometry."""
+    found = bool(False)
+    if tlas.num_entries > 0 and ray_is_valid(direction):
+        inv_dir = safe_inverse(direction)
+        stack = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
+        top = int(0)
+        node = int(-1)
+        if intersect_ray_box(origin, inv_dir, tlas.lowers[0], tlas.uppers[0], t_min, t_max) < wp.inf:
+            node = 0
+        while node >= 0 and not found:
+            count = tlas.prim_count[node]
+            first = tlas.left_first[node]
+            if count > 0:
+                for s in range(first, first + count):
+                    b = tlas.entry_blas[s]
+                    if not found and b >= 0:
+                        o, d = entry_ray(tlas, tlas.entry_instance[s], origin, direction)
+                        if bvh_occluded(tlas.blases[b], o, d, t_min, t_max):
+                            found = True
+                    elif not found:
+                        e = -1 - b
+                        m = tlas.shape_xforms[e]
+                        j = tlas.shape_rows[e] - tlas.num_triangles
+                        o = transform_point(m, origin)
+                        d = transform_vector(m, direction)
+                        if intersect_shape(tlas.shape_kinds[j], tlas.shape_params[j], o, d, t_min, t_max) < wp.inf:
+                            found = True
+                node = -1
+            else:
+                left = first
+                right = first + 1
+                t_left = intersect_ray_box(origin, inv_dir, tlas.lowers[left], tlas.uppers[left], t_min, t_max)
+                t_right = intersect_ray_box(origin, inv_dir, tlas.lowers[right], tlas.uppers[right], t_min, t_max)
+                if t_right < t_left:
+                    tmp = left
+                    left = right
+                    right = tmp
+                    tmp_t = t_left
+                    t_left = t_right
+                    t_right = tmp_t
+                node = -1
+                if t_left < wp.inf:
+                    node = left
+                    if t_right < wp.inf:
+                        stack[top] = right
+                        top += 1
+            if node < 0 and top > 0:
+                top -= 1
+                node = stack[top]
+    return found
+
+
+@wp.kernel
+def trace_tlas_kernel(
+    tlas: DeviceTlas,
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    # outputs
+    ts: wp.array[float],
+    us: wp.array[float],
+    vs: wp.array[float],
+    prims: wp.array[wp.int32],
+    costs: wp.array[wp.vec2i],
+    instances: wp.array[wp.int32],
+):
+    """Closest hit of every ray through the TLAS; ``prims`` are geometry ids, ``instances`` -1 for world geometry."""
+    i = wp.tid()
+    t, u, v, prim, instance, nodes, tests = tlas_intersect(tlas, origins[i], directions[i], t_mins[i], t_maxs[i])
+    ts[i] = t
+    us[i] = u
+    vs[i] = v
+    prims[i] = prim
+    costs[i] = wp.vec2i(nodes, tests)
+    instances[i] = instance
+
+
+@wp.kernel
+def occluded_tlas_kernel(
+    tlas: DeviceTlas,
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    # outputs
+    blocked: wp.array[wp.int32],
+):
+    """1 for every ray that hits anything in ``[t_min, t_max)``."""
+    i = wp.tid()
+    blocked[i] = wp.where(tlas_occluded(tlas, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+
+
+class InstancedAccelerator(Accelerator):
+    """wrt's two-level BVH: one BLAS per prototype and one for the world-space meshes, under a TLAS.
+
+    Args:
+        scene: the scene; its instances, prototypes and non-instanced meshes.
+        builder: builder name, used for every BLAS and the TLAS.
+        device: Warp device.
+        **build_options: passed to every BLAS build (``leaf_size`` etc.).
+
+    Attributes:
+        blas: host :class:`wrt.bvh.FlatBvh` of each BLAS (the world-space one first when there is one).
+        tlas: host :class:`wrt.bvh.FlatBvh` over the entries (also ``bvh``, the world-space tree previews draw).
+        skipped_instances: indices of instances left out because their transform cannot be inverted.
+        build_seconds: total build time of every BLAS and the TLAS.
+    """
+
+    name = "wrt"
+
+    def __init__(self, scene: Scene, builder: str, device, **build_options):
+        self.device = device
+        points, indices = scene.geometry()
+        ranges = scene.prototype_ranges()
+        self.blas, device_blas, blas_first = [], [], []
+        self._arrays = []  # every device array, for device_bytes()
+
+        # Vertex range of the world-space meshes and of each prototype (geometry() concatenates them in order).
+        vertex_counts = [sum(len(m.points) for m in scene.meshes)]
+        vertex_counts += [sum(len(m.points) for m in p.meshes) for p in scene.prototypes]
+        vertex_first = np.cumsum([0] + vertex_counts)
+
+        def add_blas(first: int, count: int, part: int) -> int:
+            v0, v1 = int(vertex_first[part]), int(vertex_first[part + 1])
+            sub_points = np.ascontiguousarray(points[v0:v1])
+            sub = np.ascontiguousarray(indices[first : first + count] - v0)
+            bvh = build_bvh(sub_points, sub, builder, device=device, **build_options)
+            d = bvh.to_device(sub_points, sub, device)
+            self.blas.append(bvh)
+            device_blas.append(d)
+            blas_first.append(first)
+            self._arrays += [d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2]
+            return len(self.blas) - 1
+
+        # Entries: the world-space meshes (no transform), then every instance of a non-empty prototype.
+        entry_blas, entry_instance, lowers, uppers = [], [], [], []
+        n_flat = scene.num_flat_triangles
+        if n_flat:
+            b = add_blas(0, n_flat, 0)
+            entry_blas.append(np.array([b]))
+            entry_instance.append(np.array([-1]))
+            lowers.append(self.blas[b].lowers[:1].astype(np.float64))
+            uppers.append(self.blas[b].uppers[:1].astype(np.float64))
+        instances = scene.instances
+        _, invertible = invert_transforms(instances.to_world)
+        self.skipped_instances = np.flatnonzero(~invertible)
+        for p, (first, count) in enumerate(ranges):
+            mine = np.flatnonzero((instances.prototype == p) & invertible)
+            if count == 0 or len(mine) == 0:
+                continue
+            b = add_blas(int(first), int(count), p + 1)
+            lo, hi = world_boxes(self.blas[b].lowers[0].astype(np.float64), self.blas[b].uppers[0].astype(np.float64),
+                                 instances.to_world[mine])
+            entry_blas.append(np.full(len(mine), b))
+            entry_instance.append(mine)
+            lowers.append(lo)
+            uppers.append(hi)
+        # Shape entries: the non-instanced shapes, then every instance of a prototype with shapes, per shape.
+        shape_to_world, shape_rows = [], []
+        n_tri = scene.num_geometry_triangles
+        for k, shape in enumerate(scene.shapes):
+            shape_to_world.append(shape.to_world[None])
+            shape_rows.append(np.array([n_tri + k]))
+            entry_instance.append(np.array([-1]))
+        for p, (first, count) in enumerate(scene.prototype_shape_ranges()):
+            mine = np.flatnonzero((instances.prototype == p) & invertible)
+            for k, shape in enumerate(scene.prototypes[p].shapes if count else []):
+                shape_to_world.append(instances.to_world[mine] @ shape.to_world)
+                shape_rows.append(np.full(len(mine), first + k))
+                entry_instance.append(mine)
+        shape_to_world = np.concatenate(shape_to_world or [np.zeros((0, 4, 4))])
+        shape_rows = np.concatenate(shape_rows or [np.zeros(0)]).astype(np.int32)
+        shape_to_local, shape_ok = invert_transforms(shape_to_world)
+        shapes = scene._geometry_shapes()
+        for k, row in enumerate(shape_rows):
+            lo, hi = world_boxes(*shapes[row - n_tri].local_bounds(), shape_to_world[k : k + 1])
+            lowers.append(lo if shape_ok[k] else np.full((1, 3), np.inf))  # a degenerate shape: a box no ray enters
+            uppers.append(hi if shape_ok[k] else np.full((1, 3), -np.inf))
+        entry_blas.append(-1 - np.arange(len(shape_rows)))
+        entry_blas = np.concatenate(entry_blas or [np.zeros(0)]).astype(np.int32)
+        entry_instance = np.concatenate(entry_instance or [np.zeros(0)]).astype(np.int32)
+        lowers = np.concatenate(lowers or [np.zeros((0, 3))]).astype(np.float32)
+        uppers = np.concatenate(uppers or [np.zeros((0, 3))]).astype(np.float32)
+        keep = np.all(lowers <= uppers, axis=1)  # leave out degenerate shapes
+        entry_blas, entry_instance, lowers, uppers = entry_blas[keep], entry_instance[keep], lowers[keep], uppers[keep]
+        # Round the boxes outwards so float32 storage never shrinks them.
+        lowers = np.nextafter(lowers, np.float32(-np.inf))
+        uppers = np.nextafter(uppers, np.float32(np.inf))
+        self.num_entries = len(entry_blas)
+
+        # TLAS over the entry boxes, each as a degenerate triangle (lower, upper, lower).
+        box_points = np.ascontiguousarray(np.stack([lowers, uppers], axis=1).reshape(-1, 3))
+        e = np.arange(self.num_entries, dtype=np.int32)
+        box_tris = np.ascontiguousarray(np.stack([2 * e, 2 * e + 1, 2 * e], axis=1))
+        self.tlas = build_bvh(box_points, box_tris, builder, device=device, leaf_size=TLAS_LEAF_SIZE,
+                              intersection_cost=TLAS_INTERSECTION_COST)
+        self.bvh = self.tlas  # the world-space tree, as BvhAccelerator.bvh (previews draw its boxes)
+        slots = self.tlas.prim_ids  # slot -> entry: store the entries in slot order
+
+        t = DeviceTlas()
+        t.lowers = wp.array(self.tlas.lowers, dtype=wp.vec3, device=device)
+        t.uppers = wp.array(self.tlas.uppers, dtype=wp.vec3, device=device)
+        t.left_first = wp.array(self.tlas.left_first, dtype=wp.int32, device=device)
+        t.prim_count = wp.array(self.tlas.prim_count, dtype=wp.int32, device=device)
+        t.entry_blas = wp.array(_non_empty(entry_blas[slots]), dtype=wp.int32, device=device)
+        t.entry_instance = wp.array(_non_empty(entry_instance[slots]), dtype=wp.int32, device=device)
+        t.world_to_local = scene.world_to_local(device)
+        if not device_blas:  # keep the array non-empty: an empty BLAS no ray enters
+            empty = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), builder, device=device)
+            device_blas.append(empty.to_device(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device))
+            blas_first.append(0)
+        t.blases = wp.array(device_blas, dtype=DeviceBvh, device=device)
+        t.blas_first = wp.array(np.asarray(blas_first, np.int32), dtype=wp.int32, device=device)
+        t.shape_xforms = wp.array(_non_empty(shape_to_local.astype(np.float32)), dtype=mat34, device=device)
+        t.shape_rows = wp.array(_non_empty(shape_rows), dtype=wp.int32, device=device)
+        t.shape_kinds, t.shape_params, _ = scene.shape_arrays(device)
+        t.num_triangles = n_tri
+        t.num_entries = self.num_entries
+        self.device_tlas = t
+        self._arrays += [t.lowers, t.uppers, t.left_first, t.prim_count, t.entry_blas, t.entry_instance]
+        self._arrays += [t.world_to_local, t.blases, t.blas_first, t.shape_xforms, t.shape_rows]
+        self.build_seconds = sum(b.build_seconds for b in self.blas) + self.tlas.build_seconds
+
+    def device_bytes(self) -> dict:
+        """Device memory of the structure, in bytes: ``blas`` (nodes and triangles of every BLAS), ``tlas`` (TLAS
+        nodes and per-entry data, instance transforms included) and ``total``."""
+        sizes = [a.capacity for a in self._arrays]
+        n_blas = 8 * len(self.blas)
+        blas = sum(sizes[:n_blas])
+        tlas = sum(sizes[n_blas:])
+        return {"blas": int(blas), "tlas": int(tlas), "total": int(blas + tlas)}
+
+    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
+        wp.launch(
+            trace_tlas_kernel,
+            len(origins),
+            inputs=[self.device_tlas, origins, directions, t_mins, t_maxs],
+            outputs=[*hits.outputs, hits.instance],
+            device=self.device,
+        )
+
+    def _occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
+        wp.launch(
+            occluded_tlas_kernel,
+            len(origins),
+            inputs=[self.device_tlas, origins, directions, t_mins, t_maxs],
+            outputs=[blocked],
+            device=self.device,
+        )
+
+
+def _non_empty(a: np.ndarray) -> np.ndarray:
+    """``a``, or one zero when it is empty (kernels need something to bind)."""
+    return a if len(a) else np.zeros((1,) + a.shape[1:], a.dtype)
+
+
+__all__ = ["DeviceTlas", "InstancedAccelerator", "tlas_intersect", "tlas_occluded"]
