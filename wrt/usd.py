@@ -125,6 +125,10 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
         time_code = Usd.TimeCode(time)
 
     stage = _open_stage(source)
+    if stage.GetTimeCodesPerSecond() <= 0:
+        # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
+        warnings.warn(f"{os.path.basename(source)}: timeCodesPerSecond = {stage.GetTimeCodesPerSecond():g} is invalid; "
+                      "time samples are read only at their authored time codes")
     if not time_code.IsDefault():
         _check_time_in_range(stage, source, time_code.GetValue())
     segments = 0
