@@ -24,7 +24,6 @@ sys.path.insert(0, str(ROOT / "scenes"))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import forest  # noqa: E402
-
 from test_instancing import check_agreement  # noqa: E402
 
 

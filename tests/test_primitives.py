@@ -15,7 +15,7 @@ import warp as wp
 wp.config.quiet = True
 
 pxr = pytest.importorskip("pxr")
-from pxr import Gf, Usd, UsdGeom  # noqa: E402
+from pxr import Usd, UsdGeom  # noqa: E402
 
 import wrt  # noqa: E402
 from wrt.compare import compare_hits  # noqa: E402
@@ -255,10 +255,13 @@ def test_gprim_scenes_render_analytically_like_their_tessellations(assets, asset
         assert analytic.stats()["rendered_shapes"] == 1000 and len(np.unique(a.aovs["instance"][hit_a])) > 50
 
 
-def test_cube_gprims_agree_with_their_exact_tessellation(assets):
-    """Boxes tessellate exactly: analytic cubes under nested transforms hit where their triangles do."""
-    analytic = load(assets("xform_nested_scopes"))
-    tessellated = load(assets("xform_nested_scopes"), tessellate_gprims=True)
+@pytest.mark.parametrize("asset_id", ["xform_nested_scopes", "xform_weird_matrix", "xform_complex"])
+def test_cube_gprims_agree_with_their_exact_tessellation(assets, asset_id):
+    """Boxes tessellate exactly: analytic cubes under nested, sheared (weird matrix) and pivoted transforms hit where
+    their triangles do, ray by ray."""
+    analytic = load(assets(asset_id))
+    tessellated = load(assets(asset_id), tessellate_gprims=True)
+    assert analytic.stats()["rendered_shapes"] > 0
     o1, d1 = camera_rays(analytic, wrt.camera.frame_scene(*analytic.bounds(), "Y"), 200, 150)
     o2, d2 = random_rays(analytic, 20_000, seed=2)
     origins, directions = np.concatenate([o1, o2]), np.concatenate([d1, d2])
@@ -266,5 +269,5 @@ def test_cube_gprims_agree_with_their_exact_tessellation(assets):
     theirs = wrt.trace(tessellated, origins, directions, accel="warp")
     scale = float(np.abs(tessellated.triangles()[0]).max())
     report = compare_hits(ours, theirs, directions=directions, scale=scale)
-    assert report["hits_a"] > 1000 and report["disagreements"] == 0, report
+    assert report["hits_a"] > 300 and report["disagreements"] == 0, report
     assert report["tie_disagreements"] <= 1e-4 * report["rays"], report

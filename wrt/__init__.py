@@ -7,9 +7,11 @@ from .bvh import FlatBvh, build_bvh
 from .camera import Camera
 from .errors import SceneError
 from .image import Image
+from .instancing import Instances, Prototype
 from .lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
 from .materials import Material, TextureInput
 from .preview import preview, to_pyvista  # pyvista itself is imported only when these are called
+from .primitives import Shape
 from .render import Renderer, render
 from .scene import DistantLight, Mesh, Scene
 from .trace import Hits, occluded, trace
@@ -24,12 +26,15 @@ __all__ = [
     "FlatBvh",
     "Hits",
     "Image",
+    "Instances",
     "Material",
     "Mesh",
+    "Prototype",
     "RectLight",
     "Renderer",
     "Scene",
     "SceneError",
+    "Shape",
     "SphereLight",
     "TextureInput",
     "build_bvh",

@@ -22,9 +22,9 @@ import warp as wp
 from .camera import DeviceCamera, camera_ray
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface
+from .primitives import shape_surface
 from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
-from .primitives import shape_surface
 from .transforms import inverse_transform_point, normal_to_world, transform_point, transform_vector
 
 BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights

@@ -32,14 +32,14 @@ import numpy as np
 import warp as wp
 
 from .bvh import DeviceBvh, build_bvh
-from .bvh.traverse import bvh_intersect, bvh_occluded, reachable
 from .bvh.common import MAX_DEPTH
+from .bvh.traverse import bvh_intersect, bvh_occluded, reachable
 from .geometry import intersect_ray_box, ray_is_valid, safe_inverse
 from .instancing import invert_transforms, world_boxes
 from .primitives import intersect_shape, shape_uv
 from .scene import Scene
-from .transforms import mat34, transform_point, transform_vector
 from .trace import Accelerator, HitBuffer
+from .transforms import mat34, transform_point, transform_vector
 
 TLAS_LEAF_SIZE = 2  # most entries per TLAS leaf (each costs a BLAS traversal, so leaves stay small)
 TLAS_INTERSECTION_COST = 4.0  # SAH cost of entering an entry relative to visiting a TLAS node

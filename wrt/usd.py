@@ -47,9 +47,9 @@ from pxr import Gf, Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
+from .instancing import Instances, Prototype, invert_transforms
 from .lights import read_light
 from .materials import MaterialReader
-from .instancing import Instances, Prototype, invert_transforms
 from .primitives import DEFAULT_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import Mesh, Scene
 
