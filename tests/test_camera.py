@@ -103,3 +103,18 @@ def test_bad_camera_values_raise():
         wrt.Camera(projection="fisheye")
     with pytest.raises(ValueError, match="clipping"):
         wrt.Camera(clipping_range=(5.0, 1.0))
+
+
+def test_camera_animated_only_by_time_samples_uses_its_first_sample(tmp_path):
+    stage = Usd.Stage.CreateNew(str(tmp_path / "anim_cam.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(10)
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    op = cam.AddTranslateOp()
+    op.Set(Gf.Vec3d(0.0, 2.0, 10.0), 1)  # no default value: only samples
+    op.Set(Gf.Vec3d(5.0, 2.0, 10.0), 10)
+    stage.Save()
+    default = wrt.load_usd(tmp_path / "anim_cam.usda").cameras["/Cam"]
+    np.testing.assert_allclose(default.eye, [0.0, 2.0, 10.0])  # the first frame, not the origin
+    later = wrt.load_usd(tmp_path / "anim_cam.usda", time=10).cameras["/Cam"]
+    np.testing.assert_allclose(later.eye, [5.0, 2.0, 10.0])

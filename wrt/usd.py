@@ -31,8 +31,10 @@ root down (the scope holding the prototypes is often made invisible so they are 
 bound above a native instance applies to the prototype's meshes that bind none themselves.
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute that has no default value but has
-time samples is read at its earliest sample instead, so meshes animated from frame 1 still load. Transforms
-are read through ``UsdGeom.XformCache`` at the requested time code and get no such fallback.
+time samples is read at its earliest sample instead, so meshes animated from frame 1 still load. Transforms and
+cameras get the same fallback: with ``time=None`` they are read at ``Usd.TimeCode.EarliestTime()``, which gives an
+attribute's default value when it has no samples and its first sample otherwise, so a camera animated only through
+time samples is where its first frame puts it rather than at the origin.
 """
 
 from __future__ import annotations
@@ -227,7 +229,9 @@ class _StageReader:
         self.source = source
         self.time = time
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
-        self.xforms = UsdGeom.XformCache(time)
+        # Sample-only transforms have no value at the default time; read them at their first sample (see above).
+        self.xform_time = Usd.TimeCode.EarliestTime() if time.IsDefault() else time
+        self.xforms = UsdGeom.XformCache(self.xform_time)
         self.contents = {}  # (kind, root path, outer material) -> _Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
@@ -814,7 +818,7 @@ class _StageReader:
     # Cameras and lights
 
     def _read_camera(self, prim: Usd.Prim) -> Camera:
-        cam = UsdGeom.Camera(prim).GetCamera(self.time)
+        cam = UsdGeom.Camera(prim).GetCamera(self.xform_time)
         clip = cam.clippingRange
         try:
             return Camera(
