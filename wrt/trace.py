@@ -196,11 +196,20 @@ class HitBuffer:
 
 
 def resolve_threads(threads, device) -> int:
-    """Worker threads for a launch: 1 on GPUs; all cores for ``None`` on the CPU."""
+    """Worker threads for a launch: 1 on GPUs; on the CPU ``threads``, or for ``None`` the ``WRT_THREADS``
+    environment variable (a number or ``all``), else 1.
+
+    Splitting is opt-in: in one long test session a split launch once stopped progressing inside Warp's CPU launch
+    (under investigation), so nothing runs concurrent launches unless asked to.
+    """
     if not device.is_cpu:
         return 1
     if threads is None:
+        threads = os.environ.get("WRT_THREADS", "1")
+    if threads == "all":
         return max(os.cpu_count() or 1, 1)
+    if isinstance(threads, str) and threads.isdigit():
+        threads = int(threads)
     if not isinstance(threads, (int, np.integer)) or threads < 1:
         raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
     return int(threads)
@@ -495,7 +504,7 @@ def trace(
         accel: ``"wrt"`` (own BVH) or ``"warp"`` (``wp.Mesh`` + ``wp.mesh_query_ray``).
         builder: BVH builder name; for ``accel="warp"`` one of Warp's constructors.
         device: Warp device to trace on.
-        threads: CPU worker threads (``None``: all cores); ignored on GPUs.
+        threads: CPU worker threads (``None``: ``$WRT_THREADS`` or 1; ``"all"``: every core); ignored on GPUs.
         layout: node layout of wrt's BVH: ``binary``, ``compact``, ``wide`` (BVH4) or ``wide8``; same hits.
 
     Returns:
