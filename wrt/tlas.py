@@ -33,7 +33,7 @@ import warp as wp
 
 from .bvh import DeviceBvh, build_bvh
 from .bvh.common import MAX_DEPTH
-from .bvh.traverse import bvh_intersect, bvh_occluded, reachable
+from .bvh.traverse import bvh_intersect, bvh_occluded, order_children, reachable
 from .geometry import intersect_ray_box, ray_is_valid, safe_inverse
 from .instancing import invert_transforms, world_boxes
 from .primitives import intersect_shape, shape_uv
@@ -141,17 +141,9 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                 node = -1
             else:
                 # Inner node: go to the nearer child that the ray enters, push the other one.
-                left = first
-                right = first + 1
-                t_left = intersect_ray_box(origin, inv_dir, tlas.lowers[left], tlas.uppers[left], t_min, best_t)
-                t_right = intersect_ray_box(origin, inv_dir, tlas.lowers[right], tlas.uppers[right], t_min, best_t)
-                if t_right < t_left:
-                    tmp = left
-                    left = right
-                    right = tmp
-                    tmp_t = t_left
-                    t_left = t_right
-                    t_right = tmp_t
+                left, right, t_left, t_right = order_children(
+                    tlas.lowers, tlas.uppers, first, origin, inv_dir, t_min, best_t
+                )
                 node = -1
                 if reachable(t_left, best_t):
                     node = left
@@ -201,17 +193,9 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
                             found = True
                 node = -1
             else:
-                left = first
-                right = first + 1
-                t_left = intersect_ray_box(origin, inv_dir, tlas.lowers[left], tlas.uppers[left], t_min, t_max)
-                t_right = intersect_ray_box(origin, inv_dir, tlas.lowers[right], tlas.uppers[right], t_min, t_max)
-                if t_right < t_left:
-                    tmp = left
-                    left = right
-                    right = tmp
-                    tmp_t = t_left
-                    t_left = t_right
-                    t_right = tmp_t
+                left, right, t_left, t_right = order_children(
+                    tlas.lowers, tlas.uppers, first, origin, inv_dir, t_min, t_max
+                )
                 node = -1
                 if t_left < wp.inf:
                     node = left

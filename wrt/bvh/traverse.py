@@ -17,6 +17,34 @@ from .layout import DeviceBvh
 
 
 @wp.func
+def order_children(
+    lowers: wp.array[wp.vec3],
+    uppers: wp.array[wp.vec3],
+    first: int,
+    origin: wp.vec3,
+    inv_dir: wp.vec3,
+    t_min: float,
+    t_max: float,
+):
+    """The children ``first`` and ``first + 1`` of a binary node, nearer entry first.
+
+    Returns:
+        ``(near, far, t_near, t_far)``; an entry distance is ``inf`` when the ray misses that child's box.
+    """
+    near = first
+    far = first + 1
+    t_near = intersect_ray_box(origin, inv_dir, lowers[near], uppers[near], t_min, t_max)
+    t_far = intersect_ray_box(origin, inv_dir, lowers[far], uppers[far], t_min, t_max)
+    if t_far < t_near:
+        near = first + 1
+        far = first
+        tmp = t_near
+        t_near = t_far
+        t_far = tmp
+    return near, far, t_near, t_far
+
+
+@wp.func
 def reachable(t_entry: float, best_t: float):
     """A box entered at ``t_entry`` (``inf`` = missed) may hold a hit that wins against ``best_t``."""
     return t_entry < wp.inf and t_entry <= best_t
@@ -62,17 +90,9 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
                 node = -1
             else:
                 # Inner node: go to the nearer child that the ray enters, push the other one.
-                left = first
-                right = first + 1
-                t_left = intersect_ray_box(origin, inv_dir, bvh.lowers[left], bvh.uppers[left], t_min, best_t)
-                t_right = intersect_ray_box(origin, inv_dir, bvh.lowers[right], bvh.uppers[right], t_min, best_t)
-                if t_right < t_left:
-                    tmp = left
-                    left = right
-                    right = tmp
-                    tmp_t = t_left
-                    t_left = t_right
-                    t_right = tmp_t
+                left, right, t_left, t_right = order_children(
+                    bvh.lowers, bvh.uppers, first, origin, inv_dir, t_min, best_t
+                )
                 node = -1
                 if reachable(t_left, best_t):
                     node = left
@@ -115,17 +135,9 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
                         found = True
                 node = -1
             else:
-                left = first
-                right = first + 1
-                t_left = intersect_ray_box(origin, inv_dir, bvh.lowers[left], bvh.uppers[left], t_min, t_max)
-                t_right = intersect_ray_box(origin, inv_dir, bvh.lowers[right], bvh.uppers[right], t_min, t_max)
-                if t_right < t_left:
-                    tmp = left
-                    left = right
-                    right = tmp
-                    tmp_t = t_left
-                    t_left = t_right
-                    t_right = tmp_t
+                left, right, t_left, t_right = order_children(
+                    bvh.lowers, bvh.uppers, first, origin, inv_dir, t_min, t_max
+                )
                 node = -1
                 if t_left < wp.inf:
                     node = left
