@@ -79,9 +79,17 @@ def test_tiny_forest_agrees_with_wp_mesh(tmp_path):
     check_agreement(scene, np.concatenate([o1, o2]), np.concatenate([d1, d2]))
 
 
-def test_gpu_benchmark_script_runs_small_on_the_cpu(capsys):
-    import forest_gpu
+def test_gpu_benchmark_script_runs_small_on_the_cpu():
+    # A fresh process, with a time limit: inside a long test session this render once stalled in the TLAS any-hit
+    # kernel (cause not found yet, see benchmarks/GPU_NOTES.md); a stall must fail the test, not block the suite.
+    import subprocess
+    import sys
+    from pathlib import Path
 
-    assert forest_gpu.main(["--small", "--frames", "1"]) == 0
-    out = capsys.readouterr().out
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "forest_gpu.py"
+    result = subprocess.run(
+        [sys.executable, str(script), "--small", "--frames", "1"], capture_output=True, text=True, timeout=600
+    )
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
     assert "| rendered triangles | 1,000,002 |" in out and "| frame ms (median; min) |" in out
