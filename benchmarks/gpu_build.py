@@ -1,20 +1,28 @@
-"""GPU build speed of wrt's ``lbvh`` and ``ploc`` against ``wp.Mesh(bvh_constructor="lbvh")`` on a procedurally
-generated 10M-triangle mesh, and the SAH cost of the trees against ``binned_sah``. Self-contained: it makes its own
-mesh, prints markdown tables and PASS/MISS lines for the issue's GPU targets, and finishes in a few minutes.
+"""GPU build speed of wrt's ``lbvh`` and ``ploc`` against ``wp.Mesh`` on a 10M-triangle displaced sphere, stage by
+stage, and the SAH cost of ``ploc`` against ``binned_sah`` on a 1M-triangle one. One self-contained run: it makes
+its meshes (``wrt.procedural.displaced_sphere``), prints markdown tables and PASS/MISS lines for the issue's
+targets, and finishes in under 3 minutes on an H200, kernel compilation included.
 
-Timings are wall clock around the build with ``wp.synchronize_device`` before and after, after warm-up builds
-(kernel compilation excluded), ``--repeats`` runs each, alternating between builders; min and median are reported.
-wrt's builds are timed twice: "device" stops with the canonical tree in GPU memory (``build_bvh_device``), which
-is what ``wp.Mesh`` does; "to host" adds the copy of the tree to numpy (``build_bvh``).
+Every time is a ``wp.ScopedTimer(synchronize=True)``, median of ``--repeats`` runs after one warm-up run (kernels
+compiled on a small mesh first), the builders taking turns:
 
-``binned_sah`` is built on ``--binned-device`` (the host CPU by default): its per-node threads make the first levels
-of a 10M-triangle build serial, which suits a CPU better than one GPU thread. The builders are deterministic, so the
-tree is the same on either device up to float contraction.
+- "build": ``build_bvh_device``, the canonical tree left in device memory, as ``wp.Mesh`` leaves its tree;
+- "stages": the same build again with ``timers=`` (a synchronization after every stage, so the stages add up to a
+  little more than the build);
+- "accelerator": ``BvhAccelerator`` of the binary layout, which also uploads the mesh and gathers the triangles in
+  slot order on the device (no host round trip on a GPU);
+- ``wp.Mesh(bvh_constructor="lbvh")`` (CUDA only) and ``"sah"``;
+- once, the accelerator of the ``wide`` layout (``lbvh``, converted from the FlatBvh on the host).
 
-Usage (on a CUDA machine)::
+``binned_sah`` for the SAH-cost comparison is built on ``--binned-device`` (the host CPU by default: its first
+levels are serial, which suits a CPU better than one GPU thread); the builders are deterministic, so the tree is the
+same on either device up to float contraction. The GPU-built ``lbvh``/``ploc`` trees of that mesh are checked with
+``FlatBvh.validate()`` and compared with the CPU builds.
 
-    python benchmarks/gpu_build.py                      # 10M triangles on cuda:0
-    python benchmarks/gpu_build.py --triangles 2000000 --repeats 3
+Usage::
+
+    python benchmarks/gpu_build.py                          # 10M + 1M triangles on cuda:0
+    python benchmarks/gpu_build.py --small --device cpu     # 100k + 20k triangles, a dry run anywhere
 """
 
 from __future__ import annotations
@@ -28,132 +36,135 @@ import numpy as np
 import warp as wp
 
 from wrt.bvh import build_bvh, build_bvh_device
-from wrt.bvh.warp_mesh import read_warp_bvh
+from wrt.procedural import displaced_sphere, displaced_sphere_scene
+from wrt.scene import Scene
+from wrt.trace import BvhAccelerator
 
 SPEED_TARGET = 1.5  # wrt lbvh / ploc build time <= 1.5x wp.Mesh(lbvh)
 QUALITY_TARGET = 1.10  # ploc SAH cost within 10% of binned_sah
+SLOW_BUILD_SECONDS = 10.0  # a build slower than this in warm-up is timed once (wp.Mesh sah builds on the host)
+WIDE = "wrt lbvh accelerator, wide layout"  # converted on the host today: timed once, no target
+FIELDS = ("lowers", "uppers", "left_first", "prim_count", "prim_ids")  # FlatBvh arrays compared across devices
 
 
-def generated_mesh(n_target: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
-    """About ``n_target`` triangles: a bumpy, jittered UV sphere (closed, uneven triangle sizes towards the poles)."""
-    rings = max(int(np.sqrt(n_target / 4)), 2)
-    segments = 2 * rings
-    theta = np.linspace(0, np.pi, rings + 1, dtype=np.float32)
-    phi = np.linspace(0, 2 * np.pi, segments, endpoint=False, dtype=np.float32)
-    t, p = np.meshgrid(theta, phi, indexing="ij")
-    rng = np.random.default_rng(seed)
-    r = 1 + 0.05 * np.sin(7 * t) * np.cos(11 * p) + 0.002 * rng.standard_normal(t.shape, dtype=np.float32)
-    points = np.stack([r * np.sin(t) * np.cos(p), r * np.sin(t) * np.sin(p), r * np.cos(t)], -1).reshape(-1, 3)
-    idx = np.arange((rings + 1) * segments, dtype=np.int32).reshape(rings + 1, segments)
-    a, b = idx[:-1], np.roll(idx[:-1], -1, axis=1)
-    c, d = idx[1:], np.roll(idx[1:], -1, axis=1)
-    tris = np.concatenate([np.stack([a, c, b], -1).reshape(-1, 3), np.stack([b, c, d], -1).reshape(-1, 3)])
-    return points.astype(np.float32), tris.astype(np.int32)
-
-
-def timed(fn, device) -> float:
-    """Seconds ``fn()`` takes, with the device synchronized before and after."""
-    wp.synchronize_device(device)
-    start = time.perf_counter()
-    result = fn()
-    wp.synchronize_device(device)
-    seconds = time.perf_counter() - start
+def timed(name: str, times: dict, fn) -> float:
+    """Runs ``fn`` under a synchronizing ``wp.ScopedTimer``; appends and returns its milliseconds."""
+    with wp.ScopedTimer(name, dict=times, print=False, synchronize=True):
+        result = fn()
     del result
-    return seconds
+    return times[name][-1]
 
 
 def check(label: str, ok: bool, detail: str) -> None:
     print(f"- {'PASS' if ok else 'MISS'}: {label} ({detail})")
 
 
+def median(values) -> float:
+    return statistics.median(values) if values else float("nan")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         description=__doc__.splitlines()[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    parser.add_argument("--triangles", type=int, default=10_000_000, help="approximate mesh size")
-    parser.add_argument("--repeats", type=int, default=5, help="timed runs per builder")
     parser.add_argument("--device", default="cuda:0", help="device of the timed builds")
+    parser.add_argument("--small", action="store_true", help="small meshes (100k timed, 20k for SAH cost)")
+    parser.add_argument("--triangles", type=int, help="size of the timed mesh (default 10M, 100k with --small)")
+    parser.add_argument("--quality-triangles", type=int, help="size of the SAH-cost mesh (default 1M, 20k)")
+    parser.add_argument("--repeats", type=int, default=5, help="timed runs per build (median reported)")
     parser.add_argument("--binned-device", default="cpu", help="device of the binned_sah reference build")
-    parser.add_argument("--skip-quality", action="store_true", help="only time the builds")
     args = parser.parse_args(argv)
+    n_timed = args.triangles or (100_000 if args.small else 10_000_000)
+    n_quality = args.quality_triangles or (20_000 if args.small else 1_000_000)
     wp.config.quiet = True
     wp.init()
     device = wp.get_device(args.device)
     total_start = time.perf_counter()
 
-    points, indices = generated_mesh(args.triangles)
-    n = len(indices)
-    print(f"## wrt GPU BVH builds: {n} triangles on {device.alias} ({device.name}), warp-lang {wp.config.version}\n")
+    points, indices = displaced_sphere(n_timed)
+    print(f"## wrt BVH builds: {len(indices):,} triangles on {device.alias} ({device.name}), warp {wp.config.version}")
+    scene = Scene.from_triangles(points, indices)
     pts = wp.array(points, dtype=wp.vec3, device=device)
-    idx_flat = wp.array(indices.reshape(-1), dtype=wp.int32, device=device)
-    idx = idx_flat.reshape((-1, 3))
-    warp_constructor = "lbvh" if device.is_cuda else "sah"  # wp.Mesh has no CPU lbvh
+    idx = wp.array(indices, dtype=wp.int32, device=device)
+    idx_flat = idx.reshape((-1,))
+    mesh_builders = ["lbvh", "sah"] if device.is_cuda else ["sah"]  # wp.Mesh has no CPU lbvh
+    reference = f"wp.Mesh {mesh_builders[0]}"
 
-    builds = {
-        f"wp.Mesh {warp_constructor}": lambda: wp.Mesh(pts, idx_flat, bvh_constructor=warp_constructor),
-        "wrt lbvh 30-bit (device)": lambda: build_bvh_device(pts, idx, "lbvh", device=device),
-        "wrt lbvh 63-bit (device)": lambda: build_bvh_device(pts, idx, "lbvh", morton_bits=63, device=device),
-        "wrt ploc (device)": lambda: build_bvh_device(pts, idx, "ploc", device=device),
-    }
-    # Warm up: compile every kernel on a small mesh, then one full-size run each (allocator, caches).
-    small = generated_mesh(10_000)
-    for builder in ("lbvh", "ploc"):
-        build_bvh_device(small[0], small[1], builder, device=device)
-        build_bvh_device(small[0], small[1], builder, morton_bits=63, device=device)
-    for fn in builds.values():
-        timed(fn, device)
-    print(f"warm-up done after {time.perf_counter() - total_start:.1f} s\n", flush=True)
+    builds = {f"wp.Mesh {b}": (lambda b=b: wp.Mesh(pts, idx_flat, bvh_constructor=b)) for b in mesh_builders}
+    for b in ("lbvh", "ploc"):
+        builds[f"wrt {b} build"] = lambda b=b: build_bvh_device(pts, idx, b, device=device)
+        builds[f"wrt {b} accelerator"] = lambda b=b: BvhAccelerator(scene, b, device)
 
-    times = {name: [] for name in builds}
-    for _ in range(args.repeats):
+    # Compile every kernel on a small mesh, then one full-size run of each build (allocator pools, caches).
+    small = displaced_sphere(2_000)
+    small_scene = displaced_sphere_scene(2_000)
+    for b in ("lbvh", "ploc"):
+        build_bvh_device(*small, b, device=device)
+        BvhAccelerator(small_scene, b, device)
+    BvhAccelerator(small_scene, "lbvh", device, layout="wide")
+    times, once = {}, set()
+    for name, fn in builds.items():
+        if timed(name, times, fn) > 1e3 * SLOW_BUILD_SECONDS:
+            once.add(name)
+        times[name].clear()  # warm-up
+    print(f"\ncompiled and warmed up after {time.perf_counter() - total_start:.1f} s\n", flush=True)
+
+    stages = {b: {} for b in ("lbvh", "ploc")}
+    for r in range(args.repeats):
         for name, fn in builds.items():
-            times[name].append(timed(fn, device))
-    for builder in ("lbvh", "ploc"):
-        times[f"wrt {builder} (to host)"] = [timed(lambda b=builder: build_bvh(pts, idx, b, device=device), device)]
-    reference = min(times[f"wp.Mesh {warp_constructor}"])
-    print(f"### Build time, {args.repeats} runs each (to-host rows: 1 run)\n")
-    print(f"| build | min ms | median ms | min / wp.Mesh {warp_constructor} |\n|---|---|---|---|")
+            if name not in once or r == 0:
+                timed(name, times, fn)
+        for b, timers in stages.items():
+            build_bvh_device(pts, idx, b, device=device, timers=timers)
+    timed(WIDE, times, lambda: BvhAccelerator(scene, "lbvh", device, layout="wide"))
+    once.add(WIDE)
+
+    ref_ms = median(times[reference])
+    print(f"### Build time, median of {args.repeats} after a warm-up (ms)\n")
+    print(f"| build | median ms | min ms | / {reference} |\n|---|---|---|---|")
     for name, values in times.items():
-        print(
-            f"| {name} | {1e3 * min(values):.1f} | {1e3 * statistics.median(values):.1f} "
-            f"| {min(values) / reference:.2f}x |"
-        )
-    print()
-    for name in ("wrt lbvh 30-bit (device)", "wrt ploc (device)"):
-        ratio = min(times[name]) / reference
-        check(f"{name} <= {SPEED_TARGET}x wp.Mesh({warp_constructor})", ratio <= SPEED_TARGET, f"{ratio:.2f}x")
+        note = " (1 run)" if name in once else ""
+        print(f"| {name}{note} | {median(values):.1f} | {min(values):.1f} | {median(values) / ref_ms:.2f}x |")
+    print("\n### Stages (ms, median; each stage synchronized)\n")
+    names = list(dict.fromkeys(s for timers in stages.values() for s in timers))
+    print("| stage | lbvh | ploc |\n|---|---|---|")
+    for s in names:
+        print(f"| {s} | " + " | ".join(f"{median(stages[b][s]):.2f}" if s in stages[b] else "-" for b in stages) + " |")
+    sums = [sum(median(v) for v in stages[b].values()) for b in stages]
+    print(f"| sum | {sums[0]:.2f} | {sums[1]:.2f} |\n")
+    for name in ("wrt lbvh build", "wrt ploc build", WIDE):
+        ratio = median(times[name]) / ref_ms
+        check(f"{name} <= {SPEED_TARGET}x {reference}", ratio <= SPEED_TARGET, f"{ratio:.2f}x")
     sys.stdout.flush()
 
-    if not args.skip_quality:
-        print("\n### SAH cost (C_t = C_i = 1; wrt leaf_size 8 with SAH leaf collapse, Warp bvh_leaf_size 4)\n")
-        trees = {
-            "wrt lbvh 30-bit": build_bvh(pts, idx, "lbvh", device=device),
-            "wrt ploc": build_bvh(pts, idx, "ploc", device=device),
-        }
-        start = time.perf_counter()
-        trees[f"wrt binned_sah ({args.binned_device})"] = build_bvh(points, indices, "sah", device=args.binned_device)
-        binned_seconds = time.perf_counter() - start
-        trees[f"wp.Mesh {warp_constructor}"] = read_warp_bvh(
-            wp.Mesh(pts, idx_flat, bvh_constructor=warp_constructor), builder=f"warp:{warp_constructor}"
+    # SAH cost on the smaller mesh; the GPU trees must be valid and should match the CPU builds.
+    q_points, q_indices = displaced_sphere(n_quality)
+    print(f"\n### SAH cost, {len(q_indices):,} triangles (C_t = C_i = 1, leaf_size 8 with SAH leaf collapse)\n")
+    trees = {f"wrt {b}": build_bvh(q_points, q_indices, b, device=device) for b in ("lbvh", "ploc")}
+    start = time.perf_counter()
+    trees["wrt binned_sah"] = build_bvh(q_points, q_indices, "sah", device=args.binned_device)
+    binned_seconds = time.perf_counter() - start
+    print("| tree | SAH cost | / binned_sah | nodes | leaves | max depth | same tree as a CPU build |")
+    print("|---|---|---|---|---|---|---|")
+    binned_cost = trees["wrt binned_sah"].stats(epo_samples=0)["sah_cost"]
+    costs = {}
+    for name, tree in trees.items():
+        tree.validate()
+        s = tree.stats(epo_samples=0)
+        costs[name] = s["sah_cost"]
+        same = "(reference)"
+        if name != "wrt binned_sah":
+            cpu = tree if device.is_cpu else build_bvh(q_points, q_indices, name.split()[-1], device="cpu")
+            same = "yes" if all(np.array_equal(getattr(tree, f), getattr(cpu, f)) for f in FIELDS) else "no"
+        print(
+            f"| {name} | {s['sah_cost']:.3f} | {s['sah_cost'] / binned_cost:.4f} | {s['nodes']} | {s['leaves']} "
+            f"| {s['max_depth']} | {same} |"
         )
-        print("| tree | SAH cost | nodes | leaves | max depth | mean leaf depth |\n|---|---|---|---|---|---|")
-        costs = {}
-        for name, tree in trees.items():
-            tree.points = tree.indices = None  # SAH only: the EPO estimate would copy 10M triangles to float64
-            s = tree.stats()
-            costs[name] = s["sah_cost"]
-            print(
-                f"| {name} | {s['sah_cost']:.2f} | {s['nodes']} | {s['leaves']} | {s['max_depth']} "
-                f"| {s['mean_leaf_depth']:.1f} |"
-            )
-        print(f"\n(binned_sah built on {args.binned_device} in {binned_seconds:.1f} s)\n")
-        binned = costs[f"wrt binned_sah ({args.binned_device})"]
-        ratio = costs["wrt ploc"] / binned
-        check(
-            f"ploc SAH within {100 * (QUALITY_TARGET - 1):.0f}% of binned_sah",
-            ratio <= QUALITY_TARGET,
-            f"{100 * (ratio - 1):+.2f}%",
-        )
+    print(f"\n(binned_sah built on {args.binned_device} in {binned_seconds:.1f} s; every tree passed validate())\n")
+    ratio = costs["wrt ploc"] / binned_cost
+    check(
+        f"ploc SAH within {100 * (QUALITY_TARGET - 1):.0f}% of binned_sah", ratio <= QUALITY_TARGET, f"{ratio - 1:+.2%}"
+    )
     print(f"\ntotal {time.perf_counter() - total_start:.1f} s")
     return 0
 

@@ -21,7 +21,7 @@ import time
 
 import warp as wp
 
-from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput
+from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput, stage
 from .layout import DeviceFlatBvh, FlatBvh
 
 ALIASES = {"binned_sah": "sah"}  # alternative names -> canonical builder name
@@ -62,7 +62,7 @@ def build_bvh(points, indices, builder: str = "sah", **options) -> FlatBvh:
         indices: ``(T, 3)`` int32 triangle vertex indices, numpy or ``wp.array``.
         builder: a :class:`Builder` name (see module docstring).
         **options: the keyword options of :func:`build_bvh_device` (``leaf_size``, ``bins``, ``traversal_cost``,
-            ``intersection_cost``, ``morton_bits``, ``ploc_radius``, ``threads``, ``device``).
+            ``intersection_cost``, ``morton_bits``, ``ploc_radius``, ``threads``, ``device``, ``timers``).
 
     Returns:
         The :class:`FlatBvh`, with ``build_seconds`` set (input checks and host transfers included) and the
@@ -91,6 +91,7 @@ def build_bvh_device(
     ploc_radius: int = 8,
     threads: int | None = None,
     device=None,
+    timers: dict | None = None,
 ) -> DeviceFlatBvh:
     """Builds a BVH over triangles and leaves it in the canonical layout in device memory (no host copy).
 
@@ -110,6 +111,8 @@ def build_bvh_device(
         threads: CPU threads of ``sah``/``middle`` on a CPU device (each level's nodes are split between them;
             Warp's CPU launches are single-threaded); ``None``: every core. The tree does not depend on it.
         device: Warp device to build on; the default device when ``None``.
+        timers: if given, ``lbvh`` and ``ploc`` append the milliseconds of each build stage to ``timers[stage]``
+            (``wp.ScopedTimer`` with ``synchronize=True``, so timing adds synchronizations).
 
     Raises:
         ValueError: for an unknown builder, bad options, bad indices or non-finite vertices.
@@ -127,7 +130,8 @@ def build_bvh_device(
         raise ValueError("traversal_cost must be >= 0 and intersection_cost > 0")
     if threads is not None and (not isinstance(threads, int) or threads < 1):
         raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
-    data = BuildInput(points, indices, device)
+    with stage("input checks and triangle boxes", timers):
+        data = BuildInput(points, indices, device)
     if data.num_prims == 0:
         empty = FlatBvh.empty(builder=kind.value)
         fields = (empty.lowers, empty.uppers, empty.left_first, empty.prim_count, empty.prim_ids)
@@ -155,10 +159,12 @@ def build_bvh_device(
     if kind == Builder.LBVH:
         from .lbvh import build_lbvh
 
-        return build_lbvh(data, leaf_size=int(leaf_size), morton_bits=int(morton_bits), **sah)
+        return build_lbvh(data, leaf_size=int(leaf_size), morton_bits=int(morton_bits), timers=timers, **sah)
     from .ploc import build_ploc
 
-    return build_ploc(data, leaf_size=int(leaf_size), morton_bits=int(morton_bits), radius=int(ploc_radius), **sah)
+    return build_ploc(
+        data, leaf_size=int(leaf_size), morton_bits=int(morton_bits), radius=int(ploc_radius), timers=timers, **sah
+    )
 
 
 __all__ = ["MAX_DEPTH", "Builder", "build_bvh", "build_bvh_device", "builder_names"]

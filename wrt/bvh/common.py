@@ -10,6 +10,8 @@ fixed stack of ``MAX_DEPTH`` entries.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import warp as wp
 
@@ -224,6 +226,27 @@ def _as_device(data, dtype, device, shape) -> wp.array:
     return wp.array(array.reshape(shape), dtype=wp.int32, device=device)
 
 
+_PINNED = {}  # device -> one pinned host int32, the target of read_int's copies
+
+
 def read_int(array: wp.array, index: int) -> int:
-    """One element of a device array, as a Python int (synchronizes)."""
-    return int(array[index : index + 1].numpy()[0])
+    """One element of an int32 device array, as a Python int (synchronizes with the array's device).
+
+    The builders call this once per level or iteration; a reused pinned word avoids allocating a host array and
+    going through a pageable copy each time."""
+    if array.device.is_cpu:
+        return int(array.numpy()[index])
+    word = _PINNED.get(str(array.device))
+    if word is None:
+        word = _PINNED[str(array.device)] = wp.empty(1, dtype=wp.int32, device="cpu", pinned=True)
+    wp.copy(word, array, 0, index, 1)
+    wp.synchronize_stream(array.device.stream)
+    return int(word.numpy()[0])
+
+
+def stage(name: str, timers: dict | None):
+    """A synchronizing ``wp.ScopedTimer`` that appends one build stage's milliseconds to ``timers[name]``; a no-op
+    (no synchronization) without ``timers``."""
+    if timers is None:
+        return contextlib.nullcontext()
+    return wp.ScopedTimer(name, dict=timers, print=False, synchronize=True)

@@ -18,6 +18,8 @@ import dataclasses
 import numpy as np
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})
+
 
 @wp.struct
 class DeviceBvh:
@@ -32,6 +34,24 @@ class DeviceBvh:
     v1: wp.array[wp.vec3]
     v2: wp.array[wp.vec3]
     num_prims: int  # triangles in the tree; 0 means every ray misses
+
+
+@wp.kernel
+def gather_triangles_kernel(
+    prim_ids: wp.array[wp.int32],
+    points: wp.array[wp.vec3],
+    indices: wp.array2d[wp.int32],
+    # outputs
+    v0: wp.array[wp.vec3],
+    v1: wp.array[wp.vec3],
+    v2: wp.array[wp.vec3],
+):
+    """Vertices of the triangle in slot ``s``, in slot order (the device twin of ``upload_triangles``)."""
+    s = wp.tid()
+    p = prim_ids[s]
+    v0[s] = points[indices[p, 0]]
+    v1[s] = points[indices[p, 1]]
+    v2[s] = points[indices[p, 2]]
 
 
 @dataclasses.dataclass
@@ -221,6 +241,31 @@ class DeviceFlatBvh:
     def num_nodes(self) -> int:
         """Number of nodes."""
         return len(self.left_first)
+
+    def to_device_bvh(self, points: wp.array, indices: wp.array) -> DeviceBvh:
+        """The tree as traversal input, without leaving the device: its arrays as they are, and the triangles in
+        slot order gathered on the device (what :meth:`FlatBvh.to_device` uploads from the host).
+
+        Args:
+            points: ``(V,)`` vec3 vertices the tree was built over, on the tree's device.
+            indices: ``(T, 3)`` int32 triangles the tree was built over, on the tree's device.
+        """
+        device = self.left_first.device
+        n = len(self.prim_ids)
+        s = DeviceBvh()
+        s.lowers, s.uppers, s.left_first, s.prim_count = self.lowers, self.uppers, self.left_first, self.prim_count
+        s.prim_ids = self.prim_ids if n else wp.zeros(1, dtype=wp.int32, device=device)
+        alloc = wp.empty if n else wp.zeros  # the gather fills every slot; a tree over nothing keeps one zero
+        s.v0, s.v1, s.v2 = (alloc(max(n, 1), dtype=wp.vec3, device=device) for _ in range(3))
+        wp.launch(
+            gather_triangles_kernel,
+            n,
+            inputs=[self.prim_ids, points, indices],
+            outputs=[s.v0, s.v1, s.v2],
+            device=device,
+        )
+        s.num_prims = n
+        return s
 
     def to_host(self) -> FlatBvh:
         """Copies the tree to the host."""

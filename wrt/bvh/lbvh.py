@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .common import BuildInput
+from .common import BuildInput, stage
 from .flatten import flatten_source
 from .layout import DeviceFlatBvh
 
@@ -193,17 +193,20 @@ def build_lbvh(
     morton_bits: int,
     traversal_cost: float = 1.0,
     intersection_cost: float = 1.0,
+    timers: dict | None = None,
 ) -> DeviceFlatBvh:
-    """Builds an LBVH over ``data`` (see module docstring) on ``data.device``."""
+    """Builds an LBVH over ``data`` (see module docstring) on ``data.device``; ``timers`` as in ``flatten_source``."""
     n = data.num_prims
     with wp.ScopedDevice(data.device):
-        slot_prims, codes = sorted_morton_order(data, morton_bits)
-        inner = max(n - 1, 1)
-        src_left = wp.zeros(inner, dtype=wp.int32)
-        src_right = wp.zeros(inner, dtype=wp.int32)
-        src_counts = wp.zeros(inner, dtype=wp.int32)
-        if n > 1:
-            wp.launch(radix_tree_kernel, n - 1, inputs=[codes, n], outputs=[src_left, src_right, src_counts])
+        with stage("morton codes and sort", timers):
+            slot_prims, codes = sorted_morton_order(data, morton_bits)
+        with stage("radix tree", timers):
+            inner = max(n - 1, 1)  # every entry is written when n > 1 and never read when n == 1
+            src_left = wp.empty(inner, dtype=wp.int32)
+            src_right = wp.empty(inner, dtype=wp.int32)
+            src_counts = wp.empty(inner, dtype=wp.int32)
+            if n > 1:
+                wp.launch(radix_tree_kernel, n - 1, inputs=[codes, n], outputs=[src_left, src_right, src_counts])
         return flatten_source(
             slot_prims,
             src_left,
@@ -216,4 +219,5 @@ def build_lbvh(
             traversal_cost=traversal_cost,
             intersection_cost=intersection_cost,
             builder="lbvh",
+            timers=timers,
         )

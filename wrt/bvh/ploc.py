@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from .common import BuildInput, half_area, read_int
+from .common import BuildInput, half_area, read_int, stage
 from .flatten import flatten_source
 from .layout import DeviceFlatBvh
 from .lbvh import sorted_morton_order
@@ -210,16 +210,21 @@ def build_ploc(
     radius: int,
     traversal_cost: float = 1.0,
     intersection_cost: float = 1.0,
+    timers: dict | None = None,
 ) -> DeviceFlatBvh:
-    """Builds a PLOC tree over ``data`` (see module docstring) on ``data.device``."""
+    """Builds a PLOC tree over ``data`` (see module docstring) on ``data.device``; ``timers`` as in
+    ``flatten_source``."""
     n = data.num_prims
     with wp.ScopedDevice(data.device):
-        morton_prims, _ = sorted_morton_order(data, morton_bits)
+        with stage("morton codes and sort", timers):
+            morton_prims, _ = sorted_morton_order(data, morton_bits)
+        # The n - 1 merges write every node; only the root's start (slot 0) is set here.
         inner = max(n - 1, 1)
-        node_left = wp.zeros(inner, dtype=wp.int32)
-        node_right = wp.zeros(inner, dtype=wp.int32)
-        node_counts = wp.zeros(inner, dtype=wp.int32)
-        node_starts = wp.zeros(inner, dtype=wp.int32)
+        node_left = wp.empty(inner, dtype=wp.int32)
+        node_right = wp.empty(inner, dtype=wp.int32)
+        node_counts = wp.empty(inner, dtype=wp.int32)
+        node_starts = wp.empty(inner, dtype=wp.int32)
+        node_starts[max(n - 2, 0) :].fill_(0)
         refs = wp.empty(n, dtype=wp.int32)
         lowers = wp.empty(n, dtype=wp.vec3)
         uppers = wp.empty(n, dtype=wp.vec3)
@@ -238,43 +243,47 @@ def build_ploc(
         )
 
         # Merge mutual nearest neighbours until one cluster is left; remember which nodes each iteration made.
-        batches = []
-        clusters, next_node, force = n, 0, 0
-        while clusters > 1:
-            k = clusters
-            if not force:
-                wp.launch(nearest_neighbour_kernel, k, inputs=[k, int(radius), lowers, uppers], outputs=[neighbours])
-            wp.launch(merge_flags_kernel, k, inputs=[k, force, neighbours], outputs=[merge_flags, keep_flags])
-            wp.utils.array_scan(merge_flags[:k], merge_ranks[:k], inclusive=True)
-            wp.utils.array_scan(keep_flags[:k], keep_ranks[:k], inclusive=True)
-            merges = read_int(merge_ranks, k - 1)  # one device-to-host read per iteration
-            wp.launch(
-                merge_compact_kernel,
-                k,
-                inputs=[force, next_node, neighbours, merge_flags, merge_ranks, keep_flags, keep_ranks]
-                + [refs, lowers, uppers, counts],
-                outputs=[node_left, node_right, node_counts, new_refs, new_lowers, new_uppers, new_counts],
-            )
-            batches.append((next_node, merges))
-            next_node += merges
-            clusters -= merges
-            force = 1 if merges * FORCE_FRACTION < k else 0
-            refs, new_refs = new_refs, refs
-            lowers, new_lowers = new_lowers, lowers
-            uppers, new_uppers = new_uppers, uppers
-            counts, new_counts = new_counts, counts
+        with stage("clustering", timers):
+            batches = []
+            clusters, next_node, force = n, 0, 0
+            while clusters > 1:
+                k = clusters
+                if not force:
+                    wp.launch(
+                        nearest_neighbour_kernel, k, inputs=[k, int(radius), lowers, uppers], outputs=[neighbours]
+                    )
+                wp.launch(merge_flags_kernel, k, inputs=[k, force, neighbours], outputs=[merge_flags, keep_flags])
+                wp.utils.array_scan(merge_flags[:k], merge_ranks[:k], inclusive=True)
+                wp.utils.array_scan(keep_flags[:k], keep_ranks[:k], inclusive=True)
+                merges = read_int(merge_ranks, k - 1)  # one device-to-host read per iteration
+                wp.launch(
+                    merge_compact_kernel,
+                    k,
+                    inputs=[force, next_node, neighbours, merge_flags, merge_ranks, keep_flags, keep_ranks]
+                    + [refs, lowers, uppers, counts],
+                    outputs=[node_left, node_right, node_counts, new_refs, new_lowers, new_uppers, new_counts],
+                )
+                batches.append((next_node, merges))
+                next_node += merges
+                clusters -= merges
+                force = 1 if merges * FORCE_FRACTION < k else 0
+                refs, new_refs = new_refs, refs
+                lowers, new_lowers = new_lowers, lowers
+                uppers, new_uppers = new_uppers, uppers
+                counts, new_counts = new_counts, counts
 
         # Depth-first slot order, root (the last node made) first.
-        slot_prims = wp.empty(n, dtype=wp.int32)
-        if n == 1:
-            wp.copy(slot_prims, morton_prims)
-        for first, count in reversed(batches):
-            wp.launch(
-                assign_slots_kernel,
-                count,
-                inputs=[first, node_counts],
-                outputs=[node_left, node_right, node_starts, slot_prims],
-            )
+        with stage("depth-first slots", timers):
+            slot_prims = wp.empty(n, dtype=wp.int32)
+            if n == 1:
+                wp.copy(slot_prims, morton_prims)
+            for first, count in reversed(batches):
+                wp.launch(
+                    assign_slots_kernel,
+                    count,
+                    inputs=[first, node_counts],
+                    outputs=[node_left, node_right, node_starts, slot_prims],
+                )
         return flatten_source(
             slot_prims,
             node_left,
@@ -287,4 +296,5 @@ def build_ploc(
             traversal_cost=traversal_cost,
             intersection_cost=intersection_cost,
             builder="ploc",
+            timers=timers,
         )
