@@ -289,8 +289,57 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
             emit(row)
 
 
-def run_grid(grid: Grid, out: Path | None = None, resume: bool = False, progress: bool = True) -> list[dict]:
-    """Runs the whole grid; returns the rows (also appended to ``out/rows.jsonl`` as they come)."""
+def _run_group(group, grid: Grid, thread_counts, emit, skip, loaded: dict) -> None:
+    """Measures one (scene, device, ray kind) group, scaling sweeps included; a broken scene becomes an error row."""
+    scene_name, device, kind = group
+    scaling = grid.scaling or {}
+    is_scaling = scene_name.startswith("sphere:") and scene_name not in grid.scenes
+    accels = scaling.get("accels", grid.accels) if is_scaling else grid.accels
+    local = dataclasses.replace(grid, n_rays=int(scaling.get("n_rays", grid.n_rays))) if is_scaling else grid
+    try:
+        if scene_name not in loaded:
+            loaded.clear()  # keep one scene in memory at a time
+            loaded[scene_name] = resolve_scene(scene_name)
+        sink = (lambda row: emit(dict(row, sweep=True))) if is_scaling else emit
+        measure_group(scene_name, loaded[scene_name], device, kind, local, accels, thread_counts, sink, skip)
+    except Exception as e:  # noqa: BLE001: a broken scene becomes one error row
+        emit({"scene": scene_name, "accel": "*", "device": str(device), "rays": kind, "threads": None,
+              "error": f"{type(e).__name__}: {e}".splitlines()[0]})
+
+
+_worker_scenes = {}  # the scene a Dask worker process loaded last, kept for its next group
+
+
+def _run_group_task(task) -> list[dict]:
+    """One row group on a Dask worker (see ``wrt.distributed``); returns its rows with the worker's hardware.
+
+    A CUDA group runs on the worker's own GPU (``worker_device()``); its rows keep the grid's device name, so that
+    tables and ``resume`` line up.
+    """
+    from .distributed import worker_device
+
+    (scene_name, device_name, kind), grid, thread_counts, done = task
+    wp.config.log_level = wp.LOG_WARNING  # no Warp banner and module-load lines from every worker
+    device = resolve_device(worker_device() if device_name.startswith("cuda") else device_name)
+    info, rows = hardware(device), []
+
+    def collect(row):
+        rows.append(dict(row, device=device_name, **info))
+
+    skip = lambda r: row_key(dict(r, device=device_name)) in done  # noqa: E731
+    _run_group((scene_name, device, kind), grid, thread_counts, collect, skip, _worker_scenes)
+    return rows
+
+
+def run_grid(
+    grid: Grid, out: Path | None = None, resume: bool = False, progress: bool = True, dask: str | bool | None = None
+) -> list[dict]:
+    """Runs the whole grid; returns the rows (also appended to ``out/rows.jsonl`` as they come).
+
+    ``dask``: None runs every group here, in turn; True sends the groups to a new ``LocalCluster`` and an address
+    (``tcp://host:8786``) to that scheduler (``wrt.distributed.run_tasks``), a group per task, each group's rows
+    written as it arrives. A group whose workers keep dying becomes an error row.
+    """
     from tqdm import tqdm
 
     rows, done = [], set()
@@ -315,16 +364,15 @@ def run_grid(grid: Grid, out: Path | None = None, resume: bool = False, progress
 
         warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
         grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing])
-    devices = [resolve_device(d) for d in grid.devices]
+    devices = [d if dask else resolve_device(d) for d in grid.devices]  # with dask, resolved on the worker
     thread_counts = [os.cpu_count() if t == "all" else int(t) for t in grid.threads]
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
     groups += [(f"sphere:{int(float(n))}", d, scaling.get("rays", "incoherent")) for n in scaling.get("sizes", []) for d in devices]
-    bar = tqdm(total=len(groups), desc="wrt bench", unit="group", disable=not progress)
-    info = {str(d): hardware(d) for d in devices}
+    info = {} if dask else {str(d): hardware(d) for d in devices}  # with dask, each row has its worker's hardware
 
     def emit(row):
-        row.update(info[row["device"]])
+        row.update(info.get(row["device"], {}))
         rows.append(row)
         if jsonl is not None:
             with open(jsonl, "a") as f:  # one row per write, flushed: an interrupted run loses nothing
@@ -333,24 +381,28 @@ def run_grid(grid: Grid, out: Path | None = None, resume: bool = False, progress
         if "error" in row:
             tqdm.write(f"wrt bench: {row['scene']} / {row['accel']} / {row['rays']}: {row['error']}")
 
-    loaded = {}
-    for scene_name, device, kind in groups:
-        bar.set_postfix_str(f"{scene_name} {device} {kind}")
-        is_scaling = scene_name.startswith("sphere:") and scene_name not in grid.scenes
-        accels = scaling.get("accels", grid.accels) if is_scaling else grid.accels
-        local = dataclasses.replace(grid, n_rays=int(scaling.get("n_rays", grid.n_rays))) if is_scaling else grid
-        try:
-            if scene_name not in loaded:
-                loaded.clear()  # keep one scene in memory at a time
-                loaded[scene_name] = resolve_scene(scene_name)
-            sink = (lambda row: emit(dict(row, sweep=True))) if is_scaling else emit
-            measure_group(scene_name, loaded[scene_name], device, kind, local, accels, thread_counts, sink,
-                          lambda r: row_key(r) in done)
-        except Exception as e:  # noqa: BLE001: a broken scene becomes one error row
-            emit({"scene": scene_name, "accel": "*", "device": str(device), "rays": kind, "threads": None,
+    if dask:
+        from .distributed import run_tasks
+
+        def lost(task, e):  # the group's workers kept dying, or its device does not exist there
+            scene_name, device, kind = task[0]
+            emit({"scene": scene_name, "accel": "*", "device": device, "rays": kind, "threads": None,
                   "error": f"{type(e).__name__}: {e}".splitlines()[0]})
-        bar.update()
-    bar.close()
+
+        first = len(rows)
+        tasks = [((s, str(d), k), grid, thread_counts, frozenset(done)) for s, d, k in groups]
+        run_tasks(_run_group_task, tasks, address=None if dask is True else dask, progress=progress, desc="wrt bench",
+                  on_result=lambda task, group_rows: [emit(r) for r in group_rows], on_error=lost)
+        order = {task[0]: i for i, task in enumerate(tasks)}
+        rows[first:] = sorted(rows[first:], key=lambda r: order.get((r["scene"], r["device"], r["rays"]), 0))  # grid order
+    else:
+        bar = tqdm(total=len(groups), desc="wrt bench", unit="group", disable=not progress)
+        loaded = {}
+        for group in groups:
+            bar.set_postfix_str(" ".join(map(str, group)))
+            _run_group(group, grid, thread_counts, emit, lambda r: row_key(r) in done, loaded)
+            bar.update()
+        bar.close()
     if out is not None:
         (out / "table.md").write_text(markdown_table(rows))
         try:

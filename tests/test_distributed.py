@@ -1,0 +1,141 @@
+"""Tasks on a Dask cluster (``wrt.distributed``): serial results, nothing lost to a killed worker, bench --dask."""
+
+import faulthandler
+import json
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+from wrt import distributed
+from wrt.bench import Grid, run_grid
+from wrt.cli import main
+from wrt.distributed import DaskUnavailable, run_tasks
+
+pytest.importorskip("distributed")  # wrt.distributed itself imports dask only when it runs tasks
+
+HANG_SECONDS = 180  # a test still running after this dumps every thread's stack and ends the session
+TIMING_KEYS = {"build_ms", "mrays", "mrays_min", "mrays_max", "traceback"}
+
+
+@pytest.fixture(autouse=True)
+def no_hangs():
+    faulthandler.dump_traceback_later(HANG_SECONDS, exit=True)
+    yield
+    faulthandler.cancel_dump_traceback_later()
+
+
+def cube_and_pid(x):
+    return x**3, os.getpid()
+
+
+def die_on_first_attempt(item):
+    """Kills its worker process the first time it sees item 2 (the marker file remembers), then works."""
+    marker, x = item
+    if x == 2 and not Path(marker).exists():
+        Path(marker).write_text("killed")
+        os._exit(1)
+    return x**3
+
+
+def always_die_on_two(item):
+    """Kills its worker every time it runs item 2, counting the attempts in a file."""
+    attempts, x = item
+    if x == 2:
+        with open(attempts, "a") as f:
+            f.write("x")
+        os._exit(1)
+    return x
+
+
+def fail_on_three(x):
+    if x == 3:
+        raise ValueError("three is not allowed")
+    return x
+
+
+def test_local_cluster_results_match_serial():
+    items = list(range(8))
+    arrived = []
+    assert run_tasks(cube_and_pid, items, n_workers=2, on_result=lambda i, r: arrived.append((i, r)),
+                     timeout=60, progress=False) is None
+    assert sorted((i, r[0]) for i, r in arrived) == [(i, i**3) for i in items]
+    assert os.getpid() not in {r[1] for _, r in arrived}  # every task ran in a worker process
+
+
+def test_killed_worker_loses_nothing(tmp_path):
+    marker = tmp_path / "killed"
+    items = [(str(marker), x) for x in range(8)]
+    arrived = {}
+    run_tasks(die_on_first_attempt, items, n_workers=2, on_result=lambda i, r: arrived.setdefault(i[1], r),
+              timeout=60, progress=False)
+    assert marker.exists()  # a worker did die on item 2
+    assert arrived == {x: x**3 for x in range(8)}
+
+
+def test_a_task_that_keeps_killing_workers_is_reported_after_its_retries(tmp_path):
+    attempts = tmp_path / "attempts"
+    arrived, errors = [], []
+    run_tasks(always_die_on_two, [(str(attempts), x) for x in range(4)], n_workers=2, retries=1,
+              on_result=lambda i, r: arrived.append(r), on_error=lambda i, e: errors.append((i[1], e)),
+              timeout=60, progress=False)
+    assert sorted(arrived) == [0, 1, 3]
+    assert [(x, type(e).__name__) for x, e in errors] == [(2, "KilledWorker")]
+    assert attempts.read_text() == "xx"  # the first run and one retry
+
+
+def test_task_errors_reach_on_error_or_are_raised_after_the_rest():
+    errors, arrived = [], []
+    results = run_tasks(fail_on_three, range(6), n_workers=1, on_error=lambda i, e: errors.append((i, e)),
+                        timeout=60, progress=False)
+    assert results == [0, 1, 2, None, 4, 5]  # without on_result: returned in item order
+    assert [(i, type(e)) for i, e in errors] == [(3, ValueError)]
+    with pytest.raises(ValueError, match="three"):
+        run_tasks(fail_on_three, range(6), n_workers=1, on_result=lambda i, r: arrived.append(r), timeout=60,
+                  progress=False)
+    assert sorted(arrived) == [0, 1, 2, 4, 5]  # the others still arrived before the error
+
+
+def test_unreachable_scheduler_is_named(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(distributed, "CONNECT_TIMEOUT", 1.0)
+    with pytest.raises(DaskUnavailable, match="tcp://127.0.0.1:9"):
+        run_tasks(cube_and_pid, [1], address="tcp://127.0.0.1:9", progress=False)
+    assert main(["bench", "--dask", "tcp://127.0.0.1:9", "--scenes", "sphere:500", "-o", str(tmp_path), "-q"]) == 1
+    assert "wrt: error: cannot reach a Dask scheduler at 'tcp://127.0.0.1:9'" in capsys.readouterr().err
+
+
+def test_missing_dask_says_how_to_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    with pytest.raises(DaskUnavailable, match=r"pip install 'wrt\[dask\]'"):
+        run_tasks(cube_and_pid, [1], progress=False)
+
+
+def test_worker_device_outside_a_worker(monkeypatch):
+    monkeypatch.setenv(distributed.DEVICE_ENV, "cuda:3")
+    assert distributed.worker_device() == "cuda:3"
+    monkeypatch.delenv(distributed.DEVICE_ENV)
+    assert distributed.worker_device() in ("cpu", "cuda:0")
+
+
+def comparable(rows):
+    return sorted(json.dumps({k: v for k, v in r.items() if k not in TIMING_KEYS}, sort_keys=True) for r in rows)
+
+
+def test_bench_dask_writes_the_serial_rows_and_resumes(tmp_path, monkeypatch):
+    grid = dict(scenes=["sphere:2000", "no/such/scene.usda"], accels=["warp:sah", "wrt:sah", "wrt:octree"],
+                rays=["primary", "shadow"], n_rays=3000, repeats=2)
+    serial = run_grid(Grid(**grid), tmp_path / "serial", progress=False)
+    assert any("error" in r for r in serial) and any("mrays" in r for r in serial)
+    # Resume from the measured primary rows; the cluster measures the rest, error rows included.
+    out = tmp_path / "dask"
+    out.mkdir()
+    kept = [r for r in serial if r["rays"] == "primary" and "error" not in r]
+    (out / "rows.jsonl").write_text("".join(json.dumps(r) + "\n" for r in kept))
+    monkeypatch.setattr(distributed, "default_workers", lambda: 2)
+    argv = ["bench", "--scenes", ",".join(grid["scenes"]), "--accels", ",".join(grid["accels"]), "--rays",
+            "primary,shadow", "--n-rays", "3000", "--repeats", "2", "-o", str(out), "--resume", "--dask", "-q"]
+    assert main(argv) == 1  # the error rows
+    rows = [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
+    assert rows[: len(kept)] == kept  # not measured again
+    assert comparable(rows) == comparable(serial)
