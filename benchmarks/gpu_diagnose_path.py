@@ -1,32 +1,120 @@
-"""Where do CPU and GPU path-traced images of the same seed differ? Prints, per max depth, the fraction of pixels
-that differ beyond float tolerance, and whether the primary-hit AOVs already differ. Run on a CUDA machine."""
+"""How far apart are two builds of the path tracer on the same seed? Prints, per scene, the fraction of pixels that
+differ beyond the tolerance of ``test_path_tracer_is_deterministic_and_device_independent`` (``rtol=1e-3,
+atol=1e-4`` on any channel), the largest difference and whether the camera-ray AOVs already differ.
 
+Two comparisons:
+
+- default: ``cuda:0`` against ``cpu`` (run on a CUDA machine; about a minute, most of it compiling).
+- ``--emulate {all,trace,shade}``: ``cpu`` against ``cpu`` with nvcc-like floating-point contraction (clang
+  ``-ffp-contract=fast``, which fuses across statements as ``nvrtc --fmad=true`` does) on the kernel modules of that
+  group whose ``fuse_fp`` option is on. Modules with ``fuse_fp`` off compile without contraction on both devices,
+  so they are left alone. This shows on a CPU-only machine how sensitive the images are to last-bit rounding.
+
+``--fused`` compiles the trace and shading modules with ``fuse_fp`` on (Warp's default, wrt's setting before it
+turned contraction off there), to see the difference that setting makes.
+
+Examples: ``python benchmarks/gpu_diagnose_path.py [--fused]``, ``python benchmarks/gpu_diagnose_path.py --emulate all
+[--fused]``.
+"""
+
+import argparse
+import importlib
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
+import warp as wp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 import wrt  # noqa: E402
-from test_integrators import mirror_scene  # noqa: E402
+from conftest import assets_dir, manifest  # noqa: E402
+from test_integrators import furnace_scene, glass_scene, mirror_scene  # noqa: E402
+from wrt.cli import default_scene_path  # noqa: E402
 from wrt.lights import DomeLight  # noqa: E402
+
+TRACE_MODULES = ("wrt.trace", "wrt.tlas")  # ray queries: BVH traversal and the ray-triangle test
+SHADE_MODULES = ("wrt.shade", "wrt.integrators.path", "wrt.integrators.whitted", "wrt.integrators.ao")
+
+
+def scenes():
+    """``name -> (scene, render kwargs)``; the first is the scene and settings of the device test."""
+    mirror = mirror_scene()
+    mirror.lights.append(DomeLight(color=np.full(3, 0.3, np.float32)))
+    mirror_cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=30)
+    glass = glass_scene(opacity=0.5)
+    glass.lights.append(DomeLight(color=np.full(3, 0.5, np.float32)))
+    glass_cam = wrt.Camera.look_at(eye=(0, 0, 6), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=25)
+    furnace_cam = wrt.Camera.look_at(eye=(0, 0, 4), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=35)
+    out = {
+        "mirror (device test)": (mirror, {"camera": mirror_cam, "width": 24, "height": 24, "spp": 4, "seed": 11}),
+        "mirror 96x96": (mirror, {"camera": mirror_cam, "width": 96, "height": 96, "spp": 4, "seed": 11}),
+        "glass 64x64": (glass, {"camera": glass_cam, "width": 64, "height": 64, "spp": 4, "seed": 3}),
+        "furnace 64x64": (furnace_scene(), {"camera": furnace_cam, "width": 64, "height": 64, "spp": 4, "seed": 1}),
+        "default room 64x64": (wrt.load_usd(default_scene_path()), {"width": 64, "height": 64, "spp": 4, "seed": 2}),
+    }
+    entry = manifest().get("cornell_box")
+    if entry and (assets_dir() / entry["path"]).exists():
+        out["cornell 64x64"] = (wrt.load_usd(assets_dir() / entry["path"]), {"width": 64, "height": 64, "spp": 8, "seed": 7})
+    else:
+        print(f"no cornell_box under {assets_dir()} (set WRT_ASSETS to the shared asset folder): skipped")
+    return out
+
+
+def render_all(cases: dict, device) -> dict:
+    return {name: wrt.render(scene, device=device, integrator="path", **kw) for name, (scene, kw) in cases.items()}
+
+
+def contract_like_nvcc(modules) -> list:
+    """Compiles ``modules`` (those with ``fuse_fp`` on) for the CPU with contraction across statements."""
+    flags = f"{wp.config.cpu_compiler_flags or '-march=native'} -ffp-contract=fast"
+    changed = []
+    for name in modules:
+        importlib.import_module(name)
+        if wp.get_module_options(name)["fuse_fp"]:
+            wp.set_module_options({"cpu_compiler_flags": flags}, module=name)
+            changed.append(name)
+    return changed
+
+
+def compare(a: dict, b: dict) -> None:
+    for name, x in a.items():
+        y = b[name]
+        close = np.isclose(x.rgb, y.rgb, rtol=1e-3, atol=1e-4).all(axis=-1)
+        prim = float(np.mean(x.aovs["prim"] == y.aovs["prim"]))
+        normal = float(np.mean((x.aovs["normal"] == y.aovs["normal"]).all(axis=-1)))
+        mean = abs(float(x.rgb.mean()) / max(float(y.rgb.mean()), 1e-30) - 1)
+        print(
+            f"{name:22s} {100 * (1 - close.mean()):6.2f}% pixels differ ({(~close).sum()}/{close.size}), "
+            f"max |diff| {np.abs(x.rgb - y.rgb).max():.3g}, image mean rel. diff {mean:.1e}, "
+            f"camera hits: prim equal {prim:.4f}, normal bit-equal {normal:.4f}",
+            flush=True,
+        )
 
 
 def main():
-    scene = mirror_scene()
-    scene.lights.append(DomeLight(color=np.full(3, 0.3, np.float32)))
-    cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=30)
-    for depth in (1, 2, 3, 5, 8):
-        kw = {"camera": cam, "width": 24, "height": 24, "spp": 4, "seed": 11, "integrator": "path", "max_depth": depth}
-        g = wrt.render(scene, device="cuda:0", **kw)
-        c = wrt.render(scene, device="cpu", **kw)
-        close = np.isclose(g.rgb, c.rgb, rtol=1e-3, atol=1e-4).all(axis=-1)
-        aov = {k: float(np.mean(g.aovs[k] == c.aovs[k])) for k in ("prim", "material")}
-        worst = np.abs(g.rgb - c.rgb).max()
-        print(f"max_depth {depth}: {100 * (1 - close.mean()):.2f}% pixels differ, max |diff| {worst:.4g}, AOV equal {aov}")
-        if depth == 8:
-            for i, j in list(zip(*np.nonzero(~close)))[:5]:
-                print(f"  pixel {i},{j}: gpu {g.rgb[i, j]} cpu {c.rgb[i, j]} prim {g.aovs['prim'][i, j]}/{c.aovs['prim'][i, j]}")
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--emulate", choices=["all", "trace", "shade"], help="CPU-only: contraction on these modules")
+    parser.add_argument("--fused", action="store_true", help="fuse_fp on in the trace and shading modules")
+    args = parser.parse_args()
+    wp.config.quiet = True
+    cases = scenes()
+    if args.fused:
+        for name in TRACE_MODULES + SHADE_MODULES:
+            importlib.import_module(name)
+            wp.set_module_options({"fuse_fp": True}, module=name)
+    start = time.perf_counter()
+    ref = render_all(cases, "cpu")
+    if args.emulate:
+        groups = {"all": TRACE_MODULES + SHADE_MODULES, "trace": TRACE_MODULES, "shade": SHADE_MODULES}
+        changed = contract_like_nvcc(groups[args.emulate])
+        print(f"cpu -ffp-contract=fast on {changed or 'nothing (fuse_fp is off everywhere)'} vs cpu:")
+        other = render_all(cases, "cpu")
+    else:
+        print(f"cuda:0 ({wp.get_device('cuda:0').name}) vs cpu:")
+        other = render_all(cases, "cuda:0")
+    compare(other, ref)
+    print(f"({time.perf_counter() - start:.0f} s including compilation)")
 
 
 if __name__ == "__main__":

@@ -212,6 +212,38 @@ def test_path_tracer_is_deterministic_and_device_independent(device):
         np.testing.assert_allclose(a.rgb.mean(), ref.rgb.mean(), rtol=1e-3)
 
 
+def poison(arrays) -> None:
+    """Fills device buffers with what reused GPU memory may hold: NaN floats and nonsense integers."""
+    for a in arrays:
+        a.fill_(0xDEADBEEF if a.dtype == wp.uint32 else -123456 if a.dtype in (wp.int32, wp.vec2i) else float("nan"))
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("integrator", ["path", "whitted", "ao"])
+def test_path_buffers_are_written_before_they_are_read(integrator, device):
+    """Wavefront buffers are ``wp.empty``: garbage left in them from earlier launches must change nothing, and no
+    ray handed to the accelerator (finished paths included) may be left unwritten."""
+    scene = mirror_scene()  # single-sided sphere: back-face culling runs too
+    sun = wrt.DistantLight(direction=np.array([0.3, -1.0, -0.5]) / np.sqrt(1.34), color=np.ones(3), angle=5.0)
+    scene.lights += [DomeLight(color=np.full(3, 0.3, np.float32)), sun]
+    cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=30)
+    kwargs = {"camera": cam, "width": 16, "height": 16, "device": device, "integrator": integrator}
+    clean = wrt.Renderer(scene, **kwargs).render(spp=2, seed=5)
+    renderer = wrt.Renderer(scene, **kwargs)
+    renderer.render(spp=2, seed=5)  # allocates the buffers
+    w = renderer._wavefront
+    h, s = w.hits, w.scratch
+    # shadow_t_mins and hits.instance are never written: they are initialised at allocation (0 and -1).
+    poison([getattr(w, name) for name in w.FIELDS] + [h.t, h.u, h.v, h.prim, h.cost])
+    poison([s.t_mins, s.t_maxs, s.hits.t, s.hits.u, s.hits.v, s.hits.prim, s.hits.cost])
+    img = renderer.render(spp=2, seed=5)
+    np.testing.assert_array_equal(img.rgb, clean.rgb)
+    for name in ("prim", "normal", "depth"):
+        np.testing.assert_array_equal(img.aovs[name], clean.aovs[name])
+    for name in ("origins", "directions", "t_mins", "t_maxs", "shadow_origins", "shadow_dirs", "shadow_t_maxs"):
+        assert not np.isnan(getattr(w, name).numpy()).any(), name
+
+
 @pytest.mark.parametrize("accel", ["wrt", "warp"])
 def test_both_accelerators_serve_the_path_tracer(accel):
     scene = furnace_scene()

@@ -10,6 +10,7 @@ from conftest import warp_assets
 
 import wrt
 from wrt.geometry import offset_ray_origin
+from wrt.sampling import sin_cos
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 WATERTIGHT_RAYS = 10_000_000  # rays aimed at shared edges and vertices, over all closed meshes together
@@ -262,6 +263,35 @@ def test_scene_far_from_the_origin_renders_without_cracks():
     assert hit_b[interior].all()
     assert (hit_a != hit_b).mean() < 0.01  # only silhouette pixels may differ
     np.testing.assert_allclose(b.aovs["depth"][interior], a.aovs["depth"][interior], rtol=1e-3)
+
+
+# Compiled as the renderer's shading modules are (no FMA contraction), in a module of its own.
+@wp.kernel(module="unique", module_options={"fuse_fp": False})
+def sin_cos_kernel(
+    x: wp.array[float],
+    # outputs
+    sines: wp.array[float],
+    cosines: wp.array[float],
+):
+    i = wp.tid()
+    s, c = sin_cos(x[i])
+    sines[i] = s
+    cosines[i] = c
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_sampling_sin_cos_is_accurate_and_the_same_on_every_device(device):
+    """``wrt.sampling.sin_cos`` replaces the device libraries' ``sinf``/``cosf`` so paths turn the same way on CPU
+    and GPU: within 2 ulp of float64 and bit-identical to the CPU."""
+    x = np.concatenate([np.linspace(-20, 20, 400_001), [0, np.pi / 4, np.pi / 2, np.pi, 2 * np.pi]]).astype(np.float32)
+    out = {}
+    for dev in dict.fromkeys(["cpu", device]):
+        s, c = wp.empty(len(x), dtype=float, device=dev), wp.empty(len(x), dtype=float, device=dev)
+        wp.launch(sin_cos_kernel, len(x), inputs=[wp.array(x, dtype=float, device=dev)], outputs=[s, c], device=dev)
+        out[dev] = s.numpy(), c.numpy()
+    for got, ref in zip(out[device], (np.sin(x.astype(np.float64)), np.cos(x.astype(np.float64)))):
+        assert np.all(np.abs(got - ref) <= 2 * np.spacing(np.abs(ref).astype(np.float32)) + 1e-45)
+    np.testing.assert_array_equal(np.stack(out[device]), np.stack(out["cpu"]))
 
 
 @pytest.mark.parametrize("device", DEVICES)

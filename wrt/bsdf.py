@@ -26,7 +26,7 @@ Directions ``wo`` (towards the viewer) and ``wi`` (towards the light) point away
 
 import warp as wp
 
-from .sampling import INV_PI, PI, luminance, sample_cosine_hemisphere, to_local, to_world
+from .sampling import INV_PI, PI, luminance, sample_cosine_hemisphere, sin_cos, to_local, to_world
 
 DELTA_ROUGHNESS = wp.constant(0.02)  # below this roughness a lobe is a perfect mirror
 MIN_ALPHA = wp.constant(4.0e-4)  # smallest GGX alpha evaluated (= DELTA_ROUGHNESS^2)
@@ -145,9 +145,9 @@ def sample_ggx_vndf(wo: wp.vec3, alpha: float, u1: float, u2: float):
         t1 = wp.vec3(-vh[1], vh[0], 0.0) / wp.sqrt(lensq)
     t2 = wp.cross(vh, t1)
     r = wp.sqrt(u1)
-    phi = 2.0 * PI * u2
-    p1 = r * wp.cos(phi)
-    p2 = r * wp.sin(phi)
+    sin_phi, cos_phi = sin_cos(2.0 * PI * u2)
+    p1 = r * cos_phi
+    p2 = r * sin_phi
     s = 0.5 * (1.0 + vh[2])
     p2 = (1.0 - s) * wp.sqrt(wp.max(0.0, 1.0 - p1 * p1)) + s * p2
     nh = p1 * t1 + p2 * t2 + wp.sqrt(wp.max(0.0, 1.0 - p1 * p1 - p2 * p2)) * vh

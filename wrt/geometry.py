@@ -139,6 +139,14 @@ def ray_is_valid(direction: wp.vec3):
 
 
 @wp.func
+def ray_can_hit(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+    """False for rays that can hit nothing: an empty or NaN range ``[t_min, t_max)`` (finished paths trace with
+    ``t_max = 0``), a NaN or infinite origin, or an invalid direction. Trace kernels return a miss for them at once:
+    a NaN origin makes every slab test pass (``min``/``max`` drop NaNs), so traversal would visit the whole tree."""
+    return t_max > t_min and wp.isfinite(origin) and ray_is_valid(direction)
+
+
+@wp.func
 def offset_ray_origin(p: wp.vec3, n: wp.vec3):
     """Moves a hit point off its surface along ``n`` by a few float ULPs, so a ray started there cannot hit the
     same surface again (Wächter and Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing

@@ -50,6 +50,7 @@ from .sampling import (
     sample_cosine_hemisphere,
     sample_uniform_cone,
     sample_uniform_sphere,
+    sin_cos,
     to_world,
 )
 from .scene import DeviceScene, DistantLight
@@ -855,8 +856,8 @@ def sample_light(
         axis = wp.normalize(c - p)
         cos_t = 1.0 - u1 * one_minus
         sin_t = wp.sqrt(wp.max(0.0, 1.0 - cos_t * cos_t))
-        phi = 2.0 * PI * u2
-        out.wi = wp.normalize(to_world(wp.vec3(sin_t * wp.cos(phi), sin_t * wp.sin(phi), cos_t), axis))
+        sin_phi, cos_phi = sin_cos(2.0 * PI * u2)
+        out.wi = wp.normalize(to_world(wp.vec3(sin_t * cos_phi, sin_t * sin_phi, cos_t), axis))
         t = intersect_sphere(c, r, p, out.wi)
         if t == wp.inf:
             t = wp.dot(c - p, out.wi)  # grazing: rounding missed the sphere by a hair

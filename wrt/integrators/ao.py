@@ -8,6 +8,8 @@ from ..sampling import rand01, sample_cosine_hemisphere, to_world
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, hit_point
 
+wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
+
 
 @wp.kernel
 def shade_ao_kernel(
@@ -29,6 +31,8 @@ def shade_ao_kernel(
 ):
     """One cosine-weighted occlusion ray of length ``radius`` from each hit (``t_max = 0`` for misses)."""
     i = wp.tid()
+    shadow_origins[i] = wp.vec3(0.0)  # an empty occlusion ray (t_max = 0) unless set below
+    shadow_dirs[i] = wp.vec3(0.0)
     shadow_t_maxs[i] = 0.0
     prim = hit_prim[i]
     if prim < 0:

@@ -22,6 +22,8 @@ from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, hit_point
 from .emitters import environment, lights_on_segment, mis_weight
 
+wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
+
 SHADOW_SHORTEN = wp.constant(1.0e-4)  # shadow rays to lights at finite distance stop this fraction short
 
 
@@ -58,6 +60,9 @@ def shade_path_kernel(
     """One bounce of every path: emission, next-event estimation (shadow ray + its contribution if unblocked) and
     the next ray."""
     i = wp.tid()
+    # Every path gets a shadow ray, an empty one (t_max = 0) unless next-event estimation sets it below.
+    shadow_origins[i] = wp.vec3(0.0)
+    shadow_dirs[i] = wp.vec3(0.0)
     shadow_t_maxs[i] = 0.0
     nee[i] = wp.vec3(0.0)
     if alive[i] == 0:

@@ -31,6 +31,8 @@ from ..shade import DeviceSurfaces, hit_point
 from .emitters import environment, lights_on_segment
 from .path import SHADOW_SHORTEN
 
+wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
+
 
 @wp.kernel
 def shade_whitted_kernel(
@@ -114,6 +116,8 @@ def whitted_light_kernel(
     """Direct light from lights ``[first, first + count)`` (one of them, picked by power, when ``count > 1``):
     its contribution if unoccluded and the shadow ray that decides it."""
     i = wp.tid()
+    shadow_origins[i] = wp.vec3(0.0)  # an empty shadow ray (t_max = 0) unless set below
+    shadow_dirs[i] = wp.vec3(0.0)
     shadow_t_maxs[i] = 0.0
     contribution[i] = wp.vec3(0.0)
     if active[i] == 0:
