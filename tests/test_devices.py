@@ -50,3 +50,28 @@ def test_render_on_device_matches_cpu(device):
     ref = wrt.render(scene, width=120, height=90, device="cpu")
     assert (img.aovs["prim"] == ref.aovs["prim"]).mean() > 0.999
     assert (np.abs(img.rgb - ref.rgb).max(axis=-1) < 1e-3).mean() > 0.995
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("builder", ["lbvh", "ploc"])
+def test_device_resident_tree_matches_the_host_round_trip(device, builder, bunny, monkeypatch):
+    from wrt.bvh import DeviceFlatBvh
+    from wrt.trace import BvhAccelerator
+
+    points, indices = bunny.triangles()
+    host = wrt.build_bvh(points, indices, builder, device=device)
+    ref = host.to_device(points, indices, device)
+    copies = []
+    to_host = DeviceFlatBvh.to_host
+    monkeypatch.setattr(DeviceFlatBvh, "to_host", lambda self: copies.append(self) or to_host(self))
+    if wp.get_device(device).is_cuda:  # the accelerator keeps a GPU-built tree on the GPU
+        acc = BvhAccelerator(bunny, builder, device)
+    else:  # the CPU builds through the host; exercise the device-resident path directly
+        acc = BvhAccelerator.__new__(BvhAccelerator)
+        acc._build_on_device(points, indices, builder, device, {})
+    assert not copies
+    for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids", "v0", "v1", "v2"):
+        np.testing.assert_array_equal(getattr(acc.device_bvh, field).numpy(), getattr(ref, field).numpy())
+    assert acc.device_bvh.num_prims == ref.num_prims
+    np.testing.assert_array_equal(acc.bvh.left_first, host.left_first)  # copied to the host on first use
+    assert len(copies) == 1

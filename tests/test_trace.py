@@ -8,7 +8,9 @@ from conftest import WARP_USD_ASSETS, warp_assets
 import wrt
 from wrt.compare import compare_hits
 from wrt.geometry import intersect_ray_triangle, make_sheared_ray
+from wrt.instancing import Instances, Prototype
 from wrt.rays import camera_rays, random_rays
+from wrt.scene import Mesh
 
 SHARED_SCENES = (
     "cornell_box",
@@ -180,6 +182,24 @@ def test_degenerate_and_invalid_rays_miss():
     directions = np.array([[0, 0, 0], [np.nan, 0, -1], [0, 0, np.inf], [1e-45, 0, -1]], np.float32)
     hits = wrt.trace(scene, origins, directions)
     assert hits.prim.tolist() == [-1, -1, -1, 0]
+
+
+@pytest.mark.parametrize("instanced", [False, True])
+def test_rays_that_cannot_hit_miss_without_traversal(instanced):
+    """Finished paths trace empty ranges (``t_max = 0``), and a NaN origin would pass every slab test (min/max drop
+    NaN) and visit the whole tree: such rays miss at once, in the one-level and the two-level (TLAS) kernels."""
+    points, tris = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
+    scene = wrt.Scene.from_triangles(points, tris)
+    if instanced:
+        proto = Prototype("/P", [Mesh("/P/tri", points, tris, np.zeros(1, np.int32))])
+        scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms([0], np.eye(4)[None]))
+    origins = np.array([[0, 0, 1], [np.nan, 0, 1], [0, np.inf, 1], [0, 0, 1]], np.float32)
+    directions = np.tile(np.array([[0, 0, -1]], np.float32), (4, 1))
+    t_max = np.array([0, np.inf, np.inf, np.inf], np.float32)
+    hits = wrt.trace(scene, origins, directions, t_max=t_max)
+    assert hits.prim.tolist() == [-1, -1, -1, 0]
+    assert hits.nodes_visited.tolist()[:3] == [0, 0, 0] and hits.nodes_visited[3] > 0
+    assert wrt.occluded(scene, origins, directions, t_max=t_max).tolist() == [False, False, False, True]
 
 
 def test_axis_aligned_rays_through_shared_edges_never_leak():

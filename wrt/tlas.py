@@ -32,14 +32,18 @@ import numpy as np
 import warp as wp
 
 from .bvh import DeviceBvh, build_bvh
-from .bvh.common import MAX_DEPTH
+from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import bvh_intersect, bvh_occluded, order_children, reachable
-from .geometry import intersect_ray_box, ray_is_valid, safe_inverse
+from .geometry import intersect_ray_box, ray_can_hit, ray_is_valid, safe_inverse
 from .instancing import invert_transforms, world_boxes
 from .primitives import intersect_shape, shape_uv
 from .scene import Scene
 from .trace import Accelerator, HitBuffer
 from .transforms import mat34, transform_point, transform_vector
+
+wp.set_module_options({"fuse_fp": False})  # bit-identical hits on every device: see the note in wrt/trace.py
+
+wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})  # the traversal stack type's C++ code
 
 TLAS_LEAF_SIZE = 2  # most entries per TLAS leaf (each costs a BLAS traversal, so leaves stay small)
 TLAS_INTERSECTION_COST = 4.0  # SAH cost of entering an entry relative to visiting a TLAS node
@@ -95,8 +99,7 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
     tests = int(0)
     if tlas.num_entries > 0 and ray_is_valid(direction):
         inv_dir = safe_inverse(direction)
-        stack = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
-        stack_t = wp.zeros(shape=MAX_DEPTH, dtype=float)
+        stack = NodeStack()
         top = int(0)
         node = int(-1)
         if reachable(intersect_ray_box(origin, inv_dir, tlas.lowers[0], tlas.uppers[0], t_min, best_t), best_t):
@@ -148,14 +151,13 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                 if reachable(t_left, best_t):
                     node = left
                     if reachable(t_right, best_t):
-                        stack[top] = right
-                        stack_t[top] = t_right
+                        wp.wrt_stack_push(stack, top, right, t_right)
                         top += 1
             # Pop the next node that may still hold a hit no farther than the best one.
             while node < 0 and top > 0:
                 top -= 1
-                if stack_t[top] <= best_t:
-                    node = stack[top]
+                if wp.wrt_stack_t(stack, top) <= best_t:
+                    node = wp.wrt_stack_ref(stack, top)
     if best_prim < 0:
         best_t = wp.inf
         best_instance = -1
@@ -168,7 +170,7 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
     found = bool(False)
     if tlas.num_entries > 0 and ray_is_valid(direction):
         inv_dir = safe_inverse(direction)
-        stack = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
+        stack = NodeStack()
         top = int(0)
         node = int(-1)
         if intersect_ray_box(origin, inv_dir, tlas.lowers[0], tlas.uppers[0], t_min, t_max) < wp.inf:
@@ -200,11 +202,11 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
                 if t_left < wp.inf:
                     node = left
                     if t_right < wp.inf:
-                        stack[top] = right
+                        wp.wrt_stack_push(stack, top, right)
                         top += 1
             if node < 0 and top > 0:
                 top -= 1
-                node = stack[top]
+                node = wp.wrt_stack_ref(stack, top)
     return found
 
 
@@ -225,6 +227,14 @@ def trace_tlas_kernel(
 ):
     """Closest hit of every ray through the TLAS; ``prims`` are geometry ids, ``instances`` -1 for world geometry."""
     i = wp.tid()
+    if not ray_can_hit(origins[i], directions[i], t_mins[i], t_maxs[i]):
+        ts[i] = wp.inf
+        us[i] = 0.0
+        vs[i] = 0.0
+        prims[i] = -1
+        costs[i] = wp.vec2i(0, 0)
+        instances[i] = -1
+        return
     t, u, v, prim, instance, nodes, tests = tlas_intersect(tlas, origins[i], directions[i], t_mins[i], t_maxs[i])
     ts[i] = t
     us[i] = u
@@ -246,7 +256,10 @@ def occluded_tlas_kernel(
 ):
     """1 for every ray that hits anything in ``[t_min, t_max)``."""
     i = wp.tid()
-    blocked[i] = wp.where(tlas_occluded(tlas, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+    hit = False
+    if ray_can_hit(origins[i], directions[i], t_mins[i], t_maxs[i]):
+        hit = tlas_occluded(tlas, origins[i], directions[i], t_mins[i], t_maxs[i])
+    blocked[i] = wp.where(hit, 1, 0)
 
 
 class InstancedAccelerator(Accelerator):
@@ -269,33 +282,52 @@ class InstancedAccelerator(Accelerator):
 
     def __init__(self, scene: Scene, builder: str, device, **build_options):
         self.device = device
+        self.builder = builder
         points, indices = scene.geometry()
-        ranges = scene.prototype_ranges()
-        self.blas, device_blas, blas_first = [], [], []
-        self._arrays = []  # every device array, for device_bytes()
-
-        # Vertex range of the world-space meshes and of each prototype (geometry() concatenates them in order).
-        vertex_counts = [sum(len(m.points) for m in scene.meshes)]
-        vertex_counts += [sum(len(m.points) for m in p.meshes) for p in scene.prototypes]
-        vertex_first = np.cumsum([0] + vertex_counts)
-
-        def add_blas(first: int, count: int, part: int) -> int:
-            v0, v1 = int(vertex_first[part]), int(vertex_first[part + 1])
-            sub_points = np.ascontiguousarray(points[v0:v1])
-            sub = np.ascontiguousarray(indices[first : first + count] - v0)
+        self.blas, self._device_blas, self._blas_first, self._blas_parts = [], [], [], []
+        self._blas_arrays, self._refitters = [], []
+        for part, first, count in blas_parts(scene):
+            sub_points, sub = _part_triangles(scene, points, indices, part, first, count)
             bvh = build_bvh(sub_points, sub, builder, device=device, **build_options)
             d = bvh.to_device(sub_points, sub, device)
             self.blas.append(bvh)
-            device_blas.append(d)
-            blas_first.append(first)
-            self._arrays += [d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2]
-            return len(self.blas) - 1
+            self._device_blas.append(d)
+            self._blas_first.append(first)
+            self._blas_parts.append((part, first, count))
+            self._blas_arrays += [d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2]
+        if not self._device_blas:  # keep the array non-empty: an empty BLAS no ray enters
+            empty = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), builder, device=device)
+            self._device_blas.append(empty.to_device(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device))
+            self._blas_first.append(0)
+        self._build_tlas(scene)
 
+    def update(self, scene: Scene, refit_blas: bool) -> None:
+        """Follows ``scene``, a later frame of the scene this was built for with the same topology: refits every
+        BLAS to the moved vertices when ``refit_blas``, then rebuilds the TLAS over the new instance transforms.
+
+        Raises:
+            ValueError: when ``scene`` needs other BLASes (a prototype gained or lost all its instances, say).
+        """
+        if [tuple(p) for p in blas_parts(scene)] != self._blas_parts:
+            raise ValueError("the scene's prototypes changed; build a new InstancedAccelerator")
+        if refit_blas:
+            from .bvh.refit import Refitter
+
+            points, indices = scene.geometry()
+            if not self._refitters:
+                self._refitters = [Refitter(b, d, self.device) for b, d in zip(self.blas, self._device_blas)]
+            for refitter, (part, first, count) in zip(self._refitters, self._blas_parts):
+                refitter.refit(*_part_triangles(scene, points, indices, part, first, count))
+        self._build_tlas(scene)
+
+    def _build_tlas(self, scene: Scene) -> None:
+        """The TLAS over world boxes of the world-space BLAS, every instance of a prototype BLAS and every shape."""
+        device, builder = self.device, self.builder
+        blas_of_part = {part: b for b, (part, _, _) in enumerate(self._blas_parts)}
         # Entries: the world-space meshes (no transform), then every instance of a non-empty prototype.
         entry_blas, entry_instance, lowers, uppers = [], [], [], []
-        n_flat = scene.num_flat_triangles
-        if n_flat:
-            b = add_blas(0, n_flat, 0)
+        if 0 in blas_of_part:
+            b = blas_of_part[0]
             entry_blas.append(np.array([b]))
             entry_instance.append(np.array([-1]))
             lowers.append(self.blas[b].lowers[:1].astype(np.float64))
@@ -303,11 +335,10 @@ class InstancedAccelerator(Accelerator):
         instances = scene.instances
         _, invertible = invert_transforms(instances.to_world)
         self.skipped_instances = np.flatnonzero(~invertible)
-        for p, (first, count) in enumerate(ranges):
-            mine = np.flatnonzero((instances.prototype == p) & invertible)
-            if count == 0 or len(mine) == 0:
+        for part, b in blas_of_part.items():
+            if part == 0:
                 continue
-            b = add_blas(int(first), int(count), p + 1)
+            mine = np.flatnonzero((instances.prototype == part - 1) & invertible)
             lo, hi = world_boxes(self.blas[b].lowers[0].astype(np.float64), self.blas[b].uppers[0].astype(np.float64),
                                  instances.to_world[mine])
             entry_blas.append(np.full(len(mine), b))
@@ -364,29 +395,23 @@ class InstancedAccelerator(Accelerator):
         t.entry_blas = wp.array(_non_empty(entry_blas[slots]), dtype=wp.int32, device=device)
         t.entry_instance = wp.array(_non_empty(entry_instance[slots]), dtype=wp.int32, device=device)
         t.world_to_local = scene.world_to_local(device)
-        if not device_blas:  # keep the array non-empty: an empty BLAS no ray enters
-            empty = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), builder, device=device)
-            device_blas.append(empty.to_device(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device))
-            blas_first.append(0)
-        t.blases = wp.array(device_blas, dtype=DeviceBvh, device=device)
-        t.blas_first = wp.array(np.asarray(blas_first, np.int32), dtype=wp.int32, device=device)
+        t.blases = wp.array(self._device_blas, dtype=DeviceBvh, device=device)
+        t.blas_first = wp.array(np.asarray(self._blas_first, np.int32), dtype=wp.int32, device=device)
         t.shape_xforms = wp.array(_non_empty(shape_to_local.astype(np.float32)), dtype=mat34, device=device)
         t.shape_rows = wp.array(_non_empty(shape_rows), dtype=wp.int32, device=device)
         t.shape_kinds, t.shape_params, _ = scene.shape_arrays(device)
         t.num_triangles = n_tri
         t.num_entries = self.num_entries
         self.device_tlas = t
-        self._arrays += [t.lowers, t.uppers, t.left_first, t.prim_count, t.entry_blas, t.entry_instance]
-        self._arrays += [t.world_to_local, t.blases, t.blas_first, t.shape_xforms, t.shape_rows]
+        self._tlas_arrays = [t.lowers, t.uppers, t.left_first, t.prim_count, t.entry_blas, t.entry_instance]
+        self._tlas_arrays += [t.world_to_local, t.blases, t.blas_first, t.shape_xforms, t.shape_rows]
         self.build_seconds = sum(b.build_seconds for b in self.blas) + self.tlas.build_seconds
 
     def device_bytes(self) -> dict:
         """Device memory of the structure, in bytes: ``blas`` (nodes and triangles of every BLAS), ``tlas`` (TLAS
         nodes and per-entry data, instance transforms included) and ``total``."""
-        sizes = [a.capacity for a in self._arrays]
-        n_blas = 8 * len(self.blas)
-        blas = sum(sizes[:n_blas])
-        tlas = sum(sizes[n_blas:])
+        blas = sum(a.capacity for a in self._blas_arrays)
+        tlas = sum(a.capacity for a in self._tlas_arrays)
         return {"blas": int(blas), "tlas": int(tlas), "total": int(blas + tlas)}
 
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
@@ -406,6 +431,28 @@ class InstancedAccelerator(Accelerator):
             outputs=[blocked],
             device=self.device,
         )
+
+
+def blas_parts(scene: Scene) -> list[tuple[int, int, int]]:
+    """``(part, first, count)`` of every BLAS ``scene`` needs: part 0 is the world-space meshes, part ``p + 1``
+    prototype ``p`` (when it has triangles and an invertible instance); ``first, count`` are its
+    :meth:`Scene.geometry` triangle rows."""
+    parts = [(0, 0, scene.num_flat_triangles)] if scene.num_flat_triangles else []
+    instances = scene.instances
+    _, invertible = invert_transforms(instances.to_world)
+    for p, (first, count) in enumerate(scene.prototype_ranges()):
+        if count and np.any((instances.prototype == p) & invertible):
+            parts.append((p + 1, int(first), int(count)))
+    return parts
+
+
+def _part_triangles(scene: Scene, points, indices, part: int, first: int, count: int) -> tuple:
+    """Vertices and triangles (re-indexed from 0) of one BLAS part (:func:`blas_parts`)."""
+    # geometry() concatenates the world-space meshes' vertices, then each prototype's, in order.
+    vertex_counts = [sum(len(m.points) for m in scene.meshes)]
+    vertex_counts += [sum(len(m.points) for m in p.meshes) for p in scene.prototypes]
+    v0, v1 = int(np.sum(vertex_counts[:part])), int(np.sum(vertex_counts[: part + 1]))
+    return np.ascontiguousarray(points[v0:v1]), np.ascontiguousarray(indices[first : first + count] - v0)
 
 
 def _non_empty(a: np.ndarray) -> np.ndarray:

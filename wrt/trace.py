@@ -14,17 +14,27 @@ triangles appear once) and ``instance`` the instance hit (-1 for non-instanced g
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import warp as wp
 
-from .bvh import DeviceBvh, build_bvh
+from .bvh import DeviceBvh, FlatBvh, build_bvh, build_bvh_device
 from .bvh.build import Builder
 from .bvh.layout import check_layout, convert_layout, layout_kernels
+from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import bvh_intersect, bvh_occluded
+from .geometry import ray_can_hit
 from .scene import Scene
+
+# No floating-point contraction (FMA) in the trace kernels: the watertight triangle test relies on an edge shared by
+# two triangles giving exactly opposite edge functions (``cx * by - cy * bx``), which a fused multiply-add breaks;
+# and nvrtc and clang fuse different operations, so CUDA and CPU hits would differ near edges.
+wp.set_module_options({"fuse_fp": False})
+wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})  # the traversal stack type's C++ code
 
 ACCELERATORS = ("wrt", "warp")  # names accepted by accel=
 MIN_RAYS_PER_THREAD = 1 << 14  # smaller CPU launches are not split across threads
@@ -48,6 +58,13 @@ def trace_bvh_kernel(
 ):
     """Closest hit of every ray through wrt's BVH; ``costs`` gets (nodes visited, triangles tested)."""
     i = wp.tid()
+    if not ray_can_hit(origins[i], directions[i], t_mins[i], t_maxs[i]):
+        ts[i] = wp.inf
+        us[i] = 0.0
+        vs[i] = 0.0
+        prims[i] = -1
+        costs[i] = wp.vec2i(0, 0)
+        return
     t, u, v, prim, nodes, tests = bvh_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
     ts[i] = t
     us[i] = u
@@ -68,7 +85,10 @@ def occluded_bvh_kernel(
 ):
     """1 for every ray that hits anything in ``[t_min, t_max)``."""
     i = wp.tid()
-    blocked[i] = wp.where(bvh_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+    hit = False
+    if ray_can_hit(origins[i], directions[i], t_mins[i], t_maxs[i]):
+        hit = bvh_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
+    blocked[i] = wp.where(hit, 1, 0)
 
 
 @wp.func
@@ -78,7 +98,7 @@ def mesh_query(mesh: wp.uint64, origin: wp.vec3, direction: wp.vec3, t_min: floa
     u = float(0.0)
     v = float(0.0)
     prim = int(-1)
-    if t_max > t_min:
+    if ray_can_hit(origin, direction, t_min, t_max):
         # wp.mesh_query_ray accepts t >= 0 only: start the ray at t_min instead.
         q = wp.mesh_query_ray(mesh, origin + t_min * direction, direction, t_max - t_min)
         if q.result:
@@ -127,7 +147,7 @@ def occluded_mesh_kernel(
     i = wp.tid()
     t_min = t_mins[i]
     hit = False
-    if t_maxs[i] > t_min:
+    if ray_can_hit(origins[i], directions[i], t_min, t_maxs[i]):
         hit = wp.mesh_query_ray_anyhit(mesh, origins[i] + t_min * directions[i], directions[i], t_maxs[i] - t_min)
     blocked[i] = wp.where(hit, 1, 0)
 
@@ -319,12 +339,46 @@ class BvhAccelerator(Accelerator):
         check_flattenable(scene, f"layout={layout!r}")
         self.split = RowSplitter(scene, device) if len(scene.instances) else None
         points, indices = scene.triangles()
-        self.bvh = build_bvh(points, indices, builder, device=device, **build_options)
         self.layout = check_layout(layout)
-        self.device_bvh = convert_layout(self.bvh, layout).to_device(points, indices, device)
+        if layout == "binary" and wp.get_device(device).is_cuda:
+            self._build_on_device(points, indices, builder, device, build_options)
+        else:
+            self.bvh = build_bvh(points, indices, builder, device=device, **build_options)
+            self.device_bvh = convert_layout(self.bvh, layout).to_device(points, indices, device)
         if layout != "binary":
             self.trace_kernel, self.occluded_kernel = layout_kernels(layout)
         self.device = device
+        self._refitter = None
+
+    def refit(self, scene: Scene) -> None:
+        """Follows ``scene``'s vertices (same triangles as the build): the nodes stay, their boxes are recomputed
+        (:mod:`wrt.bvh.refit`); layouts other than binary are converted again from the refitted tree."""
+        from .bvh.refit import Refitter
+
+        points, indices = scene.triangles()
+        if self.layout == "binary":
+            self._refitter = self._refitter or Refitter(self.bvh, self.device_bvh, self.device)
+            self._refitter.refit(points, indices)
+        else:
+            Refitter(self.bvh, self.bvh.to_device(points, indices, self.device), self.device).refit(points, indices)
+            self.device_bvh = convert_layout(self.bvh, self.layout).to_device(points, indices, self.device)
+
+    def _build_on_device(self, points, indices, builder, device, build_options) -> None:
+        """Binary layout on a GPU: the tree and its triangles in slot order never leave the device (a round trip
+        through numpy costs more than a GPU build); :attr:`bvh` copies the tree to the host when first asked."""
+        start = time.perf_counter()
+        points_d = wp.array(points, dtype=wp.vec3, device=device)
+        indices_d = wp.array(indices, dtype=wp.int32, device=device)
+        self._device_tree = build_bvh_device(points_d, indices_d, builder, device=device, **build_options)
+        self.device_bvh = self._device_tree.to_device_bvh(points_d, indices_d)
+        self._host_inputs = (points, indices, time.perf_counter() - start)
+
+    @functools.cached_property
+    def bvh(self) -> FlatBvh:
+        """The canonical tree on the host (stats, previews, refits); a tree built on a GPU is copied on first use."""
+        bvh = self._device_tree.to_host()
+        bvh.points, bvh.indices, bvh.build_seconds = self._host_inputs
+        return bvh
 
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
         wp.launch(
@@ -366,6 +420,12 @@ class WarpMeshAccelerator(Accelerator):
         self.points = wp.array(points, dtype=wp.vec3, device=device)
         self.indices = wp.array(indices.reshape(-1), dtype=wp.int32, device=device)
         self.mesh = wp.Mesh(self.points, self.indices, bvh_constructor=builder)
+
+    def refit(self, scene: Scene) -> None:
+        """Follows ``scene``'s vertices (same triangles): ``wp.Mesh.refit``."""
+        if self.mesh is not None:
+            self.points.assign(scene.triangles()[0])
+            self.mesh.refit()
 
     def _launch(self, kernel, n, inputs, outputs, miss_fill) -> None:
         if self.mesh is None:

@@ -21,11 +21,11 @@ import numpy as np
 import warp as wp
 
 from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
-from .common import MAX_DEPTH
 from .layout import FlatBvh, upload_triangles
+from .stack import STACK_BUILD_OPTIONS, NodeStack
 from .traverse import reachable
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "extra_build_options": STACK_BUILD_OPTIONS})
 
 COMPACT_NODE_BYTES = 64  # three vec4 of child bounds + one vec4i of child references
 
@@ -144,9 +144,7 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
     if bvh.num_prims > 0 and ray_is_valid(direction):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
-        stack_ref = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
-        stack_count = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
-        stack_t = wp.zeros(shape=MAX_DEPTH, dtype=float)
+        stack = NodeStack()
         top = int(0)
         ref = int(0)  # current node or leaf; the root is inner node 0
         count = int(0)
@@ -197,16 +195,14 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
                     ref = near_ref
                     count = near_count
                     if reachable(t1, best_t):
-                        stack_ref[top] = far_ref
-                        stack_count[top] = far_count
-                        stack_t[top] = t1
+                        wp.wrt_stack_push(stack, top, far_ref, far_count, t1)
                         top += 1
             # Pop the next node that may still hold a hit no farther than the best one.
             while ref < 0 and top > 0:
                 top -= 1
-                if stack_t[top] <= best_t:
-                    ref = stack_ref[top]
-                    count = stack_count[top]
+                if wp.wrt_stack_t(stack, top) <= best_t:
+                    ref = wp.wrt_stack_ref(stack, top)
+                    count = wp.wrt_stack_count(stack, top)
     prim = int(-1)
     if best_slot >= 0:
         prim = bvh.prim_ids[best_slot]
@@ -222,8 +218,7 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
     if bvh.num_prims > 0 and ray_is_valid(direction):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
-        stack_ref = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
-        stack_count = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
+        stack = NodeStack()
         top = int(0)
         ref = int(0)
         count = int(0)
@@ -266,13 +261,12 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
                     ref = near_ref
                     count = near_count
                     if t1 < wp.inf:
-                        stack_ref[top] = far_ref
-                        stack_count[top] = far_count
+                        wp.wrt_stack_push(stack, top, far_ref, far_count, 0.0)
                         top += 1
             if ref < 0 and top > 0:
                 top -= 1
-                ref = stack_ref[top]
-                count = stack_count[top]
+                ref = wp.wrt_stack_ref(stack, top)
+                count = wp.wrt_stack_count(stack, top)
     return found
 
 

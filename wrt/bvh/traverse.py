@@ -2,7 +2,9 @@
 
 Both visit the nearer child first (ordered by box entry distance), keep the far child on a fixed stack of
 ``MAX_DEPTH`` entries (the builder guarantees the depth), and store each entry distance beside it so that a
-popped node lying beyond the best hit so far is culled without touching memory.
+popped node lying beyond the best hit so far is culled without touching memory. The stack is the uninitialised
+:class:`wrt.bvh.stack.NodeStack`: a module whose kernels call these functions sets
+``wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})``.
 
 Tie rule: hits at exactly the same ``t`` are resolved towards the smaller triangle id, so the result does not
 depend on the tree or the visiting order. Boxes are entered when their entry distance is ``<=`` the best ``t``
@@ -12,8 +14,8 @@ depend on the tree or the visiting order. Boxes are entered when their entry dis
 import warp as wp
 
 from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
-from .common import MAX_DEPTH
 from .layout import DeviceBvh
+from .stack import NodeStack
 
 
 @wp.func
@@ -66,8 +68,7 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
     if bvh.num_prims > 0 and ray_is_valid(direction):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
-        stack = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
-        stack_t = wp.zeros(shape=MAX_DEPTH, dtype=float)
+        stack = NodeStack()
         top = int(0)
         node = int(-1)
         if reachable(intersect_ray_box(origin, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, best_t), best_t):
@@ -97,14 +98,13 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
                 if reachable(t_left, best_t):
                     node = left
                     if reachable(t_right, best_t):
-                        stack[top] = right
-                        stack_t[top] = t_right
+                        wp.wrt_stack_push(stack, top, right, t_right)
                         top += 1
             # Pop the next node that may still hold a hit no farther than the best one.
             while node < 0 and top > 0:
                 top -= 1
-                if stack_t[top] <= best_t:
-                    node = stack[top]
+                if wp.wrt_stack_t(stack, top) <= best_t:
+                    node = wp.wrt_stack_ref(stack, top)
     prim = int(-1)
     if best_slot >= 0:
         prim = bvh.prim_ids[best_slot]
@@ -120,7 +120,7 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
     if bvh.num_prims > 0 and ray_is_valid(direction):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
-        stack = wp.zeros(shape=MAX_DEPTH, dtype=wp.int32)
+        stack = NodeStack()
         top = int(0)
         node = int(-1)
         if intersect_ray_box(origin, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, t_max) < wp.inf:
@@ -142,9 +142,9 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
                 if t_left < wp.inf:
                     node = left
                     if t_right < wp.inf:
-                        stack[top] = right
+                        wp.wrt_stack_push(stack, top, right)
                         top += 1
             if node < 0 and top > 0:
                 top -= 1
-                node = stack[top]
+                node = wp.wrt_stack_ref(stack, top)
     return found

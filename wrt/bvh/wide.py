@@ -24,15 +24,14 @@ import numpy as np
 import warp as wp
 
 from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
-from .common import MAX_DEPTH
 from .layout import FlatBvh, upload_triangles
+from .stack import SORT_SLOTS, STACK_BUILD_OPTIONS, WIDE_STACK, SortBuffer, WideStack
 from .stats import half_areas
 from .traverse import reachable
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "extra_build_options": STACK_BUILD_OPTIONS})
 
-MAX_WIDTH = 8  # widest supported node
-WIDE_STACK = MAX_WIDTH * MAX_DEPTH  # traversal stack entries: up to width pushes per wide level
+MAX_WIDTH = SORT_SLOTS  # widest supported node: the sort buffer holds one entry per child
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
 
 
@@ -194,12 +193,8 @@ def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_mi
     if bvh.num_prims > 0 and ray_is_valid(direction):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
-        stack_ref = wp.zeros(shape=WIDE_STACK, dtype=wp.int32)
-        stack_count = wp.zeros(shape=WIDE_STACK, dtype=wp.int32)
-        stack_t = wp.zeros(shape=WIDE_STACK, dtype=float)
-        hit_ref = wp.zeros(shape=MAX_WIDTH, dtype=wp.int32)
-        hit_count = wp.zeros(shape=MAX_WIDTH, dtype=wp.int32)
-        hit_t = wp.zeros(shape=MAX_WIDTH, dtype=float)
+        stack = WideStack()
+        entered = SortBuffer()
         top = int(0)
         ref = int(0)  # current wide node or leaf; the root is wide node 0
         count = int(0)
@@ -226,31 +221,37 @@ def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_mi
                         t = intersect_ray_box(origin, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, best_t)
                         if reachable(t, best_t):
                             k = m
-                            while k > 0 and hit_t[k - 1] > t:
-                                hit_t[k] = hit_t[k - 1]
-                                hit_ref[k] = hit_ref[k - 1]
-                                hit_count[k] = hit_count[k - 1]
+                            while k > 0 and wp.wrt_stack_t(entered, k - 1) > t:
+                                wp.wrt_stack_push(
+                                    entered,
+                                    k,
+                                    wp.wrt_stack_ref(entered, k - 1),
+                                    wp.wrt_stack_count(entered, k - 1),
+                                    wp.wrt_stack_t(entered, k - 1),
+                                )
                                 k -= 1
-                            hit_t[k] = t
-                            hit_ref[k] = bvh.refs[c]
-                            hit_count[k] = bvh.counts[c]
+                            wp.wrt_stack_push(entered, k, bvh.refs[c], bvh.counts[c], t)
                             m += 1
                 # Continue with the nearest child; push the others far to near.
                 ref = -1
                 if m > 0:
                     for k in range(m - 1, 0, -1):
-                        stack_ref[top] = hit_ref[k]
-                        stack_count[top] = hit_count[k]
-                        stack_t[top] = hit_t[k]
+                        wp.wrt_stack_push(
+                            stack,
+                            top,
+                            wp.wrt_stack_ref(entered, k),
+                            wp.wrt_stack_count(entered, k),
+                            wp.wrt_stack_t(entered, k),
+                        )
                         top += 1
-                    ref = hit_ref[0]
-                    count = hit_count[0]
+                    ref = wp.wrt_stack_ref(entered, 0)
+                    count = wp.wrt_stack_count(entered, 0)
             # Pop the next node that may still hold a hit no farther than the best one.
             while ref < 0 and top > 0:
                 top -= 1
-                if stack_t[top] <= best_t:
-                    ref = stack_ref[top]
-                    count = stack_count[top]
+                if wp.wrt_stack_t(stack, top) <= best_t:
+                    ref = wp.wrt_stack_ref(stack, top)
+                    count = wp.wrt_stack_count(stack, top)
     prim = int(-1)
     if best_slot >= 0:
         prim = bvh.prim_ids[best_slot]
@@ -266,8 +267,7 @@ def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min
     if bvh.num_prims > 0 and ray_is_valid(direction):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
-        stack_ref = wp.zeros(shape=WIDE_STACK, dtype=wp.int32)
-        stack_count = wp.zeros(shape=WIDE_STACK, dtype=wp.int32)
+        stack = WideStack()
         top = int(0)
         ref = int(0)
         count = int(0)
@@ -287,13 +287,12 @@ def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min
                     if bvh.counts[c] >= 0:
                         t = intersect_ray_box(origin, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, t_max)
                         if t < wp.inf:
-                            stack_ref[top] = bvh.refs[c]
-                            stack_count[top] = bvh.counts[c]
+                            wp.wrt_stack_push(stack, top, bvh.refs[c], bvh.counts[c], 0.0)
                             top += 1
             if ref < 0 and top > 0:
                 top -= 1
-                ref = stack_ref[top]
-                count = stack_count[top]
+                ref = wp.wrt_stack_ref(stack, top)
+                count = wp.wrt_stack_count(stack, top)
     return found
 
 

@@ -1,0 +1,78 @@
+"""Per-thread traversal stacks that are not zeroed: a small C++ type handed to Warp as an external native type.
+
+Why: Warp 1.19's in-kernel ``wp.zeros(shape=N)`` is a ``fixedarray_t`` whose constructor value-initialises its
+storage, and the generated code constructs it twice and copies it once (``T var;`` then ``var = T(N)``); a
+``wp.types.vector(length=N)`` is zeroed too. On CUDA that was about 1.5 KB of local-memory stores per ray for the
+two 64-entry stacks of the binary traversal (``trace_bvh_kernel`` PTX: four 64-iteration store loops before the
+first node), and 6 KB+ for the wide layout. A traversal reads an entry only after pushing it, so the storage is
+left uninitialised, as in Warp's own ``mesh_query_ray`` (a plain ``int stack[...]``).
+
+Use: a module whose kernels call a traversal that uses these stacks compiles the C++ definitions through its
+module options, ``wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})``. In a kernel,
+``s = NodeStack()`` declares a stack; ``wp.wrt_stack_push(s, i, ref[, count][, t])`` writes entry ``i`` (the fields
+not given are left as they are) and ``wp.wrt_stack_ref / wrt_stack_count / wrt_stack_t(s, i)`` read it. Each entry
+is a node (or first slot of a leaf) ``ref``, a leaf triangle ``count`` and an entry distance ``t``; the index is not
+bounds-checked (the builders' depth guarantee bounds it, see ``common.py``).
+
+Warp's external-type API is marked experimental; ``warp-lang`` is pinned to 1.19.0 in ``pyproject.toml``.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import warp as wp
+
+from .common import MAX_DEPTH
+
+WIDE_STACK = 8 * MAX_DEPTH  # entries of the wide layouts' stack: up to 7 pushes per wide level
+SORT_SLOTS = 8  # entries of the wide layouts' per-node sort buffer (one per child of a BVH8 node)
+
+_SIZES = {"NodeStack": MAX_DEPTH, "WideStack": WIDE_STACK, "SortBuffer": SORT_SLOTS}  # C++ name -> entries
+
+_PREAMBLE = """
+namespace wrt {
+template <int N> struct Stack {
+    int ref[N];    // node, or first slot of a leaf
+    int count[N];  // triangles of a leaf (compact and wide layouts)
+    float t[N];    // entry distance
+    CUDA_CALLABLE Stack() {}  // uninitialised on purpose: entries are read only after they are pushed
+};
+template <int N> CUDA_CALLABLE inline void stack_push(Stack<N>& s, int i, int ref) { s.ref[i] = ref; }
+template <int N> CUDA_CALLABLE inline void stack_push(Stack<N>& s, int i, int ref, float t)
+{
+    s.ref[i] = ref;
+    s.t[i] = t;
+}
+template <int N> CUDA_CALLABLE inline void stack_push(Stack<N>& s, int i, int ref, int count, float t)
+{
+    s.ref[i] = ref;
+    s.count[i] = count;
+    s.t[i] = t;
+}
+template <int N> CUDA_CALLABLE inline int stack_ref(const Stack<N>& s, int i) { return s.ref[i]; }
+template <int N> CUDA_CALLABLE inline int stack_count(const Stack<N>& s, int i) { return s.count[i]; }
+template <int N> CUDA_CALLABLE inline float stack_t(const Stack<N>& s, int i) { return s.t[i]; }
+""" + "".join(f"using {name} = Stack<{n}>;\n" for name, n in _SIZES.items()) + "}  // namespace wrt\n"
+
+STACK_BUILD_OPTIONS = wp.ModuleBuildOptions(extra_cuda_preamble=_PREAMBLE, extra_cpu_preamble=_PREAMBLE)
+
+
+def _stack_type(name: str, n: int) -> type:
+    """The host description of ``wrt::<name>`` (Warp checks its size and alignment against the C++ type)."""
+    fields = [("ref", ctypes.c_int32 * n), ("count", ctypes.c_int32 * n), ("t", ctypes.c_float * n)]
+    cls = type(name, (ctypes.Structure,), {"_fields_": fields, "__doc__": f"Traversal stack of {n} entries."})
+    wp.build_experimental.add_native_type(cls, native_name=f"wrt::{name}")
+    add = wp.build_experimental.add_builtin
+    add("wrt_stack_push", {"s": cls, "i": int, "ref": int}, None, native_name="wrt::stack_push")
+    add("wrt_stack_push", {"s": cls, "i": int, "ref": int, "t": float}, None, native_name="wrt::stack_push")
+    add("wrt_stack_push", {"s": cls, "i": int, "ref": int, "count": int, "t": float}, None, native_name="wrt::stack_push")
+    add("wrt_stack_ref", {"s": cls, "i": int}, int, native_name="wrt::stack_ref")
+    add("wrt_stack_count", {"s": cls, "i": int}, int, native_name="wrt::stack_count")
+    add("wrt_stack_t", {"s": cls, "i": int}, float, native_name="wrt::stack_t")
+    return cls
+
+
+NodeStack = _stack_type("NodeStack", MAX_DEPTH)  # binary, compact and TLAS traversal: one entry per tree level
+WideStack = _stack_type("WideStack", WIDE_STACK)  # wide layouts
+SortBuffer = _stack_type("SortBuffer", SORT_SLOTS)  # wide layouts: the entered children of one node, by distance
