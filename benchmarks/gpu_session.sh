@@ -3,15 +3,23 @@
 #   tests  - the device-parametrised tests on cuda:0 (trace agreement, build, render, path tracer CPU = GPU)
 #   build  - benchmarks/gpu_build.py: 10M-triangle lbvh/ploc builds against wp.Mesh(lbvh)
 #   bench  - wrt bench with benchmarks/suites/gpu.json
+#   traversal - benchmarks/gpu_traversal_ab.py: wrt layouts against wp.Mesh on 1M+ triangle scenes
+#   path   - benchmarks/gpu_diagnose_path.py: CPU vs GPU path-traced pixels
+#   batch  - benchmarks/batch_throughput.py: render_batch images/s
+#   frames - benchmarks/multi_gpu_frames.py: a frame range on one GPU, then on all of them
 # Assets: set WRT_ASSETS to a copy of the shared asset folder.
 set -uo pipefail
-step=${1:?usage: gpu_session.sh tests|build|bench}
+step=${1:?usage: gpu_session.sh tests|build|bench|traversal|path|batch|frames}
 out=${OUT:-/tmp/out}
 mkdir -p "$out"
 export PYTHONUNBUFFERED=1
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv > "$out/gpu.txt" 2>&1
 case "$step" in
-    tests) python3 -m pytest -q -p no:cacheprovider -k "cuda" tests/test_devices.py tests/test_integrators.py tests/test_robustness.py 2>&1 | tee "$out/tests.log" | tail -5 ;;
+    tests) python3 -m pytest -q -p no:cacheprovider -k "cuda" tests/test_devices.py tests/test_integrators.py tests/test_robustness.py tests/test_batch.py tests/test_animation.py 2>&1 | tee "$out/tests.log" | tail -5 ;;
+    traversal) python3 benchmarks/gpu_traversal_ab.py "${@:2}" 2>&1 | tee "$out/traversal.log" | tail -60 ;;
+    path) python3 benchmarks/gpu_diagnose_path.py "${@:2}" 2>&1 | tee "$out/path.log" | tail -30 ;;
+    batch) python3 benchmarks/batch_throughput.py "${@:2}" 2>&1 | tee "$out/batch.log" | tail -10 ;;
+    frames) python3 benchmarks/multi_gpu_frames.py "${@:2}" 2>&1 | tee "$out/frames.log" | tail -10 ;;
     build) python3 benchmarks/gpu_build.py "${@:2}" 2>&1 | tee "$out/build.log" | tail -40 ;;
     bench) python3 -m wrt.cli bench gpu -o "$out/bench-gpu" -q "${@:2}" 2>&1 | tee "$out/bench.log" | tail -5
            cp "$out/bench-gpu/table.md" "$out/bench-table.md" 2>/dev/null ;;

@@ -3,6 +3,7 @@
 Pipeline: USD stage -> :class:`Scene` -> BVH -> trace kernels (:class:`Hits`) -> shade kernels -> :class:`Image`.
 """
 
+from .batch import BatchImage, render_batch
 from .bvh import FlatBvh, build_bvh
 from .camera import Camera
 from .errors import SceneError
@@ -18,6 +19,8 @@ from .trace import Hits, occluded, trace
 from .usd import load_usd
 
 __all__ = [
+    "BatchImage",
+    "render_batch",
     "Camera",
     "CylinderLight",
     "DiskLight",

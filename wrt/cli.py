@@ -85,6 +85,16 @@ def _add_render(sub) -> None:
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
     p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh")
     p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--frames", help="render time codes START:END[:STEP] (END included) of an animated stage, one image "
+                   "each; OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png. The BVH is kept "
+                   "across frames: refitted when vertices move, only its top level rebuilt when instances move")
+    p.add_argument("--resume", action="store_true", help="with --frames: skip frames whose image already exists")
+    p.add_argument("--devices", help="with --frames: spread the frames over these Warp devices, comma-separated, "
+                   "e.g. cuda:0,cuda:1 (default: --device)")
+    p.add_argument("--dask", nargs="?", const="", metavar="ADDRESS", help="with --frames: send the frames to the Dask "
+                   "scheduler at ADDRESS (e.g. tcp://scheduler:8786), or without ADDRESS to a LocalCluster of one "
+                   "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
+    p.add_argument("--workers", type=_positive_int, help="with --dask and no ADDRESS: LocalCluster worker count")
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder (depth, z, normal, "
                    "geometric_normal, albedo, prim, instance, material, cost)")
     from .integrators import INTEGRATORS
@@ -159,6 +169,10 @@ def _run_render(args) -> int:
 
     progress = _Progress(args.quiet)
     paths = [Path(s) for s in args.scene] or [default_scene_path()]
+    if args.frames:
+        return _run_frames(args, paths, progress)
+    if args.resume or args.devices or args.dask is not None:
+        raise ValueError("--resume, --devices and --dask apply to --frames only")
     several = len(paths) > 1
     if not several and not args.log:
         _render_one(args, paths[0], _output_for(args, paths[0], False), progress)  # errors: one line, exit 2
@@ -185,6 +199,63 @@ def _run_render(args) -> int:
     if failures:
         print(f"wrt: {len(failures)} of {len(paths)} scenes failed: " + ", ".join(Path(r["scene"]).name for r in failures), file=sys.stderr)
         return 1
+    return 0
+
+
+def _run_frames(args, paths: list, progress) -> int:
+    import json
+
+    from .animation import parse_frames, pending_frames, render_frames
+
+    if len(paths) != 1:
+        raise ValueError("--frames renders one scene; give exactly one SCENE")
+    if not paths[0].exists():
+        raise FileNotFoundError(f"{paths[0]}: no such file")
+    frames = parse_frames(args.frames)
+    output = args.output or "frame_####.png"
+    jobs = pending_frames(frames, output, args.resume)
+    if len(jobs) < len(frames):
+        progress(f"--resume: {len(frames) - len(jobs)} of {len(frames)} frames already on disk")
+    devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
+    options = {
+        "camera": args.camera,
+        "width": args.width,
+        "height": args.height,
+        "builder": args.builder,
+        "accel": args.accel,
+        "integrator": args.integrator,
+        "max_depth": args.max_depth,
+        "ao_radius": args.ao_radius,
+    }
+    start = time.perf_counter()
+    if args.dask is not None:
+        from .animation import render_frames_on_dask
+
+        devices = ["dask " + (args.dask or "LocalCluster")]
+        rows = render_frames_on_dask(paths[0], jobs, address=args.dask or None, n_workers=args.workers, spp=args.spp,
+                                     seed=args.seed, exposure=args.exposure, progress=not args.quiet, **options)
+    else:
+        rows = render_frames(
+            paths[0],
+            jobs,
+            devices=devices,
+            spp=args.spp,
+            seed=args.seed,
+            exposure=args.exposure,
+            progress=not args.quiet,
+            **options,
+        )
+    if args.log:
+        Path(args.log).parent.mkdir(parents=True, exist_ok=True)
+        with open(args.log, "a") as f:
+            for row in rows:
+                f.write(json.dumps(row) + "\n")
+    changes = {}
+    for row in rows:
+        changes[row["change"]] = changes.get(row["change"], 0) + 1
+    summary = ", ".join(f"{n} {c}" for c, n in sorted(changes.items()))
+    progress(f"rendered {len(rows)} frames on {', '.join(devices)} (BVH: {summary or 'nothing to do'})",
+             time.perf_counter() - start)
     return 0
 
 
@@ -334,6 +405,14 @@ def _add_bench(sub) -> None:
     p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all")
     p.add_argument("-o", "--out", default="bench-out", help="output folder")
     p.add_argument("--resume", action="store_true", help="keep rows already in OUT/rows.jsonl and skip them")
+    p.add_argument(
+        "--dask",
+        nargs="?",
+        const=True,
+        metavar="ADDRESS",
+        help="spread the (scene, device, ray kind) groups over a Dask cluster: the scheduler at ADDRESS "
+        "(tcp://host:8786), else a local one with a worker per GPU or CPU core (pip install 'wrt[dask]')",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=_run_bench)
 
@@ -350,7 +429,7 @@ def _run_bench(args) -> int:
     bad = [k for k in grid.rays if k not in RAY_KINDS]
     if bad:
         raise ValueError(f"unknown ray kind {bad[0]!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
-    rows = run_grid(grid, Path(args.out), resume=args.resume, progress=not args.quiet)
+    rows = run_grid(grid, Path(args.out), resume=args.resume, progress=not args.quiet, dask=args.dask)
     failed = [r for r in rows if "error" in r]
     print(f"wrt: {len(rows) - len(failed)} rows measured, {len(failed)} failed; results in {args.out}/", file=sys.stderr)
     for r in failed:
@@ -382,6 +461,7 @@ def main(argv: list[str] | None = None) -> int:
     import warp as wp
 
     wp.config.log_level = wp.LOG_WARNING  # keep Warp's start-up and module-load lines out of the CLI's output
+    from .distributed import DaskUnavailable
     from .errors import SceneError
 
     def show_warning(message, category, filename, lineno, file=None, line=None):
@@ -394,6 +474,9 @@ def main(argv: list[str] | None = None) -> int:
         message = str(e).splitlines()[0] if str(e) else type(e).__name__
         print(f"wrt: error: {message}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except DaskUnavailable as e:
+        print(f"wrt: error: {e}", file=sys.stderr)
+        return 1  # the environment, not the input: dask is missing or its scheduler does not answer
     except RuntimeError as e:
         if not str(e).startswith("Failed to allocate"):  # Warp's words when a device allocation fails
             raise

@@ -18,7 +18,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
-from .camera import Camera, frame_scene
+from .camera import Camera, DeviceCamera, frame_scene
 from .image import Image
 from .integrators import INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
@@ -32,6 +32,7 @@ from .shade import (
     DeviceSurfaces,
     accumulate_samples_kernel,
     intersect_visible,
+    mean_image_kernel,
     primary_aovs_kernel,
     start_paths_kernel,
 )
@@ -179,6 +180,9 @@ class Renderer:
             ``"ao"``, ``"normals"``, ``"depth"`` or ``"albedo"``.
         max_depth: surface interactions per path (``path``) or mirror/refraction bounces (``whitted``); default
             from :data:`DEFAULT_MAX_DEPTH`.
+        cameras: instead of ``camera``, a list of cameras (each as ``camera`` takes them) rendered together in one
+            launch per pass; :meth:`render` then returns a :class:`BatchImage`. Without lights in the stage, the
+            default headlight follows the first camera.
         ao_radius: occlusion distance of ``ao`` in scene units; default a tenth of the scene's bounding-box
             diagonal.
     """
@@ -196,12 +200,18 @@ class Renderer:
         integrator="whitted",
         max_depth=None,
         ao_radius=None,
+        cameras=None,
     ):
         for name, value in (("width", width), ("height", height)):
             if not isinstance(value, (int, np.integer)) or value <= 0:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        if width * height > MAX_PIXELS:
-            raise ValueError(f"{width}x{height} is {width * height} pixels; at most {MAX_PIXELS} are supported")
+        if cameras is not None and (camera is not None or isinstance(cameras, (str, Camera)) or len(cameras) == 0):
+            raise ValueError("give either camera or a non-empty list of cameras, not both")
+        n_views = 1 if cameras is None else len(cameras)
+        if width * height * n_views > MAX_PIXELS:
+            raise ValueError(
+                f"{n_views} x {width}x{height} is {n_views * width * height} pixels; at most {MAX_PIXELS} are supported"
+            )
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}; valid integrators: {', '.join(INTEGRATORS)}")
         if max_depth is None:
@@ -215,7 +225,9 @@ class Renderer:
             raise ValueError(f"ao_radius must be a positive number, got {ao_radius!r}")
         self.scene = scene
         self.width, self.height = int(width), int(height)
-        self.camera = resolve_camera(scene, camera)
+        self.cameras = [resolve_camera(scene, c) for c in ([camera] if cameras is None else cameras)]
+        self.camera = self.cameras[0]
+        self.batched = cameras is not None
         self.device = resolve_device(device)
         self.integrator = integrator
         self.max_depth = int(max_depth)
@@ -237,6 +249,7 @@ class Renderer:
         mats, uvs, tri_materials, sided, emission = shading_data(scene, dev)
         self.materials = mats
         cam = self.camera.to_struct(self.width, self.height)
+        self._upload_cameras()
         used = np.unique(scene.triangle_materials())
         emissive_used = any(float(np.max(emission[k])) > 0.0 for k in used)
         # A stage with no light source at all gets the documented default lights.
@@ -258,13 +271,28 @@ class Renderer:
         if self.device_lights.count > n_analytic:
             self._whitted_groups.append((n_analytic, self.device_lights.count - n_analytic))
 
-    def _lens(self) -> tuple[float, float]:
+    def set_cameras(self, cameras) -> None:
+        """Renders from ``cameras`` (a list, any length) from now on, e.g. new poses each simulation step; the BVH,
+        materials and lights stay (a default headlight keeps its direction)."""
+        cameras = [resolve_camera(self.scene, c) for c in cameras]
+        n = len(cameras) * self.width * self.height
+        if not cameras or n > MAX_PIXELS:
+            raise ValueError(f"need 1 to {MAX_PIXELS // (self.width * self.height)} cameras, got {len(cameras)}")
+        self.cameras, self.camera, self.batched = cameras, cameras[0], True
+        self._upload_cameras()
+        self._progressive = None
+
+    def _upload_cameras(self) -> None:
+        structs = [c.to_struct(self.width, self.height) for c in self.cameras]
+        self._cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
+        self._lenses = wp.array([self._lens(c) for c in self.cameras], dtype=wp.vec2, device=self.device)
+
+    def _lens(self, cam: Camera) -> tuple[float, float]:
         """Thin-lens radius and focus distance (scene units); radius 0 for a pinhole.
 
         The aperture diameter is ``focalLength / fStop`` with the focal length in millimetres, converted to scene
         units through the stage's ``metersPerUnit`` (on a centimetre stage this is USD's "tenths of a scene unit").
         """
-        cam = self.camera
         if cam.projection != "perspective" or not cam.f_stop > 0.0 or not cam.focus_distance > 0.0:
             return 0.0, 1.0
         units_per_mm = 1.0 / (MM_PER_METER * self.scene.meters_per_unit)
@@ -289,7 +317,7 @@ class Renderer:
         if batch is not None and (not isinstance(batch, (int, np.integer)) or batch < 1):
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
         spp, seed = int(spp), int(seed) & 0x7FFFFFFF
-        n_pixels = self.width * self.height
+        n_pixels = self.width * self.height * len(self.cameras)
         if self.integrator in ("normals", "depth", "albedo"):
             spp = 1
         if batch is None:
@@ -317,22 +345,23 @@ class Renderer:
             while first < total:
                 count = min(batch, total - first)
                 w = self._wavefront.view(n_pixels * count)
-                self._render_batch(w, first, seed, aovs if first == 0 else None)
+                self._start_and_trace(w, first, seed, aovs if first == 0 else None)
                 wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count], outputs=[image, dropped])
                 first += count
                 bar.update(count)
         bar.close()
         self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": total}
         self.dropped_samples = int(dropped.numpy()[0])
+        if self.batched:
+            return self._batch_image(image, total, aovs)
         return self._image(image.numpy() / total, aovs)
 
-    def _render_batch(self, w: _Wavefront, first_sample: int, seed: int, aovs):
-        cam = self.camera.to_struct(self.width, self.height)
-        lens_radius, focus = self._lens()
+    def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs):
+        cam = self._cams
         wp.launch(
             start_paths_kernel,
             w.n,
-            inputs=[cam, lens_radius, focus, self.width, self.height, first_sample, seed],
+            inputs=[self._cams, self._lenses, self.width, self.height, first_sample, seed],
             outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal],
         )
         if self.integrator == "path":
@@ -359,7 +388,7 @@ class Renderer:
             wp.launch(
                 primary_aovs_kernel,
                 n,
-                inputs=[self.device_scene, self.surfaces, self.materials, cam.origin, cam.forward]
+                inputs=[self.device_scene, self.surfaces, self.materials, cam, self.width * self.height]
                 + [w.origins[:n], w.directions[:n], h.t[:n], h.u[:n], h.v[:n], h.prim[:n], h.instance[:n], h.cost[:n]],
                 outputs=aovs.outputs,
             )
@@ -436,21 +465,43 @@ class Renderer:
         wp.launch(ao_value_kernel, w.n, inputs=[w.shadow_t_maxs, w.blocked], outputs=[w.radiance])
 
     def _image(self, rgb: np.ndarray, aovs: _AovBuffers) -> Image:
-        h, w = self.height, self.width
-        out = aovs.numpy(h, w)
-        if len(self.scene.instances):  # report rows of Scene.triangles(), as Hits.prim does
-            out["prim"] = self.scene.expanded_ids(out["prim"].reshape(-1), out["instance"].reshape(-1)).reshape(h, w)
-        rgb = rgb.reshape(h, w, 3).astype(np.float32)
-        hit = out["prim"] >= 0
-        if self.integrator == "normals":
-            rgb = np.where(hit[..., None], 0.5 * (out["normal"] + 1.0), 0.0).astype(np.float32)
-        elif self.integrator == "albedo":
-            rgb = out["albedo"].copy()
-        elif self.integrator == "depth":
-            depth = np.where(hit, out["depth"], 0.0)
-            far = float(depth.max()) if hit.any() else 1.0
-            rgb = np.repeat((depth / (far or 1.0))[..., None], 3, axis=-1).astype(np.float32)
-        return Image(rgb=rgb, aovs=out)
+        return finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width),
+                            self.integrator, self.scene)
+
+    def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers):
+        from .batch import BatchImage
+
+        n, h, w = len(self.cameras), self.height, self.width
+        arrays = {name: a.reshape((n, h, w)) for name, a in aovs.arrays.items()}
+        if self.integrator in ("normals", "depth", "albedo"):  # quick looks are made on the host, as for one camera
+            host = {name: a.numpy() for name, a in arrays.items()}
+            rgb = np.stack([finish_image(None, {k: v[i] for k, v in host.items()}, self.integrator, self.scene).rgb
+                            for i in range(n)])
+            rgb = wp.array(rgb, dtype=wp.vec3, device=self.device)
+        else:
+            rgb = wp.empty(n * h * w, dtype=wp.vec3, device=self.device)
+            wp.launch(mean_image_kernel, len(rgb), inputs=[image_sum, total], outputs=[rgb], device=self.device)
+            rgb = rgb.reshape((n, h, w))
+        return BatchImage(rgb=rgb, aovs=arrays, scene=self.scene, integrator=self.integrator)
+
+
+def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
+    """The :class:`Image` of one camera from its mean radiance ``(H, W, 3)`` and its ``(H, W, ...)`` AOVs: prim ids
+    as rows of ``Scene.triangles()``, and the quick-look integrators' colours made from the AOVs."""
+    out = dict(aovs)
+    h, w = out["prim"].shape[:2]
+    if len(scene.instances):  # report rows of Scene.triangles(), as Hits.prim does
+        out["prim"] = scene.expanded_ids(out["prim"].reshape(-1), out["instance"].reshape(-1)).reshape(h, w)
+    hit = out["prim"] >= 0
+    if integrator == "normals":
+        rgb = np.where(hit[..., None], 0.5 * (out["normal"] + 1.0), 0.0)
+    elif integrator == "albedo":
+        rgb = out["albedo"].copy()
+    elif integrator == "depth":
+        depth = np.where(hit, out["depth"], 0.0)
+        far = float(depth.max()) if hit.any() else 1.0
+        rgb = np.repeat((depth / (far or 1.0))[..., None], 3, axis=-1)
+    return Image(rgb=np.asarray(rgb, np.float32).reshape(h, w, 3), aovs=out)
 
 
 class _AovBuffers:

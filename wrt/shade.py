@@ -27,6 +27,10 @@ from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
 from .transforms import inverse_transform_point, normal_to_world, transform_point, transform_vector
 
+# Same rounding on every device: no FMA contraction (nvrtc and clang would fuse different operations, so paths
+# would diverge between CUDA and CPU); no backward pass (nothing differentiates the renderer; it costs compile time).
+wp.set_module_options({"fuse_fp": False, "enable_backward": False})
+
 BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights
 CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
 MAX_CULL_PASSES = 8  # re-traces after culled back faces; a ray still on a back face after that shows it
@@ -195,9 +199,8 @@ def path_rng(seed: int, pixel: int, sample: int):
 
 @wp.kernel
 def start_paths_kernel(
-    cam: DeviceCamera,
-    lens_radius: float,
-    focus_distance: float,
+    cams: wp.array[DeviceCamera],
+    lenses: wp.array[wp.vec2],
     width: int,
     height: int,
     first_sample: int,
@@ -214,13 +217,22 @@ def start_paths_kernel(
     pdf_prev: wp.array[float],
     prev_normal: wp.array[wp.vec3],
 ):
-    """Starts one path per (sample, pixel); entry ``i`` is pixel ``i % (W H)`` of sample ``first_sample + i // (W H)``."""
+    """Starts one path per (sample, view, pixel): entry ``i`` is pixel ``i % (V W H)`` of sample
+    ``first_sample + i // (V W H)``, and that pixel is pixel ``p % (W H)`` of view (camera) ``p // (W H)``.
+
+    ``lenses[view]`` is (lens radius, focus distance). The random stream depends on the pixel within its view, not
+    on the view, so view ``k`` of a batch is exactly the image a render of camera ``k`` alone gives.
+    """
     i = wp.tid()
-    n_pixels = width * height
-    pixel = i % n_pixels
+    n_view = width * height
+    n_pixels = n_view * cams.shape[0]
+    p = i % n_pixels
     sample = first_sample + i // n_pixels
+    view = p // n_view
+    pixel = p - view * n_view
     state = path_rng(seed, pixel, sample)
-    o, d, t0, t1, state = camera_sample(cam, lens_radius, focus_distance, width, height, pixel, sample, state)
+    lens = lenses[view]
+    o, d, t0, t1, state = camera_sample(cams[view], lens[0], lens[1], width, height, pixel, sample, state)
     origins[i] = o
     directions[i] = d
     t_mins[i] = t0
@@ -361,8 +373,8 @@ def primary_aovs_kernel(
     scene: DeviceScene,
     surf: DeviceSurfaces,
     mats: DeviceMaterials,
-    eye: wp.vec3,
-    forward: wp.vec3,
+    cams: wp.array[DeviceCamera],
+    view_pixels: int,
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     hit_t: wp.array[float],
@@ -382,7 +394,8 @@ def primary_aovs_kernel(
     material: wp.array[wp.int32],
     cost: wp.array[wp.vec2i],
 ):
-    """Data outputs of the camera rays (see :class:`wrt.image.Image` for their meaning)."""
+    """Data outputs of the camera rays (see :class:`wrt.image.Image` for their meaning); ray ``i`` belongs to
+    camera ``i // view_pixels``."""
     i = wp.tid()
     prim = hit_prim[i]
     prim_out[i] = prim
@@ -400,7 +413,8 @@ def primary_aovs_kernel(
     h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display)
     depth[i] = hit_t[i] * wp.length(d)
-    z[i] = wp.dot(h.p - eye, forward)
+    cam = cams[i // view_pixels]
+    z[i] = wp.dot(h.p - cam.origin, cam.forward)
     normal[i] = h.ns
     geometric_normal[i] = h.ng
     albedo[i] = s.base_color
@@ -431,12 +445,12 @@ def accumulate_samples_kernel(
 
 
 @wp.kernel
-def scale_image_kernel(
+def mean_image_kernel(
     image: wp.array[wp.vec3],
-    scale: float,
+    samples: int,
     # outputs
     out: wp.array[wp.vec3],
 ):
-    """``out = scale * image``."""
+    """``out = image / samples``: a division, so it rounds exactly as the host's ``image.numpy() / samples``."""
     i = wp.tid()
-    out[i] = image[i] * scale
+    out[i] = image[i] / float(samples)

@@ -1,0 +1,218 @@
+"""Animated stages: frame ranges, refit, TLAS-only rebuilds, and frames equal to fresh renders."""
+
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import warp as wp
+
+import wrt
+from wrt.animation import FrameRenderer, classify_change, frame_output, parse_frames, pending_frames, render_frames
+from wrt.bvh import build_bvh
+from wrt.bvh.refit import Refitter
+from wrt.trace import get_accelerator
+
+ROOT = Path(__file__).resolve().parent.parent
+SIZE = {"width": 48, "height": 36}
+
+
+@pytest.fixture(scope="module")
+def animated(tmp_path_factory) -> Path:
+    spec = importlib.util.spec_from_file_location("make_animated_scene", ROOT / "scenes" / "make_animated_scene.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.write(tmp_path_factory.mktemp("anim") / "animated.usda")
+
+
+def test_parse_frames():
+    assert parse_frames("1:4") == [1.0, 2.0, 3.0, 4.0]
+    assert parse_frames("1:10:4") == [1.0, 5.0, 9.0]
+    assert parse_frames("2:3:0.5") == [2.0, 2.5, 3.0]
+    assert parse_frames("7") == [7.0]
+    for bad in ("a:b", "4:1", "1:4:0", "1:2:3:4", "1:nan"):
+        with pytest.raises(ValueError, match="--frames"):
+            parse_frames(bad)
+
+
+def test_frame_output_patterns():
+    assert frame_output("out/frame_####.png", 12) == Path("out/frame_0012.png")
+    assert frame_output("f#.exr", 123) == Path("f123.exr")
+    assert frame_output("movie.png", 3) == Path("movie_0003.png")
+    assert frame_output("f_##.png", 2.5) == Path("f_02.5.png")
+
+
+def test_refit_gives_the_boxes_of_the_moved_triangles(np_rng):
+    points = np_rng.uniform(-1, 1, (600, 3)).astype(np.float32)
+    indices = np_rng.integers(0, 600, (400, 3)).astype(np.int32)
+    bvh = build_bvh(points, indices, "sah", device="cpu")
+    refitter = Refitter(bvh, bvh.to_device(points, indices, "cpu"), "cpu")
+    moved = (points * 2.0 + np_rng.normal(0, 0.3, points.shape)).astype(np.float32)
+    tree = refitter.refit(moved, indices)
+    tree.validate()
+    leaf = np.flatnonzero(tree.prim_count > 0)
+    for node in leaf[:50]:
+        first, count = tree.left_first[node], tree.prim_count[node]
+        corners = moved[indices[tree.prim_ids[first : first + count]]].reshape(-1, 3)
+        np.testing.assert_array_equal(tree.lowers[node], corners.min(axis=0))
+        np.testing.assert_array_equal(tree.uppers[node], corners.max(axis=0))
+    np.testing.assert_array_equal(tree.lowers[0], moved[indices].reshape(-1, 3).min(axis=0))
+
+
+def test_refitted_accelerator_traces_like_wp_mesh(np_rng):
+    from wrt.procedural import displaced_sphere
+
+    points, indices = displaced_sphere(4000)
+    scene = wrt.Scene.from_triangles(points, indices)
+    accel = get_accelerator(scene, "wrt", "sah", "cpu")
+    moved = wrt.Scene.from_triangles((np.asarray(points) * [1.5, 0.7, 1.0]).astype(np.float32), indices)
+    assert classify_change(scene, moved) == "refit"
+    accel.refit(moved)
+    moved._cache[("accel", "wrt", "sah", "cpu")] = accel
+    origins = np_rng.uniform(-3, 3, (3000, 3)).astype(np.float32)
+    directions = (np_rng.uniform(-1, 1, (3000, 3)) - origins * 0.3).astype(np.float32)
+    ours = wrt.trace(moved, origins, directions, accel="wrt", device="cpu")
+    fresh = wrt.Scene.from_triangles(*moved.triangles())
+    warp = wrt.trace(fresh, origins, directions, accel="warp", device="cpu")
+    assert ours.hit.sum() > 500
+    np.testing.assert_array_equal(ours.hit, warp.hit)
+    np.testing.assert_allclose(ours.t[ours.hit], warp.t[warp.hit], rtol=1e-5)
+
+
+def test_frames_follow_the_stage_and_equal_fresh_renders(animated):
+    renderer = FrameRenderer(animated, **SIZE)
+    for frame in range(1, 9):
+        image = renderer.render(frame)
+        fresh = wrt.render(wrt.load_usd(animated, time=frame), **SIZE)
+        np.testing.assert_array_equal(image.rgb, fresh.rgb, err_msg=f"frame {frame}")
+        np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"], err_msg=f"frame {frame}")
+    changes = [row["change"] for row in renderer.log]
+    assert changes == ["build", "refit", "tlas", "tlas", "tlas", "static", "static", "static"]
+    assert not np.array_equal(renderer.render(1).rgb, renderer.render(8).rgb)  # the camera did move
+
+
+def test_wp_mesh_accelerator_refits_too(animated):
+    renderer = FrameRenderer(animated, accel="warp", tessellate_gprims=True, **SIZE)
+    for frame in (1, 2, 3):
+        image = renderer.render(frame)
+        fresh = wrt.render(wrt.load_usd(animated, time=frame, tessellate_gprims=True), accel="warp", **SIZE)
+        np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"])
+    assert [row["change"] for row in renderer.log] == ["build", "refit", "refit"]
+
+
+def test_topology_change_and_scrambled_vertices_rebuild(tmp_path, np_rng):
+    from pxr import Usd, UsdGeom, Vt
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "topo.usda"))
+    mesh = UsdGeom.Mesh.Define(stage, "/M")
+    grid = np.stack(np.meshgrid(np.arange(10.0), np.arange(10.0), indexing="ij"), -1).reshape(-1, 2)
+    flat = np.concatenate([grid, np.zeros((100, 1))], axis=1).astype(np.float32)
+    scrambled = flat[np_rng.permutation(100)]  # same triangles, vertices thrown across the sheet
+    tris = np.array([[a, a + 1, a + 10] for a in range(89) if a % 10 != 9], np.int32)
+    mesh.CreatePointsAttr().Set(Vt.Vec3fArray.FromNumpy(flat), 1)
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(scrambled), 2)
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(flat), 3)
+    counts = mesh.CreateFaceVertexCountsAttr()
+    index_attr = mesh.CreateFaceVertexIndicesAttr()
+    for t, n in ((1, len(tris)), (3, len(tris) - 5)):
+        counts.Set(Vt.IntArray([3] * n), t)
+        index_attr.Set(Vt.IntArray.FromNumpy(tris[:n].reshape(-1)), t)
+    stage.GetRootLayer().Save()
+    renderer = FrameRenderer(tmp_path / "topo.usda", **SIZE)
+    for frame in (1, 2, 3):
+        image = renderer.render(frame)
+        fresh = wrt.render(wrt.load_usd(tmp_path / "topo.usda", time=frame), **SIZE)
+        np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"])
+    # Frame 2 refits into a tree far worse than a fresh build (rebuild); frame 3 has fewer faces (rebuild).
+    assert [row["change"] for row in renderer.log] == ["build", "build", "build"]
+
+
+def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path):
+    jobs = pending_frames(parse_frames("1:6"), tmp_path / "f_##.npy", resume=False)
+    rows = render_frames(animated, jobs, devices=["cpu", "cpu"], **SIZE)
+    assert sorted(row["frame"] for row in rows) == [1, 2, 3, 4, 5, 6]
+    serial = FrameRenderer(animated, **SIZE)
+    for frame in range(1, 7):
+        np.testing.assert_array_equal(np.load(tmp_path / f"f_{frame:02d}.npy"), serial.render(frame).rgb)
+    assert pending_frames(parse_frames("1:8"), tmp_path / "f_##.npy", resume=True) == [
+        (7.0, tmp_path / "f_07.npy"),
+        (8.0, tmp_path / "f_08.npy"),
+    ]
+
+
+def test_cli_frames_and_resume(animated, tmp_path):
+    cmd = [sys.executable, "-m", "wrt.cli", "render", str(animated), "--width", "32", "--height", "24"]
+    out = tmp_path / "frames" / "f_###.png"
+    done = subprocess.run(cmd + ["--frames", "1:8:3", "-o", str(out)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in out.parent.iterdir()) == ["f_001.png", "f_004.png", "f_007.png"]
+    assert "1 build" in done.stderr
+    (out.parent / "f_004.png").unlink()
+    again = subprocess.run(cmd + ["--frames", "1:8:3", "-o", str(out), "--resume"], capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    assert "2 of 3 frames already on disk" in again.stderr and "rendered 1 frames" in again.stderr
+    bad = subprocess.run(cmd + ["--frames", "9:1"], capture_output=True, text=True, timeout=300)
+    assert bad.returncode == 2 and "empty" in bad.stderr
+
+
+@pytest.mark.parametrize(
+    "asset_id", ["spinning_pyramids", "usdz_animated_cube", "usdz_interpolation_test", "teapot_scene_1000"]
+)
+def test_shared_animated_assets_render_as_frames(assets, asset_id):
+    from pxr import Usd
+
+    path = assets(asset_id)
+    stage = Usd.Stage.Open(str(path))
+    first, last = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    frames = [first, (first + last) / 2, last]
+    renderer = FrameRenderer(path, **SIZE)
+    for frame in frames:
+        image = renderer.render(frame)
+        fresh = wrt.render(wrt.load_usd(path, time=frame), **SIZE)
+        np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"])
+        np.testing.assert_array_equal(image.rgb, fresh.rgb)
+    assert renderer.log[0]["change"] == "build"
+    assert all(row["change"] != "build" for row in renderer.log[1:])
+
+
+def test_frames_on_cuda(animated):
+    if not wp.is_cuda_available():
+        pytest.skip("no CUDA device")
+    renderer = FrameRenderer(animated, device="cuda:0", **SIZE)
+    cpu = FrameRenderer(animated, device="cpu", **SIZE)
+    for frame in (1, 2, 3, 6, 7):
+        g, c = renderer.render(frame), cpu.render(frame)
+        assert np.mean(g.aovs["prim"] == c.aovs["prim"]) > 0.999
+    assert [row["change"] for row in renderer.log] == ["build", "refit", "tlas", "tlas", "static"]
+
+
+
+def die_once_on_frame_3(job):
+    """A frame task whose worker process dies the first time it meets frame 3 (the marker file remembers)."""
+    from wrt.animation import render_frame_task
+
+    marker = Path(os.environ["WRT_TEST_MARKER"])
+    if job["frame"] == 3 and not marker.exists():
+        marker.write_text("killed")
+        os._exit(1)
+    return render_frame_task(job)
+
+
+def test_dask_local_cluster_frames_match_serial_and_survive_a_killed_worker(animated, tmp_path, monkeypatch):
+    pytest.importorskip("distributed")
+    from wrt.animation import render_frames_on_dask
+
+    frames = parse_frames("1:8")
+    serial = tmp_path / "serial" / "f_#.png"
+    render_frames(animated, pending_frames(frames, serial, False), **SIZE)
+    monkeypatch.setenv("WRT_TEST_MARKER", str(tmp_path / "killed"))  # the workers inherit it
+    dask = tmp_path / "dask" / "f_#.png"
+    rows = render_frames_on_dask(animated, pending_frames(frames, dask, False), n_workers=2, task=die_once_on_frame_3,
+                                 **SIZE)
+    assert (tmp_path / "killed").exists()  # a worker did die on frame 3, and its frame was rerun
+    assert sorted(row["frame"] for row in rows) == frames
+    for frame in range(1, 9):
+        assert (dask.parent / f"f_{frame}.png").read_bytes() == (serial.parent / f"f_{frame}.png").read_bytes()

@@ -1,0 +1,357 @@
+"""Animated stages rendered frame by frame, reusing the acceleration structure wherever the geometry allows.
+
+Every frame reads the stage at its time code (:func:`wrt.load_usd` with ``time=``), so transforms, points,
+cameras, lights and materials all follow their time samples. What the BVH does between two frames depends on what
+changed (:func:`classify_change`):
+
+========== =================================================== ===========================================
+change     what moved                                          accelerator
+========== =================================================== ===========================================
+``static`` nothing that is traced                              reused as it is
+``tlas``   instance or analytic-shape transforms only          TLAS rebuilt, every BLAS reused
+``refit``  mesh vertices (same triangles)                      boxes refitted bottom-up (:mod:`wrt.bvh.refit`)
+``build``  first frame, or the topology changed                built from scratch
+========== =================================================== ===========================================
+
+A refitted tree is correct but slows down as vertices drift from where the builder grouped them. The policy: refit
+while the refitted tree's SAH cost stays within :data:`REFIT_SAH_LIMIT` of the cost it had when built, else
+rebuild. The limit is a fixed number (not a timing), so the same frames always give the same trees and the same
+images; ``benchmarks/RESULTS.md`` records the refit and rebuild times it was chosen from.
+
+Closest hits break exact ``t`` ties by the smaller triangle id, so a refitted and a rebuilt tree give the same
+image.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import re
+import time as _time
+from pathlib import Path
+
+import numpy as np
+
+REFIT_SAH_LIMIT = 1.5  # rebuild once refitting has made the tree's SAH cost 50% worse than when it was built
+
+FRAME_PATTERN = re.compile(r"#+")
+
+
+def parse_frames(text: str) -> list[float]:
+    """Frame times of ``START:END[:STEP]`` (END included) or a single ``FRAME``.
+
+    Raises:
+        ValueError: for anything else, an empty range or a non-positive step.
+    """
+    parts = str(text).split(":")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"--frames must be START:END[:STEP] or FRAME, got {text!r}") from None
+    if len(values) == 1:
+        values = [values[0], values[0]]
+    if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
+        raise ValueError(f"--frames must be START:END[:STEP] or FRAME, got {text!r}")
+    start, end, step = values[0], values[1], values[2] if len(values) == 3 else 1.0
+    if step <= 0:
+        raise ValueError(f"--frames step must be positive, got {step:g}")
+    if end < start:
+        raise ValueError(f"--frames range {text!r} is empty (END < START)")
+    count = int(math.floor((end - start) / step + 1e-9)) + 1
+    return [start + k * step for k in range(count)]
+
+
+def frame_output(pattern, frame: float) -> Path:
+    """The file of ``frame``: the last run of ``#`` in ``pattern`` becomes the frame number zero-padded to its
+    length (``out/frame_####.png`` -> ``out/frame_0012.png``); a pattern without ``#`` gets ``_####`` before its
+    suffix. Fractional frames keep their fraction (``frame_0012.5.png``)."""
+    pattern = str(pattern)
+    if "#" not in pattern:
+        p = Path(pattern)
+        pattern = str(p.with_name(f"{p.stem}_####{p.suffix}"))
+    run = list(FRAME_PATTERN.finditer(pattern))[-1]
+    whole = int(math.floor(frame))
+    number = f"{whole:0{len(run.group())}d}" if whole >= 0 else f"-{-whole:0{len(run.group())}d}"
+    if frame != whole:
+        number += f"{frame - whole:.6g}".lstrip("0")
+    return Path(pattern[: run.start()] + number + pattern[run.end() :])
+
+
+def _digest(*arrays) -> str:
+    h = hashlib.sha1()
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(str((a.dtype, a.shape)).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def topology_key(scene) -> str:
+    """What must not change for a BVH to be refitted or its TLAS rebuilt: triangles, vertex counts per mesh, the
+    prototype of every instance and the kinds of the analytic shapes."""
+    _, indices = scene.geometry()
+    counts = [len(m.points) for m in scene.meshes] + [len(m.points) for p in scene.prototypes for m in p.meshes]
+    kinds = " ".join([s.kind for s in scene.shapes] + [s.kind for p in scene.prototypes for s in p.shapes])
+    return _digest(indices, np.asarray(counts, np.int64), scene.instances.prototype, np.frombuffer(kinds.encode(), np.uint8))
+
+
+def classify_change(previous, scene) -> str:
+    """``"build"``, ``"refit"``, ``"tlas"`` or ``"static"``: what the accelerator of ``previous`` must do to serve
+    ``scene`` (see the module docstring)."""
+    if previous is None or topology_key(previous) != topology_key(scene):
+        return "build"
+    if not np.array_equal(previous.geometry()[0], scene.geometry()[0]):
+        return "refit"
+    shapes = [(s.to_world, s.params) for s in scene.shapes] + [(s.to_world, s.params) for p in scene.prototypes for s in p.shapes]
+    shapes_before = [(s.to_world, s.params) for s in previous.shapes]
+    shapes_before += [(s.to_world, s.params) for p in previous.prototypes for s in p.shapes]
+    same_shapes = all(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) for a, b in zip(shapes, shapes_before))
+    if not np.array_equal(previous.instances.to_world, scene.instances.to_world) or not same_shapes:
+        return "tlas"
+    return "static"
+
+
+def _sah(accel) -> float:
+    from .bvh.stats import sah_cost
+
+    trees = getattr(accel, "blas", None) or [getattr(accel, "bvh", None)]
+    return float(sum(sah_cost(t) for t in trees if t is not None))
+
+
+def follow(accel, previous, scene, change: str):
+    """Brings ``accel`` (built for ``previous``) to ``scene`` for a ``change`` of :func:`classify_change` other than
+    ``"build"``. Returns ``"static"``, ``"tlas"``, ``"refit"``, or ``"build"`` when it cannot follow (the caller
+    builds anew)."""
+    from .tlas import InstancedAccelerator
+
+    if change == "static":
+        return "static"
+    if isinstance(accel, InstancedAccelerator):
+        try:
+            accel.update(scene, refit_blas=change == "refit")
+        except ValueError:  # a prototype gained or lost all its instances
+            return "build"
+    elif hasattr(accel, "refit"):
+        accel.refit(scene)  # one flattened tree: instance motion moves its vertices too
+        change = "refit"
+    else:
+        return "build"
+    if change == "refit":
+        built = getattr(accel, "built_sah", None)
+        if built is None:
+            return "build"
+        if built > 0 and _sah(accel) > REFIT_SAH_LIMIT * built:
+            return "build"
+    return change
+
+
+class FrameRenderer:
+    """Renders time samples of one stage, keeping the accelerator from frame to frame.
+
+    Args:
+        path: the USD file.
+        camera: camera prim path (read at every frame's time), a :class:`wrt.Camera`, or ``None``.
+        **options: :class:`wrt.Renderer` options (``width``, ``height``, ``device``, ``builder``, ``accel``,
+            ``integrator``, ``max_depth``, ``ao_radius``).
+
+    Attributes:
+        log: one dict per rendered frame: ``frame``, ``change`` (what the BVH did), ``load_ms``, ``update_ms``
+            (build, refit or TLAS rebuild), ``render_ms``.
+    """
+
+    def __init__(self, path, *, camera=None, tessellate_gprims=False, **options):
+        self.path = os.fspath(path)
+        self.camera = camera
+        self.tessellate_gprims = tessellate_gprims
+        self.options = options
+        self.log = []
+        self._scene = None
+
+    def render(self, frame: float, spp: int = 1, seed: int = 0):
+        """The :class:`wrt.Image` of time code ``frame``."""
+        from .render import Renderer
+        from .usd import load_usd
+
+        start = _time.perf_counter()
+        scene = load_usd(self.path, time=frame, tessellate_gprims=self.tessellate_gprims)
+        loaded = _time.perf_counter()
+        change = classify_change(self._scene, scene)
+        if change != "build":
+            accels = {k: v for k, v in self._scene._cache.items() if k[0] == "accel"}
+            for key, accel in accels.items():
+                done = follow(accel, self._scene, scene, change)
+                if done == "build":
+                    change = "build"
+                    break
+                scene._cache[key] = accel
+                change = done
+            if change == "build":
+                for key in accels:
+                    scene._cache.pop(key, None)
+        renderer = Renderer(scene, camera=self.camera, **self.options)
+        if change == "build":
+            renderer.accel.built_sah = _sah(renderer.accel)
+        updated = _time.perf_counter()
+        image = renderer.render(spp=spp, seed=seed)
+        self._scene = scene
+        self.log.append(
+            {
+                "frame": frame,
+                "change": change,
+                "load_ms": 1e3 * (loaded - start),
+                "update_ms": 1e3 * (updated - loaded),
+                "render_ms": renderer.timers["render"][0],
+            }
+        )
+        return image
+
+
+
+
+
+def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
+    """``(frame, file)`` of every frame to render; with ``resume``, frames whose file exists are left out."""
+    jobs = [(f, frame_output(output, f)) for f in frames]
+    return [(f, p) for f, p in jobs if not (resume and p.exists())]
+
+
+def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False, **options) -> list[dict]:
+    """Renders ``jobs`` (``(frame, file)`` pairs, see :func:`pending_frames`) and writes each image as it is done.
+
+    With one device the frames are rendered here, in order, by one :class:`FrameRenderer`. With several, each
+    device gets a worker process of its own (Python threads would share one interpreter lock for the host-side
+    work, and Warp's current device is global to a process); a worker takes the next frame whenever it is free and
+    sends back the encoded file, which is written here. A frame's image does not depend on where it was rendered.
+
+    Args:
+        path: the USD file.
+        jobs: ``(frame, file)`` pairs; the file suffix picks the format (``.png``, ``.exr``, ``.npy``).
+        devices: Warp devices to spread the frames over.
+        spp: samples per pixel.
+        seed: seed of every random decision (the same for every frame).
+        exposure: PNG exposure (see :meth:`wrt.Image.save`).
+        progress: show a progress bar.
+        **options: :class:`FrameRenderer` options.
+
+    Returns:
+        The log rows of every frame (see :attr:`FrameRenderer.log`) with ``device``, ``output``, ``seconds``
+        (render and encode) and ``finished_at`` (``time.time()``), in the order the frames finished.
+    """
+    from tqdm import tqdm
+
+    path = os.fspath(path)
+    rows = []
+    with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
+        if len(devices) == 1:
+            renderer = FrameRenderer(path, device=devices[0], **options)
+            for frame, file in jobs:
+                start = _time.perf_counter()
+                written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
+                row = dict(renderer.log[-1], device=str(devices[0]), output=str(written))
+                rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
+                bar.update(1)
+            return rows
+        import concurrent.futures
+        import multiprocessing
+
+        claims = multiprocessing.get_context("spawn").Manager().Queue()
+        for device in devices:
+            claims.put(str(device))
+        files = {float(frame): Path(file) for frame, file in jobs}
+        with concurrent.futures.ProcessPoolExecutor(
+            len(devices), mp_context=multiprocessing.get_context("spawn"), initializer=_claim_device, initargs=(claims,)
+        ) as pool:
+            futures = [pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options))
+                       for frame, file in jobs]
+            for future in concurrent.futures.as_completed(futures):
+                result = future.result()
+                file = files[result["row"]["frame"]]
+                file.parent.mkdir(parents=True, exist_ok=True)
+                file.write_bytes(result["data"])
+                rows.append(dict(result["row"], output=str(file)))
+                bar.update(1)
+    return rows
+
+
+_PROCESS_DEVICE = None  # the device a worker process of render_frames claimed
+
+
+def _claim_device(claims) -> None:
+    global _PROCESS_DEVICE
+    _PROCESS_DEVICE = claims.get()
+
+
+def _task(path, frame, file, spp, seed, exposure, options) -> dict:
+    return {"path": path, "frame": float(frame), "suffix": Path(file).suffix.lower(), "spp": spp, "seed": seed,
+            "exposure": exposure, "options": options}
+
+
+_WORKER_RENDERERS: dict = {}  # FrameRenderers kept by a Dask worker process, so its frames share a BVH
+
+
+def render_frame_task(job: dict) -> dict:
+    """One frame on a Dask worker (see :mod:`wrt.distributed`): renders it on the worker's own device with a
+    :class:`FrameRenderer` the worker keeps between tasks, and returns the encoded image file, so the client writes
+    exactly the bytes a serial run writes.
+
+    Args:
+        job: ``path``, ``frame``, ``suffix`` (``.png``, ``.exr``, ``.npy``), ``spp``, ``seed``, ``exposure`` and
+            ``options`` (:class:`FrameRenderer` options without ``device``).
+
+    Returns:
+        ``{"data": file bytes, "row": the frame's log row with "device" and "seconds" (render and encode)}``.
+    """
+    import tempfile
+
+    from .distributed import worker_device
+
+    device = _PROCESS_DEVICE or worker_device()
+    key = (job["path"], device, repr(sorted(job["options"].items())))
+    if key not in _WORKER_RENDERERS:
+        _WORKER_RENDERERS[key] = FrameRenderer(job["path"], device=device, **job["options"])
+    renderer = _WORKER_RENDERERS[key]
+    start = _time.perf_counter()
+    image = renderer.render(job["frame"], spp=job["spp"], seed=job["seed"])
+    with tempfile.TemporaryDirectory() as tmp:
+        written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
+        data = Path(written).read_bytes()
+    row = dict(renderer.log[-1], device=device, seconds=_time.perf_counter() - start, finished_at=_time.time())
+    return {"data": data, "row": row}
+
+
+def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, seed=0, exposure=0.0, progress=False,
+                          task=render_frame_task, **options) -> list[dict]:
+    """:func:`render_frames` on a Dask cluster (``address``, or a ``LocalCluster`` of ``n_workers``): every frame is
+    one task (``task``, :func:`render_frame_task` or a wrapper of it), each image is written here the moment it
+    arrives, and a frame whose worker died is rerun elsewhere. Returns the log rows, with ``output``, in arrival
+    order."""
+    from .distributed import run_tasks
+
+    path = os.fspath(path)
+    files = {float(frame): Path(file) for frame, file in jobs}
+    tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
+    rows = []
+
+    def write(task, result):
+        file = files[task["frame"]]
+        file.parent.mkdir(parents=True, exist_ok=True)
+        file.write_bytes(result["data"])
+        rows.append(dict(result["row"], output=str(file)))
+
+    run_tasks(task, tasks, address=address, n_workers=n_workers, on_result=write, progress=progress,
+              desc="wrt frames")
+    return rows
+
+__all__ = [
+    "REFIT_SAH_LIMIT",
+    "FrameRenderer",
+    "classify_change",
+    "frame_output",
+    "parse_frames",
+    "pending_frames",
+    "render_frame_task",
+    "render_frames",
+    "render_frames_on_dask",
+    "topology_key",
+]

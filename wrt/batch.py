@@ -1,0 +1,108 @@
+"""Many cameras in one launch: ``render_batch`` for simulation and learning workloads (a camera per robot, per
+environment, per sensor), where thousands of small images are rendered every step.
+
+All cameras share one wavefront: path ``i`` belongs to camera ``(i % (n W H)) // (W H)``, so each pass over the
+bounces is one kernel launch for every camera together, not a Python loop. The results stay in device memory as
+``(n, H, W)`` Warp arrays, which ``wp.to_torch`` / ``wp.to_jax`` or DLPack (``torch.from_dlpack(batch.rgb)``) hand
+over without a copy (vector dtypes become a trailing axis of 3 or 2).
+
+View ``k`` of a batch is exactly the image a render of camera ``k`` alone gives (same seed): the random numbers of a
+pixel depend on its position within its view, not on the view.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import warp as wp
+
+from .image import Image
+from .scene import Scene
+
+
+@dataclasses.dataclass
+class BatchImage:
+    """Images of ``n`` cameras rendered together, in device memory.
+
+    Attributes:
+        rgb: ``(n, H, W)`` ``wp.vec3`` array of linear radiance (``.numpy()`` gives ``(n, H, W, 3)`` float32).
+        aovs: name -> ``(n, H, W)`` array of the AOVs of :class:`wrt.Image` (``vec3``/``vec2i`` dtypes add an axis).
+            ``prim`` holds geometry ids (as :class:`wrt.trace.Hits` does before instances are expanded);
+            :meth:`image` converts them to rows of ``Scene.triangles()`` as :class:`wrt.Image` has them.
+        scene: the scene rendered.
+        integrator: the integrator used.
+    """
+
+    rgb: wp.array
+    aovs: dict
+    scene: Scene = dataclasses.field(repr=False)
+    integrator: str = "whitted"
+
+    def __len__(self) -> int:
+        return self.rgb.shape[0]
+
+    def numpy(self) -> tuple[np.ndarray, dict]:
+        """Host copies: ``(rgb (n, H, W, 3), {name: (n, H, W, ...)})``."""
+        return self.rgb.numpy(), {name: a.numpy() for name, a in self.aovs.items()}
+
+    def image(self, k: int) -> Image:
+        """Camera ``k`` as a host :class:`wrt.Image` (the same object a single-camera render returns)."""
+        from .render import finish_image
+
+        if not -len(self) <= k < len(self):
+            raise IndexError(f"camera {k} out of range for a batch of {len(self)}")
+        rgb = self.rgb.numpy()[k]
+        aovs = {name: a.numpy()[k] for name, a in self.aovs.items()}
+        image = finish_image(rgb, aovs, "whitted", self.scene)  # rgb is already final, quick looks included
+        return Image(rgb=rgb, aovs=image.aovs)
+
+
+def render_batch(
+    scene: Scene,
+    cameras,
+    width: int = 64,
+    height: int = 64,
+    *,
+    spp: int = 1,
+    seed: int = 0,
+    device=None,
+    builder: str = "sah",
+    accel: str = "wrt",
+    integrator: str = "whitted",
+    max_depth: int | None = None,
+    ao_radius: float | None = None,
+    batch: int | None = None,
+) -> BatchImage:
+    """Renders ``scene`` from every camera of ``cameras`` at ``width x height``, one launch per pass for all of them.
+
+    Args:
+        scene: the scene.
+        cameras: a list of :class:`wrt.Camera` (each with its own pose and intrinsics) or camera prim paths.
+        width: image width of every camera.
+        height: image height of every camera.
+        spp, seed, batch: as :meth:`wrt.Renderer.render`.
+        device, builder, accel, integrator, max_depth, ao_radius: as :class:`wrt.Renderer`.
+
+    Returns:
+        A :class:`BatchImage`. To render the same cameras again (a new pose each step), keep a
+        :class:`wrt.Renderer` made with ``cameras=`` instead: it builds the BVH once.
+    """
+    from .render import Renderer
+
+    renderer = Renderer(
+        scene,
+        cameras=list(cameras),
+        width=width,
+        height=height,
+        device=device,
+        builder=builder,
+        accel=accel,
+        integrator=integrator,
+        max_depth=max_depth,
+        ao_radius=ao_radius,
+    )
+    return renderer.render(spp=spp, seed=seed, batch=batch)
+
+
+__all__ = ["BatchImage", "render_batch"]

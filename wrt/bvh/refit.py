@@ -1,0 +1,91 @@
+"""Refit: the same tree over moved vertices. Deforming meshes keep their topology from frame to frame, so their
+BVH keeps its nodes and only the boxes change: every leaf box is recomputed from its triangles and every inner box
+from its two children, one launch per tree level, deepest level first (a level only reads the level below it, so
+no launch needs atomics or ordering within itself).
+
+A refitted tree is always correct (every box holds its subtree) but its quality decays as triangles move away from
+where the builder grouped them; :mod:`wrt.animation` measures its SAH cost and rebuilds when it has grown too much.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .layout import DeviceBvh, FlatBvh, upload_triangles
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.kernel
+def refit_level_kernel(
+    level: wp.array[wp.int32],
+    left_first: wp.array[wp.int32],
+    prim_count: wp.array[wp.int32],
+    v0: wp.array[wp.vec3],
+    v1: wp.array[wp.vec3],
+    v2: wp.array[wp.vec3],
+    # outputs
+    lowers: wp.array[wp.vec3],
+    uppers: wp.array[wp.vec3],
+):
+    """Box of each node of one level: its triangles' bounds (leaf) or the union of its children's boxes."""
+    node = level[wp.tid()]
+    count = prim_count[node]
+    first = left_first[node]
+    if count > 0:
+        lo = wp.min(wp.min(v0[first], v1[first]), v2[first])
+        hi = wp.max(wp.max(v0[first], v1[first]), v2[first])
+        for s in range(first + 1, first + count):
+            lo = wp.min(lo, wp.min(wp.min(v0[s], v1[s]), v2[s]))
+            hi = wp.max(hi, wp.max(wp.max(v0[s], v1[s]), v2[s]))
+    else:
+        lo = wp.min(lowers[first], lowers[first + 1])
+        hi = wp.max(uppers[first], uppers[first + 1])
+    lowers[node] = lo
+    uppers[node] = hi
+
+
+class Refitter:
+    """Refits one uploaded tree (its :class:`DeviceBvh`) in place; the struct's arrays keep their addresses, so
+    structures that hold it (a TLAS's BLAS table) stay valid.
+
+    Args:
+        host: the tree as built (:class:`FlatBvh`); its ``lowers``/``uppers`` are updated by every :meth:`refit`.
+        device_bvh: the same tree uploaded with :meth:`FlatBvh.to_device`.
+        device: the device it lives on.
+    """
+
+    def __init__(self, host: FlatBvh, device_bvh: DeviceBvh, device):
+        self.host = host
+        self.device_bvh = device_bvh
+        self.device = device
+        depth = host.depths()
+        self.levels = [
+            wp.array(np.flatnonzero(depth == k).astype(np.int32), dtype=wp.int32, device=device)
+            for k in range(int(depth.max()), -1, -1)
+        ]
+
+    def refit(self, points: np.ndarray, indices: np.ndarray) -> FlatBvh:
+        """Moves the tree's triangles to ``points`` (same ``indices`` as the build) and recomputes every box."""
+        d = self.device_bvh
+        if self.host.num_prims == 0:
+            return self.host
+        _, v0, v1, v2 = upload_triangles(self.host.prim_ids, points, indices, self.device)
+        for dst, src in ((d.v0, v0), (d.v1, v1), (d.v2, v2)):
+            wp.copy(dst, src)
+        for level in self.levels:
+            wp.launch(
+                refit_level_kernel,
+                len(level),
+                inputs=[level, d.left_first, d.prim_count, d.v0, d.v1, d.v2],
+                outputs=[d.lowers, d.uppers],
+                device=self.device,
+            )
+        self.host.lowers = d.lowers.numpy().reshape(-1, 3)
+        self.host.uppers = d.uppers.numpy().reshape(-1, 3)
+        self.host.points, self.host.indices = points, indices
+        return self.host
+
+
+__all__ = ["Refitter", "refit_level_kernel"]
