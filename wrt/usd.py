@@ -144,14 +144,19 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
 
 
 def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
-    """Rejects a time outside the stage's authored ``[startTimeCode, endTimeCode]``; a stage without an authored
-    range accepts any time (USD holds the nearest sample). Reads only layer metadata, never time samples, which
-    can hang usd-core on stages with ``timeCodesPerSecond = 0``."""
+    """Warns about a time outside the stage's authored ``[startTimeCode, endTimeCode]``. USD evaluates any time
+    (values hold at the nearest sample), and stages do animate outside their advertised range (teapot_scene_1000
+    says [1, 1] and moves its camera over 0-479), so this is a warning, not an error. Reads only layer metadata,
+    never time samples, which can hang usd-core on stages with ``timeCodesPerSecond = 0``."""
     if not stage.HasAuthoredTimeCodeRange():
         return
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
     if not start <= time <= end:
-        raise ValueError(f"{os.path.basename(source)}: time {time:g} is outside the stage's time range [{start:g}, {end:g}]")
+        warnings.warn(
+            f"{os.path.basename(source)}: time {time:g} is outside the stage's time range [{start:g}, {end:g}]; "
+            "USD holds the values of the nearest time samples",
+            stacklevel=3,
+        )
 
 
 def _open_stage(source: str) -> Usd.Stage:
