@@ -206,10 +206,10 @@ def test_path_tracer_is_deterministic_and_device_independent(device):
     b = wrt.render(scene, device=device, **kwargs)
     np.testing.assert_array_equal(a.rgb, b.rgb)
     if device != "cpu":
+        # Bit for bit: trace and shading modules compile without FMA contraction, and sin/cos use + - * only, so
+        # every operation rounds the same on both devices (measured on an H200: 0 pixels differ, max |diff| 0).
         ref = wrt.render(scene, device="cpu", **kwargs)
-        close = np.isclose(a.rgb, ref.rgb, rtol=1e-3, atol=1e-4).all(axis=-1)
-        assert close.mean() > 0.99  # a path may only diverge where float rounding flips a decision
-        np.testing.assert_allclose(a.rgb.mean(), ref.rgb.mean(), rtol=1e-3)
+        np.testing.assert_array_equal(a.rgb, ref.rgb)
 
 
 def poison(arrays) -> None:
