@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-REFIT_SAH_LIMIT = 1.5  # rebuild once refitting has made the tree's SAH cost 50% worse than when it was built
+REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20% worse than when it was built
 
 FRAME_PATTERN = re.compile(r"#+")
 

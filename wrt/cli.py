@@ -90,7 +90,7 @@ def _add_render(sub) -> None:
                    "across frames: refitted when vertices move, only its top level rebuilt when instances move")
     p.add_argument("--resume", action="store_true", help="with --frames: skip frames whose image already exists")
     p.add_argument("--devices", help="with --frames: spread the frames over these Warp devices, comma-separated, "
-                   "e.g. cuda:0,cuda:1 (default: --device)")
+                   "e.g. cuda:0,cuda:1, one worker process each (default: --device)")
     p.add_argument("--dask", nargs="?", const="", metavar="ADDRESS", help="with --frames: send the frames to the Dask "
                    "scheduler at ADDRESS (e.g. tcp://scheduler:8786), or without ADDRESS to a LocalCluster of one "
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
