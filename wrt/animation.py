@@ -103,13 +103,16 @@ def classify_change(previous, scene) -> str:
         return "build"
     if not np.array_equal(previous.geometry()[0], scene.geometry()[0]):
         return "refit"
-    shapes = [(s.to_world, s.params) for s in scene.shapes] + [(s.to_world, s.params) for p in scene.prototypes for s in p.shapes]
-    shapes_before = [(s.to_world, s.params) for s in previous.shapes]
-    shapes_before += [(s.to_world, s.params) for p in previous.prototypes for s in p.shapes]
-    same_shapes = all(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]) for a, b in zip(shapes, shapes_before))
+    same_shapes = all(np.array_equal(a, b) for a, b in zip(_shape_state(previous), _shape_state(scene)))
     if not np.array_equal(previous.instances.to_world, scene.instances.to_world) or not same_shapes:
         return "tlas"
     return "static"
+
+
+def _shape_state(scene) -> list:
+    """Transform and parameters of every analytic shape, world-space ones first."""
+    shapes = list(scene.shapes) + [s for p in scene.prototypes for s in p.shapes]
+    return [a for s in shapes for a in (s.to_world, s.params)]
 
 
 def _sah(accel) -> float:
@@ -119,9 +122,9 @@ def _sah(accel) -> float:
     return float(sum(sah_cost(t) for t in trees if t is not None))
 
 
-def follow(accel, previous, scene, change: str):
-    """Brings ``accel`` (built for ``previous``) to ``scene`` for a ``change`` of :func:`classify_change` other than
-    ``"build"``. Returns ``"static"``, ``"tlas"``, ``"refit"``, or ``"build"`` when it cannot follow (the caller
+def follow(accel, scene, change: str):
+    """Brings ``accel`` (built for an earlier frame) to ``scene`` for a ``change`` of :func:`classify_change` other
+    than ``"build"``. Returns ``"static"``, ``"tlas"``, ``"refit"``, or ``"build"`` when it cannot follow (the caller
     builds anew)."""
     from .tlas import InstancedAccelerator
 
@@ -180,7 +183,7 @@ class FrameRenderer:
         if change != "build":
             accels = {k: v for k, v in self._scene._cache.items() if k[0] == "accel"}
             for key, accel in accels.items():
-                done = follow(accel, self._scene, scene, change)
+                done = follow(accel, scene, change)
                 if done == "build":
                     change = "build"
                     break
@@ -205,9 +208,6 @@ class FrameRenderer:
             }
         )
         return image
-
-
-
 
 
 def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
