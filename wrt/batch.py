@@ -52,8 +52,9 @@ class BatchImage:
 
         if not -len(self) <= k < len(self):
             raise IndexError(f"camera {k} out of range for a batch of {len(self)}")
-        rgb = self.rgb.numpy()[k]
-        aovs = {name: a.numpy()[k] for name, a in self.aovs.items()}
+        k = k % len(self)
+        rgb = self.rgb[k].numpy()  # one camera's slice, not the whole batch
+        aovs = {name: a[k].numpy() for name, a in self.aovs.items()}
         image = finish_image(rgb, aovs, "whitted", self.scene)  # rgb is already final, quick looks included
         return Image(rgb=rgb, aovs=image.aovs)
 
