@@ -6,13 +6,15 @@ layouts over one SAH tree, ``wp.Mesh`` with the ``sah``, ``lbvh`` and (where War
 traversal change (imported as ``wrt_old``; it shares the new tree, so only traversal code differs). Launches are
 interleaved subject by subject; each subject gets warm-up launches, then ``--repeats`` launches timed with CUDA
 events; the table gives the median in Mrays/s, the ratio to the best ``wp.Mesh`` of the group, and checks: hits
-bit-identical (t, prim; blocked for shadow rays) between ``wrt_old`` and wrt, and the fraction of rays whose
+bit-identical (t, u, v, prim; blocked for shadow rays) between ``wrt_old`` and wrt, and the fraction of rays whose
 ``prim`` (or blocked flag) equals ``warp:sah``'s.
 
-Scenes: ``chess_set`` from the shared assets (flattened, 1.43M triangles) and a displaced sphere
-(:func:`wrt.procedural.displaced_sphere`). Ray kinds as in :mod:`wrt.rays`; shadow rays use the any-hit kernels.
+Scenes: ``sphere``, a displaced sphere (:func:`wrt.procedural.displaced_sphere`), or any asset id of the shared
+assets (flattened), e.g. ``chess_set`` (1.43M triangles) or ``turbineblade_199k``. Ray kinds as in :mod:`wrt.rays`;
+shadow rays use the any-hit kernels.
 
     python benchmarks/gpu_traversal_ab.py --assets .gpu/assets [--baseline .gpu] [--rays 2097152]
+    python benchmarks/gpu_traversal_ab.py --device cpu --baseline .gpu --rays 65536 --constructors sah  # CPU check
 """
 
 from __future__ import annotations
@@ -69,10 +71,10 @@ class Subject:
         self.ms.append(wp.get_event_elapsed_time(start, end))
 
     def answer(self) -> tuple:
-        """``(blocked,)`` for any hit, ``(t bits, prim)`` for closest hit, as numpy arrays."""
+        """``(blocked,)`` for any hit, ``(t bits, u bits, v bits, prim)`` for closest hit, as numpy arrays."""
         if self.any_hit:
             return (self.outputs[0].numpy(),)
-        return self.outputs[0].numpy().view(np.int32), self.outputs[3].numpy()
+        return (*(self.outputs[k].numpy().view(np.int32) for k in range(3)), self.outputs[3].numpy())
 
 
 def make_rays(scene, kind: str, n: int, device, rays_module, trace_fn):
@@ -96,9 +98,10 @@ def main() -> None:
     parser.add_argument("--rays", type=int, default=1 << 21, help="rays per group (secondary: those that hit)")
     parser.add_argument("--repeats", type=int, default=10, help="timed launches per subject (median reported)")
     parser.add_argument("--sphere", type=int, default=2_000_000, help="triangles of the displaced sphere")
-    parser.add_argument("--scenes", default="chess_set,sphere", help="comma list of chess_set, sphere")
+    parser.add_argument("--scenes", default="chess_set,sphere", help="comma list of sphere and shared asset ids")
     parser.add_argument("--kinds", default="primary,shadow,diffuse,incoherent", help="comma list of ray kinds")
     parser.add_argument("--layouts", default="binary,compact,wide", help="wrt layouts to measure")
+    parser.add_argument("--constructors", default="sah,lbvh,cubql", help="wp.Mesh constructors to measure")
     parser.add_argument("--json", help="also write the rows here (default: $OUT/gpu_traversal_ab.json if $OUT is set)")
     args = parser.parse_args()
     if args.assets:
@@ -124,6 +127,10 @@ def run(args, device) -> None:
     packages = {"wrt": "wrt"}
     if args.baseline:
         sys.path.insert(0, str(Path(args.baseline).resolve()))
+        if (Path(args.baseline) / "wrt_old" / "bvh" / "stack.py").is_file():
+            # Warp registers the ``wrt_stack_*`` builtins by name, so a second registration would hide the first:
+            # both packages use the new package's stack types (the same C++ code).
+            sys.modules["wrt_old.bvh.stack"] = importlib.import_module("wrt.bvh.stack")
         packages = {"old": "wrt_old", "wrt": "wrt"}
     trace_mods = {tag: importlib.import_module(f"{pkg}.trace") for tag, pkg in packages.items()}
     layout_mods = {tag: importlib.import_module(f"{pkg}.bvh.layout") for tag, pkg in packages.items()}
@@ -134,7 +141,7 @@ def run(args, device) -> None:
     rows = []
     for scene_name in args.scenes.split(","):
         log(f"scene {scene_name}: loading")
-        scene = load_usd(asset_path("chess_set")) if scene_name == "chess_set" else displaced_sphere_scene(args.sphere)
+        scene = displaced_sphere_scene(args.sphere) if scene_name == "sphere" else load_usd(asset_path(scene_name))
         points, indices = scene.triangles()
         log(f"scene {scene_name}: {len(indices)} triangles; building wrt sah tree on {device.alias}")
         start = time.perf_counter()
@@ -154,7 +161,7 @@ def run(args, device) -> None:
         mesh_points = wp.array(points, dtype=wp.vec3, device=device)
         mesh_indices = wp.array(indices.reshape(-1), dtype=wp.int32, device=device)
         meshes = {}
-        for constructor in ("sah", "lbvh", "cubql"):
+        for constructor in args.constructors.split(","):
             try:
                 start = time.perf_counter()
                 meshes[constructor] = wp.Mesh(mesh_points, mesh_indices, bvh_constructor=constructor)

@@ -25,7 +25,9 @@ from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
 from .traverse import reachable
 
-wp.set_module_options({"enable_backward": False, "extra_build_options": STACK_BUILD_OPTIONS})
+# No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
+# differed from the binary layout's and from the CPU's.
+wp.set_module_options({"enable_backward": False, "fuse_fp": False, "extra_build_options": STACK_BUILD_OPTIONS})
 
 COMPACT_NODE_BYTES = 64  # three vec4 of child bounds + one vec4i of child references
 

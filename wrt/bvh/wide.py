@@ -29,7 +29,9 @@ from .stack import SORT_SLOTS, STACK_BUILD_OPTIONS, WIDE_STACK, SortBuffer, Wide
 from .stats import half_areas
 from .traverse import reachable
 
-wp.set_module_options({"enable_backward": False, "extra_build_options": STACK_BUILD_OPTIONS})
+# No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
+# differed from the binary layout's and from the CPU's.
+wp.set_module_options({"enable_backward": False, "fuse_fp": False, "extra_build_options": STACK_BUILD_OPTIONS})
 
 MAX_WIDTH = SORT_SLOTS  # widest supported node: the sort buffer holds one entry per child
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
