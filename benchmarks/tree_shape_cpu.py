@@ -8,10 +8,6 @@ slow spell of the machine spreads over all of them. Reported: median Mrays/s per
 ``wp.Mesh(sah)`` and to the default tree (``8:1``) in the same layout, and per setting the build time, node count,
 node bytes and SAH cost.
 
-Besides the library's layouts, ``compact_aos`` is an experiment (defined here, not in the package): the compact
-layout's node as one 64-byte struct per inner node (one array read instead of four) and the leaf triangles
-interleaved (``tris[3 * slot + k]``, one array instead of three). Its hits must equal the compact layout's.
-
 Example::
 
     python benchmarks/tree_shape_cpu.py --scenes asset:turbineblade_199k asset:chess_set
@@ -28,172 +24,12 @@ import warp as wp
 
 from wrt.bench import hardware, resolve_scene
 from wrt.bvh import build_bvh
-from wrt.bvh.compact import convert_compact
 from wrt.bvh.layout import convert_layout, layout_kernels
-from wrt.bvh.stack import STACK_BUILD_OPTIONS, NodeStack
-from wrt.bvh.traverse import reachable
-from wrt.geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
 from wrt.rays import ray_set
 from wrt.trace import HitBuffer, trace_bvh_kernel, trace_mesh_kernel
 
-wp.set_module_options({"enable_backward": False, "fuse_fp": False, "extra_build_options": STACK_BUILD_OPTIONS})
-
-
-@wp.struct
-class CompactNode:
-    """One inner node of the compact layout in 64 contiguous bytes (field order of ``wrt.bvh.compact``)."""
-
-    xy0: wp.vec4  # child 0 (lo.x, hi.x, lo.y, hi.y)
-    xy1: wp.vec4  # child 1 (lo.x, hi.x, lo.y, hi.y)
-    zz: wp.vec4  # (child 0 lo.z, hi.z, child 1 lo.z, hi.z)
-    children: wp.vec4i  # (ref0, ref1, count0, count1)
-
-
-@wp.struct
-class DeviceCompactAosBvh:
-    """The compact layout with array-of-structs nodes and interleaved triangles."""
-
-    nodes: wp.array[CompactNode]  # inner nodes
-    prim_ids: wp.array[wp.int32]  # slot -> triangle id
-    tris: wp.array[wp.vec3]  # vertex k of slot s at 3 * s + k
-    num_prims: int  # triangles in the tree
-
-
-@wp.func
-def compact_aos_intersect(bvh: DeviceCompactAosBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
-    """``wrt.bvh.compact.compact_intersect`` on the array-of-structs layout (same visit order, same hits)."""
-    best_t = t_max
-    best_u = float(0.0)
-    best_v = float(0.0)
-    best_slot = int(-1)
-    nodes = int(0)
-    tests = int(0)
-    if bvh.num_prims > 0 and ray_is_valid(direction):
-        ray = make_sheared_ray(origin, direction)
-        inv_dir = safe_inverse(direction)
-        stack = NodeStack()
-        top = int(0)
-        ref = int(0)
-        count = int(0)
-        while ref >= 0:
-            nodes += 1
-            if count > 0:
-                # Leaf: test its triangles, vertices next to each other.
-                for s in range(ref, ref + count):
-                    tests += 1
-                    hit, t, u, v = intersect_ray_triangle(ray, bvh.tris[3 * s], bvh.tris[3 * s + 1], bvh.tris[3 * s + 2])
-                    if hit and t >= t_min:
-                        if t < best_t or (t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]):
-                            best_t = t
-                            best_u = u
-                            best_v = v
-                            best_slot = s
-                ref = -1
-            else:
-                # Inner node: one 64-byte read holds both child boxes and references.
-                node = bvh.nodes[ref]
-                a = node.xy0
-                b = node.xy1
-                z = node.zz
-                ch = node.children
-                t0 = float(wp.inf)
-                t1 = float(wp.inf)
-                if ch[2] >= 0:
-                    t0 = intersect_ray_box(
-                        origin, inv_dir, wp.vec3(a[0], a[2], z[0]), wp.vec3(a[1], a[3], z[1]), t_min, best_t
-                    )
-                if ch[3] >= 0:
-                    t1 = intersect_ray_box(
-                        origin, inv_dir, wp.vec3(b[0], b[2], z[2]), wp.vec3(b[1], b[3], z[3]), t_min, best_t
-                    )
-                near_ref = ch[0]
-                near_count = ch[2]
-                far_ref = ch[1]
-                far_count = ch[3]
-                if t1 < t0:
-                    near_ref = ch[1]
-                    near_count = ch[3]
-                    far_ref = ch[0]
-                    far_count = ch[2]
-                    tmp = t0
-                    t0 = t1
-                    t1 = tmp
-                ref = -1
-                if reachable(t0, best_t):
-                    ref = near_ref
-                    count = near_count
-                    if reachable(t1, best_t):
-                        wp.wrt_stack_push(stack, top, far_ref, far_count, t1)
-                        top += 1
-            # Pop the next node that may still hold a hit no farther than the best one.
-            while ref < 0 and top > 0:
-                top -= 1
-                if wp.wrt_stack_t(stack, top) <= best_t:
-                    ref = wp.wrt_stack_ref(stack, top)
-                    count = wp.wrt_stack_count(stack, top)
-    prim = int(-1)
-    if best_slot >= 0:
-        prim = bvh.prim_ids[best_slot]
-    else:
-        best_t = wp.inf
-    return best_t, best_u, best_v, prim, nodes, tests
-
-
-@wp.kernel
-def trace_compact_aos_kernel(
-    bvh: DeviceCompactAosBvh,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    ts: wp.array[float],
-    us: wp.array[float],
-    vs: wp.array[float],
-    prims: wp.array[wp.int32],
-    costs: wp.array[wp.vec2i],
-):
-    """Closest hit of every ray through the array-of-structs compact layout."""
-    i = wp.tid()
-    t, u, v, prim, nodes, tests = compact_aos_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-    ts[i] = t
-    us[i] = u
-    vs[i] = v
-    prims[i] = prim
-    costs[i] = wp.vec2i(nodes, tests)
-
-
 DEFAULT_SETTING = "8:1"  # the library's defaults: leaf_size 8, intersection_cost / traversal_cost = 1
 SETTINGS = ("8:0.5", "8:1", "8:2", "8:4", "4:1", "4:2", "2:1", "1:1")  # leaf_size:ratio grid of the default run
-
-
-def compact_aos_to_device(bvh, points: np.ndarray, indices: np.ndarray, device) -> DeviceCompactAosBvh:
-    """The FlatBvh ``bvh`` in the array-of-structs compact layout, on ``device``."""
-    c = convert_compact(bvh)
-    k = max(c.num_nodes, 1)
-    raw = np.zeros((k, 16), np.float32)  # 16 words per node: xy0, xy1, zz, children (int bits)
-    if c.num_nodes:
-        raw[:, 0:4], raw[:, 4:8], raw[:, 8:12] = c.xy0, c.xy1, c.zz
-        raw[:, 12:16] = c.children.astype(np.int32).view(np.float32)
-    nodes = wp.zeros(k, dtype=CompactNode, device=device)
-    assert nodes.strides[0] == 64, "CompactNode must be 64 bytes"
-    if not wp.get_device(device).is_cpu:
-        raise ValueError("compact_aos is filled through host memory: CPU only")
-    np.ctypeslib.as_array(_bytes_view(nodes), (k * 64,))[:] = raw.view(np.uint8).reshape(-1)
-    corners = np.asarray(points, np.float32)[np.asarray(indices)[c.prim_ids]].reshape(-1, 3)
-    s = DeviceCompactAosBvh()
-    s.nodes = nodes
-    s.prim_ids = wp.array(c.prim_ids, dtype=wp.int32, device=device)
-    s.tris = wp.array(corners if len(corners) else np.zeros((3, 3), np.float32), dtype=wp.vec3, device=device)
-    s.num_prims = c.num_prims
-    return s
-
-
-def _bytes_view(array: wp.array):
-    """A ctypes pointer to the bytes of a CPU ``wp.array``."""
-    import ctypes
-
-    return ctypes.cast(array.ptr, ctypes.POINTER(ctypes.c_uint8))
 
 
 class Subject:
@@ -256,15 +92,10 @@ def build_subjects(scene, settings, layouts, device) -> tuple[list, dict]:
             "bytes": {},
         }
         for layout in layouts:
-            if layout == "compact_aos":
-                dev_bvh = compact_aos_to_device(bvh, points, indices, device)
-                kernel = trace_compact_aos_kernel
-                builds[setting]["bytes"][layout] = 64 * max(len(convert_compact(bvh).children), 1) + 4 * len(indices)
-            else:
-                converted = convert_layout(bvh, layout)
-                dev_bvh = converted.to_device(points, indices, device)
-                kernel = trace_bvh_kernel if layout == "binary" else layout_kernels(layout)[0]
-                builds[setting]["bytes"][layout] = converted.bytes if hasattr(converted, "bytes") else st["bytes"]
+            converted = convert_layout(bvh, layout)
+            dev_bvh = converted.to_device(points, indices, device)
+            kernel = trace_bvh_kernel if layout == "binary" else layout_kernels(layout)[0]
+            builds[setting]["bytes"][layout] = converted.bytes if hasattr(converted, "bytes") else st["bytes"]
             subjects.append(Subject(f"{setting}/{layout}", kernel, dev_bvh, device))
     return subjects, builds
 
@@ -309,8 +140,8 @@ def main(argv=None):
     parser.add_argument("--rays", nargs="+", default=["primary", "diffuse", "incoherent"], help="ray kinds")
     parser.add_argument("--settings", nargs="+", default=list(SETTINGS),
                         help="sah trees as leaf_size:ratio, ratio = intersection_cost / traversal_cost")
-    parser.add_argument("--layouts", nargs="+", default=["binary", "compact", "compact_aos"],
-                        help="binary, compact, wide, wide8, or compact_aos (the experiment of this script)")
+    parser.add_argument("--layouts", nargs="+", default=["binary", "compact"],
+                        help="binary, compact, wide or wide8")
     parser.add_argument("--n-rays", type=int, default=200_000, help="rays per group (diffuse: as many as hit)")
     parser.add_argument("--repeats", type=int, default=7, help="timed launches per subject, after one warm-up")
     parser.add_argument("--device", default="cpu", help="Override the default Warp device")
@@ -374,7 +205,7 @@ def main(argv=None):
     print("|---|---|---|---|---|")
     for scene_name, kind, n, result in all_rows:
         for setting in args.settings:
-            key = next((f"{setting}/{l}" for l in ("binary", "compact", "compact_aos") if f"{setting}/{l}" in result), None)
+            key = next((f"{setting}/{l}" for l in ("binary", "compact") if f"{setting}/{l}" in result), None)
             if key:
                 r = result[key]
                 print(f"| {scene_name.split(':')[-1]} | {kind} | {setting} ({key.split('/')[1]}) | {r['nodes_per_ray']:.1f} | {r['tests_per_ray']:.1f} |")
