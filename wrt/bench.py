@@ -283,7 +283,7 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
                     agreement=_agreement(answer, reference, directions, scale) if reference is not None else None,
                     **subject.stats,
                 )
-            except Exception as e:  # noqa: BLE001: one failing accelerator must not stop the grid
+            except Exception as e:  # noqa: BLE001 - one failing accelerator must not stop the grid
                 row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
                 row["traceback"] = traceback.format_exc(limit=3)
             emit(row)
@@ -302,7 +302,7 @@ def _run_group(group, grid: Grid, thread_counts, emit, skip, loaded: dict) -> No
             loaded[scene_name] = resolve_scene(scene_name)
         sink = (lambda row: emit(dict(row, sweep=True))) if is_scaling else emit
         measure_group(scene_name, loaded[scene_name], device, kind, local, accels, thread_counts, sink, skip)
-    except Exception as e:  # noqa: BLE001: a broken scene becomes one error row
+    except Exception as e:  # noqa: BLE001 - a broken scene becomes one error row
         emit({"scene": scene_name, "accel": "*", "device": str(device), "rays": kind, "threads": None,
               "error": f"{type(e).__name__}: {e}".splitlines()[0]})
 

@@ -137,7 +137,7 @@ def run_tasks(
                 i = futures.pop(future)
                 try:
                     result = future.result()
-                except Exception as e:  # noqa: BLE001: the task's own error, or KilledWorker
+                except Exception as e:  # noqa: BLE001 - the task's own error, or KilledWorker
                     if on_error is None:
                         failed.append(e)
                     else:
