@@ -7,9 +7,10 @@
 #   path   - benchmarks/gpu_diagnose_path.py: CPU vs GPU path-traced pixels
 #   batch  - benchmarks/batch_throughput.py: render_batch images/s
 #   frames - benchmarks/multi_gpu_frames.py: a frame range on one GPU, then on all of them
+#   frame  - benchmarks/frame_capture.py: the 1080p chess_set frame as a CUDA graph
 # Assets: set WRT_ASSETS to a copy of the shared asset folder.
 set -uo pipefail
-step=${1:?usage: gpu_session.sh tests|build|bench|traversal|path|batch|frames}
+step=${1:?usage: gpu_session.sh tests|build|bench|traversal|path|batch|frames|frame}
 out=${OUT:-/tmp/out}
 mkdir -p "$out"
 export PYTHONUNBUFFERED=1
@@ -20,6 +21,7 @@ case "$step" in
     path) python3 benchmarks/gpu_diagnose_path.py "${@:2}" 2>&1 | tee "$out/path.log" | tail -30 ;;
     batch) python3 benchmarks/batch_throughput.py "${@:2}" 2>&1 | tee "$out/batch.log" | tail -10 ;;
     frames) python3 benchmarks/multi_gpu_frames.py "${@:2}" 2>&1 | tee "$out/frames.log" | tail -10 ;;
+    frame) python3 benchmarks/frame_capture.py "${@:2}" 2>&1 | tee "$out/frame.log" | tail -12 ;;
     build) python3 benchmarks/gpu_build.py "${@:2}" 2>&1 | tee "$out/build.log" | tail -40 ;;
     bench) python3 -m wrt.cli bench gpu -o "$out/bench-gpu" -q "${@:2}" 2>&1 | tee "$out/bench.log" | tail -5
            cp "$out/bench-gpu/table.md" "$out/bench-table.md" 2>/dev/null ;;

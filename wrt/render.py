@@ -48,6 +48,7 @@ MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as f
 DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
 MM_PER_METER = 1000.0  # camera focal lengths are read as millimetres for the thin lens
+CAPTURE_CULL_PASSES = 2  # back-face cull passes of a graph-captured frame (it cannot stop early: no host reads)
 
 
 def resolve_camera(scene: Scene, camera) -> Camera:
@@ -241,6 +242,8 @@ class Renderer:
             self.device_scene = scene.to_device(self.device)
             self._upload_shading()
         self._wavefront = None
+        self._frame = None  # buffers of launch_frame
+        self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
         self._progressive = None  # running sums of the last render, for render(resume=True)
         self.dropped_samples = 0  # non-finite samples left out of the last render
 
@@ -356,6 +359,34 @@ class Renderer:
             return self._batch_image(image, total, aovs)
         return self._image(image.numpy() / total, aovs)
 
+    def launch_frame(self, seed: int = 0) -> None:
+        """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
+        CUDA graph (``wp.ScopedCapture``) and replayed: every bounce up to ``max_depth`` is launched (finished paths
+        do no work) and back-face culling runs :data:`CAPTURE_CULL_PASSES` passes. Buffers are allocated on the first
+        call, so make one call before capturing. :meth:`frame_image` reads the result."""
+        n_pixels = self.width * self.height * len(self.cameras)
+        if self._frame is None:
+            self._frame = (_Wavefront(n_pixels, self.device, self.all_double_sided),
+                           wp.zeros(n_pixels, dtype=wp.vec3, device=self.device),
+                           wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device))
+        w, image, dropped, aovs = self._frame
+        aovs.done = False
+        self._sync_free = True
+        try:
+            with wp.ScopedDevice(self.device):
+                image.zero_()
+                self._start_and_trace(w, 0, int(seed) & 0x7FFFFFFF, aovs)
+                wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, 1], outputs=[image, dropped])
+        finally:
+            self._sync_free = False
+
+    def frame_image(self):
+        """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay)."""
+        _, image, _, aovs = self._frame
+        if self.batched:
+            return self._batch_image(image, 1, aovs)
+        return self._image(image.numpy(), aovs)
+
     def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs):
         cam = self._cams
         wp.launch(
@@ -379,7 +410,8 @@ class Renderer:
         """Closest hits of the current rays (for camera rays: the visible ones, past culled back faces); the first
         time, also the AOVs of sample 0."""
         if camera_rays:
-            intersect_visible(self.accel, self.surfaces, self.device_scene, w.rays, w.hits, w.scratch)
+            passes = CAPTURE_CULL_PASSES if self._sync_free else None
+            intersect_visible(self.accel, self.surfaces, self.device_scene, w.rays, w.hits, w.scratch, passes)
         else:
             self.accel.intersect(*w.rays, w.hits)
         if aovs is not None and not aovs.done:
@@ -399,6 +431,8 @@ class Renderer:
         launch_per_path(add_unoccluded_kernel, w.n, [w.nee, w.shadow_t_maxs, w.blocked], [w.radiance], self.device)
 
     def _any_alive(self, w: _Wavefront) -> bool:
+        if self._sync_free:  # launch every bounce: finished paths do no work
+            return True
         w.counter.zero_()
         wp.launch(count_alive_kernel, w.n, inputs=[w.alive], outputs=[w.counter])
         return int(w.counter.numpy()[0]) > 0

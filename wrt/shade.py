@@ -316,7 +316,7 @@ def merge_hits_kernel(
         instance[i] = instance2[i]
 
 
-def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays, hits, scratch) -> None:
+def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays, hits, scratch, passes=None) -> None:
     """``accel.intersect`` that skips back faces of single-sided meshes (see the module docstring).
 
     Args:
@@ -326,13 +326,15 @@ def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays,
         rays: ``[origins, directions, t_mins, t_maxs]`` device arrays.
         hits: the :class:`wrt.trace.HitBuffer` to fill.
         scratch: a :class:`CullScratch` of the same size.
+        passes: run exactly this many cull passes without reading anything back to the host (for CUDA graph
+            capture); ``None``: up to :data:`MAX_CULL_PASSES`, stopping once no ray needs another.
     """
     origins, directions, _, t_maxs = rays
     accel.intersect(*rays, hits)
     if scratch.all_double_sided:
         return
     n = len(origins)
-    for _ in range(MAX_CULL_PASSES):
+    for _ in range(MAX_CULL_PASSES if passes is None else passes):
         scratch.retries.zero_()
         wp.launch(
             cull_back_faces_kernel,
@@ -341,7 +343,7 @@ def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays,
             outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries],
             device=scratch.device,
         )
-        if int(scratch.retries.numpy()[0]) == 0:
+        if passes is None and int(scratch.retries.numpy()[0]) == 0:
             return
         accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, scratch.hits)
         h2 = scratch.hits
