@@ -156,6 +156,8 @@ def test_cli_frames_and_resume(animated, tmp_path):
     assert "2 of 3 frames already on disk" in again.stderr and "rendered 1 frames" in again.stderr
     bad = subprocess.run(cmd + ["--frames", "9:1"], capture_output=True, text=True, timeout=300)
     assert bad.returncode == 2 and "empty" in bad.stderr
+    mixed = subprocess.run(cmd + ["--frames", "1:2", "--time", "3"], capture_output=True, text=True, timeout=300)
+    assert mixed.returncode == 2 and "--time cannot be combined with --frames" in mixed.stderr
 
 
 @pytest.mark.parametrize(

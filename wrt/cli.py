@@ -209,6 +209,10 @@ def _run_frames(args, paths: list, progress) -> int:
 
     if len(paths) != 1:
         raise ValueError("--frames renders one scene; give exactly one SCENE")
+    unsupported = [name for name, value in (("--time", args.time), ("--aov", args.aov), ("--aov-dir", args.aov_dir),
+                                            ("--max-memory", args.max_memory)) if value]
+    if unsupported:
+        raise ValueError(f"{', '.join(unsupported)} cannot be combined with --frames")
     if not paths[0].exists():
         raise FileNotFoundError(f"{paths[0]}: no such file")
     frames = parse_frames(args.frames)
