@@ -184,10 +184,12 @@ def test_degenerate_and_invalid_rays_miss():
     assert hits.prim.tolist() == [-1, -1, -1, 0]
 
 
-@pytest.mark.parametrize("instanced", [False, True])
-def test_rays_that_cannot_hit_miss_without_traversal(instanced):
+@pytest.mark.parametrize(
+    "instanced,layout", [(False, "binary"), (False, "compact"), (False, "wide"), (False, "wide8"), (True, "binary")]
+)
+def test_rays_that_cannot_hit_miss_without_traversal(instanced, layout):
     """Finished paths trace empty ranges (``t_max = 0``), and a NaN origin would pass every slab test (min/max drop
-    NaN) and visit the whole tree: such rays miss at once, in the one-level and the two-level (TLAS) kernels."""
+    NaN) and visit the whole tree: such rays miss at once, in every layout and in the two-level (TLAS) traversal."""
     points, tris = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
     scene = wrt.Scene.from_triangles(points, tris)
     if instanced:
@@ -196,10 +198,11 @@ def test_rays_that_cannot_hit_miss_without_traversal(instanced):
     origins = np.array([[0, 0, 1], [np.nan, 0, 1], [0, np.inf, 1], [0, 0, 1]], np.float32)
     directions = np.tile(np.array([[0, 0, -1]], np.float32), (4, 1))
     t_max = np.array([0, np.inf, np.inf, np.inf], np.float32)
-    hits = wrt.trace(scene, origins, directions, t_max=t_max)
+    hits = wrt.trace(scene, origins, directions, t_max=t_max, layout=layout)
     assert hits.prim.tolist() == [-1, -1, -1, 0]
     assert hits.nodes_visited.tolist()[:3] == [0, 0, 0] and hits.nodes_visited[3] > 0
-    assert wrt.occluded(scene, origins, directions, t_max=t_max).tolist() == [False, False, False, True]
+    blocked = wrt.occluded(scene, origins, directions, t_max=t_max, layout=layout)
+    assert blocked.tolist() == [False, False, False, True]
 
 
 def test_axis_aligned_rays_through_shared_edges_never_leak():

@@ -153,8 +153,9 @@ def ray_is_valid(direction: wp.vec3):
 @wp.func
 def ray_can_hit(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
     """False for rays that can hit nothing: an empty or NaN range ``[t_min, t_max)`` (finished paths trace with
-    ``t_max = 0``), a NaN or infinite origin, or an invalid direction. Trace kernels return a miss for them at once:
-    a NaN origin makes every slab test pass (``min``/``max`` drop NaNs), so traversal would visit the whole tree."""
+    ``t_max = 0``), a NaN or infinite origin, or an invalid direction. Every traversal (all layouts, the TLAS and
+    each BLAS it enters) returns a miss for them before visiting any node: a NaN origin makes every slab test pass
+    (``min``/``max`` drop NaNs), so traversal would visit the whole tree."""
     return t_max > t_min and wp.isfinite(origin) and ray_is_valid(direction)
 
 

@@ -34,7 +34,7 @@ import warp as wp
 from .bvh import DeviceBvh, build_bvh
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import bvh_intersect, bvh_occluded, order_children, reachable
-from .geometry import intersect_ray_box, ray_can_hit, ray_is_valid, safe_inverse
+from .geometry import intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import invert_transforms, world_boxes
 from .primitives import intersect_shape, shape_uv
 from .scene import Scene
@@ -97,7 +97,7 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
     best_instance = int(-1)
     nodes = int(0)
     tests = int(0)
-    if tlas.num_entries > 0 and ray_is_valid(direction):
+    if tlas.num_entries > 0 and ray_can_hit(origin, direction, t_min, t_max):
         inv_dir = safe_inverse(direction)
         stack = NodeStack()
         top = int(0)
@@ -168,7 +168,7 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
 def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
     """Any hit with ``t_min <= t < t_max`` in any instance or the world-space geometry."""
     found = bool(False)
-    if tlas.num_entries > 0 and ray_is_valid(direction):
+    if tlas.num_entries > 0 and ray_can_hit(origin, direction, t_min, t_max):
         inv_dir = safe_inverse(direction)
         stack = NodeStack()
         top = int(0)
@@ -227,14 +227,6 @@ def trace_tlas_kernel(
 ):
     """Closest hit of every ray through the TLAS; ``prims`` are geometry ids, ``instances`` -1 for world geometry."""
     i = wp.tid()
-    if not ray_can_hit(origins[i], directions[i], t_mins[i], t_maxs[i]):
-        ts[i] = wp.inf
-        us[i] = 0.0
-        vs[i] = 0.0
-        prims[i] = -1
-        costs[i] = wp.vec2i(0, 0)
-        instances[i] = -1
-        return
     t, u, v, prim, instance, nodes, tests = tlas_intersect(tlas, origins[i], directions[i], t_mins[i], t_maxs[i])
     ts[i] = t
     us[i] = u
@@ -256,10 +248,7 @@ def occluded_tlas_kernel(
 ):
     """1 for every ray that hits anything in ``[t_min, t_max)``."""
     i = wp.tid()
-    hit = False
-    if ray_can_hit(origins[i], directions[i], t_mins[i], t_maxs[i]):
-        hit = tlas_occluded(tlas, origins[i], directions[i], t_mins[i], t_maxs[i])
-    blocked[i] = wp.where(hit, 1, 0)
+    blocked[i] = wp.where(tlas_occluded(tlas, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
 
 
 class InstancedAccelerator(Accelerator):

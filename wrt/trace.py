@@ -58,13 +58,6 @@ def trace_bvh_kernel(
 ):
     """Closest hit of every ray through wrt's BVH; ``costs`` gets (nodes visited, triangles tested)."""
     i = wp.tid()
-    if not ray_can_hit(origins[i], directions[i], t_mins[i], t_maxs[i]):
-        ts[i] = wp.inf
-        us[i] = 0.0
-        vs[i] = 0.0
-        prims[i] = -1
-        costs[i] = wp.vec2i(0, 0)
-        return
     t, u, v, prim, nodes, tests = bvh_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
     ts[i] = t
     us[i] = u
@@ -85,10 +78,7 @@ def occluded_bvh_kernel(
 ):
     """1 for every ray that hits anything in ``[t_min, t_max)``."""
     i = wp.tid()
-    hit = False
-    if ray_can_hit(origins[i], directions[i], t_mins[i], t_maxs[i]):
-        hit = bvh_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-    blocked[i] = wp.where(hit, 1, 0)
+    blocked[i] = wp.where(bvh_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
 
 
 @wp.func

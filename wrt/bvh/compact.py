@@ -20,7 +20,7 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
+from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_can_hit, safe_inverse
 from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
 from .traverse import reachable
@@ -143,7 +143,7 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
     best_slot = int(-1)
     nodes = int(0)
     tests = int(0)
-    if bvh.num_prims > 0 and ray_is_valid(direction):
+    if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
         stack = NodeStack()
@@ -217,7 +217,7 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
 def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
     """Any hit with ``t_min <= t < t_max``: True as soon as one is found."""
     found = bool(False)
-    if bvh.num_prims > 0 and ray_is_valid(direction):
+    if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
         stack = NodeStack()

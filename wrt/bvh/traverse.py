@@ -13,7 +13,7 @@ depend on the tree or the visiting order. Boxes are entered when their entry dis
 
 import warp as wp
 
-from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_is_valid, safe_inverse
+from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_can_hit, safe_inverse
 from .layout import DeviceBvh
 from .stack import NodeStack
 
@@ -65,7 +65,7 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
     best_slot = int(-1)
     nodes = int(0)
     tests = int(0)
-    if bvh.num_prims > 0 and ray_is_valid(direction):
+    if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
         stack = NodeStack()
@@ -117,7 +117,7 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
 def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
     """Any hit with ``t_min <= t < t_max``: True as soon as one is found."""
     found = bool(False)
-    if bvh.num_prims > 0 and ray_is_valid(direction):
+    if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
         stack = NodeStack()
