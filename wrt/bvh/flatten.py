@@ -132,6 +132,25 @@ def make_level_children_kernel(
         node_srcs[child + j] = child_srcs[2 * k + j]
 
 
+@wp.func
+def collapsed_cost(
+    area: float,
+    cost_left: float,
+    cost_right: float,
+    count: int,
+    leaf_size: int,
+    traversal_cost: float,
+    intersection_cost: float,
+):
+    """SAH cost of an inner node of half area ``area`` over ``count`` triangles, and 1 when it is cheaper as one leaf
+    (at most ``leaf_size`` triangles) than split into its two children, 0 otherwise."""
+    split = traversal_cost * area + cost_left + cost_right
+    leaf = intersection_cost * float(count) * area
+    if count <= leaf_size and leaf <= split:
+        return leaf, 1
+    return split, 0
+
+
 @wp.kernel
 def bounds_and_cost_kernel(
     level_begin: int,
@@ -169,15 +188,11 @@ def bounds_and_cost_kernel(
     hi = wp.max(uppers[first], uppers[first + 1])
     lowers[n] = lo
     uppers[n] = hi
-    area = half_area(lo, hi)
-    split = traversal_cost * area + costs[first] + costs[first + 1]
-    leaf = intersection_cost * float(count) * area
-    if count <= leaf_size and leaf <= split:
-        costs[n] = leaf
-        collapse[n] = 1
-    else:
-        costs[n] = split
-        collapse[n] = 0
+    cost, flag = collapsed_cost(
+        half_area(lo, hi), costs[first], costs[first + 1], count, leaf_size, traversal_cost, intersection_cost
+    )
+    costs[n] = cost
+    collapse[n] = flag
 
 
 @wp.kernel
@@ -223,7 +238,7 @@ def bottom_up_kernel(
     heights: wp.array[wp.int32],
 ):
     """Steps 1 and 2 on the source tree for the leaf of slot ``s`` and, going up, every node it reaches second:
-    box, best SAH cost, collapse flag (the same arithmetic as ``bounds_and_cost_kernel``), first slot, triangle
+    box, best SAH cost, collapse flag (``collapsed_cost``, as ``bounds_and_cost_kernel``), first slot, triangle
     count and height."""
     s = wp.tid()
     node = leaf_base + s
@@ -250,15 +265,11 @@ def bottom_up_kernel(
         hi = wp.max(uppers[left], uppers[right])
         lowers[parent] = lo
         uppers[parent] = hi
-        area = half_area(lo, hi)
-        split = traversal_cost * area + costs[left] + costs[right]
-        leaf = intersection_cost * float(count) * area
-        if count <= leaf_size and leaf <= split:
-            costs[parent] = leaf
-            collapse[parent] = 1
-        else:
-            costs[parent] = split
-            collapse[parent] = 0
+        cost, flag = collapsed_cost(
+            half_area(lo, hi), costs[left], costs[right], count, leaf_size, traversal_cost, intersection_cost
+        )
+        costs[parent] = cost
+        collapse[parent] = flag
         starts[parent] = starts[left]
         counts[parent] = count
         heights[parent] = 1 + wp.max(heights[left], heights[right])
