@@ -89,11 +89,15 @@ def _digest(*arrays) -> str:
 
 def topology_key(scene) -> str:
     """What must not change for a BVH to be refitted or its TLAS rebuilt: triangles, vertex counts per mesh, the
-    prototype of every instance and the kinds of the analytic shapes."""
-    _, indices = scene.geometry()
-    counts = [len(m.points) for m in scene.meshes] + [len(m.points) for p in scene.prototypes for m in p.meshes]
-    kinds = " ".join([s.kind for s in scene.shapes] + [s.kind for p in scene.prototypes for s in p.shapes])
-    return _digest(indices, np.asarray(counts, np.int64), scene.instances.prototype, np.frombuffer(kinds.encode(), np.uint8))
+    prototype of every instance and the kinds of the analytic shapes. Cached on the scene: each frame's key is
+    compared twice, once against the frame before and once against the next."""
+    if ("topology",) not in scene._cache:
+        _, indices = scene.geometry()
+        counts = [len(m.points) for m in scene.meshes] + [len(m.points) for p in scene.prototypes for m in p.meshes]
+        kinds = " ".join([s.kind for s in scene.shapes] + [s.kind for p in scene.prototypes for s in p.shapes])
+        kinds = np.frombuffer(kinds.encode(), np.uint8)
+        scene._cache[("topology",)] = _digest(indices, np.asarray(counts, np.int64), scene.instances.prototype, kinds)
+    return scene._cache[("topology",)]
 
 
 def classify_change(previous, scene) -> str:
