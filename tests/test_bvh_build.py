@@ -221,34 +221,3 @@ def test_empty_input_gives_an_empty_tree():
     assert bvh.num_prims == 0
 
 
-@pytest.mark.parametrize("builder", ["lbvh", "ploc"])
-def test_bottom_up_flatten_matches_the_level_by_level_one(builder, np_rng, monkeypatch):
-    import importlib
-
-    from wrt.bvh import flatten
-
-    points, indices = soup(np_rng, 3000)
-    fast = build_bvh(points, indices, builder, device="cpu")
-    module = importlib.import_module(f"wrt.bvh.{builder}")
-    monkeypatch.setattr(module, "flatten_source", lambda *a, **k: flatten.flatten_source(*a, bottom_up=False, **k))
-    slow = build_bvh(points, indices, builder, device="cpu")
-    for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
-        np.testing.assert_array_equal(getattr(fast, field), getattr(slow, field))
-
-
-def test_flatten_halves_a_source_tree_deeper_than_the_stack(np_rng):
-    import warp as wp
-
-    from wrt.bvh.flatten import flatten_source
-
-    # A caterpillar: internal node i holds slot i on the left and node i + 1 on the right (depth n - 1).
-    n = 200
-    i = np.arange(n - 1)
-    left = (-i - 1).astype(np.int32)
-    right = np.where(i < n - 2, i + 1, -(n - 1) - 1).astype(np.int32)
-    lowers = np_rng.uniform(-1, 0, (n, 3)).astype(np.float32)
-    arrays = [wp.array(a, dtype=wp.int32, device="cpu") for a in (np.arange(n), left, right, n - i)]
-    boxes = [wp.array(b, dtype=wp.vec3, device="cpu") for b in (lowers, lowers + 0.5)]
-    bvh = flatten_source(*arrays, 0, *boxes, leaf_size=4).to_host()
-    bvh.validate()
-    assert bvh.depths().max() <= MAX_DEPTH - 1

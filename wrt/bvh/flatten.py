@@ -1,5 +1,5 @@
-"""Bottom-up builder output -> canonical FlatBvh, in Warp kernels: breadth-first renumbering, the depth guarantee,
-bounds, and SAH-based leaf collapsing.
+"""Bottom-up builder output -> canonical FlatBvh, in Warp kernels: the depth guarantee, bounds, SAH-based leaf
+collapsing and a depth-first node order, with a fixed number of launches (no pass per tree level).
 
 The input ("source tree") is a binary tree over ``N`` triangles in slot order, as the bottom-up builders make it:
 internal nodes ``0 .. N-2`` with child references ``src_left[k], src_right[k]`` (``>= 0``: internal node,
@@ -7,19 +7,19 @@ internal nodes ``0 .. N-2`` with child references ``src_left[k], src_right[k]`` 
 subtree covers a contiguous slot range (the left child's first). Karras radix trees have this property directly
 (slots = Morton order); PLOC trees get it from a depth-first slot assignment.
 
-1. Emit the source tree breadth first, level by level, with the two children of a node side by side. A split
-   that would break the depth guarantee (``common.py``) is replaced by halving the node's slot range, and the
-   halves are halved further ("virtual" nodes). Leaves hold one triangle.
-2. Bottom-up over the levels: node boxes, and the SAH cost of the best collapse of every subtree: a subtree of at
-   most ``leaf_size`` triangles becomes a leaf when ``C_i N A <= C_t A + cost(left) + cost(right)``.
-3. Emit again from the tree of step 1, stopping at collapsed subtrees (boxes and slot ranges carry over).
-
-Fast path: a source tree no deeper than ``MAX_DEPTH - 1`` needs no halving anywhere (a child of ``c`` triangles
-at depth ``d + 1`` has a leaf at depth ``>= d + 1 + ceil(log2 c)``), so the tree of step 1 *is* the source tree.
-Steps 1 and 2 then become one bottom-up launch over the source tree (Karras 2012, section 4: one thread per leaf,
-the second thread to reach a node computes it), which also measures the height; only a deeper tree falls back to
-the level-by-level steps. Both give the same tree, bit for bit. Each level of step 3 reads its size back to the
-host (one small synchronizing copy per level).
+1. Bottom-up over the source tree (Karras 2012, section 4: one thread per leaf, the second thread to reach a node
+   computes it): node boxes, slot ranges, heights, and the SAH cost of the best collapse of every subtree: a
+   subtree of at most ``leaf_size`` triangles becomes a leaf when ``C_i N A <= C_t A + cost(left) + cost(right)``.
+2. Only if the tree is deeper than ``MAX_DEPTH - 1`` (``common.py``): the topmost nodes whose source split breaks
+   the depth guarantee (a child of ``c`` triangles at depth ``d + 1`` needs ``d + 1 + ceil(log2 c) <=
+   MAX_DEPTH - 1``) get their subtree replaced by one that halves the slot range at every node. Depths and the
+   topmost failing ancestor come from pointer jumping (``log2`` of the height in launches). A subtree over slots
+   ``[s, e]`` has one inner node per split position ``s .. e-1`` whichever its shape, so the halving subtree
+   reuses the replaced subtree's node ids, each taking the split position it had; then step 1 runs again.
+3. Emit the nodes that no collapsed ancestor hides, the two children of an inner node side by side, the pairs in
+   depth-first (pre-)order of their parents. Pre-order sorts inner nodes by first slot, then depth; the inner
+   nodes that share a first slot form a chain of left children, so a node's pair index is the number of inner
+   nodes with a lower first slot (a prefix scan over slots) plus its place in its chain.
 """
 
 from __future__ import annotations
@@ -52,86 +52,6 @@ def source_node(ref: int, leaf_base: int):
     return wp.where(ref >= 0, ref, leaf_base - ref - 1)
 
 
-@wp.kernel
-def split_source_kernel(
-    level_begin: int,
-    depth: int,
-    node_starts: wp.array[wp.int32],
-    node_counts: wp.array[wp.int32],
-    node_srcs: wp.array[wp.int32],
-    src_left: wp.array[wp.int32],
-    src_right: wp.array[wp.int32],
-    src_counts: wp.array[wp.int32],
-    max_depth: int,
-    # outputs
-    left_first: wp.array[wp.int32],
-    prim_count: wp.array[wp.int32],
-    split_flags: wp.array[wp.int32],
-    child_starts: wp.array[wp.int32],
-    child_counts: wp.array[wp.int32],
-    child_srcs: wp.array[wp.int32],
-):
-    """Step 1 for node ``level_begin + k``: a one-triangle leaf, the source split, or halving."""
-    k = wp.tid()
-    n = level_begin + k
-    start = node_starts[n]
-    count = node_counts[n]
-    src = node_srcs[n]
-    if count <= 1:
-        left_first[n] = start
-        prim_count[n] = count
-        split_flags[k] = 0
-        return
-    # Halve unless the source split keeps both children within the depth guarantee.
-    n_left = count / 2
-    l_src = int(-1)
-    r_src = int(-1)
-    if src >= 0:
-        left = src_left[src]
-        cl = int(1)
-        if left >= 0:
-            cl = src_counts[left]
-        if depth + 1 + ceil_log2(wp.max(cl, count - cl)) <= max_depth - 1:
-            n_left = cl
-            l_src = wp.max(left, -1)
-            r_src = wp.max(src_right[src], -1)
-    prim_count[n] = 0
-    split_flags[k] = 1
-    child_starts[2 * k] = start
-    child_counts[2 * k] = n_left
-    child_srcs[2 * k] = l_src
-    child_starts[2 * k + 1] = start + n_left
-    child_counts[2 * k + 1] = count - n_left
-    child_srcs[2 * k + 1] = r_src
-
-
-@wp.kernel
-def make_level_children_kernel(
-    level_begin: int,
-    first_free: int,
-    split_flags: wp.array[wp.int32],
-    split_ranks: wp.array[wp.int32],
-    child_starts: wp.array[wp.int32],
-    child_counts: wp.array[wp.int32],
-    child_srcs: wp.array[wp.int32],
-    # outputs
-    left_first: wp.array[wp.int32],
-    node_starts: wp.array[wp.int32],
-    node_counts: wp.array[wp.int32],
-    node_srcs: wp.array[wp.int32],
-):
-    """Places the two children of every split node of the level side by side, after the nodes allocated so far."""
-    k = wp.tid()
-    if split_flags[k] == 0:
-        return
-    child = first_free + 2 * (split_ranks[k] - 1)  # inclusive rank
-    left_first[level_begin + k] = child
-    for j in range(2):
-        node_starts[child + j] = child_starts[2 * k + j]
-        node_counts[child + j] = child_counts[2 * k + j]
-        node_srcs[child + j] = child_srcs[2 * k + j]
-
-
 @wp.func
 def collapsed_cost(
     area: float,
@@ -152,52 +72,7 @@ def collapsed_cost(
 
 
 @wp.kernel
-def bounds_and_cost_kernel(
-    level_begin: int,
-    left_first: wp.array[wp.int32],
-    prim_count: wp.array[wp.int32],
-    node_counts: wp.array[wp.int32],
-    slot_prims: wp.array[wp.int32],
-    prim_lowers: wp.array[wp.vec3],
-    prim_uppers: wp.array[wp.vec3],
-    leaf_size: int,
-    traversal_cost: float,
-    intersection_cost: float,
-    # outputs
-    lowers: wp.array[wp.vec3],
-    uppers: wp.array[wp.vec3],
-    costs: wp.array[float],
-    collapse: wp.array[wp.int32],
-):
-    """Step 2 for node ``level_begin + k`` (its children are done): box, best SAH cost, collapse flag."""
-    n = level_begin + wp.tid()
-    first = left_first[n]
-    count = node_counts[n]
-    lo = wp.vec3(wp.inf)
-    hi = wp.vec3(-wp.inf)
-    if prim_count[n] > 0:
-        for s in range(first, first + count):
-            lo = wp.min(lo, prim_lowers[slot_prims[s]])
-            hi = wp.max(hi, prim_uppers[slot_prims[s]])
-        lowers[n] = lo
-        uppers[n] = hi
-        costs[n] = intersection_cost * float(count) * half_area(lo, hi)
-        collapse[n] = 1
-        return
-    lo = wp.min(lowers[first], lowers[first + 1])
-    hi = wp.max(uppers[first], uppers[first + 1])
-    lowers[n] = lo
-    uppers[n] = hi
-    cost, flag = collapsed_cost(
-        half_area(lo, hi), costs[first], costs[first + 1], count, leaf_size, traversal_cost, intersection_cost
-    )
-    costs[n] = cost
-    collapse[n] = flag
-
-
-@wp.kernel
 def source_parents_kernel(
-    root: int,
     leaf_base: int,
     src_left: wp.array[wp.int32],
     src_right: wp.array[wp.int32],
@@ -205,13 +80,11 @@ def source_parents_kernel(
     parents: wp.array[wp.int32],
     visits: wp.array[wp.int32],
 ):
-    """Parent of every source node (-1 for the root) and a zero arrival count for every internal node."""
+    """Parent of both children of internal node ``i``, and a zero arrival count for it."""
     i = wp.tid()
     parents[source_node(src_left[i], leaf_base)] = i
     parents[source_node(src_right[i], leaf_base)] = i
     visits[i] = 0
-    if i == root:
-        parents[i] = -1
 
 
 @wp.kernel
@@ -277,92 +150,268 @@ def bottom_up_kernel(
 
 
 @wp.kernel
-def split_collapsed_kernel(
-    level_begin: int,
-    node_srcs: wp.array[wp.int32],
-    leaf_base: int,
+def init_depth_kernel(parents: wp.array[wp.int32], jump: wp.array[wp.int32], depth: wp.array[wp.int32]):
+    """Pointer jumping, start: each internal node's parent and its distance to it."""
+    i = wp.tid()
+    p = parents[i]
+    jump[i] = p
+    depth[i] = wp.where(p >= 0, 1, 0)
+
+
+@wp.kernel
+def depth_round_kernel(
+    jump: wp.array[wp.int32],
+    depth: wp.array[wp.int32],
+    # outputs
+    new_jump: wp.array[wp.int32],
+    new_depth: wp.array[wp.int32],
+):
+    """One round of pointer jumping: the distance to the ancestor ``2^k`` steps up is added, the jump doubles."""
+    i = wp.tid()
+    j = jump[i]
+    if j >= 0:
+        new_depth[i] = depth[i] + depth[j]
+        new_jump[i] = jump[j]
+    else:
+        new_depth[i] = depth[i]
+        new_jump[i] = -1
+
+
+@wp.kernel
+def depth_failures_kernel(
+    parents: wp.array[wp.int32],
+    depth: wp.array[wp.int32],
+    src_left: wp.array[wp.int32],
+    src_counts: wp.array[wp.int32],
+    starts: wp.array[wp.int32],
+    max_depth: int,
+    # outputs
+    jump: wp.array[wp.int32],
+    top: wp.array[wp.int32],
+    split_pos: wp.array[wp.int32],
+    split_node: wp.array[wp.int32],
+):
+    """For internal node ``i``: itself as ``top`` if its source split breaks the depth guarantee (else -1), and its
+    split position (the last slot of its left child), in both directions."""
+    i = wp.tid()
+    left = src_left[i]
+    cl = int(1)
+    if left >= 0:
+        cl = src_counts[left]
+    count = src_counts[i]
+    fails = depth[i] + 1 + ceil_log2(wp.max(cl, count - cl)) > max_depth - 1
+    top[i] = wp.where(fails, i, -1)
+    jump[i] = parents[i]
+    m = starts[i] + cl - 1
+    split_pos[i] = m
+    split_node[m] = i
+
+
+@wp.kernel
+def top_round_kernel(
+    jump: wp.array[wp.int32],
+    top: wp.array[wp.int32],
+    # outputs
+    new_jump: wp.array[wp.int32],
+    new_top: wp.array[wp.int32],
+):
+    """One round of pointer jumping for the topmost failing node among a node and its ancestors."""
+    i = wp.tid()
+    j = jump[i]
+    t = top[i]
+    if j >= 0:
+        if top[j] >= 0:
+            t = top[j]
+        new_jump[i] = jump[j]
+    else:
+        new_jump[i] = -1
+    new_top[i] = t
+
+
+@wp.func
+def halving_ref(first: int, last: int, root_split: int, cut_split: int, split_node: wp.array[wp.int32]):
+    """Reference to the node over slots ``[first, last]`` of a halving subtree: a triangle slot, or the node
+    whose split position the halving split is (the cut root's own position is taken by the halving root, which
+    trades with the node that had the root's position)."""
+    if first == last:
+        return -first - 1
+    m = first + (last - first + 1) / 2 - 1
+    if m == cut_split:
+        m = root_split
+    return split_node[m]
+
+
+@wp.kernel
+def halve_cuts_kernel(
     src_left: wp.array[wp.int32],
     src_right: wp.array[wp.int32],
-    full_left_first: wp.array[wp.int32],
-    full_starts: wp.array[wp.int32],
-    full_counts: wp.array[wp.int32],
-    full_lowers: wp.array[wp.vec3],
-    full_uppers: wp.array[wp.vec3],
-    collapse: wp.array[wp.int32],
+    src_counts: wp.array[wp.int32],
+    starts: wp.array[wp.int32],
+    top: wp.array[wp.int32],
+    split_pos: wp.array[wp.int32],
+    split_node: wp.array[wp.int32],
     # outputs
-    left_first: wp.array[wp.int32],
-    prim_count: wp.array[wp.int32],
+    new_left: wp.array[wp.int32],
+    new_right: wp.array[wp.int32],
+    new_counts: wp.array[wp.int32],
+):
+    """Internal node ``i`` of the depth-bounded tree: unchanged outside cut subtrees; inside one, the halving node
+    of its role's split position, found by descending from the halving root."""
+    i = wp.tid()
+    cut = top[i]
+    if cut < 0:
+        new_left[i] = src_left[i]
+        new_right[i] = src_right[i]
+        new_counts[i] = src_counts[i]
+        return
+    first = starts[cut]
+    last = first + src_counts[cut] - 1
+    root_split = first + src_counts[cut] / 2 - 1
+    cut_split = split_pos[cut]
+    role = split_pos[i]
+    if i == cut:
+        role = root_split
+    elif role == root_split:
+        role = cut_split
+    m = first + (last - first + 1) / 2 - 1
+    while m != role:
+        if role < m:
+            last = m
+        else:
+            first = m + 1
+        m = first + (last - first + 1) / 2 - 1
+    new_left[i] = halving_ref(first, m, root_split, cut_split, split_node)
+    new_right[i] = halving_ref(m + 1, last, root_split, cut_split, split_node)
+    new_counts[i] = last - first + 1
+
+
+@wp.kernel
+def emit_flags_kernel(
+    parents: wp.array[wp.int32],
+    counts: wp.array[wp.int32],
+    collapse: wp.array[wp.int32],
+    starts: wp.array[wp.int32],
+    leaf_size: int,
+    # outputs
+    emit: wp.array[wp.int32],
+    chain_len: wp.array[wp.int32],
+):
+    """Node ``j``: 0 when a collapsed ancestor hides it, 1 for an emitted leaf, 2 for an emitted inner node (which
+    counts itself in the chain of its first slot). Only ancestors of at most ``leaf_size`` triangles can be
+    collapsed, so the walk up is short."""
+    j = wp.tid()
+    p = parents[j]
+    while p >= 0 and counts[p] <= leaf_size:
+        if collapse[p] == 1:
+            emit[j] = 0
+            return
+        p = parents[p]
+    if collapse[j] == 1:
+        emit[j] = 1
+        return
+    emit[j] = 2
+    wp.atomic_add(chain_len, starts[j], 1)
+
+
+@wp.kernel
+def pair_rank_kernel(
+    leaf_base: int,
+    parents: wp.array[wp.int32],
+    src_left: wp.array[wp.int32],
+    starts: wp.array[wp.int32],
+    emit: wp.array[wp.int32],
+    chain_len: wp.array[wp.int32],
+    chain_end: wp.array[wp.int32],
+    # outputs
+    ranks: wp.array[wp.int32],
+):
+    """Pre-order rank of emitted inner node ``i``: the inner nodes of lower first slots (``chain_end``, an
+    inclusive scan of ``chain_len``), plus the left-child steps up to the top of its own chain."""
+    i = wp.tid()
+    if emit[i] != 2:
+        return
+    above = int(0)
+    node = i
+    p = parents[node]
+    while p >= 0 and source_node(src_left[p], leaf_base) == node:
+        above += 1
+        node = p
+        p = parents[node]
+    s = starts[i]
+    ranks[i] = chain_end[s] - chain_len[s] + above
+
+
+@wp.kernel
+def emit_nodes_kernel(
+    leaf_base: int,
+    parents: wp.array[wp.int32],
+    src_left: wp.array[wp.int32],
+    emit: wp.array[wp.int32],
+    ranks: wp.array[wp.int32],
     lowers: wp.array[wp.vec3],
     uppers: wp.array[wp.vec3],
-    split_flags: wp.array[wp.int32],
-    child_starts: wp.array[wp.int32],
-    child_counts: wp.array[wp.int32],
-    child_srcs: wp.array[wp.int32],
+    starts: wp.array[wp.int32],
+    counts: wp.array[wp.int32],
+    # outputs
+    out_lowers: wp.array[wp.vec3],
+    out_uppers: wp.array[wp.vec3],
+    left_first: wp.array[wp.int32],
+    prim_count: wp.array[wp.int32],
 ):
-    """Step 3 for node ``level_begin + k``: copy full-tree node ``src``; a leaf if ``src`` is collapsed. With
-    ``leaf_base >= 0`` the full tree is the source tree in bottom-up node space (children from ``src_left`` and
-    ``src_right``), else the breadth-first tree of step 1 (children ``c, c + 1``)."""
-    k = wp.tid()
-    n = level_begin + k
-    s = node_srcs[n]
-    lowers[n] = full_lowers[s]
-    uppers[n] = full_uppers[s]
-    if collapse[s] == 1:
-        left_first[n] = full_starts[s]
-        prim_count[n] = full_counts[s]
-        split_flags[k] = 0
+    """Writes emitted node ``j`` beside its sibling, in its parent's pair (the root at 0)."""
+    j = wp.tid()
+    kind = emit[j]
+    if kind == 0:
         return
-    prim_count[n] = 0
-    split_flags[k] = 1
-    c = full_left_first[s]
-    d = c + 1
-    if leaf_base >= 0:
-        c = source_node(src_left[s], leaf_base)
-        d = source_node(src_right[s], leaf_base)
-    child_starts[2 * k] = full_starts[c]
-    child_counts[2 * k] = full_counts[c]
-    child_srcs[2 * k] = c
-    child_starts[2 * k + 1] = full_starts[d]
-    child_counts[2 * k + 1] = full_counts[d]
-    child_srcs[2 * k + 1] = d
+    p = parents[j]
+    pos = int(0)
+    if p >= 0:
+        pos = 1 + 2 * ranks[p] + wp.where(source_node(src_left[p], leaf_base) == j, 0, 1)
+    out_lowers[pos] = lowers[j]
+    out_uppers[pos] = uppers[j]
+    if kind == 2:
+        left_first[pos] = 1 + 2 * ranks[j]
+        prim_count[pos] = 0
+    else:
+        left_first[pos] = starts[j]
+        prim_count[pos] = counts[j]
 
 
-class _Levels:
-    """Breadth-first emission bookkeeping: node arrays of capacity ``2 N - 1`` and per-level scratch."""
+class _Pass:
+    """Step 1's arrays over the ``2 N - 1`` nodes of a source tree (internal ``0 .. N-2``, then the leaf of slot
+    ``s`` at ``N - 1 + s``)."""
 
-    def __init__(self, n: int, root_src: int):
-        # Every emitted node's entries are written by the level kernels, so only the root's are set here.
-        capacity = 2 * n - 1
-        self.left_first = wp.empty(capacity, dtype=wp.int32)  # left child (inner) or first slot (leaf)
-        self.prim_count = wp.empty(capacity, dtype=wp.int32)  # triangles of a leaf, 0 for inner nodes
-        self.starts = wp.empty(capacity, dtype=wp.int32)  # first slot of the subtree
-        self.counts = wp.empty(capacity, dtype=wp.int32)  # triangles in the subtree
-        self.srcs = wp.empty(capacity, dtype=wp.int32)  # source node, -1 for none
-        self.starts[:1].fill_(0)
-        self.counts[:1].fill_(n)
-        self.srcs[:1].fill_(root_src)
-        half = max(n, 1)
-        self.split_flags = wp.empty(half, dtype=wp.int32)
-        self.split_ranks = wp.empty(half, dtype=wp.int32)
-        self.child_starts = wp.empty(2 * half, dtype=wp.int32)
-        self.child_counts = wp.empty(2 * half, dtype=wp.int32)
-        self.child_srcs = wp.empty(2 * half, dtype=wp.int32)
-        self.bounds = []  # [begin, end) of every level
-        self.num_nodes = 1
-
-    def grow(self, begin: int, k: int) -> int:
-        """Allocates the children of level ``[begin, begin + k)``; returns the next level's size."""
-        wp.utils.array_scan(self.split_flags[:k], self.split_ranks[:k], inclusive=True)
-        splits = read_int(self.split_ranks, k - 1)  # one device-to-host read per level
+    def __init__(self, n: int, root: int, src_left, src_right, src_counts, slot_prims, prim_lowers, prim_uppers, sah):
+        m, self.leaf_base = 2 * n - 1, n - 1
+        self.root = root if n > 1 else 0
+        self.parents = wp.empty(m, dtype=wp.int32)
+        self.lowers = wp.empty(m, dtype=wp.vec3)
+        self.uppers = wp.empty(m, dtype=wp.vec3)
+        self.costs = wp.empty(m, dtype=float)
+        self.collapse = wp.empty(m, dtype=wp.int32)
+        self.starts = wp.empty(m, dtype=wp.int32)
+        self.counts = wp.empty(m, dtype=wp.int32)
+        self.heights = wp.empty(m, dtype=wp.int32)
+        visits = wp.empty(n - 1, dtype=wp.int32)
+        self.parents[self.root : self.root + 1].fill_(-1)
         wp.launch(
-            make_level_children_kernel,
-            k,
-            inputs=[begin, self.num_nodes, self.split_flags, self.split_ranks]
-            + [self.child_starts, self.child_counts, self.child_srcs],
-            outputs=[self.left_first, self.starts, self.counts, self.srcs],
+            source_parents_kernel,
+            n - 1,
+            inputs=[self.leaf_base, src_left, src_right],
+            outputs=[self.parents, visits],
         )
-        self.num_nodes += 2 * splits
-        return 2 * splits
+        wp.launch(
+            bottom_up_kernel,
+            n,
+            inputs=[self.leaf_base, self.parents, src_left, src_right, src_counts, slot_prims, prim_lowers, prim_uppers]
+            + sah,
+            outputs=[visits, self.lowers, self.uppers, self.costs, self.collapse, self.starts, self.counts]
+            + [self.heights],
+        )
+
+    @property
+    def height(self) -> int:
+        return read_int(self.heights, self.root)
 
 
 def flatten_source(
@@ -379,12 +428,11 @@ def flatten_source(
     intersection_cost: float = 1.0,
     builder: str = "",
     timers: dict | None = None,
-    bottom_up: bool = True,
 ) -> DeviceFlatBvh:
     """Canonical tree (on the device) of a source tree (see module docstring); all arrays on one device.
 
     Args:
-        slot_prims: ``(N,)`` int32 triangle in each slot.
+        slot_prims: ``(N,)`` int32 triangle in each slot, ``N >= 1``.
         src_left: ``(N-1,)`` int32 left child reference of each internal source node.
         src_right: ``(N-1,)`` int32 right child reference.
         src_counts: ``(N-1,)`` int32 triangles below each internal source node.
@@ -396,105 +444,82 @@ def flatten_source(
         intersection_cost: SAH ``C_i``.
         builder: name recorded on the result.
         timers: if given, the milliseconds of each stage are appended to ``timers[stage]`` (synchronizing).
-        bottom_up: try the bottom-up fast path first; ``False`` forces the level-by-level steps 1 and 2 (tests
-            compare the two).
     """
     n = len(slot_prims)
-    device = slot_prims.device
     sah = [int(leaf_size), float(traversal_cost), float(intersection_cost)]
-    with wp.ScopedDevice(device):
-        fast = False
-        if n > 1 and bottom_up:
-            # Steps 1 and 2 in one bottom-up pass over the source tree; its height says whether that was valid.
-            with stage("flatten: bottom-up boxes and costs", timers):
-                m, leaf_base = 2 * n - 1, n - 1
-                parents = wp.empty(m, dtype=wp.int32)
-                visits = wp.empty(n - 1, dtype=wp.int32)
-                lowers = wp.empty(m, dtype=wp.vec3)
-                uppers = wp.empty(m, dtype=wp.vec3)
-                costs = wp.empty(m, dtype=float)
-                collapse = wp.empty(m, dtype=wp.int32)
-                starts = wp.empty(m, dtype=wp.int32)
-                counts = wp.empty(m, dtype=wp.int32)
-                heights = wp.empty(m, dtype=wp.int32)
-                wp.launch(
-                    source_parents_kernel,
-                    n - 1,
-                    inputs=[root, leaf_base, src_left, src_right],
-                    outputs=[parents, visits],
-                )
-                wp.launch(
-                    bottom_up_kernel,
-                    n,
-                    inputs=[leaf_base, parents, src_left, src_right, src_counts, slot_prims, prim_lowers, prim_uppers]
-                    + sah,
-                    outputs=[visits, lowers, uppers, costs, collapse, starts, counts, heights],
-                )
-                fast = read_int(heights, root) <= MAX_DEPTH - 1
-            if fast:
-                full_left_first, root_src = starts, root  # full_left_first is unused with leaf_base >= 0
-        if n <= 1 or not fast:
-            with stage("flatten: full tree by levels", timers):
-                full, lowers, uppers, costs, collapse = _full_tree(
-                    slot_prims, src_left, src_right, src_counts, root, prim_lowers, prim_uppers, sah
-                )
-            leaf_base, full_left_first, starts, counts, root_src = -1, full.left_first, full.starts, full.counts, 0
-
-        # Step 3: emit again, stopping at collapsed subtrees.
-        with stage("flatten: emit by levels", timers):
-            out = _Levels(n, root_src)
-            out_lowers = wp.empty(len(out.left_first), dtype=wp.vec3)
-            out_uppers = wp.empty(len(out.left_first), dtype=wp.vec3)
-            begin, k = 0, 1
-            while k > 0:
-                wp.launch(
-                    split_collapsed_kernel,
-                    k,
-                    inputs=[begin, out.srcs, leaf_base, src_left, src_right, full_left_first, starts, counts]
-                    + [lowers, uppers, collapse],
-                    outputs=[out.left_first, out.prim_count, out_lowers, out_uppers, out.split_flags]
-                    + [out.child_starts, out.child_counts, out.child_srcs],
-                )
-                next_begin = out.num_nodes
-                k = out.grow(begin, k)
-                begin = next_begin
-
-        m = out.num_nodes
-        return DeviceFlatBvh(
-            out_lowers[:m], out_uppers[:m], out.left_first[:m], out.prim_count[:m], slot_prims, builder
-        )
+    with wp.ScopedDevice(slot_prims.device):
+        source = (src_left, src_right, src_counts)
+        with stage("flatten: bottom-up boxes and costs", timers):
+            tree = _Pass(n, root, *source, slot_prims, prim_lowers, prim_uppers, sah)
+            height = tree.height  # one read back
+        if height > MAX_DEPTH - 1:
+            with stage("flatten: depth bound", timers):
+                source = _bound_depth(tree, height, *source)
+                tree = _Pass(n, root, *source, slot_prims, prim_lowers, prim_uppers, sah)
+        with stage("flatten: emit", timers):
+            return _emit(tree, n, source[0], slot_prims, int(leaf_size), builder)
 
 
-def _full_tree(slot_prims, src_left, src_right, src_counts, root, prim_lowers, prim_uppers, sah) -> tuple:
-    """Steps 1 and 2 level by level (any source tree): ``(levels, lowers, uppers, costs, collapse)`` of the full
-    breadth-first tree."""
-    n = len(slot_prims)
-    full = _Levels(n, root if n > 1 else -1)
-    begin, k, depth = 0, 1, 0
-    while k > 0:
-        full.bounds.append((begin, begin + k))
-        wp.launch(
-            split_source_kernel,
-            k,
-            inputs=[begin, depth, full.starts, full.counts, full.srcs, src_left, src_right, src_counts, MAX_DEPTH],
-            outputs=[full.left_first, full.prim_count, full.split_flags, full.child_starts, full.child_counts]
-            + [full.child_srcs],
-        )
-        next_begin = full.num_nodes
-        k = full.grow(begin, k)
-        begin, depth = next_begin, depth + 1
+def _bound_depth(tree: _Pass, height: int, src_left, src_right, src_counts) -> tuple:
+    """Step 2: ``(left, right, counts)`` of the source tree with every subtree that breaks the depth guarantee
+    replaced by a halving one."""
+    inner = len(src_left)
+    rounds = int(height).bit_length()  # 2^rounds > height: every jump reaches the root
+    jump, jump2, depth, depth2 = (wp.empty(inner, dtype=wp.int32) for _ in range(4))
+    wp.launch(init_depth_kernel, inner, inputs=[tree.parents], outputs=[jump, depth])
+    for _ in range(rounds):
+        wp.launch(depth_round_kernel, inner, inputs=[jump, depth], outputs=[jump2, depth2])
+        jump, jump2, depth, depth2 = jump2, jump, depth2, depth
+    top, top2, split_pos, split_node = (wp.empty(inner, dtype=wp.int32) for _ in range(4))
+    wp.launch(
+        depth_failures_kernel,
+        inner,
+        inputs=[tree.parents, depth, src_left, src_counts, tree.starts, MAX_DEPTH],
+        outputs=[jump, top, split_pos, split_node],
+    )
+    for _ in range(rounds):
+        wp.launch(top_round_kernel, inner, inputs=[jump, top], outputs=[jump2, top2])
+        jump, jump2, top, top2 = jump2, jump, top2, top
+    new = [wp.empty(inner, dtype=wp.int32) for _ in range(3)]
+    wp.launch(
+        halve_cuts_kernel,
+        inner,
+        inputs=[src_left, src_right, src_counts, tree.starts, top, split_pos, split_node],
+        outputs=new,
+    )
+    return tuple(new)
 
-    # Boxes and collapse decisions, deepest level first.
-    m = full.num_nodes
-    lowers = wp.empty(m, dtype=wp.vec3)
-    uppers = wp.empty(m, dtype=wp.vec3)
-    costs = wp.empty(m, dtype=float)
-    collapse = wp.empty(m, dtype=wp.int32)
-    for lo, hi in reversed(full.bounds):
-        wp.launch(
-            bounds_and_cost_kernel,
-            hi - lo,
-            inputs=[lo, full.left_first, full.prim_count, full.counts, slot_prims, prim_lowers, prim_uppers] + sah,
-            outputs=[lowers, uppers, costs, collapse],
-        )
-    return full, lowers, uppers, costs, collapse
+
+def _emit(tree: _Pass, n: int, src_left, slot_prims, leaf_size: int, builder: str) -> DeviceFlatBvh:
+    """Step 3."""
+    m = 2 * n - 1
+    emit = wp.empty(m, dtype=wp.int32)
+    chain_len = wp.zeros(n, dtype=wp.int32)
+    chain_end = wp.empty(n, dtype=wp.int32)
+    ranks = wp.empty(max(n - 1, 1), dtype=wp.int32)
+    wp.launch(
+        emit_flags_kernel,
+        m,
+        inputs=[tree.parents, tree.counts, tree.collapse, tree.starts, leaf_size],
+        outputs=[emit, chain_len],
+    )
+    wp.utils.array_scan(chain_len, chain_end, inclusive=True)
+    nodes = 1 + 2 * read_int(chain_end, n - 1)  # one read back
+    wp.launch(
+        pair_rank_kernel,
+        n - 1,
+        inputs=[tree.leaf_base, tree.parents, src_left, tree.starts, emit, chain_len, chain_end],
+        outputs=[ranks],
+    )
+    lowers = wp.empty(nodes, dtype=wp.vec3)
+    uppers = wp.empty(nodes, dtype=wp.vec3)
+    left_first = wp.empty(nodes, dtype=wp.int32)
+    prim_count = wp.empty(nodes, dtype=wp.int32)
+    wp.launch(
+        emit_nodes_kernel,
+        m,
+        inputs=[tree.leaf_base, tree.parents, src_left, emit, ranks, tree.lowers, tree.uppers, tree.starts]
+        + [tree.counts],
+        outputs=[lowers, uppers, left_first, prim_count],
+    )
+    return DeviceFlatBvh(lowers, uppers, left_first, prim_count, slot_prims, builder)
