@@ -2,6 +2,10 @@
 same frame rendered with ``Renderer.render`` (host reads between bounces). The GPU issue's frame target: chess_set at
 1920x1080 with shadows and one diffuse bounce (``path``, ``max_depth=2``, 1 spp) in <= 16 ms.
 
+The camera is the default one (``wrt.camera.frame_scene``: the scene's bounding sphere in view, where chess_set's
+board covers about 13% of the pixels), moved towards the centre by each factor of ``--distances`` (0.5: about half
+of the camera rays hit).
+
 Usage: python benchmarks/frame_capture.py [--scene asset:chess_set] [--width 1920 --height 1080] [--device cuda:0]
 On the CPU it times ``launch_frame`` without capture (graphs are CUDA-only).
 """
@@ -9,13 +13,16 @@ On the CPU it times ``launch_frame`` without capture (graphs are CUDA-only).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import statistics
 import time
 
+import numpy as np
 import warp as wp
 
 import wrt
 from wrt.bench import hardware, resolve_scene
+from wrt.render import resolve_camera
 
 
 def timed_ms(fn, device, repeats: int) -> list[float]:
@@ -39,11 +46,23 @@ def main() -> None:
     parser.add_argument("--max-depth", type=int, default=2, help="2: camera hit, its shadow ray, one bounce")
     parser.add_argument("--builder", default="sah")
     parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument("--distances", default="1,0.5", help="camera distances, as fractions of the default one")
     args = parser.parse_args()
     device = wp.get_device(args.device)
     scene = resolve_scene(args.scene)
     print(f"{args.scene}: {scene.stats()['rendered_triangles']} triangles; {hardware(device)}")
-    renderer = wrt.Renderer(scene, width=args.width, height=args.height, device=device, builder=args.builder,
+    default = resolve_camera(scene, None)
+    center = np.asarray(scene.bounds()).mean(axis=0)
+    for distance in (float(d) for d in args.distances.split(",")):
+        to_world = default.to_world.copy()
+        to_world[:3, 3] = center + distance * (default.eye - center)  # along the line of sight
+        camera = dataclasses.replace(default, to_world=to_world)
+        print(f"\ncamera at {distance} of the default distance")
+        time_frame(scene, camera, device, args)
+
+
+def time_frame(scene, camera, device, args) -> None:
+    renderer = wrt.Renderer(scene, camera=camera, width=args.width, height=args.height, device=device, builder=args.builder,
                             integrator=args.integrator, max_depth=args.max_depth)
     print(f"build {renderer.timers['build'][0]:.0f} ms ({args.builder}, accelerator {type(renderer.accel).__name__})")
     renderer.render()  # compile and allocate
