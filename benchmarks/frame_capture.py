@@ -62,8 +62,16 @@ def main() -> None:
 
 
 def time_frame(scene, camera, device, args) -> None:
-    renderer = wrt.Renderer(scene, camera=camera, width=args.width, height=args.height, device=device, builder=args.builder,
-                            integrator=args.integrator, max_depth=args.max_depth)
+    renderer = wrt.Renderer(
+        scene,
+        camera=camera,
+        width=args.width,
+        height=args.height,
+        device=device,
+        builder=args.builder,
+        integrator=args.integrator,
+        max_depth=args.max_depth,
+    )
     print(f"build {renderer.timers['build'][0]:.0f} ms ({args.builder}, accelerator {type(renderer.accel).__name__})")
     renderer.render()  # compile and allocate
     plain = timed_ms(lambda: renderer.render(), device, args.repeats)
@@ -73,9 +81,15 @@ def time_frame(scene, camera, device, args) -> None:
     if device.is_cuda:
         with wp.ScopedCapture(device=device) as capture:
             renderer.launch_frame()
-        rows.append(("CUDA graph replay of launch_frame()", timed_ms(lambda: wp.capture_launch(capture.graph), device,
-                                                                      args.repeats)))
-    print(f"\n{args.width}x{args.height}, {args.integrator} max_depth {args.max_depth}, 1 spp, median of {args.repeats}\n")
+        rows.append(
+            (
+                "CUDA graph replay of launch_frame()",
+                timed_ms(lambda: wp.capture_launch(capture.graph), device, args.repeats),
+            )
+        )
+    print(
+        f"\n{args.width}x{args.height}, {args.integrator} max_depth {args.max_depth}, 1 spp, median of {args.repeats}\n"
+    )
     print("| how | median ms | min ms |")
     print("|---|---|---|")
     for name, times in rows:

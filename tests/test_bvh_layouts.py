@@ -166,6 +166,68 @@ def test_conversions_keep_every_triangle_once_and_boxes_inside(builder, np_rng):
         assert w.fill() > 0.5
 
 
+def numpy_wide(bvh, width):
+    """The wide collapse written independently with numpy, level by level (``wrt.bvh.wide``'s rule: open the inner
+    child of largest area, first on ties, until the node is full; number inner children level by level)."""
+    leaf = bvh.prim_count > 0
+    d = np.maximum(bvh.uppers.astype(np.float64) - bvh.lowers.astype(np.float64), 0.0)
+    areas = d[:, 0] * d[:, 1] + d[:, 1] * d[:, 2] + d[:, 2] * d[:, 0]
+    levels, sources = [], np.array([0])
+    while len(sources):
+        rows = np.arange(len(sources))
+        slots = np.full((len(sources), width), -1, np.int64)
+        if leaf[0]:
+            slots[0, 0] = 0
+        else:
+            slots[:, 0], slots[:, 1] = bvh.left_first[sources], bvh.left_first[sources] + 1
+            for step in range(width - 2):
+                c = np.maximum(slots, 0)
+                open_area = np.where((slots >= 0) & ~leaf[c], areas[c], -np.inf)
+                j = np.argmax(open_area, axis=1)
+                ok = open_area[rows, j] > -np.inf
+                opened = slots[rows[ok], j[ok]]
+                slots[rows[ok], j[ok]] = bvh.left_first[opened]
+                slots[rows[ok], step + 2] = bvh.left_first[opened] + 1
+        levels.append(slots)
+        sources = slots[(slots >= 0) & ~leaf[np.maximum(slots, 0)]]
+    offsets = np.cumsum([0] + [len(s) for s in levels])
+    refs, counts, lows, highs = [], [], [], []
+    for depth, slots in enumerate(levels):
+        flat = slots.reshape(-1)
+        c = np.maximum(flat, 0)
+        is_leaf, is_inner = (flat >= 0) & leaf[c], (flat >= 0) & ~leaf[c]
+        ref = np.zeros(len(flat), np.int64)
+        ref[is_leaf] = bvh.left_first[c[is_leaf]]
+        ref[is_inner] = offsets[depth + 1] + np.arange(int(is_inner.sum()))
+        refs.append(ref)
+        counts.append(np.where(is_leaf, bvh.prim_count[c], np.where(is_inner, 0, -1)))
+        lows.append(np.where((flat >= 0)[:, None], bvh.lowers[c], np.inf))
+        highs.append(np.where((flat >= 0)[:, None], bvh.uppers[c], -np.inf))
+    return [
+        np.concatenate(a).astype(t)
+        for a, t in ((lows, np.float32), (highs, np.float32), (refs, np.int32), (counts, np.int32))
+    ] + [len(levels) - 1]
+
+
+@pytest.mark.parametrize("builder", ["sah", "lbvh", "median"])
+def test_wide_collapse_matches_a_numpy_reference(builder, np_rng):
+    n = 4000
+    centers = np_rng.uniform(-1, 1, (n, 1, 3))
+    points = (centers + np_rng.normal(scale=0.05, size=(n, 3, 3))).reshape(-1, 3).astype(np.float32)
+    points[:300] = points[0]  # identical triangles: equal areas, so the first-on-ties rule matters
+    indices = np.arange(3 * n, dtype=np.int32).reshape(-1, 3)
+    trees = [
+        build_bvh(points, indices, builder, leaf_size=2, device="cpu"),
+        build_bvh(points[:3], indices[:1], device="cpu"),
+    ]
+    for bvh in trees:
+        for width in (4, 8):
+            w = convert_wide(bvh, width)
+            expected = numpy_wide(bvh, width)
+            for got, want in zip((w.lowers, w.uppers, w.refs, w.counts, w.depth), expected):
+                np.testing.assert_array_equal(got, want)
+
+
 def test_single_leaf_and_empty_trees_convert():
     tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
     bvh = build_bvh(tri, [[0, 1, 2]], device="cpu")

@@ -54,23 +54,31 @@ def test_render_on_device_matches_cpu(device):
 
 @pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("builder", ["lbvh", "ploc"])
-def test_device_resident_tree_matches_the_host_round_trip(device, builder, bunny, monkeypatch):
+@pytest.mark.parametrize("layout", ["binary", "wide", "wide8"])
+def test_device_resident_tree_matches_the_host_round_trip(device, builder, layout, bunny, monkeypatch):
     from wrt.bvh import DeviceFlatBvh
+    from wrt.bvh.layout import convert_layout
     from wrt.trace import BvhAccelerator
 
     points, indices = bunny.triangles()
     host = wrt.build_bvh(points, indices, builder, device=device)
-    ref = host.to_device(points, indices, device)
+    ref = convert_layout(host, layout).to_device(points, indices, device)
     copies = []
     to_host = DeviceFlatBvh.to_host
     monkeypatch.setattr(DeviceFlatBvh, "to_host", lambda self: copies.append(self) or to_host(self))
     if wp.get_device(device).is_cuda:  # the accelerator keeps a GPU-built tree on the GPU
-        acc = BvhAccelerator(bunny, builder, device)
+        acc = BvhAccelerator(bunny, builder, device, layout)
     else:  # the CPU builds through the host; exercise the device-resident path directly
         acc = BvhAccelerator.__new__(BvhAccelerator)
+        acc.layout = layout
         acc._build_on_device(points, indices, builder, device, {})
     assert not copies
-    for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids", "v0", "v1", "v2"):
+    fields = (
+        ("lowers", "uppers", "left_first", "prim_count")
+        if layout == "binary"
+        else ("lowers", "uppers", "refs", "counts")
+    )
+    for field in fields + ("prim_ids", "v0", "v1", "v2"):
         np.testing.assert_array_equal(getattr(acc.device_bvh, field).numpy(), getattr(ref, field).numpy())
     assert acc.device_bvh.num_prims == ref.num_prims
     np.testing.assert_array_equal(acc.bvh.left_first, host.left_first)  # copied to the host on first use

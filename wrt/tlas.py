@@ -45,7 +45,9 @@ wp.set_module_options({"fuse_fp": False})  # bit-identical hits on every device:
 
 wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})  # the traversal stack type's C++ code
 
-TLAS_MAX_REGISTERS = 64  # measured on an H200 (1080p chess_set frame): None (221) 14.9 ms, 128 8.9, 64 6.9, 48 7.7, 32 12.4
+# CUDA register cap of the TLAS trace kernels, which take 221 registers uncapped (one block per SM). A 1080p chess_set
+# frame on an H200: uncapped 14.9 ms, 128: 8.9, 64: 6.9, 48: 7.7, 32: 12.4 (benchmarks/GPU_NOTES.md, row 9a).
+TLAS_MAX_REGISTERS = 64
 TLAS_LEAF_SIZE = 2  # most entries per TLAS leaf (each costs a BLAS traversal, so leaves stay small)
 TLAS_INTERSECTION_COST = 4.0  # SAH cost of entering an entry relative to visiting a TLAS node
 

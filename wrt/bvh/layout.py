@@ -325,9 +325,9 @@ def convert_layout(bvh: FlatBvh, layout: str):
         from .compact import convert_compact
 
         return convert_compact(bvh)
-    from .wide import convert_wide
+    from .wide import WIDE_WIDTHS, convert_wide
 
-    return convert_wide(bvh, 4 if layout == "wide" else 8)
+    return convert_wide(bvh, WIDE_WIDTHS[layout])
 
 
 def layout_kernels(layout: str) -> tuple:

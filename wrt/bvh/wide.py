@@ -4,7 +4,8 @@
 Collapse by SAH: a wide node starts with the two children of a binary inner node and repeatedly replaces the inner
 child of largest surface area by its two children, until it has ``width`` children or only leaves. Opening the
 largest child first removes the most expected traversal cost (the SAH term ``C_t A(n) / A(root)``) per opened node.
-Every remaining inner child becomes a wide node of the next level. The conversion is vectorized over each level.
+Every remaining inner child becomes a wide node of the next level. The conversion runs as Warp kernels, one
+launch per wide level (``collapse.py``), on the host CPU or where a GPU-built tree already lives.
 
 Storage is structure of arrays with ``width`` child slots per node: child box, reference and count, where
 ``count > 0`` is a leaf over slots ``[ref, ref + count)``, ``count == 0`` an inner wide node ``ref`` and
@@ -24,15 +25,16 @@ import numpy as np
 import warp as wp
 
 from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_can_hit, safe_inverse
-from .layout import FlatBvh, upload_triangles
+from .collapse import collapse_wide
+from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .stack import SORT_SLOTS, STACK_BUILD_OPTIONS, WIDE_STACK, SortBuffer, WideStack
-from .stats import half_areas
 from .traverse import reachable
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
 # differed from the binary layout's and from the CPU's.
 wp.set_module_options({"enable_backward": False, "fuse_fp": False, "extra_build_options": STACK_BUILD_OPTIONS})
 
+WIDE_WIDTHS = {"wide": 4, "wide8": 8}  # layout name -> children per node
 MAX_WIDTH = SORT_SLOTS  # widest supported node: the sort buffer holds one entry per child
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
 
@@ -114,68 +116,52 @@ class WideBvh:
 
 
 def convert_wide(bvh: FlatBvh, width: int = 4) -> WideBvh:
-    """Collapses the canonical binary tree into a ``width``-wide one (see module docstring)."""
-    if width not in (4, 8):
-        raise ValueError(f"wide layout width must be 4 or 8, got {width}")
+    """Collapses the canonical binary tree into a ``width``-wide one (see module docstring), on the host CPU."""
+    _check_width(width)
     if bvh.num_prims == 0:
         z = np.zeros((0, 3), np.float32)
         return WideBvh(z, z.copy(), np.zeros(0, np.int32), np.zeros(0, np.int32), width, 0, bvh.prim_ids.copy())
-    leaf = bvh.prim_count > 0
-    areas = half_areas(bvh.lowers, bvh.uppers)
-    levels = []  # per wide level: (K, width) binary node ids of the children, -1 for empty
-    if leaf[0]:
-        slots = np.full((1, width), -1, np.int64)
-        slots[0, 0] = 0
-        levels.append(slots)
-    else:
-        sources = np.array([0])
-        while len(sources):
-            k = len(sources)
-            rows = np.arange(k)
-            slots = np.full((k, width), -1, np.int64)
-            slots[:, 0] = bvh.left_first[sources]
-            slots[:, 1] = bvh.left_first[sources] + 1
-            # Open the inner child of largest area until the node is full (a row that stops never resumes).
-            for step in range(width - 2):
-                used = slots >= 0
-                open_area = np.where(used & ~leaf[np.maximum(slots, 0)], areas[np.maximum(slots, 0)], -np.inf)
-                j = np.argmax(open_area, axis=1)
-                ok = open_area[rows, j] > -np.inf
-                c = slots[rows[ok], j[ok]]
-                slots[rows[ok], j[ok]] = bvh.left_first[c]
-                slots[rows[ok], step + 2] = bvh.left_first[c] + 1
-            levels.append(slots)
-            sources = slots[(slots >= 0) & ~leaf[np.maximum(slots, 0)]]
-    # Number the wide nodes level by level and fill the child slots.
-    offsets = np.cumsum([0] + [len(s) for s in levels])
-    refs, counts, lows, highs = [], [], [], []
-    for d, slots in enumerate(levels):
-        flat = slots.reshape(-1)
-        valid = flat >= 0
-        c = np.maximum(flat, 0)
-        is_leaf = valid & leaf[c]
-        is_inner = valid & ~leaf[c]
-        ref = np.zeros(len(flat), np.int64)
-        ref[is_leaf] = bvh.left_first[c[is_leaf]]
-        ref[is_inner] = offsets[d + 1] + np.arange(int(is_inner.sum()))
-        count = np.where(is_leaf, bvh.prim_count[c], np.where(is_inner, 0, -1))
-        lo = np.where(valid[:, None], bvh.lowers[c], np.inf)
-        hi = np.where(valid[:, None], bvh.uppers[c], -np.inf)
-        refs.append(ref)
-        counts.append(count)
-        lows.append(lo)
-        highs.append(hi)
-    depth = len(levels) - 1
-    assert (width - 1) * depth + width <= WIDE_STACK, "wide tree deeper than the traversal stack"
+    binary = [
+        wp.array(bvh.lowers, dtype=wp.vec3, device="cpu"),
+        wp.array(bvh.uppers, dtype=wp.vec3, device="cpu"),
+        wp.array(bvh.left_first, dtype=wp.int32, device="cpu"),
+        wp.array(bvh.prim_count, dtype=wp.int32, device="cpu"),
+    ]
+    lowers, uppers, refs, counts, depth = _collapse(binary, width)
     return WideBvh(
-        lowers=np.concatenate(lows).astype(np.float32),
-        uppers=np.concatenate(highs).astype(np.float32),
-        refs=np.concatenate(refs).astype(np.int32),
-        counts=np.concatenate(counts).astype(np.int32),
+        lowers=lowers.numpy().reshape(-1, 3),
+        uppers=uppers.numpy().reshape(-1, 3),
+        refs=refs.numpy(),
+        counts=counts.numpy(),
         width=width,
         depth=depth,
         prim_ids=bvh.prim_ids.copy(),
     )
+
+
+def device_wide_bvh(tree: DeviceFlatBvh, points: wp.array, indices: wp.array, width: int) -> DeviceWideBvh:
+    """The wide layout of a tree over at least one triangle, made where the tree lives (a GPU-built tree never
+    leaves the GPU); ``points`` and ``indices`` are the build's, on the same device."""
+    _check_width(width)
+    binary = tree.to_device_bvh(points, indices)  # the triangles, gathered in slot order
+    s = DeviceWideBvh()
+    s.lowers, s.uppers, s.refs, s.counts, _ = _collapse(
+        [tree.lowers, tree.uppers, tree.left_first, tree.prim_count], width
+    )
+    s.width = int(width)
+    s.prim_ids, s.v0, s.v1, s.v2, s.num_prims = binary.prim_ids, binary.v0, binary.v1, binary.v2, binary.num_prims
+    return s
+
+
+def _check_width(width: int) -> None:
+    if width not in (4, 8):
+        raise ValueError(f"wide layout width must be 4 or 8, got {width}")
+
+
+def _collapse(binary: list, width: int) -> tuple:
+    lowers, uppers, refs, counts, depth = collapse_wide(*binary, width)
+    assert (width - 1) * depth + width <= WIDE_STACK, "wide tree deeper than the traversal stack"
+    return lowers, uppers, refs, counts, depth
 
 
 @wp.func
