@@ -14,10 +14,7 @@ next one merges neighbours pairwise instead, so the iteration count stays logari
 
 The last ``TAIL_CLUSTERS`` clusters took most of the iterations (about 80 of 107 at 1M triangles, merging a few
 percent each), so one launch finishes them: one thread block on CUDA (one thread on the CPU) runs the same steps
-with block barriers in place of launches and no reads back to the host. The iterations above it do not wait for
-each other either: the cluster count, next node id and pairwise flag live on the device, and the host reads the
-count back only every ``SYNC_EVERY`` iterations (a 10M-triangle build ran 71 iterations above the tail, each of which
-used to read back). These top levels search a radius of at
+with block barriers in place of launches and no reads back to the host. These top levels search a radius of at
 most ``TAIL_RADIUS``, which measured a lower SAH cost than the full radius (1M displaced sphere +11.2% -> +7.6%
 over ``binned_sah``, turbineblade +9.3% -> +9.0%, chess_set +7.5% -> +7.0%; radius 2: +7.2%, +8.5%, +7.7%; a
 wider tail radius made it worse: 16 gave +13.4% on the sphere).
@@ -39,8 +36,7 @@ from .lbvh import sorted_morton_order
 wp.set_module_options({"enable_backward": False})
 
 FORCE_FRACTION = wp.constant(64)  # an iteration merging fewer than clusters / FORCE_FRACTION makes the next pairwise
-TAIL_CLUSTERS = wp.constant(8192)  # from this many clusters down, clustering finishes in one launch
-SYNC_EVERY = 8  # clustering iterations launched between two reads of the cluster count
+TAIL_CLUSTERS = 8192  # from this many clusters down, clustering finishes in one launch
 TAIL_THREADS = 512  # CUDA threads (one block) of that launch
 TAIL_RADIUS = 4  # search radius of the tail, at most (see module docstring)
 
@@ -132,31 +128,24 @@ def merge_partner(i: int, n: int, force_pairs: int, neighbours: wp.array[wp.int3
     return j
 
 
-@wp.func
-def iterating(state: wp.array[wp.int32]):
-    """Whether the launched iteration runs: the clusters (``state[0]``) are above the tail's."""
-    return state[0] > TAIL_CLUSTERS
-
-
 @wp.kernel
 def nearest_neighbour_kernel(
-    state: wp.array[wp.int32],
+    n: int,
     radius: int,
     lowers: wp.array[wp.vec3],
     uppers: wp.array[wp.vec3],
     # outputs
     neighbours: wp.array[wp.int32],
 ):
-    """Nearest neighbour of every cluster (none needed in a pairwise iteration)."""
+    """Nearest neighbour of every cluster."""
     i = wp.tid()
-    n = state[0]
-    if iterating(state) and i < n and state[2] == 0:
-        neighbours[i] = nearest_neighbour(i, n, radius, 0, lowers, uppers)
+    neighbours[i] = nearest_neighbour(i, n, radius, 0, lowers, uppers)
 
 
 @wp.kernel
 def merge_flags_kernel(
-    state: wp.array[wp.int32],
+    n: int,
+    force_pairs: int,
     neighbours: wp.array[wp.int32],
     # outputs
     merge_flags: wp.array[wp.int32],
@@ -165,17 +154,15 @@ def merge_flags_kernel(
     """``merge_flags[i] = 1`` where cluster ``i`` merges with a higher partner; ``keep_flags[i] = 0`` for the
     partner that is absorbed."""
     i = wp.tid()
-    n = state[0]
-    if not iterating(state) or i >= n:
-        return
-    j = merge_partner(i, n, state[2], neighbours)
+    j = merge_partner(i, n, force_pairs, neighbours)
     merge_flags[i] = wp.where(j > i, 1, 0)
     keep_flags[i] = wp.where(j >= 0 and j < i, 0, 1)
 
 
 @wp.kernel
 def merge_compact_kernel(
-    state: wp.array[wp.int32],
+    force_pairs: int,
+    first_node: int,
     neighbours: wp.array[wp.int32],
     merge_flags: wp.array[wp.int32],
     merge_ranks: wp.array[wp.int32],
@@ -194,19 +181,8 @@ def merge_compact_kernel(
     new_uppers: wp.array[wp.vec3],
     new_counts: wp.array[wp.int32],
 ):
-    """Creates the internal node of every merging pair and writes the surviving clusters, compacted (all of them,
-    unchanged, when the iteration does not run, since the host swaps the buffers regardless)."""
+    """Creates the internal node of every merging pair and writes the surviving clusters, compacted."""
     i = wp.tid()
-    if i >= state[0]:
-        return
-    if not iterating(state):
-        new_refs[i] = refs[i]
-        new_lowers[i] = lowers[i]
-        new_uppers[i] = uppers[i]
-        new_counts[i] = counts[i]
-        return
-    force_pairs = state[2]
-    first_node = state[1]
     if keep_flags[i] == 0:
         return
     ref = refs[i]
@@ -230,29 +206,6 @@ def merge_compact_kernel(
     new_lowers[k] = lo
     new_uppers[k] = hi
     new_counts[k] = count
-
-
-@wp.kernel
-def advance_kernel(
-    batch: int,
-    merge_ranks: wp.array[wp.int32],
-    # outputs
-    state: wp.array[wp.int32],
-    batch_firsts: wp.array[wp.int32],
-    batch_counts: wp.array[wp.int32],
-):
-    """After an iteration (one thread): records the nodes it made as ``batch`` and advances the state: clusters,
-    next node id, and whether the next iteration merges pairwise."""
-    k = state[0]
-    merges = int(0)
-    if iterating(state):
-        merges = merge_ranks[k - 1]  # inclusive scan
-    batch_firsts[batch] = state[1]
-    batch_counts[batch] = merges
-    if iterating(state):
-        state[1] = state[1] + merges
-        state[2] = wp.where(merges * FORCE_FRACTION < k, 1, 0)
-        state[0] = k - merges
 
 
 @wp.func
@@ -286,9 +239,7 @@ def assign_slots(
 
 @wp.kernel
 def assign_slots_kernel(
-    batch: int,
-    batch_firsts: wp.array[wp.int32],
-    batch_counts: wp.array[wp.int32],
+    first_node: int,
     node_counts: wp.array[wp.int32],
     # outputs
     node_left: wp.array[wp.int32],
@@ -296,15 +247,15 @@ def assign_slots_kernel(
     node_starts: wp.array[wp.int32],
     slot_prims: wp.array[wp.int32],
 ):
-    """Depth-first slots below the nodes made in iteration ``batch`` (their parents are done)."""
-    t = wp.tid()
-    if t < batch_counts[batch]:
-        assign_slots(batch_firsts[batch] + t, node_counts, node_left, node_right, node_starts, slot_prims)
+    """Depth-first slots below the nodes made in one iteration (their parents are done)."""
+    assign_slots(first_node + wp.tid(), node_counts, node_left, node_right, node_starts, slot_prims)
 
 
 @wp.kernel(launch_bounds=TAIL_THREADS)
 def cluster_tail_kernel(
-    state: wp.array[wp.int32],
+    clusters: int,
+    first_node: int,
+    force_pairs: int,
     radius: int,
     threads: int,
     refs: wp.array[wp.int32],
@@ -326,12 +277,11 @@ def cluster_tail_kernel(
     node_starts: wp.array[wp.int32],
     slot_prims: wp.array[wp.int32],
 ):
-    """The iterations of ``build_ploc`` from the ``state``'s clusters down to one, in one block of ``threads``
+    """The iterations of ``build_ploc`` from ``clusters`` clusters down to one, in one block of ``threads``
     threads, then the depth-first slots below the nodes they made. Thread ``t`` owns a contiguous chunk of the
     clusters, so ranks are a sum over the lower threads' counts; the clusters alternate between the two halves of
     the ``buf_*`` arrays (``(2 C,)``, ``C = len(neighbours)``)."""
     t = wp.tid()
-    clusters = state[0]
     capacity = neighbours.shape[0]
     for i in range(t, clusters, threads):
         buf_refs[i] = refs[i]
@@ -340,8 +290,8 @@ def cluster_tail_kernel(
         buf_counts[i] = counts[i]
     block_barrier()
     k = int(clusters)
-    node = state[1]
-    force = state[2]
+    node = int(first_node)
+    force = int(force_pairs)
     src = int(0)
     batches = int(0)
     while k > 1:
@@ -456,44 +406,36 @@ def build_ploc(
             outputs=[refs, lowers, uppers, counts],
         )
 
-        # Merge mutual nearest neighbours down to TAIL_CLUSTERS clusters. The iterations are launched in rounds of
-        # SYNC_EVERY without waiting: each kernel reads the live state (clusters, next node id, pairwise flag) on the
-        # device, the launches are sized by the last count read back (an upper bound), and iterations launched
-        # after the count reached the tail's do nothing. Each iteration records the nodes it made (its batch).
+        # Merge mutual nearest neighbours down to TAIL_CLUSTERS clusters; remember which nodes each iteration made.
         slot_prims = wp.empty(n, dtype=wp.int32)
-        state = wp.array([n, 0, 0], dtype=wp.int32)
-        sizes = []  # launch size of every iteration
-        # Two iterations remove at least 1/FORCE_FRACTION of the clusters, so this many always suffice.
-        max_iterations = 2 * int(FORCE_FRACTION) * n.bit_length() + SYNC_EVERY
-        batch_firsts = wp.empty(max_iterations, dtype=wp.int32)
-        batch_counts = wp.empty(max_iterations, dtype=wp.int32)
         with stage("clustering", timers):
-            clusters = n
+            batches = []
+            clusters, next_node, force = n, 0, 0
             while clusters > TAIL_CLUSTERS:
-                for _ in range(SYNC_EVERY):
-                    k = clusters
+                k = clusters
+                if not force:
                     wp.launch(
-                        nearest_neighbour_kernel, k, inputs=[state, int(radius), lowers, uppers], outputs=[neighbours]
+                        nearest_neighbour_kernel, k, inputs=[k, int(radius), lowers, uppers], outputs=[neighbours]
                     )
-                    wp.launch(merge_flags_kernel, k, inputs=[state, neighbours], outputs=[merge_flags, keep_flags])
-                    wp.utils.array_scan(merge_flags[:k], merge_ranks[:k], inclusive=True)
-                    wp.utils.array_scan(keep_flags[:k], keep_ranks[:k], inclusive=True)
-                    wp.launch(
-                        merge_compact_kernel,
-                        k,
-                        inputs=[state, neighbours, merge_flags, merge_ranks, keep_flags, keep_ranks]
-                        + [refs, lowers, uppers, counts],
-                        outputs=[node_left, node_right, node_counts, new_refs, new_lowers, new_uppers, new_counts],
-                    )
-                    wp.launch(
-                        advance_kernel, 1, inputs=[len(sizes), merge_ranks], outputs=[state, batch_firsts, batch_counts]
-                    )
-                    sizes.append(k)
-                    refs, new_refs = new_refs, refs
-                    lowers, new_lowers = new_lowers, lowers
-                    uppers, new_uppers = new_uppers, uppers
-                    counts, new_counts = new_counts, counts
-                clusters = read_int(state, 0)  # one read back per round
+                wp.launch(merge_flags_kernel, k, inputs=[k, force, neighbours], outputs=[merge_flags, keep_flags])
+                wp.utils.array_scan(merge_flags[:k], merge_ranks[:k], inclusive=True)
+                wp.utils.array_scan(keep_flags[:k], keep_ranks[:k], inclusive=True)
+                merges = read_int(merge_ranks, k - 1)  # one device-to-host read per iteration
+                wp.launch(
+                    merge_compact_kernel,
+                    k,
+                    inputs=[force, next_node, neighbours, merge_flags, merge_ranks, keep_flags, keep_ranks]
+                    + [refs, lowers, uppers, counts],
+                    outputs=[node_left, node_right, node_counts, new_refs, new_lowers, new_uppers, new_counts],
+                )
+                batches.append((next_node, merges))
+                next_node += merges
+                clusters -= merges
+                force = 1 if merges * FORCE_FRACTION < k else 0
+                refs, new_refs = new_refs, refs
+                lowers, new_lowers = new_lowers, lowers
+                uppers, new_uppers = new_uppers, uppers
+                counts, new_counts = new_counts, counts
 
             # The rest, and the slots below the nodes it makes, in one launch.
             if clusters > 1:
@@ -506,7 +448,7 @@ def build_ploc(
                 wp.launch(
                     cluster_tail_kernel,
                     threads,
-                    inputs=[state, tail_radius, threads, refs, lowers, uppers, counts],
+                    inputs=[c, next_node, force, tail_radius, threads, refs, lowers, uppers, counts],
                     outputs=buffers + scratch + [node_left, node_right, node_counts, node_starts, slot_prims],
                     block_dim=threads,
                 )
@@ -515,11 +457,11 @@ def build_ploc(
         with stage("depth-first slots", timers):
             if n == 1:
                 wp.copy(slot_prims, morton_prims)
-            for batch in reversed(range(len(sizes))):
+            for first, count in reversed(batches):
                 wp.launch(
                     assign_slots_kernel,
-                    sizes[batch] // 2,  # an iteration merges at most half its clusters
-                    inputs=[batch, batch_firsts, batch_counts, node_counts],
+                    count,
+                    inputs=[first, node_counts],
                     outputs=[node_left, node_right, node_starts, slot_prims],
                 )
         return flatten_source(
