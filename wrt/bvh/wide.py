@@ -4,8 +4,8 @@
 Collapse by SAH: a wide node starts with the two children of a binary inner node and repeatedly replaces the inner
 child of largest surface area by its two children, until it has ``width`` children or only leaves. Opening the
 largest child first removes the most expected traversal cost (the SAH term ``C_t A(n) / A(root)``) per opened node.
-Every remaining inner child becomes a wide node of the next level. The conversion runs as Warp kernels, one
-launch per wide level (``collapse.py``), on the host CPU or where a GPU-built tree already lives.
+Every remaining inner child becomes a wide node of the next level. The conversion runs as Warp kernels, a few
+launches per wide level (``collapse.py``), on the host CPU or where a GPU-built tree already lives.
 
 Storage is structure of arrays with ``width`` child slots per node: child box, reference and count, where
 ``count > 0`` is a leaf over slots ``[ref, ref + count)``, ``count == 0`` an inner wide node ``ref`` and
