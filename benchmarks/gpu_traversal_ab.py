@@ -102,6 +102,7 @@ def main() -> None:
     parser.add_argument("--kinds", default="primary,shadow,diffuse,incoherent", help="comma list of ray kinds")
     parser.add_argument("--layouts", default="binary,compact,wide", help="wrt layouts to measure")
     parser.add_argument("--constructors", default="sah,lbvh,cubql", help="wp.Mesh constructors to measure")
+    parser.add_argument("--trees", default="8:1", help="wrt sah trees to measure, as LEAF_SIZE:INTERSECTION_COST each")
     parser.add_argument("--json", help="also write the rows here (default: $OUT/gpu_traversal_ab.json if $OUT is set)")
     args = parser.parse_args()
     if args.assets:
@@ -143,21 +144,26 @@ def run(args, device) -> None:
         log(f"scene {scene_name}: loading")
         scene = displaced_sphere_scene(args.sphere) if scene_name == "sphere" else load_usd(asset_path(scene_name))
         points, indices = scene.triangles()
-        log(f"scene {scene_name}: {len(indices)} triangles; building wrt sah tree on {device.alias}")
-        start = time.perf_counter()
-        flat = build_bvh(points, indices, "sah", device=device)
-        log(f"  wrt sah: {1000 * (time.perf_counter() - start):.0f} ms, {flat.num_nodes} nodes")
         wrt_subjects = []  # (name, trace kernel, occluded kernel, device tree)
-        for layout in args.layouts.split(","):
-            for tag, mod in layout_mods.items():
-                # The same tree as each package's own FlatBvh, so its kernels get their own struct types.
-                own = mod.FlatBvh(**{f.name: getattr(flat, f.name) for f in dataclasses.fields(flat)})
-                tree = mod.convert_layout(own, layout).to_device(points, indices, device)
-                if layout == "binary":
-                    kernels = trace_mods[tag].trace_bvh_kernel, trace_mods[tag].occluded_bvh_kernel
-                else:
-                    kernels = mod.layout_kernels(layout)
-                wrt_subjects.append((f"{tag}:{layout}", *kernels, tree))
+        for variant in args.trees.split(","):
+            leaf_size, intersection_cost = int(variant.split(":")[0]), float(variant.split(":")[1])
+            log(f"scene {scene_name}: {len(indices)} triangles; building wrt sah tree {variant} on {device.alias}")
+            start = time.perf_counter()
+            flat = build_bvh(points, indices, "sah", leaf_size=leaf_size, intersection_cost=intersection_cost,
+                             device=device)
+            log(f"  wrt sah {variant}: {1000 * (time.perf_counter() - start):.0f} ms, {flat.num_nodes} nodes, "
+                f"SAH {flat.stats(epo_samples=0)['sah_cost']:.2f}")
+            suffix = "" if variant == "8:1" else f"@{variant}"
+            for layout in args.layouts.split(","):
+                for tag, mod in layout_mods.items():
+                    # The same tree as each package's own FlatBvh, so its kernels get their own struct types.
+                    own = mod.FlatBvh(**{f.name: getattr(flat, f.name) for f in dataclasses.fields(flat)})
+                    tree = mod.convert_layout(own, layout).to_device(points, indices, device)
+                    if layout == "binary":
+                        kernels = trace_mods[tag].trace_bvh_kernel, trace_mods[tag].occluded_bvh_kernel
+                    else:
+                        kernels = mod.layout_kernels(layout)
+                    wrt_subjects.append((f"{tag}:{layout}{suffix}", *kernels, tree))
         mesh_points = wp.array(points, dtype=wp.vec3, device=device)
         mesh_indices = wp.array(indices.reshape(-1), dtype=wp.int32, device=device)
         meshes = {}
