@@ -262,20 +262,30 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         claims = multiprocessing.get_context("spawn").Manager().Queue()
         for device in devices:
             claims.put(str(device))
-        files = {float(frame): Path(file) for frame, file in jobs}
+        write = _frame_writer(jobs, rows)
         with concurrent.futures.ProcessPoolExecutor(
             len(devices), mp_context=multiprocessing.get_context("spawn"), initializer=_claim_device, initargs=(claims,)
         ) as pool:
             futures = [pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options))
                        for frame, file in jobs]
             for future in concurrent.futures.as_completed(futures):
-                result = future.result()
-                file = files[result["row"]["frame"]]
-                file.parent.mkdir(parents=True, exist_ok=True)
-                file.write_bytes(result["data"])
-                rows.append(dict(result["row"], output=str(file)))
+                write(future.result())
                 bar.update(1)
     return rows
+
+
+def _frame_writer(jobs, rows: list):
+    """``write(result)`` for results of :func:`render_frame_task`: writes the encoded image to its frame's file
+    (from ``jobs``) and appends the frame's log row, with ``output``, to ``rows``."""
+    files = {float(frame): Path(file) for frame, file in jobs}
+
+    def write(result: dict) -> None:
+        file = files[result["row"]["frame"]]
+        file.parent.mkdir(parents=True, exist_ok=True)
+        file.write_bytes(result["data"])
+        rows.append(dict(result["row"], output=str(file)))
+
+    return write
 
 
 _PROCESS_DEVICE = None  # the device a worker process of render_frames claimed
@@ -333,19 +343,13 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     from .distributed import run_tasks
 
     path = os.fspath(path)
-    files = {float(frame): Path(file) for frame, file in jobs}
     tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
     rows = []
-
-    def write(task, result):
-        file = files[task["frame"]]
-        file.parent.mkdir(parents=True, exist_ok=True)
-        file.write_bytes(result["data"])
-        rows.append(dict(result["row"], output=str(file)))
-
-    run_tasks(task, tasks, address=address, n_workers=n_workers, on_result=write, progress=progress,
-              desc="wrt frames")
+    write = _frame_writer(jobs, rows)
+    run_tasks(task, tasks, address=address, n_workers=n_workers, on_result=lambda _, result: write(result),
+              progress=progress, desc="wrt frames")
     return rows
+
 
 __all__ = [
     "REFIT_SAH_LIMIT",

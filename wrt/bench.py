@@ -303,8 +303,13 @@ def _run_group(group, grid: Grid, thread_counts, emit, skip, loaded: dict) -> No
         sink = (lambda row: emit(dict(row, sweep=True))) if is_scaling else emit
         measure_group(scene_name, loaded[scene_name], device, kind, local, accels, thread_counts, sink, skip)
     except Exception as e:  # noqa: BLE001 - a broken scene becomes one error row
-        emit({"scene": scene_name, "accel": "*", "device": str(device), "rays": kind, "threads": None,
-              "error": f"{type(e).__name__}: {e}".splitlines()[0]})
+        emit(_group_error_row(scene_name, device, kind, e))
+
+
+def _group_error_row(scene_name, device, kind, error: Exception) -> dict:
+    """The row of a whole group that could not be measured."""
+    return {"scene": scene_name, "accel": "*", "device": str(device), "rays": kind, "threads": None,
+            "error": f"{type(error).__name__}: {error}".splitlines()[0]}
 
 
 _worker_scenes = {}  # the scene a Dask worker process loaded last, kept for its next group
@@ -385,9 +390,7 @@ def run_grid(
         from .distributed import run_tasks
 
         def lost(task, e):  # the group's workers kept dying, or its device does not exist there
-            scene_name, device, kind = task[0]
-            emit({"scene": scene_name, "accel": "*", "device": device, "rays": kind, "threads": None,
-                  "error": f"{type(e).__name__}: {e}".splitlines()[0]})
+            emit(_group_error_row(*task[0], e))
 
         first = len(rows)
         tasks = [((s, str(d), k), grid, thread_counts, frozenset(done)) for s, d, k in groups]

@@ -7,6 +7,7 @@ no traceback is shown for it.
 from __future__ import annotations
 
 import argparse
+import collections
 import sys
 import time
 import warnings
@@ -240,32 +241,21 @@ def _run_frames(args, paths: list, progress) -> int:
         "max_depth": args.max_depth,
         "ao_radius": args.ao_radius,
     }
+    common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet, **options}
     start = time.perf_counter()
     if args.dask is not None:
         from .animation import render_frames_on_dask
 
         devices = ["dask " + (args.dask or "LocalCluster")]
-        rows = render_frames_on_dask(paths[0], jobs, address=args.dask or None, n_workers=args.workers, spp=args.spp,
-                                     seed=args.seed, exposure=args.exposure, progress=not args.quiet, **options)
+        rows = render_frames_on_dask(paths[0], jobs, address=args.dask or None, n_workers=args.workers, **common)
     else:
-        rows = render_frames(
-            paths[0],
-            jobs,
-            devices=devices,
-            spp=args.spp,
-            seed=args.seed,
-            exposure=args.exposure,
-            progress=not args.quiet,
-            **options,
-        )
+        rows = render_frames(paths[0], jobs, devices=devices, **common)
     if args.log:
         Path(args.log).parent.mkdir(parents=True, exist_ok=True)
         with open(args.log, "a") as f:
             for row in rows:
                 f.write(json.dumps(row) + "\n")
-    changes = {}
-    for row in rows:
-        changes[row["change"]] = changes.get(row["change"], 0) + 1
+    changes = collections.Counter(row["change"] for row in rows)
     summary = ", ".join(f"{n} {c}" for c, n in sorted(changes.items()))
     progress(f"rendered {len(rows)} frames on {', '.join(devices)} (BVH: {summary or 'nothing to do'})",
              time.perf_counter() - start)
