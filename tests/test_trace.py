@@ -1,5 +1,7 @@
 """wrt's BVH against Warp's wp.Mesh, ray by ray, on real scenes; and against a brute-force oracle."""
 
+import os
+
 import numpy as np
 import pytest
 import warp as wp
@@ -271,3 +273,20 @@ def test_threaded_cpu_trace_gives_the_same_hits(np_rng):
         np.testing.assert_array_equal(blocked, reference.hit)
     with pytest.raises(ValueError, match="threads"):
         wrt.trace(scene, origins[:1], directions[:1], threads=0)
+
+
+def test_cpu_launches_use_every_core_unless_told(monkeypatch):
+    from wrt.trace import resolve_threads
+
+    cpu = wp.get_device("cpu")
+    cores = os.cpu_count()
+    monkeypatch.delenv("WRT_THREADS", raising=False)
+    assert resolve_threads(None, cpu) == cores
+    assert resolve_threads(3, cpu) == 3
+    monkeypatch.setenv("WRT_THREADS", "1")
+    assert resolve_threads(None, cpu) == 1
+    monkeypatch.setenv("WRT_THREADS", "all")
+    assert resolve_threads(None, cpu) == cores
+    monkeypatch.setenv("WRT_THREADS", "many")
+    with pytest.raises(ValueError, match="threads"):
+        resolve_threads(None, cpu)

@@ -82,6 +82,7 @@ def connect(address: str | None = None, n_workers: int | None = None, retries: i
             threads_per_worker=1,  # one task per process: Warp launches and device memory stay unshared
             processes=True,
             memory_limit=0,  # no per-worker cap: the nanny would kill a worker at 95% of RAM / n_workers
+            env={"WRT_THREADS": "1"},  # a worker per core already: no trace thread pools on top
             dashboard_address=":0",
         )
     return Client(cluster), cluster

@@ -208,15 +208,11 @@ class HitBuffer:
 
 def resolve_threads(threads, device) -> int:
     """Worker threads for a launch: 1 on GPUs; on the CPU ``threads``, or for ``None`` the ``WRT_THREADS``
-    environment variable (a number or ``all``), else 1.
-
-    Splitting is opt-in: in one long test session a split launch once stopped progressing inside Warp's CPU launch
-    (under investigation), so nothing runs concurrent launches unless asked to.
-    """
+    environment variable (a number or ``all``), else every core."""
     if not device.is_cpu:
         return 1
     if threads is None:
-        threads = os.environ.get("WRT_THREADS", "1")
+        threads = os.environ.get("WRT_THREADS", "all")
     if threads == "all":
         return max(os.cpu_count() or 1, 1)
     if isinstance(threads, str) and threads.isdigit():
@@ -559,7 +555,8 @@ def trace(
         accel: ``"wrt"`` (own BVH) or ``"warp"`` (``wp.Mesh`` + ``wp.mesh_query_ray``).
         builder: BVH builder name; for ``accel="warp"`` one of Warp's constructors.
         device: Warp device to trace on.
-        threads: CPU worker threads (``None``: ``$WRT_THREADS`` or 1; ``"all"``: every core); ignored on GPUs.
+        threads: CPU worker threads (``None``: ``$WRT_THREADS``, else every core; ``"all"``: every core); ignored
+            on GPUs. Rays are independent, so the hits do not depend on it.
         layout: node layout of wrt's BVH: ``binary``, ``compact``, ``wide`` (BVH4) or ``wide8``; same hits.
 
     Returns:
