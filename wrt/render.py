@@ -36,12 +36,7 @@ from .shade import (
     primary_aovs_kernel,
     start_paths_kernel,
 )
-from .trace import HitBuffer, get_accelerator, resolve_device
-
-try:  # CPU launches split over threads, as the accelerators do (absent in older trees: one launch then)
-    from .trace import resolve_threads, run_in_chunks
-except ImportError:  # pragma: no cover
-    resolve_threads = run_in_chunks = None
+from .trace import HitBuffer, get_accelerator, resolve_device, resolve_threads, run_in_chunks
 
 MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
 MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
@@ -149,10 +144,7 @@ def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None
 
         wp.launch(kernel, end - start, inputs=[piece(x) for x in inputs], outputs=[piece(x) for x in outputs], device=device)
 
-    if run_in_chunks is None or not device.is_cpu:
-        work(0, n)
-    else:
-        run_in_chunks(work, n, resolve_threads(None, device))
+    run_in_chunks(work, n, resolve_threads(None, device))  # one piece on a GPU
 
 
 def _slice_hits(hits: HitBuffer, m: int) -> HitBuffer:
@@ -388,7 +380,6 @@ class Renderer:
         return self._image(image.numpy(), aovs)
 
     def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs):
-        cam = self._cams
         wp.launch(
             start_paths_kernel,
             w.n,
@@ -396,17 +387,17 @@ class Renderer:
             outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal],
         )
         if self.integrator == "path":
-            self._trace_paths(w, aovs, cam)
+            self._trace_paths(w, aovs)
         elif self.integrator == "whitted":
-            self._trace_whitted(w, aovs, cam)
+            self._trace_whitted(w, aovs)
         else:
-            self._intersect(w, aovs, cam)
+            self._intersect(w, aovs)
             if self.integrator == "ao":
                 self._trace_ao(w)
             else:
                 w.radiance.zero_()
 
-    def _intersect(self, w: _Wavefront, aovs, cam, camera_rays: bool = True):
+    def _intersect(self, w: _Wavefront, aovs, camera_rays: bool = True):
         """Closest hits of the current rays (for camera rays: the visible ones, past culled back faces); the first
         time, also the AOVs of sample 0."""
         if camera_rays:
@@ -420,7 +411,7 @@ class Renderer:
             wp.launch(
                 primary_aovs_kernel,
                 n,
-                inputs=[self.device_scene, self.surfaces, self.materials, cam, self.width * self.height]
+                inputs=[self.device_scene, self.surfaces, self.materials, self._cams, self.width * self.height]
                 + [w.origins[:n], w.directions[:n], h.t[:n], h.u[:n], h.v[:n], h.prim[:n], h.instance[:n], h.cost[:n]],
                 outputs=aovs.outputs,
             )
@@ -437,10 +428,10 @@ class Renderer:
         wp.launch(count_alive_kernel, w.n, inputs=[w.alive], outputs=[w.counter])
         return int(w.counter.numpy()[0]) > 0
 
-    def _trace_paths(self, w: _Wavefront, aovs, cam):
+    def _trace_paths(self, w: _Wavefront, aovs):
         ds, surf, mats, lights = self.device_scene, self.surfaces, self.materials, self.device_lights
         for bounce in range(self.max_depth + 1):
-            self._intersect(w, aovs, cam, camera_rays=bounce == 0)
+            self._intersect(w, aovs, camera_rays=bounce == 0)
             h = w.hits
             launch_per_path(
                 shade_path_kernel,
@@ -454,10 +445,10 @@ class Renderer:
             if not self._any_alive(w):
                 break
 
-    def _trace_whitted(self, w: _Wavefront, aovs, cam):
+    def _trace_whitted(self, w: _Wavefront, aovs):
         ds, surf, mats, lights = self.device_scene, self.surfaces, self.materials, self.device_lights
         for bounce in range(self.max_depth + 1):
-            self._intersect(w, aovs, cam, camera_rays=bounce == 0)
+            self._intersect(w, aovs, camera_rays=bounce == 0)
             h = w.hits
             hit = [h.t, h.u, h.v, h.prim, h.instance]
             launch_per_path(
