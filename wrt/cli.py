@@ -133,6 +133,12 @@ def _output_for(args, path: Path, several: bool) -> Path:
     return Path(pattern) / f"{path.stem}.png"
 
 
+def _renderer_options(args) -> dict:
+    """The :class:`wrt.Renderer` options of ``wrt render``'s arguments, all but the device."""
+    names = ("camera", "width", "height", "builder", "accel", "integrator", "max_depth", "ao_radius")
+    return {name: getattr(args, name) for name in names}
+
+
 def _render_one(args, path: Path, output: Path, progress) -> Path:
     import wrt
 
@@ -144,18 +150,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     progress(f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes", time.perf_counter() - start)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
     check_memory(estimate_render_bytes(stats["rendered_triangles"], args.width, args.height), args.device, limit)
-    renderer = wrt.Renderer(
-        scene,
-        camera=args.camera,
-        width=args.width,
-        height=args.height,
-        device=args.device,
-        builder=args.builder,
-        accel=args.accel,
-        integrator=args.integrator,
-        max_depth=args.max_depth,
-        ao_radius=args.ao_radius,
-    )
+    renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
     image = renderer.render(spp=args.spp, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
     progress(
@@ -231,17 +226,8 @@ def _run_frames(args, paths: list, progress) -> int:
     if len(jobs) < len(frames):
         progress(f"--resume: {len(frames) - len(jobs)} of {len(frames)} frames already on disk")
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
-    options = {
-        "camera": args.camera,
-        "width": args.width,
-        "height": args.height,
-        "builder": args.builder,
-        "accel": args.accel,
-        "integrator": args.integrator,
-        "max_depth": args.max_depth,
-        "ao_radius": args.ao_radius,
-    }
-    common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet, **options}
+    common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet}
+    common.update(_renderer_options(args))
     start = time.perf_counter()
     if args.dask is not None:
         from .animation import render_frames_on_dask
