@@ -159,6 +159,36 @@ def merge_flags_kernel(
     keep_flags[i] = wp.where(j >= 0 and j < i, 0, 1)
 
 
+@wp.func
+def merged_cluster(
+    i: int,
+    j: int,
+    node: int,
+    refs: wp.array[wp.int32],
+    lowers: wp.array[wp.vec3],
+    uppers: wp.array[wp.vec3],
+    counts: wp.array[wp.int32],
+    node_left: wp.array[wp.int32],
+    node_right: wp.array[wp.int32],
+    node_counts: wp.array[wp.int32],
+):
+    """``(ref, lower, upper, count)`` of cluster ``i`` after an iteration: itself, or for a partner ``j > i`` the new
+    internal node ``node`` over both (whose children and count are written here)."""
+    ref = refs[i]
+    lo = lowers[i]
+    hi = uppers[i]
+    count = counts[i]
+    if j > i:
+        count += counts[j]
+        node_left[node] = ref
+        node_right[node] = refs[j]
+        node_counts[node] = count
+        ref = node
+        lo = wp.min(lo, lowers[j])
+        hi = wp.max(hi, uppers[j])
+    return ref, lo, hi, count
+
+
 @wp.kernel
 def merge_compact_kernel(
     force_pairs: int,
@@ -185,22 +215,11 @@ def merge_compact_kernel(
     i = wp.tid()
     if keep_flags[i] == 0:
         return
-    ref = refs[i]
-    lo = lowers[i]
-    hi = uppers[i]
-    count = counts[i]
+    j = int(-1)
     if merge_flags[i] == 1:
-        j = neighbours[i]
-        if force_pairs == 1:
-            j = i + 1
-        node = first_node + merge_ranks[i] - 1  # inclusive rank
-        node_left[node] = ref
-        node_right[node] = refs[j]
-        count = count + counts[j]
-        node_counts[node] = count
-        ref = node
-        lo = wp.min(lo, lowers[j])
-        hi = wp.max(hi, uppers[j])
+        j = wp.where(force_pairs == 1, i + 1, neighbours[i])
+    node = first_node + merge_ranks[i] - 1  # inclusive rank
+    ref, lo, hi, count = merged_cluster(i, j, node, refs, lowers, uppers, counts, node_left, node_right, node_counts)
     k = keep_ranks[i] - 1  # inclusive rank
     new_refs[k] = ref
     new_lowers[k] = lo
@@ -325,24 +344,24 @@ def cluster_tail_kernel(
                 merge_rank += partials[2 * u]
                 keep_rank += partials[2 * u + 1]
             total += partials[2 * u]
-        # Merge and compact into the other half, as merge_compact_kernel does.
+        # Merge and compact into the other half (merge_compact_kernel's work).
         for i in range(begin, end):
             j = merge_partner(i, k, force, neighbours)
             if j < 0 or j > i:
-                ref = buf_refs[src + i]
-                lo = buf_lowers[src + i]
-                hi = buf_uppers[src + i]
-                count = buf_counts[src + i]
+                ref, lo, hi, count = merged_cluster(
+                    src + i,
+                    wp.where(j > i, src + j, -1),
+                    node + merge_rank,
+                    buf_refs,
+                    buf_lowers,
+                    buf_uppers,
+                    buf_counts,
+                    node_left,
+                    node_right,
+                    node_counts,
+                )
                 if j > i:
-                    new_node = node + merge_rank
                     merge_rank += 1
-                    count += buf_counts[src + j]
-                    node_left[new_node] = ref
-                    node_right[new_node] = buf_refs[src + j]
-                    node_counts[new_node] = count
-                    ref = new_node
-                    lo = wp.min(lo, buf_lowers[src + j])
-                    hi = wp.max(hi, buf_uppers[src + j])
                 buf_refs[dst + keep_rank] = ref
                 buf_lowers[dst + keep_rank] = lo
                 buf_uppers[dst + keep_rank] = hi
