@@ -229,13 +229,19 @@ def top_round_kernel(
 
 
 @wp.func
+def halving_split(first: int, last: int):
+    """Split position of a halving node over slots ``[first, last]``: the last slot of its left half."""
+    return first + (last - first + 1) / 2 - 1
+
+
+@wp.func
 def halving_ref(first: int, last: int, root_split: int, cut_split: int, split_node: wp.array[wp.int32]):
     """Reference to the node over slots ``[first, last]`` of a halving subtree: a triangle slot, or the node
     whose split position the halving split is (the cut root's own position is taken by the halving root, which
     trades with the node that had the root's position)."""
     if first == last:
         return -first - 1
-    m = first + (last - first + 1) / 2 - 1
+    m = halving_split(first, last)
     if m == cut_split:
         m = root_split
     return split_node[m]
@@ -266,20 +272,20 @@ def halve_cuts_kernel(
         return
     first = starts[cut]
     last = first + src_counts[cut] - 1
-    root_split = first + src_counts[cut] / 2 - 1
+    root_split = halving_split(first, last)
     cut_split = split_pos[cut]
     role = split_pos[i]
     if i == cut:
         role = root_split
     elif role == root_split:
         role = cut_split
-    m = first + (last - first + 1) / 2 - 1
+    m = halving_split(first, last)
     while m != role:
         if role < m:
             last = m
         else:
             first = m + 1
-        m = first + (last - first + 1) / 2 - 1
+        m = halving_split(first, last)
     new_left[i] = halving_ref(first, m, root_split, cut_split, split_node)
     new_right[i] = halving_ref(m + 1, last, root_split, cut_split, split_node)
     new_counts[i] = last - first + 1
