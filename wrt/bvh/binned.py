@@ -91,6 +91,35 @@ def bin_of(c: wp.vec3, c_lower: wp.vec3, scale: wp.vec3, axis: int, bins: int):
     return wp.clamp(int((c[axis] - c_lower[axis]) * scale[axis]), 0, bins - 1)
 
 
+@wp.func
+def lower_of(a: wp.vec3, b: wp.vec3):
+    """Component-wise minimum of finite vectors: ``wp.min``'s result without its NaN handling, which costs two
+    compares and two selects per component in the binning loop (the input checks reject NaN vertices)."""
+    r = wp.vec3()
+    for k in range(3):
+        r[k] = wp.where(a[k] <= b[k], a[k], b[k])
+    return r
+
+
+@wp.func
+def upper_of(a: wp.vec3, b: wp.vec3):
+    """Component-wise maximum of finite vectors (see ``lower_of``)."""
+    r = wp.vec3()
+    for k in range(3):
+        r[k] = wp.where(a[k] >= b[k], a[k], b[k])
+    return r
+
+
+@wp.struct
+class Bin:
+    """One SAH bin: the box of the triangles whose centroids fall in it, and their count (one record, so an update
+    computes one address)."""
+
+    lower: wp.vec3
+    upper: wp.vec3
+    count: wp.int32
+
+
 @wp.struct
 class BinnedBuild:
     """Device state of one binned build: nodes, the two slot buffers, bin scratch, and the build options."""
@@ -105,9 +134,7 @@ class BinnedBuild:
     node_c_uppers: wp.array[wp.vec3]  # centroid box maximum
     slots: wp.array2d[SlotBox]  # row d % 2: the slots of nodes at depth d (partitions go to the other row)
     out_prims: wp.array[wp.int32]  # slot -> triangle id of the finished tree
-    bin_counts: wp.array[wp.int32]  # scratch: worker w owns bins [3 w max_bins, 3 (w + 1) max_bins)
-    bin_lowers: wp.array[wp.vec3]
-    bin_uppers: wp.array[wp.vec3]
+    bins: wp.array[Bin]  # scratch: worker w owns bins [3 w max_bins, 3 (w + 1) max_bins)
     right_areas: wp.array[float]  # scratch: worker w owns sweep entries [w max_bins, (w + 1) max_bins)
     right_counts: wp.array[wp.int32]
     max_bins: int  # bins per axis (2 and one axis for the spatial median)
@@ -179,10 +206,12 @@ def split_nodes_kernel(
         sweep = st.max_bins * worker
 
         # Bin every centroid on each axis that can split (all three for SAH, the widest one for the middle split).
+        empty = Bin()
+        empty.lower = wp.vec3(wp.inf)
+        empty.upper = wp.vec3(-wp.inf)
+        empty.count = 0
         for b in range(base, base + 3 * bins):
-            st.bin_counts[b] = 0
-            st.bin_lowers[b] = wp.vec3(wp.inf)
-            st.bin_uppers[b] = wp.vec3(-wp.inf)
+            st.bins[b] = empty
         if count > 1:
             for i in range(start, end):
                 slot = st.slots[p, i]
@@ -192,9 +221,11 @@ def split_nodes_kernel(
                 for axis in range(3):
                     if use_axis[axis] == 1:
                         b = base + axis * bins + bin_of(c, c_lo, scale, axis, bins)
-                        st.bin_counts[b] = st.bin_counts[b] + 1  # not "+=", which compiles to an atomic add
-                        st.bin_lowers[b] = wp.min(st.bin_lowers[b], lo)
-                        st.bin_uppers[b] = wp.max(st.bin_uppers[b], hi)
+                        grown = st.bins[b]
+                        grown.count = grown.count + 1  # not "+=", which compiles to an atomic add
+                        grown.lower = lower_of(grown.lower, lo)
+                        grown.upper = upper_of(grown.upper, hi)
+                        st.bins[b] = grown
 
         # Find the best bin-boundary split: least SAH cost over three axes, or the middle of the widest axis.
         best_cost = float(wp.inf)
@@ -208,10 +239,10 @@ def split_nodes_kernel(
                 hi = wp.vec3(-wp.inf)
                 m = int(0)
                 for s in range(bins - 1, 0, -1):
-                    b = base + axis * bins + s
-                    lo = wp.min(lo, st.bin_lowers[b])
-                    hi = wp.max(hi, st.bin_uppers[b])
-                    m += st.bin_counts[b]
+                    bin = st.bins[base + axis * bins + s]
+                    lo = wp.min(lo, bin.lower)
+                    hi = wp.max(hi, bin.upper)
+                    m += bin.count
                     st.right_areas[sweep + s] = half_area(lo, hi)
                     st.right_counts[sweep + s] = m
                 # Sweep from the left and evaluate each split s: bins [0, s) left, [s, bins) right.
@@ -219,10 +250,10 @@ def split_nodes_kernel(
                 hi = wp.vec3(-wp.inf)
                 m = int(0)
                 for s in range(1, bins):
-                    b = base + axis * bins + s - 1
-                    lo = wp.min(lo, st.bin_lowers[b])
-                    hi = wp.max(hi, st.bin_uppers[b])
-                    m += st.bin_counts[b]
+                    bin = st.bins[base + axis * bins + s - 1]
+                    lo = wp.min(lo, bin.lower)
+                    hi = wp.max(hi, bin.upper)
+                    m += bin.count
                     if m > 0 and st.right_counts[sweep + s] > 0:
                         cost = float(0.0)
                         if st.use_sah == 1:
@@ -288,17 +319,17 @@ def split_nodes_kernel(
             if left:
                 j = start + n_l
                 n_l += 1
-                l_lo = wp.min(l_lo, lo)
-                l_hi = wp.max(l_hi, hi)
-                l_clo = wp.min(l_clo, c)
-                l_chi = wp.max(l_chi, c)
+                l_lo = lower_of(l_lo, lo)
+                l_hi = upper_of(l_hi, hi)
+                l_clo = lower_of(l_clo, c)
+                l_chi = upper_of(l_chi, c)
             else:
                 j = start + n_left + n_r
                 n_r += 1
-                r_lo = wp.min(r_lo, lo)
-                r_hi = wp.max(r_hi, hi)
-                r_clo = wp.min(r_clo, c)
-                r_chi = wp.max(r_chi, c)
+                r_lo = lower_of(r_lo, lo)
+                r_hi = upper_of(r_hi, hi)
+                r_clo = lower_of(r_clo, c)
+                r_chi = upper_of(r_chi, c)
             st.slots[1 - p, j] = slot
 
         # Record the children: for the next level, or allocate them here and continue depth first.
@@ -613,9 +644,7 @@ def offset_kernel(
 
 def allocate_scratch(st: BinnedBuild, workers: int, bins: int) -> None:
     """Bin scratch for ``workers`` threads of ``bins`` bins per axis."""
-    st.bin_counts = wp.empty(3 * bins * workers, dtype=wp.int32)
-    st.bin_lowers = wp.empty(3 * bins * workers, dtype=wp.vec3)
-    st.bin_uppers = wp.empty(3 * bins * workers, dtype=wp.vec3)
+    st.bins = wp.empty(3 * bins * workers, dtype=Bin)
     st.right_areas = wp.empty(bins * workers, dtype=float)
     st.right_counts = wp.empty(bins * workers, dtype=wp.int32)
 
