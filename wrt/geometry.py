@@ -130,13 +130,45 @@ def safe_inverse(direction: wp.vec3):
     return inv
 
 
+_FINITE_MIN = """
+#if defined(__CUDA_ARCH__)
+    return fminf(a, b);
+#else
+    return a <= b ? a : b;
+#endif
+"""
+_FINITE_MAX = _FINITE_MIN.replace("fminf", "fmaxf").replace("<=", ">=")
+
+
+@wp.func_native(_FINITE_MIN)
+def finite_min(a: float, b: float) -> float:
+    """``wp.min`` for operands that are never NaN. On the CPU ``wp.min`` returns the non-NaN operand when one is
+    NaN, which costs two compares and two selects; a compare and a select (one ``minss``) do here. CUDA's ``fminf``
+    is one instruction already."""
+
+
+@wp.func_native(_FINITE_MAX)
+def finite_max(a: float, b: float) -> float:
+    """``wp.max`` for operands that are never NaN (see ``finite_min``)."""
+
+
 @wp.func
 def intersect_ray_box(origin: wp.vec3, inv_dir: wp.vec3, lower: wp.vec3, upper: wp.vec3, t_min: float, t_max: float):
-    """Robust slab test. Returns the entry distance, or ``+inf`` when the ray misses ``[t_min, t_max]``."""
+    """Robust slab test. Returns the entry distance, or ``+inf`` when the ray misses ``[t_min, t_max]``.
+
+    No operand is NaN: every traversal first rejects rays with a non-finite origin or direction
+    (``ray_can_hit``), ``safe_inverse`` keeps ``inv_dir`` finite and non-zero, and boxes come from finite vertices.
+    """
     t0 = wp.cw_mul(lower - origin, inv_dir)
     t1 = wp.cw_mul(upper - origin, inv_dir)
-    near = wp.max(wp.max(wp.min(t0[0], t1[0]), wp.min(t0[1], t1[1])), wp.max(wp.min(t0[2], t1[2]), t_min))
-    far = wp.min(wp.min(wp.max(t0[0], t1[0]), wp.max(t0[1], t1[1])), wp.min(wp.max(t0[2], t1[2]), t_max))
+    lo_x = finite_min(t0[0], t1[0])
+    lo_y = finite_min(t0[1], t1[1])
+    lo_z = finite_min(t0[2], t1[2])
+    hi_x = finite_max(t0[0], t1[0])
+    hi_y = finite_max(t0[1], t1[1])
+    hi_z = finite_max(t0[2], t1[2])
+    near = finite_max(finite_max(lo_x, lo_y), finite_max(lo_z, t_min))
+    far = finite_min(finite_min(hi_x, hi_y), finite_min(hi_z, t_max))
     result = wp.inf
     if near <= far * ROBUST_FAR_SCALE:
         result = near
