@@ -9,7 +9,7 @@ import warp as wp
 from conftest import warp_assets
 
 import wrt
-from wrt.geometry import offset_ray_origin
+from wrt.geometry import intersect_ray_box, offset_ray_origin, safe_inverse
 from wrt.sampling import sin_cos
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
@@ -400,3 +400,73 @@ def test_allocation_failure_is_a_clean_one_line_error(tmp_path, capsys, monkeypa
     assert main(["render", "-o", str(tmp_path / "x.png"), "--width", "64", "--height", "48", "-q"]) == 2
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     assert len(errors) == 1 and "out of memory" in errors[0] and "Traceback" not in errors[0]
+
+
+@wp.kernel
+def _slab_kernel(
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    lowers: wp.array[wp.vec3],
+    uppers: wp.array[wp.vec3],
+    t_max: float,
+    out: wp.array[float],
+):
+    i = wp.tid()
+    inv = safe_inverse(directions[i])
+    out[i] = intersect_ray_box(origins[i], inv, lowers[i], uppers[i], 0.0, t_max)
+
+
+def _slab_reference(o, d, lo, hi, t_max):
+    """Entry distance of each ray into each box in float64 (boundaries count as inside), ``inf`` on a miss; and the
+    raw entry and exit distances."""
+    o, d, lo, hi = (np.asarray(a, np.float64) for a in (o, d, lo, hi))
+    near = np.zeros(len(o))
+    far = np.full(len(o), t_max)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (lo - o) / d, (hi - o) / d
+    flat = d == 0
+    inside = (lo <= o) & (o <= hi)
+    t_in = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t0, t1))
+    t_out = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t0, t1))
+    near = np.maximum(near, t_in.max(axis=1))
+    far = np.minimum(far, t_out.min(axis=1))
+    return np.where(near <= far, near, np.inf), near, far
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("scale", [1e-20, 1.0, 1e20])
+def test_slab_test_never_culls_a_box_the_ray_touches(device, scale, np_rng):
+    """Random boxes and rays against a float64 slab test: rays aimed at the box, aimed away from it, starting on a
+    face and running parallel to it, and touching an edge from outside (entry equals exit). Every box the ray
+    touches is entered, at the right distance, and boxes missed by a clear margin are culled, at tiny, unit and huge
+    coordinates."""
+    n = 30_000
+    lo = np_rng.uniform(-1, 1, (n, 3))
+    hi = lo + np_rng.uniform(0, 1, (n, 3))
+    o = np_rng.uniform(-3, 3, (n, 3))
+    target = lo + np_rng.uniform(0, 1, (n, 3)) * (hi - lo)
+    group = np.arange(n) % 4
+    d = np.where((group == 1)[:, None], target - o, o - target)  # aimed at the box, or away from it
+    graze = group == 0  # start on the box's lower x face, inside its y and z range; move parallel to it
+    o[graze] = target[graze]
+    o[graze, 0] = lo[graze, 0]
+    d[graze] = np_rng.normal(size=(int(graze.sum()), 3))
+    d[graze, 0] = 0.0
+    edge = group == 3  # touch the box's edge x = lo.x, y = hi.y from outside: entry and exit meet there
+    target[edge, 0], target[edge, 1] = lo[edge, 0], hi[edge, 1]
+    o[edge] = target[edge] + np_rng.uniform(0.1, 2, (int(edge.sum()), 3)) * np.array([-1.0, 1.0, 0.0])
+    lo, hi, o, target = (np.float32(scale) * a.astype(np.float32) for a in (lo, hi, o, target))
+    d = np.where(edge[:, None], target.astype(np.float64) - o, d * scale).astype(np.float32)
+    out = wp.empty(n, dtype=float, device=device)
+    arrays = [wp.array(a, dtype=wp.vec3, device=device) for a in (o, d, lo, hi)]
+    wp.launch(_slab_kernel, n, inputs=[*arrays, float("inf")], outputs=[out], device=device)
+    got = out.numpy()
+    want, want_near, far = _slab_reference(o, d, lo, hi, np.inf)
+    hit = np.isfinite(want)
+    assert hit.sum() > n // 10 and (~hit).sum() > n // 10  # both outcomes are exercised
+    assert np.isfinite(got[hit]).all(), "a box the ray touches was culled"
+    np.testing.assert_allclose(got[hit], want[hit], rtol=1e-5, atol=1e-6)
+    with np.errstate(invalid="ignore"):
+        clear_miss = ~hit & ~(want_near - far <= 1e-4)  # beyond float32 rounding (inf - inf is NaN: a miss)
+    assert clear_miss.sum() > n // 10
+    assert not np.isfinite(got[clear_miss]).any(), "a box the ray clearly misses was entered"
