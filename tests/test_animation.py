@@ -62,6 +62,28 @@ def test_refit_gives_the_boxes_of_the_moved_triangles(np_rng):
     np.testing.assert_array_equal(tree.lowers[0], moved[indices].reshape(-1, 3).min(axis=0))
 
 
+def test_refit_rejects_nan_vertices_and_other_topologies_and_keeps_the_tree(np_rng):
+    points = np_rng.uniform(-1, 1, (60, 3)).astype(np.float32)
+    indices = np_rng.integers(0, 60, (40, 3)).astype(np.int32)
+    bvh = build_bvh(points, indices, "sah", device="cpu")
+    refitter = Refitter(bvh, bvh.to_device(points, indices, "cpu"), "cpu")
+    before = bvh.lowers.copy(), bvh.uppers.copy()
+    nan_points = points.copy()
+    nan_points[indices[7, 1]] = [np.nan, 0.0, 0.0]
+    with pytest.raises(ValueError, match="finite; triangle 7"):
+        refitter.refit(nan_points, indices)
+    with pytest.raises(ValueError, match="40 triangles"):
+        refitter.refit(points, indices[:-1])
+    with pytest.raises(ValueError, match="indices must lie in"):
+        refitter.refit(points[:10], indices)
+    np.testing.assert_array_equal(bvh.lowers, before[0])
+    np.testing.assert_array_equal(bvh.uppers, before[1])
+    unused, spare = points.copy(), np.setdiff1d(np.arange(60), indices)
+    assert len(spare) > 0
+    unused[spare] = np.nan  # vertices no triangle uses may be anything, as in a build
+    refitter.refit(unused, indices).validate()
+
+
 def test_refitted_accelerator_traces_like_wp_mesh(np_rng):
     from wrt.procedural import displaced_sphere
 

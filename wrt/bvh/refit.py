@@ -46,6 +46,22 @@ def refit_level_kernel(
     uppers[node] = hi
 
 
+def check_refit_input(points: np.ndarray, indices: np.ndarray, num_prims: int) -> None:
+    """Raises ValueError unless ``indices`` are ``num_prims`` triangles over ``points`` whose vertices are all finite:
+    a NaN vertex would make NaN boxes, which the slab test (``geometry.intersect_ray_box``) assumes never occur."""
+    if indices.ndim != 2 or indices.shape[1] != 3 or len(indices) != num_prims:
+        raise ValueError(f"refit needs the build's {num_prims} triangles as (T, 3) indices, got shape {indices.shape}")
+    if num_prims == 0:
+        return
+    if indices.min() < 0 or indices.max() >= len(points):
+        raise ValueError(f"refit: triangle indices must lie in [0, {len(points)})")
+    corners = points[indices]
+    bad = ~np.isfinite(corners).all(axis=(1, 2))
+    if bad.any():
+        t = int(np.argmax(bad))
+        raise ValueError(f"refit: triangle vertices must be finite; triangle {t} has {corners[t].tolist()}")
+
+
 class Refitter:
     """Refits one uploaded tree (its :class:`DeviceBvh`) in place; the struct's arrays keep their addresses, so
     structures that hold it (a TLAS's BLAS table) stay valid.
@@ -69,6 +85,8 @@ class Refitter:
     def refit(self, points: np.ndarray, indices: np.ndarray) -> FlatBvh:
         """Moves the tree's triangles to ``points`` (same ``indices`` as the build) and recomputes every box."""
         d = self.device_bvh
+        points, indices = np.asarray(points, np.float32), np.asarray(indices)
+        check_refit_input(points, indices, self.host.num_prims)
         if self.host.num_prims == 0:
             return self.host
         _, v0, v1, v2 = upload_triangles(self.host.prim_ids, points, indices, self.device)
@@ -88,4 +106,4 @@ class Refitter:
         return self.host
 
 
-__all__ = ["Refitter", "refit_level_kernel"]
+__all__ = ["Refitter", "check_refit_input", "refit_level_kernel"]
