@@ -203,6 +203,15 @@ def test_bad_build_input_raises():
         build_bvh(np.array([[0, 0, 0], [1, np.nan, 0], [0, 1, 0]], np.float32), [[0, 1, 2]], device="cpu")
     with pytest.raises(ValueError, match="indices"):
         build_bvh(tri, [[0, 1, 3]], device="cpu")
+    # The first offending triangle is named, also among many.
+    many = np.tile([[0, 1, 2]], (50, 1))
+    many[[31, 40], 1] = 7
+    with pytest.raises(ValueError, match=r"must lie in \[0, 3\); triangle 31 "):
+        build_bvh(tri, many, device="cpu")
+    nan_points = np.vstack([tri, [[np.nan, 0, 0]]]).astype(np.float32)
+    many[[31, 40], 1] = [1, 3]
+    with pytest.raises(ValueError, match=r"finite \(found NaN or inf\); triangle 40 uses one"):
+        build_bvh(nan_points, many, device="cpu")
     with pytest.raises(ValueError, match="leaf_size"):
         build_bvh(tri, [[0, 1, 2]], leaf_size=0, device="cpu")
     with pytest.raises(ValueError, match="morton_bits"):

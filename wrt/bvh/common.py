@@ -114,17 +114,38 @@ def check_input_kernel(
     # outputs
     errors: wp.array[wp.int32],
 ):
-    """Flags out-of-range indices (``errors[0]``) and non-finite vertices (``errors[1]``)."""
+    """The first triangle with an out-of-range index (``errors[0]``) and the first using a non-finite vertex
+    (``errors[1]``); both start at the triangle count, which means none."""
     i = wp.tid()
     n = points.shape[0]
     for k in range(3):
         v = indices[i, k]
         if v < 0 or v >= n:
-            errors[0] = 1
+            wp.atomic_min(errors, 0, i)
         else:
             p = points[v]
             if not (wp.isfinite(p[0]) and wp.isfinite(p[1]) and wp.isfinite(p[2])):
-                errors[1] = 1
+                wp.atomic_min(errors, 1, i)
+
+
+def check_triangles(points: wp.array, indices: wp.array) -> None:
+    """Raises ValueError naming the first triangle that has an index outside ``points`` or uses a NaN or infinite
+    vertex (vertices no triangle uses may be anything).
+
+    Args:
+        points: ``(V,)`` vec3 vertices.
+        indices: ``(T, 3)`` int32 triangles, on the same device.
+    """
+    n = indices.shape[0]
+    if n == 0:
+        return
+    errors = wp.full(2, n, dtype=wp.int32, device=indices.device)
+    wp.launch(check_input_kernel, n, inputs=[points, indices], outputs=[errors], device=indices.device)
+    bad_index, bad_point = (int(e) for e in errors.numpy())
+    if bad_index < n:
+        raise ValueError(f"triangle indices must lie in [0, {len(points)}); triangle {bad_index} has one outside")
+    if bad_point < n:
+        raise ValueError(f"triangle vertices must be finite (found NaN or inf); triangle {bad_point} uses one")
 
 
 @wp.kernel
@@ -176,15 +197,7 @@ class BuildInput:
             raise ValueError(f"too many triangles for one BVH: {self.num_prims}")
         if self.num_prims == 0:
             return
-        errors = wp.zeros(2, dtype=wp.int32, device=self.device)
-        wp.launch(
-            check_input_kernel, self.num_prims, inputs=[self.points, self.indices], outputs=[errors], device=self.device
-        )
-        bad_index, bad_point = errors.numpy()
-        if bad_index:
-            raise ValueError(f"triangle indices must lie in [0, {len(self.points)})")
-        if bad_point:
-            raise ValueError("triangle vertices must be finite (found NaN or inf)")
+        check_triangles(self.points, self.indices)
         n = self.num_prims
         self.prim_lowers = wp.empty(n, dtype=wp.vec3, device=self.device)  # triangle box minimum
         self.prim_uppers = wp.empty(n, dtype=wp.vec3, device=self.device)  # triangle box maximum

@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from .layout import DeviceBvh, FlatBvh, upload_triangles
+from .common import check_triangles
+from .layout import DeviceBvh, FlatBvh, gather_triangles_kernel
 
 wp.set_module_options({"enable_backward": False})
 
@@ -46,22 +47,6 @@ def refit_level_kernel(
     uppers[node] = hi
 
 
-def check_refit_input(points: np.ndarray, indices: np.ndarray, num_prims: int) -> None:
-    """Raises ValueError unless ``indices`` are ``num_prims`` triangles over ``points`` whose vertices are all finite:
-    a NaN vertex would make NaN boxes, which the slab test (``geometry.intersect_ray_box``) assumes never occur."""
-    if indices.ndim != 2 or indices.shape[1] != 3 or len(indices) != num_prims:
-        raise ValueError(f"refit needs the build's {num_prims} triangles as (T, 3) indices, got shape {indices.shape}")
-    if num_prims == 0:
-        return
-    if indices.min() < 0 or indices.max() >= len(points):
-        raise ValueError(f"refit: triangle indices must lie in [0, {len(points)})")
-    corners = points[indices]
-    bad = ~np.isfinite(corners).all(axis=(1, 2))
-    if bad.any():
-        t = int(np.argmax(bad))
-        raise ValueError(f"refit: triangle vertices must be finite; triangle {t} has {corners[t].tolist()}")
-
-
 class Refitter:
     """Refits one uploaded tree (its :class:`DeviceBvh`) in place; the struct's arrays keep their addresses, so
     structures that hold it (a TLAS's BLAS table) stay valid.
@@ -85,13 +70,25 @@ class Refitter:
     def refit(self, points: np.ndarray, indices: np.ndarray) -> FlatBvh:
         """Moves the tree's triangles to ``points`` (same ``indices`` as the build) and recomputes every box."""
         d = self.device_bvh
-        points, indices = np.asarray(points, np.float32), np.asarray(indices)
-        check_refit_input(points, indices, self.host.num_prims)
+        indices = np.asarray(indices)
+        if indices.ndim != 2 or indices.shape[1] != 3 or len(indices) != self.host.num_prims:
+            raise ValueError(
+                f"refit needs the build's {self.host.num_prims} triangles as (T, 3) indices, got shape {indices.shape}"
+            )
         if self.host.num_prims == 0:
             return self.host
-        _, v0, v1, v2 = upload_triangles(self.host.prim_ids, points, indices, self.device)
-        for dst, src in ((d.v0, v0), (d.v1, v1), (d.v2, v2)):
-            wp.copy(dst, src)
+        # Checked like a build's input, since the slab test assumes finite boxes; then the moved triangles are
+        # gathered into slot order on the device, straight into the tree's vertex arrays.
+        points_d = wp.array(np.asarray(points, np.float32), dtype=wp.vec3, device=self.device)
+        indices_d = wp.array(indices.astype(np.int32), dtype=wp.int32, device=self.device)
+        check_triangles(points_d, indices_d)
+        wp.launch(
+            gather_triangles_kernel,
+            self.host.num_prims,
+            inputs=[d.prim_ids, points_d, indices_d],
+            outputs=[d.v0, d.v1, d.v2],
+            device=self.device,
+        )
         for level in self.levels:
             wp.launch(
                 refit_level_kernel,
@@ -106,4 +103,4 @@ class Refitter:
         return self.host
 
 
-__all__ = ["Refitter", "check_refit_input", "refit_level_kernel"]
+__all__ = ["Refitter", "refit_level_kernel"]
