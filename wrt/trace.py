@@ -26,7 +26,7 @@ from .bvh import DeviceBvh, FlatBvh, build_bvh, build_bvh_device
 from .bvh.build import Builder
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
-from .bvh.traverse import bvh_intersect, bvh_occluded
+from .bvh.traverse import TRACE_KERNEL_OPTIONS, bvh_intersect, bvh_occluded
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .geometry import ray_can_hit
 from .scene import Scene
@@ -43,7 +43,7 @@ WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor va
 WARP_MAX_TRIANGLES = 1 << 27  # accel="warp" flattens instances; larger instanced scenes are refused
 
 
-@wp.kernel
+@wp.kernel(**TRACE_KERNEL_OPTIONS)
 def trace_bvh_kernel(
     bvh: DeviceBvh,
     origins: wp.array[wp.vec3],
@@ -67,7 +67,7 @@ def trace_bvh_kernel(
     costs[i] = wp.vec2i(nodes, tests)
 
 
-@wp.kernel
+@wp.kernel(**TRACE_KERNEL_OPTIONS)
 def occluded_bvh_kernel(
     bvh: DeviceBvh,
     origins: wp.array[wp.vec3],

@@ -23,7 +23,7 @@ import warp as wp
 from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_can_hit, safe_inverse
 from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
-from .traverse import reachable
+from .traverse import TRACE_KERNEL_OPTIONS, reachable
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
 # differed from the binary layout's and from the CPU's.
@@ -272,7 +272,7 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
     return found
 
 
-@wp.kernel
+@wp.kernel(**TRACE_KERNEL_OPTIONS)
 def trace_compact_kernel(
     bvh: DeviceCompactBvh,
     origins: wp.array[wp.vec3],
@@ -296,7 +296,7 @@ def trace_compact_kernel(
     costs[i] = wp.vec2i(nodes, tests)
 
 
-@wp.kernel
+@wp.kernel(**TRACE_KERNEL_OPTIONS)
 def occluded_compact_kernel(
     bvh: DeviceCompactBvh,
     origins: wp.array[wp.vec3],

@@ -17,6 +17,11 @@ from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_r
 from .layout import DeviceBvh
 from .stack import NodeStack
 
+# CUDA register cap of the trace and any-hit kernels of every layout: 64 registers give 4 blocks of 256 threads per
+# SM where the compact kernel's 77 and the wide one's 70 gave 3. H200, against the uncapped kernels in one run:
+# compact and wide incoherent +11-13%, binary unchanged (already 64), mixed on diffuse rays (GPU_NOTES.md, row 20).
+TRACE_KERNEL_OPTIONS = {"cuda_max_registers": 64}
+
 
 @wp.func
 def order_children(

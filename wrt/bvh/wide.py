@@ -28,7 +28,7 @@ from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_r
 from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .stack import SORT_SLOTS, STACK_BUILD_OPTIONS, WIDE_STACK, SortBuffer, WideStack
-from .traverse import reachable
+from .traverse import TRACE_KERNEL_OPTIONS, reachable
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
 # differed from the binary layout's and from the CPU's.
@@ -284,7 +284,7 @@ def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min
     return found
 
 
-@wp.kernel
+@wp.kernel(**TRACE_KERNEL_OPTIONS)
 def trace_wide_kernel(
     bvh: DeviceWideBvh,
     origins: wp.array[wp.vec3],
@@ -308,7 +308,7 @@ def trace_wide_kernel(
     costs[i] = wp.vec2i(nodes, tests)
 
 
-@wp.kernel
+@wp.kernel(**TRACE_KERNEL_OPTIONS)
 def occluded_wide_kernel(
     bvh: DeviceWideBvh,
     origins: wp.array[wp.vec3],
