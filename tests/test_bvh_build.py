@@ -230,3 +230,58 @@ def test_empty_input_gives_an_empty_tree():
     assert bvh.num_prims == 0
 
 
+
+
+def _ploc_partners(neighbours: np.ndarray, dists: np.ndarray, radius: int, seed: int) -> np.ndarray:
+    """The merge partners that one PLOC iteration picks for these nearest neighbours and distances."""
+    import warp as wp
+
+    from wrt.bvh import ploc
+
+    n = len(neighbours)
+    partners = wp.empty(n, dtype=wp.int32, device="cpu")
+    flags = wp.empty(n, dtype=wp.int32, device="cpu")
+    wp.launch(
+        ploc.merge_flags_kernel,
+        n,
+        inputs=[n, 0, seed, radius, wp.array(neighbours, dtype=wp.int32), wp.array(dists, dtype=float)],
+        outputs=[partners, flags],
+        device="cpu",
+    )
+    return partners.numpy()
+
+
+def test_ploc_pairs_are_symmetric_and_keep_every_mutual_pair():
+    rng = np.random.default_rng(3)
+    n, radius = 5000, 8
+    index = np.arange(n)
+    offsets = rng.integers(1, radius + 1, n) * rng.choice([-1, 1], n)
+    neighbours = np.clip(index + offsets, 0, n - 1)
+    neighbours[neighbours == index] = np.where(index[neighbours == index] == 0, 1, index[neighbours == index] - 1)
+    dists = rng.uniform(1.0, 1.1, n).astype(np.float32)
+    mutual = neighbours[neighbours] == index
+    for seed in range(4):
+        partners = _ploc_partners(neighbours, dists, radius, seed)
+        matched = partners >= 0
+        assert np.array_equal(partners[partners[matched]], index[matched]), "a pair is not symmetric"
+        assert np.array_equal(partners[mutual], neighbours[mutual]), "a mutual pair was not kept"
+        assert np.all(np.abs(partners[matched] - index[matched]) <= radius)
+        # The chain matching pairs a proposer with the cluster it chose as nearest neighbour.
+        chained = matched & ~mutual
+        assert np.all((neighbours[chained] == partners[chained]) | (neighbours[partners[chained]] == index[chained]))
+
+
+def test_ploc_chain_of_shrinking_clusters_merges_many_pairs_per_iteration():
+    # Each cluster's nearest neighbour is the next one, at a slowly shrinking distance: mutual pairs alone merge
+    # only the last two; the chain matching must pair a good share of the rest.
+    n = 4000
+    neighbours = np.arange(1, n + 1)
+    neighbours[-1] = n - 2
+    dists = (1.0 - 1e-5 * np.arange(n)).astype(np.float32)
+    for seed in range(3):
+        partners = _ploc_partners(neighbours, dists, 8, seed)
+        assert (partners >= 0).mean() > 0.3
+        # Each proposer 20% farther than the acceptor's own nearest neighbour, beyond the tolerance: no match.
+        steep = (1.2 ** -np.arange(n, dtype=np.float64) * 1e30).astype(np.float32)[:400]
+        chain = np.append(np.arange(1, 400), 398)
+        assert (_ploc_partners(chain, steep, 8, seed) >= 0).sum() == 2

@@ -6,18 +6,32 @@ The clusters start as the triangles in Morton order (``lbvh.sorted_morton_order`
 1. every cluster finds its nearest neighbour among the ``radius`` clusters on either side, the distance being the
    surface area of the two boxes' union; ties are broken by a total order on pairs (``pair_less``), so the closest
    pair overall is always mutual and every iteration merges;
-2. every pair of mutual nearest neighbours merges into a new internal node, stored at the lower position;
-3. the cluster array is compacted with a prefix scan (which keeps the Morton order).
+2. every pair of mutual nearest neighbours merges into a new internal node, stored at the lower position; so does
+   every pair found by the chain matching below;
+3. the cluster array is compacted with one prefix scan over the merges (which keeps the Morton order).
+
+Chain matching. Mutual pairs alone stall on runs of clusters whose union areas shrink steadily along the Morton
+order (strips of triangles growing smaller towards a pole, say): each one's nearest neighbour is the next, so a run
+merges only at its end, one pair per iteration. On a 10M-triangle displaced sphere, 30k clusters were still single
+triangles after 60 iterations, each merging 2-3% of the clusters. So the clusters left over also pair up, as in a
+proposal round: a hash of position and iteration puts each on the proposing or the accepting side; a proposer
+offers itself to its nearest neighbour, and an accepting cluster that is not in a mutual pair takes the closest of
+its proposers, if that one's distance is at most ``CHAIN_TOLERANCE`` times its own nearest-neighbour distance (so
+the pair is nearly as good for it as its own choice). This keeps about 20% of the clusters merging per iteration
+down to about a thousand clusters: the 10M sphere reaches ``TAIL_CLUSTERS`` after 26 iterations instead of 72, its
+tree is 49 levels deep before the leaf collapse instead of about 110 (so ``flatten.py`` needs no depth bound), and the SAH
+cost is as good (1M displaced sphere +7.6% -> +7.5% over ``binned_sah``, turbineblade +9.0% -> +7.9%, chess_set
++7.0% -> +7.1%; a tolerance of 1.25 gave +7.6%, +8.3%, +9.2% in a trial; unlimited, +14.1%, +11.6%, +17.8%).
 
 If an iteration merges fewer than 1/64 of the clusters (degenerate input, e.g. many identical triangles), the
 next one merges neighbours pairwise instead, so the iteration count stays logarithmic.
 
-The last ``TAIL_CLUSTERS`` clusters took most of the iterations (about 80 of 107 at 1M triangles, merging a few
-percent each), so one launch finishes them: one thread block on CUDA (one thread on the CPU) runs the same steps
-with block barriers in place of launches and no reads back to the host. These top levels search a radius of at
-most ``TAIL_RADIUS``, which measured a lower SAH cost than the full radius (1M displaced sphere +11.2% -> +7.6%
-over ``binned_sah``, turbineblade +9.3% -> +9.0%, chess_set +7.5% -> +7.0%; radius 2: +7.2%, +8.5%, +7.7%; a
-wider tail radius made it worse: 16 gave +13.4% on the sphere).
+The last ``TAIL_CLUSTERS`` clusters take many iterations that merge a few percent each (before chain matching,
+about 80 of 107 at 1M triangles), so one launch finishes them: one thread block on CUDA (one thread on the CPU)
+runs the same steps with block barriers in place of launches and no reads back to the host. These top levels
+search a radius of at most ``TAIL_RADIUS``, which measured a lower SAH cost than the full radius (before chain
+matching: 1M displaced sphere +11.2% -> +7.6% over ``binned_sah``, turbineblade +9.3% -> +9.0%, chess_set +7.5% ->
++7.0%; radius 2: +7.2%, +8.5%, +7.7%; a wider tail radius made it worse: 16 gave +13.4% on the sphere).
 
 Afterwards the tree's triangles are put in depth-first order (newest nodes first: the tail's in its launch, then
 one launch per earlier iteration), which gives every subtree a contiguous slot range, and ``flatten.py`` makes the
@@ -36,6 +50,7 @@ from .lbvh import sorted_morton_order
 wp.set_module_options({"enable_backward": False})
 
 FORCE_FRACTION = wp.constant(64)  # an iteration merging fewer than clusters / FORCE_FRACTION makes the next pairwise
+CHAIN_TOLERANCE = wp.constant(1.05)  # chain matching: a proposer at most this much farther than the acceptor's own NN
 TAIL_CLUSTERS = 8192  # from this many clusters down, clustering finishes in one launch
 TAIL_THREADS = 512  # CUDA threads (one block) of that launch
 TAIL_RADIUS = 4  # search radius of the tail, at most (see module docstring)
@@ -97,7 +112,7 @@ def init_clusters_kernel(
 @wp.func
 def nearest_neighbour(i: int, n: int, radius: int, base: int, lowers: wp.array[wp.vec3], uppers: wp.array[wp.vec3]):
     """Nearest neighbour of cluster ``i`` of ``n`` (stored from ``base``) within ``radius`` positions, by area of the
-    union box."""
+    union box, and that area."""
     lo = lowers[base + i]
     hi = uppers[base + i]
     best = int(-1)
@@ -108,23 +123,74 @@ def nearest_neighbour(i: int, n: int, radius: int, base: int, lowers: wp.array[w
             if best < 0 or pair_less(d, i, j, best_d, i, best):
                 best = j
                 best_d = d
+    return best, best_d
+
+
+@wp.func
+def accepts(i: int, seed: int):
+    """Whether cluster ``i`` takes the accepting side in this iteration's chain matching (a hash of position and
+    iteration: the same on every device)."""
+    h = wp.uint32(i) + wp.uint32(seed) * wp.uint32(668265261)
+    # Integer mix (xor-shift-multiply): neighbouring positions get independent sides.
+    h = (h ^ (h >> wp.uint32(16))) * wp.uint32(2146120493)
+    h = (h ^ (h >> wp.uint32(15))) * wp.uint32(830770091)
+    h = h ^ (h >> wp.uint32(16))
+    return (h & wp.uint32(1)) == wp.uint32(1)
+
+
+@wp.func
+def is_mutual(i: int, neighbours: wp.array[wp.int32]):
+    """Whether ``i`` and its nearest neighbour are each other's."""
+    return neighbours[neighbours[i]] == i
+
+
+@wp.func
+def best_proposer(j: int, n: int, radius: int, seed: int, neighbours: wp.array[wp.int32], nn_dists: wp.array[float]):
+    """Of the proposing clusters whose nearest neighbour is ``j``, the one closest to ``j`` (``pair_less``); -1 for
+    none."""
+    best = int(-1)
+    best_d = float(0.0)
+    for c in range(wp.max(j - radius, 0), wp.min(j + radius + 1, n)):
+        if c != j:
+            if neighbours[c] == j:  # nested: Warp evaluates both sides of ``and``
+                d = nn_dists[c]
+                if not accepts(c, seed) and d <= CHAIN_TOLERANCE * nn_dists[j]:
+                    if best < 0 or pair_less(d, c, j, best_d, best, j):
+                        best = c
+                        best_d = d
     return best
 
 
 @wp.func
-def merge_partner(i: int, n: int, force_pairs: int, neighbours: wp.array[wp.int32]):
-    """The cluster that ``i`` merges with this iteration (a mutual nearest neighbour, or its pair in a pairwise
-    iteration), -1 for none."""
+def merge_partner(
+    i: int,
+    n: int,
+    force_pairs: int,
+    radius: int,
+    seed: int,
+    neighbours: wp.array[wp.int32],
+    nn_dists: wp.array[float],
+):
+    """The cluster that ``i`` merges with this iteration, -1 for none: its pair in a pairwise iteration; else its
+    nearest neighbour if that is mutual, or if the chain matching pairs them (module docstring). Symmetric:
+    ``j = merge_partner(i) >= 0`` gives ``merge_partner(j) = i``."""
     j = int(-1)
     if force_pairs == 1:
         j = i + 1 - 2 * (i & 1)
         if j >= n:
             j = -1
     else:
-        j = neighbours[i]
-        if j >= 0:  # nested: Warp evaluates both sides of ``and``
-            if neighbours[j] != i:
-                j = -1
+        nn = neighbours[i]
+        if is_mutual(i, neighbours):
+            j = nn
+        elif accepts(i, seed):
+            j = best_proposer(i, n, radius, seed, neighbours, nn_dists)
+        elif accepts(nn, seed):
+            # Proposes to its nearest neighbour: a match if that one is not in a mutual pair and has no closer
+            # proposer.
+            if not is_mutual(nn, neighbours):
+                if best_proposer(nn, n, radius, seed, neighbours, nn_dists) == i:
+                    j = nn
     return j
 
 
@@ -136,27 +202,33 @@ def nearest_neighbour_kernel(
     uppers: wp.array[wp.vec3],
     # outputs
     neighbours: wp.array[wp.int32],
+    nn_dists: wp.array[float],
 ):
-    """Nearest neighbour of every cluster."""
+    """Nearest neighbour of every cluster, and its distance."""
     i = wp.tid()
-    neighbours[i] = nearest_neighbour(i, n, radius, 0, lowers, uppers)
+    j, d = nearest_neighbour(i, n, radius, 0, lowers, uppers)
+    neighbours[i] = j
+    nn_dists[i] = d
 
 
 @wp.kernel
 def merge_flags_kernel(
     n: int,
     force_pairs: int,
+    seed: int,
+    radius: int,
     neighbours: wp.array[wp.int32],
+    nn_dists: wp.array[float],
     # outputs
+    partners: wp.array[wp.int32],
     merge_flags: wp.array[wp.int32],
-    keep_flags: wp.array[wp.int32],
 ):
-    """``merge_flags[i] = 1`` where cluster ``i`` merges with a higher partner; ``keep_flags[i] = 0`` for the
-    partner that is absorbed."""
+    """``partners[i]``: the cluster that ``i`` merges with, -1 for none; ``merge_flags[i] = 1`` where that partner
+    is higher (``i`` makes the new node)."""
     i = wp.tid()
-    j = merge_partner(i, n, force_pairs, neighbours)
+    j = merge_partner(i, n, force_pairs, radius, seed, neighbours, nn_dists)
+    partners[i] = j
     merge_flags[i] = wp.where(j > i, 1, 0)
-    keep_flags[i] = wp.where(j >= 0 and j < i, 0, 1)
 
 
 @wp.func
@@ -191,13 +263,10 @@ def merged_cluster(
 
 @wp.kernel
 def merge_compact_kernel(
-    force_pairs: int,
+    max_gap: int,
     first_node: int,
-    neighbours: wp.array[wp.int32],
-    merge_flags: wp.array[wp.int32],
+    partners: wp.array[wp.int32],
     merge_ranks: wp.array[wp.int32],
-    keep_flags: wp.array[wp.int32],
-    keep_ranks: wp.array[wp.int32],
     refs: wp.array[wp.int32],
     lowers: wp.array[wp.vec3],
     uppers: wp.array[wp.vec3],
@@ -211,16 +280,22 @@ def merge_compact_kernel(
     new_uppers: wp.array[wp.vec3],
     new_counts: wp.array[wp.int32],
 ):
-    """Creates the internal node of every merging pair and writes the surviving clusters, compacted."""
+    """Creates the internal node of every merging pair and writes the surviving clusters, compacted.
+
+    Only the merges are scanned (``merge_ranks``, inclusive). A cluster's place among the survivors follows from
+    it: the clusters absorbed up to ``i`` are the pairs closed by then, i.e. the merges up to ``i`` less those still
+    open (partner beyond ``i``), and an open pair started at most ``max_gap - 1`` positions back."""
     i = wp.tid()
-    if keep_flags[i] == 0:
+    j = partners[i]
+    if j >= 0 and j < i:
         return
-    j = int(-1)
-    if merge_flags[i] == 1:
-        j = wp.where(force_pairs == 1, i + 1, neighbours[i])
-    node = first_node + merge_ranks[i] - 1  # inclusive rank
+    open_pairs = int(0)
+    for lower in range(wp.max(i - max_gap + 1, 0), i + 1):
+        if partners[lower] > i:
+            open_pairs += 1
+    node = first_node + merge_ranks[i] - 1
     ref, lo, hi, count = merged_cluster(i, j, node, refs, lowers, uppers, counts, node_left, node_right, node_counts)
-    k = keep_ranks[i] - 1  # inclusive rank
+    k = i - merge_ranks[i] + open_pairs  # survivors before i
     new_refs[k] = ref
     new_lowers[k] = lo
     new_uppers[k] = hi
@@ -276,6 +351,7 @@ def cluster_tail_kernel(
     first_node: int,
     force_pairs: int,
     radius: int,
+    seed: int,
     threads: int,
     refs: wp.array[wp.int32],
     lowers: wp.array[wp.vec3],
@@ -287,6 +363,8 @@ def cluster_tail_kernel(
     buf_uppers: wp.array[wp.vec3],
     buf_counts: wp.array[wp.int32],
     neighbours: wp.array[wp.int32],
+    nn_dists: wp.array[float],
+    partners: wp.array[wp.int32],
     partials: wp.array[wp.int32],
     batch_firsts: wp.array[wp.int32],
     batch_counts: wp.array[wp.int32],
@@ -318,15 +396,20 @@ def cluster_tail_kernel(
         chunk = (k + threads - 1) / threads
         begin = wp.min(t * chunk, k)
         end = wp.min(begin + chunk, k)
-        # Find nearest neighbours, then count this thread's merges and survivors.
+        # Find nearest neighbours and merge partners, then count this thread's merges and survivors.
         if force == 0:
             for i in range(begin, end):
-                neighbours[i] = nearest_neighbour(i, k, radius, src, buf_lowers, buf_uppers)
+                nn, d = nearest_neighbour(i, k, radius, src, buf_lowers, buf_uppers)
+                neighbours[i] = nn
+                nn_dists[i] = d
+            block_barrier()
+        for i in range(begin, end):
+            partners[i] = merge_partner(i, k, force, radius, seed + batches, neighbours, nn_dists)
         block_barrier()
         merges = int(0)
         keeps = int(0)
         for i in range(begin, end):
-            j = merge_partner(i, k, force, neighbours)
+            j = partners[i]
             if j > i:
                 merges += 1
             if j < 0 or j > i:
@@ -346,7 +429,7 @@ def cluster_tail_kernel(
             total += partials[2 * u]
         # Merge and compact into the other half (merge_compact_kernel's work).
         for i in range(begin, end):
-            j = merge_partner(i, k, force, neighbours)
+            j = partners[i]
             if j < 0 or j > i:
                 ref, lo, hi, count = merged_cluster(
                     src + i,
@@ -385,6 +468,14 @@ def cluster_tail_kernel(
         block_barrier()
 
 
+def replay(launch: wp.Launch, dim: int, *leading_params) -> None:
+    """Launches a recorded kernel launch over ``dim`` threads with new values for its first parameters."""
+    launch.set_dim(dim)
+    for index, value in enumerate(leading_params):
+        launch.set_param_at_index(index, value)
+    launch.launch()
+
+
 def build_ploc(
     data: BuildInput,
     *,
@@ -414,10 +505,10 @@ def build_ploc(
         counts = wp.empty(n, dtype=wp.int32)
         new_refs, new_lowers, new_uppers, new_counts = (wp.empty_like(a) for a in (refs, lowers, uppers, counts))
         neighbours = wp.empty(n, dtype=wp.int32)
+        nn_dists = wp.empty(n, dtype=float)
+        partners = wp.empty(n, dtype=wp.int32)
         merge_flags = wp.empty(n, dtype=wp.int32)
         merge_ranks = wp.empty(n, dtype=wp.int32)
-        keep_flags = wp.empty(n, dtype=wp.int32)
-        keep_ranks = wp.empty(n, dtype=wp.int32)
         wp.launch(
             init_clusters_kernel,
             n,
@@ -425,36 +516,55 @@ def build_ploc(
             outputs=[refs, lowers, uppers, counts],
         )
 
-        # Merge mutual nearest neighbours down to TAIL_CLUSTERS clusters; remember which nodes each iteration made.
+        # Merge pairs down to TAIL_CLUSTERS clusters; remember which nodes each iteration made.
+        # The launches are recorded once (one per cluster buffer for the two that alternate) and replayed with a
+        # new size: a plain wp.launch spends more host time packing its arguments than these kernels run for.
         slot_prims = wp.empty(n, dtype=wp.int32)
         with stage("clustering", timers):
+            clusters_ab = ([refs, lowers, uppers, counts], [new_refs, new_lowers, new_uppers, new_counts])
+            nn_launches = [
+                wp.launch(
+                    nearest_neighbour_kernel,
+                    n,
+                    inputs=[n, int(radius), c[1], c[2]],
+                    outputs=[neighbours, nn_dists],
+                    record_cmd=True,
+                )
+                for c in clusters_ab
+            ]
+            flags_launch = wp.launch(
+                merge_flags_kernel,
+                n,
+                inputs=[n, 0, 0, int(radius), neighbours, nn_dists],
+                outputs=[partners, merge_flags],
+                record_cmd=True,
+            )
+            merge_launches = [
+                wp.launch(
+                    merge_compact_kernel,
+                    n,
+                    inputs=[1, 0, partners, merge_ranks, *src],
+                    outputs=[node_left, node_right, node_counts, *dst],
+                    record_cmd=True,
+                )
+                for src, dst in (clusters_ab, clusters_ab[::-1])
+            ]
             batches = []
-            clusters, next_node, force = n, 0, 0
+            clusters, next_node, force, parity = n, 0, 0, 0
             while clusters > TAIL_CLUSTERS:
                 k = clusters
                 if not force:
-                    wp.launch(
-                        nearest_neighbour_kernel, k, inputs=[k, int(radius), lowers, uppers], outputs=[neighbours]
-                    )
-                wp.launch(merge_flags_kernel, k, inputs=[k, force, neighbours], outputs=[merge_flags, keep_flags])
+                    replay(nn_launches[parity], k, k)
+                replay(flags_launch, k, k, force, len(batches))
                 wp.utils.array_scan(merge_flags[:k], merge_ranks[:k], inclusive=True)
-                wp.utils.array_scan(keep_flags[:k], keep_ranks[:k], inclusive=True)
                 merges = read_int(merge_ranks, k - 1)  # one device-to-host read per iteration
-                wp.launch(
-                    merge_compact_kernel,
-                    k,
-                    inputs=[force, next_node, neighbours, merge_flags, merge_ranks, keep_flags, keep_ranks]
-                    + [refs, lowers, uppers, counts],
-                    outputs=[node_left, node_right, node_counts, new_refs, new_lowers, new_uppers, new_counts],
-                )
+                replay(merge_launches[parity], k, 1 if force else int(radius), next_node)
                 batches.append((next_node, merges))
                 next_node += merges
                 clusters -= merges
                 force = 1 if merges * FORCE_FRACTION < k else 0
-                refs, new_refs = new_refs, refs
-                lowers, new_lowers = new_lowers, lowers
-                uppers, new_uppers = new_uppers, uppers
-                counts, new_counts = new_counts, counts
+                parity = 1 - parity
+            refs, lowers, uppers, counts = clusters_ab[parity]
 
             # The rest, and the slots below the nodes it makes, in one launch.
             if clusters > 1:
@@ -463,11 +573,11 @@ def build_ploc(
                 c = clusters
                 buffers = [wp.empty(2 * c, dtype=a.dtype) for a in (refs, lowers, uppers, counts)]
                 partials = wp.empty(2 * threads, dtype=wp.int32)
-                scratch = [neighbours[:c], partials, merge_ranks[:c], keep_ranks[:c]]  # neighbours, batches
+                scratch = [neighbours[:c], nn_dists[:c], partners[:c], partials, merge_ranks[:c], merge_flags[:c]]
                 wp.launch(
                     cluster_tail_kernel,
                     threads,
-                    inputs=[c, next_node, force, tail_radius, threads, refs, lowers, uppers, counts],
+                    inputs=[c, next_node, force, tail_radius, len(batches), threads, refs, lowers, uppers, counts],
                     outputs=buffers + scratch + [node_left, node_right, node_counts, node_starts, slot_prims],
                     block_dim=threads,
                 )
@@ -476,13 +586,16 @@ def build_ploc(
         with stage("depth-first slots", timers):
             if n == 1:
                 wp.copy(slot_prims, morton_prims)
-            for first, count in reversed(batches):
-                wp.launch(
+            if batches:
+                slots_launch = wp.launch(
                     assign_slots_kernel,
-                    count,
-                    inputs=[first, node_counts],
+                    1,
+                    inputs=[0, node_counts],
                     outputs=[node_left, node_right, node_starts, slot_prims],
+                    record_cmd=True,
                 )
+                for first, count in reversed(batches):
+                    replay(slots_launch, count, first)
         return flatten_source(
             slot_prims,
             node_left,
