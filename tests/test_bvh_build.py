@@ -171,7 +171,15 @@ def test_degenerate_input_builds_and_traces(builder, case):
     origins = (centers + np.array([0.31, 0.27, 1.0], np.float32) * extent * 2).astype(np.float32)
     directions = (centers - origins).astype(np.float32)
     ours, theirs = trace_through(points, indices, origins, directions, builder)
-    np.testing.assert_array_equal(ours.hit, theirs.hit)
+    if case in ("huge", "tiny"):
+        # wp.Mesh's float32 triangle test loses these hits (edge functions ~ coordinate^2, distances ~ cube); every
+        # ray is aimed at a triangle centre, so it hits at t <= 1 (another triangle may come first; the ray itself
+        # carries float32 rounding of coordinates near 1e30, about 4e-5 of t here).
+        assert ours.hit.all()
+        assert (ours.t <= 1.0 + 1e-4).all()
+        assert np.isclose(ours.t, 1.0, rtol=1e-4).mean() > 0.5
+    else:
+        np.testing.assert_array_equal(ours.hit, theirs.hit)
     both = ours.hit & theirs.hit
     np.testing.assert_allclose(ours.t[both], theirs.t[both], rtol=1e-5)
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 from conftest import warp_assets
-from pxr import Usd, UsdGeom
+from pxr import Usd
 
 import wrt
 from wrt.cli import default_scene_path
@@ -170,3 +170,15 @@ def test_launch_frame_without_host_reads_equals_a_one_sample_render(integrator):
     batch = wrt.Renderer(scene, cameras=cams, width=40, height=30, integrator=integrator, device="cpu")
     batch.launch_frame(seed=9)
     np.testing.assert_array_equal(batch.frame_image().rgb.numpy()[0], expected.rgb)
+
+
+@pytest.mark.parametrize("scale", [1e-12, 1.0, 1e10, 1e12])
+def test_shading_does_not_depend_on_scene_scale(scale):
+    """A quad facing the camera, with the camera and its clipping range scaled with it, shows the same colour at any
+    scale: the geometric normal (a cross product, ~ scale^2) is normalised without overflow or underflow."""
+    quad = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float64) * scale
+    scene = wrt.Scene.from_triangles(quad.astype(np.float32), [[0, 1, 2], [0, 2, 3]])
+    cam = wrt.Camera.look_at((0, 0, 4 * scale), (0, 0, 0), fov_y_deg=30, clipping_range=(0.01 * scale, 100 * scale))
+    img = wrt.render(scene, camera=cam, width=8, height=8)
+    assert img.aovs["prim"][4, 4] >= 0
+    np.testing.assert_allclose(img.rgb[4, 4], 0.5, rtol=1e-4)

@@ -137,8 +137,8 @@ def test_no_leaks_through_shared_edges_and_vertices():
     """Rays aimed exactly at shared edges and vertices of closed meshes must hit at (or before) their target.
 
     Outside rays come from within about 17 degrees of the outward direction, so every face meeting at the target is
-    seen from the front and none is merely grazed (see :func:`edge_and_vertex_targets`). Inside rays come from near the centre
-    of the convex meshes and may have any direction.
+    seen from the front and none is merely grazed (see :func:`edge_and_vertex_targets`). Inside rays come from near
+    the centre of the convex meshes and may have any direction.
     """
     rng = np.random.default_rng(2024)
     rocks = wrt.load_usd(warp_assets("rocks.usd"))
@@ -214,7 +214,10 @@ def test_no_shadow_acne_at_grazing_angles():
     wp.launch(
         offset_origins_kernel,
         n,
-        inputs=[wp.array(hit_points, dtype=wp.vec3, device="cpu"), wp.array(normal.astype(np.float32), dtype=wp.vec3, device="cpu")],
+        inputs=[
+            wp.array(hit_points, dtype=wp.vec3, device="cpu"),
+            wp.array(normal.astype(np.float32), dtype=wp.vec3, device="cpu"),
+        ],
         outputs=[offset],
         device="cpu",
     )
@@ -230,7 +233,8 @@ def test_coplanar_overlapping_triangles_have_a_deterministic_winner(accel, devic
     rng = np.random.default_rng(3)
     big = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
     small = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0, 0.5, 0]], np.float32)
-    origins = np.column_stack([rng.uniform(-0.2, 0.2, 1000), rng.uniform(-0.3, 0.1, 1000), np.ones(1000)]).astype(np.float32)
+    origins = np.column_stack([rng.uniform(-0.2, 0.2, 1000), rng.uniform(-0.3, 0.1, 1000), np.ones(1000)])
+    origins = origins.astype(np.float32)
     directions = np.tile(np.float32([[0, 0, -1]]), (1000, 1))
     winners = []
     for order in ([big, small], [small, big]):
@@ -310,7 +314,8 @@ def test_renders_are_bit_identical_on_the_same_device(device):
 def test_stage_that_hangs_usd_time_queries_does_not_hang_wrt(assets, tmp_path):
     path = assets("stage_tcps_zero_HANG")
     result = subprocess.run(
-        [sys.executable, "-m", "wrt.cli", "render", str(path), "-o", str(tmp_path / "x.png"), "--width", "16", "--height", "8"],
+        [sys.executable, "-m", "wrt.cli", "render", str(path), "-o", str(tmp_path / "x.png")]
+        + ["--width", "16", "--height", "8"],
         capture_output=True,
         text=True,
         timeout=120,  # a hang fails the test instead of blocking the suite
@@ -346,7 +351,8 @@ def test_batch_render_survives_a_bad_scene_and_keeps_finished_work(tmp_path, cap
     bad = tmp_path / "bad.usda"
     bad.write_text("#usda 1.0\n(\n garbage {{\n")
     scenes = [str(default_scene_path()), str(bad), str(warp_assets("bunny.usd"))]
-    code = main(["render", *scenes, "-o", str(tmp_path / "out" / "{stem}.png"), "--width", "32", "--height", "24", "-q"])
+    out = str(tmp_path / "out" / "{stem}.png")
+    code = main(["render", *scenes, "-o", out, "--width", "32", "--height", "24", "-q"])
     assert code == 1
     rows = [json.loads(line) for line in (tmp_path / "out" / "render-log.jsonl").read_text().splitlines()]
     assert [r["status"] for r in rows] == ["ok", "error", "ok"]
@@ -470,3 +476,25 @@ def test_slab_test_never_culls_a_box_the_ray_touches(device, scale, np_rng):
         clear_miss = ~hit & ~(want_near - far <= 1e-4)  # beyond float32 rounding (inf - inf is NaN: a miss)
     assert clear_miss.sum() > n // 10
     assert not np.isfinite(got[clear_miss]).any(), "a box the ray clearly misses was entered"
+
+
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
+def test_triangle_hits_at_tiny_and_huge_coordinates(layout):
+    """A unit-scale mesh scaled by 1e-30 ... 1e30 (ray origins scaled with it) gives the hits of the unit-scale mesh,
+    with t scaled: the watertight test's float32 products (edge functions ~ s^2, the distance numerator ~ s^3) overflow
+    above about 7e12 and sink into subnormals below about 1e-13, where it falls back to float64."""
+    points, tris = icosphere(2)
+    rng = np.random.default_rng(3)
+    n = 2000
+    d = rng.normal(size=(n, 3))
+    origins = 3.0 * d / np.linalg.norm(d, axis=1, keepdims=True)
+    directions = (rng.uniform(-0.8, 0.8, (n, 3)) - origins).astype(np.float32)
+    unit = wrt.Scene.from_triangles(np.asarray(points, np.float32), tris)
+    ref = wrt.trace(unit, origins.astype(np.float32), directions, layout=layout)
+    assert 0.3 * n < ref.hit.sum() < n
+    for s in (1e-30, 1e-20, 1e-14, 1e13, 1e20, 1e30):
+        scene = wrt.Scene.from_triangles((np.asarray(points, np.float64) * s).astype(np.float32), tris)
+        hits = wrt.trace(scene, (origins * s).astype(np.float32), directions, layout=layout)
+        assert hits.hit.tolist() == ref.hit.tolist(), f"scale {s:g}"
+        t = hits.t[ref.hit].astype(np.float64) / s
+        np.testing.assert_allclose(t, ref.t[ref.hit], rtol=1e-5, err_msg=f"scale {s:g}")

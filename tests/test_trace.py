@@ -186,6 +186,22 @@ def test_degenerate_and_invalid_rays_miss():
     assert hits.prim.tolist() == [-1, -1, -1, 0]
 
 
+@pytest.mark.parametrize("accel,layout", [("wrt", "binary"), ("wrt", "compact"), ("wrt", "wide"), ("wrt", "wide8"),
+                                          ("warp", "binary")])
+def test_very_long_and_very_short_directions_hit(accel, layout):
+    """Directions need not be unit length: a finite non-zero direction whose squared length overflows (|d| > ~1.8e19)
+    or underflows (|d| < ~1e-23) in float32 is still a valid ray, with t = distance / |d|."""
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    lengths = np.array([1e-25, 1e-21, 1.0, 1e20, 1e25], np.float32)
+    origins = np.tile(np.array([[0, 0, 1]], np.float32), (len(lengths), 1))
+    directions = np.zeros((len(lengths), 3), np.float32)
+    directions[:, 2] = -lengths
+    hits = wrt.trace(scene, origins, directions, accel=accel, layout=layout)
+    assert hits.prim.tolist() == [0] * len(lengths)
+    np.testing.assert_allclose(hits.t, 1.0 / lengths.astype(np.float64), rtol=1e-6)
+    assert wrt.occluded(scene, origins, directions, accel=accel, layout=layout).all()
+
+
 @pytest.mark.parametrize(
     "instanced,layout", [(False, "binary"), (False, "compact"), (False, "wide"), (False, "wide8"), (True, "binary")]
 )

@@ -70,6 +70,11 @@ def make_sheared_ray(origin: wp.vec3, direction: wp.vec3):
     return r
 
 
+# Smallest |det| (sum of the edge functions) of a hit trusted in float32: below it, big_t (about det times a
+# distance) would lose bits to subnormals for geometry of that scale.
+MIN_FLOAT32_DET = wp.constant(1.0e-20)
+
+
 @wp.func
 def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3):
     """Watertight, two-sided ray-triangle test.
@@ -101,18 +106,54 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     hit = True
     if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
         hit = False
-    det = e0 + e1 + e2
-    if det == 0.0:
-        hit = False
     t = float(0.0)
     u = float(0.0)
     v = float(0.0)
     if hit:
+        det = e0 + e1 + e2
         big_t = e0 * (ray.sz * az) + e1 * (ray.sz * bz) + e2 * (ray.sz * cz)
         inv_det = 1.0 / det
         t = big_t * inv_det
         u = e1 * inv_det
         v = e2 * inv_det
+        # Far from unit scale the float32 products fail: the edge functions grow as a coordinate squared and big_t
+        # as its cube, so every hit came out inf or NaN beyond about 1e13, and t sank into subnormals (0 at 1e-15).
+        # Such hit candidates, and det == 0, are redone in float64; the misses above cost nothing more.
+        size = wp.abs(det)
+        if not (size >= MIN_FLOAT32_DET and size < wp.inf and wp.isfinite(t)):
+            hit, t, u, v = intersect_sheared_f64(ax, ay, az, bx, by, bz, cx, cy, cz, ray.sz)
+    return hit, t, u, v
+
+
+@wp.func
+def intersect_sheared_f64(
+    ax: float, ay: float, az: float, bx: float, by: float, bz: float, cx: float, cy: float, cz: float, sz: float
+):
+    """The end of :func:`intersect_ray_triangle` in float64, from its sheared float32 vertices: a product of two
+    float32 values is exact in float64, and float64's range holds the cube of any float32."""
+    x0 = wp.float64(ax)
+    y0 = wp.float64(ay)
+    x1 = wp.float64(bx)
+    y1 = wp.float64(by)
+    x2 = wp.float64(cx)
+    y2 = wp.float64(cy)
+    e0 = x2 * y1 - y2 * x1
+    e1 = x0 * y2 - y0 * x2
+    e2 = x1 * y0 - y1 * x0
+    zero = wp.float64(0.0)
+    det = e0 + e1 + e2
+    hit = det != zero
+    if (e0 < zero or e1 < zero or e2 < zero) and (e0 > zero or e1 > zero or e2 > zero):
+        hit = False
+    t = float(0.0)
+    u = float(0.0)
+    v = float(0.0)
+    if hit:
+        inv_det = wp.float64(1.0) / det
+        big_t = e0 * wp.float64(az) + e1 * wp.float64(bz) + e2 * wp.float64(cz)
+        t = float(wp.float64(sz) * big_t * inv_det)
+        u = float(e1 * inv_det)
+        v = float(e2 * inv_det)
     return hit, t, u, v
 
 
@@ -177,9 +218,11 @@ def intersect_ray_box(origin: wp.vec3, inv_dir: wp.vec3, lower: wp.vec3, upper: 
 
 @wp.func
 def ray_is_valid(direction: wp.vec3):
-    """False for zero, NaN or infinite directions, which can hit nothing."""
-    n = wp.dot(direction, direction)
-    return n > 0.0 and wp.isfinite(n)
+    """False for zero, NaN or infinite directions, which can hit nothing. Decided per component, not from
+    ``dot(direction, direction)``: that square overflows to inf for ``|direction|`` above about 1.8e19 and
+    underflows to 0 below about 1e-23, which would turn valid (finite, non-zero) directions into misses."""
+    nonzero = direction[0] != 0.0 or direction[1] != 0.0 or direction[2] != 0.0
+    return nonzero and wp.isfinite(direction)
 
 
 @wp.func

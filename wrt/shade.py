@@ -130,6 +130,11 @@ def hit_point(
         n2 = unit_or_zero(normal_to_world(m, n2))
     ns = w * n0 + u * n1 + v * n2
     h.front = 1
+    # |ng| grows as an edge length squared: divide by its largest component first, so normalising neither overflows
+    # (edges above ~1e9) nor underflows (edges below ~1e-10).
+    ng_max = wp.max(wp.max(wp.abs(ng[0]), wp.abs(ng[1])), wp.abs(ng[2]))
+    if ng_max > 0.0 and wp.isfinite(ng_max):
+        ng = ng / ng_max
     if wp.length(ng) > 0.0:
         ng = wp.normalize(ng)
     else:
