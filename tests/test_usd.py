@@ -16,9 +16,9 @@ import warp as wp
 wp.config.quiet = True
 
 pxr = pytest.importorskip("pxr")
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, Vt  # noqa: E402
-
 from conftest import WARP_USD_ASSETS, warp_assets  # noqa: E402
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt  # noqa: E402
+
 from wrt.errors import SceneError  # noqa: E402
 from wrt.usd import load_usd, triangulate  # noqa: E402
 
@@ -441,7 +441,8 @@ def Xform "{name}" (
     assert [scene.instances.path(i) for i in range(2)] == ["/A", "/B"]
     # Scene.triangles() still expands them, in instance order.
     points, indices = scene.triangles()
-    np.testing.assert_allclose(points[indices], [[(10, 0, 0), (11, 0, 0), (10, 1, 0)], [(20, 0, 0), (21, 0, 0), (20, 1, 0)]])
+    expected = [[(10, 0, 0), (11, 0, 0), (10, 1, 0)], [(20, 0, 0), (21, 0, 0), (20, 1, 0)]]
+    np.testing.assert_allclose(points[indices], expected)
     assert scene.stats()["rendered_triangles"] == 2 and scene.stats()["unique_triangles"] == 1
 
 
@@ -574,6 +575,25 @@ def test_time_default_wins_over_samples(tmp_path):
     stage.Save()
     np.testing.assert_allclose(load(path).meshes[0].points[:, 2], 0.0)
     np.testing.assert_allclose(load(path, time=1).meshes[0].points[:, 2], 7.0)
+
+
+def test_time_sampled_visibility_follows_the_points_time(tmp_path):
+    # Hidden at its first sample, shown from frame 2: with no time given the mesh is read at its first sample, so
+    # it must be hidden too (not drawn with its frame-1 points).
+    stage, path = make_stage(tmp_path)
+    mesh = define_mesh(stage)
+    xform = UsdGeom.Xform.Define(stage, "/Group")
+    hidden = define_mesh(stage, "/Group/Mesh")
+    for m in (mesh, hidden):  # points only as time samples
+        m.GetPointsAttr().Clear()
+        m.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*p) for p in POINTS]), 1.0)
+    mesh.GetVisibilityAttr().Set(UsdGeom.Tokens.invisible, 1.0)
+    mesh.GetVisibilityAttr().Set(UsdGeom.Tokens.inherited, 2.0)
+    xform.GetVisibilityAttr().Set(UsdGeom.Tokens.invisible, 1.0)  # hides its child through inheritance
+    xform.GetVisibilityAttr().Set(UsdGeom.Tokens.inherited, 2.0)
+    stage.Save()
+    assert load(path).meshes == [] and load(path, time=1).meshes == []
+    assert sorted(m.path for m in load(path, time=2).meshes) == ["/Group/Mesh", "/Mesh"]
 
 
 # bad input

@@ -30,8 +30,9 @@ instances whose transform is singular (a zero scale) are skipped with a warning 
 root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
 bound above a native instance applies to the prototype's meshes that bind none themselves.
 
-Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute that has no default value but has
-time samples is read at its earliest sample instead, so meshes animated from frame 1 still load. Transforms and
+Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
+default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
+load, and a prim hidden at frame 1 stays hidden. Transforms and
 cameras get the same fallback: with ``time=None`` they are read at ``Usd.TimeCode.EarliestTime()``, which gives an
 attribute's default value when it has no samples and its first sample otherwise, so a camera animated only through
 time samples is where its first frame puts it rather than at the origin.
@@ -178,15 +179,19 @@ def _tf_message(error: Exception) -> str:
 
 
 def _get(attr: Usd.Attribute, time: Usd.TimeCode):
-    """``attr`` at ``time``, or at its earliest time sample when ``time`` is default and it has no default.
+    """``attr`` at ``time``, or at its earliest time sample when ``time`` is default and it has no authored default
+    (a schema fallback, such as visibility's ``inherited``, does not count).
 
     Reads ``EarliestTime`` rather than ``GetTimeSamples()[0]``: the result is the same, and ``GetTimeSamples``
     can hang usd-core 26.11 on stages with ``timeCodesPerSecond = 0``.
     """
-    value = attr.Get(time)
-    if value is None and time.IsDefault() and attr.HasValue():
-        value = attr.Get(Usd.TimeCode.EarliestTime())
-    return value
+    if (
+        time.IsDefault()
+        and attr.HasAuthoredValue()
+        and attr.GetResolveInfo(time).GetSource() != Usd.ResolveInfoSourceDefault
+    ):
+        return attr.Get(Usd.TimeCode.EarliestTime())
+    return attr.Get(time)
 
 
 class _LocalMesh:
@@ -309,23 +314,31 @@ class _StageReader:
 
     # Filters
 
-    def _visible(self, prim: Usd.Prim) -> bool:
-        return UsdGeom.Imageable(prim).ComputeVisibility(self.time) != UsdGeom.Tokens.invisible
-
-    def _rendered(self, prim: Usd.Prim, stop: Usd.Prim | None = None) -> bool:
-        """Visible with purpose default or render; with ``stop``, only the prims below ``stop`` count."""
-        if stop is None:
-            return self._visible(prim) and UsdGeom.Imageable(prim).ComputePurpose() in _RENDERED_PURPOSES
-        purpose = None
+    def _visible(self, prim: Usd.Prim, stop: Usd.Prim | None = None) -> bool:
+        """No ancestor up to ``stop`` (or the root) invisible. Each visibility is read as mesh attributes are
+        (``_get``), so with ``time=None`` a prim hidden only by its first time sample is hidden, as its points are
+        that sample's."""
         p = prim
         while p and p != stop and not p.IsPseudoRoot():
             img = UsdGeom.Imageable(p)
-            if img:
-                if _get(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible:
-                    return False
-                attr = img.GetPurposeAttr()
-                if purpose is None and attr.HasAuthoredValue():
-                    purpose = attr.Get()
+            if img and _get(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible:
+                return False
+            p = p.GetParent()
+        return True
+
+    def _rendered(self, prim: Usd.Prim, stop: Usd.Prim | None = None) -> bool:
+        """Visible with purpose default or render; with ``stop``, only the prims below ``stop`` count."""
+        if not self._visible(prim, stop):
+            return False
+        if stop is None:
+            return UsdGeom.Imageable(prim).ComputePurpose() in _RENDERED_PURPOSES
+        purpose = None
+        p = prim
+        while p and p != stop and not p.IsPseudoRoot():
+            attr = UsdGeom.Imageable(p).GetPurposeAttr() if UsdGeom.Imageable(p) else None
+            if attr is not None and attr.HasAuthoredValue():
+                purpose = attr.Get()
+                break
             p = p.GetParent()
         return (purpose or UsdGeom.Tokens.default_) in _RENDERED_PURPOSES
 
@@ -749,7 +762,8 @@ class _StageReader:
                 p for p in api.GetPrimvarsWithValues() if str(p.GetTypeName()).rstrip("[]") in ("texCoord2f", "float2")
             ]
             if len(candidates) != 1:
-                self._skip("meshes without the texture-coordinate primvar their material reads were left untextured", prim, uv_set)
+                reason = "meshes without the texture-coordinate primvar their material reads were left untextured"
+                self._skip(reason, prim, uv_set)
                 return None
             primvar = candidates[0]
         return self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, components=2)
@@ -878,7 +892,9 @@ class _StageReader:
 
 def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """``(N, 3, 3)`` rotation matrices (column vectors) of ``(N, 4)`` quaternions stored ``(i, j, k, real)`` as
-    ``Gf.Quat*`` arrays are; normalised first, as ``GfRotation`` does."""
+    ``Gf.Quat*`` arrays are; normalised first, so every result is a rotation. USD's own instance transforms
+    (``ComputeInstanceTransformsAtTime``) use the quaternion as stored: for ``quath`` orientations, unit length only
+    to half precision, the two differ by about 1e-5 of the scene's size."""
     q = q / np.maximum(np.linalg.norm(q, axis=1, keepdims=True), 1e-30)
     x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     return np.stack(
