@@ -57,7 +57,8 @@ def test_camera_option_and_npy_output(tmp_path):
 def test_help_explains_the_options():
     result = run_cli("render", "--help")
     assert result.returncode == 0
-    for option in ("--camera", "--width", "--height", "--spp", "--device", "--builder", "--accel", "--time", "--aov-dir"):
+    options = ("--camera", "--width", "--height", "--spp", "--device", "--builder", "--accel", "--time", "--aov-dir")
+    for option in options:
         assert option in result.stdout
 
 
@@ -70,12 +71,15 @@ def test_help_explains_the_options():
         (["render", "--device", "cuda:7"], "available devices"),
         (["render", "--camera", "/Nope"], "/Nope"),
         (["render", "-o", "out.gif"], "supported image formats"),
+        (["render", "--exposure", "inf"], "finite"),
+        (["render", "--time", "nan"], "finite"),
         (["frobnicate"], "frobnicate"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, args, needle):
     with pytest.raises(SystemExit) as exit_info:
-        sys.exit(main(args + ["--width", "8", "--height", "8"] if args[0] == "render" and "--width" not in args else args))
+        small = args[0] == "render" and "--width" not in args
+        sys.exit(main(args + ["--width", "8", "--height", "8"] if small else args))
     assert exit_info.value.code == 2
     lines = error_lines(capsys.readouterr().err)
     errors = [line for line in lines if line.startswith("wrt: error:")]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import math
 import sys
 import time
 import warnings
@@ -60,6 +61,17 @@ _positive_int = _int_at_least(1, "a positive integer")
 _non_negative_int = _int_at_least(0, "a non-negative integer")
 
 
+def _finite_float(text: str) -> float:
+    """An argparse type: a finite number (``inf`` or ``nan`` would write an all-white or all-black image)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return value
+
+
 def _add_render(sub) -> None:
     from .bvh.build import Builder
     from .trace import ACCELERATORS
@@ -79,8 +91,8 @@ def _add_render(sub) -> None:
     p.add_argument(
         "-o",
         "--output",
-        help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png. With several scenes: a pattern "
-        "with {stem} (the scene file name without extension) or a folder; default {stem}.png",
+        help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png. With several "
+        "scenes: a pattern with {stem} (the scene file name without extension) or a folder; default {stem}.png",
     )
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene; default with several scenes: "
                    "render-log.jsonl beside the images")
@@ -94,7 +106,7 @@ def _add_render(sub) -> None:
     builders = [b.value for b in Builder] + ["binned_sah"]
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
     p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh")
-    p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
     p.add_argument("--frames", help="render time codes START:END[:STEP] (END included) of an animated stage, one image "
                    "each; OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png. The BVH is kept "
                    "across frames: refitted when vertices move, only its top level rebuilt when instances move")
@@ -113,11 +125,12 @@ def _add_render(sub) -> None:
                    "mirrors, glass), path (Monte Carlo path tracing), ao, or the quick looks normals/depth/albedo")
     p.add_argument("--max-depth", type=int, default=None, help="bounces per path; default 10 (path), 8 (whitted)")
     p.add_argument("--ao-radius", type=float, default=None, help="ao distance; default a tenth of the scene's size")
-    p.add_argument("--exposure", type=float, default=0.0, help="PNG only: scale the image by 2^EXPOSURE before sRGB")
+    p.add_argument("--exposure", type=_finite_float, default=0.0,
+                   help="PNG only: scale the image by 2^EXPOSURE before sRGB")
     from .render import AOV_NAMES
 
-    p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a colour-mapped PNG of this "
-                   "AOV beside the image as OUTPUT.NAME.png (repeatable); cost: heat maps of nodes visited and "
+    p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a colour-mapped PNG of "
+                   "this AOV beside the image as OUTPUT.NAME.png (repeatable); cost: heat maps of nodes visited and "
                    "triangles tested")
     p.add_argument("-q", "--quiet", action="store_true", help="print no progress lines")
     p.set_defaults(run=_run_render)
@@ -147,14 +160,16 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time)
     stats = scene.stats()
-    progress(f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes", time.perf_counter() - start)
+    loaded = f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes"
+    progress(loaded, time.perf_counter() - start)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
     check_memory(estimate_render_bytes(stats["rendered_triangles"], args.width, args.height), args.device, limit)
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
     image = renderer.render(spp=args.spp, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
     progress(
-        f"rendered {args.width}x{args.height} at {args.spp} spp ({args.integrator})", renderer.timers["render"][0] / 1000.0
+        f"rendered {args.width}x{args.height} at {args.spp} spp ({args.integrator})",
+        renderer.timers["render"][0] / 1000.0,
     )
     out = image.save(output, exposure=args.exposure)
     progress(f"wrote {out}")
@@ -202,7 +217,8 @@ def _run_render(args) -> int:
             f.write(json.dumps(row) + "\n")
     progress(f"{len(paths) - len(failures)} of {len(paths)} scenes rendered; log in {log}")
     if failures:
-        print(f"wrt: {len(failures)} of {len(paths)} scenes failed: " + ", ".join(Path(r["scene"]).name for r in failures), file=sys.stderr)
+        names = ", ".join(Path(r["scene"]).name for r in failures)
+        print(f"wrt: {len(failures)} of {len(paths)} scenes failed: {names}", file=sys.stderr)
         return 1
     return 0
 
@@ -302,13 +318,14 @@ def _add_preview(sub) -> None:
     p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
-    p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
     p.add_argument("-q", "--quiet", action="store_true", help="print no progress lines")
     p.set_defaults(run=_run_preview)
 
 
 def _run_preview(args) -> int:
     import wrt
+
     from .preview import PreviewUnavailable, has_display, preview
 
     progress = _Progress(args.quiet)
@@ -376,7 +393,8 @@ def _add_bench(sub) -> None:
     p.add_argument("suite", nargs="?", default="quick", help="suite file or name")
     p.add_argument("--quick", action="store_true", help="run the small 'quick' suite (about 2 minutes on a CPU)")
     p.add_argument("--scenes", type=_csv, help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N")
-    p.add_argument("--accels", type=_csv, help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree")
+    p.add_argument("--accels", type=_csv,
+                   help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree")
     p.add_argument("--devices", type=_csv, help="comma-separated Warp devices, e.g. cpu,cuda:0")
     p.add_argument("--rays", type=_csv, help="comma-separated ray kinds: primary, shadow, diffuse, incoherent")
     p.add_argument("--n-rays", type=_positive_int, help="rays per group")
@@ -410,7 +428,8 @@ def _run_bench(args) -> int:
         raise ValueError(f"unknown ray kind {bad[0]!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
     rows = run_grid(grid, Path(args.out), resume=args.resume, progress=not args.quiet, dask=args.dask)
     failed = [r for r in rows if "error" in r]
-    print(f"wrt: {len(rows) - len(failed)} rows measured, {len(failed)} failed; results in {args.out}/", file=sys.stderr)
+    summary = f"wrt: {len(rows) - len(failed)} rows measured, {len(failed)} failed; results in {args.out}/"
+    print(summary, file=sys.stderr)
     for r in failed:
         print(f"wrt: failed: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['error']}", file=sys.stderr)
     return 1 if failed else 0
