@@ -28,7 +28,8 @@ MODULES = ("trace", "tlas", "bvh.compact", "bvh.wide")  # modules of the package
 def ptx_entries(ptx: str) -> dict[str, str]:
     """``entry name -> body`` of each ``.entry`` in a PTX file."""
     starts = [(m.start(), m.group(1)) for m in re.finditer(r"\.entry\s+(\w+)", ptx)]
-    return {name: ptx[s : (starts[i + 1][0] if i + 1 < len(starts) else len(ptx))] for i, (s, name) in enumerate(starts)}
+    ends = [s for s, _ in starts[1:]] + [len(ptx)]
+    return {name: ptx[s:end] for (s, name), end in zip(starts, ends)}
 
 
 def ptxas_info(ptx_path: Path, arch: int) -> dict[str, str]:
@@ -44,11 +45,14 @@ def ptxas_info(ptx_path: Path, arch: int) -> dict[str, str]:
         text = ptx_path.read_text().rstrip("\0")
         older.write_text(re.sub(r"^\.version \S+", f".version {m.group(1)}", text, flags=re.MULTILINE))
         out = subprocess.run([*cmd[:-1], str(older)], check=False, capture_output=True, text=True).stderr
-    info, name = {}, None
+    info, name, props = {}, None, None
     for line in out.splitlines():
         if m := re.search(r"Compiling entry function '(\w+)'", line):
             name = m.group(1)
-        elif name and (m := re.search(r"(\d+) bytes stack frame, (\d+) bytes spill stores, (\d+) bytes spill loads", line)):
+        elif m := re.search(r"Function properties for (\w+)", line):
+            props = m.group(1)  # an entry's or a called (non-inlined) function's
+        elif name and props == name and (m := re.search(r"(\d+) bytes stack frame, (\d+) bytes spill stores, "
+                                                        r"(\d+) bytes spill loads", line)):
             info[name] = f"{m.group(1)} B stack, {m.group(2)}/{m.group(3)} B spill"
         elif name and (m := re.search(r"Used (\d+) registers", line)):
             info[name] = f"{m.group(1)} regs, " + info.get(name, "")

@@ -123,7 +123,14 @@ def test_degenerate_input_in_every_layout(layout, case):
     )
     ours = wrt.trace(scene, origins, directions, layout=layout, builder="lbvh" if case == "identical" else "sah")
     theirs = wrt.trace(scene, origins, directions, accel="warp")
-    np.testing.assert_array_equal(ours.hit, theirs.hit)
+    if case in ("huge", "tiny"):
+        # One triangle, every ray aimed at its centre: a hit at the distance from the origin (down rays: the
+        # extent; oblique rays: t = 1). wp.Mesh's float32 test loses these hits, so there is nothing to agree with.
+        expected = np.concatenate([np.full(len(centers), extent), np.ones(len(centers))])
+        assert ours.hit.all()
+        np.testing.assert_allclose(ours.t, expected, rtol=1e-5)
+    else:
+        np.testing.assert_array_equal(ours.hit, theirs.hit)
     both = ours.hit & theirs.hit
     np.testing.assert_allclose(ours.t[both], theirs.t[both], rtol=1e-5)
 

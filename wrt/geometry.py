@@ -70,9 +70,38 @@ def make_sheared_ray(origin: wp.vec3, direction: wp.vec3):
     return r
 
 
-# Smallest |det| (sum of the edge functions) of a hit trusted in float32: below it, big_t (about det times a
-# distance) would lose bits to subnormals for geometry of that scale.
-MIN_FLOAT32_DET = wp.constant(1.0e-20)
+MIN_NORMAL_BIG_T = wp.constant(1.0e-30)  # below this, big_t may have lost bits to subnormals
+MIN_EDGE = wp.constant(1.0e-30)  # float32 edge functions are trusted with a magnitude in [MIN_EDGE, MAX_EDGE]
+MAX_EDGE = wp.constant(1.0e30)
+# Powers of two that bring any float64 edge function of float32 inputs (1e-90 to 1e77) outside that range back into
+# float32's normal range: 2^-200 and 2^200.
+EDGE_DOWNSCALE = wp.constant(2.0**-200)
+EDGE_UPSCALE = wp.constant(2.0**200)
+
+
+@wp.func
+def edge_in_range(e: float):
+    """Whether a float32 edge function is exact enough to use: not 0 (a tie, see below), not subnormal or near it,
+    not huge, inf or NaN."""
+    size = wp.abs(e)
+    return size >= MIN_EDGE and size <= MAX_EDGE
+
+
+@wp.func
+def exact_edge_functions(ax: float, ay: float, bx: float, by: float, cx: float, cy: float):
+    """The three edge functions in float64 (a product of two float32 values is exact there, and float64's range
+    holds it), scaled by a common power of two when the largest lies outside ``[MIN_EDGE, MAX_EDGE]``. Only their
+    signs and ratios are used, and a power-of-two scale commutes with rounding."""
+    e0 = wp.float64(cx) * wp.float64(by) - wp.float64(cy) * wp.float64(bx)
+    e1 = wp.float64(ax) * wp.float64(cy) - wp.float64(ay) * wp.float64(cx)
+    e2 = wp.float64(bx) * wp.float64(ay) - wp.float64(by) * wp.float64(ax)
+    largest = wp.max(wp.max(wp.abs(e0), wp.abs(e1)), wp.abs(e2))
+    scale = wp.float64(1.0)
+    if largest > wp.float64(MAX_EDGE):
+        scale = wp.float64(EDGE_DOWNSCALE)
+    elif largest < wp.float64(MIN_EDGE):
+        scale = wp.float64(EDGE_UPSCALE)
+    return float(e0 * scale), float(e1 * scale), float(e2 * scale)
 
 
 @wp.func
@@ -99,73 +128,40 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     e0 = cx * by - cy * bx
     e1 = ax * cy - ay * cx
     e2 = bx * ay - by * ax
-    if e0 == 0.0 or e1 == 0.0 or e2 == 0.0:
-        e0 = float(wp.float64(cx) * wp.float64(by) - wp.float64(cy) * wp.float64(bx))
-        e1 = float(wp.float64(ax) * wp.float64(cy) - wp.float64(ay) * wp.float64(cx))
-        e2 = float(wp.float64(bx) * wp.float64(ay) - wp.float64(by) * wp.float64(ax))
+    if not (edge_in_range(e0) and edge_in_range(e1) and edge_in_range(e2)):
+        e0, e1, e2 = exact_edge_functions(ax, ay, bx, by, cx, cy)
     hit = True
     if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
+        hit = False
+    det = e0 + e1 + e2
+    if det == 0.0:
         hit = False
     t = float(0.0)
     u = float(0.0)
     v = float(0.0)
     if hit:
-        det = e0 + e1 + e2
         big_t = e0 * (ray.sz * az) + e1 * (ray.sz * bz) + e2 * (ray.sz * cz)
         inv_det = 1.0 / det
         t = big_t * inv_det
         u = e1 * inv_det
         v = e2 * inv_det
-        # Far from unit scale the float32 products fail: the edge functions grow as a coordinate squared and big_t
-        # as its cube, so every hit came out inf or NaN beyond about 1e13, and t sank into subnormals (0 at 1e-15).
-        # Such hit candidates, and det == 0, are redone in float64; the misses above cost nothing more.
-        size = wp.abs(det)
-        if not (size >= MIN_FLOAT32_DET and size < wp.inf and wp.isfinite(t)):
-            hit, t, u, v = intersect_sheared_f64(ax, ay, az, bx, by, bz, cx, cy, cz, ray.sz)
-    return hit, t, u, v
-
-
-@wp.func
-def intersect_sheared_f64(
-    ax: float, ay: float, az: float, bx: float, by: float, bz: float, cx: float, cy: float, cz: float, sz: float
-):
-    """The end of :func:`intersect_ray_triangle` in float64, from its sheared float32 vertices: a product of two
-    float32 values is exact in float64, and float64's range holds the cube of any float32."""
-    x0 = wp.float64(ax)
-    y0 = wp.float64(ay)
-    x1 = wp.float64(bx)
-    y1 = wp.float64(by)
-    x2 = wp.float64(cx)
-    y2 = wp.float64(cy)
-    e0 = x2 * y1 - y2 * x1
-    e1 = x0 * y2 - y0 * x2
-    e2 = x1 * y0 - y1 * x0
-    zero = wp.float64(0.0)
-    det = e0 + e1 + e2
-    hit = det != zero
-    if (e0 < zero or e1 < zero or e2 < zero) and (e0 > zero or e1 > zero or e2 > zero):
-        hit = False
-    t = float(0.0)
-    u = float(0.0)
-    v = float(0.0)
-    if hit:
-        inv_det = wp.float64(1.0) / det
-        big_t = e0 * wp.float64(az) + e1 * wp.float64(bz) + e2 * wp.float64(cz)
-        t = float(wp.float64(sz) * big_t * inv_det)
-        u = float(e1 * inv_det)
-        v = float(e2 * inv_det)
+        if not wp.isfinite(t) or wp.abs(big_t) < MIN_NORMAL_BIG_T:
+            # big_t grows as a coordinate cubed: it overflows beyond about 7e12 and turns subnormal below about
+            # 1e-13; the barycentric weights stay near 1, so t is taken from them there.
+            t = ray.sz * ((e0 * inv_det) * az + u * bz + v * cz)
     return hit, t, u, v
 
 
 @wp.func
 def safe_inverse(direction: wp.vec3):
-    """Component-wise ``1 / direction`` with zeros replaced by a huge finite value of the right sign, so the slab
-    test never computes ``0 * inf``."""
+    """Component-wise ``1 / direction`` with zeros (and components whose inverse would overflow) replaced by a huge
+    finite value of the right sign, so the slab test never computes ``0 * inf``. Components down to 1e-38 keep
+    their exact inverse: a direction need not be unit length, and one of length 1e-30 must still hit."""
     inv = wp.vec3()
     for k in range(3):
         d = direction[k]
-        if wp.abs(d) < 1.0e-30:
-            inv[k] = wp.copysign(1.0e30, d)
+        if wp.abs(d) < 1.0e-38:
+            inv[k] = wp.copysign(1.0e38, d)
         else:
             inv[k] = 1.0 / d
     return inv
@@ -218,9 +214,7 @@ def intersect_ray_box(origin: wp.vec3, inv_dir: wp.vec3, lower: wp.vec3, upper: 
 
 @wp.func
 def ray_is_valid(direction: wp.vec3):
-    """False for zero, NaN or infinite directions, which can hit nothing. Decided per component, not from
-    ``dot(direction, direction)``: that square overflows to inf for ``|direction|`` above about 1.8e19 and
-    underflows to 0 below about 1e-23, which would turn valid (finite, non-zero) directions into misses."""
+    """False for zero, NaN or infinite directions, which can hit nothing."""
     nonzero = direction[0] != 0.0 or direction[1] != 0.0 or direction[2] != 0.0
     return nonzero and wp.isfinite(direction)
 
