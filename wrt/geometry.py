@@ -81,8 +81,8 @@ EDGE_UPSCALE = wp.constant(2.0**200)
 
 @wp.func
 def edge_in_range(e: float):
-    """Whether a float32 edge function is exact enough to use: not 0 (a tie, see below), not subnormal or near it,
-    not huge, inf or NaN."""
+    """Whether a float32 edge function can be used as it is: not 0 (a ray through a shared edge: the float64 value
+    decides its side, so neighbouring triangles agree), not subnormal or near it, not huge, inf or NaN."""
     size = wp.abs(e)
     return size >= MIN_EDGE and size <= MAX_EDGE
 
