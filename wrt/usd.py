@@ -32,10 +32,10 @@ bound above a native instance applies to the prototype's meshes that bind none t
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
-load, and a prim hidden at frame 1 stays hidden. Transforms and
-cameras get the same fallback: with ``time=None`` they are read at ``Usd.TimeCode.EarliestTime()``, which gives an
-attribute's default value when it has no samples and its first sample otherwise, so a camera animated only through
-time samples is where its first frame puts it rather than at the origin.
+load, and a prim hidden at frame 1 stays hidden. Transforms and cameras get the same fallback: with ``time=None``
+they are read at ``Usd.TimeCode.EarliestTime()``, which gives an attribute's default value when it has no samples
+and its first sample otherwise, so a camera animated only through time samples is where its first frame puts it
+rather than at the origin.
 """
 
 from __future__ import annotations
@@ -335,7 +335,8 @@ class _StageReader:
         purpose = None
         p = prim
         while p and p != stop and not p.IsPseudoRoot():
-            attr = UsdGeom.Imageable(p).GetPurposeAttr() if UsdGeom.Imageable(p) else None
+            img = UsdGeom.Imageable(p)
+            attr = img.GetPurposeAttr() if img else None
             if attr is not None and attr.HasAuthoredValue():
                 purpose = attr.Get()
                 break
