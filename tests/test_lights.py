@@ -285,3 +285,23 @@ def test_textured_dome_orientation_follows_openexr_latlong():
     turned = np.eye(4)
     turned[:3, :3] = [[-1, 0, 0], [0, 1, 0], [0, 0, -1]]  # the dome turned 180 degrees about +Y
     assert dome_lit_plane(front, facing_z=-1, to_world=turned) == pytest.approx(facing, rel=0.05)
+
+
+@pytest.mark.parametrize("scale", [1e10, 1e15])
+def test_emissive_mesh_light_does_not_depend_on_scene_scale(scale):
+    # The emitter's area is the length of a cross product, an edge length squared: wp.length overflowed for edges of
+    # 1e10 and the light was lost. (Tiny scenes are limited by the fixed self-intersection offset of secondary rays.)
+    from wrt.materials import Material
+
+    def render(s):
+        emitter = quad((0, 0, s), (0, 1.5 * s, 0), (2 * s, 0, 0), name="/emitter", material=0, double_sided=False)
+        plane = quad((0, 0, 0), (40 * s, 0, 0), (0, 40 * s, 0), name="/plane")
+        scene = wrt.Scene(meshes=[plane, emitter], materials=[Material(diffuse_color=0, emissive_color=3.0)])
+        cam = wrt.Camera.orthographic(
+            eye=(0, 0, 0.5 * s), target=(0, 0, 0), up=(0, 1, 0), height=PATCH * s, clipping_range=(0.01 * s, 10 * s)
+        )
+        return wrt.render(scene, camera=cam, width=8, height=8, spp=16, device="cpu", integrator="path", max_depth=1)
+
+    unit = render(1.0).rgb
+    assert unit.mean() > 0.1
+    np.testing.assert_allclose(render(scale).rgb, unit, rtol=0.05, atol=1e-3)

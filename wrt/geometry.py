@@ -153,6 +153,20 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
 
 
 @wp.func
+def stable_length(v: wp.vec3):
+    """``|v|`` where ``wp.length`` would lose it: its squares overflow for components above about 1.8e19 and turn
+    subnormal below about 1e-19 (a triangle's cross product is an edge length squared, so edges of 1e10 or 1e-10
+    get there). Outside ``[1e-18, 1e18]`` the vector is divided by its largest component first; inside, the result
+    is ``wp.length``'s, bit for bit."""
+    length = wp.length(v)
+    if not (length > 1.0e-18 and length < 1.0e18):
+        largest = wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.abs(v[2]))
+        if largest > 0.0 and wp.isfinite(largest):
+            length = largest * wp.length(v / largest)
+    return length
+
+
+@wp.func
 def safe_inverse(direction: wp.vec3):
     """Component-wise ``1 / direction`` with zeros (and components whose inverse would overflow) replaced by a huge
     finite value of the right sign, so the slab test never computes ``0 * inf``. Components down to 1e-38 keep

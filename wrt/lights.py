@@ -39,6 +39,7 @@ import warnings
 import numpy as np
 import warp as wp
 
+from .geometry import stable_length
 from .materials import DeviceMaterials, eval_emission
 from .sampling import (
     INV_PI,
@@ -758,7 +759,7 @@ def triangle_light_pdf(scene: DeviceScene, double_sided: int, prim: int, o: wp.v
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
     cr = wp.cross(b - a, c - a)
-    area2 = wp.length(cr)
+    area2 = stable_length(cr)
     if area2 <= 0.0:
         return 0.0
     cos_l = -wp.dot(d, cr / area2)
@@ -906,7 +907,7 @@ def sample_light(
         bw = 1.0 - bu - bv
         q = bw * a + bu * b + bv * c
         cr = wp.cross(b - a, c - a)
-        area = 0.5 * wp.length(cr)
+        area = 0.5 * stable_length(cr)
         if area <= 0.0:
             return out
         ln = cr / (2.0 * area)

@@ -20,6 +20,7 @@ Conventions:
 import warp as wp
 
 from .camera import DeviceCamera, camera_ray
+from .geometry import stable_length
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface
 from .primitives import shape_surface
@@ -130,13 +131,9 @@ def hit_point(
         n2 = unit_or_zero(normal_to_world(m, n2))
     ns = w * n0 + u * n1 + v * n2
     h.front = 1
-    # |ng| grows as an edge length squared: divide by its largest component first, so normalising neither overflows
-    # (edges above ~1e9) nor underflows (edges below ~1e-10).
-    ng_max = wp.max(wp.max(wp.abs(ng[0]), wp.abs(ng[1])), wp.abs(ng[2]))
-    if ng_max > 0.0 and wp.isfinite(ng_max):
-        ng = ng / ng_max
-    if wp.length(ng) > 0.0:
-        ng = wp.normalize(ng)
+    ng_length = stable_length(ng)  # an edge length squared: wp.length overflows for edges of 1e10
+    if ng_length > 0.0:
+        ng = ng / ng_length
     else:
         ng = -wp.normalize(d)  # a degenerate triangle can only be hit edge-on: face the ray
     if wp.dot(ng, d) > 0.0:
