@@ -24,16 +24,13 @@ import warp as wp
 FIELDS = ("lowers", "uppers", "left_first", "prim_count", "prim_ids")
 
 
-def timed_ms(fn, repeats: int) -> list[float]:
-    """Milliseconds of ``repeats`` synchronized runs of ``fn``."""
-    times = []
-    for _ in range(repeats):
-        wp.synchronize()
-        start = time.perf_counter()
-        fn()
-        wp.synchronize()
-        times.append(1e3 * (time.perf_counter() - start))
-    return times
+def timed_ms(fn) -> float:
+    """Milliseconds of one synchronized run of ``fn``."""
+    wp.synchronize()
+    start = time.perf_counter()
+    fn()
+    wp.synchronize()
+    return 1e3 * (time.perf_counter() - start)
 
 
 def main(argv=None) -> int:
@@ -76,7 +73,7 @@ def main(argv=None) -> int:
     times = {name: [] for name in subjects}
     for _ in range(args.repeats):  # subjects take turns
         for name, fn in subjects.items():
-            times[name] += timed_ms(fn, 1)
+            times[name].append(timed_ms(fn))
 
     reference = statistics.median(times[reference_name])
     old_tree = old_build(pts, idx, "ploc", device=device) if old_build else None

@@ -19,8 +19,8 @@ offers itself to its nearest neighbour, and an accepting cluster that is not in 
 its proposers, if that one's distance is at most ``CHAIN_TOLERANCE`` times its own nearest-neighbour distance (so
 the pair is nearly as good for it as its own choice). This keeps about 20% of the clusters merging per iteration
 down to about a thousand clusters: the 10M sphere reaches ``TAIL_CLUSTERS`` after 26 iterations instead of 72, its
-tree is 49 levels deep before the leaf collapse instead of about 110 (so ``flatten.py`` needs no depth bound), and the SAH
-cost is as good (1M displaced sphere +7.6% -> +7.5% over ``binned_sah``, turbineblade +9.0% -> +7.9%, chess_set
+tree is 49 levels deep before the leaf collapse instead of about 110 (so ``flatten.py`` needs no depth bound), and
+the SAH cost is as good (1M displaced sphere +7.6% -> +7.5% over ``binned_sah``, turbineblade +9.0% -> +7.9%, chess_set
 +7.0% -> +7.1%; a tolerance of 1.25 gave +7.6%, +8.3%, +9.2% in a trial; unlimited, +14.1%, +11.6%, +17.8%).
 
 If an iteration merges fewer than 1/64 of the clusters (degenerate input, e.g. many identical triangles), the
@@ -522,33 +522,34 @@ def build_ploc(
         slot_prims = wp.empty(n, dtype=wp.int32)
         with stage("clustering", timers):
             clusters_ab = ([refs, lowers, uppers, counts], [new_refs, new_lowers, new_uppers, new_counts])
-            nn_launches = [
-                wp.launch(
-                    nearest_neighbour_kernel,
+            if n > TAIL_CLUSTERS:  # small builds go straight to the tail launch
+                nn_launches = [
+                    wp.launch(
+                        nearest_neighbour_kernel,
+                        n,
+                        inputs=[n, int(radius), c[1], c[2]],
+                        outputs=[neighbours, nn_dists],
+                        record_cmd=True,
+                    )
+                    for c in clusters_ab
+                ]
+                flags_launch = wp.launch(
+                    merge_flags_kernel,
                     n,
-                    inputs=[n, int(radius), c[1], c[2]],
-                    outputs=[neighbours, nn_dists],
+                    inputs=[n, 0, 0, int(radius), neighbours, nn_dists],
+                    outputs=[partners, merge_flags],
                     record_cmd=True,
                 )
-                for c in clusters_ab
-            ]
-            flags_launch = wp.launch(
-                merge_flags_kernel,
-                n,
-                inputs=[n, 0, 0, int(radius), neighbours, nn_dists],
-                outputs=[partners, merge_flags],
-                record_cmd=True,
-            )
-            merge_launches = [
-                wp.launch(
-                    merge_compact_kernel,
-                    n,
-                    inputs=[1, 0, partners, merge_ranks, *src],
-                    outputs=[node_left, node_right, node_counts, *dst],
-                    record_cmd=True,
-                )
-                for src, dst in (clusters_ab, clusters_ab[::-1])
-            ]
+                merge_launches = [
+                    wp.launch(
+                        merge_compact_kernel,
+                        n,
+                        inputs=[1, 0, partners, merge_ranks, *src],
+                        outputs=[node_left, node_right, node_counts, *dst],
+                        record_cmd=True,
+                    )
+                    for src, dst in (clusters_ab, clusters_ab[::-1])
+                ]
             batches = []
             clusters, next_node, force, parity = n, 0, 0, 0
             while clusters > TAIL_CLUSTERS:
