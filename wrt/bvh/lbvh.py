@@ -207,6 +207,7 @@ def build_lbvh(
             src_counts = wp.empty(inner, dtype=wp.int32)
             if n > 1:
                 wp.launch(radix_tree_kernel, n - 1, inputs=[codes, n], outputs=[src_left, src_right, src_counts])
+        del codes  # before the flatten allocates, so the memory pool hands it over (ploc.build_ploc says why)
         return flatten_source(
             slot_prims,
             src_left,
