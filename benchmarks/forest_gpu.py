@@ -91,7 +91,8 @@ def run(args) -> dict:
     pixels = args.width * args.height
     frame = statistics.median(frame_ms)
     return {
-        "device": f"{device.alias} ({device.name})" if device.is_cuda else f"cpu ({platform.processor() or platform.machine()})",
+        "device": (f"{device.alias} ({device.name})" if device.is_cuda
+                   else f"cpu ({platform.processor() or platform.machine()})"),
         "trees": stats["instances"],
         "tree_triangles": info["tree_triangles"],
         "rendered_triangles": stats["rendered_triangles"],
@@ -139,7 +140,8 @@ def table(r: dict) -> str:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("--trees", type=int, default=50_000, help="tree instances")
     parser.add_argument("--tree-triangles", type=int, default=1_000_000, help="triangles per tree")
     parser.add_argument("--width", type=int, default=1920)

@@ -27,9 +27,10 @@ import numpy as np
 import warp as wp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-import wrt  # noqa: E402
 from conftest import assets_dir, manifest  # noqa: E402
 from test_integrators import furnace_scene, glass_scene, mirror_scene  # noqa: E402
+
+import wrt  # noqa: E402
 from wrt.cli import default_scene_path  # noqa: E402
 from wrt.lights import DomeLight  # noqa: E402
 
@@ -55,7 +56,8 @@ def scenes():
     }
     entry = manifest().get("cornell_box")
     if entry and (assets_dir() / entry["path"]).exists():
-        out["cornell 64x64"] = (wrt.load_usd(assets_dir() / entry["path"]), {"width": 64, "height": 64, "spp": 8, "seed": 7})
+        out["cornell 64x64"] = (wrt.load_usd(assets_dir() / entry["path"]),
+                                {"width": 64, "height": 64, "spp": 8, "seed": 7})
     else:
         print(f"no cornell_box under {assets_dir()} (set WRT_ASSETS to the shared asset folder): skipped")
     return out

@@ -47,7 +47,8 @@ def main(argv=None) -> int:
         "scene": "cornell_box",
         "settings": {**SETTINGS, "spp": args.spp, "seed": args.seed, "integrator": "path"},
         "wall_means": cornell_wall_means(scene, img),
-        "made_with": {"device": str(renderer.device), "seconds": round(seconds, 1), "script": "benchmarks/make_references.py"},
+        "made_with": {"device": str(renderer.device), "seconds": round(seconds, 1),
+                      "script": "benchmarks/make_references.py"},
     }
     Path(args.output).parent.mkdir(parents=True, exist_ok=True)
     Path(args.output).write_text(json.dumps(out, indent=2) + "\n")

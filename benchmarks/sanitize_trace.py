@@ -35,7 +35,8 @@ def main() -> None:
         acc = get_accelerator(scene, accel, "sah", args.device, layout)
         hits = wrt.trace(scene, origins, directions, accel=accel, device=args.device, layout=layout)
         blocked = wrt.occluded(scene, origins, directions, accel=accel, device=args.device, layout=layout)
-        print(f"{name:8s} {type(acc).__name__:22s} hits {hits.hit.mean():.3f} blocked {np.mean(blocked):.3f}", flush=True)
+        print(f"{name:8s} {type(acc).__name__:22s} hits {hits.hit.mean():.3f} "
+              f"blocked {np.mean(blocked):.3f}", flush=True)
 
 
 if __name__ == "__main__":

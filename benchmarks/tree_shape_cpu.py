@@ -161,7 +161,8 @@ def main(argv=None):
             origins, directions = ray_set(scene, kind, args.n_rays, seed=1)
             result = measure(subjects, origins, directions, args.repeats, device)
             all_rows.append((scene_name, kind, len(origins), result))
-            print(f"# {scene_name} {kind}: " + ", ".join(f"{k} {v['mrays']:.2f}" for k, v in result.items()), flush=True)
+            print(f"# {scene_name} {kind}: " + ", ".join(f"{k} {v['mrays']:.2f}" for k, v in result.items()),
+                  flush=True)
         del subjects
 
     # Speed table: one row per (scene, rays, layout); one column per setting.
@@ -169,7 +170,8 @@ def main(argv=None):
     print(f"Hardware: CPU {info['cpu']} ({info['cpu_cores']} cores), Warp {info['warp']}, device {device}, 1 thread; "
           f"median of {args.repeats} interleaved launches after a warm-up.")
     print()
-    head = "| scene | rays | n | layout | wp.Mesh(sah) | " + " | ".join(args.settings) + " | best / default | best / wp.Mesh |"
+    head = ("| scene | rays | n | layout | wp.Mesh(sah) | " + " | ".join(args.settings)
+            + " | best / default | best / wp.Mesh |")
     print(head)
     print("|" + "---|" * (head.count("|") - 1))
     for scene_name, kind, n, result in all_rows:
@@ -189,26 +191,29 @@ def main(argv=None):
     print("Cells: Mrays/s (ratio to the default tree 8:1 in the same layout).")
     print()
     head = "| scene | setting | build s (1 thread) | nodes | leaves | mean leaf | max depth | SAH (Ct=Ci=1) | " + \
-           " | ".join(f"{l} MB" for l in args.layouts) + " |"
+           " | ".join(f"{layout} MB" for layout in args.layouts) + " |"
     print(head)
     print("|" + "---|" * (head.count("|") - 1))
     for scene_name, builds in all_builds.items():
         for setting, b in builds.items():
             if setting == "warp:sah":
-                print(f"| {scene_name.split(':')[-1]} | wp.Mesh(sah) | {b['build_s']:.3f} |" + " |" * (5 + len(args.layouts)))
+                print(f"| {scene_name.split(':')[-1]} | wp.Mesh(sah) | {b['build_s']:.3f} |"
+                      + " |" * (5 + len(args.layouts)))
                 continue
             print(f"| {scene_name.split(':')[-1]} | {setting} | {b['build_s']:.3f} | {b['nodes']} | {b['leaves']} | "
                   f"{b['mean_leaf']:.2f} | {b['max_depth']} | {b['sah']:.2f} | "
-                  + " | ".join(f"{b['bytes'][l] / 2**20:.1f}" for l in args.layouts) + " |")
+                  + " | ".join(f"{b['bytes'][layout] / 2**20:.1f}" for layout in args.layouts) + " |")
     print()
     print("| scene | rays | setting | nodes / ray (binary) | triangle tests / ray |")
     print("|---|---|---|---|---|")
     for scene_name, kind, n, result in all_rows:
         for setting in args.settings:
-            key = next((f"{setting}/{l}" for l in ("binary", "compact") if f"{setting}/{l}" in result), None)
+            key = next((f"{setting}/{layout}" for layout in ("binary", "compact") if f"{setting}/{layout}" in result),
+                       None)
             if key:
                 r = result[key]
-                print(f"| {scene_name.split(':')[-1]} | {kind} | {setting} ({key.split('/')[1]}) | {r['nodes_per_ray']:.1f} | {r['tests_per_ray']:.1f} |")
+                print(f"| {scene_name.split(':')[-1]} | {kind} | {setting} ({key.split('/')[1]}) | "
+                      f"{r['nodes_per_ray']:.1f} | {r['tests_per_ray']:.1f} |")
 
 
 if __name__ == "__main__":

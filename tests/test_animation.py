@@ -173,7 +173,8 @@ def test_cli_frames_and_resume(animated, tmp_path):
     assert sorted(p.name for p in out.parent.iterdir()) == ["f_001.png", "f_004.png", "f_007.png"]
     assert "1 build" in done.stderr
     (out.parent / "f_004.png").unlink()
-    again = subprocess.run(cmd + ["--frames", "1:8:3", "-o", str(out), "--resume"], capture_output=True, text=True, timeout=300)
+    again = subprocess.run(cmd + ["--frames", "1:8:3", "-o", str(out), "--resume"], capture_output=True, text=True,
+                           timeout=300)
     assert again.returncode == 0, again.stderr
     assert "2 of 3 frames already on disk" in again.stderr and "rendered 1 frames" in again.stderr
     bad = subprocess.run(cmd + ["--frames", "9:1"], capture_output=True, text=True, timeout=300)

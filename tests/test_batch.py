@@ -16,7 +16,8 @@ def test_batch_equals_serial(integrator, spp):
     rgb, aovs = batch.numpy()
     assert rgb.shape == (24, 16, 24, 3) and aovs["depth"].shape == (24, 16, 24) and aovs["normal"].shape[-1] == 3
     for k in range(0, 24, 5):
-        one = wrt.render(scene, camera=cams[k], width=24, height=16, integrator=integrator, spp=spp, seed=5, device="cpu")
+        one = wrt.render(scene, camera=cams[k], width=24, height=16, integrator=integrator, spp=spp, seed=5,
+                         device="cpu")
         np.testing.assert_array_equal(rgb[k], one.rgb, err_msg=f"camera {k}")
         view = batch.image(k)
         for name in one.aovs:

@@ -84,7 +84,8 @@ def test_usd_camera_maps_as_usdview(tmp_path):
     img = wrt.render(scene, camera="/Cam", width=200, height=150, device="cpu")
     hit_cols = np.flatnonzero(img.aovs["prim"][75] >= 0)
     assert hit_cols.min() == 150 and hit_cols.max() == 199
-    np.testing.assert_allclose(img.aovs["depth"][75, 199], 10.0 * math.hypot(1.0, (199.5 / 200 - 0.5) * 0.72), rtol=1e-5)
+    np.testing.assert_allclose(img.aovs["depth"][75, 199], 10.0 * math.hypot(1.0, (199.5 / 200 - 0.5) * 0.72),
+                               rtol=1e-5)
 
 
 def test_clipping_range_limits_depth():

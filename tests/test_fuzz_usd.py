@@ -9,7 +9,6 @@ import os
 import re
 
 import numpy as np
-import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -79,16 +78,19 @@ def transform_lines(draw):
     kind = draw(st.sampled_from(["none", "none", "scale", "matrix", "translate"]))
     if kind == "scale":
         s = draw(st.tuples(floats, floats, floats))
-        return [f"    double3 xformOp:scale = ({', '.join(number(c) for c in s)})", '    uniform token[] xformOpOrder = ["xformOp:scale"]']
+        return [f"    double3 xformOp:scale = ({', '.join(number(c) for c in s)})",
+                '    uniform token[] xformOpOrder = ["xformOp:scale"]']
     if kind == "translate":
         t = draw(st.tuples(floats, floats, floats))
-        return [f"    double3 xformOp:translate = ({', '.join(number(c) for c in t)})", '    uniform token[] xformOpOrder = ["xformOp:translate"]']
+        return [f"    double3 xformOp:translate = ({', '.join(number(c) for c in t)})",
+                '    uniform token[] xformOpOrder = ["xformOp:translate"]']
     if kind == "matrix":
         rows = draw(st.lists(st.tuples(floats, floats, floats, floats), min_size=4, max_size=4))
         if draw(st.booleans()):
             rows = [(1, 0, 0, 0), (0, 0, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1)]  # singular
         text = ", ".join("(" + ", ".join(number(c) for c in r) + ")" for r in rows)
-        return [f"    matrix4d xformOp:transform = ({text})", '    uniform token[] xformOpOrder = ["xformOp:transform"]']
+        return [f"    matrix4d xformOp:transform = ({text})",
+                '    uniform token[] xformOpOrder = ["xformOp:transform"]']
     return []
 
 
@@ -96,9 +98,11 @@ def transform_lines(draw):
 def stages(draw):
     parts = ["#usda 1.0", f'(\n    upAxis = "{draw(st.sampled_from(["Y", "Z", "X"]))}"\n)']
     body = [draw(meshes(f"M{i}")) for i in range(draw(st.integers(0, 3)))]
-    arcs = draw(st.lists(st.sampled_from(["cycle", "missing_ref", "missing_payload", "self_ref", "instance"]), max_size=2))
+    arcs = draw(st.lists(st.sampled_from(["cycle", "missing_ref", "missing_payload", "self_ref", "instance"]),
+                         max_size=2))
     if "cycle" in arcs:
-        body += ['def Xform "CycA" (\n    references = </CycB>\n)\n{\n}', 'def Xform "CycB" (\n    references = </CycA>\n)\n{\n}']
+        body += ['def Xform "CycA" (\n    references = </CycB>\n)\n{\n}',
+                 'def Xform "CycB" (\n    references = </CycA>\n)\n{\n}']
     if "missing_ref" in arcs:
         body.append('def Xform "Ref" (\n    references = @./no_such_file.usda@\n)\n{\n}')
     if "missing_payload" in arcs:

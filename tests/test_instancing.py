@@ -145,7 +145,8 @@ def test_pointinstancer_transforms_match_usd(tmp_path):
     assert [scene.instances.path(i) for i in range(6)] == [f"/World/PI[{k}]" for k in kept]
     np.testing.assert_array_equal(scene.instances.prototype, [0, 1, 0, 0, 1, 0])
     # Instance transforms place the prototype's space, which already holds the root's own transform ...
-    np.testing.assert_allclose(scene.instances.to_world, oracle(UsdGeom.PointInstancer.ExcludeProtoXform)[kept], atol=1e-5)
+    np.testing.assert_allclose(scene.instances.to_world, oracle(UsdGeom.PointInstancer.ExcludeProtoXform)[kept],
+                               atol=1e-5)
     # ... so the expanded triangles are the mesh points moved by USD's full instance transform.
     full = oracle(UsdGeom.PointInstancer.IncludeProtoXform)[kept]
     local = np.array(UsdGeom.Mesh(stage.GetPrimAtPath("/World/PI/Protos/B")).GetPointsAttr().Get(), np.float64)

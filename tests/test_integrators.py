@@ -122,7 +122,8 @@ def test_whitted_glass_sphere_inverts_the_image_behind_it():
 def test_path_tracer_agrees_with_whitted_on_direct_light():
     """Two integrators, one answer: a diffuse plane under a delta distant light (no indirect light possible)."""
     scene = wrt.Scene(meshes=[quad((0, 0, 0), (4, 0, 0), (0, 4, 0))])
-    scene.lights.append(wrt.DistantLight(direction=np.array([0.3, 0.0, -1.0]) / np.hypot(0.3, 1.0), color=np.full(3, 2.0)))
+    scene.lights.append(wrt.DistantLight(direction=np.array([0.3, 0.0, -1.0]) / np.hypot(0.3, 1.0),
+                                         color=np.full(3, 2.0)))
     cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), height=1.0)
     a = wrt.render(scene, camera=cam, width=8, height=8, spp=4, device="cpu", integrator="path")
     b = wrt.render(scene, camera=cam, width=8, height=8, device="cpu", integrator="whitted")

@@ -21,7 +21,8 @@ def render_plane(lights, spp=64, patch=PATCH, center=(0.0, 0.0, 0.0), seed=1):
     point under each pixel."""
     scene = wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")], lights=list(lights))
     cam = top_down_camera(center, height=patch)
-    img = wrt.render(scene, camera=cam, width=RES, height=RES, spp=spp, seed=seed, device="cpu", integrator="path", max_depth=1)
+    img = wrt.render(scene, camera=cam, width=RES, height=RES, spp=spp, seed=seed, device="cpu", integrator="path",
+                     max_depth=1)
     assert (img.aovs["prim"] >= 0).all()
     return img.rgb.mean(axis=-1), pixel_points(center, patch, RES, RES)
 
@@ -135,7 +136,8 @@ def test_disk_light_irradiance():
     rng = np.random.default_rng(3)
     r, phi = radius * np.sqrt(rng.random(20000)), 2 * np.pi * rng.random(20000)
     samples = np.stack([r * np.cos(phi), r * np.sin(phi), np.full_like(r, elevation)], -1)
-    expected = numeric_irradiance(points, samples, np.tile([0, 0, -1.0], (len(r), 1)), np.pi * radius**2 / len(r), radiance)
+    expected = numeric_irradiance(points, samples, np.tile([0, 0, -1.0], (len(r), 1)), np.pi * radius**2 / len(r),
+                                  radiance)
     check(rendered, ALBEDO * expected / np.pi, tol=0.03)
 
 
@@ -215,7 +217,8 @@ def test_usd_rect_light_faces_its_minus_z_axis(tmp_path):
         UsdGeom.XformCommonAPI(rect).SetTranslate(Gf.Vec3d(0, 0, 1))
 
     scene = wrt.load_usd(write_stage(tmp_path, build))
-    img = wrt.render(scene, camera=top_down_camera(height=0.4), width=8, height=8, spp=32, device="cpu", integrator="path", max_depth=1)
+    img = wrt.render(scene, camera=top_down_camera(height=0.4), width=8, height=8, spp=32, device="cpu",
+                     integrator="path", max_depth=1)
     expected = ALBEDO * rect_irradiance(pixel_points((0, 0, 0), 0.4, 8, 8), 2.0, 2.0, 1.0, 2.0) / np.pi
     check(img.rgb.mean(axis=-1), expected)
 
@@ -251,7 +254,8 @@ def dome_lit_plane(texture, facing_z, spp=64, to_world=None):
         plane = quad((0, 0, 0), (40, 0, 0), (0, 40 * facing_z, 0), name="/plane")
         cam = wrt.Camera.orthographic(eye=(0, 0, 3 * facing_z), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
     plane.double_sided = False
-    dome = DomeLight(color=np.ones(3, np.float32), texture=texture, to_world=np.eye(4) if to_world is None else to_world)
+    dome = DomeLight(color=np.ones(3, np.float32), texture=texture,
+                     to_world=np.eye(4) if to_world is None else to_world)
     scene = wrt.Scene(meshes=[plane], lights=[dome])
     img = wrt.render(scene, camera=cam, width=4, height=4, spp=spp, device="cpu", integrator="path", max_depth=1)
     return img.rgb.mean()

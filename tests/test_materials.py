@@ -172,7 +172,8 @@ def write_png(path, pixels):
     return str(path)
 
 
-def textured_stage(tmp_path, png, st_range=1.0, wrap=None, color_space=None, transform=None, channel="rgb", input_name="diffuseColor"):
+def textured_stage(tmp_path, png, st_range=1.0, wrap=None, color_space=None, transform=None, channel="rgb",
+                   input_name="diffuseColor"):
     stage, path = new_stage(tmp_path, f"textured{len(list(tmp_path.glob('*.usda')))}.usda")
     quad = add_quad(stage, "/Quad", st_range=st_range)
     material, shader = preview_material(stage, "/Looks/Tex")
@@ -312,7 +313,8 @@ def test_opacity_threshold_cuts_holes(tmp_path):
 def test_emissive_material_lights_the_scene(tmp_path):
     stage, path = new_stage(tmp_path)
     glow = add_quad(stage, "/Glow")
-    material, _ = preview_material(stage, "/Looks/Glow", emissiveColor=Gf.Vec3f(2, 1, 0.5), diffuseColor=Gf.Vec3f(0, 0, 0))
+    material, _ = preview_material(stage, "/Looks/Glow", emissiveColor=Gf.Vec3f(2, 1, 0.5),
+                                   diffuseColor=Gf.Vec3f(0, 0, 0))
     bind(glow, material)
     stage.Save()
     scene = wrt.load_usd(path)

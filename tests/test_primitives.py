@@ -47,7 +47,9 @@ def trace_one(scene, origin, direction):
 
 # Closed forms: (kind, transform, params, ray origin, ray direction, expected t), in canonical terms scaled by USD's
 # parameters. Rays start outside unless noted.
-R45 = np.array([[math.cos(math.pi / 4), -math.sin(math.pi / 4), 0], [math.sin(math.pi / 4), math.cos(math.pi / 4), 0], [0, 0, 1]])
+R45 = np.array([[math.cos(math.pi / 4), -math.sin(math.pi / 4), 0],
+                [math.sin(math.pi / 4), math.cos(math.pi / 4), 0],
+                [0, 0, 1]])
 SHEAR = np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 CLOSED_FORMS = {
     "sphere_r2": ("sphere", placed(2 * np.eye(3), (1, 2, 3)), (0, 0, 0, 1), (1, 2, 13), (0, 0, -1), 8.0),
@@ -57,17 +59,22 @@ CLOSED_FORMS = {
     "mirrored_sphere": ("sphere", placed(np.diag([-2, 2, 2])), (0, 0, 0, 1), (0, 0, 10), (0, 0, -1), 8.0),
     "box_rotated_45": ("box", placed(R45), (0, 0, 0, 1), (5, 0, 0), (-1, 0, 0), 5 - math.sqrt(2)),
     "box_sheared": ("box", placed(SHEAR), (0, 0, 0, 1), (5, 1, 0), (-1, 0, 0), 5 - 1.5),
-    "cylinder_side_axis_x": ("cylinder", placed(axis_rotation("X") @ np.diag([1, 1, 2])), (1, 0, 0, 1), (0, 5, 0), (0, -1, 0), 4.0),
-    "cylinder_cap_axis_x": ("cylinder", placed(axis_rotation("X") @ np.diag([1, 1, 2])), (1, 0, 0, 1), (5, 0, 0), (-1, 0, 0), 3.0),
+    "cylinder_side_axis_x": ("cylinder", placed(axis_rotation("X") @ np.diag([1, 1, 2])), (1, 0, 0, 1), (0, 5, 0),
+                             (0, -1, 0), 4.0),
+    "cylinder_cap_axis_x": ("cylinder", placed(axis_rotation("X") @ np.diag([1, 1, 2])), (1, 0, 0, 1), (5, 0, 0),
+                            (-1, 0, 0), 3.0),
     "open_cylinder_inside": ("cylinder", placed(np.diag([1, 1, 2])), (0, 0, 0, 1), (0, 0, 5), (0, 0, -1), math.inf),
     "cone_apex_axis_y": ("cone", placed(axis_rotation("Y")), (1, 0, 0, 1), (0, 5, 0), (0, -1, 0), 4.0),
     "cone_base_axis_y": ("cone", placed(axis_rotation("Y")), (1, 0, 0, 1), (0, -5, 0), (0, 1, 0), 4.0),
     "cone_side_axis_y": ("cone", placed(axis_rotation("Y")), (1, 0, 0, 1), (5, 0, 0), (-1, 0, 0), 4.5),
     "capsule_top": ("capsule", placed(0.5 * np.eye(3)), (2.0, 0, 0, 1), (0, 0, 5), (0, 0, -1), 3.5),
-    "capsule_cap_side": ("capsule", placed(0.5 * np.eye(3)), (2.0, 0, 0, 1), (5, 0, 1.2), (-1, 0, 0), 5 - math.sqrt(0.21)),
+    "capsule_cap_side": ("capsule", placed(0.5 * np.eye(3)), (2.0, 0, 0, 1), (5, 0, 1.2), (-1, 0, 0),
+                         5 - math.sqrt(0.21)),
     "capsule_body": ("capsule", placed(0.5 * np.eye(3)), (2.0, 0, 0, 1), (5, 0, 0.3), (-1, 0, 0), 4.5),
-    "plane_axis_y_hit": ("plane", placed(axis_rotation("Y") @ np.diag([2, 1, 1])), (0, 0, 0, 1), (1.5, 3, 0.5), (0, -1, 0), 3.0),
-    "plane_axis_y_miss": ("plane", placed(axis_rotation("Y") @ np.diag([2, 1, 1])), (0, 0, 0, 1), (0, 3, 1.5), (0, -1, 0), math.inf),
+    "plane_axis_y_hit": ("plane", placed(axis_rotation("Y") @ np.diag([2, 1, 1])), (0, 0, 0, 1), (1.5, 3, 0.5),
+                         (0, -1, 0), 3.0),
+    "plane_axis_y_miss": ("plane", placed(axis_rotation("Y") @ np.diag([2, 1, 1])), (0, 0, 0, 1), (0, 3, 1.5),
+                          (0, -1, 0), math.inf),
     "disk_edge_miss": ("disk", placed(), (0, 0, 0, 1), (0.8, 0.7, 1), (0, 0, -1), math.inf),
     "disk_hit": ("disk", placed(), (0, 0, 0, 1), (0.6, 0.7, 1), (0, 0, -1), 1.0),
 }
@@ -217,7 +224,8 @@ def test_warp_accel_asks_for_tessellated_gprims(tmp_path):
 
 def test_instanced_shapes_ids_round_trip():
     """Shapes inside a prototype: each instance's copy has its own id after the rendered triangles."""
-    proto = Prototype("/P", [], [Shape("/P/S", "sphere", np.eye(4)), Shape("/P/B", "box", placed(0.5 * np.eye(3), (0, 3, 0)))])
+    proto = Prototype("/P", [], [Shape("/P/S", "sphere", np.eye(4)),
+                                 Shape("/P/B", "box", placed(0.5 * np.eye(3), (0, 3, 0)))])
     m = np.tile(np.eye(4), (3, 1, 1))
     m[:, 0, 3] = [0, 10, 20]
     scene = wrt.Scene(shapes=[Shape("/W", "plane", placed(np.diag([40, 40, 1]), (0, 0, -5)))], prototypes=[proto],

@@ -220,7 +220,8 @@ def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
     return [(f, p) for f, p in jobs if not (resume and p.exists())]
 
 
-def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False, **options) -> list[dict]:
+def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False,
+                  **options) -> list[dict]:
     """Renders ``jobs`` (``(frame, file)`` pairs, see :func:`pending_frames`) and writes each image as it is done.
 
     With one device the frames are rendered here, in order, by one :class:`FrameRenderer`. With several, each

@@ -28,10 +28,10 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
+from .bvh import Builder
 from .compare import compare_hits
 from .rays import RAY_KINDS, ray_set
 from .scene import Scene
-from .bvh import Builder
 from .trace import BvhAccelerator, HitBuffer, Hits, WarpMeshAccelerator, resolve_device
 
 SUITES_DIR = Path(__file__).resolve().parent / "data" / "suites"  # benchmarks/suites, shipped with the package
@@ -95,7 +95,8 @@ def _nvidia_driver() -> str | None:
 
     try:
         out = subprocess.run(
-            ["nvidia-smi", "--query-gpu=driver_version", "--format=csv,noheader"], capture_output=True, text=True, timeout=20
+            ["nvidia-smi", "--query-gpu=driver_version", "--format=csv,noheader"], capture_output=True, text=True,
+            timeout=20
         )
         return out.stdout.strip().splitlines()[0] if out.returncode == 0 and out.stdout.strip() else None
     except (OSError, subprocess.SubprocessError):
@@ -373,7 +374,8 @@ def run_grid(
     thread_counts = [os.cpu_count() if t == "all" else int(t) for t in grid.threads]
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
-    groups += [(f"sphere:{int(float(n))}", d, scaling.get("rays", "incoherent")) for n in scaling.get("sizes", []) for d in devices]
+    groups += [(f"sphere:{int(float(n))}", d, scaling.get("rays", "incoherent"))
+               for n in scaling.get("sizes", []) for d in devices]
     info = {} if dask else {str(d): hardware(d) for d in devices}  # with dask, each row has its worker's hardware
 
     def emit(row):
@@ -397,7 +399,8 @@ def run_grid(
         run_tasks(_run_group_task, tasks, address=None if dask is True else dask, progress=progress, desc="wrt bench",
                   on_result=lambda task, group_rows: [emit(r) for r in group_rows], on_error=lost)
         order = {task[0]: i for i, task in enumerate(tasks)}
-        rows[first:] = sorted(rows[first:], key=lambda r: order.get((r["scene"], r["device"], r["rays"]), 0))  # grid order
+        rows[first:] = sorted(rows[first:],
+                              key=lambda r: order.get((r["scene"], r["device"], r["rays"]), 0))  # grid order
     else:
         bar = tqdm(total=len(groups), desc="wrt bench", unit="group", disable=not progress)
         loaded = {}
@@ -417,18 +420,21 @@ def run_grid(
 
 def _ratio(row, rows, accel) -> float | None:
     for other in rows:
-        if other.get("accel") == accel and "mrays" in other and row_key(other)[2:] == row_key(row)[2:] and other["scene"] == row["scene"]:
+        if (other.get("accel") == accel and "mrays" in other and row_key(other)[2:] == row_key(row)[2:]
+                and other["scene"] == row["scene"]):
             return row["mrays"] / other["mrays"] if other["mrays"] else None
     return None
 
 
 def markdown_table(rows: list[dict]) -> str:
     """The rows as a markdown table with ratios to ``warp:sah`` and to Embree, plus the hardware."""
-    head = "| scene | tris | device | rays | accel | threads | build ms | Mrays/s (min-max) | hit % | agree % | x warp:sah | x embree | SAH |"
+    head = ("| scene | tris | device | rays | accel | threads | build ms | Mrays/s (min-max) | hit % | agree % "
+            "| x warp:sah | x embree | SAH |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['scene']} | | {r['device']} | {r['rays']} | {r['accel']} | {r.get('threads')} | error: {r['error']} | | | | | | |")
+            lines.append(f"| {r['scene']} | | {r['device']} | {r['rays']} | {r['accel']} | {r.get('threads')} | "
+                         f"error: {r['error']} | | | | | | |")
             continue
         ratio_w, ratio_e = _ratio(r, rows, REFERENCE), _ratio(r, rows, "embree")
         fmt = lambda x, spec: "" if x is None else format(x, spec)  # noqa: E731
@@ -436,10 +442,12 @@ def markdown_table(rows: list[dict]) -> str:
         lines.append(
             f"| {r['scene']} | {r['triangles']} | {r['device']} | {r['rays']} | {r['accel']} | {r['threads']} | "
             f"{r['build_ms']:.1f} | {r['mrays']:.2f} ({r['mrays_min']:.2f}-{r['mrays_max']:.2f}) | "
-            f"{100 * r['hit_fraction']:.1f} | {agree} | {fmt(ratio_w, '.2f')} | {fmt(ratio_e, '.2f')} | {fmt(r.get('sah_cost'), '.2f')} |"
+            f"{100 * r['hit_fraction']:.1f} | {agree} | {fmt(ratio_w, '.2f')} | {fmt(ratio_e, '.2f')} | "
+            f"{fmt(r.get('sah_cost'), '.2f')} |"
         )
     hardware_lines = sorted({f"- {r['device']}: CPU {r.get('cpu')} ({r.get('cpu_cores')} cores), GPU {r.get('gpu')}, "
-                             f"driver {r.get('gpu_driver')} ({r.get('driver')}), Warp {r.get('warp')}" for r in rows if "cpu" in r})
+                             f"driver {r.get('gpu_driver')} ({r.get('driver')}), Warp {r.get('warp')}"
+                             for r in rows if "cpu" in r})
     return "\n".join(lines + [""] + hardware_lines) + "\n"
 
 
@@ -468,7 +476,9 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         fig, ax = plt.subplots(figsize=(max(6, 1.2 * len(labels)), 4))
         width = 0.8 / max(len(accels), 1)
         for i, (accel, threads) in enumerate(accels):
-            values = [next((r["mrays"] for r in good if (r["scene"], r["rays"]) == lab and r["accel"] == accel and r["threads"] == threads), 0) for lab in labels]
+            values = [next((r["mrays"] for r in good
+                            if (r["scene"], r["rays"]) == lab and r["accel"] == accel and r["threads"] == threads), 0)
+                      for lab in labels]
             ax.bar(np.arange(len(labels)) + i * width, values, width, label=f"{accel} x{threads}")
         ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, [f"{s}\n{k}" for s, k in labels], fontsize=7)
         ax.set_ylabel("Mrays/s (median)")
@@ -495,7 +505,8 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
     if scaling:
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
         for accel in sorted({r["accel"] for r in scaling}):
-            pts = sorted((r["triangles"], r["build_ms"], 1e3 / r["mrays"]) for r in scaling if r["accel"] == accel and r["threads"] == min(x["threads"] for x in scaling))
+            pts = sorted((r["triangles"], r["build_ms"], 1e3 / r["mrays"]) for r in scaling
+                         if r["accel"] == accel and r["threads"] == min(x["threads"] for x in scaling))
             n, build, ns_per_ray = zip(*pts)
             a1.loglog(n, build, "o-", label=f"{accel} slope {fit_slope(n, build, SLOPE_FROM):.2f}")
             a2.loglog(n, ns_per_ray, "o-", label=f"{accel} slope {fit_slope(n, ns_per_ray, SLOPE_FROM):.2f}")

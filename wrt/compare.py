@@ -59,7 +59,8 @@ def near_edge_world(scene, hits, origins, directions, scale: float) -> np.ndarra
         dist = np.full(len(h), np.inf)
         for a, b in ((0, 1), (1, 2), (2, 0)):
             edge = tri[:, b] - tri[:, a]
-            dist = np.minimum(dist, np.linalg.norm(np.cross(edge, p - tri[:, a]), axis=1) / np.linalg.norm(edge, axis=1))
+            dist = np.minimum(dist, np.linalg.norm(np.cross(edge, p - tri[:, a]), axis=1)
+                              / np.linalg.norm(edge, axis=1))
         delta = COORD_ULPS * np.finfo(np.float32).eps * scale
         out[h] = ~(dist * cos >= delta)  # NaN (degenerate triangles) counts as a tie
     return out
@@ -88,7 +89,8 @@ def compare_hits(
     both = hit_a & hit_b
     atol = np.zeros(len(a.t))
     if directions is not None and scale > 0.0:
-        atol = COORD_ULPS * np.finfo(np.float32).eps * scale / np.linalg.norm(np.asarray(directions, np.float64), axis=1)
+        atol = (COORD_ULPS * np.finfo(np.float32).eps * scale
+                / np.linalg.norm(np.asarray(directions, np.float64), axis=1))
     t_bad = np.zeros_like(both)
     with np.errstate(invalid="ignore"):
         t_bad[both] = np.abs(a.t[both] - b.t[both]) > rtol * np.abs(b.t[both]) + atol[both]

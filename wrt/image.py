@@ -85,7 +85,8 @@ def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
         )
     if value.ndim == 3 and value.shape[-1] == 3:
         if "normal" in name:
-            return np.round(np.clip(0.5 * (value + 1.0), 0, 1) * 255 * (np.abs(value).sum(-1, keepdims=True) > 0)).astype(np.uint8)
+            return np.round(np.clip(0.5 * (value + 1.0), 0, 1) * 255
+                            * (np.abs(value).sum(-1, keepdims=True) > 0)).astype(np.uint8)
         return to_srgb8(value)
     if value.dtype.kind in "iu":
         return _id_colors(value)
@@ -102,7 +103,8 @@ def write_exr(path: Path, channels: dict[str, np.ndarray]) -> None:
     try:
         import OpenEXR
     except ImportError:
-        raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package (pip install OpenEXR)") from None
+        raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package "
+                         "(pip install OpenEXR)") from None
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     data = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
     with OpenEXR.File(header, data) as f:

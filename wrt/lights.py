@@ -26,8 +26,8 @@ a headlight along the view direction and a grey dome.
 
 Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count``; spheres are sampled by
 the cone they subtend, rect, disk, cylinder and triangle lights uniformly by area, soft distant lights uniformly in
-their cone (cylinders: the half facing the shading point), a constant dome cosine-weighted about the shading normal and a textured dome by its luminance
-(piecewise-constant 2D distribution, Pharr et al., PBRT 4th ed., A.5 and 12.5).
+their cone (cylinders: the half facing the shading point), a constant dome cosine-weighted about the shading normal and
+a textured dome by its luminance (piecewise-constant 2D distribution, Pharr et al., PBRT 4th ed., A.5 and 12.5).
 """
 
 from __future__ import annotations
@@ -243,7 +243,8 @@ def default_lights(forward) -> list:
     :data:`HEADLIGHT_ILLUMINANCE`) and a constant dome of radiance :data:`DEFAULT_DOME_RADIANCE`."""
     forward = np.asarray(forward, np.float64)
     return [
-        DistantLight(direction=forward / np.linalg.norm(forward), color=np.full(3, HEADLIGHT_ILLUMINANCE), path="<headlight>"),
+        DistantLight(direction=forward / np.linalg.norm(forward), color=np.full(3, HEADLIGHT_ILLUMINANCE),
+                     path="<headlight>"),
         DomeLight(color=np.asarray(DEFAULT_DOME_RADIANCE, np.float32), path="<dome>"),
     ]
 
@@ -305,12 +306,14 @@ def read_light(prim, xforms, time, up_axis: str, skip):
         r = UsdLux.RectLight(prim)
         if get(r.GetTextureFileAttr(), None):
             skip("RectLight textures are not supported; the light's colour is used", prim)
-        return RectLight(m, float(get(r.GetWidthAttr(), 1.0)), float(get(r.GetHeightAttr(), 1.0)), color, normalize, path)
+        return RectLight(m, float(get(r.GetWidthAttr(), 1.0)), float(get(r.GetHeightAttr(), 1.0)), color, normalize,
+                         path)
     if prim.IsA(UsdLux.DiskLight):
         return DiskLight(m, float(get(UsdLux.DiskLight(prim).GetRadiusAttr(), 0.5)), color, normalize, path)
     if prim.IsA(UsdLux.CylinderLight):
         c = UsdLux.CylinderLight(prim)
-        return CylinderLight(m, float(get(c.GetLengthAttr(), 1.0)), float(get(c.GetRadiusAttr(), 0.5)), color, normalize, path)
+        return CylinderLight(m, float(get(c.GetLengthAttr(), 1.0)), float(get(c.GetRadiusAttr(), 0.5)), color,
+                             normalize, path)
     dome_types = [UsdLux.DomeLight] + ([UsdLux.DomeLight_1] if hasattr(UsdLux, "DomeLight_1") else [])
     if any(prim.IsA(t) for t in dome_types):
         return _read_dome(prim, m, color, time, up_axis, skip, get)
@@ -436,7 +439,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     radius = max(float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) / 2.0, 1e-6)
     h = HostLights([], [], [], [], [], [], [], [], [])
     zero = np.zeros(3)
-    domes = [l for l in lights if isinstance(l, DomeLight)]
+    domes = [light for light in lights if isinstance(light, DomeLight)]
     if len(domes) > 1:
         warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used", stacklevel=3)
     dome_index, dome = -1, None
@@ -460,7 +463,8 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
         elif isinstance(light, SphereLight):
             if light.treat_as_point:
                 i = light.intensity
-                _add(h, LIGHT_POINT, i, light.position, zero, zero, zero, (0, 0, 0, 0), 0, 4.0 * math.pi * luminance_np(i))
+                _add(h, LIGHT_POINT, i, light.position, zero, zero, zero, (0, 0, 0, 0), 0,
+                     4.0 * math.pi * luminance_np(i))
             else:
                 L = light.radiance
                 _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero, (light.radius, 0, light.area, 0), 0,
@@ -523,7 +527,8 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
         cdf[-1] = 1.0
 
     def arr(values, dtype, width=3):
-        data = np.asarray(values if values else [np.zeros(width) if width > 1 else 0], np.float32 if dtype != wp.int32 else np.int32)
+        data = np.asarray(values if values else [np.zeros(width) if width > 1 else 0],
+                          np.float32 if dtype != wp.int32 else np.int32)
         return wp.array(data, dtype=dtype, device=device)
 
     d = DeviceLights()
@@ -594,9 +599,9 @@ def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
 @wp.func
 def dome_direction_uv(lights: DeviceLights, d: wp.vec3):
     """Lat-long texture coordinates ``(u, v)`` in [0, 1] (v = 0 at the top row) of world direction ``d``."""
-    l = lights.dome_to_local * d
-    lon = wp.atan2(l[0], l[2])
-    lat = wp.asin(wp.clamp(l[1], -1.0, 1.0))
+    local_dir = lights.dome_to_local * d
+    lon = wp.atan2(local_dir[0], local_dir[2])
+    lat = wp.asin(wp.clamp(local_dir[1], -1.0, 1.0))
     return wp.vec2(0.5 * (1.0 - lon / PI), 0.5 - lat / PI)
 
 

@@ -141,7 +141,8 @@ class DeviceMaterials:
     """Every material and texture on the device; material 0 is the default (displayColor Lambert)."""
 
     colors: wp.array2d[wp.vec3]  # (M, 3) diffuseColor, emissiveColor, specularColor
-    params: wp.array2d[float]  # (M, 8) metallic, roughness, opacity, opacityThreshold, ior, clearcoat, clearcoatRoughness, 0
+    params: wp.array2d[float]  # (M, 8) metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
+    #                            clearcoatRoughness, 0
     flags: wp.array[wp.int32]  # (M,) FLAG_* bits
     slots: wp.array2d[wp.int32]  # (M, NUM_SLOTS) texture binding per input, -1 for a constant
     tex_image: wp.array[wp.int32]  # (B,) image of each texture binding
@@ -301,7 +302,9 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
 def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
     """``UsdTransform2d``: ``st * scale``, rotated counter-clockwise, then translated, as a 3x3 matrix."""
     c, s = math.cos(math.radians(rotation_deg)), math.sin(math.radians(rotation_deg))
-    m = np.array([[c * scale[0], -s * scale[1], translation[0]], [s * scale[0], c * scale[1], translation[1]], [0, 0, 1]])
+    m = np.array([[c * scale[0], -s * scale[1], translation[0]],
+                  [s * scale[0], c * scale[1], translation[1]],
+                  [0, 0, 1]])
     return m.astype(np.float32)
 
 
@@ -384,7 +387,8 @@ class MaterialReader:
         mat = Material(path=path)
         for name in SLOTS:
             self._read_input(shader, name, mat)
-        for name, field in (("useSpecularWorkflow", "use_specular_workflow"), ("opacityThreshold", "opacity_threshold")):
+        for name, field in (("useSpecularWorkflow", "use_specular_workflow"),
+                            ("opacityThreshold", "opacity_threshold")):
             value = self._constant(shader, name)
             if value is not None:
                 setattr(mat, field, type(getattr(mat, field))(value))

@@ -1,8 +1,8 @@
 """Previews with pyvista: the scene, the camera frustum, BVH boxes and sample camera rays in one 3D view.
 
 A preview shows what wrt will trace before any GPU time is spent: the meshes as ``Scene`` holds them (world
-space, one colour per triangle from its material or ``displayColor``), the frustum of the render camera, the BVH's boxes at one
-depth or its leaves, and a few camera rays from the eye to their closest hits (through :mod:`wrt.trace`, exactly
+space, one colour per triangle from its material or ``displayColor``), the frustum of the render camera, the BVH's boxes
+at one depth or its leaves, and a few camera rays from the eye to their closest hits (through :mod:`wrt.trace`, exactly
 as the renderer's first sample casts them). Optionally the wrt-rendered image hangs on the frustum's image plane.
 
 pyvista is optional (``pip install 'wrt[preview]'``) and imported only inside the functions that need it, so
@@ -242,7 +242,8 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
     if shown:
         points, indices = drawn.triangles()
         offsets = drawn.instance_offsets()
-        vertex = np.cumsum([0] + [sum(len(m.points) for m in drawn.prototypes[p].meshes) for p in drawn.instances.prototype])
+        vertex = np.cumsum([0] + [sum(len(m.points) for m in drawn.prototypes[p].meshes)
+                                  for p in drawn.instances.prototype])
         vertex += sum(len(m.points) for m in scene.meshes)
         for i in range(shown):
             a, b = int(offsets[i]), int(offsets[i + 1])

@@ -439,7 +439,8 @@ def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
         points = np.concatenate([[[0.0, 0.0, z]], np.column_stack([ring, np.full(segments, z)])])
         i = np.arange(segments)
         j = (i + 1) % segments
-        tris = np.stack([np.zeros(segments, np.int64), 1 + i, 1 + j], 1) if up else np.stack([np.zeros(segments, np.int64), 1 + j, 1 + i], 1)
+        tris = (np.stack([np.zeros(segments, np.int64), 1 + i, 1 + j], 1) if up
+                else np.stack([np.zeros(segments, np.int64), 1 + j, 1 + i], 1))
         add(points, tris, flat=[0.0, 0.0, 1.0 if up else -1.0])
 
     kind = shape.kind

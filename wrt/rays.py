@@ -21,7 +21,8 @@ def camera_rays(scene: Scene, camera=None, width: int = 320, height: int = 240) 
     n = width * height
     out = [wp.empty(n, dtype=wp.vec3, device="cpu") for _ in range(2)]
     out += [wp.empty(n, dtype=float, device="cpu") for _ in range(2)]
-    wp.launch(generate_rays_kernel, n, inputs=[cam.to_struct(width, height), width, height, 0, 0], outputs=out, device="cpu")
+    wp.launch(generate_rays_kernel, n, inputs=[cam.to_struct(width, height), width, height, 0, 0], outputs=out,
+              device="cpu")
     return out[0].numpy(), out[1].numpy()
 
 

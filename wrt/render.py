@@ -140,9 +140,11 @@ def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None
 
     def work(start: int, end: int):
         def piece(x):
-            return x[start:end] if isinstance(x, wp.array) and x.ndim == 1 and len(x) == n and (start, end) != (0, n) else x
+            return (x[start:end] if isinstance(x, wp.array) and x.ndim == 1 and len(x) == n and (start, end) != (0, n)
+                    else x)
 
-        wp.launch(kernel, end - start, inputs=[piece(x) for x in inputs], outputs=[piece(x) for x in outputs], device=device)
+        wp.launch(kernel, end - start, inputs=[piece(x) for x in inputs], outputs=[piece(x) for x in outputs],
+                  device=device)
 
     run_in_chunks(work, n, resolve_threads(None, device))  # one piece on a GPU
 
@@ -323,7 +325,8 @@ class Renderer:
             self._wavefront = _Wavefront(n, self.device, self.all_double_sided)
         dev = self.device
         state = self._progressive
-        if resume and state is not None and state["seed"] == seed and self.integrator not in ("normals", "depth", "albedo"):
+        if (resume and state is not None and state["seed"] == seed
+                and self.integrator not in ("normals", "depth", "albedo")):
             image, dropped, aovs, done = state["sum"], state["dropped"], state["aovs"], state["samples"]
         else:
             image = wp.zeros(n_pixels, dtype=wp.vec3, device=dev)
@@ -341,7 +344,8 @@ class Renderer:
                 count = min(batch, total - first)
                 w = self._wavefront.view(n_pixels * count)
                 self._start_and_trace(w, first, seed, aovs if first == 0 else None)
-                wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count], outputs=[image, dropped])
+                wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count],
+                          outputs=[image, dropped])
                 first += count
                 bar.update(count)
         bar.close()
@@ -368,7 +372,8 @@ class Renderer:
             with wp.ScopedDevice(self.device):
                 image.zero_()
                 self._start_and_trace(w, 0, int(seed) & 0x7FFFFFFF, aovs)
-                wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, 1], outputs=[image, dropped])
+                wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, 1],
+                          outputs=[image, dropped])
         finally:
             self._sync_free = False
 
@@ -482,7 +487,8 @@ class Renderer:
         launch_per_path(
             shade_ao_kernel,
             w.n,
-            [self.device_scene, self.surfaces, self.ao_radius, w.origins, w.directions, h.t, h.u, h.v, h.prim, h.instance, w.rng],
+            [self.device_scene, self.surfaces, self.ao_radius, w.origins, w.directions, h.t, h.u, h.v, h.prim,
+             h.instance, w.rng],
             [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs],
             self.device,
         )

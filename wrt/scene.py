@@ -208,7 +208,8 @@ class Scene:
     def instance_shape_offsets(self) -> np.ndarray:
         """``(N + 1,)`` int64: rendered shape index (see the module docstring) where each instance's shapes start."""
         counts = (
-            self.prototype_shape_ranges()[:, 1][self.instances.prototype] if len(self.instances) else np.zeros(0, np.int64)
+            self.prototype_shape_ranges()[:, 1][self.instances.prototype] if len(self.instances)
+            else np.zeros(0, np.int64)
         )
         return len(self.shapes) + np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
@@ -240,7 +241,8 @@ class Scene:
     def instance_offsets(self) -> np.ndarray:
         """``(N + 1,)`` int64: row of :meth:`triangles` where each instance's triangles start; the last entry is
         the number of rendered triangles."""
-        counts = self.prototype_ranges()[:, 1][self.instances.prototype] if len(self.instances) else np.zeros(0, np.int64)
+        counts = (self.prototype_ranges()[:, 1][self.instances.prototype] if len(self.instances)
+                  else np.zeros(0, np.int64))
         return self.num_flat_triangles + np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
 
     def expanded_ids(self, prim, instance) -> np.ndarray:
@@ -361,7 +363,8 @@ class Scene:
         return np.concatenate(parts or [np.zeros(0, bool)])
 
     def corner_uvs(self) -> np.ndarray:
-        """``(T, 3, 2)`` float32 texture coordinates per triangle corner (geometry order; zero where a mesh has none)."""
+        """``(T, 3, 2)`` float32 texture coordinates per triangle corner (geometry order; zero where a mesh has
+        none)."""
         key = ("corner_uvs",)
         if key not in self._cache:
             meshes = self._geometry_meshes()
@@ -471,7 +474,8 @@ class Scene:
         instancing, rendered and unique counts are equal."""
         flat_points = sum(len(m.points) for m in self.meshes)
         proto_points = np.array([sum(len(m.points) for m in p.meshes) for p in self.prototypes], np.int64)
-        rendered_points = flat_points + int(proto_points[self.instances.prototype].sum()) if len(self.instances) else flat_points
+        rendered_points = (flat_points + int(proto_points[self.instances.prototype].sum()) if len(self.instances)
+                           else flat_points)
         return {
             "meshes": len(self.meshes),
             "points": int(rendered_points),

@@ -77,7 +77,8 @@ def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
         raise TextureError(f"cannot read image {name}: {e}") from None
     mode = img.mode
     if mode in ("I;16", "I;16B", "I;16L", "I"):
-        grey = np.asarray(img, dtype=np.float32) / (65535.0 if mode.startswith("I;16") else max(1.0, float(np.max(img))))
+        grey = np.asarray(img, dtype=np.float32) / (65535.0 if mode.startswith("I;16")
+                                                    else max(1.0, float(np.max(img))))
         return _grey_rgba(grey, None), False
     if mode == "F":
         return _grey_rgba(np.asarray(img, dtype=np.float32), None), False

@@ -66,7 +66,8 @@ def _stack_type(name: str, n: int) -> type:
     add = wp.build_experimental.add_builtin
     add("wrt_stack_push", {"s": cls, "i": int, "ref": int}, None, native_name="wrt::stack_push")
     add("wrt_stack_push", {"s": cls, "i": int, "ref": int, "t": float}, None, native_name="wrt::stack_push")
-    add("wrt_stack_push", {"s": cls, "i": int, "ref": int, "count": int, "t": float}, None, native_name="wrt::stack_push")
+    add("wrt_stack_push", {"s": cls, "i": int, "ref": int, "count": int, "t": float}, None,
+        native_name="wrt::stack_push")
     add("wrt_stack_ref", {"s": cls, "i": int}, int, native_name="wrt::stack_ref")
     add("wrt_stack_count", {"s": cls, "i": int}, int, native_name="wrt::stack_count")
     add("wrt_stack_t", {"s": cls, "i": int}, float, native_name="wrt::stack_t")
