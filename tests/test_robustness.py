@@ -443,7 +443,8 @@ def _slab_reference(o, d, lo, hi, t_max):
 @pytest.mark.parametrize("scale", [1e-20, 1.0, 1e20])
 def test_slab_test_never_culls_a_box_the_ray_touches(device, scale, np_rng):
     """Random boxes and rays against a float64 slab test: rays aimed at the box, aimed away from it, starting on a
-    face and running parallel to it, and touching an edge from outside (entry equals exit). Every box the ray
+    face and running parallel to it (in the plane of the upper face too, which a zero direction component once
+    shrank to t = 0), and touching an edge from outside (entry equals exit). Every box the ray
     touches is entered, at the right distance, and boxes missed by a clear margin are culled, at tiny, unit and huge
     coordinates."""
     n = 30_000
@@ -453,11 +454,13 @@ def test_slab_test_never_culls_a_box_the_ray_touches(device, scale, np_rng):
     target = lo + np_rng.uniform(0, 1, (n, 3)) * (hi - lo)
     group = np.arange(n) % 4
     d = np.where((group == 1)[:, None], target - o, o - target)  # aimed at the box, or away from it
-    graze = group == 0  # start on the box's lower x face, inside its y and z range; move parallel to it
+    # Start on the box's lower or upper x face, inside its y and z range, and move parallel to it: d.x is +0 or -0.
+    graze = group == 0
+    k = int(graze.sum())
     o[graze] = target[graze]
-    o[graze, 0] = lo[graze, 0]
-    d[graze] = np_rng.normal(size=(int(graze.sum()), 3))
-    d[graze, 0] = 0.0
+    o[graze, 0] = np.where(np_rng.random(k) < 0.5, lo[graze, 0], hi[graze, 0])
+    d[graze] = np_rng.normal(size=(k, 3))
+    d[graze, 0] = np.where(np_rng.random(k) < 0.5, 0.0, -0.0)
     edge = group == 3  # touch the box's edge x = lo.x, y = hi.y from outside: entry and exit meet there
     target[edge, 0], target[edge, 1] = lo[edge, 0], hi[edge, 1]
     o[edge] = target[edge] + np_rng.uniform(0.1, 2, (int(edge.sum()), 3)) * np.array([-1.0, 1.0, 0.0])
@@ -476,6 +479,48 @@ def test_slab_test_never_culls_a_box_the_ray_touches(device, scale, np_rng):
         clear_miss = ~hit & ~(want_near - far <= 1e-4)  # beyond float32 rounding (inf - inf is NaN: a miss)
     assert clear_miss.sum() > n // 10
     assert not np.isfinite(got[clear_miss]).any(), "a box the ray clearly misses was entered"
+
+
+TILES_USDA = """#usda 1.0
+def PointInstancer "Floor"
+{
+    rel prototypes = [</Floor/Protos/Tile>]
+    int[] protoIndices = [0, 0, 0, 0]
+    point3f[] positions = [(-1, -1, 0), (1, -1, 0), (-1, 1, 0), (1, 1, 0)]
+    quath[] orientations = [(1, 0, 0, 0), (0, 0, 0, 1), (0.7071068, 0, 0, 0.7071068), (0, 0, 0, 1)]
+    def Scope "Protos"
+    {
+        token visibility = "invisible"
+        def Mesh "Tile"
+        {
+            int[] faceVertexCounts = [4]
+            int[] faceVertexIndices = [0, 1, 2, 3]
+            point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+        }
+    }
+}
+"""
+
+
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide"])
+def test_axis_aligned_rays_along_seams_hit(layout, tmp_path):
+    """A floor of four tiles, as rotated instances and flattened: rays straight down (direction (+-0, +-0, -1))
+    through the seams, the corners and the outer edges all hit. A zero direction component once shrank the slab of a
+    box whose upper face the ray runs in to t = 0: rays missed both tiles of a seam that maps to their upper faces."""
+    path = tmp_path / "tiles.usda"
+    path.write_text(TILES_USDA)
+    instanced = wrt.load_usd(path)
+    assert len(instanced.instances.prototype) == 4
+    flat = wrt.Scene.from_triangles(*instanced.triangles())
+    xy = np.array([-2.0, -1.5, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5, 2.0], np.float32)
+    gx, gy = np.meshgrid(xy, xy)
+    origins = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, 5.0, np.float32)], 1)
+    for zx, zy in ((0.0, 0.0), (-0.0, -0.0), (0.0, -0.0)):
+        directions = np.tile(np.array([zx, zy, -1.0], np.float32), (len(origins), 1))
+        for scene in (instanced, flat):
+            hits = wrt.trace(scene, origins, directions, layout=layout)
+            assert hits.hit.all(), origins[~hits.hit]
+            np.testing.assert_array_equal(hits.t, 5.0)
 
 
 @pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])

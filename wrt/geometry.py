@@ -13,6 +13,8 @@ Barycentrics follow wrt's contract: ``hit = (1 - u - v) * p0 + u * p1 + v * p2``
 import warp as wp
 
 ROBUST_FAR_SCALE = wp.constant(1.0 + 2.0 * 3.0 * 5.9604645e-08 / (1.0 - 3.0 * 5.9604645e-08))  # 1 + 2*gamma(3), Ize
+FLAT_INVERSE = wp.constant(1.0e38)  # safe_inverse of a zero (or subnormal) direction component
+FLAT_SLAB_SLACK = wp.constant(1.0e20)  # intersect_ray_box: widening of the slab of a zero direction component
 
 
 @wp.struct
@@ -175,7 +177,7 @@ def safe_inverse(direction: wp.vec3):
     for k in range(3):
         d = direction[k]
         if wp.abs(d) < 1.0e-38:
-            inv[k] = wp.copysign(1.0e38, d)
+            inv[k] = wp.copysign(FLAT_INVERSE, d)
         else:
             inv[k] = 1.0 / d
     return inv
@@ -212,12 +214,21 @@ def intersect_ray_box(origin: wp.vec3, inv_dir: wp.vec3, lower: wp.vec3, upper: 
     """
     t0 = wp.cw_mul(lower - origin, inv_dir)
     t1 = wp.cw_mul(upper - origin, inv_dir)
-    lo_x = finite_min(t0[0], t1[0])
-    lo_y = finite_min(t0[1], t1[1])
-    lo_z = finite_min(t0[2], t1[2])
-    hi_x = finite_max(t0[0], t1[0])
-    hi_y = finite_max(t0[1], t1[1])
-    hi_z = finite_max(t0[2], t1[2])
+    # A zero direction component (safe_inverse's FLAT_INVERSE) keeps the ray in a plane of constant coordinate. In
+    # a box's face plane, bound - origin is exactly 0 and that slab would shrink to t = 0, culling a box the ray runs
+    # along: holes at seams between tiles or instances under axis-aligned rays. Such a slab is widened by
+    # FLAT_SLAB_SLACK (boxes within 1e-18 of the ray's plane count as touched); the other slabs are as before.
+    slack = wp.vec3(
+        wp.where(wp.abs(inv_dir[0]) >= FLAT_INVERSE, FLAT_SLAB_SLACK, 0.0),
+        wp.where(wp.abs(inv_dir[1]) >= FLAT_INVERSE, FLAT_SLAB_SLACK, 0.0),
+        wp.where(wp.abs(inv_dir[2]) >= FLAT_INVERSE, FLAT_SLAB_SLACK, 0.0),
+    )
+    lo_x = finite_min(t0[0], t1[0]) - slack[0]
+    lo_y = finite_min(t0[1], t1[1]) - slack[1]
+    lo_z = finite_min(t0[2], t1[2]) - slack[2]
+    hi_x = finite_max(t0[0], t1[0]) + slack[0]
+    hi_y = finite_max(t0[1], t1[1]) + slack[1]
+    hi_z = finite_max(t0[2], t1[2]) + slack[2]
     near = finite_max(finite_max(lo_x, lo_y), finite_max(lo_z, t_min))
     far = finite_min(finite_min(hi_x, hi_y), finite_min(hi_z, t_max))
     result = wp.inf
