@@ -87,6 +87,28 @@ def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, args, needle)
     assert not any("Traceback" in line for line in lines)
 
 
+def test_output_problems_are_one_line_errors_found_before_rendering(tmp_path, capsys):
+    """An unwritable format fails before the scene is even loaded; an output path under a regular file (an OS error
+    other than a missing file) is one line and exit status 2 as well, for render and for bench."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    cases = [
+        (["render", "--width", "8", "--height", "8", "-o", str(tmp_path / "out.xyz")], "supported image formats"),
+        (["render", "--width", "8", "--height", "8", "-o", str(blocker / "x.png")], "a_file"),
+        (["render", "--width", "8", "--height", "8", "-o", str(tmp_path / "ok.png"), "--aov-dir", str(blocker)],
+         "a_file"),
+        (["bench", "--scenes", "sphere:200", "--accels", "wrt:sah", "--rays", "primary", "-q", "-o", str(blocker)],
+         "a_file"),
+    ]
+    for args, needle in cases:
+        assert main(args) == 2, args
+        lines = error_lines(capsys.readouterr().err)
+        errors = [line for line in lines if line.startswith("wrt: error:")]
+        assert len(errors) == 1 and needle in errors[0], lines
+        assert not any("Traceback" in line or "loaded" in line for line in lines), lines
+    assert not (tmp_path / "out.xyz").exists()
+
+
 def test_broken_usd_file_names_file_in_one_line(tmp_path):
     bad = tmp_path / "broken.usda"
     bad.write_bytes(b"#usda 1.0\n(\n this is not usd {{{\n")

@@ -146,6 +146,15 @@ def _output_for(args, path: Path, several: bool) -> Path:
     return Path(pattern) / f"{path.stem}.png"
 
 
+def _check_output_location(directory: Path) -> None:
+    """Raises NotADirectoryError when ``directory`` cannot be created because a file stands in its way."""
+    for ancestor in (directory, *directory.parents):
+        if ancestor.exists():
+            if not ancestor.is_dir():
+                raise NotADirectoryError(f"cannot write into {directory}: {ancestor} is a file, not a directory")
+            return
+
+
 def _renderer_options(args) -> dict:
     """The :class:`wrt.Renderer` options of ``wrt render``'s arguments, all but the device."""
     names = ("camera", "width", "height", "builder", "accel", "integrator", "max_depth", "ao_radius")
@@ -194,6 +203,12 @@ def _run_render(args) -> int:
     if args.resume or args.devices or args.dask is not None:
         raise ValueError("--resume, --devices and --dask apply to --frames only")
     several = len(paths) > 1
+    from .image import check_image_path
+
+    for path in paths:  # an unwritable output fails now, not after a long render
+        _check_output_location(check_image_path(_output_for(args, path, several)).parent)
+    if args.aov_dir:
+        _check_output_location(Path(args.aov_dir))
     if not several and not args.log:
         _render_one(args, paths[0], _output_for(args, paths[0], False), progress)  # errors: one line, exit 2
         return 0
@@ -207,7 +222,7 @@ def _run_render(args) -> int:
         try:
             _render_one(args, path, output, progress)
             row["status"] = "ok"
-        except (SceneError, ValueError, TypeError, FileNotFoundError, MemoryError, RuntimeError) as e:
+        except (SceneError, ValueError, TypeError, OSError, MemoryError, RuntimeError) as e:
             message = str(e).splitlines()[0] if str(e) else type(e).__name__
             row.update(status="error", error=f"{type(e).__name__}: {message}")
             failures.append(row)
@@ -468,7 +483,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = show_warning
     try:
         return args.run(args)
-    except (SceneError, ValueError, TypeError, FileNotFoundError, MemoryError) as e:
+    except (SceneError, ValueError, TypeError, OSError, MemoryError) as e:  # OSError: unwritable output paths too
         message = str(e).splitlines()[0] if str(e) else type(e).__name__
         print(f"wrt: error: {message}", file=sys.stderr)
         return EXIT_BAD_INPUT

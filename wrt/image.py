@@ -9,6 +9,7 @@ triangles tested, normals as ``0.5 (n + 1)``, depths and ids as grey levels and 
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -111,6 +112,21 @@ def write_exr(path: Path, channels: dict[str, np.ndarray]) -> None:
         f.write(str(path))
 
 
+def check_image_path(path) -> Path:
+    """``path`` as a Path if :meth:`Image.save` can write its format; callers check before a long render.
+
+    Raises:
+        ValueError: for an extension other than ``IMAGE_FORMATS``, or ``.exr`` without the OpenEXR package.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in IMAGE_FORMATS:
+        raise ValueError(f"cannot write {path.name}: supported image formats are {', '.join(IMAGE_FORMATS)}")
+    if suffix == ".exr" and importlib.util.find_spec("OpenEXR") is None:
+        raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package (pip install OpenEXR)")
+    return path
+
+
 @dataclasses.dataclass
 class Image:
     """A rendered image.
@@ -152,10 +168,8 @@ class Image:
         Raises:
             ValueError: for any other extension, or ``.exr`` without the OpenEXR package.
         """
-        path = Path(path)
+        path = check_image_path(path)
         suffix = path.suffix.lower()
-        if suffix not in IMAGE_FORMATS:
-            raise ValueError(f"cannot write {path.name}: supported image formats are {', '.join(IMAGE_FORMATS)}")
         path.parent.mkdir(parents=True, exist_ok=True)
         if suffix == ".png":
             from PIL import Image as PilImage
