@@ -165,6 +165,8 @@ def test_t_max_is_exclusive_and_per_ray():
         hits = wrt.trace(scene, origins, directions, t_max=np.array([4.0, 5.0, 6.0]), accel=accel)
         assert hits.prim.tolist() == [-1, -1, 0]
         assert np.isinf(hits.t[:2]).all()
+    with pytest.raises(ValueError, match=r"t_max .* shape \(3,\); got shape \(2,\)"):
+        wrt.trace(scene, origins, directions, t_max=[4.0, 5.0])
 
 
 def test_ties_go_to_the_smaller_triangle_id():

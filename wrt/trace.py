@@ -524,7 +524,10 @@ def _upload_rays(origins, directions, t_max, device) -> list:
     """Checks and uploads a ray batch: ``[origins, directions, t_mins (zeros), t_maxs]`` as device arrays."""
     o, d = _as_rays(origins, directions)
     n = len(o)
-    t_maxs = np.broadcast_to(np.asarray(t_max, dtype=np.float32), (n,)).copy()
+    t_maxs = np.asarray(t_max, dtype=np.float32)
+    if t_maxs.shape not in ((), (n,)):
+        raise ValueError(f"t_max must be a scalar or one value per ray, shape ({n},); got shape {t_maxs.shape}")
+    t_maxs = np.broadcast_to(t_maxs, (n,)).copy()
     return [
         wp.array(o, dtype=wp.vec3, device=device),
         wp.array(d, dtype=wp.vec3, device=device),
