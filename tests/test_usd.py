@@ -621,6 +621,13 @@ def test_not_usd(tmp_path, content):
     expect_scene_error(str(path), "USD cannot open")
 
 
+def test_syntax_error_names_line_and_property(tmp_path):
+    """USD's parse error spans two lines of its exception text; the message keeps it (line 5, the property)."""
+    path = tmp_path / "scene.usda"
+    path.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3\n}\n')
+    expect_scene_error(str(path), "USD cannot open", "scene.usda:5:1: parse error", "</M.faceVertexCounts>")
+
+
 @pytest.mark.parametrize(
     "kwargs, fragments",
     [

@@ -174,8 +174,10 @@ def _open_stage(source: str) -> Usd.Stage:
 
 def _tf_message(error: Exception) -> str:
     """The quoted reasons inside a ``Tf.ErrorException`` text, without the C++ file and line noise."""
-    reasons = re.findall(r" : '(.*)'\s*$", str(error), flags=re.MULTILINE)
-    return "; ".join(reasons) if reasons else str(error).strip()
+    # A reason may span lines (the text parser's ends in a newline before its closing quote).
+    reasons = re.findall(r" : '(.*?)'\s*(?=\n\s*Error in|\Z)", str(error), flags=re.DOTALL)
+    reasons = [re.sub(r"pxrInternal_\w+?::", "", r).strip() for r in reasons]
+    return "; ".join(r for r in reasons if r) or str(error).strip()
 
 
 def _get(attr: Usd.Attribute, time: Usd.TimeCode):
