@@ -214,6 +214,23 @@ def test_zero_size_gprims_are_skipped_with_a_warning_naming_them(tmp_path):
     assert scene.shapes == []
 
 
+@pytest.mark.parametrize("scale", ["(1, 1, 1)", "(-1, 1, 1)", "(-1, -2, 0.5)", "(-2, 1, 1)"])
+def test_tessellated_gprims_keep_outward_normals_under_mirroring(tmp_path, scale):
+    """A tessellated sphere under any scale, mirroring ones included: winding and stored normals both point out
+    (Mesh's contract; a sign(det) factor once turned mirrored normals inward)."""
+    path = tmp_path / "sphere.usda"
+    path.write_text(
+        f'#usda 1.0\ndef Sphere "S"\n{{\n    double radius = 1\n    double3 xformOp:scale = {scale}\n'
+        '    uniform token[] xformOpOrder = ["xformOp:scale"]\n}\n'
+    )
+    mesh = load(path, tessellate_gprims=16).meshes[0]
+    corners = mesh.points[mesh.indices]
+    outward = corners.mean(axis=1)  # the sphere is centred at the origin
+    winding = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert ((winding * outward).sum(axis=1) > 0).all()
+    assert ((mesh.normals.mean(axis=1) * outward).sum(axis=1) > 0).all()
+
+
 def test_warp_accel_asks_for_tessellated_gprims(tmp_path):
     path, _ = gprim_stage(tmp_path, "Sphere", Radius=1.0)
     with pytest.raises(ValueError, match="tessellate_gprims=True"):

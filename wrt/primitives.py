@@ -513,7 +513,7 @@ def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
     if det < 0:  # a mirroring transform flips the winding
         tris = tris[:, [0, 2, 1]]
         normals = normals[:, [0, 2, 1]]
-    cofactor = np.linalg.inv(linear).T * np.sign(det) if det != 0 else np.zeros((3, 3))
+    cofactor = np.linalg.inv(linear).T if det != 0 else np.zeros((3, 3))  # no sign: mirrored normals stay outward
     world_normals = normals @ cofactor.T
     length = np.linalg.norm(world_normals, axis=2, keepdims=True)
     world_normals = np.where(length > 0, world_normals / np.where(length > 0, length, 1.0), 0.0)
