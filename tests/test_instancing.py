@@ -102,6 +102,40 @@ def check_agreement(scene, origins, directions) -> dict:
 # Loading
 
 
+PROTOTYPES_UNDER_OVER = """#usda 1.0
+def PointInstancer "PI"
+{
+    rel prototypes = [</PI/Prototypes/source_1>]
+    int[] protoIndices = [0, 0]
+    point3f[] positions = [(0, 0, 0), (10, 0, 0)]
+    over "Prototypes"
+    {
+        def Xform "source_1"
+        {
+            def Mesh "T"
+            {
+                int[] faceVertexCounts = [3]
+                int[] faceVertexIndices = [0, 1, 2]
+                point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+            }
+        }
+    }
+}
+"""
+
+
+def test_instancer_prototypes_under_an_over_are_drawn_only_through_the_instancer(tmp_path):
+    """A common layout keeps prototypes under an ``over`` so they are not drawn in place; the instancer still draws
+    them (USD computes both instance transforms; wrt once found no prims there, since they are not "defined")."""
+    path = tmp_path / "pi_over.usda"
+    path.write_text(PROTOTYPES_UNDER_OVER)
+    stage = Usd.Stage.Open(str(path))
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    assert len(pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default())) == 2
+    stats = load(path).stats()
+    assert (stats["instances"], stats["rendered_triangles"], stats["meshes"]) == (2, 2, 0)
+
+
 def test_pointinstancer_transforms_match_usd(tmp_path):
     """Positions, orientations, scales, the prototype root's own transform, invisibleIds and the instancer's
     world transform, against UsdGeom.PointInstancer.ComputeInstanceTransformsAtTime."""

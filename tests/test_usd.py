@@ -316,6 +316,21 @@ def test_display_color_interpolation(tmp_path, interpolation, left_handed):
         np.testing.assert_allclose(m.colors, values[m.indices])  # corner c of triangle t is vertex indices[t, c]
 
 
+def test_non_finite_display_colors_warn_and_fall_back_to_grey(tmp_path):
+    stage, path = make_stage(tmp_path)
+    mesh = define_mesh(stage, left_handed=False)
+    values = np.full((ELEMENTS["vertex"], 3), 0.25, np.float32)
+    values[1] = (np.nan, 0.5, 0.5)
+    values[2] = (0.1, np.inf, 0.2)
+    mesh.CreateDisplayColorPrimvar("vertex").Set(Vt.Vec3fArray.FromNumpy(values))
+    stage.Save()
+    with pytest.warns(UserWarning, match="non-finite displayColor"):
+        (m,) = load_usd(path).meshes
+    expected = values.copy()
+    expected[1:3] = 0.5
+    np.testing.assert_array_equal(m.colors, expected[m.indices])
+
+
 @pytest.mark.parametrize("interpolation", ["vertex", "faceVarying", "uniform"])
 def test_indexed_primvars(tmp_path, interpolation):
     stage, path = make_stage(tmp_path)

@@ -172,6 +172,9 @@ def _open_stage(source: str) -> Usd.Stage:
     return stage
 
 
+_PROTOTYPE_PREDICATE = Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract  # see _StageReader._content
+
+
 def _tf_message(error: Exception) -> str:
     """The quoted reasons inside a ``Tf.ErrorException`` text, without the C++ file and line noise."""
     # A reason may span lines (the text parser's ends in a newline before its closing quote).
@@ -266,10 +269,10 @@ class _StageReader:
         self._warn_skipped()
         return scene
 
-    def _walk(self, root: Usd.Prim, ctx: _Context):
+    def _walk(self, root: Usd.Prim, ctx: _Context, predicate=Usd.PrimDefaultPredicate):
         """Reads the subtree at ``root`` into ``ctx.content`` (native instances are not entered: their prototype is
-        read once, as its own content)."""
-        it = iter(Usd.PrimRange(root, Usd.PrimDefaultPredicate))  # active, defined, loaded, concrete
+        read once, as its own content). The default predicate takes active, defined, loaded, concrete prims."""
+        it = iter(Usd.PrimRange(root, predicate))
         for prim in it:
             try:
                 self._read_prim(prim, it, ctx)
@@ -365,7 +368,9 @@ class _StageReader:
                 raise self._error("prototype contains an instance of itself", root)
             self.reading.add(key)
             content = _Content(str(root.GetPath()))
-            self._walk(root, _Context(content, space_root, outer_material))
+            # Prototypes are often kept under an ``over`` so they are not drawn in place; instanced, they are drawn
+            # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
+            self._walk(root, _Context(content, space_root, outer_material), _PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content
         return self.contents[key]
@@ -753,7 +758,12 @@ class _StageReader:
         if found is None:
             return None
         values, corner_index = found
-        return values.astype(np.float32), corner_index
+        values = values.astype(np.float32)
+        bad = ~np.isfinite(values).all(axis=1)
+        if bad.any():  # NaN or inf would render as a wrong colour; gprims fall back to grey too
+            self._skip("non-finite displayColor values were replaced by grey 0.5", prim)
+            values[bad] = 0.5
+        return values, corner_index
 
     def _read_uvs(self, prim, topology, uv_set: str):
         """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (when missing:
