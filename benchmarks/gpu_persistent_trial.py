@@ -35,6 +35,7 @@ from wrt.bvh.stack import STACK_BUILD_OPTIONS, NodeStack  # noqa: E402
 from wrt.bvh.traverse import order_children, reachable  # noqa: E402
 from wrt.geometry import (  # noqa: E402
     ShearedRay,
+    box_origins,
     intersect_ray_box,
     intersect_ray_triangle,
     make_sheared_ray,
@@ -67,6 +68,8 @@ def trace_persistent_kernel(
     n = origins.shape[0]
     ray_id = wp.tid() - num_threads  # the ray in flight; negative: none yet
     origin = wp.vec3()
+    origin_lower = wp.vec3()
+    origin_upper = wp.vec3()
     inv_dir = wp.vec3()
     ray = ShearedRay()
     t_min = float(0.0)
@@ -97,7 +100,7 @@ def trace_persistent_kernel(
                 node = -1
             else:
                 left, right, t_left, t_right = order_children(
-                    bvh.lowers, bvh.uppers, first, origin, inv_dir, t_min, best_t
+                    bvh.lowers, bvh.uppers, first, origin_lower, origin_upper, inv_dir, t_min, best_t
                 )
                 node = -1
                 if reachable(t_left, best_t):
@@ -137,7 +140,10 @@ def trace_persistent_kernel(
                 if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, best_t):
                     ray = make_sheared_ray(origin, direction)
                     inv_dir = safe_inverse(direction)
-                    root = intersect_ray_box(origin, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, best_t)
+                    origin_lower, origin_upper = box_origins(origin, direction)
+                    root = intersect_ray_box(
+                        origin_lower, origin_upper, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, best_t
+                    )
                     if reachable(root, best_t):
                         node = 0
 

@@ -9,7 +9,7 @@ import warp as wp
 from conftest import warp_assets
 
 import wrt
-from wrt.geometry import intersect_ray_box, offset_ray_origin, safe_inverse
+from wrt.geometry import box_origins, intersect_ray_box, offset_ray_origin, safe_inverse
 from wrt.sampling import sin_cos
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
@@ -419,7 +419,8 @@ def _slab_kernel(
 ):
     i = wp.tid()
     inv = safe_inverse(directions[i])
-    out[i] = intersect_ray_box(origins[i], inv, lowers[i], uppers[i], 0.0, t_max)
+    origin_lower, origin_upper = box_origins(origins[i], directions[i])
+    out[i] = intersect_ray_box(origin_lower, origin_upper, inv, lowers[i], uppers[i], 0.0, t_max)
 
 
 def _slab_reference(o, d, lo, hi, t_max):

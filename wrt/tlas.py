@@ -34,7 +34,7 @@ import warp as wp
 from .bvh import DeviceBvh, build_bvh
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import bvh_intersect, bvh_occluded, order_children, reachable
-from .geometry import intersect_ray_box, ray_can_hit, safe_inverse
+from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import invert_transforms, world_boxes
 from .primitives import intersect_shape, shape_uv
 from .scene import Scene
@@ -102,10 +102,12 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
     tests = int(0)
     if tlas.num_entries > 0 and ray_can_hit(origin, direction, t_min, t_max):
         inv_dir = safe_inverse(direction)
+        origin_lower, origin_upper = box_origins(origin, direction)
         stack = NodeStack()
         top = int(0)
         node = int(-1)
-        if reachable(intersect_ray_box(origin, inv_dir, tlas.lowers[0], tlas.uppers[0], t_min, best_t), best_t):
+        root = intersect_ray_box(origin_lower, origin_upper, inv_dir, tlas.lowers[0], tlas.uppers[0], t_min, best_t)
+        if reachable(root, best_t):
             node = 0
         while node >= 0:
             nodes += 1
@@ -148,7 +150,7 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
             else:
                 # Inner node: go to the nearer child that the ray enters, push the other one.
                 left, right, t_left, t_right = order_children(
-                    tlas.lowers, tlas.uppers, first, origin, inv_dir, t_min, best_t
+                    tlas.lowers, tlas.uppers, first, origin_lower, origin_upper, inv_dir, t_min, best_t
                 )
                 node = -1
                 if reachable(t_left, best_t):
@@ -173,10 +175,12 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
     found = bool(False)
     if tlas.num_entries > 0 and ray_can_hit(origin, direction, t_min, t_max):
         inv_dir = safe_inverse(direction)
+        origin_lower, origin_upper = box_origins(origin, direction)
         stack = NodeStack()
         top = int(0)
         node = int(-1)
-        if intersect_ray_box(origin, inv_dir, tlas.lowers[0], tlas.uppers[0], t_min, t_max) < wp.inf:
+        root = intersect_ray_box(origin_lower, origin_upper, inv_dir, tlas.lowers[0], tlas.uppers[0], t_min, t_max)
+        if root < wp.inf:
             node = 0
         while node >= 0 and not found:
             count = tlas.prim_count[node]
@@ -199,7 +203,7 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
                 node = -1
             else:
                 left, right, t_left, t_right = order_children(
-                    tlas.lowers, tlas.uppers, first, origin, inv_dir, t_min, t_max
+                    tlas.lowers, tlas.uppers, first, origin_lower, origin_upper, inv_dir, t_min, t_max
                 )
                 node = -1
                 if t_left < wp.inf:

@@ -20,7 +20,14 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_can_hit, safe_inverse
+from ..geometry import (
+    box_origins,
+    intersect_ray_box,
+    intersect_ray_triangle,
+    make_sheared_ray,
+    ray_can_hit,
+    safe_inverse,
+)
 from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
 from .traverse import TRACE_KERNEL_OPTIONS, reachable
@@ -146,6 +153,7 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
+        origin_lower, origin_upper = box_origins(origin, direction)
         stack = NodeStack()
         top = int(0)
         ref = int(0)  # current node or leaf; the root is inner node 0
@@ -174,11 +182,13 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
                 t1 = float(wp.inf)
                 if ch[2] >= 0:
                     t0 = intersect_ray_box(
-                        origin, inv_dir, wp.vec3(a[0], a[2], z[0]), wp.vec3(a[1], a[3], z[1]), t_min, best_t
+                        origin_lower, origin_upper, inv_dir, wp.vec3(a[0], a[2], z[0]),
+                        wp.vec3(a[1], a[3], z[1]), t_min, best_t,
                     )
                 if ch[3] >= 0:
                     t1 = intersect_ray_box(
-                        origin, inv_dir, wp.vec3(b[0], b[2], z[2]), wp.vec3(b[1], b[3], z[3]), t_min, best_t
+                        origin_lower, origin_upper, inv_dir, wp.vec3(b[0], b[2], z[2]),
+                        wp.vec3(b[1], b[3], z[3]), t_min, best_t,
                     )
                 near_ref = ch[0]
                 near_count = ch[2]
@@ -220,6 +230,7 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
+        origin_lower, origin_upper = box_origins(origin, direction)
         stack = NodeStack()
         top = int(0)
         ref = int(0)
@@ -240,11 +251,13 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
                 t1 = float(wp.inf)
                 if ch[2] >= 0:
                     t0 = intersect_ray_box(
-                        origin, inv_dir, wp.vec3(a[0], a[2], z[0]), wp.vec3(a[1], a[3], z[1]), t_min, t_max
+                        origin_lower, origin_upper, inv_dir, wp.vec3(a[0], a[2], z[0]),
+                        wp.vec3(a[1], a[3], z[1]), t_min, t_max,
                     )
                 if ch[3] >= 0:
                     t1 = intersect_ray_box(
-                        origin, inv_dir, wp.vec3(b[0], b[2], z[2]), wp.vec3(b[1], b[3], z[3]), t_min, t_max
+                        origin_lower, origin_upper, inv_dir, wp.vec3(b[0], b[2], z[2]),
+                        wp.vec3(b[1], b[3], z[3]), t_min, t_max,
                     )
                 near_ref = ch[0]
                 near_count = ch[2]

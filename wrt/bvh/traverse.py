@@ -13,7 +13,14 @@ depend on the tree or the visiting order. Boxes are entered when their entry dis
 
 import warp as wp
 
-from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_can_hit, safe_inverse
+from ..geometry import (
+    box_origins,
+    intersect_ray_box,
+    intersect_ray_triangle,
+    make_sheared_ray,
+    ray_can_hit,
+    safe_inverse,
+)
 from .layout import DeviceBvh
 from .stack import NodeStack
 
@@ -28,20 +35,22 @@ def order_children(
     lowers: wp.array[wp.vec3],
     uppers: wp.array[wp.vec3],
     first: int,
-    origin: wp.vec3,
+    origin_lower: wp.vec3,
+    origin_upper: wp.vec3,
     inv_dir: wp.vec3,
     t_min: float,
     t_max: float,
 ):
-    """The children ``first`` and ``first + 1`` of a binary node, nearer entry first.
+    """The children ``first`` and ``first + 1`` of a binary node, nearer entry first (the ray as for
+    ``intersect_ray_box``).
 
     Returns:
         ``(near, far, t_near, t_far)``; an entry distance is ``inf`` when the ray misses that child's box.
     """
     near = first
     far = first + 1
-    t_near = intersect_ray_box(origin, inv_dir, lowers[near], uppers[near], t_min, t_max)
-    t_far = intersect_ray_box(origin, inv_dir, lowers[far], uppers[far], t_min, t_max)
+    t_near = intersect_ray_box(origin_lower, origin_upper, inv_dir, lowers[near], uppers[near], t_min, t_max)
+    t_far = intersect_ray_box(origin_lower, origin_upper, inv_dir, lowers[far], uppers[far], t_min, t_max)
     if t_far < t_near:
         near = first + 1
         far = first
@@ -73,10 +82,12 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
+        origin_lower, origin_upper = box_origins(origin, direction)
         stack = NodeStack()
         top = int(0)
         node = int(-1)
-        if reachable(intersect_ray_box(origin, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, best_t), best_t):
+        root = intersect_ray_box(origin_lower, origin_upper, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, best_t)
+        if reachable(root, best_t):
             node = 0
         while node >= 0:
             nodes += 1
@@ -97,7 +108,7 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
             else:
                 # Inner node: go to the nearer child that the ray enters, push the other one.
                 left, right, t_left, t_right = order_children(
-                    bvh.lowers, bvh.uppers, first, origin, inv_dir, t_min, best_t
+                    bvh.lowers, bvh.uppers, first, origin_lower, origin_upper, inv_dir, t_min, best_t
                 )
                 node = -1
                 if reachable(t_left, best_t):
@@ -125,10 +136,11 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
+        origin_lower, origin_upper = box_origins(origin, direction)
         stack = NodeStack()
         top = int(0)
         node = int(-1)
-        if intersect_ray_box(origin, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, t_max) < wp.inf:
+        if intersect_ray_box(origin_lower, origin_upper, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, t_max) < wp.inf:
             node = 0
         while node >= 0 and not found:
             count = bvh.prim_count[node]
@@ -141,7 +153,7 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
                 node = -1
             else:
                 left, right, t_left, t_right = order_children(
-                    bvh.lowers, bvh.uppers, first, origin, inv_dir, t_min, t_max
+                    bvh.lowers, bvh.uppers, first, origin_lower, origin_upper, inv_dir, t_min, t_max
                 )
                 node = -1
                 if t_left < wp.inf:

@@ -24,7 +24,14 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from ..geometry import intersect_ray_box, intersect_ray_triangle, make_sheared_ray, ray_can_hit, safe_inverse
+from ..geometry import (
+    box_origins,
+    intersect_ray_box,
+    intersect_ray_triangle,
+    make_sheared_ray,
+    ray_can_hit,
+    safe_inverse,
+)
 from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .stack import SORT_SLOTS, STACK_BUILD_OPTIONS, WIDE_STACK, SortBuffer, WideStack
@@ -181,6 +188,7 @@ def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_mi
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
+        origin_lower, origin_upper = box_origins(origin, direction)
         stack = WideStack()
         entered = SortBuffer()
         top = int(0)
@@ -206,7 +214,9 @@ def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_mi
                 for j in range(bvh.width):
                     c = ref * bvh.width + j
                     if bvh.counts[c] >= 0:
-                        t = intersect_ray_box(origin, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, best_t)
+                        t = intersect_ray_box(
+                            origin_lower, origin_upper, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, best_t
+                        )
                         if reachable(t, best_t):
                             k = m
                             while k > 0 and wp.wrt_stack_t(entered, k - 1) > t:
@@ -255,6 +265,7 @@ def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
         ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
+        origin_lower, origin_upper = box_origins(origin, direction)
         stack = WideStack()
         top = int(0)
         ref = int(0)
@@ -273,7 +284,9 @@ def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min
                 for j in range(bvh.width):
                     c = node * bvh.width + j
                     if bvh.counts[c] >= 0:
-                        t = intersect_ray_box(origin, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, t_max)
+                        t = intersect_ray_box(
+                            origin_lower, origin_upper, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, t_max
+                        )
                         if t < wp.inf:
                             wp.wrt_stack_push(stack, top, bvh.refs[c], bvh.counts[c], 0.0)
                             top += 1
