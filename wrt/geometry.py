@@ -224,7 +224,7 @@ _ORIGIN_SHIFT = """
 """
 _FLAT_SLAB_SLACK = """
 #if defined(__CUDA_ARCH__)
-    return (inv >= 1.0e38f || inv <= -1.0e38f) ? sign * 1.0e20f : 0.0f;
+    return fabsf(inv) >= 1.0e38f ? sign * 1.0e20f : 0.0f;
 #else
     return 0.0f;
 #endif
