@@ -309,3 +309,41 @@ def test_emissive_mesh_light_does_not_depend_on_scene_scale(scale):
     unit = render(1.0).rgb
     assert unit.mean() > 0.1
     np.testing.assert_allclose(render(scale).rgb, unit, rtol=0.05, atol=1e-3)
+
+
+DEFAULT_TIME_USDA = """#usda 1.0
+def Material "M"
+{
+    token outputs:surface.connect = </M/PS.outputs:surface>
+    def Shader "PS"
+    {
+        uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:diffuseColor.timeSamples = { 1: (1, 0, 0), 10: (0, 0, 1) }
+        token outputs:surface
+    }
+}
+def Mesh "Plane" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    point3f[] points = [(-10, 0, 10), (10, 0, 10), (10, 0, -10), (-10, 0, -10)]
+    rel material:binding = </M>
+}
+def DistantLight "Sun"
+{
+    float inputs:angle = 0
+    float inputs:intensity.timeSamples = { 1: 3.0, 10: 6.0 }
+    color3f inputs:color.timeSamples = { 1: (1, 0.5, 0.25) }
+}
+"""
+
+
+def test_light_and_material_inputs_with_only_time_samples_read_the_first_at_the_default_time(tmp_path):
+    """``time=None`` reads values that have only time samples at the first sample, for lights and materials as
+    for points (their schema fallbacks, e.g. a distant light's intensity 50000, were used instead)."""
+    path = tmp_path / "scene.usda"
+    path.write_text(DEFAULT_TIME_USDA)
+    default, first = wrt.load_usd(path), wrt.load_usd(path, time=1.0)
+    np.testing.assert_allclose(default.lights[0].color, [3.0, 1.5, 0.75], rtol=1e-6)
+    np.testing.assert_array_equal(default.lights[0].color, first.lights[0].color)
+    np.testing.assert_array_equal(default.materials[0].diffuse_color, [1.0, 0.0, 0.0])

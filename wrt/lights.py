@@ -264,12 +264,10 @@ def read_light(prim, xforms, time, up_axis: str, skip):
     """
     from pxr import UsdLux
 
-    def get(attr, default):
-        value = attr.Get(time) if attr else None
-        if value is None and attr and time.IsDefault() and attr.HasValue():
-            from pxr import Usd
+    from .usd_values import value_at
 
-            value = attr.Get(Usd.TimeCode.EarliestTime())
+    def get(attr, default):
+        value = value_at(attr, time) if attr else None
         return default if value is None else value
 
     light = UsdLux.LightAPI(prim)

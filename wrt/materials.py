@@ -31,6 +31,7 @@ import warp as wp
 
 from .bsdf import Surface
 from .textures import WRAP_MODES, TextureError, load_image, pack_images, sample_image
+from .usd_values import value_at
 
 SLOTS = (  # the texturable inputs, in device slot order
     "diffuseColor",
@@ -341,7 +342,7 @@ class MaterialReader:
             sub_material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial(purpose)
             if not sub_material:
                 continue
-            indices = UsdGeom.Subset(subset.GetPrim()).GetIndicesAttr().Get(self.time)
+            indices = value_at(UsdGeom.Subset(subset.GetPrim()).GetIndicesAttr(), self.time)
             indices = np.asarray(indices if indices is not None else [], np.int64).reshape(-1)
             indices = indices[(indices >= 0) & (indices < n_faces)]
             faces[indices] = self.material_index(sub_material)
@@ -408,7 +409,7 @@ class MaterialReader:
             if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
                 base, _ = UsdShade.Utils.GetBaseNameAndType(attr.GetName())
                 return ("shader", UsdShade.Shader(attr.GetPrim()), str(base))
-            value = attr.Get(self.time)
+            value = value_at(attr, self.time)
             return None if value is None else ("value", value)
         return None
 

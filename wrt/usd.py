@@ -55,6 +55,7 @@ from .lights import read_light
 from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import Mesh, Scene
+from .usd_values import value_at
 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -181,22 +182,6 @@ def _tf_message(error: Exception) -> str:
     reasons = re.findall(r" : '(.*?)'\s*(?=\n\s*Error in|\Z)", str(error), flags=re.DOTALL)
     reasons = [re.sub(r"pxrInternal_\w+?::", "", r).strip() for r in reasons]
     return "; ".join(r for r in reasons if r) or str(error).strip()
-
-
-def _get(attr: Usd.Attribute, time: Usd.TimeCode):
-    """``attr`` at ``time``, or at its earliest time sample when ``time`` is default and it has no authored default
-    (a schema fallback, such as visibility's ``inherited``, does not count).
-
-    Reads ``EarliestTime`` rather than ``GetTimeSamples()[0]``: the result is the same, and ``GetTimeSamples``
-    can hang usd-core 26.11 on stages with ``timeCodesPerSecond = 0``.
-    """
-    if (
-        time.IsDefault()
-        and attr.HasAuthoredValue()
-        and attr.GetResolveInfo(time).GetSource() != Usd.ResolveInfoSourceDefault
-    ):
-        return attr.Get(Usd.TimeCode.EarliestTime())
-    return attr.Get(time)
 
 
 class _LocalMesh:
@@ -326,7 +311,7 @@ class _StageReader:
         p = prim
         while p and p != stop and not p.IsPseudoRoot():
             img = UsdGeom.Imageable(p)
-            if img and _get(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible:
+            if img and value_at(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible:
                 return False
             p = p.GetParent()
         return True
@@ -403,7 +388,7 @@ class _StageReader:
             if not target or not target.IsValid():
                 raise self._error(f"prototypes[{k}] targets {path}, which does not exist", prim, None)
             protos.append(target)
-        raw = _get(pi.GetProtoIndicesAttr(), t)
+        raw = value_at(pi.GetProtoIndicesAttr(), t)
         proto_indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
         n = len(proto_indices)
         if n == 0:
@@ -418,7 +403,7 @@ class _StageReader:
             )
 
         def per_instance(attr, width, name, default):
-            value = _get(attr, t) if attr.HasValue() else None
+            value = value_at(attr, t) if attr.HasValue() else None
             if value is None or len(value) == 0:
                 return None if default is None else np.tile(default, (n, 1))
             array = np.asarray(value, np.float64).reshape(len(value), -1)
@@ -502,7 +487,7 @@ class _StageReader:
     def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
         """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         # Materials first: the texture-coordinate primvar to read depends on them.
-        counts = _get(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr(), self.time)
+        counts = value_at(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr(), self.time)
         n_faces = len(counts) if counts is not None else 0
         face_materials = self.materials.face_materials(prim, n_faces)
         if face_materials is None:
@@ -574,7 +559,7 @@ class _StageReader:
         t = self.time
 
         def number(attr, name):
-            value = _get(attr, t)
+            value = value_at(attr, t)
             value = float(value) if value is not None else float("nan")
             if not (math.isfinite(value) and value > 0.0):
                 self._skip("gprims with a zero, negative or non-finite size were skipped", prim, f"{name} = {value:g}")
@@ -582,7 +567,7 @@ class _StageReader:
             return value
 
         def axis_of(schema):
-            axis = str(_get(schema.GetAxisAttr(), t) or "Z")
+            axis = str(value_at(schema.GetAxisAttr(), t) or "Z")
             return axis_rotation(axis if axis in ("X", "Y", "Z") else "Z")
 
         params = np.array([1.0, 0.0, 0.0, 1.0])
@@ -600,7 +585,7 @@ class _StageReader:
             linear = None if h is None or r is None else axis_of(schema) @ np.diag([r, r, h / 2.0])
         elif type_name == "Capsule":
             schema = UsdGeom.Capsule(prim)
-            h, r = _get(schema.GetHeightAttr(), t), number(schema.GetRadiusAttr(), "radius")
+            h, r = value_at(schema.GetHeightAttr(), t), number(schema.GetRadiusAttr(), "radius")
             h = float(h) if h is not None else float("nan")
             if not (math.isfinite(h) and h >= 0.0):
                 self._skip("gprims with a zero, negative or non-finite size were skipped", prim, f"height = {h:g}")
@@ -620,7 +605,7 @@ class _StageReader:
         if linear is None:
             return None
         gprim = UsdGeom.Gprim(prim)
-        if _get(gprim.GetOrientationAttr(), t) == UsdGeom.Tokens.leftHanded:
+        if value_at(gprim.GetOrientationAttr(), t) == UsdGeom.Tokens.leftHanded:
             params[3] = -1.0
         to_world = m.T @ shape_transform(linear)
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
@@ -646,7 +631,7 @@ class _StageReader:
             params=params,
             color=color,
             material_id=material_id,
-            double_sided=bool(_get(gprim.GetDoubleSidedAttr(), t)),
+            double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
         )
 
     def _tessellated(self, shape: Shape, prim: Usd.Prim) -> Mesh:
@@ -671,9 +656,9 @@ class _StageReader:
     def _read_local_mesh(self, prim: Usd.Prim, uv_set: str | None = None) -> _LocalMesh | None:
         mesh = UsdGeom.Mesh(prim)
         t = self.time
-        counts = _get(mesh.GetFaceVertexCountsAttr(), t)
-        face_indices = _get(mesh.GetFaceVertexIndicesAttr(), t)
-        raw_points = _get(mesh.GetPointsAttr(), t)
+        counts = value_at(mesh.GetFaceVertexCountsAttr(), t)
+        face_indices = value_at(mesh.GetFaceVertexIndicesAttr(), t)
+        raw_points = value_at(mesh.GetPointsAttr(), t)
         counts = np.asarray(counts if counts is not None else [], dtype=np.int64).reshape(-1)
         face_indices = np.asarray(face_indices if face_indices is not None else [], dtype=np.int64).reshape(-1)
         if len(counts) == 0:
@@ -700,7 +685,7 @@ class _StageReader:
             raise self._error(str(e), prim, mesh.GetFaceVertexCountsAttr()) from None
         vertex_ids = face_indices[tri_corners]
 
-        holes = _get(mesh.GetHoleIndicesAttr(), t)
+        holes = value_at(mesh.GetHoleIndicesAttr(), t)
         if holes is not None and len(holes):
             self._skip("holeIndices are not supported; hole faces are rendered", prim)
 
@@ -708,8 +693,8 @@ class _StageReader:
         normals = self._read_normals(prim, mesh, topology)
         colors = self._read_colors(prim, mesh, topology)
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
-        flip = _get(mesh.GetOrientationAttr(), t) == UsdGeom.Tokens.leftHanded
-        double_sided = bool(_get(mesh.GetDoubleSidedAttr(), t))
+        flip = value_at(mesh.GetOrientationAttr(), t) == UsdGeom.Tokens.leftHanded
+        double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
         return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs)
 
     def _check_topology(self, prim, counts, face_indices, points):
@@ -789,7 +774,7 @@ class _StageReader:
         """
         counts, face_indices, tri_corners, face_ids, n_points = topology
         name = attr.GetName()
-        raw = _get(attr, self.time)
+        raw = value_at(attr, self.time)
         values = np.asarray(raw) if raw is not None else np.zeros((0, components))
         if values.ndim != 2 or values.shape[1] != components or values.dtype.kind not in "fiu":
             self._skip(
@@ -809,7 +794,7 @@ class _StageReader:
         # Element ids: through the primvar's indices when it is indexed, else the values themselves.
         indices = None
         if primvar is not None and primvar.IsIndexed():
-            raw_indices = _get(primvar.GetIndicesAttr(), self.time)
+            raw_indices = value_at(primvar.GetIndicesAttr(), self.time)
             indices = np.asarray(raw_indices if raw_indices is not None else [], dtype=np.int64).reshape(-1)
         n_elements = len(indices) if indices is not None else len(values)
         what = "indices" if indices is not None else "values"

@@ -1,0 +1,22 @@
+"""Reading a USD attribute at a time code, with wrt's rule for the default time: a value that has only time
+samples is read at its first sample, as points and transforms are (``time=None`` in ``load_usd``)."""
+
+from __future__ import annotations
+
+from pxr import Usd
+
+
+def value_at(attr: Usd.Attribute, time: Usd.TimeCode):
+    """``attr`` at ``time``, or at its earliest time sample when ``time`` is default and it has no authored default
+    (a schema fallback, such as visibility's ``inherited`` or a light's intensity, does not count).
+
+    Reads ``EarliestTime`` rather than ``GetTimeSamples()[0]``: the result is the same, and ``GetTimeSamples``
+    can hang usd-core 26.11 on stages with ``timeCodesPerSecond = 0``.
+    """
+    if (
+        time.IsDefault()
+        and attr.HasAuthoredValue()
+        and attr.GetResolveInfo(time).GetSource() != Usd.ResolveInfoSourceDefault
+    ):
+        return attr.Get(Usd.TimeCode.EarliestTime())
+    return attr.Get(time)
