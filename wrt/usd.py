@@ -142,7 +142,13 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
         if not isinstance(tessellate_gprims, (int, np.integer)) or tessellate_gprims < 3:
             raise ValueError(f"tessellate_gprims must be a bool or an int >= 3, got {tessellate_gprims!r}")
         segments = int(tessellate_gprims)
-    return _StageReader(stage, source, time_code, segments).read()
+    reader = _StageReader(stage, source, time_code, segments)
+    try:
+        return reader.read()
+    finally:
+        # The material reader holds the stage reader's skip method: a cycle that kept the stage and its layers
+        # open until the next garbage collection, so a file edited and loaded again in that time read as before.
+        reader.materials = None
 
 
 def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
@@ -445,7 +451,11 @@ class _StageReader:
         """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
         proto_ids, matrices, sources, source_ids, indices = [], [], [], {}, []
 
-        def place(content: _Content, to_world: np.ndarray, source: str, index: np.ndarray):
+        # Depth first, each instance before the instances nested in it (an explicit stack: a recursive closure
+        # would refer to itself, a reference cycle that kept the stage open until a garbage collection).
+        pending = [(self.contents[key], m, source, index) for key, m, source, index in reversed(world.instances)]
+        while pending:
+            content, to_world, source, index = pending.pop()
             if content.meshes or content.shapes:
                 if content.prototype < 0:
                     content.prototype = len(scene.prototypes)
@@ -456,13 +466,10 @@ class _StageReader:
                 proto_ids.append(np.full(len(to_world), content.prototype, np.int32))
                 matrices.append(to_world)
                 indices.append(np.column_stack([np.full(len(to_world), source_ids[source]), index]))
-            for key, m, _, _ in content.instances:
+            for key, m, _, _ in reversed(content.instances):
                 # Nested instances keep the world-level source and index of the instance they are part of.
                 combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
-                place(self.contents[key], combined, source, np.repeat(index, len(m)))
-
-        for key, m, source, index in world.instances:
-            place(self.contents[key], m, source, index)
+                pending.append((self.contents[key], combined, source, np.repeat(index, len(m))))
         if not proto_ids:
             return
         # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
