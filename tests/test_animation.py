@@ -33,6 +33,8 @@ def test_parse_frames():
     assert parse_frames("1:10:4") == [1.0, 5.0, 9.0]
     assert parse_frames("2:3:0.5") == [2.0, 2.5, 3.0]
     assert parse_frames("7") == [7.0]
+    # Binary steps do not add up exactly (0.2 + 6 * 0.3 = 1.9999999999999998): END is still END.
+    assert parse_frames("0.2:2:0.3")[-1] == 2.0 and parse_frames("0.1:3:0.1")[-1] == 3.0
     for bad in ("a:b", "4:1", "1:4:0", "1:2:3:4", "1:nan"):
         with pytest.raises(ValueError, match="--frames"):
             parse_frames(bad)
@@ -43,6 +45,10 @@ def test_frame_output_patterns():
     assert frame_output("f#.exr", 123) == Path("f123.exr")
     assert frame_output("movie.png", 3) == Path("movie_0003.png")
     assert frame_output("f_##.png", 2.5) == Path("f_02.5.png")
+    assert frame_output("f_####.png", 3.0000000000000004) == Path("f_0003.png")
+    assert frame_output("f_####.png", -0.5) == Path("f_-0000.5.png")
+    assert frame_output("f_####.png", -1.5) == Path("f_-0001.5.png")
+    assert frame_output("f_####.png", -3) == Path("f_-0003.png")
 
 
 def test_refit_gives_the_boxes_of_the_moved_triangles(np_rng):

@@ -59,7 +59,8 @@ def parse_frames(text: str) -> list[float]:
     if end < start:
         raise ValueError(f"--frames range {text!r} is empty (END < START)")
     count = int(math.floor((end - start) / step + 1e-9)) + 1
-    return [start + k * step for k in range(count)]
+    # Rounded to 12 significant digits: 0.2 + 6 * 0.3 is 1.9999999999999998 in binary, and END must be END.
+    return [float(f"{start + k * step:.12g}") for k in range(count)]
 
 
 def frame_output(pattern, frame: float) -> Path:
@@ -71,10 +72,11 @@ def frame_output(pattern, frame: float) -> Path:
         p = Path(pattern)
         pattern = str(p.with_name(f"{p.stem}_####{p.suffix}"))
     run = list(FRAME_PATTERN.finditer(pattern))[-1]
-    whole = int(math.floor(frame))
-    number = f"{whole:0{len(run.group())}d}" if whole >= 0 else f"-{-whole:0{len(run.group())}d}"
-    if frame != whole:
-        number += f"{frame - whole:.6g}".lstrip("0")
+    digits = f"{abs(frame):.6f}".rstrip("0").rstrip(".")  # 12.5 -> "12.5", 3.0000000000000004 -> "3"
+    whole, _, fraction = digits.partition(".")
+    number = ("-" if frame < 0 and digits != "0" else "") + whole.zfill(len(run.group()))
+    if fraction:
+        number += "." + fraction
     return Path(pattern[: run.start()] + number + pattern[run.end() :])
 
 
