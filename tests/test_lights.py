@@ -2,6 +2,7 @@
 normalize) read from USD, and the default lights of a stage without any."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -347,3 +348,24 @@ def test_light_and_material_inputs_with_only_time_samples_read_the_first_at_the_
     np.testing.assert_allclose(default.lights[0].color, [3.0, 1.5, 0.75], rtol=1e-6)
     np.testing.assert_array_equal(default.lights[0].color, first.lights[0].color)
     np.testing.assert_array_equal(default.materials[0].diffuse_color, [1.0, 0.0, 0.0])
+
+
+def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
+    """An emissive analytic sphere lights nothing under whitted (only world-space emissive triangles are sampled as
+    lights): the render says so instead of silently showing a dark plane; tessellated, it is sampled and lights it."""
+    path = tmp_path / "scene.usda"
+    path.write_text(
+        '#usda 1.0\ndef Material "E"\n{\n    token outputs:surface.connect = </E/PS.outputs:surface>\n'
+        '    def Shader "PS"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+        "        color3f inputs:emissiveColor = (1, 1, 1)\n        token outputs:surface\n    }\n}\n"
+        'def Mesh "Plane"\n{\n    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n'
+        "    point3f[] points = [(-9, -9, 0), (9, -9, 0), (9, 9, 0), (-9, 9, 0)]\n}\n"
+        'def Sphere "Lamp" (prepend apiSchemas = ["MaterialBindingAPI"])\n{\n    double radius = 0.5\n'
+        '    double3 xformOp:translate = (0, 0, 2)\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
+        "    rel material:binding = </E>\n}\n"
+    )
+    with pytest.warns(UserWarning, match="1 emissive instanced or analytic primitive"):
+        wrt.render(wrt.load_usd(path), width=8, height=8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        wrt.render(wrt.load_usd(path, tessellate_gprims=16), width=8, height=8)

@@ -247,8 +247,20 @@ class Renderer:
         self.materials = mats
         cam = self.camera.to_struct(self.width, self.height)
         self._upload_cameras()
-        used = np.unique(scene.triangle_materials())
+        geometry_materials = scene.triangle_materials()
+        used = np.unique(geometry_materials)
         emissive_used = any(float(np.max(emission[k])) > 0.0 for k in used)
+        if self.integrator == "whitted" and emissive_used:
+            # Only world-space emissive triangles are sampled as lights (lights._emitter_triangles).
+            glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
+            unsampled = int(glows[geometry_materials[scene.num_flat_triangles :]].sum())
+            if unsampled:
+                warnings.warn(
+                    f"{scene.source or 'scene'}: {unsampled} emissive instanced or analytic primitive(s) are "
+                    "not sampled as lights: the whitted integrator shows them but they light nothing; use "
+                    "integrator='path', or load with tessellate_gprims=True for gprims",
+                    stacklevel=3,
+                )
         # A stage with no light source at all gets the documented default lights.
         self.lights = list(scene.lights) if (scene.lights or emissive_used) else default_lights(np.array(cam.forward))
         self.device_lights = build_lights(self.lights, scene, emission, dev)
