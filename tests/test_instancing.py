@@ -136,6 +136,66 @@ def test_instancer_prototypes_under_an_over_are_drawn_only_through_the_instancer
     assert (stats["instances"], stats["rendered_triangles"], stats["meshes"]) == (2, 2, 0)
 
 
+PURPOSE_USDA = """#usda 1.0
+def Xform "Lib"
+{
+    def Mesh "Tri"
+    {
+        uniform token purpose = "render"
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    }
+    def Mesh "Plain"
+    {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 5), (1, 0, 5), (0, 1, 5)]
+    }
+}
+def Xform "G"
+{
+    uniform token purpose = "guide"
+    def Xform "Ref" (references = </Lib>)
+    {
+        double3 xformOp:translate = (10, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Xform "Inst" (instanceable = true
+        references = </Lib>)
+    {
+        double3 xformOp:translate = (20, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+def Xform "Inst" (instanceable = true
+    references = </Lib>)
+{
+    double3 xformOp:translate = (30, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def test_purpose_inside_instances_is_computed_as_usd_does(tmp_path):
+    """Under a guide ancestor, a prototype mesh of authored render purpose is drawn and one without is not, for a
+    native instance as for a plain reference (the instance was dropped whole); the same prototype instanced outside
+    the guide draws both. Against UsdGeom's ComputePurpose through instance proxies."""
+    path = tmp_path / "purpose.usda"
+    path.write_text(PURPOSE_USDA)
+    stage = Usd.Stage.Open(str(path))
+    proxies = Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate))
+    xforms = UsdGeom.XformCache()
+    expected = sorted(
+        tuple(np.array(xforms.GetLocalToWorldTransform(p)).T[:3, 3] + UsdGeom.Mesh(p).GetPointsAttr().Get()[0])
+        for p in proxies
+        if p.IsA(UsdGeom.Mesh) and UsdGeom.Imageable(p).ComputePurpose() in ("default", "render")
+    )
+    assert len(expected) == 6  # Lib (2), G/Ref/Tri, G/Inst/Tri, Inst (2)
+    points, indices = load(path).triangles()
+    assert sorted(map(tuple, points[indices][:, 0].tolist())) == expected
+
+
 def test_pointinstancer_transforms_match_usd(tmp_path):
     """Positions, orientations, scales, the prototype root's own transform, invisibleIds and the instancer's
     world transform, against UsdGeom.PointInstancer.ComputeInstanceTransformsAtTime."""

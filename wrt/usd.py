@@ -219,11 +219,19 @@ class _Content:
 class _Context:
     """Where a walk is: the content being filled, how to reach its space, and what applies from outside."""
 
-    def __init__(self, content: _Content, space_root: Usd.Prim | None = None, outer_material=None, world=False):
+    def __init__(
+        self,
+        content: _Content,
+        space_root: Usd.Prim | None = None,
+        outer_material=None,
+        world=False,
+        outer_purpose=None,
+    ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
         self.stop = space_root  # visibility and purpose are inherited from below this prim (None: everything)
         self.outer_material = outer_material  # material index bound above a native instance, or None
+        self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
         self.world = world  # the stage itself (cameras and lights are read only here)
 
 
@@ -276,21 +284,24 @@ class _StageReader:
         if prim.IsPseudoRoot() or prim.IsPrototype():
             return
         if prim.IsInstance():
-            if self._rendered(prim, ctx.stop):
-                self._read_native_instance(prim, ctx)
+            # An instance of guide or proxy purpose is still read: a prototype prim of authored render purpose is
+            # drawn, as USD computes purpose through instance proxies.
+            if self._visible(prim, ctx.stop):
+                purpose = self._purpose(prim, ctx)
+                self._read_native_instance(prim, ctx, None if purpose in _RENDERED_PURPOSES else purpose)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.PointInstancer):
             # Its prototypes are drawn through the instancer only, so its subtree is not walked in place.
-            if self._rendered(prim, ctx.stop):
+            if self._rendered(prim, ctx):
                 self._read_instancer(prim, ctx)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.Mesh):
-            if self._rendered(prim, ctx.stop):
+            if self._rendered(prim, ctx):
                 mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
                 if mesh is not None:
                     ctx.content.meshes.append(mesh)
         elif prim.IsA(UsdGeom.Gprim):
-            if self._rendered(prim, ctx.stop):
+            if self._rendered(prim, ctx):
                 shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
                 if shape is not None and self.segments:
                     ctx.content.meshes.append(self._tessellated(shape, prim))
@@ -322,22 +333,23 @@ class _StageReader:
             p = p.GetParent()
         return True
 
-    def _rendered(self, prim: Usd.Prim, stop: Usd.Prim | None = None) -> bool:
-        """Visible with purpose default or render; with ``stop``, only the prims below ``stop`` count."""
-        if not self._visible(prim, stop):
-            return False
-        if stop is None:
-            return UsdGeom.Imageable(prim).ComputePurpose() in _RENDERED_PURPOSES
-        purpose = None
+    def _purpose(self, prim: Usd.Prim, ctx: _Context):
+        """The purpose of ``prim``: its own or its nearest ancestor's authored purpose below ``ctx.stop``, else the
+        one a native instance inherited (``ctx.outer_purpose``), else default."""
+        if ctx.stop is None and ctx.outer_purpose is None:
+            return UsdGeom.Imageable(prim).ComputePurpose()
         p = prim
-        while p and p != stop and not p.IsPseudoRoot():
+        while p and p != ctx.stop and not p.IsPseudoRoot():
             img = UsdGeom.Imageable(p)
             attr = img.GetPurposeAttr() if img else None
             if attr is not None and attr.HasAuthoredValue():
-                purpose = attr.Get()
-                break
+                return attr.Get()
             p = p.GetParent()
-        return (purpose or UsdGeom.Tokens.default_) in _RENDERED_PURPOSES
+        return ctx.outer_purpose or UsdGeom.Tokens.default_
+
+    def _rendered(self, prim: Usd.Prim, ctx: _Context) -> bool:
+        """Visible (below ``ctx.stop``) with purpose default or render."""
+        return self._visible(prim, ctx.stop) and self._purpose(prim, ctx) in _RENDERED_PURPOSES
 
     # Transforms and instances
 
@@ -352,7 +364,7 @@ class _StageReader:
             raise self._error("world transform is not finite", prim)
         return m
 
-    def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material) -> _Content:
+    def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material, outer_purpose=None) -> _Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:
@@ -361,12 +373,14 @@ class _StageReader:
             content = _Content(str(root.GetPath()))
             # Prototypes are often kept under an ``over`` so they are not drawn in place; instanced, they are drawn
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
-            self._walk(root, _Context(content, space_root, outer_material), _PROTOTYPE_PREDICATE)
+            inside = _Context(content, space_root, outer_material, outer_purpose=outer_purpose)
+            self._walk(root, inside, _PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content
         return self.contents[key]
 
-    def _read_native_instance(self, prim: Usd.Prim, ctx: _Context):
+    def _read_native_instance(self, prim: Usd.Prim, ctx: _Context, purpose=None):
+        """An instance of a native prototype; ``purpose``: the non-rendered purpose it inherits, if any."""
         prototype = prim.GetPrototype()
         if not prototype:
             self._skip("instances without a prototype were skipped", prim)
@@ -375,11 +389,11 @@ class _StageReader:
         material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
         if material:
             outer = self.materials.material_index(material)
-        key = ("native", str(prototype.GetPath()), None)
-        content = self._content(key, prototype, None, None)
+        key = ("native", str(prototype.GetPath()), None, purpose)
+        content = self._content(key, prototype, None, None, purpose)
         if content.uses_outer and outer is not None:
-            key = ("native", str(prototype.GetPath()), outer)
-            content = self._content(key, prototype, None, outer)
+            key = ("native", str(prototype.GetPath()), outer, purpose)
+            content = self._content(key, prototype, None, outer, purpose)
         m = self._to_space(prim, ctx).T  # column vectors
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32)))
 
