@@ -369,3 +369,29 @@ def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         wrt.render(wrt.load_usd(path, tessellate_gprims=16), width=8, height=8)
+
+
+def test_coarse_textured_dome_is_unbiased(tmp_path):
+    """A 2 x 8 lat-long dome, upper hemisphere 1 and lower 0, over a white plane facing up: the path tracer's
+    irradiance estimate converges to 1 and whitted's ambient (albedo times the dome's mean) is 0.5. The pdf took the
+    Jacobian at the texel centre and the mean the centre's sin(theta): 1.04 and 0.555."""
+    from PIL import Image as PilImage
+
+    texels = np.zeros((2, 8), np.uint8)
+    texels[0] = 255
+    PilImage.fromarray(texels, "L").save(tmp_path / "half.png")
+    path = tmp_path / "dome.usda"
+    path.write_text(
+        '#usda 1.0\n(\n    upAxis = "Y"\n)\ndef Mesh "Plane"\n{\n    int[] faceVertexCounts = [4]\n'
+        "    int[] faceVertexIndices = [0, 1, 2, 3]\n"
+        "    point3f[] points = [(-100, 0, 100), (100, 0, 100), (100, 0, -100), (-100, 0, -100)]\n"
+        "    color3f[] primvars:displayColor = [(1, 1, 1)]\n}\n"
+        'def DomeLight "Dome"\n{\n    asset inputs:texture:file = @half.png@\n}\n'
+        'def Camera "Cam"\n{\n    double3 xformOp:translate = (0, 3, 0)\n    float3 xformOp:rotateXYZ = (-90, 0, 0)\n'
+        '    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]\n}\n'
+    )
+    scene = wrt.load_usd(path)
+    renderer = wrt.Renderer(scene, width=1, height=1, integrator="path", max_depth=1)
+    estimate = np.mean([renderer.render(spp=4096, seed=k).rgb[0, 0, 0] for k in range(4)])
+    assert abs(estimate - 1.0) < 0.01, estimate  # the old pdf gave 1.04 (+- 0.002)
+    np.testing.assert_allclose(wrt.render(scene, width=1, height=1).rgb[0, 0], 0.5, rtol=1e-4)
