@@ -544,3 +544,44 @@ def test_triangle_hits_at_tiny_and_huge_coordinates(layout):
         assert hits.hit.tolist() == ref.hit.tolist(), f"scale {s:g}"
         t = hits.t[ref.hit].astype(np.float64) / s
         np.testing.assert_allclose(t, ref.t[ref.hit], rtol=1e-5, err_msg=f"scale {s:g}")
+
+
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide"])
+def test_coplanar_overlaps_follow_the_tie_rule_with_every_builder(layout, np_rng):
+    """40 overlapping triangles in one plane ("z-fighting"): the closest t, and at equal t the smallest triangle id,
+    as each triangle traced alone says, whatever the builder. A box entered at the computed distance of its face
+    was culled when the watertight test put a triangle on that face an ulp nearer: the answer depended on the tree."""
+    n, m = 40, 200
+    tris = np.concatenate([np.full((n, 3, 1), 1.83), np_rng.uniform(0, 1, (n, 3, 2))], 2).astype(np.float32)
+    points, indices = tris.reshape(-1, 3), np.arange(3 * n, dtype=np.int32).reshape(-1, 3)
+    origins = (np_rng.normal(size=(m, 3)) + [-0.5, 0.5, 0.5]).astype(np.float32)
+    targets = np.concatenate([np.full((m, 1), 1.83), np_rng.uniform(0.2, 0.8, (m, 2))], 1)
+    directions = (targets - origins).astype(np.float32)
+    alone = np.stack([wrt.trace(wrt.Scene.from_triangles(points, indices[k : k + 1]), origins, directions).t
+                      for k in range(n)])
+    best = alone.min(axis=0)
+    expected = np.where(np.isfinite(best), np.argmax(alone == best, axis=0), -1)
+    assert (expected >= 0).sum() > m // 2
+    scene = wrt.Scene.from_triangles(points, indices)
+    for builder in ("sah", "median", "lbvh", "ploc"):
+        hits = wrt.trace(scene, origins, directions, builder=builder, layout=layout)
+        np.testing.assert_array_equal(hits.t, best, err_msg=builder)
+        np.testing.assert_array_equal(hits.prim, expected, err_msg=builder)
+
+
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
+def test_t_max_just_above_a_hit_keeps_it(layout, np_rng):
+    """``t_max`` one ulp above each hit's t keeps every hit, in trace as in occluded (the root box, entered an ulp
+    beyond the triangle's t, was culled against t_max)."""
+    quad = np.array([[-6, -5, -6], [6, -5, -6], [6, -5, 6], [-6, -5, 6]], np.float32)
+    scene = wrt.Scene.from_triangles(quad, np.array([[0, 1, 2], [0, 2, 3]], np.int32))
+    origins = np_rng.uniform(-5, 5, (2000, 3)).astype(np.float32)
+    targets = np.concatenate([np_rng.uniform(-5, 5, (2000, 1)), np.full((2000, 1), -5.0),
+                              np_rng.uniform(-5, 5, (2000, 1))], 1)
+    directions = (targets - origins).astype(np.float32)
+    hits = wrt.trace(scene, origins, directions, layout=layout)
+    assert hits.hit.all()
+    t_max = np.nextafter(hits.t, np.float32(np.inf))
+    again = wrt.trace(scene, origins, directions, t_max=t_max, layout=layout)
+    np.testing.assert_array_equal(again.t, hits.t)
+    assert wrt.occluded(scene, origins, directions, t_max=t_max, layout=layout).all()

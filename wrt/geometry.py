@@ -13,6 +13,7 @@ Barycentrics follow wrt's contract: ``hit = (1 - u - v) * p0 + u * p1 + v * p2``
 import warp as wp
 
 ROBUST_FAR_SCALE = wp.constant(1.0 + 2.0 * 3.0 * 5.9604645e-08 / (1.0 - 3.0 * 5.9604645e-08))  # 1 + 2*gamma(3), Ize
+ENTRY_SLACK = wp.constant(9.5367431640625e-07)  # 2^-20: intersect_ray_box rounds entries down by this
 FLAT_INVERSE = wp.constant(1.0e38)  # safe_inverse of a zero (or subnormal) direction component
 
 
@@ -281,7 +282,10 @@ def intersect_ray_box(
     far = finite_min(finite_min(hi_x, hi_y), finite_min(hi_z, t_max))
     result = wp.inf
     if near <= far * ROBUST_FAR_SCALE:
-        result = near
+        # Rounded down by a few ulps: traversals cull a box entered beyond the best hit (or t_max), and the
+        # watertight test's t of a triangle on the box's face can come out a little below the computed entry;
+        # culling at the exact entry lost such hits (coplanar overlaps broke the tie rule; t_max just above a hit).
+        result = near - wp.abs(near) * ENTRY_SLACK
     return result
 
 
