@@ -57,6 +57,47 @@ def test_resume_skips_measured_rows(tmp_path):
     assert len(after) == len(before) + 2 and len(rows) == len(after)
 
 
+def test_resume_measures_agreement_when_the_reference_rows_are_done(tmp_path):
+    run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)
+    rows = run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)
+    assert [r["accel"] for r in rows] == ["warp:sah", "wrt:sah"]
+    assert rows[1]["agreement"] == 1.0  # was None: the reference's answer was never computed on resume
+
+
+def test_resume_drops_error_rows_that_now_succeed_and_a_cut_last_line(tmp_path):
+    scene = tmp_path / "late.usda"
+    run_grid(tiny_grid(scenes=[str(scene)], rays=["primary"]), tmp_path, progress=False)
+    assert all("error" in r for r in read_rows(tmp_path))
+    scene.write_text(
+        '#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+        "    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n"
+    )
+    with open(tmp_path / "rows.jsonl", "a") as f:
+        f.write('{"scene": "sphere:2000", "accel": "wrt:sah", "dev')  # a write cut short by an interruption
+    with pytest.warns(UserWarning, match="line 2 was cut short"):
+        rows = run_grid(tiny_grid(scenes=[str(scene)], rays=["primary"]), tmp_path, resume=True, progress=False)
+    assert len(rows) == 2 and not any("error" in r for r in rows)
+    assert read_rows(tmp_path) == rows
+
+
+@pytest.mark.parametrize(
+    "field, needle",
+    [
+        (dict(scenes="sphere:2000"), "scenes must be a list"),
+        (dict(n_rays=-5), "n_rays must be a positive integer"),
+        (dict(repeats=0), "repeats must be a positive integer"),
+        (dict(threads=["abc"]), "threads must be positive integers"),
+        (dict(rays=["sideways"]), "unknown ray kind"),
+    ],
+)
+def test_bad_grid_fields_are_named(tmp_path, field, needle):
+    suite = tmp_path / "suite.json"
+    suite.write_text(json.dumps({**dict(scenes=["sphere:2000"], accels=["wrt:sah"], rays=["primary"]), **field}))
+    with pytest.raises(ValueError, match=f"suite.json: {needle}"):
+        Grid.from_suite(suite)
+    assert tiny_grid(threads=[1, "1", "all"]).validated().threads[:1] == [1]  # repeats dropped, "all" is a count
+
+
 def test_interrupted_run_keeps_finished_rows(tmp_path, monkeypatch):
     import wrt.bench as bench
 

@@ -66,7 +66,50 @@ class Grid:
         if unknown:
             raise ValueError(f"{path.name}: unknown suite keys {sorted(unknown)}")
         data.pop("description", None)
-        return cls(**data)
+        try:
+            return cls(**data).validated()
+        except ValueError as e:
+            raise ValueError(f"{path.name}: {e}") from None
+
+    def validated(self) -> Grid:
+        """This grid with ``threads`` as ints (``"all"``: every core; repeats dropped), after checking every field.
+
+        Raises:
+            ValueError: naming the field, for a list field that is not a list, a count that is not a positive
+                integer, an unknown ray kind or a bad thread count.
+        """
+        for name in ("scenes", "accels", "devices", "rays", "threads"):
+            value = getattr(self, name)
+            if not isinstance(value, (list, tuple)):
+                raise ValueError(f"{name} must be a list, got {value!r}")
+        for name in ("n_rays", "repeats"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        bad = [k for k in self.rays if k not in RAY_KINDS]
+        if bad:
+            raise ValueError(f"unknown ray kind {bad[0]!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
+        threads = []
+        for t in self.threads:
+            count = (os.cpu_count() or 1) if str(t) == "all" else _positive_count(t)
+            if count is None:
+                raise ValueError(f"threads must be positive integers or 'all', got {t!r}")
+            if count not in threads:
+                threads.append(count)
+        if self.scaling is not None and not isinstance(self.scaling, dict):
+            raise ValueError(f"scaling must be an object, got {self.scaling!r}")
+        return dataclasses.replace(self, threads=threads)
+
+
+def _positive_count(value) -> int | None:
+    """``value`` as a positive int (from an int or a string of digits), else None."""
+    if isinstance(value, bool):
+        return None
+    try:
+        count = int(value)
+    except (TypeError, ValueError):
+        return None
+    return count if count >= 1 and str(value).strip() == str(count) else None
 
 
 def hardware(device) -> dict:
@@ -262,32 +305,42 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     base["n_rays"] = int(len(origins))
     reference = None
     ordered = sorted(accels, key=lambda a: a != REFERENCE)  # the reference first, so others can be compared
-    for spec in ordered:
-        for threads in thread_counts if device.is_cpu and spec != "embree" else [1]:  # embreex: one thread
-            row = dict(base, accel=spec, threads=threads)
-            if skip(row):
-                continue
-            try:
-                subject = _Subject(spec, scene, device, threads)
-                subject.prepare(origins, directions, any_hit)
-                times = time_runs(subject.run, grid.repeats)
-                answer = subject.answer()
-                if spec == REFERENCE and reference is None:
-                    reference = answer
-                hit = answer if any_hit else answer.prim >= 0
-                row.update(
-                    build_ms=1000.0 * subject.build_seconds,
-                    mrays=len(origins) / statistics.median(times) / 1e6,
-                    mrays_min=len(origins) / max(times) / 1e6,
-                    mrays_max=len(origins) / min(times) / 1e6,
-                    hit_fraction=float(np.mean(hit)) if len(hit) else 0.0,
-                    agreement=_agreement(answer, reference, directions, scale) if reference is not None else None,
-                    **subject.stats,
-                )
-            except Exception as e:  # noqa: BLE001 - one failing accelerator must not stop the grid
-                row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
-                row["traceback"] = traceback.format_exc(limit=3)
-            emit(row)
+    rows = [dict(base, accel=spec, threads=threads)
+            for spec in ordered
+            for threads in (thread_counts if device.is_cpu and spec != "embree" else [1])]  # embreex: one thread
+    pending = [row for row in rows if not skip(row)]
+    if REFERENCE in accels and pending and pending[0]["accel"] != REFERENCE:
+        # Resumed with the reference rows done: its answer is still needed for the others' agreement.
+        try:
+            subject = _Subject(REFERENCE, scene, device, 1)
+            subject.prepare(origins, directions, any_hit)
+            subject.run()
+            reference = subject.answer()
+        except Exception:  # noqa: BLE001 - its rows recorded the error the first time; agreement stays empty
+            pass
+    for row in pending:
+        spec, threads = row["accel"], row["threads"]
+        try:
+            subject = _Subject(spec, scene, device, threads)
+            subject.prepare(origins, directions, any_hit)
+            times = time_runs(subject.run, grid.repeats)
+            answer = subject.answer()
+            if spec == REFERENCE and reference is None:
+                reference = answer
+            hit = answer if any_hit else answer.prim >= 0
+            row.update(
+                build_ms=1000.0 * subject.build_seconds,
+                mrays=len(origins) / statistics.median(times) / 1e6,
+                mrays_min=len(origins) / max(times) / 1e6,
+                mrays_max=len(origins) / min(times) / 1e6,
+                hit_fraction=float(np.mean(hit)) if len(hit) else 0.0,
+                agreement=_agreement(answer, reference, directions, scale) if reference is not None else None,
+                **subject.stats,
+            )
+        except Exception as e:  # noqa: BLE001 - one failing accelerator must not stop the grid
+            row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
+            row["traceback"] = traceback.format_exc(limit=3)
+        emit(row)
 
 
 def _run_group(group, grid: Grid, thread_counts, emit, skip, loaded: dict) -> None:
@@ -337,6 +390,33 @@ def _run_group_task(task) -> list[dict]:
     return rows
 
 
+def _resumed_rows(jsonl: Path) -> list[dict]:
+    """The measured rows of an earlier run, for ``resume``; ``jsonl`` is rewritten with just those. Error rows are
+    dropped, as their rows run again; so is a last line cut short by an interruption.
+
+    Raises:
+        ValueError: naming the file and line, for a damaged line other than the last.
+    """
+    lines = [line for line in jsonl.read_text().splitlines() if line.strip()]
+    rows = []
+    for number, line in enumerate(lines, 1):
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError as e:
+            if number == len(lines):
+                import warnings
+
+                warnings.warn(f"{jsonl}: line {number} was cut short (an interrupted run?); its row runs again")
+                break
+            raise ValueError(f"{jsonl}: line {number} is not a JSON row ({e.msg}); remove it to resume") from None
+        if "error" not in row:
+            rows.append(row)
+    tmp = jsonl.with_suffix(".jsonl.tmp")
+    tmp.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    tmp.replace(jsonl)
+    return rows
+
+
 def run_grid(
     grid: Grid, out: Path | None = None, resume: bool = False, progress: bool = True, dask: str | bool | None = None
 ) -> list[dict]:
@@ -355,12 +435,8 @@ def run_grid(
         out.mkdir(parents=True, exist_ok=True)
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
-            for line in jsonl.read_text().splitlines():
-                if line.strip():
-                    previous = json.loads(line)
-                    rows.append(previous)
-                    if "error" not in previous:
-                        done.add(row_key(previous))
+            rows = _resumed_rows(jsonl)
+            done = {row_key(r) for r in rows}
         elif jsonl.exists():
             jsonl.unlink()
 
@@ -371,7 +447,8 @@ def run_grid(
         warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
         grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing])
     devices = [d if dask else resolve_device(d) for d in grid.devices]  # with dask, resolved on the worker
-    thread_counts = [os.cpu_count() if t == "all" else int(t) for t in grid.threads]
+    grid = grid.validated()
+    thread_counts = grid.threads
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
     groups += [(f"sphere:{int(float(n))}", d, scaling.get("rays", "incoherent"))
