@@ -220,6 +220,18 @@ def test_bad_build_input_raises():
     many[[31, 40], 1] = [1, 3]
     with pytest.raises(ValueError, match=r"finite \(found NaN or inf\); triangle 40 uses one"):
         build_bvh(nan_points, many, device="cpu")
+    # Malformed arrays are refused, not reinterpreted: 2**32 wrapped round to vertex 0 in the cast to int32, float
+    # indices were truncated, and (V, 4) points or (T, 4) indices were reshaped into other vertices and triangles.
+    for points, indices, needle in (
+        (tri, np.array([[0, 1, 2**32]], np.int64), r"must lie in \[0, 3\); triangle 0 "),
+        (tri, np.array([[0.0, 1.0, 2.9]]), "indices must be integers"),
+        (np.zeros((3, 4), np.float32), [[0, 1, 2]], r"points must have shape \(N, 3\)"),
+        (tri, np.zeros((3, 4), np.int32), r"indices must have shape \(N, 3\)"),
+    ):
+        with pytest.raises(ValueError, match=needle):
+            build_bvh(points, indices, device="cpu")
+        with pytest.raises(ValueError, match=needle):
+            wrt.Scene.from_triangles(points, indices)
     with pytest.raises(ValueError, match="leaf_size"):
         build_bvh(tri, [[0, 1, 2]], leaf_size=0, device="cpu")
     with pytest.raises(ValueError, match="morton_bits"):

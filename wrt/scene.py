@@ -177,12 +177,13 @@ class Scene:
             indices: ``(T, 3)`` or ``(3T,)`` int rows into ``points``.
             name: path reported for the single mesh.
         """
-        points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
-        indices = np.asarray(indices, dtype=np.int32).reshape(-1, 3)
-        if indices.size and (indices.min() < 0 or indices.max() >= len(points)):
-            from .errors import SceneError
+        from .bvh.common import triangle_arrays
+        from .errors import SceneError
 
-            raise SceneError(f"triangle indices must lie in [0, {len(points)})", prim=name)
+        try:
+            points, indices = triangle_arrays(points, indices)
+        except ValueError as e:
+            raise SceneError(str(e), prim=name) from None
         mesh = Mesh(name, points, indices, np.arange(len(indices), dtype=np.int32), double_sided=True)
         return cls(meshes=[mesh])
 

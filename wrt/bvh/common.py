@@ -190,6 +190,8 @@ class BuildInput:
 
     def __init__(self, points, indices, device):
         self.device = wp.get_device(device)
+        if not isinstance(points, wp.array) and not isinstance(indices, wp.array):
+            points, indices = triangle_arrays(points, indices)
         self.points = _as_device(points, wp.vec3, self.device, (-1,))
         self.indices = _as_device(indices, wp.int32, self.device, (-1, 3))
         self.num_prims = self.indices.shape[0]
@@ -224,8 +226,34 @@ class BuildInput:
         return bounds
 
 
+def triangle_arrays(points, indices) -> tuple[np.ndarray, np.ndarray]:
+    """Host ``(points (V, 3) float32, indices (T, 3) int32)`` from array-likes of shape ``(V, 3)`` or ``(3V,)`` and
+    ``(T, 3)`` or ``(3T,)``.
+
+    Raises:
+        ValueError: naming the array, for any other shape, indices that are not integers, or indices outside
+            ``[0, V)`` (checked before the cast to int32, so 2**32 does not wrap round to 0).
+    """
+    points, indices = np.asarray(points), np.asarray(indices)
+    for name, a in (("points", points), ("indices", indices)):
+        if not (a.ndim == 2 and a.shape[1] == 3 or a.ndim == 1 and a.size % 3 == 0):
+            raise ValueError(f"{name} must have shape (N, 3) or (3N,), got {a.shape}")
+    if not np.issubdtype(points.dtype, np.number) or np.issubdtype(points.dtype, np.complexfloating):
+        raise ValueError(f"points must be real numbers, got dtype {points.dtype}")
+    if indices.size and not np.issubdtype(indices.dtype, np.integer):
+        raise ValueError(f"indices must be integers, got dtype {indices.dtype}")
+    vertices = points.size // 3
+    flat = indices.reshape(-1)
+    outside = np.flatnonzero((flat < 0) | (flat >= vertices)) if flat.size else flat
+    if len(outside):
+        triangle = int(outside[0]) // 3
+        raise ValueError(f"triangle indices must lie in [0, {vertices}); triangle {triangle} has one outside")
+    return points.astype(np.float32).reshape(-1, 3), indices.astype(np.int32).reshape(-1, 3)
+
+
 def _as_device(data, dtype, device, shape) -> wp.array:
-    """``data`` as a contiguous Warp array of ``dtype`` on ``device``, reshaped to ``shape``."""
+    """``data`` (already checked by ``triangle_arrays`` unless a Warp array) as a contiguous Warp array of
+    ``dtype`` on ``device``, reshaped to ``shape``."""
     if isinstance(data, wp.array):
         if data.device == device and data.is_contiguous:
             if dtype == wp.vec3 and data.dtype == wp.vec3:
