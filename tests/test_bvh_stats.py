@@ -173,6 +173,9 @@ def test_cli_bvh_stats_table_and_json(capsys):
         (["--bins", "1"], "bins must lie"),
         (["--layout", "bvh16"], "invalid choice"),
         (["--device", "tpu"], "available devices"),
+        (["--traversal-cost", "inf"], "traversal_cost must be finite"),
+        (["--builder", "warp:sah", "--traversal-cost", "-5"], "traversal_cost must be finite and >= 0"),
+        (["--builder", "warp:sah", "--intersection-cost", "nan"], "intersection_cost finite and > 0"),
     ],
 )
 def test_cli_bvh_stats_bad_input_is_one_line_and_exit_2(capsys, args, needle):
@@ -189,3 +192,16 @@ def test_cli_bvh_stats_missing_file(capsys, tmp_path):
     assert main(["bvh-stats", str(tmp_path / "missing.usd")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "missing.usd" in err[0]
+
+
+def test_cli_bvh_stats_json_is_strict_for_a_scene_without_area(capsys, tmp_path):
+    """Zero-area triangles have no EPO (NaN): ``--json`` writes null there, which strict parsers accept."""
+    path = tmp_path / "flat.usda"
+    path.write_text(
+        '#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3, 3]\n'
+        "    int[] faceVertexIndices = [0, 1, 2, 0, 2, 1]\n"
+        "    point3f[] points = [(0, 0, 0), (1, 1, 1), (2, 2, 2)]\n}\n"
+    )
+    assert main(["bvh-stats", str(path), "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+    assert rows[0]["epo"] is None

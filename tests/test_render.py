@@ -126,6 +126,8 @@ def test_camera_by_path_and_bad_camera(tmp_path):
         ({"width": 0}, "width"),
         ({"height": -3}, "height"),
         ({"spp": 0}, "spp"),
+        ({"width": True}, "width must be a positive integer"),  # a bool is an int to Python, not a size
+        ({"spp": True}, "spp must be a positive integer"),
         ({"builder": "bogus"}, "valid builders"),
         ({"accel": "optix"}, "valid accelerators"),
         ({"device": "cuda:9"}, "available devices"),

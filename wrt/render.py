@@ -198,7 +198,7 @@ class Renderer:
         cameras=None,
     ):
         for name, value in (("width", width), ("height", height)):
-            if not isinstance(value, (int, np.integer)) or value <= 0:
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if cameras is not None and (camera is not None or isinstance(cameras, (str, Camera)) or len(cameras) == 0):
             raise ValueError("give either camera or a non-empty list of cameras, not both")
@@ -321,7 +321,7 @@ class Renderer:
             resume: progressive rendering: add ``spp`` samples to those of the previous call (same ``seed``) and
                 return the mean of all of them, exactly the image one call with the total would give.
         """
-        if not isinstance(spp, (int, np.integer)) or spp < 1:
+        if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
             raise ValueError(f"spp must be a positive integer, got {spp!r}")
         if batch is not None and (not isinstance(batch, (int, np.integer)) or batch < 1):
             raise ValueError(f"batch must be a positive integer, got {batch!r}")

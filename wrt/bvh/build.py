@@ -16,6 +16,7 @@ mean the same thing (``sah``, ``median``, ``lbvh``). Every builder keeps the dep
 from __future__ import annotations
 
 import enum
+import math
 import os
 import time
 
@@ -78,6 +79,15 @@ def build_bvh(points, indices, builder: str = "sah", **options) -> FlatBvh:
     return bvh
 
 
+def check_costs(traversal_cost: float, intersection_cost: float) -> None:
+    """Raises ValueError unless the SAH constants are finite, ``traversal_cost >= 0`` and ``intersection_cost > 0``."""
+    if not (0.0 <= traversal_cost < math.inf and 0.0 < intersection_cost < math.inf):
+        raise ValueError(
+            f"traversal_cost must be finite and >= 0 and intersection_cost finite and > 0, got {traversal_cost!r} "
+            f"and {intersection_cost!r}"
+        )
+
+
 def build_bvh_device(
     points,
     indices,
@@ -126,8 +136,7 @@ def build_bvh_device(
         raise ValueError(f"morton_bits must be 30 or 63, got {morton_bits}")
     if not 1 <= int(ploc_radius) <= 64:
         raise ValueError(f"ploc_radius must lie in [1, 64], got {ploc_radius}")
-    if not (traversal_cost >= 0.0 and intersection_cost > 0.0):
-        raise ValueError("traversal_cost must be >= 0 and intersection_cost > 0")
+    check_costs(traversal_cost, intersection_cost)
     if threads is not None and (not isinstance(threads, int) or threads < 1):
         raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
     with stage("input checks and triangle boxes", timers):

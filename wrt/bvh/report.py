@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 
-from .build import Builder, build_bvh, builder_names
+from .build import Builder, build_bvh, builder_names, check_costs
 from .layout import LAYOUTS, convert_layout
 
 WARP_PREFIX = "warp:"  # builder names of the form "warp:<bvh_constructor>" read wp.Mesh's tree
@@ -75,6 +76,7 @@ def collect_stats(
     """
     from .warp_mesh import warp_mesh_bvh
 
+    check_costs(traversal_cost, intersection_cost)  # Warp's trees are measured with them too
     rows = []
     for name in parse_builders(builders):
         if name.startswith(WARP_PREFIX):
@@ -181,7 +183,9 @@ def run_bvh_stats(args) -> int:
         device=device,
     )
     if args.json:
-        print(json.dumps(rows, indent=1))
+        # Strict JSON: a statistic without a value (EPO of a scene without area is NaN) is null.
+        clean = [{k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in r.items()} for r in rows]
+        print(json.dumps(clean, indent=1))
     else:
         print(
             f"{args.scene}: {len(indices)} triangles; SAH/EPO with C_t={args.traversal_cost}, "
