@@ -205,14 +205,14 @@ def _run_render(args) -> int:
     several = len(paths) > 1
     from .image import check_image_path
 
-    for path in paths:  # an unwritable output fails now, not after a long render
-        _check_output_location(check_image_path(_output_for(args, path, several)).parent)
+    outputs = [_output_for(args, p, several) for p in paths]
+    for output in outputs:  # an unwritable output fails now, not after a long render
+        _check_output_location(check_image_path(output).parent)
     if args.aov_dir:
         _check_output_location(Path(args.aov_dir))
     if not several and not args.log:
-        _render_one(args, paths[0], _output_for(args, paths[0], False), progress)  # errors: one line, exit 2
+        _render_one(args, paths[0], outputs[0], progress)  # errors: one line, exit 2
         return 0
-    outputs = [_output_for(args, p, several) for p in paths]
     log = Path(args.log) if args.log else outputs[0].parent / "render-log.jsonl"
     log.parent.mkdir(parents=True, exist_ok=True)
     failures = []

@@ -248,11 +248,10 @@ class Renderer:
         cam = self.camera.to_struct(self.width, self.height)
         self._upload_cameras()
         geometry_materials = scene.triangle_materials()
-        used = np.unique(geometry_materials)
-        emissive_used = any(float(np.max(emission[k])) > 0.0 for k in used)
+        glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
+        emissive_used = bool(glows[geometry_materials].any())
         if self.integrator == "whitted" and emissive_used:
             # Only world-space emissive triangles are sampled as lights (lights._emitter_triangles).
-            glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
             unsampled = int(glows[geometry_materials[scene.num_flat_triangles :]].sum())
             if unsampled:
                 warnings.warn(

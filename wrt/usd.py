@@ -323,7 +323,7 @@ class _StageReader:
 
     def _visible(self, prim: Usd.Prim, stop: Usd.Prim | None = None) -> bool:
         """No ancestor up to ``stop`` (or the root) invisible. Each visibility is read as mesh attributes are
-        (``_get``), so with ``time=None`` a prim hidden only by its first time sample is hidden, as its points are
+        (``value_at``), so with ``time=None`` a prim hidden only by its first time sample is hidden, as its points are
         that sample's."""
         p = prim
         while p and p != stop and not p.IsPseudoRoot():

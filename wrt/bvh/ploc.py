@@ -554,7 +554,7 @@ def build_ploc(
                 renumbered = [wp.empty(n - 1, dtype=wp.int32) for _ in range(3)]
                 wp.launch(renumber_kernel, n - 1, inputs=[n - 2, split_ids, *source], outputs=renumbered)
                 source = renumbered
-                del split_ids, renumbered
+                del split_ids  # freed before the flatten allocates (see above)
         return flatten_source(
             slot_prims,
             *source,
