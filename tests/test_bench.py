@@ -1,6 +1,7 @@
 """The benchmark harness: rows, ratios, error rows, resume, flushing, plots, the CLI."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -95,7 +96,12 @@ def test_bad_grid_fields_are_named(tmp_path, field, needle):
     suite.write_text(json.dumps({**dict(scenes=["sphere:2000"], accels=["wrt:sah"], rays=["primary"]), **field}))
     with pytest.raises(ValueError, match=f"suite.json: {needle}"):
         Grid.from_suite(suite)
-    assert tiny_grid(threads=[1, "1", "all"]).validated().threads[:1] == [1]  # repeats dropped, "all" is a count
+
+
+def test_thread_counts_are_ints_without_repeats():
+    """``"all"`` is every core and "1" is 1: ``--threads 1,1`` wrote the same rows twice."""
+    expected = list(dict.fromkeys([1, os.cpu_count() or 1]))
+    assert tiny_grid(threads=[1, "1", "all", "all"]).validated().threads == expected
 
 
 def test_interrupted_run_keeps_finished_rows(tmp_path, monkeypatch):
