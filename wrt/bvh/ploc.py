@@ -540,8 +540,8 @@ def build_ploc(
     The clustering's scratch arrays are freed before the flatten allocates its own, with no synchronization
     between, so CUDA's memory pool hands the same memory over; after a synchronization it returns freed memory to
     the system (at its default release threshold, 0), and new memory must be mapped again. On an H200, 1 GB takes
-    0.8 ms to allocate after a synchronization and 0.02 ms right after a free; this took about 2.5 ms off
-    the 10M-triangle build.
+    0.8-1.5 ms to allocate after a synchronization and 0.02-0.06 ms right after a free
+    (``benchmarks/gpu_mempool_probe.py``); this took about 2.5 ms off the 10M-triangle build.
     """
     n = data.num_prims
     with wp.ScopedDevice(data.device):
