@@ -30,7 +30,7 @@ SORT_SLOTS = 8  # entries of the wide layouts' per-node sort buffer (one per chi
 
 _SIZES = {"NodeStack": MAX_DEPTH, "WideStack": WIDE_STACK, "SortBuffer": SORT_SLOTS}  # C++ name -> entries
 
-_PREAMBLE = """
+STACK_PREAMBLE = """
 namespace wrt {
 template <int N> struct Stack {
     int ref[N];    // node, or first slot of a leaf
@@ -55,7 +55,7 @@ template <int N> CUDA_CALLABLE inline int stack_count(const Stack<N>& s, int i) 
 template <int N> CUDA_CALLABLE inline float stack_t(const Stack<N>& s, int i) { return s.t[i]; }
 """ + "".join(f"using {name} = Stack<{n}>;\n" for name, n in _SIZES.items()) + "}  // namespace wrt\n"
 
-STACK_BUILD_OPTIONS = wp.ModuleBuildOptions(extra_cuda_preamble=_PREAMBLE, extra_cpu_preamble=_PREAMBLE)
+STACK_BUILD_OPTIONS = wp.ModuleBuildOptions(extra_cuda_preamble=STACK_PREAMBLE, extra_cpu_preamble=STACK_PREAMBLE)
 
 
 def _stack_type(name: str, n: int) -> type:
