@@ -324,6 +324,25 @@ def test_zero_scale_instance_is_skipped_with_a_warning_naming_it(tmp_path):
     assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/PI[0]", "/PI[2]"]
 
 
+def test_time_sampled_invisible_ids_follow_the_default_time_rule(tmp_path):
+    """With ``time=None`` an instancer whose positions and invisibleIds have only time samples is read at their
+    first sample, both of them: the mask USD computes there hides instance 1 (it was read at the default time,
+    where invisibleIds has no value, and every instance was drawn)."""
+    path = write_instancer(tmp_path)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    pi.GetPositionsAttr().Set(pi.GetPositionsAttr().Get(), 1.0)
+    pi.GetPositionsAttr().ClearDefault()
+    pi.CreateInvisibleIdsAttr().Set(Vt.Int64Array([1]), 1.0)
+    pi.GetInvisibleIdsAttr().Set(Vt.Int64Array([0, 2]), 5.0)
+    stage.Save()
+    first = np.flatnonzero(pi.ComputeMaskAtTime(Usd.TimeCode.EarliestTime()))
+    assert list(first) == [0, 2]
+    scene = load(path)
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == [f"/PI[{k}]" for k in first]
+    assert [load(path, time=5.0).instances.path(0)] == ["/PI[1]"]
+
+
 @pytest.mark.parametrize("asset_id", ["chess_set", "teapot_scene_1000", "teapot_layout_1000"])
 def test_real_instanced_scenes_match_the_manifest_without_flattening(assets, asset_id):
     scene = load(assets(asset_id))

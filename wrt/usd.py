@@ -55,7 +55,7 @@ from .lights import read_light
 from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import Mesh, Scene
-from .usd_values import value_at
+from .usd_values import read_time, value_at
 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -447,7 +447,8 @@ class _StageReader:
         m[:, :3, 3] = positions
         m[:, 3, 3] = 1.0
         keep = np.ones(n, bool)
-        mask = pi.ComputeMaskAtTime(t)
+        # invisibleIds (and the ids it refers to) follow value_at's default-time rule, as positions do.
+        mask = pi.ComputeMaskAtTime(read_time(pi.GetInvisibleIdsAttr(), t))
         if mask is not None and len(mask):
             keep &= np.asarray(mask, bool)[:n] if len(mask) >= n else np.ones(n, bool)
         to_space = self._to_space(prim, ctx).T @ m
