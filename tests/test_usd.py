@@ -484,6 +484,22 @@ def test_degenerate_faces_consume_indices(tmp_path):
     np.testing.assert_array_equal(m.face_ids, [1, 3, 3])
 
 
+def test_hole_faces_are_not_drawn(tmp_path):
+    """Faces in holeIndices give no triangles (they were drawn, with a warning); the faces after them keep their
+    own uniform colours and vertices, and an index past the last face is ignored with a warning naming the mesh."""
+    colors = [(1, 0, 0), (0, 1, 0), (0, 0, 1)]
+    counts, indices = [4, 5, 3], INDICES + [0, 1, 3]
+    extra = "int[] holeIndices = [0, 7]\n"
+    extra += f'    color3f[] primvars:displayColor = {fmt(colors)} (interpolation = "uniform")'
+    with pytest.warns(UserWarning, match=r"holeIndices out of range.*holeIndices\[1\] = 7 for 3 faces.*/Mesh"):
+        (m,) = load_usd(write_usda(tmp_path, mesh_usda(counts=counts, indices=indices, extra=extra))).meshes
+    fan = fan_reference(counts, lambda f, c: indices[c])
+    expected = [tri for tri, face in zip(fan, np.repeat([0, 1, 2], [2, 3, 1])) if face != 0]
+    np.testing.assert_array_equal(m.indices, expected)
+    np.testing.assert_array_equal(m.face_ids, [1, 1, 1, 2])
+    np.testing.assert_array_equal(m.colors[:, 0], [colors[1]] * 3 + [colors[2]])
+
+
 # cameras and lights
 
 

@@ -1,11 +1,11 @@
 """Reads a USD stage into a :class:`wrt.scene.Scene`: world-space triangles, materials, cameras and lights.
 
 :func:`load_usd` walks the stage in pre-order, keeps every visible ``UsdGeom.Mesh`` whose purpose is ``default`` or
-``render``, fan-triangulates its faces with :func:`triangulate`, bakes the world transform into the points, and
-carries shading normals, ``displayColor``, texture coordinates and the bound material (:mod:`wrt.materials`) per
-triangle. UsdLux lights are read by :mod:`wrt.lights`. Bad topology raises :class:`wrt.errors.SceneError` naming the
-file and the prim; things that are skipped but a user might expect to see (unsupported gprims, lights or
-shaders) produce one warning each.
+``render``, fan-triangulates its faces with :func:`triangulate` (leaving out ``holeIndices``), bakes the world
+transform into the points, and carries shading normals, ``displayColor``, texture coordinates and the bound material
+(:mod:`wrt.materials`) per triangle. UsdLux lights are read by :mod:`wrt.lights`. Bad topology raises
+:class:`wrt.errors.SceneError` naming the file and the prim; things that are skipped but a user might expect to see
+(unsupported gprims, lights or shaders) produce one warning each.
 
 Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``size``), ``Cylinder`` and ``Cone``
 (``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``) and
@@ -705,11 +705,19 @@ class _StageReader:
             tri_corners, face_ids = triangulate(counts, face_indices)
         except ValueError as e:
             raise self._error(str(e), prim, mesh.GetFaceVertexCountsAttr()) from None
-        vertex_ids = face_indices[tri_corners]
 
+        # Faces listed in holeIndices are not drawn; their indices and uniform primvar entries still count.
         holes = value_at(mesh.GetHoleIndicesAttr(), t)
-        if holes is not None and len(holes):
-            self._skip("holeIndices are not supported; hole faces are rendered", prim)
+        holes = np.asarray(holes if holes is not None else [], np.int64).reshape(-1)
+        if len(holes):
+            bad = (holes < 0) | (holes >= len(counts))
+            if bad.any():
+                i = int(np.argmax(bad))
+                detail = f"holeIndices[{i}] = {holes[i]} for {len(counts)} faces"
+                self._skip("holeIndices out of range were ignored", prim, detail)
+            drawn = ~np.isin(face_ids, holes)
+            tri_corners, face_ids = tri_corners[drawn], face_ids[drawn]
+        vertex_ids = face_indices[tri_corners]
 
         topology = (counts, face_indices, tri_corners, face_ids, len(points))
         normals = self._read_normals(prim, mesh, topology)
