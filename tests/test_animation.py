@@ -51,6 +51,20 @@ def test_frame_output_patterns():
     assert frame_output("f_####.png", -3) == Path("f_-0003.png")
 
 
+def test_every_frame_gets_its_own_file_and_runaway_ranges_are_refused():
+    """Frames closer than 1e-6 shared a file name (1.0000005 and 1.000001 were both f_0001.000001.png: one image
+    overwrote the other) and 1.9999999 was named 2; a range of 1e9 frames was built in memory (a hang)."""
+    frames = parse_frames("1:1.000003:0.0000005")
+    files = [frame_output("f_####.png", f) for f in frames]
+    assert len(set(files)) == len(frames) == 7
+    assert [float(p.stem.removeprefix("f_")) for p in files] == frames  # each name is its frame's time
+    assert frame_output("f_####.png", 1.9999999) == Path("f_0001.9999999.png")
+    with pytest.raises(ValueError, match="1,000,000,001 frames"):
+        parse_frames("0:1e9")
+    with pytest.raises(ValueError, match="too small"):
+        parse_frames("1:1.000000000001:1e-13")  # frames equal at 12 digits would render one time many times
+
+
 def test_refit_gives_the_boxes_of_the_moved_triangles(np_rng):
     points = np_rng.uniform(-1, 1, (600, 3)).astype(np.float32)
     indices = np_rng.integers(0, 600, (400, 3)).astype(np.int32)

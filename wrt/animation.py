@@ -34,6 +34,8 @@ from pathlib import Path
 import numpy as np
 
 REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20% worse than when it was built
+MAX_FRAMES = 1_000_000  # most frames one --frames range may give (a typo such as 1:1e9 would fill the memory)
+FRAME_DIGITS = 12  # significant digits of a frame time, in parse_frames and in file names
 
 FRAME_PATTERN = re.compile(r"#+")
 
@@ -42,7 +44,8 @@ def parse_frames(text: str) -> list[float]:
     """Frame times of ``START:END[:STEP]`` (END included) or a single ``FRAME``.
 
     Raises:
-        ValueError: for anything else, an empty range or a non-positive step.
+        ValueError: for anything else, an empty range, a non-positive step, more than :data:`MAX_FRAMES` frames or a
+            step too small to tell frames apart at :data:`FRAME_DIGITS` significant digits.
     """
     parts = str(text).split(":")
     try:
@@ -59,20 +62,31 @@ def parse_frames(text: str) -> list[float]:
     if end < start:
         raise ValueError(f"--frames range {text!r} is empty (END < START)")
     count = int(math.floor((end - start) / step + 1e-9)) + 1
+    if count > MAX_FRAMES:
+        raise ValueError(f"--frames {text!r} gives {count:,} frames; at most {MAX_FRAMES:,} in one run")
     # Rounded to 12 significant digits: 0.2 + 6 * 0.3 is 1.9999999999999998 in binary, and END must be END.
-    return [float(f"{start + k * step:.12g}") for k in range(count)]
+    frames = [_round_frame(start + k * step) for k in range(count)]
+    if len(set(frames)) < len(frames):
+        raise ValueError(f"--frames step {step:g} is too small: frames differ only past {FRAME_DIGITS} digits")
+    return frames
+
+
+def _round_frame(frame: float) -> float:
+    return float(f"{frame:.{FRAME_DIGITS}g}")
 
 
 def frame_output(pattern, frame: float) -> Path:
     """The file of ``frame``: the last run of ``#`` in ``pattern`` becomes the frame number zero-padded to its
     length (``out/frame_####.png`` -> ``out/frame_0012.png``); a pattern without ``#`` gets ``_####`` before its
-    suffix. Fractional frames keep their fraction (``frame_0012.5.png``)."""
+    suffix. Fractional frames keep their fraction to :data:`FRAME_DIGITS` significant digits (``frame_0012.5.png``),
+    so the frames of :func:`parse_frames` get files of their own."""
     pattern = str(pattern)
     if "#" not in pattern:
         p = Path(pattern)
         pattern = str(p.with_name(f"{p.stem}_####{p.suffix}"))
     run = list(FRAME_PATTERN.finditer(pattern))[-1]
-    digits = f"{abs(frame):.6f}".rstrip("0").rstrip(".")  # 12.5 -> "12.5", 3.0000000000000004 -> "3"
+    # 12.5 -> "12.5", 3.0000000000000004 -> "3", 1.0000005 -> "1.0000005" (not "1.000001", the next frame's name)
+    digits = np.format_float_positional(_round_frame(abs(frame)), trim="-")
     whole, _, fraction = digits.partition(".")
     number = ("-" if frame < 0 and digits != "0" else "") + whole.zfill(len(run.group()))
     if fraction:
