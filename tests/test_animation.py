@@ -204,6 +204,29 @@ def test_cli_frames_and_resume(animated, tmp_path):
 
 
 @pytest.mark.parametrize(
+    "output, devices, message",
+    [
+        ("f_#.jpg", "cpu", "cannot write f_1.jpg: supported image formats"),
+        ("{scene}/f_#.png", "cpu", "is a file, not a directory"),
+        ("f_#.png", ",", "--devices ',' names no device"),
+    ],
+)
+def test_cli_frames_bad_output_or_devices_fail_before_any_frame(animated, tmp_path, capsys, monkeypatch, output,
+                                                                 devices, message):
+    """An output that cannot be written failed only after frame 1 was loaded and rendered (a folder under a file
+    said '[Errno 17] File exists'), and an empty --devices said 'max_workers must be greater than 0'."""
+    from wrt.cli import main
+
+    def no_render(*args, **kwargs):
+        raise AssertionError("a frame was rendered before the output was checked")
+
+    monkeypatch.setattr(FrameRenderer, "render", no_render)
+    out = str(tmp_path / output.format(scene=animated))
+    assert main(["render", str(animated), "--frames", "1:2", "-o", out, "--devices", devices, "-q"]) == 2
+    assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
     "asset_id", ["spinning_pyramids", "usdz_animated_cube", "usdz_interpolation_test", "teapot_scene_1000"]
 )
 def test_shared_animated_assets_render_as_frames(assets, asset_id):

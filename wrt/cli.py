@@ -254,9 +254,16 @@ def _run_frames(args, paths: list, progress) -> int:
     frames = parse_frames(args.frames)
     output = args.output or "frame_####.png"
     jobs = pending_frames(frames, output, args.resume)
+    from .image import check_image_path
+
+    # An unwritable output fails now, not after the first frame's load and render.
+    for folder in {check_image_path(file).parent for _, file in jobs}:
+        _check_output_location(folder)
     if len(jobs) < len(frames):
         progress(f"--resume: {len(frames) - len(jobs)} of {len(frames)} frames already on disk")
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
+    if not devices:
+        raise ValueError(f"--devices {args.devices!r} names no device; give e.g. cuda:0,cuda:1")
     common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet}
     common.update(_renderer_options(args))
     start = time.perf_counter()
