@@ -317,6 +317,34 @@ def test_display_color_interpolation(tmp_path, interpolation, left_handed):
         np.testing.assert_allclose(m.colors, values[m.indices])  # corner c of triangle t is vertex indices[t, c]
 
 
+def test_display_color_is_inherited_from_ancestors(tmp_path):
+    """A constant displayColor on a group colours the meshes and gprims below it that have none of their own (they
+    were grey), as UsdGeom.PrimvarsAPI.FindPrimvarWithInheritance finds it; a mesh's own colour still wins."""
+    own = 'color3f[] primvars:displayColor = [(0, 0, 1)] (interpolation = "constant")'
+    body = f"""
+def Xform "Group"
+{{
+    color3f[] primvars:displayColor = [(1, 0.5, 0)] (interpolation = "constant")
+    def Xform "Inner"
+    {{
+        {mesh_usda("Plain")}
+        {mesh_usda("Own", extra=own)}
+        def Sphere "Ball"
+        {{
+        }}
+    }}
+}}
+"""
+    path = write_usda(tmp_path, body)
+    scene = load(path)
+    stage = Usd.Stage.Open(path)
+    for mesh in scene.meshes:
+        expected = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(mesh.path)).FindPrimvarWithInheritance("displayColor").Get()
+        np.testing.assert_allclose(mesh.colors.reshape(-1, 3), np.broadcast_to(expected[0], (len(mesh.indices) * 3, 3)))
+    assert [tuple(m.colors[0, 0]) for m in scene.meshes] == [(1, 0.5, 0), (0, 0, 1)]
+    np.testing.assert_allclose(scene.shapes[0].color, (1, 0.5, 0))
+
+
 def test_non_finite_display_colors_warn_and_fall_back_to_grey(tmp_path):
     stage, path = make_stage(tmp_path)
     mesh = define_mesh(stage, left_handed=False)

@@ -2,10 +2,11 @@
 
 :func:`load_usd` walks the stage in pre-order, keeps every visible ``UsdGeom.Mesh`` whose purpose is ``default`` or
 ``render``, fan-triangulates its faces with :func:`triangulate` (leaving out ``holeIndices``), bakes the world
-transform into the points, and carries shading normals, ``displayColor``, texture coordinates and the bound material
-(:mod:`wrt.materials`) per triangle. UsdLux lights are read by :mod:`wrt.lights`. Bad topology raises
-:class:`wrt.errors.SceneError` naming the file and the prim; things that are skipped but a user might expect to see
-(unsupported gprims, lights or shaders) produce one warning each.
+transform into the points, and carries shading normals, ``displayColor`` (its own, else a constant one inherited
+from an ancestor), texture coordinates and the bound material (:mod:`wrt.materials`) per triangle. UsdLux lights
+are read by :mod:`wrt.lights`. Bad topology raises :class:`wrt.errors.SceneError` naming the file and the prim;
+things that are skipped but a user might expect to see (unsupported gprims, lights or shaders) produce one warning
+each.
 
 Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``size``), ``Cylinder`` and ``Cone``
 (``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``) and
@@ -635,7 +636,7 @@ class _StageReader:
             to_world[3] = (0.0, 0.0, 0.0, 1.0)
 
         color = np.full(3, 0.5, np.float32)
-        primvar = gprim.GetDisplayColorPrimvar()
+        primvar = _display_color(prim)
         if primvar and primvar.HasValue():
             values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64).reshape(-1, 3)
             if len(values) and np.all(np.isfinite(values)):
@@ -765,8 +766,9 @@ class _StageReader:
         return None
 
     def _read_colors(self, prim, mesh, topology):
-        """``(values (K, 3) float32, corner index (T, 3))`` from ``primvars:displayColor``, or None."""
-        primvar = mesh.GetDisplayColorPrimvar()
+        """``(values (K, 3) float32, corner index (T, 3))`` from ``primvars:displayColor`` (its own or inherited,
+        see :func:`_display_color`), or None."""
+        primvar = _display_color(prim)
         if not (primvar and primvar.HasValue()):
             return None
         found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology)
@@ -916,6 +918,12 @@ class _StageReader:
             paths = [p for p, _ in found]
             shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
             warnings.warn(f"{self.source}: {reason}: {len(paths)} prim(s){kinds}: {shown}", stacklevel=4)
+
+
+def _display_color(prim: Usd.Prim) -> UsdGeom.Primvar:
+    """The ``displayColor`` primvar of ``prim``: its own when authored, else a constant one of its nearest ancestor
+    that has one (USD's primvar inheritance, which usdview follows: a colour set on a group colours its meshes)."""
+    return UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(UsdGeom.Tokens.primvarsDisplayColor)
 
 
 def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
