@@ -324,6 +324,41 @@ def test_zero_scale_instance_is_skipped_with_a_warning_naming_it(tmp_path):
     assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/PI[0]", "/PI[2]"]
 
 
+def test_positions_move_by_velocities_between_samples_as_usd_computes(tmp_path):
+    """A PointInstancer with velocities and accelerations, and a mesh with velocities whose point count changes
+    between samples: between and beyond the samples, positions are the earlier sample moved by v dt + a dt^2 / 2
+    (dt in seconds), against ComputeInstanceTransformsAtTime and ComputePointsAtTime. They were interpolated
+    linearly (or, for the mesh, held at the earlier sample), ignoring the velocities."""
+    path = str(tmp_path / "velocities.usda")
+    stage = Usd.Stage.CreateNew(path)
+    stage.SetTimeCodesPerSecond(24)
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    octahedron(stage, "/PI/Proto")
+    pi.CreatePrototypesRel().SetTargets(["/PI/Proto"])
+    pi.CreateProtoIndicesAttr([0, 0])
+    for t, y in ((1.0, 0.0), (3.0, 5.0)):
+        pi.CreatePositionsAttr().Set([Gf.Vec3f(0, y, 0), Gf.Vec3f(4, y, 0)], t)
+        pi.CreateVelocitiesAttr().Set([Gf.Vec3f(24, 0, 0), Gf.Vec3f(0, 48, 0)], t)
+        pi.CreateAccelerationsAttr().Set([Gf.Vec3f(0, 0, 576), Gf.Vec3f(0, 0, 0)], t)
+    mesh = UsdGeom.Mesh.Define(stage, "/Particles")
+    mesh.CreateFaceVertexCountsAttr([3])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    mesh.CreatePointsAttr().Set([Gf.Vec3f(0, 0, 9), Gf.Vec3f(1, 0, 9), Gf.Vec3f(0, 1, 9)], 1.0)
+    mesh.CreateVelocitiesAttr().Set([Gf.Vec3f(0, 0, 24)] * 3, 1.0)
+    mesh.GetPointsAttr().Set([Gf.Vec3f(0, 0, 9), Gf.Vec3f(1, 0, 9), Gf.Vec3f(0, 1, 9), Gf.Vec3f(1, 1, 9)], 3.0)
+    mesh.GetVelocitiesAttr().Set([Gf.Vec3f(0, 0, 24)] * 4, 3.0)
+    stage.Save()
+    for time in (0.5, 1.0, 1.5, 2.5, 3.0, 4.0):
+        scene = load(path, time=time)
+        t = Usd.TimeCode(time)
+        expected = [np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)]
+        np.testing.assert_allclose(scene.instances.to_world, expected, atol=1e-5)
+        points = np.array(UsdGeom.PointBased(mesh).ComputePointsAtTime(t, t), np.float64)
+        np.testing.assert_allclose(scene.meshes[0].points, points, atol=1e-6)
+    # Between samples the instances did move: 1.5 is 1/48 s after the sample at 1.
+    np.testing.assert_allclose(load(path, time=1.5).instances.to_world[:, :3, 3], [[0.5, 0, 0.125], [4, 1, 0]])
+
+
 def test_time_sampled_invisible_ids_follow_the_default_time_rule(tmp_path):
     """With ``time=None`` an instancer whose positions and invisibleIds have only time samples is read at their
     first sample, both of them: the mask USD computes there hides instance 1 (it was read at the default time,

@@ -23,10 +23,12 @@ targets is read once, in its own space, into a ``Scene.prototypes`` entry, and e
 depth) is resolved into that single level. PointInstancers read ``protoIndices``, ``positions``, ``orientations``
 (or ``orientationsf``), ``scales``, ``invisibleIds`` and ``inactiveIds`` (``ComputeMaskAtTime``); the instance
 transform is ``translate(position) * rotate(orientation) * scale(scale)`` after the prototype root's own transform
-(``IncludeProtoXform``), as ``ComputeInstanceTransformsAtTime`` computes it; ``velocities`` and
-``accelerations`` are ignored. A ``protoIndices`` entry out of range, a prototype target that does not exist, or
-per-instance arrays shorter than ``protoIndices`` raise :class:`wrt.errors.SceneError` naming the instancer;
-instances whose transform is singular (a zero scale) are skipped with a warning naming each one
+(``IncludeProtoXform``), as ``ComputeInstanceTransformsAtTime`` computes it. Between and beyond time samples,
+``positions`` (and a mesh's ``points``) with ``velocities`` (and ``accelerations``) authored at the same samples are
+the earlier sample moved by them, as USD computes it; without, they are interpolated; ``angularVelocities`` are
+ignored (orientations are interpolated). A ``protoIndices`` entry out of range, a prototype target that does not
+exist, or per-instance arrays shorter than ``protoIndices`` raise :class:`wrt.errors.SceneError` naming the
+instancer; instances whose transform is singular (a zero scale) are skipped with a warning naming each one
 (``/instancer[index]``). Visibility and purpose inside a PointInstancer's prototype are taken from the prototype
 root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
 bound above a native instance applies to the prototype's meshes that bind none themselves.
@@ -56,7 +58,7 @@ from .lights import read_light
 from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import Mesh, Scene
-from .usd_values import read_time, value_at
+from .usd_values import moved_positions, read_time, value_at
 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -380,6 +382,12 @@ class _StageReader:
             self.contents[key] = content
         return self.contents[key]
 
+    def _moved(self, schema, positions: Usd.Attribute):
+        """``positions`` (``points`` or a PointInstancer's ``positions``) of ``schema`` moved by its velocities and
+        accelerations at this time (see :func:`wrt.usd_values.moved_positions`), or None to read them as they are."""
+        velocities, accelerations = schema.GetVelocitiesAttr(), schema.GetAccelerationsAttr()
+        return moved_positions(positions, velocities, accelerations, self.time, self.stage.GetTimeCodesPerSecond())
+
     def _read_native_instance(self, prim: Usd.Prim, ctx: _Context, purpose=None):
         """An instance of a native prototype; ``purpose``: the non-rendered purpose it inherits, if any."""
         prototype = prim.GetPrototype()
@@ -423,8 +431,9 @@ class _StageReader:
                 pi.GetProtoIndicesAttr(),
             )
 
-        def per_instance(attr, width, name, default):
-            value = value_at(attr, t) if attr.HasValue() else None
+        def per_instance(attr, width, name, default, value=None):
+            if value is None:
+                value = value_at(attr, t) if attr.HasValue() else None
             if value is None or len(value) == 0:
                 return None if default is None else np.tile(default, (n, 1))
             array = np.asarray(value, np.float64).reshape(len(value), -1)
@@ -435,7 +444,7 @@ class _StageReader:
                 raise self._error(f"{name}[{i}] is not finite", prim, attr)
             return array[:n]
 
-        positions = per_instance(pi.GetPositionsAttr(), 3, "positions", None)
+        positions = per_instance(pi.GetPositionsAttr(), 3, "positions", None, self._moved(pi, pi.GetPositionsAttr()))
         if positions is None:
             raise self._error("positions is missing (PointInstancer needs one per protoIndices entry)", prim)
         orient_attr = pi.GetOrientationsfAttr() if pi.GetOrientationsfAttr().HasValue() else pi.GetOrientationsAttr()
@@ -681,7 +690,9 @@ class _StageReader:
         t = self.time
         counts = value_at(mesh.GetFaceVertexCountsAttr(), t)
         face_indices = value_at(mesh.GetFaceVertexIndicesAttr(), t)
-        raw_points = value_at(mesh.GetPointsAttr(), t)
+        raw_points = self._moved(mesh, mesh.GetPointsAttr())
+        if raw_points is None:
+            raw_points = value_at(mesh.GetPointsAttr(), t)
         counts = np.asarray(counts if counts is not None else [], dtype=np.int64).reshape(-1)
         face_indices = np.asarray(face_indices if face_indices is not None else [], dtype=np.int64).reshape(-1)
         if len(counts) == 0:
