@@ -505,11 +505,16 @@ def test_gprims_load_as_analytic_shapes_and_unsupported_ones_warn_once(tmp_path)
 
 
 def test_degenerate_faces_consume_indices(tmp_path):
-    # Counts 1 and 2 make no triangle but their indices are skipped over (count 0 is an error, tested below).
-    body = mesh_usda(counts=[2, 3, 1, 4], indices=[0, 1, 0, 1, 2, 3, 1, 4, 5, 6])
-    (m,) = load(write_usda(tmp_path, body)).meshes
+    # Counts 1 and 2 make no triangle but their indices are skipped over; a count of 0 is a face with no vertices,
+    # valid for UsdGeom.Mesh.ValidateTopology (it raised), that still has its uniform primvar entry.
+    counts, indices = [2, 3, 0, 1, 4], [0, 1, 0, 1, 2, 3, 1, 4, 5, 6]
+    assert UsdGeom.Mesh.ValidateTopology(Vt.IntArray(indices), Vt.IntArray(counts), len(POINTS))[0]
+    colors = [(k / 4, 0, 0) for k in range(5)]
+    extra = f'color3f[] primvars:displayColor = {fmt(colors)} (interpolation = "uniform")'
+    (m,) = load(write_usda(tmp_path, mesh_usda(counts=counts, indices=indices, extra=extra))).meshes
     np.testing.assert_array_equal(m.indices, [[0, 1, 2], [1, 4, 5], [1, 5, 6]])
-    np.testing.assert_array_equal(m.face_ids, [1, 3, 3])
+    np.testing.assert_array_equal(m.face_ids, [1, 4, 4])
+    np.testing.assert_allclose(m.colors[:, 0, 0], [0.25, 1.0, 1.0])
 
 
 def test_hole_faces_are_not_drawn(tmp_path):
@@ -694,7 +699,6 @@ def test_syntax_error_names_line_and_property(tmp_path):
         (dict(indices=[0, 1, 2, 3, 1, 4, 5, 40, 2]), ["faceVertexIndices[7] = 40 is out of range for 7 points"]),
         (dict(indices=[0, 1, 2, 3, 1, 4, 5, -1, 2]), ["faceVertexIndices[7] = -1"]),
         (dict(counts=[4, -5]), ["faceVertexCounts[1] = -5 is negative"]),
-        (dict(counts=[4, 0, 5]), ["faceVertexCounts[1] = 0 is zero"]),
         (dict(counts=[4, 4]), ["sum to 8", "9 faceVertexIndices"]),
         (dict(points=POINTS[:5] + [(float("nan"), 0, 0)] + POINTS[6:]), ["points[5]", "not finite"]),
         (dict(points=POINTS[:6] + [(float("inf"), 0, 0)]), ["points[6]", "not finite"]),

@@ -741,11 +741,11 @@ class _StageReader:
 
     def _check_topology(self, prim, counts, face_indices, points):
         mesh = UsdGeom.Mesh(prim)
-        bad = counts <= 0
+        # Faces of 0, 1 or 2 vertices are valid topology (UsdGeom.Mesh.ValidateTopology) that draws nothing.
+        bad = counts < 0
         if bad.any():
             f = int(np.argmax(bad))
-            kind = "negative" if counts[f] < 0 else "zero"
-            raise self._error(f"faceVertexCounts[{f}] = {counts[f]} is {kind}", prim, mesh.GetFaceVertexCountsAttr())
+            raise self._error(f"faceVertexCounts[{f}] = {counts[f]} is negative", prim, mesh.GetFaceVertexCountsAttr())
         total = int(counts.sum())
         if total != len(face_indices):
             raise self._error(
