@@ -119,3 +119,100 @@ def test_camera_animated_only_by_time_samples_uses_its_first_sample(tmp_path):
     np.testing.assert_allclose(default.eye, [0.0, 2.0, 10.0])  # the first frame, not the origin
     later = wrt.load_usd(tmp_path / "anim_cam.usda", time=10).cameras["/Cam"]
     np.testing.assert_allclose(later.eye, [5.0, 2.0, 10.0])
+
+
+def _camera_under(tmp_path, parent: Gf.Matrix4d, projection: str) -> str:
+    stage = Usd.Stage.CreateNew(str(tmp_path / f"cam_{projection}.usda"))
+    UsdGeom.Xform.Define(stage, "/P").AddTransformOp().Set(parent)
+    cam = UsdGeom.Camera.Define(stage, "/P/Cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(1.0, 2.0, 3.0))
+    cam.AddRotateXYZOp().Set(Gf.Vec3f(10.0, 20.0, 30.0))
+    cam.CreateProjectionAttr(projection)
+    cam.CreateFocalLengthAttr(50.0)
+    cam.CreateHorizontalApertureAttr(36.0)
+    cam.CreateHorizontalApertureOffsetAttr(3.0)
+    cam.CreateVerticalApertureOffsetAttr(-2.0)
+    stage.Save()
+    return str(tmp_path / f"cam_{projection}.usda")
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_camera_rays_are_camera_space_rays_moved_by_the_whole_transform(tmp_path, projection):
+    """A camera under a sheared, non-uniformly scaled and mirrored parent: each pixel's ray is its camera-space ray
+    moved by ComputeLocalToWorldTransform (as Hydra's view matrix maps it), not a ray of an undistorted frame."""
+    parent = Gf.Matrix4d(-1.0, 0.0, 0.0, 0.0, 0.5, 2.0, 0.0, 0.0, 0.0, 0.3, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    path = _camera_under(tmp_path, parent, projection)
+    stage = Usd.Stage.Open(path)
+    m = UsdGeom.Camera(stage.GetPrimAtPath("/P/Cam")).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+    width, height = 6, 4
+    origins, directions = camera_rays(wrt.load_usd(path), "/P/Cam", width=width, height=height)
+    expected_o, expected_d = [], []
+    for i in range(height):
+        for j in range(width):
+            x = ((j + 0.5) / width - 0.5) * 36.0 + 3.0  # horizontal fit: film height 36 * 4 / 6
+            y = (0.5 - (i + 0.5) / height) * 24.0 - 2.0
+            if projection == "perspective":
+                o, p = m.Transform(Gf.Vec3d(0, 0, 0)), m.Transform(Gf.Vec3d(x / 50.0, y / 50.0, -1.0))
+            else:
+                o = m.Transform(Gf.Vec3d(0.1 * x, 0.1 * y, 0.0))  # apertures in tenths of a unit
+                p = m.Transform(Gf.Vec3d(0.1 * x, 0.1 * y, -1.0))
+            expected_o.append(np.array(o))
+            expected_d.append(np.array(p - o) / (p - o).GetLength())
+    np.testing.assert_allclose(origins, expected_o, atol=1e-5)
+    np.testing.assert_allclose(directions, expected_d, atol=1e-5)
+
+
+SCALED_WORLD = """#usda 1.0
+def Xform "World"
+{{
+    double3 xformOp:scale = ({s}, {s}, {s})
+    uniform token[] xformOpOrder = ["xformOp:scale"]
+    def Camera "Cam"
+    {{
+        token projection = "{projection}"
+        float2 clippingRange = (1, 100)
+        float focalLength = 50
+        float horizontalAperture = {aperture}
+        double3 xformOp:translate = (0, 0, 50)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }}
+    def Mesh "Quad"
+    {{
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-10, -10, 0), (10, -10, 0), (10, 10, 0), (-10, 10, 0)]
+    }}
+}}
+"""
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_scaling_camera_and_scene_together_keeps_the_image(tmp_path, projection):
+    """A units conversion on a common parent (scale 0.01 or 100) scales the clipping range and the orthographic
+    view with the scene: the quad 50 units in front of a camera clipping at (1, 100) stays in view."""
+    images = {}
+    for s in (1.0, 0.01, 100.0):
+        path = tmp_path / f"world_{s}.usda"
+        path.write_text(SCALED_WORLD.format(s=s, projection=projection,
+                                            aperture=40.0 if projection == "perspective" else 400.0))
+        images[s] = wrt.render(wrt.load_usd(path), width=8, height=8, device="cpu", integrator="depth")
+    hit = images[1.0].aovs["prim"] >= 0
+    assert hit.sum() == 16  # the quad covers the middle half of the view on each axis
+    for s in (0.01, 100.0):
+        np.testing.assert_array_equal(images[s].aovs["prim"], images[1.0].aovs["prim"])
+        np.testing.assert_allclose(images[s].aovs["depth"][hit], s * images[1.0].aovs["depth"][hit], rtol=1e-5)
+
+
+def test_zero_scaled_camera_is_refused_only_when_used(tmp_path):
+    stage = Usd.Stage.CreateNew(str(tmp_path / "zero.usda"))
+    UsdGeom.Camera.Define(stage, "/Good").AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
+    UsdGeom.Camera.Define(stage, "/Flat").AddScaleOp().Set(Gf.Vec3f(0, 1, 1))
+    mesh = UsdGeom.Mesh.Define(stage, "/Tri")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([3])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    stage.Save()
+    scene = wrt.load_usd(tmp_path / "zero.usda")
+    assert wrt.render(scene, camera="/Good", width=4, height=4, device="cpu").rgb.shape == (4, 4, 3)
+    with pytest.raises(ValueError, match="/Flat.*singular"):
+        wrt.render(scene, camera="/Flat", width=4, height=4, device="cpu")

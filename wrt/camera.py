@@ -4,7 +4,10 @@ Conventions, stated once:
 
 - A camera looks down its local -Z axis with +Y up and +X to the right, as ``UsdGeom.Camera`` does.
 - ``Camera.to_world`` is a ``(4, 4)`` matrix in column-vector convention: ``p_world = to_world @ [p, 1]``.
-  (USD's ``Gf.Matrix4d`` is row-vector, so it is transposed on the way in.)
+  (USD's ``Gf.Matrix4d`` is row-vector, so it is transposed on the way in.) Rays are made in camera space and
+  moved to world space by the whole matrix, scale, shear and mirroring included, as Hydra's view matrix (its
+  inverse) does: the film, the clipping range and the focus distance are camera-space lengths, so a camera
+  scaled together with the scene (a units conversion on a common parent) sees the same image.
 - Film quantities follow USD: focal length and apertures share one unit (so only their ratios matter for
   perspective); for orthographic cameras the apertures are in tenths of a scene unit (``Gf.Camera.APERTURE_UNIT``).
 - ``fit="horizontal"`` keeps the horizontal aperture and lets the vertical extent follow the image aspect,
@@ -29,31 +32,41 @@ class DeviceCamera:
     """Camera data in the form the ray-generation kernel needs."""
 
     origin: wp.vec3  # eye position, world space
-    right: wp.vec3  # world-space camera +X
-    up: wp.vec3  # world-space camera +Y
-    forward: wp.vec3  # world-space camera -Z (viewing direction)
-    film_width: float  # film extent along right, in focal-length units (perspective) or scene units (ortho)
+    right: wp.vec3  # camera +X in world space: a column of the camera's transform, its scale included
+    up: wp.vec3  # camera +Y in world space, scale included
+    forward: wp.vec3  # camera -Z in world space (viewing direction), scale included
+    film_width: float  # film extent along right, in focal-length units (perspective) or camera-space units (ortho)
     film_height: float  # film extent along up, same unit
     film_offset: wp.vec2  # film window shift (x, y), same unit
     orthographic: int  # 1 for orthographic projection
-    near: float  # clipping range, distance along forward
+    near: float  # clipping range, camera-space depth
     far: float
+
+
+@wp.func
+def film_ray(cam: DeviceCamera, fx: float, fy: float):
+    """Origin and direction of the ray through film position ``(fx, fy)`` in [0, 1]^2 (y down), the direction not
+    normalised: one unit of it is one unit of camera-space depth."""
+    x = (fx - 0.5) * cam.film_width + cam.film_offset[0]
+    y = (0.5 - fy) * cam.film_height + cam.film_offset[1]
+    if cam.orthographic == 1:
+        return cam.origin + x * cam.right + y * cam.up, cam.forward
+    return cam.origin, cam.forward + x * cam.right + y * cam.up
+
+
+@wp.func
+def clipped_ray(cam: DeviceCamera, origin: wp.vec3, ray: wp.vec3):
+    """``(origin, unit direction, t_min, t_max)`` of a ray whose direction ``ray`` advances one unit of camera-space
+    depth per unit: the clipping range becomes distances along the unit direction."""
+    length = wp.length(ray)
+    return origin, ray / length, cam.near * length, cam.far * length
 
 
 @wp.func
 def camera_ray(cam: DeviceCamera, fx: float, fy: float):
     """Ray through film position ``(fx, fy)`` in [0, 1]^2 (y down). Returns origin, unit direction, t range."""
-    x = (fx - 0.5) * cam.film_width + cam.film_offset[0]
-    y = (0.5 - fy) * cam.film_height + cam.film_offset[1]
-    origin = cam.origin
-    direction = cam.forward
-    if cam.orthographic == 1:
-        origin = cam.origin + x * cam.right + y * cam.up
-    else:
-        direction = wp.normalize(cam.forward + x * cam.right + y * cam.up)
-    # Clipping planes are planes of constant depth; convert them to distances along this ray.
-    cos_theta = wp.dot(direction, cam.forward)
-    return origin, direction, cam.near / cos_theta, cam.far / cos_theta
+    origin, ray = film_ray(cam, fx, fy)
+    return clipped_ray(cam, origin, ray)
 
 
 @wp.kernel
@@ -106,11 +119,11 @@ class Camera:
         vertical_aperture: film height, in the film unit (used only with ``fit="vertical"``).
         horizontal_aperture_offset: film shift along +X, in the film unit.
         vertical_aperture_offset: film shift along +Y, in the film unit.
-        clipping_range: ``(near, far)`` depth range, scene units.
+        clipping_range: ``(near, far)`` camera-space depth range (scene units for an unscaled camera).
         projection: ``"perspective"`` or ``"orthographic"``.
         fit: which aperture is kept when the image aspect differs: ``"horizontal"`` or ``"vertical"``.
         f_stop: lens f-number; 0 means a pinhole.
-        focus_distance: distance to the plane in focus, scene units.
+        focus_distance: camera-space depth of the plane in focus.
         path: prim path when read from USD.
     """
 
@@ -184,8 +197,10 @@ class Camera:
     def to_struct(self, width: int, height: int) -> DeviceCamera:
         """The :class:`DeviceCamera` for an image of ``width x height`` pixels."""
         m = self.to_world
-        # Columns of the rotation part; normalising removes scale baked into the camera's transform.
-        right, up, back = (_normalized(m[:3, k]) for k in range(3))
+        if not abs(np.linalg.det(m[:3, :3])) > 0.0:  # checked here: a stage may hold such a camera unused
+            raise ValueError(f"camera {self.path or ''} transform is singular (a zero scale), so it has no view")
+        # Columns of the linear part, scale included: rays are mapped from camera space as points are.
+        right, up, back = (m[:3, k] for k in range(3))
         film_w, film_h = self.film_size(width, height)
         offset = np.array([self.horizontal_aperture_offset, self.vertical_aperture_offset])
         if self.projection == "perspective":

@@ -137,7 +137,7 @@ class Image:
         aovs: per-pixel data of the camera ray through each pixel centre (sample 0), all ``(H, W, ...)``:
 
             - ``"depth"`` float32 distance along the ray (``inf`` on a miss);
-            - ``"z"`` float32 camera-space depth: distance along the viewing axis (``inf`` on a miss);
+            - ``"z"`` float32 depth: distance along the viewing axis, scene units (``inf`` on a miss);
             - ``"normal"`` ``(H, W, 3)`` float32 world-space shading normal, facing the camera (0 on a miss);
             - ``"geometric_normal"`` ``(H, W, 3)`` float32 world-space face normal, facing the camera;
             - ``"albedo"`` ``(H, W, 3)`` float32 diffuseColor (textured) of the hit material;

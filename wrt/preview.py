@@ -422,6 +422,7 @@ def frustum_corners(cam: Camera, width: int, height: int, depth: float) -> np.nd
     xs = np.array([-0.5, 0.5, 0.5, -0.5]) * s.film_width + offset[0]
     ys = np.array([0.5, 0.5, -0.5, -0.5]) * s.film_height + offset[1]
     across = xs[:, None] * right + ys[:, None] * up
+    depth = depth / np.linalg.norm(forward)  # camera-space depth: forward carries the camera's scale
     if s.orthographic:
         return eye + across + depth * forward
     return eye + depth * (forward + across)
@@ -430,7 +431,8 @@ def frustum_corners(cam: Camera, width: int, height: int, depth: float) -> np.nd
 def camera_frame(cam: Camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """The eye and the unit view direction of ``cam``, ``(3,)`` float64 each, world space."""
     s = cam.to_struct(width, height)
-    return np.array(s.origin, np.float64), np.array(s.forward, np.float64)
+    forward = np.array(s.forward, np.float64)
+    return np.array(s.origin, np.float64), forward / np.linalg.norm(forward)
 
 
 def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, builder="sah", device="cpu"):

@@ -19,7 +19,7 @@ Conventions:
 
 import warp as wp
 
-from .camera import DeviceCamera, camera_ray
+from .camera import DeviceCamera, clipped_ray, film_ray
 from .geometry import stable_length
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface
@@ -180,16 +180,14 @@ def camera_sample(
         sy, state = rand01(state)
         lx, state = rand01(state)
         ly, state = rand01(state)
-    o, d, t0, t1 = camera_ray(cam, (float(j) + sx) / float(width), (float(i) + sy) / float(height))
+    o, ray = film_ray(cam, (float(j) + sx) / float(width), (float(i) + sy) / float(height))
     if lens_radius > 0.0 and cam.orthographic == 0 and sample > 0:
-        cos_t = wp.dot(d, cam.forward)
-        focus = o + (focus_distance / cos_t) * d
+        # Lens and focus plane are in camera space; ray keeps advancing one unit of camera-space depth per unit.
+        focus = o + focus_distance * ray
         lens = sample_concentric_disk(lx, ly) * lens_radius
         o = o + lens[0] * cam.right + lens[1] * cam.up
-        d = wp.normalize(focus - o)
-        cos_t = wp.dot(d, cam.forward)
-        t0 = cam.near / cos_t
-        t1 = cam.far / cos_t
+        ray = (focus - o) / focus_distance
+    o, d, t0, t1 = clipped_ray(cam, o, ray)
     return o, d, t0, t1, state
 
 
@@ -418,7 +416,7 @@ def primary_aovs_kernel(
     s = eval_surface(mats, h.material, h.st, h.display)
     depth[i] = hit_t[i] * wp.length(d)
     cam = cams[i // view_pixels]
-    z[i] = wp.dot(h.p - cam.origin, cam.forward)
+    z[i] = wp.dot(h.p - cam.origin, wp.normalize(cam.forward))
     normal[i] = h.ns
     geometric_normal[i] = h.ng
     albedo[i] = s.base_color
