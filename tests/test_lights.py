@@ -395,3 +395,18 @@ def test_coarse_textured_dome_is_unbiased(tmp_path):
     estimate = np.mean([renderer.render(spp=4096, seed=k).rgb[0, 0, 0] for k in range(4)])
     assert abs(estimate - 1.0) < 0.01, estimate  # the old pdf gave 1.04 (+- 0.002)
     np.testing.assert_allclose(wrt.render(scene, width=1, height=1).rgb[0, 0], 0.5, rtol=1e-4)
+
+
+def test_light_shaping_is_reported_not_silently_dropped(tmp_path):
+    """A spot light (ShapingAPI cone of 30 degrees) would light the whole plane: the load says it is unshaped. A
+    ShapingAPI left at its fallbacks changes nothing and says nothing."""
+
+    def build(stage):
+        spot = UsdLux.SphereLight.Define(stage, "/Spot")
+        UsdLux.ShapingAPI.Apply(spot.GetPrim()).CreateShapingConeAngleAttr(30.0)
+        plain = UsdLux.SphereLight.Define(stage, "/Plain")
+        UsdLux.ShapingAPI.Apply(plain.GetPrim())
+
+    with pytest.warns(UserWarning, match=r"ShapingAPI.*not supported.*1 prim\(s\): /Spot$"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    assert {light.path for light in scene.lights} == {"/Spot", "/Plain"}

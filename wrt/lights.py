@@ -284,6 +284,9 @@ def read_light(prim, xforms, time, up_axis: str, skip):
     if not (np.all(np.isfinite(color)) and np.all(np.isfinite(m))):
         skip("lights with a non-finite colour or transform were skipped", prim)
         return None
+    if prim.HasAPI(UsdLux.ShapingAPI) and _shaped(UsdLux.ShapingAPI(prim), get):
+        skip("light shaping (ShapingAPI cone, focus or IES profile) is not supported; these lights emit unshaped",
+             prim)
 
     if prim.IsA(UsdLux.DistantLight):
         d = UsdLux.DistantLight(prim)
@@ -317,6 +320,15 @@ def read_light(prim, xforms, time, up_axis: str, skip):
         return _read_dome(prim, m, color, time, up_axis, skip, get)
     skip(f"{prim.GetTypeName() or 'this'} lights are not supported; skipped", prim, prim.GetTypeName())
     return None
+
+
+def _shaped(shaping, get) -> bool:
+    """True when a ``UsdLux.ShapingAPI`` changes the emission from its fallbacks (a cone under 180 degrees, a focus or
+    an IES profile)."""
+    cone = float(get(shaping.GetShapingConeAngleAttr(), 90.0))
+    focus = float(get(shaping.GetShapingFocusAttr(), 0.0))
+    ies = get(shaping.GetShapingIesFileAttr(), None)
+    return cone < 90.0 or focus != 0.0 or bool(getattr(ies, "path", "") if ies is not None else "")
 
 
 def _read_dome(prim, m, color, time, up_axis, skip, get):
