@@ -410,3 +410,17 @@ def test_light_shaping_is_reported_not_silently_dropped(tmp_path):
     with pytest.warns(UserWarning, match=r"ShapingAPI.*not supported.*1 prim\(s\): /Spot$"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     assert {light.path for light in scene.lights} == {"/Spot", "/Plain"}
+
+
+def test_mesh_light_is_reported_not_silently_dark(tmp_path):
+    def build(stage):
+        mesh = UsdGeom.Mesh.Define(stage, "/Panel")
+        mesh.CreatePointsAttr([(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)])
+        mesh.CreateFaceVertexCountsAttr([4])
+        mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        UsdLux.MeshLightAPI.Apply(mesh.GetPrim())
+        UsdLux.LightAPI(mesh.GetPrim()).CreateIntensityAttr(10.0)
+
+    with pytest.warns(UserWarning, match=r"MeshLightAPI.*not supported.*/Panel"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    assert scene.stats()["rendered_triangles"] == 2  # still drawn as geometry

@@ -300,6 +300,8 @@ class _StageReader:
             it.PruneChildren()
         elif prim.IsA(UsdGeom.Mesh):
             if self._rendered(prim, ctx):
+                if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI: the mesh itself should emit
+                    self._skip("mesh lights (MeshLightAPI) are not supported; drawn as meshes that emit nothing", prim)
                 mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
                 if mesh is not None:
                     ctx.content.meshes.append(mesh)
