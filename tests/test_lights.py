@@ -424,3 +424,27 @@ def test_mesh_light_is_reported_not_silently_dark(tmp_path):
     with pytest.warns(UserWarning, match=r"MeshLightAPI.*not supported.*/Panel"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     assert scene.stats()["rendered_triangles"] == 2  # still drawn as geometry
+
+
+def test_negative_light_colour_is_clamped_with_a_warning(tmp_path):
+    """A negative colour channel (or intensity) would subtract light and give negative pixels."""
+
+    def build(stage):
+        plane = UsdGeom.Mesh.Define(stage, "/Plane")
+        plane.CreatePointsAttr([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)])
+        plane.CreateFaceVertexCountsAttr([4])
+        plane.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        sun = UsdLux.DistantLight.Define(stage, "/Sun")
+        sun.CreateIntensityAttr(2.0)
+        sun.CreateAngleAttr(0.0)
+        sun.CreateColorAttr(Gf.Vec3f(1.0, -1.0, 0.5))
+        UsdLux.DomeLight.Define(stage, "/Dome").CreateIntensityAttr(-1.0)
+
+    with pytest.warns(UserWarning, match=r"negative light colour.*2 prim\(s\): /Sun, /Dome"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    expected = ALBEDO * np.array([2.0, 0.0, 1.0]) / np.pi  # the sun's positive channels; the dome adds nothing
+    img = wrt.render(scene, camera=top_down_camera(height=0.4), width=4, height=4, device="cpu")
+    np.testing.assert_allclose(img.rgb, np.broadcast_to(expected, img.rgb.shape), rtol=1e-4, atol=1e-6)
+    img = wrt.render(scene, camera=top_down_camera(height=0.4), width=4, height=4, spp=8, device="cpu",
+                     integrator="path")
+    assert img.rgb.min() >= 0.0 and img.rgb[..., 1].max() == 0.0

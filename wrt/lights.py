@@ -284,6 +284,9 @@ def read_light(prim, xforms, time, up_axis: str, skip):
     if not (np.all(np.isfinite(color)) and np.all(np.isfinite(m))):
         skip("lights with a non-finite colour or transform were skipped", prim)
         return None
+    if np.any(color < 0.0):  # a light cannot take light away: negative pixels would follow
+        skip("negative light colour or intensity was clamped to 0", prim)
+        color = np.maximum(color, 0.0)
     if prim.HasAPI(UsdLux.ShapingAPI) and _shaped(UsdLux.ShapingAPI(prim), get):
         skip("light shaping (ShapingAPI cone, focus or IES profile) is not supported; these lights emit unshaped",
              prim)
