@@ -322,3 +322,31 @@ def test_emissive_material_lights_the_scene(tmp_path):
     renderer = wrt.Renderer(scene, camera=cam, width=4, height=4, device="cpu")
     assert renderer.lights == []  # an emissive surface is a light source: no default lights are added
     np.testing.assert_allclose(renderer.render().rgb, np.broadcast_to([2, 1, 0.5], (4, 4, 3)), rtol=1e-6)
+
+
+def test_textures_reading_two_uv_sets_on_one_mesh_are_reported(tmp_path):
+    """diffuseColor through primvar st and roughness through st1: a mesh carries one set of texture coordinates, so
+    the roughness would silently be looked up with st; the load says so."""
+    png = write_png(tmp_path / "t.png", CHECKER)
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    UsdGeom.PrimvarsAPI(quad).CreatePrimvar("st1", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        [(0, 0), (1, 0), (0, 1), (1, 1)])
+    material, shader = preview_material(stage, "/Mat")
+    for input_name, uv, out_type in (("diffuseColor", "st", Sdf.ValueTypeNames.Color3f),
+                                     ("roughness", "st1", Sdf.ValueTypeNames.Float)):
+        reader = UsdShade.Shader.Define(stage, f"/Mat/Read_{uv}")
+        reader.CreateIdAttr("UsdPrimvarReader_float2")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set(uv)
+        reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+        tex = UsdShade.Shader.Define(stage, f"/Mat/Tex_{uv}")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
+        tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+        channel = "rgb" if input_name == "diffuseColor" else "r"
+        tex.CreateOutput(channel, Sdf.ValueTypeNames.Float3 if channel == "rgb" else Sdf.ValueTypeNames.Float)
+        shader.CreateInput(input_name, out_type).ConnectToSource(tex.ConnectableAPI(), channel)
+    bind(quad, material)
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"several texture-coordinate primvars \(st, st1\).*/Quad"):
+        wrt.load_usd(path)

@@ -349,14 +349,19 @@ class MaterialReader:
             bound = True
         return faces if bound else None
 
-    def uv_set(self, face_materials: np.ndarray | None) -> str | None:
-        """The texture-coordinate primvar to read for a mesh whose faces use ``face_materials``; None when none of
-        them is textured."""
+    def uv_set(self, face_materials: np.ndarray | None, prim=None) -> str | None:
+        """The texture-coordinate primvar to read for mesh ``prim`` whose faces use ``face_materials``; None when none
+        of them is textured. A mesh holds one set of texture coordinates: when its textures read several primvars,
+        the first is used for all of them, and ``skip`` reports it."""
+        names = []
         if face_materials is not None:
             for k in np.unique(face_materials):
-                if k >= 0 and self.materials[k].textures:
-                    return self.materials[k].uv_set
-        return None
+                if k >= 0:
+                    names += [t.uv_set for t in self.materials[k].textures.values() if t.uv_set not in names]
+        if len(names) > 1 and prim is not None:
+            self.skip(f"textures read several texture-coordinate primvars ({', '.join(names)}), but only one per "
+                      f"mesh is supported; {names[0]!r} is used for all", prim)
+        return names[0] if names else None
 
     # Materials
 

@@ -528,7 +528,7 @@ class _StageReader:
             ctx.content.uses_outer = True
             if ctx.outer_material is not None:
                 face_materials = np.full(n_faces, ctx.outer_material, np.int32)
-        uv_set = self.materials.uv_set(face_materials)
+        uv_set = self.materials.uv_set(face_materials, prim)
         local = self._read_local_mesh(prim, uv_set)
         if local is None:
             return None
