@@ -142,7 +142,7 @@ class Image:
             - ``"geometric_normal"`` ``(H, W, 3)`` float32 world-space face normal, facing the camera;
             - ``"albedo"`` ``(H, W, 3)`` float32 diffuseColor (textured) of the hit material;
             - ``"prim"`` int32 triangle id (-1 on a miss);
-            - ``"instance"`` int32 instance id: 0 on a hit (no instancing yet), -1 on a miss;
+            - ``"instance"`` int32 index into ``Scene.instances``; -1 on a miss or on non-instanced geometry;
             - ``"material"`` int32 index into ``Scene.materials`` (-1 on a miss or for the default material);
             - ``"cost"`` ``(H, W, 2)`` int32 BVH nodes visited and triangles tested by the ray (0 for
               ``accel="warp"``), including re-traces past culled back faces.
