@@ -13,6 +13,7 @@ from wrt.geometry import intersect_ray_triangle, make_sheared_ray
 from wrt.instancing import Instances, Prototype
 from wrt.rays import camera_rays, random_rays
 from wrt.scene import Mesh
+from wrt.trace import get_accelerator
 
 SHARED_SCENES = (
     "cornell_box",
@@ -263,6 +264,25 @@ def test_occluded_matches_closest_hit(np_rng):
     for accel in ("wrt", "warp"):
         blocked = wrt.occluded(scene, origins, directions, t_max=t_max, accel=accel)
         np.testing.assert_array_equal(blocked, hits.t < t_max)
+
+
+@pytest.mark.parametrize("accel", ["wrt", "warp"])
+def test_non_finite_vertices_raise_for_every_accelerator(accel):
+    """A NaN vertex in one triangle of a closed mesh: wp.Mesh used to build anyway and let rays through that
+    triangle escape the mesh; both accelerators refuse it, on the build and on a refit, naming the triangle."""
+    from wrt.primitives import Shape, tessellate
+
+    points, tris, _ = tessellate(Shape("/s", "sphere", np.eye(4)), 16)
+    points = points.astype(np.float32)
+    bad = points.copy()
+    bad[tris[5, 0]] = np.nan
+    mesh = Mesh("/sphere", bad, tris, np.arange(len(tris), dtype=np.int32))
+    with pytest.raises(ValueError, match="finite.*triangle"):
+        wrt.trace(wrt.Scene(meshes=[mesh]), np.zeros((1, 3)), np.ones((1, 3)), accel=accel)
+    scene = wrt.Scene.from_triangles(points, tris)
+    acc = get_accelerator(scene, accel)
+    with pytest.raises(ValueError, match="finite.*triangle"):
+        acc.refit(wrt.Scene(meshes=[mesh]))
 
 
 def test_bad_trace_arguments_raise_value_error():

@@ -24,6 +24,7 @@ import warp as wp
 
 from .bvh import DeviceBvh, FlatBvh, build_bvh, build_bvh_device
 from .bvh.build import Builder
+from .bvh.common import check_triangles
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import TRACE_KERNEL_OPTIONS, bvh_intersect, bvh_occluded
@@ -410,12 +411,18 @@ class WarpMeshAccelerator(Accelerator):
             return
         self.points = wp.array(points, dtype=wp.vec3, device=device)
         self.indices = wp.array(indices.reshape(-1), dtype=wp.int32, device=device)
+        # wp.Mesh takes NaN and inf vertices without a word and its rays then slip through holes: checked as wrt's
+        # own builds check them.
+        check_triangles(self.points, self.indices.reshape((-1, 3)))
         self.mesh = wp.Mesh(self.points, self.indices, bvh_constructor=builder)
 
     def refit(self, scene: Scene) -> None:
-        """Follows ``scene``'s vertices (same triangles): ``wp.Mesh.refit``."""
+        """Follows ``scene``'s vertices (same triangles): ``wp.Mesh.refit``; non-finite vertices raise
+        ``ValueError`` as in the build."""
         if self.mesh is not None:
-            self.points.assign(scene.triangles()[0])
+            points = wp.array(scene.triangles()[0], dtype=wp.vec3, device=self.device)
+            check_triangles(points, self.indices.reshape((-1, 3)))
+            self.points.assign(points)
             self.mesh.refit()
 
     def _launch(self, kernel, n, inputs, outputs, miss_fill) -> None:
