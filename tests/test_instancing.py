@@ -433,6 +433,22 @@ def test_occluded_matches_closest_hit(np_rng):
     np.testing.assert_array_equal(blocked, hits.t < t_max)
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_non_finite_instance_or_shape_transform_raises_naming_it(np_rng, bad):
+    """A scene built in Python with a NaN or inf in an instance's (or a shape's) transform: the two-level BVH used
+    to leave that instance out without a word, as if it had a zero scale; now it names it."""
+    from wrt.primitives import Shape
+
+    scene = python_scene(np_rng, n=4)
+    scene.instances.to_world[2, 0, 3] = bad
+    with pytest.raises(ValueError, match=r"instance 2 \(/instances\[2\]\) has a NaN or infinite transform"):
+        wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)))
+    shape = Shape("/Ball", "sphere", np.diag([1.0, bad, 1.0, 1.0]))
+    scene = wrt.Scene(shapes=[shape])
+    with pytest.raises(ValueError, match="shape /Ball has a NaN or infinite transform"):
+        wrt.occluded(scene, np.zeros((1, 3)), np.ones((1, 3)))
+
+
 def test_device_memory_grows_by_at_most_128_bytes_per_instance(np_rng):
     """Two scenes with the same prototype, 200 and 2000 instances: the BLAS is the same, the rest is per instance."""
     sizes = {}

@@ -277,6 +277,7 @@ class InstancedAccelerator(Accelerator):
     name = "wrt"
 
     def __init__(self, scene: Scene, builder: str, device, **build_options):
+        check_finite_transforms(scene)
         self.device = device
         self.builder = builder
         points, indices = scene.geometry()
@@ -304,6 +305,7 @@ class InstancedAccelerator(Accelerator):
         Raises:
             ValueError: when ``scene`` needs other BLASes (a prototype gained or lost all its instances, say).
         """
+        check_finite_transforms(scene)
         if [tuple(p) for p in blas_parts(scene)] != self._blas_parts:
             raise ValueError("the scene's prototypes changed; build a new InstancedAccelerator")
         if refit_blas:
@@ -427,6 +429,20 @@ class InstancedAccelerator(Accelerator):
             outputs=[blocked],
             device=self.device,
         )
+
+
+def check_finite_transforms(scene: Scene) -> None:
+    """Raises ``ValueError`` naming the first instance or shape whose transform holds a NaN or inf. Such an entry
+    cannot be inverted, and was left out of the TLAS as a zero scale is, so it vanished without a word (the USD
+    loader warns about the singular instances it skips; scenes built in Python reach here unchecked)."""
+    instances = scene.instances
+    finite = np.isfinite(instances.to_world).all(axis=(1, 2))
+    if not finite.all():
+        i = int(np.argmin(finite))
+        raise ValueError(f"instance {i} ({instances.path(i)}) has a NaN or infinite transform")
+    for shape in [*scene.shapes, *(s for p in scene.prototypes for s in p.shapes)]:
+        if not np.isfinite(shape.to_world).all():
+            raise ValueError(f"shape {shape.path} has a NaN or infinite transform")
 
 
 def blas_parts(scene: Scene) -> list[tuple[int, int, int]]:
