@@ -285,6 +285,20 @@ def test_non_finite_vertices_raise_for_every_accelerator(accel):
         acc.refit(wrt.Scene(meshes=[mesh]))
 
 
+def test_compare_counts_a_nan_t_on_a_hit_as_a_disagreement():
+    """An accelerator that reports a hit with t = NaN disagrees with one that reports t = 1: compare_hits used to
+    count it as agreement (NaN > tolerance is False), which would hide exactly the bugs it is there to find."""
+    def hits(t):
+        one = np.zeros(1, np.int32)
+        return wrt.Hits(np.array([t], np.float32), np.full(1, 0.3, np.float32), np.full(1, 0.3, np.float32), one,
+                        one, one)
+
+    for bad in (np.nan, np.inf):
+        report = compare_hits(hits(bad), hits(1.0), directions=np.ones((1, 3)), scale=1.0)
+        assert report["t_mismatch"] == 1 and report["disagreements"] == 1 and report["agreement"] == 0.0
+    assert compare_hits(hits(1.0), hits(1.0))["agreement"] == 1.0
+
+
 def test_bad_trace_arguments_raise_value_error():
     scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
     with pytest.raises(ValueError, match="valid accelerators"):

@@ -93,7 +93,8 @@ def compare_hits(
                 / np.linalg.norm(np.asarray(directions, np.float64), axis=1))
     t_bad = np.zeros_like(both)
     with np.errstate(invalid="ignore"):
-        t_bad[both] = np.abs(a.t[both] - b.t[both]) > rtol * np.abs(b.t[both]) + atol[both]
+        # Written as "not within tolerance": a NaN t on a hit compares False either way and must count as bad.
+        t_bad[both] = ~(np.abs(a.t[both] - b.t[both]) <= rtol * np.abs(b.t[both]) + atol[both])
     mismatch = (hit_a != hit_b) | t_bad
     tie = near_edge(a, edge_eps) | near_edge(b, edge_eps)
     if ties is not None:
