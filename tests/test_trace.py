@@ -299,6 +299,22 @@ def test_compare_counts_a_nan_t_on_a_hit_as_a_disagreement():
     assert compare_hits(hits(1.0), hits(1.0))["agreement"] == 1.0
 
 
+def test_compare_refuses_hits_of_other_ray_counts():
+    """Hit sets, directions or tie masks of another length: compare_hits raised numpy's IndexError about boolean
+    indices, or broadcast a one-entry tie mask over every ray; it now names the argument."""
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins = np.array([[0, 0, 1], [0, 0, 2]], np.float32)
+    directions = np.array([[0, 0, -1], [0, 0, -1]], np.float32)
+    two, one = wrt.trace(scene, origins, directions), wrt.trace(scene, origins[:1], directions[:1])
+    with pytest.raises(ValueError, match=r"b must have one entry per ray of a \(2\)"):
+        compare_hits(two, one)
+    with pytest.raises(ValueError, match="directions must have one entry per ray"):
+        compare_hits(two, two, directions=directions[:1], scale=1.0)
+    with pytest.raises(ValueError, match="ties must have one entry per ray"):
+        compare_hits(two, two, ties=[True])
+    assert compare_hits(two, two, directions=directions, scale=1.0, ties=[False, True])["agreement"] == 1.0
+
+
 def test_bad_trace_arguments_raise_value_error():
     scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
     with pytest.raises(ValueError, match="valid accelerators"):

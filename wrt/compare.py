@@ -84,7 +84,16 @@ def compare_hits(
         dict with ``rays``, ``hits_a``, ``hits_b``, ``hit_mismatch`` (one hits, the other misses),
         ``t_mismatch`` (both hit, ``t`` differs beyond ``rtol``), ``tie_disagreements``, ``disagreements``
         (mismatches that are not ties) and ``agreement`` (fraction of rays that agree).
+
+    Raises:
+        ValueError: when ``b``, ``directions`` or ``ties`` do not have one entry per ray of ``a``.
     """
+    n = len(a.prim)
+    # Checked here: numpy would raise an IndexError about boolean masks, or broadcast one tie to every ray.
+    for name, array, ndim in (("b", b.prim, 1), ("directions", directions, 2), ("ties", ties, 1)):
+        if array is not None and (np.ndim(array) != ndim or len(array) != n):
+            shape = np.shape(array)
+            raise ValueError(f"compare_hits: {name} must have one entry per ray of a ({n}), got shape {shape}")
     hit_a, hit_b = a.prim >= 0, b.prim >= 0
     both = hit_a & hit_b
     atol = np.zeros(len(a.t))
@@ -99,7 +108,6 @@ def compare_hits(
     tie = near_edge(a, edge_eps) | near_edge(b, edge_eps)
     if ties is not None:
         tie = tie | np.asarray(ties, bool)
-    n = len(a.prim)
     return {
         "rays": int(n),
         "hits_a": int(hit_a.sum()),
