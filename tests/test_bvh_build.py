@@ -244,6 +244,19 @@ def test_bad_build_input_raises():
         build_bvh(tri, [[0, 1, 2]], bins=65, device="cpu")
 
 
+def test_integer_build_options_are_checked_and_named():
+    """int() alone truncated leaf_size=8.7 to 8 and took "8" and True, failed on None or NaN with messages that did
+    not name the option, and threads=np.int64(2) was refused as not being a positive integer."""
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    for option, value in (("leaf_size", 8.7), ("leaf_size", "8"), ("leaf_size", True), ("leaf_size", None),
+                          ("leaf_size", np.nan), ("bins", 16.5), ("ploc_radius", "8"), ("morton_bits", 30.5),
+                          ("threads", True), ("threads", 2.0)):
+        with pytest.raises(ValueError, match=f"{option} must (be an integer|lie in .* and be an integer)"):
+            build_bvh(tri, [[0, 1, 2]], **{option: value}, device="cpu")
+    bvh = build_bvh(tri, [[0, 1, 2]], leaf_size=np.int64(4), bins=np.int32(8), threads=np.int64(2), device="cpu")
+    assert bvh.num_prims == 1
+
+
 def test_empty_input_gives_an_empty_tree():
     bvh = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device="cpu")
     bvh.validate()

@@ -20,6 +20,7 @@ import math
 import os
 import time
 
+import numpy as np
 import warp as wp
 
 from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput, stage
@@ -88,6 +89,19 @@ def check_costs(traversal_cost: float, intersection_cost: float) -> None:
         )
 
 
+def check_int_option(name: str, value, lo: int, hi: int | None) -> int:
+    """``value`` as an int when it is an integer (Python or numpy, not bool) in ``[lo, hi]`` (``hi=None``: no upper
+    bound); else ``ValueError`` naming the option. ``int()`` alone truncated 8.7 to 8, took the string ``"8"`` and
+    ``True``, and failed on NaN or None with messages that did not name the option."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < lo or (
+        hi is not None and value > hi
+    ):
+        if hi is None:
+            raise ValueError(f"{name} must be an integer >= {lo}, got {value!r}")
+        raise ValueError(f"{name} must lie in [{lo}, {hi}] and be an integer, got {value!r}")
+    return int(value)
+
+
 def build_bvh_device(
     points,
     indices,
@@ -128,17 +142,14 @@ def build_bvh_device(
         ValueError: for an unknown builder, bad options, bad indices or non-finite vertices.
     """
     kind = Builder.from_str(builder)
-    if not 1 <= int(leaf_size) <= MAX_LEAF_SIZE:
-        raise ValueError(f"leaf_size must lie in [1, {MAX_LEAF_SIZE}], got {leaf_size}")
-    if not 2 <= int(bins) <= MAX_BINS:
-        raise ValueError(f"bins must lie in [2, {MAX_BINS}], got {bins}")
-    if int(morton_bits) not in (30, 63):
+    leaf_size = check_int_option("leaf_size", leaf_size, 1, MAX_LEAF_SIZE)
+    bins = check_int_option("bins", bins, 2, MAX_BINS)
+    if check_int_option("morton_bits", morton_bits, 0, None) not in (30, 63):
         raise ValueError(f"morton_bits must be 30 or 63, got {morton_bits}")
-    if not 1 <= int(ploc_radius) <= 64:
-        raise ValueError(f"ploc_radius must lie in [1, 64], got {ploc_radius}")
+    ploc_radius = check_int_option("ploc_radius", ploc_radius, 1, 64)
     check_costs(traversal_cost, intersection_cost)
-    if threads is not None and (not isinstance(threads, int) or threads < 1):
-        raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
+    if threads is not None:
+        threads = check_int_option("threads", threads, 1, None)
     with stage("input checks and triangle boxes", timers):
         data = BuildInput(points, indices, device)
     if data.num_prims == 0:
