@@ -358,3 +358,7 @@ def test_cpu_launches_use_every_core_unless_told(monkeypatch):
     monkeypatch.setenv("WRT_THREADS", "many")
     with pytest.raises(ValueError, match="threads"):
         resolve_threads(None, cpu)
+    assert resolve_threads(np.int64(2), cpu) == 2
+    for bad in (True, False, 2.0):  # True used to pass as one thread
+        with pytest.raises(ValueError, match="threads must be a positive integer"):
+            resolve_threads(bad, cpu)

@@ -218,7 +218,8 @@ def resolve_threads(threads, device) -> int:
         return max(os.cpu_count() or 1, 1)
     if isinstance(threads, str) and threads.isdigit():
         threads = int(threads)
-    if not isinstance(threads, (int, np.integer)) or threads < 1:
+    # A bool is an int to Python: threads=True would quietly mean one thread.
+    if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) or threads < 1:
         raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
     return int(threads)
 
