@@ -327,6 +327,23 @@ def test_bad_trace_arguments_raise_value_error():
         wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), device="tpu:7")
 
 
+def test_ray_arrays_of_text_or_complex_numbers_raise_naming_the_argument():
+    """Complex origins were cast with only a ComplexWarning (the imaginary part dropped, so the ray hit where the
+    real part pointed), and text or ragged lists raised numpy's message without naming the argument."""
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    good_o, good_d = np.array([[0, 0, 1]], np.float32), np.array([[0, 0, -1]], np.float32)
+    for name, args, kwargs in (
+        ("origins", (good_o + 1j, good_d), {}),
+        ("directions", (good_o, [["0", "0", "-1"]]), {}),
+        ("origins", ([[0, 0, 1], [0, 0]], good_d), {}),
+        ("t_max", (good_o, good_d), {"t_max": 2 + 0j}),
+    ):
+        for query in (wrt.trace, wrt.occluded):
+            with pytest.raises(ValueError, match=f"{name} must hold real numbers"):
+                query(scene, *args, **kwargs)
+    assert wrt.trace(scene, good_o.astype(np.float64), good_d.tolist(), t_max=np.int64(2)).prim.tolist() == [0]
+
+
 def test_threaded_cpu_trace_gives_the_same_hits(np_rng):
     points, indices = random_soup(np_rng, 500)
     scene = wrt.Scene.from_triangles(points, indices)

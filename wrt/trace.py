@@ -520,9 +520,21 @@ class Hits:
         return self.prim >= 0
 
 
+def _as_float32(name: str, values) -> np.ndarray:
+    """``values`` as a float32 array, or ``ValueError`` naming ``name``: complex numbers were cast with only a
+    warning (the imaginary part dropped), and text or ragged lists failed with numpy's message alone."""
+    try:
+        raw = values if isinstance(values, (np.ndarray, wp.array)) else np.asarray(values)
+        if isinstance(raw, np.ndarray) and raw.dtype.kind in "cSUV":  # complex, bytes, text, void
+            raise TypeError(f"got dtype {raw.dtype}")
+        return np.asarray(raw, dtype=np.float32)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name} must hold real numbers ({e})") from None
+
+
 def _as_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
-    o = np.asarray(origins, dtype=np.float32)
-    d = np.asarray(directions, dtype=np.float32)
+    o = _as_float32("origins", origins)
+    d = _as_float32("directions", directions)
     if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
         raise ValueError(f"origins and directions must both be (N, 3) arrays, got {o.shape} and {d.shape}")
     return np.ascontiguousarray(o), np.ascontiguousarray(d)
@@ -532,7 +544,7 @@ def _upload_rays(origins, directions, t_max, device) -> list:
     """Checks and uploads a ray batch: ``[origins, directions, t_mins (zeros), t_maxs]`` as device arrays."""
     o, d = _as_rays(origins, directions)
     n = len(o)
-    t_maxs = np.asarray(t_max, dtype=np.float32)
+    t_maxs = _as_float32("t_max", t_max)
     if t_maxs.shape not in ((), (n,)):
         raise ValueError(f"t_max must be a scalar or one value per ray, shape ({n},); got shape {t_maxs.shape}")
     t_maxs = np.broadcast_to(t_maxs, (n,)).copy()
