@@ -214,6 +214,19 @@ def test_zero_size_gprims_are_skipped_with_a_warning_naming_them(tmp_path):
     assert scene.shapes == []
 
 
+@pytest.mark.parametrize("kind, attrs", [("Cylinder", {"Height": 4.0}), ("Cone", {}), ("Capsule", {}),
+                                         ("Plane", {})])
+def test_gprims_with_an_invalid_axis_are_skipped_with_a_warning_naming_them(tmp_path, kind, attrs):
+    """axis = "x" (lower case) is no USD axis: USD computes no extent for it, and wrt used to draw the gprim along Z
+    without a word; it is skipped with a warning naming the prim and the value, as zero-size gprims are."""
+    path, prim_path = gprim_stage(tmp_path, kind, "x", **attrs)
+    assert UsdGeom.Boundable(Usd.Stage.Open(path).GetPrimAtPath(prim_path)).ComputeExtent(0) is None
+    for tessellate in (False, True):
+        with pytest.warns(UserWarning, match=rf"axis other than X, Y or Z.*axis = 'x'.*{prim_path}"):
+            scene = wrt.load_usd(path, tessellate_gprims=tessellate)
+        assert scene.shapes == [] and scene.meshes == []
+
+
 @pytest.mark.parametrize("scale", ["(1, 1, 1)", "(-1, 1, 1)", "(-1, -2, 0.5)", "(-2, 1, 1)"])
 def test_tessellated_gprims_keep_outward_normals_under_mirroring(tmp_path, scale):
     """A tessellated sphere under any scale, mirroring ones included: winding and stored normals both point out

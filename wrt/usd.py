@@ -601,8 +601,12 @@ class _StageReader:
             return value
 
         def axis_of(schema):
+            # Any other token ("x", say) used to be read as Z without a word; USD computes no extent for it.
             axis = str(value_at(schema.GetAxisAttr(), t) or "Z")
-            return axis_rotation(axis if axis in ("X", "Y", "Z") else "Z")
+            if axis not in ("X", "Y", "Z"):
+                self._skip("gprims with an axis other than X, Y or Z were skipped", prim, f"axis = {axis!r}")
+                return None
+            return axis_rotation(axis)
 
         params = np.array([1.0, 0.0, 0.0, 1.0])
         type_name = prim.GetTypeName()
@@ -616,7 +620,8 @@ class _StageReader:
             schema = UsdGeom.Cylinder(prim) if type_name == "Cylinder" else UsdGeom.Cone(prim)
             h, r = number(schema.GetHeightAttr(), "height"), number(schema.GetRadiusAttr(), "radius")
             kind = type_name.lower()
-            linear = None if h is None or r is None else axis_of(schema) @ np.diag([r, r, h / 2.0])
+            axis = None if h is None or r is None else axis_of(schema)
+            linear = None if axis is None else axis @ np.diag([r, r, h / 2.0])
         elif type_name == "Capsule":
             schema = UsdGeom.Capsule(prim)
             h, r = value_at(schema.GetHeightAttr(), t), number(schema.GetRadiusAttr(), "radius")
@@ -625,14 +630,16 @@ class _StageReader:
                 self._skip("gprims with a zero, negative or non-finite size were skipped", prim, f"height = {h:g}")
                 return None
             kind = "capsule"
-            linear = None if r is None else axis_of(schema) @ (np.eye(3) * r)
+            axis = None if r is None else axis_of(schema)
+            linear = None if axis is None else axis @ (np.eye(3) * r)
             if r is not None:
                 params[0] = h / (2.0 * r)
         elif type_name == "Plane":
             schema = UsdGeom.Plane(prim)
             w, length = number(schema.GetWidthAttr(), "width"), number(schema.GetLengthAttr(), "length")
             kind = "plane"
-            linear = None if w is None or length is None else axis_of(schema) @ np.diag([w / 2.0, length / 2.0, 1.0])
+            axis = None if w is None or length is None else axis_of(schema)
+            linear = None if axis is None else axis @ np.diag([w / 2.0, length / 2.0, 1.0])
         else:
             self._skip("gprims of this type are not supported; skipped", prim, type_name)
             return None
