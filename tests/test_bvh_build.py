@@ -244,6 +244,26 @@ def test_bad_build_input_raises():
         build_bvh(tri, [[0, 1, 2]], bins=65, device="cpu")
 
 
+def test_malformed_warp_array_input_is_refused_like_numpy_input():
+    """Warp arrays skipped the numpy input checks: a (3, 4) int32 index array was reshaped into four triangles,
+    float indices were truncated, int64 index 2**32 wrapped round to vertex 0 and (3, 4) float points became four
+    vertices; each is now refused with the numpy path's message."""
+    import warp as wp
+
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
+    for points, indices, needle in (
+        (tri, wp.array(np.array([[0, 1, 2, 3], [1, 2, 3, 0], [2, 3, 0, 1]]), dtype=wp.int32),
+         r"indices must have shape \(N, 3\)"),
+        (tri, wp.array(np.array([[0.0, 1.0, 2.9]]), dtype=wp.float32), "indices must be integers"),
+        (tri, wp.array(np.array([[0, 1, 2**32]]), dtype=wp.int64), r"must lie in \[0, 4\); triangle 0 "),
+        (wp.array(np.zeros((3, 4), np.float32), dtype=wp.float32), [[0, 1, 2]], r"points must have shape \(N, 3\)"),
+    ):
+        with pytest.raises(ValueError, match=needle):
+            build_bvh(points, indices, device="cpu")
+    bvh = build_bvh(wp.array(tri, dtype=wp.vec3), wp.array([[0, 1, 2], [0, 2, 3]], dtype=wp.vec3i), device="cpu")
+    assert bvh.num_prims == 2
+
+
 def test_integer_build_options_are_checked_and_named():
     """int() alone truncated leaf_size=8.7 to 8 and took "8" and True, failed on None or NaN with messages that did
     not name the option, and threads=np.int64(2) was refused as not being a positive integer."""

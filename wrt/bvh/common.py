@@ -192,6 +192,12 @@ class BuildInput:
         self.device = wp.get_device(device)
         if not isinstance(points, wp.array) and not isinstance(indices, wp.array):
             points, indices = triangle_arrays(points, indices)
+        else:
+            check_array_layouts(points, indices)
+            if isinstance(indices, wp.array) and indices.dtype != wp.int32:
+                # Other integer types are cast to int32 on the host: check their range first, as for numpy input.
+                indices = indices.numpy()
+                check_index_range(indices, int(np.prod(_layout(points)[0])) // 3)
         self.points = _as_device(points, wp.vec3, self.device, (-1,))
         self.indices = _as_device(indices, wp.int32, self.device, (-1, 3))
         self.num_prims = self.indices.shape[0]
@@ -226,6 +232,34 @@ class BuildInput:
         return bounds
 
 
+def _layout(a) -> tuple[tuple, str, str]:
+    """The shape and dtype kind (numpy's ``"f"``, ``"i"``, ...) that ``a`` has as a numpy array, and its dtype's
+    name: a Warp vector dtype adds its length as a last axis."""
+    if isinstance(a, wp.array):
+        vector = wp.types.type_is_vector(a.dtype)
+        scalar = a.dtype._wp_scalar_type_ if vector else a.dtype
+        kind = "i" if wp.types.type_is_int(scalar) else "f" if wp.types.type_is_float(scalar) else "O"
+        return tuple(a.shape) + ((wp.types.type_size(a.dtype),) if vector else ()), kind, a.dtype.__name__
+    a = np.asarray(a)
+    return a.shape, a.dtype.kind, str(a.dtype)
+
+
+def check_array_layouts(points, indices) -> None:
+    """Raises ``ValueError`` naming the array unless ``points`` (numpy or ``wp.array``) has shape ``(V, 3)`` or
+    ``(3V,)`` of real numbers and ``indices`` shape ``(T, 3)`` or ``(3T,)`` of integers. Warp arrays are held to
+    the same rule as numpy ones: a ``(3, 4)`` Warp index array was reshaped into four triangles and float indices
+    were truncated."""
+    for name, a in (("points", points), ("indices", indices)):
+        shape, kind, dtype = _layout(a)
+        size = int(np.prod(shape))
+        if not (len(shape) == 2 and shape[1] == 3 or len(shape) == 1 and size % 3 == 0):
+            raise ValueError(f"{name} must have shape (N, 3) or (3N,), got {shape}")
+        if name == "points" and kind not in "iuf":
+            raise ValueError(f"points must be real numbers, got dtype {dtype}")
+        if name == "indices" and size and kind not in "iu":
+            raise ValueError(f"indices must be integers, got dtype {dtype}")
+
+
 def triangle_arrays(points, indices) -> tuple[np.ndarray, np.ndarray]:
     """Host ``(points (V, 3) float32, indices (T, 3) int32)`` from array-likes of shape ``(V, 3)`` or ``(3V,)`` and
     ``(T, 3)`` or ``(3T,)``.
@@ -235,20 +269,19 @@ def triangle_arrays(points, indices) -> tuple[np.ndarray, np.ndarray]:
             ``[0, V)`` (checked before the cast to int32, so 2**32 does not wrap round to 0).
     """
     points, indices = np.asarray(points), np.asarray(indices)
-    for name, a in (("points", points), ("indices", indices)):
-        if not (a.ndim == 2 and a.shape[1] == 3 or a.ndim == 1 and a.size % 3 == 0):
-            raise ValueError(f"{name} must have shape (N, 3) or (3N,), got {a.shape}")
-    if not np.issubdtype(points.dtype, np.number) or np.issubdtype(points.dtype, np.complexfloating):
-        raise ValueError(f"points must be real numbers, got dtype {points.dtype}")
-    if indices.size and not np.issubdtype(indices.dtype, np.integer):
-        raise ValueError(f"indices must be integers, got dtype {indices.dtype}")
-    vertices = points.size // 3
+    check_array_layouts(points, indices)
+    check_index_range(indices, points.size // 3)
+    return points.astype(np.float32).reshape(-1, 3), indices.astype(np.int32).reshape(-1, 3)
+
+
+def check_index_range(indices: np.ndarray, vertices: int) -> None:
+    """Raises ``ValueError`` naming the first triangle with an index outside ``[0, vertices)`` (on the host, before
+    any cast to int32, so 2**32 does not wrap round to 0)."""
     flat = indices.reshape(-1)
     outside = np.flatnonzero((flat < 0) | (flat >= vertices)) if flat.size else flat
     if len(outside):
         triangle = int(outside[0]) // 3
         raise ValueError(f"triangle indices must lie in [0, {vertices}); triangle {triangle} has one outside")
-    return points.astype(np.float32).reshape(-1, 3), indices.astype(np.int32).reshape(-1, 3)
 
 
 def _as_device(data, dtype, device, shape) -> wp.array:
