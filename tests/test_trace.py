@@ -372,9 +372,13 @@ def test_cpu_launches_use_every_core_unless_told(monkeypatch):
     assert resolve_threads(None, cpu) == 1
     monkeypatch.setenv("WRT_THREADS", "all")
     assert resolve_threads(None, cpu) == cores
-    monkeypatch.setenv("WRT_THREADS", "many")
-    with pytest.raises(ValueError, match="threads"):
-        resolve_threads(None, cpu)
+    for bad in ("many", "0", "-2"):  # the error named the threads argument, which the caller never passed
+        monkeypatch.setenv("WRT_THREADS", bad)
+        with pytest.raises(ValueError, match=f"WRT_THREADS environment variable must be .*, got '{bad}'"):
+            resolve_threads(None, cpu)
+    monkeypatch.setenv("WRT_THREADS", " 2 ")
+    assert resolve_threads(None, cpu) == 2
+    monkeypatch.delenv("WRT_THREADS")
     assert resolve_threads(np.int64(2), cpu) == 2
     for bad in (True, False, 2.0):  # True used to pass as one thread
         with pytest.raises(ValueError, match="threads must be a positive integer"):

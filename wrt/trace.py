@@ -212,15 +212,19 @@ def resolve_threads(threads, device) -> int:
     environment variable (a number or ``all``), else every core."""
     if not device.is_cpu:
         return 1
+    source = "threads"  # named in the error, so a bad environment variable is not reported as the argument
     if threads is None:
-        threads = os.environ.get("WRT_THREADS", "all")
+        threads = os.environ.get("WRT_THREADS", "all").strip()
+        source = "the WRT_THREADS environment variable"
     if threads == "all":
         return max(os.cpu_count() or 1, 1)
+    given = threads
     if isinstance(threads, str) and threads.isdigit():
         threads = int(threads)
     # A bool is an int to Python: threads=True would quietly mean one thread.
     if isinstance(threads, (bool, np.bool_)) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
+        expected = "a positive integer or 'all'" if source != "threads" else "a positive integer or None"
+        raise ValueError(f"{source} must be {expected}, got {given!r}")
     return int(threads)
 
 
