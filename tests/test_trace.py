@@ -315,6 +315,23 @@ def test_compare_refuses_hits_of_other_ray_counts():
     assert compare_hits(two, two, directions=directions, scale=1.0, ties=[False, True])["agreement"] == 1.0
 
 
+def test_meshes_built_in_python_refuse_malformed_arrays_naming_the_mesh():
+    """wrt.Mesh reshaped what it was given: (V, 4) homogeneous points became other vertices, an index of 2**32 + 2
+    wrapped round to vertex 2 and 2.7 was truncated to 2, so the mesh traced as other triangles without a word.
+    It now refuses them as Scene.from_triangles does, naming the mesh."""
+    tri = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
+    for points, indices, needle in (
+        (np.column_stack([tri, np.ones(3)]), [[0, 1, 2]], r"points must have shape \(N, 3\)"),
+        (tri, np.array([[0, 1, 2**32 + 2]]), r"must lie in \[0, 3\); triangle 0 "),
+        (tri, np.array([[0.0, 1.0, 2.7]]), "indices must be integers"),
+        (tri, np.array([[0, 1, 2, 0]]), r"indices must have shape \(N, 3\)"),
+    ):
+        with pytest.raises(wrt.SceneError, match="^/Quad: .*" + needle):
+            Mesh("/Quad", points, indices, [0])
+    mesh = Mesh("/Tri", tri.astype(np.float64).ravel(), np.array([0, 1, 2], np.int64), [0])
+    assert mesh.points.dtype == np.float32 and mesh.points.shape == (3, 3) and mesh.indices.tolist() == [[0, 1, 2]]
+
+
 def test_bad_trace_arguments_raise_value_error():
     scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
     with pytest.raises(ValueError, match="valid accelerators"):

@@ -83,8 +83,15 @@ class Mesh:
     material_ids: np.ndarray | None = None
 
     def __post_init__(self):
-        self.points = np.ascontiguousarray(self.points, dtype=np.float32).reshape(-1, 3)
-        self.indices = np.ascontiguousarray(self.indices, dtype=np.int32).reshape(-1, 3)
+        from .bvh.common import triangle_arrays
+        from .errors import SceneError
+
+        # Checked, not reshaped: (V, 4) points were read as other vertices, float indices truncated and an index
+        # of 2**32 wrapped round to vertex 0, each drawing other triangles without a word.
+        try:
+            self.points, self.indices = triangle_arrays(self.points, self.indices)
+        except ValueError as e:
+            raise SceneError(str(e), prim=self.path) from None
         self.face_ids = np.ascontiguousarray(self.face_ids, dtype=np.int32).reshape(-1)
         if self.normals is not None:
             self.normals = np.ascontiguousarray(self.normals, dtype=np.float32).reshape(-1, 3, 3)
