@@ -332,6 +332,22 @@ def test_meshes_built_in_python_refuse_malformed_arrays_naming_the_mesh():
     assert mesh.points.dtype == np.float32 and mesh.points.shape == (3, 3) and mesh.indices.tolist() == [[0, 1, 2]]
 
 
+def test_meshes_refuse_per_triangle_arrays_of_another_length():
+    """Three face ids, normals or material ids for two triangles were kept: scene-wide arrays concatenate meshes,
+    so the extra row shifted the attributes of every later mesh without a word; per-vertex normals of a quad (4 rows)
+    failed in numpy's reshape. Each is refused, naming the mesh and the attribute."""
+    points = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0], [0, 0, 1], [0, 0, -1]], np.float32)
+    quads = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+    for name, value in (("normals", np.tile([0.0, 0.0, 1.0], (4, 1))), ("normals", np.zeros((3, 3, 3))),
+                        ("face_ids", [0, 0, 0]), ("colors", np.zeros((2, 3))), ("uvs", np.zeros((2, 3, 3))),
+                        ("material_ids", [0])):
+        kwargs = {"face_ids": [0, 0], name: value}
+        with pytest.raises(wrt.SceneError, match=rf"^/Quad: {name} must have shape \(2,.*one entry per triangle"):
+            Mesh("/Quad", points, quads, **kwargs)
+    mesh = Mesh("/Quad", points, quads, [0, 1], normals=np.zeros((6, 3)), uvs=np.zeros(12), material_ids=[[0], [1]])
+    assert mesh.normals.shape == (2, 3, 3) and mesh.uvs.shape == (2, 3, 2) and mesh.material_ids.tolist() == [0, 1]
+
+
 def test_bad_trace_arguments_raise_value_error():
     scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
     with pytest.raises(ValueError, match="valid accelerators"):

@@ -52,6 +52,16 @@ class DeviceScene:
     num_shapes: int  # number of unique analytic shapes
 
 
+# Mesh arrays with one entry per triangle: (attribute, dtype, shape of one entry).
+PER_TRIANGLE_ARRAYS = (
+    ("face_ids", np.int32, ()),
+    ("normals", np.float32, (3, 3)),
+    ("colors", np.float32, (3, 3)),
+    ("uvs", np.float32, (3, 2)),
+    ("material_ids", np.int32, ()),
+)
+
+
 @dataclasses.dataclass
 class Mesh:
     """One triangle mesh in world space.
@@ -92,15 +102,19 @@ class Mesh:
             self.points, self.indices = triangle_arrays(self.points, self.indices)
         except ValueError as e:
             raise SceneError(str(e), prim=self.path) from None
-        self.face_ids = np.ascontiguousarray(self.face_ids, dtype=np.int32).reshape(-1)
-        if self.normals is not None:
-            self.normals = np.ascontiguousarray(self.normals, dtype=np.float32).reshape(-1, 3, 3)
-        if self.colors is not None:
-            self.colors = np.ascontiguousarray(self.colors, dtype=np.float32).reshape(-1, 3, 3)
-        if self.uvs is not None:
-            self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float32).reshape(-1, 3, 2)
-        if self.material_ids is not None:
-            self.material_ids = np.ascontiguousarray(self.material_ids, dtype=np.int32).reshape(-1)
+        # Per-triangle arrays must have one entry per triangle: scene-wide arrays concatenate them mesh after mesh,
+        # so one extra or missing row shifted the normals, colours or materials of every later mesh.
+        triangles = len(self.indices)
+        for name, dtype, corner in PER_TRIANGLE_ARRAYS:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            array = np.ascontiguousarray(value, dtype=dtype)
+            if array.size != triangles * int(np.prod(corner)):
+                expected = (triangles, *corner)
+                raise SceneError(f"{name} must have shape {expected}, one entry per triangle; got {array.shape}",
+                                 prim=self.path)
+            setattr(self, name, array.reshape((triangles, *corner)))
 
 
 @dataclasses.dataclass
