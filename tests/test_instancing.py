@@ -433,6 +433,20 @@ def test_occluded_matches_closest_hit(np_rng):
     np.testing.assert_array_equal(blocked, hits.t < t_max)
 
 
+@pytest.mark.parametrize("prototype", [-1, 2])
+def test_instance_of_a_missing_prototype_raises_naming_it(np_rng, prototype):
+    """Python-built instances drawing prototype -1 or 2 of two: -1 drew the last prototype with accel="warp" (numpy
+    indexing) and nothing with the two-level BVH, so the two disagreed without a word; 2 raised a bare IndexError."""
+    scene = python_scene(np_rng, n=3)
+    instances = Instances.from_transforms([0, prototype, 1], scene.instances.to_world)
+    with pytest.raises(wrt.SceneError, match=rf"/instances\[1\]: draws prototype {prototype}, but the scene has 2"):
+        wrt.Scene(meshes=scene.meshes, prototypes=scene.prototypes, instances=instances)
+    scene.instances = instances  # set after the Scene was made: checked when it is traced
+    for accel in ("wrt", "warp"):
+        with pytest.raises(wrt.SceneError, match="draws prototype"):
+            wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), accel=accel)
+
+
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
 def test_non_finite_instance_or_shape_transform_raises_naming_it(np_rng, bad):
     """A scene built in Python with a NaN or inf in an instance's (or a shape's) transform: the two-level BVH used

@@ -188,6 +188,22 @@ class Scene:
 
     def __post_init__(self):
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
+        self.check_instances()
+
+    def check_instances(self) -> None:
+        """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of
+        :attr:`prototypes`: -1 drew the last prototype when flattened (``accel="warp"``) and nothing in the two-level
+        BVH, and a too large index raised a bare ``IndexError``."""
+        from .errors import SceneError
+
+        prototype = self.instances.prototype
+        bad = np.flatnonzero((prototype < 0) | (prototype >= len(self.prototypes)))
+        if len(bad):
+            i = int(bad[0])
+            raise SceneError(
+                f"draws prototype {prototype[i]}, but the scene has {len(self.prototypes)} prototype(s)",
+                prim=self.instances.path(i),
+            )
 
     @classmethod
     def from_triangles(cls, points, indices, *, name: str = "/triangles") -> Scene:

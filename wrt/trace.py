@@ -454,6 +454,7 @@ def get_accelerator(
 
     Raises:
         ValueError: for an unknown ``accel``, ``builder`` or ``layout`` (layouts other than ``binary`` are wrt's).
+        SceneError: for an instance of a prototype that ``scene`` does not have.
     """
     if accel not in ACCELERATORS:
         raise ValueError(f"unknown accelerator {accel!r}; valid accelerators: {', '.join(ACCELERATORS)}")
@@ -463,6 +464,7 @@ def get_accelerator(
     elif layout != "binary":
         raise ValueError(f"layout={layout!r} applies to accel='wrt' only; wp.Mesh has its own layout")
     device = resolve_device(device)
+    scene.check_instances()  # instances may have been set after the Scene was made
     key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
     if key not in scene._cache:
         if accel == "wrt" and layout == "binary" and (len(scene.instances) or scene.shapes):
