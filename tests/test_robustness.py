@@ -570,6 +570,34 @@ def test_coplanar_overlaps_follow_the_tie_rule_with_every_builder(layout, np_rng
 
 
 @pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
+def test_smallest_id_wins_among_overlapping_triangles_in_a_plane_across_the_ray(layout, np_rng):
+    """Decals on a floor seen from above: 300 overlapping triangles in the plane y = 0.37, rays whose largest
+    direction component is y. Every triangle under the hit point is at the same distance, so the smallest id must
+    win; t computed as big_t / det came out an ulp apart from triangle to triangle, and in most rays a larger id
+    won."""
+    n, m = 300, 400
+    centres, radii = np_rng.uniform(0, 1, (n, 1, 2)), np_rng.uniform(0.1, 0.3, (n, 1, 1))
+    angles = np_rng.uniform(0, 2 * np.pi, (n, 3))
+    xz = centres + radii * np.stack([np.cos(angles), np.sin(angles)], -1)
+    tris = np.stack([xz[..., 0], np.full((n, 3), 0.37), xz[..., 1]], -1)
+    scene = wrt.Scene.from_triangles(tris.reshape(-1, 3).astype(np.float32), np.arange(3 * n).reshape(-1, 3))
+    targets = np.stack([np_rng.uniform(0.3, 0.7, m), np.full(m, 0.37), np_rng.uniform(0.3, 0.7, m)], 1)
+    origins = targets + np_rng.normal(0, 0.3, (m, 3)) * [1, 0, 1] + [0, 1.3, 0]
+    hits = wrt.trace(scene, origins.astype(np.float32), (targets - origins).astype(np.float32), layout=layout)
+
+    def edge(p, q):  # 2D edge function of every triangle at every target, float64
+        return ((q[:, None, 0] - p[:, None, 0]) * (targets[None, :, 2] - p[:, None, 1])
+                - (q[:, None, 1] - p[:, None, 1]) * (targets[None, :, 0] - p[:, None, 0]))
+
+    sides = np.stack([edge(xz[:, 0], xz[:, 1]), edge(xz[:, 1], xz[:, 2]), edge(xz[:, 2], xz[:, 0])])
+    inside = (sides > 1e-6).all(axis=0) | (sides < -1e-6).all(axis=0)  # (n, m), clear of every edge
+    on_edge = (np.abs(sides) <= 1e-6).any(axis=0) & ~inside
+    clear = inside.any(axis=0) & ~on_edge.any(axis=0)
+    assert clear.sum() > m // 2
+    np.testing.assert_array_equal(hits.prim[clear], np.argmax(inside, axis=0)[clear])
+
+
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
 def test_t_max_just_above_a_hit_keeps_it(layout, np_rng):
     """``t_max`` one ulp above each hit's t keeps every hit, in trace as in occluded (the root box, entered an ulp
     beyond the triangle's t, was culled against t_max)."""

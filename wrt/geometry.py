@@ -151,6 +151,11 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
             # big_t grows as a coordinate cubed: it overflows beyond about 7e12 and turns subnormal below about
             # 1e-13; the barycentric weights stay near 1, so t is taken from them there.
             t = ray.sz * ((e0 * inv_det) * az + u * bz + v * cz)
+        if az == bz and az == cz:
+            # A triangle in a plane across the ray's major axis (a floor seen from above): t is that plane's
+            # distance, the same bits for every triangle in the plane. From big_t / det it came out an ulp apart
+            # from one triangle to the next, so of coplanar overlapping triangles the larger id could win the tie.
+            t = ray.sz * az
     return hit, t, u, v
 
 
