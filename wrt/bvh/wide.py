@@ -13,9 +13,10 @@ Triangles are stored in slot (leaf) order next to the nodes. On the device the b
 reads fastest (``DeviceWideBvh``).
 
 Traversal tests all child boxes of a node (on the CPU all at once, with vector instructions: ``wide_cpu.py``),
-sorts the entered ones by entry distance, continues with the nearest and pushes the others far to near; each wide level pushes at most ``width - 1`` entries, and the wide tree is no
-deeper than the binary one, so a stack of ``8 * MAX_DEPTH`` entries suffices for both widths. Tie rule and culling
-are the binary traversal's, so results agree ray by ray.
+sorts the entered ones by entry distance, continues with the nearest and pushes the others far to near; each wide
+level pushes at most ``width - 1`` entries, and the wide tree is no deeper than the binary one, so a stack of
+``8 * MAX_DEPTH`` entries suffices for both widths. Tie rule and culling are the binary traversal's, so results
+agree ray by ray.
 """
 
 from __future__ import annotations
