@@ -4,9 +4,9 @@ On the CPU a Warp thread is a plain loop iteration, and the compiler does not ve
 children on its own. So the CPU keeps a wide node's child boxes as six runs of ``width`` floats (lower x, y, z, then
 upper x, y, z), and one C++ function (``wrt::wide_enter``, registered as ``wp.wrt_wide_enter``) runs the slab test
 of all four or eight children with clang vector types, turns the entered ones into a bit mask, orders them and
-pushes them. A node visit of a BVH4 then costs about what one binary box test did (CPU, one thread: the wide layouts
-went from 0.9-1.2x to 1.3-1.9x of ``wp.Mesh(sah)``; RESULTS.md). CUDA, where each thread is already a SIMD lane,
-keeps the per-child boxes and the Warp code in ``wide.py``; ``on_cpu`` picks the branch at compile time.
+pushes them. In one A/B run on one CPU thread, wide8 went from 0.9-1.6x to 1.4-2.2x of ``wp.Mesh(sah)``
+(RESULTS.md). CUDA, where each thread is already a SIMD lane, keeps the per-child boxes and the Warp code in
+``wide.py``; ``on_cpu`` picks the branch at compile time.
 
 The vector form repeats ``geometry.intersect_ray_box``'s arithmetic operation for operation (the CPU's
 ``box_origins``, no slack, no FMA contraction, the same min/max selects and rounding of the entry), so both give the
