@@ -448,3 +448,46 @@ def test_negative_light_colour_is_clamped_with_a_warning(tmp_path):
     img = wrt.render(scene, camera=top_down_camera(height=0.4), width=4, height=4, spp=8, device="cpu",
                      integrator="path")
     assert img.rgb.min() >= 0.0 and img.rgb[..., 1].max() == 0.0
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+def test_light_without_shadows_passes_through_occluders(integrator):
+    """A quad floats between a sun and the plane; its shadow falls beside it, under the camera. A sun with ShadowAPI's
+    ``shadow:enable`` off lights the shadowed patch as if the quad were not there."""
+    direction = np.array([1.0, 0.0, -1.0]) / np.sqrt(2.0)
+    blocker = quad((0, 0, 1), (1.2, 0, 0), (0, 1.2, 0), name="/blocker")
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")
+    lit = ALBEDO * 2.0 * -direction[2] / np.pi
+
+    def shadowed_patch(shadows):
+        sun = wrt.DistantLight(direction=direction, color=np.full(3, 2.0), shadows=shadows)
+        scene = wrt.Scene(meshes=[plane, blocker], lights=[sun])
+        img = wrt.render(scene, camera=top_down_camera((1.0, 0, 0), height=0.4), width=8, height=8, spp=1,
+                         device="cpu", integrator=integrator, max_depth=1)
+        assert (img.aovs["prim"] >= 0).all()
+        return img.rgb.mean(axis=-1)
+
+    np.testing.assert_allclose(shadowed_patch(True), 0.0, atol=1e-6)
+    np.testing.assert_allclose(shadowed_patch(False), lit, rtol=1e-4)
+
+
+def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
+    """``inputs:shadow:enable`` is read (applied API or not); a shadow tint and light multipliers, which wrt does not
+    render, are reported by prim."""
+
+    def build(stage):
+        off = UsdLux.SphereLight.Define(stage, "/NoShadows")
+        UsdLux.ShadowAPI.Apply(off.GetPrim()).CreateShadowEnableAttr(False)
+        UsdLux.RectLight.Define(stage, "/Plain")
+        tinted = UsdLux.DiskLight.Define(stage, "/Tinted")
+        UsdLux.ShadowAPI.Apply(tinted.GetPrim()).CreateShadowColorAttr(Gf.Vec3f(0.2, 0.0, 0.0))
+        UsdLux.DistantLight.Define(stage, "/Dim").CreateDiffuseAttr(0.5)
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    messages = [str(w.message) for w in caught]
+    assert any("shadow colour" in m and m.endswith("/Tinted") for m in messages), messages
+    assert any("multipliers" in m and m.endswith("/Dim") for m in messages), messages
+    shadows = {light.path: light.shadows for light in scene.lights}
+    assert shadows == {"/NoShadows": False, "/Plain": True, "/Tinted": True, "/Dim": True}

@@ -89,6 +89,7 @@ class SphereLight:
         normalize: divide by the area ``4 pi r^2``.
         treat_as_point: render as a point light.
         path: prim path.
+        shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
     """
 
     position: np.ndarray
@@ -97,6 +98,7 @@ class SphereLight:
     normalize: bool = False
     treat_as_point: bool = False
     path: str = ""
+    shadows: bool = True
 
     @property
     def area(self) -> float:
@@ -126,6 +128,7 @@ class RectLight:
         color: ``(3,)`` ``intensity * 2**exposure * color``.
         normalize: divide by the world-space area.
         path: prim path.
+        shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
     """
 
     to_world: np.ndarray
@@ -134,6 +137,7 @@ class RectLight:
     color: np.ndarray
     normalize: bool = False
     path: str = ""
+    shadows: bool = True
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         x, y, _, _ = _axes(self.to_world)
@@ -159,6 +163,7 @@ class DiskLight:
         color: ``(3,)`` ``intensity * 2**exposure * color``.
         normalize: divide by the world-space area.
         path: prim path.
+        shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
     """
 
     to_world: np.ndarray
@@ -166,6 +171,7 @@ class DiskLight:
     color: np.ndarray
     normalize: bool = False
     path: str = ""
+    shadows: bool = True
 
     @property
     def area(self) -> float:
@@ -188,6 +194,7 @@ class CylinderLight:
         color: ``(3,)`` ``intensity * 2**exposure * color``.
         normalize: divide by the world-space area.
         path: prim path.
+        shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
     """
 
     to_world: np.ndarray
@@ -196,6 +203,7 @@ class CylinderLight:
     color: np.ndarray
     normalize: bool = False
     path: str = ""
+    shadows: bool = True
 
     def world_shape(self) -> tuple[np.ndarray, float]:
         """World-space axis vector (full length) and radius (mean of the Y and Z scales)."""
@@ -222,6 +230,7 @@ class DomeLight:
         texture: ``(H, W, 4)`` float32 linear latitude-longitude image, or None for a constant dome.
         texture_path: file the texture came from.
         path: prim path.
+        shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
     """
 
     color: np.ndarray
@@ -229,6 +238,7 @@ class DomeLight:
     texture: np.ndarray | None = None
     texture_path: str = ""
     path: str = ""
+    shadows: bool = True
 
 
 def _normalized(color, area: float, normalize: bool) -> np.ndarray:
@@ -290,6 +300,34 @@ def read_light(prim, xforms, time, up_axis: str, skip):
     if prim.HasAPI(UsdLux.ShapingAPI) and _shaped(UsdLux.ShapingAPI(prim), get):
         skip("light shaping (ShapingAPI cone, focus or IES profile) is not supported; these lights emit unshaped",
              prim)
+    if float(get(light.GetDiffuseAttr(), 1.0)) != 1.0 or float(get(light.GetSpecularAttr(), 1.0)) != 1.0:
+        skip("light diffuse and specular multipliers are not supported; these lights light both fully", prim)
+    if _shadow_tinted(prim, get):
+        skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
+             prim)
+    result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get)
+    if result is not None:
+        # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
+        result.shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
+    return result
+
+
+def _shadow_tinted(prim, get) -> bool:
+    """True when ShadowAPI's colour, distance or falloff differ from their fallbacks (plain black shadows)."""
+    fallbacks = {"color": (0.0, 0.0, 0.0), "distance": -1.0, "falloff": -1.0, "falloffGamma": 1.0}
+    for name, fallback in fallbacks.items():
+        value = get(prim.GetAttribute(f"inputs:shadow:{name}"), fallback)
+        try:
+            if not np.allclose(np.asarray(value, np.float64), fallback):
+                return True
+        except (TypeError, ValueError):  # a value of the wrong type: warned about like a tint
+            return True
+    return False
+
+
+def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
+    """The light object of ``prim``'s UsdLux type (see :func:`read_light`)."""
+    from pxr import UsdLux
 
     if prim.IsA(UsdLux.DistantLight):
         d = UsdLux.DistantLight(prim)
@@ -380,6 +418,7 @@ class DeviceLights:
     normal: wp.array[wp.vec3]  # rect, disk: unit emitting normal
     params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of the cone, area, 0)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
+    shadows: wp.array[wp.int32]  # 1: occluders block the light; 0: ShadowAPI's shadow:enable is off
     pmf: wp.array[float]  # selection probability of each light
     cdf: wp.array[float]  # (count + 1) running sum of pmf
     count: int  # number of lights
@@ -416,6 +455,7 @@ class HostLights:
     params: list
     prims: list
     power: list
+    shadows: list
 
 
 def _emitter_triangles(scene, materials_emission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -450,7 +490,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     """
     lower, upper = scene.bounds()
     radius = max(float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) / 2.0, 1e-6)
-    h = HostLights([], [], [], [], [], [], [], [], [])
+    h = HostLights([], [], [], [], [], [], [], [], [], [])
     zero = np.zeros(3)
     domes = [light for light in lights if isinstance(light, DomeLight)]
     if len(domes) > 1:
@@ -502,6 +542,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
                  math.pi * light.area * luminance_np(L))
         else:
             raise TypeError(f"unsupported light {type(light).__name__}")
+        h.shadows[-1] = int(bool(light.shadows))
     num_analytic = len(h.kinds)
 
     # Emissive triangles.
@@ -553,6 +594,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.normal = arr(h.normal, wp.vec3)
     d.params = arr(h.params, wp.vec4, 4)
     d.prims = arr(h.prims, wp.int32, 1)
+    d.shadows = arr(h.shadows, wp.int32, 1)
     d.pmf = wp.array(pmf.astype(np.float32), dtype=float, device=device)
     d.cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
     d.count = n
@@ -577,6 +619,7 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.params.append(np.asarray(params, np.float32))
     h.prims.append(int(prim))
     h.power.append(float(power))
+    h.shadows.append(1)
 
 
 def _emitting_normal(u, v, z) -> np.ndarray:
@@ -791,6 +834,13 @@ def triangle_light_pdf(scene: DeviceScene, double_sided: int, prim: int, o: wp.v
     if cos_l <= 0.0:
         return 0.0
     return dist * dist / (cos_l * 0.5 * area2)
+
+
+@wp.func
+def shadow_direction(lights: DeviceLights, k: int, wi: wp.vec3):
+    """The direction of the shadow ray towards light ``k``: ``wi``, or zero for a light that casts no shadows (a
+    zero direction can hit nothing, so every accelerator reports the ray unblocked)."""
+    return wp.where(lights.shadows[k] != 0, wi, wp.vec3(0.0))
 
 
 @wp.func

@@ -128,6 +128,7 @@ class DistantLight:
         path: prim path of the source light, if any.
         angle: angular diameter in degrees; 0 makes a delta light.
         normalize: ``inputs:normalize``.
+        shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
     """
 
     direction: np.ndarray
@@ -135,6 +136,7 @@ class DistantLight:
     path: str = ""
     angle: float = 0.0
     normalize: bool = False
+    shadows: bool = True
 
     def __post_init__(self):
         self.direction = np.asarray(self.direction, np.float64).reshape(3)

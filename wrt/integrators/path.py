@@ -15,7 +15,7 @@ import warp as wp
 
 from ..bsdf import eval_bsdf, sample_bsdf
 from ..geometry import offset_ray_origin
-from ..lights import DeviceLights, sample_light, triangle_light_pdf
+from ..lights import DeviceLights, sample_light, shadow_direction, triangle_light_pdf
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
 from ..scene import DeviceScene
@@ -132,7 +132,7 @@ def shade_path_kernel(
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
                 shadow_origins[i] = offset_ray_origin(h.p, h.ng)
-                shadow_dirs[i] = ls.wi
+                shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
                 if ls.dist < wp.inf:
                     shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
                 else:

@@ -23,7 +23,7 @@ from ..bsdf import (
     surface_f0,
 )
 from ..geometry import offset_ray_origin
-from ..lights import DeviceLights, sample_light
+from ..lights import DeviceLights, sample_light, shadow_direction
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
@@ -146,7 +146,7 @@ def whitted_light_kernel(
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
     contribution[i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
     shadow_origins[i] = offset_ray_origin(h.p, h.ng)
-    shadow_dirs[i] = ls.wi
+    shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
     if ls.dist < wp.inf:
         shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
     else:
