@@ -216,3 +216,58 @@ def test_zero_scaled_camera_is_refused_only_when_used(tmp_path):
     assert wrt.render(scene, camera="/Good", width=4, height=4, device="cpu").rgb.shape == (4, 4, 3)
     with pytest.raises(ValueError, match="/Flat.*singular"):
         wrt.render(scene, camera="/Flat", width=4, height=4, device="cpu")
+
+
+CLIPPED_WORLD = """#usda 1.0
+def Xform "World"
+{{
+    double3 xformOp:scale = ({s}, {s}, {s})
+    uniform token[] xformOpOrder = ["xformOp:scale"]
+    def Camera "Cam"
+    {{
+        float2 clippingRange = (1, 1000)
+        float4[] clippingPlanes = {planes}
+        float focalLength = 50
+        float horizontalAperture = 40
+        double3 xformOp:translate = (0, 0, 50)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }}
+    def Mesh "Near"
+    {{
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-100, -100, 10), (100, -100, 10), (100, 100, 10), (-100, 100, 10)]
+    }}
+    def Mesh "Far"
+    {{
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-100, -100, 0), (100, -100, 0), (100, 100, 0), (-100, 100, 0)]
+    }}
+}}
+"""
+
+
+@pytest.mark.parametrize("scale", [1.0, 100.0])
+def test_usd_clipping_planes_cut_geometry_away(tmp_path, scale):
+    """Camera-space planes: x >= 0 keeps the right half of the view, z <= -45 cuts the near quad (camera depth 40)
+    so the far one (depth 50) shows through; both scale with a scaled parent, as the clipping range does."""
+    images = {}
+    for name, planes in {"none": "[]", "cut": "[(1, 0, 0, 0), (0, 0, -1, -45)]"}.items():
+        path = tmp_path / f"clipped_{name}_{scale}.usda"
+        path.write_text(CLIPPED_WORLD.format(s=scale, planes=planes))
+        images[name] = wrt.render(wrt.load_usd(path), width=8, height=8, device="cpu", integrator="depth")
+    full, cut = images["none"].aovs, images["cut"].aovs
+    assert (full["prim"] >= 0).all() and (full["depth"] < 45 * scale).all()  # the near quad, unclipped
+    assert (cut["prim"][:, :4] == -1).all()  # left of the camera's x = 0 plane
+    assert (cut["prim"][:, 4:] >= 0).all()
+    np.testing.assert_allclose(cut["depth"][:, 4:].min(), 50 * scale, rtol=0.02)  # the far quad, near the centre
+
+
+def test_clipping_planes_are_checked():
+    with pytest.raises(ValueError, match="at most 8"):
+        wrt.Camera(clipping_planes=np.tile([1.0, 0.0, 0.0, 0.0], (9, 1)))
+    with pytest.raises(ValueError, match="non-zero normal"):
+        wrt.Camera(clipping_planes=[(0.0, 0.0, 0.0, 1.0)])
+    with pytest.raises(ValueError, match="finite"):
+        wrt.Camera(clipping_planes=[(np.nan, 0.0, 1.0, 0.0)])

@@ -25,6 +25,7 @@ import numpy as np
 import warp as wp
 
 APERTURE_UNIT = 0.1  # orthographic apertures are in tenths of a scene unit, as in Gf.Camera
+MAX_CLIPPING_PLANES = 8  # the rows of DeviceCamera's two plane matrices
 
 
 @wp.struct
@@ -41,6 +42,11 @@ class DeviceCamera:
     orthographic: int  # 1 for orthographic projection
     near: float  # clipping range, camera-space depth
     far: float
+    # Clipping planes in world space, one per row (a, b, c, d): points with a x + b y + c z + d < 0 are cut away.
+    # Two fixed matrices rather than an array, so the struct needs no device memory.
+    planes_a: wp.mat44  # planes 0-3
+    planes_b: wp.mat44  # planes 4-7
+    num_planes: int
 
 
 @wp.func
@@ -59,7 +65,25 @@ def clipped_ray(cam: DeviceCamera, origin: wp.vec3, ray: wp.vec3):
     """``(origin, unit direction, t_min, t_max)`` of a ray whose direction ``ray`` advances one unit of camera-space
     depth per unit: the clipping range becomes distances along the unit direction."""
     length = wp.length(ray)
-    return origin, ray / length, cam.near * length, cam.far * length
+    d = ray / length
+    t0 = cam.near * length
+    t1 = cam.far * length
+    for k in range(cam.num_planes):
+        plane = cam.planes_a[k % 4]
+        if k >= 4:
+            plane = cam.planes_b[k - 4]
+        # Kept where dot(n, origin + t d) + w >= 0: one end of the interval moves, or all of it goes when the ray
+        # runs parallel to the plane on its cut side.
+        n = wp.vec3(plane[0], plane[1], plane[2])
+        rate = wp.dot(n, d)
+        side = wp.dot(n, origin) + plane[3]
+        if rate > 0.0:
+            t0 = wp.max(t0, -side / rate)
+        elif rate < 0.0:
+            t1 = wp.min(t1, -side / rate)
+        elif side < 0.0:
+            t1 = t0
+    return origin, d, t0, t1
 
 
 @wp.func
@@ -120,6 +144,8 @@ class Camera:
         horizontal_aperture_offset: film shift along +X, in the film unit.
         vertical_aperture_offset: film shift along +Y, in the film unit.
         clipping_range: ``(near, far)`` camera-space depth range (scene units for an unscaled camera).
+        clipping_planes: ``(K, 4)`` camera-space planes ``(a, b, c, d)``, at most 8; points with
+            ``a x + b y + c z + d < 0`` are cut away (``UsdGeom.Camera.clippingPlanes``).
         projection: ``"perspective"`` or ``"orthographic"``.
         fit: which aperture is kept when the image aspect differs: ``"horizontal"`` or ``"vertical"``.
         f_stop: lens f-number; 0 means a pinhole.
@@ -134,6 +160,7 @@ class Camera:
     horizontal_aperture_offset: float = 0.0
     vertical_aperture_offset: float = 0.0
     clipping_range: tuple[float, float] = (0.01, 1.0e6)
+    clipping_planes: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4)))
     projection: str = "perspective"
     fit: str = "horizontal"
     f_stop: float = 0.0
@@ -156,6 +183,25 @@ class Camera:
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
         if not np.all(np.isfinite(self.to_world)):
             raise ValueError(f"camera {self.path or ''} transform is not finite")
+        planes = np.asarray(self.clipping_planes, dtype=np.float64)
+        if planes.size == 0:
+            planes = np.zeros((0, 4))
+        if (
+            planes.ndim != 2
+            or planes.shape[1] != 4
+            or not np.all(np.isfinite(planes))
+            or not np.all(np.linalg.norm(planes[:, :3], axis=1) > 0.0)
+        ):
+            raise ValueError(
+                f"camera {self.path or ''} clipping planes must be finite (a, b, c, d) rows with a non-zero normal "
+                f"(a, b, c), got {planes.tolist()}"
+            )
+        if len(planes) > MAX_CLIPPING_PLANES:
+            raise ValueError(
+                f"camera {self.path or ''} has {len(planes)} clipping planes; at most {MAX_CLIPPING_PLANES} are "
+                "supported"
+            )
+        self.clipping_planes = planes
 
     @classmethod
     def look_at(cls, eye, target, up=(0.0, 1.0, 0.0), fov_y_deg: float = 45.0, **kwargs) -> Camera:
@@ -218,6 +264,15 @@ class Camera:
         s.orthographic = 1 if self.projection == "orthographic" else 0
         s.near = float(self.clipping_range[0])
         s.far = float(self.clipping_range[1])
+        # A camera-space plane p maps to p @ inverse(to_world) in world space; rescaled to a unit normal so that its
+        # distances keep float32 precision whatever the camera's scale.
+        planes = self.clipping_planes @ np.linalg.inv(m)
+        planes /= np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
+        rows = np.zeros((2 * 4, 4))
+        rows[: len(planes)] = planes
+        s.planes_a = wp.mat44(*rows[:4].astype(np.float32).reshape(-1))
+        s.planes_b = wp.mat44(*rows[4:].astype(np.float32).reshape(-1))
+        s.num_planes = len(planes)
         return s
 
 

@@ -898,6 +898,7 @@ class _StageReader:
                 horizontal_aperture_offset=float(cam.horizontalApertureOffset),
                 vertical_aperture_offset=float(cam.verticalApertureOffset),
                 clipping_range=(float(clip.min), float(clip.max)),
+                clipping_planes=[tuple(plane) for plane in cam.clippingPlanes],
                 projection="orthographic" if cam.projection == Gf.Camera.Orthographic else "perspective",
                 f_stop=float(cam.fStop),
                 focus_distance=float(cam.focusDistance),
