@@ -491,3 +491,17 @@ def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
     assert any("multipliers" in m and m.endswith("/Dim") for m in messages), messages
     shadows = {light.path: light.shadows for light in scene.lights}
     assert shadows == {"/NoShadows": False, "/Plain": True, "/Tinted": True, "/Dim": True}
+
+
+def test_non_uniformly_scaled_sphere_light_is_reported(tmp_path):
+    """An ellipsoidal sphere light is drawn as a sphere of the mean radius: the load says so; a uniform scale does not
+    warn and scales the radius."""
+
+    def build(stage):
+        UsdGeom.XformCommonAPI(UsdLux.SphereLight.Define(stage, "/Squashed")).SetScale(Gf.Vec3f(1.0, 1.0, 0.25))
+        UsdGeom.XformCommonAPI(UsdLux.SphereLight.Define(stage, "/Round")).SetScale(Gf.Vec3f(2.0, 2.0, 2.0))
+
+    with pytest.warns(UserWarning, match=r"non-uniformly scaled SphereLights.*1 prim\(s\): /Squashed$"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    radii = {light.path: light.radius for light in scene.lights}
+    assert radii["/Round"] == pytest.approx(1.0) and radii["/Squashed"] == pytest.approx(0.5 * 2.25 / 3)

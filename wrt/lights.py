@@ -340,7 +340,10 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         return DistantLight(direction=direction / length, color=color, path=path, angle=angle, normalize=normalize)
     if prim.IsA(UsdLux.SphereLight):
         s = UsdLux.SphereLight(prim)
-        scale = float(np.mean(np.linalg.norm(m[:3, :3], axis=0)))
+        axes = np.linalg.norm(m[:3, :3], axis=0)
+        scale = float(np.mean(axes))
+        if not np.allclose(axes, scale, rtol=1e-4):
+            skip("non-uniformly scaled SphereLights are rendered as spheres of the mean scaled radius", prim)
         radius = float(get(s.GetRadiusAttr(), 0.5)) * scale
         treat = bool(get(s.GetTreatAsPointAttr(), False))
         return SphereLight(m[:3, 3].copy(), radius, color, normalize, treat or radius <= 0.0, path)
