@@ -304,7 +304,7 @@ def test_renders_are_bit_identical_on_the_same_device(device):
     scene.lights.append(wrt.DistantLight(direction=np.array([-0.3, -1.0, -0.2]) / 1.063, color=np.ones(3)))
     cam = wrt.Camera.look_at(eye=(2500.0, 1800.0, 3000.0), target=(0.0, 0.0, 0.0), fov_y_deg=45.0)
     a = wrt.render(scene, camera=cam, width=64, height=48, spp=2, device=device)
-    scene._cache.clear()  # rebuild the BVH too
+    scene.invalidate()  # rebuild the BVH too
     b = wrt.render(scene, camera=cam, width=64, height=48, spp=2, device=device)
     np.testing.assert_array_equal(a.rgb, b.rgb)
     for name in a.aovs:

@@ -201,6 +201,7 @@ class FrameRenderer:
         loaded = _time.perf_counter()
         change = classify_change(self._scene, scene)
         if change != "build":
+            scene.drop_stale_caches()  # settles the new scene's record first, so the accelerators moved in stay
             accels = {k: v for k, v in self._scene._cache.items() if k[0] == "accel"}
             for key, accel in accels.items():
                 done = follow(accel, scene, change)

@@ -67,6 +67,7 @@ def resolve_camera(scene: Scene, camera) -> Camera:
 def shading_data(scene: Scene, device) -> tuple:
     """``(DeviceMaterials, uvs, materials, double_sided, emission estimates)`` of ``scene`` on ``device``, cached."""
     key = ("shading", str(device))
+    scene.drop_stale_caches()
     if key not in scene._cache:
         mats = upload_materials(scene.materials, scene.textures, device)
         uvs = scene.corner_uvs()

@@ -156,6 +156,13 @@ class DistantLight:
         return (self.color * self.solid_angle_factor).astype(np.float32)
 
 
+def _same_scalar(a, b) -> bool:
+    """Equal plain values (a path, a flag, a radius), which need not be the same object to mean the same thing."""
+    if isinstance(a, (str, bool, int, float, np.generic)) and type(a) is type(b):
+        return bool(a == b)
+    return False
+
+
 @dataclasses.dataclass
 class Scene:
     """Everything that is rendered, as host arrays.
@@ -191,6 +198,31 @@ class Scene:
     def __post_init__(self):
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
         self.check_instances()
+        self._cached_parts = self._parts()  # what the cache is made from (see drop_stale_caches)
+
+    def invalidate(self) -> None:
+        """Forgets every cached array, tree and device copy. Needed only after editing an array of the scene in
+        place (``mesh.points += offset``); replacing arrays, meshes or lists is noticed by itself."""
+        self._cache.clear()
+
+    def drop_stale_caches(self) -> None:
+        """Clears the caches when a mesh, shape, prototype, instance array, material or texture has been replaced
+        (or a list grown or shrunk) since the last check: a cached BVH or upload would otherwise trace the old
+        geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity: see
+        :meth:`invalidate`."""
+        parts = self._parts()
+        old = self._cached_parts
+        if len(old) != len(parts) or any(a is not b and not _same_scalar(a, b) for a, b in zip(old, parts)):
+            self._cache.clear()
+        self._cached_parts = parts
+
+    def _parts(self) -> tuple:
+        """Every object the caches derive from, in a fixed order; held (not their ids), so none can be freed and
+        its id reused by a replacement."""
+        parts = [self.meshes, self.shapes, self.prototypes, self.instances, self.materials, self.textures]
+        for obj in [*self._geometry_meshes(), *self._geometry_shapes(), *self.prototypes, self.instances]:
+            parts += [getattr(obj, f.name) for f in dataclasses.fields(obj)]
+        return tuple(parts + list(self.materials) + list(self.textures))
 
     def check_instances(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of

@@ -465,6 +465,7 @@ def get_accelerator(
         raise ValueError(f"layout={layout!r} applies to accel='wrt' only; wp.Mesh has its own layout")
     device = resolve_device(device)
     scene.check_instances()  # instances may have been set after the Scene was made
+    scene.drop_stale_caches()
     key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
     if key not in scene._cache:
         if accel == "wrt" and layout == "binary" and (len(scene.instances) or scene.shapes):
