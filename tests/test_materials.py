@@ -1,7 +1,10 @@
 """Materials from USD: UsdPreviewSurface inputs, binding rules (subsets, collections, purpose), fallbacks for other
 shaders, UsdUVTexture lookups (colour spaces, wrap modes, UsdTransform2d), cut-outs and doubleSided culling."""
 
+import struct
 import warnings
+import zlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -259,6 +262,48 @@ def test_transform2d_scales_and_translates_st(tmp_path):
     img = albedo(path)
     np.testing.assert_allclose(img[0, 1], (0, 1, 0), atol=1e-3)
     np.testing.assert_allclose(img[3, 1], [128 / 255] * 3, atol=2e-3)
+
+
+def write_png16(path, samples):
+    """A 16-bit PNG (grey + alpha, RGB or RGBA by the channel count) written here byte by byte, rows filtered with
+    Sub, Up, Average and Paeth in turn, so that reading it has to undo every PNG filter."""
+    samples = np.asarray(samples, np.uint16)
+    h, w, c = samples.shape
+    bpp = 2 * c
+    raw, prev = b"", bytes(w * bpp)
+    for r in range(h):
+        row, kind, out = samples[r].astype(">u2").tobytes(), 1 + r % 4, bytearray()
+        for i, x in enumerate(row):
+            a, b, up_left = (row[i - bpp] if i >= bpp else 0), prev[i], (prev[i - bpp] if i >= bpp else 0)
+            p = a + b - up_left
+            paeth = min((abs(p - a), 0, a), (abs(p - b), 1, b), (abs(p - up_left), 2, up_left))[2]
+            out.append((x - (0, a, b, (a + b) // 2, paeth)[kind]) & 255)
+        raw, prev = raw + bytes([kind]) + bytes(out), row
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
+
+    header = struct.pack(">IIBBBBB", w, h, 16, {2: 4, 3: 2, 4: 6}[c], 0, 0, 0)
+    Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw))
+                           + chunk(b"IEND", b""))
+    return str(path)
+
+
+@pytest.mark.parametrize("channels", [2, 3, 4])
+def test_16_bit_png_textures_are_linear_at_full_precision(tmp_path, channels):
+    """16-bit colour and grey + alpha PNGs: Pillow keeps only their high bytes, and the 8-bit result was decoded as
+    sRGB under sourceColorSpace auto (16-bit data is linear, as Hydra reads it): 0.5 came out as 0.216."""
+    samples = np.random.default_rng(5).integers(0, 65536, (3, 5, channels))
+    samples[0, 0, :] = 0x8001  # 0.50001 linear; its high byte alone would be 0.502, or 0.216 after sRGB decoding
+    image = wrt.textures.load_image(write_png16(tmp_path / f"c{channels}.png", samples), "auto")
+    expected = np.ones((3, 5, 4))
+    expected[..., :3] = samples[..., :3] / 65535.0 if channels > 2 else samples[..., :1] / 65535.0
+    if channels != 3:
+        expected[..., 3] = samples[..., -1] / 65535.0
+    np.testing.assert_allclose(image, expected, atol=1e-7)
+    if channels == 3:  # and through a material
+        png = write_png16(tmp_path / "flat.png", np.full((2, 2, 3), 0x8001))
+        np.testing.assert_allclose(albedo(textured_stage(tmp_path, png)), 0x8001 / 65535.0, atol=2e-4)
 
 
 def test_single_channel_texture_drives_a_float_input(tmp_path):

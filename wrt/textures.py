@@ -9,6 +9,7 @@ Conventions, stated once:
 - ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
   keeps values; ``"auto"`` means sRGB for 8-bit RGB/RGBA images and raw for everything else (greyscale, 16-bit,
   float), as Hydra's image reader decides. Missing channels read as grey ``L`` -> ``(L, L, L)`` and alpha 1.
+  16-bit PNGs keep all 16 bits (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
 """
 
@@ -25,6 +26,7 @@ WRAP_MIRROR = wp.constant(1)
 WRAP_CLAMP = wp.constant(2)
 WRAP_BLACK = wp.constant(3)
 HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 
 
 class TextureError(ValueError):
@@ -67,26 +69,66 @@ def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
     return np.ascontiguousarray(rgba, dtype=np.float32)
 
 
+def png_bit_depth(data: bytes) -> int:
+    """Bits per sample of a PNG file's bytes (its ``IHDR`` header), 0 for any other format."""
+    if len(data) > 25 and data[:8] == PNG_SIGNATURE and data[12:16] == b"IHDR":
+        return data[24]
+    return 0
+
+
 def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
     from PIL import Image as PilImage
 
     try:
         img = PilImage.open(io.BytesIO(data))
+        if png_bit_depth(data) == 16 and img.mode in ("RGB", "RGBA"):
+            # 16-bit colour (or grey + alpha): Pillow would keep the high byte only.
+            rgba = _read_png16(data, img.tile[0][3])
+            if rgba is not None:
+                return rgba, False
         img.load()
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
         raise TextureError(f"cannot read image {name}: {e}") from None
     mode = img.mode
     if mode in ("I;16", "I;16B", "I;16L", "I"):
-        grey = np.asarray(img, dtype=np.float32) / (65535.0 if mode.startswith("I;16")
-                                                    else max(1.0, float(np.max(img))))
-        return _grey_rgba(grey, None), False
+        # Older Pillow versions open 16-bit grey PNGs as mode "I".
+        full = 65535.0 if mode.startswith("I;16") or png_bit_depth(data) == 16 else max(1.0, float(np.max(img)))
+        return _grey_rgba(np.asarray(img, dtype=np.float32) / full, None), False
     if mode == "F":
         return _grey_rgba(np.asarray(img, dtype=np.float32), None), False
     if mode in ("L", "LA"):
         arr = np.asarray(img.convert("LA"), dtype=np.float32) / 255.0
         return _grey_rgba(arr[..., 0], arr[..., 1] if mode == "LA" else None), False
     arr = np.asarray(img.convert("RGBA"), dtype=np.float32) / 255.0
-    return arr, True
+    return arr, png_bit_depth(data) <= 8  # samples of more than 8 bits are linear data, as Hydra reads them
+
+
+def _read_png16(data: bytes, rawmode: str) -> np.ndarray | None:
+    """``(H, W, 4)`` float32 RGBA of a 16-bit RGB, RGBA or grey + alpha PNG at full precision, or None for a
+    ``rawmode`` (Pillow's unpacking of the file) not handled here.
+
+    Pillow unpacks these samples to 8 bits (the high byte). Its decoder is run again with the raw mode that takes
+    the other byte of every sample (little-endian samples: the second byte; grey + alpha, 4 bytes per pixel, as
+    8-bit RGBA: every byte), so the PNG's filtering is undone by Pillow both times.
+    """
+    from PIL import Image as PilImage
+
+    def decode(mode):
+        img = PilImage.open(io.BytesIO(data))
+        img.tile = [tuple(img.tile[0][:3]) + (mode,)]
+        img.load()
+        return np.asarray(img, dtype=np.float32)
+
+    if rawmode == "LA;16B":
+        b = decode("RGBA")  # bytes: grey high, grey low, alpha high, alpha low
+        return _grey_rgba((b[..., 0] * 256 + b[..., 1]) / 65535.0, (b[..., 2] * 256 + b[..., 3]) / 65535.0)
+    if rawmode not in ("RGB;16B", "RGBA;16B"):
+        return None
+    high = decode(rawmode)
+    low = decode(rawmode.replace(";16B", ";16L"))
+    rgba = np.ones(high.shape[:2] + (4,), np.float32)
+    rgba[..., : high.shape[2]] = (high * 256 + low) / 65535.0
+    return rgba
 
 
 def _grey_rgba(grey: np.ndarray, alpha: np.ndarray | None) -> np.ndarray:
