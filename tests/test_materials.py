@@ -355,6 +355,35 @@ def test_opacity_threshold_cuts_holes(tmp_path):
         np.testing.assert_allclose(img.rgb[..., 0], img.rgb[..., 1], atol=1e-6)  # the grey quad behind, not red
 
 
+def test_camera_rays_see_through_textured_cut_outs(tmp_path):
+    """The AOVs (depth, albedo, material, prim) and the quick looks showed the cut-out surface in its holes while
+    the beauty image showed what lies behind; the path tracer spent its one bounce (max_depth=1) passing through."""
+    rgba = np.zeros((2, 2, 4), np.uint8)
+    rgba[..., 3] = [[0, 255], [0, 255]]  # alpha: holes in the left half of the quad (clamped lookups)
+    path = textured_stage(tmp_path, write_png(tmp_path / "mask.png", rgba), wrap="clamp", channel="a",
+                          input_name="opacity")
+    stage = Usd.Stage.Open(path)
+    shader = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/Surface"))
+    shader.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(0.5)
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1, 0, 0))
+    add_quad(stage, "/Behind", center=(0, 0, -1), size=2.0)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    for integrator in ("albedo", "whitted", "path"):
+        img = wrt.render(scene, camera=cam, width=4, height=4, spp=8, device="cpu", integrator=integrator,
+                         max_depth=1)
+        holes, solid = np.s_[:, :2], np.s_[:, 2:]  # pixel columns at s = 0.125, 0.375 (alpha 0, 0.25) | 0.625, 0.875
+        np.testing.assert_allclose(img.aovs["depth"][holes], 6.0, rtol=1e-6)
+        np.testing.assert_allclose(img.aovs["depth"][solid], 5.0, rtol=1e-6)
+        np.testing.assert_allclose(img.aovs["albedo"][holes], 0.5)  # the grey quad behind
+        np.testing.assert_allclose(img.aovs["albedo"][solid], np.broadcast_to([1, 0, 0], (4, 2, 3)))
+        assert (img.aovs["material"][holes] == -1).all() and (img.aovs["material"][solid] == 0).all()
+        assert (img.aovs["prim"][holes] >= 2).all() and (img.aovs["prim"][solid] < 2).all()
+        assert img.rgb[holes].mean() > 0.05  # the quad behind, lit by the default lights
+        np.testing.assert_allclose(img.rgb[holes][..., 0], img.rgb[holes][..., 1], atol=1e-6)  # grey, not red
+
+
 def test_emissive_material_lights_the_scene(tmp_path):
     stage, path = new_stage(tmp_path)
     glow = add_quad(stage, "/Glow")

@@ -145,7 +145,7 @@ class Image:
             - ``"instance"`` int32 index into ``Scene.instances``; -1 on a miss or on non-instanced geometry;
             - ``"material"`` int32 index into ``Scene.materials`` (-1 on a miss or for the default material);
             - ``"cost"`` ``(H, W, 2)`` int32 BVH nodes visited and triangles tested by the ray (0 for
-              ``accel="warp"``), including re-traces past culled back faces.
+              ``accel="warp"``), including re-traces past culled back faces and cut-out holes.
     """
 
     rgb: np.ndarray

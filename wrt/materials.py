@@ -267,6 +267,15 @@ def input_float(mats: DeviceMaterials, m: int, slot: int, st: wp.vec2, constant:
 
 
 @wp.func
+def cut_out(mats: DeviceMaterials, m: int, st: wp.vec2):
+    """True where material ``m`` has a hole at ``st``: ``opacity < opacityThreshold`` with a positive threshold."""
+    threshold = mats.params[m, 3]
+    if threshold <= 0.0:
+        return False
+    return wp.clamp(input_float(mats, m, SLOT_OPACITY, st, mats.params[m, 2]), 0.0, 1.0) < threshold
+
+
+@wp.func
 def eval_emission(mats: DeviceMaterials, m: int, st: wp.vec2):
     """``emissiveColor`` of material ``m`` at ``st``."""
     return input_color(mats, m, SLOT_EMISSIVE, st, mats.colors[m, 1])

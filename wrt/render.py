@@ -106,14 +106,14 @@ class _Wavefront:
         "active": wp.int32,
     }
 
-    def __init__(self, n: int, device, all_double_sided: bool):
+    def __init__(self, n: int, device, nothing_to_cull: bool):
         self.n = n
         self.device = device
         for name, dtype in self.FIELDS.items():
             setattr(self, name, wp.empty(n, dtype=dtype, device=device))
         self.shadow_t_mins = wp.zeros(n, dtype=float, device=device)
         self.hits = HitBuffer(n, device)
-        self.scratch = CullScratch(n, device, all_double_sided)
+        self.scratch = CullScratch(n, device, nothing_to_cull)
         self.counter = wp.zeros(1, dtype=wp.int32, device=device)
 
     def view(self, m: int) -> _Wavefront:
@@ -125,7 +125,7 @@ class _Wavefront:
             setattr(v, name, getattr(self, name)[:m])
         v.hits = _slice_hits(self.hits, m)
         s = object.__new__(CullScratch)
-        s.device, s.all_double_sided, s.retries = self.device, self.scratch.all_double_sided, self.scratch.retries
+        s.device, s.nothing_to_cull, s.retries = self.device, self.scratch.nothing_to_cull, self.scratch.retries
         s.t_mins, s.t_maxs, s.hits = self.scratch.t_mins[:m], self.scratch.t_maxs[:m], _slice_hits(self.scratch.hits, m)
         v.scratch = s
         return v
@@ -273,7 +273,9 @@ class Renderer:
         s.uvs, s.materials, s.double_sided = uvs, tri_materials, sided
         s.emitters = wp.array(emitters, dtype=wp.int32, device=dev)
         self.surfaces = s
-        self.all_double_sided = bool(scene.triangle_double_sided().all())
+        # Camera rays skip back faces of single-sided meshes and holes of cut-outs (shade.intersect_visible).
+        cut_outs = np.array([False] + [m.opacity_threshold > 0.0 for m in scene.materials])  # per device material
+        self.nothing_to_cull = bool(scene.triangle_double_sided().all()) and not cut_outs[geometry_materials].any()
         # Whitted lights each UsdLux light (but the dome) separately and all emissive triangles as one light.
         n_analytic = self.device_lights.num_analytic
         self._whitted_groups = [(k, 1) for k in range(n_analytic) if kinds[k] != int(LIGHT_DOME)]
@@ -334,7 +336,7 @@ class Renderer:
         batch = min(int(batch), spp)
         n = n_pixels * batch
         if self._wavefront is None or self._wavefront.n < n:
-            self._wavefront = _Wavefront(n, self.device, self.all_double_sided)
+            self._wavefront = _Wavefront(n, self.device, self.nothing_to_cull)
         dev = self.device
         state = self._progressive
         if (resume and state is not None and state["seed"] == seed
@@ -374,7 +376,7 @@ class Renderer:
         call, so make one call before capturing. :meth:`frame_image` reads the result."""
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
-            self._frame = (_Wavefront(n_pixels, self.device, self.all_double_sided),
+            self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull),
                            wp.zeros(n_pixels, dtype=wp.vec3, device=self.device),
                            wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device))
         w, image, dropped, aovs = self._frame
@@ -419,7 +421,8 @@ class Renderer:
         time, also the AOVs of sample 0."""
         if camera_rays:
             passes = CAPTURE_CULL_PASSES if self._sync_free else None
-            intersect_visible(self.accel, self.surfaces, self.device_scene, w.rays, w.hits, w.scratch, passes)
+            intersect_visible(self.accel, self.surfaces, self.materials, self.device_scene, w.rays, w.hits, w.scratch,
+                              passes)
         else:
             self.accel.intersect(*w.rays, w.hits)
         if aovs is not None and not aovs.done:

@@ -12,7 +12,9 @@ Conventions:
   is turned to the same side. ``front`` records whether the ray arrived on the winding's front side.
 - Back faces of single-sided meshes (``doubleSided = false``) are invisible to camera rays, as in usdview: they
   are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`). Bounce and shadow rays see both
-  sides, so closed glass objects refract twice and single-sided walls still cast shadows.
+  sides, so closed glass objects refract twice and single-sided walls still cast shadows. Camera rays skip the
+  holes of cut-out materials (``opacity < opacityThreshold``) the same way, so the AOVs and every integrator
+  start from the surface seen through them; the integrators pass later rays through holes themselves.
 - Sample 0 of every pixel goes through the pixel centre and the lens centre; later samples jitter both
   (deterministic in ``seed``, pixel and sample index). AOVs come from sample 0.
 """
@@ -22,7 +24,7 @@ import warp as wp
 from .camera import DeviceCamera, clipped_ray, film_ray
 from .geometry import stable_length
 from .lights import DEFAULT_DOME_RADIANCE
-from .materials import DeviceMaterials, eval_surface
+from .materials import DeviceMaterials, cut_out, eval_surface
 from .primitives import shape_surface
 from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
@@ -34,7 +36,7 @@ wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 
 BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights
 CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
-MAX_CULL_PASSES = 8  # re-traces after culled back faces; a ray still on a back face after that shows it
+MAX_CULL_PASSES = 8  # re-traces after culled hits; a ray still on a back face (or in a hole) after that keeps it
 
 
 @wp.struct
@@ -245,14 +247,48 @@ def start_paths_kernel(
     prev_normal[i] = wp.vec3(0.0)
 
 
-@wp.kernel
-def cull_back_faces_kernel(
+@wp.func
+def hidden_hit(
     scene: DeviceScene,
     surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    prim: int,
+    instance: int,
+    u: float,
+    v: float,
+    o: wp.vec3,
+    d: wp.vec3,
+    t: float,
+):
+    """True when a camera ray's hit ``(t, u, v, prim, instance)`` is not seen: a hole of a cut-out material, or the
+    back of a single-sided triangle."""
+    st = (1.0 - u - v) * surf.uvs[prim, 0] + u * surf.uvs[prim, 1] + v * surf.uvs[prim, 2]
+    if cut_out(mats, surf.materials[prim], st):
+        return True
+    if surf.double_sided[prim] == 1:
+        return False
+    if prim >= scene.num_prims:
+        p, n = shape_frame(scene, prim, instance, o, d, t)
+        return wp.dot(n, d) > 0.0
+    a = scene.points[scene.indices[prim, 0]]
+    b = scene.points[scene.indices[prim, 1]]
+    c = scene.points[scene.indices[prim, 2]]
+    if instance >= 0:
+        d = transform_vector(scene.world_to_local[instance], d)  # n_world . d = n_local . (A d)
+    return wp.dot(wp.cross(b - a, c - a), d) > 0.0
+
+
+@wp.kernel
+def cull_hidden_hits_kernel(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     t_maxs: wp.array[float],
     hit_t: wp.array[float],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
     hit_instance: wp.array[wp.int32],
     # outputs
@@ -260,28 +296,17 @@ def cull_back_faces_kernel(
     retry_t_maxs: wp.array[float],
     retries: wp.array[wp.int32],
 ):
-    """Marks rays whose closest hit is the back of a single-sided triangle: they are re-traced from just past it
+    """Marks camera rays whose closest hit is not seen (:func:`hidden_hit`): they are re-traced from just past it
     (``retry_t_maxs > 0``); every other ray gets an empty range."""
     i = wp.tid()
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
     prim = hit_prim[i]
-    if prim < 0 or surf.double_sided[prim] == 1:
+    if prim < 0:
         return
-    a = scene.points[scene.indices[prim, 0]]
-    b = scene.points[scene.indices[prim, 1]]
-    c = scene.points[scene.indices[prim, 2]]
-    d = directions[i]
-    instance = hit_instance[i]
-    if prim >= scene.num_prims:
-        p, n = shape_frame(scene, prim, instance, origins[i], d, hit_t[i])
-        if wp.dot(n, d) <= 0.0:
-            return
-    else:
-        if instance >= 0:
-            d = transform_vector(scene.world_to_local[instance], d)  # n_world . d = n_local . (A d)
-        if wp.dot(wp.cross(b - a, c - a), d) <= 0.0:
-            return
+    if not hidden_hit(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i],
+                      hit_t[i]):
+        return
     t = hit_t[i]
     retry_t_mins[i] = t + wp.max(t * CULL_EPSILON, 1.0e-9)
     retry_t_maxs[i] = t_maxs[i]
@@ -316,12 +341,16 @@ def merge_hits_kernel(
         instance[i] = instance2[i]
 
 
-def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays, hits, scratch, passes=None) -> None:
-    """``accel.intersect`` that skips back faces of single-sided meshes (see the module docstring).
+def intersect_visible(
+    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, scene: DeviceScene, rays, hits, scratch, passes=None
+) -> None:
+    """``accel.intersect`` that skips back faces of single-sided meshes and holes of cut-out materials (see the
+    module docstring).
 
     Args:
         accel: the :class:`wrt.trace.Accelerator`.
-        surfaces: per-triangle shading data (for ``double_sided``).
+        surfaces: per-triangle shading data (``double_sided``, materials, texture coordinates).
+        mats: the materials (for cut-outs).
         scene: the device scene.
         rays: ``[origins, directions, t_mins, t_maxs]`` device arrays.
         hits: the :class:`wrt.trace.HitBuffer` to fill.
@@ -331,15 +360,16 @@ def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays,
     """
     origins, directions, _, t_maxs = rays
     accel.intersect(*rays, hits)
-    if scratch.all_double_sided:
+    if scratch.nothing_to_cull:
         return
     n = len(origins)
     for _ in range(MAX_CULL_PASSES if passes is None else passes):
         scratch.retries.zero_()
         wp.launch(
-            cull_back_faces_kernel,
+            cull_hidden_hits_kernel,
             n,
-            inputs=[scene, surfaces, origins, directions, t_maxs, hits.t, hits.prim, hits.instance],
+            inputs=[scene, surfaces, mats, origins, directions, t_maxs, hits.t, hits.u, hits.v, hits.prim,
+                    hits.instance],
             outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries],
             device=scratch.device,
         )
@@ -359,11 +389,11 @@ def intersect_visible(accel, surfaces: DeviceSurfaces, scene: DeviceScene, rays,
 class CullScratch:
     """Buffers for :func:`intersect_visible` (``n`` rays on ``device``)."""
 
-    def __init__(self, n: int, device, all_double_sided: bool):
+    def __init__(self, n: int, device, nothing_to_cull: bool):
         from .trace import HitBuffer
 
         self.device = device
-        self.all_double_sided = all_double_sided  # nothing to cull: skip the extra pass
+        self.nothing_to_cull = nothing_to_cull  # every mesh double-sided, no cut-outs: skip the extra pass
         self.t_mins = wp.empty(n, dtype=float, device=device)
         self.t_maxs = wp.empty(n, dtype=float, device=device)
         self.retries = wp.zeros(1, dtype=wp.int32, device=device)

@@ -8,7 +8,8 @@ Veach's power heuristic (multiple importance sampling); delta lobes and delta li
 0.05 survives), dividing the survivors' throughput by their survival probability. ``max_depth`` counts surface
 interactions: 1 gives direct lighting only.
 
-Cut-out surfaces (``opacity < opacityThreshold``) are passed straight through; this uses up a bounce.
+Cut-out surfaces (``opacity < opacityThreshold``) are passed straight through; this uses up a bounce (not for
+camera rays, which skip holes before the first bounce: :func:`wrt.shade.intersect_visible`).
 """
 
 import warp as wp
