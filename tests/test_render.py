@@ -155,6 +155,21 @@ def test_png_is_8bit_srgb(tmp_path, room):
         img.save(tmp_path / "x.tiff")
 
 
+@pytest.mark.parametrize("exposure", [float("nan"), float("inf"), -np.inf, "1", None, True])
+def test_save_refuses_an_exposure_that_is_not_a_finite_number(tmp_path, exposure):
+    """NaN wrote a black PNG and inf a white one without a word (the CLI checks --exposure; Python did not)."""
+    img = wrt.Image(rgb=np.full((3, 7, 3), 0.25, np.float32))
+    with pytest.raises(ValueError, match="exposure must be a finite number"):
+        img.save(tmp_path / "x.png", exposure=exposure)
+    assert not (tmp_path / "x.png").exists()
+    img.save(tmp_path / "x.png", exposure=np.float32(1.0))  # numpy scalars are numbers
+    from PIL import Image as PilImage
+
+    with PilImage.open(tmp_path / "x.png") as png:
+        assert png.size == (7, 3)
+        np.testing.assert_array_equal(np.asarray(png), 188)  # sRGB of 0.5: 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354
+
+
 @pytest.mark.parametrize("integrator", ["path", "whitted", "ao"])
 def test_launch_frame_without_host_reads_equals_a_one_sample_render(integrator):
     from wrt.procedural import ring_of_cameras, sensor_scene

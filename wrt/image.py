@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import math
 from pathlib import Path
 
 import numpy as np
@@ -166,9 +167,15 @@ class Image:
         of ``rgb * 2**exposure`` clipped to [0, 1] (``exposure`` applies to PNG only).
 
         Raises:
-            ValueError: for any other extension, or ``.exr`` without the OpenEXR package.
+            ValueError: for any other extension, ``.exr`` without the OpenEXR package, or an ``exposure`` that is
+                not a finite number.
         """
         path = check_image_path(path)
+        # NaN gave a black PNG and inf a white one, without a word.
+        if isinstance(exposure, bool) or not isinstance(exposure, (int, float, np.integer, np.floating)) or not (
+            math.isfinite(exposure)
+        ):
+            raise ValueError(f"exposure must be a finite number, got {exposure!r}")
         suffix = path.suffix.lower()
         path.parent.mkdir(parents=True, exist_ok=True)
         if suffix == ".png":
