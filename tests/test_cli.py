@@ -73,6 +73,7 @@ def test_help_explains_the_options():
         (["render", "-o", "out.gif"], "supported image formats"),
         (["render", "--exposure", "inf"], "finite"),
         (["render", "--time", "nan"], "finite"),
+        (["render", "--seed", "2147483648"], "seed must be an integer from 0 to 2147483647"),  # wrapped onto seed 0
         (["frobnicate"], "frobnicate"),
     ],
 )

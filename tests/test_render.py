@@ -132,6 +132,11 @@ def test_camera_by_path_and_bad_camera(tmp_path):
         ({"accel": "optix"}, "valid accelerators"),
         ({"device": "cuda:9"}, "available devices"),
         ({"width": 100_000, "height": 100_000}, "pixels"),
+        # Seeds are 31-bit: 0.5 was truncated to seed 0 and 2^31 or -2^31 wrapped onto seed 0, silently.
+        ({"seed": 0.5}, "seed must be an integer from 0 to 2147483647"),
+        ({"seed": 2**31}, "seed must be an integer from 0 to 2147483647"),
+        ({"seed": -2**31}, "seed must be an integer from 0 to 2147483647"),
+        ({"seed": True}, "seed must be an integer"),
     ],
 )
 def test_bad_render_options_raise_value_error(kwargs, message):

@@ -72,6 +72,16 @@ def _finite_float(text: str) -> float:
     return value
 
 
+def _seed(text: str) -> int:
+    """An argparse type: a render seed (checked before any scene is loaded)."""
+    from .render import check_seed
+
+    try:
+        return check_seed(int(text))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e) if "seed" in str(e) else f"{text!r} is not an integer") from None
+
+
 def _add_render(sub) -> None:
     from .bvh.build import Builder
     from .trace import ACCELERATORS
@@ -101,7 +111,7 @@ def _add_render(sub) -> None:
     p.add_argument("--height", type=_positive_int, default=480, help="image height in pixels")
     p.add_argument("--camera", help="camera prim path; default: the stage's first camera, else one framing the scene")
     p.add_argument("--spp", type=_positive_int, default=1, help="samples per pixel")
-    p.add_argument("--seed", type=int, default=0, help="seed of every random decision (jitter, lens, paths)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of every random decision (jitter, lens, paths)")
     p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")

@@ -43,7 +43,20 @@ MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as f
 DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
 MM_PER_METER = 1000.0  # camera focal lengths are read as millimetres for the thin lens
+MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit seed)
 CAPTURE_CULL_PASSES = 2  # back-face cull passes of a graph-captured frame (it cannot stop early: no host reads)
+
+
+def check_seed(seed) -> int:
+    """``seed`` as an int; the generator takes 31-bit seeds, and a float was truncated (0.5 rendered as 0) and
+    larger or negative seeds wrapped onto others (2^31 rendered as 0) without a word.
+
+    Raises:
+        ValueError: ``seed`` is not an integer from 0 to :data:`MAX_SEED`.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed must be an integer from 0 to {MAX_SEED}, got {seed!r}")
+    return int(seed)
 
 
 def resolve_camera(scene: Scene, camera) -> Camera:
@@ -327,7 +340,7 @@ class Renderer:
             raise ValueError(f"spp must be a positive integer, got {spp!r}")
         if batch is not None and (not isinstance(batch, (int, np.integer)) or batch < 1):
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
-        spp, seed = int(spp), int(seed) & 0x7FFFFFFF
+        spp, seed = int(spp), check_seed(seed)
         n_pixels = self.width * self.height * len(self.cameras)
         if self.integrator in ("normals", "depth", "albedo"):
             spp = 1
@@ -385,7 +398,7 @@ class Renderer:
         try:
             with wp.ScopedDevice(self.device):
                 image.zero_()
-                self._start_and_trace(w, 0, int(seed) & 0x7FFFFFFF, aovs)
+                self._start_and_trace(w, 0, check_seed(seed), aovs)
                 wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, 1],
                           outputs=[image, dropped])
         finally:
