@@ -306,6 +306,21 @@ def test_16_bit_png_textures_are_linear_at_full_precision(tmp_path, channels):
         np.testing.assert_allclose(albedo(textured_stage(tmp_path, png)), 0x8001 / 65535.0, atol=2e-4)
 
 
+def test_exr_texture_with_layer_named_channels(tmp_path):
+    """An EXR whose only colour channels are a layer's (diffuse.R, diffuse.G, diffuse.B) was refused as having no RGB
+    channels, so its material fell back to the texture's fallback colour."""
+    import OpenEXR
+
+    rgb = np.random.default_rng(2).random((3, 5, 3)).astype(np.float32)
+    path = str(tmp_path / "layer.exr")
+    channels = {f"diffuse.{c}": np.ascontiguousarray(rgb[..., k]) for k, c in enumerate("RGB")}
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, channels) as f:
+        f.write(path)
+    image = wrt.textures.load_image(path)
+    np.testing.assert_array_equal(image[..., :3], rgb)
+    np.testing.assert_array_equal(image[..., 3], 1.0)
+
+
 def test_single_channel_texture_drives_a_float_input(tmp_path):
     png = write_png(tmp_path / "rough.png", [[[51, 0, 0], [51, 0, 0]], [[51, 0, 0], [51, 0, 0]]])
     scene = wrt.load_usd(textured_stage(tmp_path, png, channel="r", input_name="roughness", color_space="raw"))

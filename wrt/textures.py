@@ -153,12 +153,12 @@ def _read_exr(data: bytes, name: str) -> np.ndarray:
                 channels = {k: np.asarray(v.pixels, dtype=np.float32) for k, v in f.channels().items()}
         except Exception as e:  # noqa: BLE001
             raise TextureError(f"cannot read EXR {name}: {e}") from None
-    for packed in ("RGBA", "RGB"):
-        if packed in channels:
-            arr = channels[packed]
-            rgba = np.ones(arr.shape[:2] + (4,), np.float32)
-            rgba[..., : arr.shape[2]] = arr
-            return rgba
+    # OpenEXR groups R, G, B (and A) into "RGB"/"RGBA", or into the layer's name for "layer.R", "layer.G", ...
+    layers = [v for v in channels.values() if v.ndim == 3 and v.shape[2] in (3, 4)]
+    for arr in [channels[k] for k in ("RGBA", "RGB") if k in channels] or (layers if len(layers) == 1 else []):
+        rgba = np.ones(arr.shape[:2] + (4,), np.float32)
+        rgba[..., : arr.shape[2]] = arr
+        return rgba
     single = {k.split(".")[-1].upper(): v for k, v in channels.items() if v.ndim == 2}
     if all(c in single for c in "RGB"):
         rgba = np.ones(single["R"].shape + (4,), np.float32)
