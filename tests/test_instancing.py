@@ -15,7 +15,7 @@ import warp as wp
 wp.config.quiet = True
 
 pxr = pytest.importorskip("pxr")
-from pxr import Gf, Usd, UsdGeom, Vt  # noqa: E402
+from pxr import Gf, Usd, UsdGeom, UsdShade, Vt  # noqa: E402
 
 import wrt  # noqa: E402
 from wrt.compare import compare_hits, near_edge_world  # noqa: E402
@@ -554,3 +554,119 @@ def test_real_instanced_scenes_render(assets, asset_id):
     hits = wrt.trace(scene, origins, directions)
     same = hits.prim.reshape(60, 80) == img.aovs["prim"]
     assert same.mean() > 0.99
+
+
+PREVIEW_MATERIAL = """
+    def Material "{name}"
+    {{
+        token outputs:surface.connect = </Looks/{name}/Surface.outputs:surface>
+        def Shader "Surface"
+        {{
+            uniform token info:id = "UsdPreviewSurface"
+            token outputs:surface
+        }}
+    }}"""
+BINDINGS = """#usda 1.0
+def Scope "Looks"
+{""" + "".join(PREVIEW_MATERIAL.format(name=name) for name in ("Red", "Blue", "Green")) + """
+}
+class "Lib"
+{
+    def Xform "Leaf"
+    {
+        def Mesh "Deep" (prepend apiSchemas = ["MaterialBindingAPI"])
+        {
+            rel material:binding = </Looks/Green>
+            int[] faceVertexCounts = [3]
+            int[] faceVertexIndices = [0, 1, 2]
+            point3f[] points = [(0, 0, 3), (1, 0, 3), (0, 1, 3)]
+        }
+    }
+    def Xform "Asset"
+    {
+        def Mesh "Own" (prepend apiSchemas = ["MaterialBindingAPI"])
+        {
+            rel material:binding = </Looks/Red>
+            int[] faceVertexCounts = [3, 3]
+            int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]
+            point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+            def GeomSubset "Half" (prepend apiSchemas = ["MaterialBindingAPI"])
+            {
+                uniform token elementType = "face"
+                uniform token familyName = "materialBind"
+                int[] indices = [1]
+                rel material:binding = </Looks/Green>
+            }
+        }
+        def Mesh "Bare"
+        {
+            int[] faceVertexCounts = [3]
+            int[] faceVertexIndices = [0, 1, 2]
+            point3f[] points = [(0, 0, 1), (1, 0, 1), (0, 1, 1)]
+        }
+        def Xform "Nested" (instanceable = true
+            references = </Lib/Leaf>)
+        {
+        }
+    }
+}
+def Xform "Strong" (instanceable = true
+    references = </Lib/Asset>
+    prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Looks/Blue> (bindMaterialAs = "strongerThanDescendants")
+}
+def Xform "Above" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Looks/Blue> (bindMaterialAs = "strongerThanDescendants")
+    double3 xformOp:translate = (10, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def Xform "Inside" (instanceable = true
+        references = </Lib/Asset>)
+    {
+    }
+}
+def Xform "Weak" (instanceable = true
+    references = </Lib/Asset>
+    prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </Looks/Blue>
+    double3 xformOp:translate = (20, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def test_strong_material_bindings_on_or_above_native_instances_win_over_the_prototypes_own(tmp_path):
+    """A strongerThanDescendants binding on an instance (or an ancestor of it) binds every mesh and subset inside,
+    nested instances included, as ComputeBoundMaterial on the instance proxies says; a plain one only binds meshes
+    that bind nothing themselves (the prototype's own bindings were kept in both cases)."""
+    path = tmp_path / "bindings.usda"
+    path.write_text(BINDINGS)
+    scene = load(path)
+    # Expected: the material of each triangle of every instance proxy mesh, keyed by its world-space centroid.
+    stage = Usd.Stage.Open(str(path))
+    expected = {}
+    for prim in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()):
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        mesh = UsdGeom.Mesh(prim)
+        to_world = np.array(mesh.ComputeLocalToWorldTransform(Usd.TimeCode.Default()))
+        points = np.array(mesh.GetPointsAttr().Get(), np.float64) @ to_world[:3, :3] + to_world[3, :3]
+        corners = np.array(mesh.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+        faces = {}
+        for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
+            bound, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial()
+            faces.update({int(f): str(bound.GetPath()) for f in subset.GetIndicesAttr().Get()})
+        bound, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+        for f, tri in enumerate(corners):
+            expected[tuple(np.round(points[tri].mean(axis=0), 4))] = faces.get(f, str(bound.GetPath()))
+    found = {}
+    for i in range(len(scene.instances)):
+        to_world = scene.instances.to_world[i]
+        for mesh in scene.prototypes[scene.instances.prototype[i]].meshes:
+            world = mesh.points.astype(np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
+            for tri, material in zip(mesh.indices, mesh.material_ids):
+                found[tuple(np.round(world[tri].mean(axis=0), 4))] = scene.materials[material].path
+    assert len(expected) == 12 and scene.stats()["rendered_triangles"] == 12
+    assert found == expected

@@ -31,7 +31,8 @@ exist, or per-instance arrays shorter than ``protoIndices`` raise :class:`wrt.er
 instancer; instances whose transform is singular (a zero scale) are skipped with a warning naming each one
 (``/instancer[index]``). Visibility and purpose inside a PointInstancer's prototype are taken from the prototype
 root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
-bound above a native instance applies to the prototype's meshes that bind none themselves.
+bound on or above a native instance applies to the prototype's meshes that bind none themselves, and to all of them
+(subsets and nested instances included) when it is bound ``strongerThanDescendants``.
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
@@ -229,11 +230,13 @@ class _Context:
         outer_material=None,
         world=False,
         outer_purpose=None,
+        outer_forced=False,
     ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
         self.stop = space_root  # visibility and purpose are inherited from below this prim (None: everything)
         self.outer_material = outer_material  # material index bound above a native instance, or None
+        self.outer_forced = outer_forced  # that binding is strongerThanDescendants: it wins over bindings inside
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
         self.world = world  # the stage itself (cameras and lights are read only here)
 
@@ -369,7 +372,8 @@ class _StageReader:
             raise self._error("world transform is not finite", prim)
         return m
 
-    def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material, outer_purpose=None) -> _Content:
+    def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material, outer_purpose=None,
+                 outer_forced=False) -> _Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:
@@ -378,7 +382,8 @@ class _StageReader:
             content = _Content(str(root.GetPath()))
             # Prototypes are often kept under an ``over`` so they are not drawn in place; instanced, they are drawn
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
-            inside = _Context(content, space_root, outer_material, outer_purpose=outer_purpose)
+            inside = _Context(content, space_root, outer_material, outer_purpose=outer_purpose,
+                              outer_forced=outer_forced)
             self._walk(root, inside, _PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content
@@ -396,15 +401,25 @@ class _StageReader:
         if not prototype:
             self._skip("instances without a prototype were skipped", prim)
             return
-        outer = ctx.outer_material
-        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
-        if material:
-            outer = self.materials.material_index(material)
-        key = ("native", str(prototype.GetPath()), None, purpose)
-        content = self._content(key, prototype, None, None, purpose)
-        if content.uses_outer and outer is not None:
-            key = ("native", str(prototype.GetPath()), outer, purpose)
-            content = self._content(key, prototype, None, outer, purpose)
+        outer, forced = ctx.outer_material, ctx.outer_forced
+        if not forced:
+            material, binding = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
+            if material:
+                outer = self.materials.material_index(material)
+                # A strongerThanDescendants binding (on the instance or above it) overrides the prototype's own
+                # bindings, as ComputeBoundMaterial on the instance proxies gives; it cannot be seen from inside.
+                strength = UsdShade.MaterialBindingAPI.GetMaterialBindingStrength(binding)
+                forced = strength == UsdShade.Tokens.strongerThanDescendants
+        path = str(prototype.GetPath())
+        if forced:
+            key = ("native", path, outer, purpose, True)
+            self._content(key, prototype, None, outer, purpose, outer_forced=True)
+        else:
+            key = ("native", path, None, purpose, False)
+            content = self._content(key, prototype, None, None, purpose)
+            if content.uses_outer and outer is not None:
+                key = ("native", path, outer, purpose, False)
+                self._content(key, prototype, None, outer, purpose)
         m = self._to_space(prim, ctx).T  # column vectors
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32)))
 
@@ -469,9 +484,9 @@ class _StageReader:
             if len(rows) == 0:
                 continue
             # The prototype's space is its parent's: the root's own transform is the most local part.
-            key = ("pi", str(target.GetPath()), ctx.outer_material)
+            key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced)
             parent = target.GetParent()
-            self._content(key, target, parent, ctx.outer_material)
+            self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced)
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32)))
 
     def _place_instances(self, world: _Content, scene: Scene):
@@ -518,16 +533,22 @@ class _StageReader:
 
     # Meshes
 
+    def _face_materials(self, prim: Usd.Prim, n_faces: int, ctx: _Context) -> np.ndarray | None:
+        """``(F,)`` int32 material of each face of ``prim`` (-1: default), or None for none at all: its own bindings
+        (:meth:`MaterialReader.face_materials`), else the material bound above the native instance being read;
+        that one wins over its own when it is bound strongerThanDescendants."""
+        own = None if ctx.outer_forced else self.materials.face_materials(prim, n_faces)
+        if own is not None:
+            return own
+        ctx.content.uses_outer = True
+        return None if ctx.outer_material is None else np.full(n_faces, ctx.outer_material, np.int32)
+
     def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
         """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         # Materials first: the texture-coordinate primvar to read depends on them.
         counts = value_at(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr(), self.time)
         n_faces = len(counts) if counts is not None else 0
-        face_materials = self.materials.face_materials(prim, n_faces)
-        if face_materials is None:
-            ctx.content.uses_outer = True
-            if ctx.outer_material is not None:
-                face_materials = np.full(n_faces, ctx.outer_material, np.int32)
+        face_materials = self._face_materials(prim, n_faces, ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
         local = self._read_local_mesh(prim, uv_set)
         if local is None:
@@ -659,12 +680,8 @@ class _StageReader:
             values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64).reshape(-1, 3)
             if len(values) and np.all(np.isfinite(values)):
                 color = values.mean(axis=0).astype(np.float32)
-        material = self.materials.face_materials(prim, 1)
-        if material is None:
-            ctx.content.uses_outer = True
-            material_id = -1 if ctx.outer_material is None else int(ctx.outer_material)
-        else:
-            material_id = int(material[0])
+        material = self._face_materials(prim, 1, ctx)
+        material_id = -1 if material is None else int(material[0])
         return Shape(
             path=str(prim.GetPath()),
             kind=kind,
