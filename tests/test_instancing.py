@@ -576,7 +576,7 @@ class "Lib"
     {
         def Mesh "Deep" (prepend apiSchemas = ["MaterialBindingAPI"])
         {
-            rel material:binding = </Looks/Green>
+            DEEP_BINDING
             int[] faceVertexCounts = [3]
             int[] faceVertexIndices = [0, 1, 2]
             point3f[] points = [(0, 0, 3), (1, 0, 3), (0, 1, 3)]
@@ -598,8 +598,9 @@ class "Lib"
                 rel material:binding = </Looks/Green>
             }
         }
-        def Mesh "Bare"
+        def Mesh "Bare" (prepend apiSchemas = ["MaterialBindingAPI"])
         {
+            BARE_BINDING
             int[] faceVertexCounts = [3]
             int[] faceVertexIndices = [0, 1, 2]
             point3f[] points = [(0, 0, 1), (1, 0, 1), (0, 1, 1)]
@@ -607,6 +608,18 @@ class "Lib"
         def Xform "Nested" (instanceable = true
             references = </Lib/Leaf>)
         {
+        }
+        def PointInstancer "Scatter"
+        {
+            rel prototypes = [</Lib/Asset/Scatter/Dot>]
+            int[] protoIndices = [0]
+            point3f[] positions = [(0, 0, 0)]
+            def Mesh "Dot"
+            {
+                int[] faceVertexCounts = [3]
+                int[] faceVertexIndices = [0, 1, 2]
+                point3f[] points = [(0, 0, 4), (1, 0, 4), (0, 1, 4)]
+            }
         }
     }
 }
@@ -637,12 +650,17 @@ def Xform "Weak" (instanceable = true
 """
 
 
-def test_strong_material_bindings_on_or_above_native_instances_win_over_the_prototypes_own(tmp_path):
-    """A strongerThanDescendants binding on an instance (or an ancestor of it) binds every mesh and subset inside,
-    nested instances included, as ComputeBoundMaterial on the instance proxies says; a plain one only binds meshes
-    that bind nothing themselves (the prototype's own bindings were kept in both cases)."""
+@pytest.mark.parametrize("deep, bare", [("</Looks/Green>", None), (None, "</Looks/Red>")])
+def test_material_bindings_on_or_above_native_instances_bind_as_on_instance_proxies(tmp_path, deep, bare):
+    """As ComputeBoundMaterial on the instance proxies says: a strongerThanDescendants binding on an instance (or an
+    ancestor of it) binds every mesh and subset inside, nested instances included (the prototype's own bindings
+    were kept); a plain one binds the meshes that bind nothing themselves, in nested instances and instancers too
+    (these were left unbound when every mesh of the outer prototype itself had a binding)."""
     path = tmp_path / "bindings.usda"
-    path.write_text(BINDINGS)
+    text = BINDINGS
+    for name, target in (("DEEP_BINDING", deep), ("BARE_BINDING", bare)):
+        text = text.replace(name, f"rel material:binding = {target}" if target else "")
+    path.write_text(text)
     scene = load(path)
     # Expected: the material of each triangle of every instance proxy mesh, keyed by its world-space centroid.
     stage = Usd.Stage.Open(str(path))
@@ -666,7 +684,8 @@ def test_strong_material_bindings_on_or_above_native_instances_win_over_the_prot
         to_world = scene.instances.to_world[i]
         for mesh in scene.prototypes[scene.instances.prototype[i]].meshes:
             world = mesh.points.astype(np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
-            for tri, material in zip(mesh.indices, mesh.material_ids):
-                found[tuple(np.round(world[tri].mean(axis=0), 4))] = scene.materials[material].path
-    assert len(expected) == 12 and scene.stats()["rendered_triangles"] == 12
+            ids = mesh.material_ids if mesh.material_ids is not None else np.full(len(mesh.indices), -1)
+            for tri, k in zip(mesh.indices, ids):
+                found[tuple(np.round(world[tri].mean(axis=0), 4))] = scene.materials[k].path if k >= 0 else ""
+    assert len(expected) == 15 and scene.stats()["rendered_triangles"] == 15
     assert found == expected

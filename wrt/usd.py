@@ -417,6 +417,8 @@ class _StageReader:
         else:
             key = ("native", path, None, purpose, False)
             content = self._content(key, prototype, None, None, purpose)
+            if content.uses_outer and not material:
+                ctx.content.uses_outer = True  # this instance's meshes take the material bound above its container
             if content.uses_outer and outer is not None:
                 key = ("native", path, outer, purpose, False)
                 self._content(key, prototype, None, outer, purpose)
@@ -486,7 +488,8 @@ class _StageReader:
             # The prototype's space is its parent's: the root's own transform is the most local part.
             key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced)
             parent = target.GetParent()
-            self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced)
+            if self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced).uses_outer:
+                ctx.content.uses_outer = True  # as for a nested native instance
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32)))
 
     def _place_instances(self, world: _Content, scene: Scene):
