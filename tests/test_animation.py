@@ -124,6 +124,41 @@ def test_refitted_accelerator_traces_like_wp_mesh(np_rng):
     np.testing.assert_allclose(ours.t[ours.hit], warp.t[warp.hit], rtol=1e-5)
 
 
+@pytest.mark.parametrize("layout", ["compact", "wide8"])
+def test_refit_of_a_flattened_layout_follows_instances_that_turn_mirrored(np_rng, layout):
+    """Layouts other than binary trace instanced scenes flattened, and hits are mapped back to prototype triangles
+    with each instance's mirroring; a refit into a frame where an instance is mirrored kept the first frame's
+    flags, so u and v came back swapped on that instance's triangles."""
+    from wrt.instancing import Instances, Prototype
+    from wrt.scene import Mesh
+
+    grid = np.stack(np.meshgrid(np.linspace(-1, 1, 6), np.linspace(-1, 1, 6)), -1).reshape(-1, 2)
+    points = np.column_stack([grid, np.zeros(36)]).astype(np.float32)
+    quads = np.array([(j * 6 + i, j * 6 + i + 1, j * 6 + i + 7, j * 6 + i + 6) for j in range(5) for i in range(5)])
+    indices = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    prototype = Prototype("/P", [Mesh("/P/M", points, indices, np.arange(len(indices)))])
+
+    def frame(z_scale):
+        to_world = np.tile(np.eye(4), (3, 1, 1))
+        to_world[:, 0, 3] = (-3, 0, 3)
+        to_world[1, 2, 2] = z_scale  # the middle instance mirrored when negative
+        return wrt.Scene(prototypes=[prototype], instances=Instances.from_transforms([0, 0, 0], to_world))
+
+    first, mirrored = frame(1.0), frame(-1.0)
+    accel = get_accelerator(first, "wrt", "sah", "cpu", layout=layout)
+    assert classify_change(first, mirrored) == "tlas"
+    accel.refit(mirrored)  # what wrt.animation.follow does with a flattened tree when instances move
+    mirrored._cache[("accel", "wrt", "sah", "cpu", layout)] = accel
+    origins = np.column_stack([np_rng.uniform(-4, 4, 500), np_rng.uniform(-1, 1, 500), np.full(500, 5.0)])
+    directions = np.tile([0.0, 0.0, -1.0], (500, 1))
+    ours = wrt.trace(mirrored, origins, directions, layout=layout)
+    fresh = wrt.trace(frame(-1.0), origins, directions, layout=layout)
+    assert (ours.instance == 1).sum() > 50
+    np.testing.assert_array_equal(ours.prim, fresh.prim)
+    np.testing.assert_allclose(ours.u, fresh.u, atol=1e-6)
+    np.testing.assert_allclose(ours.v, fresh.v, atol=1e-6)
+
+
 def test_frames_follow_the_stage_and_equal_fresh_renders(animated):
     renderer = FrameRenderer(animated, **SIZE)
     for frame in range(1, 9):

@@ -349,6 +349,10 @@ class BvhAccelerator(Accelerator):
         from .bvh.refit import Refitter
 
         points, indices = scene.triangles()
+        if self.split is not None:
+            # Instances that turned mirrored (or back) swapped corners 1 and 2 in triangles(); the mapping back
+            # to prototype barycentrics must follow, or u and v come out swapped on their triangles.
+            self.split = RowSplitter(scene, self.device)
         if self.layout == "binary":
             self._refitter = self._refitter or Refitter(self.bvh, self.device_bvh, self.device)
             self._refitter.refit(points, indices)
