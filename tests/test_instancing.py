@@ -689,3 +689,87 @@ def test_material_bindings_on_or_above_native_instances_bind_as_on_instance_prox
                 found[tuple(np.round(world[tri].mean(axis=0), 4))] = scene.materials[k].path if k >= 0 else ""
     assert len(expected) == 15 and scene.stats()["rendered_triangles"] == 15
     assert found == expected
+
+
+CAMERA_RIGS = """#usda 1.0
+class "Lib"
+{
+    def Xform "Lens"
+    {
+        double3 xformOp:translate = (0, 2, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+        def Camera "Close"
+        {
+            double3 xformOp:translate = (0, 0, 3)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+    }
+    def Xform "Rig"
+    {
+        def Camera "Cam"
+        {
+            double3 xformOp:translate = (0, 0, 10)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+        def Xform "Mount" (instanceable = true
+            references = </Lib/Lens>)
+        {
+            double3 xformOp:translate = (1, 0, 0)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+        def Mesh "T"
+        {
+            int[] faceVertexCounts = [3]
+            int[] faceVertexIndices = [0, 1, 2]
+            point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+        }
+    }
+}
+def Xform "R1" (instanceable = true
+    references = </Lib/Rig>)
+{
+    double3 xformOp:translate = (5, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Camera "Between"
+{
+}
+def Xform "R2" (instanceable = true
+    references = </Lib/Rig>)
+{
+    double xformOp:rotateY = 90
+    uniform token[] xformOpOrder = ["xformOp:rotateY"]
+}
+def PointInstancer "Scatter"
+{
+    rel prototypes = [</Scatter/Proto>]
+    int[] protoIndices = [0]
+    point3f[] positions = [(0, -9, 0)]
+    def Xform "Proto" (instanceable = true
+        references = </Lib/Rig>)
+    {
+    }
+}
+"""
+
+
+def test_cameras_inside_native_instances_are_read_at_their_instance_proxy_paths(tmp_path):
+    """A camera in an instanced asset is a camera of the stage (``/R1/Cam``, its instance proxy, placed by the
+    instance), nested instances included; it was left out without a word, so ``camera="/R1/Cam"`` said the scene
+    had no camera and a render without one framed the scene itself. Cameras in PointInstancer prototypes warn."""
+    path = tmp_path / "rigs.usda"
+    path.write_text(CAMERA_RIGS)
+    with pytest.warns(UserWarning, match="cameras inside PointInstancer prototypes are not supported.*/Scatter"):
+        scene = wrt.load_usd(path)
+    stage = Usd.Stage.Open(str(path))
+    expected = {}
+    for prim in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()):
+        if prim.IsA(UsdGeom.Camera) and not prim.GetPath().HasPrefix("/Scatter"):  # not the prototype in place
+            expected[str(prim.GetPath())] = np.array(UsdGeom.Camera(prim).GetCamera().transform).T
+    assert list(scene.cameras) == list(expected) == [
+        "/R1/Cam", "/R1/Mount/Close", "/Between", "/R2/Cam", "/R2/Mount/Close"
+    ]
+    for name, to_world in expected.items():
+        np.testing.assert_allclose(scene.cameras[name].to_world, to_world, atol=1e-12)
+    image = wrt.render(scene, camera="/R2/Mount/Close", width=8, height=8)
+    assert image.rgb.shape == (8, 8, 3)

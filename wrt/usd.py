@@ -32,7 +32,9 @@ instancer; instances whose transform is singular (a zero scale) are skipped with
 (``/instancer[index]``). Visibility and purpose inside a PointInstancer's prototype are taken from the prototype
 root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
 bound on or above a native instance applies to the prototype's meshes that bind none themselves, and to all of them
-(subsets and nested instances included) when it is bound ``strongerThanDescendants``.
+(subsets and nested instances included) when it is bound ``strongerThanDescendants``. Cameras inside native
+instances are read at their instance-proxy paths (``/Instance/Cam``, placed by the instance); cameras inside
+PointInstancer prototypes and lights inside any prototype are skipped with a warning.
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
@@ -50,7 +52,7 @@ import re
 import warnings
 
 import numpy as np
-from pxr import Gf, Tf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
@@ -217,6 +219,7 @@ class _Content:
         self.shapes: list[Shape] = []  # analytic gprims, in this content's space
         self.instances: list = []  # (content key, (K, 4, 4) column-vector transforms to this space, source, indices)
         self.uses_outer = False  # a mesh binds no material itself: a material bound above an instance applies
+        self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.prototype = -1  # index into Scene.prototypes once its meshes are placed there
 
 
@@ -319,6 +322,10 @@ class _StageReader:
             if ctx.world:
                 scene = self.scene
                 scene.cameras[str(prim.GetPath())] = self._read_camera(prim)
+            elif ctx.space_root is None:  # in a native prototype: read through each instance (_instance_cameras)
+                ctx.content.cameras.append(prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path)))
+            else:
+                self._skip("cameras inside PointInstancer prototypes are not supported; skipped", prim)
         elif prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
             if not ctx.world:
                 self._skip("lights inside instance prototypes are not supported; skipped", prim)
@@ -424,6 +431,22 @@ class _StageReader:
                 self._content(key, prototype, None, outer, purpose)
         m = self._to_space(prim, ctx).T  # column vectors
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32)))
+        self._instance_cameras(prim, self.contents[key], ctx)
+
+    def _instance_cameras(self, prim: Usd.Prim, content: _Content, ctx: _Context):
+        """The cameras inside native instance ``prim``: read at their instance-proxy paths (``/Instance/Cam``, which
+        USD places in the world) when ``prim`` is in the world, else handed on to the prototype containing it."""
+        if not content.cameras:
+            return
+        if ctx.world:
+            for relative in content.cameras:
+                proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(relative))
+                self.scene.cameras[str(proxy.GetPath())] = self._read_camera(proxy)
+        elif ctx.space_root is None:
+            here = prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path))
+            ctx.content.cameras += [here.AppendPath(relative) for relative in content.cameras]
+        else:
+            self._skip("cameras inside PointInstancer prototypes are not supported; skipped", prim)
 
     def _read_instancer(self, prim: Usd.Prim, ctx: _Context):
         """Instances of a ``UsdGeom.PointInstancer`` (see the module docstring)."""
