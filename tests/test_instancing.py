@@ -773,3 +773,73 @@ def test_cameras_inside_native_instances_are_read_at_their_instance_proxy_paths(
         np.testing.assert_allclose(scene.cameras[name].to_world, to_world, atol=1e-12)
     image = wrt.render(scene, camera="/R2/Mount/Close", width=8, height=8)
     assert image.rgb.shape == (8, 8, 3)
+
+
+INSTANCEABLE_GPRIMS = """#usda 1.0
+class "Lib"
+{
+    def Mesh "Tri"
+    {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    }
+    def Sphere "Ball"
+    {
+        double radius = 0.5
+    }
+    def Xform "Group"
+    {
+        def Mesh "Inner" (INSTANCEABLE
+            references = </Lib/Tri>)
+        {
+            double3 xformOp:translate = (0, 0, 2)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+    }
+}
+def Mesh "A" (INSTANCEABLE
+    references = </Lib/Tri>)
+{
+    double3 xformOp:translate = (3, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Sphere "B" (INSTANCEABLE
+    references = </Lib/Ball>)
+{
+    double3 xformOp:translate = (6, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "G" (INSTANCEABLE
+    references = </Lib/Group>)
+{
+    double3 xformOp:translate = (9, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+@pytest.mark.parametrize("tessellate", [False, True])
+def test_instanceable_meshes_and_gprims_are_drawn(tmp_path, tessellate):
+    """A mesh or gprim that is itself instanceable keeps its geometry on the instance prim (its prototype holds
+    only its descendants, and the prototype root has no type and no properties): it is drawn as the same stage with
+    instancing off draws it (it was dropped without a word, at the world level and inside prototypes)."""
+    scenes = []
+    for flag in ("true", "false"):
+        path = tmp_path / f"instanceable_{flag}.usda"
+        path.write_text(INSTANCEABLE_GPRIMS.replace("INSTANCEABLE", f"instanceable = {flag}"))
+        assert Usd.Stage.Open(str(path)).GetPrimAtPath("/A").IsInstance() == (flag == "true")
+        scenes.append(load(path, tessellate_gprims=tessellate))
+    instanced, flat = scenes
+    rendered = flat.stats()["rendered_triangles"]
+    assert instanced.stats()["rendered_triangles"] == rendered and (rendered > 100 if tessellate else rendered == 2)
+    assert instanced.stats()["rendered_shapes"] == flat.stats()["rendered_shapes"] == (0 if tessellate else 1)
+
+    def corners(scene):
+        points, indices = scene.triangles()
+        return np.sort(points[indices].reshape(len(indices), -1), axis=0)
+
+    np.testing.assert_allclose(corners(instanced), corners(flat), atol=1e-6)
+    origins = np.array([[3.2, 0.2, 5.0], [6.0, 0.0, 5.0], [9.2, 0.2, 5.0]], np.float32)
+    directions = np.tile(np.float32([0, 0, -1]), (3, 1))
+    np.testing.assert_allclose(wrt.trace(instanced, origins, directions).t, [5.0, 4.5, 3.0], rtol=1e-5)

@@ -298,26 +298,19 @@ class _StageReader:
             if self._visible(prim, ctx.stop):
                 purpose = self._purpose(prim, ctx)
                 self._read_native_instance(prim, ctx, None if purpose in _RENDERED_PURPOSES else purpose)
+                if prim.IsA(UsdGeom.Gprim) and purpose in _RENDERED_PURPOSES:
+                    # A prototype holds only the instance's descendants (its root has no type and no properties):
+                    # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.
+                    self._read_geometry(prim, ctx)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.PointInstancer):
             # Its prototypes are drawn through the instancer only, so its subtree is not walked in place.
             if self._rendered(prim, ctx):
                 self._read_instancer(prim, ctx)
             it.PruneChildren()
-        elif prim.IsA(UsdGeom.Mesh):
-            if self._rendered(prim, ctx):
-                if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI: the mesh itself should emit
-                    self._skip("mesh lights (MeshLightAPI) are not supported; drawn as meshes that emit nothing", prim)
-                mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
-                if mesh is not None:
-                    ctx.content.meshes.append(mesh)
         elif prim.IsA(UsdGeom.Gprim):
             if self._rendered(prim, ctx):
-                shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
-                if shape is not None and self.segments:
-                    ctx.content.meshes.append(self._tessellated(shape, prim))
-                elif shape is not None:
-                    ctx.content.shapes.append(shape)
+                self._read_geometry(prim, ctx)
         elif prim.IsA(UsdGeom.Camera):
             if ctx.world:
                 scene = self.scene
@@ -333,6 +326,21 @@ class _StageReader:
                 light = read_light(prim, self.xforms, self.time, self.scene.up_axis, self._skip)
                 if light is not None:
                     self.scene.lights.append(light)
+
+    def _read_geometry(self, prim: Usd.Prim, ctx: _Context):
+        """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating)."""
+        if prim.IsA(UsdGeom.Mesh):
+            if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI: the mesh itself should emit
+                self._skip("mesh lights (MeshLightAPI) are not supported; drawn as meshes that emit nothing", prim)
+            mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
+            if mesh is not None:
+                ctx.content.meshes.append(mesh)
+            return
+        shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
+        if shape is not None and self.segments:
+            ctx.content.meshes.append(self._tessellated(shape, prim))
+        elif shape is not None:
+            ctx.content.shapes.append(shape)
 
     # Filters
 
