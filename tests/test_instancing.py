@@ -788,12 +788,33 @@ class "Lib"
     {
         double radius = 0.5
     }
+    def PointInstancer "Forest"
+    {
+        rel prototypes = [</Lib/Forest/Protos/Tree>]
+        int[] protoIndices = [0, 0, 0]
+        point3f[] positions = [(0, 0, 0), (0, 2, 0), (0, 4, 0)]
+        def Scope "Protos"
+        {
+            def Mesh "Tree"
+            {
+                int[] faceVertexCounts = [3]
+                int[] faceVertexIndices = [0, 1, 2]
+                point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+            }
+        }
+    }
     def Xform "Group"
     {
         def Mesh "Inner" (INSTANCEABLE
             references = </Lib/Tri>)
         {
             double3 xformOp:translate = (0, 0, 2)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+        def PointInstancer "Grove" (INSTANCEABLE
+            references = </Lib/Forest>)
+        {
+            double3 xformOp:translate = (0, 0, -2)
             uniform token[] xformOpOrder = ["xformOp:translate"]
         }
     }
@@ -816,14 +837,21 @@ def Xform "G" (INSTANCEABLE
     double3 xformOp:translate = (9, 0, 0)
     uniform token[] xformOpOrder = ["xformOp:translate"]
 }
+def PointInstancer "F" (INSTANCEABLE
+    references = </Lib/Forest>)
+{
+    double3 xformOp:translate = (12, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
 """
 
 
 @pytest.mark.parametrize("tessellate", [False, True])
-def test_instanceable_meshes_and_gprims_are_drawn(tmp_path, tessellate):
-    """A mesh or gprim that is itself instanceable keeps its geometry on the instance prim (its prototype holds
-    only its descendants, and the prototype root has no type and no properties): it is drawn as the same stage with
-    instancing off draws it (it was dropped without a word, at the world level and inside prototypes)."""
+def test_instanceable_meshes_gprims_and_instancers_are_drawn(tmp_path, tessellate):
+    """A mesh, gprim or PointInstancer that is itself instanceable keeps its own data on the instance prim (its
+    prototype holds only its descendants, and the prototype root has no type and no properties): it is drawn as the
+    same stage with instancing off draws it, at the world level and inside prototypes (meshes and gprims were dropped
+    without a word; an instancer's prototypes were drawn once, in place)."""
     scenes = []
     for flag in ("true", "false"):
         path = tmp_path / f"instanceable_{flag}.usda"
@@ -832,7 +860,7 @@ def test_instanceable_meshes_and_gprims_are_drawn(tmp_path, tessellate):
         scenes.append(load(path, tessellate_gprims=tessellate))
     instanced, flat = scenes
     rendered = flat.stats()["rendered_triangles"]
-    assert instanced.stats()["rendered_triangles"] == rendered and (rendered > 100 if tessellate else rendered == 2)
+    assert instanced.stats()["rendered_triangles"] == rendered and (rendered > 100 if tessellate else rendered == 8)
     assert instanced.stats()["rendered_shapes"] == flat.stats()["rendered_shapes"] == (0 if tessellate else 1)
 
     def corners(scene):
@@ -840,6 +868,6 @@ def test_instanceable_meshes_and_gprims_are_drawn(tmp_path, tessellate):
         return np.sort(points[indices].reshape(len(indices), -1), axis=0)
 
     np.testing.assert_allclose(corners(instanced), corners(flat), atol=1e-6)
-    origins = np.array([[3.2, 0.2, 5.0], [6.0, 0.0, 5.0], [9.2, 0.2, 5.0]], np.float32)
-    directions = np.tile(np.float32([0, 0, -1]), (3, 1))
-    np.testing.assert_allclose(wrt.trace(instanced, origins, directions).t, [5.0, 4.5, 3.0], rtol=1e-5)
+    origins = np.array([[3.2, 0.2, 5.0], [6.0, 0.0, 5.0], [9.2, 0.2, 5.0], [12.2, 4.2, 5.0], [9.2, 2.2, 5.0]])
+    directions = np.tile([0.0, 0.0, -1.0], (5, 1))
+    np.testing.assert_allclose(wrt.trace(instanced, origins, directions).t, [5.0, 4.5, 3.0, 5.0, 7.0], rtol=1e-5)

@@ -292,7 +292,7 @@ class _StageReader:
     def _read_prim(self, prim: Usd.Prim, it, ctx: _Context):
         if prim.IsPseudoRoot() or prim.IsPrototype():
             return
-        if prim.IsInstance():
+        if prim.IsInstance() and not prim.IsA(UsdGeom.PointInstancer):
             # An instance of guide or proxy purpose is still read: a prototype prim of authored render purpose is
             # drawn, as USD computes purpose through instance proxies.
             if self._visible(prim, ctx.stop):
@@ -304,7 +304,9 @@ class _StageReader:
                     self._read_geometry(prim, ctx)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.PointInstancer):
-            # Its prototypes are drawn through the instancer only, so its subtree is not walked in place.
+            # Its prototypes are drawn through the instancer only, so its subtree is not walked in place. An
+            # instanceable instancer is read the same way: its prototypes are the instance proxies it targets (its
+            # native prototype holds only those, not the instancer's own positions and indices).
             if self._rendered(prim, ctx):
                 self._read_instancer(prim, ctx)
             it.PruneChildren()
