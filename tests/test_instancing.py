@@ -447,6 +447,35 @@ def test_instance_of_a_missing_prototype_raises_naming_it(np_rng, prototype):
             wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), accel=accel)
 
 
+def test_instance_transform_in_row_vector_convention_raises_naming_it(np_rng, tmp_path):
+    """Instance transforms are column-vector matrices; one passed in USD's row-vector convention (a Gf.Matrix4d, the
+    transpose) has its translation in the bottom row, which only the top 3x4 being used dropped without a word (every
+    such instance drawn at the origin). Python-built instances now raise; projective USD transforms warn and keep
+    their affine part, as meshes do."""
+    scene = python_scene(np_rng, n=3)
+    transposed = scene.instances.to_world.copy()
+    transposed[1] = transposed[1].T
+    with pytest.raises(wrt.SceneError, match=r"/instances\[1\]: instance 1 has bottom row .* transpose of a Gf"):
+        Instances.from_transforms([0, 1, 0], transposed)
+    scene.instances.to_world[2, 3, 0] = 0.5  # changed in place after the Scene was made: checked when traced
+    for accel in ("wrt", "warp"):
+        with pytest.raises(wrt.SceneError, match=r"/instances\[2\]: instance 2 has bottom row \[0.5, 0.0, 0.0, 1.0\]"):
+            wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), accel=accel)
+
+    path = tmp_path / "projective.usda"
+    path.write_text(INSTANCEABLE_GPRIMS.replace("INSTANCEABLE", "instanceable = true").replace(
+        'double3 xformOp:translate = (9, 0, 0)',
+        'matrix4d xformOp:transform = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0.5), (9, 0, 0, 1))').replace(
+        'uniform token[] xformOpOrder = ["xformOp:translate"]\n}\ndef PointInstancer "F"',
+        'uniform token[] xformOpOrder = ["xformOp:transform"]\n}\ndef PointInstancer "F"'))
+    with pytest.warns(UserWarning, match=r"projective; its last column was ignored: 4 prim\(s\): /G, /G, /G"):
+        loaded = wrt.load_usd(path)
+    g = [i for i in range(len(loaded.instances)) if loaded.instances.path(i).startswith("/G")]
+    assert len(g) == 4  # Group's mesh Inner and the three trees of its nested Grove
+    np.testing.assert_array_equal(loaded.instances.to_world[g][:, 3], np.tile([0, 0, 0, 1], (4, 1)))
+    np.testing.assert_array_equal(loaded.instances.to_world[g][:, 0, 3], 9)
+
+
 @pytest.mark.parametrize("bad", [np.nan, np.inf])
 def test_non_finite_instance_or_shape_transform_raises_naming_it(np_rng, bad):
     """A scene built in Python with a NaN or inf in an instance's (or a shape's) transform: the two-level BVH used

@@ -68,7 +68,8 @@ class Instances:
 
     Attributes:
         prototype: ``(N,)`` int32 index into ``Scene.prototypes``.
-        to_world: ``(N, 4, 4)`` float64 prototype-to-world transform (column vectors, ``p_world = M @ (p, 1)``).
+        to_world: ``(N, 4, 4)`` float64 prototype-to-world affine transform (column vectors,
+            ``p_world = M @ (p, 1)``, bottom row ``(0, 0, 0, 1)``; see :meth:`check_affine`).
         source: ``(N,)`` int32 index into ``sources``: the world-level prim that made each instance (an instance
             nested inside a prototype reports the world-level instance it is part of).
         index: ``(N,)`` int32 position in that PointInstancer's arrays, -1 for a native instance.
@@ -89,6 +90,22 @@ class Instances:
         n = len(self.prototype)
         if not (len(self.to_world) == len(self.source) == len(self.index) == n):
             raise ValueError("Instances arrays must all have one entry per instance")
+        self.check_affine()
+
+    def check_affine(self) -> None:
+        """Raises :class:`SceneError` naming the first instance whose transform's bottom row is not ``(0, 0, 0, 1)``.
+        Only the top 3x4 of each matrix is used: one in USD's row-vector convention (a ``Gf.Matrix4d``, the
+        transpose) has its translation in the bottom row, which was dropped without a word."""
+        from .errors import SceneError
+
+        bad = np.flatnonzero(np.abs(self.to_world[:, 3] - (0.0, 0.0, 0.0, 1.0)).max(axis=1, initial=0.0) > 1e-6)
+        if len(bad):
+            i = int(bad[0])
+            raise SceneError(
+                f"instance {i} has bottom row {self.to_world[i, 3].tolist()}; to_world must be affine column-vector "
+                "transforms, p_world = M @ (p, 1), with bottom row (0, 0, 0, 1) (the transpose of a Gf.Matrix4d)",
+                prim=self.path(i),
+            )
 
     @classmethod
     def empty(cls) -> Instances:

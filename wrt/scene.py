@@ -226,10 +226,12 @@ class Scene:
 
     def check_instances(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of
-        :attr:`prototypes`: -1 drew the last prototype when flattened (``accel="warp"``) and nothing in the two-level
-        BVH, and a too large index raised a bare ``IndexError``."""
+        :attr:`prototypes` (-1 drew the last prototype when flattened (``accel="warp"``) and nothing in the two-level
+        BVH, and a too large index raised a bare ``IndexError``) or whose transform is not affine
+        (:meth:`Instances.check_affine`)."""
         from .errors import SceneError
 
+        self.instances.check_affine()  # transforms may have been changed in place since
         prototype = self.instances.prototype
         bad = np.flatnonzero((prototype < 0) | (prototype >= len(self.prototypes)))
         if len(bad):

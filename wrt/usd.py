@@ -555,9 +555,12 @@ class _StageReader:
         ids = np.concatenate(indices)
         order = np.lexsort((ids[:, 1], ids[:, 0]))  # stable
         ids = ids[order]
-        instances = Instances(
-            np.concatenate(proto_ids)[order], np.concatenate(matrices)[order], ids[:, 0], ids[:, 1], sources
-        )
+        to_world = np.concatenate(matrices)[order]
+        projective = np.flatnonzero(np.any(to_world[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
+        to_world[:, 3] = (0.0, 0.0, 0.0, 1.0)  # as for meshes: only the affine part is used
+        instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources)
+        for i in projective:
+            self._skip_path("world transform is projective; its last column was ignored", instances.path(i))
         _, ok = invert_transforms(instances.to_world)
         for i in np.flatnonzero(~ok):
             self._skip_path("instances with a singular transform (a zero scale) were skipped", instances.path(i))
