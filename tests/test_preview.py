@@ -218,6 +218,52 @@ def test_preview_draws_everything_and_says_when_it_simplifies(room):
         plotter.close()
 
 
+INSTANCED_GROUND = """#usda 1.0
+(
+    upAxis = "Y"
+)
+def Xform "World"
+{
+    def Mesh "Ground"
+    {
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-5, 0, -5), (5, 0, -5), (5, 0, 5), (-5, 0, 5)]
+        color3f[] primvars:displayColor = [(1, 0, 0)]
+    }
+    def PointInstancer "Tets"
+    {
+        rel prototypes = [</World/Tets/Tet>]
+        int[] protoIndices = [0, 0, 0]
+        point3f[] positions = [(0, 1, 0), (2, 1, 0), (4, 1, 0)]
+        def Mesh "Tet"
+        {
+            int[] faceVertexCounts = [3, 3, 3, 3]
+            int[] faceVertexIndices = [0, 1, 2, 0, 1, 3, 0, 2, 3, 1, 2, 3]
+            point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+        }
+    }
+}
+"""
+
+
+def test_preview_of_instances_over_the_budget_shows_what_fits(tmp_path):
+    """2 ground triangles + 3 instances of 4: over 4x a budget of 3, and not even one instance fits beside the ground.
+    The ground alone is drawn, in its colour (preview crashed: per-triangle colours still held the prototype's)."""
+    path = tmp_path / "instanced.usda"
+    path.write_text(INSTANCED_GROUND)
+    scene = wrt.load_usd(path)
+    assert scene.stats()["rendered_triangles"] == 14 and len(scene.instances) == 3
+    plotter = wrt.preview(scene, max_triangles=3, window_size=(64, 48))
+    try:
+        assert "showing 0 of 3 instances" in plotter.title
+        mesh = plotter.actors["scene"].mapper.dataset
+        assert mesh.n_cells == 2
+        np.testing.assert_array_equal(mesh.cell_data["color"], [[255, 0, 0]] * 2)
+    finally:
+        plotter.close()
+
+
 def test_preview_rejects_bad_arguments(room):
     with pytest.raises(ValueError, match="not both"):
         wrt.preview(room, bvh_depth=2, bvh_leaves=True)

@@ -182,7 +182,8 @@ def _expand_rows(scene: Scene, values: np.ndarray) -> np.ndarray:
     """Per-triangle ``values`` in geometry order -> in ``Scene.triangles()`` order (instances expanded)."""
     values = values[: getattr(scene, "num_geometry_triangles", len(values))]  # analytic shapes are not triangles
     if not len(getattr(scene, "instances", ())):
-        return values
+        # The rows are the non-instanced triangles: prototypes without instances (none fit the budget) draw nothing.
+        return values[: getattr(scene, "num_flat_triangles", len(values))]
     rows = np.arange(scene.stats()["rendered_triangles"], dtype=np.int64)
     return values[scene.split_ids(rows)[0]]
 
