@@ -275,6 +275,9 @@ def test_preview_rejects_bad_arguments(room):
         wrt.preview(room, camera="/nope")
     with pytest.raises(TypeError, match="wrt.Scene or a USD file path"):
         wrt.preview(42)
+    for window in ((16385, 100), (0, 10), (10,), "64x48", (64.0, 48)):  # 16385 wide: a blank picture before
+        with pytest.raises(ValueError, match="window"):
+            wrt.preview(room, window_size=window)
 
 
 @pytest.mark.parametrize(
@@ -285,6 +288,8 @@ def test_preview_rejects_bad_arguments(room):
         (["--window", "12x"], "is not WIDTHxHEIGHT"),
         (["--bvh-depth", "2", "--bvh-leaves"], "not allowed with"),
         (["--rays", "-3"], "non-negative"),
+        (["--window", "0x5"], "1 to 16384 pixels per side"),
+        (["--window", "100000x100000"], "1 to 16384 pixels per side"),  # VTK aborted allocating the picture
     ],
 )
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch, args, message):

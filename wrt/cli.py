@@ -301,8 +301,12 @@ def _window_size(text: str) -> tuple[int, int]:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT, e.g. 1280x800") from None
-    if width <= 0 or height <= 0:
-        raise argparse.ArgumentTypeError(f"window size must be positive, got {text!r}")
+    from .preview import check_window_size
+
+    try:
+        check_window_size((width, height))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
     return width, height
 
 

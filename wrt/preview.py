@@ -51,6 +51,8 @@ MAX_CLUSTER_GRID = 4096  # finest clustering grid, cells along the longest side 
 CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the triangle budget
 BOX_BUDGET = 50_000  # most BVH boxes drawn; more are subsampled evenly in node order
 BVH_COLORINGS = ("depth", "sah")  # values of bvh_color
+MAX_WINDOW = 16384  # largest window side, pixels: OpenGL's usual framebuffer limit (Mesa's); beyond it VTK draws
+# nothing or aborts allocating the picture
 IMAGE_PLANE_FRACTION = 0.8  # image plane depth, as a fraction of the nearest sample hit's depth
 GREY = 0.5  # linear albedo shown for meshes without displayColor (the renderer's default)
 BACKGROUND = "white"
@@ -516,6 +518,7 @@ def preview(
     for label, value in (("width", width), ("height", height)):
         if not isinstance(value, (int, np.integer)) or value <= 0:
             raise ValueError(f"{label} must be a positive integer, got {value!r}")
+    check_window_size(window_size)
     scene = _as_scene(scene)
     cam = resolve_camera(scene, camera)
     if off_screen is None:
@@ -570,6 +573,16 @@ def preview(
     if show_text:
         plotter.add_text("\n".join(lines), position="upper_left", font_size=9, color="black", name="summary")
     return plotter
+
+
+def check_window_size(window_size) -> None:
+    """Raises ValueError unless ``window_size`` is ``(width, height)``, two integers in ``[1, MAX_WINDOW]``."""
+    sides = list(window_size) if isinstance(window_size, (tuple, list)) else []
+    if len(sides) != 2 or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in sides):
+        raise ValueError(f"window_size must be (width, height) in pixels, got {window_size!r}")
+    if not all(1 <= v <= MAX_WINDOW for v in sides):
+        raise ValueError(f"window size must be 1 to {MAX_WINDOW} pixels per side (OpenGL's usual largest "
+                         f"framebuffer), got {sides[0]}x{sides[1]}")
 
 
 def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
