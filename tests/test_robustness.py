@@ -362,6 +362,24 @@ def test_batch_render_survives_a_bad_scene_and_keeps_finished_work(tmp_path, cap
     assert "1 of 3 scenes failed: bad.usda" in err
 
 
+def test_batch_render_refuses_two_scenes_that_would_write_one_image(tmp_path, capsys):
+    """a/tri.usda and b/tri.usda both map to OUT/tri.png: the second overwrote the first and the log said both ok."""
+    from wrt.cli import main
+
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "tri.usda").write_text(
+            '#usda 1.0\ndef Mesh "T" {\n int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n'
+            ' point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n'
+        )
+    scenes = [str(tmp_path / "a" / "tri.usda"), str(tmp_path / "b" / "tri.usda")]
+    for output in (str(tmp_path / "out"), str(tmp_path / "out" / "{stem}.png")):
+        assert main(["render", *scenes, "-o", output, "--width", "8", "--height", "8", "-q"]) == 2
+        errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+        assert len(errors) == 1 and "would both write" in errors[0] and "tri.png" in errors[0], errors
+    assert not (tmp_path / "out").exists()  # refused before anything was rendered
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [

@@ -165,6 +165,18 @@ def _check_output_location(directory: Path) -> None:
             return
 
 
+def _check_distinct_outputs(paths: list, outputs: list) -> None:
+    """Raises ValueError when two scenes would write the same image (outputs are named by the scene's file stem, so
+    ``a/room.usda`` and ``b/room.usda`` meet): the later one would overwrite the first without a word."""
+    first = {}
+    for path, output in zip(paths, outputs):
+        key = output.resolve()
+        if key in first:
+            raise ValueError(f"{first[key]} and {path} would both write {output} (images are named by the scene's "
+                             "file name without extension); render them in separate runs or rename one")
+        first[key] = path
+
+
 def _renderer_options(args) -> dict:
     """The :class:`wrt.Renderer` options of ``wrt render``'s arguments, all but the device."""
     names = ("camera", "width", "height", "builder", "accel", "integrator", "max_depth", "ao_radius")
@@ -216,6 +228,7 @@ def _run_render(args) -> int:
     from .image import check_image_path
 
     outputs = [_output_for(args, p, several) for p in paths]
+    _check_distinct_outputs(paths, outputs)
     for output in outputs:  # an unwritable output fails now, not after a long render
         _check_output_location(check_image_path(output).parent)
     if args.aov_dir:
