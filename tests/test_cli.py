@@ -90,10 +90,20 @@ def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, args, needle)
 
 def test_output_problems_are_one_line_errors_found_before_rendering(tmp_path, capsys):
     """An unwritable format fails before the scene is even loaded; an output path under a regular file (an OS error
-    other than a missing file) is one line and exit status 2 as well, for render and for bench."""
+    other than a missing file) or an image or log path that is a directory is one line and exit status 2 as well,
+    for render, preview and bench, before any scene is loaded."""
     blocker = tmp_path / "a_file"
     blocker.write_text("")
+    folder = tmp_path / "a_folder.png"  # a directory where the image or log must go: found after the render before
+    folder.mkdir()
+    small = ["--width", "8", "--height", "8"]
+    two = [str(warp_assets("bunny.usd")), str(warp_assets("cube.usd"))]
     cases = [
+        (["render", *small, "-o", str(folder)], "a_folder.png: it is a directory"),
+        (["render", *two, *small, "-o", str(tmp_path / "imgs"), "--log", str(folder)], "it is a directory"),
+        (["render", *small, "-o", str(tmp_path / "ok.png"), "--log", str(blocker / "log.jsonl")], "a_file"),
+        (["preview", "-o", str(folder)], "a_folder.png: it is a directory"),
+        (["preview", "-o", str(blocker / "p.png")], "a_file"),
         (["render", "--width", "8", "--height", "8", "-o", str(tmp_path / "out.xyz")], "supported image formats"),
         (["render", "--width", "8", "--height", "8", "-o", str(blocker / "x.png")], "a_file"),
         (["render", "--width", "8", "--height", "8", "-o", str(tmp_path / "ok.png"), "--aov-dir", str(blocker)],
@@ -107,7 +117,7 @@ def test_output_problems_are_one_line_errors_found_before_rendering(tmp_path, ca
         errors = [line for line in lines if line.startswith("wrt: error:")]
         assert len(errors) == 1 and needle in errors[0], lines
         assert not any("Traceback" in line or "loaded" in line for line in lines), lines
-    assert not (tmp_path / "out.xyz").exists()
+    assert not (tmp_path / "out.xyz").exists() and not (tmp_path / "imgs").exists()
 
 
 def test_broken_usd_file_names_file_in_one_line(tmp_path):

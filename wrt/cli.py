@@ -165,6 +165,14 @@ def _check_output_location(directory: Path) -> None:
             return
 
 
+def _check_output_file(path: Path) -> None:
+    """Raises an OSError naming ``path`` when a file cannot be written there: it is a directory, or a file stands
+    where one of its folders must go. Called before the work whose result goes there."""
+    if path.is_dir():
+        raise IsADirectoryError(f"cannot write {path}: it is a directory")
+    _check_output_location(path.parent)
+
+
 def _check_distinct_outputs(paths: list, outputs: list) -> None:
     """Raises ValueError when two scenes would write the same image (outputs are named by the scene's file stem, so
     ``a/room.usda`` and ``b/room.usda`` meet): the later one would overwrite the first without a word."""
@@ -230,13 +238,14 @@ def _run_render(args) -> int:
     outputs = [_output_for(args, p, several) for p in paths]
     _check_distinct_outputs(paths, outputs)
     for output in outputs:  # an unwritable output fails now, not after a long render
-        _check_output_location(check_image_path(output).parent)
+        _check_output_file(check_image_path(output))
     if args.aov_dir:
         _check_output_location(Path(args.aov_dir))
     if not several and not args.log:
         _render_one(args, paths[0], outputs[0], progress)  # errors: one line, exit 2
         return 0
     log = Path(args.log) if args.log else outputs[0].parent / "render-log.jsonl"
+    _check_output_file(log)
     log.parent.mkdir(parents=True, exist_ok=True)
     failures = []
     for path, output in zip(paths, outputs):
@@ -282,6 +291,8 @@ def _run_frames(args, paths: list, progress) -> int:
     # An unwritable output fails now, not after the first frame's load and render.
     for folder in {check_image_path(file).parent for _, file in jobs}:
         _check_output_location(folder)
+    if args.log:
+        _check_output_file(Path(args.log))
     if len(jobs) < len(frames):
         progress(f"--resume: {len(frames) - len(jobs)} of {len(frames)} frames already on disk")
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
@@ -379,14 +390,16 @@ def _run_preview(args) -> int:
 
     progress = _Progress(args.quiet)
     path = Path(args.scene) if args.scene else default_scene_path()
+    output = args.output
+    if output is not None and Path(output).suffix.lower() != ".png":
+        raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
+    if output is not None:  # an unwritable output fails now, not after the load and the preview
+        _check_output_file(Path(output))
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time)
     stats = scene.stats()
     loaded = f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes"
     progress(loaded, time.perf_counter() - start)
-    output = args.output
-    if output is not None and Path(output).suffix.lower() != ".png":
-        raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
     if output is None and not has_display():
         output = "preview.png"
         progress("no display found: rendering off-screen to preview.png")
