@@ -98,6 +98,22 @@ def test_bad_grid_fields_are_named(tmp_path, field, needle):
         Grid.from_suite(suite)
 
 
+@pytest.mark.parametrize(
+    "text, needle",
+    [
+        ('{"scenes": ["sphere:2000"],', "suite.json: not a JSON suite"),  # was json's message alone
+        ("[1, 2]", "suite.json: a suite is a JSON object"),  # was 'unknown suite keys [1, 2]'
+        ("null", "suite.json: a suite is a JSON object"),  # was TypeError: 'NoneType' object is not iterable
+        ('{"scenes": ["sphere:2000"]}', r"suite.json: missing suite keys \['accels'\]"),  # was Grid.__init__()'s
+    ],
+)
+def test_broken_suite_files_are_named(tmp_path, text, needle):
+    suite = tmp_path / "suite.json"
+    suite.write_text(text)
+    with pytest.raises(ValueError, match=needle):
+        Grid.from_suite(suite)
+
+
 def test_thread_counts_are_ints_without_repeats():
     """``"all"`` is every core and "1" is 1: ``--threads 1,1`` wrote the same rows twice."""
     expected = list(dict.fromkeys([1, os.cpu_count() or 1]))

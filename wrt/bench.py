@@ -61,10 +61,20 @@ class Grid:
         if not path.exists():
             known = ", ".join(sorted(p.stem for p in SUITES_DIR.glob("*.json"))) if SUITES_DIR.exists() else "none"
             raise FileNotFoundError(f"no benchmark suite {str(path)!r}; suites in {SUITES_DIR}: {known}")
-        data = json.loads(path.read_text())
+        try:
+            data = json.loads(path.read_text())
+        except json.JSONDecodeError as e:
+            raise ValueError(f"{path}: not a JSON suite ({e.msg} at line {e.lineno}, column {e.colno})") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"{path.name}: a suite is a JSON object of grid fields, got {type(data).__name__}")
         unknown = set(data) - {f.name for f in dataclasses.fields(cls)} - {"description"}
         if unknown:
             raise ValueError(f"{path.name}: unknown suite keys {sorted(unknown)}")
+        required = [f.name for f in dataclasses.fields(cls)
+                    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+        missing = [name for name in required if name not in data]
+        if missing:
+            raise ValueError(f"{path.name}: missing suite keys {missing}")
         data.pop("description", None)
         try:
             return cls(**data).validated()
