@@ -89,6 +89,10 @@ def test_resume_drops_error_rows_that_now_succeed_and_a_cut_last_line(tmp_path):
         (dict(repeats=0), "repeats must be a positive integer"),
         (dict(threads=["abc"]), "threads must be positive integers"),
         (dict(rays=["sideways"]), "unknown ray kind"),
+        (dict(scenes=[2000]), "scenes must be a list of names, got 2000"),  # was an AttributeError traceback
+        (dict(accels=["wrt:sah", None]), "accels must be a list of names, got None"),
+        (dict(accels=[]), "the grid measures nothing: accels empty"),  # was 0 rows and exit status 0
+        (dict(rays=[], devices=[]), "the grid measures nothing: devices, rays empty"),
     ],
 )
 def test_bad_grid_fields_are_named(tmp_path, field, needle):

@@ -92,6 +92,10 @@ class Grid:
             value = getattr(self, name)
             if not isinstance(value, (list, tuple)):
                 raise ValueError(f"{name} must be a list, got {value!r}")
+        for name in ("scenes", "accels", "devices", "rays"):
+            bad = [v for v in getattr(self, name) if not isinstance(v, str) or not v.strip()]
+            if bad:  # a number or null would stop the whole run with a traceback
+                raise ValueError(f"{name} must be a list of names, got {bad[0]!r} in it")
         for name in ("n_rays", "repeats"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -108,6 +112,10 @@ class Grid:
                 threads.append(count)
         if self.scaling is not None and not isinstance(self.scaling, dict):
             raise ValueError(f"scaling must be an object, got {self.scaling!r}")
+        sweep = self.scaling and self.scaling.get("sizes") and self.scaling.get("accels", self.accels)
+        if not self.devices or not (self.scenes and self.rays and self.accels or sweep):
+            empty = [name for name in ("scenes", "accels", "devices", "rays") if not getattr(self, name)]
+            raise ValueError(f"the grid measures nothing: {', '.join(empty)} empty")
         return dataclasses.replace(self, threads=threads)
 
 
