@@ -93,6 +93,14 @@ def test_resume_drops_error_rows_that_now_succeed_and_a_cut_last_line(tmp_path):
         (dict(accels=["wrt:sah", None]), "accels must be a list of names, got None"),
         (dict(accels=[]), "the grid measures nothing: accels empty"),  # was 0 rows and exit status 0
         (dict(rays=[], devices=[]), "the grid measures nothing: devices, rays empty"),
+        # The scaling sweep's fields were not checked: a misspelt key dropped the sweep without a word, a string of
+        # sizes was read digit by digit, and a bad ray kind or count failed on every sweep row.
+        (dict(scaling={"size": [1000]}), r"unknown scaling keys \['size'\]"),
+        (dict(scaling={"sizes": "1000"}), "scaling sizes must be a list"),
+        (dict(scaling={"sizes": [1000, None]}), "scaling sizes must be a list"),
+        (dict(scaling={"sizes": [1000], "accels": "wrt:sah"}), "scaling accels must be a list"),
+        (dict(scaling={"sizes": [1000], "rays": "sideways"}), "unknown scaling ray kind 'sideways'"),
+        (dict(scaling={"sizes": [1000], "n_rays": -5}), "scaling n_rays must be a positive integer"),
     ],
 )
 def test_bad_grid_fields_are_named(tmp_path, field, needle):

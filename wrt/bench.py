@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 import platform
 import statistics
@@ -110,13 +111,38 @@ class Grid:
                 raise ValueError(f"threads must be positive integers or 'all', got {t!r}")
             if count not in threads:
                 threads.append(count)
-        if self.scaling is not None and not isinstance(self.scaling, dict):
-            raise ValueError(f"scaling must be an object, got {self.scaling!r}")
+        if self.scaling is not None:
+            _check_scaling(self.scaling)
         sweep = self.scaling and self.scaling.get("sizes") and self.scaling.get("accels", self.accels)
         if not self.devices or not (self.scenes and self.rays and self.accels or sweep):
             empty = [name for name in ("scenes", "accels", "devices", "rays") if not getattr(self, name)]
             raise ValueError(f"the grid measures nothing: {', '.join(empty)} empty")
         return dataclasses.replace(self, threads=threads)
+
+
+SCALING_KEYS = ("sizes", "accels", "rays", "n_rays")  # the fields of Grid.scaling
+
+
+def _check_scaling(scaling) -> None:
+    """Raises ValueError naming the key of a bad ``Grid.scaling``: a misspelt key would drop the sweep silently."""
+    if not isinstance(scaling, dict):
+        raise ValueError(f"scaling must be an object, got {scaling!r}")
+    unknown = sorted(set(scaling) - set(SCALING_KEYS))
+    if unknown:
+        raise ValueError(f"unknown scaling keys {unknown}; valid: {', '.join(SCALING_KEYS)}")
+    sizes = scaling.get("sizes", [])
+    if not isinstance(sizes, (list, tuple)) or not all(
+        isinstance(n, (int, float)) and not isinstance(n, bool) and math.isfinite(n) and n >= 1 for n in sizes
+    ):
+        raise ValueError(f"scaling sizes must be a list of triangle counts, got {sizes!r}")
+    accels = scaling.get("accels", [])
+    if not isinstance(accels, (list, tuple)) or not all(isinstance(a, str) and a.strip() for a in accels):
+        raise ValueError(f"scaling accels must be a list of names, got {accels!r}")
+    if scaling.get("rays", "incoherent") not in RAY_KINDS:
+        raise ValueError(f"unknown scaling ray kind {scaling['rays']!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
+    n_rays = scaling.get("n_rays", 1)
+    if isinstance(n_rays, bool) or not isinstance(n_rays, int) or n_rays < 1:
+        raise ValueError(f"scaling n_rays must be a positive integer, got {n_rays!r}")
 
 
 def _positive_count(value) -> int | None:
