@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import wrt
+import wrt.bench as bench_module
 from wrt.bench import Grid, fit_slope, markdown_table, run_grid
 from wrt.cli import main
 from wrt.procedural import displaced_sphere
@@ -47,6 +48,22 @@ def test_failing_scene_and_accel_become_error_rows_and_the_run_goes_on(tmp_path)
     assert any(r["accel"] == "wrt:octree" and "valid builders" in r["error"] for r in errors)
     assert any(r["scene"] == "sphere:2000" and r["accel"] == "warp:sah" and "mrays" in r for r in rows)
     assert "error" in (tmp_path / "table.md").read_text()
+
+
+def test_gprims_are_measured_as_triangles_by_every_accelerator(tmp_path):
+    """A UsdGeom.Sphere: wp.Mesh and wrt's BVH refused the analytic shape (error rows), Embree timed an empty scene
+    (hit 0 %) and shadow rays failed on an IndexError; now all trace the same tessellated sphere."""
+    scene = tmp_path / "ball.usda"
+    scene.write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 2\n}\n')
+    accels = ["warp:sah", "wrt:sah"] + (["embree"] if bench_module._has_embree() else [])
+    rows = run_grid(tiny_grid(scenes=[str(scene)], accels=accels, n_rays=2000), tmp_path, progress=False)
+    assert len(rows) == 2 * len(accels) and not any("error" in r for r in rows), rows
+    for kind in ("primary", "shadow"):
+        group = [r for r in rows if r["rays"] == kind]
+        assert group[0]["triangles"] > 100 and len({r["triangles"] for r in group}) == 1
+        fractions = [r["hit_fraction"] for r in group]
+        assert max(fractions) - min(fractions) < 0.01 and all(r["agreement"] > 0.99 for r in group)
+    assert [r for r in rows if r["rays"] == "primary"][0]["hit_fraction"] > 0.1  # the framing camera sees the ball
 
 
 def test_resume_skips_measured_rows(tmp_path):

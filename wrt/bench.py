@@ -11,7 +11,7 @@ Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layo
 (``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
 Scene names: a file path, ``warp:NAME`` (a USD file shipped with warp-lang), ``asset:ID`` (an entry of the shared
 asset manifest, found through ``$WRT_ASSETS`` or ``../shared/assets``) or ``sphere:N`` (a procedural displaced
-sphere of about N triangles).
+sphere of about N triangles). USD gprims are measured as triangle meshes (``tessellate_gprims=True``).
 """
 
 from __future__ import annotations
@@ -191,9 +191,13 @@ def _nvidia_driver() -> str | None:
 
 
 def resolve_scene(name: str) -> Scene:
-    """Loads a scene named as in the module docstring."""
+    """Loads a scene named as in the module docstring. Gprims (spheres, cubes, ...) are loaded as triangle meshes:
+    wp.Mesh and Embree trace triangles only, so every accelerator of a row group then traces the same geometry."""
+    from functools import partial
+
     from .usd import load_usd
 
+    load_usd = partial(load_usd, tessellate_gprims=True)
     if name.startswith("sphere:"):
         from .procedural import displaced_sphere_scene
 
