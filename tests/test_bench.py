@@ -66,6 +66,20 @@ def test_gprims_are_measured_as_triangles_by_every_accelerator(tmp_path):
     assert [r for r in rows if r["rays"] == "primary"][0]["hit_fraction"] > 0.1  # the framing camera sees the ball
 
 
+def test_secondary_rays_of_a_scene_the_camera_misses_are_one_clear_error_row(tmp_path):
+    """No primary ray hits an empty stage, so there are no shadow rays: wp.Mesh and wrt rows failed with Warp's
+    'Invalid indexing in slice: 0:0:1' and Embree's row reported 0 Mrays/s as a measurement."""
+    scene = tmp_path / "empty.usda"
+    scene.write_text('#usda 1.0\ndef Xform "World"\n{\n}\n')
+    accels = ["warp:sah", "wrt:sah"] + (["embree"] if bench_module._has_embree() else [])
+    rows = run_grid(tiny_grid(scenes=[str(scene)], accels=accels), tmp_path, progress=False)
+    primary = [r for r in rows if r["rays"] == "primary"]
+    assert len(primary) == len(accels) and all(r["hit_fraction"] == 0.0 and "error" not in r for r in primary)
+    shadow = [r for r in rows if r["rays"] == "shadow"]
+    assert len(shadow) == 1 and shadow[0]["accel"] == "*", shadow
+    assert "no shadow rays" in shadow[0]["error"] and "none of them hit" in shadow[0]["error"]
+
+
 def test_resume_skips_measured_rows(tmp_path):
     run_grid(tiny_grid(rays=["primary"]), tmp_path, progress=False)
     before = read_rows(tmp_path)

@@ -346,6 +346,8 @@ def _agreement(answer, reference, directions, scale) -> float:
 def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_counts, emit, skip) -> None:
     """Measures every (accel, threads) row of one (scene, device, ray kind) group and hands each row to ``emit``."""
     origins, directions = ray_set(scene, kind, grid.n_rays, seed=1)
+    if not len(origins):  # no row can time zero rays (Warp fails on the empty slice; Embree "ran" at 0 Mrays/s)
+        raise ValueError(f"no {kind} rays: they start where primary rays hit, and none of them hit the scene")
     any_hit = kind in ANY_HIT_KINDS
     points = scene.triangles()[0]
     scale = float(np.abs(points).max()) if len(points) else 0.0
