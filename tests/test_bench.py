@@ -112,6 +112,17 @@ def test_resume_drops_error_rows_that_now_succeed_and_a_cut_last_line(tmp_path):
     assert read_rows(tmp_path) == rows
 
 
+@pytest.mark.parametrize("line", ['{"scene": "sphere:2000", "accel": "wrt:sah"}', "5", "[1]"])
+def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
+    """JSON that is not a row stopped the resumed run with a KeyError traceback or "argument of type 'int' is not
+    iterable"; it is now an error naming the file and the line, and the file is left as it was."""
+    rows = tmp_path / "rows.jsonl"
+    rows.write_text(line + "\n")
+    with pytest.raises(ValueError, match="rows.jsonl: line 1 is not a benchmark row"):
+        run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)
+    assert rows.read_text().startswith(line)
+
+
 @pytest.mark.parametrize(
     "field, needle",
     [

@@ -332,9 +332,12 @@ def time_runs(run, repeats: int) -> list[float]:
     return times
 
 
+ROW_KEY_FIELDS = ("scene", "accel", "device", "rays", "threads")  # what identifies a row
+
+
 def row_key(row: dict) -> tuple:
     """What identifies a row, for ``resume``."""
-    return (row["scene"], row["accel"], row["device"], row["rays"], row["threads"])
+    return tuple(row[name] for name in ROW_KEY_FIELDS)
 
 
 def _agreement(answer, reference, directions, scale) -> float:
@@ -459,6 +462,9 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
                 warnings.warn(f"{jsonl}: line {number} was cut short (an interrupted run?); its row runs again")
                 break
             raise ValueError(f"{jsonl}: line {number} is not a JSON row ({e.msg}); remove it to resume") from None
+        if not isinstance(row, dict) or ("error" not in row and any(name not in row for name in ROW_KEY_FIELDS)):
+            raise ValueError(f"{jsonl}: line {number} is not a benchmark row (an object with "
+                             f"{', '.join(ROW_KEY_FIELDS)}); remove it to resume")
         if "error" not in row:
             rows.append(row)
     tmp = jsonl.with_suffix(".jsonl.tmp")
