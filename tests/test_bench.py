@@ -89,6 +89,17 @@ def test_resume_skips_measured_rows(tmp_path):
     assert len(after) == len(before) + 2 and len(rows) == len(after)
 
 
+def test_resume_refuses_rows_measured_with_other_ray_counts(tmp_path):
+    """Resuming with another n_rays kept the old rows beside new ones over other rays, and the table compared them."""
+    run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)
+    before = read_rows(tmp_path)
+    with pytest.raises(ValueError, match="other ray counts \\(n_rays 3000 -> 6000"):
+        run_grid(tiny_grid(rays=["primary"], n_rays=6000), tmp_path, resume=True, progress=False)
+    assert read_rows(tmp_path) == before  # nothing measured, nothing lost
+    rows = run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)  # the same settings resume
+    assert rows[0] == before[0] and len(rows) == 2
+
+
 def test_resume_measures_agreement_when_the_reference_rows_are_done(tmp_path):
     run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)
     rows = run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)

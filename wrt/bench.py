@@ -443,6 +443,29 @@ def _run_group_task(task) -> list[dict]:
     return rows
 
 
+SETTINGS_FILE = "settings.json"  # beside rows.jsonl: the ray counts its rows were measured with
+
+
+def _ray_settings(grid: Grid) -> dict:
+    """The settings that decide which rays a row times: rows measured under others are not comparable."""
+    return {"n_rays": grid.n_rays, "scaling_n_rays": int((grid.scaling or {}).get("n_rays", grid.n_rays))}
+
+
+def _check_resumed_settings(path: Path, grid: Grid) -> None:
+    """Raises ValueError when the rows to resume were measured with other ray counts (``path`` is their
+    ``SETTINGS_FILE``; none, from an older run: nothing to compare)."""
+    try:
+        before = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return
+    now = _ray_settings(grid)
+    before = before if isinstance(before, dict) else {}
+    changed = [f"{k} {before[k]} -> {now[k]}" for k in now if before.get(k, now[k]) != now[k]]
+    if changed:
+        raise ValueError(f"{path.parent}: its rows were measured with other ray counts ({', '.join(changed)}); "
+                         "resume with the same settings, or run without --resume to start over")
+
+
 def _resumed_rows(jsonl: Path) -> list[dict]:
     """The measured rows of an earlier run, for ``resume``; ``jsonl`` is rewritten with just those. Error rows are
     dropped, as their rows run again; so is a last line cut short by an interruption.
@@ -491,10 +514,12 @@ def run_grid(
         out.mkdir(parents=True, exist_ok=True)
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
+            _check_resumed_settings(out / SETTINGS_FILE, grid)
             rows = _resumed_rows(jsonl)
             done = {row_key(r) for r in rows}
         elif jsonl.exists():
             jsonl.unlink()
+        (out / SETTINGS_FILE).write_text(json.dumps(_ray_settings(grid)) + "\n")
 
     missing = [a for a in grid.accels if a == "embree" and not _has_embree()]
     if missing:
