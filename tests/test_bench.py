@@ -2,6 +2,7 @@
 
 import json
 import os
+import warnings
 
 import numpy as np
 import pytest
@@ -227,6 +228,19 @@ def test_displaced_sphere_is_closed_and_sized():
 def test_fit_slope():
     n = np.array([1e3, 1e4, 1e5])
     assert fit_slope(n, 3 * n**1.1) == pytest.approx(1.1)
+    assert np.isnan(fit_slope(n, n, x_min=1e5)) and np.isnan(fit_slope(n, n, x_min=1e6))  # no line through < 2
+
+
+@pytest.mark.parametrize("sizes", [[1000, 5000], [1000, 100_000]])
+def test_scaling_plot_of_sizes_below_the_slope_range(tmp_path, sizes):
+    """A sweep with no size from 1e4 up ended the run with numpy's 'expected non-empty vector for x' and one size
+    there gave a slope fitted through one point (polyfit's 'poorly conditioned'); the plot now says 'no slope'."""
+    rows = [dict(scene=f"sphere:{n}", triangles=n, device="cpu", rays="incoherent", accel="wrt:sah", threads=1,
+                 build_ms=n / 1e3, mrays=2.0, mrays_min=1.0, mrays_max=3.0, hit_fraction=0.5, sweep=True) for n in sizes]
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=".*poorly conditioned")
+        paths = bench_module.plot(rows, tmp_path)
+    assert tmp_path / "scaling.png" in paths and (tmp_path / "scaling.png").stat().st_size > 1000
 
 
 def test_markdown_table_names_hardware():

@@ -613,10 +613,18 @@ SLOPE_FROM = 1e4  # scaling slopes are fitted from this many triangles up, so fi
 
 
 def fit_slope(x, y, x_min: float = 0.0) -> float:
-    """Least-squares slope of ``log y`` against ``log x``, over the points with ``x >= x_min``."""
+    """Least-squares slope of ``log y`` against ``log x``, over the points with ``x >= x_min``; NaN when fewer than
+    two distinct ``x`` are left (a sweep of small sizes only), as no line is defined by them."""
     x, y = np.asarray(x, float), np.asarray(y, float)
     keep = x >= x_min
+    if len(np.unique(x[keep])) < 2:
+        return float("nan")
     return float(np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)[0])
+
+
+def _slope_label(x, y) -> str:
+    slope = fit_slope(x, y, SLOPE_FROM)
+    return f"slope {slope:.2f}" if math.isfinite(slope) else f"no slope (fewer than 2 sizes >= {SLOPE_FROM:g})"
 
 
 def plot(rows: list[dict], out: Path) -> list[Path]:
@@ -666,8 +674,8 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
             pts = sorted((r["triangles"], r["build_ms"], 1e3 / r["mrays"]) for r in scaling
                          if r["accel"] == accel and r["threads"] == min(x["threads"] for x in scaling))
             n, build, ns_per_ray = zip(*pts)
-            a1.loglog(n, build, "o-", label=f"{accel} slope {fit_slope(n, build, SLOPE_FROM):.2f}")
-            a2.loglog(n, ns_per_ray, "o-", label=f"{accel} slope {fit_slope(n, ns_per_ray, SLOPE_FROM):.2f}")
+            a1.loglog(n, build, "o-", label=f"{accel} {_slope_label(n, build)}")
+            a2.loglog(n, ns_per_ray, "o-", label=f"{accel} {_slope_label(n, ns_per_ray)}")
         a1.set_xlabel("triangles"), a1.set_ylabel("build ms"), a1.legend(fontsize=7)
         a2.set_xlabel("triangles"), a2.set_ylabel("ns per ray"), a2.legend(fontsize=7)
         fig.tight_layout()
