@@ -236,7 +236,8 @@ def test_scaling_plot_of_sizes_below_the_slope_range(tmp_path, sizes):
     """A sweep with no size from 1e4 up ended the run with numpy's 'expected non-empty vector for x' and one size
     there gave a slope fitted through one point (polyfit's 'poorly conditioned'); the plot now says 'no slope'."""
     rows = [dict(scene=f"sphere:{n}", triangles=n, device="cpu", rays="incoherent", accel="wrt:sah", threads=1,
-                 build_ms=n / 1e3, mrays=2.0, mrays_min=1.0, mrays_max=3.0, hit_fraction=0.5, sweep=True) for n in sizes]
+                 build_ms=n / 1e3, mrays=2.0, mrays_min=1.0, mrays_max=3.0, hit_fraction=0.5, sweep=True)
+            for n in sizes]
     with warnings.catch_warnings():
         warnings.filterwarnings("error", message=".*poorly conditioned")
         paths = bench_module.plot(rows, tmp_path)
