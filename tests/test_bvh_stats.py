@@ -194,6 +194,18 @@ def test_cli_bvh_stats_missing_file(capsys, tmp_path):
     assert len(err) == 1 and "missing.usd" in err[0]
 
 
+def test_cli_bvh_stats_of_a_scene_without_triangles(capsys, tmp_path):
+    """Warp's trees over no triangles failed with a traceback blaming the native layout ('layout differs from
+    warp-lang 1.19's'); they are empty trees, as wrt's are."""
+    path = tmp_path / "empty.usda"
+    path.write_text('#usda 1.0\ndef Xform "World"\n{\n}\n')
+    assert main(["bvh-stats", str(path), "--json", "--builder", "sah,warp:sah,warp:cubql", "--layout", "wide"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["builder"] for r in rows] == ["sah", "warp:sah", "warp:cubql"]
+    for r in rows:
+        assert r["triangles"] == 0 and r["leaves"] == 0 and r["sah_cost"] == 0.0 and r["leaf_size_histogram"] == {}
+
+
 def test_cli_bvh_stats_json_is_strict_for_a_scene_without_area(capsys, tmp_path):
     """Zero-area triangles have no EPO (NaN): ``--json`` writes null there, which strict parsers accept."""
     path = tmp_path / "flat.usda"

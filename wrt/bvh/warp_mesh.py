@@ -185,6 +185,10 @@ def warp_mesh_bvh(points, indices, builder: str = "sah", leaf_size: int | None =
     device = wp.get_device(device)
     pts = wp.array(np.asarray(points, np.float32).reshape(-1, 3), dtype=wp.vec3, device=device)
     idx = wp.array(np.asarray(indices, np.int32).reshape(-1), dtype=wp.int32, device=device)
+    if idx.shape[0] == 0:  # wp.Mesh holds no tree at all (0 nodes): the empty tree wrt's builders give
+        flat = FlatBvh.empty(builder=f"warp:{builder}")
+        flat.points, flat.indices = points, indices
+        return flat
     wp.synchronize_device(device)
     start = time.perf_counter()
     mesh = wp.Mesh(pts, idx, bvh_constructor=builder, bvh_leaf_size=leaf_size)
