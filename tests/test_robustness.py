@@ -364,7 +364,7 @@ def test_batch_render_survives_a_bad_scene_and_keeps_finished_work(tmp_path, cap
 
 def test_batch_render_refuses_two_scenes_that_would_write_one_image(tmp_path, capsys):
     """a/tri.usda and b/tri.usda both map to OUT/tri.png: the second overwrote the first and the log said both ok."""
-    from wrt.cli import main
+    from wrt.cli import default_scene_path, main
 
     for folder in ("a", "b"):
         (tmp_path / folder).mkdir()
@@ -378,6 +378,11 @@ def test_batch_render_refuses_two_scenes_that_would_write_one_image(tmp_path, ca
         errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
         assert len(errors) == 1 and "would both write" in errors[0] and "tri.png" in errors[0], errors
     assert not (tmp_path / "out").exists()  # refused before anything was rendered
+    # One image name for several scenes made a folder called out.png holding tri.png.
+    assert main(["render", *scenes[:1], str(default_scene_path()), "-o", str(tmp_path / "out.png"), "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(errors) == 1 and "names one image for 2 scenes" in errors[0], errors
+    assert not (tmp_path / "out.png").exists()
 
 
 @pytest.mark.parametrize(

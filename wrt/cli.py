@@ -153,6 +153,11 @@ def _output_for(args, path: Path, several: bool) -> Path:
     pattern = args.output or "{stem}.png"
     if "{stem}" in pattern:
         return Path(pattern.format(stem=path.stem))
+    from .image import IMAGE_FORMATS
+
+    if Path(pattern).suffix.lower() in IMAGE_FORMATS:  # one image name for several scenes: not a folder name
+        raise ValueError(f"-o {pattern} names one image for {len(args.scene)} scenes; give a folder or a pattern "
+                         "with {stem}, e.g. -o out/{stem}.png")
     return Path(pattern) / f"{path.stem}.png"
 
 
