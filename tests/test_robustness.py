@@ -385,6 +385,18 @@ def test_batch_render_refuses_two_scenes_that_would_write_one_image(tmp_path, ca
     assert not (tmp_path / "out.png").exists()
 
 
+@pytest.mark.parametrize("pattern", ["{stem}_{x}.png", "{stem}_{0}.png", "{stem}_{.png"])
+def test_batch_render_output_pattern_with_other_braces(tmp_path, pattern):
+    """Other braces in a {stem} pattern stopped the batch with str.format's KeyError or IndexError traceback, or
+    "expected '}' before end of string"; only {stem} is replaced, the rest is part of the name."""
+    from wrt.cli import default_scene_path, main
+
+    scenes = [str(default_scene_path()), str(warp_assets("cube.usd"))]
+    assert main(["render", *scenes, "-o", str(tmp_path / pattern), "--width", "8", "--height", "8", "-q"]) == 0
+    for stem in ("default_room", "cube"):
+        assert (tmp_path / pattern.replace("{stem}", stem)).is_file()
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [

@@ -151,8 +151,8 @@ def _output_for(args, path: Path, several: bool) -> Path:
     if not several:
         return Path(args.output or "wrt.png")
     pattern = args.output or "{stem}.png"
-    if "{stem}" in pattern:
-        return Path(pattern.format(stem=path.stem))
+    if "{stem}" in pattern:  # replaced as text: other braces are part of the name, not format fields
+        return Path(pattern.replace("{stem}", path.stem))
     from .image import IMAGE_FORMATS
 
     if Path(pattern).suffix.lower() in IMAGE_FORMATS:  # one image name for several scenes: not a folder name
