@@ -57,6 +57,11 @@ def test_batch_bad_arguments():
         wrt.render_batch(scene, ring_of_cameras(2), 8192, 8192)
     with pytest.raises(IndexError):
         wrt.render_batch(scene, ring_of_cameras(2), 4, 4, device="cpu").image(2)
+    # One camera, not in a list: a path was split into characters ("no camera at '/'"), a Camera or None failed
+    # with "object is not iterable".
+    for lone in ("/World/Camera", ring_of_cameras(1)[0], None, 5):
+        with pytest.raises(TypeError, match="cameras must be a list of wrt.Camera or camera prim paths"):
+            wrt.render_batch(scene, lone, 8, 8)
 
 
 def test_batch_on_cuda_equals_serial_on_cuda():

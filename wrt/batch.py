@@ -89,8 +89,13 @@ def render_batch(
         A :class:`BatchImage`. To render the same cameras again (a new pose each step), keep a
         :class:`wrt.Renderer` made with ``cameras=`` instead: it builds the BVH once.
     """
+    from .camera import Camera
     from .render import Renderer
 
+    # A lone path or Camera is not a list: list("/World/Cam") would be one camera per character.
+    if isinstance(cameras, (str, Camera)) or not hasattr(cameras, "__iter__"):
+        raise TypeError(f"cameras must be a list of wrt.Camera or camera prim paths (for one camera: [camera]), "
+                        f"got {type(cameras).__name__}")
     renderer = Renderer(
         scene,
         cameras=list(cameras),
