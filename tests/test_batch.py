@@ -55,8 +55,13 @@ def test_batch_bad_arguments():
         wrt.render_batch(scene, [], 8, 8)
     with pytest.raises(ValueError, match="pixels"):
         wrt.render_batch(scene, ring_of_cameras(2), 8192, 8192)
+    batch = wrt.render_batch(scene, ring_of_cameras(2), 4, 4, device="cpu")
     with pytest.raises(IndexError):
-        wrt.render_batch(scene, ring_of_cameras(2), 4, 4, device="cpu").image(2)
+        batch.image(2)
+    for k in (1.0, True, "0"):  # Warp's "Invalid index: 1.0", camera 1 for True, a str/int comparison error
+        with pytest.raises(TypeError, match="camera index must be an integer"):
+            batch.image(k)
+    np.testing.assert_array_equal(batch.image(np.int64(-1)).rgb, batch.image(1).rgb)
     # One camera, not in a list: a path was split into characters ("no camera at '/'"), a Camera or None failed
     # with "object is not iterable".
     for lone in ("/World/Camera", ring_of_cameras(1)[0], None, 5):

@@ -50,9 +50,11 @@ class BatchImage:
         """Camera ``k`` as a host :class:`wrt.Image` (the same object a single-camera render returns)."""
         from .render import finish_image
 
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)):  # 1.0 failed in Warp, True meant camera 1
+            raise TypeError(f"camera index must be an integer, got {k!r}")
         if not -len(self) <= k < len(self):
             raise IndexError(f"camera {k} out of range for a batch of {len(self)}")
-        k = k % len(self)
+        k = int(k) % len(self)  # Warp indexes wp.arrays with Python ints only
         rgb = self.rgb[k].numpy()  # one camera's slice, not the whole batch
         aovs = {name: a[k].numpy() for name, a in self.aovs.items()}
         image = finish_image(rgb, aovs, "whitted", self.scene)  # rgb is already final, quick looks included
