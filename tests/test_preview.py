@@ -269,8 +269,9 @@ def test_preview_rejects_bad_arguments(room):
         wrt.preview(room, bvh_depth=2, bvh_leaves=True)
     with pytest.raises(ValueError, match="valid: depth, sah"):
         wrt.preview(room, bvh_depth=2, bvh_color="rainbow")
-    with pytest.raises(ValueError, match="rays"):
-        wrt.preview(room, rays=-1)
+    for rays in (-1, 10**8, True):  # 10**8 rays: gigabytes of ray buffers and 10**8 lines to draw
+        with pytest.raises(ValueError, match="rays must be an integer from 0 to 1,000,000"):
+            wrt.preview(room, rays=rays)
     with pytest.raises(ValueError, match="no camera at"):
         wrt.preview(room, camera="/nope")
     with pytest.raises(TypeError, match="wrt.Scene or a USD file path"):
@@ -288,6 +289,7 @@ def test_preview_rejects_bad_arguments(room):
         (["--window", "12x"], "is not WIDTHxHEIGHT"),
         (["--bvh-depth", "2", "--bvh-leaves"], "not allowed with"),
         (["--rays", "-3"], "non-negative"),
+        (["--rays", "100000000", "-o", "x.png"], "rays must be an integer from 0 to 1,000,000"),
         (["--window", "0x5"], "1 to 16384 pixels per side"),
         (["--window", "100000x100000"], "1 to 16384 pixels per side"),  # VTK aborted allocating the picture
     ],

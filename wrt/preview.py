@@ -50,6 +50,7 @@ SHAPE_BUDGET = 20_000  # most analytic shapes drawn
 MAX_CLUSTER_GRID = 4096  # finest clustering grid, cells along the longest side of the scene box
 CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the triangle budget
 BOX_BUDGET = 50_000  # most BVH boxes drawn; more are subsampled evenly in node order
+MAX_RAYS = 1_000_000  # most sample rays: each is a drawn line (3e5 take 2 s to draw; 1e8 would need GBs)
 BVH_COLORINGS = ("depth", "sah")  # values of bvh_color
 MAX_WINDOW = 16384  # largest window side, pixels: OpenGL's usual framebuffer limit (Mesa's); beyond it VTK draws
 # nothing or aborts allocating the picture
@@ -513,8 +514,8 @@ def preview(
         raise ValueError(f"bvh_depth must be a non-negative integer, got {bvh_depth!r}")
     if bvh_color not in BVH_COLORINGS:
         raise ValueError(f"unknown BVH colouring {bvh_color!r}; valid: {', '.join(BVH_COLORINGS)}")
-    if not isinstance(rays, (int, np.integer)) or rays < 0:
-        raise ValueError(f"rays must be a non-negative integer, got {rays!r}")
+    if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or not 0 <= rays <= MAX_RAYS:
+        raise ValueError(f"rays must be an integer from 0 to {MAX_RAYS:,}, got {rays!r}")
     for label, value in (("width", width), ("height", height)):
         if not isinstance(value, (int, np.integer)) or value <= 0:
             raise ValueError(f"{label} must be a positive integer, got {value!r}")
