@@ -276,6 +276,19 @@ def test_preview_rejects_bad_arguments(room):
         wrt.preview(room, camera="/nope")
     with pytest.raises(TypeError, match="wrt.Scene or a USD file path"):
         wrt.preview(42)
+    # A negative budget failed with "math domain error" or numpy's "Number of samples, -1", 2.5 with a TypeError,
+    # 0 drew nothing; an unknown builder or device passed unless boxes, rays or the image were asked for.
+    for options, needle in (
+        (dict(max_triangles=-5), "max_triangles must be a positive integer"),
+        (dict(max_triangles=2.5), "max_triangles must be a positive integer"),
+        (dict(max_triangles=0), "max_triangles must be a positive integer"),
+        (dict(max_boxes=-1, bvh_leaves=True), "max_boxes must be a positive integer"),
+        (dict(bvh_depth=True), "bvh_depth must be a non-negative integer"),
+        (dict(builder="octree"), "unknown BVH builder 'octree'"),
+        (dict(device="cuda:7"), "unknown or unavailable device 'cuda:7'"),
+    ):
+        with pytest.raises(ValueError, match=needle):
+            wrt.preview(room, **options)
     for window in ((16385, 100), (0, 10), (10,), "64x48", (64.0, 48)):  # 16385 wide: a blank picture before
         with pytest.raises(ValueError, match="window"):
             wrt.preview(room, window_size=window)

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from .bvh import FlatBvh
+from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
 from .image import to_srgb8
 from .render import render, resolve_camera
@@ -510,8 +510,13 @@ def preview(
     pv = import_pyvista()
     if bvh_depth is not None and bvh_leaves:
         raise ValueError("give bvh_depth or bvh_leaves, not both")
-    if bvh_depth is not None and (not isinstance(bvh_depth, (int, np.integer)) or bvh_depth < 0):
+    if bvh_depth is not None and (
+        isinstance(bvh_depth, bool) or not isinstance(bvh_depth, (int, np.integer)) or bvh_depth < 0
+    ):
         raise ValueError(f"bvh_depth must be a non-negative integer, got {bvh_depth!r}")
+    for label, value in (("max_triangles", max_triangles), ("max_boxes", max_boxes)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
+            raise ValueError(f"{label} must be a positive integer, got {value!r}")
     if bvh_color not in BVH_COLORINGS:
         raise ValueError(f"unknown BVH colouring {bvh_color!r}; valid: {', '.join(BVH_COLORINGS)}")
     if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or not 0 <= rays <= MAX_RAYS:
@@ -520,6 +525,8 @@ def preview(
         if not isinstance(value, (int, np.integer)) or value <= 0:
             raise ValueError(f"{label} must be a positive integer, got {value!r}")
     check_window_size(window_size)
+    Builder.from_str(builder)  # checked now, not only when boxes, rays or the image need the tree
+    device = resolve_device(device)
     scene = _as_scene(scene)
     cam = resolve_camera(scene, camera)
     if off_screen is None:
