@@ -8,6 +8,7 @@ import pytest
 from conftest import warp_assets
 
 import wrt
+from wrt.bench import Grid, run_grid
 from wrt.bvh import Builder, FlatBvh, build_bvh
 from wrt.bvh.report import collect_stats, parse_builders
 from wrt.bvh.stats import sah_cost
@@ -192,6 +193,17 @@ def test_cli_bvh_stats_missing_file(capsys, tmp_path):
     assert main(["bvh-stats", str(tmp_path / "missing.usd")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "missing.usd" in err[0]
+
+
+def test_warp_lbvh_on_the_cpu_is_refused_not_relabelled(capsys, tmp_path):
+    """wp.Mesh builds its sah tree for lbvh on the CPU (with a warning only): bvh-stats printed that tree as
+    warp:lbvh and bench timed it under that name."""
+    assert main(["bvh-stats", str(warp_assets("cube.usd")), "--builder", "warp:lbvh"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(err) == 1 and "no lbvh builder on the CPU" in err[0]
+    rows = run_grid(Grid(scenes=["sphere:200"], accels=["warp:lbvh", "warp:sah"], rays=["primary"], n_rays=300,
+                         repeats=1), tmp_path, progress=False)
+    assert "no lbvh builder on the CPU" in rows[1]["error"] and "error" not in rows[0]
 
 
 def test_cli_bvh_stats_of_a_scene_without_triangles(capsys, tmp_path):

@@ -30,6 +30,7 @@ import numpy as np
 import warp as wp
 
 from .bvh import Builder
+from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits
 from .rays import RAY_KINDS, ray_set
 from .scene import Scene
@@ -255,6 +256,7 @@ class _Subject:
                     return BvhAccelerator(target, Builder.from_str(builder).value, device, layout or "binary")
                 if layout:
                     raise ValueError(f"{spec}: wp.Mesh has no layouts")
+                check_warp_builder(builder, device)  # a warp:lbvh row on the CPU would time wp.Mesh(sah)
                 return WarpMeshAccelerator(target, builder, device)
 
             build(Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]] * 3, np.arange(9).reshape(3, 3)))  # compile

@@ -172,6 +172,14 @@ def _ranges(counts):
     return ranges(counts)
 
 
+def check_warp_builder(builder: str, device) -> None:
+    """Raises ValueError for ``lbvh`` on the CPU: wp.Mesh then builds its ``sah`` tree (with only a warning), so
+    statistics or timings labelled ``warp:lbvh`` would be those of ``warp:sah``."""
+    if builder == "lbvh" and wp.get_device(device).is_cpu:
+        raise ValueError("wp.Mesh has no lbvh builder on the CPU (Warp builds its sah tree instead); use a CUDA "
+                         "device for warp:lbvh, or warp:sah")
+
+
 def warp_mesh_bvh(points, indices, builder: str = "sah", leaf_size: int | None = None, device="cpu") -> FlatBvh:
     """Builds ``wp.Mesh(points, indices, bvh_constructor=builder)`` and reads its tree (build time included).
 
@@ -183,6 +191,7 @@ def warp_mesh_bvh(points, indices, builder: str = "sah", leaf_size: int | None =
         device: Warp device.
     """
     device = wp.get_device(device)
+    check_warp_builder(builder, device)
     pts = wp.array(np.asarray(points, np.float32).reshape(-1, 3), dtype=wp.vec3, device=device)
     idx = wp.array(np.asarray(indices, np.int32).reshape(-1), dtype=wp.int32, device=device)
     if idx.shape[0] == 0:  # wp.Mesh holds no tree at all (0 nodes): the empty tree wrt's builders give
