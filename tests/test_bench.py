@@ -186,6 +186,14 @@ def test_thread_counts_are_ints_without_repeats():
     assert tiny_grid(threads=[1, "1", "all", "all"]).validated().threads == expected
 
 
+def test_repeated_names_are_measured_once(tmp_path):
+    """--accels wrt:sah,wrt:sah (or a scene, device or ray kind twice) measured and wrote the same rows twice."""
+    grid = tiny_grid(scenes=["sphere:200", "sphere:200"], accels=["wrt:sah", "warp:sah", "wrt:sah"],
+                     devices=["cpu", "cpu"], rays=["primary", "primary"], n_rays=300, repeats=1)
+    rows = run_grid(grid, tmp_path, progress=False)
+    assert [r["accel"] for r in rows] == ["warp:sah", "wrt:sah"] and len(read_rows(tmp_path)) == 2
+
+
 def test_interrupted_run_keeps_finished_rows(tmp_path, monkeypatch):
     import wrt.bench as bench
 

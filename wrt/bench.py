@@ -118,7 +118,9 @@ class Grid:
         if not self.devices or not (self.scenes and self.rays and self.accels or sweep):
             empty = [name for name in ("scenes", "accels", "devices", "rays") if not getattr(self, name)]
             raise ValueError(f"the grid measures nothing: {', '.join(empty)} empty")
-        return dataclasses.replace(self, threads=threads)
+        # Each name once: a repeated scene, accelerator, device or ray kind measured the same rows twice.
+        unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("scenes", "accels", "devices", "rays")}
+        return dataclasses.replace(self, threads=threads, **unique)
 
 
 SCALING_KEYS = ("sizes", "accels", "rays", "n_rays")  # the fields of Grid.scaling
@@ -529,8 +531,8 @@ def run_grid(
 
         warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
         grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing])
-    devices = [d if dask else resolve_device(d) for d in grid.devices]  # with dask, resolved on the worker
     grid = grid.validated()
+    devices = [d if dask else resolve_device(d) for d in grid.devices]  # with dask, resolved on the worker
     thread_counts = grid.threads
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
