@@ -68,6 +68,19 @@ def test_stats_are_consistent(np_rng):
         assert s["build_seconds"] > 0.0
 
 
+def test_epo_sample_counts_are_checked(capsys):
+    """epo_samples=2.5 was truncated to 2, -1 skipped EPO without a word, and 10**9 allocated tens of GB of samples."""
+    points = np.eye(3, dtype=np.float32)
+    bvh = build_bvh(points, np.array([[0, 1, 2]], np.int32), "sah")
+    for bad in (2.5, -1, 1 << 30, True):
+        with pytest.raises(ValueError, match="epo_samples"):
+            bvh.stats(epo_samples=bad)
+    assert bvh.stats(epo_samples=0)["epo"] is None and bvh.stats(epo_samples=np.int64(16))["epo"] == 0.0
+    assert main(["bvh-stats", str(warp_assets("cube.usd")), "--epo-samples", "1000000000"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(err) == 1 and "epo_samples" in err[0]
+
+
 def test_empty_tree_stats():
     s = FlatBvh.empty().stats()
     assert s["sah_cost"] == 0.0 and s["triangles"] == 0 and s["leaves"] == 0

@@ -182,7 +182,11 @@ class FlatBvh:
             ``mean_leaf_size``, ``leaf_size_histogram`` (size -> leaves), ``node_bytes``, ``bytes``,
             ``build_seconds``, the cost constants and the builder name.
         """
-        from .stats import EPO_SAMPLES, bvh_stats
+        from .build import check_int_option
+        from .stats import EPO_SAMPLES, MAX_EPO_SAMPLES, bvh_stats
+
+        epo_samples = EPO_SAMPLES if epo_samples is None else check_int_option("epo_samples", epo_samples, 0,
+                                                                                MAX_EPO_SAMPLES)
 
         points = self.points if points is None else points
         indices = self.indices if indices is None else indices
@@ -195,7 +199,7 @@ class FlatBvh:
             indices,
             traversal_cost,
             intersection_cost,
-            EPO_SAMPLES if epo_samples is None else int(epo_samples),
+            epo_samples,
         )
 
     def to_device(self, points: np.ndarray, indices: np.ndarray, device=None) -> DeviceBvh:
