@@ -397,6 +397,15 @@ def test_batch_render_output_pattern_with_other_braces(tmp_path, pattern):
         assert (tmp_path / pattern.replace("{stem}", stem)).is_file()
 
 
+def test_output_pattern_with_one_scene(tmp_path):
+    """-o out/{stem}.png with one scene wrote a file named '{stem}.png'."""
+    from wrt.cli import main
+
+    assert main(["render", str(warp_assets("cube.usd")), "-o", str(tmp_path / "{stem}.png"), "--width", "8",
+                 "--height", "8", "-q"]) == 0
+    assert [p.name for p in tmp_path.iterdir()] == ["cube.png"]
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [

@@ -101,8 +101,9 @@ def _add_render(sub) -> None:
     p.add_argument(
         "-o",
         "--output",
-        help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png. With several "
-        "scenes: a pattern with {stem} (the scene file name without extension) or a folder; default {stem}.png",
+        help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png; {stem} stands for "
+        "the scene file name without extension. With several scenes: a pattern with {stem} or a folder; default "
+        "{stem}.png",
     )
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene; default with several scenes: "
                    "render-log.jsonl beside the images")
@@ -148,8 +149,8 @@ def _add_render(sub) -> None:
 
 def _output_for(args, path: Path, several: bool) -> Path:
     """Where the image of scene ``path`` goes (see ``--output``)."""
-    if not several:
-        return Path(args.output or "wrt.png")
+    if not several:  # {stem} too: a script's pattern works for one scene as for several
+        return Path((args.output or "wrt.png").replace("{stem}", path.stem))
     pattern = args.output or "{stem}.png"
     if "{stem}" in pattern:  # replaced as text: other braces are part of the name, not format fields
         return Path(pattern.replace("{stem}", path.stem))
