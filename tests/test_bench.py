@@ -260,6 +260,14 @@ def test_markdown_table_names_hardware():
     assert "Some CPU" in table and "| 1.00 |" in table
 
 
+def test_cli_bench_suite_and_quick_conflict(tmp_path, capsys):
+    """wrt bench cpu --quick ran the quick suite and dropped the one named without a word."""
+    assert main(["bench", "cpu", "--quick", "-o", str(tmp_path / "out")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(err) == 1 and "give a suite (cpu) or --quick, not both" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
 def test_cli_bench_exit_status_summarises_failures(tmp_path, capsys):
     code = main(["bench", "--scenes", "sphere:1500,missing.usda", "--accels", "warp:sah", "--rays", "primary",
                  "--n-rays", "2000", "--repeats", "2", "-o", str(tmp_path), "-q"])

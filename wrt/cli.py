@@ -488,7 +488,9 @@ def _run_bench(args) -> int:
 
     from .bench import Grid, run_grid
 
-    grid = Grid.from_suite("quick" if args.quick else args.suite)
+    if args.quick and args.suite != "quick":  # the suite named would be dropped without a word
+        raise ValueError(f"give a suite ({args.suite}) or --quick, not both")
+    grid = Grid.from_suite(args.suite)
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     grid = dataclasses.replace(grid, **{k: v for k, v in overrides.items() if v is not None})
     grid = grid.validated()  # a bad field is a one-line error that names it
