@@ -234,6 +234,11 @@ def _run_render(args) -> int:
 
     progress = _Progress(args.quiet)
     paths = [Path(s) for s in args.scene] or [default_scene_path()]
+    # Options that another one overrides would be dropped without a word.
+    if args.workers is not None and args.dask != "":
+        raise ValueError("--workers sizes the LocalCluster of --dask without an ADDRESS; it applies to nothing else")
+    if args.devices and args.dask is not None:
+        raise ValueError("give --devices or --dask, not both: Dask workers each render on their own device")
     if args.frames:
         return _run_frames(args, paths, progress)
     if args.resume or args.devices or args.dask is not None:
