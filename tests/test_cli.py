@@ -75,6 +75,7 @@ def test_help_explains_the_options():
         (["render", "--time", "nan"], "finite"),
         (["render", "--seed", "2147483648"], "seed must be an integer from 0 to 2147483647"),  # wrapped onto seed 0
         (["render", "--workers", "3"], "--workers sizes the LocalCluster"),  # was ignored
+        (["render", "--frames", "1:2", "--time", "0"], "--time cannot be combined with --frames"),  # 0 was ignored
         (["render", "--frames", "1:2", "--dask", "tcp://h:8786", "--workers", "3"], "--workers sizes"),
         (["render", "--frames", "1:2", "--devices", "cpu,cpu", "--dask"], "--devices or --dask, not both"),
         (["frobnicate"], "frobnicate"),

@@ -288,8 +288,9 @@ def _run_frames(args, paths: list, progress) -> int:
 
     if len(paths) != 1:
         raise ValueError("--frames renders one scene; give exactly one SCENE")
-    unsupported = [name for name, value in (("--time", args.time), ("--aov", args.aov), ("--aov-dir", args.aov_dir),
-                                            ("--max-memory", args.max_memory)) if value]
+    given = (("--time", args.time is not None), ("--aov", args.aov), ("--aov-dir", args.aov_dir),  # --time 0 too
+             ("--max-memory", args.max_memory))
+    unsupported = [name for name, value in given if value]
     if unsupported:
         raise ValueError(f"{', '.join(unsupported)} cannot be combined with --frames")
     if not paths[0].exists():
