@@ -155,6 +155,8 @@ def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
         (dict(scaling={"sizes": [1000], "accels": "wrt:sah"}), "scaling accels must be a list"),
         (dict(scaling={"sizes": [1000], "rays": "sideways"}), "unknown scaling ray kind 'sideways'"),
         (dict(scaling={"sizes": [1000], "n_rays": -5}), "scaling n_rays must be a positive integer"),
+        # sphere:2000 as a scene and a sweep size: its sweep group ran as a second scene group, unmarked.
+        (dict(scaling={"sizes": [1000, 2e3]}), "scaling size 2000 is also the scene 'sphere:2000'"),
     ],
 )
 def test_bad_grid_fields_are_named(tmp_path, field, needle):

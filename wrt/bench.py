@@ -114,6 +114,13 @@ class Grid:
                 threads.append(count)
         if self.scaling is not None:
             _check_scaling(self.scaling)
+            # A sweep group is told from a scene group by its name: one name for both would measure the sweep size
+            # with the grid's accelerators and ray count, unmarked, and the scene's group twice.
+            both = [f"sphere:{int(float(n))}" for n in self.scaling.get("sizes", [])
+                    if f"sphere:{int(float(n))}" in self.scenes]
+            if both:
+                raise ValueError(f"scaling size {both[0].split(':')[1]} is also the scene {both[0]!r}; drop one of "
+                                 "them (a sweep row and a scene row of one name cannot be told apart)")
         sweep = self.scaling and self.scaling.get("sizes") and self.scaling.get("accels", self.accels)
         if not self.devices or not (self.scenes and self.rays and self.accels or sweep):
             empty = [name for name in ("scenes", "accels", "devices", "rays") if not getattr(self, name)]
