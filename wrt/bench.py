@@ -543,8 +543,8 @@ def run_grid(
     thread_counts = grid.threads
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
-    groups += [(f"sphere:{int(float(n))}", d, scaling.get("rays", "incoherent"))
-               for n in scaling.get("sizes", []) for d in devices]
+    sizes = dict.fromkeys(f"sphere:{int(float(n))}" for n in scaling.get("sizes", []))  # 1e3 and 1000: one group
+    groups += [(name, d, scaling.get("rays", "incoherent")) for name in sizes for d in devices]
     info = {} if dask else {str(d): hardware(d) for d in devices}  # with dask, each row has its worker's hardware
 
     def emit(row):
