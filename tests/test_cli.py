@@ -81,7 +81,8 @@ def test_help_explains_the_options():
         (["frobnicate"], "frobnicate"),
     ],
 )
-def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, args, needle):
+def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, monkeypatch, args, needle):
+    monkeypatch.chdir(tmp_path)  # default outputs (wrt.png, frame_####.png) must not land in the repository
     with pytest.raises(SystemExit) as exit_info:
         small = args[0] == "render" and "--width" not in args
         sys.exit(main(args + ["--width", "8", "--height", "8"] if small else args))
