@@ -5,7 +5,8 @@ that same buffer in the same process, so ratios between rows are honest. Per row
 trace throughput (median, min and max over timed launches after a warm-up, device synchronised, kernel compilation
 excluded), hit fraction, tree statistics where the accelerator exposes them, and agreement with ``warp:sah`` on the
 same rays. Rows go to a JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an
-error row and the run goes on; ``resume`` skips rows already in the file.
+error row and the run goes on; ``resume`` skips rows already in the file, which must have been measured with the
+same ray counts (recorded in ``settings.json`` beside it).
 
 Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layouts exist), ``warp:BUILDER``
 (``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
