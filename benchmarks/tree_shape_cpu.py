@@ -16,6 +16,7 @@ Example::
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import time
 
@@ -25,8 +26,11 @@ import warp as wp
 from wrt.bench import hardware, resolve_scene
 from wrt.bvh import build_bvh
 from wrt.bvh.layout import convert_layout, layout_kernels
+from wrt.cli import int_at_least
 from wrt.rays import ray_set
 from wrt.trace import HitBuffer, trace_bvh_kernel, trace_mesh_kernel
+
+POSITIVE = int_at_least(1, "a positive integer")  # argparse type of the counts
 
 DEFAULT_SETTING = "8:1"  # the library's defaults: leaf_size 8, intersection_cost / traversal_cost = 1
 SETTINGS = ("8:0.5", "8:1", "8:2", "8:4", "4:1", "4:2", "2:1", "1:1")  # leaf_size:ratio grid of the default run
@@ -61,6 +65,17 @@ class Subject:
 def parse_setting(text: str) -> tuple[int, float]:
     leaf, _, ratio = text.partition(":")
     return int(leaf), float(ratio or 1.0)
+
+
+def setting_arg(text: str) -> str:
+    """An argparse type: a ``leaf_size:ratio`` setting, checked (kept as text: it names the table's columns)."""
+    try:
+        leaf, ratio = parse_setting(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not LEAF_SIZE:RATIO, e.g. 8:1") from None
+    if leaf < 1 or not (math.isfinite(ratio) and ratio > 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: the leaf size must be >= 1 and the ratio a positive number")
+    return text
 
 
 def build_subjects(scene, settings, layouts, device) -> tuple[list, dict]:
@@ -138,12 +153,12 @@ def main(argv=None):
     parser.add_argument("--scenes", nargs="+", default=["asset:turbineblade_199k", "asset:chess_set"],
                         help="scenes, as wrt bench names them")
     parser.add_argument("--rays", nargs="+", default=["primary", "diffuse", "incoherent"], help="ray kinds")
-    parser.add_argument("--settings", nargs="+", default=list(SETTINGS),
+    parser.add_argument("--settings", nargs="+", type=setting_arg, default=list(SETTINGS),
                         help="sah trees as leaf_size:ratio, ratio = intersection_cost / traversal_cost")
     parser.add_argument("--layouts", nargs="+", default=["binary", "compact"],
                         help="binary, compact, wide or wide8")
-    parser.add_argument("--n-rays", type=int, default=200_000, help="rays per group (diffuse: as many as hit)")
-    parser.add_argument("--repeats", type=int, default=7, help="timed launches per subject, after one warm-up")
+    parser.add_argument("--n-rays", type=POSITIVE, default=200_000, help="rays per group (diffuse: as many as hit)")
+    parser.add_argument("--repeats", type=POSITIVE, default=7, help="timed launches per subject, after one warm-up")
     parser.add_argument("--device", default="cpu", help="Override the default Warp device")
     args = parser.parse_args(argv)
     if DEFAULT_SETTING not in args.settings:

@@ -2,7 +2,10 @@
 
 import json
 import os
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -280,3 +283,20 @@ def test_cli_bench_exit_status_summarises_failures(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "1 failed" in err and "missing.usda" in err
     assert main(["bench", "--rays", "sideways", "-o", str(tmp_path), "-q"]) == 2
+
+
+@pytest.mark.parametrize(
+    "script, args, message",
+    [
+        ("quality.py", ["--builders", "sah,foo"], "unknown BVH builder 'foo'"),
+        ("tree_shape_cpu.py", ["--settings", "8:x"], "'8:x' is not LEAF_SIZE:RATIO"),
+        ("refit_vs_rebuild.py", ["--triangles", "0"], "must be a positive integer, got 0"),
+        ("batch_throughput.py", ["--cameras", "2.5"], "'2.5' is not an integer"),
+    ],
+)
+def test_benchmark_scripts_refuse_bad_arguments_in_one_line(script, args, message):
+    """They ended in tracebacks (or, for zero cameras, a misleading 'not both') after loading scenes."""
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / script
+    done = subprocess.run([sys.executable, str(path), *args], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert message in done.stderr and "Traceback" not in done.stderr

@@ -42,7 +42,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"wrt: error: {message} (see '{self.prog} --help')\n")
 
 
-def _int_at_least(minimum: int, what: str):
+def int_at_least(minimum: int, what: str):
     """An argparse type: an integer >= ``minimum``, else an error saying it must be ``what``."""
 
     def parse(text: str) -> int:
@@ -57,8 +57,8 @@ def _int_at_least(minimum: int, what: str):
     return parse
 
 
-_positive_int = _int_at_least(1, "a positive integer")
-_non_negative_int = _int_at_least(0, "a non-negative integer")
+_positive_int = int_at_least(1, "a positive integer")
+_non_negative_int = int_at_least(0, "a non-negative integer")
 
 
 def _finite_float(text: str) -> float:
