@@ -199,6 +199,16 @@ def test_cluster_vertices_meets_the_budget(bunny):
     assert np.all(p >= lower - 1e-5) and np.all(p <= upper + 1e-5)
 
 
+@pytest.mark.parametrize("budget", [1, 3, 7])
+def test_cluster_vertices_keeps_some_triangles_on_a_tiny_budget(bunny, budget):
+    """Grids coarse enough for a budget of a few triangles collapse every triangle: the preview drew nothing."""
+    points, indices = bunny.triangles()
+    colors = np.arange(len(indices))[:, None]
+    p, i, c = cluster_vertices(points, indices, colors, budget)
+    assert 1 <= len(i) <= budget and i.max() < len(p)
+    np.testing.assert_array_equal(p[i], points[indices[c[:, 0]]])  # source triangles, with their own attributes
+
+
 def test_preview_draws_everything_and_says_when_it_simplifies(room):
     plotter = wrt.preview(
         room, bvh_leaves=True, bvh_color="sah", rays=20, image=True, max_triangles=500, width=64, height=48,

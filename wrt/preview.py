@@ -337,10 +337,11 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
             if following == resolution:
                 break
         resolution = following
-    if fits is None:  # even a 2x2x2 grid is over budget: keep every k-th triangle
-        result = cluster(2)
-        keep = np.linspace(0, len(result[1]) - 1, max_triangles).astype(np.int64)
-        return result[0], result[1][keep], result[2][keep]
+    if fits is None or len(fits[1][1]) == 0:
+        # Even a 2x2x2 grid is over the budget, or the only grids that fit collapse every triangle (a budget of a
+        # few triangles): keep every k-th source triangle instead.
+        keep = np.linspace(0, len(indices) - 1, min(max_triangles, len(indices))).astype(np.int64)
+        return points.astype(np.float32), indices[keep].astype(np.int32), np.asarray(colors)[keep]
     return fits[1]
 
 
