@@ -437,3 +437,13 @@ def test_edited_scene_is_traced_as_edited(accel):
     scene.meshes.append(wrt.Mesh("/lid", [(0, 0, 4.5), (1, 1, 4.5), (0, 1, 4.5)], [(0, 1, 2)], [0]))
     assert wrt.trace(scene, **ray).t[0] == pytest.approx(0.5)
     assert wrt.trace(scene, **ray).prim[0] == 2
+
+
+def test_default_camera_frames_a_scene_edited_after_a_render():
+    """The default camera is framed from the scene's cached bounds: after a mesh is replaced by one far away, the next
+    render must frame the new mesh, not the old box (whose cache was read before the trees were dropped)."""
+    quad = wrt.Mesh("/quad", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2), (0, 2, 3)], [0, 0])
+    scene = wrt.Scene(meshes=[quad], up_axis="Z")
+    assert (wrt.render(scene, width=8, height=8).aovs["prim"] >= 0).any()
+    quad.points = quad.points + np.float32([100, 0, 0])
+    assert (wrt.render(scene, width=8, height=8).aovs["prim"] >= 0).any()

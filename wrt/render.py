@@ -80,7 +80,6 @@ def resolve_camera(scene: Scene, camera) -> Camera:
 def shading_data(scene: Scene, device) -> tuple:
     """``(DeviceMaterials, uvs, materials, double_sided, emission estimates)`` of ``scene`` on ``device``, cached."""
     key = ("shading", str(device))
-    scene.drop_stale_caches()
     if key not in scene._cache:
         mats = upload_materials(scene.materials, scene.textures, device)
         uvs = scene.corner_uvs()
@@ -227,6 +226,7 @@ class Renderer:
             max_depth = DEFAULT_MAX_DEPTH.get(integrator, 1)
         if not isinstance(max_depth, (int, np.integer)) or max_depth < 0:
             raise ValueError(f"max_depth must be a non-negative integer, got {max_depth!r}")
+        scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
         lower, upper = scene.bounds()
         if ao_radius is None:
             ao_radius = 0.1 * float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) or 1.0
