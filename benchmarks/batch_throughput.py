@@ -14,19 +14,17 @@ import time
 import warp as wp
 
 import wrt
-from wrt.cli import int_at_least
+from wrt.cli import positive_int
 from wrt.procedural import ring_of_cameras, sensor_scene
-
-POSITIVE = int_at_least(1, "a positive integer")  # argparse type of the counts
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--device", default="cuda:0" if wp.is_cuda_available() else "cpu")
-    parser.add_argument("--cameras", type=POSITIVE, nargs="+", default=[1024, 4096])
-    parser.add_argument("--size", type=POSITIVE, default=64)
-    parser.add_argument("--repeats", type=POSITIVE, default=10)
-    parser.add_argument("--blob-triangles", type=POSITIVE, default=20000, help="triangles of the mesh object")
+    parser.add_argument("--cameras", type=positive_int, nargs="+", default=[1024, 4096])
+    parser.add_argument("--size", type=positive_int, default=64)
+    parser.add_argument("--repeats", type=positive_int, default=10)
+    parser.add_argument("--blob-triangles", type=positive_int, default=20000, help="triangles of the mesh object")
     parser.add_argument("--integrators", nargs="+", default=["whitted", "ao"])
     args = parser.parse_args()
     scene = sensor_scene(boxes=8, spheres=4, blob_triangles=args.blob_triangles)

@@ -34,10 +34,7 @@ import warp as wp
 import wrt
 from wrt.bvh import build_bvh
 from wrt.bvh.report import collect_stats, format_table, parse_builders
-from wrt.cli import int_at_least
-
-POSITIVE = int_at_least(1, "a positive integer")  # argparse type of the counts
-NON_NEGATIVE = int_at_least(0, "a non-negative integer")
+from wrt.cli import non_negative_int, positive_int
 
 ASSETS = Path(os.environ.get("WRT_ASSETS", Path(__file__).resolve().parents[2] / "shared" / "assets"))
 WRT_BUILDERS = "sweep_sah,sah,median,middle,lbvh,ploc"
@@ -182,9 +179,11 @@ def main(argv=None) -> int:
     )
     parser.add_argument("--scenes", default="turbineblade_199k,chess_set", help="manifest ids, comma-separated")
     parser.add_argument("--builders", default=WRT_BUILDERS, help="wrt builders, comma-separated")
-    parser.add_argument("--epo-samples", type=NON_NEGATIVE, default=1 << 16, help="surface samples of the EPO estimate")
-    parser.add_argument("--repeats", type=POSITIVE, default=5, help="runs per build in the speed comparison")
-    parser.add_argument("--speed-triangles", type=POSITIVE, default=1_000_000, help="size of the generated speed mesh")
+    parser.add_argument("--epo-samples", type=non_negative_int, default=1 << 16,
+                        help="surface samples of the EPO estimate")
+    parser.add_argument("--repeats", type=positive_int, default=5, help="runs per build in the speed comparison")
+    parser.add_argument("--speed-triangles", type=positive_int, default=1_000_000,
+                        help="size of the generated speed mesh")
     parser.add_argument("--no-speed", action="store_true", help="skip the build-speed comparison")
     parser.add_argument("--json", help="also write every number to this JSON file")
     args = parser.parse_args(argv)

@@ -20,13 +20,11 @@ import warp as wp
 from wrt.bvh import build_bvh
 from wrt.bvh.refit import Refitter
 from wrt.bvh.stats import sah_cost
-from wrt.cli import int_at_least
+from wrt.cli import positive_int
 from wrt.procedural import displaced_sphere
 from wrt.rays import random_rays
 from wrt.scene import Scene
 from wrt.trace import HitBuffer, trace_bvh_kernel
-
-POSITIVE = int_at_least(1, "a positive integer")  # argparse type of the counts
 
 
 def deform(points: np.ndarray, amount: float) -> np.ndarray:
@@ -64,8 +62,8 @@ def timed(fn, repeats=3):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--device", default="cpu")
-    parser.add_argument("--triangles", type=POSITIVE, nargs="+", default=[100_000, 1_000_000])
-    parser.add_argument("--rays", type=POSITIVE, default=200_000)
+    parser.add_argument("--triangles", type=positive_int, nargs="+", default=[100_000, 1_000_000])
+    parser.add_argument("--rays", type=positive_int, default=200_000)
     parser.add_argument("--builder", default="sah")
     args = parser.parse_args()
     device = wp.get_device(args.device)

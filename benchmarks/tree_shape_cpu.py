@@ -26,11 +26,9 @@ import warp as wp
 from wrt.bench import hardware, resolve_scene
 from wrt.bvh import build_bvh
 from wrt.bvh.layout import convert_layout, layout_kernels
-from wrt.cli import int_at_least
+from wrt.cli import positive_int
 from wrt.rays import ray_set
 from wrt.trace import HitBuffer, trace_bvh_kernel, trace_mesh_kernel
-
-POSITIVE = int_at_least(1, "a positive integer")  # argparse type of the counts
 
 DEFAULT_SETTING = "8:1"  # the library's defaults: leaf_size 8, intersection_cost / traversal_cost = 1
 SETTINGS = ("8:0.5", "8:1", "8:2", "8:4", "4:1", "4:2", "2:1", "1:1")  # leaf_size:ratio grid of the default run
@@ -157,8 +155,8 @@ def main(argv=None):
                         help="sah trees as leaf_size:ratio, ratio = intersection_cost / traversal_cost")
     parser.add_argument("--layouts", nargs="+", default=["binary", "compact"],
                         help="binary, compact, wide or wide8")
-    parser.add_argument("--n-rays", type=POSITIVE, default=200_000, help="rays per group (diffuse: as many as hit)")
-    parser.add_argument("--repeats", type=POSITIVE, default=7, help="timed launches per subject, after one warm-up")
+    parser.add_argument("--n-rays", type=positive_int, default=200_000, help="rays per group (diffuse: as many as hit)")
+    parser.add_argument("--repeats", type=positive_int, default=7, help="timed launches per subject, after one warm-up")
     parser.add_argument("--device", default="cpu", help="Override the default Warp device")
     args = parser.parse_args(argv)
     if DEFAULT_SETTING not in args.settings:

@@ -268,7 +268,7 @@ class Camera:
         # distances keep float32 precision whatever the camera's scale.
         planes = self.clipping_planes @ np.linalg.inv(m)
         planes /= np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
-        rows = np.zeros((2 * 4, 4))
+        rows = np.zeros((MAX_CLIPPING_PLANES, 4))
         rows[: len(planes)] = planes
         s.planes_a = wp.mat44(*rows[:4].astype(np.float32).reshape(-1))
         s.planes_b = wp.mat44(*rows[4:].astype(np.float32).reshape(-1))

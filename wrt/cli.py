@@ -57,8 +57,8 @@ def int_at_least(minimum: int, what: str):
     return parse
 
 
-_positive_int = int_at_least(1, "a positive integer")
-_non_negative_int = int_at_least(0, "a non-negative integer")
+positive_int = int_at_least(1, "a positive integer")
+non_negative_int = int_at_least(0, "a non-negative integer")
 
 
 def _finite_float(text: str) -> float:
@@ -108,10 +108,10 @@ def _add_render(sub) -> None:
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene; default with several scenes: "
                    "render-log.jsonl beside the images")
     p.add_argument("--max-memory", help="refuse renders predicted to need more than this, e.g. 4G")
-    p.add_argument("--width", type=_positive_int, default=640, help="image width in pixels")
-    p.add_argument("--height", type=_positive_int, default=480, help="image height in pixels")
+    p.add_argument("--width", type=positive_int, default=640, help="image width in pixels")
+    p.add_argument("--height", type=positive_int, default=480, help="image height in pixels")
     p.add_argument("--camera", help="camera prim path; default: the stage's first camera, else one framing the scene")
-    p.add_argument("--spp", type=_positive_int, default=1, help="samples per pixel")
+    p.add_argument("--spp", type=positive_int, default=1, help="samples per pixel")
     p.add_argument("--seed", type=_seed, default=0, help="seed of every random decision (jitter, lens, paths)")
     p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
@@ -127,7 +127,7 @@ def _add_render(sub) -> None:
     p.add_argument("--dask", nargs="?", const="", metavar="ADDRESS", help="with --frames: send the frames to the Dask "
                    "scheduler at ADDRESS (e.g. tcp://scheduler:8786), or without ADDRESS to a LocalCluster of one "
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
-    p.add_argument("--workers", type=_positive_int, help="with --dask and no ADDRESS: LocalCluster worker count")
+    p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count")
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder (depth, z, normal, "
                    "geometric_normal, albedo, prim, instance, material, cost)")
     from .integrators import INTEGRATORS
@@ -364,7 +364,7 @@ def _add_preview(sub) -> None:
     bvh = p.add_mutually_exclusive_group()
     bvh.add_argument(
         "--bvh-depth",
-        type=_non_negative_int,
+        type=non_negative_int,
         metavar="K",
         help="draw the BVH cut at depth K (nodes at depth K plus shallower leaves)",
     )
@@ -372,18 +372,18 @@ def _add_preview(sub) -> None:
     p.add_argument("--bvh-color", default="depth", choices=BVH_COLORINGS, help="BVH box colour: depth or SAH share")
     p.add_argument(
         "--rays",
-        type=_non_negative_int,
+        type=non_negative_int,
         default=0,
         metavar="N",
         help="draw N camera rays from the eye to their hits (misses end at the far plane)",
     )
     p.add_argument("--image", action="store_true", help="render with wrt and show the image on the image plane")
-    p.add_argument("--width", type=_positive_int, default=640, help="image width in pixels (frustum aspect, --image)")
-    p.add_argument("--height", type=_positive_int, default=480, help="image height in pixels")
+    p.add_argument("--width", type=positive_int, default=640, help="image width in pixels (frustum aspect, --image)")
+    p.add_argument("--height", type=positive_int, default=480, help="image height in pixels")
     p.add_argument("--window", type=_window_size, default="1280x800", metavar="WxH", help="window (or PNG) size")
     p.add_argument(
         "--max-triangles",
-        type=_positive_int,
+        type=positive_int,
         default=TRIANGLE_BUDGET,
         help="simplify the scene for display above this many triangles",
     )
@@ -471,8 +471,8 @@ def _add_bench(sub) -> None:
                    help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree")
     p.add_argument("--devices", type=_csv, help="comma-separated Warp devices, e.g. cpu,cuda:0")
     p.add_argument("--rays", type=_csv, help="comma-separated ray kinds: primary, shadow, diffuse, incoherent")
-    p.add_argument("--n-rays", type=_positive_int, help="rays per group")
-    p.add_argument("--repeats", type=_positive_int, help="timed launches per row (median reported)")
+    p.add_argument("--n-rays", type=positive_int, help="rays per group")
+    p.add_argument("--repeats", type=positive_int, help="timed launches per row (median reported)")
     p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all")
     p.add_argument("-o", "--out", default="bench-out", help="output folder")
     p.add_argument("--resume", action="store_true",
