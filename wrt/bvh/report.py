@@ -127,7 +127,7 @@ def format_table(rows: list[dict]) -> str:
 
 def add_bvh_stats(sub) -> None:
     """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
-    from ..cli import _positive_int
+    from ..cli import positive_int
 
     p = sub.add_parser(
         "bvh-stats",
@@ -145,12 +145,12 @@ def add_bvh_stats(sub) -> None:
         "wp.Mesh's tree (default: sah)",
     )
     p.add_argument("--layout", default="binary", choices=LAYOUTS, help="layout whose node count and bytes are shown")
-    p.add_argument("--leaf-size", type=_positive_int, default=None, help="wrt's most triangles per leaf (default 8)")
-    p.add_argument("--warp-leaf-size", type=_positive_int, default=None, help="Warp's bvh_leaf_size (default: Warp's)")
-    p.add_argument("--bins", type=_positive_int, default=16, help="SAH bins per axis for sah")
+    p.add_argument("--leaf-size", type=positive_int, default=None, help="wrt's most triangles per leaf (default 8)")
+    p.add_argument("--warp-leaf-size", type=positive_int, default=None, help="Warp's bvh_leaf_size (default: Warp's)")
+    p.add_argument("--bins", type=positive_int, default=16, help="SAH bins per axis for sah")
     p.add_argument("--traversal-cost", type=float, default=1.0, help="SAH constant C_t (node visit)")
     p.add_argument("--intersection-cost", type=float, default=1.0, help="SAH constant C_i (triangle test)")
-    p.add_argument("--epo-samples", type=_positive_int, default=1 << 16, help="surface samples of the EPO estimate")
+    p.add_argument("--epo-samples", type=positive_int, default=1 << 16, help="surface samples of the EPO estimate")
     p.add_argument("--device", default="cpu", help="Warp device to build on, e.g. cpu or cuda:0")
     p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
     p.add_argument("--json", action="store_true", help="print JSON rows instead of a table")
