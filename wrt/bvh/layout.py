@@ -342,7 +342,7 @@ def layout_kernels(layout: str) -> tuple:
 
         return trace_compact_kernel, occluded_compact_kernel
     if layout in ("wide", "wide8"):
-        from .wide import occluded_wide_kernel, trace_wide_kernel
+        from .wide import WIDE_KERNELS, WIDE_WIDTHS
 
-        return trace_wide_kernel, occluded_wide_kernel
+        return WIDE_KERNELS[WIDE_WIDTHS[layout]]
     raise ValueError("the binary layout's kernels live in wrt.trace")

@@ -9,8 +9,9 @@ launches per wide level (``collapse.py``), on the host CPU or where a GPU-built 
 
 Storage has ``width`` child slots per node: a child box and a link ``(ref, count)``, where ``count > 0`` is a leaf
 over slots ``[ref, ref + count)``, ``count == 0`` an inner wide node ``ref`` and ``count < 0`` an empty slot.
-Triangles are stored in slot (leaf) order next to the nodes. On the device the boxes take the form its traversal
-reads fastest (``DeviceWideBvh``).
+Triangles are stored in slot (leaf) order next to the nodes. On the device the slots take the form its traversal
+reads fastest (``DeviceWideBvh``): on CUDA two 16-byte records per slot (``packed.py``), read in a loop over the
+children that is unrolled (one kernel per width), so a node's loads are issued together.
 
 Traversal tests all child boxes of a node (on the CPU all at once, with vector instructions: ``wide_cpu.py``),
 sorts the entered ones by entry distance, continues with the nearest and pushes the others far to near; each wide
@@ -36,6 +37,7 @@ from ..geometry import (
 )
 from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
+from .packed import load_child, pack_child
 from .stack import SORT_SLOTS, WIDE_STACK, SortBuffer, WideStack
 from .traverse import TRACE_KERNEL_OPTIONS, reachable
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
@@ -51,18 +53,18 @@ WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
 
 @wp.struct
 class DeviceWideBvh:
-    """A WideBvh and its triangles in device memory."""
+    """A WideBvh and its triangles in device memory, stored in the form the device's traversal reads fastest (the
+    other device's arrays hold one dummy entry)."""
 
-    # Child boxes, stored for the device's traversal (the other device's arrays hold one dummy entry): on the CPU six
-    # runs of ``width`` floats per node, for its vector instructions (``wide_cpu``); on CUDA one lower and one upper per
-    # child slot, which a thread reads in two loads (the runs, read lane by lane, cost 5-15% there).
+    # CPU: child boxes as six runs of ``width`` floats per node, for its vector instructions (``wide_cpu``), and
+    # links per child slot ``(wide node or first triangle slot, triangle count; 0 inner, -1 empty)``.
     boxes: wp.array[float]
-    lowers: wp.array[wp.vec3]
-    uppers: wp.array[wp.vec3]
-    links: wp.array[wp.vec2i]  # per child slot: (wide node or first triangle slot, triangle count; 0 inner, -1 empty)
+    links: wp.array[wp.vec2i]
+    # CUDA: per child slot two records, box and link, each read in one 16-byte load (``packed``).
+    children: wp.array[wp.vec4]
     width: int  # child slots per node: 4 or 8
     prim_ids: wp.array[wp.int32]  # slot -> triangle id
-    v0: wp.array[wp.vec3]  # triangle vertices in slot order
+    v0: wp.array[wp.vec3]  # triangle corners in slot order
     v1: wp.array[wp.vec3]
     v2: wp.array[wp.vec3]
     num_prims: int  # triangles in the tree; 0 means every ray misses
@@ -115,9 +117,9 @@ class WideBvh:
         s = DeviceWideBvh()
         lowers, uppers = (self.lowers, self.uppers) if len(self.refs) else (np.zeros((self.width, 3), np.float32),) * 2
         links = np.stack([self.refs, self.counts], 1) if len(self.refs) else np.array([[0, -1]] * self.width)
-        s.links = wp.array(links.astype(np.int32), dtype=wp.vec2i, device=device)
         s.width = int(self.width)
-        _set_boxes(s, wp.array(lowers, dtype=wp.vec3, device=device), wp.array(uppers, dtype=wp.vec3, device=device))
+        boxes = wp.array(lowers, dtype=wp.vec3, device=device), wp.array(uppers, dtype=wp.vec3, device=device)
+        _store_children(s, *boxes, wp.array(links.astype(np.int32), dtype=wp.vec2i, device=device))
         s.prim_ids, s.v0, s.v1, s.v2 = upload_triangles(self.prim_ids, points, indices, device)
         s.num_prims = self.num_prims
         return s
@@ -154,22 +156,40 @@ def device_wide_bvh(tree: DeviceFlatBvh, points: wp.array, indices: wp.array, wi
     binary = tree.to_device_bvh(points, indices)  # the triangles, gathered in slot order
     s = DeviceWideBvh()
     lowers, uppers, refs, counts, _ = _collapse([tree.lowers, tree.uppers, tree.left_first, tree.prim_count], width)
-    s.links = device_links(refs, counts)
     s.width = int(width)
-    _set_boxes(s, lowers, uppers)
+    _store_children(s, lowers, uppers, device_links(refs, counts))
     s.prim_ids, s.v0, s.v1, s.v2, s.num_prims = binary.prim_ids, binary.v0, binary.v1, binary.v2, binary.num_prims
     return s
 
 
-def _set_boxes(bvh: DeviceWideBvh, lowers: wp.array, uppers: wp.array) -> None:
-    """Stores the ``(K * width)`` child boxes in ``bvh`` in the form its device traverses (see ``DeviceWideBvh``)."""
-    dummy = wp.zeros(1, dtype=wp.vec3, device=lowers.device)
-    if lowers.device.is_cpu:
+def _store_children(bvh: DeviceWideBvh, lowers: wp.array, uppers: wp.array, links: wp.array) -> None:
+    """Stores the ``(K * width)`` child slots in ``bvh`` in the form its device traverses (see ``DeviceWideBvh``)."""
+    device = lowers.device
+    if device.is_cpu:
         bvh.boxes = device_node_boxes(lowers, uppers, bvh.width)
-        bvh.lowers, bvh.uppers = dummy, dummy
+        bvh.links = links
+        bvh.children = wp.zeros(1, dtype=wp.vec4, device=device)
     else:
-        bvh.boxes = wp.zeros(1, dtype=float, device=lowers.device)
-        bvh.lowers, bvh.uppers = lowers, uppers
+        bvh.boxes = wp.zeros(1, dtype=float, device=device)
+        bvh.links = wp.zeros(1, dtype=wp.vec2i, device=device)
+        bvh.children = wp.empty(2 * len(lowers), dtype=wp.vec4, device=device)
+        wp.launch(_pack_children, len(lowers), inputs=[lowers, uppers, links], outputs=[bvh.children], device=device)
+
+
+@wp.kernel
+def _pack_children(
+    lowers: wp.array[wp.vec3], uppers: wp.array[wp.vec3], links: wp.array[wp.vec2i], children: wp.array[wp.vec4]
+):
+    """The CUDA child records. The CUDA traversal tests every slot's box before it reads the link, so an empty slot
+    gets the box at (+inf, +inf, +inf), which every slab test misses (on each axis entry and exit are both +inf or
+    both -inf); the collapse's inverted empty box would span every slab."""
+    i = wp.tid()
+    lower = lowers[i]
+    upper = uppers[i]
+    if links[i][1] < 0:
+        lower = wp.vec3(wp.inf)
+        upper = wp.vec3(wp.inf)
+    pack_child(children, i, lower, upper, links[i])
 
 
 def _check_width(width: int) -> None:
@@ -183,60 +203,62 @@ def _collapse(binary: list, width: int) -> tuple:
     return lowers, uppers, refs, counts, depth
 
 
-@wp.func
-def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
-    """Closest hit with ``t_min <= t < t_max``.
+def _traversal_kernels(width: int) -> tuple:
+    """``(trace_kernel, occluded_kernel)`` of the wide layout of ``width``: on CUDA the loop over a node's children
+    is unrolled (a compile-time width), so the loads of all child boxes can be issued together."""
 
-    Returns:
-        ``(t, u, v, prim, nodes_visited, triangles_tested)``; ``prim = -1`` and ``t = inf`` on a miss.
-        ``nodes_visited`` counts wide nodes and leaves entered.
-    """
-    best_t = t_max
-    best_u = float(0.0)
-    best_v = float(0.0)
-    best_slot = int(-1)
-    nodes = int(0)
-    tests = int(0)
-    if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
-        ray = make_sheared_ray(origin, direction)
-        inv_dir = safe_inverse(direction)
-        origin_lower, origin_upper = box_origins(origin, direction)
-        stack = WideStack()
-        entered = SortBuffer()
-        top = int(0)
-        ref = int(0)  # current wide node or leaf; the root is wide node 0
-        count = int(0)
-        while ref >= 0:
-            nodes += 1
-            if count > 0:
-                # Leaf: test its triangles, stored in slot order.
-                for s in range(ref, ref + count):
-                    tests += 1
-                    hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
-                    if hit and t >= t_min:
-                        if t < best_t or (t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]):
-                            best_t = t
-                            best_u = u
-                            best_v = v
-                            best_slot = s
-                ref = -1
-            elif on_cpu():
-                step = wp.wrt_wide_enter(
-                    bvh.boxes, bvh.links, ref, bvh.width, origin_lower, origin_upper, inv_dir, t_min,
-                    best_t, stack, top, True,
-                )
-                ref = step[0]
-                count = step[1]
-                top = step[2]
-            else:
-                # Wide node: test every child box, keep the entered ones sorted by entry distance.
-                m = int(0)
-                for j in range(bvh.width):
-                    c = ref * bvh.width + j
-                    if bvh.links[c][1] >= 0:
-                        t = intersect_ray_box(
-                            origin_lower, origin_upper, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, best_t
-                        )
+    def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+        """Closest hit with ``t_min <= t < t_max``.
+
+        Returns:
+            ``(t, u, v, prim, nodes_visited, triangles_tested)``; ``prim = -1`` and ``t = inf`` on a miss.
+            ``nodes_visited`` counts wide nodes and leaves entered.
+        """
+        best_t = t_max
+        best_u = float(0.0)
+        best_v = float(0.0)
+        best_slot = int(-1)
+        nodes = int(0)
+        tests = int(0)
+        if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
+            ray = make_sheared_ray(origin, direction)
+            inv_dir = safe_inverse(direction)
+            origin_lower, origin_upper = box_origins(origin, direction)
+            stack = WideStack()
+            entered = SortBuffer()
+            top = int(0)
+            ref = int(0)  # current wide node or leaf; the root is wide node 0
+            count = int(0)
+            while ref >= 0:
+                nodes += 1
+                if count > 0:
+                    # Leaf: test its triangles, stored in slot order.
+                    for s in range(ref, ref + count):
+                        tests += 1
+                        hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
+                        if hit and t >= t_min:
+                            tie = t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]
+                            if t < best_t or tie:
+                                best_t = t
+                                best_u = u
+                                best_v = v
+                                best_slot = s
+                    ref = -1
+                elif on_cpu():
+                    step = wp.wrt_wide_enter(
+                        bvh.boxes, bvh.links, ref, bvh.width, origin_lower, origin_upper, inv_dir, t_min,
+                        best_t, stack, top, True,
+                    )
+                    ref = step[0]
+                    count = step[1]
+                    top = step[2]
+                else:
+                    # Wide node: test every child box, keep the entered ones sorted by entry distance.
+                    m = int(0)
+                    for j in range(wp.static(width)):
+                        c = ref * width + j
+                        lower, upper, link = load_child(bvh.children, c)
+                        t = intersect_ray_box(origin_lower, origin_upper, inv_dir, lower, upper, t_min, best_t)
                         if reachable(t, best_t):
                             k = m
                             while k > 0 and wp.wrt_stack_t(entered, k - 1) > t:
@@ -248,116 +270,124 @@ def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_mi
                                     wp.wrt_stack_t(entered, k - 1),
                                 )
                                 k -= 1
-                            wp.wrt_stack_push(entered, k, bvh.links[c][0], bvh.links[c][1], t)
+                            wp.wrt_stack_push(entered, k, link[0], link[1], t)
                             m += 1
-                # Continue with the nearest child; push the others far to near.
-                ref = -1
-                if m > 0:
-                    for k in range(m - 1, 0, -1):
-                        wp.wrt_stack_push(
-                            stack,
-                            top,
-                            wp.wrt_stack_ref(entered, k),
-                            wp.wrt_stack_count(entered, k),
-                            wp.wrt_stack_t(entered, k),
-                        )
-                        top += 1
-                    ref = wp.wrt_stack_ref(entered, 0)
-                    count = wp.wrt_stack_count(entered, 0)
-            # Pop the next node that may still hold a hit no farther than the best one.
-            while ref < 0 and top > 0:
-                top -= 1
-                if wp.wrt_stack_t(stack, top) <= best_t:
+                    # Continue with the nearest child; push the others far to near.
+                    ref = -1
+                    if m > 0:
+                        for k in range(m - 1, 0, -1):
+                            wp.wrt_stack_push(
+                                stack,
+                                top,
+                                wp.wrt_stack_ref(entered, k),
+                                wp.wrt_stack_count(entered, k),
+                                wp.wrt_stack_t(entered, k),
+                            )
+                            top += 1
+                        ref = wp.wrt_stack_ref(entered, 0)
+                        count = wp.wrt_stack_count(entered, 0)
+                # Pop the next node that may still hold a hit no farther than the best one.
+                while ref < 0 and top > 0:
+                    top -= 1
+                    if wp.wrt_stack_t(stack, top) <= best_t:
+                        ref = wp.wrt_stack_ref(stack, top)
+                        count = wp.wrt_stack_count(stack, top)
+        prim = int(-1)
+        if best_slot >= 0:
+            prim = bvh.prim_ids[best_slot]
+        else:
+            best_t = wp.inf
+        return best_t, best_u, best_v, prim, nodes, tests
+
+
+    def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
+        """Any hit with ``t_min <= t < t_max``: True as soon as one is found."""
+        found = bool(False)
+        if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
+            ray = make_sheared_ray(origin, direction)
+            inv_dir = safe_inverse(direction)
+            origin_lower, origin_upper = box_origins(origin, direction)
+            stack = WideStack()
+            top = int(0)
+            ref = int(0)
+            count = int(0)
+            while ref >= 0 and not found:
+                if count > 0:
+                    for s in range(ref, ref + count):
+                        hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
+                        if hit and t >= t_min and t < t_max:
+                            found = True
+                    ref = -1
+                elif on_cpu():
+                    step = wp.wrt_wide_enter(
+                        bvh.boxes, bvh.links, ref, bvh.width, origin_lower, origin_upper, inv_dir, t_min,
+                        t_max, stack, top, False,
+                    )
+                    ref = -1
+                    top = step[2]
+                else:
+                    # Any hit: no ordering needed; push every entered child.
+                    node = ref
+                    ref = -1
+                    for j in range(wp.static(width)):
+                        c = node * width + j
+                        lower, upper, link = load_child(bvh.children, c)
+                        t = intersect_ray_box(origin_lower, origin_upper, inv_dir, lower, upper, t_min, t_max)
+                        if t < wp.inf:
+                            wp.wrt_stack_push(stack, top, link[0], link[1], 0.0)
+                            top += 1
+                if ref < 0 and top > 0:
+                    top -= 1
                     ref = wp.wrt_stack_ref(stack, top)
                     count = wp.wrt_stack_count(stack, top)
-    prim = int(-1)
-    if best_slot >= 0:
-        prim = bvh.prim_ids[best_slot]
-    else:
-        best_t = wp.inf
-    return best_t, best_u, best_v, prim, nodes, tests
+        return found
 
 
-@wp.func
-def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
-    """Any hit with ``t_min <= t < t_max``: True as soon as one is found."""
-    found = bool(False)
-    if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
-        ray = make_sheared_ray(origin, direction)
-        inv_dir = safe_inverse(direction)
-        origin_lower, origin_upper = box_origins(origin, direction)
-        stack = WideStack()
-        top = int(0)
-        ref = int(0)
-        count = int(0)
-        while ref >= 0 and not found:
-            if count > 0:
-                for s in range(ref, ref + count):
-                    hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
-                    if hit and t >= t_min and t < t_max:
-                        found = True
-                ref = -1
-            elif on_cpu():
-                step = wp.wrt_wide_enter(
-                    bvh.boxes, bvh.links, ref, bvh.width, origin_lower, origin_upper, inv_dir, t_min,
-                    t_max, stack, top, False,
-                )
-                ref = -1
-                top = step[2]
-            else:
-                # Any hit: no ordering needed; push every entered child.
-                node = ref
-                ref = -1
-                for j in range(bvh.width):
-                    c = node * bvh.width + j
-                    if bvh.links[c][1] >= 0:
-                        t = intersect_ray_box(
-                            origin_lower, origin_upper, inv_dir, bvh.lowers[c], bvh.uppers[c], t_min, t_max
-                        )
-                        if t < wp.inf:
-                            wp.wrt_stack_push(stack, top, bvh.links[c][0], bvh.links[c][1], 0.0)
-                            top += 1
-            if ref < 0 and top > 0:
-                top -= 1
-                ref = wp.wrt_stack_ref(stack, top)
-                count = wp.wrt_stack_count(stack, top)
-    return found
+    def trace_wide_kernel(
+        bvh: DeviceWideBvh,
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        t_mins: wp.array[float],
+        t_maxs: wp.array[float],
+        # outputs
+        ts: wp.array[float],
+        us: wp.array[float],
+        vs: wp.array[float],
+        prims: wp.array[wp.int32],
+        costs: wp.array[wp.vec2i],
+    ):
+        """Closest hit of every ray through the wide layout; ``costs`` gets (nodes visited, triangles tested)."""
+        i = wp.tid()
+        t, u, v, prim, nodes, tests = wide_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
+        ts[i] = t
+        us[i] = u
+        vs[i] = v
+        prims[i] = prim
+        costs[i] = wp.vec2i(nodes, tests)
 
 
-@wp.kernel(**TRACE_KERNEL_OPTIONS)
-def trace_wide_kernel(
-    bvh: DeviceWideBvh,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    ts: wp.array[float],
-    us: wp.array[float],
-    vs: wp.array[float],
-    prims: wp.array[wp.int32],
-    costs: wp.array[wp.vec2i],
-):
-    """Closest hit of every ray through the wide layout; ``costs`` gets (nodes visited, triangles tested)."""
-    i = wp.tid()
-    t, u, v, prim, nodes, tests = wide_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-    ts[i] = t
-    us[i] = u
-    vs[i] = v
-    prims[i] = prim
-    costs[i] = wp.vec2i(nodes, tests)
+    def occluded_wide_kernel(
+        bvh: DeviceWideBvh,
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        t_mins: wp.array[float],
+        t_maxs: wp.array[float],
+        # outputs
+        blocked: wp.array[wp.int32],
+    ):
+        """1 for every ray that hits anything in ``[t_min, t_max)``."""
+        i = wp.tid()
+        blocked[i] = wp.where(wide_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+
+    def named(fn, suffix):
+        fn.__name__ = fn.__qualname__ = f"{fn.__name__}{suffix}"
+        return fn
+
+    wide_intersect = wp.func(named(wide_intersect, width))
+    wide_occluded = wp.func(named(wide_occluded, width))
+    trace = wp.kernel(**TRACE_KERNEL_OPTIONS)(named(trace_wide_kernel, width))
+    occluded = wp.kernel(**TRACE_KERNEL_OPTIONS)(named(occluded_wide_kernel, width))
+    return trace, occluded
 
 
-@wp.kernel(**TRACE_KERNEL_OPTIONS)
-def occluded_wide_kernel(
-    bvh: DeviceWideBvh,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    blocked: wp.array[wp.int32],
-):
-    """1 for every ray that hits anything in ``[t_min, t_max)``."""
-    i = wp.tid()
-    blocked[i] = wp.where(wide_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+WIDE_KERNELS = {width: _traversal_kernels(width) for width in sorted(set(WIDE_WIDTHS.values()))}
