@@ -291,7 +291,7 @@ class InstancedAccelerator(Accelerator):
             self._device_blas.append(d)
             self._blas_first.append(first)
             self._blas_parts.append((part, first, count))
-            self._blas_arrays += [d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2]
+            self._blas_arrays += [d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2, d.nodes]
         if not self._device_blas:  # keep the array non-empty: an empty BLAS no ray enters
             empty = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), builder, device=device)
             self._device_blas.append(empty.to_device(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device))

@@ -18,6 +18,8 @@ import dataclasses
 import numpy as np
 import warp as wp
 
+from .packed import pack_child
+
 wp.set_module_options({"enable_backward": False})
 
 
@@ -34,6 +36,33 @@ class DeviceBvh:
     v1: wp.array[wp.vec3]
     v2: wp.array[wp.vec3]
     num_prims: int  # triangles in the tree; 0 means every ray misses
+    # CUDA: per node two records, (lower, upper.x) and (upper.y, upper.z, left_first, prim_count), each read in one
+    # 16-byte load (``packed.py``); the CPU's traversal reads the arrays above, and this holds one dummy entry there.
+    nodes: wp.array[wp.vec4]
+
+
+@wp.kernel
+def pack_nodes_kernel(
+    lowers: wp.array[wp.vec3],
+    uppers: wp.array[wp.vec3],
+    left_first: wp.array[wp.int32],
+    prim_count: wp.array[wp.int32],
+    nodes: wp.array[wp.vec4],
+):
+    i = wp.tid()
+    pack_child(nodes, i, lowers[i], uppers[i], wp.vec2i(left_first[i], prim_count[i]))
+
+
+def pack_nodes(bvh: DeviceBvh, allocate: bool = True) -> None:
+    """Writes ``bvh.nodes`` from its node arrays, into a new array or (``allocate=False``, a refit) in place, where
+    captured CUDA graphs keep reading it."""
+    device = bvh.lowers.device
+    n = len(bvh.lowers) if device.is_cuda else 0
+    if allocate:
+        bvh.nodes = wp.empty(2 * n, dtype=wp.vec4, device=device) if n else wp.zeros(1, dtype=wp.vec4, device=device)
+    if n:
+        wp.launch(pack_nodes_kernel, n, inputs=[bvh.lowers, bvh.uppers, bvh.left_first, bvh.prim_count],
+                  outputs=[bvh.nodes], device=device)
 
 
 @wp.kernel
@@ -218,6 +247,7 @@ class FlatBvh:
         s.prim_count = wp.array(self.prim_count, dtype=wp.int32, device=device)
         s.prim_ids, s.v0, s.v1, s.v2 = upload_triangles(self.prim_ids, points, indices, device)
         s.num_prims = self.num_prims
+        pack_nodes(s)
         return s
 
 
@@ -269,6 +299,7 @@ class DeviceFlatBvh:
             device=device,
         )
         s.num_prims = n
+        pack_nodes(s)
         return s
 
     def to_host(self) -> FlatBvh:

@@ -13,7 +13,7 @@ import numpy as np
 import warp as wp
 
 from .common import check_triangles
-from .layout import DeviceBvh, FlatBvh, gather_triangles_kernel
+from .layout import DeviceBvh, FlatBvh, gather_triangles_kernel, pack_nodes
 
 wp.set_module_options({"enable_backward": False})
 
@@ -97,6 +97,7 @@ class Refitter:
                 outputs=[d.lowers, d.uppers],
                 device=self.device,
             )
+        pack_nodes(d, allocate=False)
         self.host.lowers = d.lowers.numpy().reshape(-1, 3)
         self.host.uppers = d.uppers.numpy().reshape(-1, 3)
         self.host.points, self.host.indices = points, indices

@@ -22,7 +22,9 @@ from ..geometry import (
     safe_inverse,
 )
 from .layout import DeviceBvh
+from .packed import float_bits, load_child, load_vec4
 from .stack import NodeStack
+from .wide_cpu import on_cpu
 
 # CUDA register cap of the trace and any-hit kernels of every layout: 64 registers give 4 blocks of 256 threads per
 # SM where the compact kernel's 77 and the wide one's 70 gave 3. H200, against the uncapped kernels in one run:
@@ -61,6 +63,52 @@ def order_children(
 
 
 @wp.func
+def node_box(bvh: DeviceBvh, node: int):
+    """``(lower, upper)`` of a node, from the arrays of the device the code runs on (``DeviceBvh.nodes``)."""
+    if on_cpu():
+        return bvh.lowers[node], bvh.uppers[node]
+    lower, upper, link = load_child(bvh.nodes, node)
+    return lower, upper
+
+
+@wp.func
+def node_link(bvh: DeviceBvh, node: int):
+    """``(left_first, prim_count)`` of a node: on CUDA the second of its two records, one 16-byte load."""
+    if on_cpu():
+        return bvh.left_first[node], bvh.prim_count[node]
+    rec = load_vec4(bvh.nodes, 2 * node + 1)
+    return float_bits(rec[2]), float_bits(rec[3])
+
+
+@wp.func
+def order_bvh_children(
+    bvh: DeviceBvh,
+    first: int,
+    origin_lower: wp.vec3,
+    origin_upper: wp.vec3,
+    inv_dir: wp.vec3,
+    t_min: float,
+    t_max: float,
+):
+    """``order_children`` of a binary node of ``bvh``, reading the children's boxes as the device does best."""
+    if on_cpu():
+        return order_children(bvh.lowers, bvh.uppers, first, origin_lower, origin_upper, inv_dir, t_min, t_max)
+    lo0, hi0, link0 = load_child(bvh.nodes, first)
+    lo1, hi1, link1 = load_child(bvh.nodes, first + 1)
+    near = first
+    far = first + 1
+    t_near = intersect_ray_box(origin_lower, origin_upper, inv_dir, lo0, hi0, t_min, t_max)
+    t_far = intersect_ray_box(origin_lower, origin_upper, inv_dir, lo1, hi1, t_min, t_max)
+    if t_far < t_near:
+        near = first + 1
+        far = first
+        tmp = t_near
+        t_near = t_far
+        t_far = tmp
+    return near, far, t_near, t_far
+
+
+@wp.func
 def reachable(t_entry: float, best_t: float):
     """A box entered at ``t_entry`` (``inf`` = missed) may hold a hit that wins against ``best_t``."""
     return t_entry < wp.inf and t_entry <= best_t
@@ -86,13 +134,13 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
         stack = NodeStack()
         top = int(0)
         node = int(-1)
-        root = intersect_ray_box(origin_lower, origin_upper, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, best_t)
+        root_lower, root_upper = node_box(bvh, 0)
+        root = intersect_ray_box(origin_lower, origin_upper, inv_dir, root_lower, root_upper, t_min, best_t)
         if reachable(root, best_t):
             node = 0
         while node >= 0:
             nodes += 1
-            count = bvh.prim_count[node]
-            first = bvh.left_first[node]
+            first, count = node_link(bvh, node)
             if count > 0:
                 # Leaf: test its triangles, stored in slot order.
                 for s in range(first, first + count):
@@ -107,8 +155,8 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
                 node = -1
             else:
                 # Inner node: go to the nearer child that the ray enters, push the other one.
-                left, right, t_left, t_right = order_children(
-                    bvh.lowers, bvh.uppers, first, origin_lower, origin_upper, inv_dir, t_min, best_t
+                left, right, t_left, t_right = order_bvh_children(
+                    bvh, first, origin_lower, origin_upper, inv_dir, t_min, best_t
                 )
                 node = -1
                 if reachable(t_left, best_t):
@@ -140,11 +188,11 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
         stack = NodeStack()
         top = int(0)
         node = int(-1)
-        if intersect_ray_box(origin_lower, origin_upper, inv_dir, bvh.lowers[0], bvh.uppers[0], t_min, t_max) < wp.inf:
+        root_lower, root_upper = node_box(bvh, 0)
+        if intersect_ray_box(origin_lower, origin_upper, inv_dir, root_lower, root_upper, t_min, t_max) < wp.inf:
             node = 0
         while node >= 0 and not found:
-            count = bvh.prim_count[node]
-            first = bvh.left_first[node]
+            first, count = node_link(bvh, node)
             if count > 0:
                 for s in range(first, first + count):
                     hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
@@ -152,8 +200,8 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
                         found = True
                 node = -1
             else:
-                left, right, t_left, t_right = order_children(
-                    bvh.lowers, bvh.uppers, first, origin_lower, origin_upper, inv_dir, t_min, t_max
+                left, right, t_left, t_right = order_bvh_children(
+                    bvh, first, origin_lower, origin_upper, inv_dir, t_min, t_max
                 )
                 node = -1
                 if t_left < wp.inf:
