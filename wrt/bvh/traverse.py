@@ -33,6 +33,38 @@ TRACE_KERNEL_OPTIONS = {"cuda_max_registers": 64}
 
 
 @wp.func
+def order_pair(
+    first: int,
+    lower0: wp.vec3,
+    upper0: wp.vec3,
+    lower1: wp.vec3,
+    upper1: wp.vec3,
+    origin_lower: wp.vec3,
+    origin_upper: wp.vec3,
+    inv_dir: wp.vec3,
+    t_min: float,
+    t_max: float,
+):
+    """The children ``first`` and ``first + 1`` of a binary node, with boxes ``(lower0, upper0)`` and
+    ``(lower1, upper1)``, nearer entry first (the ray as for ``intersect_ray_box``).
+
+    Returns:
+        ``(near, far, t_near, t_far)``; an entry distance is ``inf`` when the ray misses that child's box.
+    """
+    near = first
+    far = first + 1
+    t_near = intersect_ray_box(origin_lower, origin_upper, inv_dir, lower0, upper0, t_min, t_max)
+    t_far = intersect_ray_box(origin_lower, origin_upper, inv_dir, lower1, upper1, t_min, t_max)
+    if t_far < t_near:
+        near = first + 1
+        far = first
+        tmp = t_near
+        t_near = t_far
+        t_far = tmp
+    return near, far, t_near, t_far
+
+
+@wp.func
 def order_children(
     lowers: wp.array[wp.vec3],
     uppers: wp.array[wp.vec3],
@@ -43,23 +75,9 @@ def order_children(
     t_min: float,
     t_max: float,
 ):
-    """The children ``first`` and ``first + 1`` of a binary node, nearer entry first (the ray as for
-    ``intersect_ray_box``).
-
-    Returns:
-        ``(near, far, t_near, t_far)``; an entry distance is ``inf`` when the ray misses that child's box.
-    """
-    near = first
-    far = first + 1
-    t_near = intersect_ray_box(origin_lower, origin_upper, inv_dir, lowers[near], uppers[near], t_min, t_max)
-    t_far = intersect_ray_box(origin_lower, origin_upper, inv_dir, lowers[far], uppers[far], t_min, t_max)
-    if t_far < t_near:
-        near = first + 1
-        far = first
-        tmp = t_near
-        t_near = t_far
-        t_far = tmp
-    return near, far, t_near, t_far
+    """``order_pair`` with the children's boxes read from ``lowers`` and ``uppers``."""
+    return order_pair(first, lowers[first], uppers[first], lowers[first + 1], uppers[first + 1], origin_lower,
+                      origin_upper, inv_dir, t_min, t_max)
 
 
 @wp.func
@@ -93,19 +111,9 @@ def order_bvh_children(
     """``order_children`` of a binary node of ``bvh``, reading the children's boxes as the device does best."""
     if on_cpu():
         return order_children(bvh.lowers, bvh.uppers, first, origin_lower, origin_upper, inv_dir, t_min, t_max)
-    lo0, hi0, link0 = load_child(bvh.nodes, first)
-    lo1, hi1, link1 = load_child(bvh.nodes, first + 1)
-    near = first
-    far = first + 1
-    t_near = intersect_ray_box(origin_lower, origin_upper, inv_dir, lo0, hi0, t_min, t_max)
-    t_far = intersect_ray_box(origin_lower, origin_upper, inv_dir, lo1, hi1, t_min, t_max)
-    if t_far < t_near:
-        near = first + 1
-        far = first
-        tmp = t_near
-        t_near = t_far
-        t_far = tmp
-    return near, far, t_near, t_far
+    lower0, upper0, link0 = load_child(bvh.nodes, first)
+    lower1, upper1, link1 = load_child(bvh.nodes, first + 1)
+    return order_pair(first, lower0, upper0, lower1, upper1, origin_lower, origin_upper, inv_dir, t_min, t_max)
 
 
 @wp.func
