@@ -380,6 +380,7 @@ def _traversal_kernels(width: int) -> tuple:
         blocked[i] = wp.where(wide_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
 
     def named(fn, suffix):
+        # Warp keys functions and kernels by their qualified name: the two widths' copies need different ones.
         fn.__name__ = fn.__qualname__ = f"{fn.__name__}{suffix}"
         return fn
 
