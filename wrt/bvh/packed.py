@@ -69,3 +69,10 @@ def load_child(records: wp.array[wp.vec4], i: int):
     a = load_vec4(records, 2 * i)
     b = load_vec4(records, 2 * i + 1)
     return wp.vec3(a[0], a[1], a[2]), wp.vec3(a[3], b[0], b[1]), wp.vec2i(float_bits(b[2]), float_bits(b[3]))
+
+
+@wp.func
+def load_link(records: wp.array[wp.vec4], i: int):
+    """The link of child slot ``i`` written by ``pack_child``: its second record only, one 16-byte load."""
+    b = load_vec4(records, 2 * i + 1)
+    return wp.vec2i(float_bits(b[2]), float_bits(b[3]))

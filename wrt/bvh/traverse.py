@@ -22,7 +22,7 @@ from ..geometry import (
     safe_inverse,
 )
 from .layout import DeviceBvh
-from .packed import float_bits, load_child, load_vec4
+from .packed import load_child, load_link
 from .stack import NodeStack
 from .wide_cpu import on_cpu
 
@@ -94,8 +94,8 @@ def node_link(bvh: DeviceBvh, node: int):
     """``(left_first, prim_count)`` of a node: on CUDA the second of its two records, one 16-byte load."""
     if on_cpu():
         return bvh.left_first[node], bvh.prim_count[node]
-    rec = load_vec4(bvh.nodes, 2 * node + 1)
-    return float_bits(rec[2]), float_bits(rec[3])
+    link = load_link(bvh.nodes, node)
+    return link[0], link[1]
 
 
 @wp.func
@@ -108,11 +108,9 @@ def order_bvh_children(
     t_min: float,
     t_max: float,
 ):
-    """``order_children`` of a binary node of ``bvh``, reading the children's boxes as the device does best."""
-    if on_cpu():
-        return order_children(bvh.lowers, bvh.uppers, first, origin_lower, origin_upper, inv_dir, t_min, t_max)
-    lower0, upper0, link0 = load_child(bvh.nodes, first)
-    lower1, upper1, link1 = load_child(bvh.nodes, first + 1)
+    """``order_pair`` of a binary node of ``bvh``, its children's boxes read by ``node_box``."""
+    lower0, upper0 = node_box(bvh, first)
+    lower1, upper1 = node_box(bvh, first + 1)
     return order_pair(first, lower0, upper0, lower1, upper1, origin_lower, origin_upper, inv_dir, t_min, t_max)
 
 
