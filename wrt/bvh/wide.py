@@ -37,7 +37,7 @@ from ..geometry import (
 )
 from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
-from .packed import load_child, pack_child
+from .packed import load_child, load_link, pack_child
 from .stack import SORT_SLOTS, WIDE_STACK, SortBuffer, WideStack
 from .traverse import TRACE_KERNEL_OPTIONS, reachable
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
@@ -48,6 +48,7 @@ wp.set_module_options({"enable_backward": False, "fuse_fp": False, "extra_build_
 
 WIDE_WIDTHS = {"wide": 4, "wide8": 8}  # layout name -> children per node
 MAX_WIDTH = SORT_SLOTS  # widest supported node: the sort buffer holds one entry per child
+RANKED_PUSH_WIDTH = 4  # CUDA closest hit: nodes up to this width order their children by rank, wider ones by sort
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
 
 
@@ -207,6 +208,8 @@ def _traversal_kernels(width: int) -> tuple:
     """``(trace_kernel, occluded_kernel)`` of the wide layout of ``width``: on CUDA the loop over a node's children
     is unrolled (a compile-time width), so the loads of all child boxes can be issued together."""
 
+    EntryVec = wp.types.vector(width, float)
+
     def wide_intersect(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
         """Closest hit with ``t_min <= t < t_max``.
 
@@ -225,7 +228,6 @@ def _traversal_kernels(width: int) -> tuple:
             inv_dir = safe_inverse(direction)
             origin_lower, origin_upper = box_origins(origin, direction)
             stack = WideStack()
-            entered = SortBuffer()
             top = int(0)
             ref = int(0)  # current wide node or leaf; the root is wide node 0
             count = int(0)
@@ -252,8 +254,41 @@ def _traversal_kernels(width: int) -> tuple:
                     ref = step[0]
                     count = step[1]
                     top = step[2]
+                elif wp.static(width <= RANKED_PUSH_WIDTH):
+                    # Wide node: test every child box, then push the entered children far to near, each at its rank
+                    # by entry distance (ties by slot), and continue with the nearest: no sort buffer in local memory.
+                    entry = EntryVec()
+                    node = ref
+                    for j in range(wp.static(width)):
+                        lower, upper, link = load_child(bvh.children, node * width + j)
+                        entry[j] = intersect_ray_box(origin_lower, origin_upper, inv_dir, lower, upper, t_min, best_t)
+                    m = int(0)
+                    for j in range(wp.static(width)):
+                        if reachable(entry[j], best_t):
+                            m += 1
+                    ref = -1
+                    for j in range(wp.static(width)):
+                        if reachable(entry[j], best_t):
+                            rank = int(0)
+                            for i in range(wp.static(width)):
+                                if wp.static(i < j):
+                                    if entry[i] <= entry[j]:
+                                        rank += 1
+                                elif wp.static(i > j):
+                                    if entry[i] < entry[j]:
+                                        rank += 1
+                            # The link is read again (an L1 hit) rather than kept in registers through the ranking.
+                            link = load_link(bvh.children, node * width + j)
+                            if rank == 0:
+                                ref = link[0]
+                                count = link[1]
+                            else:
+                                wp.wrt_stack_push(stack, top + m - 1 - rank, link[0], link[1], entry[j])
+                    top += wp.max(m - 1, 0)
                 else:
-                    # Wide node: test every child box, keep the entered ones sorted by entry distance.
+                    # Wider nodes: the same order through an insertion sort in a local buffer (ranking eight children
+                    # spilled registers and was slower: GPU_NOTES.md, row 33).
+                    entered = SortBuffer()
                     m = int(0)
                     for j in range(wp.static(width)):
                         c = ref * width + j
