@@ -39,7 +39,7 @@ _SIZES = {"NodeStack": MAX_DEPTH, "WideStack": WIDE_STACK, "SortBuffer": SORT_SL
 STACK_PREAMBLE = """
 namespace wrt {
 // One 16-byte entry per level, so a push or a pop is one vector access to local memory instead of one access per
-// field (H200: the wide layout's closest hit gained 0-4%, the others were unchanged; GPU_NOTES.md, row 33).
+// field (H200: speed within 3% either way; it makes the wide traversal's ranked pushes single stores; GPU_NOTES.md, row 33).
 struct alignas(ENTRY_ALIGN) StackEntry {
     int ref;    // node, or first slot of a leaf
     float t;    // entry distance
