@@ -38,8 +38,8 @@ _SIZES = {"NodeStack": MAX_DEPTH, "WideStack": WIDE_STACK, "SortBuffer": SORT_SL
 
 STACK_PREAMBLE = """
 namespace wrt {
-// One 16-byte entry per level, so a push or a pop is one vector access to local memory instead of one access per
-// field (H200: speed within 3% either way; it makes the wide traversal's ranked pushes single stores; GPU_NOTES.md, row 33).
+// One 16-byte entry per level, so a push or a pop is one vector access to local memory instead of one per field
+// (H200: within 3% either way by itself; the BVH4's ranked pushes are single stores with it; GPU_NOTES.md, row 33).
 struct alignas(ENTRY_ALIGN) StackEntry {
     int ref;    // node, or first slot of a leaf
     float t;    // entry distance
@@ -64,7 +64,8 @@ template <int N> CUDA_CALLABLE inline void stack_push(Stack<N>& s, int i, int re
 template <int N> CUDA_CALLABLE inline int stack_ref(const Stack<N>& s, int i) { return s.e[i].ref; }
 template <int N> CUDA_CALLABLE inline int stack_count(const Stack<N>& s, int i) { return s.e[i].count; }
 template <int N> CUDA_CALLABLE inline float stack_t(const Stack<N>& s, int i) { return s.e[i].t; }
-""".replace("ENTRY_ALIGN", str(ENTRY_ALIGN)) + "".join(f"using {name} = Stack<{n}>;\n" for name, n in _SIZES.items()) + "}  // namespace wrt\n"
+""".replace("ENTRY_ALIGN", str(ENTRY_ALIGN))
+STACK_PREAMBLE += "".join(f"using {name} = Stack<{n}>;\n" for name, n in _SIZES.items()) + "}  // namespace wrt\n"
 
 STACK_BUILD_OPTIONS = wp.ModuleBuildOptions(extra_cuda_preamble=STACK_PREAMBLE, extra_cpu_preamble=STACK_PREAMBLE)
 
