@@ -83,3 +83,45 @@ def test_device_resident_tree_matches_the_host_round_trip(device, builder, layou
     assert acc.device_bvh.num_prims == ref.num_prims
     np.testing.assert_array_equal(acc.bvh.left_first, host.left_first)  # copied to the host on first use
     assert len(copies) == 1
+
+
+def _bunny_instances(bunny) -> wrt.Scene:
+    """Eight copies of the bunny as instances (the TLAS over one BLAS), rotated and spread over a 3 x 3 grid."""
+    from wrt.instancing import Instances, Prototype
+    from wrt.scene import Mesh
+
+    points, indices = bunny.triangles()
+    proto = Prototype("/Bunny", [Mesh("/Bunny/Mesh", points, indices, np.arange(len(indices)))])
+    size = float(np.ptp(points, axis=0).max())
+    xforms = np.tile(np.eye(4), (8, 1, 1))
+    for i in range(8):
+        c, s = np.cos(0.7 * i), np.sin(0.7 * i)
+        xforms[i, :3, :3] = [[c, 0, s], [0, 1, 0], [-s, 0, c]]
+        xforms[i, :3, 3] = [size * (i % 3), 0.0, size * (i // 3)]
+    return wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(8, int), xforms))
+
+
+@pytest.mark.skipif(not wp.is_cuda_available(), reason="needs cuda:0")
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8", "instances"])
+def test_cuda_traversal_visits_what_the_cpu_visits(layout, bunny):
+    """On CUDA the lanes of a warp take leaf and node steps in turns (``wrt.bvh.turns``) and the BVH4 orders its
+    children by rank: neither may change what a ray visits, so hits and per-ray node and triangle counts are the
+    CPU's, and so are the any-hit answers."""
+    scene = _bunny_instances(bunny) if layout == "instances" else bunny
+    kwargs = {} if layout == "instances" else {"layout": layout}
+    o1, d1 = camera_rays(scene, width=160, height=120)
+    o2, d2 = random_rays(scene, 40_000, seed=3)
+    origins, directions = np.concatenate([o1, o2]), np.concatenate([d1, d2])
+    gpu = wrt.trace(scene, origins, directions, device="cuda:0", **kwargs)
+    cpu = wrt.trace(scene, origins, directions, device="cpu", **kwargs)
+    assert (gpu.prim >= 0).mean() > 0.3  # enough hits to mean something
+    np.testing.assert_array_equal(gpu.prim, cpu.prim)
+    np.testing.assert_array_equal(gpu.t, cpu.t)
+    np.testing.assert_array_equal(gpu.nodes_visited, cpu.nodes_visited)
+    np.testing.assert_array_equal(gpu.triangles_tested, cpu.triangles_tested)
+    # Rays that hit end just past their hit (blocked) or halfway to it (mostly open).
+    t_max = np.where(cpu.prim >= 0, cpu.t * np.where(np.arange(len(cpu.t)) % 2, 0.5, 1.01), np.inf)
+    blocked_gpu = wrt.occluded(scene, origins, directions, t_max=t_max, device="cuda:0", **kwargs)
+    blocked_cpu = wrt.occluded(scene, origins, directions, t_max=t_max, device="cpu", **kwargs)
+    assert 0.1 < blocked_cpu.mean() < 0.9
+    np.testing.assert_array_equal(blocked_gpu, blocked_cpu)

@@ -34,6 +34,7 @@ import warp as wp
 from .bvh import DeviceBvh, build_bvh
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import bvh_intersect, bvh_occluded, order_children, reachable
+from .bvh.turns import waits
 from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import invert_transforms, world_boxes
 from .primitives import intersect_shape, shape_uv
@@ -110,9 +111,11 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
         if reachable(root, best_t):
             node = 0
         while node >= 0:
-            nodes += 1
             count = tlas.prim_count[node]
             first = tlas.left_first[node]
+            if waits(count > 0):
+                continue
+            nodes += 1
             if count > 0:
                 # Leaf: trace each entry's BLAS with the ray moved into its space, up to the best hit so far.
                 for s in range(first, first + count):
@@ -185,6 +188,8 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
         while node >= 0 and not found:
             count = tlas.prim_count[node]
             first = tlas.left_first[node]
+            if waits(count > 0):
+                continue
             if count > 0:
                 for s in range(first, first + count):
                     b = tlas.entry_blas[s]

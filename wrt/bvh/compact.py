@@ -31,6 +31,7 @@ from ..geometry import (
 from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
 from .traverse import TRACE_KERNEL_OPTIONS, reachable
+from .turns import waits
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
 # differed from the binary layout's and from the CPU's.
@@ -159,6 +160,8 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
         ref = int(0)  # current node or leaf; the root is inner node 0
         count = int(0)
         while ref >= 0:
+            if waits(count > 0):
+                continue
             nodes += 1
             if count > 0:
                 # Leaf: test its triangles, stored in slot order.
@@ -236,6 +239,8 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
         ref = int(0)
         count = int(0)
         while ref >= 0 and not found:
+            if waits(count > 0):
+                continue
             if count > 0:
                 for s in range(ref, ref + count):
                     hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])

@@ -24,6 +24,7 @@ from ..geometry import (
 from .layout import DeviceBvh
 from .packed import load_child, load_link
 from .stack import NodeStack
+from .turns import waits
 from .wide_cpu import on_cpu
 
 # CUDA register cap of the trace and any-hit kernels of every layout: 64 registers give 4 blocks of 256 threads per
@@ -145,8 +146,10 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
         if reachable(root, best_t):
             node = 0
         while node >= 0:
-            nodes += 1
             first, count = node_link(bvh, node)
+            if waits(count > 0):
+                continue
+            nodes += 1
             if count > 0:
                 # Leaf: test its triangles, stored in slot order.
                 for s in range(first, first + count):
@@ -199,6 +202,8 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
             node = 0
         while node >= 0 and not found:
             first, count = node_link(bvh, node)
+            if waits(count > 0):
+                continue
             if count > 0:
                 for s in range(first, first + count):
                     hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])

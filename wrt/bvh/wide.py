@@ -40,6 +40,7 @@ from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .packed import load_child, load_link, pack_child
 from .stack import SORT_SLOTS, WIDE_STACK, SortBuffer, WideStack
 from .traverse import TRACE_KERNEL_OPTIONS, reachable
+from .turns import waits
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
@@ -232,6 +233,8 @@ def _traversal_kernels(width: int) -> tuple:
             ref = int(0)  # current wide node or leaf; the root is wide node 0
             count = int(0)
             while ref >= 0:
+                if waits(count > 0):
+                    continue
                 nodes += 1
                 if count > 0:
                     # Leaf: test its triangles, stored in slot order.
@@ -347,6 +350,8 @@ def _traversal_kernels(width: int) -> tuple:
             ref = int(0)
             count = int(0)
             while ref >= 0 and not found:
+                if waits(count > 0):
+                    continue
                 if count > 0:
                     for s in range(ref, ref + count):
                         hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
