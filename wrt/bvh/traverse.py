@@ -14,6 +14,7 @@ depend on the tree or the visiting order. Boxes are entered when their entry dis
 import warp as wp
 
 from ..geometry import (
+    ShearedRay,
     box_origins,
     intersect_ray_box,
     intersect_ray_triangle,
@@ -31,6 +32,13 @@ from .wide_cpu import on_cpu
 # SM where the compact kernel's 77 and the wide one's 70 gave 3. H200, against the uncapped kernels in one run:
 # compact and wide incoherent +11-13%, binary unchanged (already 64), mixed on diffuse rays (GPU_NOTES.md, row 20).
 TRACE_KERNEL_OPTIONS = {"cuda_max_registers": 64}
+
+
+def renamed(fn, suffix: str):
+    """``fn`` named ``<name><suffix>``: Warp keys functions and kernels by their qualified name, so each variant
+    that a kernel factory makes needs its own."""
+    fn.__name__ = fn.__qualname__ = f"{fn.__name__}{suffix}"
+    return fn
 
 
 @wp.func
@@ -122,6 +130,32 @@ def reachable(t_entry: float, best_t: float):
 
 
 @wp.func
+def reported_hit(
+    ray: ShearedRay,
+    v0: wp.array[wp.vec3],
+    v1: wp.array[wp.vec3],
+    v2: wp.array[wp.vec3],
+    prim_ids: wp.array[wp.int32],
+    best_slot: int,
+    best_t: float,
+):
+    """``(t, u, v, prim)`` of a closest-hit traversal that ended with the triangle in slot ``best_slot`` at
+    ``best_t`` (``-1``: a miss, ``t = inf``). The traversal keeps only the slot and ``t``; the barycentrics are
+    computed again here by the same deterministic test, bit for bit the ones it found, so two fewer values stay live
+    through the loop (H200, with the uncounted kernels of ``wrt.trace.Accelerator``: BVH4 closest hit +6-8% on
+    diffuse and incoherent rays; GPU_NOTES.md rows 37-38)."""
+    t = float(wp.inf)
+    u = float(0.0)
+    v = float(0.0)
+    prim = int(-1)
+    if best_slot >= 0:
+        hit, t_again, u, v = intersect_ray_triangle(ray, v0[best_slot], v1[best_slot], v2[best_slot])
+        t = best_t
+        prim = prim_ids[best_slot]
+    return t, u, v, prim
+
+
+@wp.func
 def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
     """Closest hit with ``t_min <= t < t_max``.
 
@@ -129,13 +163,11 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
         ``(t, u, v, prim, nodes_visited, triangles_tested)``; ``prim = -1`` and ``t = inf`` on a miss.
     """
     best_t = t_max
-    best_u = float(0.0)
-    best_v = float(0.0)
     best_slot = int(-1)
     nodes = int(0)
     tests = int(0)
+    ray = make_sheared_ray(origin, direction)  # also for rays that cannot hit: reported_hit takes it
     if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
-        ray = make_sheared_ray(origin, direction)
         inv_dir = safe_inverse(direction)
         origin_lower, origin_upper = box_origins(origin, direction)
         stack = NodeStack()
@@ -158,8 +190,6 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
                     if hit and t >= t_min:
                         if t < best_t or (t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]):
                             best_t = t
-                            best_u = u
-                            best_v = v
                             best_slot = s
                 node = -1
             else:
@@ -178,12 +208,8 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
                 top -= 1
                 if wp.wrt_stack_t(stack, top) <= best_t:
                     node = wp.wrt_stack_ref(stack, top)
-    prim = int(-1)
-    if best_slot >= 0:
-        prim = bvh.prim_ids[best_slot]
-    else:
-        best_t = wp.inf
-    return best_t, best_u, best_v, prim, nodes, tests
+    t, u, v, prim = reported_hit(ray, bvh.v0, bvh.v1, bvh.v2, bvh.prim_ids, best_slot, best_t)
+    return t, u, v, prim, nodes, tests
 
 
 @wp.func

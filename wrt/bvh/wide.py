@@ -39,7 +39,7 @@ from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .packed import load_child, load_link, pack_child
 from .stack import SORT_SLOTS, WIDE_STACK, SortBuffer, WideStack
-from .traverse import TRACE_KERNEL_OPTIONS, reachable
+from .traverse import TRACE_KERNEL_OPTIONS, reachable, renamed, reported_hit
 from .turns import waits
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
 
@@ -206,8 +206,9 @@ def _collapse(binary: list, width: int) -> tuple:
 
 
 def _traversal_kernels(width: int) -> tuple:
-    """``(trace_kernel, occluded_kernel)`` of the wide layout of ``width``: on CUDA the loop over a node's children
-    is unrolled (a compile-time width), so the loads of all child boxes can be issued together."""
+    """``(trace_kernel, uncounted_trace_kernel, occluded_kernel)`` of the wide layout of ``width``: on CUDA the loop
+    over a node's children is unrolled (a compile-time width), so the loads of all child boxes can be issued
+    together. The uncounted trace kernel does not count each ray's traversal cost."""
 
     EntryVec = wp.types.vector(width, float)
 
@@ -219,13 +220,11 @@ def _traversal_kernels(width: int) -> tuple:
             ``nodes_visited`` counts wide nodes and leaves entered.
         """
         best_t = t_max
-        best_u = float(0.0)
-        best_v = float(0.0)
         best_slot = int(-1)
         nodes = int(0)
         tests = int(0)
+        ray = make_sheared_ray(origin, direction)  # also for rays that cannot hit: reported_hit takes it
         if bvh.num_prims > 0 and ray_can_hit(origin, direction, t_min, t_max):
-            ray = make_sheared_ray(origin, direction)
             inv_dir = safe_inverse(direction)
             origin_lower, origin_upper = box_origins(origin, direction)
             stack = WideStack()
@@ -245,8 +244,6 @@ def _traversal_kernels(width: int) -> tuple:
                             tie = t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]
                             if t < best_t or tie:
                                 best_t = t
-                                best_u = u
-                                best_v = v
                                 best_slot = s
                     ref = -1
                 elif on_cpu():
@@ -330,12 +327,8 @@ def _traversal_kernels(width: int) -> tuple:
                     if wp.wrt_stack_t(stack, top) <= best_t:
                         ref = wp.wrt_stack_ref(stack, top)
                         count = wp.wrt_stack_count(stack, top)
-        prim = int(-1)
-        if best_slot >= 0:
-            prim = bvh.prim_ids[best_slot]
-        else:
-            best_t = wp.inf
-        return best_t, best_u, best_v, prim, nodes, tests
+        t, u, v, prim = reported_hit(ray, bvh.v0, bvh.v1, bvh.v2, bvh.prim_ids, best_slot, best_t)
+        return t, u, v, prim, nodes, tests
 
 
     def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
@@ -383,28 +376,33 @@ def _traversal_kernels(width: int) -> tuple:
         return found
 
 
-    def trace_wide_kernel(
-        bvh: DeviceWideBvh,
-        origins: wp.array[wp.vec3],
-        directions: wp.array[wp.vec3],
-        t_mins: wp.array[float],
-        t_maxs: wp.array[float],
-        # outputs
-        ts: wp.array[float],
-        us: wp.array[float],
-        vs: wp.array[float],
-        prims: wp.array[wp.int32],
-        costs: wp.array[wp.vec2i],
-    ):
-        """Closest hit of every ray through the wide layout; ``costs`` gets (nodes visited, triangles tested)."""
-        i = wp.tid()
-        t, u, v, prim, nodes, tests = wide_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-        ts[i] = t
-        us[i] = u
-        vs[i] = v
-        prims[i] = prim
-        costs[i] = wp.vec2i(nodes, tests)
+    def make_trace(counted: bool):
+        def trace_wide_kernel(
+            bvh: DeviceWideBvh,
+            origins: wp.array[wp.vec3],
+            directions: wp.array[wp.vec3],
+            t_mins: wp.array[float],
+            t_maxs: wp.array[float],
+            # outputs
+            ts: wp.array[float],
+            us: wp.array[float],
+            vs: wp.array[float],
+            prims: wp.array[wp.int32],
+            costs: wp.array[wp.vec2i],
+        ):
+            """Closest hit of every ray through the wide layout; ``costs`` gets (nodes visited, triangles tested), or is
+            not touched by the uncounted kernel."""
+            i = wp.tid()
+            t, u, v, prim, nodes, tests = wide_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
+            ts[i] = t
+            us[i] = u
+            vs[i] = v
+            prims[i] = prim
+            if wp.static(counted):
+                costs[i] = wp.vec2i(nodes, tests)
 
+        suffix = f"{width}" if counted else f"{width}_uncounted"
+        return wp.kernel(**TRACE_KERNEL_OPTIONS)(renamed(trace_wide_kernel, suffix))
 
     def occluded_wide_kernel(
         bvh: DeviceWideBvh,
@@ -419,16 +417,11 @@ def _traversal_kernels(width: int) -> tuple:
         i = wp.tid()
         blocked[i] = wp.where(wide_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
 
-    def named(fn, suffix):
-        # Warp keys functions and kernels by their qualified name: the two widths' copies need different ones.
-        fn.__name__ = fn.__qualname__ = f"{fn.__name__}{suffix}"
-        return fn
-
-    wide_intersect = wp.func(named(wide_intersect, width))
-    wide_occluded = wp.func(named(wide_occluded, width))
-    trace = wp.kernel(**TRACE_KERNEL_OPTIONS)(named(trace_wide_kernel, width))
-    occluded = wp.kernel(**TRACE_KERNEL_OPTIONS)(named(occluded_wide_kernel, width))
-    return trace, occluded
+    # Warp keys functions and kernels by their qualified name: the two widths' copies need different ones.
+    wide_intersect = wp.func(renamed(wide_intersect, width))
+    wide_occluded = wp.func(renamed(wide_occluded, width))
+    occluded = wp.kernel(**TRACE_KERNEL_OPTIONS)(renamed(occluded_wide_kernel, width))
+    return make_trace(True), make_trace(False), occluded
 
 
 WIDE_KERNELS = {width: _traversal_kernels(width) for width in sorted(set(WIDE_WIDTHS.values()))}
