@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib
+import inspect
 import json
 import os
 import statistics
@@ -159,8 +160,13 @@ def run(args, device) -> None:
                     # The same tree as each package's own FlatBvh, so its kernels get their own struct types.
                     own = mod.FlatBvh(**{f.name: getattr(flat, f.name) for f in dataclasses.fields(flat)})
                     tree = mod.convert_layout(own, layout).to_device(points, indices, device)
+                    # Closest hit without per-ray cost counters where the package has such kernels (wrt.trace's
+                    # Accelerator docstring): what renders trace their bounces with, and wp.Mesh counts nothing.
                     if layout == "binary":
-                        kernels = trace_mods[tag].trace_bvh_kernel, trace_mods[tag].occluded_bvh_kernel
+                        trace = getattr(trace_mods[tag], "trace_bvh_kernel_uncounted", trace_mods[tag].trace_bvh_kernel)
+                        kernels = trace, trace_mods[tag].occluded_bvh_kernel
+                    elif "counted" in inspect.signature(mod.layout_kernels).parameters:
+                        kernels = mod.layout_kernels(layout, counted=False)
                     else:
                         kernels = mod.layout_kernels(layout)
                     wrt_subjects.append((f"{tag}:{layout}{suffix}", *kernels, tree))
