@@ -27,7 +27,7 @@ from .bvh.build import Builder
 from .bvh.common import check_triangles
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
-from .bvh.traverse import TRACE_KERNEL_OPTIONS, bvh_intersect, bvh_occluded, renamed
+from .bvh.traverse import TRACE_KERNEL_OPTIONS, bvh_intersect, bvh_occluded, closest_hit_kernel
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .geometry import ray_can_hit
 from .scene import Scene
@@ -44,38 +44,8 @@ WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor va
 WARP_MAX_TRIANGLES = 1 << 27  # accel="warp" flattens instances; larger instanced scenes are refused
 
 
-def _trace_bvh_kernel(counted: bool):
-    """The binary layout's closest-hit kernel, counting each ray's traversal cost or not (see ``Accelerator``)."""
-
-    def trace_bvh_kernel(
-        bvh: DeviceBvh,
-        origins: wp.array[wp.vec3],
-        directions: wp.array[wp.vec3],
-        t_mins: wp.array[float],
-        t_maxs: wp.array[float],
-        # outputs
-        ts: wp.array[float],
-        us: wp.array[float],
-        vs: wp.array[float],
-        prims: wp.array[wp.int32],
-        costs: wp.array[wp.vec2i],
-    ):
-        """Closest hit of every ray through wrt's BVH; ``costs`` gets (nodes visited, triangles tested), or is not
-        touched by the uncounted kernel."""
-        i = wp.tid()
-        t, u, v, prim, nodes, tests = bvh_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-        ts[i] = t
-        us[i] = u
-        vs[i] = v
-        prims[i] = prim
-        if wp.static(counted):
-            costs[i] = wp.vec2i(nodes, tests)
-
-    return wp.kernel(**TRACE_KERNEL_OPTIONS)(renamed(trace_bvh_kernel, "" if counted else "_uncounted"))
-
-
-trace_bvh_kernel = _trace_bvh_kernel(True)
-trace_bvh_kernel_uncounted = _trace_bvh_kernel(False)
+trace_bvh_kernel = closest_hit_kernel(bvh_intersect, DeviceBvh, "trace_bvh_kernel", True, __name__)
+trace_bvh_kernel_uncounted = closest_hit_kernel(bvh_intersect, DeviceBvh, "trace_bvh_kernel", False, __name__)
 
 
 @wp.kernel(**TRACE_KERNEL_OPTIONS)

@@ -30,7 +30,7 @@ from ..geometry import (
 )
 from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
-from .traverse import TRACE_KERNEL_OPTIONS, reachable, renamed, reported_hit
+from .traverse import TRACE_KERNEL_OPTIONS, closest_hit_kernel, reachable, reported_hit
 from .turns import waits
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
@@ -282,38 +282,10 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
     return found
 
 
-def _trace_compact_kernel(counted: bool):
-    """The compact layout's closest-hit kernel, counting each ray's traversal cost or not."""
-
-    def trace_compact_kernel(
-        bvh: DeviceCompactBvh,
-        origins: wp.array[wp.vec3],
-        directions: wp.array[wp.vec3],
-        t_mins: wp.array[float],
-        t_maxs: wp.array[float],
-        # outputs
-        ts: wp.array[float],
-        us: wp.array[float],
-        vs: wp.array[float],
-        prims: wp.array[wp.int32],
-        costs: wp.array[wp.vec2i],
-    ):
-        """Closest hit of every ray through the compact layout; ``costs`` gets (nodes visited, triangles tested),
-        or is not touched by the uncounted kernel."""
-        i = wp.tid()
-        t, u, v, prim, nodes, tests = compact_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-        ts[i] = t
-        us[i] = u
-        vs[i] = v
-        prims[i] = prim
-        if wp.static(counted):
-            costs[i] = wp.vec2i(nodes, tests)
-
-    return wp.kernel(**TRACE_KERNEL_OPTIONS)(renamed(trace_compact_kernel, "" if counted else "_uncounted"))
-
-
-trace_compact_kernel = _trace_compact_kernel(True)
-trace_compact_kernel_uncounted = _trace_compact_kernel(False)
+trace_compact_kernel = closest_hit_kernel(compact_intersect, DeviceCompactBvh, "trace_compact_kernel", True, __name__)
+trace_compact_kernel_uncounted = closest_hit_kernel(
+    compact_intersect, DeviceCompactBvh, "trace_compact_kernel", False, __name__
+)
 
 
 @wp.kernel(**TRACE_KERNEL_OPTIONS)

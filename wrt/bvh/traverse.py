@@ -34,11 +34,36 @@ from .wide_cpu import on_cpu
 TRACE_KERNEL_OPTIONS = {"cuda_max_registers": 64}
 
 
-def renamed(fn, suffix: str):
-    """``fn`` named ``<name><suffix>``: Warp keys functions and kernels by their qualified name, so each variant
-    that a kernel factory makes needs its own."""
-    fn.__name__ = fn.__qualname__ = f"{fn.__name__}{suffix}"
-    return fn
+
+def closest_hit_kernel(intersect, bvh_type, name: str, counted: bool, module: str):
+    """A kernel of ``module`` (whose build options it takes) tracing the closest hit of every ray through
+    ``intersect``, a layout's closest-hit function over a ``bvh_type``; named ``name``, with ``_uncounted`` appended
+    without ``counted``. ``costs`` gets (nodes visited, triangles tested), or is not touched by the uncounted kernel
+    (see ``wrt.trace.Accelerator``)."""
+
+    def trace_kernel(
+        bvh: bvh_type,
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        t_mins: wp.array[float],
+        t_maxs: wp.array[float],
+        # outputs
+        ts: wp.array[float],
+        us: wp.array[float],
+        vs: wp.array[float],
+        prims: wp.array[wp.int32],
+        costs: wp.array[wp.vec2i],
+    ):
+        i = wp.tid()
+        t, u, v, prim, nodes, tests = intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
+        ts[i] = t
+        us[i] = u
+        vs[i] = v
+        prims[i] = prim
+        if wp.static(counted):
+            costs[i] = wp.vec2i(nodes, tests)
+
+    return wp.kernel(trace_kernel, name=name if counted else f"{name}_uncounted", module=module, **TRACE_KERNEL_OPTIONS)
 
 
 @wp.func

@@ -39,7 +39,7 @@ from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .packed import load_child, load_link, pack_child
 from .stack import SORT_SLOTS, WIDE_STACK, SortBuffer, WideStack
-from .traverse import TRACE_KERNEL_OPTIONS, reachable, renamed, reported_hit
+from .traverse import TRACE_KERNEL_OPTIONS, closest_hit_kernel, reachable, reported_hit
 from .turns import waits
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
 
@@ -376,34 +376,6 @@ def _traversal_kernels(width: int) -> tuple:
         return found
 
 
-    def make_trace(counted: bool):
-        def trace_wide_kernel(
-            bvh: DeviceWideBvh,
-            origins: wp.array[wp.vec3],
-            directions: wp.array[wp.vec3],
-            t_mins: wp.array[float],
-            t_maxs: wp.array[float],
-            # outputs
-            ts: wp.array[float],
-            us: wp.array[float],
-            vs: wp.array[float],
-            prims: wp.array[wp.int32],
-            costs: wp.array[wp.vec2i],
-        ):
-            """Closest hit of every ray through the wide layout; ``costs`` gets (nodes visited, triangles tested), or is
-            not touched by the uncounted kernel."""
-            i = wp.tid()
-            t, u, v, prim, nodes, tests = wide_intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-            ts[i] = t
-            us[i] = u
-            vs[i] = v
-            prims[i] = prim
-            if wp.static(counted):
-                costs[i] = wp.vec2i(nodes, tests)
-
-        suffix = f"{width}" if counted else f"{width}_uncounted"
-        return wp.kernel(**TRACE_KERNEL_OPTIONS)(renamed(trace_wide_kernel, suffix))
-
     def occluded_wide_kernel(
         bvh: DeviceWideBvh,
         origins: wp.array[wp.vec3],
@@ -417,11 +389,18 @@ def _traversal_kernels(width: int) -> tuple:
         i = wp.tid()
         blocked[i] = wp.where(wide_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
 
-    # Warp keys functions and kernels by their qualified name: the two widths' copies need different ones.
-    wide_intersect = wp.func(renamed(wide_intersect, width))
-    wide_occluded = wp.func(renamed(wide_occluded, width))
-    occluded = wp.kernel(**TRACE_KERNEL_OPTIONS)(renamed(occluded_wide_kernel, width))
-    return make_trace(True), make_trace(False), occluded
+    def named(fn, suffix):
+        # Warp keys functions and kernels by their qualified name: the two widths' copies need different ones.
+        fn.__name__ = fn.__qualname__ = f"{fn.__name__}{suffix}"
+        return fn
+
+    wide_intersect = wp.func(named(wide_intersect, width))
+    wide_occluded = wp.func(named(wide_occluded, width))
+    occluded = wp.kernel(**TRACE_KERNEL_OPTIONS)(named(occluded_wide_kernel, width))
+    name = f"trace_wide_kernel{width}"
+    trace = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, True, __name__)
+    uncounted = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, False, __name__)
+    return trace, uncounted, occluded
 
 
 WIDE_KERNELS = {width: _traversal_kernels(width) for width in sorted(set(WIDE_WIDTHS.values()))}
