@@ -27,7 +27,7 @@ from .bvh.build import Builder
 from .bvh.common import check_triangles
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
-from .bvh.traverse import TRACE_KERNEL_OPTIONS, bvh_intersect, bvh_occluded, closest_hit_kernel
+from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernel
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .geometry import ray_can_hit
 from .scene import Scene
@@ -48,19 +48,7 @@ trace_bvh_kernel = closest_hit_kernel(bvh_intersect, DeviceBvh, "trace_bvh_kerne
 trace_bvh_kernel_uncounted = closest_hit_kernel(bvh_intersect, DeviceBvh, "trace_bvh_kernel", False, __name__)
 
 
-@wp.kernel(**TRACE_KERNEL_OPTIONS)
-def occluded_bvh_kernel(
-    bvh: DeviceBvh,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    blocked: wp.array[wp.int32],
-):
-    """1 for every ray that hits anything in ``[t_min, t_max)``."""
-    i = wp.tid()
-    blocked[i] = wp.where(bvh_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+occluded_bvh_kernel = any_hit_kernel(bvh_occluded, DeviceBvh, "occluded_bvh_kernel", __name__)
 
 
 @wp.func

@@ -30,7 +30,7 @@ from ..geometry import (
 )
 from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
-from .traverse import TRACE_KERNEL_OPTIONS, closest_hit_kernel, reachable, reported_hit
+from .traverse import any_hit_kernel, closest_hit_kernel, reachable, reported_hit
 from .turns import waits
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
@@ -288,16 +288,4 @@ trace_compact_kernel_uncounted = closest_hit_kernel(
 )
 
 
-@wp.kernel(**TRACE_KERNEL_OPTIONS)
-def occluded_compact_kernel(
-    bvh: DeviceCompactBvh,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    blocked: wp.array[wp.int32],
-):
-    """1 for every ray that hits anything in ``[t_min, t_max)``."""
-    i = wp.tid()
-    blocked[i] = wp.where(compact_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+occluded_compact_kernel = any_hit_kernel(compact_occluded, DeviceCompactBvh, "occluded_compact_kernel", __name__)

@@ -34,7 +34,6 @@ from .wide_cpu import on_cpu
 TRACE_KERNEL_OPTIONS = {"cuda_max_registers": 64}
 
 
-
 def closest_hit_kernel(intersect, bvh_type, name: str, counted: bool, module: str):
     """A kernel of ``module`` (whose build options it takes) tracing the closest hit of every ray through
     ``intersect``, a layout's closest-hit function over a ``bvh_type``; named ``name``, with ``_uncounted`` appended
@@ -64,6 +63,26 @@ def closest_hit_kernel(intersect, bvh_type, name: str, counted: bool, module: st
             costs[i] = wp.vec2i(nodes, tests)
 
     return wp.kernel(trace_kernel, name=name if counted else f"{name}_uncounted", module=module, **TRACE_KERNEL_OPTIONS)
+
+
+
+def any_hit_kernel(occluded, bvh_type, name: str, module: str):
+    """A kernel of ``module`` (whose build options it takes), named ``name``, writing 1 for every ray that
+    ``occluded`` (a layout's any-hit function over a ``bvh_type``) finds blocked in ``[t_min, t_max)``, else 0."""
+
+    def occluded_kernel(
+        bvh: bvh_type,
+        origins: wp.array[wp.vec3],
+        directions: wp.array[wp.vec3],
+        t_mins: wp.array[float],
+        t_maxs: wp.array[float],
+        # outputs
+        blocked: wp.array[wp.int32],
+    ):
+        i = wp.tid()
+        blocked[i] = wp.where(occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+
+    return wp.kernel(occluded_kernel, name=name, module=module, **TRACE_KERNEL_OPTIONS)
 
 
 @wp.func

@@ -39,7 +39,7 @@ from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .packed import load_child, load_link, pack_child
 from .stack import SORT_SLOTS, WIDE_STACK, SortBuffer, WideStack
-from .traverse import TRACE_KERNEL_OPTIONS, closest_hit_kernel, reachable, reported_hit
+from .traverse import any_hit_kernel, closest_hit_kernel, reachable, reported_hit
 from .turns import waits
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
 
@@ -375,20 +375,6 @@ def _traversal_kernels(width: int) -> tuple:
                     count = wp.wrt_stack_count(stack, top)
         return found
 
-
-    def occluded_wide_kernel(
-        bvh: DeviceWideBvh,
-        origins: wp.array[wp.vec3],
-        directions: wp.array[wp.vec3],
-        t_mins: wp.array[float],
-        t_maxs: wp.array[float],
-        # outputs
-        blocked: wp.array[wp.int32],
-    ):
-        """1 for every ray that hits anything in ``[t_min, t_max)``."""
-        i = wp.tid()
-        blocked[i] = wp.where(wide_occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
-
     def named(fn, suffix):
         # Warp keys functions and kernels by their qualified name: the two widths' copies need different ones.
         fn.__name__ = fn.__qualname__ = f"{fn.__name__}{suffix}"
@@ -396,10 +382,10 @@ def _traversal_kernels(width: int) -> tuple:
 
     wide_intersect = wp.func(named(wide_intersect, width))
     wide_occluded = wp.func(named(wide_occluded, width))
-    occluded = wp.kernel(**TRACE_KERNEL_OPTIONS)(named(occluded_wide_kernel, width))
     name = f"trace_wide_kernel{width}"
     trace = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, True, __name__)
     uncounted = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, False, __name__)
+    occluded = any_hit_kernel(wide_occluded, DeviceWideBvh, f"occluded_wide_kernel{width}", __name__)
     return trace, uncounted, occluded
 
 
