@@ -103,7 +103,8 @@ def main() -> None:
     parser.add_argument("--kinds", default="primary,shadow,diffuse,incoherent", help="comma list of ray kinds")
     parser.add_argument("--layouts", default="binary,compact,wide", help="wrt layouts to measure")
     parser.add_argument("--constructors", default="sah,lbvh,cubql", help="wp.Mesh constructors to measure")
-    parser.add_argument("--trees", default="8:1", help="wrt sah trees to measure, as LEAF_SIZE:INTERSECTION_COST each")
+    parser.add_argument("--trees", default="8:1:6",
+                        help="wrt sah trees to measure, as LEAF_SIZE:INTERSECTION_COST[:PRESPLIT] each")
     parser.add_argument("--json", help="also write the rows here (default: $OUT/gpu_traversal_ab.json if $OUT is set)")
     args = parser.parse_args()
     if args.assets:
@@ -147,14 +148,16 @@ def run(args, device) -> None:
         points, indices = scene.triangles()
         wrt_subjects = []  # (name, trace kernel, occluded kernel, device tree)
         for variant in args.trees.split(","):
-            leaf_size, intersection_cost = int(variant.split(":")[0]), float(variant.split(":")[1])
+            fields = variant.split(":")
+            leaf_size, intersection_cost = int(fields[0]), float(fields[1])
+            presplit = {"presplit": int(fields[2])} if len(fields) > 2 else {}
             log(f"scene {scene_name}: {len(indices)} triangles; building wrt sah tree {variant} on {device.alias}")
             start = time.perf_counter()
             flat = build_bvh(points, indices, "sah", leaf_size=leaf_size, intersection_cost=intersection_cost,
-                             device=device)
+                             device=device, **presplit)
             log(f"  wrt sah {variant}: {1000 * (time.perf_counter() - start):.0f} ms, {flat.num_nodes} nodes, "
                 f"SAH {flat.stats(epo_samples=0)['sah_cost']:.2f}")
-            suffix = "" if variant == "8:1" else f"@{variant}"
+            suffix = "" if variant == "8:1:6" else f"@{variant}"  # the accelerators' tree (trace.py) unnamed
             for layout in args.layouts.split(","):
                 for tag, mod in layout_mods.items():
                     # The same tree as each package's own FlatBvh, so its kernels get their own struct types.
@@ -216,6 +219,8 @@ def run(args, device) -> None:
                 if reference is not None:
                     row["agree_warp_sah"] = float(np.mean(answers[s.name][-1] == reference[-1]))
                 old = answers.get("old:" + s.name.split(":", 1)[1]) if s.name.startswith("wrt:") else None
+                if "@" in s.name:  # another tree of the same triangles: the default tree's hits are the reference
+                    old = answers.get(s.name.split("@")[0])
                 if old is not None:
                     row["identical_to_old"] = all(np.array_equal(a, b) for a, b in zip(answers[s.name], old))
                 rows.append(row)

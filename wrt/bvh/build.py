@@ -25,6 +25,7 @@ import warp as wp
 
 from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput, stage
 from .layout import DeviceFlatBvh, FlatBvh
+from .presplit import MAX_SPLIT_LEVELS, map_slots_kernel, presplit_references
 
 ALIASES = {"binned_sah": "sah"}  # alternative names -> canonical builder name
 
@@ -64,7 +65,8 @@ def build_bvh(points, indices, builder: str = "sah", **options) -> FlatBvh:
         indices: ``(T, 3)`` int32 triangle vertex indices, numpy or ``wp.array``.
         builder: a :class:`Builder` name (see module docstring).
         **options: the keyword options of :func:`build_bvh_device` (``leaf_size``, ``bins``, ``traversal_cost``,
-            ``intersection_cost``, ``morton_bits``, ``ploc_radius``, ``threads``, ``device``, ``timers``).
+            ``intersection_cost``, ``morton_bits``, ``ploc_radius``, ``presplit``, ``threads``, ``device``,
+            ``timers``).
 
     Returns:
         The :class:`FlatBvh`, with ``build_seconds`` set (input checks and host transfers included) and the
@@ -113,6 +115,7 @@ def build_bvh_device(
     intersection_cost: float = 1.0,
     morton_bits: int = 30,
     ploc_radius: int = 8,
+    presplit: int = 0,
     threads: int | None = None,
     device=None,
     timers: dict | None = None,
@@ -132,6 +135,8 @@ def build_bvh_device(
         morton_bits: Morton code length for ``lbvh`` and ``ploc``: 30 (10 bits per axis) or 63 (21 per axis).
         ploc_radius: PLOC nearest-neighbour search radius (clusters on either side in Morton order). 8 gave the
             lowest mean SAH cost over turbineblade, chess_set, bunny, rocks and bear (the paper's 16: +1.3% mean).
+        presplit: halve the boxes of long diagonal triangles up to this many times before the build, so each
+            becomes up to ``2**presplit`` references with tighter boxes (``presplit.py``); 0: off.
         threads: CPU threads of ``sah``/``middle`` on a CPU device (each level's nodes are split between them;
             Warp's CPU launches are single-threaded); ``None``: every core. The tree does not depend on it.
         device: Warp device to build on; the default device when ``None``.
@@ -147,6 +152,7 @@ def build_bvh_device(
     if check_int_option("morton_bits", morton_bits, 0, None) not in (30, 63):
         raise ValueError(f"morton_bits must be 30 or 63, got {morton_bits}")
     ploc_radius = check_int_option("ploc_radius", ploc_radius, 1, 64)
+    presplit = check_int_option("presplit", presplit, 0, MAX_SPLIT_LEVELS)
     check_costs(traversal_cost, intersection_cost)
     if threads is not None:
         threads = check_int_option("threads", threads, 1, None)
@@ -158,6 +164,21 @@ def build_bvh_device(
         types = (wp.vec3, wp.vec3, wp.int32, wp.int32, wp.int32)
         arrays = [wp.array(a, dtype=t, device=data.device) for a, t in zip(fields, types)]
         return DeviceFlatBvh(*arrays, builder=kind.value)
+    ref_prims = None
+    if presplit:
+        with stage("pre-splits", timers):
+            data.prim_lowers, data.prim_uppers, data.centroids, ref_prims = presplit_references(
+                data.points, data.indices, presplit)
+            data.num_prims = len(ref_prims)
+    tree = _build(kind, data, leaf_size, bins, morton_bits, ploc_radius, threads, timers,
+                  traversal_cost, intersection_cost)
+    if ref_prims is not None:
+        wp.launch(map_slots_kernel, len(tree.prim_ids), inputs=[ref_prims, tree.prim_ids], device=data.device)
+    return tree
+
+
+def _build(kind, data, leaf_size, bins, morton_bits, ploc_radius, threads, timers, traversal_cost,
+           intersection_cost) -> DeviceFlatBvh:
     sah = {"traversal_cost": float(traversal_cost), "intersection_cost": float(intersection_cost)}
     if kind in (Builder.SAH, Builder.MIDDLE):
         from .binned import build_binned

@@ -154,7 +154,8 @@ class FlatBvh:
     def validate(self, max_depth: int | None = None) -> None:
         """Checks the structural invariants; raises ``AssertionError`` naming the first one broken.
 
-        Every triangle sits in exactly one leaf, every node is reached exactly once, child boxes lie inside their
+        Every slot sits in exactly one leaf, every triangle in at least one slot (exactly one unless the tree was
+        built with pre-splits, ``presplit.py``), every node is reached exactly once, child boxes lie inside their
         parent's, no inner node is empty, and no leaf is deeper than ``max_depth - 1`` (the traversal stack).
         """
         from .common import MAX_DEPTH
@@ -179,7 +180,12 @@ class FlatBvh:
         covered = np.zeros(n, np.int64)
         np.add.at(covered, np.repeat(first, count) + _ranges(count), 1)
         assert np.all(covered == 1), "leaf slot ranges do not cover every slot exactly once"
-        assert np.array_equal(np.sort(self.prim_ids), np.arange(n)), "prim_ids is not a permutation"
+        triangles = n if self.indices is None else int(np.size(self.indices)) // 3
+        if n == triangles:
+            assert np.array_equal(np.sort(self.prim_ids), np.arange(n)), "prim_ids is not a permutation"
+        else:  # pre-split references: several slots may hold one triangle
+            assert np.all((self.prim_ids >= 0) & (self.prim_ids < triangles)), "prim_ids out of range"
+            assert np.unique(self.prim_ids).size == triangles, "a triangle is in no slot"
         for child in (children, children + 1):
             parents = np.flatnonzero(inner)
             assert np.all(self.lowers[child] >= self.lowers[parents]), "child box below its parent's"

@@ -61,6 +61,9 @@ class Refitter:
         self.host = host
         self.device_bvh = device_bvh
         self.device = device
+        # Triangles of the build: a tree built with pre-splits has more slots (``presplit.py``), whose refitted
+        # leaves take their triangles' whole boxes.
+        self.triangles = host.num_prims if host.indices is None else int(np.size(host.indices)) // 3
         depth = host.depths()
         self.levels = [
             wp.array(np.flatnonzero(depth == k).astype(np.int32), dtype=wp.int32, device=device)
@@ -71,9 +74,9 @@ class Refitter:
         """Moves the tree's triangles to ``points`` (same ``indices`` as the build) and recomputes every box."""
         d = self.device_bvh
         indices = np.asarray(indices)
-        if indices.ndim != 2 or indices.shape[1] != 3 or len(indices) != self.host.num_prims:
+        if indices.ndim != 2 or indices.shape[1] != 3 or len(indices) != self.triangles:
             raise ValueError(
-                f"refit needs the build's {self.host.num_prims} triangles as (T, 3) indices, got shape {indices.shape}"
+                f"refit needs the build's {self.triangles} triangles as (T, 3) indices, got shape {indices.shape}"
             )
         if self.host.num_prims == 0:
             return self.host

@@ -127,6 +127,9 @@ def epo(
     indices = np.asarray(indices, np.int64).reshape(-1, 3)
     if bvh.num_prims == 0:
         return 0.0, 0.0
+    if bvh.num_prims != len(indices):
+        raise ValueError(f"EPO needs one slot per triangle: this tree has {bvh.num_prims} slots for {len(indices)} "
+                         "triangles (built with presplit)")
     tri = points[indices].astype(np.float64)
     tri_areas = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     total_area = tri_areas.sum()

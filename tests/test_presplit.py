@@ -1,0 +1,118 @@
+"""Pre-split references (wrt/bvh/presplit.py): same hits, fewer triangle tests near fans, boxes that cover."""
+
+import numpy as np
+import pytest
+import warp as wp
+
+from wrt.bvh import build_bvh
+from wrt.bvh.layout import LAYOUTS, convert_layout, layout_kernels
+from wrt.bvh.presplit import MAX_REFERENCES_PER_TRIANGLE, presplit_references
+from wrt.procedural import displaced_sphere
+from wrt.trace import HitBuffer, occluded_bvh_kernel, trace_bvh_kernel
+
+
+def pole_rays(n: int, seed: int = 0):
+    """Rays from above aimed at points within a few ring widths of the sphere's north pole, where a fan of slivers
+    meets, plus rays aimed anywhere at the sphere."""
+    rng = np.random.default_rng(seed)
+    targets = np.concatenate([
+        np.column_stack([rng.normal(0, 0.02, n), np.ones(n), rng.normal(0, 0.02, n)]),
+        rng.normal(size=(n, 3)) * 0.7,
+    ])
+    origins = targets + rng.normal(size=(2 * n, 3)) * 0.3 + np.array([0.0, 3.0, 0.0])
+    return origins.astype(np.float32), (targets - origins).astype(np.float32)
+
+
+def closest_hits(bvh, points, indices, layout, origins, directions):
+    tree = convert_layout(bvh, layout).to_device(points, indices, "cpu")
+    kernel = trace_bvh_kernel if layout == "binary" else layout_kernels(layout)[0]
+    n = len(origins)
+    rays = [wp.array(origins, dtype=wp.vec3), wp.array(directions, dtype=wp.vec3), wp.zeros(n, dtype=float),
+            wp.full(n, np.inf, dtype=float)]
+    hits = HitBuffer(n, "cpu")
+    wp.launch(kernel, n, inputs=[tree, *rays], outputs=hits.outputs, device="cpu")
+    blocked = wp.zeros(n, dtype=wp.int32)
+    occluded = occluded_bvh_kernel if layout == "binary" else layout_kernels(layout)[1]
+    wp.launch(occluded, n, inputs=[tree, *rays], outputs=[blocked], device="cpu")
+    return [a.numpy() for a in (hits.t, hits.u, hits.v, hits.prim)], hits.cost.numpy(), blocked.numpy()
+
+
+@pytest.fixture(scope="module")
+def uv_sphere():
+    return displaced_sphere(80_000)
+
+
+def test_presplit_trees_give_the_same_hits_with_fewer_tests_at_a_fan(uv_sphere):
+    points, indices = uv_sphere
+    plain = build_bvh(points, indices, "sah")
+    split = build_bvh(points, indices, "sah", presplit=6)
+    split.validate()
+    assert len(indices) < split.num_prims <= MAX_REFERENCES_PER_TRIANGLE * len(indices)
+    origins, directions = pole_rays(400)
+    for layout in LAYOUTS:
+        before, cost_before, blocked_before = closest_hits(plain, points, indices, layout, origins, directions)
+        after, cost_after, blocked_after = closest_hits(split, points, indices, layout, origins, directions)
+        assert (before[3] >= 0).mean() > 0.7
+        for a, b in zip(before, after):
+            assert np.array_equal(a.view(np.int32), b.view(np.int32)), layout
+        assert np.array_equal(blocked_before, blocked_after), layout
+        # The pole's fan of slivers: rays near the pole test far fewer triangles.
+        near_pole = slice(0, len(origins) // 2)
+        assert cost_after[near_pole, 1].sum() < 0.5 * cost_before[near_pole, 1].sum(), layout
+
+
+def test_every_reference_box_covers_its_part_of_the_triangle():
+    rng = np.random.default_rng(3)
+    tris = []
+    for scale in (1e-6, 1.0, 1e6):
+        # Diagonal slivers in every orientation, offset far from the origin too.
+        a = rng.normal(size=(200, 3))
+        along = rng.normal(size=(200, 3))
+        across = np.cross(along, rng.normal(size=(200, 3))) * 0.003
+        offset = rng.normal(size=(200, 1, 1)) * 1e3
+        tris.append(np.stack([a, a + along, a + along + across], 1) * scale + offset * scale)
+    tris = np.concatenate(tris).astype(np.float32)
+    points = wp.array(tris.reshape(-1, 3), dtype=wp.vec3)
+    indices = wp.array(np.arange(3 * len(tris), dtype=np.int32).reshape(-1, 3), dtype=wp.int32)
+    lowers, uppers, _, ref_prims = (a.numpy() for a in presplit_references(points, indices))
+    assert len(ref_prims) > len(tris)
+    assert np.array_equal(np.unique(ref_prims), np.arange(len(tris)))
+    # Inside the triangle's own box, and together covering points all over the triangle (corners and edges too).
+    assert np.all(lowers >= tris.min(1)[ref_prims]) and np.all(uppers <= tris.max(1)[ref_prims])
+    w = np.concatenate([np.eye(3), [[0.5, 0.5, 0], [0, 0.5, 0.5], [0.5, 0, 0.5]], rng.dirichlet(np.ones(3), 300)])
+    for t in range(len(tris)):
+        samples = (w @ tris[t].astype(np.float64)).astype(np.float32)
+        mine = ref_prims == t
+        inside = (samples[:, None] >= lowers[mine][None]) & (samples[:, None] <= uppers[mine][None])
+        assert inside.all(-1).any(1).all(), f"triangle {t}: a point of it lies in none of its references"
+
+
+def test_a_mesh_of_slivers_stays_within_the_reference_budget():
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(3000, 3))
+    tris = np.stack([a, a + np.array([1.0, 1.0, 1.0]), a + np.array([1.0, 1.0, 1.001])], 1).astype(np.float32)
+    points, indices = tris.reshape(-1, 3), np.arange(3 * len(tris), dtype=np.int32).reshape(-1, 3)
+    bvh = build_bvh(points, indices, "sah", presplit=6)
+    bvh.validate()
+    assert len(indices) < bvh.num_prims <= MAX_REFERENCES_PER_TRIANGLE * len(indices)
+
+
+def test_triangles_of_no_area_stay_whole():
+    points = np.array([[0, 0, 0], [1, 1, 1], [2, 2, 2], [0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    indices = np.array([[0, 1, 2], [3, 4, 5]], np.int32)
+    bvh = build_bvh(points, indices, "sah", presplit=6)
+    bvh.validate()
+    assert bvh.num_prims == 2
+
+
+@pytest.mark.parametrize("bad", [-1, 7, 2.5, True])
+def test_bad_presplit_is_refused_by_name(bad):
+    with pytest.raises(ValueError, match="presplit"):
+        build_bvh(np.eye(3, dtype=np.float32), np.array([[0, 1, 2]], np.int32), "sah", presplit=bad)
+
+
+def test_epo_refuses_a_presplit_tree(uv_sphere):
+    points, indices = uv_sphere
+    bvh = build_bvh(points, indices, "sah", presplit=6)
+    with pytest.raises(ValueError, match="one slot per triangle"):
+        bvh.stats(epo_samples=1000)
