@@ -43,7 +43,8 @@ MIN_RAYS_PER_THREAD = 1 << 14  # smaller CPU launches are not split across threa
 WARP_BUILDERS = ("sah", "median", "lbvh", "cubql")  # wp.Mesh bvh_constructor values
 WARP_MAX_TRIANGLES = 1 << 27  # accel="warp" flattens instances; larger instanced scenes are refused
 # Pre-split levels of the SAH trees that accelerators build (``bvh/presplit.py``): the same hits, and on an H200 a
-# 2M-triangle UV sphere's primary rays traced 1.53x faster, its diffuse rays 1.17x (GPU_NOTES.md, row 41).
+# 2M-triangle UV sphere's primary rays traced 1.52x faster (its poles' slivers), other ray kinds 0.96-1.04x
+# (GPU_NOTES.md, row 41).
 ACCELERATOR_PRESPLIT = 6
 
 
