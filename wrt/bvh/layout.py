@@ -128,8 +128,13 @@ class FlatBvh:
 
     @property
     def num_prims(self) -> int:
-        """Number of triangles."""
+        """Number of leaf slots: one per triangle, or more in a tree built with pre-splits (``presplit.py``)."""
         return len(self.prim_ids)
+
+    @property
+    def num_triangles(self) -> int:
+        """Number of triangles the tree was built over (those attached by ``build_bvh``; else ``num_prims``)."""
+        return self.num_prims if self.indices is None else int(np.size(self.indices)) // 3
 
     @property
     def bytes(self) -> int:
@@ -180,7 +185,7 @@ class FlatBvh:
         covered = np.zeros(n, np.int64)
         np.add.at(covered, np.repeat(first, count) + _ranges(count), 1)
         assert np.all(covered == 1), "leaf slot ranges do not cover every slot exactly once"
-        triangles = n if self.indices is None else int(np.size(self.indices)) // 3
+        triangles = self.num_triangles
         if n == triangles:
             assert np.array_equal(np.sort(self.prim_ids), np.arange(n)), "prim_ids is not a permutation"
         else:  # pre-split references: several slots may hold one triangle

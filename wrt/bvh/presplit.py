@@ -114,8 +114,7 @@ def count_references_kernel(
 @wp.func
 def widened(lo: wp.vec3, hi: wp.vec3):
     """``[lo, hi]`` grown by a few ulps of its coordinates' magnitude (the clipped vertices are rounded)."""
-    size = wp.max(wp.max(wp.abs(lo), wp.abs(hi)), hi - lo)
-    pad = wp.vec3(size[0], size[1], size[2]) * 4.0e-7
+    pad = wp.max(wp.max(wp.abs(lo), wp.abs(hi)), hi - lo) * 4.0e-7
     return lo - pad, hi + pad
 
 

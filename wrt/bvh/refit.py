@@ -61,9 +61,9 @@ class Refitter:
         self.host = host
         self.device_bvh = device_bvh
         self.device = device
-        # Triangles of the build: a tree built with pre-splits has more slots (``presplit.py``), whose refitted
-        # leaves take their triangles' whole boxes.
-        self.triangles = host.num_prims if host.indices is None else int(np.size(host.indices)) // 3
+        # A tree built with pre-splits has more slots than triangles (``presplit.py``); its refitted leaves take
+        # their triangles' whole boxes.
+        self.triangles = host.num_triangles
         depth = host.depths()
         self.levels = [
             wp.array(np.flatnonzero(depth == k).astype(np.int32), dtype=wp.int32, device=device)
