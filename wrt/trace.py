@@ -310,7 +310,7 @@ class BvhAccelerator(Accelerator):
 
     def __init__(self, scene: Scene, builder: str, device, layout: str = "binary", **build_options):
         check_flattenable(scene, f"layout={layout!r}")
-        if builder == "sah":
+        if Builder.from_str(builder) is Builder.SAH:  # "binned_sah" too
             build_options.setdefault("presplit", ACCELERATOR_PRESPLIT)
         self.split = RowSplitter(scene, device) if len(scene.instances) else None
         points, indices = scene.triangles()
