@@ -3,8 +3,10 @@
 No GPU is needed: each module is compiled ahead of time (``wp.compile_aot_module``, PTX for ``--arch``) into a
 scratch folder, then every kernel entry of the PTX is scanned for ``ld.local`` / ``st.local`` instructions and its
 ``__local_depot`` size (bytes of per-thread local memory). With ``ptxas`` on the PATH, ``ptxas -v`` adds the
-registers, stack frame and spill bytes of the SASS. A vec3 indexed by a runtime value, a zeroed in-kernel array or a
-spill all show up here as local traffic on every ray.
+registers, stack frame and spill bytes of the SASS; with ``nvdisasm`` too (CUDA toolkit, or the
+``nvidia-cuda-nvdisasm`` wheel), the SASS's own local stores and loads (``STL`` / ``LDL``), where spills show up
+that the PTX does not have. A vec3 indexed by a runtime value, a zeroed in-kernel array or a spill all show up here
+as local traffic on every ray.
 
     python benchmarks/ptx_local.py [--arch 90] [--package wrt] [--kernels trace_bvh_kernel,...]
 """
@@ -58,6 +60,32 @@ def ptxas_info(ptx_path: Path, arch: int) -> dict[str, str]:
             info[name] = f"{m.group(1)} regs, " + info.get(name, "")
     return info
 
+def sass_local(ptx_path: Path, arch: int) -> dict[str, str]:
+    """``entry name -> 'STL s, LDL l'``: the local stores and loads in each kernel's SASS (assembled by ``ptxas``,
+    read back by ``nvdisasm``); empty without either tool or when the PTX does not assemble."""
+    if not (shutil.which("ptxas") and shutil.which("nvdisasm")):
+        return {}
+    cubin = ptx_path.with_suffix(".cubin")
+    text = ptx_path.read_text().rstrip("\0")
+    for _ in range(2):  # a second try relabelled with the PTX version ptxas names (see ptxas_info)
+        source = ptx_path.with_suffix(".sass.ptx")
+        source.write_text(text)
+        cmd = ["ptxas", f"-arch=sm_{arch}", "-o", str(cubin), str(source)]
+        out = subprocess.run(cmd, check=False, capture_output=True, text=True).stderr
+        if m := re.search(r"Unsupported \.version \S+; current version is '(\S+)'", out):
+            text = re.sub(r"^\.version \S+", f".version {m.group(1)}", text, flags=re.MULTILINE)
+            continue
+        break
+    if not cubin.exists():
+        return {}
+    sass = subprocess.run(["nvdisasm", "-c", str(cubin)], check=False, capture_output=True, text=True).stdout
+    counts = {}
+    for section in re.split(r"^\s*\.section\s+\.text\.", sass, flags=re.MULTILINE)[1:]:
+        entry = re.match(r"(\w+)", section).group(1)
+        stores, loads = len(re.findall(r"\bSTL\b", section)), len(re.findall(r"\bLDL\b", section))
+        counts[entry] = f"STL {stores}, LDL {loads}"
+    return counts
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
@@ -81,6 +109,7 @@ def main() -> None:
             for ptx_path in sorted(out.glob("*.ptx")):
                 ptx = ptx_path.read_text()
                 info = ptxas_info(ptx_path, args.arch)
+                sass = sass_local(ptx_path, args.arch)
                 for entry, body in ptx_entries(ptx).items():
                     kernel = re.sub(r"_[0-9a-f]{7,}_cuda_kernel_forward$", "", entry)
                     if wanted and not any(kernel.startswith(w) for w in wanted):
@@ -88,7 +117,8 @@ def main() -> None:
                     depot = re.search(r"\.local \.align \d+ \.b8 \s*__local_depot\d+\[(\d+)\]", body)
                     stores, loads = len(re.findall(r"st\.local", body)), len(re.findall(r"ld\.local", body))
                     depot_bytes = depot.group(1) if depot else "0"
-                    print(f"{kernel:32s} {stores:8d} {loads:8d} {depot_bytes:>7s}  {info.get(entry, '')}")
+                    print(f"{kernel:32s} {stores:8d} {loads:8d} {depot_bytes:>7s}  {info.get(entry, '')}"
+                          + (f"; SASS {sass[entry]}" if entry in sass else ""))
 
 
 if __name__ == "__main__":
