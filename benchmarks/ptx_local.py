@@ -34,21 +34,31 @@ def ptx_entries(ptx: str) -> dict[str, str]:
     return {name: ptx[s:end] for (s, name), end in zip(starts, ends)}
 
 
-def ptxas_info(ptx_path: Path, arch: int) -> dict[str, str]:
-    """``entry name -> 'R regs, F B stack, S/L B spill'`` from ``ptxas -v``; empty without ptxas."""
+def assemble(ptx_path: Path, arch: int) -> tuple[str, Path | None]:
+    """``(report, cubin)``: ``ptxas -v``'s report on the PTX and the cubin it wrote (``None`` if it wrote none); an
+    empty report and no cubin without ptxas."""
     if not shutil.which("ptxas"):
-        return {}
-    cmd = ["ptxas", "-v", f"-arch=sm_{arch}", "-o", "/dev/null", str(ptx_path)]
-    out = subprocess.run(cmd, check=False, capture_output=True, text=True).stderr
-    if m := re.search(r"Unsupported \.version \S+; current version is '(\S+)'", out):
+        return "", None
+    cubin = ptx_path.with_suffix(".cubin")
+    source = ptx_path
+    for _ in range(2):
+        cmd = ["ptxas", "-v", f"-arch=sm_{arch}", "-o", str(cubin), str(source)]
+        report = subprocess.run(cmd, check=False, capture_output=True, text=True).stderr
+        m = re.search(r"Unsupported \.version \S+; current version is '(\S+)'", report)
+        if not m or source != ptx_path:
+            break
         # NVRTC may be newer than ptxas: relabel the PTX (the trace kernels use no newer PTX feature) and drop the
         # trailing NUL that NVRTC leaves in the file.
-        older = ptx_path.with_suffix(".old.ptx")
+        source = ptx_path.with_suffix(".old.ptx")
         text = ptx_path.read_text().rstrip("\0")
-        older.write_text(re.sub(r"^\.version \S+", f".version {m.group(1)}", text, flags=re.MULTILINE))
-        out = subprocess.run([*cmd[:-1], str(older)], check=False, capture_output=True, text=True).stderr
+        source.write_text(re.sub(r"^\.version \S+", f".version {m.group(1)}", text, flags=re.MULTILINE))
+    return report, cubin if cubin.exists() else None
+
+
+def ptxas_info(report: str) -> dict[str, str]:
+    """``entry name -> 'R regs, F B stack, S/L B spill'`` from a ``ptxas -v`` report."""
     info, name, props = {}, None, None
-    for line in out.splitlines():
+    for line in report.splitlines():
         if m := re.search(r"Compiling entry function '(\w+)'", line):
             name = m.group(1)
         elif m := re.search(r"Function properties for (\w+)", line):
@@ -60,23 +70,11 @@ def ptxas_info(ptx_path: Path, arch: int) -> dict[str, str]:
             info[name] = f"{m.group(1)} regs, " + info.get(name, "")
     return info
 
-def sass_local(ptx_path: Path, arch: int) -> dict[str, str]:
-    """``entry name -> 'STL s, LDL l'``: the local stores and loads in each kernel's SASS (assembled by ``ptxas``,
-    read back by ``nvdisasm``); empty without either tool or when the PTX does not assemble."""
-    if not (shutil.which("ptxas") and shutil.which("nvdisasm")):
-        return {}
-    cubin = ptx_path.with_suffix(".cubin")
-    text = ptx_path.read_text().rstrip("\0")
-    for _ in range(2):  # a second try relabelled with the PTX version ptxas names (see ptxas_info)
-        source = ptx_path.with_suffix(".sass.ptx")
-        source.write_text(text)
-        cmd = ["ptxas", f"-arch=sm_{arch}", "-o", str(cubin), str(source)]
-        out = subprocess.run(cmd, check=False, capture_output=True, text=True).stderr
-        if m := re.search(r"Unsupported \.version \S+; current version is '(\S+)'", out):
-            text = re.sub(r"^\.version \S+", f".version {m.group(1)}", text, flags=re.MULTILINE)
-            continue
-        break
-    if not cubin.exists():
+
+def sass_local(cubin: Path | None) -> dict[str, str]:
+    """``entry name -> 'STL s, LDL l'``: the local stores and loads in each kernel's SASS, read back from the cubin
+    by ``nvdisasm``; empty without a cubin or nvdisasm."""
+    if cubin is None or not shutil.which("nvdisasm"):
         return {}
     sass = subprocess.run(["nvdisasm", "-c", str(cubin)], check=False, capture_output=True, text=True).stdout
     counts = {}
@@ -108,8 +106,8 @@ def main() -> None:
             wp.compile_aot_module(module, arch=args.arch, module_dir=out, use_ptx=True)
             for ptx_path in sorted(out.glob("*.ptx")):
                 ptx = ptx_path.read_text()
-                info = ptxas_info(ptx_path, args.arch)
-                sass = sass_local(ptx_path, args.arch)
+                report, cubin = assemble(ptx_path, args.arch)
+                info, sass = ptxas_info(report), sass_local(cubin)
                 for entry, body in ptx_entries(ptx).items():
                     kernel = re.sub(r"_[0-9a-f]{7,}_cuda_kernel_forward$", "", entry)
                     if wanted and not any(kernel.startswith(w) for w in wanted):
