@@ -54,6 +54,28 @@ def test_failing_scene_and_accel_become_error_rows_and_the_run_goes_on(tmp_path)
     assert "error" in (tmp_path / "table.md").read_text()
 
 
+def test_bad_and_oversized_sphere_sizes_are_error_rows_that_name_them(tmp_path, monkeypatch):
+    """sphere:N was read with float(): 'abc' failed as "could not convert string to float", 'inf' with an
+    OverflowError, and a size beyond the host's memory was generated until the system killed the process."""
+    monkeypatch.setattr("wrt.resources.available_host_bytes", lambda: 1 << 30)  # 1 GiB: room for the small sphere
+    scenes = ["sphere:abc", "sphere:inf", "sphere:4", "sphere:1e8", "sphere:2000"]
+    rows = run_grid(tiny_grid(scenes=scenes, accels=["wrt:sah"], rays=["primary"]), tmp_path, progress=False)
+    errors = {r["scene"]: r["error"] for r in rows if "error" in r}
+    for name in ("sphere:abc", "sphere:inf", "sphere:4"):
+        assert f"{name}: N must be a whole number of triangles" in errors[name]
+    assert "sphere:1e8 needs about" in errors["sphere:1e8"] and "1.0 GiB is available" in errors["sphere:1e8"]
+    assert [r["scene"] for r in rows if "mrays" in r] == ["sphere:2000"]  # the run went on to the good scene
+
+
+def test_ray_counts_beyond_the_host_memory_are_refused_before_the_run(monkeypatch):
+    monkeypatch.setattr("wrt.resources.available_host_bytes", lambda: 1 << 30)
+    with pytest.raises(MemoryError, match="n_rays 100000000 needs about"):
+        tiny_grid(n_rays=100_000_000).validated()
+    with pytest.raises(MemoryError, match="scaling n_rays 100000000 needs about"):
+        tiny_grid(scaling={"sizes": [1000], "n_rays": 100_000_000}).validated()
+    assert tiny_grid(n_rays=100_000).validated().n_rays == 100_000
+
+
 def test_gprims_are_measured_as_triangles_by_every_accelerator(tmp_path):
     """A UsdGeom.Sphere: wp.Mesh and wrt's BVH refused the analytic shape (error rows), Embree timed an empty scene
     (hit 0 %) and shadow rays failed on an IndexError; now all trace the same tessellated sphere."""

@@ -434,6 +434,17 @@ def test_memory_estimate_and_parsing():
         check_memory(needed, "cpu", parse_bytes("100M"))
 
 
+def test_cpu_renders_beyond_the_host_memory_are_refused(monkeypatch):
+    """Without --max-memory, only a CUDA device's free memory was checked: a CPU render larger than the host's memory
+    allocated until the system killed the process."""
+    from wrt.resources import check_memory, estimate_render_bytes
+
+    monkeypatch.setattr("wrt.resources.available_host_bytes", lambda: 256 << 20)
+    check_memory(estimate_render_bytes(1000, 320, 240), "cpu")
+    with pytest.raises(MemoryError, match="this render needs about .* of host memory, 256.0 MiB is available"):
+        check_memory(estimate_render_bytes(1_000_000, 1920, 1080), "cpu")
+
+
 def test_allocation_failure_is_a_clean_one_line_error(tmp_path, capsys, monkeypatch):
     import warp
 

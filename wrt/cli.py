@@ -200,6 +200,7 @@ def _renderer_options(args) -> dict:
 def _render_one(args, path: Path, output: Path, progress) -> Path:
     import wrt
 
+    from .render import check_pixels
     from .resources import check_memory, estimate_render_bytes, parse_bytes
 
     start = time.perf_counter()
@@ -208,6 +209,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     loaded = f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes"
     progress(loaded, time.perf_counter() - start)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
+    check_pixels(args.width, args.height)  # the limit is the clearer error where both apply
     check_memory(estimate_render_bytes(stats["rendered_triangles"], args.width, args.height), args.device, limit)
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)

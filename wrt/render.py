@@ -47,6 +47,14 @@ MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit se
 CAPTURE_CULL_PASSES = 2  # back-face cull passes of a graph-captured frame (it cannot stop early: no host reads)
 
 
+def check_pixels(width: int, height: int, n_views: int = 1) -> None:
+    """Raises ``ValueError`` when ``n_views`` images of ``width x height`` exceed ``MAX_PIXELS``."""
+    if width * height * n_views > MAX_PIXELS:
+        raise ValueError(
+            f"{n_views} x {width}x{height} is {n_views * width * height} pixels; at most {MAX_PIXELS} are supported"
+        )
+
+
 def check_seed(seed) -> int:
     """``seed`` as an int; the generator takes 31-bit seeds, and a float was truncated (0.5 rendered as 0) and
     larger or negative seeds wrapped onto others (2^31 rendered as 0) without a word.
@@ -215,11 +223,7 @@ class Renderer:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if cameras is not None and (camera is not None or isinstance(cameras, (str, Camera)) or len(cameras) == 0):
             raise ValueError("give either camera or a non-empty list of cameras, not both")
-        n_views = 1 if cameras is None else len(cameras)
-        if width * height * n_views > MAX_PIXELS:
-            raise ValueError(
-                f"{n_views} x {width}x{height} is {n_views * width * height} pixels; at most {MAX_PIXELS} are supported"
-            )
+        check_pixels(width, height, 1 if cameras is None else len(cameras))
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}; valid integrators: {', '.join(INTEGRATORS)}")
         if max_depth is None:

@@ -8,6 +8,7 @@ clear message instead of an allocation failure deep inside a kernel launch.
 
 from __future__ import annotations
 
+import os
 import re
 
 PIXEL_BYTES = 256  # ray, hit, shadow, radiance, AOV and accumulation buffers per pixel (upper bound)
@@ -36,8 +37,34 @@ def format_bytes(n: float) -> str:
         n /= 1024
 
 
+def available_host_bytes() -> int | None:
+    """Bytes of host memory the system can still hand out (``MemAvailable`` on Linux), or ``None`` where unknown."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def check_host_memory(needed: int, what: str) -> None:
+    """Raises ``MemoryError`` naming ``what`` when ``needed`` bytes exceed the host memory still available: the
+    operating system may otherwise kill the process part way through, with nothing written."""
+    free = available_host_bytes()
+    if free is not None and needed > free:
+        raise MemoryError(
+            f"{what} needs about {format_bytes(needed)} of host memory, {format_bytes(free)} is available"
+        )
+
+
 def check_memory(needed: int, device, max_memory: int | None = None) -> None:
-    """Raises ``MemoryError`` when ``needed`` bytes exceed ``max_memory`` or the free memory of a CUDA device."""
+    """Raises ``MemoryError`` when ``needed`` bytes exceed ``max_memory``, the free memory of a CUDA device or, for
+    the CPU device, the host memory available."""
     if max_memory is not None and needed > max_memory:
         raise MemoryError(
             f"this render needs about {format_bytes(needed)}, more than --max-memory {format_bytes(max_memory)}; "
@@ -46,6 +73,8 @@ def check_memory(needed: int, device, max_memory: int | None = None) -> None:
     from .trace import resolve_device
 
     dev = resolve_device(device)
+    if dev.is_cpu:
+        check_host_memory(needed, "this render")
     if dev.is_cuda:
         free = getattr(dev, "free_memory", None)
         if free is not None and needed > free:
