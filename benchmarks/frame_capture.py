@@ -22,6 +22,7 @@ import warp as wp
 
 import wrt
 from wrt.bench import hardware, resolve_scene
+from wrt.bvh import traverse
 from wrt.render import resolve_camera
 
 
@@ -47,6 +48,8 @@ def main() -> None:
     parser.add_argument("--builder", default="sah")
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--distances", default="1,0.5", help="camera distances, as fractions of the default one")
+    parser.add_argument("--block-dims", help="comma list of CUDA threads per block of the trace launches to time "
+                        "one after the other (default: wrt.bvh.traverse.TRACE_BLOCK_DIM)")
     args = parser.parse_args()
     device = wp.get_device(args.device)
     scene = resolve_scene(args.scene)
@@ -57,8 +60,10 @@ def main() -> None:
         to_world = default.to_world.copy()
         to_world[:3, 3] = center + distance * (default.eye - center)  # along the line of sight
         camera = dataclasses.replace(default, to_world=to_world)
-        print(f"\ncamera at {distance} of the default distance")
-        time_frame(scene, camera, device, args)
+        for block in args.block_dims.split(",") if args.block_dims else [traverse.TRACE_BLOCK_DIM]:
+            traverse.TRACE_BLOCK_DIM = int(block)
+            print(f"\ncamera at {distance} of the default distance, trace launches of {block} threads per block")
+            time_frame(scene, camera, device, args)
 
 
 def time_frame(scene, camera, device, args) -> None:

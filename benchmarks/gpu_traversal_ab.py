@@ -43,8 +43,9 @@ def log(msg: str) -> None:
 class Subject:
     """One accelerator ready to trace the group's rays: ``launch()`` enqueues one trace; ``answer()`` reads it."""
 
-    def __init__(self, name: str, kernel, accel_arg, rays: list, any_hit: bool, device):
+    def __init__(self, name: str, kernel, accel_arg, rays: list, any_hit: bool, device, block_dim: int):
         self.name, self.kernel, self.accel_arg, self.rays, self.any_hit = name, kernel, accel_arg, rays, any_hit
+        self.block_dim = block_dim
         n = len(rays[0])
         self.device = device
         if any_hit:
@@ -56,7 +57,7 @@ class Subject:
 
     def launch(self) -> None:
         wp.launch(self.kernel, len(self.rays[0]), inputs=[self.accel_arg, *self.rays], outputs=self.outputs,
-                  device=self.device)
+                  device=self.device, block_dim=self.block_dim)
 
     def timed(self) -> None:
         if not self.device.is_cuda:  # a CPU smoke run of the script
@@ -105,6 +106,8 @@ def main() -> None:
     parser.add_argument("--constructors", default="sah,lbvh,cubql", help="wp.Mesh constructors to measure")
     parser.add_argument("--trees", default="8:1:6",
                         help="wrt sah trees to measure, as LEAF_SIZE:INTERSECTION_COST[:PRESPLIT] each")
+    parser.add_argument("--block-dims", help="comma list of CUDA threads per block; subjects at other than "
+                        "wrt.bvh.traverse.TRACE_BLOCK_DIM (the default: what wrt launches) are NAME/bBLOCK")
     parser.add_argument("--json", help="also write the rows here (default: $OUT/gpu_traversal_ab.json if $OUT is set)")
     args = parser.parse_args()
     if args.assets:
@@ -195,10 +198,15 @@ def run(args, device) -> None:
                 wp.zeros(n, dtype=float, device=device),
                 wp.full(n, np.inf, dtype=float, device=device),
             ]
-            subjects = [Subject(name, occluded if any_hit else closest, tree, rays, any_hit, device)
-                        for name, closest, occluded, tree in wrt_subjects]
             mesh_kernel = new_trace.occluded_mesh_kernel if any_hit else new_trace.trace_mesh_kernel
-            subjects += [Subject(f"warp:{c}", mesh_kernel, m.id, rays, any_hit, device) for c, m in meshes.items()]
+            subjects = []
+            default_block = importlib.import_module("wrt.bvh.traverse").TRACE_BLOCK_DIM
+            for block in (int(b) for b in (args.block_dims or str(default_block)).split(",")):
+                label = "" if block == default_block else f"/b{block}"
+                subjects += [Subject(name + label, occluded if any_hit else closest, tree, rays, any_hit, device, block)
+                             for name, closest, occluded, tree in wrt_subjects]
+                subjects += [Subject(f"warp:{c}{label}", mesh_kernel, m.id, rays, any_hit, device, block)
+                             for c, m in meshes.items()]
             log(f"{scene_name} {kind}: {n} rays, {len(subjects)} subjects; compiling and warming up")
             for s in subjects:
                 s.launch()
@@ -221,6 +229,8 @@ def run(args, device) -> None:
                 old = answers.get("old:" + s.name.split(":", 1)[1]) if s.name.startswith("wrt:") else None
                 if "@" in s.name:  # another tree of the same triangles: the default tree's hits are the reference
                     old = answers.get(s.name.split("@")[0])
+                if "/b" in s.name and old is None:  # another block size: the 256-thread launch's hits
+                    old = answers.get(s.name.split("/b")[0])
                 if old is not None:
                     row["identical_to_old"] = all(np.array_equal(a, b) for a, b in zip(answers[s.name], old))
                 rows.append(row)
@@ -236,12 +246,12 @@ def print_group(rows: list[dict]) -> None:
     """One table per (scene, ray kind): Mrays/s median (min-max), ratio to the best wp.Mesh, checks."""
     r0 = rows[0]
     print(f"\n{r0['scene']} / {r0['rays']} ({r0['n']} rays)")
-    print(f"  {'subject':14s} {'Mrays/s':>9s} {'(min-max)':>17s} {'x best Mesh':>11s} {'agree sah':>9s} {'= old':>6s}")
+    print(f"  {'subject':18s} {'Mrays/s':>9s} {'(min-max)':>17s} {'x best Mesh':>11s} {'agree sah':>9s} {'= old':>6s}")
     for r in rows:
         same = {True: "yes", False: "NO"}.get(r.get("identical_to_old"), "")
         ratio = "" if r["x_best_mesh"] is None else f"{r['x_best_mesh']:.2f}x"
         agree = "" if "agree_warp_sah" not in r else f"{100 * r['agree_warp_sah']:.2f}%"
-        print(f"  {r['subject']:14s} {r['mrays']:9.1f} ({r['mrays_min']:7.1f}-{r['mrays_max']:7.1f}) {ratio:>11s} "
+        print(f"  {r['subject']:18s} {r['mrays']:9.1f} ({r['mrays_min']:7.1f}-{r['mrays_max']:7.1f}) {ratio:>11s} "
               f"{agree:>9s} {same:>6s}", flush=True)
 
 

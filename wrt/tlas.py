@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from .bvh import DeviceBvh, build_bvh
+from .bvh import DeviceBvh, build_bvh, traverse
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import bvh_intersect, bvh_occluded, order_children, reachable
 from .bvh.turns import waits
@@ -425,6 +425,7 @@ class InstancedAccelerator(Accelerator):
             inputs=[self.device_tlas, origins, directions, t_mins, t_maxs],
             outputs=[*hits.outputs, hits.instance],
             device=self.device,
+            block_dim=traverse.trace_block_dim(self.device),
         )
 
     def _occluded(self, origins, directions, t_mins, t_maxs, blocked) -> None:
@@ -434,6 +435,7 @@ class InstancedAccelerator(Accelerator):
             inputs=[self.device_tlas, origins, directions, t_mins, t_maxs],
             outputs=[blocked],
             device=self.device,
+            block_dim=traverse.trace_block_dim(self.device),
         )
 
 

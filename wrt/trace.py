@@ -22,7 +22,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import warp as wp
 
-from .bvh import DeviceBvh, FlatBvh, build_bvh, build_bvh_device
+from .bvh import DeviceBvh, FlatBvh, build_bvh, build_bvh_device, traverse
 from .bvh.build import Builder
 from .bvh.common import check_triangles
 from .bvh.layout import check_layout, convert_layout, layout_kernels
@@ -371,6 +371,7 @@ class BvhAccelerator(Accelerator):
             inputs=[self.device_bvh, origins, directions, t_mins, t_maxs],
             outputs=hits.outputs,
             device=self.device,
+            block_dim=traverse.trace_block_dim(self.device),
         )
         if self.split is not None:
             self.split(hits)
@@ -382,6 +383,7 @@ class BvhAccelerator(Accelerator):
             inputs=[self.device_bvh, origins, directions, t_mins, t_maxs],
             outputs=[blocked],
             device=self.device,
+            block_dim=traverse.trace_block_dim(self.device),
         )
 
 
@@ -422,7 +424,8 @@ class WarpMeshAccelerator(Accelerator):
             for array, value in zip(outputs, miss_fill):
                 array.fill_(value)
             return
-        wp.launch(kernel, n, inputs=[self.mesh.id, *inputs], outputs=outputs, device=self.device)
+        wp.launch(kernel, n, inputs=[self.mesh.id, *inputs], outputs=outputs, device=self.device,
+                  block_dim=traverse.trace_block_dim(self.device))
 
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
         misses = [np.inf, 0.0, 0.0, -1, wp.vec2i(0, 0)]

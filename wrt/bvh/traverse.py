@@ -32,6 +32,18 @@ from .wide_cpu import on_cpu
 # SM where the compact kernel's 77 and the wide one's 70 gave 3. H200, against the uncapped kernels in one run:
 # compact and wide incoherent +11-13%, binary unchanged (already 64), mixed on diffuse rays (GPU_NOTES.md, row 20).
 TRACE_KERNEL_OPTIONS = {"cuda_max_registers": 64}
+# CUDA threads per block of every trace and any-hit launch (wp.Mesh's too, so comparisons stay like for like). An SM
+# keeps a block's registers until its slowest warp ends, and the rays of one block end far apart; with 64 threads a
+# finished block is replaced sooner. H200, against Warp's default 256 (GPU_NOTES.md, row 48): BVH4 incoherent rays
+# +7-8%, other ray kinds within 2%; the 1080p chess_set frame (TLAS) at half the camera distance 6.14 -> 5.88 ms;
+# wp.Mesh +0-14%. Read at each launch (benchmarks override it). The CPU keeps Warp's default: there a block is a
+# loop, and smaller ones only add overhead.
+TRACE_BLOCK_DIM = 64
+
+
+def trace_block_dim(device) -> int:
+    """Threads per block of a trace or any-hit launch on ``device`` (see ``TRACE_BLOCK_DIM``)."""
+    return TRACE_BLOCK_DIM if device.is_cuda else 256
 
 
 def closest_hit_kernel(intersect, bvh_type, name: str, counted: bool, module: str):
