@@ -31,7 +31,8 @@ from .wide_cpu import on_cpu
 # CUDA register cap of the trace and any-hit kernels of every layout: 64 registers give 4 blocks of 256 threads per
 # SM where the compact kernel's 77 and the wide one's 70 gave 3. H200, against the uncapped kernels in one run:
 # compact and wide incoherent +11-13%, binary unchanged (already 64), mixed on diffuse rays (GPU_NOTES.md, row 20).
-TRACE_KERNEL_OPTIONS = {"cuda_max_registers": 64}
+# A layout's any-hit kernel may take another cap (``any_hit_kernel``).
+TRACE_MAX_REGISTERS = 64
 # CUDA threads per block of every trace and any-hit launch (wp.Mesh's too, so comparisons stay like for like). An SM
 # keeps a block's registers until its slowest warp ends, and the rays of one block end far apart; with 64 threads a
 # finished block is replaced sooner. H200, against Warp's default 256 (GPU_NOTES.md, row 48): BVH4 incoherent rays
@@ -74,13 +75,15 @@ def closest_hit_kernel(intersect, bvh_type, name: str, counted: bool, module: st
         if wp.static(counted):
             costs[i] = wp.vec2i(nodes, tests)
 
-    return wp.kernel(trace_kernel, name=name if counted else f"{name}_uncounted", module=module, **TRACE_KERNEL_OPTIONS)
+    name = name if counted else f"{name}_uncounted"
+    return wp.kernel(trace_kernel, name=name, module=module, cuda_max_registers=TRACE_MAX_REGISTERS)
 
 
 
-def any_hit_kernel(occluded, bvh_type, name: str, module: str):
+def any_hit_kernel(occluded, bvh_type, name: str, module: str, max_registers: int = TRACE_MAX_REGISTERS):
     """A kernel of ``module`` (whose build options it takes), named ``name``, writing 1 for every ray that
-    ``occluded`` (a layout's any-hit function over a ``bvh_type``) finds blocked in ``[t_min, t_max)``, else 0."""
+    ``occluded`` (a layout's any-hit function over a ``bvh_type``) finds blocked in ``[t_min, t_max)``, else 0; on
+    CUDA it uses at most ``max_registers`` registers."""
 
     def occluded_kernel(
         bvh: bvh_type,
@@ -94,7 +97,7 @@ def any_hit_kernel(occluded, bvh_type, name: str, module: str):
         i = wp.tid()
         blocked[i] = wp.where(occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
 
-    return wp.kernel(occluded_kernel, name=name, module=module, **TRACE_KERNEL_OPTIONS)
+    return wp.kernel(occluded_kernel, name=name, module=module, cuda_max_registers=max_registers)
 
 
 @wp.func

@@ -39,7 +39,7 @@ from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .packed import load_child, load_link, pack_child
 from .stack import SORT_SLOTS, WIDE_STACK, SortBuffer, WideStack
-from .traverse import any_hit_kernel, closest_hit_kernel, reachable, reported_hit
+from .traverse import TRACE_MAX_REGISTERS, any_hit_kernel, closest_hit_kernel, reachable, reported_hit
 from .turns import waits
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
 
@@ -50,6 +50,11 @@ wp.set_module_options({"enable_backward": False, "fuse_fp": False, "extra_build_
 WIDE_WIDTHS = {"wide": 4, "wide8": 8}  # layout name -> children per node
 MAX_WIDTH = SORT_SLOTS  # widest supported node: the sort buffer holds one entry per child
 RANKED_PUSH_WIDTH = 4  # CUDA closest hit: nodes up to this width order their children by rank, wider ones by sort
+# CUDA register cap of the BVH4 any-hit kernel: 80, where it uses 75 (64 at the cap of the other kernels; no spills
+# either way), so an SM runs 24 of its warps instead of 32. H200, two runs against 64: shadow rays chess_set 1.01,
+# displaced sphere 1.04-1.05 (why fewer warps with more registers win was not examined). The binary and compact
+# any-hit kernels lost 0-1% and 7-16% that way, and BVH8's was not measured: they keep 64 (GPU_NOTES.md, row 49).
+ANY_HIT_MAX_REGISTERS = {4: 80}
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
 
 
@@ -385,7 +390,8 @@ def _traversal_kernels(width: int) -> tuple:
     name = f"trace_wide_kernel{width}"
     trace = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, True, __name__)
     uncounted = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, False, __name__)
-    occluded = any_hit_kernel(wide_occluded, DeviceWideBvh, f"occluded_wide_kernel{width}", __name__)
+    registers = ANY_HIT_MAX_REGISTERS.get(width, TRACE_MAX_REGISTERS)
+    occluded = any_hit_kernel(wide_occluded, DeviceWideBvh, f"occluded_wide_kernel{width}", __name__, registers)
     return trace, uncounted, occluded
 
 
