@@ -50,10 +50,10 @@ wp.set_module_options({"enable_backward": False, "fuse_fp": False, "extra_build_
 WIDE_WIDTHS = {"wide": 4, "wide8": 8}  # layout name -> children per node
 MAX_WIDTH = SORT_SLOTS  # widest supported node: the sort buffer holds one entry per child
 RANKED_PUSH_WIDTH = 4  # CUDA closest hit: nodes up to this width order their children by rank, wider ones by sort
-# CUDA register cap of the BVH4 any-hit kernel: 80, where it uses 75 (no spills at 64 either). At 64 the compiler
-# issued a node's eight 16-byte child loads in two groups, the second after the first's box tests; at 80 all eight
-# go together, one memory round trip per node, for 24 warps per SM instead of 32. H200, two runs against 64: shadow
-# rays chess_set 1.01, displaced sphere 1.04-1.05. The binary and compact any-hit kernels lost 0-1% and 7-16% at 80,
+# CUDA register cap of the BVH4 any-hit kernel: 80, where it uses 75 (no spills at 64 either), for 24 warps per SM
+# instead of 32. H200, two runs against 64: shadow rays chess_set 1.01, displaced sphere 1.04-1.05. At 80 the SASS
+# issues a node's eight 16-byte child loads in one group instead of two (the same grouping did not help the closest
+# hit at 64: GPU_NOTES.md, row 50). The binary and compact any-hit kernels lost 0-1% and 7-16% at 80,
 # and BVH8's was not measured: they keep 64 (GPU_NOTES.md, row 49).
 ANY_HIT_MAX_REGISTERS = {4: 80}
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
