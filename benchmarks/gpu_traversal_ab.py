@@ -229,7 +229,7 @@ def run(args, device) -> None:
                 old = answers.get("old:" + s.name.split(":", 1)[1]) if s.name.startswith("wrt:") else None
                 if "@" in s.name:  # another tree of the same triangles: the default tree's hits are the reference
                     old = answers.get(s.name.split("@")[0])
-                if "/b" in s.name and old is None:  # another block size: the 256-thread launch's hits
+                if "/b" in s.name and old is None:  # another block size: the default block size's hits
                     old = answers.get(s.name.split("/b")[0])
                 if old is not None:
                     row["identical_to_old"] = all(np.array_equal(a, b) for a, b in zip(answers[s.name], old))

@@ -234,7 +234,7 @@ def resolve_scene(name: str) -> Scene:
 
 def sphere_triangles(name: str) -> int:
     """The triangle count ``N`` of a ``sphere:N`` scene name (``1e6`` and ``1000000`` alike), after checking that
-    the mesh, its BVH and the rays fit in host memory."""
+    the mesh and its BVH fit in the host memory available."""
     text = name.split(":", 1)[1]
     try:
         count = float(text)

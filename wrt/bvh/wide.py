@@ -53,8 +53,8 @@ RANKED_PUSH_WIDTH = 4  # CUDA closest hit: nodes up to this width order their ch
 # CUDA register cap of the BVH4 any-hit kernel: 80, where it uses 75 (no spills at 64 either), for 24 warps per SM
 # instead of 32. H200, two runs against 64: shadow rays chess_set 1.01, displaced sphere 1.04-1.05. At 80 the SASS
 # issues a node's eight 16-byte child loads in one group instead of two (the same grouping did not help the closest
-# hit at 64: GPU_NOTES.md, row 50). The binary and compact any-hit kernels lost 0-1% and 7-16% at 80,
-# and BVH8's was not measured: they keep 64 (GPU_NOTES.md, row 49).
+# hit at 64: GPU_NOTES.md, row 50). The binary and compact any-hit kernels lost 0-1% and 7-16% at 80, and BVH8's
+# was not measured: they keep 64 (GPU_NOTES.md, row 49).
 ANY_HIT_MAX_REGISTERS = {4: 80}
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
 
