@@ -33,7 +33,7 @@ import warp as wp
 
 from .bvh import DeviceBvh, build_bvh, traverse
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
-from .bvh.traverse import bvh_intersect, bvh_occluded, order_children, reachable
+from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, order_children, reachable
 from .bvh.turns import waits
 from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import invert_transforms, world_boxes
@@ -248,19 +248,7 @@ def trace_tlas_kernel(
     instances[i] = instance
 
 
-@wp.kernel(cuda_max_registers=TLAS_MAX_REGISTERS)
-def occluded_tlas_kernel(
-    tlas: DeviceTlas,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    blocked: wp.array[wp.int32],
-):
-    """1 for every ray that hits anything in ``[t_min, t_max)``."""
-    i = wp.tid()
-    blocked[i] = wp.where(tlas_occluded(tlas, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+occluded_tlas_kernel = any_hit_kernel(tlas_occluded, DeviceTlas, "occluded_tlas_kernel", __name__, TLAS_MAX_REGISTERS)
 
 
 class InstancedAccelerator(Accelerator):
