@@ -210,7 +210,8 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     progress(loaded, time.perf_counter() - start)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
     check_pixels(args.width, args.height)  # the limit is the clearer error where both apply
-    check_memory(estimate_render_bytes(stats["rendered_triangles"], args.width, args.height), args.device, limit)
+    needed = estimate_render_bytes(stats["rendered_triangles"], args.width, args.height)
+    check_memory(needed, args.device, limit, f"rendering {path.name} at {args.width}x{args.height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
     image = renderer.render(spp=args.spp, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())

@@ -62,23 +62,23 @@ def check_host_memory(needed: int, what: str) -> None:
         )
 
 
-def check_memory(needed: int, device, max_memory: int | None = None) -> None:
-    """Raises ``MemoryError`` when ``needed`` bytes exceed ``max_memory``, the free memory of a CUDA device or, for
-    the CPU device, the host memory available."""
+def check_memory(needed: int, device, max_memory: int | None = None, what: str = "this render") -> None:
+    """Raises ``MemoryError`` naming ``what`` when ``needed`` bytes exceed ``max_memory``, the free memory of a CUDA
+    device or, for the CPU device, the host memory available."""
     if max_memory is not None and needed > max_memory:
         raise MemoryError(
-            f"this render needs about {format_bytes(needed)}, more than --max-memory {format_bytes(max_memory)}; "
+            f"{what} needs about {format_bytes(needed)}, more than --max-memory {format_bytes(max_memory)}; "
             "lower the resolution or raise the limit"
         )
     from .trace import resolve_device
 
     dev = resolve_device(device)
     if dev.is_cpu:
-        check_host_memory(needed, "this render")
+        check_host_memory(needed, what)
     if dev.is_cuda:
         free = getattr(dev, "free_memory", None)
         if free is not None and needed > free:
             raise MemoryError(
-                f"this render needs about {format_bytes(needed)} but {dev.alias} has {format_bytes(free)} free; "
+                f"{what} needs about {format_bytes(needed)} but {dev.alias} has {format_bytes(free)} free; "
                 "lower the resolution or use another device"
             )
