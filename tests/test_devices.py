@@ -106,7 +106,8 @@ def _bunny_instances(bunny) -> wrt.Scene:
 def test_cuda_traversal_visits_what_the_cpu_visits(layout, bunny):
     """On CUDA the lanes of a warp take leaf and node steps in turns (``wrt.bvh.turns``) and the BVH4 orders its
     children by rank: neither may change what a ray visits, so hits and per-ray node and triangle counts are the
-    CPU's, and so are the any-hit answers."""
+    CPU's, and so are the any-hit answers. A BVH8 node on CUDA pushes its children unsorted (``wrt.bvh.wide``), so
+    rays that hit may visit other nodes there; rays that miss cull nothing and visit the same ones."""
     scene = _bunny_instances(bunny) if layout == "instances" else bunny
     kwargs = {} if layout == "instances" else {"layout": layout}
     o1, d1 = camera_rays(scene, width=160, height=120)
@@ -120,8 +121,10 @@ def test_cuda_traversal_visits_what_the_cpu_visits(layout, bunny):
     # Instances: one ray in 59,200 visits one node fewer on CUDA than on the CPU, with the code before the turns as
     # well (a box entered on one device only, after the ray is moved into instance space; not explained yet).
     allowed = 1e-4 if layout == "instances" else 0.0
-    assert np.mean(gpu.nodes_visited != cpu.nodes_visited) <= allowed
-    assert np.mean(gpu.triangles_tested != cpu.triangles_tested) <= allowed
+    same_visits = cpu.prim < 0 if layout == "wide8" else np.ones(len(cpu.prim), bool)
+    assert np.mean(gpu.nodes_visited[same_visits] != cpu.nodes_visited[same_visits]) <= allowed
+    assert np.mean(gpu.triangles_tested[same_visits] != cpu.triangles_tested[same_visits]) <= allowed
+    assert gpu.nodes_visited.mean() <= 1.1 * cpu.nodes_visited.mean()
     # Rays that hit end just past their hit (blocked) or halfway to it (mostly open).
     t_max = np.where(cpu.prim >= 0, cpu.t * np.where(np.arange(len(cpu.t)) % 2, 0.5, 1.01), np.inf)
     blocked_gpu = wrt.occluded(scene, origins, directions, t_max=t_max, device="cuda:0", **kwargs)

@@ -26,7 +26,6 @@ import warp as wp
 from .common import MAX_DEPTH
 
 WIDE_STACK = 8 * MAX_DEPTH  # entries of the wide layouts' stack: up to 7 pushes per wide level
-SORT_SLOTS = 8  # entries of the wide layouts' per-node sort buffer (one per child of a BVH8 node)
 
 # ctypes has no alignment attribute before Python 3.13: an empty array of the 16-byte-aligned ``long double`` (x86-64
 # and aarch64 Linux and macOS) gives the host description the C++ entry's alignment. Where ``long double`` is 8-byte
@@ -34,7 +33,7 @@ SORT_SLOTS = 8  # entries of the wide layouts' per-node sort buffer (one per chi
 _ALIGN_FIELD = ctypes.c_longdouble if ctypes.alignment(ctypes.c_longdouble) >= 16 else ctypes.c_double
 ENTRY_ALIGN = ctypes.alignment(_ALIGN_FIELD)
 
-_SIZES = {"NodeStack": MAX_DEPTH, "WideStack": WIDE_STACK, "SortBuffer": SORT_SLOTS}  # C++ name -> entries
+_SIZES = {"NodeStack": MAX_DEPTH, "WideStack": WIDE_STACK}  # C++ name -> entries
 
 STACK_PREAMBLE = """
 namespace wrt {
@@ -88,4 +87,3 @@ def _stack_type(name: str, n: int) -> type:
 
 NodeStack = _stack_type("NodeStack", MAX_DEPTH)  # binary, compact and TLAS traversal: one entry per tree level
 WideStack = _stack_type("WideStack", WIDE_STACK)  # wide layouts
-SortBuffer = _stack_type("SortBuffer", SORT_SLOTS)  # wide layouts: the entered children of one node, by distance

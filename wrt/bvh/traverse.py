@@ -47,11 +47,13 @@ def trace_block_dim(device) -> int:
     return TRACE_BLOCK_DIM if device.is_cuda else 256
 
 
-def closest_hit_kernel(intersect, bvh_type, name: str, counted: bool, module: str):
+def closest_hit_kernel(
+    intersect, bvh_type, name: str, counted: bool, module: str, max_registers: int = TRACE_MAX_REGISTERS
+):
     """A kernel of ``module`` (whose build options it takes) tracing the closest hit of every ray through
     ``intersect``, a layout's closest-hit function over a ``bvh_type``; named ``name``, with ``_uncounted`` appended
     without ``counted``. ``costs`` gets (nodes visited, triangles tested), or is not touched by the uncounted kernel
-    (see ``wrt.trace.Accelerator``)."""
+    (see ``wrt.trace.Accelerator``). On CUDA it uses at most ``max_registers`` registers."""
 
     def trace_kernel(
         bvh: bvh_type,
@@ -76,7 +78,7 @@ def closest_hit_kernel(intersect, bvh_type, name: str, counted: bool, module: st
             costs[i] = wp.vec2i(nodes, tests)
 
     name = name if counted else f"{name}_uncounted"
-    return wp.kernel(trace_kernel, name=name, module=module, cuda_max_registers=TRACE_MAX_REGISTERS)
+    return wp.kernel(trace_kernel, name=name, module=module, cuda_max_registers=max_registers)
 
 
 

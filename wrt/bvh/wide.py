@@ -13,8 +13,9 @@ Triangles are stored in slot (leaf) order next to the nodes. On the device the s
 reads fastest (``DeviceWideBvh``): on CUDA two 16-byte records per slot (``packed.py``), read in a loop over the
 children that is unrolled (one kernel per width), so a node's loads are issued together.
 
-Traversal tests all child boxes of a node (on the CPU all at once, with vector instructions: ``wide_cpu.py``),
-sorts the entered ones by entry distance, continues with the nearest and pushes the others far to near; each wide
+Traversal tests all child boxes of a node (on the CPU all at once, with vector instructions: ``wide_cpu.py``) and
+continues with the nearest entered child. The others are pushed far to near, except by a BVH8 node on CUDA, which
+pushes them unsorted (``ORDERED_PUSH_WIDTH``); every entry keeps its entry distance for the cull on pop. Each wide
 level pushes at most ``width - 1`` entries, and the wide tree is no deeper than the binary one, so a stack of
 ``8 * MAX_DEPTH`` entries suffices for both widths. Tie rule and culling are the binary traversal's, so results
 agree ray by ray.
@@ -38,7 +39,7 @@ from ..geometry import (
 from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .packed import load_child, load_link, pack_child
-from .stack import SORT_SLOTS, WIDE_STACK, SortBuffer, WideStack
+from .stack import WIDE_STACK, WideStack
 from .traverse import TRACE_MAX_REGISTERS, any_hit_kernel, closest_hit_kernel, reachable, reported_hit
 from .turns import waits
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
@@ -48,14 +49,21 @@ from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cp
 wp.set_module_options({"enable_backward": False, "fuse_fp": False, "extra_build_options": WIDE_BUILD_OPTIONS})
 
 WIDE_WIDTHS = {"wide": 4, "wide8": 8}  # layout name -> children per node
-MAX_WIDTH = SORT_SLOTS  # widest supported node: the sort buffer holds one entry per child
-RANKED_PUSH_WIDTH = 4  # CUDA closest hit: nodes up to this width order their children by rank, wider ones by sort
-# CUDA register cap of the BVH4 any-hit kernel: 80, where it uses 75 (no spills at 64 either), for 24 warps per SM
-# instead of 32. H200, two runs against 64: shadow rays chess_set 1.01, displaced sphere 1.04-1.05. At 80 the SASS
-# issues a node's eight 16-byte child loads in one group instead of two (the same grouping did not help the closest
-# hit at 64: GPU_NOTES.md, row 50). The binary and compact any-hit kernels lost 0-1% and 7-16% at 80, and BVH8's
-# was not measured: they keep 64 (GPU_NOTES.md, row 49).
-ANY_HIT_MAX_REGISTERS = {4: 80}
+# CUDA closest hit: nodes up to this width push their entered children far to near, each at its rank by entry
+# distance; wider nodes continue with the nearest child and push the others unsorted, in reverse slot order (ranking
+# eight children spilled registers, and an insertion sort in local memory was slow). With the nearest first, BVH8
+# gained 3-39% on an H200 and its rays visit 0-8% more nodes (GPU_NOTES.md, row 51). The CPU sorts at every width:
+# there the sort is cheap and the extra nodes cost BVH8 6-21%, so CPU and CUDA BVH8 visit different node counts
+# (the same hits).
+ORDERED_PUSH_WIDTH = 4
+# CUDA register caps of the wide kernels where they differ from TRACE_MAX_REGISTERS (64), for 24 warps per SM
+# instead of 32. BVH4 any hit: 80, where it uses 75 (no spills at 64 either); two H200 runs against 64: shadow rays
+# chess_set 1.01, displaced sphere 1.04-1.05. At 80 the SASS issues a node's eight 16-byte child loads in one group
+# instead of two (the same grouping did not help the BVH4 closest hit at 64: GPU_NOTES.md, row 50). BVH8 closest
+# and any hit: 80 (spills 104 -> 28 B and 36 -> 0 B); one H200 run against 64: closest hit 0.96-1.11, any hit
+# 1.01-1.08 (row 51). The binary and compact any-hit kernels lost 0-1% and 7-16% at 80 and keep 64 (row 49).
+ANY_HIT_MAX_REGISTERS = {4: 80, 8: 80}
+CLOSEST_HIT_MAX_REGISTERS = {8: 80}
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
 
 
@@ -260,7 +268,7 @@ def _traversal_kernels(width: int) -> tuple:
                     ref = step[0]
                     count = step[1]
                     top = step[2]
-                elif wp.static(width <= RANKED_PUSH_WIDTH):
+                elif wp.static(width <= ORDERED_PUSH_WIDTH):
                     # Wide node: test every child box, then push the entered children far to near, each at its rank
                     # by entry distance (ties by slot), and continue with the nearest: no sort buffer in local memory.
                     entry = EntryVec()
@@ -292,41 +300,30 @@ def _traversal_kernels(width: int) -> tuple:
                                 wp.wrt_stack_push(stack, top + m - 1 - rank, link[0], link[1], entry[j])
                     top += wp.max(m - 1, 0)
                 else:
-                    # Wider nodes: the same order through an insertion sort in a local buffer (ranking eight children
-                    # spilled registers and was slower: GPU_NOTES.md, row 33).
-                    entered = SortBuffer()
-                    m = int(0)
+                    # Wider nodes: continue with the nearest entered child (the first slot of least entry distance)
+                    # and push the others in reverse slot order, unsorted, each with its entry distance for the cull
+                    # on pop (see ORDERED_PUSH_WIDTH).
+                    entry = EntryVec()
+                    node = ref
                     for j in range(wp.static(width)):
-                        c = ref * width + j
-                        lower, upper, link = load_child(bvh.children, c)
-                        t = intersect_ray_box(origin_lower, origin_upper, inv_dir, lower, upper, t_min, best_t)
-                        if reachable(t, best_t):
-                            k = m
-                            while k > 0 and wp.wrt_stack_t(entered, k - 1) > t:
-                                wp.wrt_stack_push(
-                                    entered,
-                                    k,
-                                    wp.wrt_stack_ref(entered, k - 1),
-                                    wp.wrt_stack_count(entered, k - 1),
-                                    wp.wrt_stack_t(entered, k - 1),
-                                )
-                                k -= 1
-                            wp.wrt_stack_push(entered, k, link[0], link[1], t)
-                            m += 1
-                    # Continue with the nearest child; push the others far to near.
+                        lower, upper, link = load_child(bvh.children, node * width + j)
+                        entry[j] = intersect_ray_box(origin_lower, origin_upper, inv_dir, lower, upper, t_min, best_t)
+                    nearest = int(-1)
+                    nearest_t = float(wp.inf)
+                    for j in range(wp.static(width)):
+                        if reachable(entry[j], best_t) and entry[j] < nearest_t:
+                            nearest = j
+                            nearest_t = entry[j]
                     ref = -1
-                    if m > 0:
-                        for k in range(m - 1, 0, -1):
-                            wp.wrt_stack_push(
-                                stack,
-                                top,
-                                wp.wrt_stack_ref(entered, k),
-                                wp.wrt_stack_count(entered, k),
-                                wp.wrt_stack_t(entered, k),
-                            )
+                    for j in range(wp.static(width - 1), -1, -1):
+                        if j != nearest and reachable(entry[j], best_t):
+                            link = load_link(bvh.children, node * width + j)
+                            wp.wrt_stack_push(stack, top, link[0], link[1], entry[j])
                             top += 1
-                        ref = wp.wrt_stack_ref(entered, 0)
-                        count = wp.wrt_stack_count(entered, 0)
+                    if nearest >= 0:
+                        link = load_link(bvh.children, node * width + nearest)
+                        ref = link[0]
+                        count = link[1]
                 # Pop the next node that may still hold a hit no farther than the best one.
                 while ref < 0 and top > 0:
                     top -= 1
@@ -389,8 +386,9 @@ def _traversal_kernels(width: int) -> tuple:
     wide_intersect = wp.func(named(wide_intersect, width))
     wide_occluded = wp.func(named(wide_occluded, width))
     name = f"trace_wide_kernel{width}"
-    trace = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, True, __name__)
-    uncounted = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, False, __name__)
+    registers = CLOSEST_HIT_MAX_REGISTERS.get(width, TRACE_MAX_REGISTERS)
+    trace = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, True, __name__, registers)
+    uncounted = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, False, __name__, registers)
     registers = ANY_HIT_MAX_REGISTERS.get(width, TRACE_MAX_REGISTERS)
     occluded = any_hit_kernel(wide_occluded, DeviceWideBvh, f"occluded_wide_kernel{width}", __name__, registers)
     return trace, uncounted, occluded

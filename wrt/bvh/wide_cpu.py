@@ -10,7 +10,8 @@ pushes them. In one A/B run on one CPU thread, wide8 went from 0.9-1.6x to 1.4-2
 
 The vector form repeats ``geometry.intersect_ray_box``'s arithmetic operation for operation (the CPU's
 ``box_origins``, no slack, no FMA contraction, the same min/max selects and rounding of the entry), so both give the
-same bits and the same visiting order as the CUDA path; ``tests/test_wide_simd.py`` compares them.
+same bits, and the BVH4 the same visiting order as the CUDA path (BVH8 on CUDA pushes unsorted: ``wide.py``);
+``tests/test_wide_simd.py`` compares them.
 """
 
 from __future__ import annotations
