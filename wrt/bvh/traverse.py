@@ -31,7 +31,7 @@ from .wide_cpu import on_cpu
 # CUDA register cap of the trace and any-hit kernels of every layout: 64 registers give 4 blocks of 256 threads per
 # SM where the compact kernel's 77 and the wide one's 70 gave 3. H200, against the uncapped kernels in one run:
 # compact and wide incoherent +11-13%, binary unchanged (already 64), mixed on diffuse rays (GPU_NOTES.md, row 20).
-# A layout's any-hit kernel may take another cap (``any_hit_kernel``).
+# A layout's kernels may take another cap (``closest_hit_kernel``, ``any_hit_kernel``; the wide layouts' in wide.py).
 TRACE_MAX_REGISTERS = 64
 # CUDA threads per block of every trace and any-hit launch (wp.Mesh's too, so comparisons stay like for like). An SM
 # keeps a block's registers until its slowest warp ends, and the rays of one block end far apart; with 64 threads a

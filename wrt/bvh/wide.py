@@ -60,8 +60,8 @@ ORDERED_PUSH_WIDTH = 4
 # instead of 32. BVH4 any hit: 80, where it uses 75 (no spills at 64 either); two H200 runs against 64: shadow rays
 # chess_set 1.01, displaced sphere 1.04-1.05. At 80 the SASS issues a node's eight 16-byte child loads in one group
 # instead of two (the same grouping did not help the BVH4 closest hit at 64: GPU_NOTES.md, row 50). BVH8 closest
-# and any hit: 80 (spills 104 -> 28 B and 36 -> 0 B); one H200 run against 64: closest hit 0.96-1.11, any hit
-# 1.01-1.08 (row 51). The binary and compact any-hit kernels lost 0-1% and 7-16% at 80 and keep 64 (row 49).
+# and any hit: 80 (spills 104 -> 28 B and 36 -> 0 B); one H200 run against 64: closest hit 0.97-1.11, any hit
+# 0.99-1.08 (row 51). The binary and compact any-hit kernels lost 0-1% and 7-16% at 80 and keep 64 (row 49).
 ANY_HIT_MAX_REGISTERS = {4: 80, 8: 80}
 CLOSEST_HIT_MAX_REGISTERS = {8: 80}
 WIDE_CHILD_BYTES = 32  # child lower (12) + upper (12) + ref (4) + count (4)
