@@ -27,7 +27,7 @@ from .bvh.build import Builder
 from .bvh.common import check_triangles
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
-from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernel
+from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .geometry import ray_can_hit
 from .scene import Scene
@@ -48,8 +48,9 @@ WARP_MAX_TRIANGLES = 1 << 27  # accel="warp" flattens instances; larger instance
 ACCELERATOR_PRESPLIT = 6
 
 
-trace_bvh_kernel = closest_hit_kernel(bvh_intersect, DeviceBvh, "trace_bvh_kernel", True, __name__)
-trace_bvh_kernel_uncounted = closest_hit_kernel(bvh_intersect, DeviceBvh, "trace_bvh_kernel", False, __name__)
+trace_bvh_kernel, trace_bvh_kernel_uncounted = closest_hit_kernels(
+    bvh_intersect, DeviceBvh, "trace_bvh_kernel", __name__
+)
 
 
 occluded_bvh_kernel = any_hit_kernel(bvh_occluded, DeviceBvh, "occluded_bvh_kernel", __name__)

@@ -30,7 +30,7 @@ from ..geometry import (
 )
 from .layout import FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
-from .traverse import any_hit_kernel, closest_hit_kernel, reachable, reported_hit
+from .traverse import any_hit_kernel, closest_hit_kernels, reachable, reported_hit
 from .turns import waits
 
 # No FMA contraction, as in wrt/trace.py: on CUDA it fused the triangle test's distance (and ray_is_valid), so hits
@@ -282,9 +282,8 @@ def compact_occluded(bvh: DeviceCompactBvh, origin: wp.vec3, direction: wp.vec3,
     return found
 
 
-trace_compact_kernel = closest_hit_kernel(compact_intersect, DeviceCompactBvh, "trace_compact_kernel", True, __name__)
-trace_compact_kernel_uncounted = closest_hit_kernel(
-    compact_intersect, DeviceCompactBvh, "trace_compact_kernel", False, __name__
+trace_compact_kernel, trace_compact_kernel_uncounted = closest_hit_kernels(
+    compact_intersect, DeviceCompactBvh, "trace_compact_kernel", __name__
 )
 
 

@@ -31,7 +31,7 @@ from .wide_cpu import on_cpu
 # CUDA register cap of the trace and any-hit kernels of every layout: 64 registers give 4 blocks of 256 threads per
 # SM where the compact kernel's 77 and the wide one's 70 gave 3. H200, against the uncapped kernels in one run:
 # compact and wide incoherent +11-13%, binary unchanged (already 64), mixed on diffuse rays (GPU_NOTES.md, row 20).
-# A layout's kernels may take another cap (``closest_hit_kernel``, ``any_hit_kernel``; the wide layouts' in wide.py).
+# A layout's kernels may take another cap (``closest_hit_kernels``, ``any_hit_kernel``; the wide layouts' in wide.py).
 TRACE_MAX_REGISTERS = 64
 # CUDA threads per block of every trace and any-hit launch (wp.Mesh's too, so comparisons stay like for like). An SM
 # keeps a block's registers until its slowest warp ends, and the rays of one block end far apart; with 64 threads a
@@ -47,39 +47,39 @@ def trace_block_dim(device) -> int:
     return TRACE_BLOCK_DIM if device.is_cuda else 256
 
 
-def closest_hit_kernel(
-    intersect, bvh_type, name: str, counted: bool, module: str, max_registers: int = TRACE_MAX_REGISTERS
-):
-    """A kernel of ``module`` (whose build options it takes) tracing the closest hit of every ray through
-    ``intersect``, a layout's closest-hit function over a ``bvh_type``; named ``name``, with ``_uncounted`` appended
-    without ``counted``. ``costs`` gets (nodes visited, triangles tested), or is not touched by the uncounted kernel
-    (see ``wrt.trace.Accelerator``). On CUDA it uses at most ``max_registers`` registers."""
+def closest_hit_kernels(intersect, bvh_type, name: str, module: str, max_registers: int = TRACE_MAX_REGISTERS):
+    """``(counted, uncounted)``: two kernels of ``module`` (whose build options they take) tracing the closest hit of
+    every ray through ``intersect``, a layout's closest-hit function over a ``bvh_type``; named ``name`` and
+    ``name + "_uncounted"``. The counted one writes (nodes visited, triangles tested) to ``costs``, the uncounted one
+    leaves it untouched (see ``wrt.trace.Accelerator``). On CUDA they use at most ``max_registers`` registers."""
 
-    def trace_kernel(
-        bvh: bvh_type,
-        origins: wp.array[wp.vec3],
-        directions: wp.array[wp.vec3],
-        t_mins: wp.array[float],
-        t_maxs: wp.array[float],
-        # outputs
-        ts: wp.array[float],
-        us: wp.array[float],
-        vs: wp.array[float],
-        prims: wp.array[wp.int32],
-        costs: wp.array[wp.vec2i],
-    ):
-        i = wp.tid()
-        t, u, v, prim, nodes, tests = intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-        ts[i] = t
-        us[i] = u
-        vs[i] = v
-        prims[i] = prim
-        if wp.static(counted):
-            costs[i] = wp.vec2i(nodes, tests)
+    def make(counted: bool):
+        def trace_kernel(
+            bvh: bvh_type,
+            origins: wp.array[wp.vec3],
+            directions: wp.array[wp.vec3],
+            t_mins: wp.array[float],
+            t_maxs: wp.array[float],
+            # outputs
+            ts: wp.array[float],
+            us: wp.array[float],
+            vs: wp.array[float],
+            prims: wp.array[wp.int32],
+            costs: wp.array[wp.vec2i],
+        ):
+            i = wp.tid()
+            t, u, v, prim, nodes, tests = intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
+            ts[i] = t
+            us[i] = u
+            vs[i] = v
+            prims[i] = prim
+            if wp.static(counted):
+                costs[i] = wp.vec2i(nodes, tests)
 
-    name = name if counted else f"{name}_uncounted"
-    return wp.kernel(trace_kernel, name=name, module=module, cuda_max_registers=max_registers)
+        kernel_name = name if counted else f"{name}_uncounted"
+        return wp.kernel(trace_kernel, name=kernel_name, module=module, cuda_max_registers=max_registers)
 
+    return make(True), make(False)
 
 
 def any_hit_kernel(occluded, bvh_type, name: str, module: str, max_registers: int = TRACE_MAX_REGISTERS):

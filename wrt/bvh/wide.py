@@ -40,7 +40,7 @@ from .collapse import collapse_wide
 from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .packed import load_child, load_link, pack_child
 from .stack import WIDE_STACK, WideStack
-from .traverse import TRACE_MAX_REGISTERS, any_hit_kernel, closest_hit_kernel, reachable, reported_hit
+from .traverse import TRACE_MAX_REGISTERS, any_hit_kernel, closest_hit_kernels, reachable, reported_hit
 from .turns import waits
 from .wide_cpu import WIDE_BUILD_OPTIONS, device_links, device_node_boxes, on_cpu
 
@@ -386,11 +386,10 @@ def _traversal_kernels(width: int) -> tuple:
     wide_intersect = wp.func(named(wide_intersect, width))
     wide_occluded = wp.func(named(wide_occluded, width))
     name = f"trace_wide_kernel{width}"
-    registers = CLOSEST_HIT_MAX_REGISTERS.get(width, TRACE_MAX_REGISTERS)
-    trace = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, True, __name__, registers)
-    uncounted = closest_hit_kernel(wide_intersect, DeviceWideBvh, name, False, __name__, registers)
-    registers = ANY_HIT_MAX_REGISTERS.get(width, TRACE_MAX_REGISTERS)
-    occluded = any_hit_kernel(wide_occluded, DeviceWideBvh, f"occluded_wide_kernel{width}", __name__, registers)
+    closest_cap = CLOSEST_HIT_MAX_REGISTERS.get(width, TRACE_MAX_REGISTERS)
+    trace, uncounted = closest_hit_kernels(wide_intersect, DeviceWideBvh, name, __name__, closest_cap)
+    any_cap = ANY_HIT_MAX_REGISTERS.get(width, TRACE_MAX_REGISTERS)
+    occluded = any_hit_kernel(wide_occluded, DeviceWideBvh, f"occluded_wide_kernel{width}", __name__, any_cap)
     return trace, uncounted, occluded
 
 
