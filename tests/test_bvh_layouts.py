@@ -88,7 +88,6 @@ def test_occluded_matches_closest_hit_in_every_layout(layout, np_rng):
     np.testing.assert_array_equal(blocked, hits.t < t_max)
 
 
-
 @pytest.mark.parametrize("layout", LAYOUTS)
 def test_uncounted_kernels_give_the_same_hits_and_leave_costs_alone(layout, np_rng):
     """``costs=False`` runs the kernels that count nothing: same hits bit for bit (the barycentrics are recomputed
@@ -112,6 +111,7 @@ def test_uncounted_kernels_give_the_same_hits_and_leave_costs_alone(layout, np_r
     assert (counted.prim.numpy() >= 0).mean() > 0.2  # the rays hit something
     assert (counted.cost.numpy()[:, 0] > 0).all()
     assert (uncounted.cost.numpy() == -7).all()
+
 
 def degenerate_scenes():
     tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)

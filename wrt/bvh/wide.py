@@ -333,7 +333,6 @@ def _traversal_kernels(width: int) -> tuple:
         t, u, v, prim = reported_hit(ray, bvh.v0, bvh.v1, bvh.v2, bvh.prim_ids, best_slot, best_t)
         return t, u, v, prim, nodes, tests
 
-
     def wide_occluded(bvh: DeviceWideBvh, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
         """Any hit with ``t_min <= t < t_max``: True as soon as one is found."""
         found = bool(False)
