@@ -67,6 +67,38 @@ def test_cpu_threads_and_build_phases_do_not_change_the_tree(np_rng):
     np.testing.assert_allclose(deep.stats(epo_samples=0)["sah_cost"], whole.stats(epo_samples=0)["sah_cost"])
 
 
+def _mixed_mesh(rng):
+    """Clusters, a long thin fan, and 3000 copies of one triangle (coincident centroids: the nodes that halve)."""
+    points, indices = soup(rng, 6000)
+    fan = np.stack([np.zeros(400), np.linspace(0, 5, 400), np.linspace(-1, 1, 400)], axis=1)
+    fan_tris = np.stack([np.zeros((399, 3)), fan[:-1], fan[1:]], axis=1).reshape(-1, 3)
+    same = np.tile(np.float32([[2, 2, 2], [2.1, 2, 2], [2, 2.1, 2]]), (3000, 1))
+    all_points = np.concatenate([points, fan_tris, same]).astype(np.float32)
+    return all_points, np.arange(len(all_points), dtype=np.int32).reshape(-1, 3)
+
+
+@pytest.mark.parametrize(
+    "use_sah,leaf_size,bins",
+    [(True, 8, 16), (True, 1, 2), (True, 1 << 16, 64), (False, 4, 16)],
+)
+def test_large_nodes_split_by_many_threads_give_the_same_tree(use_sah, leaf_size, bins, np_rng):
+    """The GPU's path for large nodes (one thread per slot, atomics, a prefix-sum partition), forced on the CPU
+    down to 64 triangles, against the one-thread-per-node path: the same tree, bit for bit."""
+    from wrt.bvh.binned import build_binned
+    from wrt.bvh.common import BuildInput
+
+    points, indices = _mixed_mesh(np_rng)
+    options = {"use_sah": use_sah, "leaf_size": leaf_size, "bins": bins, "traversal_cost": 1.0,
+               "intersection_cost": 1.0}
+    alone = build_binned(BuildInput(points, indices, "cpu"), builder="t", subtree_size=64, **options).to_host()
+    shared = build_binned(BuildInput(points, indices, "cpu"), builder="t", subtree_size=64, parallel_min=64,
+                          **options).to_host()
+    alone.validate()
+    assert alone.num_nodes > 1000 or leaf_size == 1 << 16
+    for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
+        np.testing.assert_array_equal(getattr(shared, field), getattr(alone, field))
+
+
 @pytest.mark.parametrize(
     "builder,options",
     [

@@ -48,6 +48,8 @@ wp.set_module_options({"enable_backward": False})
 
 SUBTREE_STACK = MAX_DEPTH + 2  # depth-first stack of the subtree phase: one entry per level, plus one
 SUBTREE_SIZE = 4096  # default: nodes of at most this many triangles are built whole by one thread
+PARALLEL_MIN_CUDA = 1 << 16  # default on a GPU: nodes above this many triangles are split by one thread per slot
+NO_PARALLEL = (1 << 31) - 1
 
 
 @wp.struct
@@ -139,6 +141,91 @@ class BinnedBuild:
     intersection_cost: float  # SAH C_i
     max_depth: int  # MAX_DEPTH
     subtree_size: int  # nodes of at most this many triangles are built whole by one thread
+    parallel_min: int  # level-phase nodes above this many triangles are split by many threads each
+
+
+@wp.func
+def binned_axes(st: BinnedBuild, n: int):
+    """1 for each axis along which node ``n`` is binned: all three that can split for SAH, the widest one for the
+    middle split."""
+    extent = st.node_c_uppers[n] - st.node_c_lowers[n]
+    widest = widest_axis(extent)
+    use_axis = wp.vec3i(0)
+    for axis in range(3):
+        if st.node_counts[n] > 1 and extent[axis] > 0.0 and (st.use_sah == 1 or axis == widest):
+            use_axis[axis] = 1
+    return use_axis
+
+
+@wp.func
+def best_bin_split(st: BinnedBuild, base: int, sweep: int, bins: int, use_axis: wp.vec3i):
+    """The best bin-boundary split of the node binned in ``st.bins[base:]``: least SAH cost over its axes, or the
+    middle of the widest axis. Returns (cost, axis, first right bin, left count); axis -1 when none splits."""
+    best_cost = float(wp.inf)
+    best_axis = int(-1)
+    best_split = int(0)
+    best_left = int(0)
+    for axis in range(3):
+        if use_axis[axis] == 1:
+            # Sweep from the right, keeping the area and count of bins [s, bins) for every split s.
+            lo = wp.vec3(wp.inf)
+            hi = wp.vec3(-wp.inf)
+            m = int(0)
+            for s in range(bins - 1, 0, -1):
+                bin = st.bins[base + axis * bins + s]
+                lo = wp.min(lo, bin.lower)
+                hi = wp.max(hi, bin.upper)
+                m += bin.count
+                st.right_areas[sweep + s] = half_area(lo, hi)
+                st.right_counts[sweep + s] = m
+            # Sweep from the left and evaluate each split s: bins [0, s) left, [s, bins) right.
+            lo = wp.vec3(wp.inf)
+            hi = wp.vec3(-wp.inf)
+            m = int(0)
+            for s in range(1, bins):
+                bin = st.bins[base + axis * bins + s - 1]
+                lo = wp.min(lo, bin.lower)
+                hi = wp.max(hi, bin.upper)
+                m += bin.count
+                if m > 0 and st.right_counts[sweep + s] > 0:
+                    cost = float(0.0)
+                    if st.use_sah == 1:
+                        cost = half_area(lo, hi) * float(m) + st.right_areas[sweep + s] * float(
+                            st.right_counts[sweep + s]
+                        )
+                    else:
+                        # Spatial median: the split nearest the middle bin boundary wins.
+                        cost = wp.abs(float(2 * s - bins))
+                    if cost < best_cost:
+                        best_cost = cost
+                        best_axis = axis
+                        best_split = s
+                        best_left = m
+    return best_cost, best_axis, best_split, best_left
+
+
+@wp.func
+def binned_action(st: BinnedBuild, n: int, best_cost: float, best_axis: int, best_left: int):
+    """Leaf, the split found, or halving for node ``n``, and the triangle count of its left child."""
+    count = st.node_counts[n]
+    area = half_area(st.node_lowers[n], st.node_uppers[n])
+    action = choose_action(
+        count,
+        st.node_depths[n],
+        area,
+        best_axis >= 0,
+        best_cost,
+        best_left,
+        st.use_sah,
+        st.max_leaf_size,
+        st.traversal_cost,
+        st.intersection_cost,
+        st.max_depth,
+    )
+    n_left = best_left
+    if action == ACTION_HALVE:
+        n_left = count / 2
+    return action, n_left
 
 
 @wp.kernel
@@ -176,6 +263,8 @@ def split_nodes_kernel(
     if subtree == 1:
         next_free = reserved[k]
     else:
+        if st.node_counts[items[k]] > st.parallel_min:
+            return  # split by the kernels of binned_parallel.py
         split_flags[k] = 0
         if st.node_counts[items[k]] <= st.subtree_size:
             node_pending[items[k]] = 1
@@ -188,15 +277,9 @@ def split_nodes_kernel(
         count = st.node_counts[n]
         end = start + count
         c_lo = st.node_c_lowers[n]
-        c_hi = st.node_c_uppers[n]
-        extent = c_hi - c_lo
-        widest = widest_axis(extent)
         bins = wp.min(st.max_bins, count)
-        scale = bin_scales(c_lo, c_hi, bins)
-        use_axis = wp.vec3i(0)
-        for axis in range(3):
-            if count > 1 and extent[axis] > 0.0 and (st.use_sah == 1 or axis == widest):
-                use_axis[axis] = 1
+        scale = bin_scales(c_lo, st.node_c_uppers[n], bins)
+        use_axis = binned_axes(st, n)
         base = 3 * st.max_bins * worker
         sweep = st.max_bins * worker
 
@@ -222,73 +305,15 @@ def split_nodes_kernel(
                         grown.upper = upper_of(grown.upper, hi)
                         st.bins[b] = grown
 
-        # Find the best bin-boundary split: least SAH cost over three axes, or the middle of the widest axis.
-        best_cost = float(wp.inf)
-        best_axis = int(-1)
-        best_split = int(0)
-        best_left = int(0)
-        for axis in range(3):
-            if use_axis[axis] == 1:
-                # Sweep from the right, keeping the area and count of bins [s, bins) for every split s.
-                lo = wp.vec3(wp.inf)
-                hi = wp.vec3(-wp.inf)
-                m = int(0)
-                for s in range(bins - 1, 0, -1):
-                    bin = st.bins[base + axis * bins + s]
-                    lo = wp.min(lo, bin.lower)
-                    hi = wp.max(hi, bin.upper)
-                    m += bin.count
-                    st.right_areas[sweep + s] = half_area(lo, hi)
-                    st.right_counts[sweep + s] = m
-                # Sweep from the left and evaluate each split s: bins [0, s) left, [s, bins) right.
-                lo = wp.vec3(wp.inf)
-                hi = wp.vec3(-wp.inf)
-                m = int(0)
-                for s in range(1, bins):
-                    bin = st.bins[base + axis * bins + s - 1]
-                    lo = wp.min(lo, bin.lower)
-                    hi = wp.max(hi, bin.upper)
-                    m += bin.count
-                    if m > 0 and st.right_counts[sweep + s] > 0:
-                        cost = float(0.0)
-                        if st.use_sah == 1:
-                            cost = half_area(lo, hi) * float(m) + st.right_areas[sweep + s] * float(
-                                st.right_counts[sweep + s]
-                            )
-                        else:
-                            # Spatial median: the split nearest the middle bin boundary wins.
-                            cost = wp.abs(float(2 * s - bins))
-                        if cost < best_cost:
-                            best_cost = cost
-                            best_axis = axis
-                            best_split = s
-                            best_left = m
+        best_cost, best_axis, best_split, best_left = best_bin_split(st, base, sweep, bins, use_axis)
 
-        # Decide between leaf, the split found, and halving.
-        area = half_area(st.node_lowers[n], st.node_uppers[n])
-        action = choose_action(
-            count,
-            st.node_depths[n],
-            area,
-            best_axis >= 0,
-            best_cost,
-            best_left,
-            st.use_sah,
-            st.max_leaf_size,
-            st.traversal_cost,
-            st.intersection_cost,
-            st.max_depth,
-        )
+        action, n_left = binned_action(st, n, best_cost, best_axis, best_left)
         if action == ACTION_LEAF:
             for i in range(start, end):
                 st.out_prims[i] = st.slots[p, i].prim
+            end = start  # nothing to partition
 
         # Partition the slots stably into [start, start + n_left) and the rest, growing both children's boxes.
-        n_left = best_left
-        if action == ACTION_LEAF:
-            end = start  # nothing to partition
-        if action == ACTION_HALVE:
-            n_left = count / 2
         big = wp.vec3(wp.inf)
         l_lo = big
         l_hi = -big
@@ -503,12 +528,18 @@ def build_binned(
     builder: str,
     threads: int = 1,
     subtree_size: int = SUBTREE_SIZE,
+    parallel_min: int | None = None,
 ) -> DeviceFlatBvh:
     """Builds the tree over ``data`` (see module docstring), on ``data.device``.
 
     On a CPU device each launch is split into ``threads`` pieces of about equal triangle count that run at once
     (Warp's CPU launches release the GIL); the nodes are independent, so the tree does not depend on it.
+    Level-phase nodes above ``parallel_min`` triangles are split by one thread per slot (``binned_parallel.py``;
+    ``None``: ``PARALLEL_MIN_CUDA`` on a GPU, off on a CPU, whose launches run one thread each). Neither option
+    changes the tree.
     """
+    from .binned_parallel import LargeNodeSplitter
+
     n = data.num_prims
     if subtree_size < 64:
         raise ValueError(f"subtree_size must be at least 64, got {subtree_size}")
@@ -540,6 +571,10 @@ def build_binned(
         st.intersection_cost = float(intersection_cost)
         st.max_depth = MAX_DEPTH
         st.subtree_size = int(subtree_size)
+        if parallel_min is None:
+            parallel_min = PARALLEL_MIN_CUDA if data.device.is_cuda else NO_PARALLEL
+        st.parallel_min = max(int(parallel_min), int(subtree_size))  # smaller nodes are built whole, below
+        large = LargeNodeSplitter(st, n)
 
         # Level phase: nodes above subtree_size triangles, breadth first, one launch per level.
         node_pending = wp.zeros(capacity, dtype=wp.int32)
@@ -549,7 +584,7 @@ def build_binned(
         split_ranks = wp.empty(n, dtype=wp.int32)
         child_counts = wp.empty(2 * n, dtype=wp.int32)
         children = [wp.empty(2 * n, dtype=wp.vec3) for _ in range(4)]  # box lower/upper, centroid lower/upper
-        num_active, num_nodes = 1, 1
+        num_active, num_nodes, depth = 1, 1, 0
         while num_active > 0:
             k = num_active
 
@@ -564,6 +599,7 @@ def build_binned(
                 )
 
             run_split(split_level, k, active, st.node_counts, pool, threads)
+            large.split(active, k, children, split_flags, child_counts, depth % 2)
             wp.utils.array_scan(split_flags[:k], split_ranks[:k], inclusive=False)
             num_splits = read_int(split_ranks, k - 1) + read_int(split_flags, k - 1)
             wp.launch(
@@ -576,6 +612,7 @@ def build_binned(
             active, next_active = next_active, active
             num_nodes += 2 * num_splits
             num_active = 2 * num_splits
+            depth += 1
 
         # Subtree phase: every pending node's subtree, whole, in reserved node ranges after the level phase's.
         top = num_nodes
