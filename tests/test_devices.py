@@ -28,8 +28,9 @@ def test_build_on_device_is_valid(device, bunny):
 @pytest.mark.parametrize("device", DEVICES)
 def test_sah_tree_is_the_same_on_every_device(device, bunny):
     """The binned SAH tree does not depend on the device, nor on which nodes are split by one thread per slot
-    (forced here for every level-phase node of the bunny; on a GPU the default starts at 65,536 triangles)."""
-    from wrt.bvh.binned import build_binned
+    (forced here for every level-phase node of the bunny). The subtree size (64 on a GPU, 4096 on a CPU) changes
+    the node numbering only."""
+    from wrt.bvh.binned import SUBTREE_SIZE, build_binned
     from wrt.bvh.common import BuildInput
 
     points, indices = bunny.triangles()
@@ -37,9 +38,14 @@ def test_sah_tree_is_the_same_on_every_device(device, bunny):
     options = {"use_sah": True, "leaf_size": 8, "bins": 16, "traversal_cost": 1.0, "intersection_cost": 1.0}
     for parallel_min in (None, 64):
         data = BuildInput(points, indices, device)
-        tree = build_binned(data, builder="sah", parallel_min=parallel_min, **options).to_host()
+        tree = build_binned(data, builder="sah", parallel_min=parallel_min, subtree_size=SUBTREE_SIZE,
+                            **options).to_host()
         for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
             np.testing.assert_array_equal(getattr(tree, field), getattr(cpu, field))
+    default = wrt.build_bvh(points, indices, "sah", device=device)
+    default.validate()
+    np.testing.assert_array_equal(default.prim_ids, cpu.prim_ids)
+    assert default.stats(epo_samples=0)["sah_cost"] == cpu.stats(epo_samples=0)["sah_cost"]
 
 
 @pytest.mark.parametrize("device", DEVICES)

@@ -12,15 +12,18 @@ depend on where the phases meet:
 
 1. Level phase: nodes above ``subtree_size`` triangles grow breadth first, one launch per level with one thread
    per node (bin, decide, stably partition the slots into the other slot buffer), then a prefix scan places the two
-   children of every split node side by side.
+   children of every split node side by side. Nodes above ``parallel_min`` triangles are split by one thread per
+   slot instead (``binned_parallel.py``: on a GPU a few threads over millions of triangles would take seconds),
+   with the same decision functions and the same result.
 2. Subtree phase: every node left at or below ``subtree_size`` triangles is built whole, depth first, by one
    thread, into a reserved node range; a final pass closes the gaps between the ranges. A subtree's slots and
    bins stay in cache while it is built, instead of every level streaming the whole slot array.
 
 Slots carry the triangle's box with its id, and nodes at even and odd depths read the two slot buffers in turn, so
-every pass streams. Work is ``O(N)`` per level. On a CPU device launches can be split between threads; on a GPU
-the first levels run on few threads (the price of a simple, deterministic builder). There are no atomics in the
-per-node work, so the tree does not depend on the device, the threads or the run.
+every pass streams. Work is ``O(N)`` per level. On a CPU device launches can be split between threads. The only
+atomics (in ``binned_parallel.py``) add integers and take minima and maxima, which are exact, and FMA contraction is
+off, so the tree does not depend on the device, the threads or the run. Its node numbering depends on
+``subtree_size`` only (breadth first above it, depth first below), whose default differs between CPU and GPU.
 """
 
 from __future__ import annotations
@@ -44,11 +47,15 @@ from .common import (
 )
 from .layout import DeviceFlatBvh
 
-wp.set_module_options({"enable_backward": False})
+# No FMA contraction: SAH costs rounded alike on every device, so the CPU and a GPU build the same tree.
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 SUBTREE_STACK = MAX_DEPTH + 2  # depth-first stack of the subtree phase: one entry per level, plus one
-SUBTREE_SIZE = 4096  # default: nodes of at most this many triangles are built whole by one thread
-PARALLEL_MIN_CUDA = 1 << 16  # default on a GPU: nodes above this many triangles are split by one thread per slot
+SUBTREE_SIZE = 4096  # default on a CPU: nodes of at most this many triangles are built whole by one thread
+# Defaults on a GPU, from benchmarks/gpu_sah_build.py on an H200: the smallest subtrees and parallel nodes down to
+# 256 triangles built chess_set's tree in 51 ms (4.8 s with one thread per node throughout).
+SUBTREE_SIZE_CUDA = 64
+PARALLEL_MIN_CUDA = 256  # nodes above this many triangles are split by one thread per slot
 NO_PARALLEL = (1 << 31) - 1
 
 
@@ -527,7 +534,7 @@ def build_binned(
     intersection_cost: float,
     builder: str,
     threads: int = 1,
-    subtree_size: int = SUBTREE_SIZE,
+    subtree_size: int | None = None,
     parallel_min: int | None = None,
 ) -> DeviceFlatBvh:
     """Builds the tree over ``data`` (see module docstring), on ``data.device``.
@@ -535,12 +542,15 @@ def build_binned(
     On a CPU device each launch is split into ``threads`` pieces of about equal triangle count that run at once
     (Warp's CPU launches release the GIL); the nodes are independent, so the tree does not depend on it.
     Level-phase nodes above ``parallel_min`` triangles are split by one thread per slot (``binned_parallel.py``;
-    ``None``: ``PARALLEL_MIN_CUDA`` on a GPU, off on a CPU, whose launches run one thread each). Neither option
-    changes the tree.
+    ``None``: ``PARALLEL_MIN_CUDA`` on a GPU, off on a CPU, whose launches run one thread each). ``subtree_size``
+    (``None``: ``SUBTREE_SIZE_CUDA`` or ``SUBTREE_SIZE``) changes the node numbering only; ``parallel_min``
+    changes nothing in the tree.
     """
     from .binned_parallel import LargeNodeSplitter
 
     n = data.num_prims
+    if subtree_size is None:
+        subtree_size = SUBTREE_SIZE_CUDA if data.device.is_cuda else SUBTREE_SIZE
     if subtree_size < 64:
         raise ValueError(f"subtree_size must be at least 64, got {subtree_size}")
     pool = ThreadPoolExecutor(threads) if threads > 1 else None

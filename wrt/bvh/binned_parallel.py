@@ -22,7 +22,8 @@ import warp as wp
 from .binned import Bin, BinnedBuild, best_bin_split, bin_of, bin_scales, binned_action, binned_axes
 from .common import ACTION_HALVE, ACTION_LEAF, ACTION_SPLIT, read_int
 
-wp.set_module_options({"enable_backward": False})
+# No FMA contraction: SAH costs rounded alike on every device, so the CPU and a GPU build the same tree.
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 MAX_COPIES = 32  # most copies of a node's bins and child boxes (for the root's millions of slots)
 SLOTS_PER_COPY = 1 << 15  # one more copy per this many slots of the level's average large node
