@@ -15,10 +15,9 @@ compiled on a small mesh first), the builders taking turns:
 - "build + wide collapse": the build, then its collapse to the 4-wide layout (``wrt.bvh.collapse``) on the device;
 - the accelerator of the ``wide`` layout (``lbvh``): build, collapse and triangles in slot order, on the device.
 
-``binned_sah`` for the SAH-cost comparison is built on ``--binned-device`` (the host CPU by default: its first
-levels are serial, which suits a CPU better than one GPU thread); the builders are deterministic, so the tree is the
-same on either device up to float contraction. The GPU-built ``lbvh``/``ploc`` trees of that mesh are checked with
-``FlatBvh.validate()`` and compared with the CPU builds.
+``binned_sah`` for the SAH-cost comparison is built on ``--binned-device`` (the host CPU by default); the binned
+builder gives the same tree on every device (``test_sah_tree_is_the_same_on_every_device``). The GPU-built
+``lbvh``/``ploc`` trees of that mesh are checked with ``FlatBvh.validate()`` and compared with the CPU builds.
 
 Usage::
 
