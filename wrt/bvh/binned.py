@@ -584,7 +584,7 @@ def build_binned(
         if parallel_min is None:
             parallel_min = PARALLEL_MIN_CUDA if data.device.is_cuda else NO_PARALLEL
         st.parallel_min = max(int(parallel_min), int(subtree_size))  # smaller nodes are built whole, below
-        large = LargeNodeSplitter(st, n)
+        large = LargeNodeSplitter(st, n) if n > st.parallel_min else None
 
         # Level phase: nodes above subtree_size triangles, breadth first, one launch per level.
         node_pending = wp.zeros(capacity, dtype=wp.int32)
@@ -609,7 +609,8 @@ def build_binned(
                 )
 
             run_split(split_level, k, active, st.node_counts, pool, threads)
-            large.split(active, k, children, split_flags, child_counts, depth % 2)
+            if large is not None:
+                large.split(active, k, children, split_flags, child_counts, depth % 2)
             wp.utils.array_scan(split_flags[:k], split_ranks[:k], inclusive=False)
             num_splits = read_int(split_ranks, k - 1) + read_int(split_flags, k - 1)
             wp.launch(
