@@ -29,19 +29,30 @@ MAX_COPIES = 32  # most copies of a node's bins and child boxes (for the root's 
 SLOTS_PER_COPY = 1 << 15  # one more copy per this many slots of the level's average large node
 
 
+@wp.struct
+class LargeNodes:
+    """The large nodes of one level, in slot order."""
+
+    active: wp.array[wp.int32]  # the level's nodes (``build_binned``'s active list)
+    items: wp.array[wp.int32]  # large node j is active[items[j]]
+    starts: wp.array[wp.int32]  # its slot range [starts[j], ends[j])
+    ends: wp.array[wp.int32]
+    count: int
+
+
 @wp.func
-def large_node_of(i: int, starts: wp.array[wp.int32], ends: wp.array[wp.int32], num_large: int):
+def large_node_of(i: int, nodes: LargeNodes):
     """Index of the large node whose slot range holds slot ``i``, or -1 (ranges are sorted and disjoint)."""
     lo = int(0)
-    hi = int(num_large)  # answer in [lo, hi): the last range starting at or before i
+    hi = int(nodes.count)  # answer in [lo, hi): the last range starting at or before i
     while hi - lo > 1:
         mid = (lo + hi) / 2
-        if starts[mid] <= i:
+        if nodes.starts[mid] <= i:
             lo = mid
         else:
             hi = mid
     j = int(-1)
-    if starts[lo] <= i and i < ends[lo]:
+    if nodes.starts[lo] <= i and i < nodes.ends[lo]:
         j = lo
     return j
 
@@ -49,22 +60,19 @@ def large_node_of(i: int, starts: wp.array[wp.int32], ends: wp.array[wp.int32], 
 @wp.kernel
 def list_large_kernel(
     st: BinnedBuild,
-    active: wp.array[wp.int32],
     ranks: wp.array[wp.int32],
     # outputs
-    items: wp.array[wp.int32],
-    starts: wp.array[wp.int32],
-    ends: wp.array[wp.int32],
+    nodes: LargeNodes,
 ):
-    """Large node ``j`` (active index ``items[j]``) and its slot range, in slot order (``ranks``: exclusive scan of
+    """Fills ``nodes.items``, ``starts`` and ``ends`` from the level's ``nodes.active`` (``ranks``: exclusive scan of
     the large flags)."""
     k = wp.tid()
-    n = active[k]
+    n = nodes.active[k]
     if st.node_counts[n] > st.parallel_min:
         j = ranks[k]
-        items[j] = k
-        starts[j] = st.node_starts[n]
-        ends[j] = st.node_starts[n] + st.node_counts[n]
+        nodes.items[j] = k
+        nodes.starts[j] = st.node_starts[n]
+        nodes.ends[j] = st.node_starts[n] + st.node_counts[n]
 
 
 @wp.kernel
@@ -95,11 +103,7 @@ def clear_copies_kernel(
 def bin_slots_kernel(
     st: BinnedBuild,
     row: int,
-    active: wp.array[wp.int32],
-    items: wp.array[wp.int32],
-    starts: wp.array[wp.int32],
-    ends: wp.array[wp.int32],
-    num_large: int,
+    nodes: LargeNodes,
     copies: int,
     # outputs
     lowers: wp.array[wp.vec3],
@@ -108,10 +112,10 @@ def bin_slots_kernel(
 ):
     """Slot ``i`` adds its triangle to copy ``i % copies`` of its large node's bins, on every binned axis."""
     i = wp.tid()
-    j = large_node_of(i, starts, ends, num_large)
+    j = large_node_of(i, nodes)
     if j < 0:
         return
-    n = active[items[j]]
+    n = nodes.active[nodes.items[j]]
     c_lo = st.node_c_lowers[n]
     scale = bin_scales(c_lo, st.node_c_uppers[n], st.max_bins)  # a large node has more triangles than bins
     use_axis = binned_axes(st, n)
@@ -129,7 +133,7 @@ def bin_slots_kernel(
 @wp.kernel
 def fold_bins_kernel(
     st: BinnedBuild,
-    items: wp.array[wp.int32],
+    nodes: LargeNodes,
     copies: int,
     lowers: wp.array[wp.vec3],
     uppers: wp.array[wp.vec3],
@@ -147,14 +151,13 @@ def fold_bins_kernel(
         merged.lower = wp.min(merged.lower, lowers[e])
         merged.upper = wp.max(merged.upper, uppers[e])
         merged.count = merged.count + counts[e]
-    st.bins[items[j] * per_copy + b] = merged
+    st.bins[nodes.items[j] * per_copy + b] = merged
 
 
 @wp.kernel
 def choose_splits_kernel(
     st: BinnedBuild,
-    active: wp.array[wp.int32],
-    items: wp.array[wp.int32],
+    nodes: LargeNodes,
     # outputs
     actions: wp.array[wp.vec3i],
     split_flags: wp.array[wp.int32],
@@ -163,8 +166,8 @@ def choose_splits_kernel(
     """Large node ``j``'s action, split axis and bin, and left count (``actions[j]``: action, axis, split; the
     left count goes to ``child_counts`` as the one-thread path writes it)."""
     j = wp.tid()
-    k = items[j]
-    n = active[k]
+    k = nodes.items[j]
+    n = nodes.active[k]
     use_axis = binned_axes(st, n)
     cost, axis, split, left = best_bin_split(st, 3 * st.max_bins * k, st.max_bins * k, st.max_bins, use_axis)
     action, n_left = binned_action(st, n, cost, axis, left)
@@ -192,11 +195,7 @@ def goes_left(st: BinnedBuild, row: int, n: int, i: int, action: wp.vec3i, n_lef
 def left_flags_kernel(
     st: BinnedBuild,
     row: int,
-    active: wp.array[wp.int32],
-    items: wp.array[wp.int32],
-    starts: wp.array[wp.int32],
-    ends: wp.array[wp.int32],
-    num_large: int,
+    nodes: LargeNodes,
     actions: wp.array[wp.vec3i],
     child_counts: wp.array[wp.int32],
     # outputs
@@ -204,10 +203,10 @@ def left_flags_kernel(
 ):
     i = wp.tid()
     flags[i] = 0
-    j = large_node_of(i, starts, ends, num_large)
+    j = large_node_of(i, nodes)
     if j >= 0:
-        k = items[j]
-        if goes_left(st, row, active[k], i, actions[j], child_counts[2 * k]):
+        k = nodes.items[j]
+        if goes_left(st, row, nodes.active[k], i, actions[j], child_counts[2 * k]):
             flags[i] = 1
 
 
@@ -215,11 +214,7 @@ def left_flags_kernel(
 def partition_slots_kernel(
     st: BinnedBuild,
     row: int,
-    active: wp.array[wp.int32],
-    items: wp.array[wp.int32],
-    starts: wp.array[wp.int32],
-    ends: wp.array[wp.int32],
-    num_large: int,
+    nodes: LargeNodes,
     actions: wp.array[wp.vec3i],
     child_counts: wp.array[wp.int32],
     flags: wp.array[wp.int32],
@@ -232,11 +227,11 @@ def partition_slots_kernel(
     """Slot ``i`` moves to its place in the other row (a leaf's slot only writes its triangle id) and grows copy
     ``i % copies`` of its child's box and centroid box: entries ``4 (2 (j copies + copy) + side) + {0, 1}``."""
     i = wp.tid()
-    j = large_node_of(i, starts, ends, num_large)
+    j = large_node_of(i, nodes)
     if j < 0:
         return
-    k = items[j]
-    start = starts[j]
+    k = nodes.items[j]
+    start = nodes.starts[j]
     slot = st.slots[row, i]
     if actions[j][0] == ACTION_LEAF:
         st.out_prims[i] = slot.prim
@@ -257,7 +252,7 @@ def partition_slots_kernel(
 
 @wp.kernel
 def fold_children_kernel(
-    items: wp.array[wp.int32],
+    nodes: LargeNodes,
     actions: wp.array[wp.vec3i],
     copies: int,
     lowers: wp.array[wp.vec3],
@@ -282,7 +277,7 @@ def fold_children_kernel(
         hi = wp.max(hi, uppers[e])
         c_lo = wp.min(c_lo, lowers[e + 1])
         c_hi = wp.max(c_hi, uppers[e + 1])
-    out = 2 * items[j] + side
+    out = 2 * nodes.items[j] + side
     child_lowers[out] = lo
     child_uppers[out] = hi
     child_c_lowers[out] = c_lo
@@ -320,25 +315,25 @@ class LargeNodeSplitter:
         if num_large == 0:
             self.done = True
             return
-        items, starts, ends = (wp.empty(num_large, dtype=wp.int32) for _ in range(3))
-        wp.launch(list_large_kernel, k, inputs=[st, active, self.ranks], outputs=[items, starts, ends])
+        nodes = LargeNodes()
+        nodes.active, nodes.count = active, num_large
+        nodes.items, nodes.starts, nodes.ends = (wp.empty(num_large, dtype=wp.int32) for _ in range(3))
+        wp.launch(list_large_kernel, k, inputs=[st, self.ranks], outputs=[nodes])
         copies = int(np.clip(n // (num_large * SLOTS_PER_COPY), 1, MAX_COPIES))
         self._reserve(num_large, copies)
         bins = num_large * copies * 3 * st.max_bins
         wp.launch(clear_copies_kernel, bins, outputs=[self.lowers, self.uppers, self.counts])
-        find = [active, items, starts, ends, num_large]
-        wp.launch(bin_slots_kernel, n, inputs=[st, row, *find, copies], outputs=[self.lowers, self.uppers,
+        wp.launch(bin_slots_kernel, n, inputs=[st, row, nodes, copies], outputs=[self.lowers, self.uppers,
                                                                                  self.counts])
         wp.launch(fold_bins_kernel, (num_large, 3 * st.max_bins),
-                  inputs=[st, items, copies, self.lowers, self.uppers, self.counts])
+                  inputs=[st, nodes, copies, self.lowers, self.uppers, self.counts])
         actions = wp.empty(num_large, dtype=wp.vec3i)
-        wp.launch(choose_splits_kernel, num_large, inputs=[st, active, items],
-                  outputs=[actions, split_flags, child_counts])
-        wp.launch(left_flags_kernel, n, inputs=[st, row, *find, actions, child_counts], outputs=[self.flags])
+        wp.launch(choose_splits_kernel, num_large, inputs=[st, nodes], outputs=[actions, split_flags, child_counts])
+        wp.launch(left_flags_kernel, n, inputs=[st, row, nodes, actions, child_counts], outputs=[self.flags])
         wp.utils.array_scan(self.flags, self.ranks, inclusive=False)
         wp.launch(clear_copies_kernel, num_large * copies * 4, outputs=[self.lowers, self.uppers, self.counts])
         wp.launch(partition_slots_kernel, n,
-                  inputs=[st, row, *find, actions, child_counts, self.flags, self.ranks, copies],
+                  inputs=[st, row, nodes, actions, child_counts, self.flags, self.ranks, copies],
                   outputs=[self.lowers, self.uppers])
         wp.launch(fold_children_kernel, (num_large, 2),
-                  inputs=[items, actions, copies, self.lowers, self.uppers], outputs=children)
+                  inputs=[nodes, actions, copies, self.lowers, self.uppers], outputs=children)
