@@ -124,6 +124,28 @@ class Bin:
     count: wp.int32
 
 
+@wp.func
+def empty_bin():
+    """A bin with no triangle: an inverted box, so any triangle's box replaces it."""
+    b = Bin()
+    b.lower = wp.vec3(wp.inf)
+    b.upper = wp.vec3(-wp.inf)
+    b.count = 0
+    return b
+
+
+@wp.func
+def goes_left(
+    c: wp.vec3, c_lo: wp.vec3, scale: wp.vec3, bins: int, action: int, axis: int, split: int, offset: int, n_left: int
+):
+    """The stable partition's rule for the triangle of centroid ``c`` at ``offset`` in its node's slots: left of
+    the split bin, or in the first ``n_left`` slots when the node halves. Both split paths call it, so they agree."""
+    left = offset < n_left
+    if action == ACTION_SPLIT:
+        left = bin_of(c, c_lo, scale, axis, bins) < split
+    return left
+
+
 @wp.struct
 class BinnedBuild:
     """Device state of one binned build: nodes, the two slot buffers, bin scratch, and the build options."""
@@ -291,10 +313,7 @@ def split_nodes_kernel(
         sweep = st.max_bins * worker
 
         # Bin every centroid on each axis that can split (all three for SAH, the widest one for the middle split).
-        empty = Bin()
-        empty.lower = wp.vec3(wp.inf)
-        empty.upper = wp.vec3(-wp.inf)
-        empty.count = 0
+        empty = empty_bin()
         for b in range(base, base + 3 * bins):
             st.bins[b] = empty
         if count > 1:
@@ -337,11 +356,7 @@ def split_nodes_kernel(
             lo = slot.lower
             hi = slot.upper
             c = 0.5 * (lo + hi)
-            left = False
-            if action == ACTION_SPLIT:
-                left = bin_of(c, c_lo, scale, best_axis, bins) < best_split
-            else:
-                left = i - start < n_left
+            left = goes_left(c, c_lo, scale, bins, action, best_axis, best_split, i - start, n_left)
             j = int(0)
             if left:
                 j = start + n_l

@@ -19,8 +19,17 @@ The tree is the one ``binned.py`` builds alone, bit for bit, on any device.
 import numpy as np
 import warp as wp
 
-from .binned import Bin, BinnedBuild, best_bin_split, bin_of, bin_scales, binned_action, binned_axes
-from .common import ACTION_HALVE, ACTION_LEAF, ACTION_SPLIT, read_int
+from .binned import (
+    BinnedBuild,
+    best_bin_split,
+    bin_of,
+    bin_scales,
+    binned_action,
+    binned_axes,
+    empty_bin,
+    goes_left,
+)
+from .common import ACTION_LEAF, read_int
 
 # No FMA contraction: SAH costs rounded alike on every device, so the CPU and a GPU build the same tree.
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
@@ -142,10 +151,7 @@ def fold_bins_kernel(
     """Bin ``b`` of large node ``j``: the union of its copies, into the node's worker scratch in ``st.bins``."""
     j, b = wp.tid()
     per_copy = 3 * st.max_bins
-    merged = Bin()
-    merged.lower = wp.vec3(wp.inf)
-    merged.upper = wp.vec3(-wp.inf)
-    merged.count = 0
+    merged = empty_bin()
     for r in range(copies):
         e = (j * copies + r) * per_copy + b
         merged.lower = wp.min(merged.lower, lowers[e])
@@ -177,20 +183,6 @@ def choose_splits_kernel(
     child_counts[2 * k + 1] = st.node_counts[n] - n_left
 
 
-@wp.func
-def goes_left(st: BinnedBuild, row: int, n: int, i: int, action: wp.vec3i, n_left: int):
-    """Whether slot ``i`` of node ``n`` goes to the left child (the one-thread partition's rule)."""
-    left = False
-    if action[0] == ACTION_SPLIT:
-        slot = st.slots[row, i]
-        c_lo = st.node_c_lowers[n]
-        scale = bin_scales(c_lo, st.node_c_uppers[n], st.max_bins)
-        left = bin_of(0.5 * (slot.lower + slot.upper), c_lo, scale, action[1], st.max_bins) < action[2]
-    elif action[0] == ACTION_HALVE:
-        left = i - st.node_starts[n] < n_left
-    return left
-
-
 @wp.kernel
 def left_flags_kernel(
     st: BinnedBuild,
@@ -201,12 +193,19 @@ def left_flags_kernel(
     # outputs
     flags: wp.array[wp.int32],
 ):
+    """1 where slot ``i`` goes to its large node's left child (0 outside large nodes and in leaves)."""
     i = wp.tid()
     flags[i] = 0
     j = large_node_of(i, nodes)
-    if j >= 0:
+    if j >= 0 and actions[j][0] != ACTION_LEAF:
         k = nodes.items[j]
-        if goes_left(st, row, nodes.active[k], i, actions[j], child_counts[2 * k]):
+        n = nodes.active[k]
+        slot = st.slots[row, i]
+        c_lo = st.node_c_lowers[n]
+        scale = bin_scales(c_lo, st.node_c_uppers[n], st.max_bins)
+        c = 0.5 * (slot.lower + slot.upper)
+        a = actions[j]
+        if goes_left(c, c_lo, scale, st.max_bins, a[0], a[1], a[2], i - nodes.starts[j], child_counts[2 * k]):
             flags[i] = 1
 
 
