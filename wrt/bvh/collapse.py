@@ -1,10 +1,16 @@
 """The wide layout's SAH collapse of the canonical binary tree (the rule is in ``wide.py``'s docstring), as Warp
 kernels, so that a tree built on a GPU becomes wide without leaving it.
 
-Wide nodes are made level by level: one thread per node of a level opens its binary children (largest surface area
-first), a prefix scan numbers the inner children, which become the next level's nodes, and one small read back
-gives the next level's size. Areas are float64 and FMA contraction is off, so the choice of child (first one on
-ties) is the same on every device.
+1. Bottom-up over the binary tree (one thread per leaf; the second thread to reach a node computes it, as in
+   ``flatten.py``): for every node ``n`` and every ``j`` in ``1 .. width`` the least cost of ``n``'s subtree
+   spread over at most ``j`` child slots (Ylitie et al., "Efficient Incoherent Ray Traversal on GPUs Through
+   Compressed Wide BVHs", 2017, section 3.1).
+2. Top down, level by level: one thread per wide node takes the distribution of least cost of its binary node's
+   subtree over ``width`` slots, a prefix scan numbers the inner children, which become the next level's nodes, and
+   one small read back gives the next level's size.
+
+Costs are float64 and FMA contraction is off, and ties go to the first split and then to the most slots, so the tree
+is the same on every device.
 """
 
 from __future__ import annotations
@@ -12,6 +18,7 @@ from __future__ import annotations
 import warp as wp
 
 from .common import read_int
+from .flatten import thread_fence
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -27,19 +34,89 @@ def half_area64(lower: wp.vec3, upper: wp.vec3):
 
 
 @wp.kernel
-def open_children_kernel(
+def binary_parents_kernel(
+    left_first: wp.array[wp.int32],
+    prim_count: wp.array[wp.int32],
+    # outputs
+    parents: wp.array[wp.int32],
+    visits: wp.array[wp.int32],
+):
+    """Parent of both children of inner node ``i`` (the root keeps -1), and a zero arrival count for it."""
+    i = wp.tid()
+    visits[i] = 0
+    if prim_count[i] == 0:
+        parents[left_first[i]] = i
+        parents[left_first[i] + 1] = i
+
+
+@wp.func
+def split_cost(costs: wp.array[wp.float64], width: int, left: int, right: int, slots: int):
+    """Least cost of giving ``k`` of ``slots`` child slots to ``left`` and the rest to ``right``, and that ``k``
+    (the first on ties)."""
+    best = wp.float64(wp.inf)
+    best_k = int(1)
+    for k in range(1, slots):
+        cost = costs[left * width + k - 1] + costs[right * width + slots - k - 1]
+        if cost < best:
+            best = cost
+            best_k = k
+    return best, best_k
+
+
+@wp.kernel
+def slot_costs_kernel(
     width: int,
-    sources: wp.array[wp.int32],
+    parents: wp.array[wp.int32],
     lowers: wp.array[wp.vec3],
     uppers: wp.array[wp.vec3],
     left_first: wp.array[wp.int32],
     prim_count: wp.array[wp.int32],
     # outputs
+    visits: wp.array[wp.int32],
+    costs: wp.array[wp.float64],
+):
+    """Step 1 for binary leaf ``i`` and, going up, every node it reaches second. ``costs[n * width + j - 1]``: the
+    summed half areas of the wide nodes that ``n``'s subtree needs when it may fill ``j`` child slots; a leaf fills
+    one and needs none, an inner node in one slot becomes a wide node itself (its area plus the cost of its own
+    ``width`` slots), in ``j >= 2`` slots it may also be opened (its children share the slots)."""
+    node = wp.tid()
+    if prim_count[node] == 0:
+        return
+    for j in range(width):
+        costs[node * width + j] = wp.float64(0.0)
+    parent = parents[node]
+    while parent >= 0:
+        thread_fence()
+        if wp.atomic_add(visits, parent, 1) == 0:
+            return
+        thread_fence()
+        left = left_first[parent]
+        own, k = split_cost(costs, width, left, left + 1, width)
+        best = half_area64(lowers[parent], uppers[parent]) + own
+        costs[parent * width] = best
+        for j in range(2, width + 1):
+            opened, k = split_cost(costs, width, left, left + 1, j)
+            best = wp.min(best, opened)
+            costs[parent * width + j - 1] = best
+        parent = parents[parent]
+
+
+@wp.kernel
+def open_children_kernel(
+    width: int,
+    sources: wp.array[wp.int32],
+    left_first: wp.array[wp.int32],
+    prim_count: wp.array[wp.int32],
+    costs: wp.array[wp.float64],
+    # outputs
     slots: wp.array[wp.int32],
+    budgets: wp.array[wp.int32],
     inner_counts: wp.array[wp.int32],
 ):
     """The binary nodes (-1: empty) in the ``width`` child slots of wide node ``i``, made from binary inner node
-    ``sources[i]`` (or holding it, for a leaf root), and how many of them are inner nodes."""
+    ``sources[i]`` (or holding it, for a leaf root), and how many of them are inner nodes. Each slot holds a node
+    and the slots it may fill; a node that its least cost opens gives its slot to its left child and a new slot to
+    its right child, each with its share of the slots (most slots on ties)."""
     i = wp.tid()
     base = i * width
     source = sources[i]
@@ -49,24 +126,33 @@ def open_children_kernel(
         slots[base] = source
         inner_counts[i] = 0
         return
-    slots[base] = left_first[source]
-    slots[base + 1] = left_first[source] + 1
-    for step in range(width - 2):
-        # Open the inner child of largest area (slots 0 .. step + 1 are in use); stop when there is none.
-        best = int(-1)
-        best_area = wp.float64(0.0)
-        for j in range(step + 2):
-            c = slots[base + j]
-            if prim_count[c] == 0:
-                area = half_area64(lowers[c], uppers[c])
-                if best < 0 or area > best_area:
-                    best = j
-                    best_area = area
-        if best < 0:
-            break
-        c = slots[base + best]
-        slots[base + best] = left_first[c]
-        slots[base + step + 2] = left_first[c] + 1
+    left = left_first[source]
+    own, k = split_cost(costs, width, left, left + 1, width)
+    slots[base] = left
+    budgets[base] = k
+    slots[base + 1] = left + 1
+    budgets[base + 1] = width - k
+    used = int(2)
+    j = int(0)
+    while j < used:
+        c = slots[base + j]
+        share = int(0)  # slots that c's least cost opens it into (0: c stays in one slot)
+        if prim_count[c] == 0:
+            b = budgets[base + j]
+            target = costs[c * width + b - 1]
+            for s in range(2, b + 1):
+                opened, k = split_cost(costs, width, left_first[c], left_first[c] + 1, s)
+                if opened == target:
+                    share = s
+        if share == 0:
+            j += 1
+        else:
+            opened, k = split_cost(costs, width, left_first[c], left_first[c] + 1, share)
+            slots[base + j] = left_first[c]
+            budgets[base + j] = k
+            slots[base + used] = left_first[c] + 1
+            budgets[base + used] = share - k
+            used += 1
     inner = int(0)
     for j in range(width):
         c = slots[base + j]
@@ -128,15 +214,28 @@ def collapse_wide(lowers: wp.array, uppers: wp.array, left_first: wp.array, prim
     capacity = max(1, (len(left_first) - 1) // 2)  # a wide node per binary inner node at most
     with wp.ScopedDevice(device):
         out = [wp.empty(capacity * width, dtype=t) for t in (wp.vec3, wp.vec3, wp.int32, wp.int32)]
+        binary = [lowers, uppers, left_first, prim_count]
+        n = len(left_first)
+        parents = wp.full(n, -1, dtype=wp.int32)
+        visits = wp.empty(n, dtype=wp.int32)
+        costs = wp.empty(n * width, dtype=wp.float64)
+        wp.launch(binary_parents_kernel, n, inputs=[left_first, prim_count], outputs=[parents, visits])
+        wp.launch(slot_costs_kernel, n, inputs=[width, parents] + binary, outputs=[visits, costs])
+        del parents, visits
         slots = wp.empty(capacity * width, dtype=wp.int32)
+        budgets = wp.empty(capacity * width, dtype=wp.int32)
         inner_counts = wp.empty(capacity, dtype=wp.int32)
         inner_ends = wp.empty(capacity, dtype=wp.int32)
         sources = wp.zeros(capacity, dtype=wp.int32)  # the root first
         next_sources = wp.empty(capacity, dtype=wp.int32)
-        binary = [lowers, uppers, left_first, prim_count]
         offset, k, levels = 0, 1, 0
         while k > 0:
-            wp.launch(open_children_kernel, k, inputs=[width, sources] + binary, outputs=[slots, inner_counts])
+            wp.launch(
+                open_children_kernel,
+                k,
+                inputs=[width, sources, left_first, prim_count, costs],
+                outputs=[slots, budgets, inner_counts],
+            )
             wp.utils.array_scan(inner_counts[:k], inner_ends[:k], inclusive=True)
             inner = read_int(inner_ends, k - 1)  # one read back per level
             wp.launch(

@@ -1,11 +1,13 @@
 """Wide layout: BVH4 or BVH8 collapsed from the canonical binary tree (Wald et al., "Getting Rid of Packets",
 2008; Ernst and Greiner, "Multi Bounding Volume Hierarchies", 2008; tinybvh's ``BVH4``/``BVH8`` conversions).
 
-Collapse by SAH: a wide node starts with the two children of a binary inner node and repeatedly replaces the inner
-child of largest surface area by its two children, until it has ``width`` children or only leaves. Opening the
-largest child first removes the most expected traversal cost (the SAH term ``C_t A(n) / A(root)``) per opened node.
-Every remaining inner child becomes a wide node of the next level. The conversion runs as Warp kernels, a few
-launches per wide level (``collapse.py``), on the host CPU or where a GPU-built tree already lives.
+Collapse by SAH (Ylitie et al. 2017, section 3.1): binary leaves stay leaves, and each binary inner node is either a
+wide node or opened into its parent's wide node, whose children it then shares. Of all such collapses that give no
+wide node more than ``width`` children, the conversion takes one with the least summed surface area of wide nodes,
+the SAH term ``C_t A(n) / A(root)`` of the node visits, found by dynamic programming over the binary tree. (The
+greedy rule that opens the inner child of largest area first visits up to 3% more nodes per ray and makes 1.2-1.8x
+as many wide nodes: GPU_NOTES.md, row 56.) The conversion runs as Warp kernels, a bottom-up pass and a few launches
+per wide level (``collapse.py``), on the host CPU or where a GPU-built tree already lives.
 
 Storage has ``width`` child slots per node: a child box and a link ``(ref, count)``, where ``count > 0`` is a leaf
 over slots ``[ref, ref + count)``, ``count == 0`` an inner wide node ``ref`` and ``count < 0`` an empty slot.
