@@ -77,7 +77,7 @@ def test_render_on_device_matches_cpu(device):
 
 @pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("builder", ["lbvh", "ploc"])
-@pytest.mark.parametrize("layout", ["binary", "wide", "wide8"])
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
 def test_device_resident_tree_matches_the_host_round_trip(device, builder, layout, bunny, monkeypatch):
     from wrt.bvh import DeviceFlatBvh
     from wrt.bvh.layout import convert_layout
@@ -96,16 +96,33 @@ def test_device_resident_tree_matches_the_host_round_trip(device, builder, layou
         acc.layout = layout
         acc._build_on_device(points, indices, builder, device, {})
     assert not copies
-    fields = (
-        ("lowers", "uppers", "left_first", "prim_count")
-        if layout == "binary"
-        else ("boxes", "links", "children")
-    )
+    fields = {
+        "binary": ("lowers", "uppers", "left_first", "prim_count"),
+        "compact": ("xy0", "xy1", "zz", "children"),
+    }.get(layout, ("boxes", "links", "children"))
     for field in fields + ("prim_ids", "v0", "v1", "v2"):
         np.testing.assert_array_equal(getattr(acc.device_bvh, field).numpy(), getattr(ref, field).numpy())
     assert acc.device_bvh.num_prims == ref.num_prims
     np.testing.assert_array_equal(acc.bvh.left_first, host.left_first)  # copied to the host on first use
     assert len(copies) == 1
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_compact_layout_of_a_device_tree_with_one_leaf_or_one_inner_node(device):
+    from wrt.bvh import build_bvh_device
+    from wrt.bvh.compact import convert_compact, device_compact_bvh
+
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 0, 0], [6, 0, 0], [5, 1, 0]], np.float32)
+    for indices in ([[0, 1, 2]], [[0, 1, 2], [3, 4, 5]]):
+        indices = np.array(indices, np.int32)
+        points_d = wp.array(points, dtype=wp.vec3, device=device)
+        indices_d = wp.array(indices, dtype=wp.int32, device=device)
+        tree = build_bvh_device(points_d, indices_d, "sah", leaf_size=1, device=device)
+        got = device_compact_bvh(tree, points_d, indices_d)
+        want = convert_compact(tree.to_host())
+        assert got.children.shape[0] == max(len(indices) - 1, 1)  # one node per inner node; a root leaf gets one
+        for field in ("xy0", "xy1", "zz", "children"):
+            np.testing.assert_array_equal(getattr(got, field).numpy(), getattr(want, field))
 
 
 def _bunny_instances(bunny) -> wrt.Scene:

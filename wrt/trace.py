@@ -25,6 +25,7 @@ import warp as wp
 from .bvh import DeviceBvh, FlatBvh, build_bvh, build_bvh_device, traverse
 from .bvh.build import Builder
 from .bvh.common import check_triangles
+from .bvh.compact import device_compact_bvh
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
@@ -316,7 +317,7 @@ class BvhAccelerator(Accelerator):
         self.split = RowSplitter(scene, device) if len(scene.instances) else None
         points, indices = scene.triangles()
         self.layout = check_layout(layout)
-        if wp.get_device(device).is_cuda and (layout == "binary" or (layout in WIDE_WIDTHS and len(indices))):
+        if wp.get_device(device).is_cuda and (layout == "binary" or len(indices)):
             self._build_on_device(points, indices, builder, device, build_options)
         else:
             self.bvh = build_bvh(points, indices, builder, device=device, **build_options)
@@ -345,15 +346,17 @@ class BvhAccelerator(Accelerator):
             self.device_bvh = convert_layout(self.bvh, self.layout).to_device(points, indices, self.device)
 
     def _build_on_device(self, points, indices, builder, device, build_options) -> None:
-        """Binary and wide layouts on a GPU: the tree, its wide collapse and its triangles in slot order never leave
-        the device (a round trip through numpy costs more than a GPU build); :attr:`bvh` copies the tree to the host
-        when first asked."""
+        """Every layout on a GPU: the tree, its conversion and its triangles in slot order never leave the device (a
+        round trip through numpy costs more than a GPU build); :attr:`bvh` copies the tree to the host when first
+        asked."""
         start = time.perf_counter()
         points_d = wp.array(points, dtype=wp.vec3, device=device)
         indices_d = wp.array(indices, dtype=wp.int32, device=device)
         self._device_tree = build_bvh_device(points_d, indices_d, builder, device=device, **build_options)
         if self.layout == "binary":
             self.device_bvh = self._device_tree.to_device_bvh(points_d, indices_d)
+        elif self.layout == "compact":
+            self.device_bvh = device_compact_bvh(self._device_tree, points_d, indices_d)
         else:
             self.device_bvh = device_wide_bvh(self._device_tree, points_d, indices_d, WIDE_WIDTHS[self.layout])
         self._host_inputs = (points, indices, time.perf_counter() - start)

@@ -7,7 +7,9 @@ c1.lo.z c1.hi.z``, the Aila-Laine order) and one ``vec4i`` of child references `
 ``count > 0`` makes the child a leaf over slots ``[ref, ref + count)``, ``count == 0`` an inner node ``ref``, and
 ``count < 0`` an empty child (only in the one-node tree made for a root leaf). Visiting a node reads both child
 boxes at once, so a ray never fetches a node whose box it misses. Triangles are stored in slot (leaf) order next to
-the nodes, as in the binary layout.
+the nodes, as in the binary layout. ``convert_compact`` converts a tree on the host; ``device_compact_bvh`` converts
+a tree where it was built (one prefix scan numbers the inner nodes, one kernel writes them), so a GPU-built tree
+never leaves the GPU.
 
 Traversal follows the binary one (nearer child first, entry distances on the stack, the same tie rule), so the
 result is identical ray by ray.
@@ -28,7 +30,8 @@ from ..geometry import (
     ray_can_hit,
     safe_inverse,
 )
-from .layout import FlatBvh, upload_triangles
+from .common import read_int
+from .layout import DeviceFlatBvh, FlatBvh, upload_triangles
 from .stack import STACK_BUILD_OPTIONS, NodeStack
 from .traverse import any_hit_kernel, closest_hit_kernels, reachable, reported_hit
 from .turns import waits
@@ -135,6 +138,75 @@ def convert_compact(bvh: FlatBvh) -> CompactBvh:
         children.astype(np.int32),
         bvh.prim_ids.copy(),
     )
+
+
+@wp.kernel
+def _inner_flags_kernel(prim_count: wp.array[wp.int32], flags: wp.array[wp.int32]):
+    i = wp.tid()
+    flags[i] = wp.where(prim_count[i] == 0, 1, 0)
+
+
+@wp.func
+def _child_ref(c: int, left_first: wp.array[wp.int32], prim_count: wp.array[wp.int32], ranks: wp.array[wp.int32]):
+    return wp.where(prim_count[c] > 0, left_first[c], ranks[c])
+
+
+@wp.kernel
+def _compact_nodes_kernel(
+    lowers: wp.array[wp.vec3],
+    uppers: wp.array[wp.vec3],
+    left_first: wp.array[wp.int32],
+    prim_count: wp.array[wp.int32],
+    ranks: wp.array[wp.int32],
+    # outputs
+    xy0: wp.array[wp.vec4],
+    xy1: wp.array[wp.vec4],
+    zz: wp.array[wp.vec4],
+    children: wp.array[wp.vec4i],
+):
+    """Compact node ``ranks[i]`` from binary inner node ``i`` (``convert_compact``'s rule)."""
+    i = wp.tid()
+    if prim_count[i] > 0:
+        return
+    c0 = left_first[i]
+    c1 = c0 + 1
+    lo0, hi0, lo1, hi1 = lowers[c0], uppers[c0], lowers[c1], uppers[c1]
+    k = ranks[i]
+    xy0[k] = wp.vec4(lo0[0], hi0[0], lo0[1], hi0[1])
+    xy1[k] = wp.vec4(lo1[0], hi1[0], lo1[1], hi1[1])
+    zz[k] = wp.vec4(lo0[2], hi0[2], lo1[2], hi1[2])
+    refs = wp.vec2i(_child_ref(c0, left_first, prim_count, ranks), _child_ref(c1, left_first, prim_count, ranks))
+    children[k] = wp.vec4i(refs[0], refs[1], prim_count[c0], prim_count[c1])
+
+
+def device_compact_bvh(tree: DeviceFlatBvh, points: wp.array, indices: wp.array) -> DeviceCompactBvh:
+    """The compact layout of a tree over at least one triangle, made where the tree lives (a GPU-built tree never
+    leaves the GPU); ``points`` and ``indices`` are the build's, on the same device."""
+    device = tree.left_first.device
+    binary = tree.to_device_bvh(points, indices)  # the triangles, gathered in slot order
+    s = DeviceCompactBvh()
+    s.prim_ids, s.v0, s.v1, s.v2, s.num_prims = binary.prim_ids, binary.v0, binary.v1, binary.v2, binary.num_prims
+    n = tree.num_nodes
+    if n == 1:  # a root leaf: convert_compact's one-node tree
+        host = convert_compact(tree.to_host())
+        s.xy0, s.xy1, s.zz = (wp.array(a, dtype=wp.vec4, device=device) for a in (host.xy0, host.xy1, host.zz))
+        s.children = wp.array(host.children, dtype=wp.vec4i, device=device)
+        return s
+    with wp.ScopedDevice(device):
+        flags = wp.empty(n, dtype=wp.int32)
+        ranks = wp.empty(n, dtype=wp.int32)
+        wp.launch(_inner_flags_kernel, n, inputs=[tree.prim_count], outputs=[flags])
+        wp.utils.array_scan(flags, ranks, inclusive=False)
+        inner = read_int(ranks, n - 1) + read_int(flags, n - 1)
+        s.xy0, s.xy1, s.zz = (wp.empty(inner, dtype=wp.vec4) for _ in range(3))
+        s.children = wp.empty(inner, dtype=wp.vec4i)
+        wp.launch(
+            _compact_nodes_kernel,
+            n,
+            inputs=[tree.lowers, tree.uppers, tree.left_first, tree.prim_count, ranks],
+            outputs=[s.xy0, s.xy1, s.zz, s.children],
+        )
+    return s
 
 
 @wp.func
