@@ -75,10 +75,11 @@ def slot_costs_kernel(
     visits: wp.array[wp.int32],
     costs: wp.array[wp.float64],
 ):
-    """Step 1 for binary leaf ``i`` and, going up, every node it reaches second. ``costs[n * width + j - 1]``: the
-    summed half areas of the wide nodes that ``n``'s subtree needs when it may fill ``j`` child slots; a leaf fills
-    one and needs none, an inner node in one slot becomes a wide node itself (its area plus the cost of its own
-    ``width`` slots), in ``j >= 2`` slots it may also be opened (its children share the slots)."""
+    """Step 1 for binary leaf ``node`` (other threads return) and, going up, every node it reaches second.
+    ``costs[n * width + j - 1]``: the summed half areas of the wide nodes that ``n``'s subtree needs when it may fill
+    ``j`` child slots; a leaf fills one and needs none, an inner node in one slot becomes a wide node itself (its area
+    plus the cost of its own ``width`` slots), in ``j >= 2`` slots it may also be opened (its children share the
+    slots)."""
     node = wp.tid()
     if prim_count[node] == 0:
         return
