@@ -175,17 +175,18 @@ def _compact_nodes_kernel(
     xy0[k] = wp.vec4(lo0[0], hi0[0], lo0[1], hi0[1])
     xy1[k] = wp.vec4(lo1[0], hi1[0], lo1[1], hi1[1])
     zz[k] = wp.vec4(lo0[2], hi0[2], lo1[2], hi1[2])
-    refs = wp.vec2i(_child_ref(c0, left_first, prim_count, ranks), _child_ref(c1, left_first, prim_count, ranks))
-    children[k] = wp.vec4i(refs[0], refs[1], prim_count[c0], prim_count[c1])
+    ref0 = _child_ref(c0, left_first, prim_count, ranks)
+    ref1 = _child_ref(c1, left_first, prim_count, ranks)
+    children[k] = wp.vec4i(ref0, ref1, prim_count[c0], prim_count[c1])
 
 
 def device_compact_bvh(tree: DeviceFlatBvh, points: wp.array, indices: wp.array) -> DeviceCompactBvh:
     """The compact layout of a tree over at least one triangle, made where the tree lives (a GPU-built tree never
     leaves the GPU); ``points`` and ``indices`` are the build's, on the same device."""
     device = tree.left_first.device
-    binary = tree.to_device_bvh(points, indices)  # the triangles, gathered in slot order
     s = DeviceCompactBvh()
-    s.prim_ids, s.v0, s.v1, s.v2, s.num_prims = binary.prim_ids, binary.v0, binary.v1, binary.v2, binary.num_prims
+    s.prim_ids, s.v0, s.v1, s.v2 = tree.slot_triangles(points, indices)
+    s.num_prims = len(tree.prim_ids)
     n = tree.num_nodes
     if n == 1:  # a root leaf: convert_compact's one-node tree
         host = convert_compact(tree.to_host())

@@ -295,23 +295,25 @@ class DeviceFlatBvh:
             points: ``(V,)`` vec3 vertices the tree was built over, on the tree's device.
             indices: ``(T, 3)`` int32 triangles the tree was built over, on the tree's device.
         """
-        device = self.left_first.device
-        n = len(self.prim_ids)
         s = DeviceBvh()
         s.lowers, s.uppers, s.left_first, s.prim_count = self.lowers, self.uppers, self.left_first, self.prim_count
-        s.prim_ids = self.prim_ids if n else wp.zeros(1, dtype=wp.int32, device=device)
-        alloc = wp.empty if n else wp.zeros  # the gather fills every slot; a tree over nothing keeps one zero
-        s.v0, s.v1, s.v2 = (alloc(max(n, 1), dtype=wp.vec3, device=device) for _ in range(3))
-        wp.launch(
-            gather_triangles_kernel,
-            n,
-            inputs=[self.prim_ids, points, indices],
-            outputs=[s.v0, s.v1, s.v2],
-            device=device,
-        )
-        s.num_prims = n
+        s.prim_ids, s.v0, s.v1, s.v2 = self.slot_triangles(points, indices)
+        s.num_prims = len(self.prim_ids)
         pack_nodes(s)
         return s
+
+    def slot_triangles(self, points: wp.array, indices: wp.array) -> tuple:
+        """``(prim_ids, v0, v1, v2)`` on the tree's device: the slot -> triangle map and the vertices of each slot's
+        triangle, gathered there (a tree over nothing keeps one zero entry in each); arguments as
+        :meth:`to_device_bvh`'s."""
+        device = self.left_first.device
+        n = len(self.prim_ids)
+        prim_ids = self.prim_ids if n else wp.zeros(1, dtype=wp.int32, device=device)
+        alloc = wp.empty if n else wp.zeros  # the gather fills every slot
+        v0, v1, v2 = (alloc(max(n, 1), dtype=wp.vec3, device=device) for _ in range(3))
+        wp.launch(gather_triangles_kernel, n, inputs=[self.prim_ids, points, indices], outputs=[v0, v1, v2],
+                  device=device)
+        return prim_ids, v0, v1, v2
 
     def to_host(self) -> FlatBvh:
         """Copies the tree to the host."""

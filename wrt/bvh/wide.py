@@ -171,12 +171,12 @@ def device_wide_bvh(tree: DeviceFlatBvh, points: wp.array, indices: wp.array, wi
     """The wide layout of a tree over at least one triangle, made where the tree lives (a GPU-built tree never
     leaves the GPU); ``points`` and ``indices`` are the build's, on the same device."""
     _check_width(width)
-    binary = tree.to_device_bvh(points, indices)  # the triangles, gathered in slot order
     s = DeviceWideBvh()
     lowers, uppers, refs, counts, _ = _collapse([tree.lowers, tree.uppers, tree.left_first, tree.prim_count], width)
     s.width = int(width)
     _store_children(s, lowers, uppers, device_links(refs, counts))
-    s.prim_ids, s.v0, s.v1, s.v2, s.num_prims = binary.prim_ids, binary.v0, binary.v1, binary.v2, binary.num_prims
+    s.prim_ids, s.v0, s.v1, s.v2 = tree.slot_triangles(points, indices)
+    s.num_prims = len(tree.prim_ids)
     return s
 
 
