@@ -105,7 +105,8 @@ def main() -> None:
     parser.add_argument("--layouts", default="binary,compact,wide", help="wrt layouts to measure")
     parser.add_argument("--constructors", default="sah,lbvh,cubql", help="wp.Mesh constructors to measure")
     parser.add_argument("--trees", default="8:1:6",
-                        help="wrt sah trees to measure, as LEAF_SIZE:INTERSECTION_COST[:PRESPLIT] each")
+                        help="wrt trees to measure, as LEAF_SIZE:INTERSECTION_COST[:PRESPLIT] (sah) or "
+                        "sbvh:ALPHA[:BUDGET] (sbvh_trial.py) each")
     parser.add_argument("--block-dims", help="comma list of CUDA threads per block; subjects at other than "
                         "wrt.bvh.traverse.TRACE_BLOCK_DIM (the default: what wrt launches) are NAME/bBLOCK")
     parser.add_argument("--json", help="also write the rows here (default: $OUT/gpu_traversal_ab.json if $OUT is set)")
@@ -152,12 +153,17 @@ def run(args, device) -> None:
         wrt_subjects = []  # (name, trace kernel, occluded kernel, device tree)
         for variant in args.trees.split(","):
             fields = variant.split(":")
-            leaf_size, intersection_cost = int(fields[0]), float(fields[1])
-            presplit = {"presplit": int(fields[2])} if len(fields) > 2 else {}
-            log(f"scene {scene_name}: {len(indices)} triangles; building wrt sah tree {variant} on {device.alias}")
+            log(f"scene {scene_name}: {len(indices)} triangles; building wrt tree {variant} on {device.alias}")
             start = time.perf_counter()
-            flat = build_bvh(points, indices, "sah", leaf_size=leaf_size, intersection_cost=intersection_cost,
-                             device=device, **presplit)
+            if fields[0] == "sbvh":  # the spatial-split trial (sbvh_trial.py): sbvh:ALPHA[:BUDGET]
+                from sbvh_trial import build_sbvh
+                budget = {"budget": float(fields[2])} if len(fields) > 2 else {}
+                flat = build_sbvh(points, indices, alpha=float(fields[1]), clip_device=device, **budget)
+            else:
+                leaf_size, intersection_cost = int(fields[0]), float(fields[1])
+                presplit = {"presplit": int(fields[2])} if len(fields) > 2 else {}
+                flat = build_bvh(points, indices, "sah", leaf_size=leaf_size, intersection_cost=intersection_cost,
+                                 device=device, **presplit)
             log(f"  wrt sah {variant}: {1000 * (time.perf_counter() - start):.0f} ms, {flat.num_nodes} nodes, "
                 f"SAH {flat.stats(epo_samples=0)['sah_cost']:.2f}")
             suffix = "" if variant == "8:1:6" else f"@{variant}"  # the accelerators' tree (trace.py) unnamed
