@@ -15,12 +15,12 @@ node whose split would break it is halved. Spatial splits stop once the referenc
 The result is a ``FlatBvh`` whose ``prim_ids`` may name a triangle in several leaves, as pre-split trees do, so
 every layout conversion and traversal takes it unchanged.
 
-    python benchmarks/sbvh_trial.py chess_set          # SAH cost and size against the accelerators' SAH tree
+    python benchmarks/sbvh_trial.py chess_set --alphas 1e-5,1e-6   # SAH cost and size against the shipped tree
+    python benchmarks/gpu_traversal_ab.py --trees 8:1:6,sbvh:1e-5     # traversal speed beside it
 """
 
 from __future__ import annotations
 
-import sys
 import time
 
 import numpy as np
@@ -131,6 +131,10 @@ def spatial_bins(planes: np.ndarray, node: np.ndarray, x: np.ndarray, upper: boo
 def build_sbvh(points, indices, *, bins: int = 32, leaf_size: int = 8, traversal_cost: float = 1.0,
                intersection_cost: float = 1.0, alpha: float = 1e-5, budget: float = 2.0,
                unsplit: bool = True, clip_device="cpu", log=None) -> FlatBvh:
+    """The SBVH of the triangles (see module docstring) as a host ``FlatBvh``, with ``sbvh_stats`` counting its
+    spatial splits, object splits, halvings and leaves. ``alpha``: the object split's overlap, as a fraction of
+    the root's area, above which spatial splits are tried; ``budget``: references per triangle at which they
+    stop; ``clip_device``: where the clipping kernel runs; ``log``: called with a line per level."""
     start_time = time.perf_counter()
     points = np.ascontiguousarray(points, np.float32).reshape(-1, 3)
     indices = np.ascontiguousarray(indices, np.int32).reshape(-1, 3)
@@ -375,25 +379,31 @@ def build_sbvh(points, indices, *, bins: int = 32, leaf_size: int = 8, traversal
 
 
 def main() -> None:
+    import argparse
+
     from wrt.bench import asset_path
     from wrt.bvh import build_bvh
     from wrt.procedural import displaced_sphere_scene
     from wrt.usd import load_usd
 
+    parser = argparse.ArgumentParser(description="SAH cost and size of SBVH trees against the accelerators' SAH "
+                                     "tree (pre-split references), on the host.")
+    parser.add_argument("scene", help="sphere (a displaced sphere) or a shared asset id, e.g. chess_set")
+    parser.add_argument("--sphere", type=int, default=2_000_000, help="triangles of the displaced sphere")
+    parser.add_argument("--alphas", default="1e-5", help="comma list of overlap thresholds (fraction of root area)")
+    args = parser.parse_args()
     wp.config.quiet = True
-    name = sys.argv[1]
-    scene = displaced_sphere_scene(int(sys.argv[2])) if name == "sphere" else load_usd(asset_path(name))
+    scene = displaced_sphere_scene(args.sphere) if args.scene == "sphere" else load_usd(asset_path(args.scene))
     points, indices = scene.triangles()
     ref = build_bvh(points, indices, "sah", presplit=6, device="cpu")
-    print(f"{name}: {len(indices)} triangles")
+    print(f"{args.scene}: {len(indices)} triangles")
     print(f"  sah presplit 6: {ref.build_seconds:.1f} s, {ref.num_nodes} nodes, {len(ref.prim_ids)} slots, "
           f"SAH {ref.stats(epo_samples=0)['sah_cost']:.3f}")
-    for alpha in [float(a) for a in (sys.argv[3] if len(sys.argv) > 3 else "1e-5").split(",")]:
-        t = time.perf_counter()
+    for alpha in (float(a) for a in args.alphas.split(",")):
         bvh = build_sbvh(points, indices, alpha=alpha)
         bvh.validate()
-        print(f"  sbvh alpha {alpha:g}: {time.perf_counter() - t:.1f} s, {bvh.num_nodes} nodes, "
-              f"{len(bvh.prim_ids)} slots, SAH {bvh.stats(epo_samples=0)['sah_cost']:.3f}, {bvh.sbvh_stats}")
+        print(f"  sbvh alpha {alpha:g}: {bvh.build_seconds:.1f} s, {bvh.num_nodes} nodes, {len(bvh.prim_ids)} "
+              f"slots, SAH {bvh.stats(epo_samples=0)['sah_cost']:.3f}, {bvh.sbvh_stats}")
 
 
 if __name__ == "__main__":
