@@ -164,7 +164,7 @@ def run(args, device) -> None:
                 presplit = {"presplit": int(fields[2])} if len(fields) > 2 else {}
                 flat = build_bvh(points, indices, "sah", leaf_size=leaf_size, intersection_cost=intersection_cost,
                                  device=device, **presplit)
-            log(f"  wrt sah {variant}: {1000 * (time.perf_counter() - start):.0f} ms, {flat.num_nodes} nodes, "
+            log(f"  wrt tree {variant}: {1000 * (time.perf_counter() - start):.0f} ms, {flat.num_nodes} nodes, "
                 f"SAH {flat.stats(epo_samples=0)['sah_cost']:.2f}")
             suffix = "" if variant == "8:1:6" else f"@{variant}"  # the accelerators' tree (trace.py) unnamed
             for layout in args.layouts.split(","):
