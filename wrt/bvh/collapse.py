@@ -92,13 +92,14 @@ def slot_costs_kernel(
             return
         thread_fence()
         left = left_first[parent]
-        own, k = split_cost(costs, width, left, left + 1, width)
+        own, k = split_cost(costs, width, left, left + 1, width)  # also the opened cost in all width slots
         best = half_area64(lowers[parent], uppers[parent]) + own
         costs[parent * width] = best
-        for j in range(2, width + 1):
+        for j in range(2, width):
             opened, k = split_cost(costs, width, left, left + 1, j)
             best = wp.min(best, opened)
             costs[parent * width + j - 1] = best
+        costs[parent * width + width - 1] = wp.min(best, own)
         parent = parents[parent]
 
 
@@ -138,6 +139,7 @@ def open_children_kernel(
     while j < used:
         c = slots[base + j]
         share = int(0)  # slots that c's least cost opens it into (0: c stays in one slot)
+        share_left = int(0)  # of those, the left child's
         if prim_count[c] == 0:
             b = budgets[base + j]
             target = costs[c * width + b - 1]
@@ -145,14 +147,14 @@ def open_children_kernel(
                 opened, k = split_cost(costs, width, left_first[c], left_first[c] + 1, s)
                 if opened == target:
                     share = s
+                    share_left = k
         if share == 0:
             j += 1
         else:
-            opened, k = split_cost(costs, width, left_first[c], left_first[c] + 1, share)
             slots[base + j] = left_first[c]
-            budgets[base + j] = k
+            budgets[base + j] = share_left
             slots[base + used] = left_first[c] + 1
-            budgets[base + used] = share - k
+            budgets[base + used] = share - share_left
             used += 1
     inner = int(0)
     for j in range(width):
