@@ -29,6 +29,7 @@ import warp as wp
 from wrt.bvh.common import MAX_DEPTH
 from wrt.bvh.layout import FlatBvh
 from wrt.bvh.presplit import clipped_bounds, widened
+from wrt.bvh.stats import half_areas
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -81,11 +82,6 @@ class Clipper:
         return out_lo.numpy(), out_hi.numpy()
 
 
-def half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    d = np.maximum(hi.astype(np.float64) - lo.astype(np.float64), 0.0)
-    return d[..., 0] * d[..., 1] + d[..., 1] * d[..., 2] + d[..., 2] * d[..., 0]
-
-
 def ceil_log2(n: np.ndarray) -> np.ndarray:
     return np.ceil(np.log2(np.maximum(n, 1))).astype(np.int64)
 
@@ -97,7 +93,7 @@ def sweep(blo, bhi, left_counts, right_counts):
     lhi = np.maximum.accumulate(bhi, axis=1)[:, :-1]
     rlo = np.minimum.accumulate(blo[:, ::-1], axis=1)[:, ::-1][:, 1:]
     rhi = np.maximum.accumulate(bhi[:, ::-1], axis=1)[:, ::-1][:, 1:]
-    cost = half_area(llo, lhi) * left_counts + half_area(rlo, rhi) * right_counts
+    cost = half_areas(llo, lhi) * left_counts + half_areas(rlo, rhi) * right_counts
     cost[(left_counts == 0) | (right_counts == 0)] = np.inf
     return cost, llo, lhi, rlo, rhi
 
@@ -160,7 +156,7 @@ def build_sbvh(points, indices, *, bins: int = 32, leaf_size: int = 8, traversal
         nhi = np.maximum.reduceat(hi, starts, axis=0)
         out_lo.append((ids, nlo))
         out_hi.append((ids, nhi))
-        area = half_area(nlo, nhi)
+        area = half_areas(nlo, nhi)
         if root_area is None:
             root_area = area[0]
         cen = 0.5 * (lo + hi)
@@ -196,7 +192,7 @@ def build_sbvh(points, indices, *, bins: int = 32, leaf_size: int = 8, traversal
             obj_counts[better] = np.stack([lc[r, jb], counts[better] - lc[r, jb]], axis=1)
 
         # Best spatial split where the object split's children overlap.
-        overlap = half_area(np.maximum(obj_boxes[:, 0], obj_boxes[:, 2]), np.minimum(obj_boxes[:, 1], obj_boxes[:, 3]))
+        overlap = half_areas(np.maximum(obj_boxes[:, 0], obj_boxes[:, 2]), np.minimum(obj_boxes[:, 1], obj_boxes[:, 3]))
         total_refs = next_slot + len(node)
         try_spatial = (overlap > alpha * root_area) & (counts > 1) & (total_refs < budget * n_tri)
         sp_cost = np.full(k_nodes, np.inf)
@@ -317,10 +313,10 @@ def build_sbvh(points, indices, *, bins: int = 32, leaf_size: int = 8, traversal
                 blo_, bhi_ = lo[ri[s[st]]], hi[ri[s[st]]]
                 llo_, lhi_, rlo_, rhi_ = (sp_boxes[stn, q] for q in range(4))
                 nl, nr = sp_counts[stn, 0], sp_counts[stn, 1]
-                a_l, a_r = half_area(llo_, lhi_), half_area(rlo_, rhi_)
+                a_l, a_r = half_areas(llo_, lhi_), half_areas(rlo_, rhi_)
                 c_both = a_l * nl + a_r * nr
-                c_left = half_area(np.minimum(llo_, blo_), np.maximum(lhi_, bhi_)) * nl + a_r * (nr - 1)
-                c_right = a_l * (nl - 1) + half_area(np.minimum(rlo_, blo_), np.maximum(rhi_, bhi_)) * nr
+                c_left = half_areas(np.minimum(llo_, blo_), np.maximum(lhi_, bhi_)) * nl + a_r * (nr - 1)
+                c_right = a_l * (nl - 1) + half_areas(np.minimum(rlo_, blo_), np.maximum(rhi_, bhi_)) * nr
                 choice = np.where((c_left < c_both) & (c_left <= c_right), 0,
                                   np.where(c_right < c_both, 1, 2))
                 trial = side_s.copy()

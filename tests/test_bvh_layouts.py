@@ -12,6 +12,7 @@ import wrt
 from wrt.bvh import Builder, build_bvh
 from wrt.bvh.compact import convert_compact
 from wrt.bvh.layout import LAYOUTS, convert_layout
+from wrt.bvh.stats import half_areas
 from wrt.bvh.wide import convert_wide
 from wrt.compare import compare_hits
 from wrt.rays import camera_rays, random_rays
@@ -199,16 +200,11 @@ def test_conversions_keep_every_triangle_once_and_boxes_inside(builder, np_rng):
         assert w.fill() > 0.5
 
 
-def half_areas64(lowers, uppers):
-    d = np.maximum(uppers.astype(np.float64) - lowers.astype(np.float64), 0.0)
-    return d[:, 0] * d[:, 1] + d[:, 1] * d[:, 2] + d[:, 2] * d[:, 0]
-
-
 def least_wide_cost(bvh, width):
     """By exhaustive search: every choice of which binary inner nodes below the root are opened into their parent's
     wide node; the least summed half area of the wide nodes (the root and the inner nodes not opened) among the
     choices that give no wide node more than ``width`` children."""
-    areas = half_areas64(bvh.lowers, bvh.uppers)
+    areas = half_areas(bvh.lowers, bvh.uppers)
     below_root = [int(i) for i in np.flatnonzero(bvh.prim_count == 0) if i != 0]
     best = np.inf
     for mask in range(1 << len(below_root)):
@@ -243,8 +239,8 @@ def test_wide_collapse_has_the_least_sah_cost(builder, width, np_rng):
         bvh = build_bvh(points.astype(np.float32), indices, builder, leaf_size=1, device="cpu")
         w = convert_wide(bvh, width)
         inner_boxes = w.counts == 0
-        got = half_areas64(bvh.lowers[:1], bvh.uppers[:1])[0]
-        got += half_areas64(w.lowers[inner_boxes], w.uppers[inner_boxes]).sum()
+        got = half_areas(bvh.lowers[:1], bvh.uppers[:1])[0]
+        got += half_areas(w.lowers[inner_boxes], w.uppers[inner_boxes]).sum()
         want = least_wide_cost(bvh, width)
         assert np.isclose(got, want, rtol=1e-12), (trial, got, want)
         assert np.count_nonzero(bvh.prim_count == 0) >= 10  # a search over enough choices to matter

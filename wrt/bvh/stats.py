@@ -95,9 +95,9 @@ def subtree_ranges(bvh) -> tuple[np.ndarray, np.ndarray]:
 
 
 def half_areas(lowers: np.ndarray, uppers: np.ndarray) -> np.ndarray:
-    """Half surface area of each box (float64), 0 for inverted boxes."""
+    """Half surface area of each box (float64), 0 for inverted boxes; boxes along the last axis of ``(..., 3)``."""
     d = np.maximum(np.asarray(uppers, np.float64) - np.asarray(lowers, np.float64), 0.0)
-    return d[:, 0] * d[:, 1] + d[:, 1] * d[:, 2] + d[:, 2] * d[:, 0]
+    return d[..., 0] * d[..., 1] + d[..., 1] * d[..., 2] + d[..., 2] * d[..., 0]
 
 
 def sah_cost(bvh, traversal_cost: float = 1.0, intersection_cost: float = 1.0) -> float:
