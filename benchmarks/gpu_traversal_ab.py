@@ -79,6 +79,29 @@ class Subject:
         return (*(self.outputs[k].numpy().view(np.int32) for k in range(3)), self.outputs[3].numpy())
 
 
+def depth_first(wide):
+    """The wide tree ``wide`` (a host ``WideBvh``) with its nodes numbered in depth-first preorder, children in slot
+    order, instead of level by level as the collapse numbers them (GPU_NOTES.md, next-session item 10: cuBQL keeps a
+    node's subtree next to it). Same boxes and links, so the same hits."""
+    width = wide.width
+    inner = (wide.counts == 0).reshape(-1, width)
+    refs = wide.refs.reshape(-1, width)
+    order, stack = [], [0]
+    while stack:
+        node = stack.pop()
+        order.append(node)
+        stack.extend(refs[node][inner[node]][::-1].tolist())
+    order = np.asarray(order, np.int64)
+    new_id = np.empty(len(order), np.int64)
+    new_id[order] = np.arange(len(order))
+    slots = (order[:, None] * width + np.arange(width)).reshape(-1)
+    new_refs = wide.refs[slots].copy()
+    moved = wide.counts[slots] == 0
+    new_refs[moved] = new_id[new_refs[moved]]
+    return dataclasses.replace(wide, lowers=wide.lowers[slots], uppers=wide.uppers[slots], refs=new_refs.astype(np.int32),
+                               counts=wide.counts[slots])
+
+
 def make_rays(scene, kind: str, n: int, device, rays_module, trace_fn):
     """About ``n`` rays of ``kind`` (see :func:`wrt.rays.ray_set`); secondary rays start at hits traced on the GPU."""
     if kind == "incoherent":
@@ -106,7 +129,7 @@ def main() -> None:
     parser.add_argument("--constructors", default="sah,lbvh,cubql", help="wp.Mesh constructors to measure")
     parser.add_argument("--trees", default="8:1:6",
                         help="wrt trees to measure, as LEAF_SIZE:INTERSECTION_COST[:PRESPLIT] (sah) or "
-                        "sbvh:ALPHA[:BUDGET] (sbvh_trial.py) each")
+                        "sbvh:ALPHA[:BUDGET] (sbvh_trial.py) each; a +dfs suffix numbers the wide nodes depth first")
     parser.add_argument("--block-dims", help="comma list of CUDA threads per block; subjects at other than "
                         "wrt.bvh.traverse.TRACE_BLOCK_DIM (the default: what wrt launches) are NAME/bBLOCK")
     parser.add_argument("--json", help="also write the rows here (default: $OUT/gpu_traversal_ab.json if $OUT is set)")
@@ -152,7 +175,7 @@ def run(args, device) -> None:
         points, indices = scene.triangles()
         wrt_subjects = []  # (name, trace kernel, occluded kernel, device tree)
         for variant in args.trees.split(","):
-            fields = variant.split(":")
+            fields = variant.removesuffix("+dfs").split(":")
             log(f"scene {scene_name}: {len(indices)} triangles; building wrt tree {variant} on {device.alias}")
             start = time.perf_counter()
             if fields[0] == "sbvh":  # the spatial-split trial (sbvh_trial.py): sbvh:ALPHA[:BUDGET]
@@ -171,7 +194,12 @@ def run(args, device) -> None:
                 for tag, mod in layout_mods.items():
                     # The same tree as each package's own FlatBvh, so its kernels get their own struct types.
                     own = mod.FlatBvh(**{f.name: getattr(flat, f.name) for f in dataclasses.fields(flat)})
-                    tree = mod.convert_layout(own, layout).to_device(points, indices, device)
+                    converted = mod.convert_layout(own, layout)
+                    if variant.endswith("+dfs"):
+                        if not layout.startswith("wide"):
+                            continue
+                        converted = depth_first(converted)
+                    tree = converted.to_device(points, indices, device)
                     # Closest hit without per-ray cost counters where the package has such kernels (wrt.trace's
                     # Accelerator docstring): what renders trace their bounces with, and wp.Mesh counts nothing.
                     if layout == "binary":
