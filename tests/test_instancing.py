@@ -492,6 +492,30 @@ def test_non_finite_instance_or_shape_transform_raises_naming_it(np_rng, bad):
         wrt.occluded(scene, np.zeros((1, 3)), np.ones((1, 3)))
 
 
+@pytest.mark.parametrize("z_scale", [0.0, 1e-31])
+def test_singular_instance_is_invisible_in_every_layout_and_in_wp_mesh(z_scale):
+    """A scene built in Python with an instance squashed flat (the USD loader skips such instances with a warning):
+    the two-level BVH cannot take a ray into its prototype space and leaves it out, so the flattened triangles of
+    the other layouts and of ``wp.Mesh`` must not show it either (they drew it as a hittable flat square). The
+    instance beside it is hit alike everywhere, and the rows of ``Scene.triangles()`` keep their numbering."""
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], np.float32)
+    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], np.int32)
+    box = Prototype("/Box", [Mesh("/Box/mesh", corners, faces, np.arange(len(faces)))])
+    flat, upright = np.diag([1.0, 1.0, z_scale, 1.0]), np.eye(4)
+    upright[0, 3] = 4.0
+    scene = wrt.Scene(prototypes=[box], instances=Instances.from_transforms([0, 0], np.stack([flat, upright])))
+    origins = np.array([[0.2, 0.3, 5.0], [4.2, 0.3, 5.0]], np.float32)
+    directions = np.array([[0.0, 0.0, -1.0]] * 2, np.float32)
+    assert len(scene.triangles()[1]) == 2 * len(faces)
+    for accel, layout in [("wrt", "binary"), ("wrt", "compact"), ("wrt", "wide"), ("wrt", "wide8"), ("warp", "binary")]:
+        hits = wrt.trace(scene, origins, directions, accel=accel, layout=layout)
+        assert hits.prim[0] == -1 and np.isinf(hits.t[0]), (accel, layout)
+        assert hits.prim[1] >= len(faces) and hits.t[1] == 4.0, (accel, layout)
+        np.testing.assert_array_equal(wrt.occluded(scene, origins, directions, accel=accel, layout=layout),
+                                      [False, True], err_msg=f"{accel} {layout}")
+
+
 def test_device_memory_grows_by_at_most_128_bytes_per_instance(np_rng):
     """Two scenes with the same prototype, 200 and 2000 instances: the BLAS is the same, the rest is per instance."""
     sizes = {}

@@ -171,6 +171,10 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def expand_instance_triangles(prototypes: list, instances: Instances) -> tuple[np.ndarray, np.ndarray]:
     """World-space triangles of every instance, in the documented expanded order (see module docstring).
 
+    An instance whose transform is singular (``invert_transforms``: a zero scale) is invisible, as the two-level
+    traversal, which cannot take its ray into prototype space, leaves it out: its triangles keep their rows but are
+    collapsed onto the instance's origin, zero-area, so no layout and no ``wp.Mesh`` hits them.
+
     Returns:
         ``points`` ``(V, 3)`` float32 and ``indices`` ``(T, 3)`` int64 into them.
     """
@@ -183,16 +187,25 @@ def expand_instance_triangles(prototypes: list, instances: Instances) -> tuple[n
     points, indices = [], []
     base = 0
     mirrored = instances.mirrored
+    _, invertible = invert_transforms(instances.to_world)
     for i in range(len(instances)):
         pts, idx = local[instances.prototype[i]]
         if len(idx) == 0:
             continue
-        points.append(transform_points(pts, instances.to_world[i]).astype(np.float32))
+        to_world = instances.to_world[i] if invertible[i] else _collapsed(instances.to_world[i])
+        points.append(transform_points(pts, to_world).astype(np.float32))
         indices.append((idx[:, [0, 2, 1]] if mirrored[i] else idx) + base)
         base += len(pts)
     if not points:
         return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64)
     return np.concatenate(points), np.concatenate(indices)
+
+
+def _collapsed(to_world: np.ndarray) -> np.ndarray:
+    """``to_world`` with a zero linear part: every point goes to the instance's origin."""
+    out = np.zeros_like(to_world)
+    out[:3, 3] = to_world[:3, 3]
+    return out
 
 
 __all__ = ["Instances", "Prototype", "expand_instance_triangles", "invert_transforms", "world_boxes"]
