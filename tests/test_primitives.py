@@ -114,6 +114,28 @@ def test_ellipsoid_and_sheared_normals_are_the_inverse_transpose():
     np.testing.assert_allclose(got, expected, atol=1e-4)  # outward, as the camera sees the outside
 
 
+@pytest.mark.parametrize("kind, params", [("sphere", 0.0), ("cylinder", 0.0), ("cone", 1.0), ("capsule", 0.5)])
+def test_quadric_hits_do_not_depend_on_the_scene_scale(kind, params):
+    """A shape of radius R seen by unit rays has a canonical direction of length 1/R: at R = 1e-20 or 1e25 its
+    ``d . d`` overflowed or underflowed and the shape was missed, while triangles traced fine at every scale. The
+    same rays, scaled with the shape, must give the same ``t / R``, and a unit shape the same ``t |d|`` for any
+    direction length."""
+    def hits(radius, length=1.0):
+        shape = Shape("/S", kind, np.diag([radius, radius, radius, 1.0]), np.array([params, 0, 0, 1], np.float32))
+        origins = np.array([[0.3, 0.2, 5.0], [5.0, 0.2, 0.3], [0.1, 4.0, -0.2]], np.float32) * np.float32(radius)
+        directions = np.array([[0, 0, -1], [-1, 0, 0], [0, -1, 0.05]], np.float32) * np.float32(length)
+        scene = wrt.Scene(shapes=[shape])
+        t = wrt.trace(scene, origins, directions).t * np.float32(length) / np.float32(radius)
+        return t, wrt.occluded(scene, origins, directions)
+
+    reference, blocked = hits(1.0)
+    assert np.isfinite(reference).sum() >= 2
+    for radius, length in [(1e-20, 1.0), (1e-30, 1.0), (1e25, 1.0), (1.0, 1e-25), (1.0, 1e20)]:
+        t, occluded = hits(radius, length)
+        np.testing.assert_allclose(t, reference, rtol=1e-5, err_msg=f"R={radius:g}, |d|={length:g}")
+        np.testing.assert_array_equal(occluded, blocked)
+
+
 def test_left_handed_orientation_turns_the_inside_to_the_front():
     """A single-sided sphere: camera rays see its near side; with orientation = leftHanded its outside is the back,
     culled, and they see the inside of the far side instead."""
