@@ -98,8 +98,8 @@ def depth_first(wide):
     new_refs = wide.refs[slots].copy()
     moved = wide.counts[slots] == 0
     new_refs[moved] = new_id[new_refs[moved]]
-    return dataclasses.replace(wide, lowers=wide.lowers[slots], uppers=wide.uppers[slots], refs=new_refs.astype(np.int32),
-                               counts=wide.counts[slots])
+    return dataclasses.replace(wide, lowers=wide.lowers[slots], uppers=wide.uppers[slots],
+                               refs=new_refs.astype(np.int32), counts=wide.counts[slots])
 
 
 def make_rays(scene, kind: str, n: int, device, rays_module, trace_fn):

@@ -114,8 +114,9 @@ def test_ellipsoid_and_sheared_normals_are_the_inverse_transpose():
     np.testing.assert_allclose(got, expected, atol=1e-4)  # outward, as the camera sees the outside
 
 
+@pytest.mark.parametrize("device", ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else []))
 @pytest.mark.parametrize("kind, params", [("sphere", 0.0), ("cylinder", 0.0), ("cone", 1.0), ("capsule", 0.5)])
-def test_quadric_hits_do_not_depend_on_the_scene_scale(kind, params):
+def test_quadric_hits_do_not_depend_on_the_scene_scale(kind, params, device):
     """A shape of radius R seen by unit rays has a canonical direction of length 1/R: at R = 1e-20 or 1e25 its
     ``d . d`` overflowed or underflowed and the shape was missed, while triangles traced fine at every scale. The
     same rays, scaled with the shape, must give the same ``t / R``, and a unit shape the same ``t |d|`` for any
@@ -125,8 +126,8 @@ def test_quadric_hits_do_not_depend_on_the_scene_scale(kind, params):
         origins = np.array([[0.3, 0.2, 5.0], [5.0, 0.2, 0.3], [0.1, 4.0, -0.2]], np.float32) * np.float32(radius)
         directions = np.array([[0, 0, -1], [-1, 0, 0], [0, -1, 0.05]], np.float32) * np.float32(length)
         scene = wrt.Scene(shapes=[shape])
-        t = wrt.trace(scene, origins, directions).t * np.float32(length) / np.float32(radius)
-        return t, wrt.occluded(scene, origins, directions)
+        t = wrt.trace(scene, origins, directions, device=device).t * np.float32(length) / np.float32(radius)
+        return t, wrt.occluded(scene, origins, directions, device=device)
 
     reference, blocked = hits(1.0)
     assert np.isfinite(reference).sum() >= 2
