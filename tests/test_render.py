@@ -160,6 +160,17 @@ def test_png_is_8bit_srgb(tmp_path, room):
         img.save(tmp_path / "x.tiff")
 
 
+def test_npy_is_written_at_the_path_given_whatever_the_case_of_its_suffix(tmp_path, room):
+    """np.save(path) appended ".npy" to "x.NPY", so the path returned (and the one --resume looks for) did not
+    exist."""
+    img = wrt.render(room, width=8, height=6, device="cpu")
+    for name in ("x.npy", "y.NPY"):
+        path = img.save(tmp_path / name)
+        assert path == tmp_path / name
+        np.testing.assert_array_equal(np.load(path), img.rgb)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.npy", "y.NPY"]
+
+
 @pytest.mark.parametrize("exposure", [float("nan"), float("inf"), -np.inf, "1", None, True])
 def test_save_refuses_an_exposure_that_is_not_a_finite_number(tmp_path, exposure):
     """NaN wrote a black PNG and inf a white one without a word (the CLI checks --exposure; Python did not)."""

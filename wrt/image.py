@@ -186,7 +186,8 @@ class Image:
             rgb = np.asarray(self.rgb, np.float32)
             write_exr(path, {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
         else:
-            np.save(path, self.rgb.astype(np.float32))
+            with open(path, "wb") as f:  # np.save(path) appends ".npy" to a name ending in ".NPY"
+                np.save(f, self.rgb.astype(np.float32))
         return path
 
     def save_aovs(self, directory, names=None, png: bool = False) -> list[Path]:

@@ -260,10 +260,21 @@ class _StageReader:
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
 
+    def _meters_per_unit(self) -> float:
+        """The stage's ``metersPerUnit``; a value that is not positive and finite (the depth of field divided by it)
+        falls back to USD's own default, centimetres, with a warning."""
+        value = float(UsdGeom.GetStageMetersPerUnit(self.stage))
+        if math.isfinite(value) and value > 1e-30:
+            return value
+        fallback = float(UsdGeom.LinearUnits.centimeters)
+        warnings.warn(f"{os.path.basename(self.source)}: metersPerUnit = {value:g} is not a positive finite number; "
+                      f"using {fallback:g} (centimetres, USD's default)", stacklevel=4)
+        return fallback
+
     def read(self) -> Scene:
         scene = Scene(
             up_axis=str(UsdGeom.GetStageUpAxis(self.stage)),
-            meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
+            meters_per_unit=self._meters_per_unit(),
             source=self.source,
         )
         self.scene = scene
