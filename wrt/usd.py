@@ -261,13 +261,13 @@ class _StageReader:
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
 
     def _meters_per_unit(self) -> float:
-        """The stage's ``metersPerUnit``; a value that is not positive and finite (the depth of field divided by it)
-        falls back to USD's own default, centimetres, with a warning."""
+        """The stage's ``metersPerUnit``; a value that is not a finite number above 1e-30 (the depth of field divides
+        by it) falls back to USD's own default, centimetres, with a warning."""
         value = float(UsdGeom.GetStageMetersPerUnit(self.stage))
         if math.isfinite(value) and value > 1e-30:
             return value
         fallback = float(UsdGeom.LinearUnits.centimeters)
-        warnings.warn(f"{os.path.basename(self.source)}: metersPerUnit = {value:g} is not a positive finite number; "
+        warnings.warn(f"{os.path.basename(self.source)}: metersPerUnit = {value:g} is not a finite number above 1e-30; "
                       f"using {fallback:g} (centimetres, USD's default)", stacklevel=4)
         return fallback
 
