@@ -197,6 +197,18 @@ def test_depth_of_field_blurs_only_out_of_focus_objects():
     assert far_b.max() < 0.6 * far_a.max()
 
 
+@pytest.mark.parametrize("meters", [0.0, -1.0, 1e-300, float("nan")])
+def test_depth_of_field_of_a_python_scene_without_a_usable_meters_per_unit_raises(meters):
+    """load_usd falls back to centimetres; a Scene built in Python reached the lens with 0 (ZeroDivisionError) or
+    1e-300 (an infinite lens radius and a wrong image)."""
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (1, 0, 0), (0, 1, 0), name="/q")], meters_per_unit=meters)
+    lens = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30, f_stop=2.0, focus_distance=5.0)
+    with pytest.raises(ValueError, match="meters_per_unit must be a finite number above 1e-30"):
+        wrt.render(scene, camera=lens, width=4, height=4, device="cpu")
+    wrt.render(scene, camera=wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30), width=4, height=4,
+               device="cpu")  # a pinhole camera never divides by it
+
+
 @pytest.mark.parametrize("device", DEVICES)
 def test_path_tracer_is_deterministic_and_device_independent(device):
     scene = mirror_scene()

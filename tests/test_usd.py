@@ -151,7 +151,7 @@ def test_mesh_triangles_and_scene_settings(tmp_path):
 
 
 @pytest.mark.parametrize("meters", ["0", "-2", "1e-300"])
-def test_meters_per_unit_that_is_not_positive_falls_back_to_centimetres_with_a_warning(tmp_path, meters):
+def test_meters_per_unit_that_is_zero_negative_or_tiny_falls_back_to_centimetres_with_a_warning(tmp_path, meters):
     """The depth of field divides by metersPerUnit: 0 raised ZeroDivisionError in render, 1e-300 made the lens
     radius infinite and the image wrong. USD's own default (0.01) is used instead, and the file is named."""
     path = write_usda(tmp_path, mesh_usda(), layer_meta=f'upAxis = "Y"\n    metersPerUnit = {meters}')

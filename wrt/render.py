@@ -26,7 +26,7 @@ from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_p
 from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
 from .lights import LIGHT_DOME, build_lights, default_lights
 from .materials import emission_estimates, upload_materials
-from .scene import Scene
+from .scene import MIN_METERS_PER_UNIT, Scene
 from .shade import (
     CullScratch,
     DeviceSurfaces,
@@ -323,7 +323,11 @@ class Renderer:
         """
         if cam.projection != "perspective" or not cam.f_stop > 0.0 or not cam.focus_distance > 0.0:
             return 0.0, 1.0
-        units_per_mm = 1.0 / (MM_PER_METER * self.scene.meters_per_unit)
+        meters = self.scene.meters_per_unit
+        if not (math.isfinite(meters) and meters > MIN_METERS_PER_UNIT):  # a Scene built in Python; load_usd falls back
+            raise ValueError(f"scene.meters_per_unit must be a finite number above {MIN_METERS_PER_UNIT:g} for the "
+                             f"depth of field of camera {cam.path or ''}, got {meters!r}")
+        units_per_mm = 1.0 / (MM_PER_METER * meters)
         return cam.focal_length * units_per_mm / (2.0 * cam.f_stop), float(cam.focus_distance)
 
     def render(

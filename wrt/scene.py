@@ -52,6 +52,10 @@ class DeviceScene:
     num_shapes: int  # number of unique analytic shapes
 
 
+# The depth of field divides by metersPerUnit (millimetres of focal length to scene units): below this, or not
+# finite, the lens radius overflows.
+MIN_METERS_PER_UNIT = 1e-30
+
 # Mesh arrays with one entry per triangle: (attribute, dtype, shape of one entry).
 PER_TRIANGLE_ARRAYS = (
     ("face_ids", np.int32, ()),

@@ -60,7 +60,7 @@ from .instancing import Instances, Prototype, invert_transforms
 from .lights import read_light
 from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
-from .scene import Mesh, Scene
+from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .usd_values import moved_positions, read_time, value_at
 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
@@ -261,14 +261,14 @@ class _StageReader:
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
 
     def _meters_per_unit(self) -> float:
-        """The stage's ``metersPerUnit``; a value that is not a finite number above 1e-30 (the depth of field divides
-        by it) falls back to USD's own default, centimetres, with a warning."""
+        """The stage's ``metersPerUnit``; a value that is not a finite number above ``MIN_METERS_PER_UNIT`` (the depth
+        of field divides by it) falls back to USD's own default, centimetres, with a warning."""
         value = float(UsdGeom.GetStageMetersPerUnit(self.stage))
-        if math.isfinite(value) and value > 1e-30:
+        if math.isfinite(value) and value > MIN_METERS_PER_UNIT:
             return value
         fallback = float(UsdGeom.LinearUnits.centimeters)
-        warnings.warn(f"{os.path.basename(self.source)}: metersPerUnit = {value:g} is not a finite number above 1e-30; "
-                      f"using {fallback:g} (centimetres, USD's default)", stacklevel=4)
+        warnings.warn(f"{os.path.basename(self.source)}: metersPerUnit = {value:g} is not a finite number above "
+                      f"{MIN_METERS_PER_UNIT:g}; using {fallback:g} (centimetres, USD's default)", stacklevel=4)
         return fallback
 
     def read(self) -> Scene:
