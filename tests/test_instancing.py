@@ -498,9 +498,9 @@ def test_singular_instance_is_invisible_in_every_layout_and_in_wp_mesh(z_scale):
     the two-level BVH cannot take a ray into its prototype space and leaves it out, so the flattened triangles of
     the other layouts and of ``wp.Mesh`` must not show it either (they drew it as a hittable flat square). The
     instance beside it is hit alike everywhere, and the rows of ``Scene.triangles()`` keep their numbering."""
-    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], np.float32)
-    faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
-                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], np.int32)
+    from wrt.primitives import Shape, tessellate
+
+    corners, faces, _ = tessellate(Shape("/Box", "box", np.eye(4)))  # the closed cube [-1, 1]^3
     box = Prototype("/Box", [Mesh("/Box/mesh", corners, faces, np.arange(len(faces)))])
     flat, upright = np.diag([1.0, 1.0, z_scale, 1.0]), np.eye(4)
     upright[0, 3] = 4.0
