@@ -580,6 +580,39 @@ def test_axis_aligned_rays_along_seams_hit(layout, tmp_path):
             np.testing.assert_array_equal(hits.t, 5.0)
 
 
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
+def test_hits_do_not_depend_on_the_direction_length(layout, device, tmp_path, np_rng):
+    """Directions of length 2^-100 ... 2^100 give the unit directions' hits with t scaled, bit for bit, in every
+    layout and through instances: rays straight down the tile seams (zero x and y components) and slanted rays.
+    With a direction of length 1e-30, the flat slab of a box whose face the ray runs in ended near t = 1e20 (its
+    inverse is 1e38, its margin on the CPU 1e-18), so the tiles' hits at t = 5e30 were culled."""
+    path = tmp_path / "tiles.usda"
+    path.write_text(TILES_USDA)
+    instanced = wrt.load_usd(path)
+    flat = wrt.Scene.from_triangles(*instanced.triangles())
+    xy = np.array([-1.0, -0.5, 0.0, 0.5, 1.0], np.float32)
+    gx, gy = np.meshgrid(xy, xy)
+    seams = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, 5.0, np.float32)], 1)
+    slanted = np.concatenate([np_rng.uniform(-3, 3, (200, 2)), np.full((200, 1), 5.0)], 1).astype(np.float32)
+    origins = np.concatenate([seams, slanted])
+    down = np.tile(np.array([0.0, 0.0, -1.0], np.float32), (len(seams), 1))
+    directions = np.concatenate([down, (np_rng.uniform(-2, 2, (200, 3)) - slanted).astype(np.float32)])
+    for scene in (instanced, flat):
+        ref = wrt.trace(scene, origins, directions, layout=layout, device=device)
+        ref_blocked = wrt.occluded(scene, origins, directions, t_max=6.0, layout=layout, device=device)
+        assert ref.hit[: len(seams)].all() and 0 < ref.hit[len(seams):].sum() < len(slanted)
+        assert ref_blocked[: len(seams)].all()
+        for k in (-100, -60, 60, 100):
+            scale = np.float32(2.0**k)
+            hits = wrt.trace(scene, origins, directions * scale, layout=layout, device=device)
+            assert hits.prim.tolist() == ref.prim.tolist(), f"direction length 2^{k}"
+            np.testing.assert_array_equal(hits.t * scale, ref.t, err_msg=f"direction length 2^{k}")
+            blocked = wrt.occluded(scene, origins, directions * scale, t_max=6.0 / scale, layout=layout,
+                                   device=device)
+            assert blocked.tolist() == ref_blocked.tolist(), f"direction length 2^{k}"
+
+
 @pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
 def test_triangle_hits_at_tiny_and_huge_coordinates(layout):
     """A unit-scale mesh scaled by 1e-30 ... 1e30 (ray origins scaled with it) gives the hits of the unit-scale mesh,

@@ -33,7 +33,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .bvh.packed import float_bits, int_bits_as_float
+from .floats import unit_scales
 
 SHAPE_SPHERE = wp.constant(0)
 SHAPE_BOX = wp.constant(1)
@@ -199,13 +199,6 @@ def intersect_unit_cone_side(o: wp.vec3, d: wp.vec3, t_min: float, t_max: float)
 
 
 @wp.func
-def exponent_field(x: float):
-    """The biased exponent of ``|x|``'s float32 bits, clamped to ``[1, 253]`` so that both ``2^(127 - e)`` and
-    ``2^(e - 127)`` are normal floats."""
-    return wp.clamp((float_bits(x) >> 23) & 255, 1, 253)
-
-
-@wp.func
 def intersect_shape(kind: int, params: wp.vec4, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
     """Nearest ``t`` in ``[t_min, t_max)`` where ray ``o + t d`` (canonical space) meets shape ``kind``; inf if none.
 
@@ -213,9 +206,7 @@ def intersect_shape(kind: int, params: wp.vec4, o: wp.vec3, d: wp.vec3, t_min: f
     radius 1e-20 seen by a unit ray has a canonical direction of length 1e20, and the quadratics' ``d . d``
     overflowed (or underflowed, for huge shapes or tiny directions), so such shapes were missed. Scaling by a power
     of two is exact, so rays that were fine before get the same bits."""
-    e = exponent_field(wp.max(wp.max(wp.abs(d[0]), wp.abs(d[1])), wp.abs(d[2])))
-    down = int_bits_as_float((254 - e) << 23)  # 2^(127 - e)
-    up = int_bits_as_float(e << 23)  # 2^(e - 127) = 1 / down
+    down, up = unit_scales(d)
     # o + t (d * down) is o + (t * down) d: the range scales up, the hit down.
     return down * canonical_hit(kind, params, o, d * down, t_min * up, t_max * up)
 

@@ -33,7 +33,7 @@ import warp as wp
 
 from .bvh import DeviceBvh, build_bvh, traverse
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
-from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, order_children, reachable
+from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, order_children, reachable, unit_ray
 from .bvh.turns import waits
 from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import invert_transforms, world_boxes
@@ -239,8 +239,9 @@ def trace_tlas_kernel(
 ):
     """Closest hit of every ray through the TLAS; ``prims`` are geometry ids, ``instances`` -1 for world geometry."""
     i = wp.tid()
-    t, u, v, prim, instance, nodes, tests = tlas_intersect(tlas, origins[i], directions[i], t_mins[i], t_maxs[i])
-    ts[i] = t
+    d, t_min, t_max, down = unit_ray(directions[i], t_mins[i], t_maxs[i])
+    t, u, v, prim, instance, nodes, tests = tlas_intersect(tlas, origins[i], d, t_min, t_max)
+    ts[i] = t * down
     us[i] = u
     vs[i] = v
     prims[i] = prim

@@ -6,13 +6,14 @@ child slot of the wide layout is two loads (``pack_child``). On an H200 the wide
 from it (GPU_NOTES.md, row 30): the traversal waits on the L1 more than it computes, and fewer load instructions
 queue less there. Triangles packed the same way (three records with the id) were no faster (row 30).
 
-Integers ride in the records as float bit patterns (``int_bits_as_float`` / ``float_bits``), so the records are one
-``vec4`` array.
+Integers ride in the records as float bit patterns (``wrt.floats``), so the records are one ``vec4`` array.
 """
 
 from __future__ import annotations
 
 import warp as wp
+
+from ..floats import float_bits, int_bits_as_float
 
 _LOAD_VEC4 = """
 #if defined(__CUDA_ARCH__)
@@ -28,32 +29,6 @@ _LOAD_VEC4 = """
 def load_vec4(a: wp.array[wp.vec4], i: int) -> wp.vec4:
     """Entry ``i`` of a contiguous, read-only ``vec4`` array, in one 16-byte load on CUDA (Warp allocations are
     aligned to 256 bytes, so every entry is 16-byte aligned)."""
-
-
-@wp.func_native("""
-#if defined(__CUDA_ARCH__)
-    return __float_as_int(x);
-#else
-    int r;
-    memcpy(&r, &x, sizeof(r));
-    return r;
-#endif
-""")
-def float_bits(x: float) -> int:
-    """The int32 with the bits of ``x``."""
-
-
-@wp.func_native("""
-#if defined(__CUDA_ARCH__)
-    return __int_as_float(x);
-#else
-    float r;
-    memcpy(&r, &x, sizeof(r));
-    return r;
-#endif
-""")
-def int_bits_as_float(x: int) -> float:
-    """The float32 with the bits of ``x`` (never used as a number: it may be a NaN pattern)."""
 
 
 @wp.func

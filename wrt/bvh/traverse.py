@@ -13,6 +13,7 @@ depend on the tree or the visiting order. Boxes are entered when their entry dis
 
 import warp as wp
 
+from ..floats import unit_scales
 from ..geometry import (
     ShearedRay,
     box_origins,
@@ -47,6 +48,18 @@ def trace_block_dim(device) -> int:
     return TRACE_BLOCK_DIM if device.is_cuda else 256
 
 
+@wp.func
+def unit_ray(direction: wp.vec3, t_min: float, t_max: float):
+    """``(direction * down, t_min / down, t_max / down, down)`` for the power of two ``down`` that brings the
+    direction's largest component into ``[1, 2)``; a hit of that ray at ``t`` is one of the given ray at
+    ``t * down``. Every trace and any-hit kernel starts from it (exact: ``wrt.floats``), because the slab test's
+    constants assume such lengths: a zero component's inverse is 1e38 and, on the CPU, a ray in a box face plane is
+    moved off it by at least 1e-18 (``geometry.box_origins``), so with a direction of length 1e-30 a triangle 1e-9
+    away (t = 1e21) lay beyond a flat slab's exit and was culled."""
+    down, up = unit_scales(direction)
+    return direction * down, t_min * up, t_max * up, down
+
+
 def closest_hit_kernels(intersect, bvh_type, name: str, module: str, max_registers: int = TRACE_MAX_REGISTERS):
     """``(counted, uncounted)``: two kernels of ``module`` (whose build options they take) tracing the closest hit of
     every ray through ``intersect``, a layout's closest-hit function over a ``bvh_type``; named ``name`` and
@@ -68,8 +81,9 @@ def closest_hit_kernels(intersect, bvh_type, name: str, module: str, max_registe
             costs: wp.array[wp.vec2i],
         ):
             i = wp.tid()
-            t, u, v, prim, nodes, tests = intersect(bvh, origins[i], directions[i], t_mins[i], t_maxs[i])
-            ts[i] = t
+            d, t_min, t_max, down = unit_ray(directions[i], t_mins[i], t_maxs[i])
+            t, u, v, prim, nodes, tests = intersect(bvh, origins[i], d, t_min, t_max)
+            ts[i] = t * down
             us[i] = u
             vs[i] = v
             prims[i] = prim
@@ -97,7 +111,8 @@ def any_hit_kernel(occluded, bvh_type, name: str, module: str, max_registers: in
         blocked: wp.array[wp.int32],
     ):
         i = wp.tid()
-        blocked[i] = wp.where(occluded(bvh, origins[i], directions[i], t_mins[i], t_maxs[i]), 1, 0)
+        d, t_min, t_max, down = unit_ray(directions[i], t_mins[i], t_maxs[i])
+        blocked[i] = wp.where(occluded(bvh, origins[i], d, t_min, t_max), 1, 0)
 
     return wp.kernel(occluded_kernel, name=name, module=module, cuda_max_registers=max_registers)
 

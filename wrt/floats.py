@@ -1,0 +1,45 @@
+"""Float32 bit patterns, and exact scaling by powers of two.
+
+Multiplying by a power of two changes only a float's exponent, so it is exact (away from overflow and
+subnormals) and commutes with rounding: a ray whose direction is scaled by ``2^k`` gets the same hits with every
+``t`` scaled by ``2^-k``, bit for bit. Kernels use that to bring directions of any length to a length near 1
+before the tests whose constants assume it (``unit_scales``).
+"""
+
+import warp as wp
+
+
+@wp.func_native("""
+#if defined(__CUDA_ARCH__)
+    return __float_as_int(x);
+#else
+    int r;
+    memcpy(&r, &x, sizeof(r));
+    return r;
+#endif
+""")
+def float_bits(x: float) -> int:
+    """The int32 with the bits of ``x``."""
+
+
+@wp.func_native("""
+#if defined(__CUDA_ARCH__)
+    return __int_as_float(x);
+#else
+    float r;
+    memcpy(&r, &x, sizeof(r));
+    return r;
+#endif
+""")
+def int_bits_as_float(x: int) -> float:
+    """The float32 with the bits of ``x`` (never used as a number: it may be a NaN pattern)."""
+
+
+@wp.func
+def unit_scales(v: wp.vec3):
+    """``(down, up)``: the power of two ``down`` that brings ``v``'s largest component into ``[1, 2)``, and
+    ``up = 1 / down``. The exponent is clamped so that both are normal floats: a zero ``v`` stays zero, an infinite
+    or NaN one stays so."""
+    largest = wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.abs(v[2]))
+    e = wp.clamp((float_bits(largest) >> 23) & 255, 1, 253)  # the biased exponent
+    return int_bits_as_float((254 - e) << 23), int_bits_as_float(e << 23)  # 2^(127 - e), 2^(e - 127)
