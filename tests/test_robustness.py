@@ -185,18 +185,21 @@ def test_rays_from_inside_a_closed_mesh_always_hit():
 def offset_origins_kernel(
     points: wp.array[wp.vec3],
     normals: wp.array[wp.vec3],
+    sizes: wp.array[float],
     # outputs
     out: wp.array[wp.vec3],
 ):
     i = wp.tid()
-    out[i] = offset_ray_origin(points[i], normals[i])
+    out[i] = offset_ray_origin(points[i], normals[i], sizes[i])
 
 
-def test_no_shadow_acne_at_grazing_angles():
+# Away from the origin (larger ulps), and scaled down by 2^-20 around it (the fixed offset's scale).
+@pytest.mark.parametrize("scale, centre", [(1.0, (120.0, -40.0, 300.0)), (2.0**-20, (0.4, -0.1, 0.2))])
+def test_no_shadow_acne_at_grazing_angles(scale, centre):
     """Shadow rays leaving a convex tessellated sphere cannot be blocked: count false occlusions."""
     rng = np.random.default_rng(11)
     points, faces = icosphere(5)
-    points = points * np.float32(50.0) + np.float32([120.0, -40.0, 300.0])  # away from the origin: larger ulps
+    points = (points * np.float32(50.0) + np.float32(centre)) * np.float32(scale)
     scene = wrt.Scene.from_triangles(points, faces)
     n = 400_000
     tri = rng.integers(0, len(faces), n)
@@ -217,6 +220,7 @@ def test_no_shadow_acne_at_grazing_angles():
         inputs=[
             wp.array(hit_points, dtype=wp.vec3, device="cpu"),
             wp.array(normal.astype(np.float32), dtype=wp.vec3, device="cpu"),
+            wp.array(np.abs(points[faces[tri]]).max(axis=(1, 2)), dtype=float, device="cpu"),
         ],
         outputs=[offset],
         device="cpu",

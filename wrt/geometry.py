@@ -12,6 +12,8 @@ Barycentrics follow wrt's contract: ``hit = (1 - u - v) * p0 + u * p1 + v * p2``
 
 import warp as wp
 
+from .floats import unit_scales
+
 ROBUST_FAR_SCALE = wp.constant(1.0 + 2.0 * 3.0 * 5.9604645e-08 / (1.0 - 3.0 * 5.9604645e-08))  # 1 + 2*gamma(3), Ize
 ENTRY_SLACK = wp.constant(9.5367431640625e-07)  # 2^-20: intersect_ray_box rounds entries down by this
 FLAT_INVERSE = wp.constant(1.0e38)  # safe_inverse of a zero (or subnormal) direction component
@@ -311,10 +313,18 @@ def ray_can_hit(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float)
 
 
 @wp.func
-def offset_ray_origin(p: wp.vec3, n: wp.vec3):
+def offset_ray_origin(p: wp.vec3, n: wp.vec3, size: float):
     """Moves a hit point off its surface along ``n`` by a few float ULPs, so a ray started there cannot hit the
     same surface again (Wächter and Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing
-    Gems, 2019). Near the origin, where ULPs are tiny, a fixed offset is used instead."""
+    Gems, 2019). Near the origin, where ULPs are tiny, a fixed offset is used instead.
+
+    ``size`` is the largest coordinate magnitude of the surface hit (a triangle's corners): the hit point's rounding
+    error follows it, not ``p``. The paper's fixed offset (1/65536 within 1/32 of the origin) assumes surfaces of
+    about unit size; for smaller ones both shrink with the power of two above ``size``, so a scene scaled down by a
+    power of two keeps its contact shadows and renders the same image (at 1e-4 the fixed offset was 15% of the
+    scene). Surfaces of size 1 and more keep the paper's constants."""
+    down, up = unit_scales(wp.vec3(size, 0.0, 0.0))
+    scale = wp.min(2.0 * up, 1.0)  # a power of two above size, at most 1
     result = wp.vec3()
     for k in range(3):
         ulps = int(256.0 * n[k])
@@ -324,7 +334,7 @@ def offset_ray_origin(p: wp.vec3, n: wp.vec3):
         else:
             bits += ulps
         moved = wp.cast(bits, wp.float32)
-        if wp.abs(p[k]) < 1.0 / 32.0:
-            moved = p[k] + (1.0 / 65536.0) * n[k]
+        if wp.abs(p[k]) < scale * (1.0 / 32.0):
+            moved = p[k] + (scale * (1.0 / 65536.0)) * n[k]
         result[k] = moved
     return result

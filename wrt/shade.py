@@ -55,6 +55,7 @@ class HitPoint:
 
     p: wp.vec3  # world-space position
     ng: wp.vec3  # unit geometric normal facing the ray origin
+    size: float  # largest |world coordinate| of the surface hit: the scale of p's rounding (offset_ray_origin)
     ns: wp.vec3  # unit shading normal on the side of ng
     front: int  # 1 when the ray hit the front (winding) side
     st: wp.vec2  # texture coordinates
@@ -72,9 +73,22 @@ def unit_or_zero(n: wp.vec3):
 
 
 @wp.func
+def largest_magnitude(v: wp.vec3):
+    """``max(|v[0]|, |v[1]|, |v[2]|)``."""
+    return wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.abs(v[2]))
+
+
+@wp.func
+def corner_size(a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """``HitPoint.size`` of a triangle with world-space corners ``a``, ``b``, ``c``."""
+    return wp.max(wp.max(largest_magnitude(a), largest_magnitude(b)), largest_magnitude(c))
+
+
+@wp.func
 def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.vec3, t: float):
-    """World-space point and front normal (not normalised) of the hit at ``t`` on analytic shape ``prim``: the ray
-    point is moved into the shape's canonical space, snapped onto the surface, and moved back."""
+    """World-space point, front normal (not normalised) and size (``HitPoint.size``: of the point and the shape's
+    centre, whose magnitudes its transforms round at) of the hit at ``t`` on analytic shape ``prim``: the ray point
+    is moved into the shape's canonical space, snapped onto the surface, and moved back."""
     j = prim - scene.num_prims
     p = o + t * d
     if instance >= 0:
@@ -83,11 +97,13 @@ def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.
     q, n = shape_surface(scene.shape_kinds[j], scene.shape_params[j], transform_point(m, p))
     n = normal_to_world(m, n)
     p = inverse_transform_point(m, q)
+    centre = inverse_transform_point(m, wp.vec3(0.0))
     if instance >= 0:
         mi = scene.world_to_local[instance]
         n = normal_to_world(mi, n)
         p = inverse_transform_point(mi, p)
-    return p, n
+        centre = inverse_transform_point(mi, centre)
+    return p, n, wp.max(largest_magnitude(p), largest_magnitude(centre))
 
 
 @wp.func
@@ -110,14 +126,16 @@ def hit_point(
     c = scene.points[scene.indices[prim, 2]]
     w = 1.0 - u - v
     h.p = w * a + u * b + v * c
+    h.size = corner_size(a, b, c)
     ng = wp.cross(b - a, c - a)
     n0 = scene.normals[prim, 0]
     n1 = scene.normals[prim, 1]
     n2 = scene.normals[prim, 2]
     if prim >= scene.num_prims:
         # An analytic shape: the point and normal come from the shape itself.
-        p, n = shape_frame(scene, prim, instance, o, d, t)
+        p, n, size = shape_frame(scene, prim, instance, o, d, t)
         h.p = p
+        h.size = size
         ng = n
         n0 = n
         n1 = n
@@ -127,6 +145,8 @@ def hit_point(
         # normals are moved and renormalised before interpolation, exactly as a flattened copy stores them.
         m = scene.world_to_local[instance]
         h.p = inverse_transform_point(m, h.p)
+        a, b, c = inverse_transform_point(m, a), inverse_transform_point(m, b), inverse_transform_point(m, c)
+        h.size = corner_size(a, b, c)
         ng = normal_to_world(m, ng)
         n0 = unit_or_zero(normal_to_world(m, n0))
         n1 = unit_or_zero(normal_to_world(m, n1))
@@ -268,7 +288,7 @@ def hidden_hit(
     if surf.double_sided[prim] == 1:
         return False
     if prim >= scene.num_prims:
-        p, n = shape_frame(scene, prim, instance, o, d, t)
+        p, n, size = shape_frame(scene, prim, instance, o, d, t)
         return wp.dot(n, d) > 0.0
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
