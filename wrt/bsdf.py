@@ -6,10 +6,12 @@ Model (an approximation of the UsdPreviewSurface specification, stated once):
 - Metallic workflow: ``F0 = mix(((1 - ior) / (1 + ior))^2, diffuseColor, metallic)``, diffuse albedo
   ``diffuseColor * (1 - metallic)``. Specular workflow (``useSpecularWorkflow = 1``): ``F0 = specularColor``,
   diffuse albedo ``diffuseColor``.
-- ``f = (1 - F) * (1 - clearcoat * Fc) * albedo / pi + (1 - clearcoat * Fc) * D G F / (4 cos_o cos_i)
-  + clearcoat * Dc Gc Fc / (4 cos_o cos_i)`` with Schlick's Fresnel ``F`` at the half vector, the GGX (Trowbridge-
-  Reitz) distribution ``D`` with ``alpha = roughness^2`` and the height-correlated Smith term ``G`` (Heitz 2014);
-  the grazing reflectance of Schlick's ``F`` is ``min(1, 50 max(F0))``.
+- ``f = (1 - F(cos_o)) * (1 - clearcoat * Fc(cos_o)) * albedo / pi + (1 - clearcoat * Fc(cos_o)) * D G F(cos_vh)
+  / (4 cos_o cos_i) + clearcoat * Dc Gc Fc(cos_vh) / (4 cos_o cos_i)`` with Schlick's Fresnel ``F``, at the half
+  vector in the microfacet lobes and at the viewing angle for what passes to the layers below (so a white surface
+  never reflects more than it receives), the GGX (Trowbridge-Reitz) distribution ``D`` with
+  ``alpha = roughness^2`` and the height-correlated Smith term ``G`` (Heitz 2014); the grazing reflectance of
+  Schlick's ``F`` is ``min(1, 50 max(F0))``.
   The clearcoat lobe has ``F0 = 0.04`` and ``alpha = clearcoatRoughness^2``. With ``F0 = 0`` the BSDF is exactly
   Lambertian: a surface of albedo ``rho`` under illuminance ``E`` shows ``rho * E / pi``.
 - Lobes with ``roughness < DELTA_ROUGHNESS`` are perfect mirrors (delta distributions): they are sampled, never
@@ -221,18 +223,22 @@ def eval_opaque(s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
     cos_h = wp.dot(n, h)
     cos_vh = wp.max(wp.dot(wo, h), 0.0)
     f0 = surface_f0(s)
-    f_spec = fresnel_schlick(f0, cos_vh)
-    fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_vh)
+    # The layers below a lobe keep what the lobe does not reflect towards the viewer: 1 - F at the viewing angle.
+    # At the half vector (the microfacet lobes' own Fresnel angle) that share stayed near 0.95 at grazing angles,
+    # where the lobes' albedo rises towards 0.5: a white surface reflected up to 1.44 times the light it received.
+    coat_below = 1.0 - s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
     w = lobe_weights(s, cos_o)
 
-    f = wp.cw_mul(wp.vec3(1.0) - f_spec, surface_albedo(s)) * (INV_PI * (1.0 - fc))
+    f = wp.cw_mul(wp.vec3(1.0) - fresnel_schlick(f0, cos_o), surface_albedo(s)) * (INV_PI * coat_below)
     pdf = w[0] * cos_i * INV_PI
     if s.roughness >= DELTA_ROUGHNESS:
         a = ggx_alpha(s.roughness)
-        f += f_spec * ((1.0 - fc) * ggx_d(cos_h, a) * ggx_g2(cos_o, cos_i, a) / (4.0 * cos_o * cos_i))
+        f_spec = fresnel_schlick(f0, cos_vh)
+        f += f_spec * (coat_below * ggx_d(cos_h, a) * ggx_g2(cos_o, cos_i, a) / (4.0 * cos_o * cos_i))
         pdf += w[1] * ggx_reflection_pdf(cos_o, cos_h, a)
     if s.clearcoat > 0.0 and s.clearcoat_roughness >= DELTA_ROUGHNESS:
         ac = ggx_alpha(s.clearcoat_roughness)
+        fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_vh)
         f += wp.vec3(fc * ggx_d(cos_h, ac) * ggx_g2(cos_o, cos_i, ac) / (4.0 * cos_o * cos_i))
         pdf += w[2] * ggx_reflection_pdf(cos_o, cos_h, ac)
     return f, pdf
@@ -297,7 +303,10 @@ def sample_bsdf(
             out.weight = wp.vec3(1.0)
         else:
             out.wi = wp.normalize(refract(wo, n, eta))
-            out.weight = wp.vec3(1.0 / (eta * eta))  # radiance is compressed entering a denser medium
+            # Radiance is compressed by 1 / eta^2 entering a denser medium and expanded again leaving it, which a
+            # closed object's two crossings cancel; an open surface (a window pane without thickness) has one
+            # crossing only, where the factor dimmed what lay behind a clear pane to 0.44 (ior 1.5). Both drop it.
+            out.weight = wp.vec3(1.0)
             out.transmitted = 1
         return out
 

@@ -3,15 +3,18 @@
 At every hit: emission; direct light from every light with a shadow ray each (area and soft lights get one random
 point per sample, so their shadows soften as ``spp`` grows; all emissive triangles together count as one light);
 the dome light as an unoccluded term ``albedo * mean dome radiance`` (exact for an unoccluded Lambertian surface
-under a constant dome; use ``path`` for occluded sky light). Then one continuation ray: the mirror direction
-for metals (weight ``metallic * F``) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with
-probability proportional to their Fresnel weights). Other surfaces end the ray. ``max_depth`` bounds the number of
-mirror/refraction bounces.
+under a constant dome; use ``path`` for occluded sky light), plus ``metallic * F`` of it for rough metals. Then one
+continuation ray: the mirror direction for smooth metals (roughness below ``DELTA_ROUGHNESS``, weight
+``metallic * F``) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with probability
+proportional to their Fresnel weights). Other surfaces end the ray: a rough metal's GGX lobe takes its light from
+the light sampling above, and a mirror ray from it would add the same lights a second time. ``max_depth`` bounds
+the number of mirror/refraction bounces.
 """
 
 import warp as wp
 
 from ..bsdf import (
+    DELTA_ROUGHNESS,
     eval_bsdf,
     fresnel_dielectric,
     fresnel_schlick,
@@ -84,7 +87,11 @@ def shade_whitted_kernel(
     if h.front == 1 or surf.double_sided[prim] == 1:
         L += wp.cw_mul(T, s.emission)
     if lights.dome >= 0:
-        L += wp.cw_mul(wp.cw_mul(T, surface_albedo(s)), lights.dome_mean) * opaque_fraction(s)
+        ambient = surface_albedo(s)
+        if s.specular_workflow == 0 and s.roughness >= DELTA_ROUGHNESS:
+            # A rough metal's lobe has no mirror ray (see continue_whitted_kernel): it sees the dome unoccluded too.
+            ambient += fresnel_schlick(surface_f0(s), wp.max(wp.dot(h.ns, -d), 0.0)) * s.metallic
+        L += wp.cw_mul(wp.cw_mul(T, ambient), lights.dome_mean) * opaque_fraction(s)
     radiance[i] = L
     active[i] = 1
 
@@ -194,7 +201,7 @@ def continue_whitted_kernel(
     op = opaque_fraction(s)
     w_reflect = wp.vec3(0.0)
     w_refract = float(0.0)
-    if s.specular_workflow == 0 and s.metallic > 0.0:
+    if s.specular_workflow == 0 and s.metallic > 0.0 and s.roughness < DELTA_ROUGHNESS:
         w_reflect = fresnel_schlick(surface_f0(s), cos_o) * (s.metallic * op)
     eta = s.ior
     if h.front == 0:
@@ -220,7 +227,7 @@ def continue_whitted_kernel(
     else:
         directions[i] = wp.normalize(refract(wo, h.ns, eta))
         origins[i] = offset_ray_origin(h.p, -h.ng, h.size)
-        T = T * (w_refract * total / w_refract / (eta * eta))
+        T = T * total  # w_refract / (w_refract / total); no 1 / eta^2: see bsdf.sample_bsdf
     throughput[i] = T
     t_mins[i] = 0.0
     t_maxs[i] = wp.inf
