@@ -102,6 +102,19 @@ def test_preview_surface_inputs(tmp_path):
     assert (scene.meshes[0].material_ids == 0).all()
 
 
+def test_inputs_that_are_not_finite_numbers_keep_their_defaults(tmp_path):
+    """ior and opacityThreshold of NaN or inf fall back to the schema defaults, as every other input does: a NaN ior
+    gave a near mirror (F0 = 0.996) and inf a black surface."""
+    stage, path = new_stage(tmp_path)
+    for k, value in enumerate((float("nan"), float("inf"))):
+        quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
+        material, _ = preview_material(stage, f"/Looks/M{k}", ior=value, opacityThreshold=value)
+        bind(quad, material)
+    stage.Save()
+    for mat in wrt.load_usd(path).materials:
+        assert mat.ior == 1.5 and mat.opacity_threshold == 0.0, mat.path
+
+
 def test_material_interface_inputs_are_followed(tmp_path):
     stage, path = new_stage(tmp_path)
     quad = add_quad(stage, "/Quad")

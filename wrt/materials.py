@@ -403,13 +403,11 @@ class MaterialReader:
         for name in SLOTS:
             self._read_input(shader, name, mat)
         for name, field in (("useSpecularWorkflow", "use_specular_workflow"),
-                            ("opacityThreshold", "opacity_threshold")):
-            value = self._constant(shader, name)
-            if value is not None:
-                setattr(mat, field, type(getattr(mat, field))(value))
-        ior = self._constant(shader, "ior")
-        if ior is not None:
-            mat.ior = float(ior)
+                            ("opacityThreshold", "opacity_threshold"), ("ior", "ior")):
+            # A value that is not a finite number keeps the schema default, as every other input does.
+            value = np.asarray(self._constant(shader, name), np.float64).reshape(-1)
+            if value.size and np.isfinite(value[0]):
+                setattr(mat, field, type(getattr(mat, field))(value[0]))
         return mat
 
     def _producer(self, shader, name):
