@@ -222,16 +222,20 @@ def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path):
 
 def test_cli_frames_and_resume(animated, tmp_path):
     cmd = [sys.executable, "-m", "wrt.cli", "render", str(animated), "--width", "32", "--height", "24"]
-    out = tmp_path / "frames" / "f_###.png"
+    out = tmp_path / "frames" / "{stem}_###.png"  # {stem} is the scene's name, as for still images
     done = subprocess.run(cmd + ["--frames", "1:8:3", "-o", str(out)], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert sorted(p.name for p in out.parent.iterdir()) == ["f_001.png", "f_004.png", "f_007.png"]
+    names = [f"{animated.stem}_{k:03d}.png" for k in (1, 4, 7)]
+    assert sorted(p.name for p in out.parent.iterdir()) == names
     assert "1 build" in done.stderr
-    (out.parent / "f_004.png").unlink()
+    (out.parent / names[1]).unlink()
+    (out.parent / names[2]).write_bytes(b"")  # what a run killed while writing could leave
     again = subprocess.run(cmd + ["--frames", "1:8:3", "-o", str(out), "--resume"], capture_output=True, text=True,
                            timeout=300)
     assert again.returncode == 0, again.stderr
-    assert "2 of 3 frames already on disk" in again.stderr and "rendered 1 frames" in again.stderr
+    assert "1 of 3 frames already on disk" in again.stderr and "rendered 2 frames" in again.stderr
+    assert sorted(p.name for p in out.parent.iterdir()) == names  # no partial files left beside them
+    assert (out.parent / names[2]).stat().st_size > 0
     bad = subprocess.run(cmd + ["--frames", "9:1"], capture_output=True, text=True, timeout=300)
     assert bad.returncode == 2 and "empty" in bad.stderr
     mixed = subprocess.run(cmd + ["--frames", "1:2", "--time", "3"], capture_output=True, text=True, timeout=300)

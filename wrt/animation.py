@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .image import write_atomically
+
 REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20% worse than when it was built
 MAX_FRAMES = 1_000_000  # most frames one --frames range may give (a typo such as 1:1e9 would fill the memory)
 FRAME_DIGITS = 12  # significant digits of a frame time, in parse_frames and in file names
@@ -232,9 +234,10 @@ class FrameRenderer:
 
 
 def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
-    """``(frame, file)`` of every frame to render; with ``resume``, frames whose file exists are left out."""
+    """``(frame, file)`` of every frame to render; with ``resume``, frames whose file exists and is not empty are
+    left out (files are written whole or not at all: :func:`wrt.image.write_atomically`)."""
     jobs = [(f, frame_output(output, f)) for f in frames]
-    return [(f, p) for f, p in jobs if not (resume and p.exists())]
+    return [(f, p) for f, p in jobs if not (resume and p.is_file() and p.stat().st_size > 0)]
 
 
 def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False,
@@ -299,8 +302,7 @@ def _frame_writer(jobs, rows: list):
 
     def write(result: dict) -> None:
         file = files[result["row"]["frame"]]
-        file.parent.mkdir(parents=True, exist_ok=True)
-        file.write_bytes(result["data"])
+        write_atomically(file, lambda partial: partial.write_bytes(result["data"]))
         rows.append(dict(result["row"], output=str(file)))
 
     return write

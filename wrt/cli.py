@@ -299,7 +299,7 @@ def _run_frames(args, paths: list, progress) -> int:
     if not paths[0].exists():
         raise FileNotFoundError(f"{paths[0]}: no such file")
     frames = parse_frames(args.frames)
-    output = args.output or "frame_####.png"
+    output = (args.output or "frame_####.png").replace("{stem}", paths[0].stem)  # as for still images
     jobs = pending_frames(frames, output, args.resume)
     from .image import check_image_path
 

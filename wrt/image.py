@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import importlib.util
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -100,6 +101,18 @@ def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
     return np.round(np.repeat(grey[..., None], 3, axis=-1) * 255).astype(np.uint8)
 
 
+def write_atomically(path: Path, write) -> None:
+    """Calls ``write(file)`` on a temporary file beside ``path``, then renames it to ``path``: a run killed while
+    writing leaves no truncated image where ``--resume`` would take it for a finished one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.name}.{os.getpid()}.partial{path.suffix}")
+    try:
+        write(partial)
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)
+
+
 def write_exr(path: Path, channels: dict[str, np.ndarray]) -> None:
     """Writes float32 ``(H, W)`` channels (e.g. ``{"R": r, "G": g, "B": b}``) to an OpenEXR file."""
     try:
@@ -177,17 +190,20 @@ class Image:
         ):
             raise ValueError(f"exposure must be a finite number, got {exposure!r}")
         suffix = path.suffix.lower()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if suffix == ".png":
-            from PIL import Image as PilImage
 
-            PilImage.fromarray(to_srgb8(self.rgb, exposure), mode="RGB").save(path)
-        elif suffix == ".exr":
-            rgb = np.asarray(self.rgb, np.float32)
-            write_exr(path, {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
-        else:
-            with open(path, "wb") as f:  # np.save(path) appends ".npy" to a name ending in ".NPY"
-                np.save(f, self.rgb.astype(np.float32))
+        def write(target: Path) -> None:
+            if suffix == ".png":
+                from PIL import Image as PilImage
+
+                PilImage.fromarray(to_srgb8(self.rgb, exposure), mode="RGB").save(target, format="PNG")
+            elif suffix == ".exr":
+                rgb = np.asarray(self.rgb, np.float32)
+                write_exr(target, {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
+            else:
+                with open(target, "wb") as f:  # np.save(path) appends ".npy" to a name ending in ".NPY"
+                    np.save(f, self.rgb.astype(np.float32))
+
+        write_atomically(path, write)
         return path
 
     def save_aovs(self, directory, names=None, png: bool = False) -> list[Path]:
