@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import warp_assets
 from PIL import Image as PilImage
+from shading_helpers import quad
 
 pv = pytest.importorskip("pyvista")
 pv.OFF_SCREEN = True
@@ -138,6 +139,20 @@ def test_sample_rays_are_the_renderers_rays(room):
     depth = wrt.render(room, width=width, height=height, device="cpu").aovs["depth"].reshape(-1)
     np.testing.assert_array_equal(np.isfinite(t), np.isfinite(depth))
     np.testing.assert_allclose(t[np.isfinite(t)], depth[np.isfinite(depth)], rtol=1e-6)
+
+
+def test_sample_rays_pass_back_faces_as_the_renderer_does():
+    """A single-sided quad seen from behind hides nothing from the renderer, so the preview's rays go on to the
+    floor too; they stopped on the quad's back (t = 4 instead of 5)."""
+    floor = quad((0, 0, 0), (20, 0, 0), (0, 20, 0), name="/floor")
+    back = quad((0, 0, 1), (0, 4, 0), (4, 0, 0), name="/back", double_sided=False)  # faces -Z, away from the camera
+    scene = wrt.Scene(meshes=[floor, back])
+    cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=20)
+    width, height = 8, 6
+    _, _, t = sample_rays(scene, cam, width, height, width * height)
+    depth = wrt.render(scene, camera=cam, width=width, height=height, device="cpu").aovs["depth"].reshape(-1)
+    assert np.isfinite(depth).all()
+    np.testing.assert_allclose(t, depth, rtol=1e-6)
 
 
 @pytest.mark.parametrize("cut", [0, 3, 8, 100, "leaves"])

@@ -39,8 +39,9 @@ import warp as wp
 from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
 from .image import to_srgb8
-from .render import render, resolve_camera
+from .render import Renderer, render, resolve_camera
 from .scene import Scene
+from .shade import CullScratch, intersect_visible
 from .trace import HitBuffer, get_accelerator, resolve_device
 
 TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
@@ -458,7 +459,11 @@ def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, buil
     inputs = [cam.to_struct(width, height), gw, gh, 0, 0]
     wp.launch(generate_rays_kernel, total, inputs=inputs, outputs=out, device=device)
     hits = HitBuffer(total, device)
-    get_accelerator(scene, "wrt", builder, device).intersect(*out, hits)
+    # The renderer's own accelerator and culling: rays pass back faces of single-sided meshes and cut-out holes.
+    renderer = Renderer(scene, camera=cam, width=width, height=height, device=device, builder=builder,
+                        integrator="depth")
+    scratch = CullScratch(total, device, renderer.nothing_to_cull)
+    intersect_visible(renderer.accel, renderer.surfaces, renderer.materials, renderer.device_scene, out, hits, scratch)
     pick = np.round(np.linspace(0, total - 1, n)).astype(np.int64)
     return out[0].numpy()[pick], out[1].numpy()[pick], hits.t.numpy()[pick]
 
