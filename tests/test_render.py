@@ -8,6 +8,7 @@ from pxr import Usd
 
 import wrt
 from wrt.cli import default_scene_path
+from wrt.lights import DomeLight
 from wrt.rays import camera_rays
 from wrt.shade import BACKGROUND
 
@@ -251,3 +252,16 @@ def test_shading_does_not_depend_on_scene_scale(scale):
     img = wrt.render(scene, camera=cam, width=8, height=8)
     assert img.aovs["prim"][4, 4] >= 0
     np.testing.assert_allclose(img.rgb[4, 4], 0.5, rtol=1e-4)
+
+
+def test_samples_whose_sum_overflows_are_dropped_not_written():
+    """A dome of 1e38 (finite in float32) gives finite samples whose per-pixel sum overflowed to inf, which reached
+    the EXR; such samples are now left out and counted as non-finite ones are."""
+    quad = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+    scene = wrt.Scene.from_triangles(quad, [[0, 1, 2], [0, 2, 3]])
+    scene.lights = [DomeLight(color=np.full(3, 1e38, np.float32))]
+    cam = wrt.Camera.look_at((0, 0, 4), (0, 0, 0), fov_y_deg=60)
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=8, integrator="path")
+    img = renderer.render(spp=8)
+    assert np.isfinite(img.rgb).all()
+    assert renderer.dropped_samples > 0

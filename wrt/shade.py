@@ -484,13 +484,14 @@ def accumulate_samples_kernel(
     dropped: wp.array[wp.int32],
 ):
     """``image[p] += radiance`` of each sample of pixel ``p`` in sample order (so any split of the samples into
-    launches gives the same sums); non-finite samples are dropped and counted."""
+    launches gives the same sums); non-finite samples, and samples whose sum with the others overflows (a dome of
+    1e38 gives finite samples, summing to inf), are dropped and counted."""
     p = wp.tid()
     acc = image[p]
     for s in range(samples):
-        v = radiance[s * n_pixels + p]
-        if wp.isfinite(v[0]) and wp.isfinite(v[1]) and wp.isfinite(v[2]):
-            acc = acc + v
+        total = acc + radiance[s * n_pixels + p]
+        if wp.isfinite(total):
+            acc = total
         else:
             wp.atomic_add(dropped, 0, 1)
     image[p] = acc
