@@ -305,7 +305,7 @@ def sample_bsdf(
             out.wi = wp.normalize(refract(wo, n, eta))
             # Radiance is compressed by 1 / eta^2 entering a denser medium and expanded again leaving it, which a
             # closed object's two crossings cancel; an open surface (a window pane without thickness) has one
-            # crossing only, where the factor dimmed what lay behind a clear pane to 0.44 (ior 1.5). Both drop it.
+            # crossing only, where the factor dimmed what lay behind a clear pane to 0.47 (ior 1.5). Both drop it.
             out.weight = wp.vec3(1.0)
             out.transmitted = 1
         return out

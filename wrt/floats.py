@@ -36,10 +36,20 @@ def int_bits_as_float(x: int) -> float:
 
 
 @wp.func
-def unit_scales(v: wp.vec3):
-    """``(down, up)``: the power of two ``down`` that brings ``v``'s largest component into ``[1, 2)``, and
-    ``up = 1 / down``. The exponent is clamped so that both are normal floats: a zero ``v`` stays zero, an infinite
-    or NaN one stays so."""
-    largest = wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.abs(v[2]))
-    e = wp.clamp((float_bits(largest) >> 23) & 255, 1, 253)  # the biased exponent
+def largest_magnitude(v: wp.vec3):
+    """``max(|v[0]|, |v[1]|, |v[2]|)``."""
+    return wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.abs(v[2]))
+
+
+@wp.func
+def power_scales(x: float):
+    """``(down, up)``: the power of two ``down`` that brings ``|x|`` into ``[1, 2)``, and ``up = 1 / down``. The
+    exponent is clamped so that both are normal floats: zero stays zero, an infinite or NaN ``x`` stays so."""
+    e = wp.clamp((float_bits(x) >> 23) & 255, 1, 253)  # the biased exponent
     return int_bits_as_float((254 - e) << 23), int_bits_as_float(e << 23)  # 2^(127 - e), 2^(e - 127)
+
+
+@wp.func
+def unit_scales(v: wp.vec3):
+    """``power_scales`` of ``v``'s largest component: ``v * down`` has its largest component in ``[1, 2)``."""
+    return power_scales(largest_magnitude(v))

@@ -12,7 +12,7 @@ Barycentrics follow wrt's contract: ``hit = (1 - u - v) * p0 + u * p1 + v * p2``
 
 import warp as wp
 
-from .floats import unit_scales
+from .floats import largest_magnitude, power_scales
 
 ROBUST_FAR_SCALE = wp.constant(1.0 + 2.0 * 3.0 * 5.9604645e-08 / (1.0 - 3.0 * 5.9604645e-08))  # 1 + 2*gamma(3), Ize
 ENTRY_SLACK = wp.constant(9.5367431640625e-07)  # 2^-20: intersect_ray_box rounds entries down by this
@@ -169,7 +169,7 @@ def stable_length(v: wp.vec3):
     is ``wp.length``'s, bit for bit."""
     length = wp.length(v)
     if not (length > 1.0e-18 and length < 1.0e18):
-        largest = wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.abs(v[2]))
+        largest = largest_magnitude(v)
         if largest > 0.0 and wp.isfinite(largest):
             length = largest * wp.length(v / largest)
     return length
@@ -323,7 +323,7 @@ def offset_ray_origin(p: wp.vec3, n: wp.vec3, size: float):
     about unit size; for smaller ones both shrink with the power of two above ``size``, so a scene scaled down by a
     power of two keeps its contact shadows and renders the same image (at 1e-4 the fixed offset was 15% of the
     scene). Surfaces of size 1 and more keep the paper's constants."""
-    down, up = unit_scales(wp.vec3(size, 0.0, 0.0))
+    down, up = power_scales(size)
     scale = wp.min(2.0 * up, 1.0)  # a power of two above size, at most 1
     result = wp.vec3()
     for k in range(3):

@@ -404,10 +404,7 @@ class MaterialReader:
             self._read_input(shader, name, mat)
         for name, field in (("useSpecularWorkflow", "use_specular_workflow"),
                             ("opacityThreshold", "opacity_threshold"), ("ior", "ior")):
-            # A value that is not a finite number keeps the schema default, as every other input does.
-            value = np.asarray(self._constant(shader, name), np.float64).reshape(-1)
-            if value.size and np.isfinite(value[0]):
-                setattr(mat, field, type(getattr(mat, field))(value[0]))
+            self._set_constant(mat, field, False, self._constant(shader, name))  # None (unauthored) is skipped
         return mat
 
     def _producer(self, shader, name):
@@ -475,7 +472,7 @@ class MaterialReader:
         if is_color:
             setattr(mat, field, np.resize(v, 3).astype(np.float32) if v.size >= 3 else np.full(3, v[0], np.float32))
         else:
-            setattr(mat, field, float(v[0]))
+            setattr(mat, field, type(getattr(mat, field))(v[0]))  # the field's own type: float, or bool
 
     def _texture(self, tex, output: str, material_path: str):
         """A :class:`TextureInput` for ``UsdUVTexture`` ``tex`` read through ``output``, or ``(None, fallback)``

@@ -22,6 +22,7 @@ Conventions:
 import warp as wp
 
 from .camera import DeviceCamera, clipped_ray, film_ray
+from .floats import largest_magnitude
 from .geometry import stable_length
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, cut_out, eval_surface
@@ -70,12 +71,6 @@ def unit_or_zero(n: wp.vec3):
     if length > 0.0:
         return n / length
     return wp.vec3(0.0)
-
-
-@wp.func
-def largest_magnitude(v: wp.vec3):
-    """``max(|v[0]|, |v[1]|, |v[2]|)``."""
-    return wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.abs(v[2]))
 
 
 @wp.func
