@@ -107,6 +107,12 @@ def test_output_problems_are_one_line_errors_found_before_rendering(tmp_path, ca
         (["render", *small, "-o", str(folder)], "a_folder.png: it is a directory"),
         (["render", *two, *small, "-o", str(tmp_path / "imgs"), "--log", str(folder)], "it is a directory"),
         (["render", *small, "-o", str(tmp_path / "ok.png"), "--log", str(blocker / "log.jsonl")], "a_file"),
+        # The log where the images' folder goes (not there yet) or where an image goes: both would fail only at the
+        # first log row, after a render.
+        (["render", *two, *small, "-o", str(tmp_path / "imgs"), "--log", str(tmp_path / "imgs")], "a file name of its"),
+        (["render", *small, "-o", str(tmp_path / "ok.png"), "--log", str(tmp_path / "ok.png")], "a file name of its"),
+        (["render", *small, "--frames", "0:1", "-o", str(tmp_path / "fr/f_#.png"), "--log", str(tmp_path / "fr")],
+         "a file name of its"),
         (["preview", "-o", str(folder)], "a_folder.png: it is a directory"),
         (["preview", "-o", str(blocker / "p.png")], "a_file"),
         (["render", "--width", "8", "--height", "8", "-o", str(tmp_path / "out.xyz")], "supported image formats"),

@@ -179,6 +179,18 @@ def _check_output_file(path: Path) -> None:
     _check_output_location(path.parent)
 
 
+def _check_log_path(log: Path, outputs: list) -> None:
+    """Raises ValueError when the log would be written where an image goes, or where a folder of the images must be
+    created (``-o out --log out``): the run would fail at its first log row, after the first render."""
+    log = log.resolve()
+    for output in outputs:
+        output = output.resolve()
+        if log == output or log in output.parents:
+            raise ValueError(f"--log {log} is where the image {output} or its folder goes; give the log a file name "
+                             "of its own, e.g. --log render-log.jsonl")
+    _check_output_file(log)
+
+
 def _check_distinct_outputs(paths: list, outputs: list) -> None:
     """Raises ValueError when two scenes would write the same image (outputs are named by the scene's file stem, so
     ``a/room.usda`` and ``b/room.usda`` meet): the later one would overwrite the first without a word."""
@@ -259,7 +271,7 @@ def _run_render(args) -> int:
         _render_one(args, paths[0], outputs[0], progress)  # errors: one line, exit 2
         return 0
     log = Path(args.log) if args.log else outputs[0].parent / "render-log.jsonl"
-    _check_output_file(log)
+    _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []))
     log.parent.mkdir(parents=True, exist_ok=True)
     failures = []
     for path, output in zip(paths, outputs):
@@ -307,7 +319,7 @@ def _run_frames(args, paths: list, progress) -> int:
     for folder in {check_image_path(file).parent for _, file in jobs}:
         _check_output_location(folder)
     if args.log:
-        _check_output_file(Path(args.log))
+        _check_log_path(Path(args.log), [file for _, file in jobs])
     if len(jobs) < len(frames):
         progress(f"--resume: {len(frames) - len(jobs)} of {len(frames)} frames already on disk")
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
