@@ -103,16 +103,27 @@ def test_preview_surface_inputs(tmp_path):
 
 
 def test_inputs_that_are_not_finite_numbers_keep_their_defaults(tmp_path):
-    """ior and opacityThreshold of NaN or inf fall back to the schema defaults, as every other input does: a NaN ior
-    gave a near mirror (F0 = 0.996) and inf a black surface."""
+    """ior, opacityThreshold and colours of NaN or inf (or of a wrong type) fall back to the schema defaults, with a
+    warning that names the material and the inputs: a NaN ior gave a near mirror (F0 = 0.996) and inf a black
+    surface; a string stopped the load."""
     stage, path = new_stage(tmp_path)
     for k, value in enumerate((float("nan"), float("inf"))):
         quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
-        material, _ = preview_material(stage, f"/Looks/M{k}", ior=value, opacityThreshold=value)
+        material, _ = preview_material(stage, f"/Looks/M{k}", ior=value, opacityThreshold=value,
+                                       diffuseColor=Gf.Vec3f(0.5, value, 0.5))
         bind(quad, material)
+    _, shader = preview_material(stage, "/Looks/M0")  # a string where a colour belongs: the default, one warning
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.String).Set("rough")
     stage.Save()
-    for mat in wrt.load_usd(path).materials:
+    with pytest.warns(UserWarning) as caught:
+        materials = wrt.load_usd(path).materials
+    for mat in materials:
         assert mat.ior == 1.5 and mat.opacity_threshold == 0.0, mat.path
+        np.testing.assert_allclose(mat.diffuse_color, 0.18)
+        warning = next(str(w.message) for w in caught if mat.path in str(w.message))
+        assert "not a finite number" in warning and "ior" in warning and "diffuseColor" in warning, warning
+    assert materials[0].roughness == 0.5
+    assert "roughness" in next(str(w.message) for w in caught if "/M0" in str(w.message))
 
 
 def test_material_interface_inputs_are_followed(tmp_path):

@@ -16,6 +16,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a ``UsdPrimvarReader_float3`` of
   ``displayColor``. ``normal``, ``occlusion`` and ``displacement`` are ignored.
 - A texture that cannot be read is replaced by its ``fallback`` value, with one warning per file.
+- An input that is not a finite number (NaN, inf, or authored with a wrong type) keeps its schema default, with one
+  warning per material naming the inputs.
 
 Device side: :class:`DeviceMaterials` holds every material (index 0 is the default material: Lambertian, albedo =
 displayColor or grey 0.5) and every texture; :func:`eval_surface` returns the :class:`wrt.bsdf.Surface` at a hit.
@@ -404,7 +406,9 @@ class MaterialReader:
             self._read_input(shader, name, mat)
         for name, field in (("useSpecularWorkflow", "use_specular_workflow"),
                             ("opacityThreshold", "opacity_threshold"), ("ior", "ior")):
-            self._set_constant(mat, field, False, self._constant(shader, name))  # None (unauthored) is skipped
+            value = self._constant(shader, name)
+            if value is not None:  # unauthored: the default stays
+                self._set_constant(mat, name, field, False, value, shader.GetPrim())
         return mat
 
     def _producer(self, shader, name):
@@ -435,7 +439,7 @@ class MaterialReader:
         if found is None:
             return
         if found[0] == "value":
-            self._set_constant(mat, field, is_color, found[1])
+            self._set_constant(mat, name, field, is_color, found[1], shader.GetPrim())
             return
         source, output = found[1], found[2]
         source_id = source.GetShaderId() or ""
@@ -444,7 +448,7 @@ class MaterialReader:
             if tex is not None:
                 mat.textures[name] = tex
             else:
-                self._set_constant(mat, field, is_color, fallback)
+                self._set_constant(mat, name, field, is_color, fallback, source.GetPrim())
         elif source_id.startswith("UsdPrimvarReader"):
             varname = self._constant(source, "varname")
             if name == "diffuseColor" and str(varname) == "displayColor":
@@ -452,7 +456,7 @@ class MaterialReader:
                 return
             fallback = self._constant(source, "fallback")
             if fallback is not None:
-                self._set_constant(mat, field, is_color, fallback)
+                self._set_constant(mat, name, field, is_color, fallback, source.GetPrim())
             self.skip(
                 f"material {mat.path}: {name} reads primvar {varname!r}, which is not supported; its fallback is used",
                 source.GetPrim(),
@@ -464,10 +468,16 @@ class MaterialReader:
                 source.GetPrim(),
             )
 
-    @staticmethod
-    def _set_constant(mat: Material, field: str, is_color: bool, value):
-        v = np.asarray(value, np.float64).reshape(-1)
+    def _set_constant(self, mat: Material, name: str, field: str, is_color: bool, value, prim):
+        """Sets ``mat.field`` from input ``name``'s ``value``, authored on ``prim``; a value that is empty or not
+        finite (or of a wrong type) keeps the field's default, with a warning: NaN would reach every pixel the material
+        covers."""
+        try:
+            v = np.asarray(value, np.float64).reshape(-1)
+        except (TypeError, ValueError):  # authored with a wrong type, e.g. a string
+            v = np.empty(0)
         if v.size == 0 or not np.all(np.isfinite(v)):
+            self.skip(f"material {mat.path}: an input is not a finite number; its default is used", prim, detail=name)
             return
         if is_color:
             setattr(mat, field, np.resize(v, 3).astype(np.float32) if v.size >= 3 else np.full(3, v[0], np.float32))
