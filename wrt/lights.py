@@ -25,9 +25,11 @@ them and pick up their radiance. Stages with no UsdLux light and no emissive mat
 a headlight along the view direction and a grey dome.
 
 Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count``; spheres are sampled by
-the cone they subtend, rect, disk, cylinder and triangle lights uniformly by area, soft distant lights uniformly in
-their cone (cylinders: the half facing the shading point), a constant dome cosine-weighted about the shading normal and
-a textured dome by its luminance (piecewise-constant 2D distribution, Pharr et al., PBRT 4th ed., A.5 and 12.5).
+the cone they subtend; rect lights, and disk lights that look large, uniformly by solid angle (Urena et al. 2013;
+disks through the square around them; :mod:`wrt.spherical_rect`); other disk lights, rect lights that look tiny,
+cylinder and triangle lights uniformly by area (cylinders: the half facing the shading point); soft distant lights
+uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by its
+luminance (piecewise-constant 2D distribution, Pharr et al., PBRT 4th ed., A.5 and 12.5).
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ from .sampling import (
     to_world,
 )
 from .scene import DeviceScene, DistantLight
+from .spherical_rect import sample_spherical_rect, solid_angle_usable, spherical_rect, spherical_rect_pdf
 
 LIGHT_DISTANT = wp.constant(0)
 LIGHT_SPHERE = wp.constant(1)
@@ -64,6 +67,10 @@ LIGHT_CYLINDER = wp.constant(4)
 LIGHT_DOME = wp.constant(5)
 LIGHT_POINT = wp.constant(6)
 LIGHT_TRIANGLE = wp.constant(7)
+
+# A disk light is sampled by solid angle through the square around it, which wastes the 21% of samples that fall
+# outside the disk: worth it only where the disk looks large (sr of the square), where area sampling is noisy.
+DISK_SOLID_ANGLE_LEAST = wp.constant(1.0)
 
 HEADLIGHT_ILLUMINANCE = 0.8 * math.pi  # default headlight: a white surface facing the camera shows 0.8 from it
 DEFAULT_DOME_RADIANCE = (0.2, 0.2, 0.2)  # default dome: adds 0.2 * albedo to an unoccluded surface
@@ -419,7 +426,7 @@ class DeviceLights:
     axis_u: wp.array[wp.vec3]  # rect: full X edge; disk: X radius vector; cylinder: full axis
     axis_v: wp.array[wp.vec3]  # rect: full Y edge; disk: Y radius vector
     normal: wp.array[wp.vec3]  # rect, disk: unit emitting normal
-    params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of the cone, area, 0)
+    params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of the cone, area, right-angled axes)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
     shadows: wp.array[wp.int32]  # 1: occluders block the light; 0: ShadowAPI's shadow:enable is off
     pmf: wp.array[float]  # selection probability of each light
@@ -530,13 +537,15 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             _, _, z, origin = _axes(light.to_world)
             n = _emitting_normal(u, v, z)
             L = light.radiance
-            _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, 0), 0, math.pi * light.area * luminance_np(L))
+            _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
+                 math.pi * light.area * luminance_np(L))
         elif isinstance(light, DiskLight):
             x, y, z, origin = _axes(light.to_world)
             u, v = x * light.radius, y * light.radius
             n = _emitting_normal(u, v, z)
             L = light.radiance
-            _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, 0), 0, math.pi * light.area * luminance_np(L))
+            _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
+                 math.pi * light.area * luminance_np(L))
         elif isinstance(light, CylinderLight):
             axis, r = light.world_shape()
             origin = _axes(light.to_world)[3]
@@ -623,6 +632,13 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.prims.append(int(prim))
     h.power.append(float(power))
     h.shadows.append(1)
+
+
+def _right_angled(u, v) -> float:
+    """1.0 when edges ``u`` and ``v`` are at right angles (a sheared transform makes a parallelogram or a tilted
+    ellipse, which solid-angle sampling does not cover), else 0.0."""
+    lengths = float(np.linalg.norm(u) * np.linalg.norm(v))
+    return 1.0 if lengths > 0.0 and abs(float(np.dot(u, v))) <= 1e-6 * lengths else 0.0
 
 
 def _emitting_normal(u, v, z) -> np.ndarray:
@@ -796,9 +812,24 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
 
 
 @wp.func
-def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, dist: float, cos_l: float):
-    """Solid-angle pdf (without the selection probability) of analytic light ``k`` sampled from ``p`` and seen at
-    distance ``dist`` with cosine ``cos_l``."""
+def seen_rect(lights: DeviceLights, k: int, p: wp.vec3):
+    """Rect light ``k``, or the square around disk light ``k``, as seen from ``p``, and whether lights of its kind
+    are sampled by solid angle from there (else by area; see :mod:`wrt.spherical_rect`)."""
+    u = lights.axis_u[k]
+    v = lights.axis_v[k]
+    scale = float(1.0)  # rect: full edges; disk: radius vectors
+    least = float(0.0)
+    if lights.kinds[k] == LIGHT_DISK:
+        scale = 2.0
+        least = DISK_SOLID_ANGLE_LEAST
+    r = spherical_rect(p, lights.position[k] - 0.5 * scale * (u + v), scale * u, scale * v)
+    return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, least)
+
+
+@wp.func
+def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.vec3, dist: float, cos_l: float):
+    """Solid-angle pdf (without the selection probability) of analytic light ``k`` sampled from ``p`` (shading normal
+    ``n``, zero if none) and seen along unit ``d`` at distance ``dist`` with cosine ``cos_l``."""
     kind = lights.kinds[k]
     if kind == LIGHT_SPHERE:
         cos_max, one_minus = sphere_cone(lights, k, p)
@@ -810,6 +841,10 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, dist: float, cos_l:
         area = 0.5 * area  # sampling covers the half facing the shading point
     if cos_l <= 0.0 or area <= 0.0:
         return 0.0
+    if kind == LIGHT_RECT or kind == LIGHT_DISK:
+        r, by_solid_angle = seen_rect(lights, k, p)
+        if by_solid_angle:
+            return spherical_rect_pdf(r, n, p + dist * d)
     return dist * dist / (cos_l * area)
 
 
@@ -943,23 +978,33 @@ def sample_light(
         out.value = lights.radiance[k] * (2.0 * PI * one_minus)
         return out
 
-    # Area sampling: rect, disk, cylinder, triangle.
+    # Area sampling (rect and disk lights that look large: by solid angle), cylinder, triangle.
+    pdf_solid_angle = float(0.0)  # > 0: q was sampled by solid angle with this pdf
     q = wp.vec3(0.0)
     ln = wp.vec3(0.0)
     area = float(0.0)
     L = wp.vec3(0.0)
     two_sided = int(0)
-    if kind == LIGHT_RECT:
-        q = lights.position[k] + (u1 - 0.5) * lights.axis_u[k] + (u2 - 0.5) * lights.axis_v[k]
+    if kind == LIGHT_RECT or kind == LIGHT_DISK:
         ln = lights.normal[k]
         area = lights.params[k][2]
         L = lights.radiance[k]
-    elif kind == LIGHT_DISK:
-        dd = sample_concentric_disk(u1, u2)
-        q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
-        ln = lights.normal[k]
-        area = lights.params[k][2]
-        L = lights.radiance[k]
+        seen, by_solid_angle = seen_rect(lights, k, p)
+        if by_solid_angle:
+            q, inside = sample_spherical_rect(seen, n, u1, u2)
+            if not inside:
+                return out
+            pdf_solid_angle = spherical_rect_pdf(seen, n, q)
+            if kind == LIGHT_DISK:  # a point of the square around the disk: keep it if it lies on the disk
+                du = wp.dot(q - lights.position[k], lights.axis_u[k]) / wp.length_sq(lights.axis_u[k])
+                dv = wp.dot(q - lights.position[k], lights.axis_v[k]) / wp.length_sq(lights.axis_v[k])
+                if du * du + dv * dv > 1.0:
+                    return out
+        elif kind == LIGHT_RECT:
+            q = lights.position[k] + (u1 - 0.5) * lights.axis_u[k] + (u2 - 0.5) * lights.axis_v[k]
+        else:
+            dd = sample_concentric_disk(u1, u2)
+            q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
     elif kind == LIGHT_CYLINDER:
         # Only the half of the tube facing p can be seen from it: sample that half uniformly by area.
         axis = lights.axis_u[k]
@@ -1003,6 +1048,9 @@ def sample_light(
         return out
     out.wi = wi
     out.dist = dist
-    out.pdf = d2 / (cos_l * area)
+    if pdf_solid_angle > 0.0:
+        out.pdf = pdf_solid_angle
+    else:
+        out.pdf = d2 / (cos_l * area)
     out.value = L / out.pdf
     return out

@@ -29,15 +29,18 @@ def mis_weight(pdf_bsdf: float, pdf_light: float):
 
 
 @wp.func
-def lights_on_segment(lights: DeviceLights, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float, pdf_bsdf: float):
-    """Radiance of every analytic area light that unit ray ``(o, d)`` passes through in ``(t_min, t_max)``."""
+def lights_on_segment(
+    lights: DeviceLights, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float, pdf_bsdf: float, n_prev: wp.vec3
+):
+    """Radiance of every analytic area light that unit ray ``(o, d)`` passes through in ``(t_min, t_max)``;
+    ``n_prev`` is the shading normal at ``o`` (zero for camera rays)."""
     total = wp.vec3(0.0)
     for k in range(lights.num_analytic):
         kind = lights.kinds[k]
         if kind == LIGHT_SPHERE or kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER:
             t, cos_l = intersect_light(lights, k, o, d)
             if t > t_min and t < t_max:
-                pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, t, cos_l)
+                pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
                 total += lights.radiance[k] * mis_weight(pdf_bsdf, pdf_l)
     return total
 

@@ -79,7 +79,7 @@ def shade_path_kernel(
     t_hit = hit_t[i]
 
     # Add the analytic lights the segment passes through, then what an escaped ray sees.
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, pdf_b))
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, pdf_b, prev_normal[i]))
     if prim < 0:
         L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i]))
         radiance[i] = L

@@ -70,7 +70,7 @@ def shade_whitted_kernel(
     L = radiance[i]
     prim = hit_prim[i]
     t_hit = hit_t[i]
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, 0.0))
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, 0.0, wp.vec3(0.0)))
     if prim < 0:
         L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0)))
         radiance[i] = L
