@@ -194,13 +194,18 @@ def polygon_irradiance(p, n, corners, radiance):
     return radiance * abs(total) / 2.0
 
 
-def light_estimates(light, p, n, count=40000):
-    """Mean irradiance from ``light`` at ``p`` (normal ``n``) by ``sample_light``, and the per-sample pdf ratios."""
+DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+
+
+def light_estimates(light, p, n, device="cpu", count=40000):
+    """Irradiance estimates from ``light`` at ``p`` (normal ``n``) by ``sample_light``, and the per-sample pdf
+    ratios."""
     scene = wrt.Scene(meshes=[quad((0, 0, -50), (1, 0, 0), (0, 1, 0))], lights=[light])
-    r = wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device="cpu")
-    irradiance, ratio = wp.zeros(count, dtype=float), wp.zeros(count, dtype=float)
+    r = wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device=device)
+    irradiance, ratio = (wp.zeros(count, dtype=float, device=r.device) for _ in range(2))
     wp.launch(sample_light_kernel, count, inputs=[r.device_lights, r.device_scene, r.materials, r.surfaces, 0,
-                                                  wp.vec3(*p), wp.vec3(*n)], outputs=[irradiance, ratio])
+                                                  wp.vec3(*p), wp.vec3(*n)], outputs=[irradiance, ratio],
+              device=r.device)
     return irradiance.numpy().astype(np.float64), ratio.numpy()
 
 
@@ -223,7 +228,8 @@ def tilted(angle_deg, position, width=None):
         (1.0, 1.0, tilted(0, (0, 0, 1e-3)), (0.5, 0.5, 0)),  # the point is 1e-3 below its corner
     ],
 )
-def test_rect_light_samples_give_the_closed_form_irradiance(width, height, to_world, p):
+@pytest.mark.parametrize("device", DEVICES)
+def test_rect_light_samples_give_the_closed_form_irradiance(width, height, to_world, p, device):
     """Every sampling strategy of a rect light (by solid angle when it looks large, cosine-weighted when it fills
     the hemisphere, by area when it looks tiny) averages to Lambert's closed form, and reports the pdf that a path's
     BSDF-sampled ray finds for the same direction (else MIS is biased). Area sampling alone left a 200 x 200 light
@@ -234,17 +240,18 @@ def test_rect_light_samples_give_the_closed_form_irradiance(width, height, to_wo
     centre = to_world[:3, 3]
     corners = [centre + su * u / 2 + sv * v / 2 for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
     expected = polygon_irradiance(p, n, corners, 2.0)
-    estimates, ratios = light_estimates(light, p, n)
+    estimates, ratios = light_estimates(light, p, n, device)
     error = estimates.std() / math.sqrt(len(estimates))
     assert abs(estimates.mean() - expected) < max(4 * error, 1e-3 * expected), (estimates.mean(), expected, error)
     np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
 
 
-def test_a_disk_light_wider_than_the_scene_lights_it_evenly():
+@pytest.mark.parametrize("device", DEVICES)
+def test_a_disk_light_wider_than_the_scene_lights_it_evenly(device):
     """A disk light of radius 1e5 one unit above the point gives its on-axis closed form E = pi L r^2 / (r^2 + h^2)
     with little noise; sampled by area, nearly every sample landed kilometres away (2e-7 of the irradiance)."""
     light = DiskLight(to_world=tilted(0, (0, 0, 1)), radius=1e5, color=np.full(3, 2.0))
-    estimates, ratios = light_estimates(light, (0, 0, 0), (0.0, 0.0, 1.0))
+    estimates, ratios = light_estimates(light, (0, 0, 0), (0.0, 0.0, 1.0), device)
     assert abs(estimates.mean() / (2.0 * math.pi) - 1.0) < 2e-3 and estimates.std() < 0.1 * estimates.mean()
     np.testing.assert_allclose(ratios, 1.0, rtol=2e-3)
 
