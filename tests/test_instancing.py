@@ -359,6 +359,35 @@ def test_positions_move_by_velocities_between_samples_as_usd_computes(tmp_path):
     np.testing.assert_allclose(load(path, time=1.5).instances.to_world[:, :3, 3], [[0.5, 0, 0.125], [4, 1, 0]])
 
 
+@pytest.mark.parametrize("rates", [(), ("velocities",), ("angularVelocities",), ("velocities", "angularVelocities")])
+def test_orientations_and_scales_move_as_usd_computes(tmp_path, rates):
+    """Positions, orientations and scales sampled at 1 and 10, with velocities and/or angular velocities or neither:
+    wrt's instance transforms equal ComputeInstanceTransformsAtTime's at, between and beyond the samples. With either
+    rate USD holds every attribute at the earlier sample (and turns orientations by the angular velocity); wrt
+    interpolated orientations and scales, and ignored angular velocities, placing instances where USD does not."""
+    path = str(tmp_path / "spin.usda")
+    stage = Usd.Stage.CreateNew(path)
+    stage.SetTimeCodesPerSecond(24)
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    octahedron(stage, "/PI/Proto")
+    pi.CreatePrototypesRel().SetTargets(["/PI/Proto"])
+    pi.CreateProtoIndicesAttr([0, 0])
+    turn = Gf.Quath(Gf.Rotation(Gf.Vec3d(0.3, 1, -0.2), 70).GetQuat())
+    for t, k in ((1.0, 0.0), (10.0, 1.0)):
+        pi.CreatePositionsAttr().Set([Gf.Vec3f(0, 9 * k, 0), Gf.Vec3f(4, 0, 2 * k)], t)
+        pi.CreateOrientationsAttr().Set([Gf.Quath(1, 0, 0, 0), turn if k else Gf.Quath(1, 0, 0, 0)], t)
+        pi.CreateScalesAttr().Set([Gf.Vec3f(1 + k, 1, 1), Gf.Vec3f(1, 0.5, 1 + 2 * k)], t)
+        if "velocities" in rates:
+            pi.CreateVelocitiesAttr().Set([Gf.Vec3f(24, 0, 0), Gf.Vec3f(0, 48, 0)], t)
+        if "angularVelocities" in rates:
+            pi.CreateAngularVelocitiesAttr().Set([Gf.Vec3f(0, 0, 240), Gf.Vec3f(100, -50, 30)], t)
+    stage.Save()
+    for time in (0.5, 1.0, 5.5, 10.0, 12.0):
+        t = Usd.TimeCode(time)
+        expected = [np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)]
+        np.testing.assert_allclose(load(path, time=time).instances.to_world, expected, atol=2e-3, err_msg=time)
+
+
 def test_time_sampled_invisible_ids_follow_the_default_time_rule(tmp_path):
     """With ``time=None`` an instancer whose positions and invisibleIds have only time samples is read at their
     first sample, both of them: the mask USD computes there hides instance 1 (it was read at the default time,

@@ -1,6 +1,6 @@
 """Reading a USD attribute at a time code, with wrt's rule for the default time: a value that has only time
 samples is read at its first sample, as points and transforms are (``time=None`` in ``load_usd``); and positions
-moved by their velocities between samples, as USD moves them."""
+and orientations moved by their velocities between samples, as USD moves them."""
 
 from __future__ import annotations
 
@@ -43,23 +43,65 @@ def moved_positions(positions: Usd.Attribute, velocities: Usd.Attribute, acceler
     Returns:
         ``(N, 3)`` float64 array, or None.
     """
-    if time.IsDefault() or not (time_codes_per_second > 0) or not velocities.HasAuthoredValue():
+    found = _with_rate(positions, velocities, time, time_codes_per_second)
+    if found is None:
+        return None
+    base, velocity, dt = found
+    moved = base + dt * velocity
+    acceleration = _with_rate(velocities, accelerations, time, time_codes_per_second)
+    if acceleration is not None:
+        moved += 0.5 * dt * dt * acceleration[1]
+    return moved
+
+
+def spun_rotations(orientations: Usd.Attribute, angular_velocities: Usd.Attribute, time: Usd.TimeCode,
+                   time_codes_per_second: float):
+    """A PointInstancer's orientations at ``time`` turned by its ``angularVelocities`` (degrees per second about
+    their own direction) as ``ComputeInstanceTransformsAtTime`` turns them: ``(quaternions at the sample at or before
+    time, (N, 3, 3) column-vector rotations by angle |w| dt about w)``; the caller applies the rotation after the
+    orientation. None under the same conditions as :func:`moved_positions`."""
+    found = _with_rate(orientations, angular_velocities, time, time_codes_per_second, width=4)
+    if found is None:
+        return None
+    quats, omega, dt = found
+    omega = omega[:, :3]
+    speed = np.linalg.norm(omega, axis=1)
+    axis = omega / np.maximum(speed, 1e-300)[:, None]
+    angle = np.radians(speed * dt)
+    cos, sin = np.cos(angle)[:, None, None], np.sin(angle)[:, None, None]
+    cross = np.zeros((len(axis), 3, 3))
+    cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+    cross -= cross.transpose(0, 2, 1)
+    outer = axis[:, :, None] * axis[:, None, :]
+    return quats, cos * np.eye(3) + sin * cross + (1.0 - cos) * outer  # Rodrigues
+
+
+def held_value(attr: Usd.Attribute, time: Usd.TimeCode):
+    """``attr`` at its sample at or before ``time`` (no interpolation), as USD holds every instance attribute once
+    velocities or angular velocities move the instances; :func:`value_at` where it has no time samples."""
+    if not time.IsDefault() and attr.GetNumTimeSamples() > 0:
+        found = attr.GetBracketingTimeSamples(time.GetValue())
+        if found:
+            return attr.Get(found[0])
+    return value_at(attr, time)
+
+
+def _with_rate(base: Usd.Attribute, rate: Usd.Attribute, time: Usd.TimeCode, time_codes_per_second: float,
+               width: int = 3):
+    """``(base at its sample at or before time, rate there, dt in seconds)`` as float64 arrays when ``rate`` is a
+    usable derivative of ``base`` at ``time`` as USD checks it (both time-sampled, bracketing ``time`` with the same
+    samples, one rate entry per base entry; ``base`` entries ``width`` wide), else None."""
+    if time.IsDefault() or not (time_codes_per_second > 0) or not rate.HasAuthoredValue():
         return None
     t = time.GetValue()
-    sample, bracket = _bracket(positions, t)
-    if sample is None or _bracket(velocities, t) != (sample, bracket):
+    sample, bracket = _bracket(base, t)
+    if sample is None or _bracket(rate, t) != (sample, bracket):
         return None
-    base = np.asarray(positions.Get(sample), np.float64).reshape(-1, 3)
-    velocity = np.asarray(velocities.Get(sample) or [], np.float64).reshape(-1, 3)
-    if len(velocity) != len(base):
+    values = np.asarray(base.Get(sample) or [], np.float64).reshape(-1, width)
+    rates = np.asarray(rate.Get(sample) or [], np.float64).reshape(-1, 3)
+    if len(rates) != len(values):
         return None
-    dt = (t - sample) / time_codes_per_second
-    moved = base + dt * velocity
-    if accelerations.HasAuthoredValue() and _bracket(accelerations, t) == (sample, bracket):
-        acceleration = np.asarray(accelerations.Get(sample) or [], np.float64).reshape(-1, 3)
-        if len(acceleration) == len(base):
-            moved += 0.5 * dt * dt * acceleration
-    return moved
+    return values, rates, (t - sample) / time_codes_per_second
 
 
 def _bracket(attr: Usd.Attribute, t: float):
