@@ -400,28 +400,29 @@ class WarpMeshAccelerator(Accelerator):
         if builder not in WARP_BUILDERS:
             raise ValueError(f"wp.Mesh has no builder {builder!r}; valid builders for accel='warp': {WARP_BUILDERS}")
         check_flattenable(scene, "accel='warp'")
-        points, indices = scene.triangles()
         self.device = device
-        self.split = RowSplitter(scene, device) if len(scene.instances) else None
+        self.builder = builder
+        self._build(scene)
+
+    def _build(self, scene: Scene) -> None:
+        points, indices = scene.triangles()
+        self.split = RowSplitter(scene, self.device) if len(scene.instances) else None
         self.num_prims = len(indices)
         if self.num_prims == 0:
             self.mesh = None
             return
-        self.points = wp.array(points, dtype=wp.vec3, device=device)
-        self.indices = wp.array(indices.reshape(-1), dtype=wp.int32, device=device)
+        self.points = wp.array(points, dtype=wp.vec3, device=self.device)
+        self.indices = wp.array(indices.reshape(-1), dtype=wp.int32, device=self.device)
         # wp.Mesh takes NaN and inf vertices without a word and its rays then slip through holes: checked as wrt's
         # own builds check them.
         check_triangles(self.points, self.indices.reshape((-1, 3)))
-        self.mesh = wp.Mesh(self.points, self.indices, bvh_constructor=builder)
+        self.mesh = wp.Mesh(self.points, self.indices, bvh_constructor=self.builder)
 
     def refit(self, scene: Scene) -> None:
-        """Follows ``scene``'s vertices (same triangles): ``wp.Mesh.refit``; non-finite vertices raise
-        ``ValueError`` as in the build."""
-        if self.mesh is not None:
-            points = wp.array(scene.triangles()[0], dtype=wp.vec3, device=self.device)
-            check_triangles(points, self.indices.reshape((-1, 3)))
-            self.points.assign(points)
-            self.mesh.refit()
+        """Follows ``scene``'s vertices by building the ``wp.Mesh`` again: ``wp.Mesh.refit`` keeps its old tree,
+        whose visiting order decides which of two hits at exactly the same ``t`` it reports, so a refitted frame
+        differed from a fresh render of the same time. Non-finite vertices raise ``ValueError`` as in the build."""
+        self._build(scene)
 
     def _launch(self, kernel, n, inputs, outputs, miss_fill) -> None:
         if self.mesh is None:
