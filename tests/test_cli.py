@@ -72,6 +72,7 @@ def test_help_explains_the_options():
         (["render", "--camera", "/Nope"], "/Nope"),
         (["render", "-o", "out.gif"], "supported image formats"),
         (["render", "--exposure", "inf"], "finite"),
+        (["render", "--exposure", "2000"], "[-150, 150]"),  # an OverflowError traceback after the render
         (["render", "--time", "nan"], "finite"),
         (["render", "--seed", "2147483648"], "seed must be an integer from 0 to 2147483647"),  # wrapped onto seed 0
         (["render", "--workers", "3"], "--workers sizes the LocalCluster"),  # was ignored

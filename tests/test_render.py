@@ -1,5 +1,7 @@
 """render(): image layout, AOVs, shading, determinism and agreement between accelerators."""
 
+import warnings
+
 import numpy as np
 import pytest
 import warp as wp
@@ -173,9 +175,18 @@ def test_npy_is_written_at_the_path_given_whatever_the_case_of_its_suffix(tmp_pa
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.npy", "y.NPY"]
 
 
-@pytest.mark.parametrize("exposure", [float("nan"), float("inf"), -np.inf, "1", None, True])
+def test_save_onto_a_directory_names_the_directory(tmp_path):
+    """The error named the temporary file written beside the target (``.d.png.<pid>.partial.png``)."""
+    (tmp_path / "d.png").mkdir()
+    with pytest.raises(IsADirectoryError, match=r"d\.png: it is a directory"):
+        wrt.Image(rgb=np.zeros((2, 2, 3), np.float32)).save(tmp_path / "d.png")
+    assert [p.name for p in tmp_path.iterdir()] == ["d.png"]
+
+
+@pytest.mark.parametrize("exposure", [float("nan"), float("inf"), -np.inf, "1", None, True, 1024, -1e6, 151])
 def test_save_refuses_an_exposure_that_is_not_a_finite_number(tmp_path, exposure):
-    """NaN wrote a black PNG and inf a white one without a word (the CLI checks --exposure; Python did not)."""
+    """NaN wrote a black PNG and inf a white one without a word (the CLI checks --exposure; Python did not); 1024
+    raised an OverflowError."""
     img = wrt.Image(rgb=np.full((3, 7, 3), 0.25, np.float32))
     with pytest.raises(ValueError, match="exposure must be a finite number"):
         img.save(tmp_path / "x.png", exposure=exposure)
@@ -186,6 +197,12 @@ def test_save_refuses_an_exposure_that_is_not_a_finite_number(tmp_path, exposure
     with PilImage.open(tmp_path / "x.png") as png:
         assert png.size == (7, 3)
         np.testing.assert_array_equal(np.asarray(png), 188)  # sRGB of 0.5: 1.055 * 0.5^(1/2.4) - 0.055 = 0.7354
+    img.rgb[0, 0] = 3e38  # the largest exposure on the largest float32: white, with no overflow warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        img.save(tmp_path / "x.png", exposure=150)
+    with PilImage.open(tmp_path / "x.png") as png:
+        np.testing.assert_array_equal(np.asarray(png), 255)
 
 
 @pytest.mark.parametrize("integrator", ["path", "whitted", "ao"])

@@ -265,6 +265,9 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     """
     from tqdm import tqdm
 
+    from .image import check_exposure
+
+    check_exposure(exposure)  # before the first frame, not at its save
     path = os.fspath(path)
     rows = []
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
@@ -361,7 +364,9 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     arrives, and a frame whose worker died is rerun elsewhere. Returns the log rows, with ``output``, in arrival
     order."""
     from .distributed import run_tasks
+    from .image import check_exposure
 
+    check_exposure(exposure)
     path = os.fspath(path)
     tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
     rows = []

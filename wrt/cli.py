@@ -72,6 +72,16 @@ def _finite_float(text: str) -> float:
     return value
 
 
+def _exposure(text: str) -> float:
+    """An argparse type: an exposure :meth:`wrt.Image.save` accepts (checked before the render, not after it)."""
+    from .image import check_exposure
+
+    try:
+        return check_exposure(_finite_float(text))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def _seed(text: str) -> int:
     """An argparse type: a render seed (checked before any scene is loaded)."""
     from .render import check_seed
@@ -136,7 +146,7 @@ def _add_render(sub) -> None:
                    "mirrors, glass), path (Monte Carlo path tracing), ao, or the quick looks normals/depth/albedo")
     p.add_argument("--max-depth", type=int, default=None, help="bounces per path; default 10 (path), 8 (whitted)")
     p.add_argument("--ao-radius", type=float, default=None, help="ao distance; default a tenth of the scene's size")
-    p.add_argument("--exposure", type=_finite_float, default=0.0,
+    p.add_argument("--exposure", type=_exposure, default=0.0,
                    help="PNG only: scale the image by 2^EXPOSURE before sRGB")
     from .render import AOV_NAMES
 

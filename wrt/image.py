@@ -28,9 +28,26 @@ def linear_to_srgb(x: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
 
 
+# Beyond +-150 stops every float32 radiance is 0 or white after scaling; 2.0**1024 overflows a Python float.
+MAX_EXPOSURE = 150.0
+
+
+def check_exposure(exposure) -> float:
+    """``exposure`` as a float when it is a number of stops in [-MAX_EXPOSURE, MAX_EXPOSURE], else ValueError (NaN
+    gave a black PNG and inf a white one without a word; 1024 an OverflowError after the render)."""
+    if isinstance(exposure, bool) or not isinstance(exposure, (int, float, np.integer, np.floating)) or not (
+        math.isfinite(exposure) and abs(exposure) <= MAX_EXPOSURE
+    ):
+        raise ValueError(f"exposure must be a finite number of stops in [-{MAX_EXPOSURE:g}, {MAX_EXPOSURE:g}], "
+                         f"got {exposure!r}")
+    return float(exposure)
+
+
 def to_srgb8(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
-    """``(H, W, 3)`` linear float -> ``(H, W, 3)`` uint8 sRGB, scaled by ``2**exposure`` first."""
-    return np.round(linear_to_srgb(np.asarray(rgb, np.float32) * 2.0**exposure) * 255.0).astype(np.uint8)
+    """``(H, W, 3)`` linear float -> ``(H, W, 3)`` uint8 sRGB, scaled by ``2**exposure`` first (in float64, where
+    any float32 radiance times 2^150 is finite)."""
+    scaled = np.asarray(rgb, np.float64) * 2.0 ** check_exposure(exposure)
+    return np.round(linear_to_srgb(scaled) * 255.0).astype(np.uint8)
 
 
 def heat_map(values: np.ndarray, vmax: float | None = None) -> np.ndarray:
@@ -180,15 +197,14 @@ class Image:
         of ``rgb * 2**exposure`` clipped to [0, 1] (``exposure`` applies to PNG only).
 
         Raises:
-            ValueError: for any other extension, ``.exr`` without the OpenEXR package, or an ``exposure`` that is
-                not a finite number.
+            ValueError: for any other extension, ``.exr`` without the OpenEXR package, or an ``exposure`` that
+                :func:`check_exposure` refuses.
+            IsADirectoryError: ``path`` is a directory.
         """
         path = check_image_path(path)
-        # NaN gave a black PNG and inf a white one, without a word.
-        if isinstance(exposure, bool) or not isinstance(exposure, (int, float, np.integer, np.floating)) or not (
-            math.isfinite(exposure)
-        ):
-            raise ValueError(f"exposure must be a finite number, got {exposure!r}")
+        exposure = check_exposure(exposure)
+        if path.is_dir():  # else the error would name the temporary file written beside it
+            raise IsADirectoryError(f"cannot write {path}: it is a directory")
         suffix = path.suffix.lower()
 
         def write(target: Path) -> None:
