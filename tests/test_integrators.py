@@ -272,12 +272,17 @@ def test_bad_integrator_options():
     scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
     with pytest.raises(ValueError, match="valid integrators"):
         wrt.render(scene, width=4, height=4, device="cpu", integrator="radiosity")
-    with pytest.raises(ValueError, match="max_depth"):
-        wrt.render(scene, width=4, height=4, device="cpu", integrator="path", max_depth=-1)
-    with pytest.raises(ValueError, match="ao_radius"):
-        wrt.render(scene, width=4, height=4, device="cpu", integrator="ao", ao_radius=0.0)
-    with pytest.raises(ValueError, match="batch"):
-        wrt.render(scene, width=4, height=4, device="cpu", batch=0)
+    # 2^32 + 2 wrapped onto 2 in the kernels' 32-bit argument, 2^31 onto a negative depth (a black image); True
+    # meant 1.
+    for depth in (-1, 1025, 2**32 + 2, 2**31, True):
+        with pytest.raises(ValueError, match="max_depth must be an integer from 0 to 1024"):
+            wrt.render(scene, width=4, height=4, device="cpu", integrator="path", max_depth=depth)
+    for radius in (0.0, True):
+        with pytest.raises(ValueError, match="ao_radius"):
+            wrt.render(scene, width=4, height=4, device="cpu", integrator="ao", ao_radius=radius)
+    for batch in (0, True):
+        with pytest.raises(ValueError, match="batch"):
+            wrt.render(scene, width=4, height=4, device="cpu", batch=batch)
 
 
 def bsdf_albedo(base, metallic, roughness, ior=1.5, n=400):

@@ -124,6 +124,24 @@ def test_camera_by_path_and_bad_camera(tmp_path):
         wrt.render(scene, camera="/World/Nope", width=32, height=24, device="cpu")
 
 
+def test_camera_lists_and_scene_type_get_errors_that_say_what_is_wrong(room):
+    """A path given where a list of cameras belongs was read one character at a time ("no camera at '/'"); one
+    argument alone was told "not both"; a path as the scene failed with an AttributeError from deep inside."""
+    renderer = wrt.Renderer(room, width=4, height=4, device="cpu")
+    for cameras, message in (("/World/Camera", "cameras must be a list of cameras"), ([], "cameras is empty")):
+        with pytest.raises(ValueError, match=message):
+            renderer.set_cameras(cameras)
+        with pytest.raises(ValueError, match=message):
+            wrt.Renderer(room, width=4, height=4, device="cpu", cameras=cameras)
+    with pytest.raises(ValueError, match="either camera or cameras, not both"):
+        wrt.Renderer(room, width=4, height=4, device="cpu", camera="/World/Camera", cameras=["/World/Camera"])
+    for scene in (None, "scene.usda"):
+        with pytest.raises(TypeError, match="scene must be a wrt.Scene"):
+            wrt.render(scene, width=4, height=4)
+        with pytest.raises(TypeError, match="scene must be a wrt.Scene"):
+            wrt.trace(scene, [[0, 0, 5]], [[0, 0, -1]])
+
+
 @pytest.mark.parametrize(
     "kwargs, message",
     [

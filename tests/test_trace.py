@@ -168,6 +168,12 @@ def test_t_max_is_exclusive_and_per_ray():
         assert np.isinf(hits.t[:2]).all()
     with pytest.raises(ValueError, match=r"t_max .* shape \(3,\); got shape \(2,\)"):
         wrt.trace(scene, origins, directions, t_max=[4.0, 5.0])
+    # None means no limit, as the default does (it became NaN and every ray missed); NaN itself is refused.
+    assert wrt.trace(scene, origins, directions, t_max=None).prim.tolist() == [0, 0, 0]
+    assert wrt.occluded(scene, origins, directions, t_max=None).tolist() == [True] * 3
+    for t_max in (np.nan, [None] * 3, [4.0, np.nan, 6.0]):
+        with pytest.raises(ValueError, match="t_max must not be NaN"):
+            wrt.trace(scene, origins, directions, t_max=t_max)
 
 
 def test_ties_go_to_the_smaller_triangle_id():

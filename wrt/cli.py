@@ -42,15 +42,15 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"wrt: error: {message} (see '{self.prog} --help')\n")
 
 
-def int_at_least(minimum: int, what: str):
-    """An argparse type: an integer >= ``minimum``, else an error saying it must be ``what``."""
+def int_at_least(minimum: int, what: str, maximum: int | None = None):
+    """An argparse type: an integer >= ``minimum`` (and <= ``maximum``), else an error saying it must be ``what``."""
 
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-        if value < minimum:
+        if value < minimum or (maximum is not None and value > maximum):
             raise argparse.ArgumentTypeError(f"must be {what}, got {value}")
         return value
 
@@ -144,7 +144,10 @@ def _add_render(sub) -> None:
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
                    "mirrors, glass), path (Monte Carlo path tracing), ao, or the quick looks normals/depth/albedo")
-    p.add_argument("--max-depth", type=int, default=None, help="bounces per path; default 10 (path), 8 (whitted)")
+    from .render import MAX_DEPTH
+
+    p.add_argument("--max-depth", type=int_at_least(0, f"an integer from 0 to {MAX_DEPTH}", MAX_DEPTH), default=None,
+                   help="bounces per path; default 10 (path), 8 (whitted)")
     p.add_argument("--ao-radius", type=float, default=None, help="ao distance; default a tenth of the scene's size")
     p.add_argument("--exposure", type=_exposure, default=0.0,
                    help="PNG only: scale the image by 2^EXPOSURE before sRGB")

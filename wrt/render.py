@@ -36,11 +36,12 @@ from .shade import (
     primary_aovs_kernel,
     start_paths_kernel,
 )
-from .trace import HitBuffer, get_accelerator, resolve_device, resolve_threads, run_in_chunks
+from .trace import HitBuffer, check_scene, get_accelerator, resolve_device, resolve_threads, run_in_chunks
 
 MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
 MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
 DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
+MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (2^32 + 2 wrapped onto 2)
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
 MM_PER_METER = 1000.0  # camera focal lengths are read as millimetres for the thin lens
 MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit seed)
@@ -177,6 +178,16 @@ def _slice_hits(hits: HitBuffer, m: int) -> HitBuffer:
     return out
 
 
+def check_camera_list(cameras) -> None:
+    """Raises ValueError unless ``cameras`` is a non-empty sequence of cameras (prim paths or :class:`Camera`): a
+    single path given where a list belongs was read one character at a time ("no camera at '/'")."""
+    if isinstance(cameras, (str, Camera)) or not hasattr(cameras, "__len__"):
+        raise ValueError(f"cameras must be a list of cameras (prim paths or wrt.Camera), got {cameras!r}; for one "
+                         "camera, give camera= or a list of one")
+    if len(cameras) == 0:
+        raise ValueError("cameras is empty: give at least one camera")
+
+
 class Renderer:
     """Renders one scene from one camera at one resolution with one integrator; reusable across calls and seeds.
 
@@ -218,23 +229,29 @@ class Renderer:
         ao_radius=None,
         cameras=None,
     ):
+        check_scene(scene)
         for name, value in (("width", width), ("height", height)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        if cameras is not None and (camera is not None or isinstance(cameras, (str, Camera)) or len(cameras) == 0):
-            raise ValueError("give either camera or a non-empty list of cameras, not both")
+        if cameras is not None:
+            if camera is not None:
+                raise ValueError("give either camera or cameras, not both")
+            check_camera_list(cameras)
         check_pixels(width, height, 1 if cameras is None else len(cameras))
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}; valid integrators: {', '.join(INTEGRATORS)}")
         if max_depth is None:
             max_depth = DEFAULT_MAX_DEPTH.get(integrator, 1)
-        if not isinstance(max_depth, (int, np.integer)) or max_depth < 0:
-            raise ValueError(f"max_depth must be a non-negative integer, got {max_depth!r}")
+        integral = isinstance(max_depth, (int, np.integer)) and not isinstance(max_depth, bool)
+        if not (integral and 0 <= max_depth <= MAX_DEPTH):
+            raise ValueError(f"max_depth must be an integer from 0 to {MAX_DEPTH}, got {max_depth!r}")
         scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
         lower, upper = scene.bounds()
         if ao_radius is None:
             ao_radius = 0.1 * float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) or 1.0
-        if not (isinstance(ao_radius, (int, float, np.floating)) and math.isfinite(ao_radius) and ao_radius > 0):
+        if isinstance(ao_radius, bool) or not (
+            isinstance(ao_radius, (int, float, np.integer, np.floating)) and math.isfinite(ao_radius) and ao_radius > 0
+        ):
             raise ValueError(f"ao_radius must be a positive number, got {ao_radius!r}")
         self.scene = scene
         self.width, self.height = int(width), int(height)
@@ -302,6 +319,7 @@ class Renderer:
     def set_cameras(self, cameras) -> None:
         """Renders from ``cameras`` (a list, any length) from now on, e.g. new poses each simulation step; the BVH,
         materials and lights stay (a default headlight keeps its direction)."""
+        check_camera_list(cameras)
         cameras = [resolve_camera(self.scene, c) for c in cameras]
         n = len(cameras) * self.width * self.height
         if not cameras or n > MAX_PIXELS:
@@ -346,7 +364,7 @@ class Renderer:
         """
         if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
             raise ValueError(f"spp must be a positive integer, got {spp!r}")
-        if batch is not None and (not isinstance(batch, (int, np.integer)) or batch < 1):
+        if batch is not None and (isinstance(batch, bool) or not isinstance(batch, (int, np.integer)) or batch < 1):
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
         spp, seed = int(spp), check_seed(seed)
         n_pixels = self.width * self.height * len(self.cameras)

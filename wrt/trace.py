@@ -442,6 +442,13 @@ class WarpMeshAccelerator(Accelerator):
         self._launch(occluded_mesh_kernel, len(origins), [origins, directions, t_mins, t_maxs], [blocked], [0])
 
 
+def check_scene(scene) -> None:
+    """Raises TypeError unless ``scene`` is a :class:`Scene` (a path or None failed with an AttributeError from deep
+    inside)."""
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a wrt.Scene (from wrt.load_usd or built in Python), got {type(scene).__name__}")
+
+
 def get_accelerator(
     scene: Scene, accel: str = "wrt", builder: str = "sah", device=None, layout: str = "binary"
 ) -> Accelerator:
@@ -450,7 +457,9 @@ def get_accelerator(
     Raises:
         ValueError: for an unknown ``accel``, ``builder`` or ``layout`` (layouts other than ``binary`` are wrt's).
         SceneError: for an instance of a prototype that ``scene`` does not have.
+        TypeError: ``scene`` is not a :class:`Scene`.
     """
+    check_scene(scene)
     if accel not in ACCELERATORS:
         raise ValueError(f"unknown accelerator {accel!r}; valid accelerators: {', '.join(ACCELERATORS)}")
     check_layout(layout)
@@ -546,9 +555,11 @@ def _upload_rays(origins, directions, t_max, device) -> list:
     """Checks and uploads a ray batch: ``[origins, directions, t_mins (zeros), t_maxs]`` as device arrays."""
     o, d = _as_rays(origins, directions)
     n = len(o)
-    t_maxs = _as_float32("t_max", t_max)
+    t_maxs = _as_float32("t_max", np.inf if t_max is None else t_max)  # None: no limit, as the default
     if t_maxs.shape not in ((), (n,)):
         raise ValueError(f"t_max must be a scalar or one value per ray, shape ({n},); got shape {t_maxs.shape}")
+    if np.isnan(t_maxs).any():  # every ray would miss without a word (a list [None] converts to NaN)
+        raise ValueError("t_max must not be NaN; use inf (or None) for no limit")
     t_maxs = np.broadcast_to(t_maxs, (n,)).copy()
     return [
         wp.array(o, dtype=wp.vec3, device=device),
