@@ -35,6 +35,16 @@ class _Progress:
             print(f"wrt: {message}{suffix}", file=sys.stderr, flush=True)
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows an option's default after its help, except where there is none to show (None, False: an option that is
+    off, or whose help says what happens without it); "(default: None)" told the reader nothing."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False:
+            return action.help
+        return super()._get_help_string(action)
+
+
 class _Parser(argparse.ArgumentParser):
     """ArgumentParser whose usage errors are one line (``wrt: error: ...``) and exit status 2."""
 
@@ -100,7 +110,7 @@ def _add_render(sub) -> None:
         "render",
         help="render a USD scene to an image",
         description="Render a USD scene with wrt's ray tracer. With no SCENE, renders the bundled default room.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument(
         "scene",
@@ -384,7 +394,7 @@ def _add_preview(sub) -> None:
         description="Show the scene as wrt reads it, the camera frustum and, on request, BVH boxes, sample camera "
         "rays and the rendered image, in an interactive pyvista window. With -o, or when there is no display, "
         "the view is rendered off-screen to a PNG instead. Needs pyvista: pip install 'wrt[preview]'.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument("scene", nargs="?", help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
     p.add_argument("-o", "--output", help="write the view to this PNG instead of a window (no display: preview.png)")
@@ -490,7 +500,7 @@ def _add_bench(sub) -> None:
         description="Time wrt's BVH against Warp's wp.Mesh (and Embree) on the same rays. Rows are appended to "
         "OUT/rows.jsonl as they are measured; OUT/table.md and plots are written at the end. SUITE is a JSON file "
         "or the name of one in benchmarks/suites (quick, cpu, gpu). Options given here override the suite.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument("suite", nargs="?", default="quick", help="suite file or name")
     p.add_argument("--quick", action="store_true", help="run the small 'quick' suite (about 2 minutes on a CPU)")

@@ -7,7 +7,6 @@ canonical layout), so both sides are measured by the same code under the same co
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 
@@ -127,7 +126,7 @@ def format_table(rows: list[dict]) -> str:
 
 def add_bvh_stats(sub) -> None:
     """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
-    from ..cli import positive_int
+    from ..cli import HelpFormatter, positive_int
 
     p = sub.add_parser(
         "bvh-stats",
@@ -135,7 +134,7 @@ def add_bvh_stats(sub) -> None:
         description="Build BVHs over a USD scene's triangles and report SAH cost, EPO (end-point overlap, estimated), "
         "node and leaf counts, depths, leaf sizes, bytes and build time. Warp's own trees are read from wp.Mesh "
         "with --builder warp:sah (or warp:median, warp:lbvh on CUDA, warp:cubql).",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     p.add_argument("scene", help="USD file (.usd, .usda, .usdc, .usdz)")
     p.add_argument(
