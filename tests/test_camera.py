@@ -106,6 +106,62 @@ def test_bad_camera_values_raise():
         wrt.Camera(clipping_range=(5.0, 1.0))
 
 
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(
+    "attr, value",
+    [
+        ("horizontalApertureOffset", "nan"),
+        ("verticalApertureOffset", "-inf"),
+        ("horizontalAperture", "inf"),
+        ("verticalAperture", "inf"),
+        ("focalLength", "inf"),
+        ("focusDistance", "inf"),
+        ("fStop", "nan"),
+    ],
+)
+def test_usd_camera_film_values_must_be_finite(tmp_path, attr, value):
+    """A NaN or inf film value made every camera ray NaN: an image of background only, without a word."""
+    path = tmp_path / "cam.usda"
+    path.write_text(f"""#usda 1.0
+def Camera "C"
+{{
+    float {attr} = {value}
+    double3 xformOp:translate = (0, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+""")
+    with pytest.raises(wrt.SceneError, match=rf"cam\.usda: /C: invalid camera: camera /C needs finite.*{value}"):
+        wrt.load_usd(path)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(horizontal_aperture_offset=NAN),
+        dict(vertical_aperture_offset=INF),
+        dict(focal_length=INF),
+        dict(f_stop=2.0, focus_distance=INF),
+        dict(f_stop="2"),
+    ],
+)
+def test_python_camera_film_values_must_be_finite(kwargs):
+    with pytest.raises(ValueError, match=r"^camera needs finite"):
+        wrt.Camera.look_at((0, 0, 10), (0, 0, 0), **kwargs)
+
+
+@pytest.mark.parametrize("height", [INF, NAN, "2"])
+def test_orthographic_height_must_be_finite(height):
+    with pytest.raises(ValueError, match="orthographic height must be a finite positive number"):
+        wrt.Camera.orthographic((0, 0, 10), (0, 0, 0), height=height)
+
+
+def test_python_camera_errors_have_no_double_space():
+    with pytest.raises(ValueError, match=r"^camera transform is singular"):
+        wrt.Camera(to_world=np.diag([0.0, 1.0, 1.0, 1.0])).to_struct(4, 4)
+
+
 def test_camera_animated_only_by_time_samples_uses_its_first_sample(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "anim_cam.usda"))
     stage.SetStartTimeCode(1)

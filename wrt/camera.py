@@ -132,6 +132,19 @@ def _normalized(v) -> np.ndarray:
     return v / n
 
 
+def _finite(v) -> bool:
+    """True for a finite real number; False for NaN, inf and anything that is not a number."""
+    try:
+        return math.isfinite(v)
+    except TypeError:
+        return False
+
+
+def _show(v) -> str:
+    """``v`` for a message: numbers as they print (``nan``), anything else as its repr (``'3'``)."""
+    return str(v) if isinstance(v, (int, float)) else repr(v)
+
+
 @dataclasses.dataclass
 class Camera:
     """A camera, perspective or orthographic, with USD's film model.
@@ -173,16 +186,28 @@ class Camera:
             raise ValueError(f"camera projection must be 'perspective' or 'orthographic', not {self.projection!r}")
         if self.fit not in ("horizontal", "vertical"):
             raise ValueError(f"camera fit must be 'horizontal' or 'vertical', not {self.fit!r}")
-        if not (self.focal_length > 0 and self.horizontal_aperture > 0 and self.vertical_aperture > 0):
+        # Finite as well as positive: an infinite aperture or focal length, or a NaN offset, makes every ray NaN, an
+        # image of background only. Non-numbers (a string) count as not finite, so they too get this ValueError.
+        if not all(_finite(v) and v > 0 for v in (self.focal_length, self.horizontal_aperture, self.vertical_aperture)):
             raise ValueError(
-                f"camera {self.path or ''} needs positive focalLength and apertures, got focal_length="
-                f"{self.focal_length}, apertures={self.horizontal_aperture}x{self.vertical_aperture}"
+                f"{self._name()} needs finite positive focalLength and apertures, got focal_length="
+                f"{_show(self.focal_length)}, apertures={_show(self.horizontal_aperture)}x"
+                f"{_show(self.vertical_aperture)}"
             )
+        lens = {
+            "horizontal_aperture_offset": self.horizontal_aperture_offset,
+            "vertical_aperture_offset": self.vertical_aperture_offset,
+            "f_stop": self.f_stop,
+            "focus_distance": self.focus_distance,
+        }
+        bad = ", ".join(f"{k}={_show(v)}" for k, v in lens.items() if not _finite(v))
+        if bad:
+            raise ValueError(f"{self._name()} needs finite film offsets, fStop and focusDistance, got {bad}")
         near, far = self.clipping_range
         if not (0 <= near < far):
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
         if not np.all(np.isfinite(self.to_world)):
-            raise ValueError(f"camera {self.path or ''} transform is not finite")
+            raise ValueError(f"{self._name()} transform is not finite")
         planes = np.asarray(self.clipping_planes, dtype=np.float64)
         if planes.size == 0:
             planes = np.zeros((0, 4))
@@ -193,15 +218,19 @@ class Camera:
             or not np.all(np.linalg.norm(planes[:, :3], axis=1) > 0.0)
         ):
             raise ValueError(
-                f"camera {self.path or ''} clipping planes must be finite (a, b, c, d) rows with a non-zero normal "
+                f"{self._name()} clipping planes must be finite (a, b, c, d) rows with a non-zero normal "
                 f"(a, b, c), got {planes.tolist()}"
             )
         if len(planes) > MAX_CLIPPING_PLANES:
             raise ValueError(
-                f"camera {self.path or ''} has {len(planes)} clipping planes; at most {MAX_CLIPPING_PLANES} are "
+                f"{self._name()} has {len(planes)} clipping planes; at most {MAX_CLIPPING_PLANES} are "
                 "supported"
             )
         self.clipping_planes = planes
+
+    def _name(self) -> str:
+        """``camera /Path`` for messages, or just ``camera`` for one built in Python (no double space)."""
+        return f"camera {self.path}" if self.path else "camera"
 
     @classmethod
     def look_at(cls, eye, target, up=(0.0, 1.0, 0.0), fov_y_deg: float = 45.0, **kwargs) -> Camera:
@@ -216,8 +245,8 @@ class Camera:
     @classmethod
     def orthographic(cls, eye, target, up=(0.0, 1.0, 0.0), height: float = 2.0, **kwargs) -> Camera:
         """An orthographic camera at ``eye`` looking at ``target`` whose view is ``height`` scene units tall."""
-        if not height > 0:
-            raise ValueError(f"orthographic height must be positive, got {height}")
+        if not (_finite(height) and height > 0):
+            raise ValueError(f"orthographic height must be a finite positive number, got {_show(height)}")
         aperture = height / APERTURE_UNIT
         return cls(
             to_world=_look_at_matrix(eye, target, up),
@@ -244,7 +273,7 @@ class Camera:
         """The :class:`DeviceCamera` for an image of ``width x height`` pixels."""
         m = self.to_world
         if not abs(np.linalg.det(m[:3, :3])) > 0.0:  # checked here: a stage may hold such a camera unused
-            raise ValueError(f"camera {self.path or ''} transform is singular (a zero scale), so it has no view")
+            raise ValueError(f"{self._name()} transform is singular (a zero scale), so it has no view")
         # Columns of the linear part, scale included: rays are mapped from camera space as points are.
         right, up, back = (m[:3, k] for k in range(3))
         film_w, film_h = self.film_size(width, height)
