@@ -722,6 +722,37 @@ def test_bad_topology(tmp_path, kwargs, fragments):
 
 
 @pytest.mark.parametrize(
+    "old, new, fragments",
+    [
+        # Indices and points but no counts: the mesh was dropped without a word (the mirror case raised).
+        ("int[] faceVertexCounts = [4, 5]", "", ["9 faceVertexIndices but no faceVertexCounts"]),
+        ("int[] faceVertexCounts = [4, 5]", "int[] faceVertexCounts = []", ["no faceVertexCounts"]),
+        # Topology of a wrong type: float indices were truncated to ints, strings parsed, all without a word.
+        ("int[] faceVertexIndices", "float[] faceVertexIndices", ["faceVertexIndices must be int[], not float[]"]),
+        ("int[] faceVertexCounts = [4, 5]", 'string[] faceVertexCounts = ["4", "5"]',
+         ["faceVertexCounts must be int[], not string[]"]),
+        ("int[] faceVertexCounts = [4, 5]", "int faceVertexCounts = 4", ["faceVertexCounts must be int[], not int"]),
+        ("int[] faceVertexCounts = [4, 5]", "int2[] faceVertexCounts = [(4, 5)]", ["must be int[], not int2[]"]),
+    ],
+    ids=["no-counts", "empty-counts", "float-indices", "string-counts", "scalar-counts", "int2-counts"],
+)
+def test_missing_or_mistyped_topology(tmp_path, old, new, fragments):
+    text = mesh_usda("Bad")
+    assert old in text
+    body = 'def Xform "World"\n{\n' + text.replace(old, new) + "}\n"
+    err = expect_scene_error(write_usda(tmp_path, body), "/World/Bad", *fragments)
+    assert err.prim == "/World/Bad"
+
+
+def test_topology_of_other_integer_types_reads_as_int(tmp_path):
+    """int64[] and uint[] hold exact integers, so they are read rather than refused."""
+    text = mesh_usda().replace("int[] faceVertexCounts", "int64[] faceVertexCounts")
+    text = text.replace("int[] faceVertexIndices", "uint[] faceVertexIndices")
+    (mesh,) = load(write_usda(tmp_path, text)).meshes
+    assert len(mesh.indices) == 5  # the quad and the pentagon: 2 + 3 triangles
+
+
+@pytest.mark.parametrize(
     "name, interpolation, count, fragment",
     [
         ("normals", "vertex", 6, "primvars:normals has 6 values; vertex interpolation needs 7"),

@@ -605,8 +605,7 @@ class _StageReader:
     def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
         """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         # Materials first: the texture-coordinate primvar to read depends on them.
-        counts = value_at(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr(), self.time)
-        n_faces = len(counts) if counts is not None else 0
+        n_faces = len(self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr()))
         face_materials = self._face_materials(prim, n_faces, ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
         local = self._read_local_mesh(prim, uv_set)
@@ -773,15 +772,13 @@ class _StageReader:
     def _read_local_mesh(self, prim: Usd.Prim, uv_set: str | None = None) -> _LocalMesh | None:
         mesh = UsdGeom.Mesh(prim)
         t = self.time
-        counts = value_at(mesh.GetFaceVertexCountsAttr(), t)
-        face_indices = value_at(mesh.GetFaceVertexIndicesAttr(), t)
+        counts = self._int_array(prim, mesh.GetFaceVertexCountsAttr())
+        face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
         raw_points = self._moved(mesh, mesh.GetPointsAttr())
         if raw_points is None:
             raw_points = value_at(mesh.GetPointsAttr(), t)
-        counts = np.asarray(counts if counts is not None else [], dtype=np.int64).reshape(-1)
-        face_indices = np.asarray(face_indices if face_indices is not None else [], dtype=np.int64).reshape(-1)
-        if len(counts) == 0:
-            return None  # no faces: nothing to draw
+        if len(counts) == 0 and len(face_indices) == 0:
+            return None  # no faces: nothing to draw (indices without counts are refused by _check_topology)
         if raw_points is None or np.asarray(raw_points).size == 0:
             self._skip("meshes with faces but no points were skipped", prim)
             return None
@@ -824,8 +821,35 @@ class _StageReader:
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
         return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs)
 
+    def _int_array(self, prim: Usd.Prim, attr: Usd.Attribute) -> np.ndarray:
+        """``(N,)`` int64 value of an ``int[]`` topology attribute at the read time (empty when it has none).
+
+        Raises:
+            SceneError: the value authored is not a 1-D array of integers (``float[]`` would be truncated and
+                ``string[] ["3"]`` parsed by numpy without a word).
+        """
+        value = value_at(attr, self.time)
+        if value is None:
+            return np.zeros(0, np.int64)
+        array = np.asarray(value)
+        if array.ndim != 1 or array.dtype.kind not in "iu":
+            try:
+                stack = attr.GetPropertyStack(self.time)
+            except Tf.ErrorException:
+                stack = []
+            # The schema's type name is int[] whatever was authored; the spec holds the authored one.
+            authored = str(stack[0].typeName) if stack else type(value).__name__
+            raise self._error(f"{attr.GetName()} must be int[], not {authored}", prim, attr)
+        return array.astype(np.int64)
+
     def _check_topology(self, prim, counts, face_indices, points):
         mesh = UsdGeom.Mesh(prim)
+        if len(counts) == 0:
+            raise self._error(
+                f"there are {len(face_indices)} faceVertexIndices but no faceVertexCounts",
+                prim,
+                mesh.GetFaceVertexCountsAttr(),
+            )
         # Faces of 0, 1 or 2 vertices are valid topology (UsdGeom.Mesh.ValidateTopology) that draws nothing.
         bad = counts < 0
         if bad.any():
