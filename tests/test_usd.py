@@ -744,6 +744,40 @@ def test_missing_or_mistyped_topology(tmp_path, old, new, fragments):
     assert err.prim == "/World/Bad"
 
 
+@pytest.mark.parametrize(
+    "layer_meta, arc, fragment",
+    [
+        ('upAxis = "Y"', "prepend references = @./gone.usda@", "Could not open asset @{dir}/gone.usda@ for reference"),
+        ('upAxis = "Y"', "prepend payload = @./gone.usda@", "Could not open asset @{dir}/gone.usda@ for payload"),
+        ('upAxis = "Y"', "prepend references = @./part.usda@</Nope>", "Unresolved reference prim path"),
+        ("subLayers = [@./gone.usda@]", "", "Could not load sublayer @{dir}/gone.usda@"),
+    ],
+    ids=["reference", "payload", "prim-path", "sublayer"],
+)
+def test_composition_errors_warn_and_the_rest_still_loads(tmp_path, layer_meta, arc, fragment):
+    """USD only printed these from C++ to stderr: the scene came back without that geometry, and Python could not
+    tell. A warning, not an error: partially composed stages are common and still render."""
+    write_usda(tmp_path, mesh_usda("Part"), name="part.usda")
+    arc = f" ({arc})" if arc else ""
+    body = f'def Xform "World"\n{{\n    def Xform "Arc"{arc}\n    {{\n    }}\n' + mesh_usda("Kept") + "}\n"
+    path = write_usda(tmp_path, body, layer_meta=layer_meta)
+    with pytest.warns(UserWarning, match=r"scene\.usda: 1 composition error\(s\); what they would bring in is missing"
+                      ) as record:
+        scene = load_usd(path)
+    message = " ".join(str(w.message) for w in record)
+    assert path in message and fragment.format(dir=tmp_path) in message, message
+    assert [m.path for m in scene.meshes] == ["/World/Kept"]
+
+
+def test_stage_without_composition_errors_does_not_warn(tmp_path):
+    write_usda(tmp_path, mesh_usda("Part"), name="part.usda")
+    body = 'def "World" (prepend references = @./part.usda@</Part>)\n{\n}\n'
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = load_usd(write_usda(tmp_path, body))
+    assert [m.path for m in scene.meshes] == ["/World"]
+
+
 def test_topology_of_other_integer_types_reads_as_int(tmp_path):
     """int64[] and uint[] hold exact integers, so they are read rather than refused."""
     text = mesh_usda().replace("int[] faceVertexCounts", "int64[] faceVertexCounts")

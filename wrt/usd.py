@@ -123,6 +123,10 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
 
     Raises:
         wrt.errors.SceneError: the file is missing or not USD, or a mesh, primvar or camera is invalid.
+
+    Warns:
+        UserWarning: the stage has composition errors (a reference, payload or subLayer that does not compose); the
+            scene holds the rest.
     """
     source = os.fspath(path)
     if time is None:
@@ -136,6 +140,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
         time_code = Usd.TimeCode(time)
 
     stage = _open_stage(source)
+    _warn_composition_errors(stage, source)
     if stage.GetTimeCodesPerSecond() <= 0:
         # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
         warnings.warn(f"{os.path.basename(source)}: timeCodesPerSecond = {stage.GetTimeCodesPerSecond():g} is invalid; "
@@ -156,6 +161,21 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
         # The material reader holds the stage reader's skip method: a cycle that kept the stage and its layers
         # open until the next garbage collection, so a file edited and loaded again in that time read as before.
         reader.materials = None
+
+
+def _warn_composition_errors(stage: Usd.Stage, source: str) -> None:
+    """Warns about the stage's composition errors (a reference, payload or subLayer whose file is missing, a
+    reference to a prim path that is not there): USD only prints them from C++ to stderr, where Python cannot catch
+    them, and composes the stage without what they would bring in. A warning, not an error: partially composed
+    stages are common and the rest still renders."""
+    errors = sorted(str(e).strip().rstrip(".") for e in stage.GetCompositionErrors())  # sorted: USD's order varies
+    if errors:
+        shown = "; ".join(errors[:3]) + ("; ..." if len(errors) > 3 else "")
+        warnings.warn(
+            f"{source}: {len(errors)} composition error(s); what they would bring in is missing from the scene: "
+            f"{shown}",
+            stacklevel=3,
+        )
 
 
 def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
