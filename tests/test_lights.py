@@ -619,3 +619,17 @@ def test_non_uniformly_scaled_sphere_light_is_reported(tmp_path):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     radii = {light.path: light.radius for light in scene.lights}
     assert radii["/Round"] == pytest.approx(1.0) and radii["/Squashed"] == pytest.approx(0.5 * 2.25 / 3)
+
+
+@pytest.mark.parametrize("exposure", [1024.0, 1e6, 200.0])
+def test_light_exposure_that_overflows_is_skipped_with_a_warning(tmp_path, exposure):
+    """``2.0**exposure`` raised a bare OverflowError out of load_usd from 1024 on, naming no file or prim; 200 fits
+    a double but not the float32 colour. Both are colours that are not finite: skipped like a NaN colour."""
+
+    def build(stage):
+        UsdLux.SphereLight.Define(stage, "/Bright").CreateExposureAttr(exposure)
+        UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(2.0)
+
+    with pytest.warns(UserWarning, match=r"lights\.usda: lights whose colour .*exposure.* not finite.*: /Bright$"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    assert [light.path for light in scene.lights] == ["/Sun"]

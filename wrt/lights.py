@@ -294,12 +294,15 @@ def read_light(prim, xforms, time, up_axis: str, skip):
     if get(light.GetEnableColorTemperatureAttr(), False):
         kelvin = float(get(light.GetColorTemperatureAttr(), 6500.0))
         color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-    color = (color * intensity * 2.0**exposure).astype(np.float32)
+    # An exposure of 1024 or more overflows 2.0**exposure (a bare OverflowError out of load_usd): let it become
+    # inf in numpy instead, and be skipped below like any other colour that is not finite.
+    with np.errstate(over="ignore", invalid="ignore"):
+        color = (color * intensity * np.exp2(exposure)).astype(np.float32)
     normalize = bool(get(light.GetNormalizeAttr(), False))
     m = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
     path = str(prim.GetPath())
     if not (np.all(np.isfinite(color)) and np.all(np.isfinite(m))):
-        skip("lights with a non-finite colour or transform were skipped", prim)
+        skip("lights whose colour * intensity * 2^exposure or transform is not finite were skipped", prim)
         return None
     if np.any(color < 0.0):  # a light cannot take light away: negative pixels would follow
         skip("negative light colour or intensity was clamped to 0", prim)
