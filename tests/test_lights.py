@@ -633,3 +633,32 @@ def test_light_exposure_that_overflows_is_skipped_with_a_warning(tmp_path, expos
     with pytest.warns(UserWarning, match=r"lights\.usda: lights whose colour .*exposure.* not finite.*: /Bright$"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     assert [light.path for light in scene.lights] == ["/Sun"]
+
+
+@pytest.mark.parametrize(
+    "schema, attr, value",
+    [
+        (UsdLux.SphereLight, "radius", math.nan),
+        (UsdLux.SphereLight, "radius", -1.0),
+        (UsdLux.RectLight, "width", math.nan),
+        (UsdLux.RectLight, "height", -2.0),
+        (UsdLux.DiskLight, "radius", math.inf),
+        (UsdLux.DistantLight, "angle", math.nan),
+        (UsdLux.DistantLight, "angle", -1.0),
+        (UsdLux.CylinderLight, "length", math.inf),
+        (UsdLux.CylinderLight, "radius", -0.5),
+    ],
+)
+def test_light_with_a_negative_or_non_finite_size_is_skipped_with_a_warning(tmp_path, schema, attr, value):
+    """A NaN or infinite radius, width, length or angle loaded without a word and lit nothing (a black image); it is
+    skipped like a light whose colour is not finite, and the warning names the prim and the attribute."""
+
+    def build(stage):
+        light = schema.Define(stage, "/Bad")
+        getattr(light, f"Create{attr.capitalize()}Attr")(value)
+        UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(2.0)
+
+    pattern = rf"lights\.usda: lights with a negative or non-finite size were skipped: 1 prim\(s\) \(inputs:{attr} = "
+    with pytest.warns(UserWarning, match=pattern + rf"{value:g}: 1\): /Bad$"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    assert [light.path for light in scene.lights] == ["/Sun"]

@@ -339,6 +339,22 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
     """The light object of ``prim``'s UsdLux type (see :func:`read_light`)."""
     from pxr import UsdLux
 
+    def sizes(*attrs):
+        """The values of ``(attr, name, fallback)`` size attributes, or None (skipped with a warning) when one is
+        negative or not a finite number: a NaN or infinite radius or width lit nothing without a word."""
+        values = []
+        for attr, name, fallback in attrs:
+            value = get(attr, fallback)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):  # authored with a wrong type
+                value = math.nan
+            if not (math.isfinite(value) and value >= 0.0):
+                skip("lights with a negative or non-finite size were skipped", prim, f"inputs:{name} = {value:g}")
+                return None
+            values.append(value)
+        return values
+
     if prim.IsA(UsdLux.DistantLight):
         d = UsdLux.DistantLight(prim)
         direction = m[:3, :3] @ np.array([0.0, 0.0, -1.0])
@@ -346,29 +362,37 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         if not length > 0.0:
             skip("lights with a degenerate transform were skipped", prim)
             return None
-        angle = float(get(d.GetAngleAttr(), 0.53))
-        return DistantLight(direction=direction / length, color=color, path=path, angle=angle, normalize=normalize)
+        found = sizes((d.GetAngleAttr(), "angle", 0.53))
+        if found is None:
+            return None
+        return DistantLight(direction=direction / length, color=color, path=path, angle=found[0], normalize=normalize)
     if prim.IsA(UsdLux.SphereLight):
         s = UsdLux.SphereLight(prim)
+        found = sizes((s.GetRadiusAttr(), "radius", 0.5))
+        if found is None:
+            return None
         axes = np.linalg.norm(m[:3, :3], axis=0)
         scale = float(np.mean(axes))
         if not np.allclose(axes, scale, rtol=1e-4):
             skip("non-uniformly scaled SphereLights are rendered as spheres of the mean scaled radius", prim)
-        radius = float(get(s.GetRadiusAttr(), 0.5)) * scale
+        radius = found[0] * scale
         treat = bool(get(s.GetTreatAsPointAttr(), False))
         return SphereLight(m[:3, 3].copy(), radius, color, normalize, treat or radius <= 0.0, path)
     if prim.IsA(UsdLux.RectLight):
         r = UsdLux.RectLight(prim)
+        found = sizes((r.GetWidthAttr(), "width", 1.0), (r.GetHeightAttr(), "height", 1.0))
+        if found is None:
+            return None
         if get(r.GetTextureFileAttr(), None):
             skip("RectLight textures are not supported; the light's colour is used", prim)
-        return RectLight(m, float(get(r.GetWidthAttr(), 1.0)), float(get(r.GetHeightAttr(), 1.0)), color, normalize,
-                         path)
+        return RectLight(m, found[0], found[1], color, normalize, path)
     if prim.IsA(UsdLux.DiskLight):
-        return DiskLight(m, float(get(UsdLux.DiskLight(prim).GetRadiusAttr(), 0.5)), color, normalize, path)
+        found = sizes((UsdLux.DiskLight(prim).GetRadiusAttr(), "radius", 0.5))
+        return None if found is None else DiskLight(m, found[0], color, normalize, path)
     if prim.IsA(UsdLux.CylinderLight):
         c = UsdLux.CylinderLight(prim)
-        return CylinderLight(m, float(get(c.GetLengthAttr(), 1.0)), float(get(c.GetRadiusAttr(), 0.5)), color,
-                             normalize, path)
+        found = sizes((c.GetLengthAttr(), "length", 1.0), (c.GetRadiusAttr(), "radius", 0.5))
+        return None if found is None else CylinderLight(m, found[0], found[1], color, normalize, path)
     dome_types = [UsdLux.DomeLight] + ([UsdLux.DomeLight_1] if hasattr(UsdLux, "DomeLight_1") else [])
     if any(prim.IsA(t) for t in dome_types):
         return _read_dome(prim, m, color, time, up_axis, skip, get)
