@@ -662,3 +662,45 @@ def test_light_with_a_negative_or_non_finite_size_is_skipped_with_a_warning(tmp_
     with pytest.warns(UserWarning, match=pattern + rf"{value:g}: 1\): /Bad$"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     assert [light.path for light in scene.lights] == ["/Sun"]
+
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: wrt.DistantLight([0, 0, 0], [1, 1, 1], path="/Sun"), r"^/Sun: DistantLight direction must not be"),
+        (lambda: wrt.DistantLight([0, 0, -1], [np.nan, 1, 1], path="/Sun"), r"^/Sun: DistantLight color must be"),
+        (lambda: wrt.DistantLight([0, 0, -1], [1, 1, 1], angle=math.inf), r"^DistantLight angle must be a finite"),
+        (lambda: wrt.SphereLight([np.nan, 0, 5], 1.0, [1, 1, 1], path="/S"), r"^/S: SphereLight position must be"),
+        (lambda: wrt.SphereLight([0, 0, 5], -1.0, [1, 1, 1], path="/S"), r"^/S: SphereLight radius must be .* >= 0"),
+        (lambda: RectLight(np.eye(4), math.nan, 1.0, [1, 1, 1], path="/R"), r"^/R: RectLight width must be"),
+        (lambda: RectLight(np.eye(4), 1.0, 1.0, [1, 1, 1e39], path="/R"), r"^/R: RectLight color must be finite"),
+        (lambda: DiskLight(np.full((4, 4), np.inf), 1.0, [1, 1, 1], path="/D"), r"^/D: DiskLight to_world must be"),
+        (lambda: CylinderLight(np.eye(4), 1.0, 0.5, [1, -1, 1], path="/C"), r"^/C: CylinderLight color .* >= 0"),
+        (lambda: DomeLight([1, 1, 1], texture=np.ones((4, 8)), path="/Dome"), r"^/Dome: DomeLight texture must be"),
+        (lambda: DomeLight("white", path="/Dome"), r"^/Dome: DomeLight color must be finite numbers"),
+    ],
+)
+def test_lights_built_in_python_refuse_values_that_light_nothing(make, message):
+    """A zero or NaN direction, a NaN colour or position rendered black without a word, and a 2D dome texture failed
+    deep in Warp (a TypeError about 'dome_texels'): each raises at construction, naming the light and the field."""
+    with pytest.raises(wrt.SceneError, match=message):
+        make()
+
+
+def test_distant_light_direction_is_made_unit():
+    """The kernels take the direction as a unit vector: a longer one made the light brighter."""
+    np.testing.assert_allclose(wrt.DistantLight([0, 0, -2], [1, 1, 1]).direction, [0, 0, -1])
+
+
+def test_usd_light_whose_scaled_radius_overflows_is_skipped_with_a_warning(tmp_path):
+    """A scale of 1e100 keeps the transform finite in float64, but the sphere's world radius is not finite in float32
+    (what the device reads): the light's own check refuses it, and the reader turns that into a skip."""
+
+    def build(stage):
+        big = UsdLux.SphereLight.Define(stage, "/Huge")
+        big.AddScaleOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(1e100, 1e100, 1e100))
+        UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(2.0)
+
+    with pytest.warns(UserWarning, match=r"lights with values wrt cannot use were skipped.*SphereLight .*: /Huge$"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    assert [light.path for light in scene.lights] == ["/Sun"]

@@ -463,3 +463,20 @@ def test_textures_reading_two_uv_sets_on_one_mesh_are_reported(tmp_path):
     stage.Save()
     with pytest.warns(UserWarning, match=r"several texture-coordinate primvars \(st, st1\).*/Quad"):
         wrt.load_usd(path)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"opacity": np.nan}, r"^/M: Material opacity must be a finite number, got nan"),
+        ({"roughness": np.inf}, r"^/M: Material roughness must be a finite number"),
+        ({"ior": "1.5"}, r"^/M: Material ior must be a finite number"),
+        ({"diffuse_color": [1.0, np.nan, 0.0]}, r"^/M: Material diffuse_color must be finite numbers of shape \(3,\)"),
+        ({"emissive_color": [1.0, 2.0]}, r"^/M: Material emissive_color must be finite numbers of shape \(3,\)"),
+    ],
+)
+def test_materials_built_in_python_refuse_values_that_are_not_finite(kwargs, message):
+    """``Material(opacity=nan)`` rendered black without a word (the USD reader already keeps defaults instead)."""
+    with pytest.raises(wrt.SceneError, match=message):
+        wrt.Material(path="/M", **kwargs)
+    np.testing.assert_array_equal(wrt.Material(diffuse_color=0.25).diffuse_color, [0.25, 0.25, 0.25])

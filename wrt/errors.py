@@ -1,4 +1,6 @@
-"""Errors that wrt raises for bad input, so callers can tell them from bugs."""
+"""Errors that wrt raises for bad input, so callers can tell them from bugs, and the checks that raise them."""
+
+import numpy as np
 
 
 class SceneError(ValueError):
@@ -13,3 +15,37 @@ class SceneError(ValueError):
         self.prim = prim  # prim path the problem was found at, if any
         parts = [p for p in (path, prim) if p]
         super().__init__(": ".join(parts + [message]))
+
+
+def check_fields(obj, *fields: tuple) -> None:
+    """Checks and converts fields of a light or material built in Python, in its ``__post_init__``: NaN, inf or a
+    negative size there rendered a black image without a word, and an array of a wrong shape failed deep in Warp.
+
+    Args:
+        obj: a dataclass with a ``path`` (the prim path, or empty).
+        fields: ``(name, shape, minimum, dtype)`` each: field ``name`` must hold finite numbers of ``shape``, none
+            below ``minimum`` (None: no bound); it is replaced by them as ``dtype`` (a plain float for shape ``()``).
+            Finite means finite in float32 too, which is what the device reads.
+
+    Raises:
+        SceneError: naming the prim, the type of ``obj`` and the field.
+    """
+    for name, shape, minimum, dtype in fields:
+        value = getattr(obj, name)
+        need = "a finite number" if shape == () else f"finite numbers of shape {shape}"
+        need += "" if minimum is None else f" >= {minimum:g}"
+        try:
+            numbers = np.asarray(value)
+        except ValueError:  # a ragged list
+            numbers = None
+        if numbers is not None:  # None, strings and other objects are not numbers (None would read as NaN)
+            numbers = numbers.astype(np.float64) if numbers.dtype.kind in "biuf" else None
+        if numbers is not None and numbers.size == int(np.prod(shape)):
+            numbers = numbers.reshape(shape)
+            with np.errstate(over="ignore"):
+                finite = np.all(np.isfinite(numbers.astype(np.float32)))
+            if finite and (minimum is None or np.all(numbers >= minimum)):
+                setattr(obj, name, float(numbers) if shape == () else numbers.astype(dtype))
+                continue
+            value = numbers.tolist()
+        raise SceneError(f"{type(obj).__name__} {name} must be {need}, got {value!r}", prim=obj.path or None)

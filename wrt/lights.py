@@ -41,6 +41,7 @@ import warnings
 import numpy as np
 import warp as wp
 
+from .errors import SceneError, check_fields
 from .geometry import stable_length
 from .materials import DeviceMaterials, eval_emission
 from .sampling import (
@@ -79,6 +80,16 @@ DEFAULT_DOME_RADIANCE = (0.2, 0.2, 0.2)  # default dome: adds 0.2 * albedo to an
 # Host-side lights -------------------------------------------------------------------------------------------------
 
 
+# check_fields specs shared by the lights below.
+_COLOR = ("color", (3,), 0.0, np.float32)  # a negative colour would take light away: negative pixels
+_TO_WORLD = ("to_world", (4, 4), None, np.float64)
+
+
+def _size(name: str) -> tuple:
+    """The check_fields spec of a size: a NaN or infinite one lit nothing without a word."""
+    return (name, (), 0.0, float)
+
+
 def _axes(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Columns X, Y, Z (scaled) and the origin of a column-vector ``(4, 4)`` transform."""
     m = np.asarray(to_world, np.float64).reshape(4, 4)
@@ -106,6 +117,9 @@ class SphereLight:
     treat_as_point: bool = False
     path: str = ""
     shadows: bool = True
+
+    def __post_init__(self):
+        check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR)
 
     @property
     def area(self) -> float:
@@ -146,6 +160,9 @@ class RectLight:
     path: str = ""
     shadows: bool = True
 
+    def __post_init__(self):
+        check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR)
+
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         x, y, _, _ = _axes(self.to_world)
         return x * self.width, y * self.height
@@ -180,6 +197,9 @@ class DiskLight:
     path: str = ""
     shadows: bool = True
 
+    def __post_init__(self):
+        check_fields(self, _TO_WORLD, _size("radius"), _COLOR)
+
     @property
     def area(self) -> float:
         x, y, _, _ = _axes(self.to_world)
@@ -211,6 +231,9 @@ class CylinderLight:
     normalize: bool = False
     path: str = ""
     shadows: bool = True
+
+    def __post_init__(self):
+        check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR)
 
     def world_shape(self) -> tuple[np.ndarray, float]:
         """World-space axis vector (full length) and radius (mean of the Y and Z scales)."""
@@ -246,6 +269,19 @@ class DomeLight:
     texture_path: str = ""
     path: str = ""
     shadows: bool = True
+
+    def __post_init__(self):
+        check_fields(self, _COLOR, _TO_WORLD)
+        if self.texture is not None:  # any other shape failed deep in Warp (a TypeError about 'dome_texels')
+            try:
+                texture = np.asarray(self.texture, np.float32)
+            except (TypeError, ValueError):
+                texture = np.zeros(0)
+            if texture.ndim != 3 or texture.shape[2] not in (3, 4) or texture.size == 0:
+                shape = getattr(self.texture, "shape", type(self.texture).__name__)
+                raise SceneError(f"DomeLight texture must be an (H, W, 3) or (H, W, 4) array of numbers, got {shape}",
+                                 prim=self.path or None)
+            self.texture = texture
 
 
 def _normalized(color, area: float, normalize: bool) -> np.ndarray:
@@ -315,7 +351,11 @@ def read_light(prim, xforms, time, up_axis: str, skip):
     if _shadow_tinted(prim, get):
         skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
              prim)
-    result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get)
+    try:
+        result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get)
+    except SceneError as e:  # a value the checks above let through, e.g. a radius that overflows once scaled
+        skip("lights with values wrt cannot use were skipped", prim, str(e).removeprefix(f"{path}: "))
+        return None
     if result is not None:
         # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
         result.shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))

@@ -32,6 +32,7 @@ import numpy as np
 import warp as wp
 
 from .bsdf import Surface
+from .errors import check_fields
 from .textures import WRAP_MODES, TextureError, load_image, pack_images, sample_image
 from .usd_values import value_at
 
@@ -121,7 +122,18 @@ class Material:
 
     def __post_init__(self):
         for name in ("diffuse_color", "emissive_color", "specular_color"):
-            setattr(self, name, np.broadcast_to(np.asarray(getattr(self, name), np.float32), (3,)).copy())
+            value = getattr(self, name)
+            try:
+                single = np.asarray(value).dtype.kind in "biuf" and np.size(value) == 1
+            except ValueError:  # a ragged list: check_fields reports it
+                single = False
+            if single:  # one number for all three channels
+                setattr(self, name, np.full(3, np.ravel(value)[0], np.float32))
+        # NaN or inf reached every pixel the material covers, as a black image with no error.
+        colors = [(name, (3,), None, np.float32) for name in ("diffuse_color", "emissive_color", "specular_color")]
+        numbers = [(name, (), None, float) for name in ("metallic", "roughness", "opacity", "opacity_threshold", "ior",
+                                                         "clearcoat", "clearcoat_roughness")]
+        check_fields(self, *colors, *numbers)
         unknown = set(self.textures) - set(SLOTS)
         if unknown:
             raise ValueError(f"textures on unknown inputs {sorted(unknown)}; texturable inputs: {SLOTS}")

@@ -143,8 +143,15 @@ class DistantLight:
     shadows: bool = True
 
     def __post_init__(self):
-        self.direction = np.asarray(self.direction, np.float64).reshape(3)
-        self.color = np.asarray(self.color, np.float32).reshape(3)
+        from .errors import SceneError, check_fields
+
+        check_fields(self, ("direction", (3,), None, np.float64), ("color", (3,), 0.0, np.float32),
+                     ("angle", (), 0.0, float))
+        length = np.linalg.norm(self.direction)
+        if not length > 0.0:  # a zero direction lit nothing, without a word
+            raise SceneError(f"DistantLight direction must not be zero, got {self.direction.tolist()}",
+                             prim=self.path or None)
+        self.direction = self.direction / length  # the kernels take it as a unit vector: a longer one brightened it
 
     @property
     def solid_angle_factor(self) -> float:
