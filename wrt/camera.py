@@ -190,7 +190,7 @@ class Camera:
         # image of background only. Non-numbers (a string) count as not finite, so they too get this ValueError.
         if not all(_finite(v) and v > 0 for v in (self.focal_length, self.horizontal_aperture, self.vertical_aperture)):
             raise ValueError(
-                f"{self._name()} needs finite positive focalLength and apertures, got focal_length="
+                f"{self.label()} needs finite positive focalLength and apertures, got focal_length="
                 f"{_show(self.focal_length)}, apertures={_show(self.horizontal_aperture)}x"
                 f"{_show(self.vertical_aperture)}"
             )
@@ -202,12 +202,12 @@ class Camera:
         }
         bad = ", ".join(f"{k}={_show(v)}" for k, v in lens.items() if not _finite(v))
         if bad:
-            raise ValueError(f"{self._name()} needs finite film offsets, fStop and focusDistance, got {bad}")
+            raise ValueError(f"{self.label()} needs finite film offsets, fStop and focusDistance, got {bad}")
         near, far = self.clipping_range
         if not (0 <= near < far):
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
         if not np.all(np.isfinite(self.to_world)):
-            raise ValueError(f"{self._name()} transform is not finite")
+            raise ValueError(f"{self.label()} transform is not finite")
         planes = np.asarray(self.clipping_planes, dtype=np.float64)
         if planes.size == 0:
             planes = np.zeros((0, 4))
@@ -218,17 +218,17 @@ class Camera:
             or not np.all(np.linalg.norm(planes[:, :3], axis=1) > 0.0)
         ):
             raise ValueError(
-                f"{self._name()} clipping planes must be finite (a, b, c, d) rows with a non-zero normal "
+                f"{self.label()} clipping planes must be finite (a, b, c, d) rows with a non-zero normal "
                 f"(a, b, c), got {planes.tolist()}"
             )
         if len(planes) > MAX_CLIPPING_PLANES:
             raise ValueError(
-                f"{self._name()} has {len(planes)} clipping planes; at most {MAX_CLIPPING_PLANES} are "
+                f"{self.label()} has {len(planes)} clipping planes; at most {MAX_CLIPPING_PLANES} are "
                 "supported"
             )
         self.clipping_planes = planes
 
-    def _name(self) -> str:
+    def label(self) -> str:
         """``camera /Path`` for messages, or just ``camera`` for one built in Python (no double space)."""
         return f"camera {self.path}" if self.path else "camera"
 
@@ -273,7 +273,7 @@ class Camera:
         """The :class:`DeviceCamera` for an image of ``width x height`` pixels."""
         m = self.to_world
         if not abs(np.linalg.det(m[:3, :3])) > 0.0:  # checked here: a stage may hold such a camera unused
-            raise ValueError(f"{self._name()} transform is singular (a zero scale), so it has no view")
+            raise ValueError(f"{self.label()} transform is singular (a zero scale), so it has no view")
         # Columns of the linear part, scale included: rays are mapped from camera space as points are.
         right, up, back = (m[:3, k] for k in range(3))
         film_w, film_h = self.film_size(width, height)

@@ -344,7 +344,7 @@ class Renderer:
         meters = self.scene.meters_per_unit
         if not (math.isfinite(meters) and meters > MIN_METERS_PER_UNIT):  # a Scene built in Python; load_usd falls back
             raise ValueError(f"scene.meters_per_unit must be a finite number above {MIN_METERS_PER_UNIT:g} for the "
-                             f"depth of field of {cam._name()}, got {meters!r}")
+                             f"depth of field of {cam.label()}, got {meters!r}")
         units_per_mm = 1.0 / (MM_PER_METER * meters)
         return cam.focal_length * units_per_mm / (2.0 * cam.f_stop), float(cam.focus_distance)
 
