@@ -274,6 +274,8 @@ def test_bad_build_input_raises():
         build_bvh(tri, [[0, 1, 2]], threads=0, device="cpu")
     with pytest.raises(ValueError, match="bins"):
         build_bvh(tri, [[0, 1, 2]], bins=65, device="cpu")
+    with pytest.raises(ValueError, match="unknown or unavailable device 'cuda:9'; available devices: "):
+        build_bvh(tri, [[0, 1, 2]], device="cuda:9")  # Warp's own RuntimeError, as trace and render do not give
 
 
 def test_malformed_warp_array_input_is_refused_like_numpy_input():

@@ -24,7 +24,7 @@ import warp as wp
 
 from .bvh import DeviceBvh, FlatBvh, build_bvh, build_bvh_device, traverse
 from .bvh.build import Builder
-from .bvh.common import check_triangles
+from .bvh.common import check_triangles, resolve_device
 from .bvh.compact import device_compact_bvh
 from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
@@ -481,15 +481,6 @@ def get_accelerator(
         else:
             scene._cache[key] = WarpMeshAccelerator(scene, "sah" if builder == "binned_sah" else builder, device)
     return scene._cache[key]
-
-
-def resolve_device(device) -> wp.Device:
-    """``wp.get_device`` with a one-line ``ValueError`` naming the available devices."""
-    try:
-        return wp.get_device(device)
-    except (RuntimeError, ValueError, TypeError) as e:
-        available = ", ".join(d.alias for d in wp.get_devices())
-        raise ValueError(f"unknown or unavailable device {device!r}; available devices: {available}") from e
 
 
 @dataclasses.dataclass

@@ -176,6 +176,16 @@ def reduce_bounds_kernel(
     wp.atomic_max(bounds, 3, c_hi)
 
 
+def resolve_device(device) -> wp.Device:
+    """``wp.get_device`` with a one-line ``ValueError`` naming the available devices (Warp's own error for
+    ``"cuda"`` on a machine without one is a RuntimeError from deep inside)."""
+    try:
+        return wp.get_device(device)
+    except (RuntimeError, ValueError, TypeError) as e:
+        available = ", ".join(d.alias for d in wp.get_devices())
+        raise ValueError(f"unknown or unavailable device {device!r}; available devices: {available}") from e
+
+
 class BuildInput:
     """Checked build input on one device: vertex and index arrays and the per-triangle bounds.
 
@@ -189,7 +199,7 @@ class BuildInput:
     """
 
     def __init__(self, points, indices, device):
-        self.device = wp.get_device(device)
+        self.device = resolve_device(device)
         if not isinstance(points, wp.array) and not isinstance(indices, wp.array):
             points, indices = triangle_arrays(points, indices)
         else:
