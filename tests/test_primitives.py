@@ -273,6 +273,10 @@ def test_warp_accel_asks_for_tessellated_gprims(tmp_path):
         wrt.trace(load(path), np.zeros((1, 3)), np.ones((1, 3)), accel="warp")
     tessellated = load(path, tessellate_gprims=True)
     assert tessellated.shapes == [] and tessellated.stats()["rendered_triangles"] > 0
+    # A segment count is bounded: 100000 ran out of memory with an empty MemoryError (or the process died).
+    for bad in (2, 4097, 100000, 3.5, "yes"):
+        with pytest.raises(ValueError, match="tessellate_gprims must be a bool or an int from 3 to 4096"):
+            load(path, tessellate_gprims=bad)
 
 
 def test_instanced_shapes_ids_round_trip():

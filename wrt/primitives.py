@@ -45,6 +45,7 @@ SHAPE_DISK = wp.constant(6)
 SHAPE_KINDS = {"sphere": 0, "box": 1, "cylinder": 2, "cone": 3, "capsule": 4, "plane": 5, "disk": 6}  # name -> code
 CONE_SLOPE = wp.constant(0.5)  # canonical cone: radius = CONE_SLOPE * (1 - z)
 DEFAULT_SEGMENTS = 64  # tessellation: segments around a circle (rings of a sphere: half as many)
+MAX_SEGMENTS = 4096  # a sphere of 4096 segments is 16.8M triangles; 100000 ran out of memory without a message
 
 
 # Device: intersections in canonical space

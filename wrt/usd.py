@@ -60,7 +60,7 @@ from .errors import SceneError
 from .instancing import Instances, Prototype, invert_transforms
 from .lights import read_light
 from .materials import MaterialReader
-from .primitives import DEFAULT_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
+from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .usd_values import held_value, moved_positions, read_time, spun_rotations, value_at
 
@@ -116,7 +116,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
         time: the time code to read; ``None`` means ``Usd.TimeCode.Default()`` (see the module docstring for
             the fallback to the earliest time sample).
         tessellate_gprims: ``False``: gprims are analytic shapes; ``True``: triangle meshes of
-            ``wrt.primitives.DEFAULT_SEGMENTS`` segments per circle; an int: that many segments.
+            ``wrt.primitives.DEFAULT_SEGMENTS`` segments per circle; an int: that many segments (3 to 4096).
 
     Returns:
         The :class:`wrt.scene.Scene`; triangle ids follow the stage's pre-order traversal.
@@ -151,8 +151,9 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
     if tessellate_gprims is True:
         segments = DEFAULT_SEGMENTS
     elif tessellate_gprims is not False and tessellate_gprims is not None:
-        if not isinstance(tessellate_gprims, (int, np.integer)) or tessellate_gprims < 3:
-            raise ValueError(f"tessellate_gprims must be a bool or an int >= 3, got {tessellate_gprims!r}")
+        if not isinstance(tessellate_gprims, (int, np.integer)) or not 3 <= tessellate_gprims <= MAX_SEGMENTS:
+            raise ValueError(f"tessellate_gprims must be a bool or an int from 3 to {MAX_SEGMENTS}, got "
+                             f"{tessellate_gprims!r}")
         segments = int(tessellate_gprims)
     reader = _StageReader(stage, source, time_code, segments)
     try:
