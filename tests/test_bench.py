@@ -45,11 +45,12 @@ def test_rows_ratios_and_agreement(tmp_path):
 
 
 def test_failing_scene_and_accel_become_error_rows_and_the_run_goes_on(tmp_path):
-    grid = tiny_grid(scenes=["no/such/scene.usda", "sphere:2000"], accels=["warp:sah", "wrt:octree"], rays=["primary"])
+    # warp:lbvh is a well-formed name that fails only when built on a CPU device.
+    grid = tiny_grid(scenes=["no/such/scene.usda", "sphere:2000"], accels=["warp:sah", "warp:lbvh"], rays=["primary"])
     rows = run_grid(grid, tmp_path, progress=False)
     errors = [r for r in rows if "error" in r]
     assert any("scene.usda" in r["error"] for r in errors)
-    assert any(r["accel"] == "wrt:octree" and "valid builders" in r["error"] for r in errors)
+    assert any(r["accel"] == "warp:lbvh" and "no lbvh builder on the CPU" in r["error"] for r in errors)
     assert any(r["scene"] == "sphere:2000" and r["accel"] == "warp:sah" and "mrays" in r for r in rows)
     assert "error" in (tmp_path / "table.md").read_text()
 
@@ -171,6 +172,11 @@ def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
         (dict(scenes=[2000]), "scenes must be a list of names, got 2000"),  # was an AttributeError traceback
         (dict(accels=["wrt:sah", None]), "accels must be a list of names, got None"),
         (dict(accels=[]), "the grid measures nothing: accels empty"),  # was 0 rows and exit status 0
+        # A misspelt accelerator became an error row for every scene, ray kind and device, at run time.
+        (dict(accels=["wrt:sah", "foo"]), "accelerator 'foo': accelerators are wrt:BUILDER"),
+        (dict(accels=["wrt:octree"]), "accelerator 'wrt:octree': unknown BVH builder 'octree'"),
+        (dict(accels=["wrt:sah:wide9"]), "accelerator 'wrt:sah:wide9': unknown BVH layout 'wide9'"),
+        (dict(accels=["warp:ploc"]), "accelerator 'warp:ploc': wp.Mesh builders are sah, median, lbvh, cubql"),
         (dict(rays=[], devices=[]), "the grid measures nothing: devices, rays empty"),
         # The scaling sweep's fields were not checked: a misspelt key dropped the sweep without a word, a string of
         # sizes was read digit by digit, and a bad ray kind or count failed on every sweep row.

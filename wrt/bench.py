@@ -33,12 +33,13 @@ import numpy as np
 import warp as wp
 
 from .bvh import Builder
+from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits
 from .rays import RAY_KINDS, ray_set
 from .resources import check_host_memory
 from .scene import Scene
-from .trace import BvhAccelerator, HitBuffer, Hits, WarpMeshAccelerator, resolve_device
+from .trace import WARP_BUILDERS, BvhAccelerator, HitBuffer, Hits, WarpMeshAccelerator, resolve_device
 
 SUITES_DIR = Path(__file__).resolve().parent / "data" / "suites"  # benchmarks/suites, shipped with the package
 REFERENCE = "warp:sah"  # agreement and ratios are measured against this accelerator
@@ -115,6 +116,8 @@ class Grid:
         bad = [k for k in self.rays if k not in RAY_KINDS]
         if bad:
             raise ValueError(f"unknown ray kind {bad[0]!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
+        for spec in self.accels:  # misspelt here, every row of the accelerator became an error row at run time
+            check_accel_spec(spec)
         threads = []
         for t in self.threads:
             count = (os.cpu_count() or 1) if str(t) == "all" else _positive_count(t)
@@ -138,6 +141,24 @@ class Grid:
         # Each name once: a repeated scene, accelerator, device or ray kind measured the same rows twice.
         unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("scenes", "accels", "devices", "rays")}
         return dataclasses.replace(self, threads=threads, **unique)
+
+
+def check_accel_spec(spec: str) -> None:
+    """Raises ValueError naming ``spec`` unless it is ``wrt[:BUILDER[:LAYOUT]]``, ``warp[:BUILDER]`` or ``embree``
+    with known names."""
+    kind, _, rest = spec.partition(":")
+    builder, _, layout = rest.partition(":")
+    try:
+        if kind == "wrt":
+            Builder.from_str(builder or "sah")
+            check_layout(layout or "binary")
+        elif kind == "warp":
+            if layout or (builder or "sah") not in WARP_BUILDERS:
+                raise ValueError(f"wp.Mesh builders are {', '.join(WARP_BUILDERS)}, with no layout")
+        elif kind != "embree" or rest:
+            raise ValueError("accelerators are wrt:BUILDER[:LAYOUT], warp:BUILDER or embree")
+    except ValueError as e:
+        raise ValueError(f"accelerator {spec!r}: {e}") from None
 
 
 SCALING_KEYS = ("sizes", "accels", "rays", "n_rays")  # the fields of Grid.scaling
