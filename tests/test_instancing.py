@@ -324,18 +324,24 @@ def test_zero_scale_instance_is_skipped_with_a_warning_naming_it(tmp_path):
     assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/PI[0]", "/PI[2]"]
 
 
-def test_positions_move_by_velocities_between_samples_as_usd_computes(tmp_path):
-    """A PointInstancer with velocities and accelerations, and a mesh with velocities whose point count changes
-    between samples: between and beyond the samples, positions are the earlier sample moved by v dt + a dt^2 / 2
-    (dt in seconds), against ComputeInstanceTransformsAtTime and ComputePointsAtTime. They were interpolated
-    linearly (or, for the mesh, held at the earlier sample), ignoring the velocities."""
-    path = str(tmp_path / "velocities.usda")
+def two_instance_stage(path):
+    """A new stage at 24 time codes per second with a PointInstancer ``/PI`` of two instances of an octahedron."""
     stage = Usd.Stage.CreateNew(path)
     stage.SetTimeCodesPerSecond(24)
     pi = UsdGeom.PointInstancer.Define(stage, "/PI")
     octahedron(stage, "/PI/Proto")
     pi.CreatePrototypesRel().SetTargets(["/PI/Proto"])
     pi.CreateProtoIndicesAttr([0, 0])
+    return stage, pi
+
+
+def test_positions_move_by_velocities_between_samples_as_usd_computes(tmp_path):
+    """A PointInstancer with velocities and accelerations, and a mesh with velocities whose point count changes
+    between samples: between and beyond the samples, positions are the earlier sample moved by v dt + a dt^2 / 2
+    (dt in seconds), against ComputeInstanceTransformsAtTime and ComputePointsAtTime. They were interpolated
+    linearly (or, for the mesh, held at the earlier sample), ignoring the velocities."""
+    path = str(tmp_path / "velocities.usda")
+    stage, pi = two_instance_stage(path)
     for t, y in ((1.0, 0.0), (3.0, 5.0)):
         pi.CreatePositionsAttr().Set([Gf.Vec3f(0, y, 0), Gf.Vec3f(4, y, 0)], t)
         pi.CreateVelocitiesAttr().Set([Gf.Vec3f(24, 0, 0), Gf.Vec3f(0, 48, 0)], t)
@@ -366,12 +372,7 @@ def test_orientations_and_scales_move_as_usd_computes(tmp_path, rates):
     rate USD holds every attribute at the earlier sample (and turns orientations by the angular velocity); wrt
     interpolated orientations and scales, and ignored angular velocities, placing instances where USD does not."""
     path = str(tmp_path / "spin.usda")
-    stage = Usd.Stage.CreateNew(path)
-    stage.SetTimeCodesPerSecond(24)
-    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
-    octahedron(stage, "/PI/Proto")
-    pi.CreatePrototypesRel().SetTargets(["/PI/Proto"])
-    pi.CreateProtoIndicesAttr([0, 0])
+    stage, pi = two_instance_stage(path)
     turn = Gf.Quath(Gf.Rotation(Gf.Vec3d(0.3, 1, -0.2), 70).GetQuat())
     for t, k in ((1.0, 0.0), (10.0, 1.0)):
         pi.CreatePositionsAttr().Set([Gf.Vec3f(0, 9 * k, 0), Gf.Vec3f(4, 0, 2 * k)], t)
