@@ -160,6 +160,15 @@ def test_meters_per_unit_that_is_zero_negative_or_tiny_falls_back_to_centimetres
     assert scene.meters_per_unit == 0.01
 
 
+@pytest.mark.parametrize("axis", ["X", "y", "sideways"])
+def test_up_axis_other_than_y_or_z_falls_back_to_y_with_a_warning(tmp_path, axis):
+    """USD allows only Y and Z; an X stage was taken for Y-up without a word."""
+    path = write_usda(tmp_path, mesh_usda(), layer_meta=f'upAxis = "{axis}"')
+    with pytest.warns(UserWarning, match=f"scene.usda: upAxis = '{axis}' is not Y or Z; using Y"):
+        scene = load_usd(path)
+    assert scene.up_axis == "Y"
+
+
 def test_left_handed_flips_winding(tmp_path):
     body = mesh_usda("Right") + mesh_usda("Left", extra='uniform token orientation = "leftHanded"')
     scene = load(write_usda(tmp_path, body))

@@ -293,9 +293,19 @@ class _StageReader:
                       f"{MIN_METERS_PER_UNIT:g}; using {fallback:g} (centimetres, USD's default)", stacklevel=4)
         return fallback
 
+    def _up_axis(self) -> str:
+        """The stage's ``upAxis``; anything but ``Y`` or ``Z`` (USD allows no other) falls back to ``Y``, USD's
+        default, with a warning: an ``X`` stage was taken for Y-up without a word."""
+        value = str(UsdGeom.GetStageUpAxis(self.stage))
+        if value in ("Y", "Z"):
+            return value
+        warnings.warn(f"{os.path.basename(self.source)}: upAxis = {value!r} is not Y or Z; using Y (USD's default)",
+                      stacklevel=4)
+        return "Y"
+
     def read(self) -> Scene:
         scene = Scene(
-            up_axis=str(UsdGeom.GetStageUpAxis(self.stage)),
+            up_axis=self._up_axis(),
             meters_per_unit=self._meters_per_unit(),
             source=self.source,
         )
