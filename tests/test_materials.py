@@ -480,3 +480,16 @@ def test_materials_built_in_python_refuse_values_that_are_not_finite(kwargs, mes
     with pytest.raises(wrt.SceneError, match=message):
         wrt.Material(path="/M", **kwargs)
     np.testing.assert_array_equal(wrt.Material(diffuse_color=0.25).diffuse_color, [0.25, 0.25, 0.25])
+
+
+@pytest.mark.parametrize("material_ids, bad", [([0, 2], 2), ([-2, 0], -2)])
+def test_material_indices_outside_the_material_list_are_refused(material_ids, bad):
+    """A mesh built in Python whose ``material_ids`` name no material rendered those triangles with the default
+    material without a word."""
+    scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], [[0, 1, 2], [1, 3, 2]])
+    scene.materials = [wrt.Material(path="/A"), wrt.Material(path="/B")]
+    scene.meshes[0].material_ids = np.array(material_ids, np.int32)
+    with pytest.raises(wrt.SceneError, match=rf"^/triangles: material index {bad} \(triangle"):
+        wrt.render(scene, width=4, height=4)
+    scene.meshes[0].material_ids = np.array([1, -1], np.int32)  # -1 is the default material
+    assert wrt.render(scene, width=4, height=4).rgb.shape == (4, 4, 3)

@@ -433,13 +433,29 @@ class Scene:
         material, ``k + 1`` for ``materials[k]``."""
         key = ("triangle_materials",)
         if key not in self._cache:
-            parts = [
-                (m.material_ids + 1 if m.material_ids is not None else np.zeros(len(m.indices), np.int32))
-                for m in self._geometry_meshes()
-            ] + [np.array([s.material_id + 1], np.int32) for s in self._geometry_shapes()]
-            ids = np.concatenate(parts or [np.zeros(0, np.int32)]).astype(np.int32)
-            self._cache[key] = np.where((ids >= 0) & (ids <= len(self.materials)), ids, 0).astype(np.int32)
+            parts = []
+            for m in self._geometry_meshes():
+                ids = np.full(len(m.indices), -1, np.int32) if m.material_ids is None else m.material_ids
+                parts.append(self._checked_material_ids(ids, m.path) + 1)
+            for s in self._geometry_shapes():
+                parts.append(self._checked_material_ids(np.array([s.material_id], np.int32), s.path) + 1)
+            self._cache[key] = np.concatenate(parts or [np.zeros(0, np.int32)]).astype(np.int32)
         return self._cache[key]
+
+    def _checked_material_ids(self, ids: np.ndarray, path: str) -> np.ndarray:
+        """Raises :class:`SceneError` naming the mesh or shape at ``path`` when one of its material indices is
+        neither -1 (the default material) nor a row of :attr:`materials`: such triangles took the default
+        material without a word."""
+        from .errors import SceneError
+
+        bad = np.flatnonzero((ids < -1) | (ids >= len(self.materials)))
+        if len(bad):
+            raise SceneError(
+                f"material index {int(ids[bad[0]])} (triangle {int(bad[0])}), but the scene has "
+                f"{len(self.materials)} material(s); use -1 for the default material",
+                prim=path,
+            )
+        return ids
 
     def triangle_double_sided(self) -> np.ndarray:
         """``(T,)`` bool: each triangle's mesh is double-sided (geometry order)."""
