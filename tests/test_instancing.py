@@ -669,7 +669,7 @@ class "Lib"
     {
         def Mesh "Own" (prepend apiSchemas = ["MaterialBindingAPI"])
         {
-            rel material:binding = </Looks/Red>
+            OWN_BINDING
             int[] faceVertexCounts = [3, 3]
             int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]
             point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
@@ -733,15 +733,19 @@ def Xform "Weak" (instanceable = true
 """
 
 
-@pytest.mark.parametrize("deep, bare", [("</Looks/Green>", None), (None, "</Looks/Red>")])
-def test_material_bindings_on_or_above_native_instances_bind_as_on_instance_proxies(tmp_path, deep, bare):
+@pytest.mark.parametrize(
+    "deep, bare, own",
+    [("</Looks/Green>", None, "</Looks/Red>"), (None, "</Looks/Red>", "</Looks/Red>"), (None, None, None)],
+)
+def test_material_bindings_on_or_above_native_instances_bind_as_on_instance_proxies(tmp_path, deep, bare, own):
     """As ComputeBoundMaterial on the instance proxies says: a strongerThanDescendants binding on an instance (or an
     ancestor of it) binds every mesh and subset inside, nested instances included (the prototype's own bindings
     were kept); a plain one binds the meshes that bind nothing themselves, in nested instances and instancers too
-    (these were left unbound when every mesh of the outer prototype itself had a binding)."""
+    (these were left unbound when every mesh of the outer prototype itself had a binding), and the faces outside
+    the materialBind subsets of a mesh that binds nothing itself (those got the default material)."""
     path = tmp_path / "bindings.usda"
     text = BINDINGS
-    for name, target in (("DEEP_BINDING", deep), ("BARE_BINDING", bare)):
+    for name, target in (("DEEP_BINDING", deep), ("BARE_BINDING", bare), ("OWN_BINDING", own)):
         text = text.replace(name, f"rel material:binding = {target}" if target else "")
     path.write_text(text)
     scene = load(path)

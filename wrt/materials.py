@@ -351,15 +351,21 @@ class MaterialReader:
 
     # Bindings
 
-    def face_materials(self, prim, n_faces: int) -> np.ndarray | None:
-        """``(F,)`` int32 material index of each face of mesh ``prim`` (-1: default material), or None when the
-        mesh and its subsets bind no material at all."""
+    def face_materials(self, prim, n_faces: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The materials of the faces of mesh ``prim``, or None when the mesh and its subsets bind no material at all.
+
+        Returns:
+            ``(faces, unbound)``: ``(F,)`` int32 material index of each face (-1: default material) and ``(F,)`` bool,
+            the faces that neither the mesh nor a ``materialBind`` subset binds (a material bound above a native
+            instance applies to them, as ``ComputeBoundMaterial`` on the instance proxy gives).
+        """
         from pxr import UsdGeom, UsdShade
 
         purpose = UsdShade.Tokens.full
         material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(purpose)
         base = self.material_index(material) if material else -1
         faces = np.full(n_faces, base, np.int32)
+        unbound = np.full(n_faces, not material, bool)
         bound = bool(material)
         for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
             sub_material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial(purpose)
@@ -369,8 +375,9 @@ class MaterialReader:
             indices = np.asarray(indices if indices is not None else [], np.int64).reshape(-1)
             indices = indices[(indices >= 0) & (indices < n_faces)]
             faces[indices] = self.material_index(sub_material)
+            unbound[indices] = False
             bound = True
-        return faces if bound else None
+        return (faces, unbound) if bound else None
 
     def uv_set(self, face_materials: np.ndarray | None, prim=None) -> str | None:
         """The texture-coordinate primvar to read for mesh ``prim`` whose faces use ``face_materials``; None when none

@@ -32,10 +32,11 @@ exist, or per-instance arrays shorter than ``protoIndices`` raise :class:`wrt.er
 instancer; instances whose transform is singular (a zero scale) are skipped with a warning naming each one
 (``/instancer[index]``). Visibility and purpose inside a PointInstancer's prototype are taken from the prototype
 root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
-bound on or above a native instance applies to the prototype's meshes that bind none themselves, and to all of them
-(subsets and nested instances included) when it is bound ``strongerThanDescendants``. Cameras inside native
-instances are read at their instance-proxy paths (``/Instance/Cam``, placed by the instance); cameras inside
-PointInstancer prototypes and lights inside any prototype are skipped with a warning.
+bound on or above a native instance applies to the prototype's meshes that bind none themselves (on the faces that
+their ``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it
+is bound ``strongerThanDescendants``. Cameras inside native instances are read at their instance-proxy paths
+(``/Instance/Cam``, placed by the instance); cameras inside PointInstancer prototypes and lights inside any
+prototype are skipped with a warning.
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
@@ -625,13 +626,19 @@ class _StageReader:
 
     def _face_materials(self, prim: Usd.Prim, n_faces: int, ctx: _Context) -> np.ndarray | None:
         """``(F,)`` int32 material of each face of ``prim`` (-1: default), or None for none at all: its own bindings
-        (:meth:`MaterialReader.face_materials`), else the material bound above the native instance being read;
-        that one wins over its own when it is bound strongerThanDescendants."""
+        (:meth:`MaterialReader.face_materials`), and on the faces they leave unbound (all of them, or those outside
+        its ``materialBind`` subsets) the material bound above the native instance being read; that one wins over
+        its own when it is bound strongerThanDescendants."""
         own = None if ctx.outer_forced else self.materials.face_materials(prim, n_faces)
-        if own is not None:
-            return own
-        ctx.content.uses_outer = True
-        return None if ctx.outer_material is None else np.full(n_faces, ctx.outer_material, np.int32)
+        if own is None:
+            ctx.content.uses_outer = True
+            return None if ctx.outer_material is None else np.full(n_faces, ctx.outer_material, np.int32)
+        faces, unbound = own
+        if unbound.any():
+            ctx.content.uses_outer = True
+            if ctx.outer_material is not None:
+                faces = np.where(unbound, np.int32(ctx.outer_material), faces)
+        return faces
 
     def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
         """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
