@@ -152,6 +152,24 @@ def test_geom_subset_bindings_override_the_mesh(tmp_path):
     assert names == ["/Looks/Red"] * 4 + ["/Looks/Blue"] * 2  # two triangles per quad face
 
 
+def test_material_subsets_of_points_are_not_read_as_faces(tmp_path):
+    """A materialBind subset whose elementType is point lists point indices: it binds no face (they coloured the
+    faces whose numbers matched the point numbers), and the load says so."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad", faces=3)
+    red, _ = preview_material(stage, "/Looks/Red", diffuseColor=Gf.Vec3f(1, 0, 0))
+    blue, _ = preview_material(stage, "/Looks/Blue", diffuseColor=Gf.Vec3f(0, 0, 1))
+    bind(quad, red)
+    api = UsdShade.MaterialBindingAPI(quad.GetPrim())
+    points = api.CreateMaterialBindSubset("corners", Vt.IntArray([0, 1]), UsdGeom.Tokens.point)
+    bind(points, blue)
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"elementType is not face.*/Quad/corners"):
+        scene = wrt.load_usd(path)
+    names = {scene.materials[k].path for k in scene.meshes[0].material_ids}
+    assert names == {"/Looks/Red"}
+
+
 def test_full_purpose_and_collection_bindings(tmp_path):
     stage, path = new_stage(tmp_path)
     group = UsdGeom.Xform.Define(stage, "/Group")

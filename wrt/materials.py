@@ -5,7 +5,7 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
 - Each mesh's material is ``UsdShade.MaterialBindingAPI.ComputeBoundMaterial(purpose="full")``, which applies
   USD's rules: direct and ``collection`` bindings, ``bindMaterialAs`` strength, inheritance down namespace, and
   ``material:binding:full`` over all-purpose bindings. ``GeomSubset``\\ s of family ``materialBind`` override the
-  mesh's material on their faces.
+  mesh's material on their faces (subsets of points or edges are ignored with a warning).
 - The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``. Anything else (MaterialX,
   MDL, no surface) falls back to the default material (displayColor, else grey) with one warning per material,
   never an error.
@@ -370,6 +370,11 @@ class MaterialReader:
         for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
             sub_material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial(purpose)
             if not sub_material:
+                continue
+            element_type = subset.GetElementTypeAttr().Get()
+            if element_type != UsdGeom.Tokens.face:  # its indices are points or edges, not faces
+                self.skip("materialBind subsets whose elementType is not face were ignored", subset.GetPrim(),
+                          f"elementType = {element_type!r}")
                 continue
             indices = value_at(UsdGeom.Subset(subset.GetPrim()).GetIndicesAttr(), self.time)
             indices = np.asarray(indices if indices is not None else [], np.int64).reshape(-1)
