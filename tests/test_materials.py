@@ -455,9 +455,11 @@ def test_emissive_material_lights_the_scene(tmp_path):
     np.testing.assert_allclose(renderer.render().rgb, np.broadcast_to([2, 1, 0.5], (4, 4, 3)), rtol=1e-6)
 
 
-def test_textures_reading_two_uv_sets_on_one_mesh_are_reported(tmp_path):
+@pytest.mark.parametrize("second", ["st1", "st"])
+def test_textures_reading_two_uv_sets_on_one_mesh_are_reported(tmp_path, second):
     """diffuseColor through primvar st and roughness through st1: a mesh carries one set of texture coordinates, so
-    the roughness would silently be looked up with st; the load says so."""
+    the roughness would silently be looked up with st; the load says so. Two textures reading the same primvar are
+    not reported (they were, as 'several texture-coordinate primvars (st, st)')."""
     png = write_png(tmp_path / "t.png", CHECKER)
     stage, path = new_stage(tmp_path)
     quad = add_quad(stage, "/Quad")
@@ -465,12 +467,12 @@ def test_textures_reading_two_uv_sets_on_one_mesh_are_reported(tmp_path):
         [(0, 0), (1, 0), (0, 1), (1, 1)])
     material, shader = preview_material(stage, "/Mat")
     for input_name, uv, out_type in (("diffuseColor", "st", Sdf.ValueTypeNames.Color3f),
-                                     ("roughness", "st1", Sdf.ValueTypeNames.Float)):
-        reader = UsdShade.Shader.Define(stage, f"/Mat/Read_{uv}")
+                                     ("roughness", second, Sdf.ValueTypeNames.Float)):
+        reader = UsdShade.Shader.Define(stage, f"/Mat/Read_{input_name}")
         reader.CreateIdAttr("UsdPrimvarReader_float2")
         reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set(uv)
         reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
-        tex = UsdShade.Shader.Define(stage, f"/Mat/Tex_{uv}")
+        tex = UsdShade.Shader.Define(stage, f"/Mat/Tex_{input_name}")
         tex.CreateIdAttr("UsdUVTexture")
         tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
         tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
@@ -479,8 +481,14 @@ def test_textures_reading_two_uv_sets_on_one_mesh_are_reported(tmp_path):
         shader.CreateInput(input_name, out_type).ConnectToSource(tex.ConnectableAPI(), channel)
     bind(quad, material)
     stage.Save()
-    with pytest.warns(UserWarning, match=r"several texture-coordinate primvars \(st, st1\).*/Quad"):
-        wrt.load_usd(path)
+    if second == "st1":
+        with pytest.warns(UserWarning, match=r"several texture-coordinate primvars \(st, st1\).*/Quad"):
+            wrt.load_usd(path)
+    else:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            scene = wrt.load_usd(path)
+        assert scene.meshes[0].uvs is not None
 
 
 @pytest.mark.parametrize(

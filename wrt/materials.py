@@ -392,7 +392,9 @@ class MaterialReader:
         if face_materials is not None:
             for k in np.unique(face_materials):
                 if k >= 0:
-                    names += [t.uv_set for t in self.materials[k].textures.values() if t.uv_set not in names]
+                    for texture in self.materials[k].textures.values():
+                        if texture.uv_set not in names:
+                            names.append(texture.uv_set)
         if len(names) > 1 and prim is not None:
             self.skip(f"textures read several texture-coordinate primvars ({', '.join(names)}), but only one per "
                       f"mesh is supported; {names[0]!r} is used for all", prim)
