@@ -6,6 +6,7 @@ device memory each. Bad instancer data raises or is skipped with the prim path n
 
 from __future__ import annotations
 
+import importlib
 import warnings
 
 import numpy as np
@@ -958,3 +959,110 @@ def test_instanceable_meshes_gprims_and_instancers_are_drawn(tmp_path, tessellat
     origins = np.array([[3.2, 0.2, 5.0], [6.0, 0.0, 5.0], [9.2, 0.2, 5.0], [12.2, 4.2, 5.0], [9.2, 2.2, 5.0]])
     directions = np.tile([0.0, 0.0, -1.0], (5, 1))
     np.testing.assert_allclose(wrt.trace(instanced, origins, directions).t, [5.0, 4.5, 3.0, 5.0, 7.0], rtol=1e-5)
+
+
+INHERITED_COLORS = """#usda 1.0
+class "Lib"
+{
+    def Xform "Leaf"
+    {
+        def Mesh "Bare"
+        {
+            int[] faceVertexCounts = [3]
+            int[] faceVertexIndices = [0, 1, 2]
+            point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+        }
+        def Sphere "Ball"
+        {
+            double radius = 0.2
+            double3 xformOp:translate = (0, 0, 2)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+        def Mesh "Own"
+        {
+            color3f[] primvars:displayColor = [(0, 0, 1)]
+            int[] faceVertexCounts = [3]
+            int[] faceVertexIndices = [0, 1, 2]
+            point3f[] points = [(0, 0, 1), (1, 0, 1), (0, 1, 1)]
+        }
+    }
+    def Xform "Pair"
+    {
+        def Xform "Plain" (instanceable = true
+            references = </Lib/Leaf>)
+        {
+        }
+        def Xform "Yellow" (instanceable = true
+            references = </Lib/Leaf>)
+        {
+            color3f[] primvars:displayColor = [(1, 1, 0)]
+            double3 xformOp:translate = (0, 5, 0)
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+    }
+}
+def Xform "Red" (instanceable = true
+    references = </Lib/Pair>)
+{
+    color3f[] primvars:displayColor = [(1, 0, 0)]
+    double3 xformOp:translate = (10, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "Group"
+{
+    color3f[] primvars:displayColor = [(0, 1, 0)]
+    def Xform "Green" (instanceable = true
+        references = </Lib/Pair>)
+    {
+        double3 xformOp:translate = (20, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+def Xform "Grey" (instanceable = true
+    references = </Lib/Pair>)
+{
+    double3 xformOp:translate = (30, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def test_display_color_is_inherited_through_native_instances(tmp_path):
+    """A constant displayColor on a native instance (or above it) colours the prototype's meshes and gprims that
+    have none, as FindPrimvarWithInheritance on the instance proxies gives, nested instances included; a mesh's own
+    colour wins. They were all grey 0.5: a prototype was read once, blind to the colours of its instances."""
+    path = tmp_path / "colors.usda"
+    path.write_text(INHERITED_COLORS)
+    scene = load(path, tessellate_gprims=8)
+    stage = Usd.Stage.Open(str(path))
+    expected = {}
+    for prim in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()):
+        if prim.IsA(UsdGeom.Gprim):
+            primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(UsdGeom.Tokens.primvarsDisplayColor)
+            color = primvar.ComputeFlattened()[0] if primvar and primvar.HasValue() else (0.5, 0.5, 0.5)
+            box = UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.default_]).ComputeWorldBound(prim)
+            expected[tuple(np.round(box.ComputeAlignedRange().GetMidpoint(), 3))] = tuple(np.round(color, 4))
+    found = {}  # the colour of each prototype mesh in each instance, keyed by the centre of its world box
+    for i in range(len(scene.instances)):
+        to_world = scene.instances.to_world[i]
+        for mesh in scene.prototypes[scene.instances.prototype[i]].meshes:
+            world = mesh.points.astype(np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
+            color = mesh.colors[0, 0] if mesh.colors is not None else (0.5, 0.5, 0.5)
+            centre = (world.min(axis=0) + world.max(axis=0)) / 2
+            found[tuple(np.round(centre, 3))] = tuple(np.round(np.asarray(color, np.float64), 4))
+    assert len(expected) == 3 * 2 * 3  # three instances of Pair, two of Leaf in each, three gprims in Leaf
+    assert found == expected
+
+
+def test_inherited_display_colors_are_capped_per_prototype(tmp_path, monkeypatch):
+    """Each inherited colour is a copy of the prototype: past the cap an instance keeps the prototype's own colours,
+    with a warning naming it, so instancing keeps its memory bound."""
+    monkeypatch.setattr(importlib.import_module("wrt.usd"), "MAX_INHERITED_COLORS", 2)
+    path = tmp_path / "colors.usda"
+    path.write_text(INHERITED_COLORS)
+    with pytest.warns(UserWarning, match=r"more than 2 displayColors per prototype"):
+        scene = wrt.load_usd(path)
+    # Leaf as authored and in two of its three inherited colours (yellow, red; green is one too many).
+    colors = sorted(tuple(np.round(p.meshes[0].colors[0, 0], 3)) if p.meshes[0].colors is not None else ()
+                    for p in scene.prototypes)
+    assert colors == [(), (1.0, 0.0, 0.0), (1.0, 1.0, 0.0)]

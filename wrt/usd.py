@@ -34,7 +34,9 @@ instancer; instances whose transform is singular (a zero scale) are skipped with
 root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
 bound on or above a native instance applies to the prototype's meshes that bind none themselves (on the faces that
 their ``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it
-is bound ``strongerThanDescendants``. Cameras inside native instances are read at their instance-proxy paths
+is bound ``strongerThanDescendants``. A constant ``displayColor`` on or above a native instance colours the
+prototype's meshes and gprims that have none (a copy of the prototype per colour, up to ``MAX_INHERITED_COLORS``).
+Cameras inside native instances are read at their instance-proxy paths
 (``/Instance/Cam``, placed by the instance); cameras inside PointInstancer prototypes and lights inside any
 prototype are skipped with a warning.
 
@@ -68,6 +70,7 @@ from .usd_values import held_value, moved_positions, read_time, spun_rotations, 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
 _FLIP = np.array([0, 2, 1])  # corner permutation that reverses a triangle's winding, keeping corner 0
+MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
 
 
 def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
@@ -242,6 +245,8 @@ class _Content:
         self.shapes: list[Shape] = []  # analytic gprims, in this content's space
         self.instances: list = []  # (content key, (K, 4, 4) column-vector transforms to this space, source, indices)
         self.uses_outer = False  # a mesh binds no material itself: a material bound above an instance applies
+        self.uses_outer_color = False  # a mesh or gprim finds no displayColor: one inherited by an instance applies
+        self.colors: dict = {}  # outer displayColor -> content key: this prototype read again with that colour
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.prototype = -1  # index into Scene.prototypes once its meshes are placed there
 
@@ -257,12 +262,14 @@ class _Context:
         world=False,
         outer_purpose=None,
         outer_forced=False,
+        outer_color=None,
     ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
         self.stop = space_root  # visibility and purpose are inherited from below this prim (None: everything)
         self.outer_material = outer_material  # material index bound above a native instance, or None
         self.outer_forced = outer_forced  # that binding is strongerThanDescendants: it wins over bindings inside
+        self.outer_color = outer_color  # (r, g, b) constant displayColor inherited by a native instance, or None
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
         self.world = world  # the stage itself (cameras and lights are read only here)
 
@@ -434,7 +441,7 @@ class _StageReader:
         return m
 
     def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material, outer_purpose=None,
-                 outer_forced=False) -> _Content:
+                 outer_forced=False, outer_color=None) -> _Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:
@@ -444,7 +451,7 @@ class _StageReader:
             # Prototypes are often kept under an ``over`` so they are not drawn in place; instanced, they are drawn
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
             inside = _Context(content, space_root, outer_material, outer_purpose=outer_purpose,
-                              outer_forced=outer_forced)
+                              outer_forced=outer_forced, outer_color=outer_color)
             self._walk(root, inside, _PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content
@@ -473,19 +480,55 @@ class _StageReader:
                 forced = strength == UsdShade.Tokens.strongerThanDescendants
         path = str(prototype.GetPath())
         if forced:
-            key = ("native", path, outer, purpose, True)
-            self._content(key, prototype, None, outer, purpose, outer_forced=True)
+            key = ("native", path, outer, purpose, True, None)
+            content = self._content(key, prototype, None, outer, purpose, outer_forced=True)
         else:
-            key = ("native", path, None, purpose, False)
+            key = ("native", path, None, purpose, False, None)
             content = self._content(key, prototype, None, None, purpose)
             if content.uses_outer and not material:
                 ctx.content.uses_outer = True  # this instance's meshes take the material bound above its container
             if content.uses_outer and outer is not None:
-                key = ("native", path, outer, purpose, False)
-                self._content(key, prototype, None, outer, purpose)
+                key = ("native", path, outer, purpose, False, None)
+                content = self._content(key, prototype, None, outer, purpose)
+        # A constant displayColor on the instance or above it colours the prototype's meshes that have none, as
+        # primvars are inherited through instance proxies (instances of one prototype in different colours).
+        own_color = self._inherited_color(prim)
+        if content.uses_outer_color and own_color is None:
+            ctx.content.uses_outer_color = True  # the colour may come from above this instance's container
+        color = own_color if own_color is not None else ctx.outer_color
+        if content.uses_outer_color and color is not None:
+            key = self._colored(key, content, color, prim)
         m = self._to_space(prim, ctx).T  # column vectors
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32)))
         self._instance_cameras(prim, self.contents[key], ctx)
+
+    def _inherited_color(self, prim: Usd.Prim) -> tuple | None:
+        """The constant ``displayColor`` that native instance ``prim`` hands down to its prototype's meshes: its own
+        or its nearest ancestor's (up to the root of the prototype ``prim`` is in), as a tuple of 3 floats, or None."""
+        for primvar in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars():
+            if primvar.GetPrimvarName() == "displayColor":
+                values = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+                values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
+                if len(values) >= 3 and np.all(np.isfinite(values[:3])):
+                    return tuple(float(v) for v in values[:3])
+                return None
+        return None
+
+    def _colored(self, key: tuple, content: _Content, color: tuple, prim: Usd.Prim) -> tuple:
+        """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``; each
+        colour is a copy of the prototype's geometry, so past :data:`MAX_INHERITED_COLORS` colours per prototype the
+        instance keeps the prototype's own (with a warning)."""
+        if color not in content.colors:
+            if len(content.colors) >= MAX_INHERITED_COLORS:
+                self._skip(f"instances inheriting more than {MAX_INHERITED_COLORS} displayColors per prototype keep "
+                           "its own colours (each colour is a copy of the prototype)", prim)
+                return key
+            _, path, outer, purpose, forced, _ = key
+            colored = ("native", path, outer, purpose, forced, color)
+            self._content(colored, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_forced=forced,
+                          outer_color=color)
+            content.colors[color] = colored
+        return content.colors[color]
 
     def _instance_cameras(self, prim: Usd.Prim, content: _Content, ctx: _Context):
         """The cameras inside native instance ``prim``: read at their instance-proxy paths (``/Instance/Cam``, which
@@ -571,10 +614,12 @@ class _StageReader:
             if len(rows) == 0:
                 continue
             # The prototype's space is its parent's: the root's own transform is the most local part.
-            key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced)
+            key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced, ctx.outer_color)
             parent = target.GetParent()
-            if self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced).uses_outer:
-                ctx.content.uses_outer = True  # as for a nested native instance
+            content = self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced,
+                                    outer_color=ctx.outer_color)
+            ctx.content.uses_outer |= content.uses_outer  # as for a nested native instance
+            ctx.content.uses_outer_color |= content.uses_outer_color
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32)))
 
     def _place_instances(self, world: _Content, scene: Scene):
@@ -681,6 +726,10 @@ class _StageReader:
         if local.colors is not None:
             values, corner_index = local.colors
             colors = values[corner_index[:, order]]
+        elif not _has_display_color(prim):
+            ctx.content.uses_outer_color = True
+            if ctx.outer_color is not None:
+                colors = np.tile(np.asarray(ctx.outer_color, np.float32), (len(indices), 3, 1))
 
         uvs = None
         if local.uvs is not None:
@@ -772,6 +821,10 @@ class _StageReader:
 
         color = np.full(3, 0.5, np.float32)
         primvar = _display_color(prim)
+        if not _has_display_color(prim):
+            ctx.content.uses_outer_color = True
+            if ctx.outer_color is not None:
+                color = np.asarray(ctx.outer_color, np.float32)
         if primvar and primvar.HasValue():
             values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64).reshape(-1, 3)
             if len(values) and np.all(np.isfinite(values)):
@@ -1083,6 +1136,12 @@ def _display_color(prim: Usd.Prim) -> UsdGeom.Primvar:
     """The ``displayColor`` primvar of ``prim``: its own when authored, else a constant one of its nearest ancestor
     that has one (USD's primvar inheritance, which usdview follows: a colour set on a group colours its meshes)."""
     return UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(UsdGeom.Tokens.primvarsDisplayColor)
+
+
+def _has_display_color(prim: Usd.Prim) -> bool:
+    """``prim`` has a ``displayColor`` of its own or inherits one inside its space (see :func:`_display_color`)."""
+    primvar = _display_color(prim)
+    return bool(primvar and primvar.HasValue())
 
 
 def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):
