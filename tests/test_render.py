@@ -1,5 +1,6 @@
 """render(): image layout, AOVs, shading, determinism and agreement between accelerators."""
 
+import os
 import warnings
 
 import numpy as np
@@ -199,6 +200,23 @@ def test_save_onto_a_directory_names_the_directory(tmp_path):
     with pytest.raises(IsADirectoryError, match=r"d\.png: it is a directory"):
         wrt.Image(rgb=np.zeros((2, 2, 3), np.float32)).save(tmp_path / "d.png")
     assert [p.name for p in tmp_path.iterdir()] == ["d.png"]
+
+
+@pytest.mark.parametrize("suffix", [".png", ".exr", ".npy"])
+def test_save_takes_a_file_name_near_the_length_limit(tmp_path, suffix):
+    """The temporary file beside the target was named ``.NAME.<pid>.partial.SUFFIX``: a name of 240 bytes, which
+    the file system takes, became one over its 255-byte limit, and the save failed with 'File name too long'
+    naming that temporary file."""
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX")
+    name = "a" * (limit - len(suffix)) + suffix  # the longest name the file system takes
+    (tmp_path / name).touch()  # it does
+    (tmp_path / name).unlink()
+    rgb = np.arange(2 * 3 * 3, dtype=np.float32).reshape(2, 3, 3) / 20.0
+    path = wrt.Image(rgb=rgb).save(tmp_path / name)
+    assert path == tmp_path / name
+    assert [p.name for p in tmp_path.iterdir()] == [name]  # and no temporary file is left beside it
+    if suffix == ".npy":
+        np.testing.assert_array_equal(np.load(path), rgb)
 
 
 @pytest.mark.parametrize("exposure", [float("nan"), float("inf"), -np.inf, "1", None, True, 1024, -1e6, 151])

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import itertools
 import math
 import os
 from pathlib import Path
@@ -118,11 +119,18 @@ def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
     return np.round(np.repeat(grey[..., None], 3, axis=-1) * 255).astype(np.uint8)
 
 
+_PARTIAL_COUNTER = itertools.count()  # numbers the temporary files of write_atomically
+
+
 def write_atomically(path: Path, write) -> None:
     """Calls ``write(file)`` on a temporary file beside ``path``, then renames it to ``path``: a run killed while
     writing leaves no truncated image where ``--resume`` would take it for a finished one."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(f".{path.name}.{os.getpid()}.partial{path.suffix}")
+    # The temporary name keeps at most 100 bytes of the final one: a name near the file system's limit (255 bytes)
+    # is valid for the image but was too long with the prefix and suffix added. Process id and a counter keep
+    # temporary names apart.
+    stem = os.fsencode(path.name)[:100].decode(errors="ignore")
+    partial = path.with_name(f".{stem}.{os.getpid()}.{next(_PARTIAL_COUNTER)}.partial{path.suffix}")
     try:
         write(partial)
         os.replace(partial, path)
