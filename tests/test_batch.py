@@ -47,6 +47,28 @@ def test_renderer_with_cameras_reuses_the_bvh_for_new_poses():
     assert not np.array_equal(first[0], second[0])
 
 
+def test_default_headlight_follows_each_camera_of_a_batch():
+    """On a stage without lights every camera gets a headlight along its own viewing direction (README); in a batch
+    (and after set_cameras) the headlight of every view pointed along the first camera, so camera k of the batch
+    was not the image a render of camera k alone gives."""
+    scene = wrt.Scene.from_triangles([[-20, -20, 0], [20, -20, 0], [20, 20, 0], [-20, 20, 0]], [[0, 1, 2], [0, 2, 3]])
+    eyes = [(0.0, 0.0, 5.0), (4.0, 0.0, 3.0), (0.0, -3.0, 4.0), (1.0, 2.0, 2.0)]
+    cams = [wrt.Camera.look_at(eye, (0, 0, 0), fov_y_deg=30.0) for eye in eyes]
+    batch = wrt.render_batch(scene, cams[:3], 12, 10, device="cpu")
+    rgb, aovs = batch.numpy()
+    for k, eye in enumerate(eyes[:3]):
+        one = wrt.render(scene, camera=cams[k], width=12, height=10, device="cpu")
+        np.testing.assert_array_equal(rgb[k], one.rgb, err_msg=f"camera {k}")
+        # Grey 0.5 Lambert plane: the headlight's E = 0.8 pi at incidence cos gives 0.5 * 0.8 cos, the dome 0.5 * 0.2.
+        cos = eye[2] / np.linalg.norm(eye)
+        hit = aovs["prim"][k] >= 0
+        assert hit.all()  # the quad fills the view
+        np.testing.assert_allclose(rgb[k][hit], 0.5 * 0.8 * cos + 0.1, rtol=1e-5, err_msg=f"camera {k}")
+    renderer = wrt.Renderer(scene, cameras=cams[:1], width=12, height=10, device="cpu")
+    renderer.set_cameras(cams[3:])
+    np.testing.assert_allclose(renderer.render().rgb.numpy()[0], 0.5 * 0.8 * 2.0 / 3.0 + 0.1, rtol=1e-5)
+
+
 def test_batch_bad_arguments():
     scene = sensor_scene()
     with pytest.raises(ValueError, match="either camera or"):

@@ -507,6 +507,8 @@ class DeviceLights:
     dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of luminance * sin(theta)
     dome_col_cdf: wp.array2d[float]  # (H, W + 1) CDF over columns in each row
     dome_mean: wp.vec3  # radiance averaged over the sphere
+    headlight: int  # index of the default headlight, -1 without one: it travels along each view's direction
+    headlight_dirs: wp.array[wp.vec3]  # (V,) unit direction of travel of the headlight in view (camera) V
 
 
 @wp.struct
@@ -685,7 +687,20 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.dome_row_cdf = wp.array(row_cdf, dtype=float, device=device)
     d.dome_col_cdf = wp.array(col_cdf, dtype=float, device=device)
     d.dome_mean = wp.vec3(*dome_mean.tolist())
+    d.headlight = -1  # set by the renderer, which knows the cameras (set_headlight_directions)
+    d.headlight_dirs = wp.zeros(1, dtype=wp.vec3, device=device)
     return d
+
+
+def set_headlight_directions(d: DeviceLights, index: int, forwards, device) -> None:
+    """Makes light ``index`` of ``d`` (the delta :class:`DistantLight` of :func:`default_lights`; -1: none) a
+    headlight travelling along ``forwards[k]`` (``(V, 3)``, any length) in view ``k``, so that view ``k`` of a batch
+    is lit as a render of camera ``k`` alone is."""
+    d.headlight = index
+    if index >= 0:
+        f = np.asarray(forwards, np.float64).reshape(-1, 3)
+        d.headlight_dirs = wp.array((f / np.linalg.norm(f, axis=1, keepdims=True)).astype(np.float32),
+                                    dtype=wp.vec3, device=device)
 
 
 def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, power):
@@ -1121,3 +1136,26 @@ def sample_light(
         out.pdf = d2 / (cos_l * area)
     out.value = L / out.pdf
     return out
+
+
+@wp.func
+def sample_light_in_view(
+    lights: DeviceLights,
+    scene: DeviceScene,
+    mats: DeviceMaterials,
+    uvs: wp.array2d[wp.vec2],
+    tri_materials: wp.array[wp.int32],
+    tri_double_sided: wp.array[wp.int32],
+    k: int,
+    view: int,
+    p: wp.vec3,
+    n: wp.vec3,
+    u1: float,
+    u2: float,
+):
+    """:func:`sample_light` for a path of camera ``view``: the default headlight (a delta distant light) arrives
+    along that camera's viewing direction."""
+    ls = sample_light(lights, scene, mats, uvs, tri_materials, tri_double_sided, k, p, n, u1, u2)
+    if k == lights.headlight:
+        ls.wi = -lights.headlight_dirs[view]
+    return ls

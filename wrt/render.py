@@ -24,7 +24,7 @@ from .integrators import INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
 from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_path_kernel
 from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
-from .lights import LIGHT_DOME, build_lights, default_lights
+from .lights import LIGHT_DOME, build_lights, default_lights, set_headlight_directions
 from .materials import emission_estimates, upload_materials
 from .scene import MIN_METERS_PER_UNIT, Scene
 from .shade import (
@@ -125,6 +125,7 @@ class _Wavefront:
         "blocked": wp.int32,
         "nee": wp.vec3,
         "active": wp.int32,
+        "views": wp.int32,  # the camera of each path (for the default headlight)
     }
 
     def __init__(self, n: int, device, nothing_to_cull: bool):
@@ -209,7 +210,8 @@ class Renderer:
             from :data:`DEFAULT_MAX_DEPTH`.
         cameras: instead of ``camera``, a list of cameras (each as ``camera`` takes them) rendered together in one
             launch per pass; :meth:`render` then returns a :class:`BatchImage`. Without lights in the stage, the
-            default headlight follows the first camera.
+            default headlight of each camera travels along its viewing direction, as in a render of that camera
+            alone.
         ao_radius: occlusion distance of ``ao`` in scene units; default a tenth of the scene's bounding-box
             diagonal.
     """
@@ -295,9 +297,13 @@ class Renderer:
                     "integrator='path', or load with tessellate_gprims=True for gprims",
                     stacklevel=3,
                 )
-        # A stage with no light source at all gets the documented default lights.
-        self.lights = list(scene.lights) if (scene.lights or emissive_used) else default_lights(np.array(cam.forward))
+        # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels
+        # along the viewing direction of each camera of a batch.
+        default = not (scene.lights or emissive_used)
+        self.lights = default_lights(np.array(cam.forward)) if default else list(scene.lights)
         self.device_lights = build_lights(self.lights, scene, emission, dev)
+        self._headlight = 0 if default else -1
+        self._point_headlight()
         emitters = np.full(max(len(tri_materials), 1), -1, np.int32)
         kinds = self.device_lights.kinds.numpy()
         prims = self.device_lights.prims.numpy()
@@ -318,7 +324,7 @@ class Renderer:
 
     def set_cameras(self, cameras) -> None:
         """Renders from ``cameras`` (a list, any length) from now on, e.g. new poses each simulation step; the BVH,
-        materials and lights stay (a default headlight keeps its direction)."""
+        materials and lights stay (a default headlight turns with each camera)."""
         check_camera_list(cameras)
         cameras = [resolve_camera(self.scene, c) for c in cameras]
         n = len(cameras) * self.width * self.height
@@ -332,6 +338,13 @@ class Renderer:
         structs = [c.to_struct(self.width, self.height) for c in self.cameras]
         self._cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
         self._lenses = wp.array([self._lens(c) for c in self.cameras], dtype=wp.vec2, device=self.device)
+        self._forwards = np.array([np.array(s.forward) for s in structs], np.float64)  # (V, 3) viewing directions
+        if hasattr(self, "device_lights"):  # set_cameras; the first call comes before the lights are built
+            self._point_headlight()
+
+    def _point_headlight(self) -> None:
+        """Points the default headlight (if the scene has one) along every camera's viewing direction."""
+        set_headlight_directions(self.device_lights, self._headlight, self._forwards, self.device)
 
     def _lens(self, cam: Camera) -> tuple[float, float]:
         """Thin-lens radius and focus distance (scene units); radius 0 for a pinhole.
@@ -442,7 +455,7 @@ class Renderer:
             start_paths_kernel,
             w.n,
             inputs=[self._cams, self._lenses, self.width, self.height, first_sample, seed],
-            outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal],
+            outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.views],
         )
         if self.integrator == "path":
             self._trace_paths(w, aovs)
@@ -495,7 +508,7 @@ class Renderer:
             launch_per_path(
                 shade_path_kernel,
                 w.n,
-                [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim, h.instance],
+                [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim, h.instance, w.views],
                 [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal]
                 + [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
                 self.device,
@@ -521,7 +534,8 @@ class Renderer:
                 launch_per_path(
                     whitted_light_kernel,
                     w.n,
-                    [ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.active],
+                    [ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.active,
+                     w.views],
                     [w.rng, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
                     self.device,
                 )

@@ -233,6 +233,7 @@ def start_paths_kernel(
     alive: wp.array[wp.int32],
     pdf_prev: wp.array[float],
     prev_normal: wp.array[wp.vec3],
+    views: wp.array[wp.int32],
 ):
     """Starts one path per (sample, view, pixel): entry ``i`` is pixel ``i % (V W H)`` of sample
     ``first_sample + i // (V W H)``, and that pixel is pixel ``p % (W H)`` of view (camera) ``p // (W H)``.
@@ -260,6 +261,7 @@ def start_paths_kernel(
     alive[i] = 1
     pdf_prev[i] = 0.0
     prev_normal[i] = wp.vec3(0.0)
+    views[i] = view  # the camera of the path: its headlight direction (lights.sample_light_in_view)
 
 
 @wp.func

@@ -16,7 +16,7 @@ import warp as wp
 
 from ..bsdf import eval_bsdf, sample_bsdf
 from ..geometry import offset_ray_origin
-from ..lights import DeviceLights, sample_light, shadow_direction, triangle_light_pdf
+from ..lights import DeviceLights, sample_light_in_view, shadow_direction, triangle_light_pdf
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
 from ..scene import DeviceScene
@@ -42,6 +42,7 @@ def shade_path_kernel(
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
     hit_instance: wp.array[wp.int32],
+    views: wp.array[wp.int32],
     # outputs (paths are updated in place)
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
@@ -123,7 +124,9 @@ def shade_path_kernel(
     if lights.count > 0:
         k = sample_cdf(lights.cdf, 0, lights.count, u_pick)
         pmf = lights.pmf[k]
-        ls = sample_light(lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, h.p, h.ns, u1, u2)
+        ls = sample_light_in_view(
+            lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
+        )
         if pmf > 0.0 and max_component(ls.value) > 0.0:
             f, pdf_f = eval_bsdf(s, h.ns, h.ng, wo, ls.wi)
             if max_component(f) > 0.0:

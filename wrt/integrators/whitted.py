@@ -26,7 +26,7 @@ from ..bsdf import (
     surface_f0,
 )
 from ..geometry import offset_ray_origin
-from ..lights import DeviceLights, sample_light, shadow_direction
+from ..lights import DeviceLights, sample_light_in_view, shadow_direction
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
@@ -113,6 +113,7 @@ def whitted_light_kernel(
     hit_instance: wp.array[wp.int32],
     throughput: wp.array[wp.vec3],
     active: wp.array[wp.int32],
+    views: wp.array[wp.int32],
     # outputs
     rng: wp.array[wp.uint32],
     shadow_origins: wp.array[wp.vec3],
@@ -144,7 +145,9 @@ def whitted_light_kernel(
     if count > 1:
         k = first + sample_cdf(lights.cdf, first, count, u_pick)
         p_pick = lights.pmf[k] / (lights.cdf[first + count] - lights.cdf[first])
-    ls = sample_light(lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, h.p, h.ns, u1, u2)
+    ls = sample_light_in_view(
+        lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
+    )
     if max_component(ls.value) <= 0.0 or p_pick <= 0.0:
         return
     f, _ = eval_bsdf(s, h.ns, h.ng, -d, ls.wi)
