@@ -327,3 +327,28 @@ def test_clipping_planes_are_checked():
         wrt.Camera(clipping_planes=[(0.0, 0.0, 0.0, 1.0)])
     with pytest.raises(ValueError, match="finite"):
         wrt.Camera(clipping_planes=[(np.nan, 0.0, 1.0, 0.0)])
+
+
+def test_default_time_reads_defaults_over_samples_for_transforms_and_cameras_too(tmp_path):
+    """With ``time=None`` an attribute that authors both a default and time samples gives its default, as USD reads
+    it at the default time; points did, but transforms and camera attributes gave their first sample."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "mixed.usda"))
+    rig = UsdGeom.Xform.Define(stage, "/Rig")
+    rig_op = rig.AddTranslateOp()
+    rig_op.Set(Gf.Vec3d(0.0, 0.0, 10.0))  # default
+    rig_op.Set(Gf.Vec3d(0.0, 0.0, 20.0), 1)
+    cam = UsdGeom.Camera.Define(stage, "/Rig/Cam")
+    cam.AddRotateYOp().Set(30.0, 1)  # only a sample: read at its first sample
+    cam.CreateFocalLengthAttr(50.0)
+    cam.GetFocalLengthAttr().Set(25.0, 1)
+    stage.Save()
+    reference = Usd.Stage.Open(str(tmp_path / "mixed.usda"))
+    rig_default = np.array(UsdGeom.Xform.Get(reference, "/Rig").GetLocalTransformation(Usd.TimeCode.Default()))
+    spin = np.array(UsdGeom.Xform.Get(reference, "/Rig/Cam").GetLocalTransformation(1.0))
+    default = wrt.load_usd(tmp_path / "mixed.usda").cameras["/Rig/Cam"]
+    assert default.focal_length == 50.0
+    np.testing.assert_allclose(default.to_world, (spin @ rig_default).T, atol=1e-12)
+    np.testing.assert_allclose(default.eye, [0.0, 0.0, 10.0])
+    at_one = wrt.load_usd(tmp_path / "mixed.usda", time=1).cameras["/Rig/Cam"]
+    assert at_one.focal_length == 25.0
+    np.testing.assert_allclose(at_one.eye, [0.0, 0.0, 20.0])

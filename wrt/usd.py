@@ -42,10 +42,9 @@ prototype are skipped with a warning.
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
-load, and a prim hidden at frame 1 stays hidden. Transforms and cameras get the same fallback: with ``time=None``
-they are read at ``Usd.TimeCode.EarliestTime()``, which gives an attribute's default value when it has no samples
-and its first sample otherwise, so a camera animated only through time samples is where its first frame puts it
-rather than at the origin.
+load, and a prim hidden at frame 1 stays hidden. Transforms and cameras get the same fallback, op by op and
+attribute by attribute (:mod:`wrt.usd_xforms`), so a camera animated only through time samples is where its first
+frame puts it rather than at the origin, and an op that authors a default beside its samples gives the default.
 """
 
 from __future__ import annotations
@@ -56,7 +55,7 @@ import re
 import warnings
 
 import numpy as np
-from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
@@ -66,6 +65,7 @@ from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .usd_values import held_value, moved_positions, read_time, spun_rotations, value_at
+from .usd_xforms import xform_cache
 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -282,9 +282,7 @@ class _StageReader:
         self.source = source
         self.time = time
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
-        # Sample-only transforms have no value at the default time; read them at their first sample (see above).
-        self.xform_time = Usd.TimeCode.EarliestTime() if time.IsDefault() else time
-        self.xforms = UsdGeom.XformCache(self.xform_time)
+        self.xforms = xform_cache(time)  # sample-only transform ops read at their first sample (see above)
         self.contents = {}  # (kind, root path, outer material) -> _Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
@@ -1078,21 +1076,31 @@ class _StageReader:
     # Cameras and lights
 
     def _read_camera(self, prim: Usd.Prim) -> Camera:
-        cam = UsdGeom.Camera(prim).GetCamera(self.xform_time)
-        clip = cam.clippingRange
+        camera = UsdGeom.Camera(prim)
+        time = self.time
+
+        def number(attr):
+            return float(value_at(attr, time))
+
+        near, far = value_at(camera.GetClippingRangeAttr(), time)
+        projection = str(value_at(camera.GetProjectionAttr(), time))
+        if projection != UsdGeom.Tokens.orthographic:
+            if projection != UsdGeom.Tokens.perspective:  # as UsdGeom.Camera.GetCamera reads it
+                self._skip("cameras with an unknown projection are perspective", prim, f"projection = {projection!r}")
+            projection = "perspective"
         try:
             return Camera(
-                to_world=np.array(cam.transform, dtype=np.float64).T,  # Gf is row-vector; Camera is column-vector
-                focal_length=float(cam.focalLength),
-                horizontal_aperture=float(cam.horizontalAperture),
-                vertical_aperture=float(cam.verticalAperture),
-                horizontal_aperture_offset=float(cam.horizontalApertureOffset),
-                vertical_aperture_offset=float(cam.verticalApertureOffset),
-                clipping_range=(float(clip.min), float(clip.max)),
-                clipping_planes=[tuple(plane) for plane in cam.clippingPlanes],
-                projection="orthographic" if cam.projection == Gf.Camera.Orthographic else "perspective",
-                f_stop=float(cam.fStop),
-                focus_distance=float(cam.focusDistance),
+                to_world=np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T,  # column vectors
+                focal_length=number(camera.GetFocalLengthAttr()),
+                horizontal_aperture=number(camera.GetHorizontalApertureAttr()),
+                vertical_aperture=number(camera.GetVerticalApertureAttr()),
+                horizontal_aperture_offset=number(camera.GetHorizontalApertureOffsetAttr()),
+                vertical_aperture_offset=number(camera.GetVerticalApertureOffsetAttr()),
+                clipping_range=(float(near), float(far)),
+                clipping_planes=[tuple(plane) for plane in value_at(camera.GetClippingPlanesAttr(), time) or []],
+                projection=projection,
+                f_stop=number(camera.GetFStopAttr()),
+                focus_distance=number(camera.GetFocusDistanceAttr()),
                 path=str(prim.GetPath()),
             )
         except ValueError as e:
