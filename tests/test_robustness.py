@@ -186,11 +186,12 @@ def offset_origins_kernel(
     points: wp.array[wp.vec3],
     normals: wp.array[wp.vec3],
     sizes: wp.array[float],
+    errs: wp.array[wp.vec3],
     # outputs
     out: wp.array[wp.vec3],
 ):
     i = wp.tid()
-    out[i] = offset_ray_origin(points[i], normals[i], sizes[i])
+    out[i] = offset_ray_origin(points[i], normals[i], sizes[i], errs[i])
 
 
 # Away from the origin (larger ulps), and scaled down by 2^-20 around it (the fixed offset's scale).
@@ -221,6 +222,7 @@ def test_no_shadow_acne_at_grazing_angles(scale, centre):
             wp.array(hit_points, dtype=wp.vec3, device="cpu"),
             wp.array(normal.astype(np.float32), dtype=wp.vec3, device="cpu"),
             wp.array(np.abs(points[faces[tri]]).max(axis=(1, 2)), dtype=float, device="cpu"),
+            wp.array(np.abs(points[faces[tri]]).max(axis=1), dtype=wp.vec3, device="cpu"),
         ],
         outputs=[offset],
         device="cpu",
@@ -706,3 +708,42 @@ def test_t_max_just_above_a_hit_keeps_it(layout, np_rng):
     again = wrt.trace(scene, origins, directions, t_max=t_max, layout=layout)
     np.testing.assert_array_equal(again.t, hits.t)
     assert wrt.occluded(scene, origins, directions, t_max=t_max, layout=layout).all()
+
+
+def large_surfaces_through_the_origin():
+    """Surfaces far larger than the view that pass through the world origin, tilted so that their hit points' rounding
+    (a few epsilons of the corners or the shape's centre) crosses them: a mesh quad of 1e4, the same quad as an
+    instance of a unit quad, and a ground sphere of radius 1000 centred at (0, -1000, 0)."""
+    tilt = np.radians(30.0)
+    u, v = np.array([1.0, 0.0, 0.0]), np.array([0.0, np.sin(tilt), np.cos(tilt)])
+    quad = np.array([-u - v, u - v, u + v, -u + v])
+    faces = np.array([[0, 2, 1], [0, 3, 2]], np.int32)  # front side up
+    mesh = wrt.scene.Mesh("/quad", (quad * 1.0e4).astype(np.float32), faces, np.arange(2, dtype=np.int32))
+    proto = wrt.instancing.Prototype("/proto", meshes=[
+        wrt.scene.Mesh("/proto/quad", quad.astype(np.float32), faces, np.arange(2, dtype=np.int32))])
+    to_world = np.diag([1.0e4, 1.0e4, 1.0e4, 1.0])[None]
+    ground = np.diag([1000.0, 1000.0, 1000.0, 1.0])
+    ground[1, 3] = -1000.0
+    return {
+        "mesh": wrt.Scene(meshes=[mesh]),
+        "instance": wrt.Scene(prototypes=[proto], instances=wrt.instancing.Instances.from_transforms([0], to_world)),
+        "sphere": wrt.Scene(shapes=[wrt.primitives.Shape("/ground", "sphere", ground)]),
+    }
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_large_tilted_surfaces_near_the_origin_have_no_shadow_acne(integrator):
+    """Nothing can shadow these convex surfaces, so every pixel shows the closed form ``albedo E cos / pi`` of the
+    sun. The offset of shadow rays followed the ulps of the hit point, tiny near the origin, while its rounding
+    follows the corners (or the sphere's centre): most pixels were black."""
+    sun = np.array([-0.3, -1.0, -0.5])
+    sun /= np.linalg.norm(sun)
+    for name, scene in large_surfaces_through_the_origin().items():
+        scene.lights = [wrt.scene.DistantLight(sun, np.full(3, 3.0))]
+        cam = wrt.Camera.look_at((0.3, 1.7, -1.0), (0.0, 0.0, 0.0), fov_y_deg=60.0)
+        img = wrt.render(scene, camera=cam, width=48, height=36, device="cpu", integrator=integrator, max_depth=1)
+        on = img.aovs["prim"] >= 0
+        assert on.all(), name
+        expected = 0.5 * 3.0 * np.maximum(img.aovs["normal"] @ -sun, 0.0) / np.pi  # displayColor 0.5
+        assert expected.min() > 0.1
+        np.testing.assert_allclose(img.rgb[..., 0], expected, rtol=1e-3, err_msg=name)

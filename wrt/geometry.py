@@ -312,8 +312,11 @@ def ray_can_hit(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float)
     return t_max > t_min and wp.isfinite(origin) and ray_is_valid(direction)
 
 
+ERROR_OFFSET = wp.constant(3.814697265625e-06)  # 2^-18 (64 float32 epsilons): offset per unit of HitPoint.err
+
+
 @wp.func
-def offset_ray_origin(p: wp.vec3, n: wp.vec3, size: float):
+def offset_ray_origin(p: wp.vec3, n: wp.vec3, size: float, err: wp.vec3):
     """Moves a hit point off its surface along ``n`` by a few float ULPs, so a ray started there cannot hit the
     same surface again (Wächter and Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing
     Gems, 2019). Near the origin, where ULPs are tiny, a fixed offset is used instead.
@@ -322,9 +325,19 @@ def offset_ray_origin(p: wp.vec3, n: wp.vec3, size: float):
     error follows it, not ``p``. The paper's fixed offset (1/65536 within 1/32 of the origin) assumes surfaces of
     about unit size; for smaller ones both shrink with the power of two above ``size``, so a scene scaled down by a
     power of two keeps its contact shadows and renders the same image (at 1e-4 the fixed offset was 15% of the
-    scene). Surfaces of size 1 and more keep the paper's constants."""
+    scene). Surfaces of size 1 and more keep the paper's constants.
+
+    ``err`` bounds, per axis, the magnitude of the terms that ``p``'s coordinate was summed from (the corners'
+    coordinates, or an instance's or shape's translation): its rounding error is a few float32 epsilons of it, and
+    can far exceed the ULPs of ``p`` itself where a large surface passes near the origin (a tilted ground quad of
+    1e4, the ground sphere of radius 1000 centred at ``(0, -1000, 0)``: the paper's offsets there were below the
+    error and most of the ground was in its own shadow). The offset along ``n`` is therefore at least
+    ``ERROR_OFFSET * dot(|n|, err)`` (the error projected on the normal, as pbrt's ``OffsetRayOrigin``); an
+    axis-aligned plane has no error across itself (``err`` 0 along its normal) and keeps the small offsets, so
+    contact shadows on a large flat floor are kept."""
     down, up = power_scales(size)
     scale = wp.min(2.0 * up, 1.0)  # a power of two above size, at most 1
+    least = ERROR_OFFSET * wp.dot(wp.vec3(wp.abs(n[0]), wp.abs(n[1]), wp.abs(n[2])), err)
     result = wp.vec3()
     for k in range(3):
         ulps = int(256.0 * n[k])
@@ -336,5 +349,7 @@ def offset_ray_origin(p: wp.vec3, n: wp.vec3, size: float):
         moved = wp.cast(bits, wp.float32)
         if wp.abs(p[k]) < scale * (1.0 / 32.0):
             moved = p[k] + (scale * (1.0 / 65536.0)) * n[k]
+        if wp.abs(moved - p[k]) < least * wp.abs(n[k]):
+            moved = p[k] + least * n[k]
         result[k] = moved
     return result

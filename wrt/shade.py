@@ -29,7 +29,14 @@ from .materials import DeviceMaterials, cut_out, eval_surface
 from .primitives import shape_surface
 from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
-from .transforms import inverse_transform_point, normal_to_world, transform_point, transform_vector
+from .transforms import (
+    abs_vec,
+    inverse_transform_magnitude,
+    inverse_transform_point,
+    normal_to_world,
+    transform_point,
+    transform_vector,
+)
 
 # Same rounding on every device: no FMA contraction (nvrtc and clang would fuse different operations, so paths
 # would diverge between CUDA and CPU); no backward pass (nothing differentiates the renderer; it costs compile time).
@@ -57,6 +64,7 @@ class HitPoint:
     p: wp.vec3  # world-space position
     ng: wp.vec3  # unit geometric normal facing the ray origin
     size: float  # largest |world coordinate| of the surface hit: the scale of p's rounding (offset_ray_origin)
+    err: wp.vec3  # per axis, the largest magnitude p's coordinate is summed from: its rounding scale (same use)
     ns: wp.vec3  # unit shading normal on the side of ng
     front: int  # 1 when the ray hit the front (winding) side
     st: wp.vec2  # texture coordinates
@@ -80,10 +88,16 @@ def corner_size(a: wp.vec3, b: wp.vec3, c: wp.vec3):
 
 
 @wp.func
+def corner_err(a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """``HitPoint.err`` of a point interpolated from corners ``a``, ``b``, ``c``: their largest magnitude per axis."""
+    return wp.max(wp.max(abs_vec(a), abs_vec(b)), abs_vec(c))
+
+
+@wp.func
 def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.vec3, t: float):
-    """World-space point, front normal (not normalised) and size (``HitPoint.size``: of the point and the shape's
-    centre, whose magnitudes its transforms round at) of the hit at ``t`` on analytic shape ``prim``: the ray point
-    is moved into the shape's canonical space, snapped onto the surface, and moved back."""
+    """World-space point, front normal (not normalised), size (``HitPoint.size``: of the point and the shape's
+    centre, whose magnitudes its transforms round at) and ``HitPoint.err`` of the hit at ``t`` on analytic shape
+    ``prim``: the ray point is moved into the shape's canonical space, snapped onto the surface, and moved back."""
     j = prim - scene.num_prims
     p = o + t * d
     if instance >= 0:
@@ -92,13 +106,15 @@ def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.
     q, n = shape_surface(scene.shape_kinds[j], scene.shape_params[j], transform_point(m, p))
     n = normal_to_world(m, n)
     p = inverse_transform_point(m, q)
+    err = inverse_transform_magnitude(m, abs_vec(q))
     centre = inverse_transform_point(m, wp.vec3(0.0))
     if instance >= 0:
         mi = scene.world_to_local[instance]
         n = normal_to_world(mi, n)
         p = inverse_transform_point(mi, p)
+        err = inverse_transform_magnitude(mi, err)
         centre = inverse_transform_point(mi, centre)
-    return p, n, wp.max(largest_magnitude(p), largest_magnitude(centre))
+    return p, n, wp.max(largest_magnitude(p), largest_magnitude(centre)), err
 
 
 @wp.func
@@ -122,15 +138,17 @@ def hit_point(
     w = 1.0 - u - v
     h.p = w * a + u * b + v * c
     h.size = corner_size(a, b, c)
+    h.err = corner_err(a, b, c)
     ng = wp.cross(b - a, c - a)
     n0 = scene.normals[prim, 0]
     n1 = scene.normals[prim, 1]
     n2 = scene.normals[prim, 2]
     if prim >= scene.num_prims:
         # An analytic shape: the point and normal come from the shape itself.
-        p, n, size = shape_frame(scene, prim, instance, o, d, t)
+        p, n, size, err = shape_frame(scene, prim, instance, o, d, t)
         h.p = p
         h.size = size
+        h.err = err
         ng = n
         n0 = n
         n1 = n
@@ -140,6 +158,7 @@ def hit_point(
         # normals are moved and renormalised before interpolation, exactly as a flattened copy stores them.
         m = scene.world_to_local[instance]
         h.p = inverse_transform_point(m, h.p)
+        h.err = inverse_transform_magnitude(m, h.err)
         a, b, c = inverse_transform_point(m, a), inverse_transform_point(m, b), inverse_transform_point(m, c)
         h.size = corner_size(a, b, c)
         ng = normal_to_world(m, ng)
@@ -285,7 +304,7 @@ def hidden_hit(
     if surf.double_sided[prim] == 1:
         return False
     if prim >= scene.num_prims:
-        p, n, size = shape_frame(scene, prim, instance, o, d, t)
+        p, n, size, err = shape_frame(scene, prim, instance, o, d, t)
         return wp.dot(n, d) > 0.0
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]

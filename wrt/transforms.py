@@ -40,3 +40,21 @@ def inverse_transform_point(m: mat34, p: wp.vec3):
 def normal_to_world(m: mat34, n: wp.vec3):
     """A local-space normal in world space, for world-to-local ``m``: ``A^T n`` (not normalised)."""
     return wp.transpose(linear_part(m)) * n
+
+
+@wp.func
+def abs_vec(v: wp.vec3):
+    """``|v|`` per component."""
+    return wp.vec3(wp.abs(v[0]), wp.abs(v[1]), wp.abs(v[2]))
+
+
+@wp.func
+def inverse_transform_magnitude(m: mat34, v: wp.vec3):
+    """``|A^-1| (v + |b|)`` per component, for ``v >= 0`` the magnitudes of a point's local coordinates: bounds the
+    terms that ``inverse_transform_point`` sums into each world coordinate (the scale of its rounding)."""
+    inv = wp.inverse(linear_part(m))
+    w = v + abs_vec(wp.vec3(m[0, 3], m[1, 3], m[2, 3]))
+    out = wp.vec3()
+    for r in range(3):
+        out[r] = wp.abs(inv[r, 0]) * w[0] + wp.abs(inv[r, 1]) * w[1] + wp.abs(inv[r, 2]) * w[2]
+    return out

@@ -93,7 +93,7 @@ def shade_path_kernel(
 
     # Cut-out: continue straight through the hole.
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
-        origins[i] = offset_ray_origin(h.p, -h.ng, h.size)
+        origins[i] = offset_ray_origin(h.p, -h.ng, h.size, h.err)
         t_mins[i] = 0.0
         t_maxs[i] = wp.inf
         radiance[i] = L
@@ -135,7 +135,7 @@ def shade_path_kernel(
                     w = power_heuristic(pmf * ls.pdf, pdf_f)
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
-                shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.size)
+                shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.size, h.err)
                 shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
                 if ls.dist < wp.inf:
                     shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
@@ -165,10 +165,10 @@ def shade_path_kernel(
         return
     throughput[i] = T
     if bs.transmitted == 1:
-        origins[i] = offset_ray_origin(h.p, -h.ng, h.size)
+        origins[i] = offset_ray_origin(h.p, -h.ng, h.size, h.err)
         prev_normal[i] = -h.ns
     else:
-        origins[i] = offset_ray_origin(h.p, h.ng, h.size)
+        origins[i] = offset_ray_origin(h.p, h.ng, h.size, h.err)
         prev_normal[i] = h.ns
     directions[i] = bs.wi
     t_mins[i] = 0.0

@@ -79,7 +79,7 @@ def shade_whitted_kernel(
     h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display)
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
-        origins[i] = offset_ray_origin(h.p, -h.ng, h.size)  # a hole: carry on in the same direction
+        origins[i] = offset_ray_origin(h.p, -h.ng, h.size, h.err)  # a hole: carry on in the same direction
         t_mins[i] = 0.0
         t_maxs[i] = wp.inf
         radiance[i] = L
@@ -155,7 +155,7 @@ def whitted_light_kernel(
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
     contribution[i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
-    shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.size)
+    shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.size, h.err)
     shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
     if ls.dist < wp.inf:
         shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
@@ -225,11 +225,11 @@ def continue_whitted_kernel(
     T = throughput[i]
     if u * total < p_reflect:
         directions[i] = reflect(wo, h.ns)
-        origins[i] = offset_ray_origin(h.p, h.ng, h.size)
+        origins[i] = offset_ray_origin(h.p, h.ng, h.size, h.err)
         T = wp.cw_mul(T, w_reflect) * (total / p_reflect)
     else:
         directions[i] = wp.normalize(refract(wo, h.ns, eta))
-        origins[i] = offset_ray_origin(h.p, -h.ng, h.size)
+        origins[i] = offset_ray_origin(h.p, -h.ng, h.size, h.err)
         T = T * total  # w_refract / (w_refract / total); no 1 / eta^2: see bsdf.sample_bsdf
     throughput[i] = T
     t_mins[i] = 0.0
