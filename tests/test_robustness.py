@@ -747,3 +747,20 @@ def test_large_tilted_surfaces_near_the_origin_have_no_shadow_acne(integrator):
         expected = 0.5 * 3.0 * np.maximum(img.aovs["normal"] @ -sun, 0.0) / np.pi  # displayColor 0.5
         assert expected.min() > 0.1
         np.testing.assert_allclose(img.rgb[..., 0], expected, rtol=1e-3, err_msg=name)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1.0e-6, 1.0e-9])
+def test_culled_back_faces_reveal_the_surface_just_behind_them_at_any_scale(scale):
+    """A single-sided quad seen from behind, with a quad facing the camera a ten-thousandth of the view distance
+    behind it: camera rays skip the back face and must see the second quad, whatever the scene's scale. Rays were
+    re-traced from at least 1e-9 past the culled face, which skipped the second quad in a scene 2e-6 across."""
+    corners = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float64)
+    away, towards = np.array([[0, 2, 1], [0, 3, 2]], np.int32), np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+    behind = corners - (0.0, 0.0, 3.0e-4)
+    meshes = [wrt.scene.Mesh("/back", (corners * scale).astype(np.float32), away, np.arange(2, dtype=np.int32)),
+              wrt.scene.Mesh("/front", (behind * scale).astype(np.float32), towards, np.arange(2, dtype=np.int32))]
+    scene = wrt.Scene(meshes=meshes)
+    cam = wrt.Camera.look_at(np.array([0.2, 0.1, 3.0]) * scale, (0.0, 0.0, 0.0), fov_y_deg=20.0,
+                             clipping_range=(0.01 * scale, 100.0 * scale))
+    img = wrt.render(scene, camera=cam, width=16, height=16, device="cpu", integrator="depth")
+    assert np.isin(img.aovs["prim"], (2, 3)).all()  # the front quad's two triangles, never the background

@@ -44,6 +44,7 @@ wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 
 BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights
 CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
+CULL_LEAST_STEP = wp.constant(1.0e-30)  # the step past a culled face at t = 0
 MAX_CULL_PASSES = 8  # re-traces after culled hits; a ray still on a back face (or in a hole) after that keeps it
 
 
@@ -344,7 +345,9 @@ def cull_hidden_hits_kernel(
                       hit_t[i]):
         return
     t = hit_t[i]
-    retry_t_mins[i] = t + wp.max(t * CULL_EPSILON, 1.0e-9)
+    # Relative to t alone (the watertight test measures hits from the ray origin, so t's rounding is relative): an
+    # absolute floor of 1e-9 skipped whatever lay just behind the culled face in a scene a few micrometres across.
+    retry_t_mins[i] = t + wp.max(t * CULL_EPSILON, CULL_LEAST_STEP)
     retry_t_maxs[i] = t_maxs[i]
     wp.atomic_add(retries, 0, 1)
 
