@@ -316,12 +316,13 @@ def sample_bsdf(
             out.transmitted = 1
         return out
 
-    # Opaque: pick a lobe, then a direction in it.
+    # Opaque: pick a lobe, then a direction in it. The weights' rounded sum may fall short of 1: a u1 above it goes
+    # to the last lobe of non-zero weight (it took a clearcoat of weight 0, and a mirror coat gave 0 / 0 = NaN).
     w = lobe_weights(s, cos_o)
     wo_local = to_local(wo, n)
-    if u1 < w[0]:
+    if u1 < w[0] or (w[1] <= 0.0 and w[2] <= 0.0):
         out.wi = to_world(sample_cosine_hemisphere(u2, u3), n)
-    elif u1 < w[0] + w[1]:
+    elif u1 < w[0] + w[1] or w[2] <= 0.0:
         if s.roughness < DELTA_ROUGHNESS:
             f0 = surface_f0(s)
             fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
