@@ -127,12 +127,14 @@ def sample_uniform_sphere(u1: float, u2: float):
 
 
 @wp.func
-def sample_uniform_cone(u1: float, u2: float, cos_max: float):
-    """Uniform direction in the cone of half-angle ``acos(cos_max)`` about +Z (pdf ``1 / (2 pi (1 - cos_max))``)."""
-    cos_t = (1.0 - u1) + u1 * cos_max
-    sin_t = wp.sqrt(wp.max(0.0, 1.0 - cos_t * cos_t))
+def sample_uniform_cone(u1: float, u2: float, one_minus_cos_max: float):
+    """Uniform direction in the cone of half-angle ``acos(1 - one_minus_cos_max)`` about +Z (pdf
+    ``1 / (2 pi one_minus_cos_max)``). The cone is given by ``1 - cos`` because a small one (the sun, 0.53 degrees
+    across) has a cosine that float32 rounds by up to 25% of its distance from 1."""
+    one_minus = u1 * one_minus_cos_max
+    sin_t = wp.sqrt(wp.max(0.0, one_minus * (2.0 - one_minus)))
     s, c = sin_cos(2.0 * PI * u2)
-    return wp.vec3(sin_t * c, sin_t * s, cos_t)
+    return wp.vec3(sin_t * c, sin_t * s, 1.0 - one_minus)
 
 
 @wp.func
