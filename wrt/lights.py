@@ -54,7 +54,6 @@ from .sampling import (
     sample_cosine_hemisphere,
     sample_uniform_cone,
     sample_uniform_sphere,
-    sin_cos,
     to_world,
 )
 from .scene import DeviceScene, DistantLight
@@ -826,14 +825,18 @@ def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
 def intersect_sphere(c: wp.vec3, r: float, o: wp.vec3, d: wp.vec3):
     """Nearest ``t > 0`` where unit ray ``o + t d`` enters the sphere from outside; inf if none."""
     oc = o - c
-    b = wp.dot(oc, d)
-    cc = wp.dot(oc, oc) - r * r
-    if cc <= 0.0:
+    if wp.dot(oc, oc) <= r * r:
         return float(wp.inf)
-    disc = b * b - cc
-    if disc < 0.0:
+    # The half chord from the ray's closest approach to the centre, r^2 - |closest - c|^2, as wrt/primitives.py
+    # does (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems 2019): b^2 - c
+    # cancels in float32 for a sphere small next to its distance, and rays saw a light 1000 radii away 15% too large.
+    dd = wp.dot(d, d)
+    t_mid = -wp.dot(oc, d) / dd
+    closest = oc + t_mid * d
+    half2 = r * r - wp.dot(closest, closest)
+    if half2 < 0.0:
         return float(wp.inf)
-    t = -b - wp.sqrt(disc)
+    t = t_mid - wp.sqrt(half2 / dd)
     if t <= 0.0:
         return float(wp.inf)
     return t
@@ -1051,10 +1054,7 @@ def sample_light(
         if cos_max > 1.0 or one_minus <= 0.0:
             return out  # inside the sphere: it emits outwards only
         axis = wp.normalize(c - p)
-        cos_t = 1.0 - u1 * one_minus
-        sin_t = wp.sqrt(wp.max(0.0, 1.0 - cos_t * cos_t))
-        sin_phi, cos_phi = sin_cos(2.0 * PI * u2)
-        out.wi = wp.normalize(to_world(wp.vec3(sin_t * cos_phi, sin_t * sin_phi, cos_t), axis))
+        out.wi = wp.normalize(to_world(sample_uniform_cone(u1, u2, one_minus), axis))
         t = intersect_sphere(c, r, p, out.wi)
         if t == wp.inf:
             t = wp.dot(c - p, out.wi)  # grazing: rounding missed the sphere by a hair
