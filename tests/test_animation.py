@@ -249,6 +249,43 @@ def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path):
     ]
 
 
+def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(animated, tmp_path):
+    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) during ``--frames --devices`` left the
+    process pool with shutdown(wait=True): every queued frame was rendered first, and their images thrown away."""
+    import signal
+    import time
+
+    out = tmp_path / "frames" / "f_#.npy"
+    cmd = [sys.executable, "-m", "wrt.cli", "render", str(animated), "--frames", "1:8:0.004", "--devices", "cpu,cpu",
+           "-o", str(out), "--width", "16", "--height", "12", "-q"]  # 1751 frames: minutes of work
+    with open(tmp_path / "stderr.txt", "w") as err:
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err, start_new_session=True,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        try:
+            deadline = time.monotonic() + 120
+            while len(list(out.parent.glob("*.npy"))) < 3 and proc.poll() is None and time.monotonic() < deadline:
+                time.sleep(0.1)
+            assert proc.poll() is None, "the run ended before it could be interrupted"
+            os.killpg(proc.pid, signal.SIGINT)
+            sent = time.monotonic()
+            status = proc.wait(timeout=30)
+            assert time.monotonic() - sent < 15
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+    stderr = (tmp_path / "stderr.txt").read_text()
+    assert status == 130 and "wrt: interrupted" in stderr and "Traceback" not in stderr, stderr
+    assert "leaked" not in stderr, stderr  # no semaphores left behind by the ended workers
+    written = sorted(out.parent.iterdir())
+    assert 3 <= len(written) < 1751 and all(p.suffix == ".npy" for p in written)  # no partial files
+    frames = {float(p.stem[2:]) for p in written}
+    serial = FrameRenderer(animated, width=16, height=12)
+    for path in written[:2]:  # complete images
+        np.testing.assert_array_equal(np.load(path), serial.render(float(path.stem[2:])).rgb)
+    assert len(frames) == len(written)
+
+
 def test_cli_frames_and_resume(animated, tmp_path):
     cmd = [sys.executable, "-m", "wrt.cli", "render", str(animated), "--width", "32", "--height", "24"]
     out = tmp_path / "frames" / "{stem}_###.png"  # {stem} is the scene's name, as for still images

@@ -287,15 +287,29 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         for device in devices:
             claims.put(str(device))
         write = _frame_writer(jobs, rows)
-        with concurrent.futures.ProcessPoolExecutor(
+        pool = concurrent.futures.ProcessPoolExecutor(
             len(devices), mp_context=multiprocessing.get_context("spawn"), initializer=_claim_device, initargs=(claims,)
-        ) as pool:
+        )
+        try:
             futures = [pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options))
                        for frame, file in jobs]
             for future in concurrent.futures.as_completed(futures):
                 write(future.result())
                 bar.update(1)
+        except BaseException:
+            # Ctrl-C or a failing frame: the frames written so far stay. Leaving the pool with shutdown(wait=True)
+            # rendered every queued frame first and threw the images away.
+            _stop_pool(pool)
+            raise
+        pool.shutdown()
     return rows
+
+
+def _stop_pool(pool) -> None:
+    """Cancels the frames ``pool`` has not started and ends its workers at once, mid-frame."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)  # returns at once: no worker is left to finish a frame
 
 
 def _frame_writer(jobs, rows: list):
@@ -315,6 +329,17 @@ _PROCESS_DEVICE = None  # the device a worker process of render_frames claimed
 
 
 def _claim_device(claims) -> None:
+    """Initializer of a :func:`render_frames` worker process: takes a device, and leaves Ctrl-C to the parent (the
+    terminal sends it to every process of the group; the parent ends the workers itself, without a traceback from
+    each of them)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import threading
+
+    from tqdm import tqdm
+
+    tqdm.set_lock(threading.RLock())  # not tqdm's default semaphore, which an ended worker would leave behind
     global _PROCESS_DEVICE
     _PROCESS_DEVICE = claims.get()
 
