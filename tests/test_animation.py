@@ -236,10 +236,13 @@ def test_topology_change_and_scrambled_vertices_rebuild(tmp_path, np_rng):
     assert [row["change"] for row in renderer.log] == ["build", "build", "build"]
 
 
-def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path):
+def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path, capfd):
     jobs = pending_frames(parse_frames("1:6"), tmp_path / "f_##.npy", resume=False)
     rows = render_frames(animated, jobs, devices=["cpu", "cpu"], **SIZE)
     assert sorted(row["frame"] for row in rows) == [1, 2, 3, 4, 5, 6]
+    worker_output = capfd.readouterr()  # the workers write to the same file descriptors
+    assert "initialized" not in worker_output.out + worker_output.err  # Warp's banner, once per worker
+    assert "Module wrt." not in worker_output.out + worker_output.err  # and a line per kernel module loaded
     serial = FrameRenderer(animated, **SIZE)
     for frame in range(1, 7):
         np.testing.assert_array_equal(np.load(tmp_path / f"f_{frame:02d}.npy"), serial.render(frame).rgb)

@@ -366,8 +366,11 @@ def render_frame_task(job: dict) -> dict:
     """
     import tempfile
 
+    import warp as wp
+
     from .distributed import worker_device
 
+    wp.config.log_level = wp.LOG_WARNING  # no Warp banner and module-load lines from every worker, as in wrt bench
     device = _PROCESS_DEVICE or worker_device()
     key = (job["path"], device, repr(sorted(job["options"].items())))
     if key not in _WORKER_RENDERERS:
