@@ -143,3 +143,25 @@ def test_broken_usd_file_names_file_in_one_line(tmp_path):
     assert result.returncode == 2
     lines = error_lines(result.stderr)
     assert len(lines) == 1 and "broken.usda" in lines[0] and "Traceback" not in result.stderr
+
+
+def test_accel_warp_renders_a_stage_with_gprims_as_triangle_meshes(tmp_path):
+    """``--accel warp`` stopped on any stage with a gprim, telling the user to pass ``tessellate_gprims=True``, a
+    Python option the command line does not have."""
+    import wrt
+
+    scene = tmp_path / "gprims.usda"
+    scene.write_text('#usda 1.0\n(\n    upAxis = "Y"\n)\ndef Xform "World"\n{\n    def Sphere "Ball"\n    {\n'
+                     '        double radius = 1\n    }\n    def Cube "Box"\n    {\n        double size = 1\n'
+                     '        double3 xformOp:translate = (2.5, 0, 0)\n'
+                     '        uniform token[] xformOpOrder = ["xformOp:translate"]\n    }\n}\n')
+    out = tmp_path / "warp.npy"
+    assert main(["render", str(scene), "--accel", "warp", "-o", str(out), "--width", "40", "--height", "30",
+                 "-q"]) == 0
+    expected = wrt.render(wrt.load_usd(scene, tessellate_gprims=True), accel="warp", width=40, height=30)
+    np.testing.assert_array_equal(np.load(out), expected.rgb)
+    assert expected.aovs["prim"].max() >= 0  # the gprims are in the picture
+    frames = tmp_path / "f_#.npy"
+    assert main(["render", str(scene), "--accel", "warp", "--frames", "1:1", "-o", str(frames), "--width", "40",
+                 "--height", "30", "-q"]) == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "f_1.npy"), expected.rgb)

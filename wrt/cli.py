@@ -136,7 +136,8 @@ def _add_render(sub) -> None:
     p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
-    p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh")
+    p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh (triangles "
+                   "only: with warp, gprims such as spheres and cubes are loaded as triangle meshes)")
     p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
     p.add_argument("--frames", help="render time codes START:END[:STEP] (END included) of an animated stage, one image "
                    "each; OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png. The BVH is kept "
@@ -232,6 +233,12 @@ def _renderer_options(args) -> dict:
     return {name: getattr(args, name) for name in names}
 
 
+def _tessellate_gprims(args) -> bool:
+    """Whether gprims load as triangle meshes: for ``--accel warp``, as wp.Mesh traces nothing else (the library
+    refuses analytic shapes there and names ``tessellate_gprims``, an option the command line does not have)."""
+    return args.accel == "warp"
+
+
 def _render_one(args, path: Path, output: Path, progress) -> Path:
     import wrt
 
@@ -239,7 +246,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     from .resources import check_memory, estimate_render_bytes, parse_bytes
 
     start = time.perf_counter()
-    scene = wrt.load_usd(path, time=args.time)
+    scene = wrt.load_usd(path, time=args.time, tessellate_gprims=_tessellate_gprims(args))
     stats = scene.stats()
     loaded = f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes"
     progress(loaded, time.perf_counter() - start)
@@ -349,7 +356,7 @@ def _run_frames(args, paths: list, progress) -> int:
     if not devices:
         raise ValueError(f"--devices {args.devices!r} names no device; give e.g. cuda:0,cuda:1")
     common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet}
-    common.update(_renderer_options(args))
+    common.update(_renderer_options(args), tessellate_gprims=_tessellate_gprims(args))
     start = time.perf_counter()
     if args.dask is not None:
         from .animation import render_frames_on_dask
