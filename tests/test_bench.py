@@ -288,6 +288,49 @@ def test_scaling_plot_of_sizes_below_the_slope_range(tmp_path, sizes):
     assert tmp_path / "scaling.png" in paths and (tmp_path / "scaling.png").stat().st_size > 1000
 
 
+@pytest.mark.filterwarnings("ignore:No artists with labels")  # the bars and lines are recorded, not drawn
+def test_plots_keep_devices_apart_and_give_each_scaling_line_its_own_thread_count(tmp_path, monkeypatch):
+    """The bars were keyed by (accel, threads) only, so with two devices each bar showed the first device's rows and
+    the other's never appeared; the scaling lines mixed devices, and took the smallest thread count of all sweep rows,
+    so an accelerator measured only at other counts (wrt:sah at 2 threads beside embree's 1) had no points and the
+    run ended in 'not enough values to unpack'."""
+    import matplotlib.axes
+
+    bars, lines = {}, []
+    monkeypatch.setattr(matplotlib.axes.Axes, "bar", lambda ax, x, values, width, label: bars.update({
+        label: list(values)}))
+    monkeypatch.setattr(matplotlib.axes.Axes, "loglog", lambda ax, x, y, style, label: lines.append((label, list(y))))
+
+    def row(scene, device, accel, threads, mrays, **extra):
+        n = int(scene.split(":")[1])
+        return dict(scene=scene, triangles=n, device=device, rays="incoherent", accel=accel, threads=threads,
+                    build_ms=n / 1e3, mrays=mrays, mrays_min=mrays, mrays_max=mrays, hit_fraction=0.5, **extra)
+
+    rows = [row("sphere:5000", "cpu", "wrt:sah", 1, 1.0), row("sphere:5000", "cuda:0", "wrt:sah", 1, 50.0)]
+    bench_module.plot(rows, tmp_path)
+    assert bars == {"wrt:sah cpu x1": [1.0], "wrt:sah cuda:0 x1": [50.0]}
+
+    sizes = [1e4, 1e5]
+    sweep = [row(f"sphere:{int(n)}", "cpu", "wrt:sah", t, m, sweep=True)
+             for n in sizes for t, m in ((2, 4.0), (4, 8.0))]
+    sweep += [row(f"sphere:{int(n)}", "cpu", "embree", 1, 10.0, sweep=True) for n in sizes]
+    sweep += [row(f"sphere:{int(n)}", "cuda:0", "wrt:sah", 1, 100.0, sweep=True) for n in sizes]
+    assert tmp_path / "scaling.png" in bench_module.plot(sweep, tmp_path)
+    ns_per_ray = {label.split(" slope")[0]: y for label, y in lines[1::2]}  # build ms, then ns per ray, per line
+    assert ns_per_ray == {"embree cpu": [1e3 / 10.0] * 2, "wrt:sah cpu": [1e3 / 4.0] * 2,  # wrt:sah at its fewest, 2
+                          "wrt:sah cuda:0": [1e3 / 100.0] * 2}
+
+
+def test_plots_of_an_earlier_run_do_not_stay_beside_rows_that_have_none(tmp_path):
+    """A run into a folder that held an earlier run's plots left them there when it drew none (every row failed, or
+    no sweep this time), so mrays.png showed numbers that table.md no longer had."""
+    for name in ("mrays.png", "build_vs_quality.png", "scaling.png"):
+        (tmp_path / name).write_bytes(b"an earlier run's plot")
+    rows = run_grid(tiny_grid(scenes=["no/such/scene.usda"], rays=["primary"]), tmp_path, progress=False)
+    assert all("error" in r for r in rows)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rows.jsonl", "settings.json", "table.md"]
+
+
 def test_markdown_table_names_hardware():
     rows = [{"scene": "s", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "warp:sah", "threads": 1,
              "build_ms": 1.0, "mrays": 2.0, "mrays_min": 1.0, "mrays_max": 3.0, "hit_fraction": 0.5, "agreement": 1.0,

@@ -628,9 +628,12 @@ def run_grid(
     if out is not None:
         (out / "table.md").write_text(markdown_table(rows))
         try:
-            plot(rows, out)
+            written = plot(rows, out)
         except ImportError:
-            pass
+            written = []
+        for name in PLOT_FILES:  # a plot this run has no rows for must not show an earlier run's numbers
+            if out / name not in written:
+                (out / name).unlink(missing_ok=True)
     return rows
 
 
@@ -685,8 +688,12 @@ def _slope_label(x, y) -> str:
     return f"slope {slope:.2f}" if math.isfinite(slope) else f"no slope (fewer than 2 sizes >= {SLOPE_FROM:g})"
 
 
+PLOT_FILES = ("mrays.png", "build_vs_quality.png", "scaling.png")  # what plot() may write
+
+
 def plot(rows: list[dict], out: Path) -> list[Path]:
-    """Writes ``mrays.png``, ``build_vs_quality.png`` and, for scaling rows, ``scaling.png``; returns the paths."""
+    """Writes ``mrays.png``, ``build_vs_quality.png`` and, for scaling rows, ``scaling.png``; returns the paths.
+    Rows of several devices get a bar (and a scaling line) per device."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -696,14 +703,16 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
     paths = []
     if good:
         labels = sorted({(r["scene"], r["rays"]) for r in good})
-        accels = sorted({(r["accel"], r["threads"]) for r in good}, key=str)
+        several = len({r["device"] for r in good}) > 1
+        series = sorted({(r["accel"], r["device"], r["threads"]) for r in good}, key=str)
         fig, ax = plt.subplots(figsize=(max(6, 1.2 * len(labels)), 4))
-        width = 0.8 / max(len(accels), 1)
-        for i, (accel, threads) in enumerate(accels):
-            values = [next((r["mrays"] for r in good
-                            if (r["scene"], r["rays"]) == lab and r["accel"] == accel and r["threads"] == threads), 0)
+        width = 0.8 / max(len(series), 1)
+        for i, (accel, device, threads) in enumerate(series):
+            values = [next((r["mrays"] for r in good if (r["scene"], r["rays"]) == lab
+                            and (r["accel"], r["device"], r["threads"]) == (accel, device, threads)), 0)
                       for lab in labels]
-            ax.bar(np.arange(len(labels)) + i * width, values, width, label=f"{accel} x{threads}")
+            name = f"{accel} {device}" if several else accel
+            ax.bar(np.arange(len(labels)) + i * width, values, width, label=f"{name} x{threads}")
         ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, [f"{s}\n{k}" for s, k in labels], fontsize=7)
         ax.set_ylabel("Mrays/s (median)")
         ax.legend(fontsize=7)
@@ -728,12 +737,15 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
     scaling = [r for r in good if r.get("sweep")]
     if scaling:
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
-        for accel in sorted({r["accel"] for r in scaling}):
-            pts = sorted((r["triangles"], r["build_ms"], 1e3 / r["mrays"]) for r in scaling
-                         if r["accel"] == accel and r["threads"] == min(x["threads"] for x in scaling))
+        several = len({r["device"] for r in scaling}) > 1
+        for accel, device in sorted({(r["accel"], r["device"]) for r in scaling}):
+            line = [r for r in scaling if (r["accel"], r["device"]) == (accel, device)]
+            fewest = min(r["threads"] for r in line)  # one point per size: the line's smallest thread count
+            pts = sorted((r["triangles"], r["build_ms"], 1e3 / r["mrays"]) for r in line if r["threads"] == fewest)
             n, build, ns_per_ray = zip(*pts)
-            a1.loglog(n, build, "o-", label=f"{accel} {_slope_label(n, build)}")
-            a2.loglog(n, ns_per_ray, "o-", label=f"{accel} {_slope_label(n, ns_per_ray)}")
+            name = f"{accel} {device}" if several else accel
+            a1.loglog(n, build, "o-", label=f"{name} {_slope_label(n, build)}")
+            a2.loglog(n, ns_per_ray, "o-", label=f"{name} {_slope_label(n, ns_per_ray)}")
         a1.set_xlabel("triangles"), a1.set_ylabel("build ms"), a1.legend(fontsize=7)
         a2.set_xlabel("triangles"), a2.set_ylabel("ns per ray"), a2.legend(fontsize=7)
         fig.tight_layout()
