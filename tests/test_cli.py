@@ -165,3 +165,14 @@ def test_accel_warp_renders_a_stage_with_gprims_as_triangle_meshes(tmp_path):
     assert main(["render", str(scene), "--accel", "warp", "--frames", "1:1", "-o", str(frames), "--width", "40",
                  "--height", "30", "-q"]) == 0
     np.testing.assert_array_equal(np.load(tmp_path / "f_1.npy"), expected.rgb)
+
+
+def test_python_dash_m_wrt_runs_the_command_line(tmp_path):
+    """``python -m wrt`` said "No module named wrt.__main__"; only ``python -m wrt.cli`` worked."""
+    result = subprocess.run([sys.executable, "-m", "wrt", "render", "-o", str(tmp_path / "room.npy"), "--width", "8",
+                             "--height", "6", "-q"], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert np.load(tmp_path / "room.npy").shape == (6, 8, 3)
+    bad = subprocess.run([sys.executable, "-m", "wrt", "render", "--width", "0"], capture_output=True, text=True,
+                         timeout=600)
+    assert bad.returncode == 2 and error_lines(bad.stderr)[-1].startswith("wrt: error: argument --width")
