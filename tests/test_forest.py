@@ -93,3 +93,33 @@ def test_gpu_benchmark_script_runs_small_on_the_cpu():
     assert result.returncode == 0, result.stderr
     out = result.stdout
     assert "| rendered triangles | 1,000,002 |" in out and "| frame ms (median; min) |" in out
+
+
+def test_flattening_too_many_instances_is_refused_before_it_starts(tmp_path, monkeypatch, capsys):
+    """Scene.triangles() (``wrt bvh-stats``, the flattened layouts) expanded every instance before checking that
+    the points fit int32 indices, and never checked the host memory: ``wrt bvh-stats`` of a 5e9-triangle forest ran
+    for minutes, taking all the memory, before it failed."""
+    import wrt.resources
+    import wrt.scene as scene_module
+    from wrt.cli import main
+
+    path = tmp_path / "forest.usda"
+    forest.write_forest(path, n_trees=20, tree_triangles=200, seed=1)
+    scene = wrt.load_usd(path)
+    rendered = scene.stats()["rendered_triangles"]
+
+    def expand(*args):
+        raise AssertionError("the instances were expanded before the check")
+
+    monkeypatch.setattr(scene_module, "expand_instance_triangles", expand)
+    monkeypatch.setattr(wrt.resources, "available_host_bytes", lambda: 10_000)
+    with pytest.raises(MemoryError, match=f"flattening 20 instances into {rendered} triangles"):
+        scene.triangles()
+    assert main(["bvh-stats", str(path)]) == 2
+    assert "flattening 20 instances" in capsys.readouterr().err
+    monkeypatch.setattr(wrt.resources, "available_host_bytes", lambda: None)
+    monkeypatch.setattr(scene_module, "ROW_DTYPE_LIMIT", 1000)
+    with pytest.raises(ValueError, match="points are too many to flatten"):
+        scene.triangles()
+    monkeypatch.undo()
+    assert len(scene.triangles()[1]) == rendered

@@ -399,13 +399,28 @@ class Scene:
         if key not in self._cache:
             points, indices = _concatenate_meshes(self.meshes)
             if len(self.instances):
+                self._check_flattening(len(points), len(indices))
                 more_points, more_indices = expand_instance_triangles(self.prototypes, self.instances)
-                if len(points) + len(more_points) > ROW_DTYPE_LIMIT:
-                    raise ValueError(f"{len(points) + len(more_points)} points are too many to flatten into one array")
                 indices = np.concatenate([indices, (more_indices + len(points)).astype(np.int32)])
                 points = np.concatenate([points, more_points])
             self._cache[key] = (points, indices)
         return self._cache[key]
+
+    def _check_flattening(self, flat_points: int, flat_triangles: int) -> None:
+        """Raises before :meth:`triangles` expands the instances when the arrays cannot be made: more points than
+        int32 indices reach (``ValueError``), or more bytes than the host has free (``MemoryError``). Both were
+        found only after the expansion, which for a forest of 5e9 triangles took minutes and all the memory."""
+        sizes = np.array([[sum(len(m.points) for m in p.meshes), sum(len(m.indices) for m in p.meshes)]
+                          for p in self.prototypes] or [[0, 0]], dtype=np.int64)
+        points, triangles = sizes[self.instances.prototype].sum(axis=0) if len(self.prototypes) else (0, 0)
+        points, triangles = int(points) + flat_points, int(triangles) + flat_triangles
+        what = f"{self.source or 'scene'}: flattening {len(self.instances)} instances into {triangles} triangles"
+        if points > ROW_DTYPE_LIMIT:
+            raise ValueError(f"{what}: {points} points are too many to flatten into one array")
+        from .resources import check_host_memory
+
+        # Per-instance float32 points and int64 indices, then their concatenation: twice 12 + 24 bytes each.
+        check_host_memory(2 * (12 * points + 24 * triangles), what)
 
     def corner_attributes(self) -> tuple[np.ndarray, np.ndarray]:
         """Per-corner shading normals and colours for every triangle, in geometry order (:meth:`geometry`).
