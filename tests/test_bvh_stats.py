@@ -242,3 +242,19 @@ def test_cli_bvh_stats_json_is_strict_for_a_scene_without_area(capsys, tmp_path)
     assert main(["bvh-stats", str(path), "--json"]) == 0
     rows = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
     assert rows[0]["epo"] is None
+
+
+def test_cli_bvh_stats_counts_gprims_as_triangles(tmp_path, capsys):
+    """A stage of gprims (spheres, cubes) reported 0 triangles and an empty tree: gprims load as analytic shapes,
+    which are in no BVH over triangles. They are measured as triangle meshes now, as wrt bench measures them."""
+    import json
+
+    import wrt
+
+    scene = tmp_path / "gprims.usda"
+    scene.write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 1\n}\n'
+                     'def Cube "Box"\n{\n    double size = 1\n}\n')
+    assert main(["bvh-stats", str(scene), "--json", "--epo-samples", "64"]) == 0
+    row = json.loads(capsys.readouterr().out)[0]
+    expected = len(wrt.load_usd(scene, tessellate_gprims=True).triangles()[1])
+    assert row["triangles"] == expected > 0 and sum(row["leaf_size_histogram"].values()) == row["leaves"] > 0
