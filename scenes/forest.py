@@ -190,13 +190,39 @@ def write_forest(path, n_trees: int = 1000, tree_triangles: int = 10_000, seed: 
     }
 
 
+MIN_TREE_TRIANGLES = 2 * TRUNK_SEGMENTS * TRUNK_RINGS + 2  # the trunk and one leaf
+
+
+def _int_at_least(minimum: int):
+    """An argparse type: an integer >= ``minimum`` (a negative --trees ended in 'math domain error', and a
+    --tree-triangles below the trunk's count gave trees of another size than asked, without a word)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        return value
+
+    return parse
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     parser.add_argument("output", nargs="?", default="forest.usdc", help="stage to write (.usda or .usdc)")
-    parser.add_argument("--trees", type=int, default=1000, help="number of tree instances")
-    parser.add_argument("--tree-triangles", type=int, default=10_000, help="triangles per tree (about 1e6 at full detail)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed")
+    parser.add_argument("--trees", type=_int_at_least(1), default=1000, help="number of tree instances")
+    parser.add_argument("--tree-triangles", type=_int_at_least(MIN_TREE_TRIANGLES), default=10_000,
+                        help="triangles per tree (about 1e6 at full detail)")
+    parser.add_argument("--seed", type=_int_at_least(0), default=0, help="random seed")
     args = parser.parse_args(argv)
+    folder = Path(args.output).parent
+    if Path(args.output).suffix not in (".usd", ".usda", ".usdc"):
+        parser.error(f"cannot write {args.output}: give a .usd, .usda or .usdc file")
+    if not folder.is_dir() or Path(args.output).is_dir():
+        parser.error(f"cannot write {args.output}: {folder} is not a folder" if not folder.is_dir()
+                     else f"cannot write {args.output}: it is a folder")
     info = write_forest(Path(args.output), args.trees, args.tree_triangles, args.seed)
     print(
         f"wrote {info['path']}: {info['n_trees']:,} trees x {info['tree_triangles']:,} triangles = "

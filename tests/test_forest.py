@@ -123,3 +123,23 @@ def test_flattening_too_many_instances_is_refused_before_it_starts(tmp_path, mon
         scene.triangles()
     monkeypatch.undo()
     assert len(scene.triangles()[1]) == rendered
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--trees", "-5"], "argument --trees: must be at least 1"),  # was a traceback: math domain error
+        (["--tree-triangles", "0"], "argument --tree-triangles: must be at least 258"),  # was 258 without a word
+        (["{tmp}/file.usdc/forest.usdc"], "is not a folder"),  # was USD's 'Unable to open ... for write'
+    ],
+)
+def test_forest_script_refuses_bad_arguments_in_one_line(tmp_path, args, message):
+    import subprocess
+
+    (tmp_path / "file.usdc").write_text("")
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    output = [] if args[0].endswith(".usdc") else [str(tmp_path / "forest.usdc")]
+    result = subprocess.run([sys.executable, str(ROOT / "scenes" / "forest.py"), *output, *args], capture_output=True,
+                            text=True, timeout=120)
+    assert result.returncode == 2 and message in result.stderr and "Traceback" not in result.stderr, result.stderr
+    assert not (tmp_path / "forest.usdc").exists()
