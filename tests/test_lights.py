@@ -719,6 +719,19 @@ def environment_kernel(
     radiance[i] = environment(lights, dirs[i], 0.0, wp.vec3(0.0))[0]
 
 
+def cap_directions(axis, one_minus_max, count, rng):
+    """``count`` unit directions uniform in the cap ``1 - cos <= one_minus_max`` around unit ``axis`` (float64),
+    and their ``1 - cos``."""
+    one_minus = rng.random(count) * one_minus_max
+    sin_t = np.sqrt(one_minus * (2.0 - one_minus))
+    phi = 2.0 * np.pi * rng.random(count)
+    x = np.cross(axis, [0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.cross(axis, [1.0, 0.0, 0.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(axis, x)
+    dirs = (1.0 - one_minus)[:, None] * axis + (sin_t * np.cos(phi))[:, None] * x + (sin_t * np.sin(phi))[:, None] * y
+    return dirs, one_minus
+
+
 @pytest.mark.parametrize("angle", [0.1, 0.05, 0.53, 3.0])
 def test_a_small_sun_seen_by_rays_delivers_its_illuminance(angle, np_rng):
     """The sun disc of a soft DistantLight, as rays that escape see it (a perfect mirror reflecting the sun, or a
@@ -731,14 +744,8 @@ def test_a_small_sun_seen_by_rays_delivers_its_illuminance(angle, np_rng):
                      camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device="cpu")
     # Directions uniform in a float64 cap of twice the disc's half-angle around the sun.
     count, cap_half = 200_000, math.radians(angle)
-    one_minus = np_rng.random(count) * (1.0 - math.cos(cap_half))
-    sin_t = np.sqrt(one_minus * (2.0 - one_minus))
-    phi = 2.0 * np.pi * np_rng.random(count)
     axis = -direction
-    x = np.cross(axis, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(axis, x)
-    dirs = (1.0 - one_minus)[:, None] * axis + (sin_t * np.cos(phi))[:, None] * x + (sin_t * np.sin(phi))[:, None] * y
+    dirs, one_minus = cap_directions(axis, 1.0 - math.cos(cap_half), count, np_rng)
     radiance = wp.empty(count, dtype=float, device="cpu")
     wp.launch(environment_kernel, count, inputs=[r.device_lights, wp.array(dirs.astype(np.float32), dtype=wp.vec3)],
               outputs=[radiance], device="cpu")
@@ -762,19 +769,6 @@ def lights_on_ray_kernel(
     """Radiance of the area lights a ray from the origin along ``dirs[i]`` passes through, with MIS weight 1."""
     i = wp.tid()
     radiance[i] = lights_on_segment(lights, wp.vec3(0.0), dirs[i], 0.0, wp.inf, 0.0, wp.vec3(0.0))[0]
-
-
-def cap_directions(axis, one_minus_max, count, rng):
-    """``count`` unit directions uniform in the cap ``1 - cos <= one_minus_max`` around unit ``axis`` (float64),
-    and their ``1 - cos``."""
-    one_minus = rng.random(count) * one_minus_max
-    sin_t = np.sqrt(one_minus * (2.0 - one_minus))
-    phi = 2.0 * np.pi * rng.random(count)
-    x = np.cross(axis, [0.0, 0.0, 1.0]) if abs(axis[2]) < 0.9 else np.cross(axis, [1.0, 0.0, 0.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(axis, x)
-    dirs = (1.0 - one_minus)[:, None] * axis + (sin_t * np.cos(phi))[:, None] * x + (sin_t * np.sin(phi))[:, None] * y
-    return dirs, one_minus
 
 
 @pytest.mark.parametrize("distance, radius", [(10.0, 0.05), (100.0, 0.1), (1000.0, 0.5), (30.0, 0.01)])
