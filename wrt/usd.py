@@ -287,6 +287,7 @@ class _StageReader:
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
+        self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
 
     def _meters_per_unit(self) -> float:
         """The stage's ``metersPerUnit``; a value that is not a finite number above ``MIN_METERS_PER_UNIT`` (the depth
@@ -399,13 +400,26 @@ class _StageReader:
         """No ancestor up to ``stop`` (or the root) invisible. Each visibility is read as mesh attributes are
         (``value_at``), so with ``time=None`` a prim hidden only by its first time sample is hidden, as its points are
         that sample's."""
+        # Each prim's answer is kept (per stop): asking every prim of a deep hierarchy walked all its ancestors,
+        # quadratic in the depth (a mesh under each of 1000 nested Xforms took 10 s).
+        stop_path = stop.GetPath() if stop else None
+        chain = []  # (key, prim) from prim up to the first ancestor already known, the stop or the root
+        visible = True
         p = prim
         while p and p != stop and not p.IsPseudoRoot():
-            img = UsdGeom.Imageable(p)
-            if img and value_at(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible:
-                return False
+            key = (p.GetPath(), stop_path)
+            known = self.visibility.get(key)
+            if known is not None:
+                visible = known
+                break
+            chain.append((key, p))
             p = p.GetParent()
-        return True
+        for key, p in reversed(chain):
+            if visible:
+                img = UsdGeom.Imageable(p)
+                visible = not (img and value_at(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible)
+            self.visibility[key] = visible
+        return visible
 
     def _purpose(self, prim: Usd.Prim, ctx: _Context):
         """The purpose of ``prim``: its own or its nearest ancestor's authored purpose below ``ctx.stop``, else the
