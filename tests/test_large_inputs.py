@@ -54,3 +54,38 @@ def test_visibility_of_a_deep_hierarchy_reads_each_prim_once(tmp_path, monkeypat
     # No prim's visibility is read twice; at most one read per prim of the stage.
     assert len(reads) == len(set(reads))
     assert len(reads) <= 2 * depth
+
+
+def test_instance_transforms_are_inverted_once_per_scene(monkeypatch):
+    """The TLAS build, its BLAS list and the device transforms each inverted every instance's transform again
+    (three 5M-instance inversions of several seconds each before the first ray); the scene now keeps one."""
+    import wrt
+    import wrt.scene as wrt_scene
+    import wrt.tlas as wrt_tlas
+    from wrt.instancing import Instances, Prototype
+    from wrt.scene import Mesh, Scene
+
+    n = 64
+    corners = np.array([[-0.4, -0.4, 0.0], [0.4, -0.4, 0.0], [0.0, 0.4, 0.0]])
+    proto = Prototype("/Tri", [Mesh("/Tri/mesh", corners, np.array([[0, 1, 2]]), np.arange(1), double_sided=True)])
+    to_world = np.tile(np.eye(4), (n, 1, 1))
+    to_world[:, 0, 3] = np.arange(n)  # instance k at x = k
+    to_world[5, :3, :3] = 0.0  # a zero scale: left out
+    scene = Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n), to_world))
+
+    calls = []
+    original = wrt_scene.invert_transforms
+
+    def counting(transforms):
+        calls.append(len(transforms))
+        return original(transforms)
+
+    monkeypatch.setattr(wrt_scene, "invert_transforms", counting)
+    monkeypatch.setattr(wrt_tlas, "invert_transforms", counting)
+    origins = np.stack([np.arange(n), np.zeros(n), np.full(n, 2.0)], axis=1).astype(np.float32)
+    directions = np.tile(np.float32([0.0, 0.0, -1.0]), (n, 1))
+    hits = wrt.trace(scene, origins, directions)
+    expected = np.where(np.arange(n) == 5, -1, np.arange(n))
+    np.testing.assert_array_equal(hits.instance, expected)
+    np.testing.assert_allclose(hits.t[expected >= 0], 2.0)
+    assert calls.count(n) == 1

@@ -538,13 +538,22 @@ class Scene:
             )
         return self._cache[key]
 
+    def instance_inverses(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(world_to_local (N, 3, 4) float64, ok (N,) bool)`` of the instances (:func:`invert_transforms`), computed
+        once: the TLAS build, its BLAS list and the device transforms each inverted every instance again (3 x 6 s
+        for 5M PointInstancer instances on a 2-core CPU)."""
+        key = ("instance_inverses",)
+        if key not in self._cache:
+            self._cache[key] = invert_transforms(self.instances.to_world)
+        return self._cache[key]
+
     def world_to_local(self, device) -> wp.array:
         """``(max(N, 1),)`` mat34 world-to-prototype transforms of the instances on ``device`` (zero for a singular
         transform), uploaded once and shared by the accelerator and the shading data."""
         device = wp.get_device(device)
         key = ("world_to_local", str(device))
         if key not in self._cache:
-            inverse, _ = invert_transforms(self.instances.to_world)
+            inverse, _ = self.instance_inverses()
             if len(inverse) == 0:
                 inverse = np.zeros((1, 3, 4))
             self._cache[key] = wp.array(inverse.astype(np.float32), dtype=mat34, device=device)

@@ -325,7 +325,7 @@ class InstancedAccelerator(Accelerator):
             lowers.append(self.blas[b].lowers[:1].astype(np.float64))
             uppers.append(self.blas[b].uppers[:1].astype(np.float64))
         instances = scene.instances
-        _, invertible = invert_transforms(instances.to_world)
+        _, invertible = scene.instance_inverses()
         self.skipped_instances = np.flatnonzero(~invertible)
         for part, b in blas_of_part.items():
             if part == 0:
@@ -448,7 +448,7 @@ def blas_parts(scene: Scene) -> list[tuple[int, int, int]]:
     :meth:`Scene.geometry` triangle rows."""
     parts = [(0, 0, scene.num_flat_triangles)] if scene.num_flat_triangles else []
     instances = scene.instances
-    _, invertible = invert_transforms(instances.to_world)
+    _, invertible = scene.instance_inverses()
     for p, (first, count) in enumerate(scene.prototype_ranges()):
         if count and np.any((instances.prototype == p) & invertible):
             parts.append((p + 1, int(first), int(count)))
