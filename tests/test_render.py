@@ -318,3 +318,28 @@ def test_samples_whose_sum_overflows_are_dropped_not_written():
     img = renderer.render(spp=8)
     assert np.isfinite(img.rgb).all()
     assert renderer.dropped_samples > 0
+
+
+def test_progressive_render_interrupted_midway_resumes_from_the_samples_it_finished(room):
+    """Ctrl-C during a resumed render: the sums already held the finished launches' samples while the sample count
+    was only updated at the end, so the next ``resume=True`` came out about 25% too bright. The count now follows
+    the sums, and finishing the interrupted render gives exactly the image of one uninterrupted render."""
+    reference = wrt.Renderer(room, width=24, height=16, integrator="path").render(spp=8, seed=3).rgb
+    renderer = wrt.Renderer(room, width=24, height=16, integrator="path")
+    renderer.render(spp=2, seed=3)
+    launch = renderer._start_and_trace
+    launches = []
+
+    def interrupted_at_third(*args, **kwargs):
+        launches.append(1)
+        if len(launches) == 3:
+            raise KeyboardInterrupt
+        return launch(*args, **kwargs)
+
+    renderer._start_and_trace = interrupted_at_third
+    with pytest.raises(KeyboardInterrupt):
+        renderer.render(spp=4, seed=3, batch=1, resume=True)
+    renderer._start_and_trace = launch
+    # 2 samples, then 2 launches of 1 sample before the interrupt: 4 to go for 8.
+    image = renderer.render(spp=4, seed=3, resume=True)
+    np.testing.assert_array_equal(image.rgb, reference)

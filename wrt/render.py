@@ -404,18 +404,23 @@ class Renderer:
 
         bar = tqdm(total=spp, unit="spp", desc=f"wrt {self.integrator}", disable=not progress, leave=False)
         total = done + spp
-        with wp.ScopedTimer("render", print=False, dict=self.timers, synchronize=True), wp.ScopedDevice(dev):
-            first = done
-            while first < total:
-                count = min(batch, total - first)
-                w = self._wavefront.view(n_pixels * count)
-                self._start_and_trace(w, first, seed, aovs if first == 0 else None)
-                wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count],
-                          outputs=[image, dropped])
-                first += count
-                bar.update(count)
-        bar.close()
-        self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": total}
+        first = done
+        try:
+            with wp.ScopedTimer("render", print=False, dict=self.timers, synchronize=True), wp.ScopedDevice(dev):
+                while first < total:
+                    count = min(batch, total - first)
+                    w = self._wavefront.view(n_pixels * count)
+                    self._start_and_trace(w, first, seed, aovs if first == 0 else None)
+                    wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count],
+                              outputs=[image, dropped])
+                    first += count
+                    bar.update(count)
+        finally:
+            # The sums hold exactly the launches finished so far, also when interrupted (Ctrl-C): a later
+            # resume=True continues from them. Recorded only at the end, a resumed render interrupted midway left
+            # its extra samples in the sums under the old count, and the next resume came out too bright.
+            bar.close()
+            self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": first}
         self.dropped_samples = int(dropped.numpy()[0])
         if self.batched:
             return self._batch_image(image, total, aovs)
