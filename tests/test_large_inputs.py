@@ -89,3 +89,58 @@ def test_instance_transforms_are_inverted_once_per_scene(monkeypatch):
     np.testing.assert_array_equal(hits.instance, expected)
     np.testing.assert_allclose(hits.t[expected >= 0], 2.0)
     assert calls.count(n) == 1
+
+
+@pytest.mark.parametrize("mode", ["RGB", "RGBA", "P"])
+@pytest.mark.parametrize("color_space", ["auto", "sRGB", "raw"])
+def test_8_bit_textures_decode_without_image_sized_float_temporaries(tmp_path, monkeypatch, mode, color_space):
+    """An 8-bit texture became float32 and then went through the sRGB curve on the whole image, several
+    image-sized float32 temporaries at once (3.7 GB peak for the 1 GB of texels of an 8k x 8k texture), and packing
+    it to float16 made four more. The values are those of the whole-image conversions, and the peaks are now little
+    above the results themselves."""
+    import tracemalloc
+
+    from PIL import Image as PilImage
+
+    import wrt.textures as wrt_textures
+    from wrt.textures import load_image, pack_images, srgb_to_linear
+
+    h, w = 301, 517  # odd sizes; every 8-bit value occurs
+    # Smooth (a small file, so the PNG's bytes weigh little next to the texels), with every 8-bit value.
+    y, x = np.mgrid[0:h, 0:w]
+    samples = np.stack([x % 256, y % 256, (x + y) % 256, 255 - x % 256], axis=-1).astype(np.uint8)
+    img = PilImage.fromarray(samples, "RGBA")
+    img = img.convert("RGB").quantize(256) if mode == "P" else img.convert(mode)
+    path = str(tmp_path / f"t_{mode}.png")
+    img.save(path)
+
+    expected = np.asarray(PilImage.open(path).convert("RGBA"), np.float32) / 255.0
+    if color_space in ("auto", "sRGB"):
+        expected[..., :3] = srgb_to_linear(expected[..., :3])
+    load_image(path, color_space)  # first use: Pillow loads its plugins
+    tracemalloc.start()
+    try:
+        rgba = load_image(path, color_space)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    np.testing.assert_array_equal(rgba, expected)
+    assert rgba.dtype == np.float32 and rgba.flags.c_contiguous
+    assert peak < 1.75 * rgba.nbytes  # the texels, their 8-bit samples, one channel at a time (was 2 to 3.5x)
+
+    # Packing to float16 gives each image's texels in turn, converted as a whole array would be.
+    other = np.random.default_rng(123).normal(size=(3, 5, 4)).astype(np.float32) * 1e5
+    other[0, 0] = [np.nan, np.inf, -np.inf, 1.0]
+    monkeypatch.setattr(wrt_textures, "PACK_TEXELS", 4096, raising=False)
+    tracemalloc.start()
+    try:
+        texels, offsets, sizes = pack_images([other, rgba])
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 1.5 * texels.nbytes  # the float16 texels and one slice (were four image-sized copies)
+    np.testing.assert_array_equal(offsets, [0, 15])
+    np.testing.assert_array_equal(sizes, [[5, 3], [w, h]])
+    whole = np.concatenate([other.reshape(-1, 4), rgba.reshape(-1, 4)])
+    whole = np.clip(np.nan_to_num(whole, nan=0.0), -65504.0, 65504.0).astype(np.float16)
+    np.testing.assert_array_equal(texels, whole)
