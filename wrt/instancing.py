@@ -133,6 +133,9 @@ class Instances:
         return np.linalg.det(self.to_world[:, :3, :3]) < 0.0 if len(self) else np.zeros(0, bool)
 
 
+EXPAND_POINTS = 1 << 20  # points moved at a time by expand_instance_triangles
+
+
 def transform_points(points: np.ndarray, to_world: np.ndarray) -> np.ndarray:
     """``(V, 3)`` points through one ``(4, 4)`` column-vector transform, in float64."""
     return np.asarray(points, np.float64) @ to_world[:3, :3].T + to_world[:3, 3]
@@ -184,28 +187,31 @@ def expand_instance_triangles(prototypes: list, instances: Instances) -> tuple[n
         pts = np.concatenate([m.points for m in p.meshes] or [np.zeros((0, 3), np.float32)]).astype(np.float64)
         idx = np.concatenate([m.indices + o for m, o in zip(p.meshes, offsets)] or [np.zeros((0, 3), np.int32)])
         local.append((pts, idx.astype(np.int64)))
-    points, indices = [], []
-    base = 0
+    # Each instance's block of points and triangles, in instance order; prototypes without triangles add none.
+    n_points = np.array([len(pts) if len(idx) else 0 for pts, idx in local] or [0], np.int64)
+    n_tris = np.array([len(idx) for _, idx in local] or [0], np.int64)
+    point_counts, tri_counts = n_points[instances.prototype], n_tris[instances.prototype]
+    point_bases, tri_bases = np.cumsum(point_counts) - point_counts, np.cumsum(tri_counts) - tri_counts
+    points = np.empty((int(point_counts.sum()), 3), np.float32)
+    indices = np.empty((int(tri_counts.sum()), 3), np.int64)
     mirrored = instances.mirrored
     _, invertible = invert_transforms(instances.to_world)
-    for i in range(len(instances)):
-        pts, idx = local[instances.prototype[i]]
+    # Vectorised over the instances of each prototype, in slices of about EXPAND_POINTS points: a Python loop over
+    # instances took 8 s for 1M PointInstancer instances. The per-instance products are those of transform_points.
+    for p, (pts, idx) in enumerate(local):
         if len(idx) == 0:
             continue
-        to_world = instances.to_world[i] if invertible[i] else _collapsed(instances.to_world[i])
-        points.append(transform_points(pts, to_world).astype(np.float32))
-        indices.append((idx[:, [0, 2, 1]] if mirrored[i] else idx) + base)
-        base += len(pts)
-    if not points:
-        return np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64)
-    return np.concatenate(points), np.concatenate(indices)
-
-
-def _collapsed(to_world: np.ndarray) -> np.ndarray:
-    """``to_world`` with a zero linear part: every point goes to the instance's origin."""
-    out = np.zeros_like(to_world)
-    out[:3, 3] = to_world[:3, 3]
-    return out
+        rows = np.flatnonzero(instances.prototype == p)
+        step = max(1, EXPAND_POINTS // max(len(pts), 1))
+        for start in range(0, len(rows), step):
+            chunk = rows[start : start + step]
+            to_world = instances.to_world[chunk]
+            to_world[~invertible[chunk], :3, :3] = 0.0  # collapsed: every point at the instance's origin
+            moved = pts[None] @ to_world[:, :3, :3].transpose(0, 2, 1) + to_world[:, None, :3, 3]
+            points[point_bases[chunk][:, None] + np.arange(len(pts))] = moved.astype(np.float32)
+            corners = np.where(mirrored[chunk][:, None, None], idx[None][..., [0, 2, 1]], idx[None])
+            indices[tri_bases[chunk][:, None] + np.arange(len(idx))] = corners + point_bases[chunk][:, None, None]
+    return points, indices
 
 
 __all__ = ["Instances", "Prototype", "expand_instance_triangles", "invert_transforms", "world_boxes"]
