@@ -212,3 +212,84 @@ def test_expanded_instance_triangles_are_each_instance_moved_in_order(monkeypatc
     np.testing.assert_array_equal(points, np.concatenate(ref_points))
     np.testing.assert_array_equal(indices, np.concatenate(ref_indices))
     assert indices.dtype == np.int64 and points.dtype == np.float32
+
+
+def _many_prototypes_scene(n_prototypes, n_instances, seed=123):
+    from wrt.instancing import Instances, Prototype
+    from wrt.scene import Mesh, Scene
+
+    rng = np.random.default_rng(seed)
+    prototypes = []
+    for p in range(n_prototypes):
+        n_points = 3 + p % 4
+        mesh = Mesh(f"/P{p}/m", rng.normal(size=(n_points, 3)), rng.integers(0, n_points, (2, 3)), np.arange(2))
+        prototypes.append(Prototype(f"/P{p}", [mesh]))
+    to_world = np.tile(np.eye(4), (n_instances, 1, 1))
+    to_world[:, :3, 3] = rng.normal(size=(n_instances, 3)) * 10.0
+    to_world[::7, :3, :3] = 0.0  # singular: not drawn
+    proto = rng.integers(0, n_prototypes, n_instances)
+    proto[: n_prototypes // 2] = np.arange(n_prototypes // 2)  # every other prototype may have no instance left
+    proto[proto % 2 == 1] = 0
+    return Scene(prototypes=prototypes, instances=Instances.from_transforms(proto, to_world))
+
+
+def test_many_prototypes_are_grouped_once_not_scanned_per_prototype():
+    """Thousands of PointInstancer prototypes: every BLAS part summed the vertex counts of all prototypes (quadratic:
+    6 s for 2000), and the TLAS, the BLAS list, the bounds and the flattening each scanned every instance once per
+    prototype. The parts, rows and bounds are those of the per-prototype scans."""
+    from wrt.tlas import _part_triangles, blas_parts
+
+    scene = _many_prototypes_scene(60, 500)
+    instances, n = scene.instances, len(scene.prototypes)
+    rows = instances.rows_of_prototypes(n)
+    for p in range(n):
+        np.testing.assert_array_equal(rows[p], np.flatnonzero(instances.prototype == p))
+
+    _, invertible = scene.instance_inverses()
+    points, indices = scene.geometry()
+    ranges = scene.prototype_ranges()
+    expected = [(p + 1, int(ranges[p][0]), int(ranges[p][1])) for p in range(n)
+                if np.any((instances.prototype == p) & invertible)]
+    parts = blas_parts(scene)
+    assert [tuple(part) for part in parts] == expected and 0 < len(parts) < n
+    starts = np.cumsum([0] + [len(proto.meshes[0].points) for proto in scene.prototypes])
+    for part, first, count in parts:
+        sub_points, sub = _part_triangles(scene, points, indices, part, first, count)
+        np.testing.assert_array_equal(sub_points, scene.prototypes[part - 1].meshes[0].points)
+        np.testing.assert_array_equal(sub + starts[part - 1], indices[first : first + count])
+
+    lower, upper = scene.bounds()
+    corners = []
+    for i in range(len(instances)):
+        m = instances.to_world[i]
+        lo, hi = scene.prototypes[instances.prototype[i]].bounds()
+        box = np.array(np.meshgrid(*zip(lo, hi))).reshape(3, -1).T
+        corners.append(box @ m[:3, :3].T + m[:3, 3])
+    corners = np.concatenate(corners)
+    np.testing.assert_allclose(lower, corners.min(axis=0), rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(upper, corners.max(axis=0), rtol=1e-6, atol=1e-6)
+
+
+def test_blas_parts_cost_grows_linearly_with_the_prototypes():
+    """The Python calls made slicing every BLAS part grow linearly with the number of prototypes (they grew with its
+    square)."""
+    from wrt.tlas import _part_triangles, blas_parts
+
+    def python_calls(n_prototypes):
+        scene = _many_prototypes_scene(n_prototypes, 4 * n_prototypes)
+        points, indices = scene.geometry()
+        parts = blas_parts(scene)
+        calls = [0]
+
+        def count(frame, event, arg):
+            calls[0] += event in ("call", "c_call")
+
+        sys.setprofile(count)
+        try:
+            for part in parts:
+                _part_triangles(scene, points, indices, *part)
+        finally:
+            sys.setprofile(None)
+        return calls[0] / max(len(parts), 1)
+
+    assert python_calls(160) < 2 * python_calls(40)  # per part: constant (it was proportional to the prototypes)

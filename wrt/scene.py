@@ -577,10 +577,9 @@ class Scene:
         for shape in self.shapes:
             lo, hi = world_boxes(*shape.local_bounds(), shape.to_world[None])
             lower, upper = np.minimum(lower, lo[0]), np.maximum(upper, hi[0])
-        for p, proto in enumerate(self.prototypes):
-            mine = self.instances.prototype == p
+        for proto, mine in zip(self.prototypes, self.instances.rows_of_prototypes(len(self.prototypes))):
             lo, hi = proto.bounds()
-            if mine.any() and np.all(lo <= hi):
+            if len(mine) and np.all(lo <= hi):
                 boxes = world_boxes(lo, hi, self.instances.to_world[mine])
                 lower = np.minimum(lower, boxes[0].min(axis=0))
                 upper = np.maximum(upper, boxes[1].max(axis=0))
