@@ -510,7 +510,8 @@ def _add_bench(sub) -> None:
         formatter_class=HelpFormatter,
     )
     p.add_argument("suite", nargs="?", default="quick", help="suite file or name")
-    p.add_argument("--quick", action="store_true", help="run the small 'quick' suite (about a minute on a CPU, once the kernels are compiled)")
+    p.add_argument("--quick", action="store_true",
+                   help="run the small 'quick' suite (about a minute on a CPU, once the kernels are compiled)")
     p.add_argument("--scenes", type=_csv, help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N")
     p.add_argument("--accels", type=_csv,
                    help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree")
