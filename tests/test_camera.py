@@ -352,3 +352,12 @@ def test_default_time_reads_defaults_over_samples_for_transforms_and_cameras_too
     at_one = wrt.load_usd(tmp_path / "mixed.usda", time=1).cameras["/Rig/Cam"]
     assert at_one.focal_length == 25.0
     np.testing.assert_allclose(at_one.eye, [0.0, 0.0, 20.0])
+
+
+def test_unknown_camera_projection_is_perspective_with_a_warning(tmp_path):
+    stage = Usd.Stage.CreateNew(str(tmp_path / "fisheye.usda"))
+    UsdGeom.Camera.Define(stage, "/Cam").CreateProjectionAttr("fisheye")
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"unknown projection.*fisheye"):
+        cam = wrt.load_usd(tmp_path / "fisheye.usda").cameras["/Cam"]
+    assert cam.projection == "perspective"
