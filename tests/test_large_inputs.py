@@ -293,3 +293,42 @@ def test_blas_parts_cost_grows_linearly_with_the_prototypes():
         return calls[0] / max(len(parts), 1)
 
     assert python_calls(160) < 2 * python_calls(40)  # per part: constant (it was proportional to the prototypes)
+
+
+def test_point_instancer_with_many_prototypes_groups_its_instances_once(tmp_path, monkeypatch):
+    """A PointInstancer with many prototypes scanned all its instances once per prototype while loading (6 s for
+    10000 prototypes and 1M instances); it now groups them once. Every visible instance keeps its prototype and
+    position, in index order."""
+    n_protos, n = 150, 3000
+    rng = np.random.default_rng(123)
+    stage = Usd.Stage.CreateNew(str(tmp_path / "pi.usda"))
+    instancer = UsdGeom.PointInstancer.Define(stage, "/PI")
+    targets = []
+    for k in range(n_protos):
+        _triangle(stage, f"/PI/Protos/P{k}")
+        targets.append(f"/PI/Protos/P{k}")
+    instancer.CreatePrototypesRel().SetTargets(targets)
+    proto_indices = rng.integers(0, n_protos, n)
+    positions = rng.normal(size=(n, 3)).astype(np.float32) * 50.0
+    instancer.CreateProtoIndicesAttr(proto_indices.tolist())
+    instancer.CreatePositionsAttr([Gf.Vec3f(*p) for p in positions.tolist()])
+    hidden = rng.choice(n, 40, replace=False)
+    instancer.CreateInvisibleIdsAttr(sorted(hidden.tolist()))
+    stage.Save()
+
+    scanned = [0]
+    flatnonzero = np.flatnonzero
+
+    def counting(a):
+        scanned[0] += np.size(a)
+        return flatnonzero(a)
+
+    monkeypatch.setattr(np, "flatnonzero", counting)
+    scene = load_usd(tmp_path / "pi.usda")
+    monkeypatch.undo()
+
+    shown = np.setdiff1d(np.arange(n), hidden)
+    np.testing.assert_array_equal(scene.instances.index, shown)
+    np.testing.assert_array_equal(scene.instances.prototype, proto_indices[shown])  # prototypes read in order
+    np.testing.assert_allclose(scene.instances.to_world[:, :3, 3], positions[shown], rtol=1e-6)
+    assert scanned[0] < 10 * n  # a few passes over the instances, not one per prototype

@@ -621,8 +621,13 @@ class _StageReader:
         if mask is not None and len(mask):
             keep &= np.asarray(mask, bool)[:n] if len(mask) >= n else np.ones(n, bool)
         to_space = self._to_space(prim, ctx).T @ m
+        # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
+        # prototype took 6 s for 10000 prototypes and 1M instances).
+        kept = np.flatnonzero(keep)
+        kept = kept[np.argsort(proto_indices[kept], kind="stable")]
+        starts = np.searchsorted(proto_indices[kept], np.arange(len(protos) + 1))
         for k, target in enumerate(protos):
-            rows = np.flatnonzero(keep & (proto_indices == k))
+            rows = kept[starts[k] : starts[k + 1]]
             if len(rows) == 0:
                 continue
             # The prototype's space is its parent's: the root's own transform is the most local part.
