@@ -59,7 +59,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
-from .instancing import Instances, Prototype, invert_transforms
+from .instancing import Instances, Prototype, group_rows, invert_transforms
 from .lights import read_light
 from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
@@ -624,10 +624,8 @@ class _StageReader:
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
         # prototype took 6 s for 10000 prototypes and 1M instances).
         kept = np.flatnonzero(keep)
-        kept = kept[np.argsort(proto_indices[kept], kind="stable")]
-        starts = np.searchsorted(proto_indices[kept], np.arange(len(protos) + 1))
-        for k, target in enumerate(protos):
-            rows = kept[starts[k] : starts[k + 1]]
+        for target, group in zip(protos, group_rows(proto_indices[kept], len(protos))):
+            rows = kept[group]
             if len(rows) == 0:
                 continue
             # The prototype's space is its parent's: the root's own transform is the most local part.
