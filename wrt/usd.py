@@ -836,11 +836,11 @@ class _StageReader:
 
         color = np.full(3, 0.5, np.float32)
         primvar = _display_color(prim)
-        if not _has_display_color(prim):
+        if not (primvar and primvar.HasValue()):
             ctx.content.uses_outer_color = True
             if ctx.outer_color is not None:
                 color = np.asarray(ctx.outer_color, np.float32)
-        if primvar and primvar.HasValue():
+        else:
             values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64).reshape(-1, 3)
             if len(values) and np.all(np.isfinite(values)):
                 color = values.mean(axis=0).astype(np.float32)
@@ -939,10 +939,7 @@ class _StageReader:
             return np.zeros(0, np.int64)
         array = np.asarray(value)
         if array.ndim != 1 or array.dtype.kind not in "iu":
-            try:
-                stack = attr.GetPropertyStack(self.time)
-            except Tf.ErrorException:
-                stack = []
+            stack = self._property_stack(attr)
             # The schema's type name is int[] whatever was authored; the spec holds the authored one.
             authored = str(stack[0].typeName) if stack else type(value).__name__
             raise self._error(f"{attr.GetName()} must be int[], not {authored}", prim, attr)
@@ -1125,13 +1122,17 @@ class _StageReader:
 
     # Errors and warnings
 
+    def _property_stack(self, attr: Usd.Attribute) -> list:
+        """The property specs of ``attr`` at the read time, strongest first (empty when USD cannot give them)."""
+        try:
+            return attr.GetPropertyStack(self.time)
+        except Tf.ErrorException:
+            return []
+
     def _error(self, message: str, prim: Usd.Prim, attr: Usd.Attribute | None = None) -> SceneError:
         """A SceneError naming the file and the prim, plus the layer the bad value is authored in if different."""
         if attr is not None:
-            try:
-                stack = attr.GetPropertyStack(self.time)
-            except Tf.ErrorException:
-                stack = []
+            stack = self._property_stack(attr)
             root = self.stage.GetRootLayer()
             if stack and stack[0].layer != root:
                 message += f" (authored in {stack[0].layer.identifier})"
