@@ -184,12 +184,18 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return out, ok
 
 
-def expand_instance_triangles(prototypes: list, instances: Instances) -> tuple[np.ndarray, np.ndarray]:
+def expand_instance_triangles(
+    prototypes: list, instances: Instances, invertible: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """World-space triangles of every instance, in the documented expanded order (see module docstring).
 
     An instance whose transform is singular (``invert_transforms``: a zero scale) is invisible, as the two-level
     traversal, which cannot take its ray into prototype space, leaves it out: its triangles keep their rows but are
     collapsed onto the instance's origin, zero-area, so no layout and no ``wp.Mesh`` hits them.
+
+    Args:
+        invertible: ``(N,)`` bool, the instances whose transform ``invert_transforms`` can invert, when the caller
+            has it already (``Scene.instance_inverses``); computed here otherwise.
 
     Returns:
         ``points`` ``(V, 3)`` float32 and ``indices`` ``(T, 3)`` int64 into them.
@@ -208,7 +214,8 @@ def expand_instance_triangles(prototypes: list, instances: Instances) -> tuple[n
     points = np.empty((int(point_counts.sum()), 3), np.float32)
     indices = np.empty((int(tri_counts.sum()), 3), np.int64)
     mirrored = instances.mirrored
-    _, invertible = invert_transforms(instances.to_world)
+    if invertible is None:
+        _, invertible = invert_transforms(instances.to_world)
     # Vectorised over the instances of each prototype, in slices of about EXPAND_POINTS points: a Python loop over
     # instances took 8 s for 1M PointInstancer instances. The per-instance products are those of transform_points.
     for (pts, idx), rows in zip(local, instances.rows_of_prototypes(len(local))):

@@ -400,7 +400,8 @@ class Scene:
             points, indices = _concatenate_meshes(self.meshes)
             if len(self.instances):
                 self._check_flattening(len(points), len(indices))
-                more_points, more_indices = expand_instance_triangles(self.prototypes, self.instances)
+                more_points, more_indices = expand_instance_triangles(self.prototypes, self.instances,
+                                                                      self.instance_inverses()[1])
                 indices = np.concatenate([indices, (more_indices + len(points)).astype(np.int32)])
                 points = np.concatenate([points, more_points])
             self._cache[key] = (points, indices)
