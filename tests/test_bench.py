@@ -245,7 +245,10 @@ def test_interrupted_run_keeps_finished_rows(tmp_path, monkeypatch):
     monkeypatch.setattr(bench, "time_runs", flaky)
     with pytest.raises(KeyboardInterrupt):
         run_grid(tiny_grid(), tmp_path, progress=False)
-    assert len(read_rows(tmp_path)) == 2
+    rows = read_rows(tmp_path)
+    assert len(rows) == 2
+    table = (tmp_path / "table.md").read_text()  # the table of the finished rows too, not only rows.jsonl
+    assert all(row["accel"] in table for row in rows)
 
 
 def test_ray_kinds():

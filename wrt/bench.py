@@ -604,27 +604,33 @@ def run_grid(
         if "error" in row:
             tqdm.write(f"wrt bench: {row['scene']} / {row['accel']} / {row['rays']}: {row['error']}")
 
-    if dask:
-        from .distributed import run_tasks
+    try:
+        if dask:
+            from .distributed import run_tasks
 
-        def lost(task, e):  # the group's workers kept dying, or its device does not exist there
-            emit(_group_error_row(*task[0], e))
+            def lost(task, e):  # the group's workers kept dying, or its device does not exist there
+                emit(_group_error_row(*task[0], e))
 
-        first = len(rows)
-        tasks = [((s, str(d), k), grid, thread_counts, frozenset(done)) for s, d, k in groups]
-        run_tasks(_run_group_task, tasks, address=None if dask is True else dask, progress=progress, desc="wrt bench",
-                  on_result=lambda task, group_rows: [emit(r) for r in group_rows], on_error=lost)
-        order = {task[0]: i for i, task in enumerate(tasks)}
-        rows[first:] = sorted(rows[first:],
-                              key=lambda r: order.get((r["scene"], r["device"], r["rays"]), 0))  # grid order
-    else:
-        bar = tqdm(total=len(groups), desc="wrt bench", unit="group", disable=not progress)
-        loaded = {}
-        for group in groups:
-            bar.set_postfix_str(" ".join(map(str, group)))
-            _run_group(group, grid, thread_counts, emit, lambda r: row_key(r) in done, loaded)
-            bar.update()
-        bar.close()
+            first = len(rows)
+            tasks = [((s, str(d), k), grid, thread_counts, frozenset(done)) for s, d, k in groups]
+            run_tasks(_run_group_task, tasks, address=None if dask is True else dask, progress=progress,
+                      desc="wrt bench", on_result=lambda task, group_rows: [emit(r) for r in group_rows],
+                      on_error=lost)
+            order = {task[0]: i for i, task in enumerate(tasks)}
+            rows[first:] = sorted(rows[first:],
+                                  key=lambda r: order.get((r["scene"], r["device"], r["rays"]), 0))  # grid order
+        else:
+            bar = tqdm(total=len(groups), desc="wrt bench", unit="group", disable=not progress)
+            loaded = {}
+            for group in groups:
+                bar.set_postfix_str(" ".join(map(str, group)))
+                _run_group(group, grid, thread_counts, emit, lambda r: row_key(r) in done, loaded)
+                bar.update()
+            bar.close()
+    except KeyboardInterrupt:  # rows.jsonl has every finished row; the table shows them too
+        if out is not None:
+            (out / "table.md").write_text(markdown_table(rows))
+        raise
     if out is not None:
         (out / "table.md").write_text(markdown_table(rows))
         try:
