@@ -176,3 +176,45 @@ def test_python_dash_m_wrt_runs_the_command_line(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "wrt", "render", "--width", "0"], capture_output=True, text=True,
                          timeout=600)
     assert bad.returncode == 2 and error_lines(bad.stderr)[-1].startswith("wrt: error: argument --width")
+
+
+def test_output_ending_in_a_slash_is_a_folder(tmp_path):
+    """``-o renders/`` wrote an image file named ``renders``: Path() drops the trailing slash."""
+    folder = tmp_path / "renders"
+    assert main(["render", "-o", f"{folder}/", "--width", "8", "--height", "6", "-q"]) == 0
+    assert folder.is_dir()
+    with PilImage.open(folder / "default_room.png") as png:
+        assert png.size == (8, 6)
+
+
+def test_interrupted_render_saves_the_samples_it_has(tmp_path, monkeypatch, capsys):
+    """Ctrl-C during a long ``wrt render`` saved nothing. The image of the samples finished so far is written, and
+    it is the image a render with that many samples gives; the exit status stays 130."""
+    import importlib
+
+    import wrt
+    from wrt.cli import default_scene_path
+
+    render_module = importlib.import_module("wrt.render")  # ``wrt.render`` is also the function
+
+    width, height = 8, 6
+    monkeypatch.setattr(render_module, "MAX_PATHS_PER_LAUNCH", width * height)  # one sample per launch
+    real_start = render_module.Renderer._start_and_trace
+    launches = []
+
+    def interrupt_on_the_third_launch(self, *args, **kwargs):
+        launches.append(1)
+        if len(launches) == 3:
+            raise KeyboardInterrupt
+        return real_start(self, *args, **kwargs)
+
+    monkeypatch.setattr(render_module.Renderer, "_start_and_trace", interrupt_on_the_third_launch)
+    out = tmp_path / "partial.npy"
+    args = ["render", "-o", str(out), "--width", str(width), "--height", str(height), "--integrator", "path",
+            "--spp", "16", "--seed", "3"]
+    assert main(args) == 130
+    assert "interrupted after 2 of 16 spp" in capsys.readouterr().err
+    monkeypatch.setattr(render_module.Renderer, "_start_and_trace", real_start)
+    scene = wrt.load_usd(default_scene_path())
+    two = wrt.Renderer(scene, width=width, height=height, integrator="path").render(spp=2, seed=3)
+    np.testing.assert_allclose(np.load(out), two.rgb, rtol=1e-5, atol=1e-6)

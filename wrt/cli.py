@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import collections
 import math
+import os
 import sys
 import time
 import warnings
@@ -122,8 +123,8 @@ def _add_render(sub) -> None:
         "-o",
         "--output",
         help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png; {stem} stands for "
-        "the scene file name without extension. With several scenes: a pattern with {stem} or a folder; default "
-        "{stem}.png",
+        "the scene file name without extension; a name ending in / is a folder for {stem}.png. With several scenes: "
+        "a pattern with {stem} or a folder; default {stem}.png",
     )
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene; default with several scenes: "
                    "render-log.jsonl beside the images")
@@ -174,7 +175,10 @@ def _add_render(sub) -> None:
 def _output_for(args, path: Path, several: bool) -> Path:
     """Where the image of scene ``path`` goes (see ``--output``)."""
     if not several:  # {stem} too: a script's pattern works for one scene as for several
-        return Path((args.output or "wrt.png").replace("{stem}", path.stem))
+        output = (args.output or "wrt.png").replace("{stem}", path.stem)
+        if output.endswith(("/", os.sep)):  # a folder, as for several scenes; Path() would drop the slash
+            return Path(output) / f"{path.stem}.png"
+        return Path(output)
     pattern = args.output or "{stem}.png"
     if "{stem}" in pattern:  # replaced as text: other braces are part of the name, not format fields
         return Path(pattern.replace("{stem}", path.stem))
@@ -256,7 +260,14 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     check_memory(needed, args.device, limit, f"rendering {path.name} at {args.width}x{args.height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
-    image = renderer.render(spp=args.spp, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
+    try:
+        image = renderer.render(spp=args.spp, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
+    except KeyboardInterrupt:  # keep what a long render has so far, then stop as interrupted
+        image = renderer.image_so_far()
+        if image is not None:
+            out = image.save(output, exposure=args.exposure)
+            progress(f"interrupted after {renderer.samples_so_far} of {args.spp} spp: wrote {out}")
+        raise
     progress(
         f"rendered {args.width}x{args.height} at {args.spp} spp ({args.integrator})",
         renderer.timers["render"][0] / 1000.0,

@@ -426,6 +426,22 @@ class Renderer:
             return self._batch_image(image, total, aovs)
         return self._image(image.numpy() / total, aovs)
 
+    @property
+    def samples_so_far(self) -> int:
+        """Samples per pixel in the progressive sums: those of the last :meth:`render`, also an interrupted one."""
+        return self._progressive["samples"] if self._progressive else 0
+
+    def image_so_far(self):
+        """The mean of the samples the last :meth:`render` finished, also when it was interrupted (Ctrl-C), so that
+        a long render stopped early still gives its picture; None before the first finished launch."""
+        samples = self.samples_so_far
+        if samples == 0:
+            return None
+        state = self._progressive
+        if self.batched:
+            return self._batch_image(state["sum"], samples, state["aovs"])
+        return self._image(state["sum"].numpy() / samples, state["aovs"])
+
     def launch_frame(self, seed: int = 0) -> None:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
         CUDA graph (``wp.ScopedCapture``) and replayed: every bounce up to ``max_depth`` is launched (finished paths
