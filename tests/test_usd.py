@@ -182,6 +182,17 @@ def test_left_handed_flips_winding(tmp_path):
     np.testing.assert_array_equal(left.face_ids, right.face_ids)
 
 
+def test_unknown_orientation_token_is_named_and_read_as_right_handed(tmp_path):
+    """USD does not check allowed tokens: ``orientation = "lefthanded"`` (a typo) was read as rightHanded silently."""
+    body = (mesh_usda("Typo", extra='uniform token orientation = "lefthanded"')
+            + 'def Sphere "Ball"\n{\n    uniform token orientation = "sideways"\n}\n')
+    with pytest.warns(UserWarning, match="orientation is neither rightHanded nor leftHanded; read as rightHanded: "
+                      "2 prim"):
+        scene = load_usd(write_usda(tmp_path, body))
+    n = face_normals(scene.meshes[0].points, scene.meshes[0].indices)
+    assert np.all(n[:, 2] > 0)  # the rightHanded winding
+
+
 def rot(axis: str, deg: float) -> np.ndarray:
     """Column-vector rotation matrix about a principal axis."""
     c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))

@@ -827,7 +827,7 @@ class _StageReader:
         if linear is None:
             return None
         gprim = UsdGeom.Gprim(prim)
-        if value_at(gprim.GetOrientationAttr(), t) == UsdGeom.Tokens.leftHanded:
+        if self._left_handed(prim, gprim, t):
             params[3] = -1.0
         to_world = m.T @ shape_transform(linear)
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
@@ -923,7 +923,7 @@ class _StageReader:
         normals = self._read_normals(prim, mesh, topology)
         colors = self._read_colors(prim, mesh, topology)
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
-        flip = value_at(mesh.GetOrientationAttr(), t) == UsdGeom.Tokens.leftHanded
+        flip = self._left_handed(prim, mesh, t)
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
         return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs)
 
@@ -1137,6 +1137,14 @@ class _StageReader:
             if stack and stack[0].layer != root:
                 message += f" (authored in {stack[0].layer.identifier})"
         return SceneError(message, path=self.source, prim=str(prim.GetPath()))
+
+    def _left_handed(self, prim: Usd.Prim, gprim: UsdGeom.Gprim, t: Usd.TimeCode) -> bool:
+        """Whether ``orientation`` is leftHanded. Any other token is read as USD's fallback, rightHanded, and named
+        in a warning: USD does not check allowed tokens, so a misspelt leftHanded would flip every face unseen."""
+        value = value_at(gprim.GetOrientationAttr(), t)
+        if value not in (UsdGeom.Tokens.rightHanded, UsdGeom.Tokens.leftHanded):
+            self._skip("orientation is neither rightHanded nor leftHanded; read as rightHanded", prim, repr(value))
+        return value == UsdGeom.Tokens.leftHanded
 
     def _skip(self, reason: str, prim: Usd.Prim, detail: str | None = None):
         """Records a prim left out (or data ignored) for ``reason``; ``detail`` is tallied in the warning."""
