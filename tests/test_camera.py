@@ -361,3 +361,55 @@ def test_unknown_camera_projection_is_perspective_with_a_warning(tmp_path):
     with pytest.warns(UserWarning, match=r"unknown projection.*fisheye"):
         cam = wrt.load_usd(tmp_path / "fisheye.usda").cameras["/Cam"]
     assert cam.projection == "perspective"
+
+
+def _exposed_cameras_stage(tmp_path, f_stop: float = 1.4) -> str:
+    """A lit quad seen by two cameras in the same place: /Plain with USD's fallbacks and /Exposed with every exposure
+    attribute authored."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "exposure.usda"))
+    for name in ("Plain", "Exposed"):
+        cam = UsdGeom.Camera.Define(stage, f"/{name}")
+        cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
+    exposed = UsdGeom.Camera.Get(stage, "/Exposed")
+    exposed.CreateExposureAttr(1.5)
+    exposed.CreateExposureTimeAttr(0.5)
+    exposed.CreateExposureIsoAttr(400.0)
+    exposed.CreateExposureFStopAttr(f_stop)
+    exposed.CreateExposureResponsivityAttr(0.8)
+    mesh = UsdGeom.Mesh.Define(stage, "/Quad")
+    mesh.CreatePointsAttr([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    stage.Save()
+    return str(tmp_path / "exposure.usda")
+
+
+def test_camera_exposure_attributes_scale_the_radiance_images(tmp_path):
+    """The camera's exposure attributes were ignored without a word. They scale path and whitted images by USD's own
+    ComputeLinearExposureScale, for one camera and in a batch alike; ao and the quick looks are not radiance."""
+    path = _exposed_cameras_stage(tmp_path)
+    scene = wrt.load_usd(path)
+    stage = Usd.Stage.Open(path)
+    expected = UsdGeom.Camera.Get(stage, "/Exposed").ComputeLinearExposureScale()
+    assert scene.cameras["/Exposed"].exposure_scale == pytest.approx(expected, rel=1e-6)
+    assert expected != pytest.approx(1.0) and scene.cameras["/Plain"].exposure_scale == 1.0
+
+    def image(camera, integrator="path"):
+        return wrt.render(scene, camera=camera, width=12, height=8, spp=2, integrator=integrator, device="cpu").rgb
+
+    plain = image("/Plain")
+    assert plain.max() > 0
+    np.testing.assert_allclose(image("/Exposed"), plain * expected, rtol=1e-5)
+    np.testing.assert_allclose(image("/Exposed", "whitted"), image("/Plain", "whitted") * expected, rtol=1e-5)
+    for integrator in ("ao", "normals"):
+        np.testing.assert_array_equal(image("/Exposed", integrator), image("/Plain", integrator))
+    cameras = [scene.cameras["/Plain"], scene.cameras["/Exposed"]]
+    batch = wrt.render_batch(scene, cameras, 12, 8, spp=2, integrator="path", device="cpu")
+    rgb = batch.rgb.numpy()
+    np.testing.assert_array_equal(rgb[0], plain)
+    np.testing.assert_allclose(rgb[1], plain * expected, rtol=1e-5)
+
+
+def test_camera_exposure_that_is_not_finite_names_the_camera(tmp_path):
+    with pytest.raises(wrt.SceneError, match=r"exposure\.usda: /Exposed: invalid camera: .*exposure scale.* inf"):
+        wrt.load_usd(_exposed_cameras_stage(tmp_path, f_stop=0.0))

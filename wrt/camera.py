@@ -163,6 +163,9 @@ class Camera:
         fit: which aperture is kept when the image aspect differs: ``"horizontal"`` or ``"vertical"``.
         f_stop: lens f-number; 0 means a pinhole.
         focus_distance: camera-space depth of the plane in focus.
+        exposure_scale: factor on the radiance the camera sees (``path`` and ``whitted`` images), USD's
+            ``ComputeLinearExposureScale``: ``2^exposure * exposure:time * exposure:iso / 100 *
+            exposure:responsivity / exposure:fStop^2``; 1 with USD's fallbacks.
         path: prim path when read from USD.
     """
 
@@ -178,6 +181,7 @@ class Camera:
     fit: str = "horizontal"
     f_stop: float = 0.0
     focus_distance: float = 0.0
+    exposure_scale: float = 1.0
     path: str = ""
 
     def __post_init__(self):
@@ -203,6 +207,9 @@ class Camera:
         bad = ", ".join(f"{k}={_show(v)}" for k, v in lens.items() if not _finite(v))
         if bad:
             raise ValueError(f"{self.label()} needs finite film offsets, fStop and focusDistance, got {bad}")
+        if not (_finite(self.exposure_scale) and self.exposure_scale >= 0):
+            raise ValueError(f"{self.label()} needs a finite, non-negative exposure scale (from exposure, "
+                             f"exposure:time, :iso, :fStop and :responsivity), got {_show(self.exposure_scale)}")
         near, far = self.clipping_range
         if not (0 <= near < far):
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")

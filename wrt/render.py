@@ -424,7 +424,7 @@ class Renderer:
         self.dropped_samples = int(dropped.numpy()[0])
         if self.batched:
             return self._batch_image(image, total, aovs)
-        return self._image(image.numpy() / total, aovs)
+        return self._image(image, total, aovs)
 
     @property
     def samples_so_far(self) -> int:
@@ -440,7 +440,7 @@ class Renderer:
         state = self._progressive
         if self.batched:
             return self._batch_image(state["sum"], samples, state["aovs"])
-        return self._image(state["sum"].numpy() / samples, state["aovs"])
+        return self._image(state["sum"], samples, state["aovs"])
 
     def launch_frame(self, seed: int = 0) -> None:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
@@ -469,7 +469,7 @@ class Renderer:
         _, image, _, aovs = self._frame
         if self.batched:
             return self._batch_image(image, 1, aovs)
-        return self._image(image.numpy(), aovs)
+        return self._image(image, 1, aovs)
 
     def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs):
         wp.launch(
@@ -584,7 +584,14 @@ class Renderer:
         self.accel.occluded(w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs, w.blocked)
         wp.launch(ao_value_kernel, w.n, inputs=[w.shadow_t_maxs, w.blocked], outputs=[w.radiance])
 
-    def _image(self, rgb: np.ndarray, aovs: _AovBuffers) -> Image:
+    def _exposure_scales(self) -> list[float]:
+        """Each camera's factor on its mean radiance: its ``exposure_scale`` for the radiance integrators; the
+        others' images are not radiance (ambient occlusion, quick looks)."""
+        radiance = self.integrator in ("path", "whitted")
+        return [camera.exposure_scale if radiance else 1.0 for camera in self.cameras]
+
+    def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers) -> Image:
+        rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
         return finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width),
                             self.integrator, self.scene)
 
@@ -600,7 +607,9 @@ class Renderer:
             rgb = wp.array(rgb, dtype=wp.vec3, device=self.device)
         else:
             rgb = wp.empty(n * h * w, dtype=wp.vec3, device=self.device)
-            wp.launch(mean_image_kernel, len(rgb), inputs=[image_sum, total], outputs=[rgb], device=self.device)
+            scales = wp.array(self._exposure_scales(), dtype=float, device=self.device)
+            wp.launch(mean_image_kernel, len(rgb), inputs=[image_sum, total, scales, h * w], outputs=[rgb],
+                      device=self.device)
             rgb = rgb.reshape((n, h, w))
         return BatchImage(rgb=rgb, aovs=arrays, scene=self.scene, integrator=self.integrator)
 

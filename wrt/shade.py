@@ -520,9 +520,12 @@ def accumulate_samples_kernel(
 def mean_image_kernel(
     image: wp.array[wp.vec3],
     samples: int,
+    view_scales: wp.array[float],
+    view_pixels: int,
     # outputs
     out: wp.array[wp.vec3],
 ):
-    """``out = image / samples``: a division, so it rounds exactly as the host's ``image.numpy() / samples``."""
+    """``out = image / samples * view_scales[view]``: a division, then a product, so it rounds exactly as the
+    host's ``image.numpy() / samples * scale``."""
     i = wp.tid()
-    out[i] = image[i] / float(samples)
+    out[i] = image[i] / float(samples) * view_scales[i // view_pixels]

@@ -1115,6 +1115,7 @@ class _StageReader:
                 projection=projection,
                 f_stop=number(camera.GetFStopAttr()),
                 focus_distance=number(camera.GetFocusDistanceAttr()),
+                exposure_scale=_exposure_scale(camera, number),
                 path=str(prim.GetPath()),
             )
         except ValueError as e:
@@ -1164,6 +1165,15 @@ class _StageReader:
             paths = [p for p, _ in found]
             shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
             warnings.warn(f"{self.source}: {reason}: {len(paths)} prim(s){kinds}: {shown}", stacklevel=4)
+
+
+def _exposure_scale(camera: UsdGeom.Camera, number) -> float:
+    """USD's ``ComputeLinearExposureScale`` of ``camera``, its attributes read by ``number`` (at the loader's time).
+    In float64 without exceptions: an fStop of 0 or a huge exposure gives inf, which the Camera then refuses."""
+    with np.errstate(all="ignore"):
+        stops, fstop = np.float64(number(camera.GetExposureAttr())), np.float64(number(camera.GetExposureFStopAttr()))
+        return float(np.exp2(stops) * number(camera.GetExposureTimeAttr()) * number(camera.GetExposureIsoAttr())
+                     / 100.0 * number(camera.GetExposureResponsivityAttr()) / (fstop * fstop))
 
 
 def _display_color(prim: Usd.Prim) -> UsdGeom.Primvar:
