@@ -332,3 +332,37 @@ def test_point_instancer_with_many_prototypes_groups_its_instances_once(tmp_path
     np.testing.assert_array_equal(scene.instances.prototype, proto_indices[shown])  # prototypes read in order
     np.testing.assert_allclose(scene.instances.to_world[:, :3, 3], positions[shown], rtol=1e-6)
     assert scanned[0] < 10 * n  # a few passes over the instances, not one per prototype
+
+
+def test_loaded_instances_are_not_inverted_again_before_the_first_trace(tmp_path, monkeypatch):
+    """The loader inverts every instance to find the singular ones; the scene then inverted them all again before
+    its first ray (about 1 s per 1M instances). The loader's inverses are kept, and they are those the scene would
+    compute: instance k is hit at its own place, the zero-scaled one is left out."""
+    import wrt
+    import wrt.scene as wrt_scene
+    from wrt.instancing import invert_transforms
+
+    n = 40
+    stage = Usd.Stage.CreateNew(str(tmp_path / "pi.usda"))
+    instancer = UsdGeom.PointInstancer.Define(stage, "/PI")
+    _triangle(stage, "/PI/Protos/Tri")
+    instancer.CreatePrototypesRel().SetTargets(["/PI/Protos/Tri"])
+    instancer.CreateProtoIndicesAttr([0] * n)
+    instancer.CreatePositionsAttr([Gf.Vec3f(3.0 * k, 0.0, 0.0) for k in range(n)])
+    instancer.CreateScalesAttr([Gf.Vec3f(0.0 if k == 7 else 1.0 + k / n) for k in range(n)])
+    stage.Save()
+    scene = load_usd(tmp_path / "pi.usda")
+
+    original = wrt_scene.invert_transforms
+
+    def refuse(transforms):
+        if len(transforms) == len(scene.instances):  # the shapes' (a placeholder here) are inverted elsewhere
+            raise AssertionError("instances inverted again")
+        return original(transforms)
+
+    monkeypatch.setattr(wrt_scene, "invert_transforms", refuse)
+    inverses, ok = scene.instance_inverses()
+    expected, expected_ok = invert_transforms(scene.instances.to_world)
+    np.testing.assert_array_equal(inverses, expected)
+    assert ok.all() and expected_ok.all() and len(ok) == n - 1
+    assert wrt.trace(scene, np.float32([[0.1, 0.1, 5.0]]), np.float32([[0.0, 0.0, -1.0]])).instance[0] == 0

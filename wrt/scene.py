@@ -548,6 +548,12 @@ class Scene:
             self._cache[key] = invert_transforms(self.instances.to_world)
         return self._cache[key]
 
+    def remember_instance_inverses(self, world_to_local: np.ndarray) -> None:
+        """Caches ``world_to_local`` (every instance's, all invertible) as :meth:`instance_inverses`: the USD loader
+        inverts every instance to find the singular ones, and inverting them again costs about 1 s per 1M."""
+        self.drop_stale_caches()  # the loader set the scene's parts after making it: take them as they are now
+        self._cache[("instance_inverses",)] = (world_to_local, np.ones(len(world_to_local), dtype=bool))
+
     def world_to_local(self, device) -> wp.array:
         """``(max(N, 1),)`` mat34 world-to-prototype transforms of the instances on ``device`` (zero for a singular
         transform), uploaded once and shared by the accelerator and the shading data."""

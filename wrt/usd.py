@@ -321,9 +321,11 @@ class _StageReader:
         self._walk(self.stage.GetPseudoRoot(), _Context(world, world=True))
         scene.meshes = world.meshes
         scene.shapes = world.shapes
-        self._place_instances(world, scene)
+        inverses = self._place_instances(world, scene)
         scene.materials = self.materials.materials
         scene.textures = self.materials.textures
+        if inverses is not None:
+            scene.remember_instance_inverses(inverses)
         self._warn_skipped()
         return scene
 
@@ -637,7 +639,7 @@ class _StageReader:
             ctx.content.uses_outer_color |= content.uses_outer_color
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32)))
 
-    def _place_instances(self, world: _Content, scene: Scene):
+    def _place_instances(self, world: _Content, scene: Scene) -> np.ndarray | None:
         """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
         proto_ids, matrices, sources, source_ids, indices = [], [], [], {}, []
 
@@ -661,7 +663,7 @@ class _StageReader:
                 combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
                 pending.append((self.contents[key], combined, source, np.repeat(index, len(m))))
         if not proto_ids:
-            return
+            return None
         # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
         # instances nested inside one world-level instance stay together, in the order they were read.
         ids = np.concatenate(indices)
@@ -673,7 +675,7 @@ class _StageReader:
         instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources)
         for i in projective:
             self._skip_path("world transform is projective; its last column was ignored", instances.path(i))
-        _, ok = invert_transforms(instances.to_world)
+        inverses, ok = invert_transforms(instances.to_world)
         for i in np.flatnonzero(~ok):
             self._skip_path("instances with a singular transform (a zero scale) were skipped", instances.path(i))
         if not ok.all():
@@ -681,6 +683,7 @@ class _StageReader:
                 instances.prototype[ok], instances.to_world[ok], instances.source[ok], instances.index[ok], sources
             )
         scene.instances = instances
+        return inverses[ok]  # the scene's first trace needs them too
 
     # Meshes
 
