@@ -706,10 +706,10 @@ class _StageReader:
     def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
         """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         # Materials first: the texture-coordinate primvar to read depends on them.
-        n_faces = len(self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr()))
-        face_materials = self._face_materials(prim, n_faces, ctx)
+        counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
+        face_materials = self._face_materials(prim, len(counts), ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
-        local = self._read_local_mesh(prim, uv_set)
+        local = self._read_local_mesh(prim, counts, uv_set)
         if local is None:
             return None
 
@@ -755,7 +755,7 @@ class _StageReader:
             uvs = values.astype(np.float32)[corner_index[:, order]]
         material_ids = None
         if face_materials is not None:
-            material_ids = face_materials[np.clip(local.face_ids, 0, max(n_faces - 1, 0))]
+            material_ids = face_materials[np.clip(local.face_ids, 0, max(len(counts) - 1, 0))]
 
         return Mesh(
             path=str(prim.GetPath()),
@@ -878,10 +878,10 @@ class _StageReader:
 
     # Meshes
 
-    def _read_local_mesh(self, prim: Usd.Prim, uv_set: str | None = None) -> _LocalMesh | None:
+    def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None) -> _LocalMesh | None:
+        """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials)."""
         mesh = UsdGeom.Mesh(prim)
         t = self.time
-        counts = self._int_array(prim, mesh.GetFaceVertexCountsAttr())
         face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
         raw_points = self._moved(mesh, mesh.GetPointsAttr())
         if raw_points is None:
