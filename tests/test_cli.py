@@ -78,6 +78,7 @@ def test_help_explains_the_options():
         (["render", "--exposure", "inf"], "finite"),
         (["render", "--exposure", "2000"], "[-150, 150]"),  # an OverflowError traceback after the render
         (["render", "--time", "nan"], "finite"),
+        (["render", "--time", "-inf"], "must be a finite number, got -inf"),  # was "expected one argument"
         (["render", "--seed", "2147483648"], "seed must be an integer from 0 to 2147483647"),  # wrapped onto seed 0
         (["render", "--workers", "3"], "--workers sizes the LocalCluster"),  # was ignored
         (["render", "--frames", "1:2", "--time", "0"], "--time cannot be combined with --frames"),  # 0 was ignored
@@ -218,3 +219,10 @@ def test_interrupted_render_saves_the_samples_it_has(tmp_path, monkeypatch, caps
     scene = wrt.load_usd(default_scene_path())
     two = wrt.Renderer(scene, width=width, height=height, integrator="path").render(spp=2, seed=3)
     np.testing.assert_allclose(np.load(out), two.rgb, rtol=1e-5, atol=1e-6)
+
+
+def test_negative_values_in_exponent_form_are_values_not_options(tmp_path):
+    """Before Python 3.13 argparse took ``--time -1e3`` for an option and refused it: "expected one argument"."""
+    out = tmp_path / "t.npy"
+    assert main(["render", "--time", "-1e3", "-o", str(out), "--width", "4", "--height", "3", "-q"]) == 0
+    assert np.load(out).shape == (3, 4, 3)

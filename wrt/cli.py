@@ -10,6 +10,7 @@ import argparse
 import collections
 import math
 import os
+import re
 import sys
 import time
 import warnings
@@ -48,6 +49,12 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
 class _Parser(argparse.ArgumentParser):
     """ArgumentParser whose usage errors are one line (``wrt: error: ...``) and exit status 2."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # Values such as -1e3, -inf or -10:-1 (a --time, a --frames range) are values, not options. Before Python
+        # 3.13 argparse took only plain negative decimals for values ("--time -1e3": expected one argument).
+        self._negative_number_matcher = re.compile(r"^-(\.?\d|inf|nan)", re.IGNORECASE)
 
     def error(self, message):
         self.exit(EXIT_BAD_INPUT, f"wrt: error: {message} (see '{self.prog} --help')\n")
