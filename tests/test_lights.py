@@ -792,3 +792,42 @@ def test_a_far_sphere_light_seen_by_rays_has_its_solid_angle(distance, radius, n
     seen = hits.mean() * 2.0 * math.pi * cap
     error = hits.std() * 2.0 * math.pi * cap / math.sqrt(count)
     assert abs(seen - exact) < 4.0 * error, (seen / exact, error / exact)
+
+
+def test_unprefixed_light_attributes_of_old_files_are_read_with_a_warning(tmp_path):
+    """Files written before USD 21.05 (older Omniverse and Isaac Sim content) author ``intensity``, ``radius``,
+    ``color`` ... without the ``inputs:`` prefix; they loaded as intensity 1, white, radius 0.5 without a word.
+    A prefixed value, where both are authored, still wins."""
+    path = tmp_path / "old_lights.usda"
+    path.write_text("""#usda 1.0
+def SphereLight "Old"
+{
+    float intensity = 3000
+    float radius = 0.25
+    color3f color = (1, 0.5, 0.25)
+}
+def DistantLight "Both"
+{
+    float intensity = 7
+    float inputs:intensity = 2
+    float angle = 0
+}
+def SphereLight "New"
+{
+    float inputs:intensity = 5
+}
+""")
+    with pytest.warns(UserWarning) as record:
+        scene = wrt.load_usd(str(path))
+    by_path = {light.path: light for light in scene.lights}
+    old = by_path["/Old"]
+    assert old.radius == pytest.approx(0.25)
+    np.testing.assert_allclose(old.color, np.array([1.0, 0.5, 0.25]) * 3000.0, rtol=1e-6)
+    both = by_path["/Both"]
+    assert both.angle == 0.0
+    np.testing.assert_allclose(both.illuminance, 2.0)  # inputs:intensity, not the old 7
+    np.testing.assert_allclose(by_path["/New"].color, 5.0)
+    messages = [str(w.message) for w in record if "inputs: prefix" in str(w.message)]
+    assert len(messages) == 1, messages
+    assert "2 prim(s)" in messages[0] and "/Old" in messages[0] and "/Both" in messages[0]
+    assert "/New" not in messages[0] and "intensity" in messages[0] and "radius" in messages[0]

@@ -74,6 +74,7 @@ DISK_SOLID_ANGLE_LEAST = wp.constant(1.0)
 
 HEADLIGHT_ILLUMINANCE = 0.8 * math.pi  # default headlight: a white surface facing the camera shows 0.8 from it
 DEFAULT_DOME_RADIANCE = (0.2, 0.2, 0.2)  # default dome: adds 0.2 * albedo to an unoccluded surface
+INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 
 
 # Host-side lights -------------------------------------------------------------------------------------------------
@@ -314,13 +315,35 @@ def read_light(prim, xforms, time, up_axis: str, skip):
         up_axis: the stage's up axis, for ``DomeLight_1``'s ``poleAxis``.
         skip: ``skip(reason, prim, detail=None)``.
     """
-    from pxr import UsdLux
-
     from .usd_values import value_at
 
+    legacy = []  # names read without their "inputs:" prefix, for one warning
+
     def get(attr, default):
+        # Files written before UsdLux prefixed its inputs (Omniverse and Isaac Sim content of that time) author
+        # "intensity", "radius", "texture:file" ...: USD no longer reads them, so such a light came out at the
+        # schema's fallbacks (intensity 1, white, radius 0.5) without a word. The old name counts when the
+        # prefixed one is not authored, as Omniverse's renderers still read it.
+        name = attr.GetName() if attr is not None else ""
+        if name.startswith(INPUTS_PREFIX) and not (attr and attr.HasAuthoredValue()):
+            old = prim.GetAttribute(name[len(INPUTS_PREFIX):])
+            if old and old.HasAuthoredValue():
+                if old.GetName() not in legacy:
+                    legacy.append(old.GetName())
+                attr = old
         value = value_at(attr, time) if attr else None
         return default if value is None else value
+
+    result = _read_light(prim, xforms, time, up_axis, skip, get)
+    if legacy:
+        skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
+             "inputs: attributes", prim, ", ".join(legacy))
+    return result
+
+
+def _read_light(prim, xforms, time, up_axis: str, skip, get):
+    """:func:`read_light` with ``get(attr, default)`` reading an attribute (or its unprefixed name)."""
+    from pxr import UsdLux
 
     light = UsdLux.LightAPI(prim)
     color = np.array(get(light.GetColorAttr(), (1.0, 1.0, 1.0)), dtype=np.float64)
