@@ -935,3 +935,30 @@ def test_a_file_edited_and_loaded_again_reads_the_new_content(tmp_path):
             assert load_usd(path).meshes[0].points[2, 1] == y
     finally:
         gc.enable()
+
+
+def test_skinned_meshes_are_reported_as_drawn_unposed(tmp_path):
+    """A mesh bound to a skeleton under a SkelRoot (glTF, Maya and Houdini characters) is posed by UsdSkel; wrt draws
+    its bind-pose points, which the load used to do without a word. A mesh with joint influences but no SkelRoot
+    above is not posed by USD either, and says nothing."""
+    skinning = """rel skel:skeleton = </Root/Skel>
+    int[] primvars:skel:jointIndices = [0, 0, 0, 0, 0, 0, 0] (interpolation = "vertex")
+    float[] primvars:skel:jointWeights = [1, 1, 1, 1, 1, 1, 1] (interpolation = "vertex")"""
+    api = 'prepend apiSchemas = ["SkelBindingAPI"]'
+    identity = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )"
+    body = f"""
+def SkelRoot "Root"
+{{
+    def Skeleton "Skel"
+    {{
+        uniform token[] joints = ["hip"]
+        uniform matrix4d[] bindTransforms = [{identity}]
+        uniform matrix4d[] restTransforms = [{identity}]
+    }}
+    {mesh_usda("Body", extra=skinning, meta=api)}
+}}
+{mesh_usda("Loose", extra=skinning, meta=api)}
+"""
+    with pytest.warns(UserWarning, match=r"UsdSkel skinning .*not supported.*unposed points: 1 prim\(s\): /Root/Body$"):
+        scene = load_usd(write_usda(tmp_path, body))
+    assert sorted(m.path for m in scene.meshes) == ["/Loose", "/Root/Body"]  # still drawn

@@ -55,7 +55,7 @@ import re
 import warnings
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade, UsdSkel
 
 from .camera import Camera
 from .errors import SceneError
@@ -386,6 +386,9 @@ class _StageReader:
         if prim.IsA(UsdGeom.Mesh):
             if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI: the mesh itself should emit
                 self._skip("mesh lights (MeshLightAPI) are not supported; drawn as meshes that emit nothing", prim)
+            if _skinned(prim):
+                self._skip("UsdSkel skinning and blend shapes are not supported; these meshes are drawn in their "
+                           "unposed points", prim)
             mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
             if mesh is not None:
                 ctx.content.meshes.append(mesh)
@@ -1189,6 +1192,22 @@ def _has_display_color(prim: Usd.Prim) -> bool:
     """``prim`` has a ``displayColor`` of its own or inherits one inside its space (see :func:`_display_color`)."""
     primvar = _display_color(prim)
     return bool(primvar and primvar.HasValue())
+
+
+def _skinned(prim: Usd.Prim) -> bool:
+    """``prim`` is posed by a skeleton as UsdSkel draws it: joint influences or blend shapes, a bound skeleton and a
+    ``SkelRoot`` above (exported characters: glTF converters, Maya, Houdini). Their points are the bind pose, so
+    they rendered in a pose the stage never shows, without a word."""
+    if not (prim.HasAttribute("primvars:skel:jointIndices") or prim.HasAttribute("skel:blendShapes")):
+        return False
+    if not UsdSkel.BindingAPI(prim).GetInheritedSkeleton():
+        return False
+    p = prim
+    while p and not p.IsPseudoRoot():
+        if p.IsA(UsdSkel.Root):
+            return True
+        p = p.GetParent()
+    return False
 
 
 def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):
