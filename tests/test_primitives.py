@@ -297,6 +297,24 @@ def test_instanced_shapes_ids_round_trip():
     np.testing.assert_array_equal(scene.expanded_ids(prim, instance), hits.prim)
 
 
+
+def test_shape_ids_follow_the_rendered_triangles_when_a_prototype_has_no_instances():
+    """A prototype with triangles but no instances adds geometry ids and no rows of ``Scene.triangles()``: a shape's
+    id in ``Hits.prim`` and the ``prim`` AOV is still the number of rendered triangles plus its index (it was its
+    geometry id, past the prototype's triangles)."""
+    from wrt.scene import Mesh
+
+    tri = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
+    unused = Prototype("/P", [Mesh("/P/M", tri, np.array([[0, 1, 2]] * 5, np.int32), np.zeros(5, np.int32))])
+    scene = wrt.Scene(meshes=[Mesh("/Tri", tri, np.array([[0, 1, 2]], np.int32), np.zeros(1, np.int32))],
+                      shapes=[Shape("/S", "sphere", placed(translate=(5, 0, 0)))], prototypes=[unused])
+    rendered = len(scene.triangles()[1])
+    hits = wrt.trace(scene, np.array([[0, 0, 5], [5, 0, 5]], np.float32), np.array([[0, 0, -1]] * 2, np.float32))
+    np.testing.assert_array_equal(hits.prim, [0, rendered])
+    np.testing.assert_array_equal(hits.local_prim, [0, scene.num_geometry_triangles])
+    image = wrt.render(scene, camera=wrt.Camera.look_at((5, 0, 5), (5, 0, 0), (0, 1, 0), 20), width=4, height=4)
+    assert set(np.unique(image.aovs["prim"])) == {rendered}
+
 # Real gprim scenes
 
 

@@ -619,7 +619,7 @@ def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
     as rows of ``Scene.triangles()``, and the quick-look integrators' colours made from the AOVs."""
     out = dict(aovs)
     h, w = out["prim"].shape[:2]
-    if len(scene.instances):  # report rows of Scene.triangles(), as Hits.prim does
+    if len(scene.instances) or scene.prototypes:  # report rows of Scene.triangles(), as Hits.prim does
         out["prim"] = scene.expanded_ids(out["prim"].reshape(-1), out["instance"].reshape(-1)).reshape(h, w)
     hit = out["prim"] >= 0
     if integrator == "normals":

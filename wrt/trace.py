@@ -596,9 +596,10 @@ def trace(
         acc.intersect(*rays, hits, threads=threads)
     cost = hits.cost.numpy().reshape(-1, 2)
     t, u, v, prim = hits.t.numpy(), hits.u.numpy(), hits.v.numpy(), hits.prim.numpy()
-    if not len(scene.instances):
+    if not len(scene.instances) and not scene.prototypes:
         return Hits(t, u, v, prim, cost[:, 0].copy(), cost[:, 1].copy())
-    # Report rows of Scene.triangles(): mirrored instances have corners 1 and 2 swapped there.
+    # Report rows of Scene.triangles(): mirrored instances have corners 1 and 2 swapped there. Prototypes count
+    # even without instances: their triangles are geometry ids but no rows, so shape ids shift down.
     instance = hits.instance.numpy()
     swap = instance >= 0
     swap[swap] = scene.instances.mirrored[instance[swap]]
