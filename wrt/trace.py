@@ -57,6 +57,9 @@ trace_bvh_kernel, trace_bvh_kernel_uncounted = closest_hit_kernels(
 occluded_bvh_kernel = any_hit_kernel(bvh_occluded, DeviceBvh, "occluded_bvh_kernel", __name__)
 
 
+MESH_QUERY_SLACK = wp.constant(1.0 + 2.0**-18)  # relative, on the query length: 32 ulps; 4 were enough
+
+
 @wp.func
 def mesh_query(mesh: wp.uint64, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
     """Closest hit through ``wp.mesh_query_ray``, restricted to ``[t_min, t_max)`` and in wrt's conventions."""
@@ -65,9 +68,11 @@ def mesh_query(mesh: wp.uint64, origin: wp.vec3, direction: wp.vec3, t_min: floa
     v = float(0.0)
     prim = int(-1)
     if ray_can_hit(origin, direction, t_min, t_max):
-        # wp.mesh_query_ray accepts t >= 0 only: start the ray at t_min instead.
-        q = wp.mesh_query_ray(mesh, origin + t_min * direction, direction, t_max - t_min)
-        if q.result:
+        # wp.mesh_query_ray accepts t >= 0 only: start the ray at t_min instead. Its traversal drops a box entered
+        # within rounding of the limit (no slack), so a hit on a flat floor just below t_max was lost: query a
+        # little further and drop what lies at or past t_max here (a closest hit past t_max means none before it).
+        q = wp.mesh_query_ray(mesh, origin + t_min * direction, direction, (t_max - t_min) * MESH_QUERY_SLACK)
+        if q.result and q.t + t_min < t_max:
             t = q.t + t_min
             u = q.v
             v = 1.0 - q.u - q.v
