@@ -749,6 +749,32 @@ def test_large_tilted_surfaces_near_the_origin_have_no_shadow_acne(integrator):
         np.testing.assert_allclose(img.rgb[..., 0], expected, rtol=1e-3, err_msg=name)
 
 
+def floor_under_a_ceiling(half: float) -> wrt.Scene:
+    """A square floor ``2 half`` across at y = 0 with a ceiling of the same size at y = 1 (a room without walls):
+    the ceiling shares the floor's BVH leaf, so rays leaving the floor upwards are tested against the floor."""
+    square = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], np.float32) * np.float32([half, 1, half])
+    points = np.concatenate([square, square + np.float32([0, 1, 0])])
+    return wrt.Scene.from_triangles(points, [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7]])
+
+
+@pytest.mark.parametrize("accel", ["wrt", "warp"])
+def test_a_large_axis_aligned_floor_near_the_origin_has_no_shadow_acne(accel):
+    """Rays leaving a floor 1000 across near the world origin cannot hit the floor. Its offset along the normal was
+    a fixed 1.5e-5 there (the error of an axis-aligned plane's hit points is 0 across it), half a float32 ulp of its
+    corners at 500, where the triangle test decides on which side of the floor the origin lies: 7-11% of the
+    ambient-occlusion rays (reaching only half way to the ceiling) and 22-32% of the shadow rays to a light under
+    the ceiling hit the floor itself."""
+    scene = floor_under_a_ceiling(500.0)
+    cam = wrt.Camera.look_at((0.0, 0.5, 1.0), (0.0, 0.0, 1.001), up=(0, 0, 1), fov_y_deg=20.0)
+    ao = wrt.render(scene, camera=cam, width=32, height=24, device="cpu", integrator="ao", ao_radius=0.5, spp=4,
+                    accel=accel)
+    assert (ao.aovs["prim"] >= 0).all()
+    np.testing.assert_array_equal(ao.rgb, 1.0)  # the ceiling is out of reach: nothing occludes
+    scene.lights = [wrt.SphereLight(np.array([1.0, 0.6, 1.0]), 0.05, np.full(3, 50.0))]
+    lit = wrt.render(scene, camera=cam, width=32, height=24, device="cpu", max_depth=1, accel=accel)
+    assert lit.rgb.min() > 0.0  # every floor point sees the light
+
+
 @pytest.mark.parametrize("scale", [1.0, 1.0e-6, 1.0e-9])
 def test_culled_back_faces_reveal_the_surface_just_behind_them_at_any_scale(scale):
     """A single-sided quad seen from behind, with a quad facing the camera a ten-thousandth of the view distance

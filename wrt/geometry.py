@@ -313,6 +313,11 @@ def ray_can_hit(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float)
 
 
 ERROR_OFFSET = wp.constant(3.814697265625e-06)  # 2^-18 (64 float32 epsilons): offset per unit of HitPoint.err
+# 2^-20 per unit of HitPoint.size: the least offset along the normal of any surface. The triangle tests (wrt's and
+# wp.Mesh's) measure the origin against corners up to ``size`` away, so they tell its side of the plane only to about
+# 2.4e-7 * size (origins closer than that to a floor 1000 across were reported on it); four times that, and a power
+# of two, so that a scene scaled by a power of two keeps its bits.
+SIZE_OFFSET = wp.constant(9.5367431640625e-07)
 
 
 @wp.func
@@ -333,11 +338,12 @@ def offset_ray_origin(p: wp.vec3, n: wp.vec3, size: float, err: wp.vec3):
     1e4, the ground sphere of radius 1000 centred at ``(0, -1000, 0)``: the paper's offsets there were below the
     error and most of the ground was in its own shadow). The offset along ``n`` is therefore at least
     ``ERROR_OFFSET * dot(|n|, err)`` (the error projected on the normal, as pbrt's ``OffsetRayOrigin``); an
-    axis-aligned plane has no error across itself (``err`` 0 along its normal) and keeps the small offsets, so
-    contact shadows on a large flat floor are kept."""
+    axis-aligned plane has no error across itself (``err`` 0 along its normal), but the triangle test still
+    rounds at the scale of its corners: the offset is also at least ``SIZE_OFFSET * size`` (5e-4 on a floor 1000
+    across, so contact shadows on it are kept)."""
     down, up = power_scales(size)
     scale = wp.min(2.0 * up, 1.0)  # a power of two above size, at most 1
-    least = ERROR_OFFSET * wp.dot(wp.vec3(wp.abs(n[0]), wp.abs(n[1]), wp.abs(n[2])), err)
+    least = wp.max(ERROR_OFFSET * wp.dot(wp.vec3(wp.abs(n[0]), wp.abs(n[1]), wp.abs(n[2])), err), SIZE_OFFSET * size)
     result = wp.vec3()
     for k in range(3):
         ulps = int(256.0 * n[k])
