@@ -343,3 +343,35 @@ def test_progressive_render_interrupted_midway_resumes_from_the_samples_it_finis
     # 2 samples, then 2 launches of 1 sample before the interrupt: 4 to go for 8.
     image = renderer.render(spp=4, seed=3, resume=True)
     np.testing.assert_array_equal(image.rgb, reference)
+
+
+def test_a_kept_renderer_follows_a_replaced_mesh_an_in_place_edit_and_a_new_light():
+    """A kept Renderer drew the geometry and lights it was built with after the scene changed, though the README
+    says a replaced mesh is noticed at the next render. It builds again when the scene changed, and only then."""
+    import dataclasses
+
+    quad = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    camera = wrt.Camera.look_at((0, 0, 4), (0, 0, 0))
+    renderer = wrt.Renderer(quad, camera=camera, width=16, height=12, integrator="normals", device="cpu")
+    first = renderer.render()
+    assert (first.aovs["prim"] >= 0).sum() > 20
+    accel = renderer.accel
+    renderer.render()
+    assert renderer.accel is accel  # nothing changed: nothing built again
+
+    mesh = quad.meshes[0]
+    quad.meshes[0] = dataclasses.replace(mesh, points=mesh.points + np.float32([100, 0, 0]))  # out of view
+    moved = renderer.render()
+    assert (moved.aovs["prim"] == -1).all()
+    np.testing.assert_array_equal(moved.rgb, wrt.render(quad, camera=camera, width=16, height=12,
+                                                         integrator="normals", device="cpu").rgb)
+    quad.meshes[0].points -= np.float32([100, 0, 0])  # back, edited in place: needs invalidate()
+    quad.invalidate()
+    np.testing.assert_array_equal(renderer.render().aovs["prim"], first.aovs["prim"])
+
+    lit = wrt.Renderer(quad, camera=camera, width=16, height=12, device="cpu")  # whitted, default lights
+    headlit = lit.render().rgb
+    quad.lights.append(wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.full(3, 3.0)))
+    sunlit = lit.render().rgb
+    assert not np.allclose(sunlit, headlit)
+    np.testing.assert_array_equal(sunlit, wrt.render(quad, camera=camera, width=16, height=12, device="cpu").rgb)

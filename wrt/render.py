@@ -268,15 +268,33 @@ class Renderer:
         stats = scene.stats()
         if stats["rendered_triangles"] == 0 and stats.get("rendered_shapes", 0) == 0:
             warnings.warn(f"{scene.source or 'scene'}: nothing to render (no triangles); the image is background only")
+        self._accel_options = (accel, builder)
+        self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
+        self.dropped_samples = 0  # non-finite samples left out of the last render
+        self._build()
+
+    def _build(self) -> None:
+        """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
         with wp.ScopedTimer("build", print=False, dict=self.timers, synchronize=True):
-            self.accel = get_accelerator(scene, accel, builder, self.device)
-            self.device_scene = scene.to_device(self.device)
+            self.accel = get_accelerator(self.scene, *self._accel_options, self.device)
+            self.device_scene = self.scene.to_device(self.device)
             self._upload_shading()
+        self._scene_generation = self.scene.cache_generation
+        self._scene_lights = list(self.scene.lights)
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
-        self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
         self._progressive = None  # running sums of the last render, for render(resume=True)
-        self.dropped_samples = 0  # non-finite samples left out of the last render
+
+    def _follow_scene(self) -> None:
+        """Builds again when the scene changed since the last build (a mesh, material, light or instance array
+        replaced, or ``scene.invalidate()`` after an edit in place), as a trace would: a kept Renderer drew the old
+        geometry."""
+        self.scene.drop_stale_caches()
+        lights = self.scene.lights
+        if (self.scene.cache_generation != self._scene_generation or len(lights) != len(self._scene_lights)
+                or any(a is not b for a, b in zip(lights, self._scene_lights))):
+            check_scene(self.scene)
+            self._build()
 
     def _upload_shading(self):
         scene, dev = self.scene, self.device
@@ -380,6 +398,7 @@ class Renderer:
         if batch is not None and (isinstance(batch, bool) or not isinstance(batch, (int, np.integer)) or batch < 1):
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
         spp, seed = int(spp), check_seed(seed)
+        self._follow_scene()
         n_pixels = self.width * self.height * len(self.cameras)
         if self.integrator in ("normals", "depth", "albedo"):
             spp = 1
@@ -447,6 +466,7 @@ class Renderer:
         CUDA graph (``wp.ScopedCapture``) and replayed: every bounce up to ``max_depth`` is launched (finished paths
         do no work) and back-face culling runs :data:`CAPTURE_CULL_PASSES` passes. Buffers are allocated on the first
         call, so make one call before capturing. :meth:`frame_image` reads the result."""
+        self._follow_scene()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
             self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull),

@@ -208,6 +208,7 @@ class Scene:
 
     def __post_init__(self):
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
+        self._generation = 0  # how many times the cache was cleared
         self.check_instances()
         self._cached_parts = self._parts()  # what the cache is made from (see drop_stale_caches)
 
@@ -215,6 +216,13 @@ class Scene:
         """Forgets every cached array, tree and device copy. Needed only after editing an array of the scene in
         place (``mesh.points += offset``); replacing arrays, meshes or lists is noticed by itself."""
         self._cache.clear()
+        self._generation += 1
+
+    @property
+    def cache_generation(self) -> int:
+        """Changes whenever the caches are dropped, so that a holder of device copies (a :class:`wrt.Renderer`)
+        knows to make them again."""
+        return self._generation
 
     def drop_stale_caches(self) -> None:
         """Clears the caches when a mesh, shape, prototype, instance array, material or texture has been replaced
@@ -224,7 +232,7 @@ class Scene:
         parts = self._parts()
         old = self._cached_parts
         if len(old) != len(parts) or any(a is not b and not _same_scalar(a, b) for a, b in zip(old, parts)):
-            self._cache.clear()
+            self.invalidate()
         self._cached_parts = parts
 
     def _parts(self) -> tuple:
