@@ -325,6 +325,15 @@ def test_zero_scale_instance_is_skipped_with_a_warning_naming_it(tmp_path):
     assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/PI[0]", "/PI[2]"]
 
 
+def test_instance_whose_inverse_overflows_float32_is_skipped_with_the_singular_ones(tmp_path):
+    """A scale of 1e-39 passes the float64 singularity test, but its inverse (1e39) is inf in float32, as the
+    devices hold it: every ray into that instance became inf and it vanished without the singular ones' warning."""
+    path = write_instancer(tmp_path, scales=[(1, 1, 1), (1e-39, 1e-39, 1e-39), (1, 1, 1)])
+    with pytest.warns(UserWarning, match=r"singular transform.*/PI\[1\]"):
+        scene = wrt.load_usd(path)
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/PI[0]", "/PI[2]"]
+
+
 def two_instance_stage(path):
     """A new stage at 24 time codes per second with a PointInstancer ``/PI`` of two instances of an octahedron."""
     stage = Usd.Stage.CreateNew(path)

@@ -167,7 +167,9 @@ def world_boxes(lower: np.ndarray, upper: np.ndarray, to_world: np.ndarray) -> t
 
 def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(world_to_local (N, 3, 4) float64, ok (N,) bool)``: the affine inverses; ``ok`` is False (and the row zero)
-    where the linear part is singular or the inverse is not finite (a zero scale, for example)."""
+    where the linear part is singular or the inverse is not finite in float32, as the devices hold it (a zero scale,
+    or one of 1e-45: its float64 inverse is finite, but a float32 one sent every ray to inf and the instance
+    vanished without the warning singular ones get)."""
     linear = to_world[:, :3, :3]
     det = np.linalg.det(linear) if len(linear) else np.zeros(0)
     scale = np.abs(linear).reshape(len(linear), -1).max(axis=1) if len(linear) else np.zeros(0)
@@ -177,7 +179,8 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         inv = np.linalg.inv(linear[ok])
         out[ok, :, :3] = inv
         out[ok, :, 3] = -np.einsum("nij,nj->ni", inv, to_world[ok, :3, 3])
-        good = np.isfinite(out[ok]).reshape(int(ok.sum()), -1).all(axis=1)
+        with np.errstate(over="ignore"):
+            good = np.isfinite(out[ok].astype(np.float32)).reshape(int(ok.sum()), -1).all(axis=1)
         bad = np.flatnonzero(ok)[~good]
         ok[bad] = False
         out[bad] = 0.0
