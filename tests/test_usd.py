@@ -140,7 +140,8 @@ def test_mesh_triangles_and_scene_settings(tmp_path):
     assert scene.up_axis == "Z" and scene.meters_per_unit == 0.5 and scene.source == path
     (mesh,) = scene.meshes
     assert mesh.path == "/Mesh" and mesh.double_sided
-    assert mesh.normals is None and mesh.colors is None
+    assert mesh.colors is None
+    np.testing.assert_allclose(mesh.normals, np.broadcast_to([0, 0, 1], (5, 3, 3)))  # catmullClark: smooth, flat here
     np.testing.assert_allclose(mesh.points, POINTS)
     expected = fan_reference(COUNTS, lambda f, pos: INDICES[pos])
     np.testing.assert_array_equal(mesh.indices, expected)
@@ -408,6 +409,29 @@ def test_indexed_primvars(tmp_path, interpolation):
     expected = expected[:, [0, 2, 1]]  # leftHanded
     np.testing.assert_allclose(m.normals, expected, atol=1e-6)
     np.testing.assert_allclose(m.colors, expected * 0.5 + 0.5, atol=1e-6)
+
+
+CUBE_POINTS = [(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]  # point k at bits of k: x 4, y 2, z 1
+CUBE_FACES = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]  # outward, CCW
+
+
+@pytest.mark.parametrize("scheme, left_handed", [(None, False), ("catmullClark", True), ("loop", False),
+                                                 ("none", False), ("bilinear", False)])
+def test_subdivision_meshes_without_normals_get_smooth_vertex_normals(tmp_path, scheme, left_handed):
+    """usdview shades a catmullClark (USD's default scheme) or loop mesh without authored normals smoothly; wrt gave
+    it face normals, so a subdivision cube looked like a box and the chess pieces faceted. Its shading normals are
+    now the cage's vertex normals (a cube's corners point along its diagonals, outward whatever the orientation);
+    "none" and "bilinear" meshes keep face normals."""
+    faces = [f[::-1] for f in CUBE_FACES] if left_handed else CUBE_FACES
+    extra = (f'uniform token subdivisionScheme = "{scheme}"' if scheme else "") + (
+        '\n    uniform token orientation = "leftHanded"' if left_handed else "")
+    body = mesh_usda("Cube", CUBE_POINTS, [4] * 6, [i for f in faces for i in f], extra=extra)
+    (mesh,) = load_usd(write_usda(tmp_path, body)).meshes
+    if scheme in ("none", "bilinear"):
+        assert mesh.normals is None
+        return
+    corners = mesh.points[mesh.indices]  # (T, 3, 3): each corner's own point is its outward diagonal
+    np.testing.assert_allclose(mesh.normals, corners / np.sqrt(3.0), atol=1e-6)
 
 
 def test_primvar_normals_override_attribute(tmp_path):
@@ -851,7 +875,7 @@ def test_wrongly_typed_normals_are_ignored(tmp_path):
     body = mesh_usda(extra='int[] normals = [1, 2, 3, 4, 5, 6, 7] (interpolation = "vertex")')
     with pytest.warns(UserWarning, match="normals"):
         scene = load_usd(write_usda(tmp_path, body))
-    assert scene.meshes[0].normals is None
+    np.testing.assert_allclose(scene.meshes[0].normals, np.broadcast_to([0, 0, 1], (5, 3, 3)))  # the cage's own
 
 
 # real files

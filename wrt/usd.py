@@ -930,6 +930,8 @@ class _StageReader:
         colors = self._read_colors(prim, mesh, topology)
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
         flip = self._left_handed(prim, mesh, t)
+        if normals is None and value_at(mesh.GetSubdivisionSchemeAttr(), t) in SMOOTH_SCHEMES:
+            normals = (vertex_normals(points, counts, face_indices, flip), vertex_ids)
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
         return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs)
 
@@ -1171,6 +1173,29 @@ class _StageReader:
             paths = [p for p, _ in found]
             shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
             warnings.warn(f"{self.source}: {reason}: {len(paths)} prim(s){kinds}: {shown}", stacklevel=4)
+
+
+# Subdivision surfaces without authored normals are shaded with smooth vertex normals of their control cage, as
+# usdview (Storm) draws them below its refinement levels; "none" and "bilinear" meshes keep their face normals.
+SMOOTH_SCHEMES = ("catmullClark", "loop")
+
+
+def vertex_normals(points: np.ndarray, counts: np.ndarray, face_indices: np.ndarray, left_handed: bool) -> np.ndarray:
+    """``(V, 3)`` smooth normal of every point: the sum, over the polygon corners at it, of the cross product of the
+    corner's two edges (each face weighted by its area near the point), normalised; zero where they cancel."""
+    counts = counts.astype(np.int64)
+    starts = np.cumsum(counts) - counts
+    face = np.repeat(np.arange(len(counts)), counts)
+    first, count = starts[face], counts[face]
+    position = np.arange(len(face_indices)) - first
+    corner = points[face_indices]
+    following = points[face_indices[first + (position + 1) % count]]
+    preceding = points[face_indices[first + (position - 1) % count]]
+    normals = np.zeros_like(points)
+    np.add.at(normals, face_indices, np.cross(following - corner, preceding - corner))
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.where(length > 0.0, normals / np.where(length > 0.0, length, 1.0), 0.0)
+    return -normals if left_handed else normals
 
 
 def _exposure_scale(camera: UsdGeom.Camera, number) -> float:
