@@ -47,6 +47,20 @@ def test_renderer_with_cameras_reuses_the_bvh_for_new_poses():
     assert not np.array_equal(first[0], second[0])
 
 
+def test_launch_frame_after_set_cameras_with_another_count_renders_the_new_cameras():
+    """launch_frame kept the buffers of its first call: after set_cameras with more cameras it wrote past their end
+    and frame_image failed to reshape them; with fewer it read past the camera array (a segfault on the CPU)."""
+    scene = sensor_scene()
+    cams = ring_of_cameras(4)
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=16, height=12, device="cpu")
+    renderer.launch_frame(seed=1)
+    for views in (cams, cams[1:2]):  # more cameras, then fewer
+        renderer.set_cameras(views)
+        renderer.launch_frame(seed=1)
+        expected = wrt.render_batch(scene, views, 16, 12, seed=1, device="cpu").rgb.numpy()
+        np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
+
+
 def test_default_headlight_follows_each_camera_of_a_batch():
     """On a stage without lights every camera gets a headlight along its own viewing direction (README); in a batch
     (and after set_cameras) the headlight of every view pointed along the first camera, so camera k of the batch

@@ -348,6 +348,10 @@ class Renderer:
         n = len(cameras) * self.width * self.height
         if not cameras or n > MAX_PIXELS:
             raise ValueError(f"need 1 to {MAX_PIXELS // (self.width * self.height)} cameras, got {len(cameras)}")
+        if len(cameras) != len(self.cameras):
+            # launch_frame's buffers are sized for the old count: it wrote past their end (a crash, or a wrong
+            # frame_image) with more cameras and read past the camera array with fewer.
+            self._frame = None
         self.cameras, self.camera, self.batched = cameras, cameras[0], True
         self._upload_cameras()
         self._progressive = None
