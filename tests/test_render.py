@@ -375,3 +375,31 @@ def test_a_kept_renderer_follows_a_replaced_mesh_an_in_place_edit_and_a_new_ligh
     sunlit = lit.render().rgb
     assert not np.allclose(sunlit, headlit)
     np.testing.assert_array_equal(sunlit, wrt.render(quad, camera=camera, width=16, height=12, device="cpu").rgb)
+
+
+def test_a_material_or_light_given_a_new_value_is_drawn_with_it():
+    """Giving a material a new colour (``material.diffuse_color = ...``) left the scene's uploaded materials as they
+    were, so even a new ``wrt.render`` of the scene drew the old colour; a kept Renderer also kept a light's old
+    colour. Both are now noticed, as replacing a mesh array is."""
+    import dataclasses
+
+    quad = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    quad.meshes[0] = dataclasses.replace(quad.meshes[0], material_ids=np.zeros(2, np.int32))
+    quad.materials = [wrt.Material(path="/Grey", diffuse_color=np.full(3, 0.5, np.float32))]
+    quad.lights = [wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.full(3, 2.0, np.float32))]
+    options = dict(camera=wrt.Camera.look_at((0, 0, 4), (0, 0, 0)), width=16, height=12, device="cpu")
+
+    def uncached():  # the same parts in a new Scene, which has no caches yet
+        return wrt.render(dataclasses.replace(quad), **options).rgb
+
+    kept = wrt.Renderer(quad, **options)
+    grey = kept.render().rgb
+    quad.materials[0].diffuse_color = np.array([1.0, 0.0, 0.0], np.float32)
+    red = uncached()
+    assert red[6, 8, 0] > 1.5 * grey[6, 8, 0] and red[6, 8, 1] < grey[6, 8, 1]
+    np.testing.assert_array_equal(wrt.render(quad, **options).rgb, red)
+    np.testing.assert_array_equal(kept.render().rgb, red)
+    quad.lights[0].color = np.full(3, 0.5, np.float32)
+    dim = uncached()
+    assert dim[6, 8, 0] < red[6, 8, 0]
+    np.testing.assert_array_equal(kept.render().rgb, dim)

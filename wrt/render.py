@@ -26,7 +26,7 @@ from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_p
 from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
 from .lights import LIGHT_DOME, build_lights, default_lights, set_headlight_directions
 from .materials import emission_estimates, upload_materials
-from .scene import MIN_METERS_PER_UNIT, Scene
+from .scene import MIN_METERS_PER_UNIT, Scene, dataclass_parts, parts_changed
 from .shade import (
     CullScratch,
     DeviceSurfaces,
@@ -280,7 +280,7 @@ class Renderer:
             self.device_scene = self.scene.to_device(self.device)
             self._upload_shading()
         self._scene_generation = self.scene.cache_generation
-        self._scene_lights = list(self.scene.lights)
+        self._scene_lights = tuple(dataclass_parts(self.scene.lights))
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
         self._progressive = None  # running sums of the last render, for render(resume=True)
@@ -290,9 +290,10 @@ class Renderer:
         replaced, or ``scene.invalidate()`` after an edit in place), as a trace would: a kept Renderer drew the old
         geometry."""
         self.scene.drop_stale_caches()
-        lights = self.scene.lights
-        if (self.scene.cache_generation != self._scene_generation or len(lights) != len(self._scene_lights)
-                or any(a is not b for a, b in zip(lights, self._scene_lights))):
+        # Lights are compared with their fields: a light given a new colour or intensity (light.color = ...) kept
+        # shining with the old one.
+        lights = tuple(dataclass_parts(self.scene.lights))
+        if self.scene.cache_generation != self._scene_generation or parts_changed(self._scene_lights, lights):
             check_scene(self.scene)
             self._build()
 

@@ -174,6 +174,23 @@ def _same_scalar(a, b) -> bool:
     return False
 
 
+def parts_changed(old: tuple, new: tuple) -> bool:
+    """Whether two records of the objects something was made from differ: an object replaced (not the same one) or
+    a plain value changed, or the record grew or shrank."""
+    return len(old) != len(new) or any(a is not b and not _same_scalar(a, b) for a, b in zip(old, new))
+
+
+def dataclass_parts(objects) -> list:
+    """Each object of ``objects`` followed by the values of its dataclass fields (none for other objects), for
+    :func:`parts_changed`: a field given a new array or value is then noticed, as a replaced object is."""
+    parts = []
+    for obj in objects:
+        parts.append(obj)
+        if dataclasses.is_dataclass(obj):
+            parts += [getattr(obj, f.name) for f in dataclasses.fields(obj)]
+    return parts
+
+
 @dataclasses.dataclass
 class Scene:
     """Everything that is rendered, as host arrays.
@@ -230,8 +247,7 @@ class Scene:
         geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity: see
         :meth:`invalidate`."""
         parts = self._parts()
-        old = self._cached_parts
-        if len(old) != len(parts) or any(a is not b and not _same_scalar(a, b) for a, b in zip(old, parts)):
+        if parts_changed(self._cached_parts, parts):
             self.invalidate()
         self._cached_parts = parts
 
@@ -241,7 +257,10 @@ class Scene:
         parts = [self.meshes, self.shapes, self.prototypes, self.instances, self.materials, self.textures]
         for obj in [*self._geometry_meshes(), *self._geometry_shapes(), *self.prototypes, self.instances]:
             parts += [getattr(obj, f.name) for f in dataclasses.fields(obj)]
-        return tuple(parts + list(self.materials) + list(self.textures))
+        # A material's fields too (mat.diffuse_color = ...): the uploaded materials kept the old colour. Its textures
+        # are a dict, so the TextureInputs in it are listed as well.
+        textures = [t for m in self.materials for t in getattr(m, "textures", {}).values()]
+        return tuple(parts + dataclass_parts(self.materials) + dataclass_parts(textures) + list(self.textures))
 
     def check_instances(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of
