@@ -376,3 +376,25 @@ def test_cli_without_a_working_backend_fails_cleanly(tmp_path):
     assert result.returncode == 1, result.stderr
     errors = [line for line in result.stderr.splitlines() if line.startswith("wrt: error")]
     assert len(errors) == 1 and "apt-get install" in errors[0]
+
+
+def test_preview_and_to_pyvista_draw_a_mesh_replaced_since_the_last_look(tmp_path):
+    """Replacing a mesh is noticed at the next trace or render; a preview and to_pyvista read the scene's cached
+    triangles and bounds without that check, and drew a replaced prototype mesh (and the scene's frame) where it had
+    been, beside BVH boxes of the new one."""
+    import dataclasses
+
+    path = tmp_path / "instanced.usda"
+    path.write_text(INSTANCED_GROUND)
+    scene = wrt.load_usd(path)
+    before = to_pyvista(scene)
+    tet = scene.prototypes[0].meshes[0]
+    scene.prototypes[0].meshes[0] = dataclasses.replace(tet, points=tet.points + np.float32([0, 10, 0]))
+    after = to_pyvista(scene)
+    np.testing.assert_allclose(after[1].points, before[1].points + [0, 10, 0])  # the first instance's block
+    plotter = wrt.preview(scene, window_size=(64, 48))
+    try:
+        drawn = plotter.actors["scene"].mapper.dataset
+        assert drawn.bounds[3] == pytest.approx(12.0)  # the moved tets reach y = 1 + 10 + 1
+    finally:
+        plotter.close()

@@ -717,6 +717,9 @@ def _add_rays(pv, plotter, origins, directions, t, forward, far: float) -> str:
 
 def _as_scene(scene) -> Scene:
     if isinstance(scene, Scene):
+        # As a trace or render does: the triangles, colours and bounds drawn are read from the scene's caches, which
+        # otherwise still held a mesh replaced since (while the BVH boxes, through get_accelerator, were new).
+        scene.drop_stale_caches()
         return scene
     if isinstance(scene, (str, os.PathLike)):
         from .usd import load_usd
