@@ -961,15 +961,17 @@ def test_a_file_edited_and_loaded_again_reads_the_new_content(tmp_path):
         gc.enable()
 
 
-def test_skinned_meshes_are_reported_as_drawn_unposed(tmp_path):
-    """A mesh bound to a skeleton under a SkelRoot (glTF, Maya and Houdini characters) is posed by UsdSkel; wrt draws
-    its bind-pose points, which the load used to do without a word. A mesh with joint influences but no SkelRoot
-    above is not posed by USD either, and says nothing."""
+def test_skinned_meshes_are_posed_only_under_a_skel_root(tmp_path):
+    """A mesh bound to a skeleton under a SkelRoot (glTF, Maya and Houdini characters) is drawn as UsdSkel poses it
+    (here the skeleton's rest pose lifts its only joint by 2 from the bind pose), without a warning; it used to keep
+    its bind-pose points. A mesh with joint influences but no SkelRoot above is not posed by USD either, and keeps
+    its points. (wrt.usd_skel is compared with UsdSkel.BakeSkinning in tests/test_usd_skel.py.)"""
     skinning = """rel skel:skeleton = </Root/Skel>
     int[] primvars:skel:jointIndices = [0, 0, 0, 0, 0, 0, 0] (interpolation = "vertex")
     float[] primvars:skel:jointWeights = [1, 1, 1, 1, 1, 1, 1] (interpolation = "vertex")"""
     api = 'prepend apiSchemas = ["SkelBindingAPI"]'
     identity = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )"
+    lifted = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 2, 0, 1) )"
     body = f"""
 def SkelRoot "Root"
 {{
@@ -977,12 +979,15 @@ def SkelRoot "Root"
     {{
         uniform token[] joints = ["hip"]
         uniform matrix4d[] bindTransforms = [{identity}]
-        uniform matrix4d[] restTransforms = [{identity}]
+        uniform matrix4d[] restTransforms = [{lifted}]
     }}
     {mesh_usda("Body", extra=skinning, meta=api)}
 }}
 {mesh_usda("Loose", extra=skinning, meta=api)}
 """
-    with pytest.warns(UserWarning, match=r"UsdSkel skinning .*not supported.*unposed points: 1 prim\(s\): /Root/Body$"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         scene = load_usd(write_usda(tmp_path, body))
-    assert sorted(m.path for m in scene.meshes) == ["/Loose", "/Root/Body"]  # still drawn
+    meshes = {m.path: m for m in scene.meshes}
+    np.testing.assert_allclose(meshes["/Root/Body"].points, np.array(POINTS) + (0, 2, 0))
+    np.testing.assert_allclose(meshes["/Loose"].points, POINTS)

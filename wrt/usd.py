@@ -4,9 +4,9 @@
 ``render``, fan-triangulates its faces with :func:`triangulate` (leaving out ``holeIndices``), bakes the world
 transform into the points, and carries shading normals, ``displayColor`` (its own, else a constant one inherited
 from an ancestor), texture coordinates and the bound material (:mod:`wrt.materials`) per triangle. UsdLux lights
-are read by :mod:`wrt.lights`. Bad topology raises :class:`wrt.errors.SceneError` naming the file and the prim;
-things that are skipped but a user might expect to see (unsupported gprims, lights or shaders) produce one warning
-each.
+are read by :mod:`wrt.lights`; meshes skinned by a UsdSkel skeleton are posed by :mod:`wrt.usd_skel`. Bad topology
+raises :class:`wrt.errors.SceneError` naming the file and the prim; things that are skipped but a user might expect
+to see (unsupported gprims, lights or shaders) produce one warning each.
 
 Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``size``), ``Cylinder`` and ``Cone``
 (``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``) and
@@ -55,7 +55,7 @@ import re
 import warnings
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade, UsdSkel
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
@@ -64,6 +64,7 @@ from .lights import read_light
 from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
+from .usd_skel import SkelPoser
 from .usd_values import held_value, moved_positions, read_time, spun_rotations, value_at
 from .usd_xforms import xform_cache
 
@@ -163,9 +164,11 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
     try:
         return reader.read()
     finally:
-        # The material reader holds the stage reader's skip method: a cycle that kept the stage and its layers
-        # open until the next garbage collection, so a file edited and loaded again in that time read as before.
+        # The material reader and the skeleton poser hold the stage reader's skip method: a cycle that kept the
+        # stage and its layers open until the next garbage collection, so a file edited and loaded again in that
+        # time read as before.
         reader.materials = None
+        reader.skel = None
 
 
 def _warn_composition_errors(stage: Usd.Stage, source: str) -> None:
@@ -286,6 +289,7 @@ class _StageReader:
         self.contents = {}  # (kind, root path, outer material) -> _Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
+        self.skel = SkelPoser(time, self._skip)  # poses meshes skinned by UsdSkel skeletons
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
 
@@ -386,9 +390,6 @@ class _StageReader:
         if prim.IsA(UsdGeom.Mesh):
             if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI: the mesh itself should emit
                 self._skip("mesh lights (MeshLightAPI) are not supported; drawn as meshes that emit nothing", prim)
-            if _skinned(prim):
-                self._skip("UsdSkel skinning and blend shapes are not supported; these meshes are drawn in their "
-                           "unposed points", prim)
             mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
             if mesh is not None:
                 ctx.content.meshes.append(mesh)
@@ -715,6 +716,11 @@ class _StageReader:
         local = self._read_local_mesh(prim, counts, uv_set)
         if local is None:
             return None
+        posed = self.skel.pose(prim, local.points, local.normals, local.vertex_ids, ctx.content.path)
+        if posed is not None:
+            # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
+            local.points, local.normals, space = posed
+            m = self._to_space(space, ctx)
 
         # Bake the transform (row-vector convention: p_world = p @ M[:3, :3] + M[3, :3]).
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
@@ -1217,22 +1223,6 @@ def _has_display_color(prim: Usd.Prim) -> bool:
     """``prim`` has a ``displayColor`` of its own or inherits one inside its space (see :func:`_display_color`)."""
     primvar = _display_color(prim)
     return bool(primvar and primvar.HasValue())
-
-
-def _skinned(prim: Usd.Prim) -> bool:
-    """``prim`` is posed by a skeleton as UsdSkel draws it: joint influences or blend shapes, a bound skeleton and a
-    ``SkelRoot`` above (exported characters: glTF converters, Maya, Houdini). Their points are the bind pose, so
-    they rendered in a pose the stage never shows, without a word."""
-    if not (prim.HasAttribute("primvars:skel:jointIndices") or prim.HasAttribute("skel:blendShapes")):
-        return False
-    if not UsdSkel.BindingAPI(prim).GetInheritedSkeleton():
-        return False
-    p = prim
-    while p and not p.IsPseudoRoot():
-        if p.IsA(UsdSkel.Root):
-            return True
-        p = p.GetParent()
-    return False
 
 
 def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):

@@ -1,0 +1,302 @@
+"""Tests for wrt.usd_skel: meshes skinned by a UsdSkel skeleton are drawn as USD poses them at the load's time.
+
+The reference is USD's own ``UsdSkel.BakeSkinning``, run on the stage opened again with a session layer as edit
+target: it writes the posed points (in each mesh's own space, or a transform for rigidly bound meshes) as time
+samples at every integer time code, which ``UsdGeom.XformCache`` then places in the world.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+import numpy as np
+import pytest
+
+pxr = pytest.importorskip("pxr")
+from pxr import Usd, UsdGeom, UsdSkel  # noqa: E402
+
+from wrt.usd import load_usd  # noqa: E402
+
+IDENTITY = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )"
+AT_X1 = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (1, 0, 0, 1) )"
+SEGMENTS = 4  # of the bar, along x from 0 to 2
+
+
+def fmt(values) -> str:
+    return "[" + ", ".join(str(tuple(v)) if isinstance(v, (tuple, list)) else repr(v) for v in values) + "]"
+
+
+def bar():
+    """A square bar of quads along x (4 points per ring), its vertex normals and 2 influences per point: the mesh's
+    joint 1 ("root") below x = 0.5, joint 0 ("root/tip") beyond x = 1.5, blended in between."""
+    points, normals, joint_indices, joint_weights, counts, indices = [], [], [], [], [], []
+    ring = [(-0.1, -0.1), (0.1, -0.1), (0.1, 0.1), (-0.1, 0.1)]
+    for i in range(SEGMENTS + 1):
+        x = 2.0 * i / SEGMENTS
+        s = min(max(x - 0.5, 0.0), 1.0)
+        for y, z in ring:
+            points.append((x, y, z))
+            normals.append((0.0, y, z))
+            joint_indices += [1, 0]
+            joint_weights += [1 - s, s]
+    for i in range(SEGMENTS):
+        for k in range(4):
+            a, b = i * 4 + k, i * 4 + (k + 1) % 4
+            indices += [a, b, b + 4, a + 4]
+            counts.append(4)
+    return points, normals, joint_indices, joint_weights, counts, indices
+
+
+def skel_root(root="/Root", bad_index=False, animation=True) -> str:
+    """A SkelRoot at ``root``: a 2-joint skeleton (moved and turned by its own transform) whose animation bends,
+    stretches and lifts it over time samples 1, 5 and 10; a bar skinned by it (joints in another order than the
+    skeleton's, a geomBindTransform, a blend shape and a transform of its own, which skinning replaces), a quad
+    bound rigidly to the tip and a quad moved by a blend shape only (in its own space)."""
+    points, normals, joint_indices, joint_weights, counts, indices = bar()
+    if bad_index:
+        joint_indices[0] = 7
+    name = root.rsplit("/", 1)[1]
+    source = f"rel skel:animationSource = <{root}/Anim>" if animation else ""
+    return f"""
+def SkelRoot "{name}" (
+    prepend apiSchemas = ["SkelBindingAPI"]
+)
+{{
+    rel skel:skeleton = <{root}/Skel>
+    double3 xformOp:translate = (0, 1, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+
+    def Skeleton "Skel" (
+        prepend apiSchemas = ["SkelBindingAPI"]
+    )
+    {{
+        uniform token[] joints = ["root", "root/tip"]
+        uniform matrix4d[] bindTransforms = [{IDENTITY}, {AT_X1}]
+        uniform matrix4d[] restTransforms = [{IDENTITY}, {AT_X1}]
+        {source}
+        double3 xformOp:translate = (0, 0, 2)
+        float xformOp:rotateY = 30
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateY"]
+    }}
+
+    def SkelAnimation "Anim"
+    {{
+        uniform token[] joints = ["root/tip", "root"]
+        float3[] translations.timeSamples = {{
+            1: [(1, 0, 0), (0, 0, 0)], 5: [(1, 0, 0), (0, 0.5, 0)], 10: [(1, 0, 0), (0.2, 0.3, 0)] }}
+        quatf[] rotations.timeSamples = {{
+            1: [(0.9659258, 0, 0, 0.258819), (1, 0, 0, 0)],
+            5: [(0.7071068, 0, 0, 0.7071068), (0.9659258, 0.258819, 0, 0)],
+            10: [(0.5, 0, 0, 0.8660254), (1, 0, 0, 0)] }}
+        half3[] scales.timeSamples = {{ 1: [(1, 1, 1), (1, 1, 1)], 10: [(1, 2, 1), (1, 1, 1)] }}
+        uniform token[] blendShapes = ["bulge"]
+        float[] blendShapeWeights.timeSamples = {{ 1: [0.5], 10: [1] }}
+    }}
+
+    def Mesh "Bar" (
+        prepend apiSchemas = ["SkelBindingAPI"]
+    )
+    {{
+        int[] faceVertexCounts = {fmt(counts)}
+        int[] faceVertexIndices = {fmt(indices)}
+        point3f[] points = {fmt(points)}
+        normal3f[] normals = {fmt(normals)} (
+            interpolation = "vertex"
+        )
+        uniform token[] skel:joints = ["root/tip", "root"]
+        int[] primvars:skel:jointIndices = {fmt(joint_indices)} (
+            elementSize = 2
+            interpolation = "vertex"
+        )
+        float[] primvars:skel:jointWeights = {fmt(joint_weights)} (
+            elementSize = 2
+            interpolation = "vertex"
+        )
+        matrix4d primvars:skel:geomBindTransform = ( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (-0.5, 0, 0, 1) )
+        uniform token[] skel:blendShapes = ["bulge"]
+        rel skel:blendShapeTargets = <{root}/Bar/bulge>
+        double3 xformOp:translate = (5, 5, 5)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+
+        def BlendShape "bulge"
+        {{
+            uniform vector3f[] offsets = [(0, 0.3, 0), (0, 0.3, 0)]
+            uniform int[] pointIndices = [9, 10]
+        }}
+    }}
+
+    def Mesh "Rigid" (
+        prepend apiSchemas = ["SkelBindingAPI"]
+    )
+    {{
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(2, -0.2, 0), (2.4, -0.2, 0), (2.4, 0.2, 0), (2, 0.2, 0)]
+        int[] primvars:skel:jointIndices = [1] (
+            interpolation = "constant"
+        )
+        float[] primvars:skel:jointWeights = [1] (
+            interpolation = "constant"
+        )
+        double3 xformOp:translate = (0, 0, 1)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }}
+
+    def Mesh "Face" (
+        prepend apiSchemas = ["SkelBindingAPI"]
+    )
+    {{
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+        uniform token[] skel:blendShapes = ["bulge"]
+        rel skel:blendShapeTargets = <{root}/Face/bulge>
+        double3 xformOp:translate = (0, 0, -3)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+
+        def BlendShape "bulge"
+        {{
+            uniform vector3f[] offsets = [(0, 0, 0.5)]
+            uniform int[] pointIndices = [2]
+        }}
+    }}
+}}
+"""
+
+
+def write(tmp_path, body: str) -> str:
+    path = tmp_path / "skinned.usda"
+    path.write_text(f'#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 10\n    upAxis = "Y"\n)\n{body}\n')
+    return str(path)
+
+
+def baked(path: str, uninstance=()) -> Usd.Stage:
+    """The stage at ``path`` with USD's skinning baked into a session layer (``uninstance``: prims made not
+    instanceable first, since BakeSkinning cannot write into instance prototypes)."""
+    stage = Usd.Stage.Open(path)
+    stage.SetEditTarget(Usd.EditTarget(stage.GetSessionLayer()))
+    for p in uninstance:
+        stage.GetPrimAtPath(p).SetInstanceable(False)
+    assert UsdSkel.BakeSkinning(stage.Traverse())
+    return stage
+
+
+def fan(counts, indices):
+    """Triangles ``(T, 3)`` of a fan triangulation, in face order (the order wrt documents)."""
+    tris, start = [], 0
+    for n in counts:
+        tris += [(indices[start], indices[start + k + 1], indices[start + k + 2]) for k in range(n - 2)]
+        start += n
+    return np.array(tris, np.int64).reshape(-1, 3)
+
+
+def world_triangles(stage: Usd.Stage, mesh_path: str, time: Usd.TimeCode):
+    """``(T, 3, 3)`` world-space corners and ``(T, 3, 3)`` unit world normals (or None) of a mesh of the baked stage."""
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath(mesh_path))
+    m = np.array(UsdGeom.XformCache(time).GetLocalToWorldTransform(mesh.GetPrim()))
+    points = np.array(mesh.GetPointsAttr().Get(time), np.float64) @ m[:3, :3] + m[3, :3]
+    tris = fan(mesh.GetFaceVertexCountsAttr().Get(), mesh.GetFaceVertexIndicesAttr().Get())
+    normals = mesh.GetNormalsAttr().Get(time)
+    if normals is not None:
+        normals = np.array(normals, np.float64) @ np.linalg.inv(m[:3, :3]).T
+        normals = (normals / np.linalg.norm(normals, axis=1, keepdims=True))[tris]
+    return points[tris], normals
+
+
+def loaded(path, time):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a posed mesh loads without a warning
+        return load_usd(path, time=time)
+
+
+@pytest.mark.parametrize("time", [None, 5.0, 7.0])
+def test_skinned_meshes_match_usd_bake_skinning(tmp_path, time):
+    """Points (skinned, blend shape applied, in the skeleton's space placed by the skeleton, not by the mesh's own
+    transform) and vertex normals match BakeSkinning's at a sample, between samples and at ``time=None``, which reads
+    the sample-only animation at its first sample (7 is exact too: BakeSkinning bakes every integer time code)."""
+    path = write(tmp_path, skel_root())
+    stage = baked(path)
+    at = Usd.TimeCode.EarliestTime() if time is None else Usd.TimeCode(time)
+    scene = loaded(path, time)
+    by_path = {m.path: m for m in scene.meshes}
+    for mesh_path in ("/Root/Bar", "/Root/Rigid", "/Root/Face"):
+        expected, normals = world_triangles(stage, mesh_path, at)
+        mesh = by_path[mesh_path]
+        np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
+        if normals is not None:
+            np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)
+    # The authored points under the mesh's own transform, and the pose at time 10, are far from that: the test sees
+    # a mesh left unposed or posed at another time.
+    authored = np.array(bar()[0]) + (5, 6, 5)
+    assert np.abs(by_path["/Root/Bar"].points - authored).max() > 1.0
+    later, _ = world_triangles(stage, "/Root/Bar", Usd.TimeCode(10))
+    assert np.abs(by_path["/Root/Bar"].points[by_path["/Root/Bar"].indices] - later).max() > 0.2
+
+
+def test_skinned_meshes_inside_instances_are_posed(tmp_path):
+    """A SkelRoot inside a native prototype is posed once, in the prototype's space, and placed by each instance."""
+    instances = "\n".join(
+        f'def Xform "{name}" (\n    instanceable = true\n    prepend references = </Proto>\n)\n{{\n'
+        f'    double3 xformOp:translate = ({x}, 0, 0)\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n}}'
+        for name, x in (("A", 3), ("B", -3))
+    )
+    path = write(tmp_path, 'class Xform "Proto"\n{\n' + skel_root("/Proto/Root") + "\n}\n" + instances)
+    stage = baked(path, uninstance=("/A", "/B"))
+    scene = loaded(path, 5.0)
+    assert len(scene.prototypes) == 1 and len(scene.instances.prototype) == 2
+    points, indices = scene.triangles()
+    expected = [world_triangles(stage, f"/{name}/Root/{mesh}", Usd.TimeCode(5))[0]
+                for name in ("A", "B") for mesh in ("Bar", "Rigid", "Face")]
+    np.testing.assert_allclose(points[indices], np.concatenate(expected), atol=2e-6)
+
+
+@pytest.mark.parametrize("case", ["bad joint index", "no animation or rest pose"])
+def test_failed_skinning_keeps_unposed_points_with_a_warning(tmp_path, case):
+    """A mesh whose skinning fails is drawn in its authored points under its own transform, and named."""
+    body = skel_root(bad_index=case == "bad joint index", animation=case != "no animation or rest pose")
+    if case == "no animation or rest pose":
+        body = body.replace("uniform matrix4d[] restTransforms", "uniform matrix4d[] unusedTransforms")
+    path = write(tmp_path, body)
+    with pytest.warns(UserWarning, match=r"UsdSkel skinning failed.*unposed points.*/Root/Bar"):
+        scene = load_usd(path, time=5.0)
+    mesh = {m.path: m for m in scene.meshes}["/Root/Bar"]
+    authored = np.array(bar()[0], np.float64) + (5, 6, 5)  # the mesh's and the SkelRoot's translations
+    np.testing.assert_allclose(mesh.points, authored, atol=1e-6)
+
+
+CESIUM_MAN = os.path.join(os.environ.get("WRT_ASSETS", "/work/shared/assets"),
+                          "usd-wg/test_assets/USDZ/CesiumMan/CesiumMan.usdz")
+
+
+@pytest.mark.skipif(not os.path.exists(CESIUM_MAN), reason="CesiumMan.usdz not in the shared assets")
+@pytest.mark.parametrize("time", [None, 20.0])
+def test_cesium_man_bounds_match_usd(time):
+    """A glTF character (one skinned mesh, 19 joints, authored normals): wrt's world bounds are USD's bounds of the
+    baked stage (the bind pose is a T-pose 1.14 wide; the walk is 0.4-0.5 wide)."""
+    stage = baked(CESIUM_MAN)
+    at = Usd.TimeCode.EarliestTime() if time is None else Usd.TimeCode(time)
+    box = UsdGeom.BBoxCache(at, [UsdGeom.Tokens.default_, UsdGeom.Tokens.render]).ComputeWorldBound(
+        stage.GetPseudoRoot()).ComputeAlignedRange()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # its material's warnings, if any, are not what this checks
+        points, indices = load_usd(CESIUM_MAN, time=time).triangles()
+    used = points[np.unique(indices)]
+    np.testing.assert_allclose(used.min(axis=0), np.array(box.GetMin()), atol=1e-5)
+    np.testing.assert_allclose(used.max(axis=0), np.array(box.GetMax()), atol=1e-5)
+
+
+def test_face_varying_normals_are_skinned(tmp_path):
+    """Normals authored per face corner are skinned with the influences of each corner's point: the bar's normals
+    written faceVarying give BakeSkinning's skinned vertex normals (BakeSkinning skins vertex normals only)."""
+    path = write(tmp_path, skel_root())
+    _, expected = world_triangles(baked(path), "/Root/Bar", Usd.TimeCode(7))
+    _, normals, _, _, _, indices = bar()
+    authored = f'normal3f[] normals = {fmt(normals)} (\n            interpolation = "vertex"'
+    corners = fmt([normals[i] for i in indices])
+    per_corner = f'normal3f[] normals = {corners} (\n            interpolation = "faceVarying"'
+    body = skel_root()
+    assert authored in body
+    path = write(tmp_path, body.replace(authored, per_corner))
+    mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Bar"]
+    np.testing.assert_allclose(mesh.normals, expected, atol=2e-6)

@@ -1,0 +1,181 @@
+"""Poses meshes skinned by a UsdSkel skeleton as USD poses them at the load's time (glTF, Maya and Houdini
+characters keep their bind pose in ``points`` and move only through their skeleton).
+
+A mesh is posed when it has joint influences (``primvars:skel:jointIndices``/``jointWeights``) or blend shapes
+(``skel:blendShapes``), a skeleton bound to it or an ancestor (``skel:skeleton``) and a ``SkelRoot`` above it: the
+same conditions as UsdSkel's. Its points go through its blend shapes (weighted by the skeleton's animation), then
+through linear blend (or dual quaternion) skinning by ``UsdSkel.SkinningQuery``, after ``geomBindTransform``; a
+rigidly bound mesh (constant joint influences) is moved by ``ComputeSkinnedTransform``. The result is in the
+skeleton's space: the caller places it with the skeleton prim's transform, not the mesh's own, as
+``UsdSkel.BakeSkinning`` and UsdSkelImaging do. Authored normals (every interpolation) are skinned with the
+inverse transposes of the same joint transforms and weights (``UsdSkel.SkinNormals``); blend shape normal offsets
+are not applied.
+
+Time: the animation is read at the load's time; with the default time, an animation whose joint transforms or blend
+shape weights have only time samples is read at its first sample, as wrt reads every other attribute
+(:func:`wrt.usd_values.read_time`). A mesh whose skinning fails (joint indices out of range, influences that do not
+match its points, a skeleton that cannot be posed) keeps its unposed points, with a warning naming it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdSkel, Vt
+
+from .usd_values import read_time
+
+_ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
+FAILED = "UsdSkel skinning failed; these meshes are drawn in their unposed points"  # warning reason
+
+
+class SkelPoser:
+    """Poses the skinned meshes of one load; skeletons and their transforms are computed once each.
+
+    Args:
+        time: the load's time code.
+        skip: ``skip(reason, prim, detail)`` records a mesh left unposed (one warning per reason).
+    """
+
+    def __init__(self, time: Usd.TimeCode, skip):
+        self.time = time
+        self.skip = skip
+        self.cache = UsdSkel.Cache()
+        self.roots = set()  # SkelRoot paths populated in the cache
+        self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or None, anim time, anim query)
+
+    def pose(self, prim: Usd.Prim, points: np.ndarray, normals, vertex_ids: np.ndarray, content_root: str):
+        """``prim``'s points (and normals) posed, in its skeleton's space.
+
+        Args:
+            prim: a ``UsdGeom.Mesh``.
+            points: ``(V, 3)`` float64, the mesh's points as read (its own space, unposed).
+            normals: ``(values (K, 3), corner index (T, 3))`` in the mesh's space, or None.
+            vertex_ids: ``(T, 3)`` int rows into ``points`` of each triangle corner (the corners of ``normals``).
+            content_root: path of the subtree being read (``/`` or a prototype's root); a skeleton outside it cannot
+                be placed in its space, so the mesh stays unposed (with a warning).
+
+        Returns:
+            ``(points (V, 3) float64, normals like the argument's, the prim whose space they are in)``: the
+            skeleton's, or ``prim``'s own for a mesh posed by blend shapes only. None when USD does not pose ``prim``
+            or its skinning failed (recorded through ``skip``).
+        """
+        if not (prim.HasAttribute("primvars:skel:jointIndices") or prim.HasAttribute("skel:blendShapes")):
+            return None
+        skeleton = UsdSkel.BindingAPI(prim).GetInheritedSkeleton()
+        root = _skel_root(prim)
+        if not skeleton or root is None:
+            return None  # USD does not pose it either
+        if not skeleton.GetPath().HasPrefix(Sdf.Path(content_root)):
+            self.skip(FAILED, prim, "skeleton outside the instance prototype")
+            return None
+        try:
+            return self._pose(prim, root, skeleton, points, normals, vertex_ids)
+        except (RuntimeError, ValueError, IndexError, TypeError) as e:  # RuntimeError: Tf errors, null prims
+            self.skip(FAILED, prim, str(e).strip().splitlines()[-1][:120] or type(e).__name__)
+            return None
+
+    def _pose(self, prim, root, skeleton, points, normals, vertex_ids):
+        if str(root.GetPath()) not in self.roots:
+            self.cache.Populate(UsdSkel.Root(root), Usd.PrimDefaultPredicate)
+            self.roots.add(str(root.GetPath()))
+        query = self.cache.GetSkinningQuery(prim)
+        if not query:
+            raise ValueError("invalid joint influences or skel:joints")
+        xforms, anim_time, anim = self._skinning_transforms(skeleton)
+        if query.HasBlendShapes() and anim:
+            points = _blend(prim, query, anim, anim_time, points)
+        if not query.HasJointInfluences():
+            return points, normals, prim  # blend shapes only: still in the mesh's own space
+        mesh_time = read_time(query.GetJointIndicesPrimvar().GetAttr(), self.time)  # influences as points are read
+        if xforms is None:
+            raise ValueError("the skeleton cannot be posed (no animation or rest transforms for its joints)")
+        if query.IsRigidlyDeformed():
+            m = np.array(query.ComputeSkinnedTransform(xforms, mesh_time), np.float64)
+            if normals is not None:
+                values, corners = normals
+                normals = values @ _inverse_transpose(m[:3, :3]), corners
+            return points @ m[:3, :3] + m[3, :3], normals, skeleton.GetPrim()
+        skinned = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(points, np.float32))
+        if not query.ComputeSkinnedPoints(xforms, skinned, mesh_time):
+            raise ValueError("ComputeSkinnedPoints failed (joint indices out of range or influences do not match "
+                             "the points)")
+        if normals is not None:
+            normals = self._skin_normals(query, xforms, normals, vertex_ids, mesh_time)
+        return np.array(skinned, np.float64), normals, skeleton.GetPrim()
+
+    def _skinning_transforms(self, skeleton: UsdSkel.Skeleton):
+        """``(skinning transforms in the skeleton's joint order, or None; the time the animation is read at; its
+        query, or None)`` of ``skeleton``, computed once per load."""
+        key = str(skeleton.GetPath())
+        if key not in self.poses:
+            skel_query = self.cache.GetSkelQuery(skeleton)
+            anim = skel_query.GetAnimQuery() if skel_query else None
+            anim_time = self.time
+            if anim and self.time.IsDefault():
+                attrs = [anim.GetPrim().GetAttribute(name) for name in _ANIMATED]
+                if any(a and read_time(a, self.time) != self.time for a in attrs):
+                    anim_time = Usd.TimeCode.EarliestTime()
+            xforms = skel_query.ComputeSkinningTransforms(anim_time) if skel_query else None
+            if xforms is not None and len(xforms) != len(skel_query.GetJointOrder()):
+                xforms = None
+            self.poses[key] = (xforms, anim_time, anim or None)
+        return self.poses[key]
+
+    def _skin_normals(self, query, xforms, normals, vertex_ids, time):
+        """Normals skinned per triangle corner with the influences of the corner's point (so faceVarying and uniform
+        normals are skinned too): ``(values (3T, 3), corner index (T, 3))``."""
+        values, corners = normals
+        indices, weights = query.ComputeJointInfluences(time)
+        per_point = query.GetNumInfluencesPerComponent()
+        points = np.asarray(vertex_ids, np.int64).reshape(-1)
+        indices = np.asarray(indices, np.int32).reshape(-1, per_point)[points].reshape(-1)
+        weights = np.asarray(weights, np.float32).reshape(-1, per_point)[points].reshape(-1)
+        mapper = query.GetJointMapper()
+        if mapper and not mapper.IsNull() and not mapper.IsIdentity():
+            xforms = mapper.RemapTransforms(xforms, Vt.Matrix4dArray())  # into the mesh's skel:joints order
+        joint_normal_xforms = Vt.Matrix3dArray([_gf3(_inverse_transpose(np.array(x)[:3, :3])) for x in xforms])
+        bind = _gf3(_inverse_transpose(np.array(query.GetGeomBindTransform(time))[:3, :3]))
+        skinned = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(values[corners].reshape(-1, 3), np.float32))
+        if not UsdSkel.SkinNormals(query.GetSkinningMethod(), bind, joint_normal_xforms, Vt.IntArray.FromNumpy(indices),
+                                   Vt.FloatArray.FromNumpy(weights), per_point, skinned):
+            raise ValueError("SkinNormals failed (joint indices out of range)")
+        return np.array(skinned, np.float64), np.arange(len(skinned)).reshape(-1, 3)
+
+
+def _blend(prim, query, anim, anim_time, points):
+    """``points`` moved by the blend shapes of ``prim`` at the animation's weights (``BlendShapeQuery``)."""
+    weights = anim.ComputeBlendShapeWeights(anim_time)
+    mapper = query.GetBlendShapeMapper()
+    if weights is None:
+        return points
+    if mapper and not mapper.IsNull() and not mapper.IsIdentity():
+        weights = mapper.Remap(weights, Vt.FloatArray())  # into the mesh's skel:blendShapes order
+    shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
+    sub_weights, shape_ids, sub_ids = shapes.ComputeSubShapeWeights(weights)
+    moved = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(points, np.float32))
+    if not shapes.ComputeDeformedPoints(sub_weights, shape_ids, sub_ids, shapes.ComputeBlendShapePointIndices(),
+                                        shapes.ComputeSubShapePointOffsets(), moved):
+        raise ValueError("blend shapes do not match the points")
+    return np.array(moved, np.float64)
+
+
+def _skel_root(prim: Usd.Prim) -> Usd.Prim | None:
+    """The ``SkelRoot`` at or above ``prim`` (within its prototype, for prims inside one), or None."""
+    p = prim
+    while p and not p.IsPseudoRoot():
+        if p.IsA(UsdSkel.Root):
+            return p
+        p = p.GetParent()
+    return None
+
+
+def _inverse_transpose(linear: np.ndarray) -> np.ndarray:
+    """``(3, 3)`` inverse transpose of ``linear`` (how normals transform); the cofactor matrix when singular."""
+    r0, r1, r2 = linear
+    cofactor = np.stack([np.cross(r1, r2), np.cross(r2, r0), np.cross(r0, r1)])  # = det * inv(linear).T
+    det = float(np.dot(r0, cofactor[0]))
+    return cofactor / det if det != 0.0 and np.isfinite(det) else cofactor
+
+
+def _gf3(m: np.ndarray) -> Gf.Matrix3d:
+    return Gf.Matrix3d(*(float(v) for v in m.reshape(-1)))
