@@ -53,9 +53,13 @@ def test_launch_frame_after_set_cameras_with_another_count_renders_the_new_camer
     scene = sensor_scene()
     cams = ring_of_cameras(4)
     renderer = wrt.Renderer(scene, cameras=cams[:2], width=16, height=12, device="cpu")
+    with pytest.raises(RuntimeError, match=r"frame_image\(\) needs a launch_frame\(\) first"):
+        renderer.frame_image()  # a TypeError about unpacking None before
     renderer.launch_frame(seed=1)
     for views in (cams, cams[1:2]):  # more cameras, then fewer
         renderer.set_cameras(views)
+        with pytest.raises(RuntimeError, match="needs a launch_frame"):
+            renderer.frame_image()  # the buffers of the old count are gone
         renderer.launch_frame(seed=1)
         expected = wrt.render_batch(scene, views, 16, 12, seed=1, device="cpu").rgb.numpy()
         np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
@@ -116,3 +120,21 @@ def test_batch_on_cuda_equals_serial_on_cuda():
         one = wrt.render(scene, camera=cams[k], width=64, height=64, device="cuda:0")
         np.testing.assert_array_equal(rgb[k], one.rgb)
         np.testing.assert_array_equal(aovs["depth"][k], one.aovs["depth"])
+
+
+def test_a_recorded_frame_replays_with_the_cameras_set_since():
+    """README: set_cameras every simulation step, and a frame recorded once as a CUDA graph and replayed. set_cameras
+    made new camera (and headlight) arrays, so the replayed graph still read the recorded ones: the old poses."""
+    if not wp.is_cuda_available():
+        pytest.skip("no CUDA device")
+    scene = sensor_scene()
+    scene.lights = []  # the default headlight then turns with each camera too
+    cams = ring_of_cameras(4)
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=32, height=24, device="cuda:0")
+    renderer.launch_frame(seed=3)  # allocates the buffers before the capture
+    with wp.ScopedCapture(device="cuda:0") as capture:
+        renderer.launch_frame(seed=3)
+    renderer.set_cameras(cams[2:])
+    wp.capture_launch(capture.graph)
+    expected = wrt.render_batch(scene, cams[2:], 32, 24, seed=3, device="cuda:0").rgb.numpy()
+    np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)

@@ -722,8 +722,12 @@ def set_headlight_directions(d: DeviceLights, index: int, forwards, device) -> N
     d.headlight = index
     if index >= 0:
         f = np.asarray(forwards, np.float64).reshape(-1, 3)
-        d.headlight_dirs = wp.array((f / np.linalg.norm(f, axis=1, keepdims=True)).astype(np.float32),
-                                    dtype=wp.vec3, device=device)
+        dirs = wp.array((f / np.linalg.norm(f, axis=1, keepdims=True)).astype(np.float32), dtype=wp.vec3, device=device)
+        old = getattr(d, "headlight_dirs", None)
+        if old is not None and old.shape == dirs.shape and old.device == dirs.device:
+            old.assign(dirs)  # in place, so that a recorded CUDA graph sees the new directions (see set_cameras)
+        else:
+            d.headlight_dirs = dirs
 
 
 def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, power):

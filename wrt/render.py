@@ -359,8 +359,15 @@ class Renderer:
 
     def _upload_cameras(self) -> None:
         structs = [c.to_struct(self.width, self.height) for c in self.cameras]
-        self._cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
-        self._lenses = wp.array([self._lens(c) for c in self.cameras], dtype=wp.vec2, device=self.device)
+        cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
+        lenses = wp.array([self._lens(c) for c in self.cameras], dtype=wp.vec2, device=self.device)
+        if getattr(self, "_cams", None) is not None and len(self._cams) == len(cams):
+            # Copied into the arrays the kernels were given, not swapped for new ones: a frame recorded as a CUDA
+            # graph (launch_frame) replays with the arrays it was recorded with, and kept drawing the old poses.
+            self._cams.assign(cams)
+            self._lenses.assign(lenses)
+        else:
+            self._cams, self._lenses = cams, lenses
         self._forwards = np.array([np.array(s.forward) for s in structs], np.float64)  # (V, 3) viewing directions
         if hasattr(self, "device_lights"):  # set_cameras; the first call comes before the lights are built
             self._point_headlight()
@@ -491,6 +498,9 @@ class Renderer:
 
     def frame_image(self):
         """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay)."""
+        if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
+            raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
+                               "count or of the scene)")
         _, image, _, aovs = self._frame
         if self.batched:
             return self._batch_image(image, 1, aovs)
