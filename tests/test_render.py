@@ -12,6 +12,7 @@ from pxr import Usd
 import wrt
 from wrt.cli import default_scene_path
 from wrt.lights import DomeLight
+from wrt.materials import TextureInput
 from wrt.rays import camera_rays
 from wrt.shade import BACKGROUND
 
@@ -403,3 +404,44 @@ def test_a_material_or_light_given_a_new_value_is_drawn_with_it():
     dim = uncached()
     assert dim[6, 8, 0] < red[6, 8, 0]
     np.testing.assert_array_equal(kept.render().rgb, dim)
+
+
+def test_a_render_with_nothing_changed_does_not_walk_every_field_of_the_scene(monkeypatch):
+    """Every render (and launch_frame) of a kept Renderer walked every field of every mesh to look for changes:
+    70 ms per render of a 16x12 image on a scene of 20k meshes, against 2 ms before the walk. With no object
+    replaced and no field assigned since the last check, the walk is skipped; any such change still rebuilds."""
+    import dataclasses
+
+    quad = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    quad.meshes[0] = dataclasses.replace(quad.meshes[0], material_ids=np.zeros(2, np.int32))
+    quad.materials = [wrt.Material(path="/Grey", diffuse_color=np.full(3, 0.5, np.float32))]
+    renderer = wrt.Renderer(quad, camera=wrt.Camera.look_at((0, 0, 4), (0, 0, 0)), width=16, height=12,
+                            device="cpu")
+    grey = renderer.render().rgb
+    walks = []
+    parts = wrt.Scene._parts
+    monkeypatch.setattr(wrt.Scene, "_parts", lambda scene: walks.append(1) or parts(scene))
+    renderer.render()
+    renderer.render()
+    assert walks == []
+
+    generation = quad.cache_generation
+    quad.materials[0].diffuse_color = np.array([1.0, 0.0, 0.0], np.float32)  # a field assigned
+    red = renderer.render().rgb
+    assert walks and quad.cache_generation != generation and red[6, 8, 1] < grey[6, 8, 1]
+    quad.materials[0].textures["diffuse_color"] = TextureInput(image=0)  # a dict entry
+    generation = quad.cache_generation
+    quad.drop_stale_caches()
+    assert quad.cache_generation != generation
+    generation = quad.cache_generation
+    quad.meshes.append(dataclasses.replace(quad.meshes[0]))  # a list grown in place
+    quad.drop_stale_caches()
+    assert quad.cache_generation != generation
+    generation = quad.cache_generation
+    quad.meshes[1] = dataclasses.replace(quad.meshes[0])  # an element replaced in place
+    quad.drop_stale_caches()
+    assert quad.cache_generation != generation
+    generation, count = quad.cache_generation, len(walks)
+    quad.meshes[1].double_sided = quad.meshes[1].double_sided  # assigned an equal value: walked, nothing dropped
+    quad.drop_stale_caches()
+    assert quad.cache_generation == generation and len(walks) == count + 1

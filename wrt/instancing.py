@@ -24,11 +24,13 @@ import dataclasses
 
 import numpy as np
 
+from .assignments import CountsAssignments
+
 ROW_DTYPE_LIMIT = (1 << 31) - 1  # expanded triangle ids up to this fit int32; larger scenes report int64 ids
 
 
 @dataclasses.dataclass
-class Prototype:
+class Prototype(CountsAssignments):
     """Geometry that is drawn only through instances, in its own (prototype) space.
 
     Attributes:
@@ -63,7 +65,7 @@ class Prototype:
 
 
 @dataclasses.dataclass
-class Instances:
+class Instances(CountsAssignments):
     """Placements of prototypes in the world.
 
     Attributes:

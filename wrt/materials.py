@@ -31,6 +31,7 @@ import math
 import numpy as np
 import warp as wp
 
+from .assignments import CountsAssignments
 from .bsdf import Surface
 from .errors import check_fields
 from .textures import WRAP_MODES, TextureError, load_image, pack_images, sample_image
@@ -62,7 +63,7 @@ DEFAULT_GREY = 0.5  # albedo of meshes with neither a material nor displayColor
 
 
 @dataclasses.dataclass
-class TextureInput:
+class TextureInput(CountsAssignments):
     """One ``UsdUVTexture`` feeding a material input.
 
     Attributes:
@@ -85,7 +86,7 @@ class TextureInput:
 
 
 @dataclasses.dataclass
-class Material:
+class Material(CountsAssignments):
     """A UsdPreviewSurface; constants use the schema's fallback values.
 
     Attributes:

@@ -33,6 +33,7 @@ import math
 import numpy as np
 import warp as wp
 
+from .assignments import CountsAssignments
 from .floats import unit_scales
 
 SHAPE_SPHERE = wp.constant(0)
@@ -336,7 +337,7 @@ def shape_uv(kind: int, params: wp.vec4, p: wp.vec3):
 
 
 @dataclasses.dataclass
-class Shape:
+class Shape(CountsAssignments):
     """One analytic primitive placed in the scene (world space) or in a prototype (prototype space).
 
     Attributes:

@@ -25,10 +25,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 
 import numpy as np
 import warp as wp
 
+from .assignments import CountsAssignments, assignments
 from .camera import Camera
 from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
 from .transforms import mat34
@@ -67,7 +69,7 @@ PER_TRIANGLE_ARRAYS = (
 
 
 @dataclasses.dataclass
-class Mesh:
+class Mesh(CountsAssignments):
     """One triangle mesh in world space.
 
     Attributes:
@@ -227,6 +229,7 @@ class Scene:
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
         self._generation = 0  # how many times the cache was cleared
         self.check_instances()
+        self._checked = (assignments(), self._members())  # the state of the last full check (drop_stale_caches)
         self._cached_parts = self._parts()  # what the cache is made from (see drop_stale_caches)
 
     def invalidate(self) -> None:
@@ -246,10 +249,23 @@ class Scene:
         (or a list grown or shrunk) since the last check: a cached BVH or upload would otherwise trace the old
         geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity: see
         :meth:`invalidate`."""
+        count, members = assignments(), self._members()  # counted first: an assignment during the walk is seen next
+        last_count, last_members = self._checked
+        if count == last_count and len(members) == len(last_members) and all(map(operator.is_, members, last_members)):
+            return  # the same objects, and no field of any of them assigned since: the walk below finds nothing
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
             self.invalidate()
         self._cached_parts = parts
+        self._checked = (count, members)
+
+    def _members(self) -> tuple:
+        """The lists of the scene and the objects in them whose fields :meth:`_parts` reads; a field assigned anew
+        is counted by :func:`wrt.assignments.assignments` instead."""
+        textures = [t for m in self.materials for t in getattr(m, "textures", {}).values()]
+        return (self.meshes, self.shapes, self.prototypes, self.instances, self.materials, self.textures,
+                *self._geometry_meshes(), *self._geometry_shapes(), *self.prototypes, *self.materials, *textures,
+                *self.textures)
 
     def _parts(self) -> tuple:
         """Every object the caches derive from, in a fixed order; held (not their ids), so none can be freed and
