@@ -300,3 +300,18 @@ def test_face_varying_normals_are_skinned(tmp_path):
     path = write(tmp_path, body.replace(authored, per_corner))
     mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Bar"]
     np.testing.assert_allclose(mesh.normals, expected, atol=2e-6)
+
+
+def test_smooth_normals_of_a_subdivision_mesh_come_from_its_posed_points(tmp_path):
+    """A catmullClark mesh without normals (the Face quad, lifted at one corner by a blend shape) is shaded with
+    smooth normals of its posed points, as Storm draws it; they were made from the flat rest pose (all +z) and kept."""
+    path = write(tmp_path, skel_root())
+    stage = baked(path)
+    points, _ = world_triangles(stage, "/Root/Face", Usd.TimeCode(7))
+    quad = np.array([points[0, 0], points[0, 1], points[0, 2], points[1, 2]])  # corners 0..3 of the fan (0,1,2),(0,2,3)
+    assert abs(quad[2, 2] - quad[0, 2]) > 0.2  # the blend shape lifts corner 2
+    corner_normals = np.cross(np.roll(quad, -1, axis=0) - quad, np.roll(quad, 1, axis=0) - quad)  # one face per point
+    corner_normals /= np.linalg.norm(corner_normals, axis=1, keepdims=True)
+    mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Face"]
+    np.testing.assert_allclose(mesh.points[mesh.indices], points, atol=1e-5)  # posed as USD poses it
+    np.testing.assert_allclose(mesh.normals, corner_normals[[[0, 1, 2], [0, 2, 3]]], atol=1e-5)

@@ -228,7 +228,7 @@ def _tf_message(error: Exception) -> str:
 class _LocalMesh:
     """A mesh's data in its own space, before the world transform; shared by all instances of a prototype."""
 
-    def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs=None):
+    def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs=None, cage=None):
         self.points = points  # (V, 3) float64, local space
         self.vertex_ids = vertex_ids  # (T, 3) int64 rows into points, winding as authored
         self.face_ids = face_ids  # (T,) int64 source face
@@ -237,6 +237,7 @@ class _LocalMesh:
         self.colors = colors  # (values (K, 3) float32, corner index (T, 3)) or None
         self.double_sided = double_sided
         self.uvs = uvs  # (values (K, 2) float64, corner index (T, 3)) or None
+        self.cage = cage  # (faceVertexCounts, faceVertexIndices) when normals were made from them, else None
 
 
 class _Content:
@@ -716,11 +717,16 @@ class _StageReader:
         local = self._read_local_mesh(prim, counts, uv_set)
         if local is None:
             return None
-        posed = self.skel.pose(prim, local.points, local.normals, local.vertex_ids, ctx.content.path)
+        # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
+        # only): skinning the rest pose's normals left blend shapes' dents unshaded and joints' bends approximate.
+        authored = None if local.cage is not None else local.normals
+        posed = self.skel.pose(prim, local.points, authored, local.vertex_ids, ctx.content.path)
         if posed is not None:
             # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
             local.points, local.normals, space = posed
             m = self._to_space(space, ctx)
+            if local.cage is not None:
+                local.normals = (vertex_normals(local.points, *local.cage, local.flip), local.vertex_ids)
 
         # Bake the transform (row-vector convention: p_world = p @ M[:3, :3] + M[3, :3]).
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
@@ -936,10 +942,12 @@ class _StageReader:
         colors = self._read_colors(prim, mesh, topology)
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
         flip = self._left_handed(prim, mesh, t)
+        cage = None
         if normals is None and value_at(mesh.GetSubdivisionSchemeAttr(), t) in SMOOTH_SCHEMES:
+            cage = (counts, face_indices)
             normals = (vertex_normals(points, counts, face_indices, flip), vertex_ids)
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
-        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs)
+        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage)
 
     def _int_array(self, prim: Usd.Prim, attr: Usd.Attribute) -> np.ndarray:
         """``(N,)`` int64 value of an ``int[]`` topology attribute at the read time (empty when it has none).
