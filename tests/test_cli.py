@@ -181,10 +181,17 @@ def test_python_dash_m_wrt_runs_the_command_line(tmp_path):
 
 def test_output_ending_in_a_slash_is_a_folder(tmp_path):
     """``-o renders/`` wrote an image file named ``renders``: Path() drops the trailing slash."""
+    from wrt.cli import default_scene_path
+
     folder = tmp_path / "renders"
     assert main(["render", "-o", f"{folder}/", "--width", "8", "--height", "6", "-q"]) == 0
     assert folder.is_dir()
     with PilImage.open(folder / "default_room.png") as png:
+        assert png.size == (8, 6)
+    # With --frames too (it was the pattern "renders_####", refused for having no image suffix).
+    assert main(["render", str(default_scene_path()), "--frames", "2:2", "-o", f"{folder}/", "--width", "8",
+                 "--height", "6", "-q"]) == 0
+    with PilImage.open(folder / "default_room_0002.png") as png:
         assert png.size == (8, 6)
 
 

@@ -130,7 +130,8 @@ def _add_render(sub) -> None:
         "-o",
         "--output",
         help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png; {stem} stands for "
-        "the scene file name without extension; a name ending in / is a folder for {stem}.png. With several scenes: "
+        "the scene file name without extension; a name ending in / is a folder for {stem}.png ({stem}_####.png with "
+        "--frames). With several scenes: "
         "a pattern with {stem} or a folder; default {stem}.png",
     )
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene; default with several scenes: "
@@ -360,6 +361,8 @@ def _run_frames(args, paths: list, progress) -> int:
         raise FileNotFoundError(f"{paths[0]}: no such file")
     frames = parse_frames(args.frames)
     output = (args.output or "frame_####.png").replace("{stem}", paths[0].stem)  # as for still images
+    if output.endswith(("/", os.sep)):  # a folder, as for a still image: it became the pattern "out_####", no suffix
+        output += f"{paths[0].stem}_####.png"
     jobs = pending_frames(frames, output, args.resume)
     from .image import check_image_path
 
