@@ -477,7 +477,9 @@ class Renderer:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
         CUDA graph (``wp.ScopedCapture``) and replayed: every bounce up to ``max_depth`` is launched (finished paths
         do no work) and back-face culling runs :data:`CAPTURE_CULL_PASSES` passes. Buffers are allocated on the first
-        call, so make one call before capturing. :meth:`frame_image` reads the result."""
+        call, so make one call before capturing. :meth:`frame_image` reads the result. A recorded graph replays
+        the scene's device arrays as they were: after an edit of the scene, call once outside a capture (it builds
+        them again) and record again; :meth:`set_cameras` with the same camera count is followed."""
         self._follow_scene()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
