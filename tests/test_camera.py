@@ -413,3 +413,6 @@ def test_camera_exposure_attributes_scale_the_radiance_images(tmp_path):
 def test_camera_exposure_that_is_not_finite_names_the_camera(tmp_path):
     with pytest.raises(wrt.SceneError, match=r"exposure\.usda: /Exposed: invalid camera: .*exposure scale.* inf"):
         wrt.load_usd(_exposed_cameras_stage(tmp_path, f_stop=0.0))
+    # Finite in float64 but inf in the float32 image: every lit pixel was inf.
+    with pytest.raises(ValueError, match=r"exposure scale of at most 3\.403e\+38 .* got 1\.6\d*e\+60"):
+        wrt.Camera.look_at((0, 0, 4), (0, 0, 0), exposure_scale=2.0**200)

@@ -26,6 +26,7 @@ import warp as wp
 
 APERTURE_UNIT = 0.1  # orthographic apertures are in tenths of a scene unit, as in Gf.Camera
 MAX_CLIPPING_PLANES = 8  # the rows of DeviceCamera's two plane matrices
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @wp.struct
@@ -207,9 +208,11 @@ class Camera:
         bad = ", ".join(f"{k}={_show(v)}" for k, v in lens.items() if not _finite(v))
         if bad:
             raise ValueError(f"{self.label()} needs finite film offsets, fStop and focusDistance, got {bad}")
-        if not (_finite(self.exposure_scale) and self.exposure_scale >= 0):
-            raise ValueError(f"{self.label()} needs a finite, non-negative exposure scale (from exposure, "
-                             f"exposure:time, :iso, :fStop and :responsivity), got {_show(self.exposure_scale)}")
+        # At most float32's largest: the image is float32, and a larger scale made every lit pixel inf.
+        if not (_finite(self.exposure_scale) and 0 <= self.exposure_scale <= FLOAT32_MAX):
+            raise ValueError(f"{self.label()} needs a non-negative exposure scale of at most {FLOAT32_MAX:.4g} (from "
+                             f"exposure, exposure:time, :iso, :fStop and :responsivity), got "
+                             f"{_show(self.exposure_scale)}")
         near, far = self.clipping_range
         if not (0 <= near < far):
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
