@@ -138,3 +138,24 @@ def test_a_recorded_frame_replays_with_the_cameras_set_since():
     wp.capture_launch(capture.graph)
     expected = wrt.render_batch(scene, cams[2:], 32, 24, seed=3, device="cuda:0").rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
+
+
+def test_a_scene_edit_is_refused_inside_a_capture_and_followed_outside_it():
+    """A rebuild (new BVH, uploads) cannot be recorded into a CUDA graph: launch_frame inside a capture after a scene
+    edit says what to do instead; outside a capture it builds again and draws the edited scene."""
+    if not wp.is_cuda_available():
+        pytest.skip("no CUDA device")
+    import dataclasses
+
+    scene = sensor_scene()
+    cams = ring_of_cameras(2)
+    renderer = wrt.Renderer(scene, cameras=cams, width=32, height=24, device="cuda:0")
+    renderer.launch_frame(seed=3)
+    mesh = scene.meshes[0]
+    scene.meshes[0] = dataclasses.replace(mesh, points=mesh.points + np.float32([0.0, 0.5, 0.0]))
+    with pytest.raises(RuntimeError, match=r"call launch_frame\(\) once outside the capture"):
+        with wp.ScopedCapture(device="cuda:0"):
+            renderer.launch_frame(seed=3)
+    renderer.launch_frame(seed=3)
+    expected = wrt.render_batch(scene, cams, 32, 24, seed=3, device="cuda:0").rgb.numpy()
+    np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)

@@ -294,6 +294,9 @@ class Renderer:
         # shining with the old one.
         lights = tuple(dataclass_parts(self.scene.lights))
         if self.scene.cache_generation != self._scene_generation or parts_changed(self._scene_lights, lights):
+            if wp.get_device(self.device).is_capturing:  # a build's uploads cannot be recorded into a CUDA graph
+                raise RuntimeError("the scene changed since the renderer was built: call launch_frame() once "
+                                   "outside the capture, then record the frame again")
             check_scene(self.scene)
             self._build()
 
