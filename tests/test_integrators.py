@@ -396,3 +396,18 @@ def test_a_clear_pane_shows_the_sky_behind_it_unchanged(integrator, ior):
     img = wrt.render(scene, camera=cam, width=8, height=8, spp=16, integrator=integrator)
     assert (img.aovs["prim"] >= 0).all()
     np.testing.assert_allclose(img.rgb, 1.0, atol=0.02)
+
+
+@pytest.mark.parametrize("roughness", [0.0, 0.4])
+def test_whitted_reflects_the_dome_in_a_specular_workflow_mirror(roughness):
+    """useSpecularWorkflow = 1 with specularColor 1 (a mirror, as Maya and usdzconvert write metals) under a dome of
+    radiance 1: Whitted agrees with the path tracer. It weighted the mirror ray and the dome's specular term by
+    ``metallic``, which the specular workflow does not use: the mirror was black (0.0 against the path tracer's 1.0)."""
+    material = Material(diffuse_color=0.0, use_specular_workflow=True, specular_color=1.0, roughness=roughness)
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 100, 0), material=0)
+    scene = wrt.Scene(meshes=[plane], materials=[material], lights=[DomeLight(color=np.ones(3, np.float32))])
+    cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=20)
+    whitted = wrt.render(scene, camera=cam, width=4, height=4, spp=4, device="cpu", integrator="whitted").rgb
+    path = wrt.render(scene, camera=cam, width=4, height=4, spp=64, device="cpu", integrator="path").rgb
+    assert whitted.max() <= 1.0 + 1e-6
+    assert whitted.mean() == pytest.approx(path.mean(), rel=0.05)

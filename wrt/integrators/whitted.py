@@ -6,15 +6,17 @@ the dome light as an unoccluded term ``albedo * mean dome radiance`` (exact for 
 under a constant dome; use ``path`` for occluded sky light), plus ``metallic * F`` of it for rough metals. Then one
 continuation ray: the mirror direction for smooth metals (roughness below ``DELTA_ROUGHNESS``, weight
 ``metallic * F``) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with probability
-proportional to their Fresnel weights). Other surfaces end the ray: a rough metal's GGX lobe takes its light from
-the light sampling above, and a mirror ray from it would add the same lights a second time. ``max_depth`` bounds
-the number of mirror/refraction bounces.
+proportional to their Fresnel weights). In the specular workflow (``useSpecularWorkflow = 1``) the whole specular
+lobe counts as a metal's (weight ``F`` of ``specularColor``, the dome's diffuse term times ``1 - F``). Other
+surfaces end the ray: a rough metal's GGX lobe takes its light from the light sampling above, and a mirror ray from
+it would add the same lights a second time. ``max_depth`` bounds the number of mirror/refraction bounces.
 """
 
 import warp as wp
 
 from ..bsdf import (
     DELTA_ROUGHNESS,
+    Surface,
     eval_bsdf,
     fresnel_dielectric,
     fresnel_schlick,
@@ -35,6 +37,27 @@ from .emitters import environment, lights_on_segment
 from .path import SHADOW_SHORTEN
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
+
+
+@wp.func
+def traced_specular(s: Surface, cos_o: float):
+    """Weight of the specular lobe Whitted lights itself (the dome term of a rough lobe, the mirror ray of a smooth
+    one) for a viewer at ``cos_o``: ``metallic * F`` in the metallic workflow, where a dielectric's faint lobe is left
+    out, and ``F`` of ``specularColor`` in the specular workflow, which has no metallic input: its mirrors (specular
+    colour 1, roughness 0) were black."""
+    f = fresnel_schlick(surface_f0(s), cos_o)
+    if s.specular_workflow == 1:
+        return f
+    return f * s.metallic
+
+
+@wp.func
+def dome_albedo(s: Surface, cos_o: float):
+    """Diffuse weight of the dome term: the albedo, less what the specular lobe reflects in the specular workflow
+    (whose lobe :func:`traced_specular` always counts, so that the two never add up to more than 1)."""
+    if s.specular_workflow == 1:
+        return wp.cw_mul(wp.vec3(1.0) - fresnel_schlick(surface_f0(s), cos_o), surface_albedo(s))
+    return surface_albedo(s)
 
 
 @wp.kernel
@@ -87,10 +110,11 @@ def shade_whitted_kernel(
     if h.front == 1 or surf.double_sided[prim] == 1:
         L += wp.cw_mul(T, s.emission)
     if lights.dome >= 0:
-        ambient = surface_albedo(s)
-        if s.specular_workflow == 0 and s.roughness >= DELTA_ROUGHNESS:
+        cos_o = wp.max(wp.dot(h.ns, -d), 0.0)
+        ambient = dome_albedo(s, cos_o)
+        if s.roughness >= DELTA_ROUGHNESS:
             # A rough metal's lobe has no mirror ray (see continue_whitted_kernel): it sees the dome unoccluded too.
-            ambient += fresnel_schlick(surface_f0(s), wp.max(wp.dot(h.ns, -d), 0.0)) * s.metallic
+            ambient += traced_specular(s, cos_o)
         L += wp.cw_mul(wp.cw_mul(T, ambient), lights.dome_mean) * opaque_fraction(s)
     radiance[i] = L
     active[i] = 1
@@ -204,8 +228,8 @@ def continue_whitted_kernel(
     op = opaque_fraction(s)
     w_reflect = wp.vec3(0.0)
     w_refract = float(0.0)
-    if s.specular_workflow == 0 and s.metallic > 0.0 and s.roughness < DELTA_ROUGHNESS:
-        w_reflect = fresnel_schlick(surface_f0(s), cos_o) * (s.metallic * op)
+    if s.roughness < DELTA_ROUGHNESS:
+        w_reflect = traced_specular(s, cos_o) * op
     eta = s.ior
     if h.front == 0:
         eta = 1.0 / s.ior
