@@ -519,3 +519,44 @@ def test_material_indices_outside_the_material_list_are_refused(material_ids, ba
         wrt.render(scene, width=4, height=4)
     scene.meshes[0].material_ids = np.array([1, -1], np.int32)  # -1 is the default material
     assert wrt.render(scene, width=4, height=4).rgb.shape == (4, 4, 3)
+
+
+def test_mdl_and_materialx_materials_fall_back_to_their_base_colour(tmp_path):
+    """OmniPBR (an ``mdl:surface`` output only) and MaterialX standard_surface materials are drawn in their authored
+    base colour times its weight, with a warning naming it: an OmniPBR of a red diffuse_color_constant was grey.
+    One whose colour comes from a texture keeps the displayColor fallback."""
+    stage, path = new_stage(tmp_path)
+    looks = [
+        ("mdl", "OmniPBR", {"diffuse_color_constant": Gf.Vec3f(0.8, 0.1, 0.1), "diffuse_tint": Gf.Vec3f(1, 1, 0.5)}),
+        ("mtlx", "ND_standard_surface_surfaceshader", {"base_color": Gf.Vec3f(0.1, 0.2, 0.9), "base": 0.5}),
+        ("mdl", "OmniPBR", {"diffuse_color_constant": Gf.Vec3f(0.8, 0.1, 0.1),
+                            "diffuse_texture": Sdf.AssetPath("a.png")}),
+    ]
+    for k, (context, kind, inputs) in enumerate(looks):
+        quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
+        quad.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0.2, 0.7, 0.1)])
+        material = UsdShade.Material.Define(stage, f"/Looks/X{k}")
+        shader = UsdShade.Shader.Define(stage, f"/Looks/X{k}/Surface")
+        if context == "mdl":
+            shader.SetSourceAsset(Sdf.AssetPath(f"{kind}.mdl"), "mdl")
+            shader.SetSourceAssetSubIdentifier(kind, "mdl")
+        else:
+            shader.CreateIdAttr(kind)
+        for name, value in inputs.items():
+            value_type = {Gf.Vec3f: Sdf.ValueTypeNames.Color3f, float: Sdf.ValueTypeNames.Float}.get(
+                type(value), Sdf.ValueTypeNames.Asset)
+            shader.CreateInput(name, value_type).Set(value)
+        material.CreateSurfaceOutput(context).ConnectToSource(shader.ConnectableAPI(), "out")
+        bind(quad, material)
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    messages = [str(w.message) for w in caught]
+    assert any("/Looks/X0" in m and "diffuse_color_constant (0.8, 0.1, 0.05)" in m for m in messages), messages
+    assert any("/Looks/X1" in m and "base_color (0.05, 0.1, 0.45)" in m for m in messages), messages
+    cam = wrt.Camera.orthographic(eye=(3, 0, 5), target=(3, 0, 0), height=2.0)
+    img = wrt.render(scene, camera=cam, width=36, height=8, device="cpu", integrator="albedo")  # x in [-1.5, 7.5]
+    np.testing.assert_allclose(img.rgb[4, 6], (0.8, 0.1, 0.05), rtol=1e-6)  # the tint multiplies the colour
+    np.testing.assert_allclose(img.rgb[4, 18], (0.05, 0.1, 0.45), rtol=1e-6)
+    np.testing.assert_allclose(img.rgb[4, 30], (0.2, 0.7, 0.1), rtol=1e-6)  # textured: displayColor

@@ -7,8 +7,9 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   ``material:binding:full`` over all-purpose bindings. ``GeomSubset``\\ s of family ``materialBind`` override the
   mesh's material on their faces (subsets of points or edges are ignored with a warning).
 - The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``. Anything else (MaterialX,
-  MDL, no surface) falls back to the default material (displayColor, else grey) with one warning per material,
-  never an error.
+  MDL, no surface) falls back to a Lambertian surface of the shader's constant base colour where one is authored
+  (:data:`FALLBACK_COLOR_INPUTS`), else to the default material (displayColor, else grey), with one warning per
+  material, never an error.
 - Inputs read: ``diffuseColor``, ``emissiveColor``, ``useSpecularWorkflow``, ``specularColor``, ``metallic``,
   ``roughness``, ``clearcoat``, ``clearcoatRoughness``, ``opacity``, ``opacityThreshold``, ``ior``. Any of them may
   be a constant or a ``UsdUVTexture`` output (``r``/``g``/``b``/``a``/``rgb``) with ``file``, ``st`` (from a
@@ -323,6 +324,38 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
 
 # Reading USD ---------------------------------------------------------------------------------------------------
 
+# Base colour inputs of surface shaders other than UsdPreviewSurface, for their Lambertian fallback:
+# (colour input, weight inputs that multiply it, texture input that replaces the colour when it names a file).
+FALLBACK_COLOR_INPUTS = (
+    ("diffuse_color_constant", ("diffuse_tint",), "diffuse_texture"),  # OmniPBR.mdl, OmniPBR_ClearCoat.mdl
+    ("diffuse_reflection_color", ("diffuse_reflection_weight",), ""),  # OmniSurface.mdl
+    ("base_color", ("base", "base_weight"), ""),  # MaterialX standard_surface (base), OpenPBR (base_weight)
+)
+
+
+def _shader_name(shader) -> str:
+    """``info:id``, or the MDL/source asset's sub-identifier or file, for messages."""
+    shader_id = shader.GetShaderId()
+    if shader_id:
+        return str(shader_id)
+    for source_type in ("mdl", ""):
+        sub = shader.GetSourceAssetSubIdentifier(source_type)
+        asset = shader.GetSourceAsset(source_type)
+        if sub or (asset and asset.path):
+            return str(sub or asset.path)
+    return "without info:id"
+
+
+def _rgb(value) -> np.ndarray | None:
+    """A constant input's value as ``(3,)`` float64 (one number for all three); None when it is not a finite one."""
+    try:
+        v = np.asarray(value, np.float64).reshape(-1)
+    except (TypeError, ValueError):  # None, or authored with a wrong type
+        return None
+    if v.size not in (1, 3, 4) or not np.all(np.isfinite(v)):
+        return None
+    return np.resize(v, 3) if v.size > 1 else np.full(3, v[0])
+
 
 def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
     """``UsdTransform2d``: ``st * scale``, rotated counter-clockwise, then translated, as a 3x3 matrix."""
@@ -425,9 +458,16 @@ class MaterialReader:
                 found = [o.GetBaseName() for o in material.GetSurfaceOutputs() if o.HasConnectedSource()]
                 what = f"no universal surface output (found: {', '.join(found) or 'none'})"
             else:
-                what = f"shader {shader_id or 'without info:id'} is not supported"
-            self.skip(f"material {path}: {what}; it falls back to displayColor or grey", prim)
-            return None
+                what = f"shader {_shader_name(shader)} is not supported"
+            color = self._fallback_color(material)
+            if color is None:
+                self.skip(f"material {path}: {what}; it falls back to displayColor or grey", prim)
+                return None
+            name, value = color
+            value_text = ", ".join(f"{c:.3g}" for c in value)
+            self.skip(f"material {path}: {what}; it falls back to a Lambertian surface of its {name} ({value_text})",
+                      prim)
+            return Material(path=path, diffuse_color=value, use_specular_workflow=True, roughness=1.0)
         mat = Material(path=path)
         for name in SLOTS:
             self._read_input(shader, name, mat)
@@ -437,6 +477,25 @@ class MaterialReader:
             if value is not None:  # unauthored: the default stays
                 self._set_constant(mat, name, field, False, value, shader.GetPrim())
         return mat
+
+    def _fallback_color(self, material) -> tuple[str, np.ndarray] | None:
+        """``(input name, (3,) colour)``: the constant base colour (times its weight) of a surface shader this reader
+        does not support (OmniPBR, OmniSurface, MaterialX standard_surface, OpenPBR), from any render context; None
+        when none is authored. Without it an OmniPBR car of a red ``diffuse_color_constant`` was drawn grey."""
+        from pxr import UsdShade
+
+        for output in material.GetSurfaceOutputs():
+            for attr in output.GetValueProducingAttributes():
+                shader = UsdShade.Shader(attr.GetPrim())
+                for name, weights, replaced_by in FALLBACK_COLOR_INPUTS:
+                    color = _rgb(self._constant(shader, name))
+                    if color is None or (replaced_by and getattr(self._constant(shader, replaced_by), "path", "")):
+                        continue
+                    for weight in weights:
+                        w = _rgb(self._constant(shader, weight))
+                        color = color if w is None else color * w
+                    return name, np.maximum(color, 0.0).astype(np.float32)
+        return None
 
     def _producer(self, shader, name):
         """What feeds input ``name``: ``("value", v)``, ``("shader", source, output_name)`` or None."""
