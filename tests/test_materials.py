@@ -560,3 +560,27 @@ def test_mdl_and_materialx_materials_fall_back_to_their_base_colour(tmp_path):
     np.testing.assert_allclose(img.rgb[4, 6], (0.8, 0.1, 0.05), rtol=1e-6)  # the tint multiplies the colour
     np.testing.assert_allclose(img.rgb[4, 18], (0.05, 0.1, 0.45), rtol=1e-6)
     np.testing.assert_allclose(img.rgb[4, 30], (0.2, 0.7, 0.1), rtol=1e-6)  # textured: displayColor
+
+
+def test_materialx_preview_surface_in_a_render_context_is_read(tmp_path):
+    """A material whose only surface output is ``outputs:mtlx:surface`` to MaterialX's UsdPreviewSurface node (as
+    pablode's MaterialX cornell box is written) is read like a UsdPreviewSurface: it was grey and did not emit."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material = UsdShade.Material.Define(stage, "/Looks/M")
+    shader = UsdShade.Shader.Define(stage, "/Looks/M/Surface")
+    shader.CreateIdAttr("ND_UsdPreviewSurface_surfaceshader")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.63, 0.065, 0.05))
+    shader.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(2, 1, 0.5))
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(shader.ConnectableAPI(), "surface")
+    bind(quad, material)
+    stage.Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing to warn about
+        scene = wrt.load_usd(path)
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, (0.63, 0.065, 0.05), rtol=1e-6)
+    assert mat.emissive
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu")
+    np.testing.assert_allclose(img.rgb, np.broadcast_to([2, 1, 0.5], (4, 4, 3)), rtol=1e-6)

@@ -6,10 +6,11 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   USD's rules: direct and ``collection`` bindings, ``bindMaterialAs`` strength, inheritance down namespace, and
   ``material:binding:full`` over all-purpose bindings. ``GeomSubset``\\ s of family ``materialBind`` override the
   mesh's material on their faces (subsets of points or edges are ignored with a warning).
-- The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``. Anything else (MaterialX,
-  MDL, no surface) falls back to a Lambertian surface of the shader's constant base colour where one is authored
-  (:data:`FALLBACK_COLOR_INPUTS`), else to the default material (displayColor, else grey), with one warning per
-  material, never an error.
+- The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``, else a render context's
+  (``outputs:mtlx:surface``, ...) to one or to MaterialX's ``ND_UsdPreviewSurface_surfaceshader``. Anything else
+  (MaterialX, MDL, no surface) falls back to a Lambertian surface of the shader's constant base colour where one is
+  authored (:data:`FALLBACK_COLOR_INPUTS`), else to the default material (displayColor, else grey), with one warning
+  per material, never an error.
 - Inputs read: ``diffuseColor``, ``emissiveColor``, ``useSpecularWorkflow``, ``specularColor``, ``metallic``,
   ``roughness``, ``clearcoat``, ``clearcoatRoughness``, ``opacity``, ``opacityThreshold``, ``ior``. Any of them may
   be a constant or a ``UsdUVTexture`` output (``r``/``g``/``b``/``a``/``rgb``) with ``file``, ``st`` (from a
@@ -324,6 +325,9 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
 
 # Reading USD ---------------------------------------------------------------------------------------------------
 
+# Shaders read as UsdPreviewSurface: its own id and MaterialX's node of it (the same inputs).
+PREVIEW_SURFACE_IDS = ("UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader")
+
 # Base colour inputs of surface shaders other than UsdPreviewSurface, for their Lambertian fallback:
 # (colour input, weight inputs that multiply it, texture input that replaces the colour when it names a file).
 FALLBACK_COLOR_INPUTS = (
@@ -331,6 +335,20 @@ FALLBACK_COLOR_INPUTS = (
     ("diffuse_reflection_color", ("diffuse_reflection_weight",), ""),  # OmniSurface.mdl
     ("base_color", ("base", "base_weight"), ""),  # MaterialX standard_surface (base), OpenPBR (base_weight)
 )
+
+
+def _context_preview_surface(material):
+    """The first ``UsdPreviewSurface`` (or MaterialX's node of it) that a render context's surface output
+    (``outputs:mtlx:surface``, ...) of ``material`` leads to, or None. A MaterialX cornell box, whose every material
+    is an ``ND_UsdPreviewSurface_surfaceshader`` in ``outputs:mtlx:surface``, was drawn grey and unlit."""
+    from pxr import UsdShade
+
+    for output in material.GetSurfaceOutputs():
+        for attr in output.GetValueProducingAttributes():
+            shader = UsdShade.Shader(attr.GetPrim())
+            if shader and shader.GetShaderId() in PREVIEW_SURFACE_IDS:
+                return shader
+    return None
 
 
 def _shader_name(shader) -> str:
@@ -453,7 +471,10 @@ class MaterialReader:
         path = str(prim.GetPath())
         shader, _, _ = material.ComputeSurfaceSource("")
         shader_id = shader.GetShaderId() if shader else None
-        if shader_id != "UsdPreviewSurface":
+        if shader_id not in PREVIEW_SURFACE_IDS:  # a UsdPreviewSurface in a render context's output serves as well
+            other = _context_preview_surface(material)
+            shader, shader_id = (other, other.GetShaderId()) if other else (shader, shader_id)
+        if shader_id not in PREVIEW_SURFACE_IDS:
             if not shader:
                 found = [o.GetBaseName() for o in material.GetSurfaceOutputs() if o.HasConnectedSource()]
                 what = f"no universal surface output (found: {', '.join(found) or 'none'})"
