@@ -366,3 +366,43 @@ def test_loaded_instances_are_not_inverted_again_before_the_first_trace(tmp_path
     np.testing.assert_array_equal(inverses, expected)
     assert ok.all() and expected_ok.all() and len(ok) == n - 1
     assert wrt.trace(scene, np.float32([[0.1, 0.1, 5.0]]), np.float32([[0.0, 0.0, -1.0]])).instance[0] == 0
+
+
+def test_instanced_shapes_get_their_tlas_boxes_without_a_python_step_each(monkeypatch):
+    """A prototype of analytic shapes drawn by many instances (a PointInstancer of spheres): the TLAS build took
+    each shape entry's canonical box and moved it in a Python step of its own (44 s to the first hit for 1M spheres,
+    7 s now). The boxes now come from one canonical box per unique shape, and every instance is still
+    hit where it is."""
+    import wrt
+    from wrt.instancing import Instances, Prototype
+    from wrt.primitives import Shape, shape_transform
+
+    capsule_to_proto = shape_transform(0.5 * np.eye(3))
+    capsule_to_proto[:3, 3] = (0.0, 5.0, 0.0)
+    squashed = np.diag([0.0, 0.0, 0.0, 1.0])  # a zero-size shape: a box no ray enters
+    proto = Prototype("/P", [], [Shape("/P/S", "sphere", np.eye(4)),
+                                 Shape("/P/C", "capsule", capsule_to_proto, np.float32([2, 0, 0, 1])),
+                                 Shape("/P/Z", "sphere", squashed)])
+    n = 400
+    scales = np.linspace(0.5, 1.5, n)
+    to_world = np.tile(np.eye(4), (n, 1, 1))
+    to_world[:, :3, :3] *= scales[:, None, None]
+    to_world[:, 0, 3] = 10.0 * np.arange(n)
+    scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n), to_world))
+
+    calls = []
+    original = Shape.local_bounds
+
+    def counting(self):
+        calls.append(self.path)
+        return original(self)
+
+    monkeypatch.setattr(Shape, "local_bounds", counting)
+    # From above, onto each instance's sphere (top at z = s) and capsule (centre y = 5 s, top at z = 1.5 s).
+    x = 10.0 * np.arange(n)
+    origins = np.concatenate([np.stack([x, np.zeros(n), np.full(n, 10.0)], 1),
+                              np.stack([x, 5.0 * scales, np.full(n, 10.0)], 1)]).astype(np.float32)
+    hits = wrt.trace(scene, origins, np.tile(np.float32([0, 0, -1]), (2 * n, 1)))
+    np.testing.assert_array_equal(hits.instance, np.tile(np.arange(n), 2))
+    np.testing.assert_allclose(hits.t, np.concatenate([10.0 - scales, 10.0 - 1.5 * scales]), rtol=1e-5)
+    assert len(calls) <= 4 * len(proto.shapes)  # per unique shape, not per instance

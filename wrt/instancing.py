@@ -157,11 +157,12 @@ def transform_points(points: np.ndarray, to_world: np.ndarray) -> np.ndarray:
 
 
 def world_boxes(lower: np.ndarray, upper: np.ndarray, to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """World boxes of a prototype box ``(lower, upper)`` under ``(N, 4, 4)`` transforms: the boxes of its 8 moved
-    corners, computed per axis as ``t + sum_k min/max(M[:, k] lower_k, M[:, k] upper_k)`` (Arvo 1990)."""
+    """World boxes of a prototype box ``(lower, upper)`` (``(3,)``, or ``(N, 3)``: one box per transform) under
+    ``(N, 4, 4)`` transforms: the boxes of its 8 moved corners, computed per axis as
+    ``t + sum_k min/max(M[:, k] lower_k, M[:, k] upper_k)`` (Arvo 1990)."""
     linear = to_world[:, :3, :3]
-    a = linear * lower[None, None, :]
-    b = linear * upper[None, None, :]
+    a = linear * np.asarray(lower)[..., None, :]
+    b = linear * np.asarray(upper)[..., None, :]
     lo = np.minimum(a, b).sum(axis=2) + to_world[:, :3, 3]
     hi = np.maximum(a, b).sum(axis=2) + to_world[:, :3, 3]
     return lo, hi

@@ -354,11 +354,13 @@ class InstancedAccelerator(Accelerator):
         shape_to_world = np.concatenate(shape_to_world or [np.zeros((0, 4, 4))])
         shape_rows = np.concatenate(shape_rows or [np.zeros(0)]).astype(np.int32)
         shape_to_local, shape_ok = invert_transforms(shape_to_world)
-        shapes = scene._geometry_shapes()
-        for k, row in enumerate(shape_rows):
-            lo, hi = world_boxes(*shapes[row - n_tri].local_bounds(), shape_to_world[k : k + 1])
-            lowers.append(lo if shape_ok[k] else np.full((1, 3), np.inf))  # a degenerate shape: a box no ray enters
-            uppers.append(hi if shape_ok[k] else np.full((1, 3), -np.inf))
+        # Every entry's box at once, from its shape's canonical box: a Python step per entry made the first trace of
+        # 1M PointInstancer spheres take 44 s (7 s now), and the TLAS is rebuilt every animated frame.
+        local = [s.local_bounds() for s in scene._geometry_shapes()] or [(np.zeros(3), np.zeros(3))]
+        local_lo, local_hi = (np.array(b, np.float64)[shape_rows - n_tri] for b in zip(*local))
+        lo, hi = world_boxes(local_lo, local_hi, shape_to_world)
+        lowers.append(np.where(shape_ok[:, None], lo, np.inf))  # a degenerate shape: a box no ray enters
+        uppers.append(np.where(shape_ok[:, None], hi, -np.inf))
         entry_blas.append(-1 - np.arange(len(shape_rows)))
         entry_blas = np.concatenate(entry_blas or [np.zeros(0)]).astype(np.int32)
         entry_instance = np.concatenate(entry_instance or [np.zeros(0)]).astype(np.int32)
