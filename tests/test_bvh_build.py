@@ -372,3 +372,39 @@ def test_ploc_chain_of_shrinking_clusters_merges_many_pairs_per_iteration():
         steep = (1.2 ** -np.arange(n, dtype=np.float64) * 1e30).astype(np.float32)[:400]
         chain = np.append(np.arange(1, 400), 398)
         assert (_ploc_partners(chain, steep, 8, seed) >= 0).sum() == 2
+
+
+def _inner_area_in_box(bvh, lower, upper) -> float:
+    """Summed half areas of the inner nodes that lie in the box, over its own half area: the expected inner nodes a
+    random ray through the box visits there (the SAH's traversal term)."""
+    inside = np.all(bvh.lowers >= lower, axis=1) & np.all(bvh.uppers <= upper, axis=1) & (bvh.prim_count == 0)
+    extent = np.maximum(bvh.uppers[inside] - bvh.lowers[inside], 0.0).astype(np.float64)
+    areas = extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0]
+    box = (upper - lower).astype(np.float64)
+    return float(areas.sum() / (box[0] * box[1] + box[1] * box[2] + box[2] * box[0]))
+
+
+@pytest.mark.parametrize("builder", ["lbvh", "ploc"])
+@pytest.mark.parametrize("morton_bits", [30, 63])
+def test_morton_builders_order_a_cluster_whose_codes_are_all_equal(builder, morton_bits):
+    """10k small triangles 1e-3 across and one triangle 1e10 away: in the centroid box every cluster triangle gets
+    the same Morton code, so lbvh and ploc kept them in id order, a spatially random tree (rays into the cluster
+    visited 3,600 nodes with lbvh and 1,300 with ploc, 44 with sah). Equal codes are now ordered by a second code
+    in their run's own box, and the cluster's tree is about as good as the SAH builder's."""
+    rng = np.random.default_rng(3)
+    n = 10000
+    centres = rng.random((n, 3)) * 1e-3
+    centres[-1] = 1e10
+    points = (np.repeat(centres, 3, axis=0) + rng.normal(0.0, 1e-5, (3 * n, 3))).astype(np.float32)
+    indices = np.arange(3 * n, dtype=np.int32).reshape(n, 3)
+    cluster = points[: 3 * (n - 1)]
+    lower, upper = cluster.min(axis=0), cluster.max(axis=0)
+    bvh = build_bvh(points, indices, builder, morton_bits=morton_bits)
+    bvh.validate()
+    reference = _inner_area_in_box(build_bvh(points, indices, "sah"), lower, upper)
+    assert _inner_area_in_box(bvh, lower, upper) < 1.5 * reference
+    # The same hits as wp.Mesh for rays from inside the cluster to points on its triangles.
+    targets = points[indices[rng.integers(0, n - 1, 256)]].mean(axis=1)
+    origins = (targets + rng.normal(0.0, 5e-4, targets.shape)).astype(np.float32)
+    hits, ref = trace_through(points, indices, origins, targets - origins, builder)
+    np.testing.assert_array_equal(hits.prim, ref.prim)

@@ -546,7 +546,7 @@ def build_ploc(
     n = data.num_prims
     with wp.ScopedDevice(data.device):
         with stage("morton codes and sort", timers):
-            morton_prims, _ = sorted_morton_order(data, morton_bits)
+            morton_prims, _, _ = sorted_morton_order(data, morton_bits)
         slot_prims, split_ids, *source = _cluster(data, morton_prims, radius, timers)
         del morton_prims
         if n > 1:
