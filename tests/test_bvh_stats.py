@@ -179,6 +179,21 @@ def test_cli_bvh_stats_table_and_json(capsys):
     assert rows[0]["builder"] == "sah" and max(map(int, rows[0]["leaf_size_histogram"])) <= 2
 
 
+def test_cli_bvh_stats_table_shows_the_chosen_layouts_node_count(capsys):
+    """--layout promises the node count and bytes of that layout, but the table showed the binary tree's node count
+    for every layout (bunny, sah: 14327 nodes for binary, wide and wide8 alike; wide8 has 1441)."""
+    path = str(warp_assets("bunny.usd"))
+    counts = {}
+    for layout in ("binary", "wide8"):
+        assert main(["bvh-stats", path, "--layout", layout, "--json", "--epo-samples", "64"]) == 0
+        counts[layout] = json.loads(capsys.readouterr().out)[0]["layout_nodes"]
+        assert main(["bvh-stats", path, "--layout", layout, "--epo-samples", "64"]) == 0
+        header, _, row = capsys.readouterr().out.splitlines()[1:4]
+        cells = dict(zip([c.strip() for c in header.split("|")], [c.strip() for c in row.split("|")]))
+        assert cells["layout"] == layout and cells["layout nodes"] == str(counts[layout])
+    assert counts["wide8"] < counts["binary"] / 4  # the two columns really differ
+
+
 @pytest.mark.parametrize(
     "args,needle",
     [
