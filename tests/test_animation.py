@@ -236,6 +236,21 @@ def test_topology_change_and_scrambled_vertices_rebuild(tmp_path, np_rng):
     assert [row["change"] for row in renderer.log] == ["build", "build", "build"]
 
 
+def test_render_frames_refuses_an_unknown_device_before_starting_workers(animated, tmp_path, monkeypatch):
+    """--devices cpu,cuda:7 on a machine without that GPU: the name was only checked in a spawned worker, which
+    failed seconds later under a started progress bar; now it is a ValueError before any process starts."""
+    import concurrent.futures
+
+    def no_pool(*args, **kwargs):
+        raise AssertionError("a worker pool was started for a device that does not exist")
+
+    monkeypatch.setattr(concurrent.futures, "ProcessPoolExecutor", no_pool)
+    jobs = pending_frames(parse_frames("1:2"), tmp_path / "f_##.npy", resume=False)
+    with pytest.raises(ValueError, match="available devices"):
+        render_frames(animated, jobs, devices=["cpu", "nodevice:7"], **SIZE)
+    assert not list(tmp_path.glob("f_*.npy"))
+
+
 def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path, capfd):
     jobs = pending_frames(parse_frames("1:6"), tmp_path / "f_##.npy", resume=False)
     rows = render_frames(animated, jobs, devices=["cpu", "cpu"], **SIZE)

@@ -268,6 +268,10 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     from .image import check_exposure
 
     check_exposure(exposure)  # before the first frame, not at its save
+    from .bvh.common import resolve_device
+
+    for device in devices:  # a bad name failed only in a spawned worker, seconds later, under a started progress bar
+        resolve_device(device)
     path = os.fspath(path)
     rows = []
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
