@@ -233,3 +233,32 @@ def test_negative_values_in_exponent_form_are_values_not_options(tmp_path):
     out = tmp_path / "t.npy"
     assert main(["render", "--time", "-1e3", "-o", str(out), "--width", "4", "--height", "3", "-q"]) == 0
     assert np.load(out).shape == (3, 4, 3)
+
+
+GPRIM_STAGE = """#usda 1.0
+def Sphere "Ball"
+{
+    double radius = 1
+}
+def Cube "Box"
+{
+    double3 xformOp:translate = (3, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def test_render_progress_line_counts_shapes_and_instances(tmp_path, capsys):
+    """A stage of two gprims was announced as 'loaded ...: 0 triangles in 0 meshes', and instanced scenes by
+    their non-instanced meshes alone, as if the rest had not loaded."""
+    from wrt.cli import loaded_summary
+    from wrt.procedural import sensor_scene
+
+    path = tmp_path / "gprims.usda"
+    path.write_text(GPRIM_STAGE)
+    assert main(["render", str(path), "-o", str(tmp_path / "g.png"), "--width", "8", "--height", "6"]) == 0
+    assert "loaded gprims.usda: 0 triangles in 0 meshes, 2 analytic shapes" in capsys.readouterr().err
+    stats = sensor_scene().stats()
+    line = loaded_summary("s", stats)
+    assert f"{stats['instances']} instances of {stats['prototypes']} prototypes" in line
+    assert f"{stats['rendered_shapes']} analytic shapes" in line

@@ -251,6 +251,17 @@ def _tessellate_gprims(args) -> bool:
     return args.accel == "warp"
 
 
+def loaded_summary(name: str, stats: dict) -> str:
+    """The progress line after a load. Counting meshes alone said "0 triangles in 0 meshes" for a stage of gprims
+    and "1 meshes" for a forest of instanced trees, as if most of the scene had not loaded."""
+    parts = [f"{stats['meshes']} meshes"]
+    if stats["instances"]:
+        parts.append(f"{stats['instances']} instances of {stats['prototypes']} prototypes")
+    if stats["rendered_shapes"]:
+        parts.append(f"{stats['rendered_shapes']} analytic shapes")
+    return f"loaded {name}: {stats['rendered_triangles']} triangles in {', '.join(parts)}"
+
+
 def _render_one(args, path: Path, output: Path, progress) -> Path:
     import wrt
 
@@ -260,7 +271,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time, tessellate_gprims=_tessellate_gprims(args))
     stats = scene.stats()
-    loaded = f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes"
+    loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
     check_pixels(args.width, args.height)  # the limit is the clearer error where both apply
@@ -476,7 +487,7 @@ def _run_preview(args) -> int:
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time)
     stats = scene.stats()
-    loaded = f"loaded {path.name}: {stats['rendered_triangles']} triangles in {stats['meshes']} meshes"
+    loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)
     if output is None and not has_display():
         output = "preview.png"
