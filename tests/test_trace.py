@@ -386,8 +386,10 @@ def test_bad_trace_arguments_raise_value_error():
         wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), accel="embree2")
     with pytest.raises(ValueError, match="valid builders"):
         wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), builder="octree")
-    with pytest.raises(ValueError, match=r"\(N, 3\)"):
-        wrt.trace(scene, np.zeros((2, 3)), np.ones((3, 3)))
+    with pytest.raises(ValueError, match=r"\(N, 3\) arrays with the same N, got \(2, 3\) and \(3, 3\)"):
+        wrt.trace(scene, np.zeros((2, 3)), np.ones((3, 3)))  # both are (N, 3): the N differs
+    with pytest.raises(ValueError, match=r"\(N, 3\) arrays, got \(2, 4\)"):
+        wrt.trace(scene, np.zeros((2, 4)), np.ones((2, 4)))
     with pytest.raises(ValueError, match="available devices"):
         wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), device="tpu:7")
 

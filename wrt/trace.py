@@ -543,7 +543,8 @@ def _as_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
     o = _as_float32("origins", origins)
     d = _as_float32("directions", directions)
     if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
-        raise ValueError(f"origins and directions must both be (N, 3) arrays, got {o.shape} and {d.shape}")
+        rays = " with the same N" if o.ndim == d.ndim == 2 and o.shape[1] == d.shape[1] == 3 else ""
+        raise ValueError(f"origins and directions must both be (N, 3) arrays{rays}, got {o.shape} and {d.shape}")
     return np.ascontiguousarray(o), np.ascontiguousarray(d)
 
 
