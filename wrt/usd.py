@@ -237,7 +237,7 @@ class _LocalMesh:
         self.colors = colors  # (values (K, 3) float32, corner index (T, 3)) or None
         self.double_sided = double_sided
         self.uvs = uvs  # (values (K, 2) float64, corner index (T, 3)) or None
-        self.cage = cage  # (faceVertexCounts, faceVertexIndices) when normals were made from them, else None
+        self.cage = cage  # (faceVertexCounts, faceVertexIndices) of a mesh to get smooth normals from them, else None
 
 
 class _Content:
@@ -719,14 +719,13 @@ class _StageReader:
             return None
         # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
         # only): skinning the rest pose's normals left blend shapes' dents unshaded and joints' bends approximate.
-        authored = None if local.cage is not None else local.normals
-        posed = self.skel.pose(prim, local.points, authored, local.vertex_ids, ctx.content.path)
+        posed = self.skel.pose(prim, local.points, local.normals, local.vertex_ids, ctx.content.path)
         if posed is not None:
             # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
             local.points, local.normals, space = posed
             m = self._to_space(space, ctx)
-            if local.cage is not None:
-                local.normals = (vertex_normals(local.points, *local.cage, local.flip), local.vertex_ids)
+        if local.cage is not None:  # made from the final (posed) points, once
+            local.normals = (vertex_normals(local.points, *local.cage, local.flip), local.vertex_ids)
 
         # Bake the transform (row-vector convention: p_world = p @ M[:3, :3] + M[3, :3]).
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
@@ -942,10 +941,8 @@ class _StageReader:
         colors = self._read_colors(prim, mesh, topology)
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
         flip = self._left_handed(prim, mesh, t)
-        cage = None
-        if normals is None and value_at(mesh.GetSubdivisionSchemeAttr(), t) in SMOOTH_SCHEMES:
-            cage = (counts, face_indices)
-            normals = (vertex_normals(points, counts, face_indices, flip), vertex_ids)
+        smooth = normals is None and value_at(mesh.GetSubdivisionSchemeAttr(), t) in SMOOTH_SCHEMES
+        cage = (counts, face_indices) if smooth else None  # its normals are made in _read_mesh, after any posing
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
         return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage)
 
