@@ -262,10 +262,9 @@ class Scene:
     def _members(self) -> tuple:
         """The lists of the scene and the objects in them whose fields :meth:`_parts` reads; a field assigned anew
         is counted by :func:`wrt.assignments.assignments` instead."""
-        textures = [t for m in self.materials for t in getattr(m, "textures", {}).values()]
         return (self.meshes, self.shapes, self.prototypes, self.instances, self.materials, self.textures,
-                *self._geometry_meshes(), *self._geometry_shapes(), *self.prototypes, *self.materials, *textures,
-                *self.textures)
+                *self._geometry_meshes(), *self._geometry_shapes(), *self.prototypes, *self.materials,
+                *self._texture_inputs(), *self.textures)
 
     def _parts(self) -> tuple:
         """Every object the caches derive from, in a fixed order; held (not their ids), so none can be freed and
@@ -275,8 +274,12 @@ class Scene:
             parts += [getattr(obj, f.name) for f in dataclasses.fields(obj)]
         # A material's fields too (mat.diffuse_color = ...): the uploaded materials kept the old colour. Its textures
         # are a dict, so the TextureInputs in it are listed as well.
-        textures = [t for m in self.materials for t in getattr(m, "textures", {}).values()]
-        return tuple(parts + dataclass_parts(self.materials) + dataclass_parts(textures) + list(self.textures))
+        return tuple(parts + dataclass_parts(self.materials) + dataclass_parts(self._texture_inputs())
+                     + list(self.textures))
+
+    def _texture_inputs(self) -> list:
+        """The TextureInputs of every material (the values of its ``textures`` dict)."""
+        return [t for m in self.materials for t in getattr(m, "textures", {}).values()]
 
     def check_instances(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of
