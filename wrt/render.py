@@ -456,9 +456,7 @@ class Renderer:
             bar.close()
             self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": first}
         self.dropped_samples = int(dropped.numpy()[0])
-        if self.batched:
-            return self._batch_image(image, total, aovs)
-        return self._image(image, total, aovs)
+        return self._mean_image(image, total, aovs)
 
     @property
     def samples_so_far(self) -> int:
@@ -471,10 +469,7 @@ class Renderer:
         samples = self.samples_so_far
         if samples == 0:
             return None
-        state = self._progressive
-        if self.batched:
-            return self._batch_image(state["sum"], samples, state["aovs"])
-        return self._image(state["sum"], samples, state["aovs"])
+        return self._mean_image(self._progressive["sum"], samples, self._progressive["aovs"])
 
     def launch_frame(self, seed: int = 0) -> None:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
@@ -507,9 +502,7 @@ class Renderer:
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count or of the scene)")
         _, image, _, aovs = self._frame
-        if self.batched:
-            return self._batch_image(image, 1, aovs)
-        return self._image(image, 1, aovs)
+        return self._mean_image(image, 1, aovs)
 
     def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs):
         wp.launch(
@@ -629,6 +622,12 @@ class Renderer:
         others' images are not radiance (ambient occlusion, quick looks)."""
         radiance = self.integrator in ("path", "whitted")
         return [camera.exposure_scale if radiance else 1.0 for camera in self.cameras]
+
+    def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers):
+        """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel."""
+        if self.batched:
+            return self._batch_image(image_sum, samples, aovs)
+        return self._image(image_sum, samples, aovs)
 
     def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers) -> Image:
         rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
