@@ -180,11 +180,16 @@ def _add_render(sub) -> None:
     p.set_defaults(run=_run_render)
 
 
+def _names_a_folder(output: str) -> bool:
+    """Whether ``-o`` ends in a path separator: a folder, which ``Path()`` would turn into a file name."""
+    return output.endswith(("/", os.sep))
+
+
 def _output_for(args, path: Path, several: bool) -> Path:
     """Where the image of scene ``path`` goes (see ``--output``)."""
     if not several:  # {stem} too: a script's pattern works for one scene as for several
         output = (args.output or "wrt.png").replace("{stem}", path.stem)
-        if output.endswith(("/", os.sep)):  # a folder, as for several scenes; Path() would drop the slash
+        if _names_a_folder(output):  # as for several scenes
             return Path(output) / f"{path.stem}.png"
         return Path(output)
     pattern = args.output or "{stem}.png"
@@ -372,7 +377,7 @@ def _run_frames(args, paths: list, progress) -> int:
         raise FileNotFoundError(f"{paths[0]}: no such file")
     frames = parse_frames(args.frames)
     output = (args.output or "frame_####.png").replace("{stem}", paths[0].stem)  # as for still images
-    if output.endswith(("/", os.sep)):  # a folder, as for a still image: it became the pattern "out_####", no suffix
+    if _names_a_folder(output):  # as for a still image: it became the pattern "out_####", no suffix
         output += f"{paths[0].stem}_####.png"
     jobs = pending_frames(frames, output, args.resume)
     from .image import check_image_path
