@@ -337,18 +337,20 @@ FALLBACK_COLOR_INPUTS = (
 )
 
 
-def _context_preview_surface(material):
-    """The first ``UsdPreviewSurface`` (or MaterialX's node of it) that a render context's surface output
-    (``outputs:mtlx:surface``, ...) of ``material`` leads to, or None. A MaterialX cornell box, whose every material
-    is an ``ND_UsdPreviewSurface_surfaceshader`` in ``outputs:mtlx:surface``, was drawn grey and unlit."""
+def _surface_shaders(material):
+    """The shaders that ``material``'s surface outputs (universal and every render context's) lead to, in order."""
     from pxr import UsdShade
 
     for output in material.GetSurfaceOutputs():
         for attr in output.GetValueProducingAttributes():
-            shader = UsdShade.Shader(attr.GetPrim())
-            if shader and shader.GetShaderId() in PREVIEW_SURFACE_IDS:
-                return shader
-    return None
+            yield UsdShade.Shader(attr.GetPrim())
+
+
+def _context_preview_surface(material):
+    """The first ``UsdPreviewSurface`` (or MaterialX's node of it) that a render context's surface output
+    (``outputs:mtlx:surface``, ...) of ``material`` leads to, or None. A MaterialX cornell box, whose every material
+    is an ``ND_UsdPreviewSurface_surfaceshader`` in ``outputs:mtlx:surface``, was drawn grey and unlit."""
+    return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in PREVIEW_SURFACE_IDS), None)
 
 
 def _shader_name(shader) -> str:
@@ -503,19 +505,15 @@ class MaterialReader:
         """``(input name, (3,) colour)``: the constant base colour (times its weight) of a surface shader this reader
         does not support (OmniPBR, OmniSurface, MaterialX standard_surface, OpenPBR), from any render context; None
         when none is authored. Without it an OmniPBR car of a red ``diffuse_color_constant`` was drawn grey."""
-        from pxr import UsdShade
-
-        for output in material.GetSurfaceOutputs():
-            for attr in output.GetValueProducingAttributes():
-                shader = UsdShade.Shader(attr.GetPrim())
-                for name, weights, replaced_by in FALLBACK_COLOR_INPUTS:
-                    color = _rgb(self._constant(shader, name))
-                    if color is None or (replaced_by and getattr(self._constant(shader, replaced_by), "path", "")):
-                        continue
-                    for weight in weights:
-                        w = _rgb(self._constant(shader, weight))
-                        color = color if w is None else color * w
-                    return name, np.maximum(color, 0.0).astype(np.float32)
+        for shader in _surface_shaders(material):
+            for name, weights, replaced_by in FALLBACK_COLOR_INPUTS:
+                color = _rgb(self._constant(shader, name))
+                if color is None or (replaced_by and getattr(self._constant(shader, replaced_by), "path", "")):
+                    continue
+                for weight in weights:
+                    w = _rgb(self._constant(shader, weight))
+                    color = color if w is None else color * w
+                return name, np.maximum(color, 0.0).astype(np.float32)
         return None
 
     def _producer(self, shader, name):
