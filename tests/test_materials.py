@@ -190,6 +190,30 @@ def test_full_purpose_and_collection_bindings(tmp_path):
     assert by_mesh == {"/Group/A": "/Looks/Full", "/Group/B": "/Looks/Coll"}
 
 
+def test_preview_bindings_serve_where_full_binds_no_preview_surface(tmp_path):
+    """As usdview shows them: a mesh bound only for ``preview`` was drawn in the default grey, and one whose full
+    binding is an MDL look kept the MDL's fallback instead of its preview UsdPreviewSurface."""
+    stage, path = new_stage(tmp_path)
+    only_preview = add_quad(stage, "/OnlyPreview")
+    mdl_full = add_quad(stage, "/MdlFull", center=(3, 0, 0))
+    both = add_quad(stage, "/Both", center=(6, 0, 0))
+    red, _ = preview_material(stage, "/Looks/Red", diffuseColor=Gf.Vec3f(1, 0, 0))
+    green, _ = preview_material(stage, "/Looks/Green", diffuseColor=Gf.Vec3f(0, 1, 0))
+    mdl = UsdShade.Material.Define(stage, "/Looks/Mdl")
+    shader = UsdShade.Shader.Define(stage, "/Looks/Mdl/Surface")
+    shader.SetSourceAsset(Sdf.AssetPath("OmniPBR.mdl"), "mdl")
+    mdl.CreateSurfaceOutput("mdl").ConnectToSource(shader.ConnectableAPI(), "out")
+    bind(only_preview, red, UsdShade.Tokens.preview)
+    bind(mdl_full, mdl, UsdShade.Tokens.full)
+    bind(mdl_full, red, UsdShade.Tokens.preview)
+    bind(both, green, UsdShade.Tokens.full)  # a full UsdPreviewSurface wins over the preview one
+    bind(both, red, UsdShade.Tokens.preview)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    by_mesh = {m.path: scene.materials[m.material_ids[0]].path for m in scene.meshes}
+    assert by_mesh == {"/OnlyPreview": "/Looks/Red", "/MdlFull": "/Looks/Red", "/Both": "/Looks/Green"}
+
+
 def test_unsupported_shaders_fall_back_with_one_warning_per_material(tmp_path):
     stage, path = new_stage(tmp_path)
     for k, shader_id in enumerate(["ND_standard_surface_surfaceshader", "ND_open_pbr_surface_surfaceshader"]):

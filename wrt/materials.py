@@ -4,7 +4,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
 
 - Each mesh's material is ``UsdShade.MaterialBindingAPI.ComputeBoundMaterial(purpose="full")``, which applies
   USD's rules: direct and ``collection`` bindings, ``bindMaterialAs`` strength, inheritance down namespace, and
-  ``material:binding:full`` over all-purpose bindings. ``GeomSubset``\\ s of family ``materialBind`` override the
+  ``material:binding:full`` over all-purpose bindings. Where that gives no material, or one without a
+  UsdPreviewSurface, a ``preview``-purpose binding to a UsdPreviewSurface is used instead (:func:`_bound_material`). ``GeomSubset``\\ s of family ``materialBind`` override the
   mesh's material on their faces (subsets of points or edges are ignored with a warning).
 - The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``, else a render context's
   (``outputs:mtlx:surface``, ...) to one or to MaterialX's ``ND_UsdPreviewSurface_surfaceshader``. Anything else
@@ -353,6 +354,23 @@ def _context_preview_surface(material):
     return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in PREVIEW_SURFACE_IDS), None)
 
 
+def _bound_material(prim):
+    """The material bound to ``prim`` (a mesh or a subset) for rendering, or an invalid ``UsdShade.Material``.
+
+    The ``full`` purpose first (it falls back to all-purpose bindings); when that binds nothing, or a material
+    without a UsdPreviewSurface (an MDL or MaterialX look) while a ``material:binding:preview`` binds one, the
+    preview binding, as usdview shows it. An asset whose meshes bind their UsdPreviewSurface only for preview was
+    drawn in the default grey."""
+    from pxr import UsdShade
+
+    binding = UsdShade.MaterialBindingAPI(prim)
+    full, _ = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
+    if full and _context_preview_surface(full):
+        return full
+    preview, _ = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
+    return preview if preview and _context_preview_surface(preview) else full
+
+
 def _shader_name(shader) -> str:
     """``info:id``, or the MDL/source asset's sub-identifier or file, for messages."""
     shader_id = shader.GetShaderId()
@@ -415,14 +433,13 @@ class MaterialReader:
         """
         from pxr import UsdGeom, UsdShade
 
-        purpose = UsdShade.Tokens.full
-        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(purpose)
+        material = _bound_material(prim)
         base = self.material_index(material) if material else -1
         faces = np.full(n_faces, base, np.int32)
         unbound = np.full(n_faces, not material, bool)
         bound = bool(material)
         for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
-            sub_material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial(purpose)
+            sub_material = _bound_material(subset.GetPrim())
             if not sub_material:
                 continue
             element_type = subset.GetElementTypeAttr().Get()
