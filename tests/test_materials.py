@@ -429,11 +429,17 @@ def test_opacity_threshold_cuts_holes(tmp_path):
     bind(front, hole)
     stage.Save()
     scene = wrt.load_usd(path)
+    stage.GetPrimAtPath("/Cutout").SetActive(False)
+    stage.Save()
+    without = wrt.load_usd(path)
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
     for integrator in ("whitted", "path"):
         img = wrt.render(scene, camera=cam, width=4, height=4, spp=2, device="cpu", integrator=integrator)
-        assert img.rgb.min() > 0.05  # lit by the default dome (cut-outs still block shadow rays)
+        assert img.rgb.min() > 0.05
         np.testing.assert_allclose(img.rgb[..., 0], img.rgb[..., 1], atol=1e-6)  # the grey quad behind, not red
+        # Shadow rays pass the holes too: the quad behind is lit by the headlight and the dome as if alone.
+        alone = wrt.render(without, camera=cam, width=4, height=4, spp=2, device="cpu", integrator=integrator)
+        np.testing.assert_allclose(img.rgb, alone.rgb, rtol=1e-5)
 
 
 def test_camera_rays_see_through_textured_cut_outs(tmp_path):

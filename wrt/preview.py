@@ -462,7 +462,7 @@ def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, buil
     # The renderer's own accelerator and culling: rays pass back faces of single-sided meshes and cut-out holes.
     renderer = Renderer(scene, camera=cam, width=width, height=height, device=device, builder=builder,
                         integrator="depth")
-    scratch = CullScratch(total, device, renderer.nothing_to_cull)
+    scratch = CullScratch(total, device, renderer.nothing_to_cull, renderer.no_holes)
     intersect_visible(renderer.accel, renderer.surfaces, renderer.materials, renderer.device_scene, out, hits, scratch)
     pick = np.round(np.linspace(0, total - 1, n)).astype(np.int64)
     return out[0].numpy()[pick], out[1].numpy()[pick], hits.t.numpy()[pick]

@@ -28,11 +28,13 @@ from .lights import LIGHT_DOME, build_lights, default_lights, set_headlight_dire
 from .materials import emission_estimates, upload_materials
 from .scene import MIN_METERS_PER_UNIT, Scene, dataclass_parts, parts_changed
 from .shade import (
+    MAX_SHADOW_HOLE_PASSES,
     CullScratch,
     DeviceSurfaces,
     accumulate_samples_kernel,
     intersect_visible,
     mean_image_kernel,
+    occluded_through_holes,
     primary_aovs_kernel,
     start_paths_kernel,
 )
@@ -128,14 +130,14 @@ class _Wavefront:
         "views": wp.int32,  # the camera of each path (for the default headlight)
     }
 
-    def __init__(self, n: int, device, nothing_to_cull: bool):
+    def __init__(self, n: int, device, nothing_to_cull: bool, no_holes: bool):
         self.n = n
         self.device = device
         for name, dtype in self.FIELDS.items():
             setattr(self, name, wp.empty(n, dtype=dtype, device=device))
         self.shadow_t_mins = wp.zeros(n, dtype=float, device=device)
         self.hits = HitBuffer(n, device)
-        self.scratch = CullScratch(n, device, nothing_to_cull)
+        self.scratch = CullScratch(n, device, nothing_to_cull, no_holes)
         self.counter = wp.zeros(1, dtype=wp.int32, device=device)
 
     def view(self, m: int) -> _Wavefront:
@@ -145,11 +147,8 @@ class _Wavefront:
         v.n, v.device, v.counter = m, self.device, self.counter
         for name in list(self.FIELDS) + ["shadow_t_mins"]:
             setattr(v, name, getattr(self, name)[:m])
-        v.hits = _slice_hits(self.hits, m)
-        s = object.__new__(CullScratch)
-        s.device, s.nothing_to_cull, s.retries = self.device, self.scratch.nothing_to_cull, self.scratch.retries
-        s.t_mins, s.t_maxs, s.hits = self.scratch.t_mins[:m], self.scratch.t_maxs[:m], _slice_hits(self.scratch.hits, m)
-        v.scratch = s
+        v.hits = self.hits.slice(0, m)
+        v.scratch = self.scratch.head(m)
         return v
 
     @property
@@ -170,13 +169,6 @@ def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None
                   device=device)
 
     run_in_chunks(work, n, resolve_threads(None, device))  # one piece on a GPU
-
-
-def _slice_hits(hits: HitBuffer, m: int) -> HitBuffer:
-    out = object.__new__(HitBuffer)
-    out.t, out.u, out.v, out.prim, out.cost = hits.t[:m], hits.u[:m], hits.v[:m], hits.prim[:m], hits.cost[:m]
-    out.instance = hits.instance[:m]
-    return out
 
 
 def check_camera_list(cameras) -> None:
@@ -337,7 +329,9 @@ class Renderer:
         self.surfaces = s
         # Camera rays skip back faces of single-sided meshes and holes of cut-outs (shade.intersect_visible).
         cut_outs = np.array([False] + [m.opacity_threshold > 0.0 for m in scene.materials])  # per device material
-        self.nothing_to_cull = bool(scene.triangle_double_sided().all()) and not cut_outs[geometry_materials].any()
+        # Shadow rays see both sides, but pass through holes too (shade.occluded_through_holes).
+        self.no_holes = not cut_outs[geometry_materials].any()
+        self.nothing_to_cull = bool(scene.triangle_double_sided().all()) and self.no_holes
         # Whitted lights each UsdLux light (but the dome) separately and all emissive triangles as one light.
         n_analytic = self.device_lights.num_analytic
         self._whitted_groups = [(k, 1) for k in range(n_analytic) if kinds[k] != int(LIGHT_DOME)]
@@ -422,7 +416,7 @@ class Renderer:
         batch = min(int(batch), spp)
         n = n_pixels * batch
         if self._wavefront is None or self._wavefront.n < n:
-            self._wavefront = _Wavefront(n, self.device, self.nothing_to_cull)
+            self._wavefront = _Wavefront(n, self.device, self.nothing_to_cull, self.no_holes)
         dev = self.device
         state = self._progressive
         if (resume and state is not None and state["seed"] == seed
@@ -474,14 +468,15 @@ class Renderer:
     def launch_frame(self, seed: int = 0) -> None:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
         CUDA graph (``wp.ScopedCapture``) and replayed: every bounce up to ``max_depth`` is launched (finished paths
-        do no work) and back-face culling runs :data:`CAPTURE_CULL_PASSES` passes. Buffers are allocated on the first
+        do no work), back-face culling runs :data:`CAPTURE_CULL_PASSES` passes and shadow rays in a scene with
+        cut-outs all :data:`wrt.shade.MAX_SHADOW_HOLE_PASSES` passes through holes. Buffers are allocated on the first
         call, so make one call before capturing. :meth:`frame_image` reads the result. A recorded graph replays
         the scene's device arrays as they were: after an edit of the scene, call once outside a capture (it builds
         them again) and record again; :meth:`set_cameras` with the same camera count is followed."""
         self._follow_scene()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
-            self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull),
+            self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull, self.no_holes),
                            wp.zeros(n_pixels, dtype=wp.vec3, device=self.device),
                            wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device))
         w, image, dropped, aovs = self._frame
@@ -543,8 +538,16 @@ class Renderer:
             )
             aovs.done = True
 
+    def _occluded(self, w: _Wavefront):
+        """``w.blocked`` of the shadow rays, which pass through the holes of cut-outs (every pass launched in
+        :meth:`launch_frame`: it cannot stop early without reading back)."""
+        passes = MAX_SHADOW_HOLE_PASSES if self._sync_free else None
+        occluded_through_holes(self.accel, self.surfaces, self.materials,
+                               [w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs], w.blocked,
+                               w.scratch, passes)
+
     def _occlude_and_add(self, w: _Wavefront):
-        self.accel.occluded(w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs, w.blocked)
+        self._occluded(w)
         launch_per_path(add_unoccluded_kernel, w.n, [w.nee, w.shadow_t_maxs, w.blocked], [w.radiance], self.device)
 
     def _any_alive(self, w: _Wavefront) -> bool:
@@ -614,7 +617,7 @@ class Renderer:
             [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs],
             self.device,
         )
-        self.accel.occluded(w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs, w.blocked)
+        self._occluded(w)
         wp.launch(ao_value_kernel, w.n, inputs=[w.shadow_t_maxs, w.blocked], outputs=[w.radiance])
 
     def _exposure_scales(self) -> list[float]:

@@ -1,5 +1,5 @@
 """Shading building blocks shared by every integrator: from a hit buffer entry to a shading point, camera paths,
-back-face culling through the accelerator, AOVs and sample accumulation.
+back-face culling and shadow rays through cut-out holes by way of the accelerator, AOVs and sample accumulation.
 
 The pipeline is a wavefront: kernels generate rays, an :class:`wrt.trace.Accelerator` fills a hit buffer
 (``t, u, v, prim``), and shade kernels read it and write the next rays, so both accelerators serve every
@@ -15,6 +15,11 @@ Conventions:
   sides, so closed glass objects refract twice and single-sided walls still cast shadows. Camera rays skip the
   holes of cut-out materials (``opacity < opacityThreshold``) the same way, so the AOVs and every integrator
   start from the surface seen through them; the integrators pass later rays through holes themselves.
+- Shadow (and ambient-occlusion) rays pass holes too (:func:`occluded_through_holes`): in a scene with cut-outs,
+  the rays the any-hit query reports blocked are traced for their closest hit, again from just past it while it
+  is a hole, for up to :data:`MAX_SHADOW_HOLE_PASSES` passes; a ray still in a hole after them stays blocked.
+  Glass (``opacity < 1`` without a threshold) is not a hole and blocks them: a unidirectional path tracer gets its
+  light through refraction.
 - Sample 0 of every pixel goes through the pixel centre and the lens centre; later samples jitter both
   (deterministic in ``seed``, pixel and sample index). AOVs come from sample 0.
 """
@@ -46,6 +51,9 @@ BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays se
 CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
 CULL_LEAST_STEP = wp.constant(1.0e-30)  # the step past a culled face at t = 0
 MAX_CULL_PASSES = 8  # re-traces after culled hits; a ray still on a back face (or in a hole) after that keeps it
+# Closest-hit passes of a blocked shadow ray in a scene with cut-outs: it passes up to 31 holes (leaves of a dense
+# canopy stack in the tens: 8 left rays through 10 leaf holes blocked); one still in a hole after them stays blocked.
+MAX_SHADOW_HOLE_PASSES = 32
 
 
 @wp.struct
@@ -285,6 +293,14 @@ def start_paths_kernel(
 
 
 @wp.func
+def in_hole(surf: DeviceSurfaces, mats: DeviceMaterials, prim: int, u: float, v: float):
+    """True when the hit ``(u, v)`` on ``prim`` (a geometry id, as hit buffers hold it: instances and analytic shapes
+    included) lies in a hole of a cut-out material (``opacity < opacityThreshold``)."""
+    st = (1.0 - u - v) * surf.uvs[prim, 0] + u * surf.uvs[prim, 1] + v * surf.uvs[prim, 2]
+    return cut_out(mats, surf.materials[prim], st)
+
+
+@wp.func
 def hidden_hit(
     scene: DeviceScene,
     surf: DeviceSurfaces,
@@ -299,8 +315,7 @@ def hidden_hit(
 ):
     """True when a camera ray's hit ``(t, u, v, prim, instance)`` is not seen: a hole of a cut-out material, or the
     back of a single-sided triangle."""
-    st = (1.0 - u - v) * surf.uvs[prim, 0] + u * surf.uvs[prim, 1] + v * surf.uvs[prim, 2]
-    if cut_out(mats, surf.materials[prim], st):
+    if in_hole(surf, mats, prim, u, v):
         return True
     if surf.double_sided[prim] == 1:
         return False
@@ -425,18 +440,124 @@ def intersect_visible(
         )
 
 
-class CullScratch:
-    """Buffers for :func:`intersect_visible` (``n`` rays on ``device``)."""
+@wp.kernel
+def start_shadow_holes_kernel(
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    blocked: wp.array[wp.int32],
+    # outputs
+    retry_t_mins: wp.array[float],
+    retry_t_maxs: wp.array[float],
+):
+    """Blocked shadow rays keep their range, to look for their closest hit (it may be a hole); the others get an
+    empty one (``retry_t_maxs = 0``: decided)."""
+    i = wp.tid()
+    retry_t_mins[i] = 0.0
+    retry_t_maxs[i] = 0.0
+    if blocked[i] == 1:
+        retry_t_mins[i] = t_mins[i]
+        retry_t_maxs[i] = t_maxs[i]
 
-    def __init__(self, n: int, device, nothing_to_cull: bool):
+
+@wp.kernel
+def pass_shadow_holes_kernel(
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    hit_t: wp.array[float],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    # outputs
+    retry_t_mins: wp.array[float],
+    retry_t_maxs: wp.array[float],
+    blocked: wp.array[wp.int32],
+    retries: wp.array[wp.int32],
+):
+    """Decides each shadow ray still undecided (``retry_t_maxs > 0``) by its closest hit in its range: none ->
+    unblocked; a hole (:func:`in_hole`) -> undecided, looked at again from just past the hole (and blocked until
+    then); anything else -> blocked."""
+    i = wp.tid()
+    if retry_t_maxs[i] <= 0.0:
+        return
+    prim = hit_prim[i]
+    if prim >= 0 and in_hole(surf, mats, prim, hit_u[i], hit_v[i]):
+        t = hit_t[i]
+        retry_t_mins[i] = t + wp.max(t * CULL_EPSILON, CULL_LEAST_STEP)  # the step of cull_hidden_hits_kernel
+        wp.atomic_add(retries, 0, 1)
+        return
+    if prim < 0:
+        blocked[i] = 0
+    retry_t_mins[i] = 0.0
+    retry_t_maxs[i] = 0.0
+
+
+def occluded_through_holes(
+    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, rays, blocked, scratch, passes=None
+) -> None:
+    """``accel.occluded`` for shadow rays, which pass through the holes of cut-out materials (see the module
+    docstring): rays the any-hit query reports blocked are traced for their closest hit, again from just past it
+    while it is a hole. A ray still in a hole after the last pass stays blocked.
+
+    Args:
+        accel: the :class:`wrt.trace.Accelerator`.
+        surfaces: per-triangle shading data (materials, texture coordinates).
+        mats: the materials (for cut-outs).
+        rays: ``[origins, directions, t_mins, t_maxs]`` device arrays.
+        blocked: ``(N,)`` int32 device array: 1 where ray ``i`` is blocked, else 0.
+        scratch: a :class:`CullScratch` of the same size.
+        passes: run exactly this many closest-hit passes without reading anything back to the host (for CUDA
+            graph capture); ``None``: up to :data:`MAX_SHADOW_HOLE_PASSES`, stopping once no ray needs another.
+    """
+    origins, directions, t_mins, t_maxs = rays
+    accel.occluded(*rays, blocked)
+    if scratch.no_holes:
+        return
+    n = len(origins)
+    wp.launch(start_shadow_holes_kernel, n, inputs=[t_mins, t_maxs, blocked],
+              outputs=[scratch.t_mins, scratch.t_maxs], device=scratch.device)
+    h = scratch.hits
+    for _ in range(MAX_SHADOW_HOLE_PASSES if passes is None else passes):
+        scratch.retries.zero_()
+        accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, h, costs=False)
+        wp.launch(
+            pass_shadow_holes_kernel,
+            n,
+            inputs=[surfaces, mats, h.t, h.u, h.v, h.prim],
+            outputs=[scratch.t_mins, scratch.t_maxs, blocked, scratch.retries],
+            device=scratch.device,
+        )
+        if passes is None and int(scratch.retries.numpy()[0]) == 0:
+            return
+
+
+class CullScratch:
+    """Buffers for :func:`intersect_visible` and :func:`occluded_through_holes` (``n`` rays on ``device``).
+
+    Args:
+        n: number of rays.
+        device: Warp device.
+        nothing_to_cull: every mesh double-sided and no cut-outs: camera rays need no cull pass.
+        no_holes: no cut-out material on any geometry: shadow rays are plain any-hit queries.
+    """
+
+    def __init__(self, n: int, device, nothing_to_cull: bool, no_holes: bool):
         from .trace import HitBuffer
 
         self.device = device
-        self.nothing_to_cull = nothing_to_cull  # every mesh double-sided, no cut-outs: skip the extra pass
+        self.nothing_to_cull = nothing_to_cull
+        self.no_holes = no_holes
         self.t_mins = wp.empty(n, dtype=float, device=device)
         self.t_maxs = wp.empty(n, dtype=float, device=device)
         self.retries = wp.zeros(1, dtype=wp.int32, device=device)
         self.hits = HitBuffer(n, device)
+
+    def head(self, m: int) -> "CullScratch":
+        """The buffers of the first ``m`` rays (views, not copies; the retry counter is shared)."""
+        out = object.__new__(CullScratch)
+        out.device, out.nothing_to_cull, out.no_holes, out.retries = (self.device, self.nothing_to_cull,
+                                                                       self.no_holes, self.retries)
+        out.t_mins, out.t_maxs, out.hits = self.t_mins[:m], self.t_maxs[:m], self.hits.slice(0, m)
+        return out
 
 
 @wp.kernel
