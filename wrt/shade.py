@@ -293,6 +293,14 @@ def start_paths_kernel(
 
 
 @wp.func
+def t_past(t: float):
+    """The ``t_min`` that traces a ray again from just past its hit at ``t``. The step is relative to ``t`` alone
+    (the watertight test measures hits from the ray origin, so t's rounding is relative): an absolute floor of 1e-9
+    skipped whatever lay just behind the culled face in a scene a few micrometres across."""
+    return t + wp.max(t * CULL_EPSILON, CULL_LEAST_STEP)
+
+
+@wp.func
 def in_hole(surf: DeviceSurfaces, mats: DeviceMaterials, prim: int, u: float, v: float):
     """True when the hit ``(u, v)`` on ``prim`` (a geometry id, as hit buffers hold it: instances and analytic shapes
     included) lies in a hole of a cut-out material (``opacity < opacityThreshold``)."""
@@ -359,10 +367,7 @@ def cull_hidden_hits_kernel(
     if not hidden_hit(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i],
                       hit_t[i]):
         return
-    t = hit_t[i]
-    # Relative to t alone (the watertight test measures hits from the ray origin, so t's rounding is relative): an
-    # absolute floor of 1e-9 skipped whatever lay just behind the culled face in a scene a few micrometres across.
-    retry_t_mins[i] = t + wp.max(t * CULL_EPSILON, CULL_LEAST_STEP)
+    retry_t_mins[i] = t_past(hit_t[i])
     retry_t_maxs[i] = t_maxs[i]
     wp.atomic_add(retries, 0, 1)
 
@@ -481,8 +486,7 @@ def pass_shadow_holes_kernel(
         return
     prim = hit_prim[i]
     if prim >= 0 and in_hole(surf, mats, prim, hit_u[i], hit_v[i]):
-        t = hit_t[i]
-        retry_t_mins[i] = t + wp.max(t * CULL_EPSILON, CULL_LEAST_STEP)  # the step of cull_hidden_hits_kernel
+        retry_t_mins[i] = t_past(hit_t[i])
         wp.atomic_add(retries, 0, 1)
         return
     if prim < 0:
