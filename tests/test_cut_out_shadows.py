@@ -180,3 +180,17 @@ def test_glass_still_blocks_shadow_rays():
     scene = wrt.Scene(meshes=[FLOOR, pane], lights=[SUN], materials=[glass])
     camera = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
     np.testing.assert_array_equal(render(scene, "whitted", camera=camera), 0.0)
+
+
+def test_path_tracing_weights_lights_seen_through_holes_from_the_scattering_point():
+    """Under a sphere light behind an all-hole quad, the path tracer's floor is exactly the floor without the quad
+    (hole passes draw no random numbers). BSDF rays through the hole went on from the hole's point, so the light's
+    pdf in their MIS weight was measured from there, not from the floor as next-event estimation measures it: 28%
+    too bright (before shadow rays passed holes: 70% too dark)."""
+    light = wrt.SphereLight(position=np.array([0.0, 0.0, 2.0]), radius=0.8, color=np.full(3, 1.0))
+    leaf = quad((0, 0, 1), (4, 0, 0), (0, 4, 0), name="/leaf", material=0)
+    camera = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 0), up=(0, 1, 0), height=0.5)
+    bare, with_holes = (render(wrt.Scene(meshes=meshes, lights=[light], materials=[HOLE]), "path", camera=camera,
+                               max_depth=3) for meshes in ([FLOOR], [FLOOR, leaf]))
+    assert bare.min() > 0.01
+    np.testing.assert_allclose(with_holes, bare, rtol=1e-5)
