@@ -96,9 +96,10 @@ def layered_scene(layers: int) -> wrt.Scene:
 
 
 @pytest.mark.parametrize("accel", ["wrt", "warp"])
-def test_shadow_rays_pass_a_stack_of_more_holes_than_the_cull_passes(accel):
-    """A canopy stacks many leaves: shadow rays pass up to ``MAX_SHADOW_HOLE_PASSES - 1`` holes (more than the 8
-    re-traces camera rays get); one in a hole after the last pass stays blocked, as documented."""
+def test_shadow_rays_pass_a_stack_of_holes_up_to_the_documented_limit(accel):
+    """A canopy stacks many leaves: shadow rays pass up to ``MAX_SHADOW_HOLE_PASSES - 1`` holes (as many as camera
+    and bounce rays, ``MAX_CULL_PASSES``); one in a hole after the last pass stays blocked, as documented."""
+    assert MAX_CULL_PASSES == MAX_SHADOW_HOLE_PASSES - 1
     lit = 0.5 * 2.0 / np.sqrt(2.0) / np.pi
     for integrator in ("whitted", "path"):
         rgb = render(layered_scene(MAX_SHADOW_HOLE_PASSES - 1), integrator, accel)
@@ -123,10 +124,10 @@ def test_a_fixed_pass_count_decides_one_hole_fewer(accel):
 
 def test_a_recorded_frame_passes_holes():
     """A frame recorded as a CUDA graph (launch_frame: every shadow pass launched, nothing read back) and replayed
-    lights the floor through a stack of more holes than camera rays get re-traces."""
+    lights the floor through the most holes a shadow ray passes."""
     if not wp.is_cuda_available():
         pytest.skip("no CUDA device")
-    renderer = wrt.Renderer(layered_scene(MAX_CULL_PASSES + 4), camera=top_down_camera(height=0.5), width=8,
+    renderer = wrt.Renderer(layered_scene(MAX_SHADOW_HOLE_PASSES - 1), camera=top_down_camera(height=0.5), width=8,
                             height=8, device="cuda:0")
     renderer.launch_frame()  # allocates the buffers before the capture
     with wp.ScopedCapture(device="cuda:0") as capture:

@@ -28,6 +28,7 @@ from .lights import LIGHT_DOME, build_lights, default_lights, set_headlight_dire
 from .materials import emission_estimates, upload_materials
 from .scene import MIN_METERS_PER_UNIT, Scene, dataclass_parts, parts_changed
 from .shade import (
+    MAX_CULL_PASSES,
     MAX_SHADOW_HOLE_PASSES,
     CullScratch,
     DeviceSurfaces,
@@ -47,7 +48,9 @@ MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
 MM_PER_METER = 1000.0  # camera focal lengths are read as millimetres for the thin lens
 MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit seed)
-CAPTURE_CULL_PASSES = 2  # back-face cull passes of a graph-captured frame (it cannot stop early: no host reads)
+# Back-face cull passes of camera rays in a graph-captured frame of a scene without cut-outs (it cannot stop early: no
+# host reads); with cut-outs it runs all MAX_CULL_PASSES for camera and bounce rays, to pass as many holes as render.
+CAPTURE_CULL_PASSES = 2
 
 
 def check_pixels(width: int, height: int, n_views: int = 1) -> None:
@@ -327,7 +330,8 @@ class Renderer:
         s.uvs, s.materials, s.double_sided = uvs, tri_materials, sided
         s.emitters = wp.array(emitters, dtype=wp.int32, device=dev)
         self.surfaces = s
-        # Camera rays skip back faces of single-sided meshes and holes of cut-outs (shade.intersect_visible).
+        # Camera and bounce rays skip holes of cut-outs, camera rays back faces of single-sided meshes too
+        # (shade.intersect_visible).
         cut_outs = np.array([False] + [m.opacity_threshold > 0.0 for m in scene.materials])  # per device material
         # Shadow rays see both sides, but pass through holes too (shade.occluded_through_holes).
         self.no_holes = not cut_outs[geometry_materials].any()
@@ -468,11 +472,13 @@ class Renderer:
     def launch_frame(self, seed: int = 0) -> None:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
         CUDA graph (``wp.ScopedCapture``) and replayed: every bounce up to ``max_depth`` is launched (finished paths
-        do no work), back-face culling runs :data:`CAPTURE_CULL_PASSES` passes and shadow rays in a scene with
-        cut-outs all :data:`wrt.shade.MAX_SHADOW_HOLE_PASSES` passes through holes. Buffers are allocated on the first
-        call, so make one call before capturing. :meth:`frame_image` reads the result. A recorded graph replays
-        the scene's device arrays as they were: after an edit of the scene, call once outside a capture (it builds
-        them again) and record again; :meth:`set_cameras` with the same camera count is followed."""
+        do no work). In a scene with cut-outs, camera and bounce rays run all :data:`wrt.shade.MAX_CULL_PASSES`
+        passes past holes (which use up no bounce) and shadow rays all :data:`wrt.shade.MAX_SHADOW_HOLE_PASSES`, so
+        the frame passes as many holes in a row as :meth:`render`; without cut-outs back-face culling runs
+        :data:`CAPTURE_CULL_PASSES` passes. Buffers are allocated on the first call, so make one call before
+        capturing. :meth:`frame_image` reads the result. A recorded graph replays the scene's device arrays as they
+        were: after an edit of the scene, call once outside a capture (it builds them again) and record again;
+        :meth:`set_cameras` with the same camera count is followed."""
         self._follow_scene()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
@@ -518,14 +524,13 @@ class Renderer:
                 w.radiance.zero_()
 
     def _intersect(self, w: _Wavefront, aovs, camera_rays: bool = True):
-        """Closest hits of the current rays (for camera rays: the visible ones, past culled back faces); the first
-        time, also the AOVs of sample 0."""
-        if camera_rays:
-            passes = CAPTURE_CULL_PASSES if self._sync_free else None
-            intersect_visible(self.accel, self.surfaces, self.materials, self.device_scene, w.rays, w.hits, w.scratch,
-                              passes)
-        else:
-            self.accel.intersect(*w.rays, w.hits, costs=False)  # the cost AOV counts camera rays only
+        """Closest hits of the current rays past the holes of cut-outs (for camera rays: past culled back faces too);
+        the first time, also the AOVs of sample 0."""
+        passes = None
+        if self._sync_free:
+            passes = CAPTURE_CULL_PASSES if self.no_holes else MAX_CULL_PASSES
+        intersect_visible(self.accel, self.surfaces, self.materials, self.device_scene, w.rays, w.hits, w.scratch,
+                          passes, camera_rays=camera_rays)  # the cost AOV counts camera rays only
         if aovs is not None and not aovs.done:
             n = aovs.n
             h = w.hits
@@ -583,8 +588,8 @@ class Renderer:
             launch_per_path(
                 shade_whitted_kernel,
                 w.n,
-                [ds, surf, mats, lights, *hit],
-                [w.origins, w.t_mins, w.t_maxs, w.directions, w.throughput, w.radiance, w.alive, w.active],
+                [ds, surf, mats, lights, *hit, w.origins, w.directions, w.t_mins, w.throughput],
+                [w.radiance, w.alive, w.active],
                 self.device,
             )
             for first, count in self._whitted_groups:
@@ -600,7 +605,7 @@ class Renderer:
             launch_per_path(
                 continue_whitted_kernel,
                 w.n,
-                [ds, surf, mats, bounce, self.max_depth, *hit, w.active],
+                [ds, surf, mats, bounce, self.max_depth, *hit],
                 [*w.rays, w.rng, w.throughput, w.alive],
                 self.device,
             )

@@ -1,5 +1,5 @@
 """Shading building blocks shared by every integrator: from a hit buffer entry to a shading point, camera paths,
-back-face culling and shadow rays through cut-out holes by way of the accelerator, AOVs and sample accumulation.
+back-face culling and rays through cut-out holes by way of the accelerator, AOVs and sample accumulation.
 
 The pipeline is a wavefront: kernels generate rays, an :class:`wrt.trace.Accelerator` fills a hit buffer
 (``t, u, v, prim``), and shade kernels read it and write the next rays, so both accelerators serve every
@@ -12,12 +12,14 @@ Conventions:
   is turned to the same side. ``front`` records whether the ray arrived on the winding's front side.
 - Back faces of single-sided meshes (``doubleSided = false``) are invisible to camera rays, as in usdview: they
   are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`). Bounce and shadow rays see both
-  sides, so closed glass objects refract twice and single-sided walls still cast shadows. Camera rays skip the
-  holes of cut-out materials (``opacity < opacityThreshold``) the same way, so the AOVs and every integrator
-  start from the surface seen through them; the integrators pass later rays through holes themselves.
+  sides, so closed glass objects refract twice and single-sided walls still cast shadows. Camera and bounce rays
+  skip the holes of cut-out materials (``opacity < opacityThreshold``) the same way, so the AOVs and every
+  integrator start from the surface seen through them and a hole uses up no bounce: up to :data:`MAX_CULL_PASSES`
+  hidden hits in a row (the passes stop once no ray needs another); a ray still in a hole after them ends its path.
 - Shadow (and ambient-occlusion) rays pass holes too (:func:`occluded_through_holes`): in a scene with cut-outs,
   the rays the any-hit query reports blocked are traced for their closest hit, again from just past it while it
-  is a hole, for up to :data:`MAX_SHADOW_HOLE_PASSES` passes; a ray still in a hole after them stays blocked.
+  is a hole, for up to :data:`MAX_SHADOW_HOLE_PASSES` passes (as many holes as camera and bounce rays pass); a ray
+  still in a hole after them stays blocked.
   Glass (``opacity < 1`` without a threshold) is not a hole and blocks them: a unidirectional path tracer gets its
   light through refraction.
 - Sample 0 of every pixel goes through the pixel centre and the lens centre; later samples jitter both
@@ -50,10 +52,13 @@ wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights
 CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
 CULL_LEAST_STEP = wp.constant(1.0e-30)  # the step past a culled face at t = 0
-MAX_CULL_PASSES = 8  # re-traces after culled hits; a ray still on a back face (or in a hole) after that keeps it
 # Closest-hit passes of a blocked shadow ray in a scene with cut-outs: it passes up to 31 holes (leaves of a dense
 # canopy stack in the tens: 8 left rays through 10 leaf holes blocked); one still in a hole after them stays blocked.
 MAX_SHADOW_HOLE_PASSES = 32
+# Re-traces of a camera or bounce ray past hidden hits (holes; for camera rays, culled back faces too): it passes as
+# many holes in a row as a shadow ray. One still on a back face after them keeps it; one still in a hole ends its path
+# (as that shadow ray is blocked). Passes stop once no ray needs another, so the bound costs nothing on other scenes.
+MAX_CULL_PASSES = MAX_SHADOW_HOLE_PASSES - 1
 
 
 @wp.struct
@@ -343,6 +348,7 @@ def cull_hidden_hits_kernel(
     scene: DeviceScene,
     surf: DeviceSurfaces,
     mats: DeviceMaterials,
+    back_faces: int,
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     t_maxs: wp.array[float],
@@ -356,16 +362,20 @@ def cull_hidden_hits_kernel(
     retry_t_maxs: wp.array[float],
     retries: wp.array[wp.int32],
 ):
-    """Marks camera rays whose closest hit is not seen (:func:`hidden_hit`): they are re-traced from just past it
-    (``retry_t_maxs > 0``); every other ray gets an empty range."""
+    """Marks rays whose closest hit is not seen: they are re-traced from just past it (``retry_t_maxs > 0``); every
+    other ray gets an empty range. With ``back_faces = 1`` (camera rays) that is :func:`hidden_hit`, else (bounce
+    rays, which see both sides) a hole only."""
     i = wp.tid()
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
     prim = hit_prim[i]
     if prim < 0:
         return
-    if not hidden_hit(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i],
-                      hit_t[i]):
+    if back_faces == 1:
+        if not hidden_hit(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i],
+                          hit_t[i]):
+            return
+    elif not in_hole(surf, mats, prim, hit_u[i], hit_v[i]):
         return
     retry_t_mins[i] = t_past(hit_t[i])
     retry_t_maxs[i] = t_maxs[i]
@@ -401,10 +411,11 @@ def merge_hits_kernel(
 
 
 def intersect_visible(
-    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, scene: DeviceScene, rays, hits, scratch, passes=None
+    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, scene: DeviceScene, rays, hits, scratch, passes=None,
+    camera_rays=True,
 ) -> None:
-    """``accel.intersect`` that skips back faces of single-sided meshes and holes of cut-out materials (see the
-    module docstring).
+    """``accel.intersect`` that skips holes of cut-out materials and, for camera rays, back faces of single-sided
+    meshes (see the module docstring).
 
     Args:
         accel: the :class:`wrt.trace.Accelerator`.
@@ -416,10 +427,13 @@ def intersect_visible(
         scratch: a :class:`CullScratch` of the same size.
         passes: run exactly this many cull passes without reading anything back to the host (for CUDA graph
             capture); ``None``: up to :data:`MAX_CULL_PASSES`, stopping once no ray needs another.
+        camera_rays: also cull back faces, and add the traversal costs to ``hits.cost`` (the cost AOV); ``False``
+            for bounce rays, which see both sides of every surface and pass holes only.
     """
     origins, directions, _, t_maxs = rays
-    accel.intersect(*rays, hits)
-    if scratch.nothing_to_cull:
+    accel.intersect(*rays, hits, costs=camera_rays)
+    nothing_hidden = scratch.nothing_to_cull if camera_rays else scratch.no_holes
+    if nothing_hidden:
         return
     n = len(origins)
     for _ in range(MAX_CULL_PASSES if passes is None else passes):
@@ -427,14 +441,14 @@ def intersect_visible(
         wp.launch(
             cull_hidden_hits_kernel,
             n,
-            inputs=[scene, surfaces, mats, origins, directions, t_maxs, hits.t, hits.u, hits.v, hits.prim,
-                    hits.instance],
+            inputs=[scene, surfaces, mats, int(camera_rays), origins, directions, t_maxs, hits.t, hits.u, hits.v,
+                    hits.prim, hits.instance],
             outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries],
             device=scratch.device,
         )
         if passes is None and int(scratch.retries.numpy()[0]) == 0:
             return
-        accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, scratch.hits)
+        accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, scratch.hits, costs=camera_rays)
         h2 = scratch.hits
         wp.launch(
             merge_hits_kernel,

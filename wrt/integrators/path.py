@@ -8,10 +8,12 @@ Veach's power heuristic (multiple importance sampling); delta lobes and delta li
 0.05 survives), dividing the survivors' throughput by their survival probability. ``max_depth`` counts surface
 interactions: 1 gives direct lighting only.
 
-Cut-out surfaces (``opacity < opacityThreshold``) are passed straight through; this uses up a bounce (not for
-camera rays, which skip holes before the first bounce: :func:`wrt.shade.intersect_visible`), and the ray goes on
-from its origin, past the hole, so light pdfs are still measured from the last scattering point. Shadow rays pass
-holes too (:func:`wrt.shade.occluded_through_holes`).
+Cut-out surfaces (``opacity < opacityThreshold``) are passed straight through by the trace before a hit gets here
+(:func:`wrt.shade.intersect_visible`, for camera and bounce rays alike), so holes use up no bounce, and the segment
+from the last scattering point to the hit behind the holes is one ray: lights seen through holes are MIS-weighted by
+their pdf from that point, as next-event estimation weights them. A ray still in a hole after
+:data:`wrt.shade.MAX_CULL_PASSES` holes in a row ends its path, as a shadow ray is blocked after as many
+(:func:`wrt.shade.occluded_through_holes`).
 """
 
 import warp as wp
@@ -22,7 +24,7 @@ from ..lights import DeviceLights, sample_light_in_view, shadow_direction, trian
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, hit_point, t_past
+from ..shade import DeviceSurfaces, hit_point
 from .emitters import environment, lights_on_segment, mis_weight
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
@@ -93,16 +95,11 @@ def shade_path_kernel(
     h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display)
 
-    # Cut-out: continue straight through the hole. The origin stays at the last scattering point, so that a light
-    # reached through the hole is weighted (MIS) by its pdf seen from there, as next-event estimation weights it;
-    # from the hole's own point its pdf came out smaller (28% too bright under a sphere light behind a leaf).
+    # A hole the trace did not get past (more in a row than it passes) ends the path, as it blocks a shadow ray.
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
-        t_mins[i] = t_past(t_hit)
-        t_maxs[i] = wp.inf
         radiance[i] = L
-        if bounce >= max_depth:
-            alive[i] = 0
-            t_maxs[i] = 0.0
+        alive[i] = 0
+        t_maxs[i] = 0.0
         return
 
     # Emission, weighted against light sampling of this triangle.

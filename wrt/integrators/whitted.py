@@ -71,12 +71,11 @@ def shade_whitted_kernel(
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
     hit_instance: wp.array[wp.int32],
-    # outputs
     origins: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
     directions: wp.array[wp.vec3],
+    t_mins: wp.array[float],
     throughput: wp.array[wp.vec3],
+    # outputs
     radiance: wp.array[wp.vec3],
     alive: wp.array[wp.int32],
     active: wp.array[wp.int32],
@@ -102,10 +101,10 @@ def shade_whitted_kernel(
     h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display)
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
-        origins[i] = offset_ray_origin(h.p, -h.ng, h.size, h.err)  # a hole: carry on in the same direction
-        t_mins[i] = 0.0
-        t_maxs[i] = wp.inf
+        # A hole the trace did not get past (more in a row than it passes: wrt.shade.intersect_visible) ends the
+        # path, as it blocks a shadow ray.
         radiance[i] = L
+        alive[i] = 0
         return
     if h.front == 1 or surf.double_sided[prim] == 1:
         L += wp.cw_mul(T, s.emission)
@@ -199,7 +198,6 @@ def continue_whitted_kernel(
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
     hit_instance: wp.array[wp.int32],
-    active: wp.array[wp.int32],
     # outputs
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
@@ -211,13 +209,8 @@ def continue_whitted_kernel(
 ):
     """The mirror or refracted continuation of each shaded path, or its end."""
     i = wp.tid()
-    if alive[i] == 0:
+    if alive[i] == 0:  # ended at this hit (a miss or a hole), or earlier
         t_maxs[i] = 0.0
-        return
-    if active[i] == 0:
-        if bounce >= max_depth:  # a cut-out pass-through that ran out of bounces
-            alive[i] = 0
-            t_maxs[i] = 0.0
         return
     d = directions[i]
     prim = hit_prim[i]
