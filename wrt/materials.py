@@ -5,8 +5,9 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
 - Each mesh's material is ``UsdShade.MaterialBindingAPI.ComputeBoundMaterial(purpose="full")``, which applies
   USD's rules: direct and ``collection`` bindings, ``bindMaterialAs`` strength, inheritance down namespace, and
   ``material:binding:full`` over all-purpose bindings. Where that gives no material, or one without a
-  UsdPreviewSurface, a ``preview``-purpose binding to a UsdPreviewSurface is used instead (:func:`_bound_material`). ``GeomSubset``\\ s of family ``materialBind`` override the
-  mesh's material on their faces (subsets of points or edges are ignored with a warning).
+  UsdPreviewSurface, a ``preview``-purpose binding to a UsdPreviewSurface is used instead (:func:`_bound_material`).
+  ``GeomSubset``\\ s of family ``materialBind`` override the mesh's material on their faces (subsets of points or
+  edges are ignored with a warning).
 - The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``, else a render context's
   (``outputs:mtlx:surface``, ...) to one or to MaterialX's ``ND_UsdPreviewSurface_surfaceshader``. Anything else
   (MaterialX, MDL, no surface) falls back to a Lambertian surface of the shader's constant base colour where one is
