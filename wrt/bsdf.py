@@ -6,28 +6,37 @@ Model (an approximation of the UsdPreviewSurface specification, stated once):
 - Metallic workflow: ``F0 = mix(((1 - ior) / (1 + ior))^2, diffuseColor, metallic)``, diffuse albedo
   ``diffuseColor * (1 - metallic)``. Specular workflow (``useSpecularWorkflow = 1``): ``F0 = specularColor``,
   diffuse albedo ``diffuseColor``.
-- ``f = (1 - F(cos_o)) * (1 - clearcoat * Fc(cos_o)) * albedo / pi + (1 - clearcoat * Fc(cos_o)) * D G F(cos_vh)
-  / (4 cos_o cos_i) + clearcoat * Dc Gc Fc(cos_vh) / (4 cos_o cos_i)`` with Schlick's Fresnel ``F``, at the half
-  vector in the microfacet lobes and at the viewing angle for what passes to the layers below (so a white surface
-  never reflects more than it receives), the GGX (Trowbridge-Reitz) distribution ``D`` with
-  ``alpha = roughness^2`` and the height-correlated Smith term ``G`` (Heitz 2014); the grazing reflectance of
-  Schlick's ``F`` is ``min(1, 50 max(F0))``.
-  The clearcoat lobe has ``F0 = 0.04`` and ``alpha = clearcoatRoughness^2``. With ``F0 = 0`` the BSDF is exactly
-  Lambertian: a surface of albedo ``rho`` under illuminance ``E`` shows ``rho * E / pi``.
+- ``f = (1 - C(cos_o)) * [(1 - S(cos_o)) * albedo / pi + D G F(cos_vh) / (4 cos_o cos_i) + f_ms]
+  + clearcoat * Dc Gc Fc(cos_vh) / (4 cos_o cos_i)`` with Schlick's Fresnel ``F`` at the half vector, the GGX
+  (Trowbridge-Reitz) distribution ``D`` with ``alpha = roughness^2`` and the height-correlated Smith term ``G``
+  (Heitz 2014); the grazing reflectance of Schlick's ``F`` is ``min(1, 50 max(F0))``. The clearcoat lobe has
+  ``F0 = 0.04`` and ``alpha = clearcoatRoughness^2``.
+- Energy compensation (Kulla and Conty, "Revisiting Physically Based Shading at Imageworks", 2017): ``f_ms =
+  F_ms (1 - E(cos_o)) (1 - E(cos_i)) / (pi (1 - E_avg))`` returns the light the single-scattering GGX lobe loses
+  between microfacets, ``E`` being a white lobe's directional albedo and ``F_ms = F_avg^2 E_avg / (1 - F_avg (1 -
+  E_avg))`` its colour (tables in :mod:`wrt.microfacet_albedo`). Each layer keeps what the lobes above it do not
+  reflect towards the viewer (albedo scaling): ``S`` is the specular lobe's directional albedo with ``f_ms``,
+  ``C`` the clearcoat's times ``clearcoat`` (single scattering: at ``F0 = 0.04`` the lost bounces are below 0.5%).
+  A white metal, dielectric or clearcoated surface therefore reflects all the light at every roughness and angle
+  (within 1%), and no surface of colours in ``[0, 1]`` reflects more; the layering is not reciprocal (it looks at
+  ``cos_o`` only). With ``F0 = 0`` the BSDF is exactly Lambertian: a surface of albedo ``rho`` under illuminance
+  ``E`` shows ``rho * E / pi``.
 - Lobes with ``roughness < DELTA_ROUGHNESS`` are perfect mirrors (delta distributions): they are sampled, never
   evaluated, and carry no MIS weight.
 - ``opacity < 1`` (with ``opacityThreshold = 0``): a fraction ``1 - opacity`` of the light meets a smooth
   dielectric interface of index ``ior`` (Snell refraction, exact Fresnel reflectance), the rest meets the opaque
   BSDF above. ``opacityThreshold > 0`` is a cut-out instead, handled by the integrators.
 
-Sampling draws one lobe with probability proportional to its estimated albedo and samples GGX through its
-distribution of visible normals (Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 2018); the pdf of
-a direction is the mixture over all non-delta lobes, so one-sample MIS between lobes is implicit.
+Sampling draws one lobe with probability proportional to its albedo and samples GGX through its distribution of
+visible normals (Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 2018), the diffuse and ``f_ms``
+lobes by the cosine; the pdf of a direction is the mixture over all non-delta lobes, so one-sample MIS between
+lobes is implicit.
 Directions ``wo`` (towards the viewer) and ``wi`` (towards the light) point away from the surface.
 """
 
 import warp as wp
 
+from .microfacet_albedo import GgxAlbedo, lookup_ggx_albedo, lookup_ggx_average_loss
 from .sampling import INV_PI, PI, luminance, sample_cosine_hemisphere, sin_cos, to_local, to_world
 
 DELTA_ROUGHNESS = wp.constant(0.02)  # below this roughness a lobe is a perfect mirror
@@ -53,13 +62,19 @@ class Surface:
 
 
 @wp.func
+def schlick_f90(f0: wp.vec3):
+    """Grazing reflectance of :func:`fresnel_schlick`: ``min(1, 50 max(f0))`` (as in Filament), so ``f0 = 0``
+    means no specular reflection."""
+    return wp.min(1.0, 50.0 * wp.max(f0[0], wp.max(f0[1], f0[2])))
+
+
+@wp.func
 def fresnel_schlick(f0: wp.vec3, cos_theta: float):
-    """Schlick's approximation of the Fresnel reflectance for reflectance ``f0`` at normal incidence. The grazing
-    reflectance is ``f90 = min(1, 50 max(f0))`` (as in Filament), so ``f0 = 0`` means no specular reflection."""
+    """Schlick's approximation of the Fresnel reflectance for reflectance ``f0`` at normal incidence, grazing
+    reflectance :func:`schlick_f90`."""
     m = wp.clamp(1.0 - cos_theta, 0.0, 1.0)
     m5 = m * m * m * m * m
-    f90 = wp.min(1.0, 50.0 * wp.max(f0[0], wp.max(f0[1], f0[2])))
-    return f0 + (wp.vec3(f90) - f0) * m5
+    return f0 + (wp.vec3(schlick_f90(f0)) - f0) * m5
 
 
 @wp.func
@@ -199,14 +214,60 @@ def opaque_fraction(s: Surface):
 
 
 @wp.func
-def lobe_weights(s: Surface, cos_o: float):
-    """Probabilities ``(diffuse, specular, clearcoat)`` of sampling each opaque lobe for a viewer at ``cos_o``."""
-    f0 = surface_f0(s)
-    fs = luminance(fresnel_schlick(f0, cos_o))
-    fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
-    wd = luminance(surface_albedo(s)) * (1.0 - fs) * (1.0 - fc)
-    ws = fs * (1.0 - fc)
-    wc = fc
+def multiple_scattering_color(f0: wp.vec3, loss: float):
+    """Fresnel colour of the multiple-scattering lobe for an average loss ``1 - E_avg`` (Kulla and Conty 2017):
+    ``F_avg^2 E_avg / (1 - F_avg (1 - E_avg))``, ``F_avg = f0 + (f90 - f0) / 21`` the cosine-weighted average of
+    Schlick's ``F``. 1 for a white lobe, below ``F_avg`` otherwise: every further bounce keeps ``F_avg`` of the
+    light. ``F_avg`` is kept at most 1: a colour above 1 (diffuseColor 2 on a metal) made the denominator 0 or
+    negative at roughness 1."""
+    f_avg = wp.min(f0 + (wp.vec3(schlick_f90(f0)) - f0) * (1.0 / 21.0), wp.vec3(1.0))
+    return wp.cw_div(wp.cw_mul(f_avg, f_avg) * (1.0 - loss), wp.vec3(1.0) - f_avg * loss)
+
+
+@wp.func
+def specular_albedo(tables: GgxAlbedo, f0: wp.vec3, roughness: float, cos_o: float):
+    """Directional albedo ``(single, multiple)`` of a specular lobe of reflectance ``f0`` for a viewer at ``cos_o``:
+    ``F(cos_o)`` and 0 for a mirror; for GGX ``f0 (E - B) + f90 B`` and the compensation lobe's
+    ``(1 - E) multiple_scattering_color`` (see :mod:`wrt.microfacet_albedo`)."""
+    if roughness < DELTA_ROUGHNESS:
+        return fresnel_schlick(f0, cos_o), wp.vec3(0.0)
+    eb = lookup_ggx_albedo(tables, roughness, cos_o)
+    single = f0 * (eb[0] - eb[1]) + wp.vec3(schlick_f90(f0) * eb[1])
+    color = multiple_scattering_color(f0, lookup_ggx_average_loss(tables, roughness))
+    return single, color * (1.0 - eb[0])
+
+
+@wp.func
+def multiple_scattering(tables: GgxAlbedo, f0: wp.vec3, roughness: float, cos_o: float, cos_i: float):
+    """The compensation lobe ``f_ms`` (without the cosine) of a GGX lobe: ``multiple_scattering_color (1 - E(cos_o))
+    (1 - E(cos_i)) / (pi (1 - E_avg))``, which reflects the ``1 - E(cos_o)`` the single-scattering lobe loses."""
+    loss = lookup_ggx_average_loss(tables, roughness)
+    e_o = lookup_ggx_albedo(tables, roughness, cos_o)[0]
+    e_i = lookup_ggx_albedo(tables, roughness, cos_i)[0]
+    k = (1.0 - e_o) * (1.0 - e_i) / (PI * wp.max(loss, 1.0e-9))
+    return multiple_scattering_color(f0, loss) * k
+
+
+@wp.func
+def clearcoat_albedo(tables: GgxAlbedo, s: Surface, cos_o: float):
+    """The share of the light the clearcoat reflects for a viewer at ``cos_o`` (``clearcoat`` times its lobe's
+    albedo; single scattering only: at ``F0 = 0.04`` the lost bounces are below 0.5%)."""
+    if s.clearcoat <= 0.0:
+        return 0.0
+    single, multiple = specular_albedo(tables, wp.vec3(CLEARCOAT_F0), s.clearcoat_roughness, cos_o)
+    return s.clearcoat * single[0]
+
+
+@wp.func
+def lobe_weights(s: Surface, spec: wp.vec3, spec_ms: wp.vec3, coat: float):
+    """Probabilities ``(cosine, specular, clearcoat)`` of sampling each opaque lobe, from the albedos of
+    :func:`specular_albedo` and :func:`clearcoat_albedo` at the viewing angle. The diffuse lobe and the specular
+    lobe's multiple-scattering lobe are both cosine-sampled."""
+    below = 1.0 - coat
+    diffuse = wp.cw_mul(wp.vec3(1.0) - spec - spec_ms, surface_albedo(s))
+    wd = (luminance(diffuse) + luminance(spec_ms)) * below
+    ws = luminance(spec) * below
+    wc = coat
     total = wd + ws + wc
     if total <= 0.0:
         return wp.vec3(1.0, 0.0, 0.0)
@@ -214,7 +275,7 @@ def lobe_weights(s: Surface, cos_o: float):
 
 
 @wp.func
-def eval_opaque(s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
+def eval_opaque(s: Surface, tables: GgxAlbedo, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
     """The opaque BSDF's non-delta lobes: ``(f, pdf)`` for light from ``wi`` seen from ``wo``.
 
     ``n`` is the shading normal and ``ng`` the geometric normal, both on the side of ``wo``. ``f`` excludes the
@@ -229,18 +290,22 @@ def eval_opaque(s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
     sin2_h = wp.length_sq(wp.cross(n, h))
     cos_vh = wp.max(wp.dot(wo, h), 0.0)
     f0 = surface_f0(s)
-    # The layers below a lobe keep what the lobe does not reflect towards the viewer: 1 - F at the viewing angle.
-    # At the half vector (the microfacet lobes' own Fresnel angle) that share stayed near 0.95 at grazing angles,
-    # where the lobes' albedo rises towards 0.5: a white surface reflected up to 1.44 times the light it received.
-    coat_below = 1.0 - s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
-    w = lobe_weights(s, cos_o)
+    # The layers below a lobe keep what the lobe does not reflect towards the viewer: 1 - its albedo at the viewing
+    # angle (Kulla and Conty's albedo scaling), so a white surface reflects all the light it receives, no more.
+    # At the half vector's Fresnel angle that share stayed near 0.95 at grazing angles, where the lobes' albedo
+    # rises towards 0.5: a white surface reflected up to 1.44 times the light it received.
+    spec, spec_ms = specular_albedo(tables, f0, s.roughness, cos_o)
+    coat = clearcoat_albedo(tables, s, cos_o)
+    coat_below = 1.0 - coat
+    w = lobe_weights(s, spec, spec_ms, coat)
 
-    f = wp.cw_mul(wp.vec3(1.0) - fresnel_schlick(f0, cos_o), surface_albedo(s)) * (INV_PI * coat_below)
+    f = wp.cw_mul(wp.vec3(1.0) - spec - spec_ms, surface_albedo(s)) * (INV_PI * coat_below)
     pdf = w[0] * cos_i * INV_PI
     if s.roughness >= DELTA_ROUGHNESS:
         a = ggx_alpha(s.roughness)
-        f_spec = fresnel_schlick(f0, cos_vh)
-        f += f_spec * (coat_below * ggx_d(cos_h, sin2_h, a) * ggx_g2(cos_o, cos_i, a) / (4.0 * cos_o * cos_i))
+        dg = ggx_d(cos_h, sin2_h, a) * ggx_g2(cos_o, cos_i, a) / (4.0 * cos_o * cos_i)
+        single = fresnel_schlick(f0, cos_vh) * dg
+        f += (single + multiple_scattering(tables, f0, s.roughness, cos_o, cos_i)) * coat_below
         pdf += w[1] * ggx_reflection_pdf(cos_o, cos_h, sin2_h, a)
     if s.clearcoat > 0.0 and s.clearcoat_roughness >= DELTA_ROUGHNESS:
         ac = ggx_alpha(s.clearcoat_roughness)
@@ -251,9 +316,10 @@ def eval_opaque(s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
 
 
 @wp.func
-def eval_bsdf(s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
-    """The whole BSDF's non-delta part: ``(f, pdf)`` with the opaque fraction applied (see :func:`eval_opaque`)."""
-    f, pdf = eval_opaque(s, n, ng, wo, wi)
+def eval_bsdf(s: Surface, tables: GgxAlbedo, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
+    """The whole BSDF's non-delta part: ``(f, pdf)`` with the opaque fraction applied (see :func:`eval_opaque`);
+    ``tables`` are :func:`wrt.microfacet_albedo.ggx_albedo_tables` on the kernel's device."""
+    f, pdf = eval_opaque(s, tables, n, ng, wo, wi)
     k = opaque_fraction(s)
     return f * k, pdf * k
 
@@ -271,12 +337,22 @@ class BsdfSample:
 
 @wp.func
 def sample_bsdf(
-    s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, front: int, u0: float, u1: float, u2: float, u3: float
+    s: Surface,
+    tables: GgxAlbedo,
+    n: wp.vec3,
+    ng: wp.vec3,
+    wo: wp.vec3,
+    front: int,
+    u0: float,
+    u1: float,
+    u2: float,
+    u3: float,
 ):
     """Draws ``wi`` for viewer ``wo`` from four uniform numbers.
 
     Args:
         s: the surface.
+        tables: :func:`wrt.microfacet_albedo.ggx_albedo_tables` on the kernel's device.
         n: shading normal on the side of ``wo``.
         ng: geometric normal on the side of ``wo``.
         wo: unit direction towards the viewer.
@@ -318,16 +394,16 @@ def sample_bsdf(
 
     # Opaque: pick a lobe, then a direction in it. The weights' rounded sum may fall short of 1: a u1 above it goes
     # to the last lobe of non-zero weight (it took a clearcoat of weight 0, and a mirror coat gave 0 / 0 = NaN).
-    w = lobe_weights(s, cos_o)
+    spec, spec_ms = specular_albedo(tables, surface_f0(s), s.roughness, cos_o)
+    coat = clearcoat_albedo(tables, s, cos_o)
+    w = lobe_weights(s, spec, spec_ms, coat)
     wo_local = to_local(wo, n)
     if u1 < w[0] or (w[1] <= 0.0 and w[2] <= 0.0):
         out.wi = to_world(sample_cosine_hemisphere(u2, u3), n)
     elif u1 < w[0] + w[1] or w[2] <= 0.0:
         if s.roughness < DELTA_ROUGHNESS:
-            f0 = surface_f0(s)
-            fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
             out.wi = reflect(wo, n)
-            out.weight = fresnel_schlick(f0, cos_o) * ((1.0 - fc) / w[1])
+            out.weight = spec * ((1.0 - coat) / w[1])  # spec = F(cos_o) for a mirror
             out.delta = 1
             if wp.dot(ng, out.wi) <= 0.0:
                 out.weight = wp.vec3(0.0)
@@ -336,9 +412,8 @@ def sample_bsdf(
         out.wi = reflect(wo, h)
     else:
         if s.clearcoat_roughness < DELTA_ROUGHNESS:
-            fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_o)
             out.wi = reflect(wo, n)
-            out.weight = wp.vec3(fc / w[2])
+            out.weight = wp.vec3(coat / w[2])  # coat = clearcoat Fc(cos_o) for a mirror
             out.delta = 1
             if wp.dot(ng, out.wi) <= 0.0:
                 out.weight = wp.vec3(0.0)
@@ -346,7 +421,7 @@ def sample_bsdf(
         h = to_world(sample_ggx_vndf(wo_local, ggx_alpha(s.clearcoat_roughness), u2, u3), n)
         out.wi = reflect(wo, h)
 
-    f, pdf = eval_opaque(s, n, ng, wo, out.wi)
+    f, pdf = eval_opaque(s, tables, n, ng, wo, out.wi)
     if pdf > 0.0:
         out.weight = f * (wp.dot(n, out.wi) / pdf)
         out.pdf = pdf * k

@@ -38,6 +38,7 @@ import warp as wp
 from .assignments import CountsAssignments
 from .bsdf import Surface
 from .errors import check_fields
+from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import WRAP_MODES, TextureError, load_image, pack_images, sample_image
 from .usd_values import value_at
 
@@ -175,6 +176,7 @@ class DeviceMaterials:
     image_sizes: wp.array[wp.vec2i]  # (K,) width, height
     texels: wp.array[wp.vec4h]  # all images, linear RGBA half floats
     count: int  # number of materials including the default
+    ggx_albedo: GgxAlbedo  # albedo tables of the GGX lobe (multiple-scattering compensation, wrt.bsdf)
 
 
 def default_material() -> Material:
@@ -249,6 +251,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     d.image_sizes = wp.array(sizes, dtype=wp.vec2i, device=device)
     d.texels = wp.array(texels, dtype=wp.vec4h, device=device)
     d.count = m
+    d.ggx_albedo = ggx_albedo_tables(device)
     return d
 
 

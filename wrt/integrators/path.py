@@ -128,7 +128,7 @@ def shade_path_kernel(
             lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
         )
         if pmf > 0.0 and max_component(ls.value) > 0.0:
-            f, pdf_f = eval_bsdf(s, h.ns, h.ng, wo, ls.wi)
+            f, pdf_f = eval_bsdf(s, mats.ggx_albedo, h.ns, h.ng, wo, ls.wi)
             if max_component(f) > 0.0:
                 w = float(1.0)
                 if ls.pdf > 0.0:
@@ -147,7 +147,7 @@ def shade_path_kernel(
     u3, state = rand01(state)
     u4, state = rand01(state)
     u5, state = rand01(state)
-    bs = sample_bsdf(s, h.ns, h.ng, wo, h.front, u0, u3, u4, u5)
+    bs = sample_bsdf(s, mats.ggx_albedo, h.ns, h.ng, wo, h.front, u0, u3, u4, u5)
     T = wp.cw_mul(T, bs.weight)
     keep = max_component(T) > 0.0
     if keep and bounce + 1 >= rr_depth:

@@ -3,11 +3,12 @@
 At every hit: emission; direct light from every light with a shadow ray each (area and soft lights get one random
 point per sample, so their shadows soften as ``spp`` grows; all emissive triangles together count as one light);
 the dome light as an unoccluded term ``albedo * mean dome radiance`` (exact for an unoccluded Lambertian surface
-under a constant dome; use ``path`` for occluded sky light), plus ``metallic * F`` of it for rough metals. Then one
+under a constant dome; use ``path`` for occluded sky light), plus ``metallic`` times the GGX lobe's albedo (with its
+multiple scattering, as the path tracer's BSDF has it: 1 for a white metal) for rough metals. Then one
 continuation ray: the mirror direction for smooth metals (roughness below ``DELTA_ROUGHNESS``, weight
 ``metallic * F``) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with probability
 proportional to their Fresnel weights). In the specular workflow (``useSpecularWorkflow = 1``) the whole specular
-lobe counts as a metal's (weight ``F`` of ``specularColor``, the dome's diffuse term times ``1 - F``). Other
+lobe counts as a metal's (weight ``F`` of ``specularColor``, the dome's diffuse term times 1 - the lobe's albedo). Other
 surfaces end the ray: a rough metal's GGX lobe takes its light from the light sampling above, and a mirror ray from
 it would add the same lights a second time. ``max_depth`` bounds the number of mirror/refraction bounces.
 """
@@ -19,17 +20,18 @@ from ..bsdf import (
     Surface,
     eval_bsdf,
     fresnel_dielectric,
-    fresnel_schlick,
     is_glass,
     opaque_fraction,
     reflect,
     refract,
+    specular_albedo,
     surface_albedo,
     surface_f0,
 )
 from ..geometry import offset_ray_origin
 from ..lights import DeviceLights, sample_light_in_view, shadow_direction
 from ..materials import DeviceMaterials, eval_surface
+from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, hit_point
@@ -40,23 +42,23 @@ wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-in
 
 
 @wp.func
-def traced_specular(s: Surface, cos_o: float):
+def traced_specular(s: Surface, tables: GgxAlbedo, cos_o: float):
     """Weight of the specular lobe Whitted lights itself (the dome term of a rough lobe, the mirror ray of a smooth
-    one) for a viewer at ``cos_o``: ``metallic * F`` in the metallic workflow, where a dielectric's faint lobe is left
-    out, and ``F`` of ``specularColor`` in the specular workflow, which has no metallic input: its mirrors (specular
-    colour 1, roughness 0) were black."""
-    f = fresnel_schlick(surface_f0(s), cos_o)
+    one) for a viewer at ``cos_o``: the lobe's albedo (``F`` for a mirror, see :func:`wrt.bsdf.specular_albedo`),
+    times ``metallic`` in the metallic workflow, where a dielectric's faint lobe is left out; in the specular
+    workflow, which has no metallic input, all of it: its mirrors (specular colour 1, roughness 0) were black."""
+    single, multiple = specular_albedo(tables, surface_f0(s), s.roughness, cos_o)
     if s.specular_workflow == 1:
-        return f
-    return f * s.metallic
+        return single + multiple
+    return (single + multiple) * s.metallic
 
 
 @wp.func
-def dome_albedo(s: Surface, cos_o: float):
+def dome_albedo(s: Surface, tables: GgxAlbedo, cos_o: float):
     """Diffuse weight of the dome term: the albedo, less what the specular lobe reflects in the specular workflow
     (whose lobe :func:`traced_specular` always counts, so that the two never add up to more than 1)."""
     if s.specular_workflow == 1:
-        return wp.cw_mul(wp.vec3(1.0) - fresnel_schlick(surface_f0(s), cos_o), surface_albedo(s))
+        return wp.cw_mul(wp.vec3(1.0) - traced_specular(s, tables, cos_o), surface_albedo(s))
     return surface_albedo(s)
 
 
@@ -110,10 +112,10 @@ def shade_whitted_kernel(
         L += wp.cw_mul(T, s.emission)
     if lights.dome >= 0:
         cos_o = wp.max(wp.dot(h.ns, -d), 0.0)
-        ambient = dome_albedo(s, cos_o)
+        ambient = dome_albedo(s, mats.ggx_albedo, cos_o)
         if s.roughness >= DELTA_ROUGHNESS:
             # A rough metal's lobe has no mirror ray (see continue_whitted_kernel): it sees the dome unoccluded too.
-            ambient += traced_specular(s, cos_o)
+            ambient += traced_specular(s, mats.ggx_albedo, cos_o)
         L += wp.cw_mul(wp.cw_mul(T, ambient), lights.dome_mean) * opaque_fraction(s)
     radiance[i] = L
     active[i] = 1
@@ -173,7 +175,7 @@ def whitted_light_kernel(
     )
     if max_component(ls.value) <= 0.0 or p_pick <= 0.0:
         return
-    f, _ = eval_bsdf(s, h.ns, h.ng, -d, ls.wi)
+    f, _ = eval_bsdf(s, mats.ggx_albedo, h.ns, h.ng, -d, ls.wi)
     if max_component(f) <= 0.0:
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
@@ -222,7 +224,7 @@ def continue_whitted_kernel(
     w_reflect = wp.vec3(0.0)
     w_refract = float(0.0)
     if s.roughness < DELTA_ROUGHNESS:
-        w_reflect = traced_specular(s, cos_o) * op
+        w_reflect = traced_specular(s, mats.ggx_albedo, cos_o) * op
     eta = s.ior
     if h.front == 0:
         eta = 1.0 / s.ior
