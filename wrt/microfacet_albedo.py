@@ -11,9 +11,9 @@ The table ``wrt/data/ggx_albedo.npy`` holds ``E`` and ``B`` (the part of ``E`` w
 that a Schlick lobe of ``F0, F90`` reflects ``F0 (E - B) + F90 B``) at perceptual roughness ``k / 31`` (rows) and
 ``mu = (j / 31)^2`` (columns, dense at grazing angles, where ``E`` of a smooth lobe dips). It is made by
 ``benchmarks/make_ggx_albedo.py`` (a one-minute quadrature, hence stored; loading it takes about a millisecond). Lookups
-are bilinear in ``(roughness, sqrt(mu))``; ``1 - E_avg`` is the exact average loss of that interpolant (kept
-as the loss: ``E_avg`` rounds to 1 in float32 for smooth lobes), so the added lobe restores what the interpolated
-``E`` says is missing.
+are bilinear in ``(roughness, sqrt(mu))``; ``1 - E_avg`` is the average loss of that interpolant (stored as the loss:
+for smooth lobes ``E_avg`` is within 1e-5 of 1, where float32 keeps few digits of the difference), so the added lobe
+restores what the interpolated ``E`` says is missing.
 """
 
 import functools
