@@ -1,4 +1,4 @@
-"""Writes ``scenes/default_room.usda``, the scene ``wrt render`` shows when given no file.
+"""Writes ``wrt/data/default_room.usda``, the scene ``wrt render`` shows when given no file.
 
 A small room (floor, three walls) holding a cube of quads, a hexagonal prism whose caps are hexagons (n-gons),
 a square pyramid, a smooth UV sphere with authored vertex normals lit by a sun (a normalized distant light:
@@ -122,4 +122,4 @@ def main(path: Path):
 
 
 if __name__ == "__main__":
-    main(Path(__file__).resolve().parent / "default_room.usda")
+    main(Path(__file__).resolve().parents[1] / "wrt" / "data" / "default_room.usda")

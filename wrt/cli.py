@@ -21,7 +21,7 @@ EXIT_BAD_INPUT = 2  # exit status for bad input, as argparse uses for bad argume
 
 
 def default_scene_path() -> Path:
-    """The bundled default scene (``scenes/default_room.usda`` in the source tree)."""
+    """The bundled default scene, ``wrt/data/default_room.usda`` (written by ``scenes/make_default_scene.py``)."""
     return Path(str(resources.files("wrt") / "data" / "default_room.usda"))
 
 
@@ -543,7 +543,7 @@ def _add_bench(sub) -> None:
         help="benchmark accelerators: scenes x accels x devices x ray kinds",
         description="Time wrt's BVH against Warp's wp.Mesh (and Embree) on the same rays. Rows are appended to "
         "OUT/rows.jsonl as they are measured; OUT/table.md and plots are written at the end. SUITE is a JSON file "
-        "or the name of one in benchmarks/suites (quick, cpu, gpu). Options given here override the suite.",
+        "or the name of one in wrt/data/suites (quick, cpu, gpu). Options given here override the suite.",
         formatter_class=HelpFormatter,
     )
     p.add_argument("suite", nargs="?", default="quick", help="suite file or name")

@@ -1,0 +1,55 @@
+"""What ``pip install .`` ships: the package data inside the wheel, its metadata, and a source tree that builds the
+same wheel on every checkout."""
+
+import json
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+from typing import NamedTuple
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_package_sources_hold_no_symbolic_links():
+    """A checkout without symbolic links (Git's default on Windows) turns a link into a text file that holds its
+    target: the wheel then shipped '../../scenes/default_room.usda' as the default scene (``wrt render``: 'not a
+    valid usda layer') and no benchmark suites (``wrt bench --quick``: 'suites in ...: none')."""
+    links = [str(p.relative_to(ROOT)) for p in (ROOT / "wrt").rglob("*") if p.is_symlink()]
+    assert links == []
+
+
+class Build(NamedTuple):
+    wheel: zipfile.ZipFile  # the wheel pip built
+    log: str  # pip's and the build backend's output
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory) -> Build:
+    """The wheel ``pip wheel`` builds from a copy of the source tree (a copy: no ``build/`` left over from an
+    earlier build can add stale files)."""
+    source, dist = tmp_path_factory.mktemp("source"), tmp_path_factory.mktemp("dist")
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy(ROOT / name, source / name)
+    shutil.copytree(ROOT / "wrt", source / "wrt", ignore=shutil.ignore_patterns("__pycache__"))
+    result = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-v", "-w", str(dist), str(source)],
+                            capture_output=True, text=True, timeout=600)
+    log = result.stdout + result.stderr
+    if result.returncode != 0 and "No matching distribution found for setuptools" in log:
+        pytest.skip("no package index to install the build backend from")
+    assert result.returncode == 0, log[-5000:]
+    (path,) = dist.glob("wrt-*.whl")
+    with zipfile.ZipFile(path) as wheel:
+        yield Build(wheel, log)
+
+
+def test_the_wheel_holds_the_default_scene_and_the_benchmark_suites(build):
+    names = set(build.wheel.namelist())
+    assert build.wheel.read("wrt/data/default_room.usda").startswith(b"#usda 1.0")
+    for suite in ("quick", "cpu", "gpu"):
+        assert json.loads(build.wheel.read(f"wrt/data/suites/{suite}.json"))["scenes"], suite
+    sources = {p.relative_to(ROOT).as_posix() for p in (ROOT / "wrt").rglob("*.py")}
+    assert sources <= names, sorted(sources - names)
