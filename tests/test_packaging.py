@@ -2,6 +2,7 @@
 same wheel on every checkout."""
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -53,3 +54,9 @@ def test_the_wheel_holds_the_default_scene_and_the_benchmark_suites(build):
         assert json.loads(build.wheel.read(f"wrt/data/suites/{suite}.json"))["scenes"], suite
     sources = {p.relative_to(ROOT).as_posix() for p in (ROOT / "wrt").rglob("*.py")}
     assert sources <= names, sorted(sources - names)
+
+
+def test_the_build_backend_warns_of_nothing(build):
+    """setuptools warned that a ``license`` table stops building on 2027-02-18; its warnings are errors to come."""
+    warnings = [line.strip() for line in build.log.splitlines() if re.search(r"\w+Warning: ", line)]
+    assert warnings == []
