@@ -1,6 +1,7 @@
 """What ``pip install .`` ships: the package data inside the wheel, its metadata, and a source tree that builds the
 same wheel on every checkout."""
 
+import importlib
 import json
 import re
 import shutil
@@ -60,3 +61,26 @@ def test_the_build_backend_warns_of_nothing(build):
     """setuptools warned that a ``license`` table stops building on 2027-02-18; its warnings are errors to come."""
     warnings = [line.strip() for line in build.log.splitlines() if re.search(r"\w+Warning: ", line)]
     assert warnings == []
+
+
+# A release of each dependency that lacks an API wrt calls, found by installing it: 'wrt render' then ended in an
+# AttributeError traceback (usd-core 24.5 also lacks Usd.Stage.GetCompositionErrors; 25.5 and OpenEXR 3.3 work).
+TOO_OLD = {
+    "usd-core": ("25.2", "pxr.UsdGeom", "Camera.GetExposureFStopAttr"),
+    "OpenEXR": ("3.2.3", "OpenEXR", "File"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(TOO_OLD))
+def test_the_dependency_minimums_leave_out_releases_without_the_apis_wrt_calls(build, name):
+    from packaging.requirements import Requirement
+
+    (metadata,) = [n for n in build.wheel.namelist() if n.endswith(".dist-info/METADATA")]
+    lines = build.wheel.read(metadata).decode().splitlines()
+    requirements = [Requirement(line.split(":", 1)[1]) for line in lines if line.startswith("Requires-Dist:")]
+    (requirement,) = [r for r in requirements if r.name == name]
+    too_old, module, api = TOO_OLD[name]
+    assert not requirement.specifier.contains(too_old)
+    found = importlib.import_module(module)
+    for attribute in api.split("."):
+        found = getattr(found, attribute)  # present in the release installed here
