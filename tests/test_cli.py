@@ -1,5 +1,6 @@
 """The ``wrt`` command line: the default render, options, and one-line errors with exit status 2."""
 
+import os
 import subprocess
 import sys
 
@@ -11,10 +12,10 @@ from PIL import Image as PilImage
 from wrt.cli import main
 
 
-def run_cli(*args, cwd=None):
+def run_cli(*args, cwd=None, env=None):
     """Runs ``python -m wrt.cli ARGS`` in a fresh interpreter, as a user would."""
     return subprocess.run(
-        [sys.executable, "-m", "wrt.cli", *args], cwd=cwd, capture_output=True, text=True, timeout=600
+        [sys.executable, "-m", "wrt.cli", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
     )
 
 
@@ -97,6 +98,19 @@ def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, monkeypatch, 
     errors = [line for line in lines if line.startswith("wrt: error:")]
     assert len(errors) == 1 and needle in errors[0]
     assert not any("Traceback" in line for line in lines)
+
+
+def test_a_kernel_cache_that_cannot_be_made_is_named_with_what_to_do(tmp_path):
+    """Warp makes its kernel cache when it starts; in a missing or read-only home that failed with the bare OS error,
+    'wrt: error: [Errno 2] No such file or directory: '/home/x'', which says neither what nor why."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    env = {**os.environ, "WARP_CACHE_PATH": str(blocker / "cache")}
+    result = run_cli("render", "--width", "8", "--height", "8", cwd=tmp_path, env=env)
+    assert result.returncode == 2
+    (line,) = error_lines(result.stderr)[-1:]
+    assert line.startswith("wrt: error:") and "kernel cache" in line and "set WARP_CACHE_PATH" in line, line
+    assert not (tmp_path / "wrt.png").exists()
 
 
 def test_output_problems_are_one_line_errors_found_before_rendering(tmp_path, capsys):

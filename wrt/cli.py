@@ -610,6 +610,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _kernel_cache_hint(error: Exception, cache_dir: str | None) -> str:
+    """What to do when ``error`` is an OS error about Warp's kernel cache folder, else ''. Warp makes that folder in
+    the home folder when it starts (and writes compiled kernels there), so a missing or read-only home fails with
+    only a path in the message."""
+    failed = getattr(error, "filename", None)
+    if not (failed and cache_dir):
+        return ""
+    failed, cache = Path(failed), Path(cache_dir)
+    if failed != cache and failed not in cache.parents and cache not in failed.parents:
+        return ""
+    return f" (Warp's kernel cache {cache}: set WARP_CACHE_PATH to a writable folder)"
+
+
 def main(argv: list[str] | None = None) -> int:
     """Runs the ``wrt`` command line; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -627,7 +640,7 @@ def main(argv: list[str] | None = None) -> int:
         return args.run(args)
     except (SceneError, ValueError, TypeError, OSError, MemoryError) as e:  # OSError: unwritable output paths too
         message = str(e).splitlines()[0] if str(e) else type(e).__name__
-        print(f"wrt: error: {message}", file=sys.stderr)
+        print(f"wrt: error: {message}{_kernel_cache_hint(e, wp.config.kernel_cache_dir)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except DaskUnavailable as e:
         print(f"wrt: error: {e}", file=sys.stderr)
