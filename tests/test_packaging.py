@@ -34,7 +34,7 @@ def build(tmp_path_factory) -> Build:
     """The wheel ``pip wheel`` builds from a copy of the source tree (a copy: no ``build/`` left over from an
     earlier build can add stale files)."""
     source, dist = tmp_path_factory.mktemp("source"), tmp_path_factory.mktemp("dist")
-    for name in ("pyproject.toml", "README.md"):
+    for name in ("pyproject.toml", "README.md", "MANIFEST.in"):
         shutil.copy(ROOT / name, source / name)
     shutil.copytree(ROOT / "wrt", source / "wrt", ignore=shutil.ignore_patterns("__pycache__"))
     result = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-v", "-w", str(dist), str(source)],
