@@ -34,7 +34,7 @@ def build(tmp_path_factory) -> Build:
     """The wheel ``pip wheel`` builds from a copy of the source tree (a copy: no ``build/`` left over from an
     earlier build can add stale files)."""
     source, dist = tmp_path_factory.mktemp("source"), tmp_path_factory.mktemp("dist")
-    for name in ("pyproject.toml", "README.md", "MANIFEST.in"):
+    for name in ("pyproject.toml", "README.md", "MANIFEST.in", "LICENSE"):
         shutil.copy(ROOT / name, source / name)
     shutil.copytree(ROOT / "wrt", source / "wrt", ignore=shutil.ignore_patterns("__pycache__"))
     result = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-v", "-w", str(dist), str(source)],
@@ -55,6 +55,7 @@ def test_the_wheel_holds_the_default_scene_and_the_benchmark_suites(build):
         assert json.loads(build.wheel.read(f"wrt/data/suites/{suite}.json"))["scenes"], suite
     sources = {p.relative_to(ROOT).as_posix() for p in (ROOT / "wrt").rglob("*.py")}
     assert sources <= names, sorted(sources - names)
+    assert any(name.endswith(".dist-info/licenses/LICENSE") for name in names)  # the licence the metadata names
 
 
 def test_the_build_backend_warns_of_nothing(build):
