@@ -3,7 +3,7 @@
 #   tests  - the device-parametrised tests on cuda:0 (trace agreement, build, render, path tracer CPU = GPU)
 #   build  - benchmarks/gpu_build.py: 10M-triangle lbvh/ploc builds against wp.Mesh(lbvh)
 #   kernels - benchmarks/gpu_build_kernels.py: every kernel of one 10M lbvh and ploc build, summed
-#   bench  - wrt bench with wrt/data/suites/gpu.json
+#   bench  - wrt bench with wrt/suites/gpu.json
 #   traversal - benchmarks/gpu_traversal_ab.py: wrt layouts against wp.Mesh on 1M+ triangle scenes
 #   path   - benchmarks/gpu_diagnose_path.py: CPU vs GPU path-traced pixels
 #   batch  - benchmarks/batch_throughput.py: render_batch images/s

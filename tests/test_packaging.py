@@ -52,7 +52,7 @@ def test_the_wheel_holds_the_default_scene_and_the_benchmark_suites(build):
     names = set(build.wheel.namelist())
     assert build.wheel.read("wrt/data/default_room.usda").startswith(b"#usda 1.0")
     for suite in ("quick", "cpu", "gpu"):
-        assert json.loads(build.wheel.read(f"wrt/data/suites/{suite}.json"))["scenes"], suite
+        assert json.loads(build.wheel.read(f"wrt/suites/{suite}.json"))["scenes"], suite
     sources = {p.relative_to(ROOT).as_posix() for p in (ROOT / "wrt").rglob("*.py")}
     assert sources <= names, sorted(sources - names)
     assert any(name.endswith(".dist-info/licenses/LICENSE") for name in names)  # the licence the metadata names

@@ -41,7 +41,7 @@ from .resources import check_host_memory
 from .scene import Scene
 from .trace import WARP_BUILDERS, BvhAccelerator, HitBuffer, Hits, WarpMeshAccelerator, resolve_device
 
-SUITES_DIR = Path(__file__).resolve().parent / "data" / "suites"  # the named suites, shipped with the package
+SUITES_DIR = Path(__file__).resolve().parent / "suites"  # the named suites, shipped with the package
 REFERENCE = "warp:sah"  # agreement and ratios are measured against this accelerator
 ANY_HIT_KINDS = ("shadow",)  # ray kinds traced with the any-hit query
 # Host memory bounds checked before a run allocates, about twice what was measured (peak RSS, CPU device): a
@@ -66,7 +66,7 @@ class Grid:
 
     @classmethod
     def from_suite(cls, path) -> Grid:
-        """Reads a suite file (JSON); ``path`` may also name a file in ``wrt/data/suites`` without ``.json``."""
+        """Reads a suite file (JSON); ``path`` may also name a file in ``wrt/suites`` without ``.json``."""
         path = Path(path)
         if not path.exists() and (SUITES_DIR / f"{path}.json").exists():
             path = SUITES_DIR / f"{path}.json"

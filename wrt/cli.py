@@ -543,7 +543,7 @@ def _add_bench(sub) -> None:
         help="benchmark accelerators: scenes x accels x devices x ray kinds",
         description="Time wrt's BVH against Warp's wp.Mesh (and Embree) on the same rays. Rows are appended to "
         "OUT/rows.jsonl as they are measured; OUT/table.md and plots are written at the end. SUITE is a JSON file "
-        "or the name of one in wrt/data/suites (quick, cpu, gpu). Options given here override the suite.",
+        "or the name of one in wrt/suites (quick, cpu, gpu). Options given here override the suite.",
         formatter_class=HelpFormatter,
     )
     p.add_argument("suite", nargs="?", default="quick", help="suite file or name")
