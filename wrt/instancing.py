@@ -76,6 +76,11 @@ class Instances(CountsAssignments):
             nested inside a prototype reports the world-level instance it is part of).
         index: ``(N,)`` int32 position in that PointInstancer's arrays, -1 for a native instance.
         sources: prim paths of the PointInstancers and instanceable prims that made the instances.
+        colors: ``(N, 3)`` float32 linear displayColor of each instance (a PointInstancer's ``displayColor``
+            primvar), NaN rows for instances without one; ``(0, 3)`` when no instance has one. It colours the
+            prototype meshes and shapes that have no displayColor of their own (``Mesh.colors`` / ``Shape.color``
+            None), read at shading time by instance id, so a million colours cost 12 bytes each, not a copy of the
+            prototype each.
     """
 
     prototype: np.ndarray
@@ -83,15 +88,22 @@ class Instances(CountsAssignments):
     source: np.ndarray
     index: np.ndarray
     sources: list = dataclasses.field(default_factory=list)
+    colors: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3), np.float32))
 
     def __post_init__(self):
         self.prototype = np.ascontiguousarray(self.prototype, dtype=np.int32).reshape(-1)
         self.to_world = np.ascontiguousarray(self.to_world, dtype=np.float64).reshape(-1, 4, 4)
         self.source = np.ascontiguousarray(self.source, dtype=np.int32).reshape(-1)
         self.index = np.ascontiguousarray(self.index, dtype=np.int32).reshape(-1)
+        self.colors = np.ascontiguousarray(self.colors, dtype=np.float32).reshape(-1, 3)
         n = len(self.prototype)
         if not (len(self.to_world) == len(self.source) == len(self.index) == n):
             raise ValueError("Instances arrays must all have one entry per instance")
+        if len(self.colors) not in (0, n):
+            raise ValueError(f"Instances colors must have one row per instance ({n}) or none, got {len(self.colors)}")
+        if np.isinf(self.colors).any():  # NaN means "no colour"; inf would shade as inf
+            raise ValueError(f"Instances colors must be finite (or NaN for none); row "
+                             f"{int(np.flatnonzero(np.isinf(self.colors).any(axis=1))[0])} is not")
         self.check_affine()
 
     def check_affine(self) -> None:
@@ -115,11 +127,19 @@ class Instances(CountsAssignments):
         return cls(np.zeros(0, np.int32), np.zeros((0, 4, 4)), np.zeros(0, np.int32), np.zeros(0, np.int32), [])
 
     @classmethod
-    def from_transforms(cls, prototype, to_world, name: str = "/instances") -> Instances:
-        """Instances made in Python: ``prototype`` ``(N,)`` int and ``to_world`` ``(N, 4, 4)`` (column vectors)."""
+    def from_transforms(cls, prototype, to_world, name: str = "/instances", colors=None) -> Instances:
+        """Instances made in Python: ``prototype`` ``(N,)`` int, ``to_world`` ``(N, 4, 4)`` (column vectors) and
+        optionally ``colors`` ``(N, 3)`` (see the class docstring)."""
         prototype = np.asarray(prototype, np.int32).reshape(-1)
         n = len(prototype)
-        return cls(prototype, to_world, np.zeros(n, np.int32), np.arange(n, dtype=np.int32), [name])
+        colors = np.zeros((0, 3), np.float32) if colors is None else colors
+        return cls(prototype, to_world, np.zeros(n, np.int32), np.arange(n, dtype=np.int32), [name], colors)
+
+    def take(self, rows) -> Instances:
+        """The instances at ``rows`` (an index array or a boolean mask), every per-instance array alike."""
+        colors = self.colors[rows] if len(self.colors) else self.colors
+        return Instances(self.prototype[rows], self.to_world[rows], self.source[rows], self.index[rows],
+                         self.sources, colors)
 
     def __len__(self) -> int:
         return len(self.prototype)

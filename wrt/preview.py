@@ -40,7 +40,7 @@ from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
 from .image import to_srgb8
 from .render import Renderer, render, resolve_camera
-from .scene import Scene
+from .scene import Scene, shape_color
 from .shade import CullScratch, intersect_visible
 from .trace import HitBuffer, get_accelerator, resolve_device
 
@@ -159,27 +159,36 @@ def triangle_colors(scene: Scene) -> np.ndarray:
     expanded).
 
     A triangle bound to a material (``Mesh.material_ids``) shows the material's constant ``diffuse_color`` (a
-    texture's fallback, for textured ones); otherwise the mean of its three corner ``displayColor`` values; the
-    renderer's grey for meshes with neither.
+    texture's fallback, for textured ones); otherwise the mean of its three corner ``displayColor`` values, or its
+    instance's colour (``Instances.colors``) where its mesh has none; the renderer's grey for meshes with neither.
     """
     materials = getattr(scene, "materials", None) or []
     table = np.array([np.asarray(m.diffuse_color, np.float32).reshape(3) for m in materials] or np.zeros((0, 3)))
     from_display = np.array([bool(getattr(m, "diffuse_from_display_color", False)) for m in materials], bool)
-    parts = []
+    parts, instance_colored = [], []
     meshes = scene._geometry_meshes() if hasattr(scene, "_geometry_meshes") else scene.meshes
     for mesh in meshes:
         if mesh.colors is not None:
             linear = mesh.colors.mean(axis=1)
         else:
             linear = np.full((len(mesh.indices), 3), GREY, np.float32)
+        bound = np.zeros(len(mesh.indices), bool)
         ids = getattr(mesh, "material_ids", None)
         if ids is not None and len(table):
             bound = (ids >= 0) & (ids < len(table))
             bound[bound] &= ~from_display[ids[bound]]
             linear[bound] = table[ids[bound]]
         parts.append(linear)
+        instance_colored.append(~bound & (mesh.colors is None))
     linear = np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
-    return to_srgb8(_expand_rows(scene, linear))
+    linear = _expand_rows(scene, linear)
+    colors = getattr(getattr(scene, "instances", None), "colors", ())
+    if len(colors) and len(linear):
+        prim, instance = scene.split_ids(np.arange(len(linear)))
+        color = colors[instance]
+        use = (instance >= 0) & np.concatenate(instance_colored)[prim] & ~np.isnan(color[:, 0])
+        linear[use] = color[use]
+    return to_srgb8(linear)
 
 
 def _expand_rows(scene: Scene, values: np.ndarray) -> np.ndarray:
@@ -204,11 +213,7 @@ def _first_instances(scene: Scene, n: int) -> Scene:
     """``scene`` with only its first ``n`` instances (for drawing)."""
     import dataclasses
 
-    from .instancing import Instances
-
-    inst = scene.instances
-    keep = Instances(inst.prototype[:n], inst.to_world[:n], inst.source[:n], inst.index[:n], inst.sources)
-    return dataclasses.replace(scene, instances=keep)
+    return dataclasses.replace(scene, instances=scene.instances.take(slice(0, n)))
 
 
 def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
@@ -635,21 +640,26 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
     ``pyvista.PolyData`` with a ``"color"`` cell array, or None without shapes; at most ``max_shapes`` are drawn."""
     from .primitives import tessellate
 
-    placed = [(s, np.eye(4)) for s in getattr(scene, "shapes", [])]
-    for i, p in enumerate(scene.instances.prototype if len(getattr(scene, "instances", ())) else []):
-        placed += [(s, scene.instances.to_world[i]) for s in getattr(scene.prototypes[p], "shapes", [])]
+    placed = [(s, np.eye(4), shape_color(s)) for s in getattr(scene, "shapes", [])]
+    instances = getattr(scene, "instances", ())
+    tints = getattr(instances, "colors", ())
+    for i, p in enumerate(instances.prototype if len(instances) else []):
+        # A shape without a displayColor of its own shows its instance's, if the instance has one.
+        tint = tints[i] if len(tints) and not np.isnan(tints[i, 0]) else None
+        placed += [(s, instances.to_world[i], tint if s.color is None and tint is not None else shape_color(s))
+                   for s in getattr(scene.prototypes[p], "shapes", [])]
         if len(placed) >= max_shapes:
             break
     if not placed:
         return None
     pv = import_pyvista()
     points, faces, colors, base = [], [], [], 0
-    for shape, to_world in placed[:max_shapes]:
-        moved = type(shape)(shape.path, shape.kind, to_world @ shape.to_world, shape.params, shape.color)
+    for shape, to_world, color in placed[:max_shapes]:
+        moved = type(shape)(shape.path, shape.kind, to_world @ shape.to_world, shape.params)
         pts, tris, _ = tessellate(moved, segments)
         points.append(pts)
         faces.append(tris + base)
-        colors.append(np.repeat(to_srgb8(shape.color[None]), len(tris), axis=0))
+        colors.append(np.repeat(to_srgb8(color[None]), len(tris), axis=0))
         base += len(pts)
     mesh = pv.PolyData.from_regular_faces(np.concatenate(points).astype(np.float32), np.concatenate(faces))
     mesh.cell_data["color"] = np.concatenate(colors)

@@ -346,7 +346,8 @@ class Shape(CountsAssignments):
         to_world: ``(4, 4)`` float64 canonical space -> world (or prototype) space, column vectors; USD's size
             parameters and axis are part of it.
         params: ``(4,)`` float32: ``[capped or H, 0, 0, orientation sign]`` (see the module docstring).
-        color: ``(3,)`` float32 linear displayColor (0.5 grey without one).
+        color: ``(3,)`` float32 linear displayColor, or None for none (drawn grey 0.5, or in its instance's colour:
+            ``Instances.colors``).
         material_id: index into ``Scene.materials``, -1 for the default material.
         double_sided: the gprim's ``doubleSided``: when False camera rays pass through its back (as for meshes).
     """
@@ -355,7 +356,7 @@ class Shape(CountsAssignments):
     kind: str
     to_world: np.ndarray
     params: np.ndarray = dataclasses.field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 1.0], np.float32))
-    color: np.ndarray = dataclasses.field(default_factory=lambda: np.full(3, 0.5, np.float32))
+    color: np.ndarray | None = None
     material_id: int = -1
     double_sided: bool = False
 
@@ -364,7 +365,8 @@ class Shape(CountsAssignments):
             raise ValueError(f"unknown shape kind {self.kind!r}; valid kinds: {', '.join(SHAPE_KINDS)}")
         self.to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)
         self.params = np.asarray(self.params, np.float32).reshape(4)
-        self.color = np.asarray(self.color, np.float32).reshape(3)
+        if self.color is not None:
+            self.color = np.asarray(self.color, np.float32).reshape(3)
 
     def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Canonical-space box ``(lower, upper)``."""

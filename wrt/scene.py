@@ -52,6 +52,9 @@ class DeviceScene:
     shape_params: wp.array[wp.vec4]  # (S,) the shape's parameters (primitives.Shape.params)
     shape_to_local: wp.array[mat34]  # (S,) world (or prototype) space -> the shape's canonical space
     num_shapes: int  # number of unique analytic shapes
+    instance_colors: wp.array[wp.vec3]  # (N,) each instance's displayColor (Instances.colors; NaN: none), or (1,)
+    num_instance_colors: int  # N when any instance has a colour, else 0 (then the arrays beside are placeholders)
+    takes_instance_color: wp.array[wp.uint8]  # (T + S,) 1 where a geometry id has no displayColor of its own
 
 
 # The depth of field divides by metersPerUnit (millimetres of focal length to scene units): below this, or not
@@ -485,10 +488,18 @@ class Scene:
                 colors.append(m.colors if m.colors is not None else np.full((n, 3, 3), 0.5, np.float32))
             for s in self._geometry_shapes():  # analytic shapes: normals come from the shape
                 normals.append(np.zeros((1, 3, 3), np.float32))
-                colors.append(np.broadcast_to(s.color.astype(np.float32), (1, 3, 3)))
+                colors.append(np.broadcast_to(shape_color(s), (1, 3, 3)))
             empty = np.zeros((0, 3, 3), np.float32)
             self._cache[key] = (np.concatenate(normals or [empty]), np.concatenate(colors or [empty]))
         return self._cache[key]
+
+    def takes_instance_color(self) -> np.ndarray:
+        """``(T + S,)`` bool per geometry id (:meth:`geometry` rows, then the analytic shapes): its mesh or shape has
+        no displayColor of its own, so an instance's colour (``Instances.colors``) applies to it, as Hydra hands a
+        PointInstancer's instance primvars to the prototypes' meshes that lack that primvar."""
+        parts = [np.full(len(m.indices), m.colors is None) for m in self._geometry_meshes()]
+        parts.append(np.array([s.color is None for s in self._geometry_shapes()], bool))
+        return np.concatenate(parts)
 
     def triangle_materials(self) -> np.ndarray:
         """``(T,)`` int32 material of every triangle (geometry order) as a device material index: 0 for the default
@@ -562,8 +573,19 @@ class Scene:
             s.num_instances = len(self.instances)
             s.shape_kinds, s.shape_params, s.shape_to_local = self.shape_arrays(device)
             s.num_shapes = len(shapes)
+            s.instance_colors, s.num_instance_colors, s.takes_instance_color = self._instance_color_arrays(device)
             self._cache[key] = s
         return self._cache[key]
+
+    def _instance_color_arrays(self, device) -> tuple:
+        """``(instance_colors, num_instance_colors, takes_instance_color)`` of :class:`DeviceScene`: one-entry
+        placeholders when no instance has a colour, so scenes without cost nothing."""
+        colors = self.instances.colors
+        if not len(colors):
+            return (wp.zeros(1, dtype=wp.vec3, device=device), 0, wp.zeros(1, dtype=wp.uint8, device=device))
+        takes = self.takes_instance_color().astype(np.uint8)
+        return (wp.array(colors, dtype=wp.vec3, device=device), len(colors),
+                wp.array(takes if len(takes) else np.zeros(1, np.uint8), dtype=wp.uint8, device=device))
 
     def shape_arrays(self, device) -> tuple:
         """``(kinds, params, to_local)`` device arrays of the unique analytic shapes in geometry order (at least one
@@ -666,6 +688,11 @@ class Scene:
             "cameras": len(self.cameras),
             "lights": len(self.lights),
         }
+
+
+def shape_color(shape) -> np.ndarray:
+    """``(3,)`` float32 linear displayColor of an analytic shape, grey 0.5 when it has none."""
+    return np.full(3, 0.5, np.float32) if shape.color is None else shape.color
 
 
 def _concatenate_meshes(meshes: list[Mesh]) -> tuple[np.ndarray, np.ndarray]:

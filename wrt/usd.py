@@ -518,7 +518,7 @@ class _StageReader:
         if content.uses_outer_color and color is not None:
             key = self._colored(key, content, color, prim)
         m = self._to_space(prim, ctx).T  # column vectors
-        ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32)))
+        ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), None))
         self._instance_cameras(prim, self.contents[key], ctx)
 
     def _inherited_color(self, prim: Usd.Prim) -> tuple | None:
@@ -614,6 +614,7 @@ class _StageReader:
         quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]),
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
         scales = per_instance(scales_attr, 3, "scales", np.ones(3), _value_if_any(scales_attr, t, read))
+        colors = self._instance_colors(prim, n, read)
 
         # Column-vector instance transforms: translate(position) @ spin @ rotate(orientation) @ scale(scale).
         m = np.zeros((n, 4, 4))
@@ -642,17 +643,57 @@ class _StageReader:
                                     outer_color=ctx.outer_color)
             ctx.content.uses_outer |= content.uses_outer  # as for a nested native instance
             ctx.content.uses_outer_color |= content.uses_outer_color
-            ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32)))
+            ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
+                                          None if colors is None else colors[rows]))
+
+    def _instance_colors(self, prim: Usd.Prim, n: int, read) -> np.ndarray | None:
+        """``(n, 3)`` float32 displayColor of each of the ``n`` instances of PointInstancer ``prim``, from its
+        ``primvars:displayColor``: ``constant`` gives one colour to all, ``vertex`` or ``varying`` one per instance
+        (after its ``indices``), read by ``read`` as the positions are. None when it has none, or (with a warning
+        naming it and what was expected) one that cannot be used: another interpolation, a length other than ``n``."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
+        if not (primvar and primvar.HasValue()):
+            return None
+        raw = read(primvar.GetAttr(), self.time)
+        values = np.array(raw if raw is not None else [], np.float64)  # a copy: non-finite rows are replaced
+        unreadable = "PointInstancer displayColor that cannot be read was ignored"
+        if values.ndim != 2 or values.shape[1] != 3 or primvar.GetElementSize() != 1:
+            self._skip(unreadable, prim, f"{primvar.GetTypeName()} of elementSize {primvar.GetElementSize()}")
+            return None
+        if primvar.IsIndexed():  # flattened as ComputeFlattened does, at the same time as the values
+            raw = read(primvar.GetIndicesAttr(), self.time)
+            indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
+            if np.any((indices < 0) | (indices >= len(values))):
+                self._skip(unreadable, prim, f"indices out of range for {len(values)} values")
+                return None
+            values = values[indices]
+        interpolation = primvar.GetInterpolation()
+        expected = {"constant": (1, "1"), "vertex": (n, "one per instance"), "varying": (n, "one per instance")}
+        if interpolation not in expected:
+            self._skip("PointInstancer displayColor of an interpolation other than constant, vertex or varying "
+                       "was ignored", prim, interpolation)
+            return None
+        if len(values) != expected[interpolation][0]:
+            count, meaning = expected[interpolation]
+            self._skip("PointInstancer displayColor of the wrong length was ignored", prim,
+                       f"{interpolation} with {len(values)} values, expected {count} ({meaning})")
+            return None
+        bad = ~np.isfinite(values).all(axis=1)
+        if bad.any():  # as for meshes: NaN here would mean "no colour" and inf would shade as inf
+            self._skip("non-finite displayColor values were replaced by grey 0.5", prim)
+            values[bad] = 0.5
+        return np.broadcast_to(values.astype(np.float32), (n, 3))
 
     def _place_instances(self, world: _Content, scene: Scene) -> np.ndarray | None:
         """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
-        proto_ids, matrices, sources, source_ids, indices = [], [], [], {}, []
+        proto_ids, matrices, sources, source_ids, indices, colors_of = [], [], [], {}, [], []
 
         # Depth first, each instance before the instances nested in it (an explicit stack: a recursive closure
         # would refer to itself, a reference cycle that kept the stage open until a garbage collection).
-        pending = [(self.contents[key], m, source, index) for key, m, source, index in reversed(world.instances)]
+        pending = [(self.contents[key], m, source, index, color)
+                   for key, m, source, index, color in reversed(world.instances)]
         while pending:
-            content, to_world, source, index = pending.pop()
+            content, to_world, source, index, color = pending.pop()
             if content.meshes or content.shapes:
                 if content.prototype < 0:
                     content.prototype = len(scene.prototypes)
@@ -663,10 +704,13 @@ class _StageReader:
                 proto_ids.append(np.full(len(to_world), content.prototype, np.int32))
                 matrices.append(to_world)
                 indices.append(np.column_stack([np.full(len(to_world), source_ids[source]), index]))
-            for key, m, _, _ in reversed(content.instances):
-                # Nested instances keep the world-level source and index of the instance they are part of.
+                colors_of.append(color)
+            for key, m, _, _, inner in reversed(content.instances):
+                # Nested instances keep the world-level source and index of the instance they are part of, and the
+                # colour of the nearest instancer that gives one.
                 combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
-                pending.append((self.contents[key], combined, source, np.repeat(index, len(m))))
+                pending.append((self.contents[key], combined, source, np.repeat(index, len(m)),
+                                _nested_colors(color, inner, len(to_world), len(m))))
         if not proto_ids:
             return None
         # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
@@ -677,16 +721,18 @@ class _StageReader:
         to_world = np.concatenate(matrices)[order]
         projective = np.flatnonzero(np.any(to_world[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
         to_world[:, 3] = (0.0, 0.0, 0.0, 1.0)  # as for meshes: only the affine part is used
-        instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources)
+        colors = np.zeros((0, 3), np.float32)  # no instancer gives colours: no array
+        if any(c is not None for c in colors_of):  # NaN rows: instances without a colour
+            colors = np.concatenate([np.full((len(m), 3), np.nan, np.float32) if c is None else c
+                                     for c, m in zip(colors_of, matrices)])[order]
+        instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources, colors)
         for i in projective:
             self._skip_path("world transform is projective; its last column was ignored", instances.path(i))
         inverses, ok = invert_transforms(instances.to_world)
         for i in np.flatnonzero(~ok):
             self._skip_path("instances with a singular transform (a zero scale) were skipped", instances.path(i))
         if not ok.all():
-            instances = Instances(
-                instances.prototype[ok], instances.to_world[ok], instances.source[ok], instances.index[ok], sources
-            )
+            instances = instances.take(ok)
         scene.instances = instances
         return inverses[ok]  # the scene's first trace needs them too
 
@@ -851,13 +897,14 @@ class _StageReader:
             self._skip("world transform is projective; its last column was ignored", prim)
             to_world[3] = (0.0, 0.0, 0.0, 1.0)
 
-        color = np.full(3, 0.5, np.float32)
+        color = None  # none: grey, or its instance's colour
         primvar = _display_color(prim)
         if not (primvar and primvar.HasValue()):
             ctx.content.uses_outer_color = True
             if ctx.outer_color is not None:
                 color = np.asarray(ctx.outer_color, np.float32)
         else:
+            color = np.full(3, 0.5, np.float32)
             values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64).reshape(-1, 3)
             if len(values) and np.all(np.isfinite(values)):
                 color = values.mean(axis=0).astype(np.float32)
@@ -885,7 +932,7 @@ class _StageReader:
             indices=indices,
             face_ids=np.arange(n, dtype=np.int32),
             normals=normals,
-            colors=np.broadcast_to(shape.color, (n, 3, 3)),
+            colors=None if shape.color is None else np.broadcast_to(shape.color, (n, 3, 3)),
             double_sided=shape.double_sided,
             material_ids=None if shape.material_id < 0 else np.full(n, shape.material_id, np.int32),
         )
@@ -1233,6 +1280,21 @@ def _has_display_color(prim: Usd.Prim) -> bool:
 def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):
     """``read(attr, time)`` (:func:`value_at` or :func:`held_value`), or None when ``attr`` has no value."""
     return read(attr, time) if attr.HasValue() else None
+
+
+def _nested_colors(outer: np.ndarray | None, inner: np.ndarray | None, n_outer: int, n_inner: int):
+    """``(n_outer * n_inner, 3)`` colours of the instances nested ``n_inner`` in each of ``n_outer`` outer instances,
+    in the order of their combined transforms (outer major): the inner instancer's colour (``inner``, one row per
+    nested instance), else the outer instance's (``outer``, one row per outer instance), NaN where neither gives one;
+    None when neither has any."""
+    if outer is None and inner is None:
+        return None
+    rows = n_outer * n_inner
+    outer_rows = np.full((rows, 3), np.nan, np.float32) if outer is None else np.repeat(outer, n_inner, axis=0)
+    if inner is None:
+        return outer_rows
+    inner_rows = np.tile(inner, (n_outer, 1))
+    return np.where(np.isnan(inner_rows[:, :1]), outer_rows, inner_rows)
 
 
 def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
