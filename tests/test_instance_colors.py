@@ -320,3 +320,28 @@ def test_preview_shows_the_instance_colours(tmp_path):
 
     scene = load(instancer_stage(tmp_path / "pi.usda", invisible=[1]))
     np.testing.assert_array_equal(triangle_colors(scene), np.repeat(to_srgb8(np.array([RGB[0], RGB[2]])), 2, axis=0))
+
+
+@pytest.mark.parametrize("moving", [False, True])
+def test_time_sampled_colours_follow_the_positions_rule(tmp_path, moving):
+    """Time-sampled colours are read as positions are: interpolated between samples (as ComputeFlattened gives at
+    that time), or held at the earlier sample when velocities move the instances (USD's velocity path)."""
+    path = instancer_stage(tmp_path / "pi.usda")
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    primvar = UsdGeom.PrimvarsAPI(pi).GetPrimvar("displayColor")
+    primvar.GetAttr().Clear()
+    primvar.Set(RGB, 0.0)
+    primvar.Set(RGB[::-1], 10.0)
+    if moving:  # velocities at the positions' samples: USD holds every instance attribute at its earlier sample
+        positions = [Gf.Vec3f(x, 0.0, 0.0) for x in XS]
+        pi.GetPositionsAttr().Set(positions, 0.0)
+        pi.GetPositionsAttr().Set(positions, 10.0)
+        pi.CreateVelocitiesAttr().Set([Gf.Vec3f(0.0)] * 3, 0.0)
+        pi.GetVelocitiesAttr().Set([Gf.Vec3f(0.0)] * 3, 10.0)
+    stage.GetRootLayer().Save()
+    expected = RGB if moving else np.asarray(primvar.ComputeFlattened(Usd.TimeCode(4.0)), np.float64)
+    if not moving:
+        assert not np.allclose(expected, RGB)  # a real blend
+    albedo, _ = albedo_at_instances(load(path, time=4.0))
+    np.testing.assert_allclose(albedo, expected, atol=1e-6)
