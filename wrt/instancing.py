@@ -1,8 +1,9 @@
 """Instancing on the host: prototypes (geometry drawn only through instances) and the instances that place them.
 
 A :class:`Prototype` holds meshes in its own space, read once however often it is drawn. :class:`Instances` places
-prototypes in the world, one 4x4 transform each; nested instancing (a PointInstancer inside a prototype, a native
-instance inside a PointInstancer's prototype, ...) is resolved at load time into this single level, as a
+prototypes in the world, one 4x4 transform each (and optionally one displayColor each, which colours the prototype
+geometry that has none of its own at shading time); nested instancing (a PointInstancer inside a prototype, a
+native instance inside a PointInstancer's prototype, ...) is resolved at load time into this single level, as a
 top-level acceleration structure over instances expects (:mod:`wrt.tlas`).
 
 Matrices here use the column-vector convention, ``p_world = M @ (p, 1)``: the transpose of USD's ``Gf.Matrix4d``.

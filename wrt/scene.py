@@ -206,7 +206,8 @@ class Scene:
         shapes: :class:`wrt.primitives.Shape` list: analytic primitives in world space that are not instanced.
         prototypes: :class:`wrt.instancing.Prototype` list: meshes and shapes in their own space, drawn through
             ``instances``.
-        instances: :class:`wrt.instancing.Instances` placing the prototypes in the world.
+        instances: :class:`wrt.instancing.Instances` placing the prototypes in the world (and colouring them: its
+            ``colors``).
         cameras: prim path -> :class:`wrt.Camera`, in stage order.
         lights: the stage's lights: :class:`DistantLight` and the classes of :mod:`wrt.lights`.
         materials: :class:`wrt.materials.Material` list that ``Mesh.material_ids`` index.

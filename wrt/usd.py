@@ -36,6 +36,11 @@ bound on or above a native instance applies to the prototype's meshes that bind 
 their ``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it
 is bound ``strongerThanDescendants``. A constant ``displayColor`` on or above a native instance colours the
 prototype's meshes and gprims that have none (a copy of the prototype per colour, up to ``MAX_INHERITED_COLORS``).
+A PointInstancer's ``primvars:displayColor`` (``constant``, or ``vertex``/``varying``: one per instance, flattened
+through its indices, read as ``positions`` are) becomes ``Instances.colors`` instead, no copy per colour: it colours
+the prototype meshes and gprims that have no displayColor of their own at shading time; instances nested in a
+coloured one take the colour of the nearest instancer that gives one. Other interpolations and other lengths are
+ignored with a warning naming the instancer.
 Cameras inside native instances are read at their instance-proxy paths
 (``/Instance/Cam``, placed by the instance); cameras inside PointInstancer prototypes and lights inside any
 prototype are skipped with a warning.
