@@ -311,6 +311,9 @@ def test_python_instances_take_colours(np_rng):
         wrt.instancing.Instances.from_transforms([0, 0, 0], to_world, colors=colors[:2])
     with pytest.raises(ValueError, match="finite"):
         wrt.instancing.Instances.from_transforms([0, 0, 0], to_world, colors=np.full((3, 3), np.inf))
+    scene.instances.colors = colors[:2]  # assigned later: refused by the next trace or render, not drawn uncoloured
+    with pytest.raises(ValueError, match="one row per instance"):
+        albedo_at_instances(scene)
 
 
 def test_preview_shows_the_instance_colours(tmp_path):

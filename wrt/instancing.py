@@ -96,16 +96,25 @@ class Instances(CountsAssignments):
         self.to_world = np.ascontiguousarray(self.to_world, dtype=np.float64).reshape(-1, 4, 4)
         self.source = np.ascontiguousarray(self.source, dtype=np.int32).reshape(-1)
         self.index = np.ascontiguousarray(self.index, dtype=np.int32).reshape(-1)
-        self.colors = np.ascontiguousarray(self.colors, dtype=np.float32).reshape(-1, 3)
+        self.colors = np.ascontiguousarray(self.colors, dtype=np.float32)
+        if self.colors.size == 0:
+            self.colors = np.zeros((0, 3), np.float32)
         n = len(self.prototype)
         if not (len(self.to_world) == len(self.source) == len(self.index) == n):
             raise ValueError("Instances arrays must all have one entry per instance")
-        if len(self.colors) not in (0, n):
-            raise ValueError(f"Instances colors must have one row per instance ({n}) or none, got {len(self.colors)}")
-        if np.isinf(self.colors).any():  # NaN means "no colour"; inf would shade as inf
-            raise ValueError(f"Instances colors must be finite (or NaN for none); row "
-                             f"{int(np.flatnonzero(np.isinf(self.colors).any(axis=1))[0])} is not")
+        self.check_colors()
         self.check_affine()
+
+    def check_colors(self) -> None:
+        """Raises ``ValueError`` unless :attr:`colors` has one row per instance (or none) and no infinite value (NaN
+        means no colour; inf would shade as inf). A shorter array left the last instances uncoloured unseen."""
+        colors = np.asarray(self.colors)
+        if colors.ndim != 2 or colors.shape[1] != 3 or len(colors) not in (0, len(self)):
+            raise ValueError(f"Instances colors must be (N, 3), one row per instance ({len(self)}), or empty; got "
+                             f"{colors.shape}")
+        bad = np.flatnonzero(np.isinf(colors).any(axis=1))
+        if len(bad):
+            raise ValueError(f"Instances colors must be finite (NaN: no colour); row {bad[0]} is not")
 
     def check_affine(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose transform's bottom row is not ``(0, 0, 0, 1)``.

@@ -292,7 +292,8 @@ class Scene:
         (:meth:`Instances.check_affine`)."""
         from .errors import SceneError
 
-        self.instances.check_affine()  # transforms may have been changed in place since
+        self.instances.check_affine()  # transforms (and colours) may have been changed since
+        self.instances.check_colors()
         prototype = self.instances.prototype
         bad = np.flatnonzero((prototype < 0) | (prototype >= len(self.prototypes)))
         if len(bad):
@@ -581,7 +582,7 @@ class Scene:
     def _instance_color_arrays(self, device) -> tuple:
         """``(instance_colors, num_instance_colors, takes_instance_color)`` of :class:`DeviceScene`: one-entry
         placeholders when no instance has a colour, so scenes without cost nothing."""
-        colors = self.instances.colors
+        colors = np.asarray(self.instances.colors, np.float32)
         if not len(colors):
             return (wp.zeros(1, dtype=wp.vec3, device=device), 0, wp.zeros(1, dtype=wp.uint8, device=device))
         takes = self.takes_instance_color().astype(np.uint8)
