@@ -348,3 +348,31 @@ def test_time_sampled_colours_follow_the_positions_rule(tmp_path, moving):
         assert not np.allclose(expected, RGB)  # a real blend
     albedo, _ = albedo_at_instances(load(path, time=4.0))
     np.testing.assert_allclose(albedo, expected, atol=1e-6)
+
+
+def test_instancers_without_colours_and_native_instances_stay_uncoloured(tmp_path):
+    """Beside a coloured instancer, an instancer without displayColor and a native instance of the same quad keep
+    the grey of a prototype without colour (their rows of ``Instances.colors`` are NaN)."""
+    path = instancer_stage(tmp_path / "pi.usda")
+    stage = Usd.Stage.Open(path)
+    plain = UsdGeom.PointInstancer.Define(stage, "/Plain")
+    plain.CreatePrototypesRel().SetTargets(["/Protos/Shape"])
+    plain.CreateProtoIndicesAttr([0, 0, 0])
+    plain.CreatePositionsAttr([(x, 1.5, 0.0) for x in XS])
+    lib = stage.CreateClassPrim("/Lib")
+    lib.GetReferences().AddInternalReference("/Protos")  # the invisible Scope holding the quad
+    native = UsdGeom.Xform.Define(stage, "/Native")
+    native.GetPrim().GetReferences().AddInternalReference("/Lib")
+    native.GetPrim().SetInstanceable(True)
+    UsdGeom.Imageable(native.GetPrim()).CreateVisibilityAttr().Set(UsdGeom.Tokens.inherited)  # visible here
+    native.AddTranslateOp().Set((0.0, -1.5, 0.0))
+    stage.GetRootLayer().Save()
+    scene = load(path)
+    assert len(scene.instances) == 7
+    camera = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=6.0)
+    img = wrt.render(scene, camera=camera, width=36, height=36, device="cpu", integrator="albedo")
+    at = {(x, y): img.rgb[int((3.0 - y) / 6.0 * 36), int((x + 3.0) / 6.0 * 36)] for x in XS for y in (1.5, 0, -1.5)}
+    for k, x in enumerate(XS):
+        np.testing.assert_allclose(at[x, 0], RGB[k], atol=1e-6)
+        np.testing.assert_allclose(at[x, 1.5], GREY, atol=1e-6)
+    np.testing.assert_allclose(at[0, -1.5], GREY, atol=1e-6)
