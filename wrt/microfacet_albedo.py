@@ -14,6 +14,15 @@ that a Schlick lobe of ``F0, F90`` reflects ``F0 (E - B) + F90 B``) at perceptua
 are bilinear in ``(roughness, sqrt(mu))``; ``1 - E_avg`` is the average loss of that interpolant (stored as the loss:
 for smooth lobes ``E_avg`` is within 1e-5 of 1, where float32 keeps few digits of the difference), so the added lobe
 restores what the interpolated ``E`` says is missing.
+
+The compensation lobe is importance-sampled from the same table: its directions are drawn with a density
+proportional to ``c_j mu_i`` in column interval ``j`` (azimuth uniform), ``c_j`` the larger of ``1 - E`` at the
+interval's two columns, so that ``f_ms cos_i / pdf = F_ms (1 - E(mu_o)) (1 - E(mu_i)) / c_j * C / (1 - E_avg)`` (``C``
+the density's normalisation) stays within ``F_ms (1 - E(mu_o))`` times 1.7 (roughness 0.02 to 0.03; 1.32 from
+roughness 0.065 up). At low roughness ``1 - E`` lives in a narrow band of grazing directions, which cosine-weighted
+sampling rarely hits, and weighs ``(1 - E(mu_i)) / (1 - E_avg)`` there: up to 19000 at roughness 0.03, 1500 at 0.065,
+110 at 0.13. The densities ``c`` and their cumulative sums over ``mu^2`` are derived from the stored ``E`` when the
+table is loaded (as ``1 - E_avg`` is), so the sampler always follows the lobe that is evaluated.
 """
 
 import functools
@@ -22,7 +31,10 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
+from .sampling import PI
+
 TABLE_PATH = Path(__file__).parent / "data" / "ggx_albedo.npy"  # written by benchmarks/make_ggx_albedo.py
+LOSS_ROUNDING = 2.0**-22  # float32 rounding of 1 - E looked up near E = 1 (4 ulps below 1): the f_ms density floor
 
 
 @wp.struct
@@ -31,6 +43,8 @@ class GgxAlbedo:
 
     albedo: wp.array2d[wp.vec2]  # (R, M) E and B at roughness k / (R - 1), mu = (j / (M - 1))^2
     average_loss: wp.array[float]  # (R,) 1 - E_avg at roughness k / (R - 1)
+    ms_density: wp.array2d[float]  # (R, M - 1) the f_ms sampling density's c_j >= 1 - E over column interval j
+    ms_cdf: wp.array2d[float]  # (R, M) sum of c_j' (mu_{j'+1}^2 - mu_j'^2) over the intervals j' < j
 
 
 def average_loss(albedo: np.ndarray, samples: int = 4097) -> np.ndarray:
@@ -42,6 +56,21 @@ def average_loss(albedo: np.ndarray, samples: int = 4097) -> np.ndarray:
     mu = s * s
     y = 2.0 * (1.0 - np.stack([np.interp(s, nodes, row) for row in albedo])) * mu
     return 0.5 * ((y[:, 1:] + y[:, :-1]) * np.diff(mu)).sum(axis=1)
+
+
+def multiple_scattering_sampling(albedo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The sampling tables of the compensation lobe for ``albedo`` (``(R, M)`` E, columns at ``mu = (j / (M -
+    1))^2``): ``(R, M - 1)`` float64 ``c_j``, the larger of ``1 - E`` at columns ``j`` and ``j + 1`` (so at least
+    the linear interpolant of ``1 - E`` inside the interval) plus :data:`LOSS_ROUNDING`, and ``(R, M)`` their
+    cumulative integral over ``mu^2``. Directions drawn with density ``c_j mu`` per interval make ``f_ms cos / pdf``
+    nearly constant. The floor keeps it so where a smooth lobe's ``E`` is within a few float32 ulps of 1, whose
+    lookups' rounding made ``1 - E`` up to 3.4 times ``c`` (roughness 0.03, ``mu`` 0.9); it adds 3% to the
+    density's integral at roughness 0.03, less above, and keeps every ``c_j`` above 0."""
+    loss = np.maximum(1.0 - albedo, 0.0)
+    density = np.maximum(loss[:, :-1], loss[:, 1:]) + LOSS_ROUNDING
+    mu2 = np.linspace(0.0, 1.0, albedo.shape[1]) ** 4
+    cdf = np.concatenate([np.zeros((len(albedo), 1)), np.cumsum(density * np.diff(mu2), axis=1)], axis=1)
+    return density, cdf
 
 
 @functools.cache
@@ -61,6 +90,9 @@ def _tables_on(device: str) -> GgxAlbedo:
     t.albedo = wp.array(table, dtype=wp.vec2, device=device)
     loss = average_loss(table[..., 0].astype(np.float64)).astype(np.float32)
     t.average_loss = wp.array(loss, dtype=float, device=device)
+    density, cdf = multiple_scattering_sampling(table[..., 0].astype(np.float64))
+    t.ms_density = wp.array(density.astype(np.float32), dtype=float, device=device)
+    t.ms_cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
     return t
 
 
@@ -70,15 +102,20 @@ def ggx_albedo_tables(device=None) -> GgxAlbedo:
 
 
 @wp.func
+def roughness_row(rows: int, roughness: float):
+    """Table row ``i`` below ``roughness`` and the weight ``fx`` of row ``i + 1`` in the linear interpolation."""
+    x = wp.clamp(roughness, 0.0, 1.0) * float(rows - 1)
+    i = wp.min(int(x), rows - 2)
+    return i, x - float(i)
+
+
+@wp.func
 def lookup_ggx_albedo(t: GgxAlbedo, roughness: float, mu: float):
     """``(E, B)`` of a lobe of perceptual ``roughness`` for a viewer at ``mu = cos theta``, bilinear."""
-    rows = t.albedo.shape[0]
+    i, fx = roughness_row(t.albedo.shape[0], roughness)
     cols = t.albedo.shape[1]
-    x = wp.clamp(roughness, 0.0, 1.0) * float(rows - 1)
     y = wp.sqrt(wp.clamp(mu, 0.0, 1.0)) * float(cols - 1)
-    i = wp.min(int(x), rows - 2)
     j = wp.min(int(y), cols - 2)
-    fx = x - float(i)
     fy = y - float(j)
     lower = wp.lerp(t.albedo[i, j], t.albedo[i, j + 1], fy)
     upper = wp.lerp(t.albedo[i + 1, j], t.albedo[i + 1, j + 1], fy)
@@ -88,7 +125,44 @@ def lookup_ggx_albedo(t: GgxAlbedo, roughness: float, mu: float):
 @wp.func
 def lookup_ggx_average_loss(t: GgxAlbedo, roughness: float):
     """``1 - E_avg`` of a lobe of perceptual ``roughness``, linear between the table's rows."""
-    rows = t.average_loss.shape[0]
-    x = wp.clamp(roughness, 0.0, 1.0) * float(rows - 1)
-    i = wp.min(int(x), rows - 2)
-    return wp.lerp(t.average_loss[i], t.average_loss[i + 1], x - float(i))
+    i, fx = roughness_row(t.average_loss.shape[0], roughness)
+    return wp.lerp(t.average_loss[i], t.average_loss[i + 1], fx)
+
+
+@wp.func
+def sample_multiple_scattering_cos(t: GgxAlbedo, roughness: float, u: float):
+    """``mu_i = cos theta_i`` of a direction drawn for the compensation lobe of a lobe of perceptual ``roughness``
+    from a uniform ``u`` (the azimuth is uniform): density ``c_j mu`` over column interval ``j``, the rows' ``c``
+    interpolated linearly in roughness as ``E`` is; :func:`multiple_scattering_pdf` is its solid-angle pdf."""
+    i, fx = roughness_row(t.ms_cdf.shape[0], roughness)
+    cols = t.ms_cdf.shape[1]
+    target = u * wp.lerp(t.ms_cdf[i, cols - 1], t.ms_cdf[i + 1, cols - 1], fx)
+    # Find the last interval j whose cumulative integral below it is at most the target (binary search).
+    lo = int(0)
+    hi = cols - 2
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if wp.lerp(t.ms_cdf[i, mid], t.ms_cdf[i + 1, mid], fx) <= target:
+            lo = mid
+        else:
+            hi = mid - 1
+    # Invert the linear integral of the constant density over mu^2 inside it (c >= LOSS_ROUNDING > 0).
+    s0 = float(lo) / float(cols - 1)
+    s1 = float(lo + 1) / float(cols - 1)
+    v0 = s0 * s0 * s0 * s0
+    v1 = s1 * s1 * s1 * s1
+    c = wp.lerp(t.ms_density[i, lo], t.ms_density[i + 1, lo], fx)
+    return wp.sqrt(wp.clamp(v0 + (target - wp.lerp(t.ms_cdf[i, lo], t.ms_cdf[i + 1, lo], fx)) / c, v0, v1))
+
+
+@wp.func
+def multiple_scattering_pdf(t: GgxAlbedo, roughness: float, mu: float):
+    """Solid-angle pdf of a direction at ``mu = cos theta`` drawn by :func:`sample_multiple_scattering_cos` (with a
+    uniform azimuth): ``c_j mu / (pi C)``, ``C`` the density's integral over ``mu^2``."""
+    if mu <= 0.0:
+        return 0.0
+    i, fx = roughness_row(t.ms_cdf.shape[0], roughness)
+    cols = t.ms_cdf.shape[1]
+    total = wp.lerp(t.ms_cdf[i, cols - 1], t.ms_cdf[i + 1, cols - 1], fx)
+    j = wp.min(int(wp.sqrt(wp.min(mu, 1.0)) * float(cols - 1)), cols - 2)
+    return wp.lerp(t.ms_density[i, j], t.ms_density[i + 1, j], fx) * mu / (PI * total)
