@@ -442,7 +442,8 @@ def intersect_visible(
     if nothing_hidden:
         return
     n = len(origins)
-    for _ in range(MAX_CULL_PASSES if passes is None else passes):
+
+    def cull():  # marks the rays whose hit is hidden for a re-trace from past it; scratch.retries counts them
         scratch.retries.zero_()
         wp.launch(
             cull_hidden_hits_kernel,
@@ -452,8 +453,8 @@ def intersect_visible(
             outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries],
             device=scratch.device,
         )
-        if passes is None and int(scratch.retries.numpy()[0]) == 0:
-            return
+
+    def retrace_and_cull():
         accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, scratch.hits, costs=camera_rays)
         h2 = scratch.hits
         wp.launch(
@@ -463,6 +464,10 @@ def intersect_visible(
             outputs=[hits.t, hits.u, hits.v, hits.prim, hits.cost, hits.instance],
             device=scratch.device,
         )
+        cull()
+
+    cull()
+    repeat_passes(retrace_and_cull, scratch, MAX_CULL_PASSES if passes is None else passes, passes is not None)
 
 
 @wp.kernel
@@ -473,15 +478,17 @@ def start_shadow_holes_kernel(
     # outputs
     retry_t_mins: wp.array[float],
     retry_t_maxs: wp.array[float],
+    retries: wp.array[wp.int32],
 ):
-    """Blocked shadow rays keep their range, to look for their closest hit (it may be a hole); the others get an
-    empty one (``retry_t_maxs = 0``: decided)."""
+    """Blocked shadow rays keep their range, to look for their closest hit (it may be a hole), and are counted in
+    ``retries``; the others get an empty one (``retry_t_maxs = 0``: decided)."""
     i = wp.tid()
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
     if blocked[i] == 1:
         retry_t_mins[i] = t_mins[i]
         retry_t_maxs[i] = t_maxs[i]
+        wp.atomic_add(retries, 0, 1)
 
 
 @wp.kernel
@@ -537,10 +544,12 @@ def occluded_through_holes(
     if scratch.no_holes:
         return
     n = len(origins)
+    scratch.retries.zero_()
     wp.launch(start_shadow_holes_kernel, n, inputs=[t_mins, t_maxs, blocked],
-              outputs=[scratch.t_mins, scratch.t_maxs], device=scratch.device)
+              outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries], device=scratch.device)
     h = scratch.hits
-    for _ in range(MAX_SHADOW_HOLE_PASSES if passes is None else passes):
+
+    def one_pass():
         scratch.retries.zero_()
         accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, h, costs=False)
         wp.launch(
@@ -550,8 +559,44 @@ def occluded_through_holes(
             outputs=[scratch.t_mins, scratch.t_maxs, blocked, scratch.retries],
             device=scratch.device,
         )
-        if passes is None and int(scratch.retries.numpy()[0]) == 0:
-            return
+
+    repeat_passes(one_pass, scratch, MAX_SHADOW_HOLE_PASSES if passes is None else passes, passes is not None)
+
+
+@wp.kernel
+def count_pass_kernel(limit: int, done: wp.array[wp.int32], retries: wp.array[wp.int32]):
+    """Counts a pass of a loop recorded in a CUDA graph; after ``limit`` passes it ends the loop (``retries = 0``)."""
+    done[0] = done[0] + 1
+    if done[0] >= limit:
+        retries[0] = 0
+
+
+def repeat_passes(one_pass, scratch, limit: int, no_host_reads: bool) -> None:
+    """Runs ``one_pass()`` while ``scratch.retries[0] > 0`` (each pass counts the rays that need another), at most
+    ``limit`` times.
+
+    With ``no_host_reads`` (``Renderer.launch_frame``) nothing is read back: inside a CUDA graph capture that can
+    hold conditional nodes (CUDA 12.4+) the passes are a loop of the graph, which stops as the host loop does (a
+    20,000-leaf canopy ran all 31 + 32 passes per bounce in every replay); elsewhere exactly ``limit`` passes run."""
+    device = wp.get_device(scratch.device)
+    if not no_host_reads:
+        for _ in range(limit):
+            if int(scratch.retries.numpy()[0]) == 0:
+                return
+            one_pass()
+        return
+    if device.is_cuda and device.is_capturing and wp.is_conditional_graph_supported():
+        scratch.passes_done.zero_()
+
+        def counted_pass():
+            one_pass()
+            wp.launch(count_pass_kernel, 1, inputs=[limit], outputs=[scratch.passes_done, scratch.retries],
+                      device=device)
+
+        wp.capture_while(scratch.retries, counted_pass)
+        return
+    for _ in range(limit):
+        one_pass()
 
 
 class CullScratch:
@@ -573,13 +618,14 @@ class CullScratch:
         self.t_mins = wp.empty(n, dtype=float, device=device)
         self.t_maxs = wp.empty(n, dtype=float, device=device)
         self.retries = wp.zeros(1, dtype=wp.int32, device=device)
+        self.passes_done = wp.zeros(1, dtype=wp.int32, device=device)  # of a loop in a CUDA graph (repeat_passes)
         self.hits = HitBuffer(n, device)
 
     def head(self, m: int) -> "CullScratch":
         """The buffers of the first ``m`` rays (views, not copies; the retry counter is shared)."""
         out = object.__new__(CullScratch)
-        out.device, out.nothing_to_cull, out.no_holes, out.retries = (self.device, self.nothing_to_cull,
-                                                                       self.no_holes, self.retries)
+        out.device, out.nothing_to_cull, out.no_holes = self.device, self.nothing_to_cull, self.no_holes
+        out.retries, out.passes_done = self.retries, self.passes_done
         out.t_mins, out.t_maxs, out.hits = self.t_mins[:m], self.t_maxs[:m], self.hits.slice(0, m)
         return out
 
