@@ -48,8 +48,8 @@ MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
 MM_PER_METER = 1000.0  # camera focal lengths are read as millimetres for the thin lens
 MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit seed)
-# Back-face cull passes of camera rays in a graph-captured frame of a scene without cut-outs (it cannot stop early: no
-# host reads); with cut-outs it runs all MAX_CULL_PASSES for camera and bounce rays, to pass as many holes as render.
+# Most back-face cull passes of camera rays in a frame of launch_frame in a scene without cut-outs (outside a graph
+# capture all of them run: no host reads); with cut-outs up to MAX_CULL_PASSES, to pass as many holes as render.
 CAPTURE_CULL_PASSES = 2
 
 
@@ -472,13 +472,15 @@ class Renderer:
     def launch_frame(self, seed: int = 0) -> None:
         """Launches one sample per pixel with no host synchronisation, so that the launches can be recorded in a
         CUDA graph (``wp.ScopedCapture``) and replayed: every bounce up to ``max_depth`` is launched (finished paths
-        do no work). In a scene with cut-outs, camera and bounce rays run all :data:`wrt.shade.MAX_CULL_PASSES`
-        passes past holes (which use up no bounce) and shadow rays all :data:`wrt.shade.MAX_SHADOW_HOLE_PASSES`, so
-        the frame passes as many holes in a row as :meth:`render`; without cut-outs back-face culling runs
-        :data:`CAPTURE_CULL_PASSES` passes. Buffers are allocated on the first call, so make one call before
-        capturing. :meth:`frame_image` reads the result. A recorded graph replays the scene's device arrays as they
-        were: after an edit of the scene, call once outside a capture (it builds them again) and record again;
-        :meth:`set_cameras` with the same camera count is followed."""
+        do no work). In a scene with cut-outs, camera and bounce rays run up to :data:`wrt.shade.MAX_CULL_PASSES`
+        passes past holes (which use up no bounce) and shadow rays up to :data:`wrt.shade.MAX_SHADOW_HOLE_PASSES`,
+        so the frame passes as many holes in a row as :meth:`render`; without cut-outs back-face culling runs up to
+        :data:`CAPTURE_CULL_PASSES` passes. Inside a CUDA graph capture the passes are a loop of the graph that
+        stops once no ray needs another (:func:`wrt.shade.repeat_passes`); outside one, all of them run. Buffers are
+        allocated on the first call, so make one call before capturing. :meth:`frame_image` reads the result. A
+        recorded graph replays the scene's device arrays as they were: after an edit of the scene, call once outside
+        a capture (it builds them again) and record again; :meth:`set_cameras` with the same camera count is
+        followed."""
         self._follow_scene()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
@@ -544,8 +546,8 @@ class Renderer:
             aovs.done = True
 
     def _occluded(self, w: _Wavefront):
-        """``w.blocked`` of the shadow rays, which pass through the holes of cut-outs (every pass launched in
-        :meth:`launch_frame`: it cannot stop early without reading back)."""
+        """``w.blocked`` of the shadow rays, which pass through the holes of cut-outs (in :meth:`launch_frame` without
+        reading back: :func:`wrt.shade.repeat_passes`)."""
         passes = MAX_SHADOW_HOLE_PASSES if self._sync_free else None
         occluded_through_holes(self.accel, self.surfaces, self.materials,
                                [w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs], w.blocked,

@@ -431,8 +431,9 @@ def intersect_visible(
         rays: ``[origins, directions, t_mins, t_maxs]`` device arrays.
         hits: the :class:`wrt.trace.HitBuffer` to fill.
         scratch: a :class:`CullScratch` of the same size.
-        passes: run exactly this many cull passes without reading anything back to the host (for CUDA graph
-            capture); ``None``: up to :data:`MAX_CULL_PASSES`, stopping once no ray needs another.
+        passes: run up to this many cull passes without reading anything back to the host (for CUDA graph
+            capture: :func:`repeat_passes`); ``None``: up to :data:`MAX_CULL_PASSES`, stopping once no ray needs
+            another.
         camera_rays: also cull back faces, and add the traversal costs to ``hits.cost`` (the cost AOV); ``False``
             for bounce rays, which see both sides of every surface and pass holes only.
     """
@@ -536,8 +537,9 @@ def occluded_through_holes(
         rays: ``[origins, directions, t_mins, t_maxs]`` device arrays.
         blocked: ``(N,)`` int32 device array: 1 where ray ``i`` is blocked, else 0.
         scratch: a :class:`CullScratch` of the same size.
-        passes: run exactly this many closest-hit passes without reading anything back to the host (for CUDA
-            graph capture); ``None``: up to :data:`MAX_SHADOW_HOLE_PASSES`, stopping once no ray needs another.
+        passes: run up to this many closest-hit passes without reading anything back to the host (for CUDA
+            graph capture: :func:`repeat_passes`); ``None``: up to :data:`MAX_SHADOW_HOLE_PASSES`, stopping once no
+            ray needs another.
     """
     origins, directions, t_mins, t_maxs = rays
     accel.occluded(*rays, blocked)
@@ -577,7 +579,8 @@ def repeat_passes(one_pass, scratch, limit: int, no_host_reads: bool) -> None:
 
     With ``no_host_reads`` (``Renderer.launch_frame``) nothing is read back: inside a CUDA graph capture that can
     hold conditional nodes (CUDA 12.4+) the passes are a loop of the graph, which stops as the host loop does (a
-    20,000-leaf canopy ran all 31 + 32 passes per bounce in every replay); elsewhere exactly ``limit`` passes run."""
+    20,000-leaf canopy's frame took 21.7 ms running all 31 + 32 passes per bounce in every replay, 15.2 ms with the
+    loop); elsewhere exactly ``limit`` passes run."""
     device = wp.get_device(scratch.device)
     if not no_host_reads:
         for _ in range(limit):
