@@ -43,7 +43,7 @@ import warp as wp
 
 from .errors import SceneError, check_fields
 from .geometry import stable_length
-from .materials import DeviceMaterials, eval_emission
+from .materials import DeviceMaterials, cut_out, eval_emission
 from .sampling import (
     INV_PI,
     PI,
@@ -1146,6 +1146,9 @@ def sample_light(
         ln = cr / (2.0 * area)
         st = bw * uvs[prim, 0] + bu * uvs[prim, 1] + bv * uvs[prim, 2]
         L = eval_emission(mats, tri_materials[prim], st)
+        if cut_out(mats, tri_materials[prim], st):
+            # A hole of an emissive cut-out: rays pass it and see no light there, so it sends none either.
+            L = wp.vec3(0.0)
         two_sided = tri_double_sided[prim]
     to = q - p
     d2 = wp.length_sq(to)
