@@ -214,6 +214,42 @@ def test_preview_bindings_serve_where_full_binds_no_preview_surface(tmp_path):
     assert by_mesh == {"/OnlyPreview": "/Looks/Red", "/MdlFull": "/Looks/Red", "/Both": "/Looks/Green"}
 
 
+@pytest.mark.parametrize("instanceable", [False, True])
+def test_preview_bindings_on_native_instances_reach_the_prototype_meshes(tmp_path, instanceable):
+    """Bindings on an instanceable prim follow the same rule as those on a mesh: an instance bound only for
+    ``preview`` drew its prototype's meshes in the default grey, and one whose full binding is an MDL look drew the
+    MDL's fallback, where the same stage without ``instanceable`` showed the preview UsdPreviewSurfaces."""
+    stage, path = new_stage(tmp_path)
+    red, _ = preview_material(stage, "/Looks/Red", diffuseColor=Gf.Vec3f(1, 0, 0))
+    green, _ = preview_material(stage, "/Looks/Green", diffuseColor=Gf.Vec3f(0, 1, 0))
+    mdl = UsdShade.Material.Define(stage, "/Looks/Mdl")
+    shader = UsdShade.Shader.Define(stage, "/Looks/Mdl/Surface")
+    shader.SetSourceAsset(Sdf.AssetPath("OmniPBR.mdl"), "mdl")
+    mdl.CreateSurfaceOutput("mdl").ConnectToSource(shader.ConnectableAPI(), "out")
+    stage.CreateClassPrim("/Chair")
+    add_quad(stage, "/Chair/Seat")
+    chairs = {}
+    for k, name in enumerate(["OnlyPreview", "MdlFull"]):
+        chair = UsdGeom.Xform.Define(stage, f"/World/{name}")
+        chair.GetPrim().GetInherits().AddInherit("/Chair")
+        chair.AddTranslateOp().Set(Gf.Vec3d(3 * k, 0, 0))
+        chair.GetPrim().SetInstanceable(instanceable)
+        chairs[name] = chair
+    bind(chairs["OnlyPreview"], red, UsdShade.Tokens.preview)
+    bind(chairs["MdlFull"], mdl)
+    bind(chairs["MdlFull"], green, UsdShade.Tokens.preview)
+    stage.Save()
+    scene = wrt.load_usd(path)
+    if instanceable:
+        assert len(scene.instances) == 2 and not scene.meshes
+        prototypes = scene.instances.prototype
+        meshes = {scene.instances.path(i): scene.prototypes[p].meshes[0] for i, p in enumerate(prototypes)}
+    else:
+        meshes = {m.path.removesuffix("/Seat"): m for m in scene.meshes}
+    by_chair = {chair: {scene.materials[k].path for k in m.material_ids} for chair, m in meshes.items()}
+    assert by_chair == {"/World/OnlyPreview": {"/Looks/Red"}, "/World/MdlFull": {"/Looks/Green"}}
+
+
 def test_unsupported_shaders_fall_back_with_one_warning_per_material(tmp_path):
     stage, path = new_stage(tmp_path)
     for k, shader_id in enumerate(["ND_standard_surface_surfaceshader", "ND_open_pbr_surface_surfaceshader"]):

@@ -5,7 +5,7 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
 - Each mesh's material is ``UsdShade.MaterialBindingAPI.ComputeBoundMaterial(purpose="full")``, which applies
   USD's rules: direct and ``collection`` bindings, ``bindMaterialAs`` strength, inheritance down namespace, and
   ``material:binding:full`` over all-purpose bindings. Where that gives no material, or one without a
-  UsdPreviewSurface, a ``preview``-purpose binding to a UsdPreviewSurface is used instead (:func:`_bound_material`).
+  UsdPreviewSurface, a ``preview``-purpose binding to a UsdPreviewSurface is used instead (:func:`bound_material`).
   ``GeomSubset``\\ s of family ``materialBind`` override the mesh's material on their faces (subsets of points or
   edges are ignored with a warning).
 - The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``, else a render context's
@@ -358,8 +358,9 @@ def _context_preview_surface(material):
     return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in PREVIEW_SURFACE_IDS), None)
 
 
-def _bound_material(prim):
-    """The material bound to ``prim`` (a mesh or a subset) for rendering, or an invalid ``UsdShade.Material``.
+def bound_material(prim) -> tuple:
+    """The material bound to ``prim`` (a mesh, a subset or a native instance) for rendering, an invalid
+    ``UsdShade.Material`` when none, and the binding relationship that binds it (for its strength).
 
     The ``full`` purpose first (it falls back to all-purpose bindings); when that binds nothing, or a material
     without a UsdPreviewSurface (an MDL or MaterialX look) while a ``material:binding:preview`` binds one, the
@@ -368,11 +369,11 @@ def _bound_material(prim):
     from pxr import UsdShade
 
     binding = UsdShade.MaterialBindingAPI(prim)
-    full, _ = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
-    if full and _context_preview_surface(full):
+    full = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
+    if full[0] and _context_preview_surface(full[0]):
         return full
-    preview, _ = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
-    return preview if preview and _context_preview_surface(preview) else full
+    preview = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
+    return preview if preview[0] and _context_preview_surface(preview[0]) else full
 
 
 def _shader_name(shader) -> str:
@@ -437,13 +438,13 @@ class MaterialReader:
         """
         from pxr import UsdGeom, UsdShade
 
-        material = _bound_material(prim)
+        material, _ = bound_material(prim)
         base = self.material_index(material) if material else -1
         faces = np.full(n_faces, base, np.int32)
         unbound = np.full(n_faces, not material, bool)
         bound = bool(material)
         for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
-            sub_material = _bound_material(subset.GetPrim())
+            sub_material, _ = bound_material(subset.GetPrim())
             if not sub_material:
                 continue
             element_type = subset.GetElementTypeAttr().Get()

@@ -32,8 +32,9 @@ exist, or per-instance arrays shorter than ``protoIndices`` raise :class:`wrt.er
 instancer; instances whose transform is singular (a zero scale) are skipped with a warning naming each one
 (``/instancer[index]``). Visibility and purpose inside a PointInstancer's prototype are taken from the prototype
 root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
-bound on or above a native instance applies to the prototype's meshes that bind none themselves (on the faces that
-their ``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it
+bound on or above a native instance (chosen by the meshes' rule, :func:`wrt.materials.bound_material`: preview
+bindings included) applies to the prototype's meshes that bind none themselves (on the faces that their
+``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it
 is bound ``strongerThanDescendants``. A constant ``displayColor`` on or above a native instance colours the
 prototype's meshes and gprims that have none (a copy of the prototype per colour, up to ``MAX_INHERITED_COLORS``).
 A PointInstancer's ``primvars:displayColor`` (``constant``, or ``vertex``/``varying``: one per instance, flattened
@@ -66,7 +67,7 @@ from .camera import Camera
 from .errors import SceneError
 from .instancing import Instances, Prototype, group_rows, invert_transforms
 from .lights import read_light
-from .materials import MaterialReader
+from .materials import MaterialReader, bound_material
 from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .usd_skel import SkelPoser
@@ -495,7 +496,7 @@ class _StageReader:
             return
         outer, forced = ctx.outer_material, ctx.outer_forced
         if not forced:
-            material, binding = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
+            material, binding = bound_material(prim)  # as the meshes' own, preview bindings included
             if material:
                 outer = self.materials.material_index(material)
                 # A strongerThanDescendants binding (on the instance or above it) overrides the prototype's own
