@@ -365,15 +365,18 @@ def bound_material(prim) -> tuple:
     The ``full`` purpose first (it falls back to all-purpose bindings); when that binds nothing, or a material
     without a UsdPreviewSurface (an MDL or MaterialX look) while a ``material:binding:preview`` binds one, the
     preview binding, as usdview shows it. An asset whose meshes bind their UsdPreviewSurface only for preview was
-    drawn in the default grey."""
+    drawn in the default grey. (usdview takes a preview binding first also where the full one has a
+    UsdPreviewSurface: there wrt, a final-frame renderer, keeps the full one.)"""
     from pxr import UsdShade
 
     binding = UsdShade.MaterialBindingAPI(prim)
-    full = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
-    if full[0] and _context_preview_surface(full[0]):
-        return full
-    preview = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
-    return preview if preview[0] and _context_preview_surface(preview[0]) else full
+    full, full_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
+    if full and _context_preview_surface(full):
+        return full, full_binding
+    preview, preview_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
+    if preview and _context_preview_surface(preview):
+        return preview, preview_binding
+    return full, full_binding
 
 
 def _shader_name(shader) -> str:
