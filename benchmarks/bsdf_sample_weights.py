@@ -13,7 +13,7 @@ import argparse
 import numpy as np
 import warp as wp
 
-from wrt.bsdf import Surface, clearcoat_albedo, lobe_weights, sample_bsdf, specular_albedo, surface_f0
+from wrt.bsdf import Surface, lobe_albedos, sample_bsdf
 from wrt.microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 
 LOBES = ("diffuse", "ggx", "ms", "coat")  # wrt.bsdf.lobe_weights' order
@@ -54,10 +54,10 @@ def largest_weights_kernel(
     s.clearcoat_roughness = roughness[m]
     n = wp.vec3(0.0, 0.0, 1.0)
     wo = wp.vec3(wp.sqrt(1.0 - cos_o[k] * cos_o[k]), 0.0, cos_o[k])
-    spec, spec_ms = specular_albedo(tables, surface_f0(s), s.roughness, cos_o[k])
-    w = lobe_weights(s, spec, spec_ms, clearcoat_albedo(tables, s, cos_o[k]))
+    lobes = lobe_albedos(s, tables, cos_o[k])
+    w = lobes.weights
     for j in range(u.shape[0]):
-        weight = sample_bsdf(s, tables, n, n, wo, 1, u[j, 0], u[j, 1], u[j, 2], u[j, 3]).weight
+        weight = sample_bsdf(s, tables, lobes, n, n, wo, 1, u[j, 0], u[j, 1], u[j, 2], u[j, 3]).weight
         lobe = int(3)
         if u[j, 1] < w[0]:
             lobe = 0

@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wrt.bsdf import Surface, eval_bsdf, sample_bsdf
+from wrt.bsdf import Surface, eval_bsdf, lobe_albedos, sample_bsdf
 from wrt.microfacet_albedo import (
     GgxAlbedo,
     ggx_albedo_tables,
     load_table,
     lookup_ggx_albedo,
     lookup_ggx_average_loss,
+    lookup_multiple_scattering_total,
     multiple_scattering_pdf,
     sample_multiple_scattering_cos,
 )
@@ -64,7 +65,9 @@ def sample_bsdf_kernel(
     """Sample ``i``: :func:`sample_bsdf` at shading normal ``n[i]`` (also the geometric normal) for viewer
     ``wo[i]`` with the four numbers ``u[i]``."""
     i = wp.tid()
-    b = sample_bsdf(surface_from(p), tables, n[i], n[i], wo[i], 1, u[i, 0], u[i, 1], u[i, 2], u[i, 3])
+    s = surface_from(p)
+    lobes = lobe_albedos(s, tables, wp.dot(n[i], wo[i]))
+    b = sample_bsdf(s, tables, lobes, n[i], n[i], wo[i], 1, u[i, 0], u[i, 1], u[i, 2], u[i, 3])
     wi[i] = b.wi
     weight[i] = b.weight
     pdf[i] = b.pdf
@@ -84,7 +87,8 @@ def eval_bsdf_kernel(
 ):
     """``(f, pdf)`` of :func:`eval_bsdf` for ``wo[i], wi[i]`` at normal ``n[i]``."""
     i = wp.tid()
-    fi, pi = eval_bsdf(surface_from(p), tables, n[i], n[i], wo[i], wi[i])
+    s = surface_from(p)
+    fi, pi = eval_bsdf(s, tables, lobe_albedos(s, tables, wp.dot(n[i], wo[i])), n[i], n[i], wo[i], wi[i])
     f[i] = fi
     pdf[i] = pi
 
@@ -297,10 +301,11 @@ def sample_weights_kernel(
     s = surface_from(p[m])
     n = wp.vec3(0.0, 0.0, 1.0)
     wo = wp.vec3(wp.sqrt(1.0 - cos_o[k] * cos_o[k]), 0.0, cos_o[k])
+    lobes = lobe_albedos(s, tables, cos_o[k])
     total = wp.vec3(0.0)
     top = wp.vec3(0.0)
     for j in range(u.shape[0]):
-        weight = sample_bsdf(s, tables, n, n, wo, 1, u[j, 0], u[j, 1], u[j, 2], u[j, 3]).weight
+        weight = sample_bsdf(s, tables, lobes, n, n, wo, 1, u[j, 0], u[j, 1], u[j, 2], u[j, 3]).weight
         total += weight
         top = wp.max(top, weight)
     albedo[m, k] = total / float(u.shape[0])
@@ -395,7 +400,7 @@ def multiple_scattering_sample_kernel(
 ):
     """``mu[i]``: the cosine :func:`sample_multiple_scattering_cos` draws from ``u[i]``."""
     i = wp.tid()
-    mu[i] = sample_multiple_scattering_cos(tables, roughness, u[i])
+    mu[i] = sample_multiple_scattering_cos(tables, roughness, lookup_multiple_scattering_total(tables, roughness), u[i])
 
 
 @wp.kernel
@@ -410,7 +415,7 @@ def multiple_scattering_pdf_kernel(
     """``pdf[i]``: :func:`multiple_scattering_pdf` at ``mu[i]``; ``lobe[i]``: the shape of the lobe it samples,
     ``(1 - E(mu)) mu / (pi (1 - E_avg))`` (``f_ms cos`` over ``F_ms (1 - E(mu_o))``; a solid-angle density)."""
     i = wp.tid()
-    pdf[i] = multiple_scattering_pdf(tables, roughness, mu[i])
+    pdf[i] = multiple_scattering_pdf(tables, roughness, lookup_multiple_scattering_total(tables, roughness), mu[i])
     loss = lookup_ggx_average_loss(tables, roughness)
     lobe[i] = (1.0 - lookup_ggx_albedo(tables, roughness, mu[i])[0]) * mu[i] / (math.pi * loss)
 

@@ -10,7 +10,7 @@ import warp as wp
 from shading_helpers import quad, uv_sphere
 
 import wrt
-from wrt.bsdf import Surface, sample_bsdf
+from wrt.bsdf import Surface, lobe_albedos, sample_bsdf
 from wrt.lights import DomeLight, RectLight
 from wrt.materials import Material
 from wrt.microfacet_albedo import GgxAlbedo, ggx_albedo_tables
@@ -388,9 +388,10 @@ def bsdf_albedo_kernel(
     s.clearcoat_roughness = 0.01
     n = wp.vec3(0.0, 0.0, 1.0)
     wo = wp.vec3(wp.sqrt(1.0 - cos_o[i] * cos_o[i]), 0.0, cos_o[i])
+    lobes = lobe_albedos(s, tables, cos_o[i])
     total = float(0.0)
     for k in range(u.shape[0]):
-        b = sample_bsdf(s, tables, n, n, wo, 1, u[k, 0], u[k, 1], u[k, 2], u[k, 3])
+        b = sample_bsdf(s, tables, lobes, n, n, wo, 1, u[k, 0], u[k, 1], u[k, 2], u[k, 3])
         total += luminance(b.weight)
     albedo[i] = total / float(u.shape[0])
 

@@ -43,6 +43,7 @@ from .microfacet_albedo import (
     GgxAlbedo,
     lookup_ggx_albedo,
     lookup_ggx_average_loss,
+    lookup_multiple_scattering_total,
     multiple_scattering_pdf,
     sample_multiple_scattering_cos,
 )
@@ -233,28 +234,56 @@ def multiple_scattering_color(f0: wp.vec3, loss: float):
     return wp.cw_div(wp.cw_mul(f_avg, f_avg) * (1.0 - loss), wp.vec3(1.0) - f_avg * loss)
 
 
+@wp.struct
+class LobeAlbedos:
+    """What the opaque lobes reflect towards one viewer: every value :func:`eval_bsdf` and :func:`sample_bsdf` read
+    from the albedo tables for the viewing angle, looked up once per shading point by :func:`lobe_albedos` (a path
+    vertex evaluates the BSDF for its light sample and for its BSDF sample; each looked them up again)."""
+
+    spec: wp.vec3  # the specular lobe's single-scattering albedo: F(cos_o) for a mirror, f0 (E - B) + f90 B for GGX
+    spec_ms: wp.vec3  # its multiple-scattering lobe's albedo ms_color * loss_o (0 for a mirror)
+    ms_color: wp.vec3  # multiple_scattering_color of the specular lobe (0 for a mirror)
+    loss_o: float  # 1 - E(cos_o) of the specular lobe (0 for a mirror)
+    average_loss: float  # 1 - E_avg of the specular lobe (0 for a mirror)
+    ms_total: float  # lookup_multiple_scattering_total of the specular lobe (0 for a mirror; set by lobe_albedos)
+    coat: float  # clearcoat_albedo (set by lobe_albedos)
+    weights: wp.vec4  # lobe_weights (set by lobe_albedos)
+
+
+@wp.func
+def single_scattering_albedo(tables: GgxAlbedo, f0: wp.vec3, roughness: float, cos_o: float):
+    """``(albedo, E)`` of a specular lobe of reflectance ``f0`` for a viewer at ``cos_o``: ``F(cos_o)`` and 1 for a
+    mirror; for GGX ``f0 (E - B) + f90 B`` and a white lobe's ``E`` (see :mod:`wrt.microfacet_albedo`)."""
+    if roughness < DELTA_ROUGHNESS:
+        return fresnel_schlick(f0, cos_o), 1.0
+    eb = lookup_ggx_albedo(tables, roughness, cos_o)
+    return f0 * (eb[0] - eb[1]) + wp.vec3(schlick_f90(f0) * eb[1]), eb[0]
+
+
 @wp.func
 def specular_albedo(tables: GgxAlbedo, f0: wp.vec3, roughness: float, cos_o: float):
-    """Directional albedo ``(single, multiple)`` of a specular lobe of reflectance ``f0`` for a viewer at ``cos_o``:
-    ``F(cos_o)`` and 0 for a mirror; for GGX ``f0 (E - B) + f90 B`` and the compensation lobe's
-    ``(1 - E) multiple_scattering_color`` (see :mod:`wrt.microfacet_albedo`)."""
-    if roughness < DELTA_ROUGHNESS:
-        return fresnel_schlick(f0, cos_o), wp.vec3(0.0)
-    eb = lookup_ggx_albedo(tables, roughness, cos_o)
-    single = f0 * (eb[0] - eb[1]) + wp.vec3(schlick_f90(f0) * eb[1])
-    color = multiple_scattering_color(f0, lookup_ggx_average_loss(tables, roughness))
-    return single, color * (1.0 - eb[0])
+    """Directional albedo of a specular lobe of reflectance ``f0`` for a viewer at ``cos_o``: the specular fields of
+    :class:`LobeAlbedos` (``spec``: :func:`single_scattering_albedo`; ``spec_ms``: the compensation lobe's
+    ``(1 - E) multiple_scattering_color``, 0 for a mirror), the others 0."""
+    lobes = LobeAlbedos()
+    single, e = single_scattering_albedo(tables, f0, roughness, cos_o)
+    lobes.spec = single
+    if roughness >= DELTA_ROUGHNESS:
+        lobes.loss_o = 1.0 - e
+        lobes.average_loss = lookup_ggx_average_loss(tables, roughness)
+        lobes.ms_color = multiple_scattering_color(f0, lobes.average_loss)
+        lobes.spec_ms = lobes.ms_color * lobes.loss_o
+    return lobes
 
 
 @wp.func
-def multiple_scattering(tables: GgxAlbedo, f0: wp.vec3, roughness: float, cos_o: float, cos_i: float):
-    """The compensation lobe ``f_ms`` (without the cosine) of a GGX lobe: ``multiple_scattering_color (1 - E(cos_o))
-    (1 - E(cos_i)) / (pi (1 - E_avg))``, which reflects the ``1 - E(cos_o)`` the single-scattering lobe loses."""
-    loss = lookup_ggx_average_loss(tables, roughness)
-    e_o = lookup_ggx_albedo(tables, roughness, cos_o)[0]
+def multiple_scattering(tables: GgxAlbedo, lobes: LobeAlbedos, roughness: float, cos_i: float):
+    """The compensation lobe ``f_ms`` (without the cosine) of the GGX lobe of ``lobes``: ``multiple_scattering_color
+    (1 - E(cos_o)) (1 - E(cos_i)) / (pi (1 - E_avg))``, which reflects the ``1 - E(cos_o)`` the single-scattering
+    lobe loses."""
     e_i = lookup_ggx_albedo(tables, roughness, cos_i)[0]
-    k = (1.0 - e_o) * (1.0 - e_i) / (PI * wp.max(loss, 1.0e-9))
-    return multiple_scattering_color(f0, loss) * k
+    k = lobes.loss_o * (1.0 - e_i) / (PI * wp.max(lobes.average_loss, 1.0e-9))
+    return lobes.ms_color * k
 
 
 @wp.func
@@ -263,7 +292,7 @@ def clearcoat_albedo(tables: GgxAlbedo, s: Surface, cos_o: float):
     albedo; single scattering only: at ``F0 = 0.04`` the lost bounces are below 0.5%)."""
     if s.clearcoat <= 0.0:
         return 0.0
-    single, multiple = specular_albedo(tables, wp.vec3(CLEARCOAT_F0), s.clearcoat_roughness, cos_o)
+    single, e = single_scattering_albedo(tables, wp.vec3(CLEARCOAT_F0), s.clearcoat_roughness, cos_o)
     return s.clearcoat * single[0]
 
 
@@ -285,11 +314,24 @@ def lobe_weights(s: Surface, spec: wp.vec3, spec_ms: wp.vec3, coat: float):
 
 
 @wp.func
-def eval_opaque(s: Surface, tables: GgxAlbedo, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
+def lobe_albedos(s: Surface, tables: GgxAlbedo, cos_o: float):
+    """The :class:`LobeAlbedos` of ``s`` for a viewer at ``cos_o = dot(n, wo)``, to pass to :func:`eval_bsdf` and
+    :func:`sample_bsdf` for that ``n`` and ``wo`` (``tables``: :func:`wrt.microfacet_albedo.ggx_albedo_tables`)."""
+    lobes = specular_albedo(tables, surface_f0(s), s.roughness, cos_o)
+    if s.roughness >= DELTA_ROUGHNESS:
+        lobes.ms_total = lookup_multiple_scattering_total(tables, s.roughness)
+    lobes.coat = clearcoat_albedo(tables, s, cos_o)
+    lobes.weights = lobe_weights(s, lobes.spec, lobes.spec_ms, lobes.coat)
+    return lobes
+
+
+@wp.func
+def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
     """The opaque BSDF's non-delta lobes: ``(f, pdf)`` for light from ``wi`` seen from ``wo``.
 
-    ``n`` is the shading normal and ``ng`` the geometric normal, both on the side of ``wo``. ``f`` excludes the
-    cosine; ``pdf`` is the solid-angle density with which :func:`sample_bsdf` draws ``wi`` from its opaque lobes.
+    ``n`` is the shading normal and ``ng`` the geometric normal, both on the side of ``wo``; ``lobes`` is
+    :func:`lobe_albedos` for ``dot(n, wo)``. ``f`` excludes the cosine; ``pdf`` is the solid-angle density with which
+    :func:`sample_bsdf` draws ``wi`` from its opaque lobes.
     """
     cos_o = wp.dot(n, wo)
     cos_i = wp.dot(n, wi)
@@ -304,20 +346,18 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, n: wp.vec3, ng: wp.vec3, wo: wp.v
     # angle (Kulla and Conty's albedo scaling), so a white surface reflects all the light it receives, no more.
     # At the half vector's Fresnel angle that share stayed near 0.95 at grazing angles, where the lobes' albedo
     # rises towards 0.5: a white surface reflected up to 1.44 times the light it received.
-    spec, spec_ms = specular_albedo(tables, f0, s.roughness, cos_o)
-    coat = clearcoat_albedo(tables, s, cos_o)
-    coat_below = 1.0 - coat
-    w = lobe_weights(s, spec, spec_ms, coat)
+    coat_below = 1.0 - lobes.coat
+    w = lobes.weights
 
-    f = wp.cw_mul(wp.vec3(1.0) - spec - spec_ms, surface_albedo(s)) * (INV_PI * coat_below)
+    f = wp.cw_mul(wp.vec3(1.0) - lobes.spec - lobes.spec_ms, surface_albedo(s)) * (INV_PI * coat_below)
     pdf = w[0] * cos_i * INV_PI
     if s.roughness >= DELTA_ROUGHNESS:
         a = ggx_alpha(s.roughness)
         dg = ggx_d(cos_h, sin2_h, a) * ggx_g2(cos_o, cos_i, a) / (4.0 * cos_o * cos_i)
         single = fresnel_schlick(f0, cos_vh) * dg
-        f += (single + multiple_scattering(tables, f0, s.roughness, cos_o, cos_i)) * coat_below
+        f += (single + multiple_scattering(tables, lobes, s.roughness, cos_i)) * coat_below
         pdf += w[1] * ggx_reflection_pdf(cos_o, cos_h, sin2_h, a)
-        pdf += w[2] * multiple_scattering_pdf(tables, s.roughness, cos_i)
+        pdf += w[2] * multiple_scattering_pdf(tables, s.roughness, lobes.ms_total, cos_i)
     if s.clearcoat > 0.0 and s.clearcoat_roughness >= DELTA_ROUGHNESS:
         ac = ggx_alpha(s.clearcoat_roughness)
         fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_vh)
@@ -327,10 +367,11 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, n: wp.vec3, ng: wp.vec3, wo: wp.v
 
 
 @wp.func
-def eval_bsdf(s: Surface, tables: GgxAlbedo, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
+def eval_bsdf(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
     """The whole BSDF's non-delta part: ``(f, pdf)`` with the opaque fraction applied (see :func:`eval_opaque`);
-    ``tables`` are :func:`wrt.microfacet_albedo.ggx_albedo_tables` on the kernel's device."""
-    f, pdf = eval_opaque(s, tables, n, ng, wo, wi)
+    ``tables`` are :func:`wrt.microfacet_albedo.ggx_albedo_tables` on the kernel's device, ``lobes`` is
+    :func:`lobe_albedos` for ``dot(n, wo)``."""
+    f, pdf = eval_opaque(s, tables, lobes, n, ng, wo, wi)
     k = opaque_fraction(s)
     return f * k, pdf * k
 
@@ -350,6 +391,7 @@ class BsdfSample:
 def sample_bsdf(
     s: Surface,
     tables: GgxAlbedo,
+    lobes: LobeAlbedos,
     n: wp.vec3,
     ng: wp.vec3,
     wo: wp.vec3,
@@ -364,6 +406,7 @@ def sample_bsdf(
     Args:
         s: the surface.
         tables: :func:`wrt.microfacet_albedo.ggx_albedo_tables` on the kernel's device.
+        lobes: :func:`lobe_albedos` for ``dot(n, wo)``.
         n: shading normal on the side of ``wo``.
         ng: geometric normal on the side of ``wo``.
         wo: unit direction towards the viewer.
@@ -405,16 +448,14 @@ def sample_bsdf(
 
     # Opaque: pick a lobe, then a direction in it. The weights' rounded sum may fall short of 1: a u1 above it goes
     # to the last lobe of non-zero weight (it took a clearcoat of weight 0, and a mirror coat gave 0 / 0 = NaN).
-    spec, spec_ms = specular_albedo(tables, surface_f0(s), s.roughness, cos_o)
-    coat = clearcoat_albedo(tables, s, cos_o)
-    w = lobe_weights(s, spec, spec_ms, coat)
+    w = lobes.weights
     wo_local = to_local(wo, n)
     if u1 < w[0] or (w[1] <= 0.0 and w[2] <= 0.0 and w[3] <= 0.0):
         out.wi = to_world(sample_cosine_hemisphere(u2, u3), n)
     elif u1 < w[0] + w[1] or (w[2] <= 0.0 and w[3] <= 0.0):
         if s.roughness < DELTA_ROUGHNESS:
             out.wi = reflect(wo, n)
-            out.weight = spec * ((1.0 - coat) / w[1])  # spec = F(cos_o) for a mirror
+            out.weight = lobes.spec * ((1.0 - lobes.coat) / w[1])  # spec = F(cos_o) for a mirror
             out.delta = 1
             if wp.dot(ng, out.wi) <= 0.0:
                 out.weight = wp.vec3(0.0)
@@ -423,14 +464,14 @@ def sample_bsdf(
         out.wi = reflect(wo, h)
     elif u1 < w[0] + w[1] + w[2] or w[3] <= 0.0:
         # Only a rough specular lobe has a multiple-scattering lobe (w[2] > 0).
-        cos_i = sample_multiple_scattering_cos(tables, s.roughness, u2)
+        cos_i = sample_multiple_scattering_cos(tables, s.roughness, lobes.ms_total, u2)
         sin_phi, cos_phi = sin_cos(2.0 * PI * u3)
         sin_i = wp.sqrt(wp.max(0.0, 1.0 - cos_i * cos_i))
         out.wi = to_world(wp.vec3(sin_i * cos_phi, sin_i * sin_phi, cos_i), n)
     else:
         if s.clearcoat_roughness < DELTA_ROUGHNESS:
             out.wi = reflect(wo, n)
-            out.weight = wp.vec3(coat / w[3])  # coat = clearcoat Fc(cos_o) for a mirror
+            out.weight = wp.vec3(lobes.coat / w[3])  # coat = clearcoat Fc(cos_o) for a mirror
             out.delta = 1
             if wp.dot(ng, out.wi) <= 0.0:
                 out.weight = wp.vec3(0.0)
@@ -438,7 +479,7 @@ def sample_bsdf(
         h = to_world(sample_ggx_vndf(wo_local, ggx_alpha(s.clearcoat_roughness), u2, u3), n)
         out.wi = reflect(wo, h)
 
-    f, pdf = eval_opaque(s, tables, n, ng, wo, out.wi)
+    f, pdf = eval_opaque(s, tables, lobes, n, ng, wo, out.wi)
     if pdf > 0.0:
         out.weight = f * (wp.dot(n, out.wi) / pdf)
         out.pdf = pdf * k

@@ -130,13 +130,24 @@ def lookup_ggx_average_loss(t: GgxAlbedo, roughness: float):
 
 
 @wp.func
-def sample_multiple_scattering_cos(t: GgxAlbedo, roughness: float, u: float):
-    """``mu_i = cos theta_i`` of a direction drawn for the compensation lobe of a lobe of perceptual ``roughness``
-    from a uniform ``u`` (the azimuth is uniform): density ``c_j mu`` over column interval ``j``, the rows' ``c``
-    interpolated linearly in roughness as ``E`` is; :func:`multiple_scattering_pdf` is its solid-angle pdf."""
+def lookup_multiple_scattering_total(t: GgxAlbedo, roughness: float):
+    """``C``, the integral over ``mu^2`` of the compensation lobe's sampling density for a lobe of perceptual
+    ``roughness`` (linear between the table's rows): the ``total`` that :func:`sample_multiple_scattering_cos` and
+    :func:`multiple_scattering_pdf` take, looked up once per shading point."""
     i, fx = roughness_row(t.ms_cdf.shape[0], roughness)
     cols = t.ms_cdf.shape[1]
-    target = u * wp.lerp(t.ms_cdf[i, cols - 1], t.ms_cdf[i + 1, cols - 1], fx)
+    return wp.lerp(t.ms_cdf[i, cols - 1], t.ms_cdf[i + 1, cols - 1], fx)
+
+
+@wp.func
+def sample_multiple_scattering_cos(t: GgxAlbedo, roughness: float, total: float, u: float):
+    """``mu_i = cos theta_i`` of a direction drawn for the compensation lobe of a lobe of perceptual ``roughness``
+    from a uniform ``u`` (the azimuth is uniform): density ``c_j mu`` over column interval ``j``, the rows' ``c``
+    interpolated linearly in roughness as ``E`` is; ``total`` is its integral
+    (:func:`lookup_multiple_scattering_total`); :func:`multiple_scattering_pdf` is its solid-angle pdf."""
+    i, fx = roughness_row(t.ms_cdf.shape[0], roughness)
+    cols = t.ms_cdf.shape[1]
+    target = u * total
     # Find the last interval j whose cumulative integral below it is at most the target (binary search).
     lo = int(0)
     hi = cols - 2
@@ -156,13 +167,13 @@ def sample_multiple_scattering_cos(t: GgxAlbedo, roughness: float, u: float):
 
 
 @wp.func
-def multiple_scattering_pdf(t: GgxAlbedo, roughness: float, mu: float):
+def multiple_scattering_pdf(t: GgxAlbedo, roughness: float, total: float, mu: float):
     """Solid-angle pdf of a direction at ``mu = cos theta`` drawn by :func:`sample_multiple_scattering_cos` (with a
-    uniform azimuth): ``c_j mu / (pi C)``, ``C`` the density's integral over ``mu^2``."""
+    uniform azimuth): ``c_j mu / (pi C)``, ``C = total`` the density's integral over ``mu^2``
+    (:func:`lookup_multiple_scattering_total`)."""
     if mu <= 0.0:
         return 0.0
     i, fx = roughness_row(t.ms_cdf.shape[0], roughness)
     cols = t.ms_cdf.shape[1]
-    total = wp.lerp(t.ms_cdf[i, cols - 1], t.ms_cdf[i + 1, cols - 1], fx)
     j = wp.min(int(wp.sqrt(wp.min(mu, 1.0)) * float(cols - 1)), cols - 2)
     return wp.lerp(t.ms_density[i, j], t.ms_density[i + 1, j], fx) * mu / (PI * total)

@@ -18,7 +18,7 @@ their pdf from that point, as next-event estimation weights them. A ray still in
 
 import warp as wp
 
-from ..bsdf import eval_bsdf, sample_bsdf
+from ..bsdf import eval_bsdf, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin
 from ..lights import DeviceLights, sample_light_in_view, shadow_direction, triangle_light_pdf
 from ..materials import DeviceMaterials, eval_surface
@@ -117,6 +117,7 @@ def shade_path_kernel(
         return
 
     wo = -d
+    lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))  # for both BSDF evaluations and the sample below
     # Next-event estimation: one light, one point on it.
     u_pick, state = rand01(state)
     u1, state = rand01(state)
@@ -128,7 +129,7 @@ def shade_path_kernel(
             lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
         )
         if pmf > 0.0 and max_component(ls.value) > 0.0:
-            f, pdf_f = eval_bsdf(s, mats.ggx_albedo, h.ns, h.ng, wo, ls.wi)
+            f, pdf_f = eval_bsdf(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
             if max_component(f) > 0.0:
                 w = float(1.0)
                 if ls.pdf > 0.0:
@@ -147,7 +148,7 @@ def shade_path_kernel(
     u3, state = rand01(state)
     u4, state = rand01(state)
     u5, state = rand01(state)
-    bs = sample_bsdf(s, mats.ggx_albedo, h.ns, h.ng, wo, h.front, u0, u3, u4, u5)
+    bs = sample_bsdf(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, h.front, u0, u3, u4, u5)
     T = wp.cw_mul(T, bs.weight)
     keep = max_component(T) > 0.0
     if keep and bounce + 1 >= rr_depth:

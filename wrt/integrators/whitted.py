@@ -21,6 +21,7 @@ from ..bsdf import (
     eval_bsdf,
     fresnel_dielectric,
     is_glass,
+    lobe_albedos,
     opaque_fraction,
     reflect,
     refract,
@@ -47,18 +48,19 @@ def traced_specular(s: Surface, tables: GgxAlbedo, cos_o: float):
     one) for a viewer at ``cos_o``: the lobe's albedo (``F`` for a mirror, see :func:`wrt.bsdf.specular_albedo`),
     times ``metallic`` in the metallic workflow, where a dielectric's faint lobe is left out; in the specular
     workflow, which has no metallic input, all of it: its mirrors (specular colour 1, roughness 0) were black."""
-    single, multiple = specular_albedo(tables, surface_f0(s), s.roughness, cos_o)
+    lobe = specular_albedo(tables, surface_f0(s), s.roughness, cos_o)
     if s.specular_workflow == 1:
-        return single + multiple
-    return (single + multiple) * s.metallic
+        return lobe.spec + lobe.spec_ms
+    return (lobe.spec + lobe.spec_ms) * s.metallic
 
 
 @wp.func
-def dome_albedo(s: Surface, tables: GgxAlbedo, cos_o: float):
+def dome_albedo(s: Surface, traced: wp.vec3):
     """Diffuse weight of the dome term: the albedo, less what the specular lobe reflects in the specular workflow
-    (whose lobe :func:`traced_specular` always counts, so that the two never add up to more than 1)."""
+    (``traced``: :func:`traced_specular`, which always counts that lobe, so that the two never add up to more
+    than 1)."""
     if s.specular_workflow == 1:
-        return wp.cw_mul(wp.vec3(1.0) - traced_specular(s, tables, cos_o), surface_albedo(s))
+        return wp.cw_mul(wp.vec3(1.0) - traced, surface_albedo(s))
     return surface_albedo(s)
 
 
@@ -112,10 +114,11 @@ def shade_whitted_kernel(
         L += wp.cw_mul(T, s.emission)
     if lights.dome >= 0:
         cos_o = wp.max(wp.dot(h.ns, -d), 0.0)
-        ambient = dome_albedo(s, mats.ggx_albedo, cos_o)
+        traced = traced_specular(s, mats.ggx_albedo, cos_o)
+        ambient = dome_albedo(s, traced)
         if s.roughness >= DELTA_ROUGHNESS:
             # A rough metal's lobe has no mirror ray (see continue_whitted_kernel): it sees the dome unoccluded too.
-            ambient += traced_specular(s, mats.ggx_albedo, cos_o)
+            ambient += traced
         L += wp.cw_mul(wp.cw_mul(T, ambient), lights.dome_mean) * opaque_fraction(s)
     radiance[i] = L
     active[i] = 1
@@ -175,7 +178,8 @@ def whitted_light_kernel(
     )
     if max_component(ls.value) <= 0.0 or p_pick <= 0.0:
         return
-    f, _ = eval_bsdf(s, mats.ggx_albedo, h.ns, h.ng, -d, ls.wi)
+    wo = -d
+    f, _ = eval_bsdf(s, mats.ggx_albedo, lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo)), h.ns, h.ng, wo, ls.wi)
     if max_component(f) <= 0.0:
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
