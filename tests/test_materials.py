@@ -190,6 +190,15 @@ def test_full_purpose_and_collection_bindings(tmp_path):
     assert by_mesh == {"/Group/A": "/Looks/Full", "/Group/B": "/Looks/Coll"}
 
 
+def mdl_material(stage, path):
+    """A Material whose only surface is an ``mdl:surface`` output to OmniPBR (no UsdPreviewSurface)."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.SetSourceAsset(Sdf.AssetPath("OmniPBR.mdl"), "mdl")
+    material.CreateSurfaceOutput("mdl").ConnectToSource(shader.ConnectableAPI(), "out")
+    return material
+
+
 def test_preview_bindings_serve_where_full_binds_no_preview_surface(tmp_path):
     """As usdview shows them: a mesh bound only for ``preview`` was drawn in the default grey, and one whose full
     binding is an MDL look kept the MDL's fallback instead of its preview UsdPreviewSurface."""
@@ -199,10 +208,7 @@ def test_preview_bindings_serve_where_full_binds_no_preview_surface(tmp_path):
     both = add_quad(stage, "/Both", center=(6, 0, 0))
     red, _ = preview_material(stage, "/Looks/Red", diffuseColor=Gf.Vec3f(1, 0, 0))
     green, _ = preview_material(stage, "/Looks/Green", diffuseColor=Gf.Vec3f(0, 1, 0))
-    mdl = UsdShade.Material.Define(stage, "/Looks/Mdl")
-    shader = UsdShade.Shader.Define(stage, "/Looks/Mdl/Surface")
-    shader.SetSourceAsset(Sdf.AssetPath("OmniPBR.mdl"), "mdl")
-    mdl.CreateSurfaceOutput("mdl").ConnectToSource(shader.ConnectableAPI(), "out")
+    mdl = mdl_material(stage, "/Looks/Mdl")
     bind(only_preview, red, UsdShade.Tokens.preview)
     bind(mdl_full, mdl, UsdShade.Tokens.full)
     bind(mdl_full, red, UsdShade.Tokens.preview)
@@ -222,10 +228,7 @@ def test_preview_bindings_on_native_instances_reach_the_prototype_meshes(tmp_pat
     stage, path = new_stage(tmp_path)
     red, _ = preview_material(stage, "/Looks/Red", diffuseColor=Gf.Vec3f(1, 0, 0))
     green, _ = preview_material(stage, "/Looks/Green", diffuseColor=Gf.Vec3f(0, 1, 0))
-    mdl = UsdShade.Material.Define(stage, "/Looks/Mdl")
-    shader = UsdShade.Shader.Define(stage, "/Looks/Mdl/Surface")
-    shader.SetSourceAsset(Sdf.AssetPath("OmniPBR.mdl"), "mdl")
-    mdl.CreateSurfaceOutput("mdl").ConnectToSource(shader.ConnectableAPI(), "out")
+    mdl = mdl_material(stage, "/Looks/Mdl")
     stage.CreateClassPrim("/Chair")
     add_quad(stage, "/Chair/Seat")
     chairs = {}
