@@ -108,7 +108,8 @@ class Instances(CountsAssignments):
     def check_colors(self) -> None:
         """Raises ``ValueError`` unless :attr:`colors` has one row per instance (or none) and no infinite value (NaN
         means no colour; inf would shade as inf). Also run before each trace and render, for colours assigned
-        after construction: a shorter array would read past its end on the device."""
+        after construction: the shading kernels colour only the instances the array reaches, so a short array
+        would leave the rest grey without a word."""
         colors = np.asarray(self.colors)
         if colors.ndim != 2 or colors.shape[1] != 3 or len(colors) not in (0, len(self)):
             raise ValueError(f"Instances colors must be (N, 3), one row per instance ({len(self)}), or empty; got "
