@@ -314,6 +314,9 @@ def test_python_instances_take_colours(np_rng):
     scene.instances.colors = colors[:2]  # assigned later: refused by the next trace or render, not drawn uncoloured
     with pytest.raises(ValueError, match="one row per instance"):
         albedo_at_instances(scene)
+    scene.instances.colors = None  # no colours, as from_transforms(colors=None) gives; it was refused as shape ()
+    albedo, _ = albedo_at_instances(scene)
+    np.testing.assert_allclose(albedo, np.full((3, 3), GREY), atol=1e-6)
 
 
 def test_preview_shows_the_instance_colours(tmp_path):

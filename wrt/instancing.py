@@ -96,9 +96,6 @@ class Instances(CountsAssignments):
         self.to_world = np.ascontiguousarray(self.to_world, dtype=np.float64).reshape(-1, 4, 4)
         self.source = np.ascontiguousarray(self.source, dtype=np.int32).reshape(-1)
         self.index = np.ascontiguousarray(self.index, dtype=np.int32).reshape(-1)
-        self.colors = np.ascontiguousarray(self.colors, dtype=np.float32)
-        if self.colors.size == 0:
-            self.colors = np.zeros((0, 3), np.float32)
         n = len(self.prototype)
         if not (len(self.to_world) == len(self.source) == len(self.index) == n):
             raise ValueError("Instances arrays must all have one entry per instance")
@@ -106,11 +103,16 @@ class Instances(CountsAssignments):
         self.check_affine()
 
     def check_colors(self) -> None:
-        """Raises ``ValueError`` unless :attr:`colors` has one row per instance (or none) and no infinite value (NaN
-        means no colour; inf would shade as inf). Also run before each trace and render, for colours assigned
-        after construction: the shading kernels colour only the instances the array reaches, so a short array
-        would leave the rest grey without a word."""
-        colors = np.asarray(self.colors)
+        """Raises ``ValueError`` unless :attr:`colors` has one row per instance (or none: empty or None) and no
+        infinite value (NaN means no colour; inf would shade as inf); stores it as float32. Also run before each
+        trace and render, for colours assigned after construction: the shading kernels colour only the instances
+        the array reaches, so a short array would leave the rest grey without a word."""
+        colors = self.colors
+        if colors is None or np.size(colors) == 0:  # None, as from_transforms takes it: no colours
+            colors = np.zeros((0, 3), np.float32) if np.shape(colors) != (0, 3) else colors
+        colors = np.ascontiguousarray(colors, dtype=np.float32)
+        if colors is not self.colors:  # only a real change: each assignment counts as a scene edit (assignments.py)
+            self.colors = colors
         if colors.ndim != 2 or colors.shape[1] != 3 or len(colors) not in (0, len(self)):
             raise ValueError(f"Instances colors must be (N, 3), one row per instance ({len(self)}), or empty; got "
                              f"{colors.shape}")
@@ -144,7 +146,6 @@ class Instances(CountsAssignments):
         optionally ``colors`` ``(N, 3)`` (see the class docstring)."""
         prototype = np.asarray(prototype, np.int32).reshape(-1)
         n = len(prototype)
-        colors = np.zeros((0, 3), np.float32) if colors is None else colors
         return cls(prototype, to_world, np.zeros(n, np.int32), np.arange(n, dtype=np.int32), [name], colors)
 
     def take(self, rows) -> Instances:
