@@ -129,7 +129,6 @@ class _Wavefront:
         "shadow_t_maxs": float,
         "blocked": wp.int32,
         "nee": wp.vec3,
-        "active": wp.int32,
         "views": wp.int32,  # the camera of each path (for the default headlight)
     }
 
@@ -591,14 +590,14 @@ class Renderer:
                 shade_whitted_kernel,
                 w.n,
                 [ds, surf, mats, lights, *hit, w.origins, w.directions, w.t_mins, w.throughput],
-                [w.radiance, w.alive, w.active],
+                [w.radiance, w.alive],
                 self.device,
             )
             for first, count in self._whitted_groups:
                 launch_per_path(
                     whitted_light_kernel,
                     w.n,
-                    [ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.active,
+                    [ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.alive,
                      w.views],
                     [w.rng, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
                     self.device,

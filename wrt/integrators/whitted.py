@@ -82,12 +82,10 @@ def shade_whitted_kernel(
     # outputs
     radiance: wp.array[wp.vec3],
     alive: wp.array[wp.int32],
-    active: wp.array[wp.int32],
 ):
-    """Emission, light passed through, the environment of escaped rays and the dome term; ``active = 1`` marks
-    paths whose hit gets direct lighting and a continuation."""
+    """Emission, light passed through, the environment of escaped rays and the dome term; the paths left alive
+    (``alive = 1``) are those whose hit gets direct lighting and a continuation."""
     i = wp.tid()
-    active[i] = 0
     if alive[i] == 0:
         return
     o = origins[i]
@@ -121,7 +119,6 @@ def shade_whitted_kernel(
             ambient += traced
         L += wp.cw_mul(wp.cw_mul(T, ambient), lights.dome_mean) * opaque_fraction(s)
     radiance[i] = L
-    active[i] = 1
 
 
 @wp.kernel
@@ -140,7 +137,7 @@ def whitted_light_kernel(
     hit_prim: wp.array[wp.int32],
     hit_instance: wp.array[wp.int32],
     throughput: wp.array[wp.vec3],
-    active: wp.array[wp.int32],
+    alive: wp.array[wp.int32],
     views: wp.array[wp.int32],
     # outputs
     rng: wp.array[wp.uint32],
@@ -156,7 +153,7 @@ def whitted_light_kernel(
     shadow_dirs[i] = wp.vec3(0.0)
     shadow_t_maxs[i] = 0.0
     contribution[i] = wp.vec3(0.0)
-    if active[i] == 0:
+    if alive[i] == 0:
         return
     o = origins[i]
     d = directions[i]
