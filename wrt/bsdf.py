@@ -47,7 +47,16 @@ from .microfacet_albedo import (
     multiple_scattering_pdf,
     sample_multiple_scattering_cos,
 )
-from .sampling import INV_PI, PI, luminance, sample_cosine_hemisphere, sin_cos, to_local, to_world
+from .sampling import (
+    INV_PI,
+    PI,
+    direction_at_cos,
+    luminance,
+    sample_cosine_hemisphere,
+    sin_cos,
+    to_local,
+    to_world,
+)
 
 DELTA_ROUGHNESS = wp.constant(0.02)  # below this roughness a lobe is a perfect mirror
 MIN_ALPHA = wp.constant(4.0e-4)  # smallest GGX alpha evaluated (= DELTA_ROUGHNESS^2)
@@ -465,9 +474,7 @@ def sample_bsdf(
     elif u1 < w[0] + w[1] + w[2] or w[3] <= 0.0:
         # Only a rough specular lobe has a multiple-scattering lobe (w[2] > 0).
         cos_i = sample_multiple_scattering_cos(tables, s.roughness, lobes.ms_total, u2)
-        sin_phi, cos_phi = sin_cos(2.0 * PI * u3)
-        sin_i = wp.sqrt(wp.max(0.0, 1.0 - cos_i * cos_i))
-        out.wi = to_world(wp.vec3(sin_i * cos_phi, sin_i * sin_phi, cos_i), n)
+        out.wi = to_world(direction_at_cos(cos_i, u3), n)
     else:
         if s.clearcoat_roughness < DELTA_ROUGHNESS:
             out.wi = reflect(wo, n)

@@ -118,12 +118,17 @@ def sample_cosine_hemisphere(u1: float, u2: float):
 
 
 @wp.func
+def direction_at_cos(z: float, u: float):
+    """The direction about +Z of polar cosine ``z`` and azimuth ``2 pi u``."""
+    r = wp.sqrt(wp.max(0.0, 1.0 - z * z))
+    s, c = sin_cos(2.0 * PI * u)
+    return wp.vec3(r * c, r * s, z)
+
+
+@wp.func
 def sample_uniform_sphere(u1: float, u2: float):
     """Uniform direction on the unit sphere (pdf ``1 / (4 pi)``)."""
-    z = 1.0 - 2.0 * u1
-    r = wp.sqrt(wp.max(0.0, 1.0 - z * z))
-    s, c = sin_cos(2.0 * PI * u2)
-    return wp.vec3(r * c, r * s, z)
+    return direction_at_cos(1.0 - 2.0 * u1, u2)
 
 
 @wp.func
