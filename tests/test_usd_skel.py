@@ -315,3 +315,21 @@ def test_smooth_normals_of_a_subdivision_mesh_come_from_its_posed_points(tmp_pat
     mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Face"]
     np.testing.assert_allclose(mesh.points[mesh.indices], points, atol=1e-5)  # posed as USD poses it
     np.testing.assert_allclose(mesh.normals, corner_normals[[[0, 1, 2], [0, 2, 3]]], atol=1e-5)
+
+
+def test_refined_skinned_mesh_is_the_refinement_of_its_posed_cage(tmp_path):
+    """``refine_level`` poses the cage, then refines it: the loaded points equal the Catmull-Clark refinement of
+    BakeSkinning's posed points (in world space; refinement is affine, so the world transform commutes with it)."""
+    from wrt.subdivision import Refinement
+
+    path = write(tmp_path, skel_root())
+    stage = baked(path)
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/Root/Bar"))
+    time = Usd.TimeCode(7)
+    m = np.array(UsdGeom.XformCache(time).GetLocalToWorldTransform(mesh.GetPrim()))
+    posed = np.array(mesh.GetPointsAttr().Get(time), np.float64) @ m[:3, :3] + m[3, :3]
+    counts, indices = mesh.GetFaceVertexCountsAttr().Get(), mesh.GetFaceVertexIndicesAttr().Get()
+    expected = Refinement(counts, indices, len(posed), 2).vertex(posed)
+    loaded_mesh = {x.path: x for x in load_usd(path, time=7.0, refine_level=2).meshes}["/Root/Bar"]
+    assert len(loaded_mesh.indices) == 2 * 16 * len(counts)
+    np.testing.assert_allclose(loaded_mesh.points, expected, atol=1e-5)

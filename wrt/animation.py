@@ -177,6 +177,7 @@ class FrameRenderer:
     Args:
         path: the USD file.
         camera: camera prim path (read at every frame's time), a :class:`wrt.Camera`, or ``None``.
+        tessellate_gprims, refine_level: :func:`wrt.load_usd` options, applied to every frame.
         **options: :class:`wrt.Renderer` options (``width``, ``height``, ``device``, ``builder``, ``accel``,
             ``integrator``, ``max_depth``, ``ao_radius``).
 
@@ -185,10 +186,11 @@ class FrameRenderer:
             (build, refit or TLAS rebuild), ``render_ms``.
     """
 
-    def __init__(self, path, *, camera=None, tessellate_gprims=False, **options):
+    def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, **options):
         self.path = os.fspath(path)
         self.camera = camera
         self.tessellate_gprims = tessellate_gprims
+        self.refine_level = refine_level
         self.options = options
         self.log = []
         self._scene = None
@@ -199,7 +201,8 @@ class FrameRenderer:
         from .usd import load_usd
 
         start = _time.perf_counter()
-        scene = load_usd(self.path, time=frame, tessellate_gprims=self.tessellate_gprims)
+        scene = load_usd(self.path, time=frame, tessellate_gprims=self.tessellate_gprims,
+                         refine_level=self.refine_level)
         loaded = _time.perf_counter()
         change = classify_change(self._scene, scene)
         if change != "build":

@@ -100,6 +100,23 @@ def _exposure(text: str) -> float:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _refine_level(text: str) -> int:
+    """An argparse type: a Catmull-Clark refine level, 0 to ``MAX_REFINE_LEVEL``."""
+    from .subdivision import MAX_REFINE_LEVEL
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not 0 <= value <= MAX_REFINE_LEVEL:
+        raise argparse.ArgumentTypeError(f"must be 0 to {MAX_REFINE_LEVEL}, got {value}")
+    return value
+
+
+REFINE_HELP = ("Catmull-Clark steps for meshes whose subdivisionScheme is catmullClark (USD's fallback), as Hydra's "
+               "refine level; each step makes 4x the faces. 0 draws the control cage, smooth-shaded")
+
+
 def _seed(text: str) -> int:
     """An argparse type: a render seed (checked before any scene is loaded)."""
     from .render import check_seed
@@ -148,6 +165,7 @@ def _add_render(sub) -> None:
     p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh (triangles "
                    "only: with warp, gprims such as spheres and cubes are loaded as triangle meshes)")
     p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--refine-level", type=_refine_level, default=0, metavar="N", help=REFINE_HELP)
     p.add_argument("--frames", help="render time codes START:END[:STEP] (END included) of an animated stage, one image "
                    "each; OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png. The BVH is kept "
                    "across frames: refitted when vertices move, only its top level rebuilt when instances move")
@@ -250,10 +268,11 @@ def _renderer_options(args) -> dict:
     return {name: getattr(args, name) for name in names}
 
 
-def _tessellate_gprims(args) -> bool:
-    """Whether gprims load as triangle meshes: for ``--accel warp``, as wp.Mesh traces nothing else (the library
-    refuses analytic shapes there and names ``tessellate_gprims``, an option the command line does not have)."""
-    return args.accel == "warp"
+def _load_options(args) -> dict:
+    """The :func:`wrt.load_usd` options of ``wrt render``'s arguments. Gprims load as triangle meshes for ``--accel
+    warp``, as wp.Mesh traces nothing else (the library refuses analytic shapes there and names
+    ``tessellate_gprims``, an option the command line does not have)."""
+    return {"tessellate_gprims": args.accel == "warp", "refine_level": args.refine_level}
 
 
 def loaded_summary(name: str, stats: dict) -> str:
@@ -274,7 +293,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     from .resources import check_memory, estimate_render_bytes, parse_bytes
 
     start = time.perf_counter()
-    scene = wrt.load_usd(path, time=args.time, tessellate_gprims=_tessellate_gprims(args))
+    scene = wrt.load_usd(path, time=args.time, **_load_options(args))
     stats = scene.stats()
     loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)
@@ -393,7 +412,7 @@ def _run_frames(args, paths: list, progress) -> int:
     if not devices:
         raise ValueError(f"--devices {args.devices!r} names no device; give e.g. cuda:0,cuda:1")
     common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet}
-    common.update(_renderer_options(args), tessellate_gprims=_tessellate_gprims(args))
+    common.update(_renderer_options(args), **_load_options(args))
     start = time.perf_counter()
     if args.dask is not None:
         from .animation import render_frames_on_dask
@@ -473,6 +492,7 @@ def _add_preview(sub) -> None:
     builders = [b.value for b in Builder] + ["binned_sah"]
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
     p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--refine-level", type=_refine_level, default=0, metavar="N", help=REFINE_HELP)
     p.add_argument("-q", "--quiet", action="store_true", help="print no progress lines")
     p.set_defaults(run=_run_preview)
 
@@ -490,7 +510,7 @@ def _run_preview(args) -> int:
     if output is not None:  # an unwritable output fails now, not after the load and the preview
         _check_output_file(Path(output))
     start = time.perf_counter()
-    scene = wrt.load_usd(path, time=args.time)
+    scene = wrt.load_usd(path, time=args.time, refine_level=args.refine_level)
     stats = scene.stats()
     loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)

@@ -70,6 +70,7 @@ from .lights import read_light
 from .materials import MaterialReader, bound_material
 from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
+from .subdivision import MAX_REFINE_LEVEL, Refinement
 from .usd_skel import SkelPoser
 from .usd_values import held_value, moved_positions, read_time, spun_rotations, value_at
 from .usd_xforms import xform_cache
@@ -119,7 +120,7 @@ def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
     return tri_corners, face_ids
 
 
-def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene:
+def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_level: int = 0) -> Scene:
     """Reads the meshes, gprims, instances, materials, cameras and lights of a USD stage.
 
     Args:
@@ -128,6 +129,9 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
             the fallback to the earliest time sample).
         tessellate_gprims: ``False``: gprims are analytic shapes; ``True``: triangle meshes of
             ``wrt.primitives.DEFAULT_SEGMENTS`` segments per circle; an int: that many segments (3 to 4096).
+        refine_level: Catmull-Clark steps (0 to ``wrt.subdivision.MAX_REFINE_LEVEL``) applied to meshes whose
+            ``subdivisionScheme`` is ``catmullClark`` (USD's fallback), as Hydra's refine level; each step makes
+            four times the faces. 0 draws the control cage, smooth-shaded, as usdview does at low complexity.
 
     Returns:
         The :class:`wrt.scene.Scene`; triangle ids follow the stage's pre-order traversal.
@@ -166,7 +170,11 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False) -> Scene
             raise ValueError(f"tessellate_gprims must be a bool or an int from 3 to {MAX_SEGMENTS}, got "
                              f"{tessellate_gprims!r}")
         segments = int(tessellate_gprims)
-    reader = _StageReader(stage, source, time_code, segments)
+    if isinstance(refine_level, bool) or not isinstance(refine_level, (int, np.integer)) or not (
+        0 <= refine_level <= MAX_REFINE_LEVEL
+    ):
+        raise ValueError(f"refine_level must be an int from 0 to {MAX_REFINE_LEVEL}, got {refine_level!r}")
+    reader = _StageReader(stage, source, time_code, segments, int(refine_level))
     try:
         return reader.read()
     finally:
@@ -234,7 +242,8 @@ def _tf_message(error: Exception) -> str:
 class _LocalMesh:
     """A mesh's data in its own space, before the world transform; shared by all instances of a prototype."""
 
-    def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs=None, cage=None):
+    def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs=None, cage=None,
+                 refinement=None):
         self.points = points  # (V, 3) float64, local space
         self.vertex_ids = vertex_ids  # (T, 3) int64 rows into points, winding as authored
         self.face_ids = face_ids  # (T,) int64 source face
@@ -244,6 +253,8 @@ class _LocalMesh:
         self.double_sided = double_sided
         self.uvs = uvs  # (values (K, 2) float64, corner index (T, 3)) or None
         self.cage = cage  # (faceVertexCounts, faceVertexIndices) of a mesh to get smooth normals from them, else None
+        # A Refinement of the points (control cage) into the points vertex_ids index, or None: applied after posing.
+        self.refinement = refinement
 
 
 class _Content:
@@ -287,11 +298,12 @@ class _Context:
 class _StageReader:
     """One pass over a stage; collects meshes, instances, cameras and lights and the warnings to emit."""
 
-    def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0):
+    def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0, refine_level: int = 0):
         self.stage = stage
         self.source = source
         self.time = time
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
+        self.refine_level = refine_level  # Catmull-Clark steps for catmullClark meshes
         self.xforms = xform_cache(time)  # sample-only transform ops read at their first sample (see above)
         self.contents = {}  # (kind, root path, outer material) -> _Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
@@ -776,6 +788,8 @@ class _StageReader:
             # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
             local.points, local.normals, space = posed
             m = self._to_space(space, ctx)
+        if local.refinement is not None:
+            local.points = local.refinement.vertex(local.points)
         if local.cage is not None:  # made from the final (posed) points, once
             local.normals = (vertex_normals(local.points, *local.cage, local.flip), local.vertex_ids)
 
@@ -971,10 +985,15 @@ class _StageReader:
 
         # Check the topology before using it.
         self._check_topology(prim, counts, face_indices, points)
+        scheme = value_at(mesh.GetSubdivisionSchemeAttr(), t)
+        refinement = self._refinement(prim, scheme, counts, face_indices, len(points))
+        polygons = (counts, face_indices) if refinement is None else (refinement.counts, refinement.face_indices)
         try:
-            tri_corners, face_ids = triangulate(counts, face_indices)
+            tri_corners, face_ids = triangulate(*polygons)
         except ValueError as e:
             raise self._error(str(e), prim, mesh.GetFaceVertexCountsAttr()) from None
+        if refinement is not None:
+            face_ids = refinement.parent_face[face_ids]  # the control face each refined triangle comes from
 
         # Faces listed in holeIndices are not drawn; their indices and uniform primvar entries still count.
         holes = value_at(mesh.GetHoleIndicesAttr(), t)
@@ -987,17 +1006,46 @@ class _StageReader:
                 self._skip("holeIndices out of range were ignored", prim, detail)
             drawn = ~np.isin(face_ids, holes)
             tri_corners, face_ids = tri_corners[drawn], face_ids[drawn]
-        vertex_ids = face_indices[tri_corners]
+        vertex_ids = polygons[1][tri_corners]
 
-        topology = (counts, face_indices, tri_corners, face_ids, len(points))
-        normals = self._read_normals(prim, mesh, topology)
+        topology = (counts, face_indices, tri_corners, face_ids, len(points), refinement)
+        # A refined surface makes its own normals (USD: authored normals do not apply to subdivision surfaces).
+        normals = self._read_normals(prim, mesh, topology) if refinement is None else None
         colors = self._read_colors(prim, mesh, topology)
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
         flip = self._left_handed(prim, mesh, t)
-        smooth = normals is None and value_at(mesh.GetSubdivisionSchemeAttr(), t) in SMOOTH_SCHEMES
-        cage = (counts, face_indices) if smooth else None  # its normals are made in _read_mesh, after any posing
+        smooth = normals is None and scheme in SMOOTH_SCHEMES
+        cage = polygons if smooth else None  # its normals are made in _read_mesh, after any posing and refining
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
-        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage)
+        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage, refinement)
+
+    def _refinement(self, prim, scheme, counts, face_indices, n_points) -> Refinement | None:
+        """The Catmull-Clark refinement of a ``catmullClark`` mesh at ``self.refine_level``, or None."""
+        if not self.refine_level or scheme not in SMOOTH_SCHEMES:
+            return None
+        if scheme != "catmullClark":
+            self._skip("loop subdivision is not implemented; these meshes are drawn as their control cage", prim)
+            return None
+        mesh, t = UsdGeom.Mesh(prim), self.time
+        creases = corners = None
+        crease_indices = self._int_array(prim, mesh.GetCreaseIndicesAttr())
+        if len(crease_indices):
+            sharpness = value_at(mesh.GetCreaseSharpnessesAttr(), t)
+            creases = (crease_indices, self._int_array(prim, mesh.GetCreaseLengthsAttr()),
+                       np.asarray(sharpness if sharpness is not None else [], np.float64))
+        corner_indices = self._int_array(prim, mesh.GetCornerIndicesAttr())
+        if len(corner_indices):
+            sharpness = value_at(mesh.GetCornerSharpnessesAttr(), t)
+            corners = (corner_indices, np.asarray(sharpness if sharpness is not None else [], np.float64))
+        boundary = value_at(mesh.GetInterpolateBoundaryAttr(), t) or "edgeAndCorner"
+        if boundary == "none":
+            self._skip("interpolateBoundary = none is drawn as edgeOnly (boundary faces kept)", prim)
+        try:
+            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners,
+                              corner_boundary=boundary == "edgeAndCorner")
+        except ValueError as e:
+            self._skip("creases or corners that do not fit the mesh were ignored", prim, str(e))
+            return Refinement(counts, face_indices, n_points, self.refine_level)
 
     def _int_array(self, prim: Usd.Prim, attr: Usd.Attribute) -> np.ndarray:
         """``(N,)`` int64 value of an ``int[]`` topology attribute at the read time (empty when it has none).
@@ -1099,7 +1147,7 @@ class _StageReader:
         Returns ``(values (K, components) float64, corner_index (T, 3) int64)`` so that ``values[corner_index]`` is
         the per-corner data, or None (with a warning) when the value is not an array of such vectors.
         """
-        counts, face_indices, tri_corners, face_ids, n_points = topology
+        counts, face_indices, tri_corners, face_ids, n_points, refinement = topology
         name = attr.GetName()
         raw = value_at(attr, self.time)
         values = np.asarray(raw) if raw is not None else np.zeros((0, components))
@@ -1140,6 +1188,21 @@ class _StageReader:
                 attr,
             )
 
+        if indices is not None:
+            bad = (indices < 0) | (indices >= len(values))
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise self._error(
+                    f"{name}:indices[{i}] = {indices[i]} is out of range for {len(values)} values", prim, attr
+                )
+        if refinement is not None and interpolation in ("vertex", "varying", "faceVarying"):
+            # Per point or per face-vertex data of the control cage becomes data of the refined mesh.
+            per_element = values if indices is None else values[indices]
+            if interpolation == "faceVarying":
+                return refinement.face_varying(per_element), tri_corners
+            refine = refinement.vertex if interpolation == "vertex" else refinement.varying
+            return refine(per_element), refinement.face_indices[tri_corners]
+
         # Element of each triangle corner.
         if interpolation == "constant":
             corner = np.zeros(tri_corners.shape, dtype=np.int64)
@@ -1150,12 +1213,6 @@ class _StageReader:
         else:
             corner = face_indices[tri_corners]
         if indices is not None:
-            bad = (indices < 0) | (indices >= len(values))
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise self._error(
-                    f"{name}:indices[{i}] = {indices[i]} is out of range for {len(values)} values", prim, attr
-                )
             corner = indices[corner]
         return values, corner
 

@@ -1,0 +1,283 @@
+"""Catmull-Clark refinement of polygon meshes (``subdivisionScheme = "catmullClark"``), with USD's creases, corners
+and boundary rules, for ``load_usd(..., refine_level=N)``.
+
+Each level splits every face of ``n`` vertices into ``n`` quads (Catmull and Clark 1978) and moves the points by the
+masks of DeRose, Kass and Truong 1998 ("Subdivision surfaces in character animation"):
+
+- a face point is the average of its face's points;
+- an edge point is the average of the edge's ends and its two faces' points, or the midpoint for a sharp edge
+  (a boundary edge, an edge of more than two faces, or a crease of sharpness >= 1), blended by the sharpness of a
+  semi-sharp crease;
+- a vertex point is ``(Q + 2R + (n - 3)S) / n`` (face points ``Q`` and edge midpoints ``R`` averaged, ``n`` edges)
+  for a smooth vertex or a dart, ``(6S + a + b) / 8`` on a crease (two sharp edges, ends ``a`` and ``b``), and ``S``
+  at a corner (three or more sharp edges, or a ``cornerIndices`` entry), blended for semi-sharp creases and corners.
+
+Sharpness drops by one per level (OpenSubdiv's "uniform" creasing); USD's 10 and above is infinitely sharp. Boundary
+edges are sharp (``interpolateBoundary`` ``edgeOnly`` and ``edgeAndCorner``, and ``none``, which wrt draws as
+``edgeOnly``), and with ``edgeAndCorner`` (USD's fallback) a boundary point of a single face is a corner. Per-point
+data (points, ``vertex`` primvars) follows the same masks; face-varying data (texture coordinates) is interpolated
+linearly within each face, as ``faceVaryingLinearInterpolation = all``. The result after ``N`` levels is a quad mesh
+whose points converge to the limit surface as ``N`` grows; it is not the limit surface itself.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+INFINITELY_SHARP = 10.0  # UsdGeomMesh's SHARPNESS_INFINITE
+MAX_REFINE_LEVEL = 8
+
+
+def _face_walk(counts: np.ndarray):
+    """Face, next and previous face-vertex of every face-vertex of faces with ``counts`` corners."""
+    starts = np.cumsum(counts) - counts
+    face = np.repeat(np.arange(len(counts)), counts)
+    position = np.arange(int(counts.sum())) - starts[face]
+    count = counts[face]
+    following = starts[face] + (position + 1) % count
+    preceding = starts[face] + (position - 1) % count
+    return face, following, preceding
+
+
+def _edge_keys(a: np.ndarray, b: np.ndarray, n_points: int) -> np.ndarray:
+    return np.minimum(a, b) * n_points + np.maximum(a, b)
+
+
+class _Level:
+    """One Catmull-Clark step of a mesh of ``counts`` faces (each >= 3 corners) over ``face_indices``."""
+
+    def __init__(self, counts, face_indices, n_points, edge_sharpness, corner_sharpness, corner_boundary):
+        self.counts, self.face_indices, self.n_points = counts, face_indices, n_points
+        face, following, preceding = _face_walk(counts)
+        self.face, self.following, self.preceding = face, following, preceding
+        a, b = face_indices, face_indices[following]
+        keys, self.fv_edge = np.unique(_edge_keys(a, b, n_points), return_inverse=True)
+        self.fv_edge = self.fv_edge.reshape(-1)
+        self.edge_ends = np.stack([keys // n_points, keys % n_points], axis=1)
+        n_edges = len(keys)
+        self.edge_faces = np.bincount(self.fv_edge, minlength=n_edges)
+        sharp = edge_sharpness(keys)  # per edge, this level
+        sharp = np.where(self.edge_faces != 2, INFINITELY_SHARP, sharp)  # boundary and non-manifold edges
+        self.edge_sharpness = sharp
+
+        # Per point: incident edges, sharp incident edges, faces.
+        ends = self.edge_ends.reshape(-1)
+        self.valence = np.bincount(ends, minlength=n_points)
+        creased = np.repeat(sharp > 0.0, 2)
+        self.sharp_edges = np.bincount(ends, weights=creased, minlength=n_points)
+        self.sharp_sum = np.bincount(ends, weights=np.repeat(np.minimum(sharp, INFINITELY_SHARP), 2) * creased,
+                                     minlength=n_points)
+        self.point_faces = np.bincount(face_indices, minlength=n_points)
+        corner = corner_sharpness.copy()
+        if corner_boundary:  # edgeAndCorner: a boundary point of one face is a corner
+            corner[(self.point_faces == 1) & (self.sharp_edges >= 2)] = INFINITELY_SHARP
+        self.corner_sharpness = corner
+
+        # Vertex rule per point: 0 smooth (or dart), 1 crease, 2 corner; and its sharpness for blending.
+        rule = np.where(self.sharp_edges >= 3, 2, np.where(self.sharp_edges == 2, 1, 0))
+        rule = np.where(corner > 0.0, 2, rule)
+        crease_sharpness = np.where(self.sharp_edges > 0, self.sharp_sum / np.maximum(self.sharp_edges, 1), 0.0)
+        self.rule = rule
+        self.rule_sharpness = np.where(corner > 0.0, corner, np.where(rule == 2, INFINITELY_SHARP, crease_sharpness))
+
+    def child_sharpness(self):
+        """Edge sharpness lookup and corner sharpness of the refined mesh (one less, none below zero)."""
+        n_points = self.n_points
+        parent = np.flatnonzero(self.edge_sharpness > 0.0)
+        sharp = self.edge_sharpness[parent]
+        sharp = np.where(sharp >= INFINITELY_SHARP, INFINITELY_SHARP, np.maximum(sharp - 1.0, 0.0))
+        middle = n_points + parent
+        new_points = self.refined_points
+        keys = np.concatenate([_edge_keys(self.edge_ends[parent, 0], middle, new_points),
+                               _edge_keys(self.edge_ends[parent, 1], middle, new_points)])
+        values = np.concatenate([sharp, sharp])
+        order = np.argsort(keys)
+        keys, values = keys[order], values[order]
+        corner = np.zeros(new_points)
+        c = self.corner_sharpness
+        corner[:n_points] = np.where(c >= INFINITELY_SHARP, INFINITELY_SHARP, np.maximum(c - 1.0, 0.0))
+        return _SharpnessTable(keys, values), corner
+
+    @property
+    def refined_points(self) -> int:
+        return self.n_points + len(self.edge_ends) + len(self.counts)
+
+    def topology(self):
+        """``(counts, face_indices, parent face)`` of the refined quads, one per face-vertex, winding kept."""
+        n, e = self.n_points, len(self.edge_ends)
+        quads = np.stack(
+            [self.face_indices, n + self.fv_edge, n + e + self.face, n + self.fv_edge[self.preceding]], axis=1
+        )
+        return np.full(len(quads), 4, np.int64), quads.reshape(-1), self.face
+
+    def vertex(self, data: np.ndarray) -> np.ndarray:
+        """Per-point ``data`` ``(V, k)`` of the refined mesh: points first, then edge points, then face points."""
+        fi = self.face_indices
+        k = data.shape[1]
+
+        def sum_by(index, values, size):
+            return np.stack([np.bincount(index, weights=values[:, j], minlength=size) for j in range(k)], axis=1)
+
+        face_points = self._face_average(data[fi])
+
+        a, b = data[self.edge_ends[:, 0]], data[self.edge_ends[:, 1]]
+        midpoint = 0.5 * (a + b)
+        face_sum = sum_by(self.fv_edge, face_points[self.face], len(self.edge_ends))
+        smooth_edge = 0.5 * midpoint + face_sum / (2.0 * np.maximum(self.edge_faces, 1)[:, None])
+        s = np.clip(self.edge_sharpness, 0.0, 1.0)[:, None]
+        edge_points = (1.0 - s) * smooth_edge + s * midpoint
+
+        # Smooth vertex rule: (Q + 2R + (n - 3) S) / n.
+        n_points = self.n_points
+        valence = np.maximum(self.valence, 1)[:, None]
+        q = sum_by(fi, face_points[self.face], n_points) / np.maximum(self.point_faces, 1)[:, None]
+        ends = self.edge_ends.reshape(-1)
+        r = sum_by(ends, np.repeat(midpoint, 2, axis=0), n_points) / valence
+        smooth = (q + 2.0 * r + (valence - 3.0) * data) / valence
+        # Crease rule: (6 S + a + b) / 8 over the other ends of the sharp edges.
+        is_sharp = np.repeat(self.edge_sharpness > 0.0, 2)
+        others = self.edge_ends[:, ::-1].reshape(-1)
+        crease = (6.0 * data + sum_by(ends[is_sharp], data[others[is_sharp]], n_points)) / 8.0
+        sharp_point = np.where((self.rule == 1)[:, None], crease, data)
+        s = np.clip(self.rule_sharpness, 0.0, 1.0)[:, None]
+        vertex_points = np.where((self.rule == 0)[:, None], smooth, (1.0 - s) * smooth + s * sharp_point)
+        lonely = self.point_faces == 0  # points no face uses stay where they are
+        vertex_points[lonely] = data[lonely]
+        return np.concatenate([vertex_points, edge_points, face_points])
+
+    def linear(self, data: np.ndarray) -> np.ndarray:
+        """Per-point ``data`` of the refined mesh interpolated linearly (``varying`` primvars): points keep their
+        value, edge points take the midpoint, face points the face's average."""
+        midpoint = 0.5 * (data[self.edge_ends[:, 0]] + data[self.edge_ends[:, 1]])
+        return np.concatenate([data, midpoint, self._face_average(data[self.face_indices])])
+
+    def _face_average(self, fv_data: np.ndarray) -> np.ndarray:
+        k = fv_data.shape[1]
+        sums = np.stack([np.bincount(self.face, weights=fv_data[:, j], minlength=len(self.counts)) for j in range(k)],
+                        axis=1)
+        return sums / self.counts[:, None]
+
+    def face_varying(self, data: np.ndarray) -> np.ndarray:
+        """Per-face-vertex ``data`` ``(N, k)`` of the refined quads, interpolated linearly within each face."""
+        k = data.shape[1]
+        centre = self._face_average(data)
+        quads = np.stack([data, 0.5 * (data + data[self.following]), centre[self.face],
+                          0.5 * (data + data[self.preceding])], axis=1)
+        return quads.reshape(-1, k)
+
+
+class _SharpnessTable:
+    """Sharpness of edges given by sorted keys; edges not listed are smooth."""
+
+    def __init__(self, keys: np.ndarray, values: np.ndarray):
+        self.keys, self.values = keys, values
+
+    def __call__(self, keys: np.ndarray) -> np.ndarray:
+        if len(self.keys) == 0:
+            return np.zeros(len(keys))
+        at = np.clip(np.searchsorted(self.keys, keys), 0, len(self.keys) - 1)
+        return np.where(self.keys[at] == keys, self.values[at], 0.0)
+
+
+class Refinement:
+    """``levels`` Catmull-Clark steps of a polygon mesh: its refined quads and maps for per-point, per-face-vertex
+    and per-face data.
+
+    Args:
+        counts: ``faceVertexCounts``; faces of fewer than three corners draw nothing and are left out.
+        face_indices: ``faceVertexIndices``.
+        n_points: number of points.
+        levels: steps, 1 to ``MAX_REFINE_LEVEL``.
+        creases: ``(indices, lengths, sharpnesses)`` of ``creaseIndices``, ``creaseLengths`` and
+            ``creaseSharpnesses`` (one per crease or one per crease edge), or None.
+        corners: ``(indices, sharpnesses)`` of ``cornerIndices`` and ``cornerSharpnesses``, or None.
+        corner_boundary: ``interpolateBoundary = edgeAndCorner`` (boundary points of one face are corners).
+
+    Raises:
+        ValueError: creases or corners that do not fit the mesh (the message says which).
+    """
+
+    def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, corner_boundary=True):
+        counts = np.asarray(counts, np.int64)
+        face_indices = np.asarray(face_indices, np.int64)
+        drawn = counts >= 3
+        kept_fv = np.repeat(drawn, counts)
+        self.input_face_vertices = np.flatnonzero(kept_fv)  # face-vertices of the faces that are refined
+        self.parent_face = np.flatnonzero(drawn)  # refined face -> input face, updated per level
+        counts, face_indices = counts[drawn], face_indices[kept_fv]
+
+        edge_sharpness = _crease_table(creases, n_points)
+        corner_sharpness = np.zeros(n_points)
+        if corners is not None:
+            indices, sharpness = (np.asarray(x).reshape(-1) for x in corners)
+            if len(indices) != len(sharpness):
+                raise ValueError(f"{len(indices)} cornerIndices but {len(sharpness)} cornerSharpnesses")
+            if len(indices) and (indices.min() < 0 or indices.max() >= n_points):
+                raise ValueError(f"cornerIndices out of range for {n_points} points")
+            corner_sharpness[indices.astype(np.int64)] = np.maximum(sharpness, 0.0)
+
+        self.levels = []
+        for _ in range(levels):
+            level = _Level(counts, face_indices, n_points, edge_sharpness, corner_sharpness, corner_boundary)
+            self.levels.append(level)
+            edge_sharpness, corner_sharpness = level.child_sharpness()
+            counts, face_indices, parent = level.topology()
+            self.parent_face = self.parent_face[parent]
+            n_points = level.refined_points
+        self.counts, self.face_indices, self.n_points = counts, face_indices, n_points
+
+    def vertex(self, data: np.ndarray) -> np.ndarray:
+        """``(V, k)`` per-point data of the input mesh -> ``(V', k)`` of the refined one (float64)."""
+        data = np.asarray(data, np.float64)
+        for level in self.levels:
+            data = level.vertex(data)
+        return data
+
+    def varying(self, data: np.ndarray) -> np.ndarray:
+        """``(V, k)`` per-point data of the input mesh interpolated linearly (``varying`` primvars) -> ``(V', k)``."""
+        data = np.asarray(data, np.float64)
+        for level in self.levels:
+            data = level.linear(data)
+        return data
+
+    def face_varying(self, data: np.ndarray) -> np.ndarray:
+        """``(N, k)`` per-face-vertex data of the input mesh -> per face-vertex of the refined one (float64)."""
+        data = np.asarray(data, np.float64)[self.input_face_vertices]
+        for level in self.levels:
+            data = level.face_varying(data)
+        return data
+
+
+def _crease_table(creases, n_points: int) -> _SharpnessTable:
+    if creases is None:
+        return _SharpnessTable(np.zeros(0, np.int64), np.zeros(0))
+    indices, lengths, sharpnesses = (np.asarray(x).reshape(-1) for x in creases)
+    indices, lengths = indices.astype(np.int64), lengths.astype(np.int64)
+    if (lengths < 2).any() or lengths.sum() != len(indices):
+        raise ValueError(f"creaseLengths (sum {int(lengths.sum())}, each >= 2) do not match {len(indices)} "
+                         "creaseIndices")
+    if len(indices) and (indices.min() < 0 or indices.max() >= n_points):
+        raise ValueError(f"creaseIndices out of range for {n_points} points")
+    n_edges = int((lengths - 1).sum())
+    if len(sharpnesses) == len(lengths):
+        per_edge = np.repeat(sharpnesses, lengths - 1)
+    elif len(sharpnesses) == n_edges:
+        per_edge = sharpnesses
+    else:
+        raise ValueError(f"{len(sharpnesses)} creaseSharpnesses for {len(lengths)} creases of {n_edges} edges "
+                         "(one per crease or one per edge)")
+    starts = np.cumsum(lengths) - lengths
+    crease = np.repeat(np.arange(len(lengths)), lengths - 1)
+    step = np.arange(n_edges) - (np.cumsum(lengths - 1) - (lengths - 1))[crease]
+    a = indices[starts[crease] + step]
+    b = indices[starts[crease] + step + 1]
+    keys = _edge_keys(a, b, n_points)
+    values = np.maximum(np.asarray(per_edge, np.float64), 0.0)
+    order = np.argsort(keys, kind="stable")
+    keys, values = keys[order], values[order]
+    unique, first = np.unique(keys, return_index=True)
+    maxima = np.maximum.reduceat(values, first) if len(values) else values
+    return _SharpnessTable(unique, maxima)
+
+
+__all__ = ["MAX_REFINE_LEVEL", "Refinement"]
