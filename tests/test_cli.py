@@ -276,3 +276,19 @@ def test_render_progress_line_counts_shapes_and_instances(tmp_path, capsys):
     line = loaded_summary("s", stats)
     assert f"{stats['instances']} instances of {stats['prototypes']} prototypes" in line
     assert f"{stats['rendered_shapes']} analytic shapes" in line
+
+
+def test_load_warnings_under_the_frames_progress_bar_get_lines_of_their_own(tmp_path, capsys):
+    """A stage that warns when loaded, rendered with --frames: the warning was printed after the bar's "wrt frames:
+    0%|...|" without a line break, so a terminal showed it glued to the bar. Each warning must be the visible text
+    of its own line (what is left after the last carriage return)."""
+    stage = tmp_path / "warns.usda"
+    stage.write_text('#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 2\n)\n'
+                     'def Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n'
+                     '    color3f[] primvars:displayColor = [(nan, 0, 0)]\n}\n')
+    assert main(["render", str(stage), "--frames", "1:2", "--width", "8", "--height", "6",
+                 "-o", str(tmp_path / "f_####.png")]) == 0
+    visible = [line.rsplit("\r", 1)[-1] for line in capsys.readouterr().err.split("\n")]
+    warned = [line for line in visible if "wrt: warning:" in line]
+    assert warned and all(line.startswith("wrt: warning:") for line in warned), warned

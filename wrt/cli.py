@@ -653,7 +653,10 @@ def main(argv: list[str] | None = None) -> int:
     from .errors import SceneError
 
     def show_warning(message, category, filename, lineno, file=None, line=None):
-        print(f"wrt: warning: {message}", file=sys.stderr)
+        from tqdm import tqdm
+
+        # Through tqdm, so a warning raised under a running progress bar gets a line of its own, above the bar.
+        tqdm.write(f"wrt: warning: {message}", file=sys.stderr)
 
     warnings.showwarning = show_warning
     try:
