@@ -512,21 +512,6 @@ def test_coarse_textured_dome_is_unbiased(tmp_path):
     np.testing.assert_allclose(wrt.render(scene, width=1, height=1).rgb[0, 0], 0.5, rtol=1e-4)
 
 
-def test_light_shaping_is_reported_not_silently_dropped(tmp_path):
-    """A spot light (ShapingAPI cone of 30 degrees) would light the whole plane: the load says it is unshaped. A
-    ShapingAPI left at its fallbacks changes nothing and says nothing."""
-
-    def build(stage):
-        spot = UsdLux.SphereLight.Define(stage, "/Spot")
-        UsdLux.ShapingAPI.Apply(spot.GetPrim()).CreateShapingConeAngleAttr(30.0)
-        plain = UsdLux.SphereLight.Define(stage, "/Plain")
-        UsdLux.ShapingAPI.Apply(plain.GetPrim())
-
-    with pytest.warns(UserWarning, match=r"ShapingAPI.*not supported.*1 prim\(s\): /Spot$"):
-        scene = wrt.load_usd(write_stage(tmp_path, build))
-    assert {light.path for light in scene.lights} == {"/Spot", "/Plain"}
-
-
 def test_mesh_light_is_reported_not_silently_dark(tmp_path):
     def build(stage):
         mesh = UsdGeom.Mesh.Define(stage, "/Panel")

@@ -9,6 +9,7 @@ from .camera import Camera
 from .errors import SceneError
 from .image import Image
 from .instancing import Instances, Prototype
+from .light_shaping import Shaping
 from .lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
 from .materials import Material, TextureInput
 from .preview import preview, to_pyvista  # pyvista itself is imported only when these are called
@@ -38,6 +39,7 @@ __all__ = [
     "Scene",
     "SceneError",
     "Shape",
+    "Shaping",
     "SphereLight",
     "TextureInput",
     "build_bvh",

@@ -19,15 +19,19 @@ times the blackbody colour when ``enableColorTemperature`` is on):
 - **Emissive triangles**: UsdPreviewSurface ``emissiveColor`` is the surface radiance, from the front side of
   single-sided meshes and from both sides of double-sided ones.
 - A Lambertian surface of albedo ``rho`` under illuminance ``E`` therefore shows radiance ``rho E / pi``.
+- **Shaping** (``ShapingAPI`` cone, softness, focus and focus tint, :mod:`wrt.light_shaping`) multiplies what sphere,
+  rect, disk and cylinder lights emit in each direction, after ``normalize``, for light sampling and for rays that
+  see the light alike.
 
 Lights are invisible to shadow rays (they never occlude) but visible to camera and bounce rays, which pass through
 them and pick up their radiance. Stages with no UsdLux light and no emissive material get :func:`default_lights`:
 a headlight along the view direction and a grey dome.
 
-Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count``; spheres are sampled by
-the cone they subtend; rect lights, and disk lights that look large, uniformly by solid angle (Urena et al. 2013;
-disks through the square around them; :mod:`wrt.spherical_rect`); other disk lights, rect lights that look tiny,
-cylinder and triangle lights uniformly by area (cylinders: the half facing the shading point); soft distant lights
+Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count`` (a shaped light's power
+times the share its shaping lets out); spheres are sampled by the cone they subtend; rect lights, and disk lights
+that look large, uniformly by solid angle (Urena et al. 2013; disks through the square around them;
+:mod:`wrt.spherical_rect`); other disk lights, rect lights that look tiny, cylinder and triangle lights uniformly by
+area (cylinders: the half facing the shading point); soft distant lights
 uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by its
 luminance (piecewise-constant 2D distribution, Pharr et al., PBRT 4th ed., A.5 and 12.5).
 """
@@ -43,6 +47,7 @@ import warp as wp
 
 from .errors import SceneError, check_fields
 from .geometry import stable_length
+from .light_shaping import Shaping, cone_and_focus, primary_axis, read_shaping
 from .materials import DeviceMaterials, cut_out, eval_emission
 from .sampling import (
     INV_PI,
@@ -108,6 +113,8 @@ class SphereLight:
         treat_as_point: render as a point light.
         path: prim path.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
+        shaping: its :class:`Shaping` (``ShapingAPI``), or None.
+        axis: ``(3,)`` world direction of the light's -Z axis, which its shaping is centred on (made unit).
     """
 
     position: np.ndarray
@@ -117,9 +124,17 @@ class SphereLight:
     treat_as_point: bool = False
     path: str = ""
     shadows: bool = True
+    shaping: Shaping | None = None
+    axis: np.ndarray = dataclasses.field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
 
     def __post_init__(self):
-        check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR)
+        check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR,
+                     ("axis", (3,), None, np.float64))
+        length = np.linalg.norm(self.axis)
+        if not length > 0.0:
+            raise SceneError(f"SphereLight axis must not be zero, got {self.axis.tolist()}", prim=self.path or None)
+        self.axis = self.axis / length
+        _check_shaping(self)
 
     @property
     def area(self) -> float:
@@ -150,6 +165,7 @@ class RectLight:
         normalize: divide by the world-space area.
         path: prim path.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
+        shaping: its :class:`Shaping` (``ShapingAPI``, centred on the local -Z axis), or None.
     """
 
     to_world: np.ndarray
@@ -159,9 +175,11 @@ class RectLight:
     normalize: bool = False
     path: str = ""
     shadows: bool = True
+    shaping: Shaping | None = None
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR)
+        _check_shaping(self)
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         x, y, _, _ = _axes(self.to_world)
@@ -188,6 +206,7 @@ class DiskLight:
         normalize: divide by the world-space area.
         path: prim path.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
+        shaping: its :class:`Shaping` (``ShapingAPI``, centred on the local -Z axis), or None.
     """
 
     to_world: np.ndarray
@@ -196,9 +215,11 @@ class DiskLight:
     normalize: bool = False
     path: str = ""
     shadows: bool = True
+    shaping: Shaping | None = None
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("radius"), _COLOR)
+        _check_shaping(self)
 
     @property
     def area(self) -> float:
@@ -222,6 +243,7 @@ class CylinderLight:
         normalize: divide by the world-space area.
         path: prim path.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
+        shaping: its :class:`Shaping` (``ShapingAPI``, centred on the local -Z axis), or None.
     """
 
     to_world: np.ndarray
@@ -231,9 +253,11 @@ class CylinderLight:
     normalize: bool = False
     path: str = ""
     shadows: bool = True
+    shaping: Shaping | None = None
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR)
+        _check_shaping(self)
 
     def world_shape(self) -> tuple[np.ndarray, float]:
         """World-space axis vector (full length) and radius (mean of the Y and Z scales)."""
@@ -282,6 +306,13 @@ class DomeLight:
                 raise SceneError(f"DomeLight texture must be an (H, W, 3) or (H, W, 4) array of numbers, got {shape}",
                                  prim=self.path or None)
             self.texture = texture
+
+
+def _check_shaping(light) -> None:
+    """Refuses a ``shaping`` that is not a :class:`Shaping` (or None), naming the light."""
+    if light.shaping is not None and not isinstance(light.shaping, Shaping):
+        raise SceneError(f"{type(light).__name__} shaping must be a wrt.Shaping or None, got "
+                         f"{type(light.shaping).__name__}", prim=light.path or None)
 
 
 def _normalized(color, area: float, normalize: bool) -> np.ndarray:
@@ -365,19 +396,22 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
     if np.any(color < 0.0):  # a light cannot take light away: negative pixels would follow
         skip("negative light colour or intensity was clamped to 0", prim)
         color = np.maximum(color, 0.0)
-    if prim.HasAPI(UsdLux.ShapingAPI) and _shaped(UsdLux.ShapingAPI(prim), get):
-        skip("light shaping (ShapingAPI cone, focus or IES profile) is not supported; these lights emit unshaped",
-             prim)
     if float(get(light.GetDiffuseAttr(), 1.0)) != 1.0 or float(get(light.GetSpecularAttr(), 1.0)) != 1.0:
         skip("light diffuse and specular multipliers are not supported; these lights light both fully", prim)
     if _shadow_tinted(prim, get):
         skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
              prim)
     try:
+        shaping, ies = read_shaping(prim, get)
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get)
+        if shaping is not None:
+            result = _shaped(result, shaping, m, prim, skip)
     except SceneError as e:  # a value the checks above let through, e.g. a radius that overflows once scaled
         skip("lights with values wrt cannot use were skipped", prim, str(e).removeprefix(f"{path}: "))
         return None
+    if ies:
+        skip("IES light profiles (ShapingAPI shaping:ies:file) are not supported; these lights emit without them",
+             prim)
     if result is not None:
         # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
         result.shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
@@ -462,13 +496,18 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
     return None
 
 
-def _shaped(shaping, get) -> bool:
-    """True when a ``UsdLux.ShapingAPI`` changes the emission from its fallbacks (a cone under 180 degrees, a focus or
-    an IES profile)."""
-    cone = float(get(shaping.GetShapingConeAngleAttr(), 90.0))
-    focus = float(get(shaping.GetShapingFocusAttr(), 0.0))
-    ies = get(shaping.GetShapingIesFileAttr(), None)
-    return cone < 90.0 or focus != 0.0 or bool(getattr(ies, "path", "") if ies is not None else "")
+def _shaped(light, shaping: Shaping, m, prim, skip):
+    """``light`` (or None) with ``shaping``: sphere, rect, disk and cylinder lights take it (a sphere also its -Z
+    axis, from ``m``); distant and dome lights, which the ShapingAPI formulas are not written for, emit unshaped,
+    with a warning unless the shaping is at its fallbacks."""
+    if isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight)):
+        light.shaping = shaping
+        if isinstance(light, SphereLight):
+            light.axis = primary_axis(m, light.axis)
+    elif light is not None and not shaping.at_fallbacks():
+        skip("light shaping (ShapingAPI) on distant and dome lights is not supported; these lights emit unshaped",
+             prim)
+    return light
 
 
 def _read_dome(prim, m, color, time, up_axis, skip, get):
@@ -518,6 +557,9 @@ class DeviceLights:
     params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of cone, area | 1 - cos, right-angled axes)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
     shadows: wp.array[wp.int32]  # 1: occluders block the light; 0: ShadowAPI's shadow:enable is off
+    shaping: wp.array[wp.vec4]  # (cone angle, smooth start (radians), focus, 1); all 0: unshaped (light_shaping)
+    shaping_axis: wp.array[wp.vec3]  # unit primary axis (the light's -Z) of shaped lights
+    focus_tint: wp.array[wp.vec3]  # ShapingAPI focusTint of shaped lights
     pmf: wp.array[float]  # selection probability of each light
     cdf: wp.array[float]  # (count + 1) running sum of pmf
     count: int  # number of lights
@@ -557,6 +599,9 @@ class HostLights:
     prims: list
     power: list
     shadows: list
+    shaping: list
+    shaping_axis: list
+    focus_tint: list
 
 
 def _emitter_triangles(scene, materials_emission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -591,7 +636,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     """
     lower, upper = scene.bounds()
     radius = max(float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) / 2.0, 1e-6)
-    h = HostLights([], [], [], [], [], [], [], [], [], [])
+    h = HostLights(*([] for _ in dataclasses.fields(HostLights)))
     zero = np.zeros(3)
     domes = [light for light in lights if isinstance(light, DomeLight)]
     if len(domes) > 1:
@@ -624,6 +669,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
                 L = light.radiance
                 _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero, (light.radius, 0, light.area, 0), 0,
                      math.pi * light.area * luminance_np(L))
+            _add_shaping(h, light.shaping, light.axis, emits_behind=True)
         elif isinstance(light, RectLight):
             u, v = light.edges()
             _, _, z, origin = _axes(light.to_world)
@@ -631,6 +677,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             L = light.radiance
             _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L))
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
         elif isinstance(light, DiskLight):
             x, y, z, origin = _axes(light.to_world)
             u, v = x * light.radius, y * light.radius
@@ -638,12 +685,14 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             L = light.radiance
             _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L))
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
         elif isinstance(light, CylinderLight):
             axis, r = light.world_shape()
             origin = _axes(light.to_world)[3]
             L = light.radiance
             _add(h, LIGHT_CYLINDER, L, origin, axis, zero, zero, (r, 0, light.area, 0), 0,
                  math.pi * light.area * luminance_np(L))
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True)
         else:
             raise TypeError(f"unsupported light {type(light).__name__}")
         h.shadows[-1] = int(bool(light.shadows))
@@ -699,6 +748,9 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.params = arr(h.params, wp.vec4, 4)
     d.prims = arr(h.prims, wp.int32, 1)
     d.shadows = arr(h.shadows, wp.int32, 1)
+    d.shaping = arr(h.shaping, wp.vec4, 4)
+    d.shaping_axis = arr(h.shaping_axis, wp.vec3)
+    d.focus_tint = arr(h.focus_tint, wp.vec3)
     d.pmf = wp.array(pmf.astype(np.float32), dtype=float, device=device)
     d.cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
     d.count = n
@@ -741,6 +793,21 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.prims.append(int(prim))
     h.power.append(float(power))
     h.shadows.append(1)
+    h.shaping.append(np.zeros(4, np.float32))
+    h.shaping_axis.append(np.zeros(3, np.float32))
+    h.focus_tint.append(np.zeros(3, np.float32))
+
+
+def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool) -> None:
+    """Gives the light added last ``shaping`` around unit ``axis`` (nothing where it changes nothing), and scales
+    its power by the share the shaping lets out."""
+    params = None if shaping is None else shaping.device_params(emits_behind)
+    if params is None:
+        return
+    h.shaping[-1] = np.array([*params, 1.0], np.float32)
+    h.shaping_axis[-1] = np.asarray(axis, np.float32)
+    h.focus_tint[-1] = np.asarray(shaping.focus_tint, np.float32)
+    h.power[-1] *= shaping.power_fraction(emits_behind)
 
 
 def _right_angled(u, v) -> float:
@@ -832,6 +899,16 @@ def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
     if sin_t <= 0.0:
         return 0.0
     return pdf_uv / (2.0 * PI * PI * sin_t)
+
+
+@wp.func
+def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
+    """The colour factor of light ``k``'s ShapingAPI on the radiance it emits along unit ``w`` (1 where unshaped:
+    :mod:`wrt.light_shaping`)."""
+    params = lights.shaping[k]
+    if params[3] == 0.0:
+        return wp.vec3(1.0)
+    return cone_and_focus(params, lights.shaping_axis[k], lights.focus_tint[k], w)
 
 
 @wp.func
@@ -1034,7 +1111,7 @@ def sample_light(
         if d2 > 0.0:
             out.dist = wp.sqrt(d2)
             out.wi = to / out.dist
-            out.value = lights.radiance[k] / d2
+            out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) / d2
         return out
     if kind == LIGHT_DOME:
         if lights.dome_textured == 0:
@@ -1087,7 +1164,7 @@ def sample_light(
             t = wp.dot(c - p, out.wi)  # grazing: rounding missed the sphere by a hair
         out.dist = t
         out.pdf = 1.0 / (2.0 * PI * one_minus)
-        out.value = lights.radiance[k] * (2.0 * PI * one_minus)
+        out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) * (2.0 * PI * one_minus)
         return out
 
     # Area sampling (rect and disk lights that look large: by solid angle), cylinder, triangle.
@@ -1167,7 +1244,7 @@ def sample_light(
         out.pdf = pdf_solid_angle
     else:
         out.pdf = d2 / (cos_l * area)
-    out.value = L / out.pdf
+    out.value = wp.cw_mul(L, emission_shaping(lights, k, -wi)) / out.pdf
     return out
 
 

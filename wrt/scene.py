@@ -186,13 +186,14 @@ def parts_changed(old: tuple, new: tuple) -> bool:
 
 
 def dataclass_parts(objects) -> list:
-    """Each object of ``objects`` followed by the values of its dataclass fields (none for other objects), for
-    :func:`parts_changed`: a field given a new array or value is then noticed, as a replaced object is."""
+    """Each object of ``objects`` followed by the values of its dataclass fields (none for other objects), and so on
+    for fields that are dataclasses themselves (a light's ``shaping``), for :func:`parts_changed`: a field given a new
+    array or value is then noticed, as a replaced object is."""
     parts = []
     for obj in objects:
         parts.append(obj)
-        if dataclasses.is_dataclass(obj):
-            parts += [getattr(obj, f.name) for f in dataclasses.fields(obj)]
+        if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+            parts += dataclass_parts([getattr(obj, f.name) for f in dataclasses.fields(obj)])
     return parts
 
 

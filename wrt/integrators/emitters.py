@@ -15,6 +15,7 @@ from ..lights import (
     distant_in_cone,
     dome_pdf,
     dome_radiance,
+    emission_shaping,
     intersect_light,
 )
 from ..sampling import power_heuristic
@@ -41,7 +42,8 @@ def lights_on_segment(
             t, cos_l = intersect_light(lights, k, o, d)
             if t > t_min and t < t_max:
                 pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
-                total += lights.radiance[k] * mis_weight(pdf_bsdf, pdf_l)
+                L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
+                total += L * mis_weight(pdf_bsdf, pdf_l)
     return total
 
 
