@@ -16,7 +16,7 @@ from shading_helpers import pixel_points, quad, top_down_camera
 from test_lights import ALBEDO, write_stage
 
 import wrt
-from wrt.lights import DiskLight, RectLight, SphereLight
+from wrt.lights import CylinderLight, DiskLight, RectLight, SphereLight
 
 HEIGHT = 1.0  # of the light above the plane z = 0
 RADIUS = 0.02  # of the small sphere and disk lights: they look at most 1.2 degrees wide from the plane
@@ -61,6 +61,11 @@ def unshaped_irradiance(kind, points, radiance):
     return e[..., None] * np.broadcast_to(radiance, 3), np.arccos(cos)
 
 
+def under_the_light(points):
+    """The four central pixels, whose camera rays can pass through the small lights (and see them)."""
+    return (np.abs(points[..., 0]) < 0.13) & (np.abs(points[..., 1]) < 0.13)
+
+
 def render_plane(lights, integrator="path", spp=16, res=RES, patch=PATCH, seed=3):
     scene = wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")], lights=list(lights))
     img = wrt.render(scene, camera=top_down_camera(height=patch), width=res, height=res, spp=spp, seed=seed,
@@ -82,6 +87,23 @@ def test_hard_cone_lights_inside_as_unshaped_and_nothing_outside(kind):
     ratio = rgb[inside] / expected[inside]
     assert abs(ratio.mean() - 1) < 0.02 and np.abs(ratio - 1).max() < 0.05, ratio.mean()
     assert rgb[outside].max() == 0.0, rgb[outside].max()
+
+
+def test_cylinder_spot_lights_its_cone_as_unshaped_and_nothing_outside():
+    to_world = np.eye(4)
+    to_world[:3, 3] = (0, 0, HEIGHT)
+
+    def tube(shaping):
+        return CylinderLight(to_world=to_world, length=0.1, radius=RADIUS, color=np.full(3, 500.0), shaping=shaping)
+
+    shaped, points = render_plane([tube(wrt.Shaping(cone_angle=30.0))])
+    plain, _ = render_plane([tube(None)])
+    theta = np.arctan(np.hypot(points[..., 0], points[..., 1]) / HEIGHT)
+    edge = math.radians(30.0) + np.array([-1, 1]) * (BAND + math.radians(3.0))  # the tube spans 6 degrees
+    # Unshaped, the tube shines up into the camera too.
+    inside, outside = (theta < edge[0]) & ~under_the_light(points), theta > edge[1]
+    assert abs(shaped[inside].mean() / plain[inside].mean() - 1) < 0.02
+    assert plain[outside].min() > 0.0 and shaped[outside].max() == 0.0
 
 
 @pytest.mark.parametrize("kind", ["point", "sphere"])
@@ -119,7 +141,7 @@ def test_focus_on_an_area_light_matches_the_spec_factor():
     unshaped, theta = unshaped_irradiance("sphere", points, 500.0)
     expected = ALBEDO * unshaped * np.cos(theta)[..., None] ** 5 / np.pi
     # Focus uses |cos|: the lamp shines back up at the camera, whose rays see it in the four central pixels.
-    seen = (np.abs(points[..., 0]) < 0.13) & (np.abs(points[..., 1]) < 0.13)
+    seen = under_the_light(points)
     # Jittered pixels at 60 degrees span a 30% change of cos^5: compare rings of 10 degrees.
     ring = np.floor(np.degrees(theta) / 10.0)
     for k in np.unique(ring[~seen]):

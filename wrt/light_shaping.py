@@ -3,8 +3,8 @@ a light emits in each direction.
 
 The formulas are those of the ShapingAPI attribute docs in UsdLux's ``schema.usda`` (as shipped in usd-core 26.11;
 also https://openusd.org/release/user_guides/schemas/usdLux/ShapingAPI.html), which OpenUSD's own hdEmbree renderer
-follows. With ``theta`` the angle between the
-direction light leaves the light in and the light's primary axis (its local -Z, in the world):
+follows. With ``theta`` the angle between the direction light leaves the light in and the light's primary axis (its
+local -Z, in the world):
 
 - focus: ``f = |cos theta|^focus`` and the colour factor ``focusTint + f (1 - focusTint)`` (a focus <= 0 does
   nothing; a white tint turns focus off);
@@ -14,11 +14,11 @@ direction light leaves the light in and the light's primary axis (its local -Z, 
 
 The cone is applied at its value, the fallback of 90 degrees included: sphere and cylinder lights with ShapingAPI
 emit only into the half space in front of their -Z axis unless a wider cone (180: everywhere) is authored, as the
-schema says and as Omniverse writes it. Rect and disk lights emit into that half space anyway, so a ShapingAPI at its
-fallbacks changes nothing there, and such lights are uploaded as unshaped (the kernels then skip the factor).
-Every emission direction is shaped the same way, whether light sampling reaches the light or a camera or bounce ray
-sees it: from outside the cone a light looks dark, and both strategies of multiple importance sampling weigh the
-same radiance. IES profiles (``shaping:ies:*``) are not supported.
+schema says (the sphere lights Omniverse writes carry an authored 180). Rect and disk lights emit into that half
+space anyway, so a ShapingAPI at its fallbacks changes nothing there, and such lights are uploaded as unshaped (the
+kernels then skip the factor). Every emission direction is shaped the same way, whether light sampling reaches the
+light or a camera or bounce ray sees it: from outside the cone a light looks dark, and both strategies of multiple
+importance sampling weigh the same radiance. IES profiles (``shaping:ies:*``) are not supported.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ class Shaping:
     cone_softness: float = 0.0
     focus: float = 0.0
     focus_tint: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3, np.float32))
-    path = ""  # for check_fields' messages; the light that holds the shaping names its prim
+    path = ""  # check_fields names this prim: none (load_usd's warning names the light of a bad shaping)
 
     def __post_init__(self):
         check_fields(self, ("cone_angle", (), None, float), ("cone_softness", (), None, float),
