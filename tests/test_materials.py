@@ -255,7 +255,7 @@ def test_preview_bindings_on_native_instances_reach_the_prototype_meshes(tmp_pat
 
 def test_unsupported_shaders_fall_back_with_one_warning_per_material(tmp_path):
     stage, path = new_stage(tmp_path)
-    for k, shader_id in enumerate(["ND_standard_surface_surfaceshader", "ND_open_pbr_surface_surfaceshader"]):
+    for k, shader_id in enumerate(["ND_gltf_pbr_surfaceshader", "ND_surface_unlit"]):  # MaterialX, not read
         quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
         quad.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0.2, 0.7, 0.1)])
         material = UsdShade.Material.Define(stage, f"/Looks/X{k}")
@@ -591,13 +591,13 @@ def test_material_indices_outside_the_material_list_are_refused(material_ids, ba
 
 
 def test_mdl_and_materialx_materials_fall_back_to_their_base_colour(tmp_path):
-    """OmniPBR (an ``mdl:surface`` output only) and MaterialX standard_surface materials are drawn in their authored
+    """OmniPBR (an ``mdl:surface`` output only) and MaterialX gltf_pbr materials are drawn in their authored
     base colour times its weight, with a warning naming it: an OmniPBR of a red diffuse_color_constant was grey.
     One whose colour comes from a texture keeps the displayColor fallback."""
     stage, path = new_stage(tmp_path)
     looks = [
         ("mdl", "OmniPBR", {"diffuse_color_constant": Gf.Vec3f(0.8, 0.1, 0.1), "diffuse_tint": Gf.Vec3f(1, 1, 0.5)}),
-        ("mtlx", "ND_standard_surface_surfaceshader", {"base_color": Gf.Vec3f(0.1, 0.2, 0.9), "base": 0.5}),
+        ("mtlx", "ND_gltf_pbr_surfaceshader", {"base_color": Gf.Vec3f(0.05, 0.1, 0.45)}),
         ("mdl", "OmniPBR", {"diffuse_color_constant": Gf.Vec3f(0.8, 0.1, 0.1),
                             "diffuse_texture": Sdf.AssetPath("a.png")}),
     ]

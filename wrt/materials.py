@@ -9,8 +9,9 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   ``GeomSubset``\\ s of family ``materialBind`` override the mesh's material on their faces (subsets of points or
   edges are ignored with a warning).
 - The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``, else a render context's
-  (``outputs:mtlx:surface``, ...) to one or to MaterialX's ``ND_UsdPreviewSurface_surfaceshader``. Anything else
-  (MaterialX, MDL, no surface) falls back to a Lambertian surface of the shader's constant base colour where one is
+  (``outputs:mtlx:surface``, ...) to one or to MaterialX's ``ND_UsdPreviewSurface_surfaceshader``; else MaterialX
+  ``standard_surface`` and OpenPBR are mapped onto this model (:mod:`wrt.materialx`). Anything else (MDL, other
+  MaterialX surfaces, no surface) falls back to a Lambertian surface of the shader's constant base colour where one is
   authored (:data:`FALLBACK_COLOR_INPUTS`), else to the default material (displayColor, else grey), with one warning
   per material, never an error.
 - Inputs read: ``diffuseColor``, ``emissiveColor``, ``useSpecularWorkflow``, ``specularColor``, ``metallic``,
@@ -338,7 +339,7 @@ PREVIEW_SURFACE_IDS = ("UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader"
 FALLBACK_COLOR_INPUTS = (
     ("diffuse_color_constant", ("diffuse_tint",), "diffuse_texture"),  # OmniPBR.mdl, OmniPBR_ClearCoat.mdl
     ("diffuse_reflection_color", ("diffuse_reflection_weight",), ""),  # OmniSurface.mdl
-    ("base_color", ("base", "base_weight"), ""),  # MaterialX standard_surface (base), OpenPBR (base_weight)
+    ("base_color", ("base", "base_weight"), ""),  # MaterialX surfaces not read by wrt.materialx (gltf_pbr, ...)
 )
 
 
@@ -502,6 +503,11 @@ class MaterialReader:
             other = _context_preview_surface(material)
             shader, shader_id = (other, other.GetShaderId()) if other else (shader, shader_id)
         if shader_id not in PREVIEW_SURFACE_IDS:
+            from .materialx import materialx_surface, read_materialx_surface  # that module imports this one
+
+            mtlx = materialx_surface(material)
+            if mtlx:  # MaterialX standard_surface or OpenPBR: mapped onto this model (wrt/materialx.py)
+                return read_materialx_surface(self, mtlx, path)
             if not shader:
                 found = [o.GetBaseName() for o in material.GetSurfaceOutputs() if o.HasConnectedSource()]
                 what = f"no universal surface output (found: {', '.join(found) or 'none'})"
@@ -528,7 +534,7 @@ class MaterialReader:
 
     def _fallback_color(self, material) -> tuple[str, np.ndarray] | None:
         """``(input name, (3,) colour)``: the constant base colour (times its weight) of a surface shader this reader
-        does not support (OmniPBR, OmniSurface, MaterialX standard_surface, OpenPBR), from any render context; None
+        does not support (OmniPBR, OmniSurface, MaterialX gltf_pbr, ...), from any render context; None
         when none is authored. Without it an OmniPBR car of a red ``diffuse_color_constant`` was drawn grey."""
         for shader in _surface_shaders(material):
             for name, weights, replaced_by in FALLBACK_COLOR_INPUTS:

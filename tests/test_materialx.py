@@ -1,0 +1,199 @@
+"""MaterialX standard_surface and OpenPBR materials read as wrt materials (wrt/materialx.py): their inputs against
+the equivalent UsdPreviewSurface, the specification's defaults, interface inputs, image nodes inside NodeGraphs,
+OpenPBR emission and the warning for nodes wrt cannot evaluate. Before wrt/materialx.py they were Lambertian."""
+
+import warnings
+
+import numpy as np
+import pytest
+from PIL import Image as PilImage
+from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+from test_materials import add_quad, bind, new_stage, preview_material
+
+import wrt
+from wrt.textures import srgb_to_linear
+
+STANDARD = "ND_standard_surface_surfaceshader"
+OPEN_PBR = "ND_open_pbr_surface_surfaceshader"
+GOLD = Gf.Vec3f(1.0, 0.78, 0.34)
+TYPES = {Gf.Vec3f: Sdf.ValueTypeNames.Color3f, float: Sdf.ValueTypeNames.Float, int: Sdf.ValueTypeNames.Float}
+
+
+def mtlx_material(stage, path, shader_id=STANDARD, **inputs):
+    """A Material whose ``outputs:mtlx:surface`` is a ``shader_id`` shader with constant ``inputs``."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr(shader_id)
+    for name, value in inputs.items():
+        shader.CreateInput(name, TYPES[type(value)]).Set(value)
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(shader.ConnectableAPI(), "out")
+    return material, shader
+
+
+def load(path):
+    """``(scene, warning messages)``."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    return scene, [str(w.message) for w in caught]
+
+
+def lit_sphere_image(tmp_path, make_material, name):
+    """Mean colour of the pixels of a sphere bound to ``make_material(stage)`` under a sun and a dome (whitted,
+    8 spp)."""
+    stage, path = new_stage(tmp_path, f"{name}.usda")
+    sphere = UsdGeom.Sphere.Define(stage, "/Ball")
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")  # straight down, illuminance 3
+    sun.CreateIntensityAttr(3.0)
+    sun.CreateNormalizeAttr(True)
+    UsdLux.DomeLight.Define(stage, "/Sky").CreateIntensityAttr(0.3)
+    bind(sphere, make_material(stage))
+    stage.Save()
+    scene, _ = load(path)
+    cam = wrt.Camera.look_at((0, -2.5, 2.5), (0, 0, 0), (0, 0, 1), 40.0)
+    img = wrt.render(scene, camera=cam, width=24, height=24, spp=8, seed=3, device="cpu")
+    return img.rgb[img.aovs["depth"] < np.inf].mean(axis=0)
+
+
+def test_standard_surface_metal_renders_like_the_equivalent_preview_surface(tmp_path):
+    """A gold standard_surface metal (metalness 1, roughness 0.2) was drawn as a Lambertian gold, clearly darker
+    where the sun's highlight is and brighter elsewhere; now it renders as the UsdPreviewSurface of the same metal."""
+    mtlx = lit_sphere_image(tmp_path, lambda s: mtlx_material(s, "/Looks/Gold", base_color=GOLD, metalness=1.0,
+                                                              specular_roughness=0.2)[0], "mtlx")
+    preview = lit_sphere_image(tmp_path, lambda s: preview_material(s, "/Looks/Gold", diffuseColor=GOLD, metallic=1.0,
+                                                                    roughness=0.2)[0], "preview")
+    lambert = lit_sphere_image(tmp_path, lambda s: preview_material(
+        s, "/Looks/Gold", diffuseColor=GOLD, useSpecularWorkflow=1, specularColor=Gf.Vec3f(0), roughness=1.0)[0],
+        "lambert")
+    np.testing.assert_allclose(mtlx, preview, rtol=0.01)
+    assert np.abs(lambert / preview - 1).max() > 0.1, (lambert, preview)  # what the old fallback drew
+
+
+def test_specification_defaults_and_approximations(tmp_path):
+    """Unauthored inputs take the MaterialX library's defaults (standard_surface 1.0.1 and 1.0.0, OpenPBR 1.1), with
+    no warning; approximated inputs are named in one warning per material."""
+    stage, path = new_stage(tmp_path)
+    looks = {
+        "Std": (STANDARD, {}),
+        "Std100": ("ND_standard_surface_surfaceshader_100", {}),
+        "Pbr": (OPEN_PBR, {}),
+        "Glass": (STANDARD, {"specular": 0.0, "transmission": 0.25, "sheen": 0.5}),
+        "Leaf": (OPEN_PBR, {"geometry_opacity": 0.3, "coat_weight": 1.0, "coat_roughness": 0.25}),
+    }
+    for k, (name, (shader_id, inputs)) in enumerate(looks.items()):
+        bind(add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0)), mtlx_material(stage, f"/Looks/{name}", shader_id,
+                                                                             **inputs)[0])
+    stage.Save()
+    scene, messages = load(path)
+    mats = {m.path.rsplit("/", 1)[1]: m for m in scene.materials}
+    for name in ("Std", "Std100"):
+        np.testing.assert_allclose(mats[name].diffuse_color, 0.8)  # base 1 x 0.8 (1.0.1), base 0.8 x 1 (1.0.0)
+        assert (mats[name].roughness, mats[name].ior, mats[name].clearcoat) == pytest.approx((0.2, 1.5, 0.0))
+        assert (mats[name].metallic, mats[name].opacity, mats[name].opacity_threshold) == (0.0, 1.0, 0.0)
+    np.testing.assert_allclose(mats["Pbr"].diffuse_color, 0.8)
+    assert mats["Pbr"].roughness == pytest.approx(0.3)
+    assert not any(f"/Looks/{n}:" in m for m in messages for n in ("Std", "Std100", "Pbr")), messages
+    glass, leaf = mats["Glass"], mats["Leaf"]
+    assert glass.ior == pytest.approx(1.0)  # specular 0: no dielectric reflection
+    assert (glass.opacity, glass.opacity_threshold) == pytest.approx((0.75, 0.0))  # 1 - transmission
+    assert (leaf.opacity, leaf.opacity_threshold) == pytest.approx((0.3, 0.5))  # a cut-out: drawn as a hole
+    assert (leaf.clearcoat, leaf.clearcoat_roughness) == pytest.approx((1.0, 0.25))
+    (glass_warning,) = [m for m in messages if "/Looks/Glass:" in m]
+    assert "transmission" in glass_warning and "sheen (0.5) is ignored" in glass_warning
+    (leaf_warning,) = [m for m in messages if "/Looks/Leaf:" in m]
+    assert "geometry_opacity 0.3 is drawn a hole" in leaf_warning and "coat_ior 1.6" in leaf_warning
+
+
+def write_png(path, rows):
+    PilImage.fromarray(np.asarray(rows, np.uint8)).save(path)
+    return str(path)
+
+
+def tiled_stage(tmp_path, png, uvtiling):
+    """A quad bound to a standard_surface whose base_color is an ``ND_tiledimage_color3`` inside a NodeGraph, its
+    file, roughness and metalness inputs of the Material (a file in ``srgb_texture``)."""
+    stage, path = new_stage(tmp_path, f"tiled{uvtiling}.usda")
+    quad = add_quad(stage, "/Quad")
+    material, shader = mtlx_material(stage, "/Looks/Tiles")
+    for name, value_type, value in (("rough", Sdf.ValueTypeNames.Float, 0.7),
+                                    ("metal", Sdf.ValueTypeNames.Float, 0.25),
+                                    ("file", Sdf.ValueTypeNames.Asset, Sdf.AssetPath(png))):
+        material.CreateInput(name, value_type).Set(value)
+    shader.CreateInput("specular_roughness", Sdf.ValueTypeNames.Float).ConnectToSource(
+        material.GetInput("rough").GetAttr().GetPath())
+    shader.CreateInput("metalness", Sdf.ValueTypeNames.Float).ConnectToSource(material.GetInput("metal").GetAttr()
+                                                                              .GetPath())
+    graph = UsdShade.NodeGraph.Define(stage, "/Looks/Tiles/Graph")
+    image = UsdShade.Shader.Define(stage, "/Looks/Tiles/Graph/Image")
+    image.CreateIdAttr("ND_tiledimage_color3")
+    file_input = image.CreateInput("file", Sdf.ValueTypeNames.Asset)
+    file_input.ConnectToSource(material.GetInput("file").GetAttr().GetPath())
+    file_input.GetAttr().SetColorSpace("srgb_texture")
+    image.CreateInput("uvtiling", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(uvtiling, uvtiling))
+    texcoord = UsdShade.Shader.Define(stage, "/Looks/Tiles/Graph/Texcoord")
+    texcoord.CreateIdAttr("ND_texcoord_vector2")
+    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(texcoord.ConnectableAPI(), "out")
+    image.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    graph.CreateOutput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(graph.ConnectableAPI(), "base_color")
+    bind(quad, material)
+    stage.Save()
+    return path
+
+
+def albedo(scene, res):
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    return wrt.render(scene, camera=cam, width=res, height=res, device="cpu").aovs["albedo"]
+
+
+def test_interface_inputs_and_a_tiled_image_in_a_node_graph(tmp_path):
+    """Inputs connected to the Material's interface take its values; a NodeGraph's ``ND_tiledimage_color3`` becomes
+    the base colour texture (sRGB decoded), ``uvtiling`` 2 repeats it twice. It was a Lambertian of base_color."""
+    texels = [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [128, 128, 128]]]  # rows from the top
+    png = write_png(tmp_path / "tiles.png", texels)
+    grey = float(srgb_to_linear(np.float32(128 / 255)))
+    expected = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [grey, grey, grey]]])
+    scene, messages = load(tiled_stage(tmp_path, png, 1))
+    assert not messages, messages
+    (mat,) = scene.materials
+    assert (mat.roughness, mat.metallic) == pytest.approx((0.7, 0.25))
+    np.testing.assert_allclose(albedo(scene, 2), expected, atol=2e-3)  # pixel centres on texel centres
+    scene, _ = load(tiled_stage(tmp_path, png, 2))
+    np.testing.assert_allclose(albedo(scene, 4), np.tile(expected, (2, 2, 1)), atol=2e-3)
+
+
+def test_open_pbr_emission_is_luminance_times_colour(tmp_path):
+    """OpenPBR's emission_luminance (nits) times emission_color is the emitted radiance, in the units of a UsdLux
+    light of intensity 1 (= 1 nit): a black emitter of 3 nits in (1, 0.5, 0.25) shows (3, 1.5, 0.75). It was a
+    Lambertian of its base colour, which emitted nothing."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material, _ = mtlx_material(stage, "/Looks/Panel", OPEN_PBR, base_weight=0.0, specular_weight=0.0,
+                                emission_luminance=3.0, emission_color=Gf.Vec3f(1, 0.5, 0.25))
+    bind(quad, material)
+    stage.Save()
+    scene, _ = load(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu")
+    np.testing.assert_allclose(img.rgb, np.broadcast_to([3, 1.5, 0.75], (4, 4, 3)), rtol=1e-5)
+
+
+def test_an_unsupported_node_keeps_the_constant_with_one_warning(tmp_path):
+    """base_color from a math node (ND_multiply_color3) keeps the value authored beside the connection, with one
+    warning naming the material and the node type; the old fallback found no constant and drew displayColor."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    quad.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0.9, 0.9, 0.9)])
+    material, shader = mtlx_material(stage, "/Looks/Mixed")
+    node = UsdShade.Shader.Define(stage, "/Looks/Mixed/Multiply")
+    node.CreateIdAttr("ND_multiply_color3")
+    node.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    base_color = shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f)
+    base_color.Set(Gf.Vec3f(0.2, 0.4, 0.6))
+    base_color.ConnectToSource(node.ConnectableAPI(), "out")
+    bind(quad, material)
+    stage.Save()
+    scene, messages = load(path)
+    mentions = [m for m in messages if "/Looks/Mixed" in m]
+    assert len(mentions) == 1 and "ND_multiply_color3" in mentions[0], messages
+    np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([0.2, 0.4, 0.6], (2, 2, 3)), atol=1e-6)

@@ -1,0 +1,378 @@
+"""MaterialX ``standard_surface`` and OpenPBR surface shaders read as wrt materials (:class:`wrt.materials.Material`).
+
+wrt's BSDF (:mod:`wrt.bsdf`) is UsdPreviewSurface's: Lambert under a GGX lobe whose F0 comes from ``ior`` and
+``metallic``, a clearcoat of F0 0.04, a smooth dielectric for ``opacity < 1`` and cut-outs. Both MaterialX models
+map onto it input by input (GGX ``alpha = roughness^2`` in all three, so roughness carries over unchanged):
+
+=========================  ======================================  ======================================
+wrt                        standard_surface                        OpenPBR
+=========================  ======================================  ======================================
+diffuseColor (and metal)   ``base * base_color``                   ``base_weight * base_color``
+metallic                   ``metalness``                           ``base_metalness``
+roughness                  ``specular_roughness``                  ``specular_roughness``
+ior                        ``specular_IOR``, F0 scaled (below)     ``specular_ior``, F0 scaled (below)
+clearcoat, its roughness   ``coat``, ``coat_roughness``            ``coat_weight``, ``coat_roughness``
+emissiveColor (radiance)   ``emission * emission_color``           ``emission_luminance * emission_color``
+opacity (cut-out, 0.5)     ``opacity`` (mean of its channels)      ``geometry_opacity``
+opacity (dielectric)       ``1 - transmission``                    ``1 - transmission_weight``
+=========================  ======================================  ======================================
+
+Approximations, each named in the material's one warning when it changes what is drawn:
+
+- The specular weight and the mean of the specular colour scale the dielectric F0 ``((ior - 1) / (ior + 1))^2``,
+  as OpenPBR defines ``specular_weight``; wrt takes F0 from ``ior``, so ``ior`` becomes the index of that scaled F0
+  (``specular = 0``: ``ior = 1``, no dielectric reflection; metals keep their reflection). A tinted specular colour
+  loses its hue, and the changed ``ior`` also refracts transmitted light.
+- Geometry opacity is a coverage; wrt has cut-outs, so it becomes a cut-out at 0.5 (a hole where it is below 0.5,
+  as glTF's default alpha cutoff), which is exact for the 0/1 masks of leaves and fences. A constant between 0 and 1
+  is rounded that way. With a cut-out, ``transmission`` is ignored (one opacity per material).
+- ``transmission`` is wrt's smooth dielectric (opacity = 1 - transmission: Snell refraction at ``ior``);
+  transmission colour, depth, scattering and roughness are ignored.
+- The coat is wrt's clearcoat (F0 0.04, index 1.5): ``coat_color`` and another coat index are ignored.
+- OpenPBR's ``emission_luminance`` is in nits; wrt's radiance is in UsdLux's units, where a light of intensity 1
+  has luminance 1 nit, so the emitted radiance is ``emission_luminance * emission_color`` (MaterialX's own OpenPBR
+  graph feeds that product to its ``uniform_edf`` unchanged). A 1000-nit panel is 1000 times a UsdLux light of
+  intensity 1: lower the exposure.
+- Lobes wrt does not have (diffuse roughness, subsurface, sheen/fuzz, thin film, anisotropy, coat-affected colour
+  and roughness) are ignored.
+
+An input is a constant, an input of the Material (or a NodeGraph) it connects to, or an image node:
+``ND_image_*`` or ``ND_tiledimage_*`` (``float``, ``color3``, ``color4``, ``vector2/3/4``), reached directly or
+through a NodeGraph output. An image node becomes a :class:`wrt.materials.TextureInput`: ``file`` (colour space from
+the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded, ``lin_rec709``/``raw`` and other linear spaces
+kept, none: sRGB for 8-bit colour images), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant
+reads black), ``uvtiling``/``uvoffset``/``realworldimagesize``/``realworldtilesize`` of ``tiledimage`` as the
+texture transform, and texture coordinates from ``ND_texcoord_vector2`` (the mesh's ``st``) or
+``ND_geompropvalue_vector2`` (the primvar named by ``geomprop``). Where the file cannot be read, the node's
+``default`` is used (the surface input's constant when the node has none). Any other node (math, mix, ...) keeps the
+input's constant: its own authored value, else the specification's default. Defaults are the MaterialX library's
+(``libraries/bxdf/standard_surface.mtlx`` 1.0.1 and 1.0.0, ``open_pbr_surface.mtlx`` 1.1).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from .materials import Material, TextureInput, _surface_shaders
+from .usd_values import value_at
+
+# role -> (input name, specification default); the roles are what wrt's model reads.
+STANDARD_SURFACE_101 = {
+    "base_weight": ("base", 1.0),
+    "base_color": ("base_color", (0.8, 0.8, 0.8)),
+    "metallic": ("metalness", 0.0),
+    "specular_weight": ("specular", 1.0),
+    "specular_color": ("specular_color", (1.0, 1.0, 1.0)),
+    "roughness": ("specular_roughness", 0.2),
+    "ior": ("specular_IOR", 1.5),
+    "transmission": ("transmission", 0.0),
+    "coat": ("coat", 0.0),
+    "coat_color": ("coat_color", (1.0, 1.0, 1.0)),
+    "coat_roughness": ("coat_roughness", 0.1),
+    "coat_ior": ("coat_IOR", 1.5),
+    "emission_weight": ("emission", 0.0),
+    "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
+    "opacity": ("opacity", (1.0, 1.0, 1.0)),
+}
+STANDARD_SURFACE_100 = {**STANDARD_SURFACE_101, "base_weight": ("base", 0.8), "base_color": ("base_color", (1.0,) * 3)}
+OPEN_PBR_SURFACE = {
+    "base_weight": ("base_weight", 1.0),
+    "base_color": ("base_color", (0.8, 0.8, 0.8)),
+    "metallic": ("base_metalness", 0.0),
+    "specular_weight": ("specular_weight", 1.0),
+    "specular_color": ("specular_color", (1.0, 1.0, 1.0)),
+    "roughness": ("specular_roughness", 0.3),
+    "ior": ("specular_ior", 1.5),
+    "transmission": ("transmission_weight", 0.0),
+    "coat": ("coat_weight", 0.0),
+    "coat_color": ("coat_color", (1.0, 1.0, 1.0)),
+    "coat_roughness": ("coat_roughness", 0.0),
+    "coat_ior": ("coat_ior", 1.6),
+    "emission_weight": ("emission_luminance", 0.0),
+    "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
+    "opacity": ("geometry_opacity", 1.0),
+}
+# Inputs of lobes wrt does not have, with the value that switches them off.
+STANDARD_SURFACE_IGNORED = {"diffuse_roughness": 0.0, "subsurface": 0.0, "sheen": 0.0, "thin_film_thickness": 0.0,
+                            "specular_anisotropy": 0.0, "coat_affect_color": 0.0, "coat_affect_roughness": 0.0}
+OPEN_PBR_IGNORED = {"base_diffuse_roughness": 0.0, "subsurface_weight": 0.0, "fuzz_weight": 0.0,
+                    "thin_film_weight": 0.0, "specular_roughness_anisotropy": 0.0}
+MODELS = {  # info:id -> (inputs, ignored inputs)
+    "ND_standard_surface_surfaceshader": (STANDARD_SURFACE_101, STANDARD_SURFACE_IGNORED),
+    "ND_standard_surface_surfaceshader_100": (STANDARD_SURFACE_100, STANDARD_SURFACE_IGNORED),
+    "ND_open_pbr_surface_surfaceshader": (OPEN_PBR_SURFACE, OPEN_PBR_IGNORED),
+}
+CLEARCOAT_IOR = 1.5  # the index of wrt's clearcoat (F0 0.04)
+CUT_OUT_THRESHOLD = 0.5  # geometry opacity below this is a hole
+
+IMAGE_NODE = re.compile(r"^ND_(tiled)?image_(float|color3|color4|vector2|vector3|vector4)$")
+ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
+COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
+
+
+def materialx_surface(material):
+    """The first MaterialX ``standard_surface`` or OpenPBR shader that a surface output of ``material`` (universal
+    first, then each render context's) leads to, or None."""
+    return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in MODELS), None)
+
+
+def read_materialx_surface(reader, shader, path: str) -> Material:
+    """The :class:`Material` for ``shader`` (a ``standard_surface`` or OpenPBR ``UsdShade.Shader``) of the material
+    at ``path``, read by ``reader`` (a :class:`wrt.materials.MaterialReader`: its inputs, images and warnings). What
+    is approximated or ignored goes into one warning for the material."""
+    inputs, ignored = MODELS[shader.GetShaderId()]
+    graph = _Graph(reader, shader, path, inputs)
+    textures = {}
+
+    def put(slot, value, texture):
+        if texture is not None:
+            textures[slot] = texture
+        return value
+
+    diffuse = put("diffuseColor", *graph.product("base_color", "base_weight"))
+    emissive = put("emissiveColor", *graph.product("emission_color", "emission_weight"))
+    metallic = put("metallic", *graph.scalar("metallic"))
+    roughness = put("roughness", *graph.scalar("roughness"))
+    clearcoat = put("clearcoat", *graph.scalar("coat"))
+    clearcoat_roughness = put("clearcoatRoughness", *graph.scalar("coat_roughness"))
+    ior = graph.ior(pure_metal=metallic >= 1.0 and "metallic" not in textures)
+    opacity, threshold, opacity_texture = graph.opacity()
+    put("opacity", None, opacity_texture)
+    graph.coat_notes(clearcoat, "clearcoat" in textures)
+    for name, off in ignored.items():
+        found = reader._producer(shader, name)
+        if found is not None and (found[0] == "shader" or _array(found[1]) is None
+                                  or not np.allclose(_array(found[1]), off)):
+            graph.notes.append(f"{name} ({_describe(found)}) is ignored")
+    if graph.notes:
+        reader.skip(f"material {path}: {shader.GetShaderId()} is drawn approximately: {'; '.join(graph.notes)}",
+                    shader.GetPrim())
+    return Material(path=path, diffuse_color=diffuse, emissive_color=emissive, metallic=metallic, roughness=roughness,
+                    ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, opacity=opacity,
+                    opacity_threshold=threshold, textures=textures)
+
+
+class _Graph:
+    """The inputs of one surface shader, resolved through interface inputs and NodeGraph outputs, and the notes
+    (approximations, unsupported nodes) for its material's warning."""
+
+    def __init__(self, reader, shader, path: str, inputs: dict):
+        self.reader = reader
+        self.shader = shader
+        self.path = path
+        self.inputs = inputs
+        self.notes: list[str] = []
+
+    def read(self, role: str) -> tuple[np.ndarray, TextureInput | None]:
+        """``(constant, texture)`` of the input playing ``role``: the constant is ``(3,)`` or ``(1,)`` float64 (the
+        texture's fallback where a texture is returned), the texture None unless an image node feeds the input."""
+        name, default = self.inputs[role]
+        default = np.atleast_1d(np.asarray(default, np.float64))
+        found = self.reader._producer(self.shader, name)
+        if found is None:
+            return default, None
+        if found[0] == "value":
+            value = _array(found[1], default.size)
+            if value is None:
+                self.notes.append(f"{name} is not a finite number of its type; its default is used")
+                return default, None
+            return value, None
+        node = found[1]
+        own = _array(value_at(self.shader.GetInput(name).GetAttr(), self.reader.time), default.size)
+        constant = default if own is None else own  # the value authored beside the connection
+        node_id = node.GetShaderId() or ""
+        if IMAGE_NODE.match(node_id):
+            return self._image(node, node_id, constant)
+        self.notes.append(f"{name} comes from a {node_id or 'node without info:id'} node ({node.GetPath()}), "
+                          f"which is not supported; its constant {_format(constant)} is used")
+        return constant, None
+
+    def scalar(self, role: str) -> tuple[float, TextureInput | None]:
+        """A float input: ``(constant, texture)``; a colour authored on it reads as its mean."""
+        value, texture = self.read(role)
+        return float(np.mean(value)), texture
+
+    def product(self, color_role: str, weight_role: str) -> tuple[np.ndarray, TextureInput | None]:
+        """``color * weight`` as ``((3,) constant, texture)``: a texture of either is scaled by the other's constant
+        (a weight texture by the colour's mean, its tint lost); of two textures the colour's is kept."""
+        color, color_texture = self.read(color_role)
+        weight, weight_texture = self.read(weight_role)
+        color, weight = np.resize(color, 3), float(np.mean(weight))
+        if color_texture is not None:
+            color_texture.scale[:3] *= weight
+            if weight_texture is not None:
+                self.notes.append(f"the texture of {self.inputs[weight_role][0]} is ignored (its colour is textured)")
+            return (color * weight).astype(np.float32), color_texture
+        if weight_texture is not None:
+            weight_texture.scale[:3] *= float(np.mean(color))
+            if np.ptp(color) > 1e-6:
+                self.notes.append(f"{self.inputs[color_role][0]} {_format(color)} tints a textured weight: its mean "
+                                  "is used")
+            return (color * weight).astype(np.float32), weight_texture
+        return (color * weight).astype(np.float32), None
+
+    def ior(self, pure_metal: bool) -> float:
+        """``ior`` whose dielectric F0 is the specular weight times the mean specular colour times the F0 of the
+        authored index (textures of these three keep their constants). A ``pure_metal`` has no dielectric F0 to
+        show, and no note about it."""
+        ior, ior_texture = self.read("ior")
+        weight, weight_texture = self.read("specular_weight")
+        color, color_texture = self.read("specular_color")
+        for role, texture in (("ior", ior_texture), ("specular_weight", weight_texture),
+                              ("specular_color", color_texture)):
+            if texture is not None:
+                self.notes.append(f"the texture of {self.inputs[role][0]} is ignored (wrt has one constant ior)")
+        ior = float(np.mean(ior))
+        factor = float(np.mean(weight)) * float(np.mean(color))
+        weight_name, color_name = self.inputs["specular_weight"][0], self.inputs["specular_color"][0]
+        if np.ptp(np.resize(color, 3)) > 1e-6 and not pure_metal:
+            self.notes.append(f"{color_name} {_format(color)} is reduced to its mean")
+        if abs(factor - 1.0) < 1e-6:
+            return ior
+        f0 = ((ior - 1.0) / (ior + 1.0)) ** 2 * max(factor, 0.0)
+        r = math.sqrt(min(f0, 0.99))
+        scaled = (1.0 + r) / (1.0 - r)
+        if not pure_metal:
+            self.notes.append(f"{weight_name} times the mean {color_name}, {factor:.3g}, scales the dielectric F0: "
+                              f"{self.inputs['ior'][0]} {ior:.3g} is drawn as {scaled:.3g}")
+        return scaled
+
+    def opacity(self) -> tuple[float, float, TextureInput | None]:
+        """``(opacity, opacityThreshold, texture)``: geometry opacity as a cut-out, else transmission as wrt's
+        dielectric."""
+        coverage, coverage_texture = self.read("opacity")
+        coverage = float(np.mean(coverage))
+        transmission, transmission_texture = self.read("transmission")
+        transmission = float(np.mean(transmission))
+        opacity_name, transmission_name = self.inputs["opacity"][0], self.inputs["transmission"][0]
+        if coverage_texture is not None or coverage < 1.0:
+            if coverage_texture is None and 0.0 < coverage < 1.0:
+                rounded = "a hole" if coverage < CUT_OUT_THRESHOLD else "opaque"
+                self.notes.append(f"{opacity_name} {coverage:.3g} is drawn {rounded} (a cut-out at "
+                                  f"{CUT_OUT_THRESHOLD})")
+            if transmission_texture is not None or transmission > 0.0:
+                self.notes.append(f"{transmission_name} is ignored beside a cut-out {opacity_name}")
+            return coverage, CUT_OUT_THRESHOLD, coverage_texture
+        if transmission_texture is not None:  # opacity = 1 - (texel * scale + bias)
+            transmission_texture.scale = -transmission_texture.scale
+            transmission_texture.bias = 1.0 - transmission_texture.bias
+        if transmission_texture is not None or transmission > 0.0:
+            self.notes.append(f"{transmission_name} is drawn as a smooth dielectric of opacity 1 - "
+                              f"{transmission_name} (no colour, depth or roughness)")
+        return 1.0 - transmission, 0.0, transmission_texture
+
+    def coat_notes(self, coat: float, textured: bool):
+        """Names the coat inputs wrt's clearcoat cannot follow, where the coat shows."""
+        if coat <= 0.0 and not textured:
+            return
+        color, color_texture = self.read("coat_color")
+        if color_texture is not None or not np.allclose(color, 1.0):
+            self.notes.append(f"{self.inputs['coat_color'][0]} is ignored (wrt's clearcoat is clear)")
+        coat_ior, _ = self.read("coat_ior")
+        if abs(float(np.mean(coat_ior)) - CLEARCOAT_IOR) > 1e-6:
+            self.notes.append(f"{self.inputs['coat_ior'][0]} {float(np.mean(coat_ior)):.3g} is drawn as "
+                              f"{CLEARCOAT_IOR}")
+
+    def _image(self, node, node_id: str, constant: np.ndarray) -> tuple[np.ndarray, TextureInput | None]:
+        """``(fallback, texture)`` of image node ``node``; texture None where its file cannot be read."""
+        reader = self.reader
+        default = _array(reader._constant(node, "default"), constant.size)
+        fallback = constant if default is None else default
+        file_input = node.GetInput("file")
+        if not file_input:
+            self.notes.append(f"image node {node.GetPath()} has no file; {_format(fallback)} is used")
+            return fallback, None
+        color_space = self._color_space(file_input)
+        image = reader._image(reader._constant(node, "file"), color_space, node.GetPrim(), self.path)
+        if image < 0:
+            return fallback, None
+        tiled = node_id.startswith("ND_tiledimage_")
+        if tiled:
+            wrap = ("repeat", "repeat")
+        else:
+            wrap = tuple(ADDRESS_MODES.get(str(reader._constant(node, key) or "periodic"), "repeat")
+                         for key in ("uaddressmode", "vaddressmode"))
+        channel = "r" if node_id.endswith("_float") else "rgb"
+        return fallback, TextureInput(image=image, channel=channel, wrap=wrap,
+                                      transform=self._tiling(node) if tiled else np.eye(3, dtype=np.float32),
+                                      uv_set=self._uv_set(node))
+
+    def _color_space(self, file_input) -> str:
+        """wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image's ``file`` input, from the ``colorSpace``
+        metadata of the input or of the interface input it connects to."""
+        name = ""
+        for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()]:
+            if attr.HasColorSpace():
+                name = str(attr.GetColorSpace())
+                break
+        if name in COLOR_SPACES:
+            return COLOR_SPACES[name]
+        self.notes.append(f"texture colour space {name!r} is read as linear (no gamut conversion)")
+        return "raw"
+
+    def _tiling(self, node) -> np.ndarray:
+        """``tiledimage``'s texture-coordinate map ``(st * uvtiling - uvoffset) / realworldimagesize *
+        realworldtilesize`` as a 3x3 matrix (column-vector convention, as ``UsdTransform2d``'s)."""
+
+        def pair(name, default):
+            value = _array(self.reader._constant(node, name), 2)
+            return np.resize(value, 2) if value is not None else np.array(default, np.float64)
+
+        tiling, offset = pair("uvtiling", (1, 1)), pair("uvoffset", (0, 0))
+        image_size, tile_size = pair("realworldimagesize", (1, 1)), pair("realworldtilesize", (1, 1))
+        if np.any(image_size == 0.0):
+            self.notes.append(f"{node.GetPath()}: realworldimagesize has a zero; the real-world sizes are ignored")
+            image_size = tile_size = np.ones(2)
+        s = tile_size / image_size
+        m = np.array([[tiling[0] * s[0], 0, -offset[0] * s[0]], [0, tiling[1] * s[1], -offset[1] * s[1]], [0, 0, 1]])
+        return m.astype(np.float32)
+
+    def _uv_set(self, node) -> str:
+        """The primvar an image node's ``texcoord`` reads: ``st`` unless a ``geompropvalue`` names another."""
+        found = self.reader._producer(node, "texcoord")
+        if found is None:
+            return "st"  # MaterialX's default texcoord: the first set, which is USD's st
+        if found[0] == "shader":
+            source = found[1]
+            source_id = source.GetShaderId() or ""
+            if source_id == "ND_texcoord_vector2":
+                index = self.reader._constant(source, "index")
+                if index not in (None, 0):
+                    self.notes.append(f"texcoord index {index} is read as primvar st")
+                return "st"
+            if source_id == "ND_geompropvalue_vector2":
+                name = self.reader._constant(source, "geomprop")
+                return str(name) if name else "st"
+            self.notes.append(f"texture coordinates from a {source_id or 'node without info:id'} node "
+                              f"({source.GetPath()}) are not supported; primvar st is used")
+        else:
+            self.notes.append(f"a constant texcoord on {node.GetPath()} is not supported; primvar st is used")
+        return "st"
+
+
+def _array(value, size: int | None = None) -> np.ndarray | None:
+    """A constant as a finite float64 array (``size`` 3 broadcasts one number); None when it is not one."""
+    try:
+        v = np.asarray(value, np.float64).reshape(-1)
+    except (TypeError, ValueError):  # None, a string, ...
+        return None
+    if v.size == 0 or not np.all(np.isfinite(v)):
+        return None
+    if size is not None and v.size != size:
+        v = np.full(size, v[0]) if v.size == 1 else np.resize(v, size)
+    return v
+
+
+def _format(value) -> str:
+    v = np.atleast_1d(np.asarray(value, np.float64))
+    return ", ".join(f"{x:.3g}" for x in v) if v.size > 1 else f"{v[0]:.3g}"
+
+
+def _describe(found) -> str:
+    """An input's value or, when connected, its source node, for a warning."""
+    if found[0] == "value":
+        return _format(found[1]) if _array(found[1]) is not None else repr(found[1])
+    return f"connected to {found[1].GetShaderId() or found[1].GetPath()}"
