@@ -140,13 +140,10 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
     clearcoat_roughness = put("clearcoatRoughness", *graph.scalar("coat_roughness"))
     ior = graph.ior(pure_metal=metallic >= 1.0 and "metallic" not in textures)
     opacity, threshold, opacity_texture = graph.opacity()
-    put("opacity", None, opacity_texture)
+    if opacity_texture is not None:
+        textures["opacity"] = opacity_texture
     graph.coat_notes(clearcoat, "clearcoat" in textures)
-    for name, off in ignored.items():
-        found = reader._producer(shader, name)
-        if found is not None and (found[0] == "shader" or _array(found[1]) is None
-                                  or not np.allclose(_array(found[1]), off)):
-            graph.notes.append(f"{name} ({_describe(found)}) is ignored")
+    graph.ignored_notes(ignored)
     if graph.notes:
         reader.skip(f"material {path}: {shader.GetShaderId()} is drawn approximately: {'; '.join(graph.notes)}",
                     shader.GetPrim())
@@ -275,6 +272,17 @@ class _Graph:
         if abs(float(np.mean(coat_ior)) - CLEARCOAT_IOR) > 1e-6:
             self.notes.append(f"{self.inputs['coat_ior'][0]} {float(np.mean(coat_ior)):.3g} is drawn as "
                               f"{CLEARCOAT_IOR}")
+
+    def ignored_notes(self, ignored: dict):
+        """Names the inputs of lobes wrt lacks (``ignored``: name -> the value that switches the lobe off) that are
+        connected or authored with another value."""
+        for name, off in ignored.items():
+            found = self.reader._producer(self.shader, name)
+            if found is None:
+                continue
+            value = _array(found[1]) if found[0] == "value" else None
+            if value is None or not np.allclose(value, off):
+                self.notes.append(f"{name} ({_describe(found)}) is ignored")
 
     def _image(self, node, node_id: str, constant: np.ndarray) -> tuple[np.ndarray, TextureInput | None]:
         """``(fallback, texture)`` of image node ``node``; texture None where its file cannot be read."""
