@@ -197,3 +197,18 @@ def test_an_unsupported_node_keeps_the_constant_with_one_warning(tmp_path):
     mentions = [m for m in messages if "/Looks/Mixed" in m]
     assert len(mentions) == 1 and "ND_multiply_color3" in mentions[0], messages
     np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([0.2, 0.4, 0.6], (2, 2, 3)), atol=1e-6)
+
+
+def test_a_full_binding_to_standard_surface_wins_over_a_preview_binding(tmp_path):
+    """A mesh bound to a standard_surface for ``full`` and to a UsdPreviewSurface for ``preview``: the preview
+    binding served while wrt read no MaterialX; now that it reads standard_surface, the full look is the one to draw
+    (as for a full UsdPreviewSurface)."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    full, _ = mtlx_material(stage, "/Looks/Full", base_color=Gf.Vec3f(1, 0, 0))
+    preview, _ = preview_material(stage, "/Looks/Preview", diffuseColor=Gf.Vec3f(0, 0, 1))
+    bind(quad, full, UsdShade.Tokens.full)
+    bind(quad, preview, UsdShade.Tokens.preview)
+    stage.Save()
+    scene, _ = load(path)
+    assert scene.materials[scene.meshes[0].material_ids[0]].path == "/Looks/Full"

@@ -364,15 +364,17 @@ def bound_material(prim) -> tuple:
     ``UsdShade.Material`` when none, and the binding relationship that binds it (for its strength).
 
     The ``full`` purpose first (it falls back to all-purpose bindings); when that binds nothing, or a material
-    without a UsdPreviewSurface (an MDL or MaterialX look) while a ``material:binding:preview`` binds one, the
-    preview binding, as usdview shows it. An asset whose meshes bind their UsdPreviewSurface only for preview was
-    drawn in the default grey. (usdview takes a preview binding first also where the full one has a
-    UsdPreviewSurface: there wrt, a final-frame renderer, keeps the full one.)"""
+    wrt cannot read (an MDL look, a MaterialX surface other than standard_surface and OpenPBR) while a
+    ``material:binding:preview`` binds a UsdPreviewSurface, the preview binding, as usdview shows it. An asset whose
+    meshes bind their UsdPreviewSurface only for preview was drawn in the default grey. (usdview takes a preview
+    binding first also where the full one is readable: there wrt, a final-frame renderer, keeps the full one.)"""
     from pxr import UsdShade
+
+    from .materialx import materialx_surface  # that module imports this one
 
     binding = UsdShade.MaterialBindingAPI(prim)
     full, full_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
-    if full and _context_preview_surface(full):
+    if full and (_context_preview_surface(full) or materialx_surface(full)):
         return full, full_binding
     preview, preview_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
     if preview and _context_preview_surface(preview):
