@@ -19,7 +19,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   be a constant or a ``UsdUVTexture`` output (``r``/``g``/``b``/``a``/``rgb``) with ``file``, ``st`` (from a
   ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``), ``wrapS``/``wrapT``, ``scale``, ``bias``,
   ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a ``UsdPrimvarReader_float3`` of
-  ``displayColor``. ``normal``, ``occlusion`` and ``displacement`` are ignored.
+  ``displayColor``. ``normal`` is read from a ``UsdUVTexture``'s ``rgb`` output only (a tangent-space normal map:
+  :func:`wrt.shade.shading_point`); ``occlusion`` and ``displacement`` are ignored.
 - A texture that cannot be read is replaced by its ``fallback`` value, with one warning per file.
 - An input that is not a finite number (NaN, inf, or authored with a wrong type) keeps its schema default, with one
   warning per material naming the inputs.
@@ -52,6 +53,7 @@ SLOTS = (  # the texturable inputs, in device slot order
     "opacity",
     "clearcoat",
     "clearcoatRoughness",
+    "normal",  # a tangent-space normal map (a texture only: see MaterialReader._read_normal_map)
 )
 SLOT_DIFFUSE = wp.constant(0)
 SLOT_EMISSIVE = wp.constant(1)
@@ -61,6 +63,7 @@ SLOT_ROUGHNESS = wp.constant(4)
 SLOT_OPACITY = wp.constant(5)
 SLOT_CLEARCOAT = wp.constant(6)
 SLOT_CLEARCOAT_ROUGHNESS = wp.constant(7)
+SLOT_NORMAL = wp.constant(8)
 NUM_SLOTS = len(SLOTS)
 CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3, "rgb": 4, "rgba": 4}  # UsdUVTexture outputs
 FLAG_SPECULAR_WORKFLOW = wp.constant(1)  # useSpecularWorkflow = 1
@@ -109,7 +112,9 @@ class Material(CountsAssignments):
         clearcoat: clearcoat weight.
         clearcoat_roughness: clearcoat roughness.
         diffuse_from_display_color: diffuseColor is read from the mesh's ``displayColor``.
-        textures: input name (one of :data:`SLOTS`) -> :class:`TextureInput`.
+        textures: input name (one of :data:`SLOTS`) -> :class:`TextureInput`. ``"normal"`` is a tangent-space
+            normal map (its ``rgb`` after ``scale`` and ``bias``, OpenGL convention: +Y up the map), which has no
+            constant field: without it the mesh's normals are used.
     """
 
     path: str = ""
@@ -144,6 +149,9 @@ class Material(CountsAssignments):
         unknown = set(self.textures) - set(SLOTS)
         if unknown:
             raise ValueError(f"textures on unknown inputs {sorted(unknown)}; texturable inputs: {SLOTS}")
+        normal_map = self.textures.get("normal")
+        if normal_map is not None and normal_map.channel != "rgb":
+            raise ValueError(f"material {self.path}: a normal map reads the rgb output, not {normal_map.channel!r}")
 
     @property
     def uv_set(self) -> str:
@@ -287,6 +295,12 @@ def input_float(mats: DeviceMaterials, m: int, slot: int, st: wp.vec2, constant:
     if b < 0:
         return constant
     return lookup_binding(mats, b, st)[0]
+
+
+@wp.func
+def normal_map(mats: DeviceMaterials, m: int):
+    """The texture binding of material ``m``'s normal map, -1 when it has none."""
+    return mats.slots[m, SLOT_NORMAL]
 
 
 @wp.func
@@ -526,7 +540,10 @@ class MaterialReader:
             return Material(path=path, diffuse_color=value, use_specular_workflow=True, roughness=1.0)
         mat = Material(path=path)
         for name in SLOTS:
-            self._read_input(shader, name, mat)
+            if name == "normal":
+                self._read_normal_map(shader, mat)
+            else:
+                self._read_input(shader, name, mat)
         for name, field in (("useSpecularWorkflow", "use_specular_workflow"),
                             ("opacityThreshold", "opacity_threshold"), ("ior", "ior")):
             value = self._constant(shader, name)
@@ -605,6 +622,29 @@ class MaterialReader:
                 "its constant value is used",
                 source.GetPrim(),
             )
+
+    def _read_normal_map(self, shader, mat: Material):
+        """``normal``: a ``UsdUVTexture``'s ``rgb`` output is a tangent-space normal map, used as its ``scale`` and
+        ``bias`` make it (the specification's ``(2, 2, 2, 1)`` and ``(-1, -1, -1, 0)`` for a map stored in [0, 1]).
+        A constant is ignored, as Storm ignores it; one other than the fallback (0, 0, 1) is reported, as is any
+        other source. A map that cannot be read leaves the normals unchanged (its file is reported)."""
+        found = self._producer(shader, "normal")
+        if found is None:
+            return
+        if found[0] == "value":
+            value = _rgb(found[1])
+            if value is None or not np.allclose(value, (0.0, 0.0, 1.0)):
+                self.skip(f"material {mat.path}: a constant normal is ignored (only a normal map perturbs normals)",
+                          shader.GetPrim(), detail=str(found[1]))
+            return
+        source, output = found[1], found[2]
+        if (source.GetShaderId() or "") != "UsdUVTexture" or output not in ("rgb", "rgba"):
+            self.skip(f"material {mat.path}: normal is connected to {source.GetShaderId() or 'a shader'}'s {output} "
+                      "output, not a UsdUVTexture's rgb; it is ignored", source.GetPrim())
+            return
+        tex, _ = self._texture(source, output, mat.path)
+        if tex is not None:
+            mat.textures["normal"] = tex
 
     def _set_constant(self, mat: Material, name: str, field: str, is_color: bool, value, prim):
         """Sets ``mat.field`` from input ``name``'s ``value``, authored on ``prim``; a value that is empty or not

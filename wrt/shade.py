@@ -32,7 +32,7 @@ from .camera import DeviceCamera, clipped_ray, film_ray
 from .floats import largest_magnitude
 from .geometry import stable_length
 from .lights import DEFAULT_DOME_RADIANCE
-from .materials import DeviceMaterials, cut_out, eval_surface
+from .materials import DeviceMaterials, cut_out, eval_surface, lookup_binding, normal_map
 from .primitives import shape_surface
 from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
@@ -40,6 +40,7 @@ from .transforms import (
     abs_vec,
     inverse_transform_magnitude,
     inverse_transform_point,
+    inverse_transform_vector,
     normal_to_world,
     transform_point,
     transform_vector,
@@ -206,6 +207,123 @@ def hit_point(
             c = scene.instance_colors[instance]
             if not wp.isnan(c[0]):
                 h.display = c
+    return h
+
+
+@wp.func
+def keep_reflection_above(n: wp.vec3, ng: wp.vec3, wo: wp.vec3):
+    """Shading normal ``n`` turned towards ``ng`` just enough that the mirror direction of ``wo`` about it lies above
+    the geometric surface (by ``min(0.9 cos, 0.01)`` of ``wo``'s own cosine ``cos`` to ``ng``); unchanged where it
+    already does. All three are unit vectors, ``ng`` and ``wo`` on the same side. Then ``dot(n, wo) > 0`` too: a
+    normal map that tilts ``n`` away from the viewer made the BSDF black there (``cos_o <= 0``) and sent mirror rays
+    into the surface. The bend stays in the plane of ``n`` and ``ng`` (Schuessler et al., "Microfacet-based Normal
+    Mapping for Robust Monte Carlo Path Tracing", 2017, discuss the problem; this is the remedy of Blender Cycles'
+    ``ensure_valid_specular_reflection``, solved in closed form)."""
+    if wp.dot(n, ng) < 0.0:  # below the surface: reflect it over the tangent plane first
+        n = wp.normalize(n - 2.0 * wp.dot(n, ng) * ng)
+    cos_o = wp.dot(wo, ng)
+    threshold = wp.min(0.9 * cos_o, 0.01)
+    if 2.0 * wp.dot(n, wo) * wp.dot(n, ng) - cos_o >= threshold:  # dot(reflect(wo, n), ng)
+        return n
+    # Solve for n' = x_n X + z_n ng (X: the unit direction of n's tangential part) with dot(reflect(wo, n'), ng) =
+    # threshold: 2 (x_n wo_x + z_n cos_o) z_n - cos_o = threshold, a quadratic in z_n^2 of which one root is valid.
+    x = n - wp.dot(n, ng) * ng
+    x_length = wp.length(x)
+    if x_length <= 0.0:
+        return ng
+    x = x / x_length
+    wo_x = wp.dot(wo, x)
+    a = wo_x * wo_x + cos_o * cos_o
+    if a <= 0.0:
+        return ng
+    b = 2.0 * (a + cos_o * threshold)
+    c = (threshold + cos_o) * (threshold + cos_o)
+    root = wp.sqrt(wp.max(b * b - 4.0 * a * c, 0.0))
+    z2 = 0.25 * (b - root) / a
+    if wo_x < 0.0:
+        z2 = 0.25 * (b + root) / a
+    z2 = wp.clamp(z2, 0.0, 1.0)
+    bent = wp.normalize(wp.sqrt(1.0 - z2) * x + wp.sqrt(z2) * ng)
+    if 2.0 * wp.dot(bent, wo) * wp.dot(bent, ng) - cos_o <= 0.0:  # rounding at the most grazing views
+        return ng
+    return bent
+
+
+@wp.func
+def mapped_normal(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    binding: int,
+    h: HitPoint,
+    prim: int,
+    instance: int,
+    d: wp.vec3,
+):
+    """The shading normal of hit ``h`` on triangle ``prim`` perturbed by normal map ``binding`` (a texture binding
+    of ``mats``): ``normalize(x T + y B + z N)`` for the map's value ``(x, y, z)``, with ``N = h.ns`` (facing the
+    ray, as Storm's), ``T`` the direction of increasing s (the map's coordinates, after its ``UsdTransform2d``)
+    made orthogonal to ``N``, and ``B = +-cross(N, T)`` on the side of increasing t (OpenGL convention: +Y up the
+    map; the side also follows mirroring transforms and mirrored texture coordinates). Then kept on the viewer's
+    side of the surface (:func:`keep_reflection_above`). ``h.ns`` is returned where the frame or the map value has
+    no direction (texture coordinates of zero area, a zero texel)."""
+    # Tangents of the triangle: dp/ds and dp/dt of the map's coordinates, times the sign of the st area (their
+    # directions, without dividing by it). The UsdTransform2d's translation cancels in the differences.
+    xf = mats.tex_transform[binding]
+    st0 = surf.uvs[prim, 0]
+    st1 = surf.uvs[prim, 1] - st0
+    st2 = surf.uvs[prim, 2] - st0
+    d1 = xf * wp.vec3(st1[0], st1[1], 0.0)
+    d2 = xf * wp.vec3(st2[0], st2[1], 0.0)
+    det = d1[0] * d2[1] - d1[1] * d2[0]
+    if det == 0.0 or not wp.isfinite(det):
+        return h.ns
+    p0 = scene.points[scene.indices[prim, 0]]
+    e1 = scene.points[scene.indices[prim, 1]] - p0
+    e2 = scene.points[scene.indices[prim, 2]] - p0
+    side = wp.sign(det)
+    dp_ds = (d2[1] * e1 - d1[1] * e2) * side
+    dp_dt = (d1[0] * e2 - d2[0] * e1) * side
+    if instance >= 0:
+        dp_ds = inverse_transform_vector(scene.world_to_local[instance], dp_ds)
+        dp_dt = inverse_transform_vector(scene.world_to_local[instance], dp_dt)
+    # Gram-Schmidt against the shading normal; the bitangent's side follows dp/dt.
+    n = h.ns
+    t = dp_ds - wp.dot(dp_ds, n) * n
+    t_length = stable_length(t)
+    if not (t_length > 0.0 and wp.isfinite(t_length)):
+        return h.ns
+    t = t / t_length
+    bt = wp.cross(n, t)
+    if wp.dot(bt, dp_dt) < 0.0:
+        bt = -bt
+    c = lookup_binding(mats, binding, h.st)
+    m = c[0] * t + c[1] * bt + c[2] * n
+    m_length = wp.length(m)
+    if not (m_length > 0.0 and wp.isfinite(m_length)):
+        return h.ns
+    return keep_reflection_above(m / m_length, h.ng, -wp.normalize(d))
+
+
+@wp.func
+def shading_point(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    prim: int,
+    instance: int,
+    u: float,
+    v: float,
+    o: wp.vec3,
+    d: wp.vec3,
+    t: float,
+):
+    """:func:`hit_point` with the material's normal map applied to ``ns`` (:func:`mapped_normal`); meshes only, as
+    analytic shapes have no texture coordinates. Without a normal map it costs one read of the material's slot."""
+    h = hit_point(scene, surf, prim, instance, u, v, o, d, t)
+    binding = normal_map(mats, h.material)
+    if binding >= 0 and prim < scene.num_prims:
+        h.ns = mapped_normal(scene, surf, mats, binding, h, prim, instance, d)
     return h
 
 
@@ -675,7 +793,7 @@ def primary_aovs_kernel(
         material[i] = -1
         return
     d = directions[i]
-    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
+    h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display)
     depth[i] = hit_t[i] * wp.length(d)
     cam = cams[i // view_pixels]

@@ -37,6 +37,12 @@ def inverse_transform_point(m: mat34, p: wp.vec3):
 
 
 @wp.func
+def inverse_transform_vector(m: mat34, v: wp.vec3):
+    """The vector that ``m`` maps to ``v``: ``A^-1 v`` (a local tangent in world space, for a world-to-local ``m``)."""
+    return wp.inverse(linear_part(m)) * v
+
+
+@wp.func
 def normal_to_world(m: mat34, n: wp.vec3):
     """A local-space normal in world space, for world-to-local ``m``: ``A^T n`` (not normalised)."""
     return wp.transpose(linear_part(m)) * n

@@ -24,7 +24,7 @@ from ..lights import DeviceLights, sample_light_in_view, shadow_direction, trian
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, hit_point
+from ..shade import DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment, mis_weight
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
@@ -92,7 +92,7 @@ def shade_path_kernel(
         t_maxs[i] = 0.0
         return
 
-    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
+    h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display)
 
     # A hole the trace did not get past (more in a row than it passes) ends the path, as it blocks a shadow ray.

@@ -35,7 +35,7 @@ from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, hit_point
+from ..shade import DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment
 from .path import SHADOW_SHORTEN
 
@@ -100,7 +100,7 @@ def shade_whitted_kernel(
         radiance[i] = L
         alive[i] = 0
         return
-    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
+    h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display)
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
         # A hole the trace did not get past (more in a row than it passes: wrt.shade.intersect_visible) ends the
@@ -158,7 +158,7 @@ def whitted_light_kernel(
     o = origins[i]
     d = directions[i]
     prim = hit_prim[i]
-    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, hit_t[i])
+    h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display)
     state = rng[i]
     u_pick, state = rand01(state)
@@ -217,7 +217,7 @@ def continue_whitted_kernel(
         return
     d = directions[i]
     prim = hit_prim[i]
-    h = hit_point(scene, surf, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
+    h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display)
     wo = -d
     cos_o = wp.max(wp.dot(h.ns, wo), 0.0)
