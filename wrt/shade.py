@@ -9,7 +9,8 @@ Conventions:
 
 - Surfaces: the geometric normal (from the winding, ``cross(p1 - p0, p2 - p0)``) is turned to face the incoming
   ray; the shading normal (barycentric interpolation of the mesh's normals, or the face normal when it has none)
-  is turned to the same side. ``front`` records whether the ray arrived on the winding's front side.
+  is turned to the same side. ``front`` records whether the ray arrived on the winding's front side. A material's
+  normal map then perturbs the shading normal (:func:`shading_point`, which the integrators and AOVs read).
 - Back faces of single-sided meshes (``doubleSided = false``) are invisible to camera rays, as in usdview: they
   are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`). Bounce and shadow rays see both
   sides, so closed glass objects refract twice and single-sided walls still cast shadows. Camera and bounce rays
@@ -80,7 +81,7 @@ class HitPoint:
     ng: wp.vec3  # unit geometric normal facing the ray origin
     size: float  # largest |world coordinate| of the surface hit: the scale of p's rounding (offset_ray_origin)
     err: wp.vec3  # per axis, the largest magnitude p's coordinate is summed from: its rounding scale (same use)
-    ns: wp.vec3  # unit shading normal on the side of ng
+    ns: wp.vec3  # unit shading normal on the side of ng (normal map included after shading_point)
     front: int  # 1 when the ray hit the front (winding) side
     st: wp.vec2  # texture coordinates
     material: int  # device material index
