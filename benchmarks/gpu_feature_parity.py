@@ -1,6 +1,7 @@
 """Renders the same small scenes on two devices and prints how far apart the images are: the cut-out canopy
-(camera, bounce and shadow rays through holes), PointInstancer displayColors (mesh and gprim prototypes) and gold
-spheres at three roughnesses (the multiple-scattering lobe). wrt's shade kernels round alike on every device (no FMA
+(camera, bounce and shadow rays through holes), PointInstancer displayColors (mesh and gprim prototypes), gold
+spheres at three roughnesses (the multiple-scattering lobe), spotlights (ShapingAPI cone, softness, focus) and a
+normal-mapped quad under a sun and a grazing view. wrt's shade kernels round alike on every device (no FMA
 contraction), so on a CUDA host the CPU and GPU images are expected to be equal.
 
 Usage: python benchmarks/gpu_feature_parity.py [--width 96] [--devices cpu,cuda:0]
@@ -19,7 +20,9 @@ from wrt.procedural import displaced_sphere_scene
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cut_out_canopy import write_canopy  # noqa: E402
+from shading_helpers import quad, top_down_camera  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
+from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
 
 
 def compare(name: str, scene, devices: list[str], **kwargs) -> None:
@@ -57,6 +60,24 @@ def main() -> None:
             mesh.material_ids = np.zeros(len(mesh.indices), np.int32)
         compare(f"gold sphere roughness {roughness}", scene, devices, width=64, height=64, integrator="path", spp=8,
                 max_depth=4)
+    spots = [
+        wrt.SphereLight(position=(-0.6, 0, 1), radius=0.05, color=(300, 300, 300), path="/Cone",
+                        shaping=wrt.Shaping(cone_angle=30.0, cone_softness=0.3)),
+        wrt.SphereLight(position=(0.6, 0, 1), radius=0.05, color=(300, 200, 100), path="/Focus",
+                        shaping=wrt.Shaping(cone_angle=60.0, focus=4.0, focus_tint=np.float32([0.1, 0.2, 0.3]))),
+    ]
+    plane = wrt.Scene(meshes=[quad((0, 0, 0), (8, 0, 0), (0, 8, 0), name="/plane")], lights=spots)
+    for integrator in ("whitted", "path"):
+        compare(f"spotlights {integrator}", plane, devices, camera=top_down_camera(height=3.0), width=48, height=48,
+                integrator=integrator, spp=8, max_depth=2)
+    tilt = np.float32([np.sin(0.5), 0.0, np.cos(0.5)])
+    bumpy = wrt.load_usd(normal_mapped_stage(args.out, write_normal_map(args.out / "parity_tilt.png", tilt)))
+    bumpy.lights = [wrt.DistantLight(direction=(0.3, -0.2, -1.0), color=(2, 2, 2), path="/Sun")]
+    for eye in ((0, 0, 5), (0, -5, 0.3)):
+        for integrator in ("whitted", "path"):
+            cam = wrt.Camera.look_at(eye, (0, 0, 0), (0, 1, 0) if eye[2] > 1 else (0, 0, 1), 40.0)
+            compare(f"normal map {integrator} eye {eye}", bumpy, devices, camera=cam, width=48, height=48,
+                    integrator=integrator, spp=8, max_depth=3)
 
 
 if __name__ == "__main__":
