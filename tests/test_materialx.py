@@ -162,6 +162,18 @@ def test_interface_inputs_and_a_tiled_image_in_a_node_graph(tmp_path):
     np.testing.assert_allclose(albedo(scene, 4), np.tile(expected, (2, 2, 1)), atol=2e-3)
 
 
+def test_a_udim_image_node_reads_its_tiles(tmp_path):
+    """An image node's ``<UDIM>`` file reads tile 1001 + u + 10 v at st in [u, u + 1) x [v, v + 1) (here st over
+    [0, 2)^2 by ``uvtiling`` 2), as a UsdUVTexture's does. It was refused with a warning, the base colour used."""
+    colors = {1001: (255, 0, 0), 1002: (0, 255, 0), 1011: (0, 0, 255), 1012: (255, 255, 255)}
+    for tile, color in colors.items():
+        write_png(tmp_path / f"skin.{tile}.png", [[color]])
+    scene, messages = load(tiled_stage(tmp_path, str(tmp_path / "skin.<UDIM>.png"), 2))
+    assert not messages, messages
+    expected = np.array([[colors[1011], colors[1012]], [colors[1001], colors[1002]]]) / 255.0  # row 0: v in [1, 2)
+    np.testing.assert_allclose(albedo(scene, 2), expected, atol=1e-3)
+
+
 def test_open_pbr_emission_is_luminance_times_colour(tmp_path):
     """OpenPBR's emission_luminance (nits) times emission_color is the emitted radiance, in the units of a UsdLux
     light of intensity 1 (= 1 nit): a black emitter of 3 nits in (1, 0.5, 0.25) shows (3, 1.5, 0.75). It was a

@@ -22,6 +22,9 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   ``displayColor``. ``normal`` is read from a ``UsdUVTexture``'s ``rgb`` output only (a tangent-space normal map:
   :func:`wrt.shade.shading_point`); ``occlusion`` and ``displacement`` are ignored.
 - A texture that cannot be read is replaced by its ``fallback`` value, with one warning per file.
+- A ``file`` with ``<UDIM>`` in its name reads each tile that exists (1001 to 1100, as ``UsdShade.UdimUtils``
+  resolves them) as an image of its own: :attr:`TextureInput.tiles`. Missing tiles read the ``fallback``; a pattern
+  without any tile is replaced by it, with one warning naming the material and the pattern.
 - An input that is not a finite number (NaN, inf, or authored with a wrong type) keeps its schema default, with one
   warning per material naming the inputs.
 
@@ -41,7 +44,17 @@ from .assignments import CountsAssignments
 from .bsdf import Surface
 from .errors import check_fields
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
-from .textures import WRAP_MODES, TextureError, load_image, pack_images, sample_image
+from .textures import (
+    UDIM_FIRST,
+    UDIM_TILES,
+    WRAP_CLAMP,
+    WRAP_MODES,
+    TextureError,
+    load_image,
+    pack_images,
+    sample_image,
+    udim_tile,
+)
 from .usd_values import value_at
 
 SLOTS = (  # the texturable inputs, in device slot order
@@ -69,6 +82,7 @@ CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3, "rgb": 4, "rgba": 4}  # UsdUVTexture
 FLAG_SPECULAR_WORKFLOW = wp.constant(1)  # useSpecularWorkflow = 1
 FLAG_DISPLAY_COLOR = wp.constant(2)  # diffuseColor comes from the displayColor primvar
 DEFAULT_GREY = 0.5  # albedo of meshes with neither a material nor displayColor
+TEXTURE_FALLBACK = (0.0, 0.0, 0.0, 1.0)  # UsdUVTexture's default fallback (RGBA)
 
 
 @dataclasses.dataclass
@@ -76,13 +90,18 @@ class TextureInput(CountsAssignments):
     """One ``UsdUVTexture`` feeding a material input.
 
     Attributes:
-        image: index into ``Scene.textures``.
+        image: index into ``Scene.textures`` (of a UDIM texture: its first tile found).
         channel: ``"r"``, ``"g"``, ``"b"``, ``"a"`` or ``"rgb"``: the texture output the input reads.
-        wrap: ``(wrapS, wrapT)`` tokens: ``repeat``, ``mirror``, ``clamp`` or ``black``.
+        wrap: ``(wrapS, wrapT)`` tokens: ``repeat``, ``mirror``, ``clamp`` or ``black`` (a UDIM texture clamps
+            within each tile instead).
         scale: ``(4,)`` multiplies the texel.
         bias: ``(4,)`` is added after ``scale``.
         transform: ``(3, 3)`` affine map applied to ``st`` (``UsdTransform2d``), column-vector convention.
         uv_set: name of the texture-coordinate primvar.
+        tiles: None for one image; for a UDIM texture ``(UDIM_TILES,)`` int32, the ``Scene.textures`` index of tile
+            ``UDIM_FIRST + u + 10 v`` at row ``u + 10 v``, -1 where that tile has no file.
+        fallback: ``(4,)`` the value (no ``scale`` or ``bias``) where a UDIM texture has no tile: ``st`` on a missing
+            tile or outside the 10 x 10 tiles.
     """
 
     image: int
@@ -92,6 +111,8 @@ class TextureInput(CountsAssignments):
     bias: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4, np.float32))
     transform: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3, dtype=np.float32))
     uv_set: str = "st"
+    tiles: np.ndarray | None = None
+    fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.array(TEXTURE_FALLBACK, np.float32))
 
 
 @dataclasses.dataclass
@@ -181,6 +202,9 @@ class DeviceMaterials:
     tex_scale: wp.array[wp.vec4]  # (B,)
     tex_bias: wp.array[wp.vec4]  # (B,)
     tex_transform: wp.array[wp.mat33]  # (B,) st transform
+    tex_tiles: wp.array[wp.int32]  # (B,) first row of the binding's UDIM table in tile_images, -1: one image
+    tex_fallback: wp.array[wp.vec4]  # (B,) value where a UDIM binding has no tile
+    tile_images: wp.array[wp.int32]  # (UDIM_TILES * U,) image of each tile of the U UDIM bindings, -1: none
     image_offsets: wp.array[wp.int32]  # (K,) first texel of each image
     image_sizes: wp.array[wp.vec2i]  # (K,) width, height
     texels: wp.array[wp.vec4h]  # all images, linear RGBA half floats
@@ -198,6 +222,27 @@ def default_material() -> Material:
         roughness=1.0,
         diffuse_from_display_color=True,
     )
+
+
+def check_texture_input(tex: TextureInput, num_images: int, where: str):
+    """Raises ``ValueError`` (``where`` names the material input) when ``tex`` indexes an image outside the
+    ``num_images`` of the scene, its fallback is not 4 finite numbers, or its UDIM table is not ``(UDIM_TILES,)``
+    image indices or -1."""
+    if not 0 <= tex.image < num_images:
+        raise ValueError(f"{where} uses texture {tex.image}, but there are {num_images}")
+    fallback = np.asarray(tex.fallback)
+    if fallback.shape != (4,) or fallback.dtype.kind not in "biuf" or not np.all(np.isfinite(fallback)):
+        raise ValueError(f"{where}: the fallback must be 4 finite numbers, got {tex.fallback!r}")
+    if tex.tiles is None:
+        return
+    tiles = np.asarray(tex.tiles)
+    if tiles.shape != (UDIM_TILES,) or tiles.dtype.kind not in "iu":
+        raise ValueError(f"{where}: UDIM tiles must be {UDIM_TILES} integers (tile {UDIM_FIRST} first), got "
+                         f"{tiles.dtype} of shape {tiles.shape}")
+    bad = np.flatnonzero((tiles < -1) | (tiles >= num_images))
+    if len(bad):
+        raise ValueError(f"{where}: UDIM tile {UDIM_FIRST + bad[0]} uses texture {tiles[bad[0]]}, but there are "
+                         f"{num_images}")
 
 
 def upload_materials(materials: list[Material], textures: list[np.ndarray], device) -> DeviceMaterials:
@@ -225,8 +270,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
             int(FLAG_DISPLAY_COLOR) if mat.diffuse_from_display_color else 0
         )
         for name, tex in mat.textures.items():
-            if not 0 <= tex.image < len(textures):
-                raise ValueError(f"material {mat.path}: {name} uses texture {tex.image}, but there are {len(textures)}")
+            check_texture_input(tex, len(textures), f"material {mat.path}: {name}")
             slots[k, SLOTS.index(name)] = len(bindings)
             bindings.append(tex)
     b = max(len(bindings), 1)
@@ -236,6 +280,9 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     scale = np.ones((b, 4), np.float32)
     bias = np.zeros((b, 4), np.float32)
     transform = np.tile(np.eye(3, dtype=np.float32), (b, 1, 1))
+    tiles = np.full(b, -1, np.int32)
+    fallback = np.zeros((b, 4), np.float32)
+    tile_tables = []
     for k, tex in enumerate(bindings):
         image[k] = tex.image
         channel[k] = CHANNELS[tex.channel]
@@ -243,6 +290,11 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
         scale[k] = tex.scale
         bias[k] = tex.bias
         transform[k] = tex.transform
+        fallback[k] = tex.fallback
+        if tex.tiles is not None:
+            tiles[k] = UDIM_TILES * len(tile_tables)
+            tile_tables.append(np.asarray(tex.tiles, np.int32))
+    tile_images = np.concatenate(tile_tables) if tile_tables else np.full(1, -1, np.int32)
     texels, offsets, sizes = pack_images(textures)
 
     d = DeviceMaterials()
@@ -256,6 +308,9 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     d.tex_scale = wp.array(scale, dtype=wp.vec4, device=device)
     d.tex_bias = wp.array(bias, dtype=wp.vec4, device=device)
     d.tex_transform = wp.array(transform, dtype=wp.mat33, device=device)
+    d.tex_tiles = wp.array(tiles, dtype=wp.int32, device=device)
+    d.tex_fallback = wp.array(fallback, dtype=wp.vec4, device=device)
+    d.tile_images = wp.array(tile_images, dtype=wp.int32, device=device)
     d.image_offsets = wp.array(offsets, dtype=wp.int32, device=device)
     d.image_sizes = wp.array(sizes, dtype=wp.vec2i, device=device)
     d.texels = wp.array(texels, dtype=wp.vec4h, device=device)
@@ -265,17 +320,38 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
 
 
 @wp.func
-def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
-    """The value of texture binding ``b`` at ``st``: ``texel * scale + bias``, one channel broadcast or RGBA."""
-    xf = mats.tex_transform[b]
-    p = xf * wp.vec3(st[0], st[1], 1.0)
-    k = mats.tex_image[b]
-    c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], wp.vec2(p[0], p[1]), mats.tex_wrap[b])
-    c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
-    ch = mats.tex_channel[b]
+def select_channel(c: wp.vec4, ch: int):
+    """Channel ``ch`` (0..3) of ``c`` broadcast, or all of ``c`` for ``ch = 4`` (rgb)."""
     if ch < 4:
         return wp.vec4(c[ch])
     return c
+
+
+@wp.func
+def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
+    """The value of texture binding ``b`` at ``st``: ``texel * scale + bias``, one channel broadcast or RGBA.
+
+    A UDIM binding reads the tile under the transformed ``st``, at ``st`` minus the tile's corner, clamped at the
+    tile's edges (bilinear filtering never mixes in a neighbouring tile, whatever ``wrapS``/``wrapT`` say); where that
+    tile has no file, or ``st`` lies outside the tiles, it gives the texture's fallback."""
+    xf = mats.tex_transform[b]
+    p = xf * wp.vec3(st[0], st[1], 1.0)
+    uv = wp.vec2(p[0], p[1])
+    k = mats.tex_image[b]
+    wrap = mats.tex_wrap[b]
+    table = mats.tex_tiles[b]
+    if table >= 0:
+        tile = udim_tile(uv)
+        k = -1
+        if tile >= 0:
+            k = mats.tile_images[table + tile]
+        if k < 0:
+            return select_channel(mats.tex_fallback[b], mats.tex_channel[b])
+        uv = uv - wp.vec2(wp.floor(uv[0]), wp.floor(uv[1]))
+        wrap = wp.vec2i(WRAP_CLAMP, WRAP_CLAMP)
+    c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
+    c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
+    return select_channel(c, mats.tex_channel[b])
 
 
 @wp.func
@@ -409,6 +485,23 @@ def _shader_name(shader) -> str:
     return "without info:id"
 
 
+def _source_attribute(shader, name: str):
+    """The attribute that input ``name`` of ``shader`` takes its value from: the input, an interface input it connects
+    to, or a shader output; None when there is none."""
+    inp = shader.GetInput(name)
+    attrs = inp.GetValueProducingAttributes() if inp else []
+    return attrs[0] if attrs else None
+
+
+def _authoring_layer(attr, time):
+    """The layer of the strongest opinion that gives ``attr`` a value (default or time samples), against which its
+    relative asset paths resolve; None when there is none."""
+    for spec in attr.GetPropertyStack(time) if attr else []:
+        if spec.HasDefaultValue() or spec.layer.GetNumTimeSamplesForPath(spec.path):
+            return spec.layer
+    return None
+
+
 def _rgb(value) -> np.ndarray | None:
     """A constant input's value as ``(3,)`` float64 (one number for all three); None when it is not a finite one."""
     try:
@@ -445,6 +538,7 @@ class MaterialReader:
         self.texture_paths: list[str] = []
         self._by_path: dict[str, int] = {}  # material prim path -> index into materials, -1 for the default
         self._images: dict[tuple[str, str], int] = {}  # (resolved path, colour space) -> image index, -1 unreadable
+        self._udim: dict[tuple, np.ndarray] = {}  # (UDIM pattern, its layer, colour space) -> TextureInput.tiles
 
     # Bindings
 
@@ -570,16 +664,14 @@ class MaterialReader:
         """What feeds input ``name``: ``("value", v)``, ``("shader", source, output_name)`` or None."""
         from pxr import UsdShade
 
-        inp = shader.GetInput(name)
-        if not inp:
+        attr = _source_attribute(shader, name)
+        if attr is None:
             return None
-        for attr in inp.GetValueProducingAttributes():
-            if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
-                base, _ = UsdShade.Utils.GetBaseNameAndType(attr.GetName())
-                return ("shader", UsdShade.Shader(attr.GetPrim()), str(base))
-            value = value_at(attr, self.time)
-            return None if value is None else ("value", value)
-        return None
+        if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
+            base, _ = UsdShade.Utils.GetBaseNameAndType(attr.GetName())
+            return ("shader", UsdShade.Shader(attr.GetPrim()), str(base))
+        value = value_at(attr, self.time)
+        return None if value is None else ("value", value)
 
     def _constant(self, shader, name):
         """The constant value of input ``name`` (following interface connections), or None."""
@@ -668,15 +760,14 @@ class MaterialReader:
         channel = output if output in CHANNELS else "rgb"
         channel = "rgb" if channel == "rgba" else channel
         fallback = self._constant(tex, "fallback")
-        fallback = np.asarray(fallback if fallback is not None else (0.0, 0.0, 0.0, 1.0), np.float32).reshape(-1)
+        fallback = np.asarray(fallback if fallback is not None else TEXTURE_FALLBACK, np.float32).reshape(-1)
         fallback = np.resize(fallback, 4)
         fallback_value = fallback[:3] if channel == "rgb" else np.full(3, fallback[CHANNELS[channel]], np.float32)
 
-        asset = self._constant(tex, "file")
         color_space = str(self._constant(tex, "sourceColorSpace") or "auto")
         if color_space not in ("auto", "sRGB", "raw"):
             color_space = "auto"
-        image = self._image(asset, color_space, tex.GetPrim(), material_path)
+        image, tiles = self.file_images(tex, color_space, material_path)
         if image < 0:
             return None, fallback_value
 
@@ -696,6 +787,8 @@ class MaterialReader:
                 bias=np.resize(np.asarray(bias if bias is not None else (0, 0, 0, 0), np.float32), 4),
                 transform=transform,
                 uv_set=uv_set,
+                tiles=tiles,
+                fallback=fallback if np.all(np.isfinite(fallback)) else np.array(TEXTURE_FALLBACK, np.float32),
             ),
             fallback_value,
         )
@@ -724,29 +817,68 @@ class MaterialReader:
             return "st", transform
         return "st", transform
 
-    def _image(self, asset, color_space: str, prim, material_path: str) -> int:
+    def file_images(self, shader, color_space: str, material_path: str, name: str = "file"):
+        """``(image, tiles)`` of the image file named by input ``name`` of ``shader`` (a UsdUVTexture or a MaterialX
+        image node) in :attr:`textures`: ``image`` is -1 (with a warning) when nothing can be read. ``tiles`` is
+        None, or for a ``<UDIM>`` file the :attr:`TextureInput.tiles` table, ``image`` being its first tile."""
+        asset = self._constant(shader, name)
+        authored = getattr(asset, "path", "") or ""
+        if "<UDIM>" not in authored:
+            return self._image(asset, color_space, shader.GetPrim()), None
+        tiles = self._udim_tiles(_source_attribute(shader, name), authored, color_space, shader.GetPrim(),
+                                 material_path)
+        found = tiles[tiles >= 0]
+        return (int(found[0]) if len(found) else -1), tiles
+
+    def _udim_tiles(self, attr, authored: str, color_space: str, prim, material_path: str) -> np.ndarray:
+        """``(UDIM_TILES,)`` int32 images of the tiles of UDIM pattern ``authored`` (-1: no such file), found as
+        ``UsdShade.UdimUtils`` resolves them: relative to the layer that authored ``attr``'s value (also inside a
+        ``.usdz``), tiles 1001 to 1100. No tile at all is reported once per pattern, naming ``material_path``."""
+        from pxr import UsdShade
+
+        layer = _authoring_layer(attr, self.time)
+        key = (authored, layer.identifier if layer else "", color_space)
+        if key not in self._udim:
+            tiles = np.full(UDIM_TILES, -1, np.int32)
+            for resolved, tile in UsdShade.UdimUtils.ResolveUdimTilePaths(authored, layer) if layer else []:
+                row = int(tile) - UDIM_FIRST
+                if 0 <= row < UDIM_TILES:
+                    tiles[row] = self._load(resolved, resolved, color_space, prim)
+            if not np.any(tiles >= 0):
+                self.skip(f"material {material_path}: texture {authored}: no UDIM tile ({UDIM_FIRST} to "
+                          f"{UDIM_FIRST + UDIM_TILES - 1}) was found; the texture's fallback value is used", prim)
+            self._udim[key] = tiles
+        return self._udim[key]
+
+    def _image(self, asset, color_space: str, prim) -> int:
         """Index of the image behind ``asset`` (an ``Sdf.AssetPath``) in :attr:`textures`; -1 (with a warning) when
         it cannot be read."""
         if asset is None:
             return -1
         resolved = getattr(asset, "resolvedPath", "") or ""
         authored = getattr(asset, "path", "") or str(asset)
-        key = (resolved or authored, color_space)
+        if resolved:
+            return self._load(resolved, authored, color_space, prim)
+        key = (authored, color_space)
         if key not in self._images:
-            if not resolved:
-                reason = "<UDIM> textures are not supported" if "<UDIM>" in authored else "the file was not found"
-                self.skip(f"texture {authored}: {reason}; the texture's fallback value is used", prim)
+            self.skip(f"texture {authored}: the file was not found; the texture's fallback value is used", prim)
+            self._images[key] = -1
+        return self._images[key]
+
+    def _load(self, resolved: str, authored: str, color_space: str, prim) -> int:
+        """Index of the image at ``resolved`` in :attr:`textures`, read on first use; -1 (with a warning naming
+        ``authored``) when it cannot be read."""
+        key = (resolved, color_space)
+        if key not in self._images:
+            try:
+                pixels = load_image(resolved, color_space)
+            except TextureError as e:
+                self.skip(f"texture {authored}: {e}; the texture's fallback value is used", prim)
                 self._images[key] = -1
             else:
-                try:
-                    pixels = load_image(resolved, color_space)
-                except TextureError as e:
-                    self.skip(f"texture {authored}: {e}; the texture's fallback value is used", prim)
-                    self._images[key] = -1
-                else:
-                    self._images[key] = len(self.textures)
-                    self.textures.append(pixels)
-                    self.texture_paths.append(resolved)
+                self._images[key] = len(self.textures)
+                self.textures.append(pixels)
+                self.texture_paths.append(resolved)
         return self._images[key]
 
 
@@ -759,7 +891,13 @@ def emission_estimates(materials: list[Material], textures: list[np.ndarray]) ->
         if tex is None:
             out.append(np.maximum(np.asarray(mat.emissive_color, np.float32), 0.0))
             continue
-        mean = textures[tex.image].reshape(-1, 4).mean(axis=0) * tex.scale + tex.bias
+        # A UDIM texture: the mean of its tiles' means (each tile covers a unit square of st); without tiles its
+        # fallback everywhere.
+        images = [tex.image] if tex.tiles is None else [k for k in tex.tiles if k >= 0]
+        if images:
+            mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0) * tex.scale + tex.bias
+        else:
+            mean = np.asarray(tex.fallback, np.float32)
         value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
         out.append(np.maximum(value.astype(np.float32), 0.0))
     return out

@@ -294,7 +294,7 @@ class _Graph:
             self.notes.append(f"image node {node.GetPath()} has no file; {_format(fallback)} is used")
             return fallback, None
         color_space = self._color_space(file_input)
-        image = reader._image(reader._constant(node, "file"), color_space, node.GetPrim(), self.path)
+        image, tiles = reader.file_images(node, color_space, self.path)
         if image < 0:
             return fallback, None
         tiled = node_id.startswith("ND_tiledimage_")
@@ -306,7 +306,8 @@ class _Graph:
         channel = "r" if node_id.endswith("_float") else "rgb"
         return fallback, TextureInput(image=image, channel=channel, wrap=wrap,
                                       transform=self._tiling(node) if tiled else np.eye(3, dtype=np.float32),
-                                      uv_set=self._uv_set(node))
+                                      uv_set=self._uv_set(node), tiles=tiles,
+                                      fallback=np.resize(fallback, 4).astype(np.float32))  # r, or rgb (4th unread)
 
     def _color_space(self, file_input) -> str:
         """wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image's ``file`` input, from the ``colorSpace``

@@ -11,6 +11,9 @@ Conventions, stated once:
   float), as Hydra's image reader decides. Missing channels read as grey ``L`` -> ``(L, L, L)`` and alpha 1.
   16-bit PNGs keep all 16 bits (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
+- UDIM textures (``<UDIM>`` in the file name) are separate images, one per tile: tile ``1001 + u + 10 v`` covers
+  ``st`` in ``[u, u + 1) x [v, v + 1)`` for ``u, v`` in 0..9 (1001..1100, the tiles ``UsdShade.UdimUtils``
+  resolves); :func:`udim_tile` finds the tile of a coordinate.
 """
 
 from __future__ import annotations
@@ -28,6 +31,10 @@ WRAP_BLACK = wp.constant(3)
 HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
+UDIM_FIRST = 1001  # number of the UDIM tile at st in [0, 1)^2
+UDIM_COLUMNS = wp.constant(10)  # UDIM tiles per row (u = 0..9)
+UDIM_ROWS = wp.constant(10)  # rows of UDIM tiles read (v = 0..9)
+UDIM_TILES = 100  # UDIM_COLUMNS * UDIM_ROWS: tiles UDIM_FIRST .. UDIM_FIRST + 99
 
 
 class TextureError(ValueError):
@@ -241,6 +248,17 @@ def wrap_coord(x: int, n: int, mode: int):
     if m < 0:
         m += n
     return m
+
+
+@wp.func
+def udim_tile(st: wp.vec2):
+    """Index ``u + 10 v`` (tile number minus ``UDIM_FIRST``) of the UDIM tile holding ``st``; -1 outside the 10 x 10
+    tiles (or for a coordinate that is not finite)."""
+    if not (wp.isfinite(st[0]) and wp.isfinite(st[1])):
+        return -1
+    if st[0] < 0.0 or st[1] < 0.0 or st[0] >= float(UDIM_COLUMNS) or st[1] >= float(UDIM_ROWS):
+        return -1
+    return int(wp.floor(st[0])) + UDIM_COLUMNS * int(wp.floor(st[1]))
 
 
 @wp.func
