@@ -1,8 +1,9 @@
 """Renders the same small scenes on two devices and prints how far apart the images are: the cut-out canopy
 (camera, bounce and shadow rays through holes), PointInstancer displayColors (mesh and gprim prototypes), gold
-spheres at three roughnesses (the multiple-scattering lobe), spotlights (ShapingAPI cone, softness, focus) and a
-normal-mapped quad under a sun and a grazing view. wrt's shade kernels round alike on every device (no FMA
-contraction), so on a CUDA host the CPU and GPU images are expected to be equal.
+spheres at three roughnesses (the multiple-scattering lobe), spotlights (ShapingAPI cone, softness, focus), a
+normal-mapped quad under a sun and at a grazing view, and a UDIM-textured plane (three tiles and a missing one).
+wrt's shade kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are
+expected to be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
 
 Usage: python benchmarks/gpu_feature_parity.py [--width 96] [--devices cpu,cuda:0]
 """
@@ -23,6 +24,7 @@ from cut_out_canopy import write_canopy  # noqa: E402
 from shading_helpers import quad, top_down_camera  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
 from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
+from test_udim import BLUE, GREEN, RED, udim_stage, write_tile  # noqa: E402
 
 
 def compare(name: str, scene, devices: list[str], **kwargs) -> None:
@@ -78,6 +80,11 @@ def main() -> None:
             cam = wrt.Camera.look_at(eye, (0, 0, 0), (0, 1, 0) if eye[2] > 1 else (0, 0, 1), 40.0)
             compare(f"normal map {integrator} eye {eye}", bumpy, devices, camera=cam, width=48, height=48,
                     integrator=integrator, spp=8, max_depth=3)
+    for tile, color in ((1001, RED), (1002, GREEN), (1011, BLUE)):  # 1012 missing: the fallback
+        write_tile(args.out / "parity_udim", tile, color, size=8, columns={0: (255, 255, 255)})
+    udim = wrt.load_usd(udim_stage(args.out / "parity_udim.usda", "parity_udim/body.<UDIM>.png"))
+    cam = wrt.Camera.orthographic(eye=(1, 1, 5), target=(1, 1, 0), height=2.2)
+    compare("udim tiles", udim, devices, camera=cam, width=48, height=48, integrator="path", spp=4)
 
 
 if __name__ == "__main__":
