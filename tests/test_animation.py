@@ -4,6 +4,7 @@ import importlib.util
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -265,6 +266,22 @@ def test_render_frames_on_two_devices_writes_every_frame(animated, tmp_path, cap
         (7.0, tmp_path / "f_07.npy"),
         (8.0, tmp_path / "f_08.npy"),
     ]
+
+
+def test_worker_warnings_reach_the_caller_once(tmp_path):
+    """A stage that warns when loaded, its frames spread over two worker processes: each worker printed the warning
+    to its own stderr in Python's format (across the progress bar); now the caller gets it as a warning, once."""
+    stage = tmp_path / "warns.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n'
+                     '    color3f[] primvars:displayColor = [(nan, 0, 0)]\n}\n')
+    jobs = pending_frames(parse_frames("1:4"), tmp_path / "f_#.npy", resume=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        render_frames(stage, jobs, devices=["cpu", "cpu"], **SIZE)
+    messages = [str(w.message) for w in caught if "displayColor" in str(w.message)]
+    assert len(messages) == 1 and "/M" in messages[0]
 
 
 def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(animated, tmp_path):

@@ -29,6 +29,7 @@ import math
 import os
 import re
 import time as _time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -328,6 +329,8 @@ def _frame_writer(jobs, rows: list):
         file = files[result["row"]["frame"]]
         write_atomically(file, lambda partial: partial.write_bytes(result["data"]))
         rows.append(dict(result["row"], output=str(file)))
+        for message in result.get("warnings", ()):
+            warnings.warn(message, stacklevel=2)  # shown here once, however many workers and frames raised it
 
     return write
 
@@ -369,7 +372,9 @@ def render_frame_task(job: dict) -> dict:
             ``options`` (:class:`FrameRenderer` options without ``device``).
 
     Returns:
-        ``{"data": file bytes, "row": the frame's log row with "device" and "seconds" (render and encode)}``.
+        ``{"data": file bytes, "row": the frame's log row with "device" and "seconds" (render and encode),
+        "warnings": the messages of the warnings the frame raised}``: the client shows them in its own words, once,
+        where each worker printed them to its own log in Python's format, glued to the client's progress bar.
     """
     import tempfile
 
@@ -380,16 +385,18 @@ def render_frame_task(job: dict) -> dict:
     wp.config.log_level = wp.LOG_WARNING  # no Warp banner and module-load lines from every worker, as in wrt bench
     device = _PROCESS_DEVICE or worker_device()
     key = (job["path"], device, repr(sorted(job["options"].items())))
-    if key not in _WORKER_RENDERERS:
-        _WORKER_RENDERERS[key] = FrameRenderer(job["path"], device=device, **job["options"])
-    renderer = _WORKER_RENDERERS[key]
     start = _time.perf_counter()
-    image = renderer.render(job["frame"], spp=job["spp"], seed=job["seed"])
+    with warnings.catch_warnings(record=True) as raised:
+        warnings.simplefilter("always")
+        if key not in _WORKER_RENDERERS:
+            _WORKER_RENDERERS[key] = FrameRenderer(job["path"], device=device, **job["options"])
+        renderer = _WORKER_RENDERERS[key]
+        image = renderer.render(job["frame"], spp=job["spp"], seed=job["seed"])
     with tempfile.TemporaryDirectory() as tmp:
         written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
         data = Path(written).read_bytes()
     row = dict(renderer.log[-1], device=device, seconds=_time.perf_counter() - start, finished_at=_time.time())
-    return {"data": data, "row": row}
+    return {"data": data, "row": row, "warnings": list(dict.fromkeys(str(w.message) for w in raised))}
 
 
 def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, seed=0, exposure=0.0, progress=False,
