@@ -224,3 +224,23 @@ def test_a_full_binding_to_standard_surface_wins_over_a_preview_binding(tmp_path
     stage.Save()
     scene, _ = load(path)
     assert scene.materials[scene.meshes[0].material_ids[0]].path == "/Looks/Full"
+
+
+def test_float_and_vector_images_are_data_not_srgb(tmp_path):
+    """An ``ND_image_float`` without a colour space reading an 8-bit RGB file (a packed mask) gives the stored
+    value: MaterialX colour-manages colour images only. It was sRGB-decoded: roughness 128/255 read as 0.22."""
+    png = write_png(tmp_path / "mask.png", np.full((2, 2, 3), 128))
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material, shader = mtlx_material(stage, "/Looks/Masked")
+    image = UsdShade.Shader.Define(stage, "/Looks/Masked/Rough")
+    image.CreateIdAttr("ND_image_float")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateOutput("out", Sdf.ValueTypeNames.Float)
+    shader.CreateInput("specular_roughness", Sdf.ValueTypeNames.Float).ConnectToSource(image.ConnectableAPI(), "out")
+    bind(quad, material)
+    stage.Save()
+    scene, _ = load(path)
+    (mat,) = scene.materials
+    texels = scene.textures[mat.textures["roughness"].image]
+    np.testing.assert_allclose(texels[..., 0], 128 / 255, atol=1e-3)

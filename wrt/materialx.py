@@ -36,17 +36,18 @@ Approximations, each named in the material's one warning when it changes what is
 - Lobes wrt does not have (diffuse roughness, subsurface, sheen/fuzz, thin film, anisotropy, coat-affected colour
   and roughness) are ignored.
 
-An input is a constant, an input of the Material (or a NodeGraph) it connects to, or an image node:
-``ND_image_*`` or ``ND_tiledimage_*`` (``float``, ``color3``, ``color4``, ``vector2/3/4``), reached directly or
-through a NodeGraph output. An image node becomes a :class:`wrt.materials.TextureInput`: ``file`` (colour space from
-the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded, ``lin_rec709``/``raw`` and other linear spaces
-kept, none: sRGB for 8-bit colour images), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant
-reads black), ``uvtiling``/``uvoffset``/``realworldimagesize``/``realworldtilesize`` of ``tiledimage`` as the
-texture transform, and texture coordinates from ``ND_texcoord_vector2`` (the mesh's ``st``) or
-``ND_geompropvalue_vector2`` (the primvar named by ``geomprop``). Where the file cannot be read, the node's
-``default`` is used (the surface input's constant when the node has none). Any other node (math, mix, ...) keeps the
-input's constant: its own authored value, else the specification's default. Defaults are the MaterialX library's
-(``libraries/bxdf/standard_surface.mtlx`` 1.0.1 and 1.0.0, ``open_pbr_surface.mtlx`` 1.1).
+An input is a constant, an input of the Material (or a NodeGraph) it connects to, or an image node: ``ND_image_*`` or
+``ND_tiledimage_*`` (``float``, ``color3``, ``color4``, ``vector2/3/4``), reached directly or through a NodeGraph
+output. An image node becomes a :class:`wrt.materials.TextureInput`: ``file`` (for ``color3`` and ``color4`` nodes the
+colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded, ``lin_rec709``/``raw`` and other
+linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector`` nodes read their data linear, as
+MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
+black), ``uvtiling``/``uvoffset``/``realworldimagesize``/``realworldtilesize`` of ``tiledimage`` as the texture
+transform, and texture coordinates from ``ND_texcoord_vector2`` (the mesh's ``st``) or ``ND_geompropvalue_vector2`` (the
+primvar named by ``geomprop``). Where the file cannot be read, the node's ``default`` is used (the surface input's
+constant when the node has none). Any other node (math, mix, ...) keeps the input's constant: its own authored value,
+else the specification's default. Defaults are the MaterialX library's (``libraries/bxdf/standard_surface.mtlx`` 1.0.1
+and 1.0.0, ``open_pbr_surface.mtlx`` 1.1).
 """
 
 from __future__ import annotations
@@ -293,7 +294,8 @@ class _Graph:
         if not file_input:
             self.notes.append(f"image node {node.GetPath()} has no file; {_format(fallback)} is used")
             return fallback, None
-        color_space = self._color_space(file_input)
+        # MaterialX colour-manages colour types only: float and vector images (masks, normal maps) are data.
+        color_space = self._color_space(file_input) if node_id.endswith(("_color3", "_color4")) else "raw"
         image, tiles = reader.file_images(node, color_space, self.path)
         if image < 0:
             return fallback, None
