@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 from PIL import Image as PilImage
-from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 from test_materials import add_quad, bind, new_stage, preview_material
 
 import wrt
@@ -224,6 +224,79 @@ def test_a_full_binding_to_standard_surface_wins_over_a_preview_binding(tmp_path
     stage.Save()
     scene, _ = load(path)
     assert scene.materials[scene.meshes[0].material_ids[0]].path == "/Looks/Full"
+
+
+def normal_mapped_mtlx_stage(tmp_path, png, shader_id=STANDARD, map_node="ND_normalmap", scale=None):
+    """A quad (s along +X, t along +Y, front +Z) whose standard_surface (or OpenPBR) normal input comes from a
+    ``map_node`` reading ``png`` through an ``ND_image_vector3`` node without a colour space, in a NodeGraph."""
+    stage, path = new_stage(tmp_path, f"nm_{map_node}_{shader_id[3:8]}.usda")
+    quad = add_quad(stage, "/Quad")
+    material, shader = mtlx_material(stage, "/Looks/Bumpy", shader_id)
+    graph = UsdShade.NodeGraph.Define(stage, "/Looks/Bumpy/Graph")
+    image = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Graph/Image")
+    image.CreateIdAttr("ND_image_vector3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateOutput("out", Sdf.ValueTypeNames.Float3)
+    node = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Graph/NormalMap")
+    node.CreateIdAttr(map_node)
+    node.CreateInput("in", Sdf.ValueTypeNames.Float3).ConnectToSource(image.ConnectableAPI(), "out")
+    if scale is not None:
+        node.CreateInput("scale", Sdf.ValueTypeNames.Float).Set(scale)
+    node.CreateOutput("out", Sdf.ValueTypeNames.Float3)
+    graph.CreateOutput("normal", Sdf.ValueTypeNames.Float3).ConnectToSource(node.ConnectableAPI(), "out")
+    name = "normal" if shader_id != OPEN_PBR else "geometry_normal"
+    shader.CreateInput(name, Sdf.ValueTypeNames.Float3).ConnectToSource(graph.ConnectableAPI(), "normal")
+    bind(quad, material)
+    stage.Save()
+    return path
+
+
+def shading_normals(scene):
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    return wrt.render(scene, camera=cam, width=2, height=2, device="cpu", integrator="normals").aovs["normal"]
+
+
+@pytest.mark.parametrize("shader_id, map_node", [(STANDARD, "ND_normalmap"), (OPEN_PBR, "ND_normalmap_float"),
+                                                 (STANDARD, "ND_normalmap_vector2")])
+def test_a_normalmap_node_is_a_tangent_space_normal_map(tmp_path, shader_id, map_node):
+    """standard_surface ``normal`` (OpenPBR ``geometry_normal``) from a normalmap node of an 8-bit vector3 image
+    tilts the shading normal as the same map does through UsdPreviewSurface (MaterialX's ``in * 2 - 1``; vector
+    images are data, not sRGB). It was ignored without a word: every normal read (0, 0, 1)."""
+    from test_normal_map import MAP_NORMAL, stored_normal, write_normal_map
+
+    png = write_normal_map(tmp_path / "tilt.png", MAP_NORMAL)
+    scene, messages = load(normal_mapped_mtlx_stage(tmp_path, png, shader_id, map_node))
+    assert not messages, messages
+    np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile(stored_normal(MAP_NORMAL), (4, 1)),
+                               atol=1e-3)
+
+
+def test_normalmap_scale_multiplies_the_tangent_components(tmp_path):
+    """The normalmap node's ``scale`` multiplies x and y of the decoded normal before it is normalised."""
+    from test_normal_map import MAP_NORMAL, stored_normal, write_normal_map
+
+    png = write_normal_map(tmp_path / "tilt.png", MAP_NORMAL)
+    scene, _ = load(normal_mapped_mtlx_stage(tmp_path, png, scale=0.5))
+    n = stored_normal(MAP_NORMAL) * (0.5, 0.5, 1.0)
+    np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile(n / np.linalg.norm(n), (4, 1)),
+                               atol=1e-3)
+
+
+def test_a_normal_from_another_node_is_named_in_the_warning(tmp_path):
+    """``normal`` connected to anything but a normalmap node of an image (here an image node straight, a world-space
+    normal in MaterialX) keeps the mesh's normals, and the material's warning says so."""
+    from test_normal_map import MAP_NORMAL, write_normal_map
+
+    png = write_normal_map(tmp_path / "tilt.png", MAP_NORMAL)
+    path = normal_mapped_mtlx_stage(tmp_path, png)
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Bumpy/Surface")).GetInput("normal").ConnectToSource(
+        UsdShade.Shader(stage.GetPrimAtPath("/Looks/Bumpy/Graph/Image")).ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    (warning,) = [m for m in messages if "/Looks/Bumpy" in m]
+    assert "normal comes from a ND_image_vector3 node" in warning, warning
+    np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile([0, 0, 1], (4, 1)), atol=1e-6)
 
 
 def test_float_and_vector_images_are_data_not_srgb(tmp_path):

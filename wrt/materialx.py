@@ -35,6 +35,9 @@ Approximations, each named in the material's one warning when it changes what is
   intensity 1: lower the exposure.
 - Lobes wrt does not have (diffuse roughness, subsurface, sheen/fuzz, thin film, anisotropy, coat-affected colour
   and roughness) are ignored.
+- ``normal`` (OpenPBR ``geometry_normal``) from a tangent-space ``normalmap`` node of an image is wrt's normal map
+  (:func:`wrt.shade.shading_point`, the same frame as UsdPreviewSurface's); from anything else it is ignored.
+  ``coat_normal`` and ``tangent`` inputs are not read (the coat takes the mapped normal too).
 
 An input is a constant, an input of the Material (or a NodeGraph) it connects to, or an image node: ``ND_image_*`` or
 ``ND_tiledimage_*`` (``float``, ``color3``, ``color4``, ``vector2/3/4``), reached directly or through a NodeGraph
@@ -101,6 +104,8 @@ STANDARD_SURFACE_IGNORED = {"diffuse_roughness": 0.0, "subsurface": 0.0, "sheen"
                             "specular_anisotropy": 0.0, "coat_affect_color": 0.0, "coat_affect_roughness": 0.0}
 OPEN_PBR_IGNORED = {"base_diffuse_roughness": 0.0, "subsurface_weight": 0.0, "fuzz_weight": 0.0,
                     "thin_film_weight": 0.0, "specular_roughness_anisotropy": 0.0}
+NORMAL_INPUTS = {"ND_standard_surface_surfaceshader": "normal", "ND_standard_surface_surfaceshader_100": "normal",
+                 "ND_open_pbr_surface_surfaceshader": "geometry_normal"}  # info:id -> its shading-normal input
 MODELS = {  # info:id -> (inputs, ignored inputs)
     "ND_standard_surface_surfaceshader": (STANDARD_SURFACE_101, STANDARD_SURFACE_IGNORED),
     "ND_standard_surface_surfaceshader_100": (STANDARD_SURFACE_100, STANDARD_SURFACE_IGNORED),
@@ -110,6 +115,7 @@ CLEARCOAT_IOR = 1.5  # the index of wrt's clearcoat (F0 0.04)
 CUT_OUT_THRESHOLD = 0.5  # geometry opacity below this is a hole
 
 IMAGE_NODE = re.compile(r"^ND_(tiled)?image_(float|color3|color4|vector2|vector3|vector4)$")
+NORMAL_MAP_NODE = re.compile(r"^ND_normalmap(_float|_vector2)?$")  # 1.38's, and 1.39's of a float or vector2 scale
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
 COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
 
@@ -143,6 +149,9 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
     opacity, threshold, opacity_texture = graph.opacity()
     if opacity_texture is not None:
         textures["opacity"] = opacity_texture
+    normal_map = graph.normal_map(NORMAL_INPUTS[shader.GetShaderId()])
+    if normal_map is not None:
+        textures["normal"] = normal_map
     graph.coat_notes(clearcoat, "clearcoat" in textures)
     graph.ignored_notes(ignored)
     if graph.notes:
@@ -261,6 +270,37 @@ class _Graph:
             self.notes.append(f"{transmission_name} is drawn as a smooth dielectric of opacity 1 - "
                               f"{transmission_name} (no colour, depth or roughness)")
         return 1.0 - transmission, 0.0, transmission_texture
+
+    def normal_map(self, name: str) -> TextureInput | None:
+        """The tangent-space normal map behind input ``name`` (``normal``, OpenPBR ``geometry_normal``): a
+        ``normalmap`` node (tangent space) of a vector3 image node (read as data), whose ``in * 2 - 1`` with x and y
+        times its ``scale`` is the normal (MaterialX's ``mx_normalmap``), as the texture's scale and bias. None where
+        the input is unconnected, or (with a note) fed otherwise, or where the image cannot be read: the mesh's
+        normals are used."""
+        found = self.reader._producer(self.shader, name)
+        if found is None:
+            return None
+        if found[0] == "value":
+            self.notes.append(f"a constant {name} is ignored (only a normal map perturbs normals)")
+            return None
+        node = found[1]
+        node_id = node.GetShaderId() or ""
+        source = self.reader._producer(node, "in") if NORMAL_MAP_NODE.match(node_id) else None
+        image_id = (source[1].GetShaderId() or "") if source is not None and source[0] == "shader" else ""
+        space = str(self.reader._constant(node, "space") or "tangent")
+        if not (IMAGE_NODE.match(image_id) and image_id.endswith("_vector3") and space == "tangent"):
+            what = f"a {node_id or 'node without info:id'} node ({node.GetPath()})"
+            self.notes.append(f"{name} comes from {what}, not a tangent-space normalmap node of a vector3 image; "
+                              "it is ignored")
+            return None
+        _, texture = self._image(source[1], image_id, np.array([0.5, 0.5, 1.0]))
+        if texture is None:
+            return None
+        scale = _array(self.reader._constant(node, "scale"), 2)
+        sx, sy = (1.0, 1.0) if scale is None else scale
+        texture.scale = np.array([2.0 * sx, 2.0 * sy, 2.0, 1.0], np.float32)
+        texture.bias = np.array([-sx, -sy, -1.0, 0.0], np.float32)
+        return texture
 
     def coat_notes(self, coat: float, textured: bool):
         """Names the coat inputs wrt's clearcoat cannot follow, where the coat shows."""
