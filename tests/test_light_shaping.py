@@ -205,6 +205,17 @@ def test_editing_a_shaping_in_place_is_noticed_by_the_renderer():
     assert (narrow > 0).sum() < (wide > 0).sum()
 
 
+def test_a_sphere_light_axis_set_after_construction_is_used_as_a_direction():
+    """``light.axis`` given a new, longer vector after the light was made (as ``shaping`` is edited above) points the
+    cone the same way: only its direction counts. It was used unnormalised: a down axis of length 4 lit the plane
+    far outside a 30-degree cone (every cosine above 1/4 clamped to 1)."""
+    light = make_light("point", wrt.Shaping(cone_angle=30.0))
+    reference, _ = render_plane([light], integrator="whitted", spp=1, res=8)
+    light.axis = np.array([0.0, 0.0, -4.0])
+    edited, _ = render_plane([light], integrator="whitted", spp=1, res=8)
+    np.testing.assert_array_equal(edited, reference)
+
+
 def test_usd_shaping_is_read_with_the_light_axis(tmp_path):
     """ShapingAPI inputs come with the light; a sphere light's axis is its -Z in the world. Only an IES profile is
     warned about, naming its light."""

@@ -130,11 +130,17 @@ class SphereLight:
     def __post_init__(self):
         check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR,
                      ("axis", (3,), None, np.float64))
-        length = np.linalg.norm(self.axis)
-        if not length > 0.0:
-            raise SceneError(f"SphereLight axis must not be zero, got {self.axis.tolist()}", prim=self.path or None)
-        self.axis = self.axis / length
+        self.axis = self.unit_axis()
         _check_shaping(self)
+
+    def unit_axis(self) -> np.ndarray:
+        """``(3,)`` ``axis`` made unit, as the shaping uses it (it may be set to any length after construction)."""
+        axis = np.asarray(self.axis, np.float64)
+        length = float(np.linalg.norm(axis)) if axis.shape == (3,) else 0.0
+        if not (length > 0.0 and math.isfinite(length)):
+            raise SceneError(f"SphereLight axis must be a nonzero finite 3-vector, got {axis.tolist()}",
+                             prim=self.path or None)
+        return axis / length
 
     @property
     def area(self) -> float:
@@ -669,7 +675,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
                 L = light.radiance
                 _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero, (light.radius, 0, light.area, 0), 0,
                      math.pi * light.area * luminance_np(L))
-            _add_shaping(h, light.shaping, light.axis, emits_behind=True)
+            _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True)
         elif isinstance(light, RectLight):
             u, v = light.edges()
             _, _, z, origin = _axes(light.to_world)
