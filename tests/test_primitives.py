@@ -115,14 +115,15 @@ def test_ellipsoid_and_sheared_normals_are_the_inverse_transpose():
 
 
 @pytest.mark.parametrize("device", ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else []))
-@pytest.mark.parametrize("kind, params", [("sphere", 0.0), ("cylinder", 0.0), ("cone", 1.0), ("capsule", 0.5)])
+@pytest.mark.parametrize("kind, params", [("sphere", (0.0, 0.0)), ("cylinder", (0.0, 0.0)), ("cone", (1.0, 0.0)),
+                                          ("cone", (1.0, 0.4)), ("capsule", (0.5, 0.0)), ("tapered", (0.5, 0.3))])
 def test_quadric_hits_do_not_depend_on_the_scene_scale(kind, params, device):
     """A shape of radius R seen by unit rays has a canonical direction of length 1/R: at R = 1e-20 or 1e25 its
     ``d . d`` overflowed or underflowed and the shape was missed, while triangles traced fine at every scale. The
     same rays, scaled with the shape, must give the same ``t / R``, and a unit shape the same ``t |d|`` for any
     direction length."""
     def hits(radius, length=1.0):
-        shape = Shape("/S", kind, np.diag([radius, radius, radius, 1.0]), np.array([params, 0, 0, 1], np.float32))
+        shape = Shape("/S", kind, np.diag([radius, radius, radius, 1.0]), np.array([*params, 0, 1], np.float32))
         origins = np.array([[0.3, 0.2, 5.0], [5.0, 0.2, 0.3], [0.1, 4.0, -0.2]], np.float32) * np.float32(radius)
         directions = np.array([[0, 0, -1], [-1, 0, 0], [0, -1, 0.05]], np.float32) * np.float32(length)
         scene = wrt.Scene(shapes=[shape])
@@ -204,6 +205,9 @@ def gprim_stage(tmp_path, kind, axis="Z", **attrs) -> tuple[str, str]:
         ("Cone", {"Height": 3.0, "Radius": 0.5}),
         ("Capsule", {"Height": 3.0, "Radius": 0.5}),
         ("Plane", {"Width": 3.0, "Length": 1.0}),
+        ("Cylinder_1", {"Height": 3.0, "RadiusBottom": 0.5, "RadiusTop": 0.2}),
+        ("Cylinder_1", {"Height": 3.0, "RadiusBottom": 0.2, "RadiusTop": 0.5}),
+        ("Capsule_1", {"Height": 3.0, "RadiusBottom": 0.5, "RadiusTop": 0.5}),
     ],
 )
 def test_gprim_parameters_and_axis_match_usd_bounds(tmp_path, kind, attrs, axis):

@@ -548,12 +548,12 @@ def test_gprims_load_as_analytic_shapes_and_unsupported_ones_warn_once(tmp_path)
     body = 'def Cube "C1"\n{\n}\ndef Cube "C2"\n{\n}\ndef Sphere "S"\n{\n}\n' + mesh_usda(
         "Empty", points=[], counts=[], indices=[]
     )
-    body += 'def Cylinder_1 "T1"\n{\n}\ndef Cylinder_1 "T2"\n{\n}\n'
+    body += 'def NurbsPatch "T1"\n{\n}\ndef NurbsPatch "T2"\n{\n}\n'
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = load_usd(write_usda(tmp_path, body))
     (warning,) = caught
-    assert "2 prim(s) (Cylinder_1: 2)" in str(warning.message)
+    assert "2 prim(s) (NurbsPatch: 2)" in str(warning.message)
     assert scene.meshes == [] and len(scene.triangles()[1]) == 0  # shapes are not triangles
     assert [(s.path, s.kind) for s in scene.shapes] == [("/C1", "box"), ("/C2", "box"), ("/S", "sphere")]
 

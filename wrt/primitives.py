@@ -12,11 +12,19 @@ kind          canonical shape                                                   
 ``sphere``    unit sphere at the origin                                                  -
 ``box``       ``[-1, 1]^3``                                                              -
 ``cylinder``  radius 1 around +Z, ``z`` in ``[-1, 1]``, caps at ``z = +-1``               ``capped`` (1 or 0)
-``cone``      apex at ``z = 1``, base radius 1 at ``z = -1`` (cap there)                 ``capped`` (1 or 0)
+``cone``      radius 1 at ``z = -1`` narrowing linearly to ``rho`` at ``z = 1`` (caps        ``capped`` (1 or 0),
+              at both ends; ``rho = 0``: the apex, no top cap)                           ``rho`` in ``[0, 1)``
 ``capsule``   radius 1 around +Z: a cylinder for ``|z| <= H`` plus two hemispheres        ``H`` = half-height / radius
+``tapered``   spheres of radius 1 at ``z = -H`` and ``rho`` at ``z = H`` joined by the       ``H``, ``rho`` in
+              cone tangent to both (their convex hull; ``1 - rho < 2 H``)                ``[0, 1)``
 ``plane``     the square ``|x|, |y| <= 1`` at ``z = 0``, front along +Z                   -
 ``disk``      the unit disk at ``z = 0``, front along +Z                                 -
 ============  =========================================================================  ======================
+
+``Cylinder_1`` with unequal radii is a ``cone`` with ``rho > 0`` (a frustum) and ``Capsule_1`` with unequal radii
+is a ``tapered`` capsule, the larger radius at canonical ``-Z`` (a half turn about X puts it at USD's top when
+``radiusTop`` is the larger): its tangent cone meets each sphere at the latitude ``asin((1 - rho) / (2 H))``, as
+OpenUSD's ``GeomUtilCapsuleMeshGenerator`` places its rings.
 
 Outward normals are the front side (``orientation = rightHanded``); ``params[3] = -1`` flips them
 (``leftHanded``). Quadratics are solved in the numerically stable form of pbrt (``q = -(b + sign(b) sqrt(disc))``,
@@ -43,8 +51,9 @@ SHAPE_CONE = wp.constant(3)
 SHAPE_CAPSULE = wp.constant(4)
 SHAPE_PLANE = wp.constant(5)
 SHAPE_DISK = wp.constant(6)
-SHAPE_KINDS = {"sphere": 0, "box": 1, "cylinder": 2, "cone": 3, "capsule": 4, "plane": 5, "disk": 6}  # name -> code
-CONE_SLOPE = wp.constant(0.5)  # canonical cone: radius = CONE_SLOPE * (1 - z)
+SHAPE_TAPERED = wp.constant(7)
+SHAPE_KINDS = {"sphere": 0, "box": 1, "cylinder": 2, "cone": 3, "capsule": 4, "plane": 5, "disk": 6,
+               "tapered": 7}  # name -> code
 DEFAULT_SEGMENTS = 64  # tessellation: segments around a circle (rings of a sphere: half as many)
 MAX_SEGMENTS = 4096  # a sphere of 4096 segments is 16.8M triangles; 100000 ran out of memory without a message
 
@@ -84,35 +93,38 @@ def solve_quadratic(a: float, b_half: float, c: float, disc: float):
 
 
 @wp.func
-def unit_sphere_roots(center_z: float, o: wp.vec3, d: wp.vec3):
-    """Both ``t0 <= t1`` where the line ``o + t d`` meets the unit sphere centred at ``(0, 0, center_z)`` (inf if
-    it misses)."""
+def sphere_roots(center_z: float, radius: float, o: wp.vec3, d: wp.vec3):
+    """Both ``t0 <= t1`` where the line ``o + t d`` meets the sphere of ``radius`` centred at ``(0, 0, center_z)``
+    (inf if it misses)."""
     oc = wp.vec3(o[0], o[1], o[2] - center_z)
     a = wp.dot(d, d)
     b_half = wp.dot(oc, d)
     closest = oc - (b_half / a) * d
-    disc = a * (1.0 - wp.dot(closest, closest))
+    disc = a * (radius * radius - wp.dot(closest, closest))
     t0 = float(wp.inf)
     t1 = float(wp.inf)
     if disc >= 0.0:
-        t0, t1 = solve_quadratic(a, b_half, wp.dot(oc, oc) - 1.0, disc)
+        t0, t1 = solve_quadratic(a, b_half, wp.dot(oc, oc) - radius * radius, disc)
     return t0, t1
 
 
 @wp.func
 def intersect_unit_sphere(center_z: float, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
     """Unit sphere centred at ``(0, 0, center_z)``: the nearest ``t`` in ``[t_min, t_max)``, inf if none."""
-    t0, t1 = unit_sphere_roots(center_z, o, d)
+    t0, t1 = sphere_roots(center_z, 1.0, o, d)
     return nearest_root(t0, t1, t_min, t_max)
 
 
 @wp.func
-def intersect_hemisphere(center_z: float, up: float, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
-    """The half of the unit sphere at ``(0, 0, center_z)`` with ``up * (z - center_z) >= 0``."""
-    t0, t1 = unit_sphere_roots(center_z, o, d)
-    if t0 < wp.inf and up * (o[2] + t0 * d[2] - center_z) < 0.0:
+def intersect_sphere_part(
+    center_z: float, radius: float, up: float, z_cut: float, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float
+):
+    """The part of the sphere of ``radius`` at ``(0, 0, center_z)`` with ``up * (z - z_cut) >= 0`` (a hemisphere
+    when ``z_cut = center_z``)."""
+    t0, t1 = sphere_roots(center_z, radius, o, d)
+    if t0 < wp.inf and up * (o[2] + t0 * d[2] - z_cut) < 0.0:
         t0 = wp.inf
-    if t1 < wp.inf and up * (o[2] + t1 * d[2] - center_z) < 0.0:
+    if t1 < wp.inf and up * (o[2] + t1 * d[2] - z_cut) < 0.0:
         t1 = wp.inf
     return nearest_root(wp.min(t0, t1), wp.max(t0, t1), t_min, t_max)
 
@@ -174,19 +186,22 @@ def intersect_unit_box(o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
 
 
 @wp.func
-def intersect_unit_cone_side(o: wp.vec3, d: wp.vec3, t_min: float, t_max: float):
-    """The side ``x^2 + y^2 = (k (1 - z))^2`` for ``z`` in ``[-1, 1]`` (``k = CONE_SLOPE``).
+def intersect_cone_side(
+    o: wp.vec3, d: wp.vec3, r0: float, slope: float, z_lo: float, z_hi: float, t_min: float, t_max: float
+):
+    """The side ``x^2 + y^2 = (r0 + slope z)^2`` for ``z`` in ``[z_lo, z_hi]``, where that radius is ``>= 0``.
 
     The quadratic is solved from the ray's point ``p`` nearest the canonical origin, as Haines et al. do for spheres:
-    from a far origin, ``c = x^2 + y^2 - (k w)^2`` was the difference of two large numbers, and its rounding made rays
-    that pass near the surface (near the apex above all, where it curves most) hit it up to 3e-4 off."""
+    from a far origin, ``c = x^2 + y^2 - w^2`` was the difference of two large numbers, and its rounding made rays
+    that pass near the surface (near the apex above all, where it curves most) hit it up to 3e-4 off (3e-3 near a
+    tapered capsule's apex)."""
     t_c = -wp.dot(o, d) / wp.dot(d, d)
     p = o + t_c * d
-    k2 = CONE_SLOPE * CONE_SLOPE
-    w = 1.0 - p[2]
-    a = d[0] * d[0] + d[1] * d[1] - k2 * d[2] * d[2]
-    b_half = p[0] * d[0] + p[1] * d[1] + k2 * w * d[2]
-    c = p[0] * p[0] + p[1] * p[1] - k2 * w * w
+    w = r0 + slope * p[2]  # the radius at p's height
+    e = slope * d[2]  # and its change per unit of t
+    a = d[0] * d[0] + d[1] * d[1] - e * e
+    b_half = p[0] * d[0] + p[1] * d[1] - w * e
+    c = p[0] * p[0] + p[1] * p[1] - w * w
     t0 = float(wp.inf)
     t1 = float(wp.inf)
     if wp.abs(a) < 1.0e-12 * wp.dot(d, d):
@@ -199,11 +214,25 @@ def intersect_unit_cone_side(o: wp.vec3, d: wp.vec3, t_min: float, t_max: float)
             t0, t1 = solve_quadratic(a, b_half, c, disc)
     z0 = p[2] + t0 * d[2]
     z1 = p[2] + t1 * d[2]
-    if not (z0 >= -1.0 and z0 <= 1.0):
+    if not (z0 >= z_lo and z0 <= z_hi):
         t0 = wp.inf
-    if not (z1 >= -1.0 and z1 <= 1.0):
+    if not (z1 >= z_lo and z1 <= z_hi):
         t1 = wp.inf
     return nearest_root(wp.min(t0, t1) + t_c, wp.max(t0, t1) + t_c, t_min, t_max)
+
+
+@wp.func
+def cone_radius(rho: float):
+    """``(r0, slope)`` of the canonical cone: radius ``r0 + slope z``, 1 at ``z = -1`` and ``rho`` at ``z = 1``."""
+    return 0.5 + 0.5 * rho, 0.5 * rho - 0.5
+
+
+@wp.func
+def tangent_latitude(h: float, rho: float):
+    """``(sin, cos)`` of the latitude at which the cone tangent to the canonical tapered capsule's spheres (radius 1
+    at ``z = -h``, ``rho`` at ``z = h``) touches both: the sine is the radius difference over the centres' distance."""
+    sin_lat = wp.min((1.0 - rho) / (2.0 * h), 1.0)
+    return sin_lat, wp.sqrt(wp.max(1.0 - sin_lat * sin_lat, 0.0))
 
 
 @wp.func
@@ -233,14 +262,30 @@ def canonical_hit(kind: int, params: wp.vec4, o: wp.vec3, d: wp.vec3, t_min: flo
             t = wp.min(t, intersect_disk_at(1.0, 1.0, o, d, t_min, t_max))
             t = wp.min(t, intersect_disk_at(-1.0, 1.0, o, d, t_min, t_max))
     elif kind == SHAPE_CONE:
-        t = intersect_unit_cone_side(o, d, t_min, t_max)
+        rho = params[1]
+        r0, slope = cone_radius(rho)
+        t = intersect_cone_side(o, d, r0, slope, -1.0, 1.0, t_min, t_max)
         if params[0] > 0.0:
             t = wp.min(t, intersect_disk_at(-1.0, 1.0, o, d, t_min, t_max))
+            if rho > 0.0:
+                t = wp.min(t, intersect_disk_at(1.0, rho, o, d, t_min, t_max))
     elif kind == SHAPE_CAPSULE:
         h = params[0]
         t = intersect_unit_cylinder_side(o, d, -h, h, t_min, t_max)
-        t = wp.min(t, intersect_hemisphere(h, 1.0, o, d, t_min, t_max))
-        t = wp.min(t, intersect_hemisphere(-h, -1.0, o, d, t_min, t_max))
+        t = wp.min(t, intersect_sphere_part(h, 1.0, 1.0, h, o, d, t_min, t_max))
+        t = wp.min(t, intersect_sphere_part(-h, 1.0, -1.0, -h, o, d, t_min, t_max))
+    elif kind == SHAPE_TAPERED:
+        # The shape is convex, so its first hit is the nearest hit of its three parts, each cut at the tangent rings.
+        h = params[0]
+        rho = params[1]
+        sin_lat, cos_lat = tangent_latitude(h, rho)
+        z0 = -h + sin_lat  # the cone's bottom ring, on the sphere of radius 1
+        z1 = h + rho * sin_lat  # its top ring, on the sphere of radius rho
+        t = intersect_sphere_part(-h, 1.0, -1.0, z0, o, d, t_min, t_max)
+        t = wp.min(t, intersect_sphere_part(h, rho, 1.0, z1, o, d, t_min, t_max))
+        if cos_lat > 0.0:
+            slope = -sin_lat / cos_lat
+            t = wp.min(t, intersect_cone_side(o, d, cos_lat - slope * z0, slope, z0, z1, t_min, t_max))
     elif kind == SHAPE_PLANE:
         if d[2] != 0.0:
             s = -o[2] / d[2]
@@ -293,18 +338,48 @@ def shape_surface(kind: int, params: wp.vec4, p: wp.vec3):
             n = radial
             q = wp.vec3(radial[0], radial[1], p[2])
     elif kind == SHAPE_CONE:
-        k = CONE_SLOPE
+        rho = params[1]
+        r0, slope = cone_radius(rho)
         r = wp.sqrt(p[0] * p[0] + p[1] * p[1])
-        side = wp.abs(r - k * (1.0 - p[2])) / wp.sqrt(1.0 + k * k)
-        if params[0] > 0.0 and wp.abs(p[2] + 1.0) < side:
+        side = wp.abs(r - (r0 + slope * p[2])) / wp.sqrt(1.0 + slope * slope)
+        bottom = wp.abs(p[2] + 1.0)
+        top = float(wp.inf)  # no top cap at the apex
+        if rho > 0.0:
+            top = wp.abs(p[2] - 1.0)
+        if params[0] > 0.0 and bottom < side and bottom <= top:
             n = wp.vec3(0.0, 0.0, -1.0)
             q = wp.vec3(p[0], p[1], -1.0)
+        elif params[0] > 0.0 and top < side:
+            n = wp.vec3(0.0, 0.0, 1.0)
+            q = wp.vec3(p[0], p[1], 1.0)
         else:
             radial = wp.vec3(1.0, 0.0, 0.0)
             if r > 0.0:
                 radial = wp.vec3(p[0] / r, p[1] / r, 0.0)
-            n = wp.normalize(radial + wp.vec3(0.0, 0.0, k))  # the gradient of r - k (1 - z)
+            n = wp.normalize(radial - wp.vec3(0.0, 0.0, slope))  # the gradient of r - (r0 + slope z)
             q = p
+    elif kind == SHAPE_TAPERED:
+        h = params[0]
+        rho = params[1]
+        sin_lat, cos_lat = tangent_latitude(h, rho)
+        r = wp.sqrt(p[0] * p[0] + p[1] * p[1])
+        radial = wp.vec3(1.0, 0.0, 0.0)
+        if r > 0.0:
+            radial = wp.vec3(p[0] / r, p[1] / r, 0.0)
+        # The nearest part, from p's position along the tangent line (direction (-sin, cos) in the (r, z) plane)
+        # past each sphere's tangent point; a top sphere of radius 0 (an apex) has no normal of its own.
+        along = cos_lat * p[2] - sin_lat * r
+        if along <= -cos_lat * h:
+            centre = wp.vec3(0.0, 0.0, -h)
+            n = wp.normalize(p - centre)
+            q = centre + n
+        elif along >= cos_lat * h and rho > 0.0:
+            centre = wp.vec3(0.0, 0.0, h)
+            n = wp.normalize(p - centre)
+            q = centre + rho * n
+        else:
+            n = wp.vec3(cos_lat * radial[0], cos_lat * radial[1], sin_lat)
+            q = p - (wp.dot(p - wp.vec3(0.0, 0.0, -h), n) - 1.0) * n  # the tangent plane is 1 from the bottom centre
     else:
         q = wp.vec3(p[0], p[1], 0.0)
     if params[3] < 0.0:
@@ -334,8 +409,11 @@ def shape_uv(kind: int, params: wp.vec4, p: wp.vec3):
         v = wp.clamp(1.0 - wp.abs(p[1]), 0.0, 1.0) / 3.0
     elif kind == SHAPE_DISK or ((kind == SHAPE_CYLINDER or kind == SHAPE_CONE) and params[0] > 0.0):
         r = wp.sqrt(p[0] * p[0] + p[1] * p[1])
-        if kind == SHAPE_DISK or wp.abs(wp.abs(p[2]) - 1.0) < 1.0e-4:
-            u = wp.clamp(1.0 - r, 0.0, 1.0) / 3.0
+        rim = float(1.0)  # the radius of the cap at p's end (a cone's top: rho, 0 at the apex, which has none)
+        if kind == SHAPE_CONE and p[2] > 0.0:
+            rim = params[1]
+        if kind == SHAPE_DISK or (rim > 0.0 and wp.abs(wp.abs(p[2]) - 1.0) < 1.0e-4):
+            u = wp.clamp(rim - r, 0.0, 1.0) / 3.0
     return u, v
 
 
@@ -351,7 +429,7 @@ class Shape(CountsAssignments):
         kind: a key of :data:`SHAPE_KINDS`.
         to_world: ``(4, 4)`` float64 canonical space -> world (or prototype) space, column vectors; USD's size
             parameters and axis are part of it.
-        params: ``(4,)`` float32: ``[capped or H, 0, 0, orientation sign]`` (see the module docstring).
+        params: ``(4,)`` float32: ``[capped or H, rho or 0, 0, orientation sign]`` (see the module docstring).
         color: ``(3,)`` float32 linear displayColor, or None for none (drawn grey 0.5, or in its instance's colour:
             ``Instances.colors``).
         material_id: index into ``Scene.materials``, -1 for the default material.
@@ -376,9 +454,9 @@ class Shape(CountsAssignments):
 
     def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Canonical-space box ``(lower, upper)``."""
-        if self.kind == "capsule":
-            h = float(self.params[0])
-            return np.array([-1.0, -1.0, -1.0 - h]), np.array([1.0, 1.0, 1.0 + h])
+        if self.kind in ("capsule", "tapered"):
+            h, top = float(self.params[0]), 1.0 if self.kind == "capsule" else float(self.params[1])
+            return np.array([-1.0, -1.0, -1.0 - h]), np.array([1.0, 1.0, top + h])
         if self.kind in ("plane", "disk"):
             return np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 0.0])
         return np.full(3, -1.0), np.full(3, 1.0)
@@ -401,12 +479,43 @@ def shape_transform(linear: np.ndarray) -> np.ndarray:
     return m
 
 
+def tapered_shape(type_name: str, height: float, bottom: float, top: float):
+    """The shape of a USD ``Cylinder_1`` or ``Capsule_1`` (``type_name``) of ``height`` and radii ``bottom`` at
+    ``z = -height / 2`` and ``top`` at ``z = height / 2`` (one of them may be 0), its axis along +Z.
+
+    Equal radii make a ``cylinder`` or ``capsule``, as ``Cylinder`` and ``Capsule`` do; unequal ones a capped
+    ``cone`` whose apex is cut at the smaller radius (a frustum; the apex itself when it is 0) or a ``tapered``
+    capsule, the larger end at canonical -Z (turned half about X when that end is the top). A capsule whose smaller
+    sphere lies inside the larger (radius difference >= height) is the larger sphere, their convex hull.
+
+    Returns:
+        ``(kind, transform, p0, p1)``: ``transform`` ``(4, 4)`` float64 canonical space -> the gprim's frame before
+        its axis rotation, and ``Shape.params[0:2]``.
+    """
+    big, small = max(bottom, top), min(bottom, top)
+    turn = np.eye(3) if bottom >= top else np.diag([1.0, -1.0, -1.0])  # a rotation: the winding stays
+    if type_name == "Cylinder_1":
+        if bottom == top:
+            return "cylinder", shape_transform(np.diag([big, big, height / 2.0])), 1.0, 0.0
+        return "cone", shape_transform(turn @ np.diag([big, big, height / 2.0])), 1.0, small / big
+    if type_name != "Capsule_1":
+        raise ValueError(f"type_name must be Cylinder_1 or Capsule_1, got {type_name!r}")
+    if bottom == top:
+        return "capsule", shape_transform(np.eye(3) * big), height / (2.0 * big), 0.0
+    if big - small >= height:
+        m = shape_transform(np.eye(3) * big)
+        m[2, 3] = height / 2.0 if top > bottom else -height / 2.0
+        return "sphere", m, 1.0, 0.0
+    return "tapered", shape_transform(turn * big), height / (2.0 * big), small / big
+
+
 def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
     """Triangles approximating ``shape`` in its own (world or prototype) space, every vertex on the surface.
 
     A sphere gets ``segments`` meridians and ``segments // 2`` rings; circles of cylinders, cones and capsules get
-    ``segments`` sides (capsule caps ``segments // 4`` rings each); boxes, planes and their faces are exact. The
-    position error of the curved parts falls as ``O(h^2)`` with the edge length ``h`` (the sagitta of each chord).
+    ``segments`` sides (capsule caps ``segments // 4`` rings each, a tapered capsule's caps as many per quarter turn
+    of latitude); boxes, planes and their faces are exact. The position error of the curved parts falls as
+    ``O(h^2)`` with the edge length ``h`` (the sagitta of each chord).
 
     Returns:
         ``points`` ``(V, 3)`` float64, ``indices`` ``(T, 3)`` int32 with ``cross(p1 - p0, p2 - p0)`` towards the front
@@ -459,14 +568,32 @@ def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
                 triangles.append(band(a, b))
         return np.array(points), np.concatenate(triangles)
 
-    def cap(z, up):
-        """A flat disk of radius 1 at ``z``, facing +Z when ``up``."""
-        points = np.concatenate([[[0.0, 0.0, z]], np.column_stack([ring, np.full(segments, z)])])
+    def cap(z, up, radius=1.0):
+        """A flat disk of ``radius`` at ``z``, facing +Z when ``up``."""
+        points = np.concatenate([[[0.0, 0.0, z]], np.column_stack([radius * ring, np.full(segments, z)])])
         i = np.arange(segments)
         j = (i + 1) % segments
         tris = (np.stack([np.zeros(segments, np.int64), 1 + i, 1 + j], 1) if up
                 else np.stack([np.zeros(segments, np.int64), 1 + j, 1 + i], 1))
         add(points, tris, flat=[0.0, 0.0, 1.0 if up else -1.0])
+
+    def slanted_normals(p, slope):
+        """Unit outward normals at points ``p`` of a surface of revolution whose radius falls by ``slope`` per unit
+        of z (a cone's side)."""
+        r = np.linalg.norm(p[:, :2], axis=1, keepdims=True)
+        radial = np.where(r > 0, p[:, :2] / np.where(r > 0, r, 1.0), [1.0, 0.0])
+        n = np.column_stack([radial, np.full(len(p), slope)])
+        return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+    def add_lathe(points, tris, normals_at, apex):
+        """``add`` for a ``lathe``; when ``apex``, its last point is a top pole where a cone ends, which has no single
+        normal: its corner of each triangle gets the normal of that triangle's own meridian (at the middle of its
+        other corners)."""
+        normals = normals_at(points)[tris]
+        if apex:
+            at_apex = tris[:, 2] == len(points) - 1
+            normals[at_apex, 2] = normals_at(points[tris[at_apex][:, [0, 1]]].mean(axis=1))
+        parts.append((points, tris, normals))
 
     kind = shape.kind
     if kind == "sphere":
@@ -486,24 +613,13 @@ def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
             cap(1.0, True)
             cap(-1.0, False)
     elif kind == "cone":
-        k = float(CONE_SLOPE)
-        points, tris = lathe([(2.0 * k, -1.0), (0.0, 1.0)])
-
-        def cone_normals(p):
-            r = np.linalg.norm(p[:, :2], axis=1, keepdims=True)
-            radial = np.where(r > 0, p[:, :2] / np.where(r > 0, r, 1.0), [1.0, 0.0])
-            n = np.column_stack([radial, np.full(len(p), k)])
-            return n / np.linalg.norm(n, axis=1, keepdims=True)
-
-        pts, tris_ = points, tris
-        # Apex normals: one per triangle (its own meridian), as the apex has no single normal.
-        normals = cone_normals(pts)[tris_]
-        apex = tris_ == len(pts) - 1
-        mid = pts[tris_[:, [0, 1]]].mean(axis=1)
-        normals[apex[:, 2], 2] = cone_normals(mid[apex[:, 2]])
-        parts.append((pts, tris_, normals))
+        rho = float(shape.params[1])
+        points, tris = lathe([(1.0, -1.0), (rho, 1.0)])
+        add_lathe(points, tris, lambda p: slanted_normals(p, 0.5 - 0.5 * rho), apex=rho == 0)
         if shape.params[0] > 0:
             cap(-1.0, False)
+            if rho > 0:
+                cap(1.0, True, rho)
     elif kind == "capsule":
         h = float(shape.params[0])
         rings = max(segments // 4, 2)
@@ -518,6 +634,31 @@ def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
             return n / np.linalg.norm(n, axis=1, keepdims=True)
 
         add(points, tris, normals_at=capsule_normals)
+    elif kind == "tapered":
+        h, rho = float(shape.params[0]), float(shape.params[1])
+        sin_lat = min((1.0 - rho) / (2.0 * h), 1.0)
+        lat = math.asin(sin_lat)
+        quarter = max(segments // 4, 2)  # rings per quarter turn of latitude, as a capsule's caps have
+
+        def arc(lo, hi, radius, z):
+            """Rings of a sphere from latitude ``lo`` to ``hi``; the poles are single points."""
+            theta = np.linspace(lo, hi, max(round(quarter * (hi - lo) / (np.pi / 2)), 1) + 1)
+            return [(radius * math.cos(t) if abs(t) < np.pi / 2 else 0.0, z + radius * math.sin(t)) for t in theta]
+
+        top = arc(lat, np.pi / 2, rho, h) if rho > 0 else [(0.0, h)]
+        points, tris = lathe(arc(-np.pi / 2, lat, 1.0, -h) + top)
+
+        def tapered_normals(p):
+            # Each point's part, from its position along the tangent line (direction (-sin, cos) in (r, z))
+            # past each sphere's tangent point; the cone's normal is (cos, sin) in (r, z).
+            r = np.linalg.norm(p[:, :2], axis=1)
+            along = math.cos(lat) * p[:, 2] - sin_lat * r
+            n = slanted_normals(p, math.tan(lat))
+            for centre, part in ((-h, along <= -math.cos(lat) * h), (h, (along >= math.cos(lat) * h) & (rho > 0))):
+                n[part] = p[part] - [0.0, 0.0, centre]
+            return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+        add_lathe(points, tris, tapered_normals, apex=rho == 0)
     elif kind == "plane":
         add([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]], flat=[0.0, 0.0, 1.0])
     elif kind == "disk":
@@ -545,4 +686,5 @@ def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
     return world_points, tris.astype(np.int32), world_normals
 
 
-__all__ = ["SHAPE_KINDS", "Shape", "axis_rotation", "intersect_shape", "shape_surface", "shape_uv", "tessellate"]
+__all__ = ["SHAPE_KINDS", "Shape", "axis_rotation", "intersect_shape", "shape_surface", "shape_uv", "tapered_shape",
+           "tessellate"]

@@ -9,12 +9,15 @@ raises :class:`wrt.errors.SceneError` naming the file and the prim; things that 
 to see (unsupported gprims, lights or shaders) produce one warning each.
 
 Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``size``), ``Cylinder`` and ``Cone``
-(``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``) and
-``Plane`` (``width``, ``length``, ``axis``, ``doubleSided``) become analytic shapes intersected in their own space,
+(``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``),
+``Plane`` (``width``, ``length``, ``axis``, ``doubleSided``) and the tapered ``Cylinder_1`` and ``Capsule_1``
+(``height``, ``radiusBottom``, ``radiusTop``, ``axis``; see :func:`wrt.primitives.tapered_shape`) become analytic
+shapes intersected in their own space,
 with ``displayColor`` (constant; other interpolations use the mean), material binding, ``doubleSided`` and
 ``orientation``. With ``tessellate_gprims`` they become triangle meshes instead (vertices on the surface, analytic
 vertex normals; see :func:`wrt.primitives.tessellate`). Gprims whose size is zero, negative or not finite are
-skipped with a warning; ``Cylinder_1``/``Capsule_1`` and other gprim types are skipped with a warning.
+skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0), and so are other gprim
+types.
 
 Instancing (:mod:`wrt.instancing`): native instances (``instanceable`` prims) and ``UsdGeom.PointInstancer``
 instances are not flattened. Each native prototype and each prim a PointInstancer's ``prototypes`` relationship
@@ -68,7 +71,15 @@ from .errors import SceneError
 from .instancing import Instances, Prototype, group_rows, invert_transforms
 from .lights import read_light
 from .materials import MaterialReader, bound_material
-from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape, axis_rotation, shape_transform, tessellate
+from .primitives import (
+    DEFAULT_SEGMENTS,
+    MAX_SEGMENTS,
+    Shape,
+    axis_rotation,
+    shape_transform,
+    tapered_shape,
+    tessellate,
+)
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, Refinement
 from .usd_skel import SkelPoser
@@ -856,11 +867,14 @@ class _StageReader:
         and USD's size parameters folded into its transform, or None (with a warning) when it is not supported."""
         t = self.time
 
-        def number(attr, name):
+        def bad_size(detail):
+            self._skip("gprims with a zero, negative or non-finite size were skipped", prim, detail)
+
+        def number(attr, name, zero_ok=False):
             value = value_at(attr, t)
             value = float(value) if value is not None else float("nan")
-            if not (math.isfinite(value) and value > 0.0):
-                self._skip("gprims with a zero, negative or non-finite size were skipped", prim, f"{name} = {value:g}")
+            if not (math.isfinite(value) and (value > 0.0 or (zero_ok and value == 0.0))):
+                bad_size(f"{name} = {value:g}")
                 return None
             return value
 
@@ -873,6 +887,8 @@ class _StageReader:
             return axis_rotation(axis)
 
         params = np.array([1.0, 0.0, 0.0, 1.0])
+        linear = None  # (3, 3) canonical space -> the prim's space, for shapes centred at its origin
+        local = None  # (4, 4) canonical space -> the prim's space, else
         type_name = prim.GetTypeName()
         if type_name == "Sphere":
             r = number(UsdGeom.Sphere(prim).GetRadiusAttr(), "radius")
@@ -888,16 +904,25 @@ class _StageReader:
             linear = None if axis is None else axis @ np.diag([r, r, h / 2.0])
         elif type_name == "Capsule":
             schema = UsdGeom.Capsule(prim)
-            h, r = value_at(schema.GetHeightAttr(), t), number(schema.GetRadiusAttr(), "radius")
-            h = float(h) if h is not None else float("nan")
-            if not (math.isfinite(h) and h >= 0.0):
-                self._skip("gprims with a zero, negative or non-finite size were skipped", prim, f"height = {h:g}")
-                return None
+            h, r = number(schema.GetHeightAttr(), "height", zero_ok=True), number(schema.GetRadiusAttr(), "radius")
             kind = "capsule"
-            axis = None if r is None else axis_of(schema)
+            axis = None if h is None or r is None else axis_of(schema)
             linear = None if axis is None else axis @ (np.eye(3) * r)
-            if r is not None:
+            if linear is not None:
                 params[0] = h / (2.0 * r)
+        elif type_name in ("Cylinder_1", "Capsule_1"):
+            schema = UsdGeom.Cylinder_1(prim) if type_name == "Cylinder_1" else UsdGeom.Capsule_1(prim)
+            h = number(schema.GetHeightAttr(), "height", zero_ok=type_name == "Capsule_1")
+            # One radius may be 0 (a Cylinder_1 that is a cone, a Capsule_1 ending in a point), not both.
+            bottom = number(schema.GetRadiusBottomAttr(), "radiusBottom", zero_ok=True)
+            top = number(schema.GetRadiusTopAttr(), "radiusTop", zero_ok=True)
+            if bottom == 0.0 and top == 0.0:
+                bad_size("radiusBottom = radiusTop = 0")
+            elif None not in (h, bottom, top):
+                axis = axis_of(schema)
+                if axis is not None:
+                    kind, local, params[0], params[1] = tapered_shape(type_name, h, bottom, top)
+                    local = shape_transform(axis) @ local
         elif type_name == "Plane":
             schema = UsdGeom.Plane(prim)
             w, length = number(schema.GetWidthAttr(), "width"), number(schema.GetLengthAttr(), "length")
@@ -907,12 +932,14 @@ class _StageReader:
         else:
             self._skip("gprims of this type are not supported; skipped", prim, type_name)
             return None
-        if linear is None:
-            return None
+        if local is None:
+            if linear is None:
+                return None
+            local = shape_transform(linear)
         gprim = UsdGeom.Gprim(prim)
         if self._left_handed(prim, gprim, t):
             params[3] = -1.0
-        to_world = m.T @ shape_transform(linear)
+        to_world = m.T @ local
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
             self._skip("world transform is projective; its last column was ignored", prim)
             to_world[3] = (0.0, 0.0, 0.0, 1.0)
