@@ -1,9 +1,10 @@
 """Renders the same small scenes on two devices and prints how far apart the images are: the cut-out canopy
 (camera, bounce and shadow rays through holes), PointInstancer displayColors (mesh and gprim prototypes), gold
 spheres at three roughnesses (the multiple-scattering lobe), spotlights (ShapingAPI cone, softness, focus), a
-normal-mapped quad under a sun and at a grazing view, and a UDIM-textured plane (three tiles and a missing one).
-wrt's shade kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are
-expected to be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
+normal-mapped quad under a sun and at a grazing view, a UDIM-textured plane (three tiles and a missing one), and
+tapered Cylinder_1 and Capsule_1 gprims (hits of rays from every side, and images). wrt's shade kernels round alike
+on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are expected to be equal, but for the
+last bits of transcendental functions (the spotlights' acos and pow).
 
 Usage: python benchmarks/gpu_feature_parity.py [--width 96] [--devices cpu,cuda:0]
 """
@@ -24,6 +25,7 @@ from cut_out_canopy import write_canopy  # noqa: E402
 from shading_helpers import quad, top_down_camera  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
 from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
+from test_tapered_gprims import rays_towards, write_stage  # noqa: E402
 from test_udim import BLUE, GREEN, RED, udim_stage, write_tile  # noqa: E402
 
 
@@ -85,6 +87,15 @@ def main() -> None:
     udim = wrt.load_usd(udim_stage(args.out / "parity_udim.usda", "parity_udim/body.<UDIM>.png"))
     cam = wrt.Camera.orthographic(eye=(1, 1, 5), target=(1, 1, 0), height=2.2)
     compare("udim tiles", udim, devices, camera=cam, width=48, height=48, integrator="path", spp=4)
+    for type_name in ("Cylinder_1", "Capsule_1"):
+        path = write_stage(args.out / f"parity_{type_name}.usda", type_name, 1.5, 0.9, 0.4, axis="Y")
+        scene = wrt.load_usd(path)
+        origins, directions = rays_towards(path)
+        a, b = (wrt.trace(scene, origins, directions, device=device) for device in devices)
+        print(f"{type_name} trace: prim equal {float((a.prim == b.prim).mean()):.4f}, t max |diff| "
+              f"{float(np.nanmax(np.abs(np.where(a.prim >= 0, a.t - b.t, 0.0)))):.3g}")
+        cam = wrt.Camera.look_at((1, 3, 9), (1, -2, 3), (0, 1, 0), 40.0)
+        compare(f"{type_name} path", scene, devices, camera=cam, width=48, height=48, integrator="path", spp=4)
 
 
 if __name__ == "__main__":
