@@ -226,6 +226,28 @@ def test_a_full_binding_to_standard_surface_wins_over_a_preview_binding(tmp_path
     assert scene.materials[scene.meshes[0].material_ids[0]].path == "/Looks/Full"
 
 
+
+def test_a_render_context_standard_surface_wins_over_the_universal_preview_surface(tmp_path):
+    """A material with both a universal ``outputs:surface`` (UsdPreviewSurface, green) and ``outputs:mtlx:surface``
+    (standard_surface, grey), as the usd-wg teapot and shader-ball assets are written: Storm takes a render
+    context's output over the universal one, so it draws the standard_surface; wrt drew the green preview surface
+    (the teapots of teapotScene.usd were green instead of 0.8 grey). An unreadable context surface (gltf_pbr) still
+    leaves the universal preview surface to read."""
+    stage, path = new_stage(tmp_path)
+    for name, context_shader in (("Both", STANDARD), ("Gltf", "ND_gltf_pbr_surfaceshader")):
+        quad = add_quad(stage, f"/{name}")
+        material, shader = mtlx_material(stage, f"/Looks/{name}", context_shader, base_color=Gf.Vec3f(0.5, 0.6, 0.7))
+        preview = UsdShade.Shader.Define(stage, f"/Looks/{name}/Preview")
+        preview.CreateIdAttr("UsdPreviewSurface")
+        preview.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.1, 0.9, 0.0))
+        material.CreateSurfaceOutput().ConnectToSource(preview.ConnectableAPI(), "surface")
+        bind(quad, material)
+    stage.Save()
+    scene, _ = load(path)
+    colors = {m.path: m.diffuse_color for m in scene.materials}
+    np.testing.assert_allclose(colors["/Looks/Both"], [0.5, 0.6, 0.7], atol=1e-6)  # base 1 * base_color
+    np.testing.assert_allclose(colors["/Looks/Gltf"], [0.1, 0.9, 0.0], atol=1e-6)
+
 def normal_mapped_mtlx_stage(tmp_path, png, shader_id=STANDARD, map_node="ND_normalmap", scale=None):
     """A quad (s along +X, t along +Y, front +Z) whose standard_surface (or OpenPBR) normal input comes from a
     ``map_node`` reading ``png`` through an ``ND_image_vector3`` node without a colour space, in a NodeGraph."""

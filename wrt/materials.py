@@ -8,9 +8,10 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   UsdPreviewSurface, a ``preview``-purpose binding to a UsdPreviewSurface is used instead (:func:`bound_material`).
   ``GeomSubset``\\ s of family ``materialBind`` override the mesh's material on their faces (subsets of points or
   edges are ignored with a warning).
-- The material's universal ``outputs:surface`` must lead to a ``UsdPreviewSurface``, else a render context's
-  (``outputs:mtlx:surface``, ...) to one or to MaterialX's ``ND_UsdPreviewSurface_surfaceshader``; else MaterialX
-  ``standard_surface`` and OpenPBR are mapped onto this model (:mod:`wrt.materialx`). Anything else (MDL, other
+- The material is read from the first of its surface outputs, render contexts' (``outputs:mtlx:surface``, ...)
+  before the universal ``outputs:surface`` as Storm picks them, that leads to a ``UsdPreviewSurface`` (or MaterialX's
+  ``ND_UsdPreviewSurface_surfaceshader``) or to a MaterialX ``standard_surface`` or OpenPBR, which are mapped onto
+  this model (:mod:`wrt.materialx`). Anything else (MDL, other
   MaterialX surfaces, no surface) falls back to a Lambertian surface of the shader's constant base colour where one is
   authored (:data:`FALLBACK_COLOR_INPUTS`), else to the default material (displayColor, else grey), with one warning
   per material, never an error.
@@ -434,10 +435,12 @@ FALLBACK_COLOR_INPUTS = (
 
 
 def _surface_shaders(material):
-    """The shaders that ``material``'s surface outputs (universal and every render context's) lead to, in order."""
+    """The shaders that ``material``'s surface outputs lead to: every render context's (``outputs:mtlx:surface``,
+    ...) first, in authored order, then the universal one, as Storm picks a context's output over the universal."""
     from pxr import UsdShade
 
-    for output in material.GetSurfaceOutputs():
+    # GetSurfaceOutputs lists the universal output first; a render context's base name is "<context>:surface".
+    for output in sorted(material.GetSurfaceOutputs(), key=lambda o: ":" not in o.GetBaseName()):
         for attr in output.GetValueProducingAttributes():
             yield UsdShade.Shader(attr.GetPrim())
 
@@ -605,19 +608,17 @@ class MaterialReader:
         return self._by_path[path]
 
     def _read_material(self, material) -> Material | None:
+        from .materialx import MODELS, read_materialx_surface  # that module imports this one
+
         prim = material.GetPrim()
         path = str(prim.GetPath())
-        shader, _, _ = material.ComputeSurfaceSource("")
-        shader_id = shader.GetShaderId() if shader else None
-        if shader_id not in PREVIEW_SURFACE_IDS:  # a UsdPreviewSurface in a render context's output serves as well
-            other = _context_preview_surface(material)
-            shader, shader_id = (other, other.GetShaderId()) if other else (shader, shader_id)
-        if shader_id not in PREVIEW_SURFACE_IDS:
-            from .materialx import materialx_surface, read_materialx_surface  # that module imports this one
-
-            mtlx = materialx_surface(material)
-            if mtlx:  # MaterialX standard_surface or OpenPBR: mapped onto this model (wrt/materialx.py)
-                return read_materialx_surface(self, mtlx, path)
+        # The first surface output (render contexts' before the universal one, as Storm) that wrt can read.
+        readable = next((s for s in _surface_shaders(material) if s and (
+            s.GetShaderId() in PREVIEW_SURFACE_IDS or s.GetShaderId() in MODELS)), None)
+        if readable and readable.GetShaderId() in MODELS:  # standard_surface or OpenPBR (wrt/materialx.py)
+            return read_materialx_surface(self, readable, path)
+        shader = readable or material.ComputeSurfaceSource("")[0]
+        if not readable:
             if not shader:
                 found = [o.GetBaseName() for o in material.GetSurfaceOutputs() if o.HasConnectedSource()]
                 what = f"no universal surface output (found: {', '.join(found) or 'none'})"
