@@ -121,8 +121,8 @@ COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": 
 
 
 def materialx_surface(material):
-    """The first MaterialX ``standard_surface`` or OpenPBR shader that a surface output of ``material`` (universal
-    first, then each render context's) leads to, or None."""
+    """The first MaterialX ``standard_surface`` or OpenPBR shader that a surface output of ``material`` (each render
+    context's first, then the universal one) leads to, or None."""
     return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in MODELS), None)
 
 
