@@ -304,6 +304,18 @@ def test_normalmap_scale_multiplies_the_tangent_components(tmp_path):
                                atol=1e-3)
 
 
+def test_a_missing_udim_tile_of_a_normalmap_keeps_the_surface_normal(tmp_path):
+    """A ``<UDIM>`` normal map whose tile 1001 (under the whole quad) has no file reads the image node's default,
+    (0.5, 0.5, 1), decoded as every texel is: the normal (0, 0, 1). It was read as it is, a 35-degree tilt
+    (0.41, 0.41, 0.82) on every pixel."""
+    from test_normal_map import MAP_NORMAL, write_normal_map
+
+    write_normal_map(tmp_path / "tilt.1002.png", MAP_NORMAL)
+    scene, messages = load(normal_mapped_mtlx_stage(tmp_path, str(tmp_path / "tilt.<UDIM>.png")))
+    assert not messages, messages
+    np.testing.assert_allclose(shading_normals(scene).reshape(-1, 3), np.tile([0, 0, 1], (4, 1)), atol=1e-6)
+
+
 def test_a_normal_from_another_node_is_named_in_the_warning(tmp_path):
     """``normal`` connected to anything but a normalmap node of an image (here an image node straight, a world-space
     normal in MaterialX) keeps the mesh's normals, and the material's warning says so."""
