@@ -249,6 +249,20 @@ def test_crease_attributes_are_read(tmp_path):
     np.testing.assert_allclose(bad, plain)
 
 
+@pytest.mark.parametrize("attrs", [
+    {"creaseIndices": Vt.IntArray([0, 1]), "creaseLengths": Vt.IntArray([2]),
+     "creaseSharpnesses": Vt.FloatArray([float("nan")])},
+    {"cornerIndices": Vt.IntArray([7]), "cornerSharpnesses": Vt.FloatArray([float("nan")])},
+])
+def test_a_nan_sharpness_is_ignored_with_a_warning_naming_the_mesh(tmp_path, attrs):
+    """A NaN crease sharpness made every refined point NaN and the load failed ("/Cube: points are not finite after
+    the world transform"); a NaN corner sharpness passed without a word. Both are ignored with the warning."""
+    plain = wrt.load_usd(_cube_stage(tmp_path / "a.usda"), refine_level=2).meshes[0].points
+    with pytest.warns(UserWarning, match=r"creases or corners that do not fit the mesh were ignored.*NaN.*/Cube"):
+        bad = wrt.load_usd(_cube_stage(tmp_path / "nan.usda", **attrs), refine_level=2).meshes[0].points
+    np.testing.assert_allclose(bad, plain)
+
+
 @pytest.mark.parametrize("level", [-1, 9, True, 1.5, "2"])
 def test_refine_level_is_checked(tmp_path, level):
     with pytest.raises(ValueError, match="refine_level"):

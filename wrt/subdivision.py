@@ -214,7 +214,7 @@ class Refinement:
                 raise ValueError(f"{len(indices)} cornerIndices but {len(sharpness)} cornerSharpnesses")
             if len(indices) and (indices.min() < 0 or indices.max() >= n_points):
                 raise ValueError(f"cornerIndices out of range for {n_points} points")
-            corner_sharpness[indices.astype(np.int64)] = np.maximum(sharpness, 0.0)
+            corner_sharpness[indices.astype(np.int64)] = _sharpness(sharpness, "cornerSharpnesses")
 
         self.levels = []
         for _ in range(levels):
@@ -248,6 +248,15 @@ class Refinement:
         return data
 
 
+def _sharpness(values, name: str) -> np.ndarray:
+    """``values`` of attribute ``name`` as float64 sharpnesses, negative ones smooth (0); raises ``ValueError`` on a
+    NaN, which ``np.maximum`` keeps and which made every refined point NaN (the mesh was refused as not finite)."""
+    values = np.asarray(values, np.float64)
+    if np.isnan(values).any():
+        raise ValueError(f"{name} has {int(np.isnan(values).sum())} NaN of {values.size}")
+    return np.maximum(values, 0.0)
+
+
 def _crease_table(creases, n_points: int) -> _SharpnessTable:
     if creases is None:
         return _SharpnessTable(np.zeros(0, np.int64), np.zeros(0))
@@ -272,7 +281,7 @@ def _crease_table(creases, n_points: int) -> _SharpnessTable:
     a = indices[starts[crease] + step]
     b = indices[starts[crease] + step + 1]
     keys = _edge_keys(a, b, n_points)
-    values = np.maximum(np.asarray(per_edge, np.float64), 0.0)
+    values = _sharpness(per_edge, "creaseSharpnesses")
     order = np.argsort(keys, kind="stable")
     keys, values = keys[order], values[order]
     unique, first = np.unique(keys, return_index=True)
