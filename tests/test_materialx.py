@@ -248,6 +248,18 @@ def test_a_render_context_standard_surface_wins_over_the_universal_preview_surfa
     np.testing.assert_allclose(colors["/Looks/Both"], [0.5, 0.6, 0.7], atol=1e-6)  # base 1 * base_color
     np.testing.assert_allclose(colors["/Looks/Gltf"], [0.1, 0.9, 0.0], atol=1e-6)
 
+
+def test_an_unreadable_context_surface_without_a_universal_one_is_named(tmp_path):
+    """A material whose only surface output is ``outputs:mtlx:surface`` to a gltf_pbr: the warning names that shader,
+    as it does a universal one. It said "no universal surface output (found: mtlx:surface)", as if nothing were
+    connected, though render contexts are read first."""
+    stage, path = new_stage(tmp_path)
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Gltf", "ND_gltf_pbr_surfaceshader")[0])
+    stage.Save()
+    _, messages = load(path)
+    (warning,) = [m for m in messages if "/Looks/Gltf" in m]
+    assert "shader ND_gltf_pbr_surfaceshader is not supported" in warning, warning
+
 def normal_mapped_mtlx_stage(tmp_path, png, shader_id=STANDARD, map_node="ND_normalmap", scale=None):
     """A quad (s along +X, t along +Y, front +Z) whose standard_surface (or OpenPBR) normal input comes from a
     ``map_node`` reading ``png`` through an ``ND_image_vector3`` node without a colour space, in a NodeGraph."""

@@ -617,11 +617,12 @@ class MaterialReader:
             s.GetShaderId() in PREVIEW_SURFACE_IDS or s.GetShaderId() in MODELS)), None)
         if readable and readable.GetShaderId() in MODELS:  # standard_surface or OpenPBR (wrt/materialx.py)
             return read_materialx_surface(self, readable, path)
-        shader = readable or material.ComputeSurfaceSource("")[0]
+        # Else the shader Storm would draw (a render context's first) is named: the universal output may be absent.
+        shader = readable or next((s for s in _surface_shaders(material) if s), None)
         if not readable:
             if not shader:
                 found = [o.GetBaseName() for o in material.GetSurfaceOutputs() if o.HasConnectedSource()]
-                what = f"no universal surface output (found: {', '.join(found) or 'none'})"
+                what = f"no surface output leads to a shader (found: {', '.join(found) or 'none'})"
             else:
                 what = f"shader {_shader_name(shader)} is not supported"
             color = self._fallback_color(material)
