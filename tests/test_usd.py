@@ -777,8 +777,11 @@ def test_bad_topology(tmp_path, kwargs, fragments):
          ["faceVertexCounts must be int[], not string[]"]),
         ("int[] faceVertexCounts = [4, 5]", "int faceVertexCounts = 4", ["faceVertexCounts must be int[], not int"]),
         ("int[] faceVertexCounts = [4, 5]", "int2[] faceVertexCounts = [(4, 5)]", ["must be int[], not int2[]"]),
+        # Float holes were cast with numpy: 1e30 raised OverflowError, 1.5 hid face 1.
+        ("int[] faceVertexCounts = [4, 5]", "int[] faceVertexCounts = [4, 5]\n    float[] holeIndices = [1e30]",
+         ["holeIndices must be int[], not float[]"]),
     ],
-    ids=["no-counts", "empty-counts", "float-indices", "string-counts", "scalar-counts", "int2-counts"],
+    ids=["no-counts", "empty-counts", "float-indices", "string-counts", "scalar-counts", "int2-counts", "float-holes"],
 )
 def test_missing_or_mistyped_topology(tmp_path, old, new, fragments):
     text = mesh_usda("Bad")

@@ -1023,8 +1023,7 @@ class _StageReader:
             face_ids = refinement.parent_face[face_ids]  # the control face each refined triangle comes from
 
         # Faces listed in holeIndices are not drawn; their indices and uniform primvar entries still count.
-        holes = value_at(mesh.GetHoleIndicesAttr(), t)
-        holes = np.asarray(holes if holes is not None else [], np.int64).reshape(-1)
+        holes = self._int_array(prim, mesh.GetHoleIndicesAttr())
         if len(holes):
             bad = (holes < 0) | (holes >= len(counts))
             if bad.any():
