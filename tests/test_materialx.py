@@ -174,6 +174,23 @@ def test_a_udim_image_node_reads_its_tiles(tmp_path):
     np.testing.assert_allclose(albedo(scene, 2), expected, atol=1e-3)
 
 
+def test_colour_times_weight_past_float32_takes_the_defaults(tmp_path):
+    """base_color 1e38 times base 10 (each a finite float) is no float32: the defaults (0.8 grey) are used, with a
+    note naming both inputs. The material raised a SceneError naming neither file nor mesh ('diffuse_color must be
+    finite numbers'), and the stage did not load."""
+    stage, path = new_stage(tmp_path)
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Hot", base_color=Gf.Vec3f(1e38, 0.5, 0.5),
+                                                 base=10.0, emission_color=Gf.Vec3f(3e38, 1, 1), emission=2.0)[0])
+    stage.Save()
+    scene, messages = load(path)
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.diffuse_color, 0.8)
+    np.testing.assert_array_equal(mat.emissive_color, 0.0)
+    (warning,) = [m for m in messages if "/Looks/Hot:" in m]
+    assert "base_color 1e+38, 0.5, 0.5 times base 10 is not a finite float" in warning
+    assert "emission_color 3e+38, 1, 1 times emission 2 is not a finite float" in warning
+
+
 def test_open_pbr_emission_is_luminance_times_colour(tmp_path):
     """OpenPBR's emission_luminance (nits) times emission_color is the emitted radiance, in the units of a UsdLux
     light of intensity 1 (= 1 nit): a black emitter of 3 nits in (1, 0.5, 0.25) shows (3, 1.5, 0.75). It was a

@@ -208,6 +208,12 @@ class _Graph:
         color, color_texture = self.read(color_role)
         weight, weight_texture = self.read(weight_role)
         color, weight = np.resize(color, 3), float(np.mean(weight))
+        if np.abs(color * weight).max() > np.finfo(np.float32).max:  # each finite, the product past float32's range
+            (color_name, color_default), (weight_name, weight_default) = (self.inputs[color_role],
+                                                                          self.inputs[weight_role])
+            self.notes.append(f"{color_name} {_format(color)} times {weight_name} {weight:.3g} is not a finite float; "
+                              "their defaults are used")
+            color, weight = np.resize(np.asarray(color_default, np.float64), 3), float(weight_default)
         if color_texture is not None:
             color_texture.scale[:3] *= weight
             if weight_texture is not None:
