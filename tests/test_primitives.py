@@ -266,6 +266,15 @@ def test_zero_size_gprims_are_skipped_with_a_warning_naming_them(tmp_path):
     assert scene.shapes == []
 
 
+@pytest.mark.parametrize("kind, attrs", [("Sphere", {"Radius": 1e39}), ("Cylinder_1", {"RadiusBottom": 1e39})])
+def test_gprims_past_float32_are_refused_naming_them(tmp_path, kind, attrs):
+    """A finite double size whose box is past float32's range is refused as mesh points are. It loaded, and the
+    render raised 'ao_radius must be a positive number, got inf' from the scene's infinite bounds."""
+    path, prim_path = gprim_stage(tmp_path, kind, **attrs)
+    with pytest.raises(wrt.SceneError, match=rf"{kind}_Z.usda: {prim_path}: bounds are not finite after the world"):
+        wrt.load_usd(path)
+
+
 @pytest.mark.parametrize("kind, attrs", [("Cylinder", {"Height": 4.0}), ("Cone", {}), ("Capsule", {}),
                                          ("Plane", {})])
 def test_gprims_with_an_invalid_axis_are_skipped_with_a_warning_naming_them(tmp_path, kind, attrs):

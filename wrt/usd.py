@@ -68,7 +68,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
-from .instancing import Instances, Prototype, group_rows, invert_transforms
+from .instancing import Instances, Prototype, group_rows, invert_transforms, world_boxes
 from .lights import read_light
 from .materials import MaterialReader, bound_material
 from .primitives import (
@@ -957,7 +957,7 @@ class _StageReader:
                 color = values.mean(axis=0).astype(np.float32)
         material = self._face_materials(prim, 1, ctx)
         material_id = -1 if material is None else int(material[0])
-        return Shape(
+        shape = Shape(
             path=str(prim.GetPath()),
             kind=kind,
             to_world=to_world,
@@ -966,6 +966,10 @@ class _StageReader:
             material_id=material_id,
             double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
         )
+        # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them.
+        if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
+            raise self._error("bounds are not finite after the world transform", prim)
+        return shape
 
     def _tessellated(self, shape: Shape, prim: Usd.Prim) -> Mesh:
         """``shape`` as a triangle mesh of ``self.segments`` segments per circle."""
