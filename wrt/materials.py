@@ -452,6 +452,16 @@ def _context_preview_surface(material):
     return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in PREVIEW_SURFACE_IDS), None)
 
 
+def readable_surface(material):
+    """The first shader a surface output of ``material`` leads to (render contexts' first, see
+    :func:`_surface_shaders`) that wrt reads: a UsdPreviewSurface (or MaterialX's node of it), or a MaterialX
+    standard_surface or OpenPBR (:mod:`wrt.materialx`); None when there is none."""
+    from .materialx import MODELS  # that module imports this one
+
+    readable = PREVIEW_SURFACE_IDS + tuple(MODELS)
+    return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in readable), None)
+
+
 def bound_material(prim) -> tuple:
     """The material bound to ``prim`` (a mesh, a subset or a native instance) for rendering, an invalid
     ``UsdShade.Material`` when none, and the binding relationship that binds it (for its strength).
@@ -463,11 +473,9 @@ def bound_material(prim) -> tuple:
     binding first also where the full one is readable: there wrt, a final-frame renderer, keeps the full one.)"""
     from pxr import UsdShade
 
-    from .materialx import materialx_surface  # that module imports this one
-
     binding = UsdShade.MaterialBindingAPI(prim)
     full, full_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
-    if full and (_context_preview_surface(full) or materialx_surface(full)):
+    if full and readable_surface(full):
         return full, full_binding
     preview, preview_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
     if preview and _context_preview_surface(preview):
@@ -612,9 +620,7 @@ class MaterialReader:
 
         prim = material.GetPrim()
         path = str(prim.GetPath())
-        # The first surface output (render contexts' before the universal one, as Storm) that wrt can read.
-        readable = next((s for s in _surface_shaders(material) if s and (
-            s.GetShaderId() in PREVIEW_SURFACE_IDS or s.GetShaderId() in MODELS)), None)
+        readable = readable_surface(material)  # render contexts' outputs before the universal one, as Storm
         if readable and readable.GetShaderId() in MODELS:  # standard_surface or OpenPBR (wrt/materialx.py)
             return read_materialx_surface(self, readable, path)
         # Else the shader Storm would draw (a render context's first) is named: the universal output may be absent.

@@ -60,7 +60,7 @@ import re
 
 import numpy as np
 
-from .materials import Material, TextureInput, _surface_shaders
+from .materials import Material, TextureInput
 from .usd_values import value_at
 
 # role -> (input name, specification default); the roles are what wrt's model reads.
@@ -118,12 +118,6 @@ IMAGE_NODE = re.compile(r"^ND_(tiled)?image_(float|color3|color4|vector2|vector3
 NORMAL_MAP_NODE = re.compile(r"^ND_normalmap(_float|_vector2)?$")  # 1.38's, and 1.39's of a float or vector2 scale
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
 COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
-
-
-def materialx_surface(material):
-    """The first MaterialX ``standard_surface`` or OpenPBR shader that a surface output of ``material`` (each render
-    context's first, then the universal one) leads to, or None."""
-    return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in MODELS), None)
 
 
 def read_materialx_surface(reader, shader, path: str) -> Material:
