@@ -28,6 +28,11 @@ INFINITELY_SHARP = 10.0  # UsdGeomMesh's SHARPNESS_INFINITE
 MAX_REFINE_LEVEL = 8
 
 
+def _sum_by(index: np.ndarray, values: np.ndarray, size: int) -> np.ndarray:
+    """``(size, k)``: row ``i`` is the sum of the rows of ``values`` ``(N, k)`` whose ``index`` is ``i``."""
+    return np.stack([np.bincount(index, weights=values[:, j], minlength=size) for j in range(values.shape[1])], axis=1)
+
+
 def _face_walk(counts: np.ndarray):
     """Face, next and previous face-vertex of every face-vertex of faces with ``counts`` corners."""
     starts = np.cumsum(counts) - counts
@@ -113,16 +118,12 @@ class _Level:
     def vertex(self, data: np.ndarray) -> np.ndarray:
         """Per-point ``data`` ``(V, k)`` of the refined mesh: points first, then edge points, then face points."""
         fi = self.face_indices
-        k = data.shape[1]
-
-        def sum_by(index, values, size):
-            return np.stack([np.bincount(index, weights=values[:, j], minlength=size) for j in range(k)], axis=1)
-
         face_points = self._face_average(data[fi])
+        face_point_at = face_points[self.face]  # per face-vertex: its face's point
 
         a, b = data[self.edge_ends[:, 0]], data[self.edge_ends[:, 1]]
         midpoint = 0.5 * (a + b)
-        face_sum = sum_by(self.fv_edge, face_points[self.face], len(self.edge_ends))
+        face_sum = _sum_by(self.fv_edge, face_point_at, len(self.edge_ends))
         smooth_edge = 0.5 * midpoint + face_sum / (2.0 * np.maximum(self.edge_faces, 1)[:, None])
         s = np.clip(self.edge_sharpness, 0.0, 1.0)[:, None]
         edge_points = (1.0 - s) * smooth_edge + s * midpoint
@@ -130,14 +131,14 @@ class _Level:
         # Smooth vertex rule: (Q + 2R + (n - 3) S) / n.
         n_points = self.n_points
         valence = np.maximum(self.valence, 1)[:, None]
-        q = sum_by(fi, face_points[self.face], n_points) / np.maximum(self.point_faces, 1)[:, None]
+        q = _sum_by(fi, face_point_at, n_points) / np.maximum(self.point_faces, 1)[:, None]
         ends = self.edge_ends.reshape(-1)
-        r = sum_by(ends, np.repeat(midpoint, 2, axis=0), n_points) / valence
+        r = _sum_by(ends, np.repeat(midpoint, 2, axis=0), n_points) / valence
         smooth = (q + 2.0 * r + (valence - 3.0) * data) / valence
         # Crease rule: (6 S + a + b) / 8 over the other ends of the sharp edges.
         is_sharp = np.repeat(self.edge_sharpness > 0.0, 2)
         others = self.edge_ends[:, ::-1].reshape(-1)
-        crease = (6.0 * data + sum_by(ends[is_sharp], data[others[is_sharp]], n_points)) / 8.0
+        crease = (6.0 * data + _sum_by(ends[is_sharp], data[others[is_sharp]], n_points)) / 8.0
         sharp_point = np.where((self.rule == 1)[:, None], crease, data)
         s = np.clip(self.rule_sharpness, 0.0, 1.0)[:, None]
         vertex_points = np.where((self.rule == 0)[:, None], smooth, (1.0 - s) * smooth + s * sharp_point)
@@ -152,10 +153,7 @@ class _Level:
         return np.concatenate([data, midpoint, self._face_average(data[self.face_indices])])
 
     def _face_average(self, fv_data: np.ndarray) -> np.ndarray:
-        k = fv_data.shape[1]
-        sums = np.stack([np.bincount(self.face, weights=fv_data[:, j], minlength=len(self.counts)) for j in range(k)],
-                        axis=1)
-        return sums / self.counts[:, None]
+        return _sum_by(self.face, fv_data, len(self.counts)) / self.counts[:, None]
 
     def face_varying(self, data: np.ndarray) -> np.ndarray:
         """Per-face-vertex ``data`` ``(N, k)`` of the refined quads, interpolated linearly within each face."""
