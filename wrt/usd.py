@@ -684,7 +684,7 @@ class _StageReader:
         if not (primvar and primvar.HasValue()):
             return None
         raw = read(primvar.GetAttr(), self.time)
-        values = np.array(raw if raw is not None else [], np.float64)  # a copy: non-finite rows are replaced
+        values = np.asarray(raw if raw is not None else [], np.float64)
         unreadable = "PointInstancer displayColor that cannot be read was ignored"
         if values.ndim != 2 or values.shape[1] != 3 or primvar.GetElementSize() != 1:
             self._skip(unreadable, prim, f"{primvar.GetTypeName()} of elementSize {primvar.GetElementSize()}")
@@ -707,11 +707,8 @@ class _StageReader:
             self._skip("PointInstancer displayColor of the wrong length was ignored", prim,
                        f"{interpolation} with {len(values)} values, expected {count} ({meaning})")
             return None
-        bad = ~np.isfinite(values).all(axis=1)
-        if bad.any():  # as for meshes: NaN here would mean "no colour" and inf would shade as inf
-            self._skip("non-finite displayColor values were replaced by grey 0.5", prim)
-            values[bad] = 0.5
-        return np.broadcast_to(values.astype(np.float32), (n, 3))
+        # NaN here would mean "no colour" (Instances.colors) and inf would shade as inf.
+        return np.broadcast_to(self._finite_colors(values, prim), (n, 3))
 
     def _place_instances(self, world: _Content, scene: Scene) -> np.ndarray | None:
         """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
@@ -1148,12 +1145,17 @@ class _StageReader:
         if found is None:
             return None
         values, corner_index = found
-        values = values.astype(np.float32)
+        return self._finite_colors(values, prim), corner_index
+
+    def _finite_colors(self, values: np.ndarray, prim: Usd.Prim) -> np.ndarray:
+        """``values`` (displayColor rows) as float32, rows that are not finite there replaced by grey 0.5 with a
+        warning naming ``prim``: NaN or inf would render as a wrong colour; gprims fall back to grey too."""
+        values = np.array(values, np.float32)
         bad = ~np.isfinite(values).all(axis=1)
-        if bad.any():  # NaN or inf would render as a wrong colour; gprims fall back to grey too
+        if bad.any():
             self._skip("non-finite displayColor values were replaced by grey 0.5", prim)
             values[bad] = 0.5
-        return values, corner_index
+        return values
 
     def _read_uvs(self, prim, topology, uv_set: str):
         """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (when missing:
