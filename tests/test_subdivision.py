@@ -263,6 +263,29 @@ def test_a_nan_sharpness_is_ignored_with_a_warning_naming_the_mesh(tmp_path, att
     np.testing.assert_allclose(bad, plain)
 
 
+def test_bad_creases_keep_the_boundary_rule(tmp_path):
+    """A quad with ``interpolateBoundary = edgeOnly`` and creases that do not fit: the creases are dropped, the
+    boundary rule stays (its corners move by the curve rule, where edgeAndCorner pins them). The fallback
+    refinement used to take edgeAndCorner whatever was authored."""
+    def quad(name, **attrs):
+        stage = Usd.Stage.CreateNew(str(tmp_path / name))
+        mesh = UsdGeom.Mesh.Define(stage, "/Quad")
+        mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])
+        mesh.CreateFaceVertexCountsAttr([4])
+        mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        for attr, value in attrs.items():
+            mesh.GetPrim().GetAttribute(attr).Set(value)
+        stage.Save()
+        return wrt.load_usd(tmp_path / name, refine_level=1).meshes[0].points
+
+    edge_only = quad("a.usda", interpolateBoundary="edgeOnly")
+    assert not np.allclose(edge_only[0], (0, 0, 0))  # the corner moved
+    with pytest.warns(UserWarning, match="creases or corners"):
+        bad = quad("b.usda", interpolateBoundary="edgeOnly", creaseIndices=Vt.IntArray([0, 1]),
+                   creaseLengths=Vt.IntArray([3]), creaseSharpnesses=Vt.FloatArray([1.0]))
+    np.testing.assert_array_equal(bad, edge_only)
+
+
 @pytest.mark.parametrize("level", [-1, 9, True, 1.5, "2"])
 def test_refine_level_is_checked(tmp_path, level):
     with pytest.raises(ValueError, match="refine_level"):

@@ -1067,12 +1067,12 @@ class _StageReader:
         boundary = value_at(mesh.GetInterpolateBoundaryAttr(), t) or "edgeAndCorner"
         if boundary == "none":
             self._skip("interpolateBoundary = none is drawn as edgeOnly (boundary faces kept)", prim)
+        corner_boundary = boundary == "edgeAndCorner"
         try:
-            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners,
-                              corner_boundary=boundary == "edgeAndCorner")
+            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners, corner_boundary)
         except ValueError as e:
             self._skip("creases or corners that do not fit the mesh were ignored", prim, str(e))
-            return Refinement(counts, face_indices, n_points, self.refine_level)
+            return Refinement(counts, face_indices, n_points, self.refine_level, corner_boundary=corner_boundary)
 
     def _int_array(self, prim: Usd.Prim, attr: Usd.Attribute) -> np.ndarray:
         """``(N,)`` int64 value of an ``int[]`` topology attribute at the read time (empty when it has none).
