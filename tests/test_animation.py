@@ -237,6 +237,40 @@ def test_topology_change_and_scrambled_vertices_rebuild(tmp_path, np_rng):
     assert [row["change"] for row in renderer.log] == ["build", "build", "build"]
 
 
+def test_a_frame_that_fails_after_its_refit_leaves_no_stale_tree(tmp_path, monkeypatch):
+    """A frame that failed once its BVH had been refitted (here out of memory in the render) left the tree holding
+    its vertices: the next frame, equal to the frame before the failure, was classified 'static' against that one
+    and drawn with the failed frame's triangles (138 of 1728 pixels saw other triangles than a fresh render)."""
+    from pxr import Usd, UsdGeom
+
+    path = str(tmp_path / "fails.usda")
+    stage = Usd.Stage.CreateNew(path)
+    mesh = UsdGeom.Mesh.Define(stage, "/Quad")
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    square = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
+    for t, points in ((1, square), (2, [(-2, -1, 0), (1, -1, 0), (1, 2, 0), (-1, 1, 0)]), (3, square)):
+        mesh.CreatePointsAttr().Set(points, t)
+    stage.Save()
+    camera = wrt.Camera.look_at((0, 0, 6), (0, 0, 0), (0, 1, 0), 50)
+    renderer = FrameRenderer(path, camera=camera, **SIZE)
+    renderer.render(1)
+    render = wrt.Renderer.render
+
+    def out_of_memory(self, *args, **kwargs):
+        raise RuntimeError("Failed to allocate 1 GiB")
+
+    monkeypatch.setattr(wrt.Renderer, "render", out_of_memory)
+    with pytest.raises(RuntimeError, match="allocate"):
+        renderer.render(2)
+    monkeypatch.setattr(wrt.Renderer, "render", render)
+    image = renderer.render(3)
+    fresh = wrt.render(wrt.load_usd(path, time=3), camera=camera, **SIZE)
+    np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"])
+    np.testing.assert_array_equal(image.rgb, fresh.rgb)
+    assert [row["change"] for row in renderer.log] == ["build", "build"]
+
+
 def test_render_frames_refuses_an_unknown_device_before_starting_workers(animated, tmp_path, monkeypatch):
     """--devices cpu,cuda:7 on a machine without that GPU: the name was only checked in a spawned worker, which
     failed seconds later under a started progress bar; now it is a ValueError before any process starts."""

@@ -205,10 +205,14 @@ class FrameRenderer:
         scene = load_usd(self.path, time=frame, tessellate_gprims=self.tessellate_gprims,
                          refine_level=self.refine_level)
         loaded = _time.perf_counter()
-        change = classify_change(self._scene, scene)
+        # Forgotten until this frame is done: following refits the accelerators in place, so after a frame that
+        # failed past this point (a camera missing at its time, out of memory) they hold its vertices, not the last
+        # good frame's, and a later frame equal to that one was drawn with them as 'static'.
+        previous, self._scene = self._scene, None
+        change = classify_change(previous, scene)
         if change != "build":
             scene.drop_stale_caches()  # settles the new scene's record first, so the accelerators moved in stay
-            accels = {k: v for k, v in self._scene._cache.items() if k[0] == "accel"}
+            accels = {k: v for k, v in previous._cache.items() if k[0] == "accel"}
             for key, accel in accels.items():
                 done = follow(accel, scene, change)
                 if done == "build":
