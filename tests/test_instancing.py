@@ -872,6 +872,29 @@ def test_cameras_inside_native_instances_are_read_at_their_instance_proxy_paths(
     assert image.rgb.shape == (8, 8, 3)
 
 
+
+def test_cameras_inside_hidden_native_instances_are_read_too(tmp_path):
+    """Cameras do not follow visibility (one under an invisible Xform is read), but those of an invisible native
+    instance, or of an invisible instance nested in a prototype, were left out: ``--frames`` with ``--camera
+    /R1/Cam`` failed at every frame where the rig was hidden, and a render without a camera switched to another."""
+    hidden = CAMERA_RIGS.replace(  # R1 hidden from time 2; the lens mount hidden inside every rig
+        'double3 xformOp:translate = (5, 0, 0)', 'token visibility.timeSamples = { 1: "inherited", 2: "invisible" }\n'
+        '    double3 xformOp:translate = (5, 0, 0)').replace(
+        'references = </Lib/Lens>)\n        {',
+        'references = </Lib/Lens>)\n        {\n            token visibility = "invisible"')
+    assert hidden.count("invisible") == 2
+    path = tmp_path / "hidden_rigs.usda"
+    path.write_text(hidden)
+    stage = Usd.Stage.Open(str(path))
+    for time in (1.0, 2.0):
+        with pytest.warns(UserWarning, match="cameras inside PointInstancer prototypes"):
+            scene = wrt.load_usd(path, time=time)
+        assert list(scene.cameras) == ["/R1/Cam", "/R1/Mount/Close", "/Between", "/R2/Cam", "/R2/Mount/Close"]
+        for name, camera in scene.cameras.items():
+            to_world = np.array(UsdGeom.Camera(stage.GetPrimAtPath(name)).GetCamera(time).transform).T
+            np.testing.assert_allclose(camera.to_world, to_world, atol=1e-12)
+        assert len(scene.instances) == (2 if time == 1.0 else 1) + 1  # the rigs drawn, and the Scatter one
+
 INSTANCEABLE_GPRIMS = """#usda 1.0
 class "Lib"
 {

@@ -46,8 +46,8 @@ the prototype meshes and gprims that have no displayColor of their own at shadin
 coloured one take the colour of the nearest instancer that gives one. Other interpolations and other lengths are
 ignored with a warning naming the instancer.
 Cameras inside native instances are read at their instance-proxy paths
-(``/Instance/Cam``, placed by the instance); cameras inside PointInstancer prototypes and lights inside any
-prototype are skipped with a warning.
+(``/Instance/Cam``, placed by the instance), in invisible instances too, as cameras under invisible prims are; cameras
+inside PointInstancer prototypes and lights inside any prototype are skipped with a warning.
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
@@ -322,6 +322,7 @@ class _StageReader:
         self.skel = SkelPoser(time, self._skip)  # poses meshes skinned by UsdSkel skeletons
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
+        self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
 
     def _meters_per_unit(self) -> float:
         """The stage's ``metersPerUnit``; a value that is not a finite number above ``MIN_METERS_PER_UNIT`` (the depth
@@ -388,6 +389,10 @@ class _StageReader:
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.
                     self._read_geometry(prim, ctx)
+            else:
+                # Cameras do not follow visibility (one under an invisible Xform is read): a hidden instance's are
+                # read too, or a camera whose instance is hidden at some frame was missing from it.
+                self._instance_cameras(prim, self._prototype_cameras(prim.GetPrototype()), ctx)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.PointInstancer):
             # Its prototypes are drawn through the instancer only, so its subtree is not walked in place. An
@@ -548,7 +553,7 @@ class _StageReader:
             key = self._colored(key, content, color, prim)
         m = self._to_space(prim, ctx).T  # column vectors
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), None))
-        self._instance_cameras(prim, self.contents[key], ctx)
+        self._instance_cameras(prim, self.contents[key].cameras, ctx)
 
     def _inherited_color(self, prim: Usd.Prim) -> tuple | None:
         """The constant ``displayColor`` that native instance ``prim`` hands down to its prototype's meshes: its own
@@ -578,20 +583,38 @@ class _StageReader:
             content.colors[color] = colored
         return content.colors[color]
 
-    def _instance_cameras(self, prim: Usd.Prim, content: _Content, ctx: _Context):
-        """The cameras inside native instance ``prim``: read at their instance-proxy paths (``/Instance/Cam``, which
-        USD places in the world) when ``prim`` is in the world, else handed on to the prototype containing it."""
-        if not content.cameras:
+    def _instance_cameras(self, prim: Usd.Prim, cameras: list, ctx: _Context):
+        """The ``cameras`` (paths relative to its prototype) inside native instance ``prim``: read at their
+        instance-proxy paths (``/Instance/Cam``, which USD places in the world) when ``prim`` is in the world, else
+        handed on to the prototype containing it."""
+        if not cameras:
             return
         if ctx.world:
-            for relative in content.cameras:
+            for relative in cameras:
                 proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(relative))
                 self.scene.cameras[str(proxy.GetPath())] = self._read_camera(proxy)
         elif ctx.space_root is None:
             here = prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path))
-            ctx.content.cameras += [here.AppendPath(relative) for relative in content.cameras]
+            ctx.content.cameras += [here.AppendPath(relative) for relative in cameras]
         else:
             self._skip("cameras inside PointInstancer prototypes are not supported; skipped", prim)
+
+    def _prototype_cameras(self, prototype: Usd.Prim) -> list:
+        """Paths relative to ``prototype`` of the cameras in it and in the instances nested in it (as a read
+        prototype's ``cameras``), without reading its geometry; none for an instance without a prototype."""
+        if not prototype:
+            return []
+        key = prototype.GetPath()
+        if key not in self.prototype_cameras:
+            found = []
+            it = iter(Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(_PROTOTYPE_PREDICATE)))
+            for p in it:
+                if p.IsA(UsdGeom.PointInstancer):
+                    it.PruneChildren()  # cameras in its prototypes are not read
+                elif p.IsA(UsdGeom.Camera):
+                    found.append(p.GetPath().MakeRelativePath(key))
+            self.prototype_cameras[key] = found
+        return self.prototype_cameras[key]
 
     def _read_instancer(self, prim: Usd.Prim, ctx: _Context):
         """Instances of a ``UsdGeom.PointInstancer`` (see the module docstring)."""
