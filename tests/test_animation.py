@@ -1,6 +1,7 @@
 """Animated stages: frame ranges, refit, TLAS-only rebuilds, and frames equal to fresh renders."""
 
 import importlib.util
+import json
 import os
 import subprocess
 import sys
@@ -269,6 +270,67 @@ def test_a_frame_that_fails_after_its_refit_leaves_no_stale_tree(tmp_path, monke
     np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"])
     np.testing.assert_array_equal(image.rgb, fresh.rgb)
     assert [row["change"] for row in renderer.log] == ["build", "build"]
+
+
+def nan_at_frame_2(tmp_path) -> Path:
+    """A quad whose points hold a NaN at time 2 only (and move between the other frames)."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "nan_at_2.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = UsdGeom.Mesh.Define(stage, "/Quad")
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    points = mesh.CreatePointsAttr()
+    points.Set([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 1)
+    points.Set([(-1, -1, 0), (float("nan"), -1, 0), (1, 1, 0), (-1, 1, 0)], 2)
+    points.Set([(-1, -1, 0.5), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], 3)
+    UsdGeom.Camera.Define(stage, "/Cam").AddTranslateOp().Set((0, 0, 6))
+    stage.Save()
+    return path
+
+
+@pytest.mark.parametrize("where", ["serial", "two devices", "dask"])
+def test_a_bad_frame_is_an_error_row_naming_it_and_the_other_frames_render(tmp_path, where):
+    """A frame whose stage is bad at its time (NaN points) ended the run at that frame, serially with an error
+    naming the prim but not the frame, and over two devices dropping the frame the other worker was rendering; the
+    frames after it were never rendered, and on Dask they were but the run still raised, so no log was written."""
+    path = nan_at_frame_2(tmp_path)
+    jobs = pending_frames(parse_frames("1:3"), tmp_path / "out" / "f_#.npy", resume=False)
+    if where == "dask":
+        pytest.importorskip("distributed")
+        from wrt.animation import render_frames_on_dask
+
+        rows = render_frames_on_dask(path, jobs, n_workers=1, **SIZE)
+    else:
+        rows = render_frames(path, jobs, devices=["cpu"] if where == "serial" else ["cpu", "cpu"], **SIZE)
+    assert sorted(row["frame"] for row in rows) == [1.0, 2.0, 3.0]
+    failed = [row for row in rows if "error" in row]
+    assert len(failed) == 1 and failed[0]["frame"] == 2.0 and failed[0]["output"] == str(jobs[1][1])
+    assert failed[0]["error"].startswith("SceneError: ") and "/Quad: points[1]" in failed[0]["error"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f_1.npy", "f_3.npy"]
+    for frame in (1, 3):
+        fresh = wrt.render(wrt.load_usd(path, time=frame), **SIZE)
+        np.testing.assert_array_equal(np.load(tmp_path / "out" / f"f_{frame}.npy"), fresh.rgb)
+
+
+def test_cli_frames_name_the_frames_that_failed_and_exit_1(tmp_path, capsys):
+    from wrt.cli import main
+
+    path = nan_at_frame_2(tmp_path)
+    log = tmp_path / "log.jsonl"
+    argv = ["render", str(path), "--frames", "1:3", "-o", str(tmp_path / "f_#.png"), "--log", str(log), "-q"]
+    assert main(argv + ["--width", "16", "--height", "12"]) == 1
+    err = capsys.readouterr().err
+    assert "wrt: error: frame 2: " in err and "/Quad: points[1] = (nan, -1.0, 0.0) is not finite" in err
+    assert "1 of 3 frames failed" in err
+    assert sorted(p.name for p in tmp_path.glob("f_*.png")) == ["f_1.png", "f_3.png"]
+    assert ["error" in row for row in map(json.loads, log.read_text().splitlines())] == [False, True, False]
+    broken = tmp_path / "broken.usda"
+    broken.write_text("not USD")
+    assert main(["render", str(broken), "--frames", "1:3", "-o", str(tmp_path / "b_#.png"), "-q"]) == 2  # none
+    err = capsys.readouterr().err
+    assert err.count("USD cannot open this file") == 1 and "wrt: error: frames 1, 2, 3: " in err
 
 
 def test_render_frames_refuses_an_unknown_device_before_starting_workers(animated, tmp_path, monkeypatch):

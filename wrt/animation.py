@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import SceneError
 from .image import write_atomically
 
 REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20% worse than when it was built
@@ -269,7 +270,10 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
 
     Returns:
         The log rows of every frame (see :attr:`FrameRenderer.log`) with ``device``, ``output``, ``seconds``
-        (render and encode) and ``finished_at`` (``time.time()``), in the order the frames finished.
+        (render and encode) and ``finished_at`` (``time.time()``), in the order the frames finished. A frame whose
+        stage is bad at its time (a :class:`wrt.SceneError`: NaN points, an invalid camera) gets an error row
+        (:func:`frame_error_row`) and no file, and the other frames go on; other errors (bad options, an unwritable
+        file, Ctrl-C), the same for every frame, stop the run.
     """
     from tqdm import tqdm
 
@@ -287,9 +291,13 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             renderer = FrameRenderer(path, device=devices[0], **options)
             for frame, file in jobs:
                 start = _time.perf_counter()
-                written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
-                row = dict(renderer.log[-1], device=str(devices[0]), output=str(written))
-                rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
+                try:
+                    written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
+                except SceneError as e:
+                    rows.append(frame_error_row(frame, file, e))
+                else:
+                    row = dict(renderer.log[-1], device=str(devices[0]), output=str(written))
+                    rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
                 bar.update(1)
             return rows
         import concurrent.futures
@@ -303,10 +311,13 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             len(devices), mp_context=multiprocessing.get_context("spawn"), initializer=_claim_device, initargs=(claims,)
         )
         try:
-            futures = [pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options))
-                       for frame, file in jobs]
+            futures = {pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options)):
+                       (frame, file) for frame, file in jobs}
             for future in concurrent.futures.as_completed(futures):
-                write(future.result())
+                try:
+                    write(future.result())
+                except SceneError as e:
+                    rows.append(frame_error_row(*futures[future], e))
                 bar.update(1)
         except BaseException:
             # Ctrl-C or a failing frame: the frames written so far stay. Leaving the pool with shutdown(wait=True)
@@ -315,6 +326,13 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             raise
         pool.shutdown()
     return rows
+
+
+def frame_error_row(frame: float, file, error: SceneError) -> dict:
+    """The log row of a frame that failed: ``frame``, ``output`` (the file it did not write), ``error``
+    (``"SceneError: "`` and the first line of the message, as the rows of a batch of scenes) and ``finished_at``."""
+    return {"frame": float(frame), "output": str(file), "error": f"SceneError: {str(error).splitlines()[0]}",
+            "finished_at": _time.time()}
 
 
 def _stop_pool(pool) -> None:
@@ -408,7 +426,8 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     """:func:`render_frames` on a Dask cluster (``address``, or a ``LocalCluster`` of ``n_workers``): every frame is
     one task (``task``, :func:`render_frame_task` or a wrapper of it), each image is written here the moment it
     arrives, and a frame whose worker died is rerun elsewhere. Returns the log rows, with ``output``, in arrival
-    order."""
+    order; a frame whose stage is bad at its time has an error row, as in :func:`render_frames`, and any other error
+    (a frame whose workers kept dying too) is raised once every frame has finished."""
     from .distributed import run_tasks
     from .image import check_exposure
 
@@ -417,8 +436,19 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
     rows = []
     write = _frame_writer(jobs, rows)
+    files = {float(frame): file for frame, file in jobs}
+    others = []
+
+    def failed(job, error):
+        if isinstance(error, SceneError):
+            rows.append(frame_error_row(job["frame"], files[job["frame"]], error))
+        else:
+            others.append(error)
+
     run_tasks(task, tasks, address=address, n_workers=n_workers, on_result=lambda _, result: write(result),
-              progress=progress, desc="wrt frames")
+              on_error=failed, progress=progress, desc="wrt frames")
+    if others:
+        raise others[0]
     return rows
 
 
@@ -426,6 +456,7 @@ __all__ = [
     "REFIT_SAH_LIMIT",
     "FrameRenderer",
     "classify_change",
+    "frame_error_row",
     "frame_output",
     "parse_frames",
     "pending_frames",

@@ -426,11 +426,30 @@ def _run_frames(args, paths: list, progress) -> int:
         with open(args.log, "a") as f:
             for row in rows:
                 f.write(json.dumps(row) + "\n")
-    changes = collections.Counter(row["change"] for row in rows)
+    failures = sorted((row for row in rows if "error" in row), key=lambda row: row["frame"])
+    changes = collections.Counter(row["change"] for row in rows if "error" not in row)
     summary = ", ".join(f"{n} {c}" for c, n in sorted(changes.items()))
-    progress(f"rendered {len(rows)} frames on {', '.join(devices)} (BVH: {summary or 'nothing to do'})",
+    progress(f"rendered {len(rows) - len(failures)} frames on {', '.join(devices)} (BVH: {summary or 'nothing to do'})",
              time.perf_counter() - start)
+    # The other frames were rendered, as in a batch of scenes. Each message once, with its frames: the same problem
+    # over 240 frames is one line.
+    frames_of = collections.defaultdict(list)
+    for row in failures:
+        frames_of[row["error"].removeprefix("SceneError: ")].append(row["frame"])
+    for message, frames in frames_of.items():
+        where = "" if paths[0].name in message else f"{paths[0]}: "
+        print(f"wrt: error: {_frame_list(frames)}: {where}{message}", file=sys.stderr)
+    if failures:
+        print(f"wrt: {len(failures)} of {len(rows)} frames failed", file=sys.stderr)
+        return 1 if len(failures) < len(rows) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
+
+
+def _frame_list(frames: list, shown: int = 6) -> str:
+    """``frame 2``, ``frames 2, 3, 7`` or ``frames 1, 2, 3, 4, 5, 6 and 234 more``."""
+    names = [f"{f:g}" for f in frames[:shown]]
+    more = f" and {len(frames) - shown} more" if len(frames) > shown else ""
+    return f"frame {names[0]}" if len(frames) == 1 else f"frames {', '.join(names)}{more}"
 
 
 def _window_size(text: str) -> tuple[int, int]:
