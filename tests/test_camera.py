@@ -25,6 +25,28 @@ def test_pixel_centres_and_horizontal_aperture_fit():
         assert hit_cols.min() == 150 and hit_cols.max() == 199
 
 
+@pytest.mark.parametrize("fit, square, wide, tall_pixels", [
+    # Film (width, height) of apertures 20 x 10 for images of aspect 1 (30x30), 3 (60x20) and 1 again with pixels
+    # half as wide as tall (40x20 at pixel aspect 0.5), worked out from UsdRender's words for each policy.
+    ("horizontal", (20, 20), (20, 20 / 3), (20, 20)),
+    ("vertical", (10, 10), (30, 10), (10, 10)),
+    ("expandAperture", (20, 20), (30, 10), (20, 20)),  # grows one aperture: everything the camera frames stays
+    ("cropAperture", (10, 10), (20, 20 / 3), (10, 10)),  # shrinks one: the image is filled
+    ("adjustApertureWidth", (10, 10), (30, 10), (10, 10)),
+    ("adjustApertureHeight", (20, 20), (20, 20 / 3), (20, 20)),
+    ("adjustPixelAspectRatio", (20, 10), (20, 10), (20, 10)),  # the apertures as they are
+])
+def test_fit_takes_usd_conform_policies_and_pixel_aspect(fit, square, wide, tall_pixels):
+    cam = wrt.Camera(horizontal_aperture=20, vertical_aperture=10, fit=fit)
+    np.testing.assert_allclose(cam.film_size(30, 30), square)
+    np.testing.assert_allclose(cam.film_size(60, 20), wide)
+    narrow = wrt.Camera(horizontal_aperture=20, vertical_aperture=10, fit=fit, pixel_aspect_ratio=0.5)
+    np.testing.assert_allclose(narrow.film_size(40, 20), tall_pixels)
+    for bad in (0.0, -1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="pixel aspect ratio"):
+            wrt.Camera(pixel_aspect_ratio=bad)
+
+
 def test_row_zero_is_the_top_of_the_image():
     cam = wrt.Camera(focal_length=50.0, horizontal_aperture=36.0)
     # 200x100: film height 18 -> half height 1.8 at depth 10. A quad above y = 0.9 covers the top quarter.

@@ -11,7 +11,11 @@ Conventions, stated once:
 - Film quantities follow USD: focal length and apertures share one unit (so only their ratios matter for
   perspective); for orthographic cameras the apertures are in tenths of a scene unit (``Gf.Camera.APERTURE_UNIT``).
 - ``fit="horizontal"`` keeps the horizontal aperture and lets the vertical extent follow the image aspect,
-  as usdview does. ``Camera.look_at`` uses ``fit="vertical"`` so that its ``fov_y_deg`` holds at any aspect.
+  as usdview does (USD's ``adjustApertureHeight``). ``Camera.look_at`` uses ``fit="vertical"``
+  (``adjustApertureWidth``) so that its ``fov_y_deg`` holds at any aspect. ``fit`` also takes the other
+  ``aspectRatioConformPolicy`` tokens of UsdRender (``expandAperture``, ``cropAperture``,
+  ``adjustPixelAspectRatio``), applied as ``UsdRenderComputeSpec`` does; the image aspect is
+  ``pixel_aspect_ratio * width / height``.
 - Image row 0 is the top. Pixel ``(i, j)`` samples film position ``((j + sx) / W, (i + sy) / H)`` where
   ``(sx, sy) = (0.5, 0.5)`` at one sample per pixel.
 """
@@ -25,6 +29,10 @@ import numpy as np
 import warp as wp
 
 APERTURE_UNIT = 0.1  # orthographic apertures are in tenths of a scene unit, as in Gf.Camera
+# Camera.fit values: wrt's two names, then UsdRender's aspectRatioConformPolicy tokens ("horizontal" is
+# adjustApertureHeight and "vertical" adjustApertureWidth under other names).
+FITS = ("horizontal", "vertical", "expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
+        "adjustPixelAspectRatio")
 MAX_CLIPPING_PLANES = 8  # the rows of DeviceCamera's two plane matrices
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 
@@ -154,14 +162,19 @@ class Camera:
         to_world: ``(4, 4)`` float64 camera-to-world matrix, column-vector convention (see module docstring).
         focal_length: focal length, in the film unit.
         horizontal_aperture: film width, in the film unit.
-        vertical_aperture: film height, in the film unit (used only with ``fit="vertical"``).
+        vertical_aperture: film height, in the film unit (unused with ``fit="horizontal"``).
         horizontal_aperture_offset: film shift along +X, in the film unit.
         vertical_aperture_offset: film shift along +Y, in the film unit.
         clipping_range: ``(near, far)`` camera-space depth range (scene units for an unscaled camera).
         clipping_planes: ``(K, 4)`` camera-space planes ``(a, b, c, d)``, at most 8; points with
             ``a x + b y + c z + d < 0`` are cut away (``UsdGeom.Camera.clippingPlanes``).
         projection: ``"perspective"`` or ``"orthographic"``.
-        fit: which aperture is kept when the image aspect differs: ``"horizontal"`` or ``"vertical"``.
+        fit: how the film follows an image aspect that differs from the apertures' (one of :data:`FITS`):
+            ``"horizontal"`` keeps the horizontal aperture, ``"vertical"`` the vertical one; UsdRender's
+            ``expandAperture`` grows one aperture so the whole of both fits, ``cropAperture`` shrinks one,
+            ``adjustApertureWidth`` / ``adjustApertureHeight`` change that one, and ``adjustPixelAspectRatio``
+            keeps both (the pixels take the apertures' aspect).
+        pixel_aspect_ratio: width / height of one pixel (UsdRender's ``pixelAspectRatio``); 1: square pixels.
         f_stop: lens f-number; 0 means a pinhole.
         focus_distance: camera-space depth of the plane in focus.
         exposure_scale: factor on the radiance the camera sees (``path`` and ``whitted`` images), USD's
@@ -180,6 +193,7 @@ class Camera:
     clipping_planes: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 4)))
     projection: str = "perspective"
     fit: str = "horizontal"
+    pixel_aspect_ratio: float = 1.0
     f_stop: float = 0.0
     focus_distance: float = 0.0
     exposure_scale: float = 1.0
@@ -189,8 +203,11 @@ class Camera:
         self.to_world = np.asarray(self.to_world, dtype=np.float64).reshape(4, 4)
         if self.projection not in ("perspective", "orthographic"):
             raise ValueError(f"camera projection must be 'perspective' or 'orthographic', not {self.projection!r}")
-        if self.fit not in ("horizontal", "vertical"):
-            raise ValueError(f"camera fit must be 'horizontal' or 'vertical', not {self.fit!r}")
+        if self.fit not in FITS:
+            raise ValueError(f"camera fit must be one of {', '.join(FITS)}, not {self.fit!r}")
+        if not (_finite(self.pixel_aspect_ratio) and self.pixel_aspect_ratio > 0):
+            raise ValueError(f"{self.label()} needs a finite positive pixel aspect ratio, got "
+                             f"{_show(self.pixel_aspect_ratio)}")
         # Finite as well as positive: an infinite aperture or focal length, or a NaN offset, makes every ray NaN, an
         # image of background only. Non-numbers (a string) count as not finite, so they too get this ValueError.
         if not all(_finite(v) and v > 0 for v in (self.focal_length, self.horizontal_aperture, self.vertical_aperture)):
@@ -273,11 +290,19 @@ class Camera:
         return self.to_world[:3, 3].copy()
 
     def film_size(self, width: int, height: int) -> tuple[float, float]:
-        """Film ``(width, height)`` in the film unit for an image of ``width x height`` pixels."""
-        aspect = width / height
-        if self.fit == "horizontal":
-            return self.horizontal_aperture, self.horizontal_aperture / aspect
-        return self.vertical_aperture * aspect, self.vertical_aperture
+        """Film ``(width, height)`` in the film unit for an image of ``width x height`` pixels: the apertures with one
+        of them changed by :attr:`fit` so that their ratio is the image aspect (``UsdRenderComputeSpec``'s
+        ``_ApplyAspectRatioPolicy``), or both as they are for ``adjustPixelAspectRatio``."""
+        aspect = self.pixel_aspect_ratio * width / height  # the image's, pixel shape included
+        w, h = self.horizontal_aperture, self.vertical_aperture
+        fit = self.fit
+        if fit in ("expandAperture", "cropAperture"):  # the aperture wider than the image: its height grows (expand)
+            fit = "horizontal" if (w / h > aspect) == (fit == "expandAperture") else "vertical"
+        if fit in ("horizontal", "adjustApertureHeight"):
+            return w, w / aspect
+        if fit in ("vertical", "adjustApertureWidth"):
+            return h * aspect, h
+        return w, h  # adjustPixelAspectRatio
 
     def to_struct(self, width: int, height: int) -> DeviceCamera:
         """The :class:`DeviceCamera` for an image of ``width x height`` pixels."""
