@@ -179,7 +179,8 @@ class FrameRenderer:
     Args:
         path: the USD file.
         camera: camera prim path (read at every frame's time), a :class:`wrt.Camera`, or ``None``.
-        tessellate_gprims, refine_level: :func:`wrt.load_usd` options, applied to every frame.
+        tessellate_gprims, refine_level, render_settings: :func:`wrt.load_usd` options, applied to every
+            frame (in worker processes too: they travel with the frame's task).
         **options: :class:`wrt.Renderer` options (``width``, ``height``, ``device``, ``builder``, ``accel``,
             ``integrator``, ``max_depth``, ``ao_radius``).
 
@@ -188,11 +189,12 @@ class FrameRenderer:
             (build, refit or TLAS rebuild), ``render_ms``.
     """
 
-    def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, **options):
+    def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, render_settings=None,
+                 **options):
         self.path = os.fspath(path)
         self.camera = camera
-        self.tessellate_gprims = tessellate_gprims
-        self.refine_level = refine_level
+        self.load_options = {"tessellate_gprims": tessellate_gprims, "refine_level": refine_level,
+                             "render_settings": render_settings}
         self.options = options
         self.log = []
         self._scene = None
@@ -203,8 +205,7 @@ class FrameRenderer:
         from .usd import load_usd
 
         start = _time.perf_counter()
-        scene = load_usd(self.path, time=frame, tessellate_gprims=self.tessellate_gprims,
-                         refine_level=self.refine_level)
+        scene = load_usd(self.path, time=frame, **self.load_options)
         loaded = _time.perf_counter()
         # Forgotten until this frame is done: following refits the accelerators in place, so after a frame that
         # failed past this point (a camera missing at its time, out of memory) they hold its vertices, not the last

@@ -117,6 +117,17 @@ REFINE_HELP = ("Catmull-Clark steps for meshes whose subdivisionScheme is catmul
                "refine level; each step makes 4x the faces. 0 draws the control cage, smooth-shaded")
 
 
+CAMERA_HELP = ("camera prim path; default: the stage's RenderSettings camera, else its first camera, else one framing "
+               "the scene")
+
+
+def add_stage_options(p) -> None:
+    """``--render-settings``: how a command reads the stages it loads."""
+    p.add_argument("--render-settings", metavar="PRIM", help="RenderSettings prim to follow (camera, resolution, "
+                   "aspect ratio conform, data window, includedPurposes); default: the one the stage's "
+                   "renderSettingsPrimPath names")
+
+
 def _seed(text: str) -> int:
     """An argparse type: a render seed (checked before any scene is loaded)."""
     from .render import check_seed
@@ -154,9 +165,12 @@ def _add_render(sub) -> None:
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene; default with several scenes: "
                    "render-log.jsonl beside the images")
     p.add_argument("--max-memory", help="refuse renders predicted to need more than this, e.g. 4G")
-    p.add_argument("--width", type=positive_int, default=640, help="image width in pixels")
-    p.add_argument("--height", type=positive_int, default=480, help="image height in pixels")
-    p.add_argument("--camera", help="camera prim path; default: the stage's first camera, else one framing the scene")
+    p.add_argument("--width", type=positive_int, help="image width in pixels; default: the stage's RenderSettings "
+                   "resolution, else 640")
+    p.add_argument("--height", type=positive_int, help="image height in pixels; default: the stage's RenderSettings "
+                   "resolution, else 480")
+    p.add_argument("--camera", help=CAMERA_HELP)
+    add_stage_options(p)
     p.add_argument("--spp", type=positive_int, default=1, help="samples per pixel")
     p.add_argument("--seed", type=_seed, default=0, help="seed of every random decision (jitter, lens, paths)")
     p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
@@ -272,7 +286,12 @@ def _load_options(args) -> dict:
     """The :func:`wrt.load_usd` options of ``wrt render``'s arguments. Gprims load as triangle meshes for ``--accel
     warp``, as wp.Mesh traces nothing else (the library refuses analytic shapes there and names
     ``tessellate_gprims``, an option the command line does not have)."""
-    return {"tessellate_gprims": args.accel == "warp", "refine_level": args.refine_level}
+    return {"tessellate_gprims": args.accel == "warp", **stage_options(args), "refine_level": args.refine_level}
+
+
+def stage_options(args) -> dict:
+    """The :func:`wrt.load_usd` options of ``--render-settings``."""
+    return {"render_settings": args.render_settings}
 
 
 def loaded_summary(name: str, stats: dict) -> str:
@@ -289,7 +308,7 @@ def loaded_summary(name: str, stats: dict) -> str:
 def _render_one(args, path: Path, output: Path, progress) -> Path:
     import wrt
 
-    from .render import check_pixels
+    from .render import check_pixels, resolve_view
     from .resources import check_memory, estimate_render_bytes, parse_bytes
 
     start = time.perf_counter()
@@ -298,9 +317,10 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
-    check_pixels(args.width, args.height)  # the limit is the clearer error where both apply
-    needed = estimate_render_bytes(stats["rendered_triangles"], args.width, args.height)
-    check_memory(needed, args.device, limit, f"rendering {path.name} at {args.width}x{args.height}")
+    _, width, height = resolve_view(scene, args.camera, args.width, args.height)  # the stage's settings, if any
+    check_pixels(width, height)  # the limit is the clearer error where both apply
+    needed = estimate_render_bytes(stats["rendered_triangles"], width, height)
+    check_memory(needed, args.device, limit, f"rendering {path.name} at {width}x{height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
     try:
@@ -312,7 +332,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
             progress(f"interrupted after {renderer.samples_so_far} of {args.spp} spp: wrote {out}")
         raise
     progress(
-        f"rendered {args.width}x{args.height} at {args.spp} spp ({args.integrator})",
+        f"rendered {width}x{height} at {args.spp} spp ({args.integrator})",
         renderer.timers["render"][0] / 1000.0,
     )
     out = image.save(output, exposure=args.exposure)
@@ -480,7 +500,8 @@ def _add_preview(sub) -> None:
     )
     p.add_argument("scene", nargs="?", help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
     p.add_argument("-o", "--output", help="write the view to this PNG instead of a window (no display: preview.png)")
-    p.add_argument("--camera", help="camera prim path; default: the stage's first camera, else one framing the scene")
+    p.add_argument("--camera", help=CAMERA_HELP)
+    add_stage_options(p)
     bvh = p.add_mutually_exclusive_group()
     bvh.add_argument(
         "--bvh-depth",
@@ -498,8 +519,10 @@ def _add_preview(sub) -> None:
         help="draw N camera rays from the eye to their hits (misses end at the far plane)",
     )
     p.add_argument("--image", action="store_true", help="render with wrt and show the image on the image plane")
-    p.add_argument("--width", type=positive_int, default=640, help="image width in pixels (frustum aspect, --image)")
-    p.add_argument("--height", type=positive_int, default=480, help="image height in pixels")
+    p.add_argument("--width", type=positive_int, help="image width in pixels (frustum aspect, --image); default: the "
+                   "stage's RenderSettings resolution, else 640")
+    p.add_argument("--height", type=positive_int, help="image height in pixels; default: the stage's RenderSettings "
+                   "resolution, else 480")
     p.add_argument("--window", type=_window_size, default="1280x800", metavar="WxH", help="window (or PNG) size")
     p.add_argument(
         "--max-triangles",
@@ -529,7 +552,7 @@ def _run_preview(args) -> int:
     if output is not None:  # an unwritable output fails now, not after the load and the preview
         _check_output_file(Path(output))
     start = time.perf_counter()
-    scene = wrt.load_usd(path, time=args.time, refine_level=args.refine_level)
+    scene = wrt.load_usd(path, time=args.time, refine_level=args.refine_level, **stage_options(args))
     stats = scene.stats()
     loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)

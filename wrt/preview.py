@@ -39,7 +39,7 @@ import warp as wp
 from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
 from .image import to_srgb8
-from .render import Renderer, render, resolve_camera
+from .render import Renderer, render, resolve_view
 from .scene import Scene, shape_color
 from .shade import CullScratch, intersect_visible
 from .trace import HitBuffer, get_accelerator, resolve_device
@@ -482,8 +482,8 @@ def preview(
     bvh_color: str = "depth",
     rays: int = 0,
     image: bool = False,
-    width: int = 640,
-    height: int = 480,
+    width: int | None = None,
+    height: int | None = None,
     builder: str = "sah",
     device="cpu",
     window_size=(1280, 800),
@@ -498,14 +498,16 @@ def preview(
 
     Args:
         scene: a :class:`wrt.Scene`, or a USD file to load.
-        camera: the camera, as for :func:`wrt.render` (``None``: the stage's first camera, else one framing it).
+        camera: the camera, as for :func:`wrt.render` (``None``: the render settings' camera, else the stage's
+            first camera, else one framing it; see :func:`wrt.render.resolve_view`).
         bvh_depth: draw the BVH cut at this depth (see module docstring).
         bvh_leaves: draw every BVH leaf instead.
         bvh_color: ``"depth"`` or ``"sah"`` (SAH cost share), the colouring of the boxes.
         rays: number of sample camera rays to draw.
         image: render the scene with wrt and show the picture on the frustum's image plane.
-        width: image width in pixels; the frustum, rays and image use this film aspect.
-        height: image height in pixels.
+        width: image width in pixels (``None``: the render settings', else 640); the frustum, rays and image use
+            this film aspect.
+        height: image height in pixels (``None``: the render settings', else 480).
         builder: BVH builder for the boxes, the rays and the image.
         device: Warp device for building, tracing and rendering.
         window_size: ``(width, height)`` of the preview window in pixels.
@@ -533,13 +535,13 @@ def preview(
     if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or not 0 <= rays <= MAX_RAYS:
         raise ValueError(f"rays must be an integer from 0 to {MAX_RAYS:,}, got {rays!r}")
     for label, value in (("width", width), ("height", height)):
-        if not isinstance(value, (int, np.integer)) or value <= 0:
+        if value is not None and (not isinstance(value, (int, np.integer)) or value <= 0):
             raise ValueError(f"{label} must be a positive integer, got {value!r}")
     check_window_size(window_size)
     Builder.from_str(builder)  # checked now, not only when boxes, rays or the image need the tree
     device = resolve_device(device)
     scene = _as_scene(scene)
-    cam = resolve_camera(scene, camera)
+    cam, width, height = resolve_view(scene, camera, width, height)
     if off_screen is None:
         off_screen = bool(pv.OFF_SCREEN) or not has_display()
     if off_screen:

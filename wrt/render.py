@@ -26,6 +26,7 @@ from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_p
 from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
 from .lights import LIGHT_DOME, build_lights, default_lights, set_headlight_directions
 from .materials import emission_estimates, upload_materials
+from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH
 from .scene import MIN_METERS_PER_UNIT, Scene, dataclass_parts, parts_changed
 from .shade import (
     MAX_CULL_PASSES,
@@ -89,6 +90,28 @@ def resolve_camera(scene: Scene, camera) -> Camera:
         known = ", ".join(scene.cameras) or "none"
         raise ValueError(f"no camera at {camera!r}; cameras in the scene: {known}")
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
+
+
+def resolve_view(scene: Scene, camera=None, width: int | None = None, height: int | None = None):
+    """``(camera, width, height)`` a render of ``scene`` uses: each of ``camera``, ``width`` and ``height`` that is
+    given, else the stage's render settings' (``Scene.render_settings``: its camera, its resolution), else wrt's
+    default (:func:`resolve_camera`, ``DEFAULT_WIDTH x DEFAULT_HEIGHT``). A stage camera (``None`` or a prim path)
+    then takes the settings' conform policy, pixel aspect ratio, depth of field and data window (which may make the
+    image smaller: the pixels inside it); a :class:`Camera` object is used as it is."""
+    settings = scene.render_settings
+    if settings is None:
+        return (resolve_camera(scene, camera), DEFAULT_WIDTH if width is None else width,
+                DEFAULT_HEIGHT if height is None else height)
+    width, height = settings.image_size(width, height)
+    if camera is None and settings.camera is not None:
+        if settings.camera not in scene.cameras:  # a camera wrt skips (one inside a PointInstancer prototype)
+            raise ValueError(f"{settings.source}: {settings.product or settings.path}: camera {settings.camera} is "
+                             f"not among the cameras wrt reads: {', '.join(scene.cameras) or 'none'}")
+        camera = settings.camera
+    cam = resolve_camera(scene, camera)
+    if isinstance(camera, Camera) or not cam.path:  # the caller's camera, or one wrt made to frame the scene
+        return cam, width, height
+    return settings.frame(cam, width, height)
 
 
 def shading_data(scene: Scene, device) -> tuple:
@@ -192,9 +215,10 @@ class Renderer:
 
     Args:
         scene: the scene to render.
-        camera: a :class:`Camera`, a camera prim path, or ``None`` (see :func:`resolve_camera`).
-        width: image width in pixels.
-        height: image height in pixels.
+        camera: a :class:`Camera`, a camera prim path, or ``None`` (see :func:`resolve_view`: the stage's render
+            settings choose it, and frame stage cameras).
+        width: image width in pixels; ``None``: the render settings' resolution, else 640.
+        height: image height in pixels; ``None``: the render settings' resolution, else 480.
         device: Warp device; Warp's default device when ``None``.
         builder: BVH builder name.
         accel: ``"wrt"`` or ``"warp"``.
@@ -215,8 +239,8 @@ class Renderer:
         scene: Scene,
         *,
         camera=None,
-        width=640,
-        height=480,
+        width=None,
+        height=None,
         device=None,
         builder="sah",
         accel="wrt",
@@ -227,13 +251,19 @@ class Renderer:
     ):
         check_scene(scene)
         for name, value in (("width", width), ("height", height)):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer))
+                                      or value <= 0):
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if cameras is not None:
             if camera is not None:
                 raise ValueError("give either camera or cameras, not both")
             check_camera_list(cameras)
-        check_pixels(width, height, 1 if cameras is None else len(cameras))
+        self.scene = scene
+        self._asked_size = (width, height)  # as given: set_cameras frames new stage cameras at it
+        scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
+        views = [resolve_view(scene, c, width, height) for c in ([camera] if cameras is None else cameras)]
+        width, height = views[0][1:]  # the same for every camera: only the render settings' window changes it
+        check_pixels(width, height, len(views))
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}; valid integrators: {', '.join(INTEGRATORS)}")
         if max_depth is None:
@@ -241,7 +271,6 @@ class Renderer:
         integral = isinstance(max_depth, (int, np.integer)) and not isinstance(max_depth, bool)
         if not (integral and 0 <= max_depth <= MAX_DEPTH):
             raise ValueError(f"max_depth must be an integer from 0 to {MAX_DEPTH}, got {max_depth!r}")
-        scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
         lower, upper = scene.bounds()
         if ao_radius is None:
             ao_radius = 0.1 * float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) or 1.0
@@ -249,9 +278,8 @@ class Renderer:
             isinstance(ao_radius, (int, float, np.integer, np.floating)) and math.isfinite(ao_radius) and ao_radius > 0
         ):
             raise ValueError(f"ao_radius must be a positive number, got {ao_radius!r}")
-        self.scene = scene
         self.width, self.height = int(width), int(height)
-        self.cameras = [resolve_camera(scene, c) for c in ([camera] if cameras is None else cameras)]
+        self.cameras = [view[0] for view in views]
         self.camera = self.cameras[0]
         self.batched = cameras is not None
         self.device = resolve_device(device)
@@ -345,7 +373,7 @@ class Renderer:
         """Renders from ``cameras`` (a list, any length) from now on, e.g. new poses each simulation step; the BVH,
         materials and lights stay (a default headlight turns with each camera)."""
         check_camera_list(cameras)
-        cameras = [resolve_camera(self.scene, c) for c in cameras]
+        cameras = [resolve_view(self.scene, c, *self._asked_size)[0] for c in cameras]
         n = len(cameras) * self.width * self.height
         if not cameras or n > MAX_PIXELS:
             raise ValueError(f"need 1 to {MAX_PIXELS // (self.width * self.height)} cameras, got {len(cameras)}")
@@ -720,8 +748,8 @@ def render(
     scene: Scene,
     *,
     camera=None,
-    width: int = 640,
-    height: int = 480,
+    width: int | None = None,
+    height: int | None = None,
     spp: int = 1,
     device=None,
     seed: int = 0,

@@ -33,6 +33,7 @@ import warp as wp
 from .assignments import CountsAssignments, assignments
 from .camera import Camera
 from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
+from .render_settings import RenderSettings
 from .transforms import mat34
 
 
@@ -216,6 +217,8 @@ class Scene:
         up_axis: ``"Y"`` or ``"Z"``, the stage's upAxis.
         meters_per_unit: the stage's metersPerUnit.
         source: the file the scene was read from, if any.
+        render_settings: the stage's :class:`wrt.render_settings.RenderSettings` (camera, resolution, film), or
+            ``None``; renders use them where their caller gives no camera, width or height.
     """
 
     meshes: list[Mesh] = dataclasses.field(default_factory=list)
@@ -229,6 +232,7 @@ class Scene:
     up_axis: str = "Y"
     meters_per_unit: float = 0.01
     source: str | None = None
+    render_settings: RenderSettings | None = None
 
     def __post_init__(self):
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)

@@ -80,6 +80,7 @@ from .primitives import (
     tapered_shape,
     tessellate,
 )
+from .render_settings import RenderSettings, read_render_settings
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, Refinement
 from .usd_skel import SkelPoser
@@ -131,7 +132,8 @@ def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
     return tri_corners, face_ids
 
 
-def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_level: int = 0) -> Scene:
+def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_level: int = 0,
+             render_settings: str | None = None) -> Scene:
     """Reads the meshes, gprims, instances, materials, cameras and lights of a USD stage.
 
     Args:
@@ -143,12 +145,16 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         refine_level: Catmull-Clark steps (0 to ``wrt.subdivision.MAX_REFINE_LEVEL``) applied to meshes whose
             ``subdivisionScheme`` is ``catmullClark`` (USD's fallback), as Hydra's refine level; each step makes
             four times the faces. 0 draws the control cage, smooth-shaded, as usdview does at low complexity.
+        render_settings: path of the ``RenderSettings`` prim to read into ``Scene.render_settings``; ``None``: the
+            one the stage's ``renderSettingsPrimPath`` names, if any (:mod:`wrt.render_settings`). Its
+            ``includedPurposes`` choose the purposes drawn besides ``default``.
 
     Returns:
         The :class:`wrt.scene.Scene`; triangle ids follow the stage's pre-order traversal.
 
     Raises:
-        wrt.errors.SceneError: the file is missing or not USD, or a mesh, primvar or camera is invalid.
+        wrt.errors.SceneError: the file is missing or not USD, or a mesh, primvar or camera is invalid, or the render
+            settings are not a ``RenderSettings`` prim or hold a value the schema does not allow.
 
     Warns:
         UserWarning: the stage has composition errors (a reference, payload or subLayer that does not compose); the
@@ -167,6 +173,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
 
     stage = _open_stage(source)
     _warn_composition_errors(stage, source)
+    settings = read_render_settings(stage, source, render_settings)
     if stage.GetTimeCodesPerSecond() <= 0:
         # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
         warnings.warn(f"{os.path.basename(source)}: timeCodesPerSecond = {stage.GetTimeCodesPerSecond():g} is invalid; "
@@ -185,7 +192,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         0 <= refine_level <= MAX_REFINE_LEVEL
     ):
         raise ValueError(f"refine_level must be an int from 0 to {MAX_REFINE_LEVEL}, got {refine_level!r}")
-    reader = _StageReader(stage, source, time_code, segments, int(refine_level))
+    reader = _StageReader(stage, source, time_code, segments, int(refine_level), settings)
     try:
         return reader.read()
     finally:
@@ -309,8 +316,12 @@ class _Context:
 class _StageReader:
     """One pass over a stage; collects meshes, instances, cameras and lights and the warnings to emit."""
 
-    def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0, refine_level: int = 0):
+    def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0, refine_level: int = 0,
+                 settings: RenderSettings | None = None):
         self.stage = stage
+        self.settings = settings
+        # Purposes drawn: the render settings' includedPurposes (default always), else default and render.
+        self.purposes = settings.included_purposes if settings else _RENDERED_PURPOSES
         self.source = source
         self.time = time
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
@@ -350,6 +361,7 @@ class _StageReader:
             up_axis=self._up_axis(),
             meters_per_unit=self._meters_per_unit(),
             source=self.source,
+            render_settings=self.settings,
         )
         self.scene = scene
         world = _Content("/")
@@ -384,8 +396,8 @@ class _StageReader:
             # drawn, as USD computes purpose through instance proxies.
             if self._visible(prim, ctx.stop):
                 purpose = self._purpose(prim, ctx)
-                self._read_native_instance(prim, ctx, None if purpose in _RENDERED_PURPOSES else purpose)
-                if prim.IsA(UsdGeom.Gprim) and purpose in _RENDERED_PURPOSES:
+                self._read_native_instance(prim, ctx, None if purpose in self.purposes else purpose)
+                if prim.IsA(UsdGeom.Gprim) and purpose in self.purposes:
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.
                     self._read_geometry(prim, ctx)
@@ -477,8 +489,8 @@ class _StageReader:
         return ctx.outer_purpose or UsdGeom.Tokens.default_
 
     def _rendered(self, prim: Usd.Prim, ctx: _Context) -> bool:
-        """Visible (below ``ctx.stop``) with purpose default or render."""
-        return self._visible(prim, ctx.stop) and self._purpose(prim, ctx) in _RENDERED_PURPOSES
+        """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own)."""
+        return self._visible(prim, ctx.stop) and self._purpose(prim, ctx) in self.purposes
 
     # Transforms and instances
 

@@ -128,7 +128,7 @@ def format_table(rows: list[dict]) -> str:
 
 def add_bvh_stats(sub) -> None:
     """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
-    from ..cli import HelpFormatter, positive_int
+    from ..cli import HelpFormatter, add_stage_options, positive_int
 
     p = sub.add_parser(
         "bvh-stats",
@@ -154,6 +154,7 @@ def add_bvh_stats(sub) -> None:
     p.add_argument("--epo-samples", type=positive_int, default=1 << 16, help="surface samples of the EPO estimate")
     p.add_argument("--device", default="cpu", help="Warp device to build on, e.g. cpu or cuda:0")
     p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
+    add_stage_options(p)
     p.add_argument("--json", action="store_true", help="print JSON rows instead of a table")
     p.set_defaults(run=run_bvh_stats)
 
@@ -164,13 +165,14 @@ def run_bvh_stats(args) -> int:
 
     import wrt
 
+    from ..cli import stage_options
     from ..trace import resolve_device
 
     builders = parse_builders(args.builder or ["sah"])
     device = resolve_device(args.device)
     # Gprims as triangle meshes, as wrt bench measures them: loaded as analytic shapes they are in no BVH over
     # triangles, and a stage of spheres and cubes reported an empty tree.
-    scene = wrt.load_usd(args.scene, time=args.time, tessellate_gprims=True)
+    scene = wrt.load_usd(args.scene, time=args.time, tessellate_gprims=True, **stage_options(args))
     points, indices = scene.triangles()
     rows = collect_stats(
         points,

@@ -1,0 +1,252 @@
+"""UsdRender render settings: the stage's camera, resolution, aspect ratio conform policy, data window and purposes,
+from Python and ``wrt render``; explicit options win; bad settings are errors naming the file and the prim."""
+
+import numpy as np
+import pytest
+
+import wrt
+from wrt.cli import main
+from wrt.rays import camera_rays
+from wrt.render import resolve_view
+
+SCENE = """#usda 1.0
+(
+    {metadata}
+)
+def Xform "World"
+{{
+    def Cube "Box"
+    {{
+        double size = 1
+        color3f[] primvars:displayColor = [(0.8, 0.2, 0.2)]
+    }}
+    def Sphere "Ball"
+    {{
+        double radius = 0.3
+        double3 xformOp:translate = (1, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }}
+    def Camera "Front"
+    {{
+        double3 xformOp:translate = (0, 0, 5)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }}
+    def Camera "Side"
+    {{
+        float focalLength = 10
+        float horizontalAperture = 20
+        float verticalAperture = 10
+        {side}
+    }}
+}}
+def Scope "Render"
+{{
+    def RenderSettings "Settings"
+    {{
+        {settings}
+    }}
+    def RenderSettings "Other"
+    {{
+        uniform int2 resolution = (24, 24)
+    }}
+    def RenderProduct "Product"
+    {{
+        {product}
+    }}
+}}
+"""
+SIDE_POSE = """double3 xformOp:translate = (0.5, 0.3, 4)
+        uniform token[] xformOpOrder = ["xformOp:translate"]"""
+DEFAULT_SETTINGS = """rel camera = </World/Side>
+        uniform int2 resolution = (64, 32)"""
+
+
+def write_stage(tmp_path, settings=DEFAULT_SETTINGS, product="", side=SIDE_POSE,
+                metadata='renderSettingsPrimPath = "/Render/Settings"', name="stage.usda"):
+    path = tmp_path / name
+    path.write_text(SCENE.format(metadata=metadata, settings=settings, product=product, side=side))
+    return path
+
+
+def render_npy(tmp_path, stage, *options, name="out.npy"):
+    out = tmp_path / name
+    assert main(["render", str(stage), "-o", str(out), "-q", *options]) == 0
+    return np.load(out)
+
+
+def test_cli_follows_the_render_settings_camera_and_resolution(tmp_path):
+    """Without --camera, --width and --height, the stage's RenderSettings choose them: a 64x32 image seen from its
+    camera (the second of two), the same pixels as naming both. wrt rendered 640x480 from the first camera."""
+    stage = write_stage(tmp_path)
+    settled = render_npy(tmp_path, stage, name="settled.npy")
+    assert settled.shape == (32, 64, 3)
+    explicit = render_npy(tmp_path, stage, "--camera", "/World/Side", "--width", "64", "--height", "32",
+                          name="explicit.npy")
+    np.testing.assert_array_equal(settled, explicit)
+    front = render_npy(tmp_path, stage, "--camera", "/World/Front", name="front.npy")
+    assert front.shape == (32, 64, 3) and not np.array_equal(front, settled)  # --camera wins over the settings'
+    wide = render_npy(tmp_path, stage, "--width", "40", name="wide.npy")
+    assert wide.shape == (32, 40, 3)  # each size option wins on its own
+
+
+def test_python_follows_the_render_settings_unless_told_otherwise(tmp_path):
+    scene = wrt.load_usd(write_stage(tmp_path))
+    settings = scene.render_settings
+    assert (settings.path, settings.camera, settings.resolution) == ("/Render/Settings", "/World/Side", (64, 32))
+    assert settings.conform_policy == "expandAperture" and settings.pixel_aspect_ratio == 1.0  # the fallbacks
+    assert wrt.render(scene).rgb.shape == (32, 64, 3)
+    assert wrt.render(scene, width=20, height=10).rgb.shape == (10, 20, 3)
+    renderer = wrt.Renderer(scene)
+    assert renderer.camera.path == "/World/Side" and renderer.camera.fit == "expandAperture"
+    own = wrt.Camera.look_at((0, 0, 5), (0, 0, 0))
+    assert wrt.Renderer(scene, camera=own).camera is own  # a Camera object is the caller's, used as it is
+    # Another RenderSettings prim, and a stage without any: wrt's defaults.
+    assert wrt.load_usd(scene.source, render_settings="/Render/Other").render_settings.resolution == (24, 24)
+    plain = wrt.load_usd(write_stage(tmp_path, metadata="", name="plain.usda"))
+    assert plain.render_settings is None
+    assert wrt.Renderer(plain).camera.path == "/World/Front" and wrt.Renderer(plain).width == 640
+
+
+def test_the_first_render_product_overrides_what_it_authors(tmp_path):
+    settings = DEFAULT_SETTINGS + "\n        rel products = [</Render/Product>]"
+    product = ('rel camera = </World/Front>\n        uniform int2 resolution = (16, 8)\n'
+               '        token productName = "x.exr"')
+    scene = wrt.load_usd(write_stage(tmp_path, settings=settings, product=product))
+    s = scene.render_settings
+    assert (s.product, s.camera, s.resolution, s.product_name) == ("/Render/Product", "/World/Front", (16, 8), "x.exr")
+    assert s.conform_policy == "expandAperture"  # not authored on the product: the settings' value
+
+
+# Film (width, height) of the Side camera (apertures 20 x 10) per policy, worked out by hand from the schema's words:
+# the image aspect is pixelAspectRatio * width / height; expand grows an aperture, crop shrinks one, the adjust
+# policies change the one they name, adjustPixelAspectRatio keeps both.
+CONFORM_CASES = [
+    # (resolution, pixelAspectRatio, policy, film)
+    ((30, 30), 1.0, "expandAperture", (20, 20)),
+    ((30, 30), 1.0, "cropAperture", (10, 10)),
+    ((30, 30), 1.0, "adjustApertureWidth", (10, 10)),
+    ((30, 30), 1.0, "adjustApertureHeight", (20, 20)),
+    ((30, 30), 1.0, "adjustPixelAspectRatio", (20, 10)),
+    ((60, 20), 1.0, "expandAperture", (30, 10)),
+    ((60, 20), 1.0, "cropAperture", (20, 20 / 3)),
+    ((60, 20), 1.0, "adjustApertureWidth", (30, 10)),
+    ((60, 20), 1.0, "adjustApertureHeight", (20, 20 / 3)),
+    ((60, 20), 1.0, "adjustPixelAspectRatio", (20, 10)),
+    ((40, 20), 0.5, "expandAperture", (20, 20)),  # non-square pixels: an image of aspect 1
+    ((40, 20), 0.5, "cropAperture", (10, 10)),
+    ((30, 30), 2.0, "cropAperture", (20, 10)),  # pixels twice as wide: the image has the aperture's aspect
+]
+
+
+@pytest.mark.parametrize("resolution, ratio, policy, film", CONFORM_CASES)
+def test_conform_policies_give_the_film_the_schema_describes(tmp_path, resolution, ratio, policy, film):
+    """Every camera ray of the settings' view against the ray through the same pixel centre of the film worked out
+    by hand (camera at the origin looking down -Z, focal length 10)."""
+    settings = (f"rel camera = </World/Side>\n        uniform int2 resolution = ({resolution[0]}, {resolution[1]})\n"
+                f'        uniform float pixelAspectRatio = {ratio}\n        uniform token aspectRatioConformPolicy = '
+                f'"{policy}"')
+    scene = wrt.load_usd(write_stage(tmp_path, settings=settings, side=""))
+    cam, w, h = resolve_view(scene)
+    assert (w, h) == resolution
+    _, directions = camera_rays(scene, cam, w, h)
+    x = ((np.arange(w) + 0.5) / w - 0.5) * film[0] / 10.0
+    y = (0.5 - (np.arange(h) + 0.5) / h) * film[1] / 10.0
+    expected = np.stack(np.broadcast_arrays(x[None, :], y[:, None], -1.0), axis=-1).reshape(-1, 3)
+    expected /= np.linalg.norm(expected, axis=1, keepdims=True)
+    np.testing.assert_allclose(directions, expected, atol=2e-6)
+
+
+def test_plain_renders_keep_the_horizontal_aperture():
+    """wrt's fit without render settings is UsdRender's adjustApertureHeight."""
+    cam = wrt.Camera(horizontal_aperture=20, vertical_aperture=10)
+    for size in ((30, 30), (60, 20)):
+        assert cam.film_size(*size) == wrt.Camera(horizontal_aperture=20, vertical_aperture=10,
+                                                  fit="adjustApertureHeight").film_size(*size)
+
+
+def test_data_window_renders_the_pixels_inside_it(tmp_path):
+    """dataWindowNDC (0.25, 0.5, 0.75, 1) of a 64x32 image: pixel centres from x = 16.5 to 47.5 and the top half of
+    the rows (NDC y from the bottom), each rendered where it lies in the full image."""
+    full = render_npy(tmp_path, write_stage(tmp_path), name="full.npy")
+    window = DEFAULT_SETTINGS + "\n        uniform float4 dataWindowNDC = (0.25, 0.5, 0.75, 1)"
+    crop = render_npy(tmp_path, write_stage(tmp_path, settings=window, name="crop.usda"), name="crop.npy")
+    assert crop.shape == (16, 32, 3)
+    np.testing.assert_allclose(crop, full[:16, 16:48], atol=1e-5)
+    # A window between pixel centres holds none: a named error, not an empty image.
+    thin = DEFAULT_SETTINGS + "\n        uniform float4 dataWindowNDC = (0.5, 0, 0.505, 1)"
+    with pytest.raises(wrt.SceneError, match=r"thin.usda: /Render/Settings: dataWindowNDC .* holds no pixel centre"):
+        wrt.render(wrt.load_usd(write_stage(tmp_path, settings=thin, name="thin.usda")))
+
+
+def test_disable_depth_of_field_makes_stage_cameras_pinholes(tmp_path):
+    side = SIDE_POSE + "\n        float fStop = 2\n        float focusDistance = 4"
+    stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS + "\n        uniform bool disableDepthOfField = 1",
+                        side=side)
+    scene = wrt.load_usd(stage)
+    assert scene.cameras["/World/Side"].f_stop == 2
+    assert resolve_view(scene)[0].f_stop == 0
+
+
+def test_included_purposes_choose_what_is_drawn(tmp_path):
+    """includedPurposes = [guide]: guide prims are drawn with default ones (always drawn), render ones are not."""
+    stage = tmp_path / "purposes.usda"
+    stage.write_text("""#usda 1.0
+(
+    renderSettingsPrimPath = "/Render/S"
+)
+def Cube "Plain" {
+}
+def Sphere "Guide" {
+    uniform token purpose = "guide"
+}
+def Cone "RenderOnly" {
+    uniform token purpose = "render"
+}
+def Scope "Render" {
+    def RenderSettings "S" {
+        uniform token[] includedPurposes = ["guide"]
+    }
+}
+""")
+    scene = wrt.load_usd(stage)
+    assert sorted(s.path for s in scene.shapes) == ["/Guide", "/Plain"]
+    assert scene.render_settings.included_purposes == ("default", "guide")
+
+
+BAD_SETTINGS = [
+    ("rel camera = </World/Box>", r"camera relationship targets /World/Box, which is a Cube"),
+    ("rel camera = </World/Nothing>", r"camera relationship targets /World/Nothing, which is no prim"),
+    ("uniform int2 resolution = (0, 32)", r"resolution 0x32 must be positive"),
+    ("uniform int2 resolution = (64, -2)", r"resolution 64x-2 must be positive"),
+    ("uniform float pixelAspectRatio = nan", r"pixelAspectRatio must be a finite positive"),
+    ('uniform token aspectRatioConformPolicy = "stretch"', r"aspectRatioConformPolicy 'stretch' is none of"),
+    ("uniform float4 dataWindowNDC = (0.5, 0, 0.2, 1)", r"dataWindowNDC \(0.5, 0, 0.2, 1\) must be finite"),
+]
+
+
+@pytest.mark.parametrize("settings, message", BAD_SETTINGS)
+def test_bad_settings_are_errors_naming_the_file_and_prim(tmp_path, settings, message):
+    stage = write_stage(tmp_path, settings=settings)
+    with pytest.raises(wrt.SceneError, match=r"stage.usda: /Render/Settings: " + message):
+        wrt.load_usd(stage)
+
+
+def test_a_bad_product_value_names_the_product(tmp_path):
+    settings = DEFAULT_SETTINGS + "\n        rel products = [</Render/Product>]"
+    stage = write_stage(tmp_path, settings=settings, product="uniform int2 resolution = (0, 0)")
+    with pytest.raises(wrt.SceneError, match=r"stage.usda: /Render/Product: resolution 0x0"):
+        wrt.load_usd(stage)
+
+
+def test_render_settings_that_are_not_a_settings_prim_are_named(tmp_path, capsys):
+    stage = write_stage(tmp_path)
+    with pytest.raises(wrt.SceneError, match=r"stage.usda: /World/Box is a Cube, not a RenderSettings prim; "
+                       r"RenderSettings prims in the stage: /Render/Settings, /Render/Other"):
+        wrt.load_usd(stage, render_settings="/World/Box")
+    bad_default = write_stage(tmp_path, metadata='renderSettingsPrimPath = "/Render/Gone"', name="gone.usda")
+    with pytest.raises(wrt.SceneError, match=r"gone.usda: /Render/Gone \(the stage's renderSettingsPrimPath\) is "
+                       "nothing"):
+        wrt.load_usd(bad_default)
+    assert main(["render", str(stage), "--render-settings", "/World", "-o", str(tmp_path / "x.png"), "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("wrt: error: ") and "stage.usda: /World is a Xform, not a RenderSettings" in err[-1]

@@ -1,0 +1,206 @@
+"""A stage's render settings (UsdRender): which camera, how many pixels, and how the film meets the image.
+
+The stage metadata ``renderSettingsPrimPath`` names the default ``RenderSettings`` prim (``load_usd(...,
+render_settings=PATH)`` picks another). Its ``camera``, ``resolution``, ``pixelAspectRatio``,
+``aspectRatioConformPolicy``, ``dataWindowNDC`` and ``disableDepthOfField`` are read with the schema's fallbacks,
+then overridden by the values its first ``RenderProduct`` authors, as ``UsdRenderComputeSpec`` merges them;
+``includedPurposes`` is the settings prim's own (it cannot vary per product). A render uses them where the caller
+did not say otherwise (see :func:`wrt.render.resolve_view`): an explicit camera, width or height wins, each on its
+own, over the stage's, which wins over wrt's defaults (640 x 480, the stage's first camera).
+
+The conform policy and pixel aspect become the camera's ``fit`` and ``pixel_aspect_ratio`` (see
+:meth:`wrt.Camera.film_size`). The data window crops (or, past [0, 1], overscans) the image as UsdRender's
+rasterization rule says: a pixel is rendered when its centre lies in the window, ``(0, 0)`` the lower-left corner
+of the conformed film, minimum edges included and maximum edges excluded; the image then holds only those pixels,
+rendered exactly where they lie in the full image (a camera of the window's film and pixel count).
+``instantaneousShutter`` and ``disableMotionBlur`` need nothing (wrt has no motion blur); ``productName`` is kept but
+never chosen as an output file by wrt (a stage would pick where files are written, often a path of another
+machine); ``materialBindingPurposes`` and ``renderingColorSpace`` are not read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import warnings
+
+from .camera import Camera
+from .errors import SceneError
+
+CONFORM_POLICIES = ("expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
+                    "adjustPixelAspectRatio")
+DEFAULT_WIDTH = 640  # image width without a stage resolution or an explicit one, in pixels
+DEFAULT_HEIGHT = 480  # image height, likewise
+FULL_WINDOW = (0.0, 0.0, 1.0, 1.0)  # dataWindowNDC of the whole image: (xmin, ymin, xmax, ymax)
+
+
+@dataclasses.dataclass(frozen=True)
+class RenderSettings:
+    """The render settings of a stage, merged from a ``RenderSettings`` prim and its first ``RenderProduct``.
+
+    Attributes:
+        path: the ``RenderSettings`` prim.
+        source: the file it was read from (for messages).
+        product: the ``RenderProduct`` whose overrides were merged, or ``""``.
+        camera: camera prim path (the ``camera`` relationship's first target), or ``None``.
+        resolution: ``(width, height)`` in pixels.
+        pixel_aspect_ratio: width / height of one pixel.
+        conform_policy: ``aspectRatioConformPolicy``, one of :data:`CONFORM_POLICIES`.
+        data_window: ``dataWindowNDC`` ``(xmin, ymin, xmax, ymax)``, ``(0, 0)`` the lower-left of the film.
+        disable_depth_of_field: render stage cameras as pinholes.
+        included_purposes: the purposes drawn besides ``default`` (always drawn, as UsdRender says).
+        product_name: the product's ``productName`` (an output file name), or ``""``.
+    """
+
+    path: str
+    source: str = ""
+    product: str = ""
+    camera: str | None = None
+    resolution: tuple[int, int] = (2048, 1080)  # the schema's fallback
+    pixel_aspect_ratio: float = 1.0
+    conform_policy: str = "expandAperture"
+    data_window: tuple[float, float, float, float] = FULL_WINDOW
+    disable_depth_of_field: bool = False
+    included_purposes: tuple[str, ...] = ("default", "render")
+    product_name: str = ""
+
+    def _error(self, message: str) -> SceneError:
+        return SceneError(message, path=self.source or None, prim=self.product or self.path)
+
+    def image_size(self, width: int | None, height: int | None) -> tuple[int, int]:
+        """``(width, height)`` before the data window: each given one, else the stage's ``resolution``."""
+        return (self.resolution[0] if width is None else width, self.resolution[1] if height is None else height)
+
+    def frame(self, camera: Camera, width: int, height: int) -> tuple[Camera, int, int]:
+        """A stage camera as these settings render it at ``width x height`` pixels (before the data window):
+        ``(camera with the conform policy, pixel aspect and depth of field of the settings, cropped to the data
+        window, the cropped image's width and height)``.
+
+        Raises:
+            SceneError: the data window holds no pixel centre of the image.
+        """
+        changes = {"fit": self.conform_policy, "pixel_aspect_ratio": self.pixel_aspect_ratio}
+        if self.disable_depth_of_field:
+            changes["f_stop"] = 0.0
+        camera = dataclasses.replace(camera, **changes)
+        if self.data_window == FULL_WINDOW:
+            return camera, width, height
+        # Pixel k (from the left, or from the bottom) has its centre at NDC (k + 0.5) / n: the first one at or past
+        # the minimum edge, and the first one at or past the maximum edge, which is left out.
+        xmin, ymin, xmax, ymax = self.data_window
+        j0, j1 = (math.ceil(v * width - 0.5) for v in (xmin, xmax))
+        k0, k1 = (math.ceil(v * height - 0.5) for v in (ymin, ymax))
+        if j1 <= j0 or k1 <= k0:
+            raise self._error(f"dataWindowNDC {self.data_window} holds no pixel centre of the {width}x{height} image")
+        film_w, film_h = camera.film_size(width, height)
+        cropped = dataclasses.replace(
+            camera,
+            fit="adjustPixelAspectRatio",  # the film is exactly these apertures, whatever the pixel count
+            horizontal_aperture=film_w * (j1 - j0) / width,
+            vertical_aperture=film_h * (k1 - k0) / height,
+            horizontal_aperture_offset=camera.horizontal_aperture_offset + ((j0 + j1) / (2 * width) - 0.5) * film_w,
+            vertical_aperture_offset=camera.vertical_aperture_offset + ((k0 + k1) / (2 * height) - 0.5) * film_h,
+        )
+        return cropped, j1 - j0, k1 - k0
+
+
+def read_render_settings(stage, source: str, path: str | None = None) -> RenderSettings | None:
+    """The render settings at prim ``path``, else those ``renderSettingsPrimPath`` names; ``None`` when neither.
+
+    Raises:
+        SceneError: naming the file and prim: no ``RenderSettings`` prim at the path, a ``camera`` relationship to
+            a prim that is not a camera, or a value the schema does not allow (a resolution that is not positive,
+            a pixel aspect ratio that is not a finite positive number, an unknown conform policy, a data window
+            that is not finite or empty).
+    """
+    from pxr import Sdf, UsdGeom, UsdRender
+
+    name = os.path.basename(source)
+    given = path is not None
+    if not given:
+        path = stage.GetMetadata("renderSettingsPrimPath") or None
+        if path is None:
+            return None
+    prim = stage.GetPrimAtPath(path) if Sdf.Path.IsValidPathString(path) and Sdf.Path(path).IsAbsolutePath() else None
+    if not (prim and prim.IsActive() and prim.IsA(UsdRender.Settings)):
+        found = [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdRender.Settings)]
+        what = f"a {prim.GetTypeName() or 'typeless prim'}" if prim else "nothing"
+        where = "" if given else " (the stage's renderSettingsPrimPath)"
+        raise SceneError(f"{path}{where} is {what}, not a RenderSettings prim; RenderSettings prims in the stage: "
+                         f"{', '.join(found) or 'none'}", path=source)
+    settings = UsdRender.Settings(prim)
+    values = _read_base(settings, authored_only=False)
+    included = [str(t) for t in settings.GetIncludedPurposesAttr().Get() or []]
+    values["included_purposes"] = ("default", *(t for t in included if t != "default"))  # default: always drawn
+    _check_values(values, dict(path=source, prim=str(path)))
+    product, camera_from = "", str(path)
+    products = [t for t in settings.GetProductsRel().GetForwardedTargets()
+                if stage.GetPrimAtPath(t) and stage.GetPrimAtPath(t).IsA(UsdRender.Product)]
+    if products:
+        product = str(products[0])
+        render_product = UsdRender.Product(stage.GetPrimAtPath(products[0]))
+        overrides = _read_base(render_product, authored_only=True)
+        camera_from = product if "camera" in overrides else camera_from
+        values.update(overrides)
+        values["product_name"] = str(render_product.GetProductNameAttr().Get() or "")
+        if len(products) > 1:
+            warnings.warn(f"{name}: {path} has {len(products)} RenderProducts; wrt renders the first, {product}",
+                          stacklevel=3)
+    camera = values.get("camera")
+    if camera is not None:
+        target = stage.GetPrimAtPath(camera)
+        if not (target and target.IsA(UsdGeom.Camera)):
+            what = f"a {target.GetTypeName() or 'typeless prim'}" if target else "no prim"
+            raise SceneError(f"camera relationship targets {camera}, which is {what}, not a Camera", path=source,
+                             prim=camera_from)
+    if product:  # the merged values: a bad one now comes from the product
+        _check_values(values, dict(path=source, prim=product))
+    return RenderSettings(path=str(path), source=source, product=product, **values)
+
+
+def _read_base(schema, authored_only: bool) -> dict:
+    """The ``UsdRenderSettingsBase`` values of ``schema`` as :class:`RenderSettings` fields: every one (fallbacks
+    included), or only those authored (a product's overrides)."""
+    values = {}
+    targets = schema.GetCameraRel().GetForwardedTargets()
+    if targets:
+        values["camera"] = str(targets[0])
+    attrs = {
+        "resolution": schema.GetResolutionAttr(),
+        "pixel_aspect_ratio": schema.GetPixelAspectRatioAttr(),
+        "conform_policy": schema.GetAspectRatioConformPolicyAttr(),
+        "data_window": schema.GetDataWindowNDCAttr(),
+        "disable_depth_of_field": schema.GetDisableDepthOfFieldAttr(),
+    }
+    for field, attr in attrs.items():
+        if authored_only and not attr.HasAuthoredValue():
+            continue
+        value = attr.Get()
+        if field in ("resolution", "data_window"):
+            value = tuple(value)
+        elif field == "conform_policy":
+            value = str(value)
+        values[field] = value
+    return values
+
+
+def _check_values(values: dict, where: dict) -> None:
+    """Raises SceneError (``where``: file and prim) for values the schema does not allow."""
+    w, h = values["resolution"]
+    if not (w > 0 and h > 0):
+        raise SceneError(f"resolution {w}x{h} must be positive", **where)
+    ratio = values["pixel_aspect_ratio"]
+    if not (math.isfinite(ratio) and ratio > 0):
+        raise SceneError(f"pixelAspectRatio must be a finite positive number, got {ratio}", **where)
+    if values["conform_policy"] not in CONFORM_POLICIES:
+        raise SceneError(f"aspectRatioConformPolicy {values['conform_policy']!r} is none of "
+                         f"{', '.join(CONFORM_POLICIES)}", **where)
+    window = values["data_window"]
+    if not (all(math.isfinite(v) for v in window) and window[0] < window[2] and window[1] < window[3]):
+        shown = ", ".join(f"{v:g}" for v in window)
+        raise SceneError(f"dataWindowNDC ({shown}) must be finite (xmin, ymin, xmax, ymax) with xmin < xmax and "
+                         "ymin < ymax", **where)
+    values["data_window"] = tuple(float(v) for v in window)
+    values["pixel_aspect_ratio"] = float(ratio)
+    values["resolution"] = (int(w), int(h))
