@@ -179,7 +179,7 @@ class FrameRenderer:
     Args:
         path: the USD file.
         camera: camera prim path (read at every frame's time), a :class:`wrt.Camera`, or ``None``.
-        tessellate_gprims, refine_level, render_settings: :func:`wrt.load_usd` options, applied to every
+        tessellate_gprims, refine_level, variants, render_settings: :func:`wrt.load_usd` options, applied to every
             frame (in worker processes too: they travel with the frame's task).
         **options: :class:`wrt.Renderer` options (``width``, ``height``, ``device``, ``builder``, ``accel``,
             ``integrator``, ``max_depth``, ``ao_radius``).
@@ -189,12 +189,12 @@ class FrameRenderer:
             (build, refit or TLAS rebuild), ``render_ms``.
     """
 
-    def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, render_settings=None,
-                 **options):
+    def __init__(self, path, *, camera=None, tessellate_gprims=False, refine_level=0, variants=None,
+                 render_settings=None, **options):
         self.path = os.fspath(path)
         self.camera = camera
         self.load_options = {"tessellate_gprims": tessellate_gprims, "refine_level": refine_level,
-                             "render_settings": render_settings}
+                             "variants": variants, "render_settings": render_settings}
         self.options = options
         self.log = []
         self._scene = None

@@ -121,8 +121,22 @@ CAMERA_HELP = ("camera prim path; default: the stage's RenderSettings camera, el
                "the scene")
 
 
+def _variant(text: str) -> str:
+    """An argparse type: a ``--variant`` value, ``PRIM:SET=VARIANT`` (checked before any scene is loaded)."""
+    from .usd_variants import parse_variant
+
+    try:
+        parse_variant(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text
+
+
 def add_stage_options(p) -> None:
-    """``--render-settings``: how a command reads the stages it loads."""
+    """``--variant`` and ``--render-settings``: how a command composes and reads the stages it loads."""
+    p.add_argument("--variant", action="append", default=[], type=_variant, metavar="PRIM:SET=VARIANT",
+                   help="select a variant before the stage is read, e.g. /World/Car:paint=red (repeatable; applied "
+                   "in order on the session layer, the file is not changed)")
     p.add_argument("--render-settings", metavar="PRIM", help="RenderSettings prim to follow (camera, resolution, "
                    "aspect ratio conform, data window, includedPurposes); default: the one the stage's "
                    "renderSettingsPrimPath names")
@@ -290,8 +304,10 @@ def _load_options(args) -> dict:
 
 
 def stage_options(args) -> dict:
-    """The :func:`wrt.load_usd` options of ``--render-settings``."""
-    return {"render_settings": args.render_settings}
+    """The :func:`wrt.load_usd` options of ``--variant`` and ``--render-settings``."""
+    from .usd_variants import variants_option
+
+    return {"variants": variants_option(args.variant), "render_settings": args.render_settings}
 
 
 def loaded_summary(name: str, stats: dict) -> str:

@@ -85,6 +85,7 @@ from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, Refinement
 from .usd_skel import SkelPoser
 from .usd_values import held_value, moved_positions, read_time, spun_rotations, value_at
+from .usd_variants import apply_variants
 from .usd_xforms import xform_cache
 
 _RENDERED_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)  # other purposes: guide, proxy
@@ -132,7 +133,7 @@ def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
     return tri_corners, face_ids
 
 
-def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_level: int = 0,
+def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_level: int = 0, variants=None,
              render_settings: str | None = None) -> Scene:
     """Reads the meshes, gprims, instances, materials, cameras and lights of a USD stage.
 
@@ -145,6 +146,8 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         refine_level: Catmull-Clark steps (0 to ``wrt.subdivision.MAX_REFINE_LEVEL``) applied to meshes whose
             ``subdivisionScheme`` is ``catmullClark`` (USD's fallback), as Hydra's refine level; each step makes
             four times the faces. 0 draws the control cage, smooth-shaded, as usdview does at low complexity.
+        variants: variant selections, prim path -> {variant set: variant} (``{"/World/Car": {"paint": "red"}}``),
+            made on the session layer before anything is read (:mod:`wrt.usd_variants`); the file is left as it is.
         render_settings: path of the ``RenderSettings`` prim to read into ``Scene.render_settings``; ``None``: the
             one the stage's ``renderSettingsPrimPath`` names, if any (:mod:`wrt.render_settings`). Its
             ``includedPurposes`` choose the purposes drawn besides ``default``.
@@ -153,8 +156,9 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         The :class:`wrt.scene.Scene`; triangle ids follow the stage's pre-order traversal.
 
     Raises:
-        wrt.errors.SceneError: the file is missing or not USD, or a mesh, primvar or camera is invalid, or the render
-            settings are not a ``RenderSettings`` prim or hold a value the schema does not allow.
+        wrt.errors.SceneError: the file is missing or not USD, or a mesh, primvar or camera is invalid, a variant
+            selection names a prim, set or variant that does not exist, or the render settings are not a
+            ``RenderSettings`` prim or hold a value the schema does not allow.
 
     Warns:
         UserWarning: the stage has composition errors (a reference, payload or subLayer that does not compose); the
@@ -172,6 +176,8 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         time_code = Usd.TimeCode(time)
 
     stage = _open_stage(source)
+    if variants:
+        apply_variants(stage, source, variants)
     _warn_composition_errors(stage, source)
     settings = read_render_settings(stage, source, render_settings)
     if stage.GetTimeCodesPerSecond() <= 0:
