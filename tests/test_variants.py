@@ -134,3 +134,41 @@ def test_other_commands_take_variants(stage, tmp_path, capsys):
     assert capsys.readouterr().out != ball  # a tessellated sphere, not a cube
     code = main(["preview", str(stage), "-o", str(tmp_path / "p.png"), "-q", "--variant", "/World/Car:paint=nope"])
     assert code == 2 and "variant set 'paint' has no variant 'nope'" in capsys.readouterr().err
+
+
+def test_a_prim_inside_a_native_instance_is_refused_by_name(tmp_path):
+    """USD refuses to author on an instance proxy: a Tf.ErrorException escaped load_usd with C++ file and line."""
+    stage = tmp_path / "instanced.usda"
+    stage.write_text('''#usda 1.0
+def Xform "Proto"
+{
+    def Xform "Body" (
+        variants = {
+            string look = "a"
+        }
+        prepend variantSets = ["look"]
+    )
+    {
+        variantSet "look" = {
+            "a" {
+                def Cube "G" {
+                }
+            }
+            "b" {
+                def Sphere "G" {
+                }
+            }
+        }
+    }
+}
+def Xform "Inst" (
+    instanceable = true
+    prepend references = </Proto>
+)
+{
+}
+''')
+    with pytest.raises(wrt.SceneError, match=r"instanced.usda: /Inst/Body: is inside a native instance"):
+        wrt.load_usd(stage, variants={"/Inst/Body": {"look": "b"}})
+    kinds = [shape.kind for shape in wrt.load_usd(stage, variants={"/Proto/Body": {"look": "b"}}).prototypes[0].shapes]
+    assert kinds == ["sphere"]  # selected where the instance brings it from

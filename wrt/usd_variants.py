@@ -39,8 +39,8 @@ def apply_variants(stage, source: str, variants) -> None:
     """Selects ``variants`` (prim path -> {variant set: variant}) on ``stage``'s session layer.
 
     Raises:
-        SceneError: naming the file and prim: the prim does not exist (the prims that have variant sets are listed),
-            or it has no such variant set or variant (the ones it has are listed).
+        SceneError: naming the file and prim: the prim does not exist (the prims that have variant sets are listed)
+            or lies inside a native instance, or it has no such variant set or variant (the ones it has are listed).
         TypeError: ``variants`` is not a mapping of prim paths to mappings of names.
     """
     from pxr import Sdf, Usd
@@ -57,6 +57,10 @@ def apply_variants(stage, source: str, variants) -> None:
             if not prim:
                 raise SceneError(f"no prim at {path} to select variants on; prims with variant sets: "
                                  f"{_prims_with_variants(stage)}", path=source)
+            if prim.IsInstanceProxy():  # USD refuses to author there (a Tf error): the prototype is shared
+                raise SceneError("is inside a native instance, whose prims every instance shares; select the variant "
+                                 "on the prim the instance brings in, or make the instance not instanceable",
+                                 path=source, prim=path)
             for name, variant in selections.items():
                 sets = prim.GetVariantSets()
                 if name not in sets.GetNames():
