@@ -61,7 +61,8 @@ def test_help_explains_the_options():
     options = ("--camera", "--width", "--height", "--spp", "--device", "--builder", "--accel", "--time", "--aov-dir")
     for option in options:
         assert option in result.stdout
-    assert "image width in pixels (default: 640)" in " ".join(result.stdout.split())
+    assert "image width in pixels; default: the stage's RenderSettings resolution, else 640" in " ".join(
+        result.stdout.split())
     for command in ("render", "preview", "bench", "bvh-stats"):  # defaults shown only where there is one
         text = run_cli(command, "--help").stdout
         assert "(default: None)" not in text and "(default: False)" not in text, command

@@ -65,9 +65,6 @@ class RenderSettings:
     included_purposes: tuple[str, ...] = ("default", "render")
     product_name: str = ""
 
-    def _error(self, message: str) -> SceneError:
-        return SceneError(message, path=self.source or None, prim=self.product or self.path)
-
     def image_size(self, width: int | None, height: int | None) -> tuple[int, int]:
         """``(width, height)`` before the data window: each given one, else the stage's ``resolution``."""
         return (self.resolution[0] if width is None else width, self.resolution[1] if height is None else height)
@@ -92,7 +89,9 @@ class RenderSettings:
         j0, j1 = (math.ceil(v * width - 0.5) for v in (xmin, xmax))
         k0, k1 = (math.ceil(v * height - 0.5) for v in (ymin, ymax))
         if j1 <= j0 or k1 <= k0:
-            raise self._error(f"dataWindowNDC {self.data_window} holds no pixel centre of the {width}x{height} image")
+            shown = ", ".join(f"{v:g}" for v in self.data_window)
+            raise SceneError(f"dataWindowNDC ({shown}) holds no pixel centre of the {width}x{height} image",
+                             path=self.source or None, prim=self.product or self.path)
         film_w, film_h = camera.film_size(width, height)
         cropped = dataclasses.replace(
             camera,
@@ -126,6 +125,7 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
     if not (prim and prim.IsActive() and prim.IsA(UsdRender.Settings)):
         found = [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdRender.Settings)]
         what = f"a {prim.GetTypeName() or 'typeless prim'}" if prim else "nothing"
+        what = f"an inactive {prim.GetTypeName()}" if prim and not prim.IsActive() else what
         where = "" if given else " (the stage's renderSettingsPrimPath)"
         raise SceneError(f"{path}{where} is {what}, not a RenderSettings prim; RenderSettings prims in the stage: "
                          f"{', '.join(found) or 'none'}", path=source)
