@@ -172,6 +172,11 @@ def test_data_window_renders_the_pixels_inside_it(tmp_path):
     crop = render_npy(tmp_path, write_stage(tmp_path, settings=window, name="crop.usda"), name="crop.npy")
     assert crop.shape == (16, 32, 3)
     np.testing.assert_allclose(crop, full[:16, 16:48], atol=1e-5)
+    # A batch of a stage camera (cropped) and a Camera object (not cropped) would have two image sizes.
+    scene = wrt.load_usd(tmp_path / "crop.usda")
+    with pytest.raises(ValueError, match="crops the stage's cameras but not wrt.Camera objects"):
+        wrt.Renderer(scene, cameras=["/World/Side", wrt.Camera.look_at((0, 0, 5), (0, 0, 0))])
+    assert wrt.Renderer(scene, cameras=["/World/Side", "/World/Front"]).width == 32
     # A window between pixel centres holds none: a named error, not an empty image.
     thin = DEFAULT_SETTINGS + "\n        uniform float4 dataWindowNDC = (0.5, 0, 0.505, 1)"
     with pytest.raises(wrt.SceneError, match=r"thin.usda: /Render/Settings: dataWindowNDC .* holds no pixel centre"):

@@ -262,7 +262,10 @@ class Renderer:
         self._asked_size = (width, height)  # as given: set_cameras frames new stage cameras at it
         scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
         views = [resolve_view(scene, c, width, height) for c in ([camera] if cameras is None else cameras)]
-        width, height = views[0][1:]  # the same for every camera: only the render settings' window changes it
+        if len({view[1:] for view in views}) > 1:  # the settings' window crops stage cameras, not Camera objects
+            raise ValueError("the render settings' dataWindowNDC crops the stage's cameras but not wrt.Camera "
+                             "objects: give cameras of one kind")
+        width, height = views[0][1:]
         check_pixels(width, height, len(views))
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}; valid integrators: {', '.join(INTEGRATORS)}")
