@@ -1092,7 +1092,7 @@ def test_inherited_display_colors_are_capped_per_prototype(tmp_path, monkeypatch
     monkeypatch.setattr(importlib.import_module("wrt.usd"), "MAX_INHERITED_COLORS", 2)
     path = tmp_path / "colors.usda"
     path.write_text(INHERITED_COLORS)
-    with pytest.warns(UserWarning, match=r"more than 2 displayColors per prototype"):
+    with pytest.warns(UserWarning, match=r"more than 2 colours per prototype"):
         scene = wrt.load_usd(path)
     # Leaf as authored and in two of its three inherited colours (yellow, red; green is one too many).
     colors = sorted(tuple(np.round(p.meshes[0].colors[0, 0], 3)) if p.meshes[0].colors is not None else ()

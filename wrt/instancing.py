@@ -77,11 +77,11 @@ class Instances(CountsAssignments):
             nested inside a prototype reports the world-level instance it is part of).
         index: ``(N,)`` int32 position in that PointInstancer's arrays, -1 for a native instance.
         sources: prim paths of the PointInstancers and instanceable prims that made the instances.
-        colors: ``(N, 3)`` float32 linear displayColor of each instance (a PointInstancer's ``displayColor``
-            primvar), NaN rows for instances without one; ``(0, 3)`` when no instance has one. It colours the
-            prototype meshes and shapes that have no displayColor of their own (``Mesh.colors`` / ``Shape.color``
-            None), read at shading time by instance id, so a million colours cost 12 bytes each, not a copy of the
-            prototype each.
+        colors: ``(N, 3)`` float32 linear colour of each instance (a PointInstancer's ``displayColor`` primvar, or
+            the colour primvar its prototypes' materials read), NaN rows for instances without one; ``(0, 3)`` when no
+            instance has one. It colours the prototype meshes and shapes that have no colours of their own
+            (``Mesh.colors`` / ``Shape.color`` None), read at shading time by instance id, so a million colours cost
+            12 bytes each, not a copy of the prototype each.
     """
 
     prototype: np.ndarray

@@ -19,8 +19,11 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   ``roughness``, ``clearcoat``, ``clearcoatRoughness``, ``opacity``, ``opacityThreshold``, ``ior``. Any of them may
   be a constant or a ``UsdUVTexture`` output (``r``/``g``/``b``/``a``/``rgb``) with ``file``, ``st`` (from a
   ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``), ``wrapS``/``wrapT``, ``scale``, ``bias``,
-  ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a ``UsdPrimvarReader_float3`` of
-  ``displayColor``. ``normal`` is read from a ``UsdUVTexture``'s ``rgb`` output only (a tangent-space normal map:
+  ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a mesh's colour primvar through a
+  ``UsdPrimvarReader_float3`` (or a MaterialX reader, :data:`COLOR_PRIMVAR_READERS`) of any ``varname``
+  (:class:`PrimvarInput`): ``wrt.usd`` reads that primvar into the mesh's per-corner colours where it reads
+  ``displayColor`` otherwise (:meth:`MaterialReader.color_primvar`: one per mesh), and a mesh without it shows the
+  reader's ``fallback``. ``normal`` is read from a ``UsdUVTexture``'s ``rgb`` output only (a tangent-space normal map:
   :func:`wrt.shade.shading_point`); ``occlusion`` and ``displacement`` are ignored.
 - A texture that cannot be read is replaced by its ``fallback`` value, with one warning per file.
 - A ``file`` with ``<UDIM>`` in its name reads each tile that exists (1001 to 1100, as ``UsdShade.UdimUtils``
@@ -81,8 +84,15 @@ SLOT_NORMAL = wp.constant(8)
 NUM_SLOTS = len(SLOTS)
 CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3, "rgb": 4, "rgba": 4}  # UsdUVTexture outputs
 FLAG_SPECULAR_WORKFLOW = wp.constant(1)  # useSpecularWorkflow = 1
-FLAG_DISPLAY_COLOR = wp.constant(2)  # diffuseColor comes from the displayColor primvar
+FLAG_DISPLAY_COLOR = wp.constant(2)  # diffuseColor comes from the mesh's colour primvar (Material.color_primvar)
 DEFAULT_GREY = 0.5  # albedo of meshes with neither a material nor displayColor
+# Shaders whose output is a mesh's colour primvar (the rgb of a 4-vector one), by id: the input naming the primvar and
+# the one giving the value where a mesh lacks it (zero when unauthored, in both libraries).
+COLOR_PRIMVAR_READERS = {
+    **{f"UsdPrimvarReader_float{n}": ("varname", "fallback") for n in (3, 4)},
+    **{f"ND_UsdPrimvarReader_{t}{n}": ("varname", "fallback") for t in ("color", "vector") for n in (3, 4)},
+    **{f"ND_geompropvalue_{t}{n}": ("geomprop", "default") for t in ("color", "vector") for n in (3, 4)},
+}
 TEXTURE_FALLBACK = (0.0, 0.0, 0.0, 1.0)  # UsdUVTexture's default fallback (RGBA)
 
 
@@ -133,7 +143,10 @@ class Material(CountsAssignments):
         ior: index of refraction.
         clearcoat: clearcoat weight.
         clearcoat_roughness: clearcoat roughness.
-        diffuse_from_display_color: diffuseColor is read from the mesh's ``displayColor``.
+        diffuse_from_display_color: diffuseColor is read from the mesh's colour primvar ``color_primvar`` (times
+            ``color_primvar_scale``); ``diffuse_color`` is used where the mesh (and its instance) has none.
+        color_primvar: the colour primvar (``displayColor``, ``temperature``, ...) diffuseColor reads.
+        color_primvar_scale: ``(3,)`` multiplies the primvar's colour (a MaterialX ``multiply`` by a constant).
         textures: input name (one of :data:`SLOTS`) -> :class:`TextureInput`. ``"normal"`` is a tangent-space
             normal map (its ``rgb`` after ``scale`` and ``bias``, OpenGL convention: +Y up the map), which has no
             constant field: without it the mesh's normals are used.
@@ -152,6 +165,8 @@ class Material(CountsAssignments):
     clearcoat: float = 0.0
     clearcoat_roughness: float = 0.01
     diffuse_from_display_color: bool = False
+    color_primvar: str = "displayColor"
+    color_primvar_scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(3, np.float32))
     textures: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
@@ -164,7 +179,8 @@ class Material(CountsAssignments):
             if single:  # one number for all three channels
                 setattr(self, name, np.full(3, np.ravel(value)[0], np.float32))
         # NaN or inf reached every pixel the material covers, as a black image with no error.
-        colors = [(name, (3,), None, np.float32) for name in ("diffuse_color", "emissive_color", "specular_color")]
+        colors = [(name, (3,), None, np.float32) for name in ("diffuse_color", "emissive_color", "specular_color",
+                                                               "color_primvar_scale")]
         numbers = [(name, (), None, float) for name in ("metallic", "roughness", "opacity", "opacity_threshold", "ior",
                                                          "clearcoat", "clearcoat_roughness")]
         check_fields(self, *colors, *numbers)
@@ -188,11 +204,36 @@ class Material(CountsAssignments):
         return bool(np.any(self.emissive_color > 0.0)) or "emissiveColor" in self.textures
 
 
+@dataclasses.dataclass
+class PrimvarInput:
+    """A mesh's colour primvar feeding diffuseColor (a ``UsdPrimvarReader_float3``, a MaterialX ``geompropvalue``).
+
+    Attributes:
+        name: the primvar (``displayColor``, ``temperature``, ...).
+        fallback: ``(3,)`` the reader's value where a mesh lacks the primvar.
+        scale: ``(3,)`` multiplies the primvar (and the fallback), as a MaterialX ``multiply`` by a constant does.
+    """
+
+    name: str
+    fallback: np.ndarray
+    scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(3, np.float32))
+
+    def apply(self, mat: Material):
+        """Makes ``mat``'s diffuseColor this primvar. Where a mesh lacks it: the fallback times the scale, but for
+        ``displayColor`` grey 0.5 (times the scale) whatever the fallback, wrt's colour of a mesh without one (Hydra
+        gives every gprim a displayColor, so Storm never shows that reader's fallback either)."""
+        mat.diffuse_from_display_color = True
+        mat.color_primvar = self.name
+        mat.color_primvar_scale = np.asarray(self.scale, np.float32)
+        missing = np.full(3, DEFAULT_GREY) if self.name == "displayColor" else self.fallback
+        mat.diffuse_color = np.asarray(missing * self.scale, np.float32)
+
+
 @wp.struct
 class DeviceMaterials:
     """Every material and texture on the device; material 0 is the default (displayColor Lambert)."""
 
-    colors: wp.array2d[wp.vec3]  # (M, 3) diffuseColor, emissiveColor, specularColor
+    colors: wp.array2d[wp.vec3]  # (M, 4) diffuseColor, emissiveColor, specularColor, colour primvar scale
     params: wp.array2d[float]  # (M, 8) metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
     #                            clearcoatRoughness, 0
     flags: wp.array[wp.int32]  # (M,) FLAG_* bits
@@ -250,13 +291,13 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     """Packs ``[default_material()] + materials`` and ``textures`` into a :class:`DeviceMaterials` on ``device``."""
     all_materials = [default_material()] + list(materials)
     m = len(all_materials)
-    colors = np.zeros((m, 3, 3), np.float32)
+    colors = np.zeros((m, 4, 3), np.float32)
     params = np.zeros((m, 8), np.float32)
     flags = np.zeros(m, np.int32)
     slots = np.full((m, NUM_SLOTS), -1, np.int32)
     bindings = []
     for k, mat in enumerate(all_materials):
-        colors[k] = (mat.diffuse_color, mat.emissive_color, mat.specular_color)
+        colors[k] = (mat.diffuse_color, mat.emissive_color, mat.specular_color, mat.color_primvar_scale)
         params[k] = (
             mat.metallic,
             mat.roughness,
@@ -397,12 +438,14 @@ def eval_emission(mats: DeviceMaterials, m: int, st: wp.vec2):
 
 @wp.func
 def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.vec3):
-    """Every UsdPreviewSurface input of material ``m`` at texture coordinate ``st``."""
+    """Every UsdPreviewSurface input of material ``m`` at texture coordinate ``st``; ``display_color`` is the mesh's
+    colour primvar there (NaN where the mesh and its instance have none)."""
     s = Surface()
     flags = mats.flags[m]
     base = mats.colors[m, 0]
-    if (flags & FLAG_DISPLAY_COLOR) != 0:
-        base = display_color
+    # A mesh without the primvar keeps the constant: the reader's fallback (grey 0.5 for displayColor).
+    if (flags & FLAG_DISPLAY_COLOR) != 0 and not wp.isnan(display_color[0]):
+        base = wp.cw_mul(display_color, mats.colors[m, 3])
     s.base_color = input_color(mats, m, SLOT_DIFFUSE, st, base)
     s.emission = input_color(mats, m, SLOT_EMISSIVE, st, mats.colors[m, 1])
     s.specular_color = input_color(mats, m, SLOT_SPECULAR, st, mats.colors[m, 2])
@@ -601,6 +644,22 @@ class MaterialReader:
                       f"mesh is supported; {names[0]!r} is used for all", prim)
         return names[0] if names else None
 
+    def color_primvar(self, face_materials: np.ndarray | None, prim=None) -> str:
+        """The colour primvar to read for mesh (or gprim) ``prim`` whose faces use ``face_materials``: the one its
+        materials' diffuseColor reads, ``displayColor`` for faces of the default material (or when no face reads
+        one). A mesh holds one set of colours: when its materials read several primvars, the materials' first (in
+        material order) is used for all of them, and ``skip`` reports it."""
+        names = []
+        ids = [-1] if face_materials is None else np.unique(face_materials)
+        for k in sorted(ids, key=lambda k: k < 0):  # the default material's displayColor last
+            name = "displayColor" if k < 0 else self.materials[k].color_primvar
+            if (k < 0 or self.materials[k].diffuse_from_display_color) and name not in names:
+                names.append(name)
+        if len(names) > 1 and prim is not None:
+            self.skip(f"materials read several colour primvars ({', '.join(names)}), but only one per mesh is "
+                      f"supported; {names[0]!r} is used for all", prim)
+        return names[0] if names else "displayColor"
+
     # Materials
 
     def material_index(self, material) -> int:
@@ -704,11 +763,12 @@ class MaterialReader:
                 mat.textures[name] = tex
             else:
                 self._set_constant(mat, name, field, is_color, fallback, source.GetPrim())
+        elif name == "diffuseColor" and source_id in COLOR_PRIMVAR_READERS:
+            primvar = self.color_primvar_input(source, mat.path)
+            if primvar is not None:
+                primvar.apply(mat)
         elif source_id.startswith("UsdPrimvarReader"):
             varname = self._constant(source, "varname")
-            if name == "diffuseColor" and str(varname) == "displayColor":
-                mat.diffuse_from_display_color = True
-                return
             fallback = self._constant(source, "fallback")
             if fallback is not None:
                 self._set_constant(mat, name, field, is_color, fallback, source.GetPrim())
@@ -722,6 +782,18 @@ class MaterialReader:
                 "its constant value is used",
                 source.GetPrim(),
             )
+
+    def color_primvar_input(self, reader, material_path: str) -> PrimvarInput | None:
+        """The :class:`PrimvarInput` of ``reader`` (a shader of :data:`COLOR_PRIMVAR_READERS`); None, with a warning,
+        when it names no primvar."""
+        name_input, fallback_input = COLOR_PRIMVAR_READERS[reader.GetShaderId()]
+        varname = str(self._constant(reader, name_input) or "").strip()  # a token or a string, or an interface input's
+        if not varname:
+            self.skip(f"material {material_path}: a primvar reader names no primvar; the input keeps its constant",
+                      reader.GetPrim())
+            return None
+        fallback = _rgb(self._constant(reader, fallback_input))
+        return PrimvarInput(varname, np.zeros(3, np.float32) if fallback is None else fallback.astype(np.float32))
 
     def _read_normal_map(self, shader, mat: Material):
         """``normal``: a ``UsdUVTexture``'s ``rgb`` output is a tangent-space normal map, used as its ``scale`` and

@@ -159,11 +159,15 @@ def triangle_colors(scene: Scene) -> np.ndarray:
     expanded).
 
     A triangle bound to a material (``Mesh.material_ids``) shows the material's constant ``diffuse_color`` (a
-    texture's fallback, for textured ones); otherwise the mean of its three corner ``displayColor`` values, or its
-    instance's colour (``Instances.colors``) where its mesh has none; the renderer's grey for meshes with neither.
+    texture's fallback, for textured ones); otherwise (or where the material reads the mesh's colour primvar) the mean
+    of its three corner colours (``displayColor`` or that primvar, times the material's scale), or its instance's
+    colour (``Instances.colors``) where its mesh has none; the material's constant (the primvar reader's fallback)
+    or the renderer's grey for meshes with neither.
     """
     materials = getattr(scene, "materials", None) or []
     table = np.array([np.asarray(m.diffuse_color, np.float32).reshape(3) for m in materials] or np.zeros((0, 3)))
+    scales = np.array([np.asarray(getattr(m, "color_primvar_scale", np.ones(3)), np.float32).reshape(3)
+                       for m in materials] or np.zeros((0, 3)))
     from_display = np.array([bool(getattr(m, "diffuse_from_display_color", False)) for m in materials], bool)
     parts, instance_colored = [], []
     meshes = scene._geometry_meshes() if hasattr(scene, "_geometry_meshes") else scene.meshes
@@ -176,7 +180,13 @@ def triangle_colors(scene: Scene) -> np.ndarray:
         ids = getattr(mesh, "material_ids", None)
         if ids is not None and len(table):
             bound = (ids >= 0) & (ids < len(table))
-            bound[bound] &= ~from_display[ids[bound]]
+            reads = bound.copy()
+            reads[bound] = from_display[ids[bound]]
+            if mesh.colors is None:  # the primvar reader's fallback
+                linear[reads] = table[ids[reads]]
+            else:
+                linear[reads] *= scales[ids[reads]]
+            bound &= ~reads
             linear[bound] = table[ids[bound]]
         parts.append(linear)
         instance_colored.append(~bound & (mesh.colors is None))

@@ -45,7 +45,7 @@ class DeviceScene:
     points: wp.array[wp.vec3]  # vertex positions: world space, prototype space for prototype triangles
     indices: wp.array2d[wp.int32]  # (T, 3) triangle vertex indices
     normals: wp.array2d[wp.vec3]  # (T, 3) shading normal per corner (same space); zero when the mesh has none
-    colors: wp.array2d[wp.vec3]  # (T, 3) linear albedo per corner
+    colors: wp.array2d[wp.vec3]  # (T, 3) linear colour primvar per corner, NaN where the geometry has none
     num_prims: int  # number of unique triangles
     world_to_local: wp.array[mat34]  # (N,) world -> prototype space of each instance (at least one entry)
     num_instances: int  # number of instances; hits with instance -1 are world-space geometry
@@ -53,9 +53,9 @@ class DeviceScene:
     shape_params: wp.array[wp.vec4]  # (S,) the shape's parameters (primitives.Shape.params)
     shape_to_local: wp.array[mat34]  # (S,) world (or prototype) space -> the shape's canonical space
     num_shapes: int  # number of unique analytic shapes
-    instance_colors: wp.array[wp.vec3]  # (N,) each instance's displayColor (Instances.colors; NaN: none), or (1,)
+    instance_colors: wp.array[wp.vec3]  # (N,) each instance's colour (Instances.colors; NaN: none), or (1,)
     num_instance_colors: int  # N when any instance has a colour, else 0 (then the arrays beside are placeholders)
-    takes_instance_color: wp.array[wp.uint8]  # (T + S,) 1 where a geometry id has no displayColor of its own
+    takes_instance_color: wp.array[wp.uint8]  # (T + S,) 1 where a geometry id has no colours of its own
 
 
 # The depth of field divides by metersPerUnit (millimetres of focal length to scene units): below this, or not
@@ -84,7 +84,8 @@ class Mesh(CountsAssignments):
         face_ids: ``(T,)`` int32, source face of each triangle.
         normals: ``(T, 3, 3)`` float32 unit world-space shading normal at each triangle corner, or ``None``
             when the mesh authors none (then the face normal is used).
-        colors: ``(T, 3, 3)`` float32 linear displayColor at each triangle corner, or ``None``.
+        colors: ``(T, 3, 3)`` float32 linear colour at each triangle corner, or ``None``: ``displayColor``, or the
+            colour primvar its material's diffuseColor reads (:attr:`wrt.materials.Material.color_primvar`).
         double_sided: the mesh's ``doubleSided`` attribute: when False, camera rays that reach a triangle from its
             back pass through it (back-face culling); bounce and shadow rays still meet it.
         uvs: ``(T, 3, 2)`` float32 texture coordinates at each triangle corner, or ``None``.
@@ -484,7 +485,8 @@ class Scene:
 
         Returns:
             ``normals`` ``(T, 3, 3)`` float32 (zero rows where a mesh has no normals: shade with the face normal)
-            and ``colors`` ``(T, 3, 3)`` float32 (neutral grey where a mesh has no displayColor).
+            and ``colors`` ``(T, 3, 3)`` float32 (NaN where a mesh or shape has no colours: the shading takes its
+            instance's colour, else its material's constant, grey for the default material).
         """
         key = ("corners",)
         if key not in self._cache:
@@ -492,10 +494,10 @@ class Scene:
             for m in self._geometry_meshes():
                 n = len(m.indices)
                 normals.append(m.normals if m.normals is not None else np.zeros((n, 3, 3), np.float32))
-                colors.append(m.colors if m.colors is not None else np.full((n, 3, 3), 0.5, np.float32))
+                colors.append(m.colors if m.colors is not None else np.full((n, 3, 3), np.nan, np.float32))
             for s in self._geometry_shapes():  # analytic shapes: normals come from the shape
                 normals.append(np.zeros((1, 3, 3), np.float32))
-                colors.append(np.broadcast_to(shape_color(s), (1, 3, 3)))
+                colors.append(np.broadcast_to(np.nan if s.color is None else s.color, (1, 3, 3)))
             empty = np.zeros((0, 3, 3), np.float32)
             self._cache[key] = (np.concatenate(normals or [empty]), np.concatenate(colors or [empty]))
         return self._cache[key]

@@ -85,7 +85,7 @@ class HitPoint:
     front: int  # 1 when the ray hit the front (winding) side
     st: wp.vec2  # texture coordinates
     material: int  # device material index
-    display: wp.vec3  # interpolated displayColor, else the instance's (Instances.colors), else grey 0.5
+    display: wp.vec3  # interpolated colour primvar (displayColor, ...), else the instance's colour, else NaN
 
 
 @wp.func
@@ -203,7 +203,7 @@ def hit_point(
     h.material = surf.materials[prim]
     h.display = w * scene.colors[prim, 0] + u * scene.colors[prim, 1] + v * scene.colors[prim, 2]
     if instance >= 0 and instance < scene.num_instance_colors:
-        # A PointInstancer's displayColor colours the prototype geometry that has none of its own.
+        # A PointInstancer's colour primvar colours the prototype geometry that has none of its own.
         if scene.takes_instance_color[prim] != wp.uint8(0):
             c = scene.instance_colors[instance]
             if not wp.isnan(c[0]):

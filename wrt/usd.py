@@ -45,7 +45,9 @@ A PointInstancer's ``primvars:displayColor`` (``constant``, or ``vertex``/``vary
 through its indices, read as ``positions`` are) becomes ``Instances.colors`` instead, no copy per colour: it colours
 the prototype meshes and gprims that have no displayColor of their own at shading time; instances nested in a
 coloured one take the colour of the nearest instancer that gives one. Other interpolations and other lengths are
-ignored with a warning naming the instancer.
+ignored with a warning naming the instancer. Where a material reads another colour primvar
+(:meth:`wrt.materials.MaterialReader.color_primvar`), the mesh's colours come from that primvar instead, and all of
+the above (inheritance, native instances, PointInstancer primvars) applies to it in place of ``displayColor``.
 Cameras inside native instances are read at their instance-proxy paths
 (``/Instance/Cam``, placed by the instance), in invisible instances too, as cameras under invisible prims are; cameras
 inside PointInstancer prototypes and lights inside any prototype are skipped with a warning.
@@ -291,10 +293,16 @@ class _Content:
         self.shapes: list[Shape] = []  # analytic gprims, in this content's space
         self.instances: list = []  # (content key, (K, 4, 4) column-vector transforms to this space, source, indices)
         self.uses_outer = False  # a mesh binds no material itself: a material bound above an instance applies
-        self.uses_outer_color = False  # a mesh or gprim finds no displayColor: one inherited by an instance applies
-        self.colors: dict = {}  # outer displayColor -> content key: this prototype read again with that colour
+        # Colour primvars (displayColor, or the one a material reads) that a mesh or gprim lacks: one an instance
+        # hands down applies.
+        self.outer_colors: list[str] = []
+        self.colors: dict = {}  # outer (primvar, colour) -> content key: this prototype read again with that colour
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.prototype = -1  # index into Scene.prototypes once its meshes are placed there
+
+    def want_colors(self, names):
+        """Records colour primvars that geometry in this content lacks (see :attr:`outer_colors`)."""
+        self.outer_colors += [name for name in names if name not in self.outer_colors]
 
 
 class _Context:
@@ -315,7 +323,7 @@ class _Context:
         self.stop = space_root  # visibility and purpose are inherited from below this prim (None: everything)
         self.outer_material = outer_material  # material index bound above a native instance, or None
         self.outer_forced = outer_forced  # that binding is strongerThanDescendants: it wins over bindings inside
-        self.outer_color = outer_color  # (r, g, b) constant displayColor inherited by a native instance, or None
+        self.outer_color = outer_color  # (primvar, (r, g, b)): constant colour inherited by a native instance, or None
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
         self.world = world  # the stage itself (cameras and lights are read only here)
 
@@ -562,37 +570,42 @@ class _StageReader:
             if content.uses_outer and outer is not None:
                 key = ("native", path, outer, purpose, False, None)
                 content = self._content(key, prototype, None, outer, purpose)
-        # A constant displayColor on the instance or above it colours the prototype's meshes that have none, as
-        # primvars are inherited through instance proxies (instances of one prototype in different colours).
-        own_color = self._inherited_color(prim)
-        if content.uses_outer_color and own_color is None:
-            ctx.content.uses_outer_color = True  # the colour may come from above this instance's container
+        # A constant displayColor (or the colour primvar a material reads) on the instance or above it colours the
+        # prototype's meshes that have none, as primvars are inherited through instance proxies (instances of one
+        # prototype in different colours).
+        own_color = self._inherited_color(prim, content.outer_colors)
+        if own_color is None:
+            ctx.content.want_colors(content.outer_colors)  # the colour may come from above this instance's container
         color = own_color if own_color is not None else ctx.outer_color
-        if content.uses_outer_color and color is not None:
+        if color is not None and color[0] in content.outer_colors:
             key = self._colored(key, content, color, prim)
         m = self._to_space(prim, ctx).T  # column vectors
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), None))
         self._instance_cameras(prim, self.contents[key].cameras, ctx)
 
-    def _inherited_color(self, prim: Usd.Prim) -> tuple | None:
-        """The constant ``displayColor`` that native instance ``prim`` hands down to its prototype's meshes: its own
-        or its nearest ancestor's (up to the root of the prototype ``prim`` is in), as a tuple of 3 floats, or None."""
-        for primvar in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars():
-            if primvar.GetPrimvarName() == "displayColor":
-                values = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
-                values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
-                if len(values) >= 3 and np.all(np.isfinite(values[:3])):
-                    return tuple(float(v) for v in values[:3])
-                return None
+    def _inherited_color(self, prim: Usd.Prim, names: list[str]) -> tuple | None:
+        """The constant colour primvar that native instance ``prim`` hands down to its prototype's meshes lacking
+        one of ``names`` (the first of them it has): its own or its nearest ancestor's (up to the root of the
+        prototype ``prim`` is in), as ``(name, (r, g, b))``, or None."""
+        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        for name in names:
+            primvar = inherited.get(name)
+            if primvar is None:
+                continue
+            values = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+            values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
+            if len(values) >= 3 and np.all(np.isfinite(values[:3])):
+                return name, tuple(float(v) for v in values[:3])
+            return None
         return None
 
     def _colored(self, key: tuple, content: _Content, color: tuple, prim: Usd.Prim) -> tuple:
-        """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``; each
-        colour is a copy of the prototype's geometry, so past :data:`MAX_INHERITED_COLORS` colours per prototype the
-        instance keeps the prototype's own (with a warning)."""
+        """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``
+        (``(primvar, (r, g, b))``); each colour is a copy of the prototype's geometry, so past
+        :data:`MAX_INHERITED_COLORS` colours per prototype the instance keeps the prototype's own (with a warning)."""
         if color not in content.colors:
             if len(content.colors) >= MAX_INHERITED_COLORS:
-                self._skip(f"instances inheriting more than {MAX_INHERITED_COLORS} displayColors per prototype keep "
+                self._skip(f"instances inheriting more than {MAX_INHERITED_COLORS} colours per prototype keep "
                            "its own colours (each colour is a copy of the prototype)", prim)
                 return key
             _, path, outer, purpose, forced, _ = key
@@ -685,7 +698,7 @@ class _StageReader:
         quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]),
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
         scales = per_instance(scales_attr, 3, "scales", np.ones(3), _value_if_any(scales_attr, t, read))
-        colors = self._instance_colors(prim, n, read)
+        colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
 
         # Column-vector instance transforms: translate(position) @ spin @ rotate(orientation) @ scale(scale).
         m = np.zeros((n, 4, 4))
@@ -713,22 +726,36 @@ class _StageReader:
             content = self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced,
                                     outer_color=ctx.outer_color)
             ctx.content.uses_outer |= content.uses_outer  # as for a nested native instance
-            ctx.content.uses_outer_color |= content.uses_outer_color
+            ctx.content.want_colors(content.outer_colors)
+            name = self._instance_color_name(prim, content.outer_colors)
+            if name not in colors_by_name:
+                colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
+            colors = colors_by_name[name]
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
                                           None if colors is None else colors[rows]))
 
-    def _instance_colors(self, prim: Usd.Prim, n: int, read) -> np.ndarray | None:
-        """``(n, 3)`` float32 displayColor of each of the ``n`` instances of PointInstancer ``prim``, from its
-        ``primvars:displayColor``: ``constant`` gives one colour to all, ``vertex`` or ``varying`` one per instance
-        (after its ``indices``), read by ``read`` as the positions are. None when it has none, or (with a warning
-        naming it and what was expected) one that cannot be used: another interpolation, a length other than ``n``."""
-        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayColor")
-        if not (primvar and primvar.HasValue()):
-            return None
+    def _instance_color_name(self, prim: Usd.Prim, wanted: list[str]) -> str | None:
+        """The colour primvar of PointInstancer ``prim`` that colours its instances of a prototype whose geometry
+        lacks the primvars ``wanted`` (``displayColor`` when it lacks none): the first of them it has, or None. An
+        instance has one colour: where it has several of them, the others are ignored with a warning."""
+        api = UsdGeom.PrimvarsAPI(prim)
+        found = [name for name in wanted or ["displayColor"] if api.GetPrimvar(name).HasValue()]
+        if len(found) > 1:
+            self._skip("PointInstancers give one colour per instance: primvars past the first that their prototypes' "
+                       "materials read were ignored", prim, ", ".join(found[1:]))
+        return found[0] if found else None
+
+    def _instance_colors(self, prim: Usd.Prim, n: int, read, name: str) -> np.ndarray | None:
+        """``(n, 3)`` float32 colour of each of the ``n`` instances of PointInstancer ``prim``, from its colour
+        primvar ``name`` (``displayColor``, or the one its prototypes' materials read; the rgb of a 4-vector one):
+        ``constant`` gives one colour to all, ``vertex`` or ``varying`` one per instance (after its ``indices``),
+        read by ``read`` as the positions are. None, with a warning naming it and what was expected, when it cannot
+        be used: another interpolation, a length other than ``n``."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
         raw = read(primvar.GetAttr(), self.time)
         values = np.asarray(raw if raw is not None else [], np.float64)
-        unreadable = "PointInstancer displayColor that cannot be read was ignored"
-        if values.ndim != 2 or values.shape[1] != 3 or primvar.GetElementSize() != 1:
+        unreadable = f"PointInstancer {name} that cannot be read was ignored"
+        if values.ndim != 2 or values.shape[1] not in (3, 4) or primvar.GetElementSize() != 1:
             self._skip(unreadable, prim, f"{primvar.GetTypeName()} of elementSize {primvar.GetElementSize()}")
             return None
         if primvar.IsIndexed():  # flattened as ComputeFlattened does, at the same time as the values
@@ -738,19 +765,20 @@ class _StageReader:
                 self._skip(unreadable, prim, f"indices out of range for {len(values)} values")
                 return None
             values = values[indices]
+        values = values[:, :3]
         interpolation = primvar.GetInterpolation()
         expected = {"constant": (1, "1"), "vertex": (n, "one per instance"), "varying": (n, "one per instance")}
         if interpolation not in expected:
-            self._skip("PointInstancer displayColor of an interpolation other than constant, vertex or varying "
+            self._skip(f"PointInstancer {name} of an interpolation other than constant, vertex or varying "
                        "was ignored", prim, interpolation)
             return None
         if len(values) != expected[interpolation][0]:
             count, meaning = expected[interpolation]
-            self._skip("PointInstancer displayColor of the wrong length was ignored", prim,
+            self._skip(f"PointInstancer {name} of the wrong length was ignored", prim,
                        f"{interpolation} with {len(values)} values, expected {count} ({meaning})")
             return None
         # NaN here would mean "no colour" (Instances.colors) and inf would shade as inf.
-        return np.broadcast_to(self._finite_colors(values, prim), (n, 3))
+        return np.broadcast_to(self._finite_colors(values, prim, name), (n, 3))
 
     def _place_instances(self, world: _Content, scene: Scene) -> np.ndarray | None:
         """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
@@ -828,7 +856,8 @@ class _StageReader:
         counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
         face_materials = self._face_materials(prim, len(counts), ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
-        local = self._read_local_mesh(prim, counts, uv_set)
+        color_name = self.materials.color_primvar(face_materials, prim)
+        local = self._read_local_mesh(prim, counts, uv_set, color_name)
         if local is None:
             return None
         # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
@@ -874,10 +903,10 @@ class _StageReader:
         if local.colors is not None:
             values, corner_index = local.colors
             colors = values[corner_index[:, order]]
-        elif not _has_display_color(prim):
-            ctx.content.uses_outer_color = True
-            if ctx.outer_color is not None:
-                colors = np.tile(np.asarray(ctx.outer_color, np.float32), (len(indices), 3, 1))
+        elif not _has_color(prim, color_name):
+            ctx.content.want_colors([color_name])
+            if ctx.outer_color is not None and ctx.outer_color[0] == color_name:
+                colors = np.tile(np.asarray(ctx.outer_color[1], np.float32), (len(indices), 3, 1))
 
         uvs = None
         if local.uvs is not None:
@@ -983,18 +1012,20 @@ class _StageReader:
             self._skip("world transform is projective; its last column was ignored", prim)
             to_world[3] = (0.0, 0.0, 0.0, 1.0)
 
-        color = None  # none: grey, or its instance's colour
-        primvar = _display_color(prim)
+        material = self._face_materials(prim, 1, ctx)
+        color_name = self.materials.color_primvar(material, prim)
+        color = None  # none: its material's constant (grey by default), or its instance's colour
+        primvar = _color_primvar(prim, color_name)
         if not (primvar and primvar.HasValue()):
-            ctx.content.uses_outer_color = True
-            if ctx.outer_color is not None:
-                color = np.asarray(ctx.outer_color, np.float32)
+            ctx.content.want_colors([color_name])
+            if ctx.outer_color is not None and ctx.outer_color[0] == color_name:
+                color = np.asarray(ctx.outer_color[1], np.float32)
         else:
             color = np.full(3, 0.5, np.float32)
-            values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64).reshape(-1, 3)
+            values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64)
+            values = values[:, :3] if values.ndim == 2 else values.reshape(-1, 3)  # the rgb of a color4f
             if len(values) and np.all(np.isfinite(values)):
                 color = values.mean(axis=0).astype(np.float32)
-        material = self._face_materials(prim, 1, ctx)
         material_id = -1 if material is None else int(material[0])
         shape = Shape(
             path=str(prim.GetPath()),
@@ -1029,8 +1060,10 @@ class _StageReader:
 
     # Meshes
 
-    def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None) -> _LocalMesh | None:
-        """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials)."""
+    def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None,
+                         color_name: str = "displayColor") -> _LocalMesh | None:
+        """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials), with
+        texture coordinates ``uv_set`` and colours from primvar ``color_name``."""
         mesh = UsdGeom.Mesh(prim)
         t = self.time
         face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
@@ -1080,7 +1113,7 @@ class _StageReader:
         topology = (counts, face_indices, tri_corners, face_ids, len(points), refinement)
         # A refined surface makes its own normals (USD: authored normals do not apply to subdivision surfaces).
         normals = self._read_normals(prim, mesh, topology) if refinement is None else None
-        colors = self._read_colors(prim, mesh, topology)
+        colors = self._read_colors(prim, topology, color_name)
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
         flip = self._left_handed(prim, mesh, t)
         smooth = normals is None and scheme in SMOOTH_SCHEMES
@@ -1177,25 +1210,27 @@ class _StageReader:
             return self._read_primvar(prim, attr, mesh.GetNormalsInterpolation(), None, topology)
         return None
 
-    def _read_colors(self, prim, mesh, topology):
-        """``(values (K, 3) float32, corner index (T, 3))`` from ``primvars:displayColor`` (its own or inherited,
-        see :func:`_display_color`), or None."""
-        primvar = _display_color(prim)
+    def _read_colors(self, prim, topology, name: str):
+        """``(values (K, 3) float32, corner index (T, 3))`` from colour primvar ``name`` (``displayColor``, or the
+        one the mesh's material reads; its own or inherited, see :func:`_color_primvar`; the rgb of a 4-vector one),
+        or None."""
+        primvar = _color_primvar(prim, name)
         if not (primvar and primvar.HasValue()):
             return None
-        found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology)
+        width = 4 if "Vec4" in primvar.GetTypeName().cppTypeName else 3
+        found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, width)
         if found is None:
             return None
         values, corner_index = found
-        return self._finite_colors(values, prim), corner_index
+        return self._finite_colors(values[:, :3], prim, name), corner_index
 
-    def _finite_colors(self, values: np.ndarray, prim: Usd.Prim) -> np.ndarray:
-        """``values`` (displayColor rows) as float32, rows that are not finite there replaced by grey 0.5 with a
-        warning naming ``prim``: NaN or inf would render as a wrong colour; gprims fall back to grey too."""
+    def _finite_colors(self, values: np.ndarray, prim: Usd.Prim, name: str = "displayColor") -> np.ndarray:
+        """``values`` (rows of colour primvar ``name``) as float32, rows that are not finite there replaced by grey
+        0.5 with a warning naming ``prim``: NaN or inf would render as a wrong colour; gprims fall back to grey too."""
         values = np.array(values, np.float32)
         bad = ~np.isfinite(values).all(axis=1)
         if bad.any():
-            self._skip("non-finite displayColor values were replaced by grey 0.5", prim)
+            self._skip(f"non-finite {name} values were replaced by grey 0.5", prim)
             values[bad] = 0.5
         return values
 
@@ -1402,15 +1437,17 @@ def _exposure_scale(camera: UsdGeom.Camera, number) -> float:
                      / 100.0 * number(camera.GetExposureResponsivityAttr()) / (fstop * fstop))
 
 
-def _display_color(prim: Usd.Prim) -> UsdGeom.Primvar:
-    """The ``displayColor`` primvar of ``prim``: its own when authored, else a constant one of its nearest ancestor
-    that has one (USD's primvar inheritance, which usdview follows: a colour set on a group colours its meshes)."""
-    return UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(UsdGeom.Tokens.primvarsDisplayColor)
+def _color_primvar(prim: Usd.Prim, name: str) -> UsdGeom.Primvar:
+    """Colour primvar ``name`` (``displayColor``, ...) of ``prim``: its own when authored, else a constant one of its
+    nearest ancestor that has one (USD's primvar inheritance, which usdview follows: a colour set on a group colours
+    its meshes)."""
+    return UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
 
 
-def _has_display_color(prim: Usd.Prim) -> bool:
-    """``prim`` has a ``displayColor`` of its own or inherits one inside its space (see :func:`_display_color`)."""
-    primvar = _display_color(prim)
+def _has_color(prim: Usd.Prim, name: str) -> bool:
+    """``prim`` has colour primvar ``name`` of its own or inherits one inside its space (see
+    :func:`_color_primvar`)."""
+    primvar = _color_primvar(prim, name)
     return bool(primvar and primvar.HasValue())
 
 
