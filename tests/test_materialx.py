@@ -208,14 +208,15 @@ def test_open_pbr_emission_is_luminance_times_colour(tmp_path):
 
 
 def test_an_unsupported_node_keeps_the_constant_with_one_warning(tmp_path):
-    """base_color from a math node (ND_multiply_color3) keeps the value authored beside the connection, with one
-    warning naming the material and the node type; the old fallback found no constant and drew displayColor."""
+    """base_color from a node wrt cannot fold (ND_noise3d_color3; math nodes are folded: test_primvar_colors.py)
+    keeps the value authored beside the connection, with one warning naming the material and the node type; the old
+    fallback found no constant and drew displayColor."""
     stage, path = new_stage(tmp_path)
     quad = add_quad(stage, "/Quad")
     quad.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0.9, 0.9, 0.9)])
     material, shader = mtlx_material(stage, "/Looks/Mixed")
-    node = UsdShade.Shader.Define(stage, "/Looks/Mixed/Multiply")
-    node.CreateIdAttr("ND_multiply_color3")
+    node = UsdShade.Shader.Define(stage, "/Looks/Mixed/Noise")
+    node.CreateIdAttr("ND_noise3d_color3")
     node.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
     base_color = shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f)
     base_color.Set(Gf.Vec3f(0.2, 0.4, 0.6))
@@ -224,7 +225,7 @@ def test_an_unsupported_node_keeps_the_constant_with_one_warning(tmp_path):
     stage.Save()
     scene, messages = load(path)
     mentions = [m for m in messages if "/Looks/Mixed" in m]
-    assert len(mentions) == 1 and "ND_multiply_color3" in mentions[0], messages
+    assert len(mentions) == 1 and "ND_noise3d_color3" in mentions[0], messages
     np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([0.2, 0.4, 0.6], (2, 2, 3)), atol=1e-6)
 
 

@@ -1,17 +1,21 @@
-"""Material colours read from any colour primvar of a mesh (``primvars:temperature``, Houdini's ``Cd``, ...) through
-a UsdPreviewSurface's ``UsdPrimvarReader_float3`` (wrt/materials.py, wrt/usd.py). Before, only ``displayColor`` was
-read; other primvars gave the reader's fallback with a warning."""
+"""Material colours read from any colour primvar of a mesh (``primvars:temperature``, Houdini's ``Cd``, ...), through
+a UsdPreviewSurface's ``UsdPrimvarReader_float3`` or MaterialX's ``geompropvalue`` / ``UsdPrimvarReader`` nodes, and
+MaterialX math nodes folded at load time (wrt/materials.py, wrt/materialx.py, wrt/materialx_fold.py). Before, only
+``displayColor`` was read; other primvars gave the reader's fallback (UsdPreviewSurface) or the surface's constant
+(MaterialX, grey 0.8), and math nodes kept the constant."""
 
 import warnings
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdShade, Vt
+from PIL import Image as PilImage
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 from test_materials import bind, new_stage
 
 import wrt
 
 TEMPERATURE = [(0.9, 0.2, 0.1), (0.1, 0.4, 0.8)]  # the colour of the left and the right quad
+STANDARD = "ND_standard_surface_surfaceshader"
 CAMERA = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)  # sees x, y in [-1, 1]
 
 
@@ -87,6 +91,45 @@ def preview_reader_material(stage, path, varname="temperature", fallback=None, i
     return material
 
 
+def mtlx_node(stage, path, node_id, **inputs):
+    """A MaterialX node of ``node_id`` with ``inputs`` (name -> (type, value or a node to connect to))."""
+    node = UsdShade.Shader.Define(stage, path)
+    node.CreateIdAttr(node_id)
+    for name, (value_type, value) in inputs.items():
+        inp = node.CreateInput(name, value_type)
+        if isinstance(value, UsdShade.Shader):
+            inp.ConnectToSource(value.ConnectableAPI(), "out")
+        else:
+            inp.Set(value)
+    node.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    return node
+
+
+def mtlx_base_color_material(stage, path, make_node):
+    """A standard_surface whose base_color comes from ``make_node(stage, graph path)``'s ``out``, inside a
+    NodeGraph."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr(STANDARD)
+    graph = UsdShade.NodeGraph.Define(stage, f"{path}/Graph")
+    node = make_node(stage, f"{path}/Graph")
+    graph.CreateOutput("color", Sdf.ValueTypeNames.Color3f).ConnectToSource(node.ConnectableAPI(), "out")
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(graph.ConnectableAPI(), "color")
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(shader.ConnectableAPI(), "out")
+    return material
+
+
+def geomprop(name="temperature", node_id="ND_geompropvalue_color3", default=None):
+    """``make_node`` for :func:`mtlx_base_color_material`: a primvar reader node of ``name``."""
+    def make(stage, graph):
+        key = "varname" if "UsdPrimvarReader" in node_id else "geomprop"
+        inputs = {key: (Sdf.ValueTypeNames.String, name)}
+        if default is not None:
+            inputs["fallback" if key == "varname" else "default"] = (Sdf.ValueTypeNames.Color3f, Gf.Vec3f(*default))
+        return mtlx_node(stage, f"{graph}/Reader", node_id, **inputs)
+    return make
+
+
 @pytest.mark.parametrize("interpolation", ["vertex", "uniform", "faceVarying", "indexed"])
 def test_a_preview_surface_reads_any_colour_primvar(tmp_path, interpolation):
     """diffuseColor from ``UsdPrimvarReader_float3`` of ``temperature`` shows the primvar; it was the reader's
@@ -111,13 +154,28 @@ def test_the_rgb_of_a_color4_primvar_is_read(tmp_path):
     np.testing.assert_allclose(albedo(load(path)[0]), halves(*TEMPERATURE), atol=1e-6)
 
 
-@pytest.mark.parametrize("kind", ["preview"])
+@pytest.mark.parametrize("node_id", ["ND_geompropvalue_color3", "ND_UsdPrimvarReader_vector3"])
+def test_materialx_reads_a_colour_primvar(tmp_path, node_id):
+    """standard_surface base_color from a primvar reader node shows the primvar (times base 1); it was its constant,
+    grey 0.8, with a warning naming the node."""
+    stage, path = new_stage(tmp_path)
+    quads = two_quads(stage)
+    add_temperature(quads)
+    bind(quads, mtlx_base_color_material(stage, "/Looks/Heat", geomprop(node_id=node_id)))
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(albedo(scene), halves(*TEMPERATURE), atol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["preview", "mtlx"])
 def test_a_mesh_without_the_primvar_shows_the_fallback(tmp_path, kind):
     """Of two meshes bound to one material, the one with ``temperature`` shows it, the one without shows the
     reader's fallback (MaterialX: its default), not its displayColor nor grey."""
     stage, path = new_stage(tmp_path)
     fallback = (0.25, 0.5, 0.75)
-    material = preview_reader_material(stage, "/Looks/Heat", fallback=fallback)
+    material = (preview_reader_material(stage, "/Looks/Heat", fallback=fallback) if kind == "preview" else
+                mtlx_base_color_material(stage, "/Looks/Heat", geomprop(default=fallback)))
     with_primvar = two_quads(stage, "/With", x=-1.0)  # x in [-2, 0]: the left half of the view
     add_temperature(with_primvar, "constant")
     without = two_quads(stage, "/Without", x=1.0)
@@ -227,3 +285,113 @@ def test_native_instances_hand_down_a_constant_primvar(tmp_path):
     scene, _ = load(path)
     assert len(scene.instances) == 2
     np.testing.assert_allclose(albedo(scene), halves(*TEMPERATURE), atol=1e-6)
+
+
+# MaterialX constant folding
+
+C3 = Sdf.ValueTypeNames.Color3f
+F = Sdf.ValueTypeNames.Float
+
+
+def folded_albedo(tmp_path, make_node, with_primvar=False):
+    stage, path = new_stage(tmp_path)
+    quads = two_quads(stage)
+    if with_primvar:
+        add_temperature(quads)
+    bind(quads, mtlx_base_color_material(stage, "/Looks/Folded", make_node))
+    stage.Save()
+    scene, messages = load(path)
+    assert not [m for m in messages if "/Looks/Folded" in m], messages
+    return albedo(scene), scene
+
+
+def test_multiply_of_two_constants_is_folded(tmp_path):
+    """base_color = multiply(constant (0.5, 0.5, 0.5), constant (1, 0, 0)): (0.5, 0, 0). It was the surface's
+    constant, grey 0.8, with a warning naming the multiply node."""
+    def make(stage, graph):
+        grey = mtlx_node(stage, f"{graph}/Grey", "ND_constant_color3", value=(C3, Gf.Vec3f(0.5)))
+        red = mtlx_node(stage, f"{graph}/Red", "ND_constant_color3", value=(C3, Gf.Vec3f(1, 0, 0)))
+        return mtlx_node(stage, f"{graph}/Times", "ND_multiply_color3", in1=(C3, grey), in2=(C3, red))
+    image, _ = folded_albedo(tmp_path, make)
+    np.testing.assert_allclose(image, halves((0.5, 0, 0), (0.5, 0, 0)), atol=1e-6)
+
+
+def test_mix_convert_extract_combine_are_folded(tmp_path):
+    """mix is ``fg * mix + bg * (1 - mix)``: fg = combine3(extract(blue, 2), 0, 0) = (1, 0, 0), bg blue, mix =
+    convert(0.25) to color3 give (0.25, 0, 0.75); add (0, 0.1, 0) makes it (0.25, 0.1, 0.75)."""
+    def make(stage, graph):
+        blue = mtlx_node(stage, f"{graph}/Blue", "ND_constant_color3", value=(C3, Gf.Vec3f(0, 0, 1)))
+        one = mtlx_node(stage, f"{graph}/One", "ND_extract_color3", **{"in": (C3, blue)},
+                        index=(Sdf.ValueTypeNames.Int, 2))
+        red = mtlx_node(stage, f"{graph}/Red", "ND_combine3_color3", in1=(F, one))
+        quarter = mtlx_node(stage, f"{graph}/Quarter", "ND_convert_float_color3", **{"in": (F, 0.25)})
+        mix = mtlx_node(stage, f"{graph}/Mix", "ND_mix_color3_color3", fg=(C3, red), bg=(C3, blue),
+                        mix=(C3, quarter))
+        return mtlx_node(stage, f"{graph}/Add", "ND_add_color3", in1=(C3, mix), in2=(C3, Gf.Vec3f(0, 0.1, 0)))
+    image, _ = folded_albedo(tmp_path, make)
+    np.testing.assert_allclose(image, halves((0.25, 0.1, 0.75), (0.25, 0.1, 0.75)), atol=1e-6)
+
+
+def test_an_image_times_a_colour_is_the_textures_scale(tmp_path):
+    """multiply(image, (1, 0.5, 0.25)) reads the image scaled by that colour; it was the surface's constant."""
+    png = str(tmp_path / "white_grey.png")
+    PilImage.fromarray(np.array([[[255, 255, 255], [255, 255, 255]]], np.uint8)).save(png)
+
+    def make(stage, graph):
+        image = mtlx_node(stage, f"{graph}/Image", "ND_image_color3", file=(Sdf.ValueTypeNames.Asset, png))
+        return mtlx_node(stage, f"{graph}/Tint", "ND_multiply_color3", in1=(C3, Gf.Vec3f(1, 0.5, 0.25)),
+                         in2=(C3, image))
+    image, scene = folded_albedo(tmp_path, make)
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.textures["diffuseColor"].scale, (1, 0.5, 0.25, 1))
+    np.testing.assert_allclose(image, halves((1, 0.5, 0.25), (1, 0.5, 0.25)), atol=2e-3)
+
+
+def test_a_primvar_times_a_float_is_scaled(tmp_path):
+    """multiply(geompropvalue, 0.5) halves the primvar colours (and its default where the mesh lacks it)."""
+    def make(stage, graph):
+        reader = geomprop()(stage, graph)
+        return mtlx_node(stage, f"{graph}/Half", "ND_multiply_color3FA", in1=(C3, reader), in2=(F, 0.5))
+    image, _ = folded_albedo(tmp_path, make, with_primvar=True)
+    np.testing.assert_allclose(image, halves(*(np.array(TEMPERATURE) * 0.5)), atol=1e-6)
+
+
+def test_a_node_that_cannot_be_folded_is_named_and_the_constant_kept(tmp_path):
+    """multiply of a noise node: the noise node is named in the material's one warning, the constant beside the
+    connection (here the specification's 0.8) is used."""
+    stage, path = new_stage(tmp_path)
+    quads = two_quads(stage)
+
+    def make(stage, graph):
+        noise = mtlx_node(stage, f"{graph}/Noise", "ND_noise3d_color3")
+        return mtlx_node(stage, f"{graph}/Times", "ND_multiply_color3", in1=(C3, noise), in2=(C3, Gf.Vec3f(1, 0, 0)))
+    bind(quads, mtlx_base_color_material(stage, "/Looks/Noisy", make))
+    stage.Save()
+    scene, messages = load(path)
+    (warning,) = [m for m in messages if "/Looks/Noisy" in m]
+    assert "ND_noise3d_color3" in warning and "/Looks/Noisy/Graph/Noise" in warning
+    np.testing.assert_allclose(albedo(scene), halves((0.8,) * 3, (0.8,) * 3), atol=1e-6)
+
+
+# A real scene
+
+def test_teapot_scene_custom_color_teapots_show_their_instancers_primvar(assets):
+    """usd-wg teapotScene: PointInstancers give each teapot a ``custom_color`` that its standard_surface reads
+    through ``ND_UsdPrimvarReader_vector3``; every such teapot in view shows its colour (read with pxr here), where
+    all were grey 0.8."""
+    path = str(assets("teapot_scene_1000"))
+    scene, _ = load(path, time=1)
+    img = wrt.render(scene, width=80, height=60, device="cpu", integrator="albedo")
+    stage = Usd.Stage.Open(path)
+    instance, image = img.aovs["instance"], img.aovs["albedo"]
+    checked = 0
+    for k in np.unique(instance[instance >= 0]):
+        source = scene.instances.sources[scene.instances.source[k]]
+        primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(source)).GetPrimvar("custom_color")
+        if not primvar:
+            continue
+        expected = np.asarray(primvar.ComputeFlattened(1))[scene.instances.index[k]]
+        np.testing.assert_allclose(image[instance == k], np.broadcast_to(expected, image[instance == k].shape),
+                                   atol=1e-6, err_msg=f"{source}[{scene.instances.index[k]}]")
+        checked += 1
+    assert checked >= 20

@@ -48,9 +48,13 @@ MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (
 black), ``uvtiling``/``uvoffset``/``realworldimagesize``/``realworldtilesize`` of ``tiledimage`` as the texture
 transform, and texture coordinates from ``ND_texcoord_vector2`` (the mesh's ``st``) or ``ND_geompropvalue_vector2`` (the
 primvar named by ``geomprop``). Where the file cannot be read, the node's ``default`` is used (the surface input's
-constant when the node has none). Any other node (math, mix, ...) keeps the input's constant: its own authored value,
-else the specification's default. Defaults are the MaterialX library's (``libraries/bxdf/standard_surface.mtlx`` 1.0.1
-and 1.0.0, ``open_pbr_surface.mtlx`` 1.1).
+constant when the node has none). ``base_color`` may also come from a mesh's colour primvar: an
+``ND_UsdPrimvarReader_color3``/``vector3`` or ``ND_geompropvalue_color3``/``vector3`` node
+(:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where the mesh lacks it). Math and channel
+nodes between an input and these sources (``multiply``, ``add``, ``mix``, ``convert``, ...) are folded at load time
+(:mod:`wrt.materialx_fold`): into a constant, or into the texture's or primvar's scale. Any other node keeps the
+input's constant: its own authored value, else the specification's default. Defaults are the MaterialX library's
+(``libraries/bxdf/standard_surface.mtlx`` 1.0.1 and 1.0.0, ``open_pbr_surface.mtlx`` 1.1).
 """
 
 from __future__ import annotations
@@ -60,7 +64,8 @@ import re
 
 import numpy as np
 
-from .materials import Material, TextureInput
+from .materials import COLOR_PRIMVAR_READERS, Material, PrimvarInput, TextureInput
+from .materialx_fold import Folded, Unfoldable, fold
 from .usd_values import value_at
 
 # role -> (input name, specification default); the roles are what wrt's model reads.
@@ -127,9 +132,13 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
     inputs, ignored = MODELS[shader.GetShaderId()]
     graph = _Graph(reader, shader, path, inputs)
     textures = {}
+    primvar = None
 
     def put(slot, value, texture):
-        if texture is not None:
+        nonlocal primvar
+        if isinstance(texture, PrimvarInput):  # only base_color reads one (_Graph.read)
+            primvar = texture
+        elif texture is not None:
             textures[slot] = texture
         return value
 
@@ -151,9 +160,12 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
     if graph.notes:
         reader.skip(f"material {path}: {shader.GetShaderId()} is drawn approximately: {'; '.join(graph.notes)}",
                     shader.GetPrim())
-    return Material(path=path, diffuse_color=diffuse, emissive_color=emissive, metallic=metallic, roughness=roughness,
-                    ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, opacity=opacity,
-                    opacity_threshold=threshold, textures=textures)
+    mat = Material(path=path, diffuse_color=diffuse, emissive_color=emissive, metallic=metallic, roughness=roughness,
+                   ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, opacity=opacity,
+                   opacity_threshold=threshold, textures=textures)
+    if primvar is not None:
+        primvar.apply(mat)
+    return mat
 
 
 class _Graph:
@@ -167,9 +179,11 @@ class _Graph:
         self.inputs = inputs
         self.notes: list[str] = []
 
-    def read(self, role: str) -> tuple[np.ndarray, TextureInput | None]:
+    def read(self, role: str) -> tuple[np.ndarray, TextureInput | PrimvarInput | None]:
         """``(constant, texture)`` of the input playing ``role``: the constant is ``(3,)`` or ``(1,)`` float64 (the
-        texture's fallback where a texture is returned), the texture None unless an image node feeds the input."""
+        texture's fallback where a texture is returned), the texture None unless an image node feeds the input
+        (through nodes :func:`wrt.materialx_fold.fold` folds), or for ``base_color`` a colour primvar reader's
+        :class:`wrt.materials.PrimvarInput`."""
         name, default = self.inputs[role]
         default = np.atleast_1d(np.asarray(default, np.float64))
         found = self.reader._producer(self.shader, name)
@@ -184,12 +198,28 @@ class _Graph:
         node = found[1]
         own = _array(value_at(self.shader.GetInput(name).GetAttr(), self.reader.time), default.size)
         constant = default if own is None else own  # the value authored beside the connection
-        node_id = node.GetShaderId() or ""
-        if IMAGE_NODE.match(node_id):
-            return self._image(node, node_id, constant)
-        self.notes.append(f"{name} comes from a {node_id or 'node without info:id'} node ({node.GetPath()}), "
-                          f"which is not supported; its constant {_format(constant)} is used")
-        return constant, None
+
+        def leaf(source, source_id: str) -> Folded | None:
+            if IMAGE_NODE.match(source_id):
+                return Folded(*self._image(source, source_id, constant))
+            if role == "base_color" and source_id in COLOR_PRIMVAR_READERS:
+                primvar = self.reader.color_primvar_input(source, self.path)
+                return Folded(constant) if primvar is None else Folded(primvar.fallback.astype(np.float64), primvar)
+            return None
+
+        try:
+            folded = fold(self.reader, node, leaf)
+        except Unfoldable as e:
+            node_id = e.node.GetShaderId() or "node without info:id"
+            self.notes.append(f"{name} comes from a {node_id} node ({e.node.GetPath()}), which is not supported; "
+                              f"its constant {_format(constant)} is used")
+            return constant, None
+        value = _array(folded.value, default.size)
+        if value is None:  # a folded value past float64's range
+            self.notes.append(f"{name} is not a finite number after its nodes; its constant {_format(constant)} is "
+                              "used")
+            return constant, None
+        return value, folded.source
 
     def scalar(self, role: str) -> tuple[float, TextureInput | None]:
         """A float input: ``(constant, texture)``; a colour authored on it reads as its mean."""

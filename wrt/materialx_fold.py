@@ -1,0 +1,163 @@
+"""Constant folding of the MaterialX nodes between a surface shader input and its sources (:mod:`wrt.materialx`).
+
+wrt evaluates no node graph per hit: a material input is a constant, a texture (:class:`wrt.materials.TextureInput`,
+``texel * scale + bias``) or a mesh's colour primvar (:class:`wrt.materials.PrimvarInput`, ``primvar * scale``). The
+math and channel nodes below are evaluated once, at load time, as the MaterialX Standard Nodes specification (1.39)
+defines them, with its input defaults:
+
+=====================  ==============================================  ===========================================
+node (``ND_<node>_*``)  output                                          of a texture or primvar
+=====================  ==============================================  ===========================================
+``constant``           ``value`` (0)                                   --
+``dot``                ``in`` (a no-op)                                passed through
+``convert``            ``in``: a float fills every channel; 4 channels  passed through (wrt reads rgb, or one
+                       from 3 add 1 (alpha); 3 from 4 drop the last     channel broadcast, already)
+``multiply``           ``in1 (0) * in2 (1)``, per channel               times a constant: its ``scale``
+``add``, ``subtract``  ``in1 (0) +/- in2 (0)``                          --
+``mix``                ``fg (0) * mix + bg (0) * (1 - mix)``            the chosen one where ``mix`` is 0 or 1
+``extract``            channel ``index`` (0) of ``in``                  a texture's channel
+``combine3``           ``(in1, in2, in3)`` (0 each)                     --
+=====================  ==============================================  ===========================================
+
+Anything else, or a texture or primvar where the table has "--", cannot be folded: :class:`Unfoldable` names the
+node, and the surface input keeps its constant (with a note in the material's warning).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+
+from .materials import PrimvarInput, TextureInput
+
+FOLDABLE = re.compile(r"^ND_(multiply|add|subtract|mix|constant|convert|extract|combine3|dot)_(\w+)$")
+# Channels of each type; a nodedef name ends in its types (ND_mix_color3_color3, ND_multiply_color3FA: in2 a float).
+TYPE_SIZES = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3, "color4": 4,
+              "vector4": 4}
+TYPE_NAME = re.compile("|".join(TYPE_SIZES))
+MAX_DEPTH = 32  # nodes between a surface input and a source; a deeper chain (or a cycle) is not folded
+
+
+@dataclasses.dataclass
+class Folded:
+    """A node output after folding: ``value`` (float64, one entry per channel) is the constant, or for a texture
+    or primvar ``source`` the value where it has none (its fallback, through the same nodes)."""
+
+    value: np.ndarray
+    source: TextureInput | PrimvarInput | None = None
+
+
+class Unfoldable(Exception):
+    """``node`` (a ``UsdShade.Shader``) cannot be folded into a constant, texture or primvar."""
+
+    def __init__(self, node):
+        super().__init__(str(node.GetPath()))
+        self.node = node
+
+
+def fold(reader, node, leaf, depth: int = 0) -> Folded:
+    """The output of MaterialX ``node`` folded: ``leaf(node, info_id)`` gives sources (images, primvar readers) as a
+    :class:`Folded`, or None for any other node; ``reader`` (a :class:`wrt.materials.MaterialReader`) resolves
+    inputs.
+
+    Raises:
+        Unfoldable: naming the first node (depth first) that cannot be folded.
+    """
+    node_id = node.GetShaderId() or ""
+    found = leaf(node, node_id)
+    if found is not None:
+        return found
+    match = FOLDABLE.match(node_id)
+    if match is None or depth >= MAX_DEPTH:
+        raise Unfoldable(node)
+    op, types = match.group(1), match.group(2)
+
+    def arg(name: str, default: float) -> Folded:
+        producer = reader._producer(node, name)
+        if producer is None:
+            return Folded(np.array([default], np.float64))
+        if producer[0] == "shader":
+            return fold(reader, producer[1], leaf, depth + 1)
+        try:
+            value = np.asarray(producer[1], np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise Unfoldable(node) from None
+        if value.size == 0 or not np.all(np.isfinite(value)):
+            raise Unfoldable(node)
+        return Folded(value)
+
+    names = TYPE_NAME.findall(types)  # the output's type: a convert's last, any other node's first
+    if not names:
+        raise Unfoldable(node)
+    size = 1 if op == "extract" else TYPE_SIZES[names[-1 if op == "convert" else 0]]
+    if op in ("constant", "dot", "convert"):
+        found = arg("value" if op == "constant" else "in", 0.0)
+        return found if found.source is not None else Folded(_converted(found.value, size))
+    if op == "extract":
+        return _extract(node, arg("in", 0.0), arg("index", 0.0))
+    if op == "combine3":
+        parts = [arg(name, 0.0) for name in ("in1", "in2", "in3")]
+        if any(p.source is not None for p in parts):
+            raise Unfoldable(node)
+        return Folded(np.array([p.value[0] for p in parts]))
+    if op == "mix":
+        fg, bg, amount = arg("fg", 0.0), arg("bg", 0.0), arg("mix", 0.0)
+        if amount.source is None and np.all(amount.value == 0.0):
+            return bg
+        if amount.source is None and np.all(amount.value == 1.0):
+            return fg
+        if fg.source is not None or bg.source is not None or amount.source is not None:
+            raise Unfoldable(node)
+        mix = _sized(amount.value, size)
+        return Folded(_sized(fg.value, size) * mix + _sized(bg.value, size) * (1.0 - mix))
+    a, b = arg("in1", 0.0), arg("in2", 1.0 if op == "multiply" else 0.0)
+    if a.source is None and b.source is None:
+        a_value, b_value = _sized(a.value, size), _sized(b.value, size)
+        return Folded({"multiply": a_value * b_value, "add": a_value + b_value, "subtract": a_value - b_value}[op])
+    if op != "multiply" or (a.source is not None and b.source is not None):
+        raise Unfoldable(node)
+    varying, factor = (a, b.value) if a.source is not None else (b, a.value)
+    return _scaled(varying, factor)
+
+
+def _sized(value: np.ndarray, size: int) -> np.ndarray:
+    """``value`` with ``size`` channels: one number fills them all (MaterialX's float variants of the nodes)."""
+    return np.full(size, value[0]) if value.size == 1 else np.resize(value, size)
+
+
+def _converted(value: np.ndarray, size: int) -> np.ndarray:
+    """``convert`` of a constant to ``size`` channels: a float fills all of them, a 3-channel value gains alpha 1."""
+    if value.size == 3 and size == 4:
+        return np.append(value, 1.0)
+    return _sized(value, size)
+
+
+def _extract(node, found: Folded, index: Folded) -> Folded:
+    """``extract``: channel ``index`` of ``found``; of an rgb texture that channel's output."""
+    k = int(index.value[0])
+    if index.source is not None or not 0 <= k < 4:
+        raise Unfoldable(node)
+    texture = found.source
+    if texture is None:
+        return Folded(np.array([_sized(found.value, 4)[k]]))
+    if not isinstance(texture, TextureInput) or texture.channel != "rgb":
+        raise Unfoldable(node)
+    texture.channel = "rgba"[k]
+    return Folded(np.array([_sized(found.value, 4)[k]]), texture)
+
+
+def _scaled(varying: Folded, factor: np.ndarray) -> Folded:
+    """``varying`` (a texture or primvar) times the constant ``factor`` (1 or N channels), as its ``scale``."""
+    source = varying.source
+    size = max(varying.value.size, factor.size)
+    value = _sized(varying.value, size) * _sized(factor, size)
+    if isinstance(source, PrimvarInput):
+        source.scale = (np.asarray(source.scale, np.float64) * _sized(factor, 3)).astype(np.float32)
+    else:  # (texel * scale + bias) * factor, and the fallback where a UDIM tile is missing
+        per_channel = _sized(factor, 4) if factor.size != 3 else np.append(factor, 1.0)
+        source.scale = (source.scale * per_channel).astype(np.float32)
+        source.bias = (source.bias * per_channel).astype(np.float32)
+        source.fallback = (source.fallback * per_channel).astype(np.float32)
+    return Folded(value, source)
