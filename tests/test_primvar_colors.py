@@ -356,6 +356,24 @@ def test_a_primvar_times_a_float_is_scaled(tmp_path):
     np.testing.assert_allclose(image, halves(*(np.array(TEMPERATURE) * 0.5)), atol=1e-6)
 
 
+def test_a_scale_past_float32_is_not_folded(tmp_path):
+    """multiply(geompropvalue, 1e39 as a double) would scale the primvar by inf: the multiply is named and the
+    constant (grey 0.8) kept instead."""
+    stage, path = new_stage(tmp_path)
+    quads = two_quads(stage)
+    add_temperature(quads)
+
+    def make(stage, graph):
+        reader = geomprop()(stage, graph)
+        return mtlx_node(stage, f"{graph}/Huge", "ND_multiply_color3FA", in1=(C3, reader),
+                         in2=(Sdf.ValueTypeNames.Double, 1e39))
+    bind(quads, mtlx_base_color_material(stage, "/Looks/Huge", make))
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Huge/Graph/Huge" in m for m in messages), messages
+    np.testing.assert_allclose(albedo(scene), halves((0.8,) * 3, (0.8,) * 3), atol=1e-6)
+
+
 def test_a_node_that_cannot_be_folded_is_named_and_the_constant_kept(tmp_path):
     """multiply of a noise node: the noise node is named in the material's one warning, the constant beside the
     connection (here the specification's 0.8) is used."""

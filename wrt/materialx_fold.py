@@ -119,7 +119,7 @@ def fold(reader, node, leaf, depth: int = 0) -> Folded:
     if op != "multiply" or (a.source is not None and b.source is not None):
         raise Unfoldable(node)
     varying, factor = (a, b.value) if a.source is not None else (b, a.value)
-    return _scaled(varying, factor)
+    return _scaled(node, varying, factor)
 
 
 def _sized(value: np.ndarray, size: int) -> np.ndarray:
@@ -148,16 +148,21 @@ def _extract(node, found: Folded, index: Folded) -> Folded:
     return Folded(np.array([_sized(found.value, 4)[k]]), texture)
 
 
-def _scaled(varying: Folded, factor: np.ndarray) -> Folded:
-    """``varying`` (a texture or primvar) times the constant ``factor`` (1 or N channels), as its ``scale``."""
+def _scaled(node, varying: Folded, factor: np.ndarray) -> Folded:
+    """``varying`` (a texture or primvar) times the constant ``factor`` (1 or N channels), as its ``scale``; a scale
+    past float32's range cannot be folded (``node``, the multiply, is named)."""
     source = varying.source
     size = max(varying.value.size, factor.size)
     value = _sized(varying.value, size) * _sized(factor, size)
-    if isinstance(source, PrimvarInput):
-        source.scale = (np.asarray(source.scale, np.float64) * _sized(factor, 3)).astype(np.float32)
-    else:  # (texel * scale + bias) * factor, and the fallback where a UDIM tile is missing
-        per_channel = _sized(factor, 4) if factor.size != 3 else np.append(factor, 1.0)
-        source.scale = (source.scale * per_channel).astype(np.float32)
-        source.bias = (source.bias * per_channel).astype(np.float32)
-        source.fallback = (source.fallback * per_channel).astype(np.float32)
+    with np.errstate(over="ignore", invalid="ignore"):  # checked below
+        if isinstance(source, PrimvarInput):
+            source.scale = (np.asarray(source.scale, np.float64) * _sized(factor, 3)).astype(np.float32)
+        else:  # (texel * scale + bias) * factor, and the fallback where a UDIM tile is missing
+            per_channel = _sized(factor, 4) if factor.size != 3 else np.append(factor, 1.0)
+            source.scale = (source.scale * per_channel).astype(np.float32)
+            source.bias = (source.bias * per_channel).astype(np.float32)
+            source.fallback = (source.fallback * per_channel).astype(np.float32)
+    for array in (source.scale, getattr(source, "bias", 0.0), getattr(source, "fallback", 0.0)):
+        if not np.all(np.isfinite(array)):
+            raise Unfoldable(node)
     return Folded(value, source)
