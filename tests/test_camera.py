@@ -1,4 +1,4 @@
-"""Camera conventions: usdview's film mapping, row 0 at the top, pixel centres, orthographic cameras."""
+"""Camera conventions: USD's film mapping, row 0 at the top, pixel centres, orthographic cameras."""
 
 import math
 
@@ -89,12 +89,12 @@ def test_orthographic_camera_rays_are_parallel():
     np.testing.assert_allclose(img.aovs["depth"][hit], 5.0, rtol=1e-6)
 
 
-def test_usd_camera_maps_as_usdview(tmp_path):
+def test_usd_camera_maps_film_to_pixels(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "cam.usda"))
     cam = UsdGeom.Camera.Define(stage, "/Cam")
     cam.CreateFocalLengthAttr(50.0)
     cam.CreateHorizontalApertureAttr(36.0)
-    cam.CreateVerticalApertureAttr(10.0)  # ignored: the image aspect decides the vertical extent
+    cam.CreateVerticalApertureAttr(10.0)  # 36 x 10 is wider than the 4:3 image: its height is expanded, its width holds
     cam.CreateClippingRangeAttr(Gf.Vec2f(0.1, 1000.0))
     cam.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 10.0))
     mesh = UsdGeom.Mesh.Define(stage, "/Quad")
@@ -108,6 +108,40 @@ def test_usd_camera_maps_as_usdview(tmp_path):
     assert hit_cols.min() == 150 and hit_cols.max() == 199
     np.testing.assert_allclose(img.aovs["depth"][75, 199], 10.0 * math.hypot(1.0, (199.5 / 200 - 0.5) * 0.72),
                                rtol=1e-5)
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+@pytest.mark.parametrize("size", [(200, 100), (90, 120), (150, 100), (7, 1)])
+def test_usd_camera_aperture_is_expanded_to_the_image_aspect(tmp_path, projection, size):
+    """A USD camera's aperture is conformed to the image as USD's fallback ``aspectRatioConformPolicy``,
+    ``expandAperture``, says (Hydra's default window policy, ``CameraUtilFit``): the whole aperture stays in view and
+    the image shows more on the other axis. Each pixel's ray is the pick ray of USD's own frustum through the pixel
+    centre, the frustum's window grown about its centre to the image aspect. The horizontal aperture was always kept:
+    a 200x100 image of a 36x24 aperture cut away a quarter of its height."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "fit.usda"))
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(1.0, 2.0, 3.0))
+    cam.AddRotateXYZOp().Set(Gf.Vec3f(10.0, 20.0, 30.0))
+    cam.CreateProjectionAttr(projection)
+    cam.CreateHorizontalApertureAttr(36.0)
+    cam.CreateVerticalApertureAttr(24.0)
+    cam.CreateHorizontalApertureOffsetAttr(3.0)
+    cam.CreateVerticalApertureOffsetAttr(-2.0)
+    stage.Save()
+    width, height = size
+    frustum = UsdGeom.Camera(stage.GetPrimAtPath("/Cam")).GetCamera(Usd.TimeCode.Default()).frustum
+    window = frustum.GetWindow()
+    (w, h), centre = window.GetSize(), window.GetMidpoint()
+    w, h = max(w, h * width / height), max(h, w * height / width)  # expandAperture: grown, never cut
+    frustum.SetWindow(Gf.Range2d(centre - Gf.Vec2d(w / 2, h / 2), centre + Gf.Vec2d(w / 2, h / 2)))
+    origins, directions = camera_rays(wrt.load_usd(tmp_path / "fit.usda"), "/Cam", width=width, height=height)
+    for k, (o, d) in enumerate(zip(origins, directions)):
+        i, j = divmod(k, width)
+        ray = frustum.ComputePickRay(Gf.Vec2d(2.0 * (j + 0.5) / width - 1.0, 1.0 - 2.0 * (i + 0.5) / height))
+        expected = np.array(ray.direction) / ray.direction.GetLength()
+        np.testing.assert_allclose(d, expected, atol=1e-6)
+        off_ray = (o - np.array(ray.startPoint)) - np.dot(o - np.array(ray.startPoint), expected) * expected
+        np.testing.assert_allclose(off_ray, 0.0, atol=1e-5)  # the origin lies on USD's pick ray
 
 
 def test_clipping_range_limits_depth():

@@ -1351,6 +1351,7 @@ class _StageReader:
                 clipping_range=(float(near), float(far)),
                 clipping_planes=[tuple(plane) for plane in value_at(camera.GetClippingPlanesAttr(), time) or []],
                 projection=projection,
+                fit="expandAperture",  # USD's fallback aspectRatioConformPolicy
                 f_stop=number(camera.GetFStopAttr()),
                 focus_distance=number(camera.GetFocusDistanceAttr()),
                 exposure_scale=_exposure_scale(camera, number),
