@@ -152,6 +152,20 @@ def test_output_problems_are_one_line_errors_found_before_rendering(tmp_path, ca
     assert not (tmp_path / "out.xyz").exists() and not (tmp_path / "imgs").exists()
 
 
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, where no one creates files")
+@pytest.mark.parametrize("output", ["/proc/x.png", "/proc/x.exr", "/proc/sub/x.npy", "/proc/x_#.png"])
+def test_output_in_a_folder_that_takes_no_files_is_one_line_error_before_rendering(output, capsys):
+    """A folder that takes no files (no write permission; /proc even for root) was found only when the image was
+    saved, after the render: a .png or .npy error named the temporary file beside the target
+    ('/proc/.x.png.<pid>.0.partial.png'), and a .exr one was a traceback (OpenEXR's RuntimeError)."""
+    frames = ["--frames", "0:1"] if "#" in output else []
+    assert main(["render", "--width", "8", "--height", "8", "-o", output, *frames]) == 2
+    lines = error_lines(capsys.readouterr().err)
+    errors = [line for line in lines if line.startswith("wrt: error:")]
+    assert len(errors) == 1 and "cannot write into /proc" in errors[0], lines
+    assert not any("partial" in line or "loaded" in line or "Traceback" in line for line in lines), lines
+
+
 def test_broken_usd_file_names_file_in_one_line(tmp_path):
     bad = tmp_path / "broken.usda"
     bad.write_bytes(b"#usda 1.0\n(\n this is not usd {{{\n")

@@ -203,6 +203,16 @@ def test_save_onto_a_directory_names_the_directory(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["d.png"]
 
 
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, where no one creates files")
+@pytest.mark.parametrize("suffix", [".png", ".exr", ".npy"])
+def test_save_into_a_folder_that_takes_no_files_names_the_target(suffix):
+    """The error named the temporary file beside the target ('/proc/.x.png.<pid>.0.partial.png'), and for .exr it
+    was OpenEXR's RuntimeError, not an OSError."""
+    with pytest.raises(OSError) as error:
+        wrt.Image(rgb=np.zeros((2, 2, 3), np.float32)).save(f"/proc/x{suffix}")
+    assert f"/proc/x{suffix}" in str(error.value) and "partial" not in str(error.value)
+
+
 @pytest.mark.parametrize("suffix", [".png", ".exr", ".npy"])
 def test_save_takes_a_file_name_near_the_length_limit(tmp_path, suffix):
     """The temporary file beside the target was named ``.NAME.<pid>.partial.SUFFIX``: a name of 240 bytes, which

@@ -250,11 +250,19 @@ def _output_for(args, path: Path, several: bool) -> Path:
 
 
 def _check_output_location(directory: Path) -> None:
-    """Raises NotADirectoryError when ``directory`` cannot be created because a file stands in its way."""
+    """Raises NotADirectoryError when ``directory`` cannot be created because a file stands in its way, and an
+    OSError when its nearest existing folder takes no files (no write permission, a read-only file system)."""
+    import tempfile
+
     for ancestor in (directory, *directory.parents):
         if ancestor.exists():
             if not ancestor.is_dir():
                 raise NotADirectoryError(f"cannot write into {directory}: {ancestor} is a file, not a directory")
+            try:  # a file made and removed at once: the only test that holds for root and every file system
+                with tempfile.TemporaryFile(dir=ancestor):
+                    pass
+            except OSError as e:
+                raise OSError(f"cannot write into {directory}: {ancestor} takes no new files ({e.strerror})") from None
             return
 
 

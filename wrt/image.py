@@ -132,6 +132,12 @@ def write_atomically(path: Path, write) -> None:
     stem = os.fsencode(path.name)[:100].decode(errors="ignore")
     partial = path.with_name(f".{stem}.{os.getpid()}.{next(_PARTIAL_COUNTER)}.partial{path.suffix}")
     try:
+        # Created here first, so that a folder that takes no files fails as an OSError naming the file asked for,
+        # not the temporary one (nor OpenEXR's RuntimeError, which EXR's writer gave).
+        try:
+            partial.open("wb").close()
+        except OSError as e:
+            raise type(e)(e.errno, e.strerror, str(path)) from None
         write(partial)
         os.replace(partial, path)
     finally:
