@@ -2,7 +2,8 @@
 (camera, bounce and shadow rays through holes), PointInstancer displayColors (mesh and gprim prototypes), gold
 spheres at three roughnesses (the multiple-scattering lobe), spotlights (ShapingAPI cone, softness, focus), a
 normal-mapped quad under a sun and at a grazing view, a UDIM-textured plane (three tiles and a missing one), and
-tapered Cylinder_1 and Capsule_1 gprims (hits of rays from every side, and images). wrt's shade kernels round alike
+tapered Cylinder_1 and Capsule_1 gprims (hits of rays from every side, and images), and quads coloured by a primvar
+(one without it: the reader's fallback) and by a MaterialX primvar times a constant. wrt's shade kernels round alike
 on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are expected to be equal, but for the
 last bits of transcendental functions (the spotlights' acos and pow).
 
@@ -24,7 +25,18 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cut_out_canopy import write_canopy  # noqa: E402
 from shading_helpers import quad, top_down_camera  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
+from test_materials import bind, new_stage  # noqa: E402
 from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
+from test_primvar_colors import (  # noqa: E402
+    C3,
+    F,
+    add_temperature,
+    geomprop,
+    mtlx_base_color_material,
+    mtlx_node,
+    preview_reader_material,
+    two_quads,
+)
 from test_tapered_gprims import rays_towards, write_stage  # noqa: E402
 from test_udim import BLUE, GREEN, RED, udim_stage, write_tile  # noqa: E402
 
@@ -96,6 +108,26 @@ def main() -> None:
               f"{float(np.nanmax(np.abs(np.where(a.prim >= 0, a.t - b.t, 0.0)))):.3g}")
         cam = wrt.Camera.look_at((1, 3, 9), (1, -2, 3), (0, 1, 0), 40.0)
         compare(f"{type_name} path", scene, devices, camera=cam, width=48, height=48, integrator="path", spp=4)
+
+    stage, path = new_stage(args.out, "parity_primvar.usda")
+    heated, bare = two_quads(stage, "/Heated", x=-1.0), two_quads(stage, "/Bare", x=1.0)
+    scaled = two_quads(stage, "/Scaled")
+    for mesh in (heated, scaled):
+        add_temperature(mesh, "vertex")
+    scaled.AddTranslateOp().Set((0.0, 2.0, 0.0))
+    reader = preview_reader_material(stage, "/Looks/Heat", fallback=(0.25, 0.5, 0.75))
+    bind(heated, reader)
+    bind(bare, reader)
+
+    def half_of_primvar(stage, graph):
+        return mtlx_node(stage, f"{graph}/Half", "ND_multiply_color3FA", in1=(C3, geomprop()(stage, graph)),
+                         in2=(F, 0.5))
+    bind(scaled, mtlx_base_color_material(stage, "/Looks/Half", half_of_primvar))
+    stage.Save()
+    cam = wrt.Camera.look_at((0, -3, 6), (0, 0.5, 0), (0, 1, 0), 50.0)
+    for integrator in ("whitted", "path"):
+        compare(f"primvar colours {integrator}", wrt.load_usd(path), devices, camera=cam, width=48, height=48,
+                integrator=integrator, spp=4)
 
 
 if __name__ == "__main__":
