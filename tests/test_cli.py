@@ -307,3 +307,22 @@ def test_load_warnings_under_the_frames_progress_bar_get_lines_of_their_own(tmp_
     visible = [line.rsplit("\r", 1)[-1] for line in capsys.readouterr().err.split("\n")]
     warned = [line for line in visible if "wrt: warning:" in line]
     assert warned and all(line.startswith("wrt: warning:") for line in warned), warned
+
+
+@pytest.mark.parametrize("frames", [False, True])
+def test_exposure_with_a_linear_output_is_warned_about(tmp_path, capsys, frames):
+    """--exposure scales PNGs only: with .exr or .npy output it did nothing, without a word."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    extra = ["--width", "8", "--height", "6"] + (["--frames", "1:1"] if frames else [])
+    mark = "_#" if frames else ""
+    for name, exposure, warns in (("a.png", "2", False), ("b.npy", "2", True), ("c.npy", "0", False)):
+        stem, suffix = name.split(".")
+        output = tmp_path / f"{stem}{mark}.{suffix}"
+        assert main(["render", str(stage), *extra, "--exposure", exposure, "-o", str(output)]) == 0
+        warned = [line for line in capsys.readouterr().err.splitlines() if "--exposure applies to .png" in line]
+        assert len(warned) == warns, (name, warned)
+    written = {stem: np.load(tmp_path / f"{stem}{'_1' if frames else ''}.npy") for stem in "bc"}
+    np.testing.assert_array_equal(written["b"], written["c"])  # what the warning says: written unscaled

@@ -286,6 +286,15 @@ def _check_log_path(log: Path, outputs: list) -> None:
     _check_output_file(log)
 
 
+def _warn_unused_exposure(exposure: float, outputs: list) -> None:
+    """One warning when ``--exposure`` is given but some outputs are linear (``.exr``, ``.npy``), which it leaves
+    as they are: a user asking for a brighter EXR would otherwise get the same file without a word."""
+    linear = [Path(o) for o in outputs if Path(o).suffix.lower() != ".png"]
+    if exposure != 0.0 and linear:
+        warnings.warn(f"--exposure applies to .png images only; {linear[0].name} is written linear, unscaled",
+                      stacklevel=2)
+
+
 def _check_distinct_outputs(paths: list, outputs: list) -> None:
     """Raises ValueError when two scenes would write the same image (outputs are named by the scene's file stem, so
     ``a/room.usda`` and ``b/room.usda`` meet): the later one would overwrite the first without a word."""
@@ -393,6 +402,7 @@ def _run_render(args) -> int:
     _check_distinct_outputs(paths, outputs)
     for output in outputs:  # an unwritable output fails now, not after a long render
         _check_output_file(check_image_path(output))
+    _warn_unused_exposure(args.exposure, outputs)
     if args.aov_dir:
         _check_output_location(Path(args.aov_dir))
     if not several and not args.log:
@@ -448,6 +458,7 @@ def _run_frames(args, paths: list, progress) -> int:
     # An unwritable output fails now, not after the first frame's load and render.
     for folder in {check_image_path(file).parent for _, file in jobs}:
         _check_output_location(folder)
+    _warn_unused_exposure(args.exposure, [output])
     if args.log:
         _check_log_path(Path(args.log), [file for _, file in jobs])
     if len(jobs) < len(frames):
