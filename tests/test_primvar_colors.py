@@ -347,6 +347,34 @@ def test_an_image_times_a_colour_is_the_textures_scale(tmp_path):
     np.testing.assert_allclose(image, halves((1, 0.5, 0.25), (1, 0.5, 0.25)), atol=2e-3)
 
 
+@pytest.mark.parametrize("tint, expected", [((1.0, 0.0, 0.0), None), ((0.5, 0.5, 0.5), 0.5 * 128 / 255)])
+def test_one_image_channel_times_a_colour(tmp_path, tint, expected):
+    """multiply(convert(extract(image, 3)), tint): the texture reads one channel (alpha 128) and broadcasts it, so a
+    grey tint is its scale (0.25), but a coloured one cannot be (the scale applies before the channel is picked): the
+    multiply is named and the constant kept. A red tint drew the alpha grey (0.5, 0.5, 0.5), and a grey one left
+    alpha unscaled (0.5): the scale's fourth entry was 1."""
+    png = str(tmp_path / "alpha.png")
+    PilImage.fromarray(np.full((2, 2, 4), (255, 255, 255, 128), np.uint8)).save(png)
+
+    def make(stage, graph):
+        image = mtlx_node(stage, f"{graph}/Image", "ND_image_color4", file=(Sdf.ValueTypeNames.Asset, png))
+        alpha = mtlx_node(stage, f"{graph}/Alpha", "ND_extract_color4", **{"in": (C3, image)},
+                          index=(Sdf.ValueTypeNames.Int, 3))
+        grey = mtlx_node(stage, f"{graph}/Grey", "ND_convert_float_color3", **{"in": (F, alpha)})
+        return mtlx_node(stage, f"{graph}/Tint", "ND_multiply_color3", in1=(C3, grey), in2=(C3, Gf.Vec3f(*tint)))
+    stage, path = new_stage(tmp_path)
+    bind(two_quads(stage), mtlx_base_color_material(stage, "/Looks/Tinted", make))
+    stage.Save()
+    scene, messages = load(path)
+    named = [m for m in messages if "/Looks/Tinted/Graph/Tint" in m]
+    if expected is None:
+        assert len(named) == 1, messages
+        np.testing.assert_allclose(albedo(scene), halves((0.8,) * 3, (0.8,) * 3), atol=1e-6)
+    else:
+        assert not named, messages
+        np.testing.assert_allclose(albedo(scene), halves((expected,) * 3, (expected,) * 3), atol=2e-3)
+
+
 def test_a_primvar_times_a_float_is_scaled(tmp_path):
     """multiply(geompropvalue, 0.5) halves the primvar colours (and its default where the mesh lacks it)."""
     def make(stage, graph):

@@ -20,7 +20,9 @@ node (``ND_<node>_*``)  output                                          of a tex
 =====================  ==============================================  ===========================================
 
 Anything else, or a texture or primvar where the table has "--", cannot be folded: :class:`Unfoldable` names the
-node, and the surface input keeps its constant (with a note in the material's warning).
+node, and the surface input keeps its constant (with a note in the material's warning). So is a texture read as one
+channel (a float image, an ``extract``) times a colour whose channels differ: its one channel is broadcast after the
+scale, which therefore cannot tint it.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import re
 
 import numpy as np
 
-from .materials import PrimvarInput, TextureInput
+from .materials import CHANNELS, PrimvarInput, TextureInput
 
 FOLDABLE = re.compile(r"^ND_(multiply|add|subtract|mix|constant|convert|extract|combine3|dot)_(\w+)$")
 # Channels of each type; a nodedef name ends in its types (ND_mix_color3_color3, ND_multiply_color3FA: in2 a float).
@@ -154,11 +156,14 @@ def _scaled(node, varying: Folded, factor: np.ndarray) -> Folded:
     source = varying.source
     size = max(varying.value.size, factor.size)
     value = _sized(varying.value, size) * _sized(factor, size)
+    one_channel = isinstance(source, TextureInput) and CHANNELS[source.channel] < 4  # read and broadcast
+    if one_channel and np.ptp(_sized(factor, 3)) > 0:
+        raise Unfoldable(node)  # a grey channel times a colour: its one scale cannot tint it
     with np.errstate(over="ignore", invalid="ignore"):  # checked below
         if isinstance(source, PrimvarInput):
             source.scale = (np.asarray(source.scale, np.float64) * _sized(factor, 3)).astype(np.float32)
         else:  # (texel * scale + bias) * factor, and the fallback where a UDIM tile is missing
-            per_channel = _sized(factor, 4) if factor.size != 3 else np.append(factor, 1.0)
+            per_channel = _sized(factor, 4) if factor.size != 3 or one_channel else np.append(factor, 1.0)
             source.scale = (source.scale * per_channel).astype(np.float32)
             source.bias = (source.bias * per_channel).astype(np.float32)
             source.fallback = (source.fallback * per_channel).astype(np.float32)
