@@ -183,6 +183,24 @@ def test_data_window_renders_the_pixels_inside_it(tmp_path):
         wrt.render(wrt.load_usd(write_stage(tmp_path, settings=thin, name="thin.usda")))
 
 
+def test_set_cameras_keeps_the_data_window_rule(tmp_path):
+    """set_cameras follows the rule of the constructor: under a data window a stage camera (cropped to 32x16) and a
+    Camera object (64x32) make images of two sizes, so a renderer of one kind refuses cameras of the other. The
+    cropped film was drawn at the renderer's 64x32 (the window's pixels twice over, not the image the stage's
+    camera gives), and a Camera object at the cropped 32x16."""
+    window = DEFAULT_SETTINGS + "\n        uniform float4 dataWindowNDC = (0.25, 0.5, 0.75, 1)"
+    scene = wrt.load_usd(write_stage(tmp_path, settings=window))
+    look = wrt.Camera.look_at((0, 0, 5), (0, 0, 0))
+    for first, other in ((look, "/World/Side"), ("/World/Side", look)):
+        renderer = wrt.Renderer(scene, cameras=[first])
+        with pytest.raises(ValueError, match="crops the stage's cameras but not wrt.Camera objects"):
+            renderer.set_cameras([other])
+    renderer = wrt.Renderer(scene, cameras=["/World/Front"])
+    renderer.set_cameras(["/World/Side"])  # stage cameras, one size: as a renderer made with it
+    image = renderer.render().image(0).rgb
+    np.testing.assert_array_equal(image, wrt.render(scene, camera="/World/Side").rgb)
+
+
 def test_disable_depth_of_field_makes_stage_cameras_pinholes(tmp_path):
     side = SIDE_POSE + "\n        float fStop = 2\n        float focusDistance = 4"
     stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS + "\n        uniform bool disableDepthOfField = 1",

@@ -114,6 +114,15 @@ def resolve_view(scene: Scene, camera=None, width: int | None = None, height: in
     return settings.frame(cam, width, height)
 
 
+def _check_one_size(views: list, width: int, height: int) -> None:
+    """Raises ValueError unless every ``(camera, width, height)`` of ``views`` (:func:`resolve_view`) is of
+    ``width x height``: under the render settings' data window a stage camera's image is the cropped one and a
+    :class:`Camera` object's the whole one."""
+    if any(view[1:] != (width, height) for view in views):
+        raise ValueError("the render settings' dataWindowNDC crops the stage's cameras but not wrt.Camera objects: "
+                         "give cameras of one kind")
+
+
 def shading_data(scene: Scene, device) -> tuple:
     """``(DeviceMaterials, uvs, materials, double_sided, emission estimates)`` of ``scene`` on ``device``, cached."""
     key = ("shading", str(device))
@@ -262,10 +271,8 @@ class Renderer:
         self._asked_size = (width, height)  # as given: set_cameras frames new stage cameras at it
         scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
         views = [resolve_view(scene, c, width, height) for c in ([camera] if cameras is None else cameras)]
-        if len({view[1:] for view in views}) > 1:  # the settings' window crops stage cameras, not Camera objects
-            raise ValueError("the render settings' dataWindowNDC crops the stage's cameras but not wrt.Camera "
-                             "objects: give cameras of one kind")
         width, height = views[0][1:]
+        _check_one_size(views, width, height)
         check_pixels(width, height, len(views))
         if integrator not in INTEGRATORS:
             raise ValueError(f"unknown integrator {integrator!r}; valid integrators: {', '.join(INTEGRATORS)}")
@@ -376,7 +383,9 @@ class Renderer:
         """Renders from ``cameras`` (a list, any length) from now on, e.g. new poses each simulation step; the BVH,
         materials and lights stay (a default headlight turns with each camera)."""
         check_camera_list(cameras)
-        cameras = [resolve_view(self.scene, c, *self._asked_size)[0] for c in cameras]
+        views = [resolve_view(self.scene, c, *self._asked_size) for c in cameras]
+        _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
+        cameras = [view[0] for view in views]
         n = len(cameras) * self.width * self.height
         if not cameras or n > MAX_PIXELS:
             raise ValueError(f"need 1 to {MAX_PIXELS // (self.width * self.height)} cameras, got {len(cameras)}")
