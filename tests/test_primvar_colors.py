@@ -229,10 +229,10 @@ def test_a_refined_subdivision_mesh_keeps_its_primvar_colours(tmp_path):
     np.testing.assert_allclose(albedo(scene, 8)[3:5, [1, 6]], [TEMPERATURE, TEMPERATURE], atol=1e-6)
 
 
-def instancer_stage(tmp_path, own=None):
+def instancer_stage(tmp_path, own=None, material=None):
     """A PointInstancer of two quads (x = -0.5 and 0.5) whose ``primvars:temperature`` gives each instance its
-    colour; the prototype (outside it) is bound to a material reading ``temperature`` and, with ``own``, has a
-    constant one of its own."""
+    colour; the prototype (outside it) is bound to a material reading ``temperature`` (``material(stage)``, else a
+    UsdPreviewSurface's reader) and, with ``own``, has a constant one of its own."""
     stage, path = new_stage(tmp_path, "pi.usda")
     protos = UsdGeom.Scope.Define(stage, "/Protos")
     protos.MakeInvisible()
@@ -242,7 +242,7 @@ def instancer_stage(tmp_path, own=None):
     quad.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
     if own is not None:
         UsdGeom.PrimvarsAPI(quad).CreatePrimvar("temperature", Sdf.ValueTypeNames.Color3fArray, "constant").Set([own])
-    bind(quad, preview_reader_material(stage, "/Looks/Heat"))
+    bind(quad, material(stage) if material else preview_reader_material(stage, "/Looks/Heat"))
     pi = UsdGeom.PointInstancer.Define(stage, "/PI")
     pi.CreatePrototypesRel().SetTargets([quad.GetPath()])
     pi.CreateProtoIndicesAttr([0, 0])
@@ -382,6 +382,24 @@ def test_a_primvar_times_a_float_is_scaled(tmp_path):
         return mtlx_node(stage, f"{graph}/Half", "ND_multiply_color3FA", in1=(C3, reader), in2=(F, 0.5))
     image, _ = folded_albedo(tmp_path, make, with_primvar=True)
     np.testing.assert_allclose(image, halves(*(np.array(TEMPERATURE) * 0.5)), atol=1e-6)
+
+
+def test_instances_primvar_times_a_float_is_scaled_in_the_render_and_the_preview(tmp_path):
+    """multiply(geompropvalue, 0.5) on a prototype whose instances take their instancer's ``temperature``: the render
+    and ``wrt preview``'s triangle colours both show half of it. The preview drew the instancer's colours unscaled
+    (sRGB 243, 124, 89 for 179, 89, 63)."""
+    from wrt.image import to_srgb8
+    from wrt.preview import triangle_colors
+
+    def half_reader(stage, graph):
+        return mtlx_node(stage, f"{graph}/Half", "ND_multiply_color3FA", in1=(C3, geomprop()(stage, graph)),
+                         in2=(F, 0.5))
+    path = instancer_stage(tmp_path, material=lambda stage: mtlx_base_color_material(stage, "/Looks/Half",
+                                                                                     half_reader))
+    scene, _ = load(path)
+    half = np.array(TEMPERATURE, np.float32) * 0.5
+    np.testing.assert_allclose(albedo(scene), halves(*half), atol=1e-6)
+    np.testing.assert_array_equal(triangle_colors(scene), np.repeat(to_srgb8(half), 2, axis=0))
 
 
 def test_a_scale_past_float32_is_not_folded(tmp_path):

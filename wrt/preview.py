@@ -161,15 +161,15 @@ def triangle_colors(scene: Scene) -> np.ndarray:
     A triangle bound to a material (``Mesh.material_ids``) shows the material's constant ``diffuse_color`` (a
     texture's fallback, for textured ones); otherwise (or where the material reads the mesh's colour primvar) the mean
     of its three corner colours (``displayColor`` or that primvar, times the material's scale), or its instance's
-    colour (``Instances.colors``) where its mesh has none; the material's constant (the primvar reader's fallback)
-    or the renderer's grey for meshes with neither.
+    colour (``Instances.colors``, times that scale too) where its mesh has none; the material's constant (the primvar
+    reader's fallback) or the renderer's grey for meshes with neither.
     """
     materials = getattr(scene, "materials", None) or []
     table = np.array([np.asarray(m.diffuse_color, np.float32).reshape(3) for m in materials] or np.zeros((0, 3)))
     scales = np.array([np.asarray(getattr(m, "color_primvar_scale", np.ones(3)), np.float32).reshape(3)
                        for m in materials] or np.zeros((0, 3)))
     from_display = np.array([bool(getattr(m, "diffuse_from_display_color", False)) for m in materials], bool)
-    parts, instance_colored = [], []
+    parts, instance_colored, primvar_scales = [], [], []
     meshes = scene._geometry_meshes() if hasattr(scene, "_geometry_meshes") else scene.meshes
     for mesh in meshes:
         if mesh.colors is not None:
@@ -177,19 +177,22 @@ def triangle_colors(scene: Scene) -> np.ndarray:
         else:
             linear = np.full((len(mesh.indices), 3), GREY, np.float32)
         bound = np.zeros(len(mesh.indices), bool)
+        scale = np.ones((len(mesh.indices), 3), np.float32)  # the material's on the primvar, an instance's too
         ids = getattr(mesh, "material_ids", None)
         if ids is not None and len(table):
             bound = (ids >= 0) & (ids < len(table))
             reads = bound.copy()
             reads[bound] = from_display[ids[bound]]
+            scale[reads] = scales[ids[reads]]
             if mesh.colors is None:  # the primvar reader's fallback
                 linear[reads] = table[ids[reads]]
             else:
-                linear[reads] *= scales[ids[reads]]
+                linear[reads] *= scale[reads]
             bound &= ~reads
             linear[bound] = table[ids[bound]]
         parts.append(linear)
         instance_colored.append(~bound & (mesh.colors is None))
+        primvar_scales.append(scale)
     linear = np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
     linear = _expand_rows(scene, linear)
     colors = getattr(getattr(scene, "instances", None), "colors", ())
@@ -197,7 +200,7 @@ def triangle_colors(scene: Scene) -> np.ndarray:
         prim, instance = scene.split_ids(np.arange(len(linear)))
         color = colors[instance]
         use = (instance >= 0) & np.concatenate(instance_colored)[prim] & ~np.isnan(color[:, 0])
-        linear[use] = color[use]
+        linear[use] = color[use] * np.concatenate(primvar_scales)[prim[use]]
     return to_srgb8(linear)
 
 
