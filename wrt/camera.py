@@ -29,10 +29,11 @@ import numpy as np
 import warp as wp
 
 APERTURE_UNIT = 0.1  # orthographic apertures are in tenths of a scene unit, as in Gf.Camera
-# Camera.fit values: wrt's two names, then UsdRender's aspectRatioConformPolicy tokens ("horizontal" is
+# UsdRender's aspectRatioConformPolicy tokens; Camera.fit takes them and wrt's two names ("horizontal" is
 # adjustApertureHeight and "vertical" adjustApertureWidth under other names).
-FITS = ("horizontal", "vertical", "expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
-        "adjustPixelAspectRatio")
+CONFORM_POLICIES = ("expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
+                    "adjustPixelAspectRatio")
+FITS = ("horizontal", "vertical", *CONFORM_POLICIES)
 MAX_CLIPPING_PLANES = 8  # the rows of DeviceCamera's two plane matrices
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 

@@ -25,11 +25,9 @@ import math
 import os
 import warnings
 
-from .camera import Camera
+from .camera import CONFORM_POLICIES, Camera
 from .errors import SceneError
 
-CONFORM_POLICIES = ("expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
-                    "adjustPixelAspectRatio")
 DEFAULT_WIDTH = 640  # image width without a stage resolution or an explicit one, in pixels
 DEFAULT_HEIGHT = 480  # image height, likewise
 FULL_WINDOW = (0.0, 0.0, 1.0, 1.0)  # dataWindowNDC of the whole image: (xmin, ymin, xmax, ymax)
