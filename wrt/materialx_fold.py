@@ -27,6 +27,7 @@ scale, which therefore cannot tint it.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import re
 
@@ -59,14 +60,31 @@ class Unfoldable(Exception):
         self.node = node
 
 
-def fold(reader, node, leaf, depth: int = 0) -> Folded:
+def fold(reader, node, leaf, depth: int = 0, memo: dict | None = None) -> Folded:
     """The output of MaterialX ``node`` folded: ``leaf(node, info_id)`` gives sources (images, primvar readers) as a
     :class:`Folded`, or None for any other node; ``reader`` (a :class:`wrt.materials.MaterialReader`) resolves
-    inputs.
+    inputs. ``memo`` holds the nodes folded so far in this graph: a node that several inputs read (a diamond) is
+    folded once, where a chain of 20 of them was folded 2^20 times (a load of some 8 minutes).
 
     Raises:
         Unfoldable: naming the first node (depth first) that cannot be folded.
     """
+    memo = {} if memo is None else memo
+    key = (node.GetPath(), depth)  # the depth too: MAX_DEPTH is counted along each path
+    if key not in memo:
+        try:
+            memo[key] = _fold(reader, node, leaf, depth, memo)
+        except Unfoldable as e:
+            memo[key] = e
+    found = memo[key]
+    if isinstance(found, Unfoldable):
+        raise Unfoldable(found.node)
+    # A copy: a texture or primvar is scaled (or its channel picked) in place by the node that reads it.
+    return Folded(found.value, copy.copy(found.source))
+
+
+def _fold(reader, node, leaf, depth: int, memo: dict) -> Folded:
+    """:func:`fold` of a node not in ``memo``."""
     node_id = node.GetShaderId() or ""
     found = leaf(node, node_id)
     if found is not None:
@@ -81,7 +99,7 @@ def fold(reader, node, leaf, depth: int = 0) -> Folded:
         if producer is None:
             return Folded(np.array([default], np.float64))
         if producer[0] == "shader":
-            return fold(reader, producer[1], leaf, depth + 1)
+            return fold(reader, producer[1], leaf, depth + 1, memo)
         try:
             value = np.asarray(producer[1], np.float64).reshape(-1)
         except (TypeError, ValueError):
