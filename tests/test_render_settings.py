@@ -266,10 +266,15 @@ def test_render_settings_that_are_not_a_settings_prim_are_named(tmp_path, capsys
     with pytest.raises(wrt.SceneError, match=r"stage.usda: /World/Box is a Cube, not a RenderSettings prim; "
                        r"RenderSettings prims in the stage: /Render/Settings, /Render/Other"):
         wrt.load_usd(stage, render_settings="/World/Box")
-    bad_default = write_stage(tmp_path, metadata='renderSettingsPrimPath = "/Render/Gone"', name="gone.usda")
-    with pytest.raises(wrt.SceneError, match=r"gone.usda: /Render/Gone \(the stage's renderSettingsPrimPath\) is "
-                       "nothing"):
-        wrt.load_usd(bad_default)
+    # A stale renderSettingsPrimPath (the settings were deleted or renamed) is named in a warning; the stage loads with
+    # wrt's defaults instead of failing for settings nobody asked for.
+    stale = write_stage(tmp_path, metadata='renderSettingsPrimPath = "/Render/Gone"', name="gone.usda")
+    with pytest.warns(UserWarning, match=r"gone.usda: /Render/Gone \(the stage's renderSettingsPrimPath\) is nothing, "
+                      r"not a RenderSettings prim; RenderSettings prims in the stage: /Render/Settings, /Render/Other; "
+                      "it is ignored"):
+        scene = wrt.load_usd(stale)
+    assert scene.render_settings is None
+    assert wrt.render(scene, device="cpu").rgb.shape == (480, 640, 3)  # wrt's default size
     assert main(["render", str(stage), "--render-settings", "/World", "-o", str(tmp_path / "x.png"), "-q"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith("wrt: error: ") and "stage.usda: /World is a Xform, not a RenderSettings" in err[-1]

@@ -103,10 +103,11 @@ class RenderSettings:
 
 
 def read_render_settings(stage, source: str, path: str | None = None) -> RenderSettings | None:
-    """The render settings at prim ``path``, else those ``renderSettingsPrimPath`` names; ``None`` when neither.
+    """The render settings at prim ``path``, else those ``renderSettingsPrimPath`` names; ``None`` when neither, or
+    (with a warning) when the metadata names no ``RenderSettings`` prim.
 
     Raises:
-        SceneError: naming the file and prim: no ``RenderSettings`` prim at the path, a ``camera`` relationship to
+        SceneError: naming the file and prim: no ``RenderSettings`` prim at the ``path`` given, a ``camera`` relationship to
             a prim that is not a camera, or a value the schema does not allow (a resolution that is not positive,
             a pixel aspect ratio that is not a finite positive number, an unknown conform policy, a data window
             that is not finite or empty).
@@ -124,9 +125,14 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
         found = [str(p.GetPath()) for p in stage.Traverse() if p.IsA(UsdRender.Settings)]
         what = f"a {prim.GetTypeName() or 'typeless prim'}" if prim else "nothing"
         what = f"an inactive {prim.GetTypeName()}" if prim and not prim.IsActive() else what
-        where = "" if given else " (the stage's renderSettingsPrimPath)"
-        raise SceneError(f"{path}{where} is {what}, not a RenderSettings prim; RenderSettings prims in the stage: "
-                         f"{', '.join(found) or 'none'}", path=source)
+        found = ", ".join(found) or "none"
+        problem = f"is {what}, not a RenderSettings prim; RenderSettings prims in the stage: {found}"
+        if given:
+            raise SceneError(f"{path} {problem}", path=source)
+        # Metadata left behind when the settings were deleted or renamed: the stage still renders (as usdview draws
+        # it), with wrt's defaults, rather than failing for settings the user never asked for.
+        warnings.warn(f"{name}: {path} (the stage's renderSettingsPrimPath) {problem}; it is ignored", stacklevel=2)
+        return None
     settings = UsdRender.Settings(prim)
     values = _read_base(settings, authored_only=False)
     included = [str(t) for t in settings.GetIncludedPurposesAttr().Get() or []]
