@@ -85,8 +85,12 @@ def test_cli_follows_the_render_settings_camera_and_resolution(tmp_path):
     np.testing.assert_array_equal(settled, explicit)
     front = render_npy(tmp_path, stage, "--camera", "/World/Front", name="front.npy")
     assert front.shape == (32, 64, 3) and not np.array_equal(front, settled)  # --camera wins over the settings'
-    wide = render_npy(tmp_path, stage, "--width", "40", name="wide.npy")
-    assert wide.shape == (32, 40, 3)  # each size option wins on its own
+    half = render_npy(tmp_path, stage, "--width", "32", name="half.npy")
+    assert half.shape == (16, 32, 3)  # one size alone keeps the settings' 2:1 (it rendered 32x32)
+    tall = render_npy(tmp_path, stage, "--height", "5", name="tall.npy")
+    assert tall.shape == (5, 10, 3)
+    wide = render_npy(tmp_path, stage, "--width", "40", "--height", "32", name="wide.npy")
+    assert wide.shape == (32, 40, 3)  # both given: another aspect, the film following the conform policy
 
 
 def test_python_follows_the_render_settings_unless_told_otherwise(tmp_path):

@@ -5,8 +5,9 @@ render_settings=PATH)`` picks another). Its ``camera``, ``resolution``, ``pixelA
 ``aspectRatioConformPolicy``, ``dataWindowNDC`` and ``disableDepthOfField`` are read with the schema's fallbacks,
 then overridden by the values its first ``RenderProduct`` authors, as ``UsdRenderComputeSpec`` merges them;
 ``includedPurposes`` is the settings prim's own (it cannot vary per product). A render uses them where the caller
-did not say otherwise (see :func:`wrt.render.resolve_view`): an explicit camera, width or height wins, each on its
-own, over the stage's, which wins over wrt's defaults (640 x 480, the stage's first camera).
+did not say otherwise (see :func:`wrt.render.resolve_view`): an explicit camera, width or height wins over the
+stage's (one size alone keeps the resolution's aspect), which wins over wrt's defaults (640 x 480, the stage's first
+camera).
 
 The conform policy and pixel aspect become the camera's ``fit`` and ``pixel_aspect_ratio`` (see
 :meth:`wrt.Camera.film_size`). The data window crops (or, past [0, 1], overscans) the image as UsdRender's
@@ -64,8 +65,17 @@ class RenderSettings:
     product_name: str = ""
 
     def image_size(self, width: int | None, height: int | None) -> tuple[int, int]:
-        """``(width, height)`` before the data window: each given one, else the stage's ``resolution``."""
-        return (self.resolution[0] if width is None else width, self.resolution[1] if height is None else height)
+        """``(width, height)`` before the data window: the given ones; where only one is given, the other keeps the
+        ``resolution``'s aspect (as ``usdrecord --imageWidth`` takes the height from the camera: a smaller preview of
+        the shot, not a stretched one); where neither is, the ``resolution``."""
+        res_w, res_h = self.resolution
+        if width is None and height is None:
+            return res_w, res_h
+        if height is None:
+            return width, max(1, round(width * res_h / res_w))
+        if width is None:
+            return max(1, round(height * res_w / res_h)), height
+        return width, height
 
     def frame(self, camera: Camera, width: int, height: int) -> tuple[Camera, int, int]:
         """A stage camera as these settings render it at ``width x height`` pixels (before the data window):
@@ -107,10 +117,10 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
     (with a warning) when the metadata names no ``RenderSettings`` prim.
 
     Raises:
-        SceneError: naming the file and prim: no ``RenderSettings`` prim at the ``path`` given, a ``camera`` relationship to
-            a prim that is not a camera, or a value the schema does not allow (a resolution that is not positive,
-            a pixel aspect ratio that is not a finite positive number, an unknown conform policy, a data window
-            that is not finite or empty).
+        SceneError: naming the file and prim: no ``RenderSettings`` prim at the ``path`` given, a ``camera``
+            relationship to a prim that is not a camera, or a value the schema does not allow (a resolution that is
+            not positive, a pixel aspect ratio that is not a finite positive number, an unknown conform policy, a
+            data window that is not finite or empty).
     """
     from pxr import Sdf, UsdGeom, UsdRender
 
