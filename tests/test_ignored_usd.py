@@ -4,7 +4,7 @@ warning per kind and stage, naming the file, the attribute (or type) and the pri
 
 import warnings
 
-from pxr import Sdf, Usd, UsdGeom, UsdLux
+from pxr import Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 import wrt
 
@@ -64,3 +64,38 @@ def test_light_linking_and_light_filters_are_named(tmp_path):
     filters = about(messages, "ignored.usda", "light:filters")
     assert len(filters) == 1 and filters[0].endswith("(LightFilter: 1): /Filtered"), messages
     assert not about(messages, "/Plain") and not about(messages, "/Everything"), messages
+
+
+def bind_preview(stage, prim, path, **inputs):
+    """Binds a new UsdPreviewSurface material at ``path`` with ``inputs`` (name -> (type, value)) to ``prim``."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    for name, (type_name, value) in inputs.items():
+        shader.CreateInput(name, type_name).Set(value)
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(prim).Bind(material)
+    return material, shader
+
+
+def test_display_opacity_without_a_material_is_named(tmp_path):
+    """``displayOpacity`` below 1 on a prim drawn with the default material (Storm's fallback surface takes it as the
+    alpha) is drawn opaque by wrt: named. With a material it is that material's business, and 1 changes nothing."""
+
+    def build(stage):
+        UsdGeom.PrimvarsAPI(quad(stage, "/Ghost")).CreatePrimvar(
+            "displayOpacity", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.constant).Set([0.3])
+        UsdGeom.Sphere.Define(stage, "/Bubble").CreateDisplayOpacityPrimvar().Set([0.5])
+        quad(stage, "/Solid", 2.0).CreateDisplayOpacityPrimvar().Set([1.0])
+        dressed = quad(stage, "/Dressed", 4.0)
+        dressed.CreateDisplayOpacityPrimvar().Set([0.3])
+        bind_preview(stage, dressed.GetPrim(), "/Looks/Red", diffuseColor=(Sdf.ValueTypeNames.Color3f, (1, 0, 0)))
+        group = UsdGeom.Xform.Define(stage, "/Group")  # a constant one inherited from an ancestor counts too
+        UsdGeom.PrimvarsAPI(group).CreatePrimvar(
+            "displayOpacity", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.constant).Set([0.25])
+        quad(stage, "/Group/Child", 6.0)
+
+    scene, messages = load_with_warnings(tmp_path, build)
+    assert len(scene.meshes) == 4 and len(scene.shapes) == 1
+    found = about(messages, "ignored.usda", "primvars:displayOpacity")
+    assert len(found) == 1 and found[0].endswith("3 prim(s): /Ghost, /Bubble, /Group/Child"), messages

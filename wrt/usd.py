@@ -455,12 +455,32 @@ class _StageReader:
             mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
             if mesh is not None:
                 ctx.content.meshes.append(mesh)
+                self._check_display_opacity(prim, mesh.material_ids is None or bool(np.any(mesh.material_ids < 0)))
             return
         shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
+        if shape is not None:
+            self._check_display_opacity(prim, shape.material_id < 0)
         if shape is not None and self.segments:
             ctx.content.meshes.append(self._tessellated(shape, prim))
         elif shape is not None:
             ctx.content.shapes.append(shape)
+
+    def _check_display_opacity(self, prim: Usd.Prim, default_material: bool):
+        """Names ``prim`` when it is drawn (on some faces) with the default material and its ``displayOpacity`` (its
+        own or a constant inherited one) is below 1 somewhere: Storm's fallback surface takes it as the prim's
+        opacity, wrt's default material is opaque."""
+        if not default_material:
+            return
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
+        if not (primvar and primvar.HasValue()):
+            return
+        try:
+            below = bool(np.any(np.asarray(value_at(primvar.GetAttr(), self.time), np.float64) < 1.0))
+        except (TypeError, ValueError):  # authored with a wrong type: USD renderers do not read it either
+            return
+        if below:
+            self._skip("primvars:displayOpacity below 1 is not read; these prims without a material are drawn opaque",
+                       prim)
 
     # Filters
 
