@@ -4,6 +4,8 @@ warning per kind and stage, naming the file, the attribute (or type) and the pri
 
 import warnings
 
+import numpy as np
+from PIL import Image as PilImage
 from pxr import Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 import wrt
@@ -99,3 +101,43 @@ def test_display_opacity_without_a_material_is_named(tmp_path):
     assert len(scene.meshes) == 4 and len(scene.shapes) == 1
     found = about(messages, "ignored.usda", "primvars:displayOpacity")
     assert len(found) == 1 and found[0].endswith("3 prim(s): /Ghost, /Bubble, /Group/Child"), messages
+
+
+def test_displacement_presence_and_unknown_st_sources_are_named(tmp_path):
+    """A material that displaces (``displacement`` output connected to a UsdPreviewSurface whose ``displacement`` is
+    not 0), ``opacityMode = presence`` with an opacity below 1 and no threshold (coverage in Storm; wrt draws glass),
+    and a texture whose ``st`` comes from a shader wrt does not know are named with their material."""
+
+    def build(stage):
+        bumpy, surface = bind_preview(stage, quad(stage, "/Bumpy").GetPrim(), "/Looks/Bumpy",
+                                      displacement=(Sdf.ValueTypeNames.Float, 0.1))
+        bumpy.CreateDisplacementOutput().ConnectToSource(surface.ConnectableAPI(), "displacement")
+        flat, surface = bind_preview(stage, quad(stage, "/Flat", 2.0).GetPrim(), "/Looks/Flat")
+        flat.CreateDisplacementOutput().ConnectToSource(surface.ConnectableAPI(), "displacement")  # displaces by 0
+        presence = (Sdf.ValueTypeNames.Token, "presence")
+        bind_preview(stage, quad(stage, "/Veil", 4.0).GetPrim(), "/Looks/Veil", opacityMode=presence,
+                     opacity=(Sdf.ValueTypeNames.Float, 0.5))
+        bind_preview(stage, quad(stage, "/Leaf", 6.0).GetPrim(), "/Looks/Leaf", opacityMode=presence,
+                     opacity=(Sdf.ValueTypeNames.Float, 0.5), opacityThreshold=(Sdf.ValueTypeNames.Float, 0.25))
+        bind_preview(stage, quad(stage, "/Opaque", 8.0).GetPrim(), "/Looks/Opaque", opacityMode=presence)
+
+        _, surface = bind_preview(stage, quad(stage, "/Projected", 10.0).GetPrim(), "/Looks/Projected")
+        texture = UsdShade.Shader.Define(stage, "/Looks/Projected/Texture")
+        texture.CreateIdAttr("UsdUVTexture")
+        PilImage.fromarray(np.full((2, 2, 3), 200, np.uint8)).save(tmp_path / "grey.png")
+        texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("grey.png")
+        projection = UsdShade.Shader.Define(stage, "/Looks/Projected/Projection")
+        projection.CreateIdAttr("MyCameraProjection")
+        texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(
+            projection.CreateOutput("result", Sdf.ValueTypeNames.Float2))
+        surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+            texture.CreateOutput("rgb", Sdf.ValueTypeNames.Float3))
+
+    _, messages = load_with_warnings(tmp_path, build)
+    displaced = about(messages, "ignored.usda", "outputs:displacement")
+    assert len(displaced) == 1 and "/Looks/Bumpy" in displaced[0] and "/Looks/Flat" not in displaced[0], messages
+    presence = about(messages, "ignored.usda", "opacityMode = presence")
+    assert len(presence) == 1 and "/Looks/Veil" in presence[0], messages
+    assert not about(messages, "/Looks/Leaf") and not about(messages, "/Looks/Opaque"), messages
+    st = about(messages, "ignored.usda", "MyCameraProjection")
+    assert len(st) == 1 and "/Looks/Projected" in st[0], messages

@@ -24,7 +24,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   (:class:`PrimvarInput`): ``wrt.usd`` reads that primvar into the mesh's per-corner colours where it reads
   ``displayColor`` otherwise (:meth:`MaterialReader.color_primvar`: one per mesh), and a mesh without it shows the
   reader's ``fallback``. ``normal`` is read from a ``UsdUVTexture``'s ``rgb`` output only (a tangent-space normal map:
-  :func:`wrt.shade.shading_point`); ``occlusion`` and ``displacement`` are ignored.
+  :func:`wrt.shade.shading_point`); ``occlusion`` is ignored, and a material whose ``outputs:displacement`` displaces,
+  or that says ``opacityMode = presence`` (drawn as ``transparent``), is reported.
 - A texture that cannot be read is replaced by its ``fallback`` value, with one warning per file.
 - A ``file`` with ``<UDIM>`` in its name reads each tile that exists (1001 to 1100, as ``UsdShade.UdimUtils``
   resolves them) as an image of its own: :attr:`TextureInput.tiles`. Missing tiles read the ``fallback``; a pattern
@@ -699,6 +700,7 @@ class MaterialReader:
             self.skip(f"material {path}: {what}; it falls back to a Lambertian surface of its {name} ({value_text})",
                       prim)
             return Material(path=path, diffuse_color=value, use_specular_workflow=True, roughness=1.0)
+        self._check_displacement(material)
         mat = Material(path=path)
         for name in SLOTS:
             if name == "normal":
@@ -710,7 +712,31 @@ class MaterialReader:
             value = self._constant(shader, name)
             if value is not None:  # unauthored: the default stays
                 self._set_constant(mat, name, field, False, value, shader.GetPrim())
+        see_through = (mat.opacity < 1.0 or "opacity" in mat.textures) and mat.opacity_threshold <= 0
+        if see_through and str(self._constant(shader, "opacityMode") or "") == "presence":
+            self.skip("opacityMode = presence (opacity as coverage) is not supported; opacity below 1 is drawn as "
+                      "glass, as opacityMode = transparent", prim)
         return mat
+
+    def _check_displacement(self, material):
+        """Reports ``material`` when its displacement output displaces: it leads to a UsdPreviewSurface whose
+        ``displacement`` input is connected or not 0, or to any other shader. RenderMan and Karma move the surface;
+        wrt draws it where the mesh is."""
+        from pxr import UsdShade
+
+        for output in material.GetDisplacementOutputs():
+            for attr in output.GetValueProducingAttributes():
+                if UsdShade.Utils.GetType(attr.GetName()) != UsdShade.AttributeType.Output:
+                    continue  # a value on the material's own output: no shader displaces
+                shader = UsdShade.Shader(attr.GetPrim())
+                if shader.GetShaderId() in PREVIEW_SURFACE_IDS:
+                    found = self._producer(shader, "displacement")
+                    value = _rgb(found[1]) if found and found[0] == "value" else None
+                    if found is None or (value is not None and not value.any()):
+                        continue
+                self.skip("displacement (outputs:displacement) is not supported; these materials' surfaces are drawn "
+                          "undisplaced", material.GetPrim(), detail=_shader_name(shader))
+                return
 
     def _fallback_color(self, material) -> tuple[str, np.ndarray] | None:
         """``(input name, (3,) colour)``: the constant base colour (times its weight) of a surface shader this reader
@@ -857,7 +883,7 @@ class MaterialReader:
             wraps.append(token if token in WRAP_MODES else "repeat")  # useMetadata: no metadata is read -> repeat
         scale = self._constant(tex, "scale")
         bias = self._constant(tex, "bias")
-        uv_set, transform = self._st_source(tex)
+        uv_set, transform = self._st_source(tex, material_path)
         return (
             TextureInput(
                 image=image,
@@ -873,8 +899,9 @@ class MaterialReader:
             fallback_value,
         )
 
-    def _st_source(self, tex) -> tuple[str, np.ndarray]:
-        """The primvar feeding ``tex``'s ``st`` and the ``UsdTransform2d`` applied on the way (identity if none)."""
+    def _st_source(self, tex, material_path: str) -> tuple[str, np.ndarray]:
+        """The primvar feeding ``tex``'s ``st`` and the ``UsdTransform2d`` applied on the way (identity if none). A
+        shader other than those two on the way (a projection, a MaterialX node) is reported, and ``st`` read."""
         transform = np.eye(3, dtype=np.float32)
         found = self._producer(tex, "st")
         for _ in range(8):  # follow a short chain of transforms
@@ -894,6 +921,9 @@ class MaterialReader:
                 transform = transform @ _transform2d(rotation, scale, translation)
                 found = self._producer(node, "in")
                 continue
+            self.skip("texture coordinates from shaders other than UsdPrimvarReader_float2 and UsdTransform2d are "
+                      "not supported; these materials' textures read the st primvar", tex.GetPrim(),
+                      detail=f"{material_path}: {node_id or 'no info:id'}")
             return "st", transform
         return "st", transform
 
