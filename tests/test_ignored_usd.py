@@ -6,7 +6,7 @@ import warnings
 
 import numpy as np
 from PIL import Image as PilImage
-from pxr import Sdf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 import wrt
 
@@ -141,3 +141,19 @@ def test_displacement_presence_and_unknown_st_sources_are_named(tmp_path):
     assert not about(messages, "/Looks/Leaf") and not about(messages, "/Looks/Opaque"), messages
     st = about(messages, "ignored.usda", "MyCameraProjection")
     assert len(st) == 1 and "/Looks/Projected" in st[0], messages
+
+
+def test_generative_procedurals_are_named(tmp_path):
+    """A ``GenerativeProcedural`` (Hydra's hdGp procedurals, drawn by usdview and Karma with their plugin) makes no
+    geometry in wrt: named, as unsupported gprim types are."""
+
+    def build(stage):
+        quad(stage, "/Quad")
+        procedural = stage.DefinePrim("/Crowd", "GenerativeProcedural")
+        procedural.CreateAttribute("primvars:hdGp:proceduralType", Sdf.ValueTypeNames.Token).Set("Golaem")
+        UsdGeom.Boundable(procedural).CreateExtentAttr([Gf.Vec3f(-1), Gf.Vec3f(1)])
+
+    scene, messages = load_with_warnings(tmp_path, build)
+    assert len(scene.meshes) == 1
+    found = about(messages, "ignored.usda", "GenerativeProcedural")
+    assert len(found) == 1 and found[0].endswith(": /Crowd"), messages

@@ -67,7 +67,7 @@ import re
 import warnings
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
@@ -431,6 +431,12 @@ class _StageReader:
         elif prim.IsA(UsdGeom.Gprim):
             if self._rendered(prim, ctx):
                 self._read_geometry(prim, ctx)
+        elif prim.IsA(UsdProc.GenerativeProcedural):
+            # Hydra's procedural plugins (hdGp) make its geometry in usdview and Karma; wrt has none to run.
+            if self._rendered(prim, ctx):
+                kind = prim.GetAttribute("primvars:hdGp:proceduralType")
+                self._skip("GenerativeProcedural prims are not evaluated (wrt runs no procedural plugins); skipped",
+                           prim, str(value_at(kind, self.time) or "no hdGp:proceduralType") if kind else None)
         elif prim.IsA(UsdGeom.Camera):
             if ctx.world:
                 scene = self.scene
