@@ -157,3 +157,19 @@ def test_generative_procedurals_are_named(tmp_path):
     assert len(scene.meshes) == 1
     found = about(messages, "ignored.usda", "GenerativeProcedural")
     assert len(found) == 1 and found[0].endswith(": /Crowd"), messages
+
+
+def test_lights_on_gprims_are_named(tmp_path):
+    """``LightAPI`` on a gprim other than a mesh (a glowing ``Sphere``) makes it a light in UsdLux, as MeshLightAPI
+    does a mesh; wrt draws it as a sphere that emits nothing, and says so as it does for mesh lights."""
+
+    def build(stage):
+        bulb = UsdGeom.Sphere.Define(stage, "/Bulb")
+        UsdLux.LightAPI.Apply(bulb.GetPrim()).CreateIntensityAttr(50.0)
+        UsdLux.MeshLightAPI.Apply(quad(stage, "/Panel").GetPrim())
+        UsdGeom.Sphere.Define(stage, "/Plain")
+
+    scene, messages = load_with_warnings(tmp_path, build)
+    assert len(scene.shapes) == 2 and len(scene.meshes) == 1 and not scene.lights
+    found = about(messages, "ignored.usda", "LightAPI")
+    assert len(found) == 1 and found[0].endswith("2 prim(s) (Sphere: 1, Mesh: 1): /Bulb, /Panel"), messages

@@ -455,9 +455,10 @@ class _StageReader:
 
     def _read_geometry(self, prim: Usd.Prim, ctx: _Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating)."""
+        if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI, VolumeLightAPI or a bare LightAPI: the gprim should emit
+            self._skip("mesh lights (MeshLightAPI, or LightAPI on another gprim) are not supported; drawn as geometry "
+                       "that emits nothing", prim, prim.GetTypeName())
         if prim.IsA(UsdGeom.Mesh):
-            if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI: the mesh itself should emit
-                self._skip("mesh lights (MeshLightAPI) are not supported; drawn as meshes that emit nothing", prim)
             mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
             if mesh is not None:
                 ctx.content.meshes.append(mesh)
