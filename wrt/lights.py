@@ -419,13 +419,13 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
         skip("IES light profiles (ShapingAPI shaping:ies:file) are not supported; these lights emit without them",
              prim)
     if result is not None:
-        _check_linking(prim, light, skip)
+        _report_links_and_filters(prim, light, skip)
         # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
         result.shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
     return result
 
 
-def _check_linking(prim, light, skip):
+def _report_links_and_filters(prim, light, skip):
     """Reports light linking, shadow linking and light filters, which wrt does not render: every light lights, and
     shadows from, every prim, unfiltered. Karma and RenderMan honour them, so a stage that relies on them rendered
     differently without a word."""
