@@ -341,7 +341,7 @@ class _StageReader:
         self.time = time
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
         self.refine_level = refine_level  # Catmull-Clark steps for catmullClark meshes
-        self.xforms = xform_cache(time)  # sample-only transform ops read at their first sample (see above)
+        self.xforms = xform_cache(time, stage)  # sample-only transform ops read at their first sample (see above)
         self.contents = {}  # (kind, root path, outer material) -> _Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
