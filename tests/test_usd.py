@@ -161,6 +161,28 @@ def test_meters_per_unit_that_is_zero_negative_or_tiny_falls_back_to_centimetres
     assert scene.meters_per_unit == 0.01
 
 
+def test_layers_in_other_units_or_axes_are_drawn_as_authored_with_a_warning(tmp_path):
+    """A robot link authored in metres and Z-up, referenced into a centimetre Y-up stage: USD neither rescales nor
+    turns it, so neither does wrt (its points are as authored), but the mismatch is named (it was silent); a layer in
+    the stage's own units and axis is not."""
+    write_usda(tmp_path, mesh_usda("Link"), name="link.usda", layer_meta='upAxis = "Z"\n    metersPerUnit = 1')
+    write_usda(tmp_path, mesh_usda("Same"), name="same.usda", layer_meta='upAxis = "Y"\n    metersPerUnit = 0.01')
+    body = 'def "Robot" (\n    prepend references = [@./link.usda@</Link>, @./same.usda@</Same>]\n)\n{\n}\n'
+    path = write_usda(tmp_path, body, layer_meta='upAxis = "Y"\n    metersPerUnit = 0.01')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_usd(path)
+    messages = sorted(str(w.message) for w in caught)
+    assert len(messages) == 2, messages
+    assert messages[0].startswith("scene.usda: metersPerUnit = 0.01, but 1 layer(s) it composes author another "
+                                  "(link.usda: 1)"), messages
+    assert messages[1].startswith("scene.usda: upAxis = Y, but 1 layer(s) it composes author another (link.usda: Z)")
+    assert "same.usda" not in " ".join(messages)
+    (mesh,) = scene.meshes
+    np.testing.assert_allclose(mesh.points, POINTS)  # not converted
+    assert scene.meters_per_unit == 0.01 and scene.up_axis == "Y"
+
+
 @pytest.mark.parametrize("axis", ["X", "y", "sideways"])
 def test_up_axis_other_than_y_or_z_falls_back_to_y_with_a_warning(tmp_path, axis):
     """USD allows only Y and Z; an X stage was taken for Y-up without a word."""

@@ -182,6 +182,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
     if variants:
         apply_variants(stage, source, variants)
     _warn_composition_errors(stage, source)
+    _warn_other_layer_units(stage, source)
     settings = read_render_settings(stage, source, render_settings)
     if stage.GetTimeCodesPerSecond() <= 0:
         # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
@@ -225,6 +226,32 @@ def _warn_composition_errors(stage: Usd.Stage, source: str) -> None:
             f"{shown}",
             stacklevel=3,
         )
+
+
+def _warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
+    """Warns about layers the stage composes (references, payloads, subLayers) that author a ``metersPerUnit`` or
+    ``upAxis`` other than the stage's. USD does not convert them and neither does wrt (their geometry is drawn as
+    authored), so a robot authored in metres referenced into a centimetre stage was drawn 100 times too small, and a
+    Z-up one in a Y-up stage on its side, without a word; a reference that scales or turns it itself is right."""
+
+    def shown(value) -> str:
+        return f"{value:g}" if isinstance(value, float) else str(value)
+
+    own = (stage.GetRootLayer(), stage.GetSessionLayer())
+    stage_values = {"metersPerUnit": UsdGeom.GetStageMetersPerUnit(stage), "upAxis": UsdGeom.GetStageUpAxis(stage)}
+    for key, value in stage_values.items():
+        others = sorted(
+            f"{os.path.basename(layer.identifier)}: {shown(layer.pseudoRoot.GetInfo(key))}"
+            for layer in stage.GetUsedLayers()
+            if layer not in own and layer.pseudoRoot.HasInfo(key) and layer.pseudoRoot.GetInfo(key) != value
+        )
+        if others:
+            warnings.warn(
+                f"{os.path.basename(source)}: {key} = {shown(value)}, but {len(others)} layer(s) it composes author "
+                f"another ({', '.join(others[:3])}{', ...' if len(others) > 3 else ''}); USD does not convert them and "
+                "neither does wrt: they are drawn as authored",
+                stacklevel=3,
+            )
 
 
 def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
