@@ -964,6 +964,20 @@ def test_shared_points_types_policy(assets):
     )
 
 
+def test_mistyped_points_are_skipped_naming_the_type_authored(tmp_path):
+    """Points authored as a flat float[] or a single float3 are skipped, and the warning names those types: it named
+    the schema's point3f[] for both, which is what a user would have had to write."""
+    body = mesh_usda("Flat", points=[], extra="float[] points = [0, 0, 0, 1, 0, 0, 0, 1, 0]")
+    body += mesh_usda("Single", points=[], extra="float3 points = (0, 0, 0)")
+    body = body.replace("point3f[] points = []", "")  # only the mistyped points
+    with pytest.warns(UserWarning, match="not an array of 3-vectors") as record:
+        scene = load_usd(write_usda(tmp_path, body))
+    (message,) = [str(w.message) for w in record if "3-vectors" in str(w.message)]
+    assert "float[] holding FloatArray: 1" in message and "float3 holding Vec3f: 1" in message, message
+    assert "point3f" not in message
+    assert scene.meshes == []
+
+
 def test_shared_cornell_box_camera(assets):
     scene = load(assets("cornell_box"))
     assert len(scene.cameras) == 1

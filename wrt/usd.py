@@ -1131,11 +1131,10 @@ class _StageReader:
             return None
         points = np.asarray(raw_points)
         if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
-            type_name = mesh.GetPointsAttr().GetTypeName()
             self._skip(
                 "meshes whose points are not an array of 3-vectors were skipped",
                 prim,
-                f"{type_name} holding {type(raw_points).__name__}",
+                f"{self._authored_type(mesh.GetPointsAttr())} holding {type(raw_points).__name__}",
             )
             return None
         points = points.astype(np.float64)
@@ -1215,10 +1214,7 @@ class _StageReader:
             return np.zeros(0, np.int64)
         array = np.asarray(value)
         if array.ndim != 1 or array.dtype.kind not in "iu":
-            stack = self._property_stack(attr)
-            # The schema's type name is int[] whatever was authored; the spec holds the authored one.
-            authored = str(stack[0].typeName) if stack else type(value).__name__
-            raise self._error(f"{attr.GetName()} must be int[], not {authored}", prim, attr)
+            raise self._error(f"{attr.GetName()} must be int[], not {self._authored_type(attr)}", prim, attr)
         return array.astype(np.int64)
 
     def _check_topology(self, prim, counts, face_indices, points):
@@ -1318,7 +1314,7 @@ class _StageReader:
             self._skip(
                 f"{name} values that are not an array of {components}-vectors were ignored",
                 prim,
-                f"{attr.GetTypeName()} holding {type(raw).__name__}",
+                f"{self._authored_type(attr)} holding {type(raw).__name__}",
             )
             return None
         values = values.astype(np.float64)
@@ -1422,6 +1418,13 @@ class _StageReader:
             return attr.GetPropertyStack(self.time)
         except Tf.ErrorException:
             return []
+
+    def _authored_type(self, attr: Usd.Attribute) -> str:
+        """The value type ``attr`` is authored with: a schema attribute's type name is the schema's whatever was
+        authored (``float[] points`` read as ``point3f[]``, ``float3 points`` too); its strongest spec holds the
+        authored one."""
+        stack = self._property_stack(attr)
+        return str(stack[0].typeName) if stack else str(attr.GetTypeName())
 
     def _error(self, message: str, prim: Usd.Prim, attr: Usd.Attribute | None = None) -> SceneError:
         """A SceneError naming the file and the prim, plus the layer the bad value is authored in if different."""
