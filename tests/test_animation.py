@@ -380,6 +380,37 @@ def test_worker_warnings_reach_the_caller_once(tmp_path):
     assert len(messages) == 1 and "/M" in messages[0]
 
 
+def sigint_is_ignored(answers):
+    import signal
+
+    answers.put(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)
+
+
+def test_frame_workers_start_with_ctrl_c_ignored():
+    """The terminal's Ctrl-C reaches every process of the group: a worker still importing, before its initializer
+    ignores it, printed a KeyboardInterrupt traceback (the Ctrl-C test below, 2 runs in 6 on a loaded machine).
+    Processes started inside _children_ignore_ctrl_c start with it ignored; the parent's handler comes back after."""
+    import multiprocessing
+    import signal
+
+    from wrt.animation import _children_ignore_ctrl_c
+
+    context = multiprocessing.get_context("spawn")
+    answers = context.Queue()
+    before = signal.getsignal(signal.SIGINT)
+    for ignored in (True, False):
+        if ignored:
+            with _children_ignore_ctrl_c():
+                child = context.Process(target=sigint_is_ignored, args=(answers,))
+                child.start()
+        else:
+            child = context.Process(target=sigint_is_ignored, args=(answers,))
+            child.start()
+        child.join(60)
+        assert answers.get(timeout=60) is ignored
+    assert signal.getsignal(signal.SIGINT) is before
+
+
 def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(animated, tmp_path):
     """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) during ``--frames --devices`` left the
     process pool with shutdown(wait=True): every queued frame was rendered first, and their images thrown away."""

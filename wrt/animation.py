@@ -24,6 +24,7 @@ image.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -304,7 +305,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         import concurrent.futures
         import multiprocessing
 
-        claims = multiprocessing.get_context("spawn").Manager().Queue()
+        with _children_ignore_ctrl_c():
+            claims = multiprocessing.get_context("spawn").Manager().Queue()
         for device in devices:
             claims.put(str(device))
         write = _frame_writer(jobs, rows)
@@ -312,8 +314,9 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             len(devices), mp_context=multiprocessing.get_context("spawn"), initializer=_claim_device, initargs=(claims,)
         )
         try:
-            futures = {pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options)):
-                       (frame, file) for frame, file in jobs}
+            with _children_ignore_ctrl_c():  # the workers start at the submits
+                futures = {pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options)):
+                           (frame, file) for frame, file in jobs}
             for future in concurrent.futures.as_completed(futures):
                 try:
                     write(future.result())
@@ -334,6 +337,25 @@ def frame_error_row(frame: float, file, error: SceneError) -> dict:
     (``"SceneError: "`` and the first line of the message, as the rows of a batch of scenes) and ``finished_at``."""
     return {"frame": float(frame), "output": str(file), "error": f"SceneError: {str(error).splitlines()[0]}",
             "finished_at": _time.time()}
+
+
+@contextlib.contextmanager
+def _children_ignore_ctrl_c():
+    """Processes started inside start with Ctrl-C ignored: an ignored signal stays ignored across exec, and Python
+    then installs no KeyboardInterrupt handler. A worker (or the Manager's server) hit by the terminal's SIGINT while
+    still importing, before :func:`_claim_device` ignores it, printed a traceback of its own. The parent ignores it
+    too meanwhile: the submits and the Manager's start take milliseconds."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():  # signal.signal works in the main thread only
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _stop_pool(pool) -> None:
