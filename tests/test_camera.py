@@ -80,6 +80,20 @@ def test_look_at_fov_is_vertical():
     np.testing.assert_allclose(origins, 0.0)
 
 
+def test_look_at_and_orthographic_take_another_fit():
+    """fit="horizontal" puts the look_at angle (and the orthographic extent) across the width; passing it raised
+    "got multiple values for keyword argument 'fit'"."""
+    cam = wrt.Camera.look_at(eye=(0, 0, 0), target=(0, 0, -1), fov_y_deg=90.0, fit="horizontal")
+    scene = quad_scene(-1000.0, 1000.0, -1000.0, 1000.0, -10.0)
+    _, directions = camera_rays(scene, cam, width=40, height=20)
+    d = directions.reshape(20, 40, 3)
+    right = math.degrees(math.atan2(d[10, 39, 0], -d[10, 39, 2]))  # 0.5 pixel inside the 45-degree edge
+    assert right == pytest.approx(math.degrees(math.atan(1.0 - 1.0 / 40)), abs=1e-3)
+    ortho = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0, fit="horizontal")
+    origins, _ = camera_rays(scene, ortho, width=40, height=20)
+    assert origins.reshape(20, 40, 3)[10, 39, 0] == pytest.approx(1.0 - 1.0 / 40, abs=1e-6)  # 2 units wide
+
+
 def test_orthographic_camera_rays_are_parallel():
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=2.0)
     scene = quad_scene(-0.5, 0.5, -0.5, 0.5, 0.0)

@@ -262,27 +262,30 @@ class Camera:
 
     @classmethod
     def look_at(cls, eye, target, up=(0.0, 1.0, 0.0), fov_y_deg: float = 45.0, **kwargs) -> Camera:
-        """A perspective camera at ``eye`` looking at ``target``, with a vertical field of view in degrees."""
+        """A perspective camera at ``eye`` looking at ``target``, with a vertical field of view in degrees (square
+        apertures of that angle and ``fit="vertical"``; another ``fit`` keeps the angle on its own axis instead, e.g.
+        ``"horizontal"`` across the image's width)."""
         if not 0.0 < fov_y_deg < 180.0:
             raise ValueError(f"fov_y_deg must lie in (0, 180), got {fov_y_deg}")
         aperture = 2.0 * kwargs.get("focal_length", 50.0) * math.tan(math.radians(fov_y_deg) / 2.0)
         kwargs.setdefault("vertical_aperture", aperture)
         kwargs.setdefault("horizontal_aperture", aperture)
-        return cls(to_world=_look_at_matrix(eye, target, up), fit="vertical", **kwargs)
+        kwargs.setdefault("fit", "vertical")
+        return cls(to_world=_look_at_matrix(eye, target, up), **kwargs)
 
     @classmethod
     def orthographic(cls, eye, target, up=(0.0, 1.0, 0.0), height: float = 2.0, **kwargs) -> Camera:
-        """An orthographic camera at ``eye`` looking at ``target`` whose view is ``height`` scene units tall."""
+        """An orthographic camera at ``eye`` looking at ``target`` whose view is ``height`` scene units tall (with
+        another ``fit``, that extent lies on its axis: ``"horizontal"``, ``height`` units wide)."""
         if not (_finite(height) and height > 0):
             raise ValueError(f"orthographic height must be a finite positive number, got {_show(height)}")
         aperture = height / APERTURE_UNIT
         return cls(
             to_world=_look_at_matrix(eye, target, up),
             projection="orthographic",
-            fit="vertical",
             vertical_aperture=aperture,
             horizontal_aperture=aperture,
-            **kwargs,
+            **{"fit": "vertical", **kwargs},
         )
 
     @property
