@@ -149,11 +149,11 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
     values["included_purposes"] = ("default", *(t for t in included if t != "default"))  # default: always drawn
     _check_values(values, dict(path=source, prim=str(path)))
     product, camera_from = "", str(path)
-    products = [t for t in settings.GetProductsRel().GetForwardedTargets()
-                if stage.GetPrimAtPath(t) and stage.GetPrimAtPath(t).IsA(UsdRender.Product)]
+    products = [prim for prim in map(stage.GetPrimAtPath, settings.GetProductsRel().GetForwardedTargets())
+                if prim and prim.IsA(UsdRender.Product)]
     if products:
-        product = str(products[0])
-        render_product = UsdRender.Product(stage.GetPrimAtPath(products[0]))
+        product = str(products[0].GetPath())
+        render_product = UsdRender.Product(products[0])
         overrides = _read_base(render_product, authored_only=True)
         camera_from = product if "camera" in overrides else camera_from
         values.update(overrides)
