@@ -110,7 +110,7 @@ def read_shaping(prim, get) -> tuple[Shaping | None, bool]:
 
     Args:
         prim: a ``UsdLux`` light prim.
-        get: ``get(attr, default)`` of :func:`wrt.lights.read_light` (unprefixed names of old files included).
+        get: ``get(attr, default)`` of :func:`wrt.usd_lights.read_light` (unprefixed names of old files included).
     """
     from pxr import UsdLux
 

@@ -72,7 +72,6 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc, UsdShade
 from .camera import Camera
 from .errors import SceneError
 from .instancing import Instances, Prototype, group_rows, invert_transforms, world_boxes
-from .lights import read_light
 from .materials import MaterialReader, bound_material
 from .primitives import (
     DEFAULT_SEGMENTS,
@@ -86,6 +85,7 @@ from .primitives import (
 from .render_settings import RenderSettings, read_render_settings
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, Refinement
+from .usd_lights import read_light
 from .usd_skel import SkelPoser
 from .usd_values import held_value, moved_positions, read_time, spun_rotations, value_at
 from .usd_variants import apply_variants

@@ -1,0 +1,251 @@
+"""Reading UsdLux light prims into the host-side lights of :mod:`wrt.lights` (radiometry, sampling and the device
+side live there)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import SceneError
+from .light_shaping import Shaping, primary_axis, read_shaping
+from .lights import INPUTS_PREFIX, CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
+from .scene import DistantLight
+
+
+def read_light(prim, xforms, time, up_axis: str, skip):
+    """The light of a ``UsdLux`` light prim, or None (recorded through ``skip``) for unsupported kinds.
+
+    Args:
+        prim: a prim with ``UsdLux.LightAPI``.
+        xforms: a ``UsdGeom.XformCache`` at ``time``.
+        time: ``Usd.TimeCode``.
+        up_axis: the stage's up axis, for ``DomeLight_1``'s ``poleAxis``.
+        skip: ``skip(reason, prim, detail=None)``.
+    """
+    from .usd_values import value_at
+
+    legacy = []  # names read without their "inputs:" prefix, for one warning
+
+    def get(attr, default):
+        # Files written before UsdLux prefixed its inputs (Omniverse and Isaac Sim content of that time) author
+        # "intensity", "radius", "texture:file" ...: USD no longer reads them, so such a light came out at the
+        # schema's fallbacks (intensity 1, white, radius 0.5) without a word. The old name counts when the
+        # prefixed one is not authored, as Omniverse's renderers still read it.
+        name = attr.GetName() if attr is not None else ""
+        if name.startswith(INPUTS_PREFIX) and not (attr and attr.HasAuthoredValue()):
+            old = prim.GetAttribute(name[len(INPUTS_PREFIX):])
+            if old and old.HasAuthoredValue():
+                if old.GetName() not in legacy:
+                    legacy.append(old.GetName())
+                attr = old
+        value = value_at(attr, time) if attr else None
+        return default if value is None else value
+
+    result = _read_light(prim, xforms, time, up_axis, skip, get)
+    if legacy:
+        skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
+             "inputs: attributes", prim, ", ".join(legacy))
+    return result
+
+
+def _read_light(prim, xforms, time, up_axis: str, skip, get):
+    """:func:`read_light` with ``get(attr, default)`` reading an attribute (or its unprefixed name)."""
+    from pxr import UsdLux
+
+    light = UsdLux.LightAPI(prim)
+    color = np.array(get(light.GetColorAttr(), (1.0, 1.0, 1.0)), dtype=np.float64)
+    intensity = float(get(light.GetIntensityAttr(), 1.0))
+    exposure = float(get(light.GetExposureAttr(), 0.0))
+    if get(light.GetEnableColorTemperatureAttr(), False):
+        kelvin = float(get(light.GetColorTemperatureAttr(), 6500.0))
+        color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
+    # An exposure of 1024 or more overflows 2.0**exposure (a bare OverflowError out of load_usd): let it become
+    # inf in numpy instead, and be skipped below like any other colour that is not finite.
+    with np.errstate(over="ignore", invalid="ignore"):
+        color = (color * intensity * np.exp2(exposure)).astype(np.float32)
+    normalize = bool(get(light.GetNormalizeAttr(), False))
+    m = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
+    path = str(prim.GetPath())
+    if not (np.all(np.isfinite(color)) and np.all(np.isfinite(m))):
+        skip("lights whose colour * intensity * 2^exposure or transform is not finite were skipped", prim)
+        return None
+    if np.any(color < 0.0):  # a light cannot take light away: negative pixels would follow
+        skip("negative light colour or intensity was clamped to 0", prim)
+        color = np.maximum(color, 0.0)
+    if float(get(light.GetDiffuseAttr(), 1.0)) != 1.0 or float(get(light.GetSpecularAttr(), 1.0)) != 1.0:
+        skip("light diffuse and specular multipliers are not supported; these lights light both fully", prim)
+    if _shadow_tinted(prim, get):
+        skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
+             prim)
+    try:
+        shaping, ies = read_shaping(prim, get)
+        result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get)
+        if shaping is not None:
+            result = _shaped(result, shaping, m, prim, skip)
+    except SceneError as e:  # a value the checks above let through, e.g. a radius that overflows once scaled
+        skip("lights with values wrt cannot use were skipped", prim, str(e).removeprefix(f"{path}: "))
+        return None
+    if ies:
+        skip("IES light profiles (ShapingAPI shaping:ies:file) are not supported; these lights emit without them",
+             prim)
+    if result is not None:
+        _report_links_and_filters(prim, light, skip)
+        # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
+        result.shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
+    return result
+
+
+def _report_links_and_filters(prim, light, skip):
+    """Reports light linking, shadow linking and light filters, which wrt does not render: every light lights, and
+    shadows from, every prim, unfiltered. Karma and RenderMan honour them, so a stage that relies on them rendered
+    differently without a word."""
+    if not _holds_everything(light.GetLightLinkCollectionAPI()):
+        skip("light linking (collection:lightLink) is not supported; these lights light every prim", prim)
+    if not _holds_everything(light.GetShadowLinkCollectionAPI()):
+        skip("shadow linking (collection:shadowLink) is not supported; every prim casts these lights' shadows", prim)
+    filters = light.GetFiltersRel().GetForwardedTargets() if light.GetFiltersRel() else []
+    for target in filters:
+        found = prim.GetStage().GetPrimAtPath(target)
+        kind = (found.GetTypeName() if found else "") or "missing prim"
+        skip("light filters (light:filters) are not supported; these lights shine unfiltered", prim, str(kind))
+
+
+def _holds_everything(collection) -> bool:
+    """Whether a light's linking collection holds every prim, as UsdLux's fallback does (``includeRoot`` with nothing
+    excluded; or, in expression mode, an expression matching everything). Membership is USD's own query, so
+    ``includes`` beside the fallback ``includeRoot``, and ``expansionRule``, count as USD counts them."""
+    from pxr import Sdf, Tf
+
+    try:
+        query = collection.ComputeMembershipQuery()
+        if not query.UsesPathExpansionRuleMap():
+            return collection.ResolveCompleteMembershipExpression() == Sdf.PathExpression.Everything()
+    except Tf.ErrorException:  # a collection USD cannot resolve (one that includes itself): not the default either
+        return False
+    rules = query.GetAsPathExpansionRuleMap()
+    everything = rules.get(Sdf.Path.absoluteRootPath) in ("expandPrims", "expandPrimsAndProperties")
+    return everything and not query.HasExcludes()
+
+
+def _shadow_tinted(prim, get) -> bool:
+    """True when ShadowAPI's colour, distance or falloff differ from their fallbacks (plain black shadows)."""
+    fallbacks = {"color": (0.0, 0.0, 0.0), "distance": -1.0, "falloff": -1.0, "falloffGamma": 1.0}
+    for name, fallback in fallbacks.items():
+        value = get(prim.GetAttribute(f"inputs:shadow:{name}"), fallback)
+        try:
+            if not np.allclose(np.asarray(value, np.float64), fallback):
+                return True
+        except (TypeError, ValueError):  # a value of the wrong type: warned about like a tint
+            return True
+    return False
+
+
+def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
+    """The light object of ``prim``'s UsdLux type (see :func:`read_light`)."""
+    from pxr import UsdLux
+
+    def sizes(*attrs):
+        """The values of ``(attr, name, fallback)`` size attributes, or None (skipped with a warning) when one is
+        negative or not a finite number: a NaN or infinite radius or width lit nothing without a word."""
+        values = []
+        for attr, name, fallback in attrs:
+            value = get(attr, fallback)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):  # authored with a wrong type
+                value = math.nan
+            if not (math.isfinite(value) and value >= 0.0):
+                skip("lights with a negative or non-finite size were skipped", prim, f"inputs:{name} = {value:g}")
+                return None
+            values.append(value)
+        return values
+
+    if prim.IsA(UsdLux.DistantLight):
+        d = UsdLux.DistantLight(prim)
+        direction = m[:3, :3] @ np.array([0.0, 0.0, -1.0])
+        length = np.linalg.norm(direction)
+        if not length > 0.0:
+            skip("lights with a degenerate transform were skipped", prim)
+            return None
+        found = sizes((d.GetAngleAttr(), "angle", 0.53))
+        if found is None:
+            return None
+        return DistantLight(direction=direction / length, color=color, path=path, angle=found[0], normalize=normalize)
+    if prim.IsA(UsdLux.SphereLight):
+        s = UsdLux.SphereLight(prim)
+        found = sizes((s.GetRadiusAttr(), "radius", 0.5))
+        if found is None:
+            return None
+        axes = np.linalg.norm(m[:3, :3], axis=0)
+        scale = float(np.mean(axes))
+        if not np.allclose(axes, scale, rtol=1e-4):
+            skip("non-uniformly scaled SphereLights are rendered as spheres of the mean scaled radius", prim)
+        radius = found[0] * scale
+        treat = bool(get(s.GetTreatAsPointAttr(), False))
+        return SphereLight(m[:3, 3].copy(), radius, color, normalize, treat or radius <= 0.0, path)
+    if prim.IsA(UsdLux.RectLight):
+        r = UsdLux.RectLight(prim)
+        found = sizes((r.GetWidthAttr(), "width", 1.0), (r.GetHeightAttr(), "height", 1.0))
+        if found is None:
+            return None
+        if get(r.GetTextureFileAttr(), None):
+            skip("RectLight textures are not supported; the light's colour is used", prim)
+        return RectLight(m, found[0], found[1], color, normalize, path)
+    if prim.IsA(UsdLux.DiskLight):
+        found = sizes((UsdLux.DiskLight(prim).GetRadiusAttr(), "radius", 0.5))
+        return None if found is None else DiskLight(m, found[0], color, normalize, path)
+    if prim.IsA(UsdLux.CylinderLight):
+        c = UsdLux.CylinderLight(prim)
+        found = sizes((c.GetLengthAttr(), "length", 1.0), (c.GetRadiusAttr(), "radius", 0.5))
+        return None if found is None else CylinderLight(m, found[0], found[1], color, normalize, path)
+    dome_types = [UsdLux.DomeLight] + ([UsdLux.DomeLight_1] if hasattr(UsdLux, "DomeLight_1") else [])
+    if any(prim.IsA(t) for t in dome_types):
+        return _read_dome(prim, m, color, time, up_axis, skip, get)
+    skip(f"{prim.GetTypeName() or 'this'} lights are not supported; skipped", prim, prim.GetTypeName())
+    return None
+
+
+def _shaped(light, shaping: Shaping, m, prim, skip):
+    """``light`` (or None) with ``shaping``: sphere, rect, disk and cylinder lights take it (a sphere also its -Z
+    axis, from ``m``); distant and dome lights, which the ShapingAPI formulas are not written for, emit unshaped,
+    with a warning unless the shaping is at its fallbacks."""
+    if isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight)):
+        light.shaping = shaping
+        if isinstance(light, SphereLight):
+            light.axis = primary_axis(m, light.axis)
+    elif light is not None and not shaping.at_fallbacks():
+        skip("light shaping (ShapingAPI) on distant and dome lights is not supported; these lights emit unshaped",
+             prim)
+    return light
+
+
+def _read_dome(prim, m, color, time, up_axis, skip, get):
+    from pxr import UsdLux
+
+    from .textures import TextureError, load_image
+
+    rotation = m.copy()
+    if hasattr(UsdLux, "DomeLight_1") and prim.IsA(UsdLux.DomeLight_1):
+        pole = str(get(prim.GetAttribute("poleAxis"), "scene"))
+        if pole == "Z" or (pole == "scene" and up_axis == "Z"):
+            to_z = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], np.float64)  # +Y -> +Z
+            rotation = m @ to_z
+    dome = DomeLight(color=color, to_world=rotation, path=str(prim.GetPath()))
+    attr = prim.GetAttribute("inputs:texture:file")
+    asset = get(attr, None) if attr else None
+    if asset is not None and (getattr(asset, "path", "") or ""):
+        fmt = str(get(prim.GetAttribute("inputs:texture:format"), "automatic"))
+        if fmt not in ("automatic", "latlong"):
+            skip(f"DomeLight texture format {fmt!r} is not supported; the dome is constant", prim)
+            return dome
+        resolved = getattr(asset, "resolvedPath", "") or ""
+        if not resolved:
+            skip(f"DomeLight texture {asset.path} was not found; the dome is constant", prim)
+            return dome
+        try:
+            dome.texture = load_image(resolved, "auto")
+            dome.texture_path = resolved
+        except TextureError as e:
+            skip(f"DomeLight texture: {e}; the dome is constant", prim)
+    return dome
