@@ -87,6 +87,7 @@ from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, Refinement
 from .usd_lights import read_light
 from .usd_skel import SkelPoser
+from .usd_tubes import TubeReader
 from .usd_values import held_value, moved_positions, read_time, spun_rotations, value_at
 from .usd_variants import apply_variants
 from .usd_xforms import xform_cache
@@ -211,6 +212,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         # time read as before.
         reader.materials = None
         reader.skel = None
+        reader.tubes = None
 
 
 def _warn_composition_errors(stage: Usd.Stage, source: str) -> None:
@@ -373,6 +375,7 @@ class _StageReader:
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
         self.skel = SkelPoser(time, self._skip)  # poses meshes skinned by UsdSkel skeletons
+        self.tubes = TubeReader(time, self._skip, self._error)  # Points and BasisCurves as spheres and tubes
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
@@ -490,6 +493,9 @@ class _StageReader:
             if mesh is not None:
                 ctx.content.meshes.append(mesh)
                 self._check_display_opacity(prim, mesh.material_ids is None or bool(np.any(mesh.material_ids < 0)))
+            return
+        if prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.BasisCurves):
+            self._read_tubes(prim, ctx)
             return
         shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
         if shape is not None:
@@ -1066,21 +1072,13 @@ class _StageReader:
             self._skip("world transform is projective; its last column was ignored", prim)
             to_world[3] = (0.0, 0.0, 0.0, 1.0)
 
-        material = self._face_materials(prim, 1, ctx)
-        color_name = self.materials.color_primvar(material, prim)
-        color = None  # none: its material's constant (grey by default), or its instance's colour
-        primvar = _color_primvar(prim, color_name)
-        if not (primvar and primvar.HasValue()):
-            ctx.content.want_colors([color_name])
-            if ctx.outer_color is not None and ctx.outer_color[0] == color_name:
-                color = np.asarray(ctx.outer_color[1], np.float32)
-        else:
+        material_id, primvar, color = self._gprim_look(prim, ctx)
+        if primvar is not None:
             color = np.full(3, 0.5, np.float32)
             values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64)
             values = values[:, :3] if values.ndim == 2 else values.reshape(-1, 3)  # the rgb of a color4f
             if len(values) and np.all(np.isfinite(values)):
                 color = values.mean(axis=0).astype(np.float32)
-        material_id = -1 if material is None else int(material[0])
         shape = Shape(
             path=str(prim.GetPath()),
             kind=kind,
@@ -1094,6 +1092,60 @@ class _StageReader:
         if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
             raise self._error("bounds are not finite after the world transform", prim)
         return shape
+
+    def _gprim_look(self, prim: Usd.Prim, ctx: _Context) -> tuple:
+        """``(material_id, primvar, color)`` of gprim ``prim``: its material (-1: the default), bound as a mesh's; the
+        colour primvar that material reads (``displayColor`` by default) when ``prim`` has a value of it (its own or
+        an inherited constant one), else None; and then the constant colour a native instance hands down, if any
+        (``(3,)`` float32), else None (its material's constant, grey by default, or its instance's colour)."""
+        material = self._face_materials(prim, 1, ctx)
+        color_name = self.materials.color_primvar(material, prim)
+        primvar = _color_primvar(prim, color_name)
+        color = None
+        if not (primvar and primvar.HasValue()):
+            primvar = None
+            ctx.content.want_colors([color_name])
+            if ctx.outer_color is not None and ctx.outer_color[0] == color_name:
+                color = np.asarray(ctx.outer_color[1], np.float32)
+        return -1 if material is None else int(material[0]), primvar, color
+
+    def _read_tubes(self, prim: Usd.Prim, ctx: _Context):
+        """A ``Points`` or ``BasisCurves`` prim as instances of spheres and tube segments (:mod:`wrt.usd_tubes`), one
+        content per shape, so it is placed (and nested in prototypes) like any instance."""
+        schema = UsdGeom.PointBased(prim)
+        raw = self._moved(schema, schema.GetPointsAttr())
+        if raw is None:
+            raw = value_at(schema.GetPointsAttr(), self.time)
+        points = np.asarray(raw if raw is not None else np.zeros((0, 3)))
+        if points.size == 0:
+            return
+        if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
+            self._skip(f"{prim.GetTypeName()} prims whose points are not an array of 3-vectors were skipped", prim,
+                       f"{self._authored_type(schema.GetPointsAttr())} holding {type(raw).__name__}")
+            return
+        counts = None
+        if prim.IsA(UsdGeom.BasisCurves):
+            counts = self._int_array(prim, UsdGeom.BasisCurves(prim).GetCurveVertexCountsAttr())
+        material_id, primvar, color = self._gprim_look(prim, ctx)
+        self._check_display_opacity(prim, material_id < 0)
+        m = self._to_space(prim, ctx)
+        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
+            self._skip("world transform is projective; its last column was ignored", prim)
+        groups, constant = self.tubes.read(prim, points.astype(np.float64), m.T, primvar, counts)
+        color = constant if constant is not None else color
+        double_sided = bool(value_at(UsdGeom.Gprim(prim).GetDoubleSidedAttr(), self.time))
+        path = str(prim.GetPath())
+        for group in groups:
+            shape = Shape(path, group.kind, np.eye(4), group.params, color if group.colors is None else None,
+                          material_id, double_sided)
+            content = _Content(path)
+            if self.segments:
+                content.meshes.append(self._tessellated(shape, prim))
+            else:
+                content.shapes.append(shape)
+            key = ("tubes", path, len(self.contents))  # a content of its own, placed only by these instances
+            self.contents[key] = content
+            ctx.content.instances.append((key, group.to_space, path, group.index, group.colors))
 
     def _tessellated(self, shape: Shape, prim: Usd.Prim) -> Mesh:
         """``shape`` as a triangle mesh of ``self.segments`` segments per circle."""

@@ -1,0 +1,505 @@
+"""UsdGeom.Points drawn as spheres and UsdGeom.BasisCurves as round tubes: hits against closed forms computed here
+with numpy from the authored points and widths (and, for cubic curves, the bases as the UsdGeomBasisCurves
+documentation defines them), colours in the albedo AOV, instancing, and bad input."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import wrt
+from wrt.errors import SceneError
+
+# Polyline tolerance of cubic spans documented in the README (a fraction of the tube's radius).
+CUBIC_TOLERANCE = 0.05
+
+
+def write(tmp_path, body: str, name: str = "scene.usda") -> str:
+    path = tmp_path / name
+    path.write_text(f'#usda 1.0\n(\n    upAxis = "Y"\n)\n{body}\n')
+    return str(path)
+
+
+def fmt(rows) -> str:
+    return "[" + ", ".join("(" + ", ".join(f"{float(v)!r}" for v in row) + ")" for row in rows) + "]"
+
+
+def floats(values) -> str:
+    return "[" + ", ".join(f"{float(v)!r}" for v in values) + "]"
+
+
+def load(path, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return wrt.load_usd(path, **kwargs)
+
+
+def ray_sphere(o, d, centres, radii):
+    """Nearest t >= 0 of each ray ``o + t d`` with any of the spheres (inf: none); ``o``, ``d`` ``(R, 3)``."""
+    oc = o[:, None, :] - centres[None]
+    a = (d * d).sum(1)[:, None]
+    b = (oc * d[:, None, :]).sum(2)
+    c = (oc * oc).sum(2) - radii[None] ** 2
+    disc = b * b - a * c
+    root = np.sqrt(np.maximum(disc, 0.0))
+    t0, t1 = (-b - root) / a, (-b + root) / a
+    t = np.where(t0 >= 0, t0, t1)
+    t = np.where((disc >= 0) & (t >= 0), t, np.inf)
+    return t.min(axis=1)
+
+
+def ray_cylinder(o, d, a, b, r):
+    """Nearest t >= 0 of each ray with the open cylinder side of radius ``r`` around each segment ``a -> b``."""
+    axis = b - a
+    length = np.linalg.norm(axis, axis=1)
+    u = axis / length[:, None]
+    oa = o[:, None, :] - a[None]
+    dp = d[:, None, :] - (d @ u.T)[..., None] * u[None]  # d without its part along the axis
+    op = oa - (oa * u[None]).sum(2)[..., None] * u[None]
+    qa = (dp * dp).sum(2)
+    qb = (op * dp).sum(2)
+    qc = (op * op).sum(2) - r[None] ** 2
+    disc = qb * qb - qa * qc
+    root = np.sqrt(np.maximum(disc, 0.0))
+    best = np.full(qa.shape, np.inf)
+    for sign in (-1.0, 1.0):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (-qb + sign * root) / qa
+        along = ((oa + t[..., None] * d[:, None, :]) * u[None]).sum(2)
+        ok = (disc >= 0) & (qa > 0) & (t >= 0) & (along >= 0) & (along <= length[None])
+        best = np.minimum(best, np.where(ok, t, np.inf))
+    return best.min(axis=1)
+
+
+def trace(scene, origins, directions):
+    return wrt.trace(scene, np.asarray(origins, np.float32), np.asarray(directions, np.float32))
+
+
+# Points
+
+
+def test_points_hit_their_spheres_and_miss_between(tmp_path, np_rng):
+    """Rays at random targets among 60 points of random widths hit where an analytic ray-sphere solution says;
+    rays between the points miss; each point's displayColor shows in the albedo AOV."""
+    n = 60
+    centres = np_rng.uniform(-4, 4, (n, 3))
+    centres[:, 2] = np_rng.uniform(-0.5, 0.5, n)
+    widths = np_rng.uniform(0.1, 0.5, n)
+    colors = np_rng.uniform(0.1, 0.9, (n, 3))
+    path = write(tmp_path, f'def Points "P"\n{{\n    point3f[] points = {fmt(centres)}\n'
+                 f'    float[] widths = {floats(widths)} (interpolation = "vertex")\n'
+                 f'    color3f[] primvars:displayColor = {fmt(colors)} (interpolation = "vertex")\n}}\n')
+    scene = load(path)
+
+    origins = np.column_stack([np_rng.uniform(-5, 5, (400, 2)), np.full(400, 10.0)])
+    targets = np.concatenate([centres + np_rng.normal(0, 0.1, (n, 3)) for _ in range(5)])
+    targets = np.concatenate([targets, np_rng.uniform(-4, 4, (100, 3))])[:400]
+    directions = targets - origins
+    expected = ray_sphere(origins, directions, centres, widths / 2)
+    # Leave out rays that graze a sphere (their hit or miss is a rounding decision).
+    oc = origins[:, None] - centres[None]
+    along = (oc * directions[:, None]).sum(2) / (directions * directions).sum(1)[:, None]
+    gap = np.linalg.norm(oc - along[..., None] * directions[:, None], axis=2) - widths / 2
+    clear = np.abs(gap).min(axis=1) > 1e-3
+    hits = trace(scene, origins, directions)
+    assert clear.sum() > 300 and np.isfinite(expected[clear]).sum() > 150
+    np.testing.assert_array_equal(np.isfinite(hits.t[clear]), np.isfinite(expected[clear]))
+    hit = clear & np.isfinite(expected)
+    np.testing.assert_allclose(hits.t[hit], expected[hit], rtol=1e-5, atol=1e-5)
+
+    # The albedo AOV: a pixel over each point's centre shows its colour (points far from their neighbours).
+    width = height = 96
+    cam = wrt.Camera.orthographic((0, 0, 10), (0, 0, 0), height=10.0)
+    img = wrt.render(scene, camera=cam, width=width, height=height)
+    px = np.rint((centres[:, 0] + 5) / 10 * width - 0.5).astype(int)
+    py = np.rint((5 - centres[:, 1]) / 10 * height - 0.5).astype(int)
+    first = ray_sphere(np.column_stack([centres[:, :2], np.full(n, 10.0)]), np.tile([0.0, 0.0, -1.0], (n, 1)),
+                       centres, widths / 2)  # which sphere a camera ray at each centre meets first
+    shown = np.abs(first - (10.0 - centres[:, 2] - widths / 2)) < 1e-6
+    albedo = img.aovs["albedo"][py, px]
+    np.testing.assert_allclose(albedo[shown], colors[shown], atol=1e-5)
+    assert shown.sum() > 30
+
+
+def test_points_widths_fallback_constant_colour_and_zero_width(tmp_path):
+    """Without widths a point is 1 wide (UsdImaging's fallback); a constant width and colour apply to all; a width
+    of 0 draws nothing, without a warning; a prim scale scales the radius."""
+    body = ('def Points "A"\n{\n    point3f[] points = [(0, 0, 0), (3, 0, 0)]\n}\n'
+            'def Points "B"\n{\n    point3f[] points = [(0, 3, 0), (3, 3, 0)]\n'
+            '    float[] widths = [0.4] (interpolation = "constant")\n'
+            '    color3f[] primvars:displayColor = [(0.2, 0.4, 0.6)]\n}\n'
+            'def Points "C"\n{\n    point3f[] points = [(0, 6, 0), (3, 6, 0)]\n'
+            '    float[] widths = [0, 0.4] (interpolation = "vertex")\n'
+            '    double3 xformOp:scale = (2, 2, 2)\n    uniform token[] xformOpOrder = ["xformOp:scale"]\n}\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = wrt.load_usd(write(tmp_path, body))
+    origins = [(0, 0, 5), (3, 0, 5), (0, 3, 5), (3, 3, 5), (0, 12, 5), (6, 12, 5)]
+    hits = trace(scene, origins, [(0, 0, -1)] * 6)
+    np.testing.assert_allclose(hits.t, [4.5, 4.5, 4.8, 4.8, np.inf, 4.6], rtol=1e-6)
+    img = wrt.render(scene, camera=wrt.Camera.orthographic((0, 3, 5), (0, 3, 0), height=0.2), width=8, height=8)
+    np.testing.assert_allclose(img.aovs["albedo"][4, 4], [0.2, 0.4, 0.6], atol=1e-6)
+
+
+def test_points_with_a_material_animated_and_hidden(tmp_path):
+    """A bound material colours the points; points read at a time sample move; an invisible Points prim and one of
+    guide purpose are not drawn."""
+    body = '''def Material "M"
+{
+    token outputs:surface.connect = </M/S.outputs:surface>
+    def Shader "S"
+    {
+        uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:diffuseColor = (0.1, 0.7, 0.3)
+        token outputs:surface
+    }
+}
+def Points "P" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding = </M>
+    point3f[] points.timeSamples = {1: [(0, 0, 0)], 2: [(2, 0, 0)]}
+    float[] widths = [1] (interpolation = "constant")
+}
+def Points "Hidden"
+{
+    token visibility = "invisible"
+    point3f[] points = [(0, 5, 0)]
+}
+def Points "Guide"
+{
+    uniform token purpose = "guide"
+    point3f[] points = [(2, 5, 0)]
+}
+'''
+    path = write(tmp_path, body)
+    for time, x in ((1, 0.0), (2, 2.0)):
+        scene = load(path, time=time)
+        hits = trace(scene, [(x, 0, 5), (2 - x, 0, 5), (0, 5, 5), (2, 5, 5)], [(0, 0, -1)] * 4)
+        np.testing.assert_allclose(hits.t, [4.5, np.inf, np.inf, np.inf])
+    img = wrt.render(scene, camera=wrt.Camera.orthographic((2, 0, 5), (2, 0, 0), height=0.2), width=8, height=8)
+    np.testing.assert_allclose(img.aovs["albedo"][4, 4], [0.1, 0.7, 0.3], atol=1e-6)
+
+
+def test_points_inside_a_point_instancer_and_a_native_instance(tmp_path):
+    """A Points prim as a PointInstancer's prototype is drawn at every instance, coloured by the instancer's
+    displayColor; inside a native instance at each instance."""
+    body = '''def PointInstancer "PI"
+{
+    rel prototypes = [</PI/Protos/Cloud>]
+    int[] protoIndices = [0, 0]
+    point3f[] positions = [(0, 0, 0), (10, 0, 0)]
+    color3f[] primvars:displayColor = [(1, 0, 0), (0, 0, 1)] (interpolation = "vertex")
+    def Scope "Protos"
+    {
+        def Points "Cloud"
+        {
+            point3f[] points = [(0, 0, 0), (1, 0, 0)]
+            float[] widths = [0.5] (interpolation = "constant")
+        }
+    }
+}
+class Xform "Proto"
+{
+    def BasisCurves "Wire"
+    {
+        uniform token type = "linear"
+        int[] curveVertexCounts = [2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0)]
+        float[] widths = [0.5] (interpolation = "constant")
+    }
+}
+def Xform "I1" (
+    instanceable = true
+    prepend references = </Proto>
+)
+{
+    double3 xformOp:translate = (0, 5, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "I2" (
+    instanceable = true
+    prepend references = </Proto>
+)
+{
+    double3 xformOp:translate = (0, 8, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+'''
+    scene = load(write(tmp_path, body))
+    origins = [(0, 0, 5), (1, 0, 5), (10, 0, 5), (11, 0, 5), (5, 0, 5), (0.5, 5, 5), (0.5, 8, 5), (0.5, 6.5, 5)]
+    hits = trace(scene, origins, [(0, 0, -1)] * len(origins))
+    np.testing.assert_allclose(hits.t, [4.75] * 4 + [np.inf, 4.75, 4.75, np.inf], rtol=1e-6)
+    img = wrt.render(scene, camera=wrt.Camera.orthographic((10, 0, 5), (10, 0, 0), height=0.2), width=8, height=8)
+    np.testing.assert_allclose(img.aovs["albedo"][4, 4], [0, 0, 1], atol=1e-6)
+    assert {scene.instances.path(int(i)) for i in hits.instance[:4]} == {"/PI[0]", "/PI[1]"}
+
+
+def test_points_tessellated_and_through_wp_mesh(tmp_path):
+    """With tessellate_gprims the points are instances of a tessellated sphere: wrt's BVH and wp.Mesh (which flattens
+    them) hit within the tessellation's error of the sphere."""
+    path = write(tmp_path, 'def Points "P"\n{\n    point3f[] points = [(0, 0, 0), (3, 0, 0)]\n'
+                 '    float[] widths = [2] (interpolation = "constant")\n}\n')
+    scene = load(path, tessellate_gprims=32)
+    assert scene.stats()["rendered_triangles"] == 2 * scene.stats()["unique_triangles"] > 0
+    for accel in ("wrt", "warp"):
+        hits = wrt.trace(scene, np.array([(0, 0, 5), (3, 0, 5), (1.5, 0, 5)], np.float32),
+                         np.array([(0, 0, -1)] * 3, np.float32), accel=accel)
+        np.testing.assert_allclose(hits.t, [4, 4, np.inf], rtol=1e-6)
+
+
+# Linear curves
+
+
+def linear_stage(tmp_path, points, counts, widths, extra=""):
+    return write(tmp_path, f'def BasisCurves "C"\n{{\n    uniform token type = "linear"\n'
+                 f'    int[] curveVertexCounts = {counts}\n    point3f[] points = {fmt(points)}\n'
+                 f'    float[] widths = {floats(widths)} (interpolation = "vertex")\n{extra}}}\n')
+
+
+def test_linear_curve_is_a_round_tube_with_round_joints_and_caps(tmp_path, np_rng):
+    """A polyline of constant width: across a segment the ray meets the tube at the radius, at a joint the sphere,
+    and past an end cap nothing; random rays agree with a union of capsules solved here."""
+    pts = np.array([(0, 0, 0), (2, 0, 0), (2, 2, 0), (4, 3, 1)], np.float64)
+    r = 0.25
+    scene = load(linear_stage(tmp_path, pts, [4], [2 * r] * 4))
+    down = [(0, 0, -1)] * 5
+    # Across segment 0; at the joint (2, 0, 0) from outside the corner; just past the start cap; into the cap.
+    origins = [(1, 0.1, 5), (2 + 0.12, -0.12, 5), (-r - 1e-3, 0, 5), (-0.2, 0, 5), (3, 2.5, 5)]
+    hits = trace(scene, origins, down)
+    joint = 5 - math.sqrt(r * r - 2 * 0.12**2)
+    cap = 5 - math.sqrt(r * r - 0.04)
+    seg3 = ray_cylinder(np.array([origins[4]], float), np.array([down[0]], float), pts[2:3], pts[3:4], np.array([r]))
+    np.testing.assert_allclose(hits.t, [5 - math.sqrt(r * r - 0.01), joint, np.inf, cap, seg3[0]], rtol=1e-6)
+
+    origins = np_rng.uniform(-2, 6, (600, 3)) + [0, 0, 6]
+    targets = np.concatenate([pts[:-1] + np_rng.uniform(0, 1, (3, 1)) * (pts[1:] - pts[:-1]) for _ in range(150)])
+    targets += np_rng.normal(0, 0.3, targets.shape)
+    directions = targets - origins[: len(targets)]
+    origins = origins[: len(targets)]
+    expected = np.minimum(ray_cylinder(origins, directions, pts[:-1], pts[1:], np.full(3, r)),
+                          ray_sphere(origins, directions, pts, np.full(4, r)))
+    hits = trace(scene, origins, directions)
+    with np.errstate(invalid="ignore"):  # inf - inf: both miss
+        near = ~((hits.t == expected) | (np.abs(hits.t - expected) <= 1e-4 * np.maximum(1.0, expected)))
+    # Only grazing rays may disagree on hit or miss.
+    assert near.sum() <= 2, (hits.t[near], expected[near])
+    assert np.isfinite(expected).sum() > 200
+
+
+def test_linear_curve_widths_varying_along_segments_make_frustums(tmp_path):
+    """Widths that change along a segment: its side is the cone frustum between the two radii (rounded to
+    1/128 of the larger, down), the vertices spheres of their own radii."""
+    pts = [(0, 0, 0), (4, 0, 0)]
+    scene = load(linear_stage(tmp_path, pts, [2], [1.0, 0.5]))
+    xs = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
+    hits = trace(scene, np.column_stack([xs, np.zeros(5), np.full(5, 5.0)]), [(0, 0, -1)] * 5)
+    radius = 0.5 + (0.25 - 0.5) * xs / 4  # along the axis; the frustum's side rises above it by cos(slope) less
+    slope = math.atan(0.25 / 4)
+    cone_top = radius / math.cos(slope)
+    expected = 5 - np.maximum(cone_top, [0.5, 0, 0, 0, 0.25])
+    np.testing.assert_allclose(hits.t, expected, atol=0.5 / 128 + 1e-6)
+
+
+def test_curves_uniform_and_varying_colours_and_periodic_wrap(tmp_path):
+    """A uniform displayColor colours each curve; a periodic linear curve closes (a segment from its last vertex to
+    its first)."""
+    body = '''def BasisCurves "C"
+{
+    uniform token type = "linear"
+    uniform token wrap = "periodic"
+    int[] curveVertexCounts = [3, 3]
+    point3f[] points = [(0, 0, 0), (4, 0, 0), (4, 4, 0), (10, 0, 0), (14, 0, 0), (14, 4, 0)]
+    float[] widths = [0.5] (interpolation = "constant")
+    color3f[] primvars:displayColor = [(1, 0, 0), (0, 1, 0)] (interpolation = "uniform")
+}
+'''
+    scene = load(write(tmp_path, body))
+    hits = trace(scene, [(2, 2, 5), (12, 2, 5), (2, 1, 5)], [(0, 0, -1)] * 3)  # the closing diagonals; a miss
+    np.testing.assert_allclose(hits.t, [4.75, 4.75, np.inf], rtol=1e-6)
+    for x, color in ((2, (1, 0, 0)), (12, (0, 1, 0))):
+        img = wrt.render(scene, camera=wrt.Camera.orthographic((x, 2, 5), (x, 2, 0), height=0.1), width=4, height=4)
+        np.testing.assert_allclose(img.aovs["albedo"][2, 2], color, atol=1e-6)
+
+
+# Cubic curves
+
+
+def bezier(p, t):
+    s = 1 - t
+    return s**3 * p[0] + 3 * s * s * t * p[1] + 3 * s * t * t * p[2] + t**3 * p[3]
+
+
+def bspline(p, t):
+    s = 1 - t
+    return (s**3 * p[0] + (3 * t**3 - 6 * t**2 + 4) * p[1] + (-3 * t**3 + 3 * t**2 + 3 * t + 1) * p[2]
+            + t**3 * p[3]) / 6
+
+
+def catmull_rom(p, t):
+    return 0.5 * (2 * p[1] + (-p[0] + p[2]) * t + (2 * p[0] - 5 * p[1] + 4 * p[2] - p[3]) * t**2
+                  + (-p[0] + 3 * p[1] - 3 * p[2] + p[3]) * t**3)
+
+
+CUBICS = {"bezier": (bezier, 3), "bspline": (bspline, 1), "catmullRom": (catmull_rom, 1)}
+
+
+@pytest.mark.parametrize("basis", list(CUBICS))
+@pytest.mark.parametrize("wrap", ["nonperiodic", "periodic", "pinned"])
+def test_cubic_curves_hit_at_the_evaluated_curve(tmp_path, basis, wrap):
+    """Rays down onto points of the curve, evaluated here from each basis' definition (vstep, wrap, pinned phantom
+    points), hit the tube's top within the documented polyline tolerance of its radius; widths interpolated by the
+    basis (vertex)."""
+    evaluate, step = CUBICS[basis]
+    cvs = np.array([(0, 0, 0), (2, 3, 0), (4, -2, 0), (6, 1, 0), (8, 4, 0), (9, 0, 0), (7, -3, 0)], np.float64)
+    n = 7 if wrap != "periodic" or step == 1 else 6
+    cvs = cvs[:n]
+    widths = np.linspace(0.4, 0.2, n)
+    path = write(tmp_path, f'def BasisCurves "C"\n{{\n    uniform token basis = "{basis}"\n'
+                 f'    uniform token wrap = "{wrap}"\n    int[] curveVertexCounts = [{n}]\n'
+                 f'    point3f[] points = {fmt(cvs)}\n    float[] widths = {floats(widths)}\n}}\n')
+    # The spans, as the UsdGeomBasisCurves documentation defines them.
+    if wrap == "periodic":
+        spans = [[(k * step + j) % n for j in range(4)] for k in range(n // step)]
+        ext, ext_w = cvs, widths
+    elif wrap == "pinned" and step == 1:
+        ext = np.concatenate([[2 * cvs[0] - cvs[1]], cvs, [2 * cvs[-1] - cvs[-2]]])
+        ext_w = np.concatenate([[2 * widths[0] - widths[1]], widths, [2 * widths[-1] - widths[-2]]])
+        spans = [[k + j for j in range(4)] for k in range(n - 1)]
+    else:
+        spans = [[k * step + j for j in range(4)] for k in range((n - 4) // step + 1)]
+        ext, ext_w = cvs, widths
+    scene = load(path)
+    ts = np.array([0.0, 0.23, 0.37, 0.5, 0.81])
+    centres = np.array([evaluate(ext[s], t) for s in spans for t in ts])
+    radii = np.array([evaluate(ext_w[s], t) for s in spans for t in ts]) / 2
+    hits = trace(scene, centres + [0, 0, 5], [(0, 0, -1)] * len(centres))
+    # Each ray meets the tube at its top, 5 - r above the curve's point, off by at most the polyline's tolerance
+    # (and a frustum's narrowing rounded down, 1/128 of the radius).
+    np.testing.assert_allclose(hits.t, 5 - radii, atol=(CUBIC_TOLERANCE + 1 / 128) * radii.max() + 1e-6)
+    if wrap == "pinned" and step == 1:  # pinned curves run from the first vertex to the last: their caps are there
+        ends = trace(scene, [cvs[0] + (0, 0, 5), cvs[-1] + (0, 0, 5)], [(0, 0, -1)] * 2)
+        np.testing.assert_allclose(ends.t, 5 - widths[[0, -1]] / 2, rtol=1e-6)
+
+
+def test_cubic_polyline_tolerance_is_what_the_module_promises(tmp_path):
+    """A tightly bent bezier span: the tube's top over 200 points of the curve stays within the tolerance (a fixed
+    low segment count would not)."""
+    cvs = np.array([(0, 0, 0), (0, 10, 0), (10, 10, 0), (10, 0, 0)], np.float64)
+    path = write(tmp_path, f'def BasisCurves "C"\n{{\n    int[] curveVertexCounts = [4]\n'
+                 f'    point3f[] points = {fmt(cvs)}\n    float[] widths = [0.2] (interpolation = "constant")\n}}\n')
+    scene = load(path)
+    ts = np.linspace(0, 1, 200)
+    centres = np.array([bezier(cvs, t) for t in ts])
+    # Rays along the curve's normal in its plane, from outside the bend: they meet the tube's side.
+    tangent = np.array([3 * (1 - t) ** 2 * (cvs[1] - cvs[0]) + 6 * (1 - t) * t * (cvs[2] - cvs[1])
+                        + 3 * t * t * (cvs[3] - cvs[2]) for t in ts])
+    normal = np.column_stack([tangent[:, 1], -tangent[:, 0], np.zeros(len(ts))])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    outside = np.where(((centres - [5, 5, 0]) * normal).sum(1, keepdims=True) > 0, normal, -normal)
+    hits = trace(scene, centres + 3 * outside, -outside)
+    err = np.abs(hits.t - (3 - 0.1))
+    assert err.max() <= CUBIC_TOLERANCE * 0.1 + 1e-5, err.max()
+
+
+# warp.render.UsdRenderer output
+
+
+def test_warp_usd_renderer_particles_and_line_strips(tmp_path):
+    """A stage written by warp's UsdRenderer: render_points(as_spheres=False) writes a UsdGeom.Points (drawn as
+    spheres of the authored radii), render_line_strip a PointInstancer of capsules scaled along their axis (drawn
+    through the instancer); rays hit both on the authored geometry and the render shows them."""
+    from warp.render import UsdRenderer
+
+    path = str(tmp_path / "warp.usda")
+    renderer = UsdRenderer(path, up_axis="Y")
+    renderer.begin_frame(0.0)
+    # Four particles: with exactly three, warp 1.19 takes the three colours for one rgb and fails to author them.
+    particles = np.array([(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)], np.float32)
+    colors = np.array([(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0)], np.float32)
+    renderer.render_points("particles", particles, radius=0.1, colors=colors, as_spheres=False)
+    strip = np.array([(0, 2, 0), (2, 2, 0), (2, 4, 0)], np.float32)
+    renderer.render_line_strip("rope", strip, color=(0.5, 0.5, 0.5), radius=0.05)
+    renderer.end_frame()
+    renderer.save()
+    scene = load(path)
+    origins = [(0, 0, 5), (1, 0, 5), (2, 0, 5), (0.5, 0, 5), (1, 2, 5), (2, 3, 5), (1, 3, 5)]
+    hits = trace(scene, origins, [(0, 0, -1)] * len(origins))
+    np.testing.assert_allclose(hits.t, [4.9, 4.9, 4.9, np.inf, 4.95, 4.95, np.inf], rtol=1e-5)
+    img = wrt.render(scene, camera=wrt.Camera.orthographic((1, 0, 5), (1, 0, 0), height=0.1), width=4, height=4)
+    np.testing.assert_allclose(img.aovs["albedo"][2, 2], [0, 1, 0], atol=1e-6)
+
+
+# Bad input
+
+
+def test_bad_points_and_widths_are_named(tmp_path):
+    """A point that is not finite and negative or NaN widths are left out with a warning naming the file and prim;
+    the other points are drawn."""
+    body = ('def Points "P"\n{\n    point3f[] points = [(0, 0, 0), (nan, 0, 0), (2, 0, 0), (4, 0, 0), (6, 0, 0)]\n'
+            '    float[] widths = [1, 1, -1, nan, 1] (interpolation = "vertex")\n}\n')
+    path = write(tmp_path, body)
+    with pytest.warns(UserWarning) as record:
+        scene = wrt.load_usd(path)
+    text = " | ".join(str(w.message) for w in record)
+    assert "points that are not finite" in text and "1 of 5, first points[1]" in text and "/P" in text
+    assert "widths that are negative, NaN or infinite" in text and "2 of 5, first widths[2] = -1" in text
+    assert path in text
+    hits = trace(scene, [(0, 0, 5), (2, 0, 5), (4, 0, 5), (6, 0, 5)], [(0, 0, -1)] * 4)
+    np.testing.assert_allclose(hits.t, [4.5, np.inf, np.inf, 4.5])
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ('int[] curveVertexCounts = [3]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]',
+         "curveVertexCounts sum to 3 but there are 2 points"),
+        ('int[] curveVertexCounts = [3]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0)]',
+         r"curveVertexCounts\[0\] = 3 makes no nonperiodic bezier curve \(it needs 4 \+ 3 k vertices\)"),
+        ('uniform token basis = "bspline"\n    uniform token wrap = "periodic"\n    int[] curveVertexCounts = [2]\n'
+         '    point3f[] points = [(0, 0, 0), (1, 0, 0)]', r"curveVertexCounts\[0\] = 2 makes no periodic bspline"),
+        ('uniform token type = "linear"\n    int[] curveVertexCounts = [2, 1]\n'
+         '    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0)]', r"curveVertexCounts\[1\] = 1 makes no linear"),
+        ('uniform token type = "linear"\n    int[] curveVertexCounts = [2]\n'
+         '    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n    float[] widths = [1, 1, 1]',
+         "widths has 3 values; vertex interpolation needs 2"),
+        ('uniform token type = "linear"\n    int[] curveVertexCounts = [2, 2]\n'
+         '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)]\n'
+         '    color3f[] primvars:displayColor = [(1, 0, 0)] (interpolation = "uniform")',
+         "displayColor has 1 values; uniform interpolation needs 2"),
+    ],
+)
+def test_bad_curve_topology_and_primvar_lengths_raise(tmp_path, body, message):
+    path = write(tmp_path, f'def BasisCurves "C"\n{{\n    {body}\n}}\n')
+    with pytest.raises(SceneError, match=message) as e:
+        load(path)
+    assert path in str(e.value) and "/C" in str(e.value)
+
+
+def test_points_widths_of_the_wrong_length_raise(tmp_path):
+    path = write(tmp_path, 'def Points "P"\n{\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n'
+                 '    float[] widths = [1, 1, 1] (interpolation = "vertex")\n}\n')
+    with pytest.raises(SceneError, match="/P: widths has 3 values; vertex interpolation needs 2"):
+        load(path)
+
+
+def test_curves_without_widths_or_with_normals_warn(tmp_path):
+    """Curves without widths are tubes of width 1 and say so; curves with normals (ribbons) are tubes too, with a
+    warning; a curve with a point that is not finite is left out, the others drawn."""
+    body = '''def BasisCurves "C"
+{
+    uniform token type = "linear"
+    int[] curveVertexCounts = [2, 2]
+    point3f[] points = [(0, 0, 0), (2, 0, 0), (0, 3, 0), (inf, 3, 0)]
+    normal3f[] normals = [(0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1)]
+}
+'''
+    with pytest.warns(UserWarning) as record:
+        scene = wrt.load_usd(write(tmp_path, body))
+    text = " | ".join(str(w.message) for w in record)
+    assert "without widths are drawn as tubes of width 1" in text and "ribbons" in text
+    assert "curves with points that are not finite were left out" in text and "first curve 1" in text
+    hits = trace(scene, [(1, 0, 5), (1, 3, 5)], [(0, 0, -1)] * 2)
+    np.testing.assert_allclose(hits.t, [4.5, np.inf])

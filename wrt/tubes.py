@@ -1,0 +1,220 @@
+"""Points and curves as spheres and round tubes: the instance transforms that draw a ``UsdGeom.Points`` or
+``UsdGeom.BasisCurves`` prim with wrt's analytic shapes (:mod:`wrt.primitives`), numpy only, no Python object per
+point or segment.
+
+A point of width ``w`` is a sphere of radius ``w / 2``: an instance of the unit sphere scaled by the radius. A curve
+is a round tube of radius ``width / 2`` around a polyline: each straight segment is the side of a cylinder (equal
+radii at its ends; the unit cylinder scaled by the radius across and by half the segment's length along, exact) or of
+a cone frustum (radii differ), and every polyline vertex carries a sphere of its radius, which rounds the joints and
+caps the ends. A frustum's narrowing ``rho`` (small radius over large) is a shape parameter, not part of a transform,
+so segments share :data:`RHO_LEVELS` + 1 cone shapes: ``rho`` is rounded down to a multiple of ``1 / RHO_LEVELS``,
+which narrows the frustum's small end by less than ``1 / RHO_LEVELS`` of its large radius, inside the sphere there
+(the spheres keep the exact radii).
+
+Cubic spans (``bezier``, ``bspline``, ``catmullRom``; the ``vstep`` and ``wrap`` rules of the UsdGeomBasisCurves
+documentation, ``pinned`` through its phantom points ``P[-1] = 2 P[0] - P[1]`` and ``P[n] = 2 P[n-1] - P[n-2]``)
+are cut into ``K`` straight segments of equal parameter steps, vertices on the curve. The chord of a parameter step
+``h`` strays at most ``h^2 / 8 max |C''|`` from the curve, and ``C''`` of a cubic is linear in ``t``, so its largest
+length is at an end of the span: ``K = ceil(sqrt(max(|C''(0)|, |C''(1)|) / (8 tol)))`` keeps every chord within
+``tol = CURVE_TOLERANCE`` times the span's largest radius of the curve (``1 <= K <= MAX_SPAN_SEGMENTS``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+RHO_LEVELS = 128  # frustum narrowings are multiples of 1 / RHO_LEVELS (level RHO_LEVELS: a cylinder)
+CURVE_TOLERANCE = 0.05  # a cubic span's polyline stays within this fraction of its largest radius of the curve
+MAX_SPAN_SEGMENTS = 64  # most straight segments per cubic span
+
+# Cubic bases in power form: a span's point at t is [t^3, t^2, t, 1] @ matrix @ its four vertices; and their vstep.
+CUBIC_BASES = {
+    "bezier": (np.array([[-1, 3, -3, 1], [3, -6, 3, 0], [-3, 3, 0, 0], [1, 0, 0, 0]], np.float64), 3),
+    "bspline": (np.array([[-1, 3, -3, 1], [3, -6, 3, 0], [-3, 0, 3, 0], [1, 4, 1, 0]], np.float64) / 6.0, 1),
+    "catmullRom": (np.array([[-1, 3, -3, 1], [2, -5, 4, -1], [-1, 0, 1, 0], [0, 2, 0, 0]], np.float64) / 2.0, 1),
+}
+# A linear segment in the same form, its two vertices in the first two columns: (1 - t) P0 + t P1.
+LINEAR_BASIS = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [-1, 1, 0, 0], [1, 0, 0, 0]], np.float64)
+
+
+@dataclasses.dataclass
+class Spans:
+    """The spans (segments of a linear curve, cubic pieces of a cubic one) of a BasisCurves prim.
+
+    Attributes:
+        vertices: ``(S, 4)`` int64 rows of the extended vertex arrays (:meth:`extend`) each span interpolates (a
+            linear segment: its two vertices, then the second again).
+        varying: ``(S, 2)`` int64 index of the ``varying`` primvar value at each end of each span.
+        curve: ``(S,)`` int64 curve of each span.
+        last: ``(S,)`` bool: the span ends a nonperiodic curve (its end vertex gets a sphere).
+        phantoms: ``(Q, 2)`` int64 ``(a, b)``: extended row ``n + q`` is ``2 v[a] - v[b]`` (pinned curves' ends).
+        matrix: ``(4, 4)`` the basis in power form.
+        n_varying: the number of ``varying`` values the prim needs.
+    """
+
+    vertices: np.ndarray
+    varying: np.ndarray
+    curve: np.ndarray
+    last: np.ndarray
+    phantoms: np.ndarray
+    matrix: np.ndarray
+    n_varying: int
+
+    def extend(self, values: np.ndarray) -> np.ndarray:
+        """Per-vertex ``values`` ``(n, k)`` with the pinned curves' phantom rows appended."""
+        a, b = self.phantoms[:, 0], self.phantoms[:, 1]
+        return np.concatenate([values, 2.0 * values[a] - values[b]]) if len(a) else values
+
+    def take(self, keep: np.ndarray) -> Spans:
+        """The spans at ``keep`` (a boolean mask)."""
+        return dataclasses.replace(self, vertices=self.vertices[keep], varying=self.varying[keep],
+                                   curve=self.curve[keep], last=self.last[keep])
+
+
+def curve_spans(counts: np.ndarray, curve_type: str, basis: str, wrap: str) -> Spans:
+    """The spans of curves of ``counts`` vertices each (``curveVertexCounts``), by UsdGeomBasisCurves' segment rules.
+
+    Raises:
+        ValueError: a count that makes no curve of this type, basis and wrap (naming the curve).
+    """
+    counts = np.asarray(counts, np.int64).reshape(-1)
+    starts = np.cumsum(counts) - counts
+    periodic = wrap == "periodic"
+    if curve_type == "linear":
+        step, matrix, width = 1, LINEAR_BASIS, 2
+        n_spans, need = (counts if periodic else counts - 1), "at least 2 vertices"
+        bad = counts < 2
+    else:
+        matrix, step = CUBIC_BASES[basis]
+        width = 4
+        if periodic:
+            n_spans, need = counts // step, f"a multiple of {step} vertices, at least {max(step, 3)}"
+            bad = (counts < max(step, 3)) | (counts % step != 0)
+        elif wrap == "pinned" and step == 1:
+            n_spans, need = counts - 1, "at least 2 vertices"
+            bad = counts < 2
+        else:
+            n_spans, need = (counts - 4) // step + 1, f"4 + {step} k vertices" if step > 1 else "at least 4 vertices"
+            bad = (counts < 4) | ((counts - 4) % step != 0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        kind = "linear" if curve_type == "linear" else f"{wrap} {basis}"
+        raise ValueError(f"curveVertexCounts[{i}] = {counts[i]} makes no {kind} curve (it needs {need})")
+    pinned = curve_type != "linear" and wrap == "pinned" and step == 1
+    n_spans = np.maximum(n_spans, 0)
+    curve = np.repeat(np.arange(len(counts)), n_spans)
+    k = np.arange(len(curve)) - (np.cumsum(n_spans) - n_spans)[curve]  # span index within its curve
+    local = k[:, None] * step + np.arange(width)[None]  # vertex positions within the curve
+    n = counts[curve][:, None]
+    phantoms = np.zeros((0, 2), np.int64)
+    if periodic:
+        local = local % n
+    elif pinned:
+        # The curve runs over [P[-1], P[0], ..., P[n-1], P[n]]: position -1 and n are its phantom rows.
+        first, last = starts, starts + counts - 1
+        phantoms = np.concatenate([np.stack([first, first + 1], 1), np.stack([last, last - 1], 1)])
+        local = local - 1
+    vertices = starts[curve][:, None] + local
+    if pinned:
+        total = int(counts.sum())
+        vertices = np.where(local < 0, total + curve[:, None], vertices)
+        vertices = np.where(local >= n, total + len(counts) + curve[:, None], vertices)
+    if width == 2:
+        vertices = np.concatenate([vertices, vertices[:, 1:], vertices[:, 1:]], axis=1)
+    # Varying values: one per span end (a periodic curve's last span ends at its first value).
+    if curve_type == "linear":
+        varying = vertices[:, :2]
+        n_varying = int(counts.sum())
+    else:
+        per_curve = n_spans if periodic else n_spans + 1
+        offsets = np.cumsum(per_curve) - per_curve
+        end = k + 1
+        if periodic:
+            end = end % np.maximum(n_spans[curve], 1)
+        varying = np.stack([offsets[curve] + k, offsets[curve] + end], axis=1)
+        n_varying = int(per_curve.sum())
+    last_span = k == n_spans[curve] - 1
+    return Spans(vertices, varying, curve, last_span & (not periodic), phantoms, matrix, n_varying)
+
+
+def span_weights(matrix: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``(len(t), 4)`` weights of a span's four vertices at parameters ``t``."""
+    t = np.asarray(t, np.float64)
+    return np.stack([t**3, t**2, t, np.ones_like(t)], axis=1) @ matrix
+
+
+def span_segments(spans: Spans, points: np.ndarray, radii_at_ends: np.ndarray) -> np.ndarray:
+    """``(S,)`` int64 straight segments per span (see the module docstring); ``points`` extended, ``radii_at_ends``
+    ``(S, 2)`` the radius at each end of each span."""
+    # C''(t) = [6t, 2, 0, 0] @ matrix @ P: evaluated at t = 0 and 1.
+    second = np.array([[0.0, 2.0, 0.0, 0.0], [6.0, 2.0, 0.0, 0.0]]) @ spans.matrix  # (2, 4)
+    cps = points[spans.vertices]  # (S, 4, 3)
+    bend = np.linalg.norm(np.einsum("ej,sjk->sek", second, cps), axis=2).max(axis=1)
+    tolerance = CURVE_TOLERANCE * radii_at_ends.max(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = np.ceil(np.sqrt(bend / (8.0 * tolerance)))
+    k = np.where(bend > 0.0, k, 1.0)  # straight: one segment
+    k = np.where(tolerance > 0.0, k, 1.0)  # no radius: the span is not drawn
+    return np.clip(k, 1, MAX_SPAN_SEGMENTS).astype(np.int64)
+
+
+def sample_spans(spans: Spans, segments: np.ndarray):
+    """Parameters of the polyline vertices: ``(span (M,) int64, t (M,) float64, starts_segment (M,) bool,
+    sphere (M,) bool)``, ``segments[s] + 1`` rows per span ``s``; a row that is not its span's last starts a straight
+    segment to the next row; ``sphere`` marks the rows drawn as joint spheres (all but each span's last, which is
+    the next span's first, except at the end of a nonperiodic curve)."""
+    rows = segments + 1
+    span = np.repeat(np.arange(len(segments)), rows)
+    j = np.arange(len(span)) - (np.cumsum(rows) - rows)[span]
+    t = j / segments[span]
+    is_last = j == segments[span]
+    return span, t, ~is_last, ~is_last | spans.last[span]
+
+
+def sphere_transforms(centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """``(N, 4, 4)`` column-vector transforms placing the unit sphere at ``centres`` ``(N, 3)`` with ``radii``."""
+    m = np.zeros((len(centres), 4, 4))
+    m[:, 0, 0] = m[:, 1, 1] = m[:, 2, 2] = radii
+    m[:, :3, 3] = centres
+    m[:, 3, 3] = 1.0
+    return m
+
+
+def perpendicular_frames(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors ``(e1, e2)`` with ``(e1, e2, axis)`` a right-handed orthonormal frame for each unit axis
+    ``(N, 3)`` (Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 2017)."""
+    x, y, z = axes[:, 0], axes[:, 1], axes[:, 2]
+    sign = np.where(z >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    e1 = np.stack([1.0 + sign * x * x * a, sign * b, -sign * x], axis=1)
+    e2 = np.stack([b, sign + y * y * a, -y], axis=1)
+    return e1, e2
+
+
+def segment_transforms(starts: np.ndarray, ends: np.ndarray, r0: np.ndarray, r1: np.ndarray):
+    """Tube segments from ``starts`` to ``ends`` ``(E, 3)`` with radii ``r0``, ``r1`` ``(E,)`` (not both 0, length
+    above 0) as ``(levels (E,) int64, transforms (E, 4, 4))``: level :data:`RHO_LEVELS` is the open unit cylinder, a
+    lower level ``q`` the open canonical cone of ``rho = q / RHO_LEVELS`` (radius 1 at canonical ``z = -1``, ``rho``
+    rounded down), its wide end on the larger radius."""
+    big_at_start = r0 >= r1
+    wide, narrow = np.where(big_at_start[:, None], starts, ends), np.where(big_at_start[:, None], ends, starts)
+    big, small = np.maximum(r0, r1), np.minimum(r0, r1)
+    # Rounded down: the frustum's narrow end never sticks out of the sphere of the exact radius there.
+    levels = np.floor(small / big * RHO_LEVELS).astype(np.int64)
+    half = 0.5 * (narrow - wide)
+    length = np.linalg.norm(half, axis=1)
+    e1, e2 = perpendicular_frames(half / length[:, None])
+    m = np.zeros((len(starts), 4, 4))
+    m[:, :3, 0] = e1 * big[:, None]
+    m[:, :3, 1] = e2 * big[:, None]
+    m[:, :3, 2] = half
+    m[:, :3, 3] = 0.5 * (wide + narrow)
+    m[:, 3, 3] = 1.0
+    return levels, m
+
+
+__all__ = ["CUBIC_BASES", "Spans", "curve_spans", "sample_spans", "segment_transforms", "span_segments",
+           "span_weights", "sphere_transforms"]

@@ -1,0 +1,303 @@
+"""``UsdGeom.Points`` and ``UsdGeom.BasisCurves`` prims read as groups of instances of one analytic shape each: the
+spheres of a point cloud, the spheres and tube segments of curves (:mod:`wrt.tubes`), vectorised with numpy.
+
+Widths come from ``primvars:widths`` when it has a value, else from ``widths`` with its interpolation metadata, else
+1 (UsdImaging's fallback for points; Storm draws curves without widths as one-pixel lines, which a ray tracer cannot
+show, so they are tubes of width 1 too, with a warning). They are scaled into the content's space by the length of
+the prim's transform applied to ``(1, 1, 1) / sqrt(3)``, as Storm and RenderMan scale point widths, so points stay
+round spheres and tubes round under a non-uniform scale. A width of 0 draws nothing; negative, NaN or infinite widths
+and points that are not finite are left out with a warning. Colours (``displayColor``, or the primvar the material
+reads) of every interpolation become one colour per instance: a segment takes the mean of its ends' colours.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .tubes import (
+    RHO_LEVELS,
+    curve_spans,
+    sample_spans,
+    segment_transforms,
+    span_segments,
+    span_weights,
+    sphere_transforms,
+)
+from .usd_values import read_time, value_at
+
+_CURVE_TOKENS = {  # attribute -> (allowed tokens, fallback used for any other, as UsdImaging does)
+    "type": (("linear", "cubic"), "cubic"),
+    "basis": (("bezier", "bspline", "catmullRom"), "bezier"),
+    "wrap": (("nonperiodic", "periodic", "pinned"), "nonperiodic"),
+}
+
+
+@dataclasses.dataclass
+class TubeGroup:
+    """Instances of one shape that draw part of a Points or BasisCurves prim.
+
+    Attributes:
+        kind: ``"sphere"``, ``"cylinder"`` (open) or ``"cone"`` (open, ``rho = params[1]``).
+        params: ``(4,)`` the shape's :attr:`wrt.primitives.Shape.params`.
+        to_space: ``(K, 4, 4)`` column-vector transforms of the canonical shape into the prim's content space.
+        index: ``(K,)`` int32 point (Points) or curve (BasisCurves) each instance draws.
+        colors: ``(K, 3)`` float32 linear colour per instance, or None.
+    """
+
+    kind: str
+    params: np.ndarray
+    to_space: np.ndarray
+    index: np.ndarray
+    colors: np.ndarray | None
+
+
+class TubeReader:
+    """Reads Points and BasisCurves prims at one time code.
+
+    Args:
+        time: the ``Usd.TimeCode`` read (see :func:`wrt.usd_values.value_at`).
+        skip: ``skip(reason, prim, detail=None)`` records a warning naming the prim.
+        error: ``error(message, prim, attr=None)`` returns the :class:`wrt.errors.SceneError` to raise.
+    """
+
+    def __init__(self, time: Usd.TimeCode, skip, error):
+        self.time = time
+        self.skip = skip
+        self.error = error
+
+    def read(self, prim: Usd.Prim, points: np.ndarray, to_space: np.ndarray, color_primvar, counts=None):
+        """The instance groups of ``prim`` and its constant colour.
+
+        Args:
+            points: ``(n, 3)`` float64 ``points`` in the prim's space (moved by velocities where they apply).
+            to_space: ``(4, 4)`` column-vector transform from the prim to its content's space.
+            color_primvar: the ``UsdGeom.Primvar`` of its colour (its own or a constant inherited one), or None.
+            counts: ``curveVertexCounts`` ``(C,)`` int64 for BasisCurves, None for Points.
+
+        Returns:
+            ``(groups, color)``: :class:`TubeGroup` list, and the ``(3,)`` float32 colour for all of them when the
+            colour is one value (constant), else None (the groups carry per-instance colours, or there is none).
+        """
+        with np.errstate(invalid="ignore", over="ignore"):  # points that are not finite are named below
+            centres = points @ to_space[:3, :3].T + to_space[:3, 3]
+        scale = float(np.linalg.norm(to_space[:3, :3] @ np.full(3, 3.0**-0.5)))
+        if counts is None:
+            return self._points(prim, points, centres, scale, color_primvar)
+        return self._curves(prim, points, centres, scale, color_primvar, counts)
+
+    # Points
+
+    def _points(self, prim, points, centres, scale, color_primvar):
+        n = len(points)
+        sizes = {"constant": 1, "uniform": 1, "vertex": n, "varying": n, "faceVarying": n}
+        widths = self._widths(prim, UsdGeom.Points(prim), sizes)
+        radii = self._radii(prim, widths, n) * scale
+        colors = self._field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
+        if colors is not None and colors[0] == "uniform":  # a Points prim is one element
+            colors = ("constant", colors[1])
+        # Points are independent: one that is not finite (a diverged particle) is left out, the others drawn.
+        finite = _finite_boxes(centres, radii)
+        if not finite.all():
+            i = int(np.argmax(~finite))
+            self.skip("points that are not finite (or past float32 with their width) were left out", prim,
+                      f"{int((~finite).sum())} of {n}, first points[{i}]")
+        keep = np.flatnonzero(finite & (radii > 0.0))
+        per_point = colors is not None and colors[0] != "constant" and colors[0] != "uniform"
+        group = TubeGroup("sphere", _params(), sphere_transforms(centres[keep], radii[keep]),
+                          keep.astype(np.int32), colors[1][keep].astype(np.float32) if per_point else None)
+        return [group] if len(keep) else [], _constant(colors)
+
+    # Curves
+
+    def _curves(self, prim, points, centres, scale, color_primvar, counts):
+        curves = UsdGeom.BasisCurves(prim)
+        tokens = {name: self._token(prim, attr, name) for name, attr in
+                  (("type", curves.GetTypeAttr()), ("basis", curves.GetBasisAttr()), ("wrap", curves.GetWrapAttr()))}
+        counts_attr = curves.GetCurveVertexCountsAttr()
+        if np.any(counts < 0):
+            i = int(np.argmax(counts < 0))
+            raise self.error(f"curveVertexCounts[{i}] = {counts[i]} is negative", prim, counts_attr)
+        if int(counts.sum()) != len(points):
+            raise self.error(f"curveVertexCounts sum to {int(counts.sum())} but there are {len(points)} points", prim,
+                             counts_attr)
+        try:
+            spans = curve_spans(counts, tokens["type"], tokens["basis"], tokens["wrap"])
+        except ValueError as e:
+            raise self.error(str(e), prim, counts_attr) from None
+        if curves.GetNormalsAttr().HasValue() or UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals").HasValue():
+            self.skip("BasisCurves with normals (ribbons) are drawn as round tubes", prim)
+        sizes = {"constant": 1, "uniform": len(counts), "vertex": len(points), "varying": spans.n_varying,
+                 "faceVarying": spans.n_varying}
+        widths = self._widths(prim, curves, sizes)
+        if widths is None:
+            self.skip("BasisCurves without widths are drawn as tubes of width 1 (Storm draws one-pixel lines)", prim)
+        colors = self._field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
+
+        # A curve with a vertex that is not finite is left out; the others are drawn.
+        curve_of_vertex = np.repeat(np.arange(len(counts)), counts)
+        bad = np.unique(curve_of_vertex[~np.isfinite(centres).all(axis=1)])
+        if len(bad):
+            self.skip("curves with points that are not finite were left out", prim,
+                      f"{len(bad)} of {len(counts)}, first curve {int(bad[0])}")
+            spans = spans.take(~np.isin(spans.curve, bad))
+        centres = spans.extend(centres)
+        radius = _interpolator(spans, widths, self._radii(prim, widths, None))
+
+        # Cut each span into straight segments, then place a sphere at each polyline vertex and a tube along each
+        # segment.
+        ends = np.repeat(np.arange(len(spans.curve)), 2)
+        end_t = np.tile([0.0, 1.0], len(spans.curve))
+        segments = span_segments(spans, centres, radius(ends, end_t).reshape(-1, 2) * scale)
+        span, t, starts_segment, sphere = sample_spans(spans, segments)
+        weights = span_weights(spans.matrix, t)
+        at = np.einsum("mj,mjk->mk", weights, centres[spans.vertices[span]])
+        radii = np.maximum(radius(span, t), 0.0) * scale  # catmullRom overshoot can make a width negative
+        finite = _finite_boxes(at, radii)
+        if not finite.all():
+            raise self.error("curve points are past float32's range with their widths", prim)
+        tint = None if colors is None or colors[0] == "constant" else _interpolator(spans, colors, colors[1])
+        rows_colors = None if tint is None else np.maximum(tint(span, t), 0.0).astype(np.float32)  # overshoot
+
+        groups = []
+        rows = np.flatnonzero(sphere & (radii > 0.0))
+        if len(rows):
+            groups.append(TubeGroup("sphere", _params(), sphere_transforms(at[rows], radii[rows]),
+                                    spans.curve[span[rows]].astype(np.int32),
+                                    None if rows_colors is None else rows_colors[rows]))
+        a = np.flatnonzero(starts_segment)
+        b = a + 1
+        drawn = (np.maximum(radii[a], radii[b]) > 0.0) & np.any(at[a] != at[b], axis=1)
+        a, b = a[drawn], b[drawn]
+        levels, transforms = segment_transforms(at[a], at[b], radii[a], radii[b])
+        order = np.argsort(levels, kind="stable")
+        bounds = np.searchsorted(levels[order], np.arange(RHO_LEVELS + 2))
+        for level in range(RHO_LEVELS + 1):
+            chosen = order[bounds[level] : bounds[level + 1]]
+            if not len(chosen):
+                continue
+            cylinder = level == RHO_LEVELS
+            groups.append(TubeGroup(
+                "cylinder" if cylinder else "cone", _params(0.0 if cylinder else level / RHO_LEVELS),
+                transforms[chosen], spans.curve[span[a[chosen]]].astype(np.int32),
+                None if rows_colors is None else 0.5 * (rows_colors[a[chosen]] + rows_colors[b[chosen]])))
+        return groups, _constant(colors)
+
+    # Attributes
+
+    def _token(self, prim, attr, name):
+        """A BasisCurves token attribute; one outside its allowed tokens is read as UsdImaging reads it, with a
+        warning."""
+        allowed, fallback = _CURVE_TOKENS[name]
+        value = str(value_at(attr, self.time) or fallback)
+        if value not in allowed:
+            self.skip(f"BasisCurves {name} tokens other than {', '.join(allowed)} are read as {fallback}", prim,
+                      repr(value))
+            value = fallback
+        return value
+
+    def _widths(self, prim, schema, sizes):
+        """``(interpolation, (k, 1) float64)`` widths of ``prim`` (``primvars:widths`` first), or None."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("widths")
+        if primvar and primvar.HasValue():
+            return self._field(prim, primvar, sizes, 1)
+        attr = schema.GetWidthsAttr()
+        if not attr.HasValue():
+            return None
+        return self._values(prim, attr, value_at(attr, self.time), schema.GetWidthsInterpolation(), sizes, 1)
+
+    def _field(self, prim, primvar, sizes, components):
+        """``(interpolation, (k, components) float64)`` of ``primvar`` (flattened through its indices)."""
+        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        if primvar.GetElementSize() != 1:
+            self.skip(f"{primvar.GetPrimvarName()} with elementSize != 1 was ignored", prim)
+            return None
+        return self._values(prim, primvar.GetAttr(), raw, primvar.GetInterpolation(), sizes, components)
+
+    def _values(self, prim, attr, raw, interpolation, sizes, components):
+        """``(interpolation, (k, components) float64)`` of the array ``raw`` of ``attr`` (the rgb of 4-vector colours;
+        ``faceVarying`` read as ``varying``), checked against ``sizes`` (interpolation -> values needed)."""
+        values = np.asarray(raw if raw is not None else np.zeros((0, components)))
+        name = attr.GetName()
+        shape = (components,) if components == 1 else (3, 4)
+        if values.size == 0:
+            values = np.zeros((0, components))
+        elif values.dtype.kind in "fiu":
+            values = values.astype(np.float64).reshape(len(values) if values.ndim else 1, -1)
+        if values.dtype.kind not in "fiu" or values.shape[1] not in shape:
+            what = "numbers" if components == 1 else "3- or 4-vectors"
+            raise self.error(f"{name} must be an array of {what}, not {type(raw).__name__}", prim, attr)
+        if interpolation not in sizes:
+            raise self.error(f"{name} has unknown interpolation {interpolation!r}", prim, attr)
+        if len(values) != sizes[interpolation]:
+            raise self.error(f"{name} has {len(values)} values; {interpolation} interpolation needs "
+                             f"{sizes[interpolation]}", prim, attr)
+        values = values[:, :components]
+        if components == 3 and not np.isfinite(values).all():
+            self.skip(f"non-finite {name} values were replaced by grey 0.5", prim)
+            values = np.where(np.isfinite(values).all(axis=1, keepdims=True), values, 0.5)
+        interpolation = "varying" if interpolation == "faceVarying" else interpolation
+        return interpolation, values
+
+    def _radii(self, prim, widths, n):
+        """Radii ``(n,)`` from ``widths`` for points (``n``), or the ``(k,)`` radii of its values (``n`` None); 0.5
+        without widths. A negative, NaN or infinite width is 0 (not drawn), with a warning."""
+        if widths is None:
+            return np.full(n if n is not None else 1, 0.5)  # width 1
+        values = widths[1][:, 0] * 0.5
+        bad = ~(np.isfinite(values) & (values >= 0.0))
+        if bad.any():
+            i = int(np.argmax(bad))
+            self.skip("widths that are negative, NaN or infinite were not drawn", prim,
+                      f"{int(bad.sum())} of {len(values)}, first widths[{i}] = {2 * values[i]:g}")
+            values = np.where(bad, 0.0, values)
+        if n is None:
+            return values
+        return np.broadcast_to(values, (n,)) if widths[0] in ("constant", "uniform") else values
+
+
+def _interpolator(spans, field, values):
+    """``f(span, t) -> (M, k)`` (``(M,)`` for one component) values of a primvar ``field`` (its interpolation and
+    ``values``, or None: ``values`` is the one constant) at parameters ``t`` of ``span``."""
+    interpolation = field[0] if field is not None else "constant"
+    values = np.asarray(values, np.float64)
+    flat = values.ndim == 1
+    values = values.reshape(len(values), -1)
+
+    def at(span, t):
+        if interpolation == "constant":
+            out = np.broadcast_to(values[0], (len(span), values.shape[1]))
+        elif interpolation == "uniform":
+            out = values[spans.curve[span]]
+        elif interpolation == "vertex":
+            out = np.einsum("mj,mjk->mk", span_weights(spans.matrix, t), spans.extend(values)[spans.vertices[span]])
+        else:  # varying: linear along each span
+            ends = values[spans.varying[span]]
+            out = ends[:, 0] + t[:, None] * (ends[:, 1] - ends[:, 0])
+        return out[:, 0] if flat else out
+
+    return at
+
+
+def _finite_boxes(centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """``(N,)`` bool: the sphere's box is finite in float32, as the device holds it."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        reach = np.abs(centres).max(axis=1) + radii
+        return np.isfinite(reach.astype(np.float32)) & np.isfinite(centres).all(axis=1)
+
+
+def _params(rho: float = 0.0) -> np.ndarray:
+    """``Shape.params`` of an open shape (no caps) of narrowing ``rho``, facing outwards."""
+    return np.array([0.0, rho, 0.0, 1.0], np.float32)
+
+
+def _constant(colors):
+    """The one colour of a constant colour field, else None."""
+    if colors is None or colors[0] != "constant":
+        return None
+    return colors[1][0].astype(np.float32)
+
+
+__all__ = ["TubeGroup", "TubeReader"]
