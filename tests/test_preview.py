@@ -398,3 +398,20 @@ def test_preview_and_to_pyvista_draw_a_mesh_replaced_since_the_last_look(tmp_pat
         assert drawn.bounds[3] == pytest.approx(12.0)  # the moved tets reach y = 1 + 10 + 1
     finally:
         plotter.close()
+
+
+def test_preview_draws_points_as_spheres_and_says_when_shapes_are_left_out(tmp_path, monkeypatch):
+    """A Points prim is drawn as its spheres (instances of a unit sphere); past the shape budget the title says how
+    many of them are shown (they were cut to the budget without a word)."""
+    path = tmp_path / "points.usda"
+    path.write_text('#usda 1.0\ndef Points "P"\n{\n    point3f[] points = [(0, 0, 0), (2, 0, 0), (4, 0, 0)]\n'
+                    '    float[] widths = [1] (interpolation = "constant")\n}\n')
+    scene = wrt.load_usd(path)
+    monkeypatch.setattr(preview_module, "SHAPE_BUDGET", 2)
+    plotter = wrt.preview(scene, window_size=(64, 48))
+    try:
+        assert "showing 2 of 3 analytic shapes" in plotter.title
+        mesh = plotter.actors["shapes"].mapper.dataset
+        np.testing.assert_allclose(mesh.bounds, [-0.5, 2.5, -0.5, 0.5, -0.5, 0.5], atol=1e-6)
+    finally:
+        plotter.close()

@@ -644,9 +644,12 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
             mesh.cell_data["color"] = attributes[rows, :3]
             culling = None if double_sided else "back"
             plotter.add_mesh(mesh, scalars="color", rgb=True, show_scalar_bar=False, culling=culling, name=label)
-    shapes = shape_meshes(scene)
+    shapes = shape_meshes(scene, max_shapes=SHAPE_BUDGET)
     if shapes is not None:
         plotter.add_mesh(shapes, scalars="color", rgb=True, show_scalar_bar=False, name="shapes")
+        total = scene.stats()["rendered_shapes"]  # a Points prim of a million spheres was cut to the budget unsaid
+        if total > SHAPE_BUDGET:
+            note = ", ".join(filter(None, [note, f"showing {SHAPE_BUDGET:,} of {total:,} analytic shapes"]))
     return note
 
 
