@@ -75,8 +75,10 @@ class Instances(CountsAssignments):
             ``p_world = M @ (p, 1)``, bottom row ``(0, 0, 0, 1)``; see :meth:`check_affine`).
         source: ``(N,)`` int32 index into ``sources``: the world-level prim that made each instance (an instance
             nested inside a prototype reports the world-level instance it is part of).
-        index: ``(N,)`` int32 position in that PointInstancer's arrays, -1 for a native instance.
-        sources: prim paths of the PointInstancers and instanceable prims that made the instances.
+        index: ``(N,)`` int32 position in that PointInstancer's arrays, -1 for a native instance; for the spheres and
+            tube pieces of a ``Points`` or ``BasisCurves`` prim (:mod:`wrt.usd_tubes`), the point or curve drawn.
+        sources: prim paths of the PointInstancers, instanceable prims, Points and BasisCurves that made the
+            instances.
         colors: ``(N, 3)`` float32 linear colour of each instance (a PointInstancer's ``displayColor`` primvar, or
             the colour primvar its prototypes' materials read), NaN rows for instances without one; ``(0, 3)`` when no
             instance has one. It colours the prototype meshes and shapes that have no colours of their own

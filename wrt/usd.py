@@ -18,7 +18,8 @@ with ``displayColor`` (constant; other interpolations use the mean), material bi
 ``orientation``. With ``tessellate_gprims`` they become triangle meshes instead (vertices on the surface, analytic
 vertex normals; see :func:`wrt.primitives.tessellate`). Gprims whose size is zero, negative or not finite are
 skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0), and so are other gprim
-types; one whose world box is past float32's range raises, as mesh points do.
+types; one whose world box is past float32's range raises, as mesh points do. ``Points`` and ``BasisCurves`` become
+instances of spheres and tube pieces (:mod:`wrt.usd_tubes`), each shape a content of its own.
 
 Instancing (:mod:`wrt.instancing`): native instances (``instanceable`` prims) and ``UsdGeom.PointInstancer``
 instances are not flattened. Each native prototype and each prim a PointInstancer's ``prototypes`` relationship
