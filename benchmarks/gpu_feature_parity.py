@@ -3,7 +3,8 @@
 spheres at three roughnesses (the multiple-scattering lobe), spotlights (ShapingAPI cone, softness, focus), a
 normal-mapped quad under a sun and at a grazing view, a UDIM-textured plane (three tiles and a missing one), and
 tapered Cylinder_1 and Capsule_1 gprims (hits of rays from every side, and images), and quads coloured by a primvar
-(one without it: the reader's fallback) and by a MaterialX primvar times a constant. wrt's shade kernels round alike
+(one without it: the reader's fallback) and by a MaterialX primvar times a constant, and Points (spheres) beside
+varying-width bspline curves (tubes, frustums and joint spheres). wrt's shade kernels round alike
 on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are expected to be equal, but for the
 last bits of transcendental functions (the spotlights' acos and pow).
 
@@ -27,6 +28,7 @@ from shading_helpers import quad, top_down_camera  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
 from test_materials import bind, new_stage  # noqa: E402
 from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
+from test_points_curves import floats, fmt  # noqa: E402
 from test_primvar_colors import (  # noqa: E402
     C3,
     F,
@@ -127,6 +129,35 @@ def main() -> None:
     cam = wrt.Camera.look_at((0, -3, 6), (0, 0.5, 0), (0, 1, 0), 50.0)
     for integrator in ("whitted", "path"):
         compare(f"primvar colours {integrator}", wrt.load_usd(path), devices, camera=cam, width=48, height=48,
+                integrator=integrator, spp=4)
+
+    points_and_curves(args.out / "parity_points_curves.usda", devices)
+
+
+def points_and_curves(path: Path, devices: list[str]) -> None:
+    """Points of random widths and colours beside bspline curves of varying widths: every hit is an instance of an
+    analytic sphere, cylinder or cone frustum in the TLAS."""
+    rng = np.random.default_rng(7)
+    n = 400
+    centres, widths, colors = rng.uniform(-3, 3, (n, 3)), rng.uniform(0.05, 0.3, n), rng.uniform(0.1, 0.9, (n, 3))
+    walk = np.cumsum(rng.normal(0, 0.4, (8 * 12, 3)), axis=0).reshape(8, 12, 3) - [0, 0, 1]
+    path.write_text(
+        f'#usda 1.0\n(\n    upAxis = "Y"\n)\ndef Points "P"\n{{\n    point3f[] points = {fmt(centres)}\n'
+        f'    float[] widths = {floats(widths)} (interpolation = "vertex")\n'
+        f'    color3f[] primvars:displayColor = {fmt(colors)} (interpolation = "vertex")\n}}\n'
+        f'def BasisCurves "C"\n{{\n    uniform token type = "cubic"\n    uniform token basis = "bspline"\n'
+        f'    int[] curveVertexCounts = {[12] * 8}\n    point3f[] points = {fmt(walk.reshape(-1, 3))}\n'
+        f'    float[] widths = {floats(np.linspace(0.3, 0.05, walk.size // 3))} (interpolation = "vertex")\n}}\n')
+    scene = wrt.load_usd(path)
+    origins = np.column_stack([rng.uniform(-4, 4, (20000, 2)), np.full(20000, 9.0)]).astype(np.float32)
+    directions = (rng.uniform(-3, 3, (20000, 3)) - origins).astype(np.float32)
+    a, b = (wrt.trace(scene, origins, directions, device=device) for device in devices)
+    print(f"points and curves trace: hit {float((a.prim >= 0).mean()):.3f}, prim equal "
+          f"{float((a.prim == b.prim).mean()):.4f}, instance equal {float((a.instance == b.instance).mean()):.4f}, "
+          f"t max |diff| {float(np.nanmax(np.abs(np.where(a.prim >= 0, a.t - b.t, 0.0)))):.3g}")
+    cam = wrt.Camera.look_at((0, 2, 10), (0, 0, 0), (0, 1, 0), 45.0)
+    for integrator in ("whitted", "path"):
+        compare(f"points and curves {integrator}", scene, devices, camera=cam, width=64, height=64,
                 integrator=integrator, spp=4)
 
 
