@@ -187,6 +187,47 @@ def test_data_window_renders_the_pixels_inside_it(tmp_path):
         wrt.render(wrt.load_usd(write_stage(tmp_path, settings=thin, name="thin.usda")))
 
 
+NO_CAMERA = """#usda 1.0
+(
+    renderSettingsPrimPath = "/Render/Settings"
+)
+def Cube "Box"
+{{
+    double size = 1
+    color3f[] primvars:displayColor = [(0.8, 0.2, 0.2)]
+}}
+def Sphere "Ball"
+{{
+    double radius = 0.3
+    double3 xformOp:translate = (1, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+def Scope "Render"
+{{
+    def RenderSettings "Settings"
+    {{
+        uniform int2 resolution = (64, 32)
+        {window}
+    }}
+}}
+"""
+
+
+def test_data_window_crops_the_camera_that_frames_a_stage_without_cameras(tmp_path):
+    """A stage without cameras is seen by a camera wrt makes to frame it; it took the settings' 64x32 but not their
+    data window, rendering all 64x32 pixels where the window (0.25, 0.5, 0.75, 1) holds the top middle 32x16."""
+    full = tmp_path / "full.usda"
+    full.write_text(NO_CAMERA.format(window=""))
+    crop = tmp_path / "crop.usda"
+    crop.write_text(NO_CAMERA.format(window="uniform float4 dataWindowNDC = (0.25, 0.5, 0.75, 1)"))
+    whole = render_npy(tmp_path, full, name="full.npy")
+    assert whole.shape == (32, 64, 3)
+    cropped = render_npy(tmp_path, crop, name="crop.npy")
+    assert cropped.shape == (16, 32, 3)
+    np.testing.assert_allclose(cropped, whole[:16, 16:48], atol=1e-5)
+    assert (cropped.max(axis=-1) > 0.05).mean() > 0.1  # the box is in the window: not a blank image that matches
+
+
 def test_set_cameras_keeps_the_data_window_rule(tmp_path):
     """set_cameras follows the rule of the constructor: under a data window a stage camera (cropped to 32x16) and a
     Camera object (64x32) make images of two sizes, so a renderer of one kind refuses cameras of the other. The

@@ -97,7 +97,8 @@ def resolve_view(scene: Scene, camera=None, width: int | None = None, height: in
     given, else the stage's render settings' (``Scene.render_settings``: its camera, its resolution), else wrt's
     default (:func:`resolve_camera`, ``DEFAULT_WIDTH x DEFAULT_HEIGHT``). A stage camera (``None`` or a prim path)
     then takes the settings' conform policy, pixel aspect ratio, depth of field and data window (which may make the
-    image smaller: the pixels inside it); a :class:`Camera` object is used as it is."""
+    image smaller: the pixels inside it); the camera wrt makes to frame a stage without cameras takes the data window
+    only (its film is wrt's, not the stage's); a :class:`Camera` object is used as it is."""
     settings = scene.render_settings
     if settings is None:
         return (resolve_camera(scene, camera), DEFAULT_WIDTH if width is None else width,
@@ -109,8 +110,10 @@ def resolve_view(scene: Scene, camera=None, width: int | None = None, height: in
                              f"not among the cameras wrt reads: {', '.join(scene.cameras) or 'none'}")
         camera = settings.camera
     cam = resolve_camera(scene, camera)
-    if isinstance(camera, Camera) or not cam.path:  # the caller's camera, or one wrt made to frame the scene
+    if isinstance(camera, Camera):
         return cam, width, height
+    if not cam.path:  # made by wrt to frame the scene: the image is still the shot's, data window included
+        return settings.crop(cam, width, height)
     return settings.frame(cam, width, height)
 
 

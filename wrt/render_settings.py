@@ -88,7 +88,15 @@ class RenderSettings:
         changes = {"fit": self.conform_policy, "pixel_aspect_ratio": self.pixel_aspect_ratio}
         if self.disable_depth_of_field:
             changes["f_stop"] = 0.0
-        camera = dataclasses.replace(camera, **changes)
+        return self.crop(dataclasses.replace(camera, **changes), width, height)
+
+    def crop(self, camera: Camera, width: int, height: int) -> tuple[Camera, int, int]:
+        """``(camera, width, height)`` of the pixels of a ``width x height`` image of ``camera`` that the data window
+        holds: a camera whose film is exactly theirs, and their count (``camera`` itself without a window).
+
+        Raises:
+            SceneError: the data window holds no pixel centre of the image.
+        """
         if self.data_window == FULL_WINDOW:
             return camera, width, height
         # Pixel k (from the left, or from the bottom) has its centre at NDC (k + 0.5) / n: the first one at or past
