@@ -160,6 +160,34 @@ def test_conform_policies_give_the_film_the_schema_describes(tmp_path, resolutio
     np.testing.assert_allclose(directions, expected, atol=2e-6)
 
 
+def test_camera_rays_are_the_rays_of_the_shot(tmp_path):
+    """camera_rays (the primary rays of wrt bench) followed no render settings: 320x240 rays from the stage's first
+    camera (/World/Front), not the 32x16 the shot renders from /World/Side through its data window. They are the
+    render's own rays: each hits what the render's pixel shows, at its depth, and ray_set's primary rays are them."""
+    from wrt.rays import ray_set
+
+    window = DEFAULT_SETTINGS + ('\n        uniform token aspectRatioConformPolicy = "cropAperture"'
+                                 "\n        uniform float4 dataWindowNDC = (0.25, 0, 0.75, 0.5)")
+    scene = wrt.load_usd(write_stage(tmp_path, settings=window))
+    origins, directions = camera_rays(scene)
+    assert origins.shape == directions.shape == (32 * 16, 3)
+    image = wrt.render(scene, device="cpu")
+    hits = wrt.trace(scene, origins, directions)
+    assert 0.1 < hits.hit.mean() < 1.0  # the box and the sky: a real check of where the rays go
+    np.testing.assert_array_equal(image.aovs["prim"].ravel(), hits.prim)
+    np.testing.assert_allclose(image.aovs["depth"].ravel()[hits.hit], hits.t[hits.hit], rtol=1e-6)
+    np.testing.assert_allclose(origins, np.broadcast_to(scene.cameras["/World/Side"].eye, origins.shape), atol=1e-6)
+    # The directions of the Side camera's film (focal length 10, apertures 20 x 10, cropAperture at 64x32: the whole
+    # film) through the centres of pixels 16..47 of the bottom 16 rows.
+    x = ((np.arange(16, 48) + 0.5) / 64 - 0.5) * 20 / 10
+    y = (0.5 - (np.arange(16, 32) + 0.5) / 32) * 10 / 10
+    expected = np.stack(np.broadcast_arrays(x[None, :], y[:, None], -1.0), axis=-1).reshape(-1, 3)
+    np.testing.assert_allclose(directions, expected / np.linalg.norm(expected, axis=1, keepdims=True), atol=2e-6)
+    # Explicit arguments still win; ray_set's primary rays are the shot's at about n rays.
+    assert camera_rays(scene, "/World/Front", 8, 6)[0].shape == (8 * 6 // 4, 3)  # Front, cropped to its window
+    np.testing.assert_array_equal(ray_set(scene, "primary", 32 * 16)[1], directions)
+
+
 def test_plain_renders_keep_the_horizontal_aperture():
     """wrt's fit without render settings is UsdRender's adjustApertureHeight."""
     cam = wrt.Camera(horizontal_aperture=20, vertical_aperture=10)

@@ -9,15 +9,18 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from .camera import Camera, generate_rays_kernel
-from .render import resolve_camera
+from .camera import generate_rays_kernel
+from .render import resolve_view
 from .scene import Scene
 
 
-def camera_rays(scene: Scene, camera=None, width: int = 320, height: int = 240) -> tuple[np.ndarray, np.ndarray]:
-    """One ray through the centre of each pixel of ``camera`` (see :func:`wrt.render.resolve_camera`), row-major
-    from the top-left, exactly as the renderer casts its first sample."""
-    cam: Camera = resolve_camera(scene, camera)
+def camera_rays(scene: Scene, camera=None, width: int | None = None,
+                height: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """One ray through the centre of each pixel of the image :func:`wrt.render` makes of ``scene`` with these
+    arguments, row-major from the top-left, exactly as the renderer casts its first sample: the stage's render
+    settings choose what is not given (camera, resolution, conform policy, data window: see
+    :func:`wrt.render.resolve_view`), so there are fewer than ``width * height`` rays under a data window."""
+    cam, width, height = resolve_view(scene, camera, width, height)
     n = width * height
     out = [wp.empty(n, dtype=wp.vec3, device="cpu") for _ in range(2)]
     out += [wp.empty(n, dtype=float, device="cpu") for _ in range(2)]
@@ -95,15 +98,28 @@ def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int
     return position.astype(np.float32), np.ascontiguousarray(out, dtype=np.float32)
 
 
+def _shot_size(scene: Scene, n: int) -> tuple[int, int]:
+    """``(width, height)`` of an image of about ``n`` camera rays in the aspect of the stage's render settings (4:3
+    without them), counting only the pixels of their data window (:meth:`RenderSettings.crop`)."""
+    settings = scene.render_settings
+    aspect, pixels = 4.0 / 3.0, float(n)
+    if settings is not None:
+        xmin, ymin, xmax, ymax = settings.data_window
+        aspect = settings.resolution[0] / settings.resolution[1]
+        pixels = n / ((xmax - xmin) * (ymax - ymin))
+    width = max(int(round(np.sqrt(pixels * aspect))), 1)
+    return width, max(int(pixels // width), 1)
+
+
 def ray_set(scene: Scene, kind: str, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """About ``n`` rays of one benchmark kind (see :data:`RAY_KINDS`). Shadow and diffuse rays start at the hits of
-    ``n`` primary rays, so there are as many of them as primary rays hit."""
+    """About ``n`` rays of one benchmark kind (see :data:`RAY_KINDS`). Primary rays are :func:`camera_rays` of the
+    stage's shot (its render settings' camera, aspect and data window) at about ``n`` pixels. Shadow and diffuse rays
+    start at the hits of those primary rays, so there are as many of them as primary rays hit."""
     if kind not in RAY_KINDS:
         raise ValueError(f"unknown ray kind {kind!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
     if kind == "incoherent":
         return incoherent_rays(scene, n, seed)
-    width = max(int(round(np.sqrt(n * 4.0 / 3.0))), 1)
-    height = max(n // width, 1)
+    width, height = _shot_size(scene, n)
     origins, directions = camera_rays(scene, width=width, height=height)
     if kind == "primary":
         return origins, directions
