@@ -189,6 +189,30 @@ def test_a_mesh_without_the_primvar_shows_the_fallback(tmp_path, kind):
     np.testing.assert_allclose(image[1:3], halves(TEMPERATURE[0], fallback)[1:3], atol=1e-6)  # rows on the quads
 
 
+def test_a_display_color_reader_shows_its_fallback_on_a_mesh_without_display_color(tmp_path):
+    """A reader of displayColor on a mesh without one showed grey 0.5 whatever its fallback; Storm shows the fallback
+    (UsdImaging publishes no unauthored displayColor, and its primvar reader then returns the fallback), as wrt does
+    for readers of other primvars. A mesh with displayColor still shows it, and one bound to no material grey."""
+    stage, path = new_stage(tmp_path)
+    fallback = (0.25, 0.5, 0.75)
+    material = preview_reader_material(stage, "/Looks/Display", varname="displayColor", fallback=fallback)
+    coloured = two_quads(stage, "/Coloured", x=-1.0)  # the left half of the view
+    coloured.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0, 1, 0)])
+    bare = two_quads(stage, "/Bare", x=1.0)
+    for mesh in (coloured, bare):
+        bind(mesh, material)
+    two_quads(stage, "/Plain", x=1.0).AddTranslateOp().Set((0, 3, 0))  # above the view: no material, no colour
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=4.0)
+    image = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").aovs["albedo"]
+    np.testing.assert_allclose(image[1:3], halves((0, 1, 0), fallback)[1:3], atol=1e-6)  # rows on the quads
+    high = wrt.Camera.orthographic(eye=(1, 3, 5), target=(1, 3, 0), height=1.0)
+    plain = wrt.render(scene, camera=high, width=2, height=2, device="cpu", integrator="albedo").aovs["albedo"]
+    np.testing.assert_allclose(plain, 0.5, atol=1e-6)
+
+
 def test_varname_from_an_interface_input(tmp_path):
     """A reader's varname connected to a string input of the Material reads the primvar it names."""
     stage, path = new_stage(tmp_path)

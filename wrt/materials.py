@@ -220,14 +220,14 @@ class PrimvarInput:
     scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(3, np.float32))
 
     def apply(self, mat: Material):
-        """Makes ``mat``'s diffuseColor this primvar. Where a mesh lacks it: the fallback times the scale, but for
-        ``displayColor`` grey 0.5 (times the scale) whatever the fallback, wrt's colour of a mesh without one (Hydra
-        gives every gprim a displayColor, so Storm never shows that reader's fallback either)."""
+        """Makes ``mat``'s diffuseColor this primvar. Where a mesh lacks it: the fallback times the scale, for
+        ``displayColor`` too, as Storm shows it: UsdImaging publishes no displayColor a gprim does not author or
+        inherit (``UsdImagingGprimAdapter::GetColor``), and Storm's primvar reader returns its fallback for a primvar
+        the mesh lacks (``HdSt_CodeGen``'s primvar redirect)."""
         mat.diffuse_from_display_color = True
         mat.color_primvar = self.name
         mat.color_primvar_scale = np.asarray(self.scale, np.float32)
-        missing = np.full(3, DEFAULT_GREY) if self.name == "displayColor" else self.fallback
-        mat.diffuse_color = np.asarray(missing * self.scale, np.float32)
+        mat.diffuse_color = np.asarray(self.fallback * self.scale, np.float32)
 
 
 @wp.struct
@@ -444,7 +444,7 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
     s = Surface()
     flags = mats.flags[m]
     base = mats.colors[m, 0]
-    # A mesh without the primvar keeps the constant: the reader's fallback (grey 0.5 for displayColor).
+    # A mesh without the primvar keeps the constant: the reader's fallback.
     if (flags & FLAG_DISPLAY_COLOR) != 0 and not wp.isnan(display_color[0]):
         base = wp.cw_mul(display_color, mats.colors[m, 3])
     s.base_color = input_color(mats, m, SLOT_DIFFUSE, st, base)
