@@ -314,6 +314,40 @@ def test_a_bad_frame_is_an_error_row_naming_it_and_the_other_frames_render(tmp_p
         np.testing.assert_array_equal(np.load(tmp_path / "out" / f"f_{frame}.npy"), fresh.rgb)
 
 
+@pytest.mark.parametrize("where", ["serial", "two devices", "dask"])
+def test_frames_outside_the_time_range_warn_once_naming_them(tmp_path, where):
+    """--frames 0:8 of a stage authored over [1, 3] warned once per frame outside it (6 warnings here, 1000 for a
+    long range past the end); one warning names those frames and the stage's range, from every kind of run."""
+    path = tmp_path / "short.usda"
+    path.write_text("""#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 3
+)
+def Sphere "Ball"
+{
+    double3 xformOp:translate.timeSamples = { 1: (0, 0, 0), 3: (1, 0, 0) }
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+""")
+    jobs = pending_frames(parse_frames("0:8"), tmp_path / "out" / "f_#.npy", resume=False)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if where == "dask":
+            pytest.importorskip("distributed")
+            from wrt.animation import render_frames_on_dask
+
+            rows = render_frames_on_dask(path, jobs, n_workers=1, **SIZE)
+        else:
+            rows = render_frames(path, jobs, devices=["cpu"] if where == "serial" else ["cpu", "cpu"], **SIZE)
+    assert sorted(row["frame"] for row in rows) == list(range(9)) and not any("error" in row for row in rows)
+    about_time = [str(w.message) for w in caught if "time range" in str(w.message)]
+    assert about_time == ["short.usda: frames 0 and 4 to 8 (6 of 9) are outside the stage's time range [1, 3]; USD "
+                          "holds the values of the nearest time samples"]
+    with pytest.warns(UserWarning, match=r"short.usda: frame 9 is outside the stage's time range \[1, 3\]"):
+        render_frames(path, pending_frames([9.0], tmp_path / "g_#.npy", resume=False), **SIZE)
+
+
 def test_cli_frames_name_the_frames_that_failed_and_exit_1(tmp_path, capsys):
     from wrt.cli import main
 

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, TimeRangeWarning
 from .image import write_atomically
 
 REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20% worse than when it was built
@@ -244,6 +244,32 @@ class FrameRenderer:
         return image
 
 
+def warn_frames_outside_range(path, frames) -> None:
+    """One :class:`wrt.errors.TimeRangeWarning` naming the ``frames`` outside the stage's authored time range and the
+    range. Every frame's load warned about its own time, so 1000 frames past the end were 1000 lines; the renders of
+    a frame range leave those out (:func:`_quiet_time_range`)."""
+    from .usd import outside_range, stage_time_range
+
+    found = stage_time_range(path)
+    if found is None:
+        return
+    frames = sorted(frames)
+    spans = [side for side in ([f for f in frames if f < found[0]], [f for f in frames if f > found[1]]) if side]
+    n = sum(map(len, spans))
+    if n:
+        named = " and ".join(f"{s[0]:g}" if len(s) == 1 else f"{s[0]:g} to {s[-1]:g}" for s in spans)
+        what = f"frame {named} is" if n == 1 else f"frames {named} ({n} of {len(frames)}) are"
+        warnings.warn(f"{os.path.basename(path)}: {what} {outside_range(*found)}", TimeRangeWarning, stacklevel=3)
+
+
+@contextlib.contextmanager
+def _quiet_time_range():
+    """Leaves out the :class:`TimeRangeWarning` of each frame's load inside (the run gave one for all of them)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TimeRangeWarning)
+        yield
+
+
 def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
     """``(frame, file)`` of every frame to render; with ``resume``, frames whose file exists and is not empty are
     left out (files are written whole or not at all: :func:`wrt.image.write_atomically`)."""
@@ -287,6 +313,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     for device in devices:  # a bad name failed only in a spawned worker, seconds later, under a started progress bar
         resolve_device(device)
     path = os.fspath(path)
+    warn_frames_outside_range(path, [frame for frame, _ in jobs])
     rows = []
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
         if len(devices) == 1:
@@ -294,7 +321,8 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             for frame, file in jobs:
                 start = _time.perf_counter()
                 try:
-                    written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
+                    with _quiet_time_range():
+                        written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
                 except SceneError as e:
                     rows.append(frame_error_row(frame, file, e))
                 else:
@@ -433,6 +461,7 @@ def render_frame_task(job: dict) -> dict:
     start = _time.perf_counter()
     with warnings.catch_warnings(record=True) as raised:
         warnings.simplefilter("always")
+        warnings.simplefilter("ignore", TimeRangeWarning)  # the client warned once for every frame of the run
         if key not in _WORKER_RENDERERS:
             _WORKER_RENDERERS[key] = FrameRenderer(job["path"], device=device, **job["options"])
         renderer = _WORKER_RENDERERS[key]
@@ -456,6 +485,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
 
     check_exposure(exposure)
     path = os.fspath(path)
+    warn_frames_outside_range(path, [frame for frame, _ in jobs])
     tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
     rows = []
     write = _frame_writer(jobs, rows)
@@ -487,4 +517,5 @@ __all__ = [
     "render_frames",
     "render_frames_on_dask",
     "topology_key",
+    "warn_frames_outside_range",
 ]

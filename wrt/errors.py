@@ -17,6 +17,12 @@ class SceneError(ValueError):
         super().__init__(": ".join(parts + [message]))
 
 
+class TimeRangeWarning(UserWarning):
+    """A time code outside the stage's authored ``[startTimeCode, endTimeCode]``: rendered all the same (USD holds
+    the values of the nearest time samples), but often a typo. A category of its own, so a frame range warns once for
+    all its frames (:func:`wrt.animation.warn_frames_outside_range`) instead of once per frame."""
+
+
 def check_fields(obj, *fields: tuple) -> None:
     """Checks and converts fields of a light or material built in Python, in its ``__post_init__``: NaN, inf or a
     negative size there rendered a black image without a word, and an array of a wrong shape failed deep in Warp.

@@ -71,7 +71,7 @@ import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc, UsdShade
 
 from .camera import Camera
-from .errors import SceneError
+from .errors import SceneError, TimeRangeWarning
 from .instancing import Instances, Prototype, group_rows, invert_transforms, world_boxes
 from .materials import MaterialReader, bound_material
 from .primitives import (
@@ -266,11 +266,26 @@ def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
         return
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
     if not start <= time <= end:
-        warnings.warn(
-            f"{os.path.basename(source)}: time {time:g} is outside the stage's time range [{start:g}, {end:g}]; "
-            "USD holds the values of the nearest time samples",
-            stacklevel=3,
-        )
+        warnings.warn(f"{os.path.basename(source)}: time {time:g} is {outside_range(start, end)}", TimeRangeWarning,
+                      stacklevel=3)
+
+
+def outside_range(start: float, end: float) -> str:
+    """The words of a :class:`TimeRangeWarning`, after the time or frames it is about."""
+    return f"outside the stage's time range [{start:g}, {end:g}]; USD holds the values of the nearest time samples"
+
+
+def stage_time_range(path) -> tuple[float, float] | None:
+    """The authored ``(startTimeCode, endTimeCode)`` of the stage at ``path``, or None when not both are authored or
+    the file cannot be read. Read from its root layer alone, without composing the stage: ``Usd.Stage`` reads them
+    there (or from its session layer, where wrt authors none)."""
+    try:
+        layer = Sdf.Layer.FindOrOpen(os.fspath(path))
+    except Tf.ErrorException:
+        return None
+    if layer is None or not (layer.HasStartTimeCode() and layer.HasEndTimeCode()):
+        return None
+    return float(layer.startTimeCode), float(layer.endTimeCode)
 
 
 def _open_stage(source: str) -> Usd.Stage:
