@@ -307,6 +307,7 @@ def test_a_bad_frame_is_an_error_row_naming_it_and_the_other_frames_render(tmp_p
     assert sorted(row["frame"] for row in rows) == [1.0, 2.0, 3.0]
     failed = [row for row in rows if "error" in row]
     assert len(failed) == 1 and failed[0]["frame"] == 2.0 and failed[0]["output"] == str(jobs[1][1])
+    assert failed[0]["device"] == "cpu"  # where it ran, as the rendered frames' rows say (it named none)
     assert failed[0]["error"].startswith("SceneError: ") and "/Quad: points[1]" in failed[0]["error"]
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f_1.npy", "f_3.npy"]
     for frame in (1, 3):

@@ -324,7 +324,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                     with _quiet_time_range():
                         written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
                 except SceneError as e:
-                    rows.append(frame_error_row(frame, file, e))
+                    rows.append(frame_error_row(frame, file, e, str(devices[0])))
                 else:
                     row = dict(renderer.log[-1], device=str(devices[0]), output=str(written))
                     rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
@@ -349,7 +349,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                 try:
                     write(future.result())
                 except SceneError as e:
-                    rows.append(frame_error_row(*futures[future], e))
+                    rows.append(frame_error_row(*futures[future], e, getattr(e, "device", None)))
                 bar.update(1)
         except BaseException:
             # Ctrl-C or a failing frame: the frames written so far stay. Leaving the pool with shutdown(wait=True)
@@ -360,11 +360,14 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     return rows
 
 
-def frame_error_row(frame: float, file, error: SceneError) -> dict:
+def frame_error_row(frame: float, file, error: SceneError, device: str | None = None) -> dict:
     """The log row of a frame that failed: ``frame``, ``output`` (the file it did not write), ``error``
-    (``"SceneError: "`` and the first line of the message, as the rows of a batch of scenes) and ``finished_at``."""
-    return {"frame": float(frame), "output": str(file), "error": f"SceneError: {str(error).splitlines()[0]}",
-            "finished_at": _time.time()}
+    (``"SceneError: "`` and the first line of the message, as the rows of a batch of scenes), ``device`` (where it
+    ran, as rendered frames' rows name it; left out when unknown) and ``finished_at``."""
+    row = {"frame": float(frame), "output": str(file), "error": f"SceneError: {str(error).splitlines()[0]}"}
+    if device is not None:
+        row["device"] = str(device)
+    return dict(row, finished_at=_time.time())
 
 
 @contextlib.contextmanager
@@ -465,7 +468,11 @@ def render_frame_task(job: dict) -> dict:
         if key not in _WORKER_RENDERERS:
             _WORKER_RENDERERS[key] = FrameRenderer(job["path"], device=device, **job["options"])
         renderer = _WORKER_RENDERERS[key]
-        image = renderer.render(job["frame"], spp=job["spp"], seed=job["seed"])
+        try:
+            image = renderer.render(job["frame"], spp=job["spp"], seed=job["seed"])
+        except SceneError as e:
+            e.device = device  # for the frame's error row, written by the client (it travels with the pickled error)
+            raise
     with tempfile.TemporaryDirectory() as tmp:
         written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
         data = Path(written).read_bytes()
@@ -494,7 +501,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
 
     def failed(job, error):
         if isinstance(error, SceneError):
-            rows.append(frame_error_row(job["frame"], files[job["frame"]], error))
+            rows.append(frame_error_row(job["frame"], files[job["frame"]], error, getattr(error, "device", None)))
         else:
             others.append(error)
 
