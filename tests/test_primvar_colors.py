@@ -223,23 +223,49 @@ def test_varname_from_an_interface_input(tmp_path):
     np.testing.assert_allclose(albedo(load(path)[0]), halves(*TEMPERATURE), atol=1e-6)
 
 
-def test_materials_reading_two_primvars_on_one_mesh_use_the_first_with_a_warning(tmp_path):
-    """A mesh holds one set of colours: its face subsets bound to materials reading ``temperature`` and
-    ``pressure`` both show ``temperature`` (the mesh's first material's), with a warning naming both."""
+def bind_faces(stage, mesh, materials):
+    """A ``materialBind`` subset per face of ``mesh`` bound to ``materials[face]`` (None: left unbound)."""
+    for face, material in enumerate(materials):
+        if material is not None:
+            subset = UsdGeom.Subset.Define(stage, f"{mesh.GetPath()}/Face{face}")
+            subset.CreateElementTypeAttr("face")
+            subset.CreateFamilyNameAttr("materialBind")
+            subset.CreateIndicesAttr([face])
+            bind(subset, material)
+
+
+GREEN = (0.0, 1.0, 0.0)
+
+
+@pytest.mark.parametrize("case", ["two primvars", "primvar and displayColor", "primvar missing"])
+def test_faces_of_one_mesh_read_the_colour_primvar_of_their_own_material(tmp_path, case):
+    """A mesh held one set of colours, the first its materials read, with a warning: the face whose material reads
+    ``pressure`` showed ``temperature``, and an unbound face (the default material: displayColor) showed
+    ``temperature`` too. Each face now shows its own material's primvar, or its reader's fallback where the mesh
+    lacks it, in renders and in ``wrt preview``'s colours."""
+    from wrt.image import to_srgb8
+    from wrt.preview import triangle_colors
+
     stage, path = new_stage(tmp_path)
     quads = two_quads(stage)
-    add_temperature(quads)
-    add_temperature(quads, name="pressure", colors=[(0, 0, 0), (1, 1, 1)])
-    for face, name in ((0, "temperature"), (1, "pressure")):
-        subset = UsdGeom.Subset.Define(stage, f"/Quads/Face{face}")
-        subset.CreateElementTypeAttr("face")
-        subset.CreateFamilyNameAttr("materialBind")
-        subset.CreateIndicesAttr([face])
-        bind(subset, preview_reader_material(stage, f"/Looks/{name}", varname=name))
+    fallback = (0.25, 0.5, 0.75)
+    heat = preview_reader_material(stage, "/Looks/temperature", fallback=fallback)
+    if case == "two primvars":
+        add_temperature(quads)
+        add_temperature(quads, name="pressure", colors=[(0, 0, 0), (1, 1, 1)])
+        bind_faces(stage, quads, [heat, preview_reader_material(stage, "/Looks/pressure", varname="pressure")])
+        expected = (TEMPERATURE[0], (1, 1, 1))
+    else:
+        if case == "primvar and displayColor":
+            add_temperature(quads)
+        quads.CreateDisplayColorPrimvar().Set([Gf.Vec3f(*GREEN)])
+        bind_faces(stage, quads, [heat, None])  # the right face: the default material, displayColor
+        expected = (TEMPERATURE[0] if case == "primvar and displayColor" else fallback, GREEN)
     stage.Save()
     scene, messages = load(path)
-    assert any("several colour primvars (temperature, pressure)" in m and "/Quads" in m for m in messages), messages
-    np.testing.assert_allclose(albedo(scene), halves(*TEMPERATURE), atol=1e-6)
+    assert not messages, messages
+    np.testing.assert_allclose(albedo(scene), halves(*expected), atol=1e-6)
+    np.testing.assert_array_equal(triangle_colors(scene), np.repeat(to_srgb8(np.array(expected)), 2, axis=0))
 
 
 def test_a_refined_subdivision_mesh_keeps_its_primvar_colours(tmp_path):

@@ -21,11 +21,11 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``), ``wrapS``/``wrapT``, ``scale``, ``bias``,
   ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a mesh's colour primvar through a
   ``UsdPrimvarReader_float3`` (or a MaterialX reader, :data:`COLOR_PRIMVAR_READERS`) of any ``varname``
-  (:class:`PrimvarInput`): ``wrt.usd`` reads that primvar into the mesh's per-corner colours where it reads
-  ``displayColor`` otherwise (:meth:`MaterialReader.color_primvar`: one per mesh), and a mesh without it shows the
-  reader's ``fallback``. ``normal`` is read from a ``UsdUVTexture``'s ``rgb`` output only (a tangent-space normal map:
-  :func:`wrt.shade.shading_point`); ``occlusion`` is ignored, and a material whose ``outputs:displacement`` displaces,
-  or that says ``opacityMode = presence`` (drawn as ``transparent``), is reported.
+  (:class:`PrimvarInput`): ``wrt.usd`` reads that primvar into the per-corner colours of the faces bound to that
+  material where it reads ``displayColor`` otherwise (:meth:`MaterialReader.color_primvars`), and a mesh without it
+  shows the reader's ``fallback``. ``normal`` is read from a ``UsdUVTexture``'s ``rgb`` output only (a tangent-space
+  normal map: :func:`wrt.shade.shading_point`); ``occlusion`` is ignored, and a material whose
+  ``outputs:displacement`` displaces, or that says ``opacityMode = presence`` (drawn as ``transparent``), is reported.
 - A texture that cannot be read is replaced by its ``fallback`` value, with one warning per file.
 - A ``file`` with ``<UDIM>`` in its name reads each tile that exists (1001 to 1100, as ``UsdShade.UdimUtils``
   resolves them) as an image of its own: :attr:`TextureInput.tiles`. Missing tiles read the ``fallback``; a pattern
@@ -645,21 +645,26 @@ class MaterialReader:
                       f"mesh is supported; {names[0]!r} is used for all", prim)
         return names[0] if names else None
 
-    def color_primvar(self, face_materials: np.ndarray | None, prim=None) -> str:
-        """The colour primvar to read for mesh (or gprim) ``prim`` whose faces use ``face_materials``: the one its
-        materials' diffuseColor reads, ``displayColor`` for faces of the default material (or when no face reads
-        one). A mesh holds one set of colours: when its materials read several primvars, the materials' first (in
-        material order) is used for all of them, and ``skip`` reports it."""
+    def color_primvars(self, face_materials: np.ndarray | None) -> list[str]:
+        """The colour primvars to read for a mesh (or gprim) whose faces use ``face_materials``: those its materials'
+        diffuseColor reads (in material order), then ``displayColor`` for faces of the default material; just
+        ``displayColor`` when no face reads one. The first is the one of faces whose material reads none (see
+        :meth:`color_primvar_of`)."""
         names = []
         ids = [-1] if face_materials is None else np.unique(face_materials)
         for k in sorted(ids, key=lambda k: k < 0):  # the default material's displayColor last
-            name = "displayColor" if k < 0 else self.materials[k].color_primvar
-            if (k < 0 or self.materials[k].diffuse_from_display_color) and name not in names:
+            name = self.color_primvar_of(k)
+            if name is not None and name not in names:
                 names.append(name)
-        if len(names) > 1 and prim is not None:
-            self.skip(f"materials read several colour primvars ({', '.join(names)}), but only one per mesh is "
-                      f"supported; {names[0]!r} is used for all", prim)
-        return names[0] if names else "displayColor"
+        return names or ["displayColor"]
+
+    def color_primvar_of(self, material: int) -> str | None:
+        """The colour primvar the faces of ``material`` (-1: the default material) shade with: ``displayColor`` for
+        the default material, the primvar a material's diffuseColor reads, None for a material that reads none."""
+        if material < 0:
+            return "displayColor"
+        mat = self.materials[material]
+        return mat.color_primvar if mat.diffuse_from_display_color else None
 
     # Materials
 

@@ -172,10 +172,11 @@ def triangle_colors(scene: Scene) -> np.ndarray:
     parts, instance_colored, primvar_scales = [], [], []
     meshes = scene._geometry_meshes() if hasattr(scene, "_geometry_meshes") else scene.meshes
     for mesh in meshes:
+        linear = np.full((len(mesh.indices), 3), GREY, np.float32)
+        missing = np.ones(len(mesh.indices), bool)  # triangles without colours: NaN ones, or a mesh without any
         if mesh.colors is not None:
-            linear = mesh.colors.mean(axis=1)
-        else:
-            linear = np.full((len(mesh.indices), 3), GREY, np.float32)
+            missing = np.isnan(mesh.colors[:, 0, 0])
+            linear[~missing] = mesh.colors[~missing].mean(axis=1)
         bound = np.zeros(len(mesh.indices), bool)
         scale = np.ones((len(mesh.indices), 3), np.float32)  # the material's on the primvar, an instance's too
         ids = getattr(mesh, "material_ids", None)
@@ -184,14 +185,12 @@ def triangle_colors(scene: Scene) -> np.ndarray:
             reads = bound.copy()
             reads[bound] = from_display[ids[bound]]
             scale[reads] = scales[ids[reads]]
-            if mesh.colors is None:  # the primvar reader's fallback
-                linear[reads] = table[ids[reads]]
-            else:
-                linear[reads] *= scale[reads]
+            linear[reads & missing] = table[ids[reads & missing]]  # the primvar reader's fallback
+            linear[reads & ~missing] *= scale[reads & ~missing]
             bound &= ~reads
             linear[bound] = table[ids[bound]]
         parts.append(linear)
-        instance_colored.append(~bound & (mesh.colors is None))
+        instance_colored.append(~bound & missing)
         primvar_scales.append(scale)
     linear = np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
     linear = _expand_rows(scene, linear)

@@ -85,7 +85,9 @@ class Mesh(CountsAssignments):
         normals: ``(T, 3, 3)`` float32 unit world-space shading normal at each triangle corner, or ``None``
             when the mesh authors none (then the face normal is used).
         colors: ``(T, 3, 3)`` float32 linear colour at each triangle corner, or ``None``: ``displayColor``, or the
-            colour primvar its material's diffuseColor reads (:attr:`wrt.materials.Material.color_primvar`).
+            colour primvar the triangle's material's diffuseColor reads (:attr:`wrt.materials.Material.color_primvar`);
+            NaN rows where the mesh has not got that primvar (the material's constant, or an instance's colour, then
+            applies).
         double_sided: the mesh's ``doubleSided`` attribute: when False, camera rays that reach a triangle from its
             back pass through it (back-face culling); bounce and shadow rays still meet it.
         uvs: ``(T, 3, 2)`` float32 texture coordinates at each triangle corner, or ``None``.
@@ -504,9 +506,11 @@ class Scene:
 
     def takes_instance_color(self) -> np.ndarray:
         """``(T + S,)`` bool per geometry id (:meth:`geometry` rows, then the analytic shapes): its mesh or shape has
-        no displayColor of its own, so an instance's colour (``Instances.colors``) applies to it, as Hydra hands a
-        PointInstancer's instance primvars to the prototypes' meshes that lack that primvar."""
-        parts = [np.full(len(m.indices), m.colors is None) for m in self._geometry_meshes()]
+        no displayColor of its own there (no colours, or NaN ones), so an instance's colour (``Instances.colors``)
+        applies to it, as Hydra hands a PointInstancer's instance primvars to the prototypes' meshes that lack that
+        primvar."""
+        parts = [np.full(len(m.indices), True) if m.colors is None else np.isnan(m.colors[:, 0, 0])
+                 for m in self._geometry_meshes()]
         parts.append(np.array([s.color is None for s in self._geometry_shapes()], bool))
         return np.concatenate(parts)
 

@@ -47,8 +47,9 @@ through its indices, read as ``positions`` are) becomes ``Instances.colors`` ins
 the prototype meshes and gprims that have no displayColor of their own at shading time; instances nested in a
 coloured one take the colour of the nearest instancer that gives one. Other interpolations and other lengths are
 ignored with a warning naming the instancer. Where a material reads another colour primvar
-(:meth:`wrt.materials.MaterialReader.color_primvar`), the mesh's colours come from that primvar instead, and all of
-the above (inheritance, native instances, PointInstancer primvars) applies to it in place of ``displayColor``.
+(:meth:`wrt.materials.MaterialReader.color_primvars`), the colours of the faces bound to it come from that primvar
+instead (each face from its own material's), and all of the above (inheritance, native instances, PointInstancer
+primvars) applies to it in place of ``displayColor``.
 Cameras inside native instances are read at their instance-proxy paths
 (``/Instance/Cam``, placed by the instance), in invisible instances too, as cameras under invisible prims are; cameras
 inside PointInstancer prototypes and lights inside any prototype are skipped with a warning.
@@ -321,7 +322,7 @@ class _LocalMesh:
         self.face_ids = face_ids  # (T,) int64 source face
         self.flip = flip  # orientation = leftHanded
         self.normals = normals  # (values (K, 3) float64 local, corner index (T, 3) into values) or None
-        self.colors = colors  # (values (K, 3) float32, corner index (T, 3)) or None
+        self.colors = colors  # colour primvar -> (values (K, 3) float32, corner index (T, 3)), those the mesh has
         self.double_sided = double_sided
         self.uvs = uvs  # (values (K, 2) float64, corner index (T, 3)) or None
         self.cage = cage  # (faceVertexCounts, faceVertexIndices) of a mesh to get smooth normals from them, else None
@@ -932,8 +933,8 @@ class _StageReader:
         counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
         face_materials = self._face_materials(prim, len(counts), ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
-        color_name = self.materials.color_primvar(face_materials, prim)
-        local = self._read_local_mesh(prim, counts, uv_set, color_name)
+        color_names = self.materials.color_primvars(face_materials)
+        local = self._read_local_mesh(prim, counts, uv_set, color_names)
         if local is None:
             return None
         # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
@@ -975,15 +976,6 @@ class _StageReader:
             world = np.where(good, world / np.where(good, length, 1.0), 0.0)  # zero where it cannot be normalised
             normals = world.astype(np.float32)[corner_index[:, order]]
 
-        colors = None
-        if local.colors is not None:
-            values, corner_index = local.colors
-            colors = values[corner_index[:, order]]
-        elif not _has_color(prim, color_name):
-            ctx.content.want_colors([color_name])
-            if ctx.outer_color is not None and ctx.outer_color[0] == color_name:
-                colors = np.tile(np.asarray(ctx.outer_color[1], np.float32), (len(indices), 3, 1))
-
         uvs = None
         if local.uvs is not None:
             values, corner_index = local.uvs
@@ -991,6 +983,7 @@ class _StageReader:
         material_ids = None
         if face_materials is not None:
             material_ids = face_materials[np.clip(local.face_ids, 0, max(len(counts) - 1, 0))]
+        colors = self._corner_colors(prim, local, color_names, material_ids, order, ctx)
 
         return Mesh(
             path=str(prim.GetPath()),
@@ -1003,6 +996,32 @@ class _StageReader:
             uvs=uvs,
             material_ids=material_ids,
         )
+
+    def _corner_colors(self, prim, local: _LocalMesh, names: list, material_ids, order, ctx: _Context):
+        """``(T, 3, 3)`` float32 colours at the corners of the mesh's triangles (winding ``order``), or None: each
+        triangle's from the colour primvar its material reads (``names``, :meth:`MaterialReader.color_primvars`; the
+        first for triangles of materials that read none), NaN rows where the mesh has not got it. A primvar the mesh
+        lacks is one its content wants from above (:meth:`_Content.want_colors`): a native instance's constant
+        colour of that name (``ctx.outer_color``) fills it in."""
+        found = {}
+        for name in names:
+            if name in local.colors:
+                values, corner_index = local.colors[name]
+                found[name] = values[corner_index[:, order]]
+            elif not _has_color(prim, name):
+                ctx.content.want_colors([name])
+                if ctx.outer_color is not None and ctx.outer_color[0] == name:
+                    found[name] = np.tile(np.asarray(ctx.outer_color[1], np.float32), (len(local.face_ids), 3, 1))
+        if len(names) == 1 or not found:
+            return found.get(names[0])
+        # Each triangle shades with its material's primvar; those of materials that read none keep the first.
+        colors = np.full((len(local.face_ids), 3, 3), np.nan, np.float32)
+        for k in np.unique(material_ids):
+            name = self.materials.color_primvar_of(int(k)) or names[0]
+            if name in found:
+                rows = material_ids == k
+                colors[rows] = found[name][rows]
+        return colors
 
     # Gprims
 
@@ -1115,7 +1134,7 @@ class _StageReader:
         an inherited constant one), else None; and then the constant colour a native instance hands down, if any
         (``(3,)`` float32), else None (its material's constant, grey by default, or its instance's colour)."""
         material = self._face_materials(prim, 1, ctx)
-        color_name = self.materials.color_primvar(material, prim)
+        color_name = self.materials.color_primvars(material)[0]
         primvar = _color_primvar(prim, color_name)
         color = None
         if not (primvar and primvar.HasValue()):
@@ -1183,9 +1202,9 @@ class _StageReader:
     # Meshes
 
     def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None,
-                         color_name: str = "displayColor") -> _LocalMesh | None:
+                         color_names=("displayColor",)) -> _LocalMesh | None:
         """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials), with
-        texture coordinates ``uv_set`` and colours from primvar ``color_name``."""
+        texture coordinates ``uv_set`` and colours from the primvars ``color_names`` it has."""
         mesh = UsdGeom.Mesh(prim)
         t = self.time
         face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
@@ -1234,7 +1253,7 @@ class _StageReader:
         topology = (counts, face_indices, tri_corners, face_ids, len(points), refinement)
         # A refined surface makes its own normals (USD: authored normals do not apply to subdivision surfaces).
         normals = self._read_normals(prim, mesh, topology) if refinement is None else None
-        colors = self._read_colors(prim, topology, color_name)
+        colors = {name: found for name in color_names if (found := self._read_colors(prim, topology, name)) is not None}
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
         flip = self._left_handed(prim, mesh, t)
         smooth = normals is None and scheme in SMOOTH_SCHEMES
