@@ -415,3 +415,19 @@ def test_preview_draws_points_as_spheres_and_says_when_shapes_are_left_out(tmp_p
         np.testing.assert_allclose(mesh.bounds, [-0.5, 2.5, -0.5, 0.5, -0.5, 0.5], atol=1e-6)
     finally:
         plotter.close()
+
+
+def test_to_pyvista_names_blocks_in_linear_work(monkeypatch):
+    """Each block's name was checked against ``MultiBlock.keys()``, which asks VTK for every name so far: quadratic in
+    the meshes (2,000 meshes took 88 s, 81 s of it in ``keys``; 20k robot links would take hours). Names stay unique:
+    a path given twice gets ``#k``."""
+    lookups = []
+    real = pv.MultiBlock.get_block_name
+    monkeypatch.setattr(pv.MultiBlock, "get_block_name", lambda self, i: lookups.append(i) or real(self, i))
+    tri = np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    meshes = [wrt.Mesh(points=tri + [k, 0, 0], indices=np.int32([[0, 1, 2]]), face_ids=np.zeros(1, np.int32),
+                       path=f"/m{k}" if k != 299 else "/m0") for k in range(300)]
+    blocks = to_pyvista(wrt.Scene(meshes=meshes))
+    assert len(lookups) < 300  # one lookup per pair of blocks before: 44,850
+    monkeypatch.undo()
+    assert blocks.keys() == [f"/m{k}" for k in range(299)] + ["/m0#299"]

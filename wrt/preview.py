@@ -250,6 +250,13 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
     drawn = _first_instances(scene, shown) if shown < len(scene.instances) else scene
     colors = triangle_colors(drawn)
     blocks = pv.MultiBlock()
+    names = set()  # block names so far: MultiBlock.keys() asks VTK for every name, which made the loop quadratic
+
+    def add(poly, name: str, k: int) -> None:
+        name = name if name not in names else f"{name}#{k}"  # two prims of one path (made in Python): both kept
+        names.add(name)
+        blocks.append(poly, name)
+
     first = 0
     for k, mesh in enumerate(scene.meshes):
         n = len(mesh.indices)
@@ -258,8 +265,7 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
         poly.cell_data["prim"] = np.arange(first, first + n, dtype=np.int32)
         poly.cell_data["face_id"] = mesh.face_ids
         poly.field_data["path"] = [mesh.path]
-        name = mesh.path if mesh.path not in blocks.keys() else f"{mesh.path}#{k}"
-        blocks.append(poly, name)
+        add(poly, mesh.path, k)
         first += n
     if shown:
         points, indices = drawn.triangles()
@@ -277,7 +283,7 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
             poly.cell_data["face_id"] = np.concatenate([m.face_ids for m in proto.meshes] or [np.zeros(0, np.int32)])
             path = drawn.instances.path(i)
             poly.field_data["path"] = [path]
-            blocks.append(poly, path if path not in blocks.keys() else f"{path}#{i}")
+            add(poly, path, i)
     blocks.field_data["instances_left_out"] = [len(scene.instances) - shown]
     return blocks
 
