@@ -431,3 +431,27 @@ def test_to_pyvista_names_blocks_in_linear_work(monkeypatch):
     assert len(lookups) < 300  # one lookup per pair of blocks before: 44,850
     monkeypatch.undo()
     assert blocks.keys() == [f"/m{k}" for k in range(299)] + ["/m0#299"]
+
+
+@pytest.mark.parametrize("scale", [1e-4, 1e3])
+def test_frustum_and_image_plane_scale_with_a_scaled_camera(scale):
+    """A scene and its camera scaled together (a units change on a common parent) render the same image, so the
+    preview must draw the same picture at that scale. The clipping range is camera-space depth and was taken as world
+    depth: at 1e-4 the image plane and the frustum's end were drawn 250 times the scene's size away (at the near
+    plane, 0.1 world units, instead of 80 % of the way to the hits, 4e-4); at 1e3 the frustum ended at depth 20, a
+    250th of the way to the floor."""
+    drawn = {}
+    for s in (1.0, scale):
+        floor = quad((0, 0, 0), (4 * s, 0, 0), (0, 4 * s, 0), name="/floor")
+        cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30, clipping_range=(0.1, 20))
+        cam.to_world = np.diag([s, s, s, 1.0]) @ cam.to_world
+        plotter = wrt.preview(wrt.Scene(meshes=[floor]), camera=cam, image=True, rays=9, width=32, height=24,
+                              window_size=(64, 48))
+        try:
+            drawn[s] = {a: np.asarray(plotter.actors[a].mapper.dataset.points, np.float64) / s
+                        for a in ("image", "frustum", "rays_hit")}
+        finally:
+            plotter.close()
+    for actor, points in drawn[1.0].items():
+        np.testing.assert_allclose(drawn[scale][actor], points, atol=1e-5, err_msg=actor)
+    np.testing.assert_allclose(drawn[1.0]["image"][:, 2], 1.0, atol=1e-6)  # 80 % of the way to the floor at depth 5

@@ -762,8 +762,11 @@ def _as_scene(scene) -> Scene:
 
 
 def _display_depths(cam: Camera, eye, forward, lower, upper, ray_data) -> tuple[float, float]:
-    """Depths (along the view direction) of the display far plane and of the image plane."""
-    near, far = (float(v) for v in cam.clipping_range)
+    """Depths (world distances along the view direction) of the display far plane and of the image plane."""
+    # The clipping range is camera-space depth: a camera scaled with its scene (a units change on a parent) clips
+    # at its near and far times that scale, as the renderer's rays do.
+    depth_scale = float(np.linalg.norm(cam.to_world[:3, 2]))  # world length of one unit of camera-space depth
+    near, far = (float(v) * depth_scale for v in cam.clipping_range)
     corners = np.stack(np.meshgrid(*zip(lower, upper), indexing="ij"), axis=-1).reshape(-1, 3)
     depths = (corners - eye) @ forward
     diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
