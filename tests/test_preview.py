@@ -455,3 +455,13 @@ def test_frustum_and_image_plane_scale_with_a_scaled_camera(scale):
     for actor, points in drawn[1.0].items():
         np.testing.assert_allclose(drawn[scale][actor], points, atol=1e-5, err_msg=actor)
     np.testing.assert_allclose(drawn[1.0]["image"][:, 2], 1.0, atol=1e-6)  # 80 % of the way to the floor at depth 5
+
+
+def test_cli_writes_a_png_named_in_capitals(tmp_path):
+    """``-o VIEW.PNG`` passed the .png check, then pyvista's screenshot refused it ("Unsupported extension .PNG")
+    after the load, the trace and the drawing: exit 2."""
+    out = tmp_path / "VIEW.PNG"
+    assert main(["preview", "-o", str(out), "--window", "64x48", "-q"]) == 0
+    pixels = read_png(out)
+    assert pixels.shape == (48, 64, 3) and pixels.std() > 10
+    assert [p.name for p in tmp_path.iterdir()] == ["VIEW.PNG"]  # no temporary file left beside it

@@ -619,12 +619,17 @@ def _run_preview(args) -> int:
     if output is None:
         plotter.show()
         return 0
+    from PIL import Image as PilImage
+
+    from .image import write_atomically
+
     out = Path(output)
-    out.parent.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    pixels = plotter.screenshot(str(out))
+    pixels = plotter.screenshot()
     plotter.close()
-    if pixels is None or pixels.std() == 0:
+    # Written by Pillow, not by pyvista's screenshot(path), which refuses a name ending in .PNG (after all the work).
+    write_atomically(out, lambda target: PilImage.fromarray(pixels).save(target, format="PNG"))
+    if pixels.std() == 0:
         warnings.warn(f"{out}: the off-screen view came out blank; VTK's OpenGL backend may be broken")
     progress(f"wrote {out}", time.perf_counter() - start)
     return 0
