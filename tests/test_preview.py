@@ -17,6 +17,8 @@ pv.OFF_SCREEN = True
 
 import wrt  # noqa: E402
 from wrt.cli import default_scene_path, main  # noqa: E402
+from wrt.image import to_srgb8  # noqa: E402
+from wrt.instancing import Instances, Prototype  # noqa: E402
 from wrt.preview import (  # noqa: E402
     PreviewUnavailable,
     bvh_boxes,
@@ -25,10 +27,12 @@ from wrt.preview import (  # noqa: E402
     import_pyvista,
     sample_rays,
     select_bvh_nodes,
+    shape_meshes,
     subtree_prim_counts,
     to_pyvista,
     triangle_colors,
 )
+from wrt.primitives import Shape  # noqa: E402
 from wrt.render import resolve_camera  # noqa: E402
 from wrt.trace import get_accelerator  # noqa: E402
 
@@ -465,3 +469,58 @@ def test_cli_writes_a_png_named_in_capitals(tmp_path):
     pixels = read_png(out)
     assert pixels.shape == (48, 64, 3) and pixels.std() > 10
     assert [p.name for p in tmp_path.iterdir()] == ["VIEW.PNG"]  # no temporary file left beside it
+
+
+def ball(x: float, proto: str = "", **options) -> Shape:
+    """A sphere of radius 0.5 at ``(x, 0, 0)``."""
+    to_world = np.diag([0.5, 0.5, 0.5, 1.0])
+    to_world[0, 3] = x
+    return Shape(f"{proto}/ball{x:g}", "sphere", to_world, **options)
+
+
+def test_shapes_show_the_colour_the_renderer_gives_them():
+    """Analytic shapes were drawn in their displayColor, or grey without one, whatever material they were bound to:
+    the 1,000 spheres of usd-wg's simpleAssetScene were drawn grey (188) where the render shows their material's
+    231. Each shape's drawn colour must be the renderer's albedo at its centre: a material's constant, a material's
+    scale on the primvar, an instance's colour under either."""
+    materials = [wrt.Material(diffuse_color=(0.8, 0.05, 0.05)),
+                 wrt.Material(diffuse_from_display_color=True, color_primvar_scale=(0.5, 0.5, 0.5))]
+    blue, green = (0.1, 0.2, 0.9), (0.1, 0.7, 0.2)
+    shapes = [ball(-3, material_id=0), ball(-1, color=blue, material_id=0), ball(1, color=blue, material_id=1),
+              ball(3, color=blue)]
+    prototypes = [Prototype("/P0", [], [ball(0, "/P0")]), Prototype("/P1", [], [ball(0, "/P1", material_id=1)])]
+    to_world = np.tile(np.eye(4), (3, 1, 1))
+    to_world[:, 0, 3] = (5, 7, 9)
+    instances = Instances.from_transforms([0, 1, 1], to_world, colors=[green, green, (np.nan,) * 3])
+    scene = wrt.Scene(shapes=shapes, prototypes=prototypes, instances=instances, materials=materials)
+    xs = np.array([-3, -1, 1, 3, 5, 7, 9])
+    cam = wrt.Camera.orthographic(eye=(3, 0, 10), target=(3, 0, 0), height=1.0)  # 14 units wide
+    albedo = wrt.render(scene, camera=cam, width=140, height=10, integrator="albedo").rgb
+    expected = to_srgb8(albedo[5, np.int64((xs + 4) * 10)])  # the pixel column at each centre
+    drawn = shape_meshes(scene)
+    centres = drawn.cell_centers().points[:, 0]
+    for x, colour in zip(xs, expected):
+        cells = drawn.cell_data["color"][np.abs(centres - x) < 0.5]
+        assert len(cells) and np.all(cells == colour), f"x = {x}: drawn {np.unique(cells, axis=0)}, rendered {colour}"
+    assert len(np.unique(expected, axis=0)) == 6  # red twice; blue, half blue, green, half green, grey
+
+
+def test_single_sided_shapes_are_culled_from_behind():
+    """A single-sided Plane seen from behind is invisible to the renderer (its rays pass its back) but was drawn: the
+    preview showed a wall where the render shows the background. Seen through the camera, the preview is empty too."""
+    plane = Shape("/plane", "plane", np.diag([2.0, 2.0, 1.0, 1.0]), double_sided=False)  # faces +Z
+    scene = wrt.Scene(shapes=[plane])
+    for z, visible in ((5.0, True), (-5.0, False)):
+        cam = wrt.Camera.look_at(eye=(0, 0, z), target=(0, 0, 0), fov_y_deg=40)
+        depth = wrt.render(scene, camera=cam, width=32, height=24, integrator="depth").aovs["depth"]
+        assert np.isfinite(depth).any() == visible
+        plotter = wrt.preview(scene, camera=cam, width=32, height=24, window_size=(32, 24), show_text=False)
+        try:
+            for actor in ("frustum", "eye"):
+                plotter.remove_actor(actor)
+            plotter.camera_position = [(0, 0, z), (0, 0, 0), (0, 1, 0)]
+            plotter.camera.view_angle = 40
+            drawn = ~np.all(plotter.screenshot() == 255, axis=-1)  # not the white background
+        finally:
+            plotter.close()
+        assert drawn.any() == visible, f"seen from z = {z}"

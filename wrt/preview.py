@@ -40,7 +40,7 @@ from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
 from .image import to_srgb8
 from .render import Renderer, render, resolve_view
-from .scene import Scene, shape_color
+from .scene import Scene
 from .shade import CullScratch, intersect_visible
 from .trace import HitBuffer, get_accelerator, resolve_device
 
@@ -154,53 +154,56 @@ def offscreen_backend() -> str:
     raise PreviewUnavailable(f"no display and no off-screen OpenGL for VTK ({'; '.join(failures)}); {INSTALL_HINT}")
 
 
-def triangle_colors(scene: Scene) -> np.ndarray:
-    """``(T, 3)`` uint8 sRGB display colour of every triangle, in triangle order (``Scene.triangles()`` rows, instances
-    expanded).
+def display_colors(own, material_ids, tints, materials) -> np.ndarray:
+    """``(N, 3)`` float32 linear display colour of N triangles or shapes, as the renderer picks their diffuse colour.
 
-    A triangle bound to a material (``Mesh.material_ids``) shows the material's constant ``diffuse_color`` (a
-    texture's fallback, for textured ones); otherwise (or where the material reads the mesh's colour primvar) the mean
-    of its three corner colours (``displayColor`` or that primvar, times the material's scale), or its instance's
-    colour (``Instances.colors``, times that scale too) where its mesh has none; the material's constant (the primvar
-    reader's fallback) or the renderer's grey for meshes with neither.
+    One bound to a material (``0 <= material_ids < len(materials)``) shows the material's constant ``diffuse_color``
+    (a texture's fallback, for textured ones); otherwise (or where the material reads the colour primvar) its own
+    colour (``displayColor`` or that primvar, times the material's ``color_primvar_scale``), else its instance's
+    (times that scale too); the material's constant (the primvar reader's fallback) or the renderer's grey for those
+    with neither.
+
+    Args:
+        own: ``(N, 3)`` linear colour of each, NaN where it has none.
+        material_ids: ``(N,)`` int index into ``materials``, -1 for the default material.
+        tints: ``(N, 3)`` linear colour of each one's instance (``Instances.colors``), NaN where none.
+        materials: ``Scene.materials``.
     """
-    materials = getattr(scene, "materials", None) or []
     table = np.array([np.asarray(m.diffuse_color, np.float32).reshape(3) for m in materials] or np.zeros((0, 3)))
     scales = np.array([np.asarray(getattr(m, "color_primvar_scale", np.ones(3)), np.float32).reshape(3)
                        for m in materials] or np.zeros((0, 3)))
-    from_display = np.array([bool(getattr(m, "diffuse_from_display_color", False)) for m in materials], bool)
-    parts, instance_colored, primvar_scales = [], [], []
+    from_primvar = np.array([bool(getattr(m, "diffuse_from_display_color", False)) for m in materials], bool)
+    ids = np.asarray(material_ids, np.int64)
+    color = np.where(np.isnan(own[:, :1]), tints, own).astype(np.float32)  # its own colour, else its instance's
+    uncolored = np.isnan(color[:, 0])
+    bound = (ids >= 0) & (ids < len(table))
+    reads = bound.copy()
+    reads[bound] = from_primvar[ids[bound]]
+    linear = np.where(uncolored[:, None], np.float32(GREY), color)
+    scaled = reads & ~uncolored
+    linear[scaled] *= scales[ids[scaled]]
+    constant = bound & ~scaled  # the material's colour, or its primvar reader's fallback
+    linear[constant] = table[ids[constant]]
+    return linear
+
+
+def triangle_colors(scene: Scene) -> np.ndarray:
+    """``(T, 3)`` uint8 sRGB display colour of every triangle, in triangle order (``Scene.triangles()`` rows, instances
+    expanded): the mean of its three corner colours, its material's or its instance's (see :func:`display_colors`).
+    """
     meshes = scene._geometry_meshes() if hasattr(scene, "_geometry_meshes") else scene.meshes
-    for mesh in meshes:
-        linear = np.full((len(mesh.indices), 3), GREY, np.float32)
-        missing = np.ones(len(mesh.indices), bool)  # triangles without colours: NaN ones, or a mesh without any
-        if mesh.colors is not None:
-            missing = np.isnan(mesh.colors[:, 0, 0])
-            linear[~missing] = mesh.colors[~missing].mean(axis=1)
-        bound = np.zeros(len(mesh.indices), bool)
-        scale = np.ones((len(mesh.indices), 3), np.float32)  # the material's on the primvar, an instance's too
-        ids = getattr(mesh, "material_ids", None)
-        if ids is not None and len(table):
-            bound = (ids >= 0) & (ids < len(table))
-            reads = bound.copy()
-            reads[bound] = from_display[ids[bound]]
-            scale[reads] = scales[ids[reads]]
-            linear[reads & missing] = table[ids[reads & missing]]  # the primvar reader's fallback
-            linear[reads & ~missing] *= scale[reads & ~missing]
-            bound &= ~reads
-            linear[bound] = table[ids[bound]]
-        parts.append(linear)
-        instance_colored.append(~bound & missing)
-        primvar_scales.append(scale)
-    linear = np.concatenate(parts) if parts else np.zeros((0, 3), np.float32)
-    linear = _expand_rows(scene, linear)
+    own = [m.colors.mean(axis=1) if m.colors is not None else np.full((len(m.indices), 3), np.nan, np.float32)
+           for m in meshes]
+    ids = [m.material_ids if getattr(m, "material_ids", None) is not None else np.full(len(m.indices), -1)
+           for m in meshes]
+    own = _expand_rows(scene, np.concatenate(own) if own else np.zeros((0, 3), np.float32))
+    ids = _expand_rows(scene, np.concatenate(ids) if ids else np.zeros(0, np.int64))
+    tints = np.full_like(own, np.nan)
     colors = getattr(getattr(scene, "instances", None), "colors", ())
-    if len(colors) and len(linear):
-        prim, instance = scene.split_ids(np.arange(len(linear)))
-        color = colors[instance]
-        use = (instance >= 0) & np.concatenate(instance_colored)[prim] & ~np.isnan(color[:, 0])
-        linear[use] = color[use] * np.concatenate(primvar_scales)[prim[use]]
-    return to_srgb8(linear)
+    if len(colors) and len(own):
+        instance = scene.split_ids(np.arange(len(own)))[1]
+        tints[instance >= 0] = colors[instance[instance >= 0]]
+    return to_srgb8(display_colors(own, ids, tints, getattr(scene, "materials", None) or []))
 
 
 def _expand_rows(scene: Scene, values: np.ndarray) -> np.ndarray:
@@ -627,8 +630,8 @@ def check_window_size(window_size) -> None:
 def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
     """Draws the meshes, simplified above ``max_triangles``; returns a note saying so, or ``""``.
 
-    Back faces of single-sided meshes are culled, as they are invisible to a single-sided renderer: seen from
-    outside a room, its walls vanish and show the inside.
+    Back faces of single-sided meshes and shapes are culled, as they are invisible to a single-sided renderer: seen
+    from outside a room, its walls vanish and show the inside.
     """
     note = ""
     if len(scene.instances) and scene.stats()["rendered_triangles"] > EXPAND_FACTOR * max_triangles:
@@ -642,50 +645,63 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
     if len(indices) > max_triangles:
         points, indices, attributes = cluster_vertices(points, indices, attributes, max_triangles)
         note = f"showing {len(indices):,} of {scene.stats()['rendered_triangles']:,} triangles (simplified for display)"
-    for double_sided, label in ((0, "scene"), (1, "scene_double_sided")):
-        rows = attributes[:, 3] == double_sided
-        if rows.any():
-            mesh = pv.PolyData.from_regular_faces(points, indices[rows])
-            mesh.cell_data["color"] = attributes[rows, :3]
-            culling = None if double_sided else "back"
-            plotter.add_mesh(mesh, scalars="color", rgb=True, show_scalar_bar=False, culling=culling, name=label)
+    _add_sided(pv, plotter, points, indices, attributes[:, :3], attributes[:, 3], "scene")
     shapes = shape_meshes(scene, max_shapes=SHAPE_BUDGET)
     if shapes is not None:
-        plotter.add_mesh(shapes, scalars="color", rgb=True, show_scalar_bar=False, name="shapes")
+        _add_sided(pv, plotter, shapes.points, shapes.regular_faces, shapes.cell_data["color"],
+                   shapes.cell_data["double_sided"], "shapes")
         total = scene.stats()["rendered_shapes"]  # a Points prim of a million spheres was cut to the budget unsaid
         if total > SHAPE_BUDGET:
             note = ", ".join(filter(None, [note, f"showing {SHAPE_BUDGET:,} of {total:,} analytic shapes"]))
     return note
 
 
+def _add_sided(pv, plotter, points, indices, colors, double_sided, label: str) -> None:
+    """Draws triangles with their ``colors``: those of single-sided surfaces as ``label`` with back faces culled, the
+    others as ``label_double_sided``."""
+    for sided, name in ((0, label), (1, f"{label}_double_sided")):
+        rows = double_sided == sided
+        if rows.any():
+            mesh = pv.PolyData.from_regular_faces(points, indices[rows])
+            mesh.cell_data["color"] = colors[rows]
+            culling = None if sided else "back"
+            plotter.add_mesh(mesh, scalars="color", rgb=True, show_scalar_bar=False, culling=culling, name=name)
+
+
 def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int = SHAPE_BUDGET):
     """The scene's analytic shapes (non-instanced, then each instance's) tessellated for display as one
-    ``pyvista.PolyData`` with a ``"color"`` cell array, or None without shapes; at most ``max_shapes`` are drawn."""
+    ``pyvista.PolyData``, or None without shapes; at most ``max_shapes`` are drawn. Cell arrays: ``"color"`` uint8
+    sRGB (see :func:`display_colors`) and ``"double_sided"`` uint8, the shape's ``doubleSided``."""
     from .primitives import tessellate
 
-    placed = [(s, np.eye(4), shape_color(s)) for s in getattr(scene, "shapes", [])]
+    none = np.full(3, np.nan, np.float32)
+    placed = [(s, np.eye(4), none) for s in getattr(scene, "shapes", [])]  # (shape, to_world, instance colour)
     instances = getattr(scene, "instances", ())
     tints = getattr(instances, "colors", ())
     for i, p in enumerate(instances.prototype if len(instances) else []):
-        # A shape without a displayColor of its own shows its instance's, if the instance has one.
-        tint = tints[i] if len(tints) and not np.isnan(tints[i, 0]) else None
-        placed += [(s, instances.to_world[i], tint if s.color is None and tint is not None else shape_color(s))
-                   for s in getattr(scene.prototypes[p], "shapes", [])]
+        tint = tints[i] if len(tints) else none
+        placed += [(s, instances.to_world[i], tint) for s in getattr(scene.prototypes[p], "shapes", [])]
         if len(placed) >= max_shapes:
             break
     if not placed:
         return None
+    placed = placed[:max_shapes]
+    own = np.array([none if s.color is None else s.color for s, _, _ in placed], np.float32)
+    ids = np.array([getattr(s, "material_id", -1) for s, _, _ in placed], np.int64)
+    colors = to_srgb8(display_colors(own, ids, np.array([t for _, _, t in placed]), scene.materials or []))
     pv = import_pyvista()
-    points, faces, colors, base = [], [], [], 0
-    for shape, to_world, color in placed[:max_shapes]:
+    points, faces, cells, base = [], [], [], 0
+    for k, (shape, to_world, _) in enumerate(placed):
         moved = type(shape)(shape.path, shape.kind, to_world @ shape.to_world, shape.params)
         pts, tris, _ = tessellate(moved, segments)
         points.append(pts)
         faces.append(tris + base)
-        colors.append(np.repeat(to_srgb8(color[None]), len(tris), axis=0))
+        cells.append(np.full(len(tris), k))
         base += len(pts)
     mesh = pv.PolyData.from_regular_faces(np.concatenate(points).astype(np.float32), np.concatenate(faces))
-    mesh.cell_data["color"] = np.concatenate(colors)
+    cells = np.concatenate(cells)
+    mesh.cell_data["color"] = colors[cells]
+    mesh.cell_data["double_sided"] = np.array([s.double_sided for s, _, _ in placed], np.uint8)[cells]
     return mesh
 
 

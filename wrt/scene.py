@@ -703,11 +703,6 @@ class Scene:
         }
 
 
-def shape_color(shape) -> np.ndarray:
-    """``(3,)`` float32 linear displayColor of an analytic shape, grey 0.5 when it has none."""
-    return np.full(3, 0.5, np.float32) if shape.color is None else shape.color
-
-
 def _concatenate_meshes(meshes: list[Mesh]) -> tuple[np.ndarray, np.ndarray]:
     """``(points (V, 3) float32, indices (T, 3) int32)`` of ``meshes`` one after another."""
     offsets = np.cumsum([0] + [len(m.points) for m in meshes])
