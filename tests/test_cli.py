@@ -289,8 +289,8 @@ def test_render_progress_line_counts_shapes_and_instances(tmp_path, capsys):
     assert "loaded gprims.usda: 0 triangles in 0 meshes, 2 analytic shapes" in capsys.readouterr().err
     stats = sensor_scene().stats()
     line = loaded_summary("s", stats)
-    assert f"{stats['instances']} instances of {stats['prototypes']} prototypes" in line
-    assert f"{stats['rendered_shapes']} analytic shapes" in line
+    assert f"{stats['instances']:,} instances of {stats['prototypes']:,} prototype" in line
+    assert f"{stats['rendered_shapes']:,} analytic shapes" in line
 
 
 def test_load_warnings_under_the_frames_progress_bar_get_lines_of_their_own(tmp_path, capsys):

@@ -524,3 +524,18 @@ def test_single_sided_shapes_are_culled_from_behind():
         finally:
             plotter.close()
         assert drawn.any() == visible, f"seen from z = {z}"
+
+
+def test_title_counts_the_shapes_and_instances(tmp_path):
+    """The title counted non-instanced meshes alone: "0 triangles in 0 meshes" for a stage of gprims, and for
+    instanced scenes (teapotScene: "2,472,000 triangles in 0 meshes")."""
+    gprims = wrt.Scene(shapes=[ball(0), ball(2)])
+    path = tmp_path / "instanced.usda"
+    path.write_text(INSTANCED_GROUND)
+    for scene, words in ((gprims, "0 triangles in 0 meshes, 2 analytic shapes"),
+                         (wrt.load_usd(path), "14 triangles in 1 mesh, 3 instances of 1 prototype")):
+        plotter = wrt.preview(scene, window_size=(64, 48))
+        try:
+            assert plotter.title.endswith(words)
+        finally:
+            plotter.close()

@@ -328,14 +328,10 @@ def stage_options(args) -> dict:
 
 
 def loaded_summary(name: str, stats: dict) -> str:
-    """The progress line after a load. Counting meshes alone said "0 triangles in 0 meshes" for a stage of gprims
-    and "1 meshes" for a forest of instanced trees, as if most of the scene had not loaded."""
-    parts = [f"{stats['meshes']} meshes"]
-    if stats["instances"]:
-        parts.append(f"{stats['instances']} instances of {stats['prototypes']} prototypes")
-    if stats["rendered_shapes"]:
-        parts.append(f"{stats['rendered_shapes']} analytic shapes")
-    return f"loaded {name}: {stats['rendered_triangles']} triangles in {', '.join(parts)}"
+    """The progress line after a load (see :func:`wrt.scene.contents_summary`)."""
+    from .scene import contents_summary
+
+    return f"loaded {name}: {contents_summary(stats)}"
 
 
 def _render_one(args, path: Path, output: Path, progress) -> Path:

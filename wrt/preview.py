@@ -40,7 +40,7 @@ from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
 from .image import to_srgb8
 from .render import Renderer, render, resolve_view
-from .scene import Scene
+from .scene import Scene, contents_summary
 from .shade import CullScratch, intersect_visible
 from .trace import HitBuffer, get_accelerator, resolve_device
 
@@ -569,9 +569,7 @@ def preview(
         offscreen_backend()
 
     name = Path(scene.source).name if scene.source else "scene"
-    stats = scene.stats()
-    meshes = f"{stats['meshes']:,} mesh" + ("es" if stats["meshes"] != 1 else "")
-    title = f"wrt preview: {name}, {stats['rendered_triangles']:,} triangles in {meshes}"
+    title = f"wrt preview: {name}, {contents_summary(scene.stats())}"
     plotter = pv.Plotter(off_screen=off_screen, window_size=list(window_size), title=title)
     plotter.set_background(BACKGROUND)
     lines = [title.removeprefix("wrt preview: ")]  # the summary text
