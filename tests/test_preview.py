@@ -539,3 +539,18 @@ def test_title_counts_the_shapes_and_instances(tmp_path):
             assert plotter.title.endswith(words)
         finally:
             plotter.close()
+
+
+def test_summary_says_when_the_boxes_are_the_top_level_tree(bunny):
+    """With one analytic shape beside the bunny's 12,200 triangles, the boxes drawn are the TLAS's two leaves (the
+    bunny's meshes as one entry, the ball); the text called them the BVH's leaves, as if the bunny had two."""
+    import dataclasses
+
+    with_ball = dataclasses.replace(bunny, shapes=[ball(0)])
+    for scene, words in ((bunny, "BVH (sah) "), (with_ball, "TLAS (sah) ")):
+        plotter = wrt.preview(scene, bvh_leaves=True, window_size=(64, 48))
+        try:
+            summary = plotter.actors["summary"].GetText(2).splitlines()
+            assert any(line.startswith(words) for line in summary), summary
+        finally:
+            plotter.close()

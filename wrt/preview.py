@@ -21,6 +21,8 @@ What is drawn, in the frustum's terms (see :mod:`wrt.camera` for the film conven
   share* ``A(n) N(n) / sum_m A(m) N(m)`` over the shown boxes ``m``, where ``A`` is the box surface area and
   ``N`` the number of triangles below the node: the part of the SAH traversal cost (MacDonald and Booth,
   "Heuristics for ray tracing using space subdivision", 1990) that the box would carry were the cut the leaves.
+  A scene with instances or analytic shapes is traced through a two-level BVH; its top level (TLAS) is drawn,
+  whose leaves are the instances, the shapes and one entry for all non-instanced meshes together.
 - Scenes above ``max_triangles`` are simplified for display by vertex clustering (Rossignac and Borrel,
   "Multi-resolution 3D approximations for rendering complex scenes", 1993); the window title says so.
 """
@@ -588,8 +590,12 @@ def preview(
     label = cam.path or ("(given)" if isinstance(camera, Camera) else "(framing the scene)")
     lines.append(f"camera {label}: {cam.projection}, film {width}x{height}")
     if bvh_depth is not None or bvh_leaves:
-        bvh = get_accelerator(scene, "wrt", builder, device).bvh
-        lines.append(f"BVH ({builder}) " + _add_bvh(plotter, bvh, bvh_depth, bvh_color, max_boxes))
+        accel = get_accelerator(scene, "wrt", builder, device)
+        summary = _add_bvh(plotter, accel.bvh, bvh_depth, bvh_color, max_boxes)
+        if hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
+            lines.append(f"TLAS ({builder}) {summary} (a leaf per instance or shape, one for the other meshes)")
+        else:
+            lines.append(f"BVH ({builder}) {summary}")
     if ray_data is not None:
         lines.append(_add_rays(pv, plotter, *ray_data, forward, far))
     if image:
