@@ -519,7 +519,7 @@ def _window_size(text: str) -> tuple[int, int]:
 
 def _add_preview(sub) -> None:
     from .bvh.build import Builder
-    from .preview import BVH_COLORINGS, TRIANGLE_BUDGET
+    from .preview import BVH_COLORINGS, MAX_RAYS, TRIANGLE_BUDGET
 
     p = sub.add_parser(
         "preview",
@@ -547,7 +547,8 @@ def _add_preview(sub) -> None:
         type=non_negative_int,
         default=0,
         metavar="N",
-        help="draw N camera rays from the eye to their hits (misses end at the far plane)",
+        help=f"draw N camera rays (at most {MAX_RAYS:,}) from the eye to their hits; misses end at the frustum's "
+        "far end (the far clipping plane, or the scene's deepest corner where that is nearer)",
     )
     p.add_argument("--image", action="store_true", help="render with wrt and show the image on the image plane")
     p.add_argument("--width", type=positive_int, help="image width in pixels (frustum aspect, --image); default: the "

@@ -243,7 +243,8 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
     ``instances``. Cell arrays: ``"color"`` ``(T, 3)`` uint8 sRGB (see :func:`triangle_colors`), ``"prim"`` triangle
     id (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face. Instances are
     added in order while the total stays within ``max_triangles``; the others are left out, and the MultiBlock's
-    ``field_data["instances_left_out"]`` counts them.
+    ``field_data["instances_left_out"]`` counts them. Analytic shapes (spheres, cubes, ... and those of prototypes)
+    are not among the blocks: :func:`shape_meshes` tessellates them.
 
     Args:
         scene: a :class:`wrt.Scene`, or a USD file to load.
