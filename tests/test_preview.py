@@ -363,6 +363,18 @@ def test_no_offscreen_backend_is_a_clear_error_not_a_crash(monkeypatch):
         preview_module.offscreen_backend()
 
 
+def test_a_failing_window_class_set_by_the_user_is_named(monkeypatch):
+    """With $VTK_DEFAULT_OPENGL_WINDOW set, only that class is tried; where it fails the message told the user to
+    install EGL or OSMesa (installed already) and not that their setting was the one tried."""
+    monkeypatch.setattr(preview_module, "_backend", None)
+    monkeypatch.setattr(preview_module, "has_display", lambda: False)
+    monkeypatch.setattr(preview_module, "_PROBE", "import sys; sys.exit(3)")
+    monkeypatch.setenv("VTK_DEFAULT_OPENGL_WINDOW", "vtkNoSuchRenderWindow")
+    with pytest.raises(PreviewUnavailable, match=r"VTK_DEFAULT_OPENGL_WINDOW=vtkNoSuchRenderWindow \(set in the "
+                       r"environment\) does not render .*unset it.*apt-get install"):
+        preview_module.offscreen_backend()
+
+
 def test_import_wrt_does_not_import_pyvista():
     code = "import sys, wrt; assert callable(wrt.preview); sys.exit('pyvista' in sys.modules or 'vtk' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], timeout=300).returncode == 0

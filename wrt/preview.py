@@ -153,6 +153,10 @@ def offscreen_backend() -> str:
             _backend = candidate
             return _backend
         failures.append(f"{candidate}: exit status {run.returncode}")
+    if chosen:  # the user's choice alone was tried: it, not the machine, may be what fails
+        raise PreviewUnavailable(f"no display, and VTK_DEFAULT_OPENGL_WINDOW={chosen} (set in the environment) does "
+                                 f"not render ({failures[0]}); unset it to let wrt try EGL and OSMesa, or "
+                                 f"{INSTALL_HINT}")
     raise PreviewUnavailable(f"no display and no off-screen OpenGL for VTK ({'; '.join(failures)}); {INSTALL_HINT}")
 
 
