@@ -434,6 +434,22 @@ def test_real_instanced_scenes_match_the_manifest_without_flattening(assets, ass
         assert stats["instances"] == entry["instances_pointinstancer"] == 16
 
 
+def test_a_scene_and_its_meshes_print_as_counts(np_rng):
+    """A cell ending in ``scene`` printed every array of every mesh (megabytes for a stage of a few thousand
+    meshes); it prints the counts of ``stats()``, and a mesh its sizes and what it holds."""
+    scene = python_scene(np_rng, n=5)  # a ground quad and 5 octahedra (8 triangles each) of two prototypes
+    scene.materials.append(wrt.Material())
+    assert repr(scene) == ("Scene(1 meshes, 42 triangles (18 unique), 0 shapes, 2 prototypes, 5 instances, "
+                           "0 cameras, 0 lights, 1 materials)")
+    scene.source = "x.usda"
+    assert repr(scene).startswith("Scene('x.usda': 1 meshes")
+    ground = scene.meshes[0]
+    assert repr(ground) == "Mesh('/Ground', 4 points, 2 triangles)"
+    uvs = np.zeros((2, 3, 2), np.float32)
+    assert repr(Mesh("/m", ground.points, ground.indices, [0, 0], uvs=uvs, double_sided=True)) == (
+        "Mesh('/m', 4 points, 2 triangles, uvs, double-sided)")
+
+
 def test_expanded_ids_round_trip(np_rng):
     scene = python_scene(np_rng, n=9)
     rows = np.arange(scene.stats()["rendered_triangles"])

@@ -184,6 +184,20 @@ def test_png_is_8bit_srgb(tmp_path, room):
         img.save(tmp_path / "x.tiff")
 
 
+def test_an_image_shows_itself_in_a_notebook_as_its_png(tmp_path, room):
+    """Jupyter showed ``Image(rgb=array([[[...`` and every AOV array; it shows the sRGB picture now."""
+    import io
+
+    from PIL import Image as PilImage
+
+    img = wrt.render(room, width=40, height=30, device="cpu")
+    with PilImage.open(io.BytesIO(img._repr_png_())) as png:
+        shown = np.asarray(png)
+    with PilImage.open(img.save(tmp_path / "x.png")) as png:
+        np.testing.assert_array_equal(shown, np.asarray(png))
+    assert repr(img) == "Image(40x30, aovs: " + ", ".join(img.aovs) + ")"
+
+
 def test_npy_is_written_at_the_path_given_whatever_the_case_of_its_suffix(tmp_path, room):
     """np.save(path) appended ".npy" to "x.NPY", so the path returned (and the one --resume looks for) did not
     exist."""

@@ -206,6 +206,21 @@ class Image:
         """Rows."""
         return self.rgb.shape[0]
 
+    def __repr__(self) -> str:
+        # The dataclass repr printed every AOV array: a screenful of numbers where a notebook shows the picture.
+        aovs = ", ".join(self.aovs) or "none"
+        return f"Image({self.width}x{self.height}, aovs: {aovs})"
+
+    def _repr_png_(self) -> bytes:
+        """The image as Jupyter and IPython show it: the 8-bit sRGB PNG :meth:`save` writes (exposure 0)."""
+        import io
+
+        from PIL import Image as PilImage
+
+        buffer = io.BytesIO()
+        PilImage.fromarray(to_srgb8(self.rgb), mode="RGB").save(buffer, format="PNG")
+        return buffer.getvalue()
+
     def save(self, path, exposure: float = 0.0) -> Path:
         """Writes the colour image: ``.exr`` linear HDR float32, ``.npy`` raw linear float32, ``.png`` 8-bit sRGB
         of ``rgb * 2**exposure`` clipped to [0, 1] (``exposure`` applies to PNG only).

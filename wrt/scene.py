@@ -129,6 +129,13 @@ class Mesh(CountsAssignments):
                                  prim=self.path)
             setattr(self, name, array.reshape((triangles, *corner)))
 
+    def __repr__(self) -> str:
+        # The dataclass repr printed every array of the mesh; this says what it holds.
+        extras = [name for name in ("normals", "colors", "uvs", "material_ids") if getattr(self, name) is not None]
+        sided = ", double-sided" if self.double_sided else ""
+        return (f"Mesh({self.path!r}, {len(self.points):,} points, {len(self.indices):,} triangles"
+                f"{''.join(f', {name}' for name in extras)}{sided})")
+
 
 @dataclasses.dataclass
 class DistantLight:
@@ -243,6 +250,25 @@ class Scene:
         self.check_instances()
         self._checked = (assignments(), self._members())  # the state of the last full check (drop_stale_caches)
         self._cached_parts = self._parts()  # what the cache is made from (see drop_stale_caches)
+
+    def __repr__(self) -> str:
+        # The dataclass repr printed every array of every mesh, megabytes for a stage of a few thousand meshes (what
+        # a notebook shows for a cell ending in ``scene``); these are the counts of :meth:`stats`.
+        stats = self.stats()
+        counts = [
+            f"{stats['meshes']:,} meshes",
+            f"{stats['rendered_triangles']:,} triangles"
+            + (f" ({stats['unique_triangles']:,} unique)" if stats["unique_triangles"] != stats["rendered_triangles"]
+               else ""),
+            f"{stats['rendered_shapes']:,} shapes",
+            f"{stats['prototypes']:,} prototypes",
+            f"{stats['instances']:,} instances",
+            f"{stats['cameras']:,} cameras",
+            f"{stats['lights']:,} lights",
+            f"{len(self.materials):,} materials",
+        ]
+        source = f"{self.source!r}: " if self.source else ""
+        return f"Scene({source}{', '.join(counts)})"
 
     def invalidate(self) -> None:
         """Forgets every cached array, tree and device copy. Needed only after editing an array of the scene in
