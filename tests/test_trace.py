@@ -386,7 +386,7 @@ def test_bad_trace_arguments_raise_value_error():
         wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), accel="embree2")
     with pytest.raises(ValueError, match="valid builders"):
         wrt.trace(scene, np.zeros((1, 3)), np.ones((1, 3)), builder="octree")
-    with pytest.raises(ValueError, match=r"\(N, 3\) arrays with the same N, got \(2, 3\) and \(3, 3\)"):
+    with pytest.raises(ValueError, match=r"\(N, 3\) arrays with the same N \(or one ray\), got \(2, 3\) and \(3, 3\)"):
         wrt.trace(scene, np.zeros((2, 3)), np.ones((3, 3)))  # both are (N, 3): the N differs
     with pytest.raises(ValueError, match=r"\(N, 3\) arrays, got \(2, 4\)"):
         wrt.trace(scene, np.zeros((2, 4)), np.ones((2, 4)))
@@ -409,6 +409,80 @@ def test_ray_arrays_of_text_or_complex_numbers_raise_naming_the_argument():
             with pytest.raises(ValueError, match=f"{name} must hold real numbers"):
                 query(scene, *args, **kwargs)
     assert wrt.trace(scene, good_o.astype(np.float64), good_d.tolist(), t_max=np.int64(2)).prim.tolist() == [0]
+
+
+class GpuTensor:
+    """Stands for a CUDA ``torch.Tensor``: numpy refuses it (as torch does: "can't convert cuda:0 device type
+    tensor to numpy"), DLPack hands it over."""
+
+    def __init__(self, values):
+        self.values = wp.array(np.asarray(values, np.float32))
+
+    def __array__(self, dtype=None, copy=None):
+        raise TypeError("can't convert cuda:0 device type tensor to numpy")
+
+    def __dlpack__(self, stream=None):
+        return self.values.__dlpack__(stream=stream)
+
+    def __dlpack_device__(self):
+        return self.values.__dlpack_device__()
+
+
+def test_rays_are_taken_in_every_form_a_notebook_holds_them():
+    """A (3,) ray, one origin for many directions, an empty list and a GPU tensor raised ValueError ("must both be
+    (N, 3) arrays"; the tensor: "origins must hold real numbers"); a wp.array on the device was copied to the host
+    and back (and one on a GPU refused, as numpy cannot read it)."""
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins = np.array([[0.0, 0.0, 1.0]] * 3)
+    directions = np.array([[0.0, 0.0, -1.0], [0.5, 0.0, -1.0], [2.0, 0.0, -1.0]])  # hit, hit, miss
+    expected = wrt.trace(scene, origins.astype(np.float32), directions.astype(np.float32))
+    assert expected.prim.tolist() == [0, 0, -1]
+    for o, d in (
+        (origins.tolist(), directions.tolist()),
+        (origins[0], directions),  # one origin for every direction
+        ([[0, 0, 1]], directions),
+        (origins, GpuTensor(directions)),
+        (wp.array(origins, dtype=wp.vec3), wp.array(directions.astype(np.float32))),  # vec3, and (N, 3) floats
+        (wp.array(origins, dtype=wp.vec3d), directions[:, None, :][:, 0]),  # float64 vectors, a strided view
+    ):
+        for query in (wrt.trace, wrt.occluded):
+            got = query(scene, o, d)
+            hits = got.prim if query is wrt.trace else got
+            assert hits.tolist() == (expected.prim if query is wrt.trace else expected.hit).tolist()
+        np.testing.assert_array_equal(wrt.trace(scene, o, d).t, expected.t)
+    one = wrt.trace(scene, [0, 0, 1], [0, 0, -1])  # a single ray: Hits of length 1
+    assert one.prim.tolist() == [0] and one.t.tolist() == [1.0]
+    assert len(wrt.trace(scene, [], []).t) == 0
+
+
+def test_a_vec3_array_on_the_device_is_traced_in_place():
+    """Rays a Warp kernel made on the tracing device are read where they are: no copy through the host."""
+    from wrt.ray_batch import upload_rays
+
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins = wp.array([[0.0, 0.0, 1.0]] * 2, dtype=wp.vec3)
+    directions = wp.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]], dtype=wp.vec3)
+    rays = upload_rays(origins, directions, 0.0, None, origins.device)
+    assert rays[0] is origins and rays[1] is directions
+    assert wrt.trace(scene, origins, directions).prim.tolist() == [0, -1]
+
+
+@pytest.mark.parametrize("accel, layout", [("wrt", "binary"), ("wrt", "wide8"), ("warp", "binary")])
+def test_t_min_is_an_inclusive_lower_bound(accel, layout):
+    """trace and occluded had no t_min (a TypeError): lidar minimum ranges and secondary rays had to move their
+    origins. Two triangles at z = 0 and z = -1 under rays pointing down -z."""
+    points = [[-1, -1, 0], [1, -1, 0], [0, 1, 0], [-1, -1, -1], [1, -1, -1], [0, 1, -1]]
+    scene = wrt.Scene.from_triangles(points, [[0, 1, 2], [3, 4, 5]])
+    origins = [[0, 0, 5]] * 4 + [[0, 0, -0.5]]  # the last starts between the triangles
+    t_min = [0.0, 5.5, 6.5, 5.0, -10.0]  # past the first; past both; exactly on the first; behind the origin
+    hits = wrt.trace(scene, origins, [0, 0, -1], t_min=t_min, accel=accel, layout=layout)
+    assert hits.prim.tolist() == [0, 1, -1, 0, 0]
+    np.testing.assert_array_equal(hits.t, [5.0, 6.0, np.inf, 5.0, -0.5])
+    blocked = wrt.occluded(scene, origins, [0, 0, -1], t_min=t_min, accel=accel, layout=layout)
+    assert blocked.tolist() == [True, True, False, True, True]
+    assert wrt.trace(scene, origins, [0, 0, -1], t_min=5.5, accel=accel, layout=layout).prim.tolist()[:4] == [1] * 4
+    with pytest.raises(ValueError, match="t_min must not be NaN"):
+        wrt.trace(scene, origins, [0, 0, -1], t_min=np.nan, accel=accel, layout=layout)
 
 
 def test_threaded_cpu_trace_gives_the_same_hits(np_rng):

@@ -31,6 +31,7 @@ from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .geometry import ray_can_hit
+from .ray_batch import upload_rays
 from .scene import Scene
 
 # No floating-point contraction (FMA) in the trace kernels: the watertight triangle test relies on an edge shared by
@@ -527,50 +528,12 @@ class Hits:
         return self.prim >= 0
 
 
-def _as_float32(name: str, values) -> np.ndarray:
-    """``values`` as a float32 array, or ``ValueError`` naming ``name``: complex numbers were cast with only a
-    warning (the imaginary part dropped), and text or ragged lists failed with numpy's message alone."""
-    try:
-        raw = values if isinstance(values, (np.ndarray, wp.array)) else np.asarray(values)
-        if isinstance(raw, np.ndarray) and raw.dtype.kind in "cSUV":  # complex, bytes, text, void
-            raise TypeError(f"got dtype {raw.dtype}")
-        return np.asarray(raw, dtype=np.float32)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{name} must hold real numbers ({e})") from None
-
-
-def _as_rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
-    o = _as_float32("origins", origins)
-    d = _as_float32("directions", directions)
-    if o.ndim != 2 or o.shape[1] != 3 or d.shape != o.shape:
-        rays = " with the same N" if o.ndim == d.ndim == 2 and o.shape[1] == d.shape[1] == 3 else ""
-        raise ValueError(f"origins and directions must both be (N, 3) arrays{rays}, got {o.shape} and {d.shape}")
-    return np.ascontiguousarray(o), np.ascontiguousarray(d)
-
-
-def _upload_rays(origins, directions, t_max, device) -> list:
-    """Checks and uploads a ray batch: ``[origins, directions, t_mins (zeros), t_maxs]`` as device arrays."""
-    o, d = _as_rays(origins, directions)
-    n = len(o)
-    t_maxs = _as_float32("t_max", np.inf if t_max is None else t_max)  # None: no limit, as the default
-    if t_maxs.shape not in ((), (n,)):
-        raise ValueError(f"t_max must be a scalar or one value per ray, shape ({n},); got shape {t_maxs.shape}")
-    if np.isnan(t_maxs).any():  # every ray would miss without a word (a list [None] converts to NaN)
-        raise ValueError("t_max must not be NaN; use inf (or None) for no limit")
-    t_maxs = np.broadcast_to(t_maxs, (n,)).copy()
-    return [
-        wp.array(o, dtype=wp.vec3, device=device),
-        wp.array(d, dtype=wp.vec3, device=device),
-        wp.zeros(n, dtype=float, device=device),
-        wp.array(t_maxs, dtype=float, device=device),
-    ]
-
-
 def trace(
     scene: Scene,
     origins,
     directions,
     *,
+    t_min=0.0,
     t_max=np.inf,
     accel: str = "wrt",
     builder: str = "sah",
@@ -578,13 +541,16 @@ def trace(
     threads: int | None = None,
     layout: str = "binary",
 ) -> Hits:
-    """Closest hit of each ray ``origins[i] + t * directions[i]``, ``0 <= t < t_max``.
+    """Closest hit of each ray ``origins[i] + t * directions[i]``, ``t_min <= t < t_max``.
 
     Args:
         scene: the scene to trace against.
-        origins: ``(N, 3)`` float32, world space.
-        directions: ``(N, 3)`` float32, world space; need not be unit length. Zero or NaN directions miss.
-        t_max: scalar or ``(N,)`` upper bound on ``t`` (exclusive).
+        origins: ``(N, 3)`` world space: float32, or anything :mod:`wrt.ray_batch` converts (lists, float64,
+            ``wp.array``s on any device, GPU tensors); a ``vec3`` ``wp.array`` on ``device`` is traced in place. A
+            ``(3,)`` vector is one ray, and one origin serves every direction.
+        directions: ``(N, 3)`` world space, as ``origins``; need not be unit length. Zero or NaN directions miss.
+        t_min: scalar or ``(N,)`` lower bound on ``t`` (inclusive; may be negative); ``None``: 0.
+        t_max: scalar or ``(N,)`` upper bound on ``t`` (exclusive); ``None``: no bound.
         accel: ``"wrt"`` (own BVH) or ``"warp"`` (``wp.Mesh`` + ``wp.mesh_query_ray``).
         builder: BVH builder name; for ``accel="warp"`` one of Warp's constructors.
         device: Warp device to trace on.
@@ -596,7 +562,7 @@ def trace(
         :class:`Hits` with numpy arrays.
     """
     acc = get_accelerator(scene, accel, builder, device, layout)
-    rays = _upload_rays(origins, directions, t_max, acc.device)
+    rays = upload_rays(origins, directions, t_min, t_max, acc.device)
     hits = HitBuffer(len(rays[0]), acc.device)
     if len(rays[0]):
         acc.intersect(*rays, hits, threads=threads)
@@ -619,6 +585,7 @@ def occluded(
     origins,
     directions,
     *,
+    t_min=0.0,
     t_max=np.inf,
     accel="wrt",
     builder="sah",
@@ -626,10 +593,10 @@ def occluded(
     threads=None,
     layout: str = "binary",
 ) -> np.ndarray:
-    """Any-hit query: ``(N,)`` bool, True where ray ``i`` hits something with ``0 <= t < t_max``. The arguments
-    are those of :func:`trace`."""
+    """Any-hit query: ``(N,)`` bool, True where ray ``i`` hits something with ``t_min <= t < t_max``. The
+    arguments are those of :func:`trace`."""
     acc = get_accelerator(scene, accel, builder, device, layout)
-    rays = _upload_rays(origins, directions, t_max, acc.device)
+    rays = upload_rays(origins, directions, t_min, t_max, acc.device)
     blocked = wp.zeros(len(rays[0]), dtype=wp.int32, device=acc.device)
     if len(rays[0]):
         acc.occluded(*rays, blocked, threads=threads)

@@ -1,0 +1,110 @@
+"""Ray batches as :func:`wrt.trace` and :func:`wrt.occluded` take them: checked and put on the tracing device.
+
+Origins and directions may be anything numpy converts (lists, float64 or integer arrays, non-contiguous views,
+objects with ``__array__``), ``wp.array``s on any device (``vec3`` or ``(N, 3)`` floats), or GPU tensors that numpy
+refuses but DLPack hands over (``torch`` on CUDA, CuPy). A ``wp.array`` of ``vec3`` already on the tracing device
+is traced in place; anything else is copied. One ray may be a ``(3,)`` vector, and a single origin (or direction)
+serves every ray of the other argument, as numpy broadcasts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+
+def _host_array(name: str, values):
+    """``values`` as something numpy converts without a device copy failing: ``wp.array``s on a GPU (which refuse
+    implicit conversion) are copied to the host, and GPU tensors are read through DLPack."""
+    if isinstance(values, wp.array):
+        return values.numpy()
+    if isinstance(values, (np.ndarray, list, tuple, int, float)) or not hasattr(values, "__dlpack__"):
+        return values
+    try:
+        np.asarray(values)
+        return values
+    except (TypeError, ValueError, RuntimeError):  # torch: TypeError "can't convert cuda:0 device type tensor"
+        pass
+    try:
+        return wp.from_dlpack(values).numpy()
+    except Exception as e:  # noqa: BLE001 - any failure of a foreign object is reported as unreadable input
+        raise ValueError(f"{name}: cannot read a {type(values).__name__} ({e})") from None
+
+
+def as_float32(name: str, values) -> np.ndarray:
+    """``values`` as a float32 numpy array, or ``ValueError`` naming ``name``: complex numbers were cast with only a
+    warning (the imaginary part dropped), and text or ragged lists failed with numpy's message alone."""
+    raw = _host_array(name, values)
+    try:
+        raw = raw if isinstance(raw, np.ndarray) else np.asarray(raw)
+        if raw.dtype.kind in "cSUV":  # complex, bytes, text, void
+            raise TypeError(f"got dtype {raw.dtype}")
+        return np.asarray(raw, dtype=np.float32)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name} must hold real numbers ({e})") from None
+
+
+def _on_device(values, device) -> wp.array | None:
+    """``values`` itself when it is a ``vec3`` (or ``(N, 3)`` float32) ``wp.array`` that kernels on ``device`` can
+    read as it is, else None."""
+    if not (isinstance(values, wp.array) and values.device == device and values.is_contiguous):
+        return None
+    if values.ndim == 1 and values.dtype == wp.vec3:
+        return values
+    if values.ndim == 2 and values.dtype == wp.float32 and values.shape[1] == 3:
+        return values.view(wp.vec3)
+    return None
+
+
+def _vectors(name: str, values, device) -> wp.array | np.ndarray:
+    """Rays of one argument: a device array to trace in place, or ``(N, 3)`` float32 numpy (a ``(3,)`` vector is
+    one ray; an empty list none)."""
+    in_place = _on_device(values, device)
+    if in_place is not None:
+        return in_place
+    array = as_float32(name, values)
+    if array.ndim == 1 and array.size in (0, 3):
+        array = array.reshape(-1, 3)
+    return array
+
+
+def _numpy(rays) -> np.ndarray:
+    return rays.numpy() if isinstance(rays, wp.array) else rays
+
+
+def _shape(rays) -> tuple:
+    return (len(rays), 3) if isinstance(rays, wp.array) else rays.shape
+
+
+def _limits(name: str, values, default: float, n: int) -> np.ndarray:
+    """``t_min`` or ``t_max``: a scalar or one value per ray, never NaN; ``None`` is the default."""
+    limits = as_float32(name, default if values is None else values)
+    if limits.shape not in ((), (n,)):
+        raise ValueError(f"{name} must be a scalar or one value per ray, shape ({n},); got shape {limits.shape}")
+    if np.isnan(limits).any():  # every ray would miss without a word (a list [None] converts to NaN)
+        raise ValueError(f"{name} must not be NaN" + ("; use inf (or None) for no limit" if default > 0 else ""))
+    return np.broadcast_to(limits, (n,)).copy()
+
+
+def upload_rays(origins, directions, t_min, t_max, device) -> list:
+    """Checks a ray batch and puts it on ``device``: ``[origins, directions, t_mins, t_maxs]`` as device arrays.
+
+    Raises:
+        ValueError: naming the argument that is not ``(N, 3)`` (or ``(3,)``) real numbers, a ``t_min``/``t_max`` of
+            another length or NaN, or origins and directions of different lengths (other than one of them
+            holding one ray).
+    """
+    o = _vectors("origins", origins, device)
+    d = _vectors("directions", directions, device)
+    (no, co), (nd, cd) = (_shape(r) if len(_shape(r)) == 2 else (None, None) for r in (o, d))
+    if co != 3 or cd != 3 or (no != nd and 1 not in (no, nd)):
+        same = " with the same N (or one ray)" if co == cd == 3 else ""
+        raise ValueError(f"origins and directions must both be (N, 3) arrays{same}, got {_shape(o)} and {_shape(d)}")
+    n = max(no, nd)
+    if no != nd:  # one ray against many, as numpy broadcasts
+        o, d = (np.broadcast_to(_numpy(r), (n, 3)) if len(r) == 1 else r for r in (o, d))
+    t_mins, t_maxs = _limits("t_min", t_min, 0.0, n), _limits("t_max", t_max, np.inf, n)
+    return [
+        r if isinstance(r, wp.array) else wp.array(np.ascontiguousarray(r), dtype=wp.vec3, device=device)
+        for r in (o, d)
+    ] + [wp.array(t, dtype=float, device=device) for t in (t_mins, t_maxs)]
