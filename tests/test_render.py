@@ -170,6 +170,28 @@ def test_bad_render_options_raise_value_error(kwargs, message):
         wrt.render(scene, **options)
 
 
+@pytest.mark.parametrize(
+    "kwargs, suggestion",
+    [
+        ({"integrator": "pth"}, "unknown integrator 'pth' (did you mean 'path'?); valid integrators: whitted"),
+        ({"integrator": "Whitted"}, "(did you mean 'whitted'?)"),
+        ({"accel": "Warp"}, "unknown accelerator 'Warp' (did you mean 'warp'?); valid accelerators: wrt, warp"),
+        ({"builder": "lbhv"}, "unknown BVH builder 'lbhv' (did you mean 'lbvh'?); valid builders: sah"),
+        ({"accel": "warp", "builder": "cubq"}, "wp.Mesh has no builder 'cubq' (did you mean 'cubql'?)"),
+    ],
+)
+def test_a_mistyped_option_name_suggests_the_valid_one(kwargs, suggestion):
+    """Only the list of valid names was given; a typo now names the one it was probably meant to be."""
+    scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    with pytest.raises(ValueError) as info:
+        wrt.render(scene, width=8, height=8, device="cpu", **kwargs)
+    assert suggestion in str(info.value)
+    with pytest.raises(ValueError, match=r"unknown BVH layout 'wide_8' \(did you mean 'wide8'\?\)"):
+        wrt.trace(scene, [0, 0, 1], [0, 0, -1], layout="wide_8")
+    with pytest.raises(ValueError, match=r"unknown integrator 'octree'; valid"):  # nothing close: no guess
+        wrt.render(scene, width=8, height=8, device="cpu", integrator="octree")
+
+
 def test_png_is_8bit_srgb(tmp_path, room):
     from PIL import Image as PilImage
 

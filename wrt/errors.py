@@ -1,5 +1,7 @@
 """Errors that wrt raises for bad input, so callers can tell them from bugs, and the checks that raise them."""
 
+import difflib
+
 import numpy as np
 
 
@@ -21,6 +23,14 @@ class TimeRangeWarning(UserWarning):
     """A time code outside the stage's authored ``[startTimeCode, endTimeCode]``: rendered all the same (USD holds
     the values of the nearest time samples), but often a typo. A category of its own, so a frame range warns once for
     all its frames (:func:`wrt.animation.warn_frames_outside_range`) instead of once per frame."""
+
+
+def did_you_mean(value, valid) -> str:
+    """`` (did you mean 'path'?)`` for the name of ``valid`` closest to a mistyped ``value`` (``"pth"``, ``"Path"``,
+    ``"wide_8"``), or an empty string when none is close; for messages that then list every valid name."""
+    names = {str(v).lower(): str(v) for v in valid}
+    close = difflib.get_close_matches(str(value).lower(), list(names), n=1, cutoff=0.6)
+    return f" (did you mean {names[close[0]]!r}?)" if close else ""
 
 
 def check_fields(obj, *fields: tuple) -> None:

@@ -19,6 +19,7 @@ import numpy as np
 import warp as wp
 
 from .camera import Camera, DeviceCamera, frame_scene
+from .errors import did_you_mean
 from .image import Image
 from .integrators import INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
@@ -278,7 +279,8 @@ class Renderer:
         _check_one_size(views, width, height)
         check_pixels(width, height, len(views))
         if integrator not in INTEGRATORS:
-            raise ValueError(f"unknown integrator {integrator!r}; valid integrators: {', '.join(INTEGRATORS)}")
+            raise ValueError(f"unknown integrator {integrator!r}{did_you_mean(integrator, INTEGRATORS)}; valid "
+                             f"integrators: {', '.join(INTEGRATORS)}")
         if max_depth is None:
             max_depth = DEFAULT_MAX_DEPTH.get(integrator, 1)
         integral = isinstance(max_depth, (int, np.integer)) and not isinstance(max_depth, bool)

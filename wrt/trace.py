@@ -30,6 +30,7 @@ from .bvh.layout import check_layout, convert_layout, layout_kernels
 from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
+from .errors import did_you_mean
 from .geometry import ray_can_hit
 from .ray_batch import upload_rays
 from .scene import Scene
@@ -404,7 +405,8 @@ class WarpMeshAccelerator(Accelerator):
 
     def __init__(self, scene: Scene, builder: str, device):
         if builder not in WARP_BUILDERS:
-            raise ValueError(f"wp.Mesh has no builder {builder!r}; valid builders for accel='warp': {WARP_BUILDERS}")
+            raise ValueError(f"wp.Mesh has no builder {builder!r}{did_you_mean(builder, WARP_BUILDERS)}; valid "
+                             f"builders for accel='warp': {WARP_BUILDERS}")
         check_flattenable(scene, "accel='warp'")
         self.device = device
         self.builder = builder
@@ -467,7 +469,8 @@ def get_accelerator(
     """
     check_scene(scene)
     if accel not in ACCELERATORS:
-        raise ValueError(f"unknown accelerator {accel!r}; valid accelerators: {', '.join(ACCELERATORS)}")
+        raise ValueError(f"unknown accelerator {accel!r}{did_you_mean(accel, ACCELERATORS)}; valid accelerators: "
+                         f"{', '.join(ACCELERATORS)}")
     check_layout(layout)
     if accel == "wrt":
         builder = Builder.from_str(builder).value  # "binned_sah" and "sah" share one cached tree

@@ -23,6 +23,7 @@ import time
 import numpy as np
 import warp as wp
 
+from ..errors import did_you_mean
 from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput, stage
 from .layout import DeviceFlatBvh, FlatBvh
 from .presplit import MAX_SPLIT_LEVELS, map_slots_kernel, presplit_references
@@ -48,7 +49,8 @@ class Builder(enum.Enum):
         for b in cls:
             if b.value == key:
                 return b
-        raise ValueError(f"unknown BVH builder {name!r}; valid builders: {', '.join(builder_names())}")
+        raise ValueError(f"unknown BVH builder {name!r}{did_you_mean(name, builder_names())}; valid builders: "
+                         f"{', '.join(builder_names())}")
 
 
 def builder_names() -> list[str]:

@@ -18,6 +18,7 @@ import dataclasses
 import numpy as np
 import warp as wp
 
+from ..errors import did_you_mean
 from .packed import pack_child
 
 wp.set_module_options({"enable_backward": False})
@@ -359,7 +360,8 @@ LAYOUTS = ("binary", "compact", "wide", "wide8")  # names accepted by layout=
 def check_layout(layout: str) -> str:
     """Returns ``layout`` if it is a known layout name; raises ``ValueError`` listing the valid ones."""
     if layout not in LAYOUTS:
-        raise ValueError(f"unknown BVH layout {layout!r}; valid layouts: {', '.join(LAYOUTS)}")
+        raise ValueError(f"unknown BVH layout {layout!r}{did_you_mean(layout, LAYOUTS)}; valid layouts: "
+                         f"{', '.join(LAYOUTS)}")
     return layout
 
 
