@@ -176,6 +176,32 @@ def test_bad_camera_values_raise():
         wrt.Camera(clipping_range=(5.0, 1.0))
 
 
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        # Each was reported as something else: "cannot normalise vector [...]" not naming eye or target, "up is
+        # parallel" for a 2-vector eye, numpy's "could not convert string" or reshape error, Python's comparison
+        # TypeError, "too many values to unpack", "Camera.__init__() got an unexpected keyword argument".
+        (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 5)), r"eye and target are the same point \[0.0, 0.0, 5.0\]"),
+        (lambda: wrt.Camera.look_at((np.nan, 0, 5), (0, 0, 0)), r"look_at: eye must be 3 finite numbers"),
+        (lambda: wrt.Camera.look_at((0, 5), (0, 0)), r"look_at: eye must be 3 finite numbers, got \(0, 5\)"),
+        (lambda: wrt.Camera.look_at((0, 0, 5), "origin"), r"look_at: target must be 3 finite numbers, got 'origin'"),
+        (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 0), up=(0, 0, 0)), r"up \[0.0, 0.0, 0.0\] is zero or"),
+        (lambda: wrt.Camera.look_at((0, 5, 0), (0, 0, 0)), r"parallel to the viewing direction \[0.0, -1.0, 0.0\]"),
+        (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 0), fov_y_deg="45"), r"fov_y_deg must lie in .*, got '45'"),
+        (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 0), fov=60), r"Camera.look_at\(\) got an unexpected keyword "
+         r"argument 'fov' \(did you mean 'fov_y_deg'\?\)"),
+        (lambda: wrt.Camera.orthographic((0, 0, 5), (0, 0, 0), width=2), r"Camera.orthographic\(\) got an unexpected"),
+        (lambda: wrt.Camera(fit="expand"), r"not 'expand' \(did you mean 'expandAperture'\?\)"),
+        (lambda: wrt.Camera(to_world=np.eye(3)), r"camera to_world must be a \(4, 4\) matrix, got shape \(3, 3\)"),
+        (lambda: wrt.Camera(clipping_range=(0.1, 1, 2)), r"clipping range must be \(near, far\), got \(0.1, 1, 2\)"),
+    ],
+)
+def test_camera_arguments_from_a_notebook_get_errors_naming_them(call, message):
+    with pytest.raises((ValueError, TypeError), match=message):
+        call()
+
+
 NAN, INF = float("nan"), float("inf")
 
 

@@ -28,6 +28,8 @@ import math
 import numpy as np
 import warp as wp
 
+from .errors import did_you_mean
+
 APERTURE_UNIT = 0.1  # orthographic apertures are in tenths of a scene unit, as in Gf.Camera
 # UsdRender's aspectRatioConformPolicy tokens; Camera.fit takes them and wrt's two names ("horizontal" is
 # adjustApertureHeight and "vertical" adjustApertureWidth under other names).
@@ -201,11 +203,15 @@ class Camera:
     path: str = ""
 
     def __post_init__(self):
-        self.to_world = np.asarray(self.to_world, dtype=np.float64).reshape(4, 4)
+        self.to_world = np.asarray(self.to_world, dtype=np.float64)
+        if self.to_world.size != 16:  # numpy's reshape error named no argument
+            raise ValueError(f"{self.label()} to_world must be a (4, 4) matrix, got shape {self.to_world.shape}")
+        self.to_world = self.to_world.reshape(4, 4)
         if self.projection not in ("perspective", "orthographic"):
             raise ValueError(f"camera projection must be 'perspective' or 'orthographic', not {self.projection!r}")
         if self.fit not in FITS:
-            raise ValueError(f"camera fit must be one of {', '.join(FITS)}, not {self.fit!r}")
+            raise ValueError(f"camera fit must be one of {', '.join(FITS)}, not {self.fit!r}"
+                             f"{did_you_mean(self.fit, FITS)}")
         if not (_finite(self.pixel_aspect_ratio) and self.pixel_aspect_ratio > 0):
             raise ValueError(f"{self.label()} needs a finite positive pixel aspect ratio, got "
                              f"{_show(self.pixel_aspect_ratio)}")
@@ -231,6 +237,8 @@ class Camera:
             raise ValueError(f"{self.label()} needs a non-negative exposure scale of at most {FLOAT32_MAX:.4g} (from "
                              f"exposure, exposure:time, :iso, :fStop and :responsivity), got "
                              f"{_show(self.exposure_scale)}")
+        if np.shape(self.clipping_range) != (2,):  # "too many values to unpack"
+            raise ValueError(f"camera clipping range must be (near, far), got {self.clipping_range!r}")
         near, far = self.clipping_range
         if not (0 <= near < far):
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
@@ -265,8 +273,9 @@ class Camera:
         """A perspective camera at ``eye`` looking at ``target``, with a vertical field of view in degrees (square
         apertures of that angle and ``fit="vertical"``; another ``fit`` keeps the angle on its own axis instead, e.g.
         ``"horizontal"`` across the image's width)."""
-        if not 0.0 < fov_y_deg < 180.0:
-            raise ValueError(f"fov_y_deg must lie in (0, 180), got {fov_y_deg}")
+        _check_keywords("look_at", kwargs, "fov_y_deg")
+        if not (_finite(fov_y_deg) and 0.0 < fov_y_deg < 180.0):  # a string failed in the comparison
+            raise ValueError(f"fov_y_deg must lie in (0, 180), got {_show(fov_y_deg)}")
         aperture = 2.0 * kwargs.get("focal_length", 50.0) * math.tan(math.radians(fov_y_deg) / 2.0)
         kwargs.setdefault("vertical_aperture", aperture)
         kwargs.setdefault("horizontal_aperture", aperture)
@@ -277,6 +286,7 @@ class Camera:
     def orthographic(cls, eye, target, up=(0.0, 1.0, 0.0), height: float = 2.0, **kwargs) -> Camera:
         """An orthographic camera at ``eye`` looking at ``target`` whose view is ``height`` scene units tall (with
         another ``fit``, that extent lies on its axis: ``"horizontal"``, ``height`` units wide)."""
+        _check_keywords("orthographic", kwargs, "height")
         if not (_finite(height) and height > 0):
             raise ValueError(f"orthographic height must be a finite positive number, got {_show(height)}")
         aperture = height / APERTURE_UNIT
@@ -344,12 +354,37 @@ class Camera:
         return s
 
 
+def _check_keywords(method: str, kwargs: dict, own: str) -> None:
+    """TypeError for a keyword that is no :class:`Camera` field, from ``method``'s point of view: ``fov=60`` was
+    reported as ``Camera.__init__() got an unexpected keyword argument``, which the caller never called."""
+    fields = [f.name for f in dataclasses.fields(Camera) if f.name != "to_world"]
+    for name in kwargs:
+        if name not in fields:
+            raise TypeError(f"Camera.{method}() got an unexpected keyword argument {name!r}"
+                            f"{did_you_mean(name, [own, *fields])}")
+
+
+def _point(name: str, value) -> np.ndarray:
+    """``value`` as a ``(3,)`` float64 vector of finite numbers, else ValueError naming ``name``: a NaN eye or a
+    2-vector was reported as "cannot normalise vector" or "up is parallel to the viewing direction"."""
+    try:
+        v = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        v = None
+    if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"look_at: {name} must be 3 finite numbers, got {value!r}")
+    return v
+
+
 def _look_at_matrix(eye, target, up) -> np.ndarray:
-    eye = np.asarray(eye, dtype=np.float64)
-    back = _normalized(eye - np.asarray(target, dtype=np.float64))
-    right = np.cross(np.asarray(up, dtype=np.float64), back)
+    eye, target, up = _point("eye", eye), _point("target", target), _point("up", up)
+    if np.array_equal(eye, target):
+        raise ValueError(f"look_at: eye and target are the same point {eye.tolist()}, so there is no view direction")
+    back = _normalized(eye - target)
+    right = np.cross(up, back)
     if np.linalg.norm(right) < 1e-12:
-        raise ValueError("look_at: up is parallel to the viewing direction")
+        raise ValueError(f"look_at: up {up.tolist()} is zero or parallel to the viewing direction "
+                         f"{(0.0 - back).tolist()}; pass another up")
     right = _normalized(right)
     true_up = np.cross(back, right)
     m = np.eye(4)

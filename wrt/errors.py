@@ -27,10 +27,14 @@ class TimeRangeWarning(UserWarning):
 
 def did_you_mean(value, valid) -> str:
     """`` (did you mean 'path'?)`` for the name of ``valid`` closest to a mistyped ``value`` (``"pth"``, ``"Path"``,
-    ``"wide_8"``), or an empty string when none is close; for messages that then list every valid name."""
+    ``"wide_8"``) or the one it is the start of (``"fov"``), or an empty string when none is close; for messages that
+    then list every valid name."""
     names = {str(v).lower(): str(v) for v in valid}
-    close = difflib.get_close_matches(str(value).lower(), list(names), n=1, cutoff=0.6)
-    return f" (did you mean {names[close[0]]!r}?)" if close else ""
+    key = str(value).lower()
+    close = difflib.get_close_matches(key, list(names), n=1, cutoff=0.6)
+    if not close and len(key) >= 3:
+        close = [n for n in names if n.startswith(key)][:2]
+    return f" (did you mean {names[close[0]]!r}?)" if len(close) == 1 else ""
 
 
 def check_fields(obj, *fields: tuple) -> None:
