@@ -128,6 +128,24 @@ class Mesh(CountsAssignments):
                 raise SceneError(f"{name} must have shape {expected}, one entry per triangle; got {array.shape}",
                                  prim=self.path)
             setattr(self, name, array.reshape((triangles, *corner)))
+        self.check_vertices()
+
+    def check_vertices(self) -> None:
+        """Raises :class:`SceneError` naming the mesh, the first triangle that uses a NaN or infinite vertex and that
+        vertex (vertices no triangle uses may be anything). The BVH builds refuse them too, but could name only a
+        row of all the scene's triangles."""
+        from .errors import SceneError
+
+        finite = np.isfinite(self.points).all(axis=1)
+        if finite.all():
+            return
+        used = finite[self.indices]
+        bad = np.flatnonzero(~used.all(axis=1))
+        if len(bad):
+            t = int(bad[0])
+            v = int(self.indices[t][~used[t]][0])
+            raise SceneError(f"triangle {t} uses vertex {v} = {self.points[v].tolist()}, which is not finite (NaN, "
+                             "inf, or past float32's range)", prim=self.path)
 
     def __repr__(self) -> str:
         # The dataclass repr printed every array of the mesh; this says what it holds.
@@ -318,6 +336,11 @@ class Scene:
     def _texture_inputs(self) -> list:
         """The TextureInputs of every material (the values of its ``textures`` dict)."""
         return [t for m in self.materials for t in getattr(m, "textures", {}).values()]
+
+    def check_vertices(self) -> None:
+        """:meth:`Mesh.check_vertices` of every mesh, prototypes' too: their points may have been edited since."""
+        for mesh in self._geometry_meshes():
+            mesh.check_vertices()
 
     def check_instances(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of
@@ -682,6 +705,7 @@ class Scene:
         key = ("bounds",)
         if key in self._cache:
             return self._cache[key]
+        self.check_vertices()  # a NaN made the default camera's eye NaN: named here, not as a camera error
         points, indices = _concatenate_meshes(self.meshes)
         lower = np.full(3, np.inf)
         upper = np.full(3, -np.inf)

@@ -481,6 +481,7 @@ def get_accelerator(
     scene.drop_stale_caches()
     key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
     if key not in scene._cache:
+        scene.check_vertices()  # named with their mesh here; the builds' own check can name only a row
         if accel == "wrt" and layout == "binary" and (len(scene.instances) or scene.shapes):
             from .tlas import InstancedAccelerator
 
