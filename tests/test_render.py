@@ -192,6 +192,19 @@ def test_a_mistyped_option_name_suggests_the_valid_one(kwargs, suggestion):
         wrt.render(scene, width=8, height=8, device="cpu", integrator="octree")
 
 
+@pytest.mark.parametrize("function", [wrt.render, wrt.trace, wrt.Renderer.render])
+def test_help_describes_every_argument(function):
+    """``help(wrt.render)`` said only "See Renderer for the arguments", where spp, seed, batch and progress were not
+    either; every parameter is now in the function's own Args section."""
+    import inspect
+
+    doc = inspect.getdoc(function)
+    args = doc[doc.index("Args:"):]
+    missing = [name for name in inspect.signature(function).parameters
+               if name != "self" and f"\n    {name}: " not in args]
+    assert not missing
+
+
 def test_png_is_8bit_srgb(tmp_path, room):
     from PIL import Image as PilImage
 

@@ -778,10 +778,32 @@ def render(
     batch: int | None = None,
     progress: bool = False,
 ) -> Image:
-    """Renders ``scene`` and returns an :class:`Image`: linear radiance ``rgb`` plus AOVs.
+    """Renders ``scene`` and returns an :class:`Image`: linear radiance ``rgb`` plus AOVs (shown as a picture in
+    Jupyter). A :class:`Renderer` keeps the BVH and buffers for repeated renders of one view.
 
-    See :class:`Renderer` for the arguments and :meth:`Renderer.render` for ``spp``, ``seed``, ``batch`` and
-    ``progress``.
+    Args:
+        scene: a :class:`Scene` (``wrt.load_usd(path)`` or built in Python).
+        camera: a :class:`Camera` (``Camera.look_at(eye, target)``), a camera prim path, or ``None``: the stage's
+            render settings' camera, else its first camera, else one that frames the scene.
+        width: image width in pixels; ``None``: the render settings' resolution, else 640.
+        height: image height in pixels; ``None``: the render settings' resolution, else 480.
+        spp: samples per pixel (a positive integer).
+        device: Warp device (``"cpu"``, ``"cuda:0"``); ``None``: Warp's default device.
+        seed: seed of every random decision, 0 to 2^31 - 1; the same seed gives the same image on one device.
+        builder: BVH builder (``"sah"``, ``"median"``, ``"lbvh"``, ...; see :func:`build_bvh`).
+        accel: ``"wrt"`` (wrt's BVH) or ``"warp"`` (Warp's ``wp.Mesh``).
+        integrator: ``"whitted"``, ``"path"`` (Monte Carlo path tracing), ``"ao"`` (ambient occlusion), or the
+            quick looks ``"normals"``, ``"depth"``, ``"albedo"``.
+        max_depth: bounces (``path``: surface interactions per path; ``whitted``: mirror and refraction bounces);
+            ``None``: the integrator's default.
+        ao_radius: occlusion distance of ``ao`` in scene units; ``None``: a tenth of the scene's diagonal.
+        batch: samples per pixel per launch (the image does not depend on it); ``None``: as many as fit.
+        progress: show a progress bar over the samples.
+
+    Raises:
+        ValueError: naming the argument that is out of range or unknown (a mistyped name gets a suggestion).
+        TypeError: ``scene`` is not a :class:`Scene`, or ``camera`` none of the kinds above.
+        SceneError: the scene cannot be drawn (a NaN vertex, an instance of a missing prototype), naming the prim.
     """
     renderer = Renderer(
         scene,
