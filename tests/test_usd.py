@@ -709,6 +709,18 @@ def test_time_samples(tmp_path):
     np.testing.assert_allclose(load(path, time=10.0).meshes[0].points[:, 0], [0, 1, 0])
 
 
+def test_load_usd_names_a_time_or_path_of_the_wrong_kind(tmp_path):
+    """``time="x"`` raised float()'s "could not convert string to float: 'x'" and a path of 3 os.fspath's "expected
+    str, bytes or os.PathLike object, not int", neither naming the argument."""
+    stage, path = make_stage(tmp_path)
+    stage.Save()
+    for time, shown in (("x", "'x'"), (float("nan"), "nan"), ([1], r"\[1\]")):
+        with pytest.raises(ValueError, match=f"^time must be a finite time code or None, got {shown}$"):
+            load_usd(path, time=time)
+    with pytest.raises(TypeError, match="^path must be a file path .*, got int$"):
+        load_usd(3)
+
+
 def test_time_default_wins_over_samples(tmp_path):
     stage, path = make_stage(tmp_path)
     mesh = define_mesh(stage)

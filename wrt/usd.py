@@ -170,16 +170,22 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         UserWarning: the stage has composition errors (a reference, payload or subLayer that does not compose); the
             scene holds the rest.
     """
-    source = os.fspath(path)
+    try:
+        source = os.fspath(path)
+    except TypeError:  # os.fspath's message named no argument
+        raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}") from None
     if time is None:
         time_code = Usd.TimeCode.Default()
     elif isinstance(time, Usd.TimeCode):
         time_code = time
     else:
-        time = float(time)
-        if not math.isfinite(time):
-            raise ValueError(f"time must be finite, got {time}")
-        time_code = Usd.TimeCode(time)
+        try:
+            value = float(time)
+        except (TypeError, ValueError):  # float()'s message named no argument: "could not convert string to float"
+            value = math.nan
+        if not math.isfinite(value):
+            raise ValueError(f"time must be a finite time code or None, got {time!r}")
+        time_code = Usd.TimeCode(value)
 
     stage = _open_stage(source)
     if variants:
