@@ -384,6 +384,32 @@ def test_cubic_curves_hit_at_the_evaluated_curve(tmp_path, basis, wrap):
         np.testing.assert_allclose(ends.t, 5 - widths[[0, -1]] / 2, rtol=1e-6)
 
 
+def test_pinned_curve_varying_widths_have_usds_count(tmp_path):
+    """Varying widths of pinned cubic curves are as many as the nonperiodic curve of the same vertices needs (pxr's
+    ComputeVaryingDataSize, 2 for curves of 2 or 3 vertices): the first and the last are held over the spans the
+    phantom points add, as Hydra expands them. wrt wanted one per vertex (SceneError: 5 values, needs 8)."""
+    from pxr import Usd, UsdGeom
+
+    cvs = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0), (4, 0, 0), (10, 0, 0), (11, 0, 0), (12, 0, 0)]
+    widths = [0.2, 0.4, 0.6, 0.8, 0.3]
+    path = write(tmp_path, f'def BasisCurves "C"\n{{\n    uniform token basis = "catmullRom"\n'
+                 f'    uniform token wrap = "pinned"\n    int[] curveVertexCounts = [5, 3]\n'
+                 f'    point3f[] points = {fmt(cvs)}\n'
+                 f'    float[] widths = {floats(widths)} (interpolation = "varying")\n}}\n')
+    # pxr's count for the first curve alone (below 4 vertices its unsigned arithmetic wraps; Hydra wants 2).
+    stage = Usd.Stage.CreateInMemory()
+    curve = UsdGeom.BasisCurves.Define(stage, "/C")
+    curve.CreateTypeAttr("cubic"), curve.CreateBasisAttr("catmullRom"), curve.CreateWrapAttr("pinned")
+    curve.CreateCurveVertexCountsAttr([5])
+    assert curve.ComputeVaryingDataSize(Usd.TimeCode.Default()) == 3
+    scene = load(path)
+    # A straight catmullRom runs through its vertices; the width at each: the value of the vertex before it (a
+    # nonperiodic curve's varying values sit at its vertices 1 to n - 2), the first and the last held.
+    expected = np.array([0.2, 0.2, 0.4, 0.6, 0.6, 0.8, 0.8, 0.3]) / 2
+    hits = trace(scene, [(x, 0, 5) for x, _, _ in cvs], [(0, 0, -1)] * len(cvs))
+    np.testing.assert_allclose(hits.t, 5 - expected, rtol=1e-6)
+
+
 def test_cubic_polyline_tolerance_is_what_the_module_promises(tmp_path):
     """A tightly bent bezier span: the tube's top over 200 points of the curve stays within the tolerance (a fixed
     low segment count would not)."""

@@ -129,11 +129,18 @@ def curve_spans(counts: np.ndarray, curve_type: str, basis: str, wrap: str) -> S
         n_varying = int(counts.sum())
     else:
         per_curve = n_spans if periodic else n_spans + 1
-        offsets = np.cumsum(per_curve) - per_curve
-        end = k + 1
+        ends = np.stack([k, k + 1], axis=1)
         if periodic:
-            end = end % np.maximum(n_spans[curve], 1)
-        varying = np.stack([offsets[curve] + k, offsets[curve] + end], axis=1)
+            ends = ends % np.maximum(n_spans[curve], 1)[:, None]
+        elif pinned:
+            # A pinned curve's varying values are those of the nonperiodic curve of its vertices, at least 2
+            # (UsdGeomBasisCurves::ComputeVaryingDataSize): Hydra holds the first and the last over the spans the
+            # phantom points add, half of them at each end (HdsiPinnedCurveExpandingSceneIndex).
+            per_curve = np.maximum(counts - 4, 0) + 2
+            front = (n_spans + 1 - per_curve + 1) // 2
+            ends = np.clip(ends - front[curve][:, None], 0, (per_curve - 1)[curve][:, None])
+        offsets = np.cumsum(per_curve) - per_curve
+        varying = offsets[curve][:, None] + ends
         n_varying = int(per_curve.sum())
     last_span = k == n_spans[curve] - 1
     return Spans(vertices, varying, curve, last_span & (not periodic), phantoms, matrix, n_varying)
