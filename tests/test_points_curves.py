@@ -430,6 +430,23 @@ def test_cubic_polyline_tolerance_is_what_the_module_promises(tmp_path):
     assert err.max() <= CUBIC_TOLERANCE * 0.1 + 1e-5, err.max()
 
 
+def test_widths_that_swell_inside_a_straight_span_are_followed(tmp_path):
+    """A straight bezier span with widths (0, 1, 1, 0) is a spindle, thickest (radius 0.375) in its middle: rays down
+    onto it meet its top within the polyline tolerance. Its segments were counted from the bend of the curve and
+    the radii at its ends alone: one segment of radius 0, nothing drawn (and widths (0.1, 1, 1, 0.1) drew radius
+    0.05 where it is 0.3875)."""
+    cvs = np.array([(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)], np.float64)
+    for widths in ([0.0, 1.0, 1.0, 0.0], [0.1, 1.0, 1.0, 0.1]):
+        path = write(tmp_path, f'def BasisCurves "C"\n{{\n    int[] curveVertexCounts = [4]\n'
+                     f'    point3f[] points = {fmt(cvs)}\n    float[] widths = {floats(widths)}\n}}\n')
+        scene = load(path)
+        ts = np.array([0.2, 0.35, 0.5, 0.7, 0.9])
+        centres = np.array([bezier(cvs, t) for t in ts])
+        radii = np.array([bezier(np.array(widths), t) for t in ts]) / 2
+        hits = trace(scene, centres + [0, 0, 5], [(0, 0, -1)] * len(ts))
+        np.testing.assert_allclose(hits.t, 5 - radii, atol=(CUBIC_TOLERANCE + 1 / 128) * radii.max() + 1e-6)
+
+
 # warp.render.UsdRenderer output
 
 

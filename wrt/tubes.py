@@ -16,7 +16,9 @@ documentation, ``pinned`` through its phantom points ``P[-1] = 2 P[0] - P[1]`` a
 are cut into ``K`` straight segments of equal parameter steps, vertices on the curve. The chord of a parameter step
 ``h`` strays at most ``h^2 / 8 max |C''|`` from the curve, and ``C''`` of a cubic is linear in ``t``, so its largest
 length is at an end of the span: ``K = ceil(sqrt(max(|C''(0)|, |C''(1)|) / (8 tol)))`` keeps every chord within
-``tol = CURVE_TOLERANCE`` times the span's largest radius of the curve (``1 <= K <= MAX_SPAN_SEGMENTS``).
+``tol = CURVE_TOLERANCE`` times the span's largest radius of the curve (``1 <= K <= MAX_SPAN_SEGMENTS``). The radius
+along the span is a cubic (or simpler) as well, linear between the segment ends: its ``|r''|`` counts in the same
+bound, so the tube's radius strays as little (a straight span whose widths swell in its middle is cut too).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import numpy as np
 RHO_LEVELS = 128  # frustum narrowings are multiples of 1 / RHO_LEVELS (level RHO_LEVELS: a cylinder)
 CURVE_TOLERANCE = 0.05  # a cubic span's polyline stays within this fraction of its largest radius of the curve
 MAX_SPAN_SEGMENTS = 64  # most straight segments per cubic span
+RADIUS_SAMPLES = np.arange(4) / 3.0  # parameters where a span's radius is sampled for its segment count
 
 # Cubic bases in power form: a span's point at t is [t^3, t^2, t, 1] @ matrix @ its four vertices; and their vstep.
 CUBIC_BASES = {
@@ -152,14 +155,18 @@ def span_weights(matrix: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.stack([t**3, t**2, t, np.ones_like(t)], axis=1) @ matrix
 
 
-def span_segments(spans: Spans, points: np.ndarray, radii_at_ends: np.ndarray) -> np.ndarray:
-    """``(S,)`` int64 straight segments per span (see the module docstring); ``points`` extended, ``radii_at_ends``
-    ``(S, 2)`` the radius at each end of each span."""
+def span_segments(spans: Spans, points: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """``(S,)`` int64 straight segments per span (see the module docstring); ``points`` extended, ``radii``
+    ``(S, 4)`` the radius of each span at :data:`RADIUS_SAMPLES`."""
     # C''(t) = [6t, 2, 0, 0] @ matrix @ P: evaluated at t = 0 and 1.
     second = np.array([[0.0, 2.0, 0.0, 0.0], [6.0, 2.0, 0.0, 0.0]]) @ spans.matrix  # (2, 4)
     cps = points[spans.vertices]  # (S, 4, 3)
     bend = np.linalg.norm(np.einsum("ej,sjk->sek", second, cps), axis=2).max(axis=1)
-    tolerance = CURVE_TOLERANCE * radii_at_ends.max(axis=1)
+    # The radius is a cubic in t too (or of lower degree): its r'' at t = 0 and 1 from its samples' second
+    # differences, exact for a cubic. Straight spans of bezier widths (0, 1, 1, 0) were one segment of radius 0.
+    steps = np.diff(radii, 2, axis=1) * (len(RADIUS_SAMPLES) - 1) ** 2  # r'' at t = 1/3 and 2/3
+    bend = np.maximum(bend, np.abs(2.0 * steps - steps[:, ::-1]).max(axis=1))
+    tolerance = CURVE_TOLERANCE * np.maximum(radii, 0.0).max(axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         k = np.ceil(np.sqrt(bend / (8.0 * tolerance)))
     k = np.where(bend > 0.0, k, 1.0)  # straight: one segment

@@ -18,6 +18,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .tubes import (
+    RADIUS_SAMPLES,
     RHO_LEVELS,
     curve_spans,
     sample_spans,
@@ -148,9 +149,9 @@ class TubeReader:
 
         # Cut each span into straight segments, then place a sphere at each polyline vertex and a tube along each
         # segment.
-        ends = np.repeat(np.arange(len(spans.curve)), 2)
-        end_t = np.tile([0.0, 1.0], len(spans.curve))
-        segments = span_segments(spans, centres, radius(ends, end_t).reshape(-1, 2) * scale)
+        sampled = np.repeat(np.arange(len(spans.curve)), len(RADIUS_SAMPLES))
+        sample_t = np.tile(RADIUS_SAMPLES, len(spans.curve))
+        segments = span_segments(spans, centres, radius(sampled, sample_t).reshape(len(spans.curve), -1) * scale)
         span, t, starts_segment, sphere = sample_spans(spans, segments)
         weights = span_weights(spans.matrix, t)
         at = np.einsum("mj,mjk->mk", weights, centres[spans.vertices[span]])
