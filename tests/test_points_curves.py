@@ -528,6 +528,40 @@ def test_points_widths_of_the_wrong_length_raise(tmp_path):
         load(path)
 
 
+def test_material_bind_subsets_of_curves_are_ignored_with_a_warning(tmp_path):
+    """A BasisCurves prim bound to red with a materialBind subset of 'face' 0 to blue: curves have no faces, so both
+    curves stay red and a warning names the subset. The subset holding index 0 bound every curve blue."""
+    look = ('def Material "{0}"\n{{\n    token outputs:surface.connect = </{0}/S.outputs:surface>\n'
+            '    def Shader "S"\n    {{\n        uniform token info:id = "UsdPreviewSurface"\n'
+            '        color3f inputs:diffuseColor = {1}\n        token outputs:surface\n    }}\n}}\n')
+    body = look.format("Red", "(1, 0, 0)") + look.format("Blue", "(0, 0, 1)") + '''def BasisCurves "C" (
+    prepend apiSchemas = ["MaterialBindingAPI"]
+)
+{
+    uniform token type = "linear"
+    int[] curveVertexCounts = [2, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 2, 0), (1, 2, 0)]
+    float[] widths = [0.4] (interpolation = "constant")
+    rel material:binding = </Red>
+    def GeomSubset "Tip" (
+        prepend apiSchemas = ["MaterialBindingAPI"]
+    )
+    {
+        uniform token elementType = "face"
+        uniform token familyName = "materialBind"
+        int[] indices = [0]
+        rel material:binding = </Blue>
+    }
+}
+'''
+    with pytest.warns(UserWarning, match="materialBind subsets of prims other than meshes were ignored.*Tip"):
+        scene = wrt.load_usd(write(tmp_path, body))
+    for y in (0, 2):
+        img = wrt.render(scene, camera=wrt.Camera.orthographic((0.5, y, 5), (0.5, y, 0), height=0.1), width=4,
+                         height=4)
+        np.testing.assert_allclose(img.aovs["albedo"][2, 2], (1, 0, 0), atol=1e-6)
+
+
 def test_curves_without_widths_or_with_normals_warn(tmp_path):
     """Curves without widths are tubes of width 1 and say so; curves with normals (ribbons) are tubes too, with a
     warning; a curve with a point that is not finite is left out, the others drawn."""

@@ -598,7 +598,8 @@ class MaterialReader:
     # Bindings
 
     def face_materials(self, prim, n_faces: int) -> tuple[np.ndarray, np.ndarray] | None:
-        """The materials of the faces of mesh ``prim``, or None when the mesh and its subsets bind no material at all.
+        """The materials of the faces of mesh ``prim``, or None when the mesh and its subsets bind no material at all
+        (the one face of a gprim, Points or BasisCurves prim: its own binding, its subsets ignored with a warning).
 
         Returns:
             ``(faces, unbound)``: ``(F,)`` int32 material index of each face (-1: default material) and ``(F,)`` bool,
@@ -612,7 +613,12 @@ class MaterialReader:
         faces = np.full(n_faces, base, np.int32)
         unbound = np.full(n_faces, not material, bool)
         bound = bool(material)
-        for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
+        subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets()
+        if subsets and not prim.IsA(UsdGeom.Mesh):  # the subset holding index 0 bound all of a curves prim
+            self.skip("materialBind subsets of prims other than meshes were ignored (their indices are no faces)",
+                      prim, f"{prim.GetTypeName()}, subsets {', '.join(s.GetPrim().GetName() for s in subsets)}")
+            subsets = []
+        for subset in subsets:
             sub_material, _ = bound_material(subset.GetPrim())
             if not sub_material:
                 continue
