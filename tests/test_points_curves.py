@@ -494,6 +494,20 @@ def test_bad_points_and_widths_are_named(tmp_path):
     np.testing.assert_allclose(hits.t, [4.5, np.inf, np.inf, 4.5])
 
 
+def test_curves_without_points_are_skipped_with_a_warning(tmp_path):
+    """BasisCurves with curveVertexCounts but no points are skipped with a warning naming them, as meshes with faces
+    but no points are (they vanished without a word); empty Points and curves are nothing to say."""
+    body = ('def BasisCurves "C"\n{\n    uniform token type = "linear"\n    int[] curveVertexCounts = [3]\n}\n'
+            'def BasisCurves "Empty"\n{\n    int[] curveVertexCounts = []\n    point3f[] points = []\n}\n'
+            'def Points "P"\n{\n    point3f[] points = []\n}\n')
+    with pytest.warns(UserWarning) as record:
+        scene = wrt.load_usd(write(tmp_path, body))
+    text = " | ".join(str(w.message) for w in record)
+    assert "BasisCurves with curves but no points were skipped" in text and "/C" in text
+    assert "/Empty" not in text and "/P" not in text
+    assert scene.stats()["rendered_shapes"] == 0
+
+
 @pytest.mark.parametrize(
     "body, message",
     [

@@ -1158,15 +1158,17 @@ class _StageReader:
         if raw is None:
             raw = value_at(schema.GetPointsAttr(), self.time)
         points = np.asarray(raw if raw is not None else np.zeros((0, 3)))
+        counts = None
+        if prim.IsA(UsdGeom.BasisCurves):
+            counts = self._int_array(prim, UsdGeom.BasisCurves(prim).GetCurveVertexCountsAttr())
         if points.size == 0:
+            if counts is not None and counts.any():  # as meshes with faces but no points
+                self._skip("BasisCurves with curves but no points were skipped", prim)
             return
         if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
             self._skip(f"{prim.GetTypeName()} prims whose points are not an array of 3-vectors were skipped", prim,
                        f"{self._authored_type(schema.GetPointsAttr())} holding {type(raw).__name__}")
             return
-        counts = None
-        if prim.IsA(UsdGeom.BasisCurves):
-            counts = self._int_array(prim, UsdGeom.BasisCurves(prim).GetCurveVertexCountsAttr())
         material_id, primvar, color = self._gprim_look(prim, ctx)
         self._check_display_opacity(prim, material_id < 0)
         m = self._to_space(prim, ctx)
