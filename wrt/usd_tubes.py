@@ -106,7 +106,7 @@ class TubeReader:
             self.skip("points that are not finite (or past float32 with their width) were left out", prim,
                       f"{int((~finite).sum())} of {n}, first points[{i}]")
         keep = np.flatnonzero(finite & (radii > 0.0))
-        per_point = colors is not None and colors[0] != "constant" and colors[0] != "uniform"
+        per_point = colors is not None and colors[0] != "constant"
         group = TubeGroup("sphere", _params(), sphere_transforms(centres[keep], radii[keep]),
                           keep.astype(np.int32), colors[1][keep].astype(np.float32) if per_point else None)
         return [group] if len(keep) else [], _constant(colors)
