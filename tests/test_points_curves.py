@@ -503,7 +503,7 @@ def test_curves_without_points_are_skipped_with_a_warning(tmp_path):
     with pytest.warns(UserWarning) as record:
         scene = wrt.load_usd(write(tmp_path, body))
     text = " | ".join(str(w.message) for w in record)
-    assert "BasisCurves with curves but no points were skipped" in text and "/C" in text
+    assert "BasisCurves prims with curves but no points were skipped" in text and "/C" in text
     assert "/Empty" not in text and "/P" not in text
     assert scene.stats()["rendered_shapes"] == 0
 

@@ -75,6 +75,18 @@ class Spans:
         return dataclasses.replace(self, vertices=self.vertices[keep], varying=self.varying[keep],
                                    curve=self.curve[keep], last=self.last[keep])
 
+    def at(self, values: np.ndarray, span: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """``(M, k)`` the curve of per-vertex ``values`` (extended, ``(n', k)``) at parameters ``t`` of ``span``."""
+        return np.einsum("mj,mjk->mk", span_weights(self.matrix, t), values[self.vertices[span]])
+
+    def varying_t(self, span: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Where ``t`` of ``span`` lies between the span's two ``varying`` values (linear): ``t`` itself."""
+        return t
+
+    def segments(self, points: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """Straight segments per span (:func:`span_segments`); ``radii`` ``(S, 4)`` at :data:`RADIUS_SAMPLES`."""
+        return span_segments(self, points, radii)
+
 
 def curve_spans(counts: np.ndarray, curve_type: str, basis: str, wrap: str) -> Spans:
     """The spans of curves of ``counts`` vertices each (``curveVertexCounts``), by UsdGeomBasisCurves' segment rules.
@@ -149,6 +161,30 @@ def curve_spans(counts: np.ndarray, curve_type: str, basis: str, wrap: str) -> S
     return Spans(vertices, varying, curve, last_span & (not periodic), phantoms, matrix, n_varying)
 
 
+def hermite_spans(counts: np.ndarray) -> Spans:
+    """The cubic spans of ``UsdGeom.HermiteCurves`` of ``counts`` points each: segment ``i`` of a curve runs from
+    ``P[i]`` to ``P[i + 1]`` with tangents ``T[i]``, ``T[i + 1]``, which is the Bezier span ``P[i], P[i] + T[i] / 3,
+    P[i + 1] - T[i + 1] / 3, P[i + 1]``. Its vertex rows index ``[P; P + T / 3; P - T / 3]`` (``3 n`` rows, made by
+    the caller); ``varying`` values are the points' (linear along each segment, as the schema suggests).
+
+    Raises:
+        ValueError: a curve of fewer than 2 points (naming it).
+    """
+    counts = np.asarray(counts, np.int64).reshape(-1)
+    if np.any(counts < 2):
+        i = int(np.argmax(counts < 2))
+        raise ValueError(f"curveVertexCounts[{i}] = {counts[i]} makes no hermite curve (it needs at least 2 points)")
+    n = int(counts.sum())
+    starts = np.cumsum(counts) - counts
+    n_spans = counts - 1
+    curve = np.repeat(np.arange(len(counts)), n_spans)
+    a = starts[curve] + np.arange(len(curve)) - (np.cumsum(n_spans) - n_spans)[curve]
+    vertices = np.stack([a, n + a, 2 * n + a + 1, a + 1], axis=1)
+    last = a + 1 == starts[curve] + counts[curve] - 1
+    return Spans(vertices, np.stack([a, a + 1], axis=1), curve, last, np.zeros((0, 2), np.int64),
+                 CUBIC_BASES["bezier"][0], n)
+
+
 def span_weights(matrix: np.ndarray, t: np.ndarray) -> np.ndarray:
     """``(len(t), 4)`` weights of a span's four vertices at parameters ``t``."""
     t = np.asarray(t, np.float64)
@@ -174,7 +210,7 @@ def span_segments(spans: Spans, points: np.ndarray, radii: np.ndarray) -> np.nda
     return np.clip(k, 1, MAX_SPAN_SEGMENTS).astype(np.int64)
 
 
-def sample_spans(spans: Spans, segments: np.ndarray):
+def sample_spans(spans, segments: np.ndarray):
     """Parameters of the polyline vertices: ``(span (M,) int64, t (M,) float64, starts_segment (M,) bool,
     sphere (M,) bool)``, ``segments[s] + 1`` rows per span ``s``; a row that is not its span's last starts a straight
     segment to the next row; ``sphere`` marks the rows drawn as joint spheres (all but each span's last, which is
@@ -230,5 +266,5 @@ def segment_transforms(starts: np.ndarray, ends: np.ndarray, r0: np.ndarray, r1:
     return levels, m
 
 
-__all__ = ["CUBIC_BASES", "Spans", "curve_spans", "sample_spans", "segment_transforms", "span_segments",
-           "span_weights", "sphere_transforms"]
+__all__ = ["CUBIC_BASES", "Spans", "curve_spans", "hermite_spans", "sample_spans", "segment_transforms",
+           "span_segments", "span_weights", "sphere_transforms"]

@@ -517,7 +517,7 @@ class _StageReader:
                 ctx.content.meshes.append(mesh)
                 self._check_display_opacity(prim, mesh.material_ids is None or bool(np.any(mesh.material_ids < 0)))
             return
-        if prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.BasisCurves):
+        if prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves):
             self._read_tubes(prim, ctx)
             return
         shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
@@ -1151,7 +1151,7 @@ class _StageReader:
         return -1 if material is None else int(material[0]), primvar, color
 
     def _read_tubes(self, prim: Usd.Prim, ctx: _Context):
-        """A ``Points`` or ``BasisCurves`` prim as instances of spheres and tube segments (:mod:`wrt.usd_tubes`), one
+        """A ``Points`` or curves prim as instances of spheres and tube segments (:mod:`wrt.usd_tubes`), one
         content per shape, so it is placed (and nested in prototypes) like any instance."""
         schema = UsdGeom.PointBased(prim)
         raw = self._moved(schema, schema.GetPointsAttr())
@@ -1159,11 +1159,11 @@ class _StageReader:
             raw = value_at(schema.GetPointsAttr(), self.time)
         points = np.asarray(raw if raw is not None else np.zeros((0, 3)))
         counts = None
-        if prim.IsA(UsdGeom.BasisCurves):
-            counts = self._int_array(prim, UsdGeom.BasisCurves(prim).GetCurveVertexCountsAttr())
+        if prim.IsA(UsdGeom.Curves):
+            counts = self._int_array(prim, UsdGeom.Curves(prim).GetCurveVertexCountsAttr())
         if points.size == 0:
             if counts is not None and counts.any():  # as meshes with faces but no points
-                self._skip("BasisCurves with curves but no points were skipped", prim)
+                self._skip(f"{prim.GetTypeName()} prims with curves but no points were skipped", prim)
             return
         if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
             self._skip(f"{prim.GetTypeName()} prims whose points are not an array of 3-vectors were skipped", prim,

@@ -1,5 +1,9 @@
-"""``UsdGeom.Points`` and ``UsdGeom.BasisCurves`` prims read as groups of instances of one analytic shape each: the
-spheres of a point cloud, the spheres and tube segments of curves (:mod:`wrt.tubes`), vectorised with numpy.
+"""``UsdGeom.Points`` and curves prims (``BasisCurves``, ``HermiteCurves``, ``NurbsCurves``) read as groups of
+instances of one analytic shape each: the spheres of a point cloud, the spheres and tube segments of curves
+(:mod:`wrt.tubes`), vectorised with numpy. Hermite curves are Bezier spans (:func:`wrt.tubes.hermite_spans`), their
+per-point widths and colours linear along each segment (the schema defines no cubic primvars); NURBS curves are cut
+span by span (:class:`wrt.nurbs.NurbsSpans`), ``vertex`` primvars following their rational basis, ``varying`` ones
+(``count - order + 2`` per curve) linear across each knot interval.
 
 Widths come from ``primvars:widths`` when it has a value, else from ``widths`` with its interpolation metadata, else
 1 (UsdImaging's fallback for points; Storm draws curves without widths as one-pixel lines, which a ray tracer cannot
@@ -17,17 +21,18 @@ import dataclasses
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .nurbs import nurbs_curve_spans
 from .tubes import (
     RADIUS_SAMPLES,
     RHO_LEVELS,
     curve_spans,
+    hermite_spans,
     sample_spans,
     segment_transforms,
-    span_segments,
-    span_weights,
     sphere_transforms,
 )
-from .usd_values import read_time, value_at
+from .usd_primvars import FieldReader
+from .usd_values import value_at
 
 _CURVE_TOKENS = {  # attribute -> (allowed tokens, fallback used for any other, as UsdImaging does)
     "type": (("linear", "cubic"), "cubic"),
@@ -55,19 +60,9 @@ class TubeGroup:
     colors: np.ndarray | None
 
 
-class TubeReader:
-    """Reads Points and BasisCurves prims at one time code.
-
-    Args:
-        time: the ``Usd.TimeCode`` read (see :func:`wrt.usd_values.value_at`).
-        skip: ``skip(reason, prim, detail=None)`` records a warning naming the prim.
-        error: ``error(message, prim, attr=None)`` returns the :class:`wrt.errors.SceneError` to raise.
-    """
-
-    def __init__(self, time: Usd.TimeCode, skip, error):
-        self.time = time
-        self.skip = skip
-        self.error = error
+class TubeReader(FieldReader):
+    """Reads Points and curves (BasisCurves, HermiteCurves, NurbsCurves) prims at one time code (see
+    :class:`wrt.usd_primvars.FieldReader` for the arguments)."""
 
     def read(self, prim: Usd.Prim, points: np.ndarray, to_space: np.ndarray, color_primvar, counts=None):
         """The instance groups of ``prim`` and its constant colour.
@@ -76,7 +71,7 @@ class TubeReader:
             points: ``(n, 3)`` float64 ``points`` in the prim's space (moved by velocities where they apply).
             to_space: ``(4, 4)`` column-vector transform from the prim to its content's space.
             color_primvar: the ``UsdGeom.Primvar`` of its colour (its own or a constant inherited one), or None.
-            counts: ``curveVertexCounts`` ``(C,)`` int64 for BasisCurves, None for Points.
+            counts: ``curveVertexCounts`` ``(C,)`` int64 for curves, None for Points.
 
         Returns:
             ``(groups, color)``: :class:`TubeGroup` list, and the ``(3,)`` float32 colour for all of them when the
@@ -87,7 +82,7 @@ class TubeReader:
         scale = float(np.linalg.norm(to_space[:3, :3] @ np.full(3, 3.0**-0.5)))
         if counts is None:
             return self._points(prim, points, centres, scale, color_primvar)
-        return self._curves(prim, points, centres, scale, color_primvar, counts)
+        return self._curves(prim, points, centres, scale, color_primvar, counts, to_space[:3, :3])
 
     # Points
 
@@ -96,7 +91,7 @@ class TubeReader:
         sizes = {"constant": 1, "uniform": 1, "vertex": n, "varying": n, "faceVarying": n}
         widths = self._widths(prim, UsdGeom.Points(prim), sizes)
         radii = self._radii(prim, widths, n) * scale
-        colors = self._field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
+        colors = self.field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
         if colors is not None and colors[0] == "uniform":  # a Points prim is one element
             colors = ("constant", colors[1])
         # Points are independent: one that is not finite (a diverged particle) is left out, the others drawn.
@@ -113,10 +108,9 @@ class TubeReader:
 
     # Curves
 
-    def _curves(self, prim, points, centres, scale, color_primvar, counts):
-        curves = UsdGeom.BasisCurves(prim)
-        tokens = {name: self._token(prim, attr, name) for name, attr in
-                  (("type", curves.GetTypeAttr()), ("basis", curves.GetBasisAttr()), ("wrap", curves.GetWrapAttr()))}
+    def _curves(self, prim, points, centres, scale, color_primvar, counts, linear):
+        curves = UsdGeom.Curves(prim)
+        kind = prim.GetTypeName()
         counts_attr = curves.GetCurveVertexCountsAttr()
         if np.any(counts < 0):
             i = int(np.argmax(counts < 0))
@@ -124,37 +118,36 @@ class TubeReader:
         if int(counts.sum()) != len(points):
             raise self.error(f"curveVertexCounts sum to {int(counts.sum())} but there are {len(points)} points", prim,
                              counts_attr)
-        try:
-            spans = curve_spans(counts, tokens["type"], tokens["basis"], tokens["wrap"])
-        except ValueError as e:
-            raise self.error(str(e), prim, counts_attr) from None
+        spans, controls, finite = self._spans(prim, centres, counts, linear)
         if curves.GetNormalsAttr().HasValue() or UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals").HasValue():
-            self.skip("BasisCurves with normals (ribbons) are drawn as round tubes", prim)
+            self.skip(f"{kind} with normals (ribbons) are drawn as round tubes", prim)
         sizes = {"constant": 1, "uniform": len(counts), "vertex": len(points), "varying": spans.n_varying,
                  "faceVarying": spans.n_varying}
         widths = self._widths(prim, curves, sizes)
         if widths is None:
-            self.skip("BasisCurves without widths are drawn as tubes of width 1 (Storm draws one-pixel lines)", prim)
-        colors = self._field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
+            self.skip(f"{kind} without widths are drawn as tubes of width 1 (Storm draws one-pixel lines)", prim)
+        colors = self.field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
+        if prim.IsA(UsdGeom.HermiteCurves):
+            # The schema has no cubic interpolation of primvars: per-point values are linear along each segment.
+            widths, colors = (("varying", f[1]) if f is not None and f[0] == "vertex" else f for f in (widths, colors))
 
         # A curve with a vertex that is not finite is left out; the others are drawn.
         curve_of_vertex = np.repeat(np.arange(len(counts)), counts)
-        bad = np.unique(curve_of_vertex[~np.isfinite(centres).all(axis=1)])
+        bad = np.unique(curve_of_vertex[~finite])
         if len(bad):
             self.skip("curves with points that are not finite were left out", prim,
                       f"{len(bad)} of {len(counts)}, first curve {int(bad[0])}")
             spans = spans.take(~np.isin(spans.curve, bad))
-        centres = spans.extend(centres)
+        centres = spans.extend(controls)
         radius = _interpolator(spans, widths, self._radii(prim, widths, None))
 
         # Cut each span into straight segments, then place a sphere at each polyline vertex and a tube along each
         # segment.
         sampled = np.repeat(np.arange(len(spans.curve)), len(RADIUS_SAMPLES))
         sample_t = np.tile(RADIUS_SAMPLES, len(spans.curve))
-        segments = span_segments(spans, centres, radius(sampled, sample_t).reshape(len(spans.curve), -1) * scale)
+        segments = spans.segments(centres, radius(sampled, sample_t).reshape(len(spans.curve), -1) * scale)
         span, t, starts_segment, sphere = sample_spans(spans, segments)
-        weights = span_weights(spans.matrix, t)
-        at = np.einsum("mj,mjk->mk", weights, centres[spans.vertices[span]])
+        at = spans.at(centres, span, t)
         radii = np.maximum(radius(span, t), 0.0) * scale  # catmullRom overshoot can make a width negative
         finite = _finite_boxes(at, radii)
         if not finite.all():
@@ -186,7 +179,71 @@ class TubeReader:
                 None if rows_colors is None else 0.5 * (rows_colors[a[chosen]] + rows_colors[b[chosen]])))
         return groups, _constant(colors)
 
+    def _spans(self, prim, centres, counts, linear):
+        """``(spans, control rows (n', 3), finite (n,) bool per point)`` of a curves prim: BasisCurves by their
+        type, basis and wrap; HermiteCurves as Bezier spans of ``[P; P + T / 3; P - T / 3]``, tangents ``T`` moved
+        into the content's space by its ``linear`` ``(3, 3)`` part; NurbsCurves by their orders, knots, ranges and
+        pointWeights."""
+        finite = np.isfinite(centres).all(axis=1)
+        counts_attr = UsdGeom.Curves(prim).GetCurveVertexCountsAttr()
+        if prim.IsA(UsdGeom.HermiteCurves):
+            attr = UsdGeom.HermiteCurves(prim).GetTangentsAttr()
+            tangents = self._array(prim, attr, (len(centres), 3))
+            if tangents is None:
+                raise self.error(f"tangents has no value; {len(centres)} points need one each", prim, attr)
+            with np.errstate(invalid="ignore", over="ignore"):
+                moved = tangents @ linear.T / 3.0
+            try:
+                spans = hermite_spans(counts)
+            except ValueError as e:
+                raise self.error(str(e), prim, counts_attr) from None
+            return spans, np.concatenate([centres, centres + moved, centres - moved]), finite & np.isfinite(
+                moved).all(axis=1)
+        if prim.IsA(UsdGeom.NurbsCurves):
+            schema = UsdGeom.NurbsCurves(prim)
+            orders = self._array(prim, schema.GetOrderAttr(), (None,), np.int64)
+            knots = self._array(prim, schema.GetKnotsAttr(), (None,))
+            ranges = self._array(prim, schema.GetRangesAttr(), (None, 2))
+            weights = self._array(prim, schema.GetPointWeightsAttr(), (len(centres),))
+            orders = np.zeros(0, np.int64) if orders is None else orders
+            knots = np.zeros(0) if knots is None else knots
+            weights = np.ones(len(centres)) if weights is None else weights
+            if not (np.isfinite(weights) & (weights > 0.0)).all():
+                i = int(np.argmax(~(np.isfinite(weights) & (weights > 0.0))))
+                raise self.error(f"pointWeights[{i}] = {weights[i]:g} is not a positive number", prim,
+                                 schema.GetPointWeightsAttr())
+            try:
+                return nurbs_curve_spans(counts, orders, knots, ranges, weights), centres, finite
+            except ValueError as e:
+                raise self.error(str(e), prim) from None
+        curves = UsdGeom.BasisCurves(prim)
+        tokens = {name: self._token(prim, attr, name) for name, attr in
+                  (("type", curves.GetTypeAttr()), ("basis", curves.GetBasisAttr()), ("wrap", curves.GetWrapAttr()))}
+        try:
+            return curve_spans(counts, tokens["type"], tokens["basis"], tokens["wrap"]), centres, finite
+        except ValueError as e:
+            raise self.error(str(e), prim, counts_attr) from None
+
     # Attributes
+
+    def _array(self, prim, attr, shape, dtype=np.float64):
+        """The array value of ``attr`` as ``dtype`` checked against ``shape`` (None: any length), or None when it has
+        no value (or an empty one).
+
+        Raises:
+            SceneError: a value of another type or shape (naming the attribute and what it needs).
+        """
+        raw = value_at(attr, self.time)
+        if raw is None or len(raw) == 0:
+            return None
+        values = np.asarray(raw)
+        fits = values.ndim == len(shape) and all(want in (None, got) for want, got in zip(shape, values.shape))
+        if values.dtype.kind not in ("iu" if dtype == np.int64 else "fiu") or not fits:
+            length = f"{shape[0]} " if shape[0] is not None else ""
+            what = "integers" if dtype == np.int64 else "numbers" if len(shape) == 1 else f"{shape[1]}-vectors"
+            raise self.error(f"{attr.GetName()} must be {length}{what}, not {len(values)} of {attr.GetTypeName()}",
+                             prim, attr)
+        return values.astype(dtype)
 
     def _token(self, prim, attr, name):
         """A BasisCurves token attribute; one outside its allowed tokens is read as UsdImaging reads it, with a
@@ -203,44 +260,11 @@ class TubeReader:
         """``(interpolation, (k, 1) float64)`` widths of ``prim`` (``primvars:widths`` first), or None."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("widths")
         if primvar and primvar.HasValue():
-            return self._field(prim, primvar, sizes, 1)
+            return self.field(prim, primvar, sizes, 1)
         attr = schema.GetWidthsAttr()
         if not attr.HasValue():
             return None
-        return self._values(prim, attr, value_at(attr, self.time), schema.GetWidthsInterpolation(), sizes, 1)
-
-    def _field(self, prim, primvar, sizes, components):
-        """``(interpolation, (k, components) float64)`` of ``primvar`` (flattened through its indices)."""
-        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
-        if primvar.GetElementSize() != 1:
-            self.skip(f"{primvar.GetPrimvarName()} with elementSize != 1 was ignored", prim)
-            return None
-        return self._values(prim, primvar.GetAttr(), raw, primvar.GetInterpolation(), sizes, components)
-
-    def _values(self, prim, attr, raw, interpolation, sizes, components):
-        """``(interpolation, (k, components) float64)`` of the array ``raw`` of ``attr`` (the rgb of 4-vector colours;
-        ``faceVarying`` read as ``varying``), checked against ``sizes`` (interpolation -> values needed)."""
-        values = np.asarray(raw if raw is not None else np.zeros((0, components)))
-        name = attr.GetName()
-        shape = (components,) if components == 1 else (3, 4)
-        if values.size == 0:
-            values = np.zeros((0, components))
-        elif values.dtype.kind in "fiu":
-            values = values.astype(np.float64).reshape(len(values) if values.ndim else 1, -1)
-        if values.dtype.kind not in "fiu" or values.shape[1] not in shape:
-            what = "numbers" if components == 1 else "3- or 4-vectors"
-            raise self.error(f"{name} must be an array of {what}, not {type(raw).__name__}", prim, attr)
-        if interpolation not in sizes:
-            raise self.error(f"{name} has unknown interpolation {interpolation!r}", prim, attr)
-        if len(values) != sizes[interpolation]:
-            raise self.error(f"{name} has {len(values)} values; {interpolation} interpolation needs "
-                             f"{sizes[interpolation]}", prim, attr)
-        values = values[:, :components]
-        if components == 3 and not np.isfinite(values).all():
-            self.skip(f"non-finite {name} values were replaced by grey 0.5", prim)
-            values = np.where(np.isfinite(values).all(axis=1, keepdims=True), values, 0.5)
-        interpolation = "varying" if interpolation == "faceVarying" else interpolation
-        return interpolation, values
+        return self.values(prim, attr, value_at(attr, self.time), schema.GetWidthsInterpolation(), sizes, 1)
 
     def _radii(self, prim, widths, n):
         """Radii ``(n,)`` from ``widths`` for points (``n``), or the ``(k,)`` radii of its values (``n`` None); 0.5
@@ -273,10 +297,10 @@ def _interpolator(spans, field, values):
         elif interpolation == "uniform":
             out = values[spans.curve[span]]
         elif interpolation == "vertex":
-            out = np.einsum("mj,mjk->mk", span_weights(spans.matrix, t), spans.extend(values)[spans.vertices[span]])
-        else:  # varying: linear along each span
+            out = spans.at(spans.extend(values), span, t)
+        else:  # varying: linear along each span (each knot interval of a NURBS curve)
             ends = values[spans.varying[span]]
-            out = ends[:, 0] + t[:, None] * (ends[:, 1] - ends[:, 0])
+            out = ends[:, 0] + spans.varying_t(span, t)[:, None] * (ends[:, 1] - ends[:, 0])
         return out[:, 0] if flat else out
 
     return at

@@ -1,0 +1,234 @@
+"""Non-uniform rational B-splines, numpy only: knot checks, the basis functions of many parameters at once, and the
+spans (knot intervals) that ``UsdGeom.NurbsCurves`` and ``UsdGeom.NurbsPatch`` prims are drawn by.
+
+A curve of ``n`` control points ``P`` (weights ``w``, 1 when not authored) and order ``k`` (degree ``p = k - 1``) has
+``n + k`` non-decreasing knots ``U`` and is defined on ``[U[p], U[n]]`` (narrowed by ``ranges``); on the knot
+interval ``[U[i], U[i + 1])`` only ``P[i - p] .. P[i]`` count: ``C(u) = sum N_j(u) w_j P_j / sum N_j(u) w_j``, the
+``N_j`` the Cox-de Boor basis of degree ``p`` ("The NURBS Book", Piegl and Tiller, algorithm A2.2 BasisFuns),
+evaluated here for every parameter in one array pass per degree. Points are not pre-weighted (the UsdGeom schemas
+say so). A surface is the tensor product of two such bases.
+
+A span is one knot interval of non-zero length inside the range; the spans are what is cut into straight pieces (a
+curve) or a grid (a patch). ``C''`` within a span is not a low-degree polynomial once weights differ, so the number
+of pieces comes from second differences of ``C`` on :data:`PILOT_SAMPLES` points per span: with ``K`` equal steps
+of the span's parameter ``t`` in ``[0, 1]``, a chord strays at most ``max |C''| / (8 K^2)`` from the curve.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .tubes import CURVE_TOLERANCE, MAX_SPAN_SEGMENTS
+
+PILOT_SAMPLES = 17  # points per span on which C'' is estimated (second differences) to choose the tessellation
+
+
+def check_knots(knots: np.ndarray, order: int, count: int) -> str | None:
+    """Why ``knots`` (one curve's or one patch direction's) cannot define a B-spline of ``count`` control points
+    and ``order``, or None when they can: their number, finite values, that they never decrease, and that the
+    domain ``[U[order - 1], U[count]]`` has a length."""
+    if order < 2:
+        return f"order {order} is below 2 (a curve of degree {order - 1} draws no line)"
+    if count < order:
+        return f"{count} control points are fewer than the order {order}"
+    if len(knots) != count + order:
+        return f"{len(knots)} knots; {count} control points of order {order} need {count + order}"
+    if not np.isfinite(knots).all():
+        i = int(np.argmax(~np.isfinite(knots)))
+        return f"knot {i} is {knots[i]}"
+    drops = np.flatnonzero(np.diff(knots) < 0.0)
+    if len(drops):
+        i = int(drops[0]) + 1
+        return f"knots decrease at {i} ({knots[i - 1]:g} then {knots[i]:g})"
+    if not knots[count] > knots[order - 1]:
+        return f"the domain [knots[{order - 1}], knots[{count}]] = [{knots[order - 1]:g}, {knots[count]:g}] is empty"
+    return None
+
+
+def check_range(knots: np.ndarray, order: int, count: int, lo: float, hi: float) -> str | None:
+    """Why ``(lo, hi)`` is not a valid ``range`` of these knots (inside the domain, lo < hi), or None."""
+    a, b = knots[order - 1], knots[count]
+    if not (np.isfinite(lo) and np.isfinite(hi) and a <= lo < hi <= b):
+        return f"range ({lo:g}, {hi:g}) is not an interval inside the knots' domain [{a:g}, {b:g}]"
+    return None
+
+
+def spans_of(knots: np.ndarray, order: int, count: int, lo: float, hi: float):
+    """The spans of one curve: ``(interval (S,) int64 knot index i of [U[i], U[i+1]], start (S,), end (S,))``, the
+    knot intervals of the domain that overlap ``(lo, hi)`` with a length, clipped to it."""
+    i = np.arange(order - 1, count)
+    start = np.maximum(knots[i], lo)
+    end = np.minimum(knots[i + 1], hi)
+    keep = end > start
+    return i[keep], start[keep], end[keep]
+
+
+def basis(local_knots: np.ndarray, u: np.ndarray, degree: int) -> np.ndarray:
+    """``(M, degree + 1)`` B-spline basis values ``N[i - p .. i]`` at parameters ``u`` ``(M,)`` each in its knot
+    interval ``[U[i], U[i + 1])`` of non-zero length; ``local_knots`` ``(M, 2 p)`` holds ``U[i - p + 1 .. i + p]``
+    for each parameter (Piegl and Tiller A2.2)."""
+    m = len(u)
+    n = np.zeros((m, degree + 1))
+    n[:, 0] = 1.0
+    # left[j] = u - U[i + 1 - j], right[j] = U[i + j] - u, for j = 1 .. p (local index of U[i + 1 - j] is p - j).
+    left = np.zeros((m, degree + 1))
+    right = np.zeros((m, degree + 1))
+    for j in range(1, degree + 1):
+        left[:, j] = u - local_knots[:, degree - j]
+        right[:, j] = local_knots[:, degree - 1 + j] - u
+        saved = np.zeros(m)
+        for r in range(j):
+            # right[r + 1] + left[j - r] = U[i + r + 1] - U[i + 1 - j + r] >= U[i + 1] - U[i] > 0.
+            temp = n[:, r] / (right[:, r + 1] + left[:, j - r])
+            n[:, r] = saved + right[:, r + 1] * temp
+            saved = left[:, j - r] * temp
+        n[:, j] = saved
+    return n
+
+
+def rational_weights(knots: np.ndarray, interval: np.ndarray, u: np.ndarray, degree: int, first: np.ndarray,
+                     weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(rows (M, p + 1) int64, R (M, p + 1))``: the control points (rows of the prim's arrays) that count at each
+    parameter ``u`` and their rational basis values ``R_j = w_j N_j / sum w N`` (sum 1).
+
+    Args:
+        knots: the prim's flat knot array; ``interval`` ``(M,)`` the index in it of each parameter's ``U[i]``.
+        first: ``(M,)`` row of the curve's ``P[0]`` minus the knot index of the curve's ``U[0]`` (so that the
+            control point ``P[i - p + j]`` is row ``first + i - p + j``).
+        weights: the prim's ``pointWeights`` ``(n,)`` (ones when not authored).
+    """
+    local = knots[interval[:, None] + np.arange(-degree + 1, degree + 1)[None]] if degree else np.zeros((len(u), 0))
+    n = basis(local, u, degree)
+    rows = (first + interval)[:, None] - degree + np.arange(degree + 1)[None]
+    wn = n * weights[rows]
+    total = wn.sum(axis=1, keepdims=True)
+    return rows, wn / total
+
+
+def pieces(samples: np.ndarray, tolerance: np.ndarray, most: int) -> np.ndarray:
+    """``(S,)`` int64 equal parameter steps per span so that chords stay within ``tolerance`` ``(S,)`` of the curve,
+    from ``samples`` ``(S, PILOT_SAMPLES, d)`` of it at equal steps of the span's ``t`` in ``[0, 1]``: ``max |C''|``
+    from second differences, ``K = ceil(sqrt(max |C''| / (8 tol)))``, 1 to ``most``."""
+    h = 1.0 / (samples.shape[1] - 1)
+    second = (samples[:, 2:] - 2.0 * samples[:, 1:-1] + samples[:, :-2]) / (h * h)
+    bend = np.linalg.norm(second, axis=2).max(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        k = np.ceil(np.sqrt(bend / (8.0 * tolerance)))
+    k = np.where((bend > 0.0) & (tolerance > 0.0), k, 1.0)
+    return np.clip(np.nan_to_num(k, nan=most), 1, most).astype(np.int64)
+
+
+@dataclasses.dataclass
+class NurbsSpans:
+    """The spans of a ``UsdGeom.NurbsCurves`` prim, with the interface of :class:`wrt.tubes.Spans` that
+    :class:`wrt.usd_tubes.TubeReader` draws curves through.
+
+    Attributes:
+        interval: ``(S,)`` int64 index in ``knots`` of each span's knot ``U[i]``.
+        start, end: ``(S,)`` float64 parameter range of each span (its knot interval clipped to the curve's range).
+        degree: ``(S,)`` int64 degree (order - 1) of the span's curve.
+        first: ``(S,)`` int64 row of the curve's ``P[0]`` minus the index in ``knots`` of its ``U[0]``.
+        curve: ``(S,)`` int64 curve of each span.
+        last: ``(S,)`` bool: the span ends its curve (its end gets a sphere).
+        varying: ``(S, 2)`` int64 ``varying`` value at each end of the span's knot interval.
+        n_varying: ``varying`` values the prim needs: ``count - order + 2`` per curve (one per knot of its domain,
+            as RenderMan's RiNuCurves counts them).
+        knots: the prim's flat ``knots``; weights: ``(n,)`` its ``pointWeights`` (ones when not authored).
+    """
+
+    interval: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    degree: np.ndarray
+    first: np.ndarray
+    curve: np.ndarray
+    last: np.ndarray
+    varying: np.ndarray
+    n_varying: int
+    knots: np.ndarray
+    weights: np.ndarray
+
+    def take(self, keep: np.ndarray) -> NurbsSpans:
+        """The spans at ``keep`` (a boolean mask)."""
+        return dataclasses.replace(self, **{f: getattr(self, f)[keep] for f in (
+            "interval", "start", "end", "degree", "first", "curve", "last", "varying")})
+
+    def extend(self, values: np.ndarray) -> np.ndarray:
+        """Per-vertex values as they are (a NURBS curve has no phantom vertices)."""
+        return values
+
+    def at(self, values: np.ndarray, span: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """``(M, k)`` the rational curve of per-control-point ``values`` ``(n, k)`` at ``t`` in ``[0, 1]`` of
+        ``span``."""
+        u = self.start[span] + t * (self.end[span] - self.start[span])
+        out = np.zeros((len(span), values.shape[1]))
+        for degree in np.unique(self.degree[span]):
+            sel = np.flatnonzero(self.degree[span] == degree)
+            s = span[sel]
+            rows, r = rational_weights(self.knots, self.interval[s], u[sel], int(degree), self.first[s], self.weights)
+            out[sel] = np.einsum("mj,mjk->mk", r, values[rows])
+        return out
+
+    def varying_t(self, span: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Where ``t`` of ``span`` lies in its knot interval (``varying`` values are linear across it)."""
+        a, b = self.knots[self.interval[span]], self.knots[self.interval[span] + 1]
+        u = self.start[span] + t * (self.end[span] - self.start[span])
+        return (u - a) / (b - a)
+
+    def segments(self, points: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """``(S,)`` straight segments per span: chords within ``CURVE_TOLERANCE`` of the span's largest radius
+        (:func:`pieces`); ``radii`` ``(S, k)`` sampled along each span."""
+        s = np.repeat(np.arange(len(self.curve)), PILOT_SAMPLES)
+        t = np.tile(np.linspace(0.0, 1.0, PILOT_SAMPLES), len(self.curve))
+        samples = self.at(points, s, t).reshape(len(self.curve), PILOT_SAMPLES, -1)
+        return pieces(samples, CURVE_TOLERANCE * radii.max(axis=1), MAX_SPAN_SEGMENTS)
+
+
+def nurbs_curve_spans(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray, ranges: np.ndarray | None,
+                      weights: np.ndarray) -> NurbsSpans:
+    """The spans of NURBS curves of ``counts`` control points and ``orders`` each, their knots one flat array.
+
+    Args:
+        ranges: ``(C, 2)`` parameter range of each curve, or None (each curve's whole domain).
+
+    Raises:
+        ValueError: the orders, knots or ranges do not fit the curves (naming the first curve that is wrong).
+    """
+    counts = np.asarray(counts, np.int64)
+    orders = np.asarray(orders, np.int64)
+    if len(orders) != len(counts):
+        raise ValueError(f"order has {len(orders)} values for {len(counts)} curves")
+    if ranges is not None and len(ranges) != len(counts):
+        raise ValueError(f"ranges has {len(ranges)} values for {len(counts)} curves")
+    if len(knots) != int((counts + orders).sum()):
+        raise ValueError(f"knots has {len(knots)} values; the curves' counts plus orders need "
+                         f"{int((counts + orders).sum())}")
+    knot_starts = np.cumsum(counts + orders) - counts - orders
+    row_starts = np.cumsum(counts) - counts
+    varying_starts = np.cumsum(counts - orders + 2) - (counts - orders + 2)
+    parts = []
+    for c, (n, k, k0) in enumerate(zip(counts.tolist(), orders.tolist(), knot_starts.tolist())):
+        own = knots[k0 : k0 + n + k]
+        why = check_knots(own, k, n)
+        lo, hi = (own[k - 1], own[n]) if why is not None or ranges is None else map(float, ranges[c])
+        if why is None and ranges is not None:
+            why = check_range(own, k, n, lo, hi)
+        if why is not None:
+            raise ValueError(f"curve {c}: {why}")
+        interval, start, end = spans_of(own, k, n, lo, hi)
+        parts.append((interval + k0, start, end, np.full(len(interval), c)))
+    interval, start, end, curve = (np.concatenate(p) for p in zip(*parts)) if parts else [np.zeros(0)] * 4
+    curve = curve.astype(np.int64)
+    interval = interval.astype(np.int64)
+    degree = orders[curve] - 1
+    local = interval - knot_starts[curve] - degree  # knot interval within the curve's domain, from 0
+    varying = varying_starts[curve][:, None] + local[:, None] + np.array([0, 1])
+    last = np.append(curve[1:] != curve[:-1], True) if len(curve) else np.zeros(0, bool)
+    return NurbsSpans(interval, start, end, degree, row_starts[curve] - knot_starts[curve], curve, last, varying,
+                      int((counts - orders + 2).sum()), knots, weights)
+
+
+__all__ = ["PILOT_SAMPLES", "NurbsSpans", "basis", "check_knots", "check_range", "nurbs_curve_spans", "pieces",
+           "rational_weights", "spans_of"]

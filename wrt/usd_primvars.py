@@ -1,0 +1,68 @@
+"""Primvars of point-based prims that are not meshes (points, curves, tet meshes, NURBS patches) read as
+``(interpolation, values)`` pairs, checked against the number of values each interpolation needs on that prim:
+shared by :mod:`wrt.usd_tubes` and :mod:`wrt.usd_surfaces`."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd
+
+from .usd_values import read_time
+
+
+class FieldReader:
+    """Reads primvars and primvar-like attributes (``widths``) at one time code.
+
+    Args:
+        time: the ``Usd.TimeCode`` read (see :func:`wrt.usd_values.value_at`).
+        skip: ``skip(reason, prim, detail=None)`` records a warning naming the prim.
+        error: ``error(message, prim, attr=None)`` returns the :class:`wrt.errors.SceneError` to raise.
+    """
+
+    def __init__(self, time: Usd.TimeCode, skip, error):
+        self.time = time
+        self.skip = skip
+        self.error = error
+
+    def field(self, prim, primvar, sizes, components):
+        """``(interpolation, (k, components) float64)`` of ``primvar`` (flattened through its indices), or None (with
+        a warning) when its elementSize is not 1."""
+        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        if primvar.GetElementSize() != 1:
+            self.skip(f"{primvar.GetPrimvarName()} with elementSize != 1 was ignored", prim)
+            return None
+        return self.values(prim, primvar.GetAttr(), raw, primvar.GetInterpolation(), sizes, components)
+
+    def values(self, prim, attr, raw, interpolation, sizes, components):
+        """``(interpolation, (k, components) float64)`` of the array ``raw`` of ``attr`` (the rgb of 4-vector colours;
+        ``faceVarying`` read as ``varying``), checked against ``sizes`` (interpolation -> values needed).
+
+        Raises:
+            SceneError: not an array of numbers (or colours), an interpolation the prim type does not take, or the
+                wrong length for it.
+        """
+        values = np.asarray(raw if raw is not None else np.zeros((0, components)))
+        name = attr.GetName()
+        shape = (components,) if components == 1 else (3, 4)
+        if values.size == 0:
+            values = np.zeros((0, components))
+        elif values.dtype.kind in "fiu":
+            values = values.astype(np.float64).reshape(len(values) if values.ndim else 1, -1)
+        if values.dtype.kind not in "fiu" or values.shape[1] not in shape:
+            what = "numbers" if components == 1 else "3- or 4-vectors"
+            raise self.error(f"{name} must be an array of {what}, not {type(raw).__name__}", prim, attr)
+        if interpolation not in sizes:
+            raise self.error(f"{name} has interpolation {interpolation!r}; {prim.GetTypeName()} prims take "
+                             f"{', '.join(sizes)}", prim, attr)
+        if len(values) != sizes[interpolation]:
+            raise self.error(f"{name} has {len(values)} values; {interpolation} interpolation needs "
+                             f"{sizes[interpolation]}", prim, attr)
+        values = values[:, :components]
+        if components == 3 and not np.isfinite(values).all():
+            self.skip(f"non-finite {name} values were replaced by grey 0.5", prim)
+            values = np.where(np.isfinite(values).all(axis=1, keepdims=True), values, 0.5)
+        interpolation = "varying" if interpolation == "faceVarying" else interpolation
+        return interpolation, values
+
+
+__all__ = ["FieldReader"]
