@@ -88,6 +88,14 @@ def basis(local_knots: np.ndarray, u: np.ndarray, degree: int) -> np.ndarray:
     return n
 
 
+def basis_rows(knots: np.ndarray, interval: np.ndarray, u: np.ndarray, degree: int):
+    """``(rows (M, degree + 1) int64, N (M, degree + 1))``: the knot indices ``i - p .. i`` (control point indices
+    when the knots start at the curve's first) and the B-spline basis values at parameters ``u`` ``(M,)``, each in
+    its knot interval ``[knots[i], knots[i + 1])``, ``interval`` ``(M,)`` its ``i``."""
+    local = knots[interval[:, None] + np.arange(-degree + 1, degree + 1)[None]] if degree else np.zeros((len(u), 0))
+    return interval[:, None] - degree + np.arange(degree + 1)[None], basis(local, u, degree)
+
+
 def rational_weights(knots: np.ndarray, interval: np.ndarray, u: np.ndarray, degree: int, first: np.ndarray,
                      weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(rows (M, p + 1) int64, R (M, p + 1))``: the control points (rows of the prim's arrays) that count at each
@@ -99,9 +107,8 @@ def rational_weights(knots: np.ndarray, interval: np.ndarray, u: np.ndarray, deg
             control point ``P[i - p + j]`` is row ``first + i - p + j``).
         weights: the prim's ``pointWeights`` ``(n,)`` (ones when not authored).
     """
-    local = knots[interval[:, None] + np.arange(-degree + 1, degree + 1)[None]] if degree else np.zeros((len(u), 0))
-    n = basis(local, u, degree)
-    rows = (first + interval)[:, None] - degree + np.arange(degree + 1)[None]
+    rows, n = basis_rows(knots, interval, u, degree)
+    rows = rows + first[:, None]
     wn = n * weights[rows]
     total = wn.sum(axis=1, keepdims=True)
     return rows, wn / total
@@ -230,5 +237,90 @@ def nurbs_curve_spans(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
                       int((counts - orders + 2).sum()), knots, weights)
 
 
-__all__ = ["PILOT_SAMPLES", "NurbsSpans", "basis", "check_knots", "check_range", "nurbs_curve_spans", "pieces",
+PATCH_TOLERANCE = 1e-3  # a NURBS patch's triangles stay within this fraction of its control box's diagonal
+MAX_PATCH_STEPS = 64  # most steps per span and direction of a NURBS patch
+
+
+class Direction:
+    """One parametric direction (u or v) of a NURBS patch, cut into steps: its grid parameters, their basis values
+    and control-point indices, and where each lies in the knot intervals (for ``uniform`` and ``varying``
+    primvars).
+
+    Args:
+        knots, order, count: the direction's knots, order and control points (checked with :func:`check_knots`).
+        lo, hi: its range.
+        steps: ``(S,)`` steps per span; ``None``: the pilot grid, :data:`PILOT_SAMPLES` parameters per span from
+            its start to its end (span ends twice).
+    """
+
+    def __init__(self, knots: np.ndarray, order: int, count: int, lo: float, hi: float, steps=None):
+        interval, start, end = spans_of(knots, order, count, lo, hi)
+        self.order = order
+        self.n_spans = len(interval)
+        if steps is None:
+            span = np.repeat(np.arange(len(interval)), PILOT_SAMPLES)
+            frac = np.tile(np.linspace(0.0, 1.0, PILOT_SAMPLES), len(interval))
+        else:
+            # Every step of every span, then the range's end (shared span ends appear once).
+            steps = np.asarray(steps, np.int64)
+            span = np.repeat(np.arange(len(interval)), steps)
+            j = np.arange(len(span)) - (np.cumsum(steps) - steps)[span]
+            frac = np.append(j / steps[span], 1.0)
+            span = np.append(span, len(interval) - 1)
+        self.span = span  # (M,) span of each grid parameter
+        self.u = start[span] + frac * (end[span] - start[span])  # (M,) grid parameters
+        i = interval[span]
+        self.rows, self.n = basis_rows(knots, i, self.u, order - 1)  # (M, order) control indices and N values
+        self.segment = i - (order - 1)  # (M,) knot interval within the domain (uniform and varying index)
+        self.segment_t = (self.u - knots[i]) / (knots[i + 1] - knots[i])  # (M,) place within it, 0 to 1
+        self.n_segments = count - order + 1  # knot intervals of the domain, zero-length ones too (RenderMan's count)
+
+
+def patch_values(u: Direction, v: Direction, values: np.ndarray, weights: np.ndarray, nu: int) -> np.ndarray:
+    """``(Mv, Mu, k)`` the rational tensor-product surface of per-control-point ``values`` ``(nu * nv, k)`` (u
+    fastest, as the schema lays points out) on the grid of ``u`` and ``v``."""
+    index = v.rows[:, None, :, None] * nu + u.rows[None, :, None, :]  # (Mv, Mu, jv, ju)
+    basis_uv = v.n[:, None, :, None] * u.n[None, :, None, :] * weights[index]
+    total = basis_uv.sum(axis=(2, 3))
+    return np.einsum("baji,bajik->bak", basis_uv, values[index]) / total[..., None]
+
+
+def patch_steps(u: Direction, v: Direction, points: np.ndarray, weights: np.ndarray, nu: int, tolerance: float):
+    """Steps per span in u and in v so that the triangles stay within ``tolerance`` of the surface, from second
+    differences on the pilot grid (``u`` and ``v`` made with ``steps=None``): a cell of steps ``(hu, hv)`` in the
+    spans' ``t`` is within ``(hu^2 (Suu + Suv) + hv^2 (Svv + Suv)) / 8`` of the surface (``S..`` the largest second
+    derivatives over its span row or column), and each direction is given half of ``tolerance``."""
+    p = PILOT_SAMPLES
+    grid = patch_values(u, v, points, weights, nu).reshape(v.n_spans, p, u.n_spans, p, -1)
+    h2 = (1.0 / (p - 1)) ** 2
+
+    def largest(difference, axes):
+        return np.linalg.norm(difference, axis=-1).max(axis=axes) / h2
+
+    # Second differences within each span block (a kink at a repeated knot is no curvature of either span).
+    second_u = grid[:, :, :, 2:] - 2.0 * grid[:, :, :, 1:-1] + grid[:, :, :, :-2]
+    second_v = grid[:, 2:] - 2.0 * grid[:, 1:-1] + grid[:, :-2]
+    mixed = grid[:, 1:, :, 1:] - grid[:, 1:, :, :-1] - grid[:, :-1, :, 1:] + grid[:, :-1, :, :-1]
+    suu, svv = largest(second_u, (0, 1, 3)), largest(second_v, (1, 2, 3))
+    suv_u, suv_v = largest(mixed, (0, 1, 3)), largest(mixed, (1, 2, 3))
+    steps = []
+    for bend in (suu + suv_u, svv + suv_v):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = np.ceil(np.sqrt(bend / (4.0 * tolerance)))
+        k = np.where((bend > 0.0) & (tolerance > 0.0), k, 1.0)
+        steps.append(np.clip(np.nan_to_num(k, nan=MAX_PATCH_STEPS), 1, MAX_PATCH_STEPS).astype(np.int64))
+    return steps
+
+
+def grid_triangles(mu: int, mv: int) -> np.ndarray:
+    """``(2 (mu - 1) (mv - 1), 3)`` triangles of a grid of ``mv`` rows of ``mu`` vertices (u fastest): each cell
+    ``(u, v), (u + 1, v), (u + 1, v + 1), (u, v + 1)``, counter-clockwise in (u, v) as Storm winds a patch's hull,
+    cut along its diagonal from ``(u, v)``."""
+    a = (np.arange(mv - 1)[:, None] * mu + np.arange(mu - 1)[None]).reshape(-1)
+    b, c, d = a + 1, a + mu + 1, a + mu
+    return np.stack([np.stack([a, b, c], 1), np.stack([a, c, d], 1)], 1).reshape(-1, 3)
+
+
+__all__ = ["MAX_PATCH_STEPS", "PATCH_TOLERANCE", "PILOT_SAMPLES", "Direction", "NurbsSpans", "basis", "basis_rows",
+           "check_knots", "check_range", "grid_triangles", "nurbs_curve_spans", "patch_steps", "patch_values", "pieces",
            "rational_weights", "spans_of"]

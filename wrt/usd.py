@@ -89,6 +89,7 @@ from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, Refinement
 from .usd_lights import read_light
 from .usd_skel import SkelPoser
+from .usd_surfaces import SurfaceReader
 from .usd_tubes import TubeReader
 from .usd_values import held_value, moved_positions, read_time, spun_rotations, value_at
 from .usd_variants import apply_variants
@@ -221,6 +222,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         reader.materials = None
         reader.skel = None
         reader.tubes = None
+        reader.surfaces = None
 
 
 def _warn_composition_errors(stage: Usd.Stage, source: str) -> None:
@@ -398,7 +400,8 @@ class _StageReader:
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
         self.skel = SkelPoser(time, self._skip)  # poses meshes skinned by UsdSkel skeletons
-        self.tubes = TubeReader(time, self._skip, self._error)  # Points and BasisCurves as spheres and tubes
+        self.tubes = TubeReader(time, self._skip, self._error)  # Points and curves as spheres and tubes
+        self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
@@ -511,8 +514,9 @@ class _StageReader:
         if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI, VolumeLightAPI or a bare LightAPI: the gprim should emit
             self._skip("mesh lights (MeshLightAPI, or LightAPI on another gprim) are not supported; drawn as geometry "
                        "that emits nothing", prim, prim.GetTypeName())
-        if prim.IsA(UsdGeom.Mesh):
-            mesh = self._read_mesh(prim, self._to_space(prim, ctx), ctx)
+        if prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.TetMesh) or prim.IsA(UsdGeom.NurbsPatch):
+            read = self._read_mesh if prim.IsA(UsdGeom.Mesh) else self._read_surface
+            mesh = read(prim, self._to_space(prim, ctx), ctx)
             if mesh is not None:
                 ctx.content.meshes.append(mesh)
                 self._check_display_opacity(prim, mesh.material_ids is None or bool(np.any(mesh.material_ids < 0)))
@@ -952,6 +956,41 @@ class _StageReader:
             m = self._to_space(space, ctx)
         if local.refinement is not None:
             local.points = local.refinement.vertex(local.points)
+        return self._bake(prim, m, ctx, local, face_materials, color_names)
+
+    def _read_surface(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
+        """A TetMesh (its boundary) or NurbsPatch (tessellated) at ``prim`` as a triangle mesh
+        (:mod:`wrt.usd_surfaces`), with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
+        face_materials = self._face_materials(prim, 1, ctx)
+        color_names = self.materials.color_primvars(face_materials)[:1]  # one material: one colour primvar
+        points = self._point_array(prim)
+        if points is None or len(points) == 0:
+            return None
+        primvar = _color_primvar(prim, color_names[0])
+        primvar = primvar if primvar and primvar.HasValue() else None
+        gprim = UsdGeom.Gprim(prim)
+        flip = self._left_handed(prim, gprim, self.time)
+        if prim.IsA(UsdGeom.TetMesh):
+            bad = ~np.isfinite(points).all(axis=1)
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise self._error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim,
+                                  UsdGeom.PointBased(prim).GetPointsAttr())
+            surface = self.surfaces.tet_mesh(prim, points, primvar, flip)
+        else:
+            surface = self.surfaces.nurbs_patch(prim, points, primvar)
+        if surface is None:
+            return None
+        cage = (np.full(len(surface.triangles), 3), surface.triangles.reshape(-1)) if surface.smooth else None
+        double_sided = bool(value_at(gprim.GetDoubleSidedAttr(), self.time))
+        colors = {} if surface.colors is None else {color_names[0]: surface.colors}
+        local = _LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
+                           cage=cage)
+        return self._bake(prim, m, ctx, local, face_materials, color_names)
+
+    def _bake(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context, local: _LocalMesh, face_materials,
+              color_names: list):
+        """The :class:`Mesh` of ``local`` with ``m`` baked in; ``face_materials`` ``(F,)`` per source face or None."""
         if local.cage is not None:  # made from the final (posed) points, once
             local.normals = (vertex_normals(local.points, *local.cage, local.flip), local.vertex_ids)
 
@@ -988,7 +1027,7 @@ class _StageReader:
             uvs = values.astype(np.float32)[corner_index[:, order]]
         material_ids = None
         if face_materials is not None:
-            material_ids = face_materials[np.clip(local.face_ids, 0, max(len(counts) - 1, 0))]
+            material_ids = face_materials[np.clip(local.face_ids, 0, max(len(face_materials) - 1, 0))]
         colors = self._corner_colors(prim, local, color_names, material_ids, order, ctx)
 
         return Mesh(
@@ -1153,28 +1192,20 @@ class _StageReader:
     def _read_tubes(self, prim: Usd.Prim, ctx: _Context):
         """A ``Points`` or curves prim as instances of spheres and tube segments (:mod:`wrt.usd_tubes`), one
         content per shape, so it is placed (and nested in prototypes) like any instance."""
-        schema = UsdGeom.PointBased(prim)
-        raw = self._moved(schema, schema.GetPointsAttr())
-        if raw is None:
-            raw = value_at(schema.GetPointsAttr(), self.time)
-        points = np.asarray(raw if raw is not None else np.zeros((0, 3)))
         counts = None
         if prim.IsA(UsdGeom.Curves):
             counts = self._int_array(prim, UsdGeom.Curves(prim).GetCurveVertexCountsAttr())
-        if points.size == 0:
-            if counts is not None and counts.any():  # as meshes with faces but no points
+        points = self._point_array(prim)
+        if points is None or len(points) == 0:
+            if points is not None and counts is not None and counts.any():  # as meshes with faces but no points
                 self._skip(f"{prim.GetTypeName()} prims with curves but no points were skipped", prim)
-            return
-        if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
-            self._skip(f"{prim.GetTypeName()} prims whose points are not an array of 3-vectors were skipped", prim,
-                       f"{self._authored_type(schema.GetPointsAttr())} holding {type(raw).__name__}")
             return
         material_id, primvar, color = self._gprim_look(prim, ctx)
         self._check_display_opacity(prim, material_id < 0)
         m = self._to_space(prim, ctx)
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
             self._skip("world transform is projective; its last column was ignored", prim)
-        groups, constant = self.tubes.read(prim, points.astype(np.float64), m.T, primvar, counts)
+        groups, constant = self.tubes.read(prim, points, m.T, primvar, counts)
         color = constant if constant is not None else color
         double_sided = bool(value_at(UsdGeom.Gprim(prim).GetDoubleSidedAttr(), self.time))
         path = str(prim.GetPath())
@@ -1189,6 +1220,22 @@ class _StageReader:
             key = ("tubes", path, len(self.contents))  # a content of its own, placed only by these instances
             self.contents[key] = content
             ctx.content.instances.append((key, group.to_space, path, group.index, group.colors))
+
+    def _point_array(self, prim: Usd.Prim) -> np.ndarray | None:
+        """``(n, 3)`` float64 ``points`` of a point-based prim (moved by its velocities where they apply), ``(0, 3)``
+        when it has none, or None (with a warning) when they are not an array of 3-vectors."""
+        schema = UsdGeom.PointBased(prim)
+        raw = self._moved(schema, schema.GetPointsAttr())
+        if raw is None:
+            raw = value_at(schema.GetPointsAttr(), self.time)
+        points = np.asarray(raw if raw is not None else np.zeros((0, 3)))
+        if points.size == 0:
+            return np.zeros((0, 3))
+        if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
+            self._skip(f"{prim.GetTypeName()} prims whose points are not an array of 3-vectors were skipped", prim,
+                       f"{self._authored_type(schema.GetPointsAttr())} holding {type(raw).__name__}")
+            return None
+        return points.astype(np.float64)
 
     def _tessellated(self, shape: Shape, prim: Usd.Prim) -> Mesh:
         """``shape`` as a triangle mesh of ``self.segments`` segments per circle."""

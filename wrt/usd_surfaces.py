@@ -1,0 +1,181 @@
+"""``UsdGeom.TetMesh`` and ``UsdGeom.NurbsPatch`` prims read as triangle surfaces in the prim's own space, which
+:mod:`wrt.usd` then places, colours and binds as it does meshes.
+
+A TetMesh is drawn as its boundary: the faces of its tetrahedra that no other tetrahedron shares
+(:func:`wrt.tetmesh.surface_faces`, computed from ``tetVertexIndices`` at the time read, as UsdImaging computes them;
+``surfaceFaceVertexIndices`` is not read), wound as the schema orders them, flat-shaded. Colours: ``constant``,
+``uniform`` (one per tetrahedron: its surface faces take it), ``vertex`` or ``varying`` (one per point).
+
+A NurbsPatch is tessellated span by span (:mod:`wrt.nurbs`: rational tensor-product B-spline, points laid out u
+fastest, ``uRange``/``vRange`` narrowing it) into a grid whose triangles stay within :data:`wrt.nurbs.PATCH_TOLERANCE`
+of the diagonal of its control points' box from the surface, smooth-shaded, wound counter-clockwise in (u, v) as
+Storm winds the patch's hull (so ``rightHanded`` faces point along ``dS/du x dS/dv``). ``uForm``/``vForm`` do not
+change the surface (the schema: the points, orders, knots, weights and ranges are all that is needed to render it);
+trim curves are not applied (a warning names the prim). Colours: ``constant``, ``uniform`` (one per knot-interval
+patch, ``(nu - uOrder + 1) (nv - vOrder + 1)``, u fastest, as RenderMan's RiNuPatch counts them), ``varying`` (one
+per knot-interval corner, ``(nu - uOrder + 2) (nv - vOrder + 2)``, bilinear) and ``vertex`` (one per control point,
+through the patch's rational basis); ``faceVarying`` is read as ``varying``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .nurbs import PATCH_TOLERANCE, Direction, check_knots, check_range, grid_triangles, patch_steps, patch_values
+from .tetmesh import inverted, surface_faces
+from .usd_primvars import FieldReader
+from .usd_values import value_at
+
+
+@dataclasses.dataclass
+class Surface:
+    """Triangles drawing a TetMesh or NurbsPatch prim, in its own space.
+
+    Attributes:
+        points: ``(V, 3)`` float64 vertices.
+        triangles: ``(T, 3)`` int64 rows into ``points``, wound so that the front is counter-clockwise when the
+            prim is ``rightHanded``.
+        face_ids: ``(T,)`` int64 tetrahedron (TetMesh) or knot-interval patch (NurbsPatch) of each triangle.
+        colors: ``(values (K, 3) float32, corner index (T, 3))`` or None.
+        smooth: shade with smooth vertex normals of the triangles (a NURBS surface) rather than flat.
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    face_ids: np.ndarray
+    colors: tuple | None
+    smooth: bool
+
+
+class SurfaceReader(FieldReader):
+    """Reads TetMesh and NurbsPatch prims at one time code (see :class:`wrt.usd_primvars.FieldReader`)."""
+
+    def tet_mesh(self, prim: Usd.Prim, points: np.ndarray, color_primvar, left_handed: bool) -> Surface | None:
+        """The boundary of TetMesh ``prim`` of ``points`` ``(n, 3)``, or None when it has no tetrahedra.
+
+        Raises:
+            SceneError: ``tetVertexIndices`` is not ``int4[]`` or indexes past the points, or a colour has the wrong
+                length for its interpolation.
+        """
+        attr = UsdGeom.TetMesh(prim).GetTetVertexIndicesAttr()
+        raw = value_at(attr, self.time)
+        if raw is None or len(raw) == 0:
+            return None
+        tets = np.asarray(raw)
+        if tets.ndim != 2 or tets.shape[1] != 4 or tets.dtype.kind not in "iu":
+            raise self.error(f"tetVertexIndices must be int4[], not {attr.GetTypeName()}", prim, attr)
+        tets = tets.astype(np.int64)
+        bad = ((tets < 0) | (tets >= len(points))).any(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise self.error(f"tetVertexIndices[{i}] = {tuple(tets[i].tolist())} is out of range for {len(points)} "
+                             "points", prim, attr)
+        flipped = inverted(points, tets, left_handed)
+        if flipped.any():
+            self.skip("TetMesh tetrahedra inverted for their orientation have faces that point inwards", prim,
+                      f"{int(flipped.sum())} of {len(tets)}, first tetVertexIndices[{int(np.argmax(flipped))}]")
+        faces, tet = surface_faces(tets, len(points))
+        colors = None
+        if color_primvar is not None:
+            sizes = {"constant": 1, "uniform": len(tets), "vertex": len(points), "varying": len(points)}
+            field = self.field(prim, color_primvar, sizes, 3)
+            if field is not None:
+                corner = {"constant": np.zeros_like(faces), "uniform": np.repeat(tet[:, None], 3, axis=1)}
+                colors = field[1].astype(np.float32), corner.get(field[0], faces)
+        return Surface(points, faces, tet, colors, smooth=False)
+
+    def nurbs_patch(self, prim: Usd.Prim, points: np.ndarray, color_primvar) -> Surface:
+        """NurbsPatch ``prim`` of control ``points`` ``(nu * nv, 3)`` tessellated (see the module docstring).
+
+        Raises:
+            SceneError: vertex counts that do not match the points, orders, knots or ranges that make no B-spline,
+                weights that are not positive numbers, or a colour of the wrong length for its interpolation.
+        """
+        patch = UsdGeom.NurbsPatch(prim)
+        nu, nv = (self._int(prim, a) for a in (patch.GetUVertexCountAttr(), patch.GetVVertexCountAttr()))
+        if nu * nv != len(points):
+            raise self.error(f"uVertexCount x vVertexCount = {nu} x {nv} but there are {len(points)} points", prim)
+        directions = []
+        for name, order_attr, knots_attr, range_attr, count in (
+            ("u", patch.GetUOrderAttr(), patch.GetUKnotsAttr(), patch.GetURangeAttr(), nu),
+            ("v", patch.GetVOrderAttr(), patch.GetVKnotsAttr(), patch.GetVRangeAttr(), nv),
+        ):
+            order = self._int(prim, order_attr)
+            knots = np.asarray(value_at(knots_attr, self.time) or [], np.float64).reshape(-1)
+            why = check_knots(knots, order, count)
+            span = value_at(range_attr, self.time) if why is None else None
+            lo, hi = (float(span[0]), float(span[1])) if span is not None else (None, None)
+            if why is None and span is not None:
+                why = check_range(knots, order, count, lo, hi)
+            if why is not None:
+                raise self.error(f"{name}: {why}", prim, knots_attr)
+            if span is None:
+                lo, hi = float(knots[order - 1]), float(knots[count])
+            directions.append((knots, order, count, lo, hi))
+        weights_attr = patch.GetPointWeightsAttr()
+        raw = value_at(weights_attr, self.time)
+        weights = np.ones(len(points)) if raw is None or len(raw) == 0 else np.asarray(raw, np.float64).reshape(-1)
+        if len(weights) != len(points):
+            raise self.error(f"pointWeights has {len(weights)} values for {len(points)} points", prim, weights_attr)
+        bad = ~(np.isfinite(weights) & (weights > 0.0))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise self.error(f"pointWeights[{i}] = {weights[i]:g} is not a positive number", prim, weights_attr)
+        bad = ~np.isfinite(points).all(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise self.error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim, patch.GetPointsAttr())
+        counts = value_at(patch.GetTrimCurveCountsAttr(), self.time)
+        if counts is not None and len(counts):
+            self.skip("NurbsPatch trim curves (trimCurve:*) are not applied; the untrimmed surface is drawn", prim)
+
+        # Steps per span from the pilot grid, then the grid itself.
+        size = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+        pilot = [Direction(*d) for d in directions]
+        steps = patch_steps(*pilot, points, weights, nu, PATCH_TOLERANCE * size)
+        u, v = (Direction(*d, steps=s) for d, s in zip(directions, steps))
+        grid = patch_values(u, v, points, weights, nu).reshape(-1, 3)
+        triangles = grid_triangles(len(u.u), len(v.u))
+        cell = np.arange(len(triangles)) // 2
+        cu, cv = cell % (len(u.u) - 1), cell // (len(u.u) - 1)
+        face_ids = v.segment[cv] * u.n_segments + u.segment[cu]  # the knot-interval patch of each triangle
+        colors = self._patch_colors(prim, color_primvar, u, v, points, weights, nu, face_ids, triangles)
+        return Surface(grid, triangles, face_ids, colors, smooth=True)
+
+    def _patch_colors(self, prim, primvar, u, v, points, weights, nu, face_ids, triangles):
+        """``(values, corner index)`` of a patch's colour primvar on its tessellation, or None."""
+        if primvar is None:
+            return None
+        n_varying = (u.n_segments + 1) * (v.n_segments + 1)
+        sizes = {"constant": 1, "uniform": u.n_segments * v.n_segments, "vertex": len(points), "varying": n_varying,
+                 "faceVarying": n_varying}
+        field = self.field(prim, primvar, sizes, 3)
+        if field is None:
+            return None
+        interpolation, values = field
+        if interpolation == "constant":
+            return values.astype(np.float32), np.zeros_like(triangles)
+        if interpolation == "uniform":
+            return values.astype(np.float32), np.repeat(face_ids[:, None], 3, axis=1)
+        if interpolation == "vertex":
+            per_vertex = patch_values(u, v, values, weights, nu)
+        else:  # varying: bilinear in each knot-interval patch
+            corners = values.reshape(v.n_segments + 1, u.n_segments + 1, 3)
+            su, sv = u.segment[None, :], v.segment[:, None]
+            tu, tv = u.segment_t[None, :, None], v.segment_t[:, None, None]
+            per_vertex = ((1 - tv) * ((1 - tu) * corners[sv, su] + tu * corners[sv, su + 1])
+                          + tv * ((1 - tu) * corners[sv + 1, su] + tu * corners[sv + 1, su + 1]))
+        return per_vertex.reshape(-1, 3).astype(np.float32), triangles
+
+    def _int(self, prim, attr) -> int:
+        """An ``int`` attribute's value (0 when it has none)."""
+        value = value_at(attr, self.time)
+        if value is not None and not isinstance(value, (int, np.integer)):
+            raise self.error(f"{attr.GetName()} must be an int, not {attr.GetTypeName()}", prim, attr)
+        return int(value or 0)
+
+
+__all__ = ["Surface", "SurfaceReader"]
