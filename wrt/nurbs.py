@@ -215,20 +215,40 @@ def nurbs_curve_spans(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
     knot_starts = np.cumsum(counts + orders) - counts - orders
     row_starts = np.cumsum(counts) - counts
     varying_starts = np.cumsum(counts - orders + 2) - (counts - orders + 2)
-    parts = []
-    for c, (n, k, k0) in enumerate(zip(counts.tolist(), orders.tolist(), knot_starts.tolist())):
+
+    # Check every curve at once; the first that fails is checked again alone for the message.
+    bad = (orders < 2) | (counts < orders)
+    ends = np.where(bad, knot_starts, knot_starts + np.minimum(counts, len(knots) - 1 - knot_starts))
+    lo = knots[np.where(bad, knot_starts, knot_starts + orders - 1)] if len(knots) else np.zeros(len(counts))
+    hi = knots[ends] if len(knots) else np.zeros(len(counts))
+    with np.errstate(invalid="ignore"):
+        drops = np.diff(knots) < 0.0
+    curve_of_knot = np.repeat(np.arange(len(counts)), counts + orders)
+    inside = curve_of_knot[1:] == curve_of_knot[:-1]  # a drop between two curves' knots is no error
+    bad |= np.bincount(curve_of_knot[1:][drops & inside], minlength=len(counts)) > 0
+    bad |= np.bincount(curve_of_knot[~np.isfinite(knots)], minlength=len(counts)) > 0
+    bad |= ~(hi > lo)
+    if ranges is not None:
+        ranges = np.asarray(ranges, np.float64)
+        with np.errstate(invalid="ignore"):
+            bad |= ~((lo <= ranges[:, 0]) & (ranges[:, 0] < ranges[:, 1]) & (ranges[:, 1] <= hi))
+        lo, hi = np.where(bad, lo, ranges[:, 0]), np.where(bad, hi, ranges[:, 1])
+    if bad.any():
+        c = int(np.argmax(bad))
+        n, k, k0 = int(counts[c]), int(orders[c]), int(knot_starts[c])
         own = knots[k0 : k0 + n + k]
-        why = check_knots(own, k, n)
-        lo, hi = (own[k - 1], own[n]) if why is not None or ranges is None else map(float, ranges[c])
-        if why is None and ranges is not None:
-            why = check_range(own, k, n, lo, hi)
-        if why is not None:
-            raise ValueError(f"curve {c}: {why}")
-        interval, start, end = spans_of(own, k, n, lo, hi)
-        parts.append((interval + k0, start, end, np.full(len(interval), c)))
-    interval, start, end, curve = (np.concatenate(p) for p in zip(*parts)) if parts else [np.zeros(0)] * 4
-    curve = curve.astype(np.int64)
-    interval = interval.astype(np.int64)
+        why = check_knots(own, k, n) or check_range(own, k, n, *map(float, ranges[c]))
+        raise ValueError(f"curve {c}: {why}")
+
+    # Spans: each curve's knot intervals of its domain that overlap its range, clipped to it.
+    per_curve = np.maximum(counts - orders + 1, 0)
+    curve = np.repeat(np.arange(len(counts)), per_curve)
+    first = np.cumsum(per_curve) - per_curve
+    interval = knot_starts[curve] + orders[curve] - 1 + np.arange(len(curve)) - first[curve]
+    start = np.maximum(knots[interval], lo[curve])
+    end = np.minimum(knots[interval + 1], hi[curve])
+    keep = end > start
+    interval, start, end, curve = interval[keep], start[keep], end[keep], curve[keep]
     degree = orders[curve] - 1
     local = interval - knot_starts[curve] - degree  # knot interval within the curve's domain, from 0
     varying = varying_starts[curve][:, None] + local[:, None] + np.array([0, 1])
