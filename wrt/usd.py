@@ -17,9 +17,11 @@ shapes intersected in their own space,
 with ``displayColor`` (constant; other interpolations use the mean), material binding, ``doubleSided`` and
 ``orientation``. With ``tessellate_gprims`` they become triangle meshes instead (vertices on the surface, analytic
 vertex normals; see :func:`wrt.primitives.tessellate`). Gprims whose size is zero, negative or not finite are
-skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0), and so are other gprim
-types; one whose world box is past float32's range raises, as mesh points do. ``Points`` and ``BasisCurves`` become
-instances of spheres and tube pieces (:mod:`wrt.usd_tubes`), each shape a content of its own.
+skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0), and so are volumes (the gprim
+types left); one whose world box is past float32's range raises, as mesh points do. ``Points`` and curves
+(``BasisCurves``, ``HermiteCurves``, ``NurbsCurves``) become instances of spheres and tube pieces
+(:mod:`wrt.usd_tubes`), each shape a content of its own; ``TetMesh`` (its boundary) and ``NurbsPatch``
+(tessellated) become meshes (:mod:`wrt.usd_surfaces`).
 
 Instancing (:mod:`wrt.instancing`): native instances (``instanceable`` prims) and ``UsdGeom.PointInstancer``
 instances are not flattened. Each native prototype and each prim a PointInstancer's ``prototypes`` relationship
@@ -1138,7 +1140,8 @@ class _StageReader:
             axis = None if w is None or length is None else axis_of(schema)
             linear = None if axis is None else axis @ np.diag([w / 2.0, length / 2.0, 1.0])
         else:
-            self._skip("gprims of this type are not supported; skipped", prim, type_name)
+            self._skip("gprims of this type (volumes) are not drawn: wrt has no volume renderer; skipped", prim,
+                       type_name)
             return None
         if local is None:
             if linear is None:
