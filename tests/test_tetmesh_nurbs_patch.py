@@ -330,6 +330,7 @@ def test_nurbs_patch_colours_uniform_varying_vertex(tmp_path):
         (("int uOrder = 3", "int uOrder = 1"), "u: order 1 is below 2"),
         (("double[] pointWeights = [1.0", "double[] pointWeights = [-1.0"),
          r"pointWeights\[0\] = -1 is not a positive"),
+        (("(2.0, 0.0, -1.0)", "(nan, 0.0, -1.0)"), r"points\[0\] = \(nan, 0.0, -1.0\) is not finite"),
         (("double[] vKnots = [0, 0, 1, 1]", "double[] vKnots = [0, 0, 1, 1]\n    double2 vRange = (0.5, 2)"),
          r"v: range \(0.5, 2\) is not an interval inside the knots' domain \[0, 1\]"),
     ],

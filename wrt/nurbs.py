@@ -299,10 +299,16 @@ class Direction:
 def patch_values(u: Direction, v: Direction, values: np.ndarray, weights: np.ndarray, nu: int) -> np.ndarray:
     """``(Mv, Mu, k)`` the rational tensor-product surface of per-control-point ``values`` ``(nu * nv, k)`` (u
     fastest, as the schema lays points out) on the grid of ``u`` and ``v``."""
-    index = v.rows[:, None, :, None] * nu + u.rows[None, :, None, :]  # (Mv, Mu, jv, ju)
-    basis_uv = v.n[:, None, :, None] * u.n[None, :, None, :] * weights[index]
-    total = basis_uv.sum(axis=(2, 3))
-    return np.einsum("baji,bajik->bak", basis_uv, values[index]) / total[..., None]
+    out = np.empty((len(v.u), len(u.u), values.shape[1]))
+    # Rows of the grid a few at a time: the gathered control values are (rows, Mu, jv, ju, k).
+    step = max(1, (1 << 22) // (len(u.u) * u.n.shape[1] * v.n.shape[1] * max(values.shape[1], 1)))
+    for b in range(0, len(v.u), step):
+        rows = slice(b, b + step)
+        index = v.rows[rows, None, :, None] * nu + u.rows[None, :, None, :]  # (rows, Mu, jv, ju)
+        basis_uv = v.n[rows, None, :, None] * u.n[None, :, None, :] * weights[index]
+        total = basis_uv.sum(axis=(2, 3))
+        out[rows] = np.einsum("baji,bajik->bak", basis_uv, values[index]) / total[..., None]
+    return out
 
 
 def patch_steps(u: Direction, v: Direction, points: np.ndarray, weights: np.ndarray, nu: int, tolerance: float):

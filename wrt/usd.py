@@ -965,6 +965,8 @@ class _StageReader:
         (:mod:`wrt.usd_surfaces`), with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         face_materials = self._face_materials(prim, 1, ctx)
         color_names = self.materials.color_primvars(face_materials)[:1]  # one material: one colour primvar
+        if self.materials.uv_set(face_materials, prim):
+            self._skip("TetMesh and NurbsPatch prims have no texture coordinates in wrt; left untextured", prim)
         points = self._point_array(prim)
         if points is None or len(points) == 0:
             return None
@@ -973,11 +975,6 @@ class _StageReader:
         gprim = UsdGeom.Gprim(prim)
         flip = self._left_handed(prim, gprim, self.time)
         if prim.IsA(UsdGeom.TetMesh):
-            bad = ~np.isfinite(points).all(axis=1)
-            if bad.any():
-                i = int(np.argmax(bad))
-                raise self._error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim,
-                                  UsdGeom.PointBased(prim).GetPointsAttr())
             surface = self.surfaces.tet_mesh(prim, points, primvar, flip)
         else:
             surface = self.surfaces.nurbs_patch(prim, points, primvar)

@@ -57,8 +57,8 @@ class SurfaceReader(FieldReader):
         """The boundary of TetMesh ``prim`` of ``points`` ``(n, 3)``, or None when it has no tetrahedra.
 
         Raises:
-            SceneError: ``tetVertexIndices`` is not ``int4[]`` or indexes past the points, or a colour has the wrong
-                length for its interpolation.
+            SceneError: ``tetVertexIndices`` is not ``int4[]`` or indexes past the points, a point is not finite, or
+                a colour has the wrong length for its interpolation.
         """
         attr = UsdGeom.TetMesh(prim).GetTetVertexIndicesAttr()
         raw = value_at(attr, self.time)
@@ -68,6 +68,7 @@ class SurfaceReader(FieldReader):
         if tets.ndim != 2 or tets.shape[1] != 4 or tets.dtype.kind not in "iu":
             raise self.error(f"tetVertexIndices must be int4[], not {attr.GetTypeName()}", prim, attr)
         tets = tets.astype(np.int64)
+        self._check_finite(prim, points)
         bad = ((tets < 0) | (tets >= len(points))).any(axis=1)
         if bad.any():
             i = int(np.argmax(bad))
@@ -92,7 +93,8 @@ class SurfaceReader(FieldReader):
 
         Raises:
             SceneError: vertex counts that do not match the points, orders, knots or ranges that make no B-spline,
-                weights that are not positive numbers, or a colour of the wrong length for its interpolation.
+                weights that are not positive numbers, a point that is not finite, or a colour of the wrong length for
+                its interpolation.
         """
         patch = UsdGeom.NurbsPatch(prim)
         nu, nv = (self._int(prim, a) for a in (patch.GetUVertexCountAttr(), patch.GetVVertexCountAttr()))
@@ -124,10 +126,7 @@ class SurfaceReader(FieldReader):
         if bad.any():
             i = int(np.argmax(bad))
             raise self.error(f"pointWeights[{i}] = {weights[i]:g} is not a positive number", prim, weights_attr)
-        bad = ~np.isfinite(points).all(axis=1)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise self.error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim, patch.GetPointsAttr())
+        self._check_finite(prim, points)
         counts = value_at(patch.GetTrimCurveCountsAttr(), self.time)
         if counts is not None and len(counts):
             self.skip("NurbsPatch trim curves (trimCurve:*) are not applied; the untrimmed surface is drawn", prim)
@@ -169,6 +168,14 @@ class SurfaceReader(FieldReader):
             per_vertex = ((1 - tv) * ((1 - tu) * corners[sv, su] + tu * corners[sv, su + 1])
                           + tv * ((1 - tu) * corners[sv + 1, su] + tu * corners[sv + 1, su + 1]))
         return per_vertex.reshape(-1, 3).astype(np.float32), triangles
+
+    def _check_finite(self, prim, points):
+        """Raises SceneError naming the first point that is not finite, as for meshes."""
+        bad = ~np.isfinite(points).all(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise self.error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim,
+                             UsdGeom.PointBased(prim).GetPointsAttr())
 
     def _int(self, prim, attr) -> int:
         """An ``int`` attribute's value (0 when it has none)."""
