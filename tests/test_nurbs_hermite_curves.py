@@ -208,6 +208,7 @@ def test_curves_are_no_longer_skipped_and_move_with_time(tmp_path):
         (nurbs_body("N", CIRCLE, [3, 3], CIRCLE_KNOTS), "order has 2 values for 1 curves"),
         (nurbs_body("N", CIRCLE, 3, [0] * 12), r"curve 0: the domain \[knots\[2\], knots\[9\]\] = \[0, 0\] is empty"),
         (nurbs_body("N", CIRCLE, 1, list(range(10))), "curve 0: order 1 is below 2"),
+        (nurbs_body("N", CIRCLE, [3, 0], CIRCLE_KNOTS, counts=[9, 0]), "curve 1: order 0 is below 2"),
         (nurbs_body("N", CIRCLE, 3, CIRCLE_KNOTS, extra="    double2[] ranges = [(-1, 2)]\n"),
          r"curve 0: range \(-1, 2\) is not an interval inside the knots' domain \[0, 4\]"),
         (nurbs_body("N", CIRCLE, 3, CIRCLE_KNOTS, [1] * 8 + [0]), r"pointWeights\[8\] = 0 is not a positive number"),

@@ -218,9 +218,10 @@ def nurbs_curve_spans(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
 
     # Check every curve at once; the first that fails is checked again alone for the message.
     bad = (orders < 2) | (counts < orders)
-    ends = np.where(bad, knot_starts, knot_starts + np.minimum(counts, len(knots) - 1 - knot_starts))
-    lo = knots[np.where(bad, knot_starts, knot_starts + orders - 1)] if len(knots) else np.zeros(len(counts))
-    hi = knots[ends] if len(knots) else np.zeros(len(counts))
+    # Each curve's domain [U[order - 1], U[count]] (any knot, kept in bounds, for a curve already found bad).
+    padded = np.append(knots, 0.0)
+    lo = padded[np.minimum(np.where(bad, knot_starts, knot_starts + orders - 1), len(knots))]
+    hi = padded[np.minimum(np.where(bad, knot_starts, knot_starts + counts), len(knots))]
     with np.errstate(invalid="ignore"):
         drops = np.diff(knots) < 0.0
     curve_of_knot = np.repeat(np.arange(len(counts)), counts + orders)
