@@ -15,7 +15,8 @@ times the blackbody colour when ``enableColorTemperature`` is on):
   ``angle = 0`` makes a delta light whose ``color`` is ``E`` either way.
 - **DomeLight**: radiance ``color * texture(direction)`` (``texture = 1`` without a file; ``normalize`` is
   ignored). Latitude-longitude textures follow the OpenEXR convention: +Y is the pole, longitude 0 is +Z,
-  longitude pi/2 is +X, the left image edge is longitude +pi. ``DomeLight_1`` with ``poleAxis = "Z"`` (or
+  longitude pi/2 is +X, the left image edge is longitude +pi (other ``texture:format`` layouts are resampled to
+  lat-long when read: :mod:`wrt.dome_formats`). ``DomeLight_1`` with ``poleAxis = "Z"`` (or
   ``"scene"`` on a Z-up stage) is turned so its pole is +Z.
 - **Emissive triangles**: UsdPreviewSurface ``emissiveColor`` is the surface radiance, from the front side of
   single-sided meshes and from both sides of double-sided ones.

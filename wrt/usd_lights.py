@@ -223,6 +223,7 @@ def _shaped(light, shaping: Shaping, m, prim, skip):
 def _read_dome(prim, m, color, time, up_axis, skip, get):
     from pxr import UsdLux
 
+    from .dome_formats import FORMATS, to_latlong
     from .textures import TextureError, load_image
 
     rotation = m.copy()
@@ -236,15 +237,16 @@ def _read_dome(prim, m, color, time, up_axis, skip, get):
     asset = get(attr, None) if attr else None
     if asset is not None and (getattr(asset, "path", "") or ""):
         fmt = str(get(prim.GetAttribute("inputs:texture:format"), "automatic"))
-        if fmt not in ("automatic", "latlong"):
-            skip(f"DomeLight texture format {fmt!r} is not supported; the dome is constant", prim)
+        if fmt not in FORMATS:
+            skip(f"DomeLight texture format {fmt!r} is not one of UsdLux's ({', '.join(FORMATS)}); the dome is "
+                 "constant", prim)
             return dome
         resolved = getattr(asset, "resolvedPath", "") or ""
         if not resolved:
             skip(f"DomeLight texture {asset.path} was not found; the dome is constant", prim)
             return dome
         try:
-            dome.texture = load_image(resolved, "auto")
+            dome.texture = to_latlong(load_image(resolved, "auto"), fmt)  # "automatic" reads as lat-long
             dome.texture_path = resolved
         except TextureError as e:
             skip(f"DomeLight texture: {e}; the dome is constant", prim)
