@@ -118,3 +118,64 @@ def test_dome_texture_layout_lights_from_its_defined_direction(tmp_path, fmt, to
     facing = plane_facing(toward, [dome])
     assert facing == pytest.approx(ALBEDO * math.sin(CAP) ** 2, rel=0.05)
     assert plane_facing(-toward, [dome], spp=16) == 0.0
+
+
+QUADRANTS = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 1, 0]]], np.float32)  # red, green / blue, yellow
+
+
+def textured_rect_light(tmp_path, intensity=2.0):
+    """A 2 x 1 RectLight at z = 1 emitting down (-Z), textured with :data:`QUADRANTS` (a 2 x 2 PNG), read from USD."""
+    PilImage.fromarray((QUADRANTS * 255).astype(np.uint8), "RGB").save(tmp_path / "quadrants.png")
+    path = tmp_path / "rect.usda"
+    path.write_text(
+        '#usda 1.0\n(\n    upAxis = "Z"\n)\n'
+        f'def RectLight "Panel"\n{{\n    float inputs:width = 2\n    float inputs:height = 1\n'
+        f'    float inputs:intensity = {intensity}\n    asset inputs:texture:file = @quadrants.png@\n'
+        '    double3 xformOp:translate = (0, 0, 1)\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n'
+    )
+    (light,) = wrt.load_usd(path).lights
+    return light
+
+
+def test_rect_light_texture_is_seen_upright_from_the_lit_side(tmp_path):
+    """A camera under the light looking up at its lit side sees the texture as an image viewer shows it: top-left
+    texel at local (+X, +Y), which is the camera's top left (UsdLux: "a texture file's min coordinates should be at
+    (+X, +Y) and max coordinates at (-X, -Y)"). The texture was ignored with a warning: all of it showed white 2."""
+    light = textured_rect_light(tmp_path)
+    floor = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/floor")
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 1), up=(0, 1, 0), height=0.9)  # inside the light
+    img = wrt.render(wrt.Scene(meshes=[floor], lights=[light]), camera=cam, width=8, height=4, spp=1, device="cpu",
+                     integrator="path", max_depth=1)
+    seen = img.rgb.reshape(2, 2, 2, 4, 3)  # (texture row, pixel row, texture column, pixel column, rgb)
+    expected = np.broadcast_to(2.0 * QUADRANTS[:, None, :, None, :], seen.shape)
+    np.testing.assert_allclose(seen, expected, rtol=1e-6)
+
+
+def rect_view_factor(x0, x1, y0, y1, p, height):
+    """View factor from a point ``p`` of the plane z = 0 (facing up) to the parallel rectangle ``[x0, x1] x [y0,
+    y1]`` at z = ``height``: inclusion-exclusion of the corner formula (odd in both its arguments)."""
+    def corner(a, b):
+        A, B = a / height, b / height
+        sa, sb = np.sqrt(1 + A * A), np.sqrt(1 + B * B)
+        return (A / sa * np.arctan(B / sa) + B / sb * np.arctan(A / sb)) / (2 * np.pi)
+
+    px, py = p
+    return corner(x1 - px, y1 - py) - corner(x0 - px, y1 - py) - corner(x1 - px, y0 - py) + corner(x0 - px, y0 - py)
+
+
+def test_rect_light_texture_colours_the_light_it_sends(tmp_path):
+    """Under the red quadrant, the floor's irradiance is the sum over the four quadrants of the texture of their
+    colour times pi L times their view factor (closed form), (1.05, 0.53, 0.69); the texture was ignored with a
+    warning and the floor lit white, 2.01 in every channel."""
+    light = textured_rect_light(tmp_path)
+    floor = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/floor")
+    center = np.array([0.5, 0.1])
+    cam = wrt.Camera.orthographic(eye=(*center, 0.5), target=(*center, 0), up=(0, 1, 0), height=0.05)
+    img = wrt.render(wrt.Scene(meshes=[floor], lights=[light]), camera=cam, width=4, height=4, spp=1024,
+                     device="cpu", integrator="path", max_depth=1)
+    # Quadrant (row, column) of the texture covers local x in [0, 1] for column 0 (+X) and y in [0, 0.5] for row 0.
+    expected = np.zeros(3)
+    for row, (y0, y1) in enumerate([(0.0, 0.5), (-0.5, 0.0)]):
+        for col, (x0, x1) in enumerate([(0.0, 1.0), (-1.0, 0.0)]):
+            expected += QUADRANTS[row, col] * 2.0 * np.pi * rect_view_factor(x0, x1, y0, y1, center, 1.0)
+    np.testing.assert_allclose(img.rgb.reshape(-1, 3).mean(axis=0), ALBEDO * expected / np.pi, rtol=0.03)

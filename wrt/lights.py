@@ -7,7 +7,8 @@ times the blackbody colour when ``enableColorTemperature`` is on):
 - **Area lights** (``SphereLight``, ``RectLight``, ``DiskLight``, ``CylinderLight``) emit radiance
   ``L = color``, or ``color / A`` with ``normalize`` on, where ``A`` is the world-space emitting area
   (``4 pi r^2``, ``w h``, ``pi r^2``, ``2 pi r l``; transforms included). Rect and disk lights emit from their
-  -Z side only; spheres and cylinders (no caps) emit outwards.
+  -Z side only; spheres and cylinders (no caps) emit outwards. A rect light's texture multiplies ``L`` where it
+  lies (nearest texel; upright seen from the lit side: the top-left texel at local ``(+X, +Y)``).
 - ``SphereLight`` with ``treatAsPoint``: a point light of radiant intensity ``I = pi r^2 L`` (the sphere's
   intensity seen from afar), ``I = color / 4`` with ``normalize``.
 - **DistantLight** with ``normalize`` on: ``color`` is the illuminance ``E`` at normal incidence. With ``normalize``
@@ -174,6 +175,10 @@ class RectLight:
         path: prim path.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
         shaping: its :class:`Shaping` (``ShapingAPI``, centred on the local -Z axis), or None.
+        texture: ``(H, W, 3)`` or ``(H, W, 4)`` float32 linear image (``inputs:texture:file``) multiplying the
+            radiance, or None. Seen from the lit side it stands upright: its top-left texel at local ``(+X, +Y)``,
+            its bottom-right at ``(-X, -Y)`` (UsdLux: "min coordinates at (+X, +Y)").
+        texture_path: file the texture came from.
     """
 
     to_world: np.ndarray
@@ -184,10 +189,13 @@ class RectLight:
     path: str = ""
     shadows: bool = True
     shaping: Shaping | None = None
+    texture: np.ndarray | None = None
+    texture_path: str = ""
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR)
         _check_shaping(self)
+        self.texture = _checked_texture(self)
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         x, y, _, _ = _axes(self.to_world)
@@ -304,16 +312,29 @@ class DomeLight:
 
     def __post_init__(self):
         check_fields(self, _COLOR, _TO_WORLD)
-        if self.texture is not None:  # any other shape failed deep in Warp (a TypeError about 'dome_texels')
-            try:
-                texture = np.asarray(self.texture, np.float32)
-            except (TypeError, ValueError):
-                texture = np.zeros(0)
-            if texture.ndim != 3 or texture.shape[2] not in (3, 4) or texture.size == 0:
-                shape = getattr(self.texture, "shape", type(self.texture).__name__)
-                raise SceneError(f"DomeLight texture must be an (H, W, 3) or (H, W, 4) array of numbers, got {shape}",
-                                 prim=self.path or None)
-            self.texture = texture
+        self.texture = _checked_texture(self)
+
+
+def _checked_texture(light) -> np.ndarray | None:
+    """``light.texture`` as float32, or None; any shape but ``(H, W, 3 or 4)`` raises, naming the light (it failed
+    deep in Warp, a TypeError about 'dome_texels')."""
+    if light.texture is None:
+        return None
+    try:
+        texture = np.asarray(light.texture, np.float32)
+    except (TypeError, ValueError):
+        texture = np.zeros(0)
+    if texture.ndim != 3 or texture.shape[2] not in (3, 4) or texture.size == 0:
+        shape = getattr(light.texture, "shape", type(light.texture).__name__)
+        raise SceneError(f"{type(light).__name__} texture must be an (H, W, 3) or (H, W, 4) array of numbers, got "
+                         f"{shape}", prim=light.path or None)
+    return texture
+
+
+def _emitted_texels(texture: np.ndarray) -> np.ndarray:
+    """``(H, W, 3)`` float32 RGB of a light's texture with negative, NaN and infinite texels made 0."""
+    texels = np.ascontiguousarray(texture[..., :3], np.float32)
+    return np.nan_to_num(np.maximum(texels, 0.0), nan=0.0, posinf=0.0)
 
 
 def _check_shaping(light) -> None:
@@ -371,6 +392,8 @@ class DeviceLights:
     dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of luminance * sin(theta)
     dome_col_cdf: wp.array2d[float]  # (H, W + 1) CDF over columns in each row
     dome_mean: wp.vec3  # radiance averaged over the sphere
+    texture: wp.array[wp.vec3i]  # (offset into texels, width, height) of a rect light's texture; width 0: none
+    texels: wp.array[wp.vec3]  # the rect lights' textures, row-major from the top row, one after the other
     headlight: int  # index of the default headlight, -1 without one: it travels along each view's direction
     headlight_dirs: wp.array[wp.vec3]  # (V,) unit direction of travel of the headlight in view (camera) V
 
@@ -402,6 +425,7 @@ class HostLights:
     shaping: list
     shaping_axis: list
     focus_tint: list
+    texture: list
 
 
 def _emitter_triangles(scene, materials_emission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -475,8 +499,11 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             _, _, z, origin = _axes(light.to_world)
             n = _emitting_normal(u, v, z)
             L = light.radiance
+            texels = None if light.texture is None else _emitted_texels(light.texture)
+            mean = np.ones(3) if texels is None else texels.reshape(-1, 3).mean(axis=0, dtype=np.float64)
             _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
-                 math.pi * light.area * luminance_np(L))
+                 math.pi * light.area * luminance_np(L * mean))
+            h.texture[-1] = texels
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
         elif isinstance(light, DiskLight):
             x, y, z, origin = _axes(light.to_world)
@@ -515,8 +542,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
         dome_rot = np.linalg.inv(r)
         dome_mean = np.asarray(dome.color, np.float32)
         if dome.texture is not None:
-            texels = np.ascontiguousarray(dome.texture[..., :3], np.float32)
-            texels = np.nan_to_num(np.maximum(texels, 0.0), nan=0.0, posinf=0.0)
+            texels = _emitted_texels(dome.texture)
             row_cdf, col_cdf, mean = _dome_distribution(texels)
             dome_mean = (dome_mean * mean).astype(np.float32)
         if num_analytic:
@@ -562,9 +588,25 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.dome_row_cdf = wp.array(row_cdf, dtype=float, device=device)
     d.dome_col_cdf = wp.array(col_cdf, dtype=float, device=device)
     d.dome_mean = wp.vec3(*dome_mean.tolist())
+    d.texture, d.texels = _upload_textures(h.texture, device)
     d.headlight = -1  # set by the renderer, which knows the cameras (set_headlight_directions)
     d.headlight_dirs = wp.zeros(1, dtype=wp.vec3, device=device)
     return d
+
+
+def _upload_textures(textures: list, device) -> tuple[wp.array, wp.array]:
+    """The ``(offset, width, height)`` of each light's texture (``(H, W, 3)`` or None) and their texels packed one
+    after the other (one white texel when there are none)."""
+    info = np.zeros((max(len(textures), 1), 3), np.int32)
+    packed = [np.ones((1, 3), np.float32)]
+    offset = 1
+    for k, texels in enumerate(textures):
+        if texels is not None:
+            info[k] = (offset, texels.shape[1], texels.shape[0])
+            packed.append(texels.reshape(-1, 3))
+            offset += texels.shape[0] * texels.shape[1]
+    return (wp.array(info, dtype=wp.vec3i, device=device),
+            wp.array(np.concatenate(packed), dtype=wp.vec3, device=device))
 
 
 def set_headlight_directions(d: DeviceLights, index: int, forwards, device) -> None:
@@ -596,6 +638,7 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.shaping.append(np.zeros(4, np.float32))
     h.shaping_axis.append(np.zeros(3, np.float32))
     h.focus_tint.append(np.zeros(3, np.float32))
+    h.texture.append(None)
 
 
 def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool) -> None:
@@ -709,6 +752,22 @@ def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
     if params[3] == 0.0:
         return wp.vec3(1.0)
     return cone_and_focus(params, lights.shaping_axis[k], lights.focus_tint[k], w)
+
+
+@wp.func
+def light_texture(lights: DeviceLights, k: int, q: wp.vec3):
+    """The texel of light ``k``'s texture at point ``q`` on it (1 without a texture). A rect light's texture lies
+    upright seen from its lit side: column 0 at local +X, row 0 (the top) at local +Y."""
+    info = lights.texture[k]
+    if info[1] == 0:
+        return wp.vec3(1.0)
+    u = lights.axis_u[k]
+    v = lights.axis_v[k]
+    a = wp.dot(q - lights.position[k], u) / wp.length_sq(u)  # -0.5 at local -X, 0.5 at +X
+    b = wp.dot(q - lights.position[k], v) / wp.length_sq(v)
+    x = wp.clamp(int((0.5 - a) * float(info[1])), 0, info[1] - 1)
+    y = wp.clamp(int((0.5 - b) * float(info[2])), 0, info[2] - 1)
+    return lights.texels[info[0] + y * info[1] + x]
 
 
 @wp.func
@@ -994,6 +1053,7 @@ def sample_light(
         else:
             dd = sample_concentric_disk(u1, u2)
             q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
+        L = wp.cw_mul(L, light_texture(lights, k, q))
     elif kind == LIGHT_CYLINDER:
         # Only the half of the tube facing p can be seen from it: sample that half uniformly by area.
         axis = lights.axis_u[k]

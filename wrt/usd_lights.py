@@ -189,9 +189,9 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         found = sizes((r.GetWidthAttr(), "width", 1.0), (r.GetHeightAttr(), "height", 1.0))
         if found is None:
             return None
-        if get(r.GetTextureFileAttr(), None):
-            skip("RectLight textures are not supported; the light's colour is used", prim)
-        return RectLight(m, found[0], found[1], color, normalize, path)
+        light = RectLight(m, found[0], found[1], color, normalize, path)
+        light.texture, light.texture_path = _read_texture(prim, get(r.GetTextureFileAttr(), None), "RectLight", skip)
+        return light
     if prim.IsA(UsdLux.DiskLight):
         found = sizes((UsdLux.DiskLight(prim).GetRadiusAttr(), "radius", 0.5))
         return None if found is None else DiskLight(m, found[0], color, normalize, path)
@@ -224,7 +224,6 @@ def _read_dome(prim, m, color, time, up_axis, skip, get):
     from pxr import UsdLux
 
     from .dome_formats import FORMATS, to_latlong
-    from .textures import TextureError, load_image
 
     rotation = m.copy()
     if hasattr(UsdLux, "DomeLight_1") and prim.IsA(UsdLux.DomeLight_1):
@@ -235,19 +234,31 @@ def _read_dome(prim, m, color, time, up_axis, skip, get):
     dome = DomeLight(color=color, to_world=rotation, path=str(prim.GetPath()))
     attr = prim.GetAttribute("inputs:texture:file")
     asset = get(attr, None) if attr else None
-    if asset is not None and (getattr(asset, "path", "") or ""):
-        fmt = str(get(prim.GetAttribute("inputs:texture:format"), "automatic"))
-        if fmt not in FORMATS:
+    fmt = str(get(prim.GetAttribute("inputs:texture:format"), "automatic"))
+    if fmt not in FORMATS:
+        if asset is not None and (getattr(asset, "path", "") or ""):
             skip(f"DomeLight texture format {fmt!r} is not one of UsdLux's ({', '.join(FORMATS)}); the dome is "
                  "constant", prim)
-            return dome
-        resolved = getattr(asset, "resolvedPath", "") or ""
-        if not resolved:
-            skip(f"DomeLight texture {asset.path} was not found; the dome is constant", prim)
-            return dome
-        try:
-            dome.texture = to_latlong(load_image(resolved, "auto"), fmt)  # "automatic" reads as lat-long
-            dome.texture_path = resolved
-        except TextureError as e:
-            skip(f"DomeLight texture: {e}; the dome is constant", prim)
+        return dome
+    texture, dome.texture_path = _read_texture(prim, asset, "DomeLight", skip)
+    if texture is not None:
+        dome.texture = to_latlong(texture, fmt)  # "automatic" reads as lat-long
     return dome
+
+
+def _read_texture(prim, asset, kind: str, skip):
+    """The ``(H, W, 4)`` image of a light's ``inputs:texture:file`` value ``asset`` and its resolved path, or
+    ``(None, "")`` (with a warning through ``skip`` when a file is named but cannot be read)."""
+    from .textures import TextureError, load_image
+
+    if asset is None or not (getattr(asset, "path", "") or ""):
+        return None, ""
+    resolved = getattr(asset, "resolvedPath", "") or ""
+    if not resolved:
+        skip(f"{kind} texture {asset.path} was not found; the light's colour is used", prim)
+        return None, ""
+    try:
+        return load_image(resolved, "auto"), resolved
+    except TextureError as e:
+        skip(f"{kind} texture: {e}; the light's colour is used", prim)
+        return None, ""

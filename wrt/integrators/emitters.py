@@ -17,6 +17,7 @@ from ..lights import (
     dome_radiance,
     emission_shaping,
     intersect_light,
+    light_texture,
 )
 from ..sampling import power_heuristic
 
@@ -43,6 +44,7 @@ def lights_on_segment(
             if t > t_min and t < t_max:
                 pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
                 L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
+                L = wp.cw_mul(L, light_texture(lights, k, o + t * d))
                 total += L * mis_weight(pdf_bsdf, pdf_l)
     return total
 
