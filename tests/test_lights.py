@@ -572,8 +572,8 @@ def test_light_without_shadows_passes_through_occluders(integrator):
 
 
 def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
-    """``inputs:shadow:enable`` is read (applied API or not); a shadow tint and light multipliers, which wrt does not
-    render, are reported by prim."""
+    """``inputs:shadow:enable`` is read (applied API or not), and so are the diffuse and specular multipliers; a
+    shadow tint, which wrt does not render, is reported by prim."""
 
     def build(stage):
         off = UsdLux.SphereLight.Define(stage, "/NoShadows")
@@ -588,9 +588,11 @@ def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     messages = [str(w.message) for w in caught]
     assert any("shadow colour" in m and m.endswith("/Tinted") for m in messages), messages
-    assert any("multipliers" in m and m.endswith("/Dim") for m in messages), messages
+    assert not any("multiplier" in m for m in messages), messages
     shadows = {light.path: light.shadows for light in scene.lights}
     assert shadows == {"/NoShadows": False, "/Plain": True, "/Tinted": True, "/Dim": True}
+    multipliers = {light.path: (light.diffuse, light.specular) for light in scene.lights}
+    assert multipliers == {"/NoShadows": (1, 1), "/Plain": (1, 1), "/Tinted": (1, 1), "/Dim": (0.5, 1)}
 
 
 def test_non_uniformly_scaled_sphere_light_is_reported(tmp_path):
@@ -701,7 +703,7 @@ def environment_kernel(
 ):
     """What an escaped ray along ``dirs[i]`` sees, with MIS weight 1 (a mirror's or the camera's ray)."""
     i = wp.tid()
-    radiance[i] = environment(lights, dirs[i], 0.0, wp.vec3(0.0))[0]
+    radiance[i] = environment(lights, dirs[i], 0.0, wp.vec3(0.0), 1, wp.vec3(0.0))[0]
 
 
 def cap_directions(axis, one_minus_max, count, rng):
@@ -753,7 +755,7 @@ def lights_on_ray_kernel(
 ):
     """Radiance of the area lights a ray from the origin along ``dirs[i]`` passes through, with MIS weight 1."""
     i = wp.tid()
-    radiance[i] = lights_on_segment(lights, wp.vec3(0.0), dirs[i], 0.0, wp.inf, 0.0, wp.vec3(0.0))[0]
+    radiance[i] = lights_on_segment(lights, wp.vec3(0.0), dirs[i], 0.0, wp.inf, 0.0, wp.vec3(0.0), 1, wp.vec3(0.0))[0]
 
 
 @pytest.mark.parametrize("distance, radius", [(10.0, 0.05), (100.0, 0.1), (1000.0, 0.5), (30.0, 0.01)])

@@ -336,16 +336,18 @@ def lobe_albedos(s: Surface, tables: GgxAlbedo, cos_o: float):
 
 @wp.func
 def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
-    """The opaque BSDF's non-delta lobes: ``(f, pdf)`` for light from ``wi`` seen from ``wo``.
+    """The opaque BSDF's non-delta lobes: ``(f_diffuse, f_specular, pdf)`` for light from ``wi`` seen from ``wo``.
 
     ``n`` is the shading normal and ``ng`` the geometric normal, both on the side of ``wo``; ``lobes`` is
-    :func:`lobe_albedos` for ``dot(n, wo)``. ``f`` excludes the cosine; ``pdf`` is the solid-angle density with which
+    :func:`lobe_albedos` for ``dot(n, wo)``. ``f_diffuse`` is the Lambertian lobe and ``f_specular`` the GGX,
+    multiple-scattering and clearcoat lobes (what UsdLux's ``diffuse`` and ``specular`` light multipliers scale);
+    ``f = f_diffuse + f_specular`` excludes the cosine; ``pdf`` is the solid-angle density with which
     :func:`sample_bsdf` draws ``wi`` from its opaque lobes.
     """
     cos_o = wp.dot(n, wo)
     cos_i = wp.dot(n, wi)
     if cos_o <= 0.0 or cos_i <= 0.0 or wp.dot(ng, wi) <= 0.0:
-        return wp.vec3(0.0), 0.0
+        return wp.vec3(0.0), wp.vec3(0.0), 0.0
     h = wp.normalize(wo + wi)
     cos_h = wp.dot(n, h)
     sin2_h = wp.length_sq(wp.cross(n, h))
@@ -358,7 +360,8 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, n
     coat_below = 1.0 - lobes.coat
     w = lobes.weights
 
-    f = wp.cw_mul(wp.vec3(1.0) - lobes.spec - lobes.spec_ms, surface_albedo(s)) * (INV_PI * coat_below)
+    f_diffuse = wp.cw_mul(wp.vec3(1.0) - lobes.spec - lobes.spec_ms, surface_albedo(s)) * (INV_PI * coat_below)
+    f = wp.vec3(0.0)  # the specular lobes
     pdf = w[0] * cos_i * INV_PI
     if s.roughness >= DELTA_ROUGHNESS:
         a = ggx_alpha(s.roughness)
@@ -372,17 +375,34 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, n
         fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_vh)
         f += wp.vec3(fc * ggx_d(cos_h, sin2_h, ac) * ggx_g2(cos_o, cos_i, ac) / (4.0 * cos_o * cos_i))
         pdf += w[3] * ggx_reflection_pdf(cos_o, cos_h, sin2_h, ac)
-    return f, pdf
+    return f_diffuse, f, pdf
+
+
+@wp.func
+def eval_bsdf_lobes(
+    s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3
+):
+    """The whole BSDF's non-delta part: ``(f_diffuse, f_specular, pdf)`` with the opaque fraction applied (see
+    :func:`eval_opaque`); ``tables`` are :func:`wrt.microfacet_albedo.ggx_albedo_tables` on the kernel's device,
+    ``lobes`` is :func:`lobe_albedos` for ``dot(n, wo)``."""
+    f_diffuse, f_specular, pdf = eval_opaque(s, tables, lobes, n, ng, wo, wi)
+    k = opaque_fraction(s)
+    return f_diffuse * k, f_specular * k, pdf * k
 
 
 @wp.func
 def eval_bsdf(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, wi: wp.vec3):
-    """The whole BSDF's non-delta part: ``(f, pdf)`` with the opaque fraction applied (see :func:`eval_opaque`);
-    ``tables`` are :func:`wrt.microfacet_albedo.ggx_albedo_tables` on the kernel's device, ``lobes`` is
-    :func:`lobe_albedos` for ``dot(n, wo)``."""
-    f, pdf = eval_opaque(s, tables, lobes, n, ng, wo, wi)
-    k = opaque_fraction(s)
-    return f * k, pdf * k
+    """``(f, pdf)`` of :func:`eval_bsdf_lobes`, its two parts added."""
+    f_diffuse, f_specular, pdf = eval_bsdf_lobes(s, tables, lobes, n, ng, wo, wi)
+    return f_diffuse + f_specular, pdf
+
+
+@wp.func
+def share(part: float, whole: float):
+    """``part / whole``, 0 where ``whole`` is not positive."""
+    if whole > 0.0:
+        return part / whole
+    return 0.0
 
 
 @wp.struct
@@ -392,6 +412,7 @@ class BsdfSample:
     wi: wp.vec3  # unit direction towards the light, world space
     weight: wp.vec3  # f * |cos| / pdf: the throughput factor of this bounce (zero: the path ends)
     pdf: float  # solid-angle pdf of ``wi`` (0 for delta events)
+    diffuse: wp.vec3  # the diffuse lobe's share of ``weight`` per channel (0 for delta events and where it is 0)
     delta: int  # 1 when a delta lobe (mirror, refraction) was sampled: no MIS on the next hit
     transmitted: int  # 1 when ``wi`` crossed the surface
 
@@ -429,6 +450,7 @@ def sample_bsdf(
     out.wi = wp.vec3(0.0)
     out.weight = wp.vec3(0.0)
     out.pdf = 0.0
+    out.diffuse = wp.vec3(0.0)
     out.delta = 0
     out.transmitted = 0
     cos_o = wp.dot(n, wo)
@@ -486,8 +508,10 @@ def sample_bsdf(
         h = to_world(sample_ggx_vndf(wo_local, ggx_alpha(s.clearcoat_roughness), u2, u3), n)
         out.wi = reflect(wo, h)
 
-    f, pdf = eval_opaque(s, tables, lobes, n, ng, wo, out.wi)
+    f_diffuse, f_specular, pdf = eval_opaque(s, tables, lobes, n, ng, wo, out.wi)
     if pdf > 0.0:
+        f = f_diffuse + f_specular
         out.weight = f * (wp.dot(n, out.wi) / pdf)
         out.pdf = pdf * k
+        out.diffuse = wp.vec3(share(f_diffuse[0], f[0]), share(f_diffuse[1], f[1]), share(f_diffuse[2], f[2]))
     return out

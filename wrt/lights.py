@@ -22,6 +22,8 @@ times the blackbody colour when ``enableColorTemperature`` is on):
 - **Emissive triangles**: UsdPreviewSurface ``emissiveColor`` is the surface radiance, from the front side of
   single-sided meshes and from both sides of double-sided ones.
 - A Lambertian surface of albedo ``rho`` under illuminance ``E`` therefore shows radiance ``rho E / pi``.
+- **Multipliers** ``diffuse`` and ``specular`` (UsdLux's non-physical controls) scale what surfaces reflect of a
+  light through their diffuse lobe and their specular lobes (:func:`lobe_factor`); camera rays see lights unscaled.
 - **Shaping** (``ShapingAPI`` cone, softness, focus and focus tint, :mod:`wrt.light_shaping`) multiplies what sphere,
   rect, disk and cylinder lights emit in each direction, after ``normalize``, for light sampling and for rays that
   see the light alike.
@@ -91,6 +93,8 @@ INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older f
 # check_fields specs shared by the lights below.
 _COLOR = ("color", (3,), 0.0, np.float32)  # a negative colour would take light away: negative pixels
 _TO_WORLD = ("to_world", (4, 4), None, np.float64)
+# UsdLux's diffuse and specular multipliers: a negative one would take light away.
+_MULTIPLIERS = (("diffuse", (), 0.0, float), ("specular", (), 0.0, float))
 
 
 def _size(name: str) -> tuple:
@@ -118,6 +122,8 @@ class SphereLight:
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
         shaping: its :class:`Shaping` (``ShapingAPI``), or None.
         axis: ``(3,)`` world direction of the light's -Z axis, which its shaping is centred on (made unit).
+        diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
+        specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
     """
 
     position: np.ndarray
@@ -129,10 +135,12 @@ class SphereLight:
     shadows: bool = True
     shaping: Shaping | None = None
     axis: np.ndarray = dataclasses.field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    diffuse: float = 1.0
+    specular: float = 1.0
 
     def __post_init__(self):
         check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR,
-                     ("axis", (3,), None, np.float64))
+                     ("axis", (3,), None, np.float64), *_MULTIPLIERS)
         self.axis = self.unit_axis()
         _check_shaping(self)
 
@@ -179,6 +187,8 @@ class RectLight:
             radiance, or None. Seen from the lit side it stands upright: its top-left texel at local ``(+X, +Y)``,
             its bottom-right at ``(-X, -Y)`` (UsdLux: "min coordinates at (+X, +Y)").
         texture_path: file the texture came from.
+        diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
+        specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
     """
 
     to_world: np.ndarray
@@ -191,9 +201,11 @@ class RectLight:
     shaping: Shaping | None = None
     texture: np.ndarray | None = None
     texture_path: str = ""
+    diffuse: float = 1.0
+    specular: float = 1.0
 
     def __post_init__(self):
-        check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR)
+        check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR, *_MULTIPLIERS)
         _check_shaping(self)
         self.texture = _checked_texture(self)
 
@@ -223,6 +235,8 @@ class DiskLight:
         path: prim path.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
         shaping: its :class:`Shaping` (``ShapingAPI``, centred on the local -Z axis), or None.
+        diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
+        specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
     """
 
     to_world: np.ndarray
@@ -232,9 +246,11 @@ class DiskLight:
     path: str = ""
     shadows: bool = True
     shaping: Shaping | None = None
+    diffuse: float = 1.0
+    specular: float = 1.0
 
     def __post_init__(self):
-        check_fields(self, _TO_WORLD, _size("radius"), _COLOR)
+        check_fields(self, _TO_WORLD, _size("radius"), _COLOR, *_MULTIPLIERS)
         _check_shaping(self)
 
     @property
@@ -260,6 +276,8 @@ class CylinderLight:
         path: prim path.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
         shaping: its :class:`Shaping` (``ShapingAPI``, centred on the local -Z axis), or None.
+        diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
+        specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
     """
 
     to_world: np.ndarray
@@ -270,9 +288,11 @@ class CylinderLight:
     path: str = ""
     shadows: bool = True
     shaping: Shaping | None = None
+    diffuse: float = 1.0
+    specular: float = 1.0
 
     def __post_init__(self):
-        check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR)
+        check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR, *_MULTIPLIERS)
         _check_shaping(self)
 
     def world_shape(self) -> tuple[np.ndarray, float]:
@@ -301,6 +321,8 @@ class DomeLight:
         texture_path: file the texture came from.
         path: prim path.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
+        diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
+        specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
     """
 
     color: np.ndarray
@@ -309,9 +331,11 @@ class DomeLight:
     texture_path: str = ""
     path: str = ""
     shadows: bool = True
+    diffuse: float = 1.0
+    specular: float = 1.0
 
     def __post_init__(self):
-        check_fields(self, _COLOR, _TO_WORLD)
+        check_fields(self, _COLOR, _TO_WORLD, *_MULTIPLIERS)
         self.texture = _checked_texture(self)
 
 
@@ -394,6 +418,7 @@ class DeviceLights:
     dome_mean: wp.vec3  # radiance averaged over the sphere
     texture: wp.array[wp.vec3i]  # (offset into texels, width, height) of a rect light's texture; width 0: none
     texels: wp.array[wp.vec3]  # the rect lights' textures, row-major from the top row, one after the other
+    lobe_scale: wp.array[wp.vec2]  # (diffuse, specular) multipliers (UsdLux inputs:diffuse, inputs:specular)
     headlight: int  # index of the default headlight, -1 without one: it travels along each view's direction
     headlight_dirs: wp.array[wp.vec3]  # (V,) unit direction of travel of the headlight in view (camera) V
 
@@ -426,6 +451,7 @@ class HostLights:
     shaping_axis: list
     focus_tint: list
     texture: list
+    lobe_scale: list
 
 
 def _emitter_triangles(scene, materials_emission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -523,6 +549,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
         else:
             raise TypeError(f"unsupported light {type(light).__name__}")
         h.shadows[-1] = int(bool(light.shadows))
+        h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
     num_analytic = len(h.kinds)
 
     # Emissive triangles.
@@ -577,6 +604,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.shaping = arr(h.shaping, wp.vec4, 4)
     d.shaping_axis = arr(h.shaping_axis, wp.vec3)
     d.focus_tint = arr(h.focus_tint, wp.vec3)
+    d.lobe_scale = arr(h.lobe_scale, wp.vec2, 2)
     d.pmf = wp.array(pmf.astype(np.float32), dtype=float, device=device)
     d.cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
     d.count = n
@@ -639,6 +667,7 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.shaping_axis.append(np.zeros(3, np.float32))
     h.focus_tint.append(np.zeros(3, np.float32))
     h.texture.append(None)
+    h.lobe_scale.append(np.ones(2, np.float32))
 
 
 def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool) -> None:
@@ -768,6 +797,14 @@ def light_texture(lights: DeviceLights, k: int, q: wp.vec3):
     x = wp.clamp(int((0.5 - a) * float(info[1])), 0, info[1] - 1)
     y = wp.clamp(int((0.5 - b) * float(info[2])), 0, info[2] - 1)
     return lights.texels[info[0] + y * info[1] + x]
+
+
+@wp.func
+def lobe_factor(lights: DeviceLights, k: int, diffuse_share: wp.vec3):
+    """The factor of light ``k``'s ``diffuse`` and ``specular`` multipliers on light a surface reflects with
+    ``diffuse_share`` of it (per channel) through its diffuse lobe and the rest through its specular lobes."""
+    m = lights.lobe_scale[k]
+    return wp.vec3(m[1]) + (m[0] - m[1]) * diffuse_share
 
 
 @wp.func

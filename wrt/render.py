@@ -160,6 +160,7 @@ class _Wavefront:
         "alive": wp.int32,
         "pdf_prev": float,
         "prev_normal": wp.vec3,
+        "diffuse_share": wp.vec3,  # path: the diffuse lobe's share of the last bounce's weight (emitters.scattered_by)
         "shadow_origins": wp.vec3,
         "shadow_dirs": wp.vec3,
         "shadow_t_maxs": float,
@@ -617,7 +618,7 @@ class Renderer:
                 shade_path_kernel,
                 w.n,
                 [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim, h.instance, w.views],
-                [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal]
+                [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.diffuse_share]
                 + [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
                 self.device,
             )
@@ -634,7 +635,7 @@ class Renderer:
             launch_per_path(
                 shade_whitted_kernel,
                 w.n,
-                [ds, surf, mats, lights, *hit, w.origins, w.directions, w.t_mins, w.throughput],
+                [ds, surf, mats, lights, bounce, *hit, w.origins, w.directions, w.t_mins, w.throughput],
                 [w.radiance, w.alive],
                 self.device,
             )

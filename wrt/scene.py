@@ -167,6 +167,8 @@ class DistantLight:
         angle: angular diameter in degrees; 0 makes a delta light.
         normalize: ``inputs:normalize``.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
+        diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
+        specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
     """
 
     direction: np.ndarray
@@ -175,12 +177,14 @@ class DistantLight:
     angle: float = 0.0
     normalize: bool = False
     shadows: bool = True
+    diffuse: float = 1.0
+    specular: float = 1.0
 
     def __post_init__(self):
         from .errors import SceneError, check_fields
 
         check_fields(self, ("direction", (3,), None, np.float64), ("color", (3,), 0.0, np.float32),
-                     ("angle", (), 0.0, float))
+                     ("angle", (), 0.0, float), ("diffuse", (), 0.0, float), ("specular", (), 0.0, float))
         length = np.linalg.norm(self.direction)
         if not length > 0.0:  # a zero direction lit nothing, without a word
             raise SceneError(f"DistantLight direction must not be zero, got {self.direction.tolist()}",

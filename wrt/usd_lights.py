@@ -73,8 +73,9 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
     if np.any(color < 0.0):  # a light cannot take light away: negative pixels would follow
         skip("negative light colour or intensity was clamped to 0", prim)
         color = np.maximum(color, 0.0)
-    if float(get(light.GetDiffuseAttr(), 1.0)) != 1.0 or float(get(light.GetSpecularAttr(), 1.0)) != 1.0:
-        skip("light diffuse and specular multipliers are not supported; these lights light both fully", prim)
+    multipliers = _multipliers(prim, light, skip, get)
+    if multipliers is None:
+        return None
     if _shadow_tinted(prim, get):
         skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
              prim)
@@ -93,7 +94,28 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
         _report_links_and_filters(prim, light, skip)
         # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
         result.shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
+        result.diffuse, result.specular = multipliers
     return result
+
+
+def _multipliers(prim, light, skip, get):
+    """``(diffuse, specular)``: the light's multipliers on diffuse and specular reflection, negative ones clamped
+    to 0 with a warning; None (skipped with a warning) when one is not a finite number."""
+    values = []
+    for attr, name in ((light.GetDiffuseAttr(), "diffuse"), (light.GetSpecularAttr(), "specular")):
+        try:
+            value = float(get(attr, 1.0))
+        except (TypeError, ValueError):  # authored with a wrong type
+            value = math.nan
+        if not math.isfinite(value):
+            skip("lights whose diffuse or specular multiplier is not a finite number were skipped", prim,
+                 f"inputs:{name} = {value:g}")
+            return None
+        if value < 0.0:  # a light cannot take light away: negative pixels would follow
+            skip("negative light diffuse and specular multipliers were clamped to 0", prim, f"inputs:{name}")
+            value = 0.0
+        values.append(value)
+    return values
 
 
 def _report_links_and_filters(prim, light, skip):

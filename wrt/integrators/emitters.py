@@ -1,5 +1,7 @@
 """Radiance that a ray segment picks up from lights: analytic area lights it passes through and, for rays that
-escape, the dome and the discs of soft distant lights; each weighted against BSDF sampling by MIS."""
+escape, the dome and the discs of soft distant lights; each weighted against BSDF sampling by MIS, and, for rays a
+surface scattered, by the lights' ``diffuse`` and ``specular`` multipliers on the lobes that scattered them (camera
+rays see lights unscaled)."""
 
 import warp as wp
 
@@ -18,6 +20,7 @@ from ..lights import (
     emission_shaping,
     intersect_light,
     light_texture,
+    lobe_factor,
 )
 from ..sampling import power_heuristic
 
@@ -31,11 +34,29 @@ def mis_weight(pdf_bsdf: float, pdf_light: float):
 
 
 @wp.func
+def scattered_by(lights: DeviceLights, k: int, camera: int, diffuse_share: wp.vec3):
+    """The factor of light ``k``'s multipliers on what a ray brings back from it: 1 for camera rays, else
+    :func:`wrt.lights.lobe_factor` for the surface that scattered the ray with ``diffuse_share`` diffusely."""
+    if camera == 1:
+        return wp.vec3(1.0)
+    return lobe_factor(lights, k, diffuse_share)
+
+
+@wp.func
 def lights_on_segment(
-    lights: DeviceLights, o: wp.vec3, d: wp.vec3, t_min: float, t_max: float, pdf_bsdf: float, n_prev: wp.vec3
+    lights: DeviceLights,
+    o: wp.vec3,
+    d: wp.vec3,
+    t_min: float,
+    t_max: float,
+    pdf_bsdf: float,
+    n_prev: wp.vec3,
+    camera: int,
+    diffuse_share: wp.vec3,
 ):
     """Radiance of every analytic area light that unit ray ``(o, d)`` passes through in ``(t_min, t_max)``;
-    ``n_prev`` is the shading normal at ``o`` (zero for camera rays)."""
+    ``n_prev`` is the shading normal at ``o`` (zero for camera rays); ``camera`` is 1 for camera rays, else
+    ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see :func:`scattered_by`)."""
     total = wp.vec3(0.0)
     for k in range(lights.num_analytic):
         kind = lights.kinds[k]
@@ -45,21 +66,27 @@ def lights_on_segment(
                 pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
                 L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
                 L = wp.cw_mul(L, light_texture(lights, k, o + t * d))
+                L = wp.cw_mul(L, scattered_by(lights, k, camera, diffuse_share))
                 total += L * mis_weight(pdf_bsdf, pdf_l)
     return total
 
 
 @wp.func
-def environment(lights: DeviceLights, d: wp.vec3, pdf_bsdf: float, n_prev: wp.vec3):
-    """Radiance arriving along an escaped ray ``d``: the dome and the discs of soft distant lights."""
+def environment(
+    lights: DeviceLights, d: wp.vec3, pdf_bsdf: float, n_prev: wp.vec3, camera: int, diffuse_share: wp.vec3
+):
+    """Radiance arriving along an escaped ray ``d``: the dome and the discs of soft distant lights (``camera``,
+    ``diffuse_share``: see :func:`lights_on_segment`)."""
     total = wp.vec3(0.0)
     for k in range(lights.num_analytic):
         kind = lights.kinds[k]
         if kind == LIGHT_DOME:
             pdf_l = lights.pmf[k] * dome_pdf(lights, d, n_prev)
-            total += dome_radiance(lights, d) * mis_weight(pdf_bsdf, pdf_l)
+            L = wp.cw_mul(dome_radiance(lights, d), scattered_by(lights, k, camera, diffuse_share))
+            total += L * mis_weight(pdf_bsdf, pdf_l)
         elif kind == LIGHT_DISTANT:
             if distant_in_cone(lights, k, d):
                 pdf_l = lights.pmf[k] / lights.params[k][1]
-                total += lights.radiance[k] * mis_weight(pdf_bsdf, pdf_l)
+                L = wp.cw_mul(lights.radiance[k], scattered_by(lights, k, camera, diffuse_share))
+                total += L * mis_weight(pdf_bsdf, pdf_l)
     return total

@@ -18,7 +18,7 @@ their pdf from that point, as next-event estimation weights them. A ray still in
 
 import warp as wp
 
-from ..bsdf import eval_bsdf, lobe_albedos, sample_bsdf
+from ..bsdf import eval_bsdf_lobes, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin
 from ..lights import DeviceLights, sample_light_in_view, shadow_direction, triangle_light_pdf
 from ..materials import DeviceMaterials, eval_surface
@@ -58,6 +58,7 @@ def shade_path_kernel(
     alive: wp.array[wp.int32],
     pdf_prev: wp.array[float],
     prev_normal: wp.array[wp.vec3],
+    diffuse_share: wp.array[wp.vec3],
     shadow_origins: wp.array[wp.vec3],
     shadow_dirs: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
@@ -83,10 +84,13 @@ def shade_path_kernel(
     prim = hit_prim[i]
     t_hit = hit_t[i]
 
-    # Add the analytic lights the segment passes through, then what an escaped ray sees.
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, pdf_b, prev_normal[i]))
+    # Add the analytic lights the segment passes through, then what an escaped ray sees (scaled by the lights'
+    # multipliers on the lobe that scattered the ray, unless it is a camera ray).
+    camera = wp.where(bounce == 0, 1, 0)
+    share = diffuse_share[i]
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, pdf_b, prev_normal[i], camera, share))
     if prim < 0:
-        L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i]))
+        L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i], camera, share))
         radiance[i] = L
         alive[i] = 0
         t_maxs[i] = 0.0
@@ -129,7 +133,9 @@ def shade_path_kernel(
             lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
         )
         if pmf > 0.0 and max_component(ls.value) > 0.0:
-            f, pdf_f = eval_bsdf(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
+            f_d, f_s, pdf_f = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
+            scale = lights.lobe_scale[k]  # the light's diffuse and specular multipliers
+            f = f_d * scale[0] + f_s * scale[1]
             if max_component(f) > 0.0:
                 w = float(1.0)
                 if ls.pdf > 0.0:
@@ -175,6 +181,7 @@ def shade_path_kernel(
     t_mins[i] = 0.0
     t_maxs[i] = wp.inf
     pdf_prev[i] = wp.where(bs.delta == 1, 0.0, bs.pdf)
+    diffuse_share[i] = bs.diffuse
 
 
 @wp.kernel

@@ -18,7 +18,7 @@ import warp as wp
 from ..bsdf import (
     DELTA_ROUGHNESS,
     Surface,
-    eval_bsdf,
+    eval_bsdf_lobes,
     fresnel_dielectric,
     is_glass,
     lobe_albedos,
@@ -70,6 +70,7 @@ def shade_whitted_kernel(
     surf: DeviceSurfaces,
     mats: DeviceMaterials,
     lights: DeviceLights,
+    bounce: int,
     hit_t: wp.array[float],
     hit_u: wp.array[float],
     hit_v: wp.array[float],
@@ -94,9 +95,11 @@ def shade_whitted_kernel(
     L = radiance[i]
     prim = hit_prim[i]
     t_hit = hit_t[i]
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, 0.0, wp.vec3(0.0)))
+    # Rays after the first are mirror and refraction rays: the lights' specular multipliers scale what they see.
+    camera = wp.where(bounce == 0, 1, 0)
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0)))
     if prim < 0:
-        L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0)))
+        L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0)))
         radiance[i] = L
         alive[i] = 0
         return
@@ -113,10 +116,11 @@ def shade_whitted_kernel(
     if lights.dome >= 0:
         cos_o = wp.max(wp.dot(h.ns, -d), 0.0)
         traced = traced_specular(s, mats.ggx_albedo, cos_o)
-        ambient = dome_albedo(s, traced)
+        scale = lights.lobe_scale[lights.dome]  # the dome's diffuse and specular multipliers
+        ambient = dome_albedo(s, traced) * scale[0]
         if s.roughness >= DELTA_ROUGHNESS:
             # A rough metal's lobe has no mirror ray (see continue_whitted_kernel): it sees the dome unoccluded too.
-            ambient += traced
+            ambient += traced * scale[1]
         L += wp.cw_mul(wp.cw_mul(T, ambient), lights.dome_mean) * opaque_fraction(s)
     radiance[i] = L
 
@@ -176,7 +180,10 @@ def whitted_light_kernel(
     if max_component(ls.value) <= 0.0 or p_pick <= 0.0:
         return
     wo = -d
-    f, _ = eval_bsdf(s, mats.ggx_albedo, lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo)), h.ns, h.ng, wo, ls.wi)
+    lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))
+    f_d, f_s, _ = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
+    scale = lights.lobe_scale[k]  # the light's diffuse and specular multipliers
+    f = f_d * scale[0] + f_s * scale[1]
     if max_component(f) <= 0.0:
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
