@@ -3,8 +3,9 @@
 spheres at three roughnesses (the multiple-scattering lobe), spotlights (ShapingAPI cone, softness, focus), a
 normal-mapped quad under a sun and at a grazing view, a UDIM-textured plane (three tiles and a missing one), and
 tapered Cylinder_1 and Capsule_1 gprims (hits of rays from every side, and images), and quads coloured by a primvar
-(one without it: the reader's fallback) and by a MaterialX primvar times a constant, and Points (spheres) beside
-varying-width bspline curves (tubes, frustums and joint spheres). wrt's shade kernels round alike
+(one without it: the reader's fallback) and by a MaterialX primvar times a constant, Points (spheres) beside
+varying-width bspline curves (tubes, frustums and joint spheres), and a textured RectLight, a mirror-ball dome and
+lights with diffuse and specular multipliers over grey and metal spheres. wrt's shade kernels round alike
 on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are expected to be equal, but for the
 last bits of transcendental functions (the spotlights' acos and pow).
 
@@ -26,6 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cut_out_canopy import write_canopy  # noqa: E402
 from shading_helpers import quad, top_down_camera  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
+from test_light_textures import cap_texture, dome_from_usd, textured_rect_light  # noqa: E402
 from test_materials import bind, new_stage  # noqa: E402
 from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
 from test_points_curves import floats, fmt  # noqa: E402
@@ -132,6 +134,7 @@ def main() -> None:
                 integrator=integrator, spp=4)
 
     points_and_curves(args.out / "parity_points_curves.usda", devices)
+    textured_and_split_lights(args.out, devices)
 
 
 def points_and_curves(path: Path, devices: list[str]) -> None:
@@ -159,6 +162,29 @@ def points_and_curves(path: Path, devices: list[str]) -> None:
     for integrator in ("whitted", "path"):
         compare(f"points and curves {integrator}", scene, devices, camera=cam, width=64, height=64,
                 integrator=integrator, spp=4)
+
+
+def textured_and_split_lights(folder: Path, devices: list[str]) -> None:
+    """A RectLight textured in four colours (diffuse 0.5), a sphere light seen only through specular lobes (diffuse
+    0, specular 0.25) and a mirror-ball dome over a floor with a grey and a rough metal sphere."""
+    rect = textured_rect_light(folder, intensity=4.0)
+    rect.diffuse = 0.5
+    dome = dome_from_usd(folder, cap_texture(folder, "mirroredBall", (0.3, 0.4, 1.0)), "mirroredBall")
+    spot = wrt.SphereLight(position=(1.5, -1.0, 2.0), radius=0.2, color=(40, 40, 40), path="/Spec", diffuse=0.0,
+                           specular=0.25)
+    spheres = displaced_sphere_scene(4000)
+    metal = wrt.Material(diffuse_color=(0.9, 0.9, 0.9), metallic=1.0, roughness=0.3)
+    meshes = [quad((0, 0, -1), (8, 0, 0), (0, 8, 0), name="/floor")]
+    for k, mesh in enumerate(spheres.meshes):
+        for x, material in ((-0.7, None), (0.7, 0)):
+            meshes.append(wrt.Mesh(points=mesh.points * 0.5 + np.float32([x, 0, -0.3]), indices=mesh.indices,
+                                   face_ids=mesh.face_ids, path=f"/ball{k}_{x}",
+                                   material_ids=None if material is None else np.zeros(len(mesh.indices), np.int32)))
+    scene = wrt.Scene(meshes=meshes, lights=[rect, dome, spot], materials=[metal])
+    cam = wrt.Camera.look_at((0, -4, 2.5), (0, 0, -0.5), (0, 0, 1), 45.0)
+    for integrator in ("whitted", "path"):
+        compare(f"textured and split lights {integrator}", scene, devices, camera=cam, width=48, height=48,
+                integrator=integrator, spp=8, max_depth=3)
 
 
 if __name__ == "__main__":
