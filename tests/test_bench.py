@@ -173,10 +173,10 @@ def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
         (dict(accels=["wrt:sah", None]), "accels must be a list of names, got None"),
         (dict(accels=[]), "the grid measures nothing: accels empty"),  # was 0 rows and exit status 0
         # A misspelt accelerator became an error row for every scene, ray kind and device, at run time.
-        (dict(accels=["wrt:sah", "foo"]), "accelerator 'foo': accelerators are wrt:BUILDER"),
+        (dict(accels=["wrt:sah", "foo"]), "accelerator 'foo': unknown accelerator kind 'foo'; accelerators"),
         (dict(accels=["wrt:octree"]), "accelerator 'wrt:octree': unknown BVH builder 'octree'"),
         (dict(accels=["wrt:sah:wide9"]), "accelerator 'wrt:sah:wide9': unknown BVH layout 'wide9'"),
-        (dict(accels=["warp:ploc"]), "accelerator 'warp:ploc': wp.Mesh builders are sah, median, lbvh, cubql"),
+        (dict(accels=["warp:ploc"]), "accelerator 'warp:ploc': wp.Mesh has no builder 'ploc'; its builders"),
         (dict(rays=[], devices=[]), "the grid measures nothing: devices, rays empty"),
         # The scaling sweep's fields were not checked: a misspelt key dropped the sweep without a word, a string of
         # sizes was read digit by digit, and a bad ray kind or count failed on every sweep row.

@@ -36,6 +36,7 @@ from .bvh import Builder
 from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits
+from .errors import did_you_mean
 from .rays import RAY_KINDS, ray_set
 from .resources import check_host_memory
 from .scene import Scene
@@ -71,17 +72,20 @@ class Grid:
         if not path.exists() and (SUITES_DIR / f"{path}.json").exists():
             path = SUITES_DIR / f"{path}.json"
         if not path.exists():
-            known = ", ".join(sorted(p.stem for p in SUITES_DIR.glob("*.json"))) if SUITES_DIR.exists() else "none"
-            raise FileNotFoundError(f"no benchmark suite {str(path)!r}; suites in {SUITES_DIR}: {known}")
+            known = sorted(p.stem for p in SUITES_DIR.glob("*.json")) if SUITES_DIR.exists() else []
+            raise FileNotFoundError(f"no benchmark suite {str(path)!r}{did_you_mean(path, known)}; suites in "
+                                    f"{SUITES_DIR}: {', '.join(known) or 'none'}")
         try:
             data = json.loads(path.read_text())
         except json.JSONDecodeError as e:
             raise ValueError(f"{path}: not a JSON suite ({e.msg} at line {e.lineno}, column {e.colno})") from None
         if not isinstance(data, dict):
             raise ValueError(f"{path.name}: a suite is a JSON object of grid fields, got {type(data).__name__}")
-        unknown = set(data) - {f.name for f in dataclasses.fields(cls)} - {"description"}
-        if unknown:
-            raise ValueError(f"{path.name}: unknown suite keys {sorted(unknown)}")
+        keys = [f.name for f in dataclasses.fields(cls)] + ["description"]
+        unknown = sorted(set(data) - set(keys))
+        if unknown:  # a misspelt key would leave its field at the default without a word
+            raise ValueError(f"{path.name}: unknown suite keys {unknown}{did_you_mean(unknown[0], keys)}; valid: "
+                             f"{', '.join(keys)}")
         required = [f.name for f in dataclasses.fields(cls)
                     if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
         missing = [name for name in required if name not in data]
@@ -115,7 +119,8 @@ class Grid:
         check_host_memory(self.n_rays * RAY_BYTES, f"n_rays {self.n_rays}")
         bad = [k for k in self.rays if k not in RAY_KINDS]
         if bad:
-            raise ValueError(f"unknown ray kind {bad[0]!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
+            raise ValueError(f"unknown ray kind {bad[0]!r}{did_you_mean(bad[0], RAY_KINDS)}; valid ray kinds: "
+                             f"{', '.join(RAY_KINDS)}")
         for spec in self.accels:  # misspelt here, every row of the accelerator became an error row at run time
             check_accel_spec(spec)
         threads = []
@@ -143,6 +148,9 @@ class Grid:
         return dataclasses.replace(self, threads=threads, **unique)
 
 
+ACCEL_KINDS = ("wrt", "warp", "embree")  # what an accelerator name starts with
+
+
 def check_accel_spec(spec: str) -> None:
     """Raises ValueError naming ``spec`` unless it is ``wrt[:BUILDER[:LAYOUT]]``, ``warp[:BUILDER]`` or ``embree``
     with known names."""
@@ -153,10 +161,17 @@ def check_accel_spec(spec: str) -> None:
             Builder.from_str(builder or "sah")
             check_layout(layout or "binary")
         elif kind == "warp":
-            if layout or (builder or "sah") not in WARP_BUILDERS:
-                raise ValueError(f"wp.Mesh builders are {', '.join(WARP_BUILDERS)}, with no layout")
-        elif kind != "embree" or rest:
-            raise ValueError("accelerators are wrt:BUILDER[:LAYOUT], warp:BUILDER or embree")
+            builder = builder or "sah"
+            if builder not in WARP_BUILDERS:
+                raise ValueError(f"wp.Mesh has no builder {builder!r}{did_you_mean(builder, WARP_BUILDERS)}; its "
+                                 f"builders are {', '.join(WARP_BUILDERS)}")
+            if layout:
+                raise ValueError(f"wp.Mesh has no layouts; use warp:{builder}")
+        elif kind != "embree":
+            raise ValueError(f"unknown accelerator kind {kind!r}{did_you_mean(kind, ACCEL_KINDS)}; accelerators are "
+                             "wrt:BUILDER[:LAYOUT], warp:BUILDER or embree")
+        elif rest:
+            raise ValueError("embree takes no builder or layout")
     except ValueError as e:
         raise ValueError(f"accelerator {spec!r}: {e}") from None
 
@@ -170,7 +185,8 @@ def _check_scaling(scaling) -> None:
         raise ValueError(f"scaling must be an object, got {scaling!r}")
     unknown = sorted(set(scaling) - set(SCALING_KEYS))
     if unknown:
-        raise ValueError(f"unknown scaling keys {unknown}; valid: {', '.join(SCALING_KEYS)}")
+        raise ValueError(f"unknown scaling keys {unknown}{did_you_mean(unknown[0], SCALING_KEYS)}; valid: "
+                         f"{', '.join(SCALING_KEYS)}")
     sizes = scaling.get("sizes", [])
     if not isinstance(sizes, (list, tuple)) or not all(
         isinstance(n, (int, float)) and not isinstance(n, bool) and math.isfinite(n) and n >= 1 for n in sizes
@@ -179,8 +195,12 @@ def _check_scaling(scaling) -> None:
     accels = scaling.get("accels", [])
     if not isinstance(accels, (list, tuple)) or not all(isinstance(a, str) and a.strip() for a in accels):
         raise ValueError(f"scaling accels must be a list of names, got {accels!r}")
-    if scaling.get("rays", "incoherent") not in RAY_KINDS:
-        raise ValueError(f"unknown scaling ray kind {scaling['rays']!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
+    for spec in accels:  # misspelt, it failed as an error row at every size of the sweep
+        check_accel_spec(spec)
+    kind = scaling.get("rays", "incoherent")
+    if kind not in RAY_KINDS:
+        raise ValueError(f"unknown scaling ray kind {kind!r}{did_you_mean(kind, RAY_KINDS)}; valid ray kinds: "
+                         f"{', '.join(RAY_KINDS)}")
     n_rays = scaling.get("n_rays", 1)
     if isinstance(n_rays, bool) or not isinstance(n_rays, int) or n_rays < 1:
         raise ValueError(f"scaling n_rays must be a positive integer, got {n_rays!r}")
@@ -232,6 +252,9 @@ def _nvidia_driver() -> str | None:
         return None
 
 
+SCENE_KINDS = ("sphere", "warp", "asset")  # the prefixes of scene names that are no file paths
+
+
 def resolve_scene(name: str) -> Scene:
     """Loads a scene named as in the module docstring. Gprims (spheres, cubes, ...) are loaded as triangle meshes:
     wp.Mesh and Embree trace triangles only, so every accelerator of a row group then traces the same geometry."""
@@ -250,6 +273,14 @@ def resolve_scene(name: str) -> Scene:
         return load_usd(Path(warp.examples.get_asset_directory()) / name.split(":", 1)[1])
     if name.startswith("asset:"):
         return load_usd(asset_path(name.split(":", 1)[1]))
+    kind = name.split(":", 1)[0]
+    if ":" in name and len(kind) > 1 and kind.isalpha() and not Path(name).exists():
+        # A misspelt kind ('sphree:1000') was reported as a missing file only. A file name may hold a colon, and a
+        # one-letter kind is a Windows drive.
+        from .errors import SceneError
+
+        raise SceneError(f"no such file, and {kind!r} is no scene kind{did_you_mean(kind, SCENE_KINDS)}; scenes are "
+                         "USD paths, warp:NAME, asset:ID or sphere:N", path=name)
     return load_usd(name)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 
+from ..errors import did_you_mean
 from .build import Builder, build_bvh, builder_names, check_costs
 from .layout import LAYOUTS, convert_layout
 
@@ -34,8 +35,9 @@ def parse_builders(text) -> list[str]:
                 names += [b.value for b in Builder]
             elif name.startswith(WARP_PREFIX):
                 if name[len(WARP_PREFIX) :] not in WARP_BUILDERS:
-                    valid = ", ".join(WARP_PREFIX + b for b in WARP_BUILDERS)
-                    raise ValueError(f"unknown Warp builder {name!r}; valid Warp builders: {valid}")
+                    valid = [WARP_PREFIX + b for b in WARP_BUILDERS]
+                    raise ValueError(f"unknown Warp builder {name!r}{did_you_mean(name, valid)}; valid Warp builders: "
+                                     f"{', '.join(valid)}")
                 names.append(name)
             else:
                 names.append(Builder.from_str(name).value)

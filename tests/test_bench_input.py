@@ -1,0 +1,59 @@
+"""wrt bench and wrt bvh-stats on input nobody tested: misspelt names, empty scenes, odd output folders, a run
+interrupted or without matplotlib, and the size columns of rows traced in another layout."""
+
+import json
+
+import pytest
+
+from wrt.bench import Grid, run_grid
+from wrt.bvh.report import parse_builders
+
+
+def small_grid(**kwargs):
+    options = dict(scenes=["sphere:2000"], accels=["wrt:sah"], rays=["primary"], n_rays=2000, repeats=2)
+    options.update(kwargs)
+    return Grid(**options)
+
+
+def write_suite(tmp_path, **fields):
+    path = tmp_path / "suite.json"
+    path.write_text(json.dumps(dict({"scenes": ["sphere:2000"], "accels": ["wrt:sah"]}, **fields)))
+    return path
+
+
+@pytest.mark.parametrize("fields, message", [
+    ({"n_ray": 100}, "unknown suite keys ['n_ray'] (did you mean 'n_rays'?)"),
+    ({"rays": ["primry"]}, "unknown ray kind 'primry' (did you mean 'primary'?)"),
+    ({"accels": ["embre"]}, "accelerator 'embre': unknown accelerator kind 'embre' (did you mean 'embree'?)"),
+    ({"accels": ["warp:sha"]}, "accelerator 'warp:sha': wp.Mesh has no builder 'sha' (did you mean 'sah'?)"),
+    ({"scaling": {"size": [1000]}}, "unknown scaling keys ['size'] (did you mean 'sizes'?)"),
+    ({"scaling": {"sizes": [1000], "rays": "incoherant"}}, "unknown scaling ray kind 'incoherant' (did you mean"),
+])
+def test_misspelt_suite_names_get_a_did_you_mean(tmp_path, fields, message):
+    """A misspelt key, ray kind or accelerator was refused with the list of valid names only."""
+    with pytest.raises(ValueError) as error:
+        Grid.from_suite(write_suite(tmp_path, **fields))
+    assert message in str(error.value)
+
+
+def test_misspelt_suite_name_and_warp_builder_of_bvh_stats_get_a_did_you_mean():
+    with pytest.raises(FileNotFoundError, match="no benchmark suite 'qiuck' \\(did you mean 'quick'\\?\\)"):
+        Grid.from_suite("qiuck")
+    with pytest.raises(ValueError, match="unknown Warp builder 'warp:sha' \\(did you mean 'warp:sah'\\?\\)"):
+        parse_builders("warp:sha")
+
+
+def test_scaling_accelerators_are_checked_before_the_run():
+    """A misspelt accelerator of the scaling sweep was found only when the sweep ran, as an error row per size."""
+    with pytest.raises(ValueError, match="accelerator 'wrt:sha': unknown BVH builder 'sha'"):
+        small_grid(scenes=[], scaling={"sizes": [1000], "accels": ["wrt:sha"]}).validated()
+
+
+def test_an_unknown_scene_kind_is_named_with_a_did_you_mean(tmp_path):
+    """'sphree:2000' was reported as 'file not found' only; a real file whose name holds a colon still loads."""
+    rows = run_grid(small_grid(scenes=["sphree:2000"]), tmp_path / "out", progress=False)
+    assert "'sphree' is no scene kind (did you mean 'sphere'?)" in rows[0]["error"]
+    colon = tmp_path / "a:b.usda"
+    colon.write_text('#usda 1.0\ndef Sphere "S"\n{\n}\n')
+    rows = run_grid(small_grid(scenes=[str(colon)]), tmp_path / "out", progress=False)
+    assert "mrays" in rows[0], rows[0].get("error")
