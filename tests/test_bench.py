@@ -94,10 +94,12 @@ def test_gprims_are_measured_as_triangles_by_every_accelerator(tmp_path):
 
 
 def test_secondary_rays_of_a_scene_the_camera_misses_are_one_clear_error_row(tmp_path):
-    """No primary ray hits an empty stage, so there are no shadow rays: wp.Mesh and wrt rows failed with Warp's
-    'Invalid indexing in slice: 0:0:1' and Embree's row reported 0 Mrays/s as a measurement."""
-    scene = tmp_path / "empty.usda"
-    scene.write_text('#usda 1.0\ndef Xform "World"\n{\n}\n')
+    """No primary ray hits a triangle behind the camera, so there are no shadow rays: wp.Mesh and wrt rows failed
+    with Warp's 'Invalid indexing in slice: 0:0:1' and Embree's row reported 0 Mrays/s as a measurement."""
+    scene = tmp_path / "behind.usda"  # the camera looks down -Z from the origin; the triangle is at z = 5
+    scene.write_text('#usda 1.0\ndef Camera "Cam"\n{\n}\ndef Mesh "Tri"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 5), (1, 0, 5), (0, 1, 5)]\n}\n')
     accels = ["warp:sah", "wrt:sah"] + (["embree"] if bench_module._has_embree() else [])
     rows = run_grid(tiny_grid(scenes=[str(scene)], accels=accels), tmp_path, progress=False)
     primary = [r for r in rows if r["rays"] == "primary"]

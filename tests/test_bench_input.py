@@ -57,3 +57,14 @@ def test_an_unknown_scene_kind_is_named_with_a_did_you_mean(tmp_path):
     colon.write_text('#usda 1.0\ndef Sphere "S"\n{\n}\n')
     rows = run_grid(small_grid(scenes=[str(colon)]), tmp_path / "out", progress=False)
     assert "mrays" in rows[0], rows[0].get("error")
+
+
+def test_a_scene_without_triangles_is_an_error_row(tmp_path):
+    """An empty stage was 'measured': rows of 0 triangles, 0 % hits and 100 % agreement, at some Mrays/s."""
+    empty = tmp_path / "empty.usda"
+    empty.write_text("#usda 1.0\n")
+    rows = run_grid(small_grid(scenes=[str(empty), "sphere:2000"], accels=["warp:sah", "wrt:sah"]),
+                    tmp_path / "out", progress=False)
+    errors = [r for r in rows if "error" in r]
+    assert len(errors) == 1 and errors[0]["scene"] == str(empty) and "no triangles" in errors[0]["error"]
+    assert [r["scene"] for r in rows if "mrays" in r] == ["sphere:2000"] * 2  # the run went on

@@ -5,8 +5,8 @@ that same buffer in the same process, so ratios between rows are honest. Per row
 trace throughput (median, min and max over timed launches after a warm-up, device synchronised, kernel compilation
 excluded), hit fraction, tree statistics where the accelerator exposes them, and agreement with ``warp:sah`` on the
 same rays. Rows go to a JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an
-error row and the run goes on; ``resume`` skips rows already in the file, which must have been measured with the
-same ray counts (recorded in ``settings.json`` beside it).
+error row and the run goes on (a scene without triangles too); ``resume`` skips rows already in the file, which
+must have been measured with the same ray counts (recorded in ``settings.json`` beside it).
 
 Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layouts exist), ``warp:BUILDER``
 (``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
@@ -437,13 +437,16 @@ def _agreement(answer, reference, directions, scale) -> float:
 
 def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_counts, emit, skip) -> None:
     """Measures every (accel, threads) row of one (scene, device, ray kind) group and hands each row to ``emit``."""
+    triangles = scene.stats()["rendered_triangles"]
+    if not triangles:  # rows of an empty stage timed rays that meet nothing: 0 % hits, 100 % agreement, any Mrays/s
+        raise ValueError("the scene has no triangles to trace (no meshes, gprims, points or curves are rendered)")
     origins, directions = ray_set(scene, kind, grid.n_rays, seed=1)
     if not len(origins):  # no row can time zero rays (Warp fails on the empty slice; Embree "ran" at 0 Mrays/s)
         raise ValueError(f"no {kind} rays: they start where primary rays hit, and none of them hit the scene")
     any_hit = kind in ANY_HIT_KINDS
     points = scene.triangles()[0]
     scale = float(np.abs(points).max()) if len(points) else 0.0
-    base = {"scene": scene_name, "triangles": scene.stats()["rendered_triangles"], "device": str(device), "rays": kind}
+    base = {"scene": scene_name, "triangles": triangles, "device": str(device), "rays": kind}
     base["n_rays"] = int(len(origins))
     reference = None
     ordered = sorted(accels, key=lambda a: a != REFERENCE)  # the reference first, so others can be compared
