@@ -68,3 +68,14 @@ def test_a_scene_without_triangles_is_an_error_row(tmp_path):
     errors = [r for r in rows if "error" in r]
     assert len(errors) == 1 and errors[0]["scene"] == str(empty) and "no triangles" in errors[0]["error"]
     assert [r["scene"] for r in rows if "mrays" in r] == ["sphere:2000"] * 2  # the run went on
+
+
+def test_layout_rows_report_the_size_of_the_layout_they_trace(tmp_path):
+    """A wrt:sah:wide8 row gave the binary tree's nodes and bytes, so every layout looked the same size."""
+    rows = run_grid(small_grid(accels=["wrt:sah", "wrt:sah:wide8"]), tmp_path, progress=False)
+    binary, wide8 = rows
+    assert binary["layout"] == "binary" and binary["layout_nodes"] == binary["nodes"]
+    assert binary["layout_bytes"] == binary["bytes"]
+    assert wide8["layout"] == "wide8" and wide8["nodes"] == binary["nodes"]  # the same binary tree underneath
+    assert wide8["layout_nodes"] < binary["nodes"] / 4  # eight children per node, not two
+    assert 0 < wide8["layout_bytes"] < binary["bytes"]

@@ -3,10 +3,12 @@
 One *row group* is (scene, device, ray kind): its rays are made once, then every accelerator in the grid traces
 that same buffer in the same process, so ratios between rows are honest. Per row the harness records build time,
 trace throughput (median, min and max over timed launches after a warm-up, device synchronised, kernel compilation
-excluded), hit fraction, tree statistics where the accelerator exposes them, and agreement with ``warp:sah`` on the
-same rays. Rows go to a JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an
-error row and the run goes on (a scene without triangles too); ``resume`` skips rows already in the file, which
-must have been measured with the same ray counts (recorded in ``settings.json`` beside it).
+excluded), hit fraction, tree statistics where the accelerator exposes them (``wrt:`` rows: ``sah_cost``, ``nodes``,
+``leaves``, ``node_bytes`` and ``bytes`` of the binary tree, ``layout_nodes`` and ``layout_bytes`` of the layout it
+traces, as ``wrt bvh-stats --layout`` gives them), and agreement with ``warp:sah`` on the same rays. Rows go to a
+JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an error row and the run goes
+on (a scene without triangles too); ``resume`` skips rows already in the file, which must have been measured with
+the same ray counts (recorded in ``settings.json`` beside it).
 
 Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layouts exist), ``warp:BUILDER``
 (``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
@@ -33,7 +35,7 @@ import numpy as np
 import warp as wp
 
 from .bvh import Builder
-from .bvh.layout import check_layout
+from .bvh.layout import check_layout, convert_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits
 from .errors import did_you_mean
@@ -355,6 +357,11 @@ class _Subject:
             if bvh is not None and hasattr(bvh, "stats"):
                 stats = bvh.stats(epo_samples=0)
                 self.stats = {k: stats[k] for k in ("sah_cost", "node_bytes", "bytes", "nodes", "leaves") if k in stats}
+                # Those are the binary tree's; a compact or wide row traces a conversion of it, of other size (as
+                # wrt bvh-stats --layout reports it).
+                traced = convert_layout(bvh, self.accel.layout)
+                self.stats.update(layout=self.accel.layout, layout_nodes=int(traced.num_nodes),
+                                  layout_bytes=int(traced.bytes))
         else:
             raise ValueError(f"unknown accelerator {spec!r}; use wrt:BUILDER[:LAYOUT], warp:BUILDER or embree")
 
