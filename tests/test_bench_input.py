@@ -2,9 +2,11 @@
 interrupted or without matplotlib, and the size columns of rows traced in another layout."""
 
 import json
+import sys
 
 import pytest
 
+import wrt.bench as bench_module
 from wrt.bench import Grid, run_grid
 from wrt.bvh.report import parse_builders
 
@@ -79,3 +81,33 @@ def test_layout_rows_report_the_size_of_the_layout_they_trace(tmp_path):
     assert wide8["layout"] == "wide8" and wide8["nodes"] == binary["nodes"]  # the same binary tree underneath
     assert wide8["layout_nodes"] < binary["nodes"] / 4  # eight children per node, not two
     assert 0 < wide8["layout_bytes"] < binary["bytes"]
+
+
+def test_plots_skipped_without_matplotlib_say_so(tmp_path, monkeypatch):
+    """Without matplotlib (the bench extra not installed) no plot was written and nothing said why."""
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib raises ImportError
+    with pytest.warns(UserWarning, match="plots skipped: matplotlib is not installed"):
+        run_grid(small_grid(), tmp_path, progress=False)
+    assert (tmp_path / "table.md").exists() and not (tmp_path / "mrays.png").exists()
+
+
+def test_an_interrupted_run_leaves_no_plots_of_an_earlier_run(tmp_path, monkeypatch):
+    """Ctrl-C wrote table.md from the rows measured so far but kept an earlier run's plots beside it."""
+    for name in bench_module.PLOT_FILES:
+        (tmp_path / name).write_bytes(b"an earlier run's plot")
+    measure, calls = bench_module.measure_group, []
+
+    def interrupted(*args):
+        calls.append(args)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        measure(*args)
+
+    monkeypatch.setattr(bench_module, "measure_group", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_grid(small_grid(rays=["primary", "incoherent"]), tmp_path, progress=False)
+    rows = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
+    assert [r["rays"] for r in rows] == ["primary"]
+    assert "| primary |" in (tmp_path / "table.md").read_text()
+    for name in bench_module.PLOT_FILES:
+        assert not (tmp_path / name).exists() or (tmp_path / name).read_bytes() != b"an earlier run's plot"

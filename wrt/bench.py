@@ -668,20 +668,28 @@ def run_grid(
                 _run_group(group, grid, thread_counts, emit, lambda r: row_key(r) in done, loaded)
                 bar.update()
             bar.close()
-    except KeyboardInterrupt:  # rows.jsonl has every finished row; the table shows them too
+    except KeyboardInterrupt:  # rows.jsonl has every finished row; the table and plots show them too
         if out is not None:
-            (out / "table.md").write_text(markdown_table(rows))
+            write_summary(rows, out)
         raise
     if out is not None:
-        (out / "table.md").write_text(markdown_table(rows))
-        try:
-            written = plot(rows, out)
-        except ImportError:
-            written = []
-        for name in PLOT_FILES:  # a plot this run has no rows for must not show an earlier run's numbers
-            if out / name not in written:
-                (out / name).unlink(missing_ok=True)
+        write_summary(rows, out)
     return rows
+
+
+def write_summary(rows: list[dict], out: Path) -> None:
+    """Writes ``out/table.md`` and the plots of ``rows``, and removes the plots they have no rows for."""
+    (out / "table.md").write_text(markdown_table(rows))
+    try:
+        written = plot(rows, out)
+    except ImportError:
+        import warnings
+
+        warnings.warn("plots skipped: matplotlib is not installed (pip install 'wrt[bench]')")
+        written = []
+    for name in PLOT_FILES:  # a plot this run has no rows for must not show an earlier run's numbers
+        if out / name not in written:
+            (out / name).unlink(missing_ok=True)
 
 
 def _ratio(row, rows, accel) -> float | None:
