@@ -9,6 +9,7 @@ import pytest
 import wrt.bench as bench_module
 from wrt.bench import Grid, run_grid
 from wrt.bvh.report import parse_builders
+from wrt.cli import main
 
 
 def small_grid(**kwargs):
@@ -111,3 +112,14 @@ def test_an_interrupted_run_leaves_no_plots_of_an_earlier_run(tmp_path, monkeypa
     assert "| primary |" in (tmp_path / "table.md").read_text()
     for name in bench_module.PLOT_FILES:
         assert not (tmp_path / name).exists() or (tmp_path / name).read_bytes() != b"an earlier run's plot"
+
+
+@pytest.mark.parametrize("out, message", [("", "the output folder is empty"), ("file", "is a file, not a folder")])
+def test_an_output_folder_that_cannot_be_one_is_refused(tmp_path, monkeypatch, capsys, out, message):
+    """-o '' wrote into the current folder and said 'results in /'; -o FILE failed with '[Errno 17] File exists'."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "file").write_text("not a folder")
+    assert main(["bench", "--scenes", "sphere:2000", "--accels", "wrt:sah", "--rays", "primary", "--n-rays", "100",
+                 "-q", "-o", out]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "rows.jsonl").exists()

@@ -609,7 +609,12 @@ def run_grid(
     rows, done = [], set()
     jsonl = None
     if out is not None:
+        if not str(out).strip():  # Path("") is the current folder
+            raise ValueError("the output folder is empty; name one (wrt bench -o FOLDER)")
         out = Path(out)
+        files = [p for p in (out, *out.parents) if p.exists() and not p.is_dir()]
+        if files:  # mkdir said only '[Errno 17] File exists'
+            raise ValueError(f"output folder {str(out)!r}: {str(files[0])!r} is a file, not a folder")
         out.mkdir(parents=True, exist_ok=True)
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():

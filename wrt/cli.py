@@ -682,7 +682,7 @@ def _run_bench(args) -> int:
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     grid = dataclasses.replace(grid, **{k: v for k, v in overrides.items() if v is not None})
     grid = grid.validated()  # a bad field is a one-line error that names it
-    rows = run_grid(grid, Path(args.out), resume=args.resume, progress=not args.quiet, dask=args.dask)
+    rows = run_grid(grid, args.out, resume=args.resume, progress=not args.quiet, dask=args.dask)
     failed = [r for r in rows if "error" in r]
     summary = f"wrt: {len(rows) - len(failed)} rows measured, {len(failed)} failed; results in {args.out}/"
     print(summary, file=sys.stderr)
