@@ -123,3 +123,9 @@ def test_an_output_folder_that_cannot_be_one_is_refused(tmp_path, monkeypatch, c
                  "-q", "-o", out]) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "rows.jsonl").exists()
+
+
+def test_an_absurd_sphere_size_gets_a_short_message(tmp_path):
+    """sphere:1e99 was refused with a 90-digit number of TiB."""
+    rows = run_grid(small_grid(scenes=["sphere:1e99"]), tmp_path, progress=False)
+    assert "sphere:1e99 needs about 7.28e+89 TiB of host memory" in rows[0]["error"]

@@ -31,9 +31,11 @@ def estimate_render_bytes(triangles: int, width: int, height: int) -> int:
 
 
 def format_bytes(n: float) -> str:
+    """``n`` bytes in the largest binary unit below it, to TiB; absurd sizes (``sphere:1e99``) in short exponent form
+    instead of a number of 90 digits."""
     for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
         if n < 1024 or unit == "TiB":
-            return f"{n:.1f} {unit}" if unit != "B" else f"{int(n)} B"
+            return f"{int(n)} B" if unit == "B" else f"{n:.1f} {unit}" if n < 1e6 else f"{n:.3g} {unit}"
         n /= 1024
 
 
