@@ -58,6 +58,7 @@ def collect_stats(
     traversal_cost: float = 1.0,
     intersection_cost: float = 1.0,
     epo_samples: int | None = None,
+    presplit: int = 0,
     device="cpu",
 ) -> list[dict]:
     """One statistics row per builder over the triangles ``points[indices]``.
@@ -73,6 +74,9 @@ def collect_stats(
         traversal_cost: SAH/EPO ``C_t``, also used by the SAH builders.
         intersection_cost: SAH/EPO ``C_i``.
         epo_samples: surface samples of the EPO estimate (default when ``None``).
+        presplit: pre-split levels of wrt's builds (``wrt.build_bvh``); the SAH trees that renders and ``wrt bench``
+            trace use ``wrt.trace.ACCELERATOR_PRESPLIT``. EPO is not estimated for them (``None``): a triangle may
+            sit in several leaves.
         device: Warp device to build on.
     """
     from .warp_mesh import warp_mesh_bvh
@@ -91,11 +95,13 @@ def collect_stats(
                 bins=bins,
                 traversal_cost=traversal_cost,
                 intersection_cost=intersection_cost,
+                presplit=presplit,
                 device=device,
                 **options,
             )
         bvh.validate()
-        row = bvh.stats(traversal_cost, intersection_cost, epo_samples=epo_samples)
+        split = bvh.num_prims != len(indices)  # the EPO estimate needs each triangle in one leaf
+        row = bvh.stats(traversal_cost, intersection_cost, epo_samples=0 if split else epo_samples)
         converted = convert_layout(bvh, layout)
         row.update(layout=layout, layout_nodes=int(converted.num_nodes), layout_bytes=int(converted.bytes))
         rows.append(row)
@@ -131,6 +137,7 @@ def format_table(rows: list[dict]) -> str:
 def add_bvh_stats(sub) -> None:
     """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
     from ..cli import HelpFormatter, add_stage_options, positive_int
+    from ..trace import ACCELERATOR_PRESPLIT
 
     p = sub.add_parser(
         "bvh-stats",
@@ -154,6 +161,9 @@ def add_bvh_stats(sub) -> None:
     p.add_argument("--traversal-cost", type=float, default=1.0, help="SAH constant C_t (node visit)")
     p.add_argument("--intersection-cost", type=float, default=1.0, help="SAH constant C_i (triangle test)")
     p.add_argument("--epo-samples", type=positive_int, default=1 << 16, help="surface samples of the EPO estimate")
+    p.add_argument("--presplit", type=int, default=0,
+                   help="pre-split levels of wrt's builds: long diagonal triangles become up to 2**K references; the "
+                   f"sah trees of renders and wrt bench use {ACCELERATOR_PRESPLIT}; no EPO for trees so built")
     p.add_argument("--device", default="cpu", help="Warp device to build on, e.g. cpu or cuda:0")
     p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
     add_stage_options(p)
@@ -187,6 +197,7 @@ def run_bvh_stats(args) -> int:
         traversal_cost=args.traversal_cost,
         intersection_cost=args.intersection_cost,
         epo_samples=args.epo_samples,
+        presplit=args.presplit,
         device=device,
     )
     if args.json:
