@@ -38,7 +38,7 @@ from .bvh import Builder
 from .bvh.layout import check_layout, convert_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits
-from .errors import did_you_mean
+from .errors import SceneError, did_you_mean
 from .rays import RAY_KINDS, ray_set
 from .resources import check_host_memory
 from .scene import Scene
@@ -279,8 +279,6 @@ def resolve_scene(name: str) -> Scene:
     if ":" in name and len(kind) > 1 and kind.isalpha() and not Path(name).exists():
         # A misspelt kind ('sphree:1000') was reported as a missing file only. A file name may hold a colon, and a
         # one-letter kind is a Windows drive.
-        from .errors import SceneError
-
         raise SceneError(f"no such file, and {kind!r} is no scene kind{did_you_mean(kind, SCENE_KINDS)}; scenes are "
                          "USD paths, warp:NAME, asset:ID or sphere:N", path=name)
     return load_usd(name)
