@@ -30,7 +30,6 @@ from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa:
 from test_light_textures import cap_texture, dome_from_usd, textured_rect_light  # noqa: E402
 from test_materials import bind, new_stage  # noqa: E402
 from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
-from test_points_curves import floats, fmt  # noqa: E402
 from test_primvar_colors import (  # noqa: E402
     C3,
     F,
@@ -43,6 +42,7 @@ from test_primvar_colors import (  # noqa: E402
 )
 from test_tapered_gprims import rays_towards, write_stage  # noqa: E402
 from test_udim import BLUE, GREEN, RED, udim_stage, write_tile  # noqa: E402
+from usda_text import floats, fmt  # noqa: E402
 
 
 def compare(name: str, scene, devices: list[str], **kwargs) -> None:

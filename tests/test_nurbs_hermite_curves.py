@@ -9,6 +9,7 @@ import warnings
 
 import numpy as np
 import pytest
+from usda_text import floats, fmt, load, trace, write
 
 import wrt
 from wrt.errors import SceneError
@@ -16,30 +17,6 @@ from wrt.errors import SceneError
 # Polyline tolerance of curves documented in the README (a fraction of the tube's radius), and the frustum rounding.
 CURVE_TOLERANCE = 0.05
 RHO_ROUNDING = 1 / 128
-
-
-def write(tmp_path, body: str) -> str:
-    path = tmp_path / "scene.usda"
-    path.write_text(f'#usda 1.0\n(\n    upAxis = "Y"\n)\n{body}\n')
-    return str(path)
-
-
-def fmt(rows) -> str:
-    return "[" + ", ".join("(" + ", ".join(f"{float(v)!r}" for v in row) + ")" for row in rows) + "]"
-
-
-def floats(values) -> str:
-    return "[" + ", ".join(f"{float(v)!r}" for v in values) + "]"
-
-
-def load(path, **kwargs):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return wrt.load_usd(path, **kwargs)
-
-
-def trace(scene, origins, directions):
-    return wrt.trace(scene, np.asarray(origins, np.float32), np.asarray(directions, np.float32))
 
 
 def nurbs_body(name, points, order, knots, weights=None, counts=None, extra=""):

@@ -9,32 +9,13 @@ import warnings
 
 import numpy as np
 import pytest
+from usda_text import floats, fmt, load, trace, write
 
 import wrt
 from wrt.errors import SceneError
 
 # Polyline tolerance of cubic spans documented in the README (a fraction of the tube's radius).
 CUBIC_TOLERANCE = 0.05
-
-
-def write(tmp_path, body: str, name: str = "scene.usda") -> str:
-    path = tmp_path / name
-    path.write_text(f'#usda 1.0\n(\n    upAxis = "Y"\n)\n{body}\n')
-    return str(path)
-
-
-def fmt(rows) -> str:
-    return "[" + ", ".join("(" + ", ".join(f"{float(v)!r}" for v in row) + ")" for row in rows) + "]"
-
-
-def floats(values) -> str:
-    return "[" + ", ".join(f"{float(v)!r}" for v in values) + "]"
-
-
-def load(path, **kwargs):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return wrt.load_usd(path, **kwargs)
 
 
 def ray_sphere(o, d, centres, radii):
@@ -72,10 +53,6 @@ def ray_cylinder(o, d, a, b, r):
         ok = (disc >= 0) & (qa > 0) & (t >= 0) & (along >= 0) & (along <= length[None])
         best = np.minimum(best, np.where(ok, t, np.inf))
     return best.min(axis=1)
-
-
-def trace(scene, origins, directions):
-    return wrt.trace(scene, np.asarray(origins, np.float32), np.asarray(directions, np.float32))
 
 
 # Points

@@ -12,36 +12,13 @@ import warnings
 import numpy as np
 import pytest
 from pxr import Usd, UsdGeom, Vt
+from usda_text import floats, fmt, load, trace, write
 
 import wrt
 from wrt.errors import SceneError
 
 # A NURBS patch's triangles stay within this fraction of its control points' box diagonal (README).
 PATCH_TOLERANCE = 1e-3
-
-
-def write(tmp_path, body: str) -> str:
-    path = tmp_path / "scene.usda"
-    path.write_text(f'#usda 1.0\n(\n    upAxis = "Y"\n)\n{body}\n')
-    return str(path)
-
-
-def fmt(rows) -> str:
-    return "[" + ", ".join("(" + ", ".join(f"{v!r}" for v in np.asarray(row).tolist()) + ")" for row in rows) + "]"
-
-
-def floats(values) -> str:
-    return "[" + ", ".join(f"{float(v)!r}" for v in values) + "]"
-
-
-def load(path, **kwargs):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return wrt.load_usd(path, **kwargs)
-
-
-def trace(scene, origins, directions):
-    return wrt.trace(scene, np.asarray(origins, np.float32), np.asarray(directions, np.float32))
 
 
 def ray_triangles(o, d, tris):
