@@ -330,8 +330,10 @@ def test_preview_rejects_bad_arguments(room):
         (["-o", "x.jpg"], "previews are written as .png"),
         (["--window", "12x"], "is not WIDTHxHEIGHT"),
         (["--bvh-depth", "2", "--bvh-leaves"], "not allowed with"),
-        (["--rays", "-3"], "non-negative"),
-        (["--rays", "100000000", "-o", "x.png"], "rays must be an integer from 0 to 1,000,000"),
+        (["--rays", "-3"], "must be an integer from 0 to 1,000,000, got -3"),
+        (["--rays", "100000000", "-o", "x.png"], "must be an integer from 0 to 1,000,000"),
+        # Refused before the scene is read: the missing file is not reached (a long load was wasted before).
+        (["no/such/scene.usda", "--rays", "1000001"], "--rays: must be an integer from 0 to 1,000,000"),
         (["--window", "0x5"], "1 to 16384 pixels per side"),
         (["--window", "100000x100000"], "1 to 16384 pixels per side"),  # VTK aborted allocating the picture
     ],

@@ -544,7 +544,7 @@ def _add_preview(sub) -> None:
     p.add_argument("--bvh-color", default="depth", choices=BVH_COLORINGS, help="BVH box colour: depth or SAH share")
     p.add_argument(
         "--rays",
-        type=non_negative_int,
+        type=int_at_least(0, f"an integer from 0 to {MAX_RAYS:,}", MAX_RAYS),  # checked before the scene loads
         default=0,
         metavar="N",
         help=f"draw N camera rays (at most {MAX_RAYS:,}) from the eye to their hits; misses end at the frustum's "
