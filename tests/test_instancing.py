@@ -450,6 +450,24 @@ def test_a_scene_and_its_meshes_print_as_counts(np_rng):
         "Mesh('/m', 4 points, 2 triangles, uvs, double-sided)")
 
 
+def test_a_scene_of_a_mesh_not_in_a_list_names_the_field():
+    """``Scene(meshes=mesh)`` failed with "'Mesh' object is not iterable" from inside its first check, and a list
+    holding something else than meshes later still; tuples are taken as lists."""
+    mesh = Mesh("/m", np.zeros((3, 3)), [[0, 1, 2]], [0])
+    with pytest.raises(TypeError, match=r"Scene\(meshes=...\) takes a list, got Mesh; use meshes=\[mesh\]"):
+        wrt.Scene(meshes=mesh)
+    with pytest.raises(TypeError, match=r"meshes\[1\] is a int, not a wrt.Mesh"):
+        wrt.Scene(meshes=[mesh, 3])
+    light = wrt.DistantLight(direction=(0, 0, -1), color=(1, 1, 1))
+    with pytest.raises(TypeError, match=r"use lights=\[light\]"):
+        wrt.Scene(meshes=[mesh], lights=light)
+    with pytest.raises(TypeError, match="cameras"):
+        wrt.Scene(cameras=[wrt.Camera.look_at((0, 0, 5), (0, 0, 0), (0, 1, 0), 40.0)])
+    scene = wrt.Scene(meshes=(mesh,), lights=(light,))
+    assert scene.meshes == [mesh] and scene.lights == [light]
+    assert len(scene.triangles()[1]) == 1
+
+
 def test_expanded_ids_round_trip(np_rng):
     scene = python_scene(np_rng, n=9)
     rows = np.arange(scene.stats()["rendered_triangles"])

@@ -267,6 +267,7 @@ class Scene:
     render_settings: RenderSettings | None = None
 
     def __post_init__(self):
+        self._check_containers()
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
         self._generation = 0  # how many times the cache was cleared
         self.check_instances()
@@ -291,6 +292,26 @@ class Scene:
         ]
         source = f"{self.source!r}: " if self.source else ""
         return f"Scene({source}{', '.join(counts)})"
+
+    def _check_containers(self) -> None:
+        """Raises ``TypeError`` naming the field when a list field is not a list (``Scene(meshes=mesh)``: "'Mesh'
+        object is not iterable" from deep inside the first check) or a mesh is not a :class:`Mesh`; tuples become
+        lists."""
+        singular = {"meshes": "mesh", "shapes": "shape", "prototypes": "prototype", "lights": "light",
+                    "materials": "material", "textures": "texture"}
+        for name, one in singular.items():
+            value = getattr(self, name)
+            if isinstance(value, tuple):
+                value = list(value)
+                setattr(self, name, value)
+            if not isinstance(value, list):
+                raise TypeError(f"Scene({name}=...) takes a list, got {type(value).__name__}; use {name}=[{one}]")
+        if not isinstance(self.cameras, dict):
+            raise TypeError("Scene(cameras=...) takes a dict of prim path -> Camera, got "
+                            f"{type(self.cameras).__name__}")
+        for k, mesh in enumerate(self.meshes):
+            if not isinstance(mesh, Mesh):
+                raise TypeError(f"Scene(meshes=...): meshes[{k}] is a {type(mesh).__name__}, not a wrt.Mesh")
 
     def invalidate(self) -> None:
         """Forgets every cached array, tree and device copy. Needed only after editing an array of the scene in
