@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 import pytest
-from usda_text import floats, fmt, load, trace, write
+from usda_text import floats, fmt, load, preview_material, trace, write
 
 import wrt
 from wrt.errors import SceneError
@@ -124,17 +124,7 @@ def test_points_widths_fallback_constant_colour_and_zero_width(tmp_path):
 def test_points_with_a_material_animated_and_hidden(tmp_path):
     """A bound material colours the points; points read at a time sample move; an invisible Points prim and one of
     guide purpose are not drawn."""
-    body = '''def Material "M"
-{
-    token outputs:surface.connect = </M/S.outputs:surface>
-    def Shader "S"
-    {
-        uniform token info:id = "UsdPreviewSurface"
-        color3f inputs:diffuseColor = (0.1, 0.7, 0.3)
-        token outputs:surface
-    }
-}
-def Points "P" (prepend apiSchemas = ["MaterialBindingAPI"])
+    body = preview_material((0.1, 0.7, 0.3)) + '''def Points "P" (prepend apiSchemas = ["MaterialBindingAPI"])
 {
     rel material:binding = </M>
     point3f[] points.timeSamples = {1: [(0, 0, 0)], 2: [(2, 0, 0)]}

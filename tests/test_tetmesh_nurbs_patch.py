@@ -12,7 +12,7 @@ import warnings
 import numpy as np
 import pytest
 from pxr import Usd, UsdGeom, Vt
-from usda_text import floats, fmt, load, trace, write
+from usda_text import floats, fmt, load, preview_material, trace, write
 
 import wrt
 from wrt.errors import SceneError
@@ -137,17 +137,7 @@ def test_tet_mesh_colours_per_tet_and_per_point_and_a_material(tmp_path):
     vertex = ('    color3f[] primvars:displayColor = [(1, 0, 0), (1, 0, 0), (1, 0, 0), (1, 0, 0), (0, 1, 0)] '
               '(interpolation = "vertex")\n    double3 xformOp:translate = (0, 10, 0)\n'
               '    uniform token[] xformOpOrder = ["xformOp:translate"]\n')
-    material = '''def Material "M"
-{
-    token outputs:surface.connect = </M/S.outputs:surface>
-    def Shader "S"
-    {
-        uniform token info:id = "UsdPreviewSurface"
-        color3f inputs:diffuseColor = (0.1, 0.7, 0.3)
-        token outputs:surface
-    }
-}
-'''
+    material = preview_material((0.1, 0.7, 0.3))
     bound = ('    rel material:binding = </M>\n    double3 xformOp:translate = (0, 20, 0)\n'
              '    uniform token[] xformOpOrder = ["xformOp:translate"]\n')
     body = (tet_body("U", points, tets, uniform) + tet_body("V", points, tets, vertex) + material

@@ -25,6 +25,15 @@ def floats(values) -> str:
     return "[" + ", ".join(f"{float(v)!r}" for v in values) + "]"
 
 
+def preview_material(color) -> str:
+    """USDA text of a UsdPreviewSurface material ``/M`` of diffuse ``color``, to bind with
+    ``rel material:binding = </M>``."""
+    r, g, b = (float(c) for c in color)
+    return ('def Material "M"\n{\n    token outputs:surface.connect = </M/S.outputs:surface>\n'
+            '    def Shader "S"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+            f'        color3f inputs:diffuseColor = ({r!r}, {g!r}, {b!r})\n        token outputs:surface\n    }}\n}}\n')
+
+
 def load(path, **kwargs):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
