@@ -215,11 +215,15 @@ class Image:
         """The image as Jupyter and IPython show it: the 8-bit sRGB PNG :meth:`save` writes (exposure 0)."""
         import io
 
+        buffer = io.BytesIO()
+        self._write_png(buffer, 0.0)
+        return buffer.getvalue()
+
+    def _write_png(self, target, exposure: float) -> None:
+        """The 8-bit sRGB PNG of ``rgb * 2**exposure`` into ``target``, a path or a binary file object."""
         from PIL import Image as PilImage
 
-        buffer = io.BytesIO()
-        PilImage.fromarray(to_srgb8(self.rgb), mode="RGB").save(buffer, format="PNG")
-        return buffer.getvalue()
+        PilImage.fromarray(to_srgb8(self.rgb, exposure), mode="RGB").save(target, format="PNG")
 
     def save(self, path, exposure: float = 0.0) -> Path:
         """Writes the colour image: ``.exr`` linear HDR float32, ``.npy`` raw linear float32, ``.png`` 8-bit sRGB
@@ -238,9 +242,7 @@ class Image:
 
         def write(target: Path) -> None:
             if suffix == ".png":
-                from PIL import Image as PilImage
-
-                PilImage.fromarray(to_srgb8(self.rgb, exposure), mode="RGB").save(target, format="PNG")
+                self._write_png(target, exposure)
             elif suffix == ".exr":
                 rgb = np.asarray(self.rgb, np.float32)
                 write_exr(target, {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
