@@ -808,6 +808,15 @@ def lobe_factor(lights: DeviceLights, k: int, diffuse_share: wp.vec3):
 
 
 @wp.func
+def lit_bsdf(lights: DeviceLights, k: int, f_diffuse: wp.vec3, f_specular: wp.vec3):
+    """The BSDF value light ``k`` is reflected with: the diffuse lobe's ``f_diffuse`` and the specular lobes'
+    ``f_specular`` (:func:`wrt.bsdf.eval_bsdf_lobes`) scaled by the light's ``diffuse`` and ``specular``
+    multipliers."""
+    m = lights.lobe_scale[k]
+    return f_diffuse * m[0] + f_specular * m[1]
+
+
+@wp.func
 def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
     """``(cos_max, 1 - cos_max)`` of the cone the sphere light subtends at ``p``; ``cos_max = 2`` when inside."""
     c = lights.position[k]

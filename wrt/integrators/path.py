@@ -20,7 +20,7 @@ import warp as wp
 
 from ..bsdf import eval_bsdf_lobes, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin
-from ..lights import DeviceLights, sample_light_in_view, shadow_direction, triangle_light_pdf
+from ..lights import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction, triangle_light_pdf
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
 from ..scene import DeviceScene
@@ -134,8 +134,7 @@ def shade_path_kernel(
         )
         if pmf > 0.0 and max_component(ls.value) > 0.0:
             f_d, f_s, pdf_f = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
-            scale = lights.lobe_scale[k]  # the light's diffuse and specular multipliers
-            f = f_d * scale[0] + f_s * scale[1]
+            f = lit_bsdf(lights, k, f_d, f_s)
             if max_component(f) > 0.0:
                 w = float(1.0)
                 if ls.pdf > 0.0:

@@ -30,7 +30,7 @@ from ..bsdf import (
     surface_f0,
 )
 from ..geometry import offset_ray_origin
-from ..lights import DeviceLights, sample_light_in_view, shadow_direction
+from ..lights import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
@@ -182,8 +182,7 @@ def whitted_light_kernel(
     wo = -d
     lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))
     f_d, f_s, _ = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
-    scale = lights.lobe_scale[k]  # the light's diffuse and specular multipliers
-    f = f_d * scale[0] + f_s * scale[1]
+    f = lit_bsdf(lights, k, f_d, f_s)
     if max_component(f) <= 0.0:
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
