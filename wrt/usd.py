@@ -90,6 +90,7 @@ from .render_settings import RenderSettings, read_render_settings
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, Refinement
 from .usd_lights import read_light
+from .usd_primvars import finite_colors
 from .usd_skel import SkelPoser
 from .usd_surfaces import SurfaceReader
 from .usd_tubes import TubeReader
@@ -867,7 +868,7 @@ class _StageReader:
                        f"{interpolation} with {len(values)} values, expected {count} ({meaning})")
             return None
         # NaN here would mean "no colour" (Instances.colors) and inf would shade as inf.
-        return np.broadcast_to(self._finite_colors(values, prim, name), (n, 3))
+        return np.broadcast_to(finite_colors(np.array(values, np.float32), prim, name, self._skip), (n, 3))
 
     def _place_instances(self, world: _Content, scene: Scene) -> np.ndarray | None:
         """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
@@ -1414,17 +1415,7 @@ class _StageReader:
         if found is None:
             return None
         values, corner_index = found
-        return self._finite_colors(values[:, :3], prim, name), corner_index
-
-    def _finite_colors(self, values: np.ndarray, prim: Usd.Prim, name: str = "displayColor") -> np.ndarray:
-        """``values`` (rows of colour primvar ``name``) as float32, rows that are not finite there replaced by grey
-        0.5 with a warning naming ``prim``: NaN or inf would render as a wrong colour; gprims fall back to grey too."""
-        values = np.array(values, np.float32)
-        bad = ~np.isfinite(values).all(axis=1)
-        if bad.any():
-            self._skip(f"non-finite {name} values were replaced by grey 0.5", prim)
-            values[bad] = 0.5
-        return values
+        return finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), corner_index
 
     def _read_uvs(self, prim, topology, uv_set: str):
         """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (when missing:

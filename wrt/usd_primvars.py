@@ -10,6 +10,16 @@ from pxr import Usd
 from .usd_values import read_time
 
 
+def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
+    """``values`` (rows of colour primvar ``name``), the rows that are not finite replaced by grey 0.5 with a warning
+    through ``skip`` naming ``prim``: NaN or inf would render as a wrong colour; gprims fall back to grey too."""
+    bad = ~np.isfinite(values).all(axis=1)
+    if bad.any():
+        skip(f"non-finite {name} values were replaced by grey 0.5", prim)
+        values = np.where(bad[:, None], values.dtype.type(0.5), values)
+    return values
+
+
 class FieldReader:
     """Reads primvars and primvar-like attributes (``widths``) at one time code.
 
@@ -58,11 +68,10 @@ class FieldReader:
             raise self.error(f"{name} has {len(values)} values; {interpolation} interpolation needs "
                              f"{sizes[interpolation]}", prim, attr)
         values = values[:, :components]
-        if components == 3 and not np.isfinite(values).all():
-            self.skip(f"non-finite {name} values were replaced by grey 0.5", prim)
-            values = np.where(np.isfinite(values).all(axis=1, keepdims=True), values, 0.5)
+        if components == 3:
+            values = finite_colors(values, prim, name, self.skip)
         interpolation = "varying" if interpolation == "faceVarying" else interpolation
         return interpolation, values
 
 
-__all__ = ["FieldReader"]
+__all__ = ["FieldReader", "finite_colors"]
