@@ -35,7 +35,7 @@ import numpy as np
 import warp as wp
 
 from .bvh import Builder
-from .bvh.layout import check_layout, convert_layout
+from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits
 from .errors import SceneError, did_you_mean
@@ -357,9 +357,8 @@ class _Subject:
                 self.stats = {k: stats[k] for k in ("sah_cost", "node_bytes", "bytes", "nodes", "leaves") if k in stats}
                 # Those are the binary tree's; a compact or wide row traces a conversion of it, of other size (as
                 # wrt bvh-stats --layout reports it).
-                traced = convert_layout(bvh, self.accel.layout)
-                self.stats.update(layout=self.accel.layout, layout_nodes=int(traced.num_nodes),
-                                  layout_bytes=int(traced.bytes))
+                nodes, size = self.accel.layout_size
+                self.stats.update(layout=self.accel.layout, layout_nodes=nodes, layout_bytes=size)
         else:
             raise ValueError(f"unknown accelerator {spec!r}; use wrt:BUILDER[:LAYOUT], warp:BUILDER or embree")
 

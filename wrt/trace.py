@@ -316,6 +316,7 @@ class BvhAccelerator(Accelerator):
     uncounted_trace_kernel = trace_bvh_kernel_uncounted
     occluded_kernel = occluded_bvh_kernel
     split = None  # RowSplitter of an instanced scene
+    _layout_size = None  # (nodes, bytes) of the traced layout, once known (see layout_size)
 
     def __init__(self, scene: Scene, builder: str, device, layout: str = "binary", **build_options):
         check_flattenable(scene, f"layout={layout!r}")
@@ -328,7 +329,9 @@ class BvhAccelerator(Accelerator):
             self._build_on_device(points, indices, builder, device, build_options)
         else:
             self.bvh = build_bvh(points, indices, builder, device=device, **build_options)
-            self.device_bvh = convert_layout(self.bvh, layout).to_device(points, indices, device)
+            traced = convert_layout(self.bvh, layout)
+            self.device_bvh = traced.to_device(points, indices, device)
+            self._layout_size = (int(traced.num_nodes), int(traced.bytes))
         if layout != "binary":
             self.trace_kernel, self.occluded_kernel = layout_kernels(layout)
             self.uncounted_trace_kernel = layout_kernels(layout, counted=False)[0]
@@ -367,6 +370,15 @@ class BvhAccelerator(Accelerator):
         else:
             self.device_bvh = device_wide_bvh(self._device_tree, points_d, indices_d, WIDE_WIDTHS[self.layout])
         self._host_inputs = (points, indices, time.perf_counter() - start)
+
+    @property
+    def layout_size(self) -> tuple[int, int]:
+        """``(nodes, bytes)`` of the layout traced, as ``wrt bvh-stats --layout`` counts them: those of the conversion
+        made for the trace, or (a tree built on a GPU) of one made from :attr:`bvh` when first asked."""
+        if self._layout_size is None:
+            traced = convert_layout(self.bvh, self.layout)
+            self._layout_size = (int(traced.num_nodes), int(traced.bytes))
+        return self._layout_size
 
     @functools.cached_property
     def bvh(self) -> FlatBvh:
