@@ -34,6 +34,14 @@ class FieldReader:
         self.skip = skip
         self.error = error
 
+    def check_weights(self, prim, attr, weights: np.ndarray) -> None:
+        """Raises SceneError naming the first of NURBS ``pointWeights`` ``weights`` (of ``attr``) that is not a
+        positive number."""
+        bad = ~(np.isfinite(weights) & (weights > 0.0))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise self.error(f"pointWeights[{i}] = {weights[i]:g} is not a positive number", prim, attr)
+
     def field(self, prim, primvar, sizes, components):
         """``(interpolation, (k, components) float64)`` of ``primvar`` (flattened through its indices), or None (with
         a warning) when its elementSize is not 1."""

@@ -122,10 +122,7 @@ class SurfaceReader(FieldReader):
         weights = np.ones(len(points)) if raw is None or len(raw) == 0 else np.asarray(raw, np.float64).reshape(-1)
         if len(weights) != len(points):
             raise self.error(f"pointWeights has {len(weights)} values for {len(points)} points", prim, weights_attr)
-        bad = ~(np.isfinite(weights) & (weights > 0.0))
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise self.error(f"pointWeights[{i}] = {weights[i]:g} is not a positive number", prim, weights_attr)
+        self.check_weights(prim, weights_attr, weights)
         self._check_finite(prim, points)
         counts = value_at(patch.GetTrimCurveCountsAttr(), self.time)
         if counts is not None and len(counts):

@@ -208,10 +208,7 @@ class TubeReader(FieldReader):
             orders = np.zeros(0, np.int64) if orders is None else orders
             knots = np.zeros(0) if knots is None else knots
             weights = np.ones(len(centres)) if weights is None else weights
-            if not (np.isfinite(weights) & (weights > 0.0)).all():
-                i = int(np.argmax(~(np.isfinite(weights) & (weights > 0.0))))
-                raise self.error(f"pointWeights[{i}] = {weights[i]:g} is not a positive number", prim,
-                                 schema.GetPointWeightsAttr())
+            self.check_weights(prim, schema.GetPointWeightsAttr(), weights)
             try:
                 return nurbs_curve_spans(counts, orders, knots, ranges, weights), centres, finite
             except ValueError as e:
