@@ -1,8 +1,11 @@
 """UsdRender render settings: the stage's camera, resolution, aspect ratio conform policy, data window and purposes,
 from Python and ``wrt render``; explicit options win; bad settings are errors naming the file and the prim."""
 
+import warnings
+
 import numpy as np
 import pytest
+from usda_text import load, preview_material, write
 
 import wrt
 from wrt.cli import main
@@ -351,3 +354,75 @@ def test_render_settings_that_are_not_a_settings_prim_are_named(tmp_path, capsys
     assert main(["render", str(stage), "--render-settings", "/World", "-o", str(tmp_path / "x.png"), "-q"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith("wrt: error: ") and "stage.usda: /World is a Xform, not a RenderSettings" in err[-1]
+
+
+def test_rendering_color_space_other_than_linear_rec709_is_warned_about(tmp_path):
+    """wrt renders in linear Rec.709 and converts nothing: another renderingColorSpace is said once, at load."""
+    space = '\n        uniform token renderingColorSpace = "lin_ap1_scene"'
+    stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS + space)
+    with pytest.warns(UserWarning, match=r"stage.usda: /Render/Settings: renderingColorSpace 'lin_ap1_scene' is not "
+                      r"linear Rec.709 \(lin_rec709_scene\), which wrt renders in; colours are not converted"):
+        assert wrt.load_usd(stage).render_settings.rendering_color_space == "lin_ap1_scene"
+    linear = write_stage(tmp_path, settings=DEFAULT_SETTINGS + '\n        uniform token renderingColorSpace = '
+                         '"lin_rec709_scene"', name="linear.usda")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        wrt.load_usd(linear)
+
+
+BINDINGS = """def Xform "W" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    rel material:binding:preview = </Green>
+    def Mesh "Q" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {
+        rel material:binding = </Red>
+        rel material:binding:full = </Blue>
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-2, -1, 0), (-0.2, -1, 0), (-0.2, 1, 0), (-2, 1, 0)]
+    }
+    def Mesh "P" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {
+        rel material:binding = </Red>
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(0.2, -1, 0), (2, -1, 0), (2, 1, 0), (0.2, 1, 0)]
+    }
+    def Camera "Cam"
+    {
+        double3 xformOp:translate = (0, 0, 6)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+def RenderSettings "S"
+{
+    rel camera = </W/Cam>
+    uniform int2 resolution = (24, 12)
+    %s
+}
+"""
+RED, GREEN, BLUE, GREY = (0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.1, 0.1, 0.9), "default"
+
+
+@pytest.mark.parametrize("purposes, q, p", [
+    (None, BLUE, RED),  # not authored: full (falling back to all-purpose)
+    ('["preview", ""]', GREEN, GREEN),  # preview bindings win, the one inherited from /W too
+    ('["", "full"]', RED, RED),
+    ('["full", "preview"]', BLUE, GREEN),  # P has no full binding of its own: its turn passes to preview
+    ('["full"]', BLUE, GREY),  # all-purpose bindings not listed: P is unbound
+])
+def test_material_binding_purposes_choose_the_material_drawn(tmp_path, purposes, q, p):
+    materials = "".join(preview_material(c).replace('"M"', f'"{n}"').replace("</M/", f"</{n}/")
+                        for n, c in (("Red", RED), ("Green", GREEN), ("Blue", BLUE)))
+    settings = f"uniform token[] materialBindingPurposes = {purposes}" if purposes else ""
+    stage = write(tmp_path, BINDINGS % settings + materials)
+    scene = load(stage, render_settings="/S")
+    image = wrt.render(scene, integrator="albedo", device="cpu")
+    prim = image.aovs["prim"]
+    for triangles, expected in (((0, 1), q), ((2, 3), p)):
+        albedo = image.aovs["albedo"][np.isin(prim, triangles)]
+        assert len(albedo) > 10
+        if expected == GREY:
+            assert all(not np.allclose(albedo, c, atol=1e-6) for c in (RED, GREEN, BLUE))
+        else:
+            np.testing.assert_allclose(albedo, np.broadcast_to(expected, albedo.shape), atol=1e-6)

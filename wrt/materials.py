@@ -6,6 +6,7 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   USD's rules: direct and ``collection`` bindings, ``bindMaterialAs`` strength, inheritance down namespace, and
   ``material:binding:full`` over all-purpose bindings. Where that gives no material, or one without a
   UsdPreviewSurface, a ``preview``-purpose binding to a UsdPreviewSurface is used instead (:func:`bound_material`).
+  The render settings' ``materialBindingPurposes``, when authored, replace that rule by their order.
   ``GeomSubset``\\ s of family ``materialBind`` override the mesh's material on their faces (subsets of points or
   edges are ignored with a warning).
 - The material is read from the first of its surface outputs, render contexts' (``outputs:mtlx:surface``, ...)
@@ -506,18 +507,23 @@ def readable_surface(material):
     return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in readable), None)
 
 
-def bound_material(prim) -> tuple:
+def bound_material(prim, purposes: tuple[str, ...] | None = None) -> tuple:
     """The material bound to ``prim`` (a mesh, a subset or a native instance) for rendering, an invalid
     ``UsdShade.Material`` when none, and the binding relationship that binds it (for its strength).
 
-    The ``full`` purpose first (it falls back to all-purpose bindings); when that binds nothing, or a material
-    wrt cannot read (an MDL look, a MaterialX surface other than standard_surface and OpenPBR) while a
-    ``material:binding:preview`` binds a UsdPreviewSurface, the preview binding, as usdview shows it. An asset whose
-    meshes bind their UsdPreviewSurface only for preview was drawn in the default grey. (usdview takes a preview
-    binding first also where the full one is readable: there wrt, a final-frame renderer, keeps the full one.)"""
+    ``purposes`` (the render settings' ``materialBindingPurposes``, ``""`` for all-purpose bindings) orders the
+    binding purposes: the material of the first purpose that binds one wrt can read, else of the first that binds
+    any. ``None`` (nothing authored): the ``full`` purpose first (it falls back to all-purpose bindings); when that
+    binds nothing, or a material wrt cannot read (an MDL look, a MaterialX surface other than standard_surface and
+    OpenPBR) while a ``material:binding:preview`` binds a UsdPreviewSurface, the preview binding, as usdview shows
+    it. An asset whose meshes bind their UsdPreviewSurface only for preview was drawn in the default grey. (usdview
+    takes a preview binding first also where the full one is readable: there wrt, a final-frame renderer, keeps the
+    full one.)"""
     from pxr import UsdShade
 
     binding = UsdShade.MaterialBindingAPI(prim)
+    if purposes is not None:
+        return _bound_in_order(binding, purposes)
     full, full_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
     if full and readable_surface(full):
         return full, full_binding
@@ -525,6 +531,27 @@ def bound_material(prim) -> tuple:
     if preview and _context_preview_surface(preview):
         return preview, preview_binding
     return full, full_binding
+
+
+def _bound_in_order(binding, purposes: tuple[str, ...]) -> tuple:
+    """``(material, binding relationship)`` of the first of ``purposes`` whose binding gives a material wrt reads,
+    else of the first that gives any, else an invalid material (all-purpose bindings count only where ``""`` is
+    listed)."""
+    from pxr import Usd, UsdShade
+
+    # ComputeBoundMaterial(purpose) falls back to the all-purpose binding; a purpose whose result comes through the
+    # all-purpose relationship has no binding of its own, and its turn in the order passes.
+    any_purpose = binding.ComputeBoundMaterial(UsdShade.Tokens.allPurpose)
+    fallback = any_purpose[1].GetPath() if any_purpose[0] else None
+    found = []
+    for purpose in purposes:
+        material, rel = binding.ComputeBoundMaterial(purpose) if purpose else any_purpose
+        if not material or (purpose and rel.GetPath() == fallback):
+            continue
+        if readable_surface(material):
+            return material, rel
+        found.append((material, rel))
+    return found[0] if found else (UsdShade.Material(), Usd.Relationship())
 
 
 def _shader_name(shader) -> str:
@@ -583,11 +610,13 @@ class MaterialReader:
     Args:
         time: ``Usd.TimeCode`` to read inputs at.
         skip: ``skip(reason, prim, detail=None)`` records a warning (see ``wrt.usd``); one reason per material.
+        purposes: the render settings' ``materialBindingPurposes``, or None (see :func:`bound_material`).
     """
 
-    def __init__(self, time, skip):
+    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None):
         self.time = time
         self.skip = skip
+        self.purposes = purposes
         self.materials: list[Material] = []
         self.textures: list[np.ndarray] = []
         self.texture_paths: list[str] = []
@@ -608,7 +637,7 @@ class MaterialReader:
         """
         from pxr import UsdGeom, UsdShade
 
-        material, _ = bound_material(prim)
+        material, _ = bound_material(prim, self.purposes)
         base = self.material_index(material) if material else -1
         faces = np.full(n_faces, base, np.int32)
         unbound = np.full(n_faces, not material, bool)
@@ -619,7 +648,7 @@ class MaterialReader:
                       prim, f"{prim.GetTypeName()}, subsets {', '.join(s.GetPrim().GetName() for s in subsets)}")
             subsets = []
         for subset in subsets:
-            sub_material, _ = bound_material(subset.GetPrim())
+            sub_material, _ = bound_material(subset.GetPrim(), self.purposes)
             if not sub_material:
                 continue
             element_type = subset.GetElementTypeAttr().Get()

@@ -1,22 +1,29 @@
-"""A stage's render settings (UsdRender): which camera, how many pixels, and how the film meets the image.
+"""A stage's render settings (UsdRender): which camera, how many pixels, how the film meets the image, and which
+products (output files of RenderVars) a render makes.
 
 The stage metadata ``renderSettingsPrimPath`` names the default ``RenderSettings`` prim (``load_usd(...,
 render_settings=PATH)`` picks another). Its ``camera``, ``resolution``, ``pixelAspectRatio``,
 ``aspectRatioConformPolicy``, ``dataWindowNDC`` and ``disableDepthOfField`` are read with the schema's fallbacks,
-then overridden by the values its first ``RenderProduct`` authors, as ``UsdRenderComputeSpec`` merges them;
-``includedPurposes`` is the settings prim's own (it cannot vary per product). A render uses them where the caller
-did not say otherwise (see :func:`wrt.render.resolve_view`): an explicit camera, width or height wins over the
-stage's (one size alone keeps the resolution's aspect), which wins over wrt's defaults (640 x 480, the stage's first
-camera).
+then, for each ``RenderProduct`` of its ``products``, overridden by the values that product authors, as
+``UsdRenderComputeSpec`` merges them (one :class:`RenderSettings` per product in ``products``, each with its
+``productName``, ``productType`` and ``orderedVars`` RenderVars: ``sourceName``, ``sourceType``, ``dataType``). The
+settings object itself is the merge with the first product. ``includedPurposes``, ``materialBindingPurposes`` and
+``renderingColorSpace`` are the settings prim's own (they cannot vary per product). A render uses the first
+product's camera and resolution where the caller did not say otherwise (see :func:`wrt.render.resolve_view`): an
+explicit camera, width or height wins over the stage's (one size alone keeps the resolution's aspect), which wins
+over wrt's defaults (640 x 480, the stage's first camera). :func:`wrt.render_products.render_products` renders
+every product and writes its RenderVars into a folder (named after ``productName``, never at its path: a stage
+must not choose where files go).
 
 The conform policy and pixel aspect become the camera's ``fit`` and ``pixel_aspect_ratio`` (see
 :meth:`wrt.Camera.film_size`). The data window crops (or, past [0, 1], overscans) the image as UsdRender's
 rasterization rule says: a pixel is rendered when its centre lies in the window, ``(0, 0)`` the lower-left corner
 of the conformed film, minimum edges included and maximum edges excluded; the image then holds only those pixels,
 rendered exactly where they lie in the full image (a camera of the window's film and pixel count).
-``instantaneousShutter`` and ``disableMotionBlur`` need nothing (wrt has no motion blur); ``productName`` is kept but
-never chosen as an output file by wrt (a stage would pick where files are written, often a path of another
-machine); ``materialBindingPurposes`` and ``renderingColorSpace`` are not read.
+``instantaneousShutter`` and ``disableMotionBlur`` need nothing (wrt has no motion blur).
+``materialBindingPurposes``, when authored, orders the binding purposes materials are looked up with
+(:func:`wrt.materials.bound_material`); ``renderingColorSpace`` other than linear Rec.709 is warned about (wrt renders
+in linear Rec.709 and converts nothing).
 """
 
 from __future__ import annotations
@@ -32,11 +39,32 @@ from .errors import SceneError
 DEFAULT_WIDTH = 640  # image width without a stage resolution or an explicit one, in pixels
 DEFAULT_HEIGHT = 480  # image height, likewise
 FULL_WINDOW = (0.0, 0.0, 1.0, 1.0)  # dataWindowNDC of the whole image: (xmin, ymin, xmax, ymax)
+# renderingColorSpace names of linear Rec.709 (sRGB primaries), what wrt renders in: Gf's (first), USD's older one,
+# and the OCIO names of it in the ACES and default configs.
+LINEAR_REC709_NAMES = ("lin_rec709_scene", "lin_rec709", "Linear Rec.709 (sRGB)", "scene-linear Rec.709-sRGB")
+
+
+@dataclasses.dataclass(frozen=True)
+class RenderVar:
+    """A ``RenderVar`` of a product: one quantity to write (see :mod:`wrt.render_products` for those wrt has).
+
+    Attributes:
+        path: the ``RenderVar`` prim.
+        source_name: ``sourceName``, e.g. ``color``, ``depth``, ``normal``, ``C.*``.
+        source_type: ``sourceType``: ``raw``, ``primvar``, ``lpe`` or ``intrinsic``.
+        data_type: ``dataType``, e.g. ``color3f``, ``float``, ``int``.
+    """
+
+    path: str
+    source_name: str = ""
+    source_type: str = "raw"
+    data_type: str = "color3f"
 
 
 @dataclasses.dataclass(frozen=True)
 class RenderSettings:
-    """The render settings of a stage, merged from a ``RenderSettings`` prim and its first ``RenderProduct``.
+    """The render settings of a stage, merged from a ``RenderSettings`` prim and one of its ``RenderProduct`` prims
+    (the first, for the settings :func:`read_render_settings` returns; each, for its ``products``).
 
     Attributes:
         path: the ``RenderSettings`` prim.
@@ -50,6 +78,13 @@ class RenderSettings:
         disable_depth_of_field: render stage cameras as pinholes.
         included_purposes: the purposes drawn besides ``default`` (always drawn, as UsdRender says).
         product_name: the product's ``productName`` (an output file name), or ``""``.
+        product_type: the product's ``productType`` (``raster``, ``deepRaster``).
+        render_vars: the product's ``orderedVars``, in order.
+        products: every product of the settings, each merged as this one is with the first (``()`` on the products
+            themselves and without any).
+        material_binding_purposes: ``materialBindingPurposes`` when authored (``""``: all-purpose bindings), else
+            ``None``: wrt's own rule, ``full`` then a readable ``preview`` (:func:`wrt.materials.bound_material`).
+        rendering_color_space: ``renderingColorSpace``, or ``""``.
     """
 
     path: str
@@ -63,6 +98,11 @@ class RenderSettings:
     disable_depth_of_field: bool = False
     included_purposes: tuple[str, ...] = ("default", "render")
     product_name: str = ""
+    product_type: str = "raster"
+    render_vars: tuple[RenderVar, ...] = ()
+    products: tuple[RenderSettings, ...] = ()
+    material_binding_purposes: tuple[str, ...] | None = None
+    rendering_color_space: str = ""
 
     def image_size(self, width: int | None, height: int | None) -> tuple[int, int]:
         """``(width, height)`` before the data window: the given ones; where only one is given, the other keeps the
@@ -130,7 +170,7 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
             not positive, a pixel aspect ratio that is not a finite positive number, an unknown conform policy, a
             data window that is not finite or empty).
     """
-    from pxr import Sdf, UsdGeom, UsdRender
+    from pxr import Sdf, UsdRender
 
     name = os.path.basename(source)
     given = path is not None
@@ -151,24 +191,56 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
         # it), with wrt's defaults, rather than failing for settings the user never asked for.
         warnings.warn(f"{name}: {path} (the stage's renderSettingsPrimPath) {problem}; it is ignored", stacklevel=2)
         return None
+    path = str(path)
     settings = UsdRender.Settings(prim)
-    values = _read_base(settings, authored_only=False)
+    base = _read_base(settings, authored_only=False)
     included = [str(t) for t in settings.GetIncludedPurposesAttr().Get() or []]
-    values["included_purposes"] = ("default", *(t for t in included if t != "default"))  # default: always drawn
-    _check_values(values, dict(path=source, prim=str(path)))
-    product, camera_from = "", str(path)
-    products = [prim for prim in map(stage.GetPrimAtPath, settings.GetProductsRel().GetForwardedTargets())
-                if prim and prim.IsA(UsdRender.Product)]
-    if products:
-        product = str(products[0].GetPath())
-        render_product = UsdRender.Product(products[0])
-        overrides = _read_base(render_product, authored_only=True)
-        camera_from = product if "camera" in overrides else camera_from
-        values.update(overrides)
-        values["product_name"] = str(render_product.GetProductNameAttr().Get() or "")
-        if len(products) > 1:
-            warnings.warn(f"{name}: {path} has {len(products)} RenderProducts; wrt renders the first, {product}",
-                          stacklevel=3)
+    base["included_purposes"] = ("default", *(t for t in included if t != "default"))  # default: always drawn
+    binding_purposes = settings.GetMaterialBindingPurposesAttr()
+    if binding_purposes.HasAuthoredValue():
+        base["material_binding_purposes"] = tuple(str(t) for t in binding_purposes.Get() or [])
+    base["rendering_color_space"] = str(settings.GetRenderingColorSpaceAttr().Get() or "")
+    _check_values(base, dict(path=source, prim=path))
+    _warn_color_space(base["rendering_color_space"], f"{name}: {path}")
+    products = [_merged(stage, source, path, base, p)
+                for p in _targets(stage, settings.GetProductsRel(), UsdRender.Product, f"{name}: {path}")]
+    if not products:
+        return _merged(stage, source, path, base, None)
+    return dataclasses.replace(products[0], products=tuple(products))
+
+
+def _targets(stage, rel, schema, where: str) -> list:
+    """The prims of ``schema`` (``UsdRender.Product`` or ``UsdRender.Var``) that relationship ``rel`` targets
+    (forwarded), in order; a target that is not one is left out with a warning, as ``UsdRenderComputeSpec`` skips
+    it."""
+    prims = []
+    for target in rel.GetForwardedTargets():
+        prim = stage.GetPrimAtPath(target)
+        if prim and prim.IsA(schema):
+            prims.append(prim)
+        else:
+            what = f"a {prim.GetTypeName() or 'typeless prim'}" if prim else "nothing"
+            warnings.warn(f"{where}: {rel.GetName()} targets {target}, which is {what}, not a "
+                          f"Render{schema.__name__}; it is left out", stacklevel=4)
+    return prims
+
+
+def _merged(stage, source: str, path: str, base: dict, product_prim) -> RenderSettings:
+    """The settings at ``path`` (``base``: their values) merged with the overrides of ``product_prim`` (or None),
+    with the product's name, type and RenderVars, as ``UsdRenderComputeSpec`` builds each product."""
+    from pxr import UsdGeom, UsdRender
+
+    values, camera_from = dict(base), path
+    if product_prim is not None:
+        product = str(product_prim.GetPath())
+        schema = UsdRender.Product(product_prim)
+        overrides = _read_base(schema, authored_only=True)
+        camera_from = product if "camera" in overrides else path
+        values.update(overrides, product=product, product_name=str(schema.GetProductNameAttr().Get() or ""),
+                      product_type=str(schema.GetProductTypeAttr().Get() or "raster"))
+        where = f"{os.path.basename(source)}: {product}"
+        values["render_vars"] = tuple(_read_var(UsdRender.Var(var))
+                                      for var in _targets(stage, schema.GetOrderedVarsRel(), UsdRender.Var, where))
     camera = values.get("camera")
     if camera is not None:
         target = stage.GetPrimAtPath(camera)
@@ -176,9 +248,24 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
             what = f"a {target.GetTypeName() or 'typeless prim'}" if target else "no prim"
             raise SceneError(f"camera relationship targets {camera}, which is {what}, not a Camera", path=source,
                              prim=camera_from)
-    if product:  # the merged values: a bad one now comes from the product
-        _check_values(values, dict(path=source, prim=product))
-    return RenderSettings(path=str(path), source=source, product=product, **values)
+    if product_prim is not None:  # the merged values: a bad one now comes from the product
+        _check_values(values, dict(path=source, prim=values["product"]))
+    return RenderSettings(path=path, source=source, **values)
+
+
+def _read_var(var) -> RenderVar:
+    """The :class:`RenderVar` of a ``UsdRender.Var`` (the schema's fallbacks where nothing is authored)."""
+    return RenderVar(path=str(var.GetPath()), source_name=str(var.GetSourceNameAttr().Get() or ""),
+                     source_type=str(var.GetSourceTypeAttr().Get() or "raw"),
+                     data_type=str(var.GetDataTypeAttr().Get() or "color3f"))
+
+
+def _warn_color_space(space: str, where: str) -> None:
+    """One warning when ``renderingColorSpace`` names a space other than the linear Rec.709 primaries wrt renders in
+    (colours are read and summed as they are, never converted)."""
+    if space and space not in LINEAR_REC709_NAMES:
+        warnings.warn(f"{where}: renderingColorSpace {space!r} is not linear Rec.709 ({LINEAR_REC709_NAMES[0]}), "
+                      "which wrt renders in; colours are not converted", stacklevel=4)
 
 
 def _read_base(schema, authored_only: bool) -> dict:

@@ -401,7 +401,8 @@ class _StageReader:
         self.xforms = xform_cache(time, stage)  # sample-only transform ops read at their first sample (see above)
         self.contents = {}  # (kind, root path, outer material) -> _Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
-        self.materials = MaterialReader(time, self._skip)  # UsdShade materials and textures, read once each
+        # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
+        self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None)
         self.skel = SkelPoser(time, self._skip)  # poses meshes skinned by UsdSkel skeletons
         self.tubes = TubeReader(time, self._skip, self._error)  # Points and curves as spheres and tubes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles
@@ -641,7 +642,7 @@ class _StageReader:
             return
         outer, forced = ctx.outer_material, ctx.outer_forced
         if not forced:
-            material, binding = bound_material(prim)  # as the meshes' own, preview bindings included
+            material, binding = bound_material(prim, self.materials.purposes)  # as the meshes' own
             if material:
                 outer = self.materials.material_index(material)
                 # A strongerThanDescendants binding (on the instance or above it) overrides the prototype's own
