@@ -15,6 +15,7 @@ from .materials import Material, TextureInput
 from .preview import preview, to_pyvista  # pyvista itself is imported only when these are called
 from .primitives import Shape
 from .render import Renderer, render
+from .render_products import render_products
 from .scene import DistantLight, Mesh, Scene
 from .trace import Hits, occluded, trace
 from .usd import load_usd
@@ -47,6 +48,7 @@ __all__ = [
     "occluded",
     "preview",
     "render",
+    "render_products",
     "to_pyvista",
     "trace",
 ]

@@ -206,6 +206,10 @@ def _add_render(sub) -> None:
     p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count")
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder (depth, z, normal, "
                    "geometric_normal, albedo, prim, instance, material, cost)")
+    p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
+                   "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
+                   "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
+                   "EXR. Not with -o, --width, --height, --camera, --aov, --aov-dir or several scenes")
     from .integrators import INTEGRATORS
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
@@ -345,6 +349,10 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     stats = scene.stats()
     loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)
+    settings = scene.render_settings
+    if settings is not None and len(settings.products) > 1:  # one image: say where the others are
+        warnings.warn(f"{path.name}: {settings.path} has {len(settings.products)} RenderProducts; this image is the "
+                      f"first's, {settings.product} (--products DIR writes them all)", stacklevel=2)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
     _, width, height = resolve_view(scene, args.camera, args.width, args.height)  # the stage's settings, if any
     check_pixels(width, height)  # the limit is the clearer error where both apply
@@ -387,6 +395,8 @@ def _run_render(args) -> int:
         raise ValueError("--workers sizes the LocalCluster of --dask without an ADDRESS; it applies to nothing else")
     if args.devices and args.dask is not None:
         raise ValueError("give --devices or --dask, not both: Dask workers each render on their own device")
+    if args.products is not None:
+        return _run_products(args, paths, progress)
     if args.frames:
         return _run_frames(args, paths, progress)
     if args.resume or args.devices or args.dask is not None:
@@ -427,6 +437,35 @@ def _run_render(args) -> int:
         names = ", ".join(Path(r["scene"]).name for r in failures)
         print(f"wrt: {len(failures)} of {len(paths)} scenes failed: {names}", file=sys.stderr)
         return 1
+    return 0
+
+
+def _run_products(args, paths: list, progress) -> int:
+    """``wrt render SCENE --products DIR``: every RenderProduct of the stage into DIR."""
+    import wrt
+
+    given = (("-o", args.output), ("--width", args.width), ("--height", args.height), ("--camera", args.camera),
+             ("--aov", args.aov), ("--aov-dir", args.aov_dir), ("--frames", args.frames), ("--resume", args.resume),
+             ("--devices", args.devices), ("--dask", args.dask is not None), ("--log", args.log),
+             ("--max-memory", args.max_memory))
+    unsupported = [name for name, value in given if value]
+    if unsupported:  # each product names its own camera, size and file
+        raise ValueError(f"{', '.join(unsupported)} cannot be combined with --products")
+    if len(paths) != 1:
+        raise ValueError("--products writes the products of one scene; give exactly one SCENE")
+    directory = Path(args.products)
+    _check_output_location(directory)
+    start = time.perf_counter()
+    scene = wrt.load_usd(paths[0], time=args.time, **_load_options(args))
+    progress(loaded_summary(paths[0].name, scene.stats()), time.perf_counter() - start)
+    start = time.perf_counter()
+    written = wrt.render_products(scene, directory, spp=args.spp, device=args.device, seed=args.seed,
+                                  builder=args.builder, accel=args.accel, integrator=args.integrator,
+                                  max_depth=args.max_depth, ao_radius=args.ao_radius, exposure=args.exposure,
+                                  progress=not args.quiet and sys.stderr.isatty())
+    progress(f"rendered {len(written)} products at {args.spp} spp ({args.integrator})", time.perf_counter() - start)
+    for product, out in written.items():
+        progress(f"wrote {out} ({product})")
     return 0
 
 

@@ -93,14 +93,15 @@ def resolve_camera(scene: Scene, camera) -> Camera:
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
 
 
-def resolve_view(scene: Scene, camera=None, width: int | None = None, height: int | None = None):
+def resolve_view(scene: Scene, camera=None, width: int | None = None, height: int | None = None, settings=None):
     """``(camera, width, height)`` a render of ``scene`` uses: each of ``camera``, ``width`` and ``height`` that is
-    given, else the stage's render settings' (``Scene.render_settings``: its camera, its resolution), else wrt's
-    default (:func:`resolve_camera`, ``DEFAULT_WIDTH x DEFAULT_HEIGHT``). A stage camera (``None`` or a prim path)
-    then takes the settings' conform policy, pixel aspect ratio, depth of field and data window (which may make the
-    image smaller: the pixels inside it); the camera wrt makes to frame a stage without cameras takes the data window
-    only (its film is wrt's, not the stage's); a :class:`Camera` object is used as it is."""
-    settings = scene.render_settings
+    given, else the stage's render settings' (``settings``, by default ``Scene.render_settings``: its camera, its
+    resolution), else wrt's default (:func:`resolve_camera`, ``DEFAULT_WIDTH x DEFAULT_HEIGHT``). A stage camera
+    (``None`` or a prim path) then takes the settings' conform policy, pixel aspect ratio, depth of field and data
+    window (which may make the image smaller: the pixels inside it); the camera wrt makes to frame a stage without
+    cameras takes the data window only (its film is wrt's, not the stage's); a :class:`Camera` object is used as it
+    is."""
+    settings = scene.render_settings if settings is None else settings
     if settings is None:
         return (resolve_camera(scene, camera), DEFAULT_WIDTH if width is None else width,
                 DEFAULT_HEIGHT if height is None else height)

@@ -1,0 +1,230 @@
+"""Render products: every ``RenderProduct`` of a stage's render settings rendered at its own camera and resolution,
+its ``RenderVar``\\ s taken from wrt's image and AOVs, and written into one folder.
+
+A RenderVar's ``sourceName`` (``sourceType`` ``raw`` or ``intrinsic``) is looked up in :data:`SOURCES`: the names
+of Hydra's ``HdAovTokens``, RenderMan's and wrt's own AOV names. ``sourceType = "lpe"`` knows the full beauty
+expressions of :data:`BEAUTY_LPES` only, and wrt has no primvar AOVs (``sourceType = "primvar"``). A RenderVar wrt
+has no output for is left out with one warning naming it; a product left with nothing is skipped.
+
+Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one); the folder is the
+caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the
+beauty alone may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components); every other product is
+an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's extension replaced with a warning where
+it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after
+their prim: ``depth`` (one channel), ``N.X, N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... Two products of one
+file name get ``_2``, ``_3`` suffixes, with a warning.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .image import check_exposure, to_srgb8, write_atomically, write_exr
+from .render import Renderer, resolve_view
+
+BEAUTY = "rgb"  # Image.rgb: the integrator's image, linear radiance
+# sourceName -> what wrt writes for it: BEAUTY, an Image.aovs key, or "Neye" (the normal in camera space).
+SOURCES = {
+    "color": BEAUTY, "Ci": BEAUTY, "lpe:C.*": BEAUTY,  # Hydra's beauty, RenderMan's, Hydra's LPE spelling
+    "depth": "depth",  # wrt's depth: distance along the camera ray (not Hydra's [0, 1] depth buffer)
+    "cameraDepth": "z", "z": "z",  # distance along the camera's viewing axis
+    "normal": "normal", "N": "normal",  # world-space shading normal
+    "Neye": "Neye",  # the shading normal in camera space (the camera looks down -Z)
+    "Ng": "geometric_normal", "geometric_normal": "geometric_normal",
+    "albedo": "albedo",
+    "primId": "prim", "prim": "prim",  # triangle id: a row of Scene.triangles() (Hydra's names its rprim)
+    "instanceId": "instance", "instance": "instance",
+    "material": "material",
+    "cost": "cost",
+}
+BEAUTY_LPES = ("C.*", "C.*[<L.>O]")  # lpe sourceNames of the whole image
+# Channel names in a layer, by what is written; one name: the layer's name alone.
+CHANNELS = {BEAUTY: ("R", "G", "B"), "albedo": ("R", "G", "B"), "normal": ("X", "Y", "Z"), "Neye": ("X", "Y", "Z"),
+            "geometric_normal": ("X", "Y", "Z"), "cost": ("nodes", "triangles")}
+EXACT_FLOAT_INTS = 1 << 24  # ids below this are exact in a float32 channel
+
+
+@dataclasses.dataclass(frozen=True)
+class _Output:
+    """A RenderVar resolved: what it writes (a key of :data:`SOURCES`' values) and its layer name."""
+
+    kind: str
+    layer: str
+    alpha: bool = False  # a beauty of four components: alpha is the coverage of the pixel-centre camera ray
+
+
+def source_of(var) -> str | None:
+    """What wrt writes for RenderVar ``var`` (:class:`wrt.render_settings.RenderVar`), or None when it has nothing."""
+    if var.source_type in ("raw", "intrinsic"):
+        return SOURCES.get(var.source_name)
+    if var.source_type == "lpe":
+        return BEAUTY if var.source_name.replace(" ", "") in BEAUTY_LPES else None
+    return None
+
+
+def _has_alpha(data_type: str) -> bool:
+    """Whether a beauty RenderVar of ``dataType`` ``data_type`` has four components (``color4f``, ``float4``...)."""
+    return re.fullmatch(r"(color|float|half|double)4[fhd]?", data_type) is not None
+
+
+def product_outputs(product, where: str) -> list[_Output]:
+    """The outputs of ``product``'s RenderVars (just the beauty without any), with one warning per RenderVar wrt has
+    no output for (``where``: the file, for messages)."""
+    if not product.render_vars:
+        return [_Output(BEAUTY, "")]
+    outputs, layers, seen = [], {"r", "g", "b", "a"}, set()  # layers: not the beauty's channel names
+    for var in product.render_vars:
+        if var.path in seen:  # listed twice: written once
+            continue
+        seen.add(var.path)
+        kind = source_of(var)
+        if kind is None:
+            warnings.warn(f"{where}: RenderVar {var.path} ({var.source_type} {var.source_name!r}) has no wrt output "
+                          f"and is left out; wrt writes the raw sourceNames {', '.join(SOURCES)} and the lpe "
+                          f"{' and '.join(BEAUTY_LPES)}", stacklevel=3)
+            continue
+        beauty = kind == BEAUTY and not any(o.kind == BEAUTY and not o.layer for o in outputs)
+        layer = "" if beauty else _unique(var.path.rsplit("/", 1)[-1], layers)
+        outputs.append(_Output(kind, layer, alpha=kind == BEAUTY and _has_alpha(var.data_type)))
+    return outputs
+
+
+def _unique(name: str, taken: set) -> str:
+    """``name``, or ``name_2``, ``name_3``... where it is taken (compared without case); recorded as taken."""
+    stem, suffix = os.path.splitext(name)
+    candidate, k = name, 1
+    while candidate.casefold() in taken:
+        k += 1
+        candidate = f"{stem}_{k}{suffix}"
+    taken.add(candidate.casefold())
+    return candidate
+
+
+def product_file_name(product, png: bool, where: str, taken: set) -> str:
+    """The file name of ``product`` in the output folder: the last component of ``productName`` (else the product
+    prim's name), with ``.png`` (``png``: the beauty alone) or ``.exr``; ``taken`` (file names already used, without
+    case) makes it unique. A name that changes on the way is named in a warning."""
+    name = re.split(r"[\\/]", product.product_name)[-1].strip()
+    name = re.sub(r"[\x00-\x1f]", "_", name)  # a NUL cannot be in a file name
+    if name in ("", ".", ".."):
+        name = product.product.rsplit("/", 1)[-1]
+    stem, suffix = os.path.splitext(name)
+    wanted = ".exr" if not png or suffix.lower() == ".exr" else ".png"
+    if suffix.lower() != wanted:
+        if suffix[1:].isalpha():  # another format's extension (".tif", or ".png" for several channels): replaced
+            warnings.warn(f"{where}: {product.product} productName {product.product_name!r}: wrt writes "
+                          f"{'PNG or EXR' if png else 'several channels as EXR'}; written as {stem}{wanted}",
+                          stacklevel=3)
+            name = stem
+        name += wanted  # none, or a dot that is part of the name ("shot.0001"): appended
+    unique = _unique(name, taken)
+    if unique != name:
+        warnings.warn(f"{where}: {product.product} writes {name}, as an earlier product does; written as {unique}",
+                      stacklevel=3)
+    return unique
+
+
+def output_channels(image, camera, outputs: list[_Output]) -> dict[str, np.ndarray]:
+    """``{channel name: (H, W) array}`` of ``outputs`` from ``image`` (a :class:`wrt.Image` of ``camera``)."""
+    hit = image.aovs["prim"] >= 0
+    channels = {}
+    for out in outputs:
+        if out.kind == BEAUTY:
+            value = image.rgb
+        elif out.kind == "Neye":
+            # Normals go to camera space by the transpose of the camera's rotation (its inverse-transpose for
+            # normals); scale and shear of the camera transform are normalised away.
+            value = image.aovs["normal"] @ np.asarray(camera.to_world[:3, :3], np.float64)
+            length = np.linalg.norm(value, axis=-1, keepdims=True)
+            value = np.divide(value, length, out=np.zeros_like(value), where=length > 0)
+        else:
+            value = image.aovs[out.kind]
+        if value.dtype.kind in "iu" and value.size and np.abs(value).max() >= EXACT_FLOAT_INTS:
+            warnings.warn(f"{out.layer or out.kind}: ids of {EXACT_FLOAT_INTS} and above are rounded in the "
+                          "float32 channels of EXR", stacklevel=3)
+        names = CHANNELS.get(out.kind, ("",))
+        value = np.asarray(value, np.float32).reshape(*value.shape[:2], len(names))
+        if out.alpha:
+            value, names = np.concatenate([value, hit[..., None]], axis=-1), (*names, "A")
+        for k, name in enumerate(names):
+            channels[".".join(p for p in (out.layer, name) if p)] = value[..., k]
+    return channels
+
+
+def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float = 0.0) -> Path:
+    """Writes ``channels`` to ``path``: an 8-bit sRGB PNG of ``R, G, B`` (``A``), scaled by ``2**exposure``, or
+    an EXR of every channel."""
+    def write(target: Path) -> None:
+        if path.suffix.lower() == ".exr":
+            write_exr(target, channels)
+            return
+        from PIL import Image as PilImage
+
+        rgb = to_srgb8(np.stack([channels[c] for c in "RGB"], axis=-1), exposure)
+        if "A" in channels:
+            alpha = np.round(np.clip(channels["A"], 0, 1) * 255).astype(np.uint8)
+            PilImage.fromarray(np.dstack([rgb, alpha]), mode="RGBA").save(target, format="PNG")
+        else:
+            PilImage.fromarray(rgb, mode="RGB").save(target, format="PNG")
+
+    write_atomically(path, write)
+    return path
+
+
+def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 0, builder: str = "sah",
+                    accel: str = "wrt", integrator: str = "whitted", max_depth: int | None = None,
+                    ao_radius: float | None = None, batch: int | None = None, progress: bool = False,
+                    exposure: float = 0.0) -> dict[str, Path]:
+    """Renders every ``RenderProduct`` of ``scene``'s render settings and writes its RenderVars into ``directory``
+    (see the module docstring for names, formats and the sources wrt has). Products of one view (camera,
+    resolution, film, data window) share one render.
+
+    Args:
+        scene: a :class:`wrt.Scene` loaded from a stage with render settings.
+        directory: the folder the files go to (made if missing).
+        spp, device, seed, builder, accel, integrator, max_depth, ao_radius, batch, progress: as :func:`wrt.render`.
+        exposure: PNG products only: ``2**exposure`` scales the image before sRGB.
+
+    Returns:
+        ``{RenderProduct prim path: file written}``, in the settings' order.
+
+    Raises:
+        ValueError: the scene has no render settings with a RenderProduct, or as :func:`wrt.render`.
+    """
+    settings = scene.render_settings
+    products = settings.products if settings is not None else ()
+    if not products:
+        what = f"{settings.path} has no RenderProduct" if settings else "no render settings, so no RenderProduct"
+        raise ValueError(f"{scene.source or 'scene'}: {what} to write")
+    exposure = check_exposure(exposure)
+    where = os.path.basename(settings.source)
+    directory = Path(directory)
+    renders, written, taken = {}, {}, set()
+    for product in products:
+        if product.product_type != "raster":
+            warnings.warn(f"{where}: {product.product} is a {product.product_type} product; wrt writes raster "
+                          "products only, it is skipped", stacklevel=2)
+            continue
+        outputs = product_outputs(product, where)
+        if not outputs:
+            warnings.warn(f"{where}: {product.product} has no RenderVar wrt can write; it is skipped", stacklevel=2)
+            continue
+        view = tuple(getattr(product, f) for f in ("camera", "resolution", "pixel_aspect_ratio", "conform_policy",
+                                                   "data_window", "disable_depth_of_field"))
+        if view not in renders:
+            camera, width, height = resolve_view(scene, settings=product)
+            renderer = Renderer(scene, camera=camera, width=width, height=height, device=device, builder=builder,
+                                accel=accel, integrator=integrator, max_depth=max_depth, ao_radius=ao_radius)
+            renders[view] = (renderer.render(spp=spp, seed=seed, batch=batch, progress=progress), camera)
+        image, camera = renders[view]
+        png = len(outputs) == 1 and outputs[0].kind == BEAUTY
+        name = product_file_name(product, png, where, taken)
+        written[product.product] = write_product(directory / name, output_channels(image, camera, outputs),
+                                                 exposure)
+    return written
