@@ -1,6 +1,6 @@
 """Authored USD that changes the picture in other renderers but that wrt does not render is named at load: one
 warning per kind and stage, naming the file, the attribute (or type) and the prims. What wrt renders as authored
-(default light linking, a displayOpacity of 1, a presence material with a cut-out threshold) is not named."""
+(light linking, a displayOpacity of 1, a presence material with a cut-out threshold) is not named."""
 
 import warnings
 
@@ -36,14 +36,15 @@ def about(messages, *words):
     return [m for m in messages if all(w in m for w in words)]
 
 
-def test_light_linking_and_light_filters_are_named(tmp_path):
-    """Light linking, shadow linking and light filters change what a light reaches in Storm, Karma and RenderMan;
-    wrt lights everything, so the load names each light. A collection that still holds everything (includes beside
-    the fallback includeRoot, an expression matching all) is UsdLux's default and not named."""
+def test_light_filters_are_named_and_light_links_are_read(tmp_path):
+    """Light filters change what a light reaches in Storm, Karma and RenderMan; wrt shines unfiltered, so the load
+    names each filtered light. Light and shadow linking are rendered (tests/test_light_linking.py): read as the
+    lights' collections and not named; a collection that holds everything (includes beside the fallback includeRoot,
+    an expression matching all) is UsdLux's default: no collection."""
 
     def build(stage):
         quad(stage, "/Quad")
-        for name in ("Linked", "AlsoLinked"):  # two lights of one kind: one warning naming both
+        for name in ("Linked", "AlsoLinked"):
             link = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, f"/{name}")).GetLightLinkCollectionAPI()
             link.CreateIncludeRootAttr(False)
             link.CreateIncludesRel().AddTarget("/Quad")
@@ -58,11 +59,12 @@ def test_light_linking_and_light_filters_are_named(tmp_path):
         everything.CreateMembershipExpressionAttr(Sdf.PathExpression("//"))
 
     scene, messages = load_with_warnings(tmp_path, build)
-    assert len(scene.lights) == 6  # all still lit, as before
-    linked = about(messages, "ignored.usda", "collection:lightLink")
-    assert len(linked) == 1 and linked[0].endswith("2 prim(s): /Linked, /AlsoLinked"), messages
-    shadow = about(messages, "ignored.usda", "collection:shadowLink")
-    assert len(shadow) == 1 and shadow[0].endswith(": /ShadowLinked"), messages
+    lights = {light.path: light for light in scene.lights}
+    assert len(lights) == 6
+    assert not about(messages, "link"), messages
+    assert lights["/Linked"].light_link.rules == {"/Quad": "expandPrims"}
+    assert lights["/ShadowLinked"].shadow_link.rules == {"/": "expandPrims", "/Quad": "exclude"}
+    assert lights["/Plain"].light_link is None and lights["/Everything"].light_link is None
     filters = about(messages, "ignored.usda", "light:filters")
     assert len(filters) == 1 and filters[0].endswith("(LightFilter: 1): /Filtered"), messages
     assert not about(messages, "/Plain") and not about(messages, "/Everything"), messages

@@ -703,7 +703,7 @@ def environment_kernel(
 ):
     """What an escaped ray along ``dirs[i]`` sees, with MIS weight 1 (a mirror's or the camera's ray)."""
     i = wp.tid()
-    radiance[i] = environment(lights, dirs[i], 0.0, wp.vec3(0.0), 1, wp.vec3(0.0))[0]
+    radiance[i] = environment(lights, dirs[i], 0.0, wp.vec3(0.0), 1, wp.vec3(0.0), 0)[0]
 
 
 def cap_directions(axis, one_minus_max, count, rng):
@@ -755,7 +755,8 @@ def lights_on_ray_kernel(
 ):
     """Radiance of the area lights a ray from the origin along ``dirs[i]`` passes through, with MIS weight 1."""
     i = wp.tid()
-    radiance[i] = lights_on_segment(lights, wp.vec3(0.0), dirs[i], 0.0, wp.inf, 0.0, wp.vec3(0.0), 1, wp.vec3(0.0))[0]
+    seen = lights_on_segment(lights, wp.vec3(0.0), dirs[i], 0.0, wp.inf, 0.0, wp.vec3(0.0), 1, wp.vec3(0.0), 0)
+    radiance[i] = seen[0]
 
 
 @pytest.mark.parametrize("distance, radius", [(10.0, 0.05), (100.0, 0.1), (1000.0, 0.5), (30.0, 0.01)])

@@ -9,6 +9,7 @@ from .camera import Camera
 from .errors import SceneError
 from .image import Image
 from .instancing import Instances, Prototype
+from .light_links import LinkCollection
 from .light_shaping import Shaping
 from .lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
 from .materials import Material, TextureInput
@@ -32,6 +33,7 @@ __all__ = [
     "Hits",
     "Image",
     "Instances",
+    "LinkCollection",
     "Material",
     "Mesh",
     "Prototype",

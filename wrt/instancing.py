@@ -84,6 +84,10 @@ class Instances(CountsAssignments):
             instance has one. It colours the prototype meshes and shapes that have no colours of their own
             (``Mesh.colors`` / ``Shape.color`` None), read at shading time by instance id, so a million colours cost
             12 bytes each, not a copy of the prototype each.
+        roots: instance-proxy paths where instances' prototype roots lie (:mod:`wrt.light_links` names each drawn
+            part by it: ``/World/Instance/geo/mesh`` for part ``/__Prototype_1/geo/mesh``); empty: parts keep their
+            own paths.
+        root: ``(N,)`` int32 index into ``roots`` of each instance (-1: its parts keep their own paths), or empty.
     """
 
     prototype: np.ndarray
@@ -92,6 +96,8 @@ class Instances(CountsAssignments):
     index: np.ndarray
     sources: list = dataclasses.field(default_factory=list)
     colors: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    roots: list = dataclasses.field(default_factory=list)
+    root: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
 
     def __post_init__(self):
         self.prototype = np.ascontiguousarray(self.prototype, dtype=np.int32).reshape(-1)
@@ -99,8 +105,11 @@ class Instances(CountsAssignments):
         self.source = np.ascontiguousarray(self.source, dtype=np.int32).reshape(-1)
         self.index = np.ascontiguousarray(self.index, dtype=np.int32).reshape(-1)
         n = len(self.prototype)
+        self.root = np.ascontiguousarray(self.root, dtype=np.int32).reshape(-1)
         if not (len(self.to_world) == len(self.source) == len(self.index) == n):
             raise ValueError("Instances arrays must all have one entry per instance")
+        if len(self.roots) and (len(self.root) != n or np.any(self.root >= len(self.roots))):
+            raise ValueError(f"Instances root must hold one index into roots ({len(self.roots)}) per instance ({n})")
         self.check_colors()
         self.check_affine()
 
@@ -153,8 +162,9 @@ class Instances(CountsAssignments):
     def take(self, rows) -> Instances:
         """The instances at ``rows`` (an index array or a boolean mask), every per-instance array alike."""
         colors = self.colors[rows] if len(self.colors) else self.colors
+        root = self.root[rows] if len(self.roots) else self.root
         return Instances(self.prototype[rows], self.to_world[rows], self.source[rows], self.index[rows],
-                         self.sources, colors)
+                         self.sources, colors, self.roots, root)
 
     def __len__(self) -> int:
         return len(self.prototype)

@@ -28,9 +28,10 @@ times the blackbody colour when ``enableColorTemperature`` is on):
   rect, disk and cylinder lights emit in each direction, after ``normalize``, for light sampling and for rays that
   see the light alike.
 
-Lights are invisible to shadow rays (they never occlude) but visible to camera and bounce rays, which pass through
-them and pick up their radiance. Stages with no UsdLux light and no emissive material get :func:`default_lights`:
-a headlight along the view direction and a grey dome.
+Light and shadow linking (``collection:lightLink``, ``collection:shadowLink``) limit the geometry a UsdLux light lights
+and the geometry that casts its shadows (:mod:`wrt.light_links`). Lights are invisible to shadow rays (they never
+occlude) but visible to camera and bounce rays, which pass through them and pick up their radiance. Stages with no
+UsdLux light and no emissive material get :func:`default_lights`: a headlight along the view direction and a grey dome.
 
 Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count`` (a shaped light's power
 times the share its shaping lets out); spheres are sampled by the cone they subtend; rect lights, and disk lights
@@ -52,6 +53,7 @@ import warp as wp
 
 from .errors import SceneError, check_fields
 from .geometry import stable_length
+from .light_links import DeviceLinks, LinkCollection, link_groups, upload_links
 from .light_shaping import Shaping, cone_and_focus, primary_axis
 from .materials import DeviceMaterials, cut_out, eval_emission
 from .sampling import (
@@ -124,6 +126,8 @@ class SphereLight:
         axis: ``(3,)`` world direction of the light's -Z axis, which its shaping is centred on (made unit).
         diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
+        light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
+        shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
     """
 
     position: np.ndarray
@@ -137,6 +141,8 @@ class SphereLight:
     axis: np.ndarray = dataclasses.field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
     diffuse: float = 1.0
     specular: float = 1.0
+    light_link: LinkCollection | None = None
+    shadow_link: LinkCollection | None = None
 
     def __post_init__(self):
         check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR,
@@ -189,6 +195,8 @@ class RectLight:
         texture_path: file the texture came from.
         diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
+        light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
+        shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
     """
 
     to_world: np.ndarray
@@ -203,6 +211,8 @@ class RectLight:
     texture_path: str = ""
     diffuse: float = 1.0
     specular: float = 1.0
+    light_link: LinkCollection | None = None
+    shadow_link: LinkCollection | None = None
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR, *_MULTIPLIERS)
@@ -237,6 +247,8 @@ class DiskLight:
         shaping: its :class:`Shaping` (``ShapingAPI``, centred on the local -Z axis), or None.
         diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
+        light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
+        shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
     """
 
     to_world: np.ndarray
@@ -248,6 +260,8 @@ class DiskLight:
     shaping: Shaping | None = None
     diffuse: float = 1.0
     specular: float = 1.0
+    light_link: LinkCollection | None = None
+    shadow_link: LinkCollection | None = None
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("radius"), _COLOR, *_MULTIPLIERS)
@@ -278,6 +292,8 @@ class CylinderLight:
         shaping: its :class:`Shaping` (``ShapingAPI``, centred on the local -Z axis), or None.
         diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
+        light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
+        shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
     """
 
     to_world: np.ndarray
@@ -290,6 +306,8 @@ class CylinderLight:
     shaping: Shaping | None = None
     diffuse: float = 1.0
     specular: float = 1.0
+    light_link: LinkCollection | None = None
+    shadow_link: LinkCollection | None = None
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR, *_MULTIPLIERS)
@@ -323,6 +341,8 @@ class DomeLight:
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
         diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
+        light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
+        shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
     """
 
     color: np.ndarray
@@ -333,6 +353,8 @@ class DomeLight:
     shadows: bool = True
     diffuse: float = 1.0
     specular: float = 1.0
+    light_link: LinkCollection | None = None
+    shadow_link: LinkCollection | None = None
 
     def __post_init__(self):
         check_fields(self, _COLOR, _TO_WORLD, *_MULTIPLIERS)
@@ -421,6 +443,7 @@ class DeviceLights:
     lobe_scale: wp.array[wp.vec2]  # (diffuse, specular) multipliers (UsdLux inputs:diffuse, inputs:specular)
     headlight: int  # index of the default headlight, -1 without one: it travels along each view's direction
     headlight_dirs: wp.array[wp.vec3]  # (V,) unit direction of travel of the headlight in view (camera) V
+    links: DeviceLinks  # light and shadow linking of the analytic lights (wrt.light_links)
 
 
 @wp.struct
@@ -619,6 +642,9 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.texture, d.texels = _upload_textures(h.texture, device)
     d.headlight = -1  # set by the renderer, which knows the cameras (set_headlight_directions)
     d.headlight_dirs = wp.zeros(1, dtype=wp.vec3, device=device)
+    # Links of the analytic lights in device order (the dome's at dome_index; a second dome is not on the device).
+    on_device = [light for light in lights if not isinstance(light, DomeLight) or light is dome]
+    d.links = upload_links(link_groups(scene, on_device), device)
     return d
 
 

@@ -162,9 +162,11 @@ class _Wavefront:
         "pdf_prev": float,
         "prev_normal": wp.vec3,
         "diffuse_share": wp.vec3,  # path: the diffuse lobe's share of the last bounce's weight (emitters.scattered_by)
+        "link_groups": wp.int32,  # link group of the surface that scattered the ray (light_links; emitters.reaches)
         "shadow_origins": wp.vec3,
         "shadow_dirs": wp.vec3,
         "shadow_t_maxs": float,
+        "shadow_lights": wp.int32,  # the light of each shadow ray (-1: none), for shadow linking
         "blocked": wp.int32,
         "nee": wp.vec3,
         "views": wp.int32,  # the camera of each path (for the default headlight)
@@ -591,13 +593,15 @@ class Renderer:
             )
             aovs.done = True
 
-    def _occluded(self, w: _Wavefront):
+    def _occluded(self, w: _Wavefront, to_lights: bool = True):
         """``w.blocked`` of the shadow rays, which pass through the holes of cut-outs (in :meth:`launch_frame` without
-        reading back: :func:`wrt.shade.repeat_passes`)."""
+        reading back: :func:`wrt.shade.repeat_passes`) and, when they go ``to_lights`` (``w.shadow_lights``),
+        through the geometry that casts no shadow of their light."""
         passes = MAX_SHADOW_HOLE_PASSES if self._sync_free else None
+        links = self.device_lights.links if to_lights else None
         occluded_through_holes(self.accel, self.surfaces, self.materials,
                                [w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs], w.blocked,
-                               w.scratch, passes)
+                               w.scratch, passes, links, w.shadow_lights)
 
     def _occlude_and_add(self, w: _Wavefront):
         self._occluded(w)
@@ -620,7 +624,7 @@ class Renderer:
                 w.n,
                 [ds, surf, mats, lights, bounce, self.max_depth, RR_DEPTH, h.t, h.u, h.v, h.prim, h.instance, w.views],
                 [*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.diffuse_share]
-                + [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
+                + [w.link_groups, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.shadow_lights, w.nee],
                 self.device,
             )
             self._occlude_and_add(w)
@@ -636,7 +640,7 @@ class Renderer:
             launch_per_path(
                 shade_whitted_kernel,
                 w.n,
-                [ds, surf, mats, lights, bounce, *hit, w.origins, w.directions, w.t_mins, w.throughput],
+                [ds, surf, mats, lights, bounce, *hit, w.origins, w.directions, w.t_mins, w.throughput, w.link_groups],
                 [w.radiance, w.alive],
                 self.device,
             )
@@ -646,15 +650,15 @@ class Renderer:
                     w.n,
                     [ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.alive,
                      w.views],
-                    [w.rng, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.nee],
+                    [w.rng, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.shadow_lights, w.nee],
                     self.device,
                 )
                 self._occlude_and_add(w)
             launch_per_path(
                 continue_whitted_kernel,
                 w.n,
-                [ds, surf, mats, bounce, self.max_depth, *hit],
-                [*w.rays, w.rng, w.throughput, w.alive],
+                [ds, surf, mats, lights, bounce, self.max_depth, *hit],
+                [*w.rays, w.rng, w.throughput, w.alive, w.link_groups],
                 self.device,
             )
             if not self._any_alive(w):
@@ -670,7 +674,7 @@ class Renderer:
             [w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs],
             self.device,
         )
-        self._occluded(w)
+        self._occluded(w, to_lights=False)
         wp.launch(ao_value_kernel, w.n, inputs=[w.shadow_t_maxs, w.blocked], outputs=[w.radiance])
 
     def _exposure_scales(self) -> list[float]:

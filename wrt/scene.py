@@ -33,6 +33,7 @@ import warp as wp
 from .assignments import CountsAssignments, assignments
 from .camera import Camera
 from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
+from .light_links import LinkCollection
 from .render_settings import RenderSettings
 from .transforms import mat34
 
@@ -169,6 +170,8 @@ class DistantLight:
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
         diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
+        light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
+        shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
     """
 
     direction: np.ndarray
@@ -179,6 +182,8 @@ class DistantLight:
     shadows: bool = True
     diffuse: float = 1.0
     specular: float = 1.0
+    light_link: LinkCollection | None = None
+    shadow_link: LinkCollection | None = None
 
     def __post_init__(self):
         from .errors import SceneError, check_fields

@@ -20,7 +20,8 @@ Conventions:
 - Shadow (and ambient-occlusion) rays pass holes too (:func:`occluded_through_holes`): in a scene with cut-outs,
   the rays the any-hit query reports blocked are traced for their closest hit, again from just past it while it
   is a hole, for up to :data:`MAX_SHADOW_HOLE_PASSES` passes (as many holes as camera and bounce rays pass); a ray
-  still in a hole after them stays blocked.
+  still in a hole after them stays blocked. Geometry that a light's ``collection:shadowLink`` leaves out is passed
+  the same way by that light's shadow rays (:mod:`wrt.light_links`).
   Glass (``opacity < 1`` without a threshold) is not a hole and blocks them: a unidirectional path tracer gets its
   light through refraction.
 - Sample 0 of every pixel goes through the pixel centre and the lens centre; later samples jitter both
@@ -32,6 +33,7 @@ import warp as wp
 from .camera import DeviceCamera, clipped_ray, film_ray
 from .floats import largest_magnitude
 from .geometry import stable_length
+from .light_links import DeviceLinks, casts_shadow, link_group, upload_links
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, cut_out, eval_surface, lookup_binding, normal_map
 from .primitives import shape_surface
@@ -615,10 +617,13 @@ def start_shadow_holes_kernel(
 def pass_shadow_holes_kernel(
     surf: DeviceSurfaces,
     mats: DeviceMaterials,
+    links: DeviceLinks,
+    shadow_lights: wp.array[wp.int32],
     hit_t: wp.array[float],
     hit_u: wp.array[float],
     hit_v: wp.array[float],
     hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
     # outputs
     retry_t_mins: wp.array[float],
     retry_t_maxs: wp.array[float],
@@ -626,13 +631,19 @@ def pass_shadow_holes_kernel(
     retries: wp.array[wp.int32],
 ):
     """Decides each shadow ray still undecided (``retry_t_maxs > 0``) by its closest hit in its range: none ->
-    unblocked; a hole (:func:`in_hole`) -> undecided, looked at again from just past the hole (and blocked until
-    then); anything else -> blocked."""
+    unblocked; a hole (:func:`in_hole`), or geometry that casts no shadow of the ray's light (``shadow_lights``,
+    ``collection:shadowLink``) -> undecided, looked at again from just past it (and blocked until then); anything
+    else -> blocked."""
     i = wp.tid()
     if retry_t_maxs[i] <= 0.0:
         return
     prim = hit_prim[i]
-    if prim >= 0 and in_hole(surf, mats, prim, hit_u[i], hit_v[i]):
+    passed = False
+    if prim >= 0:
+        passed = in_hole(surf, mats, prim, hit_u[i], hit_v[i])
+        if links.shadow_linked == 1 and not passed:
+            passed = not casts_shadow(links, link_group(links, prim, hit_instance[i]), shadow_lights[i])
+    if passed:
         retry_t_mins[i] = t_past(hit_t[i])
         wp.atomic_add(retries, 0, 1)
         return
@@ -643,11 +654,13 @@ def pass_shadow_holes_kernel(
 
 
 def occluded_through_holes(
-    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, rays, blocked, scratch, passes=None
+    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, rays, blocked, scratch, passes=None, links=None,
+    shadow_lights=None,
 ) -> None:
     """``accel.occluded`` for shadow rays, which pass through the holes of cut-out materials (see the module
-    docstring): rays the any-hit query reports blocked are traced for their closest hit, again from just past it
-    while it is a hole. A ray still in a hole after the last pass stays blocked.
+    docstring), and through geometry that casts no shadow of their light (shadow linking): rays the any-hit query
+    reports blocked are traced for their closest hit, again from just past it while it is a hole or such geometry.
+    A ray still in a hole after the last pass stays blocked.
 
     Args:
         accel: the :class:`wrt.trace.Accelerator`.
@@ -659,10 +672,15 @@ def occluded_through_holes(
         passes: run up to this many closest-hit passes without reading anything back to the host (for CUDA
             graph capture: :func:`repeat_passes`); ``None``: up to :data:`MAX_SHADOW_HOLE_PASSES`, stopping once no
             ray needs another.
+        links: the lights' :class:`wrt.light_links.DeviceLinks`, or None (every geometry casts every shadow).
+        shadow_lights: ``(N,)`` int32 device array: the light each ray is the shadow ray of (-1: none), with
+            ``links``.
     """
     origins, directions, t_mins, t_maxs = rays
+    if links is None or links.shadow_linked == 0:
+        links, shadow_lights = _no_links(scratch.device), blocked  # shadow_lights is not read then
     accel.occluded(*rays, blocked)
-    if scratch.no_holes:
+    if scratch.no_holes and links.shadow_linked == 0:
         return
     n = len(origins)
     scratch.retries.zero_()
@@ -676,12 +694,22 @@ def occluded_through_holes(
         wp.launch(
             pass_shadow_holes_kernel,
             n,
-            inputs=[surfaces, mats, h.t, h.u, h.v, h.prim],
+            inputs=[surfaces, mats, links, shadow_lights, h.t, h.u, h.v, h.prim, h.instance],
             outputs=[scratch.t_mins, scratch.t_maxs, blocked, scratch.retries],
             device=scratch.device,
         )
 
     repeat_passes(one_pass, scratch, MAX_SHADOW_HOLE_PASSES if passes is None else passes, passes is not None)
+
+
+_NO_LINKS = {}  # device -> DeviceLinks with linking off
+
+
+def _no_links(device) -> DeviceLinks:
+    key = str(wp.get_device(device))
+    if key not in _NO_LINKS:
+        _NO_LINKS[key] = upload_links(None, device)
+    return _NO_LINKS[key]
 
 
 @wp.kernel

@@ -76,6 +76,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc, UsdShade
 from .camera import Camera
 from .errors import SceneError, TimeRangeWarning
 from .instancing import Instances, Prototype, group_rows, invert_transforms, world_boxes
+from .light_links import part_path
 from .materials import MaterialReader, bound_material
 from .primitives import (
     DEFAULT_SEGMENTS,
@@ -874,13 +875,16 @@ class _StageReader:
     def _place_instances(self, world: _Content, scene: Scene) -> np.ndarray | None:
         """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
         proto_ids, matrices, sources, source_ids, indices, colors_of = [], [], [], {}, [], []
+        roots, root_ids, root_of = [], {}, []  # instance-proxy paths of the prototype roots (light_links)
 
         # Depth first, each instance before the instances nested in it (an explicit stack: a recursive closure
-        # would refer to itself, a reference cycle that kept the stage open until a garbage collection).
-        pending = [(self.contents[key], m, source, index, color)
+        # would refer to itself, a reference cycle that kept the stage open until a garbage collection). Each
+        # entry carries the path its content's root is drawn at: a native instance's prim path (an instance proxy
+        # path when nested), else the content's own path moved by the instance it is nested in.
+        pending = [(self.contents[key], m, source, index, color, _drawn_root(key, source, self.contents[key].path))
                    for key, m, source, index, color in reversed(world.instances)]
         while pending:
-            content, to_world, source, index, color = pending.pop()
+            content, to_world, source, index, color, root = pending.pop()
             if content.meshes or content.shapes:
                 if content.prototype < 0:
                     content.prototype = len(scene.prototypes)
@@ -888,16 +892,21 @@ class _StageReader:
                 if source not in source_ids:
                     source_ids[source] = len(sources)
                     sources.append(source)
+                if root not in root_ids:
+                    root_ids[root] = len(roots)
+                    roots.append(root)
                 proto_ids.append(np.full(len(to_world), content.prototype, np.int32))
                 matrices.append(to_world)
                 indices.append(np.column_stack([np.full(len(to_world), source_ids[source]), index]))
                 colors_of.append(color)
-            for key, m, _, _, inner in reversed(content.instances):
+                root_of.append(np.full(len(to_world), root_ids[root], np.int32))
+            for key, m, inner_source, _, inner in reversed(content.instances):
                 # Nested instances keep the world-level source and index of the instance they are part of, and the
                 # colour of the nearest instancer that gives one.
                 combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
+                inner_root = part_path(_drawn_root(key, inner_source, self.contents[key].path), content.path, root)
                 pending.append((self.contents[key], combined, source, np.repeat(index, len(m)),
-                                _nested_colors(color, inner, len(to_world), len(m))))
+                                _nested_colors(color, inner, len(to_world), len(m)), inner_root))
         if not proto_ids:
             return None
         # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
@@ -912,7 +921,8 @@ class _StageReader:
         if any(c is not None for c in colors_of):  # NaN rows: instances without a colour
             colors = np.concatenate([np.full((len(m), 3), np.nan, np.float32) if c is None else c
                                      for c, m in zip(colors_of, matrices)])[order]
-        instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources, colors)
+        instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources, colors,
+                              roots, np.concatenate(root_of)[order])
         for i in projective:
             self._skip_path("world transform is projective; its last column was ignored", instances.path(i))
         inverses, ok = invert_transforms(instances.to_world)
@@ -1646,6 +1656,13 @@ def _has_color(prim: Usd.Prim, name: str) -> bool:
 def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):
     """``read(attr, time)`` (:func:`value_at` or :func:`held_value`), or None when ``attr`` has no value."""
     return read(attr, time) if attr.HasValue() else None
+
+
+def _drawn_root(key: tuple, source: str, content_path: str) -> str:
+    """Where the root of the content placed under ``key`` by prim ``source`` is drawn, in the namespace of the
+    content holding ``source``: a native instance's own path (its prototype root lies there); a PointInstancer's
+    prototype, or the shapes of a Points or curves prim, stay where they are."""
+    return source if key[0] == "native" else content_path
 
 
 def _nested_colors(outer: np.ndarray | None, inner: np.ndarray | None, n_outer: int, n_inner: int):

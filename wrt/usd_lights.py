@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from .errors import SceneError
+from .light_links import read_collection
 from .light_shaping import Shaping, primary_axis, read_shaping
 from .lights import INPUTS_PREFIX, CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
 from .scene import DistantLight
@@ -91,7 +92,7 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
         skip("IES light profiles (ShapingAPI shaping:ies:file) are not supported; these lights emit without them",
              prim)
     if result is not None:
-        _report_links_and_filters(prim, light, skip)
+        _read_links_and_filters(prim, light, result, skip)
         # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
         result.shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
         result.diffuse, result.specular = multipliers
@@ -118,36 +119,17 @@ def _multipliers(prim, light, skip, get):
     return values
 
 
-def _report_links_and_filters(prim, light, skip):
-    """Reports light linking, shadow linking and light filters, which wrt does not render: every light lights, and
-    shadows from, every prim, unfiltered. Karma and RenderMan honour them, so a stage that relies on them rendered
-    differently without a word."""
-    if not _holds_everything(light.GetLightLinkCollectionAPI()):
-        skip("light linking (collection:lightLink) is not supported; these lights light every prim", prim)
-    if not _holds_everything(light.GetShadowLinkCollectionAPI()):
-        skip("shadow linking (collection:shadowLink) is not supported; every prim casts these lights' shadows", prim)
+def _read_links_and_filters(prim, light, result, skip):
+    """Gives ``result`` the light's ``collection:lightLink`` and ``collection:shadowLink`` (:mod:`wrt.light_links`);
+    reports light filters, which wrt does not render (Karma and RenderMan honour them, so a stage that relies on
+    them rendered differently without a word)."""
+    result.light_link = read_collection(light.GetLightLinkCollectionAPI(), "light linking", skip)
+    result.shadow_link = read_collection(light.GetShadowLinkCollectionAPI(), "shadow linking", skip)
     filters = light.GetFiltersRel().GetForwardedTargets() if light.GetFiltersRel() else []
     for target in filters:
         found = prim.GetStage().GetPrimAtPath(target)
         kind = (found.GetTypeName() if found else "") or "missing prim"
         skip("light filters (light:filters) are not supported; these lights shine unfiltered", prim, str(kind))
-
-
-def _holds_everything(collection) -> bool:
-    """Whether a light's linking collection holds every prim, as UsdLux's fallback does (``includeRoot`` with nothing
-    excluded; or, in expression mode, an expression matching everything). Membership is USD's own query, so
-    ``includes`` beside the fallback ``includeRoot``, and ``expansionRule``, count as USD counts them."""
-    from pxr import Sdf, Tf
-
-    try:
-        query = collection.ComputeMembershipQuery()
-        if not query.UsesPathExpansionRuleMap():
-            return collection.ResolveCompleteMembershipExpression() == Sdf.PathExpression.Everything()
-    except Tf.ErrorException:  # a collection USD cannot resolve (one that includes itself): not the default either
-        return False
-    rules = query.GetAsPathExpansionRuleMap()
-    everything = rules.get(Sdf.Path.absoluteRootPath) in ("expandPrims", "expandPrimsAndProperties")
-    return everything and not query.HasExcludes()
 
 
 def _shadow_tinted(prim, get) -> bool:

@@ -1,10 +1,12 @@
 """Radiance that a ray segment picks up from lights: analytic area lights it passes through and, for rays that
 escape, the dome and the discs of soft distant lights; each weighted against BSDF sampling by MIS, and, for rays a
 surface scattered, by the lights' ``diffuse`` and ``specular`` multipliers on the lobes that scattered them (camera
-rays see lights unscaled)."""
+rays see lights unscaled), and left out where the light is not linked to that surface (``collection:lightLink``,
+:mod:`wrt.light_links`)."""
 
 import warp as wp
 
+from ..light_links import lit_by
 from ..lights import (
     LIGHT_CYLINDER,
     LIGHT_DISK,
@@ -43,6 +45,15 @@ def scattered_by(lights: DeviceLights, k: int, camera: int, diffuse_share: wp.ve
 
 
 @wp.func
+def reaches(lights: DeviceLights, k: int, camera: int, group: int):
+    """Whether what a ray brings back from light ``k`` counts: always for camera rays (cameras see every light),
+    else where the light lights the surface that scattered the ray (link group ``group``)."""
+    if camera == 1:
+        return True
+    return lit_by(lights.links, group, k)
+
+
+@wp.func
 def lights_on_segment(
     lights: DeviceLights,
     o: wp.vec3,
@@ -53,14 +64,17 @@ def lights_on_segment(
     n_prev: wp.vec3,
     camera: int,
     diffuse_share: wp.vec3,
+    group: int,
 ):
     """Radiance of every analytic area light that unit ray ``(o, d)`` passes through in ``(t_min, t_max)``;
     ``n_prev`` is the shading normal at ``o`` (zero for camera rays); ``camera`` is 1 for camera rays, else
-    ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see :func:`scattered_by`)."""
+    ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see :func:`scattered_by`),
+    and ``group`` the link group of the surface at ``o`` (see :func:`reaches`)."""
     total = wp.vec3(0.0)
     for k in range(lights.num_analytic):
         kind = lights.kinds[k]
-        if kind == LIGHT_SPHERE or kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER:
+        area = kind == LIGHT_SPHERE or kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER
+        if area and reaches(lights, k, camera, group):
             t, cos_l = intersect_light(lights, k, o, d)
             if t > t_min and t < t_max:
                 pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
@@ -73,13 +87,21 @@ def lights_on_segment(
 
 @wp.func
 def environment(
-    lights: DeviceLights, d: wp.vec3, pdf_bsdf: float, n_prev: wp.vec3, camera: int, diffuse_share: wp.vec3
+    lights: DeviceLights,
+    d: wp.vec3,
+    pdf_bsdf: float,
+    n_prev: wp.vec3,
+    camera: int,
+    diffuse_share: wp.vec3,
+    group: int,
 ):
     """Radiance arriving along an escaped ray ``d``: the dome and the discs of soft distant lights (``camera``,
-    ``diffuse_share``: see :func:`lights_on_segment`)."""
+    ``diffuse_share``, ``group``: see :func:`lights_on_segment`)."""
     total = wp.vec3(0.0)
     for k in range(lights.num_analytic):
         kind = lights.kinds[k]
+        if not reaches(lights, k, camera, group):
+            continue
         if kind == LIGHT_DOME:
             pdf_l = lights.pmf[k] * dome_pdf(lights, d, n_prev)
             L = wp.cw_mul(dome_radiance(lights, d), scattered_by(lights, k, camera, diffuse_share))

@@ -20,6 +20,7 @@ import warp as wp
 
 from ..bsdf import eval_bsdf_lobes, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin
+from ..light_links import link_group, lit_by
 from ..lights import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction, triangle_light_pdf
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
@@ -59,9 +60,11 @@ def shade_path_kernel(
     pdf_prev: wp.array[float],
     prev_normal: wp.array[wp.vec3],
     diffuse_share: wp.array[wp.vec3],
+    link_groups: wp.array[wp.int32],
     shadow_origins: wp.array[wp.vec3],
     shadow_dirs: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
+    shadow_lights: wp.array[wp.int32],
     nee: wp.array[wp.vec3],
 ):
     """One bounce of every path: emission, next-event estimation (shadow ray + its contribution if unblocked) and
@@ -71,6 +74,7 @@ def shade_path_kernel(
     shadow_origins[i] = wp.vec3(0.0)
     shadow_dirs[i] = wp.vec3(0.0)
     shadow_t_maxs[i] = 0.0
+    shadow_lights[i] = -1
     nee[i] = wp.vec3(0.0)
     if alive[i] == 0:
         t_maxs[i] = 0.0
@@ -85,12 +89,14 @@ def shade_path_kernel(
     t_hit = hit_t[i]
 
     # Add the analytic lights the segment passes through, then what an escaped ray sees (scaled by the lights'
-    # multipliers on the lobe that scattered the ray, unless it is a camera ray).
+    # multipliers on the lobe that scattered the ray, and only lights linked to the surface that scattered it,
+    # unless it is a camera ray).
     camera = wp.where(bounce == 0, 1, 0)
     share = diffuse_share[i]
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, pdf_b, prev_normal[i], camera, share))
+    g_prev = link_groups[i]
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, pdf_b, prev_normal[i], camera, share, g_prev))
     if prim < 0:
-        L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i], camera, share))
+        L += wp.cw_mul(T, environment(lights, d, pdf_b, prev_normal[i], camera, share, g_prev))
         radiance[i] = L
         alive[i] = 0
         t_maxs[i] = 0.0
@@ -98,6 +104,7 @@ def shade_path_kernel(
 
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display)
+    group = link_group(lights.links, prim, hit_instance[i])
 
     # A hole the trace did not get past (more in a row than it passes) ends the path, as it blocks a shadow ray.
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
@@ -122,7 +129,7 @@ def shade_path_kernel(
 
     wo = -d
     lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))  # for both BSDF evaluations and the sample below
-    # Next-event estimation: one light, one point on it.
+    # Next-event estimation: one light, one point on it (nothing from a light not linked to this surface).
     u_pick, state = rand01(state)
     u1, state = rand01(state)
     u2, state = rand01(state)
@@ -132,7 +139,7 @@ def shade_path_kernel(
         ls = sample_light_in_view(
             lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
         )
-        if pmf > 0.0 and max_component(ls.value) > 0.0:
+        if pmf > 0.0 and max_component(ls.value) > 0.0 and lit_by(lights.links, group, k):
             f_d, f_s, pdf_f = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
             f = lit_bsdf(lights, k, f_d, f_s)
             if max_component(f) > 0.0:
@@ -143,6 +150,7 @@ def shade_path_kernel(
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
                 shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.size, h.err)
                 shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
+                shadow_lights[i] = k
                 if ls.dist < wp.inf:
                     shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
                 else:
@@ -181,6 +189,7 @@ def shade_path_kernel(
     t_maxs[i] = wp.inf
     pdf_prev[i] = wp.where(bs.delta == 1, 0.0, bs.pdf)
     diffuse_share[i] = bs.diffuse
+    link_groups[i] = group
 
 
 @wp.kernel

@@ -30,6 +30,7 @@ from ..bsdf import (
     surface_f0,
 )
 from ..geometry import offset_ray_origin
+from ..light_links import link_group, lit_by
 from ..lights import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
@@ -80,6 +81,7 @@ def shade_whitted_kernel(
     directions: wp.array[wp.vec3],
     t_mins: wp.array[float],
     throughput: wp.array[wp.vec3],
+    link_groups: wp.array[wp.int32],
     # outputs
     radiance: wp.array[wp.vec3],
     alive: wp.array[wp.int32],
@@ -95,11 +97,14 @@ def shade_whitted_kernel(
     L = radiance[i]
     prim = hit_prim[i]
     t_hit = hit_t[i]
-    # Rays after the first are mirror and refraction rays: the lights' specular multipliers scale what they see.
+    # Rays after the first are mirror and refraction rays: the lights' specular multipliers scale what they see,
+    # and they see only the lights linked to the surface that sent them (link_groups, set by continue_whitted).
     camera = wp.where(bounce == 0, 1, 0)
-    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0)))
+    g_prev = link_groups[i]
+    L += wp.cw_mul(T, lights_on_segment(lights, o, d, t_mins[i], t_hit, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0),
+                                        g_prev))
     if prim < 0:
-        L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0)))
+        L += wp.cw_mul(T, environment(lights, d, 0.0, wp.vec3(0.0), camera, wp.vec3(0.0), g_prev))
         radiance[i] = L
         alive[i] = 0
         return
@@ -113,7 +118,7 @@ def shade_whitted_kernel(
         return
     if h.front == 1 or surf.double_sided[prim] == 1:
         L += wp.cw_mul(T, s.emission)
-    if lights.dome >= 0:
+    if lights.dome >= 0 and lit_by(lights.links, link_group(lights.links, prim, hit_instance[i]), lights.dome):
         cos_o = wp.max(wp.dot(h.ns, -d), 0.0)
         traced = traced_specular(s, mats.ggx_albedo, cos_o)
         scale = lights.lobe_scale[lights.dome]  # the dome's diffuse and specular multipliers
@@ -148,14 +153,17 @@ def whitted_light_kernel(
     shadow_origins: wp.array[wp.vec3],
     shadow_dirs: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
+    shadow_lights: wp.array[wp.int32],
     contribution: wp.array[wp.vec3],
 ):
     """Direct light from lights ``[first, first + count)`` (one of them, picked by power, when ``count > 1``):
-    its contribution if unoccluded and the shadow ray that decides it."""
+    its contribution if unoccluded and the shadow ray that decides it; none from a light not linked to the
+    surface."""
     i = wp.tid()
     shadow_origins[i] = wp.vec3(0.0)  # an empty shadow ray (t_max = 0) unless set below
     shadow_dirs[i] = wp.vec3(0.0)
     shadow_t_maxs[i] = 0.0
+    shadow_lights[i] = -1
     contribution[i] = wp.vec3(0.0)
     if alive[i] == 0:
         return
@@ -179,6 +187,8 @@ def whitted_light_kernel(
     )
     if max_component(ls.value) <= 0.0 or p_pick <= 0.0:
         return
+    if not lit_by(lights.links, link_group(lights.links, prim, hit_instance[i]), k):
+        return
     wo = -d
     lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))
     f_d, f_s, _ = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
@@ -189,6 +199,7 @@ def whitted_light_kernel(
     contribution[i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
     shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.size, h.err)
     shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
+    shadow_lights[i] = k
     if ls.dist < wp.inf:
         shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
     else:
@@ -200,6 +211,7 @@ def continue_whitted_kernel(
     scene: DeviceScene,
     surf: DeviceSurfaces,
     mats: DeviceMaterials,
+    lights: DeviceLights,
     bounce: int,
     max_depth: int,
     hit_t: wp.array[float],
@@ -215,6 +227,7 @@ def continue_whitted_kernel(
     rng: wp.array[wp.uint32],
     throughput: wp.array[wp.vec3],
     alive: wp.array[wp.int32],
+    link_groups: wp.array[wp.int32],
 ):
     """The mirror or refracted continuation of each shaded path, or its end."""
     i = wp.tid()
@@ -258,6 +271,7 @@ def continue_whitted_kernel(
         origins[i] = offset_ray_origin(h.p, -h.ng, h.size, h.err)
         T = T * total  # w_refract / (w_refract / total); no 1 / eta^2: see bsdf.sample_bsdf
     throughput[i] = T
+    link_groups[i] = link_group(lights.links, prim, hit_instance[i])
     t_mins[i] = 0.0
     t_maxs[i] = wp.inf
     if max_component(T) <= 0.0:

@@ -1,0 +1,281 @@
+"""UsdLux light linking (``collection:lightLink``: the prims a light lights) and shadow linking
+(``collection:shadowLink``: the prims that cast its shadows), for the path and whitted integrators: membership as USD's
+collection query decides it, per drawn mesh, gprim or instance part (:mod:`wrt.light_links`)."""
+
+import warnings
+
+import numpy as np
+import pytest
+from pxr import Sdf, Usd, UsdLux
+from shading_helpers import quad
+from usda_text import write
+
+import wrt
+from wrt.errors import SceneError
+from wrt.light_links import LinkCollection
+
+INTEGRATORS = ["path", "whitted"]
+DOWN = np.array([0.0, 0.0, -1.0])
+TOP = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=4.0)  # x, y in [-2, 2]
+
+
+def render(scene, integrator, camera=TOP, spp=4, max_depth=1):
+    """Radiance of ``scene`` (direct light only), 8 pixels high, 64 wide for :data:`ROW` and 8 for other cameras."""
+    width = 64 if camera is ROW else 8
+    return wrt.render(scene, camera=camera, width=width, height=8, spp=spp, device="cpu", integrator=integrator,
+                      max_depth=max_depth).rgb
+
+
+def load(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return wrt.load_usd(path)
+
+
+def floor_and_box(lights):
+    """A floor (``/World/Ground/Floor``, z = 0; the left half of :data:`TOP`) and a raised double-sided box top
+    (``/World/Box``, z = 0.5, x > 0.25; the right columns)."""
+    floor = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/World/Ground/Floor")
+    box = quad((1.5, 0, 0.5), (2.5, 0, 0), (0, 5, 0), name="/World/Box")
+    return wrt.Scene(meshes=[floor, box], lights=list(lights))
+
+
+FLOOR_PX = (slice(None), slice(0, 3))  # x < -0.5: floor only
+BOX_PX = (slice(None), slice(6, 8))  # x > 1: the box
+
+
+def test_membership_is_usds(tmp_path):
+    """``LinkCollection.includes`` agrees with ``UsdCollectionMembershipQuery.IsPathIncluded`` on includes, excludes
+    below includes, includes below excludes, ``explicitOnly``, ``includeRoot`` and a missing target."""
+    stage = Usd.Stage.CreateInMemory()
+    paths = ["/W", "/W/A", "/W/A/B", "/W/A/B/C", "/W/A/B/C/D", "/W/E", "/Other", "/Missing/x"]
+    cases = [
+        (False, "expandPrims", ["/W/A", "/W/A/B/C", "/Missing"], ["/W/A/B"]),
+        (True, "expandPrims", [], ["/W/A"]),
+        (False, "explicitOnly", ["/W/A", "/W/A/B/C"], ["/W/A/B"]),
+        (True, "explicitOnly", ["/W/A/B/C"], ["/W"]),
+        (False, "expandPrimsAndProperties", ["/W"], ["/W/A/B/C/D"]),
+        (False, "expandPrims", [], []),
+    ]
+    for k, (root, rule, includes, excludes) in enumerate(cases):
+        light = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, f"/L{k}"))
+        collection = light.GetLightLinkCollectionAPI()
+        collection.CreateIncludeRootAttr(root)
+        collection.CreateExpansionRuleAttr(rule)
+        for path in includes:
+            collection.CreateIncludesRel().AddTarget(path)
+        for path in excludes:
+            collection.CreateExcludesRel().AddTarget(path)
+        query = collection.ComputeMembershipQuery()
+        ours = LinkCollection({str(p): str(r) for p, r in query.GetAsPathExpansionRuleMap().items()})
+        for path in paths:
+            assert ours.includes(path) == query.IsPathIncluded(Sdf.Path(path)), (k, path)
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_light_excluding_a_parent_xform_leaves_the_floor_to_the_other_light(integrator):
+    """A red and a green sun; the red one's lightLink excludes the floor's parent Xform: the floor carries green only
+    (the render without the red sun, red exactly 0), the box both colours. Before, both lit the floor."""
+    red = wrt.DistantLight(direction=DOWN, color=np.array([2.0, 0, 0]),
+                           light_link=LinkCollection.excluding("/World/Ground"))
+    green = wrt.DistantLight(direction=DOWN, color=np.array([0, 2.0, 0]))
+    both = render(floor_and_box([red, green]), integrator, spp=32)
+    alone = render(floor_and_box([green]), integrator, spp=32)
+    np.testing.assert_array_equal(both[FLOOR_PX][..., 0], 0.0)
+    rtol = 0.1 if integrator == "path" else 1e-6  # path picks one light per sample: equal within noise
+    np.testing.assert_allclose(both[FLOOR_PX].mean(), alone[FLOOR_PX].mean(), rtol=rtol)
+    assert both[BOX_PX][..., 0].min() > 0.1 and both[BOX_PX][..., 1].min() > 0.1
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_unlinked_area_light_and_dome_reach_the_floor_by_no_path(integrator):
+    """A rect light above and a dome, both linked to the box only: the floor is black, though light sampling picks
+    them and BSDF-sampled rays from the floor hit them (MIS; whitted's dome term), while the box is lit and the
+    camera still sees the dome. Before, the floor was lit by both."""
+    only_box = LinkCollection.only("/World/Box")
+    above = np.eye(4)
+    above[2, 3] = 3.0  # at z = 3, emitting down its -Z
+    rect = wrt.RectLight(to_world=above, width=4.0, height=4.0, color=np.full(3, 2.0), light_link=only_box)
+    dome = wrt.DomeLight(color=np.full(3, 0.5, np.float32), light_link=only_box)
+    below_rect = wrt.Camera.orthographic(eye=(0, 0, 2.5), target=(0, 0, 0), up=(0, 1, 0), height=4.0)
+    rgb = render(floor_and_box([rect, dome]), integrator, camera=below_rect, spp=16)
+    np.testing.assert_array_equal(rgb[FLOOR_PX], 0.0)
+    assert rgb[BOX_PX].min() > 0.05
+    sky = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 6), up=(0, 1, 0), height=0.1)  # up, past the rect
+    np.testing.assert_allclose(render(floor_and_box([dome]), integrator, camera=sky, spp=1), 0.5)
+
+
+SLANT = np.array([1.0, 0.0, -1.0]) / np.sqrt(2.0)  # a sun at 45 degrees: the blocker's shadow moves +1 in x
+UNDER = wrt.Camera.orthographic(eye=(-1, 0, 0.5), target=(-1, 0, 0), up=(0, 1, 0), height=1.6)  # below the blocker
+
+
+def shadow_scene(lights, blocker=True):
+    """A floor and, at z = 1 over x in [-3, -1], a blocker whose shadow under :data:`SLANT` covers all of
+    :data:`UNDER`'s view (the camera is below the blocker, which it does not see)."""
+    meshes = [quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/Floor")]
+    if blocker:
+        meshes.append(quad((-2, 0, 1), (2, 0, 0), (0, 4, 0), name="/Blocker"))
+    return wrt.Scene(meshes=meshes, lights=list(lights))
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_blocker_left_out_of_shadow_link_casts_no_shadow_of_that_light(integrator):
+    """Red and green suns along :data:`SLANT`; the blocker is left out of the red one's shadowLink: under it the
+    floor's red equals the render without the blocker, while the green sun's shadow stays (0). Before, both
+    were shadowed (red 0)."""
+    red = wrt.DistantLight(direction=SLANT, color=np.array([2.0, 0, 0]),
+                           shadow_link=LinkCollection.excluding("/Blocker"))
+    green = wrt.DistantLight(direction=SLANT, color=np.array([0, 2.0, 0]))
+    linked = render(shadow_scene([red, green]), integrator, camera=UNDER, spp=32)
+    open_sky = render(shadow_scene([red], blocker=False), integrator, camera=UNDER, spp=32)
+    np.testing.assert_array_equal(linked[..., 1], 0.0)
+    assert open_sky[..., 0].min() > 0.1
+    rtol = 0.1 if integrator == "path" else 1e-6  # path picks one light per sample: equal within noise
+    np.testing.assert_allclose(linked[..., 0].mean(), open_sky[..., 0].mean(), rtol=rtol)
+
+
+def quad_usda(name, x, z=0.0, half=0.4, indent=""):
+    """USDA text of a square mesh ``name`` of half size ``half`` centred at ``(x, 0, z)``, facing +Z."""
+    pts = [(x - half, -half, z), (x + half, -half, z), (x + half, half, z), (x - half, half, z)]
+    return (f'{indent}def Mesh "{name}"\n{indent}{{\n{indent}    point3f[] points = {pts}\n'
+            f'{indent}    int[] faceVertexCounts = [4]\n{indent}    int[] faceVertexIndices = [0, 1, 2, 3]\n'
+            f'{indent}    uniform bool doubleSided = 1\n{indent}}}\n')
+
+
+def sun_usda(name, color, link="", shadow=""):
+    """USDA text of a sun straight down (-Z) of illuminance 2 in ``color``, with ``link`` and ``shadow`` lines of
+    its lightLink and shadowLink collections (``rel collection:lightLink:excludes = </X>``, ...)."""
+    return (f'def DistantLight "{name}" (\n    prepend apiSchemas = ["CollectionAPI:lightLink", '
+            f'"CollectionAPI:shadowLink"]\n)\n{{\n    color3f inputs:color = {color}\n    float inputs:intensity = 2\n'
+            f'    float inputs:angle = 0\n    {link}\n    {shadow}\n}}\n')
+
+
+def z_up(tmp_path, body):
+    path = write(tmp_path, body)
+    with open(path) as f:
+        text = f.read().replace('upAxis = "Y"', 'upAxis = "Z"')
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def red_and_green(tmp_path, body, red_link, camera=TOP, integrator="whitted"):
+    """Red and green radiance of the stage ``body`` under a green sun and a red sun whose lightLink lines are
+    ``red_link``; loading gives no warning about linking."""
+    path = z_up(tmp_path, body + sun_usda("Red", (1, 0, 0), red_link) + sun_usda("Green", (0, 1, 0)))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    assert not [w for w in caught if "link" in str(w.message)], [str(w.message) for w in caught]
+    return render(scene, integrator, camera=camera)
+
+
+ROW = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=1.0)  # x in [-4, 4] at 64x8
+
+
+def lit_red(rgb, xs):
+    """Whether the red sun lights the object at each x of ``xs`` in a 64 x 8 render of :data:`ROW`."""
+    cols = [int((x + 4.0) / 8.0 * 64) for x in xs]
+    return [bool(rgb[4, c, 0] > 0.1) for c in cols]
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_usd_collections_parent_xform_expansion_rule_and_missing_target(tmp_path, integrator):
+    """Read from USD: ``excludes`` of a parent Xform; ``includeRoot = 0`` with an include of a missing prim (USD's
+    query holds nothing that exists: the red sun lights nothing); ``expansionRule = explicitOnly`` including the
+    parent of a mesh (not the mesh itself, as USD decides). The green sun always lights everything."""
+    body = 'def Xform "World"\n{\n    def Xform "Group"\n    {\n' + quad_usda("A", -1.0, indent="        ") + \
+        "    }\n" + quad_usda("B", 1.0, indent="    ") + "}\n"
+    wide = dict(camera=ROW, integrator=integrator)
+    rgb = red_and_green(tmp_path, body, "rel collection:lightLink:excludes = </World/Group>", **wide)
+    assert lit_red(rgb, [-1.0, 1.0]) == [False, True]
+    assert (rgb[4, [24, 40], 1] > 0.1).all()  # green everywhere
+    missing = "uniform bool collection:lightLink:includeRoot = 0\n    rel collection:lightLink:includes = </Nowhere>"
+    assert lit_red(red_and_green(tmp_path, body, missing, **wide), [-1.0, 1.0]) == [False, False]
+    explicit = ('uniform bool collection:lightLink:includeRoot = 0\n    uniform token '
+                'collection:lightLink:expansionRule = "explicitOnly"\n    rel collection:lightLink:includes = '
+                '[</World/Group>, </World/B>]')
+    assert lit_red(red_and_green(tmp_path, body, explicit, **wide), [-1.0, 1.0]) == [False, True]
+
+
+def test_native_and_point_instances_take_their_proxy_and_prototype_paths(tmp_path):
+    """Native instances are linked by their instance-proxy paths: one excluded whole, one part of another excluded
+    (``/World/I1/geo/Right``: the parts of that instance differ), a third lit; PointInstancer instances by their
+    prototypes' paths under the instancer (``/World/PI/Protos/B`` excluded: both its instances dark)."""
+    inner = " " * 8
+    proto = ('def Xform "Proto"\n{\n    def Xform "geo"\n    {\n' + quad_usda("Left", -0.25, half=0.2, indent=inner)
+             + quad_usda("Right", 0.25, half=0.2, indent=inner) + "    }\n}\n")
+    instances = "".join(
+        f'    def "I{k}" (\n        instanceable = true\n        prepend references = </Proto>\n    )\n    {{\n'
+        f'        double3 xformOp:translate = ({x}, 0, 0)\n        uniform token[] xformOpOrder = ["xformOp:translate"]'
+        f'\n    }}\n' for k, x in enumerate([-3.0, -2.0, -1.0]))
+    instancer = ('    def PointInstancer "PI"\n    {\n'
+                 '        rel prototypes = [</World/PI/Protos/A>, </World/PI/Protos/B>]\n'
+                 '        int[] protoIndices = [0, 1, 0, 1]\n        point3f[] positions = [(0.5, 0, 0), (1.5, 0, 0), '
+                 '(2.5, 0, 0), (3.5, 0, 0)]\n        def Xform "Protos"\n        {\n'
+                 + quad_usda("A", 0.0, half=0.3, indent="            ") + quad_usda("B", 0.0, half=0.3,
+                                                                                    indent="            ")
+                 + "        }\n    }\n")
+    body = proto + 'def Xform "World"\n{\n' + instances + instancer + "}\n"
+    link = "rel collection:lightLink:excludes = [</World/I0>, </World/I1/geo/Right>, </World/PI/Protos/B>]"
+    rgb = red_and_green(tmp_path, body, link, camera=ROW)
+    xs = [-3.25, -2.75, -2.25, -1.75, -1.25, -0.75, 0.5, 1.5, 2.5, 3.5]
+    assert lit_red(rgb, xs) == [False, False, True, False, True, True, True, False, True, False]
+    assert (rgb[4, [int((x + 4.0) * 8) for x in xs], 1] > 0.1).all()  # green lights every one
+
+
+def test_usd_shadow_link_excluding_a_blocker(tmp_path):
+    """Read from USD: the red sun's shadowLink excludes ``/World/Blocker``: the floor under it is red (as without
+    the blocker) and green's shadow stays."""
+    body = ('def Xform "World"\n{\n' + quad_usda("Floor", 0.0, half=20.0, indent="    ")
+            + quad_usda("Blocker", 0.0, z=1.0, half=2.0, indent="    ") + "}\n")
+    under = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 0), up=(0, 1, 0), height=1.0)
+    path = z_up(tmp_path, body + sun_usda("Red", (1, 0, 0), shadow="rel collection:shadowLink:excludes = "
+                                          "</World/Blocker>") + sun_usda("Green", (0, 1, 0)))
+    rgb = render(load(path), "whitted", camera=under)
+    np.testing.assert_allclose(rgb[..., 0], 0.5 * 2.0 / np.pi, rtol=1e-5)  # albedo 0.5, E = 2, straight down
+    np.testing.assert_array_equal(rgb[..., 1], 0.0)
+
+
+def test_bad_link_values_are_refused_naming_the_light():
+    """A rule USD has not got, a relative path, and a light_link that is not a LinkCollection."""
+    with pytest.raises(SceneError, match="expandEverything"):
+        LinkCollection({"/World": "expandEverything"})
+    with pytest.raises(SceneError, match="absolute"):
+        LinkCollection({"World": "expandPrims"})
+    sun = wrt.DistantLight(direction=DOWN, color=np.ones(3), path="/Sun", light_link=["/World"])
+    with pytest.raises(SceneError, match="/Sun.*light_link must be a wrt.LinkCollection"):
+        render(floor_and_box([sun]), "whitted")
+
+
+def test_expression_collections_are_named_and_use_every_prim(tmp_path):
+    """A lightLink in expression mode (``membershipExpression``), which wrt does not evaluate: the light keeps every
+    prim, and the load names it; a rule-based shadowLink beside it is read."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "expr.usda"))
+    light = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, "/Lamp"))
+    light.GetLightLinkCollectionAPI().CreateIncludeRootAttr(False)
+    light.GetLightLinkCollectionAPI().CreateMembershipExpressionAttr(Sdf.PathExpression("/World/Group//"))
+    light.GetShadowLinkCollectionAPI().CreateExcludesRel().AddTarget("/World")
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(str(tmp_path / "expr.usda"))
+    messages = [str(w.message) for w in caught if "expression mode" in str(w.message)]
+    assert len(messages) == 1 and messages[0].endswith("/Lamp"), messages
+    assert scene.lights[0].light_link is None
+    assert scene.lights[0].shadow_link.includes("/Elsewhere") and not scene.lights[0].shadow_link.includes("/World/x")
+
+
+def test_nested_native_instance_parts_are_named_by_their_proxy_paths(tmp_path):
+    """A native instance inside another's prototype: its part is named ``/World/Outer/Inner/geo/Left`` (the path
+    USD gives the instance proxy), so a collection of that path links it."""
+    body = ('class Xform "Leaf"\n{\n    def Xform "geo"\n    {\n' + quad_usda("Left", 0.0, indent="        ")
+            + '    }\n}\nclass Xform "Branch"\n{\n    def "Inner" (\n        instanceable = true\n'
+            '        prepend references = </Leaf>\n    )\n    {\n    }\n}\n'
+            'def Xform "World"\n{\n    def "Outer" (\n        instanceable = true\n        prepend references = '
+            '</Branch>\n    )\n    {\n    }\n}\n')
+    scene = load(z_up(tmp_path, body))
+    (i,) = range(len(scene.instances))
+    proxy = scene.instances.roots[scene.instances.root[i]]
+    prototype = scene.prototypes[scene.instances.prototype[i]]
+    assert wrt.light_links.part_path(prototype.meshes[0].path, prototype.path, proxy) == "/World/Outer/Inner/geo/Left"

@@ -1,0 +1,270 @@
+"""Light linking and shadow linking (UsdLux ``collection:lightLink``, ``collection:shadowLink``): which drawn
+geometry a light lights, and which casts its shadows.
+
+A light's two collections are :class:`LinkCollection` objects (None: every prim, UsdLux's fallback). Membership is
+decided per drawn geometry (a mesh, a gprim, a Points or curves prim, one prototype mesh or gprim in one instance) by
+the prim path wrt knows for it (:func:`drawn_paths`): its own path; inside a native instance its instance-proxy path
+(``/World/Instance/geo/mesh``); inside a PointInstancer's prototype the prototype prim's own path (under the
+instancer in the usual layout), moved to the proxy path when the instancer is itself inside a native instance.
+
+On the device every drawn geometry gets a *link group*: one per distinct combination of memberships, with one
+``(groups, lights)`` mask array (:class:`DeviceLinks`). Geometry ids of non-instanced geometry index their group
+directly; an instance holds one group for all of its prototype's parts, or (when its parts differ) an offset into a
+list of per-part groups. Emissive triangles are not UsdLux lights: they light and are shadowed by everything.
+"""
+
+import dataclasses
+
+import numpy as np
+import warp as wp
+
+from .errors import SceneError
+
+# USD's path expansion rules (UsdCollectionMembershipQuery's rule map values).
+EXPLICIT_ONLY = "explicitOnly"
+EXPAND_PRIMS = "expandPrims"
+EXPAND_PRIMS_AND_PROPERTIES = "expandPrimsAndProperties"
+EXCLUDE = "exclude"
+RULES = (EXPLICIT_ONLY, EXPAND_PRIMS, EXPAND_PRIMS_AND_PROPERTIES, EXCLUDE)
+
+LIT = wp.constant(1)  # mask bit: the light lights the group's geometry (lightLink)
+CASTS_SHADOW = wp.constant(2)  # mask bit: the group's geometry blocks the light's shadow rays (shadowLink)
+
+
+@dataclasses.dataclass(frozen=True)
+class LinkCollection:
+    """The prims a light's linking collection holds, as USD's path expansion rule map
+    (``UsdCollectionAPI.ComputeMembershipQuery().GetAsPathExpansionRuleMap()``: includes, excludes and
+    ``expansionRule`` resolved, included collections flattened in).
+
+    Attributes:
+        rules: prim path -> ``"explicitOnly"``, ``"expandPrims"``, ``"expandPrimsAndProperties"`` or ``"exclude"``;
+            ``{"/": "expandPrims"}`` is every prim (``includeRoot``), ``{}`` none.
+    """
+
+    rules: dict
+
+    def __post_init__(self):
+        if not isinstance(self.rules, dict):
+            raise TypeError("LinkCollection rules must be a dict of prim path -> rule, got "
+                            f"{type(self.rules).__name__}")
+        for path, rule in self.rules.items():
+            if not (isinstance(path, str) and path.startswith("/")):
+                raise SceneError(f"LinkCollection rules: {path!r} is not an absolute prim path")
+            if rule not in RULES:
+                raise SceneError(f"LinkCollection rules: {path} has rule {rule!r}; valid rules: {', '.join(RULES)}")
+
+    @classmethod
+    def only(cls, *paths: str) -> "LinkCollection":
+        """The prims at ``paths`` and below them."""
+        return cls({path: EXPAND_PRIMS for path in paths})
+
+    @classmethod
+    def excluding(cls, *paths: str) -> "LinkCollection":
+        """Every prim but those at ``paths`` and below them."""
+        return cls({"/": EXPAND_PRIMS, **{path: EXCLUDE for path in paths}})
+
+    def includes(self, path: str) -> bool:
+        """Whether prim ``path`` is a member, as ``UsdCollectionMembershipQuery.IsPathIncluded`` decides: the rule of
+        the nearest of the path and its ancestors that has one (an excluded or ``explicitOnly`` ancestor leaves it
+        out); none: not a member."""
+        here = path.rstrip("/") or "/"
+        while True:
+            rule = self.rules.get(here)
+            if rule is not None:
+                return rule != EXCLUDE and (here == path or rule != EXPLICIT_ONLY)
+            if here == "/":
+                return False
+            here = here.rsplit("/", 1)[0] or "/"
+
+
+def read_collection(collection, kind: str, skip):
+    """The :class:`LinkCollection` of a UsdLux light's ``collection`` (``collection:lightLink`` or ``:shadowLink``,
+    named by ``kind``), or None when it holds every prim (UsdLux's fallback). A collection USD cannot resolve, and
+    one in expression mode (``membershipExpression``, which wrt does not evaluate), count as every prim, with a
+    warning through ``skip(reason, prim)``."""
+    from pxr import Sdf, Tf
+
+    try:
+        query = collection.ComputeMembershipQuery()
+        if not query.UsesPathExpansionRuleMap():
+            if collection.ResolveCompleteMembershipExpression() != Sdf.PathExpression.Everything():
+                skip(f"{kind} collections in expression mode (membershipExpression) are not supported; these lights "
+                     "use every prim", collection.GetPrim())
+            return None
+        rules = {str(path): str(rule) for path, rule in query.GetAsPathExpansionRuleMap().items()}
+    except Tf.ErrorException:  # one USD cannot resolve
+        skip(f"{kind} collections USD cannot resolve are ignored; these lights use every prim", collection.GetPrim())
+        return None
+    if rules.get("/") in (EXPAND_PRIMS, EXPAND_PRIMS_AND_PROPERTIES) and EXCLUDE not in rules.values():
+        return None
+    return LinkCollection(rules)
+
+
+def check_links(light) -> None:
+    """Refuses ``light_link`` or ``shadow_link`` values that are not a :class:`LinkCollection` or None."""
+    for name in ("light_link", "shadow_link"):
+        value = getattr(light, name)
+        if value is not None and not isinstance(value, LinkCollection):
+            raise SceneError(f"{type(light).__name__} {name} must be a wrt.LinkCollection or None, got "
+                             f"{type(value).__name__}", prim=getattr(light, "path", "") or None)
+
+
+def part_path(path: str, prototype_root: str, proxy_root: str | None) -> str:
+    """The path a prototype part at ``path`` is drawn at in an instance whose prototype root
+    (``prototype_root``) lies at ``proxy_root`` (None: where it is); a path outside the root keeps its place."""
+    if proxy_root is None or path == prototype_root:
+        return path if proxy_root is None else proxy_root
+    base = prototype_root.rstrip("/")
+    if path.startswith(base + "/"):
+        return proxy_root.rstrip("/") + path[len(base):]
+    return path
+
+
+@dataclasses.dataclass
+class HostLinks:
+    """Link groups of a scene's drawn geometry (see the module docstring), host side.
+
+    Attributes:
+        masks: ``(G, L)`` uint8 :data:`LIT` and :data:`CASTS_SHADOW` bits of each group for each analytic light.
+        geometry_groups: ``(T + S,)`` int32 per geometry id: the group of non-instanced geometry, the part index
+            (meshes, then shapes, of its prototype) of prototype geometry.
+        instance_groups: ``(N,)`` int32 per instance: its group, or ``-1 - offset`` into ``part_groups`` where its
+            prototype's parts are in different groups.
+        part_groups: ``(P,)`` int32 groups of the parts of such instances, one run per instance.
+    """
+
+    masks: np.ndarray
+    geometry_groups: np.ndarray
+    instance_groups: np.ndarray
+    part_groups: np.ndarray
+
+    @property
+    def shadow_linked(self) -> bool:
+        """Some geometry casts no shadow of some light: shadow rays must look past it."""
+        return bool(np.any(self.masks & CASTS_SHADOW == 0))
+
+
+def link_groups(scene, lights: list):
+    """The :class:`HostLinks` of ``scene``'s geometry for ``lights`` (the analytic lights, in device order), or
+    None when no light links anything but every prim."""
+    for light in lights:
+        check_links(light)
+    if all(light.light_link is None and light.shadow_link is None for light in lights):
+        return None
+    groups = {}  # mask row (bytes) -> group id
+
+    def group_of(path: str) -> int:
+        row = np.zeros(len(lights), np.uint8)
+        for k, light in enumerate(lights):
+            lit, shadow = light.light_link, light.shadow_link
+            row[k] = (LIT if lit is None or lit.includes(path) else 0) | (
+                CASTS_SHADOW if shadow is None or shadow.includes(path) else 0)
+        return groups.setdefault(row.tobytes(), len(groups))
+
+    geometry = [np.full(len(m.indices), group_of(m.path), np.int32) for m in scene.meshes]
+    prototype_parts = []  # per prototype: the paths of its meshes, then its shapes
+    for p in scene.prototypes:
+        parts = [m.path for m in p.meshes] + [s.path for s in p.shapes]
+        prototype_parts.append(parts)
+        geometry += [np.full(len(m.indices), k, np.int32) for k, m in enumerate(p.meshes)]
+    geometry.append(np.array([group_of(s.path) for s in scene.shapes], np.int32))
+    for p in scene.prototypes:
+        geometry.append(np.arange(len(p.meshes), len(p.meshes) + len(p.shapes), dtype=np.int32))
+
+    instances = scene.instances
+    roots = instances.root if len(instances.roots) else np.full(len(instances), -1, np.int32)
+    instance_groups = np.zeros(len(instances), np.int32)
+    part_groups = []
+    # One evaluation per distinct (prototype, proxy root): a PointInstancer's instances of a prototype share both.
+    pairs, inverse = np.unique(np.stack([instances.prototype, roots], axis=1), axis=0, return_inverse=True)
+    for (proto, root), rows in zip(pairs, _rows_by_key(inverse.reshape(-1), len(pairs))):
+        prototype = scene.prototypes[proto]
+        proxy = instances.roots[root] if root >= 0 else None
+        found = [group_of(part_path(path, prototype.path, proxy)) for path in prototype_parts[proto]]
+        if len(set(found)) <= 1:
+            instance_groups[rows] = found[0] if found else 0
+            continue
+        for row in rows:  # each instance its own run (instances are few where parts differ: native ones)
+            instance_groups[row] = -1 - sum(len(g) for g in part_groups)
+            part_groups.append(np.array(found, np.int32))
+    masks = np.frombuffer(b"".join(groups), np.uint8).reshape(len(groups), len(lights))
+    return HostLinks(masks.copy(), np.concatenate(geometry).astype(np.int32), instance_groups,
+                     np.concatenate(part_groups or [np.zeros(0, np.int32)]))
+
+
+def _rows_by_key(keys: np.ndarray, n: int) -> list:
+    order = np.argsort(keys, kind="stable")
+    starts = np.searchsorted(keys[order], np.arange(n + 1))
+    return [order[starts[g]:starts[g + 1]] for g in range(n)]
+
+
+# Device side -----------------------------------------------------------------------------------------------------
+
+
+@wp.struct
+class DeviceLinks:
+    """:class:`HostLinks` on the device; ``enabled = 0``: no linking (the arrays are one-entry placeholders)."""
+
+    enabled: int  # 1 when some light links less than every prim
+    shadow_linked: int  # 1 when some geometry casts no shadow of some light (shadow rays look past it)
+    masks: wp.array2d[wp.uint8]  # (G, L) LIT | CASTS_SHADOW bits per group and analytic light
+    geometry_groups: wp.array[wp.int32]  # (T + S,) group, or part index for prototype geometry
+    instance_groups: wp.array[wp.int32]  # (N,) group, or -1 - offset into part_groups
+    part_groups: wp.array[wp.int32]  # per-part groups of instances whose parts differ
+
+
+def upload_links(host: HostLinks | None, device) -> DeviceLinks:
+    """The :class:`DeviceLinks` of ``host`` (None: linking off)."""
+    d = DeviceLinks()
+    d.enabled = 0 if host is None else 1
+    d.shadow_linked = int(host is not None and host.shadow_linked)
+
+    def arr(values, dtype):
+        values = np.asarray(values, np.int32)
+        return wp.array(values if len(values) else np.zeros(1, np.int32), dtype=dtype, device=device)
+
+    if host is None:
+        d.masks = wp.full((1, 1), LIT | CASTS_SHADOW, dtype=wp.uint8, device=device)
+        d.geometry_groups = d.instance_groups = d.part_groups = arr([], wp.int32)
+        return d
+    d.masks = wp.array(host.masks, dtype=wp.uint8, device=device)
+    d.geometry_groups = arr(host.geometry_groups, wp.int32)
+    d.instance_groups = arr(host.instance_groups, wp.int32)
+    d.part_groups = arr(host.part_groups, wp.int32)
+    return d
+
+
+@wp.func
+def link_group(links: DeviceLinks, prim: int, instance: int):
+    """The link group of the geometry hit as ``(prim, instance)`` (0 when linking is off)."""
+    if links.enabled == 0 or prim < 0:
+        return 0
+    g = links.geometry_groups[prim]
+    if instance < 0:
+        return g
+    own = links.instance_groups[instance]
+    if own >= 0:
+        return own
+    return links.part_groups[-1 - own + g]
+
+
+@wp.func
+def link_bit(links: DeviceLinks, group: int, k: int, bit: int):
+    """Whether ``bit`` is set for ``group`` and light ``k``; true when linking is off, and for lights past the
+    analytic ones (emissive triangles)."""
+    if links.enabled == 0 or group < 0 or group >= links.masks.shape[0] or k < 0 or k >= links.masks.shape[1]:
+        return True
+    return (int(links.masks[group, k]) & bit) != 0
+
+
+@wp.func
+def lit_by(links: DeviceLinks, group: int, k: int):
+    """Light ``k`` lights geometry of link group ``group`` (``collection:lightLink``)."""
+    return link_bit(links, group, k, LIT)
+
+
+@wp.func
+def casts_shadow(links: DeviceLinks, group: int, k: int):
+    """Geometry of link group ``group`` blocks light ``k``'s shadow rays (``collection:shadowLink``)."""
+    return link_bit(links, group, k, CASTS_SHADOW)
