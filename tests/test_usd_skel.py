@@ -251,17 +251,39 @@ def test_skinned_meshes_inside_instances_are_posed(tmp_path):
     np.testing.assert_allclose(points[indices], np.concatenate(expected), atol=2e-6)
 
 
-@pytest.mark.parametrize("case", ["bad joint index", "no animation or rest pose"])
+BAD_SKELETONS = {  # a skeleton or influences that cannot pose the bar: (text of skel_root(), its replacement)
+    "no animation or rest pose": ("uniform matrix4d[] restTransforms", "uniform matrix4d[] unusedTransforms"),
+}
+
+
+@pytest.mark.parametrize("case", ["bad joint index", *BAD_SKELETONS])
 def test_failed_skinning_keeps_unposed_points_with_a_warning(tmp_path, case):
     """A mesh whose skinning fails is drawn in its authored points under its own transform, and named."""
     body = skel_root(bad_index=case == "bad joint index", animation=case != "no animation or rest pose")
-    if case == "no animation or rest pose":
-        body = body.replace("uniform matrix4d[] restTransforms", "uniform matrix4d[] unusedTransforms")
+    if case in BAD_SKELETONS:
+        old, new = BAD_SKELETONS[case]
+        assert old in body
+        body = body.replace(old, new)
     path = write(tmp_path, body)
     with pytest.warns(UserWarning, match=r"UsdSkel skinning failed.*unposed points.*/Root/Bar"):
         scene = load_usd(path, time=5.0)
     mesh = {m.path: m for m in scene.meshes}["/Root/Bar"]
     authored = np.array(bar()[0], np.float64) + (5, 6, 5)  # the mesh's and the SkelRoot's translations
+    np.testing.assert_allclose(mesh.points, authored, atol=1e-6)
+
+
+def test_rigid_binding_to_a_joint_out_of_range_keeps_unposed_points_with_a_warning(tmp_path):
+    """A rigidly bound mesh (constant influences) whose joint index is out of range: UsdSkel's SkinTransform fails
+    into the identity, so the quad was drawn in its authored points placed by the skeleton, 1.0 from where they are,
+    without a word. It is left unposed and named, as a skinned mesh with a bad index is."""
+    constant = 'int[] primvars:skel:jointIndices = [1] (\n            interpolation = "constant"'
+    body = skel_root()
+    assert constant in body
+    path = write(tmp_path, body.replace(constant, constant.replace("[1]", "[5]")))
+    with pytest.warns(UserWarning, match=r"skinning failed.*jointIndices\[0\] = 5 is out of range.*/Root/Rigid"):
+        scene = load_usd(path, time=5.0)
+    mesh = {m.path: m for m in scene.meshes}["/Root/Rigid"]
+    authored = np.array([(2, -0.2, 0), (2.4, -0.2, 0), (2.4, 0.2, 0), (2, 0.2, 0)]) + (0, 1, 1)  # SkelRoot and own
     np.testing.assert_allclose(mesh.points, authored, atol=1e-6)
 
 
@@ -333,3 +355,15 @@ def test_refined_skinned_mesh_is_the_refinement_of_its_posed_cage(tmp_path):
     loaded_mesh = {x.path: x for x in load_usd(path, time=7.0, refine_level=2).meshes}["/Root/Bar"]
     assert len(loaded_mesh.indices) == 2 * 16 * len(counts)
     np.testing.assert_allclose(loaded_mesh.points, expected, atol=1e-5)
+
+
+def test_mesh_joints_the_skeleton_lacks_are_posed_as_bake_skinning_poses_them(tmp_path):
+    """``skel:joints`` naming a joint the skeleton does not have: its influences take the identity, as in
+    BakeSkinning (and in wrt's skinned normals). ``ComputeSkinnedPoints`` gave those points another joint's transform:
+    the bar's root end was drawn 1.56 away from BakeSkinning's points while its normals matched."""
+    body = skel_root().replace('skel:joints = ["root/tip", "root"]', 'skel:joints = ["root/tip", "root/missing"]')
+    path = write(tmp_path, body)
+    expected, normals = world_triangles(baked(path), "/Root/Bar", Usd.TimeCode(7))
+    mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Bar"]
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
+    np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)

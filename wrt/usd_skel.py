@@ -4,8 +4,9 @@ characters keep their bind pose in ``points`` and move only through their skelet
 A mesh is posed when it has joint influences (``primvars:skel:jointIndices``/``jointWeights``) or blend shapes
 (``skel:blendShapes``), a skeleton bound to it or an ancestor (``skel:skeleton``) and a ``SkelRoot`` above it: the
 same conditions as UsdSkel's. Its points go through its blend shapes (weighted by the skeleton's animation), then
-through linear blend (or dual quaternion) skinning by ``UsdSkel.SkinningQuery``, after ``geomBindTransform``; a
-rigidly bound mesh (constant joint influences) is moved by ``ComputeSkinnedTransform``. The result is in the
+through linear blend (or dual quaternion) skinning by ``UsdSkel.SkinPoints`` with the influences of its
+``UsdSkel.SkinningQuery``, after ``geomBindTransform``; a rigidly bound mesh (constant joint influences) is moved by
+``UsdSkel.SkinTransform``. The result is in the
 skeleton's space: the caller places it with the skeleton prim's transform, not the mesh's own, as
 ``UsdSkel.BakeSkinning`` and UsdSkelImaging do. Authored normals (every interpolation) are skinned with the
 inverse transposes of the same joint transforms and weights (``UsdSkel.SkinNormals``); blend shape normal offsets
@@ -41,7 +42,7 @@ class SkelPoser:
         self.skip = skip
         self.cache = UsdSkel.Cache()
         self.roots = set()  # SkelRoot paths populated in the cache
-        self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or None, anim time, anim query)
+        self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or why not, anim time, anim query)
 
     def pose(self, prim: Usd.Prim, points: np.ndarray, normals, vertex_ids: np.ndarray, content_root: str):
         """``prim``'s points (and normals) posed, in its skeleton's space.
@@ -86,26 +87,22 @@ class SkelPoser:
             points = _blend(prim, query, anim, anim_time, points)
         if not query.HasJointInfluences():
             return points, normals, prim  # blend shapes only: still in the mesh's own space
+        if isinstance(xforms, str):
+            raise ValueError(xforms)
         mesh_time = read_time(query.GetJointIndicesPrimvar().GetAttr(), self.time)  # influences as points are read
-        if xforms is None:
-            raise ValueError("the skeleton cannot be posed (no animation or rest transforms for its joints)")
+        skin = _Influences(query, xforms, mesh_time)
         if query.IsRigidlyDeformed():
-            m = np.array(query.ComputeSkinnedTransform(xforms, mesh_time), np.float64)
+            m = skin.rigid_transform()
             if normals is not None:
                 values, corners = normals
                 normals = values @ _inverse_transpose(m[:3, :3]), corners
             return points @ m[:3, :3] + m[3, :3], normals, skeleton.GetPrim()
-        skinned = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(points, np.float32))
-        if not query.ComputeSkinnedPoints(xforms, skinned, mesh_time):
-            raise ValueError("ComputeSkinnedPoints failed (joint indices out of range or influences do not match "
-                             "the points)")
-        if normals is not None:
-            normals = self._skin_normals(query, xforms, normals, vertex_ids, mesh_time)
-        return np.array(skinned, np.float64), normals, skeleton.GetPrim()
+        points = skin.points(points)
+        return points, None if normals is None else skin.normals(normals, vertex_ids), skeleton.GetPrim()
 
     def _skinning_transforms(self, skeleton: UsdSkel.Skeleton):
-        """``(skinning transforms in the skeleton's joint order, or None; the time the animation is read at; its
-        query, or None)`` of ``skeleton``, computed once per load."""
+        """``(skinning transforms in the skeleton's joint order, or why there are none (str); the time the animation
+        is read at; its query, or None)`` of ``skeleton``, computed once per load."""
         key = str(skeleton.GetPath())
         if key not in self.poses:
             skel_query = self.cache.GetSkelQuery(skeleton)
@@ -115,31 +112,70 @@ class SkelPoser:
                 attrs = [anim.GetPrim().GetAttribute(name) for name in _ANIMATED]
                 if any(a and read_time(a, self.time) != self.time for a in attrs):
                     anim_time = Usd.TimeCode.EarliestTime()
-            xforms = skel_query.ComputeSkinningTransforms(anim_time) if skel_query else None
-            if xforms is not None and len(xforms) != len(skel_query.GetJointOrder()):
-                xforms = None
+            joints = len(skel_query.GetJointOrder()) if skel_query else 0
+            xforms = "the skeleton cannot be posed (no animation or rest transforms for its joints)"
+            if skel_query:
+                computed = skel_query.ComputeSkinningTransforms(anim_time)
+                xforms = computed if computed is not None and len(computed) == joints else xforms
             self.poses[key] = (xforms, anim_time, anim or None)
         return self.poses[key]
 
-    def _skin_normals(self, query, xforms, normals, vertex_ids, time):
-        """Normals skinned per triangle corner with the influences of the corner's point (so faceVarying and uniform
-        normals are skinned too): ``(values (3T, 3), corner index (T, 3))``."""
-        values, corners = normals
-        indices, weights = query.ComputeJointInfluences(time)
-        per_point = query.GetNumInfluencesPerComponent()
-        points = np.asarray(vertex_ids, np.int64).reshape(-1)
-        indices = np.asarray(indices, np.int32).reshape(-1, per_point)[points].reshape(-1)
-        weights = np.asarray(weights, np.float32).reshape(-1, per_point)[points].reshape(-1)
+
+class _Influences:
+    """The joint influences of one skinned mesh at ``time`` and the skinning transforms of its skeleton in the mesh's
+    ``skel:joints`` order, for its points, normals or rigid transform (``UsdSkel.SkinPoints``, ``SkinNormals`` and
+    ``SkinTransform``, which take the transforms in the influences' order).
+
+    The transforms are remapped here, once for points and normals: a joint of ``skel:joints`` that the skeleton lacks
+    gets the identity, as in ``UsdSkel.BakeSkinning``. ``SkinningQuery.ComputeSkinnedPoints``, which remaps inside,
+    gave such a joint's points another joint's transform.
+    """
+
+    def __init__(self, query: UsdSkel.SkinningQuery, xforms, time: Usd.TimeCode):
+        influences = query.ComputeJointInfluences(time)
+        if not influences:
+            raise ValueError("jointIndices and jointWeights do not match")
+        self.indices, self.weights = influences
+        self.per_point = query.GetNumInfluencesPerComponent()
+        self.method = query.GetSkinningMethod()
+        self.bind = query.GetGeomBindTransform(time)
         mapper = query.GetJointMapper()
         if mapper and not mapper.IsNull() and not mapper.IsIdentity():
             xforms = mapper.RemapTransforms(xforms, Vt.Matrix4dArray())  # into the mesh's skel:joints order
-        joint_normal_xforms = Vt.Matrix3dArray([_gf3(_inverse_transpose(np.array(x)[:3, :3])) for x in xforms])
-        bind = _gf3(_inverse_transpose(np.array(query.GetGeomBindTransform(time))[:3, :3]))
+        self.xforms = xforms
+        # Checked here: SkinTransform (rigid bindings) returns the identity for an index out of range, and the failure
+        # is not seen from Python.
+        indices = np.asarray(self.indices)
+        bad = np.flatnonzero((indices < 0) | (indices >= len(xforms)))
+        if len(bad):
+            raise ValueError(f"jointIndices[{bad[0]}] = {indices[bad[0]]} is out of range for {len(xforms)} joints")
+
+    def points(self, points: np.ndarray) -> np.ndarray:
+        """``(V, 3)`` float64 ``points`` (the mesh's, blend shapes applied) skinned into the skeleton's space."""
+        skinned = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(points, np.float32))
+        if not UsdSkel.SkinPoints(self.method, self.bind, self.xforms, self.indices, self.weights, self.per_point,
+                                  skinned):
+            raise ValueError("SkinPoints failed (influences do not match the points)")
+        return np.array(skinned, np.float64)
+
+    def normals(self, normals, vertex_ids: np.ndarray):
+        """Normals skinned per triangle corner with the influences of the corner's point (so faceVarying and uniform
+        normals are skinned too): ``(values (3T, 3), corner index (T, 3))``."""
+        values, corners = normals
+        points = np.asarray(vertex_ids, np.int64).reshape(-1)
+        indices = np.asarray(self.indices, np.int32).reshape(-1, self.per_point)[points].reshape(-1)
+        weights = np.asarray(self.weights, np.float32).reshape(-1, self.per_point)[points].reshape(-1)
+        joint_normal_xforms = Vt.Matrix3dArray([_gf3(_inverse_transpose(np.array(x)[:3, :3])) for x in self.xforms])
+        bind = _gf3(_inverse_transpose(np.array(self.bind)[:3, :3]))
         skinned = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(values[corners].reshape(-1, 3), np.float32))
-        if not UsdSkel.SkinNormals(query.GetSkinningMethod(), bind, joint_normal_xforms, Vt.IntArray.FromNumpy(indices),
-                                   Vt.FloatArray.FromNumpy(weights), per_point, skinned):
-            raise ValueError("SkinNormals failed (joint indices out of range)")
+        if not UsdSkel.SkinNormals(self.method, bind, joint_normal_xforms, Vt.IntArray.FromNumpy(indices),
+                                   Vt.FloatArray.FromNumpy(weights), self.per_point, skinned):
+            raise ValueError("SkinNormals failed")
         return np.array(skinned, np.float64), np.arange(len(skinned)).reshape(-1, 3)
+
+    def rigid_transform(self) -> np.ndarray:
+        """``(4, 4)`` row-vector transform of a rigidly bound mesh (constant influences) into the skeleton's space."""
+        return np.array(UsdSkel.SkinTransform(self.method, self.bind, self.xforms, self.indices, self.weights))
 
 
 def _blend(prim, query, anim, anim_time, points):
