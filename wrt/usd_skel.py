@@ -15,7 +15,8 @@ are not applied.
 Time: the animation is read at the load's time; with the default time, an animation whose joint transforms or blend
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
 (:func:`wrt.usd_values.read_time`). A mesh whose skinning fails (joint indices out of range, influences that do not
-match its points, a skeleton that cannot be posed) keeps its unposed points, with a warning naming it.
+match its points, a skeleton that cannot be posed, bind transforms that do not match its joints, weights or a pose
+that are not finite) keeps its unposed points, with a warning naming it.
 """
 
 from __future__ import annotations
@@ -70,7 +71,10 @@ class SkelPoser:
             self.skip(FAILED, prim, "skeleton outside the instance prototype")
             return None
         try:
-            return self._pose(prim, root, skeleton, points, normals, vertex_ids)
+            posed = self._pose(prim, root, skeleton, points, normals, vertex_ids)
+            if not np.isfinite(posed[0]).all():  # the load would fail on them, naming the mesh's points
+                raise ValueError("posed points are not finite (a joint transform or blend shape that is not)")
+            return posed
         except (RuntimeError, ValueError, IndexError, TypeError) as e:  # RuntimeError: Tf errors, null prims
             self.skip(FAILED, prim, str(e).strip().splitlines()[-1][:120] or type(e).__name__)
             return None
@@ -114,7 +118,10 @@ class SkelPoser:
                     anim_time = Usd.TimeCode.EarliestTime()
             joints = len(skel_query.GetJointOrder()) if skel_query else 0
             xforms = "the skeleton cannot be posed (no animation or rest transforms for its joints)"
-            if skel_query:
+            if skel_query and len(skel_query.GetJointWorldBindTransforms()) != joints:
+                # ComputeSkinningTransforms then returns the joints' unbound transforms (its failure is not seen here).
+                xforms = f"the skeleton's bindTransforms do not match its {joints} joints"
+            elif skel_query:
                 computed = skel_query.ComputeSkinningTransforms(anim_time)
                 xforms = computed if computed is not None and len(computed) == joints else xforms
             self.poses[key] = (xforms, anim_time, anim or None)
@@ -136,6 +143,10 @@ class _Influences:
         if not influences:
             raise ValueError("jointIndices and jointWeights do not match")
         self.indices, self.weights = influences
+        weights = np.asarray(self.weights)
+        if not np.isfinite(weights).all():
+            i = int(np.argmin(np.isfinite(weights)))
+            raise ValueError(f"jointWeights[{i}] = {weights[i]} is not finite")
         self.per_point = query.GetNumInfluencesPerComponent()
         self.method = query.GetSkinningMethod()
         self.bind = query.GetGeomBindTransform(time)
