@@ -286,6 +286,19 @@ def test_bad_creases_keep_the_boundary_rule(tmp_path):
     np.testing.assert_array_equal(bad, edge_only)
 
 
+def test_a_refinement_past_the_memory_is_refused_before_it_starts_naming_the_mesh(tmp_path, monkeypatch):
+    """With 10 MiB free, refine_level 6 of the cube (6 * 4^6 quads, ~30 MiB to load) is a MemoryError naming the file,
+    the mesh and the quads, raised before refining; it was refined until numpy failed without naming anything (or the
+    system killed the load: refine_level 8 of a 10x10 grid wants ~8 GiB). Level 2 still fits."""
+    import wrt.resources
+
+    monkeypatch.setattr(wrt.resources, "available_host_bytes", lambda: 10 << 20)
+    path = _cube_stage(tmp_path / "cube.usda")
+    with pytest.raises(MemoryError, match=rf"cube.usda: /Cube: refine_level 6 \({6 * 4**6:,} quads\) needs about"):
+        wrt.load_usd(path, refine_level=6)
+    assert len(wrt.load_usd(path, refine_level=2).meshes[0].indices) == 6 * 16 * 2
+
+
 @pytest.mark.parametrize("level", [-1, 9, True, 1.5, "2"])
 def test_refine_level_is_checked(tmp_path, level):
     with pytest.raises(ValueError, match="refine_level"):

@@ -88,8 +88,9 @@ from .primitives import (
     tessellate,
 )
 from .render_settings import RenderSettings, read_render_settings
+from .resources import check_host_memory
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
-from .subdivision import MAX_REFINE_LEVEL, Refinement
+from .subdivision import MAX_REFINE_LEVEL, REFINED_QUAD_BYTES, Refinement, refined_quads
 from .usd_lights import read_light
 from .usd_primvars import finite_colors
 from .usd_skel import SkelPoser
@@ -1335,6 +1336,11 @@ class _StageReader:
         if scheme != "catmullClark":
             self._skip("loop subdivision is not implemented; these meshes are drawn as their control cage", prim)
             return None
+        # Refused before refining: past the memory, numpy failed deep inside the refinement without naming the mesh
+        # (or the system killed the load).
+        quads = refined_quads(counts, self.refine_level)
+        check_host_memory(quads * REFINED_QUAD_BYTES,
+                          f"{self.source}: {prim.GetPath()}: refine_level {self.refine_level} ({quads:,} quads)")
         mesh, t = UsdGeom.Mesh(prim), self.time
         creases = corners = None
         crease_indices = self._int_array(prim, mesh.GetCreaseIndicesAttr())
