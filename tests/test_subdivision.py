@@ -263,27 +263,39 @@ def test_a_nan_sharpness_is_ignored_with_a_warning_naming_the_mesh(tmp_path, att
     np.testing.assert_allclose(bad, plain)
 
 
+def _refined_quad(path, **attrs):
+    """Points of the unit quad ``/Quad`` with ``attrs`` authored, written to ``path`` and refined once."""
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = UsdGeom.Mesh.Define(stage, "/Quad")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    for attr, value in attrs.items():
+        mesh.GetPrim().GetAttribute(attr).Set(value)
+    stage.Save()
+    return wrt.load_usd(path, refine_level=1).meshes[0].points
+
+
 def test_bad_creases_keep_the_boundary_rule(tmp_path):
     """A quad with ``interpolateBoundary = edgeOnly`` and creases that do not fit: the creases are dropped, the
     boundary rule stays (its corners move by the curve rule, where edgeAndCorner pins them). The fallback
     refinement used to take edgeAndCorner whatever was authored."""
-    def quad(name, **attrs):
-        stage = Usd.Stage.CreateNew(str(tmp_path / name))
-        mesh = UsdGeom.Mesh.Define(stage, "/Quad")
-        mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])
-        mesh.CreateFaceVertexCountsAttr([4])
-        mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-        for attr, value in attrs.items():
-            mesh.GetPrim().GetAttribute(attr).Set(value)
-        stage.Save()
-        return wrt.load_usd(tmp_path / name, refine_level=1).meshes[0].points
-
-    edge_only = quad("a.usda", interpolateBoundary="edgeOnly")
+    edge_only = _refined_quad(tmp_path / "a.usda", interpolateBoundary="edgeOnly")
     assert not np.allclose(edge_only[0], (0, 0, 0))  # the corner moved
     with pytest.warns(UserWarning, match="creases or corners"):
-        bad = quad("b.usda", interpolateBoundary="edgeOnly", creaseIndices=Vt.IntArray([0, 1]),
-                   creaseLengths=Vt.IntArray([3]), creaseSharpnesses=Vt.FloatArray([1.0]))
+        bad = _refined_quad(tmp_path / "b.usda", interpolateBoundary="edgeOnly", creaseIndices=Vt.IntArray([0, 1]),
+                            creaseLengths=Vt.IntArray([3]), creaseSharpnesses=Vt.FloatArray([1.0]))
     np.testing.assert_array_equal(bad, edge_only)
+
+
+def test_an_unknown_interpolate_boundary_is_read_as_edge_and_corner_with_a_warning(tmp_path):
+    """A token USD does not know (a misspelt edgeAndCorner; USD does not check allowed tokens) is read as the
+    fallback, edgeAndCorner, which pins the quad's corners, and named; it was drawn as edgeOnly without a word (the
+    corner (0, 0) moved to (0.125, 0.125))."""
+    with pytest.warns(UserWarning, match=r"interpolateBoundary is not.*read as edgeAndCorner.*'edgeAndCorners'.*/Quad"):
+        misspelt = _refined_quad(tmp_path / "m.usda", interpolateBoundary="edgeAndCorners")
+    np.testing.assert_array_equal(misspelt, _refined_quad(tmp_path / "c.usda", interpolateBoundary="edgeAndCorner"))
+    np.testing.assert_array_equal(misspelt[0], (0, 0, 0))
 
 
 def test_a_refinement_past_the_memory_is_refused_before_it_starts_naming_the_mesh(tmp_path, monkeypatch):

@@ -1355,6 +1355,10 @@ class _StageReader:
         boundary = value_at(mesh.GetInterpolateBoundaryAttr(), t) or "edgeAndCorner"
         if boundary == "none":
             self._skip("interpolateBoundary = none is drawn as edgeOnly (boundary faces kept)", prim)
+        elif boundary not in ("edgeOnly", "edgeAndCorner"):  # USD does not check allowed tokens (as orientation)
+            self._skip("interpolateBoundary is not none, edgeOnly or edgeAndCorner; read as edgeAndCorner", prim,
+                       repr(boundary))
+            boundary = "edgeAndCorner"
         corner_boundary = boundary == "edgeAndCorner"
         try:
             return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners, corner_boundary)
