@@ -373,3 +373,34 @@ def test_mesh_joints_the_skeleton_lacks_are_posed_as_bake_skinning_poses_them(tm
     mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Bar"]
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
     np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)
+
+
+def test_blend_shape_normal_offsets_turn_the_normals_as_bake_skinning_turns_them(tmp_path):
+    """``normalOffsets`` of a blend shape and of its inbetween (the animation's weight, 0.83 at time 7, lies between
+    them) are added to the bar's normals before skinning, and to the Face quad's own (blend shapes only). They were
+    not applied: normals 0.34 from BakeSkinning's on the quad."""
+    body = skel_root().replace('''            uniform int[] pointIndices = [9, 10]
+''', '''            uniform int[] pointIndices = [9, 10]
+            uniform vector3f[] normalOffsets = [(0, 0.8, 0.3), (0.5, 0, 0)]
+            uniform vector3f[] inbetweens:half = [(0, 0.1, 0), (0, 0.1, 0)] (
+                weight = 0.5
+            )
+            uniform vector3f[] inbetweens:half:normalOffsets = [(0.6, 0, 0), (0, -0.4, 0)]
+''').replace('''            uniform int[] pointIndices = [2]
+''', '''            uniform int[] pointIndices = [2]
+            uniform vector3f[] normalOffsets = [(0, 0.5, 0)]
+''').replace('''        rel skel:blendShapeTargets = </Root/Face/bulge>
+''', '''        rel skel:blendShapeTargets = </Root/Face/bulge>
+        normal3f[] normals = [(0, 0, 1), (0, 0, 1), (0, 0, 1), (0, 0, 1)] (
+            interpolation = "vertex"
+        )
+''')
+    assert body.count("normalOffsets") == 3 and "normal3f[] normals = [(0, 0, 1)" in body
+    path = write(tmp_path, body)
+    stage = baked(path)
+    by_path = {m.path: m for m in loaded(path, 7.0).meshes}
+    for mesh_path in ("/Root/Bar", "/Root/Face"):
+        expected, normals = world_triangles(stage, mesh_path, Usd.TimeCode(7))
+        mesh = by_path[mesh_path]
+        np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
+        np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)

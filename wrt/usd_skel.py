@@ -9,8 +9,8 @@ through linear blend (or dual quaternion) skinning by ``UsdSkel.SkinPoints`` wit
 ``UsdSkel.SkinTransform``. The result is in the
 skeleton's space: the caller places it with the skeleton prim's transform, not the mesh's own, as
 ``UsdSkel.BakeSkinning`` and UsdSkelImaging do. Authored normals (every interpolation) are skinned with the
-inverse transposes of the same joint transforms and weights (``UsdSkel.SkinNormals``); blend shape normal offsets
-are not applied.
+inverse transposes of the same joint transforms and weights (``UsdSkel.SkinNormals``), after blend shapes'
+``normalOffsets``.
 
 Time: the animation is read at the load's time; with the default time, an animation whose joint transforms or blend
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
@@ -88,7 +88,7 @@ class SkelPoser:
             raise ValueError("invalid joint influences or skel:joints")
         xforms, anim_time, anim = self._skinning_transforms(skeleton)
         if query.HasBlendShapes() and anim:
-            points = _blend(prim, query, anim, anim_time, points)
+            points, normals = _blend(prim, query, anim, anim_time, points, normals, vertex_ids)
         if not query.HasJointInfluences():
             return points, normals, prim  # blend shapes only: still in the mesh's own space
         if isinstance(xforms, str):
@@ -189,21 +189,49 @@ class _Influences:
         return np.array(UsdSkel.SkinTransform(self.method, self.bind, self.xforms, self.indices, self.weights))
 
 
-def _blend(prim, query, anim, anim_time, points):
-    """``points`` moved by the blend shapes of ``prim`` at the animation's weights (``BlendShapeQuery``)."""
+def _blend(prim, query, anim, anim_time, points, normals, vertex_ids):
+    """``points`` moved and ``normals`` (as :meth:`SkelPoser.pose` takes them, or None) turned by the blend shapes of
+    ``prim`` at the animation's weights (``BlendShapeQuery``)."""
     weights = anim.ComputeBlendShapeWeights(anim_time)
     mapper = query.GetBlendShapeMapper()
     if weights is None:
-        return points
+        return points, normals
     if mapper and not mapper.IsNull() and not mapper.IsIdentity():
         weights = mapper.Remap(weights, Vt.FloatArray())  # into the mesh's skel:blendShapes order
     shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
     sub_weights, shape_ids, sub_ids = shapes.ComputeSubShapeWeights(weights)
+    point_indices = shapes.ComputeBlendShapePointIndices()
     moved = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(points, np.float32))
-    if not shapes.ComputeDeformedPoints(sub_weights, shape_ids, sub_ids, shapes.ComputeBlendShapePointIndices(),
+    if not shapes.ComputeDeformedPoints(sub_weights, shape_ids, sub_ids, point_indices,
                                         shapes.ComputeSubShapePointOffsets(), moved):
         raise ValueError("blend shapes do not match the points")
-    return np.array(moved, np.float64)
+    if normals is not None:
+        offsets = _normal_offsets(shapes, zip(sub_weights, shape_ids, sub_ids), point_indices, len(points))
+        if offsets is not None:  # per triangle corner, as the skinned normals are
+            values, corners = normals
+            normals = (values[corners] + offsets[vertex_ids]).reshape(-1, 3), np.arange(corners.size).reshape(-1, 3)
+    return np.array(moved, np.float64), normals
+
+
+def _normal_offsets(shapes, sub_shapes, point_indices, n_points: int) -> np.ndarray | None:
+    """``(V, 3)`` sum of the ``normalOffsets`` of the weighted ``sub_shapes`` (``(weight, blend shape, sub-shape)``;
+    primary shapes' and inbetweens' offsets), or None when none has any: ``BlendShapeQuery.ComputeDeformedNormals``,
+    which Python cannot call."""
+    total = np.zeros((n_points, 3))
+    for weight, shape, sub in sub_shapes:
+        inbetween = shapes.GetInbetween(sub)
+        if inbetween:
+            offsets = inbetween.GetNormalOffsets()
+        else:
+            offsets = shapes.GetBlendShape(shape).GetNormalOffsetsAttr().Get()
+        if weight == 0.0 or offsets is None or len(offsets) == 0:
+            continue
+        at = np.asarray(point_indices[shape], np.int64)
+        at = at if len(at) else np.arange(n_points)
+        if len(offsets) != len(at) or (len(at) and (at.min() < 0 or at.max() >= n_points)):
+            raise ValueError("blend shape normalOffsets do not match its points")
+        np.add.at(total, at, weight * np.asarray(offsets, np.float64))
+    return total if total.any() else None
 
 
 def _skel_root(prim: Usd.Prim) -> Usd.Prim | None:
