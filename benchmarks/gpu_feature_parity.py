@@ -5,9 +5,10 @@ normal-mapped quad under a sun and at a grazing view, a UDIM-textured plane (thr
 tapered Cylinder_1 and Capsule_1 gprims (hits of rays from every side, and images), and quads coloured by a primvar
 (one without it: the reader's fallback) and by a MaterialX primvar times a constant, Points (spheres) beside
 varying-width bspline curves (tubes, frustums and joint spheres), and a textured RectLight, a mirror-ball dome and
-lights with diffuse and specular multipliers over grey and metal spheres. wrt's shade kernels round alike
-on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are expected to be equal, but for the
-last bits of transcendental functions (the spotlights' acos and pow).
+lights with diffuse and specular multipliers over grey and metal spheres, and light and shadow linking (a floor,
+a box and a blocker under linked suns, a sphere light and a dome; native instances linked part by part). wrt's shade
+kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are expected to
+be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
 
 Usage: python benchmarks/gpu_feature_parity.py [--width 96] [--devices cpu,cuda:0]
 """
@@ -20,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import wrt
+from wrt.light_links import LinkCollection
 from wrt.procedural import displaced_sphere_scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -27,6 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cut_out_canopy import write_canopy  # noqa: E402
 from shading_helpers import quad, top_down_camera  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
+from test_light_linking import SLANT, quad_usda, sun_usda, z_up  # noqa: E402
 from test_light_textures import cap_texture, dome_from_usd, textured_rect_light  # noqa: E402
 from test_materials import bind, new_stage  # noqa: E402
 from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
@@ -135,6 +138,7 @@ def main() -> None:
 
     points_and_curves(args.out / "parity_points_curves.usda", devices)
     textured_and_split_lights(args.out, devices)
+    linked_lights(args.out, devices)
 
 
 def points_and_curves(path: Path, devices: list[str]) -> None:
@@ -186,6 +190,40 @@ def textured_and_split_lights(folder: Path, devices: list[str]) -> None:
         compare(f"textured and split lights {integrator}", scene, devices, camera=cam, width=48, height=48,
                 integrator=integrator, spp=8, max_depth=3)
 
+
+def linked_lights(folder: Path, devices: list[str]) -> None:
+    """Light and shadow linking: a red sun whose shadows skip the blocker, a green sun that does not light the box,
+    a sphere light that lights only the box and a dome that does not light the floor; then native and
+    instances linked part by part."""
+    floor = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/World/Ground/Floor")
+    box = quad((1.5, 0, 0.5), (2.5, 0, 0), (0, 5, 0), name="/World/Box")
+    blocker = quad((-2, 0, 1), (2, 0, 0), (0, 4, 0), name="/Blocker")
+    lights = [
+        wrt.DistantLight(direction=SLANT, color=np.array([2.0, 0, 0]),
+                         shadow_link=LinkCollection.excluding("/Blocker")),
+        wrt.DistantLight(direction=(0.2, 0.1, -1.0), color=np.array([0, 2.0, 0]),
+                         light_link=LinkCollection.excluding("/World/Box")),
+        wrt.SphereLight(position=(2, 0, 2), radius=0.2, color=(0, 0, 30), path="/Blue",
+                        light_link=LinkCollection.only("/World/Box")),
+        wrt.DomeLight(color=np.array([0.2, 0.2, 0.2]), light_link=LinkCollection.excluding("/World/Ground")),
+    ]
+    scene = wrt.Scene(meshes=[floor, box, blocker], lights=lights)
+    cam = wrt.Camera.look_at((0, -6, 4), (0, 0, 0), (0, 0, 1), 50.0)
+    for integrator in ("whitted", "path"):
+        compare(f"linked lights {integrator}", scene, devices, camera=cam, width=48, height=48,
+                integrator=integrator, spp=8, max_depth=3)
+    proto = ('def Xform "Proto"\n{\n    def Xform "geo"\n    {\n' + quad_usda("Left", -0.25, half=0.2, indent=" " * 8)
+             + quad_usda("Right", 0.25, half=0.2, indent=" " * 8) + "    }\n}\n")
+    instances = "".join(
+        f'    def "I{k}" (\n        instanceable = true\n        prepend references = </Proto>\n    )\n    {{\n'
+        f'        double3 xformOp:translate = ({x}, 0, 0)\n        uniform token[] xformOpOrder = ["xformOp:translate"]'
+        f'\n    }}\n' for k, x in enumerate([-1.0, 0.0, 1.0]))
+    red = sun_usda("Red", (1, 0, 0), "rel collection:lightLink:excludes = [</World/I0>, </World/I1/geo/Right>]")
+    path = z_up(folder, proto + 'def Xform "World"\n{\n' + instances + "}\n" + red + sun_usda("Green", (0, 1, 0)))
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=1.0)
+    for integrator in ("whitted", "path"):
+        compare(f"linked instance parts {integrator}", wrt.load_usd(path), devices, camera=cam, width=64, height=16,
+                integrator=integrator, spp=4)
 
 if __name__ == "__main__":
     main()
