@@ -6,6 +6,7 @@ import warnings
 
 import numpy as np
 import pytest
+import warp as wp
 from pxr import Sdf, Usd, UsdLux
 from shading_helpers import quad
 from usda_text import write
@@ -279,3 +280,23 @@ def test_nested_native_instance_parts_are_named_by_their_proxy_paths(tmp_path):
     proxy = scene.instances.roots[scene.instances.root[i]]
     prototype = scene.prototypes[scene.instances.prototype[i]]
     assert wrt.light_links.part_path(prototype.meshes[0].path, prototype.path, proxy) == "/World/Outer/Inner/geo/Left"
+
+
+def test_a_recorded_frame_follows_shadow_links():
+    """A frame recorded as a CUDA graph (launch_frame: the shadow passes past unlinked blockers launched without
+    reading back) and replayed gives the floor under a blocker left out of the red sun's shadowLink the red of an
+    open sky, and keeps the green sun's shadow."""
+    if not wp.is_cuda_available():
+        pytest.skip("no CUDA device")
+    red = wrt.DistantLight(direction=SLANT, color=np.array([2.0, 0, 0]),
+                           shadow_link=LinkCollection.excluding("/Blocker"))
+    green = wrt.DistantLight(direction=SLANT, color=np.array([0, 2.0, 0]))
+    renderer = wrt.Renderer(shadow_scene([red, green]), camera=UNDER, width=8, height=8, device="cuda:0")
+    renderer.launch_frame()  # allocates the buffers before the capture
+    with wp.ScopedCapture(device="cuda:0") as capture:
+        renderer.launch_frame()
+    wp.capture_launch(capture.graph)
+    rgb = renderer.frame_image().rgb
+    open_sky = render(shadow_scene([red], blocker=False), "whitted", camera=UNDER, spp=1)
+    np.testing.assert_array_equal(rgb[..., 1], 0.0)
+    np.testing.assert_allclose(rgb[..., 0], open_sky[..., 0], rtol=1e-5)
