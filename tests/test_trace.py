@@ -500,6 +500,32 @@ def test_t_min_is_an_inclusive_lower_bound(accel, layout):
         wrt.trace(scene, origins, [0, 0, -1], t_min=np.nan, accel=accel, layout=layout)
 
 
+@pytest.mark.parametrize("instanced", [False, True], ids=["flat", "instanced"])
+@pytest.mark.parametrize("accel, layout", [("wrt", "binary"), ("wrt", "compact"), ("wrt", "wide"), ("wrt", "wide8"),
+                                           ("warp", "binary")])
+def test_a_flat_quad_behind_the_origin_is_hit_at_negative_t(accel, layout, instanced, np_rng):
+    """A ground quad at y = 0 under rays starting above it and pointing up, with ``t_min < 0``: every ray hits it at
+    ``t = -o_y / d_y < 0`` (solved here in numpy). The box of a flat quad has a zero-thickness slab, whose exit was
+    scaled by ``1 + 2 gamma`` to be safe: for a negative exit that shrank the box, so every wrt layout missed it
+    (the world-space quad of an instanced scene too) while wp.Mesh hit it."""
+    quad = Mesh("/Ground", [[-4, 0, -4], [4, 0, -4], [4, 0, 4], [-4, 0, 4]], [[0, 2, 1], [0, 3, 2]], [0, 0])
+    scene = wrt.Scene(meshes=[quad])
+    if instanced:  # one more quad, instanced far away, makes the world-space quad an entry of the TLAS
+        far = np.eye(4)
+        far[:3, 3] = (100, 0, 0)
+        scene = wrt.Scene(meshes=[quad], prototypes=[Prototype("/P", [quad])],
+                          instances=Instances.from_transforms([0], far[None]))
+    n = 200
+    origins = np.column_stack([np_rng.uniform(-2, 2, n), np_rng.uniform(0.5, 3, n), np_rng.uniform(-2, 2, n)])
+    tilt = np_rng.uniform(-0.3, 0.3, (n, 2))
+    directions = np.column_stack([tilt[:, 0], np_rng.uniform(0.5, 1, n), tilt[:, 1]])
+    expected = -origins[:, 1] / directions[:, 1]
+    hits = wrt.trace(scene, origins, directions, t_min=-10.0, t_max=10.0, accel=accel, layout=layout)
+    assert hits.hit.all(), f"{np.sum(~hits.hit)} of {n} rays missed"
+    np.testing.assert_allclose(hits.t, expected, rtol=1e-5)
+    assert wrt.occluded(scene, origins, directions, t_min=-10.0, t_max=0.0, accel=accel, layout=layout).all()
+
+
 def test_threaded_cpu_trace_gives_the_same_hits(np_rng):
     points, indices = random_soup(np_rng, 500)
     scene = wrt.Scene.from_triangles(points, indices)

@@ -15,6 +15,9 @@ import warp as wp
 from .floats import largest_magnitude, power_scales
 
 ROBUST_FAR_SCALE = wp.constant(1.0 + 2.0 * 3.0 * 5.9604645e-08 / (1.0 - 3.0 * 5.9604645e-08))  # 1 + 2*gamma(3), Ize
+# The same widening of a box's exit for an exit at negative t (rays with t_min < 0): scaling it by ROBUST_FAR_SCALE
+# moved it towards -inf and shrank the box, so a flat box (a ground quad) behind the origin was always missed.
+ROBUST_FAR_SCALE_NEGATIVE = wp.constant(1.0 - 2.0 * 3.0 * 5.9604645e-08 / (1.0 - 3.0 * 5.9604645e-08))
 ENTRY_SLACK = wp.constant(9.5367431640625e-07)  # 2^-20: intersect_ray_box rounds entries down by this
 FLAT_INVERSE = wp.constant(1.0e38)  # safe_inverse of a zero (or subnormal) direction component
 
@@ -288,7 +291,7 @@ def intersect_ray_box(
     near = finite_max(finite_max(lo_x, lo_y), finite_max(lo_z, t_min))
     far = finite_min(finite_min(hi_x, hi_y), finite_min(hi_z, t_max))
     result = wp.inf
-    if near <= far * ROBUST_FAR_SCALE:
+    if near <= far * wp.where(far >= 0.0, ROBUST_FAR_SCALE, ROBUST_FAR_SCALE_NEGATIVE):
         # Rounded down by a few ulps: traversals cull a box entered beyond the best hit (or t_max), and the
         # watertight test's t of a triangle on the box's face can come out a little below the computed entry;
         # culling at the exact entry lost such hits (coplanar overlaps broke the tie rule; t_max just above a hit).

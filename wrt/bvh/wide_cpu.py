@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..geometry import ENTRY_SLACK, ROBUST_FAR_SCALE
+from ..geometry import ENTRY_SLACK, ROBUST_FAR_SCALE, ROBUST_FAR_SCALE_NEGATIVE
 from .stack import STACK_PREAMBLE, WideStack
 
 BOX_PLANES = 6  # lower x, y, z and upper x, y, z: one run of ``width`` floats each per node
@@ -72,7 +72,9 @@ inline unsigned int enter_lanes(
     iv count;
     for (int k = 0; k < L; ++k)
         count[k] = links[2 * k + 1];
-    const iv entered = (near <= far * FAR_SCALE) & (e <= hi_t) & (count >= 0);
+    const fv grow = FAR_SCALE;
+    const fv grow_negative = FAR_NEGATIVE;
+    const iv entered = (near <= far * (far >= 0.0f ? grow : grow_negative)) & (e <= hi_t) & (count >= 0);
     *(fv*)entry = e;
     unsigned int mask = 0;
     for (int k = 0; k < L; ++k)
@@ -123,6 +125,7 @@ CUDA_CALLABLE inline wp::vec3i wide_enter(
 }
 }  // namespace wrt
 """.replace("SLACK", _float32_literal(ENTRY_SLACK)).replace("FAR_SCALE", _float32_literal(ROBUST_FAR_SCALE))
+    .replace("FAR_NEGATIVE", _float32_literal(ROBUST_FAR_SCALE_NEGATIVE))
 )
 
 WIDE_BUILD_OPTIONS = wp.ModuleBuildOptions(
