@@ -318,6 +318,27 @@ def test_bad_instancer_raises_scene_error_naming_the_prim(tmp_path, kwargs, mess
     assert message in str(info.value) and "/PI" in str(info.value)
 
 
+def test_invisible_and_inactive_ids_hide_instances_by_id_as_usd_masks_them(tmp_path):
+    """``ids`` name the instances that ``invisibleIds`` and ``inactiveIds`` hide (not their indices), as
+    ``ComputeMaskAtTime`` computes it; ``ids`` shorter than ``protoIndices`` are an error naming the instancer (its
+    mask covered only the first instances, and wrt drew every instance, the invisible ones too, without a word)."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0, 0), positions=4)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    pi.CreateIdsAttr(Vt.Int64Array([40, 30, 20, 10]))
+    pi.CreateInvisibleIdsAttr(Vt.Int64Array([30]))
+    pi.DeactivateId(10)
+    stage.Save()
+    kept = np.flatnonzero(pi.ComputeMaskAtTime(Usd.TimeCode.Default()))
+    assert kept.tolist() == [0, 2]
+    scene = load(path)
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == [f"/PI[{k}]" for k in kept]
+    pi.GetIdsAttr().Set(Vt.Int64Array([40, 30]))
+    stage.Save()
+    with pytest.raises(wrt.SceneError, match=r"/PI.*ids has 2 entries; protoIndices has 4"):
+        load(path)
+
+
 def test_zero_scale_instance_is_skipped_with_a_warning_naming_it(tmp_path):
     path = write_instancer(tmp_path, scales=[(1, 1, 1), (0, 0, 0), (1, 1, 1)])
     with pytest.warns(UserWarning, match=r"singular transform.*/PI\[1\]"):

@@ -34,11 +34,12 @@ transform is ``translate(position) * rotate(orientation) * scale(scale)`` after 
 ``positions`` (and a mesh's ``points``) with ``velocities`` (and ``accelerations``) authored at the same samples are
 the earlier sample moved by them, and orientations with ``angularVelocities`` the earlier sample turned by them, as
 USD computes it; then every per-instance attribute is held at its earlier sample (USD's velocity path), and without
-either they are all interpolated. A ``protoIndices`` entry out of range, a prototype target that does not
-exist, or per-instance arrays shorter than ``protoIndices`` raise :class:`wrt.errors.SceneError` naming the
-instancer; instances whose transform is singular (a zero scale) are skipped with a warning naming each one
-(``/instancer[index]``). Visibility and purpose inside a PointInstancer's prototype are taken from the prototype
-root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A material
+either they are all interpolated. A ``protoIndices`` entry out of range, a prototype target that does not exist, or
+per-instance arrays shorter than ``protoIndices`` (``ids`` too, where a mask uses them) raise
+:class:`wrt.errors.SceneError` naming the instancer; instances whose transform is singular (a zero scale) are
+skipped with a warning naming each one (``/instancer[index]``). Visibility and purpose inside a PointInstancer's
+prototype are taken from the prototype root down (the scope holding the prototypes is often made invisible so they
+are not drawn in place). A material
 bound on or above a native instance (chosen by the meshes' rule, :func:`wrt.materials.bound_material`: preview
 bindings included) applies to the prototype's meshes that bind none themselves (on the faces that their
 ``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it
@@ -804,7 +805,10 @@ class _StageReader:
         # invisibleIds (and the ids it refers to) follow value_at's default-time rule, as positions do.
         mask = pi.ComputeMaskAtTime(read_time(pi.GetInvisibleIdsAttr(), t))
         if mask is not None and len(mask):
-            keep &= np.asarray(mask, bool)[:n] if len(mask) >= n else np.ones(n, bool)
+            if len(mask) < n:  # the mask has one entry per id: the instances past them have none
+                raise self._error(f"ids has {len(mask)} entries; protoIndices has {n} (invisibleIds and inactiveIds "
+                                  "name instances by id)", prim, pi.GetIdsAttr())
+            keep &= np.asarray(mask, bool)[:n]
         to_space = self._to_space(prim, ctx).T @ m
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
         # prototype took 6 s for 10000 prototypes and 1M instances).
