@@ -339,6 +339,22 @@ def test_invisible_and_inactive_ids_hide_instances_by_id_as_usd_masks_them(tmp_p
         load(path)
 
 
+@pytest.mark.parametrize("deactivated", ["/PI/Protos", "/PI/Protos/Q"], ids=["scope", "root"])
+def test_instances_of_an_inactive_prototype_are_skipped_with_a_warning(tmp_path, deactivated):
+    """A prototype under a deactivated scope (its prim is not on the stage) or deactivated itself draws nothing, as
+    Hydra finds it; the instances of the other prototypes are drawn. The first raised "targets /PI/Protos/Q, which
+    does not exist" (it is in the layer, deactivated), the second dropped its instances without a word."""
+    path = write_instancer(tmp_path, proto_indices=(0, 1, 0, 1), targets=("/PI/Proto", "/PI/Protos/Q"), positions=4)
+    stage = Usd.Stage.Open(path)
+    octahedron(stage, "/PI/Protos/Q")
+    stage.GetPrimAtPath(deactivated).SetActive(False)
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"inactive PointInstancer prototypes.*\(/PI/Protos/Q: 1\): /PI$"):
+        scene = wrt.load_usd(path)
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/PI[0]", "/PI[2]"]
+    assert [p.path for p in scene.prototypes] == ["/PI/Proto"]
+
+
 def test_zero_scale_instance_is_skipped_with_a_warning_naming_it(tmp_path):
     path = write_instancer(tmp_path, scales=[(1, 1, 1), (0, 0, 0), (1, 1, 1)])
     with pytest.warns(UserWarning, match=r"singular transform.*/PI\[1\]"):

@@ -37,11 +37,11 @@ USD computes it; then every per-instance attribute is held at its earlier sample
 either they are all interpolated. A ``protoIndices`` entry out of range, a prototype target that does not exist, or
 per-instance arrays shorter than ``protoIndices`` (``ids`` too, where a mask uses them) raise
 :class:`wrt.errors.SceneError` naming the instancer; instances whose transform is singular (a zero scale) are
-skipped with a warning naming each one (``/instancer[index]``). Visibility and purpose inside a PointInstancer's
-prototype are taken from the prototype root down (the scope holding the prototypes is often made invisible so they
-are not drawn in place). A material
-bound on or above a native instance (chosen by the meshes' rule, :func:`wrt.materials.bound_material`: preview
-bindings included) applies to the prototype's meshes that bind none themselves (on the faces that their
+skipped with a warning naming each one (``/instancer[index]``), and so are the instances of an inactive prototype
+(or one under an inactive prim). Visibility and purpose inside a PointInstancer's prototype are taken from the
+prototype root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A
+material bound on or above a native instance (chosen by the meshes' rule, :func:`wrt.materials.bound_material`:
+preview bindings included) applies to the prototype's meshes that bind none themselves (on the faces that their
 ``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it
 is bound ``strongerThanDescendants``. A constant ``displayColor`` on or above a native instance colours the
 prototype's meshes and gprims that have none (a copy of the prototype per colour, up to ``MAX_INHERITED_COLORS``).
@@ -747,12 +747,15 @@ class _StageReader:
         pi = UsdGeom.PointInstancer(prim)
         t = self.time
         targets = pi.GetPrototypesRel().GetTargets()
-        protos = []
+        protos = []  # the prototype roots; None for one that is inactive or under an inactive prim
         for k, path in enumerate(targets):
             target = self.stage.GetPrimAtPath(path)
-            if not target or not target.IsValid():
+            if target and target.IsActive():
+                protos.append(target)
+            elif any(p and not p.IsActive() for p in map(self.stage.GetPrimAtPath, path.GetPrefixes())):
+                protos.append(None)  # deactivated, as Hydra finds it: drawn nowhere (below, with a warning)
+            else:
                 raise self._error(f"prototypes[{k}] targets {path}, which does not exist", prim, None)
-            protos.append(target)
         raw = value_at(pi.GetProtoIndicesAttr(), t)
         proto_indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
         n = len(proto_indices)
@@ -813,9 +816,13 @@ class _StageReader:
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
         # prototype took 6 s for 10000 prototypes and 1M instances).
         kept = np.flatnonzero(keep)
-        for target, group in zip(protos, group_rows(proto_indices[kept], len(protos))):
+        for path, target, group in zip(targets, protos, group_rows(proto_indices[kept], len(protos))):
             rows = kept[group]
             if len(rows) == 0:
+                continue
+            if target is None:
+                self._skip("instances of inactive PointInstancer prototypes (or of prototypes under an inactive "
+                           "prim) were skipped", prim, str(path))
                 continue
             # The prototype's space is its parent's: the root's own transform is the most local part.
             key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced, ctx.outer_color)
