@@ -535,6 +535,40 @@ def test_two_level_bvh_agrees_with_wp_mesh_on_real_scenes(assets, asset_id):
     assert report["hits_a"] > 5_000
 
 
+def test_hit_paths_name_the_usd_prims_and_instances_hit(tmp_path):
+    """``Scene.hit_paths`` maps each hit back to USD: the mesh or gprim path (in its prototype for an instance) and
+    the instance (``/PI[index]``, or the instanceable prim), compared with the paths pxr gives the prims the rays
+    aim at (there was no way from ``Hits.instance`` and ``Hits.local_prim`` to a prim but the internals)."""
+    path = str(tmp_path / "paths.usda")
+    stage = Usd.Stage.CreateNew(path)
+    octahedron(stage, "/Ground").AddTranslateOp().Set((0, 0, 0))
+    UsdGeom.Sphere.Define(stage, "/Ball").AddTranslateOp().Set((0, 0, -10))
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    octahedron(stage, "/PI/Protos/A/Mesh")
+    pi.CreatePrototypesRel().SetTargets(["/PI/Protos/A"])
+    pi.CreateProtoIndicesAttr([0, 0, 0])
+    pi.CreatePositionsAttr([(10, 0, 0), (20, 0, 0), (30, 0, 0)])
+    pi.CreateInvisibleIdsAttr([1])
+    UsdGeom.Xform.Define(stage, "/Asset").GetPrim().SetSpecifier(pxr.Sdf.SpecifierClass)
+    octahedron(stage, "/Asset/Body")
+    inst = UsdGeom.Xform.Define(stage, "/Plain")
+    inst.GetPrim().GetReferences().AddInternalReference("/Asset")
+    inst.GetPrim().SetInstanceable(True)
+    inst.AddTranslateOp().Set((0, 10, 0))
+    stage.Save()
+    scene = load(path)
+    body = stage.GetPrimAtPath("/Plain").GetPrototype().GetPath().AppendChild("Body")  # /__Prototype_1/Body
+    targets = {(0, 0, 0): ("/Ground", ""), (0, 0, -10): ("/Ball", ""), (10, 0, 0): ("/PI/Protos/A/Mesh", "/PI[0]"),
+               (30, 0, 0): ("/PI/Protos/A/Mesh", "/PI[2]"), (0, 10, 0): (str(body), "/Plain"), (20, 0, 0): ("", "")}
+    origins = np.array(list(targets), np.float64) + (0.1, 0.2, 5)  # each ray straight down -z onto its target
+    hits = wrt.trace(scene, origins, [0, 0, -1])
+    prims, instances = scene.hit_paths(hits)
+    assert list(zip(prims, instances)) == list(targets.values())
+    assert stage.GetPrimAtPath(f"{instances[4]}/{body.name}").IsInstanceProxy()  # /Plain/Body
+    empty = scene.hit_paths(wrt.trace(scene, np.zeros((0, 3)), np.zeros((0, 3))))
+    assert [len(a) for a in empty] == [0, 0]
+
+
 def test_occluded_matches_closest_hit(np_rng):
     scene = python_scene(np_rng)
     origins, directions = random_rays(scene, 20_000, seed=9)

@@ -524,6 +524,34 @@ class Scene:
                 prim[inst] = first + k[inst] - shape_offsets[i]
         return prim, instance
 
+    def hit_paths(self, hits) -> tuple[np.ndarray, np.ndarray]:
+        """The prims that hits name, by path: ``(prims, instances)``, ``(N,)`` object arrays of str, ``""`` where
+        there is none (a miss; ``instances`` on non-instanced geometry).
+
+        ``prims[i]`` is the path of the mesh or analytic shape hit (``Mesh.path``, ``Shape.path``); on an instance,
+        of the prim in its prototype: a PointInstancer's prototype prim (``/PI/Protos/A/Mesh``) or a native
+        prototype's (``/__Prototype_1/Body``, named by USD per stage opening). ``instances[i]`` is
+        :meth:`wrt.instancing.Instances.path`: the PointInstancer and the instance's index in its arrays
+        (``/PI[3]``), or the instanceable prim (``/Plain``, whose instance proxy of the hit is ``/Plain/Body``); an
+        instance nested in another one names the world-level instance it is part of.
+
+        Args:
+            hits: :class:`wrt.trace.Hits` (its ``local_prim`` and ``instance`` are read).
+        """
+        prim = np.asarray(hits.local_prim, np.int64).reshape(-1)
+        instance = np.asarray(hits.instance, np.int64).reshape(-1)
+        meshes = self._geometry_meshes()
+        names = [m.path for m in meshes] + [s.path for s in self._geometry_shapes()] + [""]
+        starts = np.cumsum([0] + [len(m.indices) for m in meshes])  # geometry id of each mesh's first triangle
+        # The mesh holding each triangle (side="right" skips meshes without triangles), else the shape, else "".
+        source = np.where(prim < starts[-1], np.searchsorted(starts, prim, side="right") - 1,
+                          len(meshes) + prim - starts[-1])
+        source[(prim < 0) | (source >= len(names))] = len(names) - 1
+        prims = np.array(names, object)[source]
+        ids, inverse = np.unique(np.where(prim >= 0, instance, -1), return_inverse=True)
+        paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
+        return prims, paths[inverse.reshape(-1)]
+
     def triangles(self) -> tuple[np.ndarray, np.ndarray]:
         """All triangles in world space, instances expanded, in the documented order (module docstring).
 
