@@ -87,6 +87,17 @@ def entry_ray(tlas: DeviceTlas, instance: int, origin: wp.vec3, direction: wp.ve
 
 
 @wp.func
+def shape_entry(tlas: DeviceTlas, b: int, origin: wp.vec3, direction: wp.vec3):
+    """The ray in the canonical space of the analytic shape of entry ``b`` (``b = -1 - k`` for shape entry ``k``),
+    and that shape's geometry id, kind and parameters."""
+    e = -1 - b
+    m = tlas.shape_xforms[e]
+    row = tlas.shape_rows[e]
+    j = row - tlas.num_triangles
+    return transform_point(m, origin), transform_vector(m, direction), row, tlas.shape_kinds[j], tlas.shape_params[j]
+
+
+@wp.func
 def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
     """Closest hit with ``t_min <= t < t_max`` over every instance and the world-space geometry.
 
@@ -134,14 +145,7 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                             best_instance = instance
                     else:
                         # An analytic shape, intersected in its canonical space.
-                        e = -1 - b
-                        m = tlas.shape_xforms[e]
-                        row = tlas.shape_rows[e]
-                        j = row - tlas.num_triangles
-                        o = transform_point(m, origin)
-                        d = transform_vector(m, direction)
-                        kind = tlas.shape_kinds[j]
-                        params = tlas.shape_params[j]
+                        o, d, row, kind, params = shape_entry(tlas, b, origin, direction)
                         t = intersect_shape(kind, params, o, d, t_min, best_t)
                         tests += 1
                         if t < best_t:
@@ -198,12 +202,8 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
                         if bvh_occluded(tlas.blases[b], o, d, t_min, t_max):
                             found = True
                     elif not found:
-                        e = -1 - b
-                        m = tlas.shape_xforms[e]
-                        j = tlas.shape_rows[e] - tlas.num_triangles
-                        o = transform_point(m, origin)
-                        d = transform_vector(m, direction)
-                        if intersect_shape(tlas.shape_kinds[j], tlas.shape_params[j], o, d, t_min, t_max) < wp.inf:
+                        o, d, _row, kind, params = shape_entry(tlas, b, origin, direction)
+                        if intersect_shape(kind, params, o, d, t_min, t_max) < wp.inf:
                             found = True
                 node = -1
             else:
