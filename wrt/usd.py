@@ -482,7 +482,7 @@ class _StageReader:
             else:
                 # Cameras do not follow visibility (one under an invisible Xform is read): a hidden instance's are
                 # read too, or a camera whose instance is hidden at some frame was missing from it.
-                self._instance_cameras(prim, self._prototype_cameras(prim.GetPrototype()), ctx)
+                self._read_cameras(prim, self._prototype_cameras(prim.GetPrototype()), ctx)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.PointInstancer):
             # Its prototypes are drawn through the instancer only, so its subtree is not walked in place. An
@@ -501,13 +501,7 @@ class _StageReader:
                 self._skip("GenerativeProcedural prims are not evaluated (wrt runs no procedural plugins); skipped",
                            prim, str(value_at(kind, self.time) or "no hdGp:proceduralType") if kind else None)
         elif prim.IsA(UsdGeom.Camera):
-            if ctx.world:
-                scene = self.scene
-                scene.cameras[str(prim.GetPath())] = self._read_camera(prim)
-            elif ctx.space_root is None:  # in a native prototype: read through each instance (_instance_cameras)
-                ctx.content.cameras.append(prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path)))
-            else:
-                self._skip("cameras inside PointInstancer prototypes are not supported; skipped", prim)
+            self._read_cameras(prim, [Sdf.Path(".")], ctx)  # "." is the camera itself
         elif prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
             if not ctx.world:
                 self._skip("lights inside instance prototypes are not supported; skipped", prim)
@@ -675,7 +669,7 @@ class _StageReader:
             key = self._colored(key, content, color, prim)
         m = self._to_space(prim, ctx).T  # column vectors
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), None))
-        self._instance_cameras(prim, self.contents[key].cameras, ctx)
+        self._read_cameras(prim, self.contents[key].cameras, ctx)
 
     def _inherited_color(self, prim: Usd.Prim, names: list[str]) -> tuple | None:
         """The constant colour primvar that native instance ``prim`` hands down to its prototype's meshes lacking
@@ -709,10 +703,11 @@ class _StageReader:
             content.colors[color] = colored
         return content.colors[color]
 
-    def _instance_cameras(self, prim: Usd.Prim, cameras: list, ctx: _Context):
-        """The ``cameras`` (paths relative to its prototype) inside native instance ``prim``: read at their
-        instance-proxy paths (``/Instance/Cam``, which USD places in the world) when ``prim`` is in the world, else
-        handed on to the prototype containing it."""
+    def _read_cameras(self, prim: Usd.Prim, cameras: list, ctx: _Context):
+        """The ``cameras`` at paths relative to ``prim`` (a camera itself, ``.``, or the cameras of native instance
+        ``prim``, relative to its prototype): read when ``ctx`` is the world (at their instance-proxy paths,
+        ``/Instance/Cam``, which USD places in the world), handed on to the native prototype being read (read
+        through each of its instances), skipped with a warning inside a PointInstancer's prototype."""
         if not cameras:
             return
         if ctx.world:
