@@ -578,6 +578,45 @@ def test_occluded_matches_closest_hit(np_rng):
     np.testing.assert_array_equal(blocked, hits.t < t_max)
 
 
+def closest_hits_numpy(points, indices, origins, directions, t_min, t_max):
+    """``(t, row)`` of the closest hit with ``t_min <= t < t_max`` of each ray on the triangles (Moller-Trumbore in
+    float64), ``(inf, -1)`` for none."""
+    p0, p1, p2 = (points[indices[:, k]].astype(np.float64) for k in range(3))
+    e1, e2 = p1 - p0, p2 - p0
+    pv = np.cross(directions[:, None], e2[None])
+    det = (e1[None] * pv).sum(-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tv = origins[:, None] - p0[None]
+        u = (tv * pv).sum(-1) / det
+        qv = np.cross(tv, e1[None])
+        v = (directions[:, None] * qv).sum(-1) / det
+        t = (e2[None] * qv).sum(-1) / det
+    ok = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= t_min[:, None]) & (t < t_max[:, None])
+    t = np.where(ok, t, np.inf)
+    best = t.min(axis=1)
+    return best, np.where(np.isfinite(best), t.argmin(axis=1), -1)
+
+
+def test_ray_intervals_across_instances_match_a_numpy_solution_ray_by_ray(np_rng):
+    """Random ``[t_min, t_max)`` intervals, negative ones too, through mirrored and sheared instances and the ground:
+    closest hits (two-level BVH and wp.Mesh on the flattened triangles) and any hits give what solving every
+    ray against every triangle gives, ray by ray (the ground behind a ray's origin was missed by the BVH)."""
+    scene = python_scene(np_rng, n=30)
+    n = 2000
+    origins = np_rng.uniform(-12, 12, (n, 3))
+    directions = np_rng.normal(size=(n, 3))
+    t_min = np_rng.uniform(-10, 10, n)
+    t_max = t_min + np_rng.uniform(0, 12, n)
+    t, row = closest_hits_numpy(*scene.triangles(), origins, directions, t_min, t_max)
+    assert np.sum(np.isfinite(t) & (t < 0)) > 20 and np.sum(np.isfinite(t) & (t > 0)) > 20
+    for accel in ("wrt", "warp"):
+        hits = wrt.trace(scene, origins, directions, t_min=t_min, t_max=t_max, accel=accel)
+        np.testing.assert_array_equal(hits.prim, row, err_msg=accel)
+        np.testing.assert_allclose(hits.t, t, rtol=1e-4, atol=1e-4, err_msg=accel)
+        blocked = wrt.occluded(scene, origins, directions, t_min=t_min, t_max=t_max, accel=accel)
+        np.testing.assert_array_equal(blocked, row >= 0, err_msg=accel)
+
+
 @pytest.mark.parametrize("prototype", [-1, 2])
 def test_instance_of_a_missing_prototype_raises_naming_it(np_rng, prototype):
     """Python-built instances drawing prototype -1 or 2 of two: -1 drew the last prototype with accel="warp" (numpy
