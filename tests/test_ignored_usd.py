@@ -1,6 +1,6 @@
 """Authored USD that changes the picture in other renderers but that wrt does not render is named at load: one
 warning per kind and stage, naming the file, the attribute (or type) and the prims. What wrt renders as authored
-(light linking, a displayOpacity of 1, a presence material with a cut-out threshold) is not named."""
+(light linking, a presence material with a cut-out threshold) is not named."""
 
 import warnings
 
@@ -80,29 +80,6 @@ def bind_preview(stage, prim, path, **inputs):
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
     UsdShade.MaterialBindingAPI.Apply(prim).Bind(material)
     return material, shader
-
-
-def test_display_opacity_without_a_material_is_named(tmp_path):
-    """``displayOpacity`` below 1 on a prim drawn with the default material (Storm's fallback surface takes it as the
-    alpha) is drawn opaque by wrt: named. With a material it is that material's business, and 1 changes nothing."""
-
-    def build(stage):
-        UsdGeom.PrimvarsAPI(quad(stage, "/Ghost")).CreatePrimvar(
-            "displayOpacity", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.constant).Set([0.3])
-        UsdGeom.Sphere.Define(stage, "/Bubble").CreateDisplayOpacityPrimvar().Set([0.5])
-        quad(stage, "/Solid", 2.0).CreateDisplayOpacityPrimvar().Set([1.0])
-        dressed = quad(stage, "/Dressed", 4.0)
-        dressed.CreateDisplayOpacityPrimvar().Set([0.3])
-        bind_preview(stage, dressed.GetPrim(), "/Looks/Red", diffuseColor=(Sdf.ValueTypeNames.Color3f, (1, 0, 0)))
-        group = UsdGeom.Xform.Define(stage, "/Group")  # a constant one inherited from an ancestor counts too
-        UsdGeom.PrimvarsAPI(group).CreatePrimvar(
-            "displayOpacity", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.constant).Set([0.25])
-        quad(stage, "/Group/Child", 6.0)
-
-    scene, messages = load_with_warnings(tmp_path, build)
-    assert len(scene.meshes) == 4 and len(scene.shapes) == 1
-    found = about(messages, "ignored.usda", "primvars:displayOpacity")
-    assert len(found) == 1 and found[0].endswith("3 prim(s): /Ghost, /Bubble, /Group/Child"), messages
 
 
 def test_displacement_presence_and_unknown_st_sources_are_named(tmp_path):

@@ -35,7 +35,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   warning per material naming the inputs.
 
 Device side: :class:`DeviceMaterials` holds every material (index 0 is the default material: Lambertian, albedo =
-displayColor or grey 0.5) and every texture; :func:`eval_surface` returns the :class:`wrt.bsdf.Surface` at a hit.
+displayColor or grey 0.5, opacity = displayOpacity or 1) and every texture; :func:`eval_surface` returns the
+:class:`wrt.bsdf.Surface` at a hit.
 """
 
 from __future__ import annotations
@@ -257,13 +258,17 @@ class DeviceMaterials:
 
 
 def default_material() -> Material:
-    """Material 0: Lambertian with albedo from displayColor (grey 0.5 without one), no specular lobe."""
+    """Material 0: Lambertian with albedo from displayColor (grey 0.5 without one), no specular lobe, and opacity
+    from ``displayOpacity`` (opaque without one). Its index is 1: the ``1 - opacity`` that meets the dielectric
+    passes straight through, unbent and unreflected, as Storm's fallback surface blends a see-through part over what
+    lies behind it (index 1.5 would bend the view through a thin part as a lens does and mirror 4% of it)."""
     return Material(
         path="",
         diffuse_color=np.full(3, DEFAULT_GREY, np.float32),
         use_specular_workflow=True,
         specular_color=np.zeros(3, np.float32),
         roughness=1.0,
+        ior=1.0,
         diffuse_from_display_color=True,
     )
 
@@ -439,9 +444,10 @@ def eval_emission(mats: DeviceMaterials, m: int, st: wp.vec2):
 
 
 @wp.func
-def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.vec3):
+def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.vec3, display_opacity: float):
     """Every UsdPreviewSurface input of material ``m`` at texture coordinate ``st``; ``display_color`` is the mesh's
-    colour primvar there (NaN where the mesh and its instance have none)."""
+    colour primvar there (NaN where the mesh and its instance have none), ``display_opacity`` its ``displayOpacity``
+    (NaN where it has none), which only the default material (0) reads, as Storm's fallback surface does."""
     s = Surface()
     flags = mats.flags[m]
     base = mats.colors[m, 0]
@@ -454,6 +460,8 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
     s.metallic = wp.clamp(input_float(mats, m, SLOT_METALLIC, st, mats.params[m, 0]), 0.0, 1.0)
     s.roughness = wp.clamp(input_float(mats, m, SLOT_ROUGHNESS, st, mats.params[m, 1]), 0.0, 1.0)
     s.opacity = wp.clamp(input_float(mats, m, SLOT_OPACITY, st, mats.params[m, 2]), 0.0, 1.0)
+    if m == 0 and not wp.isnan(display_opacity):
+        s.opacity = wp.clamp(display_opacity, 0.0, 1.0)
     s.opacity_threshold = mats.params[m, 3]
     s.ior = wp.max(mats.params[m, 4], 1.0e-3)
     s.clearcoat = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT, st, mats.params[m, 5]), 0.0, 1.0)

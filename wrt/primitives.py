@@ -434,6 +434,8 @@ class Shape(CountsAssignments):
             ``Instances.colors``).
         material_id: index into ``Scene.materials``, -1 for the default material.
         double_sided: the gprim's ``doubleSided``: when False camera rays pass through its back (as for meshes).
+        opacity: its ``displayOpacity`` in [0, 1] with the default material (as ``Mesh.opacities``), or None
+            (opaque).
     """
 
     path: str
@@ -443,6 +445,7 @@ class Shape(CountsAssignments):
     color: np.ndarray | None = None
     material_id: int = -1
     double_sided: bool = False
+    opacity: float | None = None
 
     def __post_init__(self):
         if self.kind not in SHAPE_KINDS:

@@ -57,6 +57,8 @@ class DeviceScene:
     instance_colors: wp.array[wp.vec3]  # (N,) each instance's colour (Instances.colors; NaN: none), or (1,)
     num_instance_colors: int  # N when any instance has a colour, else 0 (then the arrays beside are placeholders)
     takes_instance_color: wp.array[wp.uint8]  # (T + S,) 1 where a geometry id has no colours of its own
+    opacities: wp.array2d[float]  # (T + S, 3) displayOpacity per corner, NaN where the geometry has none, or (1, 3)
+    num_opacities: int  # T + S when any geometry has a displayOpacity, else 0 (then opacities is a placeholder)
 
 
 # The depth of field divides by metersPerUnit (millimetres of focal length to scene units): below this, or not
@@ -68,6 +70,7 @@ PER_TRIANGLE_ARRAYS = (
     ("face_ids", np.int32, ()),
     ("normals", np.float32, (3, 3)),
     ("colors", np.float32, (3, 3)),
+    ("opacities", np.float32, (3,)),
     ("uvs", np.float32, (3, 2)),
     ("material_ids", np.int32, ()),
 )
@@ -89,6 +92,9 @@ class Mesh(CountsAssignments):
             colour primvar the triangle's material's diffuseColor reads (:attr:`wrt.materials.Material.color_primvar`);
             NaN rows where the mesh has not got that primvar (the material's constant, or an instance's colour, then
             applies).
+        opacities: ``(T, 3)`` float32 ``displayOpacity`` at each triangle corner, or ``None``: the opacity of the
+            triangles drawn with the default material (glass of index 1 below 1, see
+            :func:`wrt.materials.default_material`); NaN where the mesh has none (opaque). Materials ignore it.
         double_sided: the mesh's ``doubleSided`` attribute: when False, camera rays that reach a triangle from its
             back pass through it (back-face culling); bounce and shadow rays still meet it.
         uvs: ``(T, 3, 2)`` float32 texture coordinates at each triangle corner, or ``None``.
@@ -105,6 +111,7 @@ class Mesh(CountsAssignments):
     double_sided: bool = False
     uvs: np.ndarray | None = None
     material_ids: np.ndarray | None = None
+    opacities: np.ndarray | None = None
 
     def __post_init__(self):
         from .bvh.common import triangle_arrays
@@ -150,7 +157,8 @@ class Mesh(CountsAssignments):
 
     def __repr__(self) -> str:
         # The dataclass repr printed every array of the mesh; this says what it holds.
-        extras = [name for name in ("normals", "colors", "uvs", "material_ids") if getattr(self, name) is not None]
+        names = ("normals", "colors", "opacities", "uvs", "material_ids")
+        extras = [name for name in names if getattr(self, name) is not None]
         sided = ", double-sided" if self.double_sided else ""
         return (f"Mesh({self.path!r}, {len(self.points):,} points, {len(self.indices):,} triangles"
                 f"{''.join(f', {name}' for name in extras)}{sided})")
@@ -611,6 +619,21 @@ class Scene:
             self._cache[key] = (np.concatenate(normals or [empty]), np.concatenate(colors or [empty]))
         return self._cache[key]
 
+    def corner_opacities(self) -> np.ndarray | None:
+        """``(T + S, 3)`` float32 ``displayOpacity`` per corner of every triangle (geometry order), then one row per
+        analytic shape, NaN where a mesh or shape has none; None when none has any (the device keeps a placeholder)."""
+        key = ("corner_opacities",)
+        if key not in self._cache:
+            meshes, shapes = self._geometry_meshes(), self._geometry_shapes()
+            found = None
+            if any(m.opacities is not None for m in meshes) or any(s.opacity is not None for s in shapes):
+                parts = [m.opacities if m.opacities is not None else np.full((len(m.indices), 3), np.nan, np.float32)
+                         for m in meshes]
+                parts += [np.full((1, 3), np.nan if s.opacity is None else s.opacity, np.float32) for s in shapes]
+                found = np.concatenate(parts).astype(np.float32)
+            self._cache[key] = found
+        return self._cache[key]
+
     def takes_instance_color(self) -> np.ndarray:
         """``(T + S,)`` bool per geometry id (:meth:`geometry` rows, then the analytic shapes): its mesh or shape has
         no displayColor of its own there (no colours, or NaN ones), so an instance's colour (``Instances.colors``)
@@ -694,6 +717,10 @@ class Scene:
             s.shape_kinds, s.shape_params, s.shape_to_local = self.shape_arrays(device)
             s.num_shapes = len(shapes)
             s.instance_colors, s.num_instance_colors, s.takes_instance_color = self._instance_color_arrays(device)
+            opacities = self.corner_opacities()
+            s.num_opacities = 0 if opacities is None else len(opacities)
+            s.opacities = wp.array(np.full((1, 3), np.nan, np.float32) if opacities is None else opacities,
+                                   dtype=float, device=device)
             self._cache[key] = s
         return self._cache[key]
 

@@ -88,6 +88,7 @@ class HitPoint:
     st: wp.vec2  # texture coordinates
     material: int  # device material index
     display: wp.vec3  # interpolated colour primvar (displayColor, ...), else the instance's colour, else NaN
+    opacity: float  # interpolated displayOpacity (the default material's opacity), else NaN
 
 
 @wp.func
@@ -210,6 +211,9 @@ def hit_point(
             c = scene.instance_colors[instance]
             if not wp.isnan(c[0]):
                 h.display = c
+    h.opacity = wp.nan
+    if prim < scene.num_opacities:
+        h.opacity = w * scene.opacities[prim, 0] + u * scene.opacities[prim, 1] + v * scene.opacities[prim, 2]
     return h
 
 
@@ -823,7 +827,7 @@ def primary_aovs_kernel(
         return
     d = directions[i]
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
-    s = eval_surface(mats, h.material, h.st, h.display)
+    s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
     depth[i] = hit_t[i] * wp.length(d)
     cam = cams[i // view_pixels]
     z[i] = wp.dot(h.p - cam.origin, wp.normalize(cam.forward))

@@ -3,11 +3,11 @@
 :func:`load_usd` walks the stage in pre-order, keeps every visible ``UsdGeom.Mesh`` whose purpose is ``default`` or
 ``render`` (or one the render settings' ``includedPurposes`` list: :mod:`wrt.render_settings`), fan-triangulates its
 faces with :func:`triangulate` (leaving out ``holeIndices``), bakes the world transform into the points, and carries
-shading normals, ``displayColor`` (its own, else a constant one inherited from an ancestor), texture coordinates and
-the bound material (:mod:`wrt.materials`) per triangle. UsdLux lights
-are read by :mod:`wrt.lights`; meshes skinned by a UsdSkel skeleton are posed by :mod:`wrt.usd_skel`. Bad topology
-raises :class:`wrt.errors.SceneError` naming the file and the prim; things that are skipped but a user might expect
-to see (unsupported gprims, lights or shaders) produce one warning each.
+shading normals, ``displayColor`` and ``displayOpacity`` (its own, else a constant one inherited from an ancestor;
+opacity for the default material only), texture coordinates and the bound material (:mod:`wrt.materials`) per
+triangle. UsdLux lights are read by :mod:`wrt.lights`; meshes skinned by a UsdSkel skeleton are posed by
+:mod:`wrt.usd_skel`. Bad topology raises :class:`wrt.errors.SceneError` naming the file and the prim; things that are
+skipped but a user might expect to see (unsupported gprims, lights or shaders) produce one warning each.
 
 Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``size``), ``Cylinder`` and ``Cone``
 (``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``),
@@ -93,7 +93,7 @@ from .resources import check_host_memory
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, REFINED_QUAD_BYTES, Refinement, refined_quads
 from .usd_lights import read_light
-from .usd_primvars import finite_colors
+from .usd_primvars import finite_colors, unit_opacities
 from .usd_skel import SkelPoser
 from .usd_surfaces import SurfaceReader
 from .usd_tubes import TubeReader
@@ -330,7 +330,7 @@ class _LocalMesh:
     """A mesh's data in its own space, before the world transform; shared by all instances of a prototype."""
 
     def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs=None, cage=None,
-                 refinement=None):
+                 refinement=None, opacities=None):
         self.points = points  # (V, 3) float64, local space
         self.vertex_ids = vertex_ids  # (T, 3) int64 rows into points, winding as authored
         self.face_ids = face_ids  # (T,) int64 source face
@@ -342,6 +342,7 @@ class _LocalMesh:
         self.cage = cage  # (faceVertexCounts, faceVertexIndices) of a mesh to get smooth normals from them, else None
         # A Refinement of the points (control cage) into the points vertex_ids index, or None: applied after posing.
         self.refinement = refinement
+        self.opacities = opacities  # displayOpacity (values (K,) float32, corner index (T, 3)) or None
 
 
 class _Content:
@@ -520,35 +521,38 @@ class _StageReader:
             mesh = read(prim, self._to_space(prim, ctx), ctx)
             if mesh is not None:
                 ctx.content.meshes.append(mesh)
-                self._check_display_opacity(prim, mesh.material_ids is None or bool(np.any(mesh.material_ids < 0)))
             return
         if prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves):
             self._read_tubes(prim, ctx)
             return
         shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
-        if shape is not None:
-            self._check_display_opacity(prim, shape.material_id < 0)
         if shape is not None and self.segments:
             ctx.content.meshes.append(self._tessellated(shape, prim))
         elif shape is not None:
             ctx.content.shapes.append(shape)
 
-    def _check_display_opacity(self, prim: Usd.Prim, default_material: bool):
-        """Names ``prim`` when it is drawn (on some faces) with the default material and its ``displayOpacity`` (its
-        own or a constant inherited one) is below 1 somewhere: Storm's fallback surface takes it as the prim's
-        opacity, wrt's default material is opaque."""
-        if not default_material:
-            return
+    def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool) -> float | None:
+        """The ``displayOpacity`` of ``prim`` (its own or a constant inherited one) for prims drawn with the default
+        material in one opacity (gprims, points, curves, tet meshes, NURBS patches): the mean of its values (see
+        :func:`wrt.usd_primvars.unit_opacities`), as gprims take the mean displayColor, or None when it has none or
+        is opaque. ``one_per_prim``: values that differ are named in a warning (their displayColor is read per
+        element)."""
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
         if not (primvar and primvar.HasValue()):
-            return
-        try:
-            below = bool(np.any(np.asarray(value_at(primvar.GetAttr(), self.time), np.float64) < 1.0))
-        except (TypeError, ValueError):  # authored with a wrong type: USD renderers do not read it either
-            return
-        if below:
-            self._skip("primvars:displayOpacity below 1 is not read; these prims without a material are drawn opaque",
-                       prim)
+            return None
+        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        values = np.asarray(raw if raw is not None else [])
+        if values.ndim != 1 or values.dtype.kind not in "fiu":
+            self._skip("displayOpacity that is not an array of numbers was ignored", prim, str(primvar.GetTypeName()))
+            return None
+        if not len(values):
+            return None
+        values = unit_opacities(values.astype(np.float64), prim, self._skip)
+        if one_per_prim and np.ptp(values) > 0.0:
+            self._skip(f"{prim.GetTypeName()} prims are drawn in one opacity: the mean of their displayOpacity", prim,
+                       primvar.GetInterpolation())
+        mean = float(values.mean())
+        return mean if mean < 1.0 else None
 
     # Filters
 
@@ -965,7 +969,8 @@ class _StageReader:
         face_materials = self._face_materials(prim, len(counts), ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
         color_names = self.materials.color_primvars(face_materials)
-        local = self._read_local_mesh(prim, counts, uv_set, color_names)
+        default_faces = face_materials is None or bool(np.any(face_materials < 0))
+        local = self._read_local_mesh(prim, counts, uv_set, color_names, default_faces)
         if local is None:
             return None
         # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
@@ -1002,8 +1007,10 @@ class _StageReader:
         cage = (np.full(len(surface.triangles), 3), surface.triangles.reshape(-1)) if surface.smooth else None
         double_sided = bool(value_at(gprim.GetDoubleSidedAttr(), self.time))
         colors = {} if surface.colors is None else {color_names[0]: surface.colors}
+        opacity = self._one_opacity(prim, True) if face_materials is None or face_materials[0] < 0 else None
+        opacities = None if opacity is None else (np.array([opacity], np.float32), np.zeros_like(surface.triangles))
         local = _LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
-                           cage=cage)
+                           cage=cage, opacities=opacities)
         return self._bake(prim, m, ctx, local, face_materials, color_names)
 
     def _bake(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context, local: _LocalMesh, face_materials,
@@ -1047,6 +1054,10 @@ class _StageReader:
         if face_materials is not None:
             material_ids = face_materials[np.clip(local.face_ids, 0, max(len(face_materials) - 1, 0))]
         colors = self._corner_colors(prim, local, color_names, material_ids, order, ctx)
+        opacities = None
+        if local.opacities is not None and (material_ids is None or bool(np.any(material_ids < 0))):
+            values, corner_index = local.opacities
+            opacities = values[corner_index[:, order]]
 
         return Mesh(
             path=str(prim.GetPath()),
@@ -1058,6 +1069,7 @@ class _StageReader:
             double_sided=local.double_sided,
             uvs=uvs,
             material_ids=material_ids,
+            opacities=opacities,
         )
 
     def _corner_colors(self, prim, local: _LocalMesh, names: list, material_ids, order, ctx: _Context):
@@ -1186,6 +1198,7 @@ class _StageReader:
             color=color,
             material_id=material_id,
             double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
+            opacity=self._one_opacity(prim, False) if material_id < 0 else None,
         )
         # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them.
         if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
@@ -1220,7 +1233,7 @@ class _StageReader:
                 self._skip(f"{prim.GetTypeName()} prims with curves but no points were skipped", prim)
             return
         material_id, primvar, color = self._gprim_look(prim, ctx)
-        self._check_display_opacity(prim, material_id < 0)
+        opacity = self._one_opacity(prim, True) if material_id < 0 else None
         m = self._to_space(prim, ctx)
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
             self._skip("world transform is projective; its last column was ignored", prim)
@@ -1230,7 +1243,7 @@ class _StageReader:
         path = str(prim.GetPath())
         for group in groups:
             shape = Shape(path, group.kind, np.eye(4), group.params, color if group.colors is None else None,
-                          material_id, double_sided)
+                          material_id, double_sided, opacity)
             content = _Content(path)
             if self.segments:
                 content.meshes.append(self._tessellated(shape, prim))
@@ -1271,14 +1284,16 @@ class _StageReader:
             colors=None if shape.color is None else np.broadcast_to(shape.color, (n, 3, 3)),
             double_sided=shape.double_sided,
             material_ids=None if shape.material_id < 0 else np.full(n, shape.material_id, np.int32),
+            opacities=None if shape.opacity is None else np.full((n, 3), shape.opacity, np.float32),
         )
 
     # Meshes
 
     def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None,
-                         color_names=("displayColor",)) -> _LocalMesh | None:
+                         color_names=("displayColor",), default_faces=True) -> _LocalMesh | None:
         """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials), with
-        texture coordinates ``uv_set`` and colours from the primvars ``color_names`` it has."""
+        texture coordinates ``uv_set``, colours from the primvars ``color_names`` it has, and its ``displayOpacity``
+        when some faces have the default material (``default_faces``)."""
         mesh = UsdGeom.Mesh(prim)
         t = self.time
         face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
@@ -1329,11 +1344,13 @@ class _StageReader:
         normals = self._read_normals(prim, mesh, topology) if refinement is None else None
         colors = {name: found for name in color_names if (found := self._read_colors(prim, topology, name)) is not None}
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
+        opacities = self._read_opacities(prim, topology) if default_faces else None
         flip = self._left_handed(prim, mesh, t)
         smooth = normals is None and scheme in SMOOTH_SCHEMES
         cage = polygons if smooth else None  # its normals are made in _read_mesh, after any posing and refining
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
-        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage, refinement)
+        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage, refinement,
+                          opacities)
 
     def _refinement(self, prim, scheme, counts, face_indices, n_points) -> Refinement | None:
         """The Catmull-Clark refinement of a ``catmullClark`` mesh at ``self.refine_level``, or None."""
@@ -1444,6 +1461,20 @@ class _StageReader:
         values, corner_index = found
         return finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), corner_index
 
+    def _read_opacities(self, prim, topology):
+        """``(values (K,) float32, corner index (T, 3))`` from ``displayOpacity`` (its own or a constant inherited one;
+        every interpolation and indexing as colours, see :func:`wrt.usd_primvars.unit_opacities` for bad values), or
+        None when it has none or is 1 everywhere (opaque: nothing to carry)."""
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
+        if not (primvar and primvar.HasValue()):
+            return None
+        found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, 1)
+        if found is None:
+            return None
+        values, corner_index = found
+        values = unit_opacities(values[:, 0], prim, self._skip)
+        return None if np.all(values >= 1.0) else (values.astype(np.float32), corner_index)
+
     def _read_uvs(self, prim, topology, uv_set: str):
         """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (when missing:
         the mesh's only 2-vector primvar, if it has exactly one), or None."""
@@ -1470,6 +1501,8 @@ class _StageReader:
         name = attr.GetName()
         raw = value_at(attr, self.time)
         values = np.asarray(raw) if raw is not None else np.zeros((0, components))
+        if components == 1 and values.ndim == 1:  # float[]: one-number elements
+            values = values[:, None]
         if values.ndim != 2 or values.shape[1] != components or values.dtype.kind not in "fiu":
             self._skip(
                 f"{name} values that are not an array of {components}-vectors were ignored",

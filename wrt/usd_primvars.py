@@ -20,6 +20,22 @@ def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
     return values
 
 
+def unit_opacities(values: np.ndarray, prim, skip) -> np.ndarray:
+    """``displayOpacity`` ``values`` clamped to [0, 1] and NaN read as 1 (opaque, the schema's fallback), each with a
+    warning through ``skip`` naming ``prim``: glass of opacity 2 or -1 would shade as negative light."""
+    bad = np.isnan(values)
+    if bad.any():
+        skip("NaN displayOpacity values were read as 1 (opaque)", prim)
+        values = np.where(bad, values.dtype.type(1.0), values)
+    outside = (values < 0.0) | (values > 1.0)
+    if outside.any():
+        i = int(np.argmax(outside))
+        skip("displayOpacity values outside [0, 1] were clamped", prim, f"{int(outside.sum())} of {len(values)}, "
+             f"first {values.reshape(-1)[i]:g}")
+        values = np.clip(values, 0.0, 1.0)
+    return values
+
+
 class FieldReader:
     """Reads primvars and primvar-like attributes (``widths``) at one time code.
 
@@ -82,4 +98,4 @@ class FieldReader:
         return interpolation, values
 
 
-__all__ = ["FieldReader", "finite_colors"]
+__all__ = ["FieldReader", "finite_colors", "unit_opacities"]

@@ -103,7 +103,7 @@ def shade_path_kernel(
         return
 
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
-    s = eval_surface(mats, h.material, h.st, h.display)
+    s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
     group = link_group(lights.links, prim, hit_instance[i])
 
     # A hole the trace did not get past (more in a row than it passes) ends the path, as it blocks a shadow ray.

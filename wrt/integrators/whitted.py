@@ -109,7 +109,7 @@ def shade_whitted_kernel(
         alive[i] = 0
         return
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
-    s = eval_surface(mats, h.material, h.st, h.display)
+    s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
         # A hole the trace did not get past (more in a row than it passes: wrt.shade.intersect_visible) ends the
         # path, as it blocks a shadow ray.
@@ -171,7 +171,7 @@ def whitted_light_kernel(
     d = directions[i]
     prim = hit_prim[i]
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, hit_t[i])
-    s = eval_surface(mats, h.material, h.st, h.display)
+    s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
     state = rng[i]
     u_pick, state = rand01(state)
     u1, state = rand01(state)
@@ -237,7 +237,7 @@ def continue_whitted_kernel(
     d = directions[i]
     prim = hit_prim[i]
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
-    s = eval_surface(mats, h.material, h.st, h.display)
+    s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
     wo = -d
     cos_o = wp.max(wp.dot(h.ns, wo), 0.0)
     op = opaque_fraction(s)

@@ -1,0 +1,225 @@
+"""``primvars:displayOpacity`` is the opacity of prims drawn with the default material (wrt/usd.py, wrt/materials.py),
+as Storm's fallback surface reads it: robotics and simulation stages (Isaac, URDF importers) mark see-through parts
+with it. Before, it was not read: such prims were drawn opaque, with a warning.
+
+Every check compares renders of one small stage: a coloured emissive wall behind a lit quad (or gprim, or point)
+without a material. With the default material's index of 1, a part of opacity ``a`` shows ``a`` of its opaque
+render plus ``1 - a`` of what lies behind it, unbent: the render without the part."""
+
+import warnings
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, UsdGeom, UsdLux, Vt
+from test_materials import add_quad, bind, new_stage, preview_material
+
+import wrt
+
+RES = 8
+CAMERA = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)  # sees x, y in [-1, 1]
+WALL = (0.2, 0.4, 0.9)  # the wall's emitted radiance
+COLOR = (1.0, 0.5, 0.0)  # the part's displayColor
+# The x of each pixel column's centre.
+COLUMN_X = -1.0 + (np.arange(RES) + 0.5) * 2.0 / RES
+
+
+def stage_with(tmp_path, part=None, name="opacity.usda"):
+    """``(scene, warnings)``: the stage of a wall at z = -1 glowing ``WALL`` (reflecting nothing), a sun along -Z, and
+    what ``part(stage)`` adds in front of it, loaded."""
+    stage, path = new_stage(tmp_path, name)
+    wall = add_quad(stage, "/Wall", center=(0, 0, -1), size=4.0)
+    material, _ = preview_material(stage, "/Looks/Wall", diffuseColor=Gf.Vec3f(0.0), emissiveColor=Gf.Vec3f(*WALL),
+                                   useSpecularWorkflow=1, specularColor=Gf.Vec3f(0.0))  # reflects nothing
+    bind(wall, material)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")  # travels along its -Z: lights the parts' +Z faces
+    sun.CreateIntensityAttr(3.0)
+    sun.CreateAngleAttr(0.0)
+    if part is not None:
+        part(stage)
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    return scene, [str(w.message) for w in caught]
+
+
+def render(scene):
+    """``(RES, RES, 3)`` whitted render of the square [-1, 1]^2 seen from +Z."""
+    return wrt.render(scene, camera=CAMERA, width=RES, height=RES, device="cpu").rgb
+
+
+def quad(stage, path="/Part", faces=1, opacity=None, interpolation=UsdGeom.Tokens.constant):
+    """The 2 x 2 quad (``faces`` vertical strips) at z = 0 in ``COLOR`` with ``displayOpacity`` ``opacity``."""
+    mesh = add_quad(stage, path, faces=faces)
+    mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([COLOR])
+    if opacity is not None:
+        mesh.CreateDisplayOpacityPrimvar(interpolation).Set(opacity)
+    return mesh
+
+
+@pytest.fixture(scope="module")
+def references(tmp_path_factory):
+    """``(opaque, empty)``: the quad without displayOpacity, and no quad (the wall alone)."""
+    tmp_path = tmp_path_factory.mktemp("references")
+    opaque = render(stage_with(tmp_path, quad, "opaque.usda")[0])
+    empty = render(stage_with(tmp_path, None, "empty.usda")[0])
+    # The two differ in every channel, so a blend of them says how much of each is seen.
+    assert np.all(np.abs(opaque - empty) > 0.05), (opaque[0, 0], empty[0, 0])
+    np.testing.assert_allclose(empty, np.broadcast_to(WALL, empty.shape), rtol=1e-5)
+    return opaque, empty
+
+
+def test_half_transparent_quad_shows_the_wall_through(tmp_path, references):
+    """Opacity 0.5: half the quad's own shading plus half the wall's colour, and no warning (there was one saying
+    the quad was drawn opaque)."""
+    opaque, empty = references
+    scene, messages = stage_with(tmp_path, lambda stage: quad(stage, opacity=[0.5]))
+    np.testing.assert_allclose(render(scene), 0.5 * opaque + 0.5 * empty, rtol=1e-4, atol=1e-6)
+    assert not [m for m in messages if "displayOpacity" in m], messages
+
+
+@pytest.mark.parametrize("opacity, seen", [(0.0, "empty"), (1.0, "opaque")])
+def test_opacity_zero_and_one(tmp_path, references, opacity, seen):
+    """Opacity 0 is the wall alone; 1 the opaque quad."""
+    opaque, empty = references
+    scene, _ = stage_with(tmp_path, lambda stage: quad(stage, opacity=[opacity]))
+    np.testing.assert_allclose(render(scene), {"empty": empty, "opaque": opaque}[seen], rtol=1e-5, atol=1e-6)
+
+
+def test_per_vertex_opacity_varies_across_the_face(tmp_path, references):
+    """``vertex`` opacity 0 on the left edge and 1 on the right one: each column shows ``a`` of the quad and
+    ``1 - a`` of the wall, ``a = (x + 1) / 2`` at its centre."""
+    opaque, empty = references
+    # add_quad's points: bottom-left, bottom-right, top-left, top-right.
+    scene, _ = stage_with(tmp_path, lambda stage: quad(stage, opacity=[0.0, 1.0, 0.0, 1.0],
+                                                       interpolation=UsdGeom.Tokens.vertex))
+    a = ((COLUMN_X + 1.0) / 2.0)[None, :, None]
+    np.testing.assert_allclose(render(scene), a * opaque + (1.0 - a) * empty, rtol=1e-4, atol=1e-5)
+
+
+def test_uniform_and_indexed_face_varying_opacity(tmp_path, references):
+    """Two faces (left and right halves): ``uniform`` 0.25 and 0.75, and the same as an indexed ``faceVarying``
+    primvar (two values, an index per face-vertex)."""
+    opaque, empty = references
+    a = np.where(COLUMN_X < 0.0, 0.25, 0.75)[None, :, None]
+    expected = a * opaque + (1.0 - a) * empty
+
+    def uniform(stage):
+        quad(stage, faces=2, opacity=[0.25, 0.75], interpolation=UsdGeom.Tokens.uniform)
+
+    def indexed(stage):
+        mesh = quad(stage, faces=2)
+        primvar = mesh.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.faceVarying)
+        primvar.Set([0.75, 0.25])
+        primvar.SetIndices(Vt.IntArray([1, 1, 1, 1, 0, 0, 0, 0]))
+
+    for part in (uniform, indexed):
+        scene, _ = stage_with(tmp_path, part, f"{part.__name__}.usda")
+        np.testing.assert_allclose(render(scene), expected, rtol=1e-4, atol=1e-6, err_msg=part.__name__)
+
+
+def test_inherited_opacity_and_materials(tmp_path, references):
+    """A constant displayOpacity on a parent Xform applies to the quad below it (USD's primvar inheritance); a quad
+    bound to a material keeps the material's own opacity (1), as in Storm."""
+    opaque, empty = references
+
+    def inherited(stage):
+        group = UsdGeom.Xform.Define(stage, "/Group")
+        UsdGeom.PrimvarsAPI(group).CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray,
+                                                 UsdGeom.Tokens.constant).Set([0.5])
+        quad(stage, "/Group/Part")
+
+    scene, _ = stage_with(tmp_path, inherited, "inherited.usda")
+    np.testing.assert_allclose(render(scene), 0.5 * opaque + 0.5 * empty, rtol=1e-4, atol=1e-6)
+
+    def dressed(stage, opacity):
+        mesh = quad(stage, opacity=opacity)
+        material, _ = preview_material(stage, "/Looks/Red", diffuseColor=Gf.Vec3f(1.0, 0.0, 0.0))
+        bind(mesh, material)
+
+    see_through, _ = stage_with(tmp_path, lambda stage: dressed(stage, [0.25]), "dressed.usda")
+    plain, _ = stage_with(tmp_path, lambda stage: dressed(stage, None), "plain.usda")
+    np.testing.assert_array_equal(render(see_through), render(plain))
+
+
+def test_gprim_and_points_opacity(tmp_path):
+    """A ``Plane`` gprim and a ``Points`` sphere of displayOpacity 0.5 (constant; the gprim's through tessellation
+    too). The plane shows half of its opaque render and half the wall. A ray through the sphere's middle crosses it
+    twice: half the front's own shading, then half of what the back passes on; the back, inside, is lit through
+    the front only, which blocks shadow rays (glass in wrt), so it adds nothing of its own: 1/4 of the wall."""
+    def plane(opacity):
+        def build(stage):
+            gprim = UsdGeom.Plane.Define(stage, "/Part")
+            gprim.CreateWidthAttr(2.0)
+            gprim.CreateLengthAttr(2.0)
+            gprim.CreateDisplayColorPrimvar().Set([COLOR])
+            if opacity is not None:
+                gprim.CreateDisplayOpacityPrimvar().Set([opacity])
+        return build
+
+    def points(opacity):
+        def build(stage):
+            particles = UsdGeom.Points.Define(stage, "/Part")
+            particles.CreatePointsAttr([(0.0, 0.0, 0.0)])
+            particles.CreateWidthsAttr([1.6])
+            particles.CreateDisplayColorPrimvar().Set([COLOR])
+            if opacity is not None:
+                particles.CreateDisplayOpacityPrimvar().Set([opacity])
+        return build
+
+    empty = render(stage_with(tmp_path, None, "empty.usda")[0])
+    for segments in (False, 64):
+        def load(build, name):
+            stage_with(tmp_path, build, name)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return render(wrt.load_usd(str(tmp_path / name), tessellate_gprims=segments))
+
+        opaque, half = load(plane(None), "plane1.usda"), load(plane(0.5), "plane.usda")
+        np.testing.assert_allclose(half, 0.5 * opaque + 0.5 * empty, rtol=1e-4, atol=1e-6)
+        opaque, half = load(points(None), "points1.usda"), load(points(0.5), "points.usda")
+        middle = (RES // 2 - 1, RES // 2)  # a pixel near the centre, well inside the sphere
+        np.testing.assert_allclose(half[middle], 0.5 * opaque[middle] + 0.25 * empty[middle], rtol=1e-3, atol=1e-5)
+        assert np.all(half[0, 0] == empty[0, 0])  # the corner misses the sphere
+
+
+def test_bad_values_are_clamped_with_a_warning(tmp_path, references):
+    """NaN reads as 1 (opaque, the schema's fallback) and values outside [0, 1] are clamped, each named in a
+    warning: -0.5 shows the wall alone (it would have shaded as negative light), 1.5 the opaque quad."""
+    opaque, empty = references
+    for values, expected in (([float("nan")], opaque), ([-0.5], empty), ([1.5], opaque)):
+        scene, messages = stage_with(tmp_path, lambda stage: quad(stage, opacity=values), "bad.usda")
+        np.testing.assert_allclose(render(scene), expected, rtol=1e-5, atol=1e-6)
+        named = [m for m in messages if "displayOpacity" in m and "/Part" in m]
+        assert len(named) == 1, messages
+
+
+def test_python_meshes_take_opacities():
+    """``Mesh.opacities`` (one row of three corners per triangle) is checked like the other per-triangle arrays."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    mesh = wrt.Mesh("/T", points, np.array([[0, 1, 2]]), np.zeros(1, np.int32), opacities=[[0.5, 0.5, 0.5]])
+    assert mesh.opacities.shape == (1, 3) and "opacities" in repr(mesh)
+    with pytest.raises(wrt.SceneError, match="opacities must have shape"):
+        wrt.Mesh("/T", points, np.array([[0, 1, 2]]), np.zeros(1, np.int32), opacities=[0.5, 0.5])
+
+
+def test_points_curves_and_tet_meshes_take_one_opacity(tmp_path):
+    """Points, curves, tet meshes and NURBS patches are drawn in one opacity: a per-point displayOpacity gives its
+    mean, with a warning naming the prim (their displayColor is read per point)."""
+    def build(stage):
+        particles = UsdGeom.Points.Define(stage, "/Part")
+        particles.CreatePointsAttr([(-0.5, 0.0, 0.0), (0.5, 0.0, 0.0)])
+        particles.CreateWidthsAttr([0.5, 0.5])
+        particles.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.vertex).Set([0.2, 0.6])
+        tets = UsdGeom.TetMesh.Define(stage, "/Tets")
+        tets.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)])
+        tets.CreateTetVertexIndicesAttr([Gf.Vec4i(0, 1, 2, 3)])
+        tets.CreateDisplayOpacityPrimvar().Set([0.25])
+
+    scene, messages = stage_with(tmp_path, build)
+    shapes = [s for p in scene.prototypes for s in p.shapes]
+    assert len(shapes) == 1 and shapes[0].opacity == pytest.approx(0.4)
+    named = [m for m in messages if "mean of their displayOpacity" in m]
+    assert len(named) == 1 and "/Part" in named[0] and "/Tets" not in named[0], messages
+    tet_mesh = [m for m in scene.meshes if m.path == "/Tets"][0]
+    np.testing.assert_array_equal(tet_mesh.opacities, np.full((4, 3), 0.25, np.float32))
