@@ -179,3 +179,30 @@ def test_rect_light_texture_colours_the_light_it_sends(tmp_path):
         for col, (x0, x1) in enumerate([(0.0, 1.0), (-1.0, 0.0)]):
             expected += QUADRANTS[row, col] * 2.0 * np.pi * rect_view_factor(x0, x1, y0, y1, center, 1.0)
     np.testing.assert_allclose(img.rgb.reshape(-1, 3).mean(axis=0), ALBEDO * expected / np.pi, rtol=0.03)
+
+
+def test_automatic_format_is_guessed_from_the_image_shape(tmp_path):
+    """``texture:format = "automatic"`` (the schema's fallback) reads a square image as an angular probe and a 3:4 one
+    as a vertical cross: the same dome as the format authored, lit from the cap's direction (it was read as lat-long:
+    the square probe's cap, painted around +X, left the plane facing +X unlit)."""
+    for fmt, toward in (("angular", (1.0, 0.0, 0.0)), ("cubeMapVerticalCross", (0.0, 0.5, -0.8))):
+        texture = cap_texture(tmp_path, fmt, toward)
+        automatic = dome_from_usd(tmp_path, texture, "automatic")
+        np.testing.assert_array_equal(automatic.texture, dome_from_usd(tmp_path, texture, fmt).texture)
+        assert automatic.texture.shape[1] == 2 * automatic.texture.shape[0]
+    # The last one lights a plane facing its cap as the layout's definition says.
+    assert plane_facing(toward, [automatic]) == pytest.approx(ALBEDO * math.sin(CAP) ** 2, rel=0.05)
+
+
+def test_automatic_format_keeps_lat_long_and_an_authored_format(tmp_path):
+    """A 2:1 image is lat-long as before; an authored ``latlong`` on a square image is not second-guessed; an image
+    of another shape is read as lat-long with a warning naming the dome and its size."""
+    rng = np.random.default_rng(123)
+    for name, (height, width) in (("wide", (8, 16)), ("square", (8, 8)), ("odd", (8, 12))):
+        PilImage.fromarray(rng.integers(0, 255, (height, width, 3), np.uint8)).save(tmp_path / f"{name}.png")
+    wide = dome_from_usd(tmp_path, tmp_path / "wide.png", "automatic")
+    assert wide.texture.shape[:2] == (8, 16)
+    assert dome_from_usd(tmp_path, tmp_path / "square.png", "latlong").texture.shape[:2] == (8, 8)
+    with pytest.warns(UserWarning, match=r"automatic.*read as latlong.*12x8.*/Dome"):
+        odd = dome_from_usd(tmp_path, tmp_path / "odd.png", "automatic")
+    assert odd.texture.shape[:2] == (8, 12)

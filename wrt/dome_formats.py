@@ -23,6 +23,15 @@ the same either way:
   The middle row is the horizon seen facing +Z (+X to the left, as in the lat-long image); +Y's lower edge and
   -Y's upper edge meet +Z, and -Z hangs below -Y, upside down (its upper edge meets -Y's lower edge).
 
+``automatic``, the schema's fallback, "tries to determine the layout from the file itself" (UsdLux); the images wrt
+reads name no layout, so it is guessed from the image's shape (:func:`automatic_format`): 2:1 is ``latlong``, 3:4
+``cubeMapVerticalCross`` and 1:1 ``angular``. A square image could as well be a ``mirroredBall``; ``angular`` wins
+because it is the form probes are passed on in: Debevec's light probe gallery distributes them as angular maps (a
+mirror-ball photograph is the raw capture they are made from), and Maya's Hydra adapter hands Arnold's ``angular``
+skydome format on as ``automatic``. Another shape is read as ``latlong``, as before, with a warning. No renderer
+documents a rule: the ANARI Hydra delegate reads ``automatic`` as ``latlong`` whatever the image, and Arnold's USD
+reader leaves it to its skydome's own setting. An authored format other than ``automatic`` is used as it is.
+
 The lat-long image gets ``2 N x N`` texels for an ``N``-pixel probe (its larger side) or ``4 F x 2 F`` for faces of
 ``F`` pixels (the source's resolution at the probe's centre and the faces' centres), each the mean of
 :data:`SUPERSAMPLE` ``^2`` nearest-texel lookups of the source: exact in direction, and the total light within a
@@ -37,6 +46,20 @@ FORMATS = ("automatic", "latlong", "angular", "mirroredBall", "cubeMapVerticalCr
 SUPERSAMPLE = 2  # lookups per lat-long texel along each axis
 MAX_LATLONG_HEIGHT = 4096  # rows of the lat-long image at most (8192 x 4096 float32 RGBA is 512 MiB)
 ROWS_PER_CHUNK = 64  # lat-long rows resampled at a time (bounds the temporaries)
+# Width / height of each layout an ``automatic`` image is matched against, and how far off it may be (a 2049 x 1024
+# lat-long is still one).
+ASPECTS = {"latlong": 2.0, "angular": 1.0, "cubeMapVerticalCross": 0.75}
+ASPECT_TOLERANCE = 0.02
+
+
+def automatic_format(width: int, height: int) -> str | None:
+    """The layout a ``width x height`` image of format ``automatic`` is read as (see the module docstring), or None
+    when its shape is none of :data:`ASPECTS`'."""
+    aspect = width / max(height, 1)
+    for fmt, expected in ASPECTS.items():
+        if abs(aspect / expected - 1.0) <= ASPECT_TOLERANCE:
+            return fmt
+    return None
 
 
 def latlong_directions(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -105,8 +128,10 @@ def latlong_height(fmt: str, width: int, height: int) -> int:
 
 def to_latlong(image: np.ndarray, fmt: str) -> np.ndarray:
     """The ``(N, 2N, C)`` lat-long image of ``image`` (``(H, W, C)``, row 0 at the top) laid out as ``fmt``
-    (``latlong`` and ``automatic`` return it unchanged)."""
-    if fmt in ("latlong", "automatic"):
+    (``latlong`` returns it unchanged; ``automatic`` is resolved first: :func:`automatic_format`)."""
+    if fmt == "automatic":
+        fmt = automatic_format(image.shape[1], image.shape[0]) or "latlong"
+    if fmt == "latlong":
         return image
     height, width = image.shape[:2]
     rows = latlong_height(fmt, width, height)

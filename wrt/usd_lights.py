@@ -227,7 +227,7 @@ def _shaped(light, shaping: Shaping, m, prim, skip):
 def _read_dome(prim, m, color, time, up_axis, skip, get):
     from pxr import UsdLux
 
-    from .dome_formats import FORMATS, to_latlong
+    from .dome_formats import FORMATS, automatic_format, to_latlong
 
     rotation = m.copy()
     if hasattr(UsdLux, "DomeLight_1") and prim.IsA(UsdLux.DomeLight_1):
@@ -246,7 +246,11 @@ def _read_dome(prim, m, color, time, up_axis, skip, get):
         return dome
     texture, dome.texture_path = _read_texture(prim, asset, "DomeLight", skip)
     if texture is not None:
-        dome.texture = to_latlong(texture, fmt)  # "automatic" reads as lat-long
+        height, width = texture.shape[:2]
+        if fmt == "automatic" and automatic_format(width, height) is None:
+            skip("DomeLight texture:format automatic: the image's shape is none of the layouts' (2:1 latlong, 1:1 "
+                 "angular, 3:4 cubeMapVerticalCross); read as latlong", prim, f"{width}x{height}")
+        dome.texture = to_latlong(texture, fmt)
     return dome
 
 
