@@ -561,3 +561,54 @@ def test_curves_without_widths_or_with_normals_warn(tmp_path):
     assert "curves with points that are not finite were left out" in text and "first curve 1" in text
     hits = trace(scene, [(1, 0, 5), (1, 3, 5)], [(0, 0, -1)] * 2)
     np.testing.assert_allclose(hits.t, [4.5, np.inf])
+
+
+def test_widths_inherited_from_an_ancestor_as_pxr_finds_them(tmp_path):
+    """``primvars:widths`` authored constant on an ancestor Xform applies to Points and curves below it that have no
+    ``primvars:widths`` of their own, also over their own ``widths`` attribute (UsdImaging's order); a ``uniform`` one
+    is not inherited (USD inherits constant primvars only), nor is one above a child's own. Each prim's expected width
+    is what pxr's ``FindPrimvarWithInheritance("widths")`` gives, else its ``widths``, else 1. (Before, the inherited
+    widths were not read: the points were 1 and 0.2 wide, not 0.4, and the curve warned that it had no widths.)"""
+    from pxr import Usd, UsdGeom
+
+    def point(name, x, extra=""):
+        return f'    def Points "{name}"\n    {{\n        point3f[] points = [({x}, 0, 0)]\n{extra}    }}\n'
+
+    body = (
+        'def Xform "Group"\n{\n    float[] primvars:widths = [0.4] (interpolation = "constant")\n'
+        '    color3f[] primvars:displayColor = [(0.1, 0.7, 0.2)]\n    float[] primvars:displayOpacity = [0.5]\n'
+        + point("Plain", 0) + point("OwnAttr", 3, '        float[] widths = [0.2]\n')
+        + point("OwnPrimvar", 6, '        float[] primvars:widths = [0.6] (interpolation = "constant")\n')
+        + '    def BasisCurves "Curve"\n    {\n        uniform token type = "linear"\n'
+        '        int[] curveVertexCounts = [2]\n        point3f[] points = [(9, -1, 0), (9, 1, 0)]\n    }\n}\n'
+        'def Xform "Uniform"\n{\n    float[] primvars:widths = [0.4] (interpolation = "uniform")\n'
+        + point("Plain", 12) + '}\n')
+    path = write(tmp_path, body)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    messages = [str(w.message) for w in caught]
+    assert not [m for m in messages if "without widths" in m], messages
+
+    stage = Usd.Stage.Open(path)
+    expected = {}
+    for prim_path, x in (("/Group/Plain", 0), ("/Group/OwnAttr", 3), ("/Group/OwnPrimvar", 6), ("/Group/Curve", 9),
+                         ("/Uniform/Plain", 12)):
+        prim = stage.GetPrimAtPath(prim_path)
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("widths")
+        attr = prim.GetAttribute("widths")
+        width = primvar.Get()[0] if primvar else attr.Get()[0] if attr.HasValue() else 1.0
+        expected[x] = width
+    assert expected == pytest.approx({0: 0.4, 3: 0.4, 6: 0.6, 9: 0.4, 12: 1.0})  # pxr's answer, as documented
+    xs = sorted(expected)
+    hits = trace(scene, [(x, 0, 5) for x in xs], [(0, 0, -1)] * len(xs))
+    np.testing.assert_allclose(hits.t, [5 - expected[x] / 2 for x in xs], rtol=1e-5)
+    # displayColor and displayOpacity are inherited the same way (the Group's constant ones), points and curve alike.
+    opacities = {s.path: s.opacity for p in scene.prototypes for s in p.shapes}
+    assert opacities == {"/Group/Plain": 0.5, "/Group/OwnAttr": 0.5, "/Group/OwnPrimvar": 0.5, "/Group/Curve": 0.5,
+                         "/Uniform/Plain": None}
+    cam = wrt.Camera.orthographic((4.5, 0, 5), (4.5, 0, 0), height=2.75)  # x in [-1, 10]: the Group only
+    albedo = wrt.render(scene, camera=cam, width=64, height=16, integrator="albedo").aovs["albedo"]
+    hit = np.isfinite(wrt.render(scene, camera=cam, width=64, height=16, integrator="depth").aovs["depth"])
+    np.testing.assert_allclose(albedo[hit], np.broadcast_to([0.1, 0.7, 0.2], albedo[hit].shape), atol=1e-6)
+    assert hit.sum() > 20

@@ -5,12 +5,13 @@ per-point widths and colours linear along each segment (the schema defines no cu
 span by span (:class:`wrt.nurbs.NurbsSpans`), ``vertex`` primvars following their rational basis, ``varying`` ones
 (``count - order + 2`` per curve) linear across each knot interval.
 
-Widths come from ``primvars:widths`` when it has a value, else from ``widths`` with its interpolation metadata, else
-1 (UsdImaging's fallback for points; Storm draws curves without widths as one-pixel lines, which a ray tracer cannot
-show, so they are tubes of width 1 too, with a warning). They are scaled into the content's space by the length of
-the prim's transform applied to ``(1, 1, 1) / sqrt(3)``, as Storm and RenderMan scale point widths, so points stay
-round spheres and tubes round under a non-uniform scale. A width of 0 draws nothing; negative, NaN or infinite widths
-and points that are not finite are left out with a warning. Colours (``displayColor``, or the primvar the material
+Widths come from ``primvars:widths`` when it has a value (its own, else a constant one inherited from an ancestor),
+else from ``widths`` with its interpolation metadata, else 1 (UsdImaging's fallback for points; Storm draws curves
+without widths as one-pixel lines, which a ray tracer cannot show, so they are tubes of width 1 too, with a warning).
+They are scaled into the content's space by the length of the prim's transform applied to ``(1, 1, 1) / sqrt(3)``, as
+Storm and RenderMan scale point widths, so points stay round spheres and tubes round under a non-uniform scale. A
+width of 0 draws nothing; negative, NaN or infinite widths and points that are not finite are left out with a
+warning. Colours (``displayColor``, or the primvar the material
 reads) of every interpolation become one colour per instance: a segment takes the mean of its ends' colours.
 """
 
@@ -254,8 +255,10 @@ class TubeReader(FieldReader):
         return value
 
     def _widths(self, prim, schema, sizes):
-        """``(interpolation, (k, 1) float64)`` widths of ``prim`` (``primvars:widths`` first), or None."""
-        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("widths")
+        """``(interpolation, (k, 1) float64)`` widths of ``prim``, or None: its ``primvars:widths``, else a constant
+        one of its nearest ancestor that has one (USD's primvar inheritance), else its ``widths`` attribute, the
+        order UsdImaging's points and curves adapters read them in (an inherited primvar wins over the attribute)."""
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("widths")
         if primvar and primvar.HasValue():
             return self.field(prim, primvar, sizes, 1)
         attr = schema.GetWidthsAttr()
