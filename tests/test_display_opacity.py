@@ -223,3 +223,12 @@ def test_points_curves_and_tet_meshes_take_one_opacity(tmp_path):
     assert len(named) == 1 and "/Part" in named[0] and "/Tets" not in named[0], messages
     tet_mesh = [m for m in scene.meshes if m.path == "/Tets"][0]
     np.testing.assert_array_equal(tet_mesh.opacities, np.full((4, 3), 0.25, np.float32))
+
+
+def test_python_shapes_take_an_opacity():
+    """``Shape.opacity`` is a number in [0, 1] or None; NaN, which means "none" on the device, is refused."""
+    shape = wrt.primitives.Shape("/S", "sphere", np.eye(4), opacity=0.25)
+    assert shape.opacity == 0.25
+    for bad in (float("nan"), 1.5):
+        with pytest.raises(ValueError, match="opacity must be in"):
+            wrt.primitives.Shape("/S", "sphere", np.eye(4), opacity=bad)

@@ -454,6 +454,10 @@ class Shape(CountsAssignments):
         self.params = np.asarray(self.params, np.float32).reshape(4)
         if self.color is not None:
             self.color = np.asarray(self.color, np.float32).reshape(3)
+        if self.opacity is not None:
+            self.opacity = float(self.opacity)
+            if not 0.0 <= self.opacity <= 1.0:  # NaN too: it would mean "none" on the device
+                raise ValueError(f"shape {self.path}: opacity must be in [0, 1] or None, got {self.opacity!r}")
 
     def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Canonical-space box ``(lower, upper)``."""

@@ -21,8 +21,8 @@ def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
 
 
 def unit_opacities(values: np.ndarray, prim, skip) -> np.ndarray:
-    """``displayOpacity`` ``values`` clamped to [0, 1] and NaN read as 1 (opaque, the schema's fallback), each with a
-    warning through ``skip`` naming ``prim``: glass of opacity 2 or -1 would shade as negative light."""
+    """``displayOpacity`` ``values`` ``(K,)`` clamped to [0, 1] and NaN read as 1 (opaque, the schema's fallback), each
+    with a warning through ``skip`` naming ``prim``: glass of opacity 2 or -1 would shade as negative light."""
     bad = np.isnan(values)
     if bad.any():
         skip("NaN displayOpacity values were read as 1 (opaque)", prim)
@@ -31,7 +31,7 @@ def unit_opacities(values: np.ndarray, prim, skip) -> np.ndarray:
     if outside.any():
         i = int(np.argmax(outside))
         skip("displayOpacity values outside [0, 1] were clamped", prim, f"{int(outside.sum())} of {len(values)}, "
-             f"first {values.reshape(-1)[i]:g}")
+             f"first {values[i]:g}")
         values = np.clip(values, 0.0, 1.0)
     return values
 
