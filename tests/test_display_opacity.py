@@ -185,7 +185,7 @@ def test_gprim_and_points_opacity(tmp_path):
 
 def test_bad_values_are_clamped_with_a_warning(tmp_path, references):
     """NaN reads as 1 (opaque, the schema's fallback) and values outside [0, 1] are clamped, each named in a
-    warning: -0.5 shows the wall alone (it would have shaded as negative light), 1.5 the opaque quad."""
+    warning: -0.5 shows the wall alone, 1.5 the opaque quad."""
     opaque, empty = references
     for values, expected in (([float("nan")], opaque), ([-0.5], empty), ([1.5], opaque)):
         scene, messages = stage_with(tmp_path, lambda stage: quad(stage, opacity=values), "bad.usda")

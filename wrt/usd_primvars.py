@@ -22,7 +22,8 @@ def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
 
 def unit_opacities(values: np.ndarray, prim, skip) -> np.ndarray:
     """``displayOpacity`` ``values`` ``(K,)`` clamped to [0, 1] and NaN read as 1 (opaque, the schema's fallback), each
-    with a warning through ``skip`` naming ``prim``: glass of opacity 2 or -1 would shade as negative light."""
+    with a warning through ``skip`` naming ``prim``: the shading would clamp them too, but silently, hiding an
+    exporter's mistake."""
     bad = np.isnan(values)
     if bad.any():
         skip("NaN displayOpacity values were read as 1 (opaque)", prim)
