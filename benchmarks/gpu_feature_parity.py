@@ -1,14 +1,22 @@
-"""Renders the same small scenes on two devices and prints how far apart the images are: the cut-out canopy
-(camera, bounce and shadow rays through holes), PointInstancer displayColors (mesh and gprim prototypes), gold
-spheres at three roughnesses (the multiple-scattering lobe), spotlights (ShapingAPI cone, softness, focus), a
-normal-mapped quad under a sun and at a grazing view, a UDIM-textured plane (three tiles and a missing one), and
-tapered Cylinder_1 and Capsule_1 gprims (hits of rays from every side, and images), and quads coloured by a primvar
-(one without it: the reader's fallback) and by a MaterialX primvar times a constant, Points (spheres) beside
-varying-width bspline curves (tubes, frustums and joint spheres), and a textured RectLight, a mirror-ball dome and
-lights with diffuse and specular multipliers over grey and metal spheres, and light and shadow linking (a floor,
-a box and a blocker under linked suns, a sphere light and a dome; native instances linked part by part). wrt's shade
-kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are expected to
-be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
+"""Renders the same small scenes on two devices and prints how far apart the images are:
+
+- the cut-out canopy (camera, bounce and shadow rays through holes);
+- PointInstancer displayColors (mesh and gprim prototypes);
+- gold spheres at three roughnesses (the multiple-scattering lobe);
+- spotlights (ShapingAPI cone, softness, focus);
+- a normal-mapped quad under a sun and at a grazing view;
+- a UDIM-textured plane (three tiles and a missing one);
+- tapered Cylinder_1 and Capsule_1 gprims (hits of rays from every side, and images);
+- quads coloured by a primvar (one without it: the reader's fallback) and by a MaterialX primvar times a constant;
+- Points (spheres) beside varying-width bspline curves (tubes, frustums and joint spheres);
+- a textured RectLight, a mirror-ball dome and lights with diffuse and specular multipliers over grey and metal
+  spheres;
+- light and shadow linking (a floor, a box and a blocker under linked suns, a sphere light and a dome; native
+  instances linked part by part);
+- a quad whose displayOpacity goes from 0 to 1 across it in front of a glowing wall.
+
+wrt's shade kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are
+expected to be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
 
 Usage: python benchmarks/gpu_feature_parity.py [--width 96] [--devices cpu,cuda:0]
 """
@@ -28,6 +36,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cut_out_canopy import write_canopy  # noqa: E402
 from shading_helpers import quad, top_down_camera  # noqa: E402
+from test_display_opacity import CAMERA as OPACITY_CAMERA  # noqa: E402
+from test_display_opacity import quad as opacity_quad  # noqa: E402
+from test_display_opacity import stage_with as opacity_stage  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
 from test_light_linking import SLANT, quad_usda, sun_usda, z_up  # noqa: E402
 from test_light_textures import cap_texture, dome_from_usd, textured_rect_light  # noqa: E402
@@ -139,6 +150,11 @@ def main() -> None:
     points_and_curves(args.out / "parity_points_curves.usda", devices)
     textured_and_split_lights(args.out, devices)
     linked_lights(args.out, devices)
+    see_through, _ = opacity_stage(args.out, lambda stage: opacity_quad(stage, opacity=[0.0, 1.0, 0.0, 1.0],
+                                                                        interpolation="vertex"))
+    for integrator in ("whitted", "path"):
+        compare(f"displayOpacity {integrator}", see_through, devices, camera=OPACITY_CAMERA, width=32, height=32,
+                integrator=integrator, spp=8, max_depth=3)
 
 
 def points_and_curves(path: Path, devices: list[str]) -> None:
