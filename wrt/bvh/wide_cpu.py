@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from ..geometry import ENTRY_SLACK, ROBUST_FAR_SCALE, ROBUST_FAR_SCALE_NEGATIVE
+from ..geometry import ENTRY_SLACK, ROBUST_FAR_SLACK
 from .stack import STACK_PREAMBLE, WideStack
 
 BOX_PLANES = 6  # lower x, y, z and upper x, y, z: one run of ``width`` floats each per node
@@ -72,9 +72,8 @@ inline unsigned int enter_lanes(
     iv count;
     for (int k = 0; k < L; ++k)
         count[k] = links[2 * k + 1];
-    const fv grow = FAR_SCALE;
-    const fv grow_negative = FAR_NEGATIVE;
-    const iv entered = (near <= far * (far >= 0.0f ? grow : grow_negative)) & (e <= hi_t) & (count >= 0);
+    const fv abs_far = far >= 0.0f ? far : -far;
+    const iv entered = (near <= far + abs_far * FAR_SLACK) & (e <= hi_t) & (count >= 0);
     *(fv*)entry = e;
     unsigned int mask = 0;
     for (int k = 0; k < L; ++k)
@@ -124,8 +123,7 @@ CUDA_CALLABLE inline wp::vec3i wide_enter(
 #endif
 }
 }  // namespace wrt
-""".replace("SLACK", _float32_literal(ENTRY_SLACK)).replace("FAR_SCALE", _float32_literal(ROBUST_FAR_SCALE))
-    .replace("FAR_NEGATIVE", _float32_literal(ROBUST_FAR_SCALE_NEGATIVE))
+""".replace("FAR_SLACK", _float32_literal(ROBUST_FAR_SLACK)).replace("SLACK", _float32_literal(ENTRY_SLACK))
 )
 
 WIDE_BUILD_OPTIONS = wp.ModuleBuildOptions(
