@@ -2,6 +2,8 @@
 OpenEXR and Pillow and compared with ``wrt.render``'s image and AOVs; unknown sources, file names a stage must not
 steer outside the output folder, ``materialBindingPurposes`` and ``renderingColorSpace``."""
 
+import json
+
 import numpy as np
 import OpenEXR
 import pytest
@@ -10,6 +12,7 @@ from usda_text import load, write
 
 import wrt
 from wrt.cli import main
+from wrt.rays import camera_rays
 
 WORLD = """def Xform "World"
 {
@@ -52,7 +55,8 @@ def product(name: str, vars_: list, product_name: str | None, extra: str = "") -
 
 VARS = (var("color", "color", "color4f") + var("Ci", "Ci") + var("depth", "cameraDepth", "float")
         + var("N", "Neye", "normal3f") + var("id", "primId", "int") + var("albedo", "albedo")
-        + var("P", "P", "point3f") + var("st", "st", "float2", "primvar") + var("lpe", "C<RD>L", source_type="lpe"))
+        + var("P", "P", "point3f") + var("pc", "patchCoord", "float3") + var("st", "st", "float2", "primvar")
+        + var("lpe", "C<RD>L", source_type="lpe"))
 
 
 def write_stage(tmp_path, products: str, names: list, settings: str = "", name: str = "shot.usda") -> str:
@@ -70,6 +74,11 @@ def write_stage(tmp_path, products: str, names: list, settings: str = "", name: 
 def read_exr(path) -> dict:
     with OpenEXR.File(str(path), separate_channels=True) as f:
         return {name: np.array(c.pixels) for name, c in f.channels().items()}
+
+
+def read_header(path) -> dict:
+    with OpenEXR.File(str(path)) as f:
+        return dict(f.header())  # a copy: the file's own is emptied when it closes
 
 
 def eye_normals(stage_path: str, camera: str, normals: np.ndarray) -> np.ndarray:
@@ -118,7 +127,11 @@ def test_every_product_is_written_at_its_own_view_and_agrees_with_render(tmp_pat
     np.testing.assert_array_equal(np.stack([exr[f"color.{c}"] for c in "RGB"], -1), tilted.rgb)
     np.testing.assert_array_equal(exr["color.A"], tilted.aovs["prim"] >= 0)
     np.testing.assert_array_equal(exr["depth"], tilted.aovs["z"])  # cameraDepth: along the view axis, inf on a miss
-    np.testing.assert_array_equal(exr["id"], tilted.aovs["prim"])
+    # primId names the prim drawn, by the header's table: the prims Scene.hit_paths gives the same camera's rays.
+    table = json.loads(read_header(out / "aovs.exr")["id/paths"])
+    prims, _ = scene.hit_paths(wrt.trace(scene, *camera_rays(scene, "/World/Tilted", 20, 10)))
+    np.testing.assert_array_equal(np.array([table.get(str(int(i)), "") for i in exr["id"].ravel()]), prims)
+    assert sorted(table.values()) == ["/World/Ball", "/World/Box"]
     np.testing.assert_array_equal(np.stack([exr[f"albedo.{c}"] for c in "RGB"], -1), tilted.aovs["albedo"])
     hit = tilted.aovs["prim"] >= 0
     assert 0 < hit.mean() < 1 and len(np.unique(exr["id"][hit])) >= 2  # both shapes seen, and the background
@@ -128,15 +141,15 @@ def test_every_product_is_written_at_its_own_view_and_agrees_with_render(tmp_pat
 
 
 def test_unknown_sources_are_left_out_with_a_warning_naming_the_render_var(tmp_path):
-    """A raw source wrt has not (P), a primvar and an LPE other than the beauty: one warning each, naming the
+    """A raw source wrt has not (patchCoord), a primvar and an LPE other than the beauty: one warning each, naming the
     RenderVar; the product keeps what wrt has, and a product left with nothing is skipped, named."""
-    products = (product("Mixed", ["P", "depth", "st", "lpe"], "mixed.exr")
-                + product("Nothing", ["P"], "nothing.exr"))
+    products = (product("Mixed", ["pc", "depth", "st", "lpe"], "mixed.exr")
+                + product("Nothing", ["pc"], "nothing.exr"))
     scene = load(write_stage(tmp_path, products, ["Mixed", "Nothing"]))
     with pytest.warns(UserWarning) as record:
         written = wrt.render_products(scene, tmp_path / "out", device="cpu")
     messages = [str(w.message) for w in record]
-    for path, source in (("/Render/Vars/P", "raw 'P'"), ("/Render/Vars/st", "primvar 'st'"),
+    for path, source in (("/Render/Vars/pc", "raw 'patchCoord'"), ("/Render/Vars/st", "primvar 'st'"),
                          ("/Render/Vars/lpe", "lpe 'C<RD>L'")):
         assert sum(f"RenderVar {path} ({source}) has no wrt output and is left out" in m for m in messages) >= 1
     assert any("/Render/Nothing has no RenderVar wrt can write; it is skipped" in m for m in messages)
@@ -193,3 +206,141 @@ def test_cli_products(tmp_path, capsys):
     assert main(["render", stage, "-o", str(tmp_path / "one.png"), "-q"]) == 0
     assert ("wrt: warning: shot.usda: /Render/Settings has 2 RenderProducts; this image is the first's, "
             "/Render/Beauty (--products DIR writes them all)") in capsys.readouterr().err
+
+
+# A camera at (1, 0.5, 10) turned 8 degrees about Y, with apertures of the 48x24 image's aspect (no conforming), over
+# a mesh strip of three faces (a quad, a pentagon, a quad: 7 triangles) at z = 0, three instances of a quad at
+# z = -1 and a sphere: every camera ray's hit is known from pxr's frustum and a little geometry.
+STRIP_X = (-5.0, -4.0, -3.0, -2.0)  # face k of /Strip spans x in [STRIP_X[k], STRIP_X[k + 1]], |y| <= 1, z = 0
+QUADS_X = (0.5, 2.0, 3.5)  # /PI's instances: x centres of quads 1.2 wide, |y| <= 1, z = -1
+BALL = ((6.0, 0.0, 0.0), 1.0)  # /Ball: centre and radius
+
+
+def planar_stage(tmp_path, vars_: dict, window=(0.0, 0.0, 1.0, 1.0), name: str = "ids.usda") -> str:
+    """The stage above with one RenderProduct ``/Render/Shot`` of the RenderVars ``{name: (sourceName, aov name or
+    None)}`` and ``dataWindowNDC`` ``window``."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdRender
+
+    path = str(tmp_path / name)
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    strip = UsdGeom.Mesh.Define(stage, "/Strip")
+    x0, x1, x2, x3 = STRIP_X
+    strip.CreatePointsAttr([(x0, -1, 0), (x1, -1, 0), (x1, 1, 0), (x0, 1, 0), (x2, -1, 0), (x2, 1, 0),
+                            ((x1 + x2) / 2, 1.0, 0), (x3, -1, 0), (x3, 1, 0)])
+    strip.CreateFaceVertexCountsAttr([4, 5, 4])
+    strip.CreateFaceVertexIndicesAttr([0, 1, 2, 3, 1, 4, 5, 6, 2, 4, 7, 8, 5])
+    quad = UsdGeom.Mesh.Define(stage, "/PI/Protos/Quad/Mesh")
+    quad.CreatePointsAttr([(-0.6, -1, 0), (0.6, -1, 0), (0.6, 1, 0), (-0.6, 1, 0)])
+    quad.CreateFaceVertexCountsAttr([4])
+    quad.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    pi.CreatePrototypesRel().SetTargets(["/PI/Protos/Quad"])
+    pi.CreateProtoIndicesAttr([0, 0, 0])
+    pi.CreatePositionsAttr([(x, 0, -1) for x in QUADS_X])
+    ball = UsdGeom.Sphere.Define(stage, "/Ball")
+    ball.CreateRadiusAttr(BALL[1])
+    ball.AddTranslateOp().Set(Gf.Vec3d(*BALL[0]))
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.CreateFocalLengthAttr(25.0)
+    cam.CreateHorizontalApertureAttr(40.0)
+    cam.CreateVerticalApertureAttr(20.0)
+    cam.AddTranslateOp().Set(Gf.Vec3d(1, 0.5, 10))
+    cam.AddRotateYOp().Set(8.0)
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/Cam"])
+    settings.CreateResolutionAttr(Gf.Vec2i(48, 24))
+    shot = UsdRender.Product.Define(stage, "/Render/Shot")
+    shot.CreateProductNameAttr("shot.exr")
+    shot.CreateDataWindowNDCAttr(Gf.Vec4f(*window))
+    settings.CreateProductsRel().SetTargets(["/Render/Shot"])
+    for var_name, (source, aov_name) in vars_.items():
+        var = UsdRender.Var.Define(stage, f"/Render/Vars/{var_name}")
+        var.CreateSourceNameAttr(source)
+        if aov_name is not None:
+            var.GetPrim().CreateAttribute("driver:parameters:aov:name", Sdf.ValueTypeNames.String).Set(aov_name)
+        shot.GetOrderedVarsRel().AddTarget(var.GetPath())
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.Save()
+    return path
+
+
+def expected_hits(stage_path: str, width: int = 48, height: int = 24) -> dict:
+    """What the ray through each pixel centre of the full ``width x height`` image hits, from pxr's frustum of /Cam
+    and the geometry above: world position ``P`` (0 on a miss), its camera-space ``Peye`` by pxr's view matrix, the
+    ``prim`` and ``instance`` paths and the mesh ``face`` (-1 on a miss, 0 on the sphere), and ``clear``: the hit is
+    no closer than 0.02 to an edge or a silhouette (its ids do not depend on rounding)."""
+    from pxr import Gf, Usd, UsdGeom
+
+    stage = Usd.Stage.Open(stage_path)
+    frustum = UsdGeom.Camera(stage.GetPrimAtPath("/Cam")).GetCamera(Usd.TimeCode.Default()).frustum
+    view = frustum.ComputeViewMatrix()
+    out = {"P": np.zeros((height, width, 3)), "Peye": np.zeros((height, width, 3)),
+           "prim": np.full((height, width), "", object), "instance": np.full((height, width), "", object),
+           "face": np.full((height, width), -1), "clear": np.ones((height, width), bool)}
+    for i in range(height):
+        for j in range(width):
+            ray = frustum.ComputePickRay(Gf.Vec2d(2 * (j + 0.5) / width - 1, 1 - 2 * (i + 0.5) / height))
+            o, d = np.array(ray.startPoint), np.array(ray.direction)
+            found = []  # (t, P, prim, instance, face, margin to the nearest edge)
+            for z, spans, prim in ((0.0, [(STRIP_X[k], STRIP_X[k + 1], k) for k in range(3)], "/Strip"),
+                                   (-1.0, [(x - 0.6, x + 0.6, k) for k, x in enumerate(QUADS_X)],
+                                    "/PI/Protos/Quad/Mesh")):
+                t = (z - o[2]) / d[2]
+                p = o + t * d
+                for lo, hi, k in spans:
+                    if lo <= p[0] <= hi and abs(p[1]) <= 1:
+                        margin = min(p[0] - lo, hi - p[0], 1 - abs(p[1]))
+                        if prim == "/Strip" and k == 1:  # the pentagon's top edges meet at its apex (x, 1)
+                            margin = min(margin, 0.05)  # edges inside the face are no edges of it: any margin
+                        inst = f"/PI[{k}]" if prim != "/Strip" else ""
+                        found.append((t, p, prim, inst, k if prim == "/Strip" else 0, margin))
+            centre, radius = np.array(BALL[0]), BALL[1]
+            dn = d / np.linalg.norm(d)
+            b = np.dot(o - centre, dn)
+            disc = b * b - (np.dot(o - centre, o - centre) - radius**2)
+            if disc > 0:
+                t = -b - np.sqrt(disc)
+                found.append((t / np.linalg.norm(d), o + t * dn, "/Ball", "", 0, np.sqrt(disc)))
+            if not found:
+                continue
+            t, p, prim, inst, face, margin = min(found, key=lambda f: f[0])
+            out["P"][i, j], out["prim"][i, j], out["instance"][i, j], out["face"][i, j] = p, prim, inst, face
+            out["Peye"][i, j] = view.Transform(Gf.Vec3d(*p))
+            out["clear"][i, j] = margin > 0.02
+    return out
+
+
+def test_positions_and_ids_of_the_hits(tmp_path):
+    """P and Peye are the camera rays' hits in world and camera space (pxr's frustum and view matrix; 0 on a miss);
+    primId is one id per prim drawn (every instance of the quad prototype shares it), named in the EXR header;
+    elementId is the USD face (the pentagon's three triangles are face 1), 0 on the sphere; instanceId differs per
+    PointInstancer instance (-1 off instances), named /PI[k]; prim keeps wrt's triangle ids."""
+    stage = planar_stage(tmp_path, {"P": ("P", None), "Peye": ("Peye", None), "primId": ("primId", None),
+                                    "elementId": ("elementId", None), "instanceId": ("instanceId", None),
+                                    "prim": ("prim", None)})
+    scene = load(stage)
+    written = wrt.render_products(scene, tmp_path / "out", device="cpu")
+    exr, header = read_exr(written["/Render/Shot"]), read_header(written["/Render/Shot"])
+    want = expected_hits(stage)
+    hit = want["prim"] != ""
+    clear = want["clear"]
+    assert clear.mean() > 0.5 and len(set(want["prim"][hit & clear])) == 3 and len(set(want["face"][clear])) == 4
+    for name in ("P", "Peye"):
+        got = np.stack([exr[f"{name}.{c}"] for c in "XYZ"], axis=-1)
+        np.testing.assert_allclose(got[clear], want[name][clear], atol=2e-4)
+        assert np.all(got[~hit] == 0)
+    prims = json.loads(header["primId/paths"])
+    assert sorted(prims.values()) == ["/Ball", "/PI/Protos/Quad/Mesh", "/Strip"]
+    named = np.array([prims.get(str(int(i)), "") for i in exr["primId"].ravel()], object).reshape(want["prim"].shape)
+    np.testing.assert_array_equal(named[clear], want["prim"][clear])
+    assert np.all(exr["primId"][~hit] == -1)
+    np.testing.assert_array_equal(exr["elementId"][clear], want["face"][clear])
+    instances = json.loads(header["instanceId/paths"])
+    named = np.array([instances.get(str(int(i)), "") for i in exr["instanceId"].ravel()], object)
+    np.testing.assert_array_equal(named.reshape(want["instance"].shape)[clear], want["instance"][clear])
+    assert len(set(exr["instanceId"][clear & (want["instance"] != "")])) == 3
+    image = wrt.render(scene, device="cpu")
+    np.testing.assert_array_equal(exr["prim"], image.aovs["prim"])  # wrt's triangle ids, under wrt's name
+    assert len(np.unique(exr["prim"][want["prim"] == "/Strip"])) == 7  # triangles, not faces
+

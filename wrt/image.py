@@ -144,14 +144,15 @@ def write_atomically(path: Path, write) -> None:
         partial.unlink(missing_ok=True)
 
 
-def write_exr(path: Path, channels: dict[str, np.ndarray]) -> None:
-    """Writes float32 ``(H, W)`` channels (e.g. ``{"R": r, "G": g, "B": b}``) to an OpenEXR file."""
+def write_exr(path: Path, channels: dict[str, np.ndarray], attributes: dict | None = None) -> None:
+    """Writes float32 ``(H, W)`` channels (e.g. ``{"R": r, "G": g, "B": b}``) to an OpenEXR file, with the header
+    ``attributes`` (as the OpenEXR package takes them: ``{"dataWindow": (min, max), "id/paths": "..."}``)."""
     try:
         import OpenEXR
     except ImportError:
         raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package "
                          "(pip install OpenEXR)") from None
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **(attributes or {})}
     data = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in channels.items()}
     with OpenEXR.File(header, data) as f:
         f.write(str(path))

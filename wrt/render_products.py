@@ -11,13 +11,16 @@ caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OU
 beauty alone may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components); every other product is
 an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's extension replaced with a warning where
 it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after
-their prim: ``depth`` (one channel), ``N.X, N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... Two products of one
-file name get ``_2``, ``_3`` suffixes, with a warning.
+their prim: ``depth`` (one channel), ``N.X,
+N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... Two products of one file name get ``_2``, ``_3`` suffixes, with a
+warning. An EXR's header names the prims of its id layers: ``<layer>/paths``, a JSON object ``{id: path}`` of the ids
+in the image, for ``primId`` (:meth:`wrt.Scene.prim_paths`) and ``instanceId`` (:meth:`wrt.instancing.Instances.path`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import re
 import warnings
@@ -26,19 +29,25 @@ from pathlib import Path
 import numpy as np
 
 from .image import check_exposure, to_srgb8, write_atomically, write_exr
+from .rays import camera_rays
 from .render import Renderer, resolve_view
 
 BEAUTY = "rgb"  # Image.rgb: the integrator's image, linear radiance
-# sourceName -> what wrt writes for it: BEAUTY, an Image.aovs key, or "Neye" (the normal in camera space).
+# sourceName -> what wrt writes for it: BEAUTY, an Image.aovs key, or one made from them ("Neye", "P", "Peye",
+# "primId", "elementId").
 SOURCES = {
     "color": BEAUTY, "Ci": BEAUTY, "lpe:C.*": BEAUTY,  # Hydra's beauty, RenderMan's, Hydra's LPE spelling
     "depth": "depth",  # wrt's depth: distance along the camera ray (not Hydra's [0, 1] depth buffer)
     "cameraDepth": "z", "z": "z",  # distance along the camera's viewing axis
+    "P": "P",  # world-space position of the camera ray's hit (0 on a miss)
+    "Peye": "Peye",  # the same in camera space
     "normal": "normal", "N": "normal",  # world-space shading normal
     "Neye": "Neye",  # the shading normal in camera space (the camera looks down -Z)
     "Ng": "geometric_normal", "geometric_normal": "geometric_normal",
     "albedo": "albedo",
-    "primId": "prim", "prim": "prim",  # triangle id: a row of Scene.triangles() (Hydra's names its rprim)
+    "primId": "primId",  # the prim drawn (Hydra's rprim): an index into Scene.prim_paths()
+    "elementId": "elementId",  # the face of a mesh (Scene.hit_prims)
+    "prim": "prim",  # wrt's triangle id: a row of Scene.triangles()
     "instanceId": "instance", "instance": "instance",
     "material": "material",
     "cost": "cost",
@@ -46,7 +55,9 @@ SOURCES = {
 BEAUTY_LPES = ("C.*", "C.*[<L.>O]")  # lpe sourceNames of the whole image
 # Channel names in a layer, by what is written; one name: the layer's name alone.
 CHANNELS = {BEAUTY: ("R", "G", "B"), "albedo": ("R", "G", "B"), "normal": ("X", "Y", "Z"), "Neye": ("X", "Y", "Z"),
-            "geometric_normal": ("X", "Y", "Z"), "cost": ("nodes", "triangles")}
+            "geometric_normal": ("X", "Y", "Z"), "P": ("X", "Y", "Z"), "Peye": ("X", "Y", "Z"),
+            "cost": ("nodes", "triangles")}
+NAMED_IDS = ("primId", "instance")  # ids whose prim paths the EXR header names (attribute "<layer>/paths")
 EXACT_FLOAT_INTS = 1 << 24  # ids below this are exact in a float32 channel
 
 
@@ -130,39 +141,68 @@ def product_file_name(product, png: bool, where: str, taken: set) -> str:
     return unique
 
 
-def output_channels(image, camera, outputs: list[_Output]) -> dict[str, np.ndarray]:
-    """``{channel name: (H, W) array}`` of ``outputs`` from ``image`` (a :class:`wrt.Image` of ``camera``)."""
+def _values(kind: str, image, camera, scene) -> np.ndarray:
+    """``(H, W, ...)`` values of output ``kind`` from ``image`` (a :class:`wrt.Image` of ``camera`` and ``scene``)."""
+    aovs, shape = image.aovs, image.rgb.shape[:2]
+    if kind == BEAUTY:
+        return image.rgb
+    if kind == "Neye":
+        # Normals go to camera space by the transpose of the camera's rotation (its inverse-transpose for normals);
+        # scale and shear of the camera transform are normalised away.
+        value = aovs["normal"] @ np.asarray(camera.to_world[:3, :3], np.float64)
+        length = np.linalg.norm(value, axis=-1, keepdims=True)
+        return np.divide(value, length, out=np.zeros_like(value), where=length > 0)
+    if kind in ("P", "Peye"):
+        # The hit along the ray the renderer cast through the pixel centre (its sample 0, whose depth the AOV is).
+        origins, directions = camera_rays(scene, camera, shape[1], shape[0])
+        hit = (aovs["prim"] >= 0).reshape(-1, 1)
+        depth = np.where(hit, aovs["depth"].reshape(-1, 1), 0.0)
+        points = origins.astype(np.float64) + depth * directions
+        if kind == "Peye":  # by the whole inverse transform, as Hydra's view matrix
+            view = np.linalg.inv(camera.to_world)
+            points = points @ view[:3, :3].T + view[:3, 3]
+        return np.where(hit, points, 0.0).reshape(*shape, 3)  # a miss has no position: 0, as Hydra clears Peye
+    if kind in ("primId", "elementId"):
+        prims, elements = scene.hit_prims(scene.split_ids(aovs["prim"].reshape(-1))[0])
+        return (prims if kind == "primId" else elements).reshape(shape)
+    return aovs[kind]
+
+
+def _paths(kind: str, ids: np.ndarray, scene) -> str:
+    """JSON ``{id: path}`` of the ids in ``ids`` (-1: none): prims (``primId``) or instances."""
+    name = scene.prim_paths().__getitem__ if kind == "primId" else scene.instances.path
+    return json.dumps({str(i): name(i) for i in map(int, np.unique(ids)) if i >= 0})
+
+
+def output_channels(image, camera, scene, outputs: list[_Output]) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """``({channel name: (H, W) array}, {header attribute: JSON})`` of ``outputs`` from ``image`` (a
+    :class:`wrt.Image` of ``camera`` and ``scene``); the attributes name the prims of the id layers of
+    :data:`NAMED_IDS`."""
     hit = image.aovs["prim"] >= 0
-    channels = {}
+    channels, attributes = {}, {}
     for out in outputs:
-        if out.kind == BEAUTY:
-            value = image.rgb
-        elif out.kind == "Neye":
-            # Normals go to camera space by the transpose of the camera's rotation (its inverse-transpose for
-            # normals); scale and shear of the camera transform are normalised away.
-            value = image.aovs["normal"] @ np.asarray(camera.to_world[:3, :3], np.float64)
-            length = np.linalg.norm(value, axis=-1, keepdims=True)
-            value = np.divide(value, length, out=np.zeros_like(value), where=length > 0)
-        else:
-            value = image.aovs[out.kind]
+        value = _values(out.kind, image, camera, scene)
         if value.dtype.kind in "iu" and value.size and np.abs(value).max() >= EXACT_FLOAT_INTS:
             warnings.warn(f"{out.layer or out.kind}: ids of {EXACT_FLOAT_INTS} and above are rounded in the "
                           "float32 channels of EXR", stacklevel=3)
+        if out.kind in NAMED_IDS:
+            attributes[f"{out.layer}/paths"] = _paths(out.kind, value, scene)
         names = CHANNELS.get(out.kind, ("",))
         value = np.asarray(value, np.float32).reshape(*value.shape[:2], len(names))
         if out.alpha:
             value, names = np.concatenate([value, hit[..., None]], axis=-1), (*names, "A")
         for k, name in enumerate(names):
             channels[".".join(p for p in (out.layer, name) if p)] = value[..., k]
-    return channels
+    return channels, attributes
 
 
-def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float = 0.0) -> Path:
+def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float = 0.0,
+                  attributes: dict | None = None) -> Path:
     """Writes ``channels`` to ``path``: an 8-bit sRGB PNG of ``R, G, B`` (``A``), scaled by ``2**exposure``, or
-    an EXR of every channel."""
+    an EXR of every channel, with the header ``attributes``."""
     def write(target: Path) -> None:
         if path.suffix.lower() == ".exr":
-            write_exr(target, channels)
+            write_exr(target, channels, attributes)
             return
         from PIL import Image as PilImage
 
@@ -225,6 +265,6 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
         image, camera = renders[view]
         png = len(outputs) == 1 and outputs[0].kind == BEAUTY
         name = product_file_name(product, png, where, taken)
-        written[product.product] = write_product(directory / name, output_channels(image, camera, outputs),
-                                                 exposure)
+        channels, attributes = output_channels(image, camera, scene, outputs)
+        written[product.product] = write_product(directory / name, channels, exposure, attributes)
     return written

@@ -532,6 +532,38 @@ class Scene:
                 prim[inst] = first + k[inst] - shape_offsets[i]
         return prim, instance
 
+    def prim_paths(self) -> list[str]:
+        """The paths of the prims drawn, each once, in geometry order (module docstring): meshes, then analytic shapes
+        (gprims, and the Points or curves prim of a point's sphere or a curve's segment); those of a prototype by
+        their path in it. Entry ``k`` is prim id ``k`` of :meth:`hit_prims`."""
+        return list(dict.fromkeys([m.path for m in self._geometry_meshes()]
+                                  + [s.path for s in self._geometry_shapes()]))
+
+    def hit_prims(self, geometry_ids) -> tuple[np.ndarray, np.ndarray]:
+        """The prim and the element of the prim that hits name: ``(prim ids, elements)``, ``(N,)`` int64, -1 on a
+        miss. A prim id is an index into :meth:`prim_paths` (one per path, the same for every instance of a
+        prototype); an element is the face of a mesh (``Mesh.face_ids``: the USD face, the control face of a
+        subdivided mesh) and 0 on an analytic shape.
+
+        Args:
+            geometry_ids: ``(N,)`` int geometry ids (``Hits.local_prim``; :meth:`split_ids` of ``Hits.prim``), -1
+                for a miss.
+        """
+        prim = np.asarray(geometry_ids, np.int64).reshape(-1)
+        meshes, shapes = self._geometry_meshes(), self._geometry_shapes()
+        index = {path: k for k, path in enumerate(self.prim_paths())}
+        ids = np.array([index[g.path] for g in meshes + shapes] + [-1], np.int64)  # geometry source -> prim id
+        starts = np.cumsum([0] + [len(m.indices) for m in meshes])  # geometry id of each mesh's first triangle
+        # The mesh holding each triangle (side="right" skips meshes without triangles), else the shape, else none.
+        source = np.where(prim < starts[-1], np.searchsorted(starts, prim, side="right") - 1,
+                          len(meshes) + prim - starts[-1])
+        source[(prim < 0) | (source >= len(meshes) + len(shapes))] = len(ids) - 1
+        elements = np.where(source < len(ids) - 1, 0, -1)
+        for k in np.unique(source[source < len(meshes)]):
+            at = source == k
+            elements[at] = meshes[k].face_ids[prim[at] - starts[k]]
+        return ids[source], elements
+
     def hit_paths(self, hits) -> tuple[np.ndarray, np.ndarray]:
         """The prims that hits name, by path: ``(prims, instances)``, ``(N,)`` object arrays of str, ``""`` where
         there is none (a miss; ``instances`` on non-instanced geometry).
@@ -548,14 +580,7 @@ class Scene:
         """
         prim = np.asarray(hits.local_prim, np.int64).reshape(-1)
         instance = np.asarray(hits.instance, np.int64).reshape(-1)
-        meshes = self._geometry_meshes()
-        names = [m.path for m in meshes] + [s.path for s in self._geometry_shapes()] + [""]
-        starts = np.cumsum([0] + [len(m.indices) for m in meshes])  # geometry id of each mesh's first triangle
-        # The mesh holding each triangle (side="right" skips meshes without triangles), else the shape, else "".
-        source = np.where(prim < starts[-1], np.searchsorted(starts, prim, side="right") - 1,
-                          len(meshes) + prim - starts[-1])
-        source[(prim < 0) | (source >= len(names))] = len(names) - 1
-        prims = np.array(names, object)[source]
+        prims = np.array([*self.prim_paths(), ""], object)[self.hit_prims(prim)[0]]  # -1: the last, ""
         ids, inverse = np.unique(np.where(prim >= 0, instance, -1), return_inverse=True)
         paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
         return prims, paths[inverse.reshape(-1)]
