@@ -344,3 +344,13 @@ def test_positions_and_ids_of_the_hits(tmp_path):
     np.testing.assert_array_equal(exr["prim"], image.aovs["prim"])  # wrt's triangle ids, under wrt's name
     assert len(np.unique(exr["prim"][want["prim"] == "/Strip"])) == 7  # triangles, not faces
 
+
+def test_aov_names_name_the_layers(tmp_path):
+    """driver:parameters:aov:name, where authored, names a RenderVar's layer (RenderMan's channel name); the prim
+    name otherwise; the first beauty stays R, G, B."""
+    stage = planar_stage(tmp_path, {"beauty": ("color", "Ci"), "depthVar": ("cameraDepth", "Z"),
+                                    "normals": ("normal", "Nworld"), "primvar": ("primId", None)})
+    written = wrt.render_products(load(stage), tmp_path / "out", device="cpu")
+    assert sorted(read_exr(written["/Render/Shot"])) == sorted(["R", "G", "B", "Z", "Nworld.X", "Nworld.Y",
+                                                                 "Nworld.Z", "primvar"])
+

@@ -11,7 +11,7 @@ caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OU
 beauty alone may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components); every other product is
 an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's extension replaced with a warning where
 it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after
-their prim: ``depth`` (one channel), ``N.X,
+their ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one channel), ``N.X,
 N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... Two products of one file name get ``_2``, ``_3`` suffixes, with a
 warning. An EXR's header names the prims of its id layers: ``<layer>/paths``, a JSON object ``{id: path}`` of the ids
 in the image, for ``primId`` (:meth:`wrt.Scene.prim_paths`) and ``instanceId`` (:meth:`wrt.instancing.Instances.path`).
@@ -101,7 +101,7 @@ def product_outputs(product, where: str) -> list[_Output]:
                           f"{' and '.join(BEAUTY_LPES)}", stacklevel=3)
             continue
         beauty = kind == BEAUTY and not any(o.kind == BEAUTY and not o.layer for o in outputs)
-        layer = "" if beauty else _unique(var.path.rsplit("/", 1)[-1], layers)
+        layer = "" if beauty else _unique(var.aov_name or var.path.rsplit("/", 1)[-1], layers)
         outputs.append(_Output(kind, layer, alpha=kind == BEAUTY and _has_alpha(var.data_type)))
     return outputs
 

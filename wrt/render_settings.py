@@ -53,12 +53,15 @@ class RenderVar:
         source_name: ``sourceName``, e.g. ``color``, ``depth``, ``normal``, ``C.*``.
         source_type: ``sourceType``: ``raw``, ``primvar``, ``lpe`` or ``intrinsic``.
         data_type: ``dataType``, e.g. ``color3f``, ``float``, ``int``.
+        aov_name: ``driver:parameters:aov:name``, the channel (layer) name RenderMan and other renderers write the
+            RenderVar under, or ``""`` where it is not authored (or not a string).
     """
 
     path: str
     source_name: str = ""
     source_type: str = "raw"
     data_type: str = "color3f"
+    aov_name: str = ""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -255,9 +258,11 @@ def _merged(stage, source: str, path: str, base: dict, product_prim) -> RenderSe
 
 def _read_var(var) -> RenderVar:
     """The :class:`RenderVar` of a ``UsdRender.Var`` (the schema's fallbacks where nothing is authored)."""
+    aov_name = var.GetPrim().GetAttribute("driver:parameters:aov:name").Get()  # a driver parameter: no schema getter
     return RenderVar(path=str(var.GetPath()), source_name=str(var.GetSourceNameAttr().Get() or ""),
                      source_type=str(var.GetSourceTypeAttr().Get() or "raw"),
-                     data_type=str(var.GetDataTypeAttr().Get() or "color3f"))
+                     data_type=str(var.GetDataTypeAttr().Get() or "color3f"),
+                     aov_name=aov_name.strip() if isinstance(aov_name, str) else "")
 
 
 def _warn_color_space(space: str, where: str) -> None:
