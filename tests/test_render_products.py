@@ -345,6 +345,27 @@ def test_positions_and_ids_of_the_hits(tmp_path):
     assert len(np.unique(exr["prim"][want["prim"] == "/Strip"])) == 7  # triangles, not faces
 
 
+def test_cropped_product_is_placed_in_its_shot(tmp_path):
+    """dataWindowNDC (0.1, 0.3, 0.6, 0.9) of 48x24: the EXR's display window is the whole shot and its data window
+    the pixels whose centres lie in the window (counted here from the rule), rows from the top; each pixel of the
+    crop is the one of the full image there (P from pxr's frustum)."""
+    window = (0.1, 0.3, 0.6, 0.9)
+    stage = planar_stage(tmp_path, {"P": ("P", None), "depth": ("depth", None)}, window)
+    written = wrt.render_products(load(stage), tmp_path / "out", device="cpu")
+    header, exr = read_header(written["/Render/Shot"]), read_exr(written["/Render/Shot"])
+    columns = [j for j in range(48) if window[0] <= (j + 0.5) / 48 < window[2]]
+    rows = [i for i in range(24) if window[1] <= 1 - (i + 0.5) / 24 < window[3]]  # NDC y goes up
+    assert [list(v) for v in header["displayWindow"]] == [[0, 0], [47, 23]]
+    assert [list(v) for v in header["dataWindow"]] == [[columns[0], rows[0]], [columns[-1], rows[-1]]]
+    got = np.stack([exr[f"P.{c}"] for c in "XYZ"], axis=-1)
+    assert got.shape == (len(rows), len(columns), 3)
+    want = expected_hits(stage)
+    crop = np.ix_(rows, columns)
+    clear = want["clear"][crop] & (want["prim"][crop] != "")
+    assert clear.sum() > 20
+    np.testing.assert_allclose(got[clear], want["P"][crop][clear], atol=2e-4)
+
+
 def test_aov_names_name_the_layers(tmp_path):
     """driver:parameters:aov:name, where authored, names a RenderVar's layer (RenderMan's channel name); the prim
     name otherwise; the first beauty stays R, G, B."""

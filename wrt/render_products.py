@@ -13,7 +13,8 @@ an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's exte
 it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after
 their ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one channel), ``N.X,
 N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... Two products of one file name get ``_2``, ``_3`` suffixes, with a
-warning. An EXR's header names the prims of its id layers: ``<layer>/paths``, a JSON object ``{id: path}`` of the ids
+warning. An EXR's header places it in its shot (``displayWindow``: the whole resolution; ``dataWindow``: the pixels of
+``dataWindowNDC``) and names the prims of its id layers: ``<layer>/paths``, a JSON object ``{id: path}`` of the ids
 in the image, for ``primId`` (:meth:`wrt.Scene.prim_paths`) and ``instanceId`` (:meth:`wrt.instancing.Instances.path`).
 """
 
@@ -196,6 +197,18 @@ def output_channels(image, camera, scene, outputs: list[_Output]) -> tuple[dict[
     return channels, attributes
 
 
+def exr_windows(product) -> dict:
+    """The EXR header's ``displayWindow`` (the whole image at ``product``'s resolution), ``dataWindow`` (the pixels
+    its ``dataWindowNDC`` holds, as :meth:`wrt.render_settings.RenderSettings.crop` renders them), so that a
+    compositor places a crop where it lies in the shot, and ``pixelAspectRatio``."""
+    width, height = product.resolution
+    j0, j1, k0, k1 = product.window_pixels(width, height)
+    # EXR rows go down from the top; the window's rows are counted up from the bottom.
+    return {"displayWindow": (np.array([0, 0], np.int32), np.array([width - 1, height - 1], np.int32)),
+            "dataWindow": (np.array([j0, height - k1], np.int32), np.array([j1 - 1, height - 1 - k0], np.int32)),
+            "pixelAspectRatio": float(product.pixel_aspect_ratio)}
+
+
 def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float = 0.0,
                   attributes: dict | None = None) -> Path:
     """Writes ``channels`` to ``path``: an 8-bit sRGB PNG of ``R, G, B`` (``A``), scaled by ``2**exposure``, or
@@ -266,5 +279,7 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
         png = len(outputs) == 1 and outputs[0].kind == BEAUTY
         name = product_file_name(product, png, where, taken)
         channels, attributes = output_channels(image, camera, scene, outputs)
+        if not name.lower().endswith(".png"):
+            attributes.update(exr_windows(product))
         written[product.product] = write_product(directory / name, channels, exposure, attributes)
     return written

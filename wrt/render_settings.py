@@ -133,15 +133,13 @@ class RenderSettings:
             changes["f_stop"] = 0.0
         return self.crop(dataclasses.replace(camera, **changes), width, height)
 
-    def crop(self, camera: Camera, width: int, height: int) -> tuple[Camera, int, int]:
-        """``(camera, width, height)`` of the pixels of a ``width x height`` image of ``camera`` that the data window
-        holds: a camera whose film is exactly theirs, and their count (``camera`` itself without a window).
+    def window_pixels(self, width: int, height: int) -> tuple[int, int, int, int]:
+        """``(j0, j1, k0, k1)``: the columns ``j0 <= j < j1`` (from the left) and rows ``k0 <= k < k1`` (from the
+        bottom) of a ``width x height`` image that the data window holds, beyond the image where it overscans.
 
         Raises:
             SceneError: the data window holds no pixel centre of the image.
         """
-        if self.data_window == FULL_WINDOW:
-            return camera, width, height
         # Pixel k (from the left, or from the bottom) has its centre at NDC (k + 0.5) / n: the first one at or past
         # the minimum edge, and the first one at or past the maximum edge, which is left out.
         xmin, ymin, xmax, ymax = self.data_window
@@ -151,6 +149,18 @@ class RenderSettings:
             shown = ", ".join(f"{v:g}" for v in self.data_window)
             raise SceneError(f"dataWindowNDC ({shown}) holds no pixel centre of the {width}x{height} image",
                              path=self.source or None, prim=self.product or self.path)
+        return j0, j1, k0, k1
+
+    def crop(self, camera: Camera, width: int, height: int) -> tuple[Camera, int, int]:
+        """``(camera, width, height)`` of the pixels of a ``width x height`` image of ``camera`` that the data window
+        holds: a camera whose film is exactly theirs, and their count (``camera`` itself without a window).
+
+        Raises:
+            SceneError: the data window holds no pixel centre of the image.
+        """
+        if self.data_window == FULL_WINDOW:
+            return camera, width, height
+        j0, j1, k0, k1 = self.window_pixels(width, height)
         film_w, film_h = camera.film_size(width, height)
         cropped = dataclasses.replace(
             camera,
