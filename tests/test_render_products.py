@@ -3,6 +3,7 @@ OpenEXR and Pillow and compared with ``wrt.render``'s image and AOVs; unknown so
 steer outside the output folder, ``materialBindingPurposes`` and ``renderingColorSpace``."""
 
 import json
+import warnings
 
 import numpy as np
 import OpenEXR
@@ -375,3 +376,16 @@ def test_aov_names_name_the_layers(tmp_path):
     assert sorted(read_exr(written["/Render/Shot"])) == sorted(["R", "G", "B", "Z", "Nworld.X", "Nworld.Y",
                                                                  "Nworld.Z", "primvar"])
 
+
+def test_exposure_with_exr_products_warns_once(tmp_path):
+    """--exposure scales PNG products only: with EXR products one warning says so (as ``-o x.exr`` does)."""
+    products = (product("Beauty", ["color"], "beauty.png") + product("A", ["depth"], "a.exr")
+                + product("B", ["Ci", "depth"], "b.exr"))
+    scene = load(write_stage(tmp_path, products, ["Beauty", "A", "B"]))
+    with pytest.warns(UserWarning) as record:
+        wrt.render_products(scene, tmp_path / "out", device="cpu", exposure=1.5)
+    messages = [str(w.message) for w in record if "exposure" in str(w.message)]
+    assert messages == ["shot.usda: exposure applies to .png products only; a.exr is written linear, unscaled"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        wrt.render_products(scene, tmp_path / "out2", device="cpu", exposure=0.0)

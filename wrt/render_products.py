@@ -258,7 +258,7 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
     exposure = check_exposure(exposure)
     where = os.path.basename(settings.source)
     directory = Path(directory)
-    renders, written, taken = {}, {}, set()
+    renders, written, taken, warned_exposure = {}, {}, set(), False
     for product in products:
         if product.product_type != "raster":
             warnings.warn(f"{where}: {product.product} is a {product.product_type} product; wrt writes raster "
@@ -281,5 +281,9 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
         channels, attributes = output_channels(image, camera, scene, outputs)
         if not name.lower().endswith(".png"):
             attributes.update(exr_windows(product))
+            if exposure != 0.0 and not warned_exposure:  # once, as for wrt render -o x.exr --exposure
+                warnings.warn(f"{where}: exposure applies to .png products only; {name} is written linear, "
+                              "unscaled", stacklevel=2)
+                warned_exposure = True
         written[product.product] = write_product(directory / name, channels, exposure, attributes)
     return written
