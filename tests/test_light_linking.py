@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 import warp as wp
-from pxr import Sdf, Usd, UsdLux
+from pxr import Sdf, Usd, UsdGeom, UsdLux
 from shading_helpers import quad
 from usda_text import write
 
@@ -249,22 +249,91 @@ def test_bad_link_values_are_refused_naming_the_light():
         render(floor_and_box([sun]), "whitted")
 
 
-def test_expression_collections_are_named_and_use_every_prim(tmp_path):
-    """A lightLink in expression mode (``membershipExpression``), which wrt does not evaluate: the light keeps every
-    prim, and the load names it; a rule-based shadowLink beside it is read."""
+EXPRESSIONS = [  # (light, lightLink expression, shadowLink expression or None)
+    ("A", "//Floor", None),
+    ("B", "/World//* - /World/Box", "//{isa:Mesh}"),
+    ("C", "%/World/A:lightLink + //Ball", "/World/I//"),  # a reference to A's collection
+    ("D", "/World/I/geo/Right + /World/PI/Protos/B", None),  # an instance proxy's part; a point prototype
+    ("E", "//{isa:Cube} - /World/Missing", "/World/Grp//*"),
+]
+
+
+def expression_stage(tmp_path) -> str:
+    """A stage of a floor mesh, a cube, a sphere in a group, a native instance of two quads and a PointInstancer of
+    two prototypes, with sphere lights linked by the membership expressions of :data:`EXPRESSIONS`."""
     stage = Usd.Stage.CreateNew(str(tmp_path / "expr.usda"))
-    light = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, "/Lamp"))
-    light.GetLightLinkCollectionAPI().CreateIncludeRootAttr(False)
-    light.GetLightLinkCollectionAPI().CreateMembershipExpressionAttr(Sdf.PathExpression("/World/Group//"))
-    light.GetShadowLinkCollectionAPI().CreateExcludesRel().AddTarget("/World")
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    body = ('def Xform "Proto"\n{\n    def Xform "geo"\n    {\n' + quad_usda("Left", -0.25, half=0.2, indent=" " * 8)
+            + quad_usda("Right", 0.25, half=0.2, indent=" " * 8) + "    }\n}\n")
+    stage.GetRootLayer().ImportFromString(f"#usda 1.0\n{body}")
+    UsdGeom.Xform.Define(stage, "/World")
+    floor = UsdGeom.Mesh.Define(stage, "/World/Floor")
+    floor.CreatePointsAttr([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    UsdGeom.Cube.Define(stage, "/World/Box")
+    UsdGeom.Sphere.Define(stage, "/World/Grp/Ball")
+    instance = stage.DefinePrim("/World/I")
+    instance.GetReferences().AddInternalReference("/Proto")
+    instance.SetInstanceable(True)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/PI")
+    for name in ("A", "B"):
+        UsdGeom.Sphere.Define(stage, f"/World/PI/Protos/{name}")
+        instancer.CreatePrototypesRel().AddTarget(f"/World/PI/Protos/{name}")
+    instancer.CreateProtoIndicesAttr([0, 1, 1])
+    instancer.CreatePositionsAttr([(3, 0, 0), (4, 0, 0), (5, 0, 0)])
+    for name, light_expression, shadow_expression in EXPRESSIONS:
+        light = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, f"/World/{name}"))
+        for collection, expression in ((light.GetLightLinkCollectionAPI(), light_expression),
+                                       (light.GetShadowLinkCollectionAPI(), shadow_expression)):
+            if expression is not None:
+                collection.CreateIncludeRootAttr(False)
+                collection.CreateMembershipExpressionAttr(Sdf.PathExpression(expression))
     stage.Save()
+    return str(tmp_path / "expr.usda")
+
+
+def test_expression_collections_are_usds_answer_for_every_drawn_path(tmp_path):
+    """Light and shadow links in expression mode (``membershipExpression``): for every path wrt draws (instance
+    proxies and point prototypes included) the loaded collection includes it exactly when USD's own query of the
+    collection does, for path patterns, differences, predicates (``{isa:Mesh}``) and ``%`` references to another
+    collection; nothing is warned about. Before, these lights were warned about and linked every prim."""
+    path = expression_stage(tmp_path)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        scene = wrt.load_usd(str(tmp_path / "expr.usda"))
-    messages = [str(w.message) for w in caught if "expression mode" in str(w.message)]
-    assert len(messages) == 1 and messages[0].endswith("/Lamp"), messages
-    assert scene.lights[0].light_link is None
-    assert scene.lights[0].shadow_link.includes("/Elsewhere") and not scene.lights[0].shadow_link.includes("/World/x")
+        scene = wrt.load_usd(path)
+    assert not [w for w in caught if "link" in str(w.message)], [str(w.message) for w in caught]
+    drawn = wrt.light_links.drawn_paths(scene)
+    assert {"/World/Floor", "/World/I/geo/Left", "/World/I/geo/Right", "/World/PI/Protos/B"} <= set(drawn)
+    stage = Usd.Stage.Open(path)
+    lights = {light.path: light for light in scene.lights}
+    for name, _, shadow_expression in EXPRESSIONS:
+        api = UsdLux.LightAPI(stage.GetPrimAtPath(f"/World/{name}"))
+        for ours, collection in ((lights[f"/World/{name}"].light_link, api.GetLightLinkCollectionAPI()),
+                                 (lights[f"/World/{name}"].shadow_link, api.GetShadowLinkCollectionAPI())):
+            query = collection.ComputeMembershipQuery()
+            usd = [p for p in drawn if query.IsPathIncluded(Sdf.Path(p))]
+            assert [p for p in drawn if ours is None or ours.includes(p)] == usd, (name, usd)
+    assert [p for p in drawn if lights["/World/A"].light_link.includes(p)] == ["/World/Floor"]
+    assert lights["/World/A"].shadow_link is None  # no expression: every prim
+
+
+def test_expression_links_light_and_shadow_in_a_render(tmp_path):
+    """A red sun whose lightLink is the expression ``/World/B`` lights B, not A (before: both); one whose shadowLink
+    is ``//Floor`` is not shadowed by the blocker above the floor (before: shadowed, red 0)."""
+    body = 'def Xform "World"\n{\n' + quad_usda("A", -1.0, indent="    ") + quad_usda("B", 1.0, indent="    ") + "}\n"
+    expression = ('uniform bool collection:lightLink:includeRoot = 0\n    pathExpression '
+                  'collection:lightLink:membershipExpression = "/World/B"')
+    assert lit_red(red_and_green(tmp_path, body, expression, camera=ROW), [-1.0, 1.0]) == [False, True]
+    body = ('def Xform "World"\n{\n' + quad_usda("Floor", 0.0, half=20.0, indent="    ")
+            + quad_usda("Blocker", 0.0, z=1.0, half=2.0, indent="    ") + "}\n")
+    shadow = ('uniform bool collection:shadowLink:includeRoot = 0\n    pathExpression '
+              'collection:shadowLink:membershipExpression = "//Floor"')
+    path = z_up(tmp_path, body + sun_usda("Red", (1, 0, 0), shadow=shadow) + sun_usda("Green", (0, 1, 0)))
+    under = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 0), up=(0, 1, 0), height=1.0)
+    rgb = render(load(path), "whitted", camera=under)
+    np.testing.assert_allclose(rgb[..., 0], 0.5 * 2.0 / np.pi, rtol=1e-5)  # albedo 0.5, E = 2, straight down
+    np.testing.assert_array_equal(rgb[..., 1], 0.0)
 
 
 def test_nested_native_instance_parts_are_named_by_their_proxy_paths(tmp_path):

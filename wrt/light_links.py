@@ -5,7 +5,9 @@ A light's two collections are :class:`LinkCollection` objects (None: every prim,
 decided per drawn geometry (a mesh, a gprim, a Points or curves prim, one prototype mesh or gprim in one instance) by
 the prim path wrt knows for it (:func:`drawn_paths`): its own path; inside a native instance its instance-proxy path
 (``/World/Instance/geo/mesh``); inside a PointInstancer's prototype the prototype prim's own path (under the
-instancer in the usual layout), moved to the proxy path when the instancer is itself inside a native instance.
+instancer in the usual layout), moved to the proxy path when the instancer is itself inside a native instance. A
+collection in expression mode (``membershipExpression``) is USD's own query asked about each of these paths once
+the stage's geometry is read (:func:`resolve_expressions`).
 
 On the device every drawn geometry gets a *link group*: one per distinct combination of memberships, with one
 ``(groups, lights)`` mask array (:class:`DeviceLinks`). Geometry ids of non-instanced geometry index their group
@@ -60,6 +62,11 @@ class LinkCollection:
         return cls({path: EXPAND_PRIMS for path in paths})
 
     @classmethod
+    def explicit(cls, *paths: str) -> "LinkCollection":
+        """The prims at ``paths`` only, not those below them."""
+        return cls(dict.fromkeys(paths, EXPLICIT_ONLY))
+
+    @classmethod
     def excluding(cls, *paths: str) -> "LinkCollection":
         """Every prim but those at ``paths`` and below them."""
         return cls({"/": EXPAND_PRIMS, **{path: EXCLUDE for path in paths}})
@@ -78,20 +85,33 @@ class LinkCollection:
             here = here.rsplit("/", 1)[0] or "/"
 
 
+@dataclasses.dataclass(frozen=True)
+class MembershipExpression:
+    """A linking collection in expression mode (``membershipExpression``, USD 24+) while a stage is read: USD's
+    membership query of it, asked about each drawn path once the geometry is known (:func:`resolve_expressions`)
+    and replaced by the :class:`LinkCollection` of its answers.
+
+    Attributes:
+        query: the collection's ``Usd.UsdCollectionMembershipQuery`` (its expression resolved, ``%`` references to
+            other collections included; predicates such as ``{isa:Mesh}`` evaluated on the stage it came from).
+    """
+
+    query: object
+
+
 def read_collection(collection, kind: str, skip):
     """The :class:`LinkCollection` of a UsdLux light's ``collection`` (``collection:lightLink`` or ``:shadowLink``,
-    named by ``kind``), or None when it holds every prim (UsdLux's fallback). A collection USD cannot resolve, and
-    one in expression mode (``membershipExpression``, which wrt does not evaluate), count as every prim, with a
-    warning through ``skip(reason, prim)``."""
+    named by ``kind``), None when it holds every prim (UsdLux's fallback), or a :class:`MembershipExpression` for
+    one in expression mode. A collection USD cannot resolve counts as every prim, with a warning through
+    ``skip(reason, prim)``."""
     from pxr import Sdf, Tf
 
     try:
         query = collection.ComputeMembershipQuery()
         if not query.UsesPathExpansionRuleMap():
-            if collection.ResolveCompleteMembershipExpression() != Sdf.PathExpression.Everything():
-                skip(f"{kind} collections in expression mode (membershipExpression) are not supported; these lights "
-                     "use every prim", collection.GetPrim())
-            return None
+            if collection.ResolveCompleteMembershipExpression() == Sdf.PathExpression.Everything():
+                return None
+            return MembershipExpression(query)
         rules = {str(path): str(rule) for path, rule in query.GetAsPathExpansionRuleMap().items()}
     except Tf.ErrorException:  # one USD cannot resolve
         skip(f"{kind} collections USD cannot resolve are ignored; these lights use every prim", collection.GetPrim())
@@ -99,6 +119,25 @@ def read_collection(collection, kind: str, skip):
     if rules.get("/") in (EXPAND_PRIMS, EXPAND_PRIMS_AND_PROPERTIES) and EXCLUDE not in rules.values():
         return None
     return LinkCollection(rules)
+
+
+def resolve_expressions(scene) -> None:
+    """Replaces each :class:`MembershipExpression` among ``scene``'s light and shadow links by the
+    :class:`LinkCollection` of the drawn paths (:func:`drawn_paths`) USD's query includes (``explicitOnly`` rules),
+    or None when it includes all of them. Geometry added to the scene later is outside such a collection."""
+    from pxr import Sdf
+
+    expressions = [getattr(light, name) for light in scene.lights for name in ("light_link", "shadow_link")]
+    if not any(isinstance(e, MembershipExpression) for e in expressions):
+        return
+    paths = drawn_paths(scene)
+    for light in scene.lights:
+        for name in ("light_link", "shadow_link"):
+            expression = getattr(light, name)
+            if isinstance(expression, MembershipExpression):
+                members = [path for path in paths if expression.query.IsPathIncluded(Sdf.Path(path))]
+                found = None if len(members) == len(paths) else LinkCollection.explicit(*members)
+                setattr(light, name, found)
 
 
 def check_links(light) -> None:
@@ -163,25 +202,16 @@ def link_groups(scene, lights: list):
         return groups.setdefault(row.tobytes(), len(groups))
 
     geometry = [np.full(len(m.indices), group_of(m.path), np.int32) for m in scene.meshes]
-    prototype_parts = []  # per prototype: the paths of its meshes, then its shapes
     for p in scene.prototypes:
-        parts = [m.path for m in p.meshes] + [s.path for s in p.shapes]
-        prototype_parts.append(parts)
         geometry += [np.full(len(m.indices), k, np.int32) for k, m in enumerate(p.meshes)]
     geometry.append(np.array([group_of(s.path) for s in scene.shapes], np.int32))
     for p in scene.prototypes:
         geometry.append(np.arange(len(p.meshes), len(p.meshes) + len(p.shapes), dtype=np.int32))
 
-    instances = scene.instances
-    roots = instances.root if len(instances.roots) else np.full(len(instances), -1, np.int32)
-    instance_groups = np.zeros(len(instances), np.int32)
+    instance_groups = np.zeros(len(scene.instances), np.int32)
     part_groups = []
-    # One evaluation per distinct (prototype, proxy root): a PointInstancer's instances of a prototype share both.
-    pairs, inverse = np.unique(np.stack([instances.prototype, roots], axis=1), axis=0, return_inverse=True)
-    for (proto, root), rows in zip(pairs, _rows_by_key(inverse.reshape(-1), len(pairs))):
-        prototype = scene.prototypes[proto]
-        proxy = instances.roots[root] if root >= 0 else None
-        found = [group_of(part_path(path, prototype.path, proxy)) for path in prototype_parts[proto]]
+    for paths, rows in _instance_parts(scene):
+        found = [group_of(path) for path in paths]
         if len(set(found)) <= 1:
             instance_groups[rows] = found[0] if found else 0
             continue
@@ -191,6 +221,31 @@ def link_groups(scene, lights: list):
     masks = np.frombuffer(b"".join(groups), np.uint8).reshape(len(groups), len(lights))
     return HostLinks(masks.copy(), np.concatenate(geometry).astype(np.int32), instance_groups,
                      np.concatenate(part_groups or [np.zeros(0, np.int32)]))
+
+
+def drawn_paths(scene) -> list:
+    """The path of each drawn geometry of ``scene`` as linking decides its membership (see the module docstring):
+    meshes and shapes, then the parts of each instance at the paths it draws them at, each path once."""
+    paths = [m.path for m in scene.meshes] + [s.path for s in scene.shapes]
+    for parts, _ in _instance_parts(scene):
+        paths += parts
+    return list(dict.fromkeys(paths))
+
+
+def _instance_parts(scene) -> list:
+    """``(paths, rows)`` per distinct (prototype, proxy root) of ``scene``'s instances: the paths its prototype's
+    parts (meshes, then shapes) are drawn at, and the instances drawn so. A PointInstancer's instances of a
+    prototype share both: one entry for them all."""
+    instances = scene.instances
+    roots = instances.root if len(instances.roots) else np.full(len(instances), -1, np.int32)
+    pairs, inverse = np.unique(np.stack([instances.prototype, roots], axis=1), axis=0, return_inverse=True)
+    found = []
+    for (proto, root), rows in zip(pairs, _rows_by_key(inverse.reshape(-1), len(pairs))):
+        prototype = scene.prototypes[proto]
+        proxy = instances.roots[root] if root >= 0 else None
+        parts = [m.path for m in prototype.meshes] + [s.path for s in prototype.shapes]
+        found.append(([part_path(path, prototype.path, proxy) for path in parts], rows))
+    return found
 
 
 def _rows_by_key(keys: np.ndarray, n: int) -> list:

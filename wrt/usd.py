@@ -77,7 +77,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc, UsdShade
 from .camera import Camera
 from .errors import SceneError, TimeRangeWarning
 from .instancing import Instances, Prototype, group_rows, invert_transforms, world_boxes
-from .light_links import part_path
+from .light_links import part_path, resolve_expressions
 from .materials import MaterialReader, bound_material
 from .primitives import (
     DEFAULT_SEGMENTS,
@@ -452,6 +452,7 @@ class _StageReader:
         scene.textures = self.materials.textures
         if inverses is not None:
             scene.remember_instance_inverses(inverses)
+        resolve_expressions(scene)  # linking collections in expression mode, against the paths drawn
         self._warn_skipped()
         return scene
 
