@@ -232,3 +232,106 @@ def test_python_shapes_take_an_opacity():
     for bad in (float("nan"), 1.5):
         with pytest.raises(ValueError, match="opacity must be in"):
             wrt.primitives.Shape("/S", "sphere", np.eye(4), opacity=bad)
+
+
+def opacity_primvar(prim, values, interpolation=UsdGeom.Tokens.constant):
+    """``primvars:displayOpacity`` ``values`` on ``prim`` (any prim: an Xform, an instance, a PointInstancer)."""
+    UsdGeom.PrimvarsAPI(prim).CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray,
+                                            interpolation).Set(values)
+
+
+def test_native_instance_hands_its_opacity_to_the_prototype(tmp_path, references):
+    """A constant displayOpacity on a native instance (0.5) or on an Xform above it (0.25) is the opacity of its
+    prototype's quad, which has none (primvars inherit through instance proxies), with no warning. Before, it was
+    not seen from inside the prototype: the quad was drawn opaque (the render equalled ``opaque``)."""
+    opaque, empty = references
+    for opacity, holder in ((0.5, "/Part"), (0.25, "/Group")):
+        def build(stage):
+            quad(stage, "/Proto/Quad")
+            stage.GetPrimAtPath("/Proto").SetSpecifier(Sdf.SpecifierClass)
+            UsdGeom.Xform.Define(stage, "/Group")
+            instance = stage.DefinePrim("/Group/Part" if holder == "/Group" else "/Part")
+            instance.GetReferences().AddInternalReference("/Proto")
+            instance.SetInstanceable(True)
+            opacity_primvar(stage.GetPrimAtPath(holder), [opacity])
+
+        scene, messages = stage_with(tmp_path, build, f"native{opacity}.usda")
+        assert len(scene.instances) == 1
+        np.testing.assert_allclose(render(scene), opacity * opaque + (1 - opacity) * empty, rtol=1e-4, atol=1e-6)
+        assert not [m for m in messages if "displayOpacity" in m], messages
+
+
+def instancer(stage, proto_opacity=None, root_opacity=None):
+    """A PointInstancer ``/PI`` of two instances of a 1 x 2 strip of the quad's colour (``/PI/Protos/Strip/Mesh``)
+    at x = -0.5 and 0.5, together covering the quad; ``proto_opacity``: the strip mesh's own displayOpacity,
+    ``root_opacity``: one on the prototype root Xform."""
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    root = UsdGeom.Xform.Define(stage, "/PI/Protos/Strip")
+    mesh = add_quad(stage, "/PI/Protos/Strip/Mesh", size=1.0)
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(x, y, 0) for y in (-1, 1) for x in (-0.5, 0.5)]))
+    mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([COLOR])
+    if proto_opacity is not None:
+        mesh.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.constant).Set([proto_opacity])
+    if root_opacity is not None:
+        opacity_primvar(root.GetPrim(), [root_opacity])
+    pi.CreatePrototypesRel().AddTarget("/PI/Protos/Strip")
+    pi.CreateProtoIndicesAttr([0, 0])
+    pi.CreatePositionsAttr([(-0.5, 0, 0), (0.5, 0, 0)])
+    return pi
+
+
+def test_point_instancer_opacity_per_instance_and_on_the_prototype(tmp_path, references):
+    """A PointInstancer's ``vertex`` displayOpacity (0.25, 0.75; indexed the second time) is each instance's: the
+    left half shows a quarter of the quad, the right three quarters, with no warning. A prototype mesh's own
+    opacity (1) wins over it, as its own displayColor wins; one on the prototype's root Xform (0.5) applies by
+    inheritance. Before, the per-instance values were ignored: both halves opaque."""
+    opaque, empty = references
+    a = np.where(COLUMN_X < 0.0, 0.25, 0.75)[None, :, None]
+
+    def per_instance(stage):
+        opacity_primvar(instancer(stage), [0.25, 0.75], UsdGeom.Tokens.vertex)
+
+    def indexed(stage):
+        primvar = UsdGeom.PrimvarsAPI(instancer(stage)).CreatePrimvar(
+            "displayOpacity", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex)
+        primvar.Set([0.75, 0.25])
+        primvar.SetIndices(Vt.IntArray([1, 0]))
+
+    for build in (per_instance, indexed):
+        scene, messages = stage_with(tmp_path, build, f"{build.__name__}.usda")
+        np.testing.assert_allclose(render(scene), a * opaque + (1 - a) * empty, rtol=1e-4, atol=1e-6,
+                                   err_msg=build.__name__)
+        assert not [m for m in messages if "displayOpacity" in m], messages
+        np.testing.assert_array_equal(scene.instances.opacities, [0.25, 0.75])
+
+    def own_wins(stage):
+        opacity_primvar(instancer(stage, proto_opacity=1.0), [0.25, 0.75], UsdGeom.Tokens.vertex)
+
+    scene, _ = stage_with(tmp_path, own_wins, "own.usda")
+    np.testing.assert_allclose(render(scene), opaque, rtol=1e-4, atol=1e-6)
+    scene, _ = stage_with(tmp_path, lambda stage: instancer(stage, root_opacity=0.5), "root.usda")
+    np.testing.assert_allclose(render(scene), 0.5 * opaque + 0.5 * empty, rtol=1e-4, atol=1e-6)
+
+
+def test_point_instancer_opacity_of_the_wrong_length_is_named(tmp_path, references):
+    """Three values for two instances: ignored (the strips opaque) with a warning naming the instancer and what was
+    expected."""
+    opaque, _ = references
+    scene, messages = stage_with(
+        tmp_path, lambda stage: opacity_primvar(instancer(stage), [0.25, 0.75, 0.5], UsdGeom.Tokens.vertex))
+    np.testing.assert_allclose(render(scene), opaque, rtol=1e-4, atol=1e-6)
+    named = [m for m in messages if "displayOpacity of the wrong length" in m]
+    assert len(named) == 1 and "/PI" in named[0] and "expected 2" in named[0], messages
+
+
+def test_python_instances_take_opacities():
+    """``Instances.opacities`` is one value in [0, 1] (or NaN: none) per instance, or empty."""
+    instances = wrt.instancing.Instances.from_transforms([0, 0], np.broadcast_to(np.eye(4), (2, 4, 4)))
+    assert instances.opacities.shape == (0,)
+    instances.opacities = [0.5, np.nan]
+    instances.check_opacities()
+    assert instances.opacities.dtype == np.float32 and instances.take([1]).opacities.shape == (1,)
+    for bad, match in (([0.5], "one per instance"), ([0.5, 1.5], r"opacities\[1\] = 1.5")):
+        instances.opacities = bad
+        with pytest.raises(ValueError, match=match):
+            instances.check_opacities()

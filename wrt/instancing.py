@@ -88,6 +88,10 @@ class Instances(CountsAssignments):
             part by it: ``/World/Instance/geo/mesh`` for part ``/__Prototype_1/geo/mesh``); empty: parts keep their
             own paths.
         root: ``(N,)`` int32 index into ``roots`` of each instance (-1: its parts keep their own paths), or empty.
+        opacities: ``(N,)`` float32 ``displayOpacity`` of each instance in [0, 1] (a PointInstancer's primvar, one a
+            native instance or its ancestor hands down, a point's or curve's own), NaN for instances without one;
+            ``(0,)`` when no instance has one. It is the opacity of the prototype meshes and shapes drawn with the
+            default material that have none of their own, read at shading time by instance id, as :attr:`colors`.
     """
 
     prototype: np.ndarray
@@ -98,6 +102,7 @@ class Instances(CountsAssignments):
     colors: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 3), np.float32))
     roots: list = dataclasses.field(default_factory=list)
     root: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
+    opacities: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
 
     def __post_init__(self):
         self.prototype = np.ascontiguousarray(self.prototype, dtype=np.int32).reshape(-1)
@@ -111,6 +116,7 @@ class Instances(CountsAssignments):
         if len(self.roots) and (len(self.root) != n or np.any(self.root >= len(self.roots))):
             raise ValueError(f"Instances root must hold one index into roots ({len(self.roots)}) per instance ({n})")
         self.check_colors()
+        self.check_opacities()
         self.check_affine()
 
     def check_colors(self) -> None:
@@ -130,6 +136,24 @@ class Instances(CountsAssignments):
         bad = np.flatnonzero(np.isinf(colors).any(axis=1))
         if len(bad):
             raise ValueError(f"Instances colors must be finite (NaN: no colour); row {bad[0]} is not")
+
+    def check_opacities(self) -> None:
+        """Raises ``ValueError`` unless :attr:`opacities` has one value per instance (or none: empty or None), each
+        in [0, 1] or NaN (none); stores it as float32. Run before each trace and render too, as
+        :meth:`check_colors`."""
+        opacities = self.opacities
+        if opacities is None or np.size(opacities) == 0:
+            opacities = np.zeros(0, np.float32) if np.shape(opacities) != (0,) else opacities
+        opacities = np.ascontiguousarray(opacities, dtype=np.float32)
+        if opacities is not self.opacities:  # only a real change (see check_colors)
+            self.opacities = opacities
+        if opacities.ndim != 1 or len(opacities) not in (0, len(self)):
+            raise ValueError(f"Instances opacities must be (N,), one per instance ({len(self)}), or empty; got "
+                             f"{opacities.shape}")
+        bad = np.flatnonzero((opacities < 0.0) | (opacities > 1.0))  # NaN compares false: no opacity
+        if len(bad):
+            raise ValueError(f"Instances opacities must be in [0, 1] (NaN: none); opacities[{bad[0]}] = "
+                             f"{opacities[bad[0]]:g}")
 
     def check_affine(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose transform's bottom row is not ``(0, 0, 0, 1)``.
@@ -163,8 +187,9 @@ class Instances(CountsAssignments):
         """The instances at ``rows`` (an index array or a boolean mask), every per-instance array alike."""
         colors = self.colors[rows] if len(self.colors) else self.colors
         root = self.root[rows] if len(self.roots) else self.root
+        opacities = self.opacities[rows] if len(self.opacities) else self.opacities
         return Instances(self.prototype[rows], self.to_world[rows], self.source[rows], self.index[rows],
-                         self.sources, colors, self.roots, root)
+                         self.sources, colors, self.roots, root, opacities)
 
     def __len__(self) -> int:
         return len(self.prototype)

@@ -59,6 +59,8 @@ class DeviceScene:
     takes_instance_color: wp.array[wp.uint8]  # (T + S,) 1 where a geometry id has no colours of its own
     opacities: wp.array2d[float]  # (T + S, 3) displayOpacity per corner, NaN where the geometry has none, or (1, 3)
     num_opacities: int  # T + S when any geometry has a displayOpacity, else 0 (then opacities is a placeholder)
+    instance_opacities: wp.array[float]  # (N,) each instance's displayOpacity (Instances.opacities; NaN: none), or (1,)
+    num_instance_opacities: int  # N when any instance has an opacity, else 0 (then instance_opacities is a placeholder)
 
 
 # The depth of field divides by metersPerUnit (millimetres of focal length to scene units): below this, or not
@@ -389,6 +391,7 @@ class Scene:
 
         self.instances.check_affine()  # transforms (and colours) may have been changed since
         self.instances.check_colors()
+        self.instances.check_opacities()
         prototype = self.instances.prototype
         bad = np.flatnonzero((prototype < 0) | (prototype >= len(self.prototypes)))
         if len(bad):
@@ -746,6 +749,10 @@ class Scene:
             s.num_opacities = 0 if opacities is None else len(opacities)
             s.opacities = wp.array(np.full((1, 3), np.nan, np.float32) if opacities is None else opacities,
                                    dtype=float, device=device)
+            instance_opacities = self.instances.opacities
+            s.num_instance_opacities = len(instance_opacities)
+            s.instance_opacities = wp.array(instance_opacities if len(instance_opacities) else np.full(1, np.nan),
+                                            dtype=float, device=device)
             self._cache[key] = s
         return self._cache[key]
 

@@ -214,6 +214,10 @@ def hit_point(
     h.opacity = wp.nan
     if prim < scene.num_opacities:
         h.opacity = w * scene.opacities[prim, 0] + u * scene.opacities[prim, 1] + v * scene.opacities[prim, 2]
+    if wp.isnan(h.opacity) and instance >= 0 and instance < scene.num_instance_opacities:
+        # An instance's displayOpacity (a PointInstancer's, a native instance's, a point's) is the opacity of the
+        # prototype geometry that has none of its own.
+        h.opacity = scene.instance_opacities[instance]
     return h
 
 

@@ -352,7 +352,9 @@ class _Content:
         self.path = path  # prim path of the subtree root
         self.meshes: list[Mesh] = []  # in this content's space
         self.shapes: list[Shape] = []  # analytic gprims, in this content's space
-        self.instances: list = []  # (content key, (K, 4, 4) column-vector transforms to this space, source, indices)
+        # (content key, (K, 4, 4) column-vector transforms to this space, source, indices, looks): looks are the
+        # instances' (K, 4) colour and displayOpacity (NaN: none; see _looks), or None.
+        self.instances: list = []
         self.uses_outer = False  # a mesh binds no material itself: a material bound above an instance applies
         # Colour primvars (displayColor, or the one a material reads) that a mesh or gprim lacks: one an instance
         # hands down applies.
@@ -532,12 +534,12 @@ class _StageReader:
         elif shape is not None:
             ctx.content.shapes.append(shape)
 
-    def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool) -> float | None:
+    def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool, keep_opaque: bool = False) -> float | None:
         """The ``displayOpacity`` of ``prim`` (its own or a constant inherited one) for prims drawn with the default
         material in one opacity (gprims, points, curves, tet meshes, NURBS patches): the mean of its values (see
         :func:`wrt.usd_primvars.unit_opacities`), as gprims take the mean displayColor, or None when it has none or
-        is opaque. ``one_per_prim``: values that differ are named in a warning (their displayColor is read per
-        element)."""
+        is opaque (unless ``keep_opaque``, as :meth:`_read_opacities`). ``one_per_prim``: values that differ are named
+        in a warning (their displayColor is read per element)."""
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
         if not (primvar and primvar.HasValue()):
             return None
@@ -553,7 +555,7 @@ class _StageReader:
             self._skip(f"{prim.GetTypeName()} prims are drawn in one opacity: the mean of their displayOpacity", prim,
                        primvar.GetInterpolation())
         mean = float(values.mean())
-        return mean if mean < 1.0 else None
+        return mean if mean < 1.0 or keep_opaque else None
 
     # Filters
 
@@ -673,7 +675,11 @@ class _StageReader:
         if color is not None and color[0] in content.outer_colors:
             key = self._colored(key, content, color, prim)
         m = self._to_space(prim, ctx).T  # column vectors
-        ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), None))
+        # A constant displayOpacity on the instance or above it is the opacity of the prototype's geometry that has
+        # none: one value per instance (Instances.opacities), no copy of the prototype.
+        opacity = self._inherited_opacity(prim)
+        looks = None if opacity is None else _looks(None, np.array([opacity], np.float32))
+        ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), looks))
         self._read_cameras(prim, self.contents[key].cameras, ctx)
 
     def _inherited_color(self, prim: Usd.Prim, names: list[str]) -> tuple | None:
@@ -691,6 +697,19 @@ class _StageReader:
                 return name, tuple(float(v) for v in values[:3])
             return None
         return None
+
+    def _inherited_opacity(self, prim: Usd.Prim) -> float | None:
+        """The constant ``displayOpacity`` native instance ``prim`` hands down to its prototype's geometry that has
+        none (its own or its nearest ancestor's, as for :meth:`_inherited_color`; the mean of its values, see
+        :func:`wrt.usd_primvars.unit_opacities`), or None."""
+        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        primvar = inherited.get("displayOpacity")
+        if primvar is None:
+            return None
+        values = np.asarray(primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time)) or [])
+        if values.ndim != 1 or values.dtype.kind not in "fiu" or not len(values):
+            return None
+        return float(unit_opacities(values.astype(np.float64), prim, self._skip).mean())
 
     def _colored(self, key: tuple, content: _Content, color: tuple, prim: Usd.Prim) -> tuple:
         """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``
@@ -796,6 +815,7 @@ class _StageReader:
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
         scales = per_instance(scales_attr, 3, "scales", np.ones(3), _value_if_any(scales_attr, t, read))
         colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
+        opacities = self._instance_opacities(prim, n, read)
 
         # Column-vector instance transforms: translate(position) @ spin @ rotate(orientation) @ scale(scale).
         m = np.zeros((n, 4, 4))
@@ -834,9 +854,9 @@ class _StageReader:
             name = self._instance_color_name(prim, content.outer_colors)
             if name not in colors_by_name:
                 colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
-            colors = colors_by_name[name]
+            looks = _looks(colors_by_name[name], opacities)
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
-                                          None if colors is None else colors[rows]))
+                                          None if looks is None else looks[rows]))
 
     def _instance_color_name(self, prim: Usd.Prim, wanted: list[str]) -> str | None:
         """The colour primvar of PointInstancer ``prim`` that colours its instances of a prototype whose geometry
@@ -851,15 +871,36 @@ class _StageReader:
 
     def _instance_colors(self, prim: Usd.Prim, n: int, read, name: str) -> np.ndarray | None:
         """``(n, 3)`` float32 colour of each of the ``n`` instances of PointInstancer ``prim``, from its colour
-        primvar ``name`` (``displayColor``, or the one its prototypes' materials read; the rgb of a 4-vector one):
-        ``constant`` gives one colour to all, ``vertex`` or ``varying`` one per instance (after its ``indices``),
-        read by ``read`` as the positions are. None, with a warning naming it and what was expected, when it cannot
-        be used: another interpolation, a length other than ``n``."""
+        primvar ``name`` (``displayColor``, or the one its prototypes' materials read; the rgb of a 4-vector one)
+        (see :meth:`_instance_values`)."""
+        values = self._instance_values(prim, n, read, name, (3, 4))
+        if values is None:
+            return None
+        # NaN here would mean "no colour" (Instances.colors) and inf would shade as inf.
+        return np.broadcast_to(finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), (n, 3))
+
+    def _instance_opacities(self, prim: Usd.Prim, n: int, read) -> np.ndarray | None:
+        """``(n,)`` float32 ``displayOpacity`` of each of the ``n`` instances of PointInstancer ``prim`` (see
+        :meth:`_instance_values`; NaN read as 1 and values clamped to [0, 1], as on meshes), or None without one."""
+        if not UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayOpacity").HasValue():
+            return None
+        values = self._instance_values(prim, n, read, "displayOpacity", (1,))
+        if values is None:
+            return None
+        return np.broadcast_to(unit_opacities(values.reshape(-1), prim, self._skip).astype(np.float32), (n,))
+
+    def _instance_values(self, prim: Usd.Prim, n: int, read, name: str, widths: tuple) -> np.ndarray | None:
+        """``(1 or n, k)`` float64 values of PointInstancer ``prim``'s primvar ``name``, ``k`` one of ``widths`` (an
+        array of numbers has ``k = 1``): ``constant`` gives one value to all, ``vertex`` or ``varying`` one
+        per instance (after its ``indices``), read by ``read`` as the positions are. None, with a warning naming it
+        and what was expected, when it cannot be used: another type, interpolation, or a length other than ``n``."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
         raw = read(primvar.GetAttr(), self.time)
         values = np.asarray(raw if raw is not None else [], np.float64)
+        if values.ndim == 1:  # an array of numbers
+            values = values[:, None]
         unreadable = f"PointInstancer {name} that cannot be read was ignored"
-        if values.ndim != 2 or values.shape[1] not in (3, 4) or primvar.GetElementSize() != 1:
+        if values.ndim != 2 or values.shape[1] not in widths or primvar.GetElementSize() != 1:
             self._skip(unreadable, prim, f"{primvar.GetTypeName()} of elementSize {primvar.GetElementSize()}")
             return None
         if primvar.IsIndexed():  # flattened as ComputeFlattened does, at the same time as the values
@@ -869,7 +910,6 @@ class _StageReader:
                 self._skip(unreadable, prim, f"indices out of range for {len(values)} values")
                 return None
             values = values[indices]
-        values = values[:, :3]
         interpolation = primvar.GetInterpolation()
         expected = {"constant": (1, "1"), "vertex": (n, "one per instance"), "varying": (n, "one per instance")}
         if interpolation not in expected:
@@ -881,8 +921,7 @@ class _StageReader:
             self._skip(f"PointInstancer {name} of the wrong length was ignored", prim,
                        f"{interpolation} with {len(values)} values, expected {count} ({meaning})")
             return None
-        # NaN here would mean "no colour" (Instances.colors) and inf would shade as inf.
-        return np.broadcast_to(finite_colors(np.array(values, np.float32), prim, name, self._skip), (n, 3))
+        return values
 
     def _place_instances(self, world: _Content, scene: Scene) -> np.ndarray | None:
         """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
@@ -914,11 +953,11 @@ class _StageReader:
                 root_of.append(np.full(len(to_world), root_ids[root], np.int32))
             for key, m, inner_source, _, inner in reversed(content.instances):
                 # Nested instances keep the world-level source and index of the instance they are part of, and the
-                # colour of the nearest instancer that gives one.
+                # colour and opacity of the nearest instance that gives one.
                 combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
                 inner_root = part_path(_drawn_root(key, inner_source, self.contents[key].path), content.path, root)
                 pending.append((self.contents[key], combined, source, np.repeat(index, len(m)),
-                                _nested_colors(color, inner, len(to_world), len(m)), inner_root))
+                                _nested_looks(color, inner, len(to_world), len(m)), inner_root))
         if not proto_ids:
             return None
         # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
@@ -929,12 +968,16 @@ class _StageReader:
         to_world = np.concatenate(matrices)[order]
         projective = np.flatnonzero(np.any(to_world[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
         to_world[:, 3] = (0.0, 0.0, 0.0, 1.0)  # as for meshes: only the affine part is used
-        colors = np.zeros((0, 3), np.float32)  # no instancer gives colours: no array
-        if any(c is not None for c in colors_of):  # NaN rows: instances without a colour
-            colors = np.concatenate([np.full((len(m), 3), np.nan, np.float32) if c is None else c
-                                     for c, m in zip(colors_of, matrices)])[order]
+        colors, opacities = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)  # none given: no arrays
+        if any(c is not None for c in colors_of):  # NaN: instances without a colour or an opacity
+            looks = np.concatenate([np.full((len(m), 4), np.nan, np.float32) if c is None else c
+                                    for c, m in zip(colors_of, matrices)])[order]
+            if not np.isnan(looks[:, :3]).all():
+                colors = np.ascontiguousarray(looks[:, :3])
+            if not np.isnan(looks[:, 3]).all():
+                opacities = np.ascontiguousarray(looks[:, 3])
         instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources, colors,
-                              roots, np.concatenate(root_of)[order])
+                              roots, np.concatenate(root_of)[order], opacities)
         for i in projective:
             self._skip_path("world transform is projective; its last column was ignored", instances.path(i))
         inverses, ok = invert_transforms(instances.to_world)
@@ -971,7 +1014,7 @@ class _StageReader:
         uv_set = self.materials.uv_set(face_materials, prim)
         color_names = self.materials.color_primvars(face_materials)
         default_faces = face_materials is None or bool(np.any(face_materials < 0))
-        local = self._read_local_mesh(prim, counts, uv_set, color_names, default_faces)
+        local = self._read_local_mesh(prim, counts, uv_set, color_names, default_faces, keep_opaque=not ctx.world)
         if local is None:
             return None
         # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
@@ -1008,7 +1051,8 @@ class _StageReader:
         cage = (np.full(len(surface.triangles), 3), surface.triangles.reshape(-1)) if surface.smooth else None
         double_sided = bool(value_at(gprim.GetDoubleSidedAttr(), self.time))
         colors = {} if surface.colors is None else {color_names[0]: surface.colors}
-        opacity = self._one_opacity(prim, True) if face_materials is None or face_materials[0] < 0 else None
+        default = face_materials is None or face_materials[0] < 0
+        opacity = self._one_opacity(prim, True, not ctx.world) if default else None
         opacities = None if opacity is None else (np.array([opacity], np.float32), np.zeros_like(surface.triangles))
         local = _LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
                            cage=cage, opacities=opacities)
@@ -1199,7 +1243,7 @@ class _StageReader:
             color=color,
             material_id=material_id,
             double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
-            opacity=self._one_opacity(prim, False) if material_id < 0 else None,
+            opacity=self._one_opacity(prim, False, not ctx.world) if material_id < 0 else None,
         )
         # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them.
         if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
@@ -1252,7 +1296,7 @@ class _StageReader:
                 content.shapes.append(shape)
             key = ("tubes", path, len(self.contents))  # a content of its own, placed only by these instances
             self.contents[key] = content
-            ctx.content.instances.append((key, group.to_space, path, group.index, group.colors))
+            ctx.content.instances.append((key, group.to_space, path, group.index, _looks(group.colors, None)))
 
     def _point_array(self, prim: Usd.Prim) -> np.ndarray | None:
         """``(n, 3)`` float64 ``points`` of a point-based prim (moved by its velocities where they apply), ``(0, 3)``
@@ -1291,10 +1335,11 @@ class _StageReader:
     # Meshes
 
     def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None,
-                         color_names=("displayColor",), default_faces=True) -> _LocalMesh | None:
+                         color_names=("displayColor",), default_faces=True, keep_opaque=False) -> _LocalMesh | None:
         """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials), with
         texture coordinates ``uv_set``, colours from the primvars ``color_names`` it has, and its ``displayOpacity``
-        when some faces have the default material (``default_faces``)."""
+        when some faces have the default material (``default_faces``; ``keep_opaque``: see
+        :meth:`_read_opacities`)."""
         mesh = UsdGeom.Mesh(prim)
         t = self.time
         face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
@@ -1345,7 +1390,7 @@ class _StageReader:
         normals = self._read_normals(prim, mesh, topology) if refinement is None else None
         colors = {name: found for name in color_names if (found := self._read_colors(prim, topology, name)) is not None}
         uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
-        opacities = self._read_opacities(prim, topology) if default_faces else None
+        opacities = self._read_opacities(prim, topology, keep_opaque) if default_faces else None
         flip = self._left_handed(prim, mesh, t)
         smooth = normals is None and scheme in SMOOTH_SCHEMES
         cage = polygons if smooth else None  # its normals are made in _read_mesh, after any posing and refining
@@ -1462,10 +1507,11 @@ class _StageReader:
         values, corner_index = found
         return finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), corner_index
 
-    def _read_opacities(self, prim, topology):
+    def _read_opacities(self, prim, topology, keep_opaque=False):
         """``(values (K,) float32, corner index (T, 3))`` from ``displayOpacity`` (its own or a constant inherited one;
         every interpolation and indexing as colours, see :func:`wrt.usd_primvars.unit_opacities` for bad values), or
-        None when it has none or is 1 everywhere (opaque: nothing to carry)."""
+        None when it has none or is 1 everywhere (opaque: nothing to carry), unless ``keep_opaque`` (a prototype's
+        geometry: its own 1 wins over an instance's opacity, Instances.opacities)."""
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
         if not (primvar and primvar.HasValue()):
             return None
@@ -1474,7 +1520,7 @@ class _StageReader:
             return None
         values, corner_index = found
         values = unit_opacities(values[:, 0], prim, self._skip)
-        return None if np.all(values >= 1.0) else (values.astype(np.float32), corner_index)
+        return None if np.all(values >= 1.0) and not keep_opaque else (values.astype(np.float32), corner_index)
 
     def _read_uvs(self, prim, topology, uv_set: str):
         """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (when missing:
@@ -1715,19 +1761,33 @@ def _drawn_root(key: tuple, source: str, content_path: str) -> str:
     return source if key[0] == "native" else content_path
 
 
-def _nested_colors(outer: np.ndarray | None, inner: np.ndarray | None, n_outer: int, n_inner: int):
-    """``(n_outer * n_inner, 3)`` colours of the instances nested ``n_inner`` in each of ``n_outer`` outer instances,
-    in the order of their combined transforms (outer major): the inner instancer's colour (``inner``, one row per
-    nested instance), else the outer instance's (``outer``, one row per outer instance), NaN where neither gives one;
-    None when neither has any."""
+def _looks(colors: np.ndarray | None, opacities: np.ndarray | None) -> np.ndarray | None:
+    """``(K, 4)`` float32 per-instance colour ``(K, 3)`` and opacity ``(K,)`` side by side, NaN for the one that is
+    None; None when both are."""
+    if colors is None and opacities is None:
+        return None
+    n = len(colors if colors is not None else opacities)
+    looks = np.full((n, 4), np.nan, np.float32)
+    if colors is not None:
+        looks[:, :3] = colors
+    if opacities is not None:
+        looks[:, 3] = opacities
+    return looks
+
+
+def _nested_looks(outer: np.ndarray | None, inner: np.ndarray | None, n_outer: int, n_inner: int):
+    """``(n_outer * n_inner, 4)`` colours and opacities (:func:`_looks`) of the instances nested ``n_inner`` in each
+    of ``n_outer`` outer instances, in the order of their combined transforms (outer major): the inner instance's
+    (``inner``, one row per nested instance), else the outer instance's (``outer``, one row per outer instance),
+    colour and opacity each, NaN where neither gives one; None when neither has any."""
     if outer is None and inner is None:
         return None
     rows = n_outer * n_inner
-    outer_rows = np.full((rows, 3), np.nan, np.float32) if outer is None else np.repeat(outer, n_inner, axis=0)
+    outer_rows = np.full((rows, 4), np.nan, np.float32) if outer is None else np.repeat(outer, n_inner, axis=0)
     if inner is None:
         return outer_rows
     inner_rows = np.tile(inner, (n_outer, 1))
-    return np.where(np.isnan(inner_rows[:, :1]), outer_rows, inner_rows)
+    return np.where(np.isnan(inner_rows), outer_rows, inner_rows)
 
 
 def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
