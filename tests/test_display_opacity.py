@@ -203,26 +203,50 @@ def test_python_meshes_take_opacities():
         wrt.Mesh("/T", points, np.array([[0, 1, 2]]), np.zeros(1, np.int32), opacities=[0.5, 0.5])
 
 
-def test_points_curves_and_tet_meshes_take_one_opacity(tmp_path):
-    """Points, curves, tet meshes and NURBS patches are drawn in one opacity: a per-point displayOpacity gives its
-    mean, with a warning naming the prim (their displayColor is read per point)."""
-    def build(stage):
-        particles = UsdGeom.Points.Define(stage, "/Part")
-        particles.CreatePointsAttr([(-0.5, 0.0, 0.0), (0.5, 0.0, 0.0)])
-        particles.CreateWidthsAttr([0.5, 0.5])
-        particles.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.vertex).Set([0.2, 0.6])
-        tets = UsdGeom.TetMesh.Define(stage, "/Tets")
-        tets.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)])
-        tets.CreateTetVertexIndicesAttr([Gf.Vec4i(0, 1, 2, 3)])
-        tets.CreateDisplayOpacityPrimvar().Set([0.25])
+def test_points_and_curves_take_an_opacity_per_point_or_curve(tmp_path):
+    """A ``vertex`` displayOpacity on Points (0.2, 0.6) is one per sphere, as their displayColor is: the render
+    equals, on each side, that of the same points in the one opacity of that side, with no warning; ``uniform`` on
+    linear BasisCurves (0.3, 0.9, 1.5 clamped to 1 with a warning) is one per curve, every piece of it. Tet meshes
+    and NURBS patches still take one opacity, the mean. Before, the points were drawn in their mean, 0.4, with a
+    warning, and the curves in theirs."""
+    def points(opacity, interpolation=UsdGeom.Tokens.constant):
+        def build(stage):
+            particles = UsdGeom.Points.Define(stage, "/Part")
+            particles.CreatePointsAttr([(-0.5, 0.0, 0.0), (0.5, 0.0, 0.0)])
+            particles.CreateWidthsAttr([0.8, 0.8])
+            particles.CreateDisplayColorPrimvar().Set([COLOR])
+            particles.CreateDisplayOpacityPrimvar(interpolation).Set(opacity)
+            tets = UsdGeom.TetMesh.Define(stage, "/Tets")
+            tets.CreatePointsAttr([(2, 2, 0), (3, 2, 0), (2, 3, 0), (2, 2, 1)])  # out of view
+            tets.CreateTetVertexIndicesAttr([Gf.Vec4i(0, 1, 2, 3)])
+            tets.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.vertex).Set([0.25, 0.25, 0.75, 0.75])
+        return build
 
-    scene, messages = stage_with(tmp_path, build)
-    shapes = [s for p in scene.prototypes for s in p.shapes]
-    assert len(shapes) == 1 and shapes[0].opacity == pytest.approx(0.4)
+    scene, messages = stage_with(tmp_path, points([0.2, 0.6], UsdGeom.Tokens.vertex), "per_point.usda")
+    np.testing.assert_allclose(scene.instances.opacities, [0.2, 0.6], rtol=1e-6)
     named = [m for m in messages if "mean of their displayOpacity" in m]
-    assert len(named) == 1 and "/Part" in named[0] and "/Tets" not in named[0], messages
+    assert len(named) == 1 and "/Tets" in named[0] and "/Part" not in named[0], messages
     tet_mesh = [m for m in scene.meshes if m.path == "/Tets"][0]
-    np.testing.assert_array_equal(tet_mesh.opacities, np.full((4, 3), 0.25, np.float32))
+    np.testing.assert_allclose(tet_mesh.opacities, 0.5)
+    left = render(stage_with(tmp_path, points([0.2]), "left.usda")[0])
+    right = render(stage_with(tmp_path, points([0.6]), "right.usda")[0])
+    expected = np.where((COLUMN_X < 0.0)[None, :, None], left, right)
+    np.testing.assert_allclose(render(scene), expected, rtol=1e-4, atol=1e-6)
+
+    def curves(stage):
+        lines = UsdGeom.BasisCurves.Define(stage, "/Curves")
+        lines.CreateTypeAttr(UsdGeom.Tokens.linear)
+        lines.CreateCurveVertexCountsAttr([3, 2, 2])
+        lines.CreatePointsAttr([(-1, 0, 0), (0, 0, 0), (0, 1, 0), (1, 0, 0), (1, 1, 0), (2, 0, 0), (2, 1, 0)])
+        lines.CreateWidthsAttr([0.1])
+        lines.SetWidthsInterpolation(UsdGeom.Tokens.constant)
+        lines.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.uniform).Set([0.3, 0.9, 1.5])
+
+    scene, messages = stage_with(tmp_path, curves, "curves.usda")
+    curve = scene.instances.index
+    assert set(curve) == {0, 1, 2} and len(curve) > 3  # spheres and tube pieces of each curve
+    np.testing.assert_allclose(scene.instances.opacities, np.array([0.3, 0.9, 1.0])[curve], rtol=1e-6)
+    assert len([m for m in messages if "outside [0, 1] were clamped" in m and "/Curves" in m]) == 1, messages
 
 
 def test_python_shapes_take_an_opacity():

@@ -1278,11 +1278,13 @@ class _StageReader:
                 self._skip(f"{prim.GetTypeName()} prims with curves but no points were skipped", prim)
             return
         material_id, primvar, color = self._gprim_look(prim, ctx)
-        opacity = self._one_opacity(prim, True) if material_id < 0 else None
+        # displayOpacity per point or curve is one per instance, as colours are; a single value is the shapes' own.
+        per_element = self._opacity_per_element(prim) if material_id < 0 else None
+        opacity = self._one_opacity(prim, True, not ctx.world) if material_id < 0 and not per_element else None
         m = self._to_space(prim, ctx)
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
             self._skip("world transform is projective; its last column was ignored", prim)
-        groups, constant = self.tubes.read(prim, points, m.T, primvar, counts)
+        groups, constant = self.tubes.read(prim, points, m.T, primvar, counts, per_element)
         color = constant if constant is not None else color
         double_sided = bool(value_at(UsdGeom.Gprim(prim).GetDoubleSidedAttr(), self.time))
         path = str(prim.GetPath())
@@ -1296,7 +1298,19 @@ class _StageReader:
                 content.shapes.append(shape)
             key = ("tubes", path, len(self.contents))  # a content of its own, placed only by these instances
             self.contents[key] = content
-            ctx.content.instances.append((key, group.to_space, path, group.index, _looks(group.colors, None)))
+            ctx.content.instances.append((key, group.to_space, path, group.index,
+                                          _looks(group.colors, group.opacities)))
+
+    def _opacity_per_element(self, prim: Usd.Prim):
+        """The ``displayOpacity`` primvar of Points or curves ``prim`` when it gives a value per point or curve (an
+        interpolation other than ``constant``; ``uniform`` on curves, not on Points, which are one element), else
+        None."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayOpacity")  # inherited ones are constant
+        if not (primvar and primvar.HasValue()):
+            return None
+        interpolation = primvar.GetInterpolation()
+        one = interpolation == "constant" or (interpolation == "uniform" and prim.IsA(UsdGeom.Points))
+        return None if one else primvar
 
     def _point_array(self, prim: Usd.Prim) -> np.ndarray | None:
         """``(n, 3)`` float64 ``points`` of a point-based prim (moved by its velocities where they apply), ``(0, 3)``

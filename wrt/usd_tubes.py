@@ -12,7 +12,8 @@ They are scaled into the content's space by the length of the prim's transform a
 Storm and RenderMan scale point widths, so points stay round spheres and tubes round under a non-uniform scale. A
 width of 0 draws nothing; negative, NaN or infinite widths and points that are not finite are left out with a
 warning. Colours (``displayColor``, or the primvar the material
-reads) of every interpolation become one colour per instance: a segment takes the mean of its ends' colours.
+reads) and ``displayOpacity`` of every interpolation become one colour and opacity per instance: a segment takes the
+mean of its ends' values.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from .tubes import (
     segment_transforms,
     sphere_transforms,
 )
-from .usd_primvars import FieldReader
+from .usd_primvars import FieldReader, unit_opacities
 from .usd_values import value_at
 
 _CURVE_TOKENS = {  # attribute -> (allowed tokens, fallback used for any other, as UsdImaging does)
@@ -52,6 +53,7 @@ class TubeGroup:
         to_space: ``(K, 4, 4)`` column-vector transforms of the canonical shape into the prim's content space.
         index: ``(K,)`` int32 point (Points) or curve (BasisCurves) each instance draws.
         colors: ``(K, 3)`` float32 linear colour per instance, or None.
+        opacities: ``(K,)`` float32 ``displayOpacity`` per instance, or None.
     """
 
     kind: str
@@ -59,13 +61,15 @@ class TubeGroup:
     to_space: np.ndarray
     index: np.ndarray
     colors: np.ndarray | None
+    opacities: np.ndarray | None = None
 
 
 class TubeReader(FieldReader):
     """Reads Points and curves (BasisCurves, HermiteCurves, NurbsCurves) prims at one time code (see
     :class:`wrt.usd_primvars.FieldReader` for the arguments)."""
 
-    def read(self, prim: Usd.Prim, points: np.ndarray, to_space: np.ndarray, color_primvar, counts=None):
+    def read(self, prim: Usd.Prim, points: np.ndarray, to_space: np.ndarray, color_primvar, counts=None,
+             opacity_primvar=None):
         """The instance groups of ``prim`` and its constant colour.
 
         Args:
@@ -73,6 +77,8 @@ class TubeReader(FieldReader):
             to_space: ``(4, 4)`` column-vector transform from the prim to its content's space.
             color_primvar: the ``UsdGeom.Primvar`` of its colour (its own or a constant inherited one), or None.
             counts: ``curveVertexCounts`` ``(C,)`` int64 for curves, None for Points.
+            opacity_primvar: its ``displayOpacity`` primvar when that gives values per point or curve (read per
+                instance as colours are, NaN read as 1 and values clamped to [0, 1] with a warning), else None.
 
         Returns:
             ``(groups, color)``: :class:`TubeGroup` list, and the ``(3,)`` float32 colour for all of them when the
@@ -81,20 +87,29 @@ class TubeReader(FieldReader):
         with np.errstate(invalid="ignore", over="ignore"):  # points that are not finite are named below
             centres = points @ to_space[:3, :3].T + to_space[:3, 3]
         scale = float(np.linalg.norm(to_space[:3, :3] @ np.full(3, 3.0**-0.5)))
+        fields = (color_primvar, opacity_primvar)
         if counts is None:
-            return self._points(prim, points, centres, scale, color_primvar)
-        return self._curves(prim, points, centres, scale, color_primvar, counts, to_space[:3, :3])
+            return self._points(prim, points, centres, scale, fields)
+        return self._curves(prim, points, centres, scale, fields, counts, to_space[:3, :3])
+
+    def _fields(self, prim, fields, sizes):
+        """The ``(colors, opacities)`` fields (:meth:`FieldReader.field`) of the ``(colour, opacity)`` primvars
+        ``fields`` (None where one is None), opacities clamped to [0, 1]."""
+        color_primvar, opacity_primvar = fields
+        colors = self.field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
+        opacities = self.field(prim, opacity_primvar, sizes, 1) if opacity_primvar is not None else None
+        if opacities is not None:
+            opacities = (opacities[0], unit_opacities(opacities[1][:, 0], prim, self.skip)[:, None])
+        return colors, opacities
 
     # Points
 
-    def _points(self, prim, points, centres, scale, color_primvar):
+    def _points(self, prim, points, centres, scale, fields):
         n = len(points)
         sizes = {"constant": 1, "uniform": 1, "vertex": n, "varying": n, "faceVarying": n}
         widths = self._widths(prim, UsdGeom.Points(prim), sizes)
         radii = self._radii(prim, widths, n) * scale
-        colors = self.field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
-        if colors is not None and colors[0] == "uniform":  # a Points prim is one element
-            colors = ("constant", colors[1])
+        colors, opacities = self._fields(prim, fields, sizes)
         # Points are independent: one that is not finite (a diverged particle) is left out, the others drawn.
         finite = _finite_boxes(centres, radii)
         if not finite.all():
@@ -102,14 +117,17 @@ class TubeReader(FieldReader):
             self.skip("points that are not finite (or past float32 with their width) were left out", prim,
                       f"{int((~finite).sum())} of {n}, first points[{i}]")
         keep = np.flatnonzero(finite & (radii > 0.0))
-        per_point = colors is not None and colors[0] != "constant"
-        group = TubeGroup("sphere", _params(), sphere_transforms(centres[keep], radii[keep]),
-                          keep.astype(np.int32), colors[1][keep].astype(np.float32) if per_point else None)
+        # A Points prim is one element: uniform values are constant.
+        colors, opacities = (f if f is None or f[0] != "uniform" else ("constant", f[1]) for f in (colors, opacities))
+        per_point = [f is not None and f[0] != "constant" for f in (colors, opacities)]
+        group = TubeGroup("sphere", _params(), sphere_transforms(centres[keep], radii[keep]), keep.astype(np.int32),
+                          colors[1][keep].astype(np.float32) if per_point[0] else None,
+                          opacities[1][keep, 0].astype(np.float32) if per_point[1] else None)
         return [group] if len(keep) else [], _constant(colors)
 
     # Curves
 
-    def _curves(self, prim, points, centres, scale, color_primvar, counts, linear):
+    def _curves(self, prim, points, centres, scale, fields, counts, linear):
         curves = UsdGeom.Curves(prim)
         kind = prim.GetTypeName()
         counts_attr = curves.GetCurveVertexCountsAttr()
@@ -127,10 +145,11 @@ class TubeReader(FieldReader):
         widths = self._widths(prim, curves, sizes)
         if widths is None:
             self.skip(f"{kind} without widths are drawn as tubes of width 1 (Storm draws one-pixel lines)", prim)
-        colors = self.field(prim, color_primvar, sizes, 3) if color_primvar is not None else None
+        colors, opacities = self._fields(prim, fields, sizes)
         if prim.IsA(UsdGeom.HermiteCurves):
             # The schema has no cubic interpolation of primvars: per-point values are linear along each segment.
-            widths, colors = (("varying", f[1]) if f is not None and f[0] == "vertex" else f for f in (widths, colors))
+            widths, colors, opacities = (("varying", f[1]) if f is not None and f[0] == "vertex" else f
+                                         for f in (widths, colors, opacities))
 
         # A curve with a vertex that is not finite is left out; the others are drawn.
         curve_of_vertex = np.repeat(np.arange(len(counts)), counts)
@@ -153,15 +172,23 @@ class TubeReader(FieldReader):
         finite = _finite_boxes(at, radii)
         if not finite.all():
             raise self.error("curve points are past float32's range with their widths", prim)
-        tint = None if colors is None or colors[0] == "constant" else _interpolator(spans, colors, colors[1])
-        rows_colors = None if tint is None else np.maximum(tint(span, t), 0.0).astype(np.float32)  # overshoot
+        # Per instance: the value at each sphere, and the mean of its ends' values along each tube piece.
+        per_row = []
+        for field, low, high in ((colors, 0.0, np.inf), (opacities, 0.0, 1.0)):
+            at_t = None if field is None or field[0] == "constant" else _interpolator(spans, field, field[1])
+            per_row.append(None if at_t is None else np.clip(at_t(span, t), low, high).astype(np.float32))  # overshoot
+        rows_colors, rows_opacities = per_row[0], None if per_row[1] is None else per_row[1][:, 0]
+
+        def pieces(values, a, b):
+            return None if values is None else 0.5 * (values[a] + values[b])
 
         groups = []
         rows = np.flatnonzero(sphere & (radii > 0.0))
         if len(rows):
             groups.append(TubeGroup("sphere", _params(), sphere_transforms(at[rows], radii[rows]),
                                     spans.curve[span[rows]].astype(np.int32),
-                                    None if rows_colors is None else rows_colors[rows]))
+                                    None if rows_colors is None else rows_colors[rows],
+                                    None if rows_opacities is None else rows_opacities[rows]))
         a = np.flatnonzero(starts_segment)
         b = a + 1
         drawn = (np.maximum(radii[a], radii[b]) > 0.0) & np.any(at[a] != at[b], axis=1)
@@ -177,7 +204,7 @@ class TubeReader(FieldReader):
             groups.append(TubeGroup(
                 "cylinder" if cylinder else "cone", _params(0.0 if cylinder else level / RHO_LEVELS),
                 transforms[chosen], spans.curve[span[a[chosen]]].astype(np.int32),
-                None if rows_colors is None else 0.5 * (rows_colors[a[chosen]] + rows_colors[b[chosen]])))
+                pieces(rows_colors, a[chosen], b[chosen]), pieces(rows_opacities, a[chosen], b[chosen])))
         return groups, _constant(colors)
 
     def _spans(self, prim, centres, counts, linear):
