@@ -73,6 +73,28 @@ def test_membership_is_usds(tmp_path):
             assert ours.includes(path) == query.IsPathIncluded(Sdf.Path(path)), (k, path)
 
 
+def test_membership_passes_over_an_explicit_only_ancestor(tmp_path):
+    """A lightLink holding every prim but ``/W/E`` that includes another collection of ``explicitOnly`` rule on
+    ``/W/A``: the map gets ``/W/A: explicitOnly`` under ``/: expandPrims``, and USD's query passes over that ancestor
+    (``/W/A/B`` stays a member, by the root). wrt left ``/W/A/B`` out (unlit) before; ``/`` itself is no prim."""
+    stage = Usd.Stage.CreateInMemory()
+    for path in ["/W/A/B/C", "/W/E"]:
+        stage.DefinePrim(path, "Xform")
+    chosen = Usd.CollectionAPI.Apply(stage.GetPrimAtPath("/W"), "chosen")
+    chosen.CreateIncludeRootAttr(False)
+    chosen.CreateExpansionRuleAttr("explicitOnly")
+    chosen.CreateIncludesRel().AddTarget("/W/A")
+    collection = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, "/L")).GetLightLinkCollectionAPI()
+    collection.CreateIncludesRel().AddTarget(chosen.GetCollectionPath())
+    collection.CreateExcludesRel().AddTarget("/W/E")
+    query = collection.ComputeMembershipQuery()
+    ours = wrt.light_links.read_collection(collection, "light linking", None)
+    assert ours.rules["/W/A"] == "explicitOnly"
+    for path in ["/", "/W", "/W/A", "/W/A/B", "/W/A/B/C", "/W/E", "/W/E/x", "/Other"]:
+        assert ours.includes(path) == query.IsPathIncluded(Sdf.Path(path)), path
+    assert ours.includes("/W/A/B/C") and not ours.includes("/W/E")
+
+
 @pytest.mark.parametrize("integrator", INTEGRATORS)
 def test_light_excluding_a_parent_xform_leaves_the_floor_to_the_other_light(integrator):
     """A red and a green sun; the red one's lightLink excludes the floor's parent Xform: the floor carries green only
@@ -369,3 +391,4 @@ def test_a_recorded_frame_follows_shadow_links():
     open_sky = render(shadow_scene([red], blocker=False), "whitted", camera=UNDER, spp=1)
     np.testing.assert_array_equal(rgb[..., 1], 0.0)
     np.testing.assert_allclose(rgb[..., 0], open_sky[..., 0], rtol=1e-5)
+

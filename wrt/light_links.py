@@ -72,17 +72,18 @@ class LinkCollection:
         return cls({"/": EXPAND_PRIMS, **{path: EXCLUDE for path in paths}})
 
     def includes(self, path: str) -> bool:
-        """Whether prim ``path`` is a member, as ``UsdCollectionMembershipQuery.IsPathIncluded`` decides: the rule of
-        the nearest of the path and its ancestors that has one (an excluded or ``explicitOnly`` ancestor leaves it
-        out); none: not a member."""
-        here = path.rstrip("/") or "/"
-        while True:
+        """Whether prim ``path`` is a member, as ``UsdCollectionMembershipQuery.IsPathIncluded`` decides: walking up
+        from the path, an ``exclude`` leaves it out, and any other rule takes it in, but ``explicitOnly`` only on the
+        path itself (on an ancestor it is passed over); no rule: not a member. ``/`` is not a prim: never one."""
+        path = here = path.rstrip("/") or "/"
+        while here != "/":
             rule = self.rules.get(here)
-            if rule is not None:
-                return rule != EXCLUDE and (here == path or rule != EXPLICIT_ONLY)
-            if here == "/":
+            if rule == EXCLUDE:
                 return False
+            if rule is not None and (rule != EXPLICIT_ONLY or here == path):
+                return True
             here = here.rsplit("/", 1)[0] or "/"
+        return path != "/" and self.rules.get("/") in (EXPAND_PRIMS, EXPAND_PRIMS_AND_PROPERTIES)
 
 
 @dataclasses.dataclass(frozen=True)
