@@ -392,3 +392,30 @@ def test_a_recorded_frame_follows_shadow_links():
     np.testing.assert_array_equal(rgb[..., 1], 0.0)
     np.testing.assert_allclose(rgb[..., 0], open_sky[..., 0], rtol=1e-5)
 
+
+def test_instances_whose_parts_fall_in_the_same_groups_share_one_run():
+    """3000 instances (each its own proxy root, as native instances are) of a two-part prototype, the right part of
+    every third one excluded from one of three suns: each instance's parts get the groups its paths call for, and the
+    per-part groups take one run per distinct combination (3 runs of 2), not one per instance (6000 entries; building
+    them was quadratic in the instances: 38 s for 20,000)."""
+    proto = wrt.Prototype("/Proto", [quad((-0.25, 0, 0), (0.4, 0, 0), (0, 0.4, 0), name="/Proto/geo/L"),
+                                     quad((0.25, 0, 0), (0.4, 0, 0), (0, 0.4, 0), name="/Proto/geo/R")])
+    n, suns = 3000, 3
+    to_world = np.tile(np.eye(4), (n, 1, 1))
+    to_world[:, 0, 3] = np.arange(n)
+    roots = [f"/World/I{k}" for k in range(n)]
+    instances = wrt.Instances(np.zeros(n, np.int32), to_world, np.arange(n), np.full(n, -1), roots, roots=roots,
+                              root=np.arange(n))
+    lights = [wrt.DistantLight(direction=DOWN, color=np.ones(3), path=f"/Sun{j}", light_link=LinkCollection.excluding(
+        *[f"/World/I{k}/geo/R" for k in range(j, n, suns)])) for j in range(suns)]
+    scene = wrt.Scene(meshes=[], prototypes=[proto], instances=instances, lights=lights)
+    links = wrt.light_links.link_groups(scene, lights)
+    assert len(links.part_groups) == 2 * suns  # one run per sun that darkens the right part
+    for k in range(n):
+        own = links.instance_groups[k]
+        assert own < 0
+        left, right = links.part_groups[-1 - own:][:2]
+        np.testing.assert_array_equal(links.masks[left] & wrt.light_links.LIT, [1, 1, 1])
+        darkened_by = k % suns
+        np.testing.assert_array_equal(links.masks[right] & wrt.light_links.LIT, [int(j != darkened_by) for j in
+                                                                                 range(suns)])

@@ -211,17 +211,19 @@ def link_groups(scene, lights: list):
 
     instance_groups = np.zeros(len(scene.instances), np.int32)
     part_groups = []
+    runs = {}  # the part groups of a prototype whose parts differ -> offset of their run in part_groups
     for paths, rows in _instance_parts(scene):
-        found = [group_of(path) for path in paths]
+        found = tuple(group_of(path) for path in paths)
         if len(set(found)) <= 1:
             instance_groups[rows] = found[0] if found else 0
             continue
-        for row in rows:  # each instance its own run (instances are few where parts differ: native ones)
-            instance_groups[row] = -1 - sum(len(g) for g in part_groups)
-            part_groups.append(np.array(found, np.int32))
+        if found not in runs:  # instances whose parts fall in the same groups share one run
+            runs[found] = len(part_groups)
+            part_groups += found
+        instance_groups[rows] = -1 - runs[found]
     masks = np.frombuffer(b"".join(groups), np.uint8).reshape(len(groups), len(lights))
     return HostLinks(masks.copy(), np.concatenate(geometry).astype(np.int32), instance_groups,
-                     np.concatenate(part_groups or [np.zeros(0, np.int32)]))
+                     np.array(part_groups, np.int32))
 
 
 def drawn_paths(scene) -> list:
