@@ -195,6 +195,24 @@ def test_render_var_targets_that_are_not_render_vars_are_named(tmp_path):
     assert [v.path for v in scene.render_settings.render_vars] == ["/Render/Vars/color"]
 
 
+
+def test_a_later_product_that_cannot_be_read_is_left_out_and_the_stage_loads(tmp_path):
+    """A second product whose camera does not exist and a third of resolution 0x0: each is left out with a warning
+    naming it, and the stage renders its first product as before (the load failed on them, though a plain render
+    uses the first product only, and rendering products wrote none)."""
+    products = (product("A", ["color"], "a.png") + product("B", ["color"], "b.png", "rel camera = </World/Nope>\n")
+                + product("C", ["color"], "c.png", "uniform int2 resolution = (0, 0)\n"))
+    with pytest.warns(UserWarning) as record:
+        scene = wrt.load_usd(write_stage(tmp_path, products, ["A", "B", "C"]))
+    messages = " | ".join(str(w.message) for w in record)
+    assert ("/Render/B: camera relationship targets /World/Nope, which is no prim, not a Camera; this RenderProduct "
+            "is left out") in messages
+    assert "/Render/C: resolution 0x0 must be positive; this RenderProduct is left out" in messages
+    assert [p.product for p in scene.render_settings.products] == ["/Render/A"]
+    assert wrt.render(scene, device="cpu").rgb.shape == (16, 32, 3)
+    assert wrt.render_products(scene, tmp_path / "out", device="cpu") == {"/Render/A": tmp_path / "out" / "a.png"}
+
+
 def test_cli_products(tmp_path, capsys):
     products = product("Beauty", ["color"], "beauty.png") + product("Aovs", ["depth", "id"], "aovs.exr")
     stage = write_stage(tmp_path, products, ["Beauty", "Aovs"])

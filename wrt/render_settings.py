@@ -215,8 +215,15 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
     base["rendering_color_space"] = str(settings.GetRenderingColorSpaceAttr().Get() or "")
     _check_values(base, dict(path=source, prim=path))
     _warn_color_space(base["rendering_color_space"], f"{name}: {path}")
-    products = [_merged(stage, source, path, base, p)
-                for p in _targets(stage, settings.GetProductsRel(), UsdRender.Product, f"{name}: {path}")]
+    products = []
+    for k, prim in enumerate(_targets(stage, settings.GetProductsRel(), UsdRender.Product, f"{name}: {path}")):
+        try:
+            products.append(_merged(stage, source, path, base, prim))
+        except SceneError as error:
+            if k == 0:  # the one a plain render uses
+                raise
+            # A later product (rendered only by render_products) must not keep the stage from loading.
+            warnings.warn(f"{error}; this RenderProduct is left out", stacklevel=2)
     if not products:
         return _merged(stage, source, path, base, None)
     return dataclasses.replace(products[0], products=tuple(products))
