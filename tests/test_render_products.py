@@ -213,6 +213,16 @@ def test_a_later_product_that_cannot_be_read_is_left_out_and_the_stage_loads(tmp
     assert wrt.render_products(scene, tmp_path / "out", device="cpu") == {"/Render/A": tmp_path / "out" / "a.png"}
 
 
+def test_a_product_too_large_fails_naming_it_before_any_file_is_written(tmp_path):
+    """The second product asks for 200000 x 200000 pixels: the call fails naming that product, and the first
+    product's file is not written (it was, and the error named no product)."""
+    products = product("A", ["color"], "a.png") + product("B", ["color"], "b.png",
+                                                          "uniform int2 resolution = (200000, 200000)\n")
+    scene = load(write_stage(tmp_path, products, ["A", "B"]))
+    with pytest.raises(ValueError, match=r"shot.usda: /Render/B: 1 x 200000x200000 is 40000000000 pixels"):
+        wrt.render_products(scene, tmp_path / "out", device="cpu")
+    assert not (tmp_path / "out" / "a.png").exists()
+
 def test_cli_products(tmp_path, capsys):
     products = product("Beauty", ["color"], "beauty.png") + product("Aovs", ["depth", "id"], "aovs.exr")
     stage = write_stage(tmp_path, products, ["Beauty", "Aovs"])

@@ -31,7 +31,7 @@ import numpy as np
 
 from .image import check_exposure, to_srgb8, write_atomically, write_exr
 from .rays import camera_rays
-from .render import Renderer, resolve_view
+from .render import Renderer, check_pixels, resolve_view
 
 BEAUTY = "rgb"  # Image.rgb: the integrator's image, linear radiance
 # sourceName -> what wrt writes for it: BEAUTY, an Image.aovs key, or one made from them ("Neye", "P", "Peye",
@@ -258,7 +258,9 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
     exposure = check_exposure(exposure)
     where = os.path.basename(settings.source)
     directory = Path(directory)
-    renders, written, taken, warned_exposure = {}, {}, set(), False
+    # Every product is resolved (view, outputs, file name) before any is rendered: a bad one fails the call before
+    # it has spent renders and written files.
+    views, plan, taken = {}, [], set()
     for product in products:
         if product.product_type != "raster":
             warnings.warn(f"{where}: {product.product} is a {product.product_type} product; wrt writes raster "
@@ -270,15 +272,22 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
             continue
         view = tuple(getattr(product, f) for f in ("camera", "resolution", "pixel_aspect_ratio", "conform_policy",
                                                    "data_window", "disable_depth_of_field"))
-        if view not in renders:
-            camera, width, height = resolve_view(scene, settings=product)
+        if view not in views:
+            views[view] = resolve_view(scene, settings=product)
+            try:
+                check_pixels(*views[view][1:])
+            except ValueError as error:
+                raise ValueError(f"{where}: {product.product}: {error}") from None
+        png = len(outputs) == 1 and outputs[0].kind == BEAUTY
+        plan.append((product, view, outputs, product_file_name(product, png, where, taken)))
+    renders, written, warned_exposure = {}, {}, False
+    for product, view, outputs, name in plan:
+        camera, width, height = views[view]
+        if view not in renders:  # products of one view share one render
             renderer = Renderer(scene, camera=camera, width=width, height=height, device=device, builder=builder,
                                 accel=accel, integrator=integrator, max_depth=max_depth, ao_radius=ao_radius)
-            renders[view] = (renderer.render(spp=spp, seed=seed, batch=batch, progress=progress), camera)
-        image, camera = renders[view]
-        png = len(outputs) == 1 and outputs[0].kind == BEAUTY
-        name = product_file_name(product, png, where, taken)
-        channels, attributes = output_channels(image, camera, scene, outputs)
+            renders[view] = renderer.render(spp=spp, seed=seed, batch=batch, progress=progress)
+        channels, attributes = output_channels(renders[view], camera, scene, outputs)
         if not name.lower().endswith(".png"):
             attributes.update(exr_windows(product))
             if exposure != 0.0 and not warned_exposure:  # once, as for wrt render -o x.exr --exposure
