@@ -261,11 +261,15 @@ def test_usd_shadow_link_excluding_a_blocker(tmp_path):
 
 
 def test_bad_link_values_are_refused_naming_the_light():
-    """A rule USD has not got, a relative path, and a light_link that is not a LinkCollection."""
+    """A rule USD has not got, a relative path, a path with a trailing or doubled ``/``, and a light_link that is
+    not a LinkCollection."""
     with pytest.raises(SceneError, match="expandEverything"):
         LinkCollection({"/World": "expandEverything"})
     with pytest.raises(SceneError, match="absolute"):
         LinkCollection({"World": "expandPrims"})
+    for path in ("/World/Ground/", "/World//Ground"):  # matched no prim: the exclusion was dropped without a word
+        with pytest.raises(SceneError, match=f"'{path}' has an empty path component"):
+            LinkCollection.excluding(path)
     sun = wrt.DistantLight(direction=DOWN, color=np.ones(3), path="/Sun", light_link=["/World"])
     with pytest.raises(SceneError, match="/Sun.*light_link must be a wrt.LinkCollection"):
         render(floor_and_box([sun]), "whitted")

@@ -53,6 +53,9 @@ class LinkCollection:
         for path, rule in self.rules.items():
             if not (isinstance(path, str) and path.startswith("/")):
                 raise SceneError(f"LinkCollection rules: {path!r} is not an absolute prim path")
+            if path != "/" and "" in path[1:].split("/"):  # '/World/' or '/World//Floor' would match no prim
+                raise SceneError(f"LinkCollection rules: {path!r} has an empty path component (a doubled or trailing "
+                                 "'/')")
             if rule not in RULES:
                 raise SceneError(f"LinkCollection rules: {path} has rule {rule!r}; valid rules: {', '.join(RULES)}")
 
