@@ -423,3 +423,24 @@ def test_instances_whose_parts_fall_in_the_same_groups_share_one_run():
         darkened_by = k % suns
         np.testing.assert_array_equal(links.masks[right] & wrt.light_links.LIT, [int(j != darkened_by) for j in
                                                                                  range(suns)])
+
+
+def test_shadow_rays_past_more_unlinked_blockers_than_the_passes_warn():
+    """A canopy of leaves left out of the sun's shadowLink: through ``MAX_SHADOW_HOLE_PASSES - 1`` of them the floor
+    is lit as under an open sky, without a warning; through ``MAX_SHADOW_HOLE_PASSES`` it stays shadowed (the
+    documented limit) and the render says so. Before, the shadow came without a word."""
+    from wrt.shade import MAX_SHADOW_HOLE_PASSES
+
+    def canopy(layers):
+        leaves = [quad((0, 0, 1 + 0.05 * k), (4, 0, 0), (0, 4, 0), name=f"/Canopy/L{k}") for k in range(layers)]
+        sun = wrt.DistantLight(direction=DOWN, color=np.full(3, 2.0), shadow_link=LinkCollection.excluding("/Canopy"))
+        return wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/Floor"), *leaves], lights=[sun])
+
+    under = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 0), up=(0, 1, 0), height=1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        np.testing.assert_allclose(render(canopy(MAX_SHADOW_HOLE_PASSES - 1), "whitted", camera=under), 0.5 * 2 / np.pi,
+                                   rtol=1e-5)
+    with pytest.warns(UserWarning, match=f"some shadow rays still met .* shadowLink, after {MAX_SHADOW_HOLE_PASSES} "
+                      "passes; they count as blocked"):
+        np.testing.assert_array_equal(render(canopy(MAX_SHADOW_HOLE_PASSES), "whitted", camera=under), 0.0)

@@ -20,13 +20,16 @@ Conventions:
 - Shadow (and ambient-occlusion) rays pass holes too (:func:`occluded_through_holes`): in a scene with cut-outs,
   the rays the any-hit query reports blocked are traced for their closest hit, again from just past it while it
   is a hole, for up to :data:`MAX_SHADOW_HOLE_PASSES` passes (as many holes as camera and bounce rays pass); a ray
-  still in a hole after them stays blocked. Geometry that a light's ``collection:shadowLink`` leaves out is passed
-  the same way by that light's shadow rays (:mod:`wrt.light_links`).
+  still in a hole after them stays blocked, with a warning (none inside a recorded CUDA graph). Geometry that a
+  light's ``collection:shadowLink`` leaves out is passed the same way by that light's shadow rays
+  (:mod:`wrt.light_links`).
   Glass (``opacity < 1`` without a threshold) is not a hole and blocks them: a unidirectional path tracer gets its
   light through refraction.
 - Sample 0 of every pixel goes through the pixel centre and the lens centre; later samples jitter both
   (deterministic in ``seed``, pixel and sample index). AOVs come from sample 0.
 """
+
+import warnings
 
 import warp as wp
 
@@ -707,7 +710,13 @@ def occluded_through_holes(
             device=scratch.device,
         )
 
-    repeat_passes(one_pass, scratch, MAX_SHADOW_HOLE_PASSES if passes is None else passes, passes is not None)
+    limit = MAX_SHADOW_HOLE_PASSES if passes is None else passes
+    if repeat_passes(one_pass, scratch, limit, passes is not None):
+        # One message for every call (warned once): a dense canopy, or a forest left out of a sun's shadowLink, would
+        # otherwise be shadowed without a word.
+        warnings.warn(f"some shadow rays still met a cut-out hole, or geometry outside their light's shadowLink, "
+                      f"after {limit} passes; they count as blocked, so what lies behind is shadowed "
+                      "(wrt.shade.MAX_SHADOW_HOLE_PASSES)", stacklevel=2)
 
 
 _NO_LINKS = {}  # device -> DeviceLinks with linking off
@@ -728,9 +737,10 @@ def count_pass_kernel(limit: int, done: wp.array[wp.int32], retries: wp.array[wp
         retries[0] = 0
 
 
-def repeat_passes(one_pass, scratch, limit: int, no_host_reads: bool) -> None:
+def repeat_passes(one_pass, scratch, limit: int, no_host_reads: bool) -> bool:
     """Runs ``one_pass()`` while ``scratch.retries[0] > 0`` (each pass counts the rays that need another), at most
-    ``limit`` times.
+    ``limit`` times; returns whether some ray still needed another after the last (read back only without
+    ``no_host_reads``; else False).
 
     With ``no_host_reads`` (``Renderer.launch_frame``) nothing is read back: inside a CUDA graph capture that can
     hold conditional nodes (CUDA 12.4+) the passes are a loop of the graph, which stops as the host loop does (a
@@ -740,9 +750,9 @@ def repeat_passes(one_pass, scratch, limit: int, no_host_reads: bool) -> None:
     if not no_host_reads:
         for _ in range(limit):
             if int(scratch.retries.numpy()[0]) == 0:
-                return
+                return False
             one_pass()
-        return
+        return int(scratch.retries.numpy()[0]) > 0
     if device.is_cuda and device.is_capturing and wp.is_conditional_graph_supported():
         scratch.passes_done.zero_()
 
@@ -752,9 +762,10 @@ def repeat_passes(one_pass, scratch, limit: int, no_host_reads: bool) -> None:
                       device=device)
 
         wp.capture_while(scratch.retries, counted_pass)
-        return
+        return False
     for _ in range(limit):
         one_pass()
+    return False
 
 
 class CullScratch:
