@@ -444,3 +444,23 @@ def test_shadow_rays_past_more_unlinked_blockers_than_the_passes_warn():
     with pytest.warns(UserWarning, match=f"some shadow rays still met .* shadowLink, after {MAX_SHADOW_HOLE_PASSES} "
                       "passes; they count as blocked"):
         np.testing.assert_array_equal(render(canopy(MAX_SHADOW_HOLE_PASSES), "whitted", camera=under), 0.0)
+
+
+def test_link_rules_cannot_change_under_a_kept_renderer():
+    """A collection's rules are a read-only copy, so a change in place (which a kept Renderer, comparing the lights'
+    objects, did not see: it went on lighting the floor red, 0.318, where a fresh render gave 0) is refused, and a
+    new collection is seen; the dict given stays the caller's; collections pickle (scenes travel to workers)."""
+    import pickle
+
+    given = {"/": "expandPrims", "/Elsewhere": "exclude"}
+    sun = wrt.DistantLight(direction=DOWN, color=np.array([2.0, 0, 0]), light_link=LinkCollection(given))
+    given["/World/Ground"] = "exclude"
+    scene = floor_and_box([sun])
+    renderer = wrt.Renderer(scene, camera=TOP, width=8, height=8, device="cpu")
+    assert renderer.render().rgb[FLOOR_PX][..., 0].min() > 0.1
+    with pytest.raises(TypeError):
+        sun.light_link.rules["/World/Ground"] = "exclude"
+    sun.light_link = LinkCollection.excluding("/World/Ground")
+    np.testing.assert_array_equal(renderer.render().rgb[FLOOR_PX][..., 0], 0.0)
+    copy = pickle.loads(pickle.dumps(sun.light_link))
+    assert dict(copy.rules) == dict(sun.light_link.rules) and not copy.includes("/World/Ground/Floor")

@@ -16,6 +16,8 @@ list of per-part groups. Emissive triangles are not UsdLux lights: they light an
 """
 
 import dataclasses
+import types
+from collections.abc import Mapping
 
 import numpy as np
 import warp as wp
@@ -41,15 +43,17 @@ class LinkCollection:
 
     Attributes:
         rules: prim path -> ``"explicitOnly"``, ``"expandPrims"``, ``"expandPrimsAndProperties"`` or ``"exclude"``;
-            ``{"/": "expandPrims"}`` is every prim (``includeRoot``), ``{}`` none.
+            ``{"/": "expandPrims"}`` is every prim (``includeRoot``), ``{}`` none. Kept as a read-only copy: a
+            change made in place would go unseen by a kept :class:`wrt.Renderer`; give the light a new collection.
     """
 
-    rules: dict
+    rules: Mapping
 
     def __post_init__(self):
-        if not isinstance(self.rules, dict):
+        if not isinstance(self.rules, Mapping):
             raise TypeError("LinkCollection rules must be a dict of prim path -> rule, got "
                             f"{type(self.rules).__name__}")
+        object.__setattr__(self, "rules", types.MappingProxyType(dict(self.rules)))
         for path, rule in self.rules.items():
             if not (isinstance(path, str) and path.startswith("/")):
                 raise SceneError(f"LinkCollection rules: {path!r} is not an absolute prim path")
@@ -58,6 +62,9 @@ class LinkCollection:
                                  "'/')")
             if rule not in RULES:
                 raise SceneError(f"LinkCollection rules: {path} has rule {rule!r}; valid rules: {', '.join(RULES)}")
+
+    def __reduce__(self):  # a read-only mapping does not pickle (scenes travel to other processes)
+        return type(self), (dict(self.rules),)
 
     @classmethod
     def only(cls, *paths: str) -> "LinkCollection":
