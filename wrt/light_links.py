@@ -212,12 +212,12 @@ def link_groups(scene, lights: list):
                 CASTS_SHADOW if shadow is None or shadow.includes(path) else 0)
         return groups.setdefault(row.tobytes(), len(groups))
 
+    # Geometry ids in their order: world triangles, prototype triangles, world shapes, prototype shapes; a prototype's
+    # are numbered by part (its meshes, then its shapes).
     geometry = [np.full(len(m.indices), group_of(m.path), np.int32) for m in scene.meshes]
-    for p in scene.prototypes:
-        geometry += [np.full(len(m.indices), k, np.int32) for k, m in enumerate(p.meshes)]
+    geometry += [np.repeat(np.arange(len(p.meshes)), [len(m.indices) for m in p.meshes]) for p in scene.prototypes]
     geometry.append(np.array([group_of(s.path) for s in scene.shapes], np.int32))
-    for p in scene.prototypes:
-        geometry.append(np.arange(len(p.meshes), len(p.meshes) + len(p.shapes), dtype=np.int32))
+    geometry += [np.arange(len(p.meshes), len(p.meshes) + len(p.shapes)) for p in scene.prototypes]
 
     instance_groups = np.zeros(len(scene.instances), np.int32)
     part_groups = []
