@@ -13,7 +13,8 @@
   spheres;
 - light and shadow linking (a floor, a box and a blocker under linked suns, a sphere light and a dome; native
   instances linked part by part);
-- a quad whose displayOpacity goes from 0 to 1 across it in front of a glowing wall.
+- a quad whose displayOpacity goes from 0 to 1 across it in front of a glowing wall, and a PointInstancer whose two
+  instances have their own displayOpacity (0.25, 0.75).
 
 wrt's shade kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are
 expected to be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
@@ -37,6 +38,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cut_out_canopy import write_canopy  # noqa: E402
 from shading_helpers import quad, top_down_camera  # noqa: E402
 from test_display_opacity import CAMERA as OPACITY_CAMERA  # noqa: E402
+from test_display_opacity import instancer as opacity_instancer  # noqa: E402
+from test_display_opacity import opacity_primvar  # noqa: E402
 from test_display_opacity import quad as opacity_quad  # noqa: E402
 from test_display_opacity import stage_with as opacity_stage  # noqa: E402
 from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa: E402
@@ -152,9 +155,12 @@ def main() -> None:
     linked_lights(args.out, devices)
     see_through, _ = opacity_stage(args.out, lambda stage: opacity_quad(stage, opacity=[0.0, 1.0, 0.0, 1.0],
                                                                         interpolation="vertex"))
+    instanced, _ = opacity_stage(args.out, lambda stage: opacity_primvar(opacity_instancer(stage), [0.25, 0.75],
+                                                                         "vertex"), "parity_opacity_instances.usda")
     for integrator in ("whitted", "path"):
-        compare(f"displayOpacity {integrator}", see_through, devices, camera=OPACITY_CAMERA, width=32, height=32,
-                integrator=integrator, spp=8, max_depth=3)
+        for name, scene in (("displayOpacity", see_through), ("instance displayOpacity", instanced)):
+            compare(f"{name} {integrator}", scene, devices, camera=OPACITY_CAMERA, width=32, height=32,
+                    integrator=integrator, spp=8, max_depth=3)
 
 
 def points_and_curves(path: Path, devices: list[str]) -> None:
