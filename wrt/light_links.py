@@ -181,7 +181,8 @@ class HostLinks:
             (meshes, then shapes, of its prototype) of prototype geometry.
         instance_groups: ``(N,)`` int32 per instance: its group, or ``-1 - offset`` into ``part_groups`` where its
             prototype's parts are in different groups.
-        part_groups: ``(P,)`` int32 groups of the parts of such instances, one run per instance.
+        part_groups: ``(P,)`` int32 groups of the parts of such instances, one run per distinct combination (shared by
+            the instances whose parts fall in the same groups).
     """
 
     masks: np.ndarray
