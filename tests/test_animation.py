@@ -432,18 +432,23 @@ def test_frame_workers_start_with_ctrl_c_ignored():
 
     context = multiprocessing.get_context("spawn")
     answers = context.Queue()
-    before = signal.getsignal(signal.SIGINT)
-    for ignored in (True, False):
-        if ignored:
-            with _children_ignore_ctrl_c():
+    # As in a terminal: a shell that starts pytest in the background (CI scripts do) hands it SIGINT ignored, and
+    # every child would inherit that.
+    outer = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        for ignored in (True, False):
+            if ignored:
+                with _children_ignore_ctrl_c():
+                    child = context.Process(target=sigint_is_ignored, args=(answers,))
+                    child.start()
+            else:
                 child = context.Process(target=sigint_is_ignored, args=(answers,))
                 child.start()
-        else:
-            child = context.Process(target=sigint_is_ignored, args=(answers,))
-            child.start()
-        child.join(60)
-        assert answers.get(timeout=60) is ignored
-    assert signal.getsignal(signal.SIGINT) is before
+            child.join(60)
+            assert answers.get(timeout=60) is ignored
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, outer)
 
 
 def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(animated, tmp_path):
