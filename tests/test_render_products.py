@@ -213,6 +213,33 @@ def test_a_later_product_that_cannot_be_read_is_left_out_and_the_stage_loads(tmp
     assert wrt.render_products(scene, tmp_path / "out", device="cpu") == {"/Render/A": tmp_path / "out" / "a.png"}
 
 
+def test_a_first_product_that_cannot_be_read_is_left_out_as_later_ones_are(tmp_path):
+    """A first product whose camera is no prim is left out with a warning as a later one is; the next product is the
+    settings a plain render uses (its camera and 20x10). With no readable product at all the stage still loads and
+    renders at the settings' own values, and rendering products says there is none. The load failed on the first."""
+    products = (product("A", ["color"], "a.png", "rel camera = </World/Nope>\n")
+                + product("B", ["color"], "b.png", 'rel camera = </World/Tilted>\nuniform int2 resolution = (20, 10)\n')
+                + product("C", ["color"], "c.png", "uniform int2 resolution = (0, 0)\n"))
+    with pytest.warns(UserWarning, match=r"/Render/A: camera relationship targets /World/Nope, which is no prim, "
+                      r"not a Camera; this RenderProduct is left out"):
+        scene = wrt.load_usd(write_stage(tmp_path, products, ["A", "B"]))
+    settings = scene.render_settings
+    assert (settings.product, settings.camera, settings.resolution) == ("/Render/B", "/World/Tilted", (20, 10))
+    assert [p.product for p in settings.products] == ["/Render/B"]
+    np.testing.assert_array_equal(wrt.render(scene, device="cpu").rgb,
+                                  wrt.render(scene, camera="/World/Tilted", width=20, height=10, device="cpu").rgb)
+    assert wrt.render_products(scene, tmp_path / "out", device="cpu") == {"/Render/B": tmp_path / "out" / "b.png"}
+
+    with pytest.warns(UserWarning, match=r"/Render/C: resolution 0x0 must be positive; this RenderProduct is left"):
+        scene = wrt.load_usd(write_stage(tmp_path, products, ["C", "A"], name="none.usda"))
+    settings = scene.render_settings
+    assert (settings.product, settings.camera, settings.resolution, settings.products) == (
+        "", "/World/Front", (32, 16), ())
+    assert wrt.render(scene, device="cpu").rgb.shape == (16, 32, 3)
+    with pytest.raises(ValueError, match=r"/Render/Settings has no RenderProduct to write"):
+        wrt.render_products(scene, tmp_path / "out2", device="cpu")
+
+
 def test_a_product_too_large_fails_naming_it_before_any_file_is_written(tmp_path):
     """The second product asks for 200000 x 200000 pixels: the call fails naming that product, and the first
     product's file is not written (it was, and the error named no product)."""

@@ -333,8 +333,11 @@ def test_bad_settings_are_errors_naming_the_file_and_prim(tmp_path, settings, me
 def test_a_bad_product_value_names_the_product(tmp_path):
     settings = DEFAULT_SETTINGS + "\n        rel products = [</Render/Product>]"
     stage = write_stage(tmp_path, settings=settings, product="uniform int2 resolution = (0, 0)")
-    with pytest.raises(wrt.SceneError, match=r"stage.usda: /Render/Product: resolution 0x0"):
-        wrt.load_usd(stage)
+    # Left out naming it, as any product that cannot be read (test_render_products); the settings' own values stay.
+    with pytest.warns(UserWarning, match=r"stage.usda: /Render/Product: resolution 0x0 must be positive; this "
+                      "RenderProduct is left out"):
+        scene = wrt.load_usd(stage)
+    assert scene.render_settings.products == () and scene.render_settings.product == ""
 
 
 def test_render_settings_that_are_not_a_settings_prim_are_named(tmp_path, capsys):

@@ -8,12 +8,13 @@ then, for each ``RenderProduct`` of its ``products``, overridden by the values t
 ``UsdRenderComputeSpec`` merges them (one :class:`RenderSettings` per product in ``products``, each with its
 ``productName``, ``productType`` and ``orderedVars`` RenderVars: ``sourceName``, ``sourceType``, ``dataType``). The
 settings object itself is the merge with the first product. ``includedPurposes``, ``materialBindingPurposes`` and
-``renderingColorSpace`` are the settings prim's own (they cannot vary per product). A render uses the first
-product's camera and resolution where the caller did not say otherwise (see :func:`wrt.render.resolve_view`): an
-explicit camera, width or height wins over the stage's (one size alone keeps the resolution's aspect), which wins
-over wrt's defaults (640 x 480, the stage's first camera). :func:`wrt.render_products.render_products` renders
-every product and writes its RenderVars into a folder (named after ``productName``, never at its path: a stage
-must not choose where files go).
+``renderingColorSpace`` are the settings prim's own (they cannot vary per product). A product that cannot be read (a
+camera that is no camera, a value the schema does not allow) is left out with a warning naming it, the first too. A
+render uses the first product's camera and resolution where the caller did not say otherwise (see
+:func:`wrt.render.resolve_view`): an explicit camera, width or height wins over the stage's (one size alone keeps the
+resolution's aspect), which wins over wrt's defaults (640 x 480, the stage's first camera).
+:func:`wrt.render_products.render_products` renders every product and writes its RenderVars into a folder (named after
+``productName``, never at its path: a stage must not choose where files go).
 
 The conform policy and pixel aspect become the camera's ``fit`` and ``pixel_aspect_ratio`` (see
 :meth:`wrt.Camera.film_size`). The data window crops (or, past [0, 1], overscans) the image as UsdRender's
@@ -178,10 +179,10 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
     (with a warning) when the metadata names no ``RenderSettings`` prim.
 
     Raises:
-        SceneError: naming the file and prim: no ``RenderSettings`` prim at the ``path`` given, a ``camera``
-            relationship to a prim that is not a camera, or a value the schema does not allow (a resolution that is
-            not positive, a pixel aspect ratio that is not a finite positive number, an unknown conform policy, a
-            data window that is not finite or empty).
+        SceneError: naming the file and prim: no ``RenderSettings`` prim at the ``path`` given, or on the settings
+            prim itself (a product's are warnings) a ``camera`` relationship to a prim that is not a camera, or a
+            value the schema does not allow (a resolution that is not positive, a pixel aspect ratio that is not a
+            finite positive number, an unknown conform policy, a data window that is not finite or empty).
     """
     from pxr import Sdf, UsdRender
 
@@ -216,13 +217,12 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
     _check_values(base, dict(path=source, prim=path))
     _warn_color_space(base["rendering_color_space"], f"{name}: {path}")
     products = []
-    for k, prim in enumerate(_targets(stage, settings.GetProductsRel(), UsdRender.Product, f"{name}: {path}")):
+    for prim in _targets(stage, settings.GetProductsRel(), UsdRender.Product, f"{name}: {path}"):
         try:
             products.append(_merged(stage, source, path, base, prim))
         except SceneError as error:
-            if k == 0:  # the one a plain render uses
-                raise
-            # A later product (rendered only by render_products) must not keep the stage from loading.
+            # A product must not keep the stage from loading, the first no more than a later one: a plain render
+            # then uses the first product that can be read, or the settings' own values when none can.
             warnings.warn(f"{error}; this RenderProduct is left out", stacklevel=2)
     if not products:
         return _merged(stage, source, path, base, None)
