@@ -536,9 +536,11 @@ def test_two_level_bvh_agrees_with_wp_mesh_on_real_scenes(assets, asset_id):
 
 
 def test_hit_paths_name_the_usd_prims_and_instances_hit(tmp_path):
-    """``Scene.hit_paths`` maps each hit back to USD: the mesh or gprim path (in its prototype for an instance) and
-    the instance (``/PI[index]``, or the instanceable prim), compared with the paths pxr gives the prims the rays
-    aim at (there was no way from ``Hits.instance`` and ``Hits.local_prim`` to a prim but the internals)."""
+    """``Scene.hit_paths`` maps each hit back to USD by paths that stay when the stage is opened again: the mesh or
+    gprim path, a native instance's part at its instance-proxy path (``/Plain/Body``, nested ones too), a
+    PointInstancer's at its prototype prim's own path (moved into the native instance holding the instancer), and the
+    instance (``/PI[index]``, or the instanceable prim), compared with the prims pxr gives the rays' targets. A native
+    instance's part was named by its prototype path (``/__Prototype_1/Body``), which USD renames per opening."""
     path = str(tmp_path / "paths.usda")
     stage = Usd.Stage.CreateNew(path)
     octahedron(stage, "/Ground").AddTranslateOp().Set((0, 0, 0))
@@ -551,20 +553,35 @@ def test_hit_paths_name_the_usd_prims_and_instances_hit(tmp_path):
     pi.CreateInvisibleIdsAttr([1])
     UsdGeom.Xform.Define(stage, "/Asset").GetPrim().SetSpecifier(pxr.Sdf.SpecifierClass)
     octahedron(stage, "/Asset/Body")
-    inst = UsdGeom.Xform.Define(stage, "/Plain")
-    inst.GetPrim().GetReferences().AddInternalReference("/Asset")
-    inst.GetPrim().SetInstanceable(True)
-    inst.AddTranslateOp().Set((0, 10, 0))
+    UsdGeom.Xform.Define(stage, "/Nest").GetPrim().SetSpecifier(pxr.Sdf.SpecifierClass)  # an instance in an instance
+    inner = UsdGeom.Xform.Define(stage, "/Nest/Inner")
+    inner.GetPrim().GetReferences().AddInternalReference("/Asset")
+    inner.GetPrim().SetInstanceable(True)
+    kit = UsdGeom.PointInstancer.Define(stage, "/Nest/Kit")  # a PointInstancer in an instance
+    octahedron(stage, "/Nest/Kit/Protos/A/Mesh")
+    kit.CreatePrototypesRel().SetTargets(["/Nest/Kit/Protos/A"])
+    kit.CreateProtoIndicesAttr([0])
+    kit.CreatePositionsAttr([(0, 5, 0)])
+    for name, source, y in (("Plain", "/Asset", 10), ("Plain2", "/Asset", 20), ("Outer", "/Nest", 30)):
+        inst = UsdGeom.Xform.Define(stage, f"/{name}")
+        inst.GetPrim().GetReferences().AddInternalReference(source)
+        inst.GetPrim().SetInstanceable(True)
+        inst.AddTranslateOp().Set((0, y, 0))
     stage.Save()
     scene = load(path)
-    body = stage.GetPrimAtPath("/Plain").GetPrototype().GetPath().AppendChild("Body")  # /__Prototype_1/Body
     targets = {(0, 0, 0): ("/Ground", ""), (0, 0, -10): ("/Ball", ""), (10, 0, 0): ("/PI/Protos/A/Mesh", "/PI[0]"),
-               (30, 0, 0): ("/PI/Protos/A/Mesh", "/PI[2]"), (0, 10, 0): (str(body), "/Plain"), (20, 0, 0): ("", "")}
+               (30, 0, 0): ("/PI/Protos/A/Mesh", "/PI[2]"), (0, 10, 0): ("/Plain/Body", "/Plain"),
+               (0, 20, 0): ("/Plain2/Body", "/Plain2"), (0, 30, 0): ("/Outer/Inner/Body", "/Outer"),
+               (0, 35, 0): ("/Outer/Kit/Protos/A/Mesh", "/Outer"), (20, 0, 0): ("", "")}
     origins = np.array(list(targets), np.float64) + (0.1, 0.2, 5)  # each ray straight down -z onto its target
     hits = wrt.trace(scene, origins, [0, 0, -1])
     prims, instances = scene.hit_paths(hits)
     assert list(zip(prims, instances)) == list(targets.values())
-    assert stage.GetPrimAtPath(f"{instances[4]}/{body.name}").IsInstanceProxy()  # /Plain/Body
+    assert all(stage.GetPrimAtPath(p).IsInstanceProxy() for p in prims[4:8])
+    # A prim id per path drawn: the two PointInstancer instances share one, each native instance's part has its own.
+    ids, _ = scene.hit_prims(hits.local_prim, hits.instance)
+    assert ids[2] == ids[3] and len(set(ids[:8])) == 7 and ids[8] == -1
+    assert [scene.prim_paths()[i] for i in ids[:8]] == list(prims[:8])
     empty = scene.hit_paths(wrt.trace(scene, np.zeros((0, 3)), np.zeros((0, 3))))
     assert [len(a) for a in empty] == [0, 0]
 

@@ -401,6 +401,38 @@ def test_positions_and_ids_of_the_hits(tmp_path):
     assert len(np.unique(exr["prim"][want["prim"] == "/Strip"])) == 7  # triangles, not faces
 
 
+def test_prim_ids_of_native_instances_name_their_instance_proxy_paths(tmp_path):
+    """Two native instances of one quad above the stage: their primIds differ and the header names them by the
+    instance-proxy paths /Left/Body and /Right/Body (stable when the stage is opened again), as Scene.hit_paths names
+    the same camera's hits; the PointInstancer's quads keep one id. Both were /__Prototype_1/Body, one id."""
+    from pxr import Sdf, Usd, UsdGeom
+
+    path = planar_stage(tmp_path, {"primId": ("primId", None), "instanceId": ("instanceId", None)})
+    stage = Usd.Stage.Open(path)
+    stage.DefinePrim("/Asset").SetSpecifier(Sdf.SpecifierClass)
+    body = UsdGeom.Mesh.Define(stage, "/Asset/Body")
+    body.CreatePointsAttr([(-0.6, -0.5, 0), (0.6, -0.5, 0), (0.6, 0.5, 0), (-0.6, 0.5, 0)])
+    body.CreateFaceVertexCountsAttr([4])
+    body.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    for name, x in (("Left", 0.5), ("Right", 3.5)):
+        inst = UsdGeom.Xform.Define(stage, f"/{name}")
+        inst.GetPrim().GetReferences().AddInternalReference("/Asset")
+        inst.GetPrim().SetInstanceable(True)
+        inst.AddTranslateOp().Set((x, 2.5, -1))
+    stage.Save()
+    scene = load(path)
+    written = wrt.render_products(scene, tmp_path / "out", device="cpu")
+    exr, header = read_exr(written["/Render/Shot"]), read_header(written["/Render/Shot"])
+    table = json.loads(header["primId/paths"])
+    assert sorted(table.values()) == ["/Ball", "/Left/Body", "/PI/Protos/Quad/Mesh", "/Right/Body", "/Strip"]
+    prims, instances = scene.hit_paths(wrt.trace(scene, *camera_rays(scene, "/Cam", 48, 24)))
+    np.testing.assert_array_equal(np.array([table.get(str(int(i)), "") for i in exr["primId"].ravel()]), prims)
+    named = json.loads(header["instanceId/paths"])
+    np.testing.assert_array_equal(np.array([named.get(str(int(i)), "") for i in exr["instanceId"].ravel()]),
+                                  instances)
+    assert {"/Left", "/Right"} <= set(named.values())
+
+
 def test_cropped_product_is_placed_in_its_shot(tmp_path):
     """dataWindowNDC (0.1, 0.3, 0.6, 0.9) of 48x24: the EXR's display window is the whole shot and its data window
     the pixels whose centres lie in the window (counted here from the rule), rows from the top; each pixel of the

@@ -240,10 +240,25 @@ def link_groups(scene, lights: list):
 def drawn_paths(scene) -> list:
     """The path of each drawn geometry of ``scene`` as linking decides its membership (see the module docstring):
     meshes and shapes, then the parts of each instance at the paths it draws them at, each path once."""
-    paths = [m.path for m in scene.meshes] + [s.path for s in scene.shapes]
-    for parts, _ in _instance_parts(scene):
-        paths += parts
-    return list(dict.fromkeys(paths))
+    return drawn_ids(scene)[0]
+
+
+def drawn_ids(scene) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
+    """The :func:`drawn_paths` of ``scene`` and the index into them of each drawn geometry (``Scene.prim_paths``,
+    ``Scene.hit_prims``): ``(paths, world, starts, parts)``, ``world`` ``(M + S,)`` of the non-instanced meshes and
+    shapes, ``parts[starts[i] + k]`` of part ``k`` (meshes, then shapes) of instance ``i``'s prototype (int64)."""
+    index = {}
+
+    def ids(paths: list) -> np.ndarray:
+        return np.array([index.setdefault(path, len(index)) for path in paths], np.int64)
+
+    world = ids([m.path for m in scene.meshes] + [s.path for s in scene.shapes])
+    starts, parts, offset = np.zeros(len(scene.instances), np.int64), [np.zeros(0, np.int64)], 0
+    for paths, rows in _instance_parts(scene):
+        starts[rows] = offset
+        parts.append(ids(paths))
+        offset += len(paths)
+    return list(index), world, starts, np.concatenate(parts)
 
 
 def _instance_parts(scene) -> list:

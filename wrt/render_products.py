@@ -46,7 +46,7 @@ SOURCES = {
     "Neye": "Neye",  # the shading normal in camera space (the camera looks down -Z)
     "Ng": "geometric_normal", "geometric_normal": "geometric_normal",
     "albedo": "albedo",
-    "primId": "primId",  # the prim drawn (Hydra's rprim): an index into Scene.prim_paths()
+    "primId": "primId",  # the prim drawn, at its instance-proxy path in a native instance: Scene.prim_paths()
     "elementId": "elementId",  # the face of a mesh (Scene.hit_prims)
     "prim": "prim",  # wrt's triangle id: a row of Scene.triangles()
     "instanceId": "instance", "instance": "instance",
@@ -164,7 +164,7 @@ def _values(kind: str, image, camera, scene) -> np.ndarray:
             points = points @ view[:3, :3].T + view[:3, 3]
         return np.where(hit, points, 0.0).reshape(*shape, 3)  # a miss has no position: 0, as Hydra clears Peye
     if kind in ("primId", "elementId"):
-        prims, elements = scene.hit_prims(scene.split_ids(aovs["prim"].reshape(-1))[0])
+        prims, elements = scene.hit_prims(*scene.split_ids(aovs["prim"].reshape(-1)))
         return (prims if kind == "primId" else elements).reshape(shape)
     return aovs[kind]
 

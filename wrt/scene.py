@@ -33,7 +33,7 @@ import warp as wp
 from .assignments import CountsAssignments, assignments
 from .camera import Camera
 from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
-from .light_links import LinkCollection
+from .light_links import LinkCollection, drawn_ids, drawn_paths
 from .render_settings import RenderSettings
 from .transforms import mat34
 
@@ -536,54 +536,68 @@ class Scene:
         return prim, instance
 
     def prim_paths(self) -> list[str]:
-        """The paths of the prims drawn, each once, in geometry order (module docstring): meshes, then analytic shapes
-        (gprims, and the Points or curves prim of a point's sphere or a curve's segment); those of a prototype by
-        their path in it. Entry ``k`` is prim id ``k`` of :meth:`hit_prims`."""
-        return list(dict.fromkeys([m.path for m in self._geometry_meshes()]
-                                  + [s.path for s in self._geometry_shapes()]))
+        """The paths of the prims drawn, each once (:func:`wrt.light_links.drawn_paths`, the paths light linking
+        decides membership by): the non-instanced meshes and analytic shapes (gprims, and the Points or curves prim
+        of a point's sphere or a curve's segment), then the parts of the instances at the paths they are drawn at.
+        A native instance's part is named by its instance-proxy path (``/Plain/Body``: one path per instance; its
+        prototype path, ``/__Prototype_1/Body``, is renamed by USD each time the stage is opened); a PointInstancer
+        prototype's part by the prototype prim's own path (``/PI/Protos/A/Mesh``, shared by the instancer's
+        instances), moved to the instance-proxy path when the instancer lies in a native instance. Entry ``k`` is
+        prim id ``k`` of :meth:`hit_prims`."""
+        return drawn_paths(self)
 
-    def hit_prims(self, geometry_ids) -> tuple[np.ndarray, np.ndarray]:
+    def hit_prims(self, geometry_ids, instances) -> tuple[np.ndarray, np.ndarray]:
         """The prim and the element of the prim that hits name: ``(prim ids, elements)``, ``(N,)`` int64, -1 on a
-        miss. A prim id is an index into :meth:`prim_paths` (one per path, the same for every instance of a
-        prototype); an element is the face of a mesh (``Mesh.face_ids``: the USD face, the control face of a
-        subdivided mesh) and 0 on an analytic shape.
+        miss. A prim id is an index into :meth:`prim_paths`; an element is the face of a mesh (``Mesh.face_ids``:
+        the USD face, the control face of a subdivided mesh) and 0 on an analytic shape.
 
         Args:
             geometry_ids: ``(N,)`` int geometry ids (``Hits.local_prim``; :meth:`split_ids` of ``Hits.prim``), -1
                 for a miss.
+            instances: ``(N,)`` int instance ids (``Hits.instance``), -1 for non-instanced geometry: a prototype's
+                part is a prim of each instance (prototype geometry without its instance has prim id -1).
         """
         prim = np.asarray(geometry_ids, np.int64).reshape(-1)
+        instance = np.asarray(instances, np.int64).reshape(-1)
         meshes, shapes = self._geometry_meshes(), self._geometry_shapes()
-        index = {path: k for k, path in enumerate(self.prim_paths())}
-        ids = np.array([index[g.path] for g in meshes + shapes] + [-1], np.int64)  # geometry source -> prim id
-        starts = np.cumsum([0] + [len(m.indices) for m in meshes])  # geometry id of each mesh's first triangle
+        _, world, starts, parts = drawn_ids(self)
+        # Per geometry source (meshes, then shapes, in geometry order; one more for none): the prim id of a
+        # non-instanced one, -1 for a prototype's, and the part index in its prototype of a prototype's, else -1.
+        own = np.concatenate([world[:len(self.meshes)], np.full(len(meshes) - len(self.meshes), -1),
+                              world[len(self.meshes):], np.full(len(shapes) - len(self.shapes) + 1, -1)])
+        part_of = [np.full(len(self.meshes), -1)] + [np.arange(len(p.meshes)) for p in self.prototypes]
+        part_of += [np.full(len(self.shapes), -1)] + [len(p.meshes) + np.arange(len(p.shapes)) for p in self.prototypes]
+        part = np.concatenate([*part_of, [-1]]).astype(np.int64)
+        starts_geometry = np.cumsum([0] + [len(m.indices) for m in meshes])  # geometry id of each mesh's first triangle
         # The mesh holding each triangle (side="right" skips meshes without triangles), else the shape, else none.
-        source = np.where(prim < starts[-1], np.searchsorted(starts, prim, side="right") - 1,
-                          len(meshes) + prim - starts[-1])
-        source[(prim < 0) | (source >= len(meshes) + len(shapes))] = len(ids) - 1
-        elements = np.where(source < len(ids) - 1, 0, -1)
+        source = np.where(prim < starts_geometry[-1], np.searchsorted(starts_geometry, prim, side="right") - 1,
+                          len(meshes) + prim - starts_geometry[-1])
+        source[(prim < 0) | (source >= len(meshes) + len(shapes))] = len(own) - 1
+        ids = own[source]
+        drawn = (part[source] >= 0) & (instance >= 0) & (instance < len(starts))
+        ids[drawn] = parts[starts[instance[drawn]] + part[source[drawn]]]
+        elements = np.where(source < len(own) - 1, 0, -1)
         for k in np.unique(source[source < len(meshes)]):
             at = source == k
-            elements[at] = meshes[k].face_ids[prim[at] - starts[k]]
-        return ids[source], elements
+            elements[at] = meshes[k].face_ids[prim[at] - starts_geometry[k]]
+        return ids, elements
 
     def hit_paths(self, hits) -> tuple[np.ndarray, np.ndarray]:
         """The prims that hits name, by path: ``(prims, instances)``, ``(N,)`` object arrays of str, ``""`` where
         there is none (a miss; ``instances`` on non-instanced geometry).
 
-        ``prims[i]`` is the path of the mesh or analytic shape hit (``Mesh.path``, ``Shape.path``); on an instance,
-        of the prim in its prototype: a PointInstancer's prototype prim (``/PI/Protos/A/Mesh``) or a native
-        prototype's (``/__Prototype_1/Body``, named by USD per stage opening). ``instances[i]`` is
-        :meth:`wrt.instancing.Instances.path`: the PointInstancer and the instance's index in its arrays
-        (``/PI[3]``), or the instanceable prim (``/Plain``, whose instance proxy of the hit is ``/Plain/Body``); an
-        instance nested in another one names the world-level instance it is part of.
+        ``prims[i]`` is the path of the mesh or analytic shape hit as :meth:`prim_paths` names it: its own, or in an
+        instance the path it is drawn at (``/Plain/Body`` in native instance ``/Plain``; ``/PI/Protos/A/Mesh`` in
+        an instance of PointInstancer ``/PI``). ``instances[i]`` is :meth:`wrt.instancing.Instances.path`: the
+        PointInstancer and the instance's index in its arrays (``/PI[3]``), or the instanceable prim (``/Plain``);
+        an instance nested in another one names the world-level instance it is part of.
 
         Args:
             hits: :class:`wrt.trace.Hits` (its ``local_prim`` and ``instance`` are read).
         """
         prim = np.asarray(hits.local_prim, np.int64).reshape(-1)
         instance = np.asarray(hits.instance, np.int64).reshape(-1)
-        prims = np.array([*self.prim_paths(), ""], object)[self.hit_prims(prim)[0]]  # -1: the last, ""
+        prims = np.array([*self.prim_paths(), ""], object)[self.hit_prims(prim, instance)[0]]  # -1: the last, ""
         ids, inverse = np.unique(np.where(prim >= 0, instance, -1), return_inverse=True)
         paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
         return prims, paths[inverse.reshape(-1)]
