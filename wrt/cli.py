@@ -138,8 +138,8 @@ def add_stage_options(p) -> None:
                    help="select a variant before the stage is read, e.g. /World/Car:paint=red (repeatable; applied "
                    "in order on the session layer, the file is not changed)")
     p.add_argument("--render-settings", metavar="PRIM", help="RenderSettings prim to follow (camera, resolution, "
-                   "aspect ratio conform, data window, includedPurposes); default: the one the stage's "
-                   "renderSettingsPrimPath names")
+                   "aspect ratio conform, data window, included and material binding purposes, products); default: "
+                   "the one the stage's renderSettingsPrimPath names")
 
 
 def _seed(text: str) -> int:
@@ -209,7 +209,8 @@ def _add_render(sub) -> None:
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
                    "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
                    "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
-                   "EXR. Not with -o, --width, --height, --camera, --aov, --aov-dir or several scenes")
+                   "EXR. Not with -o, --width, --height, --camera, --aov, --aov-dir, --frames, --max-memory or several "
+                   "scenes")
     from .integrators import INTEGRATORS
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
