@@ -535,15 +535,13 @@ def test_visibility_purpose_and_activation(tmp_path):
     assert [m.path for m in scene.meshes] == ["/Shown", "/Render"]
 
 
-def test_native_instances_share_one_prototype(tmp_path):
-    body = (
-        'class Xform "Proto"\n{\n'
-        + mesh_usda("Tri", points=[(0, 0, 0), (1, 0, 0), (0, 1, 0)], counts=[3], indices=[0, 1, 2])
-        + "}\n"
-    )
-    for name, x in (("A", 10), ("B", 20)):
+def native_instances_usda(tmp_path, points=((0, 0, 0), (1, 0, 0), (0, 1, 0)), extra="", name="scene.usda") -> str:
+    """A stage of mesh ``/Proto/Tri`` instanced by instanceable prims ``/A`` and ``/B``."""
+    body = 'class Xform "Proto"\n{\n' + mesh_usda("Tri", points=list(points), counts=[3], indices=[0, 1, 2],
+                                                  extra=extra) + "}\n"
+    for instance, x in (("A", 10), ("B", 20)):
         body += f"""
-def Xform "{name}" (
+def Xform "{instance}" (
     instanceable = true
     references = </Proto>
 )
@@ -552,7 +550,11 @@ def Xform "{name}" (
     uniform token[] xformOpOrder = ["xformOp:translate"]
 }}
 """
-    path = write_usda(tmp_path, body)
+    return write_usda(tmp_path, body, name)
+
+
+def test_native_instances_share_one_prototype(tmp_path):
+    path = native_instances_usda(tmp_path)
     assert Usd.Stage.Open(path).GetPrimAtPath("/A").IsInstance()
     scene = load(path)
     # The prototype is read once, in its own space; each instanceable prim is one instance of it.
@@ -564,6 +566,23 @@ def Xform "{name}" (
     expected = [[(10, 0, 0), (11, 0, 0), (10, 1, 0)], [(20, 0, 0), (21, 0, 0), (20, 1, 0)]]
     np.testing.assert_allclose(points[indices], expected)
     assert scene.stats()["rendered_triangles"] == 2 and scene.stats()["unique_triangles"] == 1
+
+
+def test_a_bad_prim_in_a_native_prototype_is_named_by_its_instance_proxy(tmp_path, monkeypatch):
+    """Errors and warnings about a prim inside a native instance's prototype name it as usdview shows it, by its
+    proxy in the first instance (``/A/Tri``); they named ``/__Prototype_1/Tri``, a path USD makes up per opening
+    that no file holds, so the user could not find the mesh."""
+    import wrt.resources
+
+    misspelt = native_instances_usda(tmp_path, extra='uniform token orientation = "leftHandd"')
+    with pytest.warns(UserWarning, match=r"orientation .*: /A/Tri$"):
+        load_usd(misspelt)
+    with pytest.raises(SceneError, match=r"/A/Tri\b") as error:
+        load_usd(native_instances_usda(tmp_path, [(0, 0, 0), (float("nan"), 0, 0), (0, 1, 0)], name="nan.usda"))
+    assert "__Prototype" not in str(error.value)
+    monkeypatch.setattr(wrt.resources, "available_host_bytes", lambda: 1 << 10)
+    with pytest.raises(MemoryError, match=r"scene.usda: /A/Tri: refine_level 1"):
+        load_usd(misspelt, refine_level=1)
 
 
 def test_gprims_load_as_analytic_shapes_and_unsupported_ones_warn_once(tmp_path):

@@ -415,6 +415,7 @@ class _StageReader:
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
+        self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
 
     def _meters_per_unit(self) -> float:
         """The stage's ``metersPerUnit``; a value that is not a finite number above ``MIN_METERS_PER_UNIT`` (the depth
@@ -1422,8 +1423,8 @@ class _StageReader:
         # Refused before refining: past the memory, numpy failed deep inside the refinement without naming the mesh
         # (or the system killed the load).
         quads = refined_quads(counts, self.refine_level)
-        check_host_memory(quads * REFINED_QUAD_BYTES,
-                          f"{self.source}: {prim.GetPath()}: refine_level {self.refine_level} ({quads:,} quads)")
+        check_host_memory(quads * REFINED_QUAD_BYTES, f"{self.source}: {self._shown_path(prim)}: refine_level "
+                          f"{self.refine_level} ({quads:,} quads)")
         mesh, t = UsdGeom.Mesh(prim), self.time
         creases = corners = None
         crease_indices = self._int_array(prim, mesh.GetCreaseIndicesAttr())
@@ -1687,7 +1688,7 @@ class _StageReader:
             root = self.stage.GetRootLayer()
             if stack and stack[0].layer != root:
                 message += f" (authored in {stack[0].layer.identifier})"
-        return SceneError(message, path=self.source, prim=str(prim.GetPath()))
+        return SceneError(message, path=self.source, prim=self._shown_path(prim))
 
     def _left_handed(self, prim: Usd.Prim, gprim: UsdGeom.Gprim, t: Usd.TimeCode) -> bool:
         """Whether ``orientation`` is leftHanded. Any other token is read as USD's fallback, rightHanded, and named
@@ -1699,7 +1700,24 @@ class _StageReader:
 
     def _skip(self, reason: str, prim: Usd.Prim, detail: str | None = None):
         """Records a prim left out (or data ignored) for ``reason``; ``detail`` is tallied in the warning."""
-        self._skip_path(reason, str(prim.GetPath()), detail)
+        self._skip_path(reason, self._shown_path(prim), detail)
+
+    def _shown_path(self, prim: Usd.Prim) -> str:
+        """The path that names ``prim`` in errors and warnings, as usdview shows it: inside a native instance's
+        prototype (``/__Prototype_1/Tri``, a name USD makes up per opening that no file holds), its proxy in the
+        prototype's first drawn instance (``/A/Tri``; nested instances resolved the same way)."""
+        path = str(prim.GetPath())
+        if not prim.IsInPrototype():
+            return path
+        root = prim
+        while not root.IsPrototype():
+            root = root.GetParent()
+        key = str(root.GetPath())
+        if key not in self.shown_prototypes:
+            instances = root.GetInstances()
+            first = min(instances, key=lambda p: (p.IsAbstract(), str(p.GetPath()))) if instances else None
+            self.shown_prototypes[key] = self._shown_path(first) if first else key
+        return self.shown_prototypes[key] + path[len(key):]
 
     def _skip_path(self, reason: str, path: str, detail: str | None = None):
         self.skipped.setdefault(reason, []).append((path, detail))
