@@ -476,3 +476,21 @@ def test_exposure_with_exr_products_warns_once(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         wrt.render_products(scene, tmp_path / "out2", device="cpu", exposure=0.0)
+
+
+def test_render_settings_warnings_point_at_the_load_usd_call(tmp_path):
+    """Every warning about the render settings points at the caller's line, as wrt's other load warnings do; those
+    of a product left out and of a stale renderSettingsPrimPath pointed into wrt (usd.py's call of
+    read_render_settings), and a RenderVar target that is no RenderVar at a line of render_settings.py."""
+    products = (product("A", ["color"], "a.png", "rel camera = </World/Nope>\n")
+                + product("B", ["color"], "b.png").replace("orderedVars = [", "orderedVars = [</World/Box>, "))
+    path = write_stage(tmp_path, products, ["A", "B"],
+                       settings='uniform token renderingColorSpace = "srgb_texture"\n')
+    stale = path.replace("shot.usda", "stale.usda")
+    open(stale, "w").write(open(path).read().replace('"/Render/Settings"', '"/Render/Gone"'))
+    for stage, expected in ((path, 3), (stale, 1)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            wrt.load_usd(stage)
+        assert len(caught) == expected, [str(w.message) for w in caught]
+        assert [w.filename for w in caught] == [__file__] * expected, [str(w.message) for w in caught]

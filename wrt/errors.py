@@ -1,8 +1,12 @@
 """Errors that wrt raises for bad input, so callers can tell them from bugs, and the checks that raise them."""
 
 import difflib
+import os
+import sys
 
 import numpy as np
+
+_PACKAGE = os.path.dirname(os.path.abspath(__file__)) + os.sep  # wrt's own files start with this
 
 
 class SceneError(ValueError):
@@ -23,6 +27,16 @@ class TimeRangeWarning(UserWarning):
     """A time code outside the stage's authored ``[startTimeCode, endTimeCode]``: rendered all the same (USD holds
     the values of the nearest time samples), but often a typo. A category of its own, so a frame range warns once for
     all its frames (:func:`wrt.animation.warn_frames_outside_range`) instead of once per frame."""
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` that makes a ``warnings.warn`` called by the caller point at the first line outside wrt (the
+    user's ``load_usd(...)``), however deep in wrt the warning is found: a fixed level pointed into wrt's own files
+    for the warnings found one call deeper."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def did_you_mean(value, valid) -> str:

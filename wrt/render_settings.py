@@ -35,7 +35,7 @@ import os
 import warnings
 
 from .camera import CONFORM_POLICIES, Camera
-from .errors import SceneError
+from .errors import SceneError, user_stacklevel
 
 DEFAULT_WIDTH = 640  # image width without a stage resolution or an explicit one, in pixels
 DEFAULT_HEIGHT = 480  # image height, likewise
@@ -203,7 +203,8 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
             raise SceneError(f"{path} {problem}", path=source)
         # Metadata left behind when the settings were deleted or renamed: the stage still renders (as usdview draws
         # it), with wrt's defaults, rather than failing for settings the user never asked for.
-        warnings.warn(f"{name}: {path} (the stage's renderSettingsPrimPath) {problem}; it is ignored", stacklevel=2)
+        warnings.warn(f"{name}: {path} (the stage's renderSettingsPrimPath) {problem}; it is ignored",
+                      stacklevel=user_stacklevel())
         return None
     path = str(path)
     settings = UsdRender.Settings(prim)
@@ -223,7 +224,7 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
         except SceneError as error:
             # A product must not keep the stage from loading, the first no more than a later one: a plain render
             # then uses the first product that can be read, or the settings' own values when none can.
-            warnings.warn(f"{error}; this RenderProduct is left out", stacklevel=2)
+            warnings.warn(f"{error}; this RenderProduct is left out", stacklevel=user_stacklevel())
     if not products:
         return _merged(stage, source, path, base, None)
     return dataclasses.replace(products[0], products=tuple(products))
@@ -241,7 +242,7 @@ def _targets(stage, rel, schema, where: str) -> list:
         else:
             what = f"a {prim.GetTypeName() or 'typeless prim'}" if prim else "nothing"
             warnings.warn(f"{where}: {rel.GetName()} targets {target}, which is {what}, not a "
-                          f"Render{schema.__name__}; it is left out", stacklevel=4)
+                          f"Render{schema.__name__}; it is left out", stacklevel=user_stacklevel())
     return prims
 
 
@@ -287,7 +288,7 @@ def _warn_color_space(space: str, where: str) -> None:
     (colours are read and summed as they are, never converted)."""
     if space and space not in LINEAR_REC709_NAMES:
         warnings.warn(f"{where}: renderingColorSpace {space!r} is not linear Rec.709 ({LINEAR_REC709_NAMES[0]}), "
-                      "which wrt renders in; colours are not converted", stacklevel=4)
+                      "which wrt renders in; colours are not converted", stacklevel=user_stacklevel())
 
 
 def _read_base(schema, authored_only: bool) -> dict:
