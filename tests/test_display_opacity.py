@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, Vt
 from test_materials import add_quad, bind, new_stage, preview_material
+from usda_text import load_recording_warnings
 
 import wrt
 
@@ -37,10 +38,7 @@ def stage_with(tmp_path, part=None, name="opacity.usda"):
     if part is not None:
         part(stage)
     stage.Save()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        scene = wrt.load_usd(path)
-    return scene, [str(w.message) for w in caught]
+    return load_recording_warnings(path)
 
 
 def render(scene):

@@ -2,13 +2,10 @@
 warning per kind and stage, naming the file, the attribute (or type) and the prims. What wrt renders as authored
 (light linking, a presence material with a cut-out threshold) is not named."""
 
-import warnings
-
 import numpy as np
 from PIL import Image as PilImage
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
-
-import wrt
+from usda_text import load_recording_warnings
 
 
 def load_with_warnings(tmp_path, build):
@@ -17,10 +14,7 @@ def load_with_warnings(tmp_path, build):
     stage = Usd.Stage.CreateNew(path)
     build(stage)
     stage.Save()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        scene = wrt.load_usd(path)
-    return scene, [str(w.message) for w in caught]
+    return load_recording_warnings(path)
 
 
 def quad(stage, path, x=0.0):

@@ -40,5 +40,13 @@ def load(path, **kwargs):
         return wrt.load_usd(path, **kwargs)
 
 
+def load_recording_warnings(path, **kwargs):
+    """``(scene, messages)``: the stage at ``path`` loaded, and every warning the load gave."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path, **kwargs)
+    return scene, [str(w.message) for w in caught]
+
+
 def trace(scene, origins, directions):
     return wrt.trace(scene, np.asarray(origins, np.float32), np.asarray(directions, np.float32))
