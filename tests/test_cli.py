@@ -80,6 +80,9 @@ def test_help_explains_the_options():
         (["render", "--exposure", "inf"], "finite"),
         (["render", "--exposure", "2000"], "[-150, 150]"),  # an OverflowError traceback after the render
         (["render", "--time", "nan"], "finite"),
+        # Refused before the load (it was, after loading the scene and building its tree).
+        (["render", "no/such/file.usda", "--ao-radius", "0"], "argument --ao-radius: must be a positive number, got 0"),
+        (["render", "--ao-radius", "-1"], "argument --ao-radius: must be a positive number, got -1"),
         (["render", "--time", "-inf"], "must be a finite number, got -inf"),  # was "expected one argument"
         (["render", "--seed", "2147483648"], "seed must be an integer from 0 to 2147483647"),  # wrapped onto seed 0
         (["render", "--workers", "3"], "--workers sizes the LocalCluster"),  # was ignored

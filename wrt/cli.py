@@ -90,6 +90,14 @@ def _finite_float(text: str) -> float:
     return value
 
 
+def _positive_float(text: str) -> float:
+    """An argparse type: a finite number above 0 (``--ao-radius``: refused before the scene loads, not after)."""
+    value = _finite_float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return value
+
+
 def _exposure(text: str) -> float:
     """An argparse type: an exposure :meth:`wrt.Image.save` accepts (checked before the render, not after it)."""
     from .image import check_exposure
@@ -219,7 +227,8 @@ def _add_render(sub) -> None:
 
     p.add_argument("--max-depth", type=int_at_least(0, f"an integer from 0 to {MAX_DEPTH}", MAX_DEPTH), default=None,
                    help="bounces per path; default 10 (path), 8 (whitted)")
-    p.add_argument("--ao-radius", type=float, default=None, help="ao distance; default a tenth of the scene's size")
+    p.add_argument("--ao-radius", type=_positive_float, default=None,
+                   help="ao distance; default a tenth of the scene's size")
     p.add_argument("--exposure", type=_exposure, default=0.0,
                    help="PNG only: scale the image by 2^EXPOSURE before sRGB")
     from .render import AOV_NAMES
