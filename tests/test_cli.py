@@ -289,10 +289,14 @@ def test_render_progress_line_counts_shapes_and_instances(tmp_path, capsys):
     path = tmp_path / "gprims.usda"
     path.write_text(GPRIM_STAGE)
     assert main(["render", str(path), "-o", str(tmp_path / "g.png"), "--width", "8", "--height", "6"]) == 0
-    assert "loaded gprims.usda: 0 triangles in 0 meshes, 2 analytic shapes" in capsys.readouterr().err
+    assert "loaded gprims.usda: 2 analytic shapes (" in capsys.readouterr().err  # no "0 triangles in 0 meshes"
     stats = sensor_scene().stats()
     line = loaded_summary("s", stats)
     assert f"{stats['instances']:,} instances of {stats['prototypes']:,} prototype" in line
+    forest = {"meshes": 0, "rendered_triangles": 2_472_000, "instances": 1000, "prototypes": 5, "rendered_shapes": 0}
+    assert loaded_summary("f", forest) == "loaded f: 2,472,000 triangles in 1,000 instances of 5 prototypes"
+    empty = {**forest, "rendered_triangles": 0, "instances": 0}
+    assert loaded_summary("e", empty) == "loaded e: 0 triangles in 0 meshes"
     assert f"{stats['rendered_shapes']:,} analytic shapes" in line
 
 

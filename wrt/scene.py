@@ -887,17 +887,20 @@ class Scene:
 def contents_summary(stats: dict) -> str:
     """``1,070 triangles in 8 meshes``, then the instances and the analytic shapes where there are any, from
     :meth:`Scene.stats`: counting meshes alone said "0 triangles in 0 meshes" for a stage of gprims and for an
-    instanced forest, as if most of the scene had not loaded."""
+    instanced forest, as if most of the scene had not loaded. Zero meshes beside instances or shapes go unsaid."""
 
     def count(n: int, noun: str, plural: str = "") -> str:
         return f"{n:,} {noun if n == 1 else plural or noun + 's'}"
 
-    parts = [count(stats["meshes"], "mesh", "meshes")]
+    holders = []  # what the triangles are in
+    if stats["meshes"] or not (stats["instances"] or stats["rendered_shapes"]):
+        holders.append(count(stats["meshes"], "mesh", "meshes"))
     if stats["instances"]:
-        parts.append(f"{count(stats['instances'], 'instance')} of {count(stats['prototypes'], 'prototype')}")
+        holders.append(f"{count(stats['instances'], 'instance')} of {count(stats['prototypes'], 'prototype')}")
+    parts = [f"{count(stats['rendered_triangles'], 'triangle')} in {', '.join(holders)}"] if holders else []
     if stats["rendered_shapes"]:
         parts.append(count(stats["rendered_shapes"], "analytic shape"))
-    return f"{count(stats['rendered_triangles'], 'triangle')} in {', '.join(parts)}"
+    return ", ".join(parts)
 
 
 def _concatenate_meshes(meshes: list[Mesh]) -> tuple[np.ndarray, np.ndarray]:
