@@ -557,10 +557,14 @@ class Scene:
             instances: ``(N,)`` int instance ids (``Hits.instance``), -1 for non-instanced geometry: a prototype's
                 part is a prim of each instance (prototype geometry without its instance has prim id -1).
         """
+        return self._hit_prims(geometry_ids, instances, drawn_ids(self))
+
+    def _hit_prims(self, geometry_ids, instances, drawn: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`hit_prims` with the scene's :func:`wrt.light_links.drawn_ids` ``drawn`` already made."""
         prim = np.asarray(geometry_ids, np.int64).reshape(-1)
         instance = np.asarray(instances, np.int64).reshape(-1)
         meshes, shapes = self._geometry_meshes(), self._geometry_shapes()
-        _, world, starts, parts = drawn_ids(self)
+        _, world, starts, parts = drawn
         # Per geometry source (meshes, then shapes, in geometry order; one more for none): the prim id of a
         # non-instanced one, -1 for a prototype's, and the part index in its prototype of a prototype's, else -1.
         own = np.concatenate([world[:len(self.meshes)], np.full(len(meshes) - len(self.meshes), -1),
@@ -597,7 +601,8 @@ class Scene:
         """
         prim = np.asarray(hits.local_prim, np.int64).reshape(-1)
         instance = np.asarray(hits.instance, np.int64).reshape(-1)
-        prims = np.array([*self.prim_paths(), ""], object)[self.hit_prims(prim, instance)[0]]  # -1: the last, ""
+        drawn = drawn_ids(self)  # the paths and the ids into them, made once
+        prims = np.array([*drawn[0], ""], object)[self._hit_prims(prim, instance, drawn)[0]]  # -1: the last, ""
         ids, inverse = np.unique(np.where(prim >= 0, instance, -1), return_inverse=True)
         paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
         return prims, paths[inverse.reshape(-1)]
