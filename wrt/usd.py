@@ -544,19 +544,25 @@ class _StageReader:
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
         if not (primvar and primvar.HasValue()):
             return None
-        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
-        values = np.asarray(raw if raw is not None else [])
-        if values.ndim != 1 or values.dtype.kind not in "fiu":
+        values = self._opacity_values(primvar)
+        if values is None:
             self._skip("displayOpacity that is not an array of numbers was ignored", prim, str(primvar.GetTypeName()))
             return None
         if not len(values):
             return None
-        values = unit_opacities(values.astype(np.float64), prim, self._skip)
+        values = unit_opacities(values, prim, self._skip)
         if one_per_prim and np.ptp(values) > 0.0:
             self._skip(f"{prim.GetTypeName()} prims are drawn in one opacity: the mean of their displayOpacity", prim,
                        primvar.GetInterpolation())
         mean = float(values.mean())
         return mean if mean < 1.0 or keep_opaque else None
+
+    def _opacity_values(self, primvar) -> np.ndarray | None:
+        """The flattened values of ``displayOpacity`` primvar ``primvar`` at the reader's time as float64 (maybe
+        none), or None when they are not an array of numbers."""
+        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        values = np.asarray(raw if raw is not None else [])
+        return values.astype(np.float64) if values.ndim == 1 and values.dtype.kind in "fiu" else None
 
     # Filters
 
@@ -707,10 +713,10 @@ class _StageReader:
         primvar = inherited.get("displayOpacity")
         if primvar is None:
             return None
-        values = np.asarray(primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time)) or [])
-        if values.ndim != 1 or values.dtype.kind not in "fiu" or not len(values):
+        values = self._opacity_values(primvar)
+        if values is None or not len(values):
             return None
-        return float(unit_opacities(values.astype(np.float64), prim, self._skip).mean())
+        return float(unit_opacities(values, prim, self._skip).mean())
 
     def _colored(self, key: tuple, content: _Content, color: tuple, prim: Usd.Prim) -> tuple:
         """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``
