@@ -152,6 +152,45 @@ def test_resume_drops_error_rows_that_now_succeed_and_a_cut_last_line(tmp_path):
     assert read_rows(tmp_path) == rows
 
 
+TRIANGLES_USDA = ('#usda 1.0\ndef Mesh "M"\n{{\n    int[] faceVertexCounts = {counts}\n'
+                  '    int[] faceVertexIndices = {indices}\n'
+                  '    point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]\n}}\n')
+
+
+def test_resume_measures_again_the_rows_of_a_changed_or_broken_scene(tmp_path):
+    """--resume checked the ray count only: rows of a scene file since edited (two triangles, now one) were kept as
+    measured, beside new rows of the new file; a scene that no longer loads kept its old rows beside its error."""
+    scene = tmp_path / "quad.usda"
+    scene.write_text(TRIANGLES_USDA.format(counts="[3, 3]", indices="[0, 1, 2, 0, 2, 3]"))
+    grid = tiny_grid(scenes=[str(scene), "sphere:200"], rays=["incoherent"], n_rays=500, repeats=1)
+    out = tmp_path / "out"
+    run_grid(grid, out, progress=False)
+    kept = [r for r in read_rows(out) if r["scene"] == "sphere:200"]
+    scene.write_text(TRIANGLES_USDA.format(counts="[3]", indices="[0, 1, 2]"))
+    with pytest.warns(UserWarning, match="quad.usda / cpu / incoherent: rows of the resumed run measured again, as "
+                                         "its triangles or rays changed"):
+        rows = run_grid(grid, out, resume=True, progress=False)
+    assert rows[:2] == kept and len(rows) == 4 and read_rows(out) == rows  # the sphere's rows were not re-measured
+    assert [r["triangles"] for r in rows[2:]] == [1, 1]
+    scene.unlink()
+    with pytest.warns(UserWarning, match="quad.usda / cpu / incoherent: .* measured again, as the group now fails"):
+        rows = run_grid(grid, out, resume=True, progress=False)
+    assert rows[:2] == kept and [r["accel"] for r in rows[2:]] == ["*"] and read_rows(out) == rows
+
+
+def test_resume_measures_again_rows_of_other_hardware_or_versions(tmp_path):
+    """Rows measured under another Warp version or on another CPU were kept by --resume and compared with new ones."""
+    run_grid(tiny_grid(rays=["primary"]), tmp_path, progress=False)
+    first, second = read_rows(tmp_path)
+    (tmp_path / "rows.jsonl").write_text(json.dumps(first) + "\n"
+                                         + json.dumps(dict(second, warp="1.18.0", cpu="Another CPU")) + "\n")
+    with pytest.warns(UserWarning, match=f"measured again, as warp 1.18.0 -> {wrt.bench.wp.config.version}, cpu "
+                                         f"Another CPU -> "):
+        rows = run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)
+    assert rows[0] == first and rows[1]["warp"] == wrt.bench.wp.config.version and rows[1]["cpu"] == first["cpu"]
+    assert read_rows(tmp_path) == rows and rows[1]["agreement"] == 1.0
+
+
 @pytest.mark.parametrize("line", ['{"scene": "sphere:2000", "accel": "wrt:sah"}', "5", "[1]"])
 def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
     """JSON that is not a row stopped the resumed run with a KeyError traceback or "argument of type 'int' is not

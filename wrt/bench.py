@@ -8,7 +8,8 @@ excluded), hit fraction, tree statistics where the accelerator exposes them (``w
 traces, as ``wrt bvh-stats --layout`` gives them), and agreement with ``warp:sah`` on the same rays. Rows go to a
 JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an error row and the run goes
 on (a scene without triangles too); ``resume`` skips rows already in the file, which must have been measured with
-the same ray counts (recorded in ``settings.json`` beside it).
+the same ray counts (recorded in ``settings.json`` beside it), and measures again, with a warning, a row whose
+triangles and rays (hashed), device hardware or wrt and Warp versions differ from this run's (``IDENTITY_FIELDS``).
 
 Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layouts exist), ``warp:BUILDER``
 (``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
@@ -230,7 +231,10 @@ def hardware(device) -> dict:
                 break
     except OSError:
         pass
-    info = {"cpu": cpu, "cpu_cores": os.cpu_count(), "warp": wp.config.version, "gpu": None, "driver": None}
+    from . import __version__
+
+    info = {"cpu": cpu, "cpu_cores": os.cpu_count(), "warp": wp.config.version, "wrt": __version__, "gpu": None,
+            "driver": None}
     dev = wp.get_device(device)
     if dev.is_cuda:
         info["gpu"] = dev.name
@@ -433,6 +437,34 @@ def row_key(row: dict) -> tuple:
     return tuple(row[name] for name in ROW_KEY_FIELDS)
 
 
+# What a row was measured on, beyond its key: ``resume`` keeps a row only when all of these are the same now. ``inputs``
+# hashes the triangles and rays traced (a changed scene file or a layer it references, another camera, ray count or
+# ray generation); the rest is hardware() of the row's device.
+IDENTITY_FIELDS = ("inputs", "wrt", "warp", "cpu", "cpu_cores", "gpu", "driver", "gpu_driver")
+
+
+def identity_changes(before: dict, now: dict) -> list[str]:
+    """What differs between the identities of two rows of one key, in words (empty when they match)."""
+    changes = []
+    for name in IDENTITY_FIELDS:
+        if before.get(name) != now.get(name):
+            changes.append("its triangles or rays changed" if name == "inputs" else
+                           f"{name} {before.get(name)} -> {now.get(name)}")
+    return changes
+
+
+def inputs_digest(*arrays: np.ndarray) -> str:
+    """A short hash of the bytes of ``arrays`` (the triangles and rays of a row group)."""
+    import hashlib
+
+    digest = hashlib.blake2b(digest_size=8)
+    for array in arrays:
+        array = np.ascontiguousarray(array)
+        digest.update(f"{array.dtype.str}{array.shape}".encode())
+        digest.update(array.data)
+    return digest.hexdigest()
+
+
 def _agreement(answer, reference, directions, scale) -> float:
     if isinstance(answer, np.ndarray):
         return float(np.mean(answer == reference))
@@ -448,10 +480,10 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     if not len(origins):  # no row can time zero rays (Warp fails on the empty slice; Embree "ran" at 0 Mrays/s)
         raise ValueError(f"no {kind} rays: they start where primary rays hit, and none of them hit the scene")
     any_hit = kind in ANY_HIT_KINDS
-    points = scene.triangles()[0]
+    points, indices = scene.triangles()
     scale = float(np.abs(points).max()) if len(points) else 0.0
     base = {"scene": scene_name, "triangles": triangles, "device": str(device), "rays": kind}
-    base["n_rays"] = int(len(origins))
+    base.update(n_rays=int(len(origins)), inputs=inputs_digest(points, indices, origins, directions))
     reference = None
     ordered = sorted(accels, key=lambda a: a != REFERENCE)  # the reference first, so others can be compared
     rows = [dict(base, accel=spec, threads=threads)
@@ -526,7 +558,7 @@ def _run_group_task(task) -> list[dict]:
     """
     from .distributed import worker_device
 
-    (scene_name, device_name, kind), grid, thread_counts, done = task
+    (scene_name, device_name, kind), grid, thread_counts, done = task  # done: row key -> identity fields
     wp.config.log_level = wp.LOG_WARNING  # no Warp banner and module-load lines from every worker
     device = resolve_device(worker_device() if device_name.startswith("cuda") else device_name)
     info, rows = hardware(device), []
@@ -534,7 +566,10 @@ def _run_group_task(task) -> list[dict]:
     def collect(row):
         rows.append(dict(row, device=device_name, **info))
 
-    skip = lambda r: row_key(dict(r, device=device_name)) in done  # noqa: E731
+    def skip(row):
+        before = done.get(row_key(dict(row, device=device_name)))
+        return before is not None and not identity_changes(before, dict(row, **info))
+
     _run_group((scene_name, device, kind), grid, thread_counts, collect, skip, _worker_scenes)
     return rows
 
@@ -586,10 +621,36 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
                              f"{', '.join(ROW_KEY_FIELDS)}); remove it to resume")
         if "error" not in row:
             rows.append(row)
+    _write_rows(jsonl, rows)
+    return rows
+
+
+def _write_rows(jsonl: Path, rows: list[dict]) -> None:
+    """Replaces ``jsonl`` with ``rows`` in one step: an interruption leaves the old file or the new one."""
     tmp = jsonl.with_suffix(".jsonl.tmp")
     tmp.write_text("".join(json.dumps(r) + "\n" for r in rows))
     tmp.replace(jsonl)
-    return rows
+
+
+def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set) -> bool:
+    """Drops from ``rows`` (and ``resumed``, row key -> row) the resumed rows that the new ``row`` measures again:
+    the one of its key, measured on other inputs, hardware or versions, or every row of its group when the whole
+    group now fails. Warns once per group; returns whether a row was dropped."""
+    group = (row["scene"], row["device"], row["rays"])
+    stale = [key for key in resumed if key == row_key(row) or row["accel"] == "*" and
+             (resumed[key]["scene"], resumed[key]["device"], resumed[key]["rays"]) == group]
+    if not stale:
+        return False
+    if group not in warned:
+        import warnings
+
+        warned.add(group)
+        before = resumed[stale[0]]
+        why = ["the group now fails"] if row["accel"] == "*" else identity_changes(before, row)
+        warnings.warn(f"{' / '.join(map(str, group))}: rows of the resumed run measured again, as {', '.join(why)}")
+    for key in stale:
+        rows.remove(resumed.pop(key))
+    return True
 
 
 def run_grid(
@@ -603,7 +664,7 @@ def run_grid(
     """
     from tqdm import tqdm
 
-    rows, done = [], set()
+    rows, resumed, warned = [], {}, set()  # resumed: row key -> a row of the earlier run, kept until measured again
     jsonl = None
     if out is not None:
         if not str(out).strip():  # Path("") is the current folder
@@ -617,7 +678,7 @@ def run_grid(
         if resume and jsonl.exists():
             _check_resumed_settings(out / SETTINGS_FILE, grid)
             rows = _resumed_rows(jsonl)
-            done = {row_key(r) for r in rows}
+            resumed = {row_key(r): r for r in rows}
         elif jsonl.exists():
             jsonl.unlink()
         (out / SETTINGS_FILE).write_text(json.dumps(_ray_settings(grid)) + "\n")
@@ -637,8 +698,14 @@ def run_grid(
     groups += [(name, d, scaling.get("rays", "incoherent")) for name in sizes for d in devices]
     info = {} if dask else {str(d): hardware(d) for d in devices}  # with dask, each row has its worker's hardware
 
+    def skip(row):  # a resumed row of this key, measured on what this row would be measured on
+        before = resumed.get(row_key(row))
+        return before is not None and not identity_changes(before, dict(row, **info.get(row["device"], {})))
+
     def emit(row):
         row.update(info.get(row["device"], {}))
+        if _replace_resumed(row, resumed, rows, warned) and jsonl is not None:
+            _write_rows(jsonl, rows)
         rows.append(row)
         if jsonl is not None:
             with open(jsonl, "a") as f:  # one row per write, flushed: an interrupted run loses nothing
@@ -654,12 +721,13 @@ def run_grid(
             def lost(task, e):  # the group's workers kept dying, or its device does not exist there
                 emit(_group_error_row(*task[0], e))
 
-            first = len(rows)
-            tasks = [((s, str(d), k), grid, thread_counts, frozenset(done)) for s, d, k in groups]
+            done = {key: {name: r.get(name) for name in IDENTITY_FIELDS} for key, r in resumed.items()}
+            tasks = [((s, str(d), k), grid, thread_counts, done) for s, d, k in groups]
             run_tasks(_run_group_task, tasks, address=None if dask is True else dask, progress=progress,
                       desc="wrt bench", on_result=lambda task, group_rows: [emit(r) for r in group_rows],
                       on_error=lost)
             order = {task[0]: i for i, task in enumerate(tasks)}
+            first = len(resumed)  # the resumed rows not measured again come first
             rows[first:] = sorted(rows[first:],
                                   key=lambda r: order.get((r["scene"], r["device"], r["rays"]), 0))  # grid order
         else:
@@ -667,7 +735,7 @@ def run_grid(
             loaded = {}
             for group in groups:
                 bar.set_postfix_str(" ".join(map(str, group)))
-                _run_group(group, grid, thread_counts, emit, lambda r: row_key(r) in done, loaded)
+                _run_group(group, grid, thread_counts, emit, skip, loaded)
                 bar.update()
             bar.close()
     except KeyboardInterrupt:  # rows.jsonl has every finished row; the table and plots show them too
