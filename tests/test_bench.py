@@ -400,6 +400,22 @@ def test_cli_bench_exit_status_summarises_failures(tmp_path, capsys):
     assert main(["bench", "--rays", "sideways", "-o", str(tmp_path), "-q"]) == 2
 
 
+def test_a_cuda_device_this_machine_lacks_fails_its_rows_and_the_others_run(tmp_path, capsys):
+    """--devices cpu,cuda:99 stopped the whole run before any row with 'unknown or unavailable device'."""
+    code = main(["bench", "--scenes", "sphere:200", "--accels", "warp:sah", "--rays", "primary", "--devices",
+                 "cpu,cuda:99", "--n-rays", "300", "--repeats", "1", "-o", str(tmp_path), "-q"])
+    assert code == 1
+    rows = read_rows(tmp_path)
+    assert [(r["device"], "mrays" in r) for r in rows] == [("cpu", True), ("cuda:99", False)]
+    assert "unknown or unavailable device 'cuda:99'" in rows[1]["error"]
+    assert "failed: sphere:200 / * / cuda:99 / primary: ValueError: unknown or unavailable device 'cuda:99'" in (
+        capsys.readouterr().err)
+    with pytest.raises(ValueError, match="unknown or unavailable device 'cuda:99'"):  # nothing to run at all
+        run_grid(tiny_grid(devices=["cuda:99"]), tmp_path, progress=False)
+    with pytest.raises(ValueError, match="unknown or unavailable device 'cpuu'"):  # a misspelt name
+        run_grid(tiny_grid(devices=["cpu", "cpuu"]), tmp_path, progress=False)
+
+
 @pytest.mark.parametrize(
     "script, args, message",
     [

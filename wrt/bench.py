@@ -690,13 +690,14 @@ def run_grid(
         warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
         grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing])
     grid = grid.validated()
-    devices = [d if dask else resolve_device(d) for d in grid.devices]  # with dask, resolved on the worker
+    devices, unavailable = _resolve_devices(grid.devices) if not dask else (grid.devices, {})  # dask: on the worker
     thread_counts = grid.threads
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
     sizes = dict.fromkeys(f"sphere:{int(float(n))}" for n in scaling.get("sizes", []))  # 1e3 and 1000: one group
     groups += [(name, d, scaling.get("rays", "incoherent")) for name in sizes for d in devices]
-    info = {} if dask else {str(d): hardware(d) for d in devices}  # with dask, each row has its worker's hardware
+    # With dask, each row has its worker's hardware.
+    info = {} if dask else {str(d): hardware(d) for d in devices if str(d) not in unavailable}
 
     def skip(row):  # a resumed row of this key, measured on what this row would be measured on
         before = resumed.get(row_key(row))
@@ -735,7 +736,10 @@ def run_grid(
             loaded = {}
             for group in groups:
                 bar.set_postfix_str(" ".join(map(str, group)))
-                _run_group(group, grid, thread_counts, emit, skip, loaded)
+                if str(group[1]) in unavailable:
+                    emit(_group_error_row(*group, unavailable[str(group[1])]))
+                else:
+                    _run_group(group, grid, thread_counts, emit, skip, loaded)
                 bar.update()
             bar.close()
     except KeyboardInterrupt:  # rows.jsonl has every finished row; the table and plots show them too
@@ -745,6 +749,27 @@ def run_grid(
     if out is not None:
         write_summary(rows, out)
     return rows
+
+
+def _resolve_devices(names: list[str]) -> tuple[list, dict]:
+    """The Warp devices of ``names``, with a CUDA device this machine does not have kept by name in the second value
+    (name -> the error naming it), so that the other devices' rows still run and its own become error rows.
+
+    Raises:
+        ValueError: for a name that is no device (a misspelling), or when no device named is available.
+    """
+    devices, unavailable = [], {}
+    for name in names:
+        try:
+            devices.append(resolve_device(name))
+        except ValueError as e:
+            if not (name == "cuda" or name.startswith("cuda:") and name[5:].isdigit()) or len(names) == 1:
+                raise
+            devices.append(name)
+            unavailable[name] = e
+    if len(unavailable) == len(names):
+        raise next(iter(unavailable.values()))
+    return devices, unavailable
 
 
 def write_summary(rows: list[dict], out: Path) -> None:
