@@ -26,6 +26,11 @@ def tiny_grid(**kwargs):
     return Grid(**options)
 
 
+TRIANGLES_USDA = ('#usda 1.0\ndef Mesh "M"\n{{\n    int[] faceVertexCounts = {counts}\n'
+                  '    int[] faceVertexIndices = {indices}\n'
+                  '    point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]\n}}\n')
+
+
 def read_rows(out):
     return [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
 
@@ -109,6 +114,18 @@ def test_secondary_rays_of_a_scene_the_camera_misses_are_one_clear_error_row(tmp
     assert "no shadow rays" in shadow[0]["error"] and "none of them hit" in shadow[0]["error"]
 
 
+def test_incoherent_rays_of_a_flat_scene_leave_its_plane(tmp_path):
+    """In a flat scene's box every incoherent ray started on the surface, where a hit at t = 0 or a miss is rounding:
+    wrt:sah agreed with warp:sah on 88.4 % of the rays of a quad."""
+    scene = tmp_path / "quad.usda"
+    scene.write_text(TRIANGLES_USDA.format(counts="[3, 3]", indices="[0, 1, 2, 0, 2, 3]"))
+    origins, _ = ray_set(bench_module.resolve_scene(str(scene)), "incoherent", 500, seed=1)
+    assert (origins[:, 2] != 0).all() and origins[:, 2].min() < 0 < origins[:, 2].max()
+    rows = run_grid(tiny_grid(scenes=[str(scene)], rays=["incoherent"], n_rays=500, repeats=1), tmp_path,
+                    progress=False)
+    assert [r["agreement"] for r in rows] == [1.0, 1.0] and 0 < rows[0]["hit_fraction"] < 1
+
+
 def test_resume_skips_measured_rows(tmp_path):
     run_grid(tiny_grid(rays=["primary"]), tmp_path, progress=False)
     before = read_rows(tmp_path)
@@ -150,11 +167,6 @@ def test_resume_drops_error_rows_that_now_succeed_and_a_cut_last_line(tmp_path):
         rows = run_grid(tiny_grid(scenes=[str(scene)], rays=["primary"]), tmp_path, resume=True, progress=False)
     assert len(rows) == 2 and not any("error" in r for r in rows)
     assert read_rows(tmp_path) == rows
-
-
-TRIANGLES_USDA = ('#usda 1.0\ndef Mesh "M"\n{{\n    int[] faceVertexCounts = {counts}\n'
-                  '    int[] faceVertexIndices = {indices}\n'
-                  '    point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]\n}}\n')
 
 
 def test_resume_measures_again_the_rows_of_a_changed_or_broken_scene(tmp_path):

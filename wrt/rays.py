@@ -51,9 +51,14 @@ DEFAULT_SUN = np.array([0.35, 0.85, 0.4]) / np.linalg.norm([0.35, 0.85, 0.4])  #
 
 
 def incoherent_rays(scene: Scene, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """``n`` rays from uniformly random points of the scene box in uniformly random unit directions."""
+    """``n`` rays from uniformly random points of the scene box in uniformly random unit directions. The box of a
+    flat scene is thickened by a tenth of its size along its flat axes: inside the flat box every ray started on the
+    surface, where hitting it at ``t = 0`` or missing it is rounding (``wp.Mesh`` and wrt differed on 12 % of them)."""
     rng = np.random.default_rng(seed)
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
+    size = float((upper - lower).max())
+    pad = np.where(upper - lower < 1e-3 * size, 0.1 * size, 0.0)
+    lower, upper = lower - pad, upper + pad
     origins = rng.uniform(lower, upper, (n, 3))
     directions = rng.normal(size=(n, 3))
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
