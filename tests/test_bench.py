@@ -395,6 +395,42 @@ def test_markdown_table_names_hardware():
     assert "Some CPU" in table and "| 1.00 |" in table
 
 
+def test_a_disagreement_with_warp_is_reported_in_the_table_and_by_the_cli(tmp_path, monkeypatch, capsys):
+    """A row whose hits differed from wp.Mesh's showed only its agreement (99.000), with no word on stderr: a wrong
+    answer read as a speed-up. Rows of a group without warp:sah showed an empty agreement cell."""
+    answer = bench_module._Subject.answer
+
+    def wrong(subject):
+        hits = answer(subject)
+        if subject.spec == "wrt:sah":
+            hits.prim[np.flatnonzero(hits.prim >= 0)[:7]] = -1  # 7 hits lost
+        return hits
+
+    monkeypatch.setattr(bench_module._Subject, "answer", wrong)
+    argv = ["bench", "--scenes", "sphere:200", "--rays", "primary", "--n-rays", "300", "--repeats", "1", "-q"]
+    assert main(argv + ["--accels", "warp:sah,wrt:sah", "-o", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err
+    assert "warning: sphere:200 / wrt:sah / cpu / primary: 7 of 300 rays answered otherwise than by warp:sah" in err
+    assert "(7 differ) |" in (tmp_path / "a" / "table.md").read_text()
+    assert main(argv + ["--accels", "wrt:sah", "-o", str(tmp_path / "b")]) == 0
+    assert "warning: 1 rows not checked against warp:sah" in capsys.readouterr().err
+    assert "| unchecked |" in (tmp_path / "b" / "table.md").read_text()
+
+
+def test_markdown_table_cells_line_up_with_the_header():
+    """A '|' in a scene path or an error message split its cell, so the row's columns slid under the wrong headers;
+    a group's error row showed 'None' threads."""
+    good = {"scene": "a|b.usda", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "wrt:sah", "threads": 1,
+            "build_ms": 1.0, "mrays": float("nan"), "mrays_min": 1.0, "mrays_max": float("inf"), "hit_fraction": 0.5,
+            "agreement": 1.0, "disagreements": 0}
+    error = {"scene": "x|y.usda", "accel": "*", "device": "cpu", "rays": "primary", "threads": None,
+             "error": "SceneError: x|y.usda: bad"}
+    lines = markdown_table([good, error]).splitlines()
+    columns = lambda line: line.replace("\\|", "").count("|")  # noqa: E731
+    assert [columns(line) for line in lines[:4]] == [14] * 4
+    assert "None" not in lines[3] and "a\\|b.usda" in lines[2]
+
+
 def test_cli_bench_suite_and_quick_conflict(tmp_path, capsys):
     """wrt bench cpu --quick ran the quick suite and dropped the one named without a word."""
     assert main(["bench", "cpu", "--quick", "-o", str(tmp_path / "out")]) == 2

@@ -465,10 +465,15 @@ def inputs_digest(*arrays: np.ndarray) -> str:
     return digest.hexdigest()
 
 
-def _agreement(answer, reference, directions, scale) -> float:
-    if isinstance(answer, np.ndarray):
-        return float(np.mean(answer == reference))
-    return compare_hits(answer, reference, directions=directions, scale=scale)["agreement"]
+def _agreement(answer, reference, directions, scale) -> dict:
+    """``agreement`` (fraction of rays answered as ``reference`` answers them) and ``disagreements`` (rays answered
+    otherwise, edge ties of closest hits left out: see :mod:`wrt.compare`)."""
+    if reference is None:
+        return {"agreement": None}
+    if isinstance(answer, np.ndarray):  # any hit: blocked or not
+        return {"agreement": float(np.mean(answer == reference)), "disagreements": int(np.sum(answer != reference))}
+    found = compare_hits(answer, reference, directions=directions, scale=scale)
+    return {"agreement": found["agreement"], "disagreements": found["disagreements"]}
 
 
 def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_counts, emit, skip) -> None:
@@ -515,7 +520,7 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
                 mrays_min=len(origins) / max(times) / 1e6,
                 mrays_max=len(origins) / min(times) / 1e6,
                 hit_fraction=float(np.mean(hit)) if len(hit) else 0.0,
-                agreement=_agreement(answer, reference, directions, scale) if reference is not None else None,
+                **_agreement(answer, reference, directions, scale),
                 **subject.stats,
             )
         except Exception as e:  # noqa: BLE001 - one failing accelerator must not stop the grid
@@ -796,28 +801,38 @@ def _ratio(row, rows, accel) -> float | None:
 
 
 def markdown_table(rows: list[dict]) -> str:
-    """The rows as a markdown table with ratios to ``warp:sah`` and to Embree, plus the hardware."""
+    """The rows as a markdown table with ratios to ``warp:sah`` and to Embree, plus the hardware. An agreement below
+    edge ties is marked with the number of rays that differ; a row with no ``warp:sah`` answer to check is marked
+    ``unchecked``."""
     head = ("| scene | tris | device | rays | accel | threads | build ms | Mrays/s (min-max) | hit % | agree % "
             "| x warp:sah | x embree | SAH |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    cell = lambda x: "" if x is None else str(x).replace("|", "\\|")  # noqa: E731 - a '|' would split the cell
+    fmt = lambda x, spec: "" if x is None else format(x, spec)  # noqa: E731
+    notes = set()
     for r in rows:
+        start = f"| {cell(r['scene'])} | {cell(r.get('triangles'))} | {r['device']} | {r['rays']} | {r['accel']} | "
         if "error" in r:
-            lines.append(f"| {r['scene']} | | {r['device']} | {r['rays']} | {r['accel']} | {r.get('threads')} | "
-                         f"error: {r['error']} | | | | | | |")
+            lines.append(f"{start}{cell(r.get('threads'))} | error: {cell(r['error'])} | | | | | | |")
             continue
         ratio_w, ratio_e = _ratio(r, rows, REFERENCE), _ratio(r, rows, "embree")
-        fmt = lambda x, spec: "" if x is None else format(x, spec)  # noqa: E731
         agree = fmt(None if r.get("agreement") is None else 100 * r["agreement"], ".3f")
+        if r.get("disagreements"):
+            agree += f" ({r['disagreements']} differ)"
+            notes.add(f"- (N differ): N rays answered otherwise than by {REFERENCE}, edge ties left out: a wrong "
+                      f"answer of this row or of {REFERENCE}")
+        elif r.get("agreement") is None and r["accel"] != REFERENCE:
+            agree = "unchecked"
+            notes.add(f"- unchecked: no {REFERENCE} answer in the group to compare with (it failed or was not run)")
         lines.append(
-            f"| {r['scene']} | {r['triangles']} | {r['device']} | {r['rays']} | {r['accel']} | {r['threads']} | "
-            f"{r['build_ms']:.1f} | {r['mrays']:.2f} ({r['mrays_min']:.2f}-{r['mrays_max']:.2f}) | "
-            f"{100 * r['hit_fraction']:.1f} | {agree} | {fmt(ratio_w, '.2f')} | {fmt(ratio_e, '.2f')} | "
-            f"{fmt(r.get('sah_cost'), '.2f')} |"
+            f"{start}{r['threads']} | {r['build_ms']:.1f} | {r['mrays']:.2f} ({r['mrays_min']:.2f}-"
+            f"{r['mrays_max']:.2f}) | {100 * r['hit_fraction']:.1f} | {agree} | {fmt(ratio_w, '.2f')} | "
+            f"{fmt(ratio_e, '.2f')} | {fmt(r.get('sah_cost'), '.2f')} |"
         )
     hardware_lines = sorted({f"- {r['device']}: CPU {r.get('cpu')} ({r.get('cpu_cores')} cores), GPU {r.get('gpu')}, "
                              f"driver {r.get('gpu_driver')} ({r.get('driver')}), Warp {r.get('warp')}"
                              for r in rows if "cpu" in r})
-    return "\n".join(lines + [""] + hardware_lines) + "\n"
+    return "\n".join(lines + [""] + sorted(notes) + hardware_lines) + "\n"
 
 
 SLOPE_FROM = 1e4  # scaling slopes are fitted from this many triangles up, so fixed costs do not dominate
