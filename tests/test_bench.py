@@ -387,6 +387,13 @@ def test_plots_of_an_earlier_run_do_not_stay_beside_rows_that_have_none(tmp_path
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rows.jsonl", "settings.json", "table.md"]
 
 
+def test_no_build_vs_quality_plot_without_a_tree_to_plot(tmp_path):
+    """Rows of wp.Mesh (or Embree) alone have no SAH cost: build_vs_quality.png was drawn as empty axes."""
+    run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"], n_rays=300, repeats=1), tmp_path, progress=False)
+    assert (tmp_path / "mrays.png").read_bytes().startswith(b"\x89PNG")
+    assert not (tmp_path / "build_vs_quality.png").exists()
+
+
 def test_markdown_table_names_hardware():
     rows = [{"scene": "s", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "warp:sah", "threads": 1,
              "build_ms": 1.0, "mrays": 2.0, "mrays_min": 1.0, "mrays_max": 3.0, "hit_fraction": 0.5, "agreement": 1.0,

@@ -886,7 +886,8 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
 
-        with_sah = [r for r in good if r.get("sah_cost") is not None]
+    with_sah = [r for r in good if r.get("sah_cost") is not None]  # wrt: rows only: wp.Mesh and Embree give none
+    if with_sah:
         fig, ax = plt.subplots(figsize=(5, 4))
         for r in with_sah:
             ax.scatter(r["build_ms"], r["sah_cost"])
