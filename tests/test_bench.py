@@ -60,6 +60,21 @@ def test_failing_scene_and_accel_become_error_rows_and_the_run_goes_on(tmp_path)
     assert "error" in (tmp_path / "table.md").read_text()
 
 
+def test_a_scene_that_fails_to_load_is_loaded_once(tmp_path, monkeypatch):
+    """A scene that failed to load (out of memory, after minutes) was loaded again for every ray kind and device."""
+    calls = []
+
+    def out_of_memory(name):
+        calls.append(name)
+        raise MemoryError(f"{name}: out of host memory")
+
+    monkeypatch.setattr(bench_module, "resolve_scene", out_of_memory)
+    rows = run_grid(tiny_grid(scenes=["huge.usda"], rays=["primary", "shadow", "incoherent"]), tmp_path,
+                    progress=False)
+    assert calls == ["huge.usda"]
+    assert [r["error"] for r in rows] == ["MemoryError: huge.usda: out of host memory"] * 3
+
+
 def test_bad_and_oversized_sphere_sizes_are_error_rows_that_name_them(tmp_path, monkeypatch):
     """sphere:N was read with float(): 'abc' failed as "could not convert string to float", 'inf' with an
     OverflowError, and a size beyond the host's memory was generated until the system killed the process."""

@@ -539,9 +539,18 @@ def _run_group(group, grid: Grid, thread_counts, emit, skip, loaded: dict) -> No
     try:
         if scene_name not in loaded:
             loaded.clear()  # keep one scene in memory at a time
-            loaded[scene_name] = resolve_scene(scene_name)
+            try:
+                loaded[scene_name] = resolve_scene(scene_name)
+            except Exception as e:
+                # Kept, so its other groups fail at once: a scene that runs out of memory was loaded again, for
+                # minutes, once per ray kind and device.
+                loaded[scene_name] = e.with_traceback(None)
+                raise
+        scene = loaded[scene_name]
+        if isinstance(scene, Exception):
+            raise scene
         sink = (lambda row: emit(dict(row, sweep=True))) if is_scaling else emit
-        measure_group(scene_name, loaded[scene_name], device, kind, local, accels, thread_counts, sink, skip)
+        measure_group(scene_name, scene, device, kind, local, accels, thread_counts, sink, skip)
     except Exception as e:  # noqa: BLE001 - a broken scene becomes one error row
         emit(_group_error_row(scene_name, device, kind, e))
 
