@@ -651,8 +651,8 @@ def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set) ->
     the one of its key, measured on other inputs, hardware or versions, or every row of its group when the whole
     group now fails. Warns once per group; returns whether a row was dropped."""
     group = (row["scene"], row["device"], row["rays"])
-    stale = [key for key in resumed if key == row_key(row) or row["accel"] == "*" and
-             (resumed[key]["scene"], resumed[key]["device"], resumed[key]["rays"]) == group]
+    stale = [key for key in resumed if key == row_key(row) or (
+        row["accel"] == "*" and (resumed[key]["scene"], resumed[key]["device"], resumed[key]["rays"]) == group)]
     if not stale:
         return False
     if group not in warned:
@@ -777,7 +777,7 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
         try:
             devices.append(resolve_device(name))
         except ValueError as e:
-            if not (name == "cuda" or name.startswith("cuda:") and name[5:].isdigit()) or len(names) == 1:
+            if not (name == "cuda" or name.startswith("cuda:") and name[5:].isdigit()):
                 raise
             devices.append(name)
             unavailable[name] = e
