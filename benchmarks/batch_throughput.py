@@ -15,7 +15,9 @@ import warp as wp
 
 import wrt
 from wrt.cli import positive_int
+from wrt.integrators import INTEGRATORS
 from wrt.procedural import ring_of_cameras, sensor_scene
+from wrt.trace import resolve_device
 
 
 def main() -> None:
@@ -27,8 +29,14 @@ def main() -> None:
     parser.add_argument("--blob-triangles", type=positive_int, default=20000, help="triangles of the mesh object")
     parser.add_argument("--integrators", nargs="+", default=["whitted", "ao"])
     args = parser.parse_args()
+    bad = [name for name in args.integrators if name not in INTEGRATORS]
+    if bad:  # checked before the scene is built and a kernel compiled, as the device is
+        parser.error(f"--integrators: unknown integrator {bad[0]!r}; valid integrators: {', '.join(INTEGRATORS)}")
+    try:
+        device = resolve_device(args.device)
+    except ValueError as e:
+        parser.error(f"--device: {e}")
     scene = sensor_scene(boxes=8, spheres=4, blob_triangles=args.blob_triangles)
-    device = wp.get_device(args.device)
     print(f"device {device.name} ({device}), warp {wp.config.version}, scene {scene.stats()['rendered_triangles']} "
           f"triangles + {scene.stats()['rendered_shapes']} shapes, {args.size}x{args.size}")
     for integrator in args.integrators:

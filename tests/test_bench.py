@@ -493,6 +493,9 @@ def test_a_cuda_device_this_machine_lacks_fails_its_rows_and_the_others_run(tmp_
         ("tree_shape_cpu.py", ["--settings", "8:x"], "'8:x' is not LEAF_SIZE:RATIO"),
         ("refit_vs_rebuild.py", ["--triangles", "0"], "must be a positive integer, got 0"),
         ("batch_throughput.py", ["--cameras", "2.5"], "'2.5' is not an integer"),
+        # Both ended in a traceback after the scene was built.
+        ("batch_throughput.py", ["--integrators", "whitted", "foo"], "--integrators: unknown integrator 'foo'"),
+        ("batch_throughput.py", ["--device", "cuda:99"], "--device: unknown or unavailable device 'cuda:99'"),
     ],
 )
 def test_benchmark_scripts_refuse_bad_arguments_in_one_line(script, args, message):
