@@ -254,17 +254,65 @@ def segment_transforms(starts: np.ndarray, ends: np.ndarray, r0: np.ndarray, r1:
     big, small = np.maximum(r0, r1), np.minimum(r0, r1)
     # Rounded down: the frustum's narrow end never sticks out of the sphere of the exact radius there.
     levels = np.floor(small / big * RHO_LEVELS).astype(np.int64)
-    half = 0.5 * (narrow - wide)
+    return levels, _segment_matrices(0.5 * (wide + narrow), 0.5 * (narrow - wide), big)
+
+
+def _segment_matrices(centres: np.ndarray, half: np.ndarray, big: np.ndarray) -> np.ndarray:
+    """``(E, 4, 4)`` transforms of the canonical cylinder or cone onto segments of ``centres`` and half-axes ``half``
+    ``(E, 3)`` (from the wide end to the narrow one) with wide radii ``big`` ``(E,)``; all zeros (a singular transform)
+    for a segment of no length."""
     length = np.linalg.norm(half, axis=1)
-    e1, e2 = perpendicular_frames(half / length[:, None])
-    m = np.zeros((len(starts), 4, 4))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e1, e2 = perpendicular_frames(half / length[:, None])
+    m = np.zeros((len(centres), 4, 4))
     m[:, :3, 0] = e1 * big[:, None]
     m[:, :3, 1] = e2 * big[:, None]
     m[:, :3, 2] = half
-    m[:, :3, 3] = 0.5 * (wide + narrow)
+    m[:, :3, 3] = centres
     m[:, 3, 3] = 1.0
-    return levels, m
+    m[length == 0.0] = 0.0
+    return m
 
 
-__all__ = ["CUBIC_BASES", "Spans", "curve_spans", "hermite_spans", "sample_spans", "segment_transforms",
-           "span_segments", "span_weights", "sphere_transforms"]
+def width_axis(linear: np.ndarray) -> np.ndarray:
+    """The unit direction whose length under a transform scales widths: ``linear (1, 1, 1) / sqrt(3)`` (normalised;
+    zeros where it vanishes), for a ``(3, 3)`` ``linear`` part, the prim's transform into its content's space. A
+    transform ``A`` placed above then scales widths by ``|A axis|``, as ``|A linear (1, 1, 1)| / sqrt(3)`` would."""
+    v = np.asarray(linear, np.float64) @ np.full(3, 3.0**-0.5)
+    length = np.linalg.norm(v)
+    return v / length if length > 0.0 else np.zeros(3)
+
+
+def place_round(outer: np.ndarray, shapes: np.ndarray, sphere: bool, axis: np.ndarray) -> np.ndarray:
+    """``(N * K, 4, 4)`` the spheres (``sphere``) or tube segments ``shapes`` ``(K, 4, 4)`` (:func:`sphere_transforms`,
+    :func:`segment_transforms`) of one Points or curves prim, in its content's space, placed by each of ``outer``
+    ``(N, 4, 4)`` (content -> world), as the prim's own transform places them: centres and segment axes move with
+    ``outer``, radii scale by ``|outer axis|`` (``axis``: the prim's :func:`width_axis`), so spheres and tubes stay
+    round under a non-uniform, sheared or mirrored ``outer``, just as in a flattened copy of the instance. Rows whose
+    ``outer`` is a rotation and uniform scale (mirrored or not) keep the product ``outer @ shape``: the same round
+    shapes, bit for bit as before (only the frame about their centre or axis differs, which no hit reports)."""
+    n, k = len(outer), len(shapes)
+    placed = (outer[:, None] @ shapes[None]).reshape(-1, 4, 4)
+    linear = outer[:, :3, :3]
+    gram = np.swapaxes(linear, 1, 2) @ linear
+    s2 = np.trace(gram, axis1=1, axis2=2) / 3.0
+    similar = np.abs(gram - s2[:, None, None] * np.eye(3)).max(axis=(1, 2)) <= 1e-12 * s2
+    rows = np.flatnonzero(~similar)
+    if not len(rows):
+        return placed
+    linear = linear[rows]
+    scale = np.linalg.norm(linear @ axis, axis=1)  # (M,)
+    centres = (np.einsum("mij,kj->mki", linear, shapes[:, :3, 3]) + outer[rows, None, :3, 3]).reshape(-1, 3)
+    if sphere:
+        round_ = sphere_transforms(centres, (scale[:, None] * shapes[None, :, 0, 0]).reshape(-1))
+    else:
+        half = np.einsum("mij,kj->mki", linear, shapes[:, :3, 2]).reshape(-1, 3)
+        big = (scale[:, None] * np.linalg.norm(shapes[None, :, :3, 0], axis=2)).reshape(-1)
+        round_ = _segment_matrices(centres, half, big)
+    placed = placed.reshape(n, k, 4, 4)
+    placed[rows] = round_.reshape(len(rows), k, 4, 4)
+    return placed.reshape(-1, 4, 4)
+
+
+__all__ = ["CUBIC_BASES", "Spans", "curve_spans", "hermite_spans", "place_round", "sample_spans",
+           "segment_transforms", "span_segments", "span_weights", "sphere_transforms", "width_axis"]

@@ -92,6 +92,7 @@ from .render_settings import RenderSettings, read_render_settings
 from .resources import check_host_memory
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, REFINED_QUAD_BYTES, Refinement, refined_quads
+from .tubes import place_round, width_axis
 from .usd_lights import read_light
 from .usd_primvars import finite_colors, unit_opacities
 from .usd_skel import SkelPoser
@@ -362,6 +363,9 @@ class _Content:
         self.colors: dict = {}  # outer (primvar, colour) -> content key: this prototype read again with that colour
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.prototype = -1  # index into Scene.prototypes once its meshes are placed there
+        # (is a sphere, width axis (wrt.tubes.width_axis)) of the spheres or tube segments of a Points or curves prim:
+        # instances of them stay round under any transform placed above (wrt.tubes.place_round).
+        self.tube: tuple[bool, np.ndarray] | None = None
 
     def want_colors(self, names):
         """Records colour primvars that geometry in this content lacks (see :attr:`outer_colors`)."""
@@ -961,9 +965,13 @@ class _StageReader:
             for key, m, inner_source, _, inner in reversed(content.instances):
                 # Nested instances keep the world-level source and index of the instance they are part of, and the
                 # colour and opacity of the nearest instance that gives one.
-                combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
-                inner_root = part_path(_drawn_root(key, inner_source, self.contents[key].path), content.path, root)
-                pending.append((self.contents[key], combined, source, np.repeat(index, len(m)),
+                nested = self.contents[key]
+                if nested.tube is None:
+                    combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
+                else:  # a Points or curves prim's spheres or tubes: round, as in a flattened copy of these instances
+                    combined = place_round(to_world, m, *nested.tube)
+                inner_root = part_path(_drawn_root(key, inner_source, nested.path), content.path, root)
+                pending.append((nested, combined, source, np.repeat(index, len(m)),
                                 _nested_looks(color, inner, len(to_world), len(m)), inner_root))
         if not proto_ids:
             return None
@@ -1292,6 +1300,7 @@ class _StageReader:
         if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
             self._skip("world transform is projective; its last column was ignored", prim)
         groups, constant = self.tubes.read(prim, points, m.T, primvar, counts, per_element)
+        axis = width_axis(m.T[:3, :3])
         color = constant if constant is not None else color
         double_sided = bool(value_at(UsdGeom.Gprim(prim).GetDoubleSidedAttr(), self.time))
         path = str(prim.GetPath())
@@ -1299,6 +1308,7 @@ class _StageReader:
             shape = Shape(path, group.kind, np.eye(4), group.params, color if group.colors is None else None,
                           material_id, double_sided, opacity)
             content = _Content(path)
+            content.tube = (group.kind == "sphere", axis)
             if self.segments:
                 content.meshes.append(self._tessellated(shape, prim))
             else:

@@ -9,11 +9,12 @@ Widths come from ``primvars:widths`` when it has a value (its own, else a consta
 else from ``widths`` with its interpolation metadata, else 1 (UsdImaging's fallback for points; Storm draws curves
 without widths as one-pixel lines, which a ray tracer cannot show, so they are tubes of width 1 too, with a warning).
 They are scaled into the content's space by the length of the prim's transform applied to ``(1, 1, 1) / sqrt(3)``, as
-Storm and RenderMan scale point widths, so points stay round spheres and tubes round under a non-uniform scale. A
-width of 0 draws nothing; negative, NaN or infinite widths and points that are not finite are left out with a
-warning. Colours (``displayColor``, or the primvar the material
-reads) and ``displayOpacity`` of every interpolation become one colour and opacity per instance: a segment takes the
-mean of its ends' values.
+Storm and RenderMan scale point widths, so points stay round spheres and tubes round under a non-uniform scale (an
+instance's transform above scales them the same way: :func:`wrt.tubes.place_round`). Cubic spans are cut in the
+prim's own space, so the cut is the same however the prim is placed or instanced. A width of 0 draws nothing;
+negative, NaN or infinite widths and points that are not finite are left out with a warning. Colours
+(``displayColor``, or the primvar the material reads) and ``displayOpacity`` of every interpolation become one colour
+and opacity per instance: a segment takes the mean of its ends' values.
 """
 
 from __future__ import annotations
@@ -90,7 +91,7 @@ class TubeReader(FieldReader):
         fields = (color_primvar, opacity_primvar)
         if counts is None:
             return self._points(prim, points, centres, scale, fields)
-        return self._curves(prim, points, centres, scale, fields, counts, to_space[:3, :3])
+        return self._curves(prim, points, centres, scale, fields, counts, to_space)
 
     def _fields(self, prim, fields, sizes):
         """The ``(colors, opacities)`` fields (:meth:`FieldReader.field`) of the ``(colour, opacity)`` primvars
@@ -127,7 +128,7 @@ class TubeReader(FieldReader):
 
     # Curves
 
-    def _curves(self, prim, points, centres, scale, fields, counts, linear):
+    def _curves(self, prim, points, centres, scale, fields, counts, to_space):
         curves = UsdGeom.Curves(prim)
         kind = prim.GetTypeName()
         counts_attr = curves.GetCurveVertexCountsAttr()
@@ -137,7 +138,11 @@ class TubeReader(FieldReader):
         if int(counts.sum()) != len(points):
             raise self.error(f"curveVertexCounts sum to {int(counts.sum())} but there are {len(points)} points", prim,
                              counts_attr)
-        spans, controls, finite = self._spans(prim, centres, counts, linear)
+        # Spans are cut in the prim's own space (below): the cut follows the curve, not its transform, so a
+        # flattened copy of an instance cuts it as the instance's prototype does (and an animated transform does not
+        # change the cut).
+        spans, controls, finite = self._spans(prim, points, counts)
+        finite &= np.isfinite(centres).all(axis=1)
         if curves.GetNormalsAttr().HasValue() or UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals").HasValue():
             self.skip(f"{kind} with normals (ribbons) are drawn as round tubes", prim)
         sizes = {"constant": 1, "uniform": len(counts), "vertex": len(points), "varying": spans.n_varying,
@@ -158,16 +163,18 @@ class TubeReader(FieldReader):
             self.skip("curves with points that are not finite were left out", prim,
                       f"{len(bad)} of {len(counts)}, first curve {int(bad[0])}")
             spans = spans.take(~np.isin(spans.curve, bad))
-        centres = spans.extend(controls)
+        controls = spans.extend(controls)
         radius = _interpolator(spans, widths, self._radii(prim, widths, None))
 
-        # Cut each span into straight segments, then place a sphere at each polyline vertex and a tube along each
-        # segment.
+        # Cut each span into straight segments in the prim's space, move the polyline vertices into the content's
+        # space (the bases are affine: the moved curve at t is the curve of the moved points), then place a sphere
+        # at each vertex and a tube along each segment.
         sampled = np.repeat(np.arange(len(spans.curve)), len(RADIUS_SAMPLES))
         sample_t = np.tile(RADIUS_SAMPLES, len(spans.curve))
-        segments = spans.segments(centres, radius(sampled, sample_t).reshape(len(spans.curve), -1) * scale)
+        segments = spans.segments(controls, radius(sampled, sample_t).reshape(len(spans.curve), -1))
         span, t, starts_segment, sphere = sample_spans(spans, segments)
-        at = spans.at(centres, span, t)
+        with np.errstate(invalid="ignore", over="ignore"):  # past float range: named below
+            at = spans.at(controls, span, t) @ to_space[:3, :3].T + to_space[:3, 3]
         radii = np.maximum(radius(span, t), 0.0) * scale  # catmullRom overshoot can make a width negative
         finite = _finite_boxes(at, radii)
         if not finite.all():
@@ -207,45 +214,44 @@ class TubeReader(FieldReader):
                 pieces(rows_colors, a[chosen], b[chosen]), pieces(rows_opacities, a[chosen], b[chosen])))
         return groups, _constant(colors)
 
-    def _spans(self, prim, centres, counts, linear):
-        """``(spans, control rows (n', 3), finite (n,) bool per point)`` of a curves prim: BasisCurves by their
-        type, basis and wrap; HermiteCurves as Bezier spans of ``[P; P + T / 3; P - T / 3]``, tangents ``T`` moved
-        into the content's space by its ``linear`` ``(3, 3)`` part; NurbsCurves by their orders, knots, ranges and
-        pointWeights."""
-        finite = np.isfinite(centres).all(axis=1)
+    def _spans(self, prim, points, counts):
+        """``(spans, control rows (n', 3), finite (n,) bool per point)`` of a curves prim of ``points`` ``(n, 3)``
+        (the prim's own space): BasisCurves by their type, basis and wrap; HermiteCurves as Bezier spans of
+        ``[P; P + T / 3; P - T / 3]``; NurbsCurves by their orders, knots, ranges and pointWeights."""
+        finite = np.isfinite(points).all(axis=1)
         counts_attr = UsdGeom.Curves(prim).GetCurveVertexCountsAttr()
         if prim.IsA(UsdGeom.HermiteCurves):
             attr = UsdGeom.HermiteCurves(prim).GetTangentsAttr()
-            tangents = self._array(prim, attr, (len(centres), 3))
+            tangents = self._array(prim, attr, (len(points), 3))
             if tangents is None:
-                raise self.error(f"tangents has no value; {len(centres)} points need one each", prim, attr)
-            with np.errstate(invalid="ignore", over="ignore"):
-                moved = tangents @ linear.T / 3.0
+                raise self.error(f"tangents has no value; {len(points)} points need one each", prim, attr)
+            third = tangents / 3.0
             try:
                 spans = hermite_spans(counts)
             except ValueError as e:
                 raise self.error(str(e), prim, counts_attr) from None
-            return spans, np.concatenate([centres, centres + moved, centres - moved]), finite & np.isfinite(
-                moved).all(axis=1)
+            with np.errstate(invalid="ignore", over="ignore"):
+                controls = np.concatenate([points, points + third, points - third])
+            return spans, controls, finite & np.isfinite(third).all(axis=1)
         if prim.IsA(UsdGeom.NurbsCurves):
             schema = UsdGeom.NurbsCurves(prim)
             orders = self._array(prim, schema.GetOrderAttr(), (None,), np.int64)
             knots = self._array(prim, schema.GetKnotsAttr(), (None,))
             ranges = self._array(prim, schema.GetRangesAttr(), (None, 2))
-            weights = self._array(prim, schema.GetPointWeightsAttr(), (len(centres),))
+            weights = self._array(prim, schema.GetPointWeightsAttr(), (len(points),))
             orders = np.zeros(0, np.int64) if orders is None else orders
             knots = np.zeros(0) if knots is None else knots
-            weights = np.ones(len(centres)) if weights is None else weights
+            weights = np.ones(len(points)) if weights is None else weights
             self.check_weights(prim, schema.GetPointWeightsAttr(), weights)
             try:
-                return nurbs_curve_spans(counts, orders, knots, ranges, weights), centres, finite
+                return nurbs_curve_spans(counts, orders, knots, ranges, weights), points, finite
             except ValueError as e:
                 raise self.error(str(e), prim) from None
         curves = UsdGeom.BasisCurves(prim)
         tokens = {name: self._token(prim, attr, name) for name, attr in
                   (("type", curves.GetTypeAttr()), ("basis", curves.GetBasisAttr()), ("wrap", curves.GetWrapAttr()))}
         try:
-            return curve_spans(counts, tokens["type"], tokens["basis"], tokens["wrap"]), centres, finite
+            return curve_spans(counts, tokens["type"], tokens["basis"], tokens["wrap"]), points, finite
         except ValueError as e:
             raise self.error(str(e), prim, counts_attr) from None
 
