@@ -9,8 +9,14 @@ from usda_text import load, write
 
 import wrt
 
-# Points of vertex widths; a linear curve of vertex widths (cone frustums between joint spheres); a cubic bspline.
+# Points of vertex widths; a linear curve of vertex widths (cone frustums between joint spheres); a cubic bspline;
+# under a rotated non-uniform scale of their own, which an instance's transform then composes with.
 CONTENT = '''
+    def Xform "Inner"
+    {
+        float xformOp:rotateZ = 30
+        float3 xformOp:scale = (1, 1.5, 0.75)
+        uniform token[] xformOpOrder = ["xformOp:rotateZ", "xformOp:scale"]
         def Points "Cloud"
         {
             point3f[] points = [(0, 0, 0), (1.5, 0.3, -0.2), (-1, 0.4, 0.6)]
@@ -31,6 +37,7 @@ CONTENT = '''
             point3f[] points = [(0, -1.5, 0), (1, -1, 0.8), (2, -2, -0.3), (3, -1.2, 0.4), (3.5, -2, 0)]
             float[] widths = [0.3] (interpolation = "constant")
         }
+    }
 '''
 
 # Column-vector linear parts (USD rows are their transposes) placed above the content.
