@@ -289,8 +289,8 @@ def place_round(outer: np.ndarray, shapes: np.ndarray, sphere: bool, axis: np.nd
     ``(N, 4, 4)`` (content -> world), as the prim's own transform places them: centres and segment axes move with
     ``outer``, radii scale by ``|outer axis|`` (``axis``: the prim's :func:`width_axis`), so spheres and tubes stay
     round under a non-uniform, sheared or mirrored ``outer``, just as in a flattened copy of the instance. Rows whose
-    ``outer`` is a rotation and uniform scale (mirrored or not) keep the product ``outer @ shape``: the same round
-    shapes, bit for bit as before (only the frame about their centre or axis differs, which no hit reports)."""
+    ``outer`` is a rotation and uniform scale (mirrored or not) keep the product ``outer @ shape``, as before: the
+    same round shapes, their frames about the centre or axis turned with ``outer`` (no hit reports that frame)."""
     n, k = len(outer), len(shapes)
     placed = (outer[:, None] @ shapes[None]).reshape(-1, 4, 4)
     linear = outer[:, :3, :3]
