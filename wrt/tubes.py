@@ -291,26 +291,25 @@ def place_round(outer: np.ndarray, shapes: np.ndarray, sphere: bool, axis: np.nd
     round under a non-uniform, sheared or mirrored ``outer``, just as in a flattened copy of the instance. Rows whose
     ``outer`` is a rotation and uniform scale (mirrored or not) keep the product ``outer @ shape``, as before: the
     same round shapes, their frames about the centre or axis turned with ``outer`` (no hit reports that frame)."""
-    n, k = len(outer), len(shapes)
-    placed = (outer[:, None] @ shapes[None]).reshape(-1, 4, 4)
     linear = outer[:, :3, :3]
     gram = np.swapaxes(linear, 1, 2) @ linear
     s2 = np.trace(gram, axis1=1, axis2=2) / 3.0
     similar = np.abs(gram - s2[:, None, None] * np.eye(3)).max(axis=(1, 2)) <= 1e-12 * s2
+    if similar.all():
+        return (outer[:, None] @ shapes[None]).reshape(-1, 4, 4)
+    placed = np.empty((len(outer), len(shapes), 4, 4))
+    placed[similar] = outer[similar, None] @ shapes[None]
     rows = np.flatnonzero(~similar)
-    if not len(rows):
-        return placed
-    linear = linear[rows]
-    scale = np.linalg.norm(linear @ axis, axis=1)  # (M,)
-    centres = (np.einsum("mij,kj->mki", linear, shapes[:, :3, 3]) + outer[rows, None, :3, 3]).reshape(-1, 3)
+    linear_t = np.swapaxes(linear[rows], 1, 2)
+    scale = np.linalg.norm(linear[rows] @ axis, axis=1)  # (M,)
+    centres = (shapes[None, :, :3, 3] @ linear_t + outer[rows, None, :3, 3]).reshape(-1, 3)
     if sphere:
         round_ = sphere_transforms(centres, (scale[:, None] * shapes[None, :, 0, 0]).reshape(-1))
     else:
-        half = np.einsum("mij,kj->mki", linear, shapes[:, :3, 2]).reshape(-1, 3)
+        half = (shapes[None, :, :3, 2] @ linear_t).reshape(-1, 3)
         big = (scale[:, None] * np.linalg.norm(shapes[None, :, :3, 0], axis=2)).reshape(-1)
         round_ = _segment_matrices(centres, half, big)
-    placed = placed.reshape(n, k, 4, 4)
-    placed[rows] = round_.reshape(len(rows), k, 4, 4)
+    placed[rows] = round_.reshape(len(rows), len(shapes), 4, 4)
     return placed.reshape(-1, 4, 4)
 
 
