@@ -588,6 +588,19 @@ def test_edited_scene_is_traced_as_edited(accel):
     assert wrt.trace(scene, **ray).prim[0] == 2
 
 
+def test_bounds_and_triangles_follow_a_replaced_or_added_mesh():
+    """``Scene.bounds()`` and ``Scene.triangles()`` called directly (no trace or render between) returned their cached
+    arrays after a mesh's points were replaced or a mesh was added: bounds (0, 0, 0)-(1, 1, 0) for a quad moved to
+    z = 5, two triangles for three."""
+    quad = wrt.Mesh("/quad", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2), (0, 2, 3)], [0, 0])
+    scene = wrt.Scene(meshes=[quad])
+    assert scene.bounds()[1].tolist() == [1, 1, 0] and len(scene.triangles()[1]) == 2
+    quad.points = quad.points + np.float32([0, 0, 5])
+    assert scene.bounds()[0].tolist() == [0, 0, 5] and scene.triangles()[0][:, 2].tolist() == [5] * 4
+    scene.meshes.append(wrt.Mesh("/lid", [(0, 0, 9), (1, 1, 9), (0, 1, 9)], [(0, 1, 2)], [0]))
+    assert scene.bounds()[1].tolist() == [1, 1, 9] and len(scene.triangles()[1]) == 3
+
+
 def test_default_camera_frames_a_scene_edited_after_a_render():
     """The default camera is framed from the scene's cached bounds: after a mesh is replaced by one far away, the next
     render must frame the new mesh, not the old box (whose cache was read before the trees were dropped)."""

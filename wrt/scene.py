@@ -461,6 +461,7 @@ class Scene:
         """
         if not self.prototypes:
             return self.triangles()
+        self.drop_stale_caches()  # called directly, a replaced mesh was not noticed until the next trace or render
         key = ("geometry",)
         if key not in self._cache:
             self._cache[key] = _concatenate_meshes(self._geometry_meshes())
@@ -616,6 +617,7 @@ class Scene:
         Returns:
             ``points`` ``(V, 3)`` float32 and ``indices`` ``(T, 3)`` int32; row ``k`` of ``indices`` is prim ``k``.
         """
+        self.drop_stale_caches()  # called directly, a replaced mesh was not noticed until the next trace or render
         key = ("triangles",)
         if key not in self._cache:
             points, indices = _concatenate_meshes(self.meshes)
@@ -838,6 +840,7 @@ class Scene:
         An instance contributes the box of its prototype's box moved by its transform, which bounds its points
         (tightly for translations and axis-aligned scales) without expanding it.
         """
+        self.drop_stale_caches()  # called directly, a replaced mesh was not noticed until the next trace or render
         key = ("bounds",)
         if key in self._cache:
             return self._cache[key]
