@@ -425,8 +425,8 @@ def test_a_kept_renderer_follows_a_replaced_mesh_an_in_place_edit_and_a_new_ligh
     assert (moved.aovs["prim"] == -1).all()
     np.testing.assert_array_equal(moved.rgb, wrt.render(quad, camera=camera, width=16, height=12,
                                                          integrator="normals", device="cpu").rgb)
-    quad.meshes[0].points -= np.float32([100, 0, 0])  # back, edited in place: needs invalidate()
-    quad.invalidate()
+    quad.invalidate()  # before an edit in place: the rendered arrays are read-only until then
+    quad.meshes[0].points -= np.float32([100, 0, 0])  # back
     np.testing.assert_array_equal(renderer.render().aovs["prim"], first.aovs["prim"])
 
     lit = wrt.Renderer(quad, camera=camera, width=16, height=12, device="cpu")  # whitted, default lights
@@ -435,6 +435,40 @@ def test_a_kept_renderer_follows_a_replaced_mesh_an_in_place_edit_and_a_new_ligh
     sunlit = lit.render().rgb
     assert not np.allclose(sunlit, headlit)
     np.testing.assert_array_equal(sunlit, wrt.render(quad, camera=camera, width=16, height=12, device="cpu").rgb)
+
+
+def test_an_edit_in_place_after_a_render_is_refused_until_invalidate():
+    """``mesh.points[:, 0] += 100`` after a render, then a render again, drew the quad where it was (the BVH and
+    device copies kept the old points), and a kept Renderer went on lighting with a light's colour set to 0 in place:
+    a notebook showed the stale image without a word. Arrays of the rendered scene and its lights are read-only until
+    ``invalidate()``, which gives write access back; the edits are then drawn."""
+    import pickle
+
+    quad = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    quad.lights = [wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.full(3, 2.0, np.float32))]
+    renderer = wrt.Renderer(quad, camera=wrt.Camera.look_at((0, 0, 4), (0, 0, 0)), width=16, height=12, device="cpu")
+    first = renderer.render()
+    assert (first.aovs["prim"] >= 0).sum() > 20 and first.rgb[6, 8].min() > 0.1
+    with pytest.raises(ValueError, match="read-only"):
+        quad.meshes[0].points[:, 0] += 100
+    with pytest.raises(ValueError, match="read-only"):
+        quad.lights[0].color[:] = 0.0
+    np.testing.assert_array_equal(renderer.render().rgb, first.rgb)  # nothing was changed
+
+    quad.invalidate()
+    quad.lights[0].color[:] = 0.0
+    assert (renderer.render().rgb == 0).all()  # the kept renderer sees the edited light
+    quad.invalidate()
+    quad.meshes[0].points[:, 0] += 100  # out of view
+    assert (renderer.render().aovs["prim"] == -1).all()
+    with pytest.raises(ValueError, match="read-only"):  # read-only again once rendered
+        quad.meshes[0].points[:, 0] -= 100
+
+    fresh = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [1, 1, 0]], [[0, 1, 2]])
+    fresh.bounds()  # read-only from here on; the scene still travels to worker processes, as before
+    copy = pickle.loads(pickle.dumps(fresh))
+    assert not fresh.meshes[0].points.flags.writeable and copy.meshes[0].points.flags.writeable
+    assert copy.bounds()[1].tolist() == [1, 1, 0] and not copy.meshes[0].points.flags.writeable
 
 
 def test_a_material_or_light_given_a_new_value_is_drawn_with_it():
@@ -504,3 +538,4 @@ def test_a_render_with_nothing_changed_does_not_walk_every_field_of_the_scene(mo
     quad.meshes[1].double_sided = quad.meshes[1].double_sided  # assigned an equal value: walked, nothing dropped
     quad.drop_stale_caches()
     assert quad.cache_generation == generation and len(walks) == count + 1
+

@@ -569,8 +569,9 @@ def test_cpu_launches_use_every_core_unless_told(monkeypatch):
 
 @pytest.mark.parametrize("accel", ["wrt", "warp"])
 def test_edited_scene_is_traced_as_edited(accel):
-    """A ray straight down onto a unit quad at z = 0. Moving the quad by replacing its points (noticed), by editing
-    them in place and calling invalidate(), or adding a mesh, changes the hit; an unchanged scene keeps its tree."""
+    """A ray straight down onto a unit quad at z = 0. Moving the quad by replacing its points (noticed), by calling
+    invalidate() and editing them in place, or adding a mesh, changes the hit; an unchanged scene keeps its tree. An
+    edit in place without invalidate() (which traced the old quad, t = 3) is refused: traced arrays are read-only."""
     quad = wrt.Mesh("/quad", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2), (0, 2, 3)], [0, 0])
     scene = wrt.Scene(meshes=[quad])
     ray = dict(origins=[(0.25, 0.75, 5.0)], directions=[(0.0, 0.0, -1.0)], accel=accel)
@@ -580,8 +581,11 @@ def test_edited_scene_is_traced_as_edited(accel):
 
     quad.points = quad.points + np.float32([0, 0, 2])  # a new array: the cached tree is dropped
     assert wrt.trace(scene, **ray).t[0] == pytest.approx(3.0)
-    quad.points[:, 2] -= 1.0  # in place: the caller says so
-    scene.invalidate()
+    with pytest.raises(ValueError, match="read-only"):
+        quad.points[:, 2] -= 1.0
+    assert wrt.trace(scene, **ray).t[0] == pytest.approx(3.0)
+    scene.invalidate()  # the caller says it edits in place
+    quad.points[:, 2] -= 1.0
     assert wrt.trace(scene, **ray).t[0] == pytest.approx(4.0)
     scene.meshes.append(wrt.Mesh("/lid", [(0, 0, 4.5), (1, 1, 4.5), (0, 1, 4.5)], [(0, 1, 2)], [0]))
     assert wrt.trace(scene, **ray).t[0] == pytest.approx(0.5)

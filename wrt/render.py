@@ -322,6 +322,7 @@ class Renderer:
             self._upload_shading()
         self._scene_generation = self.scene.cache_generation
         self._scene_lights = tuple(dataclass_parts(self.scene.lights))
+        self.scene.freeze(self._scene_lights)  # a light's array edited in place went unseen, as a mesh's did
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
         self._progressive = None  # running sums of the last render, for render(resume=True)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import operator
+import weakref
 
 import numpy as np
 import warp as wp
@@ -288,6 +289,13 @@ class Scene:
         self.check_instances()
         self._checked = (assignments(), self._members())  # the state of the last full check (drop_stale_caches)
         self._cached_parts = self._parts()  # what the cache is made from (see drop_stale_caches)
+        self._frozen = []  # weak references to the arrays this scene made read-only (see freeze); weak, so that
+        # the arrays of lights a kept Renderer froze and that were replaced since are freed
+        self._frozen_parts = False  # whether the arrays of _cached_parts are among them
+
+    def __getstate__(self) -> dict:
+        # Weak references do not pickle (scenes travel to worker processes), and the copies arrive writeable.
+        return {**self.__dict__, "_frozen": [], "_frozen_parts": False}
 
     def __repr__(self) -> str:
         # The dataclass repr printed every array of every mesh, megabytes for a stage of a few thousand meshes (what
@@ -329,10 +337,35 @@ class Scene:
                 raise TypeError(f"Scene(meshes=...): meshes[{k}] is a {type(mesh).__name__}, not a wrt.Mesh")
 
     def invalidate(self) -> None:
-        """Forgets every cached array, tree and device copy. Needed only after editing an array of the scene in
-        place (``mesh.points += offset``); replacing arrays, meshes or lists is noticed by itself."""
+        """Forgets every cached array, tree and device copy, and makes the scene's arrays writeable again until its
+        next trace or render (see :meth:`freeze`): call it before editing an array in place (``mesh.points +=
+        offset``). Replacing arrays, meshes or lists needs no call: it is noticed by itself."""
         self._cache.clear()
         self._generation += 1
+        # A view cannot be made writeable while its base is read-only: bases first, whatever order they were frozen in.
+        frozen = [array for array in (ref() for ref in self._frozen) if array is not None]
+        self._frozen, self._frozen_parts = [], False
+        while frozen:
+            left = []
+            for array in frozen:
+                try:
+                    array.flags.writeable = True
+                except ValueError:
+                    left.append(array)
+            if len(left) == len(frozen):
+                break  # the base is frozen by someone else: it stays read-only
+            frozen = left
+
+    def freeze(self, objects) -> None:
+        """Makes the writeable numpy arrays among ``objects`` read-only until :meth:`invalidate`: caches, device
+        copies and a kept :class:`wrt.Renderer` derive from them, and an edit in place (``mesh.points[:, 2] += 1``)
+        left them stale, rendering the old geometry without a word; now it raises numpy's ``ValueError:
+        output array is read-only`` (or ``assignment destination is read-only``) at the edit."""
+        self._frozen = [ref for ref in self._frozen if ref() is not None]
+        for value in objects:
+            if isinstance(value, np.ndarray) and value.flags.writeable:
+                value.flags.writeable = False
+                self._frozen.append(weakref.ref(value))
 
     @property
     def cache_generation(self) -> int:
@@ -343,17 +376,20 @@ class Scene:
     def drop_stale_caches(self) -> None:
         """Clears the caches when a mesh, shape, prototype, instance array, material or texture has been replaced
         (or a list grown or shrunk) since the last check: a cached BVH or upload would otherwise trace the old
-        geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity: see
-        :meth:`invalidate`."""
+        geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity, so the
+        arrays checked are made read-only (:meth:`freeze`) until :meth:`invalidate`."""
         count, members = assignments(), self._members()  # counted first: an assignment during the walk is seen next
         last_count, last_members = self._checked
-        if count == last_count and len(members) == len(last_members) and all(map(operator.is_, members, last_members)):
+        if (self._frozen_parts and count == last_count and len(members) == len(last_members)
+                and all(map(operator.is_, members, last_members))):
             return  # the same objects, and no field of any of them assigned since: the walk below finds nothing
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
             self.invalidate()
         self._cached_parts = parts
         self._checked = (count, members)
+        self.freeze(parts)  # what the caches are made from from now on; an edit in place must not go unseen
+        self._frozen_parts = True
 
     def _members(self) -> tuple:
         """The lists of the scene and the objects in them whose fields :meth:`_parts` reads; a field assigned anew
