@@ -539,3 +539,20 @@ def test_a_render_with_nothing_changed_does_not_walk_every_field_of_the_scene(mo
     quad.drop_stale_caches()
     assert quad.cache_generation == generation and len(walks) == count + 1
 
+
+def test_a_library_render_prints_nothing_unless_asked():
+    """A first ``wrt.render`` in a fresh process printed Warp's start-up banner ("Warp 1.19.0 initialized: ...") and a
+    "Module wrt.trace ... load on device 'cpu'" line per kernel module, 14 lines in a notebook cell. Importing wrt
+    raises Warp's default log level to warnings (which still show); a level the user set first is kept."""
+    import subprocess
+    import sys
+
+    render = ("import warp as wp\nimport wrt\nscene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]], "
+              "[[0, 1, 2]])\nwrt.render(scene, width=4, height=4, device='cpu')\nprint(wp.config.log_level)\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    quiet = subprocess.run([sys.executable, "-c", render], capture_output=True, text=True, env=env, check=True)
+    assert quiet.stdout.strip() == str(wp.LOG_WARNING)
+    assert "initialized" not in quiet.stdout + quiet.stderr and " load on device" not in quiet.stdout + quiet.stderr
+    asked = subprocess.run([sys.executable, "-c", "import warp as wp\nwp.config.log_level = wp.LOG_DEBUG\n" + render],
+                           capture_output=True, text=True, env=env, check=True)
+    assert asked.stdout.strip().splitlines()[-1] == str(wp.LOG_DEBUG) and " load on device" in asked.stdout

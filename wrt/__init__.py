@@ -3,6 +3,8 @@
 Pipeline: USD stage -> :class:`Scene` -> BVH -> trace kernels (:class:`Hits`) -> shade kernels -> :class:`Image`.
 """
 
+import warp as _wp
+
 from .batch import BatchImage, render_batch
 from .bvh import FlatBvh, build_bvh
 from .camera import Camera
@@ -55,3 +57,10 @@ __all__ = [
     "trace",
 ]
 __version__ = "0.1.0"
+
+# A library prints nothing unless asked: a first render printed Warp's start-up banner and a "Module ... load" line
+# per kernel module (14 lines), which are Warp's info messages; its warnings and errors still show. Only Warp's default
+# level is raised: a level set before importing wrt is kept, and ``wp.config.log_level = wp.LOG_INFO`` after it shows
+# them again. (Warp 1.19 has no ``wp.config.quiet``; setting it does nothing.)
+if _wp.config.log_level == _wp.LOG_INFO:
+    _wp.config.log_level = _wp.LOG_WARNING
