@@ -470,6 +470,20 @@ def test_rays_are_taken_in_every_form_a_notebook_holds_them():
     assert len(wrt.trace(scene, [], []).t) == 0
 
 
+def test_a_grid_of_rays_is_refused_with_how_to_pass_it():
+    """An (H, W, 3) grid of rays (as a notebook makes camera rays) was refused with "must both be (N, 3) arrays" alone;
+    the message now says to pass ``grid.reshape(-1, 3)``, which traces it."""
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    origins = np.broadcast_to([0.0, 0.0, 1.0], (4, 5, 3))
+    directions = np.broadcast_to([0.0, 0.0, -1.0], (4, 5, 3))
+    for query in (wrt.trace, wrt.occluded):
+        with pytest.raises(ValueError, match=r"got \(4, 5, 3\) and \(4, 5, 3\); pass a grid of rays as "
+                                             r"grid.reshape\(-1, 3\)"):
+            query(scene, origins, directions)
+    hits = wrt.trace(scene, origins.reshape(-1, 3), directions.reshape(-1, 3))
+    assert hits.prim.reshape(4, 5).tolist() == [[0] * 5] * 4
+
+
 def test_a_vec3_array_on_the_device_is_traced_in_place():
     """Rays a Warp kernel made on the tracing device are read where they are: no copy through the host."""
     from wrt.ray_batch import upload_rays

@@ -99,7 +99,11 @@ def upload_rays(origins, directions, t_min, t_max, device) -> list:
     (no, co), (nd, cd) = (_shape(r) if len(_shape(r)) == 2 else (None, None) for r in (o, d))
     if co != 3 or cd != 3 or (no != nd and 1 not in (no, nd)):
         same = " with the same N (or one ray)" if co == cd == 3 else ""
-        raise ValueError(f"origins and directions must both be (N, 3) arrays{same}, got {_shape(o)} and {_shape(d)}")
+        # An (H, W, 3) grid of camera rays is a common input: say how to pass it (and to reshape the hits back).
+        grid = any(len(_shape(r)) > 2 and _shape(r)[-1] == 3 for r in (o, d))
+        hint = "; pass a grid of rays as grid.reshape(-1, 3) (and reshape the results to its shape)" if grid else ""
+        raise ValueError(f"origins and directions must both be (N, 3) arrays{same}, got {_shape(o)} and {_shape(d)}"
+                         + hint)
     n = max(no, nd)
     if no != nd:  # one ray against many, as numpy broadcasts
         o, d = (np.broadcast_to(_numpy(r), (n, 3)) if len(r) == 1 else r for r in (o, d))
