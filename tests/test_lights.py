@@ -512,7 +512,10 @@ def test_coarse_textured_dome_is_unbiased(tmp_path):
     np.testing.assert_allclose(wrt.render(scene, width=1, height=1).rgb[0, 0], 0.5, rtol=1e-4)
 
 
-def test_mesh_light_is_reported_not_silently_dark(tmp_path):
+def test_mesh_light_is_read_as_a_light_and_still_drawn(tmp_path):
+    """MeshLightAPI makes the mesh a light (tests/test_mesh_lights.py); it was drawn as geometry that emitted
+    nothing, with a warning."""
+
     def build(stage):
         mesh = UsdGeom.Mesh.Define(stage, "/Panel")
         mesh.CreatePointsAttr([(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)])
@@ -521,8 +524,11 @@ def test_mesh_light_is_reported_not_silently_dark(tmp_path):
         UsdLux.MeshLightAPI.Apply(mesh.GetPrim())
         UsdLux.LightAPI(mesh.GetPrim()).CreateIntensityAttr(10.0)
 
-    with pytest.warns(UserWarning, match=r"MeshLightAPI.*not supported.*/Panel"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         scene = wrt.load_usd(write_stage(tmp_path, build))
+    assert [(type(light).__name__, light.path) for light in scene.lights] == [("MeshLight", "/Panel")]
+    np.testing.assert_allclose(scene.lights[0].color, 10.0)
     assert scene.stats()["rendered_triangles"] == 2  # still drawn as geometry
 
 

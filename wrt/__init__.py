@@ -13,7 +13,7 @@ from .image import Image
 from .instancing import Instances, Prototype
 from .light_links import LinkCollection
 from .light_shaping import Shaping
-from .lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
+from .lights import CylinderLight, DiskLight, DomeLight, MeshLight, RectLight, SphereLight
 from .materials import Material, TextureInput
 from .preview import preview, to_pyvista  # pyvista itself is imported only when these are called
 from .primitives import Shape
@@ -38,6 +38,7 @@ __all__ = [
     "LinkCollection",
     "Material",
     "Mesh",
+    "MeshLight",
     "Prototype",
     "RectLight",
     "Renderer",

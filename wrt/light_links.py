@@ -12,7 +12,8 @@ the stage's geometry is read (:func:`resolve_expressions`).
 On the device every drawn geometry gets a *link group*: one per distinct combination of memberships, with one
 ``(groups, lights)`` mask array (:class:`DeviceLinks`). Geometry ids of non-instanced geometry index their group
 directly; an instance holds one group for all of its prototype's parts, or (when its parts differ) an offset into a
-list of per-part groups. Emissive triangles are not UsdLux lights: they light and are shadowed by everything.
+list of per-part groups. Emissive triangles are not UsdLux lights: they light and are shadowed by everything; the
+triangles of a mesh light (:class:`wrt.lights.MeshLight`) are linked as their light is.
 """
 
 import dataclasses
@@ -296,10 +297,13 @@ class DeviceLinks:
     geometry_groups: wp.array[wp.int32]  # (T + S,) group, or part index for prototype geometry
     instance_groups: wp.array[wp.int32]  # (N,) group, or -1 - offset into part_groups
     part_groups: wp.array[wp.int32]  # per-part groups of instances whose parts differ
+    columns: wp.array[wp.int32]  # (lights,) column of masks of each device light; -1: linked to everything
 
 
-def upload_links(host: HostLinks | None, device) -> DeviceLinks:
-    """The :class:`DeviceLinks` of ``host`` (None: linking off)."""
+def upload_links(host: HostLinks | None, device, columns=None) -> DeviceLinks:
+    """The :class:`DeviceLinks` of ``host`` (None: linking off); ``columns`` gives the column of ``host.masks`` of
+    each device light (-1: none, lit and shadowed by everything: emissive triangles), the lights' own indices when
+    None (the triangles of a mesh light share their light's column)."""
     d = DeviceLinks()
     d.enabled = 0 if host is None else 1
     d.shadow_linked = int(host is not None and host.shadow_linked)
@@ -310,12 +314,13 @@ def upload_links(host: HostLinks | None, device) -> DeviceLinks:
 
     if host is None:
         d.masks = wp.full((1, 1), LIT | CASTS_SHADOW, dtype=wp.uint8, device=device)
-        d.geometry_groups = d.instance_groups = d.part_groups = arr([], wp.int32)
+        d.geometry_groups = d.instance_groups = d.part_groups = d.columns = arr([], wp.int32)
         return d
     d.masks = wp.array(host.masks, dtype=wp.uint8, device=device)
     d.geometry_groups = arr(host.geometry_groups, wp.int32)
     d.instance_groups = arr(host.instance_groups, wp.int32)
     d.part_groups = arr(host.part_groups, wp.int32)
+    d.columns = arr(np.arange(host.masks.shape[1]) if columns is None else columns, wp.int32)
     return d
 
 
@@ -335,11 +340,14 @@ def link_group(links: DeviceLinks, prim: int, instance: int):
 
 @wp.func
 def link_bit(links: DeviceLinks, group: int, k: int, bit: int):
-    """Whether ``bit`` is set for ``group`` and light ``k``; true when linking is off, and for lights past the
-    analytic ones (emissive triangles)."""
-    if links.enabled == 0 or group < 0 or group >= links.masks.shape[0] or k < 0 or k >= links.masks.shape[1]:
+    """Whether ``bit`` is set for ``group`` and light ``k``; true when linking is off, and for lights without a
+    column (emissive triangles)."""
+    if links.enabled == 0 or group < 0 or group >= links.masks.shape[0] or k < 0 or k >= links.columns.shape[0]:
         return True
-    return (int(links.masks[group, k]) & bit) != 0
+    c = links.columns[k]
+    if c < 0:
+        return True
+    return (int(links.masks[group, c]) & bit) != 0
 
 
 @wp.func

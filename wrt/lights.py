@@ -21,6 +21,10 @@ times the blackbody colour when ``enableColorTemperature`` is on):
   ``"scene"`` on a Z-up stage) is turned so its pole is +Z.
 - **Emissive triangles**: UsdPreviewSurface ``emissiveColor`` is the surface radiance, from the front side of
   single-sided meshes and from both sides of double-sided ones.
+- **Mesh lights** (:class:`MeshLight`, UsdLux ``MeshLightAPI``): the mesh's triangles emit ``L = color`` (``color / A``
+  with ``normalize``, ``A`` the mesh's world-space area), times the material's ``emissiveColor`` in the
+  ``materialGlowTintsLight`` mode, sided as emissive triangles. Camera rays see the material's glow (the light in
+  ``noMaterialResponse``); rays a surface scattered see what light sampling draws.
 - A Lambertian surface of albedo ``rho`` under illuminance ``E`` therefore shows radiance ``rho E / pi``.
 - **Multipliers** ``diffuse`` and ``specular`` (UsdLux's non-physical controls) scale what surfaces reflect of a
   light through their diffuse lobe and their specular lobes (:func:`lobe_factor`); camera rays see lights unscaled.
@@ -328,6 +332,52 @@ class CylinderLight:
         return _normalized(self.color, self.area, self.normalize)
 
 
+# UsdLux light:materialSyncMode values: how a mesh light's material and its light relate (see MeshLight).
+GLOW_TINTS_LIGHT = "materialGlowTintsLight"  # MeshLightAPI's fallback
+INDEPENDENT = "independent"
+NO_MATERIAL_RESPONSE = "noMaterialResponse"  # LightAPI's fallback
+MATERIAL_SYNC_MODES = (GLOW_TINTS_LIGHT, INDEPENDENT, NO_MATERIAL_RESPONSE)
+
+
+@dataclasses.dataclass
+class MeshLight:
+    """``UsdLux.MeshLightAPI`` (or ``LightAPI``) on a mesh: its triangles emit from their front side (both sides where
+    the mesh is ``doubleSided``, as emissive materials do) and are sampled by area, as emissive triangles are.
+
+    Attributes:
+        path: prim path of the emitting mesh: the :attr:`wrt.Scene.meshes` entries of that path (not instanced).
+        color: ``(3,)`` ``intensity * 2**exposure * color``.
+        normalize: divide by the world-space area of the mesh.
+        material_sync: ``light:materialSyncMode``. ``"noMaterialResponse"`` (LightAPI's fallback): radiance
+            ``color`` everywhere, which camera rays see too (the surface should reflect nothing: :func:`wrt.load_usd`
+            gives such meshes a black material). ``"materialGlowTintsLight"`` (MeshLightAPI's): ``color`` times the
+            ``emissiveColor`` of each triangle's material (triangles that do not glow emit nothing);
+            ``"independent"``: ``color`` everywhere. In these two, camera rays see the material as it is, its own
+            glow included.
+        shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
+        diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
+        specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
+        light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
+        shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+    """
+
+    path: str
+    color: np.ndarray
+    normalize: bool = False
+    material_sync: str = NO_MATERIAL_RESPONSE
+    shadows: bool = True
+    diffuse: float = 1.0
+    specular: float = 1.0
+    light_link: LinkCollection | None = None
+    shadow_link: LinkCollection | None = None
+
+    def __post_init__(self):
+        check_fields(self, _COLOR, *_MULTIPLIERS)
+        if self.material_sync not in MATERIAL_SYNC_MODES:
+            raise SceneError(f"MeshLight material_sync must be one of {', '.join(MATERIAL_SYNC_MODES)}, got "
+                             f"{self.material_sync!r}", prim=self.path or None)
+
+
 @dataclasses.dataclass
 class DomeLight:
     """``UsdLux.DomeLight``: radiance arriving from every direction.
@@ -413,15 +463,17 @@ def default_lights(forward) -> list:
 
 @wp.struct
 class DeviceLights:
-    """Every light on the device: ``[0, num_analytic)`` are UsdLux lights, the rest emissive triangles."""
+    """Every light on the device: ``[0, num_analytic)`` are UsdLux lights, the rest triangles of emissive materials
+    and of mesh lights."""
 
     kinds: wp.array[wp.int32]  # LIGHT_* kind
-    radiance: wp.array[wp.vec3]  # L (area, dome, soft distant), E (delta distant), I (point); triangles: unused
+    radiance: wp.array[wp.vec3]  # L (area, dome, soft distant), E (delta distant), I (point); triangles: see params
     position: wp.array[wp.vec3]  # centre; for distant lights the direction of travel
     axis_u: wp.array[wp.vec3]  # rect: full X edge; disk: X radius vector; cylinder: full axis
     axis_v: wp.array[wp.vec3]  # rect: full Y edge; disk: Y radius vector
     normal: wp.array[wp.vec3]  # rect, disk: unit emitting normal
-    params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of cone, area | 1 - cos, right-angled axes)
+    params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of cone, area | 1 - cos, right-angled axes);
+    # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
     shadows: wp.array[wp.int32]  # 1: occluders block the light; 0: ShadowAPI's shadow:enable is off
     shaping: wp.array[wp.vec4]  # (cone angle, smooth start (radians), focus, 1); all 0: unshaped (light_shaping)
@@ -430,7 +482,7 @@ class DeviceLights:
     pmf: wp.array[float]  # selection probability of each light
     cdf: wp.array[float]  # (count + 1) running sum of pmf
     count: int  # number of lights
-    num_analytic: int  # number of UsdLux lights (they come first)
+    num_analytic: int  # number of UsdLux lights but mesh lights (they come first; then emissive and mesh triangles)
     dome: int  # index of the dome light, -1 without one
     dome_to_local: wp.mat33  # world direction -> dome frame
     dome_textured: int  # 1 when the dome has a texture
@@ -477,25 +529,86 @@ class HostLights:
     lobe_scale: list
 
 
-def _emitter_triangles(scene, materials_emission) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Geometry ids, power weights and double-sidedness of every emissive triangle that is not instanced (emissive
-    prototype triangles still emit where rays hit them, but are not sampled as lights)."""
-    points, indices = scene.geometry()
-    tri_materials = scene.triangle_materials()
-    emissive = np.array([luminance_np(e) for e in materials_emission], np.float64)
-    ids = np.nonzero(emissive[tri_materials[: scene.num_flat_triangles]] > 0.0)[0]
-    if len(ids) == 0:
-        return ids.astype(np.int32), np.zeros(0), np.zeros(0, bool)
-    a, b, c = (points[indices[ids, k]].astype(np.float64) for k in range(3))
-    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
-    sided = scene.triangle_double_sided()[ids]
-    power = math.pi * area * emissive[tri_materials[ids]] * np.where(sided, 2.0, 1.0)
-    return ids.astype(np.int32), power, sided
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance weights of linear RGB
 
 
 def luminance_np(c) -> float:
-    c = np.asarray(c, np.float64)
-    return float(0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
+    return float(np.asarray(c, np.float64) @ LUMINANCE)
+
+
+@dataclasses.dataclass
+class EmitterTriangles:
+    """The triangle lights of a scene (:func:`emitter_triangles`), one row each.
+
+    Attributes:
+        ids: ``(E,)`` int32 geometry ids (rows of ``Scene.geometry()``).
+        power: ``(E,)`` float64 power weights for light selection.
+        radiance: ``(E, 3)`` float32 radiance factor: 1 for emissive materials, a mesh light's (normalized) colour.
+        params: ``(E, 4)`` float32 :class:`DeviceLights` ``params`` of triangle lights.
+        owner: ``(E,)`` int32 index of the :class:`MeshLight` (in the list given) the triangle belongs to, -1: none.
+    """
+
+    ids: np.ndarray
+    power: np.ndarray
+    radiance: np.ndarray
+    params: np.ndarray
+    owner: np.ndarray
+
+
+def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTriangles:
+    """Every emissive triangle that is not instanced (emissive prototype triangles still emit where rays hit them,
+    but are not sampled as lights), then the triangles of each of ``mesh_lights`` that emit (a mesh light's
+    triangles are its, not plain emissive ones).
+
+    Raises:
+        SceneError: a mesh light that names no mesh of the scene (instanced ones included).
+    """
+    points, indices = scene.geometry()
+    flat = scene.num_flat_triangles
+    tri_materials = scene.triangle_materials()[:flat]
+    sided = scene.triangle_double_sided()[:flat]
+    emission = np.asarray(materials_emission, np.float64).reshape(-1, 3)
+    glow = emission @ LUMINANCE  # per material
+
+    def areas(ids):
+        a, b, c = (points[indices[ids, k]].astype(np.float64) for k in range(3))
+        return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
+    owner = np.full(flat, -1, np.int32)
+    starts = np.concatenate([[0], np.cumsum([len(m.indices) for m in scene.meshes])]).astype(np.int64)
+    by_path = {}
+    for k, mesh in enumerate(scene.meshes):
+        by_path.setdefault(mesh.path, []).append(np.arange(starts[k], starts[k + 1]))
+    for j, light in enumerate(mesh_lights):
+        if light.path not in by_path:
+            raise SceneError("MeshLight names no mesh of the scene (meshes inside instances cannot be lights)",
+                             prim=light.path or None)
+        owner[np.concatenate(by_path[light.path])] = j
+
+    # Emissive materials: radiance factor 1 times the material's emission (params[0] = 1).
+    ids = np.nonzero((glow[tri_materials] > 0.0) & (owner < 0))[0]
+    rows = [(ids, math.pi * areas(ids) * glow[tri_materials[ids]], np.ones((len(ids), 3)), (1, 0, 0, 0), -1)]
+    for j, light in enumerate(mesh_lights):
+        ids = np.nonzero(owner == j)[0]
+        area = areas(ids)
+        L = _normalized(light.color, float(area.sum()), light.normalize).astype(np.float64)
+        tints = light.material_sync == GLOW_TINTS_LIGHT
+        if tints:
+            keep = glow[tri_materials[ids]] > 0.0  # the light tints the glow: no glow, no light
+            ids, area = ids[keep], area[keep]
+            power = math.pi * area * ((L * emission[tri_materials[ids]]) @ LUMINANCE)
+        else:
+            power = math.pi * area * float(L @ LUMINANCE)
+        params = (float(tints), float(light.material_sync == NO_MATERIAL_RESPONSE), 1, 0)
+        rows.append((ids, power, np.tile(L, (len(ids), 1)), params, j))
+    ids = np.concatenate([r[0] for r in rows]).astype(np.int32)
+    return EmitterTriangles(
+        ids=ids,
+        power=np.concatenate([r[1] for r in rows]) * np.where(sided[ids], 2.0, 1.0),
+        radiance=np.concatenate([r[2] for r in rows]).astype(np.float32),
+        params=np.concatenate([np.tile(np.asarray(r[3], np.float32), (len(r[0]), 1)) for r in rows]),
+        owner=np.concatenate([np.full(len(r[0]), r[4], np.int32) for r in rows]),
+    )
 
 
 def build_lights(lights: list, scene, material_emission: list, device) -> DeviceLights:
@@ -515,7 +628,10 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     if len(domes) > 1:
         warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used", stacklevel=3)
     dome_index, dome = -1, None
+    mesh_lights = [light for light in lights if isinstance(light, MeshLight)]
     for light in lights:
+        if isinstance(light, MeshLight):
+            continue  # its triangles come after the analytic lights
         if isinstance(light, DomeLight):
             if light is not domes[0]:
                 continue
@@ -575,10 +691,14 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
         h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
     num_analytic = len(h.kinds)
 
-    # Emissive triangles.
-    tri_ids, tri_power, _ = _emitter_triangles(scene, material_emission)
-    for prim, power in zip(tri_ids, tri_power):
-        _add(h, LIGHT_TRIANGLE, zero, zero, zero, zero, zero, (0, 0, 0, 0), int(prim), float(power))
+    # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers.
+    tris = emitter_triangles(scene, material_emission, mesh_lights)
+    for prim, power, radiance, params, owner in zip(tris.ids, tris.power, tris.radiance, tris.params, tris.owner):
+        _add(h, LIGHT_TRIANGLE, radiance, zero, zero, zero, zero, params, int(prim), float(power))
+        if owner >= 0:
+            light = mesh_lights[owner]
+            h.shadows[-1] = int(bool(light.shadows))
+            h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
 
     # Dome texture and its sampling distribution.
     texels = np.ones((1, 1, 3), np.float32)
@@ -642,9 +762,11 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.texture, d.texels = _upload_textures(h.texture, device)
     d.headlight = -1  # set by the renderer, which knows the cameras (set_headlight_directions)
     d.headlight_dirs = wp.zeros(1, dtype=wp.vec3, device=device)
-    # Links of the analytic lights in device order (the dome's at dome_index; a second dome is not on the device).
-    on_device = [light for light in lights if not isinstance(light, DomeLight) or light is dome]
-    d.links = upload_links(link_groups(scene, on_device), device)
+    # Links of the analytic lights in device order (the dome's at dome_index; a second dome is not on the device),
+    # then of the mesh lights, whose triangles share their light's column.
+    on_device = [light for light in lights if not isinstance(light, (DomeLight, MeshLight)) or light is dome]
+    columns = np.concatenate([np.arange(num_analytic), np.where(tris.owner >= 0, num_analytic + tris.owner, -1)])
+    d.links = upload_links(link_groups(scene, on_device + mesh_lights), device, columns)
     return d
 
 
@@ -998,6 +1120,17 @@ def triangle_light_pdf(scene: DeviceScene, double_sided: int, prim: int, o: wp.v
 
 
 @wp.func
+def triangle_emission(lights: DeviceLights, mats: DeviceMaterials, k: int, m: int, st: wp.vec2):
+    """Radiance that triangle light ``k`` (of material ``m``) emits at ``st``: its radiance factor times the
+    material's ``emissiveColor``, or the factor alone for a mesh light whose light does not follow its material
+    (``materialSyncMode`` ``independent`` or ``noMaterialResponse``)."""
+    L = lights.radiance[k]
+    if lights.params[k][0] > 0.0:
+        L = wp.cw_mul(L, eval_emission(mats, m, st))
+    return L
+
+
+@wp.func
 def shadow_direction(lights: DeviceLights, k: int, wi: wp.vec3):
     """The direction of the shadow ray towards light ``k``: ``wi``, or zero for a light that casts no shadows (a
     zero direction can hit nothing, so every accelerator reports the ray unblocked)."""
@@ -1154,7 +1287,7 @@ def sample_light(
             return out
         ln = cr / (2.0 * area)
         st = bw * uvs[prim, 0] + bu * uvs[prim, 1] + bv * uvs[prim, 2]
-        L = eval_emission(mats, tri_materials[prim], st)
+        L = triangle_emission(lights, mats, k, tri_materials[prim], st)
         if cut_out(mats, tri_materials[prim], st):
             # A hole of an emissive cut-out: rays pass it and see no light there, so it sends none either.
             L = wp.vec3(0.0)

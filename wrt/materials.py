@@ -612,6 +612,9 @@ def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
     return m.astype(np.float32)
 
 
+NO_RESPONSE = "<no material response>"  # path of MaterialReader.no_response_material
+
+
 class MaterialReader:
     """Reads materials bound to meshes of one stage, once each; collects textures and fallback warnings.
 
@@ -633,6 +636,14 @@ class MaterialReader:
         self._udim: dict[tuple, np.ndarray] = {}  # (UDIM pattern, its layer, colour space) -> TextureInput.tiles
 
     # Bindings
+
+    def no_response_material(self) -> int:
+        """The index of a material that reflects, transmits and emits nothing (black, index 1: no Fresnel
+        reflection), added once: the surface of a mesh light of ``materialSyncMode`` ``noMaterialResponse``."""
+        if NO_RESPONSE not in self._by_path:  # no prim path: it cannot collide with a material prim's
+            self._by_path[NO_RESPONSE] = len(self.materials)
+            self.materials.append(Material(path=NO_RESPONSE, diffuse_color=0.0, ior=1.0))
+        return self._by_path[NO_RESPONSE]
 
     def face_materials(self, prim, n_faces: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The materials of the faces of mesh ``prim``, or None when the mesh and its subsets bind no material at all

@@ -5,9 +5,10 @@
 faces with :func:`triangulate` (leaving out ``holeIndices``), bakes the world transform into the points, and carries
 shading normals, ``displayColor`` and ``displayOpacity`` (its own, else a constant one inherited from an ancestor;
 opacity for the default material only), texture coordinates and the bound material (:mod:`wrt.materials`) per
-triangle. UsdLux lights are read by :mod:`wrt.lights`; meshes skinned by a UsdSkel skeleton are posed by
-:mod:`wrt.usd_skel`. Bad topology raises :class:`wrt.errors.SceneError` naming the file and the prim; things that are
-skipped but a user might expect to see (unsupported gprims, lights or shaders) produce one warning each.
+triangle. UsdLux lights, mesh lights (``MeshLightAPI``) too, are read by :mod:`wrt.usd_lights`; meshes skinned by a
+UsdSkel skeleton are posed by :mod:`wrt.usd_skel`. Bad topology raises :class:`wrt.errors.SceneError` naming the
+file and the prim; things that are skipped but a user might expect to see (unsupported gprims, lights or shaders)
+produce one warning each.
 
 Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``size``), ``Cylinder`` and ``Cone``
 (``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``),
@@ -93,7 +94,7 @@ from .resources import check_host_memory
 from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL, REFINED_QUAD_BYTES, Refinement, refined_quads
 from .tubes import place_round, width_axis
-from .usd_lights import read_light
+from .usd_lights import read_light, sync_mesh_material
 from .usd_primvars import finite_colors, unit_opacities
 from .usd_skel import SkelPoser
 from .usd_surfaces import SurfaceReader
@@ -521,23 +522,46 @@ class _StageReader:
 
     def _read_geometry(self, prim: Usd.Prim, ctx: _Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating)."""
-        if prim.HasAPI(UsdLux.LightAPI):  # MeshLightAPI, VolumeLightAPI or a bare LightAPI: the gprim should emit
-            self._skip("mesh lights (MeshLightAPI, or LightAPI on another gprim) are not supported; drawn as geometry "
-                       "that emits nothing", prim, prim.GetTypeName())
         if prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.TetMesh) or prim.IsA(UsdGeom.NurbsPatch):
             read = self._read_mesh if prim.IsA(UsdGeom.Mesh) else self._read_surface
-            mesh = read(prim, self._to_space(prim, ctx), ctx)
-            if mesh is not None:
-                ctx.content.meshes.append(mesh)
+            self._add_mesh(prim, read(prim, self._to_space(prim, ctx), ctx), ctx)
             return
         if prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves):
+            self._not_a_mesh_light(prim, "Points and curves")
             self._read_tubes(prim, ctx)
             return
+        if prim.HasAPI(UsdLux.VolumeLightAPI):
+            self._skip("volume lights (VolumeLightAPI) are not supported: wrt has no volumes", prim, prim.GetTypeName())
         shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
         if shape is not None and self.segments:
-            ctx.content.meshes.append(self._tessellated(shape, prim))
+            self._add_mesh(prim, self._tessellated(shape, prim), ctx)
         elif shape is not None:
+            self._not_a_mesh_light(prim, "gprims drawn analytically (load with tessellate_gprims=True to make them "
+                                   "emit)")
             ctx.content.shapes.append(shape)
+
+    def _add_mesh(self, prim: Usd.Prim, mesh: Mesh | None, ctx: _Context):
+        """Adds ``mesh`` (None: nothing), drawn for ``prim``, to ``ctx.content``, and its light when ``prim`` is a
+        mesh light (MeshLightAPI, or LightAPI on another gprim) outside instances."""
+        if mesh is None:
+            return
+        ctx.content.meshes.append(mesh)
+        if not prim.HasAPI(UsdLux.LightAPI):
+            return
+        if not ctx.world:  # its triangles are not sampled, as emissive prototype triangles are not
+            self._not_a_mesh_light(prim, "meshes inside instances")
+            return
+        light = read_light(prim, self.xforms, self.time, self.scene.up_axis, self._skip)
+        if light is not None:
+            sync_mesh_material(light, prim, mesh, self.materials, self._skip)
+            self.scene.lights.append(light)
+
+    def _not_a_mesh_light(self, prim: Usd.Prim, what: str):
+        """Names ``prim`` in a warning when it has LightAPI (MeshLightAPI, VolumeLightAPI or LightAPI alone): it
+        should emit, but wrt draws ``what`` as geometry that emits nothing."""
+        if prim.HasAPI(UsdLux.LightAPI):
+            self._skip(f"lights on {what} (LightAPI, MeshLightAPI) are not supported; drawn as geometry that emits "
+                       "nothing", prim, prim.GetTypeName())
 
     def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool, keep_opaque: bool = False) -> float | None:
         """The ``displayOpacity`` of ``prim`` (its own or a constant inherited one) for prims drawn with the default

@@ -10,7 +10,18 @@ import numpy as np
 from .errors import SceneError
 from .light_links import read_collection
 from .light_shaping import Shaping, primary_axis, read_shaping
-from .lights import INPUTS_PREFIX, CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
+from .lights import (
+    GLOW_TINTS_LIGHT,
+    INPUTS_PREFIX,
+    MATERIAL_SYNC_MODES,
+    NO_MATERIAL_RESPONSE,
+    CylinderLight,
+    DiskLight,
+    DomeLight,
+    MeshLight,
+    RectLight,
+    SphereLight,
+)
 from .scene import DistantLight
 
 
@@ -48,6 +59,28 @@ def read_light(prim, xforms, time, up_axis: str, skip):
         skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
              "inputs: attributes", prim, ", ".join(legacy))
     return result
+
+
+def sync_mesh_material(light: MeshLight, prim, mesh, materials, skip) -> None:
+    """Settles how mesh light ``light`` of ``prim`` (drawn as ``mesh``, a :class:`wrt.Mesh`) and the mesh's material
+    relate (``light.material_sync``). A mesh without a bound material has no glow to sync with: it is read as
+    ``noMaterialResponse`` whatever its mode. With ``noMaterialResponse`` the mesh's faces get ``materials``' (a
+    :class:`wrt.materials.MaterialReader`) material that reflects nothing, as the schema has it ("as if there is no
+    Material bound at all"). A ``materialGlowTintsLight`` light whose material does not glow is named through
+    ``skip``: it emits nothing."""
+    from .materials import emission_estimates
+
+    used = [] if mesh.material_ids is None else sorted(set(mesh.material_ids[mesh.material_ids >= 0].tolist()))
+    if not used:
+        light.material_sync = NO_MATERIAL_RESPONSE
+    elif light.material_sync == GLOW_TINTS_LIGHT:
+        glows = emission_estimates([materials.materials[k] for k in used], materials.textures)[1:]
+        if not any(float(np.max(glow)) > 0.0 for glow in glows):
+            skip('mesh lights of light:materialSyncMode "materialGlowTintsLight" (MeshLightAPI\'s fallback) whose '
+                 "material has no emissiveColor emit nothing (the light tints the material's glow); author "
+                 '"independent" to emit the light\'s colour', prim)
+    if light.material_sync == NO_MATERIAL_RESPONSE:
+        mesh.material_ids = np.full(len(mesh.indices), materials.no_response_material(), np.int32)
 
 
 def _read_light(prim, xforms, time, up_axis: str, skip, get):
@@ -147,7 +180,7 @@ def _shadow_tinted(prim, get) -> bool:
 
 def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
     """The light object of ``prim``'s UsdLux type (see :func:`read_light`)."""
-    from pxr import UsdLux
+    from pxr import UsdGeom, UsdLux
 
     def sizes(*attrs):
         """The values of ``(attr, name, fallback)`` size attributes, or None (skipped with a warning) when one is
@@ -203,11 +236,29 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         c = UsdLux.CylinderLight(prim)
         found = sizes((c.GetLengthAttr(), "length", 1.0), (c.GetRadiusAttr(), "radius", 0.5))
         return None if found is None else CylinderLight(m, found[0], found[1], color, normalize, path)
+    if prim.IsA(UsdGeom.Gprim):  # LightAPI on a mesh (MeshLightAPI): wrt.usd checks it is drawn as one
+        return MeshLight(path, color, normalize, _material_sync(prim, skip))
     dome_types = [UsdLux.DomeLight] + ([UsdLux.DomeLight_1] if hasattr(UsdLux, "DomeLight_1") else [])
     if any(prim.IsA(t) for t in dome_types):
         return _read_dome(prim, m, color, time, up_axis, skip, get)
     skip(f"{prim.GetTypeName() or 'this'} lights are not supported; skipped", prim, prim.GetTypeName())
     return None
+
+
+def _material_sync(prim, skip) -> str:
+    """The ``light:materialSyncMode`` of a mesh light (its schema's fallback: ``materialGlowTintsLight`` with
+    MeshLightAPI, ``noMaterialResponse`` with LightAPI alone); a token UsdLux does not define counts as the fallback,
+    with a warning."""
+    from pxr import UsdLux
+
+    attr = UsdLux.LightAPI(prim).GetMaterialSyncModeAttr()
+    mode = str(attr.Get()) if attr else ""
+    if mode not in MATERIAL_SYNC_MODES:
+        fallback = GLOW_TINTS_LIGHT if prim.HasAPI(UsdLux.MeshLightAPI) else NO_MATERIAL_RESPONSE
+        skip(f"light:materialSyncMode values other than {', '.join(MATERIAL_SYNC_MODES)} were read as the "
+             "schema's fallback", prim, f"{mode!r}, read as {fallback}")
+        mode = fallback
+    return mode
 
 
 def _shaped(light, shaping: Shaping, m, prim, skip):
@@ -219,8 +270,8 @@ def _shaped(light, shaping: Shaping, m, prim, skip):
         if isinstance(light, SphereLight):
             light.axis = primary_axis(m, light.axis)
     elif light is not None and not shaping.at_fallbacks():
-        skip("light shaping (ShapingAPI) on distant and dome lights is not supported; these lights emit unshaped",
-             prim)
+        skip("light shaping (ShapingAPI) on mesh lights, distant and dome lights is not supported; these lights emit "
+             "unshaped", prim)
     return light
 
 

@@ -1,8 +1,8 @@
-"""Radiance that a ray segment picks up from lights: analytic area lights it passes through and, for rays that
-escape, the dome and the discs of soft distant lights; each weighted against BSDF sampling by MIS, and, for rays a
-surface scattered, by the lights' ``diffuse`` and ``specular`` multipliers on the lobes that scattered them (camera
-rays see lights unscaled), and left out where the light is not linked to that surface (``collection:lightLink``,
-:mod:`wrt.light_links`)."""
+"""Radiance that a ray segment picks up from lights: analytic area lights it passes through, the emissive or
+mesh-light triangle it hits and, for rays that escape, the dome and the discs of soft distant lights; each weighted
+against BSDF sampling by MIS, and, for rays a surface scattered, by the lights' ``diffuse`` and ``specular``
+multipliers on the lobes that scattered them (camera rays see lights unscaled), and left out where the light is not
+linked to that surface (``collection:lightLink``, :mod:`wrt.light_links`)."""
 
 import warp as wp
 
@@ -23,7 +23,9 @@ from ..lights import (
     intersect_light,
     light_texture,
     lobe_factor,
+    triangle_emission,
 )
+from ..materials import DeviceMaterials
 from ..sampling import power_heuristic
 
 
@@ -112,3 +114,30 @@ def environment(
                 L = wp.cw_mul(lights.radiance[k], scattered_by(lights, k, camera, diffuse_share))
                 total += L * mis_weight(pdf_bsdf, pdf_l)
     return total
+
+
+@wp.func
+def surface_emission(
+    lights: DeviceLights,
+    mats: DeviceMaterials,
+    e: int,
+    m: int,
+    st: wp.vec2,
+    emission: wp.vec3,
+    camera: int,
+    diffuse_share: wp.vec3,
+    group: int,
+):
+    """Radiance a ray picks up from the emitting side of the triangle it hit (material ``m`` at ``st``, whose
+    ``emissiveColor`` there is ``emission``; ``e``: its light, -1 for none: ``DeviceSurfaces.emitters``). Emissive
+    materials show ``emission``. A mesh light's triangle shows camera rays its material's glow (its light for
+    ``noMaterialResponse``, whose surface has no material), and other rays its light (:func:`triangle_emission`, as
+    light sampling draws it) times its multipliers, where it lights the surface that scattered them (``camera``,
+    ``diffuse_share``, ``group``: see :func:`lights_on_segment`)."""
+    if e < 0 or lights.params[e][2] == 0.0:  # no mesh light
+        return emission
+    if camera == 1:
+        return wp.where(lights.params[e][1] > 0.0, lights.radiance[e], emission)
+    if not reaches(lights, e, camera, group):
+        return wp.vec3(0.0)
+    return wp.cw_mul(triangle_emission(lights, mats, e, m, st), scattered_by(lights, e, camera, diffuse_share))

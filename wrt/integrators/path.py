@@ -26,7 +26,7 @@ from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, shading_point
-from .emitters import environment, lights_on_segment, mis_weight
+from .emitters import environment, lights_on_segment, mis_weight, surface_emission
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
 
@@ -113,14 +113,17 @@ def shade_path_kernel(
         t_maxs[i] = 0.0
         return
 
-    # Emission, weighted against light sampling of this triangle.
-    if luminance(s.emission) > 0.0 and (h.front == 1 or surf.double_sided[prim] == 1):
-        w = float(1.0)
+    # Emission (a mesh light's as light sampling sees it, to rays a surface scattered), weighted against light
+    # sampling of this triangle.
+    if h.front == 1 or surf.double_sided[prim] == 1:
         e = surf.emitters[prim]
-        if e >= 0 and pdf_b > 0.0:
-            pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, o, d, t_hit)
-            w = power_heuristic(pdf_b, pdf_l)
-        L += wp.cw_mul(T, s.emission) * w
+        emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, share, g_prev)
+        if luminance(emitted) > 0.0:
+            w = float(1.0)
+            if e >= 0 and pdf_b > 0.0:
+                pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, o, d, t_hit)
+                w = power_heuristic(pdf_b, pdf_l)
+            L += wp.cw_mul(T, emitted) * w
     if bounce >= max_depth:
         radiance[i] = L
         alive[i] = 0

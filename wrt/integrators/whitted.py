@@ -37,7 +37,7 @@ from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, shading_point
-from .emitters import environment, lights_on_segment
+from .emitters import environment, lights_on_segment, surface_emission
 from .path import SHADOW_SHORTEN
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
@@ -117,7 +117,9 @@ def shade_whitted_kernel(
         alive[i] = 0
         return
     if h.front == 1 or surf.double_sided[prim] == 1:
-        L += wp.cw_mul(T, s.emission)
+        emitted = surface_emission(lights, mats, surf.emitters[prim], h.material, h.st, s.emission, camera,
+                                   wp.vec3(0.0), g_prev)
+        L += wp.cw_mul(T, emitted)
     if lights.dome >= 0 and lit_by(lights.links, link_group(lights.links, prim, hit_instance[i]), lights.dome):
         cos_o = wp.max(wp.dot(h.ns, -d), 0.0)
         traced = traced_specular(s, mats.ggx_albedo, cos_o)

@@ -1,0 +1,215 @@
+"""Mesh lights (UsdLux ``MeshLightAPI``, or ``LightAPI`` on another gprim): the irradiance a quad mesh light gives a
+plane against Lambert's closed form and against the same light authored as a ``RectLight``; ``normalize``,
+``exposure`` and ``color``; light linking; ``materialSyncMode`` with an emissive material; gprims, volumes and
+instances that cannot be lights are named."""
+
+import numpy as np
+import pytest
+from shading_helpers import pixel_points, quad, top_down_camera
+from test_lights import ALBEDO, RES, rect_irradiance
+from usda_text import load_recording_warnings
+
+import wrt
+
+HEIGHT = 1.0  # of the light above the floor z = 0
+PATCH = 0.8  # side of the floor patch the camera sees, centred under the light
+
+
+def floor(name="Floor", x0=-20.0, x1=20.0):
+    """USDA of a grey (default material) rectangle at z = 0 from ``x0`` to ``x1`` (y from -20 to 20), facing up."""
+    pts = [(x0, -20, 0), (x1, -20, 0), (x1, 20, 0), (x0, 20, 0)]
+    return f'def Mesh "{name}"\n{{\n    point3f[] points = {pts}\n    int[] faceVertexCounts = [4]\n' \
+           '    int[] faceVertexIndices = [0, 1, 2, 3]\n}\n'
+
+
+def inputs(intensity=1.0, exposure=0.0, color=(1, 1, 1), normalize=False, sync=None, extra=""):
+    text = (f"    float inputs:intensity = {intensity}\n    float inputs:exposure = {exposure}\n"
+            f"    color3f inputs:color = {tuple(color)}\n    bool inputs:normalize = {int(normalize)}\n")
+    if sync is not None:
+        text += f'    uniform token light:materialSyncMode = "{sync}"\n'
+    return text + extra
+
+
+def mesh_light(api="MeshLightAPI", scale=(1, 1, 1), material=None, extra="", **kw):
+    """USDA of a unit square mesh light (times ``scale``) at z = HEIGHT whose front (by its winding) faces the floor."""
+    pts = [(-0.5, -0.5, 0), (-0.5, 0.5, 0), (0.5, 0.5, 0), (0.5, -0.5, 0)]  # clockwise from above: front is -Z
+    bind = "" if material is None else f"    rel material:binding = <{material}>\n"
+    return (f'def Mesh "Light" (\n    prepend apiSchemas = ["{api}", "MaterialBindingAPI"]\n)\n{{\n'
+            f"    point3f[] points = {pts}\n    int[] faceVertexCounts = [4]\n"
+            "    int[] faceVertexIndices = [0, 1, 2, 3]\n"
+            f'    double3 xformOp:translate = (0, 0, {HEIGHT})\n    float3 xformOp:scale = {tuple(scale)}\n'
+            '    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]\n'
+            f"{bind}{inputs(**kw)}{extra}}}\n")
+
+
+def rect_light(scale=(1, 1, 1), **kw):
+    """USDA of the RectLight that :func:`mesh_light` is (UsdLux rect lights emit along their -Z)."""
+    return (f'def RectLight "Light"\n{{\n    double3 xformOp:translate = (0, 0, {HEIGHT})\n'
+            f'    float3 xformOp:scale = {tuple(scale)}\n'
+            '    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]\n'
+            f"{inputs(**kw)}}}\n")
+
+
+def glowing_material(glow):
+    return ('def Material "Glow"\n{\n    token outputs:surface.connect = </Glow/Surface.outputs:surface>\n'
+            '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+            f"        color3f inputs:emissiveColor = {tuple(glow)}\n        token outputs:surface\n    }}\n}}\n")
+
+
+def load(tmp_path, *prims, name="stage.usda"):
+    path = tmp_path / name
+    path.write_text('#usda 1.0\n(\n    upAxis = "Z"\n)\n' + "".join(prims))
+    return load_recording_warnings(str(path))
+
+
+def render_floor(scene, integrator, spp=64, center=(0.0, 0.0, 0.0)):
+    """Radiance ``(H, W, 3)`` of the floor patch under the light, seen from above (through the back of a
+    single-sided mesh light, which camera rays cull), direct light only."""
+    img = wrt.render(scene, camera=top_down_camera(center, height=PATCH), width=RES, height=RES, spp=spp, seed=3,
+                     integrator=integrator, max_depth=1)
+    return img.rgb
+
+
+def closed_form(radiance, scale=(1, 1, 1), center=(0.0, 0.0, 0.0)):
+    points = pixel_points(center, PATCH, RES, RES)
+    return ALBEDO * rect_irradiance(points, scale[0] / 2, scale[1] / 2, HEIGHT, radiance) / np.pi
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_quad_mesh_light_gives_the_closed_form_and_the_rect_lights_irradiance(tmp_path, integrator):
+    """A unit square of MeshLightAPI with intensity 3 (no material: it is the light alone) lights the floor under
+    it as Lambert's closed form for a rectangle of radiance 3 says, and as the same RectLight does. Before, the mesh
+    was drawn as geometry that emitted nothing (the floor black, with a warning)."""
+    scene, messages = load(tmp_path, floor(), mesh_light(intensity=3.0))
+    assert not messages and isinstance(scene.lights[0], wrt.MeshLight), messages
+    meshed = render_floor(scene, integrator).mean(axis=-1)
+    expected = closed_form(3.0)
+    assert abs(meshed.mean() / expected.mean() - 1) < 0.02, (meshed.mean(), expected.mean())
+    assert np.abs(meshed / expected - 1).max() < 0.25
+    rect, _ = load(tmp_path, floor(), rect_light(intensity=3.0), name="rect.usda")
+    reference = render_floor(rect, integrator).mean(axis=-1)
+    assert abs(meshed.mean() / reference.mean() - 1) < 0.02, (meshed.mean(), reference.mean())
+
+
+@pytest.mark.parametrize("normalize", [False, True])
+def test_normalize_divides_by_the_world_space_area(tmp_path, normalize):
+    """``inputs:normalize`` divides by the mesh's area in the world: a unit square scaled to 2 x 1.5 (area 3)."""
+    scale = (2.0, 1.5, 1.0)
+    scene, _ = load(tmp_path, floor(), mesh_light(intensity=6.0, normalize=normalize, scale=scale))
+    rendered = render_floor(scene, "path").mean(axis=-1)
+    expected = closed_form(6.0 / 3.0 if normalize else 6.0, scale)
+    assert abs(rendered.mean() / expected.mean() - 1) < 0.02, (rendered.mean(), expected.mean())
+
+
+def test_exposure_and_colour_scale_the_radiance(tmp_path):
+    """``intensity * 2^exposure * color``, per channel, as for other UsdLux lights."""
+    color = (1.0, 0.5, 0.25)
+    scene, _ = load(tmp_path, floor(), mesh_light(intensity=0.5, exposure=3.0, color=color))
+    rendered = render_floor(scene, "path").reshape(-1, 3).mean(axis=0)
+    expected = closed_form(4.0).mean() * np.asarray(color)
+    np.testing.assert_allclose(rendered, expected, rtol=0.02)
+
+
+def test_diffuse_multiplier_and_shadow_enable_apply(tmp_path):
+    """``inputs:diffuse`` scales what the (diffuse) floor reflects of the mesh light; ``inputs:shadow:enable = 0``
+    lets its light through a blocker between it and the floor (single-sided, facing down: camera rays from above
+    cull it)."""
+    pts = [(-2, -2, 0.5), (-2, 2, 0.5), (2, 2, 0.5), (2, -2, 0.5)]
+    blocker = (f'def Mesh "Blocker"\n{{\n    point3f[] points = {pts}\n    int[] faceVertexCounts = [4]\n'
+               '    int[] faceVertexIndices = [0, 1, 2, 3]\n}\n')
+    extra = "    float inputs:diffuse = 0.25\n    bool inputs:shadow:enable = 0\n"
+    scene, _ = load(tmp_path, floor(), blocker, mesh_light(intensity=3.0, extra=extra))
+    rendered = render_floor(scene, "whitted").mean()  # light sampling only: path's BSDF rays stop at the blocker
+    assert abs(rendered / (0.25 * closed_form(3.0).mean()) - 1) < 0.02, rendered
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_light_linking_leaves_out_an_excluded_prim(tmp_path, integrator):
+    """The mesh light prim's ``collection:lightLink`` decides what it lights: of two floors meeting under the light,
+    the excluded one stays black and the other is lit as without linking."""
+    link = "    rel collection:lightLink:excludes = </Dark>\n"
+    scene, messages = load(tmp_path, floor("Lit", x1=0.0), floor("Dark", x0=0.0), mesh_light(intensity=3.0, extra=link))
+    assert not messages and scene.lights[0].light_link is not None, messages
+    lit = render_floor(scene, integrator, center=(-0.5, 0.0, 0.0)).mean()
+    dark = render_floor(scene, integrator, center=(0.5, 0.0, 0.0)).max()
+    assert dark == 0.0
+    assert abs(lit / closed_form(3.0, center=(-0.5, 0.0, 0.0)).mean() - 1) < 0.03
+
+
+def light_seen_from_below(scene):
+    """Radiance of the mesh light's front seen straight up from below it, one pixel."""
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 1.0), up=(0, 1, 0), height=0.2)
+    return wrt.render(scene, camera=cam, width=1, height=1, integrator="path", max_depth=1).rgb[0, 0]
+
+
+@pytest.mark.parametrize("sync, lights_with, shows", [
+    (None, (4.0, 2.0, 1.0), (2.0, 1.0, 0.5)),  # MeshLightAPI's fallback, materialGlowTintsLight: 2 x the glow
+    ("independent", (2.0, 2.0, 2.0), (2.0, 1.0, 0.5)),  # the light's colour; cameras see the glow
+    ("noMaterialResponse", (2.0, 2.0, 2.0), (2.0, 2.0, 2.0)),  # the light's colour, seen too; no material
+])
+def test_material_sync_mode_with_an_emissive_material(tmp_path, sync, lights_with, shows):
+    """A mesh light of intensity 2 bound to a material glowing (2, 1, 0.5): UsdLux's ``materialSyncMode`` decides
+    the radiance that lights the floor (the glow times the light, or the light alone) and what camera rays see (the
+    material's glow, or the light where the mesh has no material response)."""
+    scene, messages = load(tmp_path, floor(), glowing_material((2.0, 1.0, 0.5)),
+                           mesh_light(intensity=2.0, sync=sync, material="/Glow"))
+    assert not messages, messages
+    lit = render_floor(scene, "path").reshape(-1, 3).mean(axis=0)
+    np.testing.assert_allclose(lit, closed_form(1.0).mean() * np.asarray(lights_with), rtol=0.02)
+    np.testing.assert_allclose(light_seen_from_below(scene), shows, rtol=1e-5)
+    whitted = render_floor(scene, "whitted").reshape(-1, 3).mean(axis=0)
+    np.testing.assert_allclose(whitted, lit, rtol=0.03)
+
+
+def test_a_light_that_tints_a_glow_the_material_has_not_is_named(tmp_path):
+    """materialGlowTintsLight with a material that does not glow emits nothing, as UsdLux defines it: named."""
+    scene, messages = load(tmp_path, floor(), glowing_material((0.0, 0.0, 0.0)), mesh_light(material="/Glow"))
+    assert any("materialGlowTintsLight" in m and "/Light" in m for m in messages), messages
+    assert render_floor(scene, "path", spp=1).max() == 0.0
+
+
+def test_a_mesh_light_of_no_material_response_reflects_nothing(tmp_path):
+    """LightAPI alone on a mesh (fallback noMaterialResponse) makes it a light that reflects no other light."""
+    sun = ('def DistantLight "Sun"\n{\n    float inputs:intensity = 5\n    float inputs:angle = 0\n'
+           '    float3 xformOp:rotateXYZ = (180, 0, 0)\n    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]\n}\n')
+    scene, _ = load(tmp_path, sun, mesh_light(api="LightAPI", intensity=0.0).replace("(0, 0, 1.0)", "(0, 0, -1.0)"))
+    cam = wrt.Camera.orthographic(eye=(0, 0, -3), target=(0, 0, -1), up=(0, 1, 0), height=0.2)
+    img = wrt.render(scene, camera=cam, width=1, height=1)
+    assert img.aovs["prim"][0, 0] >= 0 and img.rgb.max() == 0.0
+
+
+def test_gprims_volumes_and_instanced_meshes_that_cannot_be_lights_are_named(tmp_path):
+    """LightAPI on a gprim drawn analytically emits nothing (named, with the way out: tessellate_gprims, which
+    makes it a mesh light); so do VolumeLightAPI volumes and mesh lights inside instance prototypes."""
+    sphere = ('def Sphere "Bulb" (\n    prepend apiSchemas = ["LightAPI"]\n)\n{\n    double radius = 0.3\n'
+              '    double3 xformOp:translate = (0, 0, 1)\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
+              '    float inputs:intensity = 4\n}\n')
+    volume = 'def Volume "Fog" (\n    prepend apiSchemas = ["VolumeLightAPI"]\n)\n{\n}\n'
+    instanced = ('class Xform "Source"\n{\n    ' + mesh_light().replace("\n", "\n    ") + '\n}\n'
+                 'def Xform "Proto" (\n    instanceable = true\n    prepend references = </Source>\n)\n{\n'
+                 '    double3 xformOp:translate = (10, 0, 0)\n'
+                 '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n')
+    scene, messages = load(tmp_path, floor(), sphere, volume, instanced)
+    assert not scene.lights
+    assert any("gprims drawn analytically" in m and "tessellate_gprims" in m and "/Bulb" in m for m in messages)
+    assert any("VolumeLightAPI" in m and "/Fog" in m for m in messages), messages
+    assert any("inside instances" in m and "/Proto/Light" in m for m in messages), messages
+    tessellated, _ = load_recording_warnings(str(tmp_path / "stage.usda"), tessellate_gprims=16)
+    assert [type(light).__name__ for light in tessellated.lights] == ["MeshLight"]
+    img = wrt.render(tessellated, camera=top_down_camera(height=PATCH), width=RES, height=RES, spp=4,
+                     integrator="path", max_depth=1)
+    np.testing.assert_allclose(img.rgb[6:10, 6:10], 4.0, rtol=1e-5)  # cameras see the light: it has no material
+    assert img.rgb[img.aovs["prim"] < 2].mean() > 0.05  # the floor's two triangles come first
+
+
+def test_a_python_mesh_light_names_its_mesh():
+    """``wrt.MeshLight(path, color)`` in a scene built in Python makes the meshes at ``path`` emit (by default as
+    LightAPI's noMaterialResponse: the light's colour, seen by cameras too); a path no mesh has is an error naming
+    it, not a dark light."""
+    ground = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/ground")
+    panel = quad((0, 0, HEIGHT), (0, 1, 0), (1, 0, 0), name="/panel", double_sided=False)  # front: -Z
+    scene = wrt.Scene(meshes=[ground, panel], lights=[wrt.MeshLight("/panel", color=np.full(3, 3.0))])
+    np.testing.assert_allclose(render_floor(scene, "path").mean() / closed_form(3.0).mean(), 1.0, rtol=0.02)
+    scene.lights = [wrt.MeshLight("/nothing", color=np.ones(3))]
+    with pytest.raises(wrt.SceneError, match="/nothing"):
+        render_floor(scene, "path", spp=1)
