@@ -536,8 +536,8 @@ class _StageReader:
         if shape is not None and self.segments:
             self._add_mesh(prim, self._tessellated(shape, prim), ctx)
         elif shape is not None:
-            self._not_a_mesh_light(prim, "gprims drawn analytically (load with tessellate_gprims=True to make them "
-                                   "emit)")
+            self._not_a_mesh_light(prim, "gprims drawn analytically", "; load with tessellate_gprims=True to make "
+                                   "them emit")
             ctx.content.shapes.append(shape)
 
     def _add_mesh(self, prim: Usd.Prim, mesh: Mesh | None, ctx: _Context):
@@ -556,12 +556,12 @@ class _StageReader:
             sync_mesh_material(light, prim, mesh, self.materials, self._skip)
             self.scene.lights.append(light)
 
-    def _not_a_mesh_light(self, prim: Usd.Prim, what: str):
+    def _not_a_mesh_light(self, prim: Usd.Prim, what: str, hint: str = ""):
         """Names ``prim`` in a warning when it has LightAPI (MeshLightAPI, VolumeLightAPI or LightAPI alone): it
-        should emit, but wrt draws ``what`` as geometry that emits nothing."""
+        should emit, but wrt draws ``what`` as geometry that emits nothing (``hint``: what to do about it)."""
         if prim.HasAPI(UsdLux.LightAPI):
             self._skip(f"lights on {what} (LightAPI, MeshLightAPI) are not supported; drawn as geometry that emits "
-                       "nothing", prim, prim.GetTypeName())
+                       f"nothing{hint}", prim, prim.GetTypeName())
 
     def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool, keep_opaque: bool = False) -> float | None:
         """The ``displayOpacity`` of ``prim`` (its own or a constant inherited one) for prims drawn with the default
