@@ -504,3 +504,12 @@ def test_benchmark_scripts_refuse_bad_arguments_in_one_line(script, args, messag
     done = subprocess.run([sys.executable, str(path), *args], capture_output=True, text=True, timeout=120)
     assert done.returncode == 2, done.stderr
     assert message in done.stderr and "Traceback" not in done.stderr
+
+
+def test_shadow_rays_aim_at_the_first_distant_light_whatever_comes_before_it():
+    scene = wrt.Scene.from_triangles(*displaced_sphere(5000))
+    sun = np.array([0.0, 0.6, -0.8])  # the direction the light travels
+    scene.lights = [wrt.SphereLight(position=(0.0, 5.0, 0.0), radius=0.5, color=(1.0, 1.0, 1.0)),
+                    wrt.DistantLight(direction=sun, color=(1.0, 1.0, 1.0))]
+    _, directions = ray_set(scene, "shadow", 2000, seed=3)
+    np.testing.assert_allclose(directions, np.broadcast_to(-sun, directions.shape), atol=1e-6)

@@ -11,7 +11,7 @@ import warp as wp
 
 from .camera import generate_rays_kernel
 from .render import resolve_view
-from .scene import Scene
+from .scene import DistantLight, Scene
 
 
 def camera_rays(scene: Scene, camera=None, width: int | None = None,
@@ -86,8 +86,9 @@ def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int
     cosine-weighted diffuse bounce rays from the hits of a primary ray set."""
     position, normal = _surface_points(scene, origins, directions, hits)
     if kind == "shadow":
-        if scene.lights:
-            to_light = -np.asarray(scene.lights[0].direction, np.float64)
+        suns = [light for light in scene.lights if isinstance(light, DistantLight)]
+        if suns:
+            to_light = -np.asarray(suns[0].direction, np.float64)
         else:
             to_light = DEFAULT_SUN if scene.up_axis != "Z" else DEFAULT_SUN[[0, 2, 1]]
         out = np.broadcast_to(to_light / np.linalg.norm(to_light), position.shape)
