@@ -14,7 +14,8 @@
 - light and shadow linking (a floor, a box and a blocker under linked suns, a sphere light and a dome; native
   instances linked part by part);
 - a quad whose displayOpacity goes from 0 to 1 across it in front of a glowing wall, and a PointInstancer whose two
-  instances have their own displayOpacity (0.25, 0.75).
+  instances have their own displayOpacity (0.25, 0.75);
+- a mesh light (MeshLightAPI) over a floor, and points and curves under a sheared native instance.
 
 wrt's shade kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are
 expected to be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
@@ -46,6 +47,9 @@ from test_instance_colors import CAMERA, HEIGHT, WIDTH, instancer_stage  # noqa:
 from test_light_linking import SLANT, quad_usda, sun_usda, z_up  # noqa: E402
 from test_light_textures import cap_texture, dome_from_usd, textured_rect_light  # noqa: E402
 from test_materials import bind, new_stage  # noqa: E402
+from test_mesh_lights import PATCH as MESH_LIGHT_PATCH  # noqa: E402
+from test_mesh_lights import floor as mesh_light_floor  # noqa: E402
+from test_mesh_lights import glowing_material, mesh_light  # noqa: E402
 from test_normal_map import normal_mapped_stage, write_normal_map  # noqa: E402
 from test_primvar_colors import (  # noqa: E402
     C3,
@@ -58,8 +62,9 @@ from test_primvar_colors import (  # noqa: E402
     two_quads,
 )
 from test_tapered_gprims import rays_towards, write_stage  # noqa: E402
+from test_tubes_under_instances import TRANSFORMS, native_stage  # noqa: E402
 from test_udim import BLUE, GREEN, RED, udim_stage, write_tile  # noqa: E402
-from usda_text import floats, fmt  # noqa: E402
+from usda_text import floats, fmt, write  # noqa: E402
 
 
 def compare(name: str, scene, devices: list[str], **kwargs) -> None:
@@ -153,6 +158,7 @@ def main() -> None:
     points_and_curves(args.out / "parity_points_curves.usda", devices)
     textured_and_split_lights(args.out, devices)
     linked_lights(args.out, devices)
+    mesh_lights_and_round_instances(args.out, devices)
     see_through, _ = opacity_stage(args.out, lambda stage: opacity_quad(stage, opacity=[0.0, 1.0, 0.0, 1.0],
                                                                         interpolation="vertex"))
     instanced, _ = opacity_stage(args.out, lambda stage: opacity_primvar(opacity_instancer(stage), [0.25, 0.75],
@@ -246,6 +252,26 @@ def linked_lights(folder: Path, devices: list[str]) -> None:
     for integrator in ("whitted", "path"):
         compare(f"linked instance parts {integrator}", wrt.load_usd(path), devices, camera=cam, width=64, height=16,
                 integrator=integrator, spp=4)
+
+
+def mesh_lights_and_round_instances(folder: Path, devices: list[str]) -> None:
+    """A MeshLightAPI square over a floor, bare and tinting a glowing material; then points and curves instanced
+    under a shear, placed round in the TLAS."""
+    header = '#usda 1.0\n(\n    upAxis = "Z"\n)\n'
+    tinting = mesh_light(material="/Glow", intensity=3.0) + glowing_material((1, 0.5, 0.25))
+    for name, prims in (("bare", mesh_light(intensity=3.0)), ("tinting a glow", tinting)):
+        path = folder / "parity_mesh_light.usda"
+        path.write_text(header + mesh_light_floor() + prims)
+        scene = wrt.load_usd(path)
+        for integrator in ("whitted", "path"):
+            compare(f"mesh light {name} {integrator}", scene, devices,
+                    camera=top_down_camera(height=4 * MESH_LIGHT_PATCH), width=32, height=32,
+                    integrator=integrator, spp=8, max_depth=2)
+    path = write(folder, native_stage(TRANSFORMS["shear"], True), "parity_round_instances.usda")
+    cam = wrt.Camera.look_at((0.5, 0.0, 7.0), (0.5, 0.0, 0.0), fov_y_deg=60.0)
+    compare("points and curves under a sheared instance", wrt.load_usd(path), devices, camera=cam, width=48,
+            height=48, integrator="path", spp=4)
+
 
 if __name__ == "__main__":
     main()
