@@ -61,3 +61,41 @@ def pixel_points(cam_center, height, width_px, height_px, z=0.0) -> np.ndarray:
     ys = c[1] + (0.5 - (np.arange(height_px) + 0.5) / height_px) * height
     gx, gy = np.meshgrid(xs, ys)
     return np.stack([gx, gy, np.full_like(gx, z)], axis=-1)
+
+
+def linear_weights(coords, n, wrap=False):
+    """``(P, n)`` weights of the ``n`` texels in a linear interpolation between their centres ``k + 1/2`` at
+    continuous coordinates ``coords`` ``(P,)`` (0 at the outer edge of texel 0): constant beyond the first and last
+    centres, or with ``wrap`` continuing periodically (``np.interp`` of each texel's indicator)."""
+    coords = np.asarray(coords, np.float64).reshape(-1)
+    centres = np.arange(n) + 0.5
+    indicators = np.eye(n)
+    if wrap:
+        coords = np.mod(coords, n)
+        centres = np.concatenate([[-0.5], centres, [n + 0.5]])
+        indicators = np.concatenate([indicators[-1:], indicators, indicators[:1]])
+    return np.stack([np.interp(coords, centres, indicators[:, k]) for k in range(n)], -1)
+
+
+def bilinear(image, x, y, wrap_x=False):
+    """``(P, C)`` bilinear interpolation of ``image`` ``(H, W, C)`` at texel coordinates ``x, y`` ``(P,)`` from its
+    top-left corner: clamped at the edges, columns wrapping around with ``wrap_x``."""
+    wx = linear_weights(x, image.shape[1], wrap_x)
+    wy = linear_weights(y, image.shape[0])
+    return np.einsum("pr,pc,rck->pk", wy, wx, np.asarray(image, np.float64))
+
+
+def dome_integral(texture, upper_only, n=512):
+    """``(3,)`` integral over the upper hemisphere of ``L cos(theta) / pi`` (``upper_only``: the irradiance over pi
+    of a plane facing +Y), else the mean of ``L`` over the sphere, of the bilinearly filtered lat-long ``texture``
+    (midpoint rule on an ``n x 2n`` grid in ``theta`` from +Y and longitude ``phi``)."""
+    height, width = texture.shape[:2]
+    span = np.pi / 2 if upper_only else np.pi
+    theta = (np.arange(n) + 0.5) / n * span
+    phi = (np.arange(2 * n) + 0.5) / (2 * n) * 2 * np.pi
+    # Direction (sin theta sin phi, cos theta, sin theta cos phi) has longitude phi: texel x = (1/2 - phi / 2pi) W.
+    wy = linear_weights(theta / np.pi * height, height)
+    wx = linear_weights((0.5 - phi / (2 * np.pi)) * width, width, wrap=True)
+    radiance = np.einsum("tr,rck,pc->tpk", wy, texture.astype(np.float64), wx, optimize=True)
+    weight = np.sin(theta) * (np.cos(theta) / np.pi if upper_only else 1 / (4 * np.pi)) * (span / n) * (np.pi / n)
+    return np.einsum("tpk,t->k", radiance, weight)

@@ -487,9 +487,10 @@ def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
 
 
 def test_coarse_textured_dome_is_unbiased(tmp_path):
-    """A 2 x 8 lat-long dome, upper hemisphere 1 and lower 0, over a white plane facing up: the path tracer's
-    irradiance estimate converges to 1 and whitted's ambient (albedo times the dome's mean) is 0.5. The pdf took the
-    Jacobian at the texel centre and the mean the centre's sin(theta): 1.04 and 0.555."""
+    """A 2 x 8 lat-long dome, upper row 1 and lower row 0, over a white plane facing up: the path tracer's irradiance
+    estimate converges to the filtered dome's (1 down to 45 degrees above the horizon, then falling linearly to 0.5 at
+    it), 0.5 + (1/2 - 2/pi (pi/8 - 1/4)) = 0.9092, and whitted's ambient (albedo times the dome's mean) is 0.5. The
+    pdf took the Jacobian at the texel centre and the mean the centre's sin(theta): 4% and 11% too much."""
     from PIL import Image as PilImage
 
     texels = np.zeros((2, 8), np.uint8)
@@ -508,7 +509,8 @@ def test_coarse_textured_dome_is_unbiased(tmp_path):
     scene = wrt.load_usd(path)
     renderer = wrt.Renderer(scene, width=1, height=1, integrator="path", max_depth=1)
     estimate = np.mean([renderer.render(spp=4096, seed=k).rgb[0, 0, 0] for k in range(4)])
-    assert abs(estimate - 1.0) < 0.01, estimate  # the old pdf gave 1.04 (+- 0.002)
+    expected = 0.5 + (0.5 - 2 / np.pi * (np.pi / 8 - 0.25))
+    assert abs(estimate - expected) < 0.01, estimate
     np.testing.assert_allclose(wrt.render(scene, width=1, height=1).rgb[0, 0], 0.5, rtol=1e-4)
 
 

@@ -8,7 +8,8 @@ times the blackbody colour when ``enableColorTemperature`` is on):
   ``L = color``, or ``color / A`` with ``normalize`` on, where ``A`` is the world-space emitting area
   (``4 pi r^2``, ``w h``, ``pi r^2``, ``2 pi r l``; transforms included). Rect and disk lights emit from their
   -Z side only; spheres and cylinders (no caps) emit outwards. A rect light's texture multiplies ``L`` where it
-  lies (nearest texel; upright seen from the lit side: the top-left texel at local ``(+X, +Y)``).
+  lies (bilinearly filtered, clamped at the edges; upright seen from the lit side: the top-left texel at local
+  ``(+X, +Y)``).
 - ``SphereLight`` with ``treatAsPoint``: a point light of radiant intensity ``I = pi r^2 L`` (the sphere's
   intensity seen from afar), ``I = color / 4`` with ``normalize``.
 - **DistantLight** with ``normalize`` on: ``color`` is the illuminance ``E`` at normal incidence. With ``normalize``
@@ -17,7 +18,8 @@ times the blackbody colour when ``enableColorTemperature`` is on):
 - **DomeLight**: radiance ``color * texture(direction)`` (``texture = 1`` without a file; ``normalize`` is
   ignored). Latitude-longitude textures follow the OpenEXR convention: +Y is the pole, longitude 0 is +Z,
   longitude pi/2 is +X, the left image edge is longitude +pi (other ``texture:format`` layouts are resampled to
-  lat-long when read: :mod:`wrt.dome_formats`). ``DomeLight_1`` with ``poleAxis = "Z"`` (or
+  lat-long when read: :mod:`wrt.dome_formats`); lookups are bilinear, wrapping around in longitude and clamped at
+  the poles. ``DomeLight_1`` with ``poleAxis = "Z"`` (or
   ``"scene"`` on a Z-up stage) is turned so its pole is +Z.
 - **Emissive triangles**: UsdPreviewSurface ``emissiveColor`` is the surface radiance, from the front side of
   single-sided meshes and from both sides of double-sided ones.
@@ -42,8 +44,9 @@ times the share its shaping lets out); spheres are sampled by the cone they subt
 that look large, uniformly by solid angle (Urena et al. 2013; disks through the square around them;
 :mod:`wrt.spherical_rect`); other disk lights, rect lights that look tiny, cylinder and triangle lights uniformly by
 area (cylinders: the half facing the shading point); soft distant lights
-uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by its
-luminance (piecewise-constant 2D distribution, Pharr et al., PBRT 4th ed., A.5 and 12.5).
+uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by the
+luminance of its filtered texture averaged over each texel (piecewise-constant 2D distribution, Pharr et al., PBRT
+4th ed., A.5 and 12.5), so that every direction the filtered texture lights can be drawn.
 """
 
 from __future__ import annotations
@@ -74,6 +77,7 @@ from .sampling import (
 )
 from .scene import DeviceScene, DistantLight
 from .spherical_rect import sample_spherical_rect, solid_angle_usable, spherical_rect, spherical_rect_pdf
+from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
 
 LIGHT_DISTANT = wp.constant(0)
 LIGHT_SPHERE = wp.constant(1)
@@ -485,13 +489,12 @@ class DeviceLights:
     num_analytic: int  # number of UsdLux lights but mesh lights (they come first; then emissive and mesh triangles)
     dome: int  # index of the dome light, -1 without one
     dome_to_local: wp.mat33  # world direction -> dome frame
-    dome_textured: int  # 1 when the dome has a texture
-    dome_texels: wp.array2d[wp.vec3]  # (H, W) latitude-longitude texture (1x1 white when untextured)
-    dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of luminance * sin(theta)
+    dome_textured: int  # 1 when the dome has a texture (a lat-long image in texels, described by texture[dome])
+    dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of filtered luminance * sin(theta)
     dome_col_cdf: wp.array2d[float]  # (H, W + 1) CDF over columns in each row
     dome_mean: wp.vec3  # radiance averaged over the sphere
-    texture: wp.array[wp.vec3i]  # (offset into texels, width, height) of a rect light's texture; width 0: none
-    texels: wp.array[wp.vec3]  # the rect lights' textures, row-major from the top row, one after the other
+    texture: wp.array[wp.vec3i]  # (offset into texels, width, height) of a rect or dome light's texture; width 0: none
+    texels: wp.array[wp.vec3]  # the rect and dome lights' textures, row-major from the top row, one after the other
     lobe_scale: wp.array[wp.vec2]  # (diffuse, specular) multipliers (UsdLux inputs:diffuse, inputs:specular)
     headlight: int  # index of the default headlight, -1 without one: it travels along each view's direction
     headlight_dirs: wp.array[wp.vec3]  # (V,) unit direction of travel of the headlight in view (camera) V
@@ -700,8 +703,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             h.shadows[-1] = int(bool(light.shadows))
             h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
 
-    # Dome texture and its sampling distribution.
-    texels = np.ones((1, 1, 3), np.float32)
+    # Dome texture (packed with the rect lights' textures) and its sampling distribution.
     row_cdf = np.array([0.0, 1.0], np.float32)
     col_cdf = np.array([[0.0, 1.0]], np.float32)
     dome_mean = np.zeros(3, np.float32)
@@ -712,7 +714,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
         dome_rot = np.linalg.inv(r)
         dome_mean = np.asarray(dome.color, np.float32)
         if dome.texture is not None:
-            texels = _emitted_texels(dome.texture)
+            texels = h.texture[dome_index] = _emitted_texels(dome.texture)
             row_cdf, col_cdf, mean = _dome_distribution(texels)
             dome_mean = (dome_mean * mean).astype(np.float32)
         if num_analytic:
@@ -755,7 +757,6 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.dome = dome_index
     d.dome_to_local = wp.mat33(*dome_rot.astype(np.float32).reshape(-1))
     d.dome_textured = 1 if (dome is not None and dome.texture is not None) else 0
-    d.dome_texels = wp.array(texels, dtype=wp.vec3, device=device)
     d.dome_row_cdf = wp.array(row_cdf, dtype=float, device=device)
     d.dome_col_cdf = wp.array(col_cdf, dtype=float, device=device)
     d.dome_mean = wp.vec3(*dome_mean.tolist())
@@ -774,15 +775,17 @@ def _upload_textures(textures: list, device) -> tuple[wp.array, wp.array]:
     """The ``(offset, width, height)`` of each light's texture (``(H, W, 3)`` or None) and their texels packed one
     after the other (one white texel when there are none)."""
     info = np.zeros((max(len(textures), 1), 3), np.int32)
-    packed = [np.ones((1, 3), np.float32)]
     offset = 1
     for k, texels in enumerate(textures):
         if texels is not None:
             info[k] = (offset, texels.shape[1], texels.shape[0])
-            packed.append(texels.reshape(-1, 3))
             offset += texels.shape[0] * texels.shape[1]
-    return (wp.array(info, dtype=wp.vec3i, device=device),
-            wp.array(np.concatenate(packed), dtype=wp.vec3, device=device))
+    # Filled in place: a list of the images concatenated held a second copy of them all (a dome's 400 MB at 8k).
+    packed = np.ones((offset, 3), np.float32)
+    for k, texels in enumerate(textures):
+        if texels is not None:
+            packed[info[k][0] : info[k][0] + texels.shape[0] * texels.shape[1]] = texels.reshape(-1, 3)
+    return wp.array(info, dtype=wp.vec3i, device=device), wp.array(packed, dtype=wp.vec3, device=device)
 
 
 def set_headlight_directions(d: DeviceLights, index: int, forwards, device) -> None:
@@ -849,21 +852,48 @@ def _emitting_normal(u, v, z) -> np.ndarray:
 
 def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Row and column CDFs of ``luminance * sin(theta)`` over a ``(H, W, 3)`` lat-long image, and its mean radiance
-    over the sphere."""
-    hgt, wid = texels.shape[:2]
+    over the sphere, both of the bilinearly filtered image that :func:`dome_radiance` looks up.
+
+    Each texel's weight is the luminance of the filtered image averaged over the texel: ``[1/8, 3/4, 1/8]`` of it and
+    its neighbours along each axis (longitude wrapping around, latitude clamped at the poles). It is positive wherever
+    the filtered image is, so light sampling can draw every lit direction: the texels' own luminance gave a black
+    texel next to a bright one no share although filtering lights half of it.
+    """
+    hgt = texels.shape[0]
     theta = (np.arange(hgt) + 0.5) / hgt * np.pi
     sin_t = np.sin(theta)[:, None]
     lum = 0.2126 * texels[..., 0] + 0.7152 * texels[..., 1] + 0.0722 * texels[..., 2]
-    f = lum * sin_t + 1e-8 * (sin_t + 1e-6)  # keep every direction reachable
+    lum = 0.75 * lum + 0.125 * (np.roll(lum, 1, axis=1) + np.roll(lum, -1, axis=1))
+    rows = np.concatenate([lum[:1], lum, lum[-1:]])
+    lum = 0.75 * rows[1:-1] + 0.125 * (rows[:-2] + rows[2:])
+    f = lum * sin_t + 1e-8 * (sin_t + 1e-6)  # a black image still has directions to draw
     col = np.concatenate([np.zeros((hgt, 1)), np.cumsum(f, axis=1)], axis=1)
     row_sums = col[:, -1]
     row = np.concatenate([[0.0], np.cumsum(row_sums)])
-    # Mean over the sphere: each texel's radiance times its exact solid angle, (cos theta0 - cos theta1) dphi, over
-    # 4 pi (sin(theta) at the row centre times dtheta overweights coarse maps: +11% with 2 rows).
-    edges = np.arange(hgt + 1) / hgt * np.pi
-    weights = (np.cos(edges[:-1]) - np.cos(edges[1:]))[:, None] * (2 * np.pi / wid)
-    mean = (texels * weights[..., None]).sum(axis=(0, 1)) / (4 * np.pi)
+    # Filtering along a row keeps its mean (longitude wraps around); across rows it does not, as sin(theta) weighs
+    # the rows unequally: the mean over the sphere weighs each row's mean by the integral of its latitude hat
+    # function times sin(theta) over 2 (which sums to 1).
+    row_means = texels.mean(axis=1, dtype=np.float64)
+    mean = _latitude_hat_weights(hgt) @ row_means / 2.0
     return row.astype(np.float32), col.astype(np.float32), mean.astype(np.float32)
+
+
+def _latitude_hat_weights(hgt: int) -> np.ndarray:
+    """``(H,)`` integrals over ``theta`` in ``[0, pi]`` of ``sin(theta)`` times the weight row ``j`` of an ``H``-row
+    lat-long image has in its bilinear filtering: 1 at the row's centre ``theta_j = (j + 1/2) pi / H``, falling
+    linearly to 0 at the neighbouring centres, and 1 from the first and last centres to the poles (clamped)."""
+    centres = (np.arange(hgt) + 0.5) / hgt * np.pi
+    weights = np.zeros(hgt)
+    weights[0] += 1.0 - np.cos(centres[0])  # clamped from the +Y pole down to the first centre
+    weights[-1] += 1.0 + np.cos(centres[-1])  # and from the last centre to the -Y pole
+    # Between centres a and b = a + dtheta the lower row's weight rises as (theta - a) / dtheta: its integral with
+    # sin(theta) is [G(b) - G(a) + a (cos b - cos a)] / dtheta, G = sin(theta) - theta cos(theta) (by parts).
+    a, b = centres[:-1], centres[1:]
+    total = np.cos(a) - np.cos(b)
+    rising = (np.sin(b) - b * np.cos(b) - np.sin(a) + a * np.cos(a) + a * (np.cos(b) - np.cos(a))) / (np.pi / hgt)
+    weights[1:] += rising
+    weights[:-1] += total - rising
+    return weights
 
 
 # Device functions ------------------------------------------------------------------------------------------------
@@ -879,6 +909,31 @@ def dome_direction_uv(lights: DeviceLights, d: wp.vec3):
 
 
 @wp.func
+def filtered_texel(texels: wp.array[wp.vec3], info: wp.vec3i, x: float, y: float, wrap_x: int):
+    """Bilinearly filtered value of the light texture ``info`` = (offset into ``texels``, width, height) at
+    continuous texel coordinates ``(x, y)`` from its top-left corner (texel centres at half-integers). Columns wrap
+    by ``wrap_x`` (``WRAP_REPEAT``: lat-long longitude; ``WRAP_CLAMP``), rows clamp (the poles, a rect's edges)."""
+    if not (wp.isfinite(x) and wp.isfinite(y)):
+        return wp.vec3(0.0)
+    w = info[1]
+    h = info[2]
+    # Keep the integer part in range before converting (a huge coordinate would overflow int).
+    fx = wp.clamp(x, -1.0, float(w) + 1.0) - 0.5
+    fy = wp.clamp(y, -1.0, float(h) + 1.0) - 0.5
+    x0f = wp.floor(fx)
+    y0f = wp.floor(fy)
+    tx = fx - x0f
+    ty = fy - y0f
+    x0 = wrap_coord(int(x0f), w, wrap_x)
+    x1 = wrap_coord(int(x0f) + 1, w, wrap_x)
+    row0 = info[0] + wrap_coord(int(y0f), h, WRAP_CLAMP) * w
+    row1 = info[0] + wrap_coord(int(y0f) + 1, h, WRAP_CLAMP) * w
+    top = texels[row0 + x0] * (1.0 - tx) + texels[row0 + x1] * tx
+    bottom = texels[row1 + x0] * (1.0 - tx) + texels[row1 + x1] * tx
+    return top * (1.0 - ty) + bottom * ty
+
+
+@wp.func
 def dome_radiance(lights: DeviceLights, d: wp.vec3):
     """Radiance of the dome light arriving from world direction ``-d`` (i.e. seen along ``d``)."""
     k = lights.dome
@@ -888,11 +943,9 @@ def dome_radiance(lights: DeviceLights, d: wp.vec3):
     if lights.dome_textured == 0:
         return L
     uv = dome_direction_uv(lights, d)
-    h = lights.dome_texels.shape[0]
-    w = lights.dome_texels.shape[1]
-    x = wp.clamp(int(uv[0] * float(w)), 0, w - 1)
-    y = wp.clamp(int(uv[1] * float(h)), 0, h - 1)
-    return wp.cw_mul(L, lights.dome_texels[y, x])
+    info = lights.texture[k]
+    texel = filtered_texel(lights.texels, info, uv[0] * float(info[1]), uv[1] * float(info[2]), WRAP_REPEAT)
+    return wp.cw_mul(L, texel)
 
 
 @wp.func
@@ -903,8 +956,9 @@ def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
             return 0.25 * INV_PI
         return wp.max(wp.dot(n, d), 0.0) * INV_PI
     uv = dome_direction_uv(lights, d)
-    h = lights.dome_texels.shape[0]
-    w = lights.dome_texels.shape[1]
+    info = lights.texture[lights.dome]
+    w = info[1]
+    h = info[2]
     x = wp.clamp(int(uv[0] * float(w)), 0, w - 1)
     y = wp.clamp(int(uv[1] * float(h)), 0, h - 1)
     total = lights.dome_row_cdf[h]
@@ -933,7 +987,7 @@ def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
 
 @wp.func
 def light_texture(lights: DeviceLights, k: int, q: wp.vec3):
-    """The texel of light ``k``'s texture at point ``q`` on it (1 without a texture). A rect light's texture lies
+    """Light ``k``'s texture at point ``q`` on it, filtered (1 without a texture). A rect light's texture lies
     upright seen from its lit side: column 0 at local +X, row 0 (the top) at local +Y."""
     info = lights.texture[k]
     if info[1] == 0:
@@ -942,9 +996,7 @@ def light_texture(lights: DeviceLights, k: int, q: wp.vec3):
     v = lights.axis_v[k]
     a = wp.dot(q - lights.position[k], u) / wp.length_sq(u)  # -0.5 at local -X, 0.5 at +X
     b = wp.dot(q - lights.position[k], v) / wp.length_sq(v)
-    x = wp.clamp(int((0.5 - a) * float(info[1])), 0, info[1] - 1)
-    y = wp.clamp(int((0.5 - b) * float(info[2])), 0, info[2] - 1)
-    return lights.texels[info[0] + y * info[1] + x]
+    return filtered_texel(lights.texels, info, (0.5 - a) * float(info[1]), (0.5 - b) * float(info[2]), WRAP_CLAMP)
 
 
 @wp.func
@@ -1184,8 +1236,8 @@ def sample_light(
             else:
                 out.wi = sample_uniform_sphere(u1, u2)
         else:
-            h = lights.dome_texels.shape[0]
-            w = lights.dome_texels.shape[1]
+            w = lights.texture[k][1]
+            h = lights.texture[k][2]
             y = sample_cdf(lights.dome_row_cdf, 0, h, u1)
             row_lo = lights.dome_row_cdf[y]
             row_w = lights.dome_row_cdf[y + 1] - row_lo
