@@ -30,11 +30,25 @@ from ..sampling import power_heuristic
 
 
 @wp.func
-def mis_weight(pdf_bsdf: float, pdf_light: float):
-    """Weight of a BSDF-sampled hit on a light: 1 after delta events or for camera rays (``pdf_bsdf = 0``)."""
+def mis_weight(lights: DeviceLights, k: int, pdf_bsdf: float, pdf_light: float):
+    """Weight of a BSDF-sampled hit on light ``k`` (``pdf_light``: the pdf of light sampling drawing it, selection
+    included): 1 after delta events or for camera rays (``pdf_bsdf = 0``). A light that casts no shadows gives light
+    sampling the whole weight wherever it reaches (:func:`light_sample_weight`): its shadow rays pass occluders, a BSDF
+    ray stops at the first, so the power heuristic's share on that side went missing behind every blocker."""
     if pdf_bsdf <= 0.0:
         return 1.0
+    if lights.shadows[k] == 0:
+        return wp.where(pdf_light > 0.0, 0.0, 1.0)
     return power_heuristic(pdf_bsdf, pdf_light)
+
+
+@wp.func
+def light_sample_weight(lights: DeviceLights, k: int, pdf_light: float, pdf_bsdf: float):
+    """Weight of next-event estimation towards light ``k`` (``pdf_light``: selection times solid-angle pdf, 0 for
+    delta lights): the counterpart of :func:`mis_weight`, 1 for delta lights and for lights that cast no shadows."""
+    if pdf_light <= 0.0 or lights.shadows[k] == 0:
+        return 1.0
+    return power_heuristic(pdf_light, pdf_bsdf)
 
 
 @wp.func
@@ -83,7 +97,7 @@ def lights_on_segment(
                 L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
                 L = wp.cw_mul(L, light_texture(lights, k, o + t * d))
                 L = wp.cw_mul(L, scattered_by(lights, k, camera, diffuse_share))
-                total += L * mis_weight(pdf_bsdf, pdf_l)
+                total += L * mis_weight(lights, k, pdf_bsdf, pdf_l)
     return total
 
 
@@ -107,12 +121,12 @@ def environment(
         if kind == LIGHT_DOME:
             pdf_l = lights.pmf[k] * dome_pdf(lights, d, n_prev)
             L = wp.cw_mul(dome_radiance(lights, d), scattered_by(lights, k, camera, diffuse_share))
-            total += L * mis_weight(pdf_bsdf, pdf_l)
+            total += L * mis_weight(lights, k, pdf_bsdf, pdf_l)
         elif kind == LIGHT_DISTANT:
             if distant_in_cone(lights, k, d):
                 pdf_l = lights.pmf[k] / lights.params[k][1]
                 L = wp.cw_mul(lights.radiance[k], scattered_by(lights, k, camera, diffuse_share))
-                total += L * mis_weight(pdf_bsdf, pdf_l)
+                total += L * mis_weight(lights, k, pdf_bsdf, pdf_l)
     return total
 
 

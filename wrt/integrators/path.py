@@ -3,7 +3,9 @@
 Each bounce runs ``intersect -> shade_path_kernel -> occluded -> add_unoccluded_kernel`` over every live path.
 At a hit the kernel adds emission, draws one light for next-event estimation (its shadow ray is traced by the
 accelerator afterwards) and samples the BSDF for the next ray. Light sampling and BSDF sampling are combined with
-Veach's power heuristic (multiple importance sampling); delta lobes and delta lights take weight 1. After
+Veach's power heuristic (multiple importance sampling); delta lobes and delta lights take weight 1, and so does light
+sampling of a light that casts no shadows (its BSDF-sampled hits weight 0 where light sampling reaches: a bounce
+ray stops at occluders that the light's shadow rays pass, and lost its share of the light behind them). After
 ``rr_depth`` bounces Russian roulette ends paths with probability ``1 - min(1, max(throughput))`` (at least
 0.05 survives), dividing the survivors' throughput by their survival probability. ``max_depth`` counts surface
 interactions: 1 gives direct lighting only.
@@ -23,10 +25,10 @@ from ..geometry import offset_ray_origin
 from ..light_links import link_group, lit_by
 from ..lights import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction, triangle_light_pdf
 from ..materials import DeviceMaterials, eval_surface
-from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
+from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, shading_point
-from .emitters import environment, lights_on_segment, mis_weight, surface_emission
+from .emitters import environment, light_sample_weight, lights_on_segment, mis_weight, surface_emission
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
 
@@ -122,7 +124,7 @@ def shade_path_kernel(
             w = float(1.0)
             if e >= 0 and pdf_b > 0.0:
                 pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, o, d, t_hit)
-                w = power_heuristic(pdf_b, pdf_l)
+                w = mis_weight(lights, e, pdf_b, pdf_l)
             L += wp.cw_mul(T, emitted) * w
     if bounce >= max_depth:
         radiance[i] = L
@@ -146,9 +148,7 @@ def shade_path_kernel(
             f_d, f_s, pdf_f = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
             f = lit_bsdf(lights, k, f_d, f_s)
             if max_component(f) > 0.0:
-                w = float(1.0)
-                if ls.pdf > 0.0:
-                    w = power_heuristic(pmf * ls.pdf, pdf_f)
+                w = light_sample_weight(lights, k, pmf * ls.pdf, pdf_f)
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
                 shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.size, h.err)
