@@ -1,6 +1,7 @@
 """Lights: irradiance on a plane against closed-form values, UsdLux radiometry (intensity, exposure, colour,
 normalize) read from USD, and the default lights of a stage without any."""
 
+import dataclasses
 import math
 import warnings
 
@@ -582,10 +583,10 @@ def test_light_without_shadows_passes_through_occluders(integrator):
 BLOCKER = quad((0, 0, 0.3), (4, 0, 0), (0, -4, 0), name="/blocker", double_sided=False)  # faces down: cameras cull it
 
 
-def lights_over_a_blocker(shadows):
+def lights_over_a_blocker():
     """A light of each kind whose MIS split differs, over :data:`BLOCKER` and the grey plane z = 0; per kind
-    ``(light, unblocked, blocked)``: the radiance of the plane under a :data:`PATCH` view without the blocker and,
-    when the light casts shadows, with it (closed forms, direct light only)."""
+    ``(light, unblocked, blocked)``: the radiance of the plane under a :data:`PATCH` view without the blocker and
+    with it (closed forms, direct light only)."""
     rect_to_world = np.eye(4)
     rect_to_world[:3, 3] = (0, 0, 1.0)
     points = pixel_points((0, 0, 0), PATCH, RES, RES)
@@ -595,25 +596,26 @@ def lights_over_a_blocker(shadows):
     # What the cosine-weighted sky sees past the blocker: 1 - the view factor of the blocker's square.
     sky = 1.0 - rect_irradiance(points, 2.0, 2.0, 0.3, 1.0) / np.pi
     return {
-        "rect": (RectLight(to_world=rect_to_world, width=2.0, height=2.0, color=np.full(3, 3.0), shadows=shadows),
+        "rect": (RectLight(to_world=rect_to_world, width=2.0, height=2.0, color=np.full(3, 3.0)),
                  ALBEDO * rect_irradiance(points, 1.0, 1.0, 1.0, 3.0) / np.pi, np.zeros((RES, RES))),
         # A sphere above the horizon lights a Lambertian point as a point light of intensity pi r^2 L does.
-        "sphere": (SphereLight(position=center, radius=0.6, color=np.full(3, 3.0), shadows=shadows),
+        "sphere": (SphereLight(position=center, radius=0.6, color=np.full(3, 3.0)),
                    ALBEDO * 3.0 * 0.6**2 * to_sphere[..., 2] / d2**1.5, np.zeros((RES, RES))),
-        "dome": (DomeLight(color=np.full(3, 0.7), shadows=shadows), np.full((RES, RES), ALBEDO * 0.7),
+        "dome": (DomeLight(color=np.full(3, 0.7)), np.full((RES, RES), ALBEDO * 0.7),
                  ALBEDO * 0.7 * sky),
     }
 
 
 @pytest.mark.parametrize("integrator", ["path", "whitted"])
 @pytest.mark.parametrize("kind", ["rect", "sphere", "dome"])
-def test_light_without_shadows_lights_a_floor_behind_a_blocker_fully(kind, integrator):
-    """A light with ``shadow:enable`` off lights the floor under a blocker with the irradiance it gives without the
-    blocker. Before, ``path`` weighted its light samples against BSDF samples that the blocker stopped: the floor was
-    29% too dark under the rect light, 49% under the dome, 1.5% under the sphere (whose cone sampling takes most of
-    the weight anyway). The same light with shadows on is blocked as before (the
-    floor under the rect and sphere lights black, the dome's sky seen past the blocker's edges; Whitted's dome term
-    is unoccluded)."""
+@pytest.mark.parametrize("passed", ["shadow_enable_off", "shadow_link_excludes"])
+def test_light_whose_shadows_pass_a_blocker_lights_the_floor_behind_it_fully(passed, kind, integrator):
+    """A light with ``shadow:enable`` off, or whose shadowLink excludes the blocker, lights the floor under the
+    blocker with the irradiance it gives without it. Before, ``path`` weighted its light samples against BSDF samples
+    that the blocker stopped: the floor was 29% too dark under the rect light, 49% under the dome, 1.5% under the
+    sphere (whose cone sampling takes most of the weight anyway). The same light with plain shadows is blocked as
+    before (the floor under the rect and sphere lights black, the dome's sky seen past the blocker's edges; Whitted's
+    dome term is unoccluded)."""
     plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")
 
     def render(light, spp=64):
@@ -622,9 +624,12 @@ def test_light_without_shadows_lights_a_floor_behind_a_blocker_fully(kind, integ
         assert np.isin(img.aovs["prim"], (0, 1)).all()  # the plane's triangles, seen past the culled blocker
         return img.rgb.mean(axis=-1)
 
-    light, unblocked, _ = lights_over_a_blocker(False)[kind]
-    check(render(light), unblocked)
-    light, _, blocked = lights_over_a_blocker(True)[kind]
+    light, unblocked, blocked = lights_over_a_blocker()[kind]
+    if passed == "shadow_enable_off":
+        passing = dataclasses.replace(light, shadows=False)
+    else:
+        passing = dataclasses.replace(light, shadow_link=wrt.LinkCollection.excluding("/blocker"))
+    check(render(passing), unblocked)
     if kind == "dome" and integrator == "whitted":
         blocked = unblocked
     # The sky past the edges is a few percent of it, in a few samples: more of them, and the mean compared.

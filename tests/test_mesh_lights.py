@@ -110,16 +110,23 @@ def test_exposure_and_colour_scale_the_radiance(tmp_path):
     np.testing.assert_allclose(rendered, expected, rtol=0.02)
 
 
+SHADOWS_PASS_THE_BLOCKER = {
+    "shadow_enable_off": "    bool inputs:shadow:enable = 0\n",
+    "shadow_link_excludes": "    rel collection:shadowLink:excludes = </Blocker>\n",
+}
+
+
 @pytest.mark.parametrize("integrator", ["whitted", "path"])
-def test_diffuse_multiplier_and_shadow_enable_apply(tmp_path, integrator):
-    """``inputs:diffuse`` scales what the (diffuse) floor reflects of the mesh light; ``inputs:shadow:enable = 0``
-    lets its light through a blocker between it and the floor (single-sided, facing down: camera rays from above
-    cull it). ``path`` gives light sampling the whole weight: its BSDF rays stop at the blocker (the floor was 5.5%
-    too dark when they kept their MIS share)."""
+@pytest.mark.parametrize("passed", sorted(SHADOWS_PASS_THE_BLOCKER))
+def test_diffuse_multiplier_shadow_enable_and_shadow_link_apply(tmp_path, integrator, passed):
+    """``inputs:diffuse`` scales what the (diffuse) floor reflects of the mesh light; ``inputs:shadow:enable = 0``,
+    or a shadowLink that excludes it, lets its light through a blocker between it and the floor (single-sided, facing
+    down: camera rays from above cull it). ``path`` gives light sampling the whole weight: its BSDF rays stop at the
+    blocker (the floor was 5.5% too dark when they kept their MIS share)."""
     pts = [(-2, -2, 0.5), (-2, 2, 0.5), (2, 2, 0.5), (2, -2, 0.5)]
     blocker = (f'def Mesh "Blocker"\n{{\n    point3f[] points = {pts}\n    int[] faceVertexCounts = [4]\n'
                '    int[] faceVertexIndices = [0, 1, 2, 3]\n}\n')
-    extra = "    float inputs:diffuse = 0.25\n    bool inputs:shadow:enable = 0\n"
+    extra = "    float inputs:diffuse = 0.25\n" + SHADOWS_PASS_THE_BLOCKER[passed]
     scene, _ = load(tmp_path, floor(), blocker, mesh_light(intensity=3.0, extra=extra))
     rendered = render_floor(scene, integrator).mean()
     assert abs(rendered / (0.25 * closed_form(3.0).mean()) - 1) < 0.02, rendered

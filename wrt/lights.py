@@ -60,7 +60,7 @@ import warp as wp
 
 from .errors import SceneError, check_fields
 from .geometry import stable_length
-from .light_links import DeviceLinks, LinkCollection, link_groups, upload_links
+from .light_links import CASTS_SHADOW, DeviceLinks, LinkCollection, link_groups, upload_links
 from .light_shaping import Shaping, cone_and_focus, primary_axis
 from .materials import DeviceMaterials, cut_out, eval_emission
 from .sampling import (
@@ -87,6 +87,11 @@ LIGHT_CYLINDER = wp.constant(4)
 LIGHT_DOME = wp.constant(5)
 LIGHT_POINT = wp.constant(6)
 LIGHT_TRIANGLE = wp.constant(7)
+
+# DeviceLights.shadows: what blocks a light's shadow rays.
+SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
+SHADOWS_ON = wp.constant(1)  # every prim
+SHADOWS_LINKED = wp.constant(2)  # only the prims its collection:shadowLink includes (it leaves some out)
 
 # A disk light is sampled by solid angle through the square around it, which wastes the 21% of samples that fall
 # outside the disk: worth it only where the disk looks large (sr of the square), where area sampling is noisy.
@@ -479,7 +484,7 @@ class DeviceLights:
     params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of cone, area | 1 - cos, right-angled axes);
     # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
-    shadows: wp.array[wp.int32]  # 1: occluders block the light; 0: ShadowAPI's shadow:enable is off
+    shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF or SHADOWS_LINKED: what blocks the light
     shaping: wp.array[wp.vec4]  # (cone angle, smooth start (radians), focus, 1); all 0: unshaped (light_shaping)
     shaping_axis: wp.array[wp.vec3]  # unit primary axis (the light's -Z) of shaped lights
     focus_tint: wp.array[wp.vec3]  # ShapingAPI focusTint of shaped lights
@@ -690,7 +695,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True)
         else:
             raise TypeError(f"unsupported light {type(light).__name__}")
-        h.shadows[-1] = int(bool(light.shadows))
+        h.shadows[-1] = SHADOWS_ON if light.shadows else SHADOWS_OFF
         h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
     num_analytic = len(h.kinds)
 
@@ -700,7 +705,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
         _add(h, LIGHT_TRIANGLE, radiance, zero, zero, zero, zero, params, int(prim), float(power))
         if owner >= 0:
             light = mesh_lights[owner]
-            h.shadows[-1] = int(bool(light.shadows))
+            h.shadows[-1] = SHADOWS_ON if light.shadows else SHADOWS_OFF
             h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
@@ -745,7 +750,6 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.normal = arr(h.normal, wp.vec3)
     d.params = arr(h.params, wp.vec4, 4)
     d.prims = arr(h.prims, wp.int32, 1)
-    d.shadows = arr(h.shadows, wp.int32, 1)
     d.shaping = arr(h.shaping, wp.vec4, 4)
     d.shaping_axis = arr(h.shaping_axis, wp.vec3)
     d.focus_tint = arr(h.focus_tint, wp.vec3)
@@ -767,8 +771,21 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     # then of the mesh lights, whose triangles share their light's column.
     on_device = [light for light in lights if not isinstance(light, (DomeLight, MeshLight)) or light is dome]
     columns = np.concatenate([np.arange(num_analytic), np.where(tris.owner >= 0, num_analytic + tris.owner, -1)])
-    d.links = upload_links(link_groups(scene, on_device + mesh_lights), device, columns)
+    links = link_groups(scene, on_device + mesh_lights)
+    d.links = upload_links(links, device, columns)
+    d.shadows = arr(_shadow_modes(h.shadows, links, columns), wp.int32, 1)
     return d
+
+
+def _shadow_modes(shadows: list, links, columns) -> list:
+    """``shadows`` (:data:`SHADOWS_ON` or :data:`SHADOWS_OFF` per device light) with :data:`SHADOWS_LINKED` for the
+    lights on whose column of ``links`` (:class:`wrt.light_links.HostLinks`, None: no linking) some geometry casts no
+    shadow."""
+    if links is None:
+        return shadows
+    leaves_out = np.any((links.masks & CASTS_SHADOW) == 0, axis=0)  # per column
+    return [SHADOWS_LINKED if mode == SHADOWS_ON and c >= 0 and leaves_out[c] else mode
+            for mode, c in zip(shadows, columns)]
 
 
 def _upload_textures(textures: list, device) -> tuple[wp.array, wp.array]:
@@ -813,7 +830,7 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.params.append(np.asarray(params, np.float32))
     h.prims.append(int(prim))
     h.power.append(float(power))
-    h.shadows.append(1)
+    h.shadows.append(SHADOWS_ON)
     h.shaping.append(np.zeros(4, np.float32))
     h.shaping_axis.append(np.zeros(3, np.float32))
     h.focus_tint.append(np.zeros(3, np.float32))
@@ -1186,7 +1203,14 @@ def triangle_emission(lights: DeviceLights, mats: DeviceMaterials, k: int, m: in
 def shadow_direction(lights: DeviceLights, k: int, wi: wp.vec3):
     """The direction of the shadow ray towards light ``k``: ``wi``, or zero for a light that casts no shadows (a
     zero direction can hit nothing, so every accelerator reports the ray unblocked)."""
-    return wp.where(lights.shadows[k] != 0, wi, wp.vec3(0.0))
+    return wp.where(lights.shadows[k] != SHADOWS_OFF, wi, wp.vec3(0.0))
+
+
+@wp.func
+def sampled_alone(lights: DeviceLights, k: int):
+    """Light ``k`` is left to light sampling alone (MIS weight 1): its shadow rays pass geometry (any, or what its
+    shadowLink leaves out) at which a BSDF-sampled ray towards it would stop, losing its share of the light."""
+    return lights.shadows[k] != SHADOWS_ON
 
 
 @wp.func

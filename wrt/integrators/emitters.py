@@ -23,6 +23,7 @@ from ..lights import (
     intersect_light,
     light_texture,
     lobe_factor,
+    sampled_alone,
     triangle_emission,
 )
 from ..materials import DeviceMaterials
@@ -32,12 +33,12 @@ from ..sampling import power_heuristic
 @wp.func
 def mis_weight(lights: DeviceLights, k: int, pdf_bsdf: float, pdf_light: float):
     """Weight of a BSDF-sampled hit on light ``k`` (``pdf_light``: the pdf of light sampling drawing it, selection
-    included): 1 after delta events or for camera rays (``pdf_bsdf = 0``). A light that casts no shadows gives light
-    sampling the whole weight wherever it reaches (:func:`light_sample_weight`): its shadow rays pass occluders, a BSDF
-    ray stops at the first, so the power heuristic's share on that side went missing behind every blocker."""
+    included): 1 after delta events or for camera rays (``pdf_bsdf = 0``). A light without shadows, or whose
+    shadowLink leaves some geometry out, gives light sampling the whole weight wherever it reaches
+    (:func:`wrt.lights.sampled_alone`, :func:`light_sample_weight`)."""
     if pdf_bsdf <= 0.0:
         return 1.0
-    if lights.shadows[k] == 0:
+    if sampled_alone(lights, k):
         return wp.where(pdf_light > 0.0, 0.0, 1.0)
     return power_heuristic(pdf_bsdf, pdf_light)
 
@@ -45,8 +46,8 @@ def mis_weight(lights: DeviceLights, k: int, pdf_bsdf: float, pdf_light: float):
 @wp.func
 def light_sample_weight(lights: DeviceLights, k: int, pdf_light: float, pdf_bsdf: float):
     """Weight of next-event estimation towards light ``k`` (``pdf_light``: selection times solid-angle pdf, 0 for
-    delta lights): the counterpart of :func:`mis_weight`, 1 for delta lights and for lights that cast no shadows."""
-    if pdf_light <= 0.0 or lights.shadows[k] == 0:
+    delta lights): the counterpart of :func:`mis_weight`, 1 for delta lights and lights sampled alone."""
+    if pdf_light <= 0.0 or sampled_alone(lights, k):
         return 1.0
     return power_heuristic(pdf_light, pdf_bsdf)
 

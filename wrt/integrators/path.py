@@ -4,8 +4,9 @@ Each bounce runs ``intersect -> shade_path_kernel -> occluded -> add_unoccluded_
 At a hit the kernel adds emission, draws one light for next-event estimation (its shadow ray is traced by the
 accelerator afterwards) and samples the BSDF for the next ray. Light sampling and BSDF sampling are combined with
 Veach's power heuristic (multiple importance sampling); delta lobes and delta lights take weight 1, and so does light
-sampling of a light that casts no shadows (its BSDF-sampled hits weight 0 where light sampling reaches: a bounce
-ray stops at occluders that the light's shadow rays pass, and lost its share of the light behind them). After
+sampling of a light that casts no shadows or whose shadowLink leaves geometry out (its BSDF-sampled hits weight 0
+where light sampling reaches: a bounce ray stops at occluders that the light's shadow rays pass, and lost its share
+of the light behind them). After
 ``rr_depth`` bounces Russian roulette ends paths with probability ``1 - min(1, max(throughput))`` (at least
 0.05 survives), dividing the survivors' throughput by their survival probability. ``max_depth`` counts surface
 interactions: 1 gives direct lighting only.
