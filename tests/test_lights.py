@@ -638,7 +638,8 @@ def test_light_whose_shadows_pass_a_blocker_lights_the_floor_behind_it_fully(pas
 
 def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
     """``inputs:shadow:enable`` is read (applied API or not), and so are the diffuse and specular multipliers; a
-    shadow tint, which wrt does not render, is reported by prim."""
+    shadow tint, which wrt does not render, is reported by prim, unless the light casts no shadows for it to tint
+    (the warning said it cast plain shadows)."""
 
     def build(stage):
         off = UsdLux.SphereLight.Define(stage, "/NoShadows")
@@ -646,6 +647,9 @@ def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
         UsdLux.RectLight.Define(stage, "/Plain")
         tinted = UsdLux.DiskLight.Define(stage, "/Tinted")
         UsdLux.ShadowAPI.Apply(tinted.GetPrim()).CreateShadowColorAttr(Gf.Vec3f(0.2, 0.0, 0.0))
+        shadowless = UsdLux.ShadowAPI.Apply(UsdLux.DiskLight.Define(stage, "/TintedShadowless").GetPrim())
+        shadowless.CreateShadowEnableAttr(False)
+        shadowless.CreateShadowFalloffAttr(2.0)
         UsdLux.DistantLight.Define(stage, "/Dim").CreateDiffuseAttr(0.5)
 
     with warnings.catch_warnings(record=True) as caught:
@@ -653,11 +657,13 @@ def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     messages = [str(w.message) for w in caught]
     assert any("shadow colour" in m and m.endswith("/Tinted") for m in messages), messages
+    assert not any("TintedShadowless" in m for m in messages), messages
     assert not any("multiplier" in m for m in messages), messages
     shadows = {light.path: light.shadows for light in scene.lights}
-    assert shadows == {"/NoShadows": False, "/Plain": True, "/Tinted": True, "/Dim": True}
+    assert shadows == {"/NoShadows": False, "/Plain": True, "/Tinted": True, "/TintedShadowless": False, "/Dim": True}
     multipliers = {light.path: (light.diffuse, light.specular) for light in scene.lights}
-    assert multipliers == {"/NoShadows": (1, 1), "/Plain": (1, 1), "/Tinted": (1, 1), "/Dim": (0.5, 1)}
+    assert multipliers == {"/NoShadows": (1, 1), "/Plain": (1, 1), "/Tinted": (1, 1), "/TintedShadowless": (1, 1),
+                           "/Dim": (0.5, 1)}
 
 
 def test_non_uniformly_scaled_sphere_light_is_reported(tmp_path):

@@ -110,7 +110,9 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
     multipliers = _multipliers(prim, light, skip, get)
     if multipliers is None:
         return None
-    if _shadow_tinted(prim, get):
+    # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
+    shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
+    if shadows and _shadow_tinted(prim, get):  # a light without shadows has nothing for them to change
         skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
              prim)
     try:
@@ -126,8 +128,7 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
              prim)
     if result is not None:
         _read_links_and_filters(prim, light, result, skip)
-        # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
-        result.shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
+        result.shadows = shadows
         result.diffuse, result.specular = multipliers
     return result
 
