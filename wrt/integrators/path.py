@@ -6,10 +6,9 @@ accelerator afterwards) and samples the BSDF for the next ray. Light sampling an
 Veach's power heuristic (multiple importance sampling); delta lobes and delta lights take weight 1, and so does light
 sampling of a light that casts no shadows or whose shadowLink leaves geometry out (its BSDF-sampled hits weight 0
 where light sampling reaches: a bounce ray stops at occluders that the light's shadow rays pass, and lost its share
-of the light behind them). After
-``rr_depth`` bounces Russian roulette ends paths with probability ``1 - min(1, max(throughput))`` (at least
-0.05 survives), dividing the survivors' throughput by their survival probability. ``max_depth`` counts surface
-interactions: 1 gives direct lighting only.
+of the light behind them). After ``rr_depth`` bounces Russian roulette ends paths with probability
+``1 - min(1, max(throughput))`` (at least 0.05 survives), dividing the survivors' throughput by their survival
+probability. ``max_depth`` counts surface interactions: 1 gives direct lighting only.
 
 Cut-out surfaces (``opacity < opacityThreshold``) are passed straight through by the trace before a hit gets here
 (:func:`wrt.shade.intersect_visible`, for camera and bounce rays alike), so holes use up no bounce, and the segment
