@@ -471,6 +471,32 @@ def test_an_edit_in_place_after_a_render_is_refused_until_invalidate():
     assert copy.bounds()[1].tolist() == [1, 1, 0] and not copy.meshes[0].points.flags.writeable
 
 
+def test_a_loaded_stage_with_instances_is_editable_in_place_until_rendered(tmp_path):
+    """The loader caches the instances' inverses, and that made every array of a stage with instances read-only
+    right after the load (``mesh.points[:, 1] += 1`` before any render raised "read-only", on a stage without
+    instances it did not). Only the instance transforms, which the cache is made from, are read-only after the
+    load; an edit of a mesh in place is drawn, and the scene is read-only once rendered."""
+    from usda_text import load, write
+
+    tri = "point3f[] points = [(-1, -1, 0), (1, -1, 0), (0, 1, 0)]\n    int[] faceVertexCounts = [3]\n" \
+          "    int[] faceVertexIndices = [0, 1, 2]"
+    copies = "".join(f'def Xform "Copy{k}" (\n    instanceable = true\n    prepend references = </Source>\n)\n{{\n'
+                     f'    double3 xformOp:translate = (0, 0, {-k})\n'
+                     '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n' for k in range(2))
+    path = write(tmp_path, f'def Mesh "Ground"\n{{\n    {tri}\n}}\nclass Xform "Source"\n{{\n'
+                 f'    def Mesh "Tri"\n    {{\n        {tri}\n    }}\n}}\n{copies}')
+    scene = load(path)
+    assert len(scene.instances) == 2
+    scene.meshes[0].points[:, 1] += 10.0  # the ground out of the way, before any render
+    scene.prototypes[0].meshes[0].points[:, 0] += 5.0  # the instanced triangle to x = 5
+    with pytest.raises(ValueError, match="read-only"):  # its inverse is cached: an edit would go unseen
+        scene.instances.to_world[0, 0, 3] = 1.0
+    hits = wrt.trace(scene, [(0, 0, 5), (5, 0, 5)], [(0, 0, -1), (0, 0, -1)])
+    assert hits.prim.tolist() == [-1, 1]  # the ground moved away, the instance's triangle moved under x = 5
+    with pytest.raises(ValueError, match="read-only"):  # read-only once traced
+        scene.meshes[0].points[:, 1] -= 10.0
+
+
 def test_a_material_or_light_given_a_new_value_is_drawn_with_it():
     """Giving a material a new colour (``material.diffuse_color = ...``) left the scene's uploaded materials as they
     were, so even a new ``wrt.render`` of the scene drew the old colour; a kept Renderer also kept a light's old

@@ -383,13 +383,20 @@ class Scene:
         if (self._frozen_parts and count == last_count and len(members) == len(last_members)
                 and all(map(operator.is_, members, last_members))):
             return  # the same objects, and no field of any of them assigned since: the walk below finds nothing
+        # What the caches are made from from now on: an edit in place must not go unseen.
+        self.freeze(self._settle(count, members))
+        self._frozen_parts = True
+
+    def _settle(self, count: int, members: tuple) -> tuple:
+        """Clears the caches when a part changed since the last record, and records the parts as they are now
+        (``count`` and ``members``: :func:`wrt.assignments.assignments` and :meth:`_members`, taken before); returns
+        them."""
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
             self.invalidate()
         self._cached_parts = parts
         self._checked = (count, members)
-        self.freeze(parts)  # what the caches are made from from now on; an edit in place must not go unseen
-        self._frozen_parts = True
+        return parts
 
     def _members(self) -> tuple:
         """The lists of the scene and the objects in them whose fields :meth:`_parts` reads; a field assigned anew
@@ -855,7 +862,10 @@ class Scene:
     def remember_instance_inverses(self, world_to_local: np.ndarray) -> None:
         """Caches ``world_to_local`` (every instance's, all invertible) as :meth:`instance_inverses`: the USD loader
         inverts every instance to find the singular ones, and inverting them again costs about 1 s per 1M."""
-        self.drop_stale_caches()  # the loader set the scene's parts after making it: take them as they are now
+        # The loader set the scene's parts after making it: take them as they are now. Only the transforms that the
+        # inverses are made from turn read-only; the other arrays stay writeable until a trace, render or bounds().
+        self._settle(assignments(), self._members())
+        self.freeze([self.instances.to_world])
         self._cache[("instance_inverses",)] = (world_to_local, np.ones(len(world_to_local), dtype=bool))
 
     def world_to_local(self, device) -> wp.array:
