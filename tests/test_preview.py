@@ -418,6 +418,26 @@ def test_preview_and_to_pyvista_draw_a_mesh_replaced_since_the_last_look(tmp_pat
         plotter.close()
 
 
+def test_to_pyvista_blocks_own_their_arrays(tmp_path):
+    """pyvista wraps numpy arrays without copying: editing a block of to_pyvista in place (``block.points[:, 1] +=
+    3``, its ``face_id`` values) wrote through VTK into the scene's points and face ids, read-only since the trace, and
+    into its cached triangles (an instance's block), behind the caches, which kept the old tree."""
+    path = tmp_path / "instanced.usda"
+    path.write_text(INSTANCED_GROUND)
+    scene = wrt.load_usd(path)
+    wrt.trace(scene, [(0, 5, 0)], [(0, -1, 0)])
+    points = [m.points.copy() for m in scene.meshes]
+    triangles = scene.triangles()[0].copy()
+    blocks = to_pyvista(scene)
+    for k in range(blocks.n_blocks):
+        blocks[k].points[:, 1] += 3.0
+        blocks[k].cell_data["face_id"][:] = 7
+    for mesh, before in zip(scene.meshes, points):
+        np.testing.assert_array_equal(mesh.points, before)
+        assert not (mesh.face_ids == 7).any()
+    np.testing.assert_array_equal(scene.triangles()[0], triangles)
+
+
 def test_preview_draws_points_as_spheres_and_says_when_shapes_are_left_out(tmp_path, monkeypatch):
     """A Points prim is drawn as its spheres (instances of a unit sphere); past the shape budget the title says how
     many of them are shown (they were cut to the budget without a word)."""

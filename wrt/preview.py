@@ -268,12 +268,15 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
         blocks.append(poly, name)
 
     first = 0
+    # Blocks get copies of the scene's arrays: pyvista wraps an array without copying, and an edit of a block (a
+    # block.points[:, 1] += 3) wrote into the scene's read-only arrays or its cached triangles, behind its caches.
     for k, mesh in enumerate(scene.meshes):
         n = len(mesh.indices)
-        poly = pv.PolyData.from_regular_faces(mesh.points, mesh.indices) if n else pv.PolyData(mesh.points)
+        own = mesh.points.copy()
+        poly = pv.PolyData.from_regular_faces(own, mesh.indices) if n else pv.PolyData(own)
         poly.cell_data["color"] = colors[first : first + n]
         poly.cell_data["prim"] = np.arange(first, first + n, dtype=np.int32)
-        poly.cell_data["face_id"] = mesh.face_ids
+        poly.cell_data["face_id"] = mesh.face_ids.copy()
         poly.field_data["path"] = [mesh.path]
         add(poly, mesh.path, k)
         first += n
@@ -285,7 +288,7 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
         vertex += sum(len(m.points) for m in scene.meshes)
         for i in range(shown):
             a, b = int(offsets[i]), int(offsets[i + 1])
-            pts = points[vertex[i] : vertex[i + 1]]
+            pts = points[vertex[i] : vertex[i + 1]].copy()
             poly = pv.PolyData.from_regular_faces(pts, indices[a:b] - vertex[i]) if b > a else pv.PolyData(pts)
             proto = drawn.prototypes[drawn.instances.prototype[i]]
             poly.cell_data["color"] = colors[a:b]
