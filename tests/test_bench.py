@@ -486,6 +486,21 @@ def test_a_cuda_device_this_machine_lacks_fails_its_rows_and_the_others_run(tmp_
         run_grid(tiny_grid(devices=["cpu", "cpuu"]), tmp_path, progress=False)
 
 
+def test_resume_keeps_the_rows_of_a_cuda_device_missing_now(tmp_path):
+    """Resumed on a machine whose GPU is missing now (a driver down, CUDA_VISIBLE_DEVICES unset), the GPU's error
+    rows deleted every row it had measured before from rows.jsonl ("measured again, as the group now fails"), though
+    nothing measured them again; they stay, beside the error row naming the device."""
+    run_grid(tiny_grid(rays=["primary"], n_rays=300, repeats=1), tmp_path, progress=False)
+    measured = [dict(r, device="cuda:99", gpu="A GPU") for r in read_rows(tmp_path)]  # as if measured on a GPU
+    (tmp_path / "rows.jsonl").write_text("".join(json.dumps(r) + "\n" for r in measured))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "measured again" warning: nothing is
+        rows = run_grid(tiny_grid(rays=["primary"], n_rays=300, repeats=1, devices=["cpu", "cuda:99"]), tmp_path,
+                        resume=True, progress=False)
+    assert rows[:2] == measured and read_rows(tmp_path) == rows
+    assert [(r["device"], r["accel"]) for r in rows[2:]] == [("cpu", "warp:sah"), ("cpu", "wrt:sah"), ("cuda:99", "*")]
+
+
 @pytest.mark.parametrize(
     "script, args, message",
     [

@@ -717,9 +717,9 @@ def run_grid(
         before = resumed.get(row_key(row))
         return before is not None and not identity_changes(before, dict(row, **info.get(row["device"], {})))
 
-    def emit(row):
+    def emit(row, replaces: bool = True):  # replaces: the row drops the resumed rows it measures again
         row.update(info.get(row["device"], {}))
-        if _replace_resumed(row, resumed, rows, warned) and jsonl is not None:
+        if replaces and _replace_resumed(row, resumed, rows, warned) and jsonl is not None:
             _write_rows(jsonl, rows)
         rows.append(row)
         if jsonl is not None:
@@ -750,8 +750,8 @@ def run_grid(
             loaded = {}
             for group in groups:
                 bar.set_postfix_str(" ".join(map(str, group)))
-                if str(group[1]) in unavailable:
-                    emit(_group_error_row(*group, unavailable[str(group[1])]))
+                if str(group[1]) in unavailable:  # its rows of the resumed run stay: nothing measured them again
+                    emit(_group_error_row(*group, unavailable[str(group[1])]), replaces=False)
                 else:
                     _run_group(group, grid, thread_counts, emit, skip, loaded)
                 bar.update()
