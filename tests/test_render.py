@@ -468,6 +468,11 @@ def test_an_edit_in_place_after_a_render_is_refused_until_invalidate():
     fresh.bounds()  # read-only from here on; the scene still travels to worker processes, as before
     copy = pickle.loads(pickle.dumps(fresh))
     assert not fresh.meshes[0].points.flags.writeable and copy.meshes[0].points.flags.writeable
+    # A traced scene pickles too (its cache held Warp structs, which do not), and its copy traces the same.
+    ray = (np.float32([[0.5, -0.5, 1.0]]), np.float32([[0.0, 0.0, -1.0]]))
+    traced = wrt.trace(fresh, *ray, device="cpu")
+    np.testing.assert_array_equal(wrt.trace(pickle.loads(pickle.dumps(fresh)), *ray, device="cpu").t, traced.t)
+    assert traced.prim[0] == 0
     assert copy.bounds()[1].tolist() == [1, 1, 0] and not copy.meshes[0].points.flags.writeable
 
 

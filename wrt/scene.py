@@ -294,8 +294,9 @@ class Scene:
         self._frozen_parts = False  # whether the arrays of _cached_parts are among them
 
     def __getstate__(self) -> dict:
-        # Weak references do not pickle (scenes travel to worker processes), and the copies arrive writeable.
-        return {**self.__dict__, "_frozen": [], "_frozen_parts": False}
+        # Weak references do not pickle (scenes travel to worker processes), and the copies arrive writeable. Nor do
+        # the device objects of a traced scene's cache (Warp structs, arrays), which the copy builds again.
+        return {**self.__dict__, "_cache": {}, "_frozen": [], "_frozen_parts": False}
 
     def __repr__(self) -> str:
         # The dataclass repr printed every array of every mesh, megabytes for a stage of a few thousand meshes (what
