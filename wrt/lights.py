@@ -699,14 +699,9 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
         h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
     num_analytic = len(h.kinds)
 
-    # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers.
+    # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers: appended as
+    # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
     tris = emitter_triangles(scene, material_emission, mesh_lights)
-    for prim, power, radiance, params, owner in zip(tris.ids, tris.power, tris.radiance, tris.params, tris.owner):
-        _add(h, LIGHT_TRIANGLE, radiance, zero, zero, zero, zero, params, int(prim), float(power))
-        if owner >= 0:
-            light = mesh_lights[owner]
-            h.shadows[-1] = SHADOWS_ON if light.shadows else SHADOWS_OFF
-            h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
     row_cdf = np.array([0.0, 1.0], np.float32)
@@ -726,8 +721,9 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             h.power[dome_index] = 4.0 * math.pi**2 * radius**2 * luminance_np(dome_mean)
 
     # Selection probabilities.
-    n = len(h.kinds)
-    power = np.maximum(np.nan_to_num(np.asarray(h.power, np.float64), nan=0.0), 0.0)
+    n = num_analytic + len(tris.ids)
+    power = np.concatenate([np.asarray(h.power, np.float64), tris.power])
+    power = np.maximum(np.nan_to_num(power, nan=0.0), 0.0)
     pmf = np.zeros(max(n, 1))
     if n:
         pmf[:n] = 0.5 / n + (0.5 * power / power.sum() if power.sum() > 0 else 0.5 / n)
@@ -736,24 +732,37 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     if n:
         cdf[-1] = 1.0
 
-    def arr(values, dtype, width=3):
-        data = np.asarray(values if values else [np.zeros(width) if width > 1 else 0],
-                          np.float32 if dtype != wp.int32 else np.int32)
-        return wp.array(data, dtype=dtype, device=device)
+    e = len(tris.ids)
+    owned = tris.owner >= 0
+    tri_shadows = np.full(e, SHADOWS_ON, np.int32)
+    tri_lobes = np.ones((e, 2), np.float32)
+    if mesh_lights:
+        modes = np.array([SHADOWS_ON if light.shadows else SHADOWS_OFF for light in mesh_lights], np.int32)
+        tri_shadows[owned] = modes[tris.owner[owned]]
+        tri_lobes[owned] = np.float32([[light.diffuse, light.specular] for light in mesh_lights])[tris.owner[owned]]
+
+    def arr(values, dtype, width=3, triangles=None):
+        """The analytic lights' ``values`` and the triangles' rows below them (``triangles``: None for zeros)."""
+        numpy_type = np.int32 if dtype == wp.int32 else np.float32
+        shape = (-1, width) if width > 1 else (-1,)
+        rows = np.zeros((e, width) if width > 1 else e, numpy_type) if triangles is None else triangles
+        data = np.concatenate([np.asarray(values, numpy_type).reshape(shape), np.asarray(rows, numpy_type)])
+        return wp.array(data if len(data) else np.zeros((1, width) if width > 1 else 1, numpy_type), dtype=dtype,
+                        device=device)
 
     d = DeviceLights()
-    d.kinds = arr(h.kinds, wp.int32, 1)
-    d.radiance = arr(h.radiance, wp.vec3)
+    d.kinds = arr(h.kinds, wp.int32, 1, np.full(e, LIGHT_TRIANGLE, np.int32))
+    d.radiance = arr(h.radiance, wp.vec3, 3, tris.radiance)
     d.position = arr(h.position, wp.vec3)
     d.axis_u = arr(h.axis_u, wp.vec3)
     d.axis_v = arr(h.axis_v, wp.vec3)
     d.normal = arr(h.normal, wp.vec3)
-    d.params = arr(h.params, wp.vec4, 4)
-    d.prims = arr(h.prims, wp.int32, 1)
+    d.params = arr(h.params, wp.vec4, 4, tris.params)
+    d.prims = arr(h.prims, wp.int32, 1, tris.ids)
     d.shaping = arr(h.shaping, wp.vec4, 4)
     d.shaping_axis = arr(h.shaping_axis, wp.vec3)
     d.focus_tint = arr(h.focus_tint, wp.vec3)
-    d.lobe_scale = arr(h.lobe_scale, wp.vec2, 2)
+    d.lobe_scale = arr(h.lobe_scale, wp.vec2, 2, tri_lobes)
     d.pmf = wp.array(pmf.astype(np.float32), dtype=float, device=device)
     d.cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
     d.count = n
@@ -764,7 +773,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.dome_row_cdf = wp.array(row_cdf, dtype=float, device=device)
     d.dome_col_cdf = wp.array(col_cdf, dtype=float, device=device)
     d.dome_mean = wp.vec3(*dome_mean.tolist())
-    d.texture, d.texels = _upload_textures(h.texture, device)
+    d.texture, d.texels = _upload_textures(h.texture, n, device)
     d.headlight = -1  # set by the renderer, which knows the cameras (set_headlight_directions)
     d.headlight_dirs = wp.zeros(1, dtype=wp.vec3, device=device)
     # Links of the analytic lights in device order (the dome's at dome_index; a second dome is not on the device),
@@ -773,25 +782,29 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     columns = np.concatenate([np.arange(num_analytic), np.where(tris.owner >= 0, num_analytic + tris.owner, -1)])
     links = link_groups(scene, on_device + mesh_lights)
     d.links = upload_links(links, device, columns)
-    d.shadows = arr(_shadow_modes(h.shadows, links, columns), wp.int32, 1)
+    d.shadows = wp.array(_shadow_modes(np.concatenate([np.int32(h.shadows).reshape(-1), tri_shadows]), links,
+                                       columns), dtype=wp.int32, device=device)
     return d
 
 
-def _shadow_modes(shadows: list, links, columns) -> list:
-    """``shadows`` (:data:`SHADOWS_ON` or :data:`SHADOWS_OFF` per device light) with :data:`SHADOWS_LINKED` for the
-    lights on whose column of ``links`` (:class:`wrt.light_links.HostLinks`, None: no linking) some geometry casts no
-    shadow."""
+def _shadow_modes(shadows: np.ndarray, links, columns: np.ndarray) -> np.ndarray:
+    """``shadows`` (int32 :data:`SHADOWS_ON` or :data:`SHADOWS_OFF` per device light, at least one entry) with
+    :data:`SHADOWS_LINKED` for the lights on whose column of ``links`` (:class:`wrt.light_links.HostLinks`, None: no
+    linking) some geometry casts no shadow."""
+    if len(shadows) == 0:
+        return np.zeros(1, np.int32)
     if links is None:
         return shadows
     leaves_out = np.any((links.masks & CASTS_SHADOW) == 0, axis=0)  # per column
-    return [SHADOWS_LINKED if mode == SHADOWS_ON and c >= 0 and leaves_out[c] else mode
-            for mode, c in zip(shadows, columns)]
+    linked = (shadows == SHADOWS_ON) & (columns >= 0)
+    linked[linked] = leaves_out[columns[linked]]
+    return np.where(linked, np.int32(SHADOWS_LINKED), shadows).astype(np.int32)
 
 
-def _upload_textures(textures: list, device) -> tuple[wp.array, wp.array]:
-    """The ``(offset, width, height)`` of each light's texture (``(H, W, 3)`` or None) and their texels packed one
-    after the other (one white texel when there are none)."""
-    info = np.zeros((max(len(textures), 1), 3), np.int32)
+def _upload_textures(textures: list, count: int, device) -> tuple[wp.array, wp.array]:
+    """The ``(offset, width, height)`` of each of ``count`` lights' texture (``(H, W, 3)`` or None; lights past the
+    list have none) and their texels packed one after the other (one white texel when there are none)."""
+    info = np.zeros((max(count, 1), 3), np.int32)
     offset = 1
     for k, texels in enumerate(textures):
         if texels is not None:
