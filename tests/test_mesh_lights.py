@@ -214,11 +214,14 @@ def test_gprims_volumes_and_instanced_meshes_that_cannot_be_lights_are_named(tmp
 def test_a_python_mesh_light_names_its_mesh():
     """``wrt.MeshLight(path, color)`` in a scene built in Python makes the meshes at ``path`` emit (by default as
     LightAPI's noMaterialResponse: the light's colour, seen by cameras too); a path no mesh has is an error naming
-    it, not a dark light."""
+    it, not a dark light, and so are two lights on one mesh (the second took every triangle)."""
     ground = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/ground")
     panel = quad((0, 0, HEIGHT), (0, 1, 0), (1, 0, 0), name="/panel", double_sided=False)  # front: -Z
     scene = wrt.Scene(meshes=[ground, panel], lights=[wrt.MeshLight("/panel", color=np.full(3, 3.0))])
     np.testing.assert_allclose(render_floor(scene, "path").mean() / closed_form(3.0).mean(), 1.0, rtol=0.02)
     scene.lights = [wrt.MeshLight("/nothing", color=np.ones(3))]
     with pytest.raises(wrt.SceneError, match="/nothing"):
+        render_floor(scene, "path", spp=1)
+    scene.lights = [wrt.MeshLight("/panel", color=np.ones(3)), wrt.MeshLight("/panel", color=np.full(3, 5.0))]
+    with pytest.raises(wrt.SceneError, match="panel: two MeshLights name the same mesh"):  # the second took all
         render_floor(scene, "path", spp=1)

@@ -591,7 +591,10 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTr
         if light.path not in by_path:
             raise SceneError("MeshLight names no mesh of the scene (meshes inside instances cannot be lights)",
                              prim=light.path or None)
-        owner[np.concatenate(by_path[light.path])] = j
+        rows = np.concatenate(by_path[light.path])
+        if (owner[rows] >= 0).any():  # the second would silently take every triangle
+            raise SceneError("two MeshLights name the same mesh; give it one light", prim=light.path)
+        owner[rows] = j
 
     # Emissive materials: radiance factor 1 times the material's emission (params[0] = 1).
     ids = np.nonzero((glow[tri_materials] > 0.0) & (owner < 0))[0]
