@@ -218,6 +218,20 @@ def test_resume_measures_again_rows_of_other_hardware_or_versions(tmp_path):
     assert read_rows(tmp_path) == rows and rows[1]["agreement"] == 1.0
 
 
+def test_resume_measures_again_rows_of_other_wrt_code(tmp_path):
+    """wrt's version string stays 0.1.0 while its code changes: rows measured with other code (another hash of the
+    package's source) are measured again, and each table names the source it was measured with."""
+    run_grid(tiny_grid(rays=["primary"]), tmp_path, progress=False)
+    first, second = read_rows(tmp_path)
+    assert first["wrt_source"] == wrt.bench.source_digest() and len(first["wrt_source"]) == 12
+    (tmp_path / "rows.jsonl").write_text(json.dumps(dict(first, wrt_source="0123456789ab")) + "\n"
+                                         + json.dumps(second) + "\n")
+    with pytest.warns(UserWarning, match="measured again, as wrt_source 0123456789ab -> "):
+        rows = run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)
+    assert rows[0] == second and rows[1]["wrt_source"] == first["wrt_source"]
+    assert f"(source {first['wrt_source']})" in (tmp_path / "table.md").read_text()
+
+
 @pytest.mark.parametrize("line", ['{"scene": "sphere:2000", "accel": "wrt:sah"}', "5", "[1]"])
 def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
     """JSON that is not a row stopped the resumed run with a KeyError traceback or "argument of type 'int' is not

@@ -9,7 +9,8 @@ traces, as ``wrt bvh-stats --layout`` gives them), and agreement with ``warp:sah
 JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an error row and the run goes
 on (a scene without triangles too); ``resume`` skips rows already in the file, which must have been measured with
 the same ray counts (recorded in ``settings.json`` beside it), and measures again, with a warning, a row whose
-triangles and rays (hashed), device hardware or wrt and Warp versions differ from this run's (``IDENTITY_FIELDS``).
+triangles and rays (hashed), device hardware, wrt code (a hash of its source) or Warp version differ from this run's
+(``IDENTITY_FIELDS``).
 
 Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layouts exist), ``warp:BUILDER``
 (``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
@@ -23,6 +24,8 @@ A ``sphere:N`` or a ray count too large for the host memory still available is r
 from __future__ import annotations
 
 import dataclasses
+import functools
+import hashlib
 import json
 import math
 import os
@@ -233,8 +236,8 @@ def hardware(device) -> dict:
         pass
     from . import __version__
 
-    info = {"cpu": cpu, "cpu_cores": os.cpu_count(), "warp": wp.config.version, "wrt": __version__, "gpu": None,
-            "driver": None}
+    info = {"cpu": cpu, "cpu_cores": os.cpu_count(), "warp": wp.config.version, "wrt": __version__,
+            "wrt_source": source_digest(), "gpu": None, "driver": None}
     dev = wp.get_device(device)
     if dev.is_cuda:
         info["gpu"] = dev.name
@@ -242,6 +245,17 @@ def hardware(device) -> dict:
         info["driver"] = "CUDA " + ".".join(map(str, driver)) if isinstance(driver, (tuple, list)) else str(driver)
         info["gpu_driver"] = _nvidia_driver()
     return info
+
+
+@functools.cache
+def source_digest() -> str:
+    """A short hash of wrt's own Python files: the version string stays 0.1.0 while the code under it changes, and
+    a row measured with other code must not be resumed as this code's."""
+    digest = hashlib.sha256()
+    package = Path(__file__).resolve().parent
+    for path in sorted(package.rglob("*.py")):
+        digest.update(path.relative_to(package).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:12]
 
 
 def _nvidia_driver() -> str | None:
@@ -440,7 +454,7 @@ def row_key(row: dict) -> tuple:
 # What a row was measured on, beyond its key: ``resume`` keeps a row only when all of these are the same now. ``inputs``
 # hashes the triangles and rays traced (a changed scene file or a layer it references, another camera, ray count or
 # ray generation); the rest is hardware() of the row's device.
-IDENTITY_FIELDS = ("inputs", "wrt", "warp", "cpu", "cpu_cores", "gpu", "driver", "gpu_driver")
+IDENTITY_FIELDS = ("inputs", "wrt", "wrt_source", "warp", "cpu", "cpu_cores", "gpu", "driver", "gpu_driver")
 
 
 def identity_changes(before: dict, now: dict) -> list[str]:
@@ -839,7 +853,8 @@ def markdown_table(rows: list[dict]) -> str:
             f"{fmt(ratio_e, '.2f')} | {fmt(r.get('sah_cost'), '.2f')} |"
         )
     hardware_lines = sorted({f"- {r['device']}: CPU {r.get('cpu')} ({r.get('cpu_cores')} cores), GPU {r.get('gpu')}, "
-                             f"driver {r.get('gpu_driver')} ({r.get('driver')}), Warp {r.get('warp')}"
+                             f"driver {r.get('gpu_driver')} ({r.get('driver')}), Warp {r.get('warp')}, "
+                             f"wrt {r.get('wrt')} (source {r.get('wrt_source')})"
                              for r in rows if "cpu" in r})
     return "\n".join(lines + [""] + sorted(notes) + hardware_lines) + "\n"
 
