@@ -1,4 +1,5 @@
-"""Textures: reading images (Pillow, OpenEXR) into linear RGBA, and bilinear lookups with UsdUVTexture's wrap modes.
+"""Textures: reading images (Pillow, OpenEXR, Radiance ``.hdr`` in ``radiance_hdr.py``) into linear RGBA, and
+bilinear lookups with UsdUVTexture's wrap modes.
 
 Conventions, stated once:
 
@@ -8,8 +9,8 @@ Conventions, stated once:
   Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping).
 - ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
   keeps values; ``"auto"`` means sRGB for 8-bit RGB/RGBA images and raw for everything else (greyscale, 16-bit,
-  float), as Hydra's image reader decides. Missing channels read as grey ``L`` -> ``(L, L, L)`` and alpha 1.
-  16-bit PNGs keep all 16 bits (Pillow alone reduces colour ones to 8).
+  float, Radiance ``.hdr``), as Hydra's image reader decides. Missing channels read as grey ``L`` ->
+  ``(L, L, L)`` and alpha 1. 16-bit PNGs keep all 16 bits (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
 - UDIM textures (``<UDIM>`` in the file name) are separate images, one per tile: tile ``1001 + u + 10 v`` covers
   ``st`` in ``[u, u + 1) x [v, v + 1)`` for ``u, v`` in 0..9 (1001..1100, the tiles ``UsdShade.UdimUtils``
@@ -67,8 +68,12 @@ def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
         data = read_asset_bytes(resolved_path)
     except Exception as e:  # noqa: BLE001 - Ar raises Tf errors of various kinds
         raise TextureError(f"cannot open {resolved_path}: {e}") from None
+    from .radiance_hdr import is_radiance, read_radiance  # it imports TextureError from here
+
     name = resolved_path.lower().rstrip("]")
-    if name.endswith(".exr") or data[:4] == b"\x76\x2f\x31\x01":
+    if is_radiance(data, name):
+        rgba, is_8bit_color = read_radiance(data, resolved_path), False
+    elif name.endswith(".exr") or data[:4] == b"\x76\x2f\x31\x01":
         rgba, is_8bit_color = _read_exr(data, resolved_path), False
     else:
         rgba, is_8bit_color = _read_pillow(data, resolved_path)
