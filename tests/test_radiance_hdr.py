@@ -323,3 +323,38 @@ def test_a_dome_with_a_corrupt_hdr_warns_naming_the_prim_and_keeps_its_colour(tm
     with pytest.warns(UserWarning, match=r"sky.hdr: scanline 8 of 8: the file ends inside it.*: /Sky"):
         scene = wrt.load_usd(dome_stage(tmp_path, "sky.hdr"))
     assert scene.lights[0].texture is None
+
+
+def test_damaged_files_read_or_raise_a_texture_error():
+    """Random truncations, byte changes, insertions and deletions in flat, adaptive and old run-length files of
+    several orders: each reads as an RGBA image or raises TextureError (no IndexError, hang or huge allocation)."""
+    import wrt.radiance_hdr as rh
+
+    rng = np.random.default_rng(7)
+    old_line = bytes([100, 50, 25, 130, 1, 1, 1, 11, 30, 200, 90, 126, 1, 1, 1, 0, 1, 1, 1, 1]) + bytes(range(100, 200))
+    files = [b"#?RADIANCE\n\n-Y 1 +X 294\n" + old_line]
+    for rle, order, shape in [(True, "-Y 6 +X 20", (6, 20)), (False, "-Y 6 -X 5", (6, 5)),
+                              (True, "+X 20 -Y 9", (20, 9))]:  # shape: scanlines, pixels per scanline
+        files.append(f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n{order}\n".encode() + encode(rgbe(sky(*shape)), rle))
+    outcomes = set()
+    for _ in range(600):
+        data = bytearray(files[rng.integers(len(files))])
+        at = int(rng.integers(len(data)))
+        change = rng.integers(4)
+        if change == 0:
+            del data[at:]
+        elif change == 1:
+            data[at] = rng.integers(256)
+        elif change == 2:
+            data[at:at] = rng.integers(0, 256, rng.integers(1, 5)).astype(np.uint8).tobytes()
+        else:
+            del data[at : at + rng.integers(1, 5)]
+        try:
+            image = rh.read_radiance(bytes(data), "damaged.hdr")
+        except TextureError as e:
+            assert "damaged.hdr" in str(e)
+            outcomes.add("error")
+        else:
+            assert image.dtype == np.float32 and image.shape[2] == 4
+            outcomes.add("read")
+    assert outcomes == {"read", "error"}
