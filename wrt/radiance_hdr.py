@@ -83,7 +83,9 @@ def read_radiance(data: bytes, name: str) -> np.ndarray:
     """``(H, W, 4)`` float32 linear RGBA of a Radiance image's bytes (see the module docstring).
 
     Scanlines are decoded a chunk at a time into component planes, then converted to float into their rows or
-    columns of the image, so the only image-sized arrays are ``data`` and the result.
+    columns of the image, so the only image-sized arrays are ``data`` and the result. The time goes mostly to a
+    Python walk over the run-length packet headers (:func:`_find_packets`): an 8k x 4k photograph has about 1.4
+    million of them (about 3 s in all, flat files 1 s), a file of short runs and literals up to 50 million (20 s).
 
     Raises:
         TextureError: naming ``name`` and what is wrong (header, resolution line, or the scanline where the data
