@@ -292,3 +292,67 @@ def test_a_dome_sun_filtered_into_its_black_neighbours_is_light_sampled_there():
     expected = ALBEDO * dome_integral(sun, upper_only=True, n=1024)[1]
     assert error < 0.02 * expected, (error, expected)
     assert abs(pixels.mean() - expected) < 4 * error, (pixels.mean(), expected, error)
+
+
+def cube_face_directions(size):
+    """Unit directions ``(6, size * size, 3)`` through the pixel centres of the six 90-degree views along +-X, +-Y,
+    +-Z and each pixel's solid angle ``(size * size,)`` (the same on every face: ``dA / (1 + x^2 + y^2)^1.5``), with
+    the ``(forward, up)`` of each view."""
+    c = (np.arange(size) + 0.5) / size * 2 - 1
+    a, b = (g.ravel() for g in np.meshgrid(c, -c))
+    solid_angle = (2.0 / size) ** 2 / (1 + a * a + b * b) ** 1.5
+    views = [((1, 0, 0), (0, 1, 0)), ((-1, 0, 0), (0, 1, 0)), ((0, 0, 1), (0, 1, 0)), ((0, 0, -1), (0, 1, 0)),
+             ((0, 1, 0), (0, 0, -1)), ((0, -1, 0), (0, 0, 1))]
+    dirs = []
+    for forward, up in views:
+        f = np.asarray(forward, np.float64)
+        right = np.cross(f, up)
+        d = f + a[:, None] * right + b[:, None] * np.asarray(up, np.float64)
+        dirs.append(d / np.linalg.norm(d, axis=1, keepdims=True))
+    return np.stack(dirs), solid_angle, views
+
+
+@pytest.mark.parametrize("shadows", [True, False], ids=["mis", "light_sampling_alone"])
+def test_dome_under_a_sheared_transform_lights_as_camera_rays_see_it(shadows):
+    """A textured dome under an unevenly scaled parent of its rotation (not a rotation: its rotated axes are no
+    longer perpendicular) lights a grey plane facing +Y with the irradiance of the sky that camera rays see there:
+    the integral of ``L cos`` over the upper hemisphere of six 90-degree camera views from the plane (128 x 128
+    pixels each). Light sampling drew directions through the transposed matrix but looked their radiance and pdf up
+    through the matrix itself (its columns normalized), so the two disagreed: the plane showed 0.474 for 0.516, and
+    0.315 lit by light sampling alone (shadows off)."""
+    rng = np.random.default_rng(5)
+    texture = (rng.random((6, 12, 3)) ** 3 * 4).astype(np.float32)
+    c, s = math.cos(0.7), math.sin(0.7)
+    to_world = np.eye(4)
+    to_world[:3, :3] = np.diag([1.0, 3.0, 1.0]) @ np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]) @ np.array(
+        [[1, 0, 0], [0, c, -s], [0, s, c]])
+    dome = wrt.DomeLight(color=np.ones(3, np.float32), texture=texture, to_world=to_world, shadows=shadows)
+    # What camera rays see, integrated with the cosine to +Y over the upper hemisphere.
+    size = 128
+    dirs, solid_angle, views = cube_face_directions(size)
+    expected = 0.0
+    for d, (forward, up) in zip(dirs, views):
+        cam = wrt.Camera.look_at(eye=(0, 0, 0), target=forward, up=up, fov_y_deg=90)
+        seen = wrt.render(wrt.Scene(meshes=[], lights=[dome]), camera=cam, width=size, height=size, spp=1,
+                          device="cpu", integrator="path").rgb[..., 1].ravel()
+        expected += (seen * np.maximum(d[:, 1], 0.0) * solid_angle).sum()
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)  # front +Y
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    img = wrt.render(wrt.Scene(meshes=[plane], lights=[dome]), camera=cam, width=16, height=16, spp=256,
+                     device="cpu", integrator="path", max_depth=1)
+    pixels = img.rgb[..., 1].ravel()
+    error = pixels.std() / math.sqrt(pixels.size)
+    assert error < 0.01 * ALBEDO * expected / np.pi
+    assert abs(pixels.mean() - ALBEDO * expected / np.pi) < 4 * error, (pixels.mean(), ALBEDO * expected / np.pi, error)
+
+
+def test_dome_under_a_transform_scaling_an_axis_to_zero_renders():
+    """A dome whose transform scales one axis to 0 still turns by a rotation and lights a grey plane with the constant
+    dome's ``albedo * L``; inverting its normalized matrix raised numpy's LinAlgError (singular matrix)."""
+    to_world = np.diag([0.0, 1.0, 1.0, 1.0])
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 0, -100), name="/plane", double_sided=False)  # front +Y
+    cam = wrt.Camera.orthographic(eye=(0, 3, 0), target=(0, 0, 0), up=(0, 0, -1), height=0.5)
+    dome = wrt.DomeLight(color=np.full(3, 2.0, np.float32), to_world=to_world)
+    img = wrt.render(wrt.Scene(meshes=[plane], lights=[dome]), camera=cam, width=4, height=4, spp=16, device="cpu",
+                     integrator="path", max_depth=1)
+    np.testing.assert_allclose(img.rgb, ALBEDO * 2.0, rtol=1e-4)

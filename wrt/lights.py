@@ -393,7 +393,8 @@ class DomeLight:
 
     Attributes:
         color: ``(3,)`` ``intensity * 2**exposure * color``.
-        to_world: ``(4, 4)`` column-vector transform; its rotation turns the texture.
+        to_world: ``(4, 4)`` column-vector transform; its rotation turns the texture (the nearest rotation of a
+            sheared or unevenly scaled transform).
         texture: ``(H, W, 4)`` float32 linear latitude-longitude image, or None for a constant dome.
         texture_path: file the texture came from.
         path: prim path.
@@ -712,9 +713,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     dome_mean = np.zeros(3, np.float32)
     dome_rot = np.eye(3)
     if dome is not None:
-        r = np.asarray(dome.to_world, np.float64)[:3, :3]
-        r = r / np.maximum(np.linalg.norm(r, axis=0, keepdims=True), 1e-30)
-        dome_rot = np.linalg.inv(r)
+        dome_rot = _nearest_rotation(np.asarray(dome.to_world, np.float64)[:3, :3]).T
         dome_mean = np.asarray(dome.color, np.float32)
         if dome.texture is not None:
             texels = h.texture[dome_index] = _emitted_texels(dome.texture)
@@ -881,6 +880,15 @@ def _emitting_normal(u, v, z) -> np.ndarray:
         return np.zeros(3)
     n = n / length
     return n if np.dot(n, -np.asarray(z)) >= 0.0 else -n
+
+
+def _nearest_rotation(m: np.ndarray) -> np.ndarray:
+    """The orthogonal ``(3, 3)`` matrix nearest to ``m`` (polar decomposition ``U V^T`` of its SVD; a mirror where
+    ``m`` mirrors): a dome turns with its transform's rotation only. Its transpose must be its inverse, as light
+    sampling turns dome directions to the world by the transpose: the columns of a sheared or unevenly scaled
+    rotation merely normalized were not perpendicular, and the dome lit by its samples differed from the one seen."""
+    u, _, vt = np.linalg.svd(m)
+    return u @ vt
 
 
 def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
