@@ -1027,17 +1027,36 @@ def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
 
 
 @wp.func
+def plane_coords(u: wp.vec3, v: wp.vec3, q: wp.vec3):
+    """``(a, b)`` with ``q = a u + b v`` for ``q`` in the plane of edges ``u, v`` (from their origin): the
+    coordinates along the edges of a rect light (in [-0.5, 0.5] on it) or along the radius vectors of a disk light,
+    which a transform can shear out of right angles (a projection on each edge is right for perpendicular edges
+    only). Solved from those projections, ``q.u / u.u`` and ``q.v / v.v``, which stay in float32 range wherever
+    the edges do."""
+    uu = wp.dot(u, u)
+    vv = wp.dot(v, v)
+    if uu <= 0.0 or vv <= 0.0:
+        return wp.vec2(wp.inf, wp.inf)
+    pu = wp.dot(q, u) / uu
+    pv = wp.dot(q, v) / vv
+    ku = wp.dot(u, v) / uu
+    kv = wp.dot(u, v) / vv
+    s = 1.0 - ku * kv  # sin^2 of the angle between the edges
+    if s <= 0.0:
+        return wp.vec2(wp.inf, wp.inf)
+    return wp.vec2((pu - ku * pv) / s, (pv - kv * pu) / s)
+
+
+@wp.func
 def light_texture(lights: DeviceLights, k: int, q: wp.vec3):
     """Light ``k``'s texture at point ``q`` on it, filtered (1 without a texture). A rect light's texture lies
     upright seen from its lit side: column 0 at local +X, row 0 (the top) at local +Y."""
     info = lights.texture[k]
     if info[1] == 0:
         return wp.vec3(1.0)
-    u = lights.axis_u[k]
-    v = lights.axis_v[k]
-    a = wp.dot(q - lights.position[k], u) / wp.length_sq(u)  # -0.5 at local -X, 0.5 at +X
-    b = wp.dot(q - lights.position[k], v) / wp.length_sq(v)
-    return filtered_texel(lights.texels, info, (0.5 - a) * float(info[1]), (0.5 - b) * float(info[2]), WRAP_CLAMP)
+    ab = plane_coords(lights.axis_u[k], lights.axis_v[k], q - lights.position[k])  # (-0.5, -0.5) at local -X, -Y
+    return filtered_texel(lights.texels, info, (0.5 - ab[0]) * float(info[1]), (0.5 - ab[1]) * float(info[2]),
+                          WRAP_CLAMP)
 
 
 @wp.func
@@ -1108,16 +1127,12 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
         t = wp.dot(c - o, n) / denom
         if t <= 0.0:
             return float(wp.inf), 0.0
-        q = o + t * d - c
-        u = lights.axis_u[k]
-        v = lights.axis_v[k]
-        a = wp.dot(q, u) / wp.length_sq(u)
-        b = wp.dot(q, v) / wp.length_sq(v)
+        ab = plane_coords(lights.axis_u[k], lights.axis_v[k], o + t * d - c)
         inside = False
         if kind == LIGHT_RECT:
-            inside = wp.abs(a) <= 0.5 and wp.abs(b) <= 0.5
+            inside = wp.abs(ab[0]) <= 0.5 and wp.abs(ab[1]) <= 0.5
         else:
-            inside = a * a + b * b <= 1.0
+            inside = wp.length_sq(ab) <= 1.0
         if inside:
             return t, -denom
         return float(wp.inf), 0.0
@@ -1349,9 +1364,7 @@ def sample_light(
                 return out
             pdf_solid_angle = spherical_rect_pdf(seen, n, q)
             if kind == LIGHT_DISK:  # a point of the square around the disk: keep it if it lies on the disk
-                du = wp.dot(q - lights.position[k], lights.axis_u[k]) / wp.length_sq(lights.axis_u[k])
-                dv = wp.dot(q - lights.position[k], lights.axis_v[k]) / wp.length_sq(lights.axis_v[k])
-                if du * du + dv * dv > 1.0:
+                if wp.length_sq(plane_coords(lights.axis_u[k], lights.axis_v[k], q - lights.position[k])) > 1.0:
                     return out
         elif kind == LIGHT_RECT:
             q = lights.position[k] + (u1 - 0.5) * lights.axis_u[k] + (u2 - 0.5) * lights.axis_v[k]
