@@ -68,6 +68,7 @@ from .sampling import (
     PI,
     basis_x,
     basis_y,
+    cdf_remainder,
     sample_cdf,
     sample_concentric_disk,
     sample_cosine_hemisphere,
@@ -497,7 +498,7 @@ class DeviceLights:
     dome_to_local: wp.mat33  # world direction -> dome frame
     dome_textured: int  # 1 when the dome has a texture (a lat-long image in texels, described by texture[dome])
     dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of filtered luminance * sin(theta)
-    dome_col_cdf: wp.array2d[float]  # (H, W + 1) CDF over columns in each row
+    dome_col_cdf: wp.array[float]  # (H (W + 1)) CDF over columns in each row, row y's from y (W + 1)
     dome_mean: wp.vec3  # radiance averaged over the sphere
     texture: wp.array[wp.vec3i]  # (offset into texels, width, height) of a rect or dome light's texture; width 0: none
     texels: wp.array[wp.vec3]  # the rect and dome lights' textures, row-major from the top row, one after the other
@@ -709,7 +710,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
     row_cdf = np.array([0.0, 1.0], np.float32)
-    col_cdf = np.array([[0.0, 1.0]], np.float32)
+    col_cdf = np.array([0.0, 1.0], np.float32)
     dome_mean = np.zeros(3, np.float32)
     dome_rot = np.eye(3)
     if dome is not None:
@@ -892,8 +893,9 @@ def _nearest_rotation(m: np.ndarray) -> np.ndarray:
 
 
 def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Row and column CDFs of ``luminance * sin(theta)`` over a ``(H, W, 3)`` lat-long image, and its mean radiance
-    over the sphere, both of the bilinearly filtered image that :func:`dome_radiance` looks up.
+    """Row and column CDFs of ``luminance * sin(theta)`` over a ``(H, W, 3)`` lat-long image (``(H + 1,)``, and
+    ``(H (W + 1),)``: each row's in turn), and its mean radiance over the sphere, both of the bilinearly filtered
+    image that :func:`dome_radiance` looks up.
 
     Each texel's weight is the luminance of the filtered image averaged over the texel: ``[1/8, 3/4, 1/8]`` of it and
     its neighbours along each axis (longitude wrapping around, latitude clamped at the poles). It is positive wherever
@@ -916,7 +918,7 @@ def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     # function times sin(theta) over 2 (which sums to 1).
     row_means = texels.mean(axis=1, dtype=np.float64)
     mean = _latitude_hat_weights(hgt) @ row_means / 2.0
-    return row.astype(np.float32), col.astype(np.float32), mean.astype(np.float32)
+    return row.astype(np.float32), col.reshape(-1).astype(np.float32), mean.astype(np.float32)
 
 
 def _latitude_hat_weights(hgt: int) -> np.ndarray:
@@ -1005,7 +1007,7 @@ def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
     total = lights.dome_row_cdf[h]
     if total <= 0.0:
         return 0.0
-    f = lights.dome_col_cdf[y, x + 1] - lights.dome_col_cdf[y, x]
+    f = lights.dome_col_cdf[y * (w + 1) + x + 1] - lights.dome_col_cdf[y * (w + 1) + x]
     pdf_uv = f / total * float(w * h)
     # The Jacobian of (u, v) -> direction at d itself, not at the texel's centre row: sample_light draws (u, v)
     # uniformly inside the texel, so only this matches what it draws (coarse maps were biased, +4% with 2 rows).
@@ -1301,25 +1303,12 @@ def sample_light(
         else:
             w = lights.texture[k][1]
             h = lights.texture[k][2]
+            # A row by the marginal CDF, then a column by that row's CDF; where u fell inside each places the
+            # direction in the texel.
             y = sample_cdf(lights.dome_row_cdf, 0, h, u1)
-            row_lo = lights.dome_row_cdf[y]
-            row_w = lights.dome_row_cdf[y + 1] - row_lo
-            fy = wp.clamp((u1 * lights.dome_row_cdf[h] - row_lo) / wp.max(row_w, 1.0e-30), 0.0, 1.0)
-            x = int(0)
-            # Search the row's column CDF (a 2D array row: copy the bounds into a binary search).
-            lo = int(0)
-            hi = w
-            target = u2 * lights.dome_col_cdf[y, w]
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                if lights.dome_col_cdf[y, mid] <= target:
-                    lo = mid
-                else:
-                    hi = mid
-            x = lo
-            col_lo = lights.dome_col_cdf[y, x]
-            col_w = lights.dome_col_cdf[y, x + 1] - col_lo
-            fx = wp.clamp((target - col_lo) / wp.max(col_w, 1.0e-30), 0.0, 1.0)
+            fy = cdf_remainder(lights.dome_row_cdf, 0, h, y, u1)
+            x = sample_cdf(lights.dome_col_cdf, y * (w + 1), w, u2)
+            fx = cdf_remainder(lights.dome_col_cdf, y * (w + 1), w, x, u2)
             uu = (float(x) + fx) / float(w)
             vv = (float(y) + fy) / float(h)
             lon = PI * (1.0 - 2.0 * uu)

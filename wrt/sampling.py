@@ -174,3 +174,12 @@ def sample_cdf(cdf: wp.array[float], start: int, count: int, u: float):
     while lo < count - 1 and cdf[start + lo + 1] <= cdf[start + lo]:
         lo += 1
     return lo
+
+
+@wp.func
+def cdf_remainder(cdf: wp.array[float], start: int, count: int, k: int, u: float):
+    """Where in ``[0, 1]`` the target of :func:`sample_cdf` (same ``cdf``, ``start``, ``count``, ``u``) fell inside
+    the entry ``k`` it returned: uniform there, for placing the sample inside its bin."""
+    target = cdf[start] + u * (cdf[start + count] - cdf[start])
+    lo = cdf[start + k]
+    return wp.clamp((target - lo) / wp.max(cdf[start + k + 1] - lo, 1.0e-30), 0.0, 1.0)
