@@ -192,6 +192,7 @@ def main() -> None:
         constructor = "cubql" if device.is_cuda else "sah"  # "mesh" in the output; cubql is CUDA-only
         mesh = wp.Mesh(wp.array(points, dtype=wp.vec3, device=device),
                        wp.array(indices.reshape(-1), dtype=wp.int32, device=device), bvh_constructor=constructor)
+        box = trace_module.mesh_box(points)
         for kind in args.kinds.split(","):
             origins, directions = make_rays(scene, kind, args.rays, device, rays_module, trace_module.trace)
             n = len(origins)
@@ -206,7 +207,7 @@ def main() -> None:
             ms_ref = timed(lambda: wp.launch(trace_module.trace_bvh_kernel, n, inputs=[tree, *rays], outputs=ref,
                                              device=device), device, args.repeats)
             mesh_out = outputs()
-            ms_mesh = timed(lambda: wp.launch(trace_module.trace_mesh_kernel, n, inputs=[mesh.id, *rays],
+            ms_mesh = timed(lambda: wp.launch(trace_module.trace_mesh_kernel, n, inputs=[mesh.id, *box, *rays],
                                               outputs=mesh_out, device=device), device, args.repeats)
             line = f"{scene_name:10s} {kind:10s} {n:8d} rays  binary {n / ms_ref / 1e3:7.1f}"
             line += f"  mesh {n / ms_mesh / 1e3:7.1f}"

@@ -116,7 +116,7 @@ def main():
     from wrt.bench import asset_path
     from wrt.bvh import build_bvh
     from wrt.procedural import displaced_sphere_scene
-    from wrt.trace import trace, trace_bvh_kernel, trace_mesh_kernel
+    from wrt.trace import mesh_box, trace, trace_bvh_kernel, trace_mesh_kernel
     from wrt.usd import load_usd
     meshes_for = ("sah", "lbvh", "cubql") if device.is_cuda else ("sah",)
     print(device.name, wp.config.version, flush=True)
@@ -127,6 +127,7 @@ def main():
         mp = wp.array(points, dtype=wp.vec3)
         mi = wp.array(indices.reshape(-1), dtype=wp.int32)
         meshes = {c: wp.Mesh(mp, mi, bvh_constructor=c) for c in meshes_for}
+        box = mesh_box(points)
         lo, hi = (np.asarray(b, np.float64) for b in scene.bounds())
         lower = wp.vec3(*lo.astype(np.float32))
         scale = wp.vec3(*(1.0 / np.maximum(hi - lo, 1e-30)).astype(np.float32))
@@ -172,8 +173,8 @@ def main():
                 subjects[f"sort only k{mode}"] = (sort_only, None)
             for c, m in meshes.items():
                 o_m = outs()
-                subjects[f"warp:{c}"] = (lambda m=m, o_m=o_m: wp.launch(trace_mesh_kernel, n, inputs=[m.id, *rays],
-                                                                       outputs=o_m), o_m)
+                subjects[f"warp:{c}"] = (lambda m=m, o_m=o_m: wp.launch(trace_mesh_kernel, n,
+                                                                       inputs=[m.id, *box, *rays], outputs=o_m), o_m)
             for fn, _ in subjects.values():
                 fn()
                 fn()

@@ -56,7 +56,8 @@ class Subject:
         self.ms = []
 
     def launch(self) -> None:
-        wp.launch(self.kernel, len(self.rays[0]), inputs=[self.accel_arg, *self.rays], outputs=self.outputs,
+        accel_args = self.accel_arg if isinstance(self.accel_arg, list) else [self.accel_arg]  # a mesh: id and box
+        wp.launch(self.kernel, len(self.rays[0]), inputs=[*accel_args, *self.rays], outputs=self.outputs,
                   device=self.device, block_dim=self.block_dim)
 
     def timed(self) -> None:
@@ -239,7 +240,8 @@ def run(args, device) -> None:
                 label = "" if block == default_block else f"/b{block}"
                 subjects += [Subject(name + label, occluded if any_hit else closest, tree, rays, any_hit, device, block)
                              for name, closest, occluded, tree in wrt_subjects]
-                subjects += [Subject(f"warp:{c}{label}", mesh_kernel, m.id, rays, any_hit, device, block)
+                subjects += [Subject(f"warp:{c}{label}", mesh_kernel, [m.id, *new_trace.mesh_box(points)], rays,
+                                     any_hit, device, block)
                              for c, m in meshes.items()]
             log(f"{scene_name} {kind}: {n} rays, {len(subjects)} subjects; compiling and warming up")
             for s in subjects:

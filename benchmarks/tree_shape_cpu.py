@@ -28,7 +28,7 @@ from wrt.bvh import build_bvh
 from wrt.bvh.layout import convert_layout, layout_kernels
 from wrt.cli import positive_int
 from wrt.rays import ray_set
-from wrt.trace import HitBuffer, trace_bvh_kernel, trace_mesh_kernel
+from wrt.trace import HitBuffer, mesh_box, trace_bvh_kernel, trace_mesh_kernel
 
 DEFAULT_SETTING = "8:1"  # the library's defaults: leaf_size 8, intersection_cost / traversal_cost = 1
 SETTINGS = ("8:0.5", "8:1", "8:2", "8:4", "4:1", "4:2", "2:1", "1:1")  # leaf_size:ratio grid of the default run
@@ -47,7 +47,8 @@ class Subject:
         self.times = []
 
     def run(self):
-        wp.launch(self.kernel, self.n, inputs=[self.input, *self.rays], outputs=self.hits.outputs, device=self.device)
+        accel_args = self.input if isinstance(self.input, list) else [self.input]  # a mesh: id and box
+        wp.launch(self.kernel, self.n, inputs=[*accel_args, *self.rays], outputs=self.hits.outputs, device=self.device)
         wp.synchronize_device(self.device)
 
     def timed(self):
@@ -86,7 +87,7 @@ def build_subjects(scene, settings, layouts, device) -> tuple[list, dict]:
     start = time.perf_counter()
     mesh = wp.Mesh(mesh_points, mesh_indices, bvh_constructor="sah")
     warp_build = time.perf_counter() - start
-    warp = Subject("warp:sah", trace_mesh_kernel, mesh.id, device)
+    warp = Subject("warp:sah", trace_mesh_kernel, [mesh.id, *mesh_box(points)], device)
     warp.keep = (mesh, mesh_points, mesh_indices)
     subjects = [warp]
     builds = {"warp:sah": {"build_s": warp_build}}

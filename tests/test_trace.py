@@ -540,6 +540,28 @@ def test_a_flat_quad_behind_the_origin_is_hit_at_negative_t(accel, layout, insta
     assert wrt.occluded(scene, origins, directions, t_min=-10.0, t_max=0.0, accel=accel, layout=layout).all()
 
 
+@pytest.mark.parametrize("t_min", [-1e5, -np.inf])
+@pytest.mark.parametrize("accel, layout", [("wrt", "binary"), ("wrt", "wide8"), ("warp", "binary")])
+def test_a_t_min_far_behind_the_scene_gives_the_hits_of_t_min_0(accel, layout, t_min, np_rng):
+    """Rays from outside a unit box of triangles, aimed into it, meet nothing behind their origins, so any
+    ``t_min <= 0`` gives the hits of ``t_min = 0``. ``accel="warp"`` started ``wp.mesh_query_ray`` at
+    ``origin + t_min * direction``: at -1e5 the rounding of that start put all 77 hits' ``t`` off (by up to 0.13,
+    8 on another triangle), and -inf made it NaN (all 77 missed)."""
+    points, indices = random_soup(np_rng, 200)
+    scene = wrt.Scene.from_triangles(points, indices)
+    n = 100
+    origins = np_rng.normal(size=(n, 3))
+    origins = 3.0 * origins / np.linalg.norm(origins, axis=1, keepdims=True)  # outside the unit box
+    directions = np_rng.uniform(-0.3, 0.3, (n, 3)) - origins  # aimed into it
+    reference = wrt.trace(scene, origins, directions, accel=accel, layout=layout)
+    assert reference.hit.sum() > n / 2
+    hits = wrt.trace(scene, origins, directions, t_min=t_min, accel=accel, layout=layout)
+    np.testing.assert_array_equal(hits.prim, reference.prim)
+    np.testing.assert_allclose(hits.t, reference.t, rtol=1e-6)
+    blocked = wrt.occluded(scene, origins, directions, t_min=t_min, accel=accel, layout=layout)
+    np.testing.assert_array_equal(blocked, reference.hit)
+
+
 def test_threaded_cpu_trace_gives_the_same_hits(np_rng):
     points, indices = random_soup(np_rng, 500)
     scene = wrt.Scene.from_triangles(points, indices)

@@ -31,7 +31,7 @@ from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .errors import did_you_mean
-from .geometry import ray_can_hit
+from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .ray_batch import upload_rays
 from .scene import Scene
 
@@ -63,19 +63,39 @@ MESH_QUERY_SLACK = wp.constant(1.0 + 2.0**-18)  # relative, on the query length:
 
 
 @wp.func
-def mesh_query(mesh: wp.uint64, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float):
-    """Closest hit through ``wp.mesh_query_ray``, restricted to ``[t_min, t_max)`` and in wrt's conventions."""
+def mesh_query_start(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float, lower: wp.vec3,
+                     upper: wp.vec3):
+    """Where a ``wp.mesh_query_ray`` for ``[t_min, t_max)`` starts its ray (it accepts ``t >= 0`` only): at
+    ``t_min``, but for a negative ``t_min`` no further back than the ray's entry into the mesh's box ``lower, upper``
+    (nor past the origin, so rays with ``t_min = 0`` and ``t_min < 0`` meet what lies ahead alike). Started at
+    ``t_min`` itself, a ``t_min`` far behind the scene (-1e5 in a unit scene) rounded the start by more than the
+    triangles' size, and ``-inf`` made it NaN: every ray missed."""
+    start = t_min
+    if t_min < 0.0:
+        origin_lower, origin_upper = box_origins(origin, direction)
+        # +inf when the ray misses the box; rounded down by a few ulps, so a hit on the box's face stays ahead.
+        entry = intersect_ray_box(origin_lower, origin_upper, safe_inverse(direction), lower, upper, t_min, t_max)
+        start = wp.max(t_min, wp.min(entry, 0.0))
+    return start
+
+
+@wp.func
+def mesh_query(mesh: wp.uint64, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float, lower: wp.vec3,
+               upper: wp.vec3):
+    """Closest hit through ``wp.mesh_query_ray``, restricted to ``[t_min, t_max)`` and in wrt's conventions
+    (``lower, upper``: the mesh's box)."""
     t = float(wp.inf)
     u = float(0.0)
     v = float(0.0)
     prim = int(-1)
     if ray_can_hit(origin, direction, t_min, t_max):
-        # wp.mesh_query_ray accepts t >= 0 only: start the ray at t_min instead. Its traversal drops a box entered
-        # within rounding of the limit (no slack), so a hit on a flat floor just below t_max was lost: query a
-        # little further and drop what lies at or past t_max here (a closest hit past t_max means none before it).
-        q = wp.mesh_query_ray(mesh, origin + t_min * direction, direction, (t_max - t_min) * MESH_QUERY_SLACK)
-        if q.result and q.t + t_min < t_max:
-            t = q.t + t_min
+        start = mesh_query_start(origin, direction, t_min, t_max, lower, upper)
+        # Its traversal drops a box entered within rounding of the limit (no slack), so a hit on a flat floor just
+        # below t_max was lost: query a little further and drop what lies at or past t_max here (a closest hit past
+        # t_max means none before it).
+        q = wp.mesh_query_ray(mesh, origin + start * direction, direction, (t_max - start) * MESH_QUERY_SLACK)
+        if q.result and q.t + start < t_max:
+            t = q.t + start
             u = q.v
             v = 1.0 - q.u - q.v
             prim = q.face
@@ -85,6 +105,8 @@ def mesh_query(mesh: wp.uint64, origin: wp.vec3, direction: wp.vec3, t_min: floa
 @wp.kernel
 def trace_mesh_kernel(
     mesh: wp.uint64,
+    lower: wp.vec3,
+    upper: wp.vec3,
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     t_mins: wp.array[float],
@@ -98,7 +120,7 @@ def trace_mesh_kernel(
 ):
     """Closest hit of every ray through Warp's ``wp.Mesh`` BVH (costs are not available: written as 0)."""
     i = wp.tid()
-    t, u, v, prim = mesh_query(mesh, origins[i], directions[i], t_mins[i], t_maxs[i])
+    t, u, v, prim = mesh_query(mesh, origins[i], directions[i], t_mins[i], t_maxs[i], lower, upper)
     ts[i] = t
     us[i] = u
     vs[i] = v
@@ -109,6 +131,8 @@ def trace_mesh_kernel(
 @wp.kernel
 def occluded_mesh_kernel(
     mesh: wp.uint64,
+    lower: wp.vec3,
+    upper: wp.vec3,
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     t_mins: wp.array[float],
@@ -116,12 +140,14 @@ def occluded_mesh_kernel(
     # outputs
     blocked: wp.array[wp.int32],
 ):
-    """1 for every ray that hits anything in ``[t_min, t_max)``, through ``wp.mesh_query_ray_anyhit``."""
+    """1 for every ray that hits anything in ``[t_min, t_max)``, through ``wp.mesh_query_ray_anyhit`` (``lower,
+    upper``: the mesh's box)."""
     i = wp.tid()
-    t_min = t_mins[i]
+    t_max = t_maxs[i]
     hit = False
-    if ray_can_hit(origins[i], directions[i], t_min, t_maxs[i]):
-        hit = wp.mesh_query_ray_anyhit(mesh, origins[i] + t_min * directions[i], directions[i], t_maxs[i] - t_min)
+    if ray_can_hit(origins[i], directions[i], t_mins[i], t_max):
+        start = mesh_query_start(origins[i], directions[i], t_mins[i], t_max, lower, upper)
+        hit = wp.mesh_query_ray_anyhit(mesh, origins[i] + start * directions[i], directions[i], t_max - start)
     blocked[i] = wp.where(hit, 1, 0)
 
 
@@ -410,6 +436,15 @@ class BvhAccelerator(Accelerator):
         )
 
 
+def mesh_box(points) -> list:
+    """``[lower, upper]`` (``wp.vec3``) of the finite ``points`` ``(V, 3)`` of a ``wp.Mesh`` (its triangles use no
+    others: ``check_triangles``): the box that ``trace_mesh_kernel`` and ``occluded_mesh_kernel`` take after the
+    mesh id, where queries with a negative ``t_min`` start (``mesh_query_start``)."""
+    points = np.asarray(points, np.float32).reshape(-1, 3)
+    finite = points[np.isfinite(points).all(axis=1)]
+    return [wp.vec3(*finite.min(axis=0)), wp.vec3(*finite.max(axis=0))]
+
+
 class WarpMeshAccelerator(Accelerator):
     """Warp's builtin ``wp.Mesh`` BVH, for comparison."""
 
@@ -437,6 +472,7 @@ class WarpMeshAccelerator(Accelerator):
         # own builds check them.
         check_triangles(self.points, self.indices.reshape((-1, 3)))
         self.mesh = wp.Mesh(self.points, self.indices, bvh_constructor=self.builder)
+        self.box = mesh_box(points)
 
     def refit(self, scene: Scene) -> None:
         """Follows ``scene``'s vertices by building the ``wp.Mesh`` again: ``wp.Mesh.refit`` keeps its old tree,
@@ -449,7 +485,7 @@ class WarpMeshAccelerator(Accelerator):
             for array, value in zip(outputs, miss_fill):
                 array.fill_(value)
             return
-        wp.launch(kernel, n, inputs=[self.mesh.id, *inputs], outputs=outputs, device=self.device,
+        wp.launch(kernel, n, inputs=[self.mesh.id, *self.box, *inputs], outputs=outputs, device=self.device,
                   block_dim=traverse.trace_block_dim(self.device))
 
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
