@@ -266,6 +266,31 @@ def test_zero_size_gprims_are_skipped_with_a_warning_naming_them(tmp_path):
     assert scene.shapes == []
 
 
+def test_gprims_flattened_by_a_zero_scale_are_drawn_flat_as_tessellated_with_a_warning(tmp_path):
+    """A Cube and a Sphere under a zero scale on one axis have no canonical space to intersect in: drawn
+    analytically they vanished without a word, while ``tessellate_gprims`` (and so ``--accel warp``) drew them flat,
+    as a mesh with that transform and Storm draw them. They are now drawn as their tessellation either way, named in
+    a warning."""
+    path = tmp_path / "flat.usda"
+    path.write_text(
+        '#usda 1.0\ndef Cube "Flat"\n{\n    double size = 2\n    double3 xformOp:scale = (1, 0, 1)\n'
+        '    uniform token[] xformOpOrder = ["xformOp:scale"]\n}\n'
+        'def Sphere "Disk"\n{\n    double3 xformOp:translate = (4, 0, 0)\n    double3 xformOp:scale = (1, 0, 1)\n'
+        '    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]\n}\n'
+    )
+    with pytest.warns(UserWarning, match=r"singular transform.*/Flat, /Disk"):
+        scene = wrt.load_usd(path)
+    tessellated = load(path, tessellate_gprims=True)
+    # Straight down onto the square (|x|, |z| < 1) and the disk (radius 1 around x = 4), and beside them.
+    origins = np.array([[0, 5, 0], [0.9, 5, -0.9], [4, 5, 0], [4.5, 5, 0.5], [2.5, 5, 0], [4, 5, 1.5]], np.float32)
+    expected = [5, 5, 5, 5, np.inf, np.inf]
+    for s in (scene, tessellated):
+        hits = wrt.trace(s, origins, [0, -1, 0])
+        np.testing.assert_array_equal(hits.t, expected)
+        np.testing.assert_array_equal(wrt.occluded(s, origins, [0, -1, 0]), np.isfinite(expected))
+    assert [m.path for m in scene.meshes] == ["/Flat", "/Disk"] and scene.shapes == []
+
+
 @pytest.mark.parametrize("kind, attrs", [("Sphere", {"Radius": 1e39}), ("Cylinder_1", {"RadiusBottom": 1e39})])
 def test_gprims_past_float32_are_refused_naming_them(tmp_path, kind, attrs):
     """A finite double size whose box is past float32's range is refused as mesh points are. It loaded, and the

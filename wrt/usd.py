@@ -19,7 +19,8 @@ with ``displayColor`` (constant; other interpolations use the mean), material bi
 ``orientation``. With ``tessellate_gprims`` they become triangle meshes instead (vertices on the surface, analytic
 vertex normals; see :func:`wrt.primitives.tessellate`). Gprims whose size is zero, negative or not finite are
 skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0), and so are volumes (the gprim
-types left); one whose world box is past float32's range raises, as mesh points do. ``Points`` and curves
+types left); one whose world box is past float32's range raises, as mesh points do, and one flattened by a zero
+scale is drawn as its (flat) tessellation, with a warning. ``Points`` and curves
 (``BasisCurves``, ``HermiteCurves``, ``NurbsCurves``) become instances of spheres and tube pieces
 (:mod:`wrt.usd_tubes`), each shape a content of its own; ``TetMesh`` (its boundary) and ``NurbsPatch``
 (tessellated) become meshes (:mod:`wrt.usd_surfaces`).
@@ -533,7 +534,13 @@ class _StageReader:
         if prim.HasAPI(UsdLux.VolumeLightAPI):
             self._skip("volume lights (VolumeLightAPI) are not supported: wrt has no volumes", prim, prim.GetTypeName())
         shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
-        if shape is not None and self.segments:
+        if shape is not None and not self.segments and not invert_transforms(shape.to_world[None])[1][0]:
+            # A zero scale (or one whose inverse is past float32) leaves no canonical space to intersect in: drawn
+            # analytically the gprim vanished, while its tessellation, --accel warp and Storm draw it flat.
+            self._skip(f"gprims with a singular transform (a zero scale) are drawn as triangle meshes of "
+                       f"{DEFAULT_SEGMENTS} segments (flat), having no canonical space to intersect in", prim)
+            self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
+        elif shape is not None and self.segments:
             self._add_mesh(prim, self._tessellated(shape, prim), ctx)
         elif shape is not None:
             self._not_a_mesh_light(prim, "gprims drawn analytically", "; load with tessellate_gprims=True to make "
@@ -1369,9 +1376,9 @@ class _StageReader:
             return None
         return points.astype(np.float64)
 
-    def _tessellated(self, shape: Shape, prim: Usd.Prim) -> Mesh:
-        """``shape`` as a triangle mesh of ``self.segments`` segments per circle."""
-        points, indices, normals = tessellate(shape, self.segments)
+    def _tessellated(self, shape: Shape, prim: Usd.Prim, segments: int | None = None) -> Mesh:
+        """``shape`` as a triangle mesh of ``segments`` (default ``self.segments``) segments per circle."""
+        points, indices, normals = tessellate(shape, segments or self.segments)
         n = len(indices)
         if not np.all(np.isfinite(points.astype(np.float32))):
             raise self._error("points are not finite after the world transform", prim)
