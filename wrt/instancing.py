@@ -28,6 +28,10 @@ import numpy as np
 from .assignments import CountsAssignments
 
 ROW_DTYPE_LIMIT = (1 << 31) - 1  # expanded triangle ids up to this fit int32; larger scenes report int64 ids
+# A transform whose |det| is below this fraction of the smaller of its rows' and its columns' lengths' products is
+# singular (invert_transforms): rounding leaves ~1e-16 on singular ones; thin or sheared invertible ones keep far
+# more (a turned scale (1, 1, 1e-13) keeps 1, a shear of 1e6 keeps 1e-6).
+SINGULAR_RELATIVE_DET = 1e-13
 
 
 @dataclasses.dataclass
@@ -252,6 +256,13 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         det = (rows[0] * adjugate[:, :, 0]).sum(axis=1)
     scale = np.abs(linear).reshape(len(linear), -1).max(axis=1) if len(linear) else np.zeros(0)
     ok = np.isfinite(det) & (np.abs(det) > 1e-30 * np.maximum(scale, 1e-30) ** 3) & (scale > 0)
+    # Singular up to rounding: a zero scale composed with a turn (a squashed PointInstancer instance holding a
+    # nested instance) leaves a determinant of ~1e-16 of Hadamard's bound (the product of the rows' or of the
+    # columns' lengths), not 0, and its flattened triangles drew as a sheet the two-level traversal could not enter.
+    with np.errstate(over="ignore", invalid="ignore"):
+        bound = np.minimum(np.prod(np.linalg.norm(linear, axis=2), axis=1),
+                           np.prod(np.linalg.norm(linear, axis=1), axis=1))
+        ok &= np.abs(det) > SINGULAR_RELATIVE_DET * bound
     out = np.zeros((len(to_world), 3, 4))
     if ok.any():
         inv = adjugate[ok] / det[ok, None, None]
