@@ -164,3 +164,32 @@ def test_warp_accel_agrees_on_the_tessellated_stage(tmp_path, name):
     instanced = load(write(tmp_path, native_stage(linear, True), "instanced.usda"), tessellate_gprims=24)
     flattened = load(write(tmp_path, native_stage(linear, False), "flattened.usda"), tessellate_gprims=24)
     assert_same_hits(instanced, flattened, accel="warp")
+
+
+def test_points_of_a_zero_scale_instance_are_skipped_with_it(tmp_path):
+    """The meshes and gprims of a PointInstancer instance of scale (0, 1, 1) are skipped with a warning naming it,
+    but a Points prim in its prototype was drawn, without a word: its spheres, placed round, kept their size at the
+    squashed centres (hits at t = 4.59). They go with the instance now, under the same warning."""
+    path = write(tmp_path, '''def PointInstancer "PI"
+{
+    rel prototypes = [</PI/Protos/P>]
+    int[] protoIndices = [0, 0]
+    point3f[] positions = [(0, 0, 0), (5, 0, 0)]
+    float3[] scales = [(1, 1, 1), (0, 1, 1)]
+    def Scope "Protos"
+    {
+        def Points "P"
+        {
+            point3f[] points = [(0, 0, 0), (0, 2, 0)]
+            float[] widths = [1, 1] (interpolation = "vertex")
+        }
+    }
+}
+''')
+    with pytest.warns(UserWarning, match=r"singular transform.*/PI\[1\]"):
+        scene = wrt.load_usd(path)
+    assert {scene.instances.path(i) for i in range(len(scene.instances))} == {"/PI[0]"}
+    # Down onto the spheres' centres (x = 5: the squashed instance; x = 0: the other one).
+    origins = np.array([[5, 0, 5], [5, 2, 5], [0, 0, 5], [0, 2, 5]], np.float32)
+    hits = wrt.trace(scene, origins, [0, 0, -1])
+    np.testing.assert_array_equal(hits.t, [np.inf, np.inf, 4.5, 4.5])

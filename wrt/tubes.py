@@ -27,6 +27,8 @@ import dataclasses
 
 import numpy as np
 
+from .instancing import invert_transforms
+
 RHO_LEVELS = 128  # frustum narrowings are multiples of 1 / RHO_LEVELS (level RHO_LEVELS: a cylinder)
 CURVE_TOLERANCE = 0.05  # a cubic span's polyline stays within this fraction of its largest radius of the curve
 MAX_SPAN_SEGMENTS = 64  # most straight segments per cubic span
@@ -310,6 +312,10 @@ def place_round(outer: np.ndarray, shapes: np.ndarray, sphere: bool, axis: np.nd
         big = (scale[:, None] * np.linalg.norm(shapes[None, :, :3, 0], axis=2)).reshape(-1)
         round_ = _segment_matrices(centres, half, big)
     placed[rows] = round_.reshape(len(rows), len(shapes), 4, 4)
+    # A singular outer (a zero scale) is an instance the loader skips with a warning: its spheres and tubes go with
+    # it (placed round they kept their size, and the instance the warning called skipped was drawn).
+    singular = rows[~invert_transforms(outer[rows])[1]]
+    placed[singular, :, :3, :3] = 0.0
     return placed.reshape(-1, 4, 4)
 
 
