@@ -772,6 +772,22 @@ class Scene:
         parts += [np.array([bool(s.double_sided)]) for s in self._geometry_shapes()]
         return np.concatenate(parts or [np.zeros(0, bool)])
 
+    def triangle_twins(self) -> np.ndarray | None:
+        """``(T,)`` int32: the coincident twin of each single-sided triangle (:mod:`wrt.twins`; -1: none), by
+        geometry id; None when no triangle has one (every scene whose meshes are all double-sided)."""
+        key = ("triangle_twins",)
+        if key not in self._cache:
+            from .twins import find_twins
+
+            points, indices = self.geometry()
+            ranges = self.prototype_ranges()
+            spaces = np.concatenate([np.full(self.num_flat_triangles, -1), np.repeat(np.arange(len(ranges)),
+                                                                                     ranges[:, 1])])
+            sided = np.concatenate([np.full(len(m.indices), bool(m.double_sided)) for m in self._geometry_meshes()]
+                                   or [np.zeros(0, bool)])
+            self._cache[key] = find_twins(points, indices, spaces, sided)
+        return self._cache[key]
+
     def corner_uvs(self) -> np.ndarray:
         """``(T, 3, 2)`` float32 texture coordinates per triangle corner (geometry order; zero where a mesh has
         none)."""

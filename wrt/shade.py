@@ -76,6 +76,8 @@ class DeviceSurfaces:
     materials: wp.array[wp.int32]  # (T,) device material (0: the default material)
     double_sided: wp.array[wp.int32]  # (T,) 1 for triangles of double-sided meshes
     emitters: wp.array[wp.int32]  # (T,) light index of emissive triangles, -1 otherwise
+    twins: wp.array[wp.int32]  # (T,) coincident twin of each single-sided triangle (wrt.twins), -1: none; or (1,)
+    num_twins: int  # T when some triangle has a twin, else 0 (then twins is a placeholder)
 
 
 @wp.struct
@@ -481,6 +483,44 @@ def hidden_hit(
     return wp.dot(wp.cross(b - a, c - a), d) > 0.0
 
 
+@wp.func
+def corner_weight(scene: DeviceScene, prim: int, w: wp.vec3, p: wp.vec3):
+    """The barycentric weight in ``w`` (of ``prim``'s corners 0, 1, 2) of ``prim``'s corner at position ``p``."""
+    if scene.points[scene.indices[prim, 1]] == p:
+        return w[1]
+    if scene.points[scene.indices[prim, 2]] == p:
+        return w[2]
+    return w[0]
+
+
+@wp.func
+def twin_uv(scene: DeviceScene, prim: int, twin: int, u: float, v: float):
+    """The hit ``(u, v)`` on ``prim`` as barycentrics on its ``twin`` (the same corner positions in another order)."""
+    w = wp.vec3(1.0 - u - v, u, v)
+    return wp.vec2(corner_weight(scene, prim, w, scene.points[scene.indices[twin, 1]]),
+                   corner_weight(scene, prim, w, scene.points[scene.indices[twin, 2]]))
+
+
+@wp.func
+def hidden(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    back_faces: int,
+    prim: int,
+    instance: int,
+    u: float,
+    v: float,
+    o: wp.vec3,
+    d: wp.vec3,
+    t: float,
+):
+    """:func:`hidden_hit` with ``back_faces = 1`` (camera rays), else (bounce rays, which see both sides) a hole."""
+    if back_faces == 1:
+        return hidden_hit(scene, surf, mats, prim, instance, u, v, o, d, t)
+    return in_hole(surf, mats, prim, u, v)
+
+
 @wp.kernel
 def cull_hidden_hits_kernel(
     scene: DeviceScene,
@@ -500,22 +540,30 @@ def cull_hidden_hits_kernel(
     retry_t_maxs: wp.array[float],
     retries: wp.array[wp.int32],
 ):
-    """Marks rays whose closest hit is not seen: they are re-traced from just past it (``retry_t_maxs > 0``); every
-    other ray gets an empty range. With ``back_faces = 1`` (camera rays) that is :func:`hidden_hit`, else (bounce
-    rays, which see both sides) a hole only."""
+    """Marks rays whose closest hit is not seen (:func:`hidden`): they are re-traced from just past it
+    (``retry_t_maxs > 0``); every other ray gets an empty range. A hidden hit whose coincident twin
+    (:mod:`wrt.twins`) is seen there becomes a hit on the twin instead (``hit_u, hit_v, hit_prim`` are rewritten in
+    place): the re-trace from past ``t`` would skip the twin too."""
     i = wp.tid()
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
     prim = hit_prim[i]
     if prim < 0:
         return
-    if back_faces == 1:
-        if not hidden_hit(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i],
-                          hit_t[i]):
-            return
-    elif not in_hole(surf, mats, prim, hit_u[i], hit_v[i]):
+    instance, u, v, o, d, t = hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i], hit_t[i]
+    if not hidden(scene, surf, mats, back_faces, prim, instance, u, v, o, d, t):
         return
-    retry_t_mins[i] = t_past(hit_t[i])
+    twin = int(-1)
+    if surf.num_twins > 0 and prim < scene.num_prims:
+        twin = surf.twins[prim]
+    if twin >= 0:
+        uv = twin_uv(scene, prim, twin, u, v)
+        if not hidden(scene, surf, mats, back_faces, twin, instance, uv[0], uv[1], o, d, t):
+            hit_u[i] = uv[0]
+            hit_v[i] = uv[1]
+            hit_prim[i] = twin
+            return
+    retry_t_mins[i] = t_past(t)
     retry_t_maxs[i] = t_maxs[i]
     wp.atomic_add(retries, 0, 1)
 
