@@ -12,8 +12,10 @@ Conventions:
   is turned to the same side. ``front`` records whether the ray arrived on the winding's front side. A material's
   normal map then perturbs the shading normal (:func:`shading_point`, which the integrators and AOVs read).
 - Back faces of single-sided meshes (``doubleSided = false``) are invisible to camera rays, as in usdview: they
-  are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`). Bounce and shadow rays see both
-  sides, so closed glass objects refract twice and single-sided walls still cast shadows. Camera and bounce rays
+  are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`), or, where the triangle has a
+  coincident twin seen from there (:mod:`wrt.twins`: a two-sided leaf's other face), by taking the twin. Bounce
+  and shadow rays see both sides, so closed glass objects refract twice and single-sided walls still cast shadows.
+  Camera and bounce rays
   skip the holes of cut-out materials (``opacity < opacityThreshold``) the same way, so the AOVs and every
   integrator start from the surface seen through them and a hole uses up no bounce: up to :data:`MAX_CULL_PASSES`
   hidden hits in a row (the passes stop once no ray needs another); a ray still in a hole after them ends its path.
