@@ -783,9 +783,8 @@ class Scene:
             ranges = self.prototype_ranges()
             spaces = np.concatenate([np.full(self.num_flat_triangles, -1), np.repeat(np.arange(len(ranges)),
                                                                                      ranges[:, 1])])
-            sided = np.concatenate([np.full(len(m.indices), bool(m.double_sided)) for m in self._geometry_meshes()]
-                                   or [np.zeros(0, bool)])
-            self._cache[key] = find_twins(points, indices, spaces, sided)
+            double_sided = self.triangle_double_sided()[: len(indices)]  # its shapes (after the triangles) have none
+            self._cache[key] = find_twins(points, indices, spaces, double_sided)
         return self._cache[key]
 
     def corner_uvs(self) -> np.ndarray:
