@@ -15,7 +15,8 @@
   instances linked part by part);
 - a quad whose displayOpacity goes from 0 to 1 across it in front of a glowing wall, and a PointInstancer whose two
   instances have their own displayOpacity (0.25, 0.75);
-- a mesh light (MeshLightAPI) over a floor, and points and curves under a sheared native instance.
+- a mesh light (MeshLightAPI) over a floor, points and curves under a sheared native instance, and a two-sided
+  leaf (a front face and its reversed twin, a material each) seen from both sides.
 
 wrt's shade kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are
 expected to be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
@@ -63,6 +64,8 @@ from test_primvar_colors import (  # noqa: E402
 )
 from test_tapered_gprims import rays_towards, write_stage  # noqa: E402
 from test_tubes_under_instances import TRANSFORMS, native_stage  # noqa: E402
+from test_twins import leaf as two_sided_leaf  # noqa: E402
+from test_twins import two_materials  # noqa: E402
 from test_udim import BLUE, GREEN, RED, udim_stage, write_tile  # noqa: E402
 from usda_text import floats, fmt, write  # noqa: E402
 
@@ -255,8 +258,8 @@ def linked_lights(folder: Path, devices: list[str]) -> None:
 
 
 def mesh_lights_and_round_instances(folder: Path, devices: list[str]) -> None:
-    """A MeshLightAPI square over a floor, bare and tinting a glowing material; then points and curves instanced
-    under a shear, placed round in the TLAS."""
+    """A MeshLightAPI square over a floor, bare and tinting a glowing material; points and curves instanced under a
+    shear, placed round in the TLAS; a two-sided leaf in both triangle orders, seen from both sides."""
     header = '#usda 1.0\n(\n    upAxis = "Z"\n)\n'
     tinting = mesh_light(material="/Glow", intensity=3.0) + glowing_material((1, 0.5, 0.25))
     for name, prims in (("bare", mesh_light(intensity=3.0)), ("tinting a glow", tinting)):
@@ -271,6 +274,12 @@ def mesh_lights_and_round_instances(folder: Path, devices: list[str]) -> None:
     cam = wrt.Camera.look_at((0.5, 0.0, 7.0), (0.5, 0.0, 0.0), fov_y_deg=60.0)
     compare("points and curves under a sheared instance", wrt.load_usd(path), devices, camera=cam, width=48,
             height=48, integrator="path", spp=4)
+    for order in ("front_first", "back_first"):  # a culled back face takes its coincident front twin
+        leaf, _ = two_sided_leaf(order)
+        scene = wrt.Scene(meshes=[leaf], materials=two_materials())
+        for z in (4.0, -4.0):
+            compare(f"two-sided leaf {order} from z {z}", scene, devices,
+                    camera=wrt.Camera.look_at((0.1, 0.2, z), (0, 0, 0)), width=16, height=16, integrator="path", spp=4)
 
 
 if __name__ == "__main__":
