@@ -2,6 +2,8 @@
 one place, a material each): each side shows its own face, and the camera ray never falls through the pair
 (``wrt.twins``, ``wrt.shade.cull_hidden_hits_kernel``)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -109,3 +111,24 @@ def test_find_twins():
                                   [2, 3, -1, -1])
     assert find_twins(CORNERS, [[0, 1, 1], [1, 1, 0]], [-1] * 2, [False] * 2) is None
     assert find_twins(CORNERS, FRONT + BACK, [-1] * 4, [True] * 4) is None  # nothing culled: nothing to find
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+@pytest.mark.parametrize("order", ["front_first", "back_first"])
+def test_mirror_shows_the_side_it_faces(order, integrator):
+    """A bounce ray (here off a mirror) meeting the leaf from behind its front face sees the back face, in either
+    triangle order, as the back face alone shows: the tie rule reporting the front face showed its unlit back (the
+    red face glows on its front only), black for blue."""
+    big = 4.0 * CORNERS
+    mirror = Mesh("/Mirror", np.array([[3, -5, -5], [3, 5, -5], [3, 5, 5], [3, -5, 5]], np.float32),
+                  [[0, 2, 1], [0, 3, 2]], [0, 0], material_ids=np.full(2, 2, np.int32), double_sided=True)
+    materials = [wrt.Material(path="/Front", diffuse_color=(0, 0, 0), emissive_color=RED),
+                 wrt.Material(path="/Back", diffuse_color=(0, 0, 0), emissive_color=BLUE),
+                 wrt.Material(path="/Mirror", diffuse_color=(1, 1, 1), metallic=1.0, roughness=0.0)]
+    camera = wrt.Camera.look_at((2, 0, -3), (3, 0, -1.5))  # its rays reach the leaf's back (z < 0) off the mirror
+    rgb = {}
+    for name, m in (("leaf", leaf(order)[0]), ("back alone", side_only("back"))):
+        scene = wrt.Scene(meshes=[dataclasses.replace(m, points=big), mirror], materials=materials)
+        rgb[name] = wrt.render(scene, camera=camera, width=8, height=8, integrator=integrator, spp=2).rgb
+    assert (rgb["back alone"][..., 2] > 0.5).sum() >= 16  # the mirror shows the blue face on many pixels
+    np.testing.assert_allclose(rgb["leaf"], rgb["back alone"], atol=1e-6)

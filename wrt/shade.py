@@ -14,7 +14,8 @@ Conventions:
 - Back faces of single-sided meshes (``doubleSided = false``) are invisible to camera rays, as in usdview: they
   are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`), or, where the triangle has a
   coincident twin seen from there (:mod:`wrt.twins`: a two-sided leaf's other face), by taking the twin. Bounce
-  and shadow rays see both sides, so closed glass objects refract twice and single-sided walls still cast shadows.
+  and shadow rays see both sides, so closed glass objects refract twice and single-sided walls still cast shadows;
+  a bounce ray on a back face with such a twin takes the twin too.
   Camera and bounce rays
   skip the holes of cut-out materials (``opacity < opacityThreshold``) the same way, so the AOVs and every
   integrator start from the surface seen through them and a hole uses up no bounce: up to :data:`MAX_CULL_PASSES`
@@ -456,6 +457,23 @@ def in_hole(surf: DeviceSurfaces, mats: DeviceMaterials, prim: int, u: float, v:
 
 
 @wp.func
+def back_face(scene: DeviceScene, surf: DeviceSurfaces, prim: int, instance: int, o: wp.vec3, d: wp.vec3, t: float):
+    """True when the ray ``(o, d)`` meets ``prim`` (hit at ``t`` in ``instance``) on the back of a single-sided
+    triangle or shape."""
+    if surf.double_sided[prim] == 1:
+        return False
+    if prim >= scene.num_prims:
+        p, n, size, err = shape_frame(scene, prim, instance, o, d, t)
+        return wp.dot(n, d) > 0.0
+    a = scene.points[scene.indices[prim, 0]]
+    b = scene.points[scene.indices[prim, 1]]
+    c = scene.points[scene.indices[prim, 2]]
+    if instance >= 0:
+        d = transform_vector(scene.world_to_local[instance], d)  # n_world . d = n_local . (A d)
+    return wp.dot(wp.cross(b - a, c - a), d) > 0.0
+
+
+@wp.func
 def hidden_hit(
     scene: DeviceScene,
     surf: DeviceSurfaces,
@@ -472,17 +490,7 @@ def hidden_hit(
     back of a single-sided triangle."""
     if in_hole(surf, mats, prim, u, v):
         return True
-    if surf.double_sided[prim] == 1:
-        return False
-    if prim >= scene.num_prims:
-        p, n, size, err = shape_frame(scene, prim, instance, o, d, t)
-        return wp.dot(n, d) > 0.0
-    a = scene.points[scene.indices[prim, 0]]
-    b = scene.points[scene.indices[prim, 1]]
-    c = scene.points[scene.indices[prim, 2]]
-    if instance >= 0:
-        d = transform_vector(scene.world_to_local[instance], d)  # n_world . d = n_local . (A d)
-    return wp.dot(wp.cross(b - a, c - a), d) > 0.0
+    return back_face(scene, surf, prim, instance, o, d, t)
 
 
 @wp.func
@@ -543,9 +551,10 @@ def cull_hidden_hits_kernel(
     retries: wp.array[wp.int32],
 ):
     """Marks rays whose closest hit is not seen (:func:`hidden`): they are re-traced from just past it
-    (``retry_t_maxs > 0``); every other ray gets an empty range. A hidden hit whose coincident twin
-    (:mod:`wrt.twins`) is seen there becomes a hit on the twin instead (``hit_u, hit_v, hit_prim`` are rewritten in
-    place): the re-trace from past ``t`` would skip the twin too."""
+    (``retry_t_maxs > 0``); every other ray gets an empty range. A hit whose coincident twin (:mod:`wrt.twins`) is
+    seen there becomes a hit on the twin instead (``hit_u, hit_v, hit_prim`` are rewritten in place) when the hit is
+    hidden (the re-trace from past ``t`` would skip the twin too) or, for bounce rays, on the hit's back: they see
+    a two-sided leaf's other face there, as camera rays do, not the back of the face the tie rule reported."""
     i = wp.tid()
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
@@ -553,11 +562,13 @@ def cull_hidden_hits_kernel(
     if prim < 0:
         return
     instance, u, v, o, d, t = hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i], hit_t[i]
-    if not hidden(scene, surf, mats, back_faces, prim, instance, u, v, o, d, t):
-        return
     twin = int(-1)
     if surf.num_twins > 0 and prim < scene.num_prims:
         twin = surf.twins[prim]
+    hide = hidden(scene, surf, mats, back_faces, prim, instance, u, v, o, d, t)
+    # Kept as it is unless hidden or, for a bounce ray, on the back of a face whose twin may show its front there.
+    if not hide and (twin < 0 or back_faces == 1 or not back_face(scene, surf, prim, instance, o, d, t)):
+        return
     if twin >= 0:
         uv = twin_uv(scene, prim, twin, u, v)
         if not hidden(scene, surf, mats, back_faces, twin, instance, uv[0], uv[1], o, d, t):
@@ -565,6 +576,8 @@ def cull_hidden_hits_kernel(
             hit_v[i] = uv[1]
             hit_prim[i] = twin
             return
+    if not hide:
+        return  # a bounce ray on the back of a face whose twin is a hole there: it sees that back
     retry_t_mins[i] = t_past(t)
     retry_t_maxs[i] = t_maxs[i]
     wp.atomic_add(retries, 0, 1)
@@ -617,11 +630,13 @@ def intersect_visible(
             capture: :func:`repeat_passes`); ``None``: up to :data:`MAX_CULL_PASSES`, stopping once no ray needs
             another.
         camera_rays: also cull back faces, and add the traversal costs to ``hits.cost`` (the cost AOV); ``False``
-            for bounce rays, which see both sides of every surface and pass holes only.
+            for bounce rays, which see both sides of every surface (but take a back face's coincident twin) and
+            pass holes only.
     """
     origins, directions, _, t_maxs = rays
     accel.intersect(*rays, hits, costs=camera_rays)
-    nothing_hidden = scratch.nothing_to_cull if camera_rays else scratch.no_holes
+    # Bounce rays need the pass for holes, and for coincident twins (cull_hidden_hits_kernel).
+    nothing_hidden = scratch.nothing_to_cull if camera_rays else scratch.no_holes and surfaces.num_twins == 0
     if nothing_hidden:
         return
     n = len(origins)
