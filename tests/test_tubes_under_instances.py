@@ -169,7 +169,8 @@ def test_warp_accel_agrees_on_the_tessellated_stage(tmp_path, name):
 def test_points_of_a_zero_scale_instance_are_skipped_with_it(tmp_path):
     """The meshes and gprims of a PointInstancer instance of scale (0, 1, 1) are skipped with a warning naming it,
     but a Points prim in its prototype was drawn, without a word: its spheres, placed round, kept their size at the
-    squashed centres (hits at t = 4.59). They go with the instance now, under the same warning."""
+    squashed centres (hits at t = 4.59). They go with the instance now, under the same warning, which names the
+    instance once (each sphere is an instance row of its own: it read '2 prim(s): /PI[1], /PI[1]')."""
     path = write(tmp_path, '''def PointInstancer "PI"
 {
     rel prototypes = [</PI/Protos/P>]
@@ -186,8 +187,10 @@ def test_points_of_a_zero_scale_instance_are_skipped_with_it(tmp_path):
     }
 }
 ''')
-    with pytest.warns(UserWarning, match=r"singular transform.*/PI\[1\]"):
+    with pytest.warns(UserWarning, match=r"singular transform.*/PI\[1\]") as record:
         scene = wrt.load_usd(path)
+    named = [str(w.message).split("skipped: ")[1] for w in record if "singular" in str(w.message)]
+    assert named == ["1 prim(s): /PI[1]"]
     assert {scene.instances.path(i) for i in range(len(scene.instances))} == {"/PI[0]"}
     # Down onto the spheres' centres (x = 5: the squashed instance; x = 0: the other one).
     origins = np.array([[5, 0, 5], [5, 2, 5], [0, 0, 5], [0, 2, 5]], np.float32)

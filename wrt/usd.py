@@ -1024,11 +1024,12 @@ class _StageReader:
                 opacities = np.ascontiguousarray(looks[:, 3])
         instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources, colors,
                               roots, np.concatenate(root_of)[order], opacities)
-        for i in projective:
-            self._skip_path("world transform is projective; its last column was ignored", instances.path(i))
+        # Named once per USD instance: a Points or curves prim in it is an instance row per sphere or tube piece.
+        for path in dict.fromkeys(instances.path(i) for i in projective):
+            self._skip_path("world transform is projective; its last column was ignored", path)
         inverses, ok = invert_transforms(instances.to_world)
-        for i in np.flatnonzero(~ok):
-            self._skip_path("instances with a singular transform (a zero scale) were skipped", instances.path(i))
+        for path in dict.fromkeys(instances.path(i) for i in np.flatnonzero(~ok)):
+            self._skip_path("instances with a singular transform (a zero scale) were skipped", path)
         if not ok.all():
             instances = instances.take(ok)
         scene.instances = instances
