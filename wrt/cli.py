@@ -708,7 +708,7 @@ def _add_bench(sub) -> None:
     p.add_argument("-o", "--out", default="bench-out", help="output folder")
     p.add_argument("--resume", action="store_true",
                    help="keep rows already in OUT/rows.jsonl and skip them (the same ray counts only); rows of changed "
-                   "triangles or rays, hardware or wrt/Warp versions are measured again")
+                   "triangles or rays, hardware, wrt source or Warp version are measured again")
     p.add_argument(
         "--dask",
         nargs="?",
