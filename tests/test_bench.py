@@ -1,7 +1,9 @@
 """The benchmark harness: rows, ratios, error rows, resume, flushing, plots, the CLI."""
 
 import json
+import math
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -465,6 +467,32 @@ def test_markdown_table_cells_line_up_with_the_header():
     columns = lambda line: line.replace("\\|", "").count("|")  # noqa: E731
     assert [columns(line) for line in lines[:4]] == [14] * 4
     assert "None" not in lines[3] and "a\\|b.usda" in lines[2]
+
+
+def test_a_row_that_measured_nothing_is_strict_json_and_reads_n_a(tmp_path, monkeypatch):
+    """A NaN rate went to rows.jsonl as a bare NaN, which is no JSON (jq and JSON.parse reject the file), and to
+    table.md as 'nan'; an infinite one failed the plots on their log axes ('Data cannot be log-scaled')."""
+    monkeypatch.setattr(bench_module, "time_runs", lambda run, repeats: [math.nan] * repeats)  # a timer gone wrong
+    run_grid(tiny_grid(rays=["primary"], n_rays=300, repeats=1), tmp_path, progress=False)
+
+    def no_constants(name):
+        raise ValueError(f"{name} is no JSON")
+
+    written = [json.loads(line, parse_constant=no_constants) for line in (tmp_path / "rows.jsonl").read_text().split(
+        "\n") if line]
+    assert [(r["accel"], r["mrays"], r["mrays_max"], r["build_ms"] > 0) for r in written] == [
+        ("warp:sah", None, None, True), ("wrt:sah", None, None, True)]
+    rows = run_grid(tiny_grid(rays=["primary", "shadow"], n_rays=300, repeats=1), tmp_path, resume=True,
+                    progress=False)
+    assert len(rows) == 4 and all(math.isnan(r["mrays"]) for r in rows)  # null read back as NaN by --resume
+    assert all(r["agreement"] == 1.0 for r in rows)  # a null that means unchecked is not read as NaN
+    table = (tmp_path / "table.md").read_text()
+    assert not re.search(r"\b(nan|inf)\b", table, re.IGNORECASE) and "| n/a (n/a-n/a) |" in table
+    sweep = [dict(scene=f"sphere:{n}", triangles=n, device="cpu", rays="incoherent", accel="wrt:sah", threads=1,
+                  build_ms=1.0, mrays=mrays, mrays_min=1.0, mrays_max=mrays, hit_fraction=0.5, sah_cost=sah, sweep=True)
+             for n, mrays, sah in ((1000, 2.0, 1.5), (10_000, math.inf, math.nan), (100_000, math.nan, math.inf))]
+    assert sorted(p.name for p in bench_module.plot(sweep, tmp_path)) == ["build_vs_quality.png", "mrays.png",
+                                                                         "scaling.png"]
 
 
 def test_cli_bench_suite_and_quick_conflict(tmp_path, capsys):

@@ -648,7 +648,7 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
             raise ValueError(f"{jsonl}: line {number} is not a benchmark row (an object with "
                              f"{', '.join(ROW_KEY_FIELDS)}); remove it to resume")
         if "error" not in row:
-            rows.append(row)
+            rows.append(_row_from_json(row))
     _write_rows(jsonl, rows)
     return rows
 
@@ -656,8 +656,25 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
 def _write_rows(jsonl: Path, rows: list[dict]) -> None:
     """Replaces ``jsonl`` with ``rows`` in one step: an interruption leaves the old file or the new one."""
     tmp = jsonl.with_suffix(".jsonl.tmp")
-    tmp.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    tmp.write_text("".join(row_json(r) + "\n" for r in rows))
     tmp.replace(jsonl)
+
+
+# Measured numbers of a row: NaN or infinite ones are written as null and read back as NaN.
+MEASURED_FLOATS = ("build_ms", "mrays", "mrays_min", "mrays_max", "hit_fraction", "sah_cost")
+
+
+def row_json(row: dict) -> str:
+    """``row`` as one line of strict JSON, with null for a NaN or infinite number: Python's bare ``NaN`` and
+    ``Infinity`` are no JSON, and ``jq`` or ``JSON.parse`` reject the whole file for one of them."""
+    return json.dumps({k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in row.items()},
+                      allow_nan=False)
+
+
+def _row_from_json(row: dict) -> dict:
+    """A row read from ``rows.jsonl``: the null of a measured number is NaN again (``agreement`` stays None: it
+    means unchecked)."""
+    return dict(row, **{k: math.nan for k in MEASURED_FLOATS if k in row and row[k] is None})
 
 
 def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set) -> bool:
@@ -738,7 +755,7 @@ def run_grid(
         rows.append(row)
         if jsonl is not None:
             with open(jsonl, "a") as f:  # one row per write, flushed: an interrupted run loses nothing
-                f.write(json.dumps(row) + "\n")
+                f.write(row_json(row) + "\n")
                 f.flush()
         if "error" in row:
             tqdm.write(f"wrt bench: {row['scene']} / {row['accel']} / {row['rays']}: {row['error']}")
@@ -819,7 +836,7 @@ def _ratio(row, rows, accel) -> float | None:
     for other in rows:
         if (other.get("accel") == accel and "mrays" in other and row_key(other)[2:] == row_key(row)[2:]
                 and other["scene"] == row["scene"]):
-            return row["mrays"] / other["mrays"] if other["mrays"] else None
+            return row["mrays"] / other["mrays"] if other["mrays"] else math.nan  # shown as n/a
     return None
 
 
@@ -831,7 +848,7 @@ def markdown_table(rows: list[dict]) -> str:
             "| x warp:sah | x embree | SAH |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     cell = lambda x: "" if x is None else str(x).replace("|", "\\|")  # noqa: E731 - a '|' would split the cell
-    fmt = lambda x, spec: "" if x is None else format(x, spec)  # noqa: E731
+    fmt = lambda x, spec: "" if x is None else format(x, spec) if math.isfinite(x) else "n/a"  # noqa: E731
     notes = set()
     for r in rows:
         start = f"| {cell(r['scene'])} | {cell(r.get('triangles'))} | {r['device']} | {r['rays']} | {r['accel']} | "
@@ -848,9 +865,9 @@ def markdown_table(rows: list[dict]) -> str:
             agree = "unchecked"
             notes.add(f"- unchecked: no {REFERENCE} answer in the group to compare with (it failed or was not run)")
         lines.append(
-            f"{start}{r['threads']} | {r['build_ms']:.1f} | {r['mrays']:.2f} ({r['mrays_min']:.2f}-"
-            f"{r['mrays_max']:.2f}) | {100 * r['hit_fraction']:.1f} | {agree} | {fmt(ratio_w, '.2f')} | "
-            f"{fmt(ratio_e, '.2f')} | {fmt(r.get('sah_cost'), '.2f')} |"
+            f"{start}{r['threads']} | {fmt(r['build_ms'], '.1f')} | {fmt(r['mrays'], '.2f')} "
+            f"({fmt(r['mrays_min'], '.2f')}-{fmt(r['mrays_max'], '.2f')}) | {fmt(100 * r['hit_fraction'], '.1f')} | "
+            f"{agree} | {fmt(ratio_w, '.2f')} | {fmt(ratio_e, '.2f')} | {fmt(r.get('sah_cost'), '.2f')} |"
         )
     hardware_lines = sorted({f"- {r['device']}: CPU {r.get('cpu')} ({r.get('cpu_cores')} cores), GPU {r.get('gpu')}, "
                              f"driver {r.get('gpu_driver')} ({r.get('driver')}), Warp {r.get('warp')}, "
@@ -880,6 +897,12 @@ def _slope_label(x, y) -> str:
 PLOT_FILES = ("mrays.png", "build_vs_quality.png", "scaling.png")  # what plot() may write
 
 
+def _plottable(*values) -> bool:
+    """Whether every value is a positive finite number, as a log axis needs: a NaN or infinite point (a row that
+    measured nothing) failed the whole plot ("Data cannot be log-scaled"), and is left out instead."""
+    return all(v is not None and math.isfinite(v) and v > 0 for v in values)
+
+
 def plot(rows: list[dict], out: Path) -> list[Path]:
     """Writes ``mrays.png``, ``build_vs_quality.png`` and, for scaling rows, ``scaling.png``; returns the paths.
     Rows of several devices get a bar (and a scaling line) per device."""
@@ -900,6 +923,7 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
             values = [next((r["mrays"] for r in good if (r["scene"], r["rays"]) == lab
                             and (r["accel"], r["device"], r["threads"]) == (accel, device, threads)), 0)
                       for lab in labels]
+            values = [v if _plottable(v) else 0 for v in values]  # no bar, as for a row not measured
             name = f"{accel} {device}" if several else accel
             ax.bar(np.arange(len(labels)) + i * width, values, width, label=f"{name} x{threads}")
         ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, [f"{s}\n{k}" for s, k in labels], fontsize=7)
@@ -910,7 +934,9 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
 
-    with_sah = [r for r in good if r.get("sah_cost") is not None]  # wrt: rows only: wp.Mesh and Embree give none
+    # wrt: rows only: wp.Mesh and Embree give no SAH cost.
+    with_sah = [r for r in good
+                if r.get("sah_cost") is not None and math.isfinite(r["sah_cost"]) and _plottable(r["build_ms"])]
     if with_sah:
         fig, ax = plt.subplots(figsize=(5, 4))
         for r in with_sah:
@@ -924,7 +950,7 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
 
-    scaling = [r for r in good if r.get("sweep")]
+    scaling = [r for r in good if r.get("sweep") and _plottable(r["build_ms"], r["mrays"])]
     if scaling:
         fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 4))
         several = len({r["device"] for r in scaling}) > 1
