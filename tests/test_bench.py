@@ -512,6 +512,16 @@ def test_cli_bench_exit_status_summarises_failures(tmp_path, capsys):
     assert main(["bench", "--rays", "sideways", "-o", str(tmp_path), "-q"]) == 2
 
 
+def test_cli_bench_counts_resumed_rows_apart_from_measured_ones(tmp_path, capsys):
+    """A resumed run said '4 rows measured' when it had measured 2 and kept 2 of the earlier run."""
+    argv = ["bench", "--scenes", "sphere:200,missing.usda", "--accels", "warp:sah,wrt:sah", "--n-rays", "300",
+            "--repeats", "1", "-o", str(tmp_path), "-q", "--rays"]
+    assert main(argv + ["primary"]) == 1
+    assert "wrt: 2 rows measured, 0 resumed, 1 failed;" in capsys.readouterr().err
+    assert main(argv + ["primary,shadow", "--resume"]) == 1
+    assert "wrt: 2 rows measured, 2 resumed, 2 failed;" in capsys.readouterr().err
+
+
 def test_a_cuda_device_this_machine_lacks_fails_its_rows_and_the_others_run(tmp_path, capsys):
     """--devices cpu,cuda:99 stopped the whole run before any row with 'unknown or unavailable device'."""
     code = main(["bench", "--scenes", "sphere:200", "--accels", "warp:sah", "--rays", "primary", "--devices",

@@ -700,8 +700,8 @@ def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set) ->
 
 def run_grid(
     grid: Grid, out: Path | None = None, resume: bool = False, progress: bool = True, dask: str | bool | None = None
-) -> list[dict]:
-    """Runs the whole grid; returns the rows (also appended to ``out/rows.jsonl`` as they come).
+) -> Rows:
+    """Runs the whole grid; returns the rows (also appended to ``out/rows.jsonl`` as they come), resumed ones first.
 
     ``dask``: None runs every group here, in turn; True sends the groups to a new ``LocalCluster`` and an address
     (``tcp://host:8786``) to that scheduler (``wrt.distributed.run_tasks``), a group per task, each group's rows
@@ -793,7 +793,16 @@ def run_grid(
         raise
     if out is not None:
         write_summary(rows, out)
-    return rows
+    return Rows(rows, resumed=len(resumed))
+
+
+class Rows(list):
+    """The rows of a run, as a list; ``resumed``: how many of them ``resume`` kept from the earlier run, unmeasured
+    (they come first)."""
+
+    def __init__(self, rows=(), resumed: int = 0):
+        super().__init__(rows)
+        self.resumed = resumed
 
 
 def _resolve_devices(names: list[str]) -> tuple[list, dict]:

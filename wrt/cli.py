@@ -734,7 +734,8 @@ def _run_bench(args) -> int:
     grid = grid.validated()  # a bad field is a one-line error that names it
     rows = run_grid(grid, args.out, resume=args.resume, progress=not args.quiet, dask=args.dask)
     failed = [r for r in rows if "error" in r]
-    summary = f"wrt: {len(rows) - len(failed)} rows measured, {len(failed)} failed; results in {args.out}/"
+    measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
+    summary = f"wrt: {measured} rows measured, {rows.resumed} resumed, {len(failed)} failed; results in {args.out}/"
     print(summary, file=sys.stderr)
     for r in failed:
         print(f"wrt: failed: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['error']}", file=sys.stderr)
