@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from wrt import distributed
+from wrt import bench, distributed
 from wrt.bench import Grid, run_grid
 from wrt.cli import main
 from wrt.distributed import DaskUnavailable, run_tasks
@@ -47,6 +47,16 @@ def always_die_on_two(item):
             f.write("x")
         os._exit(1)
     return x
+
+
+RUN_GROUP_TASK = bench._run_group_task  # the real one, for kill_on_primary_rays on a worker
+
+
+def kill_on_primary_rays(task):
+    """Kills its worker on every group of primary rays, as a worker lost to the OOM killer; runs the others."""
+    if task[0][2] == "primary":
+        os._exit(1)
+    return RUN_GROUP_TASK(task)
 
 
 def fail_on_three(x):
@@ -140,3 +150,20 @@ def test_bench_dask_writes_the_serial_rows_and_resumes(tmp_path, monkeypatch):
     rows = [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
     assert rows[: len(kept)] == kept  # not measured again
     assert comparable(rows) == comparable(serial)
+
+
+def test_bench_dask_keeps_resumed_rows_of_a_group_whose_workers_die(tmp_path, monkeypatch):
+    """A group whose workers kept dying became an error row that dropped every row --resume had kept for the group
+    from rows.jsonl ("measured again, as the group now fails"), though nothing had measured them again."""
+    grid = Grid(scenes=["sphere:200"], accels=["warp:sah", "wrt:sah"], rays=["primary"], n_rays=300, repeats=1)
+    kept = run_grid(grid, tmp_path, progress=False)
+    monkeypatch.setattr(bench, "_run_group_task", kill_on_primary_rays)
+    monkeypatch.setattr(distributed, "default_workers", lambda: 2)
+    rows = run_grid(Grid(**dict(vars(grid), rays=["primary", "shadow"])), tmp_path, progress=False, resume=True,
+                    dask=True)
+    assert rows[:2] == kept and rows.resumed == 2
+    assert [(r["rays"], r["accel"], "mrays" in r) for r in rows[2:]] == [
+        ("primary", "*", False), ("shadow", "warp:sah", True), ("shadow", "wrt:sah", True)]
+    assert "KilledWorker" in rows[2]["error"]
+    written = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
+    assert written[:2] == kept and sorted(map(json.dumps, written)) == sorted(map(json.dumps, rows))

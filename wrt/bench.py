@@ -705,7 +705,7 @@ def run_grid(
 
     ``dask``: None runs every group here, in turn; True sends the groups to a new ``LocalCluster`` and an address
     (``tcp://host:8786``) to that scheduler (``wrt.distributed.run_tasks``), a group per task, each group's rows
-    written as it arrives. A group whose workers keep dying becomes an error row.
+    written as it arrives. A group whose workers keep dying becomes an error row; its resumed rows stay.
     """
     from tqdm import tqdm
 
@@ -765,7 +765,8 @@ def run_grid(
             from .distributed import run_tasks
 
             def lost(task, e):  # the group's workers kept dying, or its device does not exist there
-                emit(_group_error_row(*task[0], e))
+                # Nothing measured the group's resumed rows again, so they stay, as a missing device's do.
+                emit(_group_error_row(*task[0], e), replaces=False)
 
             done = {key: {name: r.get(name) for name in IDENTITY_FIELDS} for key, r in resumed.items()}
             tasks = [((s, str(d), k), grid, thread_counts, done) for s, d, k in groups]
