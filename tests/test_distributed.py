@@ -167,3 +167,15 @@ def test_bench_dask_keeps_resumed_rows_of_a_group_whose_workers_die(tmp_path, mo
     assert "KilledWorker" in rows[2]["error"]
     written = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
     assert written[:2] == kept and sorted(map(json.dumps, written)) == sorted(map(json.dumps, rows))
+
+
+@pytest.mark.skipif(bench.wp.get_cuda_device_count() > 0, reason="the workers here have a GPU")
+def test_bench_dask_cuda_rows_fail_on_workers_without_a_gpu(tmp_path, monkeypatch):
+    """On workers without a GPU, worker_device() is 'cpu', and the cuda:0 group ran there: rows labelled cuda:0 that
+    timed the CPU again. It is now an error row naming the device, as without --dask."""
+    monkeypatch.setattr(distributed, "default_workers", lambda: 1)
+    grid = Grid(scenes=["sphere:200"], accels=["wrt:sah"], devices=["cpu", "cuda:0"], rays=["primary"], n_rays=300,
+                repeats=1)
+    rows = run_grid(grid, tmp_path, progress=False, dask=True)
+    assert [(r["device"], r["accel"], "mrays" in r) for r in rows] == [("cpu", "wrt:sah", True), ("cuda:0", "*", False)]
+    assert "cuda:0" in rows[1]["error"] and "no CUDA device" in rows[1]["error"]

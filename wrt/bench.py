@@ -589,6 +589,8 @@ def _run_group_task(task) -> list[dict]:
     (scene_name, device_name, kind), grid, thread_counts, done = task  # done: row key -> identity fields
     wp.config.log_level = wp.LOG_WARNING  # no Warp banner and module-load lines from every worker
     device = resolve_device(worker_device() if device_name.startswith("cuda") else device_name)
+    if device_name.startswith("cuda") and not device.is_cuda:  # worker_device() is the CPU without a GPU
+        raise ValueError(f"{device_name}: no CUDA device on the Dask worker at {platform.node()}")
     info, rows = hardware(device), []
 
     def collect(row):
