@@ -335,6 +335,25 @@ def test_interrupted_run_keeps_finished_rows(tmp_path, monkeypatch):
     assert all(row["accel"] in table for row in rows)
 
 
+def test_a_run_that_stops_before_its_first_row_leaves_the_earlier_results(tmp_path, monkeypatch):
+    """A misspelt device (the run stops "before any row", status 2), an unreachable Dask scheduler or Ctrl-C while
+    the first scene loaded deleted the earlier run's rows.jsonl, rewrote its settings.json and emptied its table.md."""
+    run_grid(tiny_grid(rays=["primary"], n_rays=300, repeats=1), tmp_path, progress=False)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert len(read_rows(tmp_path)) == 2
+    with pytest.raises(ValueError, match="unknown or unavailable device 'cpuu'"):
+        run_grid(tiny_grid(devices=["cpu", "cpuu"], n_rays=600), tmp_path, progress=False)
+
+    def interrupted(name):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bench_module, "resolve_scene", interrupted)
+    for resume in (False, True):
+        with pytest.raises(KeyboardInterrupt):
+            run_grid(tiny_grid(rays=["primary", "shadow"], n_rays=300), tmp_path, resume=resume, progress=False)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
 def test_ray_kinds():
     scene = wrt.Scene.from_triangles(*displaced_sphere(5000))
     for kind in RAY_KINDS:

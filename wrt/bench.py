@@ -628,8 +628,8 @@ def _check_resumed_settings(path: Path, grid: Grid) -> None:
 
 
 def _resumed_rows(jsonl: Path) -> list[dict]:
-    """The measured rows of an earlier run, for ``resume``; ``jsonl`` is rewritten with just those. Error rows are
-    dropped, as their rows run again; so is a last line cut short by an interruption.
+    """The measured rows of an earlier run, for ``resume`` (``jsonl`` gets just those once the run has a row).
+    Error rows are dropped, as their rows run again; so is a last line cut short by an interruption.
 
     Raises:
         ValueError: naming the file and line, for a damaged line other than the last.
@@ -651,7 +651,6 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
                              f"{', '.join(ROW_KEY_FIELDS)}); remove it to resume")
         if "error" not in row:
             rows.append(_row_from_json(row))
-    _write_rows(jsonl, rows)
     return rows
 
 
@@ -726,9 +725,7 @@ def run_grid(
             _check_resumed_settings(out / SETTINGS_FILE, grid)
             rows = _resumed_rows(jsonl)
             resumed = {row_key(r): r for r in rows}
-        elif jsonl.exists():
-            jsonl.unlink()
-        (out / SETTINGS_FILE).write_text(json.dumps(_ray_settings(grid)) + "\n")
+    begun = False  # whether out/ holds this run's results yet
 
     missing = [a for a in grid.accels if a == "embree" and not _has_embree()]
     if missing:
@@ -750,7 +747,17 @@ def run_grid(
         before = resumed.get(row_key(row))
         return before is not None and not identity_changes(before, dict(row, **info.get(row["device"], {})))
 
+    def begin():
+        """Replaces the earlier run's files with this run's, once it has a row (or ends): a run that stops before,
+        at a misspelt device, an unreachable Dask scheduler or Ctrl-C while a scene loads, leaves them as they were."""
+        nonlocal begun
+        if out is not None and not begun:
+            _write_rows(jsonl, rows)  # the resumed rows, or none
+            (out / SETTINGS_FILE).write_text(json.dumps(_ray_settings(grid)) + "\n")
+        begun = True
+
     def emit(row, replaces: bool = True):  # replaces: the row drops the resumed rows it measures again
+        begin()
         row.update(info.get(row["device"], {}))
         if replaces and _replace_resumed(row, resumed, rows, warned) and jsonl is not None:
             _write_rows(jsonl, rows)
@@ -791,9 +798,10 @@ def run_grid(
                 bar.update()
             bar.close()
     except KeyboardInterrupt:  # rows.jsonl has every finished row; the table and plots show them too
-        if out is not None:
+        if out is not None and begun:
             write_summary(rows, out)
         raise
+    begin()
     if out is not None:
         write_summary(rows, out)
     return Rows(rows, resumed=len(resumed))
