@@ -699,6 +699,15 @@ def _replace_resumed(row: dict, resumed: dict, rows: list[dict], warned: set) ->
     return True
 
 
+class Rows(list):
+    """The rows of a run, as a list; ``resumed``: how many of them ``resume`` kept from the earlier run, unmeasured
+    (they come first)."""
+
+    def __init__(self, rows=(), resumed: int = 0):
+        super().__init__(rows)
+        self.resumed = resumed
+
+
 def run_grid(
     grid: Grid, out: Path | None = None, resume: bool = False, progress: bool = True, dask: str | bool | None = None
 ) -> Rows:
@@ -805,15 +814,6 @@ def run_grid(
     if out is not None:
         write_summary(rows, out)
     return Rows(rows, resumed=len(resumed))
-
-
-class Rows(list):
-    """The rows of a run, as a list; ``resumed``: how many of them ``resume`` kept from the earlier run, unmeasured
-    (they come first)."""
-
-    def __init__(self, rows=(), resumed: int = 0):
-        super().__init__(rows)
-        self.resumed = resumed
 
 
 def _resolve_devices(names: list[str]) -> tuple[list, dict]:
