@@ -13,17 +13,8 @@ from shading_helpers import pixel_points, quad, top_down_camera
 
 import wrt
 from wrt.integrators.emitters import environment, lights_on_segment
-from wrt.lights import (
-    CylinderLight,
-    DeviceLights,
-    DiskLight,
-    DomeLight,
-    RectLight,
-    SphereLight,
-    area_light_pdf,
-    intersect_light,
-    sample_light,
-)
+from wrt.light_sampling import DeviceLights, area_light_pdf, intersect_light, sample_light
+from wrt.lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
 from wrt.materials import DeviceMaterials
 from wrt.scene import DeviceScene
 from wrt.shade import DeviceSurfaces

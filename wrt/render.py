@@ -25,7 +25,9 @@ from .integrators import INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
 from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_path_kernel
 from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
-from .lights import LIGHT_DOME, build_lights, default_lights, set_headlight_directions
+from .light_sampling import LIGHT_DOME
+from .light_table import build_lights, set_headlight_directions
+from .lights import default_lights
 from .materials import emission_estimates, upload_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH
 from .scene import MIN_METERS_PER_UNIT, Scene, dataclass_parts, parts_changed

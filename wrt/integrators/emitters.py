@@ -7,7 +7,7 @@ linked to that surface (``collection:lightLink``, :mod:`wrt.light_links`)."""
 import warp as wp
 
 from ..light_links import lit_by
-from ..lights import (
+from ..light_sampling import (
     LIGHT_CYLINDER,
     LIGHT_DISK,
     LIGHT_DISTANT,

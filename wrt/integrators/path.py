@@ -23,7 +23,7 @@ import warp as wp
 from ..bsdf import eval_bsdf_lobes, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin
 from ..light_links import link_group, lit_by
-from ..lights import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction, triangle_light_pdf
+from ..light_sampling import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction, triangle_light_pdf
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene

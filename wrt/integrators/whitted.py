@@ -31,7 +31,7 @@ from ..bsdf import (
 )
 from ..geometry import offset_ray_origin
 from ..light_links import link_group, lit_by
-from ..lights import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction
+from ..light_sampling import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf

@@ -1,0 +1,598 @@
+"""The device side of lights: the :class:`DeviceLights` table (built by :mod:`wrt.light_table`) and the Warp
+functions the integrators call on it: sampling a light from a shading point, and the radiance and pdf of a
+light a ray hits, for multiple importance sampling (the radiometry is in :mod:`wrt.lights`).
+
+Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 0.5 / count`` (a shaped light's power
+times the share its shaping lets out); spheres are sampled by the cone they subtend; rect lights, and disk lights
+that look large, uniformly by solid angle (Urena et al. 2013; disks through the square around them;
+:mod:`wrt.spherical_rect`); other disk lights, rect lights that look tiny, cylinder and triangle lights uniformly by
+area (cylinders: the half facing the shading point); soft distant lights
+uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by the
+luminance of its filtered texture averaged over each texel (piecewise-constant 2D distribution, Pharr et al., PBRT
+4th ed., A.5 and 12.5), so that every direction the filtered texture lights can be drawn.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from .geometry import stable_length
+from .light_links import DeviceLinks
+from .light_shaping import cone_and_focus
+from .materials import DeviceMaterials, cut_out, eval_emission
+from .sampling import (
+    INV_PI,
+    PI,
+    basis_x,
+    basis_y,
+    cdf_remainder,
+    sample_cdf,
+    sample_concentric_disk,
+    sample_cosine_hemisphere,
+    sample_uniform_cone,
+    sample_uniform_sphere,
+    to_world,
+)
+from .scene import DeviceScene
+from .spherical_rect import sample_spherical_rect, solid_angle_usable, spherical_rect, spherical_rect_pdf
+from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
+
+LIGHT_DISTANT = wp.constant(0)
+LIGHT_SPHERE = wp.constant(1)
+LIGHT_RECT = wp.constant(2)
+LIGHT_DISK = wp.constant(3)
+LIGHT_CYLINDER = wp.constant(4)
+LIGHT_DOME = wp.constant(5)
+LIGHT_POINT = wp.constant(6)
+LIGHT_TRIANGLE = wp.constant(7)
+
+# DeviceLights.shadows: what blocks a light's shadow rays.
+SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
+SHADOWS_ON = wp.constant(1)  # every prim
+SHADOWS_LINKED = wp.constant(2)  # only the prims its collection:shadowLink includes (it leaves some out)
+
+# A disk light is sampled by solid angle through the square around it, which wastes the 21% of samples that fall
+# outside the disk: worth it only where the disk looks large (sr of the square), where area sampling is noisy.
+DISK_SOLID_ANGLE_LEAST = wp.constant(1.0)
+
+
+@wp.struct
+class DeviceLights:
+    """Every light on the device: ``[0, num_analytic)`` are UsdLux lights, the rest triangles of emissive materials
+    and of mesh lights."""
+
+    kinds: wp.array[wp.int32]  # LIGHT_* kind
+    radiance: wp.array[wp.vec3]  # L (area, dome, soft distant), E (delta distant), I (point); triangles: see params
+    position: wp.array[wp.vec3]  # centre; for distant lights the direction of travel
+    axis_u: wp.array[wp.vec3]  # rect: full X edge; disk: X radius vector; cylinder: full axis
+    axis_v: wp.array[wp.vec3]  # rect: full Y edge; disk: Y radius vector
+    normal: wp.array[wp.vec3]  # rect, disk: unit emitting normal
+    params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of cone, area | 1 - cos, right-angled axes);
+    # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
+    prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
+    shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF or SHADOWS_LINKED: what blocks the light
+    shaping: wp.array[wp.vec4]  # (cone angle, smooth start (radians), focus, 1); all 0: unshaped (light_shaping)
+    shaping_axis: wp.array[wp.vec3]  # unit primary axis (the light's -Z) of shaped lights
+    focus_tint: wp.array[wp.vec3]  # ShapingAPI focusTint of shaped lights
+    pmf: wp.array[float]  # selection probability of each light
+    cdf: wp.array[float]  # (count + 1) running sum of pmf
+    count: int  # number of lights
+    num_analytic: int  # number of UsdLux lights but mesh lights (they come first; then emissive and mesh triangles)
+    dome: int  # index of the dome light, -1 without one
+    dome_to_local: wp.mat33  # world direction -> dome frame
+    dome_textured: int  # 1 when the dome has a texture (a lat-long image in texels, described by texture[dome])
+    dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of filtered luminance * sin(theta)
+    dome_col_cdf: wp.array[float]  # (H (W + 1)) CDF over columns in each row, row y's from y (W + 1)
+    dome_mean: wp.vec3  # radiance averaged over the sphere
+    texture: wp.array[wp.vec3i]  # (offset into texels, width, height) of a rect or dome light's texture; width 0: none
+    texels: wp.array[wp.vec3]  # the rect and dome lights' textures, row-major from the top row, one after the other
+    lobe_scale: wp.array[wp.vec2]  # (diffuse, specular) multipliers (UsdLux inputs:diffuse, inputs:specular)
+    headlight: int  # index of the default headlight, -1 without one: it travels along each view's direction
+    headlight_dirs: wp.array[wp.vec3]  # (V,) unit direction of travel of the headlight in view (camera) V
+    links: DeviceLinks  # light and shadow linking of the analytic lights (wrt.light_links)
+
+
+@wp.struct
+class LightSample:
+    """A sampled direction towards a light."""
+
+    wi: wp.vec3  # unit direction from the shading point towards the light
+    dist: float  # distance to the sampled point (inf for distant and dome lights)
+    value: wp.vec3  # incident radiance / solid-angle pdf; for delta lights the illuminance E (or I / d^2)
+    pdf: float  # solid-angle pdf of the light sampling strategy (0 for delta lights)
+
+
+@wp.func
+def dome_direction_uv(lights: DeviceLights, d: wp.vec3):
+    """Lat-long texture coordinates ``(u, v)`` in [0, 1] (v = 0 at the top row) of world direction ``d``."""
+    local_dir = lights.dome_to_local * d
+    lon = wp.atan2(local_dir[0], local_dir[2])
+    lat = wp.asin(wp.clamp(local_dir[1], -1.0, 1.0))
+    return wp.vec2(0.5 * (1.0 - lon / PI), 0.5 - lat / PI)
+
+
+@wp.func
+def filtered_texel(texels: wp.array[wp.vec3], info: wp.vec3i, x: float, y: float, wrap_x: int):
+    """Bilinearly filtered value of the light texture ``info`` = (offset into ``texels``, width, height) at
+    continuous texel coordinates ``(x, y)`` from its top-left corner (texel centres at half-integers). Columns wrap
+    by ``wrap_x`` (``WRAP_REPEAT``: lat-long longitude; ``WRAP_CLAMP``), rows clamp (the poles, a rect's edges)."""
+    if not (wp.isfinite(x) and wp.isfinite(y)):
+        return wp.vec3(0.0)
+    w = info[1]
+    h = info[2]
+    # Keep the integer part in range before converting (a huge coordinate would overflow int).
+    fx = wp.clamp(x, -1.0, float(w) + 1.0) - 0.5
+    fy = wp.clamp(y, -1.0, float(h) + 1.0) - 0.5
+    x0f = wp.floor(fx)
+    y0f = wp.floor(fy)
+    tx = fx - x0f
+    ty = fy - y0f
+    x0 = wrap_coord(int(x0f), w, wrap_x)
+    x1 = wrap_coord(int(x0f) + 1, w, wrap_x)
+    row0 = info[0] + wrap_coord(int(y0f), h, WRAP_CLAMP) * w
+    row1 = info[0] + wrap_coord(int(y0f) + 1, h, WRAP_CLAMP) * w
+    top = texels[row0 + x0] * (1.0 - tx) + texels[row0 + x1] * tx
+    bottom = texels[row1 + x0] * (1.0 - tx) + texels[row1 + x1] * tx
+    return top * (1.0 - ty) + bottom * ty
+
+
+@wp.func
+def dome_radiance(lights: DeviceLights, d: wp.vec3):
+    """Radiance of the dome light arriving from world direction ``-d`` (i.e. seen along ``d``)."""
+    k = lights.dome
+    if k < 0:
+        return wp.vec3(0.0)
+    L = lights.radiance[k]
+    if lights.dome_textured == 0:
+        return L
+    uv = dome_direction_uv(lights, d)
+    info = lights.texture[k]
+    texel = filtered_texel(lights.texels, info, uv[0] * float(info[1]), uv[1] * float(info[2]), WRAP_REPEAT)
+    return wp.cw_mul(L, texel)
+
+
+@wp.func
+def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
+    """Solid-angle pdf with which :func:`sample_light` draws direction ``d`` from the dome (``n``: shading normal)."""
+    if lights.dome_textured == 0:
+        if wp.length(n) == 0.0:
+            return 0.25 * INV_PI
+        return wp.max(wp.dot(n, d), 0.0) * INV_PI
+    uv = dome_direction_uv(lights, d)
+    info = lights.texture[lights.dome]
+    w = info[1]
+    h = info[2]
+    x = wp.clamp(int(uv[0] * float(w)), 0, w - 1)
+    y = wp.clamp(int(uv[1] * float(h)), 0, h - 1)
+    total = lights.dome_row_cdf[h]
+    if total <= 0.0:
+        return 0.0
+    f = lights.dome_col_cdf[y * (w + 1) + x + 1] - lights.dome_col_cdf[y * (w + 1) + x]
+    pdf_uv = f / total * float(w * h)
+    # The Jacobian of (u, v) -> direction at d itself, not at the texel's centre row: sample_light draws (u, v)
+    # uniformly inside the texel, so only this matches what it draws (coarse maps were biased, +4% with 2 rows).
+    y_local = wp.normalize(lights.dome_to_local * d)[1]
+    sin_t = wp.sqrt(wp.max(1.0 - y_local * y_local, 0.0))
+    if sin_t <= 0.0:
+        return 0.0
+    return pdf_uv / (2.0 * PI * PI * sin_t)
+
+
+@wp.func
+def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
+    """The colour factor of light ``k``'s ShapingAPI on the radiance it emits along unit ``w`` (1 where unshaped:
+    :mod:`wrt.light_shaping`)."""
+    params = lights.shaping[k]
+    if params[3] == 0.0:
+        return wp.vec3(1.0)
+    return cone_and_focus(params, lights.shaping_axis[k], lights.focus_tint[k], w)
+
+
+@wp.func
+def plane_coords(u: wp.vec3, v: wp.vec3, q: wp.vec3):
+    """``(a, b)`` with ``q = a u + b v`` for ``q`` in the plane of edges ``u, v`` (from their origin): the
+    coordinates along the edges of a rect light (in [-0.5, 0.5] on it) or along the radius vectors of a disk light,
+    which a transform can shear out of right angles (a projection on each edge is right for perpendicular edges
+    only). Solved from those projections, ``q.u / u.u`` and ``q.v / v.v``, which stay in float32 range wherever
+    the edges do."""
+    uu = wp.dot(u, u)
+    vv = wp.dot(v, v)
+    if uu <= 0.0 or vv <= 0.0:
+        return wp.vec2(wp.inf, wp.inf)
+    pu = wp.dot(q, u) / uu
+    pv = wp.dot(q, v) / vv
+    ku = wp.dot(u, v) / uu
+    kv = wp.dot(u, v) / vv
+    s = 1.0 - ku * kv  # sin^2 of the angle between the edges
+    if s <= 0.0:
+        return wp.vec2(wp.inf, wp.inf)
+    return wp.vec2((pu - ku * pv) / s, (pv - kv * pu) / s)
+
+
+@wp.func
+def light_texture(lights: DeviceLights, k: int, q: wp.vec3):
+    """Light ``k``'s texture at point ``q`` on it, filtered (1 without a texture). A rect light's texture lies
+    upright seen from its lit side: column 0 at local +X, row 0 (the top) at local +Y."""
+    info = lights.texture[k]
+    if info[1] == 0:
+        return wp.vec3(1.0)
+    ab = plane_coords(lights.axis_u[k], lights.axis_v[k], q - lights.position[k])  # (-0.5, -0.5) at local -X, -Y
+    return filtered_texel(lights.texels, info, (0.5 - ab[0]) * float(info[1]), (0.5 - ab[1]) * float(info[2]),
+                          WRAP_CLAMP)
+
+
+@wp.func
+def lobe_factor(lights: DeviceLights, k: int, diffuse_share: wp.vec3):
+    """The factor of light ``k``'s ``diffuse`` and ``specular`` multipliers on light a surface reflects with
+    ``diffuse_share`` of it (per channel) through its diffuse lobe and the rest through its specular lobes."""
+    m = lights.lobe_scale[k]
+    return wp.vec3(m[1]) + (m[0] - m[1]) * diffuse_share
+
+
+@wp.func
+def lit_bsdf(lights: DeviceLights, k: int, f_diffuse: wp.vec3, f_specular: wp.vec3):
+    """The BSDF value light ``k`` is reflected with: the diffuse lobe's ``f_diffuse`` and the specular lobes'
+    ``f_specular`` (:func:`wrt.bsdf.eval_bsdf_lobes`) scaled by the light's ``diffuse`` and ``specular``
+    multipliers."""
+    m = lights.lobe_scale[k]
+    return f_diffuse * m[0] + f_specular * m[1]
+
+
+@wp.func
+def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
+    """``(cos_max, 1 - cos_max)`` of the cone the sphere light subtends at ``p``; ``cos_max = 2`` when inside."""
+    c = lights.position[k]
+    r = lights.params[k][0]
+    d2 = wp.length_sq(c - p)
+    if d2 <= r * r:
+        return 2.0, 0.0
+    sin2 = r * r / d2
+    cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
+    one_minus = sin2 / (1.0 + cos_max)  # 1 - cos_max without cancellation
+    return cos_max, one_minus
+
+
+@wp.func
+def intersect_sphere(c: wp.vec3, r: float, o: wp.vec3, d: wp.vec3):
+    """Nearest ``t > 0`` where unit ray ``o + t d`` enters the sphere from outside; inf if none."""
+    oc = o - c
+    if wp.dot(oc, oc) <= r * r:
+        return float(wp.inf)
+    # The half chord from the ray's closest approach to the centre, r^2 - |closest - c|^2, as wrt/primitives.py
+    # does (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems 2019): b^2 - c
+    # cancels in float32 for a sphere small next to its distance, and rays saw a light 1000 radii away 15% too large.
+    dd = wp.dot(d, d)
+    t_mid = -wp.dot(oc, d) / dd
+    closest = oc + t_mid * d
+    half2 = r * r - wp.dot(closest, closest)
+    if half2 < 0.0:
+        return float(wp.inf)
+    t = t_mid - wp.sqrt(half2 / dd)
+    if t <= 0.0:
+        return float(wp.inf)
+    return t
+
+
+@wp.func
+def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
+    """Distance along unit ray ``(o, d)`` to the emitting side of analytic light ``k`` (inf if missed or not
+    emitting towards the ray) and the cosine at the light (1 for spheres)."""
+    kind = lights.kinds[k]
+    c = lights.position[k]
+    if kind == LIGHT_SPHERE:
+        return intersect_sphere(c, lights.params[k][0], o, d), 1.0
+    if kind == LIGHT_RECT or kind == LIGHT_DISK:
+        n = lights.normal[k]
+        denom = wp.dot(d, n)
+        if denom >= 0.0:
+            return float(wp.inf), 0.0
+        t = wp.dot(c - o, n) / denom
+        if t <= 0.0:
+            return float(wp.inf), 0.0
+        ab = plane_coords(lights.axis_u[k], lights.axis_v[k], o + t * d - c)
+        inside = False
+        if kind == LIGHT_RECT:
+            inside = wp.abs(ab[0]) <= 0.5 and wp.abs(ab[1]) <= 0.5
+        else:
+            inside = wp.length_sq(ab) <= 1.0
+        if inside:
+            return t, -denom
+        return float(wp.inf), 0.0
+    if kind == LIGHT_CYLINDER:
+        axis = lights.axis_u[k]
+        half = 0.5 * wp.length(axis)
+        if half <= 0.0:
+            return float(wp.inf), 0.0
+        w = axis / (2.0 * half)
+        r = lights.params[k][0]
+        oc = o - c
+        dp = d - wp.dot(d, w) * w
+        op = oc - wp.dot(oc, w) * w
+        a = wp.dot(dp, dp)
+        b = wp.dot(op, dp)
+        cc = wp.dot(op, op) - r * r
+        if a <= 0.0 or cc <= 0.0:
+            return float(wp.inf), 0.0
+        disc = b * b - a * cc
+        if disc < 0.0:
+            return float(wp.inf), 0.0
+        t = (-b - wp.sqrt(disc)) / a
+        if t <= 0.0 or wp.abs(wp.dot(oc + t * d, w)) > half:
+            return float(wp.inf), 0.0
+        radial = op + t * dp
+        return t, wp.max(-wp.dot(d, radial / r), 0.0)
+    return float(wp.inf), 0.0
+
+
+@wp.func
+def seen_rect(lights: DeviceLights, k: int, p: wp.vec3):
+    """Rect light ``k``, or the square around disk light ``k``, as seen from ``p``, and whether lights of its kind
+    are sampled by solid angle from there (else by area; see :mod:`wrt.spherical_rect`)."""
+    u = lights.axis_u[k]
+    v = lights.axis_v[k]
+    scale = float(1.0)  # rect: full edges; disk: radius vectors
+    least = float(0.0)
+    if lights.kinds[k] == LIGHT_DISK:
+        scale = 2.0
+        least = DISK_SOLID_ANGLE_LEAST
+    r = spherical_rect(p, lights.position[k] - 0.5 * scale * (u + v), scale * u, scale * v)
+    return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, least)
+
+
+@wp.func
+def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.vec3, dist: float, cos_l: float):
+    """Solid-angle pdf (without the selection probability) of analytic light ``k`` sampled from ``p`` (shading normal
+    ``n``, zero if none) and seen along unit ``d`` at distance ``dist`` with cosine ``cos_l``."""
+    kind = lights.kinds[k]
+    if kind == LIGHT_SPHERE:
+        cos_max, one_minus = sphere_cone(lights, k, p)
+        if cos_max > 1.0 or one_minus <= 0.0:
+            return 0.0
+        return 1.0 / (2.0 * PI * one_minus)
+    area = lights.params[k][2]
+    if kind == LIGHT_CYLINDER:
+        area = 0.5 * area  # sampling covers the half facing the shading point
+    if cos_l <= 0.0 or area <= 0.0:
+        return 0.0
+    if kind == LIGHT_RECT or kind == LIGHT_DISK:
+        r, by_solid_angle = seen_rect(lights, k, p)
+        if by_solid_angle:
+            return spherical_rect_pdf(r, n, p + dist * d)
+    return dist * dist / (cos_l * area)
+
+
+@wp.func
+def distant_in_cone(lights: DeviceLights, k: int, d: wp.vec3):
+    """True when a ray along ``d`` looks into the disc of soft distant light ``k``."""
+    # Compare chords, |d - axis|^2 = 2 (1 - cos): float32 rounds the cosine of a small disc by up to 25% of its
+    # distance from 1 (a 0.05 degree sun looked 1.5 times its size), while the chord keeps its relative precision.
+    cone = lights.params[k][1]
+    return cone > 0.0 and wp.length_sq(d + lights.position[k]) <= 2.0 * lights.params[k][2]
+
+
+@wp.func
+def triangle_light_pdf(scene: DeviceScene, double_sided: int, prim: int, o: wp.vec3, d: wp.vec3, dist: float):
+    """Solid-angle pdf of uniform area sampling of triangle ``prim`` seen from ``o`` along unit ``d``; 0 from its
+    back when it is single-sided."""
+    a = scene.points[scene.indices[prim, 0]]
+    b = scene.points[scene.indices[prim, 1]]
+    c = scene.points[scene.indices[prim, 2]]
+    cr = wp.cross(b - a, c - a)
+    area2 = stable_length(cr)
+    if area2 <= 0.0:
+        return 0.0
+    cos_l = -wp.dot(d, cr / area2)
+    if double_sided == 1:
+        cos_l = wp.abs(cos_l)
+    if cos_l <= 0.0:
+        return 0.0
+    return dist * dist / (cos_l * 0.5 * area2)
+
+
+@wp.func
+def triangle_emission(lights: DeviceLights, mats: DeviceMaterials, k: int, m: int, st: wp.vec2):
+    """Radiance that triangle light ``k`` (of material ``m``) emits at ``st``: its radiance factor times the
+    material's ``emissiveColor``, or the factor alone for a mesh light whose light does not follow its material
+    (``materialSyncMode`` ``independent`` or ``noMaterialResponse``)."""
+    L = lights.radiance[k]
+    if lights.params[k][0] > 0.0:
+        L = wp.cw_mul(L, eval_emission(mats, m, st))
+    return L
+
+
+@wp.func
+def shadow_direction(lights: DeviceLights, k: int, wi: wp.vec3):
+    """The direction of the shadow ray towards light ``k``: ``wi``, or zero for a light that casts no shadows (a
+    zero direction can hit nothing, so every accelerator reports the ray unblocked)."""
+    return wp.where(lights.shadows[k] != SHADOWS_OFF, wi, wp.vec3(0.0))
+
+
+@wp.func
+def sampled_alone(lights: DeviceLights, k: int):
+    """Light ``k`` is left to light sampling alone (MIS weight 1): its shadow rays pass geometry (any, or what its
+    shadowLink leaves out) at which a BSDF-sampled ray towards it would stop, losing its share of the light."""
+    return lights.shadows[k] != SHADOWS_ON
+
+
+@wp.func
+def sample_light(
+    lights: DeviceLights,
+    scene: DeviceScene,
+    mats: DeviceMaterials,
+    uvs: wp.array2d[wp.vec2],
+    tri_materials: wp.array[wp.int32],
+    tri_double_sided: wp.array[wp.int32],
+    k: int,
+    p: wp.vec3,
+    n: wp.vec3,
+    u1: float,
+    u2: float,
+):
+    """A direction from ``p`` (shading normal ``n``, zero if none) towards light ``k``; see :class:`LightSample`."""
+    out = LightSample()
+    out.wi = wp.vec3(0.0, 0.0, 1.0)
+    out.dist = float(wp.inf)
+    out.value = wp.vec3(0.0)
+    out.pdf = 0.0
+    kind = lights.kinds[k]
+    if kind == LIGHT_DISTANT:
+        d = -lights.position[k]
+        cone = lights.params[k][1]
+        if cone > 0.0:
+            out.wi = to_world(sample_uniform_cone(u1, u2, lights.params[k][2]), d)
+            out.pdf = 1.0 / cone
+            out.value = lights.radiance[k] * cone
+        else:
+            out.wi = d
+            out.value = lights.radiance[k]
+        return out
+    if kind == LIGHT_POINT:
+        to = lights.position[k] - p
+        d2 = wp.length_sq(to)
+        if d2 > 0.0:
+            out.dist = wp.sqrt(d2)
+            out.wi = to / out.dist
+            out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) / d2
+        return out
+    if kind == LIGHT_DOME:
+        if lights.dome_textured == 0:
+            if wp.length(n) > 0.0:
+                out.wi = to_world(sample_cosine_hemisphere(u1, u2), n)
+            else:
+                out.wi = sample_uniform_sphere(u1, u2)
+        else:
+            w = lights.texture[k][1]
+            h = lights.texture[k][2]
+            # A row by the marginal CDF, then a column by that row's CDF; where u fell inside each places the
+            # direction in the texel.
+            y = sample_cdf(lights.dome_row_cdf, 0, h, u1)
+            fy = cdf_remainder(lights.dome_row_cdf, 0, h, y, u1)
+            x = sample_cdf(lights.dome_col_cdf, y * (w + 1), w, u2)
+            fx = cdf_remainder(lights.dome_col_cdf, y * (w + 1), w, x, u2)
+            uu = (float(x) + fx) / float(w)
+            vv = (float(y) + fy) / float(h)
+            lon = PI * (1.0 - 2.0 * uu)
+            lat = PI * (0.5 - vv)
+            local = wp.vec3(wp.cos(lat) * wp.sin(lon), wp.sin(lat), wp.cos(lat) * wp.cos(lon))
+            out.wi = wp.normalize(wp.transpose(lights.dome_to_local) * local)
+        out.pdf = dome_pdf(lights, out.wi, n)
+        if out.pdf > 0.0:
+            out.value = dome_radiance(lights, out.wi) / out.pdf
+        return out
+    if kind == LIGHT_SPHERE:
+        c = lights.position[k]
+        r = lights.params[k][0]
+        cos_max, one_minus = sphere_cone(lights, k, p)
+        if cos_max > 1.0 or one_minus <= 0.0:
+            return out  # inside the sphere: it emits outwards only
+        axis = wp.normalize(c - p)
+        out.wi = wp.normalize(to_world(sample_uniform_cone(u1, u2, one_minus), axis))
+        t = intersect_sphere(c, r, p, out.wi)
+        if t == wp.inf:
+            t = wp.dot(c - p, out.wi)  # grazing: rounding missed the sphere by a hair
+        out.dist = t
+        out.pdf = 1.0 / (2.0 * PI * one_minus)
+        out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) * (2.0 * PI * one_minus)
+        return out
+
+    # Area sampling (rect and disk lights that look large: by solid angle), cylinder, triangle.
+    pdf_solid_angle = float(0.0)  # > 0: q was sampled by solid angle with this pdf
+    q = wp.vec3(0.0)
+    ln = wp.vec3(0.0)
+    area = float(0.0)
+    L = wp.vec3(0.0)
+    two_sided = int(0)
+    if kind == LIGHT_RECT or kind == LIGHT_DISK:
+        ln = lights.normal[k]
+        area = lights.params[k][2]
+        L = lights.radiance[k]
+        seen, by_solid_angle = seen_rect(lights, k, p)
+        if by_solid_angle:
+            q, inside = sample_spherical_rect(seen, n, u1, u2)
+            if not inside:
+                return out
+            pdf_solid_angle = spherical_rect_pdf(seen, n, q)
+            if kind == LIGHT_DISK:  # a point of the square around the disk: keep it if it lies on the disk
+                if wp.length_sq(plane_coords(lights.axis_u[k], lights.axis_v[k], q - lights.position[k])) > 1.0:
+                    return out
+        elif kind == LIGHT_RECT:
+            q = lights.position[k] + (u1 - 0.5) * lights.axis_u[k] + (u2 - 0.5) * lights.axis_v[k]
+        else:
+            dd = sample_concentric_disk(u1, u2)
+            q = lights.position[k] + dd[0] * lights.axis_u[k] + dd[1] * lights.axis_v[k]
+        L = wp.cw_mul(L, light_texture(lights, k, q))
+    elif kind == LIGHT_CYLINDER:
+        # Only the half of the tube facing p can be seen from it: sample that half uniformly by area.
+        axis = lights.axis_u[k]
+        along = wp.normalize(axis)
+        to_p = p - lights.position[k]
+        phi0 = wp.atan2(wp.dot(to_p, basis_y(along)), wp.dot(to_p, basis_x(along)))
+        phi = phi0 + (u2 - 0.5) * PI
+        radial = wp.cos(phi) * basis_x(along) + wp.sin(phi) * basis_y(along)
+        q = lights.position[k] + (u1 - 0.5) * axis + lights.params[k][0] * radial
+        ln = radial
+        area = 0.5 * lights.params[k][2]
+        L = lights.radiance[k]
+    else:
+        prim = lights.prims[k]
+        a = scene.points[scene.indices[prim, 0]]
+        b = scene.points[scene.indices[prim, 1]]
+        c = scene.points[scene.indices[prim, 2]]
+        su = wp.sqrt(u1)
+        bu = u2 * su  # weight of b
+        bv = 1.0 - su  # weight of c ... (any uniform barycentric split works)
+        bw = 1.0 - bu - bv
+        q = bw * a + bu * b + bv * c
+        cr = wp.cross(b - a, c - a)
+        area = 0.5 * stable_length(cr)
+        if area <= 0.0:
+            return out
+        ln = cr / (2.0 * area)
+        st = bw * uvs[prim, 0] + bu * uvs[prim, 1] + bv * uvs[prim, 2]
+        L = triangle_emission(lights, mats, k, tri_materials[prim], st)
+        if cut_out(mats, tri_materials[prim], st):
+            # A hole of an emissive cut-out: rays pass it and see no light there, so it sends none either.
+            L = wp.vec3(0.0)
+        two_sided = tri_double_sided[prim]
+    to = q - p
+    d2 = wp.length_sq(to)
+    if d2 <= 0.0 or area <= 0.0:
+        return out
+    dist = wp.sqrt(d2)
+    wi = to / dist
+    cos_l = -wp.dot(wi, ln)
+    if two_sided == 1:
+        cos_l = wp.abs(cos_l)
+    if cos_l <= 0.0:
+        return out
+    out.wi = wi
+    out.dist = dist
+    if pdf_solid_angle > 0.0:
+        out.pdf = pdf_solid_angle
+    else:
+        out.pdf = d2 / (cos_l * area)
+    out.value = wp.cw_mul(L, emission_shaping(lights, k, -wi)) / out.pdf
+    return out
+
+
+@wp.func
+def sample_light_in_view(
+    lights: DeviceLights,
+    scene: DeviceScene,
+    mats: DeviceMaterials,
+    uvs: wp.array2d[wp.vec2],
+    tri_materials: wp.array[wp.int32],
+    tri_double_sided: wp.array[wp.int32],
+    k: int,
+    view: int,
+    p: wp.vec3,
+    n: wp.vec3,
+    u1: float,
+    u2: float,
+):
+    """:func:`sample_light` for a path of camera ``view``: the default headlight (a delta distant light) arrives
+    along that camera's viewing direction."""
+    ls = sample_light(lights, scene, mats, uvs, tri_materials, tri_double_sided, k, p, n, u1, u2)
+    if k == lights.headlight:
+        ls.wi = -lights.headlight_dirs[view]
+    return ls

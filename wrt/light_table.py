@@ -1,0 +1,471 @@
+"""The device's light table: the host lights (:mod:`wrt.lights`) and the emissive triangles of a scene flattened
+into :class:`wrt.light_sampling.DeviceLights` (one row per light, with its selection probability, shadow mode and
+packed texture), and the sampling distribution of a textured dome.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+import warp as wp
+
+from .errors import SceneError
+from .light_links import CASTS_SHADOW, link_groups, upload_links
+from .light_sampling import (
+    LIGHT_CYLINDER,
+    LIGHT_DISK,
+    LIGHT_DISTANT,
+    LIGHT_DOME,
+    LIGHT_POINT,
+    LIGHT_RECT,
+    LIGHT_SPHERE,
+    LIGHT_TRIANGLE,
+    SHADOWS_LINKED,
+    SHADOWS_OFF,
+    SHADOWS_ON,
+    DeviceLights,
+)
+from .light_shaping import Shaping, primary_axis
+from .lights import (
+    GLOW_TINTS_LIGHT,
+    NO_MATERIAL_RESPONSE,
+    CylinderLight,
+    DiskLight,
+    DomeLight,
+    MeshLight,
+    RectLight,
+    SphereLight,
+    _axes,
+    _normalized,
+)
+from .scene import DistantLight
+
+
+@dataclasses.dataclass
+class HostLights:
+    """The flattened light list (numpy) before upload; see :class:`DeviceLights`."""
+
+    kinds: list
+    radiance: list
+    position: list
+    axis_u: list
+    axis_v: list
+    normal: list
+    params: list
+    prims: list
+    power: list
+    shadows: list
+    shaping: list
+    shaping_axis: list
+    focus_tint: list
+    texture: list
+    lobe_scale: list
+
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance weights of linear RGB
+
+
+def luminance_np(c) -> float:
+    return float(np.asarray(c, np.float64) @ LUMINANCE)
+
+
+@dataclasses.dataclass
+class EmitterTriangles:
+    """The triangle lights of a scene (:func:`emitter_triangles`), one row each.
+
+    Attributes:
+        ids: ``(E,)`` int32 geometry ids (rows of ``Scene.geometry()``).
+        power: ``(E,)`` float64 power weights for light selection.
+        radiance: ``(E, 3)`` float32 radiance factor: 1 for emissive materials, a mesh light's (normalized) colour.
+        params: ``(E, 4)`` float32 :class:`DeviceLights` ``params`` of triangle lights.
+        owner: ``(E,)`` int32 index of the :class:`MeshLight` (in the list given) the triangle belongs to, -1: none.
+    """
+
+    ids: np.ndarray
+    power: np.ndarray
+    radiance: np.ndarray
+    params: np.ndarray
+    owner: np.ndarray
+
+
+def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTriangles:
+    """Every emissive triangle that is not instanced (emissive prototype triangles still emit where rays hit them,
+    but are not sampled as lights), then the triangles of each of ``mesh_lights`` that emit (a mesh light's
+    triangles are its, not plain emissive ones).
+
+    Raises:
+        SceneError: a mesh light that names no mesh of the scene (instanced ones included).
+    """
+    points, indices = scene.geometry()
+    flat = scene.num_flat_triangles
+    tri_materials = scene.triangle_materials()[:flat]
+    sided = scene.triangle_double_sided()[:flat]
+    emission = np.asarray(materials_emission, np.float64).reshape(-1, 3)
+    glow = emission @ LUMINANCE  # per material
+
+    def areas(ids):
+        a, b, c = (points[indices[ids, k]].astype(np.float64) for k in range(3))
+        return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
+    owner = np.full(flat, -1, np.int32)
+    starts = np.concatenate([[0], np.cumsum([len(m.indices) for m in scene.meshes])]).astype(np.int64)
+    by_path = {}
+    for k, mesh in enumerate(scene.meshes):
+        by_path.setdefault(mesh.path, []).append(np.arange(starts[k], starts[k + 1]))
+    for j, light in enumerate(mesh_lights):
+        if light.path not in by_path:
+            raise SceneError("MeshLight names no mesh of the scene (meshes inside instances cannot be lights)",
+                             prim=light.path or None)
+        rows = np.concatenate(by_path[light.path])
+        if (owner[rows] >= 0).any():  # the second would silently take every triangle
+            raise SceneError("two MeshLights name the same mesh; give it one light", prim=light.path)
+        owner[rows] = j
+
+    # Emissive materials: radiance factor 1 times the material's emission (params[0] = 1).
+    ids = np.nonzero((glow[tri_materials] > 0.0) & (owner < 0))[0]
+    rows = [(ids, math.pi * areas(ids) * glow[tri_materials[ids]], np.ones((len(ids), 3)), (1, 0, 0, 0), -1)]
+    for j, light in enumerate(mesh_lights):
+        ids = np.nonzero(owner == j)[0]
+        area = areas(ids)
+        L = _normalized(light.color, float(area.sum()), light.normalize).astype(np.float64)
+        tints = light.material_sync == GLOW_TINTS_LIGHT
+        if tints:
+            keep = glow[tri_materials[ids]] > 0.0  # the light tints the glow: no glow, no light
+            ids, area = ids[keep], area[keep]
+            power = math.pi * area * ((L * emission[tri_materials[ids]]) @ LUMINANCE)
+        else:
+            power = math.pi * area * float(L @ LUMINANCE)
+        params = (float(tints), float(light.material_sync == NO_MATERIAL_RESPONSE), 1, 0)
+        rows.append((ids, power, np.tile(L, (len(ids), 1)), params, j))
+    ids = np.concatenate([r[0] for r in rows]).astype(np.int32)
+    return EmitterTriangles(
+        ids=ids,
+        power=np.concatenate([r[1] for r in rows]) * np.where(sided[ids], 2.0, 1.0),
+        radiance=np.concatenate([r[2] for r in rows]).astype(np.float32),
+        params=np.concatenate([np.tile(np.asarray(r[3], np.float32), (len(r[0]), 1)) for r in rows]),
+        owner=np.concatenate([np.full(len(r[0]), r[4], np.int32) for r in rows]),
+    )
+
+
+def build_lights(lights: list, scene, material_emission: list, device) -> DeviceLights:
+    """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`.
+
+    Args:
+        lights: the UsdLux lights (scene lights or :func:`default_lights`).
+        scene: the :class:`wrt.Scene` (for emissive triangles and the scene radius).
+        material_emission: per device material (index 0 = default material) a ``(3,)`` emission estimate.
+        device: Warp device.
+    """
+    lower, upper = scene.bounds()
+    radius = max(float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) / 2.0, 1e-6)
+    h = HostLights(*([] for _ in dataclasses.fields(HostLights)))
+    zero = np.zeros(3)
+    domes = [light for light in lights if isinstance(light, DomeLight)]
+    if len(domes) > 1:
+        warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used", stacklevel=3)
+    dome_index, dome = -1, None
+    mesh_lights = [light for light in lights if isinstance(light, MeshLight)]
+    for light in lights:
+        if isinstance(light, MeshLight):
+            continue  # its triangles come after the analytic lights
+        if isinstance(light, DomeLight):
+            if light is not domes[0]:
+                continue
+            dome_index, dome = len(h.kinds), light
+            _add(h, LIGHT_DOME, light.color, zero, zero, zero, zero, (0, 0, 0, 0), 0, 0.0)
+        elif isinstance(light, DistantLight):
+            d = np.asarray(light.direction, np.float64)
+            e = light.illuminance
+            if light.angle > 0.0:
+                half = math.radians(min(light.angle, 180.0)) / 2.0
+                one_minus = 2.0 * math.sin(half / 2.0) ** 2  # 1 - cos(half) without cancellation
+                cone = 2.0 * math.pi * one_minus
+                radiance = e / max(light.solid_angle_factor, 1e-30)
+                _add(h, LIGHT_DISTANT, radiance, d, zero, zero, zero, (math.cos(half), cone, one_minus, 0), 0, 0.0)
+            else:
+                _add(h, LIGHT_DISTANT, e, d, zero, zero, zero, (1.0, 0.0, 0, 0), 0, 0.0)
+            h.power[-1] = luminance_np(e) * math.pi * radius**2
+        elif isinstance(light, SphereLight):
+            if light.treat_as_point:
+                i = light.intensity
+                _add(h, LIGHT_POINT, i, light.position, zero, zero, zero, (0, 0, 0, 0), 0,
+                     4.0 * math.pi * luminance_np(i))
+            else:
+                L = light.radiance
+                _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero, (light.radius, 0, light.area, 0), 0,
+                     math.pi * light.area * luminance_np(L))
+            _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True)
+        elif isinstance(light, RectLight):
+            u, v = light.edges()
+            _, _, z, origin = _axes(light.to_world)
+            n = _emitting_normal(u, v, z)
+            L = light.radiance
+            texels = None if light.texture is None else _emitted_texels(light.texture)
+            mean = np.ones(3) if texels is None else texels.reshape(-1, 3).mean(axis=0, dtype=np.float64)
+            _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
+                 math.pi * light.area * luminance_np(L * mean))
+            h.texture[-1] = texels
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
+        elif isinstance(light, DiskLight):
+            x, y, z, origin = _axes(light.to_world)
+            u, v = x * light.radius, y * light.radius
+            n = _emitting_normal(u, v, z)
+            L = light.radiance
+            _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
+                 math.pi * light.area * luminance_np(L))
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
+        elif isinstance(light, CylinderLight):
+            axis, r = light.world_shape()
+            origin = _axes(light.to_world)[3]
+            L = light.radiance
+            _add(h, LIGHT_CYLINDER, L, origin, axis, zero, zero, (r, 0, light.area, 0), 0,
+                 math.pi * light.area * luminance_np(L))
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True)
+        else:
+            raise TypeError(f"unsupported light {type(light).__name__}")
+        h.shadows[-1] = SHADOWS_ON if light.shadows else SHADOWS_OFF
+        h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
+    num_analytic = len(h.kinds)
+
+    # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers: appended as
+    # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
+    tris = emitter_triangles(scene, material_emission, mesh_lights)
+
+    # Dome texture (packed with the rect lights' textures) and its sampling distribution.
+    row_cdf = np.array([0.0, 1.0], np.float32)
+    col_cdf = np.array([0.0, 1.0], np.float32)
+    dome_mean = np.zeros(3, np.float32)
+    dome_rot = np.eye(3)
+    if dome is not None:
+        dome_rot = _nearest_rotation(np.asarray(dome.to_world, np.float64)[:3, :3]).T
+        dome_mean = np.asarray(dome.color, np.float32)
+        if dome.texture is not None:
+            texels = h.texture[dome_index] = _emitted_texels(dome.texture)
+            row_cdf, col_cdf, mean = _dome_distribution(texels)
+            dome_mean = (dome_mean * mean).astype(np.float32)
+        if num_analytic:
+            h.power[dome_index] = 4.0 * math.pi**2 * radius**2 * luminance_np(dome_mean)
+
+    # Selection probabilities.
+    n = num_analytic + len(tris.ids)
+    power = np.concatenate([np.asarray(h.power, np.float64), tris.power])
+    power = np.maximum(np.nan_to_num(power, nan=0.0), 0.0)
+    pmf = np.zeros(max(n, 1))
+    if n:
+        pmf[:n] = 0.5 / n + (0.5 * power / power.sum() if power.sum() > 0 else 0.5 / n)
+        pmf[:n] /= pmf[:n].sum()
+    cdf = np.concatenate([[0.0], np.cumsum(pmf[:n])]) if n else np.array([0.0, 1.0])
+    if n:
+        cdf[-1] = 1.0
+
+    e = len(tris.ids)
+    owned = tris.owner >= 0
+    tri_shadows = np.full(e, SHADOWS_ON, np.int32)
+    tri_lobes = np.ones((e, 2), np.float32)
+    if mesh_lights:
+        modes = np.array([SHADOWS_ON if light.shadows else SHADOWS_OFF for light in mesh_lights], np.int32)
+        tri_shadows[owned] = modes[tris.owner[owned]]
+        tri_lobes[owned] = np.float32([[light.diffuse, light.specular] for light in mesh_lights])[tris.owner[owned]]
+
+    def arr(values, dtype, width=3, triangles=None):
+        """The analytic lights' ``values`` and the triangles' rows below them (``triangles``: None for zeros)."""
+        numpy_type = np.int32 if dtype == wp.int32 else np.float32
+        shape = (-1, width) if width > 1 else (-1,)
+        rows = np.zeros((e, width) if width > 1 else e, numpy_type) if triangles is None else triangles
+        data = np.concatenate([np.asarray(values, numpy_type).reshape(shape), np.asarray(rows, numpy_type)])
+        return wp.array(data if len(data) else np.zeros((1, width) if width > 1 else 1, numpy_type), dtype=dtype,
+                        device=device)
+
+    d = DeviceLights()
+    d.kinds = arr(h.kinds, wp.int32, 1, np.full(e, LIGHT_TRIANGLE, np.int32))
+    d.radiance = arr(h.radiance, wp.vec3, 3, tris.radiance)
+    d.position = arr(h.position, wp.vec3)
+    d.axis_u = arr(h.axis_u, wp.vec3)
+    d.axis_v = arr(h.axis_v, wp.vec3)
+    d.normal = arr(h.normal, wp.vec3)
+    d.params = arr(h.params, wp.vec4, 4, tris.params)
+    d.prims = arr(h.prims, wp.int32, 1, tris.ids)
+    d.shaping = arr(h.shaping, wp.vec4, 4)
+    d.shaping_axis = arr(h.shaping_axis, wp.vec3)
+    d.focus_tint = arr(h.focus_tint, wp.vec3)
+    d.lobe_scale = arr(h.lobe_scale, wp.vec2, 2, tri_lobes)
+    d.pmf = wp.array(pmf.astype(np.float32), dtype=float, device=device)
+    d.cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
+    d.count = n
+    d.num_analytic = num_analytic
+    d.dome = dome_index
+    d.dome_to_local = wp.mat33(*dome_rot.astype(np.float32).reshape(-1))
+    d.dome_textured = 1 if (dome is not None and dome.texture is not None) else 0
+    d.dome_row_cdf = wp.array(row_cdf, dtype=float, device=device)
+    d.dome_col_cdf = wp.array(col_cdf, dtype=float, device=device)
+    d.dome_mean = wp.vec3(*dome_mean.tolist())
+    d.texture, d.texels = _upload_textures(h.texture, n, device)
+    d.headlight = -1  # set by the renderer, which knows the cameras (set_headlight_directions)
+    d.headlight_dirs = wp.zeros(1, dtype=wp.vec3, device=device)
+    # Links of the analytic lights in device order (the dome's at dome_index; a second dome is not on the device),
+    # then of the mesh lights, whose triangles share their light's column.
+    on_device = [light for light in lights if not isinstance(light, (DomeLight, MeshLight)) or light is dome]
+    columns = np.concatenate([np.arange(num_analytic), np.where(tris.owner >= 0, num_analytic + tris.owner, -1)])
+    links = link_groups(scene, on_device + mesh_lights)
+    d.links = upload_links(links, device, columns)
+    d.shadows = wp.array(_shadow_modes(np.concatenate([np.int32(h.shadows).reshape(-1), tri_shadows]), links,
+                                       columns), dtype=wp.int32, device=device)
+    return d
+
+
+def _shadow_modes(shadows: np.ndarray, links, columns: np.ndarray) -> np.ndarray:
+    """``shadows`` (int32 :data:`SHADOWS_ON` or :data:`SHADOWS_OFF` per device light, at least one entry) with
+    :data:`SHADOWS_LINKED` for the lights on whose column of ``links`` (:class:`wrt.light_links.HostLinks`, None: no
+    linking) some geometry casts no shadow."""
+    if len(shadows) == 0:
+        return np.zeros(1, np.int32)
+    if links is None:
+        return shadows
+    leaves_out = np.any((links.masks & CASTS_SHADOW) == 0, axis=0)  # per column
+    linked = (shadows == SHADOWS_ON) & (columns >= 0)
+    linked[linked] = leaves_out[columns[linked]]
+    return np.where(linked, np.int32(SHADOWS_LINKED), shadows).astype(np.int32)
+
+
+def _upload_textures(textures: list, count: int, device) -> tuple[wp.array, wp.array]:
+    """The ``(offset, width, height)`` of each of ``count`` lights' texture (``(H, W, 3)`` or None; lights past the
+    list have none) and their texels packed one after the other (one white texel when there are none)."""
+    info = np.zeros((max(count, 1), 3), np.int32)
+    offset = 1
+    for k, texels in enumerate(textures):
+        if texels is not None:
+            info[k] = (offset, texels.shape[1], texels.shape[0])
+            offset += texels.shape[0] * texels.shape[1]
+    # Filled in place: a list of the images concatenated held a second copy of them all (a dome's 400 MB at 8k).
+    packed = np.ones((offset, 3), np.float32)
+    for k, texels in enumerate(textures):
+        if texels is not None:
+            packed[info[k][0] : info[k][0] + texels.shape[0] * texels.shape[1]] = texels.reshape(-1, 3)
+    return wp.array(info, dtype=wp.vec3i, device=device), wp.array(packed, dtype=wp.vec3, device=device)
+
+
+def set_headlight_directions(d: DeviceLights, index: int, forwards, device) -> None:
+    """Makes light ``index`` of ``d`` (the delta :class:`DistantLight` of :func:`default_lights`; -1: none) a
+    headlight travelling along ``forwards[k]`` (``(V, 3)``, any length) in view ``k``, so that view ``k`` of a batch
+    is lit as a render of camera ``k`` alone is."""
+    d.headlight = index
+    if index >= 0:
+        f = np.asarray(forwards, np.float64).reshape(-1, 3)
+        dirs = wp.array((f / np.linalg.norm(f, axis=1, keepdims=True)).astype(np.float32), dtype=wp.vec3, device=device)
+        old = getattr(d, "headlight_dirs", None)
+        if old is not None and old.shape == dirs.shape and old.device == dirs.device:
+            old.assign(dirs)  # in place, so that a recorded CUDA graph sees the new directions (see set_cameras)
+        else:
+            d.headlight_dirs = dirs
+
+
+def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, power):
+    h.kinds.append(int(kind))
+    h.radiance.append(np.asarray(radiance, np.float32))
+    h.position.append(np.asarray(position, np.float32))
+    h.axis_u.append(np.asarray(u, np.float32))
+    h.axis_v.append(np.asarray(v, np.float32))
+    h.normal.append(np.asarray(normal, np.float32))
+    h.params.append(np.asarray(params, np.float32))
+    h.prims.append(int(prim))
+    h.power.append(float(power))
+    h.shadows.append(SHADOWS_ON)
+    h.shaping.append(np.zeros(4, np.float32))
+    h.shaping_axis.append(np.zeros(3, np.float32))
+    h.focus_tint.append(np.zeros(3, np.float32))
+    h.texture.append(None)
+    h.lobe_scale.append(np.ones(2, np.float32))
+
+
+def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool) -> None:
+    """Gives the light added last ``shaping`` around unit ``axis`` (nothing where it changes nothing), and scales
+    its power by the share the shaping lets out."""
+    params = None if shaping is None else shaping.device_params(emits_behind)
+    if params is None:
+        return
+    h.shaping[-1] = np.array([*params, 1.0], np.float32)
+    h.shaping_axis[-1] = np.asarray(axis, np.float32)
+    h.focus_tint[-1] = np.asarray(shaping.focus_tint, np.float32)
+    h.power[-1] *= shaping.power_fraction(emits_behind)
+
+
+def _right_angled(u, v) -> float:
+    """1.0 when edges ``u`` and ``v`` are at right angles (a sheared transform makes a parallelogram or a tilted
+    ellipse, which solid-angle sampling does not cover), else 0.0."""
+    lengths = float(np.linalg.norm(u) * np.linalg.norm(v))
+    return 1.0 if lengths > 0.0 and abs(float(np.dot(u, v))) <= 1e-6 * lengths else 0.0
+
+
+def _emitting_normal(u, v, z) -> np.ndarray:
+    """Unit normal of the plane spanned by ``u, v`` on the side of the light's -Z axis."""
+    n = np.cross(u, v)
+    length = np.linalg.norm(n)
+    if length == 0.0:
+        return np.zeros(3)
+    n = n / length
+    return n if np.dot(n, -np.asarray(z)) >= 0.0 else -n
+
+
+def _nearest_rotation(m: np.ndarray) -> np.ndarray:
+    """The orthogonal ``(3, 3)`` matrix nearest to ``m`` (polar decomposition ``U V^T`` of its SVD; a mirror where
+    ``m`` mirrors): a dome turns with its transform's rotation only. Its transpose must be its inverse, as light
+    sampling turns dome directions to the world by the transpose: the columns of a sheared or unevenly scaled
+    rotation merely normalized were not perpendicular, and the dome lit by its samples differed from the one seen."""
+    u, _, vt = np.linalg.svd(m)
+    return u @ vt
+
+
+def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Row and column CDFs of ``luminance * sin(theta)`` over a ``(H, W, 3)`` lat-long image (``(H + 1,)``, and
+    ``(H (W + 1),)``: each row's in turn), and its mean radiance over the sphere, both of the bilinearly filtered
+    image that :func:`dome_radiance` looks up.
+
+    Each texel's weight is the luminance of the filtered image averaged over the texel: ``[1/8, 3/4, 1/8]`` of it and
+    its neighbours along each axis (longitude wrapping around, latitude clamped at the poles). It is positive wherever
+    the filtered image is, so light sampling can draw every lit direction: the texels' own luminance gave a black
+    texel next to a bright one no share although filtering lights half of it.
+    """
+    hgt = texels.shape[0]
+    theta = (np.arange(hgt) + 0.5) / hgt * np.pi
+    sin_t = np.sin(theta)[:, None]
+    lum = 0.2126 * texels[..., 0] + 0.7152 * texels[..., 1] + 0.0722 * texels[..., 2]
+    lum = 0.75 * lum + 0.125 * (np.roll(lum, 1, axis=1) + np.roll(lum, -1, axis=1))
+    rows = np.concatenate([lum[:1], lum, lum[-1:]])
+    lum = 0.75 * rows[1:-1] + 0.125 * (rows[:-2] + rows[2:])
+    f = lum * sin_t + 1e-8 * (sin_t + 1e-6)  # a black image still has directions to draw
+    col = np.concatenate([np.zeros((hgt, 1)), np.cumsum(f, axis=1)], axis=1)
+    row_sums = col[:, -1]
+    row = np.concatenate([[0.0], np.cumsum(row_sums)])
+    # Filtering along a row keeps its mean (longitude wraps around); across rows it does not, as sin(theta) weighs
+    # the rows unequally: the mean over the sphere weighs each row's mean by the integral of its latitude hat
+    # function times sin(theta) over 2 (which sums to 1).
+    row_means = texels.mean(axis=1, dtype=np.float64)
+    mean = _latitude_hat_weights(hgt) @ row_means / 2.0
+    return row.astype(np.float32), col.reshape(-1).astype(np.float32), mean.astype(np.float32)
+
+
+def _latitude_hat_weights(hgt: int) -> np.ndarray:
+    """``(H,)`` integrals over ``theta`` in ``[0, pi]`` of ``sin(theta)`` times the weight row ``j`` of an ``H``-row
+    lat-long image has in its bilinear filtering: 1 at the row's centre ``theta_j = (j + 1/2) pi / H``, falling
+    linearly to 0 at the neighbouring centres, and 1 from the first and last centres to the poles (clamped)."""
+    centres = (np.arange(hgt) + 0.5) / hgt * np.pi
+    weights = np.zeros(hgt)
+    weights[0] += 1.0 - np.cos(centres[0])  # clamped from the +Y pole down to the first centre
+    weights[-1] += 1.0 + np.cos(centres[-1])  # and from the last centre to the -Y pole
+    # Between centres a and b = a + dtheta the lower row's weight rises as (theta - a) / dtheta: its integral with
+    # sin(theta) is [G(b) - G(a) + a (cos b - cos a)] / dtheta, G = sin(theta) - theta cos(theta) (by parts).
+    a, b = centres[:-1], centres[1:]
+    total = np.cos(a) - np.cos(b)
+    rising = (np.sin(b) - b * np.cos(b) - np.sin(a) + a * np.cos(a) + a * (np.cos(b) - np.cos(a))) / (np.pi / hgt)
+    weights[1:] += rising
+    weights[:-1] += total - rising
+    return weights
+
+
+def _emitted_texels(texture: np.ndarray) -> np.ndarray:
+    """``(H, W, 3)`` float32 RGB of a light's texture with negative, NaN and infinite texels made 0."""
+    texels = np.ascontiguousarray(texture[..., :3], np.float32)
+    return np.nan_to_num(np.maximum(texels, 0.0), nan=0.0, posinf=0.0)
