@@ -1,5 +1,5 @@
 """DomeLight texture layouts (UsdLux ``inputs:texture:format``) resampled to the latitude-longitude image that
-:mod:`wrt.lights` looks up and importance-samples.
+:mod:`wrt.light_sampling` looks up and importance-samples.
 
 Directions are in the dome's frame (before its transform), in which the lat-long image follows the OpenEXR
 convention (+Y pole, longitude 0 = +Z at the image centre, +X left of it). UsdLux names the layouts but not their

@@ -38,8 +38,8 @@ from .lights import (
     MeshLight,
     RectLight,
     SphereLight,
-    _axes,
-    _normalized,
+    light_axes,
+    normalized_radiance,
 )
 from .scene import DistantLight
 
@@ -130,7 +130,7 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTr
     for j, light in enumerate(mesh_lights):
         ids = np.nonzero(owner == j)[0]
         area = areas(ids)
-        L = _normalized(light.color, float(area.sum()), light.normalize).astype(np.float64)
+        L = normalized_radiance(light.color, float(area.sum()), light.normalize).astype(np.float64)
         tints = light.material_sync == GLOW_TINTS_LIGHT
         if tints:
             keep = glow[tri_materials[ids]] > 0.0  # the light tints the glow: no glow, no light
@@ -154,7 +154,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`.
 
     Args:
-        lights: the UsdLux lights (scene lights or :func:`default_lights`).
+        lights: the UsdLux lights (scene lights or :func:`wrt.lights.default_lights`).
         scene: the :class:`wrt.Scene` (for emissive triangles and the scene radius).
         material_emission: per device material (index 0 = default material) a ``(3,)`` emission estimate.
         device: Warp device.
@@ -200,7 +200,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True)
         elif isinstance(light, RectLight):
             u, v = light.edges()
-            _, _, z, origin = _axes(light.to_world)
+            _, _, z, origin = light_axes(light.to_world)
             n = _emitting_normal(u, v, z)
             L = light.radiance
             texels = None if light.texture is None else _emitted_texels(light.texture)
@@ -210,7 +210,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             h.texture[-1] = texels
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
         elif isinstance(light, DiskLight):
-            x, y, z, origin = _axes(light.to_world)
+            x, y, z, origin = light_axes(light.to_world)
             u, v = x * light.radius, y * light.radius
             n = _emitting_normal(u, v, z)
             L = light.radiance
@@ -219,7 +219,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
         elif isinstance(light, CylinderLight):
             axis, r = light.world_shape()
-            origin = _axes(light.to_world)[3]
+            origin = light_axes(light.to_world)[3]
             L = light.radiance
             _add(h, LIGHT_CYLINDER, L, origin, axis, zero, zero, (r, 0, light.area, 0), 0,
                  math.pi * light.area * luminance_np(L))
@@ -421,7 +421,7 @@ def _nearest_rotation(m: np.ndarray) -> np.ndarray:
 def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Row and column CDFs of ``luminance * sin(theta)`` over a ``(H, W, 3)`` lat-long image (``(H + 1,)``, and
     ``(H (W + 1),)``: each row's in turn), and its mean radiance over the sphere, both of the bilinearly filtered
-    image that :func:`dome_radiance` looks up.
+    image that :func:`wrt.light_sampling.dome_radiance` looks up.
 
     Each texel's weight is the luminance of the filtered image averaged over the texel: ``[1/8, 3/4, 1/8]`` of it and
     its neighbours along each axis (longitude wrapping around, latitude clamped at the poles). It is positive wherever

@@ -30,7 +30,8 @@ times the blackbody colour when ``enableColorTemperature`` is on):
   ``noMaterialResponse``); rays a surface scattered see what light sampling draws.
 - A Lambertian surface of albedo ``rho`` under illuminance ``E`` therefore shows radiance ``rho E / pi``.
 - **Multipliers** ``diffuse`` and ``specular`` (UsdLux's non-physical controls) scale what surfaces reflect of a
-  light through their diffuse lobe and their specular lobes (:func:`lobe_factor`); camera rays see lights unscaled.
+  light through their diffuse lobe and their specular lobes (:func:`wrt.light_sampling.lobe_factor`); camera rays
+  see lights unscaled.
 - **Shaping** (``ShapingAPI`` cone, softness, focus and focus tint, :mod:`wrt.light_shaping`) multiplies what sphere,
   rect, disk and cylinder lights emit in each direction, after ``normalize``, for light sampling and for rays that
   see the light alike.
@@ -58,9 +59,6 @@ DEFAULT_DOME_RADIANCE = (0.2, 0.2, 0.2)  # default dome: adds 0.2 * albedo to an
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 
 
-# Host-side lights -------------------------------------------------------------------------------------------------
-
-
 # check_fields specs shared by the lights below.
 _COLOR = ("color", (3,), 0.0, np.float32)  # a negative colour would take light away: negative pixels
 _TO_WORLD = ("to_world", (4, 4), None, np.float64)
@@ -73,7 +71,7 @@ def _size(name: str) -> tuple:
     return (name, (), 0.0, float)
 
 
-def _axes(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def light_axes(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Columns X, Y, Z (scaled) and the origin of a column-vector ``(4, 4)`` transform."""
     m = np.asarray(to_world, np.float64).reshape(4, 4)
     return m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3]
@@ -135,7 +133,7 @@ class SphereLight:
     @property
     def radiance(self) -> np.ndarray:
         """``(3,)`` emitted radiance."""
-        return _normalized(self.color, self.area, self.normalize)
+        return normalized_radiance(self.color, self.area, self.normalize)
 
     @property
     def intensity(self) -> np.ndarray:
@@ -189,7 +187,7 @@ class RectLight:
         self.texture = _checked_texture(self)
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
-        x, y, _, _ = _axes(self.to_world)
+        x, y, _, _ = light_axes(self.to_world)
         return x * self.width, y * self.height
 
     @property
@@ -199,7 +197,7 @@ class RectLight:
 
     @property
     def radiance(self) -> np.ndarray:
-        return _normalized(self.color, self.area, self.normalize)
+        return normalized_radiance(self.color, self.area, self.normalize)
 
 
 @dataclasses.dataclass
@@ -238,12 +236,12 @@ class DiskLight:
 
     @property
     def area(self) -> float:
-        x, y, _, _ = _axes(self.to_world)
+        x, y, _, _ = light_axes(self.to_world)
         return float(math.pi * np.linalg.norm(np.cross(x * self.radius, y * self.radius)))
 
     @property
     def radiance(self) -> np.ndarray:
-        return _normalized(self.color, self.area, self.normalize)
+        return normalized_radiance(self.color, self.area, self.normalize)
 
 
 @dataclasses.dataclass
@@ -284,7 +282,7 @@ class CylinderLight:
 
     def world_shape(self) -> tuple[np.ndarray, float]:
         """World-space axis vector (full length) and radius (mean of the Y and Z scales)."""
-        x, y, z, _ = _axes(self.to_world)
+        x, y, z, _ = light_axes(self.to_world)
         return x * self.length, self.radius * 0.5 * (np.linalg.norm(y) + np.linalg.norm(z))
 
     @property
@@ -294,7 +292,7 @@ class CylinderLight:
 
     @property
     def radiance(self) -> np.ndarray:
-        return _normalized(self.color, self.area, self.normalize)
+        return normalized_radiance(self.color, self.area, self.normalize)
 
 
 # UsdLux light:materialSyncMode values: how a mesh light's material and its light relate (see MeshLight).
@@ -400,7 +398,9 @@ def _check_shaping(light) -> None:
                          f"{type(light.shaping).__name__}", prim=light.path or None)
 
 
-def _normalized(color, area: float, normalize: bool) -> np.ndarray:
+def normalized_radiance(color, area: float, normalize: bool) -> np.ndarray:
+    """``(3,)`` float32 radiance of a light of ``color`` and world-space ``area``: ``color / area`` with ``normalize``
+    (0 for a zero area), else ``color``."""
     color = np.asarray(color, np.float32)
     if not normalize:
         return color.copy()

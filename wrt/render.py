@@ -354,7 +354,7 @@ class Renderer:
         glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
         emissive_used = bool(glows[geometry_materials].any())
         if self.integrator == "whitted" and emissive_used:
-            # Only world-space emissive triangles are sampled as lights (lights._emitter_triangles).
+            # Only world-space emissive triangles are sampled as lights (wrt.light_table.emitter_triangles).
             unsampled = int(glows[geometry_materials[scene.num_flat_triangles :]].sum())
             if unsampled:
                 warnings.warn(

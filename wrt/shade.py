@@ -437,7 +437,7 @@ def start_paths_kernel(
     alive[i] = 1
     pdf_prev[i] = 0.0
     prev_normal[i] = wp.vec3(0.0)
-    views[i] = view  # the camera of the path: its headlight direction (lights.sample_light_in_view)
+    views[i] = view  # the camera of the path: its headlight direction (light_sampling.sample_light_in_view)
 
 
 @wp.func

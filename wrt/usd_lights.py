@@ -1,5 +1,5 @@
-"""Reading UsdLux light prims into the host-side lights of :mod:`wrt.lights` (radiometry, sampling and the device
-side live there)."""
+"""Reading UsdLux light prims into the host-side lights of :mod:`wrt.lights` (their radiometry lives there; the
+device side in :mod:`wrt.light_table` and :mod:`wrt.light_sampling`)."""
 
 from __future__ import annotations
 

@@ -35,7 +35,7 @@ def mis_weight(lights: DeviceLights, k: int, pdf_bsdf: float, pdf_light: float):
     """Weight of a BSDF-sampled hit on light ``k`` (``pdf_light``: the pdf of light sampling drawing it, selection
     included): 1 after delta events or for camera rays (``pdf_bsdf = 0``). A light without shadows, or whose
     shadowLink leaves some geometry out, gives light sampling the whole weight wherever it reaches
-    (:func:`wrt.lights.sampled_alone`, :func:`light_sample_weight`)."""
+    (:func:`wrt.light_sampling.sampled_alone`, :func:`light_sample_weight`)."""
     if pdf_bsdf <= 0.0:
         return 1.0
     if sampled_alone(lights, k):
@@ -55,7 +55,7 @@ def light_sample_weight(lights: DeviceLights, k: int, pdf_light: float, pdf_bsdf
 @wp.func
 def scattered_by(lights: DeviceLights, k: int, camera: int, diffuse_share: wp.vec3):
     """The factor of light ``k``'s multipliers on what a ray brings back from it: 1 for camera rays, else
-    :func:`wrt.lights.lobe_factor` for the surface that scattered the ray with ``diffuse_share`` diffusely."""
+    :func:`wrt.light_sampling.lobe_factor` for the surface that scattered the ray with ``diffuse_share`` diffusely."""
     if camera == 1:
         return wp.vec3(1.0)
     return lobe_factor(lights, k, diffuse_share)
