@@ -12,7 +12,6 @@ from .light_links import read_collection
 from .light_shaping import Shaping, primary_axis, read_shaping
 from .lights import (
     GLOW_TINTS_LIGHT,
-    INPUTS_PREFIX,
     MATERIAL_SYNC_MODES,
     NO_MATERIAL_RESPONSE,
     CylinderLight,
@@ -23,6 +22,8 @@ from .lights import (
     SphereLight,
 )
 from .scene import DistantLight
+
+INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 
 
 def read_light(prim, xforms, time, up_axis: str, skip):
