@@ -63,5 +63,7 @@ __version__ = "0.1.0"
 # per kernel module (14 lines), which are Warp's info messages; its warnings and errors still show. Only Warp's default
 # level is raised: a level set before importing wrt is kept, and ``wp.config.log_level = wp.LOG_INFO`` after it shows
 # them again. (Warp 1.19 has no ``wp.config.quiet``; setting it does nothing.)
+# This covers ``wrt`` command lines and the bench and animation worker processes too: their tasks are functions
+# of wrt modules, pickled by reference, so a worker imports wrt before it runs one.
 if _wp.config.log_level == _wp.LOG_INFO:
     _wp.config.log_level = _wp.LOG_WARNING

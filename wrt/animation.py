@@ -454,11 +454,8 @@ def render_frame_task(job: dict) -> dict:
     """
     import tempfile
 
-    import warp as wp
-
     from .distributed import worker_device
 
-    wp.config.log_level = wp.LOG_WARNING  # no Warp banner and module-load lines from every worker, as in wrt bench
     device = _PROCESS_DEVICE or worker_device()
     key = (job["path"], device, repr(sorted(job["options"].items())))
     start = _time.perf_counter()

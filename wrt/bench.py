@@ -587,7 +587,6 @@ def _run_group_task(task) -> list[dict]:
     from .distributed import worker_device
 
     (scene_name, device_name, kind), grid, thread_counts, done = task  # done: row key -> identity fields
-    wp.config.log_level = wp.LOG_WARNING  # no Warp banner and module-load lines from every worker
     device = resolve_device(worker_device() if device_name.startswith("cuda") else device_name)
     if device_name.startswith("cuda") and not device.is_cuda:  # worker_device() is the CPU without a GPU
         raise ValueError(f"{device_name}: no CUDA device on the Dask worker at {platform.node()}")

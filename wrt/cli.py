@@ -786,7 +786,6 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     import warp as wp
 
-    wp.config.log_level = wp.LOG_WARNING  # keep Warp's start-up and module-load lines out of the CLI's output
     from .distributed import DaskUnavailable
     from .errors import SceneError
 
