@@ -1285,7 +1285,7 @@ def test_display_color_is_inherited_through_native_instances(tmp_path):
 def test_inherited_display_colors_are_capped_per_prototype(tmp_path, monkeypatch):
     """Each inherited colour is a copy of the prototype: past the cap an instance keeps the prototype's own colours,
     with a warning naming it, so instancing keeps its memory bound."""
-    monkeypatch.setattr(importlib.import_module("wrt.usd"), "MAX_INHERITED_COLORS", 2)
+    monkeypatch.setattr(importlib.import_module("wrt.usd_native_instances"), "MAX_INHERITED_COLORS", 2)
     path = tmp_path / "colors.usda"
     path.write_text(INHERITED_COLORS)
     with pytest.warns(UserWarning, match=r"more than 2 colours per prototype"):

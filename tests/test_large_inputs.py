@@ -12,7 +12,7 @@ import pytest
 pxr = pytest.importorskip("pxr")
 from pxr import Gf, Usd, UsdGeom  # noqa: E402
 
-import wrt.usd as wrt_usd  # noqa: E402
+import wrt.usd_visibility as usd_visibility  # noqa: E402
 from wrt.usd import load_usd  # noqa: E402
 
 
@@ -40,14 +40,14 @@ def test_visibility_of_a_deep_hierarchy_reads_each_prim_once(tmp_path, monkeypat
     stage.Save()
 
     reads = []
-    original = wrt_usd.value_at
+    original = usd_visibility.value_at
 
     def counting(attr, time):
         if attr.GetName() == "visibility":
             reads.append(str(attr.GetPrimPath()))
         return original(attr, time)
 
-    monkeypatch.setattr(wrt_usd, "value_at", counting)
+    monkeypatch.setattr(usd_visibility, "value_at", counting)
     scene = load_usd(tmp_path / "deep.usda")
     # Meshes above the hidden Xform are drawn (one translate per level: mesh k sits at x = k + 1); none below it.
     assert len(scene.meshes) == hidden

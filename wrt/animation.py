@@ -248,7 +248,7 @@ def warn_frames_outside_range(path, frames) -> None:
     """One :class:`wrt.errors.TimeRangeWarning` naming the ``frames`` outside the stage's authored time range and the
     range. Every frame's load warned about its own time, so 1000 frames past the end were 1000 lines; the renders of
     a frame range leave those out (:func:`_quiet_time_range`)."""
-    from .usd import outside_range, stage_time_range
+    from .usd_stage import outside_range, stage_time_range
 
     found = stage_time_range(path)
     if found is None:

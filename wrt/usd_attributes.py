@@ -1,0 +1,60 @@
+"""Checked reads of a prim's geometric attributes at the stage reader's time: ``int[]`` topology arrays, point
+arrays moved by their velocities, and ``orientation``; a value of the wrong type is an error or a warning naming the
+prim."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .usd_values import moved_positions, value_at
+
+
+class AttributeReading:
+    """Typed attribute reads of the stage reader (``stage``, ``time``, ``_skip``, ``_error``)."""
+
+    def _moved(self, schema, positions: Usd.Attribute):
+        """``positions`` (``points`` or a PointInstancer's ``positions``) of ``schema`` moved by its velocities and
+        accelerations at this time (see :func:`wrt.usd_values.moved_positions`), or None to read them as they are."""
+        velocities, accelerations = schema.GetVelocitiesAttr(), schema.GetAccelerationsAttr()
+        return moved_positions(positions, velocities, accelerations, self.time, self.stage.GetTimeCodesPerSecond())
+
+    def _int_array(self, prim: Usd.Prim, attr: Usd.Attribute) -> np.ndarray:
+        """``(N,)`` int64 value of an ``int[]`` topology attribute at the read time (empty when it has none).
+
+        Raises:
+            SceneError: the value authored is not a 1-D array of integers (``float[]`` would be truncated and
+                ``string[] ["3"]`` parsed by numpy without a word).
+        """
+        value = value_at(attr, self.time)
+        if value is None:
+            return np.zeros(0, np.int64)
+        array = np.asarray(value)
+        if array.ndim != 1 or array.dtype.kind not in "iu":
+            raise self._error(f"{attr.GetName()} must be int[], not {self._authored_type(attr)}", prim, attr)
+        return array.astype(np.int64)
+
+    def _point_array(self, prim: Usd.Prim) -> np.ndarray | None:
+        """``(n, 3)`` float64 ``points`` of a point-based prim (moved by its velocities where they apply), ``(0, 3)``
+        when it has none, or None (with a warning) when they are not an array of 3-vectors."""
+        schema = UsdGeom.PointBased(prim)
+        raw = self._moved(schema, schema.GetPointsAttr())
+        if raw is None:
+            raw = value_at(schema.GetPointsAttr(), self.time)
+        points = np.asarray(raw if raw is not None else np.zeros((0, 3)))
+        if points.size == 0:
+            return np.zeros((0, 3))
+        if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
+            self._skip(f"{prim.GetTypeName()} prims whose points are not an array of 3-vectors were skipped", prim,
+                       f"{self._authored_type(schema.GetPointsAttr())} holding {type(raw).__name__}")
+            return None
+        return points.astype(np.float64)
+
+    def _left_handed(self, prim: Usd.Prim, gprim: UsdGeom.Gprim, t: Usd.TimeCode) -> bool:
+        """Whether ``orientation`` is leftHanded. Any other token is read as USD's fallback, rightHanded, and named
+        in a warning: USD does not check allowed tokens, so a misspelt leftHanded would flip every face unseen."""
+        value = value_at(gprim.GetOrientationAttr(), t)
+        if value not in (UsdGeom.Tokens.rightHanded, UsdGeom.Tokens.leftHanded):
+            self._skip("orientation is neither rightHanded nor leftHanded; read as rightHanded", prim, repr(value))
+        return value == UsdGeom.Tokens.leftHanded
+

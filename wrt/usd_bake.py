@@ -1,0 +1,105 @@
+"""A mesh read in its own space baked into its content's space as a :class:`wrt.scene.Mesh`: points, winding
+(``leftHanded`` and mirroring transforms), normals, texture coordinates, materials, colours and opacities per triangle
+corner."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd
+
+from .scene import Mesh
+from .usd_contents import _Context
+from .usd_looks import _has_color
+from .usd_meshes import _LocalMesh, vertex_normals
+
+_FLIP = np.array([0, 2, 1])  # corner permutation that reverses a triangle's winding, keeping corner 0
+
+
+class MeshBaking:
+    """Mesh baking of the stage reader (``materials``, ``_skip``, ``_error``)."""
+
+    def _bake(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context, local: _LocalMesh, face_materials,
+              color_names: list):
+        """The :class:`Mesh` of ``local`` with ``m`` baked in; ``face_materials`` ``(F,)`` per source face or None."""
+        if local.cage is not None:  # made from the final (posed) points, once
+            local.normals = (vertex_normals(local.points, *local.cage, local.flip), local.vertex_ids)
+
+        # Bake the transform (row-vector convention: p_world = p @ M[:3, :3] + M[3, :3]).
+        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
+            self._skip("world transform is projective; its last column was ignored", prim)
+        linear = m[:3, :3]
+        points = local.points @ linear + m[3, :3]
+        if not np.all(np.isfinite(points.astype(np.float32))):
+            raise self._error("points are not finite after the world transform", prim)
+
+        # A mirroring transform flips the winding just as leftHanded does; both together cancel.
+        det = float(np.linalg.det(linear))
+        flip = local.flip ^ (det < 0.0)
+        order = _FLIP if flip else slice(None)
+        indices = local.vertex_ids[:, order]
+
+        normals = None
+        if local.normals is not None:
+            values, corner_index = local.normals
+            # Normals transform by the inverse transpose; the sign-corrected cofactor matrix is the same up to
+            # a positive scale and exists even for singular transforms.
+            r0, r1, r2 = linear
+            cofactor = np.stack([np.cross(r1, r2), np.cross(r2, r0), np.cross(r0, r1)])  # = det * inv(linear).T
+            world = values @ (cofactor if det >= 0.0 else -cofactor)
+            length = np.linalg.norm(world, axis=1, keepdims=True)
+            good = np.isfinite(length) & (length > 0.0)
+            world = np.where(good, world / np.where(good, length, 1.0), 0.0)  # zero where it cannot be normalised
+            normals = world.astype(np.float32)[corner_index[:, order]]
+
+        uvs = None
+        if local.uvs is not None:
+            values, corner_index = local.uvs
+            uvs = values.astype(np.float32)[corner_index[:, order]]
+        material_ids = None
+        if face_materials is not None:
+            material_ids = face_materials[np.clip(local.face_ids, 0, max(len(face_materials) - 1, 0))]
+        colors = self._corner_colors(prim, local, color_names, material_ids, order, ctx)
+        opacities = None
+        if local.opacities is not None and (material_ids is None or bool(np.any(material_ids < 0))):
+            values, corner_index = local.opacities
+            opacities = values[corner_index[:, order]]
+
+        return Mesh(
+            path=str(prim.GetPath()),
+            points=points,
+            indices=indices,
+            face_ids=local.face_ids,
+            normals=normals,
+            colors=colors,
+            double_sided=local.double_sided,
+            uvs=uvs,
+            material_ids=material_ids,
+            opacities=opacities,
+        )
+
+    def _corner_colors(self, prim, local: _LocalMesh, names: list, material_ids, order, ctx: _Context):
+        """``(T, 3, 3)`` float32 colours at the corners of the mesh's triangles (winding ``order``), or None: each
+        triangle's from the colour primvar its material reads (``names``, :meth:`MaterialReader.color_primvars`; the
+        first for triangles of materials that read none), NaN rows where the mesh has not got it. A primvar the mesh
+        lacks is one its content wants from above (:meth:`_Content.want_colors`): a native instance's constant
+        colour of that name (``ctx.outer_color``) fills it in."""
+        found = {}
+        for name in names:
+            if name in local.colors:
+                values, corner_index = local.colors[name]
+                found[name] = values[corner_index[:, order]]
+            elif not _has_color(prim, name):
+                ctx.content.want_colors([name])
+                if ctx.outer_color is not None and ctx.outer_color[0] == name:
+                    found[name] = np.tile(np.asarray(ctx.outer_color[1], np.float32), (len(local.face_ids), 3, 1))
+        if len(names) == 1 or not found:
+            return found.get(names[0])
+        # Each triangle shades with its material's primvar; those of materials that read none keep the first.
+        colors = np.full((len(local.face_ids), 3, 3), np.nan, np.float32)
+        for k in np.unique(material_ids):
+            name = self.materials.color_primvar_of(int(k)) or names[0]
+            if name in found:
+                rows = material_ids == k
+                colors[rows] = found[name][rows]
+        return colors
+

@@ -1,0 +1,188 @@
+"""Gprims as analytic shapes (:mod:`wrt.primitives`): USD's size parameters and axis folded into the shape's
+transform, or triangle meshes when tessellating; ``Points`` and curves as instances of spheres and tube pieces
+(:mod:`wrt.usd_tubes`), each shape a content of its own."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .instancing import world_boxes
+from .primitives import (
+    Shape,
+    axis_rotation,
+    shape_transform,
+    tapered_shape,
+    tessellate,
+)
+from .scene import Mesh
+from .tubes import width_axis
+from .usd_contents import _Content, _Context, _looks
+from .usd_values import value_at
+
+
+class GprimReading:
+    """Gprim reading of the stage reader (``time``, ``segments``, ``contents``, ``tubes``)."""
+
+    def _read_gprim(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Shape | None:
+        """The analytic shape of gprim ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space)
+        and USD's size parameters folded into its transform, or None (with a warning) when it is not supported."""
+        t = self.time
+
+        def bad_size(detail):
+            self._skip("gprims with a zero, negative or non-finite size were skipped", prim, detail)
+
+        def number(attr, name, zero_ok=False):
+            value = value_at(attr, t)
+            value = float(value) if value is not None else float("nan")
+            if not (math.isfinite(value) and (value > 0.0 or (zero_ok and value == 0.0))):
+                bad_size(f"{name} = {value:g}")
+                return None
+            return value
+
+        def axis_of(schema):
+            # Any other token ("x", say) used to be read as Z without a word; USD computes no extent for it.
+            axis = str(value_at(schema.GetAxisAttr(), t) or "Z")
+            if axis not in ("X", "Y", "Z"):
+                self._skip("gprims with an axis other than X, Y or Z were skipped", prim, f"axis = {axis!r}")
+                return None
+            return axis_rotation(axis)
+
+        params = np.array([1.0, 0.0, 0.0, 1.0])
+        linear = None  # (3, 3) canonical space -> the prim's space, for shapes centred at its origin
+        local = None  # (4, 4) canonical space -> the prim's space, else
+        type_name = prim.GetTypeName()
+        if type_name == "Sphere":
+            r = number(UsdGeom.Sphere(prim).GetRadiusAttr(), "radius")
+            kind, linear = "sphere", None if r is None else np.eye(3) * r
+        elif type_name == "Cube":
+            size = number(UsdGeom.Cube(prim).GetSizeAttr(), "size")
+            kind, linear = "box", None if size is None else np.eye(3) * (size / 2.0)
+        elif type_name in ("Cylinder", "Cone"):
+            schema = UsdGeom.Cylinder(prim) if type_name == "Cylinder" else UsdGeom.Cone(prim)
+            h, r = number(schema.GetHeightAttr(), "height"), number(schema.GetRadiusAttr(), "radius")
+            kind = type_name.lower()
+            axis = None if h is None or r is None else axis_of(schema)
+            linear = None if axis is None else axis @ np.diag([r, r, h / 2.0])
+        elif type_name == "Capsule":
+            schema = UsdGeom.Capsule(prim)
+            h, r = number(schema.GetHeightAttr(), "height", zero_ok=True), number(schema.GetRadiusAttr(), "radius")
+            kind = "capsule"
+            axis = None if h is None or r is None else axis_of(schema)
+            linear = None if axis is None else axis @ (np.eye(3) * r)
+            if linear is not None:
+                params[0] = h / (2.0 * r)
+        elif type_name in ("Cylinder_1", "Capsule_1"):
+            schema = UsdGeom.Cylinder_1(prim) if type_name == "Cylinder_1" else UsdGeom.Capsule_1(prim)
+            h = number(schema.GetHeightAttr(), "height", zero_ok=type_name == "Capsule_1")
+            # One radius may be 0 (a Cylinder_1 that is a cone, a Capsule_1 ending in a point), not both.
+            bottom = number(schema.GetRadiusBottomAttr(), "radiusBottom", zero_ok=True)
+            top = number(schema.GetRadiusTopAttr(), "radiusTop", zero_ok=True)
+            if bottom == 0.0 and top == 0.0:
+                bad_size("radiusBottom = radiusTop = 0")
+            elif None not in (h, bottom, top):
+                axis = axis_of(schema)
+                if axis is not None:
+                    kind, local, params[0], params[1] = tapered_shape(type_name, h, bottom, top)
+                    local = shape_transform(axis) @ local
+        elif type_name == "Plane":
+            schema = UsdGeom.Plane(prim)
+            w, length = number(schema.GetWidthAttr(), "width"), number(schema.GetLengthAttr(), "length")
+            kind = "plane"
+            axis = None if w is None or length is None else axis_of(schema)
+            linear = None if axis is None else axis @ np.diag([w / 2.0, length / 2.0, 1.0])
+        else:
+            self._skip("gprims of this type (volumes) are not drawn: wrt has no volume renderer; skipped", prim,
+                       type_name)
+            return None
+        if local is None:
+            if linear is None:
+                return None
+            local = shape_transform(linear)
+        gprim = UsdGeom.Gprim(prim)
+        if self._left_handed(prim, gprim, t):
+            params[3] = -1.0
+        to_world = m.T @ local
+        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
+            self._skip("world transform is projective; its last column was ignored", prim)
+            to_world[3] = (0.0, 0.0, 0.0, 1.0)
+
+        material_id, primvar, color = self._gprim_look(prim, ctx)
+        if primvar is not None:
+            color = np.full(3, 0.5, np.float32)
+            values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64)
+            values = values[:, :3] if values.ndim == 2 else values.reshape(-1, 3)  # the rgb of a color4f
+            if len(values) and np.all(np.isfinite(values)):
+                color = values.mean(axis=0).astype(np.float32)
+        shape = Shape(
+            path=str(prim.GetPath()),
+            kind=kind,
+            to_world=to_world,
+            params=params,
+            color=color,
+            material_id=material_id,
+            double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
+            opacity=self._one_opacity(prim, False, not ctx.world) if material_id < 0 else None,
+        )
+        # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them.
+        if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
+            raise self._error("bounds are not finite after the world transform", prim)
+        return shape
+
+    def _tessellated(self, shape: Shape, prim: Usd.Prim, segments: int | None = None) -> Mesh:
+        """``shape`` as a triangle mesh of ``segments`` (default ``self.segments``) segments per circle."""
+        points, indices, normals = tessellate(shape, segments or self.segments)
+        n = len(indices)
+        if not np.all(np.isfinite(points.astype(np.float32))):
+            raise self._error("points are not finite after the world transform", prim)
+        return Mesh(
+            path=shape.path,
+            points=points,
+            indices=indices,
+            face_ids=np.arange(n, dtype=np.int32),
+            normals=normals,
+            colors=None if shape.color is None else np.broadcast_to(shape.color, (n, 3, 3)),
+            double_sided=shape.double_sided,
+            material_ids=None if shape.material_id < 0 else np.full(n, shape.material_id, np.int32),
+            opacities=None if shape.opacity is None else np.full((n, 3), shape.opacity, np.float32),
+        )
+
+    def _read_tubes(self, prim: Usd.Prim, ctx: _Context):
+        """A ``Points`` or curves prim as instances of spheres and tube segments (:mod:`wrt.usd_tubes`), one
+        content per shape, so it is placed (and nested in prototypes) like any instance."""
+        counts = None
+        if prim.IsA(UsdGeom.Curves):
+            counts = self._int_array(prim, UsdGeom.Curves(prim).GetCurveVertexCountsAttr())
+        points = self._point_array(prim)
+        if points is None or len(points) == 0:
+            if points is not None and counts is not None and counts.any():  # as meshes with faces but no points
+                self._skip(f"{prim.GetTypeName()} prims with curves but no points were skipped", prim)
+            return
+        material_id, primvar, color = self._gprim_look(prim, ctx)
+        # displayOpacity per point or curve is one per instance, as colours are; a single value is the shapes' own.
+        per_element = self._opacity_per_element(prim) if material_id < 0 else None
+        opacity = self._one_opacity(prim, True, not ctx.world) if material_id < 0 and not per_element else None
+        m = self._to_space(prim, ctx)
+        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
+            self._skip("world transform is projective; its last column was ignored", prim)
+        groups, constant = self.tubes.read(prim, points, m.T, primvar, counts, per_element)
+        axis = width_axis(m.T[:3, :3])
+        color = constant if constant is not None else color
+        double_sided = bool(value_at(UsdGeom.Gprim(prim).GetDoubleSidedAttr(), self.time))
+        path = str(prim.GetPath())
+        for group in groups:
+            shape = Shape(path, group.kind, np.eye(4), group.params, color if group.colors is None else None,
+                          material_id, double_sided, opacity)
+            content = _Content(path)
+            content.tube = (group.kind == "sphere", axis)
+            if self.segments:
+                content.meshes.append(self._tessellated(shape, prim))
+            else:
+                content.shapes.append(shape)
+            key = ("tubes", path, len(self.contents))  # a content of its own, placed only by these instances
+            self.contents[key] = content
+            ctx.content.instances.append((key, group.to_space, path, group.index,
+                                          _looks(group.colors, group.opacities)))
+

@@ -1,0 +1,117 @@
+"""``displayColor`` and ``displayOpacity`` beyond a mesh's own corners: colour primvars found with USD's inheritance,
+the one opacity of prims drawn in one look (gprims, points, curves, tet meshes, patches), the constant colour and
+opacity a native instance hands down to its prototype, and the per-instance look rows (colour and opacity) of
+:class:`wrt.instancing.Instances`."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .usd_contents import _Context
+from .usd_primvars import unit_opacities
+from .usd_values import read_time
+
+
+def _color_primvar(prim: Usd.Prim, name: str) -> UsdGeom.Primvar:
+    """Colour primvar ``name`` (``displayColor``, ...) of ``prim``: its own when authored, else a constant one of its
+    nearest ancestor that has one (USD's primvar inheritance, which usdview follows: a colour set on a group colours
+    its meshes)."""
+    return UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
+
+
+def _has_color(prim: Usd.Prim, name: str) -> bool:
+    """``prim`` has colour primvar ``name`` of its own or inherits one inside its space (see
+    :func:`_color_primvar`)."""
+    primvar = _color_primvar(prim, name)
+    return bool(primvar and primvar.HasValue())
+
+
+class LookReading:
+    """Colour and opacity reads of the stage reader (``time``, ``materials``, ``_skip``)."""
+
+    def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool, keep_opaque: bool = False) -> float | None:
+        """The ``displayOpacity`` of ``prim`` (its own or a constant inherited one) for prims drawn with the default
+        material in one opacity (gprims, points, curves, tet meshes, NURBS patches): the mean of its values (see
+        :func:`wrt.usd_primvars.unit_opacities`), as gprims take the mean displayColor, or None when it has none or
+        is opaque (unless ``keep_opaque``, as :meth:`_read_opacities`). ``one_per_prim``: values that differ are named
+        in a warning (their displayColor is read per element)."""
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
+        if not (primvar and primvar.HasValue()):
+            return None
+        values = self._opacity_values(primvar)
+        if values is None:
+            self._skip("displayOpacity that is not an array of numbers was ignored", prim, str(primvar.GetTypeName()))
+            return None
+        if not len(values):
+            return None
+        values = unit_opacities(values, prim, self._skip)
+        if one_per_prim and np.ptp(values) > 0.0:
+            self._skip(f"{prim.GetTypeName()} prims are drawn in one opacity: the mean of their displayOpacity", prim,
+                       primvar.GetInterpolation())
+        mean = float(values.mean())
+        return mean if mean < 1.0 or keep_opaque else None
+
+    def _opacity_values(self, primvar) -> np.ndarray | None:
+        """The flattened values of ``displayOpacity`` primvar ``primvar`` at the reader's time as float64 (maybe
+        none), or None when they are not an array of numbers."""
+        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        values = np.asarray(raw if raw is not None else [])
+        return values.astype(np.float64) if values.ndim == 1 and values.dtype.kind in "fiu" else None
+
+    def _opacity_per_element(self, prim: Usd.Prim):
+        """The ``displayOpacity`` primvar of Points or curves ``prim`` when it gives a value per point or curve (an
+        interpolation other than ``constant``; ``uniform`` on curves, not on Points, which are one element), else
+        None."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("displayOpacity")  # inherited ones are constant
+        if not (primvar and primvar.HasValue()):
+            return None
+        interpolation = primvar.GetInterpolation()
+        one = interpolation == "constant" or (interpolation == "uniform" and prim.IsA(UsdGeom.Points))
+        return None if one else primvar
+
+    def _gprim_look(self, prim: Usd.Prim, ctx: _Context) -> tuple:
+        """``(material_id, primvar, color)`` of gprim ``prim``: its material (-1: the default), bound as a mesh's; the
+        colour primvar that material reads (``displayColor`` by default) when ``prim`` has a value of it (its own or
+        an inherited constant one), else None; and then the constant colour a native instance hands down, if any
+        (``(3,)`` float32), else None (its material's constant, grey by default, or its instance's colour)."""
+        material = self._face_materials(prim, 1, ctx)
+        color_name = self.materials.color_primvars(material)[0]
+        primvar = _color_primvar(prim, color_name)
+        color = None
+        if not (primvar and primvar.HasValue()):
+            primvar = None
+            ctx.content.want_colors([color_name])
+            if ctx.outer_color is not None and ctx.outer_color[0] == color_name:
+                color = np.asarray(ctx.outer_color[1], np.float32)
+        return -1 if material is None else int(material[0]), primvar, color
+
+    def _inherited_color(self, prim: Usd.Prim, names: list[str]) -> tuple | None:
+        """The constant colour primvar that native instance ``prim`` hands down to its prototype's meshes lacking
+        one of ``names`` (the first of them it has): its own or its nearest ancestor's (up to the root of the
+        prototype ``prim`` is in), as ``(name, (r, g, b))``, or None."""
+        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        for name in names:
+            primvar = inherited.get(name)
+            if primvar is None:
+                continue
+            values = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+            values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
+            if len(values) >= 3 and np.all(np.isfinite(values[:3])):
+                return name, tuple(float(v) for v in values[:3])
+            return None
+        return None
+
+    def _inherited_opacity(self, prim: Usd.Prim) -> float | None:
+        """The constant ``displayOpacity`` native instance ``prim`` hands down to its prototype's geometry that has
+        none (its own or its nearest ancestor's, as for :meth:`_inherited_color`; the mean of its values, see
+        :func:`wrt.usd_primvars.unit_opacities`), or None."""
+        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        primvar = inherited.get("displayOpacity")
+        if primvar is None:
+            return None
+        values = self._opacity_values(primvar)
+        if values is None or not len(values):
+            return None
+        return float(unit_opacities(values, prim, self._skip).mean())
+

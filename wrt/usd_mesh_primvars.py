@@ -1,0 +1,150 @@
+"""A mesh's primvars mapped to its triangle corners: normals, colours, ``displayOpacity`` and texture coordinates, of
+every interpolation, indexed or not, and through a Catmull-Clark refinement."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import UsdGeom
+
+from .usd_looks import _color_primvar
+from .usd_primvars import finite_colors, unit_opacities
+from .usd_values import value_at
+
+_INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
+
+
+class MeshPrimvarReading:
+    """Mesh primvar reads of the stage reader (``time``, ``_skip``, ``_error``)."""
+
+    def _read_normals(self, prim, mesh, topology):
+        """``(values (K, 3) float64, corner index (T, 3))`` from ``primvars:normals`` or ``normals``, or None."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals")
+        if primvar and primvar.HasValue():
+            return self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology)
+        attr = mesh.GetNormalsAttr()
+        if attr.HasValue():
+            return self._read_primvar(prim, attr, mesh.GetNormalsInterpolation(), None, topology)
+        return None
+
+    def _read_colors(self, prim, topology, name: str):
+        """``(values (K, 3) float32, corner index (T, 3))`` from colour primvar ``name`` (``displayColor``, or the
+        one the mesh's material reads; its own or inherited, see :func:`_color_primvar`; the rgb of a 4-vector one),
+        or None."""
+        primvar = _color_primvar(prim, name)
+        if not (primvar and primvar.HasValue()):
+            return None
+        width = 4 if "Vec4" in primvar.GetTypeName().cppTypeName else 3
+        found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, width)
+        if found is None:
+            return None
+        values, corner_index = found
+        return finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), corner_index
+
+    def _read_opacities(self, prim, topology, keep_opaque=False):
+        """``(values (K,) float32, corner index (T, 3))`` from ``displayOpacity`` (its own or a constant inherited one;
+        every interpolation and indexing as colours, see :func:`wrt.usd_primvars.unit_opacities` for bad values), or
+        None when it has none or is 1 everywhere (opaque: nothing to carry), unless ``keep_opaque`` (a prototype's
+        geometry: its own 1 wins over an instance's opacity, Instances.opacities)."""
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
+        if not (primvar and primvar.HasValue()):
+            return None
+        found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, 1)
+        if found is None:
+            return None
+        values, corner_index = found
+        values = unit_opacities(values[:, 0], prim, self._skip)
+        return None if np.all(values >= 1.0) and not keep_opaque else (values.astype(np.float32), corner_index)
+
+    def _read_uvs(self, prim, topology, uv_set: str):
+        """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (when missing:
+        the mesh's only 2-vector primvar, if it has exactly one), or None."""
+        api = UsdGeom.PrimvarsAPI(prim)
+        primvar = api.GetPrimvar(uv_set)
+        if not (primvar and primvar.HasValue()):
+            candidates = [
+                p for p in api.GetPrimvarsWithValues() if str(p.GetTypeName()).rstrip("[]") in ("texCoord2f", "float2")
+            ]
+            if len(candidates) != 1:
+                reason = "meshes without the texture-coordinate primvar their material reads were left untextured"
+                self._skip(reason, prim, uv_set)
+                return None
+            primvar = candidates[0]
+        return self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, components=2)
+
+    def _read_primvar(self, prim, attr, interpolation, primvar, topology, components=3):
+        """Reads a primvar of ``components``-vectors and maps it to triangle corners.
+
+        Returns ``(values (K, components) float64, corner_index (T, 3) int64)`` so that ``values[corner_index]`` is
+        the per-corner data, or None (with a warning) when the value is not an array of such vectors.
+        """
+        counts, face_indices, tri_corners, face_ids, n_points, refinement = topology
+        name = attr.GetName()
+        raw = value_at(attr, self.time)
+        values = np.asarray(raw) if raw is not None else np.zeros((0, components))
+        if components == 1 and values.ndim == 1:  # float[]: one-number elements
+            values = values[:, None]
+        if values.ndim != 2 or values.shape[1] != components or values.dtype.kind not in "fiu":
+            self._skip(
+                f"{name} values that are not an array of {components}-vectors were ignored",
+                prim,
+                f"{self._authored_type(attr)} holding {type(raw).__name__}",
+            )
+            return None
+        values = values.astype(np.float64)
+        if interpolation not in _INTERPOLATIONS:
+            self._skip(f"{name} with unknown interpolation {interpolation!r} was ignored", prim)
+            return None
+        if primvar is not None and primvar.GetElementSize() != 1:
+            self._skip(f"{name} with elementSize != 1 was ignored", prim)
+            return None
+
+        # Element ids: through the primvar's indices when it is indexed, else the values themselves.
+        indices = None
+        if primvar is not None and primvar.IsIndexed():
+            raw_indices = value_at(primvar.GetIndicesAttr(), self.time)
+            indices = np.asarray(raw_indices if raw_indices is not None else [], dtype=np.int64).reshape(-1)
+        n_elements = len(indices) if indices is not None else len(values)
+        what = "indices" if indices is not None else "values"
+
+        needed = {
+            "constant": (1, "1"),
+            "uniform": (len(counts), "one per face"),
+            "vertex": (n_points, "one per point"),
+            "varying": (n_points, "one per point"),
+            "faceVarying": (len(face_indices), "one per face-vertex"),
+        }[interpolation]
+        if n_elements != needed[0]:
+            raise self._error(
+                f"{name} has {n_elements} {what}; {interpolation} interpolation needs {needed[0]} ({needed[1]})",
+                prim,
+                attr,
+            )
+
+        if indices is not None:
+            bad = (indices < 0) | (indices >= len(values))
+            if bad.any():
+                i = int(np.argmax(bad))
+                raise self._error(
+                    f"{name}:indices[{i}] = {indices[i]} is out of range for {len(values)} values", prim, attr
+                )
+        if refinement is not None and interpolation in ("vertex", "varying", "faceVarying"):
+            # Per point or per face-vertex data of the control cage becomes data of the refined mesh.
+            per_element = values if indices is None else values[indices]
+            if interpolation == "faceVarying":
+                return refinement.face_varying(per_element), tri_corners
+            refine = refinement.vertex if interpolation == "vertex" else refinement.varying
+            return refine(per_element), refinement.face_indices[tri_corners]
+
+        # Element of each triangle corner.
+        if interpolation == "constant":
+            corner = np.zeros(tri_corners.shape, dtype=np.int64)
+        elif interpolation == "uniform":
+            corner = np.repeat(face_ids[:, None], 3, axis=1)
+        elif interpolation == "faceVarying":
+            corner = tri_corners
+        else:
+            corner = face_indices[tri_corners]
+        if indices is not None:
+            corner = indices[corner]
+        return values, corner
+

@@ -1,0 +1,288 @@
+"""A ``UsdGeom.Mesh`` read in its own space: topology checks, fan triangulation (:func:`triangulate`), holes,
+Catmull-Clark refinement (:mod:`wrt.subdivision`), posing by a skeleton (:mod:`wrt.usd_skel`) and smooth normals of
+subdivision surfaces; ``TetMesh`` and ``NurbsPatch`` prims read the same way once :mod:`wrt.usd_surfaces` made them
+triangles."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from .resources import check_host_memory
+from .scene import Mesh
+from .subdivision import REFINED_QUAD_BYTES, Refinement, refined_quads
+from .usd_contents import _Context
+from .usd_looks import _color_primvar
+from .usd_values import value_at
+
+
+def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
+    """Fan-triangulates polygons around the first vertex of each face.
+
+    Face ``f`` with ``n`` vertices becomes the ``n - 2`` consecutive triangles ``(v0, v[k+1], v[k+2])`` for
+    ``k = 0 .. n-3``. Faces with fewer than 3 vertices give no triangle but still consume their indices.
+
+    Args:
+        face_counts: ``(F,)`` int, vertices per face (USD ``faceVertexCounts``).
+        face_indices: ``(N,)`` int, the concatenated face vertices (USD ``faceVertexIndices``); only its
+            length is used, to check that the counts cover it exactly.
+
+    Returns:
+        ``tri_corners`` ``(T, 3)`` int64 positions into ``face_indices`` (so the triangle vertices are
+        ``face_indices[tri_corners]``) and ``face_ids`` ``(T,)`` int64, the source face of each triangle.
+
+    Raises:
+        ValueError: a count is negative, or the counts do not sum to ``len(face_indices)``.
+    """
+    counts = np.asarray(face_counts, dtype=np.int64).reshape(-1)
+    n_indices = len(np.asarray(face_indices).reshape(-1))
+    if counts.size and counts.min() < 0:
+        f = int(np.argmax(counts < 0))
+        raise ValueError(f"faceVertexCounts[{f}] = {counts[f]} is negative")
+    total = int(counts.sum())
+    if total != n_indices:
+        raise ValueError(f"faceVertexCounts sum to {total} but there are {n_indices} faceVertexIndices")
+
+    # Each face starts at the running sum of the counts before it and gives max(n - 2, 0) triangles.
+    starts = np.cumsum(counts) - counts
+    n_tris = np.maximum(counts - 2, 0)
+    face_ids = np.repeat(np.arange(len(counts), dtype=np.int64), n_tris)
+    # k = index of the triangle inside its face's fan.
+    first_tri = np.cumsum(n_tris) - n_tris
+    k = np.arange(len(face_ids), dtype=np.int64) - first_tri[face_ids]
+    s = starts[face_ids]
+    tri_corners = np.stack([s, s + k + 1, s + k + 2], axis=1)
+    return tri_corners, face_ids
+
+
+class _LocalMesh:
+    """A mesh's data in its own space, before the world transform; shared by all instances of a prototype."""
+
+    def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs=None, cage=None,
+                 refinement=None, opacities=None):
+        self.points = points  # (V, 3) float64, local space
+        self.vertex_ids = vertex_ids  # (T, 3) int64 rows into points, winding as authored
+        self.face_ids = face_ids  # (T,) int64 source face
+        self.flip = flip  # orientation = leftHanded
+        self.normals = normals  # (values (K, 3) float64 local, corner index (T, 3) into values) or None
+        self.colors = colors  # colour primvar -> (values (K, 3) float32, corner index (T, 3)), those the mesh has
+        self.double_sided = double_sided
+        self.uvs = uvs  # (values (K, 2) float64, corner index (T, 3)) or None
+        self.cage = cage  # (faceVertexCounts, faceVertexIndices) of a mesh to get smooth normals from them, else None
+        # A Refinement of the points (control cage) into the points vertex_ids index, or None: applied after posing.
+        self.refinement = refinement
+        self.opacities = opacities  # displayOpacity (values (K,) float32, corner index (T, 3)) or None
+
+
+class MeshReading:
+    """Mesh reading of the stage reader (``time``, ``refine_level``, ``materials``, ``skel``, ``surfaces``)."""
+
+    def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
+        """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
+        # Materials first: the texture-coordinate primvar to read depends on them.
+        counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
+        face_materials = self._face_materials(prim, len(counts), ctx)
+        uv_set = self.materials.uv_set(face_materials, prim)
+        color_names = self.materials.color_primvars(face_materials)
+        default_faces = face_materials is None or bool(np.any(face_materials < 0))
+        local = self._read_local_mesh(prim, counts, uv_set, color_names, default_faces, keep_opaque=not ctx.world)
+        if local is None:
+            return None
+        # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
+        # only): skinning the rest pose's normals left blend shapes' dents unshaded and joints' bends approximate.
+        posed = self.skel.pose(prim, local.points, local.normals, local.vertex_ids, ctx.content.path)
+        if posed is not None:
+            # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
+            local.points, local.normals, space = posed
+            m = self._to_space(space, ctx)
+        if local.refinement is not None:
+            local.points = local.refinement.vertex(local.points)
+        return self._bake(prim, m, ctx, local, face_materials, color_names)
+
+    def _read_surface(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
+        """A TetMesh (its boundary) or NurbsPatch (tessellated) at ``prim`` as a triangle mesh
+        (:mod:`wrt.usd_surfaces`), with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
+        face_materials = self._face_materials(prim, 1, ctx)
+        color_names = self.materials.color_primvars(face_materials)[:1]  # one material: one colour primvar
+        if self.materials.uv_set(face_materials, prim):
+            self._skip("TetMesh and NurbsPatch prims have no texture coordinates in wrt; left untextured", prim)
+        points = self._point_array(prim)
+        if points is None or len(points) == 0:
+            return None
+        primvar = _color_primvar(prim, color_names[0])
+        primvar = primvar if primvar and primvar.HasValue() else None
+        gprim = UsdGeom.Gprim(prim)
+        flip = self._left_handed(prim, gprim, self.time)
+        if prim.IsA(UsdGeom.TetMesh):
+            surface = self.surfaces.tet_mesh(prim, points, primvar, flip)
+        else:
+            surface = self.surfaces.nurbs_patch(prim, points, primvar)
+        if surface is None:
+            return None
+        cage = (np.full(len(surface.triangles), 3), surface.triangles.reshape(-1)) if surface.smooth else None
+        double_sided = bool(value_at(gprim.GetDoubleSidedAttr(), self.time))
+        colors = {} if surface.colors is None else {color_names[0]: surface.colors}
+        default = face_materials is None or face_materials[0] < 0
+        opacity = self._one_opacity(prim, True, not ctx.world) if default else None
+        opacities = None if opacity is None else (np.array([opacity], np.float32), np.zeros_like(surface.triangles))
+        local = _LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
+                           cage=cage, opacities=opacities)
+        return self._bake(prim, m, ctx, local, face_materials, color_names)
+
+    def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None,
+                         color_names=("displayColor",), default_faces=True, keep_opaque=False) -> _LocalMesh | None:
+        """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials), with
+        texture coordinates ``uv_set``, colours from the primvars ``color_names`` it has, and its ``displayOpacity``
+        when some faces have the default material (``default_faces``; ``keep_opaque``: see
+        :meth:`_read_opacities`)."""
+        mesh = UsdGeom.Mesh(prim)
+        t = self.time
+        face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
+        raw_points = self._moved(mesh, mesh.GetPointsAttr())
+        if raw_points is None:
+            raw_points = value_at(mesh.GetPointsAttr(), t)
+        if len(counts) == 0 and len(face_indices) == 0:
+            return None  # no faces: nothing to draw (indices without counts are refused by _check_topology)
+        if raw_points is None or np.asarray(raw_points).size == 0:
+            self._skip("meshes with faces but no points were skipped", prim)
+            return None
+        points = np.asarray(raw_points)
+        if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
+            self._skip(
+                "meshes whose points are not an array of 3-vectors were skipped",
+                prim,
+                f"{self._authored_type(mesh.GetPointsAttr())} holding {type(raw_points).__name__}",
+            )
+            return None
+        points = points.astype(np.float64)
+
+        # Check the topology before using it.
+        self._check_topology(prim, counts, face_indices, points)
+        scheme = value_at(mesh.GetSubdivisionSchemeAttr(), t)
+        refinement = self._refinement(prim, scheme, counts, face_indices, len(points))
+        polygons = (counts, face_indices) if refinement is None else (refinement.counts, refinement.face_indices)
+        try:
+            tri_corners, face_ids = triangulate(*polygons)
+        except ValueError as e:
+            raise self._error(str(e), prim, mesh.GetFaceVertexCountsAttr()) from None
+        if refinement is not None:
+            face_ids = refinement.parent_face[face_ids]  # the control face each refined triangle comes from
+
+        # Faces listed in holeIndices are not drawn; their indices and uniform primvar entries still count.
+        holes = self._int_array(prim, mesh.GetHoleIndicesAttr())
+        if len(holes):
+            bad = (holes < 0) | (holes >= len(counts))
+            if bad.any():
+                i = int(np.argmax(bad))
+                detail = f"holeIndices[{i}] = {holes[i]} for {len(counts)} faces"
+                self._skip("holeIndices out of range were ignored", prim, detail)
+            drawn = ~np.isin(face_ids, holes)
+            tri_corners, face_ids = tri_corners[drawn], face_ids[drawn]
+        vertex_ids = polygons[1][tri_corners]
+
+        topology = (counts, face_indices, tri_corners, face_ids, len(points), refinement)
+        # A refined surface makes its own normals (USD: authored normals do not apply to subdivision surfaces).
+        normals = self._read_normals(prim, mesh, topology) if refinement is None else None
+        colors = {name: found for name in color_names if (found := self._read_colors(prim, topology, name)) is not None}
+        uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
+        opacities = self._read_opacities(prim, topology, keep_opaque) if default_faces else None
+        flip = self._left_handed(prim, mesh, t)
+        smooth = normals is None and scheme in SMOOTH_SCHEMES
+        cage = polygons if smooth else None  # its normals are made in _read_mesh, after any posing and refining
+        double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
+        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage, refinement,
+                          opacities)
+
+    def _refinement(self, prim, scheme, counts, face_indices, n_points) -> Refinement | None:
+        """The Catmull-Clark refinement of a ``catmullClark`` mesh at ``self.refine_level``, or None."""
+        if not self.refine_level or scheme not in SMOOTH_SCHEMES:
+            return None
+        if scheme != "catmullClark":
+            self._skip("loop subdivision is not implemented; these meshes are drawn as their control cage", prim)
+            return None
+        # Refused before refining: past the memory, numpy failed deep inside the refinement without naming the mesh
+        # (or the system killed the load).
+        quads = refined_quads(counts, self.refine_level)
+        check_host_memory(quads * REFINED_QUAD_BYTES, f"{self.source}: {self._shown_path(prim)}: refine_level "
+                          f"{self.refine_level} ({quads:,} quads)")
+        mesh, t = UsdGeom.Mesh(prim), self.time
+        creases = corners = None
+        crease_indices = self._int_array(prim, mesh.GetCreaseIndicesAttr())
+        if len(crease_indices):
+            sharpness = value_at(mesh.GetCreaseSharpnessesAttr(), t)
+            creases = (crease_indices, self._int_array(prim, mesh.GetCreaseLengthsAttr()),
+                       np.asarray(sharpness if sharpness is not None else [], np.float64))
+        corner_indices = self._int_array(prim, mesh.GetCornerIndicesAttr())
+        if len(corner_indices):
+            sharpness = value_at(mesh.GetCornerSharpnessesAttr(), t)
+            corners = (corner_indices, np.asarray(sharpness if sharpness is not None else [], np.float64))
+        boundary = value_at(mesh.GetInterpolateBoundaryAttr(), t) or "edgeAndCorner"
+        if boundary == "none":
+            self._skip("interpolateBoundary = none is drawn as edgeOnly (boundary faces kept)", prim)
+        elif boundary not in ("edgeOnly", "edgeAndCorner"):  # USD does not check allowed tokens (as orientation)
+            self._skip("interpolateBoundary is not none, edgeOnly or edgeAndCorner; read as edgeAndCorner", prim,
+                       repr(boundary))
+            boundary = "edgeAndCorner"
+        corner_boundary = boundary == "edgeAndCorner"
+        try:
+            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners, corner_boundary)
+        except ValueError as e:
+            self._skip("creases or corners that do not fit the mesh were ignored", prim, str(e))
+            return Refinement(counts, face_indices, n_points, self.refine_level, corner_boundary=corner_boundary)
+
+    def _check_topology(self, prim, counts, face_indices, points):
+        mesh = UsdGeom.Mesh(prim)
+        if len(counts) == 0:
+            raise self._error(
+                f"there are {len(face_indices)} faceVertexIndices but no faceVertexCounts",
+                prim,
+                mesh.GetFaceVertexCountsAttr(),
+            )
+        # Faces of 0, 1 or 2 vertices are valid topology (UsdGeom.Mesh.ValidateTopology) that draws nothing.
+        bad = counts < 0
+        if bad.any():
+            f = int(np.argmax(bad))
+            raise self._error(f"faceVertexCounts[{f}] = {counts[f]} is negative", prim, mesh.GetFaceVertexCountsAttr())
+        total = int(counts.sum())
+        if total != len(face_indices):
+            raise self._error(
+                f"faceVertexCounts sum to {total} but there are {len(face_indices)} faceVertexIndices",
+                prim,
+                mesh.GetFaceVertexCountsAttr(),
+            )
+        bad = (face_indices < 0) | (face_indices >= len(points))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise self._error(
+                f"faceVertexIndices[{i}] = {face_indices[i]} is out of range for {len(points)} points",
+                prim,
+                mesh.GetFaceVertexIndicesAttr(),
+            )
+        bad = ~np.isfinite(points).all(axis=1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise self._error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim, mesh.GetPointsAttr())
+
+
+# Subdivision surfaces without authored normals are shaded with smooth vertex normals of their control cage, as
+# usdview (Storm) draws them below its refinement levels; "none" and "bilinear" meshes keep their face normals.
+SMOOTH_SCHEMES = ("catmullClark", "loop")
+
+
+def vertex_normals(points: np.ndarray, counts: np.ndarray, face_indices: np.ndarray, left_handed: bool) -> np.ndarray:
+    """``(V, 3)`` smooth normal of every point: the sum, over the polygon corners at it, of the cross product of the
+    corner's two edges (each face weighted by its area near the point), normalised; zero where they cancel."""
+    counts = counts.astype(np.int64)
+    starts = np.cumsum(counts) - counts
+    face = np.repeat(np.arange(len(counts)), counts)
+    first, count = starts[face], counts[face]
+    position = np.arange(len(face_indices)) - first
+    corner = points[face_indices]
+    following = points[face_indices[first + (position + 1) % count]]
+    preceding = points[face_indices[first + (position - 1) % count]]
+    normals = np.zeros_like(points)
+    np.add.at(normals, face_indices, np.cross(following - corner, preceding - corner))
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.where(length > 0.0, normals / np.where(length > 0.0, length, 1.0), 0.0)
+    return -normals if left_handed else normals
+

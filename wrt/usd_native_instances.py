@@ -1,0 +1,77 @@
+"""Native instances (``instanceable`` prims): each prototype read once per outer material, purpose and inherited
+colour, and the instance placed as one row of its container's instances."""
+
+from __future__ import annotations
+
+import numpy as np
+from pxr import Usd, UsdShade
+
+from .materials import bound_material
+from .usd_contents import _Content, _Context, _looks
+
+MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
+
+
+class NativeInstanceReading:
+    """Native instancing of the stage reader (``contents``, ``materials``)."""
+
+    def _read_native_instance(self, prim: Usd.Prim, ctx: _Context, purpose=None):
+        """An instance of a native prototype; ``purpose``: the non-rendered purpose it inherits, if any."""
+        prototype = prim.GetPrototype()
+        if not prototype:
+            self._skip("instances without a prototype were skipped", prim)
+            return
+        outer, forced = ctx.outer_material, ctx.outer_forced
+        if not forced:
+            material, binding = bound_material(prim, self.materials.purposes)  # as the meshes' own
+            if material:
+                outer = self.materials.material_index(material)
+                # A strongerThanDescendants binding (on the instance or above it) overrides the prototype's own
+                # bindings, as ComputeBoundMaterial on the instance proxies gives; it cannot be seen from inside.
+                strength = UsdShade.MaterialBindingAPI.GetMaterialBindingStrength(binding)
+                forced = strength == UsdShade.Tokens.strongerThanDescendants
+        path = str(prototype.GetPath())
+        if forced:
+            key = ("native", path, outer, purpose, True, None)
+            content = self._content(key, prototype, None, outer, purpose, outer_forced=True)
+        else:
+            key = ("native", path, None, purpose, False, None)
+            content = self._content(key, prototype, None, None, purpose)
+            if content.uses_outer and not material:
+                ctx.content.uses_outer = True  # this instance's meshes take the material bound above its container
+            if content.uses_outer and outer is not None:
+                key = ("native", path, outer, purpose, False, None)
+                content = self._content(key, prototype, None, outer, purpose)
+        # A constant displayColor (or the colour primvar a material reads) on the instance or above it colours the
+        # prototype's meshes that have none, as primvars are inherited through instance proxies (instances of one
+        # prototype in different colours).
+        own_color = self._inherited_color(prim, content.outer_colors)
+        if own_color is None:
+            ctx.content.want_colors(content.outer_colors)  # the colour may come from above this instance's container
+        color = own_color if own_color is not None else ctx.outer_color
+        if color is not None and color[0] in content.outer_colors:
+            key = self._colored(key, content, color, prim)
+        m = self._to_space(prim, ctx).T  # column vectors
+        # A constant displayOpacity on the instance or above it is the opacity of the prototype's geometry that has
+        # none: one value per instance (Instances.opacities), no copy of the prototype.
+        opacity = self._inherited_opacity(prim)
+        looks = None if opacity is None else _looks(None, np.array([opacity], np.float32))
+        ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), looks))
+        self._read_cameras(prim, self.contents[key].cameras, ctx)
+
+    def _colored(self, key: tuple, content: _Content, color: tuple, prim: Usd.Prim) -> tuple:
+        """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``
+        (``(primvar, (r, g, b))``); each colour is a copy of the prototype's geometry, so past
+        :data:`MAX_INHERITED_COLORS` colours per prototype the instance keeps the prototype's own (with a warning)."""
+        if color not in content.colors:
+            if len(content.colors) >= MAX_INHERITED_COLORS:
+                self._skip(f"instances inheriting more than {MAX_INHERITED_COLORS} colours per prototype keep "
+                           "its own colours (each colour is a copy of the prototype)", prim)
+                return key
+            _, path, outer, purpose, forced, _ = key
+            colored = ("native", path, outer, purpose, forced, color)
+            self._content(colored, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_forced=forced,
+                          outer_color=color)
+            content.colors[color] = colored
+        return content.colors[color]
+

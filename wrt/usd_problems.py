@@ -1,0 +1,76 @@
+"""Errors and warnings of one stage read: a :class:`wrt.errors.SceneError` naming the file, the prim (as usdview
+shows a prim inside a native prototype) and the layer a bad value is authored in; prims left out, or data ignored,
+tallied into one warning per reason at the end of the read."""
+
+from __future__ import annotations
+
+import warnings
+
+from pxr import Tf, Usd
+
+from .errors import SceneError
+
+
+class ProblemReport:
+    """Errors and skipped prims of the stage reader (``stage``, ``source``, ``time``, ``skipped``,
+    ``shown_prototypes``)."""
+
+    def _property_stack(self, attr: Usd.Attribute) -> list:
+        """The property specs of ``attr`` at the read time, strongest first (empty when USD cannot give them)."""
+        try:
+            return attr.GetPropertyStack(self.time)
+        except Tf.ErrorException:
+            return []
+
+    def _authored_type(self, attr: Usd.Attribute) -> str:
+        """The value type ``attr`` is authored with: a schema attribute's type name is the schema's whatever was
+        authored (``float[] points`` read as ``point3f[]``, ``float3 points`` too); its strongest spec holds the
+        authored one."""
+        stack = self._property_stack(attr)
+        return str(stack[0].typeName) if stack else str(attr.GetTypeName())
+
+    def _error(self, message: str, prim: Usd.Prim, attr: Usd.Attribute | None = None) -> SceneError:
+        """A SceneError naming the file and the prim, plus the layer the bad value is authored in if different."""
+        if attr is not None:
+            stack = self._property_stack(attr)
+            root = self.stage.GetRootLayer()
+            if stack and stack[0].layer != root:
+                message += f" (authored in {stack[0].layer.identifier})"
+        return SceneError(message, path=self.source, prim=self._shown_path(prim))
+
+    def _skip(self, reason: str, prim: Usd.Prim, detail: str | None = None):
+        """Records a prim left out (or data ignored) for ``reason``; ``detail`` is tallied in the warning."""
+        self._skip_path(reason, self._shown_path(prim), detail)
+
+    def _shown_path(self, prim: Usd.Prim) -> str:
+        """The path that names ``prim`` in errors and warnings, as usdview shows it: inside a native instance's
+        prototype (``/__Prototype_1/Tri``, a name USD makes up per opening that no file holds), its proxy in the
+        prototype's first drawn instance (``/A/Tri``; nested instances resolved the same way)."""
+        path = str(prim.GetPath())
+        if not prim.IsInPrototype():
+            return path
+        root = prim
+        while not root.IsPrototype():
+            root = root.GetParent()
+        key = str(root.GetPath())
+        if key not in self.shown_prototypes:
+            instances = root.GetInstances()
+            first = min(instances, key=lambda p: (p.IsAbstract(), str(p.GetPath()))) if instances else None
+            self.shown_prototypes[key] = self._shown_path(first) if first else key
+        return self.shown_prototypes[key] + path[len(key):]
+
+    def _skip_path(self, reason: str, path: str, detail: str | None = None):
+        self.skipped.setdefault(reason, []).append((path, detail))
+
+    def _warn_skipped(self):
+        """One warning per reason, with the count, a tally of details and the first few prim paths."""
+        for reason, found in self.skipped.items():
+            tally = {}
+            for _, detail in found:
+                if detail is not None:
+                    tally[detail] = tally.get(detail, 0) + 1
+            kinds = f" ({', '.join(f'{k}: {n}' for k, n in tally.items())})" if tally else ""
+            paths = [p for p, _ in found]
+            shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
+            warnings.warn(f"{self.source}: {reason}: {len(paths)} prim(s){kinds}: {shown}", stacklevel=4)
+

@@ -1,0 +1,105 @@
+"""Opening a USD stage for :func:`wrt.usd.load_usd`, and the stage-wide checks made before any prim is read:
+composition errors, layers in other units or up axes, a time outside the stage's authored range."""
+
+from __future__ import annotations
+
+import os
+import re
+import warnings
+
+from pxr import Sdf, Tf, Usd, UsdGeom
+
+from .errors import SceneError, TimeRangeWarning
+
+
+def _warn_composition_errors(stage: Usd.Stage, source: str) -> None:
+    """Warns about the stage's composition errors (a reference, payload or subLayer whose file is missing, a
+    reference to a prim path that is not there): USD only prints them from C++ to stderr, where Python cannot catch
+    them, and composes the stage without what they would bring in. A warning, not an error: partially composed
+    stages are common and the rest still renders."""
+    errors = sorted(str(e).strip().rstrip(".") for e in stage.GetCompositionErrors())  # sorted: USD's order varies
+    if errors:
+        shown = "; ".join(errors[:3]) + ("; ..." if len(errors) > 3 else "")
+        warnings.warn(
+            f"{source}: {len(errors)} composition error(s); what they would bring in is missing from the scene: "
+            f"{shown}",
+            stacklevel=3,
+        )
+
+
+def _warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
+    """Warns about layers the stage composes (references, payloads, subLayers) that author a ``metersPerUnit`` or
+    ``upAxis`` other than the stage's. USD does not convert them and neither does wrt (their geometry is drawn as
+    authored), so a robot authored in metres referenced into a centimetre stage was drawn 100 times too small, and a
+    Z-up one in a Y-up stage on its side, without a word; a reference that scales or turns it itself is right."""
+
+    def shown(value) -> str:
+        return f"{value:g}" if isinstance(value, float) else str(value)
+
+    own = (stage.GetRootLayer(), stage.GetSessionLayer())
+    stage_values = {"metersPerUnit": UsdGeom.GetStageMetersPerUnit(stage), "upAxis": UsdGeom.GetStageUpAxis(stage)}
+    for key, value in stage_values.items():
+        others = sorted(
+            f"{os.path.basename(layer.identifier)}: {shown(layer.pseudoRoot.GetInfo(key))}"
+            for layer in stage.GetUsedLayers()
+            if layer not in own and layer.pseudoRoot.HasInfo(key) and layer.pseudoRoot.GetInfo(key) != value
+        )
+        if others:
+            warnings.warn(
+                f"{os.path.basename(source)}: {key} = {shown(value)}, but {len(others)} layer(s) it composes author "
+                f"another ({', '.join(others[:3])}{', ...' if len(others) > 3 else ''}); USD does not convert them and "
+                "neither does wrt: they are drawn as authored",
+                stacklevel=3,
+            )
+
+
+def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
+    """Warns about a time outside the stage's authored ``[startTimeCode, endTimeCode]``. USD evaluates any time
+    (values hold at the nearest sample), and stages do animate outside their advertised range (teapot_scene_1000
+    says [1, 1] and moves its camera over 0-479), so this is a warning, not an error. Reads only layer metadata,
+    never time samples, which can hang usd-core on stages with ``timeCodesPerSecond = 0``."""
+    if not stage.HasAuthoredTimeCodeRange():
+        return
+    start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+    if not start <= time <= end:
+        warnings.warn(f"{os.path.basename(source)}: time {time:g} is {outside_range(start, end)}", TimeRangeWarning,
+                      stacklevel=3)
+
+
+def outside_range(start: float, end: float) -> str:
+    """The words of a :class:`TimeRangeWarning`, after the time or frames it is about."""
+    return f"outside the stage's time range [{start:g}, {end:g}]; USD holds the values of the nearest time samples"
+
+
+def stage_time_range(path) -> tuple[float, float] | None:
+    """The authored ``(startTimeCode, endTimeCode)`` of the stage at ``path``, or None when not both are authored or
+    the file cannot be read. Read from its root layer alone, without composing the stage: ``Usd.Stage`` reads them
+    there (or from its session layer, where wrt authors none)."""
+    try:
+        layer = Sdf.Layer.FindOrOpen(os.fspath(path))
+    except Tf.ErrorException:
+        return None
+    if layer is None or not (layer.HasStartTimeCode() and layer.HasEndTimeCode()):
+        return None
+    return float(layer.startTimeCode), float(layer.endTimeCode)
+
+
+def _open_stage(source: str) -> Usd.Stage:
+    try:
+        stage = Usd.Stage.Open(source)
+    except Tf.ErrorException as e:
+        if not os.path.exists(source):
+            raise SceneError("file not found", path=source) from None
+        raise SceneError(f"USD cannot open this file ({_tf_message(e)})", path=source) from None
+    if stage is None:
+        raise SceneError("USD cannot open this file", path=source)
+    return stage
+
+
+def _tf_message(error: Exception) -> str:
+    """The quoted reasons inside a ``Tf.ErrorException`` text, without the C++ file and line noise."""
+    # A reason may span lines (the text parser's ends in a newline before its closing quote).
+    reasons = re.findall(r" : '(.*?)'\s*(?=\n\s*Error in|\Z)", str(error), flags=re.DOTALL)
+    reasons = [re.sub(r"pxrInternal_\w+?::", "", r).strip() for r in reasons]
+    return "; ".join(r for r in reasons if r) or str(error).strip()
+
