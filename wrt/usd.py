@@ -64,6 +64,14 @@ default value but has time samples is read at its earliest sample instead, so me
 load, and a prim hidden at frame 1 stays hidden. Transforms and cameras get the same fallback, op by op and
 attribute by attribute (:mod:`wrt.usd_xforms`), so a camera animated only through time samples is where its first
 frame puts it rather than at the origin, and an op that authors a default beside its samples gives the default.
+
+This module holds :func:`load_usd` and the prim walk (``_StageReader``: which reader each prim goes to, transforms to
+a content's space, prototypes read once); the reader's parts live in modules of their own: :mod:`wrt.usd_stage`
+(opening, stage-wide checks), :mod:`wrt.usd_problems` (errors and warnings), :mod:`wrt.usd_visibility` (visibility
+and purpose), :mod:`wrt.usd_attributes` (checked attribute reads), :mod:`wrt.usd_meshes`,
+:mod:`wrt.usd_mesh_primvars` and :mod:`wrt.usd_bake` (meshes), :mod:`wrt.usd_gprims` (gprims, points and curves),
+:mod:`wrt.usd_looks` (colours and opacities), :mod:`wrt.usd_contents`, :mod:`wrt.usd_native_instances` and
+:mod:`wrt.usd_point_instancer` (instancing), :mod:`wrt.usd_cameras`.
 """
 
 from __future__ import annotations
@@ -81,12 +89,12 @@ from .light_links import resolve_expressions
 from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS
 from .render_settings import RenderSettings, read_render_settings
-from .scene import MIN_METERS_PER_UNIT, Mesh, Scene
+from .scene import Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL
 from .usd_attributes import AttributeReading
 from .usd_bake import MeshBaking
 from .usd_cameras import CameraReading
-from .usd_contents import _PROTOTYPE_PREDICATE, InstancePlacement, _Content, _Context
+from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, place_instances
 from .usd_gprims import GprimReading
 from .usd_lights import read_light, sync_mesh_material
 from .usd_looks import LookReading
@@ -97,11 +105,13 @@ from .usd_point_instancer import PointInstancerReading
 from .usd_problems import ProblemReport
 from .usd_skel import SkelPoser
 from .usd_stage import (
-    _check_time_in_range,
-    _open_stage,
-    _tf_message,
-    _warn_composition_errors,
-    _warn_other_layer_units,
+    check_time_in_range,
+    open_stage,
+    stage_meters_per_unit,
+    stage_up_axis,
+    tf_message,
+    warn_composition_errors,
+    warn_other_layer_units,
 )
 from .usd_surfaces import SurfaceReader
 from .usd_tubes import TubeReader
@@ -161,18 +171,18 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
             raise ValueError(f"time must be a finite time code or None, got {time!r}")
         time_code = Usd.TimeCode(value)
 
-    stage = _open_stage(source)
+    stage = open_stage(source)
     if variants:
         apply_variants(stage, source, variants)
-    _warn_composition_errors(stage, source)
-    _warn_other_layer_units(stage, source)
+    warn_composition_errors(stage, source)
+    warn_other_layer_units(stage, source)
     settings = read_render_settings(stage, source, render_settings)
     if stage.GetTimeCodesPerSecond() <= 0:
         # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
         warnings.warn(f"{os.path.basename(source)}: timeCodesPerSecond = {stage.GetTimeCodesPerSecond():g} is invalid; "
                       "time samples are read only at their authored time codes")
     if not time_code.IsDefault():
-        _check_time_in_range(stage, source, time_code.GetValue())
+        check_time_in_range(stage, source, time_code.GetValue())
     segments = 0
     if tessellate_gprims is True:
         segments = DEFAULT_SEGMENTS
@@ -198,7 +208,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         reader.surfaces = None
 
 
-class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, InstancePlacement, MeshReading,
+class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, MeshReading,
                    MeshPrimvarReading, MeshBaking, GprimReading, NativeInstanceReading, PointInstancerReading,
                    CameraReading):
     """One pass over a stage; collects meshes, instances, cameras and lights and the warnings to emit."""
@@ -214,7 +224,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Ins
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
         self.refine_level = refine_level  # Catmull-Clark steps for catmullClark meshes
         self.xforms = xform_cache(time, stage)  # sample-only transform ops read at their first sample (see above)
-        self.contents = {}  # (kind, root path, outer material) -> _Content, each prototype read once
+        self.contents = {}  # (kind, root path, outer material) -> Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
         self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None)
@@ -226,40 +236,19 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Ins
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
 
-    def _meters_per_unit(self) -> float:
-        """The stage's ``metersPerUnit``; a value that is not a finite number above ``MIN_METERS_PER_UNIT`` (the depth
-        of field divides by it) falls back to USD's own default, centimetres, with a warning."""
-        value = float(UsdGeom.GetStageMetersPerUnit(self.stage))
-        if math.isfinite(value) and value > MIN_METERS_PER_UNIT:
-            return value
-        fallback = float(UsdGeom.LinearUnits.centimeters)
-        warnings.warn(f"{os.path.basename(self.source)}: metersPerUnit = {value:g} is not a finite number above "
-                      f"{MIN_METERS_PER_UNIT:g}; using {fallback:g} (centimetres, USD's default)", stacklevel=4)
-        return fallback
-
-    def _up_axis(self) -> str:
-        """The stage's ``upAxis``; anything but ``Y`` or ``Z`` (USD allows no other) falls back to ``Y``, USD's
-        default, with a warning: an ``X`` stage was taken for Y-up without a word."""
-        value = str(UsdGeom.GetStageUpAxis(self.stage))
-        if value in ("Y", "Z"):
-            return value
-        warnings.warn(f"{os.path.basename(self.source)}: upAxis = {value!r} is not Y or Z; using Y (USD's default)",
-                      stacklevel=4)
-        return "Y"
-
     def read(self) -> Scene:
         scene = Scene(
-            up_axis=self._up_axis(),
-            meters_per_unit=self._meters_per_unit(),
+            up_axis=stage_up_axis(self.stage, self.source),
+            meters_per_unit=stage_meters_per_unit(self.stage, self.source),
             source=self.source,
             render_settings=self.settings,
         )
         self.scene = scene
-        world = _Content("/")
-        self._walk(self.stage.GetPseudoRoot(), _Context(world, world=True))
+        world = Content("/")
+        self._walk(self.stage.GetPseudoRoot(), Context(world, world=True))
         scene.meshes = world.meshes
         scene.shapes = world.shapes
-        inverses = self._place_instances(world, scene)
+        inverses = place_instances(world, self.contents, scene, self._skip_path)
         scene.materials = self.materials.materials
         scene.textures = self.materials.textures
         if inverses is not None:
@@ -268,7 +257,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Ins
         self._warn_skipped()
         return scene
 
-    def _walk(self, root: Usd.Prim, ctx: _Context, predicate=Usd.PrimDefaultPredicate):
+    def _walk(self, root: Usd.Prim, ctx: Context, predicate=Usd.PrimDefaultPredicate):
         """Reads the subtree at ``root`` into ``ctx.content`` (native instances are not entered: their prototype is
         read once, as its own content). The default predicate takes active, defined, loaded, concrete prims."""
         it = iter(Usd.PrimRange(root, predicate))
@@ -278,9 +267,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Ins
             except SceneError:
                 raise
             except (Tf.ErrorException, ValueError, TypeError) as e:
-                raise self._error(f"cannot read this prim ({_tf_message(e)})", prim) from e
+                raise self._error(f"cannot read this prim ({tf_message(e)})", prim) from e
 
-    def _read_prim(self, prim: Usd.Prim, it, ctx: _Context):
+    def _read_prim(self, prim: Usd.Prim, it, ctx: Context):
         if prim.IsPseudoRoot() or prim.IsPrototype():
             return
         if prim.IsInstance() and not prim.IsA(UsdGeom.PointInstancer):
@@ -324,7 +313,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Ins
                 if light is not None:
                     self.scene.lights.append(light)
 
-    def _read_geometry(self, prim: Usd.Prim, ctx: _Context):
+    def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating)."""
         if prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.TetMesh) or prim.IsA(UsdGeom.NurbsPatch):
             read = self._read_mesh if prim.IsA(UsdGeom.Mesh) else self._read_surface
@@ -350,7 +339,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Ins
                                    "them emit")
             ctx.content.shapes.append(shape)
 
-    def _add_mesh(self, prim: Usd.Prim, mesh: Mesh | None, ctx: _Context):
+    def _add_mesh(self, prim: Usd.Prim, mesh: Mesh | None, ctx: Context):
         """Adds ``mesh`` (None: nothing), drawn for ``prim``, to ``ctx.content``, and its light when ``prim`` is a
         mesh light (MeshLightAPI, or LightAPI on another gprim) outside instances."""
         if mesh is None:
@@ -374,7 +363,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Ins
                        f"nothing{hint}", prim, prim.GetTypeName())
 
 
-    def _to_space(self, prim: Usd.Prim, ctx: _Context) -> np.ndarray:
+    def _to_space(self, prim: Usd.Prim, ctx: Context) -> np.ndarray:
         """``(4, 4)`` row-vector (USD) transform from ``prim`` to the space of ``ctx``'s content."""
         if ctx.space_root is None:
             m = self.xforms.GetLocalToWorldTransform(prim)
@@ -386,24 +375,24 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Ins
         return m
 
     def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material, outer_purpose=None,
-                 outer_forced=False, outer_color=None) -> _Content:
+                 outer_forced=False, outer_color=None) -> Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:
                 raise self._error("prototype contains an instance of itself", root)
             self.reading.add(key)
-            content = _Content(str(root.GetPath()))
+            content = Content(str(root.GetPath()))
             # Prototypes are often kept under an ``over`` so they are not drawn in place; instanced, they are drawn
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
-            inside = _Context(content, space_root, outer_material, outer_purpose=outer_purpose,
+            inside = Context(content, space_root, outer_material, outer_purpose=outer_purpose,
                               outer_forced=outer_forced, outer_color=outer_color)
-            self._walk(root, inside, _PROTOTYPE_PREDICATE)
+            self._walk(root, inside, PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content
         return self.contents[key]
 
 
-    def _face_materials(self, prim: Usd.Prim, n_faces: int, ctx: _Context) -> np.ndarray | None:
+    def _face_materials(self, prim: Usd.Prim, n_faces: int, ctx: Context) -> np.ndarray | None:
         """``(F,)`` int32 material of each face of ``prim`` (-1: default), or None for none at all: its own bindings
         (:meth:`MaterialReader.face_materials`), and on the faces they leave unbound (all of them, or those outside
         its ``materialBind`` subsets) the material bound above the native instance being read; that one wins over

@@ -8,9 +8,9 @@ import numpy as np
 from pxr import Usd
 
 from .scene import Mesh
-from .usd_contents import _Context
-from .usd_looks import _has_color
-from .usd_meshes import _LocalMesh, vertex_normals
+from .usd_contents import Context
+from .usd_looks import has_color
+from .usd_meshes import LocalMesh, vertex_normals
 
 _FLIP = np.array([0, 2, 1])  # corner permutation that reverses a triangle's winding, keeping corner 0
 
@@ -18,7 +18,7 @@ _FLIP = np.array([0, 2, 1])  # corner permutation that reverses a triangle's win
 class MeshBaking:
     """Mesh baking of the stage reader (``materials``, ``_skip``, ``_error``)."""
 
-    def _bake(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context, local: _LocalMesh, face_materials,
+    def _bake(self, prim: Usd.Prim, m: np.ndarray, ctx: Context, local: LocalMesh, face_materials,
               color_names: list):
         """The :class:`Mesh` of ``local`` with ``m`` baked in; ``face_materials`` ``(F,)`` per source face or None."""
         if local.cage is not None:  # made from the final (posed) points, once
@@ -77,18 +77,18 @@ class MeshBaking:
             opacities=opacities,
         )
 
-    def _corner_colors(self, prim, local: _LocalMesh, names: list, material_ids, order, ctx: _Context):
+    def _corner_colors(self, prim, local: LocalMesh, names: list, material_ids, order, ctx: Context):
         """``(T, 3, 3)`` float32 colours at the corners of the mesh's triangles (winding ``order``), or None: each
         triangle's from the colour primvar its material reads (``names``, :meth:`MaterialReader.color_primvars`; the
         first for triangles of materials that read none), NaN rows where the mesh has not got it. A primvar the mesh
-        lacks is one its content wants from above (:meth:`_Content.want_colors`): a native instance's constant
+        lacks is one its content wants from above (:meth:`Content.want_colors`): a native instance's constant
         colour of that name (``ctx.outer_color``) fills it in."""
         found = {}
         for name in names:
             if name in local.colors:
                 values, corner_index = local.colors[name]
                 found[name] = values[corner_index[:, order]]
-            elif not _has_color(prim, name):
+            elif not has_color(prim, name):
                 ctx.content.want_colors([name])
                 if ctx.outer_color is not None and ctx.outer_color[0] == name:
                     found[name] = np.tile(np.asarray(ctx.outer_color[1], np.float32), (len(local.face_ids), 3, 1))

@@ -7,14 +7,14 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
 from .camera import Camera
-from .usd_contents import _PROTOTYPE_PREDICATE, _Context
+from .usd_contents import PROTOTYPE_PREDICATE, Context
 from .usd_values import value_at
 
 
 class CameraReading:
     """Camera reading of the stage reader (``stage``, ``time``, ``xforms``, ``scene``)."""
 
-    def _read_cameras(self, prim: Usd.Prim, cameras: list, ctx: _Context):
+    def _read_cameras(self, prim: Usd.Prim, cameras: list, ctx: Context):
         """The ``cameras`` at paths relative to ``prim`` (a camera itself, ``.``, or the cameras of native instance
         ``prim``, relative to its prototype): read when ``ctx`` is the world (at their instance-proxy paths,
         ``/Instance/Cam``, which USD places in the world), handed on to the native prototype being read (read
@@ -39,7 +39,7 @@ class CameraReading:
         key = prototype.GetPath()
         if key not in self.prototype_cameras:
             found = []
-            it = iter(Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(_PROTOTYPE_PREDICATE)))
+            it = iter(Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(PROTOTYPE_PREDICATE)))
             for p in it:
                 if p.IsA(UsdGeom.PointInstancer):
                     it.PruneChildren()  # cameras in its prototypes are not read

@@ -9,16 +9,15 @@ from pxr import Sdf, Usd
 
 from .instancing import Instances, Prototype, invert_transforms
 from .light_links import part_path
-from .primitives import (
-    Shape,
-)
+from .primitives import Shape
 from .scene import Mesh, Scene
 from .tubes import place_round
 
-_PROTOTYPE_PREDICATE = Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract  # see _StageReader._content
+# The prims a prototype's walk takes: active, loaded, not abstract, and defined or not (see wrt.usd's _content).
+PROTOTYPE_PREDICATE = Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract
 
 
-class _Content:
+class Content:
     """What one subtree draws, in one space (the world, or a prototype's): meshes, and instances of other contents."""
 
     def __init__(self, path: str):
@@ -26,7 +25,7 @@ class _Content:
         self.meshes: list[Mesh] = []  # in this content's space
         self.shapes: list[Shape] = []  # analytic gprims, in this content's space
         # (content key, (K, 4, 4) column-vector transforms to this space, source, indices, looks): looks are the
-        # instances' (K, 4) colour and displayOpacity (NaN: none; see _looks), or None.
+        # instances' (K, 4) colour and displayOpacity (NaN: none; see instance_looks), or None.
         self.instances: list = []
         self.uses_outer = False  # a mesh binds no material itself: a material bound above an instance applies
         # Colour primvars (displayColor, or the one a material reads) that a mesh or gprim lacks: one an instance
@@ -44,12 +43,12 @@ class _Content:
         self.outer_colors += [name for name in names if name not in self.outer_colors]
 
 
-class _Context:
+class Context:
     """Where a walk is: the content being filled, how to reach its space, and what applies from outside."""
 
     def __init__(
         self,
-        content: _Content,
+        content: Content,
         space_root: Usd.Prim | None = None,
         outer_material=None,
         world=False,
@@ -74,81 +73,80 @@ def _drawn_root(key: tuple, source: str, content_path: str) -> str:
     return source if key[0] == "native" else content_path
 
 
-class InstancePlacement:
-    """Nested instancing resolved by the stage reader (``contents``, ``_skip_path``)."""
+def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> np.ndarray | None:
+    """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``: ``world`` is the
+    stage's content, ``contents`` every content read (key -> :class:`Content`), ``skip_path(reason, path)`` records
+    an instance left out. Returns the inverses of the instances' transforms, or None without instances."""
+    proto_ids, matrices, sources, source_ids, indices, colors_of = [], [], [], {}, [], []
+    roots, root_ids, root_of = [], {}, []  # instance-proxy paths of the prototype roots (light_links)
 
-    def _place_instances(self, world: _Content, scene: Scene) -> np.ndarray | None:
-        """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``."""
-        proto_ids, matrices, sources, source_ids, indices, colors_of = [], [], [], {}, [], []
-        roots, root_ids, root_of = [], {}, []  # instance-proxy paths of the prototype roots (light_links)
-
-        # Depth first, each instance before the instances nested in it (an explicit stack: a recursive closure
-        # would refer to itself, a reference cycle that kept the stage open until a garbage collection). Each
-        # entry carries the path its content's root is drawn at: a native instance's prim path (an instance proxy
-        # path when nested), else the content's own path moved by the instance it is nested in.
-        pending = [(self.contents[key], m, source, index, color, _drawn_root(key, source, self.contents[key].path))
-                   for key, m, source, index, color in reversed(world.instances)]
-        while pending:
-            content, to_world, source, index, color, root = pending.pop()
-            if content.meshes or content.shapes:
-                if content.prototype < 0:
-                    content.prototype = len(scene.prototypes)
-                    scene.prototypes.append(Prototype(content.path, content.meshes, content.shapes))
-                if source not in source_ids:
-                    source_ids[source] = len(sources)
-                    sources.append(source)
-                if root not in root_ids:
-                    root_ids[root] = len(roots)
-                    roots.append(root)
-                proto_ids.append(np.full(len(to_world), content.prototype, np.int32))
-                matrices.append(to_world)
-                indices.append(np.column_stack([np.full(len(to_world), source_ids[source]), index]))
-                colors_of.append(color)
-                root_of.append(np.full(len(to_world), root_ids[root], np.int32))
-            for key, m, inner_source, _, inner in reversed(content.instances):
-                # Nested instances keep the world-level source and index of the instance they are part of, and the
-                # colour and opacity of the nearest instance that gives one.
-                nested = self.contents[key]
-                if nested.tube is None:
-                    combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
-                else:  # a Points or curves prim's spheres or tubes: round, as in a flattened copy of these instances
-                    combined = place_round(to_world, m, *nested.tube)
-                inner_root = part_path(_drawn_root(key, inner_source, nested.path), content.path, root)
-                pending.append((nested, combined, source, np.repeat(index, len(m)),
-                                _nested_looks(color, inner, len(to_world), len(m)), inner_root))
-        if not proto_ids:
-            return None
-        # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
-        # instances nested inside one world-level instance stay together, in the order they were read.
-        ids = np.concatenate(indices)
-        order = np.lexsort((ids[:, 1], ids[:, 0]))  # stable
-        ids = ids[order]
-        to_world = np.concatenate(matrices)[order]
-        projective = np.flatnonzero(np.any(to_world[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
-        to_world[:, 3] = (0.0, 0.0, 0.0, 1.0)  # as for meshes: only the affine part is used
-        colors, opacities = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)  # none given: no arrays
-        if any(c is not None for c in colors_of):  # NaN: instances without a colour or an opacity
-            looks = np.concatenate([np.full((len(m), 4), np.nan, np.float32) if c is None else c
-                                    for c, m in zip(colors_of, matrices)])[order]
-            if not np.isnan(looks[:, :3]).all():
-                colors = np.ascontiguousarray(looks[:, :3])
-            if not np.isnan(looks[:, 3]).all():
-                opacities = np.ascontiguousarray(looks[:, 3])
-        instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources, colors,
-                              roots, np.concatenate(root_of)[order], opacities)
-        # Named once per USD instance: a Points or curves prim in it is an instance row per sphere or tube piece.
-        for path in dict.fromkeys(instances.path(i) for i in projective):
-            self._skip_path("world transform is projective; its last column was ignored", path)
-        inverses, ok = invert_transforms(instances.to_world)
-        for path in dict.fromkeys(instances.path(i) for i in np.flatnonzero(~ok)):
-            self._skip_path("instances with a singular transform (a zero scale) were skipped", path)
-        if not ok.all():
-            instances = instances.take(ok)
-        scene.instances = instances
-        return inverses[ok]  # the scene's first trace needs them too
+    # Depth first, each instance before the instances nested in it (an explicit stack: a recursive closure
+    # would refer to itself, a reference cycle that kept the stage open until a garbage collection). Each
+    # entry carries the path its content's root is drawn at: a native instance's prim path (an instance proxy
+    # path when nested), else the content's own path moved by the instance it is nested in.
+    pending = [(contents[key], m, source, index, color, _drawn_root(key, source, contents[key].path))
+               for key, m, source, index, color in reversed(world.instances)]
+    while pending:
+        content, to_world, source, index, color, root = pending.pop()
+        if content.meshes or content.shapes:
+            if content.prototype < 0:
+                content.prototype = len(scene.prototypes)
+                scene.prototypes.append(Prototype(content.path, content.meshes, content.shapes))
+            if source not in source_ids:
+                source_ids[source] = len(sources)
+                sources.append(source)
+            if root not in root_ids:
+                root_ids[root] = len(roots)
+                roots.append(root)
+            proto_ids.append(np.full(len(to_world), content.prototype, np.int32))
+            matrices.append(to_world)
+            indices.append(np.column_stack([np.full(len(to_world), source_ids[source]), index]))
+            colors_of.append(color)
+            root_of.append(np.full(len(to_world), root_ids[root], np.int32))
+        for key, m, inner_source, _, inner in reversed(content.instances):
+            # Nested instances keep the world-level source and index of the instance they are part of, and the
+            # colour and opacity of the nearest instance that gives one.
+            nested = contents[key]
+            if nested.tube is None:
+                combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
+            else:  # a Points or curves prim's spheres or tubes: round, as in a flattened copy of these instances
+                combined = place_round(to_world, m, *nested.tube)
+            inner_root = part_path(_drawn_root(key, inner_source, nested.path), content.path, root)
+            pending.append((nested, combined, source, np.repeat(index, len(m)),
+                            _nested_looks(color, inner, len(to_world), len(m)), inner_root))
+    if not proto_ids:
+        return None
+    # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
+    # instances nested inside one world-level instance stay together, in the order they were read.
+    ids = np.concatenate(indices)
+    order = np.lexsort((ids[:, 1], ids[:, 0]))  # stable
+    ids = ids[order]
+    to_world = np.concatenate(matrices)[order]
+    projective = np.flatnonzero(np.any(to_world[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
+    to_world[:, 3] = (0.0, 0.0, 0.0, 1.0)  # as for meshes: only the affine part is used
+    colors, opacities = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)  # none given: no arrays
+    if any(c is not None for c in colors_of):  # NaN: instances without a colour or an opacity
+        looks = np.concatenate([np.full((len(m), 4), np.nan, np.float32) if c is None else c
+                                for c, m in zip(colors_of, matrices)])[order]
+        if not np.isnan(looks[:, :3]).all():
+            colors = np.ascontiguousarray(looks[:, :3])
+        if not np.isnan(looks[:, 3]).all():
+            opacities = np.ascontiguousarray(looks[:, 3])
+    instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources, colors,
+                          roots, np.concatenate(root_of)[order], opacities)
+    # Named once per USD instance: a Points or curves prim in it is an instance row per sphere or tube piece.
+    for path in dict.fromkeys(instances.path(i) for i in projective):
+        skip_path("world transform is projective; its last column was ignored", path)
+    inverses, ok = invert_transforms(instances.to_world)
+    for path in dict.fromkeys(instances.path(i) for i in np.flatnonzero(~ok)):
+        skip_path("instances with a singular transform (a zero scale) were skipped", path)
+    if not ok.all():
+        instances = instances.take(ok)
+    scene.instances = instances
+    return inverses[ok]  # the scene's first trace needs them too
 
 
-def _looks(colors: np.ndarray | None, opacities: np.ndarray | None) -> np.ndarray | None:
+def instance_looks(colors: np.ndarray | None, opacities: np.ndarray | None) -> np.ndarray | None:
     """``(K, 4)`` float32 per-instance colour ``(K, 3)`` and opacity ``(K,)`` side by side, NaN for the one that is
     None; None when both are."""
     if colors is None and opacities is None:
@@ -163,10 +161,10 @@ def _looks(colors: np.ndarray | None, opacities: np.ndarray | None) -> np.ndarra
 
 
 def _nested_looks(outer: np.ndarray | None, inner: np.ndarray | None, n_outer: int, n_inner: int):
-    """``(n_outer * n_inner, 4)`` colours and opacities (:func:`_looks`) of the instances nested ``n_inner`` in each
-    of ``n_outer`` outer instances, in the order of their combined transforms (outer major): the inner instance's
-    (``inner``, one row per nested instance), else the outer instance's (``outer``, one row per outer instance),
-    colour and opacity each, NaN where neither gives one; None when neither has any."""
+    """``(n_outer * n_inner, 4)`` colours and opacities (:func:`instance_looks`) of the instances nested ``n_inner``
+    in each of ``n_outer`` outer instances, in the order of their combined transforms (outer major): the inner
+    instance's (``inner``, one row per nested instance), else the outer instance's (``outer``, one row per outer
+    instance), colour and opacity each, NaN where neither gives one; None when neither has any."""
     if outer is None and inner is None:
         return None
     rows = n_outer * n_inner

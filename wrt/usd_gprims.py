@@ -19,14 +19,14 @@ from .primitives import (
 )
 from .scene import Mesh
 from .tubes import width_axis
-from .usd_contents import _Content, _Context, _looks
+from .usd_contents import Content, Context, instance_looks
 from .usd_values import value_at
 
 
 class GprimReading:
     """Gprim reading of the stage reader (``time``, ``segments``, ``contents``, ``tubes``)."""
 
-    def _read_gprim(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Shape | None:
+    def _read_gprim(self, prim: Usd.Prim, m: np.ndarray, ctx: Context) -> Shape | None:
         """The analytic shape of gprim ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space)
         and USD's size parameters folded into its transform, or None (with a warning) when it is not supported."""
         t = self.time
@@ -149,7 +149,7 @@ class GprimReading:
             opacities=None if shape.opacity is None else np.full((n, 3), shape.opacity, np.float32),
         )
 
-    def _read_tubes(self, prim: Usd.Prim, ctx: _Context):
+    def _read_tubes(self, prim: Usd.Prim, ctx: Context):
         """A ``Points`` or curves prim as instances of spheres and tube segments (:mod:`wrt.usd_tubes`), one
         content per shape, so it is placed (and nested in prototypes) like any instance."""
         counts = None
@@ -175,7 +175,7 @@ class GprimReading:
         for group in groups:
             shape = Shape(path, group.kind, np.eye(4), group.params, color if group.colors is None else None,
                           material_id, double_sided, opacity)
-            content = _Content(path)
+            content = Content(path)
             content.tube = (group.kind == "sphere", axis)
             if self.segments:
                 content.meshes.append(self._tessellated(shape, prim))
@@ -184,5 +184,5 @@ class GprimReading:
             key = ("tubes", path, len(self.contents))  # a content of its own, placed only by these instances
             self.contents[key] = content
             ctx.content.instances.append((key, group.to_space, path, group.index,
-                                          _looks(group.colors, group.opacities)))
+                                          instance_looks(group.colors, group.opacities)))
 

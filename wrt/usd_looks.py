@@ -8,22 +8,22 @@ from __future__ import annotations
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from .usd_contents import _Context
+from .usd_contents import Context
 from .usd_primvars import unit_opacities
 from .usd_values import read_time
 
 
-def _color_primvar(prim: Usd.Prim, name: str) -> UsdGeom.Primvar:
+def color_primvar(prim: Usd.Prim, name: str) -> UsdGeom.Primvar:
     """Colour primvar ``name`` (``displayColor``, ...) of ``prim``: its own when authored, else a constant one of its
     nearest ancestor that has one (USD's primvar inheritance, which usdview follows: a colour set on a group colours
     its meshes)."""
     return UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
 
 
-def _has_color(prim: Usd.Prim, name: str) -> bool:
+def has_color(prim: Usd.Prim, name: str) -> bool:
     """``prim`` has colour primvar ``name`` of its own or inherits one inside its space (see
-    :func:`_color_primvar`)."""
-    primvar = _color_primvar(prim, name)
+    :func:`color_primvar`)."""
+    primvar = color_primvar(prim, name)
     return bool(primvar and primvar.HasValue())
 
 
@@ -70,14 +70,14 @@ class LookReading:
         one = interpolation == "constant" or (interpolation == "uniform" and prim.IsA(UsdGeom.Points))
         return None if one else primvar
 
-    def _gprim_look(self, prim: Usd.Prim, ctx: _Context) -> tuple:
+    def _gprim_look(self, prim: Usd.Prim, ctx: Context) -> tuple:
         """``(material_id, primvar, color)`` of gprim ``prim``: its material (-1: the default), bound as a mesh's; the
         colour primvar that material reads (``displayColor`` by default) when ``prim`` has a value of it (its own or
         an inherited constant one), else None; and then the constant colour a native instance hands down, if any
         (``(3,)`` float32), else None (its material's constant, grey by default, or its instance's colour)."""
         material = self._face_materials(prim, 1, ctx)
         color_name = self.materials.color_primvars(material)[0]
-        primvar = _color_primvar(prim, color_name)
+        primvar = color_primvar(prim, color_name)
         color = None
         if not (primvar and primvar.HasValue()):
             primvar = None

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import UsdGeom
 
-from .usd_looks import _color_primvar
+from .usd_looks import color_primvar
 from .usd_primvars import finite_colors, unit_opacities
 from .usd_values import value_at
 
@@ -28,9 +28,9 @@ class MeshPrimvarReading:
 
     def _read_colors(self, prim, topology, name: str):
         """``(values (K, 3) float32, corner index (T, 3))`` from colour primvar ``name`` (``displayColor``, or the
-        one the mesh's material reads; its own or inherited, see :func:`_color_primvar`; the rgb of a 4-vector one),
+        one the mesh's material reads; its own or inherited, see :func:`color_primvar`; the rgb of a 4-vector one),
         or None."""
-        primvar = _color_primvar(prim, name)
+        primvar = color_primvar(prim, name)
         if not (primvar and primvar.HasValue()):
             return None
         width = 4 if "Vec4" in primvar.GetTypeName().cppTypeName else 3

@@ -11,8 +11,8 @@ from pxr import Usd, UsdGeom
 from .resources import check_host_memory
 from .scene import Mesh
 from .subdivision import REFINED_QUAD_BYTES, Refinement, refined_quads
-from .usd_contents import _Context
-from .usd_looks import _color_primvar
+from .usd_contents import Context
+from .usd_looks import color_primvar
 from .usd_values import value_at
 
 
@@ -55,7 +55,7 @@ def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
     return tri_corners, face_ids
 
 
-class _LocalMesh:
+class LocalMesh:
     """A mesh's data in its own space, before the world transform; shared by all instances of a prototype."""
 
     def __init__(self, points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs=None, cage=None,
@@ -77,7 +77,7 @@ class _LocalMesh:
 class MeshReading:
     """Mesh reading of the stage reader (``time``, ``refine_level``, ``materials``, ``skel``, ``surfaces``)."""
 
-    def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
+    def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: Context) -> Mesh | None:
         """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         # Materials first: the texture-coordinate primvar to read depends on them.
         counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
@@ -99,7 +99,7 @@ class MeshReading:
             local.points = local.refinement.vertex(local.points)
         return self._bake(prim, m, ctx, local, face_materials, color_names)
 
-    def _read_surface(self, prim: Usd.Prim, m: np.ndarray, ctx: _Context) -> Mesh | None:
+    def _read_surface(self, prim: Usd.Prim, m: np.ndarray, ctx: Context) -> Mesh | None:
         """A TetMesh (its boundary) or NurbsPatch (tessellated) at ``prim`` as a triangle mesh
         (:mod:`wrt.usd_surfaces`), with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
         face_materials = self._face_materials(prim, 1, ctx)
@@ -109,7 +109,7 @@ class MeshReading:
         points = self._point_array(prim)
         if points is None or len(points) == 0:
             return None
-        primvar = _color_primvar(prim, color_names[0])
+        primvar = color_primvar(prim, color_names[0])
         primvar = primvar if primvar and primvar.HasValue() else None
         gprim = UsdGeom.Gprim(prim)
         flip = self._left_handed(prim, gprim, self.time)
@@ -125,12 +125,12 @@ class MeshReading:
         default = face_materials is None or face_materials[0] < 0
         opacity = self._one_opacity(prim, True, not ctx.world) if default else None
         opacities = None if opacity is None else (np.array([opacity], np.float32), np.zeros_like(surface.triangles))
-        local = _LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
+        local = LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
                            cage=cage, opacities=opacities)
         return self._bake(prim, m, ctx, local, face_materials, color_names)
 
     def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None,
-                         color_names=("displayColor",), default_faces=True, keep_opaque=False) -> _LocalMesh | None:
+                         color_names=("displayColor",), default_faces=True, keep_opaque=False) -> LocalMesh | None:
         """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials), with
         texture coordinates ``uv_set``, colours from the primvars ``color_names`` it has, and its ``displayOpacity``
         when some faces have the default material (``default_faces``; ``keep_opaque``: see
@@ -190,7 +190,7 @@ class MeshReading:
         smooth = normals is None and scheme in SMOOTH_SCHEMES
         cage = polygons if smooth else None  # its normals are made in _read_mesh, after any posing and refining
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
-        return _LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage, refinement,
+        return LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage, refinement,
                           opacities)
 
     def _refinement(self, prim, scheme, counts, face_indices, n_points) -> Refinement | None:

@@ -7,7 +7,7 @@ import numpy as np
 from pxr import Usd, UsdShade
 
 from .materials import bound_material
-from .usd_contents import _Content, _Context, _looks
+from .usd_contents import Content, Context, instance_looks
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
 
@@ -15,7 +15,7 @@ MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, pe
 class NativeInstanceReading:
     """Native instancing of the stage reader (``contents``, ``materials``)."""
 
-    def _read_native_instance(self, prim: Usd.Prim, ctx: _Context, purpose=None):
+    def _read_native_instance(self, prim: Usd.Prim, ctx: Context, purpose=None):
         """An instance of a native prototype; ``purpose``: the non-rendered purpose it inherits, if any."""
         prototype = prim.GetPrototype()
         if not prototype:
@@ -55,11 +55,11 @@ class NativeInstanceReading:
         # A constant displayOpacity on the instance or above it is the opacity of the prototype's geometry that has
         # none: one value per instance (Instances.opacities), no copy of the prototype.
         opacity = self._inherited_opacity(prim)
-        looks = None if opacity is None else _looks(None, np.array([opacity], np.float32))
+        looks = None if opacity is None else instance_looks(None, np.array([opacity], np.float32))
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), looks))
         self._read_cameras(prim, self.contents[key].cameras, ctx)
 
-    def _colored(self, key: tuple, content: _Content, color: tuple, prim: Usd.Prim) -> tuple:
+    def _colored(self, key: tuple, content: Content, color: tuple, prim: Usd.Prim) -> tuple:
         """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``
         (``(primvar, (r, g, b))``); each colour is a copy of the prototype's geometry, so past
         :data:`MAX_INHERITED_COLORS` colours per prototype the instance keeps the prototype's own (with a warning)."""

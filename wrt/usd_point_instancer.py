@@ -7,7 +7,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .instancing import group_rows
-from .usd_contents import _Context, _looks
+from .usd_contents import Context, instance_looks
 from .usd_primvars import finite_colors, unit_opacities
 from .usd_values import held_value, read_time, spun_rotations, value_at
 
@@ -15,7 +15,7 @@ from .usd_values import held_value, read_time, spun_rotations, value_at
 class PointInstancerReading:
     """PointInstancer reading of the stage reader (``stage``, ``time``, ``contents``)."""
 
-    def _read_instancer(self, prim: Usd.Prim, ctx: _Context):
+    def _read_instancer(self, prim: Usd.Prim, ctx: Context):
         """Instances of a ``UsdGeom.PointInstancer`` (see the module docstring)."""
         pi = UsdGeom.PointInstancer(prim)
         t = self.time
@@ -108,7 +108,7 @@ class PointInstancerReading:
             name = self._instance_color_name(prim, content.outer_colors)
             if name not in colors_by_name:
                 colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
-            looks = _looks(colors_by_name[name], opacities)
+            looks = instance_looks(colors_by_name[name], opacities)
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
                                           None if looks is None else looks[rows]))
 

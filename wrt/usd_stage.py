@@ -3,6 +3,7 @@ composition errors, layers in other units or up axes, a time outside the stage's
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import warnings
@@ -10,9 +11,10 @@ import warnings
 from pxr import Sdf, Tf, Usd, UsdGeom
 
 from .errors import SceneError, TimeRangeWarning
+from .scene import MIN_METERS_PER_UNIT
 
 
-def _warn_composition_errors(stage: Usd.Stage, source: str) -> None:
+def warn_composition_errors(stage: Usd.Stage, source: str) -> None:
     """Warns about the stage's composition errors (a reference, payload or subLayer whose file is missing, a
     reference to a prim path that is not there): USD only prints them from C++ to stderr, where Python cannot catch
     them, and composes the stage without what they would bring in. A warning, not an error: partially composed
@@ -27,7 +29,7 @@ def _warn_composition_errors(stage: Usd.Stage, source: str) -> None:
         )
 
 
-def _warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
+def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
     """Warns about layers the stage composes (references, payloads, subLayers) that author a ``metersPerUnit`` or
     ``upAxis`` other than the stage's. USD does not convert them and neither does wrt (their geometry is drawn as
     authored), so a robot authored in metres referenced into a centimetre stage was drawn 100 times too small, and a
@@ -53,7 +55,7 @@ def _warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
             )
 
 
-def _check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
+def check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
     """Warns about a time outside the stage's authored ``[startTimeCode, endTimeCode]``. USD evaluates any time
     (values hold at the nearest sample), and stages do animate outside their advertised range (teapot_scene_1000
     says [1, 1] and moves its camera over 0-479), so this is a warning, not an error. Reads only layer metadata,
@@ -84,19 +86,41 @@ def stage_time_range(path) -> tuple[float, float] | None:
     return float(layer.startTimeCode), float(layer.endTimeCode)
 
 
-def _open_stage(source: str) -> Usd.Stage:
+def stage_meters_per_unit(stage: Usd.Stage, source: str) -> float:
+    """The stage's ``metersPerUnit``; a value that is not a finite number above ``MIN_METERS_PER_UNIT`` (the depth
+    of field divides by it) falls back to USD's own default, centimetres, with a warning."""
+    value = float(UsdGeom.GetStageMetersPerUnit(stage))
+    if math.isfinite(value) and value > MIN_METERS_PER_UNIT:
+        return value
+    fallback = float(UsdGeom.LinearUnits.centimeters)
+    warnings.warn(f"{os.path.basename(source)}: metersPerUnit = {value:g} is not a finite number above "
+                  f"{MIN_METERS_PER_UNIT:g}; using {fallback:g} (centimetres, USD's default)", stacklevel=4)
+    return fallback
+
+def stage_up_axis(stage: Usd.Stage, source: str) -> str:
+    """The stage's ``upAxis``; anything but ``Y`` or ``Z`` (USD allows no other) falls back to ``Y``, USD's
+    default, with a warning: an ``X`` stage was taken for Y-up without a word."""
+    value = str(UsdGeom.GetStageUpAxis(stage))
+    if value in ("Y", "Z"):
+        return value
+    warnings.warn(f"{os.path.basename(source)}: upAxis = {value!r} is not Y or Z; using Y (USD's default)",
+                  stacklevel=4)
+    return "Y"
+
+
+def open_stage(source: str) -> Usd.Stage:
     try:
         stage = Usd.Stage.Open(source)
     except Tf.ErrorException as e:
         if not os.path.exists(source):
             raise SceneError("file not found", path=source) from None
-        raise SceneError(f"USD cannot open this file ({_tf_message(e)})", path=source) from None
+        raise SceneError(f"USD cannot open this file ({tf_message(e)})", path=source) from None
     if stage is None:
         raise SceneError("USD cannot open this file", path=source)
     return stage
 
 
-def _tf_message(error: Exception) -> str:
+def tf_message(error: Exception) -> str:
     """The quoted reasons inside a ``Tf.ErrorException`` text, without the C++ file and line noise."""
     # A reason may span lines (the text parser's ends in a newline before its closing quote).
     reasons = re.findall(r" : '(.*?)'\s*(?=\n\s*Error in|\Z)", str(error), flags=re.DOTALL)

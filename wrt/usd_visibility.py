@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pxr import Usd, UsdGeom
 
-from .usd_contents import _Context
+from .usd_contents import Context
 from .usd_values import value_at
 
 
@@ -37,7 +37,7 @@ class Visibility:
             self.visibility[key] = visible
         return visible
 
-    def _purpose(self, prim: Usd.Prim, ctx: _Context):
+    def _purpose(self, prim: Usd.Prim, ctx: Context):
         """The purpose of ``prim``: its own or its nearest ancestor's authored purpose below ``ctx.stop``, else the
         one a native instance inherited (``ctx.outer_purpose``), else default."""
         if ctx.stop is None and ctx.outer_purpose is None:
@@ -51,7 +51,7 @@ class Visibility:
             p = p.GetParent()
         return ctx.outer_purpose or UsdGeom.Tokens.default_
 
-    def _rendered(self, prim: Usd.Prim, ctx: _Context) -> bool:
+    def _rendered(self, prim: Usd.Prim, ctx: Context) -> bool:
         """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own)."""
         return self._visible(prim, ctx.stop) and self._purpose(prim, ctx) in self.purposes
 
