@@ -158,18 +158,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         source = os.fspath(path)
     except TypeError:  # os.fspath's message named no argument
         raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}") from None
-    if time is None:
-        time_code = Usd.TimeCode.Default()
-    elif isinstance(time, Usd.TimeCode):
-        time_code = time
-    else:
-        try:
-            value = float(time)
-        except (TypeError, ValueError):  # float()'s message named no argument: "could not convert string to float"
-            value = math.nan
-        if not math.isfinite(value):
-            raise ValueError(f"time must be a finite time code or None, got {time!r}")
-        time_code = Usd.TimeCode(value)
+    time_code = _time_code(time)
 
     stage = open_stage(source)
     if variants:
@@ -183,18 +172,8 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
                       "time samples are read only at their authored time codes")
     if not time_code.IsDefault():
         check_time_in_range(stage, source, time_code.GetValue())
-    segments = 0
-    if tessellate_gprims is True:
-        segments = DEFAULT_SEGMENTS
-    elif tessellate_gprims is not False and tessellate_gprims is not None:
-        if not isinstance(tessellate_gprims, (int, np.integer)) or not 3 <= tessellate_gprims <= MAX_SEGMENTS:
-            raise ValueError(f"tessellate_gprims must be a bool or an int from 3 to {MAX_SEGMENTS}, got "
-                             f"{tessellate_gprims!r}")
-        segments = int(tessellate_gprims)
-    if isinstance(refine_level, bool) or not isinstance(refine_level, (int, np.integer)) or not (
-        0 <= refine_level <= MAX_REFINE_LEVEL
-    ):
-        raise ValueError(f"refine_level must be an int from 0 to {MAX_REFINE_LEVEL}, got {refine_level!r}")
+    segments = _gprim_segments(tessellate_gprims)
+    _check_refine_level(refine_level)
     reader = _StageReader(stage, source, time_code, segments, int(refine_level), settings)
     try:
         return reader.read()
@@ -207,6 +186,41 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         reader.tubes = None
         reader.surfaces = None
 
+
+
+def _time_code(time) -> Usd.TimeCode:
+    """``load_usd``'s ``time`` as a time code: None is the default time; a ``Usd.TimeCode`` is kept; anything else
+    must be a finite number."""
+    if time is None:
+        return Usd.TimeCode.Default()
+    if isinstance(time, Usd.TimeCode):
+        return time
+    try:
+        value = float(time)
+    except (TypeError, ValueError):  # float()'s message named no argument: "could not convert string to float"
+        value = math.nan
+    if not math.isfinite(value):
+        raise ValueError(f"time must be a finite time code or None, got {time!r}")
+    return Usd.TimeCode(value)
+
+
+def _gprim_segments(tessellate_gprims) -> int:
+    """Segments per circle of tessellated gprims for ``load_usd``'s ``tessellate_gprims``; 0: analytic shapes."""
+    if tessellate_gprims is True:
+        return DEFAULT_SEGMENTS
+    if tessellate_gprims is False or tessellate_gprims is None:
+        return 0
+    if not isinstance(tessellate_gprims, (int, np.integer)) or not 3 <= tessellate_gprims <= MAX_SEGMENTS:
+        raise ValueError(f"tessellate_gprims must be a bool or an int from 3 to {MAX_SEGMENTS}, got "
+                         f"{tessellate_gprims!r}")
+    return int(tessellate_gprims)
+
+
+def _check_refine_level(refine_level) -> None:
+    if isinstance(refine_level, bool) or not isinstance(refine_level, (int, np.integer)) or not (
+        0 <= refine_level <= MAX_REFINE_LEVEL
+    ):
+        raise ValueError(f"refine_level must be an int from 0 to {MAX_REFINE_LEVEL}, got {refine_level!r}")
 
 class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, MeshReading,
                    MeshPrimvarReading, MeshBaking, GprimReading, NativeInstanceReading, PointInstancerReading,

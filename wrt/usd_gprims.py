@@ -29,6 +29,45 @@ class GprimReading:
     def _read_gprim(self, prim: Usd.Prim, m: np.ndarray, ctx: Context) -> Shape | None:
         """The analytic shape of gprim ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space)
         and USD's size parameters folded into its transform, or None (with a warning) when it is not supported."""
+        found = self._canonical_space(prim)
+        if found is None:
+            return None
+        kind, local, params = found
+        t = self.time
+        gprim = UsdGeom.Gprim(prim)
+        if self._left_handed(prim, gprim, t):
+            params[3] = -1.0
+        to_world = m.T @ local
+        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
+            self._skip("world transform is projective; its last column was ignored", prim)
+            to_world[3] = (0.0, 0.0, 0.0, 1.0)
+
+        material_id, primvar, color = self._gprim_look(prim, ctx)
+        if primvar is not None:
+            color = np.full(3, 0.5, np.float32)
+            values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64)
+            values = values[:, :3] if values.ndim == 2 else values.reshape(-1, 3)  # the rgb of a color4f
+            if len(values) and np.all(np.isfinite(values)):
+                color = values.mean(axis=0).astype(np.float32)
+        shape = Shape(
+            path=str(prim.GetPath()),
+            kind=kind,
+            to_world=to_world,
+            params=params,
+            color=color,
+            material_id=material_id,
+            double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
+            opacity=self._one_opacity(prim, False, not ctx.world) if material_id < 0 else None,
+        )
+        # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them.
+        if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
+            raise self._error("bounds are not finite after the world transform", prim)
+        return shape
+
+    def _canonical_space(self, prim: Usd.Prim) -> tuple | None:
+        """``(kind, local, params)`` of gprim ``prim``: its :class:`Shape` kind, the ``(4, 4)`` column-vector
+        transform from the kind's canonical space to the prim's (USD's size parameters and axis folded in) and its
+        ``(4,)`` params; None, with a warning, for a size or axis USD draws nothing for, or a type wrt does not draw."""
         t = self.time
 
         def bad_size(detail):
@@ -101,35 +140,7 @@ class GprimReading:
             if linear is None:
                 return None
             local = shape_transform(linear)
-        gprim = UsdGeom.Gprim(prim)
-        if self._left_handed(prim, gprim, t):
-            params[3] = -1.0
-        to_world = m.T @ local
-        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
-            self._skip("world transform is projective; its last column was ignored", prim)
-            to_world[3] = (0.0, 0.0, 0.0, 1.0)
-
-        material_id, primvar, color = self._gprim_look(prim, ctx)
-        if primvar is not None:
-            color = np.full(3, 0.5, np.float32)
-            values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64)
-            values = values[:, :3] if values.ndim == 2 else values.reshape(-1, 3)  # the rgb of a color4f
-            if len(values) and np.all(np.isfinite(values)):
-                color = values.mean(axis=0).astype(np.float32)
-        shape = Shape(
-            path=str(prim.GetPath()),
-            kind=kind,
-            to_world=to_world,
-            params=params,
-            color=color,
-            material_id=material_id,
-            double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
-            opacity=self._one_opacity(prim, False, not ctx.world) if material_id < 0 else None,
-        )
-        # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them.
-        if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
-            raise self._error("bounds are not finite after the world transform", prim)
-        return shape
+        return kind, local, params
 
     def _tessellated(self, shape: Shape, prim: Usd.Prim, segments: int | None = None) -> Mesh:
         """``shape`` as a triangle mesh of ``segments`` (default ``self.segments``) segments per circle."""

@@ -16,11 +16,49 @@ class PointInstancerReading:
     """PointInstancer reading of the stage reader (``stage``, ``time``, ``contents``)."""
 
     def _read_instancer(self, prim: Usd.Prim, ctx: Context):
-        """Instances of a ``UsdGeom.PointInstancer`` (see the module docstring)."""
+        """Instances of a ``UsdGeom.PointInstancer`` (see the module docstring), added to ``ctx.content`` prototype
+        by prototype."""
         pi = UsdGeom.PointInstancer(prim)
-        t = self.time
+        targets, protos = self._prototype_roots(prim, pi)
+        proto_indices = self._proto_indices(prim, pi, len(protos))
+        n = len(proto_indices)
+        if n == 0:
+            return
+        m, read = self._instance_transforms(prim, pi, n)
+        colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
+        opacities = self._instance_opacities(prim, n, read)
+        keep = self._instance_mask(prim, pi, n)
+        to_space = self._to_space(prim, ctx).T @ m
+        # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
+        # prototype took 6 s for 10000 prototypes and 1M instances).
+        kept = np.flatnonzero(keep)
+        for path, target, group in zip(targets, protos, group_rows(proto_indices[kept], len(protos))):
+            rows = kept[group]
+            if len(rows) == 0:
+                continue
+            if target is None:
+                self._skip("instances of inactive PointInstancer prototypes (or of prototypes under an inactive "
+                           "prim) were skipped", prim, str(path))
+                continue
+            # The prototype's space is its parent's: the root's own transform is the most local part.
+            key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced, ctx.outer_color)
+            parent = target.GetParent()
+            content = self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced,
+                                    outer_color=ctx.outer_color)
+            ctx.content.uses_outer |= content.uses_outer  # as for a nested native instance
+            ctx.content.want_colors(content.outer_colors)
+            name = self._instance_color_name(prim, content.outer_colors)
+            if name not in colors_by_name:
+                colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
+            looks = instance_looks(colors_by_name[name], opacities)
+            ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
+                                          None if looks is None else looks[rows]))
+
+    def _prototype_roots(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer) -> tuple[list, list]:
+        """The ``prototypes`` targets of ``pi`` and their prims, None for one that is inactive or under an inactive
+        prim (its instances are skipped with a warning). Raises for a target that does not exist."""
         targets = pi.GetPrototypesRel().GetTargets()
-        protos = []  # the prototype roots; None for one that is inactive or under an inactive prim
+        protos = []
         for k, path in enumerate(targets):
             target = self.stage.GetPrimAtPath(path)
             if target and target.IsActive():
@@ -29,19 +67,27 @@ class PointInstancerReading:
                 protos.append(None)  # deactivated, as Hydra finds it: drawn nowhere (below, with a warning)
             else:
                 raise self._error(f"prototypes[{k}] targets {path}, which does not exist", prim, None)
-        raw = value_at(pi.GetProtoIndicesAttr(), t)
+        return targets, protos
+
+    def _proto_indices(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n_protos: int) -> np.ndarray:
+        """``(n,)`` int64 ``protoIndices`` of ``pi``, checked against its ``n_protos`` prototypes."""
+        raw = value_at(pi.GetProtoIndicesAttr(), self.time)
         proto_indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
-        n = len(proto_indices)
-        if n == 0:
-            return
-        bad = (proto_indices < 0) | (proto_indices >= len(protos))
+        bad = (proto_indices < 0) | (proto_indices >= n_protos)
         if bad.any():
             i = int(np.argmax(bad))
             raise self._error(
-                f"protoIndices[{i}] = {proto_indices[i]} is out of range for {len(protos)} prototype(s)",
+                f"protoIndices[{i}] = {proto_indices[i]} is out of range for {n_protos} prototype(s)",
                 prim,
                 pi.GetProtoIndicesAttr(),
             )
+        return proto_indices
+
+    def _instance_transforms(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> tuple:
+        """``(n, 4, 4)`` column-vector transforms of the ``n`` instances of ``pi`` in its own space, and the function
+        that read their attributes (:func:`held_value` when velocities move them, else :func:`value_at`), with which
+        their primvars are read too."""
+        t = self.time
 
         def per_instance(attr, width, name, default, value):
             if value is None or len(value) == 0:
@@ -68,8 +114,6 @@ class PointInstancerReading:
         quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]),
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
         scales = per_instance(scales_attr, 3, "scales", np.ones(3), _value_if_any(scales_attr, t, read))
-        colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
-        opacities = self._instance_opacities(prim, n, read)
 
         # Column-vector instance transforms: translate(position) @ spin @ rotate(orientation) @ scale(scale).
         m = np.zeros((n, 4, 4))
@@ -78,39 +122,19 @@ class PointInstancerReading:
             m[:, :3, :3] = spun[1][:n] @ m[:, :3, :3]
         m[:, :3, 3] = positions
         m[:, 3, 3] = 1.0
+        return m, read
+
+    def _instance_mask(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> np.ndarray:
+        """``(n,)`` bool: the instances of ``pi`` that ``invisibleIds`` and ``inactiveIds`` leave drawn."""
         keep = np.ones(n, bool)
         # invisibleIds (and the ids it refers to) follow value_at's default-time rule, as positions do.
-        mask = pi.ComputeMaskAtTime(read_time(pi.GetInvisibleIdsAttr(), t))
+        mask = pi.ComputeMaskAtTime(read_time(pi.GetInvisibleIdsAttr(), self.time))
         if mask is not None and len(mask):
             if len(mask) < n:  # the mask has one entry per id: the instances past them have none
                 raise self._error(f"ids has {len(mask)} entries; protoIndices has {n} (invisibleIds and inactiveIds "
                                   "name instances by id)", prim, pi.GetIdsAttr())
             keep &= np.asarray(mask, bool)[:n]
-        to_space = self._to_space(prim, ctx).T @ m
-        # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
-        # prototype took 6 s for 10000 prototypes and 1M instances).
-        kept = np.flatnonzero(keep)
-        for path, target, group in zip(targets, protos, group_rows(proto_indices[kept], len(protos))):
-            rows = kept[group]
-            if len(rows) == 0:
-                continue
-            if target is None:
-                self._skip("instances of inactive PointInstancer prototypes (or of prototypes under an inactive "
-                           "prim) were skipped", prim, str(path))
-                continue
-            # The prototype's space is its parent's: the root's own transform is the most local part.
-            key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced, ctx.outer_color)
-            parent = target.GetParent()
-            content = self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced,
-                                    outer_color=ctx.outer_color)
-            ctx.content.uses_outer |= content.uses_outer  # as for a nested native instance
-            ctx.content.want_colors(content.outer_colors)
-            name = self._instance_color_name(prim, content.outer_colors)
-            if name not in colors_by_name:
-                colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
-            looks = instance_looks(colors_by_name[name], opacities)
-            ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
-                                          None if looks is None else looks[rows]))
+        return keep
 
     def _instance_color_name(self, prim: Usd.Prim, wanted: list[str]) -> str | None:
         """The colour primvar of PointInstancer ``prim`` that colours its instances of a prototype whose geometry
