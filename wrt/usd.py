@@ -187,7 +187,6 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         reader.surfaces = None
 
 
-
 def _time_code(time) -> Usd.TimeCode:
     """``load_usd``'s ``time`` as a time code: None is the default time; a ``Usd.TimeCode`` is kept; anything else
     must be a finite number."""
@@ -217,15 +216,18 @@ def _gprim_segments(tessellate_gprims) -> int:
 
 
 def _check_refine_level(refine_level) -> None:
+    """Raises for a ``load_usd`` ``refine_level`` that is not an int from 0 to ``MAX_REFINE_LEVEL``."""
     if isinstance(refine_level, bool) or not isinstance(refine_level, (int, np.integer)) or not (
         0 <= refine_level <= MAX_REFINE_LEVEL
     ):
         raise ValueError(f"refine_level must be an int from 0 to {MAX_REFINE_LEVEL}, got {refine_level!r}")
 
-class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, MeshReading,
-                   MeshPrimvarReading, MeshBaking, GprimReading, NativeInstanceReading, PointInstancerReading,
-                   CameraReading):
-    """One pass over a stage; collects meshes, instances, cameras and lights and the warnings to emit."""
+
+class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, MeshReading, MeshPrimvarReading,
+                   MeshBaking, GprimReading, NativeInstanceReading, PointInstancerReading, CameraReading):
+    """One pass over a stage; collects meshes, instances, cameras and lights and the warnings to emit. The walk is
+    here; what it does with each kind of prim comes from the mixins of the ``wrt.usd_*`` modules (see the module
+    docstring), which share this object's state."""
 
     def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0, refine_level: int = 0,
                  settings: RenderSettings | None = None):
@@ -376,7 +378,6 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._skip(f"lights on {what} (LightAPI, MeshLightAPI) are not supported; drawn as geometry that emits "
                        f"nothing{hint}", prim, prim.GetTypeName())
 
-
     def _to_space(self, prim: Usd.Prim, ctx: Context) -> np.ndarray:
         """``(4, 4)`` row-vector (USD) transform from ``prim`` to the space of ``ctx``'s content."""
         if ctx.space_root is None:
@@ -404,7 +405,6 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self.reading.discard(key)
             self.contents[key] = content
         return self.contents[key]
-
 
     def _face_materials(self, prim: Usd.Prim, n_faces: int, ctx: Context) -> np.ndarray | None:
         """``(F,)`` int32 material of each face of ``prim`` (-1: default), or None for none at all: its own bindings

@@ -1,7 +1,6 @@
 """``displayColor`` and ``displayOpacity`` beyond a mesh's own corners: colour primvars found with USD's inheritance,
-the one opacity of prims drawn in one look (gprims, points, curves, tet meshes, patches), the constant colour and
-opacity a native instance hands down to its prototype, and the per-instance look rows (colour and opacity) of
-:class:`wrt.instancing.Instances`."""
+the one opacity of prims drawn in one look (gprims, points, curves, tet meshes, patches), and the constant colour
+and opacity a native instance hands down to its prototype."""
 
 from __future__ import annotations
 

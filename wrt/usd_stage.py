@@ -97,6 +97,7 @@ def stage_meters_per_unit(stage: Usd.Stage, source: str) -> float:
                   f"{MIN_METERS_PER_UNIT:g}; using {fallback:g} (centimetres, USD's default)", stacklevel=4)
     return fallback
 
+
 def stage_up_axis(stage: Usd.Stage, source: str) -> str:
     """The stage's ``upAxis``; anything but ``Y`` or ``Z`` (USD allows no other) falls back to ``Y``, USD's
     default, with a warning: an ``X`` stage was taken for Y-up without a word."""
