@@ -1,7 +1,7 @@
 """Mesh lights (UsdLux ``MeshLightAPI``, or ``LightAPI`` on another gprim): the irradiance a quad mesh light gives a
 plane against Lambert's closed form and against the same light authored as a ``RectLight``; ``normalize``,
-``exposure`` and ``color``; light linking; ``materialSyncMode`` with an emissive material; gprims, volumes and
-instances that cannot be lights are named."""
+``exposure`` and ``color``; light linking; ``materialSyncMode`` with an emissive material; analytic gprims as mesh
+lights (a sphere against its closed form); volumes and instances that cannot be lights are named."""
 
 import numpy as np
 import pytest
@@ -187,28 +187,87 @@ def test_a_mesh_light_of_no_material_response_reflects_nothing(tmp_path):
     assert img.aovs["prim"][0, 0] >= 0 and img.rgb.max() == 0.0
 
 
-def test_gprims_volumes_and_instanced_meshes_that_cannot_be_lights_are_named(tmp_path):
-    """LightAPI on a gprim drawn analytically emits nothing (named, with the way out: tessellate_gprims, which
-    makes it a mesh light); so do VolumeLightAPI volumes and mesh lights inside instance prototypes."""
+def gprim_light(kind, radius=None, x=0.0, extra=""):
+    """USDA of a ``kind`` gprim with MeshLightAPI (no material) centred at ``(x, 0, HEIGHT)``, scaled by 0.3 unless
+    ``radius`` (a Sphere's) is given."""
+    size = (f"    double radius = {radius}\n" if radius is not None else
+            '    float3 xformOp:scale = (0.3, 0.3, 0.3)\n')
+    order = '"xformOp:translate"' + ("" if radius is not None else ', "xformOp:scale"')
+    return (f'def {kind} "Bulb" (\n    prepend apiSchemas = ["MeshLightAPI"]\n)\n{{\n{size}'
+            f"    double3 xformOp:translate = ({x}, 0, {HEIGHT})\n    uniform token[] xformOpOrder = [{order}]\n"
+            f"{extra}{inputs(intensity=3.0)}}}\n")
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_an_analytic_sphere_with_mesh_light_api_emits_as_its_closed_form(tmp_path, integrator):
+    """A Sphere gprim of radius r = 0.1 and radiance L = 3 at height h = 1 (no material: it is the light alone)
+    lights the floor as a sphere light does: it subtends sin^2 = r^2 / d^2 from a floor point at distance d, so
+    E = pi L r^2 cos(a) / d^2 with cos(a) = h / d (a point source of power pi L 4 pi r^2, intensity pi L r^2).
+    The patch seen lies beside the sphere (x from 0.6 to 1.4), which the camera does not see. Before, it was drawn
+    analytically as geometry that emitted nothing, with a warning."""
+    r, center = 0.1, (1.0, 0.0, 0.0)
+    scene, messages = load(tmp_path, floor(), gprim_light("Sphere", radius=r))
+    assert not messages and [type(light).__name__ for light in scene.lights] == ["MeshLight"], messages
+    rendered = render_floor(scene, integrator, center=center).mean(axis=-1)
+    points = pixel_points(center, PATCH, RES, RES)
+    d = np.linalg.norm(points - (0.0, 0.0, HEIGHT), axis=-1)
+    expected = ALBEDO * 3.0 * r**2 * HEIGHT / d**3  # ALBEDO * E / pi
+    assert abs(rendered.mean() / expected.mean() - 1) < 0.03, (rendered.mean(), expected.mean())
+    blocks = (rendered / expected).reshape(4, RES // 4, 4, RES // 4).mean(axis=(1, 3))  # its falloff: 4x4 blocks
+    assert np.abs(blocks - 1).max() < 0.15, blocks
+
+
+@pytest.mark.parametrize("kind", ["Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane"])
+def test_every_analytic_gprim_with_mesh_light_api_emits(tmp_path, kind):
+    """Each gprim kind with MeshLightAPI (a double-sided Plane, whose one side faces up) is a mesh light: it lights
+    the floor under it and cameras see its radiance (it has no material). Before, each emitted nothing, named in a
+    warning."""
+    scene, messages = load(tmp_path, floor(), gprim_light(kind, extra="    uniform bool doubleSided = 1\n"))
+    assert not messages and [light.path for light in scene.lights] == ["/Bulb"], messages
+    lit = render_floor(scene, "path", spp=8, center=(0.6, 0.0, 0.0)).mean()
+    assert lit > 0.01, lit
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.2), target=(0, 0, 1.0), up=(0, 1, 0), height=0.05)
+    np.testing.assert_allclose(wrt.render(scene, camera=cam, width=1, height=1, integrator="path").rgb[0, 0], 3.0,
+                               rtol=1e-5)
+
+
+def test_volumes_and_instanced_meshes_that_cannot_be_lights_are_named(tmp_path):
+    """VolumeLightAPI volumes and mesh lights inside instance prototypes (meshes and gprims) emit nothing: named.
+    A gprim with LightAPI drawn in the world is a mesh light, analytic or tessellated."""
     sphere = ('def Sphere "Bulb" (\n    prepend apiSchemas = ["LightAPI"]\n)\n{\n    double radius = 0.3\n'
               '    double3 xformOp:translate = (0, 0, 1)\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
               '    float inputs:intensity = 4\n}\n')
     volume = 'def Volume "Fog" (\n    prepend apiSchemas = ["VolumeLightAPI"]\n)\n{\n}\n'
-    instanced = ('class Xform "Source"\n{\n    ' + mesh_light().replace("\n", "\n    ") + '\n}\n'
-                 'def Xform "Proto" (\n    instanceable = true\n    prepend references = </Source>\n)\n{\n'
+    instanced = ('class Xform "Source"\n{\n    ' + (mesh_light() + gprim_light("Cube")).replace("\n", "\n    ") +
+                 '\n}\ndef Xform "Proto" (\n    instanceable = true\n    prepend references = </Source>\n)\n{\n'
                  '    double3 xformOp:translate = (10, 0, 0)\n'
                  '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n')
     scene, messages = load(tmp_path, floor(), sphere, volume, instanced)
-    assert not scene.lights
-    assert any("gprims drawn analytically" in m and "tessellate_gprims" in m and "/Bulb" in m for m in messages)
+    assert [light.path for light in scene.lights] == ["/Bulb"]
     assert any("VolumeLightAPI" in m and "/Fog" in m for m in messages), messages
-    assert any("inside instances" in m and "/Proto/Light" in m for m in messages), messages
+    assert any("inside instances" in m and "/Proto/Light" in m and "/Proto/Bulb" in m for m in messages), messages
     tessellated, _ = load_recording_warnings(str(tmp_path / "stage.usda"), tessellate_gprims=16)
     assert [type(light).__name__ for light in tessellated.lights] == ["MeshLight"]
     img = wrt.render(tessellated, camera=top_down_camera(height=PATCH), width=RES, height=RES, spp=4,
                      integrator="path", max_depth=1)
     np.testing.assert_allclose(img.rgb[6:10, 6:10], 4.0, rtol=1e-5)  # cameras see the light: it has no material
     assert img.rgb[img.aovs["prim"] < 2].mean() > 0.05  # the floor's two triangles come first
+
+
+def test_a_point_instancer_of_a_world_mesh_light_names_what_emits(tmp_path):
+    """A PointInstancer whose prototypes are mesh lights drawn in the world too (a mesh and a Sphere, not under an
+    ``over``): those prims emit where they stand, their instances do not, and the warning says so. Before, it said
+    the prims were lights inside instances that emit nothing, though they lit the floor."""
+    instancer = ('def PointInstancer "PI"\n{\n    rel prototypes = [</Light>, </Bulb>]\n'
+                 "    int[] protoIndices = [0, 1]\n    point3f[] positions = [(5, 0, 0), (-5, 0, 0)]\n}\n")
+    scene, messages = load(tmp_path, floor(), mesh_light(intensity=3.0), gprim_light("Sphere", radius=0.1, x=3.0),
+                           instancer)
+    assert sorted(light.path for light in scene.lights) == ["/Bulb", "/Light"]
+    assert len(scene.instances.prototype) == 2
+    named = [m for m in messages if "/Light" in m or "/Bulb" in m]
+    assert len(named) == 1 and "emit only where drawn in place" in named[0] and "instances are drawn as geometry "\
+        "that emits nothing" in named[0] and "/Light" in named[0] and "/Bulb" in named[0], messages
+    assert abs(render_floor(scene, "path").mean() / closed_form(3.0).mean() - 1) < 0.03  # the Sphere adds 0.1%
 
 
 def test_a_python_mesh_light_names_its_mesh():

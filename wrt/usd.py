@@ -86,6 +86,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc
 from .errors import SceneError
 from .instancing import invert_transforms
 from .light_links import resolve_expressions
+from .lights import MeshLight
 from .materials import MaterialReader
 from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS
 from .render_settings import RenderSettings, read_render_settings
@@ -251,6 +252,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
+        self.instanced_lights = {}  # shown path -> type name of mesh lights read inside prototypes (not sampled)
 
     def read(self) -> Scene:
         scene = Scene(
@@ -270,6 +272,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         if inverses is not None:
             scene.remember_instance_inverses(inverses)
         resolve_expressions(scene)  # linking collections in expression mode, against the paths drawn
+        self._warn_instanced_lights()
         self._warn_skipped()
         return scene
 
@@ -330,7 +333,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                     self.scene.lights.append(light)
 
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
-        """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating)."""
+        """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when
+        the gprim is a mesh light)."""
         if prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.TetMesh) or prim.IsA(UsdGeom.NurbsPatch):
             read = self._read_mesh if prim.IsA(UsdGeom.Mesh) else self._read_surface
             self._add_mesh(prim, read(prim, self._to_space(prim, ctx), ctx), ctx)
@@ -350,9 +354,13 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
         elif shape is not None and self.segments:
             self._add_mesh(prim, self._tessellated(shape, prim), ctx)
+        elif shape is not None and ctx.world and prim.HasAPI(UsdLux.LightAPI):
+            # A mesh light is sampled by its triangles, and rays that hit it must see the surface sampled (its
+            # radiance and pdf come from the triangle hit): the emitting gprim alone is drawn as its tessellation.
+            self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
         elif shape is not None:
-            self._not_a_mesh_light(prim, "gprims drawn analytically", "; load with tessellate_gprims=True to make "
-                                   "them emit")
+            if prim.HasAPI(UsdLux.LightAPI):
+                self._instanced_light(prim)
             ctx.content.shapes.append(shape)
 
     def _add_mesh(self, prim: Usd.Prim, mesh: Mesh | None, ctx: Context):
@@ -364,19 +372,36 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         if not prim.HasAPI(UsdLux.LightAPI):
             return
         if not ctx.world:  # its triangles are not sampled, as emissive prototype triangles are not
-            self._not_a_mesh_light(prim, "meshes inside instances")
+            self._instanced_light(prim)
             return
         light = read_light(prim, self.xforms, self.time, self.scene.up_axis, self._skip)
         if light is not None:
             sync_mesh_material(light, prim, mesh, self.materials, self._skip)
             self.scene.lights.append(light)
 
-    def _not_a_mesh_light(self, prim: Usd.Prim, what: str, hint: str = ""):
+    def _not_a_mesh_light(self, prim: Usd.Prim, what: str):
         """Names ``prim`` in a warning when it has LightAPI (MeshLightAPI, VolumeLightAPI or LightAPI alone): it
-        should emit, but wrt draws ``what`` as geometry that emits nothing (``hint``: what to do about it)."""
+        should emit, but wrt draws ``what`` as geometry that emits nothing."""
         if prim.HasAPI(UsdLux.LightAPI):
             self._skip(f"lights on {what} (LightAPI, MeshLightAPI) are not supported; drawn as geometry that emits "
-                       f"nothing{hint}", prim, prim.GetTypeName())
+                       "nothing", prim, prim.GetTypeName())
+
+    def _instanced_light(self, prim: Usd.Prim):
+        """Notes mesh light ``prim`` read inside an instance prototype, whose triangles are not sampled (as emissive
+        prototype triangles are not): named once the walk is over (:meth:`_warn_instanced_lights`)."""
+        self.instanced_lights.setdefault(self._shown_path(prim), prim.GetTypeName())
+
+    def _warn_instanced_lights(self):
+        """Names the mesh lights drawn inside instances. A PointInstancer's prototype may be a prim of the world
+        too, drawn in place as well: that copy emits (it is a light of the scene), its instanced copies do not."""
+        world = {light.path for light in self.scene.lights if isinstance(light, MeshLight)}
+        for path, kind in self.instanced_lights.items():
+            if path in world:
+                self._skip_path("mesh lights that are also PointInstancer prototypes emit only where drawn in place "
+                                "(the light); their instances are drawn as geometry that emits nothing", path, kind)
+            else:
+                self._skip_path("lights on meshes and gprims inside instances (LightAPI, MeshLightAPI) are not "
+                                "supported; drawn as geometry that emits nothing", path, kind)
 
     def _to_space(self, prim: Usd.Prim, ctx: Context) -> np.ndarray:
         """``(4, 4)`` row-vector (USD) transform from ``prim`` to the space of ``ctx``'s content."""
