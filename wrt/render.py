@@ -360,7 +360,8 @@ class Renderer:
                 warnings.warn(
                     f"{scene.source or 'scene'}: {unsampled} emissive instanced or analytic primitive(s) are "
                     "not sampled as lights: the whitted integrator shows them but they light nothing; use "
-                    "integrator='path', or load with tessellate_gprims=True for gprims",
+                    "integrator='path' (wrt render: --integrator path), or for gprims load with "
+                    "tessellate_gprims=True (wrt render: --accel warp)",
                     stacklevel=3,
                 )
         # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels
