@@ -187,6 +187,34 @@ def test_a_mesh_light_of_no_material_response_reflects_nothing(tmp_path):
     assert img.aovs["prim"][0, 0] >= 0 and img.rgb.max() == 0.0
 
 
+def test_a_python_mesh_light_of_no_material_response_reflects_nothing_as_one_read_from_usd(tmp_path):
+    """A ``wrt.MeshLight`` of ``material_sync="noMaterialResponse"`` (its default) on a white quad under a sun: the
+    quad reflects nothing and the material AOV shows no material, as for the same mesh light read from USD (one code
+    path: the lights' build gives such triangles a surface that reflects nothing, whatever their mesh's material).
+    Before, the Python quad kept its white material and reflected the sun (1.79 where the USD one showed 0), and
+    the material AOV of the USD one named a material of its own."""
+    white = ('def Material "White"\n{\n    token outputs:surface.connect = </White/Surface.outputs:surface>\n'
+             '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+             "        color3f inputs:diffuseColor = (1, 1, 1)\n        token outputs:surface\n    }\n}\n")
+    sun = ('def DistantLight "Sun"\n{\n    float inputs:intensity = 5\n    float inputs:angle = 0\n'
+           '    float3 xformOp:rotateXYZ = (180, 0, 0)\n    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]\n}\n')
+    light = mesh_light(intensity=0.0, sync="noMaterialResponse", material="/White").replace("(0, 0, 1.0)",
+                                                                                             "(0, 0, -1.0)")
+    read, messages = load(tmp_path, white, sun, light)
+    assert not messages, messages
+    panel = quad((0, 0, -1), (0, 1, 0), (1, 0, 0), name="/panel", material=0, double_sided=False)  # front: -Z
+    built = wrt.Scene(meshes=[panel], materials=[wrt.Material(path="/White", diffuse_color=(1.0, 1.0, 1.0))],
+                      lights=[wrt.DistantLight(direction=(0, 0, 1), color=(5.0, 5.0, 5.0), angle=0.0),
+                              wrt.MeshLight("/panel", color=np.zeros(3))])
+    cam = wrt.Camera.orthographic(eye=(0, 0, -3), target=(0, 0, -1), up=(0, 1, 0), height=0.2)
+    for scene in (read, built):
+        img = wrt.render(scene, camera=cam, width=1, height=1)
+        assert img.aovs["prim"][0, 0] >= 0 and img.rgb.max() == 0.0, (scene, img.rgb)
+        assert img.aovs["material"][0, 0] == -1
+    built.lights[1].material_sync = "independent"  # the material reflects again: white under E = 5, plus specular
+    assert wrt.render(built, camera=cam, width=1, height=1).rgb.min() > 5.0 / np.pi
+
+
 def gprim_light(kind, radius=None, x=0.0, extra=""):
     """USDA of a ``kind`` gprim with MeshLightAPI (no material) centred at ``(x, 0, HEIGHT)``, scaled by 0.3 unless
     ``radius`` (a Sphere's) is given."""

@@ -189,7 +189,8 @@ class Image:
             - ``"albedo"`` ``(H, W, 3)`` float32 diffuseColor (textured) of the hit material;
             - ``"prim"`` int32 triangle id (-1 on a miss);
             - ``"instance"`` int32 index into ``Scene.instances``; -1 on a miss or on non-instanced geometry;
-            - ``"material"`` int32 index into ``Scene.materials`` (-1 on a miss or for the default material);
+            - ``"material"`` int32 index into ``Scene.materials`` (-1 on a miss, for the default material and on
+              mesh lights of ``noMaterialResponse``, whose surface has none);
             - ``"cost"`` ``(H, W, 2)`` int32 BVH nodes visited and triangles tested by the ray (0 for
               ``accel="warp"``), including re-traces past culled back faces and cut-out holes.
     """

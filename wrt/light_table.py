@@ -131,14 +131,16 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTr
         ids = np.nonzero(owner == j)[0]
         area = areas(ids)
         L = normalized_radiance(light.color, float(area.sum()), light.normalize).astype(np.float64)
-        tints = light.material_sync == GLOW_TINTS_LIGHT
+        # A mesh bound to no material has no glow to sync with: noMaterialResponse whatever its mode.
+        sync = light.material_sync if (tri_materials[ids] > 0).any() else NO_MATERIAL_RESPONSE
+        tints = sync == GLOW_TINTS_LIGHT
         if tints:
             keep = glow[tri_materials[ids]] > 0.0  # the light tints the glow: no glow, no light
             ids, area = ids[keep], area[keep]
             power = math.pi * area * ((L * emission[tri_materials[ids]]) @ LUMINANCE)
         else:
             power = math.pi * area * float(L @ LUMINANCE)
-        params = (float(tints), float(light.material_sync == NO_MATERIAL_RESPONSE), 1, 0)
+        params = (float(tints), float(sync == NO_MATERIAL_RESPONSE), 1, 0)
         rows.append((ids, power, np.tile(L, (len(ids), 1)), params, j))
     ids = np.concatenate([r[0] for r in rows]).astype(np.int32)
     return EmitterTriangles(
@@ -148,6 +150,15 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTr
         params=np.concatenate([np.tile(np.asarray(r[3], np.float32), (len(r[0]), 1)) for r in rows]),
         owner=np.concatenate([np.full(len(r[0]), r[4], np.int32) for r in rows]),
     )
+
+
+def no_response_triangles(lights: DeviceLights) -> np.ndarray:
+    """``(K,)`` int32 geometry ids of the triangles of ``noMaterialResponse`` mesh lights (those whose mesh has no
+    material count too): their surface is :func:`wrt.materials.no_response_material`, whatever their mesh's material,
+    in scenes read and built in Python alike."""
+    first, count = lights.num_analytic, lights.count
+    no_response = lights.params.numpy()[first:count, 1] > 0.0
+    return lights.prims.numpy()[first:count][no_response]
 
 
 def build_lights(lights: list, scene, material_emission: list, device) -> DeviceLights:

@@ -310,10 +310,11 @@ class MeshLight:
         path: prim path of the emitting mesh: the :attr:`wrt.Scene.meshes` entries of that path (not instanced).
         color: ``(3,)`` ``intensity * 2**exposure * color``.
         normalize: divide by the world-space area of the mesh.
-        material_sync: ``light:materialSyncMode``. ``"noMaterialResponse"`` (LightAPI's fallback): radiance
-            ``color`` everywhere, which camera rays see too (the surface should reflect nothing: :func:`wrt.load_usd`
-            gives such meshes a black material). ``"materialGlowTintsLight"`` (MeshLightAPI's): ``color`` times the
-            ``emissiveColor`` of each triangle's material (triangles that do not glow emit nothing);
+        material_sync: ``light:materialSyncMode``. ``"noMaterialResponse"`` (LightAPI's fallback, and any mode
+            on a mesh with no material): radiance ``color`` everywhere, which camera rays see too; the surface
+            reflects, transmits and emits nothing else, whatever material the mesh has.
+            ``"materialGlowTintsLight"`` (MeshLightAPI's): ``color`` times the ``emissiveColor`` of each triangle's
+            material (triangles that do not glow emit nothing);
             ``"independent"``: ``color`` everywhere. In these two, camera rays see the material as it is, its own
             glow included.
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).

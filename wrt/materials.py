@@ -294,9 +294,17 @@ def check_texture_input(tex: TextureInput, num_images: int, where: str):
                          f"{num_images}")
 
 
+def no_response_material() -> Material:
+    """The last device material: it reflects, transmits and emits nothing (black, index 1: no Fresnel reflection),
+    the surface of a mesh light of ``materialSyncMode`` ``noMaterialResponse`` ("as if there is no Material bound at
+    all"), whatever material its mesh has (:func:`wrt.light_table.no_response_triangles`)."""
+    return Material(path="<no material response>", diffuse_color=0.0, ior=1.0)
+
+
 def upload_materials(materials: list[Material], textures: list[np.ndarray], device) -> DeviceMaterials:
-    """Packs ``[default_material()] + materials`` and ``textures`` into a :class:`DeviceMaterials` on ``device``."""
-    all_materials = [default_material()] + list(materials)
+    """Packs ``[default_material()] + materials + [no_response_material()]`` and ``textures`` into a
+    :class:`DeviceMaterials` on ``device``."""
+    all_materials = [default_material()] + list(materials) + [no_response_material()]
     m = len(all_materials)
     colors = np.zeros((m, 4, 3), np.float32)
     params = np.zeros((m, 8), np.float32)
@@ -612,7 +620,6 @@ def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
     return m.astype(np.float32)
 
 
-NO_RESPONSE = "<no material response>"  # path of MaterialReader.no_response_material
 
 
 class MaterialReader:
@@ -636,14 +643,6 @@ class MaterialReader:
         self._udim: dict[tuple, np.ndarray] = {}  # (UDIM pattern, its layer, colour space) -> TextureInput.tiles
 
     # Bindings
-
-    def no_response_material(self) -> int:
-        """The index of a material that reflects, transmits and emits nothing (black, index 1: no Fresnel
-        reflection), added once: the surface of a mesh light of ``materialSyncMode`` ``noMaterialResponse``."""
-        if NO_RESPONSE not in self._by_path:  # no prim path: it cannot collide with a material prim's
-            self._by_path[NO_RESPONSE] = len(self.materials)
-            self.materials.append(Material(path=NO_RESPONSE, diffuse_color=0.0, ior=1.0))
-        return self._by_path[NO_RESPONSE]
 
     def face_materials(self, prim, n_faces: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The materials of the faces of mesh ``prim``, or None when the mesh and its subsets bind no material at all

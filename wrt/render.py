@@ -26,7 +26,7 @@ from .integrators.ao import ao_value_kernel, shade_ao_kernel
 from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_path_kernel
 from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
 from .light_sampling import LIGHT_DOME
-from .light_table import build_lights, set_headlight_directions
+from .light_table import build_lights, no_response_triangles, set_headlight_directions
 from .lights import default_lights
 from .materials import emission_estimates, upload_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH
@@ -376,6 +376,11 @@ class Renderer:
         prims = self.device_lights.prims.numpy()
         first, count = self.device_lights.num_analytic, self.device_lights.count
         emitters[prims[first:count]] = np.arange(first, count, dtype=np.int32)
+        no_response = no_response_triangles(self.device_lights)
+        if len(no_response):  # they take the last device material (wrt.materials.no_response_material)
+            overridden = np.array(tri_materials.numpy())  # a copy: the cached array is the scene's own
+            overridden[no_response] = len(scene.materials) + 1
+            tri_materials = wp.array(overridden, dtype=wp.int32, device=dev)
         s = DeviceSurfaces()
         s.uvs, s.materials, s.double_sided = uvs, tri_materials, sided
         s.emitters = wp.array(emitters, dtype=wp.int32, device=dev)

@@ -915,7 +915,9 @@ def primary_aovs_kernel(
     geometric_normal[i] = h.ng
     albedo[i] = s.base_color
     instance[i] = hit_instance[i]
-    material[i] = h.material - 1
+    # The last device material is the surface of noMaterialResponse mesh lights, "as if there is no Material
+    # bound at all" (wrt.materials.no_response_material): -1, as for the default material.
+    material[i] = wp.where(h.material == mats.flags.shape[0] - 1, -1, h.material - 1)
 
 
 @wp.kernel

@@ -97,7 +97,7 @@ from .usd_bake import MeshBaking
 from .usd_cameras import CameraReading
 from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, place_instances
 from .usd_gprims import GprimReading
-from .usd_lights import read_light, sync_mesh_material
+from .usd_lights import read_light, warn_glowless_mesh_light
 from .usd_looks import LookReading
 from .usd_mesh_primvars import MeshPrimvarReading
 from .usd_meshes import MeshReading, triangulate
@@ -376,7 +376,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             return
         light = read_light(prim, self.xforms, self.time, self.scene.up_axis, self._skip)
         if light is not None:
-            sync_mesh_material(light, prim, mesh, self.materials, self._skip)
+            warn_glowless_mesh_light(light, prim, mesh, self.materials, self._skip)
             self.scene.lights.append(light)
 
     def _not_a_mesh_light(self, prim: Usd.Prim, what: str):

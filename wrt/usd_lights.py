@@ -62,26 +62,20 @@ def read_light(prim, xforms, time, up_axis: str, skip):
     return result
 
 
-def sync_mesh_material(light: MeshLight, prim, mesh, materials, skip) -> None:
-    """Settles how mesh light ``light`` of ``prim`` (drawn as ``mesh``, a :class:`wrt.Mesh`) and the mesh's material
-    relate (``light.material_sync``). A mesh without a bound material has no glow to sync with: it is read as
-    ``noMaterialResponse`` whatever its mode. With ``noMaterialResponse`` the mesh's faces get ``materials``' (a
-    :class:`wrt.materials.MaterialReader`) material that reflects nothing, as the schema has it ("as if there is no
-    Material bound at all"). A ``materialGlowTintsLight`` light whose material does not glow is named through
-    ``skip``: it emits nothing."""
+def warn_glowless_mesh_light(light: MeshLight, prim, mesh, materials, skip) -> None:
+    """Names ``prim`` through ``skip`` when its mesh light ``light`` (drawn as ``mesh``, a :class:`wrt.Mesh`) is of
+    ``materialGlowTintsLight`` and the material bound to it (``materials``: a :class:`wrt.materials.MaterialReader`)
+    does not glow: it emits nothing. How the light and the material relate otherwise is settled where the lights
+    are built, for scenes read and built in Python alike (:func:`wrt.light_table.emitter_triangles`)."""
     from .materials import emission_estimates
 
     used = [] if mesh.material_ids is None else sorted(set(mesh.material_ids[mesh.material_ids >= 0].tolist()))
-    if not used:
-        light.material_sync = NO_MATERIAL_RESPONSE
-    elif light.material_sync == GLOW_TINTS_LIGHT:
+    if used and light.material_sync == GLOW_TINTS_LIGHT:  # a mesh bound to no material has no glow to tint
         glows = emission_estimates([materials.materials[k] for k in used], materials.textures)[1:]
         if not any(float(np.max(glow)) > 0.0 for glow in glows):
             skip('mesh lights of light:materialSyncMode "materialGlowTintsLight" (MeshLightAPI\'s fallback) whose '
                  "material has no emissiveColor emit nothing (the light tints the material's glow); author "
                  '"independent" to emit the light\'s colour', prim)
-    if light.material_sync == NO_MATERIAL_RESPONSE:
-        mesh.material_ids = np.full(len(mesh.indices), materials.no_response_material(), np.int32)
 
 
 def _read_light(prim, xforms, time, up_axis: str, skip, get):
