@@ -620,8 +620,6 @@ def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
     return m.astype(np.float32)
 
 
-
-
 class MaterialReader:
     """Reads materials bound to meshes of one stage, once each; collects textures and fallback warnings.
 
