@@ -132,9 +132,10 @@ def test_generative_procedurals_are_named(tmp_path):
     assert len(found) == 1 and found[0].endswith(": /Crowd"), messages
 
 
-def test_lights_on_gprims_are_named(tmp_path):
+def test_lights_on_gprims_make_them_mesh_lights(tmp_path):
     """``LightAPI`` on a gprim other than a mesh (a glowing ``Sphere``) makes it a light in UsdLux, as MeshLightAPI
-    does a mesh; wrt draws the analytic sphere as one that emits nothing, and says so (the mesh is a light)."""
+    does a mesh: wrt draws that sphere alone as its tessellation, a mesh light, without a warning (it used to draw it
+    analytically, emitting nothing, and say so); a plain Sphere stays analytic."""
 
     def build(stage):
         bulb = UsdGeom.Sphere.Define(stage, "/Bulb")
@@ -143,7 +144,6 @@ def test_lights_on_gprims_are_named(tmp_path):
         UsdGeom.Sphere.Define(stage, "/Plain")
 
     scene, messages = load_with_warnings(tmp_path, build)
-    assert len(scene.shapes) == 2 and len(scene.meshes) == 1
-    assert [light.path for light in scene.lights] == ["/Panel"]
-    found = about(messages, "ignored.usda", "LightAPI")
-    assert len(found) == 1 and found[0].endswith("1 prim(s) (Sphere: 1): /Bulb"), messages
+    assert [s.path for s in scene.shapes] == ["/Plain"] and [m.path for m in scene.meshes] == ["/Bulb", "/Panel"]
+    assert [light.path for light in scene.lights] == ["/Bulb", "/Panel"]
+    assert not about(messages, "ignored.usda", "LightAPI"), messages
