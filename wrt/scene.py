@@ -34,7 +34,7 @@ import warp as wp
 from .assignments import CountsAssignments, assignments
 from .camera import Camera
 from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
-from .light_links import LinkCollection, drawn_ids, drawn_paths
+from .light_links import LinkCollection, drawn_ids
 from .render_settings import RenderSettings
 from .transforms import mat34
 
@@ -589,7 +589,7 @@ class Scene:
         prototype's part by the prototype prim's own path (``/PI/Protos/A/Mesh``, shared by the instancer's
         instances), moved to the instance-proxy path when the instancer lies in a native instance. Entry ``k`` is
         prim id ``k`` of :meth:`hit_prims`."""
-        return drawn_paths(self)
+        return list(self._prim_table()[0])  # a copy: the table is the scene's cache
 
     def hit_prims(self, geometry_ids, instances) -> tuple[np.ndarray, np.ndarray]:
         """The prim and the element of the prim that hits name: ``(prim ids, elements)``, ``(N,)`` int64, -1 on a
@@ -602,34 +602,45 @@ class Scene:
             instances: ``(N,)`` int instance ids (``Hits.instance``), -1 for non-instanced geometry: a prototype's
                 part is a prim of each instance (prototype geometry without its instance has prim id -1).
         """
-        return self._hit_prims(geometry_ids, instances, drawn_ids(self))
-
-    def _hit_prims(self, geometry_ids, instances, drawn: tuple) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`hit_prims` with the scene's :func:`wrt.light_links.drawn_ids` ``drawn`` already made."""
         prim = np.asarray(geometry_ids, np.int64).reshape(-1)
         instance = np.asarray(instances, np.int64).reshape(-1)
-        meshes, shapes = self._geometry_meshes(), self._geometry_shapes()
-        _, world, starts, parts = drawn
-        # Per geometry source (meshes, then shapes, in geometry order; one more for none): the prim id of a
-        # non-instanced one, -1 for a prototype's, and the part index in its prototype of a prototype's, else -1.
-        own = np.concatenate([world[:len(self.meshes)], np.full(len(meshes) - len(self.meshes), -1),
-                              world[len(self.meshes):], np.full(len(shapes) - len(self.shapes) + 1, -1)])
-        part_of = [np.full(len(self.meshes), -1)] + [np.arange(len(p.meshes)) for p in self.prototypes]
-        part_of += [np.full(len(self.shapes), -1)] + [len(p.meshes) + np.arange(len(p.shapes)) for p in self.prototypes]
-        part = np.concatenate([*part_of, [-1]]).astype(np.int64)
-        starts_geometry = np.cumsum([0] + [len(m.indices) for m in meshes])  # geometry id of each mesh's first triangle
+        _, own, part, starts_geometry, face_ids, starts, parts = self._prim_table()
+        meshes_end = len(starts_geometry) - 1  # geometry sources: the meshes, then the shapes, then one for none
         # The mesh holding each triangle (side="right" skips meshes without triangles), else the shape, else none.
         source = np.where(prim < starts_geometry[-1], np.searchsorted(starts_geometry, prim, side="right") - 1,
-                          len(meshes) + prim - starts_geometry[-1])
-        source[(prim < 0) | (source >= len(meshes) + len(shapes))] = len(own) - 1
+                          meshes_end + prim - starts_geometry[-1])
+        source[(prim < 0) | (source >= len(own) - 1)] = len(own) - 1
         ids = own[source]
         drawn = (part[source] >= 0) & (instance >= 0) & (instance < len(starts))
         ids[drawn] = parts[starts[instance[drawn]] + part[source[drawn]]]
         elements = np.where(source < len(own) - 1, 0, -1)
-        for k in np.unique(source[source < len(meshes)]):
-            at = source == k
-            elements[at] = meshes[k].face_ids[prim[at] - starts_geometry[k]]
+        on_mesh = source < meshes_end
+        elements[on_mesh] = face_ids[prim[on_mesh]]
         return ids, elements
+
+    def _prim_table(self) -> tuple:
+        """What :meth:`prim_paths`, :meth:`hit_prims` and :meth:`hit_paths` look prims up in, made once per scene
+        state and cached (for 40k parts it took 0.4 s, and a render product with ids asked for it per layer):
+        ``(paths, own, part, starts_geometry, face_ids, starts, parts)``. ``paths``, ``starts`` and ``parts`` are
+        :func:`wrt.light_links.drawn_ids`'; per geometry source (meshes, then shapes, in geometry order, then one for
+        none) ``own`` is the prim id of a non-instanced one (-1 for a prototype's) and ``part`` the part index in
+        its prototype of a prototype's (else -1); ``starts_geometry`` is the geometry id of each mesh's first
+        triangle (and the triangle count last), ``face_ids`` every mesh's ``face_ids`` in geometry order."""
+        self.drop_stale_caches()  # called directly, a replaced mesh was not noticed until the next trace or render
+        key = ("prim_table",)
+        if key not in self._cache:
+            meshes, shapes = self._geometry_meshes(), self._geometry_shapes()
+            paths, world, starts, parts = drawn_ids(self)
+            own = np.concatenate([world[:len(self.meshes)], np.full(len(meshes) - len(self.meshes), -1),
+                                  world[len(self.meshes):], np.full(len(shapes) - len(self.shapes) + 1, -1)])
+            part_of = [np.full(len(self.meshes), -1)] + [np.arange(len(p.meshes)) for p in self.prototypes]
+            part_of += [np.full(len(self.shapes), -1)]
+            part_of += [len(p.meshes) + np.arange(len(p.shapes)) for p in self.prototypes]
+            part = np.concatenate([*part_of, [-1]]).astype(np.int64)
+            starts_geometry = np.concatenate([[0], np.cumsum([len(m.indices) for m in meshes], dtype=np.int64)])
+            face_ids = np.concatenate([np.zeros(0, np.int32)] + [m.face_ids for m in meshes])
+            self._cache[key] = (tuple(paths), own.astype(np.int64), part, starts_geometry, face_ids, starts, parts)
+        return self._cache[key]
 
     def hit_paths(self, hits) -> tuple[np.ndarray, np.ndarray]:
         """The prims that hits name, by path: ``(prims, instances)``, ``(N,)`` object arrays of str, ``""`` where
@@ -646,8 +657,7 @@ class Scene:
         """
         prim = np.asarray(hits.local_prim, np.int64).reshape(-1)
         instance = np.asarray(hits.instance, np.int64).reshape(-1)
-        drawn = drawn_ids(self)  # the paths and the ids into them, made once
-        prims = np.array([*drawn[0], ""], object)[self._hit_prims(prim, instance, drawn)[0]]  # -1: the last, ""
+        prims = np.array([*self._prim_table()[0], ""], object)[self.hit_prims(prim, instance)[0]]  # -1: the last, ""
         ids, inverse = np.unique(np.where(prim >= 0, instance, -1), return_inverse=True)
         paths = np.array([self.instances.path(int(i)) if i >= 0 else "" for i in ids], object)
         return prims, paths[inverse.reshape(-1)]
