@@ -15,6 +15,14 @@ from .usd_meshes import LocalMesh, vertex_normals
 _FLIP = np.array([0, 2, 1])  # corner permutation that reverses a triangle's winding, keeping corner 0
 
 
+def _cofactor(linear: np.ndarray) -> np.ndarray:
+    """``det * inv(linear).T`` of a ``(3, 3)`` matrix: rows ``r1 x r2``, ``r2 x r0``, ``r0 x r1``, computed with the
+    products and differences ``np.cross`` takes (the same values), at once: three ``np.cross`` calls per mesh were a
+    tenth of load_usd for 40k small meshes."""
+    a, b = linear[[1, 2, 0]], linear[[2, 0, 1]]  # row k: the pair crossed
+    return a[:, [1, 2, 0]] * b[:, [2, 0, 1]] - a[:, [2, 0, 1]] * b[:, [1, 2, 0]]
+
+
 class MeshBaking:
     """Mesh baking of the stage reader (``materials``, ``_skip``, ``_error``)."""
 
@@ -25,7 +33,8 @@ class MeshBaking:
             local.normals = (vertex_normals(local.points, *local.cage, local.flip), local.vertex_ids)
 
         # Bake the transform (row-vector convention: p_world = p @ M[:3, :3] + M[3, :3]).
-        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
+        # The exact affine column first: np.allclose took a twentieth of load_usd for 40k small meshes.
+        if m[:, 3].tolist() != [0.0, 0.0, 0.0, 1.0] and not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
             self._skip("world transform is projective; its last column was ignored", prim)
         linear = m[:3, :3]
         points = local.points @ linear + m[3, :3]
@@ -43,8 +52,7 @@ class MeshBaking:
             values, corner_index = local.normals
             # Normals transform by the inverse transpose; the sign-corrected cofactor matrix is the same up to
             # a positive scale and exists even for singular transforms.
-            r0, r1, r2 = linear
-            cofactor = np.stack([np.cross(r1, r2), np.cross(r2, r0), np.cross(r0, r1)])  # = det * inv(linear).T
+            cofactor = _cofactor(linear)
             world = values @ (cofactor if det >= 0.0 else -cofactor)
             length = np.linalg.norm(world, axis=1, keepdims=True)
             good = np.isfinite(length) & (length > 0.0)
