@@ -2,6 +2,7 @@
 OpenEXR and Pillow and compared with ``wrt.render``'s image and AOVs; unknown sources, file names a stage must not
 steer outside the output folder, ``materialBindingPurposes`` and ``renderingColorSpace``."""
 
+import importlib
 import json
 import warnings
 
@@ -139,6 +140,39 @@ def test_every_product_is_written_at_its_own_view_and_agrees_with_render(tmp_pat
     neye = np.stack([exr[f"N.{c}"] for c in "XYZ"], axis=-1)
     np.testing.assert_allclose(neye, eye_normals(stage, "/World/Tilted", tilted.aovs["normal"]), atol=1e-5)
     assert np.all(neye[hit][:, 2] > 0)  # facing the camera, which looks down -Z
+
+
+def test_views_of_one_size_render_together_as_each_would_alone(tmp_path, monkeypatch):
+    """Products at two cameras of one size are rendered by one Renderer (its lights and shading tables set up once:
+    one per view took longer than the render for 40k parts), a third size by another; every file is what
+    ``wrt.render`` of its view alone gives, bit for bit, with the path tracer's random samples too."""
+    render_products = importlib.import_module("wrt.render_products")  # wrt.render_products is the function
+    made = []
+
+    class CountedRenderer(render_products.Renderer):
+        def __init__(self, *args, **kwargs):
+            made.append(kwargs.get("cameras") or [kwargs["camera"]])
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(render_products, "Renderer", CountedRenderer)
+    tilted = 'rel camera = </World/Tilted>\nuniform int2 resolution = (32, 16)\n'
+    products = (product("Front", ["Ci", "depth", "id"], "front.exr") + product("Tilted", ["Ci", "depth", "id"],
+                                                                               "tilted.exr", tilted)
+                + product("Small", ["Ci", "id"], "small.exr", 'uniform int2 resolution = (20, 10)\n'))
+    scene = load(write_stage(tmp_path, products, ["Front", "Tilted", "Small"]))
+    written = wrt.render_products(scene, tmp_path / "out", device="cpu", integrator="path", spp=3, seed=5)
+    assert [len(cameras) for cameras in made] == [2, 1]
+    for name, camera, (width, height) in (("Front", "/World/Front", (32, 16)), ("Tilted", "/World/Tilted", (32, 16)),
+                                          ("Small", "/World/Front", (20, 10))):
+        alone = wrt.render(scene, camera=camera, width=width, height=height, device="cpu", integrator="path", spp=3,
+                           seed=5)
+        channels = read_exr(written[f"/Render/{name}"])
+        assert 0 < (alone.aovs["prim"] >= 0).mean() < 1
+        np.testing.assert_array_equal(np.stack([channels[c] for c in "RGB"], axis=-1), alone.rgb)
+        if "depth" in channels:
+            np.testing.assert_array_equal(channels["depth"], alone.aovs["z"])  # RenderVar "depth" is cameraDepth
+        ids, _ = scene.hit_prims(*scene.split_ids(alone.aovs["prim"].reshape(-1)))
+        np.testing.assert_array_equal(channels["id"].reshape(-1), ids)
 
 
 def test_unknown_sources_are_left_out_with_a_warning_naming_the_render_var(tmp_path):

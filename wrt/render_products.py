@@ -31,7 +31,7 @@ import numpy as np
 
 from .image import check_exposure, to_srgb8, write_atomically, write_exr
 from .rays import camera_rays
-from .render import Renderer, check_pixels, resolve_view
+from .render import MAX_PATHS_PER_LAUNCH, Renderer, check_pixels, resolve_view
 
 BEAUTY = "rgb"  # Image.rgb: the integrator's image, linear radiance
 # sourceName -> what wrt writes for it: BEAUTY, an Image.aovs key, or one made from them ("Neye", "P", "Peye",
@@ -230,13 +230,39 @@ def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float =
     return path
 
 
+def render_views(scene, views: dict, *, spp: int, seed: int, batch: int | None, progress: bool, **options) -> dict:
+    """``{key: wrt.Image}`` of ``views`` (``{key: (camera, width, height)}``): the views of one size rendered
+    together by one :class:`wrt.Renderer` (``options``: its arguments), as many per launch as fill
+    :data:`wrt.render.MAX_PATHS_PER_LAUNCH` pixels (at least one: no more memory than a render of one view). Each
+    image is the one a render of its view alone gives (the random stream depends on the pixel within its view, and a
+    default headlight follows each camera); a Renderer per view set up its lights and shading tables again, which
+    for 40k parts took longer than the render."""
+    by_size = {}
+    for key, (camera, width, height) in views.items():
+        by_size.setdefault((width, height), []).append((key, camera))
+    images = {}
+    for (width, height), group in by_size.items():
+        per_launch = max(1, MAX_PATHS_PER_LAUNCH // (width * height))
+        renderer = None
+        for start in range(0, len(group), per_launch):
+            keys, cameras = zip(*group[start:start + per_launch])
+            if renderer is None:
+                renderer = Renderer(scene, cameras=list(cameras), width=width, height=height, **options)
+            else:
+                renderer.set_cameras(list(cameras))
+            batch_image = renderer.render(spp=spp, seed=seed, batch=batch, progress=progress)
+            images.update((key, batch_image.image(k)) for k, key in enumerate(keys))
+    return images
+
+
 def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 0, builder: str = "sah",
                     accel: str = "wrt", integrator: str = "whitted", max_depth: int | None = None,
                     ao_radius: float | None = None, batch: int | None = None, progress: bool = False,
                     exposure: float = 0.0) -> dict[str, Path]:
     """Renders every ``RenderProduct`` of ``scene``'s render settings and writes its RenderVars into ``directory``
     (see the module docstring for names, formats and the sources wrt has). Products of one view (camera,
-    resolution, film, data window) share one render.
+    resolution, film, data window) share one render, and the views of one size render together
+    (:func:`render_views`).
 
     Args:
         scene: a :class:`wrt.Scene` loaded from a stage with render settings.
@@ -280,13 +306,12 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
                 raise ValueError(f"{where}: {product.product}: {error}") from None
         png = len(outputs) == 1 and outputs[0].kind == BEAUTY
         plan.append((product, view, outputs, product_file_name(product, png, where, taken)))
-    renders, written, warned_exposure = {}, {}, False
+    renders = render_views(scene, {view: views[view] for _, view, _, _ in plan}, spp=spp, seed=seed, batch=batch,
+                           progress=progress, device=device, builder=builder, accel=accel, integrator=integrator,
+                           max_depth=max_depth, ao_radius=ao_radius)
+    written, warned_exposure = {}, False
     for product, view, outputs, name in plan:
-        camera, width, height = views[view]
-        if view not in renders:  # products of one view share one render
-            renderer = Renderer(scene, camera=camera, width=width, height=height, device=device, builder=builder,
-                                accel=accel, integrator=integrator, max_depth=max_depth, ao_radius=ao_radius)
-            renders[view] = renderer.render(spp=spp, seed=seed, batch=batch, progress=progress)
+        camera = views[view][0]
         channels, attributes = output_channels(renders[view], camera, scene, outputs)
         if not name.lower().endswith(".png"):
             attributes.update(exr_windows(product))
