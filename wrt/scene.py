@@ -801,9 +801,10 @@ class Scene:
 
     def triangle_double_sided(self) -> np.ndarray:
         """``(T,)`` bool: each triangle's mesh is double-sided (geometry order)."""
-        parts = [np.full(len(m.indices), bool(m.double_sided)) for m in self._geometry_meshes()]
-        parts += [np.array([bool(s.double_sided)]) for s in self._geometry_shapes()]
-        return np.concatenate(parts or [np.zeros(0, bool)])
+        # One repeat, not an array per mesh: for 30k meshes that took a tenth of a second per render.
+        meshes = self._geometry_meshes()
+        sided = np.repeat(np.array([bool(m.double_sided) for m in meshes], bool), [len(m.indices) for m in meshes])
+        return np.concatenate([sided, np.array([bool(s.double_sided) for s in self._geometry_shapes()], bool)])
 
     def triangle_twins(self) -> np.ndarray | None:
         """``(T,)`` int32: the coincident twin of each single-sided triangle (:mod:`wrt.twins`; -1: none), by
@@ -972,13 +973,14 @@ class Scene:
         proto_points = np.array([sum(len(m.points) for m in p.meshes) for p in self.prototypes], np.int64)
         rendered_points = (flat_points + int(proto_points[self.instances.prototype].sum()) if len(self.instances)
                            else flat_points)
+        layout = self._id_layout()
         return {
             "meshes": len(self.meshes),
             "points": int(rendered_points),
-            "rendered_triangles": int(self.instance_offsets()[-1]),
-            "unique_triangles": int(self.num_geometry_triangles),
+            "rendered_triangles": int(layout.instances[-1]),
+            "unique_triangles": int(layout.geometry),
             "shapes": len(self._geometry_shapes()),
-            "rendered_shapes": int(self.instance_shape_offsets()[-1]),
+            "rendered_shapes": int(layout.instance_shapes[-1]),
             "prototypes": len(self.prototypes),
             "prototype_meshes": sum(len(p.meshes) for p in self.prototypes),
             "instances": len(self.instances),
