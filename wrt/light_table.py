@@ -112,14 +112,14 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTr
 
     owner = np.full(flat, -1, np.int32)
     starts = np.concatenate([[0], np.cumsum([len(m.indices) for m in scene.meshes])]).astype(np.int64)
-    by_path = {}
-    for k, mesh in enumerate(scene.meshes):
-        by_path.setdefault(mesh.path, []).append(np.arange(starts[k], starts[k + 1]))
+    by_path = {}  # mesh path -> its indices in scene.meshes (only when asked for: 40k meshes took 0.3 s)
+    for k, mesh in enumerate(scene.meshes if mesh_lights else ()):
+        by_path.setdefault(mesh.path, []).append(k)
     for j, light in enumerate(mesh_lights):
         if light.path not in by_path:
             raise SceneError("MeshLight names no mesh of the scene (meshes inside instances cannot be lights)",
                              prim=light.path or None)
-        rows = np.concatenate(by_path[light.path])
+        rows = np.concatenate([np.arange(starts[k], starts[k + 1]) for k in by_path[light.path]])
         if (owner[rows] >= 0).any():  # the second would silently take every triangle
             raise SceneError("two MeshLights name the same mesh; give it one light", prim=light.path)
         owner[rows] = j
