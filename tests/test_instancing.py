@@ -259,7 +259,8 @@ def test_pointinstancer_transforms_match_usd(tmp_path):
 
 def test_nested_instancing_resolves_to_one_level(tmp_path):
     """A PointInstancer inside a native prototype, drawn by two instanceable prims: 2 x 3 instances of one
-    prototype, placed as the flattened stage (instance proxies) places them."""
+    prototype, placed as the flattened stage (instance proxies) places them, each named by its instancer's
+    instance-proxy path and index (``/I1/PI[2]``; all three were named ``/I1``)."""
     path = str(tmp_path / "nested.usda")
     stage = Usd.Stage.CreateNew(path)
     UsdGeom.Xform.Define(stage, "/Asset")
@@ -278,7 +279,7 @@ def test_nested_instancing_resolves_to_one_level(tmp_path):
     stage.Save()
     scene = load(path)
     assert len(scene.prototypes) == 1 and len(scene.instances) == 6
-    assert [scene.instances.path(i) for i in range(6)] == ["/I1"] * 3 + ["/I2"] * 3
+    assert [scene.instances.path(i) for i in range(6)] == [f"/I{a}/PI[{k}]" for a in (1, 2) for k in range(3)]
     t = Usd.TimeCode.Default()
     expected = []
     for name in ("I1", "I2"):
@@ -574,8 +575,10 @@ def test_hit_paths_name_the_usd_prims_and_instances_hit(tmp_path):
     """``Scene.hit_paths`` maps each hit back to USD by paths that stay when the stage is opened again: the mesh or
     gprim path, a native instance's part at its instance-proxy path (``/Plain/Body``, nested ones too), a
     PointInstancer's at its prototype prim's own path (moved into the native instance holding the instancer), and the
-    instance (``/PI[index]``, or the instanceable prim), compared with the prims pxr gives the rays' targets. A native
-    instance's part was named by its prototype path (``/__Prototype_1/Body``), which USD renames per opening."""
+    instance (``/PI[index]``, or the instanceable prim; a nested one at its instance-proxy path, ``/Outer/Inner``,
+    ``/Outer/Kit[0]``), compared with the prims pxr gives the rays' targets. A native instance's part was named by its
+    prototype path (``/__Prototype_1/Body``), which USD renames per opening; a nested instance by the outermost one
+    (``/Outer``)."""
     path = str(tmp_path / "paths.usda")
     stage = Usd.Stage.CreateNew(path)
     octahedron(stage, "/Ground").AddTranslateOp().Set((0, 0, 0))
@@ -606,8 +609,8 @@ def test_hit_paths_name_the_usd_prims_and_instances_hit(tmp_path):
     scene = load(path)
     targets = {(0, 0, 0): ("/Ground", ""), (0, 0, -10): ("/Ball", ""), (10, 0, 0): ("/PI/Protos/A/Mesh", "/PI[0]"),
                (30, 0, 0): ("/PI/Protos/A/Mesh", "/PI[2]"), (0, 10, 0): ("/Plain/Body", "/Plain"),
-               (0, 20, 0): ("/Plain2/Body", "/Plain2"), (0, 30, 0): ("/Outer/Inner/Body", "/Outer"),
-               (0, 35, 0): ("/Outer/Kit/Protos/A/Mesh", "/Outer"), (20, 0, 0): ("", "")}
+               (0, 20, 0): ("/Plain2/Body", "/Plain2"), (0, 30, 0): ("/Outer/Inner/Body", "/Outer/Inner"),
+               (0, 35, 0): ("/Outer/Kit/Protos/A/Mesh", "/Outer/Kit[0]"), (20, 0, 0): ("", "")}
     origins = np.array(list(targets), np.float64) + (0.1, 0.2, 5)  # each ray straight down -z onto its target
     hits = wrt.trace(scene, origins, [0, 0, -1])
     prims, instances = scene.hit_paths(hits)
@@ -640,6 +643,92 @@ def test_prim_lookup_is_made_once_per_scene_state(np_rng, monkeypatch):
     assert "/Mine" not in scene.prim_paths()
     scene.meshes[0] = Mesh("/Floor", scene.meshes[0].points, scene.meshes[0].indices, scene.meshes[0].face_ids)
     assert scene.prim_paths()[0] == "/Floor" and "/Floor" in scene.hit_paths(hits)[0] and len(made) == 2
+
+
+def test_nested_instances_are_named_by_the_path_usdview_selects(tmp_path):
+    """Instances nested two native instances deep are named by their instance-proxy paths (the outer instance's path
+    plus the inner prim's path inside it: ``/Top/Mid/Inner``, ``/Top/Mid/Kit[1]``), each a prim of the stage that
+    usdview selects; what a PointInstancer's prototype holds is named by the instancer's instance (``/Holder[1]``:
+    the prototype is one prim for all its instances). All of ``/Top`` was named ``/Top``. The instance order (the
+    ids) keeps each world-level instance's nested instances together."""
+    path = str(tmp_path / "nested.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.Xform.Define(stage, "/Asset").GetPrim().SetSpecifier(pxr.Sdf.SpecifierClass)
+    octahedron(stage, "/Asset/Body")
+    UsdGeom.Xform.Define(stage, "/Nest").GetPrim().SetSpecifier(pxr.Sdf.SpecifierClass)
+    kit = UsdGeom.PointInstancer.Define(stage, "/Nest/Kit")
+    octahedron(stage, "/Nest/Kit/Protos/A/Mesh")
+    kit.CreatePrototypesRel().SetTargets(["/Nest/Kit/Protos/A"])
+    kit.CreateProtoIndicesAttr([0, 0])
+    kit.CreatePositionsAttr([(0, 5, 0), (5, 5, 0)])
+    UsdGeom.Xform.Define(stage, "/Deep").GetPrim().SetSpecifier(pxr.Sdf.SpecifierClass)
+    for name, source, parent in (("Inner", "/Asset", "/Nest"), ("Mid", "/Nest", "/Deep"), ("Top", "/Deep", ""),
+                                 ("Inst", "/Asset", "/Holder/Protos/H")):
+        inst = UsdGeom.Xform.Define(stage, f"{parent}/{name}")
+        inst.GetPrim().GetReferences().AddInternalReference(source)
+        inst.GetPrim().SetInstanceable(True)
+    holder = UsdGeom.PointInstancer.Define(stage, "/Holder")  # a native instance in a PointInstancer's prototype
+    holder.CreatePrototypesRel().SetTargets(["/Holder/Protos/H"])
+    holder.CreateProtoIndicesAttr([0, 0])
+    holder.CreatePositionsAttr([(0, -20, 0), (10, -20, 0)])
+    stage.Save()
+    scene = load(path)
+    targets = {(0, 0, 0): ("/Top/Mid/Inner/Body", "/Top/Mid/Inner"),
+               (0, 5, 0): ("/Top/Mid/Kit/Protos/A/Mesh", "/Top/Mid/Kit[0]"),
+               (5, 5, 0): ("/Top/Mid/Kit/Protos/A/Mesh", "/Top/Mid/Kit[1]"),
+               (0, -20, 0): ("/Holder/Protos/H/Inst/Body", "/Holder[0]"),
+               (10, -20, 0): ("/Holder/Protos/H/Inst/Body", "/Holder[1]")}
+    origins = np.array(list(targets), np.float64) + (0.1, 0.2, 5)
+    hits = wrt.trace(scene, origins, [0, 0, -1])
+    prims, instances = scene.hit_paths(hits)
+    assert list(zip(prims, instances)) == list(targets.values())
+    for name in ("/Top/Mid/Inner", "/Top/Mid/Kit"):
+        assert stage.GetPrimAtPath(name).IsInstanceProxy()
+    # Stage order (/Top before /Holder), and in /Top the order its prims were read in.
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == [
+        "/Top/Mid/Kit[0]", "/Top/Mid/Kit[1]", "/Top/Mid/Inner", "/Holder[0]", "/Holder[1]"]
+
+
+@pytest.mark.parametrize("tessellate", [False, True])
+def test_element_of_a_points_or_curves_hit_is_its_point_or_curve(tmp_path, tessellate):
+    """``Scene.hit_prims``' element (the ``elementId`` AOV) of a Points or BasisCurves hit is the point or curve hit,
+    within its prim as a face is within its mesh: in world-level prims, in a native instance and in a
+    PointInstancer's prototype (each instance the same points), drawn as spheres and tubes or tessellated. It was 0
+    on all of them (tessellated: the face of the tessellated sphere, 3904)."""
+    path = str(tmp_path / "points.usda")
+    stage = Usd.Stage.CreateNew(path)
+
+    def cloud(prim_path, xs):
+        points = UsdGeom.Points.Define(stage, prim_path)
+        points.CreatePointsAttr([(x, 0, 0) for x in xs])
+        points.CreateWidthsAttr([1.0] * len(xs))
+
+    cloud("/Pts", [0, 3, 6])
+    curves = UsdGeom.BasisCurves.Define(stage, "/Curves")
+    curves.CreateTypeAttr("linear")
+    curves.CreateCurveVertexCountsAttr([2, 2])
+    curves.CreatePointsAttr([(0, 9, 0), (0, 11, 0), (3, 9, 0), (3, 11, 0)])
+    curves.CreateWidthsAttr([0.5] * 4)
+    UsdGeom.Xform.Define(stage, "/Cloud").GetPrim().SetSpecifier(pxr.Sdf.SpecifierClass)
+    cloud("/Cloud/Pts", [0, 3, 6])
+    outer = UsdGeom.Xform.Define(stage, "/Outer")
+    outer.GetPrim().GetReferences().AddInternalReference("/Cloud")
+    outer.GetPrim().SetInstanceable(True)
+    outer.AddTranslateOp().Set((0, 20, 0))
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    cloud("/PI/Protos/A/Pts", [0, 3])
+    pi.CreatePrototypesRel().SetTargets(["/PI/Protos/A"])
+    pi.CreateProtoIndicesAttr([0, 0])
+    pi.CreatePositionsAttr([(0, 30, 0), (0, 40, 0)])
+    stage.Save()
+    scene = load(path, tessellate_gprims=tessellate)
+    targets = {(0, 0): 0, (3, 0): 1, (6, 0): 2, (0, 10): 0, (3, 10): 1, (0, 20): 0, (3, 20): 1, (6, 20): 2,
+               (0, 30): 0, (3, 30): 1, (3, 40): 1, (20, 0): -1}
+    hits = wrt.trace(scene, [(x + 0.05, y + 0.05, 5) for x, y in targets], [0, 0, -1])
+    _, elements = scene.hit_prims(hits.local_prim, hits.instance)
+    assert elements.tolist() == list(targets.values())
+    _, instances = scene.hit_paths(hits)
+    assert list(instances[5:8]) == ["/Outer/Pts[0]", "/Outer/Pts[1]", "/Outer/Pts[2]"]  # each point an instance
 
 
 def test_occluded_matches_closest_hit(np_rng):

@@ -128,7 +128,10 @@ def test_native_instance_draws_as_its_flattened_copy(tmp_path, name):
     instanced = load(write(tmp_path, native_stage(linear, True), "instanced.usda"))
     flattened = load(write(tmp_path, native_stage(linear, False), "flattened.usda"))
     assert len(instanced.instances) == len(flattened.instances) > 0  # the points and tubes are instances either way
-    assert len(set(instanced.instances.sources)) < len(set(flattened.instances.sources))  # drawn through /A and /B
+    assert len(instanced.prototypes) < len(flattened.prototypes)  # drawn through /A and /B
+    # Each point and curve named by its prim's instance-proxy path, as the flattened copy names it.
+    names = [[s.instances.path(i) for i in range(len(s.instances))] for s in (instanced, flattened)]
+    assert sorted(names[0]) == sorted(names[1])
     assert_same_hits(instanced, flattened)
 
 

@@ -77,11 +77,13 @@ class Instances(CountsAssignments):
         prototype: ``(N,)`` int32 index into ``Scene.prototypes``.
         to_world: ``(N, 4, 4)`` float64 prototype-to-world affine transform (column vectors,
             ``p_world = M @ (p, 1)``, bottom row ``(0, 0, 0, 1)``; see :meth:`check_affine`).
-        source: ``(N,)`` int32 index into ``sources``: the world-level prim that made each instance (an instance
-            nested inside a prototype reports the world-level instance it is part of).
+        source: ``(N,)`` int32 index into ``sources``: the prim that names each instance, the one a user selects it
+            by in usdview: the prim that made it, at its instance-proxy path when it is nested in native instances
+            (``/Outer/Inner``); an instance nested inside a PointInstancer's prototype reports the instancer's
+            instance it is part of (the prototype is one prim for all of them).
         index: ``(N,)`` int32 position in that PointInstancer's arrays, -1 for a native instance; for the spheres and
             tube pieces of a ``Points`` or ``BasisCurves`` prim (:mod:`wrt.usd_tubes`), the point or curve drawn.
-        sources: prim paths of the PointInstancers, instanceable prims, Points and BasisCurves that made the
+        sources: prim paths of the PointInstancers, instanceable prims, Points and BasisCurves that name the
             instances.
         colors: ``(N, 3)`` float32 linear colour of each instance (a PointInstancer's ``displayColor`` primvar, or
             the colour primvar its prototypes' materials read), NaN rows for instances without one; ``(0, 3)`` when no
@@ -96,6 +98,9 @@ class Instances(CountsAssignments):
             native instance or its ancestor hands down, a point's or curve's own), NaN for instances without one;
             ``(0,)`` when no instance has one. It is the opacity of the prototype meshes and shapes drawn with the
             default material that have none of their own, read at shading time by instance id, as :attr:`colors`.
+        elements: ``(N,)`` int32 the point (``Points``) or curve (curves prims) that each sphere or tube piece of
+            such a prim draws, -1 for other instances (``Scene.hit_prims``' element; the same as :attr:`index`
+            unless the prim lies in a PointInstancer's prototype); ``(0,)`` when no instance draws one.
     """
 
     prototype: np.ndarray
@@ -107,6 +112,7 @@ class Instances(CountsAssignments):
     roots: list = dataclasses.field(default_factory=list)
     root: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
     opacities: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.float32))
+    elements: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
 
     def __post_init__(self):
         self.prototype = np.ascontiguousarray(self.prototype, dtype=np.int32).reshape(-1)
@@ -115,6 +121,9 @@ class Instances(CountsAssignments):
         self.index = np.ascontiguousarray(self.index, dtype=np.int32).reshape(-1)
         n = len(self.prototype)
         self.root = np.ascontiguousarray(self.root, dtype=np.int32).reshape(-1)
+        self.elements = np.ascontiguousarray(self.elements, dtype=np.int32).reshape(-1)
+        if len(self.elements) not in (0, n):
+            raise ValueError(f"Instances elements must hold one entry per instance ({n}), or none")
         if not (len(self.to_world) == len(self.source) == len(self.index) == n):
             raise ValueError("Instances arrays must all have one entry per instance")
         if len(self.roots) and (len(self.root) != n or np.any(self.root >= len(self.roots))):
@@ -192,8 +201,9 @@ class Instances(CountsAssignments):
         colors = self.colors[rows] if len(self.colors) else self.colors
         root = self.root[rows] if len(self.roots) else self.root
         opacities = self.opacities[rows] if len(self.opacities) else self.opacities
+        elements = self.elements[rows] if len(self.elements) else self.elements
         return Instances(self.prototype[rows], self.to_world[rows], self.source[rows], self.index[rows],
-                         self.sources, colors, self.roots, root, opacities)
+                         self.sources, colors, self.roots, root, opacities, elements)
 
     def __len__(self) -> int:
         return len(self.prototype)

@@ -47,7 +47,7 @@ SOURCES = {
     "Ng": "geometric_normal", "geometric_normal": "geometric_normal",
     "albedo": "albedo",
     "primId": "primId",  # the prim drawn, at its instance-proxy path in a native instance: Scene.prim_paths()
-    "elementId": "elementId",  # the face of a mesh (Scene.hit_prims)
+    "elementId": "elementId",  # the face of a mesh, the point or curve of a Points or curves prim (Scene.hit_prims)
     "prim": "prim",  # wrt's triangle id: a row of Scene.triangles()
     "instanceId": "instance", "instance": "instance",
     "material": "material",

@@ -617,7 +617,9 @@ class Scene:
     def hit_prims(self, geometry_ids, instances) -> tuple[np.ndarray, np.ndarray]:
         """The prim and the element of the prim that hits name: ``(prim ids, elements)``, ``(N,)`` int64, -1 on a
         miss. A prim id is an index into :meth:`prim_paths`; an element is the face of a mesh (``Mesh.face_ids``:
-        the USD face, the control face of a subdivided mesh) and 0 on an analytic shape.
+        the USD face, the control face of a subdivided mesh), the point or curve of a Points or curves prim
+        (``Instances.elements``: of the prim, as the face is of its mesh; tessellated ones too) and 0 on another
+        analytic shape.
 
         Args:
             geometry_ids: ``(N,)`` int geometry ids (``Hits.local_prim``; :meth:`split_ids` of ``Hits.prim``), -1
@@ -639,6 +641,10 @@ class Scene:
         elements = np.where(source < len(own) - 1, 0, -1)
         on_mesh = source < meshes_end
         elements[on_mesh] = face_ids[prim[on_mesh]]
+        if len(self.instances.elements):  # a Points or curves prim's sphere or tube piece: its point or curve
+            drawn = np.flatnonzero((source < len(own) - 1) & (instance >= 0) & (instance < len(self.instances)))
+            point = self.instances.elements[instance[drawn]]
+            elements[drawn[point >= 0]] = point[point >= 0]
         return ids, elements
 
     def _prim_table(self) -> tuple:
@@ -673,7 +679,8 @@ class Scene:
         instance the path it is drawn at (``/Plain/Body`` in native instance ``/Plain``; ``/PI/Protos/A/Mesh`` in
         an instance of PointInstancer ``/PI``). ``instances[i]`` is :meth:`wrt.instancing.Instances.path`: the
         PointInstancer and the instance's index in its arrays (``/PI[3]``), or the instanceable prim (``/Plain``);
-        an instance nested in another one names the world-level instance it is part of.
+        an instance nested in native instances is named by its instance-proxy path (``/Outer/Inner``,
+        ``/Outer/Kit[2]``), one nested in a PointInstancer's prototype by the instancer's instance (``/PI[3]``).
 
         Args:
             hits: :class:`wrt.trace.Hits` (its ``local_prim`` and ``instance`` are read).

@@ -77,35 +77,38 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
     """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``: ``world`` is the
     stage's content, ``contents`` every content read (key -> :class:`Content`), ``skip_path(reason, path)`` records
     an instance left out. Returns the inverses of the instances' transforms, or None without instances."""
-    proto_ids, matrices, sources, source_ids, indices, colors_of = [], [], [], {}, [], []
-    roots, root_ids, root_of = [], {}, []  # instance-proxy paths of the prototype roots (light_links)
+    # Per placed entry (numpy arrays are made once at the end: per-entry arrays took seconds for 40k nested
+    # instances): its prototype, world-level source, name and root (ids into the dicts below) and its (K,) rows.
+    entries, matrices, indices, name_indices, elements, colors_of = [], [], [], [], {}, []
+    order_ids, source_ids = {}, {}  # prim paths: world-level sources (instance order); the names' prims
+    root_ids = {}  # instance-proxy paths of the prototype roots (light_links)
 
     # Depth first, each instance before the instances nested in it (an explicit stack: a recursive closure
     # would refer to itself, a reference cycle that kept the stage open until a garbage collection). Each
     # entry carries the path its content's root is drawn at: a native instance's prim path (an instance proxy
     # path when nested), else the content's own path moved by the instance it is nested in.
-    pending = [(contents[key], m, source, index, color, _drawn_root(key, source, contents[key].path))
+    pending = [(contents[key], m, source, index, _Name(source, index, key[0] == "native"), color,
+                _drawn_root(key, source, contents[key].path))
                for key, m, source, index, color in reversed(world.instances)]
     while pending:
-        content, to_world, source, index, color, root = pending.pop()
+        content, to_world, source, index, name, color, root = pending.pop()
         if content.meshes or content.shapes:
             if content.prototype < 0:
                 content.prototype = len(scene.prototypes)
                 scene.prototypes.append(Prototype(content.path, content.meshes, content.shapes))
-            if source not in source_ids:
-                source_ids[source] = len(sources)
-                sources.append(source)
-            if root not in root_ids:
-                root_ids[root] = len(roots)
-                roots.append(root)
-            proto_ids.append(np.full(len(to_world), content.prototype, np.int32))
+            if content.tube is not None:  # a Points or curves prim's sphere or tube piece: its point or curve
+                elements[len(entries)] = name.own
+            entries.append((content.prototype, order_ids.setdefault(source, len(order_ids)),
+                            source_ids.setdefault(name.path, len(source_ids)),
+                            root_ids.setdefault(root, len(root_ids))))
             matrices.append(to_world)
-            indices.append(np.column_stack([np.full(len(to_world), source_ids[source]), index]))
+            indices.append(index)
+            name_indices.append(name.index)
             colors_of.append(color)
-            root_of.append(np.full(len(to_world), root_ids[root], np.int32))
-        for key, m, inner_source, _, inner in reversed(content.instances):
-            # Nested instances keep the world-level source and index of the instance they are part of, and the
-            # colour and opacity of the nearest instance that gives one.
+        for key, m, inner_source, inner_index, inner in reversed(content.instances):
+            # Nested instances keep the world-level source and index of the instance they are part of (instance
+            # order), the name of the innermost instance a user can select (:class:`_Name`), and the colour and
+            # opacity of the nearest instance that gives one.
             nested = contents[key]
             if nested.tube is None:
                 combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
@@ -113,14 +116,21 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
                 combined = place_round(to_world, m, *nested.tube)
             inner_root = part_path(_drawn_root(key, inner_source, nested.path), content.path, root)
             pending.append((nested, combined, source, np.repeat(index, len(m)),
+                            name.nested(key, part_path(inner_source, content.path, root), inner_index),
                             _nested_looks(color, inner, len(to_world), len(m)), inner_root))
-    if not proto_ids:
+    if not entries:
         return None
+    counts = np.array([len(m) for m in matrices], np.int64)
+    prototype, world_source, name_source, root_of = np.repeat(np.array(entries, np.int64), counts, axis=0).T
+    element = np.full(int(counts.sum()), -1, np.int32)
+    starts = np.cumsum(counts) - counts
+    for k, own in elements.items():
+        element[starts[k] : starts[k] + counts[k]] = own
     # Instance order: world-level sources in stage order, a PointInstancer's instances in index order; the
     # instances nested inside one world-level instance stay together, in the order they were read.
-    ids = np.concatenate(indices)
-    order = np.lexsort((ids[:, 1], ids[:, 0]))  # stable
-    ids = ids[order]
+    world = np.stack([world_source, np.concatenate(indices)], axis=1)
+    order = np.lexsort((world[:, 1], world[:, 0]))  # stable
+    world, element = world[order], element[order]
     to_world = np.concatenate(matrices)[order]
     projective = np.flatnonzero(np.any(to_world[:, 3] != (0.0, 0.0, 0.0, 1.0), axis=1))
     to_world[:, 3] = (0.0, 0.0, 0.0, 1.0)  # as for meshes: only the affine part is used
@@ -132,18 +142,46 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
             colors = np.ascontiguousarray(looks[:, :3])
         if not np.isnan(looks[:, 3]).all():
             opacities = np.ascontiguousarray(looks[:, 3])
-    instances = Instances(np.concatenate(proto_ids)[order], to_world, ids[:, 0], ids[:, 1], sources, colors,
-                          roots, np.concatenate(root_of)[order], opacities)
-    # Named once per USD instance: a Points or curves prim in it is an instance row per sphere or tube piece.
-    for path in dict.fromkeys(instances.path(i) for i in projective):
+    instances = Instances(prototype[order], to_world, name_source[order], np.concatenate(name_indices)[order],
+                          list(source_ids), colors, list(root_ids), root_of[order], opacities,
+                          element if elements else np.zeros(0, np.int32))
+    # Named once per world-level USD instance, the one whose transform is at fault most often: a Points or curves
+    # prim in it is an instance row per sphere or tube piece.
+    world_sources = list(order_ids)
+
+    def world_path(i: int) -> str:
+        return world_sources[world[i, 0]] + (f"[{world[i, 1]}]" if world[i, 1] >= 0 else "")
+
+    for path in dict.fromkeys(map(world_path, projective)):
         skip_path("world transform is projective; its last column was ignored", path)
     inverses, ok = invert_transforms(instances.to_world)
-    for path in dict.fromkeys(instances.path(i) for i in np.flatnonzero(~ok)):
+    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok))):
         skip_path("instances with a singular transform (a zero scale) were skipped", path)
     if not ok.all():
         instances = instances.take(ok)
     scene.instances = instances
     return inverses[ok]  # the scene's first trace needs them too
+
+
+class _Name:
+    """How the instances of one entry of :func:`place_instances` are named (:meth:`wrt.instancing.Instances.path`):
+    the prim a user selects for them in usdview, ``path``, and ``index`` ``(K,)`` into its arrays (-1: none), and
+    each one's ``own`` index in the arrays of the prim that made it (a Points prim's point). A native instance's
+    nested instances have instance-proxy paths (``/Outer/Inner``, ``/Outer/Kit[2]``: outer path plus the inner
+    prim's path inside it), so each is named by its own; a PointInstancer's prototype is one prim for all its
+    instances, so what is nested in it is named by the instancer's instance (``/PI[3]``)."""
+
+    def __init__(self, path: str, index: np.ndarray, names_inside: bool, own: np.ndarray | None = None):
+        self.path, self.index, self.names_inside = path, index, names_inside
+        self.own = index if own is None else own
+
+    def nested(self, key: tuple, path: str, index: np.ndarray) -> _Name:
+        """The name of the instances nested in these by ``key`` at ``path`` (its instance-proxy path, when there is
+        one), ``index`` ``(M,)`` in its arrays: ``(K * M,)`` rows, outer major, as the combined transforms."""
+        own = index if len(self.index) == 1 else np.tile(index, len(self.index))
+        if not self.names_inside:
+            return _Name(self.path, np.repeat(self.index, len(index)), False, own)
+        return _Name(path, own, key[0] == "native", own)
 
 
 def instance_looks(colors: np.ndarray | None, opacities: np.ndarray | None) -> np.ndarray | None:
