@@ -192,6 +192,25 @@ def test_up_axis_other_than_y_or_z_falls_back_to_y_with_a_warning(tmp_path, axis
     assert scene.up_axis == "Y"
 
 
+def test_every_stage_wide_warning_points_at_the_load_usd_call(tmp_path):
+    """Each warning load_usd gives about the stage as a whole (timeCodesPerSecond, metersPerUnit, upAxis, a time
+    outside its range, layers in other units, composition errors, prims left out) is reported at the caller's line,
+    as Python shows a warning; the timeCodesPerSecond one pointed into wrt/usd.py."""
+    write_usda(tmp_path, mesh_usda("Link"), name="link.usda", layer_meta="metersPerUnit = 1")
+    body = mesh_usda(extra='uniform token subdivisionScheme = "none"\n    int[] holeIndices = [7]')
+    body += 'def "Robot" (\n    prepend references = [@./link.usda@</Link>, @./missing.usda@</X>]\n)\n{\n}\n'
+    meta = 'upAxis = "X"\n    metersPerUnit = 0\n    timeCodesPerSecond = 0\n    startTimeCode = 1\n    endTimeCode = 2'
+    path = write_usda(tmp_path, body, layer_meta=meta)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_usd(path, time=5)
+    messages = [str(w.message) for w in caught]
+    for text in ("timeCodesPerSecond = 0", "metersPerUnit = 0 is", "upAxis = 'X'", "time 5 is", "composes author",
+                 "composition error", "prim(s)"):
+        assert any(text in m for m in messages), (text, messages)
+    assert [w.filename for w in caught] == [__file__] * len(caught), messages
+
+
 def test_left_handed_flips_winding(tmp_path):
     body = mesh_usda("Right") + mesh_usda("Left", extra='uniform token orientation = "leftHanded"')
     scene = load(write_usda(tmp_path, body))

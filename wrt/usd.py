@@ -170,7 +170,7 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
     if stage.GetTimeCodesPerSecond() <= 0:
         # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
         warnings.warn(f"{os.path.basename(source)}: timeCodesPerSecond = {stage.GetTimeCodesPerSecond():g} is invalid; "
-                      "time samples are read only at their authored time codes")
+                      "time samples are read only at their authored time codes", stacklevel=2)
     if not time_code.IsDefault():
         check_time_in_range(stage, source, time_code.GetValue())
     segments = _gprim_segments(tessellate_gprims)
