@@ -2,6 +2,7 @@
 
 import importlib.util
 import json
+import math
 import os
 import subprocess
 import sys
@@ -366,6 +367,29 @@ def test_cli_frames_name_the_frames_that_failed_and_exit_1(tmp_path, capsys):
     assert main(["render", str(broken), "--frames", "1:3", "-o", str(tmp_path / "b_#.png"), "-q"]) == 2  # none
     err = capsys.readouterr().err
     assert err.count("USD cannot open this file") == 1 and "wrt: error: frames 1, 2, 3: " in err
+
+
+def test_cli_frames_log_is_strict_json(animated, tmp_path, monkeypatch):
+    """A frame row with a NaN or infinite number (a timer without a value) is written with null: Python's json wrote
+    bare NaN and Infinity, which jq and JSON.parse refuse for the whole log."""
+    import wrt.animation
+    from wrt.cli import main
+
+    def rows_with_non_finite_numbers(path, jobs, **kwargs):
+        return [{"frame": frame, "output": str(file), "change": "build", "load_ms": math.inf, "update_ms": -math.inf,
+                 "render_ms": np.float64("nan")} for frame, file in jobs]
+
+    monkeypatch.setattr(wrt.animation, "render_frames", rows_with_non_finite_numbers)
+    log = tmp_path / "log.jsonl"
+    assert main(["render", str(animated), "--frames", "1:2", "-o", str(tmp_path / "f_#.png"), "--log", str(log),
+                 "-q", "--width", "8", "--height", "6"]) == 0
+
+    def refuse(name):
+        raise ValueError(f"{name} is not JSON")
+
+    rows = [json.loads(line, parse_constant=refuse) for line in log.read_text().splitlines()]
+    assert [(r["frame"], r["load_ms"], r["update_ms"], r["render_ms"]) for r in rows] == [(1.0, None, None, None),
+                                                                                         (2.0, None, None, None)]
 
 
 def test_render_frames_refuses_an_unknown_device_before_starting_workers(animated, tmp_path, monkeypatch):

@@ -46,6 +46,7 @@ from .errors import SceneError, did_you_mean
 from .rays import RAY_KINDS, ray_set
 from .resources import check_host_memory
 from .scene import Scene
+from .strict_json import strict_json
 from .trace import WARP_BUILDERS, BvhAccelerator, HitBuffer, Hits, WarpMeshAccelerator, resolve_device
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"  # the named suites, shipped with the package
@@ -656,19 +657,12 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
 def _write_rows(jsonl: Path, rows: list[dict]) -> None:
     """Replaces ``jsonl`` with ``rows`` in one step: an interruption leaves the old file or the new one."""
     tmp = jsonl.with_suffix(".jsonl.tmp")
-    tmp.write_text("".join(row_json(r) + "\n" for r in rows))
+    tmp.write_text("".join(strict_json(r) + "\n" for r in rows))
     tmp.replace(jsonl)
 
 
 # Measured numbers of a row: NaN or infinite ones are written as null and read back as NaN.
 MEASURED_FLOATS = ("build_ms", "mrays", "mrays_min", "mrays_max", "hit_fraction", "sah_cost")
-
-
-def row_json(row: dict) -> str:
-    """``row`` as one line of strict JSON, with null for a NaN or infinite number: Python's bare ``NaN`` and
-    ``Infinity`` are no JSON, and ``jq`` or ``JSON.parse`` reject the whole file for one of them."""
-    return json.dumps({k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in row.items()},
-                      allow_nan=False)
 
 
 def _row_from_json(row: dict) -> dict:
@@ -761,7 +755,7 @@ def run_grid(
         nonlocal begun
         if out is not None and not begun:
             _write_rows(jsonl, rows)  # the resumed rows, or none
-            (out / SETTINGS_FILE).write_text(json.dumps(_ray_settings(grid)) + "\n")
+            (out / SETTINGS_FILE).write_text(strict_json(_ray_settings(grid)) + "\n")
         begun = True
 
     def emit(row, replaces: bool = True):  # replaces: the row drops the resumed rows it measures again
@@ -772,7 +766,7 @@ def run_grid(
         rows.append(row)
         if jsonl is not None:
             with open(jsonl, "a") as f:  # one row per write, flushed: an interrupted run loses nothing
-                f.write(row_json(row) + "\n")
+                f.write(strict_json(row) + "\n")
                 f.flush()
         if "error" in row:
             tqdm.write(f"wrt bench: {row['scene']} / {row['accel']} / {row['rays']}: {row['error']}")

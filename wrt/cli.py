@@ -394,9 +394,8 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
 
 
 def _run_render(args) -> int:
-    import json
-
     from .errors import SceneError
+    from .strict_json import strict_json
 
     progress = _Progress(args.quiet)
     paths = [Path(s) for s in args.scene] or [default_scene_path()]
@@ -441,7 +440,7 @@ def _run_render(args) -> int:
             print(f"wrt: error: {message if path.name in message else f'{path}: {message}'}", file=sys.stderr)
         row["seconds"] = round(time.perf_counter() - start, 3)
         with open(log, "a") as f:  # flushed per scene: an interrupted batch keeps every finished row
-            f.write(json.dumps(row) + "\n")
+            f.write(strict_json(row) + "\n")
     progress(f"{len(paths) - len(failures)} of {len(paths)} scenes rendered; log in {log}")
     if failures:
         names = ", ".join(Path(r["scene"]).name for r in failures)
@@ -480,9 +479,8 @@ def _run_products(args, paths: list, progress) -> int:
 
 
 def _run_frames(args, paths: list, progress) -> int:
-    import json
-
     from .animation import parse_frames, pending_frames, render_frames
+    from .strict_json import strict_json
 
     if len(paths) != 1:
         raise ValueError("--frames renders one scene; give exactly one SCENE")
@@ -525,7 +523,7 @@ def _run_frames(args, paths: list, progress) -> int:
         Path(args.log).parent.mkdir(parents=True, exist_ok=True)
         with open(args.log, "a") as f:
             for row in rows:
-                f.write(json.dumps(row) + "\n")
+                f.write(strict_json(row) + "\n")
     failures = sorted((row for row in rows if "error" in row), key=lambda row: row["frame"])
     changes = collections.Counter(row["change"] for row in rows if "error" not in row)
     summary = ", ".join(f"{n} {c}" for c, n in sorted(changes.items()))

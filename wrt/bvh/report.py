@@ -7,10 +7,8 @@ canonical layout), so both sides are measured by the same code under the same co
 
 from __future__ import annotations
 
-import json
-import math
-
 from ..errors import did_you_mean
+from ..strict_json import strict_json
 from .build import Builder, build_bvh, builder_names, check_costs
 from .layout import LAYOUTS, convert_layout
 
@@ -201,9 +199,7 @@ def run_bvh_stats(args) -> int:
         device=device,
     )
     if args.json:
-        # Strict JSON: a statistic without a value (EPO of a scene without area is NaN) is null.
-        clean = [{k: None if isinstance(v, float) and not math.isfinite(v) else v for k, v in r.items()} for r in rows]
-        print(json.dumps(clean, indent=1))
+        print(strict_json(rows, indent=1))  # a statistic without a value (EPO without area is NaN) is null
     else:
         print(
             f"{args.scene}: {len(indices)} triangles; SAH/EPO with C_t={args.traversal_cost}, "
