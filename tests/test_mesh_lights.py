@@ -282,6 +282,19 @@ def test_volumes_and_instanced_meshes_that_cannot_be_lights_are_named(tmp_path):
     assert img.rgb[img.aovs["prim"] < 2].mean() > 0.05  # the floor's two triangles come first
 
 
+def test_a_mesh_or_gprim_with_volume_light_api_is_named_and_emits_nothing(tmp_path):
+    """VolumeLightAPI (which brings LightAPI along) on a Mesh or a Sphere lights the volume inside, which wrt does
+    not have: each is named and drawn as geometry that emits nothing. Before, both were read as surface mesh lights
+    (the Sphere drawn as its tessellation), the Sphere named as not supported though it lit the scene."""
+    volume_light = 'prepend apiSchemas = ["VolumeLightAPI"]'
+    sphere = gprim_light("Sphere", radius=0.1).replace('prepend apiSchemas = ["MeshLightAPI"]', volume_light)
+    mesh = mesh_light(api="VolumeLightAPI")
+    scene, messages = load(tmp_path, floor(), sphere, mesh)
+    assert scene.lights == [] and [mesh.path for mesh in scene.meshes] == ["/Floor", "/Light"], scene.lights
+    named = [m for m in messages if "VolumeLightAPI" in m]
+    assert len(named) == 1 and "/Bulb" in named[0] and "/Light" in named[0], messages
+
+
 def test_a_point_instancer_of_a_world_mesh_light_names_what_emits(tmp_path):
     """A PointInstancer whose prototypes are mesh lights drawn in the world too (a mesh and a Sphere, not under an
     ``over``): those prims emit where they stand, their instances do not, and the warning says so. Before, it said

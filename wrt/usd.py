@@ -224,6 +224,12 @@ def _check_refine_level(refine_level) -> None:
         raise ValueError(f"refine_level must be an int from 0 to {MAX_REFINE_LEVEL}, got {refine_level!r}")
 
 
+def _is_mesh_light(prim: Usd.Prim) -> bool:
+    """``prim`` (a mesh or gprim) emits from its surface: it has LightAPI (alone or through MeshLightAPI), but not as
+    part of VolumeLightAPI, whose light fills the volume the surface bounds (wrt has no volumes: it is named)."""
+    return prim.HasAPI(UsdLux.LightAPI) and not prim.HasAPI(UsdLux.VolumeLightAPI)
+
+
 class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, MeshReading, MeshPrimvarReading,
                    MeshBaking, GprimReading, NativeInstanceReading, PointInstancerReading, CameraReading):
     """One pass over a stage; collects meshes, instances, cameras and lights and the warnings to emit. The walk is
@@ -335,6 +341,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when
         the gprim is a mesh light)."""
+        if prim.HasAPI(UsdLux.VolumeLightAPI):
+            self._skip("volume lights (VolumeLightAPI) are not supported: wrt has no volumes", prim, prim.GetTypeName())
         if prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.TetMesh) or prim.IsA(UsdGeom.NurbsPatch):
             read = self._read_mesh if prim.IsA(UsdGeom.Mesh) else self._read_surface
             self._add_mesh(prim, read(prim, self._to_space(prim, ctx), ctx), ctx)
@@ -343,8 +351,6 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._not_a_mesh_light(prim, "Points and curves")
             self._read_tubes(prim, ctx)
             return
-        if prim.HasAPI(UsdLux.VolumeLightAPI):
-            self._skip("volume lights (VolumeLightAPI) are not supported: wrt has no volumes", prim, prim.GetTypeName())
         shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
         if shape is not None and not self.segments and not invert_transforms(shape.to_world[None])[1][0]:
             # A zero scale (or one whose inverse is past float32) leaves no canonical space to intersect in: drawn
@@ -354,12 +360,12 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
         elif shape is not None and self.segments:
             self._add_mesh(prim, self._tessellated(shape, prim), ctx)
-        elif shape is not None and ctx.world and prim.HasAPI(UsdLux.LightAPI):
+        elif shape is not None and ctx.world and _is_mesh_light(prim):
             # A mesh light is sampled by its triangles, and rays that hit it must see the surface sampled (its
             # radiance and pdf come from the triangle hit): the emitting gprim alone is drawn as its tessellation.
             self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
         elif shape is not None:
-            if prim.HasAPI(UsdLux.LightAPI):
+            if _is_mesh_light(prim):
                 self._instanced_light(prim)
             ctx.content.shapes.append(shape)
 
@@ -369,7 +375,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         if mesh is None:
             return
         ctx.content.meshes.append(mesh)
-        if not prim.HasAPI(UsdLux.LightAPI):
+        if not _is_mesh_light(prim):
             return
         if not ctx.world:  # its triangles are not sampled, as emissive prototype triangles are not
             self._instanced_light(prim)
@@ -380,9 +386,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self.scene.lights.append(light)
 
     def _not_a_mesh_light(self, prim: Usd.Prim, what: str):
-        """Names ``prim`` in a warning when it has LightAPI (MeshLightAPI, VolumeLightAPI or LightAPI alone): it
-        should emit, but wrt draws ``what`` as geometry that emits nothing."""
-        if prim.HasAPI(UsdLux.LightAPI):
+        """Names ``prim`` in a warning when it is a mesh light (MeshLightAPI or LightAPI alone): it should emit, but
+        wrt draws ``what`` as geometry that emits nothing."""
+        if _is_mesh_light(prim):
             self._skip(f"lights on {what} (LightAPI, MeshLightAPI) are not supported; drawn as geometry that emits "
                        "nothing", prim, prim.GetTypeName())
 
