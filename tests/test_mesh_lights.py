@@ -177,11 +177,14 @@ def test_a_light_that_tints_a_glow_the_material_has_not_is_named(tmp_path):
     assert render_floor(scene, "path", spp=1).max() == 0.0
 
 
+# USDA of a sun of illuminance 5 shining along +Z, onto the -Z front of the mesh lights the tests below move to z = -1.
+SUN = ('def DistantLight "Sun"\n{\n    float inputs:intensity = 5\n    float inputs:angle = 0\n'
+       '    float3 xformOp:rotateXYZ = (180, 0, 0)\n    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]\n}\n')
+
+
 def test_a_mesh_light_of_no_material_response_reflects_nothing(tmp_path):
     """LightAPI alone on a mesh (fallback noMaterialResponse) makes it a light that reflects no other light."""
-    sun = ('def DistantLight "Sun"\n{\n    float inputs:intensity = 5\n    float inputs:angle = 0\n'
-           '    float3 xformOp:rotateXYZ = (180, 0, 0)\n    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]\n}\n')
-    scene, _ = load(tmp_path, sun, mesh_light(api="LightAPI", intensity=0.0).replace("(0, 0, 1.0)", "(0, 0, -1.0)"))
+    scene, _ = load(tmp_path, SUN, mesh_light(api="LightAPI", intensity=0.0).replace("(0, 0, 1.0)", "(0, 0, -1.0)"))
     cam = wrt.Camera.orthographic(eye=(0, 0, -3), target=(0, 0, -1), up=(0, 1, 0), height=0.2)
     img = wrt.render(scene, camera=cam, width=1, height=1)
     assert img.aovs["prim"][0, 0] >= 0 and img.rgb.max() == 0.0
@@ -196,11 +199,9 @@ def test_a_python_mesh_light_of_no_material_response_reflects_nothing_as_one_rea
     white = ('def Material "White"\n{\n    token outputs:surface.connect = </White/Surface.outputs:surface>\n'
              '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
              "        color3f inputs:diffuseColor = (1, 1, 1)\n        token outputs:surface\n    }\n}\n")
-    sun = ('def DistantLight "Sun"\n{\n    float inputs:intensity = 5\n    float inputs:angle = 0\n'
-           '    float3 xformOp:rotateXYZ = (180, 0, 0)\n    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]\n}\n')
     light = mesh_light(intensity=0.0, sync="noMaterialResponse", material="/White").replace("(0, 0, 1.0)",
                                                                                              "(0, 0, -1.0)")
-    read, messages = load(tmp_path, white, sun, light)
+    read, messages = load(tmp_path, white, SUN, light)
     assert not messages, messages
     panel = quad((0, 0, -1), (0, 1, 0), (1, 0, 0), name="/panel", material=0, double_sided=False)  # front: -Z
     built = wrt.Scene(meshes=[panel], materials=[wrt.Material(path="/White", diffuse_color=(1.0, 1.0, 1.0))],
