@@ -259,6 +259,23 @@ def test_cli_bvh_stats_json_is_strict_for_a_scene_without_area(capsys, tmp_path)
     assert rows[0]["epo"] is None
 
 
+def test_quality_script_json_is_strict_for_a_scene_without_area(monkeypatch, tmp_path):
+    """benchmarks/quality.py --json writes the rows bvh-stats --json does; it wrote their NaN EPO as bare NaN."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "quality", Path(__file__).resolve().parents[1] / "benchmarks" / "quality.py")
+    quality = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(quality)
+    flat = np.array([[0, 0, 0], [1, 1, 1], [2, 2, 2]], np.float32), np.array([[0, 1, 2], [0, 2, 1]], np.int32)
+    monkeypatch.setattr(quality, "load_scene", lambda name: flat)
+    out = tmp_path / "quality.json"
+    assert quality.main(["--scenes", "flat", "--builders", "sah", "--no-speed", "--json", str(out)]) == 0
+    results = json.loads(out.read_text(), parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+    assert results["quality"][0]["rows"][0]["epo"] is None
+
+
 def test_cli_bvh_stats_counts_gprims_as_triangles(tmp_path, capsys):
     """A stage of gprims (spheres, cubes) reported 0 triangles and an empty tree: gprims load as analytic shapes,
     which are in no BVH over triangles. They are measured as triangle meshes now, as wrt bench measures them."""
