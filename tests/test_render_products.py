@@ -175,6 +175,37 @@ def test_views_of_one_size_render_together_as_each_would_alone(tmp_path, monkeyp
         np.testing.assert_array_equal(channels["id"].reshape(-1), ids)
 
 
+def test_products_of_views_rendered_are_written_before_a_later_batch_fails(tmp_path, monkeypatch):
+    """The second batch of views (another size) fails, as out of memory or Ctrl-C would: the two products of the
+    first view are already written and valid files (all were written after every view was rendered, so none was);
+    the failing view's product is not."""
+    render_products = importlib.import_module("wrt.render_products")  # wrt.render_products is the function
+    calls = []
+
+    class FailingRenderer(render_products.Renderer):
+        def render(self, *args, **kwargs):
+            calls.append(self.width)
+            if len(calls) == 2:
+                raise MemoryError("injected: out of memory in the second batch")
+            return super().render(*args, **kwargs)
+
+    monkeypatch.setattr(render_products, "Renderer", FailingRenderer)
+    products = (product("Beauty", ["Ci"], "front.png") + product("Front", ["Ci", "depth"], "front.exr")
+                + product("Small", ["Ci"], "small.png", 'uniform int2 resolution = (20, 10)\n'))
+    scene = load(write_stage(tmp_path, products, ["Beauty", "Front", "Small"]))
+    out = tmp_path / "out"
+    with pytest.raises(MemoryError, match="injected"):
+        wrt.render_products(scene, out, device="cpu")
+    assert calls == [32, 20]
+    alone = wrt.render(scene, camera="/World/Front", width=32, height=16, device="cpu")
+    with PilImage.open(out / "front.png") as png:
+        assert png.size == (32, 16) and png.mode == "RGB"
+    channels = read_exr(out / "front.exr")
+    np.testing.assert_array_equal(np.stack([channels[c] for c in "RGB"], axis=-1), alone.rgb)
+    np.testing.assert_array_equal(channels["depth"], alone.aovs["z"])
+    assert sorted(p.name for p in out.iterdir()) == ["front.exr", "front.png"]  # no partial or temporary file
+
+
 def test_unknown_sources_are_left_out_with_a_warning_naming_the_render_var(tmp_path):
     """A raw source wrt has not (patchCoord), a primvar and an LPE other than the beauty: one warning each, naming the
     RenderVar; the product keeps what wrt has, and a product left with nothing is skipped, named."""

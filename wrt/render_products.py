@@ -25,6 +25,7 @@ import json
 import os
 import re
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -230,9 +231,11 @@ def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float =
     return path
 
 
-def render_views(scene, views: dict, *, spp: int, seed: int, batch: int | None, progress: bool, **options) -> dict:
-    """``{key: wrt.Image}`` of ``views`` (``{key: (camera, width, height)}``): the views of one size rendered
-    together by one :class:`wrt.Renderer` (``options``: its arguments), as many per launch as fill
+def render_views(scene, views: dict, *, spp: int, seed: int, batch: int | None, progress: bool,
+                 **options) -> Iterator[tuple]:
+    """Yields ``(key, wrt.Image)`` of each of ``views`` (``{key: (camera, width, height)}``) as soon as its batch is
+    rendered, so that a caller keeps what was done when a later batch fails (out of memory, Ctrl-C): the views of
+    one size rendered together by one :class:`wrt.Renderer` (``options``: its arguments), as many per launch as fill
     :data:`wrt.render.MAX_PATHS_PER_LAUNCH` pixels (at least one: no more memory than a render of one view). Each
     image is the one a render of its view alone gives (the random stream depends on the pixel within its view, and a
     default headlight follows each camera); a Renderer per view set up its lights and shading tables again, which
@@ -240,7 +243,6 @@ def render_views(scene, views: dict, *, spp: int, seed: int, batch: int | None, 
     by_size = {}
     for key, (camera, width, height) in views.items():
         by_size.setdefault((width, height), []).append((key, camera))
-    images = {}
     for (width, height), group in by_size.items():
         per_launch = max(1, MAX_PATHS_PER_LAUNCH // (width * height))
         renderer = None
@@ -251,8 +253,8 @@ def render_views(scene, views: dict, *, spp: int, seed: int, batch: int | None, 
             else:
                 renderer.set_cameras(list(cameras))
             batch_image = renderer.render(spp=spp, seed=seed, batch=batch, progress=progress)
-            images.update((key, batch_image.image(k)) for k, key in enumerate(keys))
-    return images
+            for k, key in enumerate(keys):
+                yield key, batch_image.image(k)
 
 
 def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 0, builder: str = "sah",
@@ -306,18 +308,23 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
                 raise ValueError(f"{where}: {product.product}: {error}") from None
         png = len(outputs) == 1 and outputs[0].kind == BEAUTY
         plan.append((product, view, outputs, product_file_name(product, png, where, taken)))
-    renders = render_views(scene, {view: views[view] for _, view, _, _ in plan}, spp=spp, seed=seed, batch=batch,
-                           progress=progress, device=device, builder=builder, accel=accel, integrator=integrator,
-                           max_depth=max_depth, ao_radius=ao_radius)
-    written, warned_exposure = {}, False
-    for product, view, outputs, name in plan:
+    by_view = {}
+    for entry in plan:
+        by_view.setdefault(entry[1], []).append(entry)
+    # Each view's products are written as soon as it is rendered: a failure in a later batch (out of memory, Ctrl-C)
+    # keeps the files of the views done; all written after all rendered lost them.
+    files, warned_exposure = {}, False
+    for view, image in render_views(scene, {view: views[view] for view in by_view}, spp=spp, seed=seed, batch=batch,
+                                    progress=progress, device=device, builder=builder, accel=accel,
+                                    integrator=integrator, max_depth=max_depth, ao_radius=ao_radius):
         camera = views[view][0]
-        channels, attributes = output_channels(renders[view], camera, scene, outputs)
-        if not name.lower().endswith(".png"):
-            attributes.update(exr_windows(product))
-            if exposure != 0.0 and not warned_exposure:  # once, as for wrt render -o x.exr --exposure
-                warnings.warn(f"{where}: exposure applies to .png products only; {name} is written linear, "
-                              "unscaled", stacklevel=2)
-                warned_exposure = True
-        written[product.product] = write_product(directory / name, channels, exposure, attributes)
-    return written
+        for product, _, outputs, name in by_view[view]:
+            channels, attributes = output_channels(image, camera, scene, outputs)
+            if not name.lower().endswith(".png"):
+                attributes.update(exr_windows(product))
+                if exposure != 0.0 and not warned_exposure:  # once, as for wrt render -o x.exr --exposure
+                    warnings.warn(f"{where}: exposure applies to .png products only; {name} is written linear, "
+                                  "unscaled", stacklevel=2)
+                    warned_exposure = True
+            files[product.product] = write_product(directory / name, channels, exposure, attributes)
+    return {product.product: files[product.product] for product, _, _, _ in plan}  # in the settings' order
