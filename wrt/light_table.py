@@ -152,13 +152,13 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTr
     )
 
 
-def no_response_triangles(lights: DeviceLights) -> np.ndarray:
+def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray:
     """``(K,)`` int32 geometry ids of the triangles of ``noMaterialResponse`` mesh lights (those whose mesh has no
     material count too): their surface is :func:`wrt.materials.no_response_material`, whatever their mesh's material,
-    in scenes read and built in Python alike."""
+    in scenes read and built in Python alike. ``prims``: ``lights.prims`` already read back to the host."""
     first, count = lights.num_analytic, lights.count
     no_response = lights.params.numpy()[first:count, 1] > 0.0
-    return lights.prims.numpy()[first:count][no_response]
+    return prims[first:count][no_response]
 
 
 def build_lights(lights: list, scene, material_emission: list, device) -> DeviceLights:

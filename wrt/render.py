@@ -376,7 +376,7 @@ class Renderer:
         prims = self.device_lights.prims.numpy()
         first, count = self.device_lights.num_analytic, self.device_lights.count
         emitters[prims[first:count]] = np.arange(first, count, dtype=np.int32)
-        no_response = no_response_triangles(self.device_lights)
+        no_response = no_response_triangles(self.device_lights, prims)
         if len(no_response):  # they take the last device material (wrt.materials.no_response_material)
             overridden = np.array(tri_materials.numpy())  # a copy: the cached array is the scene's own
             overridden[no_response] = len(scene.materials) + 1
