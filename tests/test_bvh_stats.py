@@ -290,3 +290,13 @@ def test_cli_bvh_stats_counts_gprims_as_triangles(tmp_path, capsys):
     row = json.loads(capsys.readouterr().out)[0]
     expected = len(wrt.load_usd(scene, tessellate_gprims=True).triangles()[1])
     assert row["triangles"] == expected > 0 and sum(row["leaf_size_histogram"].values()) == row["leaves"] > 0
+
+
+@pytest.mark.parametrize("costs", [(-1.0, 1.0), (float("nan"), 1.0), (1.0, 0.0), (1.0, float("inf"))])
+def test_stats_refuse_cost_constants_that_build_bvh_refuses(costs):
+    """``stats(traversal_cost=-1)`` returned a negative SAH cost (-19 for the bunny) and NaN gave NaN, where
+    ``build_bvh`` and ``wrt bvh-stats`` refuse such constants."""
+    points = np.eye(3, dtype=np.float32)
+    bvh = build_bvh(points, np.array([[0, 1, 2]], np.int32), "sah")
+    with pytest.raises(ValueError, match="traversal_cost must be finite"):
+        bvh.stats(*costs)

@@ -116,3 +116,17 @@ def test_epo_refuses_a_presplit_tree(uv_sphere):
     bvh = build_bvh(points, indices, "sah", presplit=6)
     with pytest.raises(ValueError, match="one slot per triangle"):
         bvh.stats(epo_samples=1000)
+
+
+def test_stats_of_a_presplit_tree_count_triangles_and_leave_out_epo():
+    """``tree.stats()`` of a tree built with pre-splits raised the EPO error unless ``epo_samples=0`` was passed, and
+    its ``triangles`` counted references (as ``wrt bvh-stats --presplit 6 --json`` reported them)."""
+    points, indices = displaced_sphere(2000)
+    bvh = build_bvh(points, indices, "sah", presplit=6)
+    assert bvh.num_prims > len(indices)  # the poles' slivers were split
+    stats = bvh.stats()
+    assert stats["triangles"] == len(indices) and stats["slots"] == bvh.num_prims
+    assert stats["epo"] is None and stats["epo_stderr"] is None
+    assert sum(k * v for k, v in stats["leaf_size_histogram"].items()) == stats["slots"]
+    with pytest.raises(ValueError, match="epo_samples=0"):
+        bvh.stats(epo_samples=64)

@@ -215,19 +215,27 @@ class FlatBvh:
             intersection_cost: SAH/EPO cost of one ray-triangle test.
             points: ``(V, 3)`` vertices for the EPO estimate; default: the ones the tree was built over.
             indices: ``(T, 3)`` triangles for the EPO estimate; default: the ones the tree was built over.
-            epo_samples: surface samples of the EPO estimate (``stats.EPO_SAMPLES`` when ``None``); 0 skips EPO.
+            epo_samples: surface samples of the EPO estimate (``None``: ``stats.EPO_SAMPLES``, or none for a tree
+                built with pre-splits, where EPO is not defined); 0 skips EPO.
 
         Returns:
-            dict with ``sah_cost``, ``epo`` (``None`` without triangles), ``epo_stderr``, ``nodes``,
-            ``inner_nodes``, ``leaves``, ``max_depth``, ``mean_leaf_depth``, ``mean_prim_depth``,
+            dict with ``sah_cost``, ``epo`` (``None`` without triangles or samples), ``epo_stderr``,
+            ``triangles``, ``slots`` (leaf slots: more than ``triangles`` after pre-splits), ``nodes``,
+            ``inner_nodes``, ``leaves``, ``max_depth``, ``mean_leaf_depth``, ``mean_prim_depth`` (per slot),
             ``mean_leaf_size``, ``leaf_size_histogram`` (size -> leaves), ``node_bytes``, ``bytes``,
             ``build_seconds``, the cost constants and the builder name.
+
+        Raises:
+            ValueError: cost constants that :func:`wrt.build_bvh` refuses too (negative, zero ``intersection_cost``,
+                not finite), a bad ``epo_samples``, or samples asked of a tree built with pre-splits.
         """
-        from .build import check_int_option
+        from .build import check_costs, check_int_option
         from .stats import EPO_SAMPLES, MAX_EPO_SAMPLES, bvh_stats
 
-        epo_samples = EPO_SAMPLES if epo_samples is None else check_int_option("epo_samples", epo_samples, 0,
-                                                                                MAX_EPO_SAMPLES)
+        check_costs(traversal_cost, intersection_cost)
+        if epo_samples is None:
+            epo_samples = EPO_SAMPLES if self.num_prims == self.num_triangles else 0
+        epo_samples = check_int_option("epo_samples", epo_samples, 0, MAX_EPO_SAMPLES)
 
         points = self.points if points is None else points
         indices = self.indices if indices is None else indices

@@ -129,7 +129,7 @@ def epo(
         return 0.0, 0.0
     if bvh.num_prims != len(indices):
         raise ValueError(f"EPO needs one slot per triangle: this tree has {bvh.num_prims} slots for {len(indices)} "
-                         "triangles (built with presplit)")
+                         "triangles (built with presplit); pass epo_samples=0 for the other statistics")
     tri = points[indices].astype(np.float64)
     tri_areas = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     total_area = tri_areas.sum()
@@ -204,7 +204,8 @@ def bvh_stats(
     node_bytes = NODE_BYTES * bvh.num_nodes
     stats = {
         "builder": bvh.builder,
-        "triangles": int(bvh.num_prims),
+        "triangles": int(bvh.num_triangles),
+        "slots": int(bvh.num_prims),
         "nodes": int(bvh.num_nodes),
         "inner_nodes": int(bvh.num_nodes - leaf.sum()),
         "leaves": int(leaf.sum()),
