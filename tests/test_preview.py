@@ -205,6 +205,18 @@ def test_bvh_boxes_polydata(bunny):
         bvh_boxes(bvh, nodes, "rainbow")
 
 
+def test_bvh_boxes_corners_are_the_tree_boxes_bit_for_bit(bunny):
+    """A shown box's upper corner was computed as ``lower + (upper - lower)``, which float32 rounds off ``upper`` by an
+    ulp (362 of the bunny's leaf bounds): the preview's boxes did not compare equal to ``FlatBvh.lowers``/``uppers``."""
+    bvh = get_accelerator(bunny, "wrt", "sah", "cpu").bvh
+    leaves = select_bvh_nodes(bvh, leaves=True)
+    corners = np.asarray(bvh_boxes(bvh, leaves, "depth").points).reshape(-1, 8, 3)
+    np.testing.assert_array_equal(corners.min(axis=1), bvh.lowers[leaves])
+    np.testing.assert_array_equal(corners.max(axis=1), bvh.uppers[leaves])
+    # Every corner takes each coordinate from the box's lower or upper bound.
+    assert np.all((corners == bvh.lowers[leaves][:, None, :]) | (corners == bvh.uppers[leaves][:, None, :]))
+
+
 def test_cluster_vertices_meets_the_budget(bunny):
     points, indices = bunny.triangles()
     colors = np.arange(len(indices))[:, None].repeat(3, axis=1)

@@ -441,9 +441,10 @@ def bvh_boxes(bvh: FlatBvh, nodes, color: str = "depth", max_boxes: int = BOX_BU
         pick = np.round(np.linspace(0, total - 1, max_boxes)).astype(np.int64)
         nodes, values = nodes[pick], values[pick]
     # Corner c of a box has coordinate bits (x, y, z) = (c & 1, c & 2, c & 4); edges join corners one bit apart.
-    bits = np.array([[(c >> 0) & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], np.float32)
+    # Each coordinate is the tree's own bound (lo + bit * (hi - lo) rounded hi off by an ulp in float32).
+    bits = np.array([[(c >> 0) & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], bool)
     lo, hi = bvh.lowers[nodes][:, None, :], bvh.uppers[nodes][:, None, :]
-    corners = (lo + bits[None] * (hi - lo)).reshape(-1, 3)
+    corners = np.where(bits[None], hi, lo).reshape(-1, 3)
     edges = np.array([(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1], np.int64)
     base = (np.arange(len(nodes), dtype=np.int64) * 8)[:, None, None]
     segments = (base + edges[None]).reshape(-1, 2)
