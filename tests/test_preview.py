@@ -217,6 +217,26 @@ def test_bvh_boxes_corners_are_the_tree_boxes_bit_for_bit(bunny):
     assert np.all((corners == bvh.lowers[leaves][:, None, :]) | (corners == bvh.uppers[leaves][:, None, :]))
 
 
+def test_preview_boxes_are_those_of_the_presplit_tree_trace_builds():
+    """The README and ``help(wrt.preview)`` name the tree whose boxes are drawn: ``build_bvh`` over
+    ``Scene.triangles()``, with ``presplit=6`` for ``sah`` (a UV sphere's pole slivers make it differ from
+    ``presplit=0``'s)."""
+    from wrt.procedural import displaced_sphere
+
+    points, indices = displaced_sphere(2000)
+    plotter = wrt.preview(wrt.Scene.from_triangles(points, indices), bvh_leaves=True, show_text=False)
+    corners = np.asarray(plotter.actors["bvh"].mapper.dataset.points).reshape(-1, 8, 3)
+    plotter.close()
+    shown = {tuple(c) for c in np.hstack([corners.min(axis=1), corners.max(axis=1)])}
+
+    def leaf_boxes(tree):
+        leaf = tree.prim_count > 0
+        return {tuple(b) for b in np.hstack([tree.lowers[leaf], tree.uppers[leaf]])}
+
+    assert shown == leaf_boxes(wrt.build_bvh(points, indices, "sah", presplit=6))
+    assert shown != leaf_boxes(wrt.build_bvh(points, indices, "sah"))
+
+
 def test_cluster_vertices_meets_the_budget(bunny):
     points, indices = bunny.triangles()
     colors = np.arange(len(indices))[:, None].repeat(3, axis=1)

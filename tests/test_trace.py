@@ -667,3 +667,29 @@ def test_default_camera_frames_a_scene_edited_after_a_render():
     assert (wrt.render(scene, width=8, height=8).aovs["prim"] >= 0).any()
     quad.points = quad.points + np.float32([100, 0, 0])
     assert (wrt.render(scene, width=8, height=8).aovs["prim"] >= 0).any()
+
+
+def test_node_visits_of_the_layouts_are_as_hits_documents(np_rng):
+    """``Hits.nodes_visited``: binary counts the nodes whose box the ray enters; compact and wide layouts keep no
+    root box and count their root for every ray, and a one-leaf tree gets a root over its leaf; past the root,
+    compact counts what binary counts (the bunny, rays that enter its box), and wide layouts count fewer nodes."""
+    one = wrt.Scene.from_triangles(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32),
+                                   np.array([[0, 1, 2]], np.int32))
+    origins, down = np.array([[0.25, 0.25, 1], [2, 2, 1]], np.float32), np.array([0, 0, -1], np.float32)
+    counts = {layout: wrt.trace(one, origins, down, layout=layout) for layout in ("binary", "compact", "wide", "wide8")}
+    assert counts["binary"].nodes_visited.tolist() == [1, 0]
+    for layout in ("compact", "wide", "wide8"):
+        assert counts[layout].nodes_visited.tolist() == [2, 1]
+        assert counts[layout].triangles_tested.tolist() == counts["binary"].triangles_tested.tolist() == [1, 0]
+
+    bunny = wrt.load_usd(warp_assets("bunny.usd"))
+    lower, upper = bunny.bounds()
+    targets = lower + (upper - lower) * np_rng.random((500, 3))
+    origins = (targets + np_rng.normal(size=(500, 3)) * np.linalg.norm(upper - lower)).astype(np.float32)
+    directions = (targets - origins).astype(np.float32)
+    binary = wrt.trace(bunny, origins, directions)
+    compact = wrt.trace(bunny, origins, directions, layout="compact")
+    np.testing.assert_array_equal(compact.nodes_visited, binary.nodes_visited)
+    np.testing.assert_array_equal(compact.triangles_tested, binary.triangles_tested)
+    for layout in ("wide", "wide8"):
+        assert wrt.trace(bunny, origins, directions, layout=layout).nodes_visited.mean() < binary.nodes_visited.mean()

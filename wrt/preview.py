@@ -540,7 +540,9 @@ def preview(
         width: image width in pixels (``None``: the render settings', else 640); the frustum, rays and image use
             this film aspect.
         height: image height in pixels (``None``: the render settings', else 480).
-        builder: BVH builder for the boxes, the rays and the image.
+        builder: BVH builder for the boxes, the rays and the image. The boxes are those of the tree
+            :func:`wrt.trace` builds: ``wrt.build_bvh(*scene.triangles(), builder)``, with ``presplit=6`` for
+            ``sah`` (the TLAS's in a scene with instances or analytic shapes).
         device: Warp device for building, tracing and rendering.
         window_size: ``(width, height)`` of the preview window in pixels.
         max_triangles: above this many triangles the scene is simplified for display (the title says so).

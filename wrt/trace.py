@@ -551,8 +551,13 @@ class Hits:
         v: float32 barycentric weight of the third vertex: ``hit = (1-u-v) p0 + u p1 + v p2``.
         prim: row of ``Scene.triangles()`` (instances expanded), -1 on a miss; int32, or int64 for scenes of more
             than ``2**31 - 1`` rendered triangles.
-        nodes_visited: int32 BVH nodes visited per ray, top- and bottom-level together (0 for ``accel="warp"``).
-        triangles_tested: int32 ray-triangle tests per ray (0 for ``accel="warp"``).
+        nodes_visited: int32 BVH nodes visited per ray, top- and bottom-level together (0 for ``accel="warp"``): the
+            nodes whose box the ray enters, each once. The ``compact``, ``wide`` and ``wide8`` layouts keep no box
+            for their root, so every ray that can hit counts it (a ray that misses the scene's box: 1, ``binary``:
+            0; a tree of one leaf gets a root over it: one more); past the root, ``compact`` counts what ``binary``
+            counts, and ``wide``/``wide8`` count their wide nodes (BVH4/BVH8: fewer).
+        triangles_tested: int32 ray-primitive tests per ray: triangles, and analytic shapes one test each (0 for
+            ``accel="warp"``).
         instance: int32 index into ``Scene.instances`` of the instance hit; -1 on a miss or on non-instanced
             geometry.
         local_prim: int32 geometry id of the hit triangle (row of ``Scene.geometry()``: the prototype's triangle
