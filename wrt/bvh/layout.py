@@ -86,14 +86,16 @@ def gather_triangles_kernel(
 
 @dataclasses.dataclass
 class FlatBvh:
-    """Canonical binary BVH on the host (see module docstring for the layout).
+    """Canonical binary BVH on the host. The root is node 0; an inner node ``i`` (``prim_count[i] == 0``) has the
+    children ``left_first[i]`` and ``left_first[i] + 1``; a leaf holds the triangles
+    ``prim_ids[left_first[i] : left_first[i] + prim_count[i]]`` (rows of the ``indices`` it was built over).
 
     Attributes:
         lowers: ``(M, 3)`` float32 node box minima, world space.
         uppers: ``(M, 3)`` float32 node box maxima.
-        left_first: ``(M,)`` int32 left child or first slot.
+        left_first: ``(M,)`` int32 left child (inner node) or first slot (leaf).
         prim_count: ``(M,)`` int32 triangle count of a leaf, 0 for inner nodes.
-        prim_ids: ``(N,)`` int32 slot -> triangle id.
+        prim_ids: ``(N,)`` int32 slot -> triangle id (``N`` = triangles, more with pre-splits).
         builder: name of the builder that made it.
         build_seconds: wall time of the build, seconds.
         points: the ``(V, 3)`` vertices it was built over (numpy or ``wp.array``), for :meth:`stats`; optional.
