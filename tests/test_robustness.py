@@ -710,6 +710,34 @@ def test_t_max_just_above_a_hit_keeps_it(layout, np_rng):
     assert wrt.occluded(scene, origins, directions, t_max=t_max, layout=layout).all()
 
 
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
+def test_t_min_at_a_hit_keeps_it_and_the_next_float_skips_it(layout, np_rng):
+    """Peeling hits one by one: ``t_min`` equal to a hit's ``t`` gives that hit again (the bound is inclusive), one
+    float above it gives a hit strictly beyond, and ``[t, next(t))`` holds exactly that hit, in trace as in occluded,
+    whatever the builder. (``accel="warp"`` moves its origin to ``t_min`` and loses about half: README.)"""
+    centres = np_rng.uniform(-1, 1, (300, 1, 3))
+    points = (centres + np_rng.normal(0, 0.15, (300, 3, 3))).reshape(-1, 3).astype(np.float32)
+    scene = wrt.Scene.from_triangles(points, np.arange(900).reshape(-1, 3))
+    origins = np_rng.normal(size=(1000, 3))
+    origins = (3.0 * origins / np.linalg.norm(origins, axis=1, keepdims=True)).astype(np.float32)
+    directions = (np_rng.uniform(-0.8, 0.8, (1000, 3)) - origins).astype(np.float32)
+    for builder in ("sah", "lbvh"):
+        hits = wrt.trace(scene, origins, directions, builder=builder, layout=layout)
+        hit = hits.hit
+        assert hit.sum() > 500
+        t, above = hits.t[hit], np.nextafter(hits.t[hit], np.float32(np.inf))
+        o, d = origins[hit], directions[hit]
+        again = wrt.trace(scene, o, d, t_min=t, builder=builder, layout=layout)
+        np.testing.assert_array_equal(again.prim, hits.prim[hit], err_msg=builder)
+        np.testing.assert_array_equal(again.t, t, err_msg=builder)
+        beyond = wrt.trace(scene, o, d, t_min=above, builder=builder, layout=layout)
+        assert (beyond.t > t).all(), builder
+        only = wrt.trace(scene, o, d, t_min=t, t_max=above, builder=builder, layout=layout)
+        np.testing.assert_array_equal(only.prim, hits.prim[hit], err_msg=builder)
+        assert wrt.occluded(scene, o, d, t_min=t, t_max=above, builder=builder, layout=layout).all(), builder
+        assert not wrt.occluded(scene, o, d, t_min=t, t_max=t, builder=builder, layout=layout).any(), builder
+
+
 def large_surfaces_through_the_origin():
     """Surfaces far larger than the view that pass through the world origin, tilted so that their hit points' rounding
     (a few epsilons of the corners or the shape's centre) crosses them: a mesh quad of 1e4, the same quad as an
