@@ -23,7 +23,6 @@ import argparse
 import dataclasses
 import importlib
 import inspect
-import json
 import os
 import statistics
 import sys
@@ -153,6 +152,7 @@ def run(args, device) -> None:
     from wrt.bench import asset_path
     from wrt.bvh import build_bvh
     from wrt.procedural import displaced_sphere_scene
+    from wrt.strict_json import strict_json
     from wrt.usd import load_usd
 
     packages = {"wrt": "wrt"}
@@ -274,7 +274,7 @@ def run(args, device) -> None:
     log("done")
     out = args.json or (os.path.join(os.environ["OUT"], "gpu_traversal_ab.json") if os.environ.get("OUT") else None)
     if out:
-        Path(out).write_text(json.dumps({"device": gpu, "warp": wp.config.version, "rows": rows}, indent=1))
+        Path(out).write_text(strict_json({"device": gpu, "warp": wp.config.version, "rows": rows}, indent=1))
         log(f"rows written to {out}")
 
 

@@ -12,7 +12,6 @@ Run from the repository root (takes a few minutes on a CPU, seconds on a GPU)::
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -35,6 +34,7 @@ def main(argv=None) -> int:
     from test_integrators import cornell_wall_means
 
     import wrt
+    from wrt.strict_json import strict_json
 
     path = assets_dir() / manifest()["cornell_box"]["path"]
     scene = wrt.load_usd(path)
@@ -51,8 +51,8 @@ def main(argv=None) -> int:
                       "script": "benchmarks/make_references.py"},
     }
     Path(args.output).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.output).write_text(json.dumps(out, indent=2) + "\n")
-    print(json.dumps(out, indent=2))
+    Path(args.output).write_text(strict_json(out, indent=2) + "\n")
+    print(strict_json(out, indent=2))
     return 0
 
 
