@@ -156,11 +156,21 @@ def test_resume_refuses_rows_measured_with_other_ray_counts(tmp_path):
     """Resuming with another n_rays kept the old rows beside new ones over other rays, and the table compared them."""
     run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)
     before = read_rows(tmp_path)
-    with pytest.raises(ValueError, match="other ray counts \\(n_rays 3000 -> 6000"):
+    with pytest.raises(ValueError, match="other settings \\(n_rays 3000 -> 6000"):
         run_grid(tiny_grid(rays=["primary"], n_rays=6000), tmp_path, resume=True, progress=False)
     assert read_rows(tmp_path) == before  # nothing measured, nothing lost
     rows = run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)  # the same settings resume
     assert rows[0] == before[0] and len(rows) == 2
+
+
+def test_resume_refuses_rows_measured_with_other_repeats(tmp_path):
+    """--repeats was no part of what resume compared: rows timed over 3 launches were kept silently beside rows
+    timed over 1, and the table put their medians side by side."""
+    run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)  # repeats=3
+    before = read_rows(tmp_path)
+    with pytest.raises(ValueError, match="other settings \\(repeats 3 -> 1\\)"):
+        run_grid(tiny_grid(rays=["primary"], repeats=1), tmp_path, resume=True, progress=False)
+    assert read_rows(tmp_path) == before  # nothing measured, nothing lost
 
 
 def test_resume_measures_agreement_when_the_reference_rows_are_done(tmp_path):
@@ -350,7 +360,8 @@ def test_a_run_that_stops_before_its_first_row_leaves_the_earlier_results(tmp_pa
     monkeypatch.setattr(bench_module, "resolve_scene", interrupted)
     for resume in (False, True):
         with pytest.raises(KeyboardInterrupt):
-            run_grid(tiny_grid(rays=["primary", "shadow"], n_rays=300), tmp_path, resume=resume, progress=False)
+            run_grid(tiny_grid(rays=["primary", "shadow"], n_rays=300, repeats=1), tmp_path, resume=resume,
+                     progress=False)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
 
 

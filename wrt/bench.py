@@ -7,10 +7,10 @@ excluded), hit fraction, tree statistics where the accelerator exposes them (``w
 ``leaves``, ``node_bytes`` and ``bytes`` of the binary tree, ``layout_nodes`` and ``layout_bytes`` of the layout it
 traces, as ``wrt bvh-stats --layout`` gives them), and agreement with ``warp:sah`` on the same rays. Rows go to a
 JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an error row and the run goes
-on (a scene without triangles too); ``resume`` skips rows already in the file, which must have been measured with
-the same ray counts (recorded in ``settings.json`` beside it), and measures again, with a warning, a row whose
-triangles and rays (hashed), device hardware, wrt code (a hash of its source) or Warp version differ from this run's
-(``IDENTITY_FIELDS``).
+on (a scene without triangles too); ``resume`` skips rows already in the file, which must have been measured
+with the same ray counts and repeats (recorded in ``settings.json`` beside it), and measures again, with a warning, a
+row whose triangles and rays (hashed), device hardware, wrt code (a hash of its source) or Warp version differ from
+this run's (``IDENTITY_FIELDS``).
 
 Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layouts exist), ``warp:BUILDER``
 (``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
@@ -604,26 +604,29 @@ def _run_group_task(task) -> list[dict]:
     return rows
 
 
-SETTINGS_FILE = "settings.json"  # beside rows.jsonl: the ray counts its rows were measured with
+SETTINGS_FILE = "settings.json"  # beside rows.jsonl: the ray counts and repeats its rows were measured with
 
 
-def _ray_settings(grid: Grid) -> dict:
-    """The settings that decide which rays a row times: rows measured under others are not comparable."""
-    return {"n_rays": grid.n_rays, "scaling_n_rays": int((grid.scaling or {}).get("n_rays", grid.n_rays))}
+def _resume_settings(grid: Grid) -> dict:
+    """The settings that decide how a row is measured: which rays it times, and over how many timed launches (a
+    median of 3 is noisier than one of 20). A resumed row measured under others would sit in the table as if it
+    were measured like the new rows, so ``resume`` refuses them."""
+    return {"n_rays": grid.n_rays, "scaling_n_rays": int((grid.scaling or {}).get("n_rays", grid.n_rays)),
+            "repeats": grid.repeats}
 
 
 def _check_resumed_settings(path: Path, grid: Grid) -> None:
-    """Raises ValueError when the rows to resume were measured with other ray counts (``path`` is their
-    ``SETTINGS_FILE``; none, from an older run: nothing to compare)."""
+    """Raises ValueError when the rows to resume were measured with other ray counts or repeats (``path`` is their
+    ``SETTINGS_FILE``; none, or one without a setting, from an older run: nothing to compare for it)."""
     try:
         before = json.loads(path.read_text())
     except (OSError, ValueError):
         return
-    now = _ray_settings(grid)
+    now = _resume_settings(grid)
     before = before if isinstance(before, dict) else {}
     changed = [f"{k} {before[k]} -> {now[k]}" for k in now if before.get(k, now[k]) != now[k]]
     if changed:
-        raise ValueError(f"{path.parent}: its rows were measured with other ray counts ({', '.join(changed)}); "
+        raise ValueError(f"{path.parent}: its rows were measured with other settings ({', '.join(changed)}); "
                          "resume with the same settings, or run without --resume to start over")
 
 
@@ -755,7 +758,7 @@ def run_grid(
         nonlocal begun
         if out is not None and not begun:
             _write_rows(jsonl, rows)  # the resumed rows, or none
-            (out / SETTINGS_FILE).write_text(strict_json(_ray_settings(grid)) + "\n")
+            (out / SETTINGS_FILE).write_text(strict_json(_resume_settings(grid)) + "\n")
         begun = True
 
     def emit(row, replaces: bool = True):  # replaces: the row drops the resumed rows it measures again

@@ -705,8 +705,8 @@ def _add_bench(sub) -> None:
     p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all")
     p.add_argument("-o", "--out", default="bench-out", help="output folder")
     p.add_argument("--resume", action="store_true",
-                   help="keep rows already in OUT/rows.jsonl and skip them (the same ray counts only); rows of changed "
-                   "triangles or rays, hardware, wrt source or Warp version are measured again")
+                   help="keep rows already in OUT/rows.jsonl and skip them (the same ray counts and repeats only); "
+                   "rows of changed triangles or rays, hardware, wrt source or Warp version are measured again")
     p.add_argument(
         "--dask",
         nargs="?",
