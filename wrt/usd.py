@@ -251,7 +251,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
         self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None)
-        self.skel = SkelPoser(time, self._skip)  # poses meshes skinned by UsdSkel skeletons
+        self.skel = SkelPoser(time, self._skip, self._shown_path)  # poses meshes skinned by UsdSkel skeletons
         self.tubes = TubeReader(time, self._skip, self._error)  # Points and curves as spheres and tubes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end

@@ -16,7 +16,10 @@ Time: the animation is read at the load's time; with the default time, an animat
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
 (:func:`wrt.usd_values.read_time`). A mesh whose skinning fails (joint indices out of range, influences that do not
 match its points, a skeleton that cannot be posed, bind transforms that do not match its joints, weights or a pose
-that are not finite) keeps its unposed points, with a warning naming it.
+that are not finite) keeps its unposed points, with a warning naming it. A blend shape that does not fit its mesh
+(``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points without
+them; a point index out of range; offsets that are not finite) is left out, with a warning naming the mesh, the
+BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from .usd_values import read_time
 
 _ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
 FAILED = "UsdSkel skinning failed; these meshes are drawn in their unposed points"  # warning reason
+BAD_SHAPE = "UsdSkel blend shapes that do not fit their mesh were left out; the rest of its pose applies"  # reason
 
 
 class SkelPoser:
@@ -36,11 +40,13 @@ class SkelPoser:
     Args:
         time: the load's time code.
         skip: ``skip(reason, prim, detail)`` records a mesh left unposed (one warning per reason).
+        shown_path: ``shown_path(prim)``, the path naming a prim in warnings (a BlendShape in a prototype too).
     """
 
-    def __init__(self, time: Usd.TimeCode, skip):
+    def __init__(self, time: Usd.TimeCode, skip, shown_path=lambda prim: str(prim.GetPath())):
         self.time = time
         self.skip = skip
+        self.shown_path = shown_path
         self.cache = UsdSkel.Cache()
         self.roots = set()  # SkelRoot paths populated in the cache
         self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or why not, anim time, anim query)
@@ -88,7 +94,7 @@ class SkelPoser:
             raise ValueError("invalid joint influences or skel:joints")
         xforms, anim_time, anim = self._skinning_transforms(skeleton)
         if query.HasBlendShapes() and anim:
-            points, normals = _blend(prim, query, anim, anim_time, points, normals, vertex_ids)
+            points, normals = self._blend(prim, query, anim, anim_time, points, normals, vertex_ids)
         if not query.HasJointInfluences():
             return points, normals, prim  # blend shapes only: still in the mesh's own space
         if isinstance(xforms, str):
@@ -126,6 +132,42 @@ class SkelPoser:
                 xforms = computed if computed is not None and len(computed) == joints else xforms
             self.poses[key] = (xforms, anim_time, anim or None)
         return self.poses[key]
+
+    def _blend(self, prim, query, anim, anim_time, points, normals, vertex_ids):
+        """``points`` moved and ``normals`` (as :meth:`pose` takes them, or None) turned by the blend shapes of
+        ``prim`` at the animation's weights (``BlendShapeQuery``), less those that do not fit it (recorded through
+        ``skip``: USD fails the whole deformation for one of them)."""
+        weights = anim.ComputeBlendShapeWeights(anim_time)
+        mapper = query.GetBlendShapeMapper()
+        if weights is None:
+            return points, normals
+        if mapper and not mapper.IsNull() and not mapper.IsIdentity():
+            weights = mapper.Remap(weights, Vt.FloatArray())  # into the mesh's skel:blendShapes order
+        shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
+        sub_weights, shape_ids, sub_ids = shapes.ComputeSubShapeWeights(weights)
+        point_indices = shapes.ComputeBlendShapePointIndices()
+        sub_offsets = shapes.ComputeSubShapePointOffsets()
+        misfits = {}  # blend shape index -> what is wrong with it (at weight 0 it moves nothing, and USD skips it)
+        for weight, shape, sub in zip(sub_weights, shape_ids, sub_ids):
+            why = None if weight == 0.0 or shape in misfits else _misfit(
+                shapes, shape, sub, point_indices[shape], sub_offsets[sub], len(points), normals is not None)
+            if why:
+                misfits[shape] = why
+                self.skip(BAD_SHAPE, prim, f"{self.shown_path(shapes.GetBlendShape(shape).GetPrim())}: {why}")
+        if misfits:
+            keep = np.array([shape not in misfits for shape in shape_ids], bool)
+            sub_weights = Vt.FloatArray.FromNumpy(np.asarray(sub_weights, np.float32)[keep])
+            shape_ids = Vt.UIntArray.FromNumpy(np.asarray(shape_ids, np.uint32)[keep])
+            sub_ids = Vt.UIntArray.FromNumpy(np.asarray(sub_ids, np.uint32)[keep])
+        moved = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(points, np.float32))
+        if not shapes.ComputeDeformedPoints(sub_weights, shape_ids, sub_ids, point_indices, sub_offsets, moved):
+            raise ValueError("blend shapes do not match the points")
+        if normals is not None:
+            offsets = _normal_offsets(shapes, zip(sub_weights, shape_ids, sub_ids), point_indices, len(points))
+            if offsets is not None:  # per triangle corner, as the skinned normals are
+                values, corners = normals
+                normals = (values[corners] + offsets[vertex_ids]).reshape(-1, 3), np.arange(corners.size).reshape(-1, 3)
+        return np.array(moved, np.float64), normals
 
 
 class _Influences:
@@ -189,48 +231,45 @@ class _Influences:
         return np.array(UsdSkel.SkinTransform(self.method, self.bind, self.xforms, self.indices, self.weights))
 
 
-def _blend(prim, query, anim, anim_time, points, normals, vertex_ids):
-    """``points`` moved and ``normals`` (as :meth:`SkelPoser.pose` takes them, or None) turned by the blend shapes of
-    ``prim`` at the animation's weights (``BlendShapeQuery``)."""
-    weights = anim.ComputeBlendShapeWeights(anim_time)
-    mapper = query.GetBlendShapeMapper()
-    if weights is None:
-        return points, normals
-    if mapper and not mapper.IsNull() and not mapper.IsIdentity():
-        weights = mapper.Remap(weights, Vt.FloatArray())  # into the mesh's skel:blendShapes order
-    shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
-    sub_weights, shape_ids, sub_ids = shapes.ComputeSubShapeWeights(weights)
-    point_indices = shapes.ComputeBlendShapePointIndices()
-    moved = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(points, np.float32))
-    if not shapes.ComputeDeformedPoints(sub_weights, shape_ids, sub_ids, point_indices,
-                                        shapes.ComputeSubShapePointOffsets(), moved):
-        raise ValueError("blend shapes do not match the points")
-    if normals is not None:
-        offsets = _normal_offsets(shapes, zip(sub_weights, shape_ids, sub_ids), point_indices, len(points))
-        if offsets is not None:  # per triangle corner, as the skinned normals are
-            values, corners = normals
-            normals = (values[corners] + offsets[vertex_ids]).reshape(-1, 3), np.arange(corners.size).reshape(-1, 3)
-    return np.array(moved, np.float64), normals
+def _misfit(shapes, shape: int, sub: int, point_indices, offsets, n_points: int, with_normals: bool) -> str | None:
+    """What keeps sub-shape ``sub`` (a primary shape or an inbetween) of blend shape ``shape`` from fitting a mesh of
+    ``n_points`` points, in words, or None when it fits. ``with_normals``: its ``normalOffsets`` are used too."""
+    at = np.asarray(point_indices, np.int64)
+    bad = np.flatnonzero((at < 0) | (at >= n_points))
+    if len(bad):
+        return f"pointIndices[{bad[0]}] = {at[bad[0]]} is out of range for {n_points} points"
+    inbetween = shapes.GetInbetween(sub)
+    named = f"{inbetween.GetAttr().GetName()} " if inbetween else ""  # inbetweens:NAME, offsets of its own
+    wanted = f"{len(at)} pointIndices" if len(at) else f"{n_points} points (no pointIndices)"
+    if len(offsets) != (len(at) or n_points):
+        return f"{len(offsets)} {named}offsets for {wanted}"
+    if not np.isfinite(np.asarray(offsets, np.float64)).all():
+        return f"{named}offsets are not finite"
+    normal_offsets = _sub_normal_offsets(shapes, shape, sub) if with_normals else None
+    if normal_offsets is not None and len(normal_offsets) != (len(at) or n_points):
+        return f"{len(normal_offsets)} {named}normalOffsets for {wanted}"
+    return None
+
+
+def _sub_normal_offsets(shapes, shape: int, sub: int):
+    """The ``normalOffsets`` of sub-shape ``sub`` of blend shape ``shape`` (its inbetween's or its own), or None
+    when it has none."""
+    inbetween = shapes.GetInbetween(sub)
+    offsets = inbetween.GetNormalOffsets() if inbetween else shapes.GetBlendShape(shape).GetNormalOffsetsAttr().Get()
+    return offsets if offsets is not None and len(offsets) else None
 
 
 def _normal_offsets(shapes, sub_shapes, point_indices, n_points: int) -> np.ndarray | None:
     """``(V, 3)`` sum of the ``normalOffsets`` of the weighted ``sub_shapes`` (``(weight, blend shape, sub-shape)``;
-    primary shapes' and inbetweens' offsets), or None when none has any: ``BlendShapeQuery.ComputeDeformedNormals``,
-    which Python cannot call."""
+    primary shapes' and inbetweens' offsets, each fitting the mesh: :func:`_misfit`), or None when none has any:
+    ``BlendShapeQuery.ComputeDeformedNormals``, which Python cannot call."""
     total = np.zeros((n_points, 3))
     for weight, shape, sub in sub_shapes:
-        inbetween = shapes.GetInbetween(sub)
-        if inbetween:
-            offsets = inbetween.GetNormalOffsets()
-        else:
-            offsets = shapes.GetBlendShape(shape).GetNormalOffsetsAttr().Get()
-        if weight == 0.0 or offsets is None or len(offsets) == 0:
+        offsets = _sub_normal_offsets(shapes, shape, sub)
+        if weight == 0.0 or offsets is None:
             continue
         at = np.asarray(point_indices[shape], np.int64)
-        at = at if len(at) else np.arange(n_points)
-        if len(offsets) != len(at) or (len(at) and (at.min() < 0 or at.max() >= n_points)):
-            raise ValueError("blend shape normalOffsets do not match its points")
-        np.add.at(total, at, weight * np.asarray(offsets, np.float64))
+        np.add.at(total, at if len(at) else np.arange(n_points), weight * np.asarray(offsets, np.float64))
     return total if total.any() else None
 
 
