@@ -785,11 +785,9 @@ class Scene:
         """``(T + S,)`` bool per geometry id (:meth:`geometry` rows, then the analytic shapes): its mesh or shape has
         no displayColor of its own there (no colours, or NaN ones), so an instance's colour (``Instances.colors``)
         applies to it, as Hydra hands a PointInstancer's instance primvars to the prototypes' meshes that lack that
-        primvar."""
-        parts = [np.full(len(m.indices), True) if m.colors is None else np.isnan(m.colors[:, 0, 0])
-                 for m in self._geometry_meshes()]
-        parts.append(np.array([s.color is None for s in self._geometry_shapes()], bool))
-        return np.concatenate(parts)
+        primvar. Read off the cached :meth:`corner_attributes`, NaN where a mesh or shape has no colour: a walk over
+        every mesh took 70-145 ms for 40k meshes per upload."""
+        return np.isnan(self.corner_attributes()[1][:, 0, 0])
 
     def triangle_materials(self) -> np.ndarray:
         """``(T,)`` int32 material of every triangle (geometry order) as a device material index: 0 for the default
