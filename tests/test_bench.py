@@ -610,3 +610,15 @@ def test_shadow_rays_aim_at_the_first_distant_light_whatever_comes_before_it():
                     wrt.DistantLight(direction=sun, color=(1.0, 1.0, 1.0))]
     _, directions = ray_set(scene, "shadow", 2000, seed=3)
     np.testing.assert_allclose(directions, np.broadcast_to(-sun, directions.shape), atol=1e-6)
+
+
+def test_default_sun_of_a_z_up_scene_is_the_y_up_sun_turned_as_the_scene_is():
+    """The same world content written Z-up (turned a quarter about +X, (x, y, z) -> (x, -z, y)) must get the same
+    shadow rays turned alike; the Z-up sun swapped y and z, a mirror image, so it lit the scene from the other side."""
+    points, indices = displaced_sphere(2000)
+    y_up = wrt.Scene.from_triangles(points, indices)
+    z_up = wrt.Scene.from_triangles(np.stack([points[:, 0], -points[:, 2], points[:, 1]], axis=1), indices)
+    z_up.up_axis = "Z"
+    _, y_dirs = ray_set(y_up, "shadow", 500, seed=3)
+    _, z_dirs = ray_set(z_up, "shadow", 500, seed=3)
+    np.testing.assert_allclose(z_dirs[0], [y_dirs[0][0], -y_dirs[0][2], y_dirs[0][1]], atol=1e-6)

@@ -90,7 +90,9 @@ def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int
         if suns:
             to_light = -np.asarray(suns[0].direction, np.float64)
         else:
-            to_light = DEFAULT_SUN if scene.up_axis != "Z" else DEFAULT_SUN[[0, 2, 1]]
+            # Y-up to Z-up is the quarter turn about +X that takes +Y to +Z ((x, y, z) -> (x, -z, y)), the turn
+            # frame_scene makes too; swapping y and z mirrored it to the side of the scene away from the camera.
+            to_light = DEFAULT_SUN if scene.up_axis != "Z" else DEFAULT_SUN[[0, 2, 1]] * (1.0, -1.0, 1.0)
         out = np.broadcast_to(to_light / np.linalg.norm(to_light), position.shape)
     elif kind == "diffuse":
         rng = np.random.default_rng(seed)
