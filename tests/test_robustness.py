@@ -452,6 +452,50 @@ def test_cpu_renders_beyond_the_host_memory_are_refused(monkeypatch):
         check_memory(estimate_render_bytes(1_000_000, 1920, 1080), "cpu")
 
 
+def _room():
+    from wrt.cli import default_scene_path
+
+    return wrt.load_usd(default_scene_path())
+
+
+def test_library_renders_past_the_memory_are_refused_before_allocating(monkeypatch):
+    """Only the command line checked the memory: wrt.render past the host's memory allocated until the system
+    killed the process (a notebook's kernel died), or failed in Warp's words without naming the request."""
+    monkeypatch.setattr("wrt.resources.available_host_bytes", lambda: 512 << 10)
+    with pytest.raises(MemoryError, match=r"rendering 64x48 at 1 samples per launch needs about .* 512.0 KiB is"):
+        wrt.render(_room(), width=64, height=48, device="cpu")
+
+
+def test_a_batch_past_warps_launch_limit_is_refused_naming_it():
+    """64x64 pixels x batch 10^6 is 4.1e9 paths: Warp refused the array "shapes must not exceed the maximum
+    representable value of a signed 32-bit integer", a message that named neither the batch nor the render."""
+    with pytest.raises(ValueError, match=r"rendering 64x64 at 1000000 samples per launch is 4096000000 paths; .*batch"):
+        wrt.render(_room(), width=64, height=64, spp=10**6, batch=10**6, device="cpu")
+
+
+@pytest.mark.parametrize("spp", [1, 16])
+def test_render_memory_estimate_covers_what_a_render_allocates(monkeypatch, spp):
+    """The estimate behind --max-memory and the memory checks is an upper bound of the buffers a render allocates,
+    within a small factor: it counted 256 bytes per pixel, fewer than the path buffers alone (216 per path), and no
+    paths for the several samples per launch of a small image (16 spp of 64x48: 49k paths)."""
+    from wrt.resources import estimate_render_bytes
+
+    renderer = wrt.Renderer(_room(), width=64, height=48, device="cpu")
+    allocated = []
+    for name in ("empty", "zeros", "full"):
+        real = getattr(wp, name)
+
+        def counting(shape=None, *args, real=real, **kwargs):
+            array = real(shape, *args, **kwargs)
+            allocated.append(array.capacity)
+            return array
+
+        monkeypatch.setattr(wp, name, counting)
+    renderer.render(spp=spp)
+    estimate = estimate_render_bytes(0, 64, 48) if spp == 1 else estimate_render_bytes(0, 64, 48, spp)
+    assert sum(allocated) <= estimate < 2 * sum(allocated)
+
+
 def test_allocation_failure_is_a_clean_one_line_error(tmp_path, capsys, monkeypatch):
     import warp
 

@@ -366,7 +366,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     limit = parse_bytes(args.max_memory) if args.max_memory else None
     _, width, height = resolve_view(scene, args.camera, args.width, args.height)  # the stage's settings, if any
     check_pixels(width, height)  # the limit is the clearer error where both apply
-    needed = estimate_render_bytes(stats["rendered_triangles"], width, height)
+    needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp)
     check_memory(needed, args.device, limit, f"rendering {path.name} at {width}x{height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)

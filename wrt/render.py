@@ -30,6 +30,7 @@ from .light_table import build_lights, no_response_triangles, set_headlight_dire
 from .lights import default_lights
 from .materials import emission_estimates, upload_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH
+from .resources import check_memory
 from .scene import MIN_METERS_PER_UNIT, Scene, dataclass_parts, parts_changed
 from .shade import (
     MAX_CULL_PASSES,
@@ -47,6 +48,7 @@ from .trace import HitBuffer, check_scene, get_accelerator, resolve_device, reso
 
 MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
 MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
+MAX_LAUNCH_PATHS = (1 << 31) - 1  # Warp's arrays and wp.tid() are 32-bit: no launch can index more paths
 DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
 MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (2^32 + 2 wrapped onto 2)
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
@@ -63,6 +65,21 @@ def check_pixels(width: int, height: int, n_views: int = 1) -> None:
         raise ValueError(
             f"{n_views} x {width}x{height} is {n_views * width * height} pixels; at most {MAX_PIXELS} are supported"
         )
+
+
+def samples_per_launch(n_pixels: int, spp: int, batch: int | None = None) -> int:
+    """Samples per pixel of each launch of a render of ``spp`` samples: ``batch``, by default as many as fit in
+    :data:`MAX_PATHS_PER_LAUNCH` paths (at least one), never more than ``spp``."""
+    if batch is None:
+        batch = max(1, min(spp, MAX_PATHS_PER_LAUNCH // n_pixels))
+    return min(int(batch), spp)
+
+
+def render_bytes(n_pixels: int, paths: int) -> int:
+    """Device bytes a render allocates for ``paths`` paths per launch and ``n_pixels`` pixels (summed radiance, its
+    mean and the AOVs)."""
+    pixel = 2 * wp.types.type_size_in_bytes(wp.vec3) + sum(map(wp.types.type_size_in_bytes, _AovBuffers.SPEC.values()))
+    return paths * _Wavefront.bytes_per_path() + n_pixels * pixel
 
 
 def check_seed(seed) -> int:
@@ -183,6 +200,13 @@ class _Wavefront:
         self.hits = HitBuffer(n, device)
         self.scratch = CullScratch(n, device, nothing_to_cull, no_holes)
         self.counter = wp.zeros(1, dtype=wp.int32, device=device)
+
+    @classmethod
+    def bytes_per_path(cls) -> int:
+        """Device bytes :meth:`__init__` allocates per path: the fields, ``shadow_t_mins``, the hits and the cull
+        scratch (a ray range and hits of its own)."""
+        fields = sum(wp.types.type_size_in_bytes(t) for t in cls.FIELDS.values()) + 4
+        return fields + HitBuffer.BYTES_PER_RAY + CullScratch.BYTES_PER_RAY
 
     def view(self, m: int) -> _Wavefront:
         if m == self.n:
@@ -475,11 +499,10 @@ class Renderer:
         n_pixels = self.width * self.height * len(self.cameras)
         if self.integrator in ("normals", "depth", "albedo"):
             spp = 1
-        if batch is None:
-            batch = max(1, min(spp, MAX_PATHS_PER_LAUNCH // n_pixels))
-        batch = min(int(batch), spp)
+        batch = samples_per_launch(n_pixels, spp, batch)
         n = n_pixels * batch
         if self._wavefront is None or self._wavefront.n < n:
+            self._check_launch(n_pixels, batch)
             self._wavefront = _Wavefront(n, self.device, self.nothing_to_cull, self.no_holes)
         dev = self.device
         state = self._progressive
@@ -516,6 +539,16 @@ class Renderer:
         self.dropped_samples = int(dropped.numpy()[0])
         return self._mean_image(image, total, aovs)
 
+    def _check_launch(self, n_pixels: int, batch: int) -> None:
+        """Refuses launches of ``batch`` samples of ``n_pixels`` pixels that Warp cannot index or the device cannot
+        hold, naming the request, before anything is allocated: Warp failed with its own words (an array shape past
+        2^31, "Failed to allocate N bytes") and a CPU render past the host's memory could be killed by the system."""
+        views = f" x {len(self.cameras)} cameras" if len(self.cameras) > 1 else ""
+        what = f"rendering {self.width}x{self.height}{views} at {batch} samples per launch"
+        if n_pixels * batch > MAX_LAUNCH_PATHS:
+            raise ValueError(f"{what} is {n_pixels * batch} paths; a launch takes at most 2^31 - 1: lower batch")
+        check_memory(render_bytes(n_pixels, n_pixels * batch), self.device, what=what)
+
     @property
     def samples_so_far(self) -> int:
         """Samples per pixel in the progressive sums: those of the last :meth:`render`, also an interrupted one."""
@@ -544,6 +577,7 @@ class Renderer:
         self._follow_scene()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
+            self._check_launch(n_pixels, 1)
             self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull, self.no_holes),
                            wp.zeros(n_pixels, dtype=wp.vec3, device=self.device),
                            wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device))

@@ -1,9 +1,10 @@
 """Memory planning: predict what a render will allocate and refuse it before allocating when it cannot fit.
 
 The estimate counts the large buffers: triangles and per-corner shading data, the BVH (at most ``2N - 1`` nodes of
-32 bytes plus ``40`` bytes of leaf-ordered triangle data per triangle) and about ``PIXEL_BYTES`` of ray, hit and
-image buffers per pixel. It is an upper bound within a small factor, good enough to turn an absurd request into a
-clear message instead of an allocation failure deep inside a kernel launch.
+32 bytes plus ``40`` bytes of leaf-ordered triangle data per triangle) and the render's path and pixel buffers
+(:func:`wrt.render.render_bytes`, summed from the buffers themselves). It is an upper bound within a small factor,
+good enough to turn an absurd request into a clear message instead of an allocation failure deep inside a kernel
+launch.
 """
 
 from __future__ import annotations
@@ -11,7 +12,6 @@ from __future__ import annotations
 import os
 import re
 
-PIXEL_BYTES = 256  # ray, hit, shadow, radiance, AOV and accumulation buffers per pixel (upper bound)
 TRIANGLE_BYTES = 12 * 3 + 36 * 2 + 64 + 40 + 4  # points, corner normals and colours, BVH nodes, leaf copies, ids
 
 _UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
@@ -25,9 +25,13 @@ def parse_bytes(text: str) -> int:
     return int(float(match.group(1)) * _UNITS[match.group(2).lower()])
 
 
-def estimate_render_bytes(triangles: int, width: int, height: int) -> int:
-    """Upper-bound bytes a render of ``width x height`` pixels over ``triangles`` triangles allocates."""
-    return int(triangles) * TRIANGLE_BYTES + int(width) * int(height) * PIXEL_BYTES
+def estimate_render_bytes(triangles: int, width: int, height: int, spp: int = 1) -> int:
+    """Upper-bound bytes a render of ``width x height`` pixels and ``spp`` samples over ``triangles`` triangles
+    allocates (a small image takes several samples per launch: its paths count)."""
+    from .render import render_bytes, samples_per_launch
+
+    pixels = int(width) * int(height)
+    return int(triangles) * TRIANGLE_BYTES + render_bytes(pixels, pixels * samples_per_launch(pixels, spp))
 
 
 def format_bytes(n: float) -> str:

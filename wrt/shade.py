@@ -843,6 +843,8 @@ class CullScratch:
         no_holes: no cut-out material on any geometry: shadow rays are plain any-hit queries.
     """
 
+    BYTES_PER_RAY = 4 + 4 + 28  # t_mins, t_maxs and hits (a trace.HitBuffer: its BYTES_PER_RAY)
+
     def __init__(self, n: int, device, nothing_to_cull: bool, no_holes: bool):
         from .trace import HitBuffer
 

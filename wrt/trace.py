@@ -191,6 +191,8 @@ def split_rows_kernel(
 class HitBuffer:
     """Device arrays that trace kernels fill, one entry per ray."""
 
+    BYTES_PER_RAY = 4 * 3 + 4 + 8 + 4  # t, u, v; prim; cost; instance
+
     def __init__(self, n: int, device):
         self.t = wp.empty(n, dtype=float, device=device)  # distance in units of |direction|, inf on a miss
         self.u = wp.empty(n, dtype=float, device=device)  # barycentric weight of p1
