@@ -473,6 +473,25 @@ def test_a_batch_past_warps_launch_limit_is_refused_naming_it():
         wrt.render(_room(), width=64, height=64, spp=10**6, batch=10**6, device="cpu")
 
 
+def test_spp_past_the_32_bit_sample_index_is_refused_before_any_launch(monkeypatch, capsys):
+    """Kernels number samples with a 32-bit int: sample 2^31 wrapped to -2^31, and every sample from there on went
+    through the pixel centre unjittered (``sample > 0`` is false), after hours of work and without a word."""
+    from wrt.cli import main
+
+    renderer = wrt.Renderer(_room(), width=4, height=4, device="cpu")
+
+    def launched(*args):
+        raise AssertionError("a launch began")
+
+    monkeypatch.setattr(renderer, "_start_and_trace", launched)
+    with pytest.raises(ValueError, match=r"spp must be at most 2\^31 - 1 samples per pixel in all, got 2147483648"):
+        renderer.render(spp=2**31)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", "--spp", str(2**31), "-q"])
+    assert exit_info.value.code == 2
+    assert "--spp: must be an integer from 1 to 2^31 - 1, got 2147483648" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("spp", [1, 16])
 def test_render_memory_estimate_covers_what_a_render_allocates(monkeypatch, spp):
     """The estimate behind --max-memory and the memory checks is an upper bound of the buffers a render allocates,

@@ -193,7 +193,10 @@ def _add_render(sub) -> None:
                    "resolution, else 480")
     p.add_argument("--camera", help=CAMERA_HELP)
     add_stage_options(p)
-    p.add_argument("--spp", type=positive_int, default=1, help="samples per pixel")
+    from .render import MAX_SPP
+
+    p.add_argument("--spp", type=int_at_least(1, "an integer from 1 to 2^31 - 1", MAX_SPP), default=1,
+                   help="samples per pixel")
     p.add_argument("--seed", type=_seed, default=0, help="seed of every random decision (jitter, lens, paths)")
     p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]

@@ -54,6 +54,7 @@ MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
 MM_PER_METER = 1000.0  # camera focal lengths are read as millimetres for the thin lens
 MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit seed)
+MAX_SPP = 0x7FFFFFFF  # the kernels number samples with a 32-bit int: sample 2^31 wrapped to -2^31 (unjittered)
 # Most back-face cull passes of camera rays in a frame of launch_frame in a scene without cut-outs (outside a graph
 # capture all of them run: no host reads); with cut-outs up to MAX_CULL_PASSES, to pass as many holes as render.
 CAPTURE_CULL_PASSES = 2
@@ -495,19 +496,23 @@ class Renderer:
         if batch is not None and (isinstance(batch, bool) or not isinstance(batch, (int, np.integer)) or batch < 1):
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
         spp, seed = int(spp), check_seed(seed)
-        self._follow_scene()
-        n_pixels = self.width * self.height * len(self.cameras)
-        if self.integrator in ("normals", "depth", "albedo"):
+        self._follow_scene()  # a rebuild drops the progressive sums
+        quick_look = self.integrator in ("normals", "depth", "albedo")
+        state = self._progressive
+        resuming = resume and state is not None and state["seed"] == seed and not quick_look
+        if quick_look:
             spp = 1
+        if (state["samples"] if resuming else 0) + spp > MAX_SPP:
+            raise ValueError(f"spp must be at most 2^31 - 1 samples per pixel in all, got {spp}"
+                             + (f" after {state['samples']}" if resuming else ""))
+        n_pixels = self.width * self.height * len(self.cameras)
         batch = samples_per_launch(n_pixels, spp, batch)
         n = n_pixels * batch
         if self._wavefront is None or self._wavefront.n < n:
             self._check_launch(n_pixels, batch)
             self._wavefront = _Wavefront(n, self.device, self.nothing_to_cull, self.no_holes)
         dev = self.device
-        state = self._progressive
-        if (resume and state is not None and state["seed"] == seed
-                and self.integrator not in ("normals", "depth", "albedo")):
+        if resuming:
             image, dropped, aovs, done = state["sum"], state["dropped"], state["aovs"], state["samples"]
         else:
             image = wp.zeros(n_pixels, dtype=wp.vec3, device=dev)
