@@ -515,6 +515,33 @@ def test_render_memory_estimate_covers_what_a_render_allocates(monkeypatch, spp)
     assert sum(allocated) <= estimate < 2 * sum(allocated)
 
 
+def test_host_memory_counts_a_control_groups_limit(tmp_path, monkeypatch):
+    """A container's or batch job's memory limit (cgroup v2 here) left out of MemAvailable: a render the host could
+    hold but the job could not was let through, and the kernel killed the process part way."""
+    from wrt import resources
+
+    mib = 1 << 20
+    (tmp_path / "memory.max").write_text(f"{512 * mib}\n")
+    (tmp_path / "memory.current").write_text(f"{300 * mib}\n")
+    (tmp_path / "memory.stat").write_text(f"anon {200 * mib}\ninactive_file {42 * mib}\nactive_file 0\n")
+    monkeypatch.setattr(resources, "CGROUP_ROOT", str(tmp_path), raising=False)
+    assert resources.available_host_bytes() == 254 * mib  # 512 - 300 + 42 of cache the group gives back
+    with pytest.raises(MemoryError, match="needs about 300.0 MiB of host memory, 254.0 MiB is available"):
+        resources.check_memory(300 * mib, "cpu")
+
+
+def test_host_memory_counts_ulimit_v(monkeypatch):
+    """``ulimit -v`` (RLIMIT_AS) left out: the check passed and Warp failed with "Failed to allocate N bytes"."""
+    import resource
+
+    from wrt import resources
+
+    with open("/proc/self/status") as f:
+        size = next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmSize:"))
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (size + (100 << 20), resource.RLIM_INFINITY))
+    assert resources.available_host_bytes() < 200 << 20
+
+
 def test_allocation_failure_is_a_clean_one_line_error(tmp_path, capsys, monkeypatch):
     import warp
 

@@ -43,19 +43,88 @@ def format_bytes(n: float) -> str:
         n /= 1024
 
 
+CGROUP_ROOT = "/sys/fs/cgroup"  # where the control groups (memory limits of containers and batch jobs) are mounted
+
+
+def _read_number(path: str) -> int | None:
+    """The integer in file ``path`` (``memory.max``, ``memory.current``), or None: missing, unreadable, ``max``."""
+    try:
+        with open(path) as f:
+            return int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _reclaimable(stat_path: str) -> int:
+    """Bytes of inactive file cache in a cgroup's ``memory.stat``: counted in its usage, but given back on demand."""
+    try:
+        with open(stat_path) as f:
+            fields = dict(line.split() for line in f if line.count(" ") == 1)
+    except (OSError, ValueError):
+        return 0
+    return int(fields.get("inactive_file", fields.get("total_inactive_file", 0)))
+
+
+def cgroup_room() -> int | None:
+    """Bytes the memory limit of this process's control group (a container, a Slurm or Kubernetes job) still
+    allows: its limit less its usage, page cache it can reclaim left out; the tightest of the groups above it (v2);
+    None where no limit is set. The system's MemAvailable does not see such a limit, and the kernel kills a process
+    that passes it."""
+    def room(folder: str, limit_file: str, usage_file: str) -> None:
+        limit = _read_number(f"{folder}/{limit_file}")
+        if limit is not None and limit < 1 << 60:  # v1 writes "no limit" as a number near 2^63, v2 as "max"
+            usage = _read_number(f"{folder}/{usage_file}") or 0
+            rooms.append(limit - usage + _reclaimable(f"{folder}/memory.stat"))
+
+    rooms = []
+    room(f"{CGROUP_ROOT}/memory", "memory.limit_in_bytes", "memory.usage_in_bytes")  # v1
+    try:
+        with open("/proc/self/cgroup") as f:
+            group = next((line.strip()[3:] for line in f if line.startswith("0::")), "")
+    except OSError:
+        group = ""
+    folder = f"{CGROUP_ROOT}/{group.strip('/')}".rstrip("/")
+    while folder.startswith(CGROUP_ROOT):  # v2: the group, then each parent up to the root
+        room(folder, "memory.max", "memory.current")
+        folder = os.path.dirname(folder)
+    return max(0, min(rooms)) if rooms else None
+
+
+def address_space_room() -> int | None:
+    """Bytes of address space ``ulimit -v`` (RLIMIT_AS) still leaves this process, or None without such a limit:
+    past it every allocation fails."""
+    try:
+        import resource
+
+        limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if limit == resource.RLIM_INFINITY:
+            return None
+        with open("/proc/self/status") as f:
+            size = next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmSize:"))
+    except (ImportError, OSError, ValueError, StopIteration):
+        return None
+    return max(0, limit - size)
+
+
 def available_host_bytes() -> int | None:
-    """Bytes of host memory the system can still hand out (``MemAvailable`` on Linux), or ``None`` where unknown."""
+    """Bytes of host memory this process can still get: the system's ``MemAvailable`` on Linux, less where a
+    control group's limit or ``ulimit -v`` leaves less (:func:`cgroup_room`, :func:`address_space_room`); ``None``
+    where none is known."""
+    free = None
     try:
         with open("/proc/meminfo") as f:
             for line in f:
                 if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+                    free = int(line.split()[1]) * 1024
     except (OSError, ValueError, IndexError):
         pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):
-        return None
+    if free is None:
+        try:
+            free = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (AttributeError, ValueError, OSError):
+            pass
+    known = [n for n in (free, cgroup_room(), address_space_room()) if n is not None]
+    return min(known) if known else None
 
 
 def check_host_memory(needed: int, what: str) -> None:
