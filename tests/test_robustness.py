@@ -1,5 +1,7 @@
 """Numerical robustness: watertightness, self-intersection, ties, far-away scenes, the hang guard."""
 
+import contextlib
+import os
 import subprocess
 import sys
 
@@ -540,6 +542,27 @@ def test_host_memory_counts_ulimit_v(monkeypatch):
         size = next(int(line.split()[1]) * 1024 for line in f if line.startswith("VmSize:"))
     monkeypatch.setattr(resource, "getrlimit", lambda which: (size + (100 << 20), resource.RLIM_INFINITY))
     assert resources.available_host_bytes() < 200 << 20
+
+
+@pytest.mark.parametrize("write", ["save_aovs", "save_aov_png"])
+def test_an_interrupted_aov_write_leaves_no_truncated_file(tmp_path, monkeypatch, write):
+    """The image was written to a temporary file and renamed, its AOVs straight under their names: Ctrl-C while
+    writing left a cut-short depth.npy (or x.depth.png) that read as a finished one."""
+    image = wrt.render(_room(), width=8, height=6, device="cpu", integrator="normals")
+
+    def interrupted(target):  # some bytes reach the file, then Ctrl-C
+        with open(target, "ab") if isinstance(target, (str, os.PathLike)) else contextlib.nullcontext(target) as f:
+            f.write(b"\x93NUMPY")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(np, "save", lambda file, array, **kwargs: interrupted(file))
+    monkeypatch.setattr("PIL.Image.Image.save", lambda self, file, *args, **kwargs: interrupted(file))
+    with pytest.raises(KeyboardInterrupt):
+        if write == "save_aovs":
+            image.save_aovs(tmp_path, ["depth"])
+        else:
+            image.save_aov_png("depth", tmp_path / "x.depth.png")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_allocation_failure_is_a_clean_one_line_error(tmp_path, capsys, monkeypatch):

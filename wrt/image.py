@@ -267,7 +267,12 @@ class Image:
         paths = []
         for name in names:
             paths.append(directory / f"{name}.npy")
-            np.save(paths[-1], self.aovs[name])
+
+            def write(target, array=self.aovs[name]):
+                with open(target, "wb") as f:  # np.save(path) appends ".npy" to the temporary name
+                    np.save(f, array)
+
+            write_atomically(paths[-1], write)
             if png:
                 paths.append(self.save_aov_png(name, directory / f"{name}.png"))
         return paths
@@ -279,6 +284,6 @@ class Image:
         if name not in self.aovs:
             raise ValueError(f"unknown AOV {name!r}; available: {', '.join(self.aovs)}")
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        PilImage.fromarray(aov_preview(name, self.aovs[name]), mode="RGB").save(path)
+        preview = PilImage.fromarray(aov_preview(name, self.aovs[name]), mode="RGB")
+        write_atomically(path, lambda target: preview.save(target, format="PNG"))
         return path
