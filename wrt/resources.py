@@ -70,6 +70,7 @@ def cgroup_room() -> int | None:
     allows: its limit less its usage, page cache it can reclaim left out; the tightest of the groups above it (v2);
     None where no limit is set. The system's MemAvailable does not see such a limit, and the kernel kills a process
     that passes it."""
+
     def room(folder: str, limit_file: str, usage_file: str) -> None:
         limit = _read_number(f"{folder}/{limit_file}")
         if limit is not None and limit < 1 << 60:  # v1 writes "no limit" as a number near 2^63, v2 as "max"
