@@ -315,7 +315,7 @@ def test_non_finite_vertices_raise_for_every_accelerator(accel):
         wrt.trace(wrt.Scene(meshes=[mesh]), np.zeros((1, 3)), np.ones((1, 3)), accel=accel)
     scene = wrt.Scene.from_triangles(points, tris)
     acc = get_accelerator(scene, accel)
-    with pytest.raises(ValueError, match="finite.*triangle"):
+    with pytest.raises(wrt.SceneError, match=f"/sphere: triangle {first} uses vertex .*not finite"):  # the mesh's check
         acc.refit(wrt.Scene(meshes=[mesh]))
 
 
@@ -393,6 +393,43 @@ def test_meshes_refuse_per_triangle_arrays_of_another_length():
             Mesh("/Quad", points, quads, **kwargs)
     mesh = Mesh("/Quad", points, quads, [0, 1], normals=np.zeros((6, 3)), uvs=np.zeros(12), material_ids=[[0], [1]])
     assert mesh.normals.shape == (2, 3, 3) and mesh.uvs.shape == (2, 3, 2) and mesh.material_ids.tolist() == [0, 1]
+
+
+def test_mesh_arrays_assigned_after_construction_are_checked_before_the_next_trace_or_render():
+    """The constructor refused per-triangle arrays of another length, but a field assigned later (a simulation step's
+    ``mesh.material_ids = ...``) was not checked: one material id too many shifted the materials of every later mesh
+    without a word, and a 0-d array failed with a bare IndexError. A kept Renderer and a trace now refuse it, naming
+    the mesh; fixed, the mesh renders as a fresh scene of it does, and an assignment that needed a conversion
+    (float64 points) builds again once, not at every render."""
+    import copy
+
+    points = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+    quads = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+    red = wrt.Material(path="/Red", diffuse_color=(1.0, 0.0, 0.0))
+    scene = wrt.Scene(meshes=[Mesh("/A", points, quads, [0, 1], material_ids=[0, 0]),
+                              Mesh("/B", points + np.float32([3, 0, 0]), quads, [0, 1])], materials=[red])
+    camera = wrt.Camera.look_at((1.5, 0, 6), (1.5, 0, 0))
+    renderer = wrt.Renderer(scene, camera=camera, width=24, height=12, integrator="albedo", device="cpu")
+    renderer.render()
+    rays = (np.float32([[0, 0, 5]]), np.float32([[0, 0, -1]]))
+    for bad in ([0, 0, 0], np.array(0), [0]):
+        scene.meshes[0].material_ids = bad
+        with pytest.raises(wrt.SceneError, match=r"^/A: material_ids must have shape \(2,\), one entry per triangle"):
+            renderer.render()
+        with pytest.raises(wrt.SceneError, match="^/A: material_ids"):
+            wrt.trace(scene, *rays)
+    scene.meshes[0].material_ids = [0, -1]
+    scene.meshes[1].points = np.zeros((4, 4))
+    with pytest.raises(wrt.SceneError, match=r"^/B: points must have shape"):
+        renderer.render()
+    scene.meshes[1].points = (points + np.float32([3, 0, 0])).astype(np.float64)
+    image = renderer.render()
+    assert scene.meshes[1].points.dtype == np.float32 and scene.meshes[0].material_ids.dtype == np.int32
+    fresh = wrt.render(copy.deepcopy(scene), camera=camera, width=24, height=12, integrator="albedo", device="cpu")
+    np.testing.assert_array_equal(image.rgb, fresh.rgb)
+    accel = renderer.accel
+    renderer.render()
+    assert renderer.accel is accel  # the converted arrays are the ones recorded: nothing to build again
 
 
 def test_bad_trace_arguments_raise_value_error():
@@ -640,7 +677,7 @@ def test_id_layout_is_cached_once_traced_and_follows_replaced_meshes():
     assert scene._id_layout() is scene._id_layout()  # made once
     with pytest.raises(ValueError, match="read-only"):
         scene.instance_offsets()[0] = 5  # returned to callers: an edit would corrupt the cache
-    quad.indices = np.array([(0, 1, 2)], np.int32)
+    quad.indices, quad.face_ids = np.array([(0, 1, 2)], np.int32), np.array([0], np.int32)
     assert scene.num_flat_triangles == 1 and scene.split_ids([0])[0].tolist() == [0]
     scene.meshes.append(wrt.Mesh("/lid", [(0, 0, 4.5), (1, 1, 4.5), (0, 1, 4.5)], [(0, 1, 2)], [0]))
     assert scene.num_flat_triangles == 2 and scene.instance_offsets().tolist() == [2]

@@ -118,15 +118,44 @@ class Mesh(CountsAssignments):
     opacities: np.ndarray | None = None
 
     def __post_init__(self):
+        self.check(keep=False)
+
+    def __setattr__(self, name, value):
+        super().__setattr__(name, value)
+        # A field assigned after construction is checked as the constructor checks it, by the scene before its
+        # next trace or render (Scene.drop_stale_caches): mesh.material_ids = ids[:-1] shifted the materials of
+        # every later mesh without a word, and a 0-d array failed with a bare IndexError.
+        object.__setattr__(self, "_unchecked", True)
+
+    def check(self, *, keep: bool = True) -> None:
+        """Checks the arrays against each other and converts them to the dtypes and shapes of the attributes above;
+        the constructor calls it, and the scene again before its next trace or render for a mesh that had a field
+        assigned since (each simulation step's ``mesh.points = ...``).
+
+        Args:
+            keep: keep an array that already has its dtype and shape (the same object: the caches compare
+                objects), instead of a converted copy.
+
+        Raises:
+            SceneError: naming the mesh and the array.
+        """
         from .bvh.common import triangle_arrays
         from .errors import SceneError
+
+        def assign(name: str, array: np.ndarray) -> None:
+            value = getattr(self, name)
+            if not (keep and isinstance(value, np.ndarray) and value.dtype == array.dtype
+                    and value.shape == array.shape):
+                setattr(self, name, array)
 
         # Checked, not reshaped: (V, 4) points were read as other vertices, float indices truncated and an index
         # of 2**32 wrapped round to vertex 0, each drawing other triangles without a word.
         try:
-            self.points, self.indices = triangle_arrays(self.points, self.indices)
+            points, indices = triangle_arrays(self.points, self.indices)
         except ValueError as e:
             raise SceneError(str(e), prim=self.path) from None
+        assign("points", points)
+        assign("indices", indices)
         # Per-triangle arrays must have one entry per triangle: scene-wide arrays concatenate them mesh after mesh,
         # so one extra or missing row shifted the normals, colours or materials of every later mesh.
         triangles = len(self.indices)
@@ -139,8 +168,9 @@ class Mesh(CountsAssignments):
                 expected = (triangles, *corner)
                 raise SceneError(f"{name} must have shape {expected}, one entry per triangle; got {array.shape}",
                                  prim=self.path)
-            setattr(self, name, array.reshape((triangles, *corner)))
+            assign(name, array.reshape((triangles, *corner)))
         self.check_vertices()
+        object.__setattr__(self, "_unchecked", False)
 
     def check_vertices(self) -> None:
         """Raises :class:`SceneError` naming the mesh, the first triangle that uses a NaN or infinite vertex and that
@@ -404,6 +434,9 @@ class Scene:
         """Clears the caches when a part changed since the last record, and records the parts as they are now
         (``count`` and ``members``: :func:`wrt.assignments.assignments` and :meth:`_members`, taken before); returns
         them."""
+        for mesh in self._geometry_meshes():
+            if mesh.__dict__.get("_unchecked", True):  # a field assigned since its last check (Mesh.__setattr__)
+                mesh.check()
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
             self.invalidate()
