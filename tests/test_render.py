@@ -437,6 +437,39 @@ def test_a_kept_renderer_follows_a_replaced_mesh_an_in_place_edit_and_a_new_ligh
     np.testing.assert_array_equal(sunlit, wrt.render(quad, camera=camera, width=16, height=12, device="cpu").rgb)
 
 
+def test_material_and_light_fields_assigned_after_construction_are_checked_before_the_next_render():
+    """The constructors refuse NaN colours and negative sizes, but a field assigned later (a simulation step's
+    ``light.color = ...``) was not checked: a NaN diffuse colour rendered its triangles black, a NaN light colour or
+    a negative radius lit nothing, each without a word. A kept Renderer and a fresh render refuse them, naming the
+    prim and the field; a good value assigned is converted as the constructor converts it and built once."""
+    quad = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    quad.materials.append(wrt.Material(path="/Red", diffuse_color=(1.0, 0.0, 0.0)))
+    quad.meshes[0].material_ids = np.zeros(2, np.int32)
+    quad.lights.append(wrt.SphereLight(position=(0, 0, 2), radius=0.1, color=(30, 30, 30), path="/Bulb"))
+    camera = wrt.Camera.look_at((0, 0, 4), (0, 0, 0))
+    renderer = wrt.Renderer(quad, camera=camera, width=16, height=12, device="cpu")
+    lit = renderer.render().rgb
+    for obj, field, bad, message in (
+        (quad.materials[0], "diffuse_color", (np.nan, 0.0, 0.0), "^/Red: Material diffuse_color must be finite"),
+        (quad.lights[0], "color", (np.nan, 1.0, 1.0), "^/Bulb: SphereLight color must be finite"),
+        (quad.lights[0], "radius", -1.0, r"^/Bulb: SphereLight radius must be a finite number >= 0"),
+    ):
+        good = getattr(obj, field)
+        setattr(obj, field, bad)
+        with pytest.raises(wrt.SceneError, match=message):
+            renderer.render()
+        with pytest.raises(wrt.SceneError, match=message):
+            wrt.render(quad, camera=camera, width=16, height=12, device="cpu")
+        setattr(obj, field, good)
+        np.testing.assert_array_equal(renderer.render().rgb, lit)
+    quad.lights[0].color = [15, 15, 15]  # a list, as the constructor takes it
+    half = renderer.render().rgb
+    assert isinstance(quad.lights[0].color, np.ndarray) and 0 < half.max() < lit.max()
+    accel = renderer.accel
+    renderer.render()
+    assert renderer.accel is accel  # the converted colour is the one recorded: nothing to build again
+
+
 def test_an_edit_in_place_after_a_render_is_refused_until_invalidate():
     """``mesh.points[:, 0] += 100`` after a render, then a render again, drew the quad where it was (the BVH and
     device copies kept the old points), and a kept Renderer went on lighting with a light's colour set to 0 in place:

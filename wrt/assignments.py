@@ -15,6 +15,27 @@ class CountsAssignments:
         global _count
         _count += 1
         super().__setattr__(name, value)
+        # A field assigned after construction is checked as the constructor checks it before the next trace or
+        # render (check_assigned): mesh.material_ids = ids[:-1] shifted the materials of every later mesh, and
+        # material.diffuse_color = (nan, 0, 0) rendered black, each without a word.
+        object.__setattr__(self, "_unchecked", True)
+
+
+def mark_checked(obj) -> None:
+    """Records that ``obj`` passed its checks (the end of its constructor's): :func:`check_assigned` skips it until a
+    field is assigned again."""
+    object.__setattr__(obj, "_unchecked", False)
+
+
+def check_assigned(objects) -> None:
+    """Runs the constructor's checks again (``check()``, else ``__post_init__``) for each of ``objects`` that had a
+    field assigned since it was last checked; they raise naming the object and field, and may convert the values
+    (an array to its dtype) as the constructor does."""
+    for obj in objects:
+        if obj.__dict__.get("_unchecked", False):
+            check = getattr(obj, "check", None) or obj.__post_init__
+            check()
+            mark_checked(obj)
 
 
 def assignments() -> int:

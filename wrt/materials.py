@@ -47,7 +47,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .assignments import CountsAssignments
+from .assignments import CountsAssignments, mark_checked
 from .bsdf import Surface
 from .errors import check_fields
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
@@ -193,6 +193,7 @@ class Material(CountsAssignments):
         normal_map = self.textures.get("normal")
         if normal_map is not None and normal_map.channel != "rgb":
             raise ValueError(f"material {self.path}: a normal map reads the rgb output, not {normal_map.channel!r}")
+        mark_checked(self)
 
     @property
     def uv_set(self) -> str:

@@ -41,7 +41,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .assignments import CountsAssignments
+from .assignments import CountsAssignments, mark_checked
 from .floats import unit_scales
 
 SHAPE_SPHERE = wp.constant(0)
@@ -458,6 +458,7 @@ class Shape(CountsAssignments):
             self.opacity = float(self.opacity)
             if not 0.0 <= self.opacity <= 1.0:  # NaN too: it would mean "none" on the device
                 raise ValueError(f"shape {self.path}: opacity must be in [0, 1] or None, got {self.opacity!r}")
+        mark_checked(self)
 
     def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Canonical-space box ``(lower, upper)``."""

@@ -11,6 +11,7 @@ depend on how its samples are split into launches (``batch``). ``Image.rgb`` is 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from typing import ClassVar
@@ -240,6 +241,19 @@ def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None
     run_in_chunks(work, n, resolve_threads(None, device))  # one piece on a GPU
 
 
+def check_lights(lights) -> None:
+    """Runs the constructor's checks of each light (and of its shaping and link collections) again: a field assigned
+    after construction (``light.color = (nan, 1, 1)``, ``light.radius = -1``, a step's new value) lit the scene
+    wrongly, or not at all, without a word.
+
+    Raises:
+        SceneError: naming the light and the field.
+    """
+    for part in dataclass_parts(lights):
+        if dataclasses.is_dataclass(part) and not isinstance(part, type) and hasattr(part, "__post_init__"):
+            part.__post_init__()
+
+
 def check_camera_list(cameras) -> None:
     """Raises ValueError unless ``cameras`` is a non-empty sequence of cameras (prim paths or :class:`Camera`): a
     single path given where a list belongs was read one character at a time ("no camera at '/'")."""
@@ -343,6 +357,8 @@ class Renderer:
 
     def _build(self) -> None:
         """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
+        if parts_changed(getattr(self, "_scene_lights", ()), tuple(dataclass_parts(self.scene.lights))):
+            check_lights(self.scene.lights)
         with wp.ScopedTimer("build", print=False, dict=self.timers, synchronize=True):
             self.accel = get_accelerator(self.scene, *self._accel_options, self.device)
             self.device_scene = self.scene.to_device(self.device)

@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 import warp as wp
 
-from .assignments import CountsAssignments, assignments
+from .assignments import CountsAssignments, assignments, check_assigned, mark_checked
 from .camera import Camera
 from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
 from .light_links import LinkCollection, drawn_ids
@@ -120,13 +120,6 @@ class Mesh(CountsAssignments):
     def __post_init__(self):
         self.check(keep=False)
 
-    def __setattr__(self, name, value):
-        super().__setattr__(name, value)
-        # A field assigned after construction is checked as the constructor checks it, by the scene before its
-        # next trace or render (Scene.drop_stale_caches): mesh.material_ids = ids[:-1] shifted the materials of
-        # every later mesh without a word, and a 0-d array failed with a bare IndexError.
-        object.__setattr__(self, "_unchecked", True)
-
     def check(self, *, keep: bool = True) -> None:
         """Checks the arrays against each other and converts them to the dtypes and shapes of the attributes above;
         the constructor calls it, and the scene again before its next trace or render for a mesh that had a field
@@ -170,7 +163,7 @@ class Mesh(CountsAssignments):
                                  prim=self.path)
             assign(name, array.reshape((triangles, *corner)))
         self.check_vertices()
-        object.__setattr__(self, "_unchecked", False)
+        mark_checked(self)
 
     def check_vertices(self) -> None:
         """Raises :class:`SceneError` naming the mesh, the first triangle that uses a NaN or infinite vertex and that
@@ -434,9 +427,8 @@ class Scene:
         """Clears the caches when a part changed since the last record, and records the parts as they are now
         (``count`` and ``members``: :func:`wrt.assignments.assignments` and :meth:`_members`, taken before); returns
         them."""
-        for mesh in self._geometry_meshes():
-            if mesh.__dict__.get("_unchecked", True):  # a field assigned since its last check (Mesh.__setattr__)
-                mesh.check()
+        # Fields assigned since the objects' last checks (each simulation step's mesh.points = ...), checked first.
+        check_assigned([*self._geometry_meshes(), *self._geometry_shapes(), *self.materials])
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
             self.invalidate()
