@@ -117,6 +117,28 @@ def test_builder_options(builder, options, np_rng):
     assert bvh.num_prims == 3000
 
 
+def test_read_int_gives_each_thread_its_own_pinned_word(monkeypatch):
+    """``read_int`` copies a GPU value into a pinned host word, synchronizes and reads it: one word per device shared
+    by every thread let a thread building a BVH on a GPU read the value another thread's copy had just written there
+    (two Python threads building trees on one GPU). Each thread has its own word, kept for its later reads."""
+    import threading
+
+    import warp as wp
+
+    from wrt.bvh.common import pinned_word
+
+    monkeypatch.setattr(wp, "empty", lambda *args, **kwargs: object())  # a pinned allocation needs a CUDA driver
+    words = []
+    threads = [threading.Thread(target=lambda: words.append((pinned_word("cuda:0"), pinned_word("cuda:0"))))
+               for _ in range(2)]
+    for thread in threads:
+        thread.start()
+        thread.join()
+    (a, a_again), (b, _) = words
+    assert a is a_again and a is not b
+    assert pinned_word("cuda:0") is not a and pinned_word("cuda:1") is not pinned_word("cuda:0")
+
+
 def test_device_build_and_wp_array_input(np_rng):
     import warp as wp
 

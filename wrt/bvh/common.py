@@ -11,6 +11,7 @@ fixed stack of ``MAX_DEPTH`` entries.
 from __future__ import annotations
 
 import contextlib
+import threading
 
 import numpy as np
 import warp as wp
@@ -310,7 +311,19 @@ def _as_device(data, dtype, device, shape) -> wp.array:
     return wp.array(array.reshape(shape), dtype=wp.int32, device=device)
 
 
-_PINNED = {}  # device -> one pinned host int32, the target of read_int's copies
+# Per thread: device -> one pinned host int32, the target of read_int's copies. One word per device shared by all
+# threads handed a thread building on a GPU the value another thread's copy had just written there.
+_PINNED = threading.local()
+
+
+def pinned_word(device) -> wp.array:
+    """The calling thread's pinned host int32 that :func:`read_int` copies values of ``device`` into, made on first
+    use."""
+    words = _PINNED.__dict__.setdefault("words", {})
+    key = str(device)
+    if key not in words:
+        words[key] = wp.empty(1, dtype=wp.int32, device="cpu", pinned=True)
+    return words[key]
 
 
 def read_int(array: wp.array, index: int) -> int:
@@ -320,9 +333,7 @@ def read_int(array: wp.array, index: int) -> int:
     going through a pageable copy each time."""
     if array.device.is_cpu:
         return int(array.numpy()[index])
-    word = _PINNED.get(str(array.device))
-    if word is None:
-        word = _PINNED[str(array.device)] = wp.empty(1, dtype=wp.int32, device="cpu", pinned=True)
+    word = pinned_word(array.device)
     wp.copy(word, array, 0, index, 1)
     wp.synchronize_stream(array.device.stream)
     return int(word.numpy()[0])
