@@ -470,6 +470,26 @@ def test_material_and_light_fields_assigned_after_construction_are_checked_befor
     assert renderer.accel is accel  # the converted colour is the one recorded: nothing to build again
 
 
+def test_two_scenes_drawing_one_mesh_keep_it_read_only_until_both_are_invalidated():
+    """Two scenes drawing the same mesh object: the first render froze its points, the second scene found them
+    read-only already and did not hold them, so the first scene's ``invalidate()`` gave write access back, an edit in
+    place went through, and the second scene went on tracing the old points (t = 4 where the moved quad is at 3)
+    without a word. The points stay read-only until every scene holding them is invalidated; then both follow."""
+    import copy
+
+    first = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], [[0, 1, 2], [0, 2, 3]])
+    second = wrt.Scene(meshes=list(first.meshes))
+    ray = ([0.0, 0.0, 4.0], [0.0, 0.0, -1.0])
+    assert wrt.trace(first, *ray).t[0] == 4.0 and wrt.trace(second, *ray).t[0] == 4.0
+    first.invalidate()
+    with pytest.raises(ValueError, match="read-only"):  # the second scene's caches are made from them
+        first.meshes[0].points[:, 2] += 1.0
+    second.invalidate()
+    first.meshes[0].points[:, 2] += 1.0
+    assert wrt.trace(second, *ray).t[0] == 3.0 == wrt.trace(copy.deepcopy(second), *ray).t[0]
+    assert wrt.trace(first, *ray).t[0] == 3.0
+
+
 def test_an_edit_in_place_after_a_render_is_refused_until_invalidate():
     """``mesh.points[:, 0] += 100`` after a render, then a render again, drew the quad where it was (the BVH and
     device copies kept the old points), and a kept Renderer went on lighting with a light's colour set to 0 in place:

@@ -80,6 +80,13 @@ PER_TRIANGLE_ARRAYS = (
 )
 
 
+# Arrays made read-only by Scene.freeze: id(array) -> {id(scene): weak reference} of the scenes holding it so. A
+# scene's invalidate() makes an array writeable only when no other live scene holds it: two scenes drawing one mesh,
+# the first to render froze its points, its invalidate() gave write access back, and the other scene drew the points
+# as they were before an edit in place, its check seeing the same objects as before.
+_HOLDERS: dict[int, dict] = {}
+
+
 @dataclasses.dataclass
 class Mesh(CountsAssignments):
     """One triangle mesh in world space.
@@ -378,9 +385,15 @@ class Scene:
         offset``). Replacing arrays, meshes or lists needs no call: it is noticed by itself."""
         self._cache.clear()
         self._generation += 1
-        # A view cannot be made writeable while its base is read-only: bases first, whatever order they were frozen in.
-        frozen = [array for array in (ref() for ref in self._frozen) if array is not None]
+        held = [array for array in (ref() for ref in self._frozen) if array is not None]
         self._frozen, self._frozen_parts = [], False
+        frozen = []  # the arrays no other scene holds read-only
+        for array in held:
+            holders = _HOLDERS.get(id(array), {})
+            holders.pop(id(self), None)
+            if not any(holder() is not None for holder in holders.values()):  # a scene freed since holds nothing
+                frozen.append(array)
+        # A view cannot be made writeable while its base is read-only: bases first, whatever order they were frozen in.
         while frozen:
             left = []
             for array in frozen:
@@ -396,12 +409,22 @@ class Scene:
         """Makes the writeable numpy arrays among ``objects`` read-only until :meth:`invalidate`: caches, device
         copies and a kept :class:`wrt.Renderer` derive from them, and an edit in place (``mesh.points[:, 2] += 1``)
         left them stale, rendering the old geometry without a word; now it raises numpy's ``ValueError:
-        output array is read-only`` (or ``assignment destination is read-only``) at the edit."""
+        output array is read-only`` (or ``assignment destination is read-only``) at the edit. An array another scene
+        froze is held by this one too (``_HOLDERS``): it becomes writeable once neither holds it."""
         self._frozen = [ref for ref in self._frozen if ref() is not None]
         for value in objects:
-            if isinstance(value, np.ndarray) and value.flags.writeable:
+            if not isinstance(value, np.ndarray):
+                continue
+            if value.flags.writeable:
                 value.flags.writeable = False
-                self._frozen.append(weakref.ref(value))
+                if id(value) not in _HOLDERS:  # kept while the array lives: one entry however often it is frozen
+                    _HOLDERS[id(value)] = {}
+                    weakref.finalize(value, _HOLDERS.pop, id(value), None)
+            holders = _HOLDERS.get(id(value))
+            if holders is None or (id(self) in holders and holders[id(self)]() is self):
+                continue  # read-only by the user's or the loader's doing, or held by this scene already
+            holders[id(self)] = weakref.ref(self)
+            self._frozen.append(weakref.ref(value))
 
     @property
     def cache_generation(self) -> int:
