@@ -640,3 +640,36 @@ def test_a_library_render_prints_nothing_unless_asked():
     asked = subprocess.run([sys.executable, "-c", "import warp as wp\nwp.config.log_level = wp.LOG_DEBUG\n" + render],
                            capture_output=True, text=True, env=env, check=True)
     assert asked.stdout.strip().splitlines()[-1] == str(wp.LOG_DEBUG) and " load on device" in asked.stdout
+
+
+def test_coverage_counts_every_sample_however_the_render_is_run():
+    """The coverage AOV is the share of a pixel's samples whose camera ray hit something: the pixel centre's hit at
+    1 spp; at 128 spp the share of the pixel a quad covers (3/4 of column 10, 1/4 of column 13: worked out from the
+    film); the same counts whether the samples come in one launch, in launches of 3, resumed (3 + 5) or as a batch
+    of cameras; launch_frame's frame is one sample, counted again each frame."""
+    # Film 36 x 18 at focal length 50: at z = -10 the 20 columns are 0.36 wide, column j spans x from -3.6 + 0.36 j.
+    points = [[0.09, -100, -10], [1.17, -100, -10], [1.17, 100, -10], [0.09, 100, -10]]
+    scene = wrt.Scene.from_triangles(points, [[0, 1, 2], [0, 2, 3]])
+    cam = wrt.Camera(focal_length=50.0, horizontal_aperture=36.0, vertical_aperture=18.0)
+    renderer = wrt.Renderer(scene, camera=cam, width=20, height=10, device="cpu")
+    one = renderer.render(spp=1)
+    np.testing.assert_array_equal(one.aovs["coverage"], one.aovs["prim"] >= 0)
+    share = np.zeros(20)
+    share[10:14] = [0.75, 1.0, 1.0, 0.25]
+    many = renderer.render(spp=128)
+    assert many.aovs["coverage"].dtype == np.float32 and many.aovs["coverage"].shape == (10, 20)
+    np.testing.assert_allclose(many.aovs["coverage"], np.broadcast_to(share, (10, 20)), atol=0.15)
+    whole = share % 1 == 0  # columns wholly inside or outside the quad
+    np.testing.assert_array_equal(many.aovs["coverage"][:, whole], np.broadcast_to(share[whole], (10, whole.sum())))
+
+    full = renderer.render(spp=8)
+    assert ((full.aovs["coverage"] > 0) & (full.aovs["coverage"] < 1)).sum() >= 10
+    np.testing.assert_array_equal(renderer.render(spp=8, batch=3).aovs["coverage"], full.aovs["coverage"])
+    renderer.render(spp=3)
+    np.testing.assert_array_equal(renderer.render(spp=5, resume=True).aovs["coverage"], full.aovs["coverage"])
+    batch = wrt.render_batch(scene, [cam, cam], 20, 10, spp=8, device="cpu")
+    for k in range(2):
+        np.testing.assert_array_equal(batch.image(k).aovs["coverage"], full.aovs["coverage"])
+    renderer.launch_frame()
+    renderer.launch_frame()
+    np.testing.assert_array_equal(renderer.frame_image().aovs["coverage"], one.aovs["coverage"])

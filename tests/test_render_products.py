@@ -10,7 +10,7 @@ import numpy as np
 import OpenEXR
 import pytest
 from PIL import Image as PilImage
-from usda_text import load, write
+from usda_text import fmt, load, write
 
 import wrt
 from wrt.cli import main
@@ -562,3 +562,42 @@ def test_render_settings_warnings_point_at_the_load_usd_call(tmp_path):
             wrt.load_usd(stage)
         assert len(caught) == expected, [str(w.message) for w in caught]
         assert [w.filename for w in caught] == [__file__] * expected, [str(w.message) for w in caught]
+
+
+def test_alpha_is_the_coverage_of_the_pixels_samples(tmp_path):
+    """A quad whose left edge covers 3/4 of column 10 (its centre inside) and whose right edge covers 1/4 of column
+    13 (its centre outside), against an empty black background at 256 spp: alpha, in the EXR and in the PNG, is the
+    share of the pixel the quad covers, worked out from the film, as the antialiased colour is; the colour over
+    alpha is the quad's. Alpha was the pixel-centre ray's hit (1 and 0 there): composited over a plate, one edge
+    came out dark and the other glowed."""
+    # Camera at the origin looking down -Z; film 36 x 18 at focal length 50: at z = -10 the 20 columns are 0.36 wide,
+    # column j spans x in [-3.6 + 0.36 j, -3.24 + 0.36 j].
+    quad = fmt([[0.09, -100, -10], [1.17, -100, -10], [1.17, 100, -10], [0.09, 100, -10]])
+    body = (f'def Mesh "Quad"\n{{\n    point3f[] points = {quad}\n    int[] faceVertexCounts = [4]\n'
+            '    int[] faceVertexIndices = [0, 1, 2, 3]\n    color3f[] primvars:displayColor = [(0.8, 0.8, 0.8)]\n}\n'
+            'def DistantLight "Sun"\n{\n}\n'  # a light of its own: no default dome shows behind the quad
+            'def Camera "Cam"\n{\n    float focalLength = 50\n    float horizontalAperture = 36\n'
+            '    float verticalAperture = 18\n}\n'
+            'def Scope "Render"\n{\n    def RenderSettings "Settings"\n    {\n        rel camera = </Cam>\n'
+            '        uniform int2 resolution = (20, 10)\n        rel products = [</Render/Exr>, </Render/Png>]\n'
+            '    }\n' + product("Exr", ["color"], "beauty.exr") + product("Png", ["color"], "beauty.png")
+            + 'def Scope "Vars"\n{\n' + var("color", "color", "color4f") + "}\n}\n")
+    path = write(tmp_path, body, "edges.usda")
+    text = open(path).read().replace("(\n", '(\n    renderSettingsPrimPath = "/Render/Settings"\n', 1)
+    open(path, "w").write(text)
+    scene = load(path)
+    written = wrt.render_products(scene, tmp_path / "out", spp=256, device="cpu")
+    coverage = np.zeros(20)
+    coverage[[10, 11, 12, 13]] = [0.75, 1.0, 1.0, 0.25]
+    exr = read_exr(written["/Render/Exr"])
+    alpha = exr["A"]
+    np.testing.assert_allclose(alpha, np.broadcast_to(coverage, (10, 20)), atol=0.1)
+    np.testing.assert_array_equal(alpha[:, [11, 12]], 1.0)
+    np.testing.assert_array_equal(alpha[:, :10], 0.0)
+    # Premultiplied, as OpenEXR's RGBA is: an edge pixel's colour over its alpha is the inside's colour.
+    rgb = np.stack([exr[c] for c in "RGB"], axis=-1)
+    for edge, inside in ((10, 11), (13, 12)):
+        np.testing.assert_allclose(rgb[:, edge] / alpha[:, edge, None], rgb[:, inside], rtol=0.05)
+    png = np.asarray(PilImage.open(written["/Render/Png"]))
+    assert png.shape == (10, 20, 4)
+    np.testing.assert_array_equal(png[..., 3], np.round(alpha * 255))

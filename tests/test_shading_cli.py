@@ -23,7 +23,8 @@ def test_path_integrator_exr_and_cost_heat_map(tmp_path):
         assert png.size[0] > 2 * 40 and png.mode == "RGB"  # two panels: nodes visited | triangles tested
     with PilImage.open(tmp_path / "room.normal.png") as png:
         assert png.size == (40, 30)
-    for name in ("depth", "z", "normal", "geometric_normal", "albedo", "prim", "instance", "material", "cost"):
+    for name in ("depth", "z", "normal", "geometric_normal", "albedo", "prim", "instance", "material", "cost",
+                 "coverage"):
         assert (tmp_path / "aovs" / f"{name}.npy").exists(), name
     cost = np.load(tmp_path / "aovs" / "cost.npy")
     assert cost.shape == (30, 40, 2) and cost[..., 0].max() > 0

@@ -3,7 +3,8 @@
 Formats: ``.exr`` linear HDR (OpenEXR, 32-bit float), ``.npy`` raw linear float32, ``.png`` 8-bit sRGB after
 ``2^exposure`` scaling and clipping to [0, 1] (no other tone curve). AOVs are written as ``.npy`` and, for a
 quick look, as colour-mapped PNGs (:func:`aov_preview`): the traversal cost as a heat map of nodes visited and
-triangles tested, normals as ``0.5 (n + 1)``, depths and ids as grey levels and random colours.
+triangles tested, normals as ``0.5 (n + 1)``, depths and ids as grey levels and random colours, coverage as
+an alpha matte.
 """
 
 from __future__ import annotations
@@ -111,6 +112,8 @@ def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
         return to_srgb8(value)
     if value.dtype.kind in "iu":
         return _id_colors(value)
+    if name == "coverage":  # a share in [0, 1]: 0 black and 1 white, as alpha mattes show
+        return np.round(np.repeat(np.clip(value, 0.0, 1.0)[..., None], 3, axis=-1) * 255).astype(np.uint8)
     finite = np.isfinite(value)
     grey = np.zeros(value.shape, np.float64)
     if finite.any():
@@ -192,7 +195,9 @@ class Image:
             - ``"material"`` int32 index into ``Scene.materials`` (-1 on a miss, for the default material and on
               mesh lights of ``noMaterialResponse``, whose surface has none);
             - ``"cost"`` ``(H, W, 2)`` int32 BVH nodes visited and triangles tested by the ray (0 for
-              ``accel="warp"``), including re-traces past culled back faces and cut-out holes.
+              ``accel="warp"``), including re-traces past culled back faces and cut-out holes;
+            - ``"coverage"`` float32 share of the pixel's samples (all of them, not sample 0 alone) whose camera
+              ray hit something: the alpha of the antialiased ``rgb``, whose misses add the background.
     """
 
     rgb: np.ndarray

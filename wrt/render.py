@@ -39,6 +39,9 @@ from .shade import (
     CullScratch,
     DeviceSurfaces,
     accumulate_samples_kernel,
+    add_covered_kernel,
+    count_covered_kernel,
+    coverage_kernel,
     intersect_visible,
     mean_image_kernel,
     occluded_through_holes,
@@ -79,8 +82,9 @@ def samples_per_launch(n_pixels: int, spp: int, batch: int | None = None) -> int
 
 def render_bytes(n_pixels: int, paths: int) -> int:
     """Device bytes a render allocates for ``paths`` paths per launch and ``n_pixels`` pixels (summed radiance, its
-    mean and the AOVs)."""
-    pixel = 2 * wp.types.type_size_in_bytes(wp.vec3) + sum(map(wp.types.type_size_in_bytes, _AovBuffers.SPEC.values()))
+    mean, the AOVs, the count of covered samples)."""
+    aovs = sum(map(wp.types.type_size_in_bytes, _AovBuffers.SPEC.values())) + 3 * 4  # + the coverage counts
+    pixel = 2 * wp.types.type_size_in_bytes(wp.vec3) + aovs
     return paths * _Wavefront.bytes_per_path() + n_pixels * pixel
 
 
@@ -546,9 +550,10 @@ class Renderer:
                 while first < total:
                     count = min(batch, total - first)
                     w = self._wavefront.view(n_pixels * count)
-                    self._start_and_trace(w, first, seed, aovs if first == 0 else None)
+                    self._start_and_trace(w, first, seed, aovs)
                     wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count],
                               outputs=[image, dropped])
+                    aovs.add_covered()
                     first += count
                     bar.update(count)
         finally:
@@ -608,9 +613,11 @@ class Renderer:
         try:
             with wp.ScopedDevice(self.device):
                 image.zero_()
+                aovs.covered.zero_()
                 self._start_and_trace(w, 0, check_seed(seed), aovs)
                 wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, 1],
                           outputs=[image, dropped])
+                aovs.add_covered()
         finally:
             self._sync_free = False
 
@@ -642,7 +649,8 @@ class Renderer:
 
     def _intersect(self, w: _Wavefront, aovs, camera_rays: bool = True):
         """Closest hits of the current rays past the holes of cut-outs (for camera rays: past culled back faces too);
-        the first time, also the AOVs of sample 0."""
+        of camera rays, the samples that hit are counted for the coverage AOV (added by
+        :meth:`_AovBuffers.add_covered`), and the first time, the AOVs of sample 0 are written."""
         passes = None
         if self._sync_free:
             passes = CAPTURE_CULL_PASSES if self.no_holes else MAX_CULL_PASSES
@@ -659,6 +667,9 @@ class Renderer:
                 outputs=aovs.outputs,
             )
             aovs.done = True
+        if aovs is not None and camera_rays:
+            wp.launch(count_covered_kernel, aovs.n, inputs=[w.hits.prim, aovs.n, w.n // aovs.n],
+                      outputs=[aovs.launch_covered])
 
     def _occluded(self, w: _Wavefront, to_lights: bool = True):
         """``w.blocked`` of the shadow rays, which pass through the holes of cut-outs (in :meth:`launch_frame` without
@@ -758,14 +769,14 @@ class Renderer:
 
     def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers) -> Image:
         rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
-        return finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width),
+        return finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width, samples),
                             self.integrator, self.scene)
 
     def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers):
         from .batch import BatchImage
 
         n, h, w = len(self.cameras), self.height, self.width
-        arrays = {name: a.reshape((n, h, w)) for name, a in aovs.arrays.items()}
+        arrays = {name: a.reshape((n, h, w)) for name, a in aovs.device_arrays(total).items()}
         if self.integrator in ("normals", "depth", "albedo"):  # quick looks are made on the host, as for one camera
             host = {name: a.numpy() for name, a in arrays.items()}
             rgb = np.stack([finish_image(None, {k: v[i] for k, v in host.items()}, self.integrator, self.scene).rgb
@@ -800,7 +811,8 @@ def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
 
 
 class _AovBuffers:
-    """Device buffers of the sample-0 AOVs of every pixel."""
+    """Device buffers of the sample-0 AOVs of every pixel, and the count of its samples whose camera ray hit
+    something (``covered``, from which the ``coverage`` AOV is made)."""
 
     SPEC: ClassVar[dict] = {
         "depth": float,
@@ -818,20 +830,34 @@ class _AovBuffers:
         self.n = n
         self.done = False
         self.arrays = {name: wp.empty(n, dtype=dtype, device=device) for name, dtype in self.SPEC.items()}
+        self.covered = wp.zeros(n, dtype=wp.int32, device=device)  # camera rays that hit, per pixel
+        self.launch_covered = wp.zeros(n, dtype=wp.int32, device=device)  # those of the current launch
+
+    def add_covered(self) -> None:
+        """Adds the current launch's count to ``covered``, as its radiance is added to the image."""
+        wp.launch(add_covered_kernel, self.n, inputs=[self.launch_covered], outputs=[self.covered],
+                  device=self.covered.device)
 
     @property
     def outputs(self) -> list:
         return list(self.arrays.values())
 
-    def numpy(self, h: int, w: int) -> dict:
+    def device_arrays(self, samples: int) -> dict:
+        """The AOVs on the device, ``coverage`` of ``samples`` samples per pixel included."""
+        coverage = wp.empty(self.n, dtype=float, device=self.covered.device)
+        wp.launch(coverage_kernel, self.n, inputs=[self.covered, samples], outputs=[coverage],
+                  device=self.covered.device)
+        return {**self.arrays, "coverage": coverage}
+
+    def numpy(self, h: int, w: int, samples: int) -> dict:
         out = {}
-        for name, arr in self.arrays.items():
+        for name, arr in self.device_arrays(samples).items():
             a = arr.numpy()
             out[name] = a.reshape(h, w, *a.shape[1:])
         return out
 
 
-AOV_NAMES = tuple(_AovBuffers.SPEC)  # the keys of Image.aovs
+AOV_NAMES = (*_AovBuffers.SPEC, "coverage")  # the keys of Image.aovs
 
 
 def render(

@@ -6,16 +6,17 @@ of Hydra's ``HdAovTokens``, RenderMan's and wrt's own AOV names. ``sourceType = 
 expressions of :data:`BEAUTY_LPES` only, and wrt has no primvar AOVs (``sourceType = "primvar"``). A RenderVar wrt
 has no output for is left out with one warning naming it; a product left with nothing is skipped.
 
-Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one); the folder is the
-caller's, never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the
-beauty alone may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components); every other product is
-an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's extension replaced with a warning where
-it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer named after
-their ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one channel), ``N.X,
-N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... Two products of one file name get ``_2``, ``_3`` suffixes, with a
-warning. An EXR's header places it in its shot (``displayWindow``: the whole resolution; ``dataWindow``: the pixels of
-``dataWindowNDC``) and names the prims of its id layers: ``<layer>/paths``, a JSON object ``{id: path}`` of the ids
-in the image, for ``primId`` (:meth:`wrt.Scene.prim_paths`) and ``instanceId`` (:meth:`wrt.instancing.Instances.path`).
+Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one); the folder is the caller's,
+never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the beauty alone
+may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage`` AOV); every other
+product is an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's extension replaced with a
+warning where it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer
+named after their ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one
+channel), ``N.X, N.Y, N.Z``, ``albedo.R, albedo.G, albedo.B``, ... Two products of one file name get ``_2``, ``_3``
+suffixes, with a warning. An EXR's header places it in its shot (``displayWindow``: the whole resolution;
+``dataWindow``: the pixels of ``dataWindowNDC``) and names the prims of its id layers: ``<layer>/paths``, a JSON
+object ``{id: path}`` of the ids in the image, for ``primId`` (:meth:`wrt.Scene.prim_paths`) and ``instanceId``
+(:meth:`wrt.instancing.Instances.path`).
 """
 
 from __future__ import annotations
@@ -69,7 +70,7 @@ class _Output:
 
     kind: str
     layer: str
-    alpha: bool = False  # a beauty of four components: alpha is the coverage of the pixel-centre camera ray
+    alpha: bool = False  # a beauty of four components: alpha is the coverage AOV
 
 
 def source_of(var) -> str | None:
@@ -180,7 +181,6 @@ def output_channels(image, camera, scene, outputs: list[_Output]) -> tuple[dict[
     """``({channel name: (H, W) array}, {header attribute: JSON})`` of ``outputs`` from ``image`` (a
     :class:`wrt.Image` of ``camera`` and ``scene``); the attributes name the prims of the id layers of
     :data:`NAMED_IDS`."""
-    hit = image.aovs["prim"] >= 0
     channels, attributes = {}, {}
     for out in outputs:
         value = _values(out.kind, image, camera, scene)
@@ -192,7 +192,9 @@ def output_channels(image, camera, scene, outputs: list[_Output]) -> tuple[dict[
         names = CHANNELS.get(out.kind, ("",))
         value = np.asarray(value, np.float32).reshape(*value.shape[:2], len(names))
         if out.alpha:
-            value, names = np.concatenate([value, hit[..., None]], axis=-1), (*names, "A")
+            # Coverage, not the pixel centre's hit: the colour is the mean of every sample, so an edge pixel's
+            # colour over its alpha is the surface's (premultiplied, as OpenEXR's RGBA is).
+            value, names = np.concatenate([value, image.aovs["coverage"][..., None]], axis=-1), (*names, "A")
         for k, name in enumerate(names):
             channels[".".join(p for p in (out.layer, name) if p)] = value[..., k]
     return channels, attributes

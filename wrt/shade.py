@@ -946,6 +946,48 @@ def accumulate_samples_kernel(
 
 
 @wp.kernel
+def count_covered_kernel(
+    hit_prim: wp.array[wp.int32],
+    n_pixels: int,
+    samples: int,
+    # outputs
+    launch_covered: wp.array[wp.int32],
+):
+    """``launch_covered[p]`` = the samples of pixel ``p`` (ray ``s * n_pixels + p``) in this launch whose camera ray
+    hit something: the count behind the ``coverage`` AOV, the alpha a compositor needs of an antialiased edge."""
+    p = wp.tid()
+    count = int(0)
+    for s in range(samples):
+        if hit_prim[s * n_pixels + p] >= 0:
+            count += 1
+    launch_covered[p] = count
+
+
+@wp.kernel
+def add_covered_kernel(
+    launch_covered: wp.array[wp.int32],
+    # outputs
+    covered: wp.array[wp.int32],
+):
+    """``covered += launch_covered``, once the launch's radiance is added to the image (so that a render interrupted
+    during a launch counts as many samples in both)."""
+    p = wp.tid()
+    covered[p] = covered[p] + launch_covered[p]
+
+
+@wp.kernel
+def coverage_kernel(
+    covered: wp.array[wp.int32],
+    samples: int,
+    # outputs
+    coverage: wp.array[float],
+):
+    """``coverage = covered / samples``: the share of each pixel's samples whose camera ray hit something."""
+    p = wp.tid()
+    coverage[p] = float(covered[p]) / float(samples)
+
+
+@wp.kernel
 def mean_image_kernel(
     image: wp.array[wp.vec3],
     samples: int,
