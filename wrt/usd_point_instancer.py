@@ -211,7 +211,8 @@ def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
     """``(N, 3, 3)`` rotation matrices (column vectors) of ``(N, 4)`` quaternions stored ``(i, j, k, real)`` as
     ``Gf.Quat*`` arrays are; normalised first, so every result is a rotation. USD's own instance transforms
     (``ComputeInstanceTransformsAtTime``) use the quaternion as stored: for ``quath`` orientations, unit length only
-    to half precision, the two differ by up to about 2e-4 of the instance's size."""
+    to half precision, the two differ by up to about 2e-3 of the instance's size (1.6e-3 over 20k random unit
+    quaternions rounded to ``quath``; ``quatf`` ones agree to float precision)."""
     q = q / np.maximum(np.linalg.norm(q, axis=1, keepdims=True), 1e-30)
     x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     return np.stack(
