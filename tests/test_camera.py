@@ -258,6 +258,28 @@ def test_python_camera_errors_have_no_double_space():
         wrt.Camera(to_world=np.diag([0.0, 1.0, 1.0, 1.0])).to_struct(4, 4)
 
 
+def test_python_camera_refuses_a_row_vector_matrix():
+    """Only the top 3x4 of ``to_world`` is used: a ``Gf.Matrix4d`` passed without ``.T`` (its translation in the bottom
+    row) put the camera at the origin, turned the other way, without a word."""
+    m = Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(0, 1, 0), 30)) * Gf.Matrix4d().SetTranslate(Gf.Vec3d(1, 2, 10))
+    with pytest.raises(ValueError, match=r"bottom row \[1.0, 2.0, 10.0, 1.0\].*transpose of a Gf.Matrix4d"):
+        wrt.Camera(to_world=np.array(m))
+    np.testing.assert_allclose(wrt.Camera(to_world=np.array(m).T).eye, m.ExtractTranslation())
+
+
+def test_usd_camera_with_a_projective_transform_is_warned_about(tmp_path):
+    """A camera whose world transform has a projective last column is read as its affine part with a warning naming
+    it, as meshes and instances are; the column was dropped without a word."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "projective.usda"))
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.AddTransformOp().Set(Gf.Matrix4d(1, 0, 0, 0.05, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 10, 1))
+    stage.Save()
+    with pytest.warns(UserWarning, match="projective.*/Cam"):
+        scene = wrt.load_usd(tmp_path / "projective.usda")
+    affine = Gf.Matrix4d().SetTranslate(Gf.Vec3d(0, 0, 10))
+    np.testing.assert_array_equal(scene.cameras["/Cam"].to_world, np.array(affine).T)
+
+
 def test_camera_animated_only_by_time_samples_uses_its_first_sample(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "anim_cam.usda"))
     stage.SetStartTimeCode(1)

@@ -162,7 +162,8 @@ class Camera:
     """A camera, perspective or orthographic, with USD's film model.
 
     Attributes:
-        to_world: ``(4, 4)`` float64 camera-to-world matrix, column-vector convention (see module docstring).
+        to_world: ``(4, 4)`` float64 camera-to-world matrix, column-vector convention (see module docstring), affine:
+            bottom row ``(0, 0, 0, 1)``.
         focal_length: focal length, in the film unit.
         horizontal_aperture: film width, in the film unit.
         vertical_aperture: film height, in the film unit (unused with ``fit="horizontal"``).
@@ -244,6 +245,13 @@ class Camera:
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
         if not np.all(np.isfinite(self.to_world)):
             raise ValueError(f"{self.label()} transform is not finite")
+        # Only the top 3x4 is used: a Gf.Matrix4d passed untransposed has its translation in the bottom row, and the
+        # camera sat at the origin, turned by the inverse rotation, without a word.
+        bottom = self.to_world[3]
+        if np.abs(bottom - (0.0, 0.0, 0.0, 1.0)).max() > 1e-6:
+            raise ValueError(f"{self.label()} to_world has bottom row {bottom.tolist()}; it must be an affine "
+                             "column-vector transform, p_world = to_world @ (p, 1), with bottom row (0, 0, 0, 1) (the "
+                             "transpose of a Gf.Matrix4d)")
         planes = np.asarray(self.clipping_planes, dtype=np.float64)
         if planes.size == 0:
             planes = np.zeros((0, 4))

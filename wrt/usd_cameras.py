@@ -61,9 +61,13 @@ class CameraReading:
             if projection != UsdGeom.Tokens.perspective:  # as UsdGeom.Camera.GetCamera reads it
                 self._skip("cameras with an unknown projection are perspective", prim, f"projection = {projection!r}")
             projection = "perspective"
+        m = np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64)  # row vectors
+        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):  # as for meshes and instances: the affine part is used
+            self._skip("world transform is projective; its last column was ignored", prim)
+        m[:, 3] = (0.0, 0.0, 0.0, 1.0)
         try:
             return Camera(
-                to_world=np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T,  # column vectors
+                to_world=m.T,  # column vectors
                 focal_length=number(camera.GetFocalLengthAttr()),
                 horizontal_aperture=number(camera.GetHorizontalApertureAttr()),
                 vertical_aperture=number(camera.GetVerticalApertureAttr()),
