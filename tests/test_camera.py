@@ -4,10 +4,13 @@ import math
 
 import numpy as np
 import pytest
-from pxr import Gf, Usd, UsdGeom
+import warp as wp
+from pxr import Gf, Usd, UsdGeom, UsdRender
 
 import wrt
+from wrt.camera import generate_rays_kernel
 from wrt.rays import camera_rays
+from wrt.render import resolve_view
 
 
 def quad_scene(x0, x1, y0, y1, z):
@@ -156,6 +159,88 @@ def test_usd_camera_aperture_is_expanded_to_the_image_aspect(tmp_path, projectio
         np.testing.assert_allclose(d, expected, atol=1e-6)
         off_ray = (o - np.array(ray.startPoint)) - np.dot(o - np.array(ray.startPoint), expected) * expected
         np.testing.assert_allclose(off_ray, 0.0, atol=1e-5)  # the origin lies on USD's pick ray
+
+
+def _conformed(window: Gf.Range2d, policy: str, aspect: float) -> Gf.Range2d:
+    """``window`` of a Gf.Frustum conformed to the image ``aspect`` as UsdRender's ``aspectRatioConformPolicy``
+    says, about its centre (CameraUtilConformWindow, which usd-core lacks)."""
+    (w, h), centre = window.GetSize(), window.GetMidpoint()
+    if policy in ("expandAperture", "cropAperture"):  # grow (expand) or shrink (crop) the aperture that does not fit
+        wider = w / h > aspect
+        policy = "adjustApertureHeight" if wider == (policy == "expandAperture") else "adjustApertureWidth"
+    if policy == "adjustApertureHeight":
+        h = w / aspect
+    elif policy == "adjustApertureWidth":
+        w = h * aspect
+    return Gf.Range2d(centre - Gf.Vec2d(w / 2, h / 2), centre + Gf.Vec2d(w / 2, h / 2))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_usd_cameras_cast_the_rays_of_usds_frustum(tmp_path, seed):
+    """Random cameras (projection, film, offsets, clipping range, an animated position and focal length) under a
+    sheared, unevenly scaled and maybe mirrored parent, framed by random render settings (resolution, pixel aspect
+    ratio, conform policy, data window), at a time between samples: the ray of each pixel runs from the near to the
+    far clipping plane of USD's own camera (``GetCamera(time)``'s frustum conformed to the image, its projection
+    matrix after the inverse of the whole camera transform, as Hydra's view matrix), through the pixel centre's NDC."""
+    rng = np.random.default_rng(seed)
+    path = str(tmp_path / "cam.usda")
+    stage = Usd.Stage.CreateNew(path)
+    rig = UsdGeom.Xform.Define(stage, "/Rig")
+    shear = np.eye(4)
+    shear[1, 0], shear[2, 1] = rng.uniform(-0.5, 0.5, 2)
+    rig.AddTransformOp().Set(Gf.Matrix4d(*shear.ravel()))
+    rig.AddScaleOp().Set(Gf.Vec3f(*(rng.uniform(0.3, 3.0, 3) * rng.choice([-1.0, 1.0], 3))))
+    cam = UsdGeom.Camera.Define(stage, "/Rig/Cam")
+    translate, focal = cam.AddTranslateOp(), cam.CreateFocalLengthAttr()
+    for time in (0.0, 10.0):  # read between the samples below
+        translate.Set(Gf.Vec3d(*rng.uniform(-20.0, 20.0, 3)), time)
+        focal.Set(float(rng.uniform(10.0, 100.0)), time)
+    cam.AddRotateXYZOp().Set(Gf.Vec3f(*rng.uniform(-180.0, 180.0, 3)))
+    cam.CreateProjectionAttr(str(rng.choice(["perspective", "orthographic"])))
+    cam.CreateHorizontalApertureAttr(float(rng.uniform(5.0, 60.0)))
+    cam.CreateVerticalApertureAttr(float(rng.uniform(5.0, 60.0)))
+    cam.CreateHorizontalApertureOffsetAttr(float(rng.normal(0.0, 5.0)))
+    cam.CreateVerticalApertureOffsetAttr(float(rng.normal(0.0, 5.0)))
+    cam.CreateClippingRangeAttr(Gf.Vec2f(float(rng.uniform(0.1, 1.0)), float(rng.uniform(50.0, 500.0))))
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/Rig/Cam"])
+    width, height = (int(n) for n in rng.integers(8, 24, 2))
+    settings.CreateResolutionAttr(Gf.Vec2i(width, height))
+    pixel_aspect = float(rng.choice([0.5, 1.0, 2.0]))
+    settings.CreatePixelAspectRatioAttr(pixel_aspect)
+    policy = str(rng.choice(["expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
+                             "adjustPixelAspectRatio"]))
+    settings.CreateAspectRatioConformPolicyAttr(policy)
+    lower = rng.uniform(-0.2, 0.5, 2)  # the window may reach past the image (overscan)
+    window = Gf.Vec4f(*lower, *(lower + rng.uniform(0.3, 0.7, 2)))
+    window = np.array(settings.CreateDataWindowNDCAttr(window).Get())  # as read: float32
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.Save()
+    time = float(rng.uniform(0.0, 10.0))
+
+    camera, w, h = resolve_view(wrt.load_usd(path, time=time))
+    rays = [wp.empty(w * h, dtype=wp.vec3, device="cpu") for _ in range(2)]
+    rays += [wp.empty(w * h, dtype=float, device="cpu") for _ in range(2)]
+    wp.launch(generate_rays_kernel, w * h, inputs=[camera.to_struct(w, h), w, h, 0, 0], outputs=rays, device="cpu")
+    o, d, t_min, t_max = (r.numpy().astype(np.float64) for r in rays)
+
+    usd_camera = cam.GetCamera(Usd.TimeCode(time))
+    frustum = usd_camera.frustum
+    frustum.SetWindow(_conformed(frustum.GetWindow(), policy, pixel_aspect * width / height))
+    clip_to_world = np.linalg.inv(np.linalg.inv(np.array(usd_camera.transform))
+                                  @ np.array(frustum.ComputeProjectionMatrix()))
+    # The pixels whose centres lie in the data window ((0, 0) the lower-left corner, minimum edges in; past 1, pixels
+    # beyond the image), rows from the top; each one's NDC on the near (-1) and far (1) clipping planes.
+    columns = [j for j in range(-width, 2 * width) if window[0] <= (j + 0.5) / width < window[2]]
+    rows = [k for k in reversed(range(-height, 2 * height)) if window[1] <= (k + 0.5) / height < window[3]]
+    assert (w, h) == (len(columns), len(rows))
+    k, j = (a.ravel() for a in np.meshgrid(rows, columns, indexing="ij"))
+    ndc = np.stack([2 * (j + 0.5) / width - 1, 2 * (k + 0.5) / height - 1], axis=1)
+    ends = [np.concatenate([ndc, np.full((len(ndc), 1), z), np.ones((len(ndc), 1))], axis=1) @ clip_to_world
+            for z in (-1.0, 1.0)]
+    near, far = (e[:, :3] / e[:, 3:] for e in ends)
+    np.testing.assert_allclose(o + t_min[:, None] * d, near, atol=1e-5 * np.abs(near).max())
+    np.testing.assert_allclose(o + t_max[:, None] * d, far, atol=1e-5 * np.abs(far).max())
 
 
 def test_clipping_range_limits_depth():
