@@ -754,6 +754,11 @@ def test_light_with_a_negative_or_non_finite_size_is_skipped_with_a_warning(tmp_
         (lambda: CylinderLight(np.eye(4), 1.0, 0.5, [1, -1, 1], path="/C"), r"^/C: CylinderLight color .* >= 0"),
         (lambda: DomeLight([1, 1, 1], texture=np.ones((4, 8)), path="/Dome"), r"^/Dome: DomeLight texture must be"),
         (lambda: DomeLight("white", path="/Dome"), r"^/Dome: DomeLight color must be finite numbers"),
+        # A Gf.Matrix4d passed untransposed: its translation lands in the bottom row, which no kernel reads.
+        (lambda: RectLight(np.array(Gf.Matrix4d().SetTranslate(Gf.Vec3d(1, 2, 3))), 1.0, 1.0, [1, 1, 1], path="/R"),
+         r"^/R: RectLight to_world has bottom row \[1.0, 2.0, 3.0, 1.0\]; it must be an affine"),
+        (lambda: DomeLight([1, 1, 1], to_world=np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0.5, 1]]),
+                           path="/Dome"), r"^/Dome: DomeLight to_world has bottom row"),
     ],
 )
 def test_lights_built_in_python_refuse_values_that_light_nothing(make, message):
@@ -761,6 +766,21 @@ def test_lights_built_in_python_refuse_values_that_light_nothing(make, message):
     deep in Warp (a TypeError about 'dome_texels'): each raises at construction, naming the light and the field."""
     with pytest.raises(wrt.SceneError, match=message):
         make()
+
+
+def test_usd_light_with_a_projective_transform_is_warned_about_and_read_as_its_affine_part(tmp_path):
+    """A light's projective world transform (a last column other than (0, 0, 0, 1)) was dropped without a word, as
+    meshes, instances and cameras report it."""
+
+    def build(stage):
+        rect = UsdLux.RectLight.Define(stage, "/Rect")
+        rect.AddTransformOp().Set(Gf.Matrix4d(1, 0, 0, 0.05, 0, 1, 0, 0, 0, 0, 1, 0, 2, 3, 4, 1))
+
+    with pytest.warns(UserWarning, match=r"world transform is projective; its last column was ignored.*: /Rect"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    (light,) = scene.lights
+    np.testing.assert_array_equal(light.to_world[3], [0, 0, 0, 1])
+    np.testing.assert_array_equal(light.to_world[:3, 3], [2, 3, 4])
 
 
 def test_distant_light_direction_is_made_unit():

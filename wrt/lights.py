@@ -70,6 +70,21 @@ def _size(name: str) -> tuple:
     return (name, (), 0.0, float)
 
 
+def check_affine(light) -> None:
+    """Refuses a light whose ``to_world`` has a bottom row other than ``(0, 0, 0, 1)``: only its top 3x4 is read, and
+    a ``Gf.Matrix4d`` passed untransposed (translation in the bottom row) put the light at the origin, turned the
+    other way, without a word.
+
+    Raises:
+        SceneError: naming the light and its bottom row.
+    """
+    bottom = light.to_world[3]
+    if np.abs(bottom - (0.0, 0.0, 0.0, 1.0)).max() > 1e-6:
+        raise SceneError(f"{type(light).__name__} to_world has bottom row {bottom.tolist()}; it must be an affine "
+                         "column-vector transform with bottom row (0, 0, 0, 1) (the transpose of a Gf.Matrix4d)",
+                         prim=light.path or None)
+
+
 def light_axes(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Columns X, Y, Z (scaled) and the origin of a column-vector ``(4, 4)`` transform."""
     m = np.asarray(to_world, np.float64).reshape(4, 4)
@@ -182,6 +197,7 @@ class RectLight:
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR, *_MULTIPLIERS)
+        check_affine(self)
         _check_shaping(self)
         self.texture = _checked_texture(self)
 
@@ -231,6 +247,7 @@ class DiskLight:
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("radius"), _COLOR, *_MULTIPLIERS)
+        check_affine(self)
         _check_shaping(self)
 
     @property
@@ -277,6 +294,7 @@ class CylinderLight:
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR, *_MULTIPLIERS)
+        check_affine(self)
         _check_shaping(self)
 
     def world_shape(self) -> tuple[np.ndarray, float]:
@@ -372,6 +390,7 @@ class DomeLight:
 
     def __post_init__(self):
         check_fields(self, _COLOR, _TO_WORLD, *_MULTIPLIERS)
+        check_affine(self)
         self.texture = _checked_texture(self)
 
 

@@ -102,6 +102,9 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
     if np.any(color < 0.0):  # a light cannot take light away: negative pixels would follow
         skip("negative light colour or intensity was clamped to 0", prim)
         color = np.maximum(color, 0.0)
+    if not np.allclose(m[3], (0.0, 0.0, 0.0, 1.0)):  # as for meshes, instances and cameras: the affine part is used
+        skip("world transform is projective; its last column was ignored", prim)
+        m[3] = (0.0, 0.0, 0.0, 1.0)
     multipliers = _multipliers(prim, light, skip, get)
     if multipliers is None:
         return None
