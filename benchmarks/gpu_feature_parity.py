@@ -75,8 +75,10 @@ def compare(name: str, scene, devices: list[str], **kwargs) -> None:
     diff = np.abs(a.rgb - b.rgb)
     same_prim = float((a.aovs["prim"] == b.aovs["prim"]).mean())
     albedo = float(np.abs(a.aovs["albedo"] - b.aovs["albedo"]).max())
+    coverage = float(np.abs(a.aovs["coverage"] - b.aovs["coverage"]).max())
     print(f"{name}: mean {devices[0]} {a.rgb.mean():.5f} {devices[1]} {b.rgb.mean():.5f}; max |diff| {diff.max():.3g}, "
-          f"mean {diff.mean():.3g}; prim equal {same_prim:.4f}; albedo max diff {albedo:.3g}")
+          f"mean {diff.mean():.3g}; prim equal {same_prim:.4f}; albedo max diff {albedo:.3g}; "
+          f"coverage max diff {coverage:.3g}")
 
 
 def main() -> None:
