@@ -1,10 +1,10 @@
 """Image: the rendered picture (linear RGB, top row first) plus its AOVs, and writing them to disk.
 
 Formats: ``.exr`` linear HDR (OpenEXR, 32-bit float), ``.npy`` raw linear float32, ``.png`` 8-bit sRGB after
-``2^exposure`` scaling and clipping to [0, 1] (no other tone curve; NaN is written as 0, +inf as 1). AOVs are written as ``.npy`` and, for a
-quick look, as colour-mapped PNGs (:func:`aov_preview`): the traversal cost as a heat map of nodes visited and
-triangles tested, normals as ``0.5 (n + 1)``, depths and ids as grey levels and random colours, coverage as
-an alpha matte.
+``2^exposure`` scaling and clipping to [0, 1] (no other tone curve; NaN is written as 0, +inf as 1). AOVs are written
+as ``.npy`` and, for a quick look, as colour-mapped PNGs (:func:`aov_preview`): the traversal cost as a heat map of
+nodes visited and triangles tested, normals as ``0.5 (n + 1)``, depths and ids as grey levels and random colours,
+coverage as an alpha matte.
 """
 
 from __future__ import annotations
