@@ -343,6 +343,10 @@ def test_texture_lookup_and_srgb_decoding(tmp_path):
         ("mirror", "mirrored"),
         ("clamp", "edge"),
         ("black", "black"),
+        # useMetadata asks for the file's wrap metadata; a PNG has none, and then the specification (and Storm) give
+        # black. It was read as repeat.
+        ("useMetadata", "black"),
+        (None, "black"),  # unauthored: the schema's fallback, useMetadata
     ],
 )
 def test_wrap_modes(tmp_path, wrap, expected_right_half):
@@ -358,6 +362,29 @@ def test_wrap_modes(tmp_path, wrap, expected_right_half):
         "black": [0, 0, 0],
     }[expected_right_half]
     np.testing.assert_allclose(right, expected, atol=2e-3)
+
+
+@pytest.mark.parametrize("wrap", ["black", None])
+def test_black_wrap_keeps_the_image_whole_inside_the_unit_square(tmp_path, wrap):
+    """``black`` is black outside [0, 1]^2 and the image inside: the lookup mixed a black border into the outer half
+    texel, so a 2 x 2 image came out at 3/4 or 9/16 of its value over three quarters of the quad."""
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), (200, 100, 50)))
+    img = albedo(textured_stage(tmp_path, png, st_range=2.0, wrap=wrap, color_space="raw"), res=8)
+    inside = img[4:8, 0:4]  # st in [0, 1]^2: pixel centres at st 0.125 .. 0.875
+    np.testing.assert_allclose(inside, np.broadcast_to(np.array([200, 100, 50]) / 255, inside.shape), atol=2e-3)
+    np.testing.assert_allclose(img[0:4], 0.0, atol=1e-6)  # t > 1
+    np.testing.assert_allclose(img[:, 4:8], 0.0, atol=1e-6)  # s > 1
+
+
+def test_unknown_wrap_tokens_are_named_and_read_as_use_metadata(tmp_path):
+    """A wrap token outside the schema's list (MaterialX's "periodic") was read as repeat without a word; Storm warns
+    and reads it as useMetadata, black outside the image for a file without wrap metadata."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, st_range=2.0, wrap="periodic", color_space="raw")
+    with pytest.warns(UserWarning, match=r"wrap[ST] is not one of black, clamp.*periodic"):
+        img = albedo(path, res=8)
+    np.testing.assert_allclose(img[6:8, 0:2], np.broadcast_to([0, 0, 1], (2, 2, 3)), atol=1e-3)  # inside: the image
+    np.testing.assert_allclose(img[0:2, 6:8], 0.0, atol=1e-6)  # st around (1.75, 1.75): black
 
 
 def test_transform2d_scales_and_translates_st(tmp_path):

@@ -83,6 +83,8 @@ def normal_mapped_stage(tmp_path, png, left_handed=False, swap_st=False, rotatio
     tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
     tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source)
     tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+    for wrap in ("wrapS", "wrapT"):  # a rotation moves st outside [0, 1]; unauthored, the map would be black there
+        tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("repeat")
     if scale_bias:
         tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set((2, 2, 2, 1))
         tex.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set((-1, -1, -1, 0))

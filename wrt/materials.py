@@ -19,7 +19,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
 - Inputs read: ``diffuseColor``, ``emissiveColor``, ``useSpecularWorkflow``, ``specularColor``, ``metallic``,
   ``roughness``, ``clearcoat``, ``clearcoatRoughness``, ``opacity``, ``opacityThreshold``, ``ior``. Any of them may
   be a constant or a ``UsdUVTexture`` output (``r``/``g``/``b``/``a``/``rgb``) with ``file``, ``st`` (from a
-  ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``), ``wrapS``/``wrapT``, ``scale``, ``bias``,
+  ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``), ``wrapS``/``wrapT`` (``useMetadata``, the
+  fallback, is ``black``: no wrap metadata is read from image files), ``scale``, ``bias``,
   ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a mesh's colour primvar through a
   ``UsdPrimvarReader_float3`` (or a MaterialX reader, :data:`COLOR_PRIMVAR_READERS`) of any ``varname``
   (:class:`PrimvarInput`): ``wrt.usd`` reads that primvar into the per-corner colours of the faces bound to that
@@ -934,10 +935,7 @@ class MaterialReader:
         if image < 0:
             return None, fallback_value
 
-        wraps = []
-        for key in ("wrapS", "wrapT"):
-            token = str(self._constant(tex, key) or "useMetadata")
-            wraps.append(token if token in WRAP_MODES else "repeat")  # useMetadata: no metadata is read -> repeat
+        wraps = [self._wrap_mode(tex, key, material_path) for key in ("wrapS", "wrapT")]
         scale = self._constant(tex, "scale")
         bias = self._constant(tex, "bias")
         uv_set, transform = self._st_source(tex, material_path)
@@ -955,6 +953,21 @@ class MaterialReader:
             ),
             fallback_value,
         )
+
+    def _wrap_mode(self, tex, key: str, material_path: str) -> str:
+        """``wrapS`` or ``wrapT`` (``key``) of UsdUVTexture ``tex`` as a :data:`WRAP_MODES` token. ``useMetadata``, the
+        fallback, asks for the image file's own wrap metadata, which wrt does not read; without it the specification
+        and Storm give ``black`` (a border of transparent black), so that is what it reads as. It was read as
+        ``repeat``: a quad whose ``st`` run to 2 showed the image four times where usdview shows it once, in a corner
+        of black. A token that is none of these is named in a warning and read as ``useMetadata``, as Storm does."""
+        token = self._constant(tex, key)
+        token = "useMetadata" if token is None else str(token)
+        if token in WRAP_MODES:
+            return token
+        if token != "useMetadata":
+            self.skip(f"material {material_path}: {key} is not one of black, clamp, repeat, mirror or useMetadata; "
+                      "it is read as useMetadata (black outside the image)", tex.GetPrim(), detail=token)
+        return "black"
 
     def _st_source(self, tex, material_path: str) -> tuple[str, np.ndarray]:
         """The primvar feeding ``tex``'s ``st`` and the ``UsdTransform2d`` applied on the way (identity if none). A

@@ -234,13 +234,10 @@ def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.nd
 
 @wp.func
 def wrap_coord(x: int, n: int, mode: int):
-    """Texel index ``x`` wrapped into ``[0, n)``; -1 for ``black`` outside the image."""
-    if mode == WRAP_CLAMP:
+    """Texel index ``x`` wrapped into ``[0, n)``; ``black`` clamps, as :func:`sample_image` has already given black
+    outside the image."""
+    if mode == WRAP_CLAMP or mode == WRAP_BLACK:
         return wp.clamp(x, 0, n - 1)
-    if mode == WRAP_BLACK:
-        if x < 0 or x >= n:
-            return -1
-        return x
     if mode == WRAP_MIRROR:
         period = 2 * n
         m = x % period
@@ -268,17 +265,27 @@ def udim_tile(st: wp.vec2):
 
 @wp.func
 def fetch_texel(texels: wp.array[wp.vec4h], offset: int, size: wp.vec2i, x: int, y: int, wrap: wp.vec2i):
-    """One texel (``y`` = row from the top) after wrapping; zero where ``black`` wrapping leaves the image."""
+    """One texel (``y`` = row from the top) after wrapping."""
     xi = wrap_coord(x, size[0], wrap[0])
     yi = wrap_coord(y, size[1], wrap[1])
-    if xi < 0 or yi < 0:
-        return wp.vec4(0.0)
     return wp.vec4(texels[offset + yi * size[0] + xi])
 
 
 @wp.func
+def outside_unit(c: float, mode: int):
+    """True where wrap mode ``mode`` makes texture coordinate ``c`` black: ``black`` outside [0, 1]."""
+    return mode == WRAP_BLACK and (c < 0.0 or c > 1.0)
+
+
+@wp.func
 def sample_image(texels: wp.array[wp.vec4h], offset: int, size: wp.vec2i, st: wp.vec2, wrap: wp.vec2i):
-    """Bilinear lookup at texture coordinate ``st`` (USD convention: ``t = 0`` is the bottom row)."""
+    """Bilinear lookup at texture coordinate ``st`` (USD convention: ``t = 0`` is the bottom row).
+
+    ``black`` gives transparent black outside the unit square, as the specification says, and the image inside it,
+    filtered there as ``clamp`` filters it: mixing a black border into the outer half texel darkened every edge of
+    the image, a quarter of a 2 x 2 one, now that ``black`` is what an unauthored wrap mode reads as."""
+    if outside_unit(st[0], wrap[0]) or outside_unit(st[1], wrap[1]):
+        return wp.vec4(0.0)
     x = st[0] * float(size[0]) - 0.5
     y = (1.0 - st[1]) * float(size[1]) - 0.5
     if not (wp.isfinite(x) and wp.isfinite(y)):
