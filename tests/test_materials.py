@@ -387,6 +387,26 @@ def test_unknown_wrap_tokens_are_named_and_read_as_use_metadata(tmp_path):
     np.testing.assert_allclose(img[0:2, 6:8], 0.0, atol=1e-6)  # st around (1.75, 1.75): black
 
 
+@pytest.mark.parametrize("mesh_st", ["st", None])
+def test_mesh_without_the_primvar_reads_the_readers_fallback(tmp_path, mesh_st):
+    """A mesh lacking the primvar its texture's UsdPrimvarReader_float2 names shows the texture at the reader's
+    ``fallback`` st, as the specification's reader gives it. wrt read the mesh's only other 2-vector primvar instead
+    (without a word), and a mesh with none sampled st = (0, 0) while the warning said it was left untextured."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    reader = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St"))
+    reader.GetInput("varname").Set("uv_missing")
+    reader.CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.75, 0.25))  # the grey block's middle
+    if mesh_st is None:
+        UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad")).RemovePrimvar("st")
+    stage.Save()
+    has = r"; the mesh has st" if mesh_st else r": 1\): /Quad"  # no other primvar to name
+    with pytest.warns(UserWarning, match=r"reader's fallback st.*uv_missing, fallback \(0.75, 0.25\)" + has):
+        img = albedo(path)
+    np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
+
+
 def test_transform2d_scales_and_translates_st(tmp_path):
     png = write_png(tmp_path / "checker.png", CHECKER)
     # st -> st * 0.5 + (0.5, 0): the quad shows only the right half of the image (green over grey).

@@ -113,6 +113,8 @@ class TextureInput(CountsAssignments):
         bias: ``(4,)`` is added after ``scale``.
         transform: ``(3, 3)`` affine map applied to ``st`` (``UsdTransform2d``), column-vector convention.
         uv_set: name of the texture-coordinate primvar.
+        st_fallback: ``(2,)`` the ``st`` of a mesh without primvar ``uv_set`` (its ``UsdPrimvarReader_float2``'s
+            ``fallback``), before ``transform``.
         tiles: None for one image; for a UDIM texture ``(UDIM_TILES,)`` int32, the ``Scene.textures`` index of tile
             ``UDIM_FIRST + u + 10 v`` at row ``u + 10 v``, -1 where that tile has no file.
         fallback: ``(4,)`` the value (no ``scale`` or ``bias``) where a UDIM texture has no tile: ``st`` on a missing
@@ -126,6 +128,7 @@ class TextureInput(CountsAssignments):
     bias: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4, np.float32))
     transform: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3, dtype=np.float32))
     uv_set: str = "st"
+    st_fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2, np.float32))
     tiles: np.ndarray | None = None
     fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.array(TEXTURE_FALLBACK, np.float32))
 
@@ -698,6 +701,15 @@ class MaterialReader:
                       f"mesh is supported; {names[0]!r} is used for all", prim)
         return names[0] if names else None
 
+    def st_fallback(self, face_materials: np.ndarray | None, uv_set: str) -> np.ndarray:
+        """``(2,)`` the ``st`` that mesh faces using ``face_materials`` take where the mesh lacks primvar ``uv_set``:
+        the fallback of the first primvar reader of that name among their materials' textures (zero if none)."""
+        for k in [] if face_materials is None else np.unique(face_materials):
+            for texture in self.materials[k].textures.values() if k >= 0 else ():
+                if texture.uv_set == uv_set:
+                    return np.asarray(texture.st_fallback, np.float64)
+        return np.zeros(2)
+
     def color_primvars(self, face_materials: np.ndarray | None) -> list[str]:
         """The colour primvars to read for a mesh (or gprim) whose faces use ``face_materials``: those its materials'
         diffuseColor reads (in material order), then ``displayColor`` for faces of the default material; just
@@ -938,7 +950,7 @@ class MaterialReader:
         wraps = [self._wrap_mode(tex, key, material_path) for key in ("wrapS", "wrapT")]
         scale = self._constant(tex, "scale")
         bias = self._constant(tex, "bias")
-        uv_set, transform = self._st_source(tex, material_path)
+        uv_set, transform, st_fallback = self._st_source(tex, material_path)
         return (
             TextureInput(
                 image=image,
@@ -948,6 +960,7 @@ class MaterialReader:
                 bias=np.resize(np.asarray(bias if bias is not None else (0, 0, 0, 0), np.float32), 4),
                 transform=transform,
                 uv_set=uv_set,
+                st_fallback=st_fallback,
                 tiles=tiles,
                 fallback=fallback if np.all(np.isfinite(fallback)) else np.array(TEXTURE_FALLBACK, np.float32),
             ),
@@ -969,19 +982,21 @@ class MaterialReader:
                       "it is read as useMetadata (black outside the image)", tex.GetPrim(), detail=token)
         return "black"
 
-    def _st_source(self, tex, material_path: str) -> tuple[str, np.ndarray]:
-        """The primvar feeding ``tex``'s ``st`` and the ``UsdTransform2d`` applied on the way (identity if none). A
-        shader other than those two on the way (a projection, a MaterialX node) is reported, and ``st`` read."""
+    def _st_source(self, tex, material_path: str) -> tuple[str, np.ndarray, np.ndarray]:
+        """The primvar feeding ``tex``'s ``st``, the ``UsdTransform2d`` applied on the way (identity if none) and the
+        primvar reader's ``fallback`` (``(2,)``, zero when unauthored, as in the schema). A shader other than those two
+        on the way (a projection, a MaterialX node) is reported, and ``st`` read."""
         transform = np.eye(3, dtype=np.float32)
+        no_fallback = np.zeros(2, np.float32)
         found = self._producer(tex, "st")
         for _ in range(8):  # follow a short chain of transforms
             if found is None or found[0] != "shader":
-                return "st", transform
+                return "st", transform, no_fallback
             node = found[1]
             node_id = node.GetShaderId() or ""
             if node_id.startswith("UsdPrimvarReader"):
                 varname = self._constant(node, "varname")
-                return (str(varname) if varname else "st"), transform
+                return (str(varname) if varname else "st"), transform, self._st_fallback(node, material_path)
             if node_id == "UsdTransform2d":
                 rotation = float(self._constant(node, "rotation") or 0.0)
                 scale = self._constant(node, "scale")
@@ -994,8 +1009,24 @@ class MaterialReader:
             self.skip("texture coordinates from shaders other than UsdPrimvarReader_float2 and UsdTransform2d are "
                       "not supported; these materials' textures read the st primvar", tex.GetPrim(),
                       detail=f"{material_path}: {node_id or 'no info:id'}")
-            return "st", transform
-        return "st", transform
+            return "st", transform, no_fallback
+        return "st", transform, no_fallback
+
+    def _st_fallback(self, reader, material_path: str) -> np.ndarray:
+        """``(2,)`` float32 ``fallback`` of texture-coordinate reader ``reader``: zero when unauthored; one that is not
+        two finite numbers is zero too, with a warning."""
+        value = self._constant(reader, "fallback")
+        if value is None:
+            return np.zeros(2, np.float32)
+        try:
+            v = np.asarray(value, np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            v = np.empty(0)
+        if v.size != 2 or not np.all(np.isfinite(v)):
+            self.skip(f"material {material_path}: a texture-coordinate reader's fallback is not two finite numbers; "
+                      "(0, 0) is used", reader.GetPrim(), detail=str(value))
+            return np.zeros(2, np.float32)
+        return v.astype(np.float32)
 
     def file_images(self, shader, color_space: str, material_path: str, name: str = "file"):
         """``(image, tiles)`` of the image file named by input ``name`` of ``shader`` (a UsdUVTexture or a MaterialX

@@ -55,21 +55,24 @@ class MeshPrimvarReading:
         values = unit_opacities(values[:, 0], prim, self._skip)
         return None if np.all(values >= 1.0) and not keep_opaque else (values.astype(np.float32), corner_index)
 
-    def _read_uvs(self, prim, topology, uv_set: str):
-        """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (when missing:
-        the mesh's only 2-vector primvar, if it has exactly one), or None."""
+    def _read_uvs(self, prim, topology, uv_set: str, fallback: np.ndarray):
+        """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set``, or None when it
+        is not an array of 2-vectors. A mesh without it takes ``fallback`` (``(2,)``, its primvar reader's) at every
+        corner, as the specification's UsdPrimvarReader gives, with a warning naming the primvar and the 2-vector
+        primvars the mesh has: it read its only other 2-vector primvar instead, silently, and without one sampled
+        the texture at st = (0, 0) (whatever the fallback) while the warning said it was left untextured."""
         api = UsdGeom.PrimvarsAPI(prim)
         primvar = api.GetPrimvar(uv_set)
-        if not (primvar and primvar.HasValue()):
-            candidates = [
-                p for p in api.GetPrimvarsWithValues() if str(p.GetTypeName()).rstrip("[]") in ("texCoord2f", "float2")
-            ]
-            if len(candidates) != 1:
-                reason = "meshes without the texture-coordinate primvar their material reads were left untextured"
-                self._skip(reason, prim, uv_set)
-                return None
-            primvar = candidates[0]
-        return self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, components=2)
+        if primvar and primvar.HasValue():
+            return self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology,
+                                      components=2)
+        others = [str(p.GetPrimvarName()) for p in api.GetPrimvarsWithValues()
+                  if str(p.GetTypeName()).rstrip("[]") in ("texCoord2f", "float2", "texCoord2d", "double2")]
+        reason = ("meshes without the texture-coordinate primvar their material reads show the texture at the "
+                  "primvar reader's fallback st")
+        has = f"; the mesh has {', '.join(others)}" if others else ""
+        self._skip(reason, prim, f"{uv_set}, fallback ({fallback[0]:g}, {fallback[1]:g}){has}")
+        return np.asarray(fallback, np.float64).reshape(1, 2), np.zeros(topology[2].shape, np.int64)
 
     def _read_primvar(self, prim, attr, interpolation, primvar, topology, components=3):
         """Reads a primvar of ``components``-vectors and maps it to triangle corners.

@@ -83,9 +83,10 @@ class MeshReading:
         counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
         face_materials = self._face_materials(prim, len(counts), ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
+        uv_source = None if uv_set is None else (uv_set, self.materials.st_fallback(face_materials, uv_set))
         color_names = self.materials.color_primvars(face_materials)
         default_faces = face_materials is None or bool(np.any(face_materials < 0))
-        local = self._read_local_mesh(prim, counts, uv_set, color_names, default_faces, keep_opaque=not ctx.world)
+        local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, keep_opaque=not ctx.world)
         if local is None:
             return None
         # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
@@ -129,12 +130,12 @@ class MeshReading:
                            cage=cage, opacities=opacities)
         return self._bake(prim, m, ctx, local, face_materials, color_names)
 
-    def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_set: str | None,
+    def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_source: tuple | None,
                          color_names=("displayColor",), default_faces=True, keep_opaque=False) -> LocalMesh | None:
         """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials), with
-        texture coordinates ``uv_set``, colours from the primvars ``color_names`` it has, and its ``displayOpacity``
-        when some faces have the default material (``default_faces``; ``keep_opaque``: see
-        :meth:`_read_opacities`)."""
+        texture coordinates ``uv_source`` (``(primvar, (2,) st where the mesh lacks it)`` or None), colours from the
+        primvars ``color_names`` it has, and its ``displayOpacity`` when some faces have the default material
+        (``default_faces``; ``keep_opaque``: see :meth:`_read_opacities`)."""
         mesh = UsdGeom.Mesh(prim)
         t = self.time
         face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
@@ -184,7 +185,7 @@ class MeshReading:
         # A refined surface makes its own normals (USD: authored normals do not apply to subdivision surfaces).
         normals = self._read_normals(prim, mesh, topology) if refinement is None else None
         colors = {name: found for name in color_names if (found := self._read_colors(prim, topology, name)) is not None}
-        uvs = self._read_uvs(prim, topology, uv_set) if uv_set else None
+        uvs = self._read_uvs(prim, topology, *uv_source) if uv_source else None
         opacities = self._read_opacities(prim, topology, keep_opaque) if default_faces else None
         flip = self._left_handed(prim, mesh, t)
         smooth = normals is None and scheme in SMOOTH_SCHEMES
