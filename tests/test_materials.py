@@ -376,6 +376,15 @@ def test_black_wrap_keeps_the_image_whole_inside_the_unit_square(tmp_path, wrap)
     np.testing.assert_allclose(img[:, 4:8], 0.0, atol=1e-6)  # s > 1
 
 
+def test_unknown_source_color_space_is_named_and_read_as_auto(tmp_path):
+    """``sourceColorSpace = "linear"`` (not a token of the schema) was read as auto without a word, so an 8-bit map
+    meant linear was decoded as sRGB."""
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), 128))
+    with pytest.warns(UserWarning, match=r"sourceColorSpace is not one of auto, sRGB or raw.*linear"):
+        img = albedo(textured_stage(tmp_path, png, color_space="linear"))
+    np.testing.assert_allclose(img, float(srgb_to_linear(np.float32(128 / 255))), atol=2e-3)  # auto: sRGB for 8 bits
+
+
 def test_unknown_wrap_tokens_are_named_and_read_as_use_metadata(tmp_path):
     """A wrap token outside the schema's list (MaterialX's "periodic") was read as repeat without a word; Storm warns
     and reads it as useMetadata, black outside the image for a file without wrap metadata."""

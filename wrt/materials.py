@@ -942,6 +942,10 @@ class MaterialReader:
 
         color_space = str(self._constant(tex, "sourceColorSpace") or "auto")
         if color_space not in ("auto", "sRGB", "raw"):
+            # "linear" or "srgb" (tokens are case-sensitive) were read as auto without a word: an 8-bit map meant
+            # linear was decoded as sRGB, 0.5 read as 0.21.
+            self.skip(f"material {material_path}: sourceColorSpace is not one of auto, sRGB or raw; it is read as "
+                      "auto", tex.GetPrim(), detail=color_space)
             color_space = "auto"
         image, tiles = self.file_images(tex, color_space, material_path)
         if image < 0:
