@@ -6,9 +6,9 @@ wraps raw arrays. Everything downstream (BVH, trace, render) reads only this cla
 
 Triangle order (the meaning of ``Hits.prim``): meshes in the order of :attr:`Scene.meshes` (for USD stages,
 the pre-order traversal of the stage), and inside each mesh the triangles of face 0 first, then face 1, and
-so on, each face fan-triangulated around its first vertex, so face ``f`` with ``n`` vertices gives
-``n - 2`` consecutive triangles. Instances come after them: each instance's prototype triangles in instance order
-(:mod:`wrt.instancing`), which is how :meth:`Scene.triangles` expands them.
+so on, each face fan-triangulated around its first vertex (a concave one ear-clipped: :mod:`wrt.polygons`), so face
+``f`` with ``n`` vertices gives ``n - 2`` consecutive triangles. Instances come after them: each instance's prototype
+triangles in instance order (:mod:`wrt.instancing`), which is how :meth:`Scene.triangles` expands them.
 
 Geometry order (the meaning of ``prim`` in device hit buffers and of the per-triangle shading arrays): every
 *unique* triangle once, the non-instanced meshes first (world space, the same rows as in ``triangles()``), then

@@ -1,14 +1,14 @@
 """Reads a USD stage into a :class:`wrt.scene.Scene`: world-space triangles, materials, cameras and lights.
 
 :func:`load_usd` walks the stage in pre-order, keeps every visible ``UsdGeom.Mesh`` whose purpose is ``default`` or
-``render`` (or one the render settings' ``includedPurposes`` list: :mod:`wrt.render_settings`), fan-triangulates its
-faces with :func:`triangulate` (leaving out ``holeIndices``), bakes the world transform into the points, and carries
-shading normals, ``displayColor`` and ``displayOpacity`` (its own, else a constant one inherited from an ancestor;
-opacity for the default material only), texture coordinates and the bound material (:mod:`wrt.materials`) per
-triangle. UsdLux lights, mesh lights (``MeshLightAPI``) too, are read by :mod:`wrt.usd_lights`; meshes skinned by a
-UsdSkel skeleton are posed by :mod:`wrt.usd_skel`. Bad topology raises :class:`wrt.errors.SceneError` naming the
-file and the prim; things that are skipped but a user might expect to see (unsupported gprims, lights or shaders)
-produce one warning each.
+``render`` (or one the render settings' ``includedPurposes`` list: :mod:`wrt.render_settings`), triangulates its faces
+with :func:`triangulate` (fans; concave faces ear-clipped by :mod:`wrt.polygons`; leaving out ``holeIndices``), bakes
+the world transform into the points, and carries shading normals, ``displayColor`` and ``displayOpacity`` (its own, else
+a constant one inherited from an ancestor; opacity for the default material only), texture coordinates and the bound
+material (:mod:`wrt.materials`) per triangle. UsdLux lights, mesh lights (``MeshLightAPI``) too, are read by
+:mod:`wrt.usd_lights`; meshes skinned by a UsdSkel skeleton are posed by :mod:`wrt.usd_skel`. Bad topology raises
+:class:`wrt.errors.SceneError` naming the file and the prim; things that are skipped but a user might expect to see
+(unsupported gprims, lights or shaders) produce one warning each.
 
 Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``size``), ``Cylinder`` and ``Cone``
 (``height``, ``radius``, ``axis``; capped), ``Capsule`` (``height`` of the cylindrical part, ``radius``, ``axis``),

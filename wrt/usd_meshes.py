@@ -1,4 +1,5 @@
-"""A ``UsdGeom.Mesh`` read in its own space: topology checks, fan triangulation (:func:`triangulate`), holes,
+"""A ``UsdGeom.Mesh`` read in its own space: topology checks, triangulation (:func:`triangulate`: fans, concave faces
+ear-clipped by :mod:`wrt.polygons`), holes,
 Catmull-Clark refinement (:mod:`wrt.subdivision`), posing by a skeleton (:mod:`wrt.usd_skel`) and smooth normals of
 subdivision surfaces; ``TetMesh`` and ``NurbsPatch`` prims read the same way once :mod:`wrt.usd_surfaces` made them
 triangles."""
@@ -8,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .polygons import clip_concave_faces
 from .resources import check_host_memory
 from .scene import Mesh
 from .subdivision import REFINED_QUAD_BYTES, Refinement, refined_quads
@@ -16,16 +18,20 @@ from .usd_looks import color_primvar
 from .usd_values import value_at
 
 
-def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
-    """Fan-triangulates polygons around the first vertex of each face.
+def triangulate(face_counts, face_indices, points=None, on_problem=None) -> tuple[np.ndarray, np.ndarray]:
+    """Fan-triangulates polygons around the first vertex of each face; given ``points``, faces that are not convex
+    are ear-clipped instead, so that their triangles stay inside them (:func:`wrt.polygons.clip_concave_faces`).
 
-    Face ``f`` with ``n`` vertices becomes the ``n - 2`` consecutive triangles ``(v0, v[k+1], v[k+2])`` for
-    ``k = 0 .. n-3``. Faces with fewer than 3 vertices give no triangle but still consume their indices.
+    Face ``f`` with ``n`` vertices becomes ``n - 2`` consecutive triangles: the fan ``(v0, v[k+1], v[k+2])`` for
+    ``k = 0 .. n-3``, or for a concave face its ears, each listing its corners in the face's order (winding kept).
+    Faces with fewer than 3 vertices give no triangle but still consume their indices.
 
     Args:
         face_counts: ``(F,)`` int, vertices per face (USD ``faceVertexCounts``).
-        face_indices: ``(N,)`` int, the concatenated face vertices (USD ``faceVertexIndices``); only its
-            length is used, to check that the counts cover it exactly.
+        face_indices: ``(N,)`` int, the concatenated face vertices (USD ``faceVertexIndices``); without ``points``
+            only its length is used, to check that the counts cover it exactly; with them, all in range.
+        points: ``(V, 3)`` float, the points ``face_indices`` index, or None for the plain fan.
+        on_problem: called ``(reason, detail)`` for concave faces left fanned (they cross themselves, or are huge).
 
     Returns:
         ``tri_corners`` ``(T, 3)`` int64 positions into ``face_indices`` (so the triangle vertices are
@@ -52,6 +58,8 @@ def triangulate(face_counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
     k = np.arange(len(face_ids), dtype=np.int64) - first_tri[face_ids]
     s = starts[face_ids]
     tri_corners = np.stack([s, s + k + 1, s + k + 2], axis=1)
+    if points is not None:
+        tri_corners = clip_concave_faces(points, counts, face_indices, tri_corners, on_problem)
     return tri_corners, face_ids
 
 
@@ -162,8 +170,11 @@ class MeshReading:
         scheme = value_at(mesh.GetSubdivisionSchemeAttr(), t)
         refinement = self._refinement(prim, scheme, counts, face_indices, len(points))
         polygons = (counts, face_indices) if refinement is None else (refinement.counts, refinement.face_indices)
+        # Concave faces are clipped in the authored points; refined quads are fanned (Catmull-Clark moves them).
+        plane_points = points if refinement is None else None
         try:
-            tri_corners, face_ids = triangulate(*polygons)
+            tri_corners, face_ids = triangulate(*polygons, plane_points,
+                                                lambda reason, detail: self._skip(reason, prim, detail))
         except ValueError as e:
             raise self._error(str(e), prim, mesh.GetFaceVertexCountsAttr()) from None
         if refinement is not None:

@@ -1,0 +1,301 @@
+"""Concave faces are triangulated inside their outline (wrt.polygons): rays hit a dart or an L-shaped face only where
+it is, the triangles cover its area once, keep their face, winding and primvars; faces that cannot be clipped keep
+their fan without a hang or a crash."""
+
+import time
+
+import numpy as np
+import pytest
+from PIL import Image
+
+pytest.importorskip("pxr")
+
+from usda_text import fmt, load, load_recording_warnings, trace, write  # noqa: E402
+
+from wrt.polygons import MAX_CLIPPED_CORNERS, clip_ears  # noqa: E402
+from wrt.usd_meshes import triangulate  # noqa: E402
+
+DART = [(0.0, 0.0), (2.0, 1.0), (0.0, 2.0), (0.8, 1.0)]  # reflex corner last: the fan from corner 0 leaves it
+L_SHAPE = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (1.0, 1.0), (1.0, 2.0), (0.0, 2.0)]  # reflex corner 3
+# The L started at its other convex corners: the fan from corner 0 is wrong for some starts, right for others.
+OUTLINES = {"dart": DART, "dart_rolled": DART[1:] + DART[:1], "L": L_SHAPE, "L_rolled": L_SHAPE[4:] + L_SHAPE[:4]}
+
+
+def inside_polygon(x, y, outline) -> np.ndarray:
+    """Even-odd rule (crossings of a ray towards +x): whether each point ``(x, y)`` lies inside ``outline``."""
+    inside = np.zeros(np.shape(x), bool)
+    for (x0, y0), (x1, y1) in zip(outline, outline[1:] + outline[:1]):
+        crosses = (y0 > y) != (y1 > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            at = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
+        inside ^= crosses & (x < at)
+    return inside
+
+
+def distance_to_outline(x, y, outline) -> np.ndarray:
+    """Distance of each point to the nearest edge of ``outline``."""
+    best = np.full(np.shape(x), np.inf)
+    for (x0, y0), (x1, y1) in zip(outline, outline[1:] + outline[:1]):
+        dx, dy = x1 - x0, y1 - y0
+        s = np.clip(((x - x0) * dx + (y - y0) * dy) / (dx * dx + dy * dy), 0.0, 1.0)
+        best = np.minimum(best, np.hypot(x - x0 - s * dx, y - y0 - s * dy))
+    return best
+
+
+def shoelace(outline) -> float:
+    x, y = np.asarray(outline, np.float64).T
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def rotation(seed) -> np.ndarray:
+    """A random proper rotation (3x3, fixed seed)."""
+    q, r = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    return q if np.linalg.det(q) > 0 else -q
+
+
+def flat_mesh_usda(outline, extra="", name="Face") -> str:
+    points = [(x, y, 0.0) for x, y in outline]
+    return (f'def Mesh "{name}"\n{{\n    point3f[] points = {fmt(points)}\n'
+            f"    int[] faceVertexCounts = [{len(outline)}]\n"
+            f"    int[] faceVertexIndices = {list(range(len(outline)))}\n"
+            f'    uniform token subdivisionScheme = "none"\n{extra}}}\n')
+
+
+@pytest.mark.parametrize("shape", sorted(OUTLINES))
+def test_rays_hit_a_concave_face_only_inside_its_outline(tmp_path, shape):
+    outline = OUTLINES[shape]
+    scene = load(write(tmp_path, flat_mesh_usda(outline)))
+    # 39 x 39 rays straight down the z axis over the face's box and a margin around it.
+    x, y = np.meshgrid(np.linspace(-0.3, 2.3, 39), np.linspace(-0.3, 2.3, 39))
+    x, y = x.reshape(-1), y.reshape(-1)
+    origins = np.stack([x, y, np.full_like(x, 5.0)], axis=1)
+    hits = trace(scene, origins, np.tile([0.0, 0.0, -1.0], (len(x), 1)))
+    hit = hits.prim >= 0
+    inside = inside_polygon(x, y, outline)
+    clear = distance_to_outline(x, y, outline) > 1e-4  # rays grazing an edge may go either way
+    assert not (hit & ~inside & clear).any(), f"{int((hit & ~inside & clear).sum())} rays hit outside the {shape}"
+    assert not (~hit & inside & clear).any(), f"{int((~hit & inside & clear).sum())} rays missed inside the {shape}"
+    np.testing.assert_allclose(hits.t[hit], 5.0, rtol=1e-6)
+
+
+@pytest.mark.parametrize("shape", sorted(OUTLINES))
+def test_clipped_triangles_cover_the_face_once_and_keep_its_winding(shape):
+    outline = OUTLINES[shape]
+    n = len(outline)
+    turn = rotation(7)  # in a tilted plane, far from the origin: the best-fit plane is found, not assumed
+    points = np.array([(x, y, 0.0) for x, y in outline]) @ turn.T + [1e3, -2e3, 5e2]
+    indices = np.arange(n) + 1  # point 0 unused: corner positions and point ids differ
+    points = np.concatenate([np.full((1, 3), 7.0), points])
+    tri_corners, face_ids = triangulate([n], indices, points)
+    assert tri_corners.shape == (n - 2, 3)
+    np.testing.assert_array_equal(face_ids, 0)
+    p = points[indices[tri_corners]]
+    normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    # Every triangle faces as the face does (its normal is turn's z axis), their areas add up to the face's and
+    # each one's centre lies inside the outline.
+    facing = normals @ turn[:, 2]
+    assert (facing > 0).all()
+    np.testing.assert_allclose(0.5 * facing.sum(), shoelace(outline), rtol=1e-9)
+    centres = ((p.mean(axis=1) - [1e3, -2e3, 5e2]) @ turn)[:, :2]
+    assert inside_polygon(centres[:, 0], centres[:, 1], outline).all()
+
+
+def test_ear_clipping_random_star_shaped_polygons():
+    rng = np.random.default_rng(123)
+    done = 0
+    while done < 300:
+        n = int(rng.integers(4, 40))
+        angles = np.sort(rng.uniform(0.0, 2.0 * np.pi, n))
+        if np.diff(np.r_[angles, angles[0] + 2.0 * np.pi]).max() >= np.pi:
+            continue  # not around the origin: may cross itself
+        radii = rng.uniform(0.05, 1.0, n)
+        xy = np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=1)
+        triangles, clipped = clip_ears(xy)
+        assert clipped and triangles.shape == (n - 2, 3)
+        a, b, c = (xy[triangles[:, k]] for k in range(3))
+        twice_areas = (b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]
+        assert (twice_areas > -1e-12).all()
+        np.testing.assert_allclose(0.5 * twice_areas.sum(), shoelace(xy.tolist()), rtol=1e-9)
+        centres = (a + b + c) / 3.0
+        assert inside_polygon(centres[:, 0], centres[:, 1], xy.tolist())[twice_areas > 1e-9].all()
+        done += 1
+
+
+def test_convex_faces_keep_the_fan():
+    # A square, a regular hexagon and a pentagon with a straight corner: the fan is right for them and stays.
+    hexagon = [(np.cos(a), np.sin(a), 0.0) for a in np.linspace(0.0, 2.0 * np.pi, 6, endpoint=False)]
+    points = np.array([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)] + hexagon
+                      + [(0, 0, 0), (1, 0, 0), (2, 0, 0), (2, 1, 0), (0, 1, 0)], np.float64)
+    counts = [4, 6, 5]
+    tri_corners, _ = triangulate(counts, np.arange(15), points)
+    fan, _ = triangulate(counts, np.arange(15))
+    np.testing.assert_array_equal(tri_corners, fan)
+
+
+def test_primvars_follow_the_clipped_corners(tmp_path):
+    # An L (concave, clipped) and a dart beside it, with a faceVarying colour that is a linear function of the
+    # position and vertex normals that differ per point: each triangle corner must carry the value of its own corner.
+    l_points = [(x, y, 0.0) for x, y in L_SHAPE]
+    dart_points = [(x + 3.0, y, 0.0) for x, y in DART]
+    points = np.array(l_points + dart_points)
+    face_indices = list(range(10))
+
+    def linear(p):
+        return np.stack([0.1 + 0.2 * p[:, 0], 0.3 + 0.1 * p[:, 1], 0.5 + 0.05 * (p[:, 0] - p[:, 1])], axis=1)
+
+    normals = np.tile([0.0, 0.0, 1.0], (10, 1)) + np.arange(10)[:, None] * [0.01, 0.0, 0.0]
+    body = (f'def Mesh "M"\n{{\n    point3f[] points = {fmt(points)}\n    int[] faceVertexCounts = [6, 4]\n'
+            f"    int[] faceVertexIndices = {face_indices}\n    uniform token subdivisionScheme = \"none\"\n"
+            f"    color3f[] primvars:displayColor = {fmt(linear(points))} (interpolation = \"faceVarying\")\n"
+            f"    normal3f[] normals = {fmt(normals)} (interpolation = \"vertex\")\n}}\n")
+    scene = load(write(tmp_path, body))
+    mesh = scene.meshes[0]
+    corners = mesh.points[mesh.indices]  # (T, 3, 3)
+    np.testing.assert_allclose(mesh.colors, linear(corners.reshape(-1, 3)).reshape(-1, 3, 3), atol=1e-6)
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    # Vertex normals: the point each corner is at, found by position.
+    for t in range(len(mesh.indices)):
+        for c in range(3):
+            k = int(np.argmin(np.linalg.norm(points - corners[t, c], axis=1)))
+            np.testing.assert_allclose(mesh.normals[t, c], (normals / lengths)[k], atol=1e-6)
+    np.testing.assert_array_equal(mesh.face_ids, [0, 0, 0, 0, 1, 1])
+    # The triangles of each face lie inside that face: the L's in the L, the dart's in the dart.
+    centres = corners.mean(axis=1)
+    assert inside_polygon(centres[:4, 0], centres[:4, 1], L_SHAPE).all()
+    assert inside_polygon(centres[4:, 0] - 3.0, centres[4:, 1], DART).all()
+
+
+def test_texture_coordinates_follow_the_clipped_corners(tmp_path):
+    points = np.array([(x, y, 0.0) for x, y in L_SHAPE])
+    uv = points[:, :2] * 0.25
+    body = (f'def Mesh "Face"\n{{\n    point3f[] points = {fmt(points)}\n    int[] faceVertexCounts = [6]\n'
+            f"    int[] faceVertexIndices = [0, 1, 2, 3, 4, 5]\n    uniform token subdivisionScheme = \"none\"\n"
+            f"    texCoord2f[] primvars:st = {fmt(uv)} (interpolation = \"faceVarying\")\n"
+            '    rel material:binding = </M>\n}\n')
+    material = ('def Material "M"\n{\n    token outputs:surface.connect = </M/S.outputs:surface>\n'
+                '    def Shader "S"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+                "        color3f inputs:diffuseColor.connect = </M/T.outputs:rgb>\n"
+                "        token outputs:surface\n    }\n"
+                '    def Shader "T"\n    {\n        uniform token info:id = "UsdUVTexture"\n'
+                "        asset inputs:file = @grey.png@\n"
+                "        float2 inputs:st.connect = </M/R.outputs:result>\n        float3 outputs:rgb\n    }\n"
+                '    def Shader "R"\n    {\n        uniform token info:id = "UsdPrimvarReader_float2"\n'
+                '        string inputs:varname = "st"\n        float2 outputs:result\n    }\n}\n')
+    Image.fromarray(np.full((2, 2, 3), 128, np.uint8)).save(tmp_path / "grey.png")
+    scene = load(write(tmp_path, body + material))
+    mesh = scene.meshes[0]
+    assert mesh.uvs is not None
+    np.testing.assert_allclose(mesh.uvs, mesh.points[mesh.indices][..., :2] * 0.25, atol=1e-6)
+
+
+@pytest.mark.parametrize("outline, reason", [
+    # A bow-tie quad and a hexagon whose edges cross: no inside to keep to, the fan stays.
+    ([(0, 0), (2, 2), (2, 0), (0, 2)], "cross themselves"),
+    ([(0, 0), (3, 0), (3, 2), (-1, 1), (1, -1), (1, 3)], "cross themselves"),
+])
+def test_faces_that_cross_themselves_keep_their_fan_with_a_warning(tmp_path, outline, reason):
+    scene, messages = load_recording_warnings(write(tmp_path, flat_mesh_usda(outline, name="Knot")))
+    n = len(outline)
+    assert len(scene.meshes[0].indices) == n - 2
+    found = [m for m in messages if reason in m]
+    if found:  # a crossing the convexity check does not see (all corners turn one way) needs no warning
+        assert "/Knot" in found[0] and "face" in found[0]
+
+
+@pytest.mark.parametrize("outline", [
+    [(0, 0), (1, 0), (2, 0), (2, 2), (1, 0.5), (0, 2)],  # a straight corner beside a reflex one
+    [(0, 0), (2, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2), (0, 2)],  # repeated points
+    [(0, 0), (1, 0), (2, 0), (1, 0)],  # no area: all in a line
+    [(0, 0), (4, 0), (4, 4), (0, 4), (0, 0), (1, 1), (1, 3), (3, 3), (3, 1), (1, 1)],  # a square with a square hole
+])
+def test_degenerate_concave_faces_give_their_triangles_without_a_crash(outline):
+    n = len(outline)
+    points = np.array([(x, y, 0.0) for x, y in outline], np.float64)
+    tri_corners, face_ids = triangulate([n], np.arange(n), points)
+    assert tri_corners.shape == (n - 2, 3) and (face_ids == 0).all()
+    assert set(tri_corners.reshape(-1).tolist()) <= set(range(n))
+    p = points[tri_corners]
+    facing = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])[:, 2]
+    area = shoelace(outline)
+    if area > 0:  # no triangle turned over, and together they cover the face once
+        assert (facing > -1e-12).all()
+        np.testing.assert_allclose(0.5 * facing.sum(), area, rtol=1e-9)
+
+
+def comb(teeth: int) -> list:
+    """A comb of ``teeth`` teeth (``4 * teeth`` corners, half of them reflex), counter-clockwise."""
+    outline = [(0.0, 0.0), (float(2 * teeth), 0.0)]
+    for k in reversed(range(teeth)):
+        outline += [(2.0 * k + 2.0, 1.0), (2.0 * k + 1.5, 3.0), (2.0 * k + 1.0, 1.0)] if k else [(2.0, 1.0), (1.5, 3.0)]
+    return outline + [(0.0, 1.0)]
+
+
+def test_a_large_concave_face_is_clipped_in_bounded_time():
+    outline = comb(1000)
+    n = len(outline)
+    assert n < MAX_CLIPPED_CORNERS
+    points = np.array([(x, y, 0.0) for x, y in outline])
+    start = time.perf_counter()
+    tri_corners, _ = triangulate([n], np.arange(n), points)
+    elapsed = time.perf_counter() - start
+    p = points[tri_corners]
+    facing = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])[:, 2]
+    assert (facing > -1e-12).all()
+    np.testing.assert_allclose(0.5 * facing.sum(), shoelace(outline), rtol=1e-9)
+    assert elapsed < 60.0, elapsed  # a hang guard, not a benchmark
+
+
+def test_a_huge_concave_face_keeps_its_fan_with_a_warning_naming_prim_and_face(tmp_path):
+    teeth = MAX_CLIPPED_CORNERS // 3 + 10
+    outline = [(0.0, 0.0), (1.0, 0.0)] + comb(teeth)
+    n = len(outline)
+    assert n > MAX_CLIPPED_CORNERS
+    points = [(x, y, 0.0) for x, y in outline]
+    body = (f'def Mesh "Huge"\n{{\n    point3f[] points = {fmt(points)}\n    int[] faceVertexCounts = [3, {n - 3}]\n'
+            f"    int[] faceVertexIndices = [0, 1, 2, {', '.join(str(i) for i in range(3, n))}]\n"
+            '    uniform token subdivisionScheme = "none"\n}\n')
+    scene, messages = load_recording_warnings(write(tmp_path, body))
+    mesh = scene.meshes[0]
+    assert len(mesh.indices) == 1 + (n - 3) - 2
+    found = [m for m in messages if f"more than {MAX_CLIPPED_CORNERS:,} corners" in m]
+    assert found and "/Huge" in found[0] and "face 1 " in found[0], messages
+    fan, _ = triangulate([3, n - 3], np.arange(n))
+    np.testing.assert_array_equal(mesh.indices[1:], fan[1:])  # no orientation change: right-handed, unmirrored
+
+
+def test_chess_set_concave_faces_are_clipped_inside(assets):
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(assets("chess_set")))
+    concave_faces = 0
+    for prim in stage.Traverse():
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        mesh = UsdGeom.Mesh(prim)
+        counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(), np.int64)
+        indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), np.int64)
+        points = np.asarray(mesh.GetPointsAttr().Get(), np.float64)
+        if len(counts) == 0:
+            continue
+        tri_corners, face_ids = triangulate(counts, indices, points)
+        starts = np.cumsum(counts) - counts
+        # Faces whose fan has a triangle facing against the face's area vector are concave (found independently of
+        # wrt.polygons); their triangles must all face the same way and add up to the face's area.
+        for f in np.flatnonzero(counts >= 4):
+            face = points[indices[starts[f]:starts[f] + counts[f]]]
+            rel = face - face[0]
+            area_vector = 0.5 * np.cross(rel, np.roll(rel, -1, axis=0)).sum(axis=0)
+            perimeter = np.linalg.norm(np.roll(face, -1, axis=0) - face, axis=1).sum()
+            if np.linalg.norm(area_vector) <= 1e-9 * perimeter**2:
+                continue  # no area to be concave with
+            fan = [np.cross(rel[k], rel[k + 1]) @ area_vector for k in range(1, counts[f] - 1)]
+            if min(fan) >= -1e-9 * np.dot(area_vector, area_vector):
+                continue
+            concave_faces += 1
+            p = points[indices[tri_corners[face_ids == f]]]
+            norm = np.linalg.norm(area_vector)
+            facing = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]) @ area_vector / norm
+            assert (facing > -1e-6 * perimeter**2).all(), (str(prim.GetPath()), int(f))
+            np.testing.assert_allclose(0.5 * facing.sum(), norm, rtol=1e-6, atol=1e-6 * perimeter**2)
+    assert concave_faces > 0

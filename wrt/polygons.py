@@ -1,0 +1,304 @@
+"""Polygons triangulated inside their outline: a face that is not convex in its best-fit plane is ear-clipped, every
+other face keeps the fan around its first vertex that :func:`wrt.usd_meshes.triangulate` makes.
+
+A fan covers a convex polygon exactly, but for a concave one (a dart, an L) some of its triangles lie outside the
+outline and others overlap, so rays hit where the face has no surface. The check for convexity is vectorised over all
+faces, so a mesh of millions of convex quads pays a few numpy passes; only the concave faces are clipped, one at a
+time. Each face's best-fit plane is the one normal to its Newell normal (its area vector; Newell's method, see
+Sutherland, Sproull and Schumacker, "A Characterization of Ten Hidden-Surface Algorithms", 1974). Ear clipping after
+Meisters, "Polygons have ears", 1975: a convex corner whose triangle holds no reflex corner is cut off, until three
+corners are left.
+
+Every face keeps ``n - 2`` triangles in its rows of the fan, each listing corners in the face's own order, so the face
+ids, the corner positions into ``faceVertexIndices`` (which primvars are looked up by) and the winding all stay as the
+fan had them. What cannot be clipped (a face that crosses itself; a face of more than ``MAX_CLIPPED_CORNERS``
+corners, whose clipping would take quadratic time) keeps its fan, reported through ``on_problem``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+MAX_CLIPPED_CORNERS = 10_000  # faces with more corners keep their fan (ear clipping is quadratic in the corners)
+REFLEX_SINE = 1e-6  # a corner turning the wrong way by less than this sine of its angle counts as straight
+BLOCK_CORNERS = 1 << 16  # corners checked for convexity per numpy pass (small enough to stay in cache)
+_FLAT = 1e-12  # corner triangles under this fraction of the squared face size are flat (neither convex nor reflex)
+
+
+def reflex_counts(points, counts, face_indices) -> np.ndarray:
+    """``(F,)`` int64: how many corners of each face turn against the face's Newell normal (reflex corners in its
+    best-fit plane). Faces of fewer than four corners, and faces with no area (all corners in a line), count 0.
+
+    Args:
+        points: ``(V, 3)`` float, the mesh's points.
+        counts: ``(F,)`` int, corners per face (``faceVertexCounts``), none negative.
+        face_indices: ``(N,)`` int, rows into ``points`` (``faceVertexIndices``), ``N = counts.sum()``.
+    """
+    counts = np.asarray(counts, np.int64)
+    face_indices = np.asarray(face_indices, np.int64).reshape(-1)
+    points = np.asarray(points)
+    starts = np.cumsum(counts) - counts
+    reflex = np.zeros(len(counts), np.int64)
+    # Faces of one corner count at a time, as (faces, corners) arrays: no per-corner walk to build. Triangles are
+    # always convex.
+    sizes = np.unique(counts[counts >= 4])
+    planes = np.ascontiguousarray(points.T)  # (3, V): one plane per axis, so the math below runs on contiguous rows
+    for k in sizes.tolist():
+        faces = np.flatnonzero(counts == k)
+        step = max(BLOCK_CORNERS // k, 1)
+        for b in range(0, len(faces), step):
+            block = faces[b:b + step]
+            corners = planes[:, face_indices[starts[block][:, None] + np.arange(k)]]
+            reflex[block] = _reflex_corners(corners.astype(np.float64, copy=False)).sum(axis=1)
+    return reflex
+
+
+def _cross(a, b):
+    """Cross product of ``(3, ...)`` arrays (axis first)."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+def _reflex_corners(corners: np.ndarray) -> np.ndarray:
+    """``(F, k)`` bool: the reflex corners of faces ``corners`` ``(3, F, k)`` float64 (axis first; none for a face of
+    no area)."""
+    # Newell normal (twice the area vector) of each face, relative to its first corner for precision far out.
+    relative = corners - corners[:, :, :1]
+    following = np.roll(relative, -1, axis=2)
+    normals = _cross(relative, following).sum(axis=2)  # (3, F)
+    # A corner is reflex when it turns against the normal by more than REFLEX_SINE.
+    outgoing = following - relative
+    incoming = np.roll(outgoing, 1, axis=2)
+    turn = (_cross(incoming, outgoing) * normals[:, :, None]).sum(axis=0)
+    lengths = np.sqrt((outgoing * outgoing).sum(axis=0))
+    normal_lengths = np.sqrt((normals * normals).sum(axis=0))
+    reflex = turn < -REFLEX_SINE * lengths * np.roll(lengths, 1, axis=1) * normal_lengths[:, None]
+    # A face with no area has no plane to be convex in: the fan is as good as anything.
+    reflex[normal_lengths <= _FLAT * lengths.sum(axis=1) ** 2] = False
+    return reflex
+
+
+def clip_ears(xy) -> tuple[np.ndarray, bool]:
+    """Ear-clips the polygon ``xy`` ``(n, 2)`` float (n >= 3, counter-clockwise: positive area).
+
+    Returns:
+        ``(n - 2, 3)`` int64 corner numbers ``0 .. n-1`` of the triangles, each in the polygon's order (so they wind
+        as it does), and whether the clipping finished. When it finds no ear (the polygon crosses itself), the corners
+        left are fanned around the first of them; ``False`` is returned only if those have area (a rest in a line
+        triangulates to nothing visible).
+    """
+    xy = np.asarray(xy, np.float64)
+    n = len(xy)
+    xs, ys = xy[:, 0].tolist(), xy[:, 1].tolist()
+    size = float(np.ptp(xy, axis=0).max()) if n else 0.0
+    flat = _FLAT * size * size
+    nxt = [*range(1, n), 0]
+    prev = [n - 1, *range(n - 1)]
+
+    def turn(a, b, c):  # twice the signed area of triangle a, b, c
+        return (xs[b] - xs[a]) * (ys[c] - ys[b]) - (ys[b] - ys[a]) * (xs[c] - xs[b])
+
+    convex = [turn(prev[i], i, nxt[i]) > flat for i in range(n)]
+    blockers = {i for i in range(n) if not convex[i]}  # corners that may lie inside an ear: reflex and flat ones
+
+    def blocked(a, b, c) -> bool:
+        """Whether a blocker lies inside or on triangle a, b, c (counter-clockwise); corners at the same place as
+        one of a, b, c (repeated points, keyholes) do not block."""
+        corners = ((xs[a], ys[a]), (xs[b], ys[b]), (xs[c], ys[c]))
+        if len(blockers) > 32:  # many: one numpy pass
+            ids = np.fromiter(blockers, np.int64, len(blockers))
+            px, py = xy[ids, 0], xy[ids, 1]
+            inside = np.ones(len(ids), bool)
+            for (x0, y0), (x1, y1) in zip(corners, corners[1:] + corners[:1], strict=True):
+                inside &= (x1 - x0) * (py - y0) - (y1 - y0) * (px - x0) >= 0.0
+            for x0, y0 in corners:
+                inside &= (px != x0) | (py != y0)
+            return bool(inside.any())
+        for j in blockers:
+            px, py = xs[j], ys[j]
+            if (px, py) in corners:
+                continue
+            if all((x1 - x0) * (py - y0) - (y1 - y0) * (px - x0) >= 0.0
+                   for (x0, y0), (x1, y1) in zip(corners, corners[1:] + corners[:1], strict=True)):
+                return True
+        return False
+
+    # Cut off ears until three corners are left, or a whole turn round the polygon finds none.
+    triangles = []
+    remaining, i = n, 0
+    stop = i
+    while remaining > 3:
+        a, c = prev[i], nxt[i]
+        if convex[i] and not blocked(a, i, c):
+            triangles.append((a, i, c))
+            nxt[a], prev[c] = c, a
+            blockers.discard(i)
+            remaining -= 1
+            for j in (a, c):
+                convex[j] = turn(prev[j], j, nxt[j]) > flat
+                (blockers.discard if convex[j] else blockers.add)(j)
+            i = stop = c
+            continue
+        i = nxt[i]
+        if i == stop:
+            break
+
+    # Fan the rest: the last triangle, or the corners no ear could be cut from.
+    rest = [i]
+    while nxt[rest[-1]] != i:
+        rest.append(nxt[rest[-1]])
+    triangles += [(rest[0], rest[k], rest[k + 1]) for k in range(1, len(rest) - 1)]
+    area = sum(turn(rest[0], rest[k], rest[k + 1]) for k in range(1, len(rest) - 1))
+    clipped = len(rest) == 3 or abs(area) <= flat * len(rest)
+    return np.array(triangles, np.int64).reshape(-1, 3), clipped
+
+
+def plane_coordinates(corners) -> np.ndarray:
+    """``(n, 2)`` coordinates of ``corners`` ``(n, 3)`` in the plane normal to their Newell normal, with axes chosen so
+    that the polygon winds counter-clockwise (positive area) in them."""
+    corners = np.asarray(corners, np.float64)
+    relative = corners - corners[0]
+    normal = np.cross(relative, np.roll(relative, -1, axis=0)).sum(axis=0)
+    normal /= np.linalg.norm(normal)
+    # Any axis across the normal, then the one that makes (u, v, normal) right-handed.
+    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
+    u = np.cross(helper, normal)
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    return np.stack([relative @ u, relative @ v], axis=1)
+
+
+BATCH_CORNERS = 64  # concave faces of up to this many corners are clipped together, in numpy; larger ones one by one
+
+
+def plane_coordinates_batch(corners) -> np.ndarray:
+    """``(F, k, 2)`` coordinates of faces ``corners`` ``(3, F, k)`` (axis first) in their best-fit planes, axes chosen
+    as in :func:`plane_coordinates`."""
+    relative = corners - corners[:, :, :1]
+    normals = _cross(relative, np.roll(relative, -1, axis=2)).sum(axis=2)  # (3, F)
+    normals = normals / np.sqrt((normals * normals).sum(axis=0))
+    helpers = np.eye(3)[np.argmin(np.abs(normals), axis=0)].T
+    u = _cross(helpers, normals)
+    u = u / np.sqrt((u * u).sum(axis=0))
+    v = _cross(normals, u)
+    return np.stack([(relative * u[:, :, None]).sum(axis=0), (relative * v[:, :, None]).sum(axis=0)], axis=-1)
+
+
+def _neighbours(alive: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(next, previous)`` ``(F, k)``: the nearest corner still ``alive`` after and before each corner, cyclically."""
+    k = alive.shape[1]
+    ahead = (np.arange(k)[:, None] + np.arange(1, k)) % k  # (k, k-1): corners after each, nearest first
+    behind = (np.arange(k)[:, None] - np.arange(1, k)) % k
+    following = ahead[np.arange(k), np.argmax(alive[:, ahead], axis=2)]
+    preceding = behind[np.arange(k), np.argmax(alive[:, behind], axis=2)]
+    return following, preceding
+
+
+def clip_ears_batch(xy) -> tuple[np.ndarray, np.ndarray]:
+    """Ear-clips faces ``xy`` ``(F, k, 2)`` float (k >= 4, each counter-clockwise) together, one ear per face a step,
+    as :func:`clip_ears` does for one.
+
+    Returns:
+        ``(F, k - 2, 3)`` int64 corner numbers of the triangles, each in the face's order, and ``(F,)`` bool whether a
+        face was clipped through (False: some step found no ear; its triangles are then not to be used).
+    """
+    xy = np.asarray(xy, np.float64)
+    n_faces, k, _ = xy.shape
+    x, y = xy[..., 0], xy[..., 1]
+    size = np.maximum(np.ptp(x, axis=1), np.ptp(y, axis=1))
+    flat = (_FLAT * size * size)[:, None]
+    rows = np.arange(n_faces)[:, None]
+    alive = np.ones((n_faces, k), bool)
+    clipped = np.ones(n_faces, bool)
+    triangles = np.zeros((n_faces, k - 2, 3), np.int64)
+    for step in range(k - 3):
+        following, preceding = _neighbours(alive)
+        ax, ay, cx, cy = x[rows, preceding], y[rows, preceding], x[rows, following], y[rows, following]
+        convex = alive & ((x - ax) * (cy - y) - (y - ay) * (cx - x) > flat)
+        blockers = alive & ~convex
+        # Blocker b (last axis) inside or on the triangle of corner j (middle axis), not at one of its corners.
+        px, py = x[:, None, :], y[:, None, :]
+        inside = np.repeat(blockers[:, None, :], k, axis=1)
+        for (x0, y0), (x1, y1) in (((ax, ay), (x, y)), ((x, y), (cx, cy)), ((cx, cy), (ax, ay))):
+            x0, y0, x1, y1 = x0[..., None], y0[..., None], x1[..., None], y1[..., None]
+            inside &= (x1 - x0) * (py - y0) - (y1 - y0) * (px - x0) >= 0.0
+        for x0, y0 in ((ax, ay), (x, y), (cx, cy)):
+            inside &= (px != x0[..., None]) | (py != y0[..., None])
+        ears = convex & ~inside.any(axis=2)
+        clipped &= ears.any(axis=1)
+        ear = np.argmax(ears | ~clipped[:, None] & alive, axis=1)  # a face with no ear drops any corner: discarded
+        triangles[:, step] = np.stack([preceding[rows[:, 0], ear], ear, following[rows[:, 0], ear]], axis=1)
+        alive[rows[:, 0], ear] = False
+    # The last three corners, in the face's order.
+    triangles[:, k - 3] = np.sort(np.argsort(~alive, axis=1, kind="stable")[:, :3], axis=1)
+    return triangles, clipped
+
+
+def clip_concave_faces(points, counts, face_indices, tri_corners,
+                       on_problem: Callable[[str, str], None] | None = None) -> np.ndarray:
+    """The fan ``tri_corners`` of :func:`wrt.usd_meshes.triangulate` with the rows of every concave face replaced by
+    ear-clipped triangles that lie inside the face.
+
+    Args:
+        points: ``(V, 3)`` float, the mesh's points (its own space).
+        counts: ``(F,)`` int, corners per face (``faceVertexCounts``).
+        face_indices: ``(N,)`` int, rows into ``points`` (``faceVertexIndices``), already checked in range.
+        tri_corners: ``(T, 3)`` int64 positions into ``face_indices``: the fan, ``n - 2`` rows per face in face order.
+        on_problem: called ``(reason, detail)`` for faces left fanned although not convex, once per reason.
+
+    Returns:
+        ``(T, 3)`` int64, a copy where anything changed; the rows of convex faces are the fan's.
+    """
+    counts = np.asarray(counts, np.int64)
+    face_indices = np.asarray(face_indices, np.int64)
+    reflex = reflex_counts(points, counts, face_indices)
+    concave = np.flatnonzero(reflex > 0)
+    if len(concave) == 0:
+        return tri_corners
+    tri_corners = tri_corners.copy()
+    starts = np.cumsum(counts) - counts
+    first_tri = np.cumsum(np.maximum(counts - 2, 0)) - np.maximum(counts - 2, 0)
+
+    # Faces of up to BATCH_CORNERS corners: clipped together, those of one corner count at a time.
+    points = np.asarray(points)
+    planes = points.T
+    one_by_one, crossing, too_large = [], [], []
+    for k in np.unique(counts[concave]).tolist():
+        faces = concave[counts[concave] == k]
+        if k > BATCH_CORNERS:
+            one_by_one += faces.tolist()
+            continue
+        step = max(BLOCK_CORNERS // (k * k), 1)
+        for b in range(0, len(faces), step):
+            block = faces[b:b + step]
+            corners = planes[:, face_indices[starts[block][:, None] + np.arange(k)]].astype(np.float64)
+            triangles, clipped = clip_ears_batch(plane_coordinates_batch(corners))
+            rows = first_tri[block[clipped]][:, None] + np.arange(k - 2)
+            tri_corners[rows] = starts[block[clipped]][:, None, None] + triangles[clipped]
+            one_by_one += block[~clipped].tolist()  # no ear at some step: clipped alone, to fan what is left
+
+    # The rest one at a time in their best-fit plane.
+    for f in one_by_one:
+        n, s = int(counts[f]), int(starts[f])
+        if n > MAX_CLIPPED_CORNERS:
+            too_large.append(f"face {f} ({n:,} corners)")
+            continue
+        triangles, clipped = clip_ears(plane_coordinates(points[face_indices[s:s + n]].astype(np.float64)))
+        tri_corners[first_tri[f]:first_tri[f] + n - 2] = s + triangles
+        if not clipped:
+            crossing.append(f)
+
+    if on_problem is not None:
+        if crossing:
+            shown = ", ".join(str(f) for f in crossing[:5]) + (", ..." if len(crossing) > 5 else "")
+            on_problem("non-convex faces that cross themselves were fan-triangulated (not clipped)",
+                       f"{len(crossing)} face(s): {shown}")
+        if too_large:
+            on_problem(f"non-convex faces of more than {MAX_CLIPPED_CORNERS:,} corners were fan-triangulated "
+                       "(some triangles lie outside them)", ", ".join(too_large))
+    return tri_corners
+
+
+__all__ = ["MAX_CLIPPED_CORNERS", "clip_concave_faces", "clip_ears", "clip_ears_batch", "plane_coordinates",
+           "plane_coordinates_batch", "reflex_counts"]
