@@ -668,7 +668,8 @@ class MaterialReader:
             self.skip("materialBind subsets of prims other than meshes were ignored (their indices are no faces)",
                       prim, f"{prim.GetTypeName()}, subsets {', '.join(s.GetPrim().GetName() for s in subsets)}")
             subsets = []
-        for subset in subsets:
+        owner = np.full(n_faces, -1, np.int64)  # the subset (index into subsets) that gave each face its material
+        for k, subset in enumerate(subsets):
             sub_material, _ = bound_material(subset.GetPrim(), self.purposes)
             if not sub_material:
                 continue
@@ -679,8 +680,25 @@ class MaterialReader:
                 continue
             indices = value_at(UsdGeom.Subset(subset.GetPrim()).GetIndicesAttr(), self.time)
             indices = np.asarray(indices if indices is not None else [], np.int64).reshape(-1)
-            indices = indices[(indices >= 0) & (indices < n_faces)]
-            faces[indices] = self.material_index(sub_material)
+            # Faces the mesh has not got: they were dropped without a word.
+            outside = (indices < 0) | (indices >= n_faces)
+            if outside.any():
+                i = int(np.argmax(outside))
+                self.skip("materialBind subset indices that are not faces of the mesh were ignored", subset.GetPrim(),
+                          f"{int(outside.sum())} of {len(indices)}, e.g. indices[{i}] = {indices[i]} for {n_faces} "
+                          "faces")
+                indices = indices[~outside]
+            # Faces an earlier subset bound to another material: the later subset wins (as before), now with a word,
+            # since USD's materialBind family is nonOverlapping and which one a renderer draws is not defined.
+            material = self.material_index(sub_material)
+            taken = indices[(owner[indices] >= 0) & (faces[indices] != material)]
+            if len(taken):
+                earlier = sorted({subsets[j].GetPrim().GetName() for j in owner[taken].tolist()})
+                self.skip("materialBind subsets share faces; a shared face takes the material of the last subset "
+                          "listing it", subset.GetPrim(),
+                          f"{len(np.unique(taken))} face(s) also in {', '.join(earlier)}")
+            faces[indices] = material
+            owner[indices] = k
             unbound[indices] = False
             bound = True
         return (faces, unbound) if bound else None

@@ -167,7 +167,7 @@ class MeshReading:
 
         # Check the topology before using it.
         self._check_topology(prim, counts, face_indices, points)
-        scheme = value_at(mesh.GetSubdivisionSchemeAttr(), t)
+        scheme = self._subdivision_scheme(prim, mesh)
         refinement = self._refinement(prim, scheme, counts, face_indices, len(points))
         polygons = (counts, face_indices) if refinement is None else (refinement.counts, refinement.face_indices)
         # Concave faces are clipped in the authored points; refined quads are fanned (Catmull-Clark moves them).
@@ -194,16 +194,52 @@ class MeshReading:
 
         topology = (counts, face_indices, tri_corners, face_ids, len(points), refinement)
         # A refined surface makes its own normals (USD: authored normals do not apply to subdivision surfaces).
+        flip = self._left_handed(prim, mesh, t)
         normals = self._read_normals(prim, mesh, topology) if refinement is None else None
+        if normals is not None:
+            normals = self._usable_normals(prim, normals, points[vertex_ids], flip)
         colors = {name: found for name in color_names if (found := self._read_colors(prim, topology, name)) is not None}
         uvs = self._read_uvs(prim, topology, *uv_source) if uv_source else None
         opacities = self._read_opacities(prim, topology, keep_opaque) if default_faces else None
-        flip = self._left_handed(prim, mesh, t)
         smooth = normals is None and scheme in SMOOTH_SCHEMES
         cage = polygons if smooth else None  # its normals are made in _read_mesh, after any posing and refining
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
         return LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage, refinement,
                           opacities)
+
+    def _subdivision_scheme(self, prim: Usd.Prim, mesh: UsdGeom.Mesh) -> str:
+        """The mesh's ``subdivisionScheme``; a token other than the four USD allows is warned about and read as
+        ``catmullClark``, USD's fallback (USD does not check allowed tokens; Storm smooths such a mesh and
+        OpenSubdiv refines it as Catmull-Clark). It was drawn flat, silently: a typo turned smooth shading off."""
+        scheme = value_at(mesh.GetSubdivisionSchemeAttr(), self.time)
+        if scheme is None:  # blocked: the fallback
+            return "catmullClark"
+        if scheme not in SUBDIVISION_SCHEMES:
+            self._skip("subdivisionScheme is not catmullClark, loop, bilinear or none; read as catmullClark", prim,
+                       repr(str(scheme)))
+            return "catmullClark"
+        return scheme
+
+    def _usable_normals(self, prim, normals, corner_points: np.ndarray, left_handed: bool):
+        """``normals`` ``(values (K, 3), corner index (T, 3))`` with the corners whose value is zero or not finite
+        given their triangle's face normal (``corner_points`` ``(T, 3, 3)``, winding as authored; flipped for
+        ``left_handed``), with a warning naming the prim. Such a corner was zero after baking, and the shading
+        normal near it leaned towards the triangle's other corners."""
+        values, corner_index = normals
+        lengths = np.linalg.norm(values, axis=1)
+        bad_values = ~(np.isfinite(lengths) & (lengths > 0.0))
+        if not bad_values.any():
+            return normals
+        bad = bad_values[corner_index]  # (T, 3)
+        self._skip("authored normals that are zero or not finite were replaced by their triangles' face normals",
+                   prim, f"{int(bad_values.sum())} of {len(values)} values")
+        a, b, c = corner_points[:, 0], corner_points[:, 1], corner_points[:, 2]
+        face = np.cross(b - a, c - a)
+        face = -face if left_handed else face
+        rows, cols = np.nonzero(bad)
+        corner_index = corner_index.copy()
+        corner_index[rows, cols] = len(values) + np.arange(len(rows))
+        return np.concatenate([np.where(bad_values[:, None], 0.0, values), face[rows]]), corner_index
 
     def _refinement(self, prim, scheme, counts, face_indices, n_points) -> Refinement | None:
         """The Catmull-Clark refinement of a ``catmullClark`` mesh at ``self.refine_level``, or None."""
@@ -279,6 +315,7 @@ class MeshReading:
 # Subdivision surfaces without authored normals are shaded with smooth vertex normals of their control cage, as
 # usdview (Storm) draws them below its refinement levels; "none" and "bilinear" meshes keep their face normals.
 SMOOTH_SCHEMES = ("catmullClark", "loop")
+SUBDIVISION_SCHEMES = ("catmullClark", "loop", "bilinear", "none")  # the allowed tokens of subdivisionScheme
 
 
 def vertex_normals(points: np.ndarray, counts: np.ndarray, face_indices: np.ndarray, left_handed: bool) -> np.ndarray:
