@@ -491,6 +491,25 @@ def test_time_sampled_invisible_ids_follow_the_default_time_rule(tmp_path):
     assert [load(path, time=5.0).instances.path(0)] == ["/PI[1]"]
 
 
+@pytest.mark.parametrize("sampled", ["protoIndices", "ids"])
+def test_a_still_invisible_ids_hides_instances_numbered_by_time_sampled_ids(tmp_path, sampled):
+    """With ``time=None`` an instancer whose ``invisibleIds`` is a default value but whose ``protoIndices`` (which
+    number the instances without ``ids``) or ``ids`` have only time samples hides the instances it names: the mask was
+    computed at the default time, where USD found no ids to match and hid nothing."""
+    path = write_instancer(tmp_path)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    pi.CreateInvisibleIdsAttr(Vt.Int64Array([7 if sampled == "ids" else 1]))
+    attr = pi.GetProtoIndicesAttr() if sampled == "protoIndices" else pi.CreateIdsAttr()
+    attr.Set(Vt.IntArray([0, 0, 0]) if sampled == "protoIndices" else Vt.Int64Array([5, 7, 9]), 1.0)
+    attr.ClearDefault()
+    stage.Save()
+    first = np.flatnonzero(pi.ComputeMaskAtTime(Usd.TimeCode.EarliestTime()))
+    assert list(first) == [0, 2]
+    scene = load(path)
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == [f"/PI[{k}]" for k in first]
+
+
 @pytest.mark.parametrize("asset_id", ["chess_set", "teapot_scene_1000", "teapot_layout_1000"])
 def test_real_instanced_scenes_match_the_manifest_without_flattening(assets, asset_id):
     scene = load(assets(asset_id))

@@ -9,7 +9,7 @@ from pxr import Usd, UsdGeom
 from .instancing import group_rows
 from .usd_contents import Context, instance_looks
 from .usd_primvars import finite_colors, unit_opacities
-from .usd_values import held_value, read_time, spun_rotations, value_at
+from .usd_values import held_value, spun_rotations, value_at
 
 
 class PointInstancerReading:
@@ -127,13 +127,23 @@ class PointInstancerReading:
     def _instance_mask(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> np.ndarray:
         """``(n,)`` bool: the instances of ``pi`` that ``invisibleIds`` and ``inactiveIds`` leave drawn."""
         keep = np.ones(n, bool)
-        # invisibleIds (and the ids it refers to) follow value_at's default-time rule, as positions do.
-        mask = pi.ComputeMaskAtTime(read_time(pi.GetInvisibleIdsAttr(), self.time))
-        if mask is not None and len(mask):
-            if len(mask) < n:  # the mask has one entry per id: the instances past them have none
-                raise self._error(f"ids has {len(mask)} entries; protoIndices has {n} (invisibleIds and inactiveIds "
-                                  "name instances by id)", prim, pi.GetIdsAttr())
-            keep &= np.asarray(mask, bool)[:n]
+        # As ComputeMaskAtTime computes it (inactiveIds' explicit items and invisibleIds name instances by their
+        # ids, else by index; nothing named, no mask), but with invisibleIds and ids each read by value_at's
+        # default-time rule, as positions are: ComputeMaskAtTime read the ids (or protoIndices, without ids) at
+        # invisibleIds' time, so at the default time a still invisibleIds beside sampled ids found none and hid nothing.
+        inactive = prim.GetMetadata("inactiveIds")
+        named = set(inactive.explicitItems if inactive else [])
+        named.update(value_at(pi.GetInvisibleIdsAttr(), self.time) or [])
+        if not named:
+            return keep
+        ids = value_at(pi.GetIdsAttr(), self.time) if pi.GetIdsAttr().HasValue() else range(n)
+        shown = ~np.isin(np.asarray(ids, np.int64).reshape(-1), np.array(sorted(named), np.int64))
+        if shown.all():
+            return keep
+        if len(shown) < n:  # the mask has one entry per id: the instances past them have none
+            raise self._error(f"ids has {len(shown)} entries; protoIndices has {n} (invisibleIds and inactiveIds "
+                              "name instances by id)", prim, pi.GetIdsAttr())
+        keep &= shown[:n]
         return keep
 
     def _instance_color_name(self, prim: Usd.Prim, wanted: list[str]) -> str | None:
