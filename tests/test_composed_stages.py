@@ -1,0 +1,85 @@
+"""Seeded random stages built through composition and time (:mod:`composed_stages`: sublayers, references and payloads
+with layer offsets, variants, inherits, nested native instances, PointInstancers, animated transforms, points,
+visibility and topology, purposes, layers of different ``timeCodesPerSecond``) show, loaded by ``wrt.load_usd``, the
+world-space triangles USD's own API computes for them, as multisets, at times before, between, on and after their
+samples; and with ``time=None`` the ones USD computes at the time wrt's default-time rule stands for.
+
+``WRT_COMPOSED_STAGES`` raises the number of stages for longer local runs (300 take about a minute a test).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+import numpy as np
+import pytest
+from composed_stages import unmatched, usd_triangles, write_stage
+from pxr import Usd
+
+import wrt
+
+STAGES = int(os.environ.get("WRT_COMPOSED_STAGES", "40"))
+TIMES = (-7.0, 0.0, 1.0, 1.7, 2.0, 4.3, 11.0, 30.0)  # stage times: before, on, between and after the samples
+EXACT = 2e-5  # per coordinate, relative to 1 + |x|: float32 points through a few float64 transforms
+# USD turns quath orientations as stored, wrt normalised (README): up to 2e-3 of an instance's size, more through
+# nested instancers.
+QUATH = 2e-2
+
+
+def world_triangles(path, **kwargs) -> np.ndarray:
+    """``(T, 3, 3)`` float64 triangles of the stage at ``path`` as ``wrt.load_usd`` reads it, instances expanded."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # composition, time range and unsupported-feature warnings are not the point
+        scene = wrt.load_usd(path, **kwargs)
+    points, indices = scene.triangles()
+    return np.asarray(points, np.float64)[indices]
+
+
+def differences(path: str, quath: bool, times, read_time) -> tuple[list[str], int]:
+    """Where wrt's triangles of the stage at ``path`` differ from USD's, one line per time of ``times`` (``load_usd``
+    times) that USD reads at ``read_time(time)``, and how many triangles USD found in all."""
+    stage = Usd.Stage.Open(path)
+    found, count = [], 0
+    for time in times:
+        expected, _ = usd_triangles(stage, read_time(time))
+        count += len(expected)
+        got = world_triangles(path, time=time)
+        extra, missing = unmatched(got, expected, QUATH if quath else EXACT)
+        if extra or missing:
+            found.append(f"{path} at time {time}: wrt {len(got)} triangles, USD {len(expected)}; "
+                         f"{len(extra)} of wrt's and {len(missing)} of USD's unmatched")
+    return found, count
+
+
+def test_random_composed_stages_show_the_triangles_usd_computes(tmp_path):
+    """USD's answer at each time: ``XformCache``, ``ComputeVisibility``, ``ComputePurpose``, points ``Get`` (moved by
+    velocities as ``ComputePointsAtTime``), ``ComputeInstanceTransformsAtTime`` and ``ComputeMaskAtTime``."""
+    found, triangles = [], 0
+    for seed in range(STAGES):
+        folder = tmp_path / f"stage{seed}"
+        folder.mkdir()
+        path, quath = write_stage(str(folder), seed)
+        lines, count = differences(path, quath, TIMES, lambda t: t)
+        found += lines
+        triangles += count
+    assert triangles > 10 * len(TIMES) * STAGES  # the stages show something
+    assert not found, "\n".join(found)
+
+
+@pytest.mark.parametrize("defaults", ["never", "always"])
+def test_time_none_reads_the_first_sample_of_attributes_that_have_only_samples(tmp_path, defaults):
+    """``time=None``: where no animated attribute authors a default, every one is read at its first sample, as USD
+    reads them all at ``EarliestTime`` (the mask of a still invisibleIds over ids or protoIndices that have only
+    samples hid nothing: 12 of 300 stages); where every one authors a default, USD's default time is read."""
+    read_time = Usd.TimeCode.EarliestTime if defaults == "never" else Usd.TimeCode.Default
+    found, triangles = [], 0
+    for seed in range(2 * STAGES):
+        folder = tmp_path / f"stage{seed}"
+        folder.mkdir()
+        path, quath = write_stage(str(folder), seed, defaults)
+        lines, count = differences(path, quath, [None], lambda _: read_time())
+        found += lines
+        triangles += count
+    assert triangles > 10 * STAGES
+    assert not found, "\n".join(found)
