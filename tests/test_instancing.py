@@ -137,6 +137,44 @@ def test_instancer_prototypes_under_an_over_are_drawn_only_through_the_instancer
     assert (stats["instances"], stats["rendered_triangles"], stats["meshes"]) == (2, 2, 0)
 
 
+TRIANGLE = """{
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+}"""
+
+
+def test_overs_inside_a_native_prototype_are_not_drawn_as_in_a_plain_reference(tmp_path):
+    """A mesh defined under an ``over`` inside a referenced asset is not drawn (it is not defined), instanced or not:
+    the instance drew it (its prototype was walked as a PointInstancer's is, where "defined" is not asked of the
+    prototype's ancestors), one triangle more than the same asset referenced plainly."""
+    (tmp_path / "asset.usda").write_text(f'#usda 1.0\n(\n    defaultPrim = "A"\n)\ndef Xform "A"\n{{\n'
+                                         f'    def Mesh "Shown"\n{TRIANGLE}\n    over "Kept"\n    {{\n'
+                                         f'        def Mesh "Overridden"\n{TRIANGLE}\n    }}\n}}\n')
+    path = tmp_path / "scene.usda"
+    path.write_text('#usda 1.0\ndef Xform "Plain" (\n    references = @./asset.usda@\n)\n{\n}\n'
+                    'def Xform "Inst" (\n    instanceable = true\n    references = @./asset.usda@\n)\n{\n}\n')
+    scene = load(path)
+    assert [m.path for m in scene.meshes] == ["/Plain/Shown"]
+    assert [[m.path for m in p.meshes] for p in scene.prototypes] == [["/__Prototype_1/Shown"]]
+
+
+def test_overs_inside_a_pointinstancer_prototype_are_not_drawn(tmp_path):
+    """Below a prototype that is defined (under an ``over`` or not), an ``over`` and what it holds are not drawn, as
+    Hydra's prototype predicate leaves them out (a defining specifier on each prim, not on its ancestors); a prototype
+    that is an ``over`` itself is skipped with a warning naming it (it was drawn)."""
+    path = tmp_path / "pi_over.usda"
+    path.write_text(f'#usda 1.0\ndef PointInstancer "PI"\n{{\n    rel prototypes = [</PI/Protos/P>, </PI/Protos/Q>]\n'
+                    '    int[] protoIndices = [0, 0, 1]\n    point3f[] positions = [(0, 0, 0), (10, 0, 0), (20, 0, 0)]\n'
+                    f'    over "Protos"\n    {{\n        def Xform "P"\n        {{\n            def Mesh "T"\n{TRIANGLE}\n'
+                    f'            over "Kept"\n            {{\n                def Mesh "U"\n{TRIANGLE}\n            }}\n'
+                    f'        }}\n        over "Q"\n        {{\n            def Mesh "V"\n{TRIANGLE}\n        }}\n    }}\n}}\n')
+    with pytest.warns(UserWarning, match=r"not defined.*\(/PI/Protos/Q: 1\): /PI$"):
+        scene = wrt.load_usd(path)
+    assert [[m.path for m in p.meshes] for p in scene.prototypes] == [["/PI/Protos/P/T"]]
+    assert len(scene.instances) == 2
+
+
 PURPOSE_USDA = """#usda 1.0
 def Xform "Lib"
 {

@@ -13,8 +13,11 @@ from .primitives import Shape
 from .scene import Mesh, Scene
 from .tubes import place_round
 
-# The prims a prototype's walk takes: active, loaded, not abstract, and defined or not (see wrt.usd's _content).
-PROTOTYPE_PREDICATE = Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract
+# The prims a prototype's walk takes: active, loaded, not abstract, and with a defining specifier of their own,
+# their ancestors' not asked (see wrt.usd's _content), as Hydra's prototype predicate takes them. Without the last
+# clause an ``over`` inside a prototype was drawn, with all it holds: a native instance drew what the same asset
+# referenced plainly (the world walk asks "defined") does not.
+PROTOTYPE_PREDICATE = Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract & Usd.PrimHasDefiningSpecifier
 
 
 class Content:

@@ -40,6 +40,11 @@ class PointInstancerReading:
                 self._skip("instances of inactive PointInstancer prototypes (or of prototypes under an inactive "
                            "prim) were skipped", prim, str(path))
                 continue
+            if not target.HasDefiningSpecifier():
+                # An over holds opinions, no prim: Hydra's prototype predicate leaves it out, and what it holds.
+                self._skip("instances of PointInstancer prototypes that are not defined (an over, not a def) were "
+                           "skipped", prim, str(path))
+                continue
             # The prototype's space is its parent's: the root's own transform is the most local part.
             key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced, ctx.outer_color)
             parent = target.GetParent()
