@@ -13,7 +13,8 @@ each face is the triangulation.
 (``XformCache``, ``ComputeVisibility``, ``ComputePurpose``, ``Mesh`` points ``Get(time)``, PointInstancer
 ``ComputeInstanceTransformsAtTime`` and ``ComputeMaskAtTime``), walking instance proxies. Inside a PointInstancer's
 prototype, visibility is taken from the prototype root down (the scope holding the prototypes is often hidden so
-they are not drawn in place: Hydra draws them through the instancer all the same).
+they are not drawn in place: Hydra draws them through the instancer all the same), and prototypes under an ``over``
+are drawn.
 """
 
 from __future__ import annotations
@@ -24,6 +25,9 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 DRAWN_PURPOSES = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
+# A PointInstancer's prototypes are drawn though their ancestors are not defined (kept under an ``over``), as Hydra
+# draws them: each prim needs a defining specifier of its own.
+PROTOTYPE_PREDICATE = Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract & Usd.PrimHasDefiningSpecifier
 SAMPLE_TIMES = (-3.0, 0.0, 1.0, 2.0, 3.5, 6.0, 10.0, 24.0)  # layer times that samples are authored at
 RATES = (None, 12.0, 24.0, 30.0, 48.0)  # timeCodesPerSecond / framesPerSecond choices; None: not authored
 
@@ -139,6 +143,11 @@ class StageWriter:
     def subtree(self, stage: Usd.Stage, path: Sdf.Path, depth: int):
         """A random prim at ``path`` and, for an Xform, children ``depth`` levels down."""
         rng = self.rng
+        if rng.random() < 0.05:  # an over holding a defined mesh: neither is drawn, instanced or not
+            self.mesh(stage, path.AppendChild("Overridden"))
+            prim = stage.GetPrimAtPath(path)
+            prim.SetSpecifier(Sdf.SpecifierOver)  # after the mesh: defining it defined its parent
+            return prim
         choice = rng.random()
         if choice < 0.3 or depth == 0:
             prim = self.mesh(stage, path)
@@ -265,13 +274,23 @@ class StageWriter:
         rng = self.rng
         pi = UsdGeom.PointInstancer.Define(stage, path)
         self.ops(pi.GetPrim())
-        scope = UsdGeom.Xform.Define(stage, path.AppendChild("Prototypes"))
-        if rng.random() < 0.6:
-            scope.CreateVisibilityAttr(UsdGeom.Tokens.invisible)
+        # The prototypes: under the instancer, or beside it under an ``over`` (not drawn in place, as it is not
+        # defined) or a scope drawn in place too. Not beside an asset's root: a reference brings only the root's tree.
+        library = path.AppendChild("Prototypes")
+        beside = path.GetParentPath() != Sdf.Path.absoluteRootPath and rng.random() < 0.3
+        over = beside and rng.random() < 0.6
+        if over:
+            library = path.GetParentPath().AppendChild(f"{path.name}_library")
+        else:
+            if beside:
+                library = path.GetParentPath().AppendChild(f"{path.name}_library")
+            scope = UsdGeom.Xform.Define(stage, library)
+            if rng.random() < 0.6:
+                scope.CreateVisibilityAttr(UsdGeom.Tokens.invisible)
         targets, resets = [], self.resets
         self.resets = False
         for i in range(int(rng.integers(1, 4))):
-            proto = path.AppendChild("Prototypes").AppendChild(f"P{i}")
+            proto = library.AppendChild(f"P{i}")
             if self.assets and rng.random() < 0.3:
                 prim = self.reference(stage, proto)
             elif rng.random() < 0.5:
@@ -284,6 +303,8 @@ class StageWriter:
             if rng.random() < 0.2:
                 self.visibility(UsdGeom.Imageable(prim))
             targets.append(prim.GetPath())
+        if over:  # after its prototypes: defining them defined it
+            stage.GetPrimAtPath(library).SetSpecifier(Sdf.SpecifierOver)
         self.resets = resets
         pi.CreatePrototypesRel().SetTargets(targets)
         n = int(rng.integers(1, 7))
@@ -416,7 +437,7 @@ def usd_triangles(stage: Usd.Stage, time) -> tuple[np.ndarray, int]:
 
 
 def _walk(root: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, space: Usd.Prim | None, base: np.ndarray,
-          stop: Usd.Prim | None, found: list):
+          stop: Usd.Prim | None, found: list, predicate=Usd.PrimDefaultPredicate):
     """Appends the fan triangles of the meshes drawn in ``root``'s subtree to ``found``. A prim is placed by its
     transform relative to ``space`` (its world transform when None) then row-vector ``base``; it is visible when
     nothing from it up to ``stop`` (included) is invisible, or, without a stop, by ``ComputeVisibility``.
@@ -424,7 +445,7 @@ def _walk(root: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, space: U
     Inside an instance (native or a PointInstancer's) a resetXformStack resets to the instance's space, as Hydra
     draws instances; USD's own instance-proxy transforms reset to the world.
     """
-    it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+    it = iter(Usd.PrimRange(root, Usd.TraverseInstanceProxies(predicate)))
     for prim in it:
         if prim.IsPseudoRoot():
             continue
@@ -446,8 +467,8 @@ def _walk(root: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, space: U
             found.append(_fan(prim, tc, to_world))
         if prim.IsInstance() and prim != root:
             it.PruneChildren()
-            for child in prim.GetFilteredChildren(Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
-                _walk(child, tc, xforms, prim, to_world, stop, found)
+            for child in prim.GetFilteredChildren(Usd.TraverseInstanceProxies(predicate)):
+                _walk(child, tc, xforms, prim, to_world, stop, found, predicate)
 
 
 def _instanced(prim: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, to_world: np.ndarray, found: list):
@@ -467,7 +488,7 @@ def _instanced(prim: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, to_
         proto = protos[index]
         if keep and proto and proto.IsActive():
             own = np.array(xforms.GetLocalTransformation(proto)[0])
-            _walk(proto, tc, xforms, proto, own @ np.array(m) @ to_world, proto, found)
+            _walk(proto, tc, xforms, proto, own @ np.array(m) @ to_world, proto, found, PROTOTYPE_PREDICATE)
 
 
 def _shown_below(prim: Usd.Prim, root: Usd.Prim, tc: Usd.TimeCode) -> bool:
@@ -505,7 +526,8 @@ def _fan(prim: Usd.Prim, tc: Usd.TimeCode, to_world: np.ndarray) -> np.ndarray:
 
 def unmatched(a: np.ndarray, b: np.ndarray, tol: float) -> tuple[list, list]:
     """Triangles of ``a`` and of ``b`` (``(T, 3, 3)``) left over when the two are matched as multisets, each
-    triangle to one within ``tol`` (per coordinate, relative to ``1 + |x|``) with its corners in any order."""
+    triangle to one within ``tol`` (per coordinate, relative to 1 + the triangle's largest ``|x|``) with its corners in
+    any order."""
     if len(b) == 0:
         return list(range(len(a))), []
     orders = [b[:, list(p)] for p in ((0, 1, 2), (1, 2, 0), (2, 0, 1), (0, 2, 1), (2, 1, 0), (1, 0, 2))]
@@ -514,7 +536,7 @@ def unmatched(a: np.ndarray, b: np.ndarray, tol: float) -> tuple[list, list]:
     for i, t in enumerate(a):
         err = np.full(len(b), np.inf)
         for ordered in orders:
-            err = np.minimum(err, (np.abs(ordered - t) / (1 + np.abs(t))).reshape(len(b), -1).max(axis=1))
+            err = np.minimum(err, np.abs(ordered - t).reshape(len(b), -1).max(axis=1) / (1 + np.abs(t).max()))
         err[~free] = np.inf
         j = int(np.argmin(err))
         if err[j] <= tol:

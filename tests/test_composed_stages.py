@@ -21,7 +21,7 @@ import wrt
 
 STAGES = int(os.environ.get("WRT_COMPOSED_STAGES", "40"))
 TIMES = (-7.0, 0.0, 1.0, 1.7, 2.0, 4.3, 11.0, 30.0)  # stage times: before, on, between and after the samples
-EXACT = 2e-5  # per coordinate, relative to 1 + |x|: float32 points through a few float64 transforms
+EXACT = 2e-5  # per coordinate, relative to 1 + the triangle's largest |x|: float32 points through float64 transforms
 # USD turns quath orientations as stored, wrt normalised (README): up to 2e-3 of an instance's size, more through
 # nested instancers.
 QUATH = 2e-2
