@@ -164,11 +164,32 @@ def test_overs_inside_a_pointinstancer_prototype_are_not_drawn(tmp_path):
     Hydra's prototype predicate leaves them out (a defining specifier on each prim, not on its ancestors); a prototype
     that is an ``over`` itself is skipped with a warning naming it (it was drawn)."""
     path = tmp_path / "pi_over.usda"
-    path.write_text(f'#usda 1.0\ndef PointInstancer "PI"\n{{\n    rel prototypes = [</PI/Protos/P>, </PI/Protos/Q>]\n'
-                    '    int[] protoIndices = [0, 0, 1]\n    point3f[] positions = [(0, 0, 0), (10, 0, 0), (20, 0, 0)]\n'
-                    f'    over "Protos"\n    {{\n        def Xform "P"\n        {{\n            def Mesh "T"\n{TRIANGLE}\n'
-                    f'            over "Kept"\n            {{\n                def Mesh "U"\n{TRIANGLE}\n            }}\n'
-                    f'        }}\n        over "Q"\n        {{\n            def Mesh "V"\n{TRIANGLE}\n        }}\n    }}\n}}\n')
+    path.write_text(f"""#usda 1.0
+def PointInstancer "PI"
+{{
+    rel prototypes = [</PI/Protos/P>, </PI/Protos/Q>]
+    int[] protoIndices = [0, 0, 1]
+    point3f[] positions = [(0, 0, 0), (10, 0, 0), (20, 0, 0)]
+    over "Protos"
+    {{
+        def Xform "P"
+        {{
+            def Mesh "T"
+{TRIANGLE}
+            over "Kept"
+            {{
+                def Mesh "U"
+{TRIANGLE}
+            }}
+        }}
+        over "Q"
+        {{
+            def Mesh "V"
+{TRIANGLE}
+        }}
+    }}
+}}
+""")
     with pytest.warns(UserWarning, match=r"not defined.*\(/PI/Protos/Q: 1\): /PI$"):
         scene = wrt.load_usd(path)
     assert [[m.path for m in p.meshes] for p in scene.prototypes] == [["/PI/Protos/P/T"]]
