@@ -137,12 +137,13 @@ class PointInstancerReading:
         # default-time rule, as positions are: ComputeMaskAtTime read the ids (or protoIndices, without ids) at
         # invisibleIds' time, so at the default time a still invisibleIds beside sampled ids found none and hid nothing.
         inactive = prim.GetMetadata("inactiveIds")
-        named = set(inactive.explicitItems if inactive else [])
-        named.update(value_at(pi.GetInvisibleIdsAttr(), self.time) or [])
-        if not named:
+        invisible = value_at(pi.GetInvisibleIdsAttr(), self.time)
+        named = np.union1d(np.asarray(inactive.explicitItems if inactive else [], np.int64),
+                           np.asarray(invisible if invisible is not None else [], np.int64).reshape(-1))
+        if len(named) == 0:
             return keep
-        ids = value_at(pi.GetIdsAttr(), self.time) if pi.GetIdsAttr().HasValue() else range(n)
-        shown = ~np.isin(np.asarray(ids, np.int64).reshape(-1), np.array(sorted(named), np.int64))
+        ids = value_at(pi.GetIdsAttr(), self.time) if pi.GetIdsAttr().HasValue() else np.arange(n)
+        shown = ~np.isin(np.asarray(ids, np.int64).reshape(-1), named)
         if shown.all():
             return keep
         if len(shown) < n:  # the mask has one entry per id: the instances past them have none
