@@ -2,19 +2,22 @@
 
 :func:`write_stage` writes a root layer, a sublayer and a few asset layers into a folder: subLayers and references
 with layer offsets (offset and scale), payloads, variant sets chosen by the referencing layer, inherits from a class
-the root layer gives opinions to, instanceable prims (nested), PointInstancers (animated positions, orientations,
-scales, protoIndices and invisibleIds; ids, inactiveIds), animated transform ops of every kind (resetXformStack, an
-op order the root layer rewrites), animated points, animated and inherited visibility, inactive prims, purposes, and
-``timeCodesPerSecond`` / ``framesPerSecond`` that differ from layer to layer (or fall back on each other). Faces are
-convex and planar at every time (each sample of a mesh's points is an affine image of the same polygons), so a fan of
-each face is the triangulation.
+the root layer gives opinions to, instanceable prims (nested; assets whose root is a mesh or an instancer too),
+PointInstancers (animated positions, orientations, scales, protoIndices and invisibleIds, velocities, accelerations
+and angular velocities; ids, inactiveIds; prototypes under the instancer or beside it, under an ``over``),
+animated transform ops of every kind (inverted ones, resetXformStack outside instances, an op order the root layer
+rewrites), animated points (moved by velocities), topology and holes, animated and inherited visibility, inactive
+prims, overs holding defined meshes, purposes, and ``timeCodesPerSecond`` / ``framesPerSecond`` that differ from
+layer to layer (or fall back on each other). Faces are convex and planar at every time (each sample of a mesh's
+points is an affine image of the same polygons, and so is their velocity), so a fan of each face is the
+triangulation.
 
 :func:`usd_triangles` is the oracle: the world-space triangles the stage shows at a time, from USD's own API
-(``XformCache``, ``ComputeVisibility``, ``ComputePurpose``, ``Mesh`` points ``Get(time)``, PointInstancer
-``ComputeInstanceTransformsAtTime`` and ``ComputeMaskAtTime``), walking instance proxies. Inside a PointInstancer's
-prototype, visibility is taken from the prototype root down (the scope holding the prototypes is often hidden so
-they are not drawn in place: Hydra draws them through the instancer all the same), and prototypes under an ``over``
-are drawn.
+(``XformCache``, ``ComputeVisibility``, ``ComputePurpose``, ``Mesh`` points ``Get(time)`` or, with velocities,
+``ComputePointsAtTime``, PointInstancer ``ComputeInstanceTransformsAtTime`` and ``ComputeMaskAtTime``), walking
+instance proxies. Inside a PointInstancer's prototype, visibility is taken from the prototype root down (the scope
+holding the prototypes is often hidden so they are not drawn in place: Hydra draws them through the instancer all the
+same), and prototypes under an ``over`` are drawn, an ``over`` inside one not (Hydra's prototype predicate).
 """
 
 from __future__ import annotations
