@@ -341,18 +341,17 @@ def Xform "Root"
 @pytest.mark.parametrize("integrator", ["whitted", "ao", "path"])
 def test_a_room_scaled_down_keeps_its_contact_shadows(integrator, device, tmp_path):
     """The default room (its camera and lights too) scaled by 2^-14 and 2^-24 renders the image of the unscaled
-    room; the two scaled rooms give the same bits. The self-intersection offset near the origin was a fixed 1/65536,
-    15% of a room scaled by 1e-4: the shadows where the objects meet the floor were lost (141 pixels of 19,200 at
-    2^-14, 3,098 at 2^-20)."""
+    room, bit for bit. The self-intersection offset near the origin was a fixed 1/65536, 15% of a room scaled by 1e-4:
+    the shadows where the objects meet the floor were lost (141 pixels of 19,200 at 2^-14, 3,098 at 2^-20); then the
+    power of two above each surface's size, at most 1, so bounced rays of the unscaled room started a few ulps apart
+    (path-traced pixels 2.3e-4 off). The offsets now follow the surfaces alone, which a power of two scales exactly."""
     images = []
     for s in (1.0, 2.0**-14, 2.0**-24):
         path = tmp_path / f"room_{len(images)}.usda"
         path.write_text(SCALED_ROOM.format(s=s, room=default_scene_path().resolve().as_posix()))
         images.append(wrt.render(wrt.load_usd(path), width=64, height=48, integrator=integrator, device=device).rgb)
     np.testing.assert_array_equal(images[1], images[2])
-    # Only the offsets' scale differs from the unscaled room (1 there, the power of two above each surface's size
-    # here): bounced rays start a few ulps apart, which moves path-traced pixels by about 1e-4.
-    assert np.abs(images[1] - images[0]).max() < 1e-3
+    np.testing.assert_array_equal(images[1], images[0])
 
 
 @pytest.mark.parametrize("scale", [1e-12, 1.0, 1e10, 1e12])

@@ -187,22 +187,28 @@ def test_rays_from_inside_a_closed_mesh_always_hit():
 def offset_origins_kernel(
     points: wp.array[wp.vec3],
     normals: wp.array[wp.vec3],
-    sizes: wp.array[float],
+    reaches: wp.array[float],
     errs: wp.array[wp.vec3],
     # outputs
     out: wp.array[wp.vec3],
 ):
     i = wp.tid()
-    out[i] = offset_ray_origin(points[i], normals[i], sizes[i], errs[i])
+    out[i] = offset_ray_origin(points[i], normals[i], reaches[i], errs[i])
 
 
-# Away from the origin (larger ulps), and scaled down by 2^-20 around it (the fixed offset's scale).
-@pytest.mark.parametrize("scale, centre", [(1.0, (120.0, -40.0, 300.0)), (2.0**-20, (0.4, -0.1, 0.2))])
-def test_no_shadow_acne_at_grazing_angles(scale, centre):
+# Away from the origin (larger ulps), scaled down by 2^-20 around it, and small spheres far from it (ulps of 1e-2 and
+# 6e-2 on a sphere of radius 1 or 20).
+@pytest.mark.parametrize("scale, centre, radius", [
+    (1.0, (120.0, -40.0, 300.0), 50.0),
+    (2.0**-20, (0.4, -0.1, 0.2), 50.0),
+    (1.0, (1.0e5, -7.0e4, 4.0e4), 1.0),
+    (1.0, (3.0e5, 1.0e6, -5.0e5), 20.0),
+])
+def test_no_shadow_acne_at_grazing_angles(scale, centre, radius):
     """Shadow rays leaving a convex tessellated sphere cannot be blocked: count false occlusions."""
     rng = np.random.default_rng(11)
     points, faces = icosphere(5)
-    points = (points * np.float32(50.0) + np.float32(centre)) * np.float32(scale)
+    points = (points * np.float32(radius) + np.float32(centre)) * np.float32(scale)
     scene = wrt.Scene.from_triangles(points, faces)
     n = 400_000
     tri = rng.integers(0, len(faces), n)
@@ -223,7 +229,7 @@ def test_no_shadow_acne_at_grazing_angles(scale, centre):
         inputs=[
             wp.array(hit_points, dtype=wp.vec3, device="cpu"),
             wp.array(normal.astype(np.float32), dtype=wp.vec3, device="cpu"),
-            wp.array(np.abs(points[faces[tri]]).max(axis=(1, 2)), dtype=float, device="cpu"),
+            wp.array(np.abs(points[faces[tri]] - hit_points[:, None]).max(axis=(1, 2)), dtype=float, device="cpu"),
             wp.array(np.abs(points[faces[tri]]).max(axis=1), dtype=wp.vec3, device="cpu"),
         ],
         outputs=[offset],

@@ -12,7 +12,7 @@ Barycentrics follow wrt's contract: ``hit = (1 - u - v) * p0 + u * p1 + v * p2``
 
 import warp as wp
 
-from .floats import largest_magnitude, power_scales
+from .floats import largest_magnitude
 
 # A box's exit is widened by 2*gamma(3) of its magnitude (Ize's robust traversal scales it by 1 + 2*gamma(3)), towards
 # +t whatever its sign: scaling a negative exit (rays with t_min < 0) moved it towards -inf and shrank the box, so a
@@ -316,50 +316,47 @@ def ray_can_hit(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float)
     return t_max > t_min and wp.isfinite(origin) and ray_is_valid(direction)
 
 
-ERROR_OFFSET = wp.constant(3.814697265625e-06)  # 2^-18 (64 float32 epsilons): offset per unit of HitPoint.err
-# 2^-20 per unit of HitPoint.size: the least offset along the normal of any surface. The triangle tests (wrt's and
-# wp.Mesh's) measure the origin against corners up to ``size`` away, so they tell its side of the plane only to about
-# 2.4e-7 * size (origins closer than that to a floor 1000 across were reported on it); four times that, and a power
-# of two, so that a scene scaled by a power of two keeps its bits.
-SIZE_OFFSET = wp.constant(9.5367431640625e-07)
+# Offsets per unit of HitPoint.err and of HitPoint.reach (powers of two, so that a scene scaled by a power of two
+# keeps its bits). A hit point is summed from terms as large as err (its rounding is a few float32 epsilons of err:
+# pbrt's bound for a triangle is gamma(7) = 3.5 epsilons); 2^-20 is 8 epsilons. The triangle and shape tests measure a
+# ray's origin against corners (or a shape's centre) up to reach away, after subtracting the origin (a rounding
+# relative to that distance), so they tell its side of the surface only to about 2.4e-7 * reach (a floor 1000 across
+# near the origin: origins closer than that were reported on it); 2^-20 is four times that.
+ERROR_OFFSET = wp.constant(9.5367431640625e-07)
+REACH_OFFSET = wp.constant(9.5367431640625e-07)
 
 
 @wp.func
-def offset_ray_origin(p: wp.vec3, n: wp.vec3, size: float, err: wp.vec3):
-    """Moves a hit point off its surface along ``n`` by a few float ULPs, so a ray started there cannot hit the
-    same surface again (Wächter and Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing
-    Gems, 2019). Near the origin, where ULPs are tiny, a fixed offset is used instead.
-
-    ``size`` is the largest coordinate magnitude of the surface hit (a triangle's corners): the hit point's rounding
-    error follows it, not ``p``. The paper's fixed offset (1/65536 within 1/32 of the origin) assumes surfaces of
-    about unit size; for smaller ones both shrink with the power of two above ``size``, so a scene scaled down by a
-    power of two keeps its contact shadows and renders the same image (at 1e-4 the fixed offset was 15% of the
-    scene). Surfaces of size 1 and more keep the paper's constants.
+def offset_ray_origin(p: wp.vec3, n: wp.vec3, reach: float, err: wp.vec3):
+    """Moves a hit point off its surface along ``n`` just far enough that a ray started there cannot hit the same
+    surface again: past the hit point's own rounding and past what the intersection tests can resolve (after pbrt's
+    ``OffsetRayOrigin``, Pharr et al., "Physically Based Rendering", 4th ed., 6.8.6).
 
     ``err`` bounds, per axis, the magnitude of the terms that ``p``'s coordinate was summed from (the corners'
-    coordinates, or an instance's or shape's translation): its rounding error is a few float32 epsilons of it, and
+    coordinates, or an instance's or shape's translation): its rounding error is a few float32 epsilons of it, which
     can far exceed the ULPs of ``p`` itself where a large surface passes near the origin (a tilted ground quad of
-    1e4, the ground sphere of radius 1000 centred at ``(0, -1000, 0)``: the paper's offsets there were below the
-    error and most of the ground was in its own shadow). The offset along ``n`` is therefore at least
-    ``ERROR_OFFSET * dot(|n|, err)`` (the error projected on the normal, as pbrt's ``OffsetRayOrigin``); an
-    axis-aligned plane has no error across itself (``err`` 0 along its normal), but the triangle test still
-    rounds at the scale of its corners: the offset is also at least ``SIZE_OFFSET * size`` (5e-4 on a floor 1000
-    across, so contact shadows on it are kept)."""
-    down, up = power_scales(size)
-    scale = wp.min(2.0 * up, 1.0)  # a power of two above size, at most 1
-    least = wp.max(ERROR_OFFSET * wp.dot(wp.vec3(wp.abs(n[0]), wp.abs(n[1]), wp.abs(n[2])), err), SIZE_OFFSET * size)
+    1e4, the ground sphere of radius 1000 centred at ``(0, -1000, 0)``). The offset along ``n`` is at least
+    ``ERROR_OFFSET * dot(|n|, err)``, the error projected on the normal. An axis-aligned plane has no error across
+    itself (``err`` 0 along its normal), but the intersection tests round at the scale of the distances they
+    measure from the origin: the offset is also at least ``REACH_OFFSET * reach`` (1e-3 on a floor 1000 across).
+
+    Both bounds follow the surface's own size and position, not a fixed count of the point's ULPs: the 256 ULPs of
+    Wächter and Binder ("A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems, 2019), used
+    before, are 3e-5 of the distance from the world origin, 2 units on a floor at 7e4, so a scene far from the origin
+    lost every shadow smaller than that and lit surfaces through the gap. Each coordinate moves by at least one ULP
+    towards ``n``'s side, so the point never stays where it was."""
+    least = wp.max(ERROR_OFFSET * wp.dot(wp.vec3(wp.abs(n[0]), wp.abs(n[1]), wp.abs(n[2])), err), REACH_OFFSET * reach)
     result = wp.vec3()
     for k in range(3):
-        ulps = int(256.0 * n[k])
-        bits = wp.cast(p[k], wp.int32)
-        if p[k] < 0.0:
-            bits -= ulps
-        else:
-            bits += ulps
-        moved = wp.cast(bits, wp.float32)
-        if wp.abs(p[k]) < scale * (1.0 / 32.0):
-            moved = p[k] + (scale * (1.0 / 65536.0)) * n[k]
-        if wp.abs(moved - p[k]) < least * wp.abs(n[k]):
-            moved = p[k] + least * n[k]
+        step = least * n[k]
+        moved = p[k] + step
+        if moved == p[k] and step != 0.0:
+            # The step is below half an ULP of p[k] (p[k] is not 0 here): take the neighbouring float on n's side.
+            bits = wp.cast(p[k], wp.int32)
+            if (p[k] < 0.0) == (step < 0.0):
+                bits += 1
+            else:
+                bits -= 1
+            moved = wp.cast(bits, wp.float32)
         result[k] = moved
     return result

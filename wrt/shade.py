@@ -89,7 +89,8 @@ class HitPoint:
 
     p: wp.vec3  # world-space position
     ng: wp.vec3  # unit geometric normal facing the ray origin
-    size: float  # largest |world coordinate| of the surface hit: the scale of p's rounding (offset_ray_origin)
+    reach: float  # largest distance along an axis from p to the surface's corners (a shape: its centre), the
+    # scale of the intersection tests' rounding (offset_ray_origin)
     err: wp.vec3  # per axis, the largest magnitude p's coordinate is summed from: its rounding scale (same use)
     ns: wp.vec3  # unit shading normal on the side of ng (normal map included after shading_point)
     front: int  # 1 when the ray hit the front (winding) side
@@ -109,9 +110,9 @@ def unit_or_zero(n: wp.vec3):
 
 
 @wp.func
-def corner_size(a: wp.vec3, b: wp.vec3, c: wp.vec3):
-    """``HitPoint.size`` of a triangle with world-space corners ``a``, ``b``, ``c``."""
-    return wp.max(wp.max(largest_magnitude(a), largest_magnitude(b)), largest_magnitude(c))
+def corner_reach(a: wp.vec3, b: wp.vec3, c: wp.vec3, p: wp.vec3):
+    """``HitPoint.reach`` of the point ``p`` on a triangle with world-space corners ``a``, ``b``, ``c``."""
+    return wp.max(wp.max(largest_magnitude(a - p), largest_magnitude(b - p)), largest_magnitude(c - p))
 
 
 @wp.func
@@ -122,9 +123,9 @@ def corner_err(a: wp.vec3, b: wp.vec3, c: wp.vec3):
 
 @wp.func
 def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.vec3, t: float):
-    """World-space point, front normal (not normalised), size (``HitPoint.size``: of the point and the shape's
-    centre, whose magnitudes its transforms round at) and ``HitPoint.err`` of the hit at ``t`` on analytic shape
-    ``prim``: the ray point is moved into the shape's canonical space, snapped onto the surface, and moved back."""
+    """World-space point, front normal (not normalised), reach (``HitPoint.reach``: the point's distance from the
+    shape's centre, the scale of the canonical test's rounding) and ``HitPoint.err`` of the hit at ``t`` on analytic
+    shape ``prim``: the ray point is moved into the shape's canonical space, snapped onto the surface and moved back."""
     j = prim - scene.num_prims
     p = o + t * d
     if instance >= 0:
@@ -141,7 +142,7 @@ def shape_frame(scene: DeviceScene, prim: int, instance: int, o: wp.vec3, d: wp.
         p = inverse_transform_point(mi, p)
         err = inverse_transform_magnitude(mi, err)
         centre = inverse_transform_point(mi, centre)
-    return p, n, wp.max(largest_magnitude(p), largest_magnitude(centre)), err
+    return p, n, largest_magnitude(p - centre), err
 
 
 @wp.func
@@ -164,7 +165,7 @@ def hit_point(
     c = scene.points[scene.indices[prim, 2]]
     w = 1.0 - u - v
     h.p = w * a + u * b + v * c
-    h.size = corner_size(a, b, c)
+    h.reach = corner_reach(a, b, c, h.p)
     h.err = corner_err(a, b, c)
     ng = wp.cross(b - a, c - a)
     n0 = scene.normals[prim, 0]
@@ -172,9 +173,9 @@ def hit_point(
     n2 = scene.normals[prim, 2]
     if prim >= scene.num_prims:
         # An analytic shape: the point and normal come from the shape itself.
-        p, n, size, err = shape_frame(scene, prim, instance, o, d, t)
+        p, n, reach, err = shape_frame(scene, prim, instance, o, d, t)
         h.p = p
-        h.size = size
+        h.reach = reach
         h.err = err
         ng = n
         n0 = n
@@ -187,7 +188,7 @@ def hit_point(
         h.p = inverse_transform_point(m, h.p)
         h.err = inverse_transform_magnitude(m, h.err)
         a, b, c = inverse_transform_point(m, a), inverse_transform_point(m, b), inverse_transform_point(m, c)
-        h.size = corner_size(a, b, c)
+        h.reach = corner_reach(a, b, c, h.p)
         ng = normal_to_world(m, ng)
         n0 = unit_or_zero(normal_to_world(m, n0))
         n1 = unit_or_zero(normal_to_world(m, n1))
@@ -463,7 +464,7 @@ def back_face(scene: DeviceScene, surf: DeviceSurfaces, prim: int, instance: int
     if surf.double_sided[prim] == 1:
         return False
     if prim >= scene.num_prims:
-        p, n, size, err = shape_frame(scene, prim, instance, o, d, t)
+        p, n, reach, err = shape_frame(scene, prim, instance, o, d, t)
         return wp.dot(n, d) > 0.0
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
