@@ -193,7 +193,7 @@ def offset_origins_kernel(
     out: wp.array[wp.vec3],
 ):
     i = wp.tid()
-    out[i] = offset_ray_origin(points[i], normals[i], reaches[i], errs[i])
+    out[i] = offset_ray_origin(points[i], normals[i], reaches[i], errs[i], points[i])  # no pull inwards
 
 
 # Away from the origin (larger ulps), scaled down by 2^-20 around it, and small spheres far from it (ulps of 1e-2 and

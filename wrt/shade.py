@@ -92,6 +92,7 @@ class HitPoint:
     reach: float  # largest distance along an axis from p to the surface's corners (a shape: its centre), the
     # scale of the intersection tests' rounding (offset_ray_origin)
     err: wp.vec3  # per axis, the largest magnitude p's coordinate is summed from: its rounding scale (same use)
+    inner: wp.vec3  # a point inside the surface that ray origins are pulled towards: the triangle's centroid (same use)
     ns: wp.vec3  # unit shading normal on the side of ng (normal map included after shading_point)
     front: int  # 1 when the ray hit the front (winding) side
     st: wp.vec2  # texture coordinates
@@ -107,6 +108,16 @@ def unit_or_zero(n: wp.vec3):
     if length > 0.0:
         return n / length
     return wp.vec3(0.0)
+
+
+@wp.func
+def point_in_triangle(a: wp.vec3, b: wp.vec3, c: wp.vec3, u: float, v: float):
+    """The point of barycentric coordinates ``(1 - u - v, u, v)`` on triangle ``a, b, c``, as ``a`` plus a sum of
+    edge vectors: that sum rounds at the triangle's size and the final addition to the nearest float, so the point
+    never lies past a plane of the corners' coordinates (the wall it meets). Summed as ``w a + u b + v c``, each term
+    rounded at the coordinates' magnitude: far from the origin the point of a floor fell up to an ulp past the wall
+    beside it (0.008 at 1e5), and shadow rays leaving it went outside the room (lit lines along its corners)."""
+    return a + (u * (b - a) + v * (c - a))
 
 
 @wp.func
@@ -164,9 +175,10 @@ def hit_point(
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
     w = 1.0 - u - v
-    h.p = w * a + u * b + v * c
+    h.p = point_in_triangle(a, b, c, u, v)
     h.reach = corner_reach(a, b, c, h.p)
     h.err = corner_err(a, b, c)
+    h.inner = (a + b + c) / 3.0
     ng = wp.cross(b - a, c - a)
     n0 = scene.normals[prim, 0]
     n1 = scene.normals[prim, 1]
@@ -177,6 +189,7 @@ def hit_point(
         h.p = p
         h.reach = reach
         h.err = err
+        h.inner = p
         ng = n
         n0 = n
         n1 = n
@@ -185,10 +198,11 @@ def hit_point(
         # Normals move by the inverse transpose, so the front side stays the front side under mirroring. Corner
         # normals are moved and renormalised before interpolation, exactly as a flattened copy stores them.
         m = scene.world_to_local[instance]
-        h.p = inverse_transform_point(m, h.p)
         h.err = inverse_transform_magnitude(m, h.err)
         a, b, c = inverse_transform_point(m, a), inverse_transform_point(m, b), inverse_transform_point(m, c)
+        h.p = point_in_triangle(a, b, c, u, v)  # from the world corners, which the neighbours share
         h.reach = corner_reach(a, b, c, h.p)
+        h.inner = (a + b + c) / 3.0
         ng = normal_to_world(m, ng)
         n0 = unit_or_zero(normal_to_world(m, n0))
         n1 = unit_or_zero(normal_to_world(m, n1))

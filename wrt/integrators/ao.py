@@ -42,7 +42,7 @@ def shade_ao_kernel(
     state = rng[i]
     u1, state = rand01(state)
     u2, state = rand01(state)
-    shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err)
+    shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
     shadow_dirs[i] = to_world(sample_cosine_hemisphere(u1, u2), h.ns)
     shadow_t_maxs[i] = radius
 

@@ -151,7 +151,7 @@ def shade_path_kernel(
                 w = light_sample_weight(lights, k, pmf * ls.pdf, pdf_f)
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
-                shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err)
+                shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
                 shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
                 shadow_lights[i] = k
                 if ls.dist < wp.inf:
@@ -182,10 +182,10 @@ def shade_path_kernel(
         return
     throughput[i] = T
     if bs.transmitted == 1:
-        origins[i] = offset_ray_origin(h.p, -h.ng, h.reach, h.err)
+        origins[i] = offset_ray_origin(h.p, -h.ng, h.reach, h.err, h.inner)
         prev_normal[i] = -h.ns
     else:
-        origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err)
+        origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
         prev_normal[i] = h.ns
     directions[i] = bs.wi
     t_mins[i] = 0.0

@@ -199,7 +199,7 @@ def whitted_light_kernel(
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
     contribution[i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
-    shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err)
+    shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
     shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
     shadow_lights[i] = k
     if ls.dist < wp.inf:
@@ -266,11 +266,11 @@ def continue_whitted_kernel(
     T = throughput[i]
     if u * total < p_reflect:
         directions[i] = reflect(wo, h.ns)
-        origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err)
+        origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
         T = wp.cw_mul(T, w_reflect) * (total / p_reflect)
     else:
         directions[i] = wp.normalize(refract(wo, h.ns, eta))
-        origins[i] = offset_ray_origin(h.p, -h.ng, h.reach, h.err)
+        origins[i] = offset_ray_origin(h.p, -h.ng, h.reach, h.err, h.inner)
         T = T * total  # w_refract / (w_refract / total); no 1 / eta^2: see bsdf.sample_bsdf
     throughput[i] = T
     link_groups[i] = link_group(lights.links, prim, hit_instance[i])
