@@ -206,8 +206,8 @@ def test_a_closed_room_far_from_the_origin_lets_no_sunlight_in(far):
     normal started in the floor's plane and passed through the floor. Whitted lit 81 (1e5) and 10,733 (1e6) of 12,288
     pixels from the sun outside with 256-ulp offsets, 3 and 32 with offsets along the normal alone; the path tracer's
     room was 97% brighter at 1e5, then 16%. Hit points are now summed from edge vectors (they do not round past a
-    wall) and ray origins pulled into their triangle before the offset. (At 1e6 the offsets are about 1 unit, more
-    than the table's height: the path tracer's room is no longer closed there, see README.)"""
+    wall) and ray origins pulled into their triangle before the offset. (At 1e6 the offsets are 0.7, more than the
+    table's height: the path tracer's room drifts there, see README.)"""
     images = {}
     for sun in (False, True):
         scene, camera = closed_room(translation(far), sun)
