@@ -16,7 +16,7 @@ import warp as wp
 wp.config.quiet = True
 
 pxr = pytest.importorskip("pxr")
-from pxr import Gf, Usd, UsdGeom, UsdShade, Vt  # noqa: E402
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt  # noqa: E402
 
 import wrt  # noqa: E402
 from wrt.compare import compare_hits, near_edge_world  # noqa: E402
@@ -567,6 +567,23 @@ def test_a_still_invisible_ids_hides_instances_numbered_by_time_sampled_ids(tmp_
     assert list(first) == [0, 2]
     scene = load(path)
     assert [scene.instances.path(i) for i in range(len(scene.instances))] == [f"/PI[{k}]" for k in first]
+
+
+def test_blocked_ids_number_instances_by_index_as_usd_masks_them(tmp_path):
+    """An ``ids`` attribute blocked at the time read (a value block among its samples) has no ids: USD's mask then
+    names instances by index, as without ids. Reading it for the mask failed with "cannot read this prim" (int() of
+    None) since the mask's ids were read by value_at."""
+    path = write_instancer(tmp_path)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    pi.CreateInvisibleIdsAttr(Vt.Int64Array([1]))
+    pi.CreateIdsAttr().Set(Vt.Int64Array([5, 7, 9]), 0.0)
+    pi.GetIdsAttr().Set(Sdf.ValueBlock(), 1.0)
+    stage.Save()
+    shown = np.flatnonzero(pi.ComputeMaskAtTime(1.0))
+    assert list(shown) == [0, 2]
+    scene = load(path, time=1.0)
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == [f"/PI[{k}]" for k in shown]
 
 
 @pytest.mark.parametrize("asset_id", ["chess_set", "teapot_scene_1000", "teapot_layout_1000"])

@@ -142,7 +142,9 @@ class PointInstancerReading:
                            np.asarray(invisible if invisible is not None else [], np.int64).reshape(-1))
         if len(named) == 0:
             return keep
-        ids = value_at(pi.GetIdsAttr(), self.time) if pi.GetIdsAttr().HasValue() else np.arange(n)
+        ids = value_at(pi.GetIdsAttr(), self.time)
+        if ids is None:  # unauthored, or blocked at this time: instances are named by index
+            ids = np.arange(n)
         shown = ~np.isin(np.asarray(ids, np.int64).reshape(-1), named)
         if shown.all():
             return keep
