@@ -276,7 +276,8 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
             triangles, clipped = clip_ears_batch(plane_coordinates_batch(corners))
             rows = first_tri[block[clipped]][:, None] + np.arange(k - 2)
             tri_corners[rows] = starts[block[clipped]][:, None, None] + triangles[clipped]
-            one_by_one += block[~clipped].tolist()  # no ear at some step: clipped alone, to fan what is left
+            # No ear at some step: clipped alone, which finishes where the corners left lie in a line.
+            one_by_one += block[~clipped].tolist()
 
     # The rest one at a time in their best-fit plane.
     for f in one_by_one:
@@ -285,9 +286,10 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
             too_large.append(f"face {f} ({n:,} corners)")
             continue
         triangles, clipped = clip_ears(plane_coordinates(points[face_indices[s:s + n]].astype(np.float64)))
-        tri_corners[first_tri[f]:first_tri[f] + n - 2] = s + triangles
-        if not clipped:
+        if not clipped:  # no inside to keep to: the face keeps its fan rows, as the warning says
             crossing.append(f)
+            continue
+        tri_corners[first_tri[f]:first_tri[f] + n - 2] = s + triangles
 
     if on_problem is not None:
         if crossing:
