@@ -324,7 +324,8 @@ def ray_can_hit(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float)
 # near the origin: origins closer than that were reported on it); 2^-20 is four times that.
 ERROR_OFFSET = wp.constant(9.5367431640625e-07)
 REACH_OFFSET = wp.constant(9.5367431640625e-07)
-# 2^-21 of a point's largest coordinate (at least two of its ulps): how far an origin is pulled into its triangle.
+# 2^-21 of the largest coordinate a point is summed from (HitPoint.err; at least two ulps of the point): how far an
+# origin is pulled into its triangle.
 INNER_PULL = wp.constant(4.76837158203125e-07)
 
 
@@ -345,11 +346,11 @@ def offset_ray_origin(p: wp.vec3, n: wp.vec3, reach: float, err: wp.vec3, inner:
     Both bounds follow the surface's own size and position, not a fixed count of the point's ULPs: the 256 ULPs of
     Wächter and Binder ("A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing Gems, 2019), used
     before, are 3e-5 of the distance from the world origin, 2 units on a floor at 7e4, so a scene far from the origin
-    lost every shadow smaller than that and lit surfaces through the gap. Each coordinate moves by at least one ULP
-    towards ``n``'s side, so the point never stays where it was.
+    lost every shadow smaller than that and lit surfaces through the gap. Each coordinate along which ``n`` is not 0
+    moves by at least one ULP towards ``n``'s side, so the point never stays where it was.
 
     ``inner`` is a point inside the surface (a triangle's centroid; ``p`` itself for analytic shapes): ``p`` is first
-    pulled towards it by ``INNER_PULL`` of its largest coordinate (at most half way). A point on an edge that the
+    pulled towards it by ``INNER_PULL`` of ``err``'s largest component (at most half way). A point on an edge that the
     triangle shares with another surface (a wall's bottom edge on the floor) lies in that surface's plane too, and
     the offset along ``n`` alone left it there: rays into the floor started on it and passed (a room far from the
     origin, where many hit points round onto its edges, was lit by the sun outside along its corners)."""

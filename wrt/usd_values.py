@@ -16,7 +16,8 @@ def value_at(attr: Usd.Attribute, time: Usd.TimeCode):
 
 def read_time(attr: Usd.Attribute, time: Usd.TimeCode) -> Usd.TimeCode:
     """The time code :func:`value_at` reads ``attr`` at: ``time``, or ``EarliestTime`` when ``time`` is default and
-    ``attr`` has only time samples. For USD queries that read attributes themselves (a PointInstancer's mask).
+    ``attr`` has only time samples. For USD queries that read attributes themselves (a primvar's
+    ``ComputeFlattened``, an xform op's ``GetOpTransform``).
 
     ``EarliestTime`` rather than ``GetTimeSamples()[0]``: the result is the same, and ``GetTimeSamples`` can hang
     usd-core 26.11 on stages with ``timeCodesPerSecond = 0``.
