@@ -156,25 +156,16 @@ def clip_ears(xy) -> tuple[np.ndarray, bool]:
 
 def plane_coordinates(corners) -> np.ndarray:
     """``(n, 2)`` coordinates of ``corners`` ``(n, 3)`` in the plane normal to their Newell normal, with axes chosen so
-    that the polygon winds counter-clockwise (positive area) in them."""
-    corners = np.asarray(corners, np.float64)
-    relative = corners - corners[0]
-    normal = np.cross(relative, np.roll(relative, -1, axis=0)).sum(axis=0)
-    normal /= np.linalg.norm(normal)
-    # Any axis across the normal, then the one that makes (u, v, normal) right-handed.
-    helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
-    u = np.cross(helper, normal)
-    u /= np.linalg.norm(u)
-    v = np.cross(normal, u)
-    return np.stack([relative @ u, relative @ v], axis=1)
+    that the polygon winds counter-clockwise (positive area) in them: :func:`plane_coordinates_batch` of one face."""
+    return plane_coordinates_batch(np.asarray(corners, np.float64).T[:, None, :])[0]
 
 
 BATCH_CORNERS = 64  # concave faces of up to this many corners are clipped together, in numpy; larger ones one by one
 
 
 def plane_coordinates_batch(corners) -> np.ndarray:
-    """``(F, k, 2)`` coordinates of faces ``corners`` ``(3, F, k)`` (axis first) in their best-fit planes, axes chosen
-    as in :func:`plane_coordinates`."""
+    """``(F, k, 2)`` coordinates of faces ``corners`` ``(3, F, k)`` (axis first) in the planes normal to their Newell
+    normals, with axes chosen so that each face winds counter-clockwise (positive area) in them."""
     relative = corners - corners[:, :, :1]
     normals = _cross(relative, np.roll(relative, -1, axis=2)).sum(axis=2)  # (3, F)
     normals = normals / np.sqrt((normals * normals).sum(axis=0))
