@@ -30,8 +30,9 @@ instances are not flattened. Each native prototype and each prim a PointInstance
 targets is read once, in its own space, into a ``Scene.prototypes`` entry, and every instance becomes one row of
 ``Scene.instances`` (prototype index and 4x4 transform). Nesting (instancers and instances inside prototypes, at any
 depth) is resolved into that single level. PointInstancers read ``protoIndices``, ``positions``, ``orientations``
-(or ``orientationsf``), ``scales``, ``invisibleIds`` and ``inactiveIds`` (``ComputeMaskAtTime``); the instance
-transform is ``translate(position) * rotate(orientation) * scale(scale)`` after the prototype root's own transform
+(or ``orientationsf``), ``scales``, ``invisibleIds`` and ``inactiveIds`` (masked as ``ComputeMaskAtTime`` masks,
+with ``ids`` read by the same time rule as ``invisibleIds``); the instance transform is
+``translate(position) * rotate(orientation) * scale(scale)`` after the prototype root's own transform
 (``IncludeProtoXform``), as ``ComputeInstanceTransformsAtTime`` computes it. Between and beyond time samples,
 ``positions`` (and a mesh's ``points``) with ``velocities`` (and ``accelerations``) authored at the same samples are
 the earlier sample moved by them, and orientations with ``angularVelocities`` the earlier sample turned by them, as
