@@ -20,6 +20,7 @@ pxr = pytest.importorskip("pxr")
 from conftest import WARP_USD_ASSETS, warp_assets  # noqa: E402
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt  # noqa: E402
 
+import wrt  # noqa: E402
 from wrt.errors import SceneError  # noqa: E402
 from wrt.usd import load_usd, triangulate  # noqa: E402
 
@@ -1081,3 +1082,41 @@ def SkelRoot "Root"
     meshes = {m.path: m for m in scene.meshes}
     np.testing.assert_allclose(meshes["/Root/Body"].points, np.array(POINTS) + (0, 2, 0))
     np.testing.assert_allclose(meshes["/Loose"].points, POINTS)
+
+
+def test_a_projective_transform_is_warned_about_and_its_affine_part_places_meshes_gprims_and_curves(tmp_path):
+    """A transform whose last column is not (0, 0, 0, 1) (here 0.5 in its third row) names each mesh, gprim and curve
+    under it in one warning, and all three are drawn by its affine part (a translation by 9 along x)."""
+    path = write_usda(tmp_path, """
+def Xform "P"
+{
+    matrix4d xformOp:transform = ((1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0.5), (9, 0, 0, 1))
+    uniform token[] xformOpOrder = ["xformOp:transform"]
+    def Mesh "M"
+    {
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+    }
+    def Sphere "S"
+    {
+        double radius = 2
+    }
+    def BasisCurves "C"
+    {
+        uniform token type = "linear"
+        int[] curveVertexCounts = [2]
+        point3f[] points = [(0, 0, 5), (0, 3, 5)]
+        float[] widths = [0.2, 0.2]
+    }
+}
+""")
+    with pytest.warns(UserWarning, match=r"world transform is projective; its last column was ignored: 3 prim\(s\): "
+                                         r"/P/M, /P/S, /P/C$"):
+        scene = load_usd(path)
+    np.testing.assert_array_equal(scene.meshes[0].points, [[9, 0, 0], [10, 0, 0], [9, 1, 0]])
+    (sphere,) = scene.shapes
+    np.testing.assert_array_equal(sphere.to_world, [[2, 0, 0, 9], [0, 2, 0, 0], [0, 0, 2, 0], [0, 0, 0, 1]])
+    # Straight down onto the sphere (centre (9, 0, 0)) and onto the curve (radius 0.1 along x = 9, z = 5).
+    hits = wrt.trace(scene, np.array([[9.2, -0.2, 10.0], [9.0, 1.5, 10.0]]), np.array([[0.0, 0.0, -1.0]] * 2))
+    np.testing.assert_allclose(hits.t, [10.0 - math.sqrt(4.0 - 0.2**2 - 0.2**2), 4.9], rtol=1e-5)

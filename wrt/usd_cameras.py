@@ -9,6 +9,7 @@ from pxr import Sdf, Usd, UsdGeom
 from .camera import Camera
 from .usd_contents import PROTOTYPE_PREDICATE, Context
 from .usd_values import value_at
+from .usd_xforms import affine_part
 
 
 class CameraReading:
@@ -61,10 +62,8 @@ class CameraReading:
             if projection != UsdGeom.Tokens.perspective:  # as UsdGeom.Camera.GetCamera reads it
                 self._skip("cameras with an unknown projection are perspective", prim, f"projection = {projection!r}")
             projection = "perspective"
-        m = np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64)  # row vectors
-        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):  # as for meshes and instances: the affine part is used
-            self._skip("world transform is projective; its last column was ignored", prim)
-        m[:, 3] = (0.0, 0.0, 0.0, 1.0)
+        m = affine_part(np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64),  # row vectors
+                        lambda reason: self._skip(reason, prim))
         try:
             return Camera(
                 to_world=m.T,  # column vectors

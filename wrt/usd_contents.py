@@ -12,6 +12,7 @@ from .light_links import part_path
 from .primitives import Shape
 from .scene import Mesh, Scene
 from .tubes import place_round
+from .usd_xforms import PROJECTIVE
 
 # The prims a prototype's walk takes: active, loaded, not abstract, and with a defining specifier of their own,
 # their ancestors' not asked (see wrt.usd's _content), as Hydra's prototype predicate takes them. Without the last
@@ -156,7 +157,7 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
         return world_sources[world[i, 0]] + (f"[{world[i, 1]}]" if world[i, 1] >= 0 else "")
 
     for path in dict.fromkeys(map(world_path, projective)):
-        skip_path("world transform is projective; its last column was ignored", path)
+        skip_path(PROJECTIVE, path)
     inverses, ok = invert_transforms(instances.to_world)
     for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok))):
         skip_path("instances with a singular transform (a zero scale) were skipped", path)

@@ -21,6 +21,7 @@ from .scene import Mesh
 from .tubes import width_axis
 from .usd_contents import Content, Context, instance_looks
 from .usd_values import value_at
+from .usd_xforms import affine_part
 
 
 class GprimReading:
@@ -37,10 +38,7 @@ class GprimReading:
         gprim = UsdGeom.Gprim(prim)
         if self._left_handed(prim, gprim, t):
             params[3] = -1.0
-        to_world = m.T @ local
-        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
-            self._skip("world transform is projective; its last column was ignored", prim)
-            to_world[3] = (0.0, 0.0, 0.0, 1.0)
+        to_world = affine_part(m, lambda reason: self._skip(reason, prim)).T @ local
 
         material_id, primvar, color = self._gprim_look(prim, ctx)
         if primvar is not None:
@@ -175,9 +173,7 @@ class GprimReading:
         # displayOpacity per point or curve is one per instance, as colours are; a single value is the shapes' own.
         per_element = self._opacity_per_element(prim) if material_id < 0 else None
         opacity = self._one_opacity(prim, True, not ctx.world) if material_id < 0 and not per_element else None
-        m = self._to_space(prim, ctx)
-        if not np.allclose(m[:, 3], (0.0, 0.0, 0.0, 1.0)):
-            self._skip("world transform is projective; its last column was ignored", prim)
+        m = affine_part(self._to_space(prim, ctx), lambda reason: self._skip(reason, prim))
         groups, constant = self.tubes.read(prim, points, m.T, primvar, counts, per_element)
         axis = width_axis(m.T[:3, :3])
         color = constant if constant is not None else color

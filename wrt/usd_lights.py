@@ -22,6 +22,7 @@ from .lights import (
     SphereLight,
 )
 from .scene import DistantLight
+from .usd_xforms import affine_part
 
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 
@@ -102,9 +103,7 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
     if np.any(color < 0.0):  # a light cannot take light away: negative pixels would follow
         skip("negative light colour or intensity was clamped to 0", prim)
         color = np.maximum(color, 0.0)
-    if not np.allclose(m[3], (0.0, 0.0, 0.0, 1.0)):  # as for meshes, instances and cameras: the affine part is used
-        skip("world transform is projective; its last column was ignored", prim)
-        m[3] = (0.0, 0.0, 0.0, 1.0)
+    m = affine_part(m.T, lambda reason: skip(reason, prim)).T
     multipliers = _multipliers(prim, light, skip, get)
     if multipliers is None:
         return None
