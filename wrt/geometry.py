@@ -85,9 +85,6 @@ MAX_EDGE = wp.constant(1.0e30)
 # float32's normal range: 2^-200 and 2^200.
 EDGE_DOWNSCALE = wp.constant(2.0**-200)
 EDGE_UPSCALE = wp.constant(2.0**200)
-# A hit whose edge functions sum to less than this share of edge_products is weighed in float64: float32 rounding of
-# the edge functions is then more than 2^13 epsilons (1e-3) of their sum. Only slivers get there (aspect > ~1000).
-SLIVER_DET = wp.constant(2.0**-10)
 
 
 @wp.func
@@ -113,15 +110,6 @@ def exact_edge_functions(ax: float, ay: float, bx: float, by: float, cx: float, 
     elif largest < wp.float64(MIN_EDGE):
         scale = wp.float64(EDGE_UPSCALE)
     return float(e0 * scale), float(e1 * scale), float(e2 * scale)
-
-
-@wp.func
-def edge_products(ax: float, ay: float, bx: float, by: float, cx: float, cy: float):
-    """The sum of the magnitudes of the products the three edge functions are differences of: their float32 rounding
-    is a few epsilons of it."""
-    e0 = wp.abs(cx * by) + wp.abs(cy * bx)
-    e1 = wp.abs(ax * cy) + wp.abs(ay * cx)
-    return e0 + e1 + (wp.abs(bx * ay) + wp.abs(by * ax))
 
 
 @wp.func
@@ -159,15 +147,6 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     t = float(0.0)
     u = float(0.0)
     v = float(0.0)
-    if hit and wp.abs(det) < SLIVER_DET * edge_products(ax, ay, bx, by, cx, cy):
-        # A sliver (a needle's side: 2.4 long, 1e-5 wide): the float32 edge functions are differences of products
-        # up to 2^10 times their size, and their rounding moved t far off (-0.016 for 0.35: a ray from inside the
-        # needle went out through its wall). The hit stays decided by the float32 signs, so the test stays
-        # watertight; t and the barycentrics are weighed with the float64 values.
-        f0, f1, f2 = exact_edge_functions(ax, ay, bx, by, cx, cy)
-        if f0 + f1 + f2 != 0.0:
-            e0, e1, e2 = f0, f1, f2
-            det = e0 + e1 + e2
     if hit:
         big_t = e0 * (ray.sz * az) + e1 * (ray.sz * bz) + e2 * (ray.sz * cz)
         inv_det = 1.0 / det
