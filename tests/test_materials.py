@@ -385,6 +385,15 @@ def test_unknown_source_color_space_is_named_and_read_as_auto(tmp_path):
     np.testing.assert_allclose(img, float(srgb_to_linear(np.float32(128 / 255))), atol=2e-3)  # auto: sRGB for 8 bits
 
 
+def test_unknown_texture_output_is_named_and_read_as_rgb(tmp_path):
+    """A UsdUVTexture has the outputs r, g, b, a and rgb; one named otherwise (``result``, as other readers call it)
+    was read as rgb without a word."""
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), (200, 100, 50)))
+    with pytest.warns(UserWarning, match=r"UsdUVTexture output is none of r, g, b, a, rgb or rgba.*result"):
+        img = albedo(textured_stage(tmp_path, png, color_space="raw", channel="result"))
+    np.testing.assert_allclose(img, np.broadcast_to(np.array([200, 100, 50]) / 255, img.shape), atol=2e-3)
+
+
 def test_unknown_wrap_tokens_are_named_and_read_as_use_metadata(tmp_path):
     """A wrap token outside the schema's list (MaterialX's "periodic") was read as repeat without a word; Storm warns
     and reads it as useMetadata, black outside the image for a file without wrap metadata."""

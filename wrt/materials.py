@@ -951,6 +951,9 @@ class MaterialReader:
     def _texture(self, tex, output: str, material_path: str):
         """A :class:`TextureInput` for ``UsdUVTexture`` ``tex`` read through ``output``, or ``(None, fallback)``
         when its image cannot be read."""
+        if output not in CHANNELS:  # ("result", "out": no output of UsdUVTexture) was read as rgb without a word
+            self.skip(f"material {material_path}: a UsdUVTexture output is none of r, g, b, a, rgb or rgba; it is "
+                      "read as rgb", tex.GetPrim(), detail=output)
         channel = output if output in CHANNELS else "rgb"
         channel = "rgb" if channel == "rgba" else channel
         fallback = self._constant(tex, "fallback")
