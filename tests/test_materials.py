@@ -394,6 +394,20 @@ def test_unknown_texture_output_is_named_and_read_as_rgb(tmp_path):
     np.testing.assert_allclose(img, np.broadcast_to(np.array([200, 100, 50]) / 255, img.shape), atol=2e-3)
 
 
+@pytest.mark.parametrize("channel", ["a", "rgb"])
+def test_a_float3_scale_keeps_alpha_at_one(tmp_path, channel):
+    """``scale`` authored as a float3 (the schema's is a float4) was stretched to four values by repeating its red,
+    so the ``a`` output of an opaque image came out at the red scale (0.5) instead of 1; rgb keeps its three."""
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), (200, 100, 50)))
+    path = textured_stage(tmp_path, png, color_space="raw", channel=channel)
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader.Get(stage, "/Looks/Tex/Image").CreateInput("scale", Sdf.ValueTypeNames.Float3).Set((0.5, 0.25, 2))
+    stage.Save()
+    img = albedo(path)
+    expected = [1.0, 1.0, 1.0] if channel == "a" else np.array([200 * 0.5, 100 * 0.25, 50 * 2]) / 255
+    np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
+
+
 def test_unknown_wrap_tokens_are_named_and_read_as_use_metadata(tmp_path):
     """A wrap token outside the schema's list (MaterialX's "periodic") was read as repeat without a word; Storm warns
     and reads it as useMetadata, black outside the image for a file without wrap metadata."""

@@ -100,6 +100,16 @@ COLOR_PRIMVAR_READERS = {
 TEXTURE_FALLBACK = (0.0, 0.0, 0.0, 1.0)  # UsdUVTexture's default fallback (RGBA)
 
 
+def four_components(value, default) -> np.ndarray:
+    """A UsdUVTexture ``scale``, ``bias`` or ``fallback`` as its four RGBA floats: three (a float3 authored where the
+    schema has a float4) take ``default``'s alpha, a single number serves all four. ``np.resize`` repeated the red
+    component into alpha, so ``scale = (0.5, 0.5, 0.5)`` halved the ``a`` output."""
+    v = np.asarray(value if value is not None else default, np.float32).reshape(-1)
+    if v.size == 3:
+        return np.append(v, np.float32(default[3]))
+    return np.resize(v, 4)
+
+
 @dataclasses.dataclass
 class TextureInput(CountsAssignments):
     """One ``UsdUVTexture`` feeding a material input.
@@ -956,9 +966,7 @@ class MaterialReader:
                       "read as rgb", tex.GetPrim(), detail=output)
         channel = output if output in CHANNELS else "rgb"
         channel = "rgb" if channel == "rgba" else channel
-        fallback = self._constant(tex, "fallback")
-        fallback = np.asarray(fallback if fallback is not None else TEXTURE_FALLBACK, np.float32).reshape(-1)
-        fallback = np.resize(fallback, 4)
+        fallback = four_components(self._constant(tex, "fallback"), TEXTURE_FALLBACK)
         fallback_value = fallback[:3] if channel == "rgb" else np.full(3, fallback[CHANNELS[channel]], np.float32)
 
         color_space = str(self._constant(tex, "sourceColorSpace") or "auto")
@@ -981,8 +989,8 @@ class MaterialReader:
                 image=image,
                 channel=channel,
                 wrap=(wraps[0], wraps[1]),
-                scale=np.resize(np.asarray(scale if scale is not None else (1, 1, 1, 1), np.float32), 4),
-                bias=np.resize(np.asarray(bias if bias is not None else (0, 0, 0, 0), np.float32), 4),
+                scale=four_components(scale, (1.0, 1.0, 1.0, 1.0)),
+                bias=four_components(bias, (0.0, 0.0, 0.0, 0.0)),
                 transform=transform,
                 uv_set=uv_set,
                 st_fallback=st_fallback,
