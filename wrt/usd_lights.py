@@ -233,7 +233,12 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
     if prim.IsA(UsdLux.CylinderLight):
         c = UsdLux.CylinderLight(prim)
         found = sizes((c.GetLengthAttr(), "length", 1.0), (c.GetRadiusAttr(), "radius", 0.5))
-        return None if found is None else CylinderLight(m, found[0], found[1], color, normalize, path)
+        if found is None:
+            return None
+        if not _round_tube(m[:3, :3]):
+            skip("CylinderLights scaled unevenly across their axis or sheared (elliptic or oblique tubes) are rendered "
+                 "as round tubes of the mean scaled radius", prim)
+        return CylinderLight(m, found[0], found[1], color, normalize, path)
     if prim.IsA(UsdGeom.Gprim):  # LightAPI on a mesh (MeshLightAPI): wrt.usd checks it is drawn as one
         return MeshLight(path, color, normalize, _material_sync(prim, skip))
     dome_types = [UsdLux.DomeLight] + ([UsdLux.DomeLight_1] if hasattr(UsdLux, "DomeLight_1") else [])
@@ -241,6 +246,16 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         return _read_dome(prim, m, color, time, up_axis, skip, get)
     skip(f"{prim.GetTypeName() or 'this'} lights are not supported; skipped", prim, prim.GetTypeName())
     return None
+
+
+def _round_tube(m3: np.ndarray, rtol: float = 1e-4) -> bool:
+    """Whether a CylinderLight of local-to-world linear part ``m3`` stays a round tube: its Y and Z axes of one
+    length, at right angles to each other and to its X axis (the tube's). wrt draws a tube of the mean Y, Z scale."""
+    x, y, z = (m3[:, i] for i in range(3))
+    ny, nz = np.linalg.norm(y), np.linalg.norm(z)
+    scale = max(ny, nz) * max(np.linalg.norm(x), ny, nz)
+    right_angles = max(abs(x @ y), abs(x @ z), abs(y @ z)) <= rtol * scale
+    return bool(np.isclose(ny, nz, rtol=rtol) and right_angles)
 
 
 def _material_sync(prim, skip) -> str:
