@@ -684,14 +684,17 @@ def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
 
 
 def test_non_uniformly_scaled_sphere_light_is_reported(tmp_path):
-    """An ellipsoidal sphere light is drawn as a sphere of the mean radius: the load says so; a uniform scale does not
-    warn and scales the radius."""
+    """An ellipsoidal sphere light (scaled unevenly or sheared) is drawn as a sphere of the mean radius: the load says
+    so; a uniform scale does not warn and scales the radius."""
 
     def build(stage):
         UsdGeom.XformCommonAPI(UsdLux.SphereLight.Define(stage, "/Squashed")).SetScale(Gf.Vec3f(1.0, 1.0, 0.25))
         UsdGeom.XformCommonAPI(UsdLux.SphereLight.Define(stage, "/Round")).SetScale(Gf.Vec3f(2.0, 2.0, 2.0))
+        # Unit axes, but X and Y at 37 degrees: an ellipsoid that the lengths of the axes alone let through.
+        sheared = UsdGeom.Xformable(UsdLux.SphereLight.Define(stage, "/Sheared"))
+        sheared.AddTransformOp().Set(Gf.Matrix4d(1, 0, 0, 0, 0.8, 0.6, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1))
 
-    with pytest.warns(UserWarning, match=r"non-uniformly scaled SphereLights.*1 prim\(s\): /Squashed$"):
+    with pytest.warns(UserWarning, match=r"sheared SphereLights.*2 prim\(s\): /Squashed, /Sheared$"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     radii = {light.path: light.radius for light in scene.lights}
     assert radii["/Round"] == pytest.approx(1.0) and radii["/Squashed"] == pytest.approx(0.5 * 2.25 / 3)

@@ -214,8 +214,9 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
             return None
         axes = np.linalg.norm(m[:3, :3], axis=0)
         scale = float(np.mean(axes))
-        if not np.allclose(axes, scale, rtol=1e-4):
-            skip("non-uniformly scaled SphereLights are rendered as spheres of the mean scaled radius", prim)
+        if not (np.allclose(axes, scale, rtol=1e-4) and _at_right_angles(*m[:3, :3].T)):
+            skip("non-uniformly scaled or sheared SphereLights (ellipsoids) are rendered as spheres of the mean scaled "
+                 "radius", prim)
         radius = found[0] * scale
         treat = bool(get(s.GetTreatAsPointAttr(), False))
         return SphereLight(m[:3, 3].copy(), radius, color, normalize, treat or radius <= 0.0, path)
@@ -248,14 +249,17 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
     return None
 
 
+def _at_right_angles(*axes, rtol: float = 1e-4) -> bool:
+    """Whether the transformed local ``axes`` of a light are at right angles to each other (no shear)."""
+    return all(abs(a @ b) <= rtol * np.linalg.norm(a) * np.linalg.norm(b)
+               for i, a in enumerate(axes) for b in axes[i + 1:])
+
+
 def _round_tube(m3: np.ndarray, rtol: float = 1e-4) -> bool:
     """Whether a CylinderLight of local-to-world linear part ``m3`` stays a round tube: its Y and Z axes of one
     length, at right angles to each other and to its X axis (the tube's). wrt draws a tube of the mean Y, Z scale."""
-    x, y, z = (m3[:, i] for i in range(3))
-    ny, nz = np.linalg.norm(y), np.linalg.norm(z)
-    scale = max(ny, nz) * max(np.linalg.norm(x), ny, nz)
-    right_angles = max(abs(x @ y), abs(x @ z), abs(y @ z)) <= rtol * scale
-    return bool(np.isclose(ny, nz, rtol=rtol) and right_angles)
+    x, y, z = m3.T
+    return bool(np.isclose(np.linalg.norm(y), np.linalg.norm(z), rtol=rtol) and _at_right_angles(x, y, z, rtol=rtol))
 
 
 def _material_sync(prim, skip) -> str:
