@@ -209,7 +209,15 @@ def intersect_cone_side(
         if b_half != 0.0:
             t0 = -c / (2.0 * b_half)
     else:
-        disc = b_half * b_half - a * c
+        # b_half^2 - a c, written as |w d - e p|^2 - (p x d)^2 over x and y, a difference of two small squares: a
+        # steep cone (the nearly flat ring between a tapered capsule's spheres when the small one almost sits inside
+        # the big one) has large w and e, and b_half^2 and a c agreed in every float32 bit, so rays 1e-5 off the axis
+        # missed the ring and went on to the far side.
+        qx = w * d[0] - e * p[0]
+        qy = w * d[1] - e * p[1]
+        q_len = wp.sqrt(qx * qx + qy * qy)
+        cross = wp.abs(p[0] * d[1] - p[1] * d[0])
+        disc = (q_len - cross) * (q_len + cross)
         if disc >= 0.0:
             t0, t1 = solve_quadratic(a, b_half, c, disc)
     z0 = p[2] + t0 * d[2]
