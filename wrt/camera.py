@@ -28,7 +28,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .errors import did_you_mean
+from .errors import bottom_row_problem, did_you_mean
 
 APERTURE_UNIT = 0.1  # orthographic apertures are in tenths of a scene unit, as in Gf.Camera
 # UsdRender's aspectRatioConformPolicy tokens; Camera.fit takes them and wrt's two names ("horizontal" is
@@ -245,13 +245,9 @@ class Camera:
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
         if not np.all(np.isfinite(self.to_world)):
             raise ValueError(f"{self.label()} transform is not finite")
-        # Only the top 3x4 is used: a Gf.Matrix4d passed untransposed has its translation in the bottom row, and the
-        # camera sat at the origin, turned by the inverse rotation, without a word.
-        bottom = self.to_world[3]
-        if np.abs(bottom - (0.0, 0.0, 0.0, 1.0)).max() > 1e-6:
-            raise ValueError(f"{self.label()} to_world has bottom row {bottom.tolist()}; it must be an affine "
-                             "column-vector transform, p_world = to_world @ (p, 1), with bottom row (0, 0, 0, 1) (the "
-                             "transpose of a Gf.Matrix4d)")
+        problem = bottom_row_problem(f"{self.label()} to_world", self.to_world)
+        if problem:
+            raise ValueError(problem)
         planes = np.asarray(self.clipping_planes, dtype=np.float64)
         if planes.size == 0:
             planes = np.zeros((0, 4))

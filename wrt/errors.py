@@ -9,6 +9,17 @@ import numpy as np
 _PACKAGE = os.path.dirname(os.path.abspath(__file__)) + os.sep  # wrt's own files start with this
 
 
+def bottom_row_problem(name: str, matrix) -> str | None:
+    """Why ``matrix``, a column-vector ``(4, 4)`` transform of which only the top 3x4 is read, is refused, or None:
+    a bottom row other than ``(0, 0, 0, 1)``. A ``Gf.Matrix4d`` passed untransposed has its translation there, which
+    was dropped without a word (a camera, light or instance at the origin, turned the other way)."""
+    bottom = np.asarray(matrix, np.float64)[3]
+    if np.abs(bottom - (0.0, 0.0, 0.0, 1.0)).max() <= 1e-6:
+        return None
+    return (f"{name} has bottom row {bottom.tolist()}; it must be an affine column-vector transform, p_world = "
+            "M @ (p, 1), with bottom row (0, 0, 0, 1) (the transpose of a Gf.Matrix4d)")
+
+
 class SceneError(ValueError):
     """A scene file or its content cannot be used.
 

@@ -172,16 +172,12 @@ class Instances(CountsAssignments):
         """Raises :class:`SceneError` naming the first instance whose transform's bottom row is not ``(0, 0, 0, 1)``.
         Only the top 3x4 of each matrix is used: one in USD's row-vector convention (a ``Gf.Matrix4d``, the
         transpose) has its translation in the bottom row, which was dropped without a word."""
-        from .errors import SceneError
+        from .errors import SceneError, bottom_row_problem
 
         bad = np.flatnonzero(np.abs(self.to_world[:, 3] - (0.0, 0.0, 0.0, 1.0)).max(axis=1, initial=0.0) > 1e-6)
-        if len(bad):
+        if len(bad):  # found for all instances at once; the message from the shared check
             i = int(bad[0])
-            raise SceneError(
-                f"instance {i} has bottom row {self.to_world[i, 3].tolist()}; to_world must be affine column-vector "
-                "transforms, p_world = M @ (p, 1), with bottom row (0, 0, 0, 1) (the transpose of a Gf.Matrix4d)",
-                prim=self.path(i),
-            )
+            raise SceneError(bottom_row_problem(f"instance {i}", self.to_world[i]), prim=self.path(i))
 
     @classmethod
     def empty(cls) -> Instances:

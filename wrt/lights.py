@@ -49,7 +49,7 @@ import math
 
 import numpy as np
 
-from .errors import SceneError, check_fields
+from .errors import SceneError, bottom_row_problem, check_fields
 from .light_links import LinkCollection
 from .light_shaping import Shaping
 from .scene import DistantLight
@@ -78,11 +78,9 @@ def check_affine(light) -> None:
     Raises:
         SceneError: naming the light and its bottom row.
     """
-    bottom = light.to_world[3]
-    if np.abs(bottom - (0.0, 0.0, 0.0, 1.0)).max() > 1e-6:
-        raise SceneError(f"{type(light).__name__} to_world has bottom row {bottom.tolist()}; it must be an affine "
-                         "column-vector transform with bottom row (0, 0, 0, 1) (the transpose of a Gf.Matrix4d)",
-                         prim=light.path or None)
+    problem = bottom_row_problem(f"{type(light).__name__} to_world", light.to_world)
+    if problem:
+        raise SceneError(problem, prim=light.path or None)
 
 
 def light_axes(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
