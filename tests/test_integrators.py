@@ -2,6 +2,7 @@
 mirrors and glass, ambient occlusion, quick looks, depth of field, determinism across launches and devices."""
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -239,16 +240,29 @@ def test_depth_of_field_blurs_only_out_of_focus_objects():
     assert far_b.max() < 0.6 * far_a.max()
 
 
-@pytest.mark.parametrize("meters", [0.0, -1.0, 1e-300, float("nan")])
-def test_depth_of_field_of_a_python_scene_without_a_usable_meters_per_unit_raises(meters):
-    """load_usd falls back to centimetres; a Scene built in Python reached the lens with 0 (ZeroDivisionError) or
-    1e-300 (an infinite lens radius and a wrong image)."""
-    scene = wrt.Scene(meshes=[quad((0, 0, 0), (1, 0, 0), (0, 1, 0), name="/q")], meters_per_unit=meters)
-    lens = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30, f_stop=2.0, focus_distance=5.0)
-    with pytest.raises(ValueError, match="meters_per_unit must be a finite number above 1e-30"):
-        wrt.render(scene, camera=lens, width=4, height=4, device="cpu")
-    wrt.render(scene, camera=wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30), width=4, height=4,
-               device="cpu")  # a pinhole camera never divides by it
+def test_a_thin_lens_blurs_a_point_into_the_circle_of_confusion_in_tenths_of_a_scene_unit():
+    """USD gives ``focalLength`` in tenths of a scene unit whatever ``metersPerUnit`` is: a 50 film-unit lens at
+    f/4 has an aperture 1.25 units wide. A glowing square at depth 10, focused at 5, spreads on the focus plane into
+    its own footprint (half its width there) blurred by a uniform disk of radius ``(A / 2) (10 - 5) / 10``: x
+    variances ``w^2 / 12`` and ``R^2 / 4`` add. wrt read the focal length as millimetres through ``metersPerUnit``,
+    so on a metre stage the lens was 100 times too narrow."""
+    glow = Material(diffuse_color=0.0, emissive_color=1.0)
+    dot = quad((-0.2, -0.2, -5.0), (0.4, 0, 0), (0, 0.4, 0), name="/dot", material=0)
+    size = 64
+    lens = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30, f_stop=4.0, focus_distance=5.0)
+    images = [wrt.render(wrt.Scene(meshes=[dot], materials=[glow], meters_per_unit=meters), camera=lens, width=size,
+                         height=size, spp=256, device="cpu", integrator="path", max_depth=1).rgb[..., 0]
+              for meters in (1.0, 0.01)]
+    np.testing.assert_array_equal(images[0], images[1])
+    weight = images[0] / images[0].sum()
+    columns = np.arange(size) + 0.5
+    x_mean = (weight.sum(axis=0) * columns).sum()
+    pixel = 2.0 * 5.0 * math.tan(math.radians(15.0)) / size  # on the focus plane
+    footprint = 0.4 * 5.0 / 10.0 / pixel
+    x_var = (weight.sum(axis=0) * (columns - x_mean) ** 2).sum() - (footprint**2 + 1.0) / 12.0  # less the pixel
+    aperture = 50.0 * 0.1 / 4.0
+    radius = aperture / 2.0 * (10.0 - 5.0) / 10.0 / pixel
+    assert 2.0 * math.sqrt(x_var) == pytest.approx(radius, rel=0.05)
 
 
 @pytest.mark.parametrize("device", DEVICES)

@@ -9,7 +9,8 @@ Conventions, stated once:
   inverse) does: the film, the clipping range and the focus distance are camera-space lengths, so a camera
   scaled together with the scene (a units conversion on a common parent) sees the same image.
 - Film quantities follow USD: focal length and apertures share one unit (so only their ratios matter for
-  perspective); for orthographic cameras the apertures are in tenths of a scene unit (``Gf.Camera.APERTURE_UNIT``).
+  perspective framing); that unit is a tenth of a scene unit (``Gf.Camera.APERTURE_UNIT``) for orthographic
+  apertures and for the thin lens's aperture, ``focalLength / fStop``.
 - ``fit="horizontal"`` keeps the horizontal aperture and lets the vertical extent follow the image aspect,
   as usdview does (USD's ``adjustApertureHeight``). ``Camera.look_at`` uses ``fit="vertical"``
   (``adjustApertureWidth``) so that its ``fov_y_deg`` holds at any aspect. ``fit`` also takes the other
@@ -30,7 +31,7 @@ import warp as wp
 
 from .errors import bottom_row_problem, did_you_mean
 
-APERTURE_UNIT = 0.1  # orthographic apertures are in tenths of a scene unit, as in Gf.Camera
+APERTURE_UNIT = 0.1  # the film unit in scene units, as in Gf.Camera (orthographic apertures, the thin lens)
 # UsdRender's aspectRatioConformPolicy tokens; Camera.fit takes them and wrt's two names ("horizontal" is
 # adjustApertureHeight and "vertical" adjustApertureWidth under other names).
 CONFORM_POLICIES = ("expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",

@@ -19,7 +19,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
-from .camera import Camera, DeviceCamera, frame_scene
+from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
 from .errors import did_you_mean
 from .image import Image
 from .integrators import INTEGRATORS
@@ -32,7 +32,7 @@ from .lights import default_lights
 from .materials import emission_estimates, upload_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH
 from .resources import check_memory
-from .scene import MIN_METERS_PER_UNIT, Scene, dataclass_parts, parts_changed
+from .scene import Scene, dataclass_parts, parts_changed
 from .shade import (
     MAX_CULL_PASSES,
     MAX_SHADOW_HOLE_PASSES,
@@ -56,7 +56,6 @@ MAX_LAUNCH_PATHS = (1 << 31) - 1  # Warp's arrays and wp.tid() are 32-bit: no la
 DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
 MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (2^32 + 2 wrapped onto 2)
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
-MM_PER_METER = 1000.0  # camera focal lengths are read as millimetres for the thin lens
 MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit seed)
 MAX_SPP = 0x7FFFFFFF  # the kernels number samples with a 32-bit int: sample 2^31 wrapped to -2^31 (unjittered)
 # Most back-face cull passes of camera rays in a frame of launch_frame in a scene without cut-outs (outside a graph
@@ -485,17 +484,13 @@ class Renderer:
     def _lens(self, cam: Camera) -> tuple[float, float]:
         """Thin-lens radius and focus distance (scene units); radius 0 for a pinhole.
 
-        The aperture diameter is ``focalLength / fStop`` with the focal length in millimetres, converted to scene
-        units through the stage's ``metersPerUnit`` (on a centimetre stage this is USD's "tenths of a scene unit").
+        The aperture diameter is ``focalLength / fStop``, the focal length in USD's tenths of a scene unit (the film
+        unit, ``APERTURE_UNIT``), so a stage scaled as a whole keeps its depth of field whatever its
+        ``metersPerUnit``.
         """
         if cam.projection != "perspective" or not cam.f_stop > 0.0 or not cam.focus_distance > 0.0:
             return 0.0, 1.0
-        meters = self.scene.meters_per_unit
-        if not (math.isfinite(meters) and meters > MIN_METERS_PER_UNIT):  # a Scene built in Python; load_usd falls back
-            raise ValueError(f"scene.meters_per_unit must be a finite number above {MIN_METERS_PER_UNIT:g} for the "
-                             f"depth of field of {cam.label()}, got {meters!r}")
-        units_per_mm = 1.0 / (MM_PER_METER * meters)
-        return cam.focal_length * units_per_mm / (2.0 * cam.f_stop), float(cam.focus_distance)
+        return cam.focal_length * APERTURE_UNIT / (2.0 * cam.f_stop), float(cam.focus_distance)
 
     def render(
         self, spp: int = 1, seed: int = 0, *, batch: int | None = None, progress: bool = False, resume: bool = False

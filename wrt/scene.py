@@ -65,8 +65,7 @@ class DeviceScene:
     num_instance_opacities: int  # N when any instance has an opacity, else 0 (then instance_opacities is a placeholder)
 
 
-# The depth of field divides by metersPerUnit (millimetres of focal length to scene units): below this, or not
-# finite, the lens radius overflows.
+# A stage's metersPerUnit below this, or not finite, is not a unit: load_usd falls back to centimetres.
 MIN_METERS_PER_UNIT = 1e-30
 
 # Mesh arrays with one entry per triangle: (attribute, dtype, shape of one entry).

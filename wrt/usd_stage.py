@@ -87,8 +87,8 @@ def stage_time_range(path) -> tuple[float, float] | None:
 
 
 def stage_meters_per_unit(stage: Usd.Stage, source: str) -> float:
-    """The stage's ``metersPerUnit``; a value that is not a finite number above ``MIN_METERS_PER_UNIT`` (the depth
-    of field divides by it) falls back to USD's own default, centimetres, with a warning."""
+    """The stage's ``metersPerUnit``; a value that is not a finite number above ``MIN_METERS_PER_UNIT`` falls back
+    to USD's own default, centimetres, with a warning."""
     value = float(UsdGeom.GetStageMetersPerUnit(stage))
     if math.isfinite(value) and value > MIN_METERS_PER_UNIT:
         return value
