@@ -448,6 +448,47 @@ def test_transform2d_scales_and_translates_st(tmp_path):
     np.testing.assert_allclose(img[3, 1], [128 / 255] * 3, atol=2e-3)
 
 
+@pytest.mark.parametrize("where", ["texture", "transform2d"])
+def test_an_authored_constant_st_reads_one_point_of_the_image(tmp_path, where):
+    """A UsdUVTexture's ``st`` authored as a constant and connected to nothing is where the image is read, on every
+    point of the mesh; so is a UsdTransform2d's constant ``in``, transformed. The mesh's ``st`` primvar was read
+    instead, so the quad showed the whole image. The mesh here has no ``st`` at all, and needs none: no warning."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    transform = {"translation": (0.5, 0.5)} if where == "transform2d" else None
+    path = textured_stage(tmp_path, png, color_space="raw", transform=transform)
+    stage = Usd.Stage.Open(path)
+    target = stage.GetPrimAtPath("/Looks/Tex/Image" if where == "texture" else "/Looks/Tex/Xf")
+    st_input = UsdShade.Shader(target).GetInput("st" if where == "texture" else "in")
+    st_input.DisconnectSource()
+    if where == "texture":
+        st_input.Set(Gf.Vec2f(0.75, 0.25))  # the middle of CHECKER's bottom-right (grey) block
+        expected = [128 / 255] * 3
+    else:
+        st_input.Set(Gf.Vec2f(0.25, 0.25))  # + (0.5, 0.5): the middle of the top-right (green) block
+        expected = [0, 1, 0]
+    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad")).RemovePrimvar("st")
+    stage.Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        img = albedo(path)
+    np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
+
+
+def test_an_unauthored_unconnected_st_reads_the_mesh_st(tmp_path):
+    """A UsdUVTexture whose ``st`` is neither connected nor authored reads the mesh's ``st`` primvar, as MaterialX's
+    definition of the node gives it (``defaultgeomprop="UV0"``) and as assets such as the usd-wg Mini Car Kit expect
+    (the schema's own fallback would be (0, 0))."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, color_space="raw")
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader.Get(stage, "/Looks/Tex/Image").GetPrim().RemoveProperty("inputs:st")
+    stage.Save()
+    img = albedo(path)
+    for (row, col), color in {(0, 0): (1, 0, 0), (0, 3): (0, 1, 0), (3, 0): (0, 0, 1),
+                              (3, 3): [128 / 255] * 3}.items():
+        np.testing.assert_allclose(img[row, col], color, atol=2e-3)
+
+
 def write_png16(path, samples):
     """A 16-bit PNG (grey + alpha, RGB or RGBA by the channel count) written here byte by byte, rows filtered with
     Sub, Up, Average and Paeth in turn, so that reading it has to undo every PNG filter."""

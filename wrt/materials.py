@@ -19,7 +19,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
 - Inputs read: ``diffuseColor``, ``emissiveColor``, ``useSpecularWorkflow``, ``specularColor``, ``metallic``,
   ``roughness``, ``clearcoat``, ``clearcoatRoughness``, ``opacity``, ``opacityThreshold``, ``ior``. Any of them may
   be a constant or a ``UsdUVTexture`` output (``r``/``g``/``b``/``a``/``rgb``) with ``file``, ``st`` (from a
-  ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``), ``wrapS``/``wrapT`` (``useMetadata``, the
+  ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``, or a constant; unconnected and unauthored:
+  the mesh's ``st``), ``wrapS``/``wrapT`` (``useMetadata``, the
   fallback, is ``black``: no wrap metadata is read from image files), ``scale``, ``bias``,
   ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a mesh's colour primvar through a
   ``UsdPrimvarReader_float3`` (or a MaterialX reader, :data:`COLOR_PRIMVAR_READERS`) of any ``varname``
@@ -121,8 +122,9 @@ class TextureInput(CountsAssignments):
             within each tile instead).
         scale: ``(4,)`` multiplies the texel.
         bias: ``(4,)`` is added after ``scale``.
-        transform: ``(3, 3)`` affine map applied to ``st`` (``UsdTransform2d``), column-vector convention.
-        uv_set: name of the texture-coordinate primvar.
+        transform: ``(3, 3)`` affine map applied to ``st`` (``UsdTransform2d``), column-vector convention; for a
+            constant ``st`` its 2 x 2 part is zero and its translation that constant (:func:`constant_st_transform`).
+        uv_set: name of the texture-coordinate primvar; None where ``st`` is a constant (no primvar is read).
         st_fallback: ``(2,)`` the ``st`` of a mesh without primvar ``uv_set`` (its ``UsdPrimvarReader_float2``'s
             ``fallback``), before ``transform``.
         tiles: None for one image; for a UDIM texture ``(UDIM_TILES,)`` int32, the ``Scene.textures`` index of tile
@@ -137,7 +139,7 @@ class TextureInput(CountsAssignments):
     scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(4, np.float32))
     bias: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(4, np.float32))
     transform: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3, dtype=np.float32))
-    uv_set: str = "st"
+    uv_set: str | None = "st"
     st_fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2, np.float32))
     tiles: np.ndarray | None = None
     fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.array(TEXTURE_FALLBACK, np.float32))
@@ -211,9 +213,10 @@ class Material(CountsAssignments):
 
     @property
     def uv_set(self) -> str:
-        """The texture-coordinate primvar its textures read (``"st"`` when untextured)."""
+        """The texture-coordinate primvar its textures read (``"st"`` when none reads one)."""
         for tex in self.textures.values():
-            return tex.uv_set
+            if tex.uv_set is not None:
+                return tex.uv_set
         return "st"
 
     @property
@@ -635,6 +638,25 @@ def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
     return m.astype(np.float32)
 
 
+def two_finite_numbers(value) -> np.ndarray | None:
+    """A texture coordinate constant as ``(2,)`` float64; None when it is not two finite numbers."""
+    try:
+        v = np.asarray(value, np.float64).reshape(-1)
+    except (TypeError, ValueError):  # a string, None, ...
+        return None
+    return v if v.size == 2 and np.all(np.isfinite(v)) else None
+
+
+def constant_st_transform(transform: np.ndarray, st) -> np.ndarray:
+    """The ``(3, 3)`` float32 texture transform that maps every ``st`` to the constant ``st`` (``(2,)``) mapped by
+    ``transform``: a constant texture coordinate, as :attr:`TextureInput.transform`."""
+    point = np.asarray(transform, np.float64) @ np.array([st[0], st[1], 1.0])
+    m = np.eye(3)
+    m[:2, :2] = 0.0
+    m[:2, 2] = point[:2]
+    return m.astype(np.float32)
+
+
 class MaterialReader:
     """Reads materials bound to meshes of one stage, once each; collects textures and fallback warnings.
 
@@ -715,14 +737,15 @@ class MaterialReader:
 
     def uv_set(self, face_materials: np.ndarray | None, prim=None) -> str | None:
         """The texture-coordinate primvar to read for mesh ``prim`` whose faces use ``face_materials``; None when none
-        of them is textured. A mesh holds one set of texture coordinates: when its textures read several primvars,
-        the first is used for all of them, and ``skip`` reports it."""
+        of their textures reads one (untextured, or read at a constant ``st``). A mesh holds one set of texture
+        coordinates: when its textures read several primvars, the first is used for all of them, and ``skip`` reports
+        it."""
         names = []
         if face_materials is not None:
             for k in np.unique(face_materials):
                 if k >= 0:
                     for texture in self.materials[k].textures.values():
-                        if texture.uv_set not in names:
+                        if texture.uv_set is not None and texture.uv_set not in names:
                             names.append(texture.uv_set)
         if len(names) > 1 and prim is not None:
             self.skip(f"textures read several texture-coordinate primvars ({', '.join(names)}), but only one per "
@@ -1015,14 +1038,24 @@ class MaterialReader:
                       "it is read as useMetadata (black outside the image)", tex.GetPrim(), detail=token)
         return "black"
 
-    def _st_source(self, tex, material_path: str) -> tuple[str, np.ndarray, np.ndarray]:
+    def _st_source(self, tex, material_path: str) -> tuple[str | None, np.ndarray, np.ndarray]:
         """The primvar feeding ``tex``'s ``st``, the ``UsdTransform2d`` applied on the way (identity if none) and the
         primvar reader's ``fallback`` (``(2,)``, zero when unauthored, as in the schema). A shader other than those two
-        on the way (a projection, a MaterialX node) is reported, and ``st`` read."""
+        on the way (a projection, a MaterialX node) is reported, and ``st`` read.
+
+        An ``st`` (or a UsdTransform2d's ``in``) authored as a constant and connected to nothing is read there: the
+        primvar is None and the transform maps every point to that constant, transformed. One neither connected nor
+        authored reads the mesh's ``st`` primvar, as MaterialX defines the node (``defaultgeomprop="UV0"``) and as
+        assets leave it (the usd-wg Mini Car Kit), not the schema's fallback (0, 0)."""
         transform = np.eye(3, dtype=np.float32)
         no_fallback = np.zeros(2, np.float32)
-        found = self._producer(tex, "st")
+        found, node, name = self._producer(tex, "st"), tex, "st"
         for _ in range(8):  # follow a short chain of transforms
+            if found is not None and found[0] == "value":
+                st = self._constant_st(found[1], node, name, material_path)
+                if st is not None:
+                    return None, constant_st_transform(transform, st), no_fallback
+                return "st", transform, no_fallback
             if found is None or found[0] != "shader":
                 return "st", transform, no_fallback
             node = found[1]
@@ -1037,7 +1070,7 @@ class MaterialReader:
                 scale = (1.0, 1.0) if scale is None else tuple(scale)
                 translation = (0.0, 0.0) if translation is None else tuple(translation)
                 transform = transform @ _transform2d(rotation, scale, translation)
-                found = self._producer(node, "in")
+                found, name = self._producer(node, "in"), "in"
                 continue
             self.skip("texture coordinates from shaders other than UsdPrimvarReader_float2 and UsdTransform2d are "
                       "not supported; these materials' textures read the st primvar", tex.GetPrim(),
@@ -1045,17 +1078,23 @@ class MaterialReader:
             return "st", transform, no_fallback
         return "st", transform, no_fallback
 
+    def _constant_st(self, value, shader, name: str, material_path: str) -> np.ndarray | None:
+        """``(2,)`` float64 constant texture coordinate ``value`` of input ``name`` of ``shader``; None, with a
+        warning, when it is not two finite numbers (the mesh's ``st`` is read then)."""
+        st = two_finite_numbers(value)
+        if st is None:
+            self.skip(f"material {material_path}: a constant texture coordinate is not two finite numbers; the st "
+                      "primvar is read", shader.GetPrim(), detail=f"{name} = {value}")
+        return st
+
     def _st_fallback(self, reader, material_path: str) -> np.ndarray:
         """``(2,)`` float32 ``fallback`` of texture-coordinate reader ``reader``: zero when unauthored; one that is not
         two finite numbers is zero too, with a warning."""
         value = self._constant(reader, "fallback")
         if value is None:
             return np.zeros(2, np.float32)
-        try:
-            v = np.asarray(value, np.float64).reshape(-1)
-        except (TypeError, ValueError):
-            v = np.empty(0)
-        if v.size != 2 or not np.all(np.isfinite(v)):
+        v = two_finite_numbers(value)
+        if v is None:
             self.skip(f"material {material_path}: a texture-coordinate reader's fallback is not two finite numbers; "
                       "(0, 0) is used", reader.GetPrim(), detail=str(value))
             return np.zeros(2, np.float32)
