@@ -562,6 +562,28 @@ def test_missing_texture_uses_the_fallback_with_a_warning(tmp_path):
     np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
 
 
+@pytest.mark.parametrize("channel, input_name", [("rgb", "diffuseColor"), ("a", "roughness")])
+def test_a_missing_texture_reads_its_fallback_through_scale_and_bias(tmp_path, channel, input_name):
+    """The fallback stands in for the texture's value where the file cannot be read, and ``scale`` and ``bias``
+    apply to it as to any texel (MaterialX's UsdUVTexture graph: the image's default, times scale, plus bias). The
+    fallback was used as it is, so a normal map's flat fallback (0.5, 0.5, 1) would be no flat normal."""
+    path = textured_stage(tmp_path, str(tmp_path / "nope.png"), channel=channel, input_name=input_name)
+    stage = Usd.Stage.Open(path)
+    tex = UsdShade.Shader.Get(stage, "/Looks/Tex/Image")
+    fallback, scale, bias = (0.2, 0.4, 0.6, 0.8), (2.0, 1.0, 0.5, 0.5), (0.1, 0.0, 0.05, 0.1)
+    for name, value in (("fallback", fallback), ("scale", scale), ("bias", bias)):
+        tex.CreateInput(name, Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*value))
+    stage.Save()
+    with pytest.warns(UserWarning, match="nope.png"):
+        (mat,) = wrt.load_usd(path).materials
+    expected = np.array(fallback) * scale + bias  # (0.5, 0.4, 0.35, 0.5)
+    assert mat.textures == {}
+    if channel == "rgb":
+        np.testing.assert_allclose(mat.diffuse_color, expected[:3], rtol=1e-6)
+    else:
+        assert mat.roughness == pytest.approx(expected[3])
+
+
 def test_single_sided_back_faces_are_culled_for_camera_rays(tmp_path):
     stage, path = new_stage(tmp_path)
     add_quad(stage, "/Front", center=(-1.5, 0, 0), size=2.0)  # faces +Z, towards the camera

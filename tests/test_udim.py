@@ -87,6 +87,25 @@ def test_udim_tiles_cover_their_unit_squares_and_missing_tiles_show_the_fallback
         np.testing.assert_allclose(out[rows, cols], np.broadcast_to(color, (4, 4, 3)), atol=1e-3, err_msg=str(color))
 
 
+def test_a_missing_tile_reads_the_fallback_through_scale_and_bias(tmp_path):
+    """Where a tile has no file, the fallback stands in for its texels, and ``scale`` and ``bias`` apply to it as to
+    every texel (MaterialX's UsdUVTexture graph: the image's default, times scale, plus bias); it was shown as it is.
+    Tile 1001 (red) is there, 1002 (the right half of a plane over st in [0, 2) x [0, 1)) is not."""
+    write_tile(tmp_path / "textures", 1001, RED)
+    path = udim_stage(tmp_path / "scaled.usda", "textures/body.<UDIM>.png", st_size=(2, 1))
+    stage = Usd.Stage.Open(path)
+    tex = UsdShade.Shader.Get(stage, "/Looks/Skin/Body")
+    scale, bias = (0.5, 0.25, 0.5, 1.0), (0.25, 0.5, 0.25, 0.0)
+    tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*scale))
+    tex.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*bias))
+    stage.Save()
+    out = albedo(wrt.load_usd(path), center=(1, 0.5), height=1.0, width_px=4, height_px=2)
+    red = np.array([1.0, 0.0, 0.0]) * scale[:3] + bias[:3]  # (0.75, 0.5, 0.25)
+    missing = np.array(FALLBACK[:3]) * scale[:3] + bias[:3]  # (0.75, 0.75, 0.25)
+    np.testing.assert_allclose(out[:, :2], np.broadcast_to(red, (2, 2, 3)), atol=1e-3)
+    np.testing.assert_allclose(out[:, 2:], np.broadcast_to(missing, (2, 2, 3)), atol=1e-6)
+
+
 @pytest.mark.parametrize("wrap", ["repeat", "mirror", "black"])
 def test_bilinear_lookups_stay_inside_their_tile(tmp_path, wrap):
     """Within a texel of the seam between tiles 1001 and 1002, each side shows its own tile's edge texels: no mix
@@ -144,7 +163,7 @@ def test_udim_tiles_inside_a_usdz_package(tmp_path):
 def test_udim_normal_map(tmp_path):
     """A normal map of two tiles (float textures, scale 2, bias -1) tilts the left half of a quad with st over
     [0, 2) x [0, 1) by tile 1001's normal and the right half by tile 1002's; st on a missing tile keeps the surface
-    normal (the fallback (0, 0, 0) has no direction)."""
+    normal (the fallback (0.5, 0.5, 1), scaled and biased as every texel, is the flat normal)."""
     stored = {1001: np.array([0.25, 0.0, 0.75]), 1002: np.array([0.0, -0.25, 0.75])}  # (n + 1) / 2 exact in halves
     normals = {tile: n / np.linalg.norm(n) for tile, n in stored.items()}
     textures, tiles = [], np.full(UDIM_TILES, -1, np.int32)
@@ -154,7 +173,8 @@ def test_udim_normal_map(tmp_path):
         texel[..., :3] = (normal + 1.0) / 2.0
         textures.append(texel)
     bias = np.array([-1, -1, -1, 0], np.float32)
-    normal_map = TextureInput(image=0, scale=np.array([2, 2, 2, 1], np.float32), bias=bias, tiles=tiles)
+    normal_map = TextureInput(image=0, scale=np.array([2, 2, 2, 1], np.float32), bias=bias, tiles=tiles,
+                              fallback=np.array([0.5, 0.5, 1.0, 1.0], np.float32))
     material = Material(path="/bumpy", diffuse_color=np.full(3, 0.8, np.float32), textures={"normal": normal_map})
     points = np.array([[0, 0, 0], [3, 0, 0], [3, 1, 0], [0, 1, 0]], np.float64)  # st = (x, y): 1003 has no file
     indices = np.array([[0, 1, 2], [0, 2, 3]])

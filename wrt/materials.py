@@ -29,7 +29,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   shows the reader's ``fallback``. ``normal`` is read from a ``UsdUVTexture``'s ``rgb`` output only (a tangent-space
   normal map: :func:`wrt.shade.shading_point`); ``occlusion`` is ignored, and a material whose
   ``outputs:displacement`` displaces, or that says ``opacityMode = presence`` (drawn as ``transparent``), is reported.
-- A texture that cannot be read is replaced by its ``fallback`` value, with one warning per file.
+- A texture that cannot be read is replaced by its ``fallback`` value times ``scale`` plus ``bias``, with one warning
+  per file.
 - A ``file`` with ``<UDIM>`` in its name reads each tile that exists (1001 to 1100, as ``UsdShade.UdimUtils``
   resolves them) as an image of its own: :attr:`TextureInput.tiles`. Missing tiles read the ``fallback``; a pattern
   without any tile is replaced by it, with one warning naming the material and the pattern.
@@ -129,8 +130,8 @@ class TextureInput(CountsAssignments):
             ``fallback``), before ``transform``.
         tiles: None for one image; for a UDIM texture ``(UDIM_TILES,)`` int32, the ``Scene.textures`` index of tile
             ``UDIM_FIRST + u + 10 v`` at row ``u + 10 v``, -1 where that tile has no file.
-        fallback: ``(4,)`` the value (no ``scale`` or ``bias``) where a UDIM texture has no tile: ``st`` on a missing
-            tile or outside the 10 x 10 tiles.
+        fallback: ``(4,)`` the texel where a UDIM texture has no tile (``st`` on a missing tile or outside the 10 x 10
+            tiles), before ``scale`` and ``bias`` as every texel.
     """
 
     image: int
@@ -266,7 +267,7 @@ class DeviceMaterials:
     tex_bias: wp.array[wp.vec4]  # (B,)
     tex_transform: wp.array[wp.mat33]  # (B,) st transform
     tex_tiles: wp.array[wp.int32]  # (B,) first row of the binding's UDIM table in tile_images, -1: one image
-    tex_fallback: wp.array[wp.vec4]  # (B,) value where a UDIM binding has no tile
+    tex_fallback: wp.array[wp.vec4]  # (B,) texel where a UDIM binding has no tile (then scaled and biased)
     tile_images: wp.array[wp.int32]  # (UDIM_TILES * U,) image of each tile of the U UDIM bindings, -1: none
     image_offsets: wp.array[wp.int32]  # (K,) first texel of each image
     image_sizes: wp.array[wp.vec2i]  # (K,) width, height
@@ -408,7 +409,8 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
 
     A UDIM binding reads the tile under the transformed ``st``, at ``st`` minus the tile's corner, clamped at the
     tile's edges (bilinear filtering never mixes in a neighbouring tile, whatever ``wrapS``/``wrapT`` say); where that
-    tile has no file, or ``st`` lies outside the tiles, it gives the texture's fallback."""
+    tile has no file, or ``st`` lies outside the tiles, the texture's fallback stands in for the texel (scaled and
+    biased too, as MaterialX's UsdUVTexture graph feeds the image's default through them)."""
     xf = mats.tex_transform[b]
     p = xf * wp.vec3(st[0], st[1], 1.0)
     uv = wp.vec2(p[0], p[1])
@@ -420,11 +422,11 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
         k = -1
         if tile >= 0:
             k = mats.tile_images[table + tile]
-        if k < 0:
-            return select_channel(mats.tex_fallback[b], mats.tex_channel[b])
         uv = uv - wp.vec2(wp.floor(uv[0]), wp.floor(uv[1]))
         wrap = wp.vec2i(WRAP_CLAMP, WRAP_CLAMP)
-    c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
+    c = mats.tex_fallback[b]
+    if k >= 0:
+        c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
     c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
     return select_channel(c, mats.tex_channel[b])
 
@@ -983,14 +985,22 @@ class MaterialReader:
 
     def _texture(self, tex, output: str, material_path: str):
         """A :class:`TextureInput` for ``UsdUVTexture`` ``tex`` read through ``output``, or ``(None, fallback)``
-        when its image cannot be read."""
+        when its image cannot be read: the ``fallback`` input times ``scale`` plus ``bias``, the value of output
+        ``output``. The specification reads the fallback "if the texture cannot be read", in place of the texture's
+        value, to which scale and bias apply; MaterialX's UsdUVTexture graph makes it the image node's default,
+        multiplied and added to as every texel. It was used as it is, so a normal map (scale 2, bias -1) with a
+        fallback of (0.5, 0.5, 1) was no flat normal."""
         if output not in CHANNELS:  # ("result", "out": no output of UsdUVTexture) was read as rgb without a word
             self.skip(f"material {material_path}: a UsdUVTexture output is none of r, g, b, a, rgb or rgba; it is "
                       "read as rgb", tex.GetPrim(), detail=output)
         channel = output if output in CHANNELS else "rgb"
         channel = "rgb" if channel == "rgba" else channel
         fallback = four_components(self._constant(tex, "fallback"), TEXTURE_FALLBACK)
-        fallback_value = fallback[:3] if channel == "rgb" else np.full(3, fallback[CHANNELS[channel]], np.float32)
+        scale = four_components(self._constant(tex, "scale"), (1.0, 1.0, 1.0, 1.0))
+        bias = four_components(self._constant(tex, "bias"), (0.0, 0.0, 0.0, 0.0))
+        with np.errstate(over="ignore", invalid="ignore"):  # a value past float32 is refused by _set_constant
+            value = fallback * scale + bias
+        fallback_value = value[:3] if channel == "rgb" else np.full(3, value[CHANNELS[channel]], np.float32)
 
         color_space = str(self._constant(tex, "sourceColorSpace") or "auto")
         if color_space not in ("auto", "sRGB", "raw"):
@@ -1004,16 +1014,14 @@ class MaterialReader:
             return None, fallback_value
 
         wraps = [self._wrap_mode(tex, key, material_path) for key in ("wrapS", "wrapT")]
-        scale = self._constant(tex, "scale")
-        bias = self._constant(tex, "bias")
         uv_set, transform, st_fallback = self._st_source(tex, material_path)
         return (
             TextureInput(
                 image=image,
                 channel=channel,
                 wrap=(wraps[0], wraps[1]),
-                scale=four_components(scale, (1.0, 1.0, 1.0, 1.0)),
-                bias=four_components(bias, (0.0, 0.0, 0.0, 0.0)),
+                scale=scale,
+                bias=bias,
                 transform=transform,
                 uv_set=uv_set,
                 st_fallback=st_fallback,
@@ -1178,9 +1186,10 @@ def emission_estimates(materials: list[Material], textures: list[np.ndarray]) ->
         # fallback everywhere.
         images = [tex.image] if tex.tiles is None else [k for k in tex.tiles if k >= 0]
         if images:
-            mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0) * tex.scale + tex.bias
+            mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0)
         else:
             mean = np.asarray(tex.fallback, np.float32)
+        mean = mean * tex.scale + tex.bias
         value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
         out.append(np.maximum(value.astype(np.float32), 0.0))
     return out

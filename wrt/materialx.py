@@ -330,9 +330,7 @@ class _Graph:
         sx, sy = (1.0, 1.0) if scale is None else scale
         texture.scale = np.array([2.0 * sx, 2.0 * sy, 2.0, 1.0], np.float32)
         texture.bias = np.array([-sx, -sy, -1.0, 0.0], np.float32)
-        # A missing UDIM tile reads the fallback as it is, without scale and bias: decode the image's default here,
-        # so that (0.5, 0.5, 1) stays the unperturbed normal rather than a 35-degree tilt.
-        texture.fallback = texture.fallback * texture.scale + texture.bias
+        # A missing UDIM tile reads the image's default (0.5, 0.5, 1) decoded as every texel: the flat normal.
         return texture
 
     def coat_notes(self, coat: float, textured: bool):

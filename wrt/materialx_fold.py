@@ -180,12 +180,11 @@ def _scaled(node, varying: Folded, factor: np.ndarray) -> Folded:
     with np.errstate(over="ignore", invalid="ignore"):  # checked below
         if isinstance(source, PrimvarInput):
             source.scale = (np.asarray(source.scale, np.float64) * _sized(factor, 3)).astype(np.float32)
-        else:  # (texel * scale + bias) * factor, and the fallback where a UDIM tile is missing
+        else:  # (texel * scale + bias) * factor; a missing UDIM tile's fallback stands in for the texel
             per_channel = _sized(factor, 4) if factor.size != 3 or one_channel else np.append(factor, 1.0)
             source.scale = (source.scale * per_channel).astype(np.float32)
             source.bias = (source.bias * per_channel).astype(np.float32)
-            source.fallback = (source.fallback * per_channel).astype(np.float32)
-    for array in (source.scale, getattr(source, "bias", 0.0), getattr(source, "fallback", 0.0)):
+    for array in (source.scale, getattr(source, "bias", 0.0)):
         if not np.all(np.isfinite(array)):
             raise Unfoldable(node)
     return Folded(value, source)
