@@ -381,3 +381,56 @@ def test_float_and_vector_images_are_data_not_srgb(tmp_path):
     (mat,) = scene.materials
     texels = scene.textures[mat.textures["roughness"].image]
     np.testing.assert_allclose(texels[..., 0], 128 / 255, atol=1e-3)
+
+
+def texcoord_stage(tmp_path, png, texcoord):
+    """A quad without ``st`` whose standard_surface base_color is an ``ND_image_color3`` (``clamp`` addressing) of
+    ``png``, its ``texcoord`` either ``("geomprop", name, default)``: an ``ND_geompropvalue_vector2`` of primvar
+    ``name`` (``default`` authored unless None), or ``("constant", value)`` authored on the image node."""
+    stage, path = new_stage(tmp_path, f"texcoord_{texcoord[0]}.usda")
+    quad = add_quad(stage, "/Quad")
+    UsdGeom.PrimvarsAPI(quad).RemovePrimvar("st")
+    material, shader = mtlx_material(stage, "/Looks/Coords")
+    image = UsdShade.Shader.Define(stage, "/Looks/Coords/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    for key in ("uaddressmode", "vaddressmode"):
+        image.CreateInput(key, Sdf.ValueTypeNames.String).Set("clamp")
+    image.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    if texcoord[0] == "geomprop":
+        reader = UsdShade.Shader.Define(stage, "/Looks/Coords/Reader")
+        reader.CreateIdAttr("ND_geompropvalue_vector2")
+        reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set(texcoord[1])
+        if texcoord[2] is not None:
+            reader.CreateInput("default", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*texcoord[2]))
+        reader.CreateOutput("out", Sdf.ValueTypeNames.Float2)
+        image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "out")
+    else:
+        image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*texcoord[1]))
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+    bind(quad, material)
+    stage.Save()
+    return path
+
+
+# 2 x 2 texels, rows from the top: red, green over blue, white (0 and 255 only: the same in sRGB and linear).
+CORNERS = [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]]
+
+
+def test_a_geompropvalue_texcoord_default_is_the_st_of_a_mesh_without_the_primvar(tmp_path):
+    """An ``ND_geompropvalue_vector2`` texcoord reading a primvar the mesh lacks gives its ``default`` on every
+    point, as a UsdPrimvarReader_float2's fallback does (the warning names it). It gave (0, 0), the bottom-left
+    texel, whatever the default."""
+    png = write_png(tmp_path / "corners.png", CORNERS)
+    scene, messages = load(texcoord_stage(tmp_path, png, ("geomprop", "uv_missing", (0.75, 0.25))))
+    assert any("uv_missing, fallback (0.75, 0.25)" in m for m in messages), messages
+    np.testing.assert_allclose(albedo(scene, 2), 1.0, atol=1e-3)  # the bottom-right texel: white
+
+
+def test_a_constant_texcoord_reads_one_point_of_the_image(tmp_path):
+    """An image node's ``texcoord`` authored as a constant is where the image is read, on every point; it was
+    named in a warning and the mesh's ``st`` read (here the mesh has none, and needs none: no warning)."""
+    png = write_png(tmp_path / "corners.png", CORNERS)
+    scene, messages = load(texcoord_stage(tmp_path, png, ("constant", (0.25, 0.75))))
+    assert not messages, messages
+    np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([1, 0, 0], (2, 2, 3)), atol=1e-3)  # top-left: red

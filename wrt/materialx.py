@@ -47,7 +47,8 @@ linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector``
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 black), ``uvtiling``/``uvoffset``/``realworldimagesize``/``realworldtilesize`` of ``tiledimage`` as the texture
 transform, and texture coordinates from ``ND_texcoord_vector2`` (the mesh's ``st``) or ``ND_geompropvalue_vector2`` (the
-primvar named by ``geomprop``). Where the file cannot be read, the node's ``default`` is used (the surface input's
+primvar named by ``geomprop``; its ``default`` where the mesh lacks it), or a constant ``texcoord`` (read there on
+every point). Where the file cannot be read, the node's ``default`` is used (the surface input's
 constant when the node has none). ``base_color`` may also come from a mesh's colour primvar: an
 ``ND_UsdPrimvarReader_color3``/``vector3`` or ``ND_geompropvalue_color3``/``vector3`` node
 (:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where the mesh lacks it). Math and channel
@@ -64,7 +65,14 @@ import re
 
 import numpy as np
 
-from .materials import COLOR_PRIMVAR_READERS, Material, PrimvarInput, TextureInput
+from .materials import (
+    COLOR_PRIMVAR_READERS,
+    Material,
+    PrimvarInput,
+    TextureInput,
+    constant_st_transform,
+    two_finite_numbers,
+)
 from .materialx_fold import Folded, Unfoldable, fold
 from .usd_values import value_at
 
@@ -377,9 +385,12 @@ class _Graph:
             wrap = tuple(ADDRESS_MODES.get(str(reader._constant(node, key) or "periodic"), "repeat")
                          for key in ("uaddressmode", "vaddressmode"))
         channel = "r" if node_id.endswith("_float") else "rgb"
-        return fallback, TextureInput(image=image, channel=channel, wrap=wrap,
-                                      transform=self._tiling(node) if tiled else np.eye(3, dtype=np.float32),
-                                      uv_set=self._uv_set(node), tiles=tiles,
+        transform = self._tiling(node) if tiled else np.eye(3, dtype=np.float32)
+        uv_set, st_fallback, constant_st = self._texcoord(node)
+        if constant_st is not None:
+            transform = constant_st_transform(transform, constant_st)
+        return fallback, TextureInput(image=image, channel=channel, wrap=wrap, transform=transform, uv_set=uv_set,
+                                      st_fallback=st_fallback, tiles=tiles,
                                       fallback=np.resize(fallback, 4).astype(np.float32))  # r, or rgb (4th unread)
 
     def _color_space(self, file_input) -> str:
@@ -412,28 +423,39 @@ class _Graph:
         m = np.array([[tiling[0] * s[0], 0, -offset[0] * s[0]], [0, tiling[1] * s[1], -offset[1] * s[1]], [0, 0, 1]])
         return m.astype(np.float32)
 
-    def _uv_set(self, node) -> str:
-        """The primvar an image node's ``texcoord`` reads: ``st`` unless a ``geompropvalue`` names another."""
+    def _texcoord(self, node) -> tuple[str | None, np.ndarray, np.ndarray | None]:
+        """``(primvar, st_fallback, constant)`` of an image node's ``texcoord``: the primvar it reads (``st`` unless
+        a ``geompropvalue`` names another), the ``(2,)`` st of a mesh without it (the ``geompropvalue``'s
+        ``default``, as a UsdPrimvarReader_float2's ``fallback``; zero otherwise), and None; or, for a ``texcoord``
+        authored as a constant, ``(None, zero, (2,) constant)``: the image is read there on every point."""
+        no_fallback = np.zeros(2, np.float32)
         found = self.reader._producer(node, "texcoord")
         if found is None:
-            return "st"  # MaterialX's default texcoord: the first set, which is USD's st
-        if found[0] == "shader":
-            source = found[1]
-            source_id = source.GetShaderId() or ""
-            if source_id == "ND_texcoord_vector2":
-                index = self.reader._constant(source, "index")
-                if index not in (None, 0):
-                    self.notes.append(f"texcoord index {index} is read as primvar st")
-                return "st"
-            if source_id == "ND_geompropvalue_vector2":
-                name = self.reader._constant(source, "geomprop")
-                return str(name) if name else "st"
-            self.notes.append(f"texture coordinates from a {source_id or 'node without info:id'} node "
-                              f"({source.GetPath()}) are not supported; primvar st is used")
-        else:
-            self.notes.append(f"a constant texcoord on {node.GetPath()} is not supported; primvar st is used")
-        return "st"
-
+            return "st", no_fallback, None  # MaterialX's default texcoord: the first set, which is USD's st
+        if found[0] == "value":
+            constant = two_finite_numbers(found[1])
+            if constant is not None:
+                return None, no_fallback, constant
+            self.notes.append(f"the texcoord on {node.GetPath()} is not two finite numbers; primvar st is used")
+            return "st", no_fallback, None
+        source = found[1]
+        source_id = source.GetShaderId() or ""
+        if source_id == "ND_texcoord_vector2":
+            index = self.reader._constant(source, "index")
+            if index not in (None, 0):
+                self.notes.append(f"texcoord index {index} is read as primvar st")
+            return "st", no_fallback, None
+        if source_id == "ND_geompropvalue_vector2":
+            name = self.reader._constant(source, "geomprop")
+            default = self.reader._constant(source, "default")
+            st_fallback = two_finite_numbers(default)
+            if default is not None and st_fallback is None:
+                self.notes.append(f"the default of {source.GetPath()} is not two finite numbers; (0, 0) is used")
+            st_fallback = no_fallback if st_fallback is None else st_fallback.astype(np.float32)
+            return (str(name) if name else "st"), st_fallback, None
+        self.notes.append(f"texture coordinates from a {source_id or 'node without info:id'} node "
+                          f"({source.GetPath()}) are not supported; primvar st is used")
+        return "st", no_fallback, None
 
 def _array(value, size: int | None = None) -> np.ndarray | None:
     """A constant as a finite float64 array (``size`` 3 broadcasts one number); None when it is not one."""
