@@ -219,6 +219,31 @@ def test_png_is_8bit_srgb(tmp_path, room):
         img.save(tmp_path / "x.tiff")
 
 
+def srgb8_float64(linear: np.ndarray) -> np.ndarray:
+    """IEC 61966-2-1 in float64 on values clipped to [0, 1], rounded to 8 bits: the oracle of PNG pixels."""
+    x = np.clip(np.asarray(linear, np.float64), 0.0, 1.0)
+    return np.round(255.0 * np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055))
+
+
+def test_png_is_tagged_srgb_and_decodes_to_the_srgb_pixels(tmp_path):
+    """The PNG held sRGB-encoded pixels with no sRGB chunk, so a viewer that colour-manages untagged files could
+    read them as another space. It carries sRGB (perceptual), gAMA and cHRM as the PNG specification recommends,
+    with right CRCs, and its image data, decoded without Pillow, holds the float64 sRGB of the linear values. The
+    AOV previews and the notebook's PNG are tagged too."""
+    from png_chunks import decode_pixels, read_chunks, srgb_chunks_problems
+
+    rng = np.random.default_rng(123)
+    rgb = rng.uniform(-0.1, 1.1, (5, 7, 3)).astype(np.float32)
+    rgb[0, :3] = [[0.0, 0.002, 0.0031308], [0.004, 0.5, 1.0], [0.01, 0.2, 0.9]]  # both sides of the linear toe
+    img = wrt.Image(rgb=rgb, aovs={"albedo": rgb, "prim": np.arange(35, dtype=np.int32).reshape(5, 7)})
+    chunks = read_chunks(img.save(tmp_path / "x.png"))
+    assert srgb_chunks_problems(chunks) == []
+    np.testing.assert_array_equal(decode_pixels(chunks), srgb8_float64(rgb))
+    assert srgb_chunks_problems(read_chunks(img._repr_png_())) == []
+    for name in img.aovs:
+        assert srgb_chunks_problems(read_chunks(img.save_aov_png(name, tmp_path / f"{name}.png"))) == []
+
+
 def test_an_image_shows_itself_in_a_notebook_as_its_png(tmp_path, room):
     """Jupyter showed ``Image(rgb=array([[[...`` and every AOV array; it shows the sRGB picture now."""
     import io

@@ -94,6 +94,25 @@ def eye_normals(stage_path: str, camera: str, normals: np.ndarray) -> np.ndarray
     return out.reshape(normals.shape)
 
 
+@pytest.mark.parametrize("with_alpha", [False, True])
+def test_png_products_are_tagged_srgb_and_hold_the_srgb_pixels(tmp_path, with_alpha):
+    """A PNG product was written sRGB-encoded without an sRGB chunk. It carries sRGB, gAMA and cHRM as the PNG
+    specification recommends, and its data, decoded without Pillow, is the float64 sRGB of the channels scaled by
+    2^exposure (alpha linear)."""
+    from png_chunks import decode_pixels, read_chunks, srgb_chunks_problems
+
+    render_products = importlib.import_module("wrt.render_products")
+    rng = np.random.default_rng(123)
+    channels = {c: rng.uniform(0.0, 0.6, (4, 6)).astype(np.float32) for c in ("RGBA" if with_alpha else "RGB")}
+    chunks = read_chunks(render_products.write_product(tmp_path / "beauty.png", channels, exposure=1.0))
+    assert srgb_chunks_problems(chunks) == []
+    x = np.clip(np.stack([channels[c] for c in "RGB"], axis=-1).astype(np.float64) * 2.0, 0.0, 1.0)
+    expected = np.round(255.0 * np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055))
+    if with_alpha:
+        expected = np.dstack([expected, np.round(channels["A"].astype(np.float64) * 255.0)])
+    np.testing.assert_array_equal(decode_pixels(chunks), expected)
+
+
 def test_every_product_is_written_at_its_own_view_and_agrees_with_render(tmp_path):
     """A beauty PNG at the settings' camera and 32x16 and an EXR of beauty and AOVs at another camera and 20x10: the
     files have those sizes and channels, and every channel is what wrt.render gives for that view. wrt wrote no

@@ -1,10 +1,10 @@
 """Image: the rendered picture (linear RGB, top row first) plus its AOVs, and writing them to disk.
 
 Formats: ``.exr`` linear HDR (OpenEXR, 32-bit float), ``.npy`` raw linear float32, ``.png`` 8-bit sRGB after
-``2^exposure`` scaling and clipping to [0, 1] (no other tone curve; NaN is written as 0, +inf as 1). AOVs are written
-as ``.npy`` and, for a quick look, as colour-mapped PNGs (:func:`aov_preview`): the traversal cost as a heat map of
-nodes visited and triangles tested, normals as ``0.5 (n + 1)``, depths and ids as grey levels and random colours,
-coverage as an alpha matte.
+``2^exposure`` scaling and clipping to [0, 1] (no other tone curve; NaN is written as 0, +inf as 1), tagged as sRGB
+(sRGB, gAMA and cHRM chunks). AOVs are written as ``.npy`` and, for a quick look, as colour-mapped PNGs
+(:func:`aov_preview`): the traversal cost as a heat map of nodes visited and triangles tested, normals as
+``0.5 (n + 1)``, depths and ids as grey levels and random colours, coverage as an alpha matte.
 """
 
 from __future__ import annotations
@@ -19,6 +19,14 @@ from pathlib import Path
 import numpy as np
 
 IMAGE_FORMATS = (".png", ".exr", ".npy")  # extensions Image.save writes
+# The sRGB chunk (rendering intent 0, perceptual) and the gAMA and cHRM values the PNG specification (11.3.3.5)
+# recommends beside it for decoders that do not read sRGB: gamma 1/2.2 and the Rec.709 primaries with D65 white, all
+# in units of 1e-5. Without them a viewer that colour-manages untagged PNGs may take the pixels for another space.
+SRGB_PNG_CHUNKS = (
+    (b"sRGB", bytes([0])),
+    (b"gAMA", (45455).to_bytes(4, "big")),
+    (b"cHRM", b"".join(v.to_bytes(4, "big") for v in (31270, 32900, 64000, 33000, 30000, 60000, 15000, 6000))),
+)
 HEAT_STOPS = np.array(  # black -> blue -> magenta -> orange -> yellow -> white, sRGB (an inferno-like ramp)
     [[0, 0, 0], [40, 11, 84], [159, 42, 99], [238, 110, 28], [250, 200, 40], [252, 255, 164]], np.float64
 ) / 255.0
@@ -50,6 +58,19 @@ def to_srgb8(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     any float32 radiance times 2^150 is finite)."""
     scaled = np.asarray(rgb, np.float64) * 2.0 ** check_exposure(exposure)
     return np.round(linear_to_srgb(scaled) * 255.0).astype(np.uint8)
+
+
+def write_srgb_png(target, pixels: np.ndarray) -> None:
+    """Writes ``(H, W, 3)`` or ``(H, W, 4)`` uint8 sRGB-encoded ``pixels`` (alpha straight, not encoded) as a PNG
+    tagged sRGB (:data:`SRGB_PNG_CHUNKS`) to ``target``, a path or a binary file object."""
+    from PIL import Image as PilImage
+    from PIL.PngImagePlugin import PngInfo
+
+    info = PngInfo()
+    for chunk_type, data in SRGB_PNG_CHUNKS:
+        info.add(chunk_type, data)  # Pillow writes these before the image data, where the specification puts them
+    mode = "RGBA" if pixels.shape[-1] == 4 else "RGB"
+    PilImage.fromarray(np.ascontiguousarray(pixels, np.uint8), mode=mode).save(target, format="PNG", pnginfo=info)
 
 
 def heat_map(values: np.ndarray, vmax: float | None = None) -> np.ndarray:
@@ -230,9 +251,7 @@ class Image:
 
     def _write_png(self, target, exposure: float) -> None:
         """The 8-bit sRGB PNG of ``rgb * 2**exposure`` into ``target``, a path or a binary file object."""
-        from PIL import Image as PilImage
-
-        PilImage.fromarray(to_srgb8(self.rgb, exposure), mode="RGB").save(target, format="PNG")
+        write_srgb_png(target, to_srgb8(self.rgb, exposure))
 
     def save(self, path, exposure: float = 0.0) -> Path:
         """Writes the colour image: ``.exr`` linear HDR float32, ``.npy`` raw linear float32, ``.png`` 8-bit sRGB
@@ -286,11 +305,9 @@ class Image:
 
     def save_aov_png(self, name: str, path) -> Path:
         """Writes the :func:`aov_preview` of AOV ``name`` as a PNG."""
-        from PIL import Image as PilImage
-
         if name not in self.aovs:
             raise ValueError(f"unknown AOV {name!r}; available: {', '.join(self.aovs)}")
         path = Path(path)
-        preview = PilImage.fromarray(aov_preview(name, self.aovs[name]), mode="RGB")
-        write_atomically(path, lambda target: preview.save(target, format="PNG"))
+        preview = aov_preview(name, self.aovs[name])  # display colours, meant to be shown as they are: sRGB
+        write_atomically(path, lambda target: write_srgb_png(target, preview))
         return path

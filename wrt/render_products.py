@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .image import check_exposure, to_srgb8, write_atomically, write_exr
+from .image import check_exposure, to_srgb8, write_atomically, write_exr, write_srgb_png
 from .rays import camera_rays
 from .render import MAX_PATHS_PER_LAUNCH, Renderer, check_pixels, resolve_view
 
@@ -220,14 +220,10 @@ def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float =
         if path.suffix.lower() == ".exr":
             write_exr(target, channels, attributes)
             return
-        from PIL import Image as PilImage
-
         rgb = to_srgb8(np.stack([channels[c] for c in "RGB"], axis=-1), exposure)
         if "A" in channels:
-            alpha = np.round(np.clip(channels["A"], 0, 1) * 255).astype(np.uint8)
-            PilImage.fromarray(np.dstack([rgb, alpha]), mode="RGBA").save(target, format="PNG")
-        else:
-            PilImage.fromarray(rgb, mode="RGB").save(target, format="PNG")
+            rgb = np.dstack([rgb, np.round(np.clip(channels["A"], 0, 1) * 255).astype(np.uint8)])
+        write_srgb_png(target, rgb)
 
     write_atomically(path, write)
     return path
