@@ -378,6 +378,48 @@ def test_bad_instancer_raises_scene_error_naming_the_prim(tmp_path, kwargs, mess
     assert message in str(info.value) and "/PI" in str(info.value)
 
 
+def test_positions_longer_than_proto_indices_draw_nothing_with_a_warning_as_usd_computes(tmp_path):
+    """``ComputeInstanceTransformsAtTime`` computes no transforms where ``positions`` has more entries than
+    ``protoIndices`` (USD warns); wrt drew the first ones without a word. It draws none, with a warning naming the
+    file, the instancer and both lengths."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0), positions=4)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    t = Usd.TimeCode.Default()
+    assert len(pi.ComputeInstanceTransformsAtTime(t, t)) == 0
+    with pytest.warns(UserWarning, match=r"bad\.usda: PointInstancers whose positions are longer than protoIndices "
+                      r"were skipped.*\(4 positions for 3 protoIndices: 1\): /PI$"):
+        scene = wrt.load_usd(path)
+    assert len(scene.instances) == 0 and scene.meshes == []
+
+
+@pytest.mark.parametrize("name", ["scales", "orientations", "orientationsf"])
+def test_orientations_or_scales_longer_than_proto_indices_are_cut_with_a_warning_as_usd_computes(tmp_path, name):
+    """``ComputeInstanceTransformsAtTime`` warns about ``scales`` or ``orientations`` longer than ``protoIndices``
+    and uses their first entries; wrt used them without a word. Same transforms as USD's, and a warning naming the
+    instancer and both lengths."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0), positions=3)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    rng = np.random.default_rng(123)
+    if name == "scales":
+        pi.CreateScalesAttr([Gf.Vec3f(*v) for v in rng.uniform(0.5, 2.0, (4, 3))])
+    else:
+        q = rng.normal(size=(4, 4))
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        quat, array, attr = ((Gf.Quatf, Vt.QuatfArray, pi.CreateOrientationsfAttr) if name == "orientationsf"
+                             else (Gf.Quath, Vt.QuathArray, pi.CreateOrientationsAttr))
+        attr(array([quat(float(w), *map(float, v)) for *v, w in q]))
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"bad\.usda: PointInstancer orientations or scales longer than protoIndices"
+                      rf".*\(4 {name} for 3 protoIndices: 1\): /PI$"):
+        scene = wrt.load_usd(path)
+    t = Usd.TimeCode.Default()
+    expected = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
+    assert expected.shape == (3, 4, 4)
+    np.testing.assert_allclose(scene.instances.to_world, expected, atol=2e-3 if name == "orientations" else 1e-5)
+
+
 def test_invisible_and_inactive_ids_hide_instances_by_id_as_usd_masks_them(tmp_path):
     """``ids`` name the instances that ``invisibleIds`` and ``inactiveIds`` hide (not their indices), as
     ``ComputeMaskAtTime`` computes it; ``ids`` shorter than ``protoIndices`` are an error naming the instancer (its

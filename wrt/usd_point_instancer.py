@@ -25,6 +25,8 @@ class PointInstancerReading:
         if n == 0:
             return
         m, read = self._instance_transforms(prim, pi, n)
+        if m is None:
+            return
         colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
         opacities = self._instance_opacities(prim, n, read)
         keep = self._instance_mask(prim, pi, n)
@@ -91,7 +93,8 @@ class PointInstancerReading:
     def _instance_transforms(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> tuple:
         """``(n, 4, 4)`` column-vector transforms of the ``n`` instances of ``pi`` in its own space, and the function
         that read their attributes (:func:`held_value` when velocities move them, else :func:`value_at`), with which
-        their primvars are read too."""
+        their primvars are read too. The transforms are None, with a warning, where ``positions`` is longer than
+        ``protoIndices``: ``ComputeInstanceTransformsAtTime`` computes none then (it warns, and draws nothing)."""
         t = self.time
 
         def per_instance(attr, width, name, default, value):
@@ -100,10 +103,14 @@ class PointInstancerReading:
             array = np.asarray(value, np.float64).reshape(len(value), -1)
             if array.shape != (len(value), width) or len(array) < n:
                 raise self._error(f"{name} has {len(array)} entries; protoIndices has {n}", prim, attr)
+            if len(array) > n and default is not None:
+                # ComputeInstanceTransformsAtTime warns about these and uses the first n, as here.
+                self._skip("PointInstancer orientations or scales longer than protoIndices: the entries past them "
+                           "were ignored", prim, f"{len(array)} {name} for {n} protoIndices")
             if not np.all(np.isfinite(array[:n])):
                 i = int(np.argmax(~np.isfinite(array[:n]).all(axis=1)))
                 raise self._error(f"{name}[{i}] is not finite", prim, attr)
-            return array[:n]
+            return array[:n] if default is not None else array  # positions: the caller checks the length
 
         positions_attr, scales_attr = pi.GetPositionsAttr(), pi.GetScalesAttr()
         orient_attr = pi.GetOrientationsfAttr() if pi.GetOrientationsfAttr().HasValue() else pi.GetOrientationsAttr()
@@ -116,6 +123,10 @@ class PointInstancerReading:
                                  moved if moved is not None else _value_if_any(positions_attr, t, read))
         if positions is None:
             raise self._error("positions is missing (PointInstancer needs one per protoIndices entry)", prim)
+        if len(positions) > n:
+            self._skip("PointInstancers whose positions are longer than protoIndices were skipped (USD computes no "
+                       "instance transforms for them)", prim, f"{len(positions)} positions for {n} protoIndices")
+            return None, read
         quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]),
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
         scales = per_instance(scales_attr, 3, "scales", np.ones(3), _value_if_any(scales_attr, t, read))
