@@ -204,6 +204,44 @@ def test_a_face_that_crosses_itself_keeps_its_whole_fan_with_a_warning(tmp_path)
     np.testing.assert_array_equal(scene.meshes[0].indices, fan)  # point i is corner i, unmirrored
 
 
+def star(points: int, step: int, turn: float = 0.0) -> list:
+    """The regular star polygon {points/step}: corners of a unit circle visited ``step`` apart, counter-clockwise.
+    Every corner turns left; the outline winds ``step`` times round its centre."""
+    return [(np.cos(turn + 2.0 * np.pi * step * i / points), np.sin(turn + 2.0 * np.pi * step * i / points))
+            for i in range(points)]
+
+
+@pytest.mark.parametrize("points, step", [(5, 2), (7, 2), (7, 3), (9, 4)])
+def test_a_star_that_turns_one_way_warns_as_a_face_that_crosses_itself(tmp_path, points, step):
+    """A pentagram's corners all turn one way, so no corner is reflex and it kept its fan without a word, though it
+    crosses itself as the faces with reflex corners that do warn. Its edges cross (checked here pair by pair) and it
+    warns with the same message, naming the prim and the face; it keeps its fan, as those do. The convex polygon of
+    the same corners ({n/1}) stays silent."""
+    outline = star(points, step, turn=0.3)
+    edges = [(np.array(outline[i]), np.array(outline[(i + 1) % points])) for i in range(points)]
+
+    def cross2(u, v):
+        return u[0] * v[1] - u[1] * v[0]
+
+    assert any(cross2(b - a, c - a) * cross2(b - a, d - a) < 0 and cross2(d - c, a - c) * cross2(d - c, b - c) < 0
+               for i, (a, b) in enumerate(edges) for (c, d) in edges[i + 2:])  # the oracle: two edges cross
+    box = [(5.0, 0.0), (6.0, 0.0), (6.0, 1.0), (5.0, 1.0)]  # a convex face first: the star is face 1
+    vertices = [(x, y, 0.0) for x, y in box + outline]
+    body = (f'def Mesh "Star"\n{{\n    point3f[] points = {fmt(vertices)}\n'
+            f"    int[] faceVertexCounts = [4, {points}]\n    int[] faceVertexIndices = {list(range(4 + points))}\n"
+            '    uniform token subdivisionScheme = "none"\n}\n')
+    scene, messages = load_recording_warnings(write(tmp_path, body))
+    found = [m for m in messages if "cross themselves" in m]
+    assert found and "/Star" in found[0] and "(1 face(s): 1: " in found[0], messages
+    fan, _ = triangulate([4, points], np.arange(4 + points))
+    np.testing.assert_array_equal(scene.meshes[0].indices, fan)
+
+    convex = np.array([(x, y, 0.0) for x, y in star(points, 1, turn=0.3)])
+    problems = []
+    triangulate([points], np.arange(points), convex, lambda reason, detail: problems.append(reason))
+    assert problems == []
+
+
 def test_a_bow_tie_has_no_area_to_be_concave_in_and_keeps_its_fan_silently(tmp_path):
     outline = [(0, 0), (2, 2), (2, 0), (0, 2)]
     scene, messages = load_recording_warnings(write(tmp_path, flat_mesh_usda(outline, name="Knot")))

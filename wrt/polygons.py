@@ -11,8 +11,9 @@ corners are left.
 
 Every face keeps ``n - 2`` triangles in its rows of the fan, each listing corners in the face's own order, so the face
 ids, the corner positions into ``faceVertexIndices`` (which primvars are looked up by) and the winding all stay as the
-fan had them. What cannot be clipped (a face that crosses itself; a face of more than ``MAX_CLIPPED_CORNERS``
-corners, whose clipping would take quadratic time) keeps its fan, reported through ``on_problem``.
+fan had them. What cannot be clipped (a face that crosses itself, with reflex corners or as a star whose corners all
+turn one way, see :func:`convexity`; a face of more than ``MAX_CLIPPED_CORNERS`` corners, whose clipping would take
+quadratic time) keeps its fan, reported through ``on_problem``.
 """
 
 from __future__ import annotations
@@ -30,6 +31,17 @@ _FLAT = 1e-12  # corner triangles under this fraction of the squared face size a
 def reflex_counts(points, counts, face_indices) -> np.ndarray:
     """``(F,)`` int64: how many corners of each face turn against the face's Newell normal (reflex corners in its
     best-fit plane). Faces of fewer than four corners, and faces with no area (all corners in a line), count 0.
+    The first result of :func:`convexity`, which takes the same arguments."""
+    return convexity(points, counts, face_indices)[0]
+
+
+def convexity(points, counts, face_indices) -> tuple[np.ndarray, np.ndarray]:
+    """Why faces are not convex: ``(F,)`` int64 reflex corners per face (see :func:`reflex_counts`), and ``(F,)``
+    bool stars, faces whose corners all turn one way round their Newell normal but that wind round it more than once
+    (a pentagram turns through 4 pi): they cross themselves with no reflex corner to show it.
+
+    Only faces of five corners or more can be stars (each corner turns by less than pi, and 4 pi takes five), so only
+    they pay for the check (two numpy passes over their corners): triangle and quad meshes pay nothing.
 
     Args:
         points: ``(V, 3)`` float, the mesh's points.
@@ -41,6 +53,7 @@ def reflex_counts(points, counts, face_indices) -> np.ndarray:
     points = np.asarray(points)
     starts = np.cumsum(counts) - counts
     reflex = np.zeros(len(counts), np.int64)
+    stars = np.zeros(len(counts), bool)
     # Faces of one corner count at a time, as (faces, corners) arrays: no per-corner walk to build. Triangles are
     # always convex.
     sizes = np.unique(counts[counts >= 4])
@@ -51,8 +64,9 @@ def reflex_counts(points, counts, face_indices) -> np.ndarray:
         for b in range(0, len(faces), step):
             block = faces[b:b + step]
             corners = planes[:, face_indices[starts[block][:, None] + np.arange(k)]]
-            reflex[block] = _reflex_corners(corners.astype(np.float64, copy=False)).sum(axis=1)
-    return reflex
+            corner_reflex, stars[block] = _corner_turns(corners.astype(np.float64, copy=False), k >= 5)
+            reflex[block] = corner_reflex.sum(axis=1)
+    return reflex, stars
 
 
 def _cross(a, b):
@@ -60,9 +74,10 @@ def _cross(a, b):
     return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
-def _reflex_corners(corners: np.ndarray) -> np.ndarray:
+def _corner_turns(corners: np.ndarray, find_stars: bool) -> tuple[np.ndarray, np.ndarray]:
     """``(F, k)`` bool: the reflex corners of faces ``corners`` ``(3, F, k)`` float64 (axis first; none for a face of
-    no area)."""
+    no area), and ``(F,)`` bool: with ``find_stars``, the faces without one that turn round their normal more than
+    once (see :func:`convexity`)."""
     # Newell normal (twice the area vector) of each face, relative to its first corner for precision far out.
     relative = corners - corners[:, :, :1]
     following = np.roll(relative, -1, axis=2)
@@ -75,8 +90,17 @@ def _reflex_corners(corners: np.ndarray) -> np.ndarray:
     normal_lengths = np.sqrt((normals * normals).sum(axis=0))
     reflex = turn < -REFLEX_SINE * lengths * np.roll(lengths, 1, axis=1) * normal_lengths[:, None]
     # A face with no area has no plane to be convex in: the fan is as good as anything.
-    reflex[normal_lengths <= _FLAT * lengths.sum(axis=1) ** 2] = False
-    return reflex
+    flat = normal_lengths <= _FLAT * lengths.sum(axis=1) ** 2
+    reflex[flat] = False
+    if not find_stars:
+        return reflex, np.zeros(len(flat), bool)
+    # The total turning, the sum of the angles between each edge and the next, is 2 pi for a convex face and 2 pi m
+    # for one that winds round m times; halfway between the two is safe from rounding. A repeated point (an edge of
+    # no length) loses its corner's turn, which can only make the total smaller: no false star. All rows at once:
+    # picking the faces without a reflex corner first copied more than the sum costs.
+    dots = np.einsum("ifk,ifk->fk", incoming, outgoing)
+    turns = np.arctan2(turn, dots * normal_lengths[:, None]).sum(axis=1)  # atan2(sin, cos), both times |N|
+    return reflex, (turns > 3.0 * np.pi) & ~flat & ~reflex.any(axis=1)
 
 
 def clip_ears(xy) -> tuple[np.ndarray, bool]:
@@ -243,9 +267,12 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
     """
     counts = np.asarray(counts, np.int64)
     face_indices = np.asarray(face_indices, np.int64)
-    reflex = reflex_counts(points, counts, face_indices)
+    reflex, stars = convexity(points, counts, face_indices)
     concave = np.flatnonzero(reflex > 0)
+    # A star keeps its fan: it crosses itself, so it has no inside to clip to.
+    crossing = np.flatnonzero(stars).tolist()
     if len(concave) == 0:
+        _report(on_problem, crossing, [])
         return tri_corners
     tri_corners = tri_corners.copy()
     starts = np.cumsum(counts) - counts
@@ -254,7 +281,7 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
     # Faces of up to BATCH_CORNERS corners: clipped together, those of one corner count at a time.
     points = np.asarray(points)
     planes = points.T
-    one_by_one, crossing, too_large = [], [], []
+    one_by_one, too_large = [], []
     for k in np.unique(counts[concave]).tolist():
         faces = concave[counts[concave] == k]
         if k > BATCH_CORNERS:
@@ -282,16 +309,22 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
             continue
         tri_corners[first_tri[f]:first_tri[f] + n - 2] = s + triangles
 
-    if on_problem is not None:
-        if crossing:
-            shown = ", ".join(str(f) for f in crossing[:5]) + (", ..." if len(crossing) > 5 else "")
-            on_problem("non-convex faces that cross themselves were fan-triangulated (not clipped)",
-                       f"{len(crossing)} face(s): {shown}")
-        if too_large:
-            on_problem(f"non-convex faces of more than {MAX_CLIPPED_CORNERS:,} corners were fan-triangulated "
-                       "(some triangles lie outside them)", ", ".join(too_large))
+    _report(on_problem, sorted(crossing), too_large)
     return tri_corners
 
 
-__all__ = ["MAX_CLIPPED_CORNERS", "clip_concave_faces", "clip_ears", "clip_ears_batch", "plane_coordinates",
-           "plane_coordinates_batch", "reflex_counts"]
+def _report(on_problem, crossing: list, too_large: list) -> None:
+    """Tells ``on_problem`` of the faces left fanned: ``crossing`` face numbers, ``too_large`` descriptions."""
+    if on_problem is None:
+        return
+    if crossing:
+        shown = ", ".join(str(f) for f in crossing[:5]) + (", ..." if len(crossing) > 5 else "")
+        on_problem("non-convex faces that cross themselves were fan-triangulated (not clipped)",
+                   f"{len(crossing)} face(s): {shown}")
+    if too_large:
+        on_problem(f"non-convex faces of more than {MAX_CLIPPED_CORNERS:,} corners were fan-triangulated "
+                   "(some triangles lie outside them)", ", ".join(too_large))
+
+
+__all__ = ["MAX_CLIPPED_CORNERS", "clip_concave_faces", "clip_ears", "clip_ears_batch", "convexity",
+           "plane_coordinates", "plane_coordinates_batch", "reflex_counts"]
