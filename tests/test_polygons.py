@@ -242,6 +242,28 @@ def test_a_star_that_turns_one_way_warns_as_a_face_that_crosses_itself(tmp_path,
     assert problems == []
 
 
+def test_hole_faces_that_cross_themselves_are_not_drawn_and_give_no_warning(tmp_path):
+    """A face in holeIndices is never drawn, but a hole that crossed itself (with reflex corners, or as a star) still
+    warned that it was fan-triangulated. The holes give no warning and no triangle; the same faces not in holeIndices
+    do warn (so the outlines are ones the check finds)."""
+    box = [(5.0, 0.0), (6.0, 0.0), (6.0, 1.0), (5.0, 1.0)]
+    outlines = [box, [(x + 10.0, y) for x, y in CROSSING], star(5, 2)]
+    vertices = [(x, y, 0.0) for outline in outlines for x, y in outline]
+    counts = [len(o) for o in outlines]
+
+    def mesh(extra: str) -> str:
+        return (f'def Mesh "Holes"\n{{\n    point3f[] points = {fmt(vertices)}\n'
+                f"    int[] faceVertexCounts = {counts}\n    int[] faceVertexIndices = {list(range(len(vertices)))}\n"
+                f'    uniform token subdivisionScheme = "none"\n{extra}}}\n')
+
+    _, messages = load_recording_warnings(write(tmp_path, mesh("")))
+    assert [m for m in messages if "cross themselves" in m and "(2 face(s): 1, 2: " in m], messages
+    scene, messages = load_recording_warnings(write(tmp_path, mesh("    int[] holeIndices = [1, 2]\n")))
+    assert not [m for m in messages if "cross themselves" in m], messages
+    np.testing.assert_array_equal(scene.meshes[0].indices, triangulate([4], np.arange(4))[0])
+    assert scene.meshes[0].face_ids.tolist() == [0, 0]
+
+
 def test_a_bow_tie_has_no_area_to_be_concave_in_and_keeps_its_fan_silently(tmp_path):
     outline = [(0, 0), (2, 2), (2, 0), (0, 2)]
     scene, messages = load_recording_warnings(write(tmp_path, flat_mesh_usda(outline, name="Knot")))

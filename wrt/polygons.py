@@ -251,7 +251,7 @@ def clip_ears_batch(xy) -> tuple[np.ndarray, np.ndarray]:
 
 
 def clip_concave_faces(points, counts, face_indices, tri_corners,
-                       on_problem: Callable[[str, str], None] | None = None) -> np.ndarray:
+                       on_problem: Callable[[str, str], None] | None = None, holes=None) -> np.ndarray:
     """The fan ``tri_corners`` of :func:`wrt.usd_meshes.triangulate` with the rows of every concave face replaced by
     ear-clipped triangles that lie inside the face.
 
@@ -261,6 +261,8 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
         face_indices: ``(N,)`` int, rows into ``points`` (``faceVertexIndices``), already checked in range.
         tri_corners: ``(T, 3)`` int64 positions into ``face_indices``: the fan, ``n - 2`` rows per face in face order.
         on_problem: called ``(reason, detail)`` for faces left fanned although not convex, once per reason.
+        holes: ``(H,)`` int, faces that are not drawn (``holeIndices``; numbers out of range are ignored): they keep
+            their fan, neither clipped nor reported.
 
     Returns:
         ``(T, 3)`` int64, a copy where anything changed; the rows of convex faces are the fan's.
@@ -268,6 +270,10 @@ def clip_concave_faces(points, counts, face_indices, tri_corners,
     counts = np.asarray(counts, np.int64)
     face_indices = np.asarray(face_indices, np.int64)
     reflex, stars = convexity(points, counts, face_indices)
+    if holes is not None and len(holes):
+        hidden = np.asarray(holes, np.int64).reshape(-1)
+        hidden = hidden[(hidden >= 0) & (hidden < len(counts))]
+        reflex[hidden], stars[hidden] = 0, False  # never drawn: what their fan looks like does not matter
     concave = np.flatnonzero(reflex > 0)
     # A star keeps its fan: it crosses itself, so it has no inside to clip to.
     crossing = np.flatnonzero(stars).tolist()

@@ -18,7 +18,8 @@ from .usd_looks import color_primvar
 from .usd_values import value_at
 
 
-def triangulate(face_counts, face_indices, points=None, on_problem=None) -> tuple[np.ndarray, np.ndarray]:
+def triangulate(face_counts, face_indices, points=None, on_problem=None,
+                holes=None) -> tuple[np.ndarray, np.ndarray]:
     """Fan-triangulates polygons around the first vertex of each face; given ``points``, faces that are not convex
     are ear-clipped instead, so that their triangles stay inside them (:func:`wrt.polygons.clip_concave_faces`).
 
@@ -32,6 +33,8 @@ def triangulate(face_counts, face_indices, points=None, on_problem=None) -> tupl
             only its length is used, to check that the counts cover it exactly; with them, all in range.
         points: ``(V, 3)`` float, the points ``face_indices`` index, or None for the plain fan.
         on_problem: called ``(reason, detail)`` for concave faces left fanned (they cross themselves, or are huge).
+        holes: face numbers that are not drawn (``holeIndices``, any out of range ignored): with ``points``, they
+            keep their fan unchecked, no work and no warning for a face no one sees. The caller drops their rows.
 
     Returns:
         ``tri_corners`` ``(T, 3)`` int64 positions into ``face_indices`` (so the triangle vertices are
@@ -59,7 +62,7 @@ def triangulate(face_counts, face_indices, points=None, on_problem=None) -> tupl
     s = starts[face_ids]
     tri_corners = np.stack([s, s + k + 1, s + k + 2], axis=1)
     if points is not None:
-        tri_corners = clip_concave_faces(points, counts, face_indices, tri_corners, on_problem)
+        tri_corners = clip_concave_faces(points, counts, face_indices, tri_corners, on_problem, holes)
     return tri_corners, face_ids
 
 
@@ -172,16 +175,16 @@ class MeshReading:
         polygons = (counts, face_indices) if refinement is None else (refinement.counts, refinement.face_indices)
         # Concave faces are clipped in the authored points; refined quads are fanned (Catmull-Clark moves them).
         plane_points = points if refinement is None else None
+        # Faces listed in holeIndices are not drawn; their indices and uniform primvar entries still count.
+        holes = self._int_array(prim, mesh.GetHoleIndicesAttr())
         try:
             tri_corners, face_ids = triangulate(*polygons, plane_points,
-                                                lambda reason, detail: self._skip(reason, prim, detail))
+                                                lambda reason, detail: self._skip(reason, prim, detail), holes)
         except ValueError as e:
             raise self._error(str(e), prim, mesh.GetFaceVertexCountsAttr()) from None
         if refinement is not None:
             face_ids = refinement.parent_face[face_ids]  # the control face each refined triangle comes from
 
-        # Faces listed in holeIndices are not drawn; their indices and uniform primvar entries still count.
-        holes = self._int_array(prim, mesh.GetHoleIndicesAttr())
         if len(holes):
             bad = (holes < 0) | (holes >= len(counts))
             if bad.any():
