@@ -266,6 +266,76 @@ def test_zero_size_gprims_are_skipped_with_a_warning_naming_them(tmp_path):
     assert scene.shapes == []
 
 
+NESTED_KITS = """#usda 1.0
+class Xform "Lib"
+{
+    def Xform "Inner"
+    {
+        def Sphere "Ball"
+        {
+            double radius = 0
+        }
+        def Cube "Box"
+        {
+        }
+    }
+}
+class Xform "Kit"
+{
+    def Xform "A" (instanceable = true
+        references = </Lib>)
+    {
+    }
+    def Xform "B" (instanceable = true
+        references = </Lib>)
+    {
+        double3 xformOp:translate = (3, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+def Xform "World"
+{
+    def Xform "K1" (instanceable = true
+        references = </Kit>)
+    {
+    }
+    def Xform "K2" (instanceable = true
+        references = </Kit>)
+    {
+        double3 xformOp:translate = (0, 5, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    def Xform "K3" (instanceable = true
+        references = </Kit>)
+    {
+        double3 xformOp:translate = (0, 10, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+"""
+
+
+def test_a_zero_size_gprim_in_nested_instances_is_named_with_the_number_of_instances(tmp_path):
+    """A zero-radius sphere inside an instance of a kit that three instances draw is skipped in all six places;
+    the warning named only the first (``/World/K1/A/Inner/Ball``). It still names that one, as usdview selects it,
+    and says how many others there are, counted here through USD's instance proxies."""
+    path = tmp_path / "kits.usda"
+    path.write_text(NESTED_KITS)
+    stage = Usd.Stage.Open(str(path))
+    ball = stage.GetPrimAtPath("/World/K1/A/Inner/Ball").GetPrimInPrototype().GetPath()
+    proxies = [str(p.GetPath()) for p in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies())
+               if p.IsInstanceProxy() and p.GetPrimInPrototype().GetPath() == ball]
+    assert len(proxies) == 6
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(str(path))
+    found = [str(w.message) for w in caught if "zero, negative or non-finite size" in str(w.message)]
+    assert len(found) == 1, found
+    assert found[0].endswith(f": 1 prim(s) (radius = 0: 1): /World/K1/A/Inner/Ball (and in {len(proxies) - 1} "
+                             "other instances)") and str(path) in found[0]
+    assert len(scene.instances) == 6 and [s.kind for s in scene.prototypes[0].shapes] == ["box"]
+
+
 def test_gprims_flattened_by_a_zero_scale_are_drawn_flat_as_tessellated_with_a_warning(tmp_path):
     """A Cube and a Sphere under a zero scale on one axis have no canonical space to intersect in: drawn
     analytically they vanished without a word, while ``tessellate_gprims`` (and so ``--accel warp``) drew them flat,

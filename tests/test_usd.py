@@ -590,12 +590,13 @@ def test_native_instances_share_one_prototype(tmp_path):
 
 def test_a_bad_prim_in_a_native_prototype_is_named_by_its_instance_proxy(tmp_path, monkeypatch):
     """Errors and warnings about a prim inside a native instance's prototype name it as usdview shows it, by its
-    proxy in the first instance (``/A/Tri``); they named ``/__Prototype_1/Tri``, a path USD makes up per opening
-    that no file holds, so the user could not find the mesh."""
+    proxy in the first instance (``/A/Tri``; a warning adds how many other instances draw it); they named
+    ``/__Prototype_1/Tri``, a path USD makes up per opening that no file holds, so the user could not find the
+    mesh."""
     import wrt.resources
 
     misspelt = native_instances_usda(tmp_path, extra='uniform token orientation = "leftHandd"')
-    with pytest.warns(UserWarning, match=r"orientation .*: /A/Tri$"):
+    with pytest.warns(UserWarning, match=r"orientation .*: /A/Tri \(and in 1 other instance\)$"):  # /B
         load_usd(misspelt)
     with pytest.raises(SceneError, match=r"/A/Tri\b") as error:
         load_usd(native_instances_usda(tmp_path, [(0, 0, 0), (float("nan"), 0, 0), (0, 1, 0)], name="nan.usda"))

@@ -259,6 +259,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
+        self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)
         self.instanced_lights = {}  # shown path -> type name of mesh lights read inside prototypes (not sampled)
 
     def read(self) -> Scene:

@@ -13,7 +13,7 @@ from .errors import SceneError
 
 class ProblemReport:
     """Errors and skipped prims of the stage reader (``stage``, ``source``, ``time``, ``skipped``,
-    ``shown_prototypes``)."""
+    ``shown_prototypes``, ``prototype_instance_counts``)."""
 
     def _property_stack(self, attr: Usd.Attribute) -> list:
         """The property specs of ``attr`` at the read time, strongest first (empty when USD cannot give them)."""
@@ -39,8 +39,27 @@ class ProblemReport:
         return SceneError(message, path=self.source, prim=self._shown_path(prim))
 
     def _skip(self, reason: str, prim: Usd.Prim, detail: str | None = None):
-        """Records a prim left out (or data ignored) for ``reason``; ``detail`` is tallied in the warning."""
-        self._skip_path(reason, self._shown_path(prim), detail)
+        """Records a prim left out (or data ignored) for ``reason``; ``detail`` is tallied in the warning. A prim
+        inside a native prototype is read once for all the instances that draw it: it is named in the first (see
+        :meth:`_shown_path`), with the number of the others (``/A/Ball (and in 5 other instances)``)."""
+        others = self._instance_count(prim) - 1 if prim.IsInPrototype() else 0
+        shown = self._shown_path(prim) + (f" (and in {others} other instance{'s' * (others > 1)})" if others else "")
+        self._skip_path(reason, shown, detail)
+
+    def _instance_count(self, prim: Usd.Prim) -> int:
+        """How many times ``prim`` is on the stage outside classes: 1 outside native prototypes, else the sum over
+        its prototype's instances that are not abstract (under a class), each counted as this counts it, so that
+        nested instances multiply (two instances of a kit that holds three instances: six)."""
+        if not prim.IsInPrototype():
+            return 1
+        root = prim
+        while not root.IsPrototype():
+            root = root.GetParent()
+        key = str(root.GetPath())
+        if key not in self.prototype_instance_counts:
+            self.prototype_instance_counts[key] = sum(
+                self._instance_count(p) for p in root.GetInstances() if not p.IsAbstract())
+        return self.prototype_instance_counts[key]
 
     def _shown_path(self, prim: Usd.Prim) -> str:
         """The path that names ``prim`` in errors and warnings, as usdview shows it: inside a native instance's
