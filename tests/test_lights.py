@@ -683,9 +683,10 @@ def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
                            "/Dim": (0.5, 1)}
 
 
-def test_non_uniformly_scaled_sphere_light_is_reported(tmp_path):
-    """An ellipsoidal sphere light (scaled unevenly or sheared) is drawn as a sphere of the mean radius: the load says
-    so; a uniform scale does not warn and scales the radius."""
+def test_non_uniformly_scaled_sphere_light_is_an_ellipsoid(tmp_path):
+    """A sphere light scaled unevenly or sheared loads as the ellipsoid it is (its transform's 3x3 as its frame,
+    silently); a uniform scale scales the radius of a round sphere; a transform that flattens it (a singular one) is
+    drawn as a sphere of the mean radius, and the load says so."""
 
     def build(stage):
         UsdGeom.XformCommonAPI(UsdLux.SphereLight.Define(stage, "/Squashed")).SetScale(Gf.Vec3f(1.0, 1.0, 0.25))
@@ -693,29 +694,38 @@ def test_non_uniformly_scaled_sphere_light_is_reported(tmp_path):
         # Unit axes, but X and Y at 37 degrees: an ellipsoid that the lengths of the axes alone let through.
         sheared = UsdGeom.Xformable(UsdLux.SphereLight.Define(stage, "/Sheared"))
         sheared.AddTransformOp().Set(Gf.Matrix4d(1, 0, 0, 0, 0.8, 0.6, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1))
+        UsdGeom.XformCommonAPI(UsdLux.SphereLight.Define(stage, "/Flat")).SetScale(Gf.Vec3f(1.0, 1.0, 0.0))
 
-    with pytest.warns(UserWarning, match=r"sheared SphereLights.*2 prim\(s\): /Squashed, /Sheared$"):
+    with pytest.warns(UserWarning, match=r"SphereLights flattened.*1 prim\(s\): /Flat$"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
-    radii = {light.path: light.radius for light in scene.lights}
-    assert radii["/Round"] == pytest.approx(1.0) and radii["/Squashed"] == pytest.approx(0.5 * 2.25 / 3)
+    lights = {light.path: light for light in scene.lights}
+    assert lights["/Round"].frame is None and lights["/Round"].radius == pytest.approx(1.0)
+    np.testing.assert_allclose(lights["/Squashed"].ellipsoid(), np.diag([0.5, 0.5, 0.125]))
+    np.testing.assert_allclose(lights["/Sheared"].ellipsoid(), 0.5 * np.array([[1, 0.8, 0], [0, 0.6, 0], [0, 0, 1]]))
+    assert lights["/Flat"].ellipsoid() is None and lights["/Flat"].world_radius == pytest.approx(0.5 * 2 / 3)
 
 
-def test_cylinder_light_with_an_elliptic_or_oblique_cross_section_is_reported(tmp_path):
-    """A CylinderLight scaled unevenly across its axis (or sheared) is an elliptic tube, which wrt draws as a round one
-    of the mean radius: 23% too dark to 36% too bright on a floor below one of Y, Z scales 3 and 0.5 against a
-    numerical integral over the ellipse. The load says so; scaling the length alone, or Y and Z evenly, does not
-    warn."""
+def test_cylinder_light_with_an_elliptic_or_oblique_cross_section_is_drawn_as_authored(tmp_path):
+    """A CylinderLight scaled unevenly across its axis (or sheared) is an elliptic tube, which wrt drew as a round one
+    of the mean radius (23% too dark to 36% too bright on a floor below one of Y, Z scales 3 and 0.5): it loads
+    silently and is drawn as authored (tests/test_usd_light_oracle.py). Scaling the length alone, or Y and Z
+    evenly, keeps a round tube; a transform that flattens it (a singular one) is drawn round, with a warning."""
 
     def build(stage):
         UsdGeom.XformCommonAPI(UsdLux.CylinderLight.Define(stage, "/Flat")).SetScale(Gf.Vec3f(1.0, 3.0, 0.5))
         sheared = UsdGeom.Xformable(UsdLux.CylinderLight.Define(stage, "/Sheared"))
         sheared.AddTransformOp().Set(Gf.Matrix4d(1, 0, 0, 0, 0, 1, 0, 0, 0.6, 0, 0.8, 0, 0, 0, 0, 1))
         UsdGeom.XformCommonAPI(UsdLux.CylinderLight.Define(stage, "/Long")).SetScale(Gf.Vec3f(4.0, 2.0, 2.0))
+        UsdGeom.XformCommonAPI(UsdLux.CylinderLight.Define(stage, "/Ribbon")).SetScale(Gf.Vec3f(1.0, 1.0, 0.0))
 
-    with pytest.warns(UserWarning, match=r"CylinderLights.*elliptic.*2 prim\(s\): /Flat, /Sheared$"):
+    with pytest.warns(UserWarning, match=r"CylinderLights flattened.*1 prim\(s\): /Ribbon$"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
-    shapes = {light.path: light.world_shape() for light in scene.lights}
-    assert np.linalg.norm(shapes["/Long"][0]) == pytest.approx(4.0) and shapes["/Long"][1] == pytest.approx(1.0)
+    lights = {light.path: light for light in scene.lights}
+    assert lights["/Long"].tube() is None and lights["/Ribbon"].tube() is None
+    axis, radius = lights["/Long"].world_shape()
+    assert np.linalg.norm(axis) == pytest.approx(4.0) and radius == pytest.approx(1.0)
+    np.testing.assert_allclose(lights["/Flat"].tube(), np.diag([1.0, 1.5, 0.25]))
+    np.testing.assert_allclose(lights["/Sheared"].tube(), np.array([[1, 0, 0.3], [0, 0.5, 0], [0, 0, 0.4]]))
 
 
 @pytest.mark.parametrize("exposure", [1024.0, 1e6, 200.0])

@@ -1,7 +1,8 @@
 """UsdLux lights read from a stage and rendered (whitted and path) over a white Lambertian floor, against irradiance
 integrated numerically over each light's surface or cone (tests/light_oracle.py): radiance = E / pi. Each case
 authors intensity, exposure, colour, normalize or colour temperature and a transform, unevenly scaled where the
-light's shape allows it."""
+light's shape allows it: sphere and cylinder lights scaled unevenly or sheared are ellipsoids and elliptic or oblique
+tubes, which the oracle integrates over the unit sphere's and tube's parameters through the transform's Jacobian."""
 
 import math
 
@@ -51,9 +52,12 @@ def author(light, xform, intensity, exposure=0.0, color=(1, 1, 1), normalize=Fal
         light.CreateEnableColorTemperatureAttr(True)
         light.CreateColorTemperatureAttr(kelvin)
     ops = UsdGeom.Xformable(light)
-    ops.AddTranslateOp().Set(Gf.Vec3d(*xform.get("translate", (0, 0, 0))))
-    ops.AddRotateXYZOp().Set(Gf.Vec3f(*xform.get("rotate_xyz", (0, 0, 0))))
-    ops.AddScaleOp().Set(Gf.Vec3f(*xform.get("scale", (1, 1, 1))))
+    if "matrix" in xform:  # a column-vector 4x4 (USD's matrices are row-vector: transposed)
+        ops.AddTransformOp().Set(Gf.Matrix4d(*np.asarray(xform["matrix"], float).T.ravel()))
+    else:
+        ops.AddTranslateOp().Set(Gf.Vec3d(*xform.get("translate", (0, 0, 0))))
+        ops.AddRotateXYZOp().Set(Gf.Vec3f(*xform.get("rotate_xyz", (0, 0, 0))))
+        ops.AddScaleOp().Set(Gf.Vec3f(*xform.get("scale", (1, 1, 1))))
     emitted = np.array(color, float) * intensity * 2.0**exposure
     return emitted * (blackbody_rgb(kelvin) if kelvin is not None else 1.0)
 
@@ -118,6 +122,30 @@ def cylinder_case(stage):  # stretched along its axis
     return lambda p: irradiance(p, elements)[:, None] * emitted / elements[2].sum()
 
 
+# Shear: local Y leans towards X and local Z towards Y, then a turn and a lift above the floor.
+SHEARED = trs(translate=(-0.1, 0.2, 1.3), rotate_xyz=(15, 0, 40)) @ np.array(
+    [[1.0, 0.7, 0.0, 0], [0, 1.0, -0.5, 0], [0, 0, 0.8, 0], [0, 0, 0, 1]])
+
+
+def ellipsoid_case(stage, xform, normalize):  # a SphereLight scaled unevenly or sheared
+    light = UsdLux.SphereLight.Define(stage, "/Light")
+    light.CreateRadiusAttr(0.3)
+    emitted = author(light, xform, 4.0, color=(1, 0.7, 0.4), normalize=normalize)
+    elements = sphere(xform["matrix"] if "matrix" in xform else trs(**xform), 0.3)
+    scale = 1.0 / elements[2].sum() if normalize else 1.0
+    return lambda p: irradiance(p, elements)[:, None] * emitted * scale
+
+
+def elliptic_tube_case(stage, xform, normalize):  # a CylinderLight scaled unevenly across its axis or sheared
+    light = UsdLux.CylinderLight.Define(stage, "/Light")
+    light.CreateLengthAttr(1.0)
+    light.CreateRadiusAttr(0.15)
+    emitted = author(light, xform, 3.0, color=(0.6, 0.8, 1), normalize=normalize)
+    elements = cylinder(xform["matrix"] if "matrix" in xform else trs(**xform), 1.0, 0.15)
+    scale = 1.0 / elements[2].sum() if normalize else 1.0
+    return lambda p: irradiance(p, elements)[:, None] * emitted * scale
+
+
 def distant_case(stage, normalize):
     xform = dict(rotate_xyz=(30, 20, 0))
     light = UsdLux.DistantLight.Define(stage, "/Light")
@@ -150,6 +178,12 @@ CASES = {
     "sphere": (sphere_case, 0.02),
     "sphere_as_point": (lambda stage: sphere_case(stage, treat_as_point=True), 0.02),
     "cylinder": (cylinder_case, 0.02),
+    "ellipsoid": (lambda stage: ellipsoid_case(stage, dict(TILTED, translate=(0.3, 0.1, 1.4), scale=(2.5, 0.6, 1.2)),
+                                               normalize=True), 0.01),
+    "sheared_ellipsoid": (lambda stage: ellipsoid_case(stage, dict(matrix=SHEARED), normalize=False), 0.01),
+    "elliptic_tube": (lambda stage: elliptic_tube_case(stage, dict(TILTED, scale=(1.5, 3.0, 0.6)), normalize=True),
+                      0.01),
+    "oblique_tube": (lambda stage: elliptic_tube_case(stage, dict(matrix=SHEARED), normalize=False), 0.01),
     "distant": (lambda stage: distant_case(stage, False), 0.02),
     "distant_normalized": (lambda stage: distant_case(stage, True), 0.02),
     # The oracle's blackbody comes from a fit of the CIE curves, about 1% off them.

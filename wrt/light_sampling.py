@@ -6,7 +6,9 @@ Sampling: light ``k`` is picked with probability ``0.5 * power_k / sum(power) + 
 times the share its shaping lets out); spheres are sampled by the cone they subtend; rect lights, and disk lights
 that look large, uniformly by solid angle (Urena et al. 2013; disks through the square around them;
 :mod:`wrt.spherical_rect`); other disk lights, rect lights that look tiny, cylinder and triangle lights uniformly by
-area (cylinders: the half facing the shading point); soft distant lights
+area (cylinders: the half facing the shading point); ellipsoids and elliptic tubes (sphere and cylinder lights under
+a transform that is no similarity) through the unit sphere and tube they are images of (:mod:`wrt.affine_lights`);
+soft distant lights
 uniformly in their cone; a constant dome cosine-weighted about the shading normal and a textured dome by the
 luminance of its filtered texture averaged over each texel (piecewise-constant 2D distribution, Pharr et al., PBRT
 4th ed., A.5 and 12.5), so that every direction the filtered texture lights can be drawn.
@@ -16,6 +18,14 @@ from __future__ import annotations
 
 import warp as wp
 
+from .affine_lights import (
+    ellipsoid_pdf,
+    elliptic_tube_pdf,
+    intersect_ellipsoid,
+    intersect_elliptic_tube,
+    sample_ellipsoid,
+    sample_elliptic_tube,
+)
 from .geometry import stable_length
 from .light_links import DeviceLinks
 from .light_shaping import cone_and_focus
@@ -45,6 +55,8 @@ LIGHT_CYLINDER = wp.constant(4)
 LIGHT_DOME = wp.constant(5)
 LIGHT_POINT = wp.constant(6)
 LIGHT_TRIANGLE = wp.constant(7)
+LIGHT_ELLIPSOID = wp.constant(8)  # a SphereLight scaled unevenly or sheared
+LIGHT_ELLIPTIC_TUBE = wp.constant(9)  # a CylinderLight scaled unevenly across its axis or sheared
 
 # DeviceLights.shadows: what blocks a light's shadow rays.
 SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
@@ -67,7 +79,8 @@ class DeviceLights:
     axis_u: wp.array[wp.vec3]  # rect: full X edge; disk: X radius vector; cylinder: full axis
     axis_v: wp.array[wp.vec3]  # rect: full Y edge; disk: Y radius vector
     normal: wp.array[wp.vec3]  # rect, disk: unit emitting normal
-    params: wp.array[wp.vec4]  # (radius | cos of half angle, solid angle of cone, area | 1 - cos, right-angled axes);
+    params: wp.array[wp.vec4]  # (radius | cos of half angle | ellipsoid's |det|^(1/3), solid angle of cone,
+    # area | 1 - cos, right-angled axes);
     # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
     shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF or SHADOWS_LINKED: what blocks the light
@@ -90,6 +103,8 @@ class DeviceLights:
     headlight: int  # index of the default headlight, -1 without one: it travels along each view's direction
     headlight_dirs: wp.array[wp.vec3]  # (V,) unit direction of travel of the headlight in view (camera) V
     links: DeviceLinks  # light and shadow linking of the analytic lights (wrt.light_links)
+    shapes: wp.array[wp.mat33]  # (num_analytic) ellipsoid, elliptic tube: map from the unit sphere or tube
+    shape_inverses: wp.array[wp.mat33]  # (num_analytic) their inverses, world to canonical
 
 
 @wp.struct
@@ -321,6 +336,10 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
             return float(wp.inf), 0.0
         radial = op + t * dp
         return t, wp.max(-wp.dot(d, radial / r), 0.0)
+    if kind == LIGHT_ELLIPSOID:
+        return intersect_ellipsoid(c, lights.shape_inverses[k], o, d), 1.0
+    if kind == LIGHT_ELLIPTIC_TUBE:
+        return intersect_elliptic_tube(c, lights.shape_inverses[k], o, d)
     return float(wp.inf), 0.0
 
 
@@ -349,6 +368,11 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
         if cos_max > 1.0 or one_minus <= 0.0:
             return 0.0
         return 1.0 / (2.0 * PI * one_minus)
+    if kind == LIGHT_ELLIPSOID:
+        return ellipsoid_pdf(lights.position[k], lights.shape_inverses[k], lights.params[k][0], p, d)
+    if kind == LIGHT_ELLIPTIC_TUBE:
+        return elliptic_tube_pdf(lights.position[k], lights.shapes[k], lights.shape_inverses[k], p + dist * d, dist,
+                                 cos_l)
     area = lights.params[k][2]
     if kind == LIGHT_CYLINDER:
         area = 0.5 * area  # sampling covers the half facing the shading point
@@ -494,6 +518,15 @@ def sample_light(
         out.pdf = 1.0 / (2.0 * PI * one_minus)
         out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) * (2.0 * PI * one_minus)
         return out
+    if kind == LIGHT_ELLIPSOID:
+        wi, t, pdf = sample_ellipsoid(lights.position[k], lights.shapes[k], lights.shape_inverses[k],
+                                      lights.params[k][0], p, u1, u2)
+        if pdf > 0.0:
+            out.wi = wi
+            out.dist = t
+            out.pdf = pdf
+            out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -wi)) / pdf
+        return out
 
     # Area sampling (rect and disk lights that look large: by solid angle), cylinder, triangle.
     pdf_solid_angle = float(0.0)  # > 0: q was sampled by solid angle with this pdf
@@ -532,6 +565,10 @@ def sample_light(
         q = lights.position[k] + (u1 - 0.5) * axis + lights.params[k][0] * radial
         ln = radial
         area = 0.5 * lights.params[k][2]
+        L = lights.radiance[k]
+    elif kind == LIGHT_ELLIPTIC_TUBE:
+        # The half facing p in the tube's canonical frame, uniform there by area ("area" = 1 / its area pdf).
+        q, ln, area = sample_elliptic_tube(lights.position[k], lights.shapes[k], lights.shape_inverses[k], p, u1, u2)
         L = lights.radiance[k]
     else:
         prim = lights.prims[k]

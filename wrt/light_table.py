@@ -19,6 +19,8 @@ from .light_sampling import (
     LIGHT_DISK,
     LIGHT_DISTANT,
     LIGHT_DOME,
+    LIGHT_ELLIPSOID,
+    LIGHT_ELLIPTIC_TUBE,
     LIGHT_POINT,
     LIGHT_RECT,
     LIGHT_SPHERE,
@@ -63,6 +65,7 @@ class HostLights:
     focus_tint: list
     texture: list
     lobe_scale: list
+    shapes: list
 
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance weights of linear RGB
@@ -204,10 +207,16 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
                 i = light.intensity
                 _add(h, LIGHT_POINT, i, light.position, zero, zero, zero, (0, 0, 0, 0), 0,
                      4.0 * math.pi * luminance_np(i))
-            else:
+            elif light.ellipsoid() is None:
                 L = light.radiance
-                _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero, (light.radius, 0, light.area, 0), 0,
+                _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero, (light.world_radius, 0, light.area, 0), 0,
                      math.pi * light.area * luminance_np(L))
+            else:
+                m, L, area = light.ellipsoid(), light.radiance, light.area
+                g = abs(float(np.linalg.det(m))) ** (1.0 / 3.0)  # for its pdf (wrt.affine_lights.ellipsoid_pdf)
+                _add(h, LIGHT_ELLIPSOID, L, light.position, zero, zero, zero, (g, 0, area, 0), 0,
+                     math.pi * area * luminance_np(L))
+                h.shapes[-1] = m
             _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True)
         elif isinstance(light, RectLight):
             u, v = light.edges()
@@ -232,8 +241,11 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
             axis, r = light.world_shape()
             origin = light_axes(light.to_world)[3]
             L = light.radiance
-            _add(h, LIGHT_CYLINDER, L, origin, axis, zero, zero, (r, 0, light.area, 0), 0,
-                 math.pi * light.area * luminance_np(L))
+            m = light.tube()
+            _add(h, LIGHT_CYLINDER if m is None else LIGHT_ELLIPTIC_TUBE, L, origin, axis, zero, zero,
+                 (r, 0, light.area, 0), 0, math.pi * light.area * luminance_np(L))
+            if m is not None:
+                h.shapes[-1] = m
             _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True)
         else:
             raise TypeError(f"unsupported light {type(light).__name__}")
@@ -303,6 +315,10 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.shaping_axis = arr(h.shaping_axis, wp.vec3)
     d.focus_tint = arr(h.focus_tint, wp.vec3)
     d.lobe_scale = arr(h.lobe_scale, wp.vec2, 2, tri_lobes)
+    # Ellipsoids and elliptic tubes: their map from the unit shape and its inverse (analytic lights only).
+    shapes = np.asarray(h.shapes, np.float64).reshape(-1, 3, 3) if h.shapes else np.eye(3)[None]
+    d.shapes = wp.array(shapes.astype(np.float32), dtype=wp.mat33, device=device)
+    d.shape_inverses = wp.array(np.linalg.inv(shapes).astype(np.float32), dtype=wp.mat33, device=device)
     d.pmf = wp.array(pmf.astype(np.float32), dtype=float, device=device)
     d.cdf = wp.array(cdf.astype(np.float32), dtype=float, device=device)
     d.count = n
@@ -389,6 +405,7 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.focus_tint.append(np.zeros(3, np.float32))
     h.texture.append(None)
     h.lobe_scale.append(np.ones(2, np.float32))
+    h.shapes.append(np.eye(3))
 
 
 def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool) -> None:

@@ -7,12 +7,15 @@ times the blackbody colour when ``enableColorTemperature`` is on):
 
 - **Area lights** (``SphereLight``, ``RectLight``, ``DiskLight``, ``CylinderLight``) emit radiance
   ``L = color``, or ``color / A`` with ``normalize`` on, where ``A`` is the world-space emitting area
-  (``4 pi r^2``, ``w h``, ``pi r^2``, ``2 pi r l``; transforms included). Rect and disk lights emit from their
+  (``4 pi r^2``, ``w h``, ``pi r^2``, ``2 pi r l``; transforms included: a sphere scaled unevenly or sheared is an
+  ellipsoid, a cylinder so scaled across its axis an elliptic or oblique tube, whose areas are integrated
+  numerically, :mod:`wrt.affine_lights`). Rect and disk lights emit from their
   -Z side only; spheres and cylinders (no caps) emit outwards. A rect light's texture multiplies ``L`` where it
   lies (bilinearly filtered, clamped at the edges; upright seen from the lit side: the top-left texel at local
   ``(+X, +Y)``).
 - ``SphereLight`` with ``treatAsPoint``: a point light of radiant intensity ``I = pi r^2 L`` (the sphere's
-  intensity seen from afar), ``I = color / 4`` with ``normalize``.
+  intensity seen from afar), ``I = color / 4`` with ``normalize``; an ellipsoid's ``I = A L / 4`` (its intensity
+  averaged over directions: a convex body's mean projected area is a quarter of its area, Cauchy).
 - **DistantLight** with ``normalize`` on: ``color`` is the illuminance ``E`` at normal incidence. With ``normalize``
   off, ``color`` is the radiance of the sun disc of angular diameter ``angle``, so ``E = color * pi sin^2(angle/2)``.
   ``angle = 0`` makes a delta light whose ``color`` is ``E`` either way.
@@ -49,6 +52,7 @@ import math
 
 import numpy as np
 
+from .affine_lights import ellipsoid_area, elliptic_tube_area, flat, right_angled, similar
 from .errors import SceneError, bottom_row_problem, check_fields
 from .light_links import LinkCollection
 from .light_shaping import Shaping
@@ -83,6 +87,13 @@ def check_affine(light) -> None:
         raise SceneError(problem, prim=light.path or None)
 
 
+def round_tube(m3: np.ndarray, rtol: float = 1e-4) -> bool:
+    """Whether a CylinderLight of local-to-world linear part ``m3`` stays a round tube: its Y and Z axes of one
+    length, at right angles to each other and to its X axis (the tube's)."""
+    x, y, z = np.asarray(m3, np.float64).T
+    return bool(np.isclose(np.linalg.norm(y), np.linalg.norm(z), rtol=rtol) and right_angled(x, y, z, rtol=rtol))
+
+
 def light_axes(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Columns X, Y, Z (scaled) and the origin of a column-vector ``(4, 4)`` transform."""
     m = np.asarray(to_world, np.float64).reshape(4, 4)
@@ -107,6 +118,9 @@ class SphereLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        frame: ``(3, 3)`` linear part of the light's local-to-world transform, or None. With it ``radius`` is in
+            its local units: the light is the ellipsoid ``position + radius * frame @ u`` (``|u| = 1``). A frame
+            that flattens the sphere (a singular one) makes a sphere of the mean scaled radius.
     """
 
     position: np.ndarray
@@ -122,12 +136,30 @@ class SphereLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    frame: np.ndarray | None = None
 
     def __post_init__(self):
         check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR,
                      ("axis", (3,), None, np.float64), *_MULTIPLIERS)
+        if self.frame is not None:
+            check_fields(self, ("frame", (3, 3), None, np.float64))
         self.axis = self.unit_axis()
         _check_shaping(self)
+
+    def ellipsoid(self) -> np.ndarray | None:
+        """``(3, 3)`` float64 map from the unit sphere to the light (``radius * frame``), or None where the light is
+        a round sphere (of :attr:`world_radius`): no frame, one that only turns and scales evenly, or a flat one."""
+        if self.frame is None or similar(self.frame):
+            return None
+        m = self.radius * np.asarray(self.frame, np.float64)
+        return None if flat(m) else m
+
+    @property
+    def world_radius(self) -> float:
+        """The radius of a round light in the world: ``radius`` times the frame's mean scale."""
+        if self.frame is None:
+            return self.radius
+        return self.radius * float(np.mean(np.linalg.norm(np.asarray(self.frame, np.float64), axis=0)))
 
     def unit_axis(self) -> np.ndarray:
         """``(3,)`` ``axis`` made unit, as the shaping uses it (it may be set to any length after construction)."""
@@ -140,7 +172,8 @@ class SphereLight:
 
     @property
     def area(self) -> float:
-        return 4.0 * math.pi * self.radius**2
+        m = self.ellipsoid()
+        return 4.0 * math.pi * self.world_radius**2 if m is None else ellipsoid_area(m)
 
     @property
     def radiance(self) -> np.ndarray:
@@ -149,10 +182,12 @@ class SphereLight:
 
     @property
     def intensity(self) -> np.ndarray:
-        """``(3,)`` radiant intensity when treated as a point."""
+        """``(3,)`` radiant intensity when treated as a point (averaged over directions for an ellipsoid)."""
         if self.normalize:
             return np.asarray(self.color, np.float32) / 4.0
-        return (np.asarray(self.color, np.float32) * math.pi * self.radius**2).astype(np.float32)
+        if self.ellipsoid() is not None:
+            return (np.asarray(self.color, np.float32) * (self.area / 4.0)).astype(np.float32)
+        return (np.asarray(self.color, np.float32) * math.pi * self.world_radius**2).astype(np.float32)
 
 
 @dataclasses.dataclass
@@ -260,7 +295,8 @@ class DiskLight:
 
 @dataclasses.dataclass
 class CylinderLight:
-    """``UsdLux.CylinderLight``: a tube of ``length`` along local X and ``radius``, emitting outwards (no caps).
+    """``UsdLux.CylinderLight``: a tube of ``length`` along local X and ``radius``, emitting outwards (no caps); a
+    transform scaling Y and Z unevenly, or shearing them, makes an elliptic or oblique tube.
 
     Attributes:
         to_world: ``(4, 4)`` column-vector local-to-world transform.
@@ -296,12 +332,25 @@ class CylinderLight:
         _check_shaping(self)
 
     def world_shape(self) -> tuple[np.ndarray, float]:
-        """World-space axis vector (full length) and radius (mean of the Y and Z scales)."""
+        """World-space axis vector (full length) and radius (mean of the Y and Z scales) of a round tube."""
         x, y, z, _ = light_axes(self.to_world)
         return x * self.length, self.radius * 0.5 * (np.linalg.norm(y) + np.linalg.norm(z))
 
+    def tube(self) -> np.ndarray | None:
+        """``(3, 3)`` float64 map from the unit tube (radius 1, length 1 along X) to the light, or None where the light
+        is a round tube (:meth:`world_shape`): its Y and Z axes of one length at right angles to each other and to X,
+        or a transform that flattens it (a singular one), for which the round tube of the mean scale stands in."""
+        m3 = np.asarray(self.to_world, np.float64)[:3, :3]
+        if round_tube(m3):
+            return None
+        m = m3 * np.array([self.length, self.radius, self.radius])
+        return None if flat(m) else m
+
     @property
     def area(self) -> float:
+        m = self.tube()
+        if m is not None:
+            return elliptic_tube_area(m)
         axis, r = self.world_shape()
         return float(2.0 * math.pi * r * np.linalg.norm(axis))
 

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from .affine_lights import flat, similar
 from .errors import SceneError
 from .light_links import read_collection
 from .light_shaping import Shaping, primary_axis, read_shaping
@@ -20,6 +21,7 @@ from .lights import (
     MeshLight,
     RectLight,
     SphereLight,
+    round_tube,
 )
 from .scene import DistantLight
 from .usd_xforms import affine_part
@@ -212,14 +214,16 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         found = sizes((s.GetRadiusAttr(), "radius", 0.5))
         if found is None:
             return None
-        axes = np.linalg.norm(m[:3, :3], axis=0)
-        scale = float(np.mean(axes))
-        if not (np.allclose(axes, scale, rtol=1e-4) and _at_right_angles(*m[:3, :3].T)):
-            skip("non-uniformly scaled or sheared SphereLights (ellipsoids) are rendered as spheres of the mean scaled "
-                 "radius", prim)
-        radius = found[0] * scale
-        treat = bool(get(s.GetTreatAsPointAttr(), False))
-        return SphereLight(m[:3, 3].copy(), radius, color, normalize, treat or radius <= 0.0, path)
+        radius, treat = found[0], bool(get(s.GetTreatAsPointAttr(), False))
+        m3 = m[:3, :3].copy()
+        if similar(m3):  # a round sphere: the world radius, as fast as ever
+            radius = radius * float(np.mean(np.linalg.norm(m3, axis=0)))
+            return SphereLight(m[:3, 3].copy(), radius, color, normalize, treat or radius <= 0.0, path)
+        if radius > 0.0 and not treat and flat(radius * m3):
+            skip("SphereLights flattened by their transform (a singular matrix: a disk or a line) are rendered as "
+                 "spheres of the mean scaled radius", prim)
+        # An ellipsoid (scaled unevenly or sheared): the sphere's image under the light's transform.
+        return SphereLight(m[:3, 3].copy(), radius, color, normalize, treat or radius <= 0.0, path, frame=m3)
     if prim.IsA(UsdLux.RectLight):
         r = UsdLux.RectLight(prim)
         found = sizes((r.GetWidthAttr(), "width", 1.0), (r.GetHeightAttr(), "height", 1.0))
@@ -236,10 +240,11 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         found = sizes((c.GetLengthAttr(), "length", 1.0), (c.GetRadiusAttr(), "radius", 0.5))
         if found is None:
             return None
-        if not _round_tube(m[:3, :3]):
-            skip("CylinderLights scaled unevenly across their axis or sheared (elliptic or oblique tubes) are rendered "
-                 "as round tubes of the mean scaled radius", prim)
-        return CylinderLight(m, found[0], found[1], color, normalize, path)
+        light = CylinderLight(m, found[0], found[1], color, normalize, path)
+        if not round_tube(m[:3, :3]) and found[0] > 0.0 and found[1] > 0.0 and light.tube() is None:
+            skip("CylinderLights flattened by their transform (a singular matrix: a ribbon or a line) are rendered as "
+                 "round tubes of the mean scaled radius", prim)
+        return light
     if prim.IsA(UsdGeom.Gprim):  # LightAPI on a mesh (MeshLightAPI): wrt.usd checks it is drawn as one
         return MeshLight(path, color, normalize, _material_sync(prim, skip))
     dome_types = [UsdLux.DomeLight] + ([UsdLux.DomeLight_1] if hasattr(UsdLux, "DomeLight_1") else [])
@@ -247,19 +252,6 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         return _read_dome(prim, m, color, time, up_axis, skip, get)
     skip(f"{prim.GetTypeName() or 'this'} lights are not supported; skipped", prim, prim.GetTypeName())
     return None
-
-
-def _at_right_angles(*axes, rtol: float = 1e-4) -> bool:
-    """Whether the transformed local ``axes`` of a light are at right angles to each other (no shear)."""
-    return all(abs(a @ b) <= rtol * np.linalg.norm(a) * np.linalg.norm(b)
-               for i, a in enumerate(axes) for b in axes[i + 1:])
-
-
-def _round_tube(m3: np.ndarray, rtol: float = 1e-4) -> bool:
-    """Whether a CylinderLight of local-to-world linear part ``m3`` stays a round tube: its Y and Z axes of one
-    length, at right angles to each other and to its X axis (the tube's). wrt draws a tube of the mean Y, Z scale."""
-    x, y, z = m3.T
-    return bool(np.isclose(np.linalg.norm(y), np.linalg.norm(z), rtol=rtol) and _at_right_angles(x, y, z, rtol=rtol))
 
 
 def _material_sync(prim, skip) -> str:

@@ -12,6 +12,8 @@ from ..light_sampling import (
     LIGHT_DISK,
     LIGHT_DISTANT,
     LIGHT_DOME,
+    LIGHT_ELLIPSOID,
+    LIGHT_ELLIPTIC_TUBE,
     LIGHT_RECT,
     LIGHT_SPHERE,
     DeviceLights,
@@ -91,6 +93,7 @@ def lights_on_segment(
     for k in range(lights.num_analytic):
         kind = lights.kinds[k]
         area = kind == LIGHT_SPHERE or kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER
+        area = area or kind == LIGHT_ELLIPSOID or kind == LIGHT_ELLIPTIC_TUBE
         if area and reaches(lights, k, camera, group):
             t, cos_l = intersect_light(lights, k, o, d)
             if t > t_min and t < t_max:
