@@ -16,7 +16,9 @@
 - a quad whose displayOpacity goes from 0 to 1 across it in front of a glowing wall, and a PointInstancer whose two
   instances have their own displayOpacity (0.25, 0.75);
 - a mesh light (MeshLightAPI) over a floor, points and curves under a sheared native instance, and a two-sided
-  leaf (a front face and its reversed twin, a material each) seen from both sides.
+  leaf (a front face and its reversed twin, a material each) seen from both sides;
+- ellipsoidal SphereLights and elliptic or oblique CylinderLights over a plane (``wrt.affine_lights``), seen by the
+  camera and lighting the plane.
 
 wrt's shade kernels round alike on every device (no FMA contraction), so on a CUDA host the CPU and GPU images are
 expected to be equal, but for the last bits of transcendental functions (the spotlights' acos and pow).
@@ -39,6 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cut_out_canopy import write_canopy  # noqa: E402
 from shading_helpers import quad, top_down_camera  # noqa: E402
+from test_affine_lights import lights_and_oracles  # noqa: E402
 from test_display_opacity import CAMERA as OPACITY_CAMERA  # noqa: E402
 from test_display_opacity import instancer as opacity_instancer  # noqa: E402
 from test_display_opacity import opacity_primvar  # noqa: E402
@@ -164,6 +167,7 @@ def main() -> None:
     textured_and_split_lights(args.out, devices)
     linked_lights(args.out, devices)
     mesh_lights_and_round_instances(args.out, devices)
+    affine_lights(devices)
     see_through, _ = opacity_stage(args.out, lambda stage: opacity_quad(stage, opacity=[0.0, 1.0, 0.0, 1.0],
                                                                         interpolation="vertex"))
     instanced, _ = opacity_stage(args.out, lambda stage: opacity_primvar(opacity_instancer(stage), [0.25, 0.75],
@@ -282,6 +286,18 @@ def mesh_lights_and_round_instances(folder: Path, devices: list[str]) -> None:
         for z in (4.0, -4.0):
             compare(f"two-sided leaf {order} from z {z}", scene, devices,
                     camera=wrt.Camera.look_at((0.1, 0.2, z), (0, 0, 0)), width=16, height=16, integrator="path", spp=4)
+
+
+def affine_lights(devices: list[str]) -> None:
+    """Each light of ``test_affine_lights`` over a plane, seen from above at an angle: the light itself (camera rays
+    and MIS) and its light on the plane."""
+    floor = quad((0, 0, -1.0), (6, 0, 0), (0, 6, 0), name="/floor")
+    cam = wrt.Camera.look_at((1.5, -4.0, 4.0), (0, 0, 0), (0, 0, 1), 50.0)
+    for name, (light, _) in lights_and_oracles().items():
+        scene = wrt.Scene(meshes=[floor], lights=[light])
+        for integrator in ("whitted", "path"):
+            compare(f"{name} {integrator}", scene, devices, camera=cam, width=48, height=48, integrator=integrator,
+                    spp=8, max_depth=2)
 
 
 if __name__ == "__main__":

@@ -105,20 +105,24 @@ def renderer(light, device="cpu"):
     return wrt.Renderer(scene, camera=top_down_camera((0, 0, 0), height=1.0), width=2, height=2, device=device)
 
 
+DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+
+
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("name", list(lights_and_oracles()))
-def test_affine_light_samples_give_the_numerical_irradiance_and_the_pdf_rays_find(name):
+def test_affine_light_samples_give_the_numerical_irradiance_and_the_pdf_rays_find(name, device):
     """Light sampling of an ellipsoid or elliptic tube averages to the irradiance integrated over its surface, from
     below it, close under it and far off; a ray along each sampled direction hits the light at the sampled distance
     and finds the pdf the sample reported (else MIS is biased), but for grazing samples that bring next to no light
     (float32 rounding, as for round tubes). wrt drew them round, of the mean scale."""
     light, elements = lights_and_oracles()[name]
-    r = renderer(light)
+    r = renderer(light, device)
     n = np.array([0.0, 0.0, 1.0])  # the oracle's irradiance is on a plane facing +Z
     for p in POINTS:
         count = 40000
-        out = [wp.zeros(count, dtype=float, device="cpu") for _ in range(3)]
+        out = [wp.zeros(count, dtype=float, device=device) for _ in range(3)]
         wp.launch(sample_and_hit_kernel, count, inputs=[r.device_lights, r.device_scene, r.materials, r.surfaces,
-                                                        wp.vec3(*p), wp.vec3(*n)], outputs=out, device="cpu")
+                                                        wp.vec3(*p), wp.vec3(*n)], outputs=out, device=device)
         estimates, pdf_ratio, dist_ratio = (a.numpy().astype(np.float64) for a in out)
         expected = float(irradiance(np.array([p], np.float64), elements, radiance=2.0)[0])
         error = estimates.std() / math.sqrt(count)
@@ -129,12 +133,13 @@ def test_affine_light_samples_give_the_numerical_irradiance_and_the_pdf_rays_fin
         assert estimates[off].sum() <= 1e-3 * estimates.sum(), (p, off.mean())
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("name", list(lights_and_oracles()))
-def test_rays_see_an_affine_light_over_its_solid_angle(name, np_rng):
+def test_rays_see_an_affine_light_over_its_solid_angle(name, np_rng, device):
     """Camera rays from a point see an ellipsoid or elliptic tube of radiance 2 over the solid angle of its surface
     facing the point (the integral of cos dA / d^2 there, float64)."""
     light, (q, normals, areas) = lights_and_oracles()[name]
-    r = renderer(light)
+    r = renderer(light, device)
     p = np.array([0.3, -0.4, 0.0])
     to = q - p
     d2 = (to**2).sum(-1)
@@ -142,10 +147,10 @@ def test_rays_see_an_affine_light_over_its_solid_angle(name, np_rng):
     count = 400_000
     dirs = np_rng.normal(size=(count, 3))
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    radiance = wp.empty(count, dtype=float, device="cpu")
-    wp.launch(seen_kernel, count, inputs=[r.device_lights, wp.vec3(*p), wp.array(dirs.astype(np.float32),
-                                                                                 dtype=wp.vec3)],
-              outputs=[radiance], device="cpu")
+    radiance = wp.empty(count, dtype=float, device=device)
+    directions = wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=device)
+    wp.launch(seen_kernel, count, inputs=[r.device_lights, wp.vec3(*p), directions], outputs=[radiance],
+              device=device)
     hits = radiance.numpy() / 2.0
     seen = hits.mean() * 4.0 * math.pi
     error = hits.std() * 4.0 * math.pi / math.sqrt(count)
