@@ -10,7 +10,7 @@ import pytest
 import wrt
 from wrt.instancing import Instances, Prototype
 from wrt.scene import Mesh
-from wrt.twins import find_twins
+from wrt.twins import find_partners, find_twins
 
 CORNERS = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
 FRONT = [[0, 1, 2], [0, 2, 3]]  # normal +z
@@ -113,6 +113,44 @@ def test_find_twins():
     assert find_twins(CORNERS, FRONT + BACK, [-1] * 4, [True] * 4) is None  # nothing culled: nothing to find
 
 
+def partner_sets(points, meshes, double_sided=None) -> list[set]:
+    """Each triangle's partners (:func:`find_partners`) as a set of geometry ids, for ``meshes`` given as lists of
+    faces, each a list of triangles, in one space."""
+    tris, face_starts, mesh_starts = [], [], []
+    for mesh in meshes:
+        for f, face in enumerate(mesh):
+            tris += face
+            face_starts += [True] + [False] * (len(face) - 1)
+            mesh_starts += [f == 0] + [False] * (len(face) - 1)
+    sided = np.zeros(len(tris), bool) if double_sided is None else np.asarray(double_sided)
+    found = find_partners(np.asarray(points, np.float32), tris, [-1] * len(tris), sided, face_starts, mesh_starts)
+    if found is None:
+        return [set() for _ in tris]
+    offsets, ranges = found
+    return [{p for first, count in ranges[offsets[t]:offsets[t + 1]] for p in range(first, first + count)}
+            for t in range(len(tris))]
+
+
+def test_find_partners():
+    """Partners: the triangles of a reversed (or double-sided) face with the same corners whatever its diagonals;
+    coplanar triangles across a shared edge, on its same side, where the two meshes have one boundary; twins. Never
+    a same-winding copy, a flat neighbour on the edge's other side (wound the other way: it faces away but does not
+    overlap) or a neighbour folded at a right angle."""
+    quad_front, quad_back = [[0, 1, 2], [0, 2, 3]], [[3, 2, 1], [3, 1, 0]]
+    assert partner_sets(CORNERS, [[quad_front], [quad_back]]) == [{2, 3}, {2, 3}, {0, 1}, {0, 1}]  # faces
+    assert partner_sets(CORNERS, [[[t] for t in quad_front], [[t] for t in quad_back]]) == [{2, 3}, {2, 3}, {0, 1},
+                                                                                            {0, 1}]  # edges
+    assert partner_sets(CORNERS, [[quad_front], [quad_front]]) == [set()] * 4
+    assert partner_sets(CORNERS, [[quad_front], [quad_back]], [False, False, True, True]) == [{2, 3}, {2, 3}, set(),
+                                                                                              set()]
+    flat = [[[0, 1, 2]], [[0, 3, 2]]]  # across the edge 0-2, the second wound the other way
+    reversed_flat = [[[0, 2, 1]], [[0, 2, 3]]]
+    assert partner_sets(CORNERS, [flat, reversed_flat]) == [{2}, {3}, {0}, {1}]  # twins only
+    bent = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)  # folded at a right angle along 0-1
+    assert partner_sets(bent, [[[[0, 1, 2]], [[1, 0, 3]]], [[[0, 2, 1]], [[1, 3, 0]]]]) == [{2}, {3}, {0}, {1}]
+    assert partner_sets(CORNERS, [[quad_front], [[[0, 1, 3]]]]) == [set()] * 3  # no shared boundary
+
+
 @pytest.mark.parametrize("integrator", ["whitted", "path"])
 @pytest.mark.parametrize("order", ["front_first", "back_first"])
 def test_mirror_shows_the_side_it_faces(order, integrator):
@@ -132,3 +170,120 @@ def test_mirror_shows_the_side_it_faces(order, integrator):
         rgb[name] = wrt.render(scene, camera=camera, width=8, height=8, integrator=integrator, spp=2).rgb
     assert (rgb["back alone"][..., 2] > 0.5).sum() >= 16  # the mirror shows the blue face on many pixels
     np.testing.assert_allclose(rgb["leaf"], rgb["back alone"], atol=1e-6)
+
+
+# The two-sided card authored as two single-sided meshes at one place, "front" (red, facing +z) and "back" (blue,
+# facing -z), seen through orthographic cameras on either side: 40 x 40 pixels of 0.1 units.
+PIXELS, PITCH = 40, 0.1
+QUAD = [(-1.24, -1.17), (1.32, -1.05), (1.44, 1.2), (-1.05, 1.1)]  # no pixel centre near an edge
+HEXAGON = [(1.52, 0.08), (0.84, 1.35), (-0.74, 1.42), (-1.63, 0.14), (-0.8, -1.38), (0.79, -1.31)]
+CARDS = {  # corners, then (faceVertexCounts, faceVertexIndices) of the front and of the back
+    "quad reversed": (QUAD, ([4], [0, 1, 2, 3]), ([4], [3, 2, 1, 0])),
+    "triangles, other diagonal": (QUAD, ([3, 3], [0, 1, 2, 0, 2, 3]), ([3, 3], [3, 2, 1, 3, 1, 0])),
+    "hexagon reversed": (HEXAGON, ([6], list(range(6))), ([6], list(range(5, -1, -1)))),
+}
+
+
+def write_card(path, corners, front, back, extra=()) -> str:
+    """A USD stage of the card (module comment) with cameras /W/front_cam (at +z) and /W/back_cam (at -z)."""
+    from pxr import Gf, Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.Xform.Define(stage, "/W")
+    points = [Gf.Vec3f(x, y, 0.0) for x, y in corners]
+    for name, (counts, indices), color in (("front", front, RED), ("back", back, BLUE), *extra):
+        mesh = UsdGeom.Mesh.Define(stage, f"/W/{name}")
+        mesh.CreatePointsAttr(points)
+        mesh.CreateFaceVertexCountsAttr(counts)
+        mesh.CreateFaceVertexIndicesAttr(indices)
+        mesh.CreateDisplayColorPrimvar().Set([Gf.Vec3f(*color)])
+    for name, z, turn in (("front_cam", 5.0, 0.0), ("back_cam", -5.0, 180.0)):
+        camera = UsdGeom.Camera.Define(stage, f"/W/{name}")
+        camera.CreateProjectionAttr(UsdGeom.Tokens.orthographic)
+        camera.CreateHorizontalApertureAttr(PIXELS * PITCH / 0.1)  # tenths of a scene unit
+        camera.CreateVerticalApertureAttr(PIXELS * PITCH / 0.1)
+        camera.AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, z))
+        camera.AddRotateYOp().Set(turn)
+    stage.Save()
+    return str(path)
+
+
+def pixel_centres(view: str) -> np.ndarray:
+    """``(H, W, 2)`` float64 world (x, y) of each pixel centre of an orthographic camera looking at the card from
+    ``+z`` (``"front"``) or ``-z`` (``"back"``, turned half round y: its right is world -x)."""
+    film = (np.arange(PIXELS) + 0.5) * PITCH - PIXELS * PITCH / 2
+    x, y = np.meshgrid(film, -film)
+    return np.stack([x if view == "front" else -x, y], axis=-1)
+
+
+def containing_triangle(centres: np.ndarray, corners, triangles) -> tuple[np.ndarray, int]:
+    """Index of the triangle that holds each pixel centre (-1: none), in float64, and how many centres lie within
+    1e-3 of a triangle's border (where float32 rounding could decide otherwise; the cards here keep clear)."""
+    pts = np.asarray(corners, np.float64)
+    found = np.full(centres.shape[:2], -1)
+    near = 0
+    for k, tri in enumerate(triangles):
+        a, b, c = pts[list(tri)]
+        sides = []
+        for p, q in ((a, b), (b, c), (c, a)):
+            e = q - p
+            sides.append((e[0] * (centres[..., 1] - p[1]) - e[1] * (centres[..., 0] - p[0])) / np.linalg.norm(e))
+        winding = (b - a)[0] * (c - a)[1] - (b - a)[1] * (c - a)[0]
+        sides = np.stack(sides) * np.sign(winding)  # positive inside whatever the winding
+        near += int(((sides > -1e-3).all(axis=0) & (np.abs(sides) < 1e-3).any(axis=0)).sum())
+        found[(sides > 0).all(axis=0)] = k
+    return found, near
+
+
+@pytest.mark.parametrize("card", CARDS)
+def test_card_shows_each_side_from_its_side(tmp_path, card):
+    """The card seen from either side shows that side's mesh on every pixel the card covers (coverage the card's
+    area in pixels, from a float64 point-in-triangle oracle), each pixel on the very triangle of that side that holds
+    it. From the back every form showed nothing (coverage 0): the fans of a polygon and of its reversal run along
+    other diagonals, so no triangle had an exact twin, and the re-trace past a culled hit skipped the back too."""
+    pytest.importorskip("pxr")
+    corners, front, back = CARDS[card]
+    scene = wrt.load_usd(write_card(tmp_path / "card.usda", corners, front, back))
+    n = len(scene.meshes[0].indices)  # the front's triangles are geometry ids 0..n-1, the back's n..2n-1
+    for view, colour, first in (("front", RED, 0), ("back", BLUE, n)):
+        triangles = scene.meshes[first // n].indices
+        want, near = containing_triangle(pixel_centres(view), corners, triangles)
+        assert near == 0  # no pixel centre near an edge: the float32 render must agree everywhere
+        image = wrt.render(scene, camera=f"/W/{view}_cam", width=PIXELS, height=PIXELS, device="cpu",
+                           integrator="albedo")
+        covered = want >= 0
+        assert covered.sum() > 400
+        np.testing.assert_array_equal(image.aovs["prim"], np.where(covered, want + first, -1))
+        np.testing.assert_allclose(image.rgb[covered], np.broadcast_to(colour, (covered.sum(), 3)), atol=1e-6)
+
+
+def test_folded_flap_is_not_taken_where_it_is_not():
+    """A mesh folded flat (a triangle and a flap folded back onto half of it: coplanar, facing the other way,
+    sharing an edge) and its reversed copy. From below, the big triangle's back is culled; where the flap does not
+    reach, the hit takes the reversed copy's triangle, never the flap (an edge partner that does not hold the hit
+    point), and the pixels the flap covers show a surface facing the camera."""
+    corners = np.array([[0.03, -1.52, 0], [-0.02, 1.47, 0], [2.55, 0.06, 0], [1.04, 0.0, 0]], np.float32)
+    folded = [[1, 0, 2], [0, 1, 3]]  # the big triangle faces +z, the flap (inside it) -z
+    unfolded = [[tri[0], tri[2], tri[1]] for tri in folded]
+    scene = wrt.Scene(meshes=[Mesh("/Folded", corners, folded, [0, 1]), Mesh("/Copy", corners, unfolded, [0, 1])])
+    partners = scene.triangle_partners()
+    assert partners is not None and (1, 1) in map(tuple, partners[1][partners[0][0]:partners[0][1]])  # listed
+    camera = wrt.Camera(to_world=np.diag([-1.0, 1.0, -1.0, 1.0]) @ _translate(-1.2, 0, 5), projection="orthographic",
+                        horizontal_aperture=PIXELS * PITCH / 0.1, vertical_aperture=PIXELS * PITCH / 0.1)
+    got = wrt.render(scene, camera=camera, width=PIXELS, height=PIXELS, device="cpu", integrator="albedo").aovs["prim"]
+    centres = pixel_centres("back") + [1.2, 0.0]
+    big, near_big = containing_triangle(centres, corners[:, :2], [folded[0]])
+    flap, near_flap = containing_triangle(centres, corners[:, :2], [folded[1]])
+    assert near_big == near_flap == 0
+    only_big = (big >= 0) & (flap < 0)
+    assert only_big.sum() > 50 and (flap >= 0).sum() > 20
+    np.testing.assert_array_equal(got[only_big], 2)  # the copy's big triangle, facing -z
+    assert np.isin(got[flap >= 0], [1, 2]).all()  # the flap or the copy's big triangle: both face the camera
+    assert (got[big < 0] == -1).all()
+
+
+def _translate(x, y, z) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, 3] = x, y, z
+    return m

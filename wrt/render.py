@@ -428,9 +428,11 @@ class Renderer:
         s = DeviceSurfaces()
         s.uvs, s.materials, s.double_sided = uvs, tri_materials, sided
         s.emitters = wp.array(emitters, dtype=wp.int32, device=dev)
-        twins = scene.triangle_twins()  # None unless a single-sided triangle has a coincident twin (wrt.twins)
-        s.num_twins = 0 if twins is None else len(twins)
-        s.twins = wp.array(np.full(1, -1, np.int32) if twins is None else twins, dtype=wp.int32, device=dev)
+        partners = scene.triangle_partners()  # None unless a single-sided triangle has a coincident partner
+        offsets, ranges = partners or (np.zeros(1, np.int32), np.zeros((1, 2), np.int32))
+        s.num_partners = 0 if partners is None else len(offsets) - 1
+        s.partner_offsets = wp.array(offsets, dtype=wp.int32, device=dev)
+        s.partner_ranges = wp.array(ranges, dtype=wp.vec2i, device=dev)
         self.surfaces = s
         # Camera and bounce rays skip holes of cut-outs, camera rays back faces of single-sided meshes too
         # (shade.intersect_visible).

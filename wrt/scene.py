@@ -872,19 +872,28 @@ class Scene:
         sided = np.repeat(np.array([bool(m.double_sided) for m in meshes], bool), [len(m.indices) for m in meshes])
         return np.concatenate([sided, np.array([bool(s.double_sided) for s in self._geometry_shapes()], bool)])
 
-    def triangle_twins(self) -> np.ndarray | None:
-        """``(T,)`` int32: the coincident twin of each single-sided triangle (:mod:`wrt.twins`; -1: none), by
-        geometry id; None when no triangle has one (every scene whose meshes are all double-sided)."""
-        key = ("triangle_twins",)
+    def triangle_partners(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The coincident partners of each single-sided triangle (:func:`wrt.twins.find_partners`): ``(offsets
+        (T + 1,) int32, ranges (K, 2) int32)`` of geometry ids; None when no triangle has one (every scene whose
+        meshes are all double-sided)."""
+        key = ("triangle_partners",)
         if key not in self._cache:
-            from .twins import find_twins
+            from .twins import find_partners
 
             points, indices = self.geometry()
             ranges = self.prototype_ranges()
             spaces = np.concatenate([np.full(self.num_flat_triangles, -1), np.repeat(np.arange(len(ranges)),
                                                                                      ranges[:, 1])])
             double_sided = self.triangle_double_sided()[: len(indices)]  # its shapes (after the triangles) have none
-            self._cache[key] = find_twins(points, indices, spaces, double_sided)
+            # A face is a run of one mesh's triangles with one face id (a source polygon's triangles are consecutive).
+            meshes = self._geometry_meshes()
+            counts = np.array([len(m.indices) for m in meshes], np.int64)
+            mesh_starts = np.zeros(len(indices), bool)
+            mesh_starts[(np.cumsum(counts) - counts)[counts > 0]] = True
+            face_ids = np.concatenate([np.zeros(0, np.int64)] + [m.face_ids for m in meshes])
+            face_starts = mesh_starts.copy()
+            face_starts[1:] |= face_ids[1:] != face_ids[:-1]
+            self._cache[key] = find_partners(points, indices, spaces, double_sided, face_starts, mesh_starts)
         return self._cache[key]
 
     def corner_uvs(self) -> np.ndarray:

@@ -13,9 +13,10 @@ Conventions:
   normal map then perturbs the shading normal (:func:`shading_point`, which the integrators and AOVs read).
 - Back faces of single-sided meshes (``doubleSided = false``) are invisible to camera rays, as in usdview: they
   are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`), or, where the triangle has a
-  coincident twin seen from there (:mod:`wrt.twins`: a two-sided leaf's other face), by taking the twin. Bounce
+  coincident partner seen from there (:mod:`wrt.twins`: a two-sided card's other face), by taking the partner
+  that contains the hit point. Bounce
   and shadow rays see both sides, so closed glass objects refract twice and single-sided walls still cast shadows;
-  a bounce ray on a back face with such a twin takes the twin too.
+  a bounce ray on a back face with such a partner takes the partner too.
   Camera and bounce rays
   skip the holes of cut-out materials (``opacity < opacityThreshold``) the same way, so the AOVs and every
   integrator start from the surface seen through them and a hole uses up no bounce: up to :data:`MAX_CULL_PASSES`
@@ -62,6 +63,9 @@ wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 BACKGROUND = wp.constant(wp.vec3(*DEFAULT_DOME_RADIANCE))  # what camera rays see on a stage without lights
 CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
 CULL_LEAST_STEP = wp.constant(1.0e-30)  # the step past a culled face at t = 0
+# How far a culled hit point may lie outside a coincident partner (wrt.twins), off its plane or past an edge, and still
+# be taken as on it: relative to the partner's longest edge (float32 rounding of a point on a shared plane or edge).
+PARTNER_TOLERANCE = wp.constant(1.0e-4)
 # Closest-hit passes of a blocked shadow ray in a scene with cut-outs: it passes up to 31 holes (leaves of a dense
 # canopy stack in the tens: 8 left rays through 10 leaf holes blocked); one still in a hole after them stays blocked.
 MAX_SHADOW_HOLE_PASSES = 32
@@ -79,8 +83,10 @@ class DeviceSurfaces:
     materials: wp.array[wp.int32]  # (T,) device material (0: the default material)
     double_sided: wp.array[wp.int32]  # (T,) 1 for triangles of double-sided meshes
     emitters: wp.array[wp.int32]  # (T,) light index of emissive triangles, -1 otherwise
-    twins: wp.array[wp.int32]  # (T,) coincident twin of each single-sided triangle (wrt.twins), -1: none; or (1,)
-    num_twins: int  # T when some triangle has a twin, else 0 (then twins is a placeholder)
+    partner_offsets: wp.array[wp.int32]  # (T + 1,) triangle t's coincident partners (wrt.twins) are
+    # partner_ranges[partner_offsets[t]:partner_offsets[t + 1]]; or (1,)
+    partner_ranges: wp.array[wp.vec2i]  # (K,) (first geometry id, count) of consecutive partner triangles; or (1,)
+    num_partners: int  # T when some triangle has a partner, else 0 (then the two arrays are placeholders)
 
 
 @wp.struct
@@ -527,6 +533,68 @@ def twin_uv(scene: DeviceScene, prim: int, twin: int, u: float, v: float):
 
 
 @wp.func
+def has_corner(scene: DeviceScene, prim: int, p: wp.vec3):
+    """True when one of ``prim``'s corners is at ``p``."""
+    return (scene.points[scene.indices[prim, 0]] == p or scene.points[scene.indices[prim, 1]] == p
+            or scene.points[scene.indices[prim, 2]] == p)
+
+
+@wp.func
+def partner_weights(scene: DeviceScene, prim: int, partner: int, u: float, v: float):
+    """Barycentric weights on ``partner`` (of its corners 0, 1, 2) of the hit ``(u, v)`` on ``prim``: exact for a
+    twin (the same corner positions, :func:`twin_uv`), else of the hit point (object space, from its barycentrics)
+    projected onto the partner's plane; all -1 when the point lies off that plane by more than
+    :data:`PARTNER_TOLERANCE` of the partner's size (or the partner is degenerate)."""
+    a = scene.points[scene.indices[partner, 0]]
+    b = scene.points[scene.indices[partner, 1]]
+    c = scene.points[scene.indices[partner, 2]]
+    if has_corner(scene, prim, a) and has_corner(scene, prim, b) and has_corner(scene, prim, c):
+        uv = twin_uv(scene, prim, partner, u, v)
+        return wp.vec3(1.0 - uv[0] - uv[1], uv[0], uv[1])
+    p = ((1.0 - u - v) * scene.points[scene.indices[prim, 0]] + u * scene.points[scene.indices[prim, 1]]
+         + v * scene.points[scene.indices[prim, 2]])
+    e1, e2, q = b - a, c - a, p - a
+    n = wp.cross(e1, e2)
+    nn = wp.dot(n, n)
+    size2 = wp.max(wp.max(wp.dot(e1, e1), wp.dot(e2, e2)), wp.length_sq(c - b))
+    off = wp.dot(q, n)
+    if nn <= 0.0 or off * off > PARTNER_TOLERANCE * PARTNER_TOLERANCE * size2 * nn:
+        return wp.vec3(-1.0)
+    # p - a = s e1 + r e2 in the plane: cross(q, e2) = s n and cross(e1, q) = r n (q's normal part drops out).
+    s = wp.dot(wp.cross(q, e2), n) / nn
+    r = wp.dot(wp.cross(e1, q), n) / nn
+    return wp.vec3(1.0 - s - r, s, r)
+
+
+@wp.func
+def locate_partner(scene: DeviceScene, surf: DeviceSurfaces, prim: int, u: float, v: float):
+    """The partner of ``prim`` (:mod:`wrt.twins`) that contains the hit ``(u, v)`` on it: the largest smallest
+    barycentric weight, at least ``-PARTNER_TOLERANCE`` (of equals the first: the smallest geometry id); -1 when
+    none does."""
+    best = int(-1)
+    best_weight = float(-PARTNER_TOLERANCE)
+    for k in range(surf.partner_offsets[prim], surf.partner_offsets[prim + 1]):
+        r = surf.partner_ranges[k]
+        for partner in range(r[0], r[0] + r[1]):
+            w = partner_weights(scene, prim, partner, u, v)
+            weight = wp.min(wp.min(w[0], w[1]), w[2])
+            if weight > best_weight:
+                best = partner
+                best_weight = weight
+    return best
+
+
+@wp.func
+def partner_uv(scene: DeviceScene, prim: int, partner: int, u: float, v: float):
+    """The hit ``(u, v)`` on ``prim`` as ``(u, v)`` on ``partner`` (:func:`partner_weights`), clamped into it (a
+    point on a shared edge may round a hair outside)."""
+    w = partner_weights(scene, prim, partner, u, v)
+    w = wp.vec3(wp.max(w[0], 0.0), wp.max(w[1], 0.0), wp.max(w[2], 0.0))
+    total = w[0] + w[1] + w[2]
+    return wp.vec2(w[1] / total, w[2] / total)
+
+
+@wp.func
 def hidden(
     scene: DeviceScene,
     surf: DeviceSurfaces,
@@ -566,10 +634,11 @@ def cull_hidden_hits_kernel(
     retries: wp.array[wp.int32],
 ):
     """Marks rays whose closest hit is not seen (:func:`hidden`): they are re-traced from just past it
-    (``retry_t_maxs > 0``); every other ray gets an empty range. A hit whose coincident twin (:mod:`wrt.twins`) is
-    seen there becomes a hit on the twin instead (``hit_u, hit_v, hit_prim`` are rewritten in place) when the hit is
-    hidden (the re-trace from past ``t`` would skip the twin too) or, for bounce rays, on the hit's back: they see
-    a two-sided leaf's other face there, as camera rays do, not the back of the face the tie rule reported."""
+    (``retry_t_maxs > 0``); every other ray gets an empty range. A hit with a coincident partner (:mod:`wrt.twins`)
+    that contains the hit point and is seen there becomes a hit on that partner instead (``hit_u, hit_v, hit_prim``
+    are rewritten in place) when the hit is hidden (the re-trace from past ``t`` would skip the partner too) or, for
+    bounce rays, on the hit's back: they see a two-sided card's other face there, as camera rays do, not the back of
+    the face the tie rule reported."""
     i = wp.tid()
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
@@ -577,22 +646,24 @@ def cull_hidden_hits_kernel(
     if prim < 0:
         return
     instance, u, v, o, d, t = hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i], hit_t[i]
-    twin = int(-1)
-    if surf.num_twins > 0 and prim < scene.num_prims:
-        twin = surf.twins[prim]
+    partners = int(0)
+    if surf.num_partners > 0 and prim < scene.num_prims:
+        partners = surf.partner_offsets[prim + 1] - surf.partner_offsets[prim]
     hide = hidden(scene, surf, mats, back_faces, prim, instance, u, v, o, d, t)
-    # Kept as it is unless hidden or, for a bounce ray, on the back of a face whose twin may show its front there.
-    if not hide and (twin < 0 or back_faces == 1 or not back_face(scene, surf, prim, instance, o, d, t)):
+    # Kept as it is unless hidden or, for a bounce ray, on the back of a face whose partner may show its front there.
+    if not hide and (partners == 0 or back_faces == 1 or not back_face(scene, surf, prim, instance, o, d, t)):
         return
-    if twin >= 0:
-        uv = twin_uv(scene, prim, twin, u, v)
-        if not hidden(scene, surf, mats, back_faces, twin, instance, uv[0], uv[1], o, d, t):
-            hit_u[i] = uv[0]
-            hit_v[i] = uv[1]
-            hit_prim[i] = twin
-            return
+    if partners > 0:
+        partner = locate_partner(scene, surf, prim, u, v)
+        if partner >= 0:
+            uv = partner_uv(scene, prim, partner, u, v)
+            if not hidden(scene, surf, mats, back_faces, partner, instance, uv[0], uv[1], o, d, t):
+                hit_u[i] = uv[0]
+                hit_v[i] = uv[1]
+                hit_prim[i] = partner
+                return
     if not hide:
-        return  # a bounce ray on the back of a face whose twin is a hole there: it sees that back
+        return  # a bounce ray on the back of a face whose partner is a hole there (or none there): it sees that back
     retry_t_mins[i] = t_past(t)
     retry_t_maxs[i] = t_maxs[i]
     wp.atomic_add(retries, 0, 1)
@@ -645,13 +716,13 @@ def intersect_visible(
             capture: :func:`repeat_passes`); ``None``: up to :data:`MAX_CULL_PASSES`, stopping once no ray needs
             another.
         camera_rays: also cull back faces, and add the traversal costs to ``hits.cost`` (the cost AOV); ``False``
-            for bounce rays, which see both sides of every surface (but take a back face's coincident twin) and
+            for bounce rays, which see both sides of every surface (but take a back face's coincident partner) and
             pass holes only.
     """
     origins, directions, _, t_maxs = rays
     accel.intersect(*rays, hits, costs=camera_rays)
-    # Bounce rays need the pass for holes, and for coincident twins (cull_hidden_hits_kernel).
-    nothing_hidden = scratch.nothing_to_cull if camera_rays else scratch.no_holes and surfaces.num_twins == 0
+    # Bounce rays need the pass for holes, and for coincident partners (cull_hidden_hits_kernel).
+    nothing_hidden = scratch.nothing_to_cull if camera_rays else scratch.no_holes and surfaces.num_partners == 0
     if nothing_hidden:
         return
     n = len(origins)
