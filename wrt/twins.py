@@ -24,7 +24,6 @@ import numpy as np
 _MIX_1 = np.uint64(0xFF51AFD7ED558CCD)  # MurmurHash3 fmix64 constants
 _MIX_2 = np.uint64(0xC4CEB9FE1A85EC53)
 _SHIFT = np.uint64(33)
-_TABLE_SIZE = 1 << 20  # bit table of repeated hash values (_repeated)
 
 
 def _mix(x: np.ndarray) -> np.ndarray:
@@ -41,30 +40,39 @@ def _point_bits(points: np.ndarray) -> np.ndarray:
     return (np.asarray(points, np.float32) + np.float32(0.0)).view(np.uint32)
 
 
-def _repeated(keys: np.ndarray, sorted_keys: np.ndarray) -> np.ndarray:
-    """Indices of the entries of ``keys`` whose value occurs more than once, sorted by key (stable);
-    ``sorted_keys`` is ``np.sort(keys)``. Only those few are argsorted: argsorting all of them costs several sorts."""
-    values = sorted_keys[1:][sorted_keys[1:] == sorted_keys[:-1]]
-    if not len(values):
-        return np.zeros(0, np.int64)
-    values = values[np.concatenate([[True], values[1:] != values[:-1]])]
-    # A bit table of the values' low bits narrows the keys down first: searching all of them cost as much as a sort.
-    low = np.uint64(_TABLE_SIZE - 1)
-    table = np.zeros(_TABLE_SIZE, bool)
-    table[values & low] = True
-    maybe = np.flatnonzero(table[keys & low])
-    slot = np.minimum(np.searchsorted(values, keys[maybe]), len(values) - 1)
-    found = maybe[values[slot] == keys[maybe]]
-    return found[np.argsort(keys[found], kind="stable")]
+def _vertex_hashes(points: np.ndarray) -> np.ndarray:
+    """``(V,)`` uint64 hash of each vertex position (equal positions, equal hashes)."""
+    bits = _point_bits(points).astype(np.uint64)
+    return _mix(bits[:, 0] ^ _mix(bits[:, 1] ^ _mix(bits[:, 2])))
 
 
-def find_twins(points: np.ndarray, indices: np.ndarray, spaces: np.ndarray, double_sided: np.ndarray):
+def _repeated(keys: np.ndarray) -> np.ndarray:
+    """Indices of the entries of ``keys`` (uint64 hashes) whose value occurs more than once, sorted by key (stable).
+
+    Counting the keys in buckets of a few of their bits, three times with other bits, leaves the entries that share
+    a bucket each time (a third, then a tenth, ...: every repeated key among them); only those are sorted.
+    A sort of all of them cost several times as much, and most scenes repeat none."""
+    found = np.arange(len(keys))
+    for shift in (0, 21, 42):
+        if len(found) < 1024:
+            break
+        bits = min(21, int(np.log2(len(found))) + 2)  # 2 to 4 buckets per key: a quarter to a third share one
+        bucket = ((keys[found] >> np.uint64(shift)) & np.uint64((1 << bits) - 1)).astype(np.intp)
+        found = found[np.bincount(bucket, minlength=1 << bits)[bucket] > 1]
+    order = found[np.argsort(keys[found], kind="stable")]
+    equal = keys[order[1:]] == keys[order[:-1]]
+    return order[np.concatenate([equal, [False]]) | np.concatenate([[False], equal])]
+
+
+def find_twins(points: np.ndarray, indices: np.ndarray, spaces: np.ndarray, double_sided: np.ndarray,
+               corner_hashes: np.ndarray | None = None):
     """Each single-sided triangle's twin: the triangle with the same three corner positions in the same space, seen
     from its back (double-sided, or single-sided with the reversed winding); of several, the smallest geometry id
     (the one the tie rule reports first).
 
-    A symmetric hash of the corner positions finds the triangles that may share their corners with another (one
-    sort); only those are compared exactly, so a scene without twins costs one hash and one sort of its triangles.
+    A symmetric hash of the corner positions finds the triangles that may share their corners with another
+    (:func:`_repeated`); only those are compared exactly, so a scene without twins costs a hash and a count of its
+    triangles.
 
     Args:
         points: ``(V, 3)`` float32 vertex positions.
@@ -72,6 +80,7 @@ def find_twins(points: np.ndarray, indices: np.ndarray, spaces: np.ndarray, doub
         spaces: ``(T,)`` int: the space of each triangle's points (e.g. -1 world, ``k`` prototype ``k``); only
             triangles of one space can be twins.
         double_sided: ``(T,)`` bool: the triangle's mesh is double-sided.
+        corner_hashes: ``(T, 3)`` uint64 :func:`_vertex_hashes` of each corner, when the caller has them.
 
     Returns:
         ``(T,)`` int32 twin geometry id of every single-sided triangle (-1: none, and for double-sided triangles),
@@ -84,16 +93,15 @@ def find_twins(points: np.ndarray, indices: np.ndarray, spaces: np.ndarray, doub
     if n < 2 or double_sided.all():
         return None
     # Hash the corners in any order (a sum of per-corner hashes) with the space; equal hashes are candidates.
-    bits = _point_bits(points).astype(np.uint64)
-    vertex_hash = _mix(bits[:, 0] ^ _mix(bits[:, 1] ^ _mix(bits[:, 2])))
-    corner_sum = vertex_hash[indices[:, 0]] + vertex_hash[indices[:, 1]] + vertex_hash[indices[:, 2]]
+    if corner_hashes is None:
+        corner_hashes = _vertex_hashes(points)[indices]
+    corner_sum = corner_hashes[:, 0] + corner_hashes[:, 1] + corner_hashes[:, 2]
     tri_hash = _mix(corner_sum + spaces.astype(np.uint64) * _MIX_2)
-    hashes = np.sort(tri_hash)  # a plain sort is several times faster than argsort: the common case ends here
-    if not (hashes[1:] == hashes[:-1]).any():
+    order = _repeated(tri_hash)
+    if not len(order):  # the common case ends here
         return None
     # Group the triangles of equal hash (runs of the sorted order) and compare each exactly with its group's first:
     # same space and the same corner positions, and whether its winding is the first's or reversed.
-    order = _repeated(tri_hash, hashes)
     starts = np.concatenate([[True], tri_hash[order[1:]] != tri_hash[order[:-1]]])
     run = np.cumsum(starts) - 1
     shared = np.bincount(run)[run] > 1
@@ -131,15 +139,14 @@ def _rotate(x: np.ndarray) -> np.ndarray:
     return (x << np.uint64(29)) | (x >> np.uint64(35))
 
 
-def _cycle_terms(vertex_hash: np.ndarray, indices: np.ndarray) -> np.ndarray:
-    """``(T,)`` uint64: each triangle's sum over its directed edges ``a -> b`` of ``g(a, b) - g(b, a)`` (wrapping),
-    ``g(a, b) = h(a) * rot(h(b))``. An edge walked both ways cancels exactly, so summed over a consistently wound
-    triangulation (a face's fan or ear clipping, a whole mesh) the interior edges drop out and the sum depends on the
-    boundary cycle only: any triangulation of a polygon gives the same sum, the reversed polygon its negation, a
-    closed surface (or a degenerate triangle) 0."""
-    h = vertex_hash[indices]  # (T, 3)
-    r = _rotate(vertex_hash)[indices]
-    total = np.zeros(len(indices), np.uint64)
+def _cycle_terms(h: np.ndarray) -> np.ndarray:
+    """``(T,)`` uint64 from the ``(T, 3)`` corner hashes ``h``: each triangle's sum over its directed edges
+    ``a -> b`` of ``g(a, b) - g(b, a)`` (wrapping), ``g(a, b) = h(a) * rot(h(b))``. An edge walked both ways
+    cancels exactly, so summed over a consistently wound triangulation (a face's fan or ear clipping, a whole mesh)
+    the interior edges drop out and the sum depends on the boundary cycle only: any triangulation of a polygon gives
+    the same sum, the reversed polygon its negation, a closed surface (or a degenerate triangle) 0."""
+    r = _rotate(h)
+    total = np.zeros(len(h), np.uint64)
     for i, j in ((0, 1), (1, 2), (2, 0)):
         total += h[:, i] * r[:, j] - h[:, j] * r[:, i]
     return total
@@ -147,9 +154,8 @@ def _cycle_terms(vertex_hash: np.ndarray, indices: np.ndarray) -> np.ndarray:
 
 def _equal_key_pairs(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Ordered pairs ``(i, j)``, ``i != j``, of the entries of ``keys`` that are equal (within :data:`MAX_GROUP`
-    places of one another in sorted order): one sort, and an argsort of the repeated ones."""
-    sorted_keys = np.sort(keys)
-    order = _repeated(keys, sorted_keys)
+    places of one another in sorted order)."""
+    order = _repeated(keys)
     sorted_keys = keys[order]
     firsts, seconds = [], []
     for step in range(1, MAX_GROUP):
@@ -215,18 +221,13 @@ def _edge_partners(points, indices, spaces, double_sided, candidates) -> tuple[n
     return t[keep], p[keep]
 
 
-def _vertex_hashes(points: np.ndarray) -> np.ndarray:
-    """``(V,)`` uint64 hash of each vertex position (equal positions, equal hashes)."""
-    bits = _point_bits(points).astype(np.uint64)
-    return _mix(bits[:, 0] ^ _mix(bits[:, 1] ^ _mix(bits[:, 2])))
-
-
 def find_partners(points, indices, spaces, double_sided, face_starts, mesh_starts):
     """Each single-sided triangle's partners (module docstring), as ranges of geometry ids.
 
-    Faces and meshes are hashed by their boundary cycles (:func:`_cycle_terms`: one pass over the triangles, one
-    sort of the faces of more than one triangle, one of the meshes); edges are hashed only in meshes whose boundary
-    matches another's, so a scene without coincident faces costs little more than :func:`find_twins`.
+    Faces and meshes are hashed by their boundary cycles (:func:`_cycle_terms`: one pass over the triangles, then
+    :func:`_repeated` on the faces of more than one triangle and on the meshes); edges are hashed only in meshes
+    whose boundary matches another's, so a scene without coincident faces costs little more than
+    :func:`find_twins`.
 
     Args:
         points: ``(V, 3)`` float32 vertex positions.
@@ -248,11 +249,12 @@ def find_partners(points, indices, spaces, double_sided, face_starts, mesh_start
     if n < 2 or double_sided.all():
         return None
     rows = []  # (triangle, first, count) arrays
-    twins = find_twins(points, indices, spaces, double_sided)
+    corner_hashes = _vertex_hashes(points)[indices]  # (T, 3)
+    twins = find_twins(points, indices, spaces, double_sided, corner_hashes)
     if twins is not None:
         has = np.flatnonzero(twins >= 0)
         rows.append((has, twins[has].astype(np.int64), np.ones(len(has), np.int64)))
-    terms = _cycle_terms(_vertex_hashes(points), indices)
+    terms = _cycle_terms(corner_hashes)
     # Faces of two or more triangles (a one-triangle face's partners are its twins) with a partner face: each of
     # its triangles takes the partner face's triangles.
     face_first = np.flatnonzero(face_starts)
