@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+import warp as wp
 
 import wrt
 from wrt.instancing import Instances, Prototype
@@ -16,6 +17,7 @@ CORNERS = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
 FRONT = [[0, 1, 2], [0, 2, 3]]  # normal +z
 BACK = [[0, 2, 1], [0, 3, 2]]  # normal -z: the same two triangles reversed
 RED, BLUE = (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)
+DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 SIDES = {"+z": ((0.1, 0.2, 4.0), "front"), "-z": ((0.1, 0.2, -4.0), "back")}  # eye, the side it sees
 
 
@@ -236,8 +238,9 @@ def containing_triangle(centres: np.ndarray, corners, triangles) -> tuple[np.nda
     return found, near
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("card", CARDS)
-def test_card_shows_each_side_from_its_side(tmp_path, card):
+def test_card_shows_each_side_from_its_side(tmp_path, card, device):
     """The card seen from either side shows that side's mesh on every pixel the card covers (coverage the card's
     area in pixels, from a float64 point-in-triangle oracle), each pixel on the very triangle of that side that holds
     it. From the back every form showed nothing (coverage 0): the fans of a polygon and of its reversal run along
@@ -250,7 +253,7 @@ def test_card_shows_each_side_from_its_side(tmp_path, card):
         triangles = scene.meshes[first // n].indices
         want, near = containing_triangle(pixel_centres(view), corners, triangles)
         assert near == 0  # no pixel centre near an edge: the float32 render must agree everywhere
-        image = wrt.render(scene, camera=f"/W/{view}_cam", width=PIXELS, height=PIXELS, device="cpu",
+        image = wrt.render(scene, camera=f"/W/{view}_cam", width=PIXELS, height=PIXELS, device=device,
                            integrator="albedo")
         covered = want >= 0
         assert covered.sum() > 400
@@ -258,7 +261,8 @@ def test_card_shows_each_side_from_its_side(tmp_path, card):
         np.testing.assert_allclose(image.rgb[covered], np.broadcast_to(colour, (covered.sum(), 3)), atol=1e-6)
 
 
-def test_folded_flap_is_not_taken_where_it_is_not():
+@pytest.mark.parametrize("device", DEVICES)
+def test_folded_flap_is_not_taken_where_it_is_not(device):
     """A mesh folded flat (a triangle and a flap folded back onto half of it: coplanar, facing the other way,
     sharing an edge) and its reversed copy. From below, the big triangle's back is culled; where the flap does not
     reach, the hit takes the reversed copy's triangle, never the flap (an edge partner that does not hold the hit
@@ -271,7 +275,7 @@ def test_folded_flap_is_not_taken_where_it_is_not():
     assert partners is not None and (1, 1) in map(tuple, partners[1][partners[0][0]:partners[0][1]])  # listed
     camera = wrt.Camera(to_world=np.diag([-1.0, 1.0, -1.0, 1.0]) @ _translate(-1.2, 0, 5), projection="orthographic",
                         horizontal_aperture=PIXELS * PITCH / 0.1, vertical_aperture=PIXELS * PITCH / 0.1)
-    got = wrt.render(scene, camera=camera, width=PIXELS, height=PIXELS, device="cpu", integrator="albedo").aovs["prim"]
+    got = wrt.render(scene, camera=camera, width=PIXELS, height=PIXELS, device=device, integrator="albedo").aovs["prim"]
     centres = pixel_centres("back") + [1.2, 0.0]
     big, near_big = containing_triangle(centres, corners[:, :2], [folded[0]])
     flap, near_flap = containing_triangle(centres, corners[:, :2], [folded[1]])
