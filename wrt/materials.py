@@ -1174,22 +1174,24 @@ class MaterialReader:
 
 
 def emission_estimates(materials: list[Material], textures: list[np.ndarray]) -> list[np.ndarray]:
-    """Per device material (``[default] + materials``) a ``(3,)`` estimate of its emitted radiance: the constant
-    ``emissiveColor``, or the mean of its texture (after scale and bias). Used to find and weigh light sources."""
-    out = [np.zeros(3, np.float32)]
-    for mat in materials:
-        tex = mat.textures.get("emissiveColor")
-        if tex is None:
-            out.append(np.maximum(np.asarray(mat.emissive_color, np.float32), 0.0))
-            continue
-        # A UDIM texture: the mean of its tiles' means (each tile covers a unit square of st); without tiles its
-        # fallback everywhere.
-        images = [tex.image] if tex.tiles is None else [k for k in tex.tiles if k >= 0]
-        if images:
-            mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0)
-        else:
-            mean = np.asarray(tex.fallback, np.float32)
-        mean = mean * tex.scale + tex.bias
-        value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
-        out.append(np.maximum(value.astype(np.float32), 0.0))
-    return out
+    """Per device material (``[default] + materials``) a ``(3,)`` estimate of its emitted radiance
+    (:func:`emission_estimate`). Used to find and weigh light sources."""
+    return [np.zeros(3, np.float32)] + [emission_estimate(mat, textures) for mat in materials]
+
+
+def emission_estimate(mat: Material, textures: list[np.ndarray]) -> np.ndarray:
+    """``(3,)`` float32 estimate of the radiance ``mat`` emits, clamped to 0: the constant ``emissiveColor``, or the
+    mean of its texture (after scale and bias; ``textures``: the scene's images). Zero where nothing is emitted."""
+    tex = mat.textures.get("emissiveColor")
+    if tex is None:
+        return np.maximum(np.asarray(mat.emissive_color, np.float32), 0.0)
+    # A UDIM texture: the mean of its tiles' means (each tile covers a unit square of st); without tiles its
+    # fallback everywhere.
+    images = [tex.image] if tex.tiles is None else [k for k in tex.tiles if k >= 0]
+    if images:
+        mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0)
+    else:
+        mean = np.asarray(tex.fallback, np.float32)
+    mean = mean * tex.scale + tex.bias
+    value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
+    return np.maximum(value.astype(np.float32), 0.0)
