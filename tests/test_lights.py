@@ -16,6 +16,7 @@ from wrt.integrators.emitters import environment, lights_on_segment
 from wrt.light_sampling import DeviceLights, area_light_pdf, intersect_light, sample_light
 from wrt.lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
 from wrt.materials import DeviceMaterials
+from wrt.primitives import tessellate
 from wrt.scene import DeviceScene
 from wrt.shade import DeviceSurfaces
 
@@ -485,7 +486,8 @@ def test_light_and_material_inputs_with_only_time_samples_read_the_first_at_the_
 
 def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
     """An emissive analytic sphere lights nothing under whitted (only world-space emissive triangles are sampled as
-    lights): the render says so instead of silently showing a dark plane; tessellated, it is sampled and lights it."""
+    lights): the render says so instead of silently showing a dark plane. A stage's emissive gprim is drawn as its
+    tessellation (tests/test_emissive_gprims.py), so this is a scene built in Python; tessellated, it is sampled."""
     path = tmp_path / "scene.usda"
     path.write_text(
         '#usda 1.0\ndef Material "E"\n{\n    token outputs:surface.connect = </E/PS.outputs:surface>\n'
@@ -497,11 +499,22 @@ def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
         '    double3 xformOp:translate = (0, 0, 2)\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
         "    rel material:binding = </E>\n}\n"
     )
-    with pytest.warns(UserWarning, match="1 emissive instanced or analytic primitive"):
-        wrt.render(wrt.load_usd(path), width=8, height=8)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        wrt.render(wrt.load_usd(path, tessellate_gprims=16), width=8, height=8)
+        loaded = wrt.load_usd(path)
+        wrt.render(loaded, width=8, height=8)
+    (plane,) = [m for m in loaded.meshes if m.path == "/Plane"]
+    to_world = np.diag([0.5, 0.5, 0.5, 1.0])  # radius 0.5 at (0, 0, 2), column vectors
+    to_world[2, 3] = 2.0
+    sphere = wrt.Shape("/Lamp", "sphere", to_world, material_id=0)
+    scene = wrt.Scene(meshes=[plane], shapes=[sphere], materials=loaded.materials)
+    with pytest.warns(UserWarning, match="1 emissive instanced or analytic primitive"):
+        wrt.render(scene, width=8, height=8)
+    points, indices, _ = tessellate(sphere, 16)
+    lamp = wrt.Mesh("/Lamp", points, indices, np.arange(len(indices)), material_ids=np.zeros(len(indices), np.int32))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        wrt.render(wrt.Scene(meshes=[plane, lamp], materials=loaded.materials), width=8, height=8)
 
 
 def test_coarse_textured_dome_is_unbiased(tmp_path):

@@ -312,17 +312,23 @@ def test_a_point_instancer_of_a_world_mesh_light_names_what_emits(tmp_path):
     assert abs(render_floor(scene, "path").mean() / closed_form(3.0).mean() - 1) < 0.03  # the Sphere adds 0.1%
 
 
-def test_the_whitted_warning_on_an_emissive_analytic_gprim_names_what_the_command_line_can_do(tmp_path):
-    """A Sphere bound to a glowing material (no light) is drawn analytically and not sampled by ``whitted``: the
-    warning's way out names the Python option and its ``wrt render`` equivalents. Before, it named only
-    ``tessellate_gprims=True``, which the command line does not have."""
-    sphere = ('def Sphere "Ball" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n    double radius = 0.1\n'
-              "    rel material:binding = </Glow>\n}\n")
-    scene, _ = load(tmp_path, floor(), glowing_material((1.0, 1.0, 1.0)), sphere)
-    with pytest.warns(UserWarning, match="not sampled as lights") as record:
-        render_floor(scene, "whitted", spp=1)
-    message = str(record[0].message)
-    assert "tessellate_gprims=True" in message and "--accel warp" in message and "--integrator path" in message
+def test_the_whitted_warning_on_an_instanced_emissive_gprim_names_what_the_command_line_can_do(tmp_path):
+    """A Sphere bound to a glowing material (no light) inside a native instance is not sampled by ``whitted``: the
+    warning's way out names the Python option and its ``wrt render`` equivalent. It no longer offers
+    ``tessellate_gprims`` (``--accel warp``): a world-space gprim is drawn as its tessellation anyway, and an
+    instanced one stays unsampled with it, as the second render shows."""
+    prototype = ('over "Protos"\n{\n    def Xform "Lamp"\n    {\n        def Sphere "Ball" (\n'
+                 '            prepend apiSchemas = ["MaterialBindingAPI"]\n        )\n        {\n'
+                 "            double radius = 0.1\n            rel material:binding = </Glow>\n        }\n    }\n}\n")
+    instance = 'def Xform "Lamp" (\n    instanceable = true\n    prepend references = </Protos/Lamp>\n)\n{\n}\n'
+    analytic, _ = load(tmp_path, floor(), glowing_material((1.0, 1.0, 1.0)), prototype, instance)
+    tessellated = wrt.load_usd(str(tmp_path / "stage.usda"), tessellate_gprims=True)
+    for scene in (analytic, tessellated):
+        with pytest.warns(UserWarning, match="not sampled as lights") as record:
+            render_floor(scene, "whitted", spp=1)
+        message = str(record[0].message)
+        assert "integrator='path'" in message and "--integrator path" in message, message
+        assert "tessellate_gprims" not in message and "--accel warp" not in message, message
 
 
 def test_a_python_mesh_light_names_its_mesh():

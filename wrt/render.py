@@ -398,14 +398,16 @@ class Renderer:
         glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
         emissive_used = bool(glows[geometry_materials].any())
         if self.integrator == "whitted" and emissive_used:
-            # Only world-space emissive triangles are sampled as lights (wrt.light_table.emitter_triangles).
+            # Only world-space emissive triangles are sampled as lights (wrt.light_table.emitter_triangles). A
+            # stage's emissive gprims outside instances are triangles already (wrt.usd), so what is left is
+            # instanced (tessellate_gprims keeps it so) or an analytic shape of a scene built in Python.
             unsampled = int(glows[geometry_materials[scene.num_flat_triangles :]].sum())
             if unsampled:
                 warnings.warn(
                     f"{scene.source or 'scene'}: {unsampled} emissive instanced or analytic primitive(s) are "
                     "not sampled as lights: the whitted integrator shows them but they light nothing; use "
-                    "integrator='path' (wrt render: --integrator path), or for gprims load with "
-                    "tessellate_gprims=True (wrt render: --accel warp)",
+                    "integrator='path' (wrt render: --integrator path), or draw them as world-space meshes "
+                    "(wrt.primitives.tessellate for a Shape)",
                     stacklevel=3,
                 )
         # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels

@@ -17,10 +17,11 @@ Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``siz
 shapes intersected in their own space,
 with ``displayColor`` (constant; other interpolations use the mean), material binding, ``doubleSided`` and
 ``orientation``. With ``tessellate_gprims`` they become triangle meshes instead (vertices on the surface, analytic
-vertex normals; see :func:`wrt.primitives.tessellate`). Gprims whose size is zero, negative or not finite are
-skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0), and so are volumes (the gprim
-types left); one whose world box is past float32's range raises, as mesh points do, and one flattened by a zero
-scale is drawn as its (flat) tessellation, with a warning. ``Points`` and curves
+vertex normals; see :func:`wrt.primitives.tessellate`); outside instances, one that emits (a mesh light, or bound
+to a material that glows) is always such a mesh, as light sampling draws points on triangles. Gprims whose size is
+zero, negative or not finite are skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0),
+and so are volumes (the gprim types left); one whose world box is past float32's range raises, as mesh points do,
+and one flattened by a zero scale is drawn as its (flat) tessellation, with a warning. ``Points`` and curves
 (``BasisCurves``, ``HermiteCurves``, ``NurbsCurves``) become instances of spheres and tube pieces
 (:mod:`wrt.usd_tubes`), each shape a content of its own; ``TetMesh`` (its boundary) and ``NurbsPatch``
 (tessellated) become meshes (:mod:`wrt.usd_surfaces`).
@@ -88,8 +89,8 @@ from .errors import SceneError
 from .instancing import invert_transforms
 from .light_links import resolve_expressions
 from .lights import MeshLight
-from .materials import MaterialReader
-from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS
+from .materials import MaterialReader, emission_estimate
+from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape
 from .render_settings import RenderSettings, read_render_settings
 from .scene import Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL
@@ -342,7 +343,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
 
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when
-        the gprim is a mesh light)."""
+        the gprim is a mesh light or its material emits, outside instances)."""
         if prim.HasAPI(UsdLux.VolumeLightAPI):
             self._skip("volume lights (VolumeLightAPI) are not supported: wrt has no volumes", prim, prim.GetTypeName())
         if prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.TetMesh) or prim.IsA(UsdGeom.NurbsPatch):
@@ -362,14 +363,23 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
         elif shape is not None and self.segments:
             self._add_mesh(prim, self._tessellated(shape, prim), ctx)
-        elif shape is not None and ctx.world and _is_mesh_light(prim):
-            # A mesh light is sampled by its triangles, and rays that hit it must see the surface sampled (its
-            # radiance and pdf come from the triangle hit): the emitting gprim alone is drawn as its tessellation.
+        elif shape is not None and ctx.world and (_is_mesh_light(prim) or self._glows(shape)):
+            # Light sampling draws points on triangles, and rays that hit an emitter must see the surface sampled (its
+            # radiance and pdf come from the triangle hit): a mesh light, or a gprim bound to a material that emits,
+            # is drawn as its tessellation; the other gprims stay analytic. Instanced ones are not sampled anyway.
             self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
         elif shape is not None:
             if _is_mesh_light(prim):
                 self._instanced_light(prim)
             ctx.content.shapes.append(shape)
+
+    def _glows(self, shape: Shape) -> bool:
+        """``shape``'s material emits: a constant ``emissiveColor`` above 0, or a texture on it whose mean (after
+        scale and bias) is; the estimate the render uses to find the emissive triangles it samples."""
+        if shape.material_id < 0:  # the default material emits nothing
+            return False
+        material = self.materials.materials[shape.material_id]
+        return bool(emission_estimate(material, self.materials.textures).max() > 0.0)
 
     def _add_mesh(self, prim: Usd.Prim, mesh: Mesh | None, ctx: Context):
         """Adds ``mesh`` (None: nothing), drawn for ``prim``, to ``ctx.content``, and its light when ``prim`` is a

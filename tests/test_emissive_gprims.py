@@ -1,0 +1,166 @@
+"""Gprims bound to a material that emits (UsdPreviewSurface ``emissiveColor``, constant or textured, or a MaterialX
+``emission``): drawn as their tessellation outside instances, so ``whitted`` samples their triangles as lights. A
+Sphere lights a white plane as the closed form for a sphere says, a Cube as the one for its bottom face; gprims that
+do not emit stay analytic, and instanced emitters are still named in the warning."""
+
+import warnings
+
+import numpy as np
+import pytest
+from PIL import Image as PilImage
+from pxr import UsdGeom
+from test_lights import rect_irradiance
+
+import wrt
+
+HEIGHT = 1.0  # of the emitter's centre above the plane z = 0
+RADIANCE = 3.0  # of the emitter
+RES = 4  # pixels per side of the patch checked: a handful, many samples each
+UNSAMPLED = "not sampled as lights"  # what render.py's warning about emitters whitted cannot sample says
+
+
+def white_plane():
+    """USDA of a large plane z = 0 facing up, the default material of ``displayColor`` white (Lambertian albedo 1)."""
+    return ('def Mesh "Floor"\n{\n    point3f[] points = [(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)]\n'
+            "    int[] faceVertexCounts = [4]\n    int[] faceVertexIndices = [0, 1, 2, 3]\n"
+            "    color3f[] primvars:displayColor = [(1, 1, 1)]\n}\n")
+
+
+def glow(kind):
+    """USDA of material ``/Glow`` emitting RADIANCE: a constant ``emissiveColor``, one read from a white texture
+    times its ``scale``, or a MaterialX standard_surface's ``emission_color`` times ``emission``; ``dark_texture``:
+    the texture with ``scale`` 0 (nothing emitted); ``diffuse``: a material that does not emit."""
+    surface, image = "", ""
+    if kind == "constant":
+        surface = f"        color3f inputs:emissiveColor = ({RADIANCE}, {RADIANCE}, {RADIANCE})\n"
+    elif kind == "diffuse":
+        surface = "        color3f inputs:diffuseColor = (0.2, 0.4, 0.6)\n"
+    elif kind in ("texture", "dark_texture"):
+        scale = RADIANCE if kind == "texture" else 0.0
+        surface = "        color3f inputs:emissiveColor.connect = </Glow/Image.outputs:rgb>\n"
+        image = ('    def Shader "Image"\n    {\n        uniform token info:id = "UsdUVTexture"\n'
+                 "        asset inputs:file = @white.png@\n"
+                 f"        float4 inputs:scale = ({scale}, {scale}, {scale}, 1)\n"
+                 "        float3 outputs:rgb\n    }\n")
+    if kind == "materialx":
+        return ('def Material "Glow"\n{\n    token outputs:mtlx:surface.connect = </Glow/Surface.outputs:out>\n'
+                '    def Shader "Surface"\n    {\n        uniform token info:id = "ND_standard_surface_surfaceshader"\n'
+                f"        float inputs:emission = 1\n        color3f inputs:emission_color = ({RADIANCE}, {RADIANCE}, "
+                f"{RADIANCE})\n        token outputs:out\n    }}\n}}\n")
+    return ('def Material "Glow"\n{\n    token outputs:surface.connect = </Glow/Surface.outputs:surface>\n'
+            '    def Shader "Surface"\n    {\n        uniform token info:id = "UsdPreviewSurface"\n'
+            f"{surface}        token outputs:surface\n    }}\n{image}}}\n")
+
+
+def gprim(kind, size, name="Lamp", bound=True):
+    """USDA of a ``kind`` gprim (``size``: a Sphere's radius, a Cube's edge) centred at ``(0, 0, HEIGHT)``, bound to
+    ``/Glow`` when ``bound``."""
+    size_attr = f"double radius = {size}" if kind == "Sphere" else f"double size = {size}"
+    bind = "    rel material:binding = </Glow>\n" if bound else ""
+    return (f'def {kind} "{name}" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{{\n    {size_attr}\n'
+            f"    double3 xformOp:translate = (0, 0, {HEIGHT})\n"
+            '    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
+            f"{bind}}}\n")
+
+
+def load(tmp_path, *prims):
+    """``(scene, warning messages)`` of a Z-up stage of ``prims`` (beside a white 2 x 2 PNG, ``white.png``)."""
+    PilImage.fromarray(np.full((2, 2, 3), 255, np.uint8)).save(tmp_path / "white.png")
+    path = tmp_path / "stage.usda"
+    path.write_text('#usda 1.0\n(\n    upAxis = "Z"\n)\n' + "".join(prims))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(str(path))
+    return scene, [str(w.message) for w in caught]
+
+
+def render_under(scene, patch, spp):
+    """Whitted radiance ``(RES, RES)`` of the plane's ``patch`` x ``patch`` square under the emitter (an orthographic
+    camera at z = 0.5, below it, looking down), and the warnings the render gave."""
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 0), up=(0, 1, 0), height=patch)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        img = wrt.render(scene, camera=cam, width=RES, height=RES, spp=spp, seed=7, integrator="whitted")
+    return img.rgb.mean(axis=-1), [str(w.message) for w in caught]
+
+
+def pixel_mean(radiance, patch, sub=16):
+    """``(RES, RES)`` mean of ``radiance(points)`` (``points`` ``(..., 3)`` on z = 0) over each pixel's square of the
+    centred ``patch`` x ``patch`` view, by ``sub`` x ``sub`` midpoints: a pixel averages its jittered samples (a box
+    filter), which for the sphere's peaked falloff is 1% below its value at the pixel centre."""
+    pitch = patch / RES
+    centres = (np.arange(RES) + 0.5) * pitch - patch / 2
+    offsets = ((np.arange(sub) + 0.5) / sub - 0.5) * pitch
+    xs = (centres[:, None] + offsets[None]).reshape(-1)
+    gx, gy = np.meshgrid(xs, xs)
+    values = radiance(np.stack([gx, gy, np.zeros_like(gx)], axis=-1))
+    return values.reshape(RES, sub, RES, sub).mean(axis=(1, 3))
+
+
+@pytest.mark.parametrize("material", ["constant", "texture", "materialx"])
+def test_an_emissive_sphere_lights_a_plane_as_the_closed_form(tmp_path, material):
+    """A Sphere of radius r and radiance L bound to a glowing material, centred at height h over a white Lambertian
+    plane: it subtends sin^2 = r^2 / d^2 from a plane point at distance d, so E = pi L r^2 cos / d^2 with
+    cos = h / d, and the plane shows albedo E / pi. It was drawn analytically, lit nothing under whitted (the plane
+    black) and was named in a warning."""
+    r = 0.1
+    scene, messages = load(tmp_path, white_plane(), glow(material), gprim("Sphere", r))
+    assert [m.path for m in scene.meshes] == ["/Floor", "/Lamp"] and not scene.shapes and not messages, messages
+    rendered, messages = render_under(scene, patch=1.0, spp=8192)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    # Albedo 1 times E / pi, d the distance to the sphere's centre.
+    expected = pixel_mean(lambda p: RADIANCE * r**2 * HEIGHT / np.linalg.norm(p - (0, 0, HEIGHT), axis=-1)**3, 1.0)
+    assert abs(rendered.mean() / expected.mean() - 1) < 0.02, (rendered.mean(), expected.mean())
+    assert np.abs(rendered / expected - 1).max() < 0.07, rendered / expected
+
+
+def test_an_emissive_cube_lights_a_plane_as_its_bottom_face(tmp_path):
+    """A Cube of edge s glowing with radiance L, centred at height h: a plane point under its bottom face sees that
+    face alone (a parallel square at height h - s/2; the sides face away), so E is the closed form for a parallel
+    rectangle. It lit nothing under whitted before."""
+    s = 0.4
+    scene, _ = load(tmp_path, white_plane(), glow("constant"), gprim("Cube", s))
+    assert [m.path for m in scene.meshes] == ["/Floor", "/Lamp"] and not scene.shapes
+    rendered, messages = render_under(scene, patch=0.3, spp=8192)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    expected = pixel_mean(lambda p: rect_irradiance(p, s / 2, s / 2, HEIGHT - s / 2, RADIANCE) / np.pi, 0.3)
+    assert abs(rendered.mean() / expected.mean() - 1) < 0.02, (rendered.mean(), expected.mean())
+    assert np.abs(rendered / expected - 1).max() < 0.12, rendered / expected  # 1 sample in 6 on the bottom face
+
+
+@pytest.mark.parametrize("kind", ["Cylinder", "Cone", "Capsule", "Plane", "Cylinder_1", "Capsule_1"])
+def test_every_gprim_kind_bound_to_a_glow_is_drawn_as_triangles(tmp_path, kind):
+    """The other gprim kinds (at their schema's fallback sizes) bound to a glowing material are meshes of emissive
+    triangles too, with the tessellation's 64 segments around; they were analytic shapes."""
+    if not hasattr(UsdGeom, kind):
+        pytest.skip(f"this usd-core has no {kind}")
+    bound = f'def {kind} "Lamp" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{{\n' \
+            "    rel material:binding = </Glow>\n}\n"
+    scene, messages = load(tmp_path, white_plane(), glow("constant"), bound)
+    assert [m.path for m in scene.meshes] == ["/Floor", "/Lamp"] and not scene.shapes and not messages, messages
+    lamp = scene.meshes[1]
+    assert len(lamp.indices) >= 2 * 64 if kind != "Plane" else len(lamp.indices) == 2
+    np.testing.assert_array_equal(lamp.material_ids, 0)
+
+
+@pytest.mark.parametrize("material", ["diffuse", "dark_texture", None])
+def test_gprims_that_do_not_emit_stay_analytic(tmp_path, material):
+    """A Sphere and a Cube bound to a material that emits nothing (a diffuse one, or an emissive texture of scale
+    0), or to none, stay analytic shapes."""
+    prims = [white_plane(), gprim("Sphere", 0.1, "Ball", bound=material is not None),
+             gprim("Cube", 0.4, "Box", bound=material is not None)]
+    scene, _ = load(tmp_path, *prims, *([glow(material)] if material else []))
+    assert [m.path for m in scene.meshes] == ["/Floor"]
+    assert [(s.path, s.kind) for s in scene.shapes] == [("/Ball", "sphere"), ("/Box", "box")]
+
+
+def test_an_instanced_emissive_sphere_stays_unsampled_and_named(tmp_path):
+    """Inside a native instance the emissive Sphere stays an analytic prototype shape, whose emission whitted does
+    not sample (as emissive prototype triangles are not): the render's warning still names it."""
+    prototype = f'over "Protos"\n{{\n    def Xform "Lamps"\n    {{\n{gprim("Sphere", 0.1)}    }}\n}}\n'
+    instance = 'def Xform "Lamps" (\n    instanceable = true\n    prepend references = </Protos/Lamps>\n)\n{\n}\n'
+    scene, _ = load(tmp_path, white_plane(), glow("constant"), prototype, instance)
+    assert [m.path for m in scene.meshes] == ["/Floor"] and not scene.shapes
+    assert [s.kind for p in scene.prototypes for s in p.shapes] == ["sphere"]
+    _, messages = render_under(scene, patch=1.0, spp=1)
+    assert [m for m in messages if "1 emissive instanced or analytic primitive(s) are " + UNSAMPLED in m], messages
