@@ -1,14 +1,16 @@
 """Seeded random USD stages of small meshes seen by a random camera, and what the camera sees, per pixel, by USD's
 own API and float64 brute force.
 
-:func:`write_stage` writes convex polygons (triangles to octagons, quads), several polygons in one mesh, and small
-closed polyhedra (tetrahedra, boxes, octahedra, prisms), some ``doubleSided``, some ``leftHanded``, under Xforms of
-random translate / rotate / scale ops (negative and uneven scales included, so some are mirrored); some placed as
-native instances (instanceable prims referencing a prototype: an abstract ``class`` or a prim drawn in place too),
-some by a PointInstancer (positions, ``orientationsf``, scales with negative and uneven ones, prototypes a mesh or
-an Xform of meshes); and a ``UsdGeom.Camera`` (perspective or orthographic, random film, aperture offsets, a
-clipping range that sometimes cuts the geometry) under a rig of positive determinant. No two faces are coplanar and
-overlapping (the placements are random floats).
+:func:`write_stage` writes convex polygons (triangles to octagons, quads), several polygons in one mesh (one of them
+sometimes a hole), and small closed polyhedra (tetrahedra, cuboids, octahedra, prisms), some ``doubleSided``, some
+``leftHanded``, under Xforms of random translate / rotate / scale ops and matrices (negative and uneven scales and
+shears, so some are mirrored); some placed as native instances (instanceable prims referencing a prototype: an
+abstract ``class`` or a prim drawn in place too, nested in other prototypes), some by a PointInstancer (positions,
+``orientationsf``, scales with negative, uneven and zero ones; prototypes a mesh, an Xform of meshes and native
+instances, or another PointInstancer; instancers inside native prototypes too); sometimes a closed room around
+everything; and a ``UsdGeom.Camera`` (perspective, wide-angle too, or orthographic; random film, aperture offsets,
+a clipping range that sometimes cuts the geometry; scaled and sheared, never mirrored) under a rotated, scaled rig.
+No two faces are coplanar and overlapping (the placements are random floats).
 
 :func:`camera_view` is the oracle: see its docstring for the rules it follows.
 """
