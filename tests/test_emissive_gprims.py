@@ -164,3 +164,55 @@ def test_an_instanced_emissive_sphere_stays_unsampled_and_named(tmp_path):
     assert [s.kind for p in scene.prototypes for s in p.shapes] == ["sphere"]
     _, messages = render_under(scene, patch=1.0, spp=1)
     assert [m for m in messages if "1 emissive instanced or analytic primitive(s) are " + UNSAMPLED in m], messages
+
+
+def uv_sphere(radius, around, rings):
+    """``(points, triangles)`` of a UV sphere centred at ``(0, 0, HEIGHT)``, wound so that its front faces out."""
+    theta = np.pi * np.arange(1, rings) / rings
+    phi = 2 * np.pi * np.arange(around) / around
+    ring_points = np.stack([np.outer(np.sin(theta), np.cos(phi)), np.outer(np.sin(theta), np.sin(phi)),
+                            np.outer(np.cos(theta), np.ones(around))], -1).reshape(-1, 3)
+    points = radius * np.concatenate([[(0, 0, 1)], ring_points, [(0, 0, -1)]]) + (0, 0, HEIGHT)
+    i = np.arange(around)
+    ring = lambda j, k: 1 + (j - 1) * around + k % around  # noqa: E731
+    tris = [np.stack([np.zeros(around, int), ring(1, i), ring(1, i + 1)], -1)]
+    for j in range(1, rings - 1):
+        tris += [np.stack([ring(j, i), ring(j + 1, i), ring(j + 1, i + 1)], -1),
+                 np.stack([ring(j, i), ring(j + 1, i + 1), ring(j, i + 1)], -1)]
+    tris.append(np.stack([ring(rings - 1, i), np.full(around, len(points) - 1), ring(rings - 1, i + 1)], -1))
+    return points.astype(np.float32), np.concatenate(tris)
+
+
+def polygon_irradiance(p, corners, radiance):
+    """Irradiance at ``p`` on the plane z = 0 (normal +Z) from the triangles ``corners`` ``(T, 3, 3)`` (float64) of
+    uniform ``radiance``, all above the plane: Lambert's formula, sum over the edges of the angle they subtend times
+    the z of their unit plane normal (sign by winding, so each triangle's value is taken positive)."""
+    u = corners - p
+    u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    w = np.roll(u, -1, axis=1)
+    angle = np.arccos(np.clip(np.sum(u * w, -1), -1.0, 1.0))
+    normal = np.cross(u, w)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    return radiance / 2.0 * np.abs(np.sum(angle * normal[..., 2], axis=1)).sum()
+
+
+def test_a_finely_tessellated_glowing_sphere_does_not_shadow_its_own_light(tmp_path):
+    """A glowing mesh sphere of 16k triangles over the white plane: the plane point below it shows E / pi, E the
+    exact irradiance of the triangles facing it (a convex mesh: they are the ones it sees). Shadow rays were aimed
+    along the sampled direction from the offset start, so they ended beside the sampled point and crossed the
+    sphere's surface in front of it where it is seen obliquely: 1.3% too dark at 65k triangles, 1.5% at 16k."""
+    points, tris = uv_sphere(0.3, 128, 64)
+    mesh = ('def Mesh "Lamp" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n'
+            f"    point3f[] points = [{', '.join(f'({x!r}, {y!r}, {z!r})' for x, y, z in points.tolist())}]\n"
+            f"    int[] faceVertexCounts = [{', '.join(['3'] * len(tris))}]\n"
+            f"    int[] faceVertexIndices = [{', '.join(map(str, tris.ravel().tolist()))}]\n"
+            "    rel material:binding = </Glow>\n}\n")
+    scene, messages = load(tmp_path, white_plane(), glow("constant"), mesh)
+    assert [m.path for m in scene.meshes] == ["/Floor", "/Lamp"] and not messages, messages
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.5), target=(0, 0, 0), up=(0, 1, 0), height=1e-3)
+    rendered = wrt.render(scene, camera=cam, width=4, height=4, spp=65536, seed=3, integrator="whitted").rgb.mean()
+    corners = points.astype(np.float64)[tris]
+    outward = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    facing = np.sum(outward * corners[:, 0], axis=1) < 0.0  # front side towards the plane point at the origin
+    expected = polygon_irradiance(np.zeros(3), corners[facing], RADIANCE) / np.pi
+    assert abs(rendered / expected - 1) < 0.008, (rendered, expected)  # 1.5% low before; noise 0.15%

@@ -31,14 +31,14 @@ from ..bsdf import (
 )
 from ..geometry import offset_ray_origin
 from ..light_links import link_group, lit_by
-from ..light_sampling import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction
+from ..light_sampling import DeviceLights, lit_bsdf, sample_light_in_view
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
-from .path import SHADOW_SHORTEN
+from .path import shadow_ray_to
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
 
@@ -199,13 +199,12 @@ def whitted_light_kernel(
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
     contribution[i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
-    shadow_origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
-    shadow_dirs[i] = shadow_direction(lights, k, ls.wi)
+    o = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
+    shadow_origins[i] = o
+    to_light, t_max = shadow_ray_to(lights, k, o, h.p, ls.wi, ls.dist)
+    shadow_dirs[i] = to_light
+    shadow_t_maxs[i] = t_max
     shadow_lights[i] = k
-    if ls.dist < wp.inf:
-        shadow_t_maxs[i] = ls.dist * (1.0 - SHADOW_SHORTEN)
-    else:
-        shadow_t_maxs[i] = wp.inf
 
 
 @wp.kernel
