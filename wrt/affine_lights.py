@@ -44,18 +44,24 @@ def unit_sphere_cone(pc: wp.vec3):
 
 
 @wp.func
-def intersect_unit_sphere(o: wp.vec3, d: wp.vec3):
-    """Nearest ``t > 0`` where ray ``o + t d`` (any length ``d``) enters the unit sphere from outside; inf if none.
-    The half chord from the ray's closest approach (Haines et al., Ray Tracing Gems 2019), as
-    :func:`wrt.light_sampling.intersect_sphere`."""
-    if wp.dot(o, o) <= 1.0:
+def intersect_sphere(c: wp.vec3, r: float, o: wp.vec3, d: wp.vec3):
+    """Nearest ``t > 0`` where ray ``o + t d`` (any length ``d``) enters the sphere of centre ``c`` and radius ``r``
+    from outside; inf if none. Round sphere lights use it as it is, ellipsoids on the unit sphere of their canonical
+    frame.
+
+    The half chord from the ray's closest approach to the centre, ``r^2 - |closest - c|^2`` (Haines et al.,
+    "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems 2019), as wrt/primitives.py does:
+    ``b^2 - c`` cancels in float32 for a sphere small next to its distance, and rays saw a light 1000 radii away 15%
+    too large."""
+    oc = o - c
+    if wp.dot(oc, oc) <= r * r:
         return float(wp.inf)
     dd = wp.dot(d, d)
     if dd <= 0.0:
         return float(wp.inf)
-    t_mid = -wp.dot(o, d) / dd
-    closest = o + t_mid * d
-    half2 = 1.0 - wp.dot(closest, closest)
+    t_mid = -wp.dot(oc, d) / dd
+    closest = oc + t_mid * d
+    half2 = r * r - wp.dot(closest, closest)
     if half2 < 0.0:
         return float(wp.inf)
     t = t_mid - wp.sqrt(half2 / dd)
@@ -68,7 +74,7 @@ def intersect_unit_sphere(o: wp.vec3, d: wp.vec3):
 def intersect_ellipsoid(c: wp.vec3, a: wp.mat33, o: wp.vec3, d: wp.vec3):
     """Nearest ``t > 0`` where unit ray ``o + t d`` enters the ellipsoid of centre ``c`` and world-to-canonical map
     ``a`` from outside; inf if none."""
-    return intersect_unit_sphere(a * (o - c), a * d)
+    return intersect_sphere(wp.vec3(0.0), 1.0, a * (o - c), a * d)
 
 
 @wp.func
@@ -93,7 +99,7 @@ def sample_ellipsoid(c: wp.vec3, m: wp.mat33, a: wp.mat33, g: float, p: wp.vec3,
     canonical = to_world(sample_uniform_cone(u1, u2, one_minus), -wp.normalize(pc))
     w = wp.normalize(m * canonical)
     aw = a * w
-    t = intersect_unit_sphere(pc, aw)
+    t = intersect_sphere(wp.vec3(0.0), 1.0, pc, aw)
     if t == wp.inf:
         t = -wp.dot(pc, aw) / wp.dot(aw, aw)  # grazing: rounding missed the ellipsoid by a hair
     s = g * wp.length(aw)

@@ -23,6 +23,7 @@ from .affine_lights import (
     elliptic_tube_pdf,
     intersect_ellipsoid,
     intersect_elliptic_tube,
+    intersect_sphere,
     sample_ellipsoid,
     sample_elliptic_tube,
 )
@@ -265,27 +266,6 @@ def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
     cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
     one_minus = sin2 / (1.0 + cos_max)  # 1 - cos_max without cancellation
     return cos_max, one_minus
-
-
-@wp.func
-def intersect_sphere(c: wp.vec3, r: float, o: wp.vec3, d: wp.vec3):
-    """Nearest ``t > 0`` where unit ray ``o + t d`` enters the sphere from outside; inf if none."""
-    oc = o - c
-    if wp.dot(oc, oc) <= r * r:
-        return float(wp.inf)
-    # The half chord from the ray's closest approach to the centre, r^2 - |closest - c|^2, as wrt/primitives.py
-    # does (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray Tracing Gems 2019): b^2 - c
-    # cancels in float32 for a sphere small next to its distance, and rays saw a light 1000 radii away 15% too large.
-    dd = wp.dot(d, d)
-    t_mid = -wp.dot(oc, d) / dd
-    closest = oc + t_mid * d
-    half2 = r * r - wp.dot(closest, closest)
-    if half2 < 0.0:
-        return float(wp.inf)
-    t = t_mid - wp.sqrt(half2 / dd)
-    if t <= 0.0:
-        return float(wp.inf)
-    return t
 
 
 @wp.func
