@@ -186,13 +186,13 @@ def _facing_pairs(sums: np.ndarray, spaces: np.ndarray, sided: np.ndarray) -> tu
     return i[keep], j[keep]
 
 
-def _edge_partners(points, indices, spaces, double_sided, candidates) -> tuple[np.ndarray, np.ndarray]:
+def _edge_partners(points, indices, spaces, double_sided, candidates, vertex_hash) -> tuple[np.ndarray, np.ndarray]:
     """Pairs ``(t, p)`` of the ``candidates`` triangles: ``t`` single-sided, ``p`` sharing an edge's two corner
     positions (same space), coplanar with it (:data:`COPLANAR_TOLERANCE`), its far corner on the same side of the
-    edge as ``t``'s (the two overlap along it), and seen from ``t``'s back (double-sided, or facing the other way)."""
+    edge as ``t``'s (the two overlap along it), and seen from ``t``'s back (double-sided, or facing the other way).
+    ``vertex_hash``: :func:`_vertex_hashes` of ``points``."""
     tris = indices[candidates]
     bits = _point_bits(points)
-    vertex_hash = _vertex_hashes(points)
     # Hash each undirected edge (its two ends in any order) with the space; equal keys share an edge.
     ends = np.array([[0, 1], [1, 2], [2, 0]])
     a, b = tris[:, ends[:, 0]].reshape(-1), tris[:, ends[:, 1]].reshape(-1)  # (3C,) edge k of triangle c at 3c + k
@@ -249,7 +249,8 @@ def find_partners(points, indices, spaces, double_sided, face_starts, mesh_start
     if n < 2 or double_sided.all():
         return None
     rows = []  # (triangle, first, count) arrays
-    corner_hashes = _vertex_hashes(points)[indices]  # (T, 3)
+    vertex_hash = _vertex_hashes(points)
+    corner_hashes = vertex_hash[indices]  # (T, 3)
     twins = find_twins(points, indices, spaces, double_sided, corner_hashes)
     if twins is not None:
         has = np.flatnonzero(twins >= 0)
@@ -273,7 +274,7 @@ def find_partners(points, indices, spaces, double_sided, face_starts, mesh_start
     if len(m):
         matched = np.unique(np.concatenate([m, k]))
         candidates = np.repeat(mesh_first[matched], mesh_count[matched]) + _ranks(mesh_count[matched])
-        t, p = _edge_partners(points, indices, spaces, double_sided, candidates)
+        t, p = _edge_partners(points, indices, spaces, double_sided, candidates, vertex_hash)
         rows.append((t, p, np.ones(len(t), np.int64)))
     if not rows or not sum(len(r[0]) for r in rows):
         return None
