@@ -523,6 +523,25 @@ def test_usd_clipping_planes_cut_geometry_away(tmp_path, scale):
     np.testing.assert_allclose(cut["depth"][:, 4:].min(), 50 * scale, rtol=0.02)  # the far quad, near the centre
 
 
+def test_camera_rays_give_the_t_range_the_render_clips_to(tmp_path):
+    """The near quad (depth 40) lies before the clipping range's near end (45) and the x >= 0 plane cuts the left
+    half: tracing camera_rays with their t range finds what the render's prim and depth AOVs show, the far quad on
+    the right only; the bare rays still hit the near quad everywhere."""
+    path = tmp_path / "clipped_range.usda"
+    path.write_text(CLIPPED_WORLD.format(s=1.0, planes="[(1, 0, 0, 0)]").replace("(1, 1000)", "(45, 1000)"))
+    scene = wrt.load_usd(path)
+    aovs = wrt.render(scene, width=8, height=6, device="cpu", integrator="depth").aovs
+    origins, directions, t_mins, t_maxs = camera_rays(scene, width=8, height=6, t_range=True)
+    hits = wrt.trace(scene, origins, directions, t_min=t_mins, t_max=t_maxs)
+    np.testing.assert_array_equal(hits.prim, aovs["prim"].ravel())
+    np.testing.assert_allclose(hits.t, aovs["depth"].ravel(), rtol=1e-6)
+    assert (aovs["prim"][:, :4] == -1).all() and (aovs["prim"][:, 4:] >= 0).all()
+    far = np.linalg.norm(directions * 50.0 / np.abs(directions[:, 2:]), axis=1).reshape(6, 8)  # z = 0 from z = 50
+    np.testing.assert_allclose(aovs["depth"][:, 4:], far[:, 4:], rtol=1e-5)
+    bare = wrt.trace(scene, *camera_rays(scene, width=8, height=6))
+    np.testing.assert_allclose(bare.t, 40.0 / 50.0 * far.ravel(), rtol=1e-5)  # the near quad, which the render clips
+
+
 def test_clipping_planes_are_checked():
     with pytest.raises(ValueError, match="at most 8"):
         wrt.Camera(clipping_planes=np.tile([1.0, 0.0, 0.0, 0.0], (9, 1)))

@@ -1,7 +1,7 @@
 """Ray sets for testing and benchmarking: camera rays and random rays through a scene's bounds.
 
 All functions return ``(origins, directions)`` as ``(N, 3)`` float32 numpy arrays and are deterministic in
-their ``seed``.
+their ``seed``; :func:`camera_rays` also returns the camera's ``t`` range on request.
 """
 
 from __future__ import annotations
@@ -14,19 +14,25 @@ from .render import resolve_view
 from .scene import DistantLight, Scene
 
 
-def camera_rays(scene: Scene, camera=None, width: int | None = None,
-                height: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def camera_rays(scene: Scene, camera=None, width: int | None = None, height: int | None = None, *,
+                t_range: bool = False) -> tuple[np.ndarray, ...]:
     """One ray through the centre of each pixel of the image :func:`wrt.render` makes of ``scene`` with these
     arguments, row-major from the top-left, exactly as the renderer casts its first sample: the stage's render
     settings choose what is not given (camera, resolution, conform policy, data window: see
-    :func:`wrt.render.resolve_view`), so there are fewer than ``width * height`` rays under a data window."""
+    :func:`wrt.render.resolve_view`), so there are fewer than ``width * height`` rays under a data window.
+
+    The renderer keeps only hits inside the camera's clipping range and clipping planes. With ``t_range`` the
+    ``(N,)`` float32 ``t_mins, t_maxs`` of that interval come after the rays, so that
+    ``wrt.trace(scene, o, d, t_min=t_mins, t_max=t_maxs)`` finds the hits the render sees (``t_maxs <= t_mins``
+    where a clipping plane cuts the whole ray); without it the rays alone, which hit what the camera clips."""
     cam, width, height = resolve_view(scene, camera, width, height)
     n = width * height
     out = [wp.empty(n, dtype=wp.vec3, device="cpu") for _ in range(2)]
     out += [wp.empty(n, dtype=float, device="cpu") for _ in range(2)]
     wp.launch(generate_rays_kernel, n, inputs=[cam.to_struct(width, height), width, height, 0, 0], outputs=out,
               device="cpu")
-    return out[0].numpy(), out[1].numpy()
+    rays = tuple(a.numpy() for a in out)
+    return rays if t_range else rays[:2]
 
 
 def random_rays(scene: Scene, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
