@@ -573,6 +573,29 @@ def test_orientations_and_scales_move_as_usd_computes(tmp_path, rates):
         np.testing.assert_allclose(load(path, time=time).instances.to_world, expected, atol=2e-3, err_msg=time)
 
 
+@pytest.mark.parametrize("rate, count, base", [("velocities", 3, "positions"), ("angularVelocities", 1, "orientations"),
+                                               ("accelerations", 4, "velocities")])
+def test_rates_of_the_wrong_length_are_ignored_with_a_warning_as_usd_ignores_them(tmp_path, rate, count, base):
+    """Velocities, angular velocities or accelerations with an entry count other than the instances' are ignored by
+    ComputeInstanceTransformsAtTime, which warns ("found [3] velocities, but expected [2]"); wrt ignored them without
+    a word. Same transforms as USD's, and a warning naming the instancer and both lengths."""
+    path = str(tmp_path / "rates.usda")
+    stage, pi = two_instance_stage(path)
+    for t in (1.0, 10.0):
+        pi.CreatePositionsAttr().Set([Gf.Vec3f(0, t, 0), Gf.Vec3f(4, 0, t)], t)
+        pi.CreateOrientationsAttr().Set([Gf.Quath(1, 0, 0, 0)] * 2, t)
+        pi.CreateVelocitiesAttr().Set([Gf.Vec3f(24, 0, 0)] * (count if rate == "velocities" else 2), t)
+        if rate != "velocities":
+            pi.GetPrim().CreateAttribute(rate, Sdf.ValueTypeNames.Vector3fArray).Set([Gf.Vec3f(0, 0, 240)] * count, t)
+    stage.Save()
+    with pytest.warns(UserWarning, match=rf"angularVelocities whose length .* were ignored.*\({count} {rate} for 2 "
+                      rf"{base}: 1\): /PI$"):
+        scene = wrt.load_usd(path, time=4.0)
+    t = Usd.TimeCode(4.0)
+    expected = [np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)]
+    np.testing.assert_allclose(scene.instances.to_world, expected, atol=1e-5)
+
+
 def test_time_sampled_invisible_ids_follow_the_default_time_rule(tmp_path):
     """With ``time=None`` an instancer whose positions and invisibleIds have only time samples is read at their
     first sample, both of them: the mask USD computes there hides instance 1 (it was read at the default time,

@@ -17,7 +17,17 @@ class AttributeReading:
         """``positions`` (``points`` or a PointInstancer's ``positions``) of ``schema`` moved by its velocities and
         accelerations at this time (see :func:`wrt.usd_values.moved_positions`), or None to read them as they are."""
         velocities, accelerations = schema.GetVelocitiesAttr(), schema.GetAccelerationsAttr()
-        return moved_positions(positions, velocities, accelerations, self.time, self.stage.GetTimeCodesPerSecond())
+        wrong_lengths = []
+        moved = moved_positions(positions, velocities, accelerations, self.time, self.stage.GetTimeCodesPerSecond(),
+                                wrong_lengths)
+        self._skip_wrong_rates(schema.GetPrim(), wrong_lengths)
+        return moved
+
+    def _skip_wrong_rates(self, prim: Usd.Prim, wrong_lengths: list[str]):
+        """Warns about velocities, accelerations or angularVelocities that were ignored for their length."""
+        for detail in wrong_lengths:
+            self._skip("velocities, accelerations or angularVelocities whose length is not that of what they move "
+                       "were ignored, as USD ignores them", prim, detail)
 
     def _int_array(self, prim: Usd.Prim, attr: Usd.Attribute) -> np.ndarray:
         """``(N,)`` int64 value of an ``int[]`` topology attribute at the read time (empty when it has none).

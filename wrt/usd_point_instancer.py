@@ -115,7 +115,10 @@ class PointInstancerReading:
         positions_attr, scales_attr = pi.GetPositionsAttr(), pi.GetScalesAttr()
         orient_attr = pi.GetOrientationsfAttr() if pi.GetOrientationsfAttr().HasValue() else pi.GetOrientationsAttr()
         moved = self._moved(pi, positions_attr)
-        spun = spun_rotations(orient_attr, pi.GetAngularVelocitiesAttr(), t, self.stage.GetTimeCodesPerSecond())
+        wrong_lengths = []
+        spun = spun_rotations(orient_attr, pi.GetAngularVelocitiesAttr(), t, self.stage.GetTimeCodesPerSecond(),
+                              wrong_lengths)
+        self._skip_wrong_rates(prim, wrong_lengths)
         # With usable velocities or angular velocities USD holds every attribute at its sample at or before the
         # time and moves from there; without, it interpolates them all.
         read = held_value if moved is not None or spun is not None else value_at

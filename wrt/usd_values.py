@@ -32,36 +32,39 @@ def read_time(attr: Usd.Attribute, time: Usd.TimeCode) -> Usd.TimeCode:
 
 
 def moved_positions(positions: Usd.Attribute, velocities: Usd.Attribute, accelerations: Usd.Attribute,
-                    time: Usd.TimeCode, time_codes_per_second: float):
+                    time: Usd.TimeCode, time_codes_per_second: float, wrong_lengths: list | None = None):
     """Positions (a PointInstancer's ``positions``, a point-based prim's ``points``) at ``time`` moved by their
     ``velocities`` and ``accelerations`` as USD computes them (``UsdGeomPointBased::ComputePointsAtTime``,
     ``UsdGeomPointInstancer::ComputeInstanceTransformsAtTime``): the sample at or before ``time`` plus
     ``v dt + a dt^2 / 2``, ``dt = (time - sample time) / timeCodesPerSecond`` in seconds. Velocities are used only
     when their samples bracket ``time`` at the same times as the positions' and they have one entry per position
     (accelerations likewise against the velocities); otherwise, or at the default time, returns None and the caller
-    reads the positions as they are (interpolated between samples).
+    reads the positions as they are (interpolated between samples). A rate of the wrong length is ignored, as USD
+    ignores it (with a warning): ``wrong_lengths`` gets one ``"3 velocities for 2 positions"`` for each.
 
     Returns:
         ``(N, 3)`` float64 array, or None.
     """
-    found = _with_rate(positions, velocities, time, time_codes_per_second)
+    found = _with_rate(positions, velocities, time, time_codes_per_second, wrong_lengths=wrong_lengths)
     if found is None:
         return None
     base, velocity, dt = found
     moved = base + dt * velocity
-    acceleration = _with_rate(velocities, accelerations, time, time_codes_per_second)
+    acceleration = _with_rate(velocities, accelerations, time, time_codes_per_second, wrong_lengths=wrong_lengths)
     if acceleration is not None:
         moved += 0.5 * dt * dt * acceleration[1]
     return moved
 
 
 def spun_rotations(orientations: Usd.Attribute, angular_velocities: Usd.Attribute, time: Usd.TimeCode,
-                   time_codes_per_second: float):
+                   time_codes_per_second: float, wrong_lengths: list | None = None):
     """A PointInstancer's orientations at ``time`` turned by its ``angularVelocities`` (degrees per second about
     their own direction) as ``ComputeInstanceTransformsAtTime`` turns them: ``(quaternions at the sample at or before
     time, (N, 3, 3) column-vector rotations by angle |w| dt about w)``; the caller applies the rotation after the
-    orientation. None under the same conditions as :func:`moved_positions`."""
-    found = _with_rate(orientations, angular_velocities, time, time_codes_per_second, width=4)
+    orientation. None under the same conditions as :func:`moved_positions`, which also says what ``wrong_lengths``
+    gets."""
+    found = _with_rate(orientations, angular_velocities, time, time_codes_per_second, width=4,
+                       wrong_lengths=wrong_lengths)
     if found is None:
         return None
     quats, omega, dt = found
@@ -88,10 +91,11 @@ def held_value(attr: Usd.Attribute, time: Usd.TimeCode):
 
 
 def _with_rate(base: Usd.Attribute, rate: Usd.Attribute, time: Usd.TimeCode, time_codes_per_second: float,
-               width: int = 3):
+               width: int = 3, wrong_lengths: list | None = None):
     """``(base at its sample at or before time, rate there, dt in seconds)`` as float64 arrays when ``rate`` is a
     usable derivative of ``base`` at ``time`` as USD checks it (both time-sampled, bracketing ``time`` with the same
-    samples, one rate entry per base entry; ``base`` entries ``width`` wide), else None."""
+    samples, one rate entry per base entry; ``base`` entries ``width`` wide), else None. A rate whose length is
+    not the base's is told to ``wrong_lengths``, as USD warns about that one (the other checks are silent)."""
     if time.IsDefault() or not (time_codes_per_second > 0) or not rate.HasAuthoredValue():
         return None
     t = time.GetValue()
@@ -101,6 +105,8 @@ def _with_rate(base: Usd.Attribute, rate: Usd.Attribute, time: Usd.TimeCode, tim
     values = np.asarray(base.Get(sample) or [], np.float64).reshape(-1, width)
     rates = np.asarray(rate.Get(sample) or [], np.float64).reshape(-1, 3)
     if len(rates) != len(values):
+        if wrong_lengths is not None:
+            wrong_lengths.append(f"{len(rates)} {rate.GetName()} for {len(values)} {base.GetName()}")
         return None
     return values, rates, (t - sample) / time_codes_per_second
 
