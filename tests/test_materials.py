@@ -439,6 +439,32 @@ def test_mesh_without_the_primvar_reads_the_readers_fallback(tmp_path, mesh_st):
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
+def test_texture_coordinates_that_are_not_finite_read_the_fallback_with_a_warning(tmp_path):
+    """Where the mesh's st is NaN or infinite a texture shows its ``fallback`` (through ``scale``, as every texel),
+    with a warning naming the mesh, as where a UDIM texture has no tile: sample_image gave transparent black there,
+    without a word. The right face of a two-face quad has NaN and inf st at its outer corners; the left face reads
+    CHECKER's left half as usual."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, color_space="raw")
+    stage = Usd.Stage.Open(path)
+    stage.RemovePrim("/Quad")
+    quad = add_quad(stage, "/Quad", faces=2)
+    st = UsdGeom.PrimvarsAPI(quad).GetPrimvar("st")
+    values = np.array(st.Get(), np.float64)
+    values[[2, 5]] = [[np.nan, 0.0], [1.0, np.inf]]  # the outer corners of the right face
+    st.Set(Vt.Vec2fArray.FromNumpy(values.astype(np.float32)))
+    bind(quad, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    tex = UsdShade.Shader.Get(stage, "/Looks/Tex/Image")
+    tex.CreateInput("fallback", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(0.2, 0.4, 0.6, 1.0))
+    tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(0.5, 0.5, 0.5, 1.0))
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"texture coordinates that are not finite.*\(st: 2 of 6 values: 1\): /Quad$"):
+        img = albedo(path)
+    np.testing.assert_allclose(img[:, 2:], np.broadcast_to([0.1, 0.2, 0.3], (4, 2, 3)), atol=1e-3)
+    np.testing.assert_allclose(img[:2, :2], np.broadcast_to([0.5, 0.0, 0.0], (2, 2, 3)), atol=1e-3)  # red, scaled
+    np.testing.assert_allclose(img[2:, :2], np.broadcast_to([0.0, 0.0, 0.5], (2, 2, 3)), atol=1e-3)  # blue
+
+
 def test_transform2d_scales_and_translates_st(tmp_path):
     png = write_png(tmp_path / "checker.png", CHECKER)
     # st -> st * 0.5 + (0.5, 0): the quad shows only the right half of the image (green over grey).

@@ -410,7 +410,8 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
     A UDIM binding reads the tile under the transformed ``st``, at ``st`` minus the tile's corner, clamped at the
     tile's edges (bilinear filtering never mixes in a neighbouring tile, whatever ``wrapS``/``wrapT`` say); where that
     tile has no file, or ``st`` lies outside the tiles, the texture's fallback stands in for the texel (scaled and
-    biased too, as MaterialX's UsdUVTexture graph feeds the image's default through them)."""
+    biased too, as MaterialX's UsdUVTexture graph feeds the image's default through them); so it does where ``st``
+    is not finite (NaN or infinite texture coordinates, which the loader warns about) for any texture."""
     xf = mats.tex_transform[b]
     p = xf * wp.vec3(st[0], st[1], 1.0)
     uv = wp.vec2(p[0], p[1])
@@ -425,7 +426,7 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
         uv = uv - wp.vec2(wp.floor(uv[0]), wp.floor(uv[1]))
         wrap = wp.vec2i(WRAP_CLAMP, WRAP_CLAMP)
     c = mats.tex_fallback[b]
-    if k >= 0:
+    if k >= 0 and wp.isfinite(uv[0]) and wp.isfinite(uv[1]):
         c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
     c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
     return select_channel(c, mats.tex_channel[b])

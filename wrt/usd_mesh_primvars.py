@@ -60,12 +60,20 @@ class MeshPrimvarReading:
         is not an array of 2-vectors. A mesh without it takes ``fallback`` (``(2,)``, its primvar reader's) at every
         corner, as the specification's UsdPrimvarReader gives, with a warning naming the primvar and the 2-vector
         primvars the mesh has: it read its only other 2-vector primvar instead, silently, and without one sampled
-        the texture at st = (0, 0) (whatever the fallback) while the warning said it was left untextured."""
+        the texture at st = (0, 0) (whatever the fallback) while the warning said it was left untextured. Values that
+        are not finite are kept, with a warning: the lookups there read the texture's fallback."""
         api = UsdGeom.PrimvarsAPI(prim)
         primvar = api.GetPrimvar(uv_set)
         if primvar and primvar.HasValue():
-            return self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology,
-                                      components=2)
+            found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology,
+                                       components=2)
+            if found is not None:
+                # Kept as they are: texture lookups read the fallback wherever st is not finite.
+                bad = int(np.count_nonzero(~np.isfinite(found[0]).all(axis=1)))
+                if bad:
+                    self._skip("texture coordinates that are not finite were read as none: the textures there show "
+                               "their fallback", prim, f"{uv_set}: {bad} of {len(found[0])} values")
+            return found
         others = [str(p.GetPrimvarName()) for p in api.GetPrimvarsWithValues()
                   if str(p.GetTypeName()).rstrip("[]") in ("texCoord2f", "float2", "texCoord2d", "double2")]
         reason = ("meshes without the texture-coordinate primvar their material reads show the texture at the "
