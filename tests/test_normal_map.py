@@ -12,7 +12,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 import wrt
 from wrt.lights import DomeLight
-from wrt.materials import Material, TextureInput
+from wrt.materials import Material, TextureInput, constant_st_transform
 from wrt.shade import keep_reflection_above
 
 TILT = math.radians(30.0)  # polar angle of the test map's normal
@@ -226,6 +226,33 @@ def test_quad_without_texture_coordinates_keeps_its_normal():
     material, texel = mapped_material(MAP_NORMAL)
     scene = wrt.Scene(meshes=[quad_mesh(uvs=False)], materials=[material], textures=[texel])
     np.testing.assert_allclose(aovs(scene)["normal"].reshape(-1, 3), np.tile([0, 0, 1], (16, 1)), atol=1e-6)
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_map_read_at_a_constant_st_tilts_the_normal_in_a_frame_about_it(tmp_path, integrator):
+    """A normal map read at a constant ``st`` has no tangent directions from its coordinates (dp/ds, dp/dt are zero),
+    so wrt kept the surface's normal; it now tilts it by the map's normal in a frame built about the surface normal
+    (as pbrt frames a triangle whose uv have no area). The tilt's azimuth depends on that frame, its angle does not:
+    lit straight along the quad's normal the Lambertian quad shows ``0.8 E / pi cos(tilt)`` (closed form), and the
+    ``normal`` AOV of the stage with the UsdUVTexture's ``st`` authored as a constant is ``cos(tilt)`` from +Z."""
+    material, texel = mapped_material(MAP_NORMAL)
+    material.textures["normal"].transform = constant_st_transform(np.eye(3), (0.5, 0.5))
+    material.textures["normal"].uv_set = None
+    sun = wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.full(3, 2.0, np.float32))
+    scene = wrt.Scene(meshes=[quad_mesh(uvs=False)], materials=[material], textures=[texel], lights=[sun])
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator=integrator)
+    np.testing.assert_allclose(img.rgb, 0.8 * 2.0 / math.pi * math.cos(TILT), rtol=2e-3)
+
+    path = normal_mapped_stage(tmp_path, write_normal_map(tmp_path / "tilt.png", MAP_NORMAL))
+    stage = Usd.Stage.Open(path)
+    st_input = UsdShade.Shader.Get(stage, "/Looks/Bumpy/NormalMap").GetInput("st")
+    st_input.DisconnectSource()
+    st_input.Set(Gf.Vec2f(0.5, 0.5))
+    stage.Save()
+    normals = aovs(wrt.load_usd(path))["normal"].reshape(-1, 3)
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
+    np.testing.assert_allclose(normals[:, 2], stored_normal(MAP_NORMAL)[2], atol=1e-3)
 
 
 @pytest.mark.parametrize("integrator", ["whitted", "path"])

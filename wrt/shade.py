@@ -44,7 +44,7 @@ from .light_links import DeviceLinks, casts_shadow, link_group, upload_links
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, cut_out, eval_surface, lookup_binding, normal_map
 from .primitives import shape_surface
-from .sampling import rand01, sample_concentric_disk
+from .sampling import basis_x, basis_y, rand01, sample_concentric_disk
 from .scene import DeviceScene
 from .transforms import (
     abs_vec,
@@ -290,6 +290,18 @@ def keep_reflection_above(n: wp.vec3, ng: wp.vec3, wo: wp.vec3):
 
 
 @wp.func
+def tilted_normal(mats: DeviceMaterials, binding: int, h: HitPoint, t: wp.vec3, bt: wp.vec3, d: wp.vec3):
+    """``normalize(x t + y bt + z h.ns)`` for the value ``(x, y, z)`` of normal map ``binding`` at ``h.st``, kept on
+    the viewer's side (:func:`keep_reflection_above`); ``h.ns`` where it has no direction."""
+    c = lookup_binding(mats, binding, h.st)
+    m = c[0] * t + c[1] * bt + c[2] * h.ns
+    m_length = wp.length(m)
+    if not (m_length > 0.0 and wp.isfinite(m_length)):
+        return h.ns
+    return keep_reflection_above(m / m_length, h.ng, -wp.normalize(d))
+
+
+@wp.func
 def mapped_normal(
     scene: DeviceScene,
     surf: DeviceSurfaces,
@@ -306,10 +318,14 @@ def mapped_normal(
     made orthogonal to ``N``, and ``B = +-cross(N, T)`` on the side of increasing t (OpenGL convention: +Y up the
     map; the side also follows mirroring transforms and mirrored texture coordinates). Then kept on the viewer's
     side of the surface (:func:`keep_reflection_above`). ``h.ns`` is returned where the frame or the map value has
-    no direction (texture coordinates of zero area, a zero texel)."""
+    no direction (texture coordinates of zero area, a zero texel). A map read at a constant ``st`` has no tangent
+    directions at all: its value is applied in the frame :func:`basis_x`, :func:`basis_y` builds about ``N``, as
+    pbrt frames a triangle whose uv are degenerate (the tilt's azimuth is that frame's; its angle is the map's)."""
+    xf = mats.tex_transform[binding]
+    if xf[0, 0] == 0.0 and xf[0, 1] == 0.0 and xf[1, 0] == 0.0 and xf[1, 1] == 0.0:  # constant_st_transform
+        return tilted_normal(mats, binding, h, basis_x(h.ns), basis_y(h.ns), d)
     # Tangents of the triangle: dp/ds and dp/dt of the map's coordinates, times the sign of the st area (their
     # directions, without dividing by it). The UsdTransform2d's translation cancels in the differences.
-    xf = mats.tex_transform[binding]
     st0 = surf.uvs[prim, 0]
     st1 = surf.uvs[prim, 1] - st0
     st2 = surf.uvs[prim, 2] - st0
@@ -337,12 +353,7 @@ def mapped_normal(
     bt = wp.cross(n, t)
     if wp.dot(bt, dp_dt) < 0.0:
         bt = -bt
-    c = lookup_binding(mats, binding, h.st)
-    m = c[0] * t + c[1] * bt + c[2] * n
-    m_length = wp.length(m)
-    if not (m_length > 0.0 and wp.isfinite(m_length)):
-        return h.ns
-    return keep_reflection_above(m / m_length, h.ng, -wp.normalize(d))
+    return tilted_normal(mats, binding, h, t, bt, d)
 
 
 @wp.func
