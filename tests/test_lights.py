@@ -508,7 +508,7 @@ def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
     to_world[2, 3] = 2.0
     sphere = wrt.Shape("/Lamp", "sphere", to_world, material_id=0)
     scene = wrt.Scene(meshes=[plane], shapes=[sphere], materials=loaded.materials)
-    with pytest.warns(UserWarning, match="1 emissive instanced or analytic primitive"):
+    with pytest.warns(UserWarning, match="1 emissive analytic primitive"):
         wrt.render(scene, width=8, height=8)
     points, indices, _ = tessellate(sphere, 16)
     lamp = wrt.Mesh("/Lamp", points, indices, np.arange(len(indices)), material_ids=np.zeros(len(indices), np.int32))

@@ -312,18 +312,21 @@ def test_a_point_instancer_of_a_world_mesh_light_names_what_emits(tmp_path):
     assert abs(render_floor(scene, "path").mean() / closed_form(3.0).mean() - 1) < 0.03  # the Sphere adds 0.1%
 
 
-def test_the_whitted_warning_on_an_instanced_emissive_gprim_names_what_the_command_line_can_do(tmp_path):
-    """A Sphere bound to a glowing material (no light) inside a native instance is not sampled by ``whitted``: the
-    warning's way out names the Python option and its ``wrt render`` equivalent. It no longer offers
-    ``tessellate_gprims`` (``--accel warp``): a world-space gprim is drawn as its tessellation anyway, and an
-    instanced one stays unsampled with it, as the second render shows."""
+def test_the_whitted_warning_on_unsampled_instanced_emitters_names_what_the_command_line_can_do(tmp_path, monkeypatch):
+    """A Sphere bound to a glowing material (no light) inside a native instance, drawn as its tessellation with
+    or without ``tessellate_gprims``, past the cap on sampled instanced emitters (0 here) is not sampled by
+    ``whitted``: the warning's way out names the Python option and its ``wrt render`` equivalent, and no longer
+    offers ``tessellate_gprims`` (``--accel warp``), which changes nothing for it."""
+    from wrt import light_table
+
+    monkeypatch.setattr(light_table, "MAX_INSTANCED_EMITTERS", 0)
     prototype = ('over "Protos"\n{\n    def Xform "Lamp"\n    {\n        def Sphere "Ball" (\n'
                  '            prepend apiSchemas = ["MaterialBindingAPI"]\n        )\n        {\n'
                  "            double radius = 0.1\n            rel material:binding = </Glow>\n        }\n    }\n}\n")
     instance = 'def Xform "Lamp" (\n    instanceable = true\n    prepend references = </Protos/Lamp>\n)\n{\n}\n'
-    analytic, _ = load(tmp_path, floor(), glowing_material((1.0, 1.0, 1.0)), prototype, instance)
+    default, _ = load(tmp_path, floor(), glowing_material((1.0, 1.0, 1.0)), prototype, instance)
     tessellated = wrt.load_usd(str(tmp_path / "stage.usda"), tessellate_gprims=True)
-    for scene in (analytic, tessellated):
+    for scene in (default, tessellated):
         with pytest.warns(UserWarning, match="not sampled as lights") as record:
             render_floor(scene, "whitted", spp=1)
         message = str(record[0].message)

@@ -47,6 +47,7 @@ from .sampling import (
 from .scene import DeviceScene
 from .spherical_rect import sample_spherical_rect, solid_angle_usable, spherical_rect, spherical_rect_pdf
 from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
+from .transforms import inverse_transform_point, normal_to_world
 
 LIGHT_DISTANT = wp.constant(0)
 LIGHT_SPHERE = wp.constant(1)
@@ -72,7 +73,8 @@ DISK_SOLID_ANGLE_LEAST = wp.constant(1.0)
 @wp.struct
 class DeviceLights:
     """Every light on the device: ``[0, num_analytic)`` are UsdLux lights, the rest triangles of emissive materials
-    and of mesh lights."""
+    and of mesh lights: the world-space ones, then those of instances, one entry per prototype triangle and instance
+    (an instance's entries consecutive, in its prototype's emitter order: ``DeviceSurfaces.emitters``)."""
 
     kinds: wp.array[wp.int32]  # LIGHT_* kind
     radiance: wp.array[wp.vec3]  # L (area, dome, soft distant), E (delta distant), I (point); triangles: see params
@@ -84,6 +86,8 @@ class DeviceLights:
     # area | 1 - cos, right-angled axes);
     # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
+    instances: wp.array[wp.int32]  # instance that draws a LIGHT_TRIANGLE entry's (prototype) triangle, -1: world
+    instance_emitters: wp.array[wp.int32]  # (N,) each instance's first entry, -1: none sampled (or (1,) of -1)
     shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF or SHADOWS_LINKED: what blocks the light
     shaping: wp.array[wp.vec4]  # (cone angle, smooth start (radians), focus, 1); all 0: unshaped (light_shaping)
     shaping_axis: wp.array[wp.vec3]  # unit primary axis (the light's -Z) of shaped lights
@@ -106,6 +110,7 @@ class DeviceLights:
     links: DeviceLinks  # light and shadow linking of the analytic lights (wrt.light_links)
     shapes: wp.array[wp.mat33]  # (num_analytic) ellipsoid, elliptic tube: map from the unit sphere or tube
     shape_inverses: wp.array[wp.mat33]  # (num_analytic) their inverses, world to canonical
+    num_unsampled: int  # emissive instanced triangles past light_table.MAX_INSTANCED_EMITTERS (host side: warned)
 
 
 @wp.struct
@@ -375,13 +380,47 @@ def distant_in_cone(lights: DeviceLights, k: int, d: wp.vec3):
 
 
 @wp.func
-def triangle_light_pdf(scene: DeviceScene, double_sided: int, prim: int, o: wp.vec3, d: wp.vec3, dist: float):
-    """Solid-angle pdf of uniform area sampling of triangle ``prim`` seen from ``o`` along unit ``d``; 0 from its
-    back when it is single-sided."""
+def emitter_triangle(scene: DeviceScene, prim: int, instance: int):
+    """World-space corners ``a, b, c`` of triangle ``prim`` as ``instance`` draws it (-1: world geometry) and their
+    cross product ``(b - a) x (c - a)`` turned to the triangle's front side: a mirroring instance transform reverses
+    the corners' winding, not the side that :func:`wrt.shade.hit_point` calls the front (its normal moves by the
+    inverse transpose). The corners move as ``hit_point`` moves them, so sampled points lie on the surface hit."""
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
     cr = wp.cross(b - a, c - a)
+    if instance >= 0:
+        m = scene.world_to_local[instance]
+        front = normal_to_world(m, cr)
+        a = inverse_transform_point(m, a)
+        b = inverse_transform_point(m, b)
+        c = inverse_transform_point(m, c)
+        cr = wp.cross(b - a, c - a)
+        if wp.dot(cr, front) < 0.0:
+            cr = -cr
+    return a, b, c, cr
+
+
+@wp.func
+def hit_emitter(lights: DeviceLights, slot: int, instance: int):
+    """The light entry of an emitter triangle a ray hit in ``instance`` (-1: world geometry), or -1: ``slot`` is its
+    ``DeviceSurfaces.emitters``, the entry itself for world geometry, its place among its prototype's emitters for
+    prototype geometry (each sampled instance's entries start at ``instance_emitters``)."""
+    if slot < 0 or instance < 0:
+        return slot
+    first = lights.instance_emitters[instance]
+    if first < 0:
+        return -1
+    return first + slot
+
+
+@wp.func
+def triangle_light_pdf(
+    scene: DeviceScene, double_sided: int, prim: int, instance: int, o: wp.vec3, d: wp.vec3, dist: float
+):
+    """Solid-angle pdf of uniform area sampling of triangle ``prim`` (drawn by ``instance``, -1: world geometry)
+    seen from ``o`` along unit ``d``; 0 from its back when it is single-sided."""
+    a, b, c, cr = emitter_triangle(scene, prim, instance)
     area2 = stable_length(cr)
     if area2 <= 0.0:
         return 0.0
@@ -552,15 +591,12 @@ def sample_light(
         L = lights.radiance[k]
     else:
         prim = lights.prims[k]
-        a = scene.points[scene.indices[prim, 0]]
-        b = scene.points[scene.indices[prim, 1]]
-        c = scene.points[scene.indices[prim, 2]]
+        a, b, c, cr = emitter_triangle(scene, prim, lights.instances[k])
         su = wp.sqrt(u1)
         bu = u2 * su  # weight of b
         bv = 1.0 - su  # weight of c ... (any uniform barycentric split works)
         bw = 1.0 - bu - bv
         q = bw * a + bu * b + bv * c
-        cr = wp.cross(b - a, c - a)
         area = 0.5 * stable_length(cr)
         if area <= 0.0:
             return out

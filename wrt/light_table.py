@@ -75,9 +75,16 @@ def luminance_np(c) -> float:
     return float(np.asarray(c, np.float64) @ LUMINANCE)
 
 
+# Emitter entries made for instanced triangles (one per emissive prototype triangle and instance, 64 bytes of
+# device arrays each): instances past it (in instance order) keep their emission for rays that hit them but are not
+# sampled, with a warning, so that a forest of glowing leaves cannot fill the device.
+MAX_INSTANCED_EMITTERS = 4_000_000
+
+
 @dataclasses.dataclass
 class EmitterTriangles:
-    """The triangle lights of a scene (:func:`emitter_triangles`), one row each.
+    """The triangle lights of a scene (:func:`emitter_triangles`), one row each: the world-space triangles, then
+    those of instances, each sampled instance's consecutive.
 
     Attributes:
         ids: ``(E,)`` int32 geometry ids (rows of ``Scene.geometry()``).
@@ -85,6 +92,9 @@ class EmitterTriangles:
         radiance: ``(E, 3)`` float32 radiance factor: 1 for emissive materials, a mesh light's (normalized) colour.
         params: ``(E, 4)`` float32 :class:`DeviceLights` ``params`` of triangle lights.
         owner: ``(E,)`` int32 index of the :class:`MeshLight` (in the list given) the triangle belongs to, -1: none.
+        instances: ``(E,)`` int32 instance that draws the row's prototype triangle, -1: world geometry.
+        instance_first: ``(N,)`` int32 each instance's first row, -1 where none is sampled.
+        unsampled: emissive triangles of instances past :data:`MAX_INSTANCED_EMITTERS` (not sampled).
     """
 
     ids: np.ndarray
@@ -92,66 +102,170 @@ class EmitterTriangles:
     radiance: np.ndarray
     params: np.ndarray
     owner: np.ndarray
+    instances: np.ndarray = None
+    instance_first: np.ndarray = None
+    unsampled: int = 0
 
 
-def emitter_triangles(scene, materials_emission, mesh_lights: list) -> EmitterTriangles:
-    """Every emissive triangle that is not instanced (emissive prototype triangles still emit where rays hit them,
-    but are not sampled as lights), then the triangles of each of ``mesh_lights`` that emit (a mesh light's
-    triangles are its, not plain emissive ones).
+def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | None = None) -> EmitterTriangles:
+    """Every emissive world-space triangle, then the triangles of each of ``mesh_lights`` that emit (a mesh light's
+    triangles are its, not plain emissive ones), then the same for each instance's prototype triangles, in world
+    space, for the first instances whose rows fit in ``cap`` (None: :data:`MAX_INSTANCED_EMITTERS`).
 
     Raises:
-        SceneError: a mesh light that names no mesh of the scene (instanced ones included).
+        SceneError: a mesh light that names no mesh of the scene.
     """
     points, indices = scene.geometry()
     flat = scene.num_flat_triangles
-    tri_materials = scene.triangle_materials()[:flat]
-    sided = scene.triangle_double_sided()[:flat]
+    geometry = len(indices)
+    tri_materials = scene.triangle_materials()[:geometry]
+    sided = scene.triangle_double_sided()[:geometry]
     emission = np.asarray(materials_emission, np.float64).reshape(-1, 3)
     glow = emission @ LUMINANCE  # per material
 
-    def areas(ids):
+    def crosses(ids):
         a, b, c = (points[indices[ids, k]].astype(np.float64) for k in range(3))
-        return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        return np.cross(b - a, c - a)
 
-    owner = np.full(flat, -1, np.int32)
-    starts = np.concatenate([[0], np.cumsum([len(m.indices) for m in scene.meshes])]).astype(np.int64)
-    by_path = {}  # mesh path -> its indices in scene.meshes (only when asked for: 40k meshes took 0.3 s)
-    for k, mesh in enumerate(scene.meshes if mesh_lights else ()):
+    def areas(ids):
+        return 0.5 * np.linalg.norm(crosses(ids), axis=1)
+
+    owner = np.full(geometry, -1, np.int32)
+    meshes = list(scene.meshes) + [m for p in scene.prototypes for m in p.meshes]  # geometry order
+    starts = np.concatenate([[0], np.cumsum([len(m.indices) for m in meshes])]).astype(np.int64)
+    by_path = {}  # mesh path -> its indices in meshes (only when asked for: 40k meshes took 0.3 s)
+    for k, mesh in enumerate(meshes if mesh_lights else ()):
         by_path.setdefault(mesh.path, []).append(k)
     for j, light in enumerate(mesh_lights):
         if light.path not in by_path:
-            raise SceneError("MeshLight names no mesh of the scene (meshes inside instances cannot be lights)",
-                             prim=light.path or None)
+            raise SceneError("MeshLight names no mesh of the scene", prim=light.path or None)
         rows = np.concatenate([np.arange(starts[k], starts[k + 1]) for k in by_path[light.path]])
         if (owner[rows] >= 0).any():  # the second would silently take every triangle
             raise SceneError("two MeshLights name the same mesh; give it one light", prim=light.path)
         owner[rows] = j
+    world_owner = owner[:flat]
 
     # Emissive materials: radiance factor 1 times the material's emission (params[0] = 1).
-    ids = np.nonzero((glow[tri_materials] > 0.0) & (owner < 0))[0]
+    ids = np.nonzero((glow[tri_materials[:flat]] > 0.0) & (world_owner < 0))[0]
     rows = [(ids, math.pi * areas(ids) * glow[tri_materials[ids]], np.ones((len(ids), 3)), (1, 0, 0, 0), -1)]
     for j, light in enumerate(mesh_lights):
-        ids = np.nonzero(owner == j)[0]
+        ids = np.nonzero(world_owner == j)[0]
         area = areas(ids)
         L = normalized_radiance(light.color, float(area.sum()), light.normalize).astype(np.float64)
-        # A mesh bound to no material has no glow to sync with: noMaterialResponse whatever its mode.
-        sync = light.material_sync if (tri_materials[ids] > 0).any() else NO_MATERIAL_RESPONSE
-        tints = sync == GLOW_TINTS_LIGHT
-        if tints:
-            keep = glow[tri_materials[ids]] > 0.0  # the light tints the glow: no glow, no light
-            ids, area = ids[keep], area[keep]
-            power = math.pi * area * ((L * emission[tri_materials[ids]]) @ LUMINANCE)
-        else:
-            power = math.pi * area * float(L @ LUMINANCE)
-        params = (float(tints), float(sync == NO_MATERIAL_RESPONSE), 1, 0)
-        rows.append((ids, power, np.tile(L, (len(ids), 1)), params, j))
+        keep, lum, params = _mesh_light_terms(light, L, tri_materials[ids], emission, glow)
+        ids, area = ids[keep], area[keep]
+        rows.append((ids, math.pi * area * lum[keep], np.tile(L, (len(ids), 1)), params, j))
     ids = np.concatenate([r[0] for r in rows]).astype(np.int32)
-    return EmitterTriangles(
+    world = EmitterTriangles(
         ids=ids,
         power=np.concatenate([r[1] for r in rows]) * np.where(sided[ids], 2.0, 1.0),
         radiance=np.concatenate([r[2] for r in rows]).astype(np.float32),
         params=np.concatenate([np.tile(np.asarray(r[3], np.float32), (len(r[0]), 1)) for r in rows]),
         owner=np.concatenate([np.full(len(r[0]), r[4], np.int32) for r in rows]),
+    )
+    return _with_instances(scene, world, owner, crosses, tri_materials, sided, emission, glow, mesh_lights,
+                           MAX_INSTANCED_EMITTERS if cap is None else cap)
+
+
+def _mesh_light_terms(light: MeshLight, L, materials: np.ndarray, emission: np.ndarray, glow: np.ndarray):
+    """``(keep, luminance, params)`` of mesh light ``light`` of radiance ``L`` (``(3,)``, normalized) on triangles
+    of device ``materials``: a light that tints its material's glow keeps only the triangles that glow."""
+    # A mesh bound to no material has no glow to sync with: noMaterialResponse whatever its mode.
+    sync = light.material_sync if (materials > 0).any() else NO_MATERIAL_RESPONSE
+    params = (float(sync == GLOW_TINTS_LIGHT), float(sync == NO_MATERIAL_RESPONSE), 1, 0)
+    if sync == GLOW_TINTS_LIGHT:
+        return glow[materials] > 0.0, (L * emission[materials]) @ LUMINANCE, params
+    return np.ones(len(materials), bool), np.full(len(materials), float(L @ LUMINANCE)), params
+
+
+def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_materials, sided, emission, glow,
+                    mesh_lights: list, cap: int) -> EmitterTriangles:
+    """``world`` followed by the rows of the instances' emissive prototype triangles, each sampled instance's in
+    its prototype's order (geometry ids ascending), the first instances whose rows fit in ``cap``. Areas are the world
+    areas of the moved triangles, ``|cof(A) ((b - a) x (c - a))| / 2`` for an instance's linear part ``A``; a
+    normalized mesh light is divided by its area in each instance, as each instance of it is a light of its own."""
+    n = len(scene.instances)
+    instance_first = np.full(n, -1, np.int32)
+    empty = dataclasses.replace(world, instances=np.full(len(world.ids), -1, np.int32), instance_first=instance_first)
+    if n == 0:
+        return empty
+    # Each prototype's emitters (geometry ids, ascending) and their terms in one instance of unit transform; only
+    # the prototypes that have some are visited (scenes of thousands of prototypes rarely have many).
+    ranges = scene.prototype_ranges()
+    candidates = np.flatnonzero((owner >= 0) | (glow[tri_materials] > 0.0))
+    candidates = candidates[candidates >= scene.num_flat_triangles]
+    protos = {}
+    for p in np.unique(np.searchsorted(ranges[:, 0], candidates, side="right") - 1):
+        first, count = ranges[p]
+        ids = np.arange(first, first + count)
+        own = owner[ids]
+        emits = np.where(own < 0, glow[tri_materials[ids]] > 0.0, False)
+        per_area = np.where(emits, math.pi * glow[tri_materials[ids]], 0.0)
+        radiance, params = np.ones((count, 3)), np.tile(np.float32([1, 0, 0, 0]), (count, 1))
+        for j in np.unique(own[own >= 0]):
+            mine = own == j
+            light = mesh_lights[j]
+            keep, lum, terms = _mesh_light_terms(light, np.asarray(light.color, np.float64), tri_materials[ids[mine]],
+                                                 emission, glow)
+            emits[mine], per_area[mine] = keep, math.pi * lum
+            radiance[mine], params[mine] = np.asarray(light.color, np.float64), np.float32(terms)
+        keep = np.flatnonzero(emits)
+        if len(keep):
+            protos[int(p)] = (ids[keep], per_area[keep], radiance[keep], params[keep], own[keep], crosses(ids[keep]))
+
+    # The first instances (in instance order) whose rows fit in the cap; singular (invisible) ones get none.
+    per_prototype = np.zeros(max(len(ranges), 1), np.int64)
+    for p, terms in protos.items():
+        per_prototype[p] = len(terms[0])
+    counts = per_prototype[scene.instances.prototype]
+    counts[~scene.instance_inverses()[1]] = 0
+    ends = np.cumsum(counts)
+    sampled = (ends <= cap) & (counts > 0)
+    instance_first[sampled] = (ends - counts)[sampled] + len(world.ids)
+    total = int(counts[sampled].sum())
+    unsampled = int(counts[~sampled].sum())
+    if total == 0:
+        return dataclasses.replace(empty, unsampled=unsampled)
+    ids = np.empty(total, np.int32)
+    power = np.empty(total)
+    radiance = np.empty((total, 3), np.float32)
+    params = np.empty((total, 4), np.float32)
+    owners = np.empty(total, np.int32)
+    instances = np.empty(total, np.int32)
+    to_world = scene.instances.to_world
+    by_prototype = scene.instances.rows_of_prototypes(len(ranges))
+    for p, (p_ids, per_area, p_radiance, p_params, p_owner, cr) in protos.items():
+        rows = by_prototype[p][sampled[by_prototype[p]]]
+        if len(rows) == 0:
+            continue
+        for start in range(0, len(rows), max(1, (1 << 20) // len(p_ids))):  # about a million rows at a time
+            chunk = rows[start : start + max(1, (1 << 20) // len(p_ids))]
+            linear = to_world[chunk, :3, :3]
+            cofactor = np.stack([np.cross(linear[:, :, 1], linear[:, :, 2]), np.cross(linear[:, :, 2], linear[:, :, 0]),
+                                 np.cross(linear[:, :, 0], linear[:, :, 1])], axis=2)  # det(A) A^-T: cross of columns
+            area = 0.5 * np.linalg.norm(np.einsum("nij,tj->nti", cofactor, cr), axis=2)  # (instances, emitters)
+            scale = np.ones_like(area)
+            for j in np.unique(p_owner[p_owner >= 0]):
+                if mesh_lights[j].normalize:
+                    mine = p_owner == j
+                    light_area = area[:, mine].sum(axis=1, keepdims=True)
+                    scale[:, mine] = np.where(light_area > 0.0, 1.0 / np.where(light_area > 0.0, light_area, 1.0), 0.0)
+            at = (instance_first[chunk] - len(world.ids))[:, None] + np.arange(len(p_ids))
+            ids[at] = p_ids
+            power[at] = area * per_area * scale * np.where(sided[p_ids], 2.0, 1.0)
+            radiance[at] = (p_radiance[None] * scale[..., None]).astype(np.float32)
+            params[at] = p_params
+            owners[at] = p_owner
+            instances[at] = chunk[:, None]
+    return EmitterTriangles(
+        ids=np.concatenate([world.ids, ids]),
+        power=np.concatenate([world.power, power]),
+        radiance=np.concatenate([world.radiance, radiance]),
+        params=np.concatenate([world.params, params]),
+        owner=np.concatenate([world.owner, owners]),
+        instances=np.concatenate([empty.instances, instances]),
+        instance_first=instance_first,
+        unsampled=unsampled,
     )
 
 
@@ -311,6 +425,11 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.normal = arr(h.normal, wp.vec3)
     d.params = arr(h.params, wp.vec4, 4, tris.params)
     d.prims = arr(h.prims, wp.int32, 1, tris.ids)
+    d.instances = arr(np.full(num_analytic, -1), wp.int32, 1, tris.instances)
+    first = np.where(tris.instance_first >= 0, tris.instance_first + num_analytic, -1)
+    d.instance_emitters = wp.array((first if len(first) else np.full(1, -1)).astype(np.int32), dtype=wp.int32,
+                                   device=device)
+    d.num_unsampled = tris.unsampled
     d.shaping = arr(h.shaping, wp.vec4, 4)
     d.shaping_axis = arr(h.shaping_axis, wp.vec3)
     d.focus_tint = arr(h.focus_tint, wp.vec3)

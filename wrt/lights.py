@@ -372,7 +372,8 @@ class MeshLight:
     the mesh is ``doubleSided``, as emissive materials do) and are sampled by area, as emissive triangles are.
 
     Attributes:
-        path: prim path of the emitting mesh: the :attr:`wrt.Scene.meshes` entries of that path (not instanced).
+        path: prim path of the emitting mesh: the :attr:`wrt.Scene.meshes` entries of that path, and the prototype
+            meshes of that path, which emit in each instance (each instance's copy normalized by its own area).
         color: ``(3,)`` ``intensity * 2**exposure * color``.
         normalize: divide by the world-space area of the mesh.
         material_sync: ``light:materialSyncMode``. ``"noMaterialResponse"`` (LightAPI's fallback, and any mode

@@ -19,6 +19,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
+from . import light_table
 from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
 from .errors import did_you_mean
 from .image import Image
@@ -388,6 +389,25 @@ class Renderer:
             check_scene(self.scene)
             self._build()
 
+    def _warn_unsampled(self, shapes: int) -> None:
+        """Names the emitters that ``whitted`` shows but does not sample as lights: ``shapes`` emissive analytic
+        shapes (of scenes built in Python, spheres and tubes of Points and curves; a stage's emissive gprims are
+        drawn as triangles, wrt.usd) and the emissive triangles of instances past the cap on sampled instanced
+        emitters (wrt.light_table.MAX_INSTANCED_EMITTERS)."""
+        parts = []
+        if self.device_lights.num_unsampled:
+            parts.append(f"{self.device_lights.num_unsampled:,} emissive triangle(s) of instances past the first "
+                         f"{light_table.MAX_INSTANCED_EMITTERS:,} instanced emitters sampled")
+        if shapes:
+            parts.append(f"{int(shapes)} emissive analytic primitive(s)")
+        if parts:
+            warnings.warn(
+                f"{self.scene.source or 'scene'}: {' and '.join(parts)} are not sampled as lights: the whitted "
+                "integrator shows them but they light nothing; use integrator='path' (wrt render: --integrator "
+                "path), or draw them as world-space meshes (wrt.primitives.tessellate for a Shape)",
+                stacklevel=4,
+            )
+
     def _upload_shading(self):
         scene, dev = self.scene, self.device
         mats, uvs, tri_materials, sided, emission = shading_data(scene, dev)
@@ -397,31 +417,26 @@ class Renderer:
         geometry_materials = scene.triangle_materials()
         glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
         emissive_used = bool(glows[geometry_materials].any())
-        if self.integrator == "whitted" and emissive_used:
-            # Only world-space emissive triangles are sampled as lights (wrt.light_table.emitter_triangles). A
-            # stage's emissive gprims outside instances are triangles already (wrt.usd), so what is left is
-            # instanced (tessellate_gprims keeps it so) or an analytic shape of a scene built in Python.
-            unsampled = int(glows[geometry_materials[scene.num_flat_triangles :]].sum())
-            if unsampled:
-                warnings.warn(
-                    f"{scene.source or 'scene'}: {unsampled} emissive instanced or analytic primitive(s) are "
-                    "not sampled as lights: the whitted integrator shows them but they light nothing; use "
-                    "integrator='path' (wrt render: --integrator path), or draw them as world-space meshes "
-                    "(wrt.primitives.tessellate for a Shape)",
-                    stacklevel=3,
-                )
         # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels
         # along the viewing direction of each camera of a batch.
         default = not (scene.lights or emissive_used)
         self.lights = default_lights(np.array(cam.forward)) if default else list(scene.lights)
         self.device_lights = build_lights(self.lights, scene, emission, dev)
+        if self.integrator == "whitted" and emissive_used:
+            self._warn_unsampled(glows[geometry_materials[scene.num_geometry_triangles :]].sum())
         self._headlight = 0 if default else -1
         self._point_headlight()
         emitters = np.full(max(len(tri_materials), 1), -1, np.int32)
         kinds = self.device_lights.kinds.numpy()
         prims = self.device_lights.prims.numpy()
         first, count = self.device_lights.num_analytic, self.device_lights.count
-        emitters[prims[first:count]] = np.arange(first, count, dtype=np.int32)
+        # A world triangle's entry, a prototype triangle's place among its prototype's emitters, which each sampled
+        # instance's entries follow (light_sampling.hit_emitter).
+        entries = np.arange(first, count, dtype=np.int32)
+        instances = self.device_lights.instances.numpy()[first:count]
+        drawn = instances >= 0
+        entries[drawn] -= self.device_lights.instance_emitters.numpy()[instances[drawn]]
+        emitters[prims[first:count]] = entries
         no_response = no_response_triangles(self.device_lights, prims)
         if len(no_response):  # they take the last device material (wrt.materials.no_response_material)
             overridden = np.array(tri_materials.numpy())  # a copy: the cached array is the scene's own

@@ -23,7 +23,14 @@ import warp as wp
 from ..bsdf import eval_bsdf_lobes, lobe_albedos, sample_bsdf
 from ..geometry import offset_ray_origin, stable_length
 from ..light_links import link_group, lit_by
-from ..light_sampling import DeviceLights, lit_bsdf, sample_light_in_view, shadow_direction, triangle_light_pdf
+from ..light_sampling import (
+    DeviceLights,
+    hit_emitter,
+    lit_bsdf,
+    sample_light_in_view,
+    shadow_direction,
+    triangle_light_pdf,
+)
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
@@ -136,12 +143,13 @@ def shade_path_kernel(
     # Emission (a mesh light's as light sampling sees it, to rays a surface scattered), weighted against light
     # sampling of this triangle.
     if h.front == 1 or surf.double_sided[prim] == 1:
-        e = surf.emitters[prim]
+        e = hit_emitter(lights, surf.emitters[prim], hit_instance[i])
         emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, share, g_prev)
         if luminance(emitted) > 0.0:
             w = float(1.0)
             if e >= 0 and pdf_b > 0.0:
-                pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, o, d, t_hit)
+                pdf_l = lights.pmf[e] * triangle_light_pdf(scene, surf.double_sided[prim], prim, hit_instance[i], o,
+                                                           d, t_hit)
                 w = mis_weight(lights, e, pdf_b, pdf_l)
             L += wp.cw_mul(T, emitted) * w
     if bounce >= max_depth:

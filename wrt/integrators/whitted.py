@@ -31,7 +31,7 @@ from ..bsdf import (
 )
 from ..geometry import offset_ray_origin
 from ..light_links import link_group, lit_by
-from ..light_sampling import DeviceLights, lit_bsdf, sample_light_in_view
+from ..light_sampling import DeviceLights, hit_emitter, lit_bsdf, sample_light_in_view
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
@@ -117,8 +117,8 @@ def shade_whitted_kernel(
         alive[i] = 0
         return
     if h.front == 1 or surf.double_sided[prim] == 1:
-        emitted = surface_emission(lights, mats, surf.emitters[prim], h.material, h.st, s.emission, camera,
-                                   wp.vec3(0.0), g_prev)
+        e = hit_emitter(lights, surf.emitters[prim], hit_instance[i])
+        emitted = surface_emission(lights, mats, e, h.material, h.st, s.emission, camera, wp.vec3(0.0), g_prev)
         L += wp.cw_mul(T, emitted)
     if lights.dome >= 0 and lit_by(lights.links, link_group(lights.links, prim, hit_instance[i]), lights.dome):
         cos_o = wp.max(wp.dot(h.ns, -d), 0.0)
