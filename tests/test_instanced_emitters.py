@@ -1,14 +1,17 @@
-"""Emissive triangles inside instances are sampled as lights, each instance's copy in world space: a glowing quad
-under rotations, non-uniform scales and mirrors lights a plane as Lambert's formula over its world-space triangles
-says, and as the same triangles flattened into world space do, under ``whitted`` and ``path`` (whose MIS weights need
-the pdf of the entry a ray hits to be the one it was sampled with). Past the cap on instanced emitter entries the rest
-are named in a warning."""
+"""Emissive triangles inside instances (Python prototypes, native instances, PointInstancer prototypes) are sampled
+as lights, each instance's copy in world space: a glowing quad under rotations, non-uniform scales and mirrors lights
+a plane as Lambert's formula over its world-space triangles says, and as the same triangles flattened into world space
+do, under ``whitted`` and ``path`` (whose MIS weights need the pdf of the entry a ray hits to be the one it was
+sampled with); so do a glowing Sphere and a normalized mesh light inside native instances. Past the cap on instanced
+emitter entries the rest are named in a warning."""
 
 import warnings
 
 import numpy as np
+import pytest
 from light_oracle import trs
 from shading_helpers import pixel_points, quad
+from test_emissive_gprims import glow, load, white_plane
 
 import wrt
 from wrt import light_table
@@ -157,3 +160,104 @@ def test_instanced_emitters_past_the_cap_are_named_and_light_nothing_under_whitt
     assert len(named) == 1 and "6 emissive triangle(s) of instances past the first 2 " in named[0], messages
     expected = expected_floor(world_corners(lamp, TRANSFORMS[:1]))
     assert abs(rendered.mean() / expected.mean() - 1) < 0.03, (rendered.mean(), expected.mean())
+
+
+# USD: a glowing quad mesh inside a native instance and inside a PointInstancer's prototype.
+
+QUAD_POINTS = [(-0.2, -0.15, 0), (0.2, -0.15, 0), (0.2, 0.15, 0), (-0.2, 0.15, 0)]  # counter-clockwise: front +Z
+
+
+def glowing_quad(name="Lamp"):
+    """USDA of the single-sided glowing quad (front +Z by its winding), bound to ``/Glow``."""
+    return (f'def Mesh "{name}" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{{\n'
+            f"    point3f[] points = {QUAD_POINTS}\n    int[] faceVertexCounts = [4]\n"
+            "    int[] faceVertexIndices = [0, 1, 2, 3]\n    uniform bool doubleSided = 0\n"
+            "    rel material:binding = </Glow>\n}\n")
+
+
+def native_instance(name, translate, rotate, scale):
+    return (f'def Xform "{name}" (\n    instanceable = true\n    prepend references = </Protos/Lamp>\n)\n{{\n'
+            f"    double3 xformOp:translate = {translate}\n    float3 xformOp:rotateXYZ = {rotate}\n"
+            f"    float3 xformOp:scale = {scale}\n"
+            '    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ", "xformOp:scale"]\n}\n')
+
+
+def test_usd_native_and_point_instancer_lamps_light_the_floor_as_the_formula_says(tmp_path):
+    """A glowing quad in a native prototype (turned over, and mirrored by z -> -z) and in a PointInstancer's
+    prototype (a rotation and a non-uniform scale, and a turn over) lights the floor under whitted as Lambert's
+    formula over the world-space quads that face it says; USD's own ComputeInstanceTransformsAtTime and
+    ComputeLocalToWorldTransform place the oracle's quads. Before, the floor was black with a warning."""
+    from pxr import Usd, UsdGeom
+
+    protos = 'over "Protos"\n{\n    def Xform "Lamp"\n    {\n' + glowing_quad().replace("\n", "\n        ") + "}\n}\n"
+    natives = [native_instance("A", (0.3, -0.2, 1.0), (180, 0, 0), (1, 1, 1)),
+               native_instance("B", (0.3, 0.3, 1.0), (0, 0, 20), (1, 1, -1))]
+    instancer = ('def PointInstancer "PI"\n{\n    rel prototypes = </PI/Protos/Lamp>\n'
+                 "    int[] protoIndices = [0, 0]\n    point3f[] positions = [(-0.4, 0.1, 1.0), (-0.3, -0.4, 1.0)]\n"
+                 "    quath[] orientations = [(0, 0.9397, 0.342, 0), (0, 1, 0, 0)]\n"
+                 "    float3[] scales = [(2, 0.5, 1), (1, 1, 1)]\n"
+                 '    def Scope "Protos"\n    {\n        def Xform "Lamp"\n        {\n'
+                 + glowing_quad("Quad").replace("\n", "\n            ") + "}\n    }\n}\n")
+    scene, messages = load(tmp_path, white_plane(), glow("constant"), protos, *natives, instancer)
+    assert len(scene.instances) == 4 and not messages, messages
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    transforms = [np.array(UsdGeom.Xformable(stage.GetPrimAtPath(p)).ComputeLocalToWorldTransform(0)).T
+                  for p in ("/A", "/B")]
+    placed = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).ComputeInstanceTransformsAtTime(0, 0)
+    transforms += [np.array(m).T for m in placed]
+    local = np.array(QUAD_POINTS, np.float64)
+    mesh = wrt.Mesh("/q", local, [[0, 1, 2], [0, 2, 3]], [0, 0])
+    corners = world_corners(mesh, transforms)
+    points = pixel_points((0.0, 0.0, 0.0), PATCH, RES, RES).reshape(-1, 3)
+    expected = (lambert_irradiance(points, corners, 3.0) / np.pi).reshape(RES, RES)  # white floor: albedo 1
+    rendered, messages = render_floor(scene, "whitted", spp=512)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    assert abs(rendered.mean() / expected.mean() - 1) < 0.02, (rendered.mean(), expected.mean())
+    assert np.abs(rendered / expected - 1).max() < 0.1, rendered / expected
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_an_instanced_glowing_sphere_lights_the_floor_as_the_closed_form(tmp_path, integrator):
+    """A Sphere of radius r = 0.1 bound to a glowing material (radiance 3) inside a native instance placed at
+    height h = 1: drawn as its tessellation inside the prototype too, its triangles are sampled in the instance, and
+    it lights the white floor with E = pi L r^2 cos / d^2, cos = h / d. Before, it stayed an analytic prototype
+    shape that whitted did not sample (the floor black, with a warning)."""
+    r = 0.1
+    sphere = ('def Sphere "Ball" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n'
+              f"    double radius = {r}\n    rel material:binding = </Glow>\n}}\n")
+    protos = 'over "Protos"\n{\n    def Xform "Lamp"\n    {\n' + sphere.replace("\n", "\n        ") + "}\n}\n"
+    scene, messages = load(tmp_path, white_plane(), glow("constant"), protos,
+                           native_instance("A", (0, 0, 1.0), (0, 0, 0), (1, 1, 1)))
+    assert not messages and not [s for p in scene.prototypes for s in p.shapes], messages
+    assert [len(m.indices) >= 2 * 64 for p in scene.prototypes for m in p.meshes] == [True]  # its tessellation
+    rendered, messages = render_floor(scene, integrator, spp=512 if integrator == "whitted" else 256)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    points = pixel_points((0.0, 0.0, 0.0), PATCH, RES, RES)
+    expected = 3.0 * r**2 * 1.0 / np.linalg.norm(points - (0.0, 0.0, 1.0), axis=-1) ** 3  # albedo 1 times E / pi
+    assert abs(rendered.mean() / expected.mean() - 1) < 0.03, (rendered.mean(), expected.mean())
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_normalized_mesh_light_in_two_native_instances_is_divided_by_each_ones_area(tmp_path, integrator):
+    """A unit square with MeshLightAPI (intensity 3, normalize) inside a native prototype, drawn by two instances,
+    one scaled to 1.5 x 0.5: each instance's copy is a light of its own, divided by its own world area (radiance 3
+    and 4), and the floor shows Lambert's formula over both. Before, mesh lights inside instances emitted nothing
+    (a warning named them)."""
+    from test_mesh_lights import floor, mesh_light
+
+    protos = ('over "Protos"\n{\n    def Xform "Lamp"\n    {\n'
+              + mesh_light(intensity=3.0, normalize=True).replace("\n", "\n        ") + "}\n}\n")
+    natives = [native_instance("A", (-0.5, 0.0, 0.0), (0, 0, 0), (1, 1, 1)),
+               native_instance("B", (0.9, 0.0, 0.0), (0, 0, 0), (1.5, 0.5, 1))]
+    scene, messages = load(tmp_path, floor(), protos, *natives)
+    assert [type(light).__name__ for light in scene.lights] == ["MeshLight"] and not messages, messages
+    square = np.array([(-0.5, -0.5, 1.0), (-0.5, 0.5, 1.0), (0.5, 0.5, 1.0), (0.5, -0.5, 1.0)])  # front: -Z
+    points = pixel_points((0.0, 0.0, 0.0), PATCH, RES, RES).reshape(-1, 3)
+    expected = np.zeros(len(points))
+    for offset, scale, radiance in (((-0.5, 0, 0), (1, 1, 1), 3.0), ((0.9, 0, 0), (1.5, 0.5, 1), 4.0)):
+        corners = (square * scale + offset)[[[0, 1, 2], [0, 2, 3]]]
+        expected += ALBEDO * lambert_irradiance(points, corners, radiance) / np.pi
+    rendered, messages = render_floor(scene, integrator, spp=256)
+    assert not [m for m in messages if UNSAMPLED in m], messages
+    assert abs(rendered.mean() / expected.mean() - 1) < 0.02, (rendered.mean(), expected.mean())
+    assert np.abs(rendered / expected.reshape(RES, RES) - 1).max() < 0.15

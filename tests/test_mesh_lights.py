@@ -1,7 +1,8 @@
 """Mesh lights (UsdLux ``MeshLightAPI``, or ``LightAPI`` on another gprim): the irradiance a quad mesh light gives a
 plane against Lambert's closed form and against the same light authored as a ``RectLight``; ``normalize``,
 ``exposure`` and ``color``; light linking; ``materialSyncMode`` with an emissive material; analytic gprims as mesh
-lights (a sphere against its closed form); volumes and instances that cannot be lights are named."""
+lights (a sphere against its closed form); mesh lights inside instances; volumes, which cannot be lights, are
+named."""
 
 import numpy as np
 import pytest
@@ -260,9 +261,11 @@ def test_every_analytic_gprim_with_mesh_light_api_emits(tmp_path, kind):
                                rtol=1e-5)
 
 
-def test_volumes_and_instanced_meshes_that_cannot_be_lights_are_named(tmp_path):
-    """VolumeLightAPI volumes and mesh lights inside instance prototypes (meshes and gprims) emit nothing: named.
-    A gprim with LightAPI drawn in the world is a mesh light, analytic or tessellated."""
+def test_volumes_are_named_and_instanced_mesh_lights_are_lights(tmp_path):
+    """VolumeLightAPI volumes emit nothing: named. Mesh lights inside instance prototypes (a mesh and a gprim) are
+    lights, one each for all of their instances, and light the floor under the instance; they were drawn as
+    geometry that emitted nothing, named. A gprim with LightAPI drawn in the world is a mesh light, analytic or
+    tessellated."""
     sphere = ('def Sphere "Bulb" (\n    prepend apiSchemas = ["LightAPI"]\n)\n{\n    double radius = 0.3\n'
               '    double3 xformOp:translate = (0, 0, 1)\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
               '    float inputs:intensity = 4\n}\n')
@@ -272,11 +275,14 @@ def test_volumes_and_instanced_meshes_that_cannot_be_lights_are_named(tmp_path):
                  '    double3 xformOp:translate = (10, 0, 0)\n'
                  '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n')
     scene, messages = load(tmp_path, floor(), sphere, volume, instanced)
-    assert [light.path for light in scene.lights] == ["/Bulb"]
+    assert [light.path for light in scene.lights][0] == "/Bulb"
+    assert sorted(light.path.rsplit("/", 1)[1] for light in scene.lights[1:]) == ["Bulb", "Light"]
+    assert all(isinstance(light, wrt.MeshLight) for light in scene.lights[1:])
     assert any("VolumeLightAPI" in m and "/Fog" in m for m in messages), messages
-    assert any("inside instances" in m and "/Proto/Light" in m and "/Proto/Bulb" in m for m in messages), messages
+    assert not any("inside instances" in m for m in messages), messages
+    assert render_floor(scene, "whitted", spp=4, center=(10.5, 0.0, 0.0)).mean() > 0.05
     tessellated, _ = load_recording_warnings(str(tmp_path / "stage.usda"), tessellate_gprims=16)
-    assert [type(light).__name__ for light in tessellated.lights] == ["MeshLight"]
+    assert [type(light).__name__ for light in tessellated.lights] == ["MeshLight"] * 3
     img = wrt.render(tessellated, camera=top_down_camera(height=PATCH), width=RES, height=RES, spp=4,
                      integrator="path", max_depth=1)
     np.testing.assert_allclose(img.rgb[6:10, 6:10], 4.0, rtol=1e-5)  # cameras see the light: it has no material
@@ -296,20 +302,21 @@ def test_a_mesh_or_gprim_with_volume_light_api_is_named_and_emits_nothing(tmp_pa
     assert len(named) == 1 and "/Bulb" in named[0] and "/Light" in named[0], messages
 
 
-def test_a_point_instancer_of_a_world_mesh_light_names_what_emits(tmp_path):
+def test_a_point_instancer_of_a_world_mesh_light_emits_in_place_and_in_its_instances(tmp_path):
     """A PointInstancer whose prototypes are mesh lights drawn in the world too (a mesh and a Sphere, not under an
-    ``over``): those prims emit where they stand, their instances do not, and the warning says so. Before, it said
-    the prims were lights inside instances that emit nothing, though they lit the floor."""
+    ``over``): those prims emit where they stand and in each instance, each prim one light. Before, the instances
+    emitted nothing and a warning said so."""
     instancer = ('def PointInstancer "PI"\n{\n    rel prototypes = [</Light>, </Bulb>]\n'
                  "    int[] protoIndices = [0, 1]\n    point3f[] positions = [(5, 0, 0), (-5, 0, 0)]\n}\n")
     scene, messages = load(tmp_path, floor(), mesh_light(intensity=3.0), gprim_light("Sphere", radius=0.1, x=3.0),
                            instancer)
     assert sorted(light.path for light in scene.lights) == ["/Bulb", "/Light"]
     assert len(scene.instances.prototype) == 2
-    named = [m for m in messages if "/Light" in m or "/Bulb" in m]
-    assert len(named) == 1 and "emit only where drawn in place" in named[0] and "instances are drawn as geometry "\
-        "that emits nothing" in named[0] and "/Light" in named[0] and "/Bulb" in named[0], messages
-    assert abs(render_floor(scene, "path").mean() / closed_form(3.0).mean() - 1) < 0.03  # the Sphere adds 0.1%
+    assert not [m for m in messages if "/Light" in m or "/Bulb" in m], messages
+    for integrator in ("whitted", "path"):
+        for center in ((0.0, 0.0, 0.0), (5.0, 0.0, 0.0)):  # the Sphere and the other copy add under 0.5%
+            lit = render_floor(scene, integrator, center=center).mean()
+            assert abs(lit / closed_form(3.0).mean() - 1) < 0.03, (integrator, center, lit)  # the same light
 
 
 def test_the_whitted_warning_on_unsampled_instanced_emitters_names_what_the_command_line_can_do(tmp_path, monkeypatch):

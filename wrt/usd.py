@@ -17,8 +17,8 @@ Gprims (:mod:`wrt.primitives`): ``UsdGeom.Sphere`` (``radius``), ``Cube`` (``siz
 shapes intersected in their own space,
 with ``displayColor`` (constant; other interpolations use the mean), material binding, ``doubleSided`` and
 ``orientation``. With ``tessellate_gprims`` they become triangle meshes instead (vertices on the surface, analytic
-vertex normals; see :func:`wrt.primitives.tessellate`); outside instances, one that emits (a mesh light, or bound
-to a material that glows) is always such a mesh, as light sampling draws points on triangles. Gprims whose size is
+vertex normals; see :func:`wrt.primitives.tessellate`); one that emits (a mesh light, or bound to a material that
+glows) is always such a mesh, inside instances too, as light sampling draws points on triangles. Gprims whose size is
 zero, negative or not finite are skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0),
 and so are volumes (the gprim types left); one whose world box is past float32's range raises, as mesh points do,
 and one flattened by a zero scale is drawn as its (flat) tessellation, with a warning. ``Points`` and curves
@@ -59,7 +59,8 @@ instead (each face from its own material's), and all of the above (inheritance, 
 primvars) applies to it in place of ``displayColor``.
 Cameras inside native instances are read at their instance-proxy paths
 (``/Instance/Cam``, placed by the instance), in invisible instances too, as cameras under invisible prims are; cameras
-inside PointInstancer prototypes and lights inside any prototype are skipped with a warning.
+inside PointInstancer prototypes and lights inside any prototype are skipped with a warning, but for mesh lights,
+each one light for all of its instances (:func:`wrt.light_table.emitter_triangles` samples each instance's copy).
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
@@ -261,7 +262,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
         self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)
-        self.instanced_lights = {}  # shown path -> type name of mesh lights read inside prototypes (not sampled)
+        self.instanced_lights = {}  # prim path -> MeshLight of the mesh lights read inside prototypes
 
     def read(self) -> Scene:
         scene = Scene(
@@ -281,7 +282,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         if inverses is not None:
             scene.remember_instance_inverses(inverses)
         resolve_expressions(scene)  # linking collections in expression mode, against the paths drawn
-        self._warn_instanced_lights()
+        self._add_instanced_lights()
         self._warn_skipped()
         return scene
 
@@ -363,14 +364,12 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
         elif shape is not None and self.segments:
             self._add_mesh(prim, self._tessellated(shape, prim), ctx)
-        elif shape is not None and ctx.world and (_is_mesh_light(prim) or self._glows(shape)):
+        elif shape is not None and (_is_mesh_light(prim) or self._glows(shape)):
             # Light sampling draws points on triangles, and rays that hit an emitter must see the surface sampled (its
             # radiance and pdf come from the triangle hit): a mesh light, or a gprim bound to a material that emits,
-            # is drawn as its tessellation; the other gprims stay analytic. Instanced ones are not sampled anyway.
+            # is drawn as its tessellation, inside instances too; the other gprims stay analytic.
             self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
         elif shape is not None:
-            if _is_mesh_light(prim):
-                self._instanced_light(prim)
             ctx.content.shapes.append(shape)
 
     def _glows(self, shape: Shape) -> bool:
@@ -389,13 +388,17 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         ctx.content.meshes.append(mesh)
         if not _is_mesh_light(prim):
             return
-        if not ctx.world:  # its triangles are not sampled, as emissive prototype triangles are not
-            self._instanced_light(prim)
+        path = str(prim.GetPath())
+        if not ctx.world and path in self.instanced_lights:  # a prototype read again (another outer material)
             return
         light = read_light(prim, self.xforms, self.time, self.scene.up_axis, self._skip)
-        if light is not None:
-            warn_glowless_mesh_light(light, prim, mesh, self.materials, self._skip)
+        if light is None:
+            return
+        warn_glowless_mesh_light(light, prim, mesh, self.materials, self._skip)
+        if ctx.world:
             self.scene.lights.append(light)
+        else:  # added once the walk is over, unless the prim is drawn in place too (_add_instanced_lights)
+            self.instanced_lights[path] = light
 
     def _not_a_mesh_light(self, prim: Usd.Prim, what: str):
         """Names ``prim`` in a warning when it is a mesh light (MeshLightAPI or LightAPI alone): it should emit, but
@@ -404,22 +407,12 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._skip(f"lights on {what} (LightAPI, MeshLightAPI) are not supported; drawn as geometry that emits "
                        "nothing", prim, prim.GetTypeName())
 
-    def _instanced_light(self, prim: Usd.Prim):
-        """Notes mesh light ``prim`` read inside an instance prototype, whose triangles are not sampled (as emissive
-        prototype triangles are not): named once the walk is over (:meth:`_warn_instanced_lights`)."""
-        self.instanced_lights.setdefault(self._shown_path(prim), prim.GetTypeName())
-
-    def _warn_instanced_lights(self):
-        """Names the mesh lights drawn inside instances. A PointInstancer's prototype may be a prim of the world
-        too, drawn in place as well: that copy emits (it is a light of the scene), its instanced copies do not."""
+    def _add_instanced_lights(self):
+        """Adds the mesh lights read inside instance prototypes, each once, whatever the number of instances (its
+        triangles are sampled in each: wrt.light_table.emitter_triangles). A PointInstancer's prototype may be a prim
+        of the world too, drawn in place as well: its light, read there, covers the instances' copies."""
         world = {light.path for light in self.scene.lights if isinstance(light, MeshLight)}
-        for path, kind in self.instanced_lights.items():
-            if path in world:
-                self._skip_path("mesh lights that are also PointInstancer prototypes emit only where drawn in place "
-                                "(the light); their instances are drawn as geometry that emits nothing", path, kind)
-            else:
-                self._skip_path("lights on meshes and gprims inside instances (LightAPI, MeshLightAPI) are not "
-                                "supported; drawn as geometry that emits nothing", path, kind)
+        self.scene.lights += [light for path, light in self.instanced_lights.items() if path not in world]
 
     def _to_space(self, prim: Usd.Prim, ctx: Context) -> np.ndarray:
         """``(4, 4)`` row-vector (USD) transform from ``prim`` to the space of ``ctx``'s content."""
