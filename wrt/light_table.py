@@ -75,10 +75,11 @@ def luminance_np(c) -> float:
     return float(np.asarray(c, np.float64) @ LUMINANCE)
 
 
-# Emitter entries made for instanced triangles (one per emissive prototype triangle and instance, 64 bytes of
-# device arrays each): instances past it (in instance order) keep their emission for rays that hit them but are not
-# sampled, with a warning, so that a forest of glowing leaves cannot fill the device.
-MAX_INSTANCED_EMITTERS = 4_000_000
+# Emitter entries made for instanced triangles (one per emissive prototype triangle and instance, 162 bytes of
+# device arrays each, as every light-table row: 320 MB at the cap, whose rows build_lights made in 2 s on 2 cores): the
+# instances past it (in instance order) keep their emission for rays that hit them but are not sampled, with a
+# warning, so that a forest of glowing leaves cannot fill the device.
+MAX_INSTANCED_EMITTERS = 2_000_000
 
 
 @dataclasses.dataclass
