@@ -48,7 +48,6 @@ class StageWriter:
         # default) is an authored default, which wrt's time=None reads as USD's default time does.
         self.defaults = defaults
         self.assets: list[str] = []  # file names of the asset layers written so far (each may reference earlier ones)
-        self.uses_quath = False  # some orientations are quath: USD uses them as stored, wrt normalises them
         # resetXformStack is authored only outside instances: inside one (an asset may be instanced, a prototype of a
         # PointInstancer is) USD resets to the world where Hydra resets to the instance (see usd_triangles).
         self.resets = False
@@ -318,7 +317,6 @@ class StageWriter:
                    lambda: Vt.Vec3fArray.FromNumpy(rng.uniform(-2, 2, (n, 3)).astype(np.float32)))
         if rng.random() < 0.7:
             half = rng.random() < 0.3
-            self.uses_quath |= half
             attr = pi.CreateOrientationsAttr() if half else pi.CreateOrientationsfAttr()
             array = Vt.QuathArray if half else Vt.QuatfArray
 
@@ -420,11 +418,10 @@ def _affine(rng) -> Gf.Matrix4d:
     return s * r * Gf.Matrix4d().SetTranslate(Gf.Vec3d(*rng.uniform(-3, 3, 3)))
 
 
-def write_stage(folder: str, seed: int, defaults: str = "mixed") -> tuple[str, bool]:
-    """Writes stage ``seed`` into ``folder`` (``defaults``: see :class:`StageWriter`): ``(root layer path, whether
-    it has quath orientations)``."""
-    writer = StageWriter(folder, np.random.default_rng(seed), defaults)
-    return writer.write(), writer.uses_quath
+def write_stage(folder: str, seed: int, defaults: str = "mixed") -> str:
+    """Writes stage ``seed`` into ``folder`` (``defaults``: see :class:`StageWriter`); returns the root layer's
+    path."""
+    return StageWriter(folder, np.random.default_rng(seed), defaults).write()
 
 
 # Oracle ------------------------------------------------------------------------------------------------------------

@@ -22,9 +22,6 @@ import wrt
 STAGES = int(os.environ.get("WRT_COMPOSED_STAGES", "40"))
 TIMES = (-7.0, 0.0, 1.0, 1.7, 2.0, 4.3, 11.0, 30.0)  # stage times: before, on, between and after the samples
 EXACT = 2e-5  # per coordinate, relative to 1 + the triangle's largest |x|: float32 points through float64 transforms
-# USD turns quath orientations as stored, wrt normalised (README): up to 2e-3 of an instance's size, more through
-# nested instancers.
-QUATH = 2e-2
 
 
 def world_triangles(path, **kwargs) -> np.ndarray:
@@ -36,7 +33,7 @@ def world_triangles(path, **kwargs) -> np.ndarray:
     return np.asarray(points, np.float64)[indices]
 
 
-def differences(path: str, quath: bool, times, read_time) -> tuple[list[str], int]:
+def differences(path: str, times, read_time) -> tuple[list[str], int]:
     """Where wrt's triangles of the stage at ``path`` differ from USD's, one line per time of ``times`` (``load_usd``
     times) that USD reads at ``read_time(time)``, and how many triangles USD found in all."""
     stage = Usd.Stage.Open(path)
@@ -45,7 +42,7 @@ def differences(path: str, quath: bool, times, read_time) -> tuple[list[str], in
         expected, _ = usd_triangles(stage, read_time(time))
         count += len(expected)
         got = world_triangles(path, time=time)
-        extra, missing = unmatched(got, expected, QUATH if quath else EXACT)
+        extra, missing = unmatched(got, expected, EXACT)
         if extra or missing:
             found.append(f"{path} at time {time}: wrt {len(got)} triangles, USD {len(expected)}; "
                          f"{len(extra)} of wrt's and {len(missing)} of USD's unmatched")
@@ -59,8 +56,8 @@ def test_random_composed_stages_show_the_triangles_usd_computes(tmp_path):
     for seed in range(STAGES):
         folder = tmp_path / f"stage{seed}"
         folder.mkdir()
-        path, quath = write_stage(str(folder), seed)
-        lines, count = differences(path, quath, TIMES, lambda t: t)
+        path = write_stage(str(folder), seed)
+        lines, count = differences(path, TIMES, lambda t: t)
         found += lines
         triangles += count
     assert triangles > 10 * len(TIMES) * STAGES  # the stages show something
@@ -77,8 +74,8 @@ def test_time_none_reads_the_first_sample_of_attributes_that_have_only_samples(t
     for seed in range(2 * STAGES):
         folder = tmp_path / f"stage{seed}"
         folder.mkdir()
-        path, quath = write_stage(str(folder), seed, defaults)
-        lines, count = differences(path, quath, [None], lambda _: read_time())
+        path = write_stage(str(folder), seed, defaults)
+        lines, count = differences(path, [None], lambda _: read_time())
         found += lines
         triangles += count
     assert triangles > 10 * STAGES

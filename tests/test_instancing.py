@@ -570,7 +570,7 @@ def test_orientations_and_scales_move_as_usd_computes(tmp_path, rates):
     for time in (0.5, 1.0, 5.5, 10.0, 12.0):
         t = Usd.TimeCode(time)
         expected = [np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)]
-        np.testing.assert_allclose(load(path, time=time).instances.to_world, expected, atol=2e-3, err_msg=time)
+        np.testing.assert_allclose(load(path, time=time).instances.to_world, expected, atol=1e-5, err_msg=time)
 
 
 @pytest.mark.parametrize("rate, count, base", [("velocities", 3, "positions"), ("angularVelocities", 1, "orientations"),

@@ -240,12 +240,11 @@ def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):
 
 
 def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """``(N, 3, 3)`` rotation matrices (column vectors) of ``(N, 4)`` quaternions stored ``(i, j, k, real)`` as
-    ``Gf.Quat*`` arrays are; normalised first, so every result is a rotation. USD's own instance transforms
-    (``ComputeInstanceTransformsAtTime``) use the quaternion as stored: for ``quath`` orientations, unit length only
-    to half precision, the two differ by up to about 2e-3 of the instance's size (1.6e-3 over 20k random unit
-    quaternions rounded to ``quath``; ``quatf`` ones agree to float precision)."""
-    q = q / np.maximum(np.linalg.norm(q, axis=1, keepdims=True), 1e-30)
+    """``(N, 3, 3)`` matrices (column vectors) of ``(N, 4)`` quaternions stored ``(i, j, k, real)`` as ``Gf.Quat*``
+    arrays are, built from the quaternion as stored, without normalising, as ``ComputeInstanceTransformsAtTime``
+    (``GfMatrix4d::SetRotate``) and Storm's instancing shader build them: a ``quath`` off unit length by its half
+    precision (up to 2e-3 of the instance's size) or an authored quaternion of another length (schema-invalid) places
+    the instance where USD and usdview place it, a non-rigid matrix (a zero quaternion is the identity)."""
     x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
     return np.stack(
         [
@@ -255,4 +254,3 @@ def _quat_to_matrix(q: np.ndarray) -> np.ndarray:
         ],
         axis=1,
     )
-
