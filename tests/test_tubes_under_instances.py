@@ -5,6 +5,7 @@ ray by ray, through wrt's TLAS and through ``accel='warp'``, which traces the te
 
 import numpy as np
 import pytest
+from pxr import Gf
 from usda_text import load, write
 
 import wrt
@@ -87,10 +88,9 @@ def instancer_stage(instancer: bool) -> str:
                         '        {\n        }\n    }\n}\n')
     body = proto
     for k, (s, q, p) in enumerate(zip(scales, quats, positions)):
-        x, y, z, w = np.array(q) / np.linalg.norm(q)  # wrt normalises orientations, as USD does not
-        rotation = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                             [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                             [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+        # As ComputeInstanceTransformsAtTime turns instances: GfMatrix4d::SetRotate of the quaternion as stored (this
+        # one is not of unit length), transposed to column vectors.
+        rotation = np.array(Gf.Matrix4d().SetRotate(Gf.Quatd(q[3], *q[:3])))[:3, :3].T
         body += (f'def Xform "Copy{k}" (prepend references = </Proto>)\n{{\n'
                  f'    matrix4d xformOp:transform = {usd_matrix(rotation @ np.diag(s), p)}\n'
                  '    uniform token[] xformOpOrder = ["xformOp:transform"]\n}\n')
