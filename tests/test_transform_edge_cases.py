@@ -1,5 +1,6 @@
-"""USD transform and instancing edge cases against USD's own API: PointInstancer orientations off unit length
-(``ComputeInstanceTransformsAtTime``), ..."""
+"""USD transform and instancing edge cases against USD's own API and float64 ray casting: PointInstancer orientations
+off unit length (``ComputeInstanceTransformsAtTime``), instances flattened by a zero scale (``XformCache`` on instance
+proxies, Moller-Trumbore in float64 on USD's world triangles)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("pxr")
-from pxr import Gf, Usd, UsdGeom, Vt  # noqa: E402
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt  # noqa: E402
 
 import wrt  # noqa: E402
 
@@ -60,3 +61,129 @@ def test_pointinstancer_orientations_off_unit_length_place_instances_as_usd_does
     assert abs(np.linalg.det(expected[3, :3, :3])) > 2.0  # the oracle does not normalise (the point of the test)
     got = load(path).instances.to_world
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-6)
+
+
+def cube(stage, path):
+    """A closed single-sided cube of side 2 about the origin, quads wound outwards."""
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    mesh.CreateFaceVertexCountsAttr([4] * 6)
+    mesh.CreateFaceVertexIndicesAttr([i for f in faces for i in f])
+    mesh.CreateDoubleSidedAttr(False)
+    return mesh
+
+
+def usd_world_triangles(stage) -> np.ndarray:
+    """``(T, 3, 3)`` float64 world-space fan triangles of every mesh drawn, by USD's API: instance proxies placed by
+    ``XformCache``, PointInstancer instances by ``ComputeInstanceTransformsAtTime`` times the instancer's transform."""
+    xforms = UsdGeom.XformCache(DEFAULT)
+    found = []
+
+    def fan(mesh, m):
+        points = np.array(mesh.GetPointsAttr().Get(), np.float64) @ m[:3, :3] + m[3, :3]
+        counts, indices = mesh.GetFaceVertexCountsAttr().Get(), list(mesh.GetFaceVertexIndicesAttr().Get())
+        start = 0
+        for n in counts:
+            face = indices[start:start + n]
+            found.extend(points[[face[0], face[k], face[k + 1]]] for k in range(1, n - 1))
+            start += n
+
+    it = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies()))
+    for prim in it:
+        if prim.IsA(UsdGeom.PointInstancer):
+            it.PruneChildren()
+            pi = UsdGeom.PointInstancer(prim)
+            instancer = np.array(xforms.GetLocalToWorldTransform(prim))
+            protos = pi.GetPrototypesRel().GetTargets()
+            for index, m in zip(pi.GetProtoIndicesAttr().Get(), pi.ComputeInstanceTransformsAtTime(DEFAULT, DEFAULT)):
+                for p in Usd.PrimRange(stage.GetPrimAtPath(protos[index])):
+                    if p.IsA(UsdGeom.Mesh):
+                        # The prototype root's own transform is in m (IncludeProtoXform, the default).
+                        root = stage.GetPrimAtPath(protos[index])
+                        relative = np.array(xforms.ComputeRelativeTransform(p, root)[0]) if p != root else np.eye(4)
+                        fan(UsdGeom.Mesh(p), relative @ np.array(m) @ instancer)
+        elif prim.IsA(UsdGeom.Mesh) and not str(prim.GetPath()).startswith("/Lib"):
+            fan(UsdGeom.Mesh(prim), np.array(xforms.GetLocalToWorldTransform(prim)))
+    return np.array(found)
+
+
+def closest_t(triangles: np.ndarray, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """``(N,)`` float64 distance to the nearest triangle along each ray (inf: none), Moller-Trumbore in float64;
+    triangles of no area (a cube's sides flattened into lines) are never hit."""
+    p0, e1, e2 = triangles[:, 0], triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    best = np.full(len(origins), np.inf)
+    for a, b, c in zip(p0, e1, e2):
+        if np.linalg.norm(np.cross(b, c)) < 1e-12:
+            continue
+        h = np.cross(directions, c)
+        det = h @ b
+        s = origins - a
+        u = np.einsum("ij,ij->i", s, h) / det
+        q = np.cross(s, b)
+        v = np.einsum("ij,ij->i", q, directions) / det
+        t = (q @ c) / det
+        hit = (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+        best = np.where(hit & (t < best), t, best)
+    return best
+
+
+def test_instances_flattened_by_a_zero_scale_are_drawn_flat_as_usd_draws_them(tmp_path):
+    """A single-sided cube instanced natively with ``scale (1, 0, 1)`` under a turn, by a PointInstancer with
+    ``scales (1, 0, 1)`` and ``(1, 0, -1)`` (flat and mirrored), and referenced plainly with the same zero scale: USD
+    (and Storm) draw each as a flat sheet, as wrt draws the plain one; the instances were skipped as singular. Rays
+    from above and below hit the sheets where float64 ray casting on USD's world triangles does, at its distance, and
+    camera rays see them from both sides (one face of the sheet fronts each side, as its world winding gives)."""
+    path = str(tmp_path / "flat.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    cube(stage, "/Lib/Box")
+    stage.GetPrimAtPath("/Lib").SetSpecifier(Sdf.SpecifierClass)
+    for name, x, instanceable in (("Native", -6.0, True), ("Plain", 6.0, False)):
+        xf = UsdGeom.Xform.Define(stage, f"/{name}")
+        xf.AddTranslateOp().Set((x, 0.5, 0))
+        xf.AddRotateXYZOp().Set((20, 35, 10))
+        xf.AddScaleOp().Set((1.5, 0.0, 1.0))
+        xf.GetPrim().GetReferences().AddInternalReference("/Lib")
+        xf.GetPrim().SetInstanceable(instanceable)
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    UsdGeom.Xform.Define(stage, "/PI/Protos/Box").GetPrim().GetReferences().AddInternalReference("/Lib")
+    pi.CreatePrototypesRel().SetTargets(["/PI/Protos/Box"])
+    pi.CreateProtoIndicesAttr([0, 0])
+    pi.CreatePositionsAttr([(0, 0, -5), (0, -0.5, 5)])
+    pi.CreateScalesAttr([(1, 0, 1), (1, 0, -1)])
+    pi.CreateOrientationsfAttr([Gf.Quatf(Gf.Rotation(Gf.Vec3d(1, 0.3, 0.2), 25).GetQuat())] * 2)
+    stage.Save()
+    expected_triangles = usd_world_triangles(Usd.Stage.Open(path))
+
+    scene = load(path)
+    assert len(scene.instances) == 3
+    rng = np.random.default_rng(2)
+    n = 3000
+    xz = rng.uniform((-8, -7), (8, 7), (n, 2))
+    for side in (1.0, -1.0):
+        origins = np.column_stack([xz[:, 0], np.full(n, 10.0 * side), xz[:, 1]])
+        directions = np.column_stack([rng.normal(0, 0.1, n), np.full(n, -side), rng.normal(0, 0.1, n)])
+        expected = closest_t(expected_triangles, origins, directions)
+        hits = wrt.trace(scene, origins, directions)
+        got = np.where(hits.prim >= 0, hits.t, np.inf)
+        # Rays within float rounding of a sheet's outline may go either way.
+        shifted = closest_t(expected_triangles, origins + 1e-4, directions)
+        with np.errstate(invalid="ignore"):  # inf - inf: both miss
+            near_edge = (np.isfinite(shifted) != np.isfinite(expected)) | (np.abs(shifted - expected) > 1e-3)
+        assert np.isfinite(expected).sum() > n / 20
+        assert np.array_equal(np.isfinite(got)[~near_edge], np.isfinite(expected)[~near_edge]), side
+        both = np.isfinite(got) & np.isfinite(expected)
+        # The sheets are drawn 1e-4 of their size thick (wrt.instancing.FLAT_THICKNESS).
+        np.testing.assert_allclose(got[both], expected[both], rtol=0, atol=2e-4)
+        # Camera rays, with back-face culling: a sheet seen from either side shows the face fronting it.
+        camera = wrt.Camera.orthographic((0, 10 * side, 0), (0, 0, 0), up=(0, 0, 1), height=18.0)
+        image = wrt.render(scene, camera=camera, width=36, height=36, integrator="albedo")
+        seen = image.aovs["prim"] >= 0
+        eye, axes = camera.to_world[:3, 3], camera.to_world[:3, :3]
+        ys, xs = np.mgrid[0:36, 0:36]
+        film = np.stack([(xs + 0.5) / 36 - 0.5, 0.5 - (ys + 0.5) / 36], -1).reshape(-1, 2) * 18.0
+        pixel_origins = eye + film[:, :1] * axes[:, 0] + film[:, 1:] * axes[:, 1]
+        view = np.tile(-axes[:, 2], (len(film), 1))
+        expected_seen = np.isfinite(closest_t(expected_triangles, pixel_origins, view)).reshape(36, 36)
+        assert expected_seen.sum() > 50 and np.mean(seen == expected_seen) > 0.97, side

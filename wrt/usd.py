@@ -40,8 +40,9 @@ the earlier sample moved by them, and orientations with ``angularVelocities`` th
 USD computes it; then every per-instance attribute is held at its earlier sample (USD's velocity path), and without
 either they are all interpolated. A ``protoIndices`` entry out of range, a prototype target that does not exist, or
 per-instance arrays shorter than ``protoIndices`` (``ids`` too, where a mask uses them) raise
-:class:`wrt.errors.SceneError` naming the instancer; instances whose transform is singular (a zero scale) are
-skipped with a warning naming each one (``/instancer[index]``), and so are the instances of an inactive prototype
+:class:`wrt.errors.SceneError` naming the instancer; instances flattened into a plane by a zero scale are drawn
+flat (:func:`wrt.instancing.thicken_flat_transforms`), those scaled to a line or a point are skipped with a warning
+naming each one (``/instancer[index]``), and so are the instances of an inactive prototype
 (or one under an inactive prim). Visibility and purpose inside a PointInstancer's prototype are taken from the
 prototype root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A
 material bound on or above a native instance (chosen by the meshes' rule, :func:`wrt.materials.bound_material`:

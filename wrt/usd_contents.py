@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Sdf, Usd
 
-from .instancing import Instances, Prototype, invert_transforms
+from .instancing import Instances, Prototype, invert_transforms, thicken_flat_transforms
 from .light_links import part_path
 from .primitives import Shape
 from .scene import Mesh, Scene
@@ -158,6 +158,16 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
 
     for path in dict.fromkeys(map(world_path, projective)):
         skip_path(PROJECTIVE, path)
+    # A zero scale on one axis flattens an instance into a sheet that USD draws (and so does wrt, for a mesh that is
+    # not instanced): it is drawn thin rather than skipped. Fewer directions than two leave nothing of any area. The
+    # spheres and tubes of Points and curves are placed round (place_round), so theirs are not flattened but zero.
+    if elements:
+        meshes = element < 0
+        to_world = instances.to_world.copy()
+        to_world[meshes] = thicken_flat_transforms(to_world[meshes])[0]
+        instances.to_world = to_world
+    else:
+        instances.to_world = thicken_flat_transforms(instances.to_world)[0]
     inverses, ok = invert_transforms(instances.to_world)
     for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok))):
         skip_path("instances with a singular transform (a zero scale) were skipped", path)
