@@ -187,3 +187,31 @@ def test_instances_flattened_by_a_zero_scale_are_drawn_flat_as_usd_draws_them(tm
         view = np.tile(-axes[:, 2], (len(film), 1))
         expected_seen = np.isfinite(closest_t(expected_triangles, pixel_origins, view)).reshape(36, 36)
         assert expected_seen.sum() > 50 and np.mean(seen == expected_seen) > 0.97, side
+
+
+@pytest.mark.parametrize("instanceable", [False, True])
+def test_a_sphere_flattened_by_a_zero_scale_shows_its_whole_disc_from_both_sides(tmp_path, instanceable):
+    """A single-sided ``Sphere`` of radius 2 under ``scale (1, 0, 1)``, plain or in a native instance: Storm draws a
+    flat disc of radius 2, its upper half's faces fronting up and its lower half's down, so camera rays (back faces
+    culled) see the whole disc from above and from below. The plain one was drawn as its flat tessellation, whose
+    two halves overlap without sharing edges: culled back faces hid 10 of 52 pixels from above and 42 from below."""
+    path = str(tmp_path / "disc.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.Sphere.Define(stage, "/Lib/Ball").CreateRadiusAttr(2.0)
+    stage.GetPrimAtPath("/Lib").SetSpecifier(Sdf.SpecifierClass)
+    xf = UsdGeom.Xform.Define(stage, "/Disc")
+    xf.AddScaleOp().Set((1.0, 0.0, 1.0))
+    xf.GetPrim().GetReferences().AddInternalReference("/Lib")
+    xf.GetPrim().SetInstanceable(instanceable)
+    stage.Save()
+    scene = load(path)
+    size = 24
+    ys, xs = np.mgrid[0:size, 0:size]
+    film = np.stack([(xs + 0.5) / size - 0.5, 0.5 - (ys + 0.5) / size], -1) * 6.0  # 6 units across
+    inside = np.hypot(film[..., 0], film[..., 1]) < 2.0  # the disc, seen straight on (either image orientation)
+    edge = np.abs(np.hypot(film[..., 0], film[..., 1]) - 2.0) < 0.1
+    for side in (1.0, -1.0):
+        camera = wrt.Camera.orthographic((0, 10 * side, 0), (0, 0, 0), up=(0, 0, 1), height=6.0)
+        seen = wrt.render(scene, camera=camera, width=size, height=size, integrator="albedo").aovs["prim"] >= 0
+        assert np.array_equal(seen[~edge], inside[~edge]), (side, int(seen.sum()), int(inside.sum()))

@@ -21,8 +21,8 @@ vertex normals; see :func:`wrt.primitives.tessellate`); one that emits (a mesh l
 glows) is always such a mesh, inside instances too, as light sampling draws points on triangles. Gprims whose size is
 zero, negative or not finite are skipped with a warning (one radius of a ``Cylinder_1`` or ``Capsule_1`` may be 0),
 and so are volumes (the gprim types left); one whose world box is past float32's range raises, as mesh points do,
-and one flattened by a zero scale is drawn as its (flat) tessellation, with a warning. ``Points`` and curves
-(``BasisCurves``, ``HermiteCurves``, ``NurbsCurves``) become instances of spheres and tube pieces
+and one flattened into a plane by a zero scale is drawn thin (:func:`wrt.instancing.thicken_flat_transforms`).
+``Points`` and curves (``BasisCurves``, ``HermiteCurves``, ``NurbsCurves``) become instances of spheres and tube pieces
 (:mod:`wrt.usd_tubes`), each shape a content of its own; ``TetMesh`` (its boundary) and ``NurbsPatch``
 (tessellated) become meshes (:mod:`wrt.usd_surfaces`).
 
@@ -88,7 +88,7 @@ import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc
 
 from .errors import SceneError
-from .instancing import invert_transforms
+from .instancing import invert_transforms, thicken_flat_transforms
 from .light_links import resolve_expressions
 from .lights import MeshLight
 from .materials import MaterialReader, emission_estimate
@@ -357,9 +357,18 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._read_tubes(prim, ctx)
             return
         shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
+        if shape is not None:
+            # A zero scale on one axis flattens the gprim into a disc or sheet, which Storm draws as its flat
+            # tessellation, each half fronting its own side: it is drawn thin (as instances are), so each half keeps
+            # its side. Drawn as that flat tessellation, whose halves overlap without sharing edges, culled back faces
+            # hid up to 4 in 5 of its pixels.
+            thick, flat = thicken_flat_transforms(shape.to_world[None])
+            if flat[0]:
+                shape.to_world = thick[0]
         if shape is not None and not self.segments and not invert_transforms(shape.to_world[None])[1][0]:
-            # A zero scale (or one whose inverse is past float32) leaves no canonical space to intersect in: drawn
-            # analytically the gprim vanished, while its tessellation, --accel warp and Storm draw it flat.
+            # A transform to a line or a point (or one whose inverse is past float32) leaves no canonical space to
+            # intersect in: drawn analytically the gprim vanished, while its tessellation, --accel warp and Storm draw
+            # it (as nothing of any area, or as the very large or small shape it is).
             self._skip(f"gprims with a singular transform (a zero scale) are drawn as triangle meshes of "
                        f"{DEFAULT_SEGMENTS} segments (flat), having no canonical space to intersect in", prim)
             self._add_mesh(prim, self._tessellated(shape, prim, DEFAULT_SEGMENTS), ctx)
