@@ -885,15 +885,7 @@ class Scene:
             spaces = np.concatenate([np.full(self.num_flat_triangles, -1), np.repeat(np.arange(len(ranges)),
                                                                                      ranges[:, 1])])
             double_sided = self.triangle_double_sided()[: len(indices)]  # its shapes (after the triangles) have none
-            # A face is a run of one mesh's triangles with one face id (a source polygon's triangles are consecutive).
-            meshes = self._geometry_meshes()
-            counts = np.array([len(m.indices) for m in meshes], np.int64)
-            mesh_starts = np.zeros(len(indices), bool)
-            mesh_starts[(np.cumsum(counts) - counts)[counts > 0]] = True
-            face_ids = np.concatenate([np.zeros(0, np.int64)] + [m.face_ids for m in meshes])
-            face_starts = mesh_starts.copy()
-            face_starts[1:] |= face_ids[1:] != face_ids[:-1]
-            self._cache[key] = find_partners(points, indices, spaces, double_sided, face_starts, mesh_starts)
+            self._cache[key] = find_partners(points, indices, spaces, double_sided)
         return self._cache[key]
 
     def corner_uvs(self) -> np.ndarray:
