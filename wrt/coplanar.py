@@ -131,19 +131,42 @@ def cell_key(space: int, q: wp.vec3i, qd: int):
 
 
 @wp.func
+def before(p: wp.vec3d, q: wp.vec3d):
+    """``p`` before ``q`` in lexicographic order."""
+    if p[0] != q[0]:
+        return p[0] < q[0]
+    if p[1] != q[1]:
+        return p[1] < q[1]
+    return p[2] < q[2]
+
+
+@wp.func
 def triangle_plane(points: wp.array[wp.vec3], indices: wp.array2d[wp.int32], t: int, origin: wp.vec3d):
     """Unit normal, centroid (from ``origin``), normal margin, offset tolerance and longest edge of triangle ``t``;
-    a margin of -1 for a degenerate triangle."""
+    a margin of -1 for a degenerate triangle. The normal comes from the corners in lexicographic order (then signed
+    by the winding), so a twin's, with its corners in another order, rounds to exactly the same or its negation: the
+    two are hashed, or not, alike."""
     a = corner(points, indices, t, 0)
     b = corner(points, indices, t, 1)
     c = corner(points, indices, t, 2)
-    n = wp.cross(b - a, c - a)
-    area2 = wp.length(n)
     centroid = (a + b + c) / wp.float64(3.0) - origin
-    if area2 == wp.float64(0.0):
-        return n, centroid, wp.float64(-1.0), wp.float64(0.0), wp.float64(0.0)
     longest = longest_edge(a, b, c)
     rounding = corner_rounding(a, b, c)
+    # Sort the corners (three swaps), each swap reversing the winding.
+    sign = wp.float64(1.0)
+    if before(b, a):
+        a, b = b, a
+        sign = -sign
+    if before(c, b):
+        b, c = c, b
+        sign = -sign
+    if before(b, a):
+        a, b = b, a
+        sign = -sign
+    n = wp.cross(b - a, c - a) * sign
+    area2 = wp.length(n)
+    if area2 == wp.float64(0.0):
+        return n, centroid, wp.float64(-1.0), wp.float64(0.0), wp.float64(0.0)
     return n / area2, centroid, normal_margin(area2, longest, rounding), _TOLERANCE * longest + rounding, longest
 
 
@@ -366,22 +389,22 @@ def probe_match(
 ):
     """The partner triangle that scan slot ``j`` gives entry ``e`` (a single-sided seeker), or -1."""
     f = scan_entries[j]
-    if f == e:
+    side_e = entry_codes[e] % 3
+    side_f = entry_codes[f] % 3
+    if f == e or side_f == side_e:
         return int(-1)
+    be = entry_boxes[e]
+    bf = entry_boxes[f]
     if mode == 0:
         # Both in this 2D cell: the pair counts in the cell of its boxes' overlap's lower corner only.
-        be = entry_boxes[e]
-        bf = entry_boxes[f]
         s = entry_cells[e]
         if (int(wp.floor(wp.max(be[0], bf[0]) / s)) != cell[0]
                 or int(wp.floor(wp.max(be[1], bf[1]) / s)) != cell[1]):
             return int(-1)
     elif scan_once[j] == 0:
         return int(-1)  # a small entry's later cells: it was met in its first
-    side_e = entry_codes[e] % 3
-    side_f = entry_codes[f] % 3
-    if side_f == side_e:
-        return int(-1)
+    if be[0] >= bf[2] or bf[0] >= be[2] or be[1] >= bf[3] or bf[1] >= be[3]:
+        return int(-1)  # boxes that share no area
     any_facing = int(0)
     if side_f == 2:
         any_facing = 1
@@ -404,29 +427,26 @@ def pair_entries_kernel(
     scan_once: wp.array[wp.int32],
     probes: wp.array[wp.vec4i],
     probe_cells: wp.array[wp.vec2i],
-    offsets: wp.array[wp.int32],
-    write: int,
+    capacity: int,
     # outputs
-    counts: wp.array[wp.int32],
+    total: wp.array[wp.int32],
     partners: wp.array2d[wp.int32],
 ):
     """Probe ``i`` = (entry, first scan slot, end, mode) scans its slots for partners of its entry's triangle: mode 0
-    the entries of one 2D cell (``probe_cells``), mode 1 a plane cell's big entries or, for a big entry, all of its
-    plane cell. Counts them (``write = 0``), or writes ``(triangle, partner)`` rows from ``offsets[i]``."""
+    the entries of one 2D cell (``probe_cells``) that may face it, mode 1 a plane cell's big entries or, for a big
+    entry, all of its plane cell. Each pair found takes the next of ``capacity`` rows ``(triangle, partner)``;
+    ``total`` counts them all (more than ``capacity``: launch again with room for them)."""
     i = wp.tid()
     probe = probes[i]
     e = probe[0]
-    found = int(0)
     for j in range(probe[1], probe[2]):
         p = probe_match(points, indices, entry_tris, entry_codes, entry_boxes, entry_cells, scan_entries, scan_once,
                         e, j, probe[3], probe_cells[i])
         if p >= 0:
-            if write == 1:
-                partners[offsets[i] + found, 0] = entry_tris[e]
-                partners[offsets[i] + found, 1] = p
-            found += 1
-    if write == 0:
-        counts[i] = found
+            slot = wp.atomic_add(total, 0, 1)
+            if slot < capacity:
+                partners[slot, 0] = entry_tris[e]
+                partners[slot, 1] = p
 
 
 def _plane_entries(points, indices, spaces, double_sided):
@@ -525,72 +545,88 @@ def coplanar_pairs(points, indices, spaces, double_sided) -> tuple[np.ndarray, n
     chosen = _two_sided_cells(keys, codes % 3)
     if not len(chosen):  # the common case ends here
         return none, uncertain
+    pairs = _run_probes(points, indices, *_grid_probes(points, indices, keys[chosen], codes[chosen], owners[chosen]))
+    spaces = np.asarray(spaces)
+    return pairs[spaces[pairs[:, 0]] == spaces[pairs[:, 1]]], uncertain  # (a 64-bit key shared across spaces)
+
+
+# Rows of a 2D cell are sorted by side in this order (1, 2, 0), so that the sides that may face a side-0 entry (1,
+# 2) and a side-1 entry (2, 0) are each one slice of the cell's rows.
+_SIDE_RANK = np.array([2, 0, 1])
+
+
+def _grid_probes(points, indices, keys, codes, tris):
+    """The scans that pair the entries of each plane cell (``keys``) through a 2D grid over their plane
+    (:func:`pair_entries_kernel`): ``(tris, codes, boxes, cells, scan_entries, scan_once, probes, probe_cells)``,
+    the entries sorted by plane cell."""
     # Entries sorted by plane cell (group); their boxes in the plane of the cell's largest normal component.
-    chosen = chosen[np.argsort(keys[chosen], kind="stable")]
-    keys, codes, tris = keys[chosen], codes[chosen], owners[chosen]
+    order = np.argsort(keys, kind="stable")
+    keys, codes, tris = keys[order], codes[order], tris[order]
     group = np.cumsum(np.concatenate([[True], keys[1:] != keys[:-1]])) - 1
-    axis = codes // 3
-    corners = np.asarray(points, np.float64)[indices[tris]]  # (E, 3, 3)
+    axis, sides = codes // 3, codes % 3
+    corners = np.asarray(points)[indices[tris]].astype(np.float64)  # (E, 3, 3)
     flat = np.stack([np.take_along_axis(corners, ((axis + k) % 3)[:, None, None], axis=2)[..., 0] for k in (1, 2)],
                     axis=2)  # (E, 3, 2)
-    lower, upper = flat.min(axis=1), flat.max(axis=1)
-    extent = (upper - lower).max(axis=1)
+    # (Reductions over a short axis written out: numpy's took several times as long.)
+    lower = np.minimum(np.minimum(flat[:, 0], flat[:, 1]), flat[:, 2])
+    upper = np.maximum(np.maximum(flat[:, 0], flat[:, 1]), flat[:, 2])
+    # 2D cells of the group's mean box size (a power of two); an entry over more than BIG_CELLS is big.
     members = np.bincount(group)
-    mean = np.bincount(group, extent) / members
+    mean = np.bincount(group, np.maximum(upper[:, 0] - lower[:, 0], upper[:, 1] - lower[:, 1])) / members
     cells = np.where(mean > 0.0, 2.0 ** np.ceil(np.log2(np.where(mean > 0.0, mean, 1.0))), 1.0)[group]
     first_cell = np.floor(lower / cells[:, None]).astype(np.int64)
     spans = np.floor(upper / cells[:, None]).astype(np.int64) - first_cell + 1
-    big = spans.prod(axis=1) > BIG_CELLS
-    # Small entries: one row per 2D cell, sorted by (group, cell); big entries after them, by group.
+    big = spans[:, 0] * spans[:, 1] > BIG_CELLS
+    # Small entries: one row per 2D cell, sorted by (group, cell, side rank); big entries after them, by group.
     small = np.flatnonzero(~big)
-    count = spans[small].prod(axis=1)
+    count = spans[small, 0] * spans[small, 1]
     row_entry = np.repeat(small, count)
     rank = _ranks(count)
     row_cell = first_cell[row_entry] + np.stack([rank % spans[row_entry, 0], rank // spans[row_entry, 0]], axis=1)
-    order = np.lexsort((row_cell[:, 1], row_cell[:, 0], group[row_entry]))
-    row_entry, row_cell, row_first = row_entry[order], row_cell[order], (rank == 0)[order]
+    row_rank = _SIDE_RANK[sides[row_entry]]
+    order = np.lexsort((row_rank, row_cell[:, 1], row_cell[:, 0], group[row_entry]))
+    row_entry, row_cell, row_first, row_rank = row_entry[order], row_cell[order], (rank == 0)[order], row_rank[order]
     row_group = group[row_entry]
     big_entries = np.flatnonzero(big)  # sorted by group already
-    scan_entries = np.concatenate([row_entry, big_entries])
-    scan_once = np.concatenate([row_first, np.ones(len(big_entries), bool)])
     groups = np.arange(len(members))
     small_range = np.stack([np.searchsorted(row_group, groups), np.searchsorted(row_group, groups, "right")], 1)
     big_group = group[big_entries]
     big_range = len(row_entry) + np.stack([np.searchsorted(big_group, groups),
                                            np.searchsorted(big_group, groups, "right")], 1)
-    # Probes, for single-sided seekers only: each small row its 2D cell's run of rows; each small entry (at its
-    # first row) its plane cell's big entries; each big entry all of its plane cell.
+    # Each 2D cell's run of rows, and in it the slices of side ranks 0 (side 1) and 1 (side 2).
     new_run = np.ones(len(row_entry), bool)
-    new_run[1:] = (row_group[1:] != row_group[:-1]) | (row_cell[1:] != row_cell[:-1]).any(axis=1)
+    new_run[1:] = ((row_group[1:] != row_group[:-1]) | (row_cell[1:, 0] != row_cell[:-1, 0])
+                   | (row_cell[1:, 1] != row_cell[:-1, 1]))
     starts = np.flatnonzero(new_run)
     run = np.cumsum(new_run) - 1
+    per_rank = np.bincount(run * 3 + row_rank, minlength=3 * len(starts)).reshape(-1, 3)[run]
     run_start, run_end = starts[run], np.append(starts[1:], len(row_entry))[run]
-    seeks = codes % 3 != 2
-    probes, probe_cells = [], []
-    rows = np.flatnonzero(seeks[row_entry])
-    probes.append(np.stack([row_entry[rows], run_start[rows], run_end[rows], np.zeros(len(rows), np.int64)], 1))
-    probe_cells.append(row_cell[rows])
+    # Probes, for single-sided seekers only: each small row the rows of its 2D cell that may face it (side 0: ranks
+    # 0 and 1, side 1: ranks 1 and 2); each small entry (at its first row) its plane cell's big entries; each big
+    # entry all of its plane cell.
+    row_side = sides[row_entry]
+    rows = np.flatnonzero(row_side != 2)
+    lo = np.where(row_side[rows] == 0, run_start[rows], run_start[rows] + per_rank[rows, 0])
+    hi = np.where(row_side[rows] == 0, run_start[rows] + per_rank[rows, 0] + per_rank[rows, 1], run_end[rows])
+    probes = [np.stack([row_entry[rows], lo, hi, np.zeros(len(rows), np.int64)], 1)]
     firsts = rows[row_first[rows]]
     e = row_entry[firsts]
     probes.append(np.stack([e, big_range[group[e], 0], big_range[group[e], 1], np.ones(len(e), np.int64)], 1))
-    e = big_entries[seeks[big_entries]]
+    e = big_entries[sides[big_entries] != 2]
     for ranges in (small_range, big_range):
         probes.append(np.stack([e, ranges[group[e], 0], ranges[group[e], 1], np.ones(len(e), np.int64)], 1))
-    probe_cells += [np.zeros((len(p), 2), np.int64) for p in probes[1:]]
-    probes, probe_cells = np.concatenate(probes), np.concatenate(probe_cells)
+    probe_cells = np.concatenate([row_cell[rows]] + [np.zeros((len(p), 2), np.int64) for p in probes[1:]])
+    probes = np.concatenate(probes)
     scans = probes[:, 2] > probes[:, 1]
-    probes, probe_cells = probes[scans], probe_cells[scans]
-    pairs = _run_probes(points, indices, tris, codes, np.concatenate([lower, upper], 1), cells, scan_entries,
-                        scan_once, probes, probe_cells)
-    spaces = np.asarray(spaces)
-    return pairs[spaces[pairs[:, 0]] == spaces[pairs[:, 1]]], uncertain  # (a 64-bit key shared across spaces)
+    return (tris, codes, np.concatenate([lower, upper], 1), cells, np.concatenate([row_entry, big_entries]),
+            np.concatenate([row_first, np.ones(len(big_entries), bool)]), probes[scans], probe_cells[scans])
 
 
 def _run_probes(points, indices, tris, codes, boxes, cells, scan_entries, scan_once, probes, probe_cells):
-    """The ``(t, p)`` pairs the probes find (:func:`pair_entries_kernel`: a counting launch, then a writing one)."""
+    """The ``(t, p)`` pairs the probes find (:func:`pair_entries_kernel`; launched again when they outnumber its
+    first guess of room)."""
     device = "cpu"
-    n = len(probes)
-    if not n:
+    if not len(probes):
         return np.zeros((0, 2), np.int64)
     inputs = [wp.array(np.asarray(points, np.float32), dtype=wp.vec3, device=device),
               wp.array(np.asarray(indices, np.int32), dtype=wp.int32, device=device),
@@ -602,15 +638,13 @@ def _run_probes(points, indices, tris, codes, boxes, cells, scan_entries, scan_o
               wp.array(scan_once.astype(np.int32), dtype=wp.int32, device=device),
               wp.array(probes.astype(np.int32), dtype=wp.vec4i, device=device),
               wp.array(probe_cells.astype(np.int32), dtype=wp.vec2i, device=device)]
-    counts = wp.zeros(n, dtype=wp.int32, device=device)
-    placeholder = wp.zeros((1, 2), dtype=wp.int32, device=device)
-    wp.launch(pair_entries_kernel, dim=n, inputs=inputs + [wp.zeros(1, dtype=wp.int32, device=device), 0],
-              outputs=[counts, placeholder], device=device)
-    found = counts.numpy()
-    total = int(found.sum())
-    if not total:
-        return np.zeros((0, 2), np.int64)
-    offsets = wp.array((np.cumsum(found) - found).astype(np.int32), dtype=wp.int32, device=device)
-    pairs = wp.empty((total, 2), dtype=wp.int32, device=device)
-    wp.launch(pair_entries_kernel, dim=n, inputs=inputs + [offsets, 1], outputs=[counts, pairs], device=device)
-    return pairs.numpy().astype(np.int64)
+    capacity = max(1024, 2 * len(probes))
+    while True:
+        total = wp.zeros(1, dtype=wp.int32, device=device)
+        pairs = wp.empty((capacity, 2), dtype=wp.int32, device=device)
+        wp.launch(pair_entries_kernel, dim=len(probes), inputs=inputs + [capacity], outputs=[total, pairs],
+                  device=device)
+        found = int(total.numpy()[0])
+        if found <= capacity:
+            return pairs.numpy()[:found].astype(np.int64)
+        capacity = found
