@@ -22,7 +22,8 @@ in none: the caller pairs it with its exact twins only (``wrt.twins``).
 import numpy as np
 import warp as wp
 
-wp.set_module_options({"enable_backward": False})
+# No FMA contraction (the same cells and tests whatever compiles it); no backward pass.
+wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 
 COPLANAR_TOLERANCE = 1.0e-5  # corners this far off the other's plane, relative to their triangle's longest edge
 ANGLE_TOLERANCE = 1.0e-5  # radians between two coplanar triangles' normals, beyond their rounding
@@ -452,7 +453,7 @@ def pair_entries_kernel(
 def _plane_entries(points, indices, spaces, double_sided):
     """The plane cells of every triangle (:func:`plane_cells_kernel`): ``(keys, codes, owners, uncertain)``, the
     last the triangles too uncertain to hash."""
-    pts = np.asarray(points, np.float32)
+    pts = np.ascontiguousarray(points, np.float32)
     lower = np.array([pts[:, k].min() for k in range(3)], np.float64)  # by column: a reduction along axis 0 of
     upper = np.array([pts[:, k].max() for k in range(3)], np.float64)  # (V, 3) took 20 times as long
     # Offset cells 16 times a typical triangle's offset margin (its longest edge times LEVER: from a sample), so most
