@@ -130,9 +130,9 @@ def partner_sets(points, meshes, double_sided=None) -> list[set]:
 
 def test_find_partners():
     """Partners: the triangles of a reversed (or double-sided) face with the same corners whatever its diagonals;
-    coplanar triangles across a shared edge, on its same side, where the two meshes have one boundary; twins. Never
-    a same-winding copy, a flat neighbour on the edge's other side (wound the other way: it faces away but does not
-    overlap) or a neighbour folded at a right angle."""
+    coplanar triangles across a shared edge, on its same side; twins. Never a same-winding copy, a flat neighbour on
+    the edge's other side (wound the other way: it faces away but does not overlap) or a neighbour folded at a right
+    angle."""
     quad_front, quad_back = [[0, 1, 2], [0, 2, 3]], [[3, 2, 1], [3, 1, 0]]
     assert partner_sets(CORNERS, [[quad_front], [quad_back]]) == [{2, 3}, {2, 3}, {0, 1}, {0, 1}]  # faces
     assert partner_sets(CORNERS, [[[t] for t in quad_front], [[t] for t in quad_back]]) == [{2, 3}, {2, 3}, {0, 1},
