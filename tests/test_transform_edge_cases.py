@@ -215,3 +215,34 @@ def test_a_sphere_flattened_by_a_zero_scale_shows_its_whole_disc_from_both_sides
         camera = wrt.Camera.orthographic((0, 10 * side, 0), (0, 0, 0), up=(0, 0, 1), height=6.0)
         seen = wrt.render(scene, camera=camera, width=size, height=size, integrator="albedo").aovs["prim"] >= 0
         assert np.array_equal(seen[~edge], inside[~edge]), (side, int(seen.sum()), int(inside.sum()))
+
+
+def test_a_ball_mesh_flattened_by_a_zero_scale_shows_its_whole_disc_from_both_sides(tmp_path):
+    """A single-sided triangle-mesh ball (a Sphere's tessellation, whose halves do not mirror each other) under
+    ``scale (1, 0, 1)``: Storm draws a flat disc whose upper half fronts up and lower half down, so camera rays see
+    all of it from either side. Baked flat, the halves overlap without sharing edges: before coplanar partners
+    (``wrt.coplanar``) culled back faces hid the fronts over them, 136 of 192 pixels were seen from above, 56 from
+    below. The mesh stays flat (it is not thickened as flattened instances and gprims are)."""
+    ball = str(tmp_path / "ball.usda")
+    stage = Usd.Stage.CreateNew(ball)
+    UsdGeom.Sphere.Define(stage, "/Ball").CreateRadiusAttr(2.0)
+    stage.Save()
+    tessellated = load(ball, tessellate_gprims=True).meshes[0]
+    path = str(tmp_path / "flat_ball.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.Xform.Define(stage, "/Flat").AddScaleOp().Set((1.0, 0.0, 1.0))
+    mesh = UsdGeom.Mesh.Define(stage, "/Flat/Ball")
+    mesh.CreatePointsAttr(np.asarray(tessellated.points, np.float64).tolist())
+    mesh.CreateFaceVertexCountsAttr([3] * len(tessellated.indices))
+    mesh.CreateFaceVertexIndicesAttr(np.asarray(tessellated.indices).reshape(-1).tolist())
+    stage.Save()
+    scene = load(path)
+    size = 24
+    ys, xs = np.mgrid[0:size, 0:size]
+    film = np.stack([(xs + 0.5) / size - 0.5, 0.5 - (ys + 0.5) / size], -1) * 6.0
+    inside = np.hypot(film[..., 0], film[..., 1]) < 1.95  # inside the tessellation's outline (64 segments)
+    for side in (1.0, -1.0):
+        camera = wrt.Camera.orthographic((0, 10 * side, 0), (0, 0, 0), up=(0, 0, 1), height=6.0)
+        seen = wrt.render(scene, camera=camera, width=size, height=size, integrator="albedo").aovs["prim"] >= 0
+        assert (seen & inside).sum() == inside.sum(), (side, int((seen & inside).sum()), int(inside.sum()))
