@@ -669,7 +669,9 @@ def PointInstancer "Floor"
     rel prototypes = [</Floor/Protos/Tile>]
     int[] protoIndices = [0, 0, 0, 0]
     point3f[] positions = [(-1, -1, 0), (1, -1, 0), (-1, 1, 0), (1, 1, 0)]
-    quath[] orientations = [(1, 0, 0, 0), (0, 0, 0, 1), (0.7071068, 0, 0, 0.7071068), (0, 0, 0, 1)]
+    # Half turns only: exact in half precision, so every tile keeps its unit size (USD uses a quath as stored, and
+    # a quarter turn's 0.7071068 rounds to 0.70703125: that tile would be 2e-4 smaller and miss the outer-edge rays).
+    quath[] orientations = [(1, 0, 0, 0), (0, 0, 0, 1), (0, 0, 1, 0), (0, 0, 0, 1)]
     def Scope "Protos"
     {
         token visibility = "invisible"
