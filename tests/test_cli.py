@@ -104,6 +104,20 @@ def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, monkeypatch, 
     assert not any("Traceback" in line for line in lines)
 
 
+@pytest.mark.parametrize("scenes", [["no/such/a.usda"], ["no/such/a.usda", "no/such/b.usda"]])
+def test_a_logged_or_batch_render_that_renders_nothing_exits_with_status_2(tmp_path, capsys, scenes):
+    """README: bad input exits with status 2; a batch in which some scenes failed, 1 (the others were rendered). A
+    batch in which every scene failed, and one missing scene with ``--log``, exited 1 where the same scene alone
+    exits 2, and where ``--frames`` exits 2 when no frame could be rendered. The log still names each failure."""
+    log = tmp_path / "log.jsonl"
+    code = main(["render", *scenes, "-o", str(tmp_path / "{stem}.png"), "--log", str(log), "-q"])
+    assert code == 2
+    rows = [line for line in log.read_text().splitlines() if line]
+    assert len(rows) == len(scenes) and all('"status": "error"' in row for row in rows)
+    errors = [line for line in error_lines(capsys.readouterr().err) if line.startswith("wrt: error:")]
+    assert [name in " ".join(errors) for name in ("a.usda", "b.usda")[: len(scenes)]] == [True] * len(scenes)
+
+
 def test_a_kernel_cache_that_cannot_be_made_is_named_with_what_to_do(tmp_path):
     """Warp makes its kernel cache when it starts; in a missing or read-only home that failed with the bare OS error,
     'wrt: error: [Errno 2] No such file or directory: '/home/x'', which says neither what nor why."""

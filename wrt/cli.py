@@ -448,7 +448,7 @@ def _run_render(args) -> int:
     if failures:
         names = ", ".join(Path(r["scene"]).name for r in failures)
         print(f"wrt: {len(failures)} of {len(paths)} scenes failed: {names}", file=sys.stderr)
-        return 1
+        return 1 if len(failures) < len(paths) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
 
 
