@@ -12,10 +12,10 @@ from PIL import Image as PilImage
 from wrt.cli import main
 
 
-def run_cli(*args, cwd=None, env=None):
+def run_cli(*args, cwd=None, env=None, timeout=600):
     """Runs ``python -m wrt.cli ARGS`` in a fresh interpreter, as a user would."""
     return subprocess.run(
-        [sys.executable, "-m", "wrt.cli", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+        [sys.executable, "-m", "wrt.cli", *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout
     )
 
 
@@ -102,6 +102,23 @@ def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, monkeypatch, 
     errors = [line for line in lines if line.startswith("wrt: error:")]
     assert len(errors) == 1 and needle in errors[0]
     assert not any("Traceback" in line for line in lines)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_a_scene_that_is_a_pipe_or_a_folder_is_a_one_line_error_not_a_hang(tmp_path):
+    """README: bad input prints one line and exits 2. A named pipe given as the scene (``wrt render <(...)``, or a
+    FIFO left in place of a file) made USD wait for a writer: the render hung; a folder got USD's 'Cannot determine
+    file format'."""
+    os.mkfifo(tmp_path / "pipe.usda")
+    (tmp_path / "folder.usda").mkdir()
+    for name, needle in (("pipe.usda", "pipe.usda: a pipe or device, not a USD file"),
+                         ("folder.usda", "folder.usda: a directory, not a USD file")):
+        try:
+            result = run_cli("render", name, "--width", "8", "--height", "8", cwd=tmp_path, timeout=60)
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"wrt render {name} hung")
+        errors = [line for line in error_lines(result.stderr) if line.startswith("wrt: error:")]
+        assert result.returncode == 2 and len(errors) == 1 and needle in errors[0], result.stderr
 
 
 @pytest.mark.parametrize("scenes", [["no/such/a.usda"], ["no/such/a.usda", "no/such/b.usda"]])

@@ -110,6 +110,11 @@ def stage_up_axis(stage: Usd.Stage, source: str) -> str:
 
 
 def open_stage(source: str) -> Usd.Stage:
+    # USD reads a named pipe or a terminal until a writer closes it (a render that waits forever), and answers a folder
+    # with 'Cannot determine file format'. Paths that do not exist go on to USD: its resolver may still find them.
+    if os.path.exists(source) and not os.path.isfile(source):
+        kind = "a directory" if os.path.isdir(source) else "a pipe or device"
+        raise SceneError(f"{kind}, not a USD file", path=source)
     try:
         stage = Usd.Stage.Open(source)
     except Tf.ErrorException as e:
