@@ -18,10 +18,14 @@ The command lines of the ``bash`` blocks are checked without running them: each 
 ``wrt``'s own argument parser (a renamed or removed option, subcommand or choice fails), and each ``python SCRIPT
 --option`` line names a script of this repository whose source spells that option. Options written in backticks in
 the prose are checked the same way: each is an option of some ``wrt`` subcommand, or of the repository script the
-README says takes it.
+README says takes it. The repository files the README names (``wrt/tlas.py``, ``benchmarks/RESULTS.md``,
+``docs/*.png``) exist, and every ``wrt.``-dotted name in backticks (``wrt.rays.camera_rays``,
+``wrt.shade.MAX_CULL_PASSES``) imports.
 """
 
 import argparse
+import glob
+import importlib
 import os
 import re
 import shlex
@@ -234,3 +238,31 @@ def test_options_named_in_the_readme_prose_exist():
     for option, script in SCRIPT_OPTIONS.items():
         assert f'"{option}"' in (ROOT / script).read_text(encoding="utf-8"), f"{script} has no option {option}"
     assert named - known - set(SCRIPT_OPTIONS) == set()
+
+
+def test_files_named_in_the_readme_exist():
+    text = README.read_text(encoding="utf-8")
+    named = {p.rstrip(".,)") for p in re.findall(r"(?<![\w./-])((?:wrt|benchmarks|scenes|tests|docs)/[\w./*-]+)", text)}
+    assert {p for p in named if not glob.glob(str(ROOT / p))} == set()
+
+
+def resolves(name: str) -> bool:
+    """Whether the dotted ``wrt....`` name is an attribute or submodule chain of the package."""
+    obj, module = importlib.import_module("wrt"), "wrt"
+    for part in name.split(".")[1:]:
+        module = f"{module}.{part}"
+        if hasattr(obj, part):
+            obj = getattr(obj, part)
+            continue
+        try:
+            obj = importlib.import_module(module)
+        except ImportError:
+            return False
+    return True
+
+
+def test_wrt_names_in_the_readme_resolve():
+    spans = re.findall(r"`([^`\n]+)`", README.read_text(encoding="utf-8"))
+    names = {n for span in spans for n in re.findall(r"(?<![\w/.])wrt(?:\.[A-Za-z_]\w*)+", span)}
+    assert len(names) > 10  # the pattern finds them
+    assert {n for n in names if not resolves(n)} == set()
