@@ -4,8 +4,8 @@ Every fenced ```` ```python ```` block of ``README.md`` runs in a fresh interpre
 with this checkout first on ``PYTHONPATH``, in a temporary folder that holds small stand-ins for the files the
 examples name: ``scene.usda`` (the bundled room), ``car.usda`` (a ``/World/Car`` with a ``paint`` variant set) and
 ``shot.usda`` (the room with a ``/Render/Preview`` RenderSettings of 32x24 pixels and two RenderProducts). Every file
-a block writes with ``.save("NAME")`` must exist afterwards, and every folder it hands ``render_products`` must hold
-a file.
+a block writes with ``.save("NAME")`` must exist afterwards, every folder it hands ``render_products`` must hold
+a file, and it must print no warning (a reader would take one for a fault).
 
 A block that cannot run here (it needs a CUDA GPU, torch or a large asset) is marked in the README by an HTML comment
 on the line just before its fence, which GitHub and PyPI do not show; the text after ``no-test:`` is the reason the
@@ -178,10 +178,12 @@ def test_readme_python_block_runs(block, tmp_path):
         pytest.skip(block.skip)
     write_stand_ins(tmp_path)
     (tmp_path / "example.py").write_text(block.code)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     result = subprocess.run([sys.executable, "example.py"], cwd=tmp_path, env=env, capture_output=True, text=True,
                             timeout=600)
     assert result.returncode == 0, f"README.md:{block.line}: the example fails:\n{result.stderr[-3000:]}"
+    warned = [line for line in result.stderr.splitlines() if "Warning" in line and not line.startswith("Warp")]
+    assert warned == [], f"README.md:{block.line}: the example warns"  # a reader would take it for a fault
     for name in re.findall(r"\.save\(\s*\"([^\"]+)\"", block.code):
         assert (tmp_path / name).is_file(), f"README.md:{block.line}: .save({name!r}) wrote nothing"
     for folder in re.findall(r"render_products\(\s*\w+\s*,\s*\"([^\"]+)\"", block.code):
