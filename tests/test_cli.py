@@ -104,6 +104,16 @@ def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, monkeypatch, 
     assert not any("Traceback" in line for line in lines)
 
 
+def test_a_camera_not_on_the_stage_names_the_file_and_the_prim(tmp_path, capsys):
+    """README: errors name the file and the prim. One scene rendered said only "no camera at '/Nope'"; a batch
+    added the file."""
+    scene = tmp_path / "one.usda"
+    scene.write_text('#usda 1.0\ndef Sphere "Ball" {}\n')
+    assert main(["render", str(scene), "--camera", "/Nope", "-o", str(tmp_path / "x.png"), "-q"]) == 2
+    errors = [line for line in error_lines(capsys.readouterr().err) if line.startswith("wrt: error:")]
+    assert len(errors) == 1 and str(scene) in errors[0] and "/Nope" in errors[0], errors
+
+
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
 def test_a_scene_that_is_a_pipe_or_a_folder_is_a_one_line_error_not_a_hang(tmp_path):
     """README: bad input prints one line and exits 2. A named pipe given as the scene (``wrt render <(...)``, or a

@@ -124,6 +124,11 @@ def test_camera_by_path_and_bad_camera(tmp_path):
     assert (img.aovs["prim"] >= 0).any()
     with pytest.raises(ValueError, match="/World/Camera"):
         wrt.render(scene, camera="/World/Nope", width=32, height=24, device="cpu")
+    # Errors name the file and the prim: the message named the prim only (a batch added the file, one scene did not).
+    with pytest.raises(wrt.SceneError) as error:
+        wrt.render(scene, camera="/World/Nope", width=32, height=24, device="cpu")
+    assert (error.value.path, error.value.prim) == (str(default_scene_path()), "/World/Nope")
+    assert str(error.value).startswith(f"{default_scene_path()}: ") and "no camera at '/World/Nope'" in str(error.value)
 
 
 def test_camera_lists_and_scene_type_get_errors_that_say_what_is_wrong(room):

@@ -21,7 +21,7 @@ import warp as wp
 
 from . import light_table
 from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
-from .errors import did_you_mean
+from .errors import SceneError, did_you_mean
 from .image import Image
 from .integrators import INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
@@ -114,7 +114,9 @@ def resolve_camera(scene: Scene, camera) -> Camera:
         if camera in scene.cameras:
             return scene.cameras[camera]
         known = ", ".join(scene.cameras) or "none"
-        raise ValueError(f"no camera at {camera!r}; cameras in the scene: {known}")
+        error = SceneError(f"no camera at {camera!r}; cameras in the scene: {known}", path=scene.source)
+        error.prim = camera  # set after: the message names it once, where it reads best
+        raise error
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
 
 
