@@ -891,6 +891,33 @@ def test_composition_errors_warn_and_the_rest_still_loads(tmp_path, layer_meta, 
     assert [m.path for m in scene.meshes] == ["/World/Kept"]
 
 
+def test_a_composition_error_is_reported_once_naming_the_prim_and_the_asset(tmp_path):
+    """USD printed its own line ("Warning: in _ReportErrors at line ... of stage.cpp -- ...") straight to stderr and
+    wrt warned again: the same error twice. USD's report of what wrt reports is held back; any other USD diagnostic
+    posted meanwhile still reaches stderr."""
+    import subprocess
+    import sys
+
+    body = 'def Xform "World"\n{\n    def "Chair" (references = @./gone_chair.usda@)\n    {\n    }\n}\n'
+    path = write_usda(tmp_path, body)
+    script = tmp_path / "load.py"
+    script.write_text(
+        "import sys\nfrom pxr import Tf\nimport wrt\nimport wrt.usd_stage as s\n"
+        "wrt.load_usd(sys.argv[1])\n"
+        "with s.trap_usd_diagnostics() as trap:\n"
+        "    stage = s.open_stage(sys.argv[1])\n"
+        "    Tf.Warn('an unrelated USD warning')\n"
+        "    s.warn_composition_errors(stage, sys.argv[1], trap)\n")
+    result = subprocess.run([sys.executable, str(script), path], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    reports = [line for line in result.stderr.splitlines() if "gone_chair.usda" in line]
+    assert len(reports) == 2, result.stderr  # one per load: wrt's warning, and not USD's
+    for line in reports:
+        assert "1 composition error(s)" in line and f"/World/Chair: Could not open asset @{tmp_path}/gone_chair.usda@" \
+            in line, line
+    assert result.stderr.count("an unrelated USD warning") == 1, result.stderr
+
+
 def test_stage_without_composition_errors_does_not_warn(tmp_path):
     write_usda(tmp_path, mesh_usda("Part"), name="part.usda")
     body = 'def "World" (prepend references = @./part.usda@</Part>)\n{\n}\n'

@@ -115,6 +115,7 @@ from .usd_stage import (
     stage_meters_per_unit,
     stage_up_axis,
     tf_message,
+    trap_usd_diagnostics,
     warn_composition_errors,
     warn_other_layer_units,
 )
@@ -165,10 +166,11 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}") from None
     time_code = _time_code(time)
 
-    stage = open_stage(source)
-    if variants:
-        apply_variants(stage, source, variants)
-    warn_composition_errors(stage, source)
+    with trap_usd_diagnostics() as trap:
+        stage = open_stage(source)
+        if variants:
+            apply_variants(stage, source, variants)
+        warn_composition_errors(stage, source, trap)
     warn_other_layer_units(stage, source)
     settings = read_render_settings(stage, source, render_settings)
     if stage.GetTimeCodesPerSecond() <= 0:

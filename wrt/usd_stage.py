@@ -3,6 +3,7 @@ composition errors, layers in other units or up axes, a time outside the stage's
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
@@ -10,23 +11,38 @@ import warnings
 
 from pxr import Sdf, Tf, Usd, UsdGeom
 
-from .errors import SceneError, TimeRangeWarning
+from .errors import SceneError, TimeRangeWarning, user_stacklevel
 from .scene import MIN_METERS_PER_UNIT
 
 
-def warn_composition_errors(stage: Usd.Stage, source: str) -> None:
+def trap_usd_diagnostics():
+    """A context that holds back the diagnostics USD posts inside it (``Tf.DiagnosticTrap``), so that
+    :func:`warn_composition_errors` can drop USD's own report of what it reports; those not dropped are posted as
+    usual when the context ends. Nothing is held where this usd-core lacks the trap (the reports then come twice)."""
+    trap = getattr(Tf, "DiagnosticTrap", None)
+    return trap() if trap is not None else contextlib.nullcontext()
+
+
+def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
     """Warns about the stage's composition errors (a reference, payload or subLayer whose file is missing, a
     reference to a prim path that is not there): USD only prints them from C++ to stderr, where Python cannot catch
     them, and composes the stage without what they would bring in. A warning, not an error: partially composed
-    stages are common and the rest still renders."""
-    errors = sorted(str(e).strip().rstrip(".") for e in stage.GetCompositionErrors())  # sorted: USD's order varies
-    if errors:
-        shown = "; ".join(errors[:3]) + ("; ..." if len(errors) > 3 else "")
-        warnings.warn(
-            f"{source}: {len(errors)} composition error(s); what they would bring in is missing from the scene: "
-            f"{shown}",
-            stacklevel=3,
-        )
+    stages are common and the rest still renders. Each error is named by the stage prim it is found at, as USD names
+    it. ``trap``: the :func:`trap_usd_diagnostics` the stage was opened in, whose held copies of USD's printed
+    report of these errors are dropped (the same error was printed twice)."""
+    # Sorted: USD's order varies.
+    errors = sorted((str(e.rootSite.path), str(e).strip().rstrip(".")) for e in stage.GetCompositionErrors())
+    if not errors:
+        return
+    shown = "; ".join(f"{prim}: {text}" for prim, text in errors[:3]) + ("; ..." if len(errors) > 3 else "")
+    warnings.warn(
+        f"{source}: {len(errors)} composition error(s); what they would bring in is missing from the scene: {shown}",
+        stacklevel=user_stacklevel(),
+    )
+    if trap is not None:
+        reported = {f"In <{prim}>: {text}" for prim, text in errors}  # how UsdStage::_ReportErrors words them
+        trap.EraseMatching(lambda d: d.sourceFunction.endswith("UsdStage::_ReportErrors")
+                           and any(d.commentary.startswith(r) for r in reported))
 
 
 def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
