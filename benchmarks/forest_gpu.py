@@ -11,7 +11,9 @@ unoccluded term. Frames are timed after a warm-up frame (kernel compilation excl
 image and its AOVs back to the host (``wall ms``).
 
 Device memory: ``accel MB`` is what the two-level BVH holds (``InstancedAccelerator.device_bytes()``: BLAS nodes and
-triangles, TLAS nodes, one 3x4 matrix and two ints per instance); ``device MB`` is the growth of Warp's CUDA memory
+triangles, TLAS nodes, one 3x4 matrix and two ints per instance; ``bytes per instance`` divides all TLAS bytes by the
+instances, so the fixed part, about 0.5 KB per BLAS, adds a few bytes to the 120 per instance in small runs: 126 for
+``--small``); ``device MB`` is the growth of Warp's CUDA memory
 pool over building the renderer (accelerator, shading data, lights), read with ``wp.get_mempool_used_mem_current``
 (CPU runs report the accelerator's bytes there too).
 

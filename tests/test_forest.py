@@ -70,6 +70,20 @@ def test_forest_memory_is_unique_geometry_plus_at_most_128_bytes_per_tree(small_
     assert sizes["blas"] < 100 * scene.stats()["unique_triangles"], sizes  # not the 1e7 rendered ones
 
 
+def test_each_tree_adds_at_most_120_tlas_bytes(tmp_path):
+    """README: at most 120 bytes per instance and about 0.5 KB per prototype. ``forest_gpu.py --small`` reported 126
+    bytes per instance: all TLAS bytes divided by 200 trees, the fixed part included. Measured as the growth from
+    40 to 120 trees, then the fixed part as what is left."""
+    tlas = {}
+    for trees in (40, 120):
+        forest.write_forest(tmp_path / f"f{trees}.usda", n_trees=trees, tree_triangles=200, seed=2)
+        scene = wrt.load_usd(tmp_path / f"f{trees}.usda")
+        assert len(scene.instances) == trees and len(scene.prototypes) == 1
+        tlas[trees] = get_accelerator(scene).device_bytes()["tlas"]
+    assert (tlas[120] - tlas[40]) / 80 <= 120, tlas
+    assert tlas[40] - 120 * 40 <= 2 * 1024, tlas  # the fixed part, two BLASes: the tree and the ground
+
+
 def test_tiny_forest_agrees_with_wp_mesh(tmp_path):
     path = tmp_path / "tiny.usda"
     forest.write_forest(path, n_trees=30, tree_triangles=600, seed=1)
