@@ -2,8 +2,9 @@
 as lights, each instance's copy in world space: a glowing quad under rotations, non-uniform scales and mirrors lights
 a plane as Lambert's formula over its world-space triangles says, and as the same triangles flattened into world space
 do, under ``whitted`` and ``path`` (whose MIS weights need the pdf of the entry a ray hits to be the one it was
-sampled with); so do a glowing Sphere and a normalized mesh light inside native instances. Past the cap on instanced
-emitter entries the rest are named in a warning."""
+sampled with); so do a glowing Sphere and a normalized mesh light inside native instances, the latter light- and
+shadow-linked as the same light in world space is. Past the cap on instanced emitter entries the rest are named in a
+warning."""
 
 import warnings
 
@@ -261,3 +262,50 @@ def test_a_normalized_mesh_light_in_two_native_instances_is_divided_by_each_ones
     assert not [m for m in messages if UNSAMPLED in m], messages
     assert abs(rendered.mean() / expected.mean() - 1) < 0.02, (rendered.mean(), expected.mean())
     assert np.abs(rendered / expected.reshape(RES, RES) - 1).max() < 0.15
+
+
+
+
+def placed(name, translate, rotate, body):
+    """USDA of Xform ``name`` at ``translate`` turned by ``rotate`` (degrees about X, Y, Z) holding ``body``."""
+    return (f'def Xform "{name}"\n{{\n    double3 xformOp:translate = {translate}\n'
+            f"    float3 xformOp:rotateXYZ = {rotate}\n"
+            '    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]\n'
+            + body.replace("\n", "\n    ") + "}\n")
+
+
+def test_light_and_shadow_links_of_an_instanced_mesh_light_are_those_of_the_light_in_world_space(tmp_path):
+    """A mesh light inside a native prototype, drawn by two instances, whose ``collection:lightLink`` leaves out the
+    left floor and whose ``collection:shadowLink`` leaves out a card hanging between it and the right floor: the left
+    floor stays black, the right one is lit unshadowed, as Lambert's formula over both instances' squares says and
+    as the same lights authored in world space render under whitted."""
+    from test_mesh_lights import HEIGHT, floor, mesh_light
+
+    links = ("    prepend rel collection:lightLink:excludes = </Left>\n"
+             "    uniform bool collection:lightLink:includeRoot = 1\n"
+             "    prepend rel collection:shadowLink:excludes = </Card>\n"
+             "    uniform bool collection:shadowLink:includeRoot = 1\n")
+    lamp = mesh_light(intensity=3.0, scale=(0.4, 0.3, 1), extra=links).replace(
+        '"MaterialBindingAPI"', '"MaterialBindingAPI", "CollectionAPI:lightLink", "CollectionAPI:shadowLink"')
+    card = placed("Card", (0, 0, HEIGHT / 2), (0, 0, 0), floor("Strip", 0.3, 0.6))  # a strip over the right floor
+    floors = (floor("Left", -20, 0), floor("Right", 0, 20), card)
+    places = [((-0.5, 0.0, 0.0), (0, 0, 0)), ((0.5, 0.1, 0.0), (0, 0, 30))]
+    protos = 'over "Protos"\n{\n' + placed("Lamp", (0, 0, 0), (0, 0, 0), lamp) + "}\n"
+    instanced, messages = load(tmp_path, *floors, protos,
+                               *(native_instance(n, t, r, (1, 1, 1)) for n, (t, r) in zip("AB", places)))
+    assert len(instanced.instances) == 2 and len(instanced.lights) == 1 and not messages, messages
+    in_world, _ = load(tmp_path, *floors, *(placed(n, t, r, lamp) for n, (t, r) in zip("AB", places)))
+    assert not in_world.instances and len(in_world.lights) == 2
+    square = np.array([(-0.2, -0.15, HEIGHT), (-0.2, 0.15, HEIGHT), (0.2, 0.15, HEIGHT), (0.2, -0.15, HEIGHT)])
+    corners = world_corners(wrt.Mesh("/s", square, [[0, 1, 2], [0, 2, 3]], [0, 0]), [trs(t, r) for t, r in places])
+
+    width, height = 2 * RES, RES
+    cam = wrt.Camera.orthographic(eye=(0, 0, 0.3), target=(0, 0, 0), up=(0, 1, 0), height=PATCH)
+    points = pixel_points((0.0, 0.0, 0.0), PATCH, width, height).reshape(-1, 3)
+    expected = (ALBEDO * lambert_irradiance(points, corners, 3.0) / np.pi).reshape(height, width)[:, RES:]
+    for name, scene in (("instanced", instanced), ("in world", in_world)):
+        rgb = wrt.render(scene, camera=cam, width=width, height=height, spp=512, seed=3, integrator="whitted",
+                         max_depth=1).rgb.mean(axis=-1)
+        assert np.all(rgb[:, :RES] == 0.0), (name, rgb[:, :RES])  # x < 0: the left floor, not linked
+        ratio = rgb[:, RES:] / expected  # no shadow of the card
+        assert abs(rgb[:, RES:].mean() / expected.mean() - 1) < 0.03 and np.abs(ratio - 1).max() < 0.15, (name, ratio)
