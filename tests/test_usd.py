@@ -918,6 +918,27 @@ def test_a_composition_error_is_reported_once_naming_the_prim_and_the_asset(tmp_
     assert result.stderr.count("an unrelated USD warning") == 1, result.stderr
 
 
+def test_composition_errors_past_those_the_warning_names_are_still_printed_once(tmp_path):
+    """Twelve missing references: the warning names eight and counts the rest, whose USD lines still print (held
+    back, they would be read nowhere); each of the twelve assets appears on stderr exactly once."""
+    import subprocess
+    import sys
+
+    from wrt.usd_stage import MAX_NAMED_COMPOSITION_ERRORS
+
+    n = MAX_NAMED_COMPOSITION_ERRORS + 4
+    body = 'def Xform "World"\n{\n' + "".join(
+        f'    def "Chair{k:02d}" (references = @./gone_{k:02d}.usda@)\n    {{\n    }}\n' for k in range(n)) + "}\n"
+    path = write_usda(tmp_path, body)
+    script = tmp_path / "load.py"
+    script.write_text("import sys\nimport wrt\nwrt.load_usd(sys.argv[1])\n")
+    result = subprocess.run([sys.executable, str(script), path], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert f"{n} composition error(s)" in result.stderr and "and 4 more, as USD prints them" in result.stderr
+    for k in range(n):
+        assert result.stderr.count(f"gone_{k:02d}.usda") == 1, (k, result.stderr)
+
+
 def test_stage_without_composition_errors_does_not_warn(tmp_path):
     write_usda(tmp_path, mesh_usda("Part"), name="part.usda")
     body = 'def "World" (prepend references = @./part.usda@</Part>)\n{\n}\n'

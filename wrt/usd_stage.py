@@ -14,6 +14,9 @@ from pxr import Sdf, Tf, Usd, UsdGeom
 from .errors import SceneError, TimeRangeWarning, user_stacklevel
 from .scene import MIN_METERS_PER_UNIT
 
+# The composition errors a warning names in full; USD's own printed lines report the others.
+MAX_NAMED_COMPOSITION_ERRORS = 8
+
 
 def trap_usd_diagnostics():
     """A context that holds back the diagnostics USD posts inside it (``Tf.DiagnosticTrap``), so that
@@ -34,13 +37,17 @@ def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
     errors = sorted((str(e.rootSite.path), str(e).strip().rstrip(".")) for e in stage.GetCompositionErrors())
     if not errors:
         return
-    shown = "; ".join(f"{prim}: {text}" for prim, text in errors[:3]) + ("; ..." if len(errors) > 3 else "")
+    named = errors[:MAX_NAMED_COMPOSITION_ERRORS]
+    shown = "; ".join(f"{prim}: {text}" for prim, text in named)
+    if len(errors) > len(named):
+        shown += f"; and {len(errors) - len(named)} more, as USD prints them"
     warnings.warn(
         f"{source}: {len(errors)} composition error(s); what they would bring in is missing from the scene: {shown}",
         stacklevel=user_stacklevel(),
     )
     if trap is not None:
-        reported = {f"In <{prim}>: {text}" for prim, text in errors}  # how UsdStage::_ReportErrors words them
+        # Only the errors the warning names: USD's own lines for the rest still print, so none goes unread.
+        reported = {f"In <{prim}>: {text}" for prim, text in named}  # how UsdStage::_ReportErrors words them
         trap.EraseMatching(lambda d: d.sourceFunction.endswith("UsdStage::_ReportErrors")
                            and any(d.commentary.startswith(r) for r in reported))
 
