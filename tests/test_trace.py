@@ -463,6 +463,33 @@ def test_ray_arrays_of_text_or_complex_numbers_raise_naming_the_argument():
     assert wrt.trace(scene, good_o.astype(np.float64), good_d.tolist(), t_max=np.int64(2)).prim.tolist() == [0]
 
 
+def test_finite_rays_beyond_float32_range_raise_naming_the_argument():
+    """wrt traces in float32: a float64 origin beyond its range (1e39) became inf with only numpy's "overflow
+    encountered in cast" warning, and a non-zero direction of 1e39 or 1e-50 became inf or (0, 0, 0): each ray then
+    missed without a word, although the same ray in range hits. The limits keep their meaning as +-inf (t_max=1e39 is
+    no bound), so they convert without a warning."""
+    import warnings
+
+    scene = wrt.Scene.from_triangles([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], [[0, 1, 2]])
+    good_o, good_d = np.array([[0.0, 0.0, 1.0]] * 2), np.array([[0.0, 0.0, -1.0]] * 2)
+    for name, o, d in (
+        ("origins", good_o + [[0, 0, 0], [1e39, 0, 0]], good_d),
+        ("directions", good_o, good_d * [[1], [1e39]]),
+        ("directions", good_o, good_d * [[1], [1e-50]]),
+    ):
+        for query in (wrt.trace, wrt.occluded):
+            with pytest.raises(ValueError, match=f"{name} row 1, .* in float32"):
+                query(scene, o, d)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        hits = wrt.trace(scene, good_o + [[0, 0, 0], [1e-50, 0, 0]], good_d * [[1], [1e-30]], t_min=-1e39,
+                         t_max=np.array([1e39, 1e300]))  # an origin of 1e-50 is 0 to float32's precision
+        # explicit inf and NaN rays still miss, as documented
+        assert wrt.trace(scene, [[0, 0, np.inf]], [[0, 0, -1]]).prim.tolist() == [-1]
+    assert hits.prim.tolist() == [0, 0]
+    np.testing.assert_allclose(hits.t, [1.0, 1e30], rtol=1e-6)
+
+
 class GpuTensor:
     """Stands for a CUDA ``torch.Tensor``: numpy refuses it (as torch does: "can't convert cuda:0 device type
     tensor to numpy"), DLPack hands it over."""

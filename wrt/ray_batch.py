@@ -31,17 +31,40 @@ def _host_array(name: str, values):
         raise ValueError(f"{name}: cannot read a {type(values).__name__} ({e})") from None
 
 
-def as_float32(name: str, values) -> np.ndarray:
+def as_float32(name: str, values, vectors: bool = False) -> np.ndarray:
     """``values`` as a float32 numpy array, or ``ValueError`` naming ``name``: complex numbers were cast with only a
-    warning (the imaginary part dropped), and text or ragged lists failed with numpy's message alone."""
+    warning (the imaginary part dropped), and text or ragged lists failed with numpy's message alone.
+
+    With ``vectors`` (origins, directions: ``(N, 3)``), finite values that float32 cannot hold raise too: a value
+    beyond its range became inf, and a non-zero direction below it ``(0, 0, 0)``, so the ray missed without a word.
+    Limits convert as they are: a ``t_max`` of 1e39 as inf means the same (no float32 ``t`` reaches either)."""
     raw = _host_array(name, values)
     try:
         raw = raw if isinstance(raw, np.ndarray) else np.asarray(raw)
         if raw.dtype.kind in "cSUV":  # complex, bytes, text, void
             raise TypeError(f"got dtype {raw.dtype}")
-        return np.asarray(raw, dtype=np.float32)
+        with np.errstate(over="ignore"):  # overflow is reported below (vectors) or harmless (limits)
+            array = np.asarray(raw, dtype=np.float32)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{name} must hold real numbers ({e})") from None
+    if vectors and raw.dtype.kind == "f" and raw.dtype.itemsize > 4 and raw.shape[-1:] == (3,) and raw.ndim <= 2:
+        check_float32_range(name, raw.reshape(-1, 3), array.reshape(-1, 3))  # a (3,) vector is one row
+    return array
+
+
+def check_float32_range(name: str, raw: np.ndarray, array: np.ndarray) -> None:
+    """Raises ``ValueError`` naming ``name`` and the first row where the float32 ``array`` lost a finite vector of
+    ``raw``: a component beyond float32's range, or a non-zero direction that rounds to ``(0, 0, 0)`` (an origin
+    of 1e-50 is only rounded to 0: where it lies is kept to float32's precision)."""
+    overflow = (np.isinf(array) & np.isfinite(raw)).any(axis=1)
+    vanished = ~array.any(axis=1) & (raw != 0).any(axis=1) & np.isfinite(raw).all(axis=1) & (name == "directions")
+    bad = np.flatnonzero(overflow | vanished)
+    if len(bad):
+        i = int(bad[0])
+        what = "beyond float32's range (|x| > 3.4e38)" if overflow[i] else "not zero, but (0, 0, 0) in float32"
+        hint = "; only a direction's orientation matters (t is in units of its length): scale it" if (
+            name == "directions") else ""
+        raise ValueError(f"{name} row {i}, {raw[i].tolist()}, is {what}, and rays are traced in float32{hint}")
 
 
 def _on_device(values, device) -> wp.array | None:
@@ -62,7 +85,7 @@ def _vectors(name: str, values, device) -> wp.array | np.ndarray:
     in_place = _on_device(values, device)
     if in_place is not None:
         return in_place
-    array = as_float32(name, values)
+    array = as_float32(name, values, vectors=True)
     if array.ndim == 1 and array.size in (0, 3):
         array = array.reshape(-1, 3)
     return array
