@@ -141,13 +141,22 @@ def occluded_mesh_kernel(
     blocked: wp.array[wp.int32],
 ):
     """1 for every ray that hits anything in ``[t_min, t_max)``, through ``wp.mesh_query_ray_anyhit`` (``lower,
-    upper``: the mesh's box)."""
+    upper``: the mesh's box). Its traversal, like the closest-hit one's, drops a box entered within rounding of the
+    limit, so a hit just below ``t_max`` (a floor, one ulp under it) was not seen; it reports no hit at or past the
+    limit, and takes no slack (it gives no ``t`` to drop a hit past ``t_max`` by): a ray it finds unblocked is asked
+    again through ``mesh_query``, the closest-hit query with its slack, as ``trace_mesh_kernel`` asks it."""
     i = wp.tid()
+    origin = origins[i]
+    direction = directions[i]
+    t_min = t_mins[i]
     t_max = t_maxs[i]
     hit = False
-    if ray_can_hit(origins[i], directions[i], t_mins[i], t_max):
-        start = mesh_query_start(origins[i], directions[i], t_mins[i], t_max, lower, upper)
-        hit = wp.mesh_query_ray_anyhit(mesh, origins[i] + start * directions[i], directions[i], t_max - start)
+    if ray_can_hit(origin, direction, t_min, t_max):
+        start = mesh_query_start(origin, direction, t_min, t_max, lower, upper)
+        hit = wp.mesh_query_ray_anyhit(mesh, origin + start * direction, direction, t_max - start)
+        if not hit:
+            t, u, v, prim = mesh_query(mesh, origin, direction, t_min, t_max, lower, upper)
+            hit = prim >= 0
     blocked[i] = wp.where(hit, 1, 0)
 
 
