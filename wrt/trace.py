@@ -143,8 +143,10 @@ def occluded_mesh_kernel(
     """1 for every ray that hits anything in ``[t_min, t_max)``, through ``wp.mesh_query_ray_anyhit`` (``lower,
     upper``: the mesh's box). Its traversal, like the closest-hit one's, drops a box entered within rounding of the
     limit, so a hit just below ``t_max`` (a floor, one ulp under it) was not seen; it reports no hit at or past the
-    limit, and takes no slack (it gives no ``t`` to drop a hit past ``t_max`` by): a ray it finds unblocked is asked
-    again through ``mesh_query``, the closest-hit query with its slack, as ``trace_mesh_kernel`` asks it."""
+    limit, and takes no slack (it gives no ``t`` to drop a hit past ``t_max`` by): a ray with a finite ``t_max`` that
+    it finds unblocked is asked again through ``mesh_query``, the closest-hit query with its slack, as
+    ``trace_mesh_kernel`` asks it. A ray with an infinite ``t_max`` has no limit to lose a box at and is not asked
+    again, so ``wp.Mesh`` any-hit rays in the benchmarks (``t_max = inf``) cost Warp's query alone."""
     i = wp.tid()
     origin = origins[i]
     direction = directions[i]
@@ -154,7 +156,7 @@ def occluded_mesh_kernel(
     if ray_can_hit(origin, direction, t_min, t_max):
         start = mesh_query_start(origin, direction, t_min, t_max, lower, upper)
         hit = wp.mesh_query_ray_anyhit(mesh, origin + start * direction, direction, t_max - start)
-        if not hit:
+        if not hit and wp.isfinite(t_max):
             t, u, v, prim = mesh_query(mesh, origin, direction, t_min, t_max, lower, upper)
             hit = prim >= 0
     blocked[i] = wp.where(hit, 1, 0)
