@@ -292,10 +292,6 @@ def test_very_long_and_very_short_directions_hit(accel, layout):
     assert wrt.occluded(scene, origins, directions, accel=accel, layout=layout).all()
 
 
-@pytest.mark.xfail(strict=True, reason="inside the trace kernels (not changed here): the closest-hit kernels scale "
-                   "the unit ray's t back by its power of two (wrt/bvh/traverse.py closest_hit_kernels, "
-                   "ts[i] = t * down; the TLAS kernels alike) and a t beyond float32's range becomes inf with the "
-                   "prim kept, while the any-hit kernels report the ray blocked")
 @pytest.mark.parametrize(
     "instanced,layout", [(False, "binary"), (False, "compact"), (False, "wide"), (False, "wide8"), (True, "binary")]
 )
@@ -303,7 +299,7 @@ def test_a_hit_beyond_float32_range_is_not_reported_at_t_inf(instanced, layout):
     """A hit 100 units away along a direction of length 1e-37 lies at t = 1e39, which float32 cannot hold. Hits have
     ``t_min <= t < t_max`` and ``t = inf`` only on a miss: either a miss (t unrepresentable) or a finite t would keep
     the contract, and occluded must agree with trace. The ray hit prim 0 at t = inf, and occluded said blocked
-    (``accel="warp"`` reports a miss)."""
+    (``accel="warp"`` reports a miss); ``unit_ray`` now caps ``t_max`` at float32's largest value, so it misses."""
     points, tris = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
     scene = wrt.Scene.from_triangles(points, tris)
     if instanced:

@@ -8,6 +8,8 @@ before the tests whose constants assume it (``unit_scales``).
 
 import warp as wp
 
+FLOAT32_MAX = wp.constant(3.4028234663852886e38)  # the largest finite float32
+
 
 @wp.func_native("""
 #if defined(__CUDA_ARCH__)

@@ -13,7 +13,7 @@ depend on the tree or the visiting order. Boxes are entered when their entry dis
 
 import warp as wp
 
-from ..floats import unit_scales
+from ..floats import FLOAT32_MAX, unit_scales
 from ..geometry import (
     ShearedRay,
     box_origins,
@@ -55,9 +55,11 @@ def unit_ray(direction: wp.vec3, t_min: float, t_max: float):
     ``t * down``. Every trace and any-hit kernel starts from it (exact: ``wrt.floats``), because the slab test's
     constants assume such lengths: a zero component's inverse is 1e38 and, on the CPU, a ray in a box face plane is
     moved off it by at least 1e-18 (``geometry.box_origins``), so with a direction of length 1e-30 a triangle 1e-9
-    away (t = 1e21) lay beyond a flat slab's exit and was culled."""
+    away (t = 1e21) lay beyond a flat slab's exit and was culled. ``t_max`` is first capped at float32's largest
+    value: a hit past it (a direction of length 1e-37 and a triangle 100 away: t = 1e39) has no float32 ``t``, so it
+    is a miss, to every kernel alike; uncapped, the scaled ray hit it and reported ``t * down = inf``."""
     down, up = unit_scales(direction)
-    return direction * down, t_min * up, t_max * up, down
+    return direction * down, t_min * up, wp.min(t_max, FLOAT32_MAX) * up, down
 
 
 def closest_hit_kernels(intersect, bvh_type, name: str, module: str, max_registers: int = TRACE_MAX_REGISTERS):
