@@ -759,6 +759,22 @@ def test_threaded_cpu_trace_gives_the_same_hits(np_rng):
         wrt.trace(scene, origins[:1], directions[:1], threads=0)
 
 
+def test_a_bad_thread_count_raises_on_a_gpu_too(monkeypatch):
+    """``threads=0`` raised on the CPU but was ignored on a GPU, so a script failed only where it ran on the CPU;
+    ``WRT_THREADS`` is a CPU setting and stays unread there."""
+    from types import SimpleNamespace
+
+    from wrt.trace import resolve_threads
+
+    gpu = SimpleNamespace(is_cpu=False)
+    for bad in (0, -2, "two", True):
+        with pytest.raises(ValueError, match="threads must be"):
+            resolve_threads(bad, gpu)
+    assert resolve_threads(4, gpu) == 1
+    monkeypatch.setenv("WRT_THREADS", "nonsense")
+    assert resolve_threads(None, gpu) == 1
+
+
 def test_cpu_launches_use_every_core_unless_told(monkeypatch):
     from wrt.trace import resolve_threads
 

@@ -229,9 +229,17 @@ class HitBuffer:
 
 def resolve_threads(threads, device) -> int:
     """Worker threads for a launch: 1 on GPUs; on the CPU ``threads``, or for ``None`` the ``WRT_THREADS``
-    environment variable (a number or ``all``), else every core."""
-    if not device.is_cpu:
-        return 1
+    environment variable (a number or ``all``), else every core. A bad ``threads`` raises on every device, so a
+    script that passes one fails on the CPU and on a GPU alike (``WRT_THREADS`` is read on the CPU only)."""
+    if device.is_cpu:
+        return _thread_count(threads)
+    if threads is not None:
+        _thread_count(threads)
+    return 1
+
+
+def _thread_count(threads) -> int:
+    """:func:`resolve_threads` for the CPU."""
     source = "threads"  # named in the error, so a bad environment variable is not reported as the argument
     if threads is None:
         threads = os.environ.get("WRT_THREADS", "all").strip()
