@@ -8,6 +8,7 @@ import pytest
 import warp as wp
 
 import wrt
+from wrt.coplanar import coplanar_pairs
 from wrt.rays import camera_rays
 from wrt.scene import Mesh
 from wrt.twins import MAX_PARTNERS, find_partners
@@ -248,3 +249,76 @@ def test_weird_matrix_shows_a_front_face_wherever_one_holds_the_pixel(assets, tm
     np.testing.assert_array_equal(holds[shown, prim[shown]], True)
     empty = ~(front & (inside > -1e-4)).any(axis=1) & clear
     assert (prim[empty] == -1).all()
+
+
+def sliver_card(strips: int, width: float) -> tuple[np.ndarray, list, list]:
+    """A card over ``x`` in [0, 1] made of ``strips`` strips of ``width`` along ``y``, each a quad split into two
+    slivers (aspect ``1 / width``): the corners, the triangles facing +z (split along one diagonal) and those facing
+    -z (the reversed quads, split along the other)."""
+    y = np.arange(strips + 1) * width
+    points = np.concatenate([np.stack([np.zeros_like(y), y, 0 * y], 1), np.stack([np.ones_like(y), y, 0 * y], 1)])
+    up, down = [], []
+    for k in range(strips):
+        a, b, c, d = k, strips + 1 + k, strips + 2 + k, k + 1  # corners counter-clockwise seen from +z
+        up += [[a, b, c], [a, c, d]]
+        down += [[b, a, d], [b, d, c]]
+    return points.astype(np.float32), up, down
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("eye_z", [-5.0, 5.0])
+def test_a_card_of_slivers_shows_the_side_facing_the_camera(device, eye_z):
+    """A card of slivers of aspect 5,000 (heights 2e-4, under the 1/4096 of their coordinates that the plane hash
+    needs) as two single-sided meshes of opposite windings, split along different diagonals: from either side, every
+    pixel over the card's inside shows a triangle of the mesh facing the camera that holds the point (float64
+    ray-plane and point-in-triangle), at the plane's depth. The slivers were too uncertain to hash, so the culled
+    side had no partners and such pixels showed nothing behind."""
+    width, strips = 2e-4, 500
+    points, up, down = sliver_card(strips, width)
+    facing, culled = (down, up) if eye_z < 0 else (up, down)
+    # The culled side first: where the two hits tie, the closest-hit query reports it.
+    scene = wrt.Scene(meshes=[Mesh("/Culled", points, np.array(culled), np.repeat(np.arange(strips), 2)),
+                              Mesh("/Facing", points, np.array(facing), np.repeat(np.arange(strips), 2))])
+    first = len(culled)  # the facing side's first geometry id
+    turn = np.diag([1.0, 1.0, 1.0, 1.0]) if eye_z > 0 else np.diag([-1.0, 1.0, -1.0, 1.0])
+    to_world = turn.copy()
+    to_world[:3, 3] = (0.5, 0.5 * strips * width, eye_z)
+    camera = wrt.Camera(to_world=to_world, projection="orthographic", horizontal_aperture=12.0,
+                        vertical_aperture=2.0)
+    aovs = wrt.render(scene, camera=camera, width=96, height=16, device=device, integrator="albedo").aovs
+    origins, directions = (a.astype(np.float64) for a in camera_rays(scene, camera, width=96, height=16))
+    # Where each ray meets z = 0, and the triangles of the side facing the camera that hold that point.
+    t = -origins[:, 2] / directions[:, 2]
+    hit = (origins + t[:, None] * directions)[:, :2]
+    inside = (hit[:, 0] > 0.01) & (hit[:, 0] < 0.99) & (hit[:, 1] > 0.01) & (hit[:, 1] < strips * width - 0.01)
+    assert inside.sum() > 400
+    prim = aovs["prim"].reshape(-1)[inside]
+    assert (prim >= first).all()
+    corners = points.astype(np.float64)[np.array(facing)[prim - first]][:, :, :2]  # (N, 3, 2)
+    p = hit[inside]
+    area2 = cross2(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    weights = np.stack([cross2(corners[:, (k + 1) % 3] - p, corners[:, (k + 2) % 3] - p) / area2
+                        for k in range(3)], 1)
+    assert (weights.min(axis=1) > -1e-3).all()  # within a thousandth of a sliver's height of it
+    np.testing.assert_allclose(aovs["depth"].reshape(-1)[inside], t[inside], rtol=0, atol=2e-6)
+
+
+@pytest.mark.parametrize("place", ["z = 0", "tilted"])
+def test_slivers_pair_across_shared_edges(place):
+    """The slivers of a card of aspect 5,000 (each side split along its own diagonals) are too thin for the plane
+    hash; each is paired with the other side's triangles that share area with it (float64 polygon clipping), in
+    both directions, on the plane z = 0 and on a generic one (float32 corners off it by their rounding). Folded
+    by 0.01 rad along the card's short side, the other side is no longer coplanar: no partners."""
+    strips, width = 4, 2e-4
+    points, up, down = sliver_card(strips, width)
+    tris = up + down
+    want = overlap_oracle(points[:, :2].astype(np.float64), tris)
+    assert all(len(w) == 2 for w in want)
+    placed = tilted(points[:, :2]) if place == "tilted" else points
+    assert len(coplanar_pairs(placed, tris, [-1] * len(tris), [False] * len(tris))[1]) == len(tris)  # all slivers
+    assert found_sets(placed, tris) == want
+    # Folded: the other side on its own copy of the corners, those at x = 1 lifted by 0.01 (shared: x = 0).
+    folded = points.copy()
+    folded[:, 2] = 0.01 * points[:, 0]
+    assert found_sets(np.concatenate([points, folded]), up + [[len(points) + k for k in t] for t in down]) == [
+        set()] * len(tris)

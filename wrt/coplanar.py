@@ -16,7 +16,7 @@ keeps those coplanar, overlapping in area and facing. These kernels run on the C
 
 A triangle whose normal the rounding of its corners leaves uncertain by more than :data:`MAX_MARGIN` (a sliver
 whose height is under about 1/4000 of its coordinates), or that would be in more than :data:`MAX_COPIES` cells, is
-in none: the caller pairs it with its exact twins only (``wrt.twins``).
+in none: the caller pairs it across its edges only (``wrt.twins.edge_partners``).
 """
 
 import numpy as np

@@ -123,6 +123,126 @@ def find_twins(points: np.ndarray, indices: np.ndarray, spaces: np.ndarray, doub
 
 # The most partners a triangle keeps (the smallest geometry ids): the cull kernel tests each at every hit on it.
 MAX_PARTNERS = 64
+_EDGES = np.array([[0, 1], [1, 2], [2, 0]])  # edge k of a triangle runs from its corner k to k + 1; k + 2 is far
+
+
+def _edge_ends(points, indices, triangles, edges, far_only=False):
+    """``(start, end, far)``: ``(E, 3)`` float64 corners of edge ``edges[i]`` of triangle ``triangles[i]`` and the
+    corner off it (``far`` alone with ``far_only``)."""
+    rows = np.arange(len(triangles))
+    corners = indices[triangles]
+    ends = tuple(points[corners[rows, (edges + k) % 3]].astype(np.float64) for k in ((2,) if far_only else range(3)))
+    return ends[0] if far_only else ends
+
+
+def _margins(points, indices, triangles, area2):
+    """:mod:`wrt.coplanar`'s normal margin and offset tolerance of each of ``triangles``, in float64
+    (``area2``: the length of its normal)."""
+    from .coplanar import ANGLE_TOLERANCE, COPLANAR_TOLERANCE, CORNER_ROUNDING
+
+    corners = points[indices[triangles]].astype(np.float64)  # (N, 3, 3)
+    longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
+    rounding = CORNER_ROUNDING * np.abs(corners).max(axis=(1, 2))
+    return ANGLE_TOLERANCE + 4.0 * rounding * longest / area2, COPLANAR_TOLERANCE * longest + rounding
+
+
+def edge_partners(points, indices, spaces, double_sided, uncertain) -> np.ndarray:
+    """Partner pairs ``(t, p)`` across the edges of the ``uncertain`` triangles (those :mod:`wrt.coplanar` cannot
+    hash: slivers), one of the two uncertain: ``t`` single-sided, ``p`` double-sided or facing the other way, the two
+    sharing an edge (its two corner positions) in one space, their far corners on the same side of it (so they share
+    area along it), and coplanar within :mod:`wrt.coplanar`'s tolerances in float64: normals within the sum of their
+    margins, and the far corner nearer the edge within its triangle's offset tolerance of the other's plane (the
+    part they share lies that near both; the other far corner, measured from a sliver's plane, would measure the
+    sliver's rounding). Exact twins among the uncertain are such pairs too.
+
+    Only the uncertain triangles' corner positions are hashed, and the edges of the triangles with two corners at
+    such positions; of a pile of coincident edges, each is paired with the :data:`MAX_PARTNERS` nearest it in
+    sorted order.
+
+    Args:
+        points: ``(V, 3)`` float32 vertex positions.
+        indices: ``(T, 3)`` int32 rows into ``points``.
+        spaces: ``(T,)`` int64 space of each triangle.
+        double_sided: ``(T,)`` bool.
+        uncertain: ``(U,)`` int geometry ids.
+
+    Returns:
+        ``(P, 2)`` int64 pairs ``(t, p)``; a pair may repeat.
+    """
+    none = np.zeros((0, 2), np.int64)
+    points = np.asarray(points, np.float32)
+    uncertain = np.asarray(uncertain, np.int64)
+    # Positions at the uncertain triangles' corners; the edges of any triangle with both ends at such positions.
+    # (A table of the positions' hashes' low bits, some 16 slots a position: a few other vertices pass it too, and
+    # fail the exact edge test below; a search of every vertex among the positions took several times as long.)
+    vertex_hash = _vertex_hashes(points)
+    slots = np.uint64((1 << int(np.ceil(np.log2(48 * len(uncertain) + 1)))) - 1)
+    table = np.zeros(int(slots) + 1, bool)
+    table[(vertex_hash[indices[uncertain]] & slots).astype(np.intp)] = True
+    corner_known = table[(vertex_hash & slots).astype(np.intp)][indices]  # (T, 3)
+    tris, edges = [], []
+    for k, (i, j) in enumerate(_EDGES):
+        found = np.flatnonzero(corner_known[:, i] & corner_known[:, j])
+        tris.append(found)
+        edges.append(np.full(len(found), k))
+    tris, edges = np.concatenate(tris), np.concatenate(edges)
+    # Hash each edge (its two ends in any order) with its space; equal keys within a few places of each other in
+    # sorted order (one of them an uncertain triangle's) are candidate pairs.
+    ends = indices[tris[:, None], _EDGES[edges]]  # (E, 2)
+    keys = _mix(vertex_hash[ends[:, 0]] + vertex_hash[ends[:, 1]] + _mix(spaces[tris].astype(np.uint64) + _MIX_1))
+    order = np.argsort(keys)
+    sorted_keys = keys[order]
+    is_uncertain = np.zeros(len(indices), bool)
+    is_uncertain[uncertain] = True
+    sorted_uncertain = is_uncertain[tris[order]]
+    mine, theirs = [], []
+    for step in range(1, MAX_PARTNERS + 1):
+        near = np.flatnonzero(sorted_keys[step:] == sorted_keys[:-step])
+        if not len(near):
+            break
+        # Each pair once, ``mine`` an uncertain one (the first where both are).
+        first = sorted_uncertain[near]
+        mine.append(order[np.where(first, near, near + step)[first | sorted_uncertain[near + step]]])
+        theirs.append(order[np.where(first, near + step, near)[first | sorted_uncertain[near + step]]])
+    if not mine:
+        return none
+    mine, theirs = np.concatenate(mine), np.concatenate(theirs)
+    keep = (tris[theirs] != tris[mine]) & (spaces[tris[theirs]] == spaces[tris[mine]])
+    theirs, mine = theirs[keep], mine[keep]
+    # The same two corner positions, in the same order or reversed.
+    bits = _point_bits(points)
+    a, b = bits[ends[mine, 0]], bits[ends[mine, 1]]
+    c, d = bits[ends[theirs, 0]], bits[ends[theirs, 1]]
+    same = (a == c).all(axis=1) & (b == d).all(axis=1)
+    reversed_ = (a == d).all(axis=1) & (b == c).all(axis=1)
+    keep = same ^ reversed_  # (both: an edge of one point)
+    theirs, mine, reversed_ = theirs[keep], mine[keep], reversed_[keep]
+    # Each triangle's normal from its edge, so that the two differ only by the far corners: the same side of the edge
+    # when they point alike, facing each other's backs when the edge runs the other way in one of them.
+    start, end, far_mine = _edge_ends(points, indices, tris[mine], edges[mine])
+    far_theirs = _edge_ends(points, indices, tris[theirs], edges[theirs], far_only=True)
+    along = end - start
+    n_mine = np.cross(along, far_mine - start)
+    n_theirs = np.cross(along, far_theirs - start)  # their normal, negated where their edge runs the other way
+    same_side = np.einsum("ij,ij->i", n_mine, n_theirs) > 0.0  # (false for a degenerate one)
+    area_mine, area_theirs = np.linalg.norm(n_mine, axis=1), np.linalg.norm(n_theirs, axis=1)
+    keep = np.flatnonzero(same_side)
+    m_mine, delta_mine = _margins(points, indices, tris[mine[keep]], area_mine[keep])
+    m_theirs, delta_theirs = _margins(points, indices, tris[theirs[keep]], area_theirs[keep])
+    n_mine, n_theirs = n_mine[keep], n_theirs[keep]
+    area_mine, area_theirs = area_mine[keep], area_theirs[keep]
+    angle = np.linalg.norm(np.cross(n_mine, n_theirs), axis=1) / (area_mine * area_theirs)
+    mine_lower = area_mine <= area_theirs  # the one whose far corner is nearer the shared edge
+    offset = np.where(mine_lower,
+                      np.abs(np.einsum("ij,ij->i", n_theirs, far_mine[keep] - start[keep])) / area_theirs,
+                      np.abs(np.einsum("ij,ij->i", n_mine, far_theirs[keep] - start[keep])) / area_mine)
+    coplanar = (angle <= m_mine + m_theirs) & (offset <= np.where(mine_lower, delta_mine, delta_theirs))
+    keep = keep[coplanar]
+    t, p, opposite = tris[mine[keep]], tris[theirs[keep]], reversed_[keep]
+    # Both ways: each single-sided one of the two takes the other where that one shows its front to its back.
+    forward = ~double_sided[t] & (double_sided[p] | opposite)
+    backward = ~double_sided[p] & (double_sided[t] | opposite)
+    return np.concatenate([np.stack([t[forward], p[forward]], 1), np.stack([p[backward], t[backward]], 1)])
 
 
 def find_partners(points, indices, spaces, double_sided):
@@ -130,7 +250,7 @@ def find_partners(points, indices, spaces, double_sided):
 
     Coplanar pairs come from :func:`wrt.coplanar.coplanar_pairs` (a hash of the triangles' planes: a scene where no
     plane holds both sides costs a kernel over the triangles and a count of its cells); the triangles whose normals
-    are too uncertain to hash (slivers) get their exact twins (:func:`find_twins`) among themselves.
+    are too uncertain to hash (slivers) are paired across their edges (:func:`edge_partners`).
 
     Args:
         points: ``(V, 3)`` float32 vertex positions.
@@ -152,11 +272,8 @@ def find_partners(points, indices, spaces, double_sided):
     if n < 2 or double_sided.all():
         return None
     pairs, uncertain = coplanar_pairs(points, indices, spaces, double_sided)
-    if len(uncertain) > 1:
-        twins = find_twins(points, indices[uncertain], spaces[uncertain], double_sided[uncertain])
-        if twins is not None:
-            has = np.flatnonzero(twins >= 0)
-            pairs = np.concatenate([pairs, np.stack([uncertain[has], uncertain[twins[has]]], axis=1)])
+    if len(uncertain):
+        pairs = np.concatenate([pairs, edge_partners(points, indices, spaces, double_sided, uncertain)])
     if not len(pairs):
         return None
     pairs = np.unique(pairs, axis=0)  # by triangle, then partner
