@@ -11,7 +11,7 @@ import warp as wp
 import wrt
 from wrt.instancing import Instances, Prototype
 from wrt.scene import Mesh
-from wrt.twins import find_partners, find_twins
+from wrt.twins import find_partners
 
 CORNERS = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
 FRONT = [[0, 1, 2], [0, 2, 3]]  # normal +z
@@ -101,18 +101,26 @@ def test_instanced_leaf_shows_each_side(order):
             assert (got["material"][mine] == (0 if side == "front" else 1)).all()
 
 
-def test_find_twins():
+def test_exact_twins_are_partners():
     """Twins: the same corner positions in the reversed order (any rotation, own vertices or shared), in one space;
     a double-sided partner of either winding; never a same-winding copy, a degenerate triangle or another space."""
     shifted = np.concatenate([CORNERS, CORNERS])  # vertices 4..7 repeat 0..3
     tris = [[0, 1, 2], [5, 4, 6], [1, 2, 0], [2, 1, 0]]  # 1 and 3 reverse 0 (and 2, its rotation)
-    np.testing.assert_array_equal(find_twins(shifted, tris, [-1] * 4, [False] * 4), [1, 0, 1, 0])
-    assert find_twins(CORNERS, FRONT + BACK, [-1, -1, 0, 0], [False] * 4) is None
-    assert find_twins(CORNERS, FRONT + FRONT, [-1] * 4, [False] * 4) is None
-    np.testing.assert_array_equal(find_twins(CORNERS, FRONT + FRONT, [-1] * 4, [False, False, True, True]),
-                                  [2, 3, -1, -1])
-    assert find_twins(CORNERS, [[0, 1, 1], [1, 1, 0]], [-1] * 2, [False] * 2) is None
-    assert find_twins(CORNERS, FRONT + BACK, [-1] * 4, [True] * 4) is None  # nothing culled: nothing to find
+
+    def sets(points, triangles, spaces, sided):
+        found = find_partners(np.asarray(points, np.float32), triangles, spaces, sided)
+        if found is None:
+            return None
+        offsets, ranges = found
+        return [{p for first, count in ranges[offsets[t]:offsets[t + 1]] for p in range(first, first + count)}
+                for t in range(len(triangles))]
+
+    assert sets(shifted, tris, [-1] * 4, [False] * 4) == [{1, 3}, {0, 2}, {1, 3}, {0, 2}]
+    assert sets(CORNERS, FRONT + BACK, [-1, -1, 0, 0], [False] * 4) is None
+    assert sets(CORNERS, FRONT + FRONT, [-1] * 4, [False] * 4) is None
+    assert sets(CORNERS, FRONT + FRONT, [-1] * 4, [False, False, True, True]) == [{2}, {3}, set(), set()]
+    assert sets(CORNERS, [[0, 1, 1], [1, 1, 0]], [-1] * 2, [False] * 2) is None
+    assert sets(CORNERS, FRONT + BACK, [-1] * 4, [True] * 4) is None  # nothing culled: nothing to find
 
 
 def partner_sets(points, meshes, double_sided=None) -> list[set]:

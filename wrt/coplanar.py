@@ -34,7 +34,7 @@ NORMAL_CELL = 2.0 ** -5  # hash cell per unit normal component (a margin, at mos
 # LEVER times their longest edges: that centre is within sqrt(3) / 2 NORMAL_CELL + 1.5 MAX_MARGIN of each normal, and
 # the centroids of two triangles that overlap are within 2 / 3 of the sum of their longest edges.
 LEVER = 2.0 / 3.0 * (3.0 ** 0.5 / 2.0 * NORMAL_CELL + 1.5 * MAX_MARGIN)
-MAX_COPIES = 4096  # a triangle in more cells (some 30,000 times the median size) is not hashed: twins only
+MAX_COPIES = 4096  # a triangle in more cells (some 30,000 times the median size) is not hashed: edge partners only
 GENERIC = (0.5773502691896258 * 0.8, 0.5773502691896258 * 1.1, 0.5773502691896258 * 1.05)  # canonical normal sign
 BIG_CELLS = 256  # an entry whose box covers more 2D cells than this is paired with its whole plane cell instead
 
