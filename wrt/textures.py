@@ -10,7 +10,8 @@ Conventions, stated once:
 - ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
   keeps values; ``"auto"`` means sRGB for 8-bit RGB/RGBA images and raw for everything else (greyscale, 16-bit,
   float, Radiance ``.hdr``), as Hydra's image reader decides. Missing channels read as grey ``L`` ->
-  ``(L, L, L)`` and alpha 1. 16-bit PNGs keep all 16 bits (Pillow alone reduces colour ones to 8).
+  ``(L, L, L)`` and alpha 1. 16-bit PNGs and RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones
+  to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
 - UDIM textures (``<UDIM>`` in the file name) are separate images, one per tile: tile ``1001 + u + 10 v`` covers
   ``st`` in ``[u, u + 1) x [v, v + 1)`` for ``u, v`` in 0..9 (1001..1100, the tiles ``UsdShade.UdimUtils``
@@ -32,6 +33,8 @@ WRAP_BLACK = wp.constant(3)
 HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
+# Pillow raw modes of 16-bit samples it reduces to 8 bits: colour (PNG big-endian, TIFF either) and PNG grey + alpha
+SIXTEEN_BIT_RAWMODES = ("RGB;16B", "RGB;16L", "RGBA;16B", "RGBA;16L", "LA;16B")
 UDIM_FIRST = 1001  # number of the UDIM tile at st in [0, 1)^2
 UDIM_COLUMNS = wp.constant(10)  # UDIM tiles per row (u = 0..9)
 UDIM_ROWS = wp.constant(10)  # rows of UDIM tiles read (v = 0..9)
@@ -110,11 +113,10 @@ def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
 
     try:
         img = PilImage.open(io.BytesIO(data))
-        if png_bit_depth(data) == 16 and img.mode in ("RGB", "RGBA"):
-            # 16-bit colour (or grey + alpha): Pillow would keep the high byte only.
-            rgba = _read_png16(data, img.tile[0][3])
-            if rgba is not None:
-                return rgba, False
+        rawmode = _sixteen_bit_rawmode(img)
+        if rawmode is not None:
+            # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only.
+            return _read_16bit(data, rawmode), False
         img.load()
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
         raise TextureError(f"cannot read image {name}: {e}") from None
@@ -132,29 +134,43 @@ def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
     return arr, png_bit_depth(data) <= 8  # samples of more than 8 bits are linear data, as Hydra reads them
 
 
-def _read_png16(data: bytes, rawmode: str) -> np.ndarray | None:
-    """``(H, W, 4)`` float32 RGBA of a 16-bit RGB, RGBA or grey + alpha PNG at full precision, or None for a
-    ``rawmode`` (Pillow's unpacking of the file) not handled here.
+def _tile_rawmode(tile) -> str:
+    """The raw mode (Pillow's unpacking of the file's samples) of one decoder tile: its arguments, or their first."""
+    return tile[3] if isinstance(tile[3], str) else tile[3][0]
 
-    Pillow unpacks these samples to 8 bits (the high byte). Its decoder is run again with the raw mode that takes
-    the other byte of every sample (little-endian samples: the second byte; grey + alpha, 4 bytes per pixel, as
-    8-bit RGBA: every byte), so the PNG's filtering is undone by Pillow both times.
+
+def _sixteen_bit_rawmode(img) -> str | None:
+    """The raw mode shared by every tile (TIFF strip) of ``img`` when it is one of :data:`SIXTEEN_BIT_RAWMODES`."""
+    rawmodes = {_tile_rawmode(tile) for tile in img.tile}
+    return rawmodes.pop() if len(rawmodes) == 1 and rawmodes <= set(SIXTEEN_BIT_RAWMODES) else None
+
+
+def _read_16bit(data: bytes, rawmode: str) -> np.ndarray:
+    """``(H, W, 4)`` float32 RGBA of a 16-bit RGB, RGBA (PNG or TIFF) or grey + alpha (PNG) image at full
+    precision (``rawmode``: one of :data:`SIXTEEN_BIT_RAWMODES`).
+
+    Pillow unpacks these samples to 8 bits (the high byte). Its decoder is run again with the raw mode of the other
+    byte order, which takes the other byte of every sample (grey + alpha, 4 bytes per pixel, as 8-bit RGBA: every
+    byte), so the file's compression and PNG filtering are undone by Pillow both times. A 16-bit RGB TIFF was read
+    as 8 bits and then decoded as sRGB under ``auto``: 0.5 came out as 0.216.
     """
     from PIL import Image as PilImage
 
     def decode(mode):
         img = PilImage.open(io.BytesIO(data))
-        img.tile = [tuple(img.tile[0][:3]) + (mode,)]
+        tiles = []
+        for tile in img.tile:  # Pillow's named _Tile (the TIFF reader reads its fields by name), or a plain tuple
+            args = mode if isinstance(tile[3], str) else (mode,) + tuple(tile[3][1:])
+            tiles.append(tile._replace(args=args) if hasattr(tile, "_replace") else tuple(tile[:3]) + (args,))
+        img.tile = tiles
         img.load()
         return np.asarray(img, dtype=np.float32)
 
     if rawmode == "LA;16B":
         b = decode("RGBA")  # bytes: grey high, grey low, alpha high, alpha low
         return _grey_rgba((b[..., 0] * 256 + b[..., 1]) / 65535.0, (b[..., 2] * 256 + b[..., 3]) / 65535.0)
-    if rawmode not in ("RGB;16B", "RGBA;16B"):
-        return None
     high = decode(rawmode)
-    low = decode(rawmode.replace(";16B", ";16L"))
+    low = decode(rawmode[:-1] + {"B": "L", "L": "B"}[rawmode[-1]])
     rgba = np.ones(high.shape[:2] + (4,), np.float32)
     rgba[..., : high.shape[2]] = (high * 256 + low) / 65535.0
     return rgba

@@ -1,0 +1,58 @@
+"""Image files read as textures (``wrt.textures.load_image``), checked against the samples written here: formats
+and sample layouts Pillow reads in ways that need help (16-bit TIFF colour, transparency chunks of grey PNGs)."""
+
+import struct
+
+import numpy as np
+import pytest
+
+from wrt.textures import load_image
+
+
+def write_tiff16(path, samples, byte_order="<", rows_per_strip=1):
+    """An uncompressed 16-bit RGB or RGBA TIFF written here byte by byte (``byte_order`` ``"<"``: ``II``, ``">"``:
+    ``MM``), one strip per ``rows_per_strip`` rows, so the reader has to join several strips."""
+    samples = np.asarray(samples, np.uint16)
+    h, w, c = samples.shape
+    strips = [samples[r : r + rows_per_strip].astype(byte_order + "u2").tobytes() for r in range(0, h, rows_per_strip)]
+    n_strips = len(strips)
+    tags = 11 if c == 4 else 10
+    bits_at = 8 + 2 + tags * 12 + 4  # after the one IFD: bits per sample, strip offsets, strip byte counts, pixels
+    offsets_at = bits_at + 2 * c
+    counts_at = offsets_at + 4 * n_strips
+    pixels_at = counts_at + 4 * n_strips
+
+    def entry(tag, kind, count, value):  # kind 3: SHORT, 4: LONG; value: inline, or an offset where count says so
+        if kind == 3 and count == 1:
+            return struct.pack(byte_order + "HHIHH", tag, kind, count, value, 0)
+        return struct.pack(byte_order + "HHII", tag, kind, count, value)
+
+    one_offset = pixels_at if n_strips == 1 else offsets_at
+    one_count = len(strips[0]) if n_strips == 1 else counts_at
+    ifd = [entry(256, 4, 1, w), entry(257, 4, 1, h), entry(258, 3, c, bits_at), entry(259, 3, 1, 1),
+           entry(262, 3, 1, 2), entry(273, 4, n_strips, one_offset), entry(277, 3, 1, c),
+           entry(278, 4, 1, rows_per_strip), entry(279, 4, n_strips, one_count), entry(284, 3, 1, 1)]
+    if c == 4:
+        ifd.append(entry(338, 3, 1, 2))  # extra sample: unassociated alpha
+    ifd.sort()
+    starts = np.cumsum([pixels_at] + [len(s) for s in strips[:-1]])
+    body = struct.pack(byte_order + "H" * c, *([16] * c))
+    body += struct.pack(byte_order + "I" * n_strips, *starts) + struct.pack(byte_order + "I" * n_strips,
+                                                                            *map(len, strips))
+    head = (b"II*\0" if byte_order == "<" else b"MM\0*") + struct.pack(byte_order + "I", 8)
+    data = head + struct.pack(byte_order + "H", tags) + b"".join(ifd) + struct.pack(byte_order + "I", 0) + body
+    path.write_bytes(data + b"".join(strips))
+    return str(path)
+
+
+@pytest.mark.parametrize("byte_order", ["<", ">"])
+@pytest.mark.parametrize("channels", [3, 4])
+def test_16_bit_tiff_textures_are_linear_at_full_precision(tmp_path, byte_order, channels):
+    """16-bit RGB(A) TIFFs: Pillow keeps only the high byte, and the 8-bit result was decoded as sRGB under
+    sourceColorSpace auto (16-bit data is linear, as for 16-bit PNGs): 0.5 came out as 0.216."""
+    samples = np.random.default_rng(7).integers(0, 65536, (3, 5, channels))
+    samples[0, 0, :] = 0x8001  # 0.50001 linear; its high byte alone would be 0.502, or 0.216 after sRGB decoding
+    image = load_image(write_tiff16(tmp_path / "c.tif", samples, byte_order), "auto")
+    expected = np.ones((3, 5, 4))
+    expected[..., :channels] = samples / 65535.0
+    np.testing.assert_allclose(image, expected, atol=1e-7)
