@@ -5,6 +5,7 @@ import struct
 
 import numpy as np
 import pytest
+from PIL import Image as PilImage
 
 from wrt.textures import load_image
 
@@ -56,3 +57,17 @@ def test_16_bit_tiff_textures_are_linear_at_full_precision(tmp_path, byte_order,
     expected = np.ones((3, 5, 4))
     expected[..., :channels] = samples / 65535.0
     np.testing.assert_allclose(image, expected, atol=1e-7)
+
+
+@pytest.mark.parametrize("bits", [8, 16])
+def test_a_grey_png_transparent_sample_reads_as_alpha_zero(tmp_path, bits):
+    """A grey PNG whose tRNS chunk names one sample value transparent (the PNG specification: alpha 0 there, 1
+    elsewhere); it was read as opaque everywhere."""
+    full = 2**bits - 1
+    samples = np.array([[0, full // 2 + 1, full], [full // 2 + 1, 7, 0]], np.uint8 if bits == 8 else np.uint16)
+    path = tmp_path / f"grey{bits}.png"
+    PilImage.fromarray(samples).save(path, transparency=full // 2 + 1)
+    assert b"tRNS" in path.read_bytes()
+    image = load_image(str(path), "auto")
+    np.testing.assert_allclose(image[..., :3], np.repeat(samples[..., None] / full, 3, axis=2), atol=1e-7)
+    np.testing.assert_array_equal(image[..., 3], samples != full // 2 + 1)

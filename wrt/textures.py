@@ -10,8 +10,8 @@ Conventions, stated once:
 - ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
   keeps values; ``"auto"`` means sRGB for 8-bit RGB/RGBA images and raw for everything else (greyscale, 16-bit,
   float, Radiance ``.hdr``), as Hydra's image reader decides. Missing channels read as grey ``L`` ->
-  ``(L, L, L)`` and alpha 1. 16-bit PNGs and RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones
-  to 8).
+  ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits
+  (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
 - UDIM textures (``<UDIM>`` in the file name) are separate images, one per tile: tile ``1001 + u + 10 v`` covers
   ``st`` in ``[u, u + 1) x [v, v + 1)`` for ``u, v`` in 0..9 (1001..1100, the tiles ``UsdShade.UdimUtils``
@@ -124,12 +124,15 @@ def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
     if mode in ("I;16", "I;16B", "I;16L", "I"):
         # Older Pillow versions open 16-bit grey PNGs as mode "I".
         full = 65535.0 if mode.startswith("I;16") or png_bit_depth(data) == 16 else max(1.0, float(np.max(img)))
-        return _grey_rgba(np.asarray(img, dtype=np.float32) / full, None), False
+        grey = np.asarray(img, dtype=np.float32)
+        return _grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False
     if mode == "F":
         return _grey_rgba(np.asarray(img, dtype=np.float32), None), False
     if mode in ("L", "LA"):
         arr = np.asarray(img.convert("LA"), dtype=np.float32) / 255.0
-        return _grey_rgba(arr[..., 0], arr[..., 1] if mode == "LA" else None), False
+        # Pillow's LA conversion turns a grey PNG's transparent sample (its tRNS chunk) into alpha 0.
+        alpha = arr[..., 1] if mode == "LA" or "transparency" in img.info else None
+        return _grey_rgba(arr[..., 0], alpha), False
     arr = np.asarray(img.convert("RGBA"), dtype=np.uint8)  # scaled to [0, 1] by load_image (_decode_8bit)
     return arr, png_bit_depth(data) <= 8  # samples of more than 8 bits are linear data, as Hydra reads them
 
@@ -174,6 +177,16 @@ def _read_16bit(data: bytes, rawmode: str) -> np.ndarray:
     rgba = np.ones(high.shape[:2] + (4,), np.float32)
     rgba[..., : high.shape[2]] = (high * 256 + low) / 65535.0
     return rgba
+
+
+def _transparent_sample_alpha(img, grey: np.ndarray) -> np.ndarray | None:
+    """Alpha of a 16-bit grey PNG with a transparent sample value (its tRNS chunk): 0 where ``grey`` (the samples as
+    read) equals it, else 1, as the PNG specification defines it (libpng's tRNS-to-alpha, Pillow's LA conversion of
+    8-bit grey); None without one. It was read as opaque, so a cut-out stored that way had no holes."""
+    transparent = img.info.get("transparency")
+    if not isinstance(transparent, int):
+        return None
+    return (grey != transparent).astype(np.float32)
 
 
 def _grey_rgba(grey: np.ndarray, alpha: np.ndarray | None) -> np.ndarray:
