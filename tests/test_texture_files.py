@@ -71,3 +71,17 @@ def test_a_grey_png_transparent_sample_reads_as_alpha_zero(tmp_path, bits):
     image = load_image(str(path), "auto")
     np.testing.assert_allclose(image[..., :3], np.repeat(samples[..., None] / full, 3, axis=2), atol=1e-7)
     np.testing.assert_array_equal(image[..., 3], samples != full // 2 + 1)
+
+
+def test_jpeg_exif_orientation_is_ignored(tmp_path):
+    """Storm's reader (stb_image) never reads a JPEG's EXIF orientation, so texels stay in stored order: the image
+    is not turned for orientation 6 (which viewers rotate 90 degrees clockwise)."""
+    stored = np.repeat(np.repeat(np.array([[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]]), 8, 0), 8, 1)
+    exif = PilImage.Exif()
+    exif[0x0112] = 6  # Orientation
+    path = tmp_path / "turned.jpg"
+    PilImage.fromarray(stored.astype(np.uint8)).save(path, exif=exif, quality=100, subsampling=0)
+    assert PilImage.open(path).getexif()[0x0112] == 6
+    image = load_image(str(path), "raw")
+    assert image.shape == (16, 16, 4)
+    np.testing.assert_allclose(image[4:12:7, 4:12:7, :3], stored[4:12:7, 4:12:7] / 255.0, atol=0.02)
