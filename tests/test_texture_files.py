@@ -6,6 +6,7 @@ import struct
 import numpy as np
 import pytest
 from PIL import Image as PilImage
+from PIL import PngImagePlugin
 
 from wrt.textures import load_image
 
@@ -85,3 +86,42 @@ def test_jpeg_exif_orientation_is_ignored(tmp_path):
     image = load_image(str(path), "raw")
     assert image.shape == (16, 16, 4)
     np.testing.assert_allclose(image[4:12:7, 4:12:7, :3], stored[4:12:7, 4:12:7] / 255.0, atol=0.02)
+
+
+def write_png_with_chunk(path, samples, chunk, data):
+    """An 8-bit PNG with one extra ancillary chunk (``gAMA``, ``sRGB``) before its pixels."""
+    info = PngImagePlugin.PngInfo()
+    info.add(chunk, data)
+    PilImage.fromarray(np.asarray(samples, np.uint8)).save(path, pnginfo=info)
+    assert chunk in path.read_bytes()
+    return str(path)
+
+
+def srgb_decoded(samples):
+    """The sRGB transfer function inverted in float64 (IEC 61966-2-1), of 8-bit samples."""
+    x = np.asarray(samples, np.float64) / 255.0
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+@pytest.mark.parametrize(
+    "samples, chunk, data, srgb",
+    [
+        ([[0, 128, 255]], b"gAMA", struct.pack(">I", 45455), True),  # grey tagged 1/2.2: sRGB
+        ([[[200, 128, 3]]], b"gAMA", struct.pack(">I", 100000), False),  # colour tagged linear: raw
+        ([[0, 128, 255]], b"sRGB", b"\0", True),  # grey with an sRGB chunk: sRGB
+        ([[0, 128, 255]], b"gAMA", struct.pack(">I", 22000), False),  # another gamma: grey stays raw
+    ],
+    ids=["grey_gamma_1/2.2", "colour_gamma_1", "grey_srgb_chunk", "grey_gamma_0.22"],
+)
+def test_auto_follows_a_png_colour_space_chunk(tmp_path, samples, chunk, data, srgb):
+    """UsdUVTexture's ``auto`` reads colour space metadata first (gAMA near 1/2.2 or an sRGB chunk: sRGB, gAMA near
+    1: raw, with the tolerance of Hydra's PNG reader); only without it do 8-bit colour images read as sRGB. ``raw``
+    and ``sRGB`` authored on the shader still win."""
+    path = write_png_with_chunk(tmp_path / "tagged.png", samples, chunk, data)
+    samples = np.asarray(samples, np.float64)
+    grey = samples.ndim == 2
+    rgb = np.repeat(samples[..., None], 3, axis=2) if grey else samples
+    expected = srgb_decoded(rgb) if srgb else rgb / 255.0
+    np.testing.assert_allclose(load_image(path, "auto")[..., :3], expected, atol=1e-6)
+    np.testing.assert_allclose(load_image(path, "raw")[..., :3], rgb / 255.0, atol=1e-6)
+    np.testing.assert_allclose(load_image(path, "sRGB")[..., :3], srgb_decoded(rgb), atol=1e-6)

@@ -8,8 +8,9 @@ Conventions, stated once:
 - Texture coordinates follow USD: ``st = (0, 0)`` is the bottom-left corner of the image, ``(1, 1)`` the top-right.
   Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping).
 - ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
-  keeps values; ``"auto"`` means sRGB for 8-bit RGB/RGBA images and raw for everything else (greyscale, 16-bit,
-  float, Radiance ``.hdr``), as Hydra's image reader decides. Missing channels read as grey ``L`` ->
+  keeps values; ``"auto"`` follows a PNG's ``gAMA``/``sRGB`` chunk (:func:`tagged_srgb`), else means sRGB for
+  8-bit RGB/RGBA images and raw for everything else (greyscale, 16-bit, float, Radiance ``.hdr``), as Hydra's image
+  reader decides. Missing channels read as grey ``L`` ->
   ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits
   (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
@@ -75,12 +76,12 @@ def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
 
     name = resolved_path.lower().rstrip("]")
     if is_radiance(data, name):
-        rgba, is_8bit_color = read_radiance(data, resolved_path), False
+        rgba, auto_srgb = read_radiance(data, resolved_path), False
     elif name.endswith(".exr") or data[:4] == b"\x76\x2f\x31\x01":
-        rgba, is_8bit_color = _read_exr(data, resolved_path), False
+        rgba, auto_srgb = _read_exr(data, resolved_path), False
     else:
-        rgba, is_8bit_color = _read_pillow(data, resolved_path)
-    srgb = color_space == "sRGB" or (color_space == "auto" and is_8bit_color)
+        rgba, auto_srgb = _read_pillow(data, resolved_path)
+    srgb = color_space == "sRGB" or (color_space == "auto" and auto_srgb)
     if rgba.dtype == np.uint8:
         return _decode_8bit(rgba, srgb)
     if srgb:
@@ -109,6 +110,38 @@ def png_bit_depth(data: bytes) -> int:
 
 
 def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
+    """The image as ``(H, W, 4)`` RGBA samples and whether ``auto`` reads it as sRGB: as the file's colour space
+    metadata says (:func:`tagged_srgb`), else for 8-bit colour."""
+    rgba, is_8bit_color = _read_pillow_samples(data, name)
+    tagged = tagged_srgb(data)
+    return rgba, is_8bit_color if tagged is None else tagged
+
+
+def tagged_srgb(data: bytes) -> bool | None:
+    """Whether a PNG's colour space chunks mark it sRGB (an ``sRGB`` chunk, or ``gAMA`` within 0.1 of 1/2.2) or
+    linear (``gAMA`` within 0.1 of 1); None without such a chunk or for other formats.
+
+    UsdUVTexture's ``auto`` checks the file's colour space metadata before it guesses from the sample type, and
+    Hydra's PNG reader (stb_image, patched to return ``gAMA``) decides with the same tolerances: an 8-bit grey
+    roughness map saved with ``gAMA`` 0.45455, as image editors write it, was read raw, 0.5 for Storm's 0.21, and
+    colour written with ``gAMA`` 1 was decoded as sRGB."""
+    if data[:8] != PNG_SIGNATURE:
+        return None
+    from PIL import Image as PilImage
+
+    try:
+        info = PilImage.open(io.BytesIO(data)).info
+    except Exception:  # noqa: BLE001 - the pixels' reader has read it already; no verdict on metadata alone
+        return None
+    gamma = info.get("gamma")
+    if isinstance(gamma, (int, float)) and abs(gamma - 1.0 / 2.2) < 0.1:
+        return True
+    if isinstance(gamma, (int, float)) and abs(gamma - 1.0) < 0.1:
+        return False
+    return True if "srgb" in info else None
+
+
+def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool]:
     from PIL import Image as PilImage
 
     try:
