@@ -1,5 +1,6 @@
 """Image files read as textures (``wrt.textures.load_image``), checked against the samples written here: formats
-and sample layouts Pillow reads in ways that need help (16-bit TIFF colour, transparency chunks of grey PNGs)."""
+and sample layouts Pillow reads in ways that need help (16-bit TIFF colour, transparency chunks of grey PNGs),
+colour space chunks ``auto`` follows, EXIF orientation (ignored) and damaged files (a warning and the fallback)."""
 
 import struct
 
@@ -7,7 +8,9 @@ import numpy as np
 import pytest
 from PIL import Image as PilImage
 from PIL import PngImagePlugin
+from test_materials import textured_stage
 
+import wrt
 from wrt.textures import load_image
 
 
@@ -125,3 +128,29 @@ def test_auto_follows_a_png_colour_space_chunk(tmp_path, samples, chunk, data, s
     np.testing.assert_allclose(load_image(path, "auto")[..., :3], expected, atol=1e-6)
     np.testing.assert_allclose(load_image(path, "raw")[..., :3], rgb / 255.0, atol=1e-6)
     np.testing.assert_allclose(load_image(path, "sRGB")[..., :3], srgb_decoded(rgb), atol=1e-6)
+
+
+def damaged_files(tmp_path):
+    """Files a reader starts on and cannot finish: cut PNG and JPEG pixel data, an EXR of a header's first bytes,
+    an empty file, text named ``.png``."""
+    rng = np.random.default_rng(3)
+    png, jpg = tmp_path / "whole.png", tmp_path / "whole.jpg"
+    PilImage.fromarray(rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)).save(png)
+    PilImage.fromarray(rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)).save(jpg)
+    return {
+        "cut.png": png.read_bytes()[: png.stat().st_size // 2],
+        "cut.jpg": jpg.read_bytes()[:400],
+        "header.exr": b"\x76\x2f\x31\x01" + bytes(20),
+        "empty.png": b"",
+        "text.png": b"not an image",
+    }
+
+
+@pytest.mark.parametrize("name", ["cut.png", "cut.jpg", "header.exr", "empty.png", "text.png"])
+def test_a_damaged_texture_warns_naming_the_file_and_reads_the_fallback(tmp_path, name):
+    (tmp_path / name).write_bytes(damaged_files(tmp_path)[name])
+    path = textured_stage(tmp_path, str(tmp_path / name))
+    with pytest.warns(UserWarning, match=name.replace(".", r"\.")):
+        scene = wrt.load_usd(path)
+    assert scene.materials[0].textures == {}
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
