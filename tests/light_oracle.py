@@ -8,6 +8,19 @@ import math
 import numpy as np
 
 
+def polygon_irradiance(p, n, corners, radiance) -> float:
+    """Lambert's closed form: irradiance at ``p`` (unit normal ``n``) from uniform polygons of ``radiance`` wholly
+    above its horizon, ``corners`` ``(T, k, 3)`` (or one polygon ``(k, 3)``): per polygon ``L / 2 * |sum(edge angle
+    * (n . unit normal of the edge's plane through p))|``, summed (each polygon counts positive, whatever its
+    winding)."""
+    v = np.asarray(corners, np.float64).reshape(-1, np.shape(corners)[-2], 3) - np.asarray(p, np.float64)
+    w = np.roll(v, -1, axis=1)
+    cross = np.cross(v, w)
+    length = np.linalg.norm(cross, axis=-1)
+    angle = np.arctan2(length, np.sum(v * w, axis=-1))
+    return float(radiance / 2.0 * np.abs(np.sum(angle * (cross @ np.asarray(n, np.float64)) / length, axis=1)).sum())
+
+
 def trs(translate=(0, 0, 0), rotate_xyz=(0, 0, 0), scale=(1, 1, 1)) -> np.ndarray:
     """Column-vector 4x4 of USD's ``translate, rotateXYZ, scale`` op order (X rotated first, then Y, then Z)."""
     ax, ay, az = np.radians(rotate_xyz)

@@ -10,7 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
-from light_oracle import trs
+from light_oracle import polygon_irradiance, trs
 from shading_helpers import pixel_points, quad
 from test_emissive_gprims import glow, load, white_plane
 
@@ -43,16 +43,7 @@ def lambert_irradiance(points, corners, radiance):
     angle they subtend times the z of their unit plane normal."""
     front = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     corners = corners[front[:, 2] < 0.0]
-    total = np.zeros(len(points))
-    for k, p in enumerate(points):
-        u = corners - p
-        u /= np.linalg.norm(u, axis=-1, keepdims=True)
-        w = np.roll(u, -1, axis=1)
-        angle = np.arccos(np.clip(np.sum(u * w, -1), -1.0, 1.0))
-        normal = np.cross(u, w)
-        normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-        total[k] = radiance / 2.0 * np.abs(np.sum(angle * normal[..., 2], axis=1)).sum()
-    return total
+    return np.array([polygon_irradiance(p, (0, 0, 1), corners, radiance) for p in points])
 
 
 def world_corners(prototype_mesh, transforms):

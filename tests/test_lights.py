@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 import pytest
 import warp as wp
+from light_oracle import polygon_irradiance
 from pxr import Gf, Usd, UsdGeom, UsdLux
 from shading_helpers import pixel_points, quad, top_down_camera
 
@@ -174,18 +175,6 @@ def sample_light_kernel(
     if ls.value[0] > 0.0:
         t, cos_l = intersect_light(lights, k, p, ls.wi)
         pdf_ratio[i] = area_light_pdf(lights, k, p, n, ls.wi, t, cos_l) / ls.pdf
-
-
-def polygon_irradiance(p, n, corners, radiance):
-    """Lambert's closed form: irradiance at ``p`` (unit normal ``n``) from a uniform polygon wholly above its
-    horizon, ``L / 2 * sum(edge angle * (n . unit normal of the edge's plane through p))``."""
-    v = [np.asarray(c, np.float64) - p for c in corners]
-    total = 0.0
-    for a, b in zip(v, v[1:] + v[:1]):
-        cross = np.cross(a, b)
-        angle = math.atan2(np.linalg.norm(cross), np.dot(a, b))
-        total += angle * np.dot(n, cross / np.linalg.norm(cross))
-    return radiance * abs(total) / 2.0
 
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
