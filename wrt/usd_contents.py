@@ -161,14 +161,15 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
     # A zero scale on one axis flattens an instance into a sheet that USD draws (and so does wrt, for a mesh that is
     # not instanced): it is drawn thin rather than skipped. Fewer directions than two leave nothing of any area. The
     # spheres and tubes of Points and curves are placed round (place_round), so theirs are not flattened but zero.
-    if elements:
-        meshes = element < 0
-        to_world = instances.to_world.copy()
-        to_world[meshes] = thicken_flat_transforms(to_world[meshes])[0]
-        instances.to_world = to_world
-    else:
-        instances.to_world = thicken_flat_transforms(instances.to_world)[0]
+    # Every transform is inverted once; only the singular ones are looked at again (thickened and re-inverted).
     inverses, ok = invert_transforms(instances.to_world)
+    singular = np.flatnonzero(~ok & (element < 0))  # mesh rows: Points and curves are not flattened
+    if len(singular):
+        thick, thickened = thicken_flat_transforms(instances.to_world[singular])
+        rows = singular[thickened]
+        if len(rows):
+            instances.to_world[rows] = thick[thickened]  # the array made above: no one else holds it
+            inverses[rows], ok[rows] = invert_transforms(instances.to_world[rows])
     for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok))):
         skip_path("instances with a singular transform (a zero scale) were skipped", path)
     if not ok.all():
