@@ -363,11 +363,13 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # A zero scale on one axis flattens the gprim into a disc or sheet, which Storm draws as its flat
             # tessellation, each half fronting its own side: it is drawn thin (as instances are), so each half keeps
             # its side. Drawn as that flat tessellation, whose halves overlap without sharing edges, culled back faces
-            # hid up to 4 in 5 of its pixels.
-            thick, flat = thicken_flat_transforms(shape.to_world[None])
-            if flat[0]:
-                shape.to_world = thick[0]
-        if shape is not None and not self.segments and not invert_transforms(shape.to_world[None])[1][0]:
+            # hid up to 4 in 5 of its pixels. Only a singular transform is looked at again.
+            invertible = invert_transforms(shape.to_world[None])[1][0]
+            if not invertible:
+                thick, flat = thicken_flat_transforms(shape.to_world[None])
+                if flat[0]:  # thickened, and invertible now
+                    shape.to_world, invertible = thick[0], True
+        if shape is not None and not self.segments and not invertible:
             # A transform to a line or a point (or one whose inverse is past float32) leaves no canonical space to
             # intersect in: drawn analytically the gprim vanished, while its tessellation, --accel warp and Storm draw
             # it (as nothing of any area, or as the very large or small shape it is).
