@@ -540,21 +540,33 @@ def write_png16(path, samples):
     return str(path)
 
 
+def srgb_decoded64(x):
+    """The sRGB transfer function inverted in float64 (IEC 61966-2-1), of samples in [0, 1]."""
+    x = np.asarray(x, np.float64)
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
 @pytest.mark.parametrize("channels", [2, 3, 4])
-def test_16_bit_png_textures_are_linear_at_full_precision(tmp_path, channels):
-    """16-bit colour and grey + alpha PNGs: Pillow keeps only their high bytes, and the 8-bit result was decoded as
-    sRGB under sourceColorSpace auto (16-bit data is linear, as Hydra reads it): 0.5 came out as 0.216."""
+def test_16_bit_png_textures_keep_full_precision_and_colour_ones_read_as_srgb(tmp_path, channels):
+    """16-bit colour and grey + alpha PNGs: Pillow keeps only their high bytes, so all 16 bits are read here. Under
+    sourceColorSpace auto, colour (RGB, RGBA) without a colour space chunk is sRGB, as Hydra's PNG reader decides:
+    stb_image hands every PNG over as 8-bit samples and Hio_StbImage guesses sRGB for 3 or 4 channels of bytes;
+    grey + alpha stays raw (2 channels). They were read as linear colour: 0.5 stayed 0.5 where Storm shows 0.214."""
     samples = np.random.default_rng(5).integers(0, 65536, (3, 5, channels))
-    samples[0, 0, :] = 0x8001  # 0.50001 linear; its high byte alone would be 0.502, or 0.216 after sRGB decoding
+    samples[0, 0, :] = 0x8001  # 0.50001; its high byte alone would be 0.502
     image = wrt.textures.load_image(write_png16(tmp_path / f"c{channels}.png", samples), "auto")
     expected = np.ones((3, 5, 4))
-    expected[..., :3] = samples[..., :3] / 65535.0 if channels > 2 else samples[..., :1] / 65535.0
+    expected[..., :3] = srgb_decoded64(samples[..., :3] / 65535.0) if channels > 2 else samples[..., :1] / 65535.0
     if channels != 3:
         expected[..., 3] = samples[..., -1] / 65535.0
-    np.testing.assert_allclose(image, expected, atol=1e-7)
+    np.testing.assert_allclose(image, expected, atol=1e-6)
+    raw = wrt.textures.load_image(write_png16(tmp_path / f"c{channels}.png", samples), "raw")
+    np.testing.assert_allclose(raw[..., :3], samples[..., :3] / 65535.0 if channels > 2 else expected[..., :3],
+                               atol=1e-7)
     if channels == 3:  # and through a material
         png = write_png16(tmp_path / "flat.png", np.full((2, 2, 3), 0x8001))
-        np.testing.assert_allclose(albedo(textured_stage(tmp_path, png)), 0x8001 / 65535.0, atol=2e-4)
+        np.testing.assert_allclose(albedo(textured_stage(tmp_path, png)), srgb_decoded64(0x8001 / 65535.0),
+                                   atol=2e-4)
 
 
 def test_exr_texture_with_layer_named_channels(tmp_path):

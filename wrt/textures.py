@@ -9,8 +9,9 @@ Conventions, stated once:
   Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping).
 - ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
   keeps values; ``"auto"`` follows a PNG's ``gAMA``/``sRGB`` chunk (:func:`tagged_srgb`), else means sRGB for
-  8-bit RGB/RGBA images and raw for everything else (greyscale, 16-bit, float, Radiance ``.hdr``), as Hydra's image
-  reader decides. Missing channels read as grey ``L`` ->
+  8-bit RGB/RGBA images and 16-bit RGB/RGBA PNGs (Hydra's stb_image reader hands PNGs over as 8-bit samples) and
+  raw for everything else (grey, grey + alpha, 16-bit TIFFs, float, Radiance ``.hdr``), as Hydra's image readers
+  decide. Missing channels read as grey ``L`` ->
   ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits
   (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
@@ -148,8 +149,10 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool]:
         img = PilImage.open(io.BytesIO(data))
         rawmode = _sixteen_bit_rawmode(img)
         if rawmode is not None:
-            # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only.
-            return _read_16bit(data, rawmode), False
+            # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only. Hydra reads PNGs
+            # with stb_image, as 8-bit samples whatever their depth, so auto takes 16-bit RGB(A) PNGs for sRGB as
+            # 8-bit ones; TIFFs go through OpenImageIO, whose 16-bit samples are linear.
+            return _read_16bit(data, rawmode), img.format == "PNG" and rawmode != "LA;16B"
         img.load()
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
         raise TextureError(f"cannot read image {name}: {e}") from None
