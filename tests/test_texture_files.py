@@ -1,6 +1,7 @@
 """Image files read as textures (``wrt.textures.load_image``), checked against the samples written here: formats
 and sample layouts Pillow reads in ways that need help (16-bit TIFF colour, transparency chunks of grey PNGs),
-colour space chunks ``auto`` follows, EXIF orientation (ignored) and damaged files (a warning and the fallback)."""
+colour space chunks ``auto`` follows, EXIF orientation (ignored), EXR channel subsets and names, and damaged files
+or files of no colour channel (a warning and the fallback)."""
 
 import struct
 
@@ -152,5 +153,64 @@ def test_a_damaged_texture_warns_naming_the_file_and_reads_the_fallback(tmp_path
     path = textured_stage(tmp_path, str(tmp_path / name))
     with pytest.warns(UserWarning, match=name.replace(".", r"\.")):
         scene = wrt.load_usd(path)
+    assert scene.materials[0].textures == {}
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
+
+
+def write_exr(path, channels):
+    """A scanline EXR of ``channels`` (name -> ``(H, W)`` samples, float32 or float16), written by OpenEXR."""
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {k: np.ascontiguousarray(v) for k, v in channels.items()}) as f:
+        f.write(str(path))
+    return str(path)
+
+
+# Channel sets and the RGBA each reads as, the letters naming the channels written: R, G and B in their places
+# (missing ones 0), Y grey, alpha 1 without A (OpenEXR's RGBA interface; Hydra's reader for the sets it reads whole).
+EXR_CHANNEL_SETS = {
+    "R G": ({"R": "R", "G": "G"}, ("R", "G", 0, 1)),
+    "R G B": ({"R": "R", "G": "G", "B": "B"}, ("R", "G", "B", 1)),
+    "R G B A Z": ({"R": "R", "G": "G", "B": "B", "A": "A", "Z": "Z"}, ("R", "G", "B", "A")),
+    "R A": ({"R": "R", "A": "A"}, ("R", 0, 0, "A")),
+    "B G": ({"B": "B", "G": "G"}, (0, "G", "B", 1)),
+    "Y": ({"Y": "Y"}, ("Y", "Y", "Y", 1)),
+    "Y A": ({"Y": "Y", "A": "A"}, ("Y", "Y", "Y", "A")),
+    "A": ({"A": "A"}, (0, 0, 0, "A")),
+    "R only": ({"R": "R"}, ("R", "R", "R", 1)),  # one channel: grey, as Storm draws one-channel textures
+    "words": ({"red": "R", "Green": "G", "BLUE": "B", "alpha": "A"}, ("R", "G", "B", "A")),
+    "lower case": ({"r": "R", "g": "G", "b": "B"}, ("R", "G", "B", 1)),
+    "layer R G": ({"diffuse.R": "R", "diffuse.G": "G", "Z": "Z"}, ("R", "G", 0, 1)),
+    "unnamed layer first": ({"R": "R", "G": "G", "B": "B", "spec.R": "Z", "spec.G": "Z", "spec.B": "Z"},
+                            ("R", "G", "B", 1)),
+}
+
+
+@pytest.mark.parametrize("half", [False, True], ids=["float", "half"])
+@pytest.mark.parametrize("case", list(EXR_CHANNEL_SETS))
+def test_exr_channel_subsets_map_as_openexr_and_hydra_read_them(tmp_path, case, half):
+    """EXRs of part of R, G, B, A, or of luminance, or with the channels named as words, in lower case or in a
+    layer: R G (a two-channel map), R A and names such as ``red`` were refused as having no RGB or Y channels, and
+    an alpha-only file was read as opaque grey."""
+    names, expected_letters = EXR_CHANNEL_SETS[case]
+    rng = np.random.default_rng(11)
+    values = {letter: rng.random((3, 5)).astype(np.float16 if half else np.float32) for letter in "RGBAYZ"}
+    path = write_exr(tmp_path / "subset.exr", {name: values[letter] for name, letter in names.items()})
+    expected = np.stack([values[e].astype(np.float64) if isinstance(e, str) else np.full((3, 5), float(e))
+                         for e in expected_letters], axis=-1)
+    np.testing.assert_array_equal(load_image(path, "auto"), expected)
+
+
+@pytest.mark.parametrize("case", ["depth only", "two layers"])
+def test_an_exr_of_no_colour_channel_warns_naming_the_file_and_reads_the_fallback(tmp_path, case):
+    """A channel named neither R, G, B, Y nor A (Hydra's reader leaves it black), or colour in two layers and none
+    unnamed: which is the image is not known, so the material says so and takes the texture's fallback. A lone Z
+    channel was drawn as grey."""
+    ones = np.ones((2, 2), np.float32)
+    channels = {"Z": ones} if case == "depth only" else {f"{layer}.{c}": ones for layer in ("a", "b") for c in "RGB"}
+    path = write_exr(tmp_path / "odd.exr", channels)
+    with pytest.warns(UserWarning, match=r"odd\.exr.*(no R, G, B, Y or A channel|several layers)"):
+        scene = wrt.load_usd(textured_stage(tmp_path, path))
     assert scene.materials[0].textures == {}
     np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black

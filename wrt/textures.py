@@ -37,6 +37,10 @@ PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
 # Pillow raw modes of 16-bit samples it reduces to 8 bits: colour (PNG big-endian, TIFF either) and PNG grey + alpha
 SIXTEEN_BIT_RAWMODES = ("RGB;16B", "RGB;16L", "RGBA;16B", "RGBA;16L", "LA;16B")
+# The channel an EXR channel's name (after its layer's ".", lower case) stands for: the single letters and the words
+# Hydra's EXR reader matches (its strIsComponent); Y is luminance.
+EXR_CHANNEL_ROLES = {"r": "R", "red": "R", "g": "G", "green": "G", "b": "B", "blue": "B", "a": "A", "alpha": "A",
+                     "y": "Y"}
 UDIM_FIRST = 1001  # number of the UDIM tile at st in [0, 1)^2
 UDIM_COLUMNS = wp.constant(10)  # UDIM tiles per row (u = 0..9)
 UDIM_ROWS = wp.constant(10)  # rows of UDIM tiles read (v = 0..9)
@@ -243,28 +247,61 @@ def _read_exr(data: bytes, name: str) -> np.ndarray:
         tmp.write(data)
         tmp.flush()
         try:
-            with OpenEXR.File(tmp.name) as f:
+            with OpenEXR.File(tmp.name, separate_channels=True) as f:
                 channels = {k: np.asarray(v.pixels, dtype=np.float32) for k, v in f.channels().items()}
         except Exception as e:  # noqa: BLE001
             raise TextureError(f"cannot read EXR {name}: {e}") from None
-    # OpenEXR groups R, G, B (and A) into "RGB"/"RGBA", or into the layer's name for "layer.R", "layer.G", ...
-    layers = [v for v in channels.values() if v.ndim == 3 and v.shape[2] in (3, 4)]
-    for arr in [channels[k] for k in ("RGBA", "RGB") if k in channels] or (layers if len(layers) == 1 else []):
-        rgba = np.ones(arr.shape[:2] + (4,), np.float32)
-        rgba[..., : arr.shape[2]] = arr
-        return rgba
-    single = {k.split(".")[-1].upper(): v for k, v in channels.items() if v.ndim == 2}
-    if all(c in single for c in "RGB"):
-        rgba = np.ones(single["R"].shape + (4,), np.float32)
-        for k, c in enumerate("RGBA"):
-            if c in single:
-                rgba[..., k] = single[c]
-        return rgba
-    if "Y" in single:
-        return _grey_rgba(single["Y"], single.get("A"))
-    if len(single) == 1:
-        return _grey_rgba(next(iter(single.values())), None)
-    raise TextureError(f"EXR {name} has no RGB or Y channels (found {sorted(channels)})")
+    return exr_rgba(channels, name)
+
+
+def exr_rgba(channels: dict[str, np.ndarray], name: str) -> np.ndarray:
+    """``(H, W, 4)`` float32 RGBA of an EXR's channels (full name -> ``(H, W)`` samples), mapped by the last part of
+    each name (after its layer's ``.``), single letters or words in any case (:data:`EXR_CHANNEL_ROLES`), as
+    Hydra's EXR reader matches them: the unnamed layer's channels, else those of the one layer that has any.
+
+    - ``R``, ``G``, ``B``: each in its place, a missing one 0, alpha ``A`` or 1 (OpenEXR's RGBA interface; Hydra's
+      reader for ``R G``, ``R G B`` and ``R G B A``: a two-channel texture samples as ``(R, G, 0, 1)``). A file of
+      one colour channel reads as grey, as Storm draws every one-channel texture ``(c, c, c, 1)``.
+    - ``Y`` without colour: grey, alpha ``A`` or 1 (luminance images; chroma ``RY``/``BY`` are not read, so
+      luminance-chroma files are grey, as in Storm).
+    - ``A`` alone: ``(0, 0, 0, A)``, as OpenEXR's RGBA interface reads it (Hydra's reader writes it outside the
+      pixel's texel).
+
+    Other channels (``Z``, other layers' beside the unnamed one) are ignored.
+
+    Raises:
+        TextureError: no channel maps to one of these, several layers do and none is unnamed, or the mapped
+            channels differ in size (subsampled ones). Hydra's reader gives such a file black, or fails.
+    """
+    layers: dict[str, dict[str, np.ndarray]] = {}
+    for full_name, samples in channels.items():
+        layer, _, last = full_name.rpartition(".")
+        role = EXR_CHANNEL_ROLES.get(last.lower())
+        if role is not None:
+            layers.setdefault(layer, {})[role] = samples
+    found = ", ".join(sorted(channels)) or "none"
+    if not layers:
+        raise TextureError(f"EXR {name} has no R, G, B, Y or A channel (found {found})")
+    if "" not in layers and len(layers) > 1:
+        raise TextureError(f"EXR {name} has colour channels in several layers ({', '.join(sorted(layers))}) and "
+                           "none without a layer name; which one is the image is not known")
+    mapped = layers.get("", next(iter(layers.values())))
+    if len({v.shape for v in mapped.values()}) > 1:
+        sizes = ", ".join(f"{k} {v.shape[1]}x{v.shape[0]}" for k, v in sorted(mapped.items()))
+        raise TextureError(f"EXR {name}: its channels differ in size ({sizes}); subsampled channels are not read")
+    alpha = mapped.get("A")
+    colour = [c for c in "RGB" if c in mapped]
+    if colour and len(channels) == 1:
+        return _grey_rgba(mapped[colour[0]], None)
+    if not colour and "Y" in mapped:
+        return _grey_rgba(mapped["Y"], alpha)
+    shape = next(iter(mapped.values())).shape
+    rgba = np.zeros(shape + (4,), np.float32)
+    for k, c in enumerate("RGB"):
+        if c in mapped:
+            rgba[..., k] = mapped[c]
+    rgba[..., 3] = 1.0 if alpha is None else alpha
+    return rgba
 
 
 def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
