@@ -117,46 +117,42 @@ def png_bit_depth(data: bytes) -> int:
 def _read_pillow(data: bytes, name: str) -> tuple[np.ndarray, bool]:
     """The image as ``(H, W, 4)`` RGBA samples and whether ``auto`` reads it as sRGB: as the file's colour space
     metadata says (:func:`tagged_srgb`), else for 8-bit colour."""
-    rgba, is_8bit_color = _read_pillow_samples(data, name)
-    tagged = tagged_srgb(data)
+    rgba, is_8bit_color, tagged = _read_pillow_samples(data, name)
     return rgba, is_8bit_color if tagged is None else tagged
 
 
-def tagged_srgb(data: bytes) -> bool | None:
+def tagged_srgb(img) -> bool | None:
     """Whether a PNG's colour space chunks mark it sRGB (an ``sRGB`` chunk, or ``gAMA`` within 0.1 of 1/2.2) or
-    linear (``gAMA`` within 0.1 of 1); None without such a chunk or for other formats.
+    linear (``gAMA`` within 0.1 of 1); None without such a chunk or for other formats. ``img``: the file opened by
+    Pillow, which parses the chunks before the image data when it opens it (the file is read once).
 
     UsdUVTexture's ``auto`` checks the file's colour space metadata before it guesses from the sample type, and
     Hydra's PNG reader (stb_image, patched to return ``gAMA``) decides with the same tolerances: an 8-bit grey
     roughness map saved with ``gAMA`` 0.45455, as image editors write it, was read raw, 0.5 for Storm's 0.21, and
     colour written with ``gAMA`` 1 was decoded as sRGB."""
-    if data[:8] != PNG_SIGNATURE:
+    if img.format != "PNG":
         return None
-    from PIL import Image as PilImage
-
-    try:
-        info = PilImage.open(io.BytesIO(data)).info
-    except Exception:  # noqa: BLE001 - the pixels' reader has read it already; no verdict on metadata alone
-        return None
-    gamma = info.get("gamma")
+    gamma = img.info.get("gamma")
     if isinstance(gamma, (int, float)) and abs(gamma - 1.0 / 2.2) < 0.1:
         return True
     if isinstance(gamma, (int, float)) and abs(gamma - 1.0) < 0.1:
         return False
-    return True if "srgb" in info else None
+    return True if "srgb" in img.info else None
 
 
-def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool]:
+def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool | None]:
+    """The samples as :func:`_read_pillow` gives them, whether they are 8-bit colour, and :func:`tagged_srgb`."""
     from PIL import Image as PilImage
 
     try:
         img = PilImage.open(io.BytesIO(data))
+        tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
         rawmode = _sixteen_bit_rawmode(img)
         if rawmode is not None:
             # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only. Hydra reads PNGs
             # with stb_image, as 8-bit samples whatever their depth, so auto takes 16-bit RGB(A) PNGs for sRGB as
             # 8-bit ones; TIFFs go through OpenImageIO, whose 16-bit samples are linear.
-            return _read_16bit(data, rawmode), img.format == "PNG" and rawmode != "LA;16B"
+            return _read_16bit(data, rawmode), img.format == "PNG" and rawmode != "LA;16B", tagged
         img.load()
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
         raise TextureError(f"cannot read image {name}: {e}") from None
@@ -165,16 +161,16 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool]:
         # Older Pillow versions open 16-bit grey PNGs as mode "I".
         full = 65535.0 if mode.startswith("I;16") or png_bit_depth(data) == 16 else max(1.0, float(np.max(img)))
         grey = np.asarray(img, dtype=np.float32)
-        return _grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False
+        return _grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
     if mode == "F":
-        return _grey_rgba(np.asarray(img, dtype=np.float32), None), False
+        return _grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
     if mode in ("L", "LA"):
         arr = np.asarray(img.convert("LA"), dtype=np.float32) / 255.0
         # Pillow's LA conversion turns a grey PNG's transparent sample (its tRNS chunk) into alpha 0.
         alpha = arr[..., 1] if mode == "LA" or "transparency" in img.info else None
-        return _grey_rgba(arr[..., 0], alpha), False
+        return _grey_rgba(arr[..., 0], alpha), False, tagged
     arr = np.asarray(img.convert("RGBA"), dtype=np.uint8)  # scaled to [0, 1] by load_image (_decode_8bit)
-    return arr, png_bit_depth(data) <= 8  # samples of more than 8 bits are linear data, as Hydra reads them
+    return arr, png_bit_depth(data) <= 8, tagged  # samples of more than 8 bits are linear data, as Hydra reads them
 
 
 def _tile_rawmode(tile) -> str:
