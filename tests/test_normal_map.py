@@ -228,21 +228,36 @@ def test_quad_without_texture_coordinates_keeps_its_normal():
     np.testing.assert_allclose(aovs(scene)["normal"].reshape(-1, 3), np.tile([0, 0, 1], (16, 1)), atol=1e-6)
 
 
-@pytest.mark.parametrize("integrator", ["whitted", "path"])
-def test_a_map_read_at_a_constant_st_tilts_the_normal_in_a_frame_about_it(tmp_path, integrator):
-    """A normal map read at a constant ``st`` has no tangent directions from its coordinates (dp/ds, dp/dt are zero),
-    so wrt kept the surface's normal; it now tilts it by the map's normal in a frame built about the surface normal
-    (as pbrt frames a triangle whose uv have no area). The tilt's azimuth depends on that frame, its angle does not:
-    lit straight along the quad's normal the Lambertian quad shows ``0.8 E / pi cos(tilt)`` (closed form), and the
-    ``normal`` AOV of the stage with the UsdUVTexture's ``st`` authored as a constant is ``cos(tilt)`` from +Z."""
+def rotation(axis, degrees) -> np.ndarray:
+    """``(3, 3)`` float64 rotation by ``degrees`` about ``axis`` (Rodrigues' formula)."""
+    k = np.asarray(axis, np.float64) / np.linalg.norm(axis)
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    cross = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return c * np.eye(3) + s * cross + (1 - c) * np.outer(k, k)
+
+
+def constant_st_material() -> tuple[Material, np.ndarray]:
+    """:func:`mapped_material` of the tilted map read at the constant ``st`` (0.5, 0.5)."""
     material, texel = mapped_material(MAP_NORMAL)
     material.textures["normal"].transform = constant_st_transform(np.eye(3), (0.5, 0.5))
     material.textures["normal"].uv_set = None
+    return material, texel
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_map_read_at_a_constant_st_keeps_the_normal_as_storm_does(tmp_path, integrator):
+    """A normal map read at a constant ``st`` has no tangent directions (dp/ds, dp/dt are zero): Storm's
+    UsdPreviewSurface builds ``T`` from the screen derivatives of ``st``, so ``T = B = 0`` and ``normalize(TBN n)``
+    is the surface normal, as wrt keeps it for any triangle whose ``st`` have no area. It was tilted in a frame built
+    about the world-space normal, whose azimuth turned with the object. Lit along the quad's normal the Lambertian
+    quad shows ``0.8 E / pi`` (closed form), and the ``normal`` AOV of the stage with the UsdUVTexture's ``st``
+    authored as a constant is the quad's +Z."""
+    material, texel = constant_st_material()
     sun = wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.full(3, 2.0, np.float32))
     scene = wrt.Scene(meshes=[quad_mesh(uvs=False)], materials=[material], textures=[texel], lights=[sun])
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
     img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator=integrator)
-    np.testing.assert_allclose(img.rgb, 0.8 * 2.0 / math.pi * math.cos(TILT), rtol=2e-3)
+    np.testing.assert_allclose(img.rgb, 0.8 * 2.0 / math.pi, rtol=2e-3)
 
     path = normal_mapped_stage(tmp_path, write_normal_map(tmp_path / "tilt.png", MAP_NORMAL))
     stage = Usd.Stage.Open(path)
@@ -251,8 +266,38 @@ def test_a_map_read_at_a_constant_st_tilts_the_normal_in_a_frame_about_it(tmp_pa
     st_input.Set(Gf.Vec2f(0.5, 0.5))
     stage.Save()
     normals = aovs(wrt.load_usd(path))["normal"].reshape(-1, 3)
-    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-5)
-    np.testing.assert_allclose(normals[:, 2], stored_normal(MAP_NORMAL)[2], atol=1e-3)
+    np.testing.assert_allclose(normals, np.tile([0, 0, 1], (16, 1)), atol=1e-6)
+
+
+@pytest.mark.parametrize("axis, degrees", [((0, 0, 1), 90.0), ((1, 2, 3), 70.0)], ids=["about z", "oblique"])
+def test_a_rotated_constant_st_instance_shades_as_the_scene_rotated(axis, degrees):
+    """The quad under a constant-``st`` normal map, lit from an oblique sun and seen from +Z, then the same as an
+    instance rotated by R (and a flattened copy rotated by R), with the camera and the sun turned by R: the normals
+    are R times the first render's and every pixel the same, which is the Lambert value ``0.8 E / pi cos`` of the
+    sun's angle to the quad's own normal. The tilt's frame was built about the world-space normal, so the rotated
+    instance's normals (and its shading) turned differently from the quad."""
+    r = rotation(axis, degrees)
+    to_world = np.eye(4)
+    to_world[:3, :3] = r
+    material, texel = constant_st_material()
+    to_light = np.array([0.3, 0.6, 0.74]) / np.linalg.norm([0.3, 0.6, 0.74])
+
+    def render(scene_kwargs, turn):
+        sun = wrt.DistantLight(direction=-(turn @ to_light), color=np.full(3, 2.0, np.float32))
+        scene = wrt.Scene(materials=[material], textures=[texel], lights=[sun], **scene_kwargs)
+        cam = wrt.Camera.orthographic(eye=turn @ [0, 0, 5], target=(0, 0, 0), up=turn @ [0, 1, 0], height=1.0)
+        return wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="whitted")
+
+    plain = render({"meshes": [quad_mesh(uvs=False)]}, np.eye(3))
+    instanced = render({"prototypes": [wrt.Prototype("/proto", meshes=[quad_mesh(uvs=False)])],
+                        "instances": wrt.Instances.from_transforms([0], to_world[None])}, r)
+    flat = quad_mesh(uvs=False)
+    flat.points = flat.points @ r.T
+    flattened = render({"meshes": [flat]}, r)
+    for turned in (instanced, flattened):
+        np.testing.assert_allclose(turned.aovs["normal"], plain.aovs["normal"] @ r.T, atol=1e-5)
+        np.testing.assert_allclose(turned.rgb, plain.rgb, rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(plain.rgb, 0.8 * 2.0 / math.pi * float(to_light[2]), rtol=2e-3)
 
 
 @pytest.mark.parametrize("integrator", ["whitted", "path"])

@@ -44,7 +44,7 @@ from .light_links import DeviceLinks, casts_shadow, link_group, upload_links
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, cut_out, eval_surface, lookup_binding, normal_map
 from .primitives import shape_surface
-from .sampling import basis_x, basis_y, rand01, sample_concentric_disk
+from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
 from .transforms import (
     abs_vec,
@@ -318,12 +318,13 @@ def mapped_normal(
     made orthogonal to ``N``, and ``B = +-cross(N, T)`` on the side of increasing t (OpenGL convention: +Y up the
     map; the side also follows mirroring transforms and mirrored texture coordinates). Then kept on the viewer's
     side of the surface (:func:`keep_reflection_above`). ``h.ns`` is returned where the frame or the map value has
-    no direction (texture coordinates of zero area, a zero texel). A map read at a constant ``st`` has no tangent
-    directions at all: its value is applied in the frame :func:`basis_x`, :func:`basis_y` builds about ``N``, as
-    pbrt frames a triangle whose uv are degenerate (the tilt's azimuth is that frame's; its angle is the map's)."""
+    no direction (texture coordinates of zero area, a zero texel), and so for a map read at a constant ``st``,
+    which has no tangent directions at all: Storm's ``T`` and ``B``, from the screen derivatives of ``st``, are
+    zero there, so its ``normalize(TBN n)`` is ``N`` too. (A frame built about ``N`` would turn the tilt with the
+    object's orientation in world space: a rotated instance shaded unlike the object rotated.)"""
     xf = mats.tex_transform[binding]
     if xf[0, 0] == 0.0 and xf[0, 1] == 0.0 and xf[1, 0] == 0.0 and xf[1, 1] == 0.0:  # constant_st_transform
-        return tilted_normal(mats, binding, h, basis_x(h.ns), basis_y(h.ns), d)
+        return h.ns
     # Tangents of the triangle: dp/ds and dp/dt of the map's coordinates, times the sign of the st area (their
     # directions, without dividing by it). The UsdTransform2d's translation cancels in the differences.
     st0 = surf.uvs[prim, 0]
