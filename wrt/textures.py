@@ -170,7 +170,7 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool
         alpha = arr[..., 1] if mode == "LA" or "transparency" in img.info else None
         return _grey_rgba(arr[..., 0], alpha), False, tagged
     arr = np.asarray(img.convert("RGBA"), dtype=np.uint8)  # scaled to [0, 1] by load_image (_decode_8bit)
-    return arr, png_bit_depth(data) <= 8, tagged  # samples of more than 8 bits are linear data, as Hydra reads them
+    return arr, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
 
 
 def _tile_rawmode(tile) -> str:
