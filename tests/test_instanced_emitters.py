@@ -17,12 +17,13 @@ from test_emissive_gprims import glow, load, white_plane
 import wrt
 from wrt import light_table
 from wrt.instancing import expand_instance_triangles
+from wrt.integrators import INTEGRATORS
 
 RADIANCE = 4.0  # of the glowing material
 RES = 8  # pixels per side of the floor patch checked
 PATCH = 1.2  # side of that patch, centred under the lamps
 ALBEDO = 0.5  # the default material's grey: radiance = ALBEDO * E / pi
-UNSAMPLED = "not sampled as lights"  # what render.py's warning about emitters whitted cannot sample says
+UNSAMPLED = "not sampled as lights"  # what render.py's warning about emitters left out of light sampling says
 
 # Instance transforms of a quad whose front is prototype +Z, all at height 1 (coplanar and apart, so none shadows
 # another from the floor): turned over to face the floor; turned and scaled unevenly; mirrored by a negative z scale
@@ -149,7 +150,7 @@ def test_instanced_emitters_past_the_cap_are_named_and_light_nothing_under_whitt
     scene, _, lamp = lamp_scene(TRANSFORMS)
     rendered, messages = render_floor(scene, "whitted", spp=256)
     named = [m for m in messages if UNSAMPLED in m]
-    assert len(named) == 1 and "6 emissive triangle(s) of instances past the first 2 " in named[0], messages
+    assert len(named) == 1 and "6 emissive triangle(s) of 3 instance(s) past the first 2 " in named[0], messages
     expected = expected_floor(world_corners(lamp, TRANSFORMS[:1]))
     assert abs(rendered.mean() / expected.mean() - 1) < 0.03, (rendered.mean(), expected.mean())
 
@@ -174,13 +175,9 @@ def native_instance(name, translate, rotate, scale):
             '    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ", "xformOp:scale"]\n}\n')
 
 
-def test_usd_native_and_point_instancer_lamps_light_the_floor_as_the_formula_says(tmp_path):
-    """A glowing quad in a native prototype (turned over, and mirrored by z -> -z) and in a PointInstancer's
-    prototype (a rotation and a non-uniform scale, and a turn over) lights the floor under whitted as Lambert's
-    formula over the world-space quads that face it says; USD's own ComputeInstanceTransformsAtTime and
-    ComputeLocalToWorldTransform place the oracle's quads. Before, the floor was black with a warning."""
-    from pxr import Usd, UsdGeom
-
+def usd_lamps(tmp_path):
+    """A glowing quad in two native instances (``/A``, ``/B``) and in a PointInstancer's two instances (``/PI``),
+    loaded: ``(scene, warnings)``."""
     protos = 'over "Protos"\n{\n    def Xform "Lamp"\n    {\n' + glowing_quad().replace("\n", "\n        ") + "}\n}\n"
     natives = [native_instance("A", (0.3, -0.2, 1.0), (180, 0, 0), (1, 1, 1)),
                native_instance("B", (0.3, 0.3, 1.0), (0, 0, 20), (1, 1, -1))]
@@ -191,6 +188,55 @@ def test_usd_native_and_point_instancer_lamps_light_the_floor_as_the_formula_say
                  '    def Scope "Protos"\n    {\n        def Xform "Lamp"\n        {\n'
                  + glowing_quad("Quad").replace("\n", "\n            ") + "}\n    }\n}\n")
     scene, messages = load(tmp_path, white_plane(), glow("constant"), protos, *natives, instancer)
+    return scene, messages
+
+
+@pytest.mark.parametrize("integrator", INTEGRATORS)
+def test_instanced_emitters_past_the_cap_are_named_once_by_every_integrator_that_samples_lights(
+        tmp_path, monkeypatch, integrator):
+    """With the cap at one quad's two triangles, native instance ``/A`` is sampled and the rest are not: whitted
+    and path (the integrators that sample lights) each warn once, naming the six triangles left, the three
+    instances and their sources (``/B``, and ``/PI`` with two), by the paths the stage authors; the others, which
+    read no light, say nothing. Before, path said nothing (its light from them is only what BSDF rays find)."""
+    monkeypatch.setattr(light_table, "MAX_INSTANCED_EMITTERS", 2)
+    scene, _ = usd_lamps(tmp_path)
+    _, messages = render_floor(scene, integrator, spp=1)
+    named = [m for m in messages if UNSAMPLED in m]
+    if integrator not in ("whitted", "path"):
+        assert not named, messages
+        return
+    assert len(named) == 1, messages
+    assert "6 emissive triangle(s) of 3 instance(s) past the first 2 " in named[0], named
+    assert "(/B: 2 of 1 instance, /PI: 4 of 2 instances)" in named[0], named
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_an_instanced_mesh_light_past_the_cap_is_named(tmp_path, monkeypatch, integrator):
+    """A mesh light without a material (``noMaterialResponse``: nothing glows by its material) inside two native
+    instances, with no instanced emitter sampled (cap 0): the warning names both instances' triangles. Before,
+    whitted said nothing, as it warned only where some material glows."""
+    from test_mesh_lights import floor, mesh_light
+
+    monkeypatch.setattr(light_table, "MAX_INSTANCED_EMITTERS", 0)
+    protos = ('over "Protos"\n{\n    def Xform "Lamp"\n    {\n'
+              + mesh_light(intensity=3.0).replace("\n", "\n        ") + "}\n}\n")
+    natives = [native_instance("A", (-0.5, 0.0, 0.0), (0, 0, 0), (1, 1, 1)),
+               native_instance("B", (0.9, 0.0, 0.0), (0, 0, 0), (1, 1, 1))]
+    scene, _ = load(tmp_path, floor(), protos, *natives)
+    _, messages = render_floor(scene, integrator, spp=1)
+    named = [m for m in messages if UNSAMPLED in m]
+    assert len(named) == 1 and "4 emissive triangle(s) of 2 instance(s) past the first 0 " in named[0], messages
+    assert "(/A: 2 of 1 instance, /B: 2 of 1 instance)" in named[0], named
+
+
+def test_usd_native_and_point_instancer_lamps_light_the_floor_as_the_formula_says(tmp_path):
+    """A glowing quad in a native prototype (turned over, and mirrored by z -> -z) and in a PointInstancer's
+    prototype (a rotation and a non-uniform scale, and a turn over) lights the floor under whitted as Lambert's
+    formula over the world-space quads that face it says; USD's own ComputeInstanceTransformsAtTime and
+    ComputeLocalToWorldTransform place the oracle's quads. Before, the floor was black with a warning."""
+    from pxr import Usd, UsdGeom
+
+    scene, messages = usd_lamps(tmp_path)
     assert len(scene.instances) == 4 and not messages, messages
     stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
     transforms = [np.array(UsdGeom.Xformable(stage.GetPrimAtPath(p)).ComputeLocalToWorldTransform(0)).T

@@ -211,8 +211,13 @@ class Instances(CountsAssignments):
 
     def path(self, i: int) -> str:
         """A name for instance ``i``: its source prim path, plus ``[index]`` for a PointInstancer's instance."""
-        name = self.sources[self.source[i]] if self.sources else "/instances"
+        name = self.source_path(i)
         return f"{name}[{self.index[i]}]" if self.index[i] >= 0 else name
+
+    def source_path(self, i: int) -> str:
+        """The path of instance ``i``'s source prim (the PointInstancer, instanceable prim, Points or curves prim
+        that makes it), ``/instances`` when there are no sources."""
+        return self.sources[self.source[i]] if self.sources else "/instances"
 
     def rows_of_prototypes(self, n_prototypes: int) -> list[np.ndarray]:
         """``[rows of prototype p for p in range(n_prototypes)]``: the instances of each prototype, in increasing

@@ -110,7 +110,6 @@ class DeviceLights:
     links: DeviceLinks  # light and shadow linking of the analytic lights (wrt.light_links)
     shapes: wp.array[wp.mat33]  # (num_analytic) ellipsoid, elliptic tube: map from the unit sphere or tube
     shape_inverses: wp.array[wp.mat33]  # (num_analytic) their inverses, world to canonical
-    num_unsampled: int  # emissive instanced triangles past light_table.MAX_INSTANCED_EMITTERS (host side: warned)
 
 
 @wp.struct

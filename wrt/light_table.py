@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from typing import ClassVar
 
 import numpy as np
 import warp as wp
@@ -95,7 +96,7 @@ class EmitterTriangles:
         owner: ``(E,)`` int32 index of the :class:`MeshLight` (in the list given) the triangle belongs to, -1: none.
         instances: ``(E,)`` int32 instance that draws the row's prototype triangle, -1: world geometry.
         instance_first: ``(N,)`` int32 each instance's first row, -1 where none is sampled.
-        unsampled: emissive triangles of instances past :data:`MAX_INSTANCED_EMITTERS` (not sampled).
+        unsampled: the emissive triangles of instances past the cap (not sampled), by instance source.
     """
 
     ids: np.ndarray
@@ -105,7 +106,39 @@ class EmitterTriangles:
     owner: np.ndarray
     instances: np.ndarray = None
     instance_first: np.ndarray = None
-    unsampled: int = 0
+    unsampled: UnsampledEmitters = None
+
+
+@dataclasses.dataclass
+class UnsampledEmitters:
+    """The emissive instanced triangles left out of the light table past the cap on instanced emitter entries: they
+    emit where rays hit them but are not sampled as lights.
+
+    Attributes:
+        triangles: how many (one per prototype triangle and instance).
+        cap: the cap they are past (:data:`MAX_INSTANCED_EMITTERS`, or the one given).
+        sources: ``(path, instances, triangles)`` per source prim of the instances left out
+            (:meth:`wrt.instancing.Instances.source_path`: the PointInstancer or instanceable prim), in instance order.
+    """
+
+    triangles: int = 0
+    cap: int = 0
+    sources: list = dataclasses.field(default_factory=list)
+
+    MAX_NAMED: ClassVar[int] = 4  # sources named in :meth:`describe`; the rest are counted
+
+    def describe(self) -> str:
+        """``"6 emissive triangle(s) of 3 instance(s) past the first 2 instanced emitters sampled (/B: 2 of 1
+        instance, /PI: 4 of 2 instances)"``; "" when there are none."""
+        if self.triangles == 0:
+            return ""
+        instances = sum(n for _, n, _ in self.sources)
+        named = [f"{path}: {tris:,} of {n:,} instance{'s' if n > 1 else ''}"
+                 for path, n, tris in self.sources[: self.MAX_NAMED]]
+        if len(self.sources) > self.MAX_NAMED:
+            named.append(f"and {len(self.sources) - self.MAX_NAMED:,} more sources")
+        return (f"{self.triangles:,} emissive triangle(s) of {instances:,} instance(s) past the first {self.cap:,} "
+                f"instanced emitters sampled ({', '.join(named)})")
 
 
 def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | None = None) -> EmitterTriangles:
@@ -168,6 +201,16 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
                            MAX_INSTANCED_EMITTERS if cap is None else cap)
 
 
+def _unsampled(instances, counts: np.ndarray, sampled: np.ndarray, cap: int) -> UnsampledEmitters:
+    """The :class:`UnsampledEmitters` of ``instances`` whose ``counts`` (``(N,)`` emissive prototype triangles each)
+    are not ``sampled`` (``(N,)`` bool), by source prim in instance order."""
+    left = np.flatnonzero(~sampled & (counts > 0))
+    sources, first, per_source = np.unique(instances.source[left], return_index=True, return_counts=True)
+    tris = np.bincount(np.searchsorted(sources, instances.source[left]), weights=counts[left], minlength=len(sources))
+    named = [(instances.source_path(int(left[first[k]])), int(per_source[k]), int(tris[k])) for k in np.argsort(first)]
+    return UnsampledEmitters(int(counts[left].sum()), cap, named)
+
+
 def _mesh_light_terms(light: MeshLight, L, materials: np.ndarray, emission: np.ndarray, glow: np.ndarray):
     """``(keep, luminance, params)`` of mesh light ``light`` of radiance ``L`` (``(3,)``, normalized) on triangles
     of device ``materials``: a light that tints its material's glow keeps only the triangles that glow."""
@@ -187,7 +230,8 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
     normalized mesh light is divided by its area in each instance, as each instance of it is a light of its own."""
     n = len(scene.instances)
     instance_first = np.full(n, -1, np.int32)
-    empty = dataclasses.replace(world, instances=np.full(len(world.ids), -1, np.int32), instance_first=instance_first)
+    empty = dataclasses.replace(world, instances=np.full(len(world.ids), -1, np.int32), instance_first=instance_first,
+                                unsampled=UnsampledEmitters(cap=cap))
     if n == 0:
         return empty
     # Each prototype's emitters (geometry ids, ascending) and their terms in one instance of unit transform; only
@@ -224,7 +268,7 @@ def _with_instances(scene, world: EmitterTriangles, owner, crosses, tri_material
     sampled = (ends <= cap) & (counts > 0)
     instance_first[sampled] = (ends - counts)[sampled] + len(world.ids)
     total = int(counts[sampled].sum())
-    unsampled = int(counts[~sampled].sum())
+    unsampled = _unsampled(scene.instances, counts, sampled, cap)
     if total == 0:
         return dataclasses.replace(empty, unsampled=unsampled)
     ids = np.empty(total, np.int32)
@@ -279,8 +323,9 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
     return prims[first:count][no_response]
 
 
-def build_lights(lights: list, scene, material_emission: list, device) -> DeviceLights:
-    """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`.
+def build_lights(lights: list, scene, material_emission: list, device) -> tuple[DeviceLights, UnsampledEmitters]:
+    """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`,
+    and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`.
 
     Args:
         lights: the UsdLux lights (scene lights or :func:`wrt.lights.default_lights`).
@@ -430,7 +475,6 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     first = np.where(tris.instance_first >= 0, tris.instance_first + num_analytic, -1)
     d.instance_emitters = wp.array((first if len(first) else np.full(1, -1)).astype(np.int32), dtype=wp.int32,
                                    device=device)
-    d.num_unsampled = tris.unsampled
     d.shaping = arr(h.shaping, wp.vec4, 4)
     d.shaping_axis = arr(h.shaping_axis, wp.vec3)
     d.focus_tint = arr(h.focus_tint, wp.vec3)
@@ -460,7 +504,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> Device
     d.links = upload_links(links, device, columns)
     d.shadows = wp.array(_shadow_modes(np.concatenate([np.int32(h.shadows).reshape(-1), tri_shadows]), links,
                                        columns), dtype=wp.int32, device=device)
-    return d
+    return d, tris.unsampled
 
 
 def _shadow_modes(shadows: np.ndarray, links, columns: np.ndarray) -> np.ndarray:

@@ -19,11 +19,10 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
-from . import light_table
 from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean
 from .image import Image
-from .integrators import INTEGRATORS
+from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
 from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_path_kernel
 from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
@@ -391,24 +390,25 @@ class Renderer:
             check_scene(self.scene)
             self._build()
 
-    def _warn_unsampled(self, shapes: int) -> None:
-        """Names the emitters that ``whitted`` shows but does not sample as lights: ``shapes`` emissive analytic
-        shapes (of scenes built in Python, spheres and tubes of Points and curves; a stage's emissive gprims are
-        drawn as triangles, wrt.usd) and the emissive triangles of instances past the cap on sampled instanced
-        emitters (wrt.light_table.MAX_INSTANCED_EMITTERS)."""
-        parts = []
-        if self.device_lights.num_unsampled:
-            parts.append(f"{self.device_lights.num_unsampled:,} emissive triangle(s) of instances past the first "
-                         f"{light_table.MAX_INSTANCED_EMITTERS:,} instanced emitters sampled")
-        if shapes:
+    def _warn_unsampled(self, unsampled, shapes: int) -> None:
+        """Names, in one warning, the emitters that the integrator shows but does not sample as lights: the emissive
+        triangles of instances past the cap on sampled instanced emitters (``unsampled``:
+        :class:`wrt.light_table.UnsampledEmitters`), under every integrator that samples lights, and under whitted
+        ``shapes`` emissive analytic shapes (of scenes built in Python, spheres and tubes of Points and curves; a
+        stage's emissive gprims are drawn as triangles, wrt.usd), which path finds by the rays that hit them."""
+        parts = [unsampled.describe()] if unsampled.triangles else []
+        if self.integrator == "whitted" and shapes:
             parts.append(f"{int(shapes)} emissive analytic primitive(s)")
-        if parts:
-            warnings.warn(
-                f"{self.scene.source or 'scene'}: {' and '.join(parts)} are not sampled as lights: the whitted "
-                "integrator shows them but they light nothing; use integrator='path' (wrt render: --integrator "
-                "path), or draw them as world-space meshes (wrt.primitives.tessellate for a Shape)",
-                stacklevel=4,
-            )
+        if not parts or self.integrator not in LIGHT_SAMPLING_INTEGRATORS:
+            return
+        if self.integrator == "whitted":
+            effect = ("the whitted integrator shows them but they light nothing; use integrator='path' (wrt render: "
+                      "--integrator path), or draw them as world-space meshes (wrt.primitives.tessellate for a Shape)")
+        else:
+            effect = ("they light the scene only through the rays that happen to hit them, so their light is noisier; "
+                      f"the cap is wrt.light_table.MAX_INSTANCED_EMITTERS ({unsampled.cap:,})")
+        warnings.warn(f"{self.scene.source or 'scene'}: {' and '.join(parts)} are not sampled as lights: {effect}",
+                      stacklevel=4)
 
     def _upload_shading(self):
         scene, dev = self.scene, self.device
@@ -423,9 +423,9 @@ class Renderer:
         # along the viewing direction of each camera of a batch.
         default = not (scene.lights or emissive_used)
         self.lights = default_lights(np.array(cam.forward)) if default else list(scene.lights)
-        self.device_lights = build_lights(self.lights, scene, emission, dev)
-        if self.integrator == "whitted" and emissive_used:
-            self._warn_unsampled(glows[geometry_materials[scene.num_geometry_triangles :]].sum())
+        self.device_lights, unsampled = build_lights(self.lights, scene, emission, dev)
+        shapes = glows[geometry_materials[scene.num_geometry_triangles :]].sum() if emissive_used else 0
+        self._warn_unsampled(unsampled, shapes)
         self._headlight = 0 if default else -1
         self._point_headlight()
         emitters = np.full(max(len(tri_materials), 1), -1, np.int32)

@@ -9,3 +9,4 @@
 """
 
 INTEGRATORS = ("whitted", "path", "ao", "normals", "depth", "albedo")  # names accepted by integrator=
+LIGHT_SAMPLING_INTEGRATORS = ("whitted", "path")  # those that sample lights (the others read no light)
