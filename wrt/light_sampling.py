@@ -47,7 +47,7 @@ from .sampling import (
 from .scene import DeviceScene
 from .spherical_rect import sample_spherical_rect, solid_angle_usable, spherical_rect, spherical_rect_pdf
 from .textures import WRAP_CLAMP, WRAP_REPEAT, wrap_coord
-from .transforms import inverse_transform_point, normal_to_world
+from .transforms import corners_to_world, normal_to_world
 
 LIGHT_DISTANT = wp.constant(0)
 LIGHT_SPHERE = wp.constant(1)
@@ -383,7 +383,8 @@ def emitter_triangle(scene: DeviceScene, prim: int, instance: int):
     """World-space corners ``a, b, c`` of triangle ``prim`` as ``instance`` draws it (-1: world geometry) and their
     cross product ``(b - a) x (c - a)`` turned to the triangle's front side: a mirroring instance transform reverses
     the corners' winding, not the side that :func:`wrt.shade.hit_point` calls the front (its normal moves by the
-    inverse transpose). The corners move as ``hit_point`` moves them, so sampled points lie on the surface hit."""
+    inverse transpose). The corners move by :func:`wrt.transforms.corners_to_world`, as ``hit_point``'s do, so
+    sampled points lie on the surface hit."""
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
@@ -391,9 +392,7 @@ def emitter_triangle(scene: DeviceScene, prim: int, instance: int):
     if instance >= 0:
         m = scene.world_to_local[instance]
         front = normal_to_world(m, cr)
-        a = inverse_transform_point(m, a)
-        b = inverse_transform_point(m, b)
-        c = inverse_transform_point(m, c)
+        a, b, c = corners_to_world(m, a, b, c)
         cr = wp.cross(b - a, c - a)
         if wp.dot(cr, front) < 0.0:
             cr = -cr

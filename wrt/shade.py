@@ -48,6 +48,7 @@ from .sampling import rand01, sample_concentric_disk
 from .scene import DeviceScene
 from .transforms import (
     abs_vec,
+    corners_to_world,
     inverse_transform_magnitude,
     inverse_transform_point,
     inverse_transform_vector,
@@ -205,7 +206,7 @@ def hit_point(
         # normals are moved and renormalised before interpolation, exactly as a flattened copy stores them.
         m = scene.world_to_local[instance]
         h.err = inverse_transform_magnitude(m, h.err)
-        a, b, c = inverse_transform_point(m, a), inverse_transform_point(m, b), inverse_transform_point(m, c)
+        a, b, c = corners_to_world(m, a, b, c)
         h.p = point_in_triangle(a, b, c, u, v)  # from the world corners, which the neighbours share
         h.reach = corner_reach(a, b, c, h.p)
         h.inner = (a + b + c) / 3.0

@@ -37,6 +37,17 @@ def inverse_transform_point(m: mat34, p: wp.vec3):
 
 
 @wp.func
+def corners_to_world(m: mat34, a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """Corners ``a, b, c`` of a prototype-space triangle in world space, for its instance's world-to-local ``m``:
+    each corner moved by ``A^-1 (p - b)``. The one rule both the hit point (:func:`wrt.shade.hit_point`) and light
+    sampling (:func:`wrt.light_sampling.emitter_triangle`) place an instanced triangle by, so that a point sampled
+    on an emitter lies on the surface a ray hits (to the bit)."""
+    inverse = wp.inverse(linear_part(m))
+    offset = wp.vec3(m[0, 3], m[1, 3], m[2, 3])
+    return inverse * (a - offset), inverse * (b - offset), inverse * (c - offset)
+
+
+@wp.func
 def inverse_transform_vector(m: mat34, v: wp.vec3):
     """The vector that ``m`` maps to ``v``: ``A^-1 v`` (a local tangent in world space, for a world-to-local ``m``)."""
     return wp.inverse(linear_part(m)) * v
