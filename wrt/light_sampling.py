@@ -74,14 +74,16 @@ DISK_SOLID_ANGLE_LEAST = wp.constant(1.0)
 class DeviceLights:
     """Every light on the device: ``[0, num_analytic)`` are UsdLux lights, the rest triangles of emissive materials
     and of mesh lights: the world-space ones, then those of instances, one entry per prototype triangle and instance
-    (an instance's entries consecutive, in its prototype's emitter order: ``DeviceSurfaces.emitters``)."""
+    (an instance's entries consecutive, in its prototype's emitter order: ``DeviceSurfaces.emitters``). The columns
+    marked (num_analytic) hold the analytic lights alone (at least one row): no triangle has a use for them, and a
+    triangle's row is 56 bytes (60 with light linking), where it took 160 with them."""
 
-    kinds: wp.array[wp.int32]  # LIGHT_* kind
+    kinds: wp.array[wp.int32]  # (num_analytic) LIGHT_* kind; the triangles' is LIGHT_TRIANGLE (light_kind)
     radiance: wp.array[wp.vec3]  # L (area, dome, soft distant), E (delta distant), I (point); triangles: see params
-    position: wp.array[wp.vec3]  # centre; for distant lights the direction of travel
-    axis_u: wp.array[wp.vec3]  # rect: full X edge; disk: X radius vector; cylinder: full axis
-    axis_v: wp.array[wp.vec3]  # rect: full Y edge; disk: Y radius vector
-    normal: wp.array[wp.vec3]  # rect, disk: unit emitting normal
+    position: wp.array[wp.vec3]  # (num_analytic) centre; for distant lights the direction of travel
+    axis_u: wp.array[wp.vec3]  # (num_analytic) rect: full X edge; disk: X radius vector; cylinder: full axis
+    axis_v: wp.array[wp.vec3]  # (num_analytic) rect: full Y edge; disk: Y radius vector
+    normal: wp.array[wp.vec3]  # (num_analytic) rect, disk: unit emitting normal
     params: wp.array[wp.vec4]  # (radius | cos of half angle | ellipsoid's |det|^(1/3), solid angle of cone,
     # area | 1 - cos, right-angled axes);
     # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
@@ -89,9 +91,9 @@ class DeviceLights:
     instances: wp.array[wp.int32]  # instance that draws a LIGHT_TRIANGLE entry's (prototype) triangle, -1: world
     instance_emitters: wp.array[wp.int32]  # (N,) each instance's first entry, -1: none sampled (or (1,) of -1)
     shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF or SHADOWS_LINKED: what blocks the light
-    shaping: wp.array[wp.vec4]  # (cone angle, smooth start (radians), focus, 1); all 0: unshaped (light_shaping)
-    shaping_axis: wp.array[wp.vec3]  # unit primary axis (the light's -Z) of shaped lights
-    focus_tint: wp.array[wp.vec3]  # ShapingAPI focusTint of shaped lights
+    shaping: wp.array[wp.vec4]  # (num_analytic) (cone angle, smooth start (radians), focus, 1); all 0: unshaped
+    shaping_axis: wp.array[wp.vec3]  # (num_analytic) unit primary axis (the light's -Z) of shaped lights
+    focus_tint: wp.array[wp.vec3]  # (num_analytic) ShapingAPI focusTint of shaped lights
     pmf: wp.array[float]  # selection probability of each light
     cdf: wp.array[float]  # (count + 1) running sum of pmf
     count: int  # number of lights
@@ -102,7 +104,8 @@ class DeviceLights:
     dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of filtered luminance * sin(theta)
     dome_col_cdf: wp.array[float]  # (H (W + 1)) CDF over columns in each row, row y's from y (W + 1)
     dome_mean: wp.vec3  # radiance averaged over the sphere
-    texture: wp.array[wp.vec3i]  # (offset into texels, width, height) of a rect or dome light's texture; width 0: none
+    texture: wp.array[wp.vec3i]  # (num_analytic) (offset into texels, width, height) of a rect or dome light's
+    # texture; width 0: none
     texels: wp.array[wp.vec3]  # the rect and dome lights' textures, row-major from the top row, one after the other
     lobe_scale: wp.array[wp.vec2]  # (diffuse, specular) multipliers (UsdLux inputs:diffuse, inputs:specular)
     headlight: int  # index of the default headlight, -1 without one: it travels along each view's direction
@@ -199,9 +202,18 @@ def dome_pdf(lights: DeviceLights, d: wp.vec3, n: wp.vec3):
 
 
 @wp.func
+def light_kind(lights: DeviceLights, k: int):
+    """The LIGHT_* kind of light ``k``: the rows past the analytic lights are triangles (``kinds`` holds the
+    analytic lights' alone)."""
+    if k >= lights.num_analytic:
+        return LIGHT_TRIANGLE
+    return lights.kinds[k]
+
+
+@wp.func
 def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
-    """The colour factor of light ``k``'s ShapingAPI on the radiance it emits along unit ``w`` (1 where unshaped:
-    :mod:`wrt.light_shaping`)."""
+    """The colour factor of analytic light ``k``'s ShapingAPI on the radiance it emits along unit ``w`` (1 where
+    unshaped: :mod:`wrt.light_shaping`)."""
     params = lights.shaping[k]
     if params[3] == 0.0:
         return wp.vec3(1.0)
@@ -475,7 +487,7 @@ def sample_light(
     out.dist = float(wp.inf)
     out.value = wp.vec3(0.0)
     out.pdf = 0.0
-    kind = lights.kinds[k]
+    kind = light_kind(lights, k)
     if kind == LIGHT_DISTANT:
         d = -lights.position[k]
         cone = lights.params[k][1]
@@ -622,7 +634,9 @@ def sample_light(
         out.pdf = pdf_solid_angle
     else:
         out.pdf = d2 / (cos_l * area)
-    out.value = wp.cw_mul(L, emission_shaping(lights, k, -wi)) / out.pdf
+    if kind != LIGHT_TRIANGLE:  # triangles are not shaped (and have no row of shaping)
+        L = wp.cw_mul(L, emission_shaping(lights, k, -wi))
+    out.value = L / out.pdf
     return out
 
 

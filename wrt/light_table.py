@@ -25,7 +25,6 @@ from .light_sampling import (
     LIGHT_POINT,
     LIGHT_RECT,
     LIGHT_SPHERE,
-    LIGHT_TRIANGLE,
     SHADOWS_LINKED,
     SHADOWS_OFF,
     SHADOWS_ON,
@@ -76,10 +75,10 @@ def luminance_np(c) -> float:
     return float(np.asarray(c, np.float64) @ LUMINANCE)
 
 
-# Emitter entries made for instanced triangles (one per emissive prototype triangle and instance, 162 bytes of
-# device arrays each, as every light-table row: 320 MB at the cap, whose rows build_lights made in 2 s on 2 cores): the
-# instances past it (in instance order) keep their emission for rays that hit them but are not sampled, with a
-# warning, so that a forest of glowing leaves cannot fill the device.
+# Emitter entries made for instanced triangles (one per emissive prototype triangle and instance, 56 bytes of
+# device arrays each, as every triangle's light-table row, 60 with light linking: 112 MB at the cap, whose rows
+# build_lights made in 2 s on 2 cores): the instances past it (in instance order) keep their emission for rays that
+# hit them but are not sampled, with a warning, so that a forest of glowing leaves cannot fill the device.
 MAX_INSTANCED_EMITTERS = 2_000_000
 
 
@@ -454,16 +453,17 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
         tri_lobes[owned] = np.float32([[light.diffuse, light.specular] for light in mesh_lights])[tris.owner[owned]]
 
     def arr(values, dtype, width=3, triangles=None):
-        """The analytic lights' ``values`` and the triangles' rows below them (``triangles``: None for zeros)."""
+        """The analytic lights' ``values`` and the triangles' rows below them (``triangles``: None for a column of
+        the analytic lights alone, which no triangle reads: a million emissive triangles took 100 MB more)."""
         numpy_type = np.int32 if dtype == wp.int32 else np.float32
         shape = (-1, width) if width > 1 else (-1,)
-        rows = np.zeros((e, width) if width > 1 else e, numpy_type) if triangles is None else triangles
+        rows = np.zeros((0, width) if width > 1 else 0, numpy_type) if triangles is None else triangles
         data = np.concatenate([np.asarray(values, numpy_type).reshape(shape), np.asarray(rows, numpy_type)])
         return wp.array(data if len(data) else np.zeros((1, width) if width > 1 else 1, numpy_type), dtype=dtype,
                         device=device)
 
     d = DeviceLights()
-    d.kinds = arr(h.kinds, wp.int32, 1, np.full(e, LIGHT_TRIANGLE, np.int32))
+    d.kinds = arr(h.kinds, wp.int32, 1)  # the rest are LIGHT_TRIANGLE
     d.radiance = arr(h.radiance, wp.vec3, 3, tris.radiance)
     d.position = arr(h.position, wp.vec3)
     d.axis_u = arr(h.axis_u, wp.vec3)
@@ -493,7 +493,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     d.dome_row_cdf = wp.array(row_cdf, dtype=float, device=device)
     d.dome_col_cdf = wp.array(col_cdf, dtype=float, device=device)
     d.dome_mean = wp.vec3(*dome_mean.tolist())
-    d.texture, d.texels = _upload_textures(h.texture, n, device)
+    d.texture, d.texels = _upload_textures(h.texture, num_analytic, device)
     d.headlight = -1  # set by the renderer, which knows the cameras (set_headlight_directions)
     d.headlight_dirs = wp.zeros(1, dtype=wp.vec3, device=device)
     # Links of the analytic lights in device order (the dome's at dome_index; a second dome is not on the device),
