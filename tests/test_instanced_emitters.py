@@ -374,3 +374,40 @@ def test_light_and_shadow_links_of_an_instanced_mesh_light_are_those_of_the_ligh
         assert np.all(rgb[:, :RES] == 0.0), (name, rgb[:, :RES])  # x < 0: the left floor, not linked
         ratio = rgb[:, RES:] / expected  # no shadow of the card
         assert abs(rgb[:, RES:].mean() / expected.mean() - 1) < 0.03 and np.abs(ratio - 1).max() < 0.15, (name, ratio)
+
+
+def test_instanced_mesh_lights_keep_their_names_when_usd_numbers_the_prototypes_otherwise(tmp_path):
+    """Mesh lights inside two native prototypes (``/Protos/LampA``, drawn by ``/A`` and ``/C``; ``/Protos/LampB``,
+    by ``/B``), read three times from the stage and three times from a stage that sublayers it with its root prims
+    reordered: USD numbers the two prototypes either way round, from one opening to the next (of the same file too),
+    yet each opening lists the same lights, each named by an instance-proxy path USD gives
+    (``Usd.TraverseInstanceProxies``), its first instance's by path order, and each light still owns its triangles
+    in every instance. Before, they were named by their prototype paths (``/__Prototype_2/Light`` in some openings,
+    ``/__Prototype_1/Light`` in others)."""
+    from pxr import Usd, UsdLux
+    from test_mesh_lights import mesh_light
+
+    def lamp(name, light):
+        return f'    def Xform "{name}"\n    {{\n' + light.replace("\n", "\n        ") + "}\n"
+
+    protos = ('over "Protos"\n{\n' + lamp("LampA", mesh_light(intensity=3.0))
+              + lamp("LampB", mesh_light(intensity=2.0).replace('"Light"', '"Bulb"')) + "}\n")
+    natives = "".join(f'def Xform "{n}" (\n    instanceable = true\n    prepend references = </Protos/{p}>\n)\n{{\n}}\n'
+                      for n, p in (("A", "LampA"), ("B", "LampB"), ("C", "LampA")))
+    (tmp_path / "stage.usda").write_text('#usda 1.0\n(\n    upAxis = "Z"\n)\n' + protos + natives)
+    (tmp_path / "reordered.usda").write_text('#usda 1.0\n(\n    subLayers = [@stage.usda@]\n    upAxis = "Z"\n)\n'
+                                             'reorder rootPrims = ["B", "C", "A", "Protos"]\n')
+    names = []
+    for name in ("stage.usda", "reordered.usda") * 3:
+        path = str(tmp_path / name)
+        stage = Usd.Stage.Open(path)
+        proxies = {str(p.GetPath()) for p in Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies())
+                   if p.HasAPI(UsdLux.MeshLightAPI)}
+        assert proxies == {"/A/Light", "/B/Bulb", "/C/Light"}
+        scene = wrt.load_usd(path)
+        lights = sorted(scene.lights, key=lambda light: light.path)
+        assert {light.path for light in lights} <= proxies, [light.path for light in lights]
+        names.append([light.path for light in lights])
+        tris = light_table.emitter_triangles(scene, [np.zeros(3)], lights)
+        assert np.bincount(tris.owner, minlength=2).tolist() == [4, 2]  # LampA's quad in /A and /C, LampB's in /B
+    assert all(found == ["/A/Light", "/B/Bulb"] for found in names), names

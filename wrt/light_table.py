@@ -170,9 +170,9 @@ def emitter_triangles(scene, materials_emission, mesh_lights: list, cap: int | N
     for k, mesh in enumerate(meshes if mesh_lights else ()):
         by_path.setdefault(mesh.path, []).append(k)
     for j, light in enumerate(mesh_lights):
-        if light.path not in by_path:
+        if light.mesh_path not in by_path:
             raise SceneError("MeshLight names no mesh of the scene", prim=light.path or None)
-        rows = np.concatenate([np.arange(starts[k], starts[k + 1]) for k in by_path[light.path]])
+        rows = np.concatenate([np.arange(starts[k], starts[k + 1]) for k in by_path[light.mesh_path]])
         if (owner[rows] >= 0).any():  # the second would silently take every triangle
             raise SceneError("two MeshLights name the same mesh; give it one light", prim=light.path)
         owner[rows] = j

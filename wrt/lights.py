@@ -374,6 +374,9 @@ class MeshLight:
     Attributes:
         path: prim path of the emitting mesh: the :attr:`wrt.Scene.meshes` entries of that path, and the prototype
             meshes of that path, which emit in each instance (each instance's copy normalized by its own area).
+            A mesh light inside a native prototype is named by its instance proxy in the prototype's first instance
+            (``/A/Light``, by path order), a name that stays when the stage is opened again, and lights from every
+            instance; ``mesh`` then holds the prototype path its meshes have.
         color: ``(3,)`` ``intensity * 2**exposure * color``.
         normalize: divide by the world-space area of the mesh.
         material_sync: ``light:materialSyncMode``. ``"noMaterialResponse"`` (LightAPI's fallback, and any mode
@@ -388,6 +391,8 @@ class MeshLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        mesh: path of the meshes that emit when it is not ``path`` (a native prototype's, ``/__Prototype_1/Light``,
+            which USD numbers anew each time the stage is opened); "": ``path``.
     """
 
     path: str
@@ -399,6 +404,12 @@ class MeshLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    mesh: str = ""
+
+    @property
+    def mesh_path(self) -> str:
+        """The path of the meshes that emit."""
+        return self.mesh or self.path
 
     def __post_init__(self):
         check_fields(self, _COLOR, *_MULTIPLIERS)

@@ -411,8 +411,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         warn_glowless_mesh_light(light, prim, mesh, self.materials, self._skip)
         if ctx.world:
             self.scene.lights.append(light)
-        else:  # added once the walk is over, unless the prim is drawn in place too (_add_instanced_lights)
-            self.instanced_lights[path] = light
+            return
+        if prim.IsInPrototype():  # named as warnings name it, not by the prototype's path (USD renumbers those)
+            light.path, light.mesh = self._shown_path(prim), path
+        self.instanced_lights[path] = light  # added once the walk is over, unless drawn in place too
 
     def _not_a_mesh_light(self, prim: Usd.Prim, what: str):
         """Names ``prim`` in a warning when it is a mesh light (MeshLightAPI or LightAPI alone): it should emit, but
@@ -425,7 +427,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         """Adds the mesh lights read inside instance prototypes, each once, whatever the number of instances (its
         triangles are sampled in each: wrt.light_table.emitter_triangles). A PointInstancer's prototype may be a prim
         of the world too, drawn in place as well: its light, read there, covers the instances' copies."""
-        world = {light.path for light in self.scene.lights if isinstance(light, MeshLight)}
+        world = {light.mesh_path for light in self.scene.lights if isinstance(light, MeshLight)}
         self.scene.lights += [light for path, light in self.instanced_lights.items() if path not in world]
 
     def _to_space(self, prim: Usd.Prim, ctx: Context) -> np.ndarray:
