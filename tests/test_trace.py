@@ -890,3 +890,50 @@ def test_node_visits_of_the_layouts_are_as_hits_documents(np_rng):
     np.testing.assert_array_equal(compact.triangles_tested, binary.triangles_tested)
     for layout in ("wide", "wide8"):
         assert wrt.trace(bunny, origins, directions, layout=layout).nodes_visited.mean() < binary.nodes_visited.mean()
+
+
+# Every accelerator behind wrt.trace: wrt's layouts, its two-level (TLAS) traversal, and wp.Mesh.
+TRACE_CONFIGS = [("wrt", "binary", False), ("wrt", "compact", False), ("wrt", "wide", False),
+                 ("wrt", "wide8", False), ("wrt", "binary", True), ("warp", "binary", False)]
+TRACE_IDS = [f"{a}-{layout}" + ("-instanced" if inst else "") for a, layout, inst in TRACE_CONFIGS]
+
+
+def one_triangle_scene(instanced: bool) -> wrt.Scene:
+    """The triangle ``(-1, -1, 0), (1, -1, 0), (0, 1, 0)`` in the plane z = 0, as a mesh or as one instance of it."""
+    points, tris = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
+    if not instanced:
+        return wrt.Scene.from_triangles(points, tris)
+    proto = Prototype("/P", [Mesh("/P/tri", points, tris, np.zeros(1, np.int32))])
+    return wrt.Scene(prototypes=[proto], instances=Instances.from_transforms([0], np.eye(4)[None]))
+
+
+def test_ray_arrays_of_bools_dates_or_python_objects_raise_naming_the_argument():
+    """Bool arrays were traced as 0 and 1 (``t_max=True`` as 1), datetimes and timedeltas as their counts, and an
+    object array holding None as NaN (the ray missed without a word); each now raises, naming the argument and
+    what it held. Integer arrays are numbers: they trace as the same floats do (the hit at t = 1, found here
+    analytically)."""
+    scene = one_triangle_scene(False)
+    good_o, good_d = np.array([[0, 0, 1]], np.float32), np.array([[0, 0, -1]], np.float32)
+    for name, args, kwargs, what in (
+        ("origins", (np.array([[False, False, True]]), good_d), {}, "dtype bool"),
+        ("directions", (good_o, [[False, False, True]]), {}, "dtype bool"),
+        ("t_max", (good_o, good_d), {"t_max": True}, "dtype bool"),
+        ("t_min", (good_o, good_d), {"t_min": np.zeros(1, bool)}, "dtype bool"),
+        ("origins", (good_o.astype("datetime64[s]"), good_d), {}, "dtype datetime64"),
+        ("t_max", (good_o, good_d), {"t_max": np.timedelta64(2, "s")}, "dtype timedelta64"),
+        ("origins", ([[0, None, 1]], good_d), {}, "None at index"),
+        ("directions", (good_o, np.array([[0, 0, "-1"]], dtype=object)), {}, "str '-1' at index"),
+    ):
+        for query in (wrt.trace, wrt.occluded):
+            with pytest.raises(ValueError, match=f"{name} must hold real numbers .*{what}"):
+                query(scene, *args, **kwargs)
+    for o, d, t_max in (
+        (good_o.astype(np.int64), good_d.astype(np.int8), np.uint16(2)),
+        (np.array([[0, 0, 1]], dtype=object), [[0, 0, -1]], np.array([2], dtype=object)),  # Python ints in objects
+        ([[0, 0, 1]], np.array([[0, 0, -1]], dtype=object), 2),
+    ):
+        hits = wrt.trace(scene, o, d, t_max=t_max)
+        assert hits.prim.tolist() == [0] and hits.t.tolist() == [1.0]
+        assert wrt.occluded(scene, o, d, t_max=t_max).tolist() == [True]
+    with pytest.raises(ValueError, match=r"origins row 0, \[0.0, 0.0, 1e\+40\], is beyond float32's range"):
+        wrt.trace(scene, np.array([[0, 0, 10**40]], dtype=object), good_d)  # an int too large for int64

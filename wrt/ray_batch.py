@@ -9,6 +9,9 @@ serves every ray of the other argument, as numpy broadcasts.
 
 from __future__ import annotations
 
+import decimal
+import numbers
+
 import numpy as np
 import warp as wp
 
@@ -33,7 +36,8 @@ def _host_array(name: str, values):
 
 def as_float32(name: str, values, vectors: bool = False) -> np.ndarray:
     """``values`` as a float32 numpy array, or ``ValueError`` naming ``name``: complex numbers were cast with only a
-    warning (the imaginary part dropped), and text or ragged lists failed with numpy's message alone.
+    warning (the imaginary part dropped), bools, dates and durations as 0/1 and counts without one, and text or
+    ragged lists failed with numpy's message alone. Integers convert.
 
     With ``vectors`` (origins, directions: ``(N, 3)``), finite values that float32 cannot hold raise too: a value
     beyond its range became inf, and a non-zero direction below it ``(0, 0, 0)``, so the ray missed without a word.
@@ -41,7 +45,9 @@ def as_float32(name: str, values, vectors: bool = False) -> np.ndarray:
     raw = _host_array(name, values)
     try:
         raw = raw if isinstance(raw, np.ndarray) else np.asarray(raw)
-        if raw.dtype.kind in "cSUV":  # complex, bytes, text, void
+        if raw.dtype.kind == "O":  # Python objects (ints beyond int64, None, text): checked one by one
+            raw = _real_objects(raw, none_is_nan=not vectors)  # limits refuse NaN, saying what None should be
+        if raw.dtype.kind not in "fiu":  # bool (0 and 1), complex, text, dates and durations (their counts), void
             raise TypeError(f"got dtype {raw.dtype}")
         with np.errstate(over="ignore"):  # overflow is reported below (vectors) or harmless (limits)
             array = np.asarray(raw, dtype=np.float32)
@@ -50,6 +56,22 @@ def as_float32(name: str, values, vectors: bool = False) -> np.ndarray:
     if vectors and raw.dtype.kind == "f" and raw.dtype.itemsize > 4 and raw.shape[-1:] == (3,) and raw.ndim <= 2:
         check_float32_range(name, raw.reshape(-1, 3), array.reshape(-1, 3))  # a (3,) vector is one row
     return array
+
+
+def _real_objects(raw: np.ndarray, none_is_nan: bool) -> np.ndarray:
+    """An object array as float64, or ``TypeError`` naming the first element that is not a real number (None is
+    NaN with ``none_is_nan``): numpy converts None to NaN (a ray that misses without a word), ``"1"`` to 1 and True
+    to 1."""
+    for index, value in np.ndenumerate(raw):
+        if value is None and none_is_nan:
+            continue
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, decimal.Decimal)):
+            what = "None" if value is None else f"{type(value).__name__} {value!r}"
+            raise TypeError(f"got {what} at index {index}")
+    try:
+        return raw.astype(np.float64)
+    except OverflowError:  # an int beyond float64's range (1e308)
+        raise ValueError("got a number beyond float64's range") from None
 
 
 def check_float32_range(name: str, raw: np.ndarray, array: np.ndarray) -> None:
