@@ -937,3 +937,26 @@ def test_ray_arrays_of_bools_dates_or_python_objects_raise_naming_the_argument()
         assert wrt.occluded(scene, o, d, t_max=t_max).tolist() == [True]
     with pytest.raises(ValueError, match=r"origins row 0, \[0.0, 0.0, 1e\+40\], is beyond float32's range"):
         wrt.trace(scene, np.array([[0, 0, 10**40]], dtype=object), good_d)  # an int too large for int64
+
+
+@pytest.mark.parametrize("accel, layout, instanced", TRACE_CONFIGS, ids=TRACE_IDS)
+def test_float64_t_limits_keep_t_min_le_t_lt_t_max_exactly(accel, layout, instanced):
+    """Limits were rounded to the nearest float32: ``t_min = 1 + 1e-12`` became 1 and kept a hit at t = 1 (analytic:
+    the origin is 1 above the triangle), ``t_max = 1 + 1e-12`` became 1 and lost it, and ``t_min = 1e-50`` became 0
+    and kept the hit at t = 0 of an origin on the triangle. Rounded up, a float32 ``t`` compares with the float32
+    limit as it does with the given one."""
+    scene = one_triangle_scene(instanced)
+    query = {"accel": accel, "layout": layout}
+    above, down = [[0.0, 0.0, 1.0]], [[0.0, 0.0, -1.0]]
+    for t_min, t_max, expected in ((1 + 1e-12, np.inf, []), (0.0, 1 + 1e-12, [1.0]), (1 - 1e-12, np.inf, [1.0]),
+                                   (0.0, 1 - 1e-12, [])):
+        hits = wrt.trace(scene, above, down, t_min=t_min, t_max=t_max, **query)
+        assert hits.t[hits.hit].tolist() == expected, (t_min, t_max)
+        assert wrt.occluded(scene, above, down, t_min=t_min, t_max=t_max, **query).tolist() == [bool(expected)]
+    on_surface = [[0.0, 0.0, 0.0]]
+    for t_min in (1e-50, np.array([1e-50]), [-1e-300]):
+        hits = wrt.trace(scene, on_surface, down, t_min=t_min, **query)
+        t_min = float(np.ravel(t_min)[0])
+        assert not hits.hit[0] or hits.t[0] >= t_min, hits.t  # wp.Mesh starts its query at t_min: it may hit there
+        assert hits.hit[0] == (t_min <= 0) or accel == "warp"
+        assert wrt.occluded(scene, on_surface, down, t_min=t_min, **query).tolist() == hits.hit.tolist()

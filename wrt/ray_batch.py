@@ -5,6 +5,9 @@ objects with ``__array__``), ``wp.array``s on any device (``vec3`` or ``(N, 3)``
 refuses but DLPack hands over (``torch`` on CUDA, CuPy). A ``wp.array`` of ``vec3`` already on the tracing device
 is traced in place; anything else is copied. One ray may be a ``(3,)`` vector, and a single origin (or direction)
 serves every ray of the other argument, as numpy broadcasts.
+
+Hits have ``t_min <= t < t_max`` for the limits as given: they are rounded up to float32 (no float32 ``t`` lies
+between a limit and its rounded-up value).
 """
 
 from __future__ import annotations
@@ -34,14 +37,18 @@ def _host_array(name: str, values):
         raise ValueError(f"{name}: cannot read a {type(values).__name__} ({e})") from None
 
 
-def as_float32(name: str, values, vectors: bool = False) -> np.ndarray:
+def as_float32(name: str, values, vectors: bool = False, round_up: bool = False) -> np.ndarray:
     """``values`` as a float32 numpy array, or ``ValueError`` naming ``name``: complex numbers were cast with only a
     warning (the imaginary part dropped), bools, dates and durations as 0/1 and counts without one, and text or
     ragged lists failed with numpy's message alone. Integers convert.
 
     With ``vectors`` (origins, directions: ``(N, 3)``), finite values that float32 cannot hold raise too: a value
     beyond its range became inf, and a non-zero direction below it ``(0, 0, 0)``, so the ray missed without a word.
-    Limits convert as they are: a ``t_max`` of 1e39 as inf means the same (no float32 ``t`` reaches either)."""
+    Limits convert as they are: a ``t_max`` of 1e39 as inf means the same (no float32 ``t`` reaches either).
+
+    With ``round_up`` (limits), values are rounded toward +inf, not to the nearest float32: a float32 ``t`` then
+    compares with the result (``t >= t_min``, ``t < t_max``) as with the value given. To the nearest, ``t_min = 1 +
+    1e-12`` became 1 and kept a hit at ``t = 1``, and ``t_min = 1e-50`` became 0 and kept hits at ``t = 0``."""
     raw = _host_array(name, values)
     try:
         raw = raw if isinstance(raw, np.ndarray) else np.asarray(raw)
@@ -55,6 +62,9 @@ def as_float32(name: str, values, vectors: bool = False) -> np.ndarray:
         raise ValueError(f"{name} must hold real numbers ({e})") from None
     if vectors and raw.dtype.kind == "f" and raw.dtype.itemsize > 4 and raw.shape[-1:] == (3,) and raw.ndim <= 2:
         check_float32_range(name, raw.reshape(-1, 3), array.reshape(-1, 3))  # a (3,) vector is one row
+    if round_up and raw.dtype.itemsize > 2:  # wider than float16 and int16: values float32 may not hold
+        # Compared at raw's precision (float32 promotes exactly); NaN compares False and stays NaN.
+        array = np.where(array < raw, np.nextafter(array, np.float32(np.inf)), array)
     return array
 
 
@@ -123,7 +133,7 @@ def _shape(rays) -> tuple:
 
 def _limits(name: str, values, default: float, n: int) -> np.ndarray:
     """``t_min`` or ``t_max``: a scalar or one value per ray, never NaN; ``None`` is the default."""
-    limits = as_float32(name, default if values is None else values)
+    limits = as_float32(name, default if values is None else values, round_up=True)
     if limits.shape not in ((), (n,)):
         raise ValueError(f"{name} must be a scalar or one value per ray, shape ({n},); got shape {limits.shape}")
     if np.isnan(limits).any():  # every ray would miss without a word (a list [None] converts to NaN)
