@@ -960,3 +960,63 @@ def test_float64_t_limits_keep_t_min_le_t_lt_t_max_exactly(accel, layout, instan
         assert not hits.hit[0] or hits.t[0] >= t_min, hits.t  # wp.Mesh starts its query at t_min: it may hit there
         assert hits.hit[0] == (t_min <= 0) or accel == "warp"
         assert wrt.occluded(scene, on_surface, down, t_min=t_min, **query).tolist() == hits.hit.tolist()
+
+
+@pytest.mark.parametrize("accel, layout, instanced", TRACE_CONFIGS, ids=TRACE_IDS)
+def test_tiny_t_limits_keep_their_meaning_along_short_directions(accel, layout, instanced):
+    """wrt's kernels scale a ray's direction by a power of two near ``1 / |d|`` and its limits by ``|d|``
+    (``traverse.unit_ray``): along a direction of length 1e-30 a ``t_min`` of 1e-20 became 1e-50, 0 in float32, so
+    an origin on the triangle hit it at t = 0 < t_min; and a ``t_max`` of 1e-20 became 0, an empty range, so the hit
+    at t = 0 < t_max was lost. The analytic answer: the only hit of a ray from the triangle's plane is at t = 0;
+    from 1 above it, at t = 1 / |d|."""
+    scene = one_triangle_scene(instanced)
+    query = {"accel": accel, "layout": layout}
+    lengths = np.array([1.0, 1e-20, 1e-30, 1e-37, 1e-40], np.float32)  # 1e-40: a subnormal float32
+    if accel == "warp":  # wp.Mesh misses every ray along a subnormal direction (README)
+        lengths = lengths[:-1]
+    for sign in (1.0, -1.0):
+        directions = np.zeros((len(lengths), 3), np.float32)
+        directions[:, 2] = sign * lengths
+        on_surface = np.zeros_like(directions)
+        for t_min in (2.0**-149, 1e-40, 1e-20, 1e-10):
+            hits = wrt.trace(scene, on_surface, directions, t_min=t_min, **query)
+            reported = hits.t[hits.hit].astype(np.float64)
+            assert (reported >= t_min).all(), (t_min, hits.t)
+            if accel == "wrt":
+                assert not hits.hit.any(), (t_min, hits.t)
+            assert wrt.occluded(scene, on_surface, directions, t_min=t_min, **query).tolist() == hits.hit.tolist()
+        for t_min, t_max in ((0.0, 2.0**-149), (0.0, 1e-40), (0.0, 1e-20), (-1e-40, 1e-30), (-1e-20, np.inf)):
+            hits = wrt.trace(scene, on_surface, directions, t_min=t_min, t_max=t_max, **query)
+            assert hits.hit.all() and (hits.t == 0).all(), (t_min, t_max, hits.t)
+            assert wrt.occluded(scene, on_surface, directions, t_min=t_min, t_max=t_max, **query).all()
+    above, down = np.tile([[0.0, 0.0, 1.0]], (4, 1)), -np.abs(directions[:4])
+    hits = wrt.trace(scene, above, down, t_min=1e-40, **query)  # the hits at t = 1 / |d| stay
+    np.testing.assert_allclose(hits.t, 1.0 / lengths[:4].astype(np.float64), rtol=1e-6)
+
+
+@pytest.mark.parametrize("layout, instanced", [("binary", False), ("wide8", False), ("binary", True)])
+def test_limits_at_a_hits_own_t_decide_it_exactly_along_directions_of_any_length(layout, instanced, np_rng):
+    """Origins a subnormal height above the triangle, directions of lengths 2^-125 to 2: the scaled rays of the
+    kernels meet it at t below float32's normal range. wrt's ``t`` of a triangle does not depend on the limits, so a
+    limit at, just above or just below each ray's own ``t`` (float32 and float64 neighbours) must keep the hit
+    exactly when ``t_min <= t < t_max`` in float64. Before the limits were rounded for the scaled rays, a limit one
+    float32 (or 1e-12) above the hit's ``t`` rounded down onto it in 492 of these 500 rays once scaled: ``t_min``
+    kept hits below it and ``t_max`` lost hits below it."""
+    scene = one_triangle_scene(instanced)
+    n = 500
+    heights = np_rng.integers(1, 2**20, n) * 2.0**-149
+    lengths = 2.0 ** -np_rng.integers(0, 126, n) * np_rng.uniform(1, 2, n)
+    origins = np.column_stack([np_rng.uniform(-0.3, 0.3, (n, 2)), heights]).astype(np.float32)
+    directions = np.column_stack([np.zeros((n, 2)), -lengths]).astype(np.float32)
+    reference = wrt.trace(scene, origins, directions, layout=layout)
+    assert reference.hit.all() and np.isfinite(reference.t).all()
+    t = reference.t.astype(np.float64)
+    t32 = reference.t
+    for limits in (t, np.nextafter(t32, np.float32(np.inf)), np.nextafter(t32, np.float32(-np.inf)),
+                   t * (1 + 1e-12), t * (1 - 1e-12)):
+        limits = np.asarray(limits, np.float64)
+        for kwargs, expected in (({"t_min": limits}, t >= limits), ({"t_max": limits}, t < limits)):
+            hits = wrt.trace(scene, origins, directions, layout=layout, **kwargs)
+            np.testing.assert_array_equal(hits.hit, expected)
+            np.testing.assert_array_equal(hits.t[hits.hit], t32[hits.hit])
+            np.testing.assert_array_equal(wrt.occluded(scene, origins, directions, layout=layout, **kwargs), expected)

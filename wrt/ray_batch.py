@@ -7,7 +7,9 @@ is traced in place; anything else is copied. One ray may be a ``(3,)`` vector, a
 serves every ray of the other argument, as numpy broadcasts.
 
 Hits have ``t_min <= t < t_max`` for the limits as given: they are rounded up to float32 (no float32 ``t`` lies
-between a limit and its rounded-up value).
+between a limit and its rounded-up value), and for wrt's kernels, which trace each ray scaled to a unit-ish
+direction (``traverse.unit_ray``), rounded up once more where that scaling takes them below float32's normal range
+(:func:`round_limits_for_unit_rays_kernel`).
 """
 
 from __future__ import annotations
@@ -17,6 +19,41 @@ import numbers
 
 import numpy as np
 import warp as wp
+
+from .floats import unit_scales
+
+SMALLEST_NORMAL = wp.constant(wp.float64(2.0**-126))  # float32's smallest normal; below it floats step by 2^-149
+SUBNORMAL_STEP = wp.constant(wp.float64(2.0**-149))  # float32's smallest subnormal, the step of every float below it
+SUBNORMAL_STEPS = wp.constant(wp.float64(2.0**149))  # 1 / SUBNORMAL_STEP
+
+
+@wp.func
+def unit_ray_limit(limit: float, down: float, up: float):
+    """``limit``, or the smallest float32 above it whose product with ``up`` is exact, for a ray that a kernel
+    scales by ``(down, up)`` (``floats.unit_scales`` of its direction): ``traverse.unit_ray`` takes ``limit * up``
+    as the limit of the scaled ray, and below float32's normal range that product rounds, to 0 at the end (along a
+    direction of length 1e-30 a ``t_min`` of 1e-20 became 0, and an origin on a surface hit it at ``t = 0``). The
+    scaled ray's ``t`` are float32, multiples of 2^-149 there, so rounding ``limit * up`` up to the next multiple
+    keeps every comparison (``t >= t_min``, ``t < t_max``) as it is with ``limit`` itself, and ``t * down`` (the
+    reported ``t``) is exact."""
+    scaled = wp.float64(limit) * wp.float64(up)  # exact: two 24-bit significands
+    if scaled == wp.float64(0.0) or not (wp.abs(scaled) < SMALLEST_NORMAL):  # also inf: exact, or none to round
+        return limit
+    return wp.float32(wp.ceil(scaled * SUBNORMAL_STEPS) * SUBNORMAL_STEP * wp.float64(down))  # exact: a float32
+
+
+@wp.kernel
+def round_limits_for_unit_rays_kernel(
+    directions: wp.array[wp.vec3],
+    # outputs (read and written in place)
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+):
+    """Each ray's limits through :func:`unit_ray_limit`, with the scales its direction gets in the trace kernels."""
+    i = wp.tid()
+    down, up = unit_scales(directions[i])
+    t_mins[i] = unit_ray_limit(t_mins[i], down, up)
+    t_maxs[i] = unit_ray_limit(t_maxs[i], down, up)
 
 
 def _host_array(name: str, values):
@@ -141,8 +178,10 @@ def _limits(name: str, values, default: float, n: int) -> np.ndarray:
     return np.broadcast_to(limits, (n,)).copy()
 
 
-def upload_rays(origins, directions, t_min, t_max, device) -> list:
-    """Checks a ray batch and puts it on ``device``: ``[origins, directions, t_mins, t_maxs]`` as device arrays.
+def upload_rays(origins, directions, t_min, t_max, device, unit_rays: bool = False) -> list:
+    """Checks a ray batch and puts it on ``device``: ``[origins, directions, t_mins, t_maxs]`` as device arrays;
+    with ``unit_rays`` (kernels that trace through ``traverse.unit_ray``: wrt's own) the limits are rounded for them
+    (:func:`unit_ray_limit`).
 
     Raises:
         ValueError: naming the argument that is not ``(N, 3)`` (or ``(3,)``) real numbers, a ``t_min``/``t_max`` of
@@ -163,7 +202,12 @@ def upload_rays(origins, directions, t_min, t_max, device) -> list:
     if no != nd:  # one ray against many, as numpy broadcasts
         o, d = (np.broadcast_to(_numpy(r), (n, 3)) if len(r) == 1 else r for r in (o, d))
     t_mins, t_maxs = _limits("t_min", t_min, 0.0, n), _limits("t_max", t_max, np.inf, n)
-    return [
+    rays = [
         r if isinstance(r, wp.array) else wp.array(np.ascontiguousarray(r), dtype=wp.vec3, device=device)
         for r in (o, d)
     ] + [wp.array(t, dtype=float, device=device) for t in (t_mins, t_maxs)]
+    # Only a limit below 1 in magnitude can scale below float32's normal range (directions scale it by 2^-126 at
+    # the least); the usual 0 and inf need no launch.
+    if unit_rays and any(((np.abs(t) < 1) & (t != 0)).any() for t in (t_mins, t_maxs)):
+        wp.launch(round_limits_for_unit_rays_kernel, n, inputs=[rays[1]], outputs=rays[2:], device=device)
+    return rays

@@ -269,6 +269,7 @@ class InstancedAccelerator(Accelerator):
     """
 
     name = "wrt"
+    unit_rays = True
 
     def __init__(self, scene: Scene, builder: str, device, **build_options):
         check_finite_transforms(scene)

@@ -283,10 +283,15 @@ class Accelerator:
     the two counters stay live through the whole traversal loop at the kernels' 64-register cap, and without them
     (and with ``bvh.traverse.reported_hit``) the BVH4 traced 6-8% faster on an H200 (GPU_NOTES.md, rows 37-38).
     Renders count the camera rays only (the cost AOV); ``wp.Mesh`` never counts.
+
+    Limits are taken as the float32 arrays given. Kernels with ``unit_rays`` scale them with each ray's direction
+    (``traverse.unit_ray``), which rounds a limit whose product with ``|direction|`` is below float32's normal range
+    (1e-38): ``ray_batch.upload_rays(..., unit_rays=True)`` prepares arrays for them, as :func:`trace` does.
     """
 
     name = ""
     device = None
+    unit_rays = False  # whether the kernels trace each ray scaled by traverse.unit_ray (ray_batch rounds limits for it)
 
     def intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, threads=None, costs=True) -> None:
         """Fills ``hits`` with the closest hit of each ray (all arguments are device arrays); ``hits.cost`` only
@@ -358,6 +363,7 @@ class BvhAccelerator(Accelerator):
     instances it traces the flattened ``Scene.triangles()`` (layouts other than binary have no instancing)."""
 
     name = "wrt"
+    unit_rays = True
     layout = "binary"  # the canonical FlatBvh; other layouts are conversions with their own kernels
     trace_kernel = trace_bvh_kernel
     uncounted_trace_kernel = trace_bvh_kernel_uncounted
@@ -640,7 +646,7 @@ def trace(
         :class:`Hits` with numpy arrays.
     """
     acc = get_accelerator(scene, accel, builder, device, layout)
-    rays = upload_rays(origins, directions, t_min, t_max, acc.device)
+    rays = upload_rays(origins, directions, t_min, t_max, acc.device, acc.unit_rays)
     hits = HitBuffer(len(rays[0]), acc.device)
     if len(rays[0]):
         acc.intersect(*rays, hits, threads=threads)
@@ -674,7 +680,7 @@ def occluded(
     """Any-hit query: ``(N,)`` bool, True where ray ``i`` hits something with ``t_min <= t < t_max``. The
     arguments are those of :func:`trace`."""
     acc = get_accelerator(scene, accel, builder, device, layout)
-    rays = upload_rays(origins, directions, t_min, t_max, acc.device)
+    rays = upload_rays(origins, directions, t_min, t_max, acc.device, acc.unit_rays)
     blocked = wp.zeros(len(rays[0]), dtype=wp.int32, device=acc.device)
     if len(rays[0]):
         acc.occluded(*rays, blocked, threads=threads)
