@@ -1020,3 +1020,27 @@ def test_limits_at_a_hits_own_t_decide_it_exactly_along_directions_of_any_length
             np.testing.assert_array_equal(hits.hit, expected)
             np.testing.assert_array_equal(hits.t[hits.hit], t32[hits.hit])
             np.testing.assert_array_equal(wrt.occluded(scene, origins, directions, layout=layout, **kwargs), expected)
+
+
+@pytest.mark.parametrize("accel, layout, instanced", TRACE_CONFIGS, ids=TRACE_IDS)
+def test_one_ray_against_an_empty_batch_gives_no_hits(accel, layout, instanced):
+    """One origin for no directions (numpy broadcasts ``(1, 3)`` with ``(0, 3)`` to ``(0, 3)``) raised a RuntimeError
+    from Warp ("Invalid indexing in slice") after launching one ray over an empty direction array."""
+    scene = one_triangle_scene(instanced)
+    query = {"accel": accel, "layout": layout}
+    for o, d in (([0, 0, 1], np.zeros((0, 3))), ([[0, 0, 1]], np.zeros((0, 3))), (np.zeros((0, 3)), [0, 0, -1]),
+                 (wp.array([[0, 0, 1]], dtype=wp.vec3), wp.zeros(0, dtype=wp.vec3))):
+        hits = wrt.trace(scene, o, d, **query)
+        assert hits.t.shape == hits.prim.shape == (0,)
+        assert wrt.occluded(scene, o, d, **query).shape == (0,)
+
+
+def test_nan_limits_raise_naming_the_first_bad_ray():
+    scene = one_triangle_scene(False)
+    origins, directions = np.tile([[0.0, 0.0, 1.0]], (4, 1)), [0, 0, -1]
+    for name in ("t_min", "t_max"):
+        for query in (wrt.trace, wrt.occluded):
+            with pytest.raises(ValueError, match=rf"{name} must not be NaN \(ray 2 is the first of 2\)"):
+                query(scene, origins, directions, **{name: [0.0, 0.5, np.nan, np.nan]})
+    with pytest.raises(ValueError, match="t_max must not be NaN; use inf"):  # a scalar has no ray to name
+        wrt.trace(scene, origins, directions, t_max=np.nan)

@@ -173,8 +173,10 @@ def _limits(name: str, values, default: float, n: int) -> np.ndarray:
     limits = as_float32(name, default if values is None else values, round_up=True)
     if limits.shape not in ((), (n,)):
         raise ValueError(f"{name} must be a scalar or one value per ray, shape ({n},); got shape {limits.shape}")
-    if np.isnan(limits).any():  # every ray would miss without a word (a list [None] converts to NaN)
-        raise ValueError(f"{name} must not be NaN" + ("; use inf (or None) for no limit" if default > 0 else ""))
+    nan = np.flatnonzero(np.isnan(limits))
+    if len(nan):  # every ray would miss without a word (a list [None] converts to NaN)
+        where = f" (ray {nan[0]} is the first of {len(nan)})" if limits.ndim else ""
+        raise ValueError(f"{name} must not be NaN{where}" + ("; use inf (or None) for no limit" if default > 0 else ""))
     return np.broadcast_to(limits, (n,)).copy()
 
 
@@ -198,8 +200,8 @@ def upload_rays(origins, directions, t_min, t_max, device, unit_rays: bool = Fal
         hint = "; pass a grid of rays as grid.reshape(-1, 3) (and reshape the results to its shape)" if grid else ""
         raise ValueError(f"origins and directions must both be (N, 3) arrays{same}, got {_shape(o)} and {_shape(d)}"
                          + hint)
-    n = max(no, nd)
-    if no != nd:  # one ray against many, as numpy broadcasts
+    n = nd if no == 1 else no  # one ray against many (or none), as numpy broadcasts (1, 3) with (0, 3) to (0, 3)
+    if no != nd:
         o, d = (np.broadcast_to(_numpy(r), (n, 3)) if len(r) == 1 else r for r in (o, d))
     t_mins, t_maxs = _limits("t_min", t_min, 0.0, n), _limits("t_max", t_max, np.inf, n)
     rays = [
