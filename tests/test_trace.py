@@ -13,7 +13,7 @@ from wrt.geometry import intersect_ray_triangle, make_sheared_ray
 from wrt.instancing import Instances, Prototype
 from wrt.rays import camera_rays, random_rays
 from wrt.scene import Mesh
-from wrt.trace import get_accelerator
+from wrt.trace import WARP_BUILDERS, get_accelerator
 
 SHARED_SCENES = (
     "cornell_box",
@@ -1044,3 +1044,73 @@ def test_nan_limits_raise_naming_the_first_bad_ray():
                 query(scene, origins, directions, **{name: [0.0, 0.5, np.nan, np.nan]})
     with pytest.raises(ValueError, match="t_max must not be NaN; use inf"):  # a scalar has no ray to name
         wrt.trace(scene, origins, directions, t_max=np.nan)
+
+
+def float64_closest_hits(points, indices, origins, directions, t_min, t_max):
+    """Closest hit of each ray over every triangle, in float64 (Moller-Trumbore): ``(t, prim, clear)``, with ``t``
+    inf and ``prim`` -1 on a miss, and ``clear`` False for rays that float32 may decide either way (a triangle
+    within 1e-4 of its edge, a hit within 1e-4 relative of a limit, two hits that close)."""
+    p0, p1, p2 = (points[indices[:, k]].astype(np.float64) for k in range(3))
+    o, d = np.asarray(origins, np.float64), np.asarray(directions, np.float64)
+    e1, e2 = p1 - p0, p2 - p0
+    pv = np.cross(d[:, None], e2[None])
+    det = np.einsum("nmk,mk->nm", pv, e1)
+    tv = o[:, None] - p0[None]
+    qv = np.cross(tv, e1[None])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.einsum("nmk,nmk->nm", tv, pv) / det
+        v = np.einsum("nk,nmk->nm", d, qv) / det
+        t = np.einsum("mk,nmk->nm", e2, qv) / det
+    margin = np.minimum(np.minimum(u, v), 1 - u - v)
+    crossed = (margin > 0) & np.isfinite(t)
+    candidates = np.where(crossed & (t >= t_min[:, None]) & (t < t_max[:, None]), t, np.inf)
+    prim = candidates.argmin(axis=1)
+    best = candidates[np.arange(len(o)), prim]
+    slack = 1e-4 * (np.abs(t) + 1e-3 / np.linalg.norm(d, axis=1)[:, None])
+    near_limit = crossed & ((np.abs(t - t_min[:, None]) < slack) | (np.abs(t - t_max[:, None]) < slack))
+    near_edge = (np.abs(margin) < 1e-4) & np.isfinite(t)
+    second = np.sort(candidates, axis=1)[:, 1] if candidates.shape[1] > 1 else np.full(len(o), np.inf)
+    with np.errstate(invalid="ignore"):
+        near_tie = np.isfinite(second) & (second - best < 1e-4 * np.abs(best))
+    clear = ~(near_limit.any(axis=1) | near_edge.any(axis=1) | near_tie)
+    return best, np.where(np.isfinite(best), prim, -1), clear
+
+
+@pytest.mark.parametrize("builder", ["sah", "sweep_sah", "median", "middle", "lbvh", "ploc"])
+def test_random_rays_and_ranges_in_any_array_form_match_a_float64_oracle(builder, np_rng):
+    """Float64 rays in Fortran order and through negative strides, directions of lengths 1e-30 to 1e30, and per-ray
+    ranges of every kind (negative ``t_min``, ``-inf``, empty, ``t_min > t_max``, ``t_min == t_max``): every layout,
+    the two-level traversal and ``wp.Mesh`` give the float64 brute-force answer on every ray it can decide, and
+    ``occluded`` agrees with ``trace``."""
+    points, indices = random_soup(np_rng, 60)
+    flat = wrt.Scene.from_triangles(points, indices)
+    proto = Prototype("/P", [Mesh("/P/soup", points, indices, np.zeros(len(indices), np.int32))])
+    instanced = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms([0], np.eye(4)[None]))
+    n = 600
+    origins = np_rng.uniform(-2, 2, (n, 3))
+    aims = points[indices[np_rng.integers(0, len(indices), n)]].mean(axis=1) + np_rng.normal(scale=0.02, size=(n, 3))
+    directions = (aims - origins) * 10.0 ** np_rng.uniform(-30, 30, (n, 1))
+    origins32, directions32 = origins.astype(np.float32), directions.astype(np.float32)
+    unit = 1.0 / np.linalg.norm(directions32.astype(np.float64), axis=1)  # t of one unit of distance
+    a, b = np_rng.uniform(-2, 3, n) * unit, np_rng.uniform(0, 8, n) * unit
+    # Ranges by ray: [0, inf), [-inf, a + b), [a, a + b), [a + b, a) (t_min > t_max), [a, a), [a, inf); a may be < 0.
+    kind = np.arange(n) % 6
+    t_min = np.select([kind == 0, kind == 1, kind == 3], [np.zeros(n), np.full(n, -np.inf), a + b], a)
+    t_max = np.select([kind == 0, kind == 3, kind == 4, kind == 5], [np.full(n, np.inf), a, a, np.full(n, np.inf)],
+                      a + b)
+    t, prim, clear = float64_closest_hits(points, indices, origins32, directions32, t_min, t_max)
+    assert (prim >= 0).sum() > n / 4 and clear.sum() > 0.95 * n
+    fortran, reversed_view = np.asfortranarray(origins), directions[::-1, ::-1][::-1, ::-1]
+    configs = [("wrt", layout, flat) for layout in ("binary", "compact", "wide", "wide8")] + [("wrt", "binary",
+                                                                                              instanced)]
+    if builder in WARP_BUILDERS:
+        configs.append(("warp", "binary", flat))
+    for accel, layout, scene in configs:
+        query = {"accel": accel, "layout": layout, "builder": builder, "t_min": t_min, "t_max": t_max}
+        hits = wrt.trace(scene, fortran, reversed_view, **query)
+        label = (accel, layout, len(scene.instances))
+        np.testing.assert_array_equal(hits.prim[clear], prim[clear], err_msg=str(label))
+        np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-4, err_msg=str(label))
+        reported = hits.t[hits.hit].astype(np.float64)
+        assert ((reported >= t_min[hits.hit]) & (reported < t_max[hits.hit])).all(), label
+        np.testing.assert_array_equal(wrt.occluded(scene, fortran, reversed_view, **query), hits.hit, str(label))
