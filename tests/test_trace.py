@@ -994,6 +994,19 @@ def test_tiny_t_limits_keep_their_meaning_along_short_directions(accel, layout, 
     np.testing.assert_allclose(hits.t, 1.0 / lengths[:4].astype(np.float64), rtol=1e-6)
 
 
+def test_a_tiny_t_min_along_a_short_direction_excludes_an_analytic_sphere_at_t_0():
+    """Analytic shapes (traced under the TLAS) take the same scaled limits: from the top of a unit sphere along
+    ``(0, 0, -1e-30)`` a ``t_min`` of 1e-20 scaled to 0 and the hit at the origin (t = 0) was reported; the next hit
+    is the far side, 2 away: t = 2e30."""
+    from wrt.primitives import Shape
+
+    scene = wrt.Scene(shapes=[Shape("/S", "sphere", np.eye(4))])
+    for t_min, expected in ((0.0, 0.0), (1e-20, 2e30), (1e-40, 2e30)):
+        hits = wrt.trace(scene, [0, 0, 1], [0, 0, -1e-30], t_min=t_min)
+        assert hits.prim.tolist() == [0]
+        np.testing.assert_allclose(hits.t, [expected], rtol=1e-6)
+
+
 @pytest.mark.parametrize("layout, instanced", [("binary", False), ("wide8", False), ("binary", True)])
 def test_limits_at_a_hits_own_t_decide_it_exactly_along_directions_of_any_length(layout, instanced, np_rng):
     """Origins a subnormal height above the triangle, directions of lengths 2^-125 to 2: the scaled rays of the
