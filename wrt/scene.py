@@ -885,7 +885,14 @@ class Scene:
             spaces = np.concatenate([np.full(self.num_flat_triangles, -1), np.repeat(np.arange(len(ranges)),
                                                                                      ranges[:, 1])])
             double_sided = self.triangle_double_sided()[: len(indices)]  # its shapes (after the triangles) have none
-            self._cache[key] = find_partners(points, indices, spaces, double_sided)
+            # Each triangle's polygon: a run of one face id in one mesh (a new mesh starts a new polygon).
+            meshes = self._geometry_meshes()
+            face_ids = np.concatenate([np.zeros(0, np.int64)] + [m.face_ids for m in meshes])
+            firsts = np.cumsum([0] + [len(m.indices) for m in meshes])[:-1]
+            starts = np.zeros(len(indices), bool)
+            starts[firsts[firsts < len(indices)]] = True
+            starts[1:] |= face_ids[1:] != face_ids[:-1]
+            self._cache[key] = find_partners(points, indices, spaces, double_sided, np.flatnonzero(starts))
         return self._cache[key]
 
     def corner_uvs(self) -> np.ndarray:

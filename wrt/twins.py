@@ -164,18 +164,22 @@ def edge_partners(points, indices, spaces, double_sided, uncertain) -> np.ndarra
     return np.concatenate([np.stack([t[forward], p[forward]], 1), np.stack([p[backward], t[backward]], 1)])
 
 
-def find_partners(points, indices, spaces, double_sided):
+def find_partners(points, indices, spaces, double_sided, face_starts=None):
     """Each single-sided triangle's partners (module docstring), as ranges of geometry ids.
 
     Coplanar pairs come from :func:`wrt.coplanar.coplanar_pairs` (a hash of the triangles' planes: a scene where no
     plane holds both sides costs a kernel over the triangles and a count of its cells); the triangles whose normals
-    are too uncertain to hash (slivers) are paired across their edges (:func:`edge_partners`).
+    are too uncertain to hash (slivers) are paired across their edges (:func:`edge_partners`); given the polygons, the
+    triangles of a polygon and of its reversal (a bent one's fans are not coplanar) are paired too
+    (:func:`wrt.reversed_polygons.reversed_pairs`).
 
     Args:
         points: ``(V, 3)`` float32 vertex positions.
         indices: ``(T, 3)`` int rows into ``points``.
         spaces: ``(T,)`` int: the space of each triangle's points (e.g. -1 world, ``k`` prototype ``k``).
         double_sided: ``(T,)`` bool: the triangle's mesh is double-sided.
+        face_starts: ``(F,)`` int, ascending: the first row of each polygon (its triangles are the rows up to the
+            next one's first), or None.
 
     Returns:
         ``(offsets, ranges)``: ``(T + 1,)`` int32, triangle ``t``'s partners are ``ranges[offsets[t]:offsets[t +
@@ -193,6 +197,10 @@ def find_partners(points, indices, spaces, double_sided):
     pairs, uncertain = coplanar_pairs(points, indices, spaces, double_sided)
     if len(uncertain):
         pairs = np.concatenate([pairs, edge_partners(points, indices, spaces, double_sided, uncertain)])
+    if face_starts is not None:
+        from .reversed_polygons import reversed_pairs
+
+        pairs = np.concatenate([pairs, reversed_pairs(points, indices, spaces, double_sided, face_starts)])
     if not len(pairs):
         return None
     # Sorted by triangle, then partner, without repeats (as one int64 key: np.unique along axis 0 took 4 times as long).
