@@ -450,6 +450,53 @@ def pair_entries_kernel(
                 partners[slot, 1] = p
 
 
+@wp.kernel
+def triangle_margins_kernel(
+    points: wp.array[wp.vec3],
+    indices: wp.array2d[wp.int32],
+    triangles: wp.array[wp.int32],
+    area2: wp.array[wp.float64],
+    # outputs
+    margins: wp.array[wp.float64],
+    deltas: wp.array[wp.float64],
+):
+    """The normal margin and offset tolerance of triangle ``triangles[i]`` (``area2[i]``: the length of its normal),
+    by the rule the hash and the pairing use (module docstring), for callers on the host (``wrt.twins``)."""
+    i = wp.tid()
+    t = triangles[i]
+    a = corner(points, indices, t, 0)
+    b = corner(points, indices, t, 1)
+    c = corner(points, indices, t, 2)
+    longest = longest_edge(a, b, c)
+    rounding = corner_rounding(a, b, c)
+    margins[i] = normal_margin(area2[i], longest, rounding)
+    deltas[i] = _TOLERANCE * longest + rounding
+
+
+def triangle_margins(points, indices, triangles, area2) -> tuple[np.ndarray, np.ndarray]:
+    """The normal margin (radians) and offset tolerance of each of ``triangles`` (module docstring), in float64.
+
+    Args:
+        points: ``(V, 3)`` float32 vertex positions.
+        indices: ``(T, 3)`` int rows into ``points``.
+        triangles: ``(N,)`` int rows of ``indices``.
+        area2: ``(N,)`` float64 length of each one's normal (twice its area).
+
+    Returns:
+        ``((N,) float64 margins, (N,) float64 offset tolerances)``.
+    """
+    device = "cpu"
+    n = len(triangles)
+    out = [wp.empty(n, dtype=wp.float64, device=device) for _ in range(2)]
+    if n:
+        wp.launch(triangle_margins_kernel, dim=n, device=device, outputs=out,
+                  inputs=[wp.array(np.ascontiguousarray(points, np.float32), dtype=wp.vec3, device=device),
+                          wp.array(np.ascontiguousarray(indices, np.int32), dtype=wp.int32, device=device),
+                          wp.array(np.asarray(triangles, np.int32), dtype=wp.int32, device=device),
+                          wp.array(np.asarray(area2, np.float64), dtype=wp.float64, device=device)])
+    return out[0].numpy(), out[1].numpy()
+
+
 def _plane_entries(points, indices, spaces, double_sided):
     """The plane cells of every triangle (:func:`plane_cells_kernel`): ``(keys, codes, owners, uncertain)``, the
     last the triangles too uncertain to hash."""

@@ -54,17 +54,6 @@ def _edge_ends(points, indices, triangles, edges, far_only=False):
     return ends[0] if far_only else ends
 
 
-def _margins(points, indices, triangles, area2):
-    """:mod:`wrt.coplanar`'s normal margin and offset tolerance of each of ``triangles``, in float64
-    (``area2``: the length of its normal)."""
-    from .coplanar import ANGLE_TOLERANCE, COPLANAR_TOLERANCE, CORNER_ROUNDING
-
-    corners = points[indices[triangles]].astype(np.float64)  # (N, 3, 3)
-    longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2).max(axis=1)
-    rounding = CORNER_ROUNDING * np.abs(corners).max(axis=(1, 2))
-    return ANGLE_TOLERANCE + 4.0 * rounding * longest / area2, COPLANAR_TOLERANCE * longest + rounding
-
-
 def edge_partners(points, indices, spaces, double_sided, uncertain) -> np.ndarray:
     """Partner pairs ``(t, p)`` across the edges of the ``uncertain`` triangles (those :mod:`wrt.coplanar` cannot
     hash: slivers), one of the two uncertain: ``t`` single-sided, ``p`` double-sided or facing the other way, the two
@@ -88,6 +77,8 @@ def edge_partners(points, indices, spaces, double_sided, uncertain) -> np.ndarra
     Returns:
         ``(P, 2)`` int64 pairs ``(t, p)``; a pair may repeat.
     """
+    from .coplanar import triangle_margins
+
     none = np.zeros((0, 2), np.int64)
     points = np.asarray(points, np.float32)
     uncertain = np.asarray(uncertain, np.int64)
@@ -146,8 +137,8 @@ def edge_partners(points, indices, spaces, double_sided, uncertain) -> np.ndarra
     same_side = np.einsum("ij,ij->i", n_mine, n_theirs) > 0.0  # (false for a degenerate one)
     area_mine, area_theirs = np.linalg.norm(n_mine, axis=1), np.linalg.norm(n_theirs, axis=1)
     keep = np.flatnonzero(same_side)
-    m_mine, delta_mine = _margins(points, indices, tris[mine[keep]], area_mine[keep])
-    m_theirs, delta_theirs = _margins(points, indices, tris[theirs[keep]], area_theirs[keep])
+    m_mine, delta_mine = triangle_margins(points, indices, tris[mine[keep]], area_mine[keep])
+    m_theirs, delta_theirs = triangle_margins(points, indices, tris[theirs[keep]], area_theirs[keep])
     n_mine, n_theirs = n_mine[keep], n_theirs[keep]
     area_mine, area_theirs = area_mine[keep], area_theirs[keep]
     angle = np.linalg.norm(np.cross(n_mine, n_theirs), axis=1) / (area_mine * area_theirs)
