@@ -395,3 +395,39 @@ def partner_sets(found, n: int) -> list[set]:
     offsets, ranges = found
     return [{p for first, count in ranges[offsets[t]:offsets[t + 1]] for p in range(first, first + count)}
             for t in range(n)]
+
+
+def fan_over_big_triangle(fan_triangles: int) -> tuple[list, list]:
+    """A disc of radius 1.5 on z = 0 fanned from its centre into ``fan_triangles`` triangles facing +z, under one
+    big triangle facing -z that covers it (listed first: where the hits tie, the query reports it), a double-sided
+    wall at z = -3; and the oracle: the same without the big triangle."""
+    angles = 0.123 + np.linspace(0.0, 2.0 * np.pi, fan_triangles + 1)  # (no fan edge through a pixel centre)
+    disc = np.concatenate([[[0.0, 0.0, 0.0]], np.stack([1.5 * np.cos(angles), 1.5 * np.sin(angles), 0 * angles], 1)])
+    fan_tris = np.stack([np.zeros(fan_triangles, int), np.arange(1, fan_triangles + 1),
+                         np.arange(2, fan_triangles + 2)], 1)
+    big = Mesh("/Big", np.array([[0, 4, 0], [3.47, -2, 0], [-3.47, -2, 0]], np.float32), np.array([[0, 1, 2]]), [0])
+    disc_mesh = Mesh("/Disc", disc.astype(np.float32), fan_tris, np.zeros(fan_triangles, int))
+    wall = Mesh("/Wall", np.array([[-9, -9, -3], [9, -9, -3], [9, 9, -3], [-9, 9, -3]], np.float32),
+                np.array(fan([0, 1, 2, 3])), [0, 0], double_sided=True)
+    return [big, disc_mesh, wall], [disc_mesh, wall]
+
+
+def test_past_max_partners_warns_naming_the_mesh():
+    """A big triangle over a finer fan of the other winding: with MAX_PARTNERS fan triangles every pixel over the
+    disc shows the fan at its depth from above (the oracle: the scene without the big triangle), and nothing is
+    said; with more, the big triangle keeps MAX_PARTNERS of them and a warning names its mesh (HEAD said nothing,
+    and the wall behind showed through the fan triangles past the first 64)."""
+    import warnings
+
+    camera = wrt.Camera(to_world=np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 5.0], [0, 0, 0, 1]]),
+                        projection="orthographic", horizontal_aperture=40.0, vertical_aperture=40.0)
+    meshes, oracle = fan_over_big_triangle(MAX_PARTNERS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        aovs = wrt.render(wrt.Scene(meshes=meshes), camera=camera, width=40, height=40, integrator="albedo").aovs
+    want = wrt.render(wrt.Scene(meshes=oracle), camera=camera, width=40, height=40, integrator="albedo").aovs
+    assert (want["prim"] < MAX_PARTNERS).sum() > 400
+    np.testing.assert_allclose(aovs["depth"], want["depth"], rtol=0, atol=2e-6)
+    meshes, _ = fan_over_big_triangle(MAX_PARTNERS + 32)
+    with pytest.warns(UserWarning, match=f"1 triangle.* more than {MAX_PARTNERS} coplanar .*: /Big$"):
+        wrt.Scene(meshes=meshes).triangle_partners()

@@ -892,8 +892,25 @@ class Scene:
             starts = np.zeros(len(indices), bool)
             starts[firsts[firsts < len(indices)]] = True
             starts[1:] |= face_ids[1:] != face_ids[:-1]
-            self._cache[key] = find_partners(points, indices, spaces, double_sided, np.flatnonzero(starts))
+            self._cache[key] = find_partners(points, indices, spaces, double_sided, np.flatnonzero(starts),
+                                             on_capped=lambda ids: self._warn_capped_partners(meshes, firsts, ids))
         return self._cache[key]
+
+    def _warn_capped_partners(self, meshes: list, firsts: np.ndarray, capped: np.ndarray) -> None:
+        """Warns naming the meshes of the ``capped`` triangles (geometry ids; ``firsts``: each of ``meshes``' first
+        geometry id), which overlap more coplanar reversed triangles than :data:`wrt.twins.MAX_PARTNERS`."""
+        import warnings
+
+        from .errors import user_stacklevel
+        from .twins import MAX_PARTNERS
+
+        owners = np.searchsorted(firsts, capped, side="right") - 1
+        paths = list(dict.fromkeys(meshes[k].path for k in owners))
+        shown = ", ".join(paths[:5]) + (f" and {len(paths) - 5} more" if len(paths) > 5 else "")
+        warnings.warn(f"{self.source or 'scene'}: {len(capped):,} triangle(s) overlap more than {MAX_PARTNERS} "
+                      "coplanar triangles facing the other way (a big face over a finer reversed one) and keep the "
+                      f"first {MAX_PARTNERS}: where none of those holds a culled hit on one, the camera sees what "
+                      f"lies behind it: {shown}", stacklevel=user_stacklevel())
 
     def corner_uvs(self) -> np.ndarray:
         """``(T, 3, 2)`` float32 texture coordinates per triangle corner (geometry order; zero where a mesh has

@@ -155,7 +155,7 @@ def edge_partners(points, indices, spaces, double_sided, uncertain) -> np.ndarra
     return np.concatenate([np.stack([t[forward], p[forward]], 1), np.stack([p[backward], t[backward]], 1)])
 
 
-def find_partners(points, indices, spaces, double_sided, face_starts=None):
+def find_partners(points, indices, spaces, double_sided, face_starts=None, on_capped=None):
     """Each single-sided triangle's partners (module docstring), as ranges of geometry ids.
 
     Coplanar pairs come from :func:`wrt.coplanar.coplanar_pairs` (a hash of the triangles' planes: a scene where no
@@ -171,6 +171,8 @@ def find_partners(points, indices, spaces, double_sided, face_starts=None):
         double_sided: ``(T,)`` bool: the triangle's mesh is double-sided.
         face_starts: ``(F,)`` int, ascending: the first row of each polygon (its triangles are the rows up to the
             next one's first), or None.
+        on_capped: called with the ``(N,)`` int64 geometry ids of the triangles that have more than
+            :data:`MAX_PARTNERS` partners (they keep the first), if any.
 
     Returns:
         ``(offsets, ranges)``: ``(T + 1,)`` int32, triangle ``t``'s partners are ``ranges[offsets[t]:offsets[t +
@@ -197,9 +199,12 @@ def find_partners(points, indices, spaces, double_sided, face_starts=None):
     # Sorted by triangle, then partner, without repeats (as one int64 key: np.unique along axis 0 took 4 times as long).
     keys = np.unique(pairs[:, 0].astype(np.int64) * n + pairs[:, 1])
     pairs = np.stack([keys // n, keys % n], axis=1)
-    # Keep each triangle's first MAX_PARTNERS.
+    # Keep each triangle's first MAX_PARTNERS; name those that had more.
     starts = np.concatenate([[True], pairs[1:, 0] != pairs[:-1, 0]])
     rank = np.arange(len(pairs)) - np.maximum.accumulate(np.where(starts, np.arange(len(pairs)), 0))
+    capped = pairs[rank == MAX_PARTNERS, 0]
+    if len(capped) and on_capped is not None:
+        on_capped(capped)
     pairs = pairs[rank < MAX_PARTNERS]
     # Runs of consecutive partners of one triangle become one range.
     new = np.concatenate([[True], (pairs[1:, 0] != pairs[:-1, 0]) | (pairs[1:, 1] != pairs[:-1, 1] + 1)])
