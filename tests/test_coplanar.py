@@ -455,3 +455,27 @@ def test_slivers_overlapping_without_a_shared_edge_show_the_side_facing_the_came
     want = wrt.render(wrt.Scene(meshes=[facing, wall]), camera=camera, width=96, height=16, integrator="albedo").aovs
     assert (want["depth"] < 7).sum() > 400
     np.testing.assert_allclose(aovs["depth"], want["depth"], rtol=0, atol=2e-6)
+
+
+def test_strongly_bent_reversal_across_the_canonical_sign_is_paired():
+    """A quad bent by a third of its size, turned so that its vector area is at right angles to the hash's canonical
+    direction (wrt.coplanar.GENERIC), so its triangles' normals fall on either side of it, and its reversal along
+    the other diagonal: every triangle of one is a partner of both of the other, as for any bent polygon (a pass
+    skipped when all triangles face one way must not skip them)."""
+    from wrt.coplanar import GENERIC
+
+    quad = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.3]], np.float64)
+    area = np.cross(quad[2] - quad[0], quad[3] - quad[1])
+    # A rotation taking the vector area to a direction at right angles to GENERIC.
+    target = np.cross(GENERIC, [0.0, 0.0, 1.0])
+    a, b = area / np.linalg.norm(area), target / np.linalg.norm(target)
+    v, c = np.cross(a, b), np.dot(a, b)
+    skew = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+    turn = np.eye(3) + skew + skew @ skew / (1 + c)
+    points = (quad @ turn.T + [0.3, -0.2, 0.1]).astype(np.float32)
+    tris = fan([0, 1, 2, 3]) + fan([3, 2, 1, 0])
+    signs = np.sign(np.cross(points[[1, 2, 2, 1]] - points[[0, 0, 3, 3]], points[[2, 3, 1, 0]] - points[[0, 0, 3, 3]])
+                    @ np.asarray(GENERIC))
+    assert set(signs) == {-1.0, 1.0}  # the case meant: normals each side of the canonical direction
+    found = find_partners(points, tris, [-1] * 4, np.zeros(4, bool), [0, 2])
+    assert partner_sets(found, 4) == [{2, 3}] * 2 + [{0, 1}] * 2

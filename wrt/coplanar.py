@@ -210,9 +210,11 @@ def plane_cells_kernel(
     keys: wp.array[wp.uint64],
     codes: wp.array[wp.int32],
     copies: wp.array[wp.int32],
+    sides_seen: wp.array[wp.int32],
 ):
     """Triangle ``t``'s first plane cell (``keys``; ``codes``: :func:`side_code` + 3 projection axis) and how many
-    cells it is in (``copies``; 0 degenerate, -1 a normal too uncertain to hash or more than ``max_copies`` cells)."""
+    cells it is in (``copies``; 0 degenerate, -1 a normal too uncertain to hash or more than ``max_copies`` cells);
+    1 in ``sides_seen[k]`` when some triangle hashed has side code ``k``."""
     t = wp.tid()
     u, centroid, m, delta, longest = triangle_plane(points, indices, t, origin)
     keys[t] = wp.uint64(0)
@@ -232,6 +234,7 @@ def plane_cells_kernel(
         if s == 1:
             sign = -first
         lo, n = normal_cells(sign * u, r, per_n)
+        sides_seen[side_code(sign, double_sided[t])] = 1  # (every thread writes 1: no race to lose)
         for k in range(n[0] * n[1] * n[2]):
             qd, nd = offset_cells(nth_normal_cell(lo, n, k), centroid, e, per_n, per_d)
             if s == 0 and k == 0:
@@ -498,8 +501,9 @@ def triangle_margins(points, indices, triangles, area2) -> tuple[np.ndarray, np.
 
 
 def _plane_entries(points, indices, spaces, double_sided):
-    """The plane cells of every triangle (:func:`plane_cells_kernel`): ``(keys, codes, owners, uncertain)``, the
-    last the triangles too uncertain to hash."""
+    """The plane cells of every triangle (:func:`plane_cells_kernel`): ``(keys, codes, owners, uncertain, opposed)``:
+    ``uncertain`` the triangles too uncertain to hash, ``opposed`` whether a triangle hashed may face another's back
+    (sides 0 and 1 seen, or 2 and either)."""
     pts = np.ascontiguousarray(points, np.float32)
     lower = np.array([pts[:, k].min() for k in range(3)], np.float64)  # by column: a reduction along axis 0 of
     upper = np.array([pts[:, k].max() for k in range(3)], np.float64)  # (V, 3) took 20 times as long
@@ -520,12 +524,14 @@ def _plane_entries(points, indices, spaces, double_sided):
     keys = wp.empty(n, dtype=wp.uint64, device=device)
     codes = wp.empty(n, dtype=wp.int32, device=device)
     copies = wp.empty(n, dtype=wp.int32, device=device)
-    wp.launch(plane_cells_kernel, dim=n, inputs=args, outputs=[keys, codes, copies], device=device)
+    seen = wp.zeros(3, dtype=wp.int32, device=device)
+    wp.launch(plane_cells_kernel, dim=n, inputs=args, outputs=[keys, codes, copies, seen], device=device)
     keys, codes, copies = keys.numpy(), codes.numpy(), copies.numpy()
+    opposed = bool(_partnered(seen.numpy()[None, :] > 0)[0][seen.numpy() > 0].any())
     single = np.flatnonzero(copies == 1)
     multi = np.flatnonzero(copies > 1)
     if not len(multi):
-        return keys[single], codes[single], single, np.flatnonzero(copies < 0)
+        return keys[single], codes[single], single, np.flatnonzero(copies < 0), opposed
     offsets = np.concatenate([[0], np.cumsum(copies[multi])])
     out = [wp.empty(int(offsets[-1]), dtype=dtype, device=device) for dtype in (wp.uint64, wp.int32, wp.int32)]
     wp.launch(plane_copies_kernel, dim=len(multi), device=device, outputs=out,
@@ -533,7 +539,7 @@ def _plane_entries(points, indices, spaces, double_sided):
                              wp.array(offsets[:-1].astype(np.int32), dtype=wp.int32, device=device)])
     extra_keys, extra_codes, extra_owners = (a.numpy() for a in out)
     return (np.concatenate([keys[single], extra_keys]), np.concatenate([codes[single], extra_codes]),
-            np.concatenate([single, extra_owners]), np.flatnonzero(copies < 0))
+            np.concatenate([single, extra_owners]), np.flatnonzero(copies < 0), opposed)
 
 
 def _two_sided_cells(keys: np.ndarray, sides: np.ndarray) -> np.ndarray:
@@ -571,10 +577,11 @@ def _ranks(counts: np.ndarray) -> np.ndarray:
     return np.arange(int(counts.sum()), dtype=np.int64) - np.repeat(np.cumsum(counts) - counts, counts)
 
 
-def coplanar_pairs(points, indices, spaces, double_sided) -> tuple[np.ndarray, np.ndarray]:
+def coplanar_pairs(points, indices, spaces, double_sided) -> tuple[np.ndarray, np.ndarray, bool]:
     """Pairs ``(t, p)`` of triangles: ``t`` single-sided, ``p`` in the same space, coplanar with it (module
-    docstring), overlapping it in area, and facing the other way or double-sided; and the triangles whose normals
-    are too uncertain to pair here.
+    docstring), overlapping it in area, and facing the other way or double-sided; the triangles whose normals are
+    too uncertain to pair here; and whether any two hashed triangles may face each other's backs at all (the
+    canonical sides of their normals (:func:`side_code`) both seen, or a double-sided one and a single-sided one).
 
     Args:
         points: ``(V, 3)`` float32 vertex positions.
@@ -583,19 +590,19 @@ def coplanar_pairs(points, indices, spaces, double_sided) -> tuple[np.ndarray, n
         double_sided: ``(T,)`` bool: the triangle's mesh is double-sided.
 
     Returns:
-        ``((P, 2) int64 pairs (t, p), (U,) int64 uncertain triangles)``; a pair may repeat.
+        ``((P, 2) int64 pairs (t, p), (U,) int64 uncertain triangles, opposed)``; a pair may repeat.
     """
     indices = np.ascontiguousarray(np.asarray(indices).reshape(-1, 3), np.int32)
     none = np.zeros((0, 2), np.int64)
     if not len(indices):
-        return none, np.zeros(0, np.int64)
-    keys, codes, owners, uncertain = _plane_entries(points, indices, spaces, double_sided)
-    chosen = _two_sided_cells(keys, codes % 3)
+        return none, np.zeros(0, np.int64), False
+    keys, codes, owners, uncertain, opposed = _plane_entries(points, indices, spaces, double_sided)
+    chosen = _two_sided_cells(keys, codes % 3) if opposed else np.zeros(0, np.int64)  # (a floor: all one side)
     if not len(chosen):  # the common case ends here
-        return none, uncertain
+        return none, uncertain, opposed
     pairs = _run_probes(points, indices, *_grid_probes(points, indices, keys[chosen], codes[chosen], owners[chosen]))
     spaces = np.asarray(spaces)
-    return pairs[spaces[pairs[:, 0]] == spaces[pairs[:, 1]]], uncertain  # (a 64-bit key shared across spaces)
+    return pairs[spaces[pairs[:, 0]] == spaces[pairs[:, 1]]], uncertain, opposed  # (a 64-bit key across spaces)
 
 
 # Rows of a 2D cell are sorted by side in this order (1, 2, 0), so that the sides that may face a side-0 entry (1,

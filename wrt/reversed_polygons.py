@@ -23,14 +23,13 @@ each other's planes, well within the tolerance).
 import numpy as np
 import warp as wp
 
-from .coplanar import COPLANAR_TOLERANCE, _two_sided_cells, corner, corner_rounding, longest_edge, mix64
+from .coplanar import _MIX_1, COPLANAR_TOLERANCE, _two_sided_cells, corner, corner_rounding, longest_edge, mix64
 from .twins import MAX_PARTNERS
 
 wp.set_module_options({"enable_backward": False})
 
 MAX_FACE_TRIANGLES = 16  # faces of more triangles are left to the coplanar hash (each pair costs their product)
 FLAT_ROUNDINGS = 4.0  # corners this many float32 roundings off a face's first triangle's plane are flat (rounding)
-_SALT = wp.constant(wp.uint64(0x9E3779B97F4A7C15))  # golden-ratio constant: B(p) from A(p)
 _MINUS_ZERO = wp.constant(wp.uint32(0x80000000))  # float32 -0: hashed as +0, the same position
 
 
@@ -46,14 +45,15 @@ def flat_limit(a: wp.vec3d, b: wp.vec3d, c: wp.vec3d):
 @wp.func
 def position_point(bits: wp.array2d[wp.uint32], v: int):
     """Vertex ``v``'s position hashed to a point ``(A, B)`` of the pseudo-random plane (equal positions, equal
-    points)."""
+    points): ``A`` the mixed coordinate bits, ``B`` its halves swapped (a multiple of ``A`` would cancel)."""
     h = wp.uint64(0)
     for k in range(3):
         b = bits[v, k]
         if b == _MINUS_ZERO:
             b = wp.uint32(0)
-        h = mix64(h ^ wp.uint64(b) ^ (wp.uint64(k + 1) << wp.uint64(32)))
-    return h, mix64(h ^ _SALT)
+        h = h * _MIX_1 + wp.uint64(b)
+    a = mix64(h)
+    return a, (a << wp.uint64(32)) | (a >> wp.uint64(32))
 
 
 @wp.kernel

@@ -885,14 +885,17 @@ class Scene:
             spaces = np.concatenate([np.full(self.num_flat_triangles, -1), np.repeat(np.arange(len(ranges)),
                                                                                      ranges[:, 1])])
             double_sided = self.triangle_double_sided()[: len(indices)]  # its shapes (after the triangles) have none
-            # Each triangle's polygon: a run of one face id in one mesh (a new mesh starts a new polygon).
             meshes = self._geometry_meshes()
-            face_ids = np.concatenate([np.zeros(0, np.int64)] + [m.face_ids for m in meshes])
             firsts = np.cumsum([0] + [len(m.indices) for m in meshes])[:-1]
-            starts = np.zeros(len(indices), bool)
-            starts[firsts[firsts < len(indices)]] = True
-            starts[1:] |= face_ids[1:] != face_ids[:-1]
-            self._cache[key] = find_partners(points, indices, spaces, double_sided, np.flatnonzero(starts),
+
+            def face_starts() -> np.ndarray:  # each polygon's first row: a run of one face id in one mesh
+                face_ids = np.concatenate([np.zeros(0, np.int64)] + [m.face_ids for m in meshes])
+                starts = np.zeros(len(indices), bool)
+                starts[firsts[firsts < len(indices)]] = True
+                starts[1:] |= face_ids[1:] != face_ids[:-1]
+                return np.flatnonzero(starts)
+
+            self._cache[key] = find_partners(points, indices, spaces, double_sided, face_starts,
                                              on_capped=lambda ids: self._warn_capped_partners(meshes, firsts, ids))
         return self._cache[key]
 

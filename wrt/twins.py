@@ -170,7 +170,8 @@ def find_partners(points, indices, spaces, double_sided, face_starts=None, on_ca
         spaces: ``(T,)`` int: the space of each triangle's points (e.g. -1 world, ``k`` prototype ``k``).
         double_sided: ``(T,)`` bool: the triangle's mesh is double-sided.
         face_starts: ``(F,)`` int, ascending: the first row of each polygon (its triangles are the rows up to the
-            next one's first), or None.
+            next one's first), a callable returning them (called only when some triangle may face another's
+            back), or None.
         on_capped: called with the ``(N,)`` int64 geometry ids of the triangles that have more than
             :data:`MAX_PARTNERS` partners (they keep the first), if any.
 
@@ -187,13 +188,16 @@ def find_partners(points, indices, spaces, double_sided, face_starts=None, on_ca
     n = len(indices)
     if n < 2 or double_sided.all():
         return None
-    pairs, uncertain = coplanar_pairs(points, indices, spaces, double_sided)
+    pairs, uncertain, opposed = coplanar_pairs(points, indices, spaces, double_sided)
     if len(uncertain):
         pairs = np.concatenate([pairs, edge_partners(points, indices, spaces, double_sided, uncertain)])
-    if face_starts is not None:
+    # A polygon and its reversal have opposite vector areas, so some triangle of the two faces each way (or one is
+    # double-sided, or uncertain): a floor whose triangles all face one way has none.
+    if face_starts is not None and (opposed or len(uncertain)):
         from .reversed_polygons import reversed_pairs
 
-        pairs = np.concatenate([pairs, reversed_pairs(points, indices, spaces, double_sided, face_starts)])
+        starts = face_starts() if callable(face_starts) else face_starts
+        pairs = np.concatenate([pairs, reversed_pairs(points, indices, spaces, double_sided, starts)])
     if not len(pairs):
         return None
     # Sorted by triangle, then partner, without repeats (as one int64 key: np.unique along axis 0 took 4 times as long).
