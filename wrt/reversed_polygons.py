@@ -14,32 +14,31 @@ other's negations (or equal, one of them double-sided) in the same space are pai
 reversed order, but for a 64-bit collision, which would only hand the cull kernel triangles it then finds not to
 hold the point.
 
-Only bent faces are keyed, so a flat floor costs one kernel over its faces: a face whose corners lie within a quarter
-of the coplanar tolerance (plus a few float32 roundings) of its first triangle's plane is flat, and the coplanar hash
-pairs its triangles with its reversal's (whose first triangle may be another: their corners lie within twice that of
-each other's planes, well within the tolerance).
+Only bent faces are keyed: a face whose corners lie within :data:`FLAT_ROUNDINGS` float32 roundings of its first
+triangle's plane is as flat as its corners can be written (a tilted floor's quads are), and the coplanar hash,
+whose margins allow for that rounding, pairs its triangles with its reversal's. (The measure depends on the first
+triangle, so a polygon and its reversal fanned from other corners measure a bend of a few roundings a little
+differently.) A face whose first triangle is degenerate measures nothing and is keyed.
 """
 
 import numpy as np
 import warp as wp
 
-from .coplanar import _MIX_1, COPLANAR_TOLERANCE, _two_sided_cells, corner, corner_rounding, longest_edge, mix64
+from .coplanar import _MIX_1, _two_sided_cells, corner, corner_rounding, mix64
 from .twins import MAX_PARTNERS
 
 wp.set_module_options({"enable_backward": False})
 
 MAX_FACE_TRIANGLES = 16  # faces of more triangles are left to the coplanar hash (each pair costs their product)
-FLAT_ROUNDINGS = 4.0  # corners this many float32 roundings off a face's first triangle's plane are flat (rounding)
+FLAT_ROUNDINGS = 4.0  # a face's corners this many float32 roundings off its first triangle's plane: flat
 _MINUS_ZERO = wp.constant(wp.uint32(0x80000000))  # float32 -0: hashed as +0, the same position
 
 
 @wp.func
 def flat_limit(a: wp.vec3d, b: wp.vec3d, c: wp.vec3d):
     """How far the corners of a face whose first triangle is ``a, b, c`` may lie off that triangle's plane and the
-    face still count as flat (module docstring): a quarter of :mod:`wrt.coplanar`'s offset tolerance, which the
-    rounding of the corners stays under, plus :data:`FLAT_ROUNDINGS` roundings."""
-    return (wp.float64(0.25 * COPLANAR_TOLERANCE) * longest_edge(a, b, c)
-            + wp.float64(FLAT_ROUNDINGS) * corner_rounding(a, b, c))
+    face still count as flat: :data:`FLAT_ROUNDINGS` roundings of their coordinates (:func:`corner_rounding`)."""
+    return wp.float64(FLAT_ROUNDINGS) * corner_rounding(a, b, c)
 
 
 @wp.func
