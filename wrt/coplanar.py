@@ -43,7 +43,7 @@ _TOLERANCE = wp.constant(wp.float64(COPLANAR_TOLERANCE))
 _ROUNDING = wp.constant(wp.float64(CORNER_ROUNDING))
 _MAX_MARGIN = wp.constant(wp.float64(MAX_MARGIN))
 _LEVER = wp.constant(wp.float64(LEVER))
-_MIX_1 = wp.constant(wp.uint64(0xFF51AFD7ED558CCD))  # MurmurHash3 fmix64 constants
+MIX_1 = wp.constant(wp.uint64(0xFF51AFD7ED558CCD))  # MurmurHash3 fmix64 constants
 _MIX_2 = wp.constant(wp.uint64(0xC4CEB9FE1A85EC53))
 
 
@@ -51,7 +51,7 @@ _MIX_2 = wp.constant(wp.uint64(0xC4CEB9FE1A85EC53))
 def mix64(x: wp.uint64):
     """MurmurHash3's 64-bit finaliser (Appleby)."""
     x = x ^ (x >> wp.uint64(33))
-    x = x * _MIX_1
+    x = x * MIX_1
     x = x ^ (x >> wp.uint64(33))
     x = x * _MIX_2
     return x ^ (x >> wp.uint64(33))
@@ -118,8 +118,8 @@ def cell_key(space: int, q: wp.vec3i, qd: int):
     normal cell (its centre's largest component)."""
     h = wp.uint64(space + 2)
     for i in range(3):
-        h = h * _MIX_1 + wp.uint64(wp.int64(q[i]) & wp.int64(0xFFFFFFFF))
-    h = h * _MIX_1 + wp.uint64(wp.int64(qd) & wp.int64(0xFFFFFFFF))
+        h = h * MIX_1 + wp.uint64(wp.int64(q[i]) & wp.int64(0xFFFFFFFF))
+    h = h * MIX_1 + wp.uint64(wp.int64(qd) & wp.int64(0xFFFFFFFF))
     x = wp.abs(q[0])
     y = wp.abs(q[1])
     z = wp.abs(q[2])
@@ -542,7 +542,7 @@ def _plane_entries(points, indices, spaces, double_sided):
             np.concatenate([single, extra_owners]), np.flatnonzero(copies < 0), opposed)
 
 
-def _two_sided_cells(keys: np.ndarray, sides: np.ndarray) -> np.ndarray:
+def two_sided_cells(keys: np.ndarray, sides: np.ndarray) -> np.ndarray:
     """Indices of the entries whose cell (``keys``) holds an entry that may face them from behind (``sides``: 0 and
     1 single-sided facing either way, 2 double-sided): the others can have no partner. Counting sides in buckets of
     a few of the keys' bits, three times with other bits, leaves few entries to sort by key and check exactly."""
@@ -597,7 +597,7 @@ def coplanar_pairs(points, indices, spaces, double_sided) -> tuple[np.ndarray, n
     if not len(indices):
         return none, np.zeros(0, np.int64), False
     keys, codes, owners, uncertain, opposed = _plane_entries(points, indices, spaces, double_sided)
-    chosen = _two_sided_cells(keys, codes % 3) if opposed else np.zeros(0, np.int64)  # (a floor: all one side)
+    chosen = two_sided_cells(keys, codes % 3) if opposed else np.zeros(0, np.int64)  # (a floor: all one side)
     if not len(chosen):  # the common case ends here
         return none, uncertain, opposed
     pairs = _run_probes(points, indices, *_grid_probes(points, indices, keys[chosen], codes[chosen], owners[chosen]))

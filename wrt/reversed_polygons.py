@@ -24,7 +24,7 @@ differently.) A face whose first triangle is degenerate measures nothing and is 
 import numpy as np
 import warp as wp
 
-from .coplanar import _MIX_1, _two_sided_cells, corner, corner_rounding, mix64
+from .coplanar import MIX_1, corner, corner_rounding, mix64, two_sided_cells
 from .twins import MAX_PARTNERS
 
 wp.set_module_options({"enable_backward": False})
@@ -50,7 +50,7 @@ def position_point(bits: wp.array2d[wp.uint32], v: int):
         b = bits[v, k]
         if b == _MINUS_ZERO:
             b = wp.uint32(0)
-        h = h * _MIX_1 + wp.uint64(b)
+        h = h * MIX_1 + wp.uint64(b)
     a = mix64(h)
     return a, (a << wp.uint64(32)) | (a >> wp.uint64(32))
 
@@ -141,7 +141,7 @@ def reversed_pairs(points, indices, spaces, double_sided, face_starts) -> np.nda
     negated = np.uint64(0) - keys
     outline = np.minimum(keys, negated)
     sides = np.where(double_sided[starts], 2, (keys != outline).astype(np.int64))
-    chosen = _two_sided_cells(outline, sides)
+    chosen = two_sided_cells(outline, sides)
     if not len(chosen):
         return none
     # Faces of one outline, same space, that face each other: every triangle of one with every one of the other.
