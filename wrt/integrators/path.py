@@ -25,6 +25,7 @@ from ..geometry import offset_ray_origin, stable_length
 from ..light_links import link_group, lit_by
 from ..light_sampling import (
     DeviceLights,
+    LightSample,
     hit_emitter,
     lit_bsdf,
     sample_light_in_view,
@@ -34,7 +35,7 @@ from ..light_sampling import (
 from ..materials import DeviceMaterials, eval_surface
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, shading_point
+from ..shade import DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, light_sample_weight, lights_on_segment, mis_weight, surface_emission
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
@@ -58,6 +59,29 @@ def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.v
     if length <= 0.0:
         return wp.vec3(0.0), 0.0
     return shadow_direction(lights, k, to / length), length * (1.0 - SHADOW_SHORTEN)
+
+
+@wp.func
+def aim_shadow_ray(
+    lights: DeviceLights,
+    k: int,
+    h: HitPoint,
+    ls: LightSample,
+    i: int,
+    # outputs
+    shadow_origins: wp.array[wp.vec3],
+    shadow_dirs: wp.array[wp.vec3],
+    shadow_t_maxs: wp.array[float],
+    shadow_lights: wp.array[wp.int32],
+):
+    """Writes ray ``i``'s shadow ray towards the point ``ls`` of light ``k`` sampled from hit ``h``: from ``h.p``
+    moved off its surface, aimed by :func:`shadow_ray_to` (whitted's and path's next-event estimation)."""
+    o = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
+    shadow_origins[i] = o
+    to_light, t_max = shadow_ray_to(lights, k, o, h.p, ls.wi, ls.dist)
+    shadow_dirs[i] = to_light
+    shadow_t_maxs[i] = t_max
+    shadow_lights[i] = k
 
 
 @wp.kernel
@@ -177,12 +201,7 @@ def shade_path_kernel(
                 w = light_sample_weight(lights, k, pmf * ls.pdf, pdf_f)
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
-                o = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
-                shadow_origins[i] = o
-                to_light, t_max = shadow_ray_to(lights, k, o, h.p, ls.wi, ls.dist)
-                shadow_dirs[i] = to_light
-                shadow_t_maxs[i] = t_max
-                shadow_lights[i] = k
+                aim_shadow_ray(lights, k, h, ls, i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)
 
     # Sample the BSDF for the next ray.
     u0, state = rand01(state)

@@ -38,7 +38,7 @@ from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
-from .path import shadow_ray_to
+from .path import aim_shadow_ray
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
 
@@ -199,12 +199,7 @@ def whitted_light_kernel(
         return
     cos_i = wp.abs(wp.dot(h.ns, ls.wi))
     contribution[i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
-    o = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
-    shadow_origins[i] = o
-    to_light, t_max = shadow_ray_to(lights, k, o, h.p, ls.wi, ls.dist)
-    shadow_dirs[i] = to_light
-    shadow_t_maxs[i] = t_max
-    shadow_lights[i] = k
+    aim_shadow_ray(lights, k, h, ls, i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)
 
 
 @wp.kernel
