@@ -264,10 +264,7 @@ def test_unsupported_shaders_fall_back_with_one_warning_per_material(tmp_path):
         material.CreateSurfaceOutput("mtlx").ConnectToSource(shader.ConnectableAPI(), "out")
         bind(quad, material)
     stage.Save()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        scene = wrt.load_usd(path)
-    messages = [str(w.message) for w in caught]
+    scene, messages = load_with_messages(path)
     assert sum("/Looks/X0" in m for m in messages) == 1 and sum("/Looks/X1" in m for m in messages) == 1
     assert scene.materials == [] and all((m.material_ids == -1).all() for m in scene.meshes)  # -1: default material
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
@@ -280,26 +277,32 @@ def write_png(path, pixels):
     return str(path)
 
 
+def st_source(stage, material_path, transform=None):
+    """The ``(connectable, output)`` a texture's ``st`` connects to: a ``UsdPrimvarReader_float2`` of ``st`` under
+    ``material_path``, through a ``UsdTransform2d`` of ``transform`` (input name -> value) when given."""
+    reader = UsdShade.Shader.Define(stage, f"{material_path}/St")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    source = reader.ConnectableAPI(), "result"
+    if transform is not None:
+        xf = UsdShade.Shader.Define(stage, f"{material_path}/Xf")
+        xf.CreateIdAttr("UsdTransform2d")
+        xf.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(*source)
+        for key, value in transform.items():
+            xf.CreateInput(key, Sdf.ValueTypeNames.Float if key == "rotation" else Sdf.ValueTypeNames.Float2).Set(value)
+        source = xf.ConnectableAPI(), "result"
+    return source
+
+
 def textured_stage(tmp_path, png, st_range=1.0, wrap=None, color_space=None, transform=None, channel="rgb",
                    input_name="diffuseColor"):
     stage, path = new_stage(tmp_path, f"textured{len(list(tmp_path.glob('*.usda')))}.usda")
     quad = add_quad(stage, "/Quad", st_range=st_range)
     material, shader = preview_material(stage, "/Looks/Tex")
-    reader = UsdShade.Shader.Define(stage, "/Looks/Tex/St")
-    reader.CreateIdAttr("UsdPrimvarReader_float2")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
-    st_source = reader.ConnectableAPI(), "result"
-    if transform is not None:
-        xf = UsdShade.Shader.Define(stage, "/Looks/Tex/Xf")
-        xf.CreateIdAttr("UsdTransform2d")
-        xf.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source)
-        for key, value in transform.items():
-            xf.CreateInput(key, Sdf.ValueTypeNames.Float if key == "rotation" else Sdf.ValueTypeNames.Float2).Set(value)
-        st_source = xf.ConnectableAPI(), "result"
     tex = UsdShade.Shader.Define(stage, "/Looks/Tex/Image")
     tex.CreateIdAttr("UsdUVTexture")
     tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
-    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source)
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source(stage, "/Looks/Tex", transform))
     if wrap:
         tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set(wrap)
         tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set(wrap)
@@ -312,6 +315,14 @@ def textured_stage(tmp_path, png, st_range=1.0, wrap=None, color_space=None, tra
     bind(quad, material)
     stage.Save()
     return path
+
+
+def load_with_messages(path):
+    """``wrt.load_usd(path)`` and the messages of every warning it gave."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    return scene, [str(w.message) for w in caught]
 
 
 def albedo(path, res=4):
@@ -798,10 +809,7 @@ def test_mdl_and_materialx_materials_fall_back_to_their_base_colour(tmp_path):
         material.CreateSurfaceOutput(context).ConnectToSource(shader.ConnectableAPI(), "out")
         bind(quad, material)
     stage.Save()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        scene = wrt.load_usd(path)
-    messages = [str(w.message) for w in caught]
+    scene, messages = load_with_messages(path)
     assert any("/Looks/X0" in m and "diffuse_color_constant (0.8, 0.1, 0.05)" in m for m in messages), messages
     assert any("/Looks/X1" in m and "base_color (0.05, 0.1, 0.45)" in m for m in messages), messages
     cam = wrt.Camera.orthographic(eye=(3, 0, 5), target=(3, 0, 0), height=2.0)

@@ -9,6 +9,7 @@ import pytest
 import warp as wp
 from PIL import Image as PilImage
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+from test_materials import st_source
 
 import wrt
 from wrt.lights import DomeLight
@@ -68,20 +69,11 @@ def normal_mapped_stage(tmp_path, png, left_handed=False, swap_st=False, rotatio
     surface.CreateIdAttr("UsdPreviewSurface")
     surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set((0.8, 0.8, 0.8))
     material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
-    reader = UsdShade.Shader.Define(stage, "/Looks/Bumpy/St")
-    reader.CreateIdAttr("UsdPrimvarReader_float2")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
-    st_source = reader.ConnectableAPI(), "result"
-    if rotation is not None:
-        xf = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Rotate")
-        xf.CreateIdAttr("UsdTransform2d")
-        xf.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source)
-        xf.CreateInput("rotation", Sdf.ValueTypeNames.Float).Set(rotation)
-        st_source = xf.ConnectableAPI(), "result"
+    transform = None if rotation is None else {"rotation": rotation}
     tex = UsdShade.Shader.Define(stage, "/Looks/Bumpy/NormalMap")
     tex.CreateIdAttr("UsdUVTexture")
     tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
-    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source)
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(*st_source(stage, "/Looks/Bumpy", transform))
     tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
     for wrap in ("wrapS", "wrapT"):  # a rotation moves st outside [0, 1]; unauthored, the map would be black there
         tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("repeat")
