@@ -294,6 +294,14 @@ def write_stage(tmp_path, build) -> str:
     return path
 
 
+def add_floor(stage) -> None:
+    """``/Plane``: a 40 x 40 quad in the z = 0 plane, facing +Z."""
+    plane = UsdGeom.Mesh.Define(stage, "/Plane")
+    plane.CreatePointsAttr([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)])
+    plane.CreateFaceVertexCountsAttr([4])
+    plane.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+
+
 def test_usd_light_radiometry(tmp_path):
     def build(stage):
         rect = UsdLux.RectLight.Define(stage, "/Rect")
@@ -330,10 +338,7 @@ def test_usd_light_radiometry(tmp_path):
 
 def test_usd_rect_light_faces_its_minus_z_axis(tmp_path):
     def build(stage):
-        plane = UsdGeom.Mesh.Define(stage, "/Plane")
-        plane.CreatePointsAttr([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)])
-        plane.CreateFaceVertexCountsAttr([4])
-        plane.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        add_floor(stage)
         rect = UsdLux.RectLight.Define(stage, "/Rect")
         rect.CreateIntensityAttr(2.0)
         rect.CreateWidthAttr(4.0)
@@ -558,10 +563,7 @@ def test_negative_light_colour_is_clamped_with_a_warning(tmp_path):
     """A negative colour channel (or intensity) would subtract light and give negative pixels."""
 
     def build(stage):
-        plane = UsdGeom.Mesh.Define(stage, "/Plane")
-        plane.CreatePointsAttr([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)])
-        plane.CreateFaceVertexCountsAttr([4])
-        plane.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        add_floor(stage)
         sun = UsdLux.DistantLight.Define(stage, "/Sun")
         sun.CreateIntensityAttr(2.0)
         sun.CreateAngleAttr(0.0)
