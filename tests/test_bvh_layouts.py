@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import warp as wp
 from conftest import WARP_USD_ASSETS, manifest, warp_assets
+from test_trace import MAX_TIE_FRACTION, SHARED_SCENES, agreement_rays
 
 import wrt
 from wrt.bvh import Builder, build_bvh
@@ -15,18 +16,9 @@ from wrt.bvh.layout import LAYOUTS, convert_layout
 from wrt.bvh.stats import half_areas
 from wrt.bvh.wide import convert_wide
 from wrt.compare import compare_hits
-from wrt.rays import camera_rays, random_rays
+from wrt.rays import random_rays
 
 BUILDERS = [b.value for b in Builder]
-SHARED_SCENES = (
-    "cornell_box",
-    "spot_control_ngons",
-    "xform_complex",
-    "xform_weird_matrix",
-    "mesh_mixed_counts",
-    "stage_upaxis_z",
-)
-MAX_TIE_FRACTION = 1e-4  # as tests/test_trace.py: disagreements allowed on rays through edges/vertices
 
 
 @functools.lru_cache(maxsize=None)
@@ -41,9 +33,7 @@ def scene_and_reference(source: str, name: str):
         warnings.simplefilter("ignore")
         path = warp_assets(name) if source == "warp" else assets_dir() / manifest()[name]["path"]
         scene = wrt.load_usd(path, tessellate_gprims=True)  # wp.Mesh and the layouts trace triangles only
-    o1, d1 = camera_rays(scene, width=250, height=200)
-    o2, d2 = random_rays(scene, 50_000, seed=7)
-    origins, directions = np.concatenate([o1, o2]), np.concatenate([d1, d2])
+    origins, directions = agreement_rays(scene)
     return scene, origins, directions, wrt.trace(scene, origins, directions, accel="warp")
 
 
