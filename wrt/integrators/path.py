@@ -62,6 +62,23 @@ def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.v
 
 
 @wp.func
+def clear_shadow_ray(
+    i: int,
+    # outputs
+    shadow_origins: wp.array[wp.vec3],
+    shadow_dirs: wp.array[wp.vec3],
+    shadow_t_maxs: wp.array[float],
+    shadow_lights: wp.array[wp.int32],
+):
+    """Makes ray ``i``'s shadow ray empty (``t_max = 0``, no light): what it stays unless :func:`aim_shadow_ray`
+    aims it."""
+    shadow_origins[i] = wp.vec3(0.0)
+    shadow_dirs[i] = wp.vec3(0.0)
+    shadow_t_maxs[i] = 0.0
+    shadow_lights[i] = -1
+
+
+@wp.func
 def aim_shadow_ray(
     lights: DeviceLights,
     k: int,
@@ -122,10 +139,7 @@ def shade_path_kernel(
     the next ray."""
     i = wp.tid()
     # Every path gets a shadow ray, an empty one (t_max = 0) unless next-event estimation sets it below.
-    shadow_origins[i] = wp.vec3(0.0)
-    shadow_dirs[i] = wp.vec3(0.0)
-    shadow_t_maxs[i] = 0.0
-    shadow_lights[i] = -1
+    clear_shadow_ray(i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)
     nee[i] = wp.vec3(0.0)
     if alive[i] == 0:
         t_maxs[i] = 0.0

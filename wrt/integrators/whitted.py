@@ -38,7 +38,7 @@ from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
-from .path import aim_shadow_ray
+from .path import aim_shadow_ray, clear_shadow_ray
 
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # device-independent rounding: see wrt/shade.py
 
@@ -162,10 +162,7 @@ def whitted_light_kernel(
     its contribution if unoccluded and the shadow ray that decides it; none from a light not linked to the
     surface."""
     i = wp.tid()
-    shadow_origins[i] = wp.vec3(0.0)  # an empty shadow ray (t_max = 0) unless set below
-    shadow_dirs[i] = wp.vec3(0.0)
-    shadow_t_maxs[i] = 0.0
-    shadow_lights[i] = -1
+    clear_shadow_ray(i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)  # unless aimed below
     contribution[i] = wp.vec3(0.0)
     if alive[i] == 0:
         return
