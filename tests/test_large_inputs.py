@@ -11,17 +11,10 @@ import pytest
 
 pxr = pytest.importorskip("pxr")
 from pxr import Gf, Usd, UsdGeom  # noqa: E402
+from test_transform_edge_cases import triangle  # noqa: E402
 
 import wrt.usd_visibility as usd_visibility  # noqa: E402
 from wrt.usd import load_usd  # noqa: E402
-
-
-def _triangle(stage, path):
-    mesh = UsdGeom.Mesh.Define(stage, path)
-    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
-    mesh.CreateFaceVertexCountsAttr([3])
-    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
-    return mesh
 
 
 def test_visibility_of_a_deep_hierarchy_reads_each_prim_once(tmp_path, monkeypatch):
@@ -36,7 +29,7 @@ def test_visibility_of_a_deep_hierarchy_reads_each_prim_once(tmp_path, monkeypat
         xform.AddTranslateOp().Set(Gf.Vec3d(1.0, 0.0, 0.0))
         if level == hidden:
             xform.MakeInvisible()
-        _triangle(stage, path + "/M")
+        triangle(stage, path + "/M")
     stage.Save()
 
     reads = []
@@ -305,7 +298,7 @@ def test_point_instancer_with_many_prototypes_groups_its_instances_once(tmp_path
     instancer = UsdGeom.PointInstancer.Define(stage, "/PI")
     targets = []
     for k in range(n_protos):
-        _triangle(stage, f"/PI/Protos/P{k}")
+        triangle(stage, f"/PI/Protos/P{k}")
         targets.append(f"/PI/Protos/P{k}")
     instancer.CreatePrototypesRel().SetTargets(targets)
     proto_indices = rng.integers(0, n_protos, n)
@@ -345,7 +338,7 @@ def test_loaded_instances_are_not_inverted_again_before_the_first_trace(tmp_path
     n = 40
     stage = Usd.Stage.CreateNew(str(tmp_path / "pi.usda"))
     instancer = UsdGeom.PointInstancer.Define(stage, "/PI")
-    _triangle(stage, "/PI/Protos/Tri")
+    triangle(stage, "/PI/Protos/Tri")
     instancer.CreatePrototypesRel().SetTargets(["/PI/Protos/Tri"])
     instancer.CreateProtoIndicesAttr([0] * n)
     instancer.CreatePositionsAttr([Gf.Vec3f(3.0 * k, 0.0, 0.0) for k in range(n)])
