@@ -66,6 +66,23 @@ def test_help_explains_the_options():
     for command in ("render", "preview", "bench", "bvh-stats"):  # defaults shown only where there is one
         text = run_cli(command, "--help").stdout
         assert "(default: None)" not in text and "(default: False)" not in text, command
+        assert "(default: [])" not in text, command  # --variant, --aov: repeatable, none unless given
+
+
+@pytest.mark.parametrize("args, message", [
+    (["render", "--wdith", "8"], "unrecognized arguments: --wdith (did you mean '--width'?) (see 'wrt render --help')"),
+    (["preview", "--bvh-leafs"], "(did you mean '--bvh-leaves'?) (see 'wrt preview --help')"),
+    (["bench", "--repaets=3"], "--repaets=3 (did you mean '--repeats'?) (see 'wrt bench --help')"),
+    (["render", "--frobnicate"], "unrecognized arguments: --frobnicate (see 'wrt render --help')"),  # nothing close
+])
+def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsys, args, message):
+    """An unknown option after a command was reported by the top parser: 'see wrt --help', which lists commands, not
+    the options of the command the user typed, and no hint at the option meant."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    assert exit_info.value.code == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith("wrt: error: ") and line.endswith(message), line
 
 
 @pytest.mark.parametrize(

@@ -17,6 +17,8 @@ import warnings
 from importlib import resources
 from pathlib import Path
 
+from .errors import did_you_mean
+
 EXIT_BAD_INPUT = 2  # exit status for bad input, as argparse uses for bad arguments
 
 
@@ -42,7 +44,7 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
     off, or whose help says what happens without it); "(default: None)" told the reader nothing."""
 
     def _get_help_string(self, action):
-        if action.default is None or action.default is False:
+        if action.default is None or action.default is False or action.default == []:  # []: a repeatable option
             return action.help
         return super()._get_help_string(action)
 
@@ -58,6 +60,27 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message):
         self.exit(EXIT_BAD_INPUT, f"wrt: error: {message} (see '{self.prog} --help')\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """As argparse's, but an unknown option after a command is reported by that command's parser, with the
+        closest option it has: argparse's own error came from the top parser and pointed at 'wrt --help', which
+        lists the commands, not their options."""
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            command = self._commands().get(getattr(parsed, "command", None), self)
+            unknown = next((e for e in extras if e.startswith("-")), "")
+            # Compared without the dashes, which every name shares: with them '--frobnicate' was close to '--frames'.
+            names = [o[2:] for action in command._actions for o in action.option_strings if o.startswith("--")]
+            hint = did_you_mean(unknown[2:].split("=")[0], names).replace(" '", " '--") if unknown[:2] == "--" else ""
+            command.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
+        return parsed
+
+    def _commands(self) -> dict:
+        """The subcommand parsers by name (empty for a parser without subcommands)."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                return action.choices
+        return {}
 
 
 def int_at_least(minimum: int, what: str, maximum: int | None = None):
