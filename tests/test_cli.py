@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+import warp as wp
 from conftest import warp_assets
 from PIL import Image as PilImage
 
@@ -119,6 +120,18 @@ def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, monkeypatch, 
     errors = [line for line in lines if line.startswith("wrt: error:")]
     assert len(errors) == 1 and needle in errors[0]
     assert not any("Traceback" in line for line in lines)
+
+
+@pytest.mark.skipif(wp.is_cuda_available(), reason="needs a machine without CUDA")
+def test_a_cuda_device_without_cuda_is_one_line_not_warps_native_errors(tmp_path):
+    """README: bad input prints one line. Without a CUDA driver, --device cuda printed Warp's native 'Warp CUDA error:
+    Function cuCtxGetCurrent_f: a suitable driver entry point was not found' (and its error code) before wrt's line."""
+    for device in ("cuda", "cuda:0"):
+        result = run_cli("render", "--device", device, "--width", "8", "--height", "8", "-q", cwd=tmp_path, timeout=120)
+        assert result.returncode == 2
+        assert "CUDA error" not in result.stderr, result.stderr
+        (line,) = error_lines(result.stderr)
+        assert line == f"wrt: error: unknown or unavailable device '{device}'; available devices: cpu", line
 
 
 def test_a_camera_not_on_the_stage_names_the_file_and_the_prim(tmp_path, capsys):

@@ -180,11 +180,18 @@ def reduce_bounds_kernel(
 def resolve_device(device) -> wp.Device:
     """``wp.get_device`` with a one-line ``ValueError`` naming the available devices (Warp's own error for
     ``"cuda"`` on a machine without one is a RuntimeError from deep inside)."""
-    try:
-        return wp.get_device(device)
-    except (RuntimeError, ValueError, TypeError) as e:
-        available = ", ".join(d.alias for d in wp.get_devices())
-        raise ValueError(f"unknown or unavailable device {device!r}; available devices: {available}") from e
+    error = None
+    if isinstance(device, str) and device.startswith("cuda") and not wp.is_cuda_available():
+        # Refused before Warp looks: without a CUDA driver, wp.get_device("cuda") prints native CUDA errors to stderr
+        # ("cuCtxGetCurrent_f: a suitable driver entry point was not found") before its own RuntimeError.
+        error = RuntimeError("no CUDA driver")
+    else:
+        try:
+            return wp.get_device(device)
+        except (RuntimeError, ValueError, TypeError) as e:
+            error = e
+    available = ", ".join(d.alias for d in wp.get_devices())
+    raise ValueError(f"unknown or unavailable device {device!r}; available devices: {available}") from error
 
 
 class BuildInput:
