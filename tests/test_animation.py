@@ -375,9 +375,12 @@ def test_cli_frames_log_is_strict_json(animated, tmp_path, monkeypatch):
     import wrt.animation
     from wrt.cli import main
 
-    def rows_with_non_finite_numbers(path, jobs, **kwargs):
-        return [{"frame": frame, "output": str(file), "change": "build", "load_ms": math.inf, "update_ms": -math.inf,
-                 "render_ms": np.float64("nan")} for frame, file in jobs]
+    def rows_with_non_finite_numbers(path, jobs, log=None, **kwargs):
+        rows = wrt.animation.LogRows(log)
+        for frame, file in jobs:
+            rows.append({"frame": frame, "output": str(file), "change": "build", "load_ms": math.inf,
+                         "update_ms": -math.inf, "render_ms": np.float64("nan")})
+        return rows
 
     monkeypatch.setattr(wrt.animation, "render_frames", rows_with_non_finite_numbers)
     log = tmp_path / "log.jsonl"
@@ -390,6 +393,29 @@ def test_cli_frames_log_is_strict_json(animated, tmp_path, monkeypatch):
     rows = [json.loads(line, parse_constant=refuse) for line in log.read_text().splitlines()]
     assert [(r["frame"], r["load_ms"], r["update_ms"], r["render_ms"]) for r in rows] == [(1.0, None, None, None),
                                                                                          (2.0, None, None, None)]
+
+
+def test_cli_frames_log_keeps_the_rows_of_the_frames_finished_before_ctrl_c(animated, tmp_path, monkeypatch, capsys):
+    """README: an interrupted run keeps what it has. The --frames log was written once every frame was done, so
+    Ctrl-C at frame 3 of 3 left the images of frames 1 and 2 and no log at all (a batch of scenes flushes a row per
+    scene)."""
+    from wrt.cli import main
+
+    render = FrameRenderer.render
+
+    def interrupted_at_frame_3(self, frame, **kwargs):
+        if frame == 3:
+            raise KeyboardInterrupt
+        return render(self, frame, **kwargs)
+
+    monkeypatch.setattr(FrameRenderer, "render", interrupted_at_frame_3)
+    log = tmp_path / "logs" / "log.jsonl"
+    assert main(["render", str(animated), "--frames", "1:3", "-o", str(tmp_path / "f_#.npy"), "--log", str(log),
+                 "-q", "--width", "8", "--height", "6"]) == 130
+    assert "wrt: interrupted" in capsys.readouterr().err
+    rows = [json.loads(line) for line in log.read_text().splitlines()]
+    assert [(r["frame"], Path(r["output"]).name) for r in rows] == [(1.0, "f_1.npy"), (2.0, "f_2.npy")]
+    assert sorted(p.name for p in tmp_path.glob("f_*.npy")) == ["f_1.npy", "f_2.npy"]
 
 
 def test_render_frames_refuses_an_unknown_device_before_starting_workers(animated, tmp_path, monkeypatch):

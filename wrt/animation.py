@@ -277,7 +277,7 @@ def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
     return [(f, p) for f, p in jobs if not (resume and p.is_file() and p.stat().st_size > 0)]
 
 
-def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False,
+def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False, log=None,
                   **options) -> list[dict]:
     """Renders ``jobs`` (``(frame, file)`` pairs, see :func:`pending_frames`) and writes each image as it is done.
 
@@ -294,6 +294,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         seed: seed of every random decision (the same for every frame).
         exposure: PNG exposure (see :meth:`wrt.Image.save`).
         progress: show a progress bar.
+        log: a JSON-lines file each row is appended to as its frame finishes (see :class:`LogRows`), or None.
         **options: :class:`FrameRenderer` options.
 
     Returns:
@@ -314,7 +315,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         resolve_device(device)
     path = os.fspath(path)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
-    rows = []
+    rows = LogRows(log)
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
         if len(devices) == 1:
             renderer = FrameRenderer(path, device=devices[0], **options)
@@ -358,6 +359,26 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
             raise
         pool.shutdown()
     return rows
+
+
+class LogRows(list):
+    """The log rows of a frame run, each also appended to the JSON-lines file ``log`` (when not None) the moment it
+    is added, in strict JSON: an interrupted run (Ctrl-C, a frame that stops it) keeps the rows of every frame that
+    finished, where rows written at the end were lost with the run."""
+
+    def __init__(self, log=None):
+        super().__init__()
+        self.log = None if log is None else Path(log)
+        if self.log is not None:
+            self.log.parent.mkdir(parents=True, exist_ok=True)
+
+    def append(self, row: dict) -> None:
+        super().append(row)
+        if self.log is not None:
+            from .strict_json import strict_json
+
+            with open(self.log, "a") as f:
+                f.write(strict_json(row) + "\n")
 
 
 def frame_error_row(frame: float, file, error: SceneError, device: str | None = None) -> dict:
@@ -478,12 +499,13 @@ def render_frame_task(job: dict) -> dict:
 
 
 def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, seed=0, exposure=0.0, progress=False,
-                          task=render_frame_task, **options) -> list[dict]:
+                          log=None, task=render_frame_task, **options) -> list[dict]:
     """:func:`render_frames` on a Dask cluster (``address``, or a ``LocalCluster`` of ``n_workers``): every frame is
     one task (``task``, :func:`render_frame_task` or a wrapper of it), each image is written here the moment it
     arrives, and a frame whose worker died is rerun elsewhere. Returns the log rows, with ``output``, in arrival
-    order; a frame whose stage is bad at its time has an error row, as in :func:`render_frames`, and any other error
-    (a frame whose workers kept dying too) is raised once every frame has finished."""
+    order (each also appended to ``log`` as it arrives, when given); a frame whose stage is bad at its time has an
+    error row, as in :func:`render_frames`, and any other error (a frame whose workers kept dying too) is raised once
+    every frame has finished."""
     from .distributed import run_tasks
     from .image import check_exposure
 
@@ -491,7 +513,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     path = os.fspath(path)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
     tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
-    rows = []
+    rows = LogRows(log)
     write = _frame_writer(jobs, rows)
     files = {float(frame): file for frame, file in jobs}
     others = []
@@ -512,6 +534,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
 __all__ = [
     "REFIT_SAH_LIMIT",
     "FrameRenderer",
+    "LogRows",
     "classify_change",
     "frame_error_row",
     "frame_output",

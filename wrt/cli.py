@@ -207,8 +207,8 @@ def _add_render(sub) -> None:
         "--frames). With several scenes: "
         "a pattern with {stem} or a folder; default {stem}.png",
     )
-    p.add_argument("--log", help="JSON-lines log, one flushed row per scene; default with several scenes: "
-                   "render-log.jsonl beside the images")
+    p.add_argument("--log", help="JSON-lines log, one flushed row per scene (per frame with --frames) as it "
+                   "finishes; default with several scenes: render-log.jsonl beside the images")
     p.add_argument("--max-memory", help="refuse renders predicted to need more than this, e.g. 4G")
     p.add_argument("--width", type=positive_int, help="image width in pixels; default: the stage's RenderSettings "
                    "resolution, else 640")
@@ -506,7 +506,6 @@ def _run_products(args, paths: list, progress) -> int:
 
 def _run_frames(args, paths: list, progress) -> int:
     from .animation import parse_frames, pending_frames, render_frames
-    from .strict_json import strict_json
 
     if len(paths) != 1:
         raise ValueError("--frames renders one scene; give exactly one SCENE")
@@ -535,7 +534,8 @@ def _run_frames(args, paths: list, progress) -> int:
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
     if not devices:
         raise ValueError(f"--devices {args.devices!r} names no device; give e.g. cuda:0,cuda:1")
-    common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet}
+    common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet,
+              "log": args.log}  # a row per frame as it finishes: an interrupted run keeps them
     common.update(_renderer_options(args), **_load_options(args))
     start = time.perf_counter()
     if args.dask is not None:
@@ -545,11 +545,6 @@ def _run_frames(args, paths: list, progress) -> int:
         rows = render_frames_on_dask(paths[0], jobs, address=args.dask or None, n_workers=args.workers, **common)
     else:
         rows = render_frames(paths[0], jobs, devices=devices, **common)
-    if args.log:
-        Path(args.log).parent.mkdir(parents=True, exist_ok=True)
-        with open(args.log, "a") as f:
-            for row in rows:
-                f.write(strict_json(row) + "\n")
     failures = sorted((row for row in rows if "error" in row), key=lambda row: row["frame"])
     changes = collections.Counter(row["change"] for row in rows if "error" not in row)
     summary = ", ".join(f"{n} {c}" for c, n in sorted(changes.items()))
