@@ -1,8 +1,10 @@
 """The ``wrt`` command line: the default render, options, and one-line errors with exit status 2."""
 
+import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -173,6 +175,35 @@ def test_a_logged_or_batch_render_that_renders_nothing_exits_with_status_2(tmp_p
     assert len(rows) == len(scenes) and all('"status": "error"' in row for row in rows)
     errors = [line for line in error_lines(capsys.readouterr().err) if line.startswith("wrt: error:")]
     assert [name in " ".join(errors) for name in ("a.usda", "b.usda")[: len(scenes)]] == [True] * len(scenes)
+
+
+def test_a_batch_goes_on_past_a_scene_that_fails_inside_wrt(tmp_path, capsys, monkeypatch):
+    """README: in a batch a failing scene is logged and the rest go on. A scene that failed with an error other than
+    the input errors wrt expects (an IndexError of a bug in a loader) stopped the batch with a traceback, leaving the
+    scenes after it unrendered and unlogged; wrt bench turns any such error into an error row."""
+    import wrt
+
+    scenes = []
+    for name in ("a", "bug", "c"):
+        scenes.append(tmp_path / f"{name}.usda")
+        scenes[-1].write_text('#usda 1.0\ndef Sphere "Ball" {}\n')
+    load = wrt.load_usd
+
+    def load_with_a_bug(path, **kwargs):
+        if Path(path).stem == "bug":
+            raise IndexError("index 7 is out of bounds for axis 0 with size 3")
+        return load(path, **kwargs)
+
+    monkeypatch.setattr(wrt, "load_usd", load_with_a_bug)
+    out = tmp_path / "out"
+    code = main(["render", *map(str, scenes), "-o", f"{out}/", "--width", "8", "--height", "6", "-q"])
+    assert code == 1
+    rows = [json.loads(line) for line in (out / "render-log.jsonl").read_text().splitlines()]
+    assert [(Path(r["scene"]).stem, r["status"]) for r in rows] == [("a", "ok"), ("bug", "error"), ("c", "ok")]
+    assert rows[1]["error"] == "IndexError: index 7 is out of bounds for axis 0 with size 3"
+    assert sorted(p.name for p in out.glob("*.png")) == ["a.png", "c.png"]
+    err = capsys.readouterr().err
+    assert "bug.usda: IndexError: index 7 is out of bounds" in err and "1 of 3 scenes failed: bug.usda" in err
 
 
 def test_a_kernel_cache_that_cannot_be_made_is_named_with_what_to_do(tmp_path):

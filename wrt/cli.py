@@ -13,6 +13,7 @@ import os
 import re
 import sys
 import time
+import traceback
 import warnings
 from importlib import resources
 from pathlib import Path
@@ -459,10 +460,14 @@ def _run_render(args) -> int:
         try:
             _render_one(args, path, output, progress)
             row["status"] = "ok"
-        except (SceneError, ValueError, TypeError, OSError, MemoryError, RuntimeError) as e:
+        except Exception as e:  # noqa: BLE001 - one failing scene must not stop the batch, as in wrt bench
             message = str(e).splitlines()[0] if str(e) else type(e).__name__
             row.update(status="error", error=f"{type(e).__name__}: {message}")
             failures.append(row)
+            if not isinstance(e, (SceneError, ValueError, TypeError, OSError, MemoryError, RuntimeError)):
+                # Not bad input but a fault in wrt (an IndexError, a KeyError): its traceback, to report, and on.
+                traceback.print_exc(file=sys.stderr)
+                message = f"{type(e).__name__}: {message}"
             print(f"wrt: error: {message if path.name in message else f'{path}: {message}'}", file=sys.stderr)
         row["seconds"] = round(time.perf_counter() - start, 3)
         with open(log, "a") as f:  # flushed per scene: an interrupted batch keeps every finished row
