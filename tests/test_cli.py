@@ -418,6 +418,32 @@ def test_load_warnings_under_the_frames_progress_bar_get_lines_of_their_own(tmp_
     assert warned and all(line.startswith("wrt: warning:") for line in warned), warned
 
 
+def test_integrator_options_the_integrator_does_not_use_are_warned_about(tmp_path, capsys):
+    """--ao-radius without --integrator ao, and --max-depth with an integrator that does not bounce, rendered the image
+    they would give without the option, without a word."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    cases = ((["--ao-radius", "0.01"], "--ao-radius applies to --integrator ao only; whitted does not use it"),
+             (["--integrator", "ao", "--ao-radius", "0.01"], None),
+             (["--integrator", "normals", "--max-depth", "0"], "--max-depth applies to --integrator path and whitted "
+              "only; normals does not use it"),
+             (["--integrator", "normals"], None),
+             (["--max-depth", "0"], None))  # whitted: no mirrors at depth 0
+    images = []
+    for i, (options, warning) in enumerate(cases):
+        output = tmp_path / f"{i}.npy"
+        assert main(["render", str(stage), "--width", "8", "--height", "6", "-q", "-o", str(output), *options]) == 0
+        warned = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: warning:")]
+        assert warned == ([f"wrt: warning: {warning}"] if warning else []), options
+        images.append(np.load(output))
+    whitted = tmp_path / "whitted.npy"
+    assert main(["render", str(stage), "--width", "8", "--height", "6", "-q", "-o", str(whitted)]) == 0
+    np.testing.assert_array_equal(images[0], np.load(whitted))  # what the warnings say: the option changed nothing
+    np.testing.assert_array_equal(images[2], images[3])
+
+
 @pytest.mark.parametrize("frames", [False, True])
 def test_exposure_with_a_linear_output_is_warned_about(tmp_path, capsys, frames):
     """--exposure scales PNGs only: with .exr or .npy output it did nothing, without a word."""

@@ -336,6 +336,18 @@ def _warn_unused_exposure(exposure: float, outputs: list) -> None:
                       stacklevel=2)
 
 
+def _warn_unused_integrator_options(args) -> None:
+    """A warning for ``--ao-radius`` or ``--max-depth`` given to an integrator that does not read it: the image was
+    the one without it, without a word."""
+    from .render import DEFAULT_MAX_DEPTH  # the integrators that bounce
+
+    if args.ao_radius is not None and args.integrator != "ao":
+        warnings.warn(f"--ao-radius applies to --integrator ao only; {args.integrator} does not use it", stacklevel=2)
+    if args.max_depth is not None and args.integrator not in DEFAULT_MAX_DEPTH:
+        warnings.warn(f"--max-depth applies to --integrator {' and '.join(DEFAULT_MAX_DEPTH)} only; "
+                      f"{args.integrator} does not use it", stacklevel=2)
+
+
 def _check_distinct_outputs(paths: list, outputs: list) -> None:
     """Raises ValueError when two scenes would write the same image (outputs are named by the scene's file stem, so
     ``a/room.usda`` and ``b/room.usda`` meet): the later one would overwrite the first without a word."""
@@ -431,6 +443,7 @@ def _run_render(args) -> int:
         raise ValueError("--workers sizes the LocalCluster of --dask without an ADDRESS; it applies to nothing else")
     if args.devices and args.dask is not None:
         raise ValueError("give --devices or --dask, not both: Dask workers each render on their own device")
+    _warn_unused_integrator_options(args)
     if args.products is not None:
         return _run_products(args, paths, progress)
     if args.frames:
