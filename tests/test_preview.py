@@ -382,6 +382,19 @@ def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch, arg
     assert not list(tmp_path.iterdir())
 
 
+def test_cli_bvh_color_without_boxes_is_warned_about(tmp_path, capsys):
+    """--bvh-color sah alone drew no boxes to colour, without a word (the boxes come with --bvh-depth or
+    --bvh-leaves)."""
+    warning = ("wrt: warning: --bvh-color sah colours BVH boxes, and none are drawn without --bvh-depth K or "
+               "--bvh-leaves")
+    for extra, warns in (([], True), (["--bvh-leaves"], False), (["--bvh-depth", "1"], False)):
+        out = tmp_path / f"{len(extra)}.png"
+        assert main(["preview", "--bvh-color", "sah", *extra, "-o", str(out), "--window", "64x48", "-q"]) == 0
+        warned = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: warning:")]
+        assert warned == ([warning] if warns else []), extra
+        assert out.exists()
+
+
 def test_missing_pyvista_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "pyvista", None)
     with pytest.raises(PreviewUnavailable, match=r"pip install 'wrt\[preview\]'"):

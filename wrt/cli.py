@@ -669,6 +669,9 @@ def _run_preview(args) -> int:
         raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
     if output is not None:  # an unwritable output fails now, not after the load and the preview
         _check_output_file(Path(output))
+    if args.bvh_color != "depth" and args.bvh_depth is None and not args.bvh_leaves:
+        warnings.warn(f"--bvh-color {args.bvh_color} colours BVH boxes, and none are drawn without --bvh-depth K or "
+                      "--bvh-leaves", stacklevel=2)
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time, refine_level=args.refine_level, **stage_options(args))
     stats = scene.stats()
