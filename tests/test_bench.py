@@ -458,9 +458,16 @@ def test_no_build_vs_quality_plot_without_a_tree_to_plot(tmp_path):
 def test_markdown_table_names_hardware():
     rows = [{"scene": "s", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "warp:sah", "threads": 1,
              "build_ms": 1.0, "mrays": 2.0, "mrays_min": 1.0, "mrays_max": 3.0, "hit_fraction": 0.5, "agreement": 1.0,
-             "cpu": "Some CPU", "cpu_cores": 2, "gpu": None, "driver": None, "warp": "1.19.0"}]
+             "cpu": "Some CPU", "cpu_cores": 2, "gpu": None, "driver": None, "warp": "1.19.0", "wrt": "0.1.0",
+             "wrt_source": "abc"}]
     table = markdown_table(rows)
     assert "Some CPU" in table and "| 1.00 |" in table
+    # A CPU row's line named its GPU and driver as None; a GPU row names them.
+    (line,) = [line for line in table.splitlines() if line.startswith("- cpu:")]
+    assert line.startswith("- cpu: CPU Some CPU (2 cores), Warp 1.19.0") and "None" not in line, line
+    gpu = dict(rows[0], device="cuda:0", gpu="Some GPU", driver="CUDA 13.0", gpu_driver="580.1")
+    (line,) = [line for line in markdown_table([gpu]).splitlines() if line.startswith("- cuda:0:")]
+    assert "GPU Some GPU, driver 580.1 (CUDA 13.0), Warp 1.19.0" in line, line
 
 
 def test_a_disagreement_with_warp_is_reported_in_the_table_and_by_the_cli(tmp_path, monkeypatch, capsys):

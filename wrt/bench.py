@@ -885,11 +885,18 @@ def markdown_table(rows: list[dict]) -> str:
             f"({fmt(r['mrays_min'], '.2f')}-{fmt(r['mrays_max'], '.2f')}) | {fmt(100 * r['hit_fraction'], '.1f')} | "
             f"{agree} | {fmt(ratio_w, '.2f')} | {fmt(ratio_e, '.2f')} | {fmt(r.get('sah_cost'), '.2f')} |"
         )
-    hardware_lines = sorted({f"- {r['device']}: CPU {r.get('cpu')} ({r.get('cpu_cores')} cores), GPU {r.get('gpu')}, "
-                             f"driver {r.get('gpu_driver')} ({r.get('driver')}), Warp {r.get('warp')}, "
-                             f"wrt {r.get('wrt')} (source {r.get('wrt_source')})"
+    hardware_lines = sorted({f"- {r['device']}: CPU {r.get('cpu')} ({r.get('cpu_cores')} cores), {_gpu_text(r)}Warp "
+                             f"{r.get('warp')}, wrt {r.get('wrt')} (source {r.get('wrt_source')})"
                              for r in rows if "cpu" in r})
     return "\n".join(lines + [""] + sorted(notes) + hardware_lines) + "\n"
+
+
+def _gpu_text(row: dict) -> str:
+    """``GPU <name>, driver <version> (<CUDA version>), `` of a row measured on a GPU, else nothing: a CPU row's line
+    read 'GPU None, driver None (None)'."""
+    if not row.get("gpu"):
+        return ""
+    return f"GPU {row['gpu']}, driver {row.get('gpu_driver') or 'unknown'} ({row.get('driver')}), "
 
 
 SLOPE_FROM = 1e4  # scaling slopes are fitted from this many triangles up, so fixed costs do not dominate
