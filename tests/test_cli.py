@@ -97,6 +97,8 @@ def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsy
         (["render", "--device", "cuda:7"], "available devices"),
         (["render", "--camera", "/Nope"], "/Nope"),
         (["render", "-o", "out.gif"], "supported image formats"),
+        (["render", "--width", "100000", "--height", "100000"],
+         "100000x100000 is 10,000,000,000 pixels; at most 67,108,864 are supported"),  # was '1 x 100000x100000 is'
         (["render", "--exposure", "inf"], "finite"),
         (["render", "--exposure", "2000"], "[-150, 150]"),  # an OverflowError traceback after the render
         (["render", "--time", "nan"], "finite"),

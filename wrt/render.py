@@ -66,9 +66,10 @@ CAPTURE_CULL_PASSES = 2
 def check_pixels(width: int, height: int, n_views: int = 1) -> None:
     """Raises ``ValueError`` when ``n_views`` images of ``width x height`` exceed ``MAX_PIXELS``."""
     if width * height * n_views > MAX_PIXELS:
-        raise ValueError(
-            f"{n_views} x {width}x{height} is {n_views * width * height} pixels; at most {MAX_PIXELS} are supported"
-        )
+        # "1 x 200000x200000 is 40000000000 pixels" read as a product of three sizes; a count of images only where
+        # there are several, and digits in groups.
+        images = f"{width}x{height} is" if n_views == 1 else f"{n_views:,} images of {width}x{height} are"
+        raise ValueError(f"{images} {n_views * width * height:,} pixels; at most {MAX_PIXELS:,} are supported")
 
 
 def samples_per_launch(n_pixels: int, spp: int, batch: int | None = None) -> int:
