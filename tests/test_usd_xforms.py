@@ -9,6 +9,7 @@ import pytest
 pxr = pytest.importorskip("pxr")
 from pxr import Gf, Usd, UsdGeom  # noqa: E402
 
+import wrt  # noqa: E402
 import wrt.usd_xforms  # noqa: E402
 from wrt.usd_xforms import DefaultTimeXforms  # noqa: E402
 
@@ -115,3 +116,62 @@ def test_relative_transform_to_an_ancestor_matches_xform_cache(base):
         expected, expected_resets = cache.ComputeRelativeTransform(prim, ancestor)
         assert resets == expected_resets
         np.testing.assert_allclose(np.array(m), np.array(expected), atol=1e-6)
+
+
+def _box_corners(lower, upper, m: np.ndarray) -> np.ndarray:
+    """``(8, 3)`` corners of the box ``[lower, upper]`` moved by column-vector ``m``."""
+    corners = np.array([[(lower, upper)[i][0], (lower, upper)[j][1], (lower, upper)[k][2]]
+                        for i in (0, 1) for j in (0, 1) for k in (0, 1)], np.float64)
+    return corners @ m[:3, :3].T + m[:3, 3]
+
+
+def test_a_reset_transform_inside_a_point_instancer_prototype_places_it_as_usd_bounds_it(tmp_path):
+    """A prim that resets the transform stack below a PointInstancer's prototype root: its world transform over the
+    prototype root's, as ``BBoxCache.ComputePointInstanceWorldBounds`` (and ``ComputeExtentAtTime``, and UsdImaging's
+    instancer adapter) place it. It was placed by its own ops alone in the prototype parent's space, as if that parent
+    (here under the moved instancer, and moved itself) sat at the world's origin: off by their transforms."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "pi.usda"))
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    pi.AddTranslateOp().Set(Gf.Vec3d(100, 0, 0))
+    pi.AddRotateZOp().Set(30.0)
+    UsdGeom.Scope.Define(stage, "/PI/Protos")
+    holder = UsdGeom.Xform.Define(stage, "/PI/Protos/Holder")  # a moved prim between the instancer and its prototype
+    holder.AddTranslateOp().Set(Gf.Vec3d(0, 0, -7))
+    proto = UsdGeom.Xform.Define(stage, "/PI/Protos/Holder/P")
+    proto.AddTranslateOp().Set(Gf.Vec3d(0, 10, 0))
+    proto.AddScaleOp().Set(Gf.Vec3f(2, 2, 2))
+    loose = UsdGeom.Xform.Define(stage, "/PI/Protos/Holder/P/Loose")
+    loose.SetResetXformStack(True)
+    loose.AddTranslateOp().Set(Gf.Vec3d(0, 0, 50))
+    UsdGeom.Cube.Define(stage, "/PI/Protos/Holder/P/Loose/Cube")
+    UsdGeom.Cube.Define(stage, "/PI/Protos/Holder/P/Kept")  # no reset: placed the same either way
+    pi.CreatePrototypesRel().SetTargets([proto.GetPath()])
+    pi.CreateProtoIndicesAttr([0, 0])
+    pi.CreatePositionsAttr([(1, 0, 0), (0, 3, 0)])
+    pi.CreateOrientationsAttr([Gf.Quath(1, 0, 0, 0), Gf.Quath(0.7071068, 0, 0.7071068, 0)])
+    stage.GetRootLayer().Save()
+
+    scene = wrt.load_usd(stage.GetRootLayer().realPath)
+    placed = {}  # prim path -> [(8, 3) world corners of each instance's copy]
+    for i in range(len(scene.instances)):
+        for shape in scene.prototypes[scene.instances.prototype[i]].shapes:
+            lower, upper = shape.local_bounds()
+            placed.setdefault(shape.path, []).append(
+                _box_corners(lower, upper, scene.instances.to_world[i] @ shape.to_world))
+    bboxes = UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.default_])
+    for name in ("Loose/Cube", "Kept"):
+        cube_path = f"/PI/Protos/Holder/P/{name}"
+        # The instances' bounds of that prim alone: the other cube made invisible for the question.
+        other = "Kept" if name != "Kept" else "Loose"
+        UsdGeom.Imageable(stage.GetPrimAtPath(f"/PI/Protos/Holder/P/{other}")).MakeInvisible()
+        bboxes.Clear()
+        bounds = bboxes.ComputePointInstanceWorldBounds(pi, [0, 1])
+        UsdGeom.Imageable(stage.GetPrimAtPath(f"/PI/Protos/Holder/P/{other}")).MakeVisible()
+        assert len(placed[cube_path]) == 2
+        for got, box in zip(placed[cube_path], bounds):
+            # USD's box of an instance is the prototype's bound (aligned in the prototype parent's world frame) moved
+            # by the instance: the same centre as the cube's copy, and the copy inside its aligned range.
+            center = np.array(box.GetMatrix().Transform(box.GetRange().GetMidpoint()))
+            np.testing.assert_allclose(got.mean(axis=0), center, atol=1e-6, err_msg=name)
+            aligned = box.ComputeAlignedRange()
+            assert np.all(got >= np.array(aligned.GetMin()) - 1e-6) and np.all(got <= np.array(aligned.GetMax()) + 1e-6)

@@ -85,7 +85,7 @@ import os
 import warnings
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc
 
 from .errors import SceneError
 from .instancing import invert_transforms, thicken_flat_transforms
@@ -435,11 +435,31 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         if ctx.space_root is None:
             m = self.xforms.GetLocalToWorldTransform(prim)
         else:
-            m, _ = self.xforms.ComputeRelativeTransform(prim, ctx.space_root)
+            m, resets = self.xforms.ComputeRelativeTransform(prim, ctx.space_root)
+            if resets:
+                m = self._reset_in_prototype(prim, ctx.space_root, m)
         m = np.array(m, dtype=np.float64)
         if not np.all(np.isfinite(m)):
             raise self._error("world transform is not finite", prim)
         return m
+
+    def _reset_in_prototype(self, prim: Usd.Prim, space_root: Usd.Prim, m: Gf.Matrix4d) -> Gf.Matrix4d:
+        """The transform of ``prim``, which resets the transform stack (or is below a prim that does) inside the
+        PointInstancer prototype whose parent is ``space_root``, to that parent's space: ``m`` is its own ops from the
+        reset down. A reset below the prototype root is taken as ``BBoxCache.ComputePointInstanceWorldBounds``,
+        ``ComputeExtentAtTime`` and UsdImaging's instancer adapter (``_CorrectTransform``) take it: the prim's world
+        transform over the prototype root's, then the root's own; read as ``m`` alone, the prim was placed as if the
+        prototype's parent sat at the origin. A reset on the root itself leaves ``m``, the root's own transform, as
+        ``ComputeInstanceTransformsAtTime`` uses it (``IncludeProtoXform``)."""
+        root = self.stage.GetPrimAtPath(prim.GetPath().GetPrefixes()[space_root.GetPath().pathElementCount])
+        if not self.xforms.ComputeRelativeTransform(prim, root)[1]:
+            return m  # the root resets, nothing below it
+        root_world = self.xforms.GetLocalToWorldTransform(root)
+        linear = np.array(root_world, np.float64)[:3, :3]
+        if not abs(np.linalg.det(linear)) > 1e-9 * np.abs(linear).max() ** 3:
+            return m  # the root is flattened in the world (a zero scale above it): no space to divide by
+        local, _ = self.xforms.ComputeRelativeTransform(root, space_root)
+        return self.xforms.GetLocalToWorldTransform(prim) * root_world.GetInverse() * local
 
     def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material, outer_purpose=None,
                  outer_forced=False, outer_color=None) -> Content:
