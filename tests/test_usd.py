@@ -555,6 +555,39 @@ def test_visibility_purpose_and_activation(tmp_path):
     assert [m.path for m in scene.meshes] == ["/Shown", "/Render"]
 
 
+def test_point_instancer_prototypes_inherit_purpose_from_their_ancestors(tmp_path):
+    """A PointInstancer's prototype takes the purpose its ancestors author, as ``ComputePurpose`` computes it (and
+    UsdImaging, whose instancer adapter asks the prototype's namespace first): the instances of a prototype under a
+    ``guide`` scope, or under a ``proxy`` prim outside the instancer, are not drawn, while one that authors ``render``
+    itself is. Visibility still counts from the prototype root down (the invisible scope hides nothing). Purpose was
+    read from the prototype root down too, so every prototype was drawn."""
+    body = (
+        'def PointInstancer "PI"\n{\n'
+        "    rel prototypes = [</PI/Protos/A>, </PI/Protos/B>, </Proxy/C>, </Plain/D>]\n"
+        "    int[] protoIndices = [0, 1, 2, 3]\n"
+        "    point3f[] positions = [(0, 0, 0), (10, 0, 0), (20, 0, 0), (30, 0, 0)]\n"
+        '    def Scope "Protos"\n    {\n        uniform token purpose = "guide"\n'
+        '        token visibility = "invisible"\n'
+        '        def Xform "A"\n        {' + mesh_usda("Tri") + "        }\n"
+        '        def Xform "B"\n        {\n            uniform token purpose = "render"' + mesh_usda("Tri")
+        + "        }\n    }\n}\n"
+        'def Scope "Proxy"\n{\n    uniform token purpose = "proxy"\n    def Xform "C"\n    {' + mesh_usda("Tri")
+        + "    }\n}\n"
+        'def Scope "Plain"\n{\n    def Xform "D"\n    {' + mesh_usda("Tri") + "    }\n}\n"
+    )
+    path = write_usda(tmp_path, body)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    expected = [str(target) + "/Tri" for target in pi.GetPrototypesRel().GetTargets()
+                if UsdGeom.Imageable(stage.GetPrimAtPath(str(target) + "/Tri")).ComputePurpose()
+                in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)]
+    assert expected == ["/PI/Protos/B/Tri", "/Plain/D/Tri"]
+    scene = load(path)
+    drawn = [m.path for i in scene.instances.prototype for m in scene.prototypes[i].meshes]
+    assert drawn == expected
+    assert [m.path for m in scene.meshes] == ["/Plain/D/Tri"]  # drawn in place too; the others are hidden or proxy
+
+
 def native_instances_usda(tmp_path, points=((0, 0, 0), (1, 0, 0), (0, 1, 0)), extra="", name="scene.usda") -> str:
     """A stage of mesh ``/Proto/Tri`` instanced by instanceable prims ``/A`` and ``/B``."""
     body = 'class Xform "Proto"\n{\n' + mesh_usda("Tri", points=list(points), counts=[3], indices=[0, 1, 2],

@@ -43,8 +43,9 @@ per-instance arrays shorter than ``protoIndices`` (``ids`` too, where a mask use
 :class:`wrt.errors.SceneError` naming the instancer; instances flattened into a plane by a zero scale are drawn
 flat (:func:`wrt.instancing.thicken_flat_transforms`), those scaled to a line or a point are skipped with a warning
 naming each one (``/instancer[index]``), and so are the instances of an inactive prototype
-(or one under an inactive prim). Visibility and purpose inside a PointInstancer's prototype are taken from the
-prototype root down (the scope holding the prototypes is often made invisible so they are not drawn in place). A
+(or one under an inactive prim). Visibility inside a PointInstancer's prototype is taken from the prototype root
+down (the scope holding the prototypes is often made invisible so they are not drawn in place), as UsdImaging takes
+it; purpose is inherited through the prototype's ancestors too, as ``ComputePurpose`` and UsdImaging compute it. A
 material bound on or above a native instance (chosen by the meshes' rule, :func:`wrt.materials.bound_material`:
 preview bindings included) applies to the prototype's meshes that bind none themselves (on the faces that their
 ``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it

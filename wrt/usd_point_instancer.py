@@ -47,10 +47,12 @@ class PointInstancerReading:
                 self._skip("instances of PointInstancer prototypes that are not defined (an over, not a def) were "
                            "skipped", prim, str(path))
                 continue
-            # The prototype's space is its parent's: the root's own transform is the most local part.
-            key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced, ctx.outer_color)
+            # The prototype's space is its parent's: the root's own transform is the most local part. Its purpose,
+            # where nothing in it authors one, is the one its ancestors author (_prototype_purpose).
+            purpose = self._prototype_purpose(target, ctx)
+            key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced, ctx.outer_color, purpose)
             parent = target.GetParent()
-            content = self._content(key, target, parent, ctx.outer_material, outer_forced=ctx.outer_forced,
+            content = self._content(key, target, parent, ctx.outer_material, purpose, outer_forced=ctx.outer_forced,
                                     outer_color=ctx.outer_color)
             ctx.content.uses_outer |= content.uses_outer  # as for a nested native instance
             ctx.content.want_colors(content.outer_colors)

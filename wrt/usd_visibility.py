@@ -1,5 +1,7 @@
 """Which prims the stage reader draws: visibility (each prim's answer kept, per stop) and purpose, computed from a
-native instance's or PointInstancer prototype's root down as USD computes them through instance proxies."""
+native instance's or PointInstancer prototype's root down as USD computes them through instance proxies (a
+PointInstancer prototype's visibility from its root down, as UsdImaging takes it; its purpose through its ancestors
+too)."""
 
 from __future__ import annotations
 
@@ -50,6 +52,19 @@ class Visibility:
                 return attr.Get()
             p = p.GetParent()
         return ctx.outer_purpose or UsdGeom.Tokens.default_
+
+    def _prototype_purpose(self, root: Usd.Prim, ctx: Context):
+        """The purpose that PointInstancer prototype ``root`` inherits from its ancestors when it is one not drawn,
+        else None. Purpose, unlike visibility, is inherited through the prototype's own ancestors, the scope holding it
+        too, as ``ComputePurpose`` computes it and UsdImaging's instancer adapter takes it (the prototype's namespace
+        first). Where none authors one inside a native prototype, the purpose the instance inherits applies."""
+        parent = root.GetParent()
+        info = UsdGeom.Imageable(parent).ComputePurposeInfo() if parent and not parent.IsPseudoRoot() else None
+        if info is not None and info.isInheritable:
+            purpose = info.purpose
+        else:
+            purpose = ctx.outer_purpose if root.IsInPrototype() else None
+        return None if purpose is None or purpose in self.purposes else purpose
 
     def _rendered(self, prim: Usd.Prim, ctx: Context) -> bool:
         """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own)."""
