@@ -588,6 +588,34 @@ def test_point_instancer_prototypes_inherit_purpose_from_their_ancestors(tmp_pat
     assert [m.path for m in scene.meshes] == ["/Plain/D/Tri"]  # drawn in place too; the others are hidden or proxy
 
 
+def test_a_guide_point_instancer_draws_the_prototype_prims_that_author_render(tmp_path):
+    """Under a PointInstancer of guide purpose, a prototype prim that authors ``render`` is drawn in each instance and
+    the rest is not, as ``ComputePurpose`` computes it (and as native instances of guide purpose were already read);
+    a prototype outside the instancer authoring nothing takes the instancer's purpose, as UsdImaging gives it. The
+    instancer was skipped whole."""
+    body = (
+        'def PointInstancer "PI"\n{\n    uniform token purpose = "guide"\n'
+        "    rel prototypes = [</PI/Protos/A>, </Outside>]\n"
+        "    int[] protoIndices = [0, 0, 1]\n"
+        "    point3f[] positions = [(0, 0, 0), (10, 0, 0), (20, 0, 0)]\n"
+        '    def Scope "Protos"\n    {\n        token visibility = "invisible"\n'
+        '        def Xform "A"\n        {'
+        + mesh_usda("Guide")
+        + mesh_usda("Render", extra='uniform token purpose = "render"')
+        + "        }\n    }\n}\n"
+        'over "Outside"\n{' + mesh_usda("Tri") + "}\n"
+    )
+    path = write_usda(tmp_path, body)
+    stage = Usd.Stage.Open(path)
+    drawn = (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
+    assert [UsdGeom.Imageable(stage.GetPrimAtPath(p)).ComputePurpose() in drawn
+            for p in ("/PI/Protos/A/Guide", "/PI/Protos/A/Render")] == [False, True]
+    scene = load(path)
+    drawn_paths = [m.path for i in scene.instances.prototype for m in scene.prototypes[i].meshes]
+    assert drawn_paths == ["/PI/Protos/A/Render"] * 2
+    np.testing.assert_allclose(scene.instances.to_world[:, :3, 3], [(0, 0, 0), (10, 0, 0)])
+
+
 def native_instances_usda(tmp_path, points=((0, 0, 0), (1, 0, 0), (0, 1, 0)), extra="", name="scene.usda") -> str:
     """A stage of mesh ``/Proto/Tri`` instanced by instanceable prims ``/A`` and ``/B``."""
     body = 'class Xform "Proto"\n{\n' + mesh_usda("Tri", points=list(points), counts=[3], indices=[0, 1, 2],

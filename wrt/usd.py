@@ -323,8 +323,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         elif prim.IsA(UsdGeom.PointInstancer):
             # Its prototypes are drawn through the instancer only, so its subtree is not walked in place. An
             # instanceable instancer is read the same way: its prototypes are the instance proxies it targets (its
-            # native prototype holds only those, not the instancer's own positions and indices).
-            if self._rendered(prim, ctx):
+            # native prototype holds only those, not the instancer's own positions and indices). One of guide or
+            # proxy purpose is read too, as instances are: a prototype prim of authored render purpose is drawn.
+            if self._visible(prim, ctx.stop):
                 self._read_instancer(prim, ctx)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.Gprim):

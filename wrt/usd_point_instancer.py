@@ -49,7 +49,7 @@ class PointInstancerReading:
                 continue
             # The prototype's space is its parent's: the root's own transform is the most local part. Its purpose,
             # where nothing in it authors one, is the one its ancestors author (_prototype_purpose).
-            purpose = self._prototype_purpose(target, ctx)
+            purpose = self._prototype_purpose(target, prim, ctx)
             key = ("pi", str(target.GetPath()), ctx.outer_material, ctx.outer_forced, ctx.outer_color, purpose)
             parent = target.GetParent()
             content = self._content(key, target, parent, ctx.outer_material, purpose, outer_forced=ctx.outer_forced,

@@ -53,18 +53,15 @@ class Visibility:
             p = p.GetParent()
         return ctx.outer_purpose or UsdGeom.Tokens.default_
 
-    def _prototype_purpose(self, root: Usd.Prim, ctx: Context):
-        """The purpose that PointInstancer prototype ``root`` inherits from its ancestors when it is one not drawn,
-        else None. Purpose, unlike visibility, is inherited through the prototype's own ancestors, the scope holding it
-        too, as ``ComputePurpose`` computes it and UsdImaging's instancer adapter takes it (the prototype's namespace
-        first). Where none authors one inside a native prototype, the purpose the instance inherits applies."""
+    def _prototype_purpose(self, root: Usd.Prim, instancer: Usd.Prim, ctx: Context):
+        """The purpose that prototype ``root`` of PointInstancer ``instancer`` (read in ``ctx``) inherits, when it is
+        one not drawn, else None. Purpose, unlike visibility, is inherited through the prototype's own ancestors, the
+        scope holding it too, as ``ComputePurpose`` computes it; where none of them authors one, the instancer's
+        purpose applies, as UsdImaging's instancer adapter gives it (``instanceInheritablePurpose``)."""
         parent = root.GetParent()
         info = UsdGeom.Imageable(parent).ComputePurposeInfo() if parent and not parent.IsPseudoRoot() else None
-        if info is not None and info.isInheritable:
-            purpose = info.purpose
-        else:
-            purpose = ctx.outer_purpose if root.IsInPrototype() else None
-        return None if purpose is None or purpose in self.purposes else purpose
+        purpose = info.purpose if info is not None and info.isInheritable else self._purpose(instancer, ctx)
+        return None if purpose in self.purposes else purpose
 
     def _rendered(self, prim: Usd.Prim, ctx: Context) -> bool:
         """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own)."""
