@@ -11,8 +11,8 @@ pytest.importorskip("pxr")
 
 from gprim_compare import compare_stage  # noqa: E402
 
-SEEDS = [*range(24), 1119]  # 25 stages of 240 rays: about 10 s on a CPU. 1119: a Capsule_1 whose small sphere
-# almost sits inside its big one (the steep cone ring between them)
+SEEDS = [*range(24), 1119]  # 25 stages of 240 rays: about 10 s on a CPU. 1119: a Capsule_1 whose radius
+# difference is near its height (the steep cone between its spheres)
 SEGMENTS = 256  # per circle: the tessellation strays at most 2.3e-4 of a radius
 # A known limit, kept failing on purpose: the float32 edge functions of a sliver triangle (aspect above about 1000)
 # round t far enough to lose a hit. Weighing such hits in float64 fixed it and cost the GPU's BVH4 traversal 10-12% on
@@ -96,9 +96,11 @@ def hull_distance(p, a, b, ra, rb):
 
 
 def test_a_ray_near_the_axis_meets_the_steep_ring_of_a_nearly_nested_tapered_capsule(tmp_path):
-    """A Capsule_1 whose small sphere almost sits inside the big one: the cone between them is a ring nearly flat
-    across the axis. A ray down the axis 1.6e-5 off it missed that ring (float32 cancellation in the cone's
-    discriminant) and hit the far side of the big sphere instead (t 1.04 for 0.62)."""
+    """A Capsule_1 of radius difference near its height: read as spheres of the two radii at the ends, its small
+    sphere almost sat inside the big one and the cone between them was a ring nearly flat across the axis; a ray down
+    the axis 1.6e-5 off it missed that ring (float32 cancellation in the cone's discriminant) and hit the far side of
+    the big sphere instead (t 1.04 for 0.62). With USD's spheres (tangent to the cone at the ends) the cone is steep
+    but short; the ray still meets the hull where a float64 bisection does."""
     import wrt
 
     h, r_big, r_small = 0.005758039242686765, 0.006072225253551275, 0.0003161803485366661
@@ -116,10 +118,15 @@ def Capsule_1 "G"
     origin = np.array([-5.275547948303445e-06, 0.021413870212408384, 1.525513273964538e-05])
     direction = np.array([0.0, -0.029176571687598584, 0.0])
     hits = wrt.trace(scene, origin[None].astype(np.float32), direction[None].astype(np.float32))
-    a, b = np.array([0.0, -h / 2, 0.0]), np.array([0.0, h / 2, 0.0])
+    # USD's spheres: tangent to the cone of the two radii at the ends of the height, so larger by the secant of its
+    # slope and centred past the ends (UsdGeomCapsule_1::ComputeExtent).
+    slope = (r_big - r_small) / h
+    secant = np.sqrt(1.0 + slope * slope)
+    a, b = np.array([0.0, -h / 2 - slope * r_big, 0.0]), np.array([0.0, h / 2 - slope * r_small, 0.0])
+    big, small = r_big * secant, r_small * secant
     lo, hi = 0.0, 1.0  # outside at t = 0, inside at t = 1 (the axis passes through both spheres): bisect the entry
-    assert hull_distance(origin, a, b, r_big, r_small) > 0 > hull_distance(origin + direction, a, b, r_big, r_small)
+    assert hull_distance(origin, a, b, big, small) > 0 > hull_distance(origin + direction, a, b, big, small)
     for _ in range(60):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if hull_distance(origin + mid * direction, a, b, r_big, r_small) > 0 else (lo, mid)
+        lo, hi = (mid, hi) if hull_distance(origin + mid * direction, a, b, big, small) > 0 else (lo, mid)
     np.testing.assert_allclose(hits.t[0], lo, rtol=1e-5)

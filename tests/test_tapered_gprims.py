@@ -4,10 +4,11 @@ tessellation traced by ``wp.Mesh``, and against ``Cylinder`` / ``Capsule`` when 
 PointInstancers and native instances; time samples, attributes and bad sizes.
 
 The references: a ``Cylinder_1`` is, in its (radius, spine) half-plane, the trapezoid with corners
-``(0, -h/2), (rb, -h/2), (rt, h/2), (0, h/2)``; a ``Capsule_1`` is the convex hull of the spheres of radius ``rb``
-at ``-h/2`` and ``rt`` at ``+h/2`` on its axis (OpenUSD's capsule mesh generator joins them by the tangent cone),
-i.e. the union of the balls swept between them (centre ``c(s)`` and radius ``r(s)`` linear in ``s`` in ``[0, 1]``),
-whose signed distance is ``min_s |p - c(s)| - r(s)``: a convex function of ``s``, minimised by ternary search.
+``(0, -h/2), (rb, -h/2), (rt, h/2), (0, h/2)``; a ``Capsule_1`` is the cone of radii ``rb`` at ``-h/2`` and ``rt``
+at ``+h/2`` closed by the spheres tangent to it there (:func:`capsule_spheres`, as ``UsdGeomCapsule_1::ComputeExtent``
+and OpenUSD's capsule mesh generator place them), the convex hull of those two spheres, i.e. the union of the balls
+swept between them (centre ``c(s)`` and radius ``r(s)`` linear in ``s`` in ``[0, 1]``), whose signed distance is
+``min_s |p - c(s)| - r(s)``: a convex function of ``s``, minimised by ternary search.
 """
 
 from __future__ import annotations
@@ -79,6 +80,16 @@ def spine_frame(local, axis):
     return r, local[:, k], radial / np.maximum(r, 1e-300)[:, None]
 
 
+def capsule_spheres(height, bottom, top):
+    """``(bottom centre, bottom radius, top centre, top radius)`` on the spine of a ``Capsule_1``: the cone through
+    radius ``bottom`` at ``-height/2`` and ``top`` at ``+height/2`` touches each sphere where it crosses that end, so
+    the sphere's radius is the end's over the cosine of the cone's slope and its centre lies ``slope * radius`` past
+    the end (towards the larger end)."""
+    slope = (bottom - top) / height if height > 0 else 0.0
+    secant = math.sqrt(1.0 + slope * slope)
+    return -height / 2 - slope * bottom, bottom * secant, height / 2 - slope * top, top * secant
+
+
 def minimise(f, n):
     """``(n,)`` arguments in ``[0, 1]`` of the minima of the convex, vectorised ``f`` (ternary search)."""
     lo, hi = np.zeros(n), np.ones(n)
@@ -96,11 +107,13 @@ def reference_surface(type_name, height, bottom, top, axis, local):
     e = np.zeros(3)
     e[AXES[axis]] = 1.0
     if type_name == "Capsule_1":
+        z0, r0, z1, r1 = capsule_spheres(height, bottom, top)
+
         def distance(s):
-            return np.hypot(r, z - (s - 0.5) * height) - (bottom + (top - bottom) * s)
+            return np.hypot(r, z - (z0 + (z1 - z0) * s)) - (r0 + (r1 - r0) * s)
 
         s = minimise(distance, len(local))
-        n = local - ((s - 0.5) * height)[:, None] * e  # from the nearest swept ball's centre
+        n = local - (z0 + (z1 - z0) * s)[:, None] * e  # from the nearest swept ball's centre
         return distance(s), n / np.linalg.norm(n, axis=1, keepdims=True)
     # The trapezoid's three outer edges in (r, z): bottom cap, side, top cap; outward normals in (r, z).
     h2 = height / 2.0
@@ -134,12 +147,13 @@ def reference_miss_depth(type_name, height, bottom, top, axis, path, origins, di
         # Inside the hull = inside one swept ball: the line's distance to c(s) less than r(s) (convex in s).
         k = AXES[axis]
         d /= np.linalg.norm(d, axis=1, keepdims=True)
+        z0, r0, z1, r1 = capsule_spheres(height, bottom, top)
 
         def gap(s):
             to_centre = -o.copy()
-            to_centre[:, k] += (s - 0.5) * height
+            to_centre[:, k] += z0 + (z1 - z0) * s
             along = np.einsum("ij,ij->i", to_centre, d)
-            return np.linalg.norm(to_centre - along[:, None] * d, axis=1) - (bottom + (top - bottom) * s)
+            return np.linalg.norm(to_centre - along[:, None] * d, axis=1) - (r0 + (r1 - r0) * s)
 
         return max(-gap(minimise(gap, len(o))).min(), 0.0)
     # The trapezoid is cheap: points every 0.003 (local units) along each ray, near the shape.
@@ -269,7 +283,8 @@ def test_silhouettes_have_the_radii_at_each_end(tmp_path, type_name, radii):
         half = np.where(inside, bottom + (top - bottom) * (zs / height + 0.5), 0.0)
     else:
         s = np.linspace(0.0, 1.0, 40001)
-        centres, radius = (s - 0.5) * height, bottom + (top - bottom) * s
+        z0, r0, z1, r1 = capsule_spheres(height, bottom, top)
+        centres, radius = z0 + (z1 - z0) * s, r0 + (r1 - r0) * s
         half = np.sqrt(np.maximum(radius[None] ** 2 - (zs[:, None] - centres[None]) ** 2, 0.0)).max(axis=1)
     got = np.where(hits.any(axis=1), np.where(hits, np.abs(grid_x), 0.0).max(axis=1), 0.0)
     np.testing.assert_allclose(got, half, atol=step)
@@ -329,9 +344,11 @@ def test_point_instancer_and_native_instance_prototypes(tmp_path):
         inst.AddTranslateOp().Set((x, 0.0, 0.0))
     stage.Save()
     # Expected t from z = 10: the frustum's top cap (z = 1, radius 0.5) or its side (radius 0.75 - z / 4: 0.7 at
-    # z = 0.2, 0.75 at z = 0), the capsule's top sphere (radius 0.5 at z = 0.5).
+    # z = 0.2, 0.75 at z = 0), the capsule's top sphere (tangent to the cone of radius 0.5 at z = 0.5).
+    _, _, top_centre, top_radius = capsule_spheres(1.0, 0.25, 0.5)
     xs = [0.0, 0.7, 5.0, 10.0, 10.75, 20.0, 30.2]
-    expected = [9.0, 9.8, 9.0, 8.0, 9.0, 9.0, 9.5 - math.sqrt(0.25 - 0.04)]
+    expected = [9.0, 9.8, 9.0, 8.0, 9.0, 10.0 - top_centre - top_radius,
+                10.0 - top_centre - math.sqrt(top_radius**2 - 0.04)]
     origins = np.array([[x, 0.0, 10.0] for x in xs], np.float32)
     directions = np.tile(np.float32([0, 0, -1]), (len(xs), 1))
     for tessellate in (False, 256):
@@ -388,27 +405,61 @@ def test_bad_sizes_are_skipped_with_a_warning_naming_the_prim(tmp_path, type_nam
 
 @pytest.mark.parametrize("type_name", ["Cylinder_1", "Capsule_1"])
 def test_bounds_hold_the_shape(tmp_path, type_name):
-    """World bounds of an untransformed Z-axis gprim: the larger radius across, the height (plus each end's sphere
-    for a capsule) along (a capsule's is tighter than USD's extent, which adds the larger radius at both ends)."""
+    """World bounds of an untransformed Z-axis gprim: USD's extent (the larger radius across; the height, plus for a
+    capsule each end's sphere past it, along)."""
     stage = Usd.Stage.CreateNew(str(tmp_path / "g.usda"))
     gprim = getattr(UsdGeom, type_name).Define(stage, "/G")
     gprim.CreateHeightAttr(2.0)
     gprim.CreateRadiusBottomAttr(0.3)
     gprim.CreateRadiusTopAttr(0.8)
     stage.Save()
+    extent = UsdGeom.Boundable.ComputeExtentFromPlugins(gprim, Usd.TimeCode.Default())
     (shape,) = load(str(tmp_path / "g.usda")).shapes
     lower, upper = world_boxes(*shape.local_bounds(), shape.to_world[None])
-    ends = (0.3, 0.8) if type_name == "Capsule_1" else (0.0, 0.0)
-    np.testing.assert_allclose(lower[0], [-0.8, -0.8, -1.0 - ends[0]], atol=1e-12)
-    np.testing.assert_allclose(upper[0], [0.8, 0.8, 1.0 + ends[1]], atol=1e-12)
+    np.testing.assert_allclose(lower[0], np.array(extent[0]), atol=1e-6)  # the extent is float32
+    np.testing.assert_allclose(upper[0], np.array(extent[1]), atol=1e-6)
 
 
-def test_a_capsule_whose_small_sphere_is_inside_the_large_one_is_the_large_sphere(tmp_path):
-    """radiusBottom - radiusTop >= height: no cone touches both spheres (OpenUSD's mesh generator takes the square
-    root of a negative number); the convex hull of the two is the larger sphere."""
-    path = write_stage(tmp_path / "g.usda", "Capsule_1", 0.5, 1.0, 0.25, "X")
+def test_a_capsule_of_height_zero_is_its_larger_sphere_and_any_other_is_tapered(tmp_path):
+    """Height 0: both spheres at the centre, the hull is the larger one (USD's extent: slope 0). A radius difference
+    above the height still leaves the smaller sphere outside the larger (USD's spheres are centred past the ends), so
+    the shape is a tapered capsule that fills USD's extent."""
+    path = write_stage(tmp_path / "flat.usda", "Capsule_1", 0.0, 1.0, 0.25, "X")
     (shape,) = load(path).shapes
     assert shape.kind == "sphere"
     local = to_local(path, (shape.to_world @ [0.0, 0.0, 0.0, 1.0])[None, :3])
-    np.testing.assert_allclose(local, [[-0.25, 0.0, 0.0]], atol=1e-12)  # the bottom sphere's centre
+    np.testing.assert_allclose(local, [[0.0, 0.0, 0.0]], atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(shape.to_world[:3, :3], axis=0), [SCALE] * 3)
+    path = write_stage(tmp_path / "g.usda", "Capsule_1", 0.5, 1.0, 0.25, "X")
+    (shape,) = load(path).shapes
+    assert shape.kind == "tapered"
+    z0, r0, z1, r1 = capsule_spheres(0.5, 1.0, 0.25)
+    assert z1 - z0 > r0 - r1
+    lower, upper = shape.local_bounds()
+    ends = to_local(path, np.array([[0.0, 0.0, lower[2]], [0.0, 0.0, upper[2]]]) @ shape.to_world[:3, :3].T
+                    + shape.to_world[:3, 3])
+    np.testing.assert_allclose(ends[:, 0], [z0 - r0, z1 + r1], atol=1e-9)
+
+
+@pytest.mark.parametrize("axis", list(AXES))
+@pytest.mark.parametrize("radii", ["bottom", "top", "point"])
+def test_a_capsule_fills_the_extent_usd_computes_for_it(tmp_path, radii, axis):
+    """A tapered ``Capsule_1``'s box is the one ``UsdGeomCapsule_1::ComputeExtent`` gives: the radii are the cone's
+    at the ends of ``height``, and the spheres tangent to the cone there are larger by the secant of its slope and
+    sit past the ends (as OpenUSD's capsule mesh generator draws it). Read as spheres of the two radii centred at the
+    ends, the capsule's box was off USD's by up to 0.46 of the larger radius (USD's is longer at the larger end,
+    shorter at the smaller, and wider)."""
+    bottom, top = RADII[radii]
+    path = write_stage(tmp_path / "g.usda", "Capsule_1", 1.8, bottom, top, axis)
+    stage = Usd.Stage.Open(path)
+    extent = UsdGeom.Boundable.ComputeExtentFromPlugins(UsdGeom.Boundable(stage.GetPrimAtPath("/G")),
+                                                       Usd.TimeCode.Default())
+    (shape,) = load(path).shapes
+    # The canonical box moved by the shape's transform, into the prim's own space: a box again (the axis rotation
+    # and the scales are axis-aligned there).
+    lower, upper = shape.local_bounds()
+    corners = np.array([[(lower, upper)[i][0], (lower, upper)[j][1], (lower, upper)[k][2]]
+                        for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    local = to_local(path, corners @ shape.to_world[:3, :3].T + shape.to_world[:3, 3])
+    np.testing.assert_allclose(local.min(axis=0), np.array(extent[0]), atol=1e-6)
+    np.testing.assert_allclose(local.max(axis=0), np.array(extent[1]), atol=1e-6)

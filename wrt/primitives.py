@@ -23,8 +23,9 @@ kind          canonical shape                                                   
 
 ``Cylinder_1`` with unequal radii is a ``cone`` with ``rho > 0`` (a frustum) and ``Capsule_1`` with unequal radii
 is a ``tapered`` capsule, the larger radius at canonical ``-Z`` (a half turn about X puts it at USD's top when
-``radiusTop`` is the larger): its tangent cone meets each sphere at the latitude ``asin((1 - rho) / (2 H))``, as
-OpenUSD's ``GeomUtilCapsuleMeshGenerator`` places its rings.
+``radiusTop`` is the larger): its tangent cone meets each sphere at the latitude ``asin((1 - rho) / (2 H))``. USD's
+radii are the cone's at the ends of ``height`` (:func:`tapered_shape` finds the spheres, as
+``UsdGeomCapsule_1::ComputeExtent`` and OpenUSD's ``GeomUtilCapsuleMeshGenerator`` place them).
 
 Outward normals are the front side (``orientation = rightHanded``); ``params[3] = -1`` flips them
 (``leftHanded``). Quadratics are solved in the numerically stable form of pbrt (``q = -(b + sign(b) sqrt(disc))``,
@@ -501,8 +502,9 @@ def tapered_shape(type_name: str, height: float, bottom: float, top: float):
 
     Equal radii make a ``cylinder`` or ``capsule``, as ``Cylinder`` and ``Capsule`` do; unequal ones a capped
     ``cone`` whose apex is cut at the smaller radius (a frustum; the apex itself when it is 0) or a ``tapered``
-    capsule, the larger end at canonical -Z (turned half about X when that end is the top). A capsule whose smaller
-    sphere lies inside the larger (radius difference >= height) is the larger sphere, their convex hull.
+    capsule, the larger end at canonical -Z (turned half about X when that end is the top): the cone of those radii
+    at the ends of ``height`` and the spheres tangent to it there, as USD's extent and mesh generator have it (a
+    capsule of height 0 is the larger sphere).
 
     Returns:
         ``(kind, transform, p0, p1)``: ``transform`` ``(4, 4)`` float64 canonical space -> the gprim's frame before
@@ -518,11 +520,20 @@ def tapered_shape(type_name: str, height: float, bottom: float, top: float):
         raise ValueError(f"type_name must be Cylinder_1 or Capsule_1, got {type_name!r}")
     if bottom == top:
         return "capsule", shape_transform(np.eye(3) * big), height / (2.0 * big), 0.0
-    if big - small >= height:
-        m = shape_transform(np.eye(3) * big)
-        m[2, 3] = height / 2.0 if top > bottom else -height / 2.0
-        return "sphere", m, 1.0, 0.0
-    return "tapered", shape_transform(turn * big), height / (2.0 * big), small / big
+    if height == 0.0:  # both spheres at the origin, as USD's extent has them: the larger
+        return "sphere", shape_transform(np.eye(3) * big), 1.0, 0.0
+    # The radii are the cone's at the ends of height; the spheres it is tangent to there are larger by the secant of
+    # its slope and centred past the ends, as UsdGeomCapsule_1::ComputeExtent and GeomUtilCapsuleMeshGenerator place
+    # them (larger end at canonical -Z here): centres -h/2 - slope * big and h/2 - slope * small.
+    slope = (big - small) / height
+    radius = big * math.sqrt(1.0 + slope * slope)  # of the larger sphere: the canonical unit
+    middle = -slope * (big + small) / 2.0
+    # Half the distance between the centres: always above half the difference of the sphere radii, so the smaller
+    # sphere is never inside the larger (no special case, unlike spheres of the radii themselves at the ends).
+    half = (height + slope * (big - small)) / 2.0
+    m = shape_transform(turn * radius)
+    m[:3, 3] = turn @ np.array([0.0, 0.0, middle])
+    return "tapered", m, half / radius, small / big
 
 
 def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
