@@ -404,10 +404,11 @@ def test_render_progress_line_counts_shapes_and_instances(tmp_path, capsys):
     assert f"{stats['rendered_shapes']:,} analytic shapes" in line
 
 
-def test_load_warnings_under_the_frames_progress_bar_get_lines_of_their_own(tmp_path, capsys):
+def test_load_warnings_under_the_frames_progress_bar_get_lines_of_their_own(tmp_path, capsys, monkeypatch):
     """A stage that warns when loaded, rendered with --frames: the warning was printed after the bar's "wrt frames:
     0%|...|" without a line break, so a terminal showed it glued to the bar. Each warning must be the visible text
     of its own line (what is left after the last carriage return)."""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # the bar is drawn on a terminal only
     stage = tmp_path / "warns.usda"
     stage.write_text('#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 2\n)\n'
                      'def Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
@@ -415,9 +416,31 @@ def test_load_warnings_under_the_frames_progress_bar_get_lines_of_their_own(tmp_
                      '    color3f[] primvars:displayColor = [(nan, 0, 0)]\n}\n')
     assert main(["render", str(stage), "--frames", "1:2", "--width", "8", "--height", "6",
                  "-o", str(tmp_path / "f_####.png")]) == 0
-    visible = [line.rsplit("\r", 1)[-1] for line in capsys.readouterr().err.split("\n")]
+    err = capsys.readouterr().err
+    assert "wrt frames" in err  # the bar was drawn
+    visible = [line.rsplit("\r", 1)[-1] for line in err.split("\n")]
     warned = [line for line in visible if "wrt: warning:" in line]
     assert warned and all(line.startswith("wrt: warning:") for line in warned), warned
+
+
+def test_progress_bars_are_drawn_on_a_terminal_only(tmp_path, capsys, monkeypatch):
+    """A single render drew its bar only when stderr was a terminal, but --frames and wrt bench drew theirs into a
+    log file too, a line per redraw. Under capsys stderr is no terminal: no bar; made to say it is one: the bars."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    frames = ["render", str(stage), "--frames", "1:2", "--width", "8", "--height", "6", "-o", str(tmp_path / "f_#.npy")]
+    bench = ["bench", "--scenes", "sphere:200", "--accels", "warp:sah", "--rays", "primary", "--n-rays", "300",
+             "--repeats", "1", "-o", str(tmp_path / "bench")]
+    for argv, bar in ((frames, "wrt frames"), (bench, "wrt bench")):
+        assert main(argv) == 0
+        err = capsys.readouterr().err
+        assert bar not in err and "\r" not in err, err
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    for argv, bar in ((frames, "wrt frames"), (bench, "wrt bench")):
+        assert main(argv) == 0
+        assert bar in capsys.readouterr().err
 
 
 def test_integrator_options_the_integrator_does_not_use_are_warned_about(tmp_path, capsys):

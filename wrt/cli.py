@@ -34,6 +34,12 @@ class _Progress:
     def __init__(self, quiet: bool):
         self.quiet = quiet
 
+    @property
+    def bar(self) -> bool:
+        """Whether to draw a progress bar: only on a terminal, where it redraws in place; in a log file each redraw
+        would be a line of its own. One rule for a render, its --frames and --products, and wrt bench."""
+        return not self.quiet and sys.stderr.isatty()
+
     def __call__(self, message: str, seconds: float | None = None):
         if not self.quiet:
             suffix = f" ({seconds:.2f} s)" if seconds is not None else ""
@@ -410,7 +416,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
     try:
-        image = renderer.render(spp=args.spp, seed=args.seed, progress=not args.quiet and sys.stderr.isatty())
+        image = renderer.render(spp=args.spp, seed=args.seed, progress=progress.bar)
     except KeyboardInterrupt:  # keep what a long render has so far, then stop as interrupted
         image = renderer.image_so_far()
         if image is not None:
@@ -515,7 +521,7 @@ def _run_products(args, paths: list, progress) -> int:
     written = wrt.render_products(scene, directory, spp=args.spp, device=args.device, seed=args.seed,
                                   builder=args.builder, accel=args.accel, integrator=args.integrator,
                                   max_depth=args.max_depth, ao_radius=args.ao_radius, exposure=args.exposure,
-                                  progress=not args.quiet and sys.stderr.isatty())
+                                  progress=progress.bar)
     progress(f"rendered {len(written)} products at {args.spp} spp ({args.integrator})", time.perf_counter() - start)
     for product, out in written.items():
         progress(f"wrote {out} ({product})")
@@ -552,7 +558,7 @@ def _run_frames(args, paths: list, progress) -> int:
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
     if not devices:
         raise ValueError(f"--devices {args.devices!r} names no device; give e.g. cuda:0,cuda:1")
-    common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": not args.quiet,
+    common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": progress.bar,
               "log": args.log}  # a row per frame as it finishes: an interrupted run keeps them
     common.update(_renderer_options(args), **_load_options(args))
     start = time.perf_counter()
@@ -772,7 +778,7 @@ def _run_bench(args) -> int:
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     grid = dataclasses.replace(grid, **{k: v for k, v in overrides.items() if v is not None})
     grid = grid.validated()  # a bad field is a one-line error that names it
-    rows = run_grid(grid, args.out, resume=args.resume, progress=not args.quiet, dask=args.dask)
+    rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     failed = [r for r in rows if "error" in r]
     measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
     summary = f"wrt: {measured} rows measured, {rows.resumed} resumed, {len(failed)} failed; results in {args.out}/"
