@@ -313,8 +313,23 @@ def Camera "C"
     uniform token[] xformOpOrder = ["xformOp:translate"]
 }}
 """)
-    with pytest.raises(wrt.SceneError, match=rf"cam\.usda: /C: invalid camera: camera /C needs finite.*{value}"):
+    with pytest.raises(wrt.SceneError, match=rf"cam\.usda: /C: camera needs finite.*{value}"):  # /C named once
         wrt.load_usd(path)
+
+
+def test_usd_camera_errors_show_values_as_authored(tmp_path):
+    """An aperture of 20.955, read as float32, was shown as 20.954999923706055: six significant digits give back
+    the authored text (what USD's own float32 read prints to that precision)."""
+    path = tmp_path / "cam.usda"
+    path.write_text('#usda 1.0\ndef Camera "C"\n{\n    float focalLength = 0\n'
+                    '    float horizontalAperture = 20.955\n    float verticalAperture = 15.2908\n}\n')
+    stage = Usd.Stage.Open(str(path))
+    authored = float(stage.GetPrimAtPath("/C").GetAttribute("horizontalAperture").Get())
+    assert repr(authored) == "20.954999923706055"  # the float32 noise the message printed
+    with pytest.raises(wrt.SceneError) as raised:
+        wrt.load_usd(path)
+    assert str(raised.value).endswith("cam.usda: /C: camera needs finite positive focalLength and apertures, got "
+                                      "focal_length=0, apertures=20.955x15.2908"), str(raised.value)
 
 
 @pytest.mark.parametrize(
@@ -633,7 +648,7 @@ def test_camera_exposure_attributes_scale_the_radiance_images(tmp_path):
 
 
 def test_camera_exposure_that_is_not_finite_names_the_camera(tmp_path):
-    with pytest.raises(wrt.SceneError, match=r"exposure\.usda: /Exposed: invalid camera: .*exposure scale.* inf"):
+    with pytest.raises(wrt.SceneError, match=r"exposure\.usda: /Exposed: camera needs .*exposure scale.* inf"):
         wrt.load_usd(_exposed_cameras_stage(tmp_path, f_stop=0.0))
     # Finite in float64 but inf in the float32 image: every lit pixel was inf.
     with pytest.raises(ValueError, match=r"exposure scale of at most 3\.403e\+38 .* got 1\.6\d*e\+60"):

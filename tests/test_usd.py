@@ -1055,7 +1055,7 @@ def test_indexed_primvar_bad_index(tmp_path):
 
 def test_bad_camera(tmp_path):
     body = 'def Camera "Cam"\n{\n    float horizontalAperture = 0\n}\n'
-    expect_scene_error(write_usda(tmp_path, body), "/Cam", "invalid camera")
+    expect_scene_error(write_usda(tmp_path, body), "/Cam", "camera needs finite positive")
 
 
 def test_wrongly_typed_normals_are_ignored(tmp_path):

@@ -154,8 +154,11 @@ def _finite(v) -> bool:
 
 
 def _show(v) -> str:
-    """``v`` for a message: numbers as they print (``nan``), anything else as its repr (``'3'``)."""
-    return str(v) if isinstance(v, (int, float)) else repr(v)
+    """``v`` for a message: numbers to 6 significant digits (``nan``; a float32 ``20.955`` read from USD is not
+    ``20.954999923706055``), anything else as its repr (``'3'``)."""
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v) if isinstance(v, int) else repr(v)
 
 
 @dataclasses.dataclass

@@ -65,7 +65,7 @@ class CameraReading:
         m = affine_part(np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64),  # row vectors
                         lambda reason: self._skip(reason, prim))
         try:
-            return Camera(
+            loaded = Camera(
                 to_world=m.T,  # column vectors
                 focal_length=number(camera.GetFocalLengthAttr()),
                 horizontal_aperture=number(camera.GetHorizontalApertureAttr()),
@@ -79,10 +79,11 @@ class CameraReading:
                 f_stop=number(camera.GetFStopAttr()),
                 focus_distance=number(camera.GetFocusDistanceAttr()),
                 exposure_scale=_exposure_scale(camera, number),
-                path=str(prim.GetPath()),
             )
-        except ValueError as e:
-            raise self._error(f"invalid camera: {e}", prim) from None
+        except ValueError as e:  # unnamed above: the SceneError names the file and the prim, once
+            raise self._error(str(e), prim) from None
+        loaded.path = str(prim.GetPath())  # for messages at render time, e.g. a singular transform
+        return loaded
 
 
 def _exposure_scale(camera: UsdGeom.Camera, number) -> float:
