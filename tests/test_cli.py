@@ -437,6 +437,8 @@ def test_progress_bars_are_drawn_on_a_terminal_only(tmp_path, capsys, monkeypatc
         assert main(argv) == 0
         err = capsys.readouterr().err
         assert bar not in err and "\r" not in err, err
+    assert main([*frames[:3], "1:1", *frames[4:]]) == 0
+    assert "wrt: rendered 1 frame on cpu" in capsys.readouterr().err  # "rendered 1 frames"
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
     for argv, bar in ((frames, "wrt frames"), (bench, "wrt bench")):
         assert main(argv) == 0

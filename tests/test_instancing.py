@@ -675,10 +675,10 @@ def test_a_scene_and_its_meshes_print_as_counts(np_rng):
     meshes); it prints the counts of ``stats()``, and a mesh its sizes and what it holds."""
     scene = python_scene(np_rng, n=5)  # a ground quad and 5 octahedra (8 triangles each) of two prototypes
     scene.materials.append(wrt.Material())
-    assert repr(scene) == ("Scene(1 meshes, 42 triangles (18 unique), 0 shapes, 2 prototypes, 5 instances, "
-                           "0 cameras, 0 lights, 1 materials)")
+    assert repr(scene) == ("Scene(1 mesh, 42 triangles (18 unique), 0 shapes, 2 prototypes, 5 instances, "
+                           "0 cameras, 0 lights, 1 material)")  # one of a kind in the singular ("1 meshes")
     scene.source = "x.usda"
-    assert repr(scene).startswith("Scene('x.usda': 1 meshes")
+    assert repr(scene).startswith("Scene('x.usda': 1 mesh,")
     ground = scene.meshes[0]
     assert repr(ground) == "Mesh('/Ground', 4 points, 2 triangles)"
     uvs = np.zeros((2, 3, 2), np.float32)

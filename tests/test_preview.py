@@ -189,6 +189,17 @@ def test_bvh_cut_partitions_the_triangles_and_its_boxes_enclose_them(bunny, cut)
     assert np.all(corners <= bvh.uppers[owner][:, None, :] + 1e-6)
 
 
+def test_bvh_summary_counts_one_node_in_the_singular():
+    """A one-triangle scene's BVH is a single leaf, which the preview's title called "1 nodes"."""
+    from wrt.preview import _add_bvh
+
+    scene = wrt.Scene(meshes=[wrt.Mesh("/T", np.eye(3, dtype=np.float32), np.array([[0, 1, 2]], np.int32), [0])])
+    bvh = get_accelerator(scene, "wrt", "sah", "cpu").bvh
+    assert bvh.num_nodes == 1
+    plotter = types.SimpleNamespace(add_mesh=lambda *args, **kwargs: None)
+    assert _add_bvh(plotter, bvh, None, "depth", 100).startswith("1 node, depth 0: leaves, 1 box")
+
+
 def test_bvh_boxes_polydata(bunny):
     bvh = get_accelerator(bunny, "wrt", "sah", "cpu").bvh
     nodes = select_bvh_nodes(bvh, 4)

@@ -19,6 +19,7 @@ from importlib import resources
 from pathlib import Path
 
 from .errors import did_you_mean
+from .wording import counted
 
 EXIT_BAD_INPUT = 2  # exit status for bad input, as argparse uses for bad arguments
 
@@ -522,7 +523,8 @@ def _run_products(args, paths: list, progress) -> int:
                                   builder=args.builder, accel=args.accel, integrator=args.integrator,
                                   max_depth=args.max_depth, ao_radius=args.ao_radius, exposure=args.exposure,
                                   progress=progress.bar)
-    progress(f"rendered {len(written)} products at {args.spp} spp ({args.integrator})", time.perf_counter() - start)
+    progress(f"rendered {counted(len(written), 'product')} at {args.spp} spp ({args.integrator})",
+             time.perf_counter() - start)
     for product, out in written.items():
         progress(f"wrote {out} ({product})")
     return 0
@@ -572,7 +574,8 @@ def _run_frames(args, paths: list, progress) -> int:
     failures = sorted((row for row in rows if "error" in row), key=lambda row: row["frame"])
     changes = collections.Counter(row["change"] for row in rows if "error" not in row)
     summary = ", ".join(f"{n} {c}" for c, n in sorted(changes.items()))
-    progress(f"rendered {len(rows) - len(failures)} frames on {', '.join(devices)} (BVH: {summary or 'nothing to do'})",
+    done = counted(len(rows) - len(failures), "frame")
+    progress(f"rendered {done} on {', '.join(devices)} (BVH: {summary or 'nothing to do'})",
              time.perf_counter() - start)
     # The other frames were rendered, as in a batch of scenes. Each message once, with its frames: the same problem
     # over 240 frames is one line.

@@ -45,6 +45,7 @@ from .render import Renderer, render, resolve_view
 from .scene import Scene, contents_summary
 from .shade import CullScratch, intersect_visible
 from .trace import HitBuffer, get_accelerator, resolve_device
+from .wording import counted
 
 TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
 EXPAND_FACTOR = 4  # instanced scenes above EXPAND_FACTOR * budget show only the instances within the budget
@@ -756,9 +757,9 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> str:
             style = {"cmap": LinearSegmentedColormap.from_list("wrt_sah", SAH_COLORS), "log_scale": clim[0] > 0}
         plotter.add_mesh(boxes, scalars=scalars, clim=clim, line_width=2, scalar_bar_args=bar, name="bvh", **style)
     what = "leaves" if depth is None else f"cut at depth {depth}"
-    count = f"{len(nodes):,} boxes" if shown == len(nodes) else f"{shown:,} of {len(nodes):,} boxes"
+    count = counted(len(nodes), "box", "boxes") if shown == len(nodes) else f"{shown:,} of {len(nodes):,} boxes"
     levels = int(bvh.depths().max(initial=0))
-    return f"{bvh.num_nodes:,} nodes, depth {levels}: {what}, {count}"
+    return f"{counted(bvh.num_nodes, 'node')}, depth {levels}: {what}, {count}"
 
 
 def _add_rays(pv, plotter, origins, directions, t, forward, far: float) -> str:

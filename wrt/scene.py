@@ -38,6 +38,7 @@ from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, i
 from .light_links import LinkCollection, drawn_ids
 from .render_settings import RenderSettings
 from .transforms import mat34
+from .wording import counted
 
 
 @wp.struct
@@ -344,16 +345,16 @@ class Scene:
         # a notebook shows for a cell ending in ``scene``); these are the counts of :meth:`stats`.
         stats = self.stats()
         counts = [
-            f"{stats['meshes']:,} meshes",
-            f"{stats['rendered_triangles']:,} triangles"
+            counted(stats["meshes"], "mesh", "meshes"),
+            counted(stats["rendered_triangles"], "triangle")
             + (f" ({stats['unique_triangles']:,} unique)" if stats["unique_triangles"] != stats["rendered_triangles"]
                else ""),
-            f"{stats['rendered_shapes']:,} shapes",
-            f"{stats['prototypes']:,} prototypes",
-            f"{stats['instances']:,} instances",
-            f"{stats['cameras']:,} cameras",
-            f"{stats['lights']:,} lights",
-            f"{len(self.materials):,} materials",
+            counted(stats["rendered_shapes"], "shape"),
+            counted(stats["prototypes"], "prototype"),
+            counted(stats["instances"], "instance"),
+            counted(stats["cameras"], "camera"),
+            counted(stats["lights"], "light"),
+            counted(len(self.materials), "material"),
         ]
         source = f"{self.source!r}: " if self.source else ""
         return f"Scene({source}{', '.join(counts)})"
@@ -1088,17 +1089,14 @@ def contents_summary(stats: dict) -> str:
     :meth:`Scene.stats`: counting meshes alone said "0 triangles in 0 meshes" for a stage of gprims and for an
     instanced forest, as if most of the scene had not loaded. Zero meshes beside instances or shapes go unsaid."""
 
-    def count(n: int, noun: str, plural: str = "") -> str:
-        return f"{n:,} {noun if n == 1 else plural or noun + 's'}"
-
     holders = []  # what the triangles are in
     if stats["meshes"] or not (stats["instances"] or stats["rendered_shapes"]):
-        holders.append(count(stats["meshes"], "mesh", "meshes"))
+        holders.append(counted(stats["meshes"], "mesh", "meshes"))
     if stats["instances"]:
-        holders.append(f"{count(stats['instances'], 'instance')} of {count(stats['prototypes'], 'prototype')}")
-    parts = [f"{count(stats['rendered_triangles'], 'triangle')} in {', '.join(holders)}"] if holders else []
+        holders.append(f"{counted(stats['instances'], 'instance')} of {counted(stats['prototypes'], 'prototype')}")
+    parts = [f"{counted(stats['rendered_triangles'], 'triangle')} in {', '.join(holders)}"] if holders else []
     if stats["rendered_shapes"]:
-        parts.append(count(stats["rendered_shapes"], "analytic shape"))
+        parts.append(counted(stats["rendered_shapes"], "analytic shape"))
     return ", ".join(parts)
 
 
