@@ -156,7 +156,8 @@ def test_resume_refuses_rows_measured_with_other_ray_counts(tmp_path):
     """Resuming with another n_rays kept the old rows beside new ones over other rays, and the table compared them."""
     run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)
     before = read_rows(tmp_path)
-    with pytest.raises(ValueError, match="other settings \\(n_rays 3000 -> 6000"):
+    # Named as the user set it, once: not also as 'scaling_n_rays', the sweep's count that follows --n-rays.
+    with pytest.raises(ValueError, match="other settings \\(--n-rays 3000 -> 6000\\); resume with"):
         run_grid(tiny_grid(rays=["primary"], n_rays=6000), tmp_path, resume=True, progress=False)
     assert read_rows(tmp_path) == before  # nothing measured, nothing lost
     rows = run_grid(tiny_grid(rays=["primary"]), tmp_path, resume=True, progress=False)  # the same settings resume
@@ -168,7 +169,7 @@ def test_resume_refuses_rows_measured_with_other_repeats(tmp_path):
     timed over 1, and the table put their medians side by side."""
     run_grid(tiny_grid(accels=["warp:sah"], rays=["primary"]), tmp_path, progress=False)  # repeats=3
     before = read_rows(tmp_path)
-    with pytest.raises(ValueError, match="other settings \\(repeats 3 -> 1\\)"):
+    with pytest.raises(ValueError, match="other settings \\(--repeats 3 -> 1\\)"):
         run_grid(tiny_grid(rays=["primary"], repeats=1), tmp_path, resume=True, progress=False)
     assert read_rows(tmp_path) == before  # nothing measured, nothing lost
 

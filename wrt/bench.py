@@ -615,6 +615,10 @@ def _resume_settings(grid: Grid) -> dict:
             "repeats": grid.repeats}
 
 
+# How a user sets each of _resume_settings: the options of wrt bench, and the sweep's own key in a suite file.
+_SETTING_NAMES = {"n_rays": "--n-rays", "repeats": "--repeats", "scaling_n_rays": "the suite's scaling n_rays"}
+
+
 def _check_resumed_settings(path: Path, grid: Grid) -> None:
     """Raises ValueError when the rows to resume were measured with other ray counts or repeats (``path`` is their
     ``SETTINGS_FILE``; none, or one without a setting, from an older run: nothing to compare for it)."""
@@ -624,7 +628,11 @@ def _check_resumed_settings(path: Path, grid: Grid) -> None:
         return
     now = _resume_settings(grid)
     before = before if isinstance(before, dict) else {}
-    changed = [f"{k} {before[k]} -> {now[k]}" for k in now if before.get(k, now[k]) != now[k]]
+    differ = [k for k in now if before.get(k, now[k]) != now[k]]
+    follows = before.get("scaling_n_rays") == before.get("n_rays") and now["scaling_n_rays"] == now["n_rays"]
+    if "scaling_n_rays" in differ and follows:  # a sweep without its own n_rays follows --n-rays: one change, once
+        differ.remove("scaling_n_rays")
+    changed = [f"{_SETTING_NAMES[k]} {before[k]} -> {now[k]}" for k in differ]
     if changed:
         raise ValueError(f"{path.parent}: its rows were measured with other settings ({', '.join(changed)}); "
                          "resume with the same settings, or run without --resume to start over")
