@@ -350,6 +350,13 @@ def test_cli_products(tmp_path, capsys):
     assert main(["render", stage, "-o", str(tmp_path / "one.png"), "-q"]) == 0
     assert ("wrt: warning: shot.usda: /Render/Settings has 2 RenderProducts; this image is the first's, "
             "/Render/Beauty (--products DIR writes them all)") in capsys.readouterr().err
+    # Not when --camera overrides the products' camera: the image is no product's, and the warning said it was.
+    # (Another file: Python shows a warning of the same text once per process.)
+    stage = write_stage(tmp_path, products, ["Beauty", "Aovs"], name="camera.usda")
+    assert main(["render", stage, "-o", str(tmp_path / "cam.png"), "-q", "--camera", "/World/Front"]) == 0
+    assert "RenderProducts" not in capsys.readouterr().err
+    assert main(["render", stage, "-o", str(tmp_path / "cam.png"), "-q"]) == 0  # the same run warns without it
+    assert "camera.usda: /Render/Settings has 2 RenderProducts" in capsys.readouterr().err
 
 
 # A camera at (1, 0.5, 10) turned 8 degrees about Y, with apertures of the 48x24 image's aspect (no conforming), over

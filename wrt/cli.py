@@ -406,7 +406,8 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     loaded = loaded_summary(path.name, stats)
     progress(loaded, time.perf_counter() - start)
     settings = scene.render_settings
-    if settings is not None and len(settings.products) > 1:  # one image: say where the others are
+    # One image: say where the others are. Not with --camera: the image is then no product's shot.
+    if settings is not None and len(settings.products) > 1 and args.camera is None:
         warnings.warn(f"{path.name}: {settings.path} has {len(settings.products)} RenderProducts; this image is the "
                       f"first's, {settings.product} (--products DIR writes them all)", stacklevel=2)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
