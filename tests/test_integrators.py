@@ -417,8 +417,9 @@ def test_a_white_surface_never_reflects_more_than_it_receives(roughness, np_rng)
     cos_o = np.array([1.0, 0.5, 0.2, 0.1, 0.05], np.float32)
     albedo = wp.empty(len(cos_o), dtype=float, device="cpu")
     u = wp.array(np_rng.random((200_000, 4)).astype(np.float32), dtype=float, device="cpu")
-    wp.launch(bsdf_albedo_kernel, len(cos_o), inputs=[roughness, ggx_albedo_tables("cpu"), wp.array(cos_o, dtype=float),
-                                                      u], outputs=[albedo], device="cpu")
+    cos_array = wp.array(cos_o, dtype=float, device="cpu")  # not the default device: a GPU's, where there is one
+    wp.launch(bsdf_albedo_kernel, len(cos_o), inputs=[roughness, ggx_albedo_tables("cpu"), cos_array, u],
+              outputs=[albedo], device="cpu")
     got = albedo.numpy()
     assert (got <= 1.01).all(), dict(zip(cos_o.tolist(), got.tolist()))
     assert got[0] > 0.97  # at normal incidence nearly nothing is lost
