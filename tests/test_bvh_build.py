@@ -353,7 +353,8 @@ def _ploc_partners(neighbours: np.ndarray, dists: np.ndarray, radius: int, seed:
     wp.launch(
         ploc.merge_flags_kernel,
         n,
-        inputs=[n, 0, seed, radius, wp.array(neighbours, dtype=wp.int32), wp.array(dists, dtype=float)],
+        inputs=[n, 0, seed, radius, wp.array(neighbours, dtype=wp.int32, device="cpu"),
+                wp.array(dists, dtype=float, device="cpu")],
         outputs=[partners, flags],
         device="cpu",
     )
