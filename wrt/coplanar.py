@@ -527,7 +527,8 @@ def _plane_entries(points, indices, spaces, double_sided):
     seen = wp.zeros(3, dtype=wp.int32, device=device)
     wp.launch(plane_cells_kernel, dim=n, inputs=args, outputs=[keys, codes, copies, seen], device=device)
     keys, codes, copies = keys.numpy(), codes.numpy(), copies.numpy()
-    opposed = bool(_partnered(seen.numpy()[None, :] > 0)[0][seen.numpy() > 0].any())
+    present = seen.numpy() > 0  # (3,) the side codes seen
+    opposed = bool(_partnered(present[None, :])[0][present].any())
     single = np.flatnonzero(copies == 1)
     multi = np.flatnonzero(copies > 1)
     if not len(multi):
