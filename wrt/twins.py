@@ -137,8 +137,10 @@ def edge_partners(points, indices, spaces, double_sided, uncertain) -> np.ndarra
     same_side = np.einsum("ij,ij->i", n_mine, n_theirs) > 0.0  # (false for a degenerate one)
     area_mine, area_theirs = np.linalg.norm(n_mine, axis=1), np.linalg.norm(n_theirs, axis=1)
     keep = np.flatnonzero(same_side)
-    m_mine, delta_mine = triangle_margins(points, indices, tris[mine[keep]], area_mine[keep])
-    m_theirs, delta_theirs = triangle_margins(points, indices, tris[theirs[keep]], area_theirs[keep])
+    # Both sides' margins in one launch (one upload of the points): mine first, then theirs.
+    margins, deltas = triangle_margins(points, indices, np.concatenate([tris[mine[keep]], tris[theirs[keep]]]),
+                                       np.concatenate([area_mine[keep], area_theirs[keep]]))
+    (m_mine, m_theirs), (delta_mine, delta_theirs) = np.split(margins, 2), np.split(deltas, 2)
     n_mine, n_theirs = n_mine[keep], n_theirs[keep]
     area_mine, area_theirs = area_mine[keep], area_theirs[keep]
     angle = np.linalg.norm(np.cross(n_mine, n_theirs), axis=1) / (area_mine * area_theirs)
