@@ -549,6 +549,29 @@ def test_cropped_product_is_placed_in_its_shot(tmp_path):
     np.testing.assert_allclose(got[clear], want["P"][crop][clear], atol=2e-4)
 
 
+def test_exr_pixel_aspect_ratio_is_the_shape_the_pixels_were_rendered_with(tmp_path):
+    """An EXR product's ``pixelAspectRatio`` is the one UsdRenderComputeSpec gives the product: the authored one,
+    except under ``adjustPixelAspectRatio``, which "disregards" it and computes the apertures' aspect over the
+    resolution's (the film is the apertures, so the pixels take that shape), also when a data window crops the
+    image. The authored 2 was written there, which a compositor showed squashed to a quarter of the film's aspect."""
+    from pxr import Usd, UsdGeom
+
+    products = "".join(product(name, ["depth"], f"{name}.exr", extra) for name, extra in [
+        ("Adjusted", 'uniform token aspectRatioConformPolicy = "adjustPixelAspectRatio"\n'),
+        ("Cropped", 'uniform token aspectRatioConformPolicy = "adjustPixelAspectRatio"\n'
+                    "uniform float4 dataWindowNDC = (0.25, 0, 1, 0.5)\n"),
+        ("Fitted", 'uniform token aspectRatioConformPolicy = "cropAperture"\n'),
+    ])
+    stage = write_stage(tmp_path, products, ["Adjusted", "Cropped", "Fitted"],
+                        settings="uniform float pixelAspectRatio = 2\n")
+    written = wrt.render_products(load(stage), tmp_path / "out", device="cpu")
+    usd_stage = Usd.Stage.Open(stage)
+    front = UsdGeom.Camera(usd_stage.GetPrimAtPath("/World/Front")).GetCamera(Usd.TimeCode.Default())
+    adjusted = (front.horizontalAperture / front.verticalAperture) / (32 / 16)  # UsdRenderComputeSpec's
+    for name, ratio in [("Adjusted", adjusted), ("Cropped", adjusted), ("Fitted", 2.0)]:
+        assert read_header(written[f"/Render/{name}"])["pixelAspectRatio"] == pytest.approx(ratio, rel=1e-6), name
+
+
 def test_aov_names_name_the_layers(tmp_path):
     """driver:parameters:aov:name, where authored, names a RenderVar's layer (RenderMan's channel name); the prim
     name otherwise; the first beauty stays R, G, B."""

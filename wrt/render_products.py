@@ -200,16 +200,18 @@ def output_channels(image, camera, scene, outputs: list[_Output]) -> tuple[dict[
     return channels, attributes
 
 
-def exr_windows(product) -> dict:
+def exr_windows(product, camera) -> dict:
     """The EXR header's ``displayWindow`` (the whole image at ``product``'s resolution), ``dataWindow`` (the pixels
     its ``dataWindowNDC`` holds, as :meth:`wrt.render_settings.RenderSettings.crop` renders them), so that a
-    compositor places a crop where it lies in the shot, and ``pixelAspectRatio``."""
+    compositor places a crop where it lies in the shot, and ``pixelAspectRatio``: that of ``camera``, the product's
+    view (:func:`wrt.render.resolve_view`), whose pixels have it (the product's own, or under
+    ``adjustPixelAspectRatio`` the one computed from the apertures)."""
     width, height = product.resolution
     j0, j1, k0, k1 = product.window_pixels(width, height)
     # EXR rows go down from the top; the window's rows are counted up from the bottom.
     return {"displayWindow": (np.array([0, 0], np.int32), np.array([width - 1, height - 1], np.int32)),
             "dataWindow": (np.array([j0, height - k1], np.int32), np.array([j1 - 1, height - 1 - k0], np.int32)),
-            "pixelAspectRatio": float(product.pixel_aspect_ratio)}
+            "pixelAspectRatio": float(camera.pixel_aspect_ratio)}
 
 
 def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float = 0.0,
@@ -319,7 +321,7 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
         for product, _, outputs, name in by_view[view]:
             channels, attributes = output_channels(image, camera, scene, outputs)
             if not name.lower().endswith(".png"):
-                attributes.update(exr_windows(product))
+                attributes.update(exr_windows(product, camera))
                 if exposure != 0.0 and not warned_exposure:  # once, as for wrt render -o x.exr --exposure
                     warnings.warn(f"{where}: exposure applies to .png products only; {name} is written linear, "
                                   "unscaled", stacklevel=2)

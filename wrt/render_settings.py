@@ -124,12 +124,17 @@ class RenderSettings:
     def frame(self, camera: Camera, width: int, height: int) -> tuple[Camera, int, int]:
         """A stage camera as these settings render it at ``width x height`` pixels (before the data window):
         ``(camera with the conform policy, pixel aspect and depth of field of the settings, cropped to the data
-        window, the cropped image's width and height)``.
+        window, the cropped image's width and height)``. Under ``adjustPixelAspectRatio`` the camera's pixel aspect
+        is the apertures' aspect over the image's pixel counts', as ``UsdRenderComputeSpec`` computes it.
 
         Raises:
             SceneError: the data window holds no pixel centre of the image.
         """
         changes = {"fit": self.conform_policy, "pixel_aspect_ratio": self.pixel_aspect_ratio}
+        if self.conform_policy == "adjustPixelAspectRatio":
+            # The film is the apertures as they are, so the pixels take their shape; the schema "disregards" the
+            # authored value. The rays do not change (the film ignores it); what a product says its pixels are does.
+            changes["pixel_aspect_ratio"] = camera.horizontal_aperture / camera.vertical_aperture * height / width
         if self.disable_depth_of_field:
             changes["f_stop"] = 0.0
         return self.crop(dataclasses.replace(camera, **changes), width, height)
