@@ -243,6 +243,78 @@ def test_random_usd_cameras_cast_the_rays_of_usds_frustum(tmp_path, seed):
     np.testing.assert_allclose(o + t_max[:, None] * d, far, atol=1e-5 * np.abs(far).max())
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_random_clipping_planes_and_image_shapes_keep_usds_frustum(tmp_path, seed):
+    """What the test above leaves out: 1 to 3 random ``clippingPlanes`` (animated, so read between samples) and a
+    near plane at 0, cameras turned by ``orient``, ``rotateZYX`` and matrix ops under a mirrored, sheared parent, and
+    images 1 pixel wide or tall (or both), of any pixel aspect, with windows reaching a whole image past [0, 1]. Each
+    pixel's ray runs over the part of USD's near-to-far segment (as above) that every plane keeps, found in float64
+    in camera space; a pixel whose segment no plane leaves anything of gets an empty t range."""
+    rng = np.random.default_rng(100 + seed)
+    path = str(tmp_path / "cam.usda")
+    stage = Usd.Stage.CreateNew(path)
+    rig = UsdGeom.Xform.Define(stage, "/Rig")
+    parent = np.diag([*(rng.uniform(0.3, 3.0, 3) * rng.choice([-1.0, 1.0], 3)), 1.0])
+    parent[1, 0], parent[2, 1] = rng.uniform(-0.5, 0.5, 2)
+    rig.AddTransformOp().Set(Gf.Matrix4d(*parent.ravel()))
+    cam = UsdGeom.Camera.Define(stage, "/Rig/Cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(*rng.uniform(-5.0, 5.0, 3)))
+    cam.AddOrientOp().Set(Gf.Quatf(*map(float, rng.normal(size=4) / 2.0)).GetNormalized())
+    cam.AddRotateZYXOp().Set(Gf.Vec3f(*rng.uniform(-180.0, 180.0, 3)))
+    cam.CreateProjectionAttr(["perspective", "orthographic"][seed % 2])
+    cam.CreateHorizontalApertureAttr(float(rng.uniform(5.0, 60.0)))
+    cam.CreateVerticalApertureAttr(float(rng.uniform(5.0, 60.0)))
+    cam.CreateHorizontalApertureOffsetAttr(float(rng.normal(0.0, 5.0)))
+    cam.CreateClippingRangeAttr(Gf.Vec2f(0.0 if seed < 2 else 0.5, 40.0))
+    planes = cam.CreateClippingPlanesAttr()
+    count = int(rng.integers(1, 4))
+    for time in (0.0, 1.0):
+        planes.Set([Gf.Vec4f(*map(float, rng.normal(size=4))) for _ in range(count)], time)
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/Rig/Cam"])
+    width, height = [(1, 9), (11, 1), (1, 1), (37, 2), (3, 5), (2, 41)][seed]
+    settings.CreateResolutionAttr(Gf.Vec2i(width, height))
+    pixel_aspect = float(np.exp(rng.uniform(-1.0, 1.0)))
+    settings.CreatePixelAspectRatioAttr(pixel_aspect)
+    policy = ["expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight",
+              "adjustPixelAspectRatio"][seed % 5]
+    settings.CreateAspectRatioConformPolicyAttr(policy)
+    window = settings.CreateDataWindowNDCAttr(Gf.Vec4f(-1.0, -0.5, 2.0, 1.5)).Get()
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.Save()
+
+    o, d, t_min, t_max = (a.astype(np.float64) for a in camera_rays(wrt.load_usd(path, time=0.5), t_range=True))
+    usd_camera = cam.GetCamera(Usd.TimeCode(0.5))
+    frustum = usd_camera.frustum
+    frustum.SetWindow(_conformed(frustum.GetWindow(), policy, float(np.float32(pixel_aspect)) * width / height))
+    frustum.SetNearFar(Gf.Range1d(0.5, 40.0))  # a projection matrix needs near > 0; the segment is extended below
+    to_world = np.array(usd_camera.transform)
+    clip_to_world = np.linalg.inv(np.linalg.inv(to_world) @ np.array(frustum.ComputeProjectionMatrix()))
+    columns = [j for j in range(-width, 2 * width) if window[0] <= (j + 0.5) / width < window[2]]
+    rows = [k for k in reversed(range(-height, 2 * height)) if window[1] <= (k + 0.5) / height < window[3]]
+    assert len(o) == len(columns) * len(rows)
+    k, j = (a.ravel() for a in np.meshgrid(rows, columns, indexing="ij"))
+    ndc = np.stack([2 * (j + 0.5) / width - 1, 2 * (k + 0.5) / height - 1], axis=1)
+    near, far = ((np.c_[ndc, np.full(len(ndc), z), np.ones(len(ndc))] @ clip_to_world) for z in (-1.0, 1.0))
+    near, far = near[:, :3] / near[:, 3:], far[:, :3] / far[:, 3:]
+    near += (usd_camera.clippingRange.min - 0.5) / 39.5 * (far - near)  # points of a pixel's ray: affine in depth
+    # Each plane keeps a part of the segment near + s (far - near), s in [0, 1]: its value is affine in s.
+    s0, s1 = np.zeros(len(o)), np.ones(len(o))
+    for plane in np.array(usd_camera.clippingPlanes, np.float64):
+        at0, at1 = (np.c_[p, np.ones(len(p))] @ np.linalg.inv(to_world) @ plane for p in (near, far))
+        rate = at1 - at0
+        cross = -at0 / np.where(rate == 0.0, 1.0, rate)
+        s0 = np.where(rate > 0.0, np.maximum(s0, cross), s0)
+        s1 = np.where(rate < 0.0, np.minimum(s1, cross), np.where((rate == 0.0) & (at0 < 0.0), -1.0, s1))
+    clear = np.abs(s1 - s0) > 1e-4  # not a segment cut at one end by a plane within rounding of the other
+    np.testing.assert_array_equal((t_max <= t_min)[clear], (s1 <= s0)[clear])
+    kept = clear & (s1 > s0)
+    assert kept.sum() > 0
+    for s, t in ((s0, t_min), (s1, t_max)):
+        want = near + s[:, None] * (far - near)
+        np.testing.assert_allclose((o + t[:, None] * d)[kept], want[kept], atol=2e-5 * np.abs(want).max())
+
+
 def test_clipping_range_limits_depth():
     cam = wrt.Camera(focal_length=50.0, horizontal_aperture=36.0, clipping_range=(0.1, 5.0))
     scene = quad_scene(-100.0, 100.0, -100.0, 100.0, -10.0)
