@@ -18,7 +18,7 @@ wp.config.quiet = True
 
 pxr = pytest.importorskip("pxr")
 from conftest import WARP_USD_ASSETS, warp_assets  # noqa: E402
-from pxr import Gf, Sdf, Usd, UsdGeom, Vt  # noqa: E402
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt  # noqa: E402
 
 import wrt  # noqa: E402
 from wrt.errors import SceneError  # noqa: E402
@@ -1023,7 +1023,7 @@ def test_topology_of_other_integer_types_reads_as_int(tmp_path):
         ("normals", "vertex", 6, "primvars:normals has 6 values; vertex interpolation needs 7"),
         ("normals", "faceVarying", 7, "faceVarying interpolation needs 9"),
         ("normals", "uniform", 3, "uniform interpolation needs 2"),
-        ("displayColor", "constant", 2, "primvars:displayColor has 2 values; constant interpolation needs 1"),
+        ("displayColor", "faceVarying", 2, "primvars:displayColor has 2 values; faceVarying interpolation needs 9"),
     ],
 )
 def test_primvar_size_mismatch(tmp_path, name, interpolation, count, fragment):
@@ -1036,6 +1036,73 @@ def test_primvar_size_mismatch(tmp_path, name, interpolation, count, fragment):
         mesh.CreateDisplayColorPrimvar(interpolation).Set(values)
     stage.Save()
     expect_scene_error(path, "/World/Mesh", fragment)
+
+
+SEVERAL = [(0.9, 0.1, 0.2), (0.1, 0.8, 0.3), (0.2, 0.3, 0.7), (0.6, 0.6, 0.1)]  # colours of a constant primvar
+
+
+def test_a_constant_primvar_of_several_values_reads_its_first(tmp_path):
+    """A primvar of constant interpolation (authored so, or unauthored: USD's fallback, which
+    ``CreateDisplayColorAttr([...])`` leaves, as scripts and converters write per-point colours) that holds several
+    values is read as its first value with one warning naming the prims, as UsdImaging reads displayColor and
+    displayOpacity (``UsdImagingGprimAdapter::GetColor`` keeps the first and warns "even though it is marked
+    constant"): on meshes, colour primvars a material reads, gprims, Points and curves. The stage raised SceneError
+    (a gprim took the mean of the values). The oracle is USD's flattened value."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "scene.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    colors = Vt.Vec3fArray([Gf.Vec3f(*c) for c in SEVERAL])
+    mesh = define_mesh(stage, "/World/Mesh")
+    mesh.CreateDisplayColorAttr(colors)  # no interpolation authored
+    mesh.CreateDisplayOpacityAttr([0.25, 0.5, 0.75, 1.0])
+    mesh.AddTranslateOp().Set(Gf.Vec3d(0, 0, -1))  # below /World/Tinted, which the camera sees
+    tinted = define_mesh(stage, "/World/Tinted")
+    tint = UsdGeom.PrimvarsAPI(tinted).CreatePrimvar("tint", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant)
+    tint.Set(colors)
+    tint.SetIndices(Vt.IntArray([2, 0, 1]))  # flattened: SEVERAL[2] first
+    material = UsdShade.Material.Define(stage, "/Looks/Tint")
+    surface = UsdShade.Shader.Define(stage, "/Looks/Tint/Surface")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    reader = UsdShade.Shader.Define(stage, "/Looks/Tint/Reader")
+    reader.CreateIdAttr("UsdPrimvarReader_float3")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("tint")
+    reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(reader.ConnectableAPI(), "result")
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(tinted.GetPrim()).Bind(material)
+    ball = UsdGeom.Sphere.Define(stage, "/World/Ball")
+    ball.AddTranslateOp().Set(Gf.Vec3d(10, 0, 0))
+    ball.CreateDisplayColorAttr(colors)
+    ball.CreateDisplayOpacityAttr([0.25, 0.5])
+    dots = UsdGeom.Points.Define(stage, "/World/Dots")
+    dots.CreatePointsAttr([(20, 0, 0), (21, 0, 0)])
+    dots.CreateWidthsAttr([0.1, 0.1])
+    dots.CreateDisplayColorAttr(colors)
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_usd(stage.GetRootLayer().realPath)
+
+    def first(path, name):
+        return np.asarray(UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(path)).GetPrimvar(name).ComputeFlattened()[0])
+
+    meshes = {m.path: m for m in scene.meshes}
+    for path, name in (("/World/Mesh", "displayColor"), ("/World/Tinted", "tint")):
+        np.testing.assert_allclose(meshes[path].colors.reshape(-1, 3), np.tile(first(path, name), (15, 1)), rtol=1e-6)
+    np.testing.assert_allclose(meshes["/World/Mesh"].opacities, 0.25)
+    (shape,) = scene.shapes
+    np.testing.assert_allclose(shape.color, first("/World/Ball", "displayColor"), rtol=1e-6)
+    assert shape.opacity == pytest.approx(0.25)
+    messages = [str(w.message) for w in caught]
+    warned = [m for m in messages if "constant primvars holding several values" in m]
+    assert len(warned) == 1, messages
+    # Each colour and opacity: the mesh's two, the tint, the ball's two and the points' colour.
+    assert "6 prim(s) (primvars:displayColor: 3, primvars:displayOpacity: 2, primvars:tint: 1)" in warned[0], warned
+
+    # The albedo AOV of the tinted mesh (the unit square at z = 0) seen from above shows the first value.
+    cam = wrt.Camera.orthographic(eye=(0.5, 0.5, 3), target=(0.5, 0.5, 0), height=0.5)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo")
+    np.testing.assert_allclose(img.aovs["albedo"].reshape(-1, 3), np.tile(first("/World/Tinted", "tint"), (16, 1)),
+                               atol=1e-6)
 
 
 def test_normals_attribute_size_mismatch(tmp_path):

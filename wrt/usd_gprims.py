@@ -20,6 +20,7 @@ from .primitives import (
 from .scene import Mesh
 from .tubes import width_axis
 from .usd_contents import Content, Context, instance_looks
+from .usd_primvars import first_of_constant
 from .usd_values import value_at
 from .usd_xforms import affine_part
 
@@ -45,6 +46,8 @@ class GprimReading:
             color = np.full(3, 0.5, np.float32)
             values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64)
             values = values[:, :3] if values.ndim == 2 else values.reshape(-1, 3)  # the rgb of a color4f
+            if primvar.GetInterpolation() == UsdGeom.Tokens.constant:
+                values = first_of_constant(values, prim, primvar.GetAttr().GetName(), self._skip)
             if len(values) and np.all(np.isfinite(values)):
                 color = values.mean(axis=0).astype(np.float32)
         shape = Shape(

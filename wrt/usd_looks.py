@@ -8,7 +8,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .usd_contents import Context
-from .usd_primvars import unit_opacities
+from .usd_primvars import first_of_constant, unit_opacities
 from .usd_values import read_time
 
 
@@ -53,10 +53,15 @@ class LookReading:
 
     def _opacity_values(self, primvar) -> np.ndarray | None:
         """The flattened values of ``displayOpacity`` primvar ``primvar`` at the reader's time as float64 (maybe
-        none), or None when they are not an array of numbers."""
+        none; a constant one's first, see :func:`wrt.usd_primvars.first_of_constant`), or None when they are not an
+        array of numbers."""
         raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
         values = np.asarray(raw if raw is not None else [])
-        return values.astype(np.float64) if values.ndim == 1 and values.dtype.kind in "fiu" else None
+        if values.ndim != 1 or values.dtype.kind not in "fiu":
+            return None
+        if primvar.GetInterpolation() == UsdGeom.Tokens.constant:  # not the mean of its values: the first
+            values = first_of_constant(values, primvar.GetAttr().GetPrim(), primvar.GetAttr().GetName(), self._skip)
+        return values.astype(np.float64)
 
     def _opacity_per_element(self, prim: Usd.Prim):
         """The ``displayOpacity`` primvar of Points or curves ``prim`` when it gives a value per point or curve (an

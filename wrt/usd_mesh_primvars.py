@@ -7,7 +7,7 @@ import numpy as np
 from pxr import UsdGeom
 
 from .usd_looks import color_primvar
-from .usd_primvars import finite_colors, unit_opacities
+from .usd_primvars import finite_colors, first_of_constant, unit_opacities
 from .usd_values import value_at
 
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -114,6 +114,10 @@ class MeshPrimvarReading:
         if primvar is not None and primvar.IsIndexed():
             raw_indices = value_at(primvar.GetIndicesAttr(), self.time)
             indices = np.asarray(raw_indices if raw_indices is not None else [], dtype=np.int64).reshape(-1)
+        if interpolation == "constant" and indices is not None:
+            indices = first_of_constant(indices, prim, name, self._skip)
+        elif interpolation == "constant":
+            values = first_of_constant(values, prim, name, self._skip)
         n_elements = len(indices) if indices is not None else len(values)
         what = "indices" if indices is not None else "values"
 

@@ -20,6 +20,23 @@ def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
     return values
 
 
+CONSTANT_OF_SEVERAL = ("constant primvars holding several values were read as their first value, as UsdImaging "
+                       "reads them")  # the warning of first_of_constant
+
+
+def first_of_constant(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
+    """``values`` (or the indices of an indexed one) of primvar ``name`` of ``prim``, whose interpolation is
+    ``constant``: when it holds several, the first only, with a warning through ``skip`` naming ``prim``. UsdImaging
+    reads displayColor and displayOpacity so (``UsdImagingGprimAdapter::GetColor`` resizes such an array to one value
+    and warns "even though it is marked constant"), and constant is also what an array authored without an
+    interpolation reads as (``CreateDisplayColorAttr([...])`` in a script or converter writing per-point colours):
+    such a stage raised SceneError, and a gprim took the mean of the values."""
+    if len(values) <= 1:
+        return values
+    skip(CONSTANT_OF_SEVERAL, prim, name)
+    return values[:1]
+
+
 def unit_opacities(values: np.ndarray, prim, skip) -> np.ndarray:
     """``displayOpacity`` ``values`` ``(K,)`` clamped to [0, 1] and NaN read as 1 (opaque, the schema's fallback), each
     with a warning through ``skip`` naming ``prim``: the shading would clamp them too, but silently, hiding an
@@ -86,6 +103,8 @@ class FieldReader:
         if values.dtype.kind not in "fiu" or values.shape[1] not in shape:
             what = "numbers" if components == 1 else "3- or 4-vectors"
             raise self.error(f"{name} must be an array of {what}, not {type(raw).__name__}", prim, attr)
+        if interpolation == "constant":
+            values = first_of_constant(values, prim, name, self.skip)
         if interpolation not in sizes:
             raise self.error(f"{name} has interpolation {interpolation!r}; {prim.GetTypeName()} prims take "
                              f"{', '.join(sizes)}", prim, attr)
@@ -99,4 +118,4 @@ class FieldReader:
         return interpolation, values
 
 
-__all__ = ["FieldReader", "finite_colors", "unit_opacities"]
+__all__ = ["CONSTANT_OF_SEVERAL", "FieldReader", "finite_colors", "first_of_constant", "unit_opacities"]
