@@ -450,6 +450,33 @@ def test_mesh_without_the_primvar_reads_the_readers_fallback(tmp_path, mesh_st):
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
+@pytest.mark.parametrize("type_name", ["TexCoord3fArray", "Float3Array", "Float4Array"])
+def test_texture_coordinates_of_three_or_four_components_read_their_first_two(tmp_path, type_name):
+    """A texture-coordinate primvar of 3-vectors (Houdini writes its ``uv`` attribute, a vector, as ``texCoord3f[]``
+    where it is not renamed to ``st``; 4-vectors likewise) is read as its first two components, as Storm reads
+    texture coordinates (``HdGet_<primvar>().xy``). It was ignored with a warning, so the quad showed one texel
+    everywhere. The oracle: CHECKER's blocks at the pixels' st, the third component a large number that would move
+    every lookup."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, color_space="raw")
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader.Get(stage, "/Looks/Tex/St").GetInput("varname").Set("uv")
+    api = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad"))
+    st = np.array(api.GetPrimvar("st").Get(), np.float64)
+    api.RemovePrimvar("st")
+    width = 4 if type_name.startswith("Float4") else 3
+    wide = np.concatenate([st, np.full((len(st), width - 2), 7.25)], axis=1)
+    uv = api.CreatePrimvar("uv", getattr(Sdf.ValueTypeNames, type_name), UsdGeom.Tokens.vertex)
+    uv.Set(getattr(Vt, "Vec4fArray" if width == 4 else "Vec3fArray").FromNumpy(wide.astype(np.float32)))
+    stage.Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        img = albedo(path)
+    for (row, col), color in {(0, 0): (1, 0, 0), (0, 3): (0, 1, 0), (3, 0): (0, 0, 1),
+                              (3, 3): [128 / 255] * 3}.items():
+        np.testing.assert_allclose(img[row, col], color, atol=2e-3)
+
+
 def test_texture_coordinates_that_are_not_finite_read_the_fallback_with_a_warning(tmp_path):
     """Where the mesh's st is NaN or infinite a texture shows its ``fallback`` (through ``scale``, as every texel),
     with a warning naming the mesh, as where a UDIM texture has no tile: sample_image gave transparent black there,

@@ -11,6 +11,8 @@ from .usd_primvars import finite_colors, first_of_constant, unit_opacities
 from .usd_values import value_at
 
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
+# Primvar types named as the texture coordinates a mesh has where it lacks the ones its material reads
+TEXTURE_COORDINATE_TYPES = ("texCoord2f", "float2", "texCoord2d", "double2", "texCoord3f", "texCoord3d")
 
 
 class MeshPrimvarReading:
@@ -56,18 +58,24 @@ class MeshPrimvarReading:
         return None if np.all(values >= 1.0) and not keep_opaque else (values.astype(np.float32), corner_index)
 
     def _read_uvs(self, prim, topology, uv_set: str, fallback: np.ndarray):
-        """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set``, or None when it
-        is not an array of 2-vectors. A mesh without it takes ``fallback`` (``(2,)``, its primvar reader's) at every
-        corner, as the specification's UsdPrimvarReader gives, with a warning naming the primvar and the 2-vector
-        primvars the mesh has: it read its only other 2-vector primvar instead, silently, and without one sampled
-        the texture at st = (0, 0) (whatever the fallback) while the warning said it was left untextured. Values that
-        are not finite are kept, with a warning: the lookups there read the texture's fallback."""
+        """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (the first two
+        components of 3- or 4-vectors), or None when it is not an array of such vectors. A mesh without it takes
+        ``fallback`` (``(2,)``, its primvar reader's) at every corner, as the specification's UsdPrimvarReader gives,
+        with a warning naming the primvar and the texture-coordinate primvars the mesh has: it read its only other
+        2-vector primvar instead, silently, and without one sampled the texture at st = (0, 0) (whatever the
+        fallback) while the warning said it was left untextured. Values that are not finite are kept, with a warning:
+        the lookups there read the texture's fallback."""
         api = UsdGeom.PrimvarsAPI(prim)
         primvar = api.GetPrimvar(uv_set)
         if primvar and primvar.HasValue():
+            # 3- and 4-vectors (Houdini's uv, a vector, as texCoord3f[]) give their first two components, as Storm
+            # reads texture coordinates (HdGet_<primvar>().xy); they were ignored.
+            type_name = primvar.GetTypeName().cppTypeName
+            width = 4 if "Vec4" in type_name else 3 if "Vec3" in type_name else 2
             found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology,
-                                       components=2)
+                                       components=width)
             if found is not None:
+                found = found[0][:, :2], found[1]
                 # Kept as they are: texture lookups read the fallback wherever st is not finite.
                 bad = int(np.count_nonzero(~np.isfinite(found[0]).all(axis=1)))
                 if bad:
@@ -75,7 +83,7 @@ class MeshPrimvarReading:
                                "their fallback", prim, f"{uv_set}: {bad} of {len(found[0])} values")
             return found
         others = [str(p.GetPrimvarName()) for p in api.GetPrimvarsWithValues()
-                  if str(p.GetTypeName()).rstrip("[]") in ("texCoord2f", "float2", "texCoord2d", "double2")]
+                  if str(p.GetTypeName()).rstrip("[]") in TEXTURE_COORDINATE_TYPES]
         reason = ("meshes without the texture-coordinate primvar their material reads show the texture at the "
                   "primvar reader's fallback st")
         has = f"; the mesh has {', '.join(others)}" if others else ""
