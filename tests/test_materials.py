@@ -512,6 +512,33 @@ def test_transform2d_scales_and_translates_st(tmp_path):
     np.testing.assert_allclose(img[3, 1], [128 / 255] * 3, atol=2e-3)
 
 
+@pytest.mark.parametrize("name, type_name, value", [
+    ("scale", "Float", 2.0),  # one number where the schema has float2
+    ("scale", "String", "2"),
+    ("rotation", "Float2", Gf.Vec2f(90.0, 0.0)),
+    ("translation", "Float2", Gf.Vec2f(float("nan"), 0.5)),
+    ("rotation", "Float", float("inf")),
+])
+def test_a_transform2d_input_that_is_not_finite_numbers_keeps_its_default(tmp_path, name, type_name, value):
+    """A UsdTransform2d ``rotation``, ``scale`` or ``translation`` that is not as many finite numbers as the schema's
+    type holds (a float for a float2, a string, NaN) keeps the schema's default with a warning naming the input, as
+    UsdPreviewSurface inputs do. A wrong type stopped the load with "cannot read this prim" (a Python TypeError), and
+    NaN made every lookup read the texture's fallback, without a word. The other inputs still apply: here the
+    transform is the identity but for the bad input, so the quad shows CHECKER as it is."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, color_space="raw", transform={"rotation": 0.0})
+    stage = Usd.Stage.Open(path)
+    xf = stage.GetPrimAtPath("/Looks/Tex/Xf")
+    xf.RemoveProperty(f"inputs:{name}")
+    xf.CreateAttribute(f"inputs:{name}", getattr(Sdf.ValueTypeNames, type_name)).Set(value)
+    stage.Save()
+    with pytest.warns(UserWarning, match=rf"UsdTransform2d input is not .*finite number.*default is used.*{name} = "):
+        img = albedo(path)
+    for (row, col), color in {(0, 0): (1, 0, 0), (0, 3): (0, 1, 0), (3, 0): (0, 0, 1),
+                              (3, 3): [128 / 255] * 3}.items():
+        np.testing.assert_allclose(img[row, col], color, atol=2e-3)
+
+
 @pytest.mark.parametrize("where", ["texture", "transform2d"])
 def test_an_authored_constant_st_reads_one_point_of_the_image(tmp_path, where):
     """A UsdUVTexture's ``st`` authored as a constant and connected to nothing is where the image is read, on every

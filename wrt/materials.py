@@ -632,6 +632,9 @@ def _rgb(value) -> np.ndarray | None:
     return np.resize(v, 3) if v.size > 1 else np.full(3, v[0])
 
 
+TRANSFORM2D_DEFAULTS = (("rotation", (0.0,)), ("scale", (1.0, 1.0)), ("translation", (0.0, 0.0)))  # the schema's
+
+
 def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
     """``UsdTransform2d``: ``st * scale``, rotated counter-clockwise, then translated, as a 3x3 matrix."""
     c, s = math.cos(math.radians(rotation_deg)), math.sin(math.radians(rotation_deg))
@@ -1073,12 +1076,9 @@ class MaterialReader:
                 varname = self._constant(node, "varname")
                 return (str(varname) if varname else "st"), transform, self._st_fallback(node, material_path)
             if node_id == "UsdTransform2d":
-                rotation = float(self._constant(node, "rotation") or 0.0)
-                scale = self._constant(node, "scale")
-                translation = self._constant(node, "translation")
-                scale = (1.0, 1.0) if scale is None else tuple(scale)
-                translation = (0.0, 0.0) if translation is None else tuple(translation)
-                transform = transform @ _transform2d(rotation, scale, translation)
+                rotation, scale, translation = (self._transform2d_input(node, name, default, material_path)
+                                                for name, default in TRANSFORM2D_DEFAULTS)
+                transform = transform @ _transform2d(rotation[0], scale, translation)
                 found, name = self._producer(node, "in"), "in"
                 continue
             self.skip("texture coordinates from shaders other than UsdPrimvarReader_float2 and UsdTransform2d are "
@@ -1086,6 +1086,25 @@ class MaterialReader:
                       detail=f"{material_path}: {node_id or 'no info:id'}")
             return "st", transform, no_fallback
         return "st", transform, no_fallback
+
+    def _transform2d_input(self, node, name: str, default: tuple, material_path: str) -> np.ndarray:
+        """Input ``name`` of ``UsdTransform2d`` ``node`` as ``len(default)`` float64 numbers: ``default`` (the
+        schema's) when unauthored, and, with a warning, when it is not that many finite numbers (a float for a
+        float2, a string, NaN), as a UsdPreviewSurface input keeps its default. A wrong type stopped the load with
+        "cannot read this prim", and NaN made every lookup read the texture's fallback, without a word."""
+        value = self._constant(node, name)
+        if value is None:
+            return np.asarray(default, np.float64)
+        try:
+            v = np.asarray(value, np.float64).reshape(-1)
+        except (TypeError, ValueError):  # a string, ...
+            v = np.empty(0)
+        if v.size != len(default) or not np.all(np.isfinite(v)):
+            count = "one finite number" if len(default) == 1 else f"{len(default)} finite numbers"
+            self.skip(f"material {material_path}: a UsdTransform2d input is not {count}; its default is used",
+                      node.GetPrim(), detail=f"{name} = {value}")
+            return np.asarray(default, np.float64)
+        return v
 
     def _constant_st(self, value, shader, name: str, material_path: str) -> np.ndarray | None:
         """``(2,)`` float64 constant texture coordinate ``value`` of input ``name`` of ``shader``; None, with a
