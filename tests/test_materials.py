@@ -419,6 +419,29 @@ def test_a_float3_scale_keeps_alpha_at_one(tmp_path, channel):
     np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
 
 
+@pytest.mark.parametrize("name, type_name, value", [
+    ("scale", "Float4", Gf.Vec4f(float("inf"), 1.0, 1.0, 1.0)),
+    ("bias", "Float4", Gf.Vec4f(float("nan"), 0.0, 0.0, 0.0)),
+    ("scale", "Float2", Gf.Vec2f(0.5, 0.5)),  # neither one number, rgb nor rgba
+    ("fallback", "String", "grey"),
+])
+def test_a_texture_scale_bias_or_fallback_that_is_not_finite_numbers_keeps_its_default(tmp_path, name, type_name,
+                                                                                      value):
+    """A UsdUVTexture ``scale``, ``bias`` or ``fallback`` that is not 1, 3 or 4 finite numbers keeps the schema's
+    default with a warning naming the input, as the UsdPreviewSurface inputs do. An infinite scale made the albedo
+    infinite and a NaN bias black, without a word; a float2 scale was stretched to (0.5, 0.5, 0.5, 0.5); a string
+    fallback stopped the load with "cannot read this prim". The oracle: the flat image's texel, unscaled."""
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), (200, 100, 50)))
+    path = textured_stage(tmp_path, png, color_space="raw")
+    stage = Usd.Stage.Open(path)
+    tex = UsdShade.Shader.Get(stage, "/Looks/Tex/Image")
+    tex.GetPrim().CreateAttribute(f"inputs:{name}", getattr(Sdf.ValueTypeNames, type_name)).Set(value)
+    stage.Save()
+    with pytest.warns(UserWarning, match=rf"scale, bias or fallback is not 1, 3 or 4 finite numbers.*{name} = "):
+        img = albedo(path)
+    np.testing.assert_allclose(img, np.broadcast_to(np.array([200, 100, 50]) / 255, img.shape), atol=2e-3)
+
+
 def test_unknown_wrap_tokens_are_named_and_read_as_use_metadata(tmp_path):
     """A wrap token outside the schema's list (MaterialX's "periodic") was read as repeat without a word; Storm warns
     and reads it as useMetadata, black outside the image for a file without wrap metadata."""

@@ -999,9 +999,9 @@ class MaterialReader:
                       "read as rgb", tex.GetPrim(), detail=output)
         channel = output if output in CHANNELS else "rgb"
         channel = "rgb" if channel == "rgba" else channel
-        fallback = four_components(self._constant(tex, "fallback"), TEXTURE_FALLBACK)
-        scale = four_components(self._constant(tex, "scale"), (1.0, 1.0, 1.0, 1.0))
-        bias = four_components(self._constant(tex, "bias"), (0.0, 0.0, 0.0, 0.0))
+        fallback, scale, bias = (self._texture_vector(tex, name, default, material_path)
+                                 for name, default in (("fallback", TEXTURE_FALLBACK), ("scale", (1.0, 1.0, 1.0, 1.0)),
+                                                       ("bias", (0.0, 0.0, 0.0, 0.0))))
         with np.errstate(over="ignore", invalid="ignore"):  # a value past float32 is refused by _set_constant
             value = fallback * scale + bias
         fallback_value = value[:3] if channel == "rgb" else np.full(3, value[CHANNELS[channel]], np.float32)
@@ -1030,10 +1030,30 @@ class MaterialReader:
                 uv_set=uv_set,
                 st_fallback=st_fallback,
                 tiles=tiles,
-                fallback=fallback if np.all(np.isfinite(fallback)) else np.array(TEXTURE_FALLBACK, np.float32),
+                fallback=fallback,
             ),
             fallback_value,
         )
+
+    def _texture_vector(self, tex, name: str, default: tuple, material_path: str) -> np.ndarray:
+        """UsdUVTexture ``tex``'s ``scale``, ``bias`` or ``fallback`` (``name``) as its four RGBA float32 numbers
+        (:func:`four_components`): ``default`` (the schema's) when unauthored, and, with a warning, when it is not 1,
+        3 or 4 finite float32 numbers, as a UsdPreviewSurface input keeps its default. An infinite scale made the
+        albedo infinite and a NaN bias black, without a word; a float2 was stretched to four numbers; a string
+        stopped the load with "cannot read this prim"."""
+        value = self._constant(tex, name)
+        if value is None:
+            return four_components(None, default)
+        try:
+            v = np.asarray(value)
+            v = v.reshape(-1).astype(np.float64) if v.dtype.kind in "biuf" else np.empty(0)
+        except (TypeError, ValueError):
+            v = np.empty(0)
+        if v.size not in (1, 3, 4) or not np.all(np.abs(v) <= np.finfo(np.float32).max):  # NaN fails too
+            self.skip(f"material {material_path}: a UsdUVTexture scale, bias or fallback is not 1, 3 or 4 finite "
+                      "numbers; its default is used", tex.GetPrim(), detail=f"{name} = {value}")
+            return four_components(None, default)
+        return four_components(v, default)
 
     def _wrap_mode(self, tex, key: str, material_path: str) -> str:
         """``wrapS`` or ``wrapT`` (``key``) of UsdUVTexture ``tex`` as a :data:`WRAP_MODES` token. ``useMetadata``, the
