@@ -688,6 +688,29 @@ def test_missing_texture_uses_the_fallback_with_a_warning(tmp_path):
     np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
 
 
+@pytest.mark.parametrize("where", ["absolute", "relative"])
+@pytest.mark.parametrize("type_name", ["String", "Token"])
+def test_a_file_authored_as_a_string_is_read_as_an_asset_path(tmp_path, where, type_name):
+    """A UsdUVTexture ``file`` authored as a string or token rather than an asset is the path it holds: Storm opens
+    it as written (its material network takes a string ``file`` as the path), and wrt resolves it as the asset path
+    it should have been, against the layer that authored it, with a warning that names the prim. It was read as a
+    file that was not found (the warning said so of a file that was there) and the fallback drawn. The oracle:
+    CHECKER's blocks."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, color_space="raw")
+    stage = Usd.Stage.Open(path)
+    tex = stage.GetPrimAtPath("/Looks/Tex/Image")
+    tex.RemoveProperty("inputs:file")
+    tex.CreateAttribute("inputs:file", getattr(Sdf.ValueTypeNames, type_name)).Set(
+        png if where == "absolute" else "./checker.png")
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"authored as a string.*resolved as asset paths.*/Looks/Tex/Image"):
+        img = albedo(path)
+    for (row, col), color in {(0, 0): (1, 0, 0), (0, 3): (0, 1, 0), (3, 0): (0, 0, 1),
+                              (3, 3): [128 / 255] * 3}.items():
+        np.testing.assert_allclose(img[row, col], color, atol=2e-3)
+
+
 @pytest.mark.parametrize("channel, input_name", [("rgb", "diffuseColor"), ("a", "roughness")])
 def test_a_missing_texture_reads_its_fallback_through_scale_and_bias(tmp_path, channel, input_name):
     """The fallback stands in for the texture's value where the file cannot be read, and ``scale`` and ``bias``

@@ -1153,6 +1153,8 @@ class MaterialReader:
         image node) in :attr:`textures`: ``image`` is -1 (with a warning) when nothing can be read. ``tiles`` is
         None, or for a ``<UDIM>`` file the :attr:`TextureInput.tiles` table, ``image`` being its first tile."""
         asset = self._constant(shader, name)
+        if isinstance(asset, str) and asset:
+            asset = self._string_asset(shader, name, asset)
         authored = getattr(asset, "path", "") or ""
         if "<UDIM>" not in authored:
             return self._image(asset, color_space, shader.GetPrim()), None
@@ -1160,6 +1162,19 @@ class MaterialReader:
                                  material_path)
         found = tiles[tiles >= 0]
         return (int(found[0]) if len(found) else -1), tiles
+
+    def _string_asset(self, shader, name: str, text: str):
+        """An image file input ``name`` of ``shader`` authored as a string or token ``text`` rather than an asset, as
+        the ``Sdf.AssetPath`` it names, resolved against the layer that authored it (its resolved path empty where
+        there is no such file), with a warning naming the prim. Storm takes a string ``file`` as the path to open;
+        it was reported as a file that was not found, the fallback drawn, though the file was there."""
+        from pxr import Ar, Sdf
+
+        self.skip("image files authored as a string rather than an asset were resolved as asset paths",
+                  shader.GetPrim(), detail=f"{name} = {text!r}")
+        layer = _authoring_layer(_source_attribute(shader, name), self.time)
+        anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, text) if layer else text
+        return Sdf.AssetPath(text, str(Ar.GetResolver().Resolve(anchored)))
 
     def _udim_tiles(self, attr, authored: str, color_space: str, prim, material_path: str) -> np.ndarray:
         """``(UDIM_TILES,)`` int32 images of the tiles of UDIM pattern ``authored`` (-1: no such file), found as
