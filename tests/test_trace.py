@@ -1048,6 +1048,31 @@ def test_one_ray_against_an_empty_batch_gives_no_hits(accel, layout, instanced):
         assert wrt.occluded(scene, o, d, **query).shape == (0,)
 
 
+@pytest.mark.parametrize("accel, layout, instanced", TRACE_CONFIGS, ids=TRACE_IDS)
+def test_a_hit_at_the_origin_is_t_plus_zero(accel, layout, instanced):
+    """Origins on the triangle's plane: a ray leaving it (either way, any slope, any direction length) hits it at
+    t = 0 exactly, analytically. It came back as -0.0 for rays leaving downwards (and from wp.Mesh with a negative
+    ``t_min``): ``1 / t`` was -inf and ``np.signbit`` put the hit behind the origin."""
+    scene = one_triangle_scene(instanced)
+    directions = np.array([[0, 0, -1], [0, 0, 1], [0.3, 0.2, -1], [-0.1, 0.4, 1], [0, 0, -1e-30], [0, 0, 3e5]],
+                          np.float32)
+    origins = np.tile([[0.1, -0.2, 0.0]], (len(directions), 1))
+    for t_min in (0.0, -0.0, -1.0, -np.inf):
+        hits = wrt.trace(scene, origins, directions, t_min=t_min, accel=accel, layout=layout)
+        assert hits.hit.all() and (hits.t == 0).all(), (t_min, hits.t)
+        assert not np.signbit(hits.t).any(), (t_min, hits.t)
+
+
+def test_a_hit_at_the_origin_on_an_analytic_sphere_is_t_plus_zero():
+    """From the top of a unit sphere, rays leaving upwards and downwards both meet it at t = 0 (analytic); the one
+    leaving upwards got -0.0."""
+    from wrt.primitives import Shape
+
+    scene = wrt.Scene(shapes=[Shape("/S", "sphere", np.eye(4))])
+    hits = wrt.trace(scene, [[0, 0, 1], [0, 0, 1]], [[0, 0, 1], [0, 0, -1]])
+    assert hits.t.tolist() == [0.0, 0.0] and not np.signbit(hits.t).any(), hits.t
+
+
 def test_nan_limits_raise_naming_the_first_bad_ray():
     scene = one_triangle_scene(False)
     origins, directions = np.tile([[0.0, 0.0, 1.0]], (4, 1)), [0, 0, -1]

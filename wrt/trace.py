@@ -573,7 +573,8 @@ class Hits:
     """Closest hits of a batch of rays, as numpy arrays of length N.
 
     Attributes:
-        t: float32 distance in units of ``|direction|``; ``inf`` on a miss.
+        t: float32 distance in units of ``|direction|``; ``inf`` on a miss; a hit at the origin is ``0.0``, never
+            ``-0.0``.
         u: float32 barycentric weight of the triangle's second vertex.
         v: float32 barycentric weight of the third vertex: ``hit = (1-u-v) p0 + u p1 + v p2``.
         prim: row of ``Scene.triangles()`` (instances expanded), -1 on a miss; int32, or int64 for scenes of more
@@ -651,7 +652,11 @@ def trace(
     if len(rays[0]):
         acc.intersect(*rays, hits, threads=threads)
     cost = hits.cost.numpy().reshape(-1, 2)
-    t, u, v, prim = hits.t.numpy(), hits.u.numpy(), hits.v.numpy(), hits.prim.numpy()
+    # + 0.0 turns -0.0 into 0.0 (IEEE: -0 + 0 = +0) and leaves every other t as it is. The kernels' t is a quotient
+    # whose signs follow the side a ray leaves from, so a hit at the origin of a ray leaving its surface came back
+    # as -0.0 (every accelerator; wp.Mesh with a negative t_min), which 1 / t and np.signbit read as behind it.
+    t = hits.t.numpy() + np.float32(0.0)
+    u, v, prim = hits.u.numpy(), hits.v.numpy(), hits.prim.numpy()
     if not len(scene.instances) and not scene.prototypes:
         return Hits(t, u, v, prim, cost[:, 0].copy(), cost[:, 1].copy())
     # Report rows of Scene.triangles(): mirrored instances have corners 1 and 2 swapped there. Prototypes count
