@@ -1,6 +1,7 @@
 """wrt's BVH against Warp's wp.Mesh, ray by ray, on real scenes; and against a brute-force oracle."""
 
 import os
+import re
 
 import numpy as np
 import pytest
@@ -166,7 +167,7 @@ def test_t_max_is_exclusive_and_per_ray():
         hits = wrt.trace(scene, origins, directions, t_max=np.array([4.0, 5.0, 6.0]), accel=accel)
         assert hits.prim.tolist() == [-1, -1, 0]
         assert np.isinf(hits.t[:2]).all()
-    with pytest.raises(ValueError, match=r"t_max .* shape \(3,\); got shape \(2,\)"):
+    with pytest.raises(ValueError, match=r"t_max .* shape .* \(3,\) or \(3, 1\); got shape \(2,\)"):
         wrt.trace(scene, origins, directions, t_max=[4.0, 5.0])
     # None means no limit, as the default does (it became NaN and every ray missed); NaN itself is refused.
     assert wrt.trace(scene, origins, directions, t_max=None).prim.tolist() == [0, 0, 0]
@@ -1071,6 +1072,32 @@ def test_a_hit_at_the_origin_on_an_analytic_sphere_is_t_plus_zero():
     scene = wrt.Scene(shapes=[Shape("/S", "sphere", np.eye(4))])
     hits = wrt.trace(scene, [[0, 0, 1], [0, 0, 1]], [[0, 0, 1], [0, 0, -1]])
     assert hits.t.tolist() == [0.0, 0.0] and not np.signbit(hits.t).any(), hits.t
+
+
+def test_limits_take_every_shape_numpy_broadcasts_as_one_value_per_ray():
+    """A column ``(N, 1)`` (how numpy code writes a per-ray value next to ``(N, 3)`` rays) and ``(1,)``/``(1, 1)``
+    (one value for all) were refused; they mean what ``(N,)`` and a scalar mean. Origins 1 above the triangle, so
+    the only hit is at t = 1 (analytic) and a ``t_max`` of 1 loses it. ``(1, 3)`` and ``(N, 1, 1)`` are no value per
+    ray: refused, naming the shapes taken."""
+    scene = one_triangle_scene(False)
+    origins, down = np.tile([[0.0, 0.0, 1.0]], (3, 1)), [0, 0, -1]
+    per_ray = np.array([2.0, 0.5, 1.0])
+    for query in (wrt.trace, wrt.occluded):
+        for t_max, expected in ((per_ray[:, None], [True, False, False]), (per_ray.reshape(1, 3).T.tolist(),
+                                [True, False, False]), ([0.5], [False] * 3), ([[2.0]], [True] * 3)):
+            result = query(scene, origins, down, t_max=t_max)
+            assert (result.hit if query is wrt.trace else result).tolist() == expected, (query, t_max)
+        result = query(scene, origins, down, t_min=np.array([[1.0], [1.5], [-1.0]]))
+        assert (result.hit if query is wrt.trace else result).tolist() == [True, False, True]
+        for bad in (np.zeros((1, 3)), np.zeros((3, 1, 1)), np.zeros((2, 1)), np.zeros(2)):
+            taken = "shape (), (1,), (1, 1), (3,) or (3, 1)"
+            with pytest.raises(ValueError, match=re.escape(f"one value per ray: {taken}; got shape {bad.shape}")):
+                query(scene, origins, down, t_max=bad)
+    np.testing.assert_array_equal(wrt.trace(scene, origins, down, t_max=per_ray[:, None]).t, [1.0, np.inf, np.inf])
+    with pytest.raises(ValueError, match=r"t_min must not be NaN \(ray 1 is the first of 1\)"):
+        wrt.trace(scene, origins, down, t_min=np.array([[0.0], [np.nan], [0.0]]))
+    with pytest.raises(ValueError, match=r"t_min must not be NaN$"):  # one value for all names no ray
+        wrt.trace(scene, origins, down, t_min=[np.nan])
 
 
 def test_nan_limits_raise_naming_the_first_bad_ray():

@@ -169,10 +169,21 @@ def _shape(rays) -> tuple:
 
 
 def _limits(name: str, values, default: float, n: int) -> np.ndarray:
-    """``t_min`` or ``t_max``: a scalar or one value per ray, never NaN; ``None`` is the default."""
+    """``t_min`` or ``t_max``: a scalar or one value per ray, never NaN; ``None`` is the default.
+
+    Shapes are those numpy broadcasts against the rays' ``(N, 3)`` as one value per ray: ``(N,)`` and ``(N, 1)``
+    (``origins + t[:, None] * directions`` is how a numpy user writes a point at ``t``), and ``()``, ``(1,)``,
+    ``(1, 1)`` for one value for every ray. ``(1, 3)``, which numpy would also broadcast, would be three values per
+    ray: refused."""
     limits = as_float32(name, default if values is None else values, round_up=True)
+    given = limits.shape
+    if limits.ndim == 2 and limits.shape[1] == 1:  # a column: one value per row
+        limits = limits[:, 0]
+    if limits.shape == (1,) and n != 1:  # one value for every ray, as a scalar (a NaN then names no ray)
+        limits = limits[0]
     if limits.shape not in ((), (n,)):
-        raise ValueError(f"{name} must be a scalar or one value per ray, shape ({n},); got shape {limits.shape}")
+        raise ValueError(f"{name} must be a scalar or one value per ray: shape (), (1,), (1, 1), ({n},) or ({n}, 1); "
+                         f"got shape {given}")
     nan = np.flatnonzero(np.isnan(limits))
     if len(nan):  # every ray would miss without a word (a list [None] converts to NaN)
         where = f" (ray {nan[0]} is the first of {len(nan)})" if limits.ndim else ""

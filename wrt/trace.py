@@ -634,8 +634,9 @@ def trace(
             ``wp.array``s on any device, GPU tensors); a ``vec3`` ``wp.array`` on ``device`` is traced in place. A
             ``(3,)`` vector is one ray, and one origin serves every direction.
         directions: ``(N, 3)`` world space, as ``origins``; need not be unit length. Zero or NaN directions miss.
-        t_min: scalar or ``(N,)`` lower bound on ``t`` (inclusive; may be negative); ``None``: 0.
-        t_max: scalar or ``(N,)`` upper bound on ``t`` (exclusive); ``None``: no bound.
+        t_min: scalar (or ``(1,)``, ``(1, 1)``) or ``(N,)`` (or ``(N, 1)``) lower bound on ``t`` (inclusive; may be
+            negative); ``None``: 0.
+        t_max: as ``t_min``, the upper bound on ``t`` (exclusive); ``None``: no bound.
         accel: ``"wrt"`` (own BVH) or ``"warp"`` (``wp.Mesh`` + ``wp.mesh_query_ray``).
         builder: BVH builder name; for ``accel="warp"`` one of Warp's constructors.
         device: Warp device to trace on.
