@@ -258,6 +258,84 @@ def test_hits_just_below_t_max_are_kept_for_origins_near_a_large_face(layout):
     assert wrt.occluded(scene, origins, directions, t_max=just_past, layout=layout).all()
 
 
+def large_flat_box() -> wrt.Scene:
+    """The 2000-wide box ``[-1000, 1000]^2 x [-1, 0]`` (12 triangles): its top face is its box's top face."""
+    corners = np.array([[x, y, z] for x in (-1e3, 1e3) for y in (-1e3, 1e3) for z in (-1.0, 0.0)], np.float32)
+    faces = [[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6], [0, 2, 6],
+             [0, 6, 4], [1, 5, 7], [1, 7, 3]]
+    return wrt.Scene.from_triangles(corners, faces)
+
+
+@pytest.mark.xfail(strict=True, reason="inside the traversal (not changed here): the mirror of the t_max case "
+                   "above. intersect_ray_box keeps a box only up to ROBUST_FAR_SLACK (a few ulps) past its exit, but "
+                   "the watertight test's t of a triangle on the face a ray leaves the box by errs by float32 "
+                   "epsilons of the distances to its corners (1000 here), so it can lie past that exit, and t_min at "
+                   "the hit's own t culls the box")
+@pytest.mark.parametrize("layout", ["binary", "wide8"])
+def test_t_min_at_a_hits_own_t_keeps_it_for_origins_near_the_face_they_leave_by(layout):
+    """Rays from 3e-4 to 0.3 below the top face (z = 0) of the 2000-wide box, inside it, slanted up: each leaves
+    through the top face (its triangle's t near the exact -z / dz, float64) and must hit it again with
+    ``t_min`` at its own ``t`` (nothing else lies past it). 1,038 of 2,000 missed, in trace and occluded, binary and
+    wide8 alike (README's claim that wrt keeps every hit at ``t_min = t`` holds only where the triangle does not lie
+    on its box's exit face)."""
+    rng = np.random.default_rng(0)
+    scene = large_flat_box()
+    n = 2000
+    origins = np.stack([rng.uniform(-500, 500, n), rng.uniform(-500, 500, n), -(10.0 ** rng.uniform(-3.5, -0.5, n))],
+                       1).astype(np.float32)
+    directions = np.stack([rng.choice([-1, 1], n) * rng.uniform(1, 2, n), rng.uniform(-0.5, 0.5, n),
+                           rng.uniform(0.01, 0.5, n)], 1).astype(np.float32)
+    hits = wrt.trace(scene, origins, directions, layout=layout)
+    exact = -origins[:, 2].astype(np.float64) / directions[:, 2].astype(np.float64)
+    assert hits.hit.all() and np.all(np.abs(hits.t - exact) < 1e-3 * (1 + exact))  # the top face, to 6e-5 / dz
+    assert np.isin(hits.prim, [10, 11]).all()
+    again = wrt.trace(scene, origins, directions, t_min=hits.t, layout=layout)
+    np.testing.assert_array_equal(wrt.occluded(scene, origins, directions, t_min=hits.t, layout=layout), again.hit)
+    assert again.hit.all(), f"{np.count_nonzero(~again.hit)} of {n} lost"
+    np.testing.assert_array_equal(again.t, hits.t)
+
+
+def fanned_cap(segments: int) -> wrt.Scene:
+    """A closed cone of height 1 over the unit disc in z = 0, its base a fan of ``segments`` triangles around the
+    disc's centre (as tessellated caps are): slivers of aspect about ``segments / 6``."""
+    a = np.linspace(0, 2 * np.pi, segments, endpoint=False)
+    points = np.concatenate([np.column_stack([np.cos(a), np.sin(a), np.zeros(segments)]), [[0, 0, 1], [0, 0, 0]]])
+    i = np.arange(segments)
+    j = (i + 1) % segments
+    faces = np.concatenate([np.column_stack([i, j, np.full(segments, segments)]),
+                            np.column_stack([j, i, np.full(segments, segments + 1)])])
+    return wrt.Scene.from_triangles(points.astype(np.float32), faces.astype(np.int32))
+
+
+@pytest.mark.xfail(strict=True, reason="inside the traversal (not changed here): the watertight test's t of a sliver "
+                   "errs by float32 epsilons times its aspect (up to 7e-6 relative at 1000 segments), more than "
+                   "intersect_ray_box's slack (2^-20 on entries, a few ulps on exits) around the cap's flat boxes, "
+                   "whose entry and exit are the cap's plane: a limit one ulp past the hit's t, or at it, culls it")
+@pytest.mark.parametrize("limit", ["t_max just past t", "t_min at t"])
+def test_limits_at_a_hits_own_t_keep_it_on_a_finely_fanned_cap(limit):
+    """Rays from inside a cone, 0.05 to 0.5 above its base, aimed at random points of the base: a disc fanned into
+    1000 triangles around its centre. Each hits the base (the exact t: the height over -dz, float64) and must again
+    with ``t_max`` one ulp past its own ``t``, or ``t_min`` at it. 95 and 106 of 2,000 missed, in every layout and in
+    occluded (13 and 19 with 256 segments, 160 and 188 with 2000, none with 64); the origins are far from the cap,
+    unlike the large-face cases above: here the slivers' aspect makes t err."""
+    rng = np.random.default_rng(0)
+    scene = fanned_cap(1000)
+    n = 2000
+    r, a = np.sqrt(rng.uniform(0, 0.9, n)), rng.uniform(0, 2 * np.pi, n)
+    targets = np.column_stack([r * np.cos(a), r * np.sin(a), np.zeros(n)])
+    origins = np.column_stack([rng.uniform(-0.2, 0.2, (n, 2)), rng.uniform(0.05, 0.5, n)]).astype(np.float32)
+    directions = (targets - origins).astype(np.float32)
+    hits = wrt.trace(scene, origins, directions)
+    exact = origins[:, 2].astype(np.float64) / -directions[:, 2].astype(np.float64)
+    assert hits.hit.all() and (hits.prim >= 1000).all() and np.all(np.abs(hits.t - exact) < 1e-4 * exact)
+    bound = ({"t_max": np.nextafter(hits.t, np.float32(np.inf))} if limit == "t_max just past t" else
+             {"t_min": hits.t})
+    again = wrt.trace(scene, origins, directions, **bound)
+    np.testing.assert_array_equal(wrt.occluded(scene, origins, directions, **bound), again.hit)
+    assert again.hit.all(), f"{np.count_nonzero(~again.hit)} of {n} lost"
+    np.testing.assert_array_equal(again.t, hits.t)
+
+
 def test_ties_go_to_the_smaller_triangle_id():
     # Two coincident triangles: every hit is an exact tie in t.
     tri = np.array([[-1, -1, 0], [1, -1, 0], [0, 1, 0]], np.float32)
