@@ -644,3 +644,30 @@ def test_summary_says_when_the_boxes_are_the_top_level_tree(bunny):
             assert any(line.startswith(words) for line in summary), summary
         finally:
             plotter.close()
+
+
+def test_to_pyvista_gives_meshes_and_instances_without_triangles_empty_blocks(tmp_path):
+    """A Points prim is read as instances of a sphere prototype, which has no triangles: to_pyvista raised pyvista's
+    "Empty arrays are not allowed" for its blocks (usd-wg's simpleAssetScene too), and a mesh of points without faces
+    got a vertex cell per point, so the cells no longer added up to the triangles. Each gets a block with its points,
+    no cells, and the cell arrays, empty."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "points.usda"
+    path.write_text('#usda 1.0\ndef Points "P"\n{\n    point3f[] points = [(0, 0, 0), (2, 0, 0)]\n'
+                    '    float[] widths = [1] (interpolation = "constant")\n}\n'
+                    'def Mesh "T"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+                    '    point3f[] points = [(0, 0, 1), (1, 0, 1), (0, 1, 1)]\n}\n')
+    stage = Usd.Stage.Open(str(path))
+    triangles = sum(c - 2 for c in UsdGeom.Mesh(stage.GetPrimAtPath("/T")).GetFaceVertexCountsAttr().Get())
+    scene = wrt.load_usd(path)
+    lone = wrt.Mesh("/lone_points", np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.zeros((0, 3), np.int32),
+                    np.zeros(0, np.int32))
+    scene.meshes.append(lone)
+    blocks = to_pyvista(scene)
+    assert sum(b.n_cells for b in blocks) == triangles
+    assert blocks["/lone_points"].n_points == 3 and blocks["/lone_points"].n_cells == 0
+    assert blocks.n_blocks == len(scene.meshes) + len(scene.instances) == 4
+    for block in blocks:
+        for name in ("color", "prim", "face_id"):
+            assert len(block.cell_data[name]) == block.n_cells

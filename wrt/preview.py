@@ -243,7 +243,8 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
     path, then one block per instance (its prototype's meshes merged, moved to world space), named by the instance's
     path (``/instancer[index]`` for a PointInstancer's).
 
-    Every block carries all of its mesh's points (world space) and one triangle cell per triangle, so the
+    Every block carries all of its mesh's points (world space) and one triangle cell per triangle (none for a mesh
+    of points alone or an instance of a prototype of analytic shapes alone: its cell arrays are empty), so the
     points, cells and blocks add up to ``Scene.stats()``'s ``points``, ``rendered_triangles`` and ``meshes`` plus
     ``instances``. Cell arrays: ``"color"`` ``(T, 3)`` uint8 sRGB (see :func:`triangle_colors`), ``"prim"`` triangle
     id (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face. Instances are
@@ -273,11 +274,11 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
     # block.points[:, 1] += 3) wrote into the scene's read-only arrays or its cached triangles, behind its caches.
     for k, mesh in enumerate(scene.meshes):
         n = len(mesh.indices)
-        own = mesh.points.copy()
-        poly = pv.PolyData.from_regular_faces(own, mesh.indices) if n else pv.PolyData(own)
-        poly.cell_data["color"] = colors[first : first + n]
-        poly.cell_data["prim"] = np.arange(first, first + n, dtype=np.int32)
-        poly.cell_data["face_id"] = mesh.face_ids.copy()
+        poly = _triangles_block(pv, mesh.points.copy(), mesh.indices, {
+            "color": colors[first : first + n],
+            "prim": np.arange(first, first + n, dtype=np.int32),
+            "face_id": mesh.face_ids.copy(),
+        })
         poly.field_data["path"] = [mesh.path]
         add(poly, mesh.path, k)
         first += n
@@ -289,17 +290,34 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
         vertex += sum(len(m.points) for m in scene.meshes)
         for i in range(shown):
             a, b = int(offsets[i]), int(offsets[i + 1])
-            pts = points[vertex[i] : vertex[i + 1]].copy()
-            poly = pv.PolyData.from_regular_faces(pts, indices[a:b] - vertex[i]) if b > a else pv.PolyData(pts)
             proto = drawn.prototypes[drawn.instances.prototype[i]]
-            poly.cell_data["color"] = colors[a:b]
-            poly.cell_data["prim"] = np.arange(a, b, dtype=np.int64 if b > np.iinfo(np.int32).max else np.int32)
-            poly.cell_data["face_id"] = np.concatenate([m.face_ids for m in proto.meshes] or [np.zeros(0, np.int32)])
+            poly = _triangles_block(pv, points[vertex[i] : vertex[i + 1]].copy(), indices[a:b] - vertex[i], {
+                "color": colors[a:b],
+                "prim": np.arange(a, b, dtype=np.int64 if b > np.iinfo(np.int32).max else np.int32),
+                "face_id": np.concatenate([m.face_ids for m in proto.meshes] or [np.zeros(0, np.int32)]),
+            })
             path = drawn.instances.path(i)
             poly.field_data["path"] = [path]
             add(poly, path, i)
     blocks.field_data["instances_left_out"] = [len(scene.instances) - shown]
     return blocks
+
+
+def _triangles_block(pv, points, triangles, cell_arrays: dict):
+    """A ``PolyData`` of ``points`` and one cell per row of ``triangles`` with ``cell_arrays`` (name -> one value per
+    triangle). A mesh without triangles (points only, or a prototype of analytic shapes alone) has no cells but still
+    every array, empty: ``PolyData(points)`` would add a vertex cell per point, and pyvista refuses empty arrays."""
+    if len(triangles):
+        poly = pv.PolyData.from_regular_faces(points, triangles)
+    else:
+        poly = pv.PolyData()
+        poly.points = points.reshape(-1, 3)
+    for name, values in cell_arrays.items():
+        if len(triangles):
+            poly.cell_data[name] = values
+        else:  # through VTK, which takes an empty array
+            poly.GetCellData().AddArray(pv.convert_array(np.ascontiguousarray(values), name=name))
+    return poly
 
 
 def cluster_vertices(points, indices, colors, max_triangles: int):
