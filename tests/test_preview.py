@@ -671,3 +671,23 @@ def test_to_pyvista_gives_meshes_and_instances_without_triangles_empty_blocks(tm
     for block in blocks:
         for name in ("color", "prim", "face_id"):
             assert len(block.cell_data[name]) == block.n_cells
+
+
+def test_preview_says_so_when_it_both_leaves_out_instances_and_simplifies(tmp_path):
+    """Past 4x the budget the instances that do not fit are left out; when the meshes left are still over the budget
+    they are simplified too, and that note replaced the first: the title read "showing 1 of 2 triangles" for a scene
+    of 14 triangles, without a word about the instances left out."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "instanced.usda"
+    path.write_text(INSTANCED_GROUND)
+    stage = Usd.Stage.Open(str(path))
+    ground = sum(c - 2 for c in UsdGeom.Mesh(stage.GetPrimAtPath("/World/Ground")).GetFaceVertexCountsAttr().Get())
+    instances = len(UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/Tets")).GetProtoIndicesAttr().Get())
+    plotter = wrt.preview(wrt.load_usd(path), max_triangles=1, window_size=(64, 48))
+    try:
+        assert plotter.actors["scene"].mapper.dataset.n_cells == 1
+        assert plotter.title.endswith(f"showing 0 of {instances} instances and 1 of the {ground} triangles left "
+                                      "(simplified for display)")
+    finally:
+        plotter.close()

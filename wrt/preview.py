@@ -678,7 +678,9 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
     attributes = np.column_stack([triangle_colors(scene), sided])
     if len(indices) > max_triangles:
         points, indices, attributes = cluster_vertices(points, indices, attributes, max_triangles)
-        note = f"showing {len(indices):,} of {scene.stats()['rendered_triangles']:,} triangles (simplified for display)"
+        # After a cut of the instances, the triangles left: the note says both (the second replaced the first).
+        kept = f"{len(indices):,} of {'the ' if note else ''}{scene.stats()['rendered_triangles']:,} triangles"
+        note = (f"{note} and {kept} left" if note else f"showing {kept}") + " (simplified for display)"
     _add_sided(pv, plotter, points, indices, attributes[:, :3], attributes[:, 3], "scene")
     shapes = shape_meshes(scene, max_shapes=SHAPE_BUDGET)
     if shapes is not None:
