@@ -356,6 +356,7 @@ def test_preview_rejects_bad_arguments(room):
         (dict(max_triangles=0), "max_triangles must be a positive integer"),
         (dict(max_boxes=-1, bvh_leaves=True), "max_boxes must be a positive integer"),
         (dict(bvh_depth=True), "bvh_depth must be a non-negative integer"),
+        (dict(width=True), "width must be a positive integer, got True"),  # a 1-pixel film, where render refuses it
         (dict(builder="octree"), "unknown BVH builder 'octree'"),
         (dict(device="cuda:7"), "unknown or unavailable device 'cuda:7'"),
     ):

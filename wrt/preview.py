@@ -588,8 +588,8 @@ def preview(
     if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or not 0 <= rays <= MAX_RAYS:
         raise ValueError(f"rays must be an integer from 0 to {MAX_RAYS:,}, got {rays!r}")
     for label, value in (("width", width), ("height", height)):
-        if value is not None and (not isinstance(value, (int, np.integer)) or value <= 0):
-            raise ValueError(f"{label} must be a positive integer, got {value!r}")
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0):
+            raise ValueError(f"{label} must be a positive integer, got {value!r}")  # True too, as wrt.render says
     check_window_size(window_size)
     Builder.from_str(builder)  # checked now, not only when boxes, rays or the image need the tree
     device = resolve_device(device)
