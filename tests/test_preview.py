@@ -692,3 +692,50 @@ def test_preview_says_so_when_it_both_leaves_out_instances_and_simplifies(tmp_pa
                                       "(simplified for display)")
     finally:
         plotter.close()
+
+
+def test_shapes_are_tessellated_once_per_kind_and_placed_where_usd_puts_them(tmp_path, monkeypatch):
+    """Every shape drawn was tessellated on its own: 20 s for the 20,000 spheres of a Points prim (the shape budget).
+    Copies of one (kind, parameters) share one tessellation now; each sphere drawn still lies on the sphere USD
+    describes (centre a point, radius half its width; the last mirrored by a negative scale)."""
+    import wrt.primitives
+
+    rng = np.random.default_rng(123)
+    centres = rng.uniform(-10, 10, (40, 3))
+    widths = rng.uniform(0.2, 2.0, 40)
+    path = tmp_path / "points.usda"
+    points = ", ".join(f"({x}, {y}, {z})" for x, y, z in centres)
+    path.write_text(f"""#usda 1.0
+def Points "P"
+{{
+    point3f[] points = [{points}]
+    float[] widths = [{", ".join(map(str, widths))}] (interpolation = "vertex")
+}}
+def Sphere "Mirrored"
+{{
+    double radius = 2
+    double3 xformOp:scale = (-1, 1, 1)
+    double3 xformOp:translate = (30, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+}}
+""")
+    scene = wrt.load_usd(path)
+    calls = []
+    real = wrt.primitives.tessellate
+    monkeypatch.setattr(wrt.primitives, "tessellate", lambda *args, **kwargs: calls.append(1) or real(*args, **kwargs))
+    drawn = shape_meshes(scene)
+    assert len(calls) == 2  # a unit sphere for the points, the radius-2 sphere (one per shape: 41)
+    parts = drawn.connectivity("all")
+    regions = parts.point_data["RegionId"]
+    expected = [(c, w / 2) for c, w in zip(centres, widths)] + [((30, 0, 0), 2.0)]
+    assert regions.max() + 1 == len(expected)
+    for r in range(len(expected)):
+        points = np.asarray(parts.points[regions == r], np.float64)
+        centre, radius = min(expected, key=lambda e: np.linalg.norm(points.mean(axis=0) - e[0]))
+        np.testing.assert_allclose(np.linalg.norm(points - centre, axis=1), radius, rtol=1e-5)
+    # The mirrored sphere's triangles still face outwards (cross(p1 - p0, p2 - p0) away from its centre).
+    corners = np.asarray(drawn.points, np.float64)[drawn.regular_faces]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    mirrored = np.linalg.norm(corners.mean(axis=1) - (30, 0, 0), axis=1) < 2.5
+    assert mirrored.sum() > 0
+    assert np.all(np.einsum("ij,ij->i", normals[mirrored], corners[mirrored].mean(axis=1) - (30, 0, 0)) > 0)

@@ -714,9 +714,10 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
     placed = [(s, np.eye(4), none) for s in getattr(scene, "shapes", [])]  # (shape, to_world, instance colour)
     instances = getattr(scene, "instances", ())
     tints = getattr(instances, "colors", ())
-    for i, p in enumerate(instances.prototype if len(instances) else []):
+    with_shapes = np.array([len(getattr(p, "shapes", [])) > 0 for p in scene.prototypes] or [False])
+    for i in np.flatnonzero(with_shapes[instances.prototype]) if len(instances) else []:  # not a step per instance
         tint = tints[i] if len(tints) else none
-        placed += [(s, instances.to_world[i], tint) for s in getattr(scene.prototypes[p], "shapes", [])]
+        placed += [(s, instances.to_world[i], tint) for s in scene.prototypes[instances.prototype[i]].shapes]
         if len(placed) >= max_shapes:
             break
     if not placed:
@@ -726,14 +727,25 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
     ids = np.array([getattr(s, "material_id", -1) for s, _, _ in placed], np.int64)
     colors = to_srgb8(display_colors(own, ids, np.array([t for _, _, t in placed]), scene.materials or []))
     pv = import_pyvista()
+    # Each distinct (kind, params) is tessellated once, in canonical space, and its copies are placed with numpy (as
+    # tessellate places one: points through the matrix, winding flipped where it mirrors): a tessellate call per
+    # shape took 20 s for the 20,000 spheres drawn of a Points prim.
+    matrices = np.array([to_world @ s.to_world for s, to_world, _ in placed])
+    groups = {}  # (kind, params) -> rows of placed
+    for k, (shape, _, _) in enumerate(placed):
+        groups.setdefault((shape.kind, shape.params.tobytes()), []).append(k)
     points, faces, cells, base = [], [], [], 0
-    for k, (shape, to_world, _) in enumerate(placed):
-        moved = type(shape)(shape.path, shape.kind, to_world @ shape.to_world, shape.params)
-        pts, tris, _ = tessellate(moved, segments)
-        points.append(pts)
-        faces.append(tris + base)
-        cells.append(np.full(len(tris), k))
-        base += len(pts)
+    for rows in groups.values():
+        first = placed[rows[0]][0]
+        pts, tris, _ = tessellate(type(first)(first.path, first.kind, np.eye(4), first.params), segments)
+        m = matrices[rows]
+        points.append((np.einsum("gij,vj->gvi", m[:, :3, :3], pts) + m[:, None, :3, 3]).reshape(-1, 3))
+        copies = np.broadcast_to(tris, (len(rows), *tris.shape)).copy()
+        mirrored = np.linalg.det(m[:, :3, :3]) < 0
+        copies[mirrored] = copies[mirrored][:, :, [0, 2, 1]]
+        faces.append((copies + base + len(pts) * np.arange(len(rows))[:, None, None]).reshape(-1, 3))
+        cells.append(np.repeat(rows, len(tris)))
+        base += len(rows) * len(pts)
     mesh = pv.PolyData.from_regular_faces(np.concatenate(points).astype(np.float32), np.concatenate(faces))
     cells = np.concatenate(cells)
     mesh.cell_data["color"] = colors[cells]
