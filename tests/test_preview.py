@@ -739,3 +739,30 @@ def Sphere "Mirrored"
     mirrored = np.linalg.norm(corners.mean(axis=1) - (30, 0, 0), axis=1) < 2.5
     assert mirrored.sum() > 0
     assert np.all(np.einsum("ij,ij->i", normals[mirrored], corners[mirrored].mean(axis=1) - (30, 0, 0)) > 0)
+
+
+def test_shapes_are_drawn_coarser_to_keep_within_the_triangle_budget(tmp_path):
+    """max_triangles simplified the meshes only: the 20,000 spheres drawn of a Points prim were 10.6M triangles at 24
+    segments per circle. The circles get fewer segments until the shapes fit (the title says so), each sphere's
+    vertices still on the sphere USD describes."""
+    import re
+
+    rng = np.random.default_rng(7)
+    centres = rng.uniform(-10, 10, (40, 3))
+    path = tmp_path / "points.usda"
+    points = ", ".join(f"({x}, {y}, {z})" for x, y, z in centres)
+    path.write_text(f'#usda 1.0\ndef Points "P"\n{{\n    point3f[] points = [{points}]\n'
+                    '    float[] widths = [1] (interpolation = "constant")\n}\n')
+    budget = 2000
+    plotter = wrt.preview(wrt.load_usd(path), max_triangles=budget, window_size=(64, 48))
+    try:
+        drawn = plotter.actors["shapes"].mapper.dataset
+        segments = re.search(r"analytic shapes with (\d+) segments per circle", plotter.title)
+    finally:
+        plotter.close()
+    assert 0 < drawn.n_cells <= budget
+    assert segments and int(segments.group(1)) < preview_module.SHAPE_SEGMENTS
+    vertices = np.asarray(drawn.points, np.float64)
+    nearest = np.linalg.norm(vertices[:, None, :] - centres[None], axis=2).min(axis=1)
+    np.testing.assert_allclose(nearest, 0.5, rtol=1e-5)
+    assert len(np.unique(np.argmin(np.linalg.norm(vertices[:, None] - centres[None], axis=2), axis=1))) == 40

@@ -24,7 +24,9 @@ What is drawn, in the frustum's terms (see :mod:`wrt.camera` for the film conven
   A scene with instances or analytic shapes is traced through a two-level BVH; its top level (TLAS) is drawn,
   whose leaves are the instances, the shapes and one entry for all non-instanced meshes together.
 - Scenes above ``max_triangles`` are simplified for display by vertex clustering (Rossignac and Borrel,
-  "Multi-resolution 3D approximations for rendering complex scenes", 1993); the window title says so.
+  "Multi-resolution 3D approximations for rendering complex scenes", 1993); analytic shapes (at most
+  ``SHAPE_BUDGET``) get coarser circles, down to ``MIN_SHAPE_SEGMENTS`` segments, to stay within it too. The window
+  title says so.
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ from .wording import counted
 TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
 EXPAND_FACTOR = 4  # instanced scenes above EXPAND_FACTOR * budget show only the instances within the budget
 SHAPE_SEGMENTS = 24  # analytic shapes are drawn tessellated with this many segments per circle
+MIN_SHAPE_SEGMENTS = 6  # coarsest circles of analytic shapes, drawn so to keep within the triangle budget
 SHAPE_BUDGET = 20_000  # most analytic shapes drawn
 MAX_CLUSTER_GRID = 4096  # finest clustering grid, cells along the longest side of the scene box
 CLUSTER_STEPS = 10  # most clusterings tried while searching the grid for the triangle budget
@@ -682,13 +685,16 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
         kept = f"{len(indices):,} of {'the ' if note else ''}{scene.stats()['rendered_triangles']:,} triangles"
         note = (f"{note} and {kept} left" if note else f"showing {kept}") + " (simplified for display)"
     _add_sided(pv, plotter, points, indices, attributes[:, :3], attributes[:, 3], "scene")
-    shapes = shape_meshes(scene, max_shapes=SHAPE_BUDGET)
+    shapes = shape_meshes(scene, max_shapes=SHAPE_BUDGET, max_triangles=max_triangles)
     if shapes is not None:
         _add_sided(pv, plotter, shapes.points, shapes.regular_faces, shapes.cell_data["color"],
                    shapes.cell_data["double_sided"], "shapes")
         total = scene.stats()["rendered_shapes"]  # a Points prim of a million spheres was cut to the budget unsaid
-        if total > SHAPE_BUDGET:
-            note = ", ".join(filter(None, [note, f"showing {SHAPE_BUDGET:,} of {total:,} analytic shapes"]))
+        cut = f"showing {SHAPE_BUDGET:,} of {total:,} analytic shapes" if total > SHAPE_BUDGET else ""
+        segments = int(shapes.field_data["segments"][0])
+        if segments < SHAPE_SEGMENTS:
+            cut = f"{cut or 'analytic shapes'} with {segments} segments per circle"
+        note = ", ".join(filter(None, [note, cut]))
     return note
 
 
@@ -704,10 +710,13 @@ def _add_sided(pv, plotter, points, indices, colors, double_sided, label: str) -
             plotter.add_mesh(mesh, scalars="color", rgb=True, show_scalar_bar=False, culling=culling, name=name)
 
 
-def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int = SHAPE_BUDGET):
+def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int = SHAPE_BUDGET,
+                 max_triangles: int | None = None):
     """The scene's analytic shapes (non-instanced, then each instance's) tessellated for display as one
-    ``pyvista.PolyData``, or None without shapes; at most ``max_shapes`` are drawn. Cell arrays: ``"color"`` uint8
-    sRGB (see :func:`display_colors`) and ``"double_sided"`` uint8, the shape's ``doubleSided``."""
+    ``pyvista.PolyData``, or None without shapes; at most ``max_shapes`` are drawn, with ``segments`` per circle, or
+    fewer (down to ``MIN_SHAPE_SEGMENTS``) where that makes more than ``max_triangles`` triangles. Cell arrays:
+    ``"color"`` uint8 sRGB (see :func:`display_colors`) and ``"double_sided"`` uint8, the shape's ``doubleSided``;
+    ``field_data["segments"]`` holds the segments used."""
     from .primitives import tessellate
 
     none = np.full(3, np.nan, np.float32)
@@ -734,10 +743,21 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
     groups = {}  # (kind, params) -> rows of placed
     for k, (shape, _, _) in enumerate(placed):
         groups.setdefault((shape.kind, shape.params.tobytes()), []).append(k)
+    def canonical(rows, n: int):
+        first = placed[rows[0]][0]
+        return tessellate(type(first)(first.path, first.kind, np.eye(4), first.params), n)[:2]
+
+    # Coarser circles while the copies would make more than max_triangles (20,000 spheres of 24 segments are 10.6M
+    # triangles, where the meshes are simplified to 2M): the count of each kind is one tessellation away.
+    tessellations = {rows[0]: canonical(rows, segments) for rows in groups.values()}
+    for n in range(segments - 2, MIN_SHAPE_SEGMENTS - 1, -2):
+        if max_triangles is None or sum(len(r) * len(tessellations[r[0]][1]) for r in groups.values()) <= max_triangles:
+            break
+        segments = n
+        tessellations = {rows[0]: canonical(rows, n) for rows in groups.values()}
     points, faces, cells, base = [], [], [], 0
     for rows in groups.values():
-        first = placed[rows[0]][0]
-        pts, tris, _ = tessellate(type(first)(first.path, first.kind, np.eye(4), first.params), segments)
+        pts, tris = tessellations[rows[0]]
         m = matrices[rows]
         points.append((np.einsum("gij,vj->gvi", m[:, :3, :3], pts) + m[:, None, :3, 3]).reshape(-1, 3))
         copies = np.broadcast_to(tris, (len(rows), *tris.shape)).copy()
@@ -750,6 +770,7 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
     cells = np.concatenate(cells)
     mesh.cell_data["color"] = colors[cells]
     mesh.cell_data["double_sided"] = np.array([s.double_sided for s, _, _ in placed], np.uint8)[cells]
+    mesh.field_data["segments"] = [segments]
     return mesh
 
 
