@@ -766,3 +766,44 @@ def test_shapes_are_drawn_coarser_to_keep_within_the_triangle_budget(tmp_path):
     nearest = np.linalg.norm(vertices[:, None, :] - centres[None], axis=2).min(axis=1)
     np.testing.assert_allclose(nearest, 0.5, rtol=1e-5)
     assert len(np.unique(np.argmin(np.linalg.norm(vertices[:, None] - centres[None], axis=2), axis=1))) == 40
+
+
+def test_pre_split_triangles_are_covered_by_the_shown_boxes_of_their_pieces():
+    """The docs said every triangle lies in exactly one shown box; in the ``sah`` tree a pre-split triangle has several
+    references, each in its own leaf, and no shown box need hold the whole triangle (a UV sphere's pole slivers). What
+    holds: each reference lies under exactly one shown box, and the boxes of a triangle's references cover it."""
+    from wrt.procedural import displaced_sphere
+
+    points, indices = displaced_sphere(2000)
+    scene = wrt.Scene.from_triangles(points, indices)
+    plotter = wrt.preview(scene, bvh_leaves=True, window_size=(64, 48), show_text=False)
+    try:
+        corners = np.asarray(plotter.actors["bvh"].mapper.dataset.points).reshape(-1, 8, 3)
+    finally:
+        plotter.close()
+    lowers, uppers = corners.min(axis=1), corners.max(axis=1)
+    bvh = get_accelerator(scene, "wrt", "sah", "cpu").bvh
+    assert bvh.num_prims > len(indices)  # some triangles were split
+    # The shown box above every slot, found by walking down from the root (an oracle apart from select_bvh_nodes).
+    shown = {(tuple(lo), tuple(hi)) for lo, hi in zip(lowers, uppers)}
+    box_of_slot = np.full(bvh.num_prims, -1)
+    stack = [(0, -1)]
+    while stack:
+        node, above = stack.pop()
+        if above < 0 and (tuple(bvh.lowers[node]), tuple(bvh.uppers[node])) in shown:
+            above = node
+        if bvh.prim_count[node] > 0:
+            box_of_slot[bvh.left_first[node] : bvh.left_first[node] + bvh.prim_count[node]] = above
+        else:
+            stack += [(bvh.left_first[node], above), (bvh.left_first[node] + 1, above)]
+    assert np.all(box_of_slot >= 0)
+    split = np.bincount(bvh.prim_ids, minlength=len(indices)) > 1
+    whole = np.zeros(len(indices), bool)
+    samples = np.array([(a, b, 1 - a - b) for a in np.linspace(0, 1, 7) for b in np.linspace(0, 1 - a, 7)])
+    for tri in np.flatnonzero(split):
+        boxes = box_of_slot[bvh.prim_ids == tri]
+        p = samples @ points[indices[tri]].astype(np.float64)
+        inside = np.all((p[:, None] >= bvh.lowers[boxes] - 1e-6) & (p[:, None] <= bvh.uppers[boxes] + 1e-6), axis=2)
+        assert inside.any(axis=1).all(), f"triangle {tri}: a point lies in none of its pieces' boxes"
+        whole[tri] = inside.all(axis=0).any()
+    assert not whole[split].all()  # some split triangle is held by no single shown box

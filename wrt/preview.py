@@ -17,9 +17,11 @@ What is drawn, in the frustum's terms (see :mod:`wrt.camera` for the film conven
 - The *image plane* rectangle sits at 80 % of the depth of the nearest sample hit (or of the scene's nearest
   corner), where the ``image=True`` quad is drawn.
 - BVH boxes are either the *cut at depth K* (every node at depth ``K`` plus the leaves above it, so every
-  triangle lies in exactly one shown box) or all leaves. They are coloured by node depth or by their *SAH cost
-  share* ``A(n) N(n) / sum_m A(m) N(m)`` over the shown boxes ``m``, where ``A`` is the box surface area and
-  ``N`` the number of triangles below the node: the part of the SAH traversal cost (MacDonald and Booth,
+  triangle reference lies in exactly one shown box) or all leaves. A triangle has one reference, or, where the
+  ``sah`` builder pre-split it, several, each for the piece of it inside its leaf's box: no shown box need hold the
+  whole of such a triangle. They are coloured by node depth or by their *SAH cost share*
+  ``A(n) N(n) / sum_m A(m) N(m)`` over the shown boxes ``m``, where ``A`` is the box surface area and ``N`` the
+  number of triangle references below the node: the part of the SAH traversal cost (MacDonald and Booth,
   "Heuristics for ray tracing using space subdivision", 1990) that the box would carry were the cut the leaves.
   A scene with instances or analytic shapes is traced through a two-level BVH; its top level (TLAS) is drawn,
   whose leaves are the instances, the shapes and one entry for all non-instanced meshes together.
@@ -405,7 +407,7 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
 
 
 def subtree_prim_counts(bvh: FlatBvh, depths: np.ndarray | None = None) -> np.ndarray:
-    """``(M,)`` int64 number of triangles below every node (its own for a leaf)."""
+    """``(M,)`` int64 number of triangle references (slots) below every node (its own for a leaf)."""
     depths = bvh.depths() if depths is None else depths
     counts = bvh.prim_count.astype(np.int64)
     # Sum children into parents, deepest level first.
@@ -419,7 +421,7 @@ def subtree_prim_counts(bvh: FlatBvh, depths: np.ndarray | None = None) -> np.nd
 
 def select_bvh_nodes(bvh: FlatBvh, depth: int | None = None, leaves: bool = False) -> np.ndarray:
     """Node ids to draw: the cut at ``depth`` (nodes at that depth plus shallower leaves) or, with ``leaves``,
-    every leaf. Either way every triangle lies in exactly one selected node."""
+    every leaf. Either way every triangle reference (slot) lies in exactly one selected node."""
     if bvh.num_prims == 0:
         return np.zeros(0, np.int64)
     depths = bvh.depths()
