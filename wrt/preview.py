@@ -745,7 +745,9 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
     groups = {}  # (kind, params) -> rows of placed
     for k, (shape, _, _) in enumerate(placed):
         groups.setdefault((shape.kind, shape.params.tobytes()), []).append(k)
+
     def canonical(rows, n: int):
+        """Points and triangles of the shape of ``rows`` at ``n`` segments, in its canonical space."""
         first = placed[rows[0]][0]
         return tessellate(type(first)(first.path, first.kind, np.eye(4), first.params), n)[:2]
 
