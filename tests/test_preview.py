@@ -807,3 +807,213 @@ def test_pre_split_triangles_are_covered_by_the_shown_boxes_of_their_pieces():
         assert inside.any(axis=1).all(), f"triangle {tri}: a point lies in none of its pieces' boxes"
         whole[tri] = inside.all(axis=0).any()
     assert not whole[split].all()  # some split triangle is held by no single shown box
+
+
+XFORM = """
+        double3 xformOp:translate.timeSamples = {{ 0: (1, 2, 3), 10: (11, -2, 3) }}
+        float3 xformOp:rotateXYZ = (90, 0, 180)
+        float3 xformOp:scale = {scale}
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ", "xformOp:scale"]"""
+GPRIMS = {
+    "sphere": 'Sphere "G"\n    {{\n        double radius = 1.5' + XFORM,
+    "cube": 'Cube "G"\n    {{\n        double size = 3' + XFORM,
+    "cylinder": 'Cylinder "G"\n    {{\n        double radius = 0.5\n        double height = 3\n'
+                '        token axis = "X"' + XFORM,
+    "cone": 'Cone "G"\n    {{\n        double radius = 2\n        double height = 1\n        token axis = "Y"' + XFORM,
+    "capsule": 'Capsule "G"\n    {{\n        double radius = 0.25\n        double height = 2' + XFORM,
+    "capsule_1": 'Capsule_1 "G"\n    {{\n        double radiusTop = 0.25\n        double radiusBottom = 0.5\n'
+                 '        double height = 2' + XFORM,
+    "cylinder_1": 'Cylinder_1 "G"\n    {{\n        double radiusTop = 0.25\n        double radiusBottom = 1\n'
+                  '        double height = 2' + XFORM,
+    "mesh": 'Mesh "G"\n    {{\n        int[] faceVertexCounts = [3, 3]\n'
+            '        int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]\n'
+            '        point3f[] points = [(0, 0, 0), (2, 0, 0), (2, 1, 0), (0, 1, 3)]' + XFORM,
+    "points": 'Points "G"\n    {{\n        point3f[] points = [(0, 0, 0), (3, 1, 0), (1, 4, 2)]\n'
+              '        float[] widths = [0.5, 1, 2] (interpolation = "vertex")' + XFORM,
+    "curves": 'BasisCurves "G"\n    {{\n        uniform token type = "linear"\n        int[] curveVertexCounts = [4]\n'
+              '        point3f[] points = [(0, 0, 0), (1, 2, 0), (3, 2, 1), (3, 0, 2)]\n'
+              '        float[] widths = [0.4] (interpolation = "constant")' + XFORM,
+    "instancer": 'PointInstancer "G"\n    {{\n        rel prototypes = [</World/G/Ball>, </World/G/Tri>]\n'
+                 '        int[] protoIndices = [0, 1, 1, 0]\n'
+                 '        point3f[] positions = [(0, 0, 0), (4, 0, 0), (0, 4, 0), (0, 0, 4)]\n'
+                 '        quath[] orientations = [(1, 0, 0, 0), (0.5, 0.5, 0.5, 0.5), (0, 1, 0, 0), (0, 0, 0, 1)]\n'
+                 '        float3[] scales = [(1, 2, 1), (-1, 1, 1), (1, 1, 3), (2, 2, 2)]\n'
+                 '        def Sphere "Ball"\n        {{\n            double radius = 0.5\n        }}\n'
+                 '        def Mesh "Tri"\n        {{\n            int[] faceVertexCounts = [3]\n'
+                 '            int[] faceVertexIndices = [0, 1, 2]\n'
+                 '            point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 2, 1)]\n        }}' + XFORM,
+}
+
+
+@pytest.mark.parametrize("kind", list(GPRIMS))
+def test_drawn_geometry_is_where_usd_bounds_it(tmp_path, kind):
+    """The triangles and shapes drawn for one gprim (analytic shapes, a mesh under a mirroring scale, points, curves,
+    a PointInstancer of two prototypes), placed by a transform animated in time and taken at time 5, fill the box
+    ``UsdGeom.BBoxCache`` gives the prim at that time: rotations by right angles and an axis-aligned scale keep that
+    box exact (uniform for points and curves, whose widths USD does not scale per axis)."""
+    from pxr import Usd, UsdGeom
+
+    scale = "(1.5, 1.5, 1.5)" if kind in ("points", "curves") else "(-1, 2, 0.5)"
+    path = tmp_path / f"{kind}.usda"
+    path.write_text('#usda 1.0\n(\n    upAxis = "Z"\n)\ndef Xform "World"\n{\n    def '
+                    + GPRIMS[kind].format(scale=scale) + "\n    }\n}\n")
+    stage = Usd.Stage.Open(str(path))
+    box = UsdGeom.BBoxCache(5.0, ["default", "render"]).ComputeWorldBound(stage.GetPrimAtPath("/World/G"))
+    box = box.ComputeAlignedRange()
+    expected = np.array([box.GetMin(), box.GetMax()])
+    plotter = wrt.preview(wrt.load_usd(path, time=5.0), window_size=(64, 48), show_text=False)
+    try:
+        drawn = [np.asarray(plotter.actors[a].mapper.dataset.points, np.float64)
+                 for a in ("scene", "scene_double_sided", "shapes", "shapes_double_sided") if a in plotter.actors]
+    finally:
+        plotter.close()
+    # The scene actors carry every point of the scene's meshes; shapes are tessellated with vertices on the surface,
+    # every extreme among them at these angles (0.03: a tapered capsule's widest circle lies between two rings).
+    drawn = np.concatenate(drawn)
+    tolerance = 0.03 if kind == "capsule_1" else 1e-5
+    np.testing.assert_allclose(drawn.min(axis=0), expected[0], atol=tolerance)
+    np.testing.assert_allclose(drawn.max(axis=0), expected[1], atol=tolerance)
+
+
+CAMERAS = """#usda 1.0
+(
+    upAxis = "Y"
+)
+def Mesh "Floor"
+{
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    point3f[] points = [(-10, 0, -10), (10, 0, -10), (10, 0, 10), (-10, 0, 10)]
+    uniform bool doubleSided = 1
+}
+def Sphere "Ball"
+{
+    double radius = 2
+    double3 xformOp:translate = (1, 2, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Camera "Persp"
+{
+    float focalLength = 35
+    float horizontalAperture = 36
+    float verticalAperture = 24
+    float horizontalApertureOffset = 3
+    float verticalApertureOffset = -2
+    float2 clippingRange = (0.5, 1000)
+    double3 xformOp:translate.timeSamples = { 0: (1, 6, 12), 10: (4, 8, 14) }
+    float3 xformOp:rotateXYZ = (-25, 10, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
+}
+def Camera "Ortho"
+{
+    token projection = "orthographic"
+    float horizontalAperture = 300
+    float verticalAperture = 200
+    float horizontalApertureOffset = 20
+    float verticalApertureOffset = 10
+    double3 xformOp:translate = (0, 20, 0)
+    float3 xformOp:rotateXYZ = (-90, 0, 30)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
+}
+"""
+
+
+@pytest.mark.parametrize("camera", ["/Persp", "/Ortho"])
+@pytest.mark.parametrize("width, height", [(60, 40), (80, 20)])
+def test_frustum_is_the_usd_camera_frustum(tmp_path, camera, width, height):
+    """The drawn frustum (eye, far rectangle, image-plane rectangle) lies where ``Gf.Frustum`` of
+    ``UsdGeom.Camera.GetCamera(time)`` puts its corners at the same depths: film offsets, an orthographic camera, a
+    camera animated in time, and an image aspect other than the apertures' (the window grown to it, UsdRender's
+    ``expandAperture``, the fallback conform policy)."""
+    from pxr import Gf, Usd, UsdGeom
+
+    path = tmp_path / "cameras.usda"
+    path.write_text(CAMERAS)
+    stage = Usd.Stage.Open(str(path))
+    frustum = UsdGeom.Camera(stage.GetPrimAtPath(camera)).GetCamera(5.0).frustum
+    lower, upper = (np.array(v) for v in (frustum.window.GetMin(), frustum.window.GetMax()))
+    centre, size = (lower + upper) / 2, upper - lower
+    size = np.maximum(size, [size[1] * width / height, size[0] * height / width])  # expandAperture
+    frustum.window = Gf.Range2d(Gf.Vec2d(*(centre - size / 2)), Gf.Vec2d(*(centre + size / 2)))
+    eye, view = np.array(frustum.GetPosition()), np.array(frustum.ComputeViewDirection())
+    plotter = wrt.preview(wrt.load_usd(path, time=5.0), camera=camera, width=width, height=height,
+                          window_size=(64, 48), show_text=False)
+    try:
+        drawn = np.asarray(plotter.actors["frustum"].mapper.dataset.points, np.float64).reshape(3, 4, 3)
+        np.testing.assert_allclose(plotter.actors["eye"].mapper.dataset.center, eye, atol=1e-5)
+    finally:
+        plotter.close()
+    for corners in drawn:  # at depth 0, the far end and the image plane: top-left, top-right, bottom-right, bottom-left
+        depth = float(np.mean((corners - eye) @ view))
+        if depth < 1e-9 and camera == "/Persp":
+            np.testing.assert_allclose(corners, np.tile(eye, (4, 1)), atol=1e-5)
+            continue
+        lb, rb, lt, rt = (np.array(c) for c in frustum.ComputeCornersAtDistance(depth))
+        np.testing.assert_allclose(corners, [lt, rt, rb, lb], atol=1e-4)
+
+
+@pytest.mark.parametrize("camera", ["/Persp", "/Ortho"])
+def test_drawn_rays_end_at_the_traced_hits_and_misses_at_the_far_end(tmp_path, camera):
+    """Each drawn ray runs from its origin to where ``wrt.trace`` of the same ray (from the near plane on) hits, here
+    a mesh and an analytic sphere (a two-level BVH); a ray that misses ends on the frustum's far rectangle."""
+    path = tmp_path / "cameras.usda"
+    path.write_text(CAMERAS)
+    scene = wrt.load_usd(path, time=5.0)
+    plotter = wrt.preview(scene, camera=camera, rays=120, width=60, height=40, window_size=(64, 48), show_text=False)
+    try:
+        segments = {a: np.asarray(plotter.actors[a].mapper.dataset.points, np.float64).reshape(2, -1, 3)
+                    for a in ("rays_hit", "rays_miss")}
+        far = np.asarray(plotter.actors["frustum"].mapper.dataset.points, np.float64)[4:8]
+    finally:
+        plotter.close()
+    cam = scene.cameras[camera]
+    near = cam.clipping_range[0]
+    for actor, (origins, ends) in segments.items():
+        assert len(origins) > 10, actor
+        length = np.linalg.norm(ends - origins, axis=1)
+        hits = wrt.trace(scene, origins, (ends - origins) / length[:, None], t_min=near)
+        if actor == "rays_hit":
+            np.testing.assert_allclose(hits.t, length, rtol=1e-5)
+        else:
+            assert not np.isfinite(hits.t).any()
+            normal = np.cross(far[1] - far[0], far[3] - far[0])
+            np.testing.assert_allclose((ends - far[0]) @ normal / np.linalg.norm(normal), 0.0, atol=1e-3)
+
+
+def walked_cut(bvh, depth: int) -> list:
+    """Boxes ``(lower..., upper...)`` of the nodes at ``depth`` and the leaves above it, found by walking the tree's
+    arrays down from the root (children of inner node ``n``: ``left_first[n]`` and the next)."""
+    found, stack = [], [(0, 0)]
+    while stack:
+        node, d = stack.pop()
+        if d == depth or bvh.prim_count[node] > 0:
+            found.append(tuple(np.r_[bvh.lowers[node], bvh.uppers[node]]))
+        else:
+            stack += [(bvh.left_first[node], d + 1), (bvh.left_first[node] + 1, d + 1)]
+    return sorted(found)
+
+
+@pytest.mark.parametrize("builder", wrt.bvh.build.builder_names())
+@pytest.mark.parametrize("two_level", [False, True])
+def test_drawn_bvh_boxes_are_the_trees_nodes_at_that_depth(builder, two_level):
+    """For every builder, of a BVH and of a TLAS (a scene with analytic shapes): the boxes drawn at depth ``d`` are,
+    bit for bit and one each, the boxes of the tree's nodes at depth ``d`` and of its leaves above it, past the
+    deepest leaf too."""
+    from wrt.procedural import displaced_sphere
+
+    points, indices = displaced_sphere(300)
+    scene = wrt.Scene.from_triangles(points, indices)
+    if two_level:
+        scene.shapes = [ball(x) for x in (-3.0, 3.0, 5.0, 7.0)]
+    accel = get_accelerator(scene, "wrt", builder, "cpu")
+    assert hasattr(accel, "tlas") == two_level
+    bvh = accel.bvh
+    deepest = int(bvh.depths().max())
+    for depth in sorted({0, 1, 3, deepest, deepest + 2}):
+        plotter = wrt.preview(scene, bvh_depth=depth, builder=builder, window_size=(32, 24), show_text=False)
+        try:
+            corners = np.asarray(plotter.actors["bvh"].mapper.dataset.points).reshape(-1, 8, 3)
+        finally:
+            plotter.close()
+        drawn = sorted(tuple(b) for b in np.hstack([corners.min(axis=1), corners.max(axis=1)]))
+        assert drawn == walked_cut(bvh, depth), f"depth {depth}"
