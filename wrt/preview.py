@@ -329,7 +329,8 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
     """Simplifies a triangle soup to at most ``max_triangles`` by vertex clustering.
 
     Points are snapped to the mean of their cell in a uniform grid, triangles whose corners fall into fewer than
-    three cells are dropped, and duplicates are removed (Rossignac and Borrel 1993). The grid resolution is
+    three cells are dropped, and duplicates are removed (Rossignac and Borrel 1993); a triangle that the snap turned
+    over is wound back to face as its source did. The grid resolution is
     searched (geometric bisection from a guess based on surface area) for a result between 70 % and 100 % of the
     budget, in at most ``CLUSTER_STEPS`` clusterings; the finest grid that fits wins.
 
@@ -367,8 +368,15 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         # Place each cluster at the mean of its points.
         ids = ids.reshape(-1)
         sums = np.stack([np.bincount(ids, points[used, k], minlength=len(uniq)) for k in range(3)], axis=1)
-        centres = sums / np.bincount(ids, minlength=len(uniq))[:, None]
-        return centres.astype(np.float32), tris[rows].astype(np.int32), np.asarray(colors)[rows]
+        centres = (sums / np.bincount(ids, minlength=len(uniq))[:, None]).astype(np.float32)
+        # Keep each triangle facing as its source did: snapping the corners turns some over (0.5 % of a sphere's),
+        # and those of a single-sided surface are drawn culled from the side they face.
+        kept = tris[rows]
+        moved = centres[kept]
+        facing = np.cross(moved[:, 1] - moved[:, 0], moved[:, 2] - moved[:, 0])
+        turned = np.einsum("ij,ij->i", facing, normals[rows]) < 0
+        kept[turned] = kept[turned][:, [0, 2, 1]]
+        return centres, kept.astype(np.int32), np.asarray(colors)[rows]
 
     # First guess: a surface of area A cut into cells of side h keeps about 2 A / h^2 triangles.
     corners = points.astype(np.float32)[indices]
