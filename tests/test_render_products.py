@@ -359,6 +359,34 @@ def test_cli_products(tmp_path, capsys):
     assert "camera.usda: /Render/Settings has 2 RenderProducts" in capsys.readouterr().err
 
 
+def test_cli_view_line_names_where_the_camera_and_size_come_from(tmp_path, capsys):
+    """--camera on a stage of two products whose first authors its own size: the image keeps that product's size
+    (as USD reads it) and film, and a progress line says so, the camera and the size each with where it came from.
+    The size was the first product's without a word (the warning naming that product is not shown with --camera)."""
+    from pxr import Usd, UsdRender
+
+    products = (product("Beauty", ["color"], "beauty.png", "uniform int2 resolution = (24, 12)\n")
+                + product("Aovs", ["depth"], "aovs.exr", "uniform int2 resolution = (20, 10)\n"))
+    stage = write_stage(tmp_path, products, ["Beauty", "Aovs"])
+    usd = Usd.Stage.Open(stage)
+    w, h = UsdRender.Product(usd.GetPrimAtPath("/Render/Beauty")).GetResolutionAttr().Get()
+    out = tmp_path / "cam.png"
+    assert main(["render", stage, "-o", str(out), "--camera", "/World/Tilted"]) == 0
+    assert PilImage.open(out).size == (w, h)
+    err = capsys.readouterr().err
+    assert f"wrt: view: camera /World/Tilted (--camera), {w}x{h} (resolution of /Render/Beauty)" in err
+    # Without --camera, the settings' camera; one size given keeps the product's aspect.
+    assert main(["render", stage, "-o", str(out), "--width", str(2 * w)]) == 0
+    settings_camera = UsdRender.Settings(usd.GetPrimAtPath("/Render/Settings")).GetCameraRel().GetTargets()[0]
+    assert PilImage.open(out).size == (2 * w, 2 * h)
+    assert (f"wrt: view: camera {settings_camera} (render settings), {2 * w}x{2 * h} (--width, aspect of "
+            "/Render/Beauty)") in capsys.readouterr().err
+    # A stage without render settings has no such line: wrt's defaults, as --help says.
+    plain = write(tmp_path, WORLD, "plain.usda")
+    assert main(["render", plain, "-o", str(out), "--width", "8", "--height", "4"]) == 0
+    assert "view:" not in capsys.readouterr().err
+
+
 # A camera at (1, 0.5, 10) turned 8 degrees about Y, with apertures of the 48x24 image's aspect (no conforming), over
 # a mesh strip of three faces (a quad, a pentagon, a quad: 7 triangles) at z = 0, three instances of a quad at
 # z = -1 and a sphere: every camera ray's hit is known from pxr's frustum and a little geometry.

@@ -394,6 +394,26 @@ def loaded_summary(name: str, stats: dict) -> str:
     return f"loaded {name}: {contents_summary(stats)}"
 
 
+def _view_summary(args, settings, camera, width: int, height: int) -> str:
+    """The progress line naming the camera and size of a render on a stage with render settings, each with where it
+    came from: an option, or the settings (the first product's, merged, as :func:`wrt.render.resolve_view` takes
+    them, ``--camera`` or not). Without it a ``--camera`` render took the first product's size without a word."""
+    source = settings.product or settings.path
+    if args.camera is not None:
+        shot = f"camera {args.camera} (--camera)"
+    elif settings.camera is not None:
+        shot = f"camera {settings.camera} (render settings)"
+    else:
+        shot = f"camera {camera.path} (the stage's first)" if camera.path else "a camera framing the scene"
+    full_w, full_h = settings.image_size(args.width, args.height)
+    given = [name for name, value in (("--width", args.width), ("--height", args.height)) if value is not None]
+    why = {0: f"resolution of {source}", 1: f"{', '.join(given)}, aspect of {source}", 2: "--width, --height"}
+    size = f"{full_w}x{full_h} ({why[len(given)]})"
+    if (width, height) != (full_w, full_h):
+        size += f", {width}x{height} inside the dataWindowNDC of {source}"
+    return f"view: {shot}, {size}"
+
+
 def _render_one(args, path: Path, output: Path, progress) -> Path:
     import wrt
 
@@ -411,7 +431,9 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
         warnings.warn(f"{path.name}: {settings.path} has {len(settings.products)} RenderProducts; this image is the "
                       f"first's, {settings.product} (--products DIR writes them all)", stacklevel=2)
     limit = parse_bytes(args.max_memory) if args.max_memory else None
-    _, width, height = resolve_view(scene, args.camera, args.width, args.height)  # the stage's settings, if any
+    camera, width, height = resolve_view(scene, args.camera, args.width, args.height)  # the stage's settings, if any
+    if settings is not None:
+        progress(_view_summary(args, settings, camera, width, height))
     check_pixels(width, height)  # the limit is the clearer error where both apply
     needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp)
     check_memory(needed, args.device, limit, f"rendering {path.name} at {width}x{height}")
