@@ -489,7 +489,7 @@ def test_a_disagreement_with_warp_is_reported_in_the_table_and_by_the_cli(tmp_pa
     assert "warning: sphere:200 / wrt:sah / cpu / primary: 7 of 300 rays answered otherwise than by warp:sah" in err
     assert "(7 differ) |" in (tmp_path / "a" / "table.md").read_text()
     assert main(argv + ["--accels", "wrt:sah", "-o", str(tmp_path / "b")]) == 0
-    assert "warning: 1 rows not checked against warp:sah" in capsys.readouterr().err
+    assert "warning: 1 row not checked against warp:sah" in capsys.readouterr().err
     assert "| unchecked |" in (tmp_path / "b" / "table.md").read_text()
 
 

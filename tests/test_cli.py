@@ -488,3 +488,34 @@ def test_exposure_with_a_linear_output_is_warned_about(tmp_path, capsys, frames)
         assert len(warned) == warns, (name, warned)
     written = {stem: np.load(tmp_path / f"{stem}{'_1' if frames else ''}.npy") for stem in "bc"}
     np.testing.assert_array_equal(written["b"], written["c"])  # what the warning says: written unscaled
+
+
+def test_counts_of_a_single_scene_frame_or_row_read_in_the_singular(tmp_path, capsys):
+    """A run of one scene, frame or bench row said '1 of 1 scenes rendered', '1 of 1 frames failed', '1 rows
+    measured'; the counts of several keep 'N of M'."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 2\n)\ndef Mesh "M"\n{\n'
+                     '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points.timeSamples = {1: [(0, 0, 0), (1, 0, 0), (0, 1, 0)],\n'
+                     '                                    2: [(nan, 0, 0), (1, 0, 0), (0, 1, 0)]}\n}\n')
+    small = ["--width", "8", "--height", "6", "-q"]
+    assert main(["render", str(stage), "--time", "1", "--log", str(tmp_path / "a.jsonl"), "-o",
+                 str(tmp_path / "a.npy"), "--width", "8", "--height", "6"]) == 0
+    err = capsys.readouterr().err
+    assert "wrt: 1 scene rendered; log in" in err and " of 1 " not in err, err
+    assert main(["render", str(tmp_path / "missing.usda"), "--log", str(tmp_path / "b.jsonl"), *small]) == 2
+    assert "wrt: 1 scene failed: missing.usda" in capsys.readouterr().err
+    assert main(["render", str(stage), str(tmp_path / "missing.usda"), "-o", str(tmp_path / "two/"), *small]) == 1
+    assert "wrt: 1 of 2 scenes failed: missing.usda" in capsys.readouterr().err
+    frames = ["render", str(stage), "-o", str(tmp_path / "f_#.npy"), *small, "--frames"]
+    assert main([*frames, "2"]) == 2  # NaN points at time 2
+    assert "wrt: 1 frame failed" in capsys.readouterr().err
+    assert main([*frames, "1:2"]) == 1
+    assert "wrt: 1 of 2 frames failed" in capsys.readouterr().err
+    assert main([arg for arg in frames if arg != "-q"] + ["1", "--resume"]) == 0
+    assert "wrt: --resume: 1 frame already on disk" in capsys.readouterr().err
+    assert main(["bench", "--scenes", "sphere:200", "--accels", "wrt:sah", "--rays", "primary", "--n-rays", "300",
+                 "--repeats", "1", "-o", str(tmp_path / "bench"), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert "wrt: 1 row measured, 0 resumed, 0 failed;" in err
+    assert "wrt: warning: 1 row not checked against warp:sah" in err

@@ -19,7 +19,7 @@ from importlib import resources
 from pathlib import Path
 
 from .errors import did_you_mean
-from .wording import counted
+from .wording import counted, counted_of
 
 EXIT_BAD_INPUT = 2  # exit status for bad input, as argparse uses for bad arguments
 
@@ -515,10 +515,10 @@ def _run_render(args) -> int:
         row["seconds"] = round(time.perf_counter() - start, 3)
         with open(log, "a") as f:  # flushed per scene: an interrupted batch keeps every finished row
             f.write(strict_json(row) + "\n")
-    progress(f"{len(paths) - len(failures)} of {len(paths)} scenes rendered; log in {log}")
+    progress(f"{counted_of(len(paths) - len(failures), len(paths), 'scene')} rendered; log in {log}")
     if failures:
         names = ", ".join(Path(r["scene"]).name for r in failures)
-        print(f"wrt: {len(failures)} of {len(paths)} scenes failed: {names}", file=sys.stderr)
+        print(f"wrt: {counted_of(len(failures), len(paths), 'scene')} failed: {names}", file=sys.stderr)
         return 1 if len(failures) < len(paths) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
 
@@ -579,7 +579,7 @@ def _run_frames(args, paths: list, progress) -> int:
     if args.log:
         _check_log_path(Path(args.log), [file for _, file in jobs])
     if len(jobs) < len(frames):
-        progress(f"--resume: {len(frames) - len(jobs)} of {len(frames)} frames already on disk")
+        progress(f"--resume: {counted_of(len(frames) - len(jobs), len(frames), 'frame')} already on disk")
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
     if not devices:
         raise ValueError(f"--devices {args.devices!r} names no device; give e.g. cuda:0,cuda:1")
@@ -609,7 +609,7 @@ def _run_frames(args, paths: list, progress) -> int:
         where = "" if paths[0].name in message else f"{paths[0]}: "
         print(f"wrt: error: {_frame_list(frames)}: {where}{message}", file=sys.stderr)
     if failures:
-        print(f"wrt: {len(failures)} of {len(rows)} frames failed", file=sys.stderr)
+        print(f"wrt: {counted_of(len(failures), len(rows), 'frame')} failed", file=sys.stderr)
         return 1 if len(failures) < len(rows) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
 
@@ -807,7 +807,8 @@ def _run_bench(args) -> int:
     rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     failed = [r for r in rows if "error" in r]
     measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
-    summary = f"wrt: {measured} rows measured, {rows.resumed} resumed, {len(failed)} failed; results in {args.out}/"
+    summary = (f"wrt: {counted(measured, 'row')} measured, {rows.resumed} resumed, {len(failed)} failed; results in "
+               f"{args.out}/")
     print(summary, file=sys.stderr)
     for r in failed:
         print(f"wrt: failed: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['error']}", file=sys.stderr)
@@ -817,8 +818,8 @@ def _run_bench(args) -> int:
                   f"{r['n_rays']} rays answered otherwise than by {REFERENCE} (edge ties left out)", file=sys.stderr)
     unchecked = [r for r in rows if "error" not in r and r.get("agreement") is None and r["accel"] != REFERENCE]
     if unchecked:
-        print(f"wrt: warning: {len(unchecked)} rows not checked against {REFERENCE} (it failed or was not run in "
-              "their group)", file=sys.stderr)
+        print(f"wrt: warning: {counted(len(unchecked), 'row')} not checked against {REFERENCE} (it failed or was not "
+              "run in their group)", file=sys.stderr)
     return 1 if failed else 0
 
 
