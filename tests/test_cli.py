@@ -519,3 +519,15 @@ def test_counts_of_a_single_scene_frame_or_row_read_in_the_singular(tmp_path, ca
     err = capsys.readouterr().err
     assert "wrt: 1 row measured, 0 resumed, 0 failed;" in err
     assert "wrt: warning: 1 row not checked against warp:sah" in err
+
+
+@pytest.mark.parametrize("value", ["lots", "-4G", "0"])
+def test_a_bad_max_memory_is_refused_before_any_scene_loads_naming_the_option(tmp_path, capsys, value):
+    """--max-memory was read after each scene's load: 'cannot read memory size' without the option's name, once per
+    scene of a batch, and 0 refused every render as needing more than '0 B'."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(["render", "-o", str(tmp_path / "x.png"), "--max-memory", value])
+    assert exit_info.value.code == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith("wrt: error: argument --max-memory: "), line
+    assert not (tmp_path / "x.png").exists()

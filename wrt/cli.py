@@ -139,6 +139,20 @@ def _exposure(text: str) -> float:
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
+def _memory_size(text: str) -> int:
+    """An argparse type: a ``--max-memory`` size in bytes, above 0 (read before any scene is loaded: it was read after
+    each load, its error without the option's name, and 0 refused every render)."""
+    from .resources import parse_bytes
+
+    try:
+        value = parse_bytes(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a size above 0, got {text}")
+    return value
+
+
 def _refine_level(text: str) -> int:
     """An argparse type: a Catmull-Clark refine level, 0 to ``MAX_REFINE_LEVEL``."""
     from .subdivision import MAX_REFINE_LEVEL
@@ -217,7 +231,9 @@ def _add_render(sub) -> None:
     )
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene (per frame with --frames) as it "
                    "finishes; default with several scenes: render-log.jsonl beside the images")
-    p.add_argument("--max-memory", help="refuse renders predicted to need more than this, e.g. 4G")
+    p.add_argument("--max-memory", type=_memory_size, help="refuse renders predicted to need more than this many "
+                   "bytes: a number with an optional K, M, G or T suffix (powers of 1024), e.g. 4G; default: no limit "
+                   "but the device's free memory")
     p.add_argument("--width", type=positive_int, help="image width in pixels; default: the stage's RenderSettings "
                    "resolution, else 640")
     p.add_argument("--height", type=positive_int, help="image height in pixels; default: the stage's RenderSettings "
@@ -418,7 +434,7 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     import wrt
 
     from .render import check_pixels, resolve_view
-    from .resources import check_memory, estimate_render_bytes, parse_bytes
+    from .resources import check_memory, estimate_render_bytes
 
     start = time.perf_counter()
     scene = wrt.load_usd(path, time=args.time, **_load_options(args))
@@ -430,13 +446,12 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     if settings is not None and len(settings.products) > 1 and args.camera is None:
         warnings.warn(f"{path.name}: {settings.path} has {len(settings.products)} RenderProducts; this image is the "
                       f"first's, {settings.product} (--products DIR writes them all)", stacklevel=2)
-    limit = parse_bytes(args.max_memory) if args.max_memory else None
     camera, width, height = resolve_view(scene, args.camera, args.width, args.height)  # the stage's settings, if any
     if settings is not None:
         progress(_view_summary(args, settings, camera, width, height))
     check_pixels(width, height)  # the limit is the clearer error where both apply
     needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp)
-    check_memory(needed, args.device, limit, f"rendering {path.name} at {width}x{height}")
+    check_memory(needed, args.device, args.max_memory, f"rendering {path.name} at {width}x{height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
     progress(f"built {args.accel} BVH ({args.builder}) on {renderer.device}", renderer.timers["build"][0] / 1000.0)
     try:
