@@ -531,3 +531,13 @@ def test_a_bad_max_memory_is_refused_before_any_scene_loads_naming_the_option(tm
     (line,) = error_lines(capsys.readouterr().err)
     assert line.startswith("wrt: error: argument --max-memory: "), line
     assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, where no one creates files")
+def test_a_bench_output_folder_that_cannot_be_made_is_named(capsys):
+    """wrt bench -o /proc/b said only '[Errno 2] No such file or directory: '/proc/b'', as render's -o says what
+    stands in the way."""
+    assert main(["bench", "--scenes", "sphere:200", "--accels", "wrt:sah", "--rays", "primary", "-q", "-o",
+                 "/proc/wrt-bench"]) == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith("wrt: error: cannot write into /proc/wrt-bench: /proc takes no new files"), line

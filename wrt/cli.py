@@ -819,6 +819,7 @@ def _run_bench(args) -> int:
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     grid = dataclasses.replace(grid, **{k: v for k, v in overrides.items() if v is not None})
     grid = grid.validated()  # a bad field is a one-line error that names it
+    _check_output_location(Path(args.out))  # as render's -o: what stands in the way, not mkdir's bare errno
     rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     failed = [r for r in rows if "error" in r]
     measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
