@@ -541,3 +541,24 @@ def test_a_bench_output_folder_that_cannot_be_made_is_named(capsys):
                  "/proc/wrt-bench"]) == 2
     (line,) = error_lines(capsys.readouterr().err)
     assert line.startswith("wrt: error: cannot write into /proc/wrt-bench: /proc takes no new files"), line
+
+
+def test_every_option_that_takes_a_value_says_its_default():
+    """wrt bench's --scenes, --n-rays, --repeats (...) and render's --workers said nothing of what a run uses without
+    them (the suite's values; a worker per GPU or core). An option whose absence means 'off' (--frames, --aov) needs
+    none; every other one shows its default, or its help says it."""
+    import argparse
+
+    from wrt.cli import build_parser
+
+    off_when_absent = {"--variant", "--frames", "--dask", "--aov-dir", "--products", "--aov", "--bvh-depth", "--output"}
+    commands = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)).choices
+    silent = []
+    for name, command in commands.items():
+        for action in command._actions:
+            if not action.option_strings or action.nargs == 0 or action.option_strings[-1] in off_when_absent:
+                continue
+            shown = not (action.default is None or action.default is False or action.default == [])
+            if not shown and "default" not in (action.help or ""):
+                silent.append(f"{name} {action.option_strings[-1]}")
+    assert silent == []

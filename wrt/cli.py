@@ -261,7 +261,8 @@ def _add_render(sub) -> None:
     p.add_argument("--dask", nargs="?", const="", metavar="ADDRESS", help="with --frames: send the frames to the Dask "
                    "scheduler at ADDRESS (e.g. tcp://scheduler:8786), or without ADDRESS to a LocalCluster of one "
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
-    p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count")
+    p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count; "
+                   "default: one per GPU, else per CPU core")
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder (depth, z, normal, "
                    "geometric_normal, albedo, prim, instance, material, cost, coverage)")
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
@@ -278,9 +279,9 @@ def _add_render(sub) -> None:
     p.add_argument("--max-depth", type=int_at_least(0, f"an integer from 0 to {MAX_DEPTH}", MAX_DEPTH), default=None,
                    help="bounces per path; default 10 (path), 8 (whitted)")
     p.add_argument("--ao-radius", type=_positive_float, default=None,
-                   help="ao distance; default a tenth of the scene's size")
+                   help="ao distance, in scene units; default a tenth of the scene's size")
     p.add_argument("--exposure", type=_exposure, default=0.0,
-                   help="PNG only: scale the image by 2^EXPOSURE before sRGB")
+                   help="PNG only: scale the image by 2^EXPOSURE (in stops) before sRGB")
     from .render import AOV_NAMES
 
     p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a colour-mapped PNG of "
@@ -784,14 +785,16 @@ def _add_bench(sub) -> None:
     p.add_argument("suite", nargs="?", default="quick", help="suite file or name")
     p.add_argument("--quick", action="store_true",
                    help="run the small 'quick' suite (about a minute on a CPU, once the kernels are compiled)")
-    p.add_argument("--scenes", type=_csv, help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N")
+    suites = "; default: the suite's"  # each of these replaces one field of the suite
+    p.add_argument("--scenes", type=_csv, help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N" + suites)
     p.add_argument("--accels", type=_csv,
-                   help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree")
-    p.add_argument("--devices", type=_csv, help="comma-separated Warp devices, e.g. cpu,cuda:0")
-    p.add_argument("--rays", type=_csv, help="comma-separated ray kinds: primary, shadow, diffuse, incoherent")
-    p.add_argument("--n-rays", type=positive_int, help="rays per group")
-    p.add_argument("--repeats", type=positive_int, help="timed launches per row (median reported)")
-    p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all")
+                   help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree" + suites)
+    p.add_argument("--devices", type=_csv, help="comma-separated Warp devices, e.g. cpu,cuda:0" + suites)
+    p.add_argument("--rays", type=_csv,
+                   help="comma-separated ray kinds: primary, shadow, diffuse, incoherent" + suites)
+    p.add_argument("--n-rays", type=positive_int, help="rays per (scene, device, ray kind) group" + suites)
+    p.add_argument("--repeats", type=positive_int, help="timed launches per row (median reported)" + suites)
+    p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all (all: every core)" + suites)
     p.add_argument("-o", "--out", default="bench-out", help="output folder")
     p.add_argument("--resume", action="store_true",
                    help="keep rows already in OUT/rows.jsonl and skip them (the same ray counts and repeats only); "
