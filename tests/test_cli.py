@@ -562,3 +562,19 @@ def test_every_option_that_takes_a_value_says_its_default():
             if not shown and "default" not in (action.help or ""):
                 silent.append(f"{name} {action.option_strings[-1]}")
     assert silent == []
+
+
+@pytest.mark.parametrize("frames", [[], ["--frames", "1:2"]])
+def test_a_log_at_a_scene_file_is_refused_and_the_scene_left_as_it_was(tmp_path, capsys, frames):
+    """--log naming the scene rendered appended its JSON rows to the USD file: the stage was broken for good (and
+    --frames failed every later frame reading it)."""
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    before = stage.read_bytes()
+    assert main(["render", str(stage), "--log", str(stage), "-o", str(tmp_path / "f_#.npy"), "--width", "8",
+                 "--height", "6", "-q", *frames]) == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith("wrt: error: --log") and "tri.usda" in line and "scene" in line, line
+    assert stage.read_bytes() == before

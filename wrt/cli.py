@@ -339,10 +339,15 @@ def _check_output_file(path: Path) -> None:
     _check_output_location(path.parent)
 
 
-def _check_log_path(log: Path, outputs: list) -> None:
+def _check_log_path(log: Path, outputs: list, scenes: list) -> None:
     """Raises ValueError when the log would be written where an image goes, or where a folder of the images must be
-    created (``-o out --log out``): the run would fail at its first log row, after the first render."""
+    created (``-o out --log out``): the run would fail at its first log row, after the first render; or into one of
+    the ``scenes`` read: its rows would be appended to the USD file, breaking it."""
     log = log.resolve()
+    for scene in scenes:
+        if log == Path(scene).resolve():
+            raise ValueError(f"--log {log} is the scene file {scene}; its rows would be appended to it: give the log "
+                             "a file name of its own, e.g. --log render-log.jsonl")
     for output in outputs:
         output = output.resolve()
         if log == output or log in output.parents:
@@ -510,7 +515,7 @@ def _run_render(args) -> int:
         _render_one(args, paths[0], outputs[0], progress)  # errors: one line, exit 2
         return 0
     log = Path(args.log) if args.log else outputs[0].parent / "render-log.jsonl"
-    _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []))
+    _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []), paths)
     log.parent.mkdir(parents=True, exist_ok=True)
     failures = []
     for path, output in zip(paths, outputs):
@@ -593,7 +598,7 @@ def _run_frames(args, paths: list, progress) -> int:
         _check_output_location(folder)
     _warn_unused_exposure(args.exposure, [output])
     if args.log:
-        _check_log_path(Path(args.log), [file for _, file in jobs])
+        _check_log_path(Path(args.log), [file for _, file in jobs], paths)
     if len(jobs) < len(frames):
         progress(f"--resume: {counted_of(len(frames) - len(jobs), len(frames), 'frame')} already on disk")
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
