@@ -110,6 +110,14 @@ positive_int = int_at_least(1, "a positive integer")
 non_negative_int = int_at_least(0, "a non-negative integer")
 
 
+def _non_empty(text: str) -> str:
+    """An argparse type: a value that is not empty (or blank), as an unset shell variable gives (``--frames "$F"``):
+    taken as no option, it rendered a still image, or wrote into the current folder."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("is empty")
+    return text
+
+
 def _finite_float(text: str) -> float:
     """An argparse type: a finite number (``inf`` or ``nan`` would write an all-white or all-black image)."""
     try:
@@ -224,13 +232,14 @@ def _add_render(sub) -> None:
     p.add_argument(
         "-o",
         "--output",
+        type=_non_empty,
         help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png; {stem} stands for "
         "the scene file name without extension; a name ending in / is a folder for {stem}.png ({stem}_####.png with "
         "--frames). With several scenes: "
         "a pattern with {stem} or a folder; default {stem}.png",
     )
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene (per frame with --frames) as it "
-                   "finishes; default with several scenes: render-log.jsonl beside the images")
+                   "finishes; default with several scenes: render-log.jsonl beside the images", type=_non_empty)
     p.add_argument("--max-memory", type=_memory_size, help="refuse renders predicted to need more than this many "
                    "bytes: a number with an optional K, M, G or T suffix (powers of 1024), e.g. 4G; default: no limit "
                    "but the device's free memory")
@@ -252,24 +261,25 @@ def _add_render(sub) -> None:
                    "only: with warp, gprims such as spheres and cubes are loaded as triangle meshes)")
     p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
     p.add_argument("--refine-level", type=_refine_level, default=0, metavar="N", help=REFINE_HELP)
-    p.add_argument("--frames", help="render time codes START:END[:STEP] (END included) of an animated stage, one image "
-                   "each; OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png. The BVH is kept "
+    p.add_argument("--frames", type=_non_empty,
+                   help="render time codes START:END[:STEP] (END included) of an animated stage, one image each; "
+                   "OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png. The BVH is kept "
                    "across frames: refitted when vertices move, only its top level rebuilt when instances move")
     p.add_argument("--resume", action="store_true", help="with --frames: skip frames whose image already exists")
     p.add_argument("--devices", help="with --frames: spread the frames over these Warp devices, comma-separated, "
-                   "e.g. cuda:0,cuda:1, one worker process each (default: --device)")
+                   "e.g. cuda:0,cuda:1, one worker process each (default: --device)", type=_non_empty)
     p.add_argument("--dask", nargs="?", const="", metavar="ADDRESS", help="with --frames: send the frames to the Dask "
                    "scheduler at ADDRESS (e.g. tcp://scheduler:8786), or without ADDRESS to a LocalCluster of one "
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
     p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count; "
                    "default: one per GPU, else per CPU core")
     p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder (depth, z, normal, "
-                   "geometric_normal, albedo, prim, instance, material, cost, coverage)")
+                   "geometric_normal, albedo, prim, instance, material, cost, coverage)", type=_non_empty)
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
                    "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
                    "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
                    "EXR. Not with -o, --width, --height, --camera, --aov, --aov-dir, --frames, --max-memory or several "
-                   "scenes")
+                   "scenes", type=_non_empty)
     from .integrators import INTEGRATORS
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
