@@ -589,3 +589,20 @@ def test_an_empty_value_is_refused_naming_the_option(tmp_path, capsys, option):
     assert exit_info.value.code == 2
     (line,) = error_lines(capsys.readouterr().err)
     assert line.startswith(f"wrt: error: argument {option}") and "empty" in line, line
+
+
+@pytest.mark.parametrize("command", [["render", "a.usda", "b.usda", "-o", "out/"], ["render", "a.usda"],
+                                     ["preview", "a.usda", "-o", "p.png"]])
+def test_a_bad_device_is_one_error_before_any_scene_loads(tmp_path, capsys, command):
+    """--device gpu was looked up only once a scene had loaded: each scene of a batch loaded, then failed as if it
+    were the scene's fault ('a.usda: unknown or unavailable device'), and the log listed every scene as failed."""
+    stage = ('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+             '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    for name in ("a.usda", "b.usda"):
+        (tmp_path / name).write_text(stage)
+    argv = [str(tmp_path / a) if a.endswith((".usda", "/", ".png")) else a for a in command]
+    assert main([*argv, "--device", "gpu", "--width", "8", "--height", "6"]) == 2
+    (line,) = error_lines(capsys.readouterr().err)  # no 'loaded' line
+    assert line == "wrt: error: unknown or unavailable device 'gpu'; available devices: " + ", ".join(
+        d.alias for d in wp.get_devices()), line
+    assert not (tmp_path / "out").exists()

@@ -505,6 +505,10 @@ def _run_render(args) -> int:
     if args.devices and args.dask is not None:
         raise ValueError("give --devices or --dask, not both: Dask workers each render on their own device")
     _warn_unused_integrator_options(args)
+    if not (args.devices or args.dask is not None):  # those choose their own devices, checked where they are used
+        from .bvh.common import resolve_device
+
+        resolve_device(args.device)  # one error before any load, not one per scene of a batch, after each load
     if args.products is not None:
         return _run_products(args, paths, progress)
     if args.frames:
@@ -732,6 +736,9 @@ def _run_preview(args) -> int:
         raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
     if output is not None:  # an unwritable output fails now, not after the load and the preview
         _check_output_file(Path(output))
+    from .bvh.common import resolve_device
+
+    resolve_device(args.device)  # before the load, as the output
     if args.bvh_color != "depth" and args.bvh_depth is None and not args.bvh_leaves:
         warnings.warn(f"--bvh-color {args.bvh_color} colours BVH boxes, and none are drawn without --bvh-depth K or "
                       "--bvh-leaves", stacklevel=2)
