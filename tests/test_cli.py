@@ -606,3 +606,30 @@ def test_a_bad_device_is_one_error_before_any_scene_loads(tmp_path, capsys, comm
     assert line == "wrt: error: unknown or unavailable device 'gpu'; available devices: " + ", ".join(
         d.alias for d in wp.get_devices()), line
     assert not (tmp_path / "out").exists()
+
+
+def test_an_interrupted_batch_logs_the_scene_cut_short(tmp_path, monkeypatch):
+    """Ctrl-C in a batch kept the rows of the scenes done but wrote none for the scene cut short, whose image (the
+    samples done so far) then looked like a finished one; its row now says it was interrupted."""
+    import wrt
+
+    render = wrt.Renderer.render
+
+    def interrupted_at_b(self, *args, **kwargs):  # Ctrl-C once b.usda has its samples: a partial image is written
+        image = render(self, *args, **kwargs)
+        if self.scene.source.endswith("b.usda"):
+            raise KeyboardInterrupt
+        return image
+
+    monkeypatch.setattr(wrt.Renderer, "render", interrupted_at_b)
+    stage = ('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+             '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    scenes = []
+    for name in ("a.usda", "b.usda", "c.usda"):
+        scenes.append(tmp_path / name)
+        scenes[-1].write_text(stage)
+    out = tmp_path / "out"
+    assert main(["render", *map(str, scenes), "-o", f"{out}/", "--width", "8", "--height", "6", "-q"]) == 130
+    rows = [json.loads(line) for line in (out / "render-log.jsonl").read_text().splitlines()]
+    assert [(Path(r["scene"]).name, r["status"]) for r in rows] == [("a.usda", "ok"), ("b.usda", "interrupted")]
+    assert sorted(p.name for p in out.glob("*.png")) == ["a.png", "b.png"]

@@ -532,12 +532,20 @@ def _run_render(args) -> int:
     _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []), paths)
     log.parent.mkdir(parents=True, exist_ok=True)
     failures = []
+    def write_row(row: dict, start: float) -> None:
+        row["seconds"] = round(time.perf_counter() - start, 3)
+        with open(log, "a") as f:  # flushed per scene: an interrupted batch keeps every finished row
+            f.write(strict_json(row) + "\n")
+
     for path, output in zip(paths, outputs):
         start = time.perf_counter()
         row = {"scene": str(path), "output": str(output)}
         try:
             _render_one(args, path, output, progress)
             row["status"] = "ok"
+        except KeyboardInterrupt:  # its image, if written, holds the samples done: not to be taken for a finished one
+            write_row(dict(row, status="interrupted"), start)
+            raise
         except Exception as e:  # noqa: BLE001 - one failing scene must not stop the batch, as in wrt bench
             message = str(e).splitlines()[0] if str(e) else type(e).__name__
             row.update(status="error", error=f"{type(e).__name__}: {message}")
@@ -547,9 +555,7 @@ def _run_render(args) -> int:
                 traceback.print_exc(file=sys.stderr)
                 message = f"{type(e).__name__}: {message}"
             print(f"wrt: error: {message if path.name in message else f'{path}: {message}'}", file=sys.stderr)
-        row["seconds"] = round(time.perf_counter() - start, 3)
-        with open(log, "a") as f:  # flushed per scene: an interrupted batch keeps every finished row
-            f.write(strict_json(row) + "\n")
+        write_row(row, start)
     progress(f"{counted_of(len(paths) - len(failures), len(paths), 'scene')} rendered; log in {log}")
     if failures:
         names = ", ".join(Path(r["scene"]).name for r in failures)
