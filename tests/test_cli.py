@@ -66,6 +66,7 @@ def test_help_explains_the_options():
         assert option in result.stdout
     assert "image width in pixels; default: the stage's RenderSettings resolution, else 640" in " ".join(
         result.stdout.split())
+    assert "default wrt.png (frame_####.png with --frames)" in " ".join(result.stdout.split())  # said wrt.png only
     for command in ("render", "preview", "bench", "bvh-stats"):  # defaults shown only where there is one
         text = run_cli(command, "--help").stdout
         assert "(default: None)" not in text and "(default: False)" not in text, command

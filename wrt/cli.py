@@ -233,7 +233,8 @@ def _add_render(sub) -> None:
         "-o",
         "--output",
         type=_non_empty,
-        help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png; {stem} stands for "
+        help="output image (.png 8-bit sRGB, .exr linear HDR, .npy linear float); default wrt.png (frame_####.png "
+        "with --frames); {stem} stands for "
         "the scene file name without extension; a name ending in / is a folder for {stem}.png ({stem}_####.png with "
         "--frames). With several scenes: "
         "a pattern with {stem} or a folder; default {stem}.png",
