@@ -851,7 +851,9 @@ def _run_bench(args) -> int:
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     grid = dataclasses.replace(grid, **{k: v for k, v in overrides.items() if v is not None})
     grid = grid.validated()  # a bad field is a one-line error that names it
-    _check_output_location(Path(args.out))  # as render's -o: what stands in the way, not mkdir's bare errno
+    out = Path(args.out)
+    if all(p.is_dir() or not p.exists() for p in (out, *out.parents)):  # a file in the way: run_grid names it
+        _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by a bare errno
     rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     failed = [r for r in rows if "error" in r]
     measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
