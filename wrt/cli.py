@@ -1,4 +1,4 @@
-"""Command-line entry point: ``wrt render`` and ``wrt preview`` (more subcommands join as they land).
+"""Command-line entry point: ``wrt render``, ``wrt preview``, ``wrt bench`` and ``wrt bvh-stats``.
 
 Bad input (a missing or broken file, an unknown option value) ends with one line on stderr and exit status 2;
 no traceback is shown for it.
