@@ -533,6 +533,7 @@ def _run_render(args) -> int:
     _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []), paths)
     log.parent.mkdir(parents=True, exist_ok=True)
     failures = []
+
     def write_row(row: dict, start: float) -> None:
         row["seconds"] = round(time.perf_counter() - start, 3)
         with open(log, "a") as f:  # flushed per scene: an interrupted batch keeps every finished row
