@@ -399,3 +399,60 @@ def test_instanced_shapes_get_their_tlas_boxes_without_a_python_step_each(monkey
     np.testing.assert_array_equal(hits.instance, np.tile(np.arange(n), 2))
     np.testing.assert_allclose(hits.t, np.concatenate([10.0 - scales, 10.0 - 1.5 * scales]), rtol=1e-5)
     assert len(calls) <= 4 * len(proto.shapes)  # per unique shape, not per instance
+
+
+def _record_many_valued_uniques(monkeypatch):
+    """``np.unique`` calls on integer arrays of more than 1000 distinct values (sizes), recorded: numpy's hash table
+    takes 10 to 20 times as long as a sort on those (``wrt.unique``)."""
+    seen = []
+    original = np.unique
+
+    def recording(values, *args, **kwargs):
+        arr = np.asarray(values)
+        if arr.dtype.kind in "iu" and arr.size > 1000 and not args and not kwargs:
+            ordered = np.sort(arr.ravel())
+            seen.append(int(np.count_nonzero(ordered[1:] != ordered[:-1])) + 1)
+        return original(values, *args, **kwargs)
+
+    monkeypatch.setattr(np, "unique", recording)
+    return seen
+
+
+def test_stacked_coincident_quads_facing_both_ways_pair_without_a_hash_table_pass(monkeypatch):
+    """Coincident quads stacked on one plane, every other one turned over: every triangle of one facing is the
+    partner of the triangle with the same corners in each quad of the other facing. Their pairs (quadratic in the
+    stack) were made unique by ``np.unique``'s hash table: 31 s for 2,000 quads; now by a sort. The partners are those
+    of the corner sets."""
+    from wrt.twins import find_partners
+
+    seen = _record_many_valued_uniques(monkeypatch)
+    n = 60  # quads; 30 each way, so each triangle has 30 partners (under MAX_PARTNERS)
+    corners = np.float32([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    points = np.tile(corners, (n, 1))
+    up = np.array([[0, 1, 2], [0, 2, 3]])
+    indices = np.concatenate([4 * q + (up if q % 2 == 0 else up[:, ::-1]) for q in range(n)])
+    offsets, ranges = find_partners(points, indices, np.full(2 * n, -1), np.zeros(2 * n, bool))
+    corner_sets = [frozenset(map(tuple, points[row].tolist())) for row in indices]
+    for t in range(2 * n):
+        partners = {int(first) + k for first, count in ranges[offsets[t]:offsets[t + 1]] for k in range(count)}
+        same_corners = {p for p in range(2 * n) if (p // 2) % 2 != (t // 2) % 2 and corner_sets[p] == corner_sets[t]}
+        assert partners == same_corners
+    assert not seen
+
+
+def test_prototype_bounds_take_the_used_points_without_a_hash_table_pass(monkeypatch):
+    """A prototype's box is that of the points its triangles use (an unused far point left out), found by a sort of
+    the vertex indices, not ``np.unique``'s hash table (``wrt.unique``)."""
+    from wrt.instancing import Prototype
+    from wrt.scene import Mesh
+
+    seen = _record_many_valued_uniques(monkeypatch)
+    rng = np.random.default_rng(123)
+    points = rng.normal(size=(3001, 3)).astype(np.float32)
+    points[1500] = (1e3, -1e3, 1e3)  # used by no triangle
+    indices = rng.permutation(np.delete(np.arange(3001), 1500)).reshape(-1, 3)
+    lower, upper = Prototype("/P", [Mesh("/P/m", points, indices, np.arange(len(indices)))]).bounds()
+    used = np.delete(points, 1500, axis=0).astype(np.float64)
+    np.testing.assert_array_equal(lower, used.min(axis=0))
+    np.testing.assert_array_equal(upper, used.max(axis=0))
+    assert not seen

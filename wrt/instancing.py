@@ -26,6 +26,7 @@ import dataclasses
 import numpy as np
 
 from .assignments import CountsAssignments
+from .unique import sorted_unique
 
 ROW_DTYPE_LIMIT = (1 << 31) - 1  # expanded triangle ids up to this fit int32; larger scenes report int64 ids
 # A transform whose |det| is below this fraction of the smaller of its rows' and its columns' lengths' products is
@@ -65,7 +66,7 @@ class Prototype(CountsAssignments):
         upper = np.full(3, -np.inf)
         for m in self.meshes:
             if len(m.indices):
-                used = m.points[np.unique(m.indices)]
+                used = m.points[sorted_unique(m.indices)]  # (np.unique: a hash table, slower here)
                 lower = np.minimum(lower, used.min(axis=0))
                 upper = np.maximum(upper, used.max(axis=0))
         for s in self.shapes:
