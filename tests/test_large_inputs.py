@@ -456,3 +456,37 @@ def test_prototype_bounds_take_the_used_points_without_a_hash_table_pass(monkeyp
     np.testing.assert_array_equal(lower, used.min(axis=0))
     np.testing.assert_array_equal(upper, used.max(axis=0))
     assert not seen
+
+
+def test_a_tall_stack_of_coplanar_quads_facing_both_ways_pairs_each_triangle_a_bounded_number_of_times(monkeypatch):
+    """1,200 coincident quads, every other one turned over: each triangle overlaps the 600 with its corners facing
+    the other way, more than it keeps (``MAX_PARTNERS``). All those pairs were found and then cut (quadratic: 197 s
+    and gigabytes for 4,000 quads); the pairing now stops at the lowest ones a triangle keeps. The partners kept
+    are the ``MAX_PARTNERS`` lowest with the same corners, and every triangle is named as capped."""
+    import wrt.coplanar as wrt_coplanar
+    from wrt.twins import MAX_PARTNERS, find_partners
+
+    found = []
+    original = wrt_coplanar.coplanar_pairs
+
+    def recording(*args, **kwargs):
+        result = original(*args, **kwargs)
+        found.append(result[0])
+        return result
+
+    monkeypatch.setattr(wrt_coplanar, "coplanar_pairs", recording)
+    n = 1200
+    corners = np.float32([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    up = np.array([[0, 1, 2], [0, 2, 3]])
+    indices = np.concatenate([4 * q + (up if q % 2 == 0 else up[:, ::-1]) for q in range(n)])
+    capped = []
+    offsets, ranges = find_partners(np.tile(corners, (n, 1)), indices, np.full(2 * n, -1), np.zeros(2 * n, bool),
+                                    on_capped=capped.append)
+    # Triangle t = 2 q + k (k: which half of quad q) shares its corners with triangle 2 r + k of each quad r.
+    for t in range(2 * n):
+        partners = [int(first) + k for first, count in ranges[offsets[t]:offsets[t + 1]] for k in range(count)]
+        same_corners = [p for p in range(2 * n) if p % 2 == t % 2 and (p // 2) % 2 != (t // 2) % 2]
+        assert partners == same_corners[:MAX_PARTNERS]
+    np.testing.assert_array_equal(np.sort(np.concatenate(capped)), np.arange(2 * n))
+    per_triangle = np.bincount(found[0][:, 0], minlength=2 * n)
+    assert per_triangle.max() <= 4 * (MAX_PARTNERS + 1)  # each keeps MAX_PARTNERS; the 600 are not all paired

@@ -423,6 +423,7 @@ def probe_match(
 def pair_entries_kernel(
     points: wp.array[wp.vec3],
     indices: wp.array2d[wp.int32],
+    spaces: wp.array[wp.int32],
     entry_tris: wp.array[wp.int32],
     entry_codes: wp.array[wp.int32],
     entry_boxes: wp.array[wp.vec4d],
@@ -431,6 +432,7 @@ def pair_entries_kernel(
     scan_once: wp.array[wp.int32],
     probes: wp.array[wp.vec4i],
     probe_cells: wp.array[wp.vec2i],
+    limit: int,
     capacity: int,
     # outputs
     total: wp.array[wp.int32],
@@ -438,19 +440,25 @@ def pair_entries_kernel(
 ):
     """Probe ``i`` = (entry, first scan slot, end, mode) scans its slots for partners of its entry's triangle: mode 0
     the entries of one 2D cell (``probe_cells``) that may face it, mode 1 a plane cell's big entries or, for a big
-    entry, all of its plane cell. Each pair found takes the next of ``capacity`` rows ``(triangle, partner)``;
-    ``total`` counts them all (more than ``capacity``: launch again with room for them)."""
+    entry, all of its plane cell. Partners in another space (``spaces``, a key shared across spaces) are not pairs.
+    Each pair found takes the next of ``capacity`` rows ``(triangle, partner)``; ``total`` counts them all (more than
+    ``capacity``: launch again with room for them). A mode-0 probe, whose slots hold ascending triangles, stops at its
+    ``limit``-th pair: the partners it leaves are all above those (``limit`` 0: no stop)."""
     i = wp.tid()
     probe = probes[i]
     e = probe[0]
+    found = int(0)
     for j in range(probe[1], probe[2]):
         p = probe_match(points, indices, entry_tris, entry_codes, entry_boxes, entry_cells, scan_entries, scan_once,
                         e, j, probe[3], probe_cells[i])
-        if p >= 0:
+        if p >= 0 and spaces[p] == spaces[entry_tris[e]]:
             slot = wp.atomic_add(total, 0, 1)
             if slot < capacity:
                 partners[slot, 0] = entry_tris[e]
                 partners[slot, 1] = p
+            found += 1
+            if probe[3] == 0 and found == limit:
+                break
 
 
 @wp.kernel
@@ -578,7 +586,7 @@ def _ranks(counts: np.ndarray) -> np.ndarray:
     return np.arange(int(counts.sum()), dtype=np.int64) - np.repeat(np.cumsum(counts) - counts, counts)
 
 
-def coplanar_pairs(points, indices, spaces, double_sided) -> tuple[np.ndarray, np.ndarray, bool]:
+def coplanar_pairs(points, indices, spaces, double_sided, limit: int = 0) -> tuple[np.ndarray, np.ndarray, bool]:
     """Pairs ``(t, p)`` of triangles: ``t`` single-sided, ``p`` in the same space, coplanar with it (module
     docstring), overlapping it in area, and facing the other way or double-sided; the triangles whose normals are
     too uncertain to pair here; and whether any two hashed triangles may face each other's backs at all (the
@@ -589,6 +597,9 @@ def coplanar_pairs(points, indices, spaces, double_sided) -> tuple[np.ndarray, n
         indices: ``(T, 3)`` int rows into ``points``.
         spaces: ``(T,)`` int: the space of each triangle's points (e.g. -1 world, ``k`` prototype ``k``).
         double_sided: ``(T,)`` bool: the triangle's mesh is double-sided.
+        limit: > 0: of a triangle with more partners, at least its ``limit`` lowest are returned, maybe not the
+            others (``wrt.twins`` keeps each triangle's lowest few: a stack of thousands of coplanar triangles facing
+            both ways, or the fan of a large concave polygon, took minutes and gigabytes to pair in full); 0: all.
 
     Returns:
         ``((P, 2) int64 pairs (t, p), (U,) int64 uncertain triangles, opposed)``; a pair may repeat.
@@ -601,9 +612,8 @@ def coplanar_pairs(points, indices, spaces, double_sided) -> tuple[np.ndarray, n
     chosen = two_sided_cells(keys, codes % 3) if opposed else np.zeros(0, np.int64)  # (a floor: all one side)
     if not len(chosen):  # the common case ends here
         return none, uncertain, opposed
-    pairs = _run_probes(points, indices, *_grid_probes(points, indices, keys[chosen], codes[chosen], owners[chosen]))
-    spaces = np.asarray(spaces)
-    return pairs[spaces[pairs[:, 0]] == spaces[pairs[:, 1]]], uncertain, opposed  # (a 64-bit key across spaces)
+    probes = _grid_probes(points, indices, keys[chosen], codes[chosen], owners[chosen])
+    return _run_probes(points, indices, spaces, limit, *probes), uncertain, opposed
 
 
 # Rows of a 2D cell are sorted by side in this order (1, 2, 0), so that the sides that may face a side-0 entry (1,
@@ -640,7 +650,8 @@ def _grid_probes(points, indices, keys, codes, tris):
     rank = _ranks(count)
     row_cell = first_cell[row_entry] + np.stack([rank % spans[row_entry, 0], rank // spans[row_entry, 0]], axis=1)
     row_rank = _SIDE_RANK[sides[row_entry]]
-    order = np.lexsort((row_rank, row_cell[:, 1], row_cell[:, 0], group[row_entry]))
+    # (Ascending triangles within a side rank: a probe that stops at its limit has found the lowest partners.)
+    order = np.lexsort((tris[row_entry], row_rank, row_cell[:, 1], row_cell[:, 0], group[row_entry]))
     row_entry, row_cell, row_first, row_rank = row_entry[order], row_cell[order], (rank == 0)[order], row_rank[order]
     row_group = group[row_entry]
     big_entries = np.flatnonzero(big)  # sorted by group already
@@ -656,14 +667,17 @@ def _grid_probes(points, indices, keys, codes, tris):
     starts = np.flatnonzero(new_run)
     run = np.cumsum(new_run) - 1
     per_rank = np.bincount(run * 3 + row_rank, minlength=3 * len(starts)).reshape(-1, 3)[run]
-    run_start, run_end = starts[run], np.append(starts[1:], len(row_entry))[run]
+    run_start = starts[run]
     # Probes, for single-sided seekers only: each small row the rows of its 2D cell that may face it (side 0: ranks
-    # 0 and 1, side 1: ranks 1 and 2); each small entry (at its first row) its plane cell's big entries; each big
-    # entry all of its plane cell.
+    # 0 and 1, side 1: ranks 1 and 2; a probe per rank, whose rows hold ascending triangles); each small entry (at
+    # its first row) its plane cell's big entries; each big entry all of its plane cell.
     row_side = sides[row_entry]
     rows = np.flatnonzero(row_side != 2)
-    lo = np.where(row_side[rows] == 0, run_start[rows], run_start[rows] + per_rank[rows, 0])
-    hi = np.where(row_side[rows] == 0, run_start[rows] + per_rank[rows, 0] + per_rank[rows, 1], run_end[rows])
+    first = np.where(row_side[rows] == 0, 0, 1)  # the first side rank row r may face, then the next
+    ends = np.cumsum(per_rank[rows], axis=1)  # (R, 3) each side rank's end in the run
+    bounds = run_start[rows, None] + np.concatenate([np.zeros((len(rows), 1), np.int64), ends], axis=1)
+    lo, mid, hi = (np.take_along_axis(bounds, (first + k)[:, None], 1)[:, 0] for k in range(3))
+    rows, lo, hi = np.repeat(rows, 2), np.stack([lo, mid], 1).ravel(), np.stack([mid, hi], 1).ravel()
     probes = [np.stack([row_entry[rows], lo, hi, np.zeros(len(rows), np.int64)], 1)]
     firsts = rows[row_first[rows]]
     e = row_entry[firsts]
@@ -678,7 +692,8 @@ def _grid_probes(points, indices, keys, codes, tris):
             np.concatenate([row_first, np.ones(len(big_entries), bool)]), probes[scans], probe_cells[scans])
 
 
-def _run_probes(points, indices, tris, codes, boxes, cells, scan_entries, scan_once, probes, probe_cells):
+def _run_probes(points, indices, spaces, limit, tris, codes, boxes, cells, scan_entries, scan_once, probes,
+                probe_cells):
     """The ``(t, p)`` pairs the probes find (:func:`pair_entries_kernel`; launched again when they outnumber its
     first guess of room)."""
     device = "cpu"
@@ -686,6 +701,7 @@ def _run_probes(points, indices, tris, codes, boxes, cells, scan_entries, scan_o
         return np.zeros((0, 2), np.int64)
     inputs = [wp.array(np.asarray(points, np.float32), dtype=wp.vec3, device=device),
               wp.array(np.asarray(indices, np.int32), dtype=wp.int32, device=device),
+              wp.array(np.asarray(spaces, np.int32), dtype=wp.int32, device=device),
               wp.array(tris.astype(np.int32), dtype=wp.int32, device=device),
               wp.array(codes.astype(np.int32), dtype=wp.int32, device=device),
               wp.array(boxes, dtype=wp.vec4d, device=device),
@@ -698,7 +714,7 @@ def _run_probes(points, indices, tris, codes, boxes, cells, scan_entries, scan_o
     while True:
         total = wp.zeros(1, dtype=wp.int32, device=device)
         pairs = wp.empty((capacity, 2), dtype=wp.int32, device=device)
-        wp.launch(pair_entries_kernel, dim=len(probes), inputs=inputs + [capacity], outputs=[total, pairs],
+        wp.launch(pair_entries_kernel, dim=len(probes), inputs=inputs + [int(limit), capacity], outputs=[total, pairs],
                   device=device)
         found = int(total.numpy()[0])
         if found <= capacity:

@@ -192,7 +192,8 @@ def find_partners(points, indices, spaces, double_sided, face_starts=None, on_ca
     n = len(indices)
     if n < 2 or double_sided.all():
         return None
-    pairs, uncertain, opposed = coplanar_pairs(points, indices, spaces, double_sided)
+    # Each triangle keeps its MAX_PARTNERS lowest partners, and one more tells that it had more.
+    pairs, uncertain, opposed = coplanar_pairs(points, indices, spaces, double_sided, limit=MAX_PARTNERS + 1)
     if len(uncertain):
         pairs = np.concatenate([pairs, edge_partners(points, indices, spaces, double_sided, uncertain)])
     # A polygon and its reversal have opposite vector areas, so some triangle of the two faces each way (or one is
