@@ -490,3 +490,75 @@ def test_a_tall_stack_of_coplanar_quads_facing_both_ways_pairs_each_triangle_a_b
     np.testing.assert_array_equal(np.sort(np.concatenate(capped)), np.arange(2 * n))
     per_triangle = np.bincount(found[0][:, 0], minlength=2 * n)
     assert per_triangle.max() <= 4 * (MAX_PARTNERS + 1)  # each keeps MAX_PARTNERS; the 600 are not all paired
+
+
+def test_a_deep_hierarchy_asks_usd_no_ancestor_walking_query_per_mesh(tmp_path, monkeypatch):
+    """A mesh under each of 150 nested Xforms, with colours, an opacity, a material and a purpose authored part way
+    down: every mesh asked USD's FindPrimvarWithInheritance (three times), ComputePurpose and ComputeBoundMaterial,
+    each walking all its ancestors (quadratic in the depth: 2,000 levels took 39 s to load). Each ancestor's answer is
+    now kept, and USD's walking queries are not asked per mesh; what each mesh gets is what those queries give."""
+    from pxr import Sdf, UsdShade
+
+    depth = 150
+    stage = Usd.Stage.CreateNew(str(tmp_path / "deep.usda"))
+    material = UsdShade.Material.Define(stage, "/Looks/Green")
+    shader = UsdShade.Shader.Define(stage, "/Looks/Green/S")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.0, 1.0, 0.0))
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    path, levels = "", []
+    for level in range(depth):
+        path += f"/X{level}"
+        xform = UsdGeom.Xform.Define(stage, path)
+        primvars = UsdGeom.PrimvarsAPI(xform)
+        if level in (20, 100):  # constant colours, inherited below
+            primvars.CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, "constant").Set([(level, 0, 1)])
+        if level == 60:  # a non-constant one blocks the inheritance
+            primvars.CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, "vertex").Set([(0, 0, 0)])
+        if level == 80:
+            primvars.CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray, "constant").Set([0.5])
+        if level == 120:
+            UsdShade.MaterialBindingAPI.Apply(xform.GetPrim()).Bind(material)
+        if level == 140:
+            xform.CreatePurposeAttr(UsdGeom.Tokens.guide)
+        levels.append(triangle(stage, path + "/M").GetPrim())
+    stage.Save()
+
+    # The oracle: USD's own queries, asked here before they are counted.
+    expected = {}
+    for prim in levels:
+        if UsdGeom.Imageable(prim).ComputePurpose() != UsdGeom.Tokens.default_:
+            continue
+        color = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayColor")
+        opacity = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
+        bound, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+        expected[str(prim.GetPath())] = (
+            np.array(color.Get()[0]) if color and color.HasValue() else None,
+            float(opacity.Get()[0]) if opacity and opacity.HasValue() else None,
+            bool(bound))
+
+    calls = []
+    for cls, name in ((UsdGeom.PrimvarsAPI, "FindPrimvarWithInheritance"), (UsdGeom.Imageable, "ComputePurpose"),
+                      (UsdShade.MaterialBindingAPI, "ComputeBoundMaterial")):
+        def counting(self, *args, _original=getattr(cls, name), _name=name):
+            calls.append(_name)
+            return _original(self, *args)
+
+        monkeypatch.setattr(cls, name, counting)
+    scene = load_usd(tmp_path / "deep.usda")
+    assert {mesh.path for mesh in scene.meshes} == set(expected)
+    assert len(expected) == 140  # the guide purpose hides the rest
+    for mesh in scene.meshes:
+        color, opacity, bound = expected[mesh.path]
+        if color is None:
+            assert mesh.colors is None or np.isnan(mesh.colors).all()
+        else:
+            np.testing.assert_array_equal(mesh.colors, np.broadcast_to(color, (1, 3, 3)))
+        if opacity is None or bound:  # an opacity is carried for the default material only
+            assert mesh.opacities is None or np.isnan(mesh.opacities).all()
+        else:
+            np.testing.assert_array_equal(mesh.opacities, np.full((1, 3), opacity, np.float32))
+        assert (mesh.material_ids is not None and (mesh.material_ids >= 0).all()) == bound
+    # Only the meshes under the binding ask USD which material they get; nothing else walks the ancestors.
+    assert sorted(set(calls)) == ["ComputeBoundMaterial"]
+    assert len(calls) <= 2 * (depth - 120)

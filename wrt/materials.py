@@ -673,9 +673,12 @@ class MaterialReader:
     """
 
     def __init__(self, time, skip, purposes: tuple[str, ...] | None = None):
+        from .usd_ancestors import BindingsAbove  # (pxr: imported where USD is read)
+
         self.time = time
         self.skip = skip
         self.purposes = purposes
+        self.bindings_above = BindingsAbove()  # whether a prim or an ancestor binds anything, each prim's answer kept
         self.materials: list[Material] = []
         self.textures: list[np.ndarray] = []
         self.texture_paths: list[str] = []
@@ -684,6 +687,16 @@ class MaterialReader:
         self._udim: dict[tuple, np.ndarray] = {}  # (UDIM pattern, its layer, colour space) -> TextureInput.tiles
 
     # Bindings
+
+    def bound(self, prim) -> tuple:
+        """:func:`bound_material` of ``prim`` (under this reader's purposes); where neither ``prim`` nor an ancestor
+        authors a binding, an invalid material without asking USD, whose search walks every ancestor (quadratic in
+        the depth of a hierarchy with a mesh at each level)."""
+        if not self.bindings_above.any(prim):
+            from pxr import Usd, UsdShade
+
+            return UsdShade.Material(), Usd.Relationship()
+        return bound_material(prim, self.purposes)
 
     def face_materials(self, prim, n_faces: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The materials of the faces of mesh ``prim``, or None when the mesh and its subsets bind no material at all
@@ -696,7 +709,7 @@ class MaterialReader:
         """
         from pxr import UsdGeom, UsdShade
 
-        material, _ = bound_material(prim, self.purposes)
+        material, _ = self.bound(prim)
         base = self.material_index(material) if material else -1
         faces = np.full(n_faces, base, np.int32)
         unbound = np.full(n_faces, not material, bool)
@@ -708,7 +721,7 @@ class MaterialReader:
             subsets = []
         owner = np.full(n_faces, -1, np.int64)  # the subset (index into subsets) that gave each face its material
         for k, subset in enumerate(subsets):
-            sub_material, _ = bound_material(subset.GetPrim(), self.purposes)
+            sub_material, _ = self.bound(subset.GetPrim())
             if not sub_material:
                 continue
             element_type = subset.GetElementTypeAttr().Get()

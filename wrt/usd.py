@@ -73,7 +73,8 @@ frame puts it rather than at the origin, and an op that authors a default beside
 This module holds :func:`load_usd` and the prim walk (``_StageReader``: which reader each prim goes to, transforms to
 a content's space, prototypes read once); the reader's parts live in modules of their own: :mod:`wrt.usd_stage`
 (opening, stage-wide checks), :mod:`wrt.usd_problems` (errors and warnings), :mod:`wrt.usd_visibility` (visibility
-and purpose), :mod:`wrt.usd_attributes` (checked attribute reads), :mod:`wrt.usd_meshes`,
+and purpose), :mod:`wrt.usd_ancestors` (inherited primvars, purposes and bindings, each prim's answer kept),
+:mod:`wrt.usd_attributes` (checked attribute reads), :mod:`wrt.usd_meshes`,
 :mod:`wrt.usd_mesh_primvars` and :mod:`wrt.usd_bake` (meshes), :mod:`wrt.usd_gprims` (gprims, points and curves),
 :mod:`wrt.usd_looks` (colours and opacities), :mod:`wrt.usd_contents`, :mod:`wrt.usd_native_instances` and
 :mod:`wrt.usd_point_instancer` (instancing), :mod:`wrt.usd_cameras`.
@@ -97,6 +98,7 @@ from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape
 from .render_settings import RenderSettings, read_render_settings
 from .scene import Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL
+from .usd_ancestors import ComputedPurposes, InheritedPrimvars
 from .usd_attributes import AttributeReading
 from .usd_bake import MeshBaking
 from .usd_cameras import CameraReading
@@ -263,6 +265,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
+        self.computed_purposes = ComputedPurposes()  # ComputePurpose, each prim's answer kept (a deep hierarchy)
+        self.inherited_primvars = InheritedPrimvars()  # FindPrimvarWithInheritance, likewise
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
         self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)

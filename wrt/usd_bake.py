@@ -9,7 +9,6 @@ from pxr import Usd
 
 from .scene import Mesh
 from .usd_contents import Context
-from .usd_looks import has_color
 from .usd_meshes import LocalMesh, vertex_normals
 from .usd_xforms import affine_part
 
@@ -95,7 +94,7 @@ class MeshBaking:
             if name in local.colors:
                 values, corner_index = local.colors[name]
                 found[name] = values[corner_index[:, order]]
-            elif not has_color(prim, name):
+            elif not self._has_color(prim, name):
                 ctx.content.want_colors([name])
                 if ctx.outer_color is not None and ctx.outer_color[0] == name:
                     found[name] = np.tile(np.asarray(ctx.outer_color[1], np.float32), (len(local.face_ids), 3, 1))

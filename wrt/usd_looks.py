@@ -12,22 +12,21 @@ from .usd_primvars import first_of_constant, unit_opacities
 from .usd_values import read_time
 
 
-def color_primvar(prim: Usd.Prim, name: str) -> UsdGeom.Primvar:
-    """Colour primvar ``name`` (``displayColor``, ...) of ``prim``: its own when authored, else a constant one of its
-    nearest ancestor that has one (USD's primvar inheritance, which usdview follows: a colour set on a group colours
-    its meshes)."""
-    return UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
-
-
-def has_color(prim: Usd.Prim, name: str) -> bool:
-    """``prim`` has colour primvar ``name`` of its own or inherits one inside its space (see
-    :func:`color_primvar`)."""
-    primvar = color_primvar(prim, name)
-    return bool(primvar and primvar.HasValue())
-
-
 class LookReading:
-    """Colour and opacity reads of the stage reader (``time``, ``materials``, ``_skip``)."""
+    """Colour and opacity reads of the stage reader (``time``, ``materials``, ``_skip``, ``inherited_primvars``: a
+    :class:`wrt.usd_ancestors.InheritedPrimvars`)."""
+
+    def _color_primvar(self, prim: Usd.Prim, name: str) -> UsdGeom.Primvar:
+        """Colour primvar ``name`` (``displayColor``, ...) of ``prim``: its own when authored, else a constant one of
+        its nearest ancestor that has one (USD's primvar inheritance, which usdview follows: a colour set on a group
+        colours its meshes)."""
+        return self.inherited_primvars.find(prim, name)
+
+    def _has_color(self, prim: Usd.Prim, name: str) -> bool:
+        """``prim`` has colour primvar ``name`` of its own or inherits one inside its space (see
+        :meth:`_color_primvar`)."""
+        primvar = self._color_primvar(prim, name)
+        return bool(primvar and primvar.HasValue())
 
     def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool, keep_opaque: bool = False) -> float | None:
         """The ``displayOpacity`` of ``prim`` (its own or a constant inherited one) for prims drawn with the default
@@ -35,7 +34,7 @@ class LookReading:
         :func:`wrt.usd_primvars.unit_opacities`), as gprims take the mean displayColor, or None when it has none or
         is opaque (unless ``keep_opaque``, as :meth:`_read_opacities`). ``one_per_prim``: values that differ are named
         in a warning (their displayColor is read per element)."""
-        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
+        primvar = self.inherited_primvars.find(prim, "displayOpacity")
         if not (primvar and primvar.HasValue()):
             return None
         values = self._opacity_values(primvar)
@@ -81,7 +80,7 @@ class LookReading:
         (``(3,)`` float32), else None (its material's constant, grey by default, or its instance's colour)."""
         material = self._face_materials(prim, 1, ctx)
         color_name = self.materials.color_primvars(material)[0]
-        primvar = color_primvar(prim, color_name)
+        primvar = self._color_primvar(prim, color_name)
         color = None
         if not (primvar and primvar.HasValue()):
             primvar = None

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 from pxr import UsdGeom
 
-from .usd_looks import color_primvar
 from .usd_primvars import finite_colors, first_of_constant, unit_opacities
 from .usd_values import value_at
 
@@ -30,9 +29,9 @@ class MeshPrimvarReading:
 
     def _read_colors(self, prim, topology, name: str):
         """``(values (K, 3) float32, corner index (T, 3))`` from colour primvar ``name`` (``displayColor``, or the
-        one the mesh's material reads; its own or inherited, see :func:`color_primvar`; the rgb of a 4-vector one),
-        or None."""
-        primvar = color_primvar(prim, name)
+        one the mesh's material reads; its own or inherited, see ``LookReading._color_primvar``; the rgb of a 4-vector
+        one), or None."""
+        primvar = self._color_primvar(prim, name)
         if not (primvar and primvar.HasValue()):
             return None
         width = 4 if "Vec4" in primvar.GetTypeName().cppTypeName else 3
@@ -47,7 +46,7 @@ class MeshPrimvarReading:
         every interpolation and indexing as colours, see :func:`wrt.usd_primvars.unit_opacities` for bad values), or
         None when it has none or is 1 everywhere (opaque: nothing to carry), unless ``keep_opaque`` (a prototype's
         geometry: its own 1 wins over an instance's opacity, Instances.opacities)."""
-        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayOpacity")
+        primvar = self.inherited_primvars.find(prim, "displayOpacity")
         if not (primvar and primvar.HasValue()):
             return None
         found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, 1)

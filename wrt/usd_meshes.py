@@ -14,7 +14,6 @@ from .resources import check_host_memory
 from .scene import Mesh
 from .subdivision import REFINED_QUAD_BYTES, Refinement, refined_quads
 from .usd_contents import Context
-from .usd_looks import color_primvar
 from .usd_values import value_at
 
 
@@ -121,7 +120,7 @@ class MeshReading:
         points = self._point_array(prim)
         if points is None or len(points) == 0:
             return None
-        primvar = color_primvar(prim, color_names[0])
+        primvar = self._color_primvar(prim, color_names[0])
         primvar = primvar if primvar and primvar.HasValue() else None
         gprim = UsdGeom.Gprim(prim)
         flip = self._left_handed(prim, gprim, self.time)

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 from pxr import Usd, UsdShade
 
-from .materials import bound_material
 from .usd_contents import Content, Context, instance_looks
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
@@ -23,7 +22,7 @@ class NativeInstanceReading:
             return
         outer, forced = ctx.outer_material, ctx.outer_forced
         if not forced:
-            material, binding = bound_material(prim, self.materials.purposes)  # as the meshes' own
+            material, binding = self.materials.bound(prim)  # as the meshes' own
             if material:
                 outer = self.materials.material_index(material)
                 # A strongerThanDescendants binding (on the instance or above it) overrides the prototype's own

@@ -12,7 +12,8 @@ from .usd_values import value_at
 
 
 class Visibility:
-    """Visibility and purpose filters of the stage reader (``time``, ``purposes``, ``visibility``)."""
+    """Visibility and purpose filters of the stage reader (``time``, ``purposes``, ``visibility``,
+    ``computed_purposes``: a :class:`wrt.usd_ancestors.ComputedPurposes`)."""
 
     def _visible(self, prim: Usd.Prim, stop: Usd.Prim | None = None) -> bool:
         """No ancestor up to ``stop`` (or the root) invisible. Each visibility is read as mesh attributes are
@@ -43,7 +44,7 @@ class Visibility:
         """The purpose of ``prim``: its own or its nearest ancestor's authored purpose below ``ctx.stop``, else the
         one a native instance inherited (``ctx.outer_purpose``), else default."""
         if ctx.stop is None and ctx.outer_purpose is None:
-            return UsdGeom.Imageable(prim).ComputePurpose()
+            return self.computed_purposes.purpose(prim)  # ComputePurpose, each ancestor's answer kept
         p = prim
         while p and p != ctx.stop and not p.IsPseudoRoot():
             img = UsdGeom.Imageable(p)
