@@ -92,7 +92,7 @@ def product_outputs(product, where: str) -> list[_Output]:
     no output for (``where``: the file, for messages)."""
     if not product.render_vars:
         return [_Output(BEAUTY, "")]
-    outputs, layers, seen = [], {"r", "g", "b", "a"}, set()  # layers: not the beauty's channel names
+    outputs, layers, seen = [], TakenNames({"r", "g", "b", "a"}), set()  # layers: not the beauty's channel names
     for var in product.render_vars:
         if var.path in seen:  # listed twice: written once
             continue
@@ -104,26 +104,39 @@ def product_outputs(product, where: str) -> list[_Output]:
                           f"{' and '.join(BEAUTY_LPES)}", stacklevel=3)
             continue
         beauty = kind == BEAUTY and not any(o.kind == BEAUTY and not o.layer for o in outputs)
-        layer = "" if beauty else _unique(var.aov_name or var.path.rsplit("/", 1)[-1], layers)
+        layer = "" if beauty else layers.unique(var.aov_name or var.path.rsplit("/", 1)[-1])
         outputs.append(_Output(kind, layer, alpha=kind == BEAUTY and _has_alpha(var.data_type)))
     return outputs
 
 
-def _unique(name: str, taken: set) -> str:
-    """``name``, or ``name_2``, ``name_3``... where it is taken (compared without case); recorded as taken."""
-    stem, suffix = os.path.splitext(name)
-    candidate, k = name, 1
-    while candidate.casefold() in taken:
-        k += 1
-        candidate = f"{stem}_{k}{suffix}"
-    taken.add(candidate.casefold())
-    return candidate
+class TakenNames:
+    """Names used in one folder or one file, compared without case (``names``: the first ones), made unique by
+    :meth:`unique`."""
+
+    def __init__(self, names=()):
+        self.names = {name.casefold() for name in names}
+        # Each name asked for -> the k of the last ``name_k`` given for it: the next one starts there (all below are
+        # taken), where thousands of products of one productName tried _2, _3, ... from the start each (quadratic).
+        self.last = {}
+
+    def unique(self, name: str) -> str:
+        """``name``, or ``name_2``, ``name_3``... (the first not taken); recorded as taken."""
+        stem, suffix = os.path.splitext(name)
+        key = name.casefold()
+        k = self.last.get(key, 1)
+        candidate = name if k == 1 else f"{stem}_{k}{suffix}"
+        while candidate.casefold() in self.names:
+            k += 1
+            candidate = f"{stem}_{k}{suffix}"
+        self.names.add(candidate.casefold())
+        self.last[key] = k
+        return candidate
 
 
-def product_file_name(product, png: bool, where: str, taken: set) -> str:
+def product_file_name(product, png: bool, where: str, taken: TakenNames) -> str:
     """The file name of ``product`` in the output folder: the last component of ``productName`` (else the product
-    prim's name), with ``.png`` (``png``: the beauty alone) or ``.exr``; ``taken`` (file names already used, without
-    case) makes it unique. A name that changes on the way is named in a warning."""
+    prim's name), with ``.png`` (``png``: the beauty alone) or ``.exr``; ``taken`` (file names already used) makes it
+    unique. A name that changes on the way is named in a warning."""
     name = re.split(r"[\\/]", product.product_name)[-1].strip()
     name = re.sub(r"[\x00-\x1f]", "_", name)  # a NUL cannot be in a file name
     if name in ("", ".", ".."):
@@ -137,7 +150,7 @@ def product_file_name(product, png: bool, where: str, taken: set) -> str:
                           stacklevel=3)
             name = stem
         name += wanted  # none, or a dot that is part of the name ("shot.0001"): appended
-    unique = _unique(name, taken)
+    unique = taken.unique(name)
     if unique != name:
         warnings.warn(f"{where}: {product.product} writes {name}, as an earlier product does; written as {unique}",
                       stacklevel=3)
@@ -288,7 +301,7 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
     directory = Path(directory)
     # Every product is resolved (view, outputs, file name) before any is rendered: a bad one fails the call before
     # it has spent renders and written files.
-    views, plan, taken = {}, [], set()
+    views, plan, taken = {}, [], TakenNames()
     for product in products:
         if product.product_type != "raster":
             warnings.warn(f"{where}: {product.product} is a {product.product_type} product; wrt writes raster "
