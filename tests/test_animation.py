@@ -239,6 +239,40 @@ def test_topology_change_and_scrambled_vertices_rebuild(tmp_path, np_rng):
     assert [row["change"] for row in renderer.log] == ["build", "build", "build"]
 
 
+def test_a_mesh_that_grows_from_a_point_gets_a_tree_of_its_grown_shape(tmp_path):
+    """A grow-in (a scale from 0): the tree of frame 1 is built over one point, whose SAH cost is 0, and the 20% rule
+    compared the refitted cost with it only when it was above 0, so every later frame refitted that tree: at full
+    size it visited 3 times the nodes and tested 7 times the triangles of a fresh build, for the rest of the shot."""
+    from pxr import Usd, UsdGeom, Vt
+
+    from wrt.animation import REFIT_SAH_LIMIT
+    from wrt.bvh.stats import sah_cost
+    from wrt.procedural import displaced_sphere
+
+    path = str(tmp_path / "grow.usda")
+    stage = Usd.Stage.CreateNew(path)
+    mesh = UsdGeom.Mesh.Define(stage, "/Ball")
+    points, indices = displaced_sphere(2000)
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(points, np.float32)))
+    mesh.CreateFaceVertexCountsAttr([3] * len(indices))
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.asarray(indices, np.int32).reshape(-1)))
+    scale = mesh.AddScaleOp()
+    scale.Set((0, 0, 0), 1)
+    scale.Set((1, 1, 1), 3)
+    UsdGeom.Camera.Define(stage, "/Cam").AddTranslateOp().Set((0, 0, 4))
+    stage.Save()
+    renderer = FrameRenderer(path, **SIZE)
+    for frame in (1, 2, 3):
+        image = renderer.render(frame)
+        fresh_scene = wrt.load_usd(path, time=frame)
+        fresh = wrt.render(fresh_scene, **SIZE)
+        np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"])
+    traced = renderer._scene._cache[("accel", "wrt", "sah", "cpu")]
+    built = get_accelerator(fresh_scene, "wrt", "sah", "cpu")  # a tree built for frame 3's triangles
+    assert sah_cost(built.bvh) > 0
+    assert sah_cost(traced.bvh) <= REFIT_SAH_LIMIT * sah_cost(built.bvh)
+
+
 def test_a_frame_that_fails_after_its_refit_leaves_no_stale_tree(tmp_path, monkeypatch):
     """A frame that failed once its BVH had been refitted (here out of memory in the render) left the tree holding
     its vertices: the next frame, equal to the frame before the failure, was classified 'static' against that one

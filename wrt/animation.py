@@ -169,7 +169,9 @@ def follow(accel, scene, change: str):
         built = getattr(accel, "built_sah", None)
         if built is None:
             return "build"
-        if built > 0 and _sah(accel) > REFIT_SAH_LIMIT * built:
+        # Built over zero area (a grow-in from a scale of 0), any cost above 0 is past the limit: the tree of one
+        # point is no tree for the grown mesh, and refitting it forever cost 3x the nodes of a fresh build.
+        if _sah(accel) > REFIT_SAH_LIMIT * built:
             return "build"
     return change
 
