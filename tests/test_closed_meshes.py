@@ -9,10 +9,11 @@ of large valence. ``tests/test_robustness.py`` covers larger, well-shaped meshes
 
 import functools
 import itertools
+import warnings
 
 import numpy as np
 import pytest
-from scipy.spatial import ConvexHull
+import pyvista as pv
 from test_robustness import edge_and_vertex_targets, icosphere
 
 import wrt
@@ -37,11 +38,12 @@ def convex_hull(rng, n: int = 100):
     sphere."""
     p = rng.normal(size=(n, 3))
     p[: n // 2] /= np.linalg.norm(p[: n // 2], axis=1, keepdims=True)
-    simplices = ConvexHull(p).simplices
-    used = np.unique(simplices)
-    remap = np.full(n, -1)
-    remap[used] = np.arange(len(used))
-    return p[used], outward(p[used], remap[simplices]).astype(np.int32)
+    # The hull as the surface of pyvista's (VTK's) Delaunay tetrahedralisation: pyvista is a dependency, scipy not.
+    with warnings.catch_warnings():  # pyvista 0.49 announces a new default for extract_surface's algorithm
+        warnings.simplefilter("ignore")
+        surface = pv.PolyData(p).delaunay_3d().extract_surface().triangulate()
+    points = np.asarray(surface.points, np.float64)
+    return points, outward(points, surface.faces.reshape(-1, 4)[:, 1:]).astype(np.int32)
 
 
 def jittered_icosphere(rng, level: int = 2):
