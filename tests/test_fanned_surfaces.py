@@ -72,3 +72,80 @@ def test_a_disc_fanned_into_slivers_does_not_shadow_itself(integrator, radius, i
     assert (img.aovs["prim"] >= 0).all()
     lit = 1.0 if integrator == "ao" else ALBEDO * np.dot(normal, to_sun) / np.pi
     np.testing.assert_allclose(img.rgb, lit, rtol=1e-4)
+
+
+def closest_visible_hits(points, indices, seen_from_front, origins, directions, t_mins, t_maxs):
+    """Float64 brute-force oracle of camera rays: per ray the ``(t, triangle)`` of the closest hit in its range
+    (``inf, -1`` on a miss) among the triangles it sees, by the README's rules: a triangle is seen from its front
+    where ``seen_from_front`` is True (not a cut-out hole), never from its back (single-sided meshes)."""
+    corners = np.asarray(points, np.float64)[indices]
+    a, e1, e2 = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    normal = np.cross(e1, e2)
+    ts, hits = [], []
+    for o, d, t0, t1 in zip(np.asarray(origins, np.float64), np.asarray(directions, np.float64), t_mins, t_maxs):
+        p = np.cross(d, e2)
+        det = np.einsum("ij,ij->i", e1, p)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = o - a
+            u = np.einsum("ij,ij->i", s, p) / det
+            q = np.cross(s, e1)
+            v = q @ d / det
+            t = np.einsum("ij,ij->i", e2, q) / det
+        ok = (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= t0) & (t < t1) & seen_from_front & (normal @ d < 0)
+        t = np.where(ok, t, np.inf)
+        k = int(np.argmin(t))
+        ts.append(t[k])
+        hits.append(k if np.isfinite(t[k]) else -1)
+    return np.array(ts), np.array(hits)
+
+
+def can_on_a_floor(segments, radius):
+    """A single-sided closed cylinder of ``radius`` (height 2 radius, 64 sides, front faces out) whose caps are
+    fanned into ``segments`` slivers each, every other sliver of the top cap a cut-out hole; under it, facing up, a
+    floor quad 2e-5 of the camera's distance below its bottom cap; tilted off the axes. Camera rays through the top
+    cap's holes meet the bottom cap's back (culled) and must find the floor just past it."""
+    angles = 2 * np.pi * np.arange(segments) / segments
+    ring = np.stack([np.cos(angles), np.sin(angles), np.zeros(segments)], -1)
+    k = np.arange(segments)
+    bottom = np.stack([np.zeros(segments, int), 2 + (k + 1) % segments, 2 + k], -1)  # centre 0, faces -z
+    top = np.stack([np.ones(segments, int), 2 + segments + k, 2 + segments + (k + 1) % segments], -1)  # faces +z
+    s = np.arange(64)
+    side_ring = np.stack([np.cos(2 * np.pi * s / 64), np.sin(2 * np.pi * s / 64), np.zeros(64)], -1)
+    lo, hi = 2 + 2 * segments + 2 * s, 2 + 2 * segments + 2 * s + 1
+    lo1, hi1 = 2 + 2 * segments + 2 * ((s + 1) % 64), 2 + 2 * segments + 2 * ((s + 1) % 64) + 1
+    sides = np.concatenate([np.stack([lo, lo1, hi1], -1), np.stack([lo, hi1, hi], -1)])
+    side_points = np.stack([side_ring - (0, 0, 1), side_ring + (0, 0, 1)], 1).reshape(-1, 3)
+    points = np.vstack([[(0, 0, -1), (0, 0, 1)], ring - (0, 0, 1), ring + (0, 0, 1), side_points]) * radius
+    indices = np.vstack([bottom, top, sides])
+    materials = np.full(len(indices), -1, np.int32)
+    materials[segments:2 * segments:2] = 0
+    can = wrt.Mesh("/can", points @ TILT.T, indices, np.arange(len(indices)), material_ids=materials)
+    drop = 1 + 2e-5 * 4  # the camera is about 4 radii from the floor
+    floor = [(-3, -3, -drop), (3, -3, -drop), (3, 3, -drop), (-3, 3, -drop)]
+    floor = wrt.Mesh("/floor", np.asarray(floor, float) * radius @ TILT.T, [[0, 1, 2], [0, 2, 3]], [0, 0])
+    return wrt.Scene(meshes=[can, floor], materials=[HOLE])
+
+
+@pytest.mark.parametrize("radius", [1e-3, 1e4])
+def test_camera_rays_past_culled_and_cut_out_slivers_see_what_a_float64_caster_sees(radius):
+    """The can of :func:`can_on_a_floor` seen from above: every pixel shows the triangle a float64 ray caster finds
+    by the culling and cut-out rules (top-cap slivers, or the floor through their holes and the culled bottom cap),
+    at its depth. A re-trace that started too far past a culled or cut-out sliver would show holes or the floor's
+    absence; one that started short of its own hit would cull forever and keep the back face."""
+    scene = can_on_a_floor(2000, radius)
+    camera = wrt.Camera.look_at(np.array([0.4, 0.3, 3.0]) @ TILT.T * radius, (0, 0, 0), up=TILT @ [0, 1, 0],
+                                fov_y_deg=30, clipping_range=(0.0, 10 * radius))
+    img = wrt.render(scene, camera=camera, width=24, height=24, device="cpu", integrator="depth")
+    origins, directions, t_mins, t_maxs = wrt.rays.camera_rays(scene, camera, 24, 24, t_range=True)
+    can, floor = scene.meshes
+    points = np.vstack([can.points, floor.points])
+    indices = np.vstack([can.indices, floor.indices + len(can.points)])
+    seen = np.concatenate([can.material_ids < 0, [True, True]])
+    t, prim = closest_visible_hits(points, indices, seen, origins, directions, t_mins, t_maxs)
+    floor_ids = len(can.indices) + np.arange(2)
+    on_floor = np.isin(prim, floor_ids)
+    assert 0.2 < on_floor.mean() < 0.8  # both the cap's slivers and the floor through its holes are in view
+    got = img.aovs["prim"].reshape(-1)
+    np.testing.assert_array_equal(np.isin(got, floor_ids), on_floor)
+    np.testing.assert_array_equal(got >= 0, prim >= 0)
+    np.testing.assert_allclose(img.aovs["depth"].reshape(-1), t * np.linalg.norm(directions, axis=1), rtol=1e-5)
