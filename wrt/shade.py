@@ -146,8 +146,8 @@ def sliver_scale(a: wp.vec3, b: wp.vec3, c: wp.vec3):
     its aspect (longest edge squared over twice its area, edges measured by their largest component), between 1 and
     :data:`MAX_SLIVER_SCALE`. The watertight test rounds its edge functions at the scale of the edges squared and
     divides them by twice the area, so on a sliver the ``t`` of a ray leaving it errs by about float32 epsilon times
-    the aspect times the reach: a disc cut into 2000 triangles about its centre (aspect 318) shadowed 3% of itself,
-    its shadow and AO rays meeting their own sliver at a small positive ``t``."""
+    the aspect times the reach: a disc cut into 2000 triangles about its centre (aspect up to 318) shadowed 2-7% of
+    itself, its shadow and AO rays meeting their own sliver at a small positive ``t``."""
     ab = b - a
     ac = c - a
     longest = wp.max(wp.max(largest_magnitude(ab), largest_magnitude(ac)), largest_magnitude(c - b))
