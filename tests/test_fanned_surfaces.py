@@ -149,3 +149,18 @@ def test_camera_rays_past_culled_and_cut_out_slivers_see_what_a_float64_caster_s
     np.testing.assert_array_equal(np.isin(got, floor_ids), on_floor)
     np.testing.assert_array_equal(got >= 0, prim >= 0)
     np.testing.assert_allclose(img.aovs["depth"].reshape(-1), t * np.linalg.norm(directions, axis=1), rtol=1e-5)
+
+
+def test_a_long_thin_quad_does_not_shadow_itself():
+    """A 1000 x 1 strip of two triangles (a road; aspect about 900) under a low sun is lit evenly around its middle:
+    there a tenth to a fifth of the pixels were black, shadow rays from 5e-4 off it meeting it again."""
+    u, v = TILT @ [1, 0, 0], TILT @ [0, 1, 0]
+    normal = np.cross(u, v)
+    corners = np.array([-500 * u - 0.5 * v, 500 * u - 0.5 * v, 500 * u + 0.5 * v, -500 * u + 0.5 * v])
+    road = wrt.Mesh("/road", corners, [[0, 1, 2], [0, 2, 3]], [0, 0], double_sided=True)
+    to_sun = np.cos(0.2) * (0.6 * u + 0.8 * v) + np.sin(0.2) * normal
+    scene = wrt.Scene(meshes=[road], lights=[wrt.DistantLight(direction=-to_sun, color=np.ones(3))])
+    camera = wrt.Camera.orthographic(eye=3 * normal, target=(0, 0, 0), up=v, height=0.9, clipping_range=(0.0, 10.0))
+    img = wrt.render(scene, camera=camera, width=24, height=24, device="cpu", max_depth=1)
+    assert (img.aovs["prim"] >= 0).all()
+    np.testing.assert_allclose(img.rgb, ALBEDO * np.dot(normal, to_sun) / np.pi, rtol=1e-4)

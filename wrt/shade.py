@@ -75,10 +75,13 @@ MAX_SHADOW_HOLE_PASSES = 32
 # (as that shadow ray is blocked). Passes stop once no ray needs another, so the bound costs nothing on other scenes.
 MAX_CULL_PASSES = MAX_SHADOW_HOLE_PASSES - 1
 # The share of a triangle's aspect that scales HitPoint.reach (sliver_scale): offset_ray_origin's REACH_OFFSET (2^-20,
-# 8 float32 epsilons) times a quarter of the aspect is 2 epsilons (2^-22) per unit of aspect, four times the largest
-# self-hit measured on slivers of aspect 100 to 10^4 (random rays leaving random points). At most MAX_SLIVER_SCALE
-# (aspect 65536, an offset of 2^-6 of the reach): a needle thinner than that keeps some self-shadowing rather than
-# lifting its rays' origins far off it (a degenerate triangle, of no area, would lift them to infinity).
+# 8 float32 epsilons) times a quarter of the aspect is 2^-22 of the reach per unit of aspect, at least twice the
+# largest self-hit measured (at most 2^-23: 50,000 random rays leaving random points of slivers and strip halves of
+# aspect 16 to 9000; a few at 2^-24; a share of 1/16 left one AO ray of a 2000-slice disc in 2304 on it). At most
+# MAX_SLIVER_SCALE (aspect 65536, an offset of 2^-6 of the reach): a needle thinner than that keeps some self-shadowing
+# rather than lifting its rays' origins far off it (a degenerate triangle, of no area, would lift them to infinity).
+# Long thin quads get it too: a 1000 x 1 road of two triangles (aspect ~900) shadowed 10-20% of itself near its middle,
+# and its rays now start 0.1 off it (the float32 test cannot tell their side of it closer than that).
 SLIVER_SHARE = wp.constant(0.25)
 MAX_SLIVER_SCALE = wp.constant(16384.0)
 
