@@ -146,15 +146,23 @@ def elliptic_tube_case(stage, xform, normalize):  # a CylinderLight scaled uneve
     return lambda p: irradiance(p, elements)[:, None] * emitted * scale
 
 
-def distant_case(stage, normalize):
-    xform = dict(rotate_xyz=(30, 20, 0))
+def distant_size_factor(angle_deg):
+    """UsdLux's ``sizeFactor`` of a normalized DistantLight (the ``inputs:normalize`` doc): ``theta_max`` is half the
+    angle clamped to [0, pi]; ``pi sin^2`` up to pi / 2, ``(2 - sin^2) pi`` beyond (a cone wider than a hemisphere)."""
+    theta = min(max(math.radians(angle_deg) / 2, 0.0), math.pi)
+    s2 = math.sin(theta) ** 2
+    return math.pi * s2 if theta <= math.pi / 2 else (2 - s2) * math.pi
+
+
+def distant_case(stage, normalize, angle=8.0, rotate_xyz=(30, 20, 0)):
+    xform = dict(rotate_xyz=rotate_xyz)
     light = UsdLux.DistantLight.Define(stage, "/Light")
-    light.CreateAngleAttr(8.0)
+    light.CreateAngleAttr(angle)
     emitted = author(light, xform, 2.0, exposure=1.0, color=(1, 0.9, 0.8), normalize=normalize)
-    if normalize:  # the intensity is the illuminance at normal incidence
-        emitted = emitted / (math.pi * math.sin(math.radians(4.0)) ** 2)
+    if normalize:  # the intensity is the illuminance at normal incidence (for angles up to 180 degrees)
+        emitted = emitted / distant_size_factor(angle)
     to_light = trs(**xform)[:3, :3] @ np.array([0, 0, 1.0])
-    return lambda p: np.full((len(p), 1), cone_irradiance(to_light, 8.0, 1.0)) * emitted
+    return lambda p: np.full((len(p), 1), cone_irradiance(to_light, min(angle, 360.0), 1.0)) * emitted
 
 
 def dome_case(stage):
@@ -186,6 +194,10 @@ CASES = {
     "oblique_tube": (lambda stage: elliptic_tube_case(stage, dict(matrix=SHEARED), normalize=False), 0.01),
     "distant": (lambda stage: distant_case(stage, False), 0.02),
     "distant_normalized": (lambda stage: distant_case(stage, True), 0.02),
+    # Wider than a hemisphere (UsdLux clamps half the angle to [0, pi], not pi / 2), the sun low: the floor sees the
+    # disc's directions beyond 90 degrees from its centre too.
+    "distant_270": (lambda stage: distant_case(stage, False, 270.0, rotate_xyz=(0, 70, 0)), 0.02),
+    "distant_300_normalized": (lambda stage: distant_case(stage, True, 300.0, rotate_xyz=(0, 100, 0)), 0.02),
     # The oracle's blackbody comes from a fit of the CIE curves, about 1% off them.
     "dome_4000K": (dome_case, 0.025),
     "rect_3000K": (warm_rect_case, 0.025),

@@ -353,11 +353,11 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             d = np.asarray(light.direction, np.float64)
             e = light.illuminance
             if light.angle > 0.0:
-                half = math.radians(min(light.angle, 180.0)) / 2.0
+                half = light.half_angle  # up to pi: a disc wider than a hemisphere
                 one_minus = 2.0 * math.sin(half / 2.0) ** 2  # 1 - cos(half) without cancellation
                 cone = 2.0 * math.pi * one_minus
-                radiance = e / max(light.solid_angle_factor, 1e-30)
-                _add(h, LIGHT_DISTANT, radiance, d, zero, zero, zero, (math.cos(half), cone, one_minus, 0), 0, 0.0)
+                _add(h, LIGHT_DISTANT, light.radiance, d, zero, zero, zero, (math.cos(half), cone, one_minus, 0), 0,
+                     0.0)
             else:
                 _add(h, LIGHT_DISTANT, e, d, zero, zero, zero, (1.0, 0.0, 0, 0), 0, 0.0)
             h.power[-1] = luminance_np(e) * math.pi * radius**2

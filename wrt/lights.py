@@ -18,7 +18,9 @@ times the blackbody colour when ``enableColorTemperature`` is on):
   averaged over directions: a convex body's mean projected area is a quarter of its area, Cauchy).
 - **DistantLight** with ``normalize`` on: ``color`` is the illuminance ``E`` at normal incidence. With ``normalize``
   off, ``color`` is the radiance of the sun disc of angular diameter ``angle``, so ``E = color * pi sin^2(angle/2)``.
-  ``angle = 0`` makes a delta light whose ``color`` is ``E`` either way.
+  ``angle = 0`` makes a delta light whose ``color`` is ``E`` either way. Half the angle is clamped to [0, pi], as
+  UsdLux clamps it: past 180 degrees the disc reaches surfaces turned away from it, and ``normalize`` divides by
+  UsdLux's ``(2 - sin^2(angle/2)) pi`` instead.
 - **DomeLight**: radiance ``color * texture(direction)`` (``texture = 1`` without a file; ``normalize`` is
   ignored). Latitude-longitude textures follow the OpenEXR convention: +Y is the pole, longitude 0 is +Z,
   longitude pi/2 is +X, the left image edge is longitude +pi (other ``texture:format`` layouts are resampled to

@@ -239,17 +239,37 @@ class DistantLight:
         self.direction = self.direction / length  # the kernels take it as a unit vector: a longer one brightened it
 
     @property
+    def half_angle(self) -> float:
+        """Half the angular diameter in radians, clamped to [0, pi] as UsdLux clamps it: a disc wider than a
+        hemisphere (``angle`` up to 360) reaches surfaces turned away from its centre."""
+        return min(math.radians(max(self.angle, 0.0)) / 2.0, math.pi)
+
+    @property
     def solid_angle_factor(self) -> float:
-        """``pi sin^2(angle / 2)``: illuminance at normal incidence per unit radiance of the sun disc."""
-        half = min(math.radians(max(self.angle, 0.0)) / 2.0, math.pi / 2.0)
-        return math.pi * math.sin(half) ** 2
+        """``pi sin^2(angle / 2)`` (``pi`` past 180 degrees): illuminance at normal incidence per unit radiance of
+        the sun disc."""
+        return math.pi * math.sin(min(self.half_angle, math.pi / 2.0)) ** 2
+
+    @property
+    def size_factor(self) -> float:
+        """UsdLux's ``sizeFactor`` that ``normalize`` divides by (its ``inputs:normalize`` doc): ``pi sin^2 t`` for
+        half the angle ``t`` up to pi / 2, ``(2 - sin^2 t) pi`` beyond (the disc's cosine integrated unsigned)."""
+        t = self.half_angle
+        return math.pi * math.sin(t) ** 2 if t <= math.pi / 2.0 else (2.0 - math.sin(t) ** 2) * math.pi
+
+    @property
+    def radiance(self) -> np.ndarray:
+        """``(3,)`` radiance of the sun disc (``angle > 0``)."""
+        if not self.normalize:
+            return self.color.copy()
+        return (self.color / max(self.size_factor, 1e-30)).astype(np.float32)
 
     @property
     def illuminance(self) -> np.ndarray:
         """``(3,)`` illuminance ``E`` at normal incidence."""
-        if self.normalize or self.angle <= 0.0:
-            return self.color.copy()
-        return (self.color * self.solid_angle_factor).astype(np.float32)
+        if self.angle <= 0.0 or (self.normalize and self.half_angle <= math.pi / 2.0):
+            return self.color.copy()  # normalize holds it at the intensity up to a hemisphere's disc
+        return (self.radiance * self.solid_angle_factor).astype(np.float32)
 
 
 def _same_scalar(a, b) -> bool:
