@@ -60,9 +60,11 @@ ignored with a warning naming the instancer. Where a material reads another colo
 instead (each face from its own material's), and all of the above (inheritance, native instances, PointInstancer
 primvars) applies to it in place of ``displayColor``.
 Cameras inside native instances are read at their instance-proxy paths
-(``/Instance/Cam``, placed by the instance), in invisible instances too, as cameras under invisible prims are; cameras
-inside PointInstancer prototypes and lights inside any prototype are skipped with a warning, but for mesh lights,
-each one light for all of its instances (:func:`wrt.light_table.emitter_triangles` samples each instance's copy).
+(``/Instance/Cam``, placed by the instance), in invisible instances too, as cameras under invisible prims are; UsdLux
+lights inside them likewise, one light per visible instance (the paths ``UsdLux.LightListAPI.ComputeLightList``
+lists). Cameras and UsdLux lights inside PointInstancer prototypes are skipped with a warning; mesh lights inside any
+prototype are each one light for all of its instances (:func:`wrt.light_table.emitter_triangles` samples each
+instance's copy).
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
@@ -344,12 +346,29 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         elif prim.IsA(UsdGeom.Camera):
             self._read_cameras(prim, [Sdf.Path(".")], ctx)  # "." is the camera itself
         elif prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
-            if not ctx.world:
-                self._skip("lights inside instance prototypes are not supported; skipped", prim)
-            elif self._visible(prim):
-                light = read_light(prim, self.xforms, self.time, self.scene.up_axis, self._skip)
-                if light is not None:
-                    self.scene.lights.append(light)
+            self._read_lights(prim, [Sdf.Path(".")], ctx)  # "." is the light itself
+
+    def _read_lights(self, prim: Usd.Prim, lights: list, ctx: Context):
+        """The UsdLux ``lights`` at paths relative to ``prim`` (a light itself, ``.``, or the lights of native
+        instance ``prim``, relative to its prototype), as cameras are read: in the world, each visible one at its
+        instance-proxy path (``/Lamp/Light``, USD's ``ComputeLightList`` path, placed by that instance's
+        transform); inside a native prototype handed on to be read through each of its instances; inside a
+        PointInstancer's prototype skipped with a warning (UsdLux has no path for such a light)."""
+        if not lights:
+            return
+        if ctx.world:
+            for relative in lights:
+                proxy = prim if relative == Sdf.Path(".") else self.stage.GetPrimAtPath(
+                    prim.GetPath().AppendPath(relative))
+                if self._visible(proxy):
+                    light = read_light(proxy, self.xforms, self.time, self.scene.up_axis, self._skip)
+                    if light is not None:
+                        self.scene.lights.append(light)
+        elif ctx.space_root is None:
+            here = prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path))
+            ctx.content.lights += [here.AppendPath(relative) for relative in lights]
+        else:
+            self._skip("UsdLux lights inside PointInstancer prototypes are not supported; skipped", prim)
 
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when

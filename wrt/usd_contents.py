@@ -37,6 +37,7 @@ class Content:
         self.outer_colors: list[str] = []
         self.colors: dict = {}  # outer (primvar, colour) -> content key: this prototype read again with that colour
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
+        self.lights: list[Sdf.Path] = []  # UsdLux lights (not mesh lights) of a native prototype, likewise
         self.prototype = -1  # index into Scene.prototypes once its meshes are placed there
         # (is a sphere, width axis (wrt.tubes.width_axis)) of the spheres or tube segments of a Points or curves prim:
         # instances of them stay round under any transform placed above (wrt.tubes.place_round).
@@ -67,7 +68,7 @@ class Context:
         self.outer_forced = outer_forced  # that binding is strongerThanDescendants: it wins over bindings inside
         self.outer_color = outer_color  # (primvar, (r, g, b)): constant colour inherited by a native instance, or None
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
-        self.world = world  # the stage itself (cameras and lights are read only here)
+        self.world = world  # the stage itself (cameras and UsdLux lights are read only here)
 
 
 def _drawn_root(key: tuple, source: str, content_path: str) -> str:

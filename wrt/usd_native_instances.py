@@ -57,6 +57,7 @@ class NativeInstanceReading:
         looks = None if opacity is None else instance_looks(None, np.array([opacity], np.float32))
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), looks))
         self._read_cameras(prim, self.contents[key].cameras, ctx)
+        self._read_lights(prim, self.contents[key].lights, ctx)
 
     def _colored(self, key: tuple, content: Content, color: tuple, prim: Usd.Prim) -> tuple:
         """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``
