@@ -3,6 +3,9 @@ normalize) read from USD, and the default lights of a stage without any."""
 
 import dataclasses
 import math
+import re
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -744,6 +747,29 @@ def test_light_exposure_that_overflows_is_skipped_with_a_warning(tmp_path, expos
     with pytest.warns(UserWarning, match=r"lights\.usda: lights whose colour .*exposure.* not finite.*: /Bright$"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     assert [light.path for light in scene.lights] == ["/Sun"]
+
+
+def test_light_colour_temperature_that_is_nan_is_skipped_with_a_warning(tmp_path):
+    """``UsdLux.BlackbodyTemperatureAsRgb`` crashes the process (a segfault) on a NaN temperature, and load_usd
+    passed the authored ``colorTemperature`` to it: loading the stage killed Python. Such a light is skipped with a
+    warning naming it, in a child process so that a crash fails this test rather than the run."""
+
+    def build(stage):
+        light = UsdLux.SphereLight.Define(stage, "/Warm")
+        light.CreateEnableColorTemperatureAttr(True)
+        light.CreateColorTemperatureAttr(math.nan)
+        UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(2.0)
+
+    script = ("import warnings, wrt\nwith warnings.catch_warnings(record=True) as caught:\n"
+              "    warnings.simplefilter('always')\n    scene = wrt.load_usd(__import__('sys').argv[1])\n"
+              "print([light.path for light in scene.lights])\nprint(*[w.message for w in caught], sep='\\n')\n")
+    done = subprocess.run([sys.executable, "-c", script, write_stage(tmp_path, build)], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    lines = done.stdout.splitlines()
+    assert lines[0] == "['/Sun']"
+    assert any(re.search(r"lights\.usda: lights whose colorTemperature is NaN were skipped: "
+                         r"1 prim\(s\) \(inputs:colorTemperature = nan: 1\): /Warm$", line) for line in lines[1:])
 
 
 @pytest.mark.parametrize(

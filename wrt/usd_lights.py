@@ -91,6 +91,10 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
     exposure = float(get(light.GetExposureAttr(), 0.0))
     if get(light.GetEnableColorTemperatureAttr(), False):
         kelvin = float(get(light.GetColorTemperatureAttr(), 6500.0))
+        if math.isnan(kelvin):  # UsdLux.BlackbodyTemperatureAsRgb segfaults on NaN (it clamps the rest)
+            skip("lights whose colorTemperature is NaN were skipped", prim,
+                 f"inputs:colorTemperature = {kelvin:g}")
+            return None
         color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
     # An exposure of 1024 or more overflows 2.0**exposure (a bare OverflowError out of load_usd): let it become
     # inf in numpy instead, and be skipped below like any other colour that is not finite.
