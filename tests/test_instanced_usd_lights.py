@@ -98,3 +98,31 @@ def test_lights_in_point_instancer_prototypes_are_skipped_with_a_warning(tmp_pat
     assert not [light for light in scene.lights if light.path.startswith("/Lamps")]
     assert any("PointInstancer prototypes" in str(w.message) and "/Lamps/Proto/Light" in str(w.message)
                for w in caught)
+
+
+def test_an_instanceable_light_prim_is_a_light(tmp_path):
+    """A light prim that is itself an instance (a SphereLight referencing a bulb asset, marked ``instanceable``,
+    in the world and inside another prototype) keeps its own light: USD lists it, and it was dropped without a
+    word (its prototype holds only its children)."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "bulbs.usda"))
+    stage.CreateClassPrim("/Protos")
+    bulb = UsdLux.SphereLight.Define(stage, "/Protos/Bulb")
+    bulb.CreateIntensityAttr(5.0)
+    UsdGeom.Xform.Define(stage, "/Protos/Bulb/Child")
+    holder = UsdGeom.Xform.Define(stage, "/Protos/Holder")
+    holder.AddTranslateOp().Set(Gf.Vec3d(0, 1, 0))
+    for path, translate in (("/A", (1, 0, 2)), ("/Protos/Holder/Inner", (0, 0, 3)), ("/H", (-1, 0, 0))):
+        prim = UsdLux.SphereLight.Define(stage, path).GetPrim() if path != "/H" else stage.DefinePrim(path, "Xform")
+        prim.GetReferences().AddInternalReference("/Protos/Holder" if path == "/H" else "/Protos/Bulb")
+        prim.SetInstanceable(True)
+        UsdGeom.Xformable(prim).AddTranslateOp(opSuffix="place").Set(Gf.Vec3d(*translate))
+    stage.Save()
+    listed = UsdLux.LightListAPI(stage.GetPseudoRoot()).ComputeLightList(UsdLux.LightListAPI.ComputeModeIgnoreCache)
+    assert {str(p) for p in listed} >= {"/A", "/H/Inner"}
+    scene = wrt.load_usd(str(tmp_path / "bulbs.usda"))
+    lights = {light.path: light for light in scene.lights}
+    assert set(lights) == {"/A", "/H/Inner"}
+    for path, light in lights.items():
+        world = UsdGeom.Xformable(stage.GetPrimAtPath(path)).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+        np.testing.assert_allclose(light.position, np.array(world.ExtractTranslation()), atol=1e-9)
+        np.testing.assert_allclose(light.color, 5.0)

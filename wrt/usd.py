@@ -321,6 +321,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.
                     self._read_geometry(prim, ctx)
+                elif prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
+                    self._read_lights(prim, [Sdf.Path(".")], ctx)  # an instanceable light keeps its light likewise
             else:
                 # Cameras do not follow visibility (one under an invisible Xform is read): a hidden instance's are
                 # read too, or a camera whose instance is hidden at some frame was missing from it.
@@ -358,8 +360,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             return
         if ctx.world:
             for relative in lights:
-                proxy = prim if relative == Sdf.Path(".") else self.stage.GetPrimAtPath(
-                    prim.GetPath().AppendPath(relative))
+                proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(relative))
                 if self._visible(proxy):
                     light = read_light(proxy, self.xforms, self.time, self.scene.up_axis, self._skip)
                     if light is not None:
