@@ -339,6 +339,33 @@ def test_usd_light_radiometry(tmp_path):
     np.testing.assert_allclose(by_path["/Dome"].color, 0.5)
 
 
+@pytest.mark.parametrize("angle", [1e-15, 1e-30])
+@pytest.mark.parametrize("normalize", [True, False])
+def test_distant_light_of_a_tiny_angle_lights_as_its_disc_says(tmp_path, angle, normalize):
+    """A sun disc so small that ``pi sin^2(angle / 2)`` leaves float32's range: normalized, its radiance
+    ``E / (pi sin^2)`` was capped (a floor under 2 lux of a 1e-15 degree sun showed 4000 times too little) or its cone
+    underflowed to a delta light of that radiance (1e-30 degrees: 1e30 times too bright); not normalized, the
+    underflowed cone made the disc's radiance its illuminance (2 instead of ~1e-64). The floor shows ``E cos / pi``."""
+
+    def build(stage):
+        add_floor(stage)
+        UsdGeom.Mesh(stage.GetPrimAtPath("/Plane")).CreateDisplayColorAttr([(1.0, 1.0, 1.0)])
+        sun = UsdLux.DistantLight.Define(stage, "/Sun")
+        sun.CreateAngleAttr(angle)
+        sun.CreateIntensityAttr(2.0)
+        sun.CreateNormalizeAttr(normalize)
+        UsdGeom.XformCommonAPI(sun).SetRotate(Gf.Vec3f(30.0, 0.0, 0.0))
+
+    scene = wrt.load_usd(write_stage(tmp_path, build))
+    half = math.radians(angle) / 2.0
+    e = 2.0 if normalize else 2.0 * math.pi * math.sin(half) ** 2  # at normal incidence, float64
+    for integrator in ("whitted", "path"):
+        img = wrt.render(scene, camera=top_down_camera(height=0.2), width=4, height=4, spp=4, seed=1,
+                         device="cpu", integrator=integrator)
+        np.testing.assert_allclose(img.rgb, e * math.cos(math.radians(30.0)) / math.pi, rtol=1e-5, atol=1e-30,
+                                   err_msg=integrator)
+
+
 def test_usd_rect_light_faces_its_minus_z_axis(tmp_path):
     def build(stage):
         add_floor(stage)

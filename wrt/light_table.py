@@ -69,6 +69,10 @@ class HostLights:
 
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance weights of linear RGB
+# Smallest UsdLux sizeFactor (pi sin^2(angle/2)) of a sun disc drawn as a disc: below it (about 6e-14 degrees
+# across) the disc's radiance E / sizeFactor passes float32's range or its cone underflows, so it is a delta light of
+# its illuminance, which no ray could tell apart from the disc.
+SMALLEST_SUN_DISC = 1e-30
 
 
 def luminance_np(c) -> float:
@@ -352,7 +356,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
         elif isinstance(light, DistantLight):
             d = np.asarray(light.direction, np.float64)
             e = light.illuminance
-            if light.angle > 0.0:
+            if light.angle > 0.0 and light.size_factor >= SMALLEST_SUN_DISC:
                 half = light.half_angle  # up to pi: a disc wider than a hemisphere
                 one_minus = 2.0 * math.sin(half / 2.0) ** 2  # 1 - cos(half) without cancellation
                 cone = 2.0 * math.pi * one_minus

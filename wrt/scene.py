@@ -262,14 +262,16 @@ class DistantLight:
         """``(3,)`` radiance of the sun disc (``angle > 0``)."""
         if not self.normalize:
             return self.color.copy()
-        return (self.color / max(self.size_factor, 1e-30)).astype(np.float32)
+        with np.errstate(over="ignore", divide="ignore"):  # inf for a disc too small for float32 (a delta light)
+            return (self.color / np.float64(self.size_factor)).astype(np.float32)
 
     @property
     def illuminance(self) -> np.ndarray:
         """``(3,)`` illuminance ``E`` at normal incidence."""
         if self.angle <= 0.0 or (self.normalize and self.half_angle <= math.pi / 2.0):
             return self.color.copy()  # normalize holds it at the intensity up to a hemisphere's disc
-        return (self.radiance * self.solid_angle_factor).astype(np.float32)
+        scale = self.solid_angle_factor / (self.size_factor if self.normalize else 1.0)  # in float64
+        return (self.color * scale).astype(np.float32)
 
 
 def _same_scalar(a, b) -> bool:
