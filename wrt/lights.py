@@ -484,7 +484,8 @@ def normalized_radiance(color, area: float, normalize: bool) -> np.ndarray:
     color = np.asarray(color, np.float32)
     if not normalize:
         return color.copy()
-    return (color / area).astype(np.float32) if area > 0.0 else np.zeros(3, np.float32)
+    with np.errstate(over="ignore", divide="ignore"):  # inf past float32's range (wrt.usd_lights reports it)
+        return (color / np.float64(area)).astype(np.float32) if area > 0.0 else np.zeros(3, np.float32)
 
 
 def default_lights(forward) -> list:

@@ -121,6 +121,7 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
     try:
         shaping, ies = read_shaping(prim, get)
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get)
+        result = _tiny_normalized(result, prim, skip)
         if shaping is not None:
             result = _shaped(result, shaping, m, prim, skip)
     except SceneError as e:  # a value the checks above let through, e.g. a radius that overflows once scaled
@@ -134,6 +135,28 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
         result.shadows = shadows
         result.diffuse, result.specular = multipliers
     return result
+
+
+def _tiny_normalized(light, prim, skip):
+    """``light``, or None: a normalized area light so small that its radiance (``color / area``) passes float32's
+    range emitted nothing without a word but numpy's overflow warning. A sphere becomes the point light it tends to
+    (of intensity ``color / 4``); the other shapes are skipped with a warning naming them."""
+    if not (isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight)) and light.normalize):
+        return light
+    if isinstance(light, SphereLight) and light.treat_as_point:
+        return light
+    area = light.area
+    if area > 0.0 and np.all(np.isfinite(light.radiance)):
+        return light
+    if isinstance(light, SphereLight):
+        if area > 0.0:
+            light.treat_as_point = True
+        return light
+    if area > 0.0:
+        skip("normalized lights too small for their radiance (intensity / area) to fit in float32 were skipped", prim,
+             f"area {area:.3g}")
+        return None
+    return light  # a light of no area emits nothing, as the schema's sizes say
 
 
 def _multipliers(prim, light, skip, get):
