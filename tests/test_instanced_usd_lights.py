@@ -116,6 +116,14 @@ def test_an_instanceable_light_prim_is_a_light(tmp_path):
         prim.GetReferences().AddInternalReference("/Protos/Holder" if path == "/H" else "/Protos/Bulb")
         prim.SetInstanceable(True)
         UsdGeom.Xformable(prim).AddTranslateOp(opSuffix="place").Set(Gf.Vec3d(*translate))
+    # An instanceable mesh light of guide purpose is not drawn, so it is no light either.
+    panel = UsdGeom.Mesh.Define(stage, "/Protos/Panel")
+    UsdLux.MeshLightAPI.Apply(panel.GetPrim())
+    UsdGeom.Xform.Define(stage, "/Protos/Panel/Child")
+    guide = UsdGeom.Mesh.Define(stage, "/Guide")
+    guide.GetPrim().GetReferences().AddInternalReference("/Protos/Panel")
+    guide.GetPrim().SetInstanceable(True)
+    guide.CreatePurposeAttr(UsdGeom.Tokens.guide)
     stage.Save()
     listed = UsdLux.LightListAPI(stage.GetPseudoRoot()).ComputeLightList(UsdLux.LightListAPI.ComputeModeIgnoreCache)
     assert {str(p) for p in listed} >= {"/A", "/H/Inner"}
