@@ -963,9 +963,9 @@ def test_a_small_sun_seen_by_rays_delivers_its_illuminance(angle, np_rng):
     count, cap_half = 200_000, math.radians(angle)
     axis = -direction
     dirs, one_minus = cap_directions(axis, 1.0 - math.cos(cap_half), count, np_rng)
-    radiance = wp.empty(count, dtype=float, device="cpu")
-    wp.launch(environment_kernel, count, inputs=[r.device_lights, wp.array(dirs.astype(np.float32), dtype=wp.vec3)],
-              outputs=[radiance], device="cpu")
+    radiance = wp.empty(count, dtype=float, device=r.device)  # (the renderer's: a GPU's under render_on_cuda)
+    directions = wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=r.device)
+    wp.launch(environment_kernel, count, inputs=[r.device_lights, directions], outputs=[radiance], device=r.device)
     cap = 2.0 * math.pi * (1.0 - math.cos(cap_half))
     estimate = radiance.numpy() * (1.0 - one_minus)  # times the cosine at normal incidence
     error = estimate.std() * cap / math.sqrt(count)
@@ -1003,9 +1003,9 @@ def test_a_far_sphere_light_seen_by_rays_has_its_solid_angle(distance, radius, n
     count = 200_000
     cap = 4.0 * exact / (2.0 * math.pi)  # 1 - cos of a cap of twice the light's angular radius (about)
     dirs, _ = cap_directions(axis, cap, count, np_rng)
-    radiance = wp.empty(count, dtype=float, device="cpu")
-    wp.launch(lights_on_ray_kernel, count, inputs=[r.device_lights, wp.array(dirs.astype(np.float32), dtype=wp.vec3)],
-              outputs=[radiance], device="cpu")
+    radiance = wp.empty(count, dtype=float, device=r.device)  # (the renderer's: a GPU's under render_on_cuda)
+    directions = wp.array(dirs.astype(np.float32), dtype=wp.vec3, device=r.device)
+    wp.launch(lights_on_ray_kernel, count, inputs=[r.device_lights, directions], outputs=[radiance], device=r.device)
     hits = radiance.numpy()
     seen = hits.mean() * 2.0 * math.pi * cap
     error = hits.std() * 2.0 * math.pi * cap / math.sqrt(count)
