@@ -164,3 +164,27 @@ def test_a_scene_edit_is_refused_inside_a_capture_and_followed_outside_it():
     renderer.launch_frame(seed=3)
     expected = wrt.render_batch(scene, cams, 32, 24, seed=3, device="cuda:0").rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
+
+
+def test_a_camera_edited_after_it_was_made_is_checked_and_named_by_its_index():
+    """Camera fields are plain attributes (ring_of_cameras sets film offsets after construction) and were checked on
+    construction only: a NaN written into a camera's transform was refused as "singular (a zero scale)" without
+    saying which camera of the batch, and a NaN focal length or an inverted clipping range rendered background."""
+    scene = sensor_scene()
+    cams = ring_of_cameras(3)
+    nan_pose, nan_focal, inverted = (wrt.Camera.look_at((0, 2, 5), (0, 0, 0)) for _ in range(3))
+    nan_pose.to_world[0, 3] = np.nan
+    nan_focal.focal_length = float("nan")
+    inverted.clipping_range = (5.0, 1.0)
+    for bad, problem in ((nan_pose, "transform is not finite"), (nan_focal, "finite positive focalLength"),
+                         (inverted, "near < far")):
+        with pytest.raises(ValueError, match=rf"^cameras\[2\] of 4: camera .*{problem}"):
+            wrt.render_batch(scene, [*cams[:2], bad, cams[2]], 8, 6, device="cpu")
+        with pytest.raises(ValueError, match=rf"^camera .*{problem}"):  # one camera: no index to name
+            wrt.render(scene, camera=bad, width=8, height=6, device="cpu")
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    with pytest.raises(ValueError, match=r"^cameras\[1\] of 2: camera transform is not finite"):
+        renderer.set_cameras([cams[2], nan_pose])
+    # The refused list left the renderer as it was: it still draws its two cameras.
+    np.testing.assert_array_equal(renderer.render().image(1).rgb,
+                                  wrt.render(scene, camera=cams[1], width=8, height=6, device="cpu").rgb)

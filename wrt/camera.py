@@ -208,6 +208,14 @@ class Camera:
     path: str = ""
 
     def __post_init__(self):
+        self.check()
+
+    def check(self) -> None:
+        """Raises ``ValueError`` naming the field that is out of range, and brings ``to_world`` and
+        ``clipping_planes`` to float64 arrays. Run on construction and again by :meth:`to_struct`: the fields are
+        plain attributes, set after construction too (``wrt.procedural.ring_of_cameras`` shifts film offsets so),
+        and a NaN written into ``to_world`` was reported as a singular transform ("a zero scale"), a NaN focal
+        length or an inverted clipping range rendered background without a word."""
         self.to_world = np.asarray(self.to_world, dtype=np.float64)
         if self.to_world.size != 16:  # numpy's reshape error named no argument
             raise ValueError(f"{self.label()} to_world must be a (4, 4) matrix, got shape {self.to_world.shape}")
@@ -328,6 +336,7 @@ class Camera:
 
     def to_struct(self, width: int, height: int) -> DeviceCamera:
         """The :class:`DeviceCamera` for an image of ``width x height`` pixels."""
+        self.check()
         m = self.to_world
         if not abs(np.linalg.det(m[:3, :3])) > 0.0:  # checked here: a stage may hold such a camera unused
             raise ValueError(f"{self.label()} transform is singular (a zero scale), so it has no view")

@@ -270,6 +270,21 @@ def check_camera_list(cameras) -> None:
         raise ValueError("cameras is empty: give at least one camera")
 
 
+def camera_structs(cameras: list, width: int, height: int, batched: bool) -> list:
+    """The :class:`DeviceCamera` of each of ``cameras`` for ``width x height`` images, each camera checked again
+    (:meth:`Camera.check`: its fields may have been set since it was made); in a batch (``batched``) the message
+    of a bad camera names its index, which its own label (``camera``, for one made in Python) did not give."""
+    structs = []
+    for k, camera in enumerate(cameras):
+        try:
+            structs.append(camera.to_struct(width, height))
+        except ValueError as error:
+            if not batched:
+                raise
+            raise ValueError(f"cameras[{k}] of {len(cameras)}: {error}") from None
+    return structs
+
+
 class Renderer:
     """Renders one scene from one camera at one resolution with one integrator; reusable across calls and seeds.
 
@@ -415,15 +430,14 @@ class Renderer:
         scene, dev = self.scene, self.device
         mats, uvs, tri_materials, sided, emission = shading_data(scene, dev)
         self.materials = mats
-        cam = self.camera.to_struct(self.width, self.height)
-        self._upload_cameras()
+        self._upload_cameras(self.cameras, self.batched)
         geometry_materials = scene.triangle_materials()
         glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
         emissive_used = bool(glows[geometry_materials].any())
         # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels
         # along the viewing direction of each camera of a batch.
         default = not (scene.lights or emissive_used)
-        self.lights = default_lights(np.array(cam.forward)) if default else list(scene.lights)
+        self.lights = default_lights(self._forwards[0]) if default else list(scene.lights)
         self.device_lights, unsampled = build_lights(self.lights, scene, emission, dev)
         shapes = glows[geometry_materials[scene.num_geometry_triangles :]].sum() if emissive_used else 0
         self._warn_unsampled(unsampled, shapes)
@@ -476,18 +490,21 @@ class Renderer:
         n = len(cameras) * self.width * self.height
         if not cameras or n > MAX_PIXELS:
             raise ValueError(f"need 1 to {MAX_PIXELS // (self.width * self.height)} cameras, got {len(cameras)}")
-        if len(cameras) != len(self.cameras):
+        resized = len(cameras) != len(self.cameras)
+        self._upload_cameras(cameras, batched=True)  # a bad camera raises before any change: the old ones render on
+        self.batched = True
+        if resized:
             # launch_frame's buffers are sized for the old count: it wrote past their end (a crash, or a wrong
             # frame_image) with more cameras and read past the camera array with fewer.
             self._frame = None
-        self.cameras, self.camera, self.batched = cameras, cameras[0], True
-        self._upload_cameras()
         self._progressive = None
 
-    def _upload_cameras(self) -> None:
-        structs = [c.to_struct(self.width, self.height) for c in self.cameras]
+    def _upload_cameras(self, cameras: list, batched: bool) -> None:
+        """Makes ``cameras`` the renderer's, their device structs and lenses uploaded; raises (naming the camera by
+        its index where ``batched``) before any change when one of them is bad."""
+        structs = camera_structs(cameras, self.width, self.height, batched)
         cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
-        lenses = wp.array([self._lens(c) for c in self.cameras], dtype=wp.vec2, device=self.device)
+        lenses = wp.array([self._lens(c) for c in cameras], dtype=wp.vec2, device=self.device)
         if getattr(self, "_cams", None) is not None and len(self._cams) == len(cams):
             # Copied into the arrays the kernels were given, not swapped for new ones: a frame recorded as a CUDA
             # graph (launch_frame) replays with the arrays it was recorded with, and kept drawing the old poses.
@@ -495,6 +512,7 @@ class Renderer:
             self._lenses.assign(lenses)
         else:
             self._cams, self._lenses = cams, lenses
+        self.cameras, self.camera = cameras, cameras[0]
         self._forwards = np.array([np.array(s.forward) for s in structs], np.float64)  # (V, 3) viewing directions
         if hasattr(self, "device_lights"):  # set_cameras; the first call comes before the lights are built
             self._point_headlight()
