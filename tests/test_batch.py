@@ -188,3 +188,24 @@ def test_a_camera_edited_after_it_was_made_is_checked_and_named_by_its_index():
     # The refused list left the renderer as it was: it still draws its two cameras.
     np.testing.assert_array_equal(renderer.render().image(1).rgb,
                                   wrt.render(scene, camera=cams[1], width=8, height=6, device="cpu").rgb)
+
+
+def test_cameras_as_a_tuple_or_a_generator_render_as_the_list_does():
+    """render_batch took a generator of cameras, Renderer(cameras=...) and set_cameras refused it ("must be a list");
+    a dict's keys were read as prim paths ("no camera at 'front'"); an entry of no camera kind was not named."""
+    scene = sensor_scene()
+    cams = ring_of_cameras(5)
+    expected = wrt.render_batch(scene, cams[:3], 8, 6, device="cpu").rgb.numpy()
+    renderer = wrt.Renderer(scene, cameras=(c for c in cams[:3]), width=8, height=6, device="cpu")
+    np.testing.assert_array_equal(renderer.render().rgb.numpy(), expected)
+    renderer.set_cameras(c for c in cams[3:])
+    np.testing.assert_array_equal(renderer.render().rgb.numpy(),
+                                  wrt.render_batch(scene, tuple(cams[3:]), 8, 6, device="cpu").rgb.numpy())
+    with pytest.raises(ValueError, match="cameras is empty"):
+        renderer.set_cameras(c for c in [])
+    with pytest.raises(ValueError, match="cameras must be a list of cameras"):
+        renderer.set_cameras({"front": cams[0]})
+    with pytest.raises(TypeError, match="cameras must be a list of wrt.Camera"):
+        wrt.render_batch(scene, {"front": cams[0]}, 8, 6, device="cpu")
+    with pytest.raises(TypeError, match=r"^cameras\[1\] of 2: camera must be a wrt.Camera"):
+        renderer.set_cameras([cams[0], 5])

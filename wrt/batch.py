@@ -13,6 +13,7 @@ pixel depend on its position within its view, not on the view.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 
 import numpy as np
 import warp as wp
@@ -81,7 +82,8 @@ def render_batch(
 
     Args:
         scene: the scene.
-        cameras: a list of :class:`wrt.Camera` (each with its own pose and intrinsics) or camera prim paths.
+        cameras: a list of :class:`wrt.Camera` (each with its own pose and intrinsics) or camera prim paths; a
+            tuple or a generator of them too.
         width: image width of every camera.
         height: image height of every camera.
         spp, seed, batch: as :meth:`wrt.Renderer.render`.
@@ -94,8 +96,9 @@ def render_batch(
     from .camera import Camera
     from .render import Renderer
 
-    # A lone path or Camera is not a list: list("/World/Cam") would be one camera per character.
-    if isinstance(cameras, (str, Camera)) or not hasattr(cameras, "__iter__"):
+    # A lone path or Camera is not a list: list("/World/Cam") would be one camera per character; a dict's keys
+    # were read as prim paths.
+    if isinstance(cameras, (str, Camera, Mapping)) or not hasattr(cameras, "__iter__"):
         raise TypeError(f"cameras must be a list of wrt.Camera or camera prim paths (for one camera: [camera]), "
                         f"got {type(cameras).__name__}")
     renderer = Renderer(

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from collections.abc import Mapping
 from typing import ClassVar
 
 import numpy as np
@@ -260,14 +261,29 @@ def check_lights(lights) -> None:
             part.__post_init__()
 
 
-def check_camera_list(cameras) -> None:
-    """Raises ValueError unless ``cameras`` is a non-empty sequence of cameras (prim paths or :class:`Camera`): a
-    single path given where a list belongs was read one character at a time ("no camera at '/'")."""
-    if isinstance(cameras, (str, Camera)) or not hasattr(cameras, "__len__"):
+def camera_list(cameras) -> list:
+    """``cameras`` (a list, a tuple, a generator: any iterable of prim paths or :class:`Camera`) as a list, as
+    :func:`wrt.render_batch` takes them; a generator was refused here ("must be a list"). Raises ValueError for a
+    single path or camera given where a list belongs (a path was read one character at a time: "no camera at
+    '/'"), a mapping (its keys were read as prim paths), or no camera at all."""
+    if isinstance(cameras, (str, Camera, Mapping)) or not hasattr(cameras, "__iter__"):
         raise ValueError(f"cameras must be a list of cameras (prim paths or wrt.Camera), got {cameras!r}; for one "
                          "camera, give camera= or a list of one")
+    cameras = list(cameras)
     if len(cameras) == 0:
         raise ValueError("cameras is empty: give at least one camera")
+    return cameras
+
+
+def resolve_views(scene: Scene, cameras: list, width: int | None, height: int | None) -> list:
+    """:func:`resolve_view` of each of ``cameras``; an entry of no camera kind (``5``) is named by its index."""
+    views = []
+    for k, camera in enumerate(cameras):
+        try:
+            views.append(resolve_view(scene, camera, width, height))
+        except TypeError as error:
+            raise TypeError(f"cameras[{k}] of {len(cameras)}: {error}") from None
+    return views
 
 
 def camera_structs(cameras: list, width: int, height: int, batched: bool) -> list:
@@ -336,11 +352,12 @@ class Renderer:
         if cameras is not None:
             if camera is not None:
                 raise ValueError("give either camera or cameras, not both")
-            check_camera_list(cameras)
+            cameras = camera_list(cameras)
         self.scene = scene
         self._asked_size = (width, height)  # as given: set_cameras frames new stage cameras at it
         scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
-        views = [resolve_view(scene, c, width, height) for c in ([camera] if cameras is None else cameras)]
+        views = [resolve_view(scene, camera, width, height)] if cameras is None else resolve_views(scene, cameras,
+                                                                                                   width, height)
         width, height = views[0][1:]
         _check_one_size(views, width, height)
         check_pixels(width, height, len(views))
@@ -481,10 +498,9 @@ class Renderer:
             self._whitted_groups.append((n_analytic, self.device_lights.count - n_analytic))
 
     def set_cameras(self, cameras) -> None:
-        """Renders from ``cameras`` (a list, any length) from now on, e.g. new poses each simulation step; the BVH,
-        materials and lights stay (a default headlight turns with each camera)."""
-        check_camera_list(cameras)
-        views = [resolve_view(self.scene, c, *self._asked_size) for c in cameras]
+        """Renders from ``cameras`` (a list, tuple or generator; any length) from now on, e.g. new poses each
+        simulation step; the BVH, materials and lights stay (a default headlight turns with each camera)."""
+        views = resolve_views(self.scene, camera_list(cameras), *self._asked_size)
         _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
         cameras = [view[0] for view in views]
         n = len(cameras) * self.width * self.height
