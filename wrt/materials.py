@@ -1050,23 +1050,30 @@ class MaterialReader:
 
     def _texture_vector(self, tex, name: str, default: tuple, material_path: str) -> np.ndarray:
         """UsdUVTexture ``tex``'s ``scale``, ``bias`` or ``fallback`` (``name``) as its four RGBA float32 numbers
-        (:func:`four_components`): ``default`` (the schema's) when unauthored, and, with a warning, when it is not 1,
-        3 or 4 finite float32 numbers, as a UsdPreviewSurface input keeps its default. An infinite scale made the
-        albedo infinite and a NaN bias black, without a word; a float2 was stretched to four numbers; a string
-        stopped the load with "cannot read this prim"."""
-        value = self._constant(tex, name)
+        (:func:`four_components`): ``default`` (the schema's) when unauthored, or when it is not 1, 3 or 4 finite
+        numbers (:meth:`_finite_numbers`). An infinite scale made the albedo infinite and a NaN bias black, without a
+        word; a float2 was stretched to four numbers; a string stopped the load with "cannot read this prim"."""
+        v = self._finite_numbers(tex, name, (1, 3, 4), "a UsdUVTexture scale, bias or fallback is not 1, 3 or 4 "
+                                 "finite numbers", material_path)
+        return four_components(v, default)
+
+    def _finite_numbers(self, node, name: str, sizes: tuple, problem: str, material_path: str) -> np.ndarray | None:
+        """Input ``name`` of shader ``node`` as float64 numbers; None when it is unauthored, and, with a warning
+        (``problem``), when it is not a count in ``sizes`` of finite float32 numbers: as a UsdPreviewSurface input,
+        it keeps its default then."""
+        value = self._constant(node, name)
         if value is None:
-            return four_components(None, default)
+            return None
         try:
             v = np.asarray(value)
             v = v.reshape(-1).astype(np.float64) if v.dtype.kind in "biuf" else np.empty(0)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError):  # a string, ...
             v = np.empty(0)
-        if v.size not in (1, 3, 4) or not np.all(np.abs(v) <= np.finfo(np.float32).max):  # NaN fails too
-            self.skip(f"material {material_path}: a UsdUVTexture scale, bias or fallback is not 1, 3 or 4 finite "
-                      "numbers; its default is used", tex.GetPrim(), detail=f"{name} = {value}")
-            return four_components(None, default)
-        return four_components(v, default)
+        if v.size not in sizes or not np.all(np.abs(v) <= np.finfo(np.float32).max):  # NaN fails too
+            self.skip(f"material {material_path}: {problem}; its default is used", node.GetPrim(),
+                      detail=f"{name} = {value}")
+            return None
+        return v
 
     def _wrap_mode(self, tex, key: str, material_path: str) -> str:
         """``wrapS`` or ``wrapT`` (``key``) of UsdUVTexture ``tex`` as a :data:`WRAP_MODES` token. ``useMetadata``, the
@@ -1122,22 +1129,12 @@ class MaterialReader:
 
     def _transform2d_input(self, node, name: str, default: tuple, material_path: str) -> np.ndarray:
         """Input ``name`` of ``UsdTransform2d`` ``node`` as ``len(default)`` float64 numbers: ``default`` (the
-        schema's) when unauthored, and, with a warning, when it is not that many finite numbers (a float for a
-        float2, a string, NaN), as a UsdPreviewSurface input keeps its default. A wrong type stopped the load with
-        "cannot read this prim", and NaN made every lookup read the texture's fallback, without a word."""
-        value = self._constant(node, name)
-        if value is None:
-            return np.asarray(default, np.float64)
-        try:
-            v = np.asarray(value, np.float64).reshape(-1)
-        except (TypeError, ValueError):  # a string, ...
-            v = np.empty(0)
-        if v.size != len(default) or not np.all(np.isfinite(v)):
-            count = "one finite number" if len(default) == 1 else f"{len(default)} finite numbers"
-            self.skip(f"material {material_path}: a UsdTransform2d input is not {count}; its default is used",
-                      node.GetPrim(), detail=f"{name} = {value}")
-            return np.asarray(default, np.float64)
-        return v
+        schema's) when unauthored, or when it is not that many finite numbers (:meth:`_finite_numbers`: a float for a
+        float2, a string, NaN). A wrong type stopped the load with "cannot read this prim", and NaN made every lookup
+        read the texture's fallback, without a word."""
+        count = "one finite number" if len(default) == 1 else f"{len(default)} finite numbers"
+        v = self._finite_numbers(node, name, (len(default),), f"a UsdTransform2d input is not {count}", material_path)
+        return np.asarray(default, np.float64) if v is None else v
 
     def _constant_st(self, value, shader, name: str, material_path: str) -> np.ndarray | None:
         """``(2,)`` float64 constant texture coordinate ``value`` of input ``name`` of ``shader``; None, with a
