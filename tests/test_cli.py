@@ -581,12 +581,14 @@ def test_a_log_at_a_scene_file_is_refused_and_the_scene_left_as_it_was(tmp_path,
     assert stage.read_bytes() == before
 
 
-@pytest.mark.parametrize("option", ["-o", "--log", "--aov-dir", "--products", "--frames", "--devices"])
-def test_an_empty_value_is_refused_naming_the_option(tmp_path, capsys, option):
+@pytest.mark.parametrize("command, option", [("render", o) for o in ("-o", "--log", "--aov-dir", "--products",
+                                                                       "--frames", "--devices")] + [("preview", "-o")])
+def test_an_empty_value_is_refused_naming_the_option(tmp_path, capsys, command, option):
     """An empty value ('--frames ""' from an unset shell variable) was taken as no option: --frames "" rendered one
-    image to the file 'f_#.png', -o "" wrote wrt.png, --products "" wrote into the current folder."""
+    image to the file 'f_#.png', -o "" wrote wrt.png, --products "" wrote into the current folder; wrt preview -o ""
+    said 'cannot write : previews are written as .png'."""
     with pytest.raises(SystemExit) as exit_info:
-        main(["render", "--width", "8", "--height", "6", "-q", option, ""])
+        main([command, "--width", "8", "--height", "6", "-q", option, ""])
     assert exit_info.value.code == 2
     (line,) = error_lines(capsys.readouterr().err)
     assert line.startswith(f"wrt: error: argument {option}") and "empty" in line, line

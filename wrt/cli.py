@@ -691,7 +691,8 @@ def _add_preview(sub) -> None:
         formatter_class=HelpFormatter,
     )
     p.add_argument("scene", nargs="?", help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
-    p.add_argument("-o", "--output", help="write the view to this PNG instead of a window (no display: preview.png)")
+    p.add_argument("-o", "--output", type=_non_empty,
+                   help="write the view to this PNG instead of a window (no display: preview.png)")
     p.add_argument("--camera", help=CAMERA_HELP)
     add_stage_options(p)
     bvh = p.add_mutually_exclusive_group()
