@@ -72,3 +72,22 @@ def srgb_chunks_problems(chunks) -> list[str]:
         if kinds.index(kind) > kinds.index(b"IDAT"):
             problems.append(f"{kind!r} comes after the image data")
     return problems
+
+
+def chunk(kind: bytes, data: bytes) -> bytes:
+    """One PNG chunk: length, type, data and the CRC of type and data (PNG specification, clause 5.3)."""
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+
+def rgb_png(samples: np.ndarray, transparent=None) -> bytes:
+    """An RGB PNG (colour type 2) of ``(H, W, 3)`` samples, 8-bit for uint8 and 16-bit for uint16, unfiltered and not
+    interlaced; ``transparent``: the RGB of a tRNS chunk (three 16-bit values, the colour key), or None."""
+    samples = np.asarray(samples)
+    h, w, _ = samples.shape
+    depth = 16 if samples.dtype == np.uint16 else 8
+    rows = samples.astype(">u2" if depth == 16 else np.uint8).reshape(h, -1).view(np.uint8)
+    stream = b"".join(b"\0" + row.tobytes() for row in rows)  # filter type 0 before every row
+    data = SIGNATURE + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, 2, 0, 0, 0))
+    if transparent is not None:
+        data += chunk(b"tRNS", struct.pack(">3H", *transparent))
+    return data + chunk(b"IDAT", zlib.compress(stream)) + chunk(b"IEND", b"")

@@ -1,5 +1,5 @@
 """Image files read as textures (``wrt.textures.load_image``), checked against the samples written here: formats
-and sample layouts Pillow reads in ways that need help (16-bit TIFF colour, transparency chunks of grey PNGs),
+and sample layouts Pillow reads in ways that need help (16-bit TIFF colour, transparency chunks of grey and RGB PNGs),
 colour space chunks ``auto`` follows, EXIF orientation (ignored), EXR channel subsets and names, and damaged files
 or files of no colour channel (a warning and the fallback)."""
 
@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image as PilImage
 from PIL import PngImagePlugin
+from png_chunks import rgb_png
 from test_materials import textured_stage
 
 import wrt
@@ -145,6 +146,24 @@ def damaged_files(tmp_path):
         "empty.png": b"",
         "text.png": b"not an image",
     }
+
+
+@pytest.mark.parametrize("bits", [8, 16])
+def test_an_rgb_png_colour_key_reads_as_alpha_zero(tmp_path, bits):
+    """An RGB PNG whose tRNS chunk names one colour transparent (a colour key: alpha 0 where all three samples
+    equal it, 1 elsewhere, as the PNG specification and Storm's stb_image reader, ``stbi__compute_transparency16``
+    on the 16-bit samples, have it). The file is written chunk by chunk here. A 16-bit one was read as opaque
+    everywhere (Pillow keeps the key but applies it to 8-bit images only)."""
+    full = 2**bits - 1
+    key = (full // 3, full // 2, full - 2)
+    near = (key[0], key[1], key[2] + 1)  # one step off in blue only: the same high byte at 16 bits
+    samples = np.array([[key, near, (0, 0, 0)], [(full, full, full), key, (key[2], key[1], key[0])]],
+                       np.uint8 if bits == 8 else np.uint16)
+    path = tmp_path / f"keyed{bits}.png"
+    path.write_bytes(rgb_png(samples, key))
+    image = load_image(str(path), "raw")
+    np.testing.assert_allclose(image[..., :3], samples / full, atol=1e-7)
+    np.testing.assert_array_equal(image[..., 3], np.any(samples != key, axis=-1))
 
 
 @pytest.mark.parametrize("name", ["cut.png", "cut.jpg", "header.exr", "empty.png", "text.png"])

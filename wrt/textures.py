@@ -12,8 +12,8 @@ Conventions, stated once:
   8-bit RGB/RGBA images and 16-bit RGB/RGBA PNGs (Hydra's stb_image reader hands PNGs over as 8-bit samples) and
   raw for everything else (grey, grey + alpha, 16-bit TIFFs, float, Radiance ``.hdr``), as Hydra's image readers
   decide. Missing channels read as grey ``L`` ->
-  ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample). 16-bit PNGs and RGB(A) TIFFs keep all 16 bits
-  (Pillow alone reduces colour ones to 8).
+  ``(L, L, L)`` and alpha 1 (0 at a grey PNG's tRNS sample and at an RGB PNG's tRNS colour). 16-bit PNGs and
+  RGB(A) TIFFs keep all 16 bits (Pillow alone reduces colour ones to 8).
 - No gamut conversion: an ACEScg EXR is read as if it were linear Rec.709.
 - UDIM textures (``<UDIM>`` in the file name) are separate images, one per tile: tile ``1001 + u + 10 v`` covers
   ``st`` in ``[u, u + 1) x [v, v + 1)`` for ``u, v`` in 0..9 (1001..1100, the tiles ``UsdShade.UdimUtils``
@@ -152,7 +152,8 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool
             # 16-bit colour (or grey + alpha) PNG or TIFF: Pillow would keep the high byte only. Hydra reads PNGs
             # with stb_image, as 8-bit samples whatever their depth, so auto takes 16-bit RGB(A) PNGs for sRGB as
             # 8-bit ones; TIFFs go through OpenImageIO, whose 16-bit samples are linear.
-            return _read_16bit(data, rawmode), img.format == "PNG" and rawmode != "LA;16B", tagged
+            key = img.info.get("transparency") if rawmode == "RGB;16B" else None  # a 16-bit RGB PNG's tRNS
+            return _read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
         img.load()
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
         raise TextureError(f"cannot read image {name}: {e}") from None
@@ -184,9 +185,12 @@ def _sixteen_bit_rawmode(img) -> str | None:
     return rawmodes.pop() if len(rawmodes) == 1 and rawmodes <= set(SIXTEEN_BIT_RAWMODES) else None
 
 
-def _read_16bit(data: bytes, rawmode: str) -> np.ndarray:
+def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> np.ndarray:
     """``(H, W, 4)`` float32 RGBA of a 16-bit RGB, RGBA (PNG or TIFF) or grey + alpha (PNG) image at full
-    precision (``rawmode``: one of :data:`SIXTEEN_BIT_RAWMODES`).
+    precision (``rawmode``: one of :data:`SIXTEEN_BIT_RAWMODES`). ``colour_key``: an RGB PNG's tRNS chunk, three
+    16-bit samples; pixels of exactly that colour read alpha 0 (else 1), as the PNG specification defines it and
+    Storm's stb_image reader computes it (``stbi__compute_transparency16``, on the 16-bit samples before it keeps 8
+    bits of them). Pillow takes no notice of it at this depth: a cut-out stored that way had no holes.
 
     Pillow unpacks these samples to 8 bits (the high byte). Its decoder is run again with the raw mode of the other
     byte order, which takes the other byte of every sample (grey + alpha, 4 bytes per pixel, as 8-bit RGBA: every
@@ -211,7 +215,10 @@ def _read_16bit(data: bytes, rawmode: str) -> np.ndarray:
     high = decode(rawmode)
     low = decode(rawmode[:-1] + {"B": "L", "L": "B"}[rawmode[-1]])
     rgba = np.ones(high.shape[:2] + (4,), np.float32)
-    rgba[..., : high.shape[2]] = (high * 256 + low) / 65535.0
+    samples = high * 256 + low  # whole numbers, exact in float32
+    rgba[..., : high.shape[2]] = samples / 65535.0
+    if isinstance(colour_key, tuple) and len(colour_key) == 3:
+        rgba[..., 3] = np.any(samples != np.asarray(colour_key, np.float32), axis=-1)
     return rgba
 
 
