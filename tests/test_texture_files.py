@@ -233,3 +233,25 @@ def test_an_exr_of_no_colour_channel_warns_naming_the_file_and_reads_the_fallbac
         scene = wrt.load_usd(textured_stage(tmp_path, path))
     assert scene.materials[0].textures == {}
     np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
+
+
+@pytest.mark.parametrize("uint_channels", ["R", "RGB"])
+def test_an_exr_of_uint_colour_warns_naming_the_file_and_channel_and_reads_the_fallback(tmp_path, uint_channels):
+    """R, G, B, A or Y of type UINT (an id or count map) is refused: Storm's EXR reader converts UINT to neither half
+    nor float and draws the texture's fallback for a file of them (one whose first channel is UINT); wrt read the
+    ids as light (4e9 clipped to 65504)."""
+    ids = np.array([[7, 4_000_000_000], [0, 1]], np.uint32)
+    channels = {c: ids if c in uint_channels else np.ones((2, 2), np.float32) for c in "RGB"}
+    path = write_exr(tmp_path / "ids.exr", channels)
+    with pytest.warns(UserWarning, match=rf"ids\.exr: channel {', '.join(sorted(uint_channels))} holds unsigned"):
+        scene = wrt.load_usd(textured_stage(tmp_path, path))
+    assert scene.materials[0].textures == {}
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
+
+
+def test_an_exr_uint_channel_beside_colour_is_ignored(tmp_path):
+    """A UINT channel that is no colour (an ``id`` beside float R, G, B) is ignored as other channels are."""
+    rgb = np.random.default_rng(5).random((2, 3, 3)).astype(np.float32)
+    channels = {c: rgb[..., k] for k, c in enumerate("RGB")} | {"id": np.arange(6, dtype=np.uint32).reshape(2, 3)}
+    image = load_image(write_exr(tmp_path / "beauty.exr", channels), "auto")
+    np.testing.assert_array_equal(image, np.concatenate([rgb, np.ones((2, 3, 1), np.float32)], axis=-1))

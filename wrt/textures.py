@@ -251,7 +251,7 @@ def _read_exr(data: bytes, name: str) -> np.ndarray:
         tmp.flush()
         try:
             with OpenEXR.File(tmp.name, separate_channels=True) as f:
-                channels = {k: np.asarray(v.pixels, dtype=np.float32) for k, v in f.channels().items()}
+                channels = {k: np.asarray(v.pixels) for k, v in f.channels().items()}  # uint32, float16 or 32
         except Exception as e:  # noqa: BLE001
             raise TextureError(f"cannot read EXR {name}: {e}") from None
     return exr_rgba(channels, name)
@@ -270,28 +270,39 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str) -> np.ndarray:
     - ``A`` alone: ``(0, 0, 0, A)``, as OpenEXR's RGBA interface reads it (Hydra's reader writes it outside the
       pixel's texel).
 
-    Other channels (``Z``, other layers' beside the unnamed one) are ignored.
+    Other channels (``Z``, other layers' beside the unnamed one) are ignored, of any sample type.
 
     Raises:
-        TextureError: no channel maps to one of these, several layers do and none is unnamed, or the mapped
-            channels differ in size (subsampled ones). Hydra's reader gives such a file black, or fails.
+        TextureError: no channel maps to one of these, several layers do and none is unnamed, the mapped
+            channels differ in size (subsampled ones), or one of them holds 32-bit unsigned integers (``UINT``: ids
+            or counts, not light; an id of 4e9 was read as that much light). Hydra's reader gives such a file
+            black, or fails: its EXR reader takes the file's sample type from its first channel and converts
+            ``UINT`` to neither half nor float, so Storm draws the fallback of an all-``UINT`` file.
     """
     layers: dict[str, dict[str, np.ndarray]] = {}
+    full_names: dict[tuple[str, str], str] = {}  # (layer, role) -> the channel's name in the file
     for full_name, samples in channels.items():
         layer, _, last = full_name.rpartition(".")
         role = EXR_CHANNEL_ROLES.get(last.lower())
         if role is not None:
             layers.setdefault(layer, {})[role] = samples
+            full_names[layer, role] = full_name
     found = ", ".join(sorted(channels)) or "none"
     if not layers:
         raise TextureError(f"EXR {name} has no R, G, B, Y or A channel (found {found})")
     if "" not in layers and len(layers) > 1:
         raise TextureError(f"EXR {name} has colour channels in several layers ({', '.join(sorted(layers))}) and "
                            "none without a layer name; which one is the image is not known")
-    mapped = layers.get("", next(iter(layers.values())))
+    image_layer = "" if "" in layers else next(iter(layers))
+    mapped = layers[image_layer]
     if len({v.shape for v in mapped.values()}) > 1:
         sizes = ", ".join(f"{k} {v.shape[1]}x{v.shape[0]}" for k, v in sorted(mapped.items()))
         raise TextureError(f"EXR {name}: its channels differ in size ({sizes}); subsampled channels are not read")
+    integer = sorted(full_names[image_layer, k] for k, v in mapped.items() if v.dtype.kind in "iu")
+    if integer:
+        raise TextureError(f"EXR {name}: channel {', '.join(integer)} holds unsigned integers (UINT: ids or "
+                           "counts), which Storm does not read as colour")
+    mapped = {k: np.asarray(v, np.float32) for k, v in mapped.items()}
     alpha = mapped.get("A")
     colour = [c for c in "RGB" if c in mapped]
     if colour and len(channels) == 1:
