@@ -612,3 +612,25 @@ def test_widths_inherited_from_an_ancestor_as_pxr_finds_them(tmp_path):
     hit = np.isfinite(wrt.render(scene, camera=cam, width=64, height=16, integrator="depth").aovs["depth"])
     np.testing.assert_allclose(albedo[hit], np.broadcast_to([0.1, 0.7, 0.2], albedo[hit].shape), atol=1e-6)
     assert hit.sum() > 20
+
+
+@pytest.mark.parametrize("interpolation", ["vertex", "varying"])
+def test_curves_with_a_bad_width_are_left_out_whole(tmp_path, interpolation):
+    """A negative, NaN or infinite width on one vertex of a curve leaves that whole curve out with a warning naming
+    the prim and the curve, as a vertex that is not finite does (the README's rule); the curve used to be drawn with
+    a cone pinched to nothing at the bad vertex. The other curves are drawn at their radius."""
+    points = [(0, 0, 0), (2, 0, 0), (4, 0, 0), (0, 3, 0), (2, 3, 0), (4, 3, 0), (0, 6, 0), (4, 6, 0)]
+    body = (f'def BasisCurves "C"\n{{\n    uniform token type = "linear"\n    int[] curveVertexCounts = [3, 3, 2]\n'
+            f'    point3f[] points = {fmt(points)}\n'
+            f'    float[] widths = [0.4, -0.4, 0.4, 0.4, 0.4, 0.4, 0.4, nan] (interpolation = "{interpolation}")\n}}\n')
+    path = write(tmp_path, body)
+    with pytest.warns(UserWarning) as record:
+        scene = wrt.load_usd(path)
+    text = " | ".join(str(w.message) for w in record)
+    assert "/C" in text and "2 of 3, first curve 0" in text and "widths[1] = -0.4" in text
+    # Over each curve's vertices and segment middles: the good curve is a tube of radius 0.2, the others are gone.
+    xs = [0.0, 0.5, 1.0, 2.0, 3.5, 4.0]
+    origins = [(x, y, 5.0) for y in (0.0, 3.0, 6.0) for x in xs]
+    hits = trace(scene, origins, [(0, 0, -1)] * len(origins))
+    expected = np.array([np.inf] * 6 + [4.8] * 6 + [np.inf] * 6)
+    np.testing.assert_allclose(hits.t, expected, rtol=1e-6)

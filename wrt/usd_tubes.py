@@ -163,8 +163,17 @@ class TubeReader(FieldReader):
             self.skip("curves with points that are not finite were left out", prim,
                       f"{len(bad)} of {len(counts)}, first curve {int(bad[0])}")
             spans = spans.take(~np.isin(spans.curve, bad))
+        # So is a curve with a width that is negative, NaN or infinite: drawn with that width as 0, it was a tube
+        # pinched to nothing at the bad vertex, and the warning said the width was not drawn.
+        bad_width = _bad_widths(widths)
+        if bad_width.any():
+            bad = _curves_of_values(spans, widths[0], bad_width, curve_of_vertex, len(counts))
+            i = int(np.argmax(bad_width))
+            self.skip("curves with widths that are negative, NaN or infinite were left out", prim,
+                      f"{len(bad)} of {len(counts)}, first curve {int(bad[0])}, widths[{i}] = {widths[1][i, 0]:g}")
+            spans = spans.take(~np.isin(spans.curve, bad))
         controls = spans.extend(controls)
-        radius = _interpolator(spans, widths, self._radii(prim, widths, None))
+        radius = _interpolator(spans, widths, self._radii(prim, widths, None, warn=False))
 
         # Cut each span into straight segments in the prim's space, move the polyline vertices into the content's
         # space (the bases are affine: the moved curve at t is the curve of the moved points), then place a sphere
@@ -299,14 +308,14 @@ class TubeReader(FieldReader):
             return None
         return self.values(prim, attr, value_at(attr, self.time), schema.GetWidthsInterpolation(), sizes, 1)
 
-    def _radii(self, prim, widths, n):
+    def _radii(self, prim, widths, n, warn=True):
         """Radii ``(n,)`` from ``widths`` for points (``n``), or the ``(k,)`` radii of its values (``n`` None); 0.5
-        without widths. A negative, NaN or infinite width is 0 (not drawn), with a warning."""
+        without widths. A negative, NaN or infinite width is 0 (not drawn), with a warning (``warn``)."""
         if widths is None:
             return np.full(n if n is not None else 1, 0.5)  # width 1
         values = widths[1][:, 0] * 0.5
-        bad = ~(np.isfinite(values) & (values >= 0.0))
-        if bad.any():
+        bad = _bad_widths(widths)
+        if bad.any() and warn:
             i = int(np.argmax(bad))
             self.skip("widths that are negative, NaN or infinite were not drawn", prim,
                       f"{int(bad.sum())} of {len(values)}, first widths[{i}] = {2 * values[i]:g}")
@@ -337,6 +346,26 @@ def _interpolator(spans, field, values):
         return out[:, 0] if flat else out
 
     return at
+
+
+def _bad_widths(widths) -> np.ndarray:
+    """``(k,)`` bool: the values of a widths field (or None) that are negative, NaN or infinite."""
+    if widths is None:
+        return np.zeros(0, bool)
+    values = widths[1][:, 0]
+    return ~(np.isfinite(values) & (values >= 0.0))
+
+
+def _curves_of_values(spans, interpolation: str, values: np.ndarray, curve_of_vertex: np.ndarray, n_curves: int):
+    """Sorted curves that any of the primvar values marked in ``values`` ``(k,)`` bool applies to."""
+    marked = np.flatnonzero(values)
+    if interpolation == "constant":
+        return np.arange(n_curves)
+    if interpolation == "uniform":
+        return marked
+    if interpolation == "vertex":
+        return np.unique(curve_of_vertex[marked])
+    return np.unique(spans.curve[np.isin(spans.varying, marked).any(axis=1)])  # varying: the spans they end
 
 
 def _finite_boxes(centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
