@@ -634,3 +634,26 @@ def test_curves_with_a_bad_width_are_left_out_whole(tmp_path, interpolation):
     hits = trace(scene, origins, [(0, 0, -1)] * len(origins))
     expected = np.array([np.inf] * 6 + [4.8] * 6 + [np.inf] * 6)
     np.testing.assert_allclose(hits.t, expected, rtol=1e-6)
+
+
+LINEAR_LINE = 'def BasisCurves "C"\n{\n    uniform token type = "linear"\n'
+NURBS_LINE = 'def NurbsCurves "C"\n{\n    int[] order = [2]\n    double[] knots = [0, 0, 1, 1]\n'
+
+
+@pytest.mark.parametrize("head, points, widths", [
+    (LINEAR_LINE, "[(0, 0, 0), (nan, 0, 0)]", "[1]"),
+    (LINEAR_LINE, "[(0, 0, 0), (1, 0, 0)]", "[-1]"),
+    (NURBS_LINE, "[(0, 0, 0), (nan, 0, 0)]", "[1]"),
+], ids=["nan-point", "negative-width", "nurbs-nan-point"])
+def test_curves_prim_with_every_curve_left_out_loads_empty(tmp_path, head, points, widths):
+    """When every curve of a prim is left out (a point that is not finite, a bad constant width) the prim draws
+    nothing with its warning and the stage's other prims load; it raised 'cannot read this prim' (a reshape of no
+    spans)."""
+    body = (f'{head}    int[] curveVertexCounts = [2]\n'
+            f'    point3f[] points = {points}\n    float[] widths = {widths} (interpolation = "constant")\n}}\n'
+            'def Points "P"\n{\n    point3f[] points = [(0, 3, 0)]\n    float[] widths = [1]\n}\n')
+    with pytest.warns(UserWarning, match="were left out") as record:
+        scene = wrt.load_usd(write(tmp_path, body))
+    assert "/C" in " | ".join(str(w.message) for w in record)
+    hits = trace(scene, [(0, 0, 5), (0, 3, 5)], [(0, 0, -1)] * 2)
+    np.testing.assert_allclose(hits.t, [np.inf, 4.5])

@@ -189,7 +189,8 @@ class NurbsSpans:
         (:func:`pieces`); ``radii`` ``(S, k)`` sampled along each span."""
         s = np.repeat(np.arange(len(self.curve)), PILOT_SAMPLES)
         t = np.tile(np.linspace(0.0, 1.0, PILOT_SAMPLES), len(self.curve))
-        samples = self.at(points, s, t).reshape(len(self.curve), PILOT_SAMPLES, -1)
+        samples = self.at(points, s, t)
+        samples = samples.reshape(len(self.curve), PILOT_SAMPLES, samples.shape[-1])  # no spans: no samples
         return pieces(samples, CURVE_TOLERANCE * radii.max(axis=1), MAX_SPAN_SEGMENTS)
 
 

@@ -180,7 +180,7 @@ class TubeReader(FieldReader):
         # at each vertex and a tube along each segment.
         sampled = np.repeat(np.arange(len(spans.curve)), len(RADIUS_SAMPLES))
         sample_t = np.tile(RADIUS_SAMPLES, len(spans.curve))
-        segments = spans.segments(controls, radius(sampled, sample_t).reshape(len(spans.curve), -1))
+        segments = spans.segments(controls, radius(sampled, sample_t).reshape(len(spans.curve), len(RADIUS_SAMPLES)))
         span, t, starts_segment, sphere = sample_spans(spans, segments)
         with np.errstate(invalid="ignore", over="ignore"):  # past float range: named below
             at = spans.at(controls, span, t) @ to_space[:3, :3].T + to_space[:3, 3]
