@@ -13,7 +13,6 @@ pixel depend on its position within its view, not on the view.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
 
 import numpy as np
 import warp as wp
@@ -93,12 +92,9 @@ def render_batch(
         A :class:`BatchImage`. To render the same cameras again (a new pose each step), keep a
         :class:`wrt.Renderer` made with ``cameras=`` instead: it builds the BVH once.
     """
-    from .camera import Camera
-    from .render import Renderer
+    from .render import Renderer, not_a_camera_list
 
-    # A lone path or Camera is not a list: list("/World/Cam") would be one camera per character; a dict's keys
-    # were read as prim paths.
-    if isinstance(cameras, (str, Camera, Mapping)) or not hasattr(cameras, "__iter__"):
+    if not_a_camera_list(cameras):  # (a TypeError here, as render_batch has always raised)
         raise TypeError(f"cameras must be a list of wrt.Camera or camera prim paths (for one camera: [camera]), "
                         f"got {type(cameras).__name__}")
     renderer = Renderer(

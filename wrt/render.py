@@ -261,12 +261,18 @@ def check_lights(lights) -> None:
             part.__post_init__()
 
 
+def not_a_camera_list(cameras) -> bool:
+    """Whether ``cameras`` cannot be a list of cameras: a single path or camera given where a list belongs (a path
+    was read one character at a time: "no camera at '/'"), a mapping (its keys were read as prim paths), or no
+    iterable at all."""
+    return isinstance(cameras, (str, Camera, Mapping)) or not hasattr(cameras, "__iter__")
+
+
 def camera_list(cameras) -> list:
     """``cameras`` (a list, a tuple, a generator: any iterable of prim paths or :class:`Camera`) as a list, as
-    :func:`wrt.render_batch` takes them; a generator was refused here ("must be a list"). Raises ValueError for a
-    single path or camera given where a list belongs (a path was read one character at a time: "no camera at
-    '/'"), a mapping (its keys were read as prim paths), or no camera at all."""
-    if isinstance(cameras, (str, Camera, Mapping)) or not hasattr(cameras, "__iter__"):
+    :func:`wrt.render_batch` takes them; a generator was refused here ("must be a list"). Raises ValueError where
+    :func:`not_a_camera_list`, or for no camera at all."""
+    if not_a_camera_list(cameras):
         raise ValueError(f"cameras must be a list of cameras (prim paths or wrt.Camera), got {cameras!r}; for one "
                          "camera, give camera= or a list of one")
     cameras = list(cameras)
@@ -504,7 +510,7 @@ class Renderer:
         _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
         cameras = [view[0] for view in views]
         n = len(cameras) * self.width * self.height
-        if not cameras or n > MAX_PIXELS:
+        if n > MAX_PIXELS:  # (camera_list refused none)
             raise ValueError(f"need 1 to {MAX_PIXELS // (self.width * self.height)} cameras, got {len(cameras)}")
         resized = len(cameras) != len(self.cameras)
         self._upload_cameras(cameras, batched=True)  # a bad camera raises before any change: the old ones render on
