@@ -352,24 +352,17 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
 
     def _read_lights(self, prim: Usd.Prim, lights: list, ctx: Context):
         """The UsdLux ``lights`` at paths relative to ``prim`` (a light itself, ``.``, or the lights of native
-        instance ``prim``, relative to its prototype), as cameras are read: in the world, each visible one at its
-        instance-proxy path (``/Lamp/Light``, USD's ``ComputeLightList`` path, placed by that instance's
-        transform); inside a native prototype handed on to be read through each of its instances; inside a
-        PointInstancer's prototype skipped with a warning (UsdLux has no path for such a light)."""
-        if not lights:
-            return
-        if ctx.world:
-            for relative in lights:
-                proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(relative))
-                if self._visible(proxy):
-                    light = read_light(proxy, self.xforms, self.time, self.scene.up_axis, self._skip)
-                    if light is not None:
-                        self.scene.lights.append(light)
-        elif ctx.space_root is None:
-            here = prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path))
-            ctx.content.lights += [here.AppendPath(relative) for relative in lights]
-        else:
-            self._skip("UsdLux lights inside PointInstancer prototypes are not supported; skipped", prim)
+        instance ``prim``, relative to its prototype), read through :meth:`_read_through_instances` as cameras are:
+        in the world, each visible one at its instance-proxy path (``/Lamp/Light``, USD's ``ComputeLightList`` path,
+        placed by that instance's transform); UsdLux has no path for a light inside a PointInstancer's prototype."""
+
+        def read(proxy: Usd.Prim):
+            if self._visible(proxy):
+                light = read_light(proxy, self.xforms, self.time, self.scene.up_axis, self._skip)
+                if light is not None:
+                    self.scene.lights.append(light)
+
+        self._read_through_instances(prim, lights, ctx, "lights", read, "UsdLux lights")
 
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when

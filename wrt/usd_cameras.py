@@ -4,7 +4,7 @@ instances (hidden ones too), skipped inside PointInstancer prototypes."""
 from __future__ import annotations
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Usd, UsdGeom
 
 from .camera import Camera
 from .usd_contents import PROTOTYPE_PREDICATE, Context
@@ -17,20 +17,13 @@ class CameraReading:
 
     def _read_cameras(self, prim: Usd.Prim, cameras: list, ctx: Context):
         """The ``cameras`` at paths relative to ``prim`` (a camera itself, ``.``, or the cameras of native instance
-        ``prim``, relative to its prototype): read when ``ctx`` is the world (at their instance-proxy paths,
-        ``/Instance/Cam``, which USD places in the world), handed on to the native prototype being read (read
-        through each of its instances), skipped with a warning inside a PointInstancer's prototype."""
-        if not cameras:
-            return
-        if ctx.world:
-            for relative in cameras:
-                proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(relative))
-                self.scene.cameras[str(proxy.GetPath())] = self._read_camera(proxy)
-        elif ctx.space_root is None:
-            here = prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path))
-            ctx.content.cameras += [here.AppendPath(relative) for relative in cameras]
-        else:
-            self._skip("cameras inside PointInstancer prototypes are not supported; skipped", prim)
+        ``prim``, relative to its prototype), read through :meth:`_read_through_instances`: in the world at their
+        instance-proxy paths (``/Instance/Cam``), which USD places in the world."""
+
+        def read(proxy: Usd.Prim):
+            self.scene.cameras[str(proxy.GetPath())] = self._read_camera(proxy)
+
+        self._read_through_instances(prim, cameras, ctx, "cameras", read, "cameras")
 
     def _prototype_cameras(self, prototype: Usd.Prim) -> list:
         """Paths relative to ``prototype`` of the cameras in it and in the instances nested in it (as a read

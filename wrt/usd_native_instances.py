@@ -4,7 +4,7 @@ colour, and the instance placed as one row of its container's instances."""
 from __future__ import annotations
 
 import numpy as np
-from pxr import Usd, UsdShade
+from pxr import Sdf, Usd, UsdShade
 
 from .usd_contents import Content, Context, instance_looks
 
@@ -58,6 +58,23 @@ class NativeInstanceReading:
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), looks))
         self._read_cameras(prim, self.contents[key].cameras, ctx)
         self._read_lights(prim, self.contents[key].lights, ctx)
+
+    def _read_through_instances(self, prim: Usd.Prim, relatives: list, ctx: Context, listed: str, read, what: str):
+        """The prims at paths ``relatives`` to ``prim`` (one prim itself, ``.``, or those of native instance
+        ``prim``, relative to its prototype), which are read where they are placed, not as geometry: in the world,
+        each through ``read(proxy)`` at its instance-proxy path (``/Instance/Cam``, which USD places in the world);
+        inside a native prototype, handed on to it (``ctx.content``'s list ``listed``) to be read through each of
+        its instances; inside a PointInstancer's prototype skipped with a warning naming ``what`` they are."""
+        if not relatives:
+            return
+        if ctx.world:
+            for relative in relatives:
+                read(self.stage.GetPrimAtPath(prim.GetPath().AppendPath(relative)))
+        elif ctx.space_root is None:
+            here = prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path))
+            getattr(ctx.content, listed).extend(here.AppendPath(relative) for relative in relatives)
+        else:
+            self._skip(f"{what} inside PointInstancer prototypes are not supported; skipped", prim)
 
     def _colored(self, key: tuple, content: Content, color: tuple, prim: Usd.Prim) -> tuple:
         """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``
