@@ -535,6 +535,9 @@ class Renderer:
         else:
             self._cams, self._lenses = cams, lenses
         self.cameras, self.camera = cameras, cameras[0]
+        # Read now, as the pose and lens are: a camera changed after this takes effect through set_cameras, and a
+        # scale made NaN after its check would have darkened the image silently.
+        self._exposures = [float(c.exposure_scale) for c in cameras]
         self._forwards = np.array([np.array(s.forward) for s in structs], np.float64)  # (V, 3) viewing directions
         if hasattr(self, "device_lights"):  # set_cameras; the first call comes before the lights are built
             self._point_headlight()
@@ -816,7 +819,7 @@ class Renderer:
         """Each camera's factor on its mean radiance: its ``exposure_scale`` for the radiance integrators; the
         others' images are not radiance (ambient occlusion, quick looks)."""
         radiance = self.integrator in ("path", "whitted")
-        return [camera.exposure_scale if radiance else 1.0 for camera in self.cameras]
+        return self._exposures if radiance else [1.0] * len(self._exposures)
 
     def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers):
         """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel."""
