@@ -280,7 +280,7 @@ def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
 
 
 def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, progress=False, log=None,
-                  **options) -> list[dict]:
+                  log_row=None, **options) -> list[dict]:
     """Renders ``jobs`` (``(frame, file)`` pairs, see :func:`pending_frames`) and writes each image as it is done.
 
     With one device the frames are rendered here, in order, by one :class:`FrameRenderer`. With several, each
@@ -297,6 +297,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         exposure: PNG exposure (see :meth:`wrt.Image.save`).
         progress: show a progress bar.
         log: a JSON-lines file each row is appended to as its frame finishes (see :class:`LogRows`), or None.
+        log_row: what of a row is written to ``log`` (see :class:`LogRows`).
         **options: :class:`FrameRenderer` options.
 
     Returns:
@@ -317,7 +318,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         resolve_device(device)
     path = os.fspath(path)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
-    rows = LogRows(log)
+    rows = LogRows(log, log_row)
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
         if len(devices) == 1:
             renderer = FrameRenderer(path, device=devices[0], **options)
@@ -366,21 +367,24 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
 class LogRows(list):
     """The log rows of a frame run, each also appended to the JSON-lines file ``log`` (when not None) the moment it
     is added, in strict JSON: an interrupted run (Ctrl-C, a frame that stops it) keeps the rows of every frame that
-    finished, where rows written at the end were lost with the run."""
+    finished, where rows written at the end were lost with the run. ``log_row``, when given, makes the row written
+    of the row added (``wrt render`` adds its run, options and the image's modification time: see
+    :mod:`wrt.render_log`)."""
 
-    def __init__(self, log=None):
+    def __init__(self, log=None, log_row=None):
         super().__init__()
         self.log = None if log is None else Path(log)
+        self.log_row = log_row
         if self.log is not None:
             self.log.parent.mkdir(parents=True, exist_ok=True)
 
     def append(self, row: dict) -> None:
         super().append(row)
         if self.log is not None:
+            from .render_log import append_row
             from .strict_json import strict_json
 
-            with open(self.log, "a") as f:
-                f.write(strict_json(row) + "\n")
+            append_row(self.log, strict_json(row if self.log_row is None else self.log_row(row)))
 
 
 def frame_error_row(frame: float, file, error: SceneError, device: str | None = None) -> dict:
@@ -501,7 +505,7 @@ def render_frame_task(job: dict) -> dict:
 
 
 def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, seed=0, exposure=0.0, progress=False,
-                          log=None, task=render_frame_task, **options) -> list[dict]:
+                          log=None, log_row=None, task=render_frame_task, **options) -> list[dict]:
     """:func:`render_frames` on a Dask cluster (``address``, or a ``LocalCluster`` of ``n_workers``): every frame is
     one task (``task``, :func:`render_frame_task` or a wrapper of it), each image is written here the moment it
     arrives, and a frame whose worker died is rerun elsewhere. Returns the log rows, with ``output``, in arrival
@@ -515,7 +519,7 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
     path = os.fspath(path)
     warn_frames_outside_range(path, [frame for frame, _ in jobs])
     tasks = [_task(path, frame, file, spp, seed, exposure, options) for frame, file in jobs]
-    rows = LogRows(log)
+    rows = LogRows(log, log_row)
     write = _frame_writer(jobs, rows)
     files = {float(frame): file for frame, file in jobs}
     others = []

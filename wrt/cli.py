@@ -266,7 +266,9 @@ def _add_render(sub) -> None:
                    help="render time codes START:END[:STEP] (END included) of an animated stage, one image each; "
                    "OUTPUT's last run of # becomes the frame number, e.g. -o out/frame_####.png. The BVH is kept "
                    "across frames: refitted when vertices move, only its top level rebuilt when instances move")
-    p.add_argument("--resume", action="store_true", help="with --frames: skip frames whose image already exists")
+    p.add_argument("--resume", action="store_true", help="skip the scenes (frames) that the log (--log, or a batch's "
+                   "default) says were finished with the same options, whose images are still as written; render "
+                   "the others. --frames without --log: skip frames whose image exists")
     p.add_argument("--devices", help="with --frames: spread the frames over these Warp devices, comma-separated, "
                    "e.g. cuda:0,cuda:1, one worker process each (default: --device)", type=_non_empty)
     p.add_argument("--dask", nargs="?", const="", metavar="ADDRESS", help="with --frames: send the frames to the Dask "
@@ -447,7 +449,7 @@ def _view_summary(args, settings, camera, width: int, height: int) -> str:
     return f"view: {shot}, {size}"
 
 
-def _render_one(args, path: Path, output: Path, progress) -> Path:
+def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     import wrt
 
     from .render import check_pixels, resolve_view
@@ -485,13 +487,54 @@ def _render_one(args, path: Path, output: Path, progress) -> Path:
     )
     out = image.save(output, exposure=args.exposure)
     progress(f"wrote {out}")
+    written = [Path(out)]
     for name in args.aov:
-        progress(f"wrote {image.save_aov_png(name, Path(out).with_name(f'{Path(out).stem}.{name}.png'))}")
+        written.append(image.save_aov_png(name, Path(out).with_name(f'{Path(out).stem}.{name}.png')))
+        progress(f"wrote {written[-1]}")
     if args.aov_dir:
         aov_dir = Path(args.aov_dir) / path.stem if len(args.scene) > 1 else Path(args.aov_dir)
         for p in image.save_aovs(aov_dir):
+            written.append(Path(p))
             progress(f"wrote {p}")
-    return out
+    return written  # the image first, then its AOV files
+
+
+def _log_options(args) -> dict:
+    """The row fields of :data:`wrt.render_log.OPTION_FIELDS`, as this run's arguments give them."""
+    from .render_log import OPTION_FIELDS
+
+    return {name: getattr(args, name) for name in OPTION_FIELDS if hasattr(args, name)}
+
+
+def _resume_kinds(args):
+    """The device kinds whose images ``--resume`` takes for this run's, or None (any) under ``--dask``, whose
+    workers pick their own devices."""
+    from .render_log import device_kind
+
+    if args.dask is not None:
+        return None
+    return {device_kind(d.strip()) for d in (args.devices or args.device).split(",") if d.strip()}
+
+
+def _finished_images(args, log: Path, jobs: list, options: dict, progress) -> dict:
+    """``--resume``: of ``jobs`` (``(scene, image, name)``: name as the progress lines call it), those whose image
+    the log says is finished with this run's ``options`` (see :func:`_log_options`), by image path -> that row;
+    says why each other one that the log names is rendered again."""
+    from .render_log import ResumeIndex, read_rows
+
+    index = ResumeIndex(read_rows(log))
+    kinds, done = _resume_kinds(args), {}
+    again = collections.defaultdict(list)  # each reason once, with its scenes or frames: 240 frames are one line
+    for scene, image, name in jobs:
+        row, why = index.finished(scene, image, options, kinds)
+        if row is not None:
+            done[image] = row
+        elif why:
+            again[why].append(name)
+    for why, names in again.items():
+        more = f" and {len(names) - 6} more" if len(names) > 6 else ""
+        progress(f"--resume: rendering {', '.join(names[:6])}{more} again: {why}")
+    return done
 
 
 def _run_render(args) -> int:
@@ -514,9 +557,12 @@ def _run_render(args) -> int:
         return _run_products(args, paths, progress)
     if args.frames:
         return _run_frames(args, paths, progress)
-    if args.resume or args.devices or args.dask is not None:
-        raise ValueError("--resume, --devices and --dask apply to --frames only")
+    if args.devices or args.dask is not None:
+        raise ValueError("--devices and --dask apply to --frames only")
     several = len(paths) > 1
+    if args.resume and not (several or args.log):  # one scene writes no log without --log: nothing to resume from
+        raise ValueError("--resume reads the log of an earlier run; give it with --log FILE (a batch of several "
+                         "scenes has one by default)")
     from .image import check_image_path
 
     outputs = [_output_for(args, p, several) for p in paths]
@@ -531,20 +577,35 @@ def _run_render(args) -> int:
         return 0
     log = Path(args.log) if args.log else outputs[0].parent / "render-log.jsonl"
     _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []), paths)
+    from .render_log import append_row, mtime_ns, new_run
+
+    jobs = [(path, output, path.name) for path, output in zip(paths, outputs)]
+    options = _log_options(args)
+    done = _finished_images(args, log, jobs, options, progress) if args.resume else {}
     log.parent.mkdir(parents=True, exist_ok=True)
+    from .bvh.common import resolve_device
+
+    run, device = new_run(), str(resolve_device(args.device))  # cuda:0 where --device said cuda
     failures = []
 
     def write_row(row: dict, start: float) -> None:
         row["seconds"] = round(time.perf_counter() - start, 3)
-        with open(log, "a") as f:  # flushed per scene: an interrupted batch keeps every finished row
-            f.write(strict_json(row) + "\n")
+        append_row(log, strict_json(row))  # flushed per scene: an interrupted batch keeps every finished row
 
     for path, output in zip(paths, outputs):
         start = time.perf_counter()
-        row = {"scene": str(path), "output": str(output)}
+        row = {**run, "scene": str(path), "output": str(output), **options, "device": device,
+               "scene_mtime_ns": mtime_ns(path)}
+        if output in done:  # the image and its AOV files as that run left them
+            before = done[output]
+            progress(f"--resume: skipped {path.name}: {output} is finished (run {before['run']}, same options)")
+            write_row(dict(row, status="skipped", resumed_from=before.get("resumed_from", before["run"]),
+                           device=before["device"], output_mtime_ns=before["output_mtime_ns"],
+                           aov_files=before.get("aov_files", [])), start)
+            continue
         try:
-            _render_one(args, path, output, progress)
-            row["status"] = "ok"
+            image, *aovs = _render_one(args, path, output, progress)
+            row.update(status="ok", output=str(image), output_mtime_ns=mtime_ns(image), aov_files=list(map(str, aovs)))
         except KeyboardInterrupt:  # its image, if written, holds the samples done: not to be taken for a finished one
             write_row(dict(row, status="interrupted"), start)
             raise
@@ -558,7 +619,9 @@ def _run_render(args) -> int:
                 message = f"{type(e).__name__}: {message}"
             print(f"wrt: error: {message if path.name in message else f'{path}: {message}'}", file=sys.stderr)
         write_row(row, start)
-    progress(f"{counted_of(len(paths) - len(failures), len(paths), 'scene')} rendered; log in {log}")
+    skipped = f", {len(done)} skipped (--resume: finished before)" if args.resume else ""
+    rendered = len(paths) - len(failures) - len(done)
+    progress(f"{counted_of(rendered, len(paths), 'scene')} rendered{skipped}; log in {log} (run {run['run']})")
     if failures:
         names = ", ".join(Path(r["scene"]).name for r in failures)
         print(f"wrt: {counted_of(len(failures), len(paths), 'scene')} failed: {names}", file=sys.stderr)
@@ -612,22 +675,50 @@ def _run_frames(args, paths: list, progress) -> int:
     output = (args.output or "frame_####.png").replace("{stem}", paths[0].stem)  # as for still images
     if _names_a_folder(output):  # as for a still image: it became the pattern "out_####", no suffix
         output += f"{paths[0].stem}_####.png"
-    jobs = pending_frames(frames, output, args.resume)
     from .image import check_image_path
 
+    # Without a log, --resume has only the files to go by: those on disk are skipped, whatever rendered them.
+    jobs = pending_frames(frames, output, args.resume and not args.log)
     # An unwritable output fails now, not after the first frame's load and render.
     for folder in {check_image_path(file).parent for _, file in jobs}:
         _check_output_location(folder)
     _warn_unused_exposure(args.exposure, [output])
+    from .render_log import append_row, mtime_ns, new_run
+    from .strict_json import strict_json
+
+    run, options = new_run(), {k: v for k, v in _log_options(args).items() if k not in ("time", "aov", "aov_dir")}
+    fields = {**run, "scene": str(paths[0]), **options, "scene_mtime_ns": mtime_ns(paths[0])}
+    finished = {}
     if args.log:
-        _check_log_path(Path(args.log), [file for _, file in jobs], paths)
-    if len(jobs) < len(frames):
+        log = Path(args.log)
+        _check_log_path(log, [file for _, file in jobs], paths)
+        if args.resume:
+            named = [(paths[0], file, f"frame {f:g}") for f, file in jobs]
+            finished = _finished_images(args, log, named, options, progress)
+            log.parent.mkdir(parents=True, exist_ok=True)
+            for frame, file in jobs:
+                if file in finished:  # a row for it in this run too: each run's rows list every frame
+                    before = finished[file]
+                    append_row(log, strict_json({**fields, "frame": frame, "status": "skipped", "output": str(file),
+                                                 "resumed_from": before.get("resumed_from", before["run"]),
+                                                 "device": before["device"],
+                                                 "output_mtime_ns": before["output_mtime_ns"]}))
+            jobs = [(frame, file) for frame, file in jobs if file not in finished]
+            if finished:
+                progress(f"--resume: skipped {counted_of(len(finished), len(frames), 'frame')}: finished before, with "
+                         f"the same options (see {log})")
+    if len(jobs) < len(frames) and not args.log:
         progress(f"--resume: {counted_of(len(frames) - len(jobs), len(frames), 'frame')} already on disk")
+
+    def log_row(row: dict) -> dict:
+        """A frame's row as the log gets it: the run, the scene, the options, and the image's modification time."""
+        status = {"status": "error"} if "error" in row else {"status": "ok", "output_mtime_ns": mtime_ns(row["output"])}
+        return {**fields, **row, **status}
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
     if not devices:
         raise ValueError(f"--devices {args.devices!r} names no device; give e.g. cuda:0,cuda:1")
     common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": progress.bar,
-              "log": args.log}  # a row per frame as it finishes: an interrupted run keeps them
+              "log": args.log, "log_row": log_row}  # a row per frame as it finishes: an interrupted run keeps them
     common.update(_renderer_options(args), **_load_options(args))
     start = time.perf_counter()
     if args.dask is not None:

@@ -1,0 +1,165 @@
+"""``wrt render --resume`` of a batch of scenes and of ``--frames``, and the run fields of the log rows: what is
+skipped, what is rendered again and why, and what the log says afterwards."""
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+import wrt
+from wrt.cli import main
+
+STAGE = ('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+         '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+SIZE = ["--width", "8", "--height", "6"]
+
+
+def rows_of(log: Path) -> list[dict]:
+    return [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
+
+
+@pytest.fixture
+def batch(tmp_path):
+    scenes = []
+    for name in ("a.usda", "b.usda", "c.usda"):
+        scenes.append(tmp_path / name)
+        scenes[-1].write_text(STAGE)
+    out = tmp_path / "out"
+    return [*map(str, scenes), "-o", f"{out}/", *SIZE], out
+
+
+def test_resume_skips_the_finished_scenes_and_logs_them_as_skipped(batch, capsys):
+    argv, out = batch
+    assert main(["render", *argv]) == 0
+    stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")}
+    capsys.readouterr()
+    assert main(["render", *argv, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("--resume: skipped") == 3 and "0 of 3 scenes rendered, 3 skipped" in err, err
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("*.png")} == stamps  # not written again
+    rows = rows_of(out / "render-log.jsonl")
+    first, second = rows[:3], rows[3:]
+    assert len({r["run"] for r in first}) == 1 and len({r["run"] for r in second}) == 1
+    assert first[0]["run"] != second[0]["run"] and all("run_started_at" in r for r in rows)
+    assert [r["status"] for r in second] == ["skipped"] * 3
+    assert all(r["resumed_from"] == first[0]["run"] for r in second)
+    capsys.readouterr()
+    assert main(["render", *argv, "--resume"]) == 0  # skipped rows resume as the rows they copy
+    assert "3 skipped" in capsys.readouterr().err
+    assert all(r["resumed_from"] == first[0]["run"] for r in rows_of(out / "render-log.jsonl")[6:])
+
+
+def test_resume_renders_again_what_changed_failed_or_went_missing(batch, tmp_path, capsys):
+    argv, out = batch
+    (tmp_path / "c.usda").write_text("#usda 1.0\ndef Mesh (\n")  # broken: an error row
+    assert main(["render", *argv]) == 1
+    (tmp_path / "c.usda").write_text(STAGE)
+    (out / "b.png").unlink()
+    capsys.readouterr()
+    assert main(["render", *argv, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert "skipped a.usda" in err and "rendering b.usda again" in err and "rendering c.usda again" in err, err
+    assert "2 of 3 scenes rendered, 1 skipped" in err
+    assert [r["status"] for r in rows_of(out / "render-log.jsonl")[3:]] == ["skipped", "ok", "ok"]
+    capsys.readouterr()
+    assert main(["render", *argv, "--resume", "--spp", "2"]) == 0  # another option: every image again
+    err = capsys.readouterr().err
+    assert "3 of 3 scenes rendered, 0 skipped" in err and "--spp 1 -> 2" in err, err
+
+
+def test_resume_renders_an_image_written_again_since_its_row_or_whose_scene_changed(batch, tmp_path, capsys):
+    argv, out = batch
+    assert main(["render", *argv]) == 0
+    # A quick look at a without a log (--spp 1 again here, but nothing says so) replaces its image.
+    assert main(["render", str(tmp_path / "a.usda"), "-o", str(out / "a.png"), *SIZE, "-q"]) == 0
+    os.utime(out / "a.png", ns=(1, 1))
+    os.utime(tmp_path / "b.usda", ns=(2, 2))  # an edited scene
+    capsys.readouterr()
+    assert main(["render", *argv, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert "rendering a.usda again" in err and "written again" in err, err
+    assert "rendering b.usda again: b.usda changed" in err and "skipped c.usda" in err, err
+
+
+def test_resume_renders_the_scene_an_interrupted_batch_cut_short(batch, tmp_path, monkeypatch, capsys):
+    argv, out = batch
+    render = wrt.Renderer.render
+
+    def interrupted_at_b(self, *args, **kwargs):  # Ctrl-C once b.usda has its samples: a partial image is written
+        image = render(self, *args, **kwargs)
+        if self.scene.source.endswith("b.usda"):
+            raise KeyboardInterrupt
+        return image
+
+    monkeypatch.setattr(wrt.Renderer, "render", interrupted_at_b)
+    assert main(["render", *argv]) == 130
+    assert (out / "b.png").exists()  # the samples so far
+    monkeypatch.setattr(wrt.Renderer, "render", render)
+    capsys.readouterr()
+    assert main(["render", *argv, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert "skipped a.usda" in err and "rendering b.usda again: its last row" in err and "says interrupted" in err
+    assert [(Path(r["scene"]).name, r["status"]) for r in rows_of(out / "render-log.jsonl")[2:]] == [
+        ("a.usda", "skipped"), ("b.usda", "ok"), ("c.usda", "ok")]
+
+
+def test_resume_renders_again_the_rows_of_an_older_wrt_and_reads_past_a_cut_row(batch, capsys):
+    argv, out = batch
+    out.mkdir()
+    old = [{"scene": argv[i], "output": str(out / f"{n}.png"), "status": "ok", "seconds": 0.1}
+           for i, n in enumerate("abc")]
+    (out / "render-log.jsonl").write_text("".join(json.dumps(r) + "\n" for r in old) + '{"scene": "a.us')
+    for name in "abc":
+        (out / f"{name}.png").write_bytes(b"old")
+    assert main(["render", *argv, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert "3 of 3 scenes rendered" in err and "recorded no options" in err, err
+    lines = (out / "render-log.jsonl").read_text().splitlines()
+    assert lines[3] == '{"scene": "a.us'  # the new rows start on a line of their own
+    assert [json.loads(line)["status"] for line in lines[4:]] == ["ok"] * 3
+
+
+@pytest.mark.parametrize("text, line", [("not a log\n", 1), ('{"a": 1}\n[1, 2]\n', 2)])
+def test_resume_refuses_a_log_that_is_no_log_naming_the_option(batch, capsys, text, line):
+    argv, out = batch
+    out.mkdir()
+    (out / "notes.txt").write_text(text)
+    assert main(["render", *argv, "--resume", "--log", str(out / "notes.txt")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith(f"wrt: error: --log {out / 'notes.txt'}: line {line} is not a JSON row"), err
+    assert not list(out.glob("*.png")) and (out / "notes.txt").read_text() == text
+
+
+def test_resume_of_one_scene_needs_a_log(tmp_path, capsys):
+    (tmp_path / "a.usda").write_text(STAGE)
+    assert main(["render", str(tmp_path / "a.usda"), "-o", str(tmp_path / "a.png"), "--resume"]) == 2
+    (line,) = [x for x in capsys.readouterr().err.splitlines() if x.startswith("wrt:")]
+    assert "--resume reads the log of an earlier run; give it with --log FILE" in line
+    assert not (tmp_path / "a.png").exists()
+
+
+def test_frames_resume_from_the_log_skips_finished_frames_only(tmp_path, capsys):
+    scene = tmp_path / "moving.usda"
+    scene.write_text('#usda 1.0\n(\n    startTimeCode = 1\n    endTimeCode = 3\n)\ndef Xform "X"\n{\n'
+                     '    double3 xformOp:translate.timeSamples = {1: (0, 0, 0), 3: (0.2, 0, 0)}\n'
+                     '    uniform token[] xformOpOrder = ["xformOp:translate"]\n' + STAGE.split("\n", 1)[1].replace(
+                         "def Mesh", "    def Mesh") + "}\n")
+    log, pattern = tmp_path / "frames.jsonl", str(tmp_path / "f_#.png")
+    argv = ["render", str(scene), "--frames", "1:3", "-o", pattern, "--log", str(log), *SIZE]
+    assert main(argv) == 0
+    first = rows_of(log)
+    assert [(r["frame"], r["status"]) for r in first] == [(1, "ok"), (2, "ok"), (3, "ok")]
+    assert all(r["scene"] == str(scene) and r["spp"] == 1 and r["run"] == first[0]["run"] for r in first)
+    (tmp_path / "f_2.png").unlink()
+    capsys.readouterr()
+    assert main([*argv, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert "skipped 2 of 3 frames" in err and "rendering frame 2 again: " in err and "rendered 1 frame" in err, err
+    second = rows_of(log)[3:]
+    assert sorted((r["frame"], r["status"]) for r in second) == [(1, "skipped"), (2, "ok"), (3, "skipped")]
+    assert len({r["run"] for r in second}) == 1 and second[0]["run"] != first[0]["run"]
+    capsys.readouterr()
+    assert main([*argv, "--resume", "--seed", "1"]) == 0
+    err = capsys.readouterr().err
+    assert "rendering frame 1, frame 2, frame 3 again: options changed" in err and "rendered 3 frames" in err, err

@@ -1,0 +1,142 @@
+"""The JSON-lines log of ``wrt render`` (a batch of scenes, or ``--frames``) and what ``--resume`` reads from it.
+
+Every row names the run that wrote it (``run``, ``run_started_at``): logs are appended to across runs, and
+``pandas.read_json(log, lines=True).groupby("run")`` splits them again. A row also holds what decided its image
+(:data:`OPTION_FIELDS`, the scene file's modification time, the device) and the modification time of the image it
+wrote, so that ``--resume`` skips an image only when the last row about it says it was finished, with the options
+asked now, and the file on disk is still the one that row wrote. Rows of older wrt versions lack those fields: their
+images are rendered again.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import time
+from pathlib import Path
+
+# Row fields that decide an image, as the command line gave them (None: the stage's or wrt's default). A row whose
+# values differ from the run's, or that lacks one, is rendered again. Left out: --builder changes no colour (closest
+# hits break ties by triangle id) but does change the cost AOV, so it is in; --max-memory, --quiet, --log are not.
+OPTION_FIELDS = ("width", "height", "camera", "spp", "seed", "integrator", "max_depth", "ao_radius", "exposure",
+                 "builder", "accel", "time", "refine_level", "variant", "render_settings", "aov", "aov_dir")
+OK_STATUSES = ("ok", "skipped")  # a row of a finished image: rendered by its run, or one run before it
+
+
+def new_run() -> dict:
+    """The fields naming this run in each of its rows: ``run``, an id that sorts by start time, and
+    ``run_started_at``, the start as ISO 8601 UTC (pandas reads ``*_at`` columns as dates)."""
+    now = time.time()
+    stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime(now))
+    started = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(now)) + f".{int(now % 1 * 1e6):06d}Z"
+    return {"run": f"{stamp}-{secrets.token_hex(3)}", "run_started_at": started}
+
+
+def mtime_ns(path) -> int | None:
+    """``path``'s modification time in nanoseconds, or None where there is no such file."""
+    try:
+        return os.stat(path).st_mtime_ns
+    except OSError:
+        return None
+
+
+def device_kind(device) -> str:
+    """``cpu`` or ``cuda``: the images of ``cuda:0`` and ``cuda:1`` are the same, a CPU's may differ in the last
+    bits (the same seed gives the same image on the same device)."""
+    return "cpu" if str(device).startswith("cpu") else "cuda"
+
+
+def read_rows(log: Path, option: str = "--log") -> list[dict]:
+    """The rows of the JSON-lines ``log`` (none where it does not exist). A line that starts as a row but is cut
+    short (a run killed while writing it) is left out; any other line that is not a JSON object is a ValueError
+    naming ``option``, the file and the line: it is not a log of wrt's."""
+    if not log.exists():
+        return []
+    rows = []
+    with open(log, encoding="utf-8", errors="replace") as f:
+        for number, line in enumerate(f, 1):
+            if not line.strip():
+                continue
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError as e:
+                if line.lstrip().startswith("{"):
+                    continue  # cut short: the image it was about is rendered again
+                raise ValueError(f"{option} {log}: line {number} is not a JSON row ({e.msg}); give the log of an "
+                                 "earlier wrt render, or another file") from None
+            if not isinstance(row, dict):
+                raise ValueError(f"{option} {log}: line {number} is not a JSON row (a {type(row).__name__}); give "
+                                 "the log of an earlier wrt render, or another file")
+            rows.append(row)
+    return rows
+
+
+def append_row(log: Path, line: str) -> None:
+    """Appends ``line`` to ``log`` as a line of its own, also after a last line cut short by a killed run."""
+    with open(log, "a+b") as f:
+        if f.tell() > 0:
+            f.seek(-1, os.SEEK_END)
+            if f.read(1) != b"\n":
+                f.write(b"\n")
+        f.write(line.encode() + b"\n")
+
+
+def _same_path(a, b) -> bool:
+    return Path(a).resolve() == Path(b).resolve()
+
+
+class ResumeIndex:
+    """The last row of ``rows`` about each image file, and whether ``--resume`` may skip that image."""
+
+    def __init__(self, rows: list[dict]):
+        self.last = {}
+        for row in rows:
+            if isinstance(row.get("output"), str):
+                self.last[Path(row["output"]).resolve()] = row
+
+    def finished(self, scene, output, options: dict, kinds) -> tuple[dict | None, str]:
+        """``(row, "")`` when ``output`` is an image finished with ``options`` on a device of ``kinds`` (a set of
+        :func:`device_kind`, or None for any), from ``scene`` as it is now; else ``(None, why)`` (``""`` where no
+        row names it)."""
+        row = self.last.get(Path(output).resolve())
+        if row is None:
+            return None, ""
+        run = f"run {row['run']}" if "run" in row else "an earlier run"
+        status = row.get("status", "error" if "error" in row else None)
+        if status not in OK_STATUSES:
+            return None, f"its last row ({run}) says {status or 'nothing of its status'}"
+        if not _same_path(row.get("scene", scene), scene):
+            return None, f"{run} wrote it from {row.get('scene')}"
+        if "run" not in row or "scene_mtime_ns" not in row:
+            return None, f"{run} recorded no options (an older wrt)"
+        changed = [name for name in OPTION_FIELDS if name in options and row.get(name) != options[name]]
+        if changed:
+            said = ", ".join(f"--{n.replace('_', '-')} {_shown(row.get(n))} -> {_shown(options[n])}"
+                             for n in changed)
+            return None, f"options changed since {run}: {said}"
+        if row["scene_mtime_ns"] != mtime_ns(scene):
+            return None, f"{Path(scene).name} changed since {run}"
+        if kinds is not None and device_kind(row.get("device")) not in kinds:
+            return None, f"{run} rendered it on {row.get('device')}"
+        for file in row.get("aov_files", []):
+            if mtime_ns(file) is None:
+                return None, f"{file} of {run} is missing"
+        stamp = mtime_ns(output)
+        if stamp is None:
+            return None, f"{output} of {run} is missing"
+        if stamp != row.get("output_mtime_ns"):
+            return None, f"{output} was written again after {run}"
+        return row, ""
+
+
+def _shown(value) -> str:
+    """An option value as a user typed it: None is the default, lists are the repeated option's values."""
+    if value is None:
+        return "(default)"
+    if isinstance(value, list):
+        return ",".join(map(str, value)) or "(none)"
+    return str(value)
+
+
+__all__ = ["OPTION_FIELDS", "ResumeIndex", "append_row", "device_kind", "mtime_ns", "new_run", "read_rows"]
