@@ -76,9 +76,11 @@ def test_epo_sample_counts_are_checked(capsys):
         with pytest.raises(ValueError, match="epo_samples"):
             bvh.stats(epo_samples=bad)
     assert bvh.stats(epo_samples=0)["epo"] is None and bvh.stats(epo_samples=np.int64(16))["epo"] == 0.0
-    assert main(["bvh-stats", str(warp_assets("cube.usd")), "--epo-samples", "1000000000"]) == 2
+    with pytest.raises(SystemExit) as exit_info:  # refused as read, naming the option
+        main(["bvh-stats", str(warp_assets("cube.usd")), "--epo-samples", "1000000000"])
+    assert exit_info.value.code == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
-    assert len(err) == 1 and "epo_samples" in err[0]
+    assert len(err) == 1 and "argument --epo-samples: " in err[0]
 
 
 def test_empty_tree_stats():
@@ -199,12 +201,12 @@ def test_cli_bvh_stats_table_shows_the_chosen_layouts_node_count(capsys):
     [
         (["--builder", "kdtree"], "valid builders"),
         (["--builder", "warp:kd"], "valid Warp builders"),
-        (["--bins", "1"], "bins must lie"),
+        (["--bins", "1"], "argument --bins: must be an integer from 2 to"),
         (["--layout", "bvh16"], "invalid choice"),
         (["--device", "tpu"], "available devices"),
-        (["--traversal-cost", "inf"], "traversal_cost must be finite"),
-        (["--builder", "warp:sah", "--traversal-cost", "-5"], "traversal_cost must be finite and >= 0"),
-        (["--builder", "warp:sah", "--intersection-cost", "nan"], "intersection_cost finite and > 0"),
+        (["--traversal-cost", "inf"], "argument --traversal-cost: must be a finite number"),
+        (["--builder", "warp:sah", "--traversal-cost", "-5"], "argument --traversal-cost: must be a number at least 0"),
+        (["--builder", "warp:sah", "--intersection-cost", "nan"], "argument --intersection-cost: must be a finite"),
     ],
 )
 def test_cli_bvh_stats_bad_input_is_one_line_and_exit_2(capsys, args, needle):
@@ -300,3 +302,32 @@ def test_stats_refuse_cost_constants_that_build_bvh_refuses(costs):
     bvh = build_bvh(points, np.array([[0, 1, 2]], np.int32), "sah")
     with pytest.raises(ValueError, match="traversal_cost must be finite"):
         bvh.stats(*costs)
+
+
+@pytest.mark.parametrize(
+    "option, value, words",
+    [
+        ("--presplit", "-1", "must be an integer from 0 to 6, got -1"),
+        ("--presplit", "99", "must be an integer from 0 to 6, got 99"),
+        ("--bins", "1", "must be an integer from 2 to 64, got 1"),
+        ("--leaf-size", "100000", "must be an integer from 1 to 65536, got 100000"),
+        ("--epo-samples", "1000000000000", "got 1000000000000"),
+        ("--traversal-cost", "-1", "must be a number at least 0, got -1"),
+        ("--traversal-cost", "nan", "must be a finite number, got nan"),
+        ("--intersection-cost", "0", "must be a positive number, got 0"),
+        ("--time", "inf", "must be a finite number, got inf"),
+        ("--builder", "foo", "unknown BVH builder 'foo'"),
+        ("--builder", "warp:foo", "unknown Warp builder 'warp:foo'"),
+        ("--builder", ",", "no builder given"),
+    ],
+)
+def test_cli_bad_values_are_named_by_their_option_before_the_scene_loads(tmp_path, capsys, option, value, words):
+    """The errors named the Python argument ('presplit must lie in [0, 6] ...', 'traversal_cost must be finite') or
+    no option at all ('unknown BVH builder'), and came after the scene had loaded."""
+    from wrt.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:  # the scene does not exist: a load would say so instead
+        main(["bvh-stats", str(tmp_path / "missing.usda"), option, value])
+    assert exit_info.value.code == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt")]
+    assert len(lines) == 1 and lines[0].startswith(f"wrt: error: argument {option}: ") and words in lines[0], lines

@@ -132,10 +132,41 @@ def format_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _builders(text: str) -> str:
+    """An argparse type: one ``--builder`` value, comma-separated names :func:`parse_builders` reads."""
+    import argparse
+
+    try:
+        parse_builders(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text
+
+
+def _non_negative_float(text: str) -> float:
+    """An argparse type: a finite number at least 0 (``--traversal-cost``)."""
+    import argparse
+
+    from ..cli import _finite_float
+
+    value = _finite_float(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a number at least 0, got {text}")
+    return value
+
+
 def add_bvh_stats(sub) -> None:
     """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
-    from ..cli import HelpFormatter, add_stage_options, positive_int
+    from ..cli import HelpFormatter, _finite_float, _positive_float, add_stage_options, int_at_least, positive_int
     from ..trace import ACCELERATOR_PRESPLIT
+    from .common import MAX_BINS, MAX_LEAF_SIZE
+    from .presplit import MAX_SPLIT_LEVELS
+    from .stats import MAX_EPO_SAMPLES
+
+    # Each value is checked as it is read, so an error names the option typed (it named the Python argument, as
+    # 'presplit must lie in [0, 6]', and came after the scene's load).
+    def up_to(lo: int, hi: int):
+        return int_at_least(lo, f"an integer from {lo} to {hi}", hi)
 
     p = sub.add_parser(
         "bvh-stats",
@@ -149,21 +180,24 @@ def add_bvh_stats(sub) -> None:
     p.add_argument(
         "--builder",
         action="append",
+        type=_builders,
         help=f"builders, comma-separated or repeated: {', '.join(builder_names())}, all, or warp:<name> for "
         "wp.Mesh's tree (default: sah)",
     )
     p.add_argument("--layout", default="binary", choices=LAYOUTS, help="layout whose node count and bytes are shown")
-    p.add_argument("--leaf-size", type=positive_int, default=None, help="wrt's most triangles per leaf (default 8)")
+    p.add_argument("--leaf-size", type=up_to(1, MAX_LEAF_SIZE), default=None,
+                   help="wrt's most triangles per leaf (default 8)")
     p.add_argument("--warp-leaf-size", type=positive_int, default=None, help="Warp's bvh_leaf_size (default: Warp's)")
-    p.add_argument("--bins", type=positive_int, default=16, help="SAH bins per axis for sah")
-    p.add_argument("--traversal-cost", type=float, default=1.0, help="SAH constant C_t (node visit)")
-    p.add_argument("--intersection-cost", type=float, default=1.0, help="SAH constant C_i (triangle test)")
-    p.add_argument("--epo-samples", type=positive_int, default=1 << 16, help="surface samples of the EPO estimate")
-    p.add_argument("--presplit", type=int, default=0,
+    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=16, help="SAH bins per axis for sah")
+    p.add_argument("--traversal-cost", type=_non_negative_float, default=1.0, help="SAH constant C_t (node visit)")
+    p.add_argument("--intersection-cost", type=_positive_float, default=1.0, help="SAH constant C_i (triangle test)")
+    p.add_argument("--epo-samples", type=up_to(1, MAX_EPO_SAMPLES), default=1 << 16,
+                   help="surface samples of the EPO estimate")
+    p.add_argument("--presplit", type=up_to(0, MAX_SPLIT_LEVELS), default=0,
                    help="pre-split levels of wrt's builds: long diagonal triangles become up to 2**K references; the "
                    f"sah trees of renders and wrt bench use {ACCELERATOR_PRESPLIT}; no EPO for trees so built")
     p.add_argument("--device", default="cpu", help="Warp device to build on, e.g. cpu or cuda:0")
-    p.add_argument("--time", type=float, default=None, help="USD time code; default: the default time")
+    p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
     add_stage_options(p)
     p.add_argument("--json", action="store_true", help="print JSON rows instead of a table")
     p.set_defaults(run=run_bvh_stats)
