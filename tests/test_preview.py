@@ -1031,3 +1031,23 @@ def test_cluster_vertices_keeps_every_triangle_facing_as_its_source(bunny):
         corners = p[i].astype(np.float64)
         facing = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         assert np.all(np.einsum("ij,ij->i", facing, source[r[:, 0]]) >= 0), budget
+
+
+def test_sample_rays_of_a_film_above_the_render_pixel_limit(room):
+    """--rays with --width 10000 --height 7500 failed on the renderer's pixel limit (75,000,000 pixels; at most
+    67,108,864), though the film only gives the rays' aspect: 48 rays are an 8x6 grid, those of an 8x6 render."""
+    _, _, t = sample_rays(room, resolve_camera(room, None), 10000, 7500, 48)
+    depth = wrt.render(room, width=8, height=6, device="cpu").aovs["depth"].reshape(-1)
+    np.testing.assert_array_equal(np.isfinite(t), np.isfinite(depth))
+    np.testing.assert_allclose(t[np.isfinite(t)], depth[np.isfinite(depth)], rtol=1e-5)
+
+
+@pytest.mark.parametrize("command", ["preview", "render"])
+def test_cli_image_above_the_pixel_limit_is_refused_naming_the_options(tmp_path, capsys, command):
+    """--image renders the film: 10000x10000 was refused naming neither option (after the load: a data window of the
+    stage may crop the size given), and inside the preview for wrt preview."""
+    argv = [command, "--width", "10000", "--height", "10000", "-o", str(tmp_path / "p.png")]
+    assert main(argv + (["--image"] if command == "preview" else [])) == 2
+    line = [x for x in capsys.readouterr().err.splitlines() if x.startswith("wrt")][-1]
+    assert line.startswith("wrt: error: --width 10000 --height 10000: 10000x10000 is 100,000,000 pixels"), line
+    assert not (tmp_path / "p.png").exists()

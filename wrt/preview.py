@@ -528,9 +528,10 @@ def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, buil
     inputs = [cam.to_struct(width, height), gw, gh, 0, 0]
     wp.launch(generate_rays_kernel, total, inputs=inputs, outputs=out, device=device)
     hits = HitBuffer(total, device)
-    # The renderer's own accelerator and culling: rays pass back faces of single-sided meshes and cut-out holes.
-    renderer = Renderer(scene, camera=cam, width=width, height=height, device=device, builder=builder,
-                        integrator="depth")
+    # The renderer's own accelerator and culling: rays pass back faces of single-sided meshes and cut-out holes. Its
+    # film is the ray grid: none of its pixels are drawn, and one of width x height was refused above the renderer's
+    # pixel limit (a 10000x10000 film for 48 rays), where the film is only an aspect here.
+    renderer = Renderer(scene, camera=cam, width=gw, height=gh, device=device, builder=builder, integrator="depth")
     scratch = CullScratch(total, device, renderer.nothing_to_cull, renderer.no_holes)
     intersect_visible(renderer.accel, renderer.surfaces, renderer.materials, renderer.device_scene, out, hits, scratch)
     pick = np.round(np.linspace(0, total - 1, n)).astype(np.int64)
