@@ -136,7 +136,8 @@ def test_a_cuda_device_without_cuda_is_one_line_not_warps_native_errors(tmp_path
         assert result.returncode == 2
         assert "CUDA error" not in result.stderr, result.stderr
         (line,) = error_lines(result.stderr)
-        assert line == f"wrt: error: unknown or unavailable device '{device}'; available devices: cpu", line
+        assert line == (f"wrt: error: --device {device}: unknown or unavailable device '{device}'; available "
+                        "devices: cpu"), line
 
 
 def test_a_camera_not_on_the_stage_names_the_file_and_the_prim(tmp_path, capsys):
@@ -595,18 +596,24 @@ def test_an_empty_value_is_refused_naming_the_option(tmp_path, capsys, command, 
 
 
 @pytest.mark.parametrize("command", [["render", "a.usda", "b.usda", "-o", "out/"], ["render", "a.usda"],
-                                     ["preview", "a.usda", "-o", "p.png"]])
+                                     ["preview", "a.usda", "-o", "p.png"], ["bvh-stats", "a.usda"],
+                                     ["render", "a.usda", "--frames", "1:2", "-o", "out/f_#.png", "--devices", "cpu"]])
 def test_a_bad_device_is_one_error_before_any_scene_loads(tmp_path, capsys, command):
     """--device gpu was looked up only once a scene had loaded: each scene of a batch loaded, then failed as if it
-    were the scene's fault ('a.usda: unknown or unavailable device'), and the log listed every scene as failed."""
+    were the scene's fault ('a.usda: unknown or unavailable device'), and the log listed every scene as failed. The
+    error names the option (it named only the value; bvh-stats and --frames --devices, only after the load)."""
+    option = "--devices" if "--devices" in command else "--device"
+    if option == "--devices":
+        command = command[:-1]  # its value is the bad one
     stage = ('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
              '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
     for name in ("a.usda", "b.usda"):
         (tmp_path / name).write_text(stage)
     argv = [str(tmp_path / a) if a.endswith((".usda", "/", ".png")) else a for a in command]
-    assert main([*argv, "--device", "gpu", "--width", "8", "--height", "6"]) == 2
+    size = [] if command[0] == "bvh-stats" else ["--width", "8", "--height", "6"]
+    assert main([*argv, *(["gpu"] if option == "--devices" else ["--device", "gpu"]), *size]) == 2
     (line,) = error_lines(capsys.readouterr().err)  # no 'loaded' line
-    assert line == "wrt: error: unknown or unavailable device 'gpu'; available devices: " + ", ".join(
+    assert line == f"wrt: error: {option} gpu: unknown or unavailable device 'gpu'; available devices: " + ", ".join(
         d.alias for d in wp.get_devices()), line
     assert not (tmp_path / "out").exists()
 

@@ -562,9 +562,9 @@ def _run_render(args) -> int:
         raise ValueError("give --devices or --dask, not both: Dask workers each render on their own device")
     _warn_unused_integrator_options(args)
     if not (args.devices or args.dask is not None):  # those choose their own devices, checked where they are used
-        from .bvh.common import resolve_device
+        from .bvh.common import resolve_device_option
 
-        resolve_device(args.device)  # one error before any load, not one per scene of a batch, after each load
+        resolve_device_option(args.device)  # one error before any load, not one per scene of a batch after its load
     if args.products is not None:
         return _run_products(args, paths, progress)
     if args.frames:
@@ -595,9 +595,9 @@ def _run_render(args) -> int:
     options = _log_options(args)
     done = _finished_images(args, log, jobs, options, progress) if args.resume else {}
     log.parent.mkdir(parents=True, exist_ok=True)
-    from .bvh.common import resolve_device
+    from .bvh.common import resolve_device_option
 
-    run, device = new_run(), str(resolve_device(args.device))  # cuda:0 where --device said cuda
+    run, device = new_run(), str(resolve_device_option(args.device))  # cuda:0 where --device said cuda
     failures = []
 
     def write_row(row: dict, start: float) -> None:
@@ -729,6 +729,11 @@ def _run_frames(args, paths: list, progress) -> int:
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
     if not devices:
         raise ValueError(f"--devices {args.devices!r} names no device; give e.g. cuda:0,cuda:1")
+    if args.dask is None:
+        from .bvh.common import resolve_device_option
+
+        for device in devices:  # before the first frame loads, naming the option
+            resolve_device_option(device, "--devices" if args.devices else "--device")
     common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": progress.bar,
               "log": args.log, "log_row": log_row}  # a row per frame as it finishes: an interrupted run keeps them
     common.update(_renderer_options(args), **_load_options(args))
@@ -848,9 +853,9 @@ def _run_preview(args) -> int:
         raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
     if output is not None:  # an unwritable output fails now, not after the load and the preview
         _check_output_file(Path(output))
-    from .bvh.common import resolve_device
+    from .bvh.common import resolve_device_option
 
-    resolve_device(args.device)  # before the load, as the output
+    resolve_device_option(args.device)  # before the load, as the output
     if args.bvh_color != "depth" and args.bvh_depth is None and not args.bvh_leaves:
         warnings.warn(f"--bvh-color {args.bvh_color} colours BVH boxes, and none are drawn without --bvh-depth K or "
                       "--bvh-leaves", stacklevel=2)

@@ -194,6 +194,14 @@ def resolve_device(device) -> wp.Device:
     raise ValueError(f"unknown or unavailable device {device!r}; available devices: {available}") from error
 
 
+def resolve_device_option(value: str, option: str = "--device") -> wp.Device:
+    """:func:`resolve_device` for a command-line option: its error names the option as typed."""
+    try:
+        return resolve_device(value)
+    except ValueError as e:
+        raise ValueError(f"{option} {value}: {e}") from None
+
+
 class BuildInput:
     """Checked build input on one device: vertex and index arrays and the per-triangle bounds.
 

@@ -210,10 +210,10 @@ def run_bvh_stats(args) -> int:
     import wrt
 
     from ..cli import stage_options
-    from ..trace import resolve_device
+    from .common import resolve_device_option
 
     builders = parse_builders(args.builder or ["sah"])
-    device = resolve_device(args.device)
+    device = resolve_device_option(args.device)
     # Gprims as triangle meshes, as wrt bench measures them: loaded as analytic shapes they are in no BVH over
     # triangles, and a stage of spheres and cubes reported an empty tree.
     scene = wrt.load_usd(args.scene, time=args.time, tessellate_gprims=True, **stage_options(args))
