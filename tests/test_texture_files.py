@@ -255,3 +255,90 @@ def test_an_exr_uint_channel_beside_colour_is_ignored(tmp_path):
     channels = {c: rgb[..., k] for k, c in enumerate("RGB")} | {"id": np.arange(6, dtype=np.uint32).reshape(2, 3)}
     image = load_image(write_exr(tmp_path / "beauty.exr", channels), "auto")
     np.testing.assert_array_equal(image, np.concatenate([rgb, np.ones((2, 3, 1), np.float32)], axis=-1))
+
+
+# Luminance weights of R, G, B as published: Rec.709 (SMPTE RP 177 from its primaries and D65) and ACES AP1
+# (ACEScg; ACES TB-2014-004), for files without and with a chromaticities attribute.
+LUMINANCE_WEIGHTS = {"rec709": (None, (0.212639, 0.715169, 0.072192)),
+                     "ap1": ((0.713, 0.293, 0.165, 0.830, 0.128, 0.044, 0.32168, 0.33767),
+                             (0.2722287168, 0.6740817658, 0.0536895174))}
+
+
+def luminance_chroma(rgb, weights):
+    """Y, RY = (R - Y) / Y and BY = (B - Y) / Y of ``(H, W, 3)`` float64 RGB (OpenEXR's luminance-chroma
+    channels)."""
+    y = rgb @ np.asarray(weights)
+    return y, (rgb[..., 0] - y) / y, (rgb[..., 2] - y) / y
+
+
+def yc_exr(tmp_path, rgb, weights, chromaticities, subsampled, alpha=None):
+    """An EXR of ``rgb`` as Y, RY, BY (and A), written byte by byte; the chroma at every pixel, or at the even x and
+    y only (2 x 2 sampling, as OpenEXR's RgbaOutputFile writes WRITE_YC files)."""
+    from exr_bytes import half_exr
+
+    h, w, _ = rgb.shape
+    y, ry, by = luminance_chroma(rgb, weights)
+    step = 2 if subsampled else 1
+    channels = {"Y": y, "RY": ry[::step, ::step], "BY": by[::step, ::step]} | ({} if alpha is None else {"A": alpha})
+    sampling = {"RY": (step, step), "BY": (step, step)}
+    path = tmp_path / "yc.exr"
+    path.write_bytes(half_exr(w, h, channels, sampling, chromaticities))
+    return str(path)
+
+
+@pytest.mark.parametrize("subsampled", [True, False], ids=["2x2", "full"])
+@pytest.mark.parametrize("primaries", list(LUMINANCE_WEIGHTS))
+def test_a_luminance_chroma_exr_reads_as_its_rgb(tmp_path, primaries, subsampled):
+    """Y, RY, BY (+ A) EXRs read as the colour they were made of, the luminance weights from the file's
+    chromaticities (Rec.709 without them), as OpenEXR's RgbaInputFile reads them; one hue at many brightnesses, so
+    the subsampled chroma is whole. They read grey (Y alone)."""
+    pytest.importorskip("OpenEXR")
+    chromaticities, weights = LUMINANCE_WEIGHTS[primaries]
+    rng = np.random.default_rng(17)
+    rgb = rng.uniform(0.05, 4.0, (6, 10, 1)) * np.array([0.9, 0.35, 0.1])
+    alpha = rng.random((6, 10))
+    image = load_image(yc_exr(tmp_path, rgb, weights, chromaticities, subsampled, alpha), "auto")
+    np.testing.assert_allclose(image[..., :3], rgb, rtol=3e-3)  # half floats: 2^-11 per rounding, a few of them
+    np.testing.assert_allclose(image[..., 3], alpha, atol=5e-4)
+
+
+def test_a_luminance_chroma_exr_of_any_colours_at_every_pixel_reads_as_its_rgb(tmp_path):
+    """Chroma stored at every pixel (which RgbaInputFile refuses) is converted pixel by pixel: any colours."""
+    pytest.importorskip("OpenEXR")
+    rgb = np.random.default_rng(19).uniform(0.05, 2.0, (5, 7, 3))
+    image = load_image(yc_exr(tmp_path, rgb, LUMINANCE_WEIGHTS["rec709"][1], None, False), "auto")
+    # A component far below Y comes from RY or BY near -1: half precision of the chroma, relative to Y.
+    np.testing.assert_allclose(image[..., :3], rgb, rtol=3e-3, atol=2e-3)
+    np.testing.assert_array_equal(image[..., 3], 1.0)
+
+
+def test_subsampled_chroma_is_interpolated_between_its_samples(tmp_path):
+    """2 x 2 subsampled chroma varying linearly across the image is rebuilt at the pixels between samples (OpenEXR's
+    symmetric filter, whose weights sum to 1, keeps a linear ramp away from the edges), under luminance that
+    changes at every pixel; nearest-sample chroma would be a step off."""
+    pytest.importorskip("OpenEXR")
+    h = w = 40
+    yy, xx = np.mgrid[0:h, 0:w] / 40.0
+    ry, by = 0.6 * xx - 0.3 + 0.2 * yy, 0.5 * yy - 0.4 + 0.1 * xx  # chroma ramps (saturation well under 0.75)
+    luma = np.random.default_rng(23).uniform(0.2, 1.5, (h, w))
+    wr, wg, wb = LUMINANCE_WEIGHTS["rec709"][1]
+    r, b = (ry + 1) * luma, (by + 1) * luma
+    rgb = np.stack([r, (luma - wr * r - wb * b) / wg, b], axis=-1)
+    image = load_image(yc_exr(tmp_path, rgb, (wr, wg, wb), None, True), "auto")
+    inner = (slice(14, h - 16), slice(14, w - 16))  # 7 samples from every edge: the filter's taps all inside
+    np.testing.assert_allclose(image[inner][..., :3], rgb[inner], rtol=3e-3)
+    assert np.all(np.isfinite(image)) and image[..., :3].min() > 0.0
+
+
+def test_an_exr_of_chroma_sampled_otherwise_warns_naming_the_file_and_reads_the_fallback(tmp_path):
+    """RY, BY at one sample per 4 x 4 pixels (RgbaInputFile reads 2 x 2 only): the file is named in a warning and
+    the fallback drawn; it was read grey without a word."""
+    from exr_bytes import half_exr
+
+    path = tmp_path / "yc4.exr"
+    chroma = np.full((2, 2), 0.25)
+    path.write_bytes(half_exr(8, 8, {"Y": np.ones((8, 8)), "RY": chroma, "BY": -chroma}, {"RY": (4, 4), "BY": (4, 4)}))
+    with pytest.warns(UserWarning, match=r"yc4\.exr.*chroma RY, BY"):
+        scene = wrt.load_usd(textured_stage(tmp_path, str(path)))
+    assert scene.materials[0].textures == {}
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black

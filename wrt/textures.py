@@ -1,5 +1,5 @@
-"""Textures: reading images (Pillow, OpenEXR, Radiance ``.hdr`` in ``radiance_hdr.py``) into linear RGBA, and
-bilinear lookups with UsdUVTexture's wrap modes.
+"""Textures: reading images (Pillow, OpenEXR, luminance-chroma EXRs in ``exr_yca.py``, Radiance ``.hdr`` in
+``radiance_hdr.py``) into linear RGBA, and bilinear lookups with UsdUVTexture's wrap modes.
 
 Conventions, stated once:
 
@@ -27,6 +27,8 @@ import io
 import numpy as np
 import warp as wp
 
+from .exr_yca import yca_rgba
+
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3}  # UsdUVTexture wrapS/wrapT tokens
 WRAP_REPEAT = wp.constant(0)
 WRAP_MIRROR = wp.constant(1)
@@ -41,6 +43,7 @@ SIXTEEN_BIT_RAWMODES = ("RGB;16B", "RGB;16L", "RGBA;16B", "RGBA;16L", "LA;16B")
 # Hydra's EXR reader matches (its strIsComponent); Y is luminance.
 EXR_CHANNEL_ROLES = {"r": "R", "red": "R", "g": "G", "green": "G", "b": "B", "blue": "B", "a": "A", "alpha": "A",
                      "y": "Y"}
+EXR_CHROMA_ROLES = {"ry": "RY", "by": "BY"}  # the chroma beside Y of a luminance-chroma EXR (OpenEXR's RgbaYca)
 UDIM_FIRST = 1001  # number of the UDIM tile at st in [0, 1)^2
 UDIM_COLUMNS = wp.constant(10)  # UDIM tiles per row (u = 0..9)
 UDIM_ROWS = wp.constant(10)  # rows of UDIM tiles read (v = 0..9)
@@ -252,12 +255,13 @@ def _read_exr(data: bytes, name: str) -> np.ndarray:
         try:
             with OpenEXR.File(tmp.name, separate_channels=True) as f:
                 channels = {k: np.asarray(v.pixels) for k, v in f.channels().items()}  # uint32, float16 or 32
+                chromaticities = f.header().get("chromaticities")
         except Exception as e:  # noqa: BLE001
             raise TextureError(f"cannot read EXR {name}: {e}") from None
-    return exr_rgba(channels, name)
+    return exr_rgba(channels, name, chromaticities)
 
 
-def exr_rgba(channels: dict[str, np.ndarray], name: str) -> np.ndarray:
+def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) -> np.ndarray:
     """``(H, W, 4)`` float32 RGBA of an EXR's channels (full name -> ``(H, W)`` samples), mapped by the last part of
     each name (after its layer's ``.``), single letters or words in any case (:data:`EXR_CHANNEL_ROLES`), as
     Hydra's EXR reader matches them: the unnamed layer's channels, else those of the one layer that has any.
@@ -265,8 +269,10 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str) -> np.ndarray:
     - ``R``, ``G``, ``B``: each in its place, a missing one 0, alpha ``A`` or 1 (OpenEXR's RGBA interface; Hydra's
       reader for ``R G``, ``R G B`` and ``R G B A``: a two-channel texture samples as ``(R, G, 0, 1)``). A file of
       one colour channel reads as grey, as Storm draws every one-channel texture ``(c, c, c, 1)``.
-    - ``Y`` without colour: grey, alpha ``A`` or 1 (luminance images; chroma ``RY``/``BY`` are not read, so
-      luminance-chroma files are grey, as in Storm).
+    - ``Y`` without colour: grey, alpha ``A`` or 1 (luminance images). With chroma ``RY``/``BY`` beside it (a
+      luminance-chroma file, full-size or one sample per 2 x 2 pixels) RGB as OpenEXR's ``RgbaInputFile``
+      reconstructs it (:func:`wrt.exr_yca.yca_rgba`), the luminance weights from ``chromaticities`` (the file's
+      attribute, 8 numbers; None: Rec.709). Storm reads such files grey.
     - ``A`` alone: ``(0, 0, 0, A)``, as OpenEXR's RGBA interface reads it (Hydra's reader writes it outside the
       pixel's texel).
 
@@ -274,19 +280,25 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str) -> np.ndarray:
 
     Raises:
         TextureError: no channel maps to one of these, several layers do and none is unnamed, the mapped
-            channels differ in size (subsampled ones), or one of them holds 32-bit unsigned integers (``UINT``: ids
-            or counts, not light; an id of 4e9 was read as that much light). Hydra's reader gives such a file
-            black, or fails: its EXR reader takes the file's sample type from its first channel and converts
-            ``UINT`` to neither half nor float, so Storm draws the fallback of an all-``UINT`` file.
+            channels differ in size (subsampled ones other than 2 x 2 chroma), or one of them holds 32-bit
+            unsigned integers (``UINT``: ids or counts, not light; an id of 4e9 was read as that much light).
+            Hydra's reader gives such a file black, or fails: its EXR reader takes the file's sample type from its
+            first channel and converts ``UINT`` to neither half nor float, so Storm draws the fallback of an
+            all-``UINT`` file.
     """
     layers: dict[str, dict[str, np.ndarray]] = {}
+    chroma_layers: dict[str, dict[str, np.ndarray]] = {}  # RY, BY: read only beside Y and no R, G, B
     full_names: dict[tuple[str, str], str] = {}  # (layer, role) -> the channel's name in the file
     for full_name, samples in channels.items():
         layer, _, last = full_name.rpartition(".")
         role = EXR_CHANNEL_ROLES.get(last.lower())
+        chroma_role = EXR_CHROMA_ROLES.get(last.lower())
         if role is not None:
             layers.setdefault(layer, {})[role] = samples
-            full_names[layer, role] = full_name
+        if chroma_role is not None:
+            chroma_layers.setdefault(layer, {})[chroma_role] = samples
+        if role or chroma_role:
+            full_names[layer, role or chroma_role] = full_name
     found = ", ".join(sorted(channels)) or "none"
     if not layers:
         raise TextureError(f"EXR {name} has no R, G, B, Y or A channel (found {found})")
@@ -298,13 +310,19 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str) -> np.ndarray:
     if len({v.shape for v in mapped.values()}) > 1:
         sizes = ", ".join(f"{k} {v.shape[1]}x{v.shape[0]}" for k, v in sorted(mapped.items()))
         raise TextureError(f"EXR {name}: its channels differ in size ({sizes}); subsampled channels are not read")
-    integer = sorted(full_names[image_layer, k] for k, v in mapped.items() if v.dtype.kind in "iu")
+    colour = [c for c in "RGB" if c in mapped]
+    chroma = chroma_layers.get(image_layer, {}) if "Y" in mapped and not colour else {}
+    integer = sorted(full_names[image_layer, k] for k, v in (mapped | chroma).items() if v.dtype.kind in "iu")
     if integer:
         raise TextureError(f"EXR {name}: channel {', '.join(integer)} holds unsigned integers (UINT: ids or "
                            "counts), which Storm does not read as colour")
     mapped = {k: np.asarray(v, np.float32) for k, v in mapped.items()}
     alpha = mapped.get("A")
-    colour = [c for c in "RGB" if c in mapped]
+    if chroma:
+        try:
+            return yca_rgba(mapped["Y"], chroma.get("RY"), chroma.get("BY"), alpha, chromaticities)
+        except ValueError as e:
+            raise TextureError(f"EXR {name}: {e}") from None
     if colour and len(channels) == 1:
         return _grey_rgba(mapped[colour[0]], None)
     if not colour and "Y" in mapped:
