@@ -1,6 +1,7 @@
 """Materials from USD: UsdPreviewSurface inputs, binding rules (subsets, collections, purpose), fallbacks for other
 shaders, UsdUVTexture lookups (colour spaces, wrap modes, UsdTransform2d), cut-outs and doubleSided culling."""
 
+import re
 import struct
 import warnings
 import zlib
@@ -941,3 +942,30 @@ def test_materialx_preview_surface_in_a_render_context_is_read(tmp_path):
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
     img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu")
     np.testing.assert_allclose(img.rgb, np.broadcast_to([2, 1, 0.5], (4, 4, 3)), rtol=1e-6)
+
+
+def test_the_missing_texture_coordinates_warning_names_the_meshs_2_3_and_4_vector_primvars(tmp_path):
+    """Where the mesh lacks the primvar its reader names, the warning lists the primvars that could stand in: every
+    array of 2-, 3- or 4-vectors, as 3- and 4-vector texture coordinates are read (their first two components). It
+    listed texCoord2/3 and float2/double2 only, so Houdini's ``float3[] uv`` went unnamed. Colours, normals, points
+    and a constant float2 that is no array are not texture coordinates."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png)
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader.Get(stage, "/Looks/Tex/St").GetInput("varname").Set("uv_missing")
+    api = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad"))
+    names = {"uv3": "Float3Array", "uv4": "Float4Array", "uvd": "Double3Array", "uvh": "Half2Array",
+             "uvw": "TexCoord3fArray", "Cd": "Color3fArray", "N": "Normal3fArray", "rest": "Point3fArray",
+             "pivot": "Float2"}
+    for name, type_name in names.items():
+        value_type = getattr(Sdf.ValueTypeNames, type_name)
+        primvar = api.CreatePrimvar(name, value_type, UsdGeom.Tokens.constant)
+        primvar.Set(value_type.defaultValue if not value_type.isArray else
+                    value_type.type.pythonClass([value_type.scalarType.defaultValue]))
+    stage.Save()
+    _, messages = load_with_messages(path)
+    named = [m for m in messages if "uv_missing" in m]
+    assert len(named) == 1, messages
+    listed = re.search(r"the mesh has ([^:]*): 1\)", named[0]).group(1).split(", ")
+    expected = {"st", "uv3", "uv4", "uvd", "uvh", "uvw"}  # st: the quad's own texCoord2f[]
+    assert set(listed) == expected, named[0]

@@ -10,8 +10,12 @@ from .usd_primvars import finite_colors, first_of_constant, unit_opacities
 from .usd_values import value_at
 
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
-# Primvar types named as the texture coordinates a mesh has where it lacks the ones its material reads
-TEXTURE_COORDINATE_TYPES = ("texCoord2f", "float2", "texCoord2d", "double2", "texCoord3f", "texCoord3d")
+# Array types of the primvars named as the texture coordinates a mesh has where it lacks the ones its material
+# reads: every 2-, 3- and 4-vector _read_uvs reads (it takes the first two components), less those whose role says
+# they are something else (point3f, normal3f, color3f, ...).
+TEXTURE_COORDINATE_TYPES = ("texCoord2f[]", "texCoord2d[]", "texCoord2h[]", "texCoord3f[]", "texCoord3d[]",
+                            "texCoord3h[]", "float2[]", "double2[]", "half2[]", "float3[]", "double3[]", "half3[]",
+                            "float4[]", "double4[]", "half4[]")
 
 
 class MeshPrimvarReading:
@@ -82,7 +86,7 @@ class MeshPrimvarReading:
                                "their fallback", prim, f"{uv_set}: {bad} of {len(found[0])} values")
             return found
         others = [str(p.GetPrimvarName()) for p in api.GetPrimvarsWithValues()
-                  if str(p.GetTypeName()).rstrip("[]") in TEXTURE_COORDINATE_TYPES]
+                  if str(p.GetTypeName()) in TEXTURE_COORDINATE_TYPES]
         reason = ("meshes without the texture-coordinate primvar their material reads show the texture at the "
                   "primvar reader's fallback st")
         has = f"; the mesh has {', '.join(others)}" if others else ""
