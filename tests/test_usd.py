@@ -1095,14 +1095,37 @@ def test_a_constant_primvar_of_several_values_reads_its_first(tmp_path):
     messages = [str(w.message) for w in caught]
     warned = [m for m in messages if "constant primvars holding several values" in m]
     assert len(warned) == 1, messages
-    # Each colour and opacity: the mesh's two, the tint, the ball's two and the points' colour.
-    assert "6 prim(s) (primvars:displayColor: 3, primvars:displayOpacity: 2, primvars:tint: 1)" in warned[0], warned
+    # Each colour and opacity: the mesh's two, the tint, the ball's two and the points' colour, on four prims.
+    assert "4 prim(s) (primvars:displayColor: 3, primvars:displayOpacity: 2, primvars:tint: 1)" in warned[0], warned
 
     # The albedo AOV of the tinted mesh (the unit square at z = 0) seen from above shows the first value.
     cam = wrt.Camera.orthographic(eye=(0.5, 0.5, 3), target=(0.5, 0.5, 0), height=0.5)
     img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo")
     np.testing.assert_allclose(img.aovs["albedo"].reshape(-1, 3), np.tile(first("/World/Tinted", "tint"), (16, 1)),
                                atol=1e-6)
+
+
+def test_a_constant_primvar_warning_names_each_prim_once(tmp_path):
+    """Prims whose constant displayColor and displayOpacity both hold several values are each named once in the
+    warning and counted once (the tally counts the primvars); it read '4 prim(s) (...): /World/Mesh, /World/Mesh,
+    /World/Ball, ...'. The oracle: the prims USD finds with a constant primvar of several values."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "scene.usda"))
+    mesh = define_mesh(stage, "/World/Mesh")
+    ball = UsdGeom.Sphere.Define(stage, "/World/Ball")
+    for gprim in (mesh, ball):
+        gprim.CreateDisplayColorAttr(Vt.Vec3fArray([Gf.Vec3f(*c) for c in SEVERAL]))
+        gprim.CreateDisplayOpacityAttr([0.25, 0.5])
+    stage.Save()
+    expected = [str(p.GetPath()) for p in stage.Traverse() if any(
+        pv.GetInterpolation() == UsdGeom.Tokens.constant and len(pv.ComputeFlattened() or []) > 1
+        for pv in UsdGeom.PrimvarsAPI(p).GetPrimvarsWithValues())]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_usd(stage.GetRootLayer().realPath)
+    (warned,) = [str(w.message) for w in caught if "constant primvars holding several values" in str(w.message)]
+    named = warned.rsplit(": ", 1)[1].split(", ")
+    assert sorted(named) == sorted(expected) == ["/World/Ball", "/World/Mesh"], warned
+    assert f"{len(expected)} prim(s) (primvars:displayColor: 2, primvars:displayOpacity: 2)" in warned, warned
 
 
 def test_normals_attribute_size_mismatch(tmp_path):

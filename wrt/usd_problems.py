@@ -82,14 +82,16 @@ class ProblemReport:
         self.skipped.setdefault(reason, []).append((path, detail))
 
     def _warn_skipped(self):
-        """One warning per reason, with the count, a tally of details and the first few prim paths."""
+        """One warning per reason, with the number of prims, a tally of details (the prims with each) and the first
+        few prim paths, each prim counted and named once: a prim recorded for several of its primvars (a constant
+        displayColor and displayOpacity of several values each) read '2 prim(s): /Ball, /Ball'."""
         for reason, found in self.skipped.items():
             tally = {}
-            for _, detail in found:
+            for _, detail in dict.fromkeys(found):  # a record repeated whole (path and detail) counts once
                 if detail is not None:
                     tally[detail] = tally.get(detail, 0) + 1
             kinds = f" ({', '.join(f'{k}: {n}' for k, n in tally.items())})" if tally else ""
-            paths = [p for p, _ in found]
+            paths = list(dict.fromkeys(p for p, _ in found))
             shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
             warnings.warn(f"{self.source}: {reason}: {len(paths)} prim(s){kinds}: {shown}", stacklevel=4)
 
