@@ -10,6 +10,7 @@ import pytest
 from PIL import Image as PilImage
 from PIL import PngImagePlugin
 from png_chunks import rgb_png
+from png_files import png
 from test_materials import textured_stage
 
 import wrt
@@ -342,3 +343,47 @@ def test_an_exr_of_chroma_sampled_otherwise_warns_naming_the_file_and_reads_the_
         scene = wrt.load_usd(textured_stage(tmp_path, str(path)))
     assert scene.materials[0].textures == {}
     np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
+
+
+# PNG layouts: (colour type, bit depth, interlaced, transparency), read against the samples written byte by byte.
+PNG_LAYOUTS = [(0, d, False, False) for d in (1, 2, 4, 8, 16)] + [(0, d, False, True) for d in (1, 2, 4, 8, 16)] + [
+    (3, d, False, t) for d in (1, 2, 4, 8) for t in (False, True)] + [
+    (c, d, i, False) for c in (0, 2, 4, 6) for d in (8, 16) for i in (False, True)] + [(3, 4, True, True)]
+
+
+@pytest.mark.parametrize("colour_type, depth, interlaced, transparent", PNG_LAYOUTS,
+                         ids=[f"type{c}-{d}bit{'-adam7' * i}{'-tRNS' * t}" for c, d, i, t in PNG_LAYOUTS])
+def test_pngs_of_every_colour_type_depth_and_interlacing_read_their_samples(tmp_path, colour_type, depth,
+                                                                             interlaced, transparent):
+    """Grey, RGB, palette (with tRNS alpha), grey + alpha and RGBA PNGs at every bit depth the specification allows
+    them, Adam7-interlaced or not, grey ones with a transparent sample (tRNS), read as the samples written (scaled
+    to [0, 1] by 2^depth - 1; a palette's entries / 255). A 2- or 4-bit grey PNG's transparent sample made no pixel
+    transparent (Pillow compares the unscaled sample with the scaled pixels; stb_image scales it)."""
+    rng = np.random.default_rng(29)
+    full = 2**depth - 1
+    h, w = 7, 11  # Adam7 passes of several sizes, and partial bytes at low depths
+    expected = np.ones((h, w, 4))
+    extra = {}
+    if colour_type == 3:
+        palette, alpha = rng.integers(0, 256, (full + 1, 3)), rng.integers(0, 256, full + 1)
+        samples = rng.integers(0, full + 1, (h, w))
+        expected[..., :3] = palette[samples] / 255.0
+        extra = {"palette": palette}
+        if transparent:
+            extra["trns"] = alpha[: max(1, full)].astype(np.uint8).tobytes()  # fewer entries than colours: 255
+            expected[..., 3] = np.concatenate([alpha[: max(1, full)], [255] * (full + 1 - max(1, full))])[samples] / 255
+    else:
+        channels = {0: 1, 2: 3, 4: 2, 6: 4}[colour_type]
+        samples = rng.integers(0, full + 1, (h, w, channels))
+        colour = samples[..., : 3 if channels >= 3 else 1] / full
+        expected[..., :3] = colour
+        if channels in (2, 4):
+            expected[..., 3] = samples[..., -1] / full
+        if transparent:
+            key = int(samples[0, 0, 0])
+            extra["trns"] = struct.pack(">H", key)
+            expected[..., 3] = samples[..., 0] != key
+    path = tmp_path / "layout.png"
+    path.write_bytes(png(samples, colour_type, depth, interlaced, **extra))
+    np.testing.assert_allclose(load_image(str(path), "raw"), expected, atol=1e-6)
+

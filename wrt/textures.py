@@ -168,6 +168,12 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool
         return _grey_rgba(grey / full, _transparent_sample_alpha(img, grey)), False, tagged
     if mode == "F":
         return _grey_rgba(np.asarray(img, dtype=np.float32), None), False, tagged
+    transparent, depth = img.info.get("transparency"), png_bit_depth(data)
+    if mode == "L" and isinstance(transparent, int) and depth in (2, 4):
+        # Pillow keeps a 2- or 4-bit grey PNG's tRNS sample as stored but scales the pixels to 8 bits, so its LA
+        # conversion made no pixel transparent; stb_image scales the sample too (stbi__depth_scale_table).
+        grey = np.asarray(img, dtype=np.float32)
+        return _grey_rgba(grey / 255.0, _transparent_sample_alpha(img, grey, 255 // (2**depth - 1))), False, tagged
     if mode in ("L", "LA"):
         arr = np.asarray(img.convert("LA"), dtype=np.float32) / 255.0
         # Pillow's LA conversion turns a grey PNG's transparent sample (its tRNS chunk) into alpha 0.
@@ -225,14 +231,15 @@ def _read_16bit(data: bytes, rawmode: str, colour_key=None) -> np.ndarray:
     return rgba
 
 
-def _transparent_sample_alpha(img, grey: np.ndarray) -> np.ndarray | None:
-    """Alpha of a 16-bit grey PNG with a transparent sample value (its tRNS chunk): 0 where ``grey`` (the samples as
-    read) equals it, else 1, as the PNG specification defines it (libpng's tRNS-to-alpha, Pillow's LA conversion of
-    8-bit grey); None without one. It was read as opaque, so a cut-out stored that way had no holes."""
+def _transparent_sample_alpha(img, grey: np.ndarray, scale: int = 1) -> np.ndarray | None:
+    """Alpha of a 16-bit (or 2- or 4-bit) grey PNG with a transparent sample value (its tRNS chunk): 0 where
+    ``grey`` (the samples as read, ``scale`` times those of the file) equals it, else 1, as the PNG specification
+    defines it (libpng's tRNS-to-alpha, Pillow's LA conversion of 8-bit grey); None without one. It was read as
+    opaque, so a cut-out stored that way had no holes."""
     transparent = img.info.get("transparency")
     if not isinstance(transparent, int):
         return None
-    return (grey != transparent).astype(np.float32)
+    return (grey != transparent * scale).astype(np.float32)
 
 
 def _grey_rgba(grey: np.ndarray, alpha: np.ndarray | None) -> np.ndarray:
