@@ -387,3 +387,34 @@ def test_pngs_of_every_colour_type_depth_and_interlacing_read_their_samples(tmp_
     path.write_bytes(png(samples, colour_type, depth, interlaced, **extra))
     np.testing.assert_allclose(load_image(str(path), "raw"), expected, atol=1e-6)
 
+
+def refused_pngs():
+    """PNGs stb_image (Storm's PNG reader) refuses before decoding, which Pillow reads: tRNS beside alpha, after
+    the image data, of the wrong length or before the palette, and a palette image without a palette."""
+    rng = np.random.default_rng(31)
+    rgba, grey = rng.integers(0, 256, (3, 4, 4)), rng.integers(0, 256, (3, 4))
+    index, palette = rng.integers(0, 4, (3, 4)), rng.integers(0, 256, (4, 3))
+    key = struct.pack(">3H", *rgba[0, 0, :3])
+    return {
+        "rgba_trns": (png(rgba, 6, 8, trns=key), "beside an alpha channel"),
+        "rgba16_trns": (png(rgba * 257, 6, 16, trns=key), "beside an alpha channel"),
+        "grey_alpha_trns": (png(rgba[..., :2], 4, 8, trns=key[:2]), "beside an alpha channel"),
+        "trns_after_idat": (png(rgba[..., :3], 2, 8, trns=key, trns_after_idat=True), "after the image data"),
+        "grey_trns_length": (png(grey, 0, 8, trns=key), "6 bytes in a grey image"),
+        "palette_trns_length": (png(index, 3, 8, palette=palette, trns=bytes(6)), "6 alpha values for a palette"),
+        "palette_trns_first": (png(index, 3, 8, trns=bytes(2), extra=()), "before the PLTE chunk"),
+        "no_palette": (png(index, 3, 8), "without a PLTE chunk"),
+    }
+
+
+@pytest.mark.parametrize("name", list(refused_pngs()))
+def test_a_png_stb_image_refuses_warns_naming_the_file_and_reads_the_fallback(tmp_path, name):
+    """Such a file is named in a warning with its fault and the texture's fallback drawn, as Storm draws it (its
+    stb_image reader fails on it: "tRNS with alpha", "Corrupt PNG"). Pillow read them, ignoring the tRNS chunk (or
+    applying one after the image data) or reading palette indices as grey."""
+    data, fault = refused_pngs()[name]
+    (tmp_path / f"{name}.png").write_bytes(data)
+    with pytest.warns(UserWarning, match=rf"{name}\.png: .*{fault}"):
+        scene = wrt.load_usd(textured_stage(tmp_path, str(tmp_path / f"{name}.png")))
+    assert scene.materials[0].textures == {}
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black

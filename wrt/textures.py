@@ -28,6 +28,7 @@ import numpy as np
 import warp as wp
 
 from .exr_yca import yca_rgba
+from .png_checks import png_chunk_problem
 
 WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3}  # UsdUVTexture wrapS/wrapT tokens
 WRAP_REPEAT = wp.constant(0)
@@ -147,6 +148,9 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool
     """The samples as :func:`_read_pillow` gives them, whether they are 8-bit colour, and :func:`tagged_srgb`."""
     from PIL import Image as PilImage
 
+    problem = png_chunk_problem(data)
+    if problem:
+        raise TextureError(f"cannot read image {name}: {problem}, which Storm's PNG reader (stb_image) refuses")
     try:
         img = PilImage.open(io.BytesIO(data))
         tagged = tagged_srgb(img)  # before load(), which goes on to the chunks after the image data
