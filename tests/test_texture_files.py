@@ -418,3 +418,25 @@ def test_a_png_stb_image_refuses_warns_naming_the_file_and_reads_the_fallback(tm
         scene = wrt.load_usd(textured_stage(tmp_path, str(tmp_path / f"{name}.png")))
     assert scene.materials[0].textures == {}
     np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
+
+
+@pytest.mark.parametrize("top_down", [False, True], ids=["bottom-up", "top-down"])
+@pytest.mark.parametrize("alpha_used", [True, False], ids=["alpha", "all-zero"])
+def test_a_32_bit_bmp_reads_its_fourth_byte_as_alpha(tmp_path, top_down, alpha_used):
+    """A 32-bit uncompressed BMP (BI_RGB, BGRA bytes), written byte by byte, reads its fourth byte as alpha, as
+    Storm's stb_image reader does, and opaque where that byte is 0 everywhere (stb_image takes it for unused then).
+    Pillow reads it as padding, so the cut-out was opaque."""
+    rng = np.random.default_rng(37)
+    h, w = 3, 5
+    rgba = rng.integers(0, 256, (h, w, 4))
+    if not alpha_used:
+        rgba[..., 3] = 0
+    stored = rgba[..., [2, 1, 0, 3]] if top_down else rgba[::-1, :, [2, 1, 0, 3]]  # BGRA, bottom row first
+    pixels = stored.astype(np.uint8).tobytes()
+    info = struct.pack("<IiiHHIIiiII", 40, w, -h if top_down else h, 1, 32, 0, len(pixels), 2835, 2835, 0, 0)
+    path = tmp_path / "cutout.bmp"
+    path.write_bytes(b"BM" + struct.pack("<IHHI", 54 + len(pixels), 0, 0, 54) + info + pixels)
+    expected = rgba / 255.0
+    if not alpha_used:
+        expected[..., 3] = 1.0
+    np.testing.assert_allclose(load_image(str(path), "raw"), expected, atol=1e-6)

@@ -23,6 +23,7 @@ Conventions, stated once:
 from __future__ import annotations
 
 import io
+import struct
 
 import numpy as np
 import warp as wp
@@ -184,7 +185,31 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool
         alpha = arr[..., 1] if mode == "LA" or "transparency" in img.info else None
         return _grey_rgba(arr[..., 0], alpha), False, tagged
     arr = np.asarray(img.convert("RGBA"), dtype=np.uint8)  # scaled to [0, 1] by load_image (_decode_8bit)
+    if img.format == "BMP" and mode == "RGB":
+        alpha = bmp_fourth_byte_alpha(data, arr.shape[:2])
+        if alpha is not None:
+            arr = arr.copy()
+            arr[..., 3] = alpha
     return arr, True, tagged  # 8-bit colour: deeper colour samples were read at full depth above
+
+
+def bmp_fourth_byte_alpha(data: bytes, shape: tuple[int, int]) -> np.ndarray | None:
+    """``(H, W)`` uint8 alpha of a 32-bit uncompressed (``BI_RGB``) BMP: each pixel's fourth byte, as Storm's
+    stb_image reader takes it (``stbi__bmp_set_mask_defaults``: alpha mask 0xff000000), all 255 where every one is
+    0 (an unused byte, as stb_image reads it); None for other BMPs. Pillow reads the byte as padding, so the
+    cut-outs of a 32-bit BMP were opaque."""
+    if len(data) < 34 or data[:2] != b"BM":
+        return None
+    (offset,) = struct.unpack("<I", data[10:14])  # where the pixels start
+    header, width, height, _, bits, compression = struct.unpack("<IiiHHI", data[14:34])  # BITMAPINFOHEADER
+    rows = abs(height)
+    if header < 40 or bits != 32 or compression != 0 or (rows, width) != tuple(shape):
+        return None
+    if len(data) < offset + rows * width * 4:
+        return None
+    alpha = np.frombuffer(data, np.uint8, count=rows * width * 4, offset=offset).reshape(rows, width, 4)[..., 3]
+    alpha = alpha[::-1] if height > 0 else alpha  # positive height: the bottom row first
+    return alpha if alpha.any() else np.full(shape, 255, np.uint8)
 
 
 def _tile_rawmode(tile) -> str:
