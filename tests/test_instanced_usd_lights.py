@@ -1,8 +1,8 @@
 """UsdLux lights inside native instances (a lamp asset referenced as ``instanceable``, as DCCs write set dressing)
 are lights of their own in each instance, at the instance-proxy paths UsdLux's ``ComputeLightList`` reports, placed
 by each instance's transform (nested instances too, hidden instances and hidden lights left out); they light a white
-floor as the numerical integral over each sphere says (tests/light_oracle.py). Lights inside PointInstancer
-prototypes, which UsdLux cannot name by a path, are skipped with a warning."""
+floor as the numerical integral over each sphere says (tests/light_oracle.py). Cameras inside PointInstancer
+prototypes, which UsdGeom cannot name by a path, are skipped with a warning."""
 
 import math
 import warnings
@@ -84,10 +84,13 @@ def test_lights_in_native_instances_light_the_floor_as_the_integral_over_each(tm
         np.testing.assert_allclose(img.rgb.reshape(-1, 3).mean(0), expected, rtol=0.02)
 
 
-def test_lights_in_point_instancer_prototypes_are_skipped_with_a_warning(tmp_path):
+def test_cameras_in_point_instancer_prototypes_are_skipped_with_a_warning(tmp_path):
+    """A camera inside a PointInstancer's prototype (which UsdGeom gives no path per instance) is skipped with a
+    warning naming it; the light beside it is one light per instance (tests/test_point_instanced_lights.py)."""
     stage = Usd.Stage.CreateNew(str(tmp_path / "pi.usda"))
     instancer = UsdGeom.PointInstancer.Define(stage, "/Lamps")
     UsdLux.SphereLight.Define(stage, "/Lamps/Proto/Light")
+    UsdGeom.Camera.Define(stage, "/Lamps/Proto/Cam")
     instancer.CreatePrototypesRel().SetTargets([Sdf.Path("/Lamps/Proto")])
     instancer.CreateProtoIndicesAttr([0, 0])
     instancer.CreatePositionsAttr([(0, 0, 0), (1, 0, 0)])
@@ -95,9 +98,11 @@ def test_lights_in_point_instancer_prototypes_are_skipped_with_a_warning(tmp_pat
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = wrt.load_usd(str(tmp_path / "pi.usda"))
-    assert not [light for light in scene.lights if light.path.startswith("/Lamps")]
-    assert any("PointInstancer prototypes" in str(w.message) and "/Lamps/Proto/Light" in str(w.message)
-               for w in caught)
+    assert not scene.cameras
+    assert [light.path for light in scene.lights] == ["/Lamps/Proto/Light[0]", "/Lamps/Proto/Light[1]"]
+    messages = [str(w.message) for w in caught]
+    assert any("cameras inside PointInstancer prototypes" in m and "/Lamps/Proto/Cam" in m for m in messages)
+    assert not any("/Lamps/Proto/Light" in m for m in messages), messages
 
 
 def test_an_instanceable_light_prim_is_a_light(tmp_path):

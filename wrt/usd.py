@@ -62,9 +62,10 @@ primvars) applies to it in place of ``displayColor``.
 Cameras inside native instances are read at their instance-proxy paths
 (``/Instance/Cam``, placed by the instance), in invisible instances too, as cameras under invisible prims are; UsdLux
 lights inside them likewise, one light per visible instance (the paths ``UsdLux.LightListAPI.ComputeLightList``
-lists). Cameras and UsdLux lights inside PointInstancer prototypes are skipped with a warning; mesh lights inside any
-prototype are each one light for all of its instances (:func:`wrt.light_table.emitter_triangles` samples each
-instance's copy).
+lists). UsdLux lights inside PointInstancer prototypes are one light per drawn instance, read as the light authored at
+the instance's world transform (:meth:`_read_placed_lights`); cameras there are skipped with a warning. Mesh lights
+inside any prototype are each one light for all of its instances (:func:`wrt.light_table.emitter_triangles` samples
+each instance's copy).
 
 Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a visibility) that has no authored
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
@@ -291,6 +292,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         scene.textures = self.materials.textures
         if inverses is not None:
             scene.remember_instance_inverses(inverses)
+        self._read_placed_lights(world)
         resolve_expressions(scene)  # linking collections in expression mode, against the paths drawn
         self._add_instanced_lights()
         self._warn_skipped()
@@ -354,7 +356,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         """The UsdLux ``lights`` at paths relative to ``prim`` (a light itself, ``.``, or the lights of native
         instance ``prim``, relative to its prototype), read through :meth:`_read_through_instances` as cameras are:
         in the world, each visible one at its instance-proxy path (``/Lamp/Light``, USD's ``ComputeLightList`` path,
-        placed by that instance's transform); UsdLux has no path for a light inside a PointInstancer's prototype."""
+        placed by that instance's transform); inside a PointInstancer's prototype, each visible from the prototype
+        root down (as its geometry) is kept with its transform to the prototype's space, and read once per instance
+        when the walk is over (:meth:`_read_placed_lights`). Purpose does not hide lights, as in the world."""
 
         def read(proxy: Usd.Prim):
             if self._visible(proxy):
@@ -362,7 +366,11 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                 if light is not None:
                     self.scene.lights.append(light)
 
-        self._read_through_instances(prim, lights, ctx, "lights", read, "UsdLux lights")
+        def place(proxy: Usd.Prim):
+            if self._visible(proxy, ctx.stop):
+                ctx.content.placed_lights.append((proxy, self._to_space(proxy, ctx).T))
+
+        self._read_through_instances(prim, lights, ctx, "lights", read, "UsdLux lights", place)
 
     def _read_geometry(self, prim: Usd.Prim, ctx: Context):
         """Mesh or gprim ``prim`` into ``ctx.content``: a mesh, or an analytic shape (a mesh when tessellating, or when

@@ -4,6 +4,8 @@ into ``Scene.prototypes`` and one level of ``Scene.instances``."""
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from pxr import Sdf, Usd
 
@@ -38,6 +40,9 @@ class Content:
         self.colors: dict = {}  # outer (primvar, colour) -> content key: this prototype read again with that colour
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.lights: list[Sdf.Path] = []  # UsdLux lights (not mesh lights) of a native prototype, likewise
+        # (light prim, (4, 4) column-vector transform to this space) of the UsdLux lights of a PointInstancer's
+        # prototype (those of native instances in it at their instance-proxy paths): one light per instance placed.
+        self.placed_lights: list[tuple[Usd.Prim, np.ndarray]] = []
         self.prototype = -1  # index into Scene.prototypes once its meshes are placed there
         # (is a sphere, width axis (wrt.tubes.width_axis)) of the spheres or tube segments of a Points or curves prim:
         # instances of them stay round under any transform placed above (wrt.tubes.place_round).
@@ -78,6 +83,59 @@ def _drawn_root(key: tuple, source: str, content_path: str) -> str:
     return source if key[0] == "native" else content_path
 
 
+class Placement(NamedTuple):
+    """One content placed in the world by one entry of some content's instances, nested ones resolved."""
+
+    content: Content
+    to_world: np.ndarray  # (K, 4, 4) column-vector transforms, content -> world, outer instances major
+    source: str  # the world-level prim that makes these instances (instance order)
+    index: np.ndarray  # (K,) that prim's instance index of each (-1: a native instance)
+    name: _Name  # how the instances are named (Instances.path)
+    looks: np.ndarray | None  # (K, 4) colours and opacities (instance_looks), or None
+    root: str  # the path the content's root is drawn at (an instance-proxy path inside native instances)
+    levels: tuple  # per nesting level, outermost first, the (n_l,) instance indices there (-1: native); row
+    # r of to_world is the r-th combination of them, outer major (see placed_indices)
+
+
+def placements(world: Content, contents: dict):
+    """Each :class:`Placement` of the contents instanced by ``world`` (the stage's content; ``contents``: key ->
+    :class:`Content`), depth first, each instance before the instances nested in it."""
+    # An explicit stack: a recursive closure would refer to itself, a reference cycle that kept the stage open until
+    # a garbage collection. Each entry carries the path its content's root is drawn at: a native instance's prim path
+    # (an instance proxy path when nested), else the content's own path moved by the instance it is nested in.
+    pending = [Placement(contents[key], m, source, index, _Name(source, index, key[0] == "native"), color,
+                         _drawn_root(key, source, contents[key].path), (index,))
+               for key, m, source, index, color in reversed(world.instances)]
+    while pending:
+        placement = pending.pop()
+        yield placement
+        content, to_world, source, index, name, color, root, levels = placement
+        for key, m, inner_source, inner_index, inner in reversed(content.instances):
+            # Nested instances keep the world-level source and index of the instance they are part of (instance
+            # order), the name of the innermost instance a user can select (:class:`_Name`), and the colour and
+            # opacity of the nearest instance that gives one.
+            nested = contents[key]
+            if nested.tube is None:
+                combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
+            else:  # a Points or curves prim's spheres or tubes: round, as in a flattened copy of these instances
+                combined = place_round(to_world, m, *nested.tube)
+            inner_root = part_path(_drawn_root(key, inner_source, nested.path), content.path, root)
+            pending.append(Placement(nested, combined, source, np.repeat(index, len(m)),
+                                     name.nested(key, part_path(inner_source, content.path, root), inner_index),
+                                     _nested_looks(color, inner, len(to_world), len(m)), inner_root,
+                                     levels + (inner_index,)))
+
+
+def placed_indices(levels: tuple, row: int) -> list[int]:
+    """The instance index at each nesting level (outermost first; -1: a native instance) of row ``row`` of a
+    :class:`Placement` of ``levels``."""
+    found = []
+    for level in reversed(levels):
+        row, k = divmod(row, len(level))
+        found.append(int(level[k]))
+    return found[::-1]
+
+
 def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> np.ndarray | None:
     """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``: ``world`` is the
     stage's content, ``contents`` every content read (key -> :class:`Content`), ``skip_path(reason, path)`` records
@@ -88,15 +146,7 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
     order_ids, source_ids = {}, {}  # prim paths: world-level sources (instance order); the names' prims
     root_ids = {}  # instance-proxy paths of the prototype roots (light_links)
 
-    # Depth first, each instance before the instances nested in it (an explicit stack: a recursive closure
-    # would refer to itself, a reference cycle that kept the stage open until a garbage collection). Each
-    # entry carries the path its content's root is drawn at: a native instance's prim path (an instance proxy
-    # path when nested), else the content's own path moved by the instance it is nested in.
-    pending = [(contents[key], m, source, index, _Name(source, index, key[0] == "native"), color,
-                _drawn_root(key, source, contents[key].path))
-               for key, m, source, index, color in reversed(world.instances)]
-    while pending:
-        content, to_world, source, index, name, color, root = pending.pop()
+    for content, to_world, source, index, name, color, root, _ in placements(world, contents):
         if content.meshes or content.shapes:
             if content.prototype < 0:
                 content.prototype = len(scene.prototypes)
@@ -110,19 +160,6 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
             indices.append(index)
             name_indices.append(name.index)
             colors_of.append(color)
-        for key, m, inner_source, inner_index, inner in reversed(content.instances):
-            # Nested instances keep the world-level source and index of the instance they are part of (instance
-            # order), the name of the innermost instance a user can select (:class:`_Name`), and the colour and
-            # opacity of the nearest instance that gives one.
-            nested = contents[key]
-            if nested.tube is None:
-                combined = (to_world[:, None] @ m[None]).reshape(-1, 4, 4)
-            else:  # a Points or curves prim's spheres or tubes: round, as in a flattened copy of these instances
-                combined = place_round(to_world, m, *nested.tube)
-            inner_root = part_path(_drawn_root(key, inner_source, nested.path), content.path, root)
-            pending.append((nested, combined, source, np.repeat(index, len(m)),
-                            name.nested(key, part_path(inner_source, content.path, root), inner_index),
-                            _nested_looks(color, inner, len(to_world), len(m)), inner_root))
     if not entries:
         return None
     counts = np.array([len(m) for m in matrices], np.int64)

@@ -29,7 +29,7 @@ from .usd_xforms import affine_part
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 
 
-def read_light(prim, xforms, time, up_axis: str, skip):
+def read_light(prim, xforms, time, up_axis: str, skip, to_world=None):
     """The light of a ``UsdLux`` light prim, or None (recorded through ``skip``) for unsupported kinds.
 
     Args:
@@ -38,6 +38,8 @@ def read_light(prim, xforms, time, up_axis: str, skip):
         time: ``Usd.TimeCode``.
         up_axis: the stage's up axis, for ``DomeLight_1``'s ``poleAxis``.
         skip: ``skip(reason, prim, detail=None)``.
+        to_world: ``(4, 4)`` float64 column-vector local-to-world transform placing the light (one instance of a
+            PointInstancer's prototype), or None: the prim's own world transform.
     """
     from .usd_values import value_at
 
@@ -58,7 +60,9 @@ def read_light(prim, xforms, time, up_axis: str, skip):
         value = value_at(attr, time) if attr else None
         return default if value is None else value
 
-    result = _read_light(prim, xforms, time, up_axis, skip, get)
+    if to_world is None:
+        to_world = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
+    result = _read_light(prim, to_world, time, up_axis, skip, get)
     if legacy:
         skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
              "inputs: attributes", prim, ", ".join(legacy))
@@ -81,7 +85,7 @@ def warn_glowless_mesh_light(light: MeshLight, prim, mesh, materials, skip) -> N
                  '"independent" to emit the light\'s colour', prim)
 
 
-def _read_light(prim, xforms, time, up_axis: str, skip, get):
+def _read_light(prim, to_world, time, up_axis: str, skip, get):
     """:func:`read_light` with ``get(attr, default)`` reading an attribute (or its unprefixed name)."""
     from pxr import UsdLux
 
@@ -101,7 +105,7 @@ def _read_light(prim, xforms, time, up_axis: str, skip, get):
     with np.errstate(over="ignore", invalid="ignore"):
         color = (color * intensity * np.exp2(exposure)).astype(np.float32)
     normalize = bool(get(light.GetNormalizeAttr(), False))
-    m = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
+    m = np.asarray(to_world, dtype=np.float64)
     path = str(prim.GetPath())
     if not (np.all(np.isfinite(color)) and np.all(np.isfinite(m))):
         skip("lights whose colour * intensity * 2^exposure or transform is not finite were skipped", prim)

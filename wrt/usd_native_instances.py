@@ -59,20 +59,26 @@ class NativeInstanceReading:
         self._read_cameras(prim, self.contents[key].cameras, ctx)
         self._read_lights(prim, self.contents[key].lights, ctx)
 
-    def _read_through_instances(self, prim: Usd.Prim, relatives: list, ctx: Context, listed: str, read, what: str):
+    def _read_through_instances(self, prim: Usd.Prim, relatives: list, ctx: Context, listed: str, read, what: str,
+                                place=None):
         """The prims at paths ``relatives`` to ``prim`` (one prim itself, ``.``, or those of native instance
         ``prim``, relative to its prototype), which are read where they are placed, not as geometry: in the world,
         each through ``read(proxy)`` at its instance-proxy path (``/Instance/Cam``, which USD places in the world);
         inside a native prototype, handed on to it (``ctx.content``'s list ``listed``) to be read through each of
-        its instances; inside a PointInstancer's prototype skipped with a warning naming ``what`` they are."""
+        its instances; inside a PointInstancer's prototype each through ``place(proxy)`` (to be read once per
+        instance), or, without ``place``, skipped with a warning naming ``what`` they are."""
         if not relatives:
             return
+        proxies = (self.stage.GetPrimAtPath(prim.GetPath().AppendPath(relative)) for relative in relatives)
         if ctx.world:
-            for relative in relatives:
-                read(self.stage.GetPrimAtPath(prim.GetPath().AppendPath(relative)))
+            for proxy in proxies:
+                read(proxy)
         elif ctx.space_root is None:
             here = prim.GetPath().MakeRelativePath(Sdf.Path(ctx.content.path))
             getattr(ctx.content, listed).extend(here.AppendPath(relative) for relative in relatives)
+        elif place is not None:
+            for proxy in proxies:
+                place(proxy)
         else:
             self._skip(f"{what} inside PointInstancer prototypes are not supported; skipped", prim)
 

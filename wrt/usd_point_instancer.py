@@ -7,7 +7,9 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .instancing import group_rows
-from .usd_contents import Context, instance_looks
+from .light_links import part_path
+from .usd_contents import Content, Context, instance_looks, placed_indices, placements
+from .usd_lights import read_light
 from .usd_primvars import finite_colors, unit_opacities
 from .usd_values import held_value, spun_rotations, value_at
 
@@ -62,6 +64,28 @@ class PointInstancerReading:
             looks = instance_looks(colors_by_name[name], opacities)
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
                                           None if looks is None else looks[rows]))
+
+    def _read_placed_lights(self, world: Content):
+        """Appends to the scene one light per instance of each UsdLux light kept inside a PointInstancer's prototype
+        (``Content.placed_lights``; nested instancers and native instances resolved as for the geometry,
+        :func:`wrt.usd_contents.placements`), read as that light authored at its world transform (the instance's
+        times its own in the prototype): sizes, normalization, shaping and links as there. Each is named by its
+        path (an instance-proxy path inside native instances) and its index in each instancer, outermost first
+        (``/Lamps/Proto/Light[3]``); warnings name it so. They come in instance order, as the instances do."""
+        found, sources = [], {}  # (world-level source, indices at each level, light); source -> stage order
+        for placement in placements(world, self.contents):
+            for prim, to_space in placement.content.placed_lights:
+                path = part_path(str(prim.GetPath()), placement.content.path, placement.root)
+                for row, to_world in enumerate(placement.to_world @ to_space):
+                    indices = placed_indices(placement.levels, row)
+                    name = path + "".join(f"[{k}]" for k in indices if k >= 0)
+                    light = read_light(prim, self.xforms, self.time, self.scene.up_axis,
+                                       lambda reason, _, detail=None, name=name: self._skip_path(reason, name, detail),
+                                       to_world=to_world)
+                    if light is not None:
+                        light.path = name
+                        found.append((sources.setdefault(placement.source, len(sources)), indices, light))
+        self.scene.lights += [light for *_, light in sorted(found, key=lambda entry: entry[:2])]
 
     def _prototype_roots(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer) -> tuple[list, list]:
         """The ``prototypes`` targets of ``pi`` and their prims, None for one that is inactive or under an inactive
