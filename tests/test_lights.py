@@ -400,6 +400,43 @@ def test_normalized_light_too_small_for_float32_is_a_point_or_named(tmp_path, sc
         np.testing.assert_allclose(img.rgb, 1.0 / math.pi, rtol=1e-3, err_msg=integrator)
 
 
+@pytest.mark.parametrize("schema", [UsdLux.SphereLight, UsdLux.RectLight, UsdLux.DiskLight, UsdLux.CylinderLight])
+@pytest.mark.parametrize("scale", [1e-100, 1e-170, 0.0])
+def test_normalized_light_whose_area_underflows_float64_is_a_point_or_named(tmp_path, schema, scale):
+    """A normalized light of unit sizes under a double-precision transform that scales it by 1e-100 (its area 1e-200,
+    whose norm squares the cross product past float64) or 1e-170 (an area past float64 itself) had an area of 0 and
+    emitted nothing without a word, as a light of no area does. A sphere is the point light it tends to (intensity
+    ``color / 4``: ``E / pi = 1 / pi`` on a white floor 1 below, for intensity 4); the other shapes are skipped with a
+    warning naming them. A zero scale is a light of no area: it emits nothing (a sphere: a point light), unnamed."""
+
+    def build(stage):
+        add_floor(stage)
+        UsdGeom.Mesh(stage.GetPrimAtPath("/Plane")).CreateDisplayColorAttr([(1.0, 1.0, 1.0)])
+        light = schema.Define(stage, "/Tiny")
+        light.CreateIntensityAttr(4.0)
+        light.CreateNormalizeAttr(True)
+        m = Gf.Matrix4d(1.0).SetScale(Gf.Vec3d(scale, scale, scale)).SetTranslateOnly(Gf.Vec3d(0, 0, 1))
+        UsdGeom.Xformable(light).AddTransformOp().Set(m)
+        if schema is not UsdLux.SphereLight:  # a dark light, so that the stage gets no default lights
+            UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(0.0)
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    named = [str(w.message) for w in caught if "/Tiny" in str(w.message)]
+    if schema is not UsdLux.SphereLight:
+        emitting = [light.path for light in scene.lights if np.any(light.radiance > 0)]
+        assert emitting == [] and (len(named) == 1) == (scale > 0.0), named
+        if scale > 0.0:
+            assert re.search(r"normalized lights too small .* were skipped: .*: /Tiny$", named[0]), named
+        return
+    assert not named, named
+    for integrator in ("whitted", "path"):
+        img = wrt.render(scene, camera=top_down_camera(height=0.02), width=2, height=2, spp=4, seed=1, device="cpu",
+                         integrator=integrator)
+        np.testing.assert_allclose(img.rgb, 1.0 / math.pi, rtol=1e-3, err_msg=integrator)
+
+
 def test_usd_rect_light_faces_its_minus_z_axis(tmp_path):
     def build(stage):
         add_floor(stage)

@@ -21,6 +21,7 @@ from .lights import (
     MeshLight,
     RectLight,
     SphereLight,
+    light_axes,
     round_tube,
 )
 from .scene import DistantLight
@@ -143,8 +144,9 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get):
 
 def _tiny_normalized(light, prim, skip):
     """``light``, or None: a normalized area light so small that its radiance (``color / area``) passes float32's
-    range emitted nothing without a word but numpy's overflow warning. A sphere becomes the point light it tends to
-    (of intensity ``color / 4``); the other shapes are skipped with a warning naming them."""
+    range emitted nothing without a word but numpy's overflow warning, and one whose area underflowed float64 to 0
+    (a double-precision transform scaling it by 1e-100) emitted nothing without any. A sphere becomes the point
+    light it tends to (of intensity ``color / 4``); the other shapes are skipped with a warning naming them."""
     if not (isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight)) and light.normalize):
         return light
     if isinstance(light, SphereLight) and light.treat_as_point:
@@ -153,14 +155,33 @@ def _tiny_normalized(light, prim, skip):
     if area > 0.0 and np.all(np.isfinite(light.radiance)):
         return light
     if isinstance(light, SphereLight):
-        if area > 0.0:
+        if area > 0.0 or light.world_radius > 0.0:
             light.treat_as_point = True
         return light
-    if area > 0.0:
+    if area > 0.0 or _area_underflowed(light):
         skip("normalized lights too small for their radiance (intensity / area) to fit in float32 were skipped", prim,
-             f"area {area:.3g}")
+             f"area {area:.3g}" if area > 0.0 else "area below float64's range")
         return None
-    return light  # a light of no area emits nothing, as the schema's sizes say
+    return light  # a light of no area (a size of 0, a transform that flattens it) emits nothing, as its sizes say
+
+
+def _area_underflowed(light) -> bool:
+    """Whether the area of 0 of rect, disk or cylinder ``light`` is float64's underflow, not a size of 0 or a
+    transform that flattens it: its sizes are above 0 and its axes, each scaled to a largest entry of 1 before they
+    are crossed, span its surface (the tube's: its X axis and another)."""
+    x, y, z, _ = light_axes(light.to_world)
+    if isinstance(light, RectLight):
+        sizes, spans = (light.width, light.height), [(x, y)]
+    elif isinstance(light, DiskLight):
+        sizes, spans = (light.radius,), [(x, y)]
+    else:
+        sizes, spans = (light.length, light.radius), [(x, y), (x, z)]
+
+    def unit(axis):
+        largest = float(np.abs(axis).max())
+        return axis / largest if largest > 0.0 else axis
+
+    return all(size > 0.0 for size in sizes) and any(np.any(np.cross(unit(a), unit(b)) != 0.0) for a, b in spans)
 
 
 def _multipliers(prim, light, skip, get):
