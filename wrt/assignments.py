@@ -27,6 +27,12 @@ def mark_checked(obj) -> None:
     object.__setattr__(obj, "_unchecked", False)
 
 
+def mark_unchecked(obj) -> None:
+    """Makes :func:`check_assigned` check ``obj`` again, as if a field had been assigned (its arrays may have been
+    edited in place: ``Scene.invalidate``)."""
+    object.__setattr__(obj, "_unchecked", True)
+
+
 def check_assigned(objects) -> None:
     """Runs the constructor's checks again (``check()``, else ``__post_init__``) for each of ``objects`` that had a
     field assigned since it was last checked; they raise naming the object and field, and may convert the values

@@ -25,7 +25,7 @@ import dataclasses
 
 import numpy as np
 
-from .assignments import CountsAssignments
+from .assignments import CountsAssignments, mark_checked
 from .unique import sorted_unique
 
 ROW_DTYPE_LIMIT = (1 << 31) - 1  # expanded triangle ids up to this fit int32; larger scenes report int64 ids
@@ -121,22 +121,43 @@ class Instances(CountsAssignments):
     elements: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
 
     def __post_init__(self):
-        self.prototype = np.ascontiguousarray(self.prototype, dtype=np.int32).reshape(-1)
-        self.to_world = np.ascontiguousarray(self.to_world, dtype=np.float64).reshape(-1, 4, 4)
-        self.source = np.ascontiguousarray(self.source, dtype=np.int32).reshape(-1)
-        self.index = np.ascontiguousarray(self.index, dtype=np.int32).reshape(-1)
+        self.check()
+
+    def check(self) -> None:
+        """Converts the arrays to the dtypes and shapes of the attributes above and checks their lengths against each
+        other; the constructor calls it, and the scene again before its next trace or render once a field was
+        assigned (``instances.to_world = ...``: one of another length raised a bare ``IndexError`` from deep inside
+        the build) or after ``Scene.invalidate()``. An array that already has its dtype and shape is kept (the same
+        object: the caches compare objects).
+
+        Raises:
+            ValueError: naming the field.
+        """
+        for name, dtype, shape in (("prototype", np.int32, (-1,)), ("to_world", np.float64, (-1, 4, 4)),
+                                   ("source", np.int32, (-1,)), ("index", np.int32, (-1,)), ("root", np.int32, (-1,)),
+                                   ("elements", np.int32, (-1,))):
+            value = getattr(self, name)
+            if not (isinstance(value, np.ndarray) and value.dtype == dtype and value.ndim == len(shape)
+                    and value.shape[1:] == shape[1:] and value.flags.c_contiguous):
+                try:
+                    setattr(self, name, np.ascontiguousarray(value, dtype=dtype).reshape(shape))
+                except (TypeError, ValueError) as e:
+                    raise ValueError(f"Instances {name} must be {'(N, 4, 4)' if name == 'to_world' else '(N,)'} "
+                                     f"numbers: {e}") from None
         n = len(self.prototype)
-        self.root = np.ascontiguousarray(self.root, dtype=np.int32).reshape(-1)
-        self.elements = np.ascontiguousarray(self.elements, dtype=np.int32).reshape(-1)
         if len(self.elements) not in (0, n):
-            raise ValueError(f"Instances elements must hold one entry per instance ({n}), or none")
-        if not (len(self.to_world) == len(self.source) == len(self.index) == n):
-            raise ValueError("Instances arrays must all have one entry per instance")
+            raise ValueError(f"Instances elements must hold one entry per instance ({n}), or none; got "
+                             f"{len(self.elements)}")
+        for name in ("to_world", "source", "index"):
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"Instances arrays must all have one entry per instance: {name} has "
+                                 f"{len(getattr(self, name))}, prototype {n}")
         if len(self.roots) and (len(self.root) != n or np.any(self.root >= len(self.roots))):
             raise ValueError(f"Instances root must hold one index into roots ({len(self.roots)}) per instance ({n})")
         self.check_colors()
         self.check_opacities()
         self.check_affine()
+        mark_checked(self)
 
     def check_colors(self) -> None:
         """Raises ``ValueError`` unless :attr:`colors` has one row per instance (or none: empty or None) and no

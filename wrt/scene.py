@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 import warp as wp
 
-from .assignments import CountsAssignments, assignments, check_assigned, mark_checked
+from .assignments import CountsAssignments, assignments, check_assigned, mark_checked, mark_unchecked
 from .camera import Camera
 from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
 from .light_links import LinkCollection, drawn_ids
@@ -350,6 +350,7 @@ class Scene:
         self._check_containers()
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
         self._generation = 0  # how many times the cache was cleared
+        self._recheck = False  # check every object again at the next drop_stale_caches (set by invalidate)
         self.check_instances()
         self._checked = (assignments(), self._members())  # the state of the last full check (drop_stale_caches)
         self._cached_parts = self._parts()  # what the cache is made from (see drop_stale_caches)
@@ -404,9 +405,11 @@ class Scene:
     def invalidate(self) -> None:
         """Forgets every cached array, tree and device copy, and makes the scene's arrays writeable again until its
         next trace or render (see :meth:`freeze`): call it before editing an array in place (``mesh.points +=
-        offset``). Replacing arrays, meshes or lists needs no call: it is noticed by itself."""
+        offset``). That trace or render checks every mesh, shape, material and the instances again, as their
+        constructors do. Replacing arrays, meshes or lists needs no call: it is noticed by itself."""
         self._cache.clear()
         self._generation += 1
+        self._recheck = True  # arrays may be edited in place from here on: check every object again (_settle)
         held = [array for array in (ref() for ref in self._frozen) if array is not None]
         self._frozen, self._frozen_parts = [], False
         frozen = []  # the arrays no other scene holds read-only
@@ -472,11 +475,19 @@ class Scene:
         """Clears the caches when a part changed since the last record, and records the parts as they are now
         (``count`` and ``members``: :func:`wrt.assignments.assignments` and :meth:`_members`, taken before); returns
         them."""
-        # Fields assigned since the objects' last checks (each simulation step's mesh.points = ...), checked first.
-        check_assigned([*self._geometry_meshes(), *self._geometry_shapes(), *self.materials])
+        self._check_containers()  # a list edited in place (scene.meshes.append(...)) holds what it was given
+        # Fields assigned since the objects' last checks (each simulation step's mesh.points = ...), checked first;
+        # after invalidate() every object, as an array edited in place is no assignment: a NaN written into a
+        # material's colour rendered black without a word, an index out of range was named by no mesh.
+        objects = [*self._geometry_meshes(), *self._geometry_shapes(), *self.materials, self.instances]
+        if self._recheck:
+            for obj in objects:
+                mark_unchecked(obj)
+        check_assigned(objects)
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
             self.invalidate()
+        self._recheck = False
         self._cached_parts = parts
         self._checked = (count, members)
         return parts

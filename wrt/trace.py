@@ -556,8 +556,8 @@ def get_accelerator(
     elif layout != "binary":
         raise ValueError(f"layout={layout!r} applies to accel='wrt' only; wp.Mesh has its own layout")
     device = resolve_device(device)
+    scene.drop_stale_caches()  # first: it checks and converts the fields assigned since (instances.to_world = ...)
     scene.check_instances()  # instances may have been set after the Scene was made
-    scene.drop_stale_caches()
     key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
     if key not in scene._cache:
         scene.check_vertices()  # named with their mesh here; the builds' own check can name only a row

@@ -1,0 +1,106 @@
+"""Edits of a wrt.Scene between traces and renders, each compared with the same call on a freshly built scene (the
+oracle: the edited scene's parts rebuilt through their constructors), or refused naming the object and field."""
+
+import numpy as np
+import pytest
+
+import wrt
+from wrt.instancing import Instances, Prototype
+
+CAMERA = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+OPTIONS = dict(camera=CAMERA, width=16, height=12, device="cpu")
+SQUARE = np.float32([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
+
+
+def square(path: str, material: int = -1, offset=(0.0, 0.0, 0.0)) -> wrt.Mesh:
+    return wrt.Mesh(path, SQUARE + np.float32(offset), np.int32([[0, 1, 2], [0, 2, 3]]), np.zeros(2, np.int32),
+                    material_ids=np.full(2, material, np.int32))
+
+
+def red_square() -> wrt.Scene:
+    red = wrt.Material(path="/Red", diffuse_color=(0.8, 0.1, 0.1))
+    return wrt.Scene(meshes=[square("/Square", 0)], materials=[red],
+                     lights=[wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.full(3, 2.0, np.float32))])
+
+
+def instanced_squares() -> wrt.Scene:
+    """Two small squares drawn through instances of one prototype, side by side above a ground square."""
+    to_world = np.stack([np.diag([0.4, 0.4, 0.4, 1.0])] * 2)
+    to_world[:, :3, 3] = [(-0.5, 0.0, 0.5), (0.5, 0.0, 0.5)]
+    return wrt.Scene(meshes=[square("/Ground")], prototypes=[Prototype("/Proto", meshes=[square("/Proto/Square")])],
+                     instances=Instances.from_transforms([0, 0], to_world))
+
+
+def test_an_array_edited_in_place_after_invalidate_is_checked_as_an_assigned_one_is():
+    """``invalidate()`` then an edit in place: a NaN written into a material's colour rendered its triangles black,
+    by a kept Renderer and by a new render, without a word (the same NaN assigned is refused), and an index out of
+    range written into a mesh's indices raised the BVH build's error, which names no mesh. The next trace or render
+    after ``invalidate()`` checks every mesh, material, shape and the instances again, as their constructors do."""
+    scene = red_square()
+    renderer = wrt.Renderer(scene, **OPTIONS)
+    first = renderer.render().rgb
+    assert first[..., 0].max() > 0.5
+
+    scene.invalidate()
+    scene.materials[0].diffuse_color[0] = np.nan
+    message = r"^/Red: Material diffuse_color must be finite"
+    with pytest.raises(wrt.SceneError, match=message):
+        renderer.render()
+    with pytest.raises(wrt.SceneError, match=message):
+        wrt.render(scene, **OPTIONS)
+    scene.materials[0].diffuse_color[0] = 0.8  # mended in place: no new invalidate() needed, it was not rendered
+    np.testing.assert_array_equal(renderer.render().rgb, first)
+
+    scene.invalidate()
+    scene.meshes[0].indices[1, 2] = 4  # one past the square's 4 points
+    ray = (np.float32([[-0.5, 0.5, 1.0]]), np.float32([[0.0, 0.0, -1.0]]))
+    with pytest.raises(wrt.SceneError, match=r"^/Square: triangle indices must lie in \[0, 4\); triangle 1"):
+        wrt.trace(scene, *ray)
+    with pytest.raises(wrt.SceneError, match=r"^/Square: triangle indices"):
+        renderer.render()
+    scene.meshes[0].indices[1, 2] = 3
+    assert wrt.trace(scene, *ray).prim.tolist() == [1]
+    np.testing.assert_array_equal(renderer.render().rgb, first)
+
+
+def test_instance_arrays_assigned_anew_are_checked_and_converted_as_the_constructor_does():
+    """``instances.to_world = ...`` of another length than ``prototype`` raised a bare ``IndexError`` ('boolean
+    index did not match indexed array') from deep inside the build, and ``instances.prototype = [0, 0]`` (a list,
+    which the constructor takes) a ``TypeError`` ('<' not supported). Both are checked before the next trace or
+    render as the constructor checks them: the wrong length refused naming the field, the list converted and traced
+    as a freshly made scene traces it."""
+    scene = instanced_squares()
+    origins = np.float32([[-0.5, 0.0, 2.0], [0.5, 0.0, 2.0], [0.5, 0.8, 2.0]])
+    directions = np.float32([[0.0, 0.0, -1.0]] * 3)
+    assert wrt.trace(scene, origins, directions).instance.tolist() == [0, 1, -1]
+
+    good = scene.instances.to_world
+    scene.instances.to_world = good[:1].copy()
+    with pytest.raises(ValueError, match="^Instances arrays must all have one entry per instance: to_world has 1, "
+                                         "prototype 2"):
+        wrt.trace(scene, origins, directions)
+    with pytest.raises(ValueError, match="to_world has 1, prototype 2"):
+        wrt.render(scene, **OPTIONS)
+
+    moved = good.copy()
+    moved[1, 1, 3] = 0.8  # the second square up over the third ray
+    scene.instances.to_world = moved.tolist()
+    scene.instances.prototype = [0, 0]
+    hits = wrt.trace(scene, origins, directions)
+    fresh = wrt.Scene(meshes=[square("/Ground")], prototypes=[Prototype("/Proto", meshes=[square("/Proto/Square")])],
+                      instances=Instances.from_transforms([0, 0], moved))
+    expected = wrt.trace(fresh, origins, directions)
+    assert hits.instance.tolist() == expected.instance.tolist() == [0, -1, 1]
+    np.testing.assert_array_equal(hits.t, expected.t)
+    np.testing.assert_array_equal(wrt.render(scene, **OPTIONS).rgb, wrt.render(fresh, **OPTIONS).rgb)
+    assert scene.instances.prototype.dtype == np.int32 and scene.instances.to_world.dtype == np.float64
+
+
+def test_a_list_of_the_scene_given_something_else_is_refused_naming_the_list():
+    """``scene.meshes.append(points)`` (not a ``wrt.Mesh``) failed the next trace with "'numpy.ndarray' object has no
+    attribute '__dict__'"; it is refused as the constructor refuses it, naming the list and the entry."""
+    scene = red_square()
+    wrt.trace(scene, [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
+    scene.meshes.append(SQUARE)
+    with pytest.raises(TypeError, match=r"meshes\[1\] is a ndarray, not a wrt.Mesh"):
+        wrt.trace(scene, [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
