@@ -6,6 +6,7 @@ import pytest
 
 import wrt
 from wrt.instancing import Instances, Prototype
+from wrt.materials import TextureInput
 
 CAMERA = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
 OPTIONS = dict(camera=CAMERA, width=16, height=12, device="cpu")
@@ -94,6 +95,35 @@ def test_instance_arrays_assigned_anew_are_checked_and_converted_as_the_construc
     np.testing.assert_array_equal(hits.t, expected.t)
     np.testing.assert_array_equal(wrt.render(scene, **OPTIONS).rgb, wrt.render(fresh, **OPTIONS).rgb)
     assert scene.instances.prototype.dtype == np.int32 and scene.instances.to_world.dtype == np.float64
+
+
+def test_a_texture_added_to_a_material_later_is_checked_naming_the_material():
+    """A texture added to ``material.textures`` after construction is no assignment: one on an input that is not
+    texturable (``"diffuse_color"`` for ``"diffuseColor"``) failed the render with ``tuple.index(x): x not in
+    tuple``, a channel or wrap mode of another name with a bare ``KeyError``. Each is refused naming the material and
+    what is wrong; a good one is drawn as in a scene made with it."""
+    scene = red_square()
+    wrt.render(scene, **OPTIONS)
+    scene.textures.append(np.broadcast_to(np.float32([0.0, 0.0, 1.0, 1.0]), (2, 2, 4)).copy())
+    material = scene.materials[0]
+    material.textures["diffuse_color"] = TextureInput(image=0)
+    with pytest.raises(ValueError, match=r"^material /Red: textures on unknown inputs \['diffuse_color'\]"):
+        wrt.render(scene, **OPTIONS)
+    del material.textures["diffuse_color"]
+    material.textures["diffuseColor"] = TextureInput(image=0, channel="x")
+    with pytest.raises(ValueError, match=r"^material /Red: diffuseColor: channel must be one of r, g, b, a, rgb"):
+        wrt.render(scene, **OPTIONS)
+    material.textures["diffuseColor"] = TextureInput(image=0, wrap=("repeat", "wrap"))
+    with pytest.raises(ValueError, match=r"^material /Red: diffuseColor: wrap must be \(wrapS, wrapT\)"):
+        wrt.render(scene, **OPTIONS)
+    material.textures["diffuseColor"] = TextureInput(image=0)
+    blue = wrt.render(scene, **OPTIONS).rgb
+    fresh = red_square()
+    fresh.textures = [scene.textures[0].copy()]
+    fresh.materials = [wrt.Material(path="/Red", diffuse_color=(0.8, 0.1, 0.1),
+                                    textures={"diffuseColor": TextureInput(image=0)})]
+    np.testing.assert_array_equal(blue, wrt.render(fresh, **OPTIONS).rgb)
+    assert blue[..., 2].max() > 5.0 * blue[..., 0].max() > 0.0  # white only in the specular reflection
 
 
 def test_a_list_of_the_scene_given_something_else_is_refused_naming_the_list():

@@ -204,13 +204,21 @@ class Material(CountsAssignments):
         numbers = [(name, (), None, float) for name in ("metallic", "roughness", "opacity", "opacity_threshold", "ior",
                                                          "clearcoat", "clearcoat_roughness")]
         check_fields(self, *colors, *numbers)
+        self.check_textures()
+        mark_checked(self)
+
+    def check_textures(self) -> None:
+        """Raises ``ValueError`` naming the material when :attr:`textures` feeds an input that is not texturable or
+        a normal map reads one channel. Run by the constructor and again at each upload: an entry added to the dict
+        later (``material.textures["diffuse_color"] = ...``) is no assignment, and failed there with a bare
+        ``tuple.index(x): x not in tuple``."""
         unknown = set(self.textures) - set(SLOTS)
         if unknown:
-            raise ValueError(f"textures on unknown inputs {sorted(unknown)}; texturable inputs: {SLOTS}")
+            raise ValueError(f"material {self.path}: textures on unknown inputs {sorted(unknown)}; texturable "
+                             f"inputs: {SLOTS}")
         normal_map = self.textures.get("normal")
         if normal_map is not None and normal_map.channel != "rgb":
             raise ValueError(f"material {self.path}: a normal map reads the rgb output, not {normal_map.channel!r}")
-        mark_checked(self)
 
     @property
     def uv_set(self) -> str:
@@ -298,6 +306,13 @@ def check_texture_input(tex: TextureInput, num_images: int, where: str):
     image indices or -1."""
     if not 0 <= tex.image < num_images:
         raise ValueError(f"{where} uses texture {tex.image}, but there are {num_images}")
+    # A channel or wrap mode of another name failed at the upload with a bare KeyError ('x').
+    if tex.channel not in CHANNELS:
+        raise ValueError(f"{where}: channel must be one of {', '.join(CHANNELS)}, got {tex.channel!r}")
+    wrap = tuple(tex.wrap) if isinstance(tex.wrap, (tuple, list)) else ()
+    if len(wrap) != 2 or any(mode not in WRAP_MODES for mode in wrap):
+        raise ValueError(f"{where}: wrap must be (wrapS, wrapT), each one of {', '.join(WRAP_MODES)}, got "
+                         f"{tex.wrap!r}")
     fallback = np.asarray(tex.fallback)
     if fallback.shape != (4,) or fallback.dtype.kind not in "biuf" or not np.all(np.isfinite(fallback)):
         raise ValueError(f"{where}: the fallback must be 4 finite numbers, got {tex.fallback!r}")
@@ -345,6 +360,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
         flags[k] = (int(FLAG_SPECULAR_WORKFLOW) if mat.use_specular_workflow else 0) | (
             int(FLAG_DISPLAY_COLOR) if mat.diffuse_from_display_color else 0
         )
+        mat.check_textures()
         for name, tex in mat.textures.items():
             check_texture_input(tex, len(textures), f"material {mat.path}: {name}")
             slots[k, SLOTS.index(name)] = len(bindings)
