@@ -126,6 +126,26 @@ def test_a_texture_added_to_a_material_later_is_checked_naming_the_material():
     assert blue[..., 2].max() > 5.0 * blue[..., 0].max() > 0.0  # white only in the specular reflection
 
 
+def test_a_kept_ao_renderer_measures_its_default_radius_on_the_scene_as_edited():
+    """``ao_radius`` defaults to a tenth of the scene's diagonal; a kept Renderer measured it once, so after a mesh
+    was added far away (the diagonal 20 times longer) it went on with the old radius while a fresh render used the
+    new one: two images of one scene. It measures again whenever it builds again; a radius given stays."""
+    scene = red_square()
+    scene.meshes.append(square("/Roof", offset=(1.5, 0.0, 1.0)))  # 1 above the square's right half
+    options = dict(OPTIONS, integrator="ao")
+    kept = wrt.Renderer(scene, **options)
+    given = wrt.Renderer(scene, ao_radius=0.5, **options)
+    first = kept.render(spp=4).rgb
+    scene.meshes.append(square("/Far", offset=(40.0, 0.0, 0.0)))
+    fresh = wrt.Scene(meshes=[square("/Square", 0), square("/Roof", offset=(1.5, 0.0, 1.0)),
+                              square("/Far", offset=(40.0, 0.0, 0.0))], materials=list(scene.materials))
+    occluded = kept.render(spp=4).rgb
+    np.testing.assert_array_equal(occluded, wrt.render(fresh, spp=4, **options).rgb)
+    assert occluded.min() < 0.9 * first.min()  # the roof now darkens the square under it
+    np.testing.assert_array_equal(given.render(spp=4).rgb, wrt.render(fresh, spp=4, ao_radius=0.5, **options).rgb)
+    assert kept.ao_radius == pytest.approx(0.1 * np.linalg.norm([42.0, 2.0, 1.0]), rel=1e-6)
+
+
 def test_a_list_of_the_scene_given_something_else_is_refused_naming_the_list():
     """``scene.meshes.append(points)`` (not a ``wrt.Mesh``) failed the next trace with "'numpy.ndarray' object has no
     attribute '__dict__'"; it is refused as the constructor refuses it, naming the list and the entry."""

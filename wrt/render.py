@@ -332,7 +332,7 @@ class Renderer:
             default headlight of each camera travels along its viewing direction, as in a render of that camera
             alone.
         ao_radius: occlusion distance of ``ao`` in scene units; default a tenth of the scene's bounding-box
-            diagonal.
+            diagonal, measured again whenever the renderer builds again for an edited scene.
     """
 
     def __init__(
@@ -375,12 +375,9 @@ class Renderer:
         integral = isinstance(max_depth, (int, np.integer)) and not isinstance(max_depth, bool)
         if not (integral and 0 <= max_depth <= MAX_DEPTH):
             raise ValueError(f"max_depth must be an integer from 0 to {MAX_DEPTH}, got {max_depth!r}")
-        lower, upper = scene.bounds()
-        if ao_radius is None:
-            ao_radius = 0.1 * float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) or 1.0
-        if isinstance(ao_radius, bool) or not (
+        if ao_radius is not None and (isinstance(ao_radius, bool) or not (
             isinstance(ao_radius, (int, float, np.integer, np.floating)) and math.isfinite(ao_radius) and ao_radius > 0
-        ):
+        )):
             raise ValueError(f"ao_radius must be a positive number, got {ao_radius!r}")
         self.width, self.height = int(width), int(height)
         self.cameras = [view[0] for view in views]
@@ -389,7 +386,7 @@ class Renderer:
         self.device = resolve_device(device)
         self.integrator = integrator
         self.max_depth = int(max_depth)
-        self.ao_radius = float(ao_radius)
+        self._asked_ao_radius = ao_radius  # None: the scene's, measured again at each build (_build)
         self.timers = {}
         stats = scene.stats()
         if stats["rendered_triangles"] == 0 and stats.get("rendered_shapes", 0) == 0:
@@ -403,6 +400,9 @@ class Renderer:
         """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
         if parts_changed(getattr(self, "_scene_lights", ()), tuple(dataclass_parts(self.scene.lights))):
             check_lights(self.scene.lights)
+        # The default ao_radius follows the scene as the BVH does: a kept Renderer kept the radius of the scene it was
+        # made for, and after a mesh was added far away its ao image differed from a fresh render's.
+        self.ao_radius = float(self._asked_ao_radius or self._scene_ao_radius())
         with wp.ScopedTimer("build", print=False, dict=self.timers, synchronize=True):
             self.accel = get_accelerator(self.scene, *self._accel_options, self.device)
             self.device_scene = self.scene.to_device(self.device)
@@ -413,6 +413,11 @@ class Renderer:
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
         self._progressive = None  # running sums of the last render, for render(resume=True)
+
+    def _scene_ao_radius(self) -> float:
+        """A tenth of the scene's bounding-box diagonal (1 for an empty scene): the default ``ao_radius``."""
+        lower, upper = self.scene.bounds()
+        return 0.1 * float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) or 1.0
 
     def _follow_scene(self) -> None:
         """Builds again when the scene changed since the last build (a mesh, material, light or instance array
