@@ -7,6 +7,7 @@ import pytest
 import wrt
 from wrt.instancing import Instances, Prototype
 from wrt.materials import TextureInput
+from wrt.primitives import Shape
 
 CAMERA = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
 OPTIONS = dict(camera=CAMERA, width=16, height=12, device="cpu")
@@ -154,3 +155,31 @@ def test_a_list_of_the_scene_given_something_else_is_refused_naming_the_list():
     scene.meshes.append(SQUARE)
     with pytest.raises(TypeError, match=r"meshes\[1\] is a ndarray, not a wrt.Mesh"):
         wrt.trace(scene, [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
+
+
+def test_an_infinite_colour_or_an_opacity_outside_0_1_is_refused_naming_the_mesh_or_shape():
+    """``mesh.colors`` with an infinite value made every sample there non-finite, dropped, so the mesh was drawn
+    black; ``mesh.opacities`` of 2 or -1 were clamped by the shading; a shape's infinite ``color`` likewise. The
+    loader replaces such values with a warning, and instance colours and a shape's opacity are refused; these are
+    refused too, when made and when assigned or edited in place, naming the mesh or shape and the field (NaN still
+    means none)."""
+    scene = red_square()
+    first = wrt.render(scene, **OPTIONS).rgb
+    mesh = scene.meshes[0]
+    mesh.colors = np.full((2, 3, 3), np.inf, np.float32)
+    with pytest.raises(wrt.SceneError, match=r"^/Square: colors must be finite \(NaN: none\); triangle 0 has"):
+        wrt.render(scene, **OPTIONS)
+    mesh.colors = np.full((2, 3, 3), np.nan, np.float32)  # none: the material's colour
+    np.testing.assert_array_equal(wrt.render(scene, **OPTIONS).rgb, first)
+    scene.invalidate()
+    mesh.colors[1, 2, 0] = -np.inf
+    with pytest.raises(wrt.SceneError, match=r"^/Square: colors must be finite \(NaN: none\); triangle 1 has"):
+        wrt.render(scene, **OPTIONS)
+    mesh.colors = None
+    mesh.opacities = np.float32([[1.0, 1.0, 1.0], [0.5, 2.0, 0.5]])
+    with pytest.raises(wrt.SceneError, match=r"^/Square: opacities must be in \[0, 1\] \(NaN: none\); triangle 1"):
+        wrt.trace(scene, [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
+    with pytest.raises(wrt.SceneError, match=r"^/Bad: opacities must be in \[0, 1\]"):
+        wrt.Mesh("/Bad", SQUARE, [[0, 1, 2]], [0], opacities=[[-1.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match=r"^shape /Ball: color must be 3 finite numbers or None"):
+        Shape("/Ball", "sphere", np.eye(4), color=(np.inf, 0.0, 0.0))

@@ -463,6 +463,9 @@ class Shape(CountsAssignments):
         self.params = np.asarray(self.params, np.float32).reshape(4)
         if self.color is not None:
             self.color = np.asarray(self.color, np.float32).reshape(3)
+            if not np.isfinite(self.color).all():  # NaN would read as "none" on the device, inf shade as inf
+                raise ValueError(f"shape {self.path}: color must be 3 finite numbers or None, got "
+                                 f"{self.color.tolist()}")
         if self.opacity is not None:
             self.opacity = float(self.opacity)
             if not 0.0 <= self.opacity <= 1.0:  # NaN too: it would mean "none" on the device

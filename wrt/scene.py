@@ -169,6 +169,19 @@ class Mesh(CountsAssignments):
                 raise SceneError(f"{name} must have shape {expected}, one entry per triangle; got {array.shape}",
                                  prim=self.path)
             assign(name, array.reshape((triangles, *corner)))
+        # As the loader reads them (usd_primvars.finite_colors, unit_opacities) and Instances and Shape check theirs:
+        # an infinite colour made every sample there non-finite (dropped: the mesh drawn black), an opacity outside
+        # [0, 1] was clamped by the shading, each without a word. NaN means none in both.
+        if self.colors is not None and np.isinf(self.colors).any():
+            t = int(np.flatnonzero(np.isinf(self.colors).any(axis=(1, 2)))[0])
+            raise SceneError(f"colors must be finite (NaN: none); triangle {t} has {self.colors[t].tolist()}",
+                             prim=self.path)
+        if self.opacities is not None:
+            outside = np.flatnonzero(((self.opacities < 0.0) | (self.opacities > 1.0)).any(axis=1))
+            if len(outside):
+                t = int(outside[0])
+                raise SceneError(f"opacities must be in [0, 1] (NaN: none); triangle {t} has "
+                                 f"{self.opacities[t].tolist()}", prim=self.path)
         self.check_vertices()
         mark_checked(self)
 
