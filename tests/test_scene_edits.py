@@ -183,3 +183,18 @@ def test_an_infinite_colour_or_an_opacity_outside_0_1_is_refused_naming_the_mesh
         wrt.Mesh("/Bad", SQUARE, [[0, 1, 2]], [0], opacities=[[-1.0, 0.0, 0.0]])
     with pytest.raises(ValueError, match=r"^shape /Ball: color must be 3 finite numbers or None"):
         Shape("/Ball", "sphere", np.eye(4), color=(np.inf, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("kind,params", [("capsule", (np.nan, 0.0, 0.0, 1.0)), ("cylinder", (np.nan, 0.0, 0.0, 1.0)),
+                                         ("tapered", (1.0, np.inf, 0.0, 1.0))])
+def test_shape_params_that_are_not_finite_are_refused_naming_the_shape(kind, params):
+    """A capsule of NaN height or a tapered cylinder of infinite top radius was missed by every ray, and a cylinder
+    with NaN for its caps lost them, without a word; such params are refused when made and when assigned."""
+    ray = (np.float32([[0.0, 0.1, 5.0]]), np.float32([[0.0, 0.0, -1.0]]))
+    with pytest.raises(ValueError, match=r"^shape /S: params must be 4 finite numbers"):
+        Shape("/S", kind, np.eye(4), params=params)
+    scene = wrt.Scene(shapes=[Shape("/S", kind, np.eye(4))])
+    assert wrt.trace(scene, *ray).prim[0] == 0
+    scene.shapes[0].params = params
+    with pytest.raises(ValueError, match=r"shape /S: params must be 4 finite numbers"):
+        wrt.trace(scene, *ray)

@@ -461,6 +461,8 @@ class Shape(CountsAssignments):
             raise ValueError(f"unknown shape kind {self.kind!r}; valid kinds: {', '.join(SHAPE_KINDS)}")
         self.to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)
         self.params = np.asarray(self.params, np.float32).reshape(4)
+        if not np.isfinite(self.params).all():  # a capsule of NaN height, a cylinder of NaN caps: missed by every ray
+            raise ValueError(f"shape {self.path}: params must be 4 finite numbers, got {self.params.tolist()}")
         if self.color is not None:
             self.color = np.asarray(self.color, np.float32).reshape(3)
             if not np.isfinite(self.color).all():  # NaN would read as "none" on the device, inf shade as inf
