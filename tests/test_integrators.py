@@ -475,3 +475,19 @@ def test_whitted_reflects_the_dome_in_a_specular_workflow_mirror(roughness):
     path = wrt.render(scene, camera=cam, width=4, height=4, spp=64, device="cpu", integrator="path").rgb
     assert whitted.max() <= 1.0 + 1e-6
     assert whitted.mean() == pytest.approx(path.mean(), rel=0.05)
+
+
+@pytest.mark.parametrize("integrator, spp", [("whitted", 4), ("path", 128)])
+def test_a_specular_colour_above_one_leaves_the_diffuse_lobe_black_not_negative(integrator, spp):
+    """useSpecularWorkflow with specularColor 1.5 over diffuseColor 0.8 (roughness 0.5) under a dome of radiance 1,
+    seen from above: the specular lobe reflects more than all the light, so nothing is left to the diffuse lobe, and
+    the surface shows the lobe's single-scattering albedo (float64 quadrature, F0 1.5) plus the multiple-scattering
+    lobe's ``1 - E`` (its Fresnel colour is 1 once F0 reaches 1). The diffuse lobe got ``1 - albedo`` < 0 of the
+    light, which subtracted: Whitted showed 1.09 and the path tracer 1.01 against 1.46."""
+    material = Material(diffuse_color=0.8, use_specular_workflow=True, specular_color=1.5, roughness=0.5)
+    plane = quad((0, 0, 0), (100, 0, 0), (0, 100, 0), material=0)
+    scene = wrt.Scene(meshes=[plane], materials=[material], lights=[DomeLight(color=np.ones(3, np.float32))])
+    cam = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=20)
+    img = wrt.render(scene, camera=cam, width=4, height=4, spp=spp, device="cpu", integrator=integrator, max_depth=1)
+    expected = specular_albedo(1.5, 0.5) + 1.0 - specular_albedo(1.0, 0.5)
+    assert img.rgb.mean() == pytest.approx(expected, rel=0.02)

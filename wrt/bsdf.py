@@ -243,6 +243,14 @@ def multiple_scattering_color(f0: wp.vec3, loss: float):
     return wp.cw_div(wp.cw_mul(f_avg, f_avg) * (1.0 - loss), wp.vec3(1.0) - f_avg * loss)
 
 
+@wp.func
+def unreflected(albedo: wp.vec3):
+    """What a lobe of directional ``albedo`` leaves to the layer below it, per channel: ``1 - albedo``, at least 0. A
+    specularColor above 1, or a metallic-workflow F0 above 1 (diffuseColor 3 at metallic 0.5), made it negative: a
+    negative diffuse lobe and sample weights down to -2000 (negative radiance in the image)."""
+    return wp.vec3(wp.max(1.0 - albedo[0], 0.0), wp.max(1.0 - albedo[1], 0.0), wp.max(1.0 - albedo[2], 0.0))
+
+
 @wp.struct
 class LobeAlbedos:
     """What the opaque lobes reflect towards one viewer: every value :func:`eval_bsdf` and :func:`sample_bsdf` read
@@ -311,7 +319,7 @@ def lobe_weights(s: Surface, spec: wp.vec3, spec_ms: wp.vec3, coat: float):
     albedos of :func:`specular_albedo` and :func:`clearcoat_albedo` at the viewing angle: a smooth lobe's
     multiple-scattering lobe, which reflects little, is drawn as rarely."""
     below = 1.0 - coat
-    diffuse = wp.cw_mul(wp.vec3(1.0) - spec - spec_ms, surface_albedo(s))
+    diffuse = wp.cw_mul(unreflected(spec + spec_ms), surface_albedo(s))
     wd = luminance(diffuse) * below
     ws = luminance(spec) * below
     wm = wp.max(luminance(spec_ms), 0.0) * below
@@ -360,7 +368,7 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, n
     coat_below = 1.0 - lobes.coat
     w = lobes.weights
 
-    f_diffuse = wp.cw_mul(wp.vec3(1.0) - lobes.spec - lobes.spec_ms, surface_albedo(s)) * (INV_PI * coat_below)
+    f_diffuse = wp.cw_mul(unreflected(lobes.spec + lobes.spec_ms), surface_albedo(s)) * (INV_PI * coat_below)
     f = wp.vec3(0.0)  # the specular lobes
     pdf = w[0] * cos_i * INV_PI
     if s.roughness >= DELTA_ROUGHNESS:

@@ -28,6 +28,7 @@ from ..bsdf import (
     specular_albedo,
     surface_albedo,
     surface_f0,
+    unreflected,
 )
 from ..geometry import offset_ray_origin
 from ..light_links import link_group, lit_by
@@ -61,7 +62,7 @@ def dome_albedo(s: Surface, traced: wp.vec3):
     (``traced``: :func:`traced_specular`, which always counts that lobe, so that the two never add up to more
     than 1)."""
     if s.specular_workflow == 1:
-        return wp.cw_mul(wp.vec3(1.0) - traced, surface_albedo(s))
+        return wp.cw_mul(unreflected(traced), surface_albedo(s))
     return surface_albedo(s)
 
 
