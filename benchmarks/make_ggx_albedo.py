@@ -23,7 +23,8 @@ MIN_MU = 1.0e-4  # the column mu = 0 is taken at this cosine (the limit at grazi
 
 
 def smith_lambda(cos_t, alpha):
-    """Smith's ``Lambda`` for GGX (as ``wrt.bsdf.ggx_lambda``)."""
+    """Smith's ``Lambda`` for GGX (``wrt.bsdf.ggx_masking_length`` is ``cos_t (1 + 2 Lambda)``; the clamp
+    only matters below a cosine of 1e-6)."""
     c2 = np.maximum(cos_t * cos_t, 1e-12)
     return 0.5 * (np.sqrt(1.0 + alpha * alpha * np.maximum(1.0 - c2, 0.0) / c2) - 1.0)
 

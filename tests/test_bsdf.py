@@ -256,6 +256,42 @@ def test_a_sharp_ggx_lobe_matches_a_float64_evaluation(roughness, np_rng):
     assert (weight <= 1.7).all() and (weight >= 0.0).all()
 
 
+@pytest.mark.parametrize("cos_o", [0.3, 1e-4, 1e-6, 1e-7, 1e-8, 1e-12])
+def test_grazing_views_match_a_float64_ggx_lobe(cos_o, np_rng):
+    """A clearcoat alone (diffuseColor 0, ior 1: no other lobe; F0 0.04, roughness 0.3, no multiple scattering) seen
+    at grazing angles: ``f cos_i`` and the pdf against float64 GGX with Schlick's Fresnel, for light from every
+    height down to a cosine of 1e-20. Smith's ``Lambda`` was clamped at a cosine of 1e-6, so below it, the viewer's or
+    the light's, ``f cos_i`` came out as much too large as the cosine was small (100 times for a viewer at 1e-8, 1e14
+    times for light at 1e-20), and ``f`` was infinite where both cosines were 1e-23 or less."""
+    count, alpha = 4000, 0.09
+    wo = np.array([math.sqrt(1.0 - cos_o * cos_o), 0.0, cos_o])
+    wi = np_rng.normal(size=(count, 3))
+    wi[:, 2] = np.abs(wi[:, 2])
+    wi[: count // 4, 2] = 10.0 ** np_rng.uniform(-20.0, -2.0, count // 4)  # near the horizon
+    wi /= np.linalg.norm(wi, axis=1, keepdims=True)
+    wo, wi = (x.astype(np.float32).astype(np.float64) for x in (wo, wi))  # what the kernel sees
+    p = params(base=(0.0, 0.0, 0.0), ior=1.0, roughness=0.5, clearcoat=1.0, clearcoat_roughness=0.3)
+    f, pdf = evaluate(p, (0.0, 0.0, 1.0), wo, wi)
+    h = wo + wi
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    fresnel = 0.04 + 0.96 * (1.0 - h @ wo) ** 5
+    f_ref, pdf_ref = ggx_reference(np.array([0.0, 0.0, 1.0]), wo[None], wi, alpha)
+    assert np.isfinite(f).all() and np.isfinite(pdf).all()
+    np.testing.assert_allclose(f[:, 0] * wi[:, 2], fresnel * f_ref * wi[:, 2], rtol=2e-3, atol=1e-30)
+    np.testing.assert_allclose(pdf, pdf_ref, rtol=2e-3, atol=1e-30)
+
+
+def test_a_surface_seen_and_lit_edge_on_stays_finite():
+    """Viewer and light both at a cosine of 1e-30 (float32 holds it; ``4 cos_o cos_i`` does not): finite ``f`` and
+    pdf for the GGX, multiple-scattering and clearcoat lobes."""
+    wo = np.array([[1.0, 0.0, 1e-30]])
+    wi = np.array([[-1.0, 0.0, 1e-30], [0.0, 1.0, 1e-30]])
+    for p in (params(roughness=0.3), params(base=(1.0, 1.0, 1.0), metallic=1.0, roughness=0.05, clearcoat=1.0,
+                                          clearcoat_roughness=0.5)):
+        f, pdf = evaluate(p, (0.0, 0.0, 1.0), wo, wi)
+        assert np.isfinite(f).all() and np.isfinite(pdf).all(), (f, pdf)
+
+
 def test_colours_above_one_give_finite_nonnegative_weights(np_rng):
     """A metal of diffuseColor (3, 1.5, 0.5) (colours above 1 are not refused) at roughness 1: the
     multiple-scattering lobe's colour ``F_avg^2 E_avg / (1 - F_avg (1 - E_avg))`` had a denominator of -0.8."""

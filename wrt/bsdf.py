@@ -151,23 +151,22 @@ def ggx_d(cos_h: float, sin2_h: float, alpha: float):
 
 
 @wp.func
-def ggx_lambda(cos_t: float, alpha: float):
-    """Smith's ``Lambda`` for GGX at a direction with ``cos_t = n . w``."""
-    c2 = wp.max(cos_t * cos_t, 1.0e-12)
-    tan2 = wp.max(1.0 - c2, 0.0) / c2
-    return 0.5 * (wp.sqrt(1.0 + alpha * alpha * tan2) - 1.0)
+def ggx_masking_length(cos_t: float, alpha: float):
+    """``sqrt(cos_t^2 + alpha^2 (1 - cos_t^2)) = cos_t (1 + 2 Lambda)`` for a direction at ``cos_t = n . w``, Smith's
+    ``Lambda`` for GGX being ``(sqrt(1 + alpha^2 tan^2) - 1) / 2``. The masking terms below are written with it, not
+    with ``Lambda``, whose ``tan^2`` divides by ``cos^2``: that was clamped at 1e-12, so below a cosine of 1e-6 the
+    masking stopped growing and ``f`` grew as ``1 / (cos_o cos_i)`` (100 times too large at ``cos_o`` 1e-8), and it
+    was infinite where ``4 cos_o cos_i`` underflowed (both cosines near 1e-23)."""
+    c2 = cos_t * cos_t
+    return wp.sqrt(c2 + alpha * alpha * wp.max(1.0 - c2, 0.0))
 
 
 @wp.func
-def ggx_g1(cos_t: float, alpha: float):
-    """Smith masking of one direction."""
-    return 1.0 / (1.0 + ggx_lambda(cos_t, alpha))
-
-
-@wp.func
-def ggx_g2(cos_o: float, cos_i: float, alpha: float):
-    """Height-correlated Smith masking-shadowing (Heitz 2014)."""
-    return 1.0 / (1.0 + ggx_lambda(cos_o, alpha) + ggx_lambda(cos_i, alpha))
+def ggx_visibility(cos_o: float, cos_i: float, alpha: float):
+    """Height-correlated Smith masking-shadowing (Heitz 2014) over the microfacet denominator, ``G2 / (4 cos_o
+    cos_i) = 1 / (2 (cos_i m_o + cos_o m_i))`` with ``m`` the :func:`ggx_masking_length` of each direction (as
+    Filament's ``V_SmithGGXCorrelated``); finite for any cosines not both 0."""
+    return 0.5 / (cos_i * ggx_masking_length(cos_o, alpha) + cos_o * ggx_masking_length(cos_i, alpha))
 
 
 @wp.func
@@ -197,8 +196,9 @@ def sample_ggx_vndf(wo: wp.vec3, alpha: float, u1: float, u2: float):
 
 @wp.func
 def ggx_reflection_pdf(cos_o: float, cos_h: float, sin2_h: float, alpha: float):
-    """Solid-angle pdf of a reflected direction sampled through :func:`sample_ggx_vndf`: ``G1(wo) D(h) / (4 cos_o)``."""
-    return ggx_g1(cos_o, alpha) * ggx_d(cos_h, sin2_h, alpha) / (4.0 * cos_o)
+    """Solid-angle pdf of a reflected direction sampled through :func:`sample_ggx_vndf`: ``G1(wo) D(h) / (4 cos_o)
+    = D(h) / (2 (cos_o + m_o))`` (``m_o``: :func:`ggx_masking_length`)."""
+    return ggx_d(cos_h, sin2_h, alpha) / (2.0 * (cos_o + ggx_masking_length(cos_o, alpha)))
 
 
 @wp.func
@@ -373,7 +373,7 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, n
     pdf = w[0] * cos_i * INV_PI
     if s.roughness >= DELTA_ROUGHNESS:
         a = ggx_alpha(s.roughness)
-        dg = ggx_d(cos_h, sin2_h, a) * ggx_g2(cos_o, cos_i, a) / (4.0 * cos_o * cos_i)
+        dg = ggx_d(cos_h, sin2_h, a) * ggx_visibility(cos_o, cos_i, a)
         single = fresnel_schlick(f0, cos_vh) * dg
         f += (single + multiple_scattering(tables, lobes, s.roughness, cos_i)) * coat_below
         pdf += w[1] * ggx_reflection_pdf(cos_o, cos_h, sin2_h, a)
@@ -381,7 +381,7 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, n
     if s.clearcoat > 0.0 and s.clearcoat_roughness >= DELTA_ROUGHNESS:
         ac = ggx_alpha(s.clearcoat_roughness)
         fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_vh)
-        f += wp.vec3(fc * ggx_d(cos_h, sin2_h, ac) * ggx_g2(cos_o, cos_i, ac) / (4.0 * cos_o * cos_i))
+        f += wp.vec3(fc * ggx_d(cos_h, sin2_h, ac) * ggx_visibility(cos_o, cos_i, ac))
         pdf += w[3] * ggx_reflection_pdf(cos_o, cos_h, sin2_h, ac)
     return f_diffuse, f, pdf
 
