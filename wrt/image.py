@@ -209,8 +209,8 @@ class Image:
             - ``"depth"`` float32 distance along the ray (``inf`` on a miss);
             - ``"z"`` float32 depth: distance along the viewing axis, scene units (``inf`` on a miss);
             - ``"normal"`` ``(H, W, 3)`` float32 world-space shading normal, flipped to the camera's side with the
-              face normal (at silhouettes an interpolated normal can lean a little away from the camera; 0 on a
-              miss);
+              face normal, and near silhouettes turned towards it just enough that the camera's mirror direction
+              stays above the surface; 0 on a miss);
             - ``"geometric_normal"`` ``(H, W, 3)`` float32 world-space face normal, facing the camera;
             - ``"albedo"`` ``(H, W, 3)`` float32 diffuseColor (textured) of the hit material;
             - ``"prim"`` int32 triangle id (-1 on a miss);

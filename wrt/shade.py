@@ -10,7 +10,9 @@ Conventions:
 - Surfaces: the geometric normal (from the winding, ``cross(p1 - p0, p2 - p0)``) is turned to face the incoming
   ray; the shading normal (barycentric interpolation of the mesh's normals, or the face normal when it has none)
   is turned to the same side. ``front`` records whether the ray arrived on the winding's front side. A material's
-  normal map then perturbs the shading normal (:func:`shading_point`, which the integrators and AOVs read).
+  normal map then perturbs the shading normal (:func:`shading_point`, which the integrators and AOVs read), and
+  either normal is turned towards the face normal just enough that the viewer's mirror direction lies above the
+  surface (:func:`keep_reflection_above`).
 - Back faces of single-sided meshes (``doubleSided = false``) are invisible to camera rays, as in usdview: they
   are culled by re-tracing those rays beyond the hit (:func:`intersect_visible`), or, where the triangle has a
   coincident partner seen from there (:mod:`wrt.twins`: a two-sided card's other face), by taking the partner
@@ -408,6 +410,11 @@ def shading_point(
     binding = normal_map(mats, h.material)
     if binding >= 0 and prim < scene.num_prims:
         h.ns = mapped_normal(scene, surf, mats, binding, h, prim, instance, d)
+    else:
+        # An interpolated normal leans away from the viewer near a coarse mesh's silhouette as a mapped one can:
+        # the BSDF was black there and mirror rays went into the surface (a smooth-shaded mirror sphere of 16
+        # segments showed black rims in a white furnace).
+        h.ns = keep_reflection_above(h.ns, h.ng, -wp.normalize(d))
     return h
 
 
