@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wrt.bsdf import Surface, eval_bsdf, lobe_albedos, sample_bsdf
+from wrt.bsdf import Surface, eval_bsdf, fresnel_dielectric, lobe_albedos, sample_bsdf
 from wrt.microfacet_albedo import (
     GgxAlbedo,
     ggx_albedo_tables,
@@ -290,6 +290,50 @@ def test_a_surface_seen_and_lit_edge_on_stays_finite():
                                           clearcoat_roughness=0.5)):
         f, pdf = evaluate(p, (0.0, 0.0, 1.0), wo, wi)
         assert np.isfinite(f).all() and np.isfinite(pdf).all(), (f, pdf)
+
+
+@wp.kernel
+def fresnel_dielectric_kernel(
+    cos_i: wp.array[float],
+    eta: wp.array[float],
+    # outputs
+    reflectance: wp.array[float],
+):
+    """``reflectance[i]``: :func:`fresnel_dielectric` at ``cos_i[i], eta[i]``."""
+    i = wp.tid()
+    reflectance[i] = fresnel_dielectric(cos_i[i], eta[i])
+
+
+def test_the_dielectric_fresnel_term_matches_float64_at_every_angle_and_index():
+    """Exact Fresnel reflectance against float64 for incidence cosines down to 1e-8 and indices from 1e-20 to 1e20:
+    an index-matched interface (eta 1, as ior 1 gives) reflects nothing, also at grazing angles, where ``1 -
+    cos^2`` rounded to 1 and made it total internal reflection (everything reflected below a cosine of 2.4e-4)."""
+    cos_i = np.array([1.0, 0.7, 0.3, 0.01, 1e-3, 2e-4, 1e-4, 1e-6, 1e-8])
+    eta = np.array([1e-20, 1e-3, 0.5, 1.0, 1.0001, 1.5, 1e3, 1e20])
+    c, e = (x.ravel() for x in np.meshgrid(cos_i, eta, indexing="ij"))
+    c, e = (x.astype(np.float32).astype(np.float64) for x in (c, e))
+    out = wp.empty(len(c), dtype=float, device="cpu")
+    wp.launch(fresnel_dielectric_kernel, len(c), inputs=[wp.array(c, dtype=float, device="cpu"),
+                                                        wp.array(e, dtype=float, device="cpu")],
+              outputs=[out], device="cpu")
+    cos2_t = c * c + (1.0 - c * c) * (1.0 - 1.0 / (e * e))  # 1 - sin^2 / eta^2 cancels even in float64 at 1e-8
+    cos_t = np.sqrt(np.maximum(cos2_t, 0.0))
+    r_parl = (e * c - cos_t) / (e * c + cos_t)
+    r_perp = (c - e * cos_t) / (c + e * cos_t)
+    expected = np.where(cos2_t <= 0.0, 1.0, 0.5 * (r_parl**2 + r_perp**2))
+    np.testing.assert_allclose(out.numpy(), expected, rtol=1e-3, atol=1e-6)  # float32 1 - 1 / 1.0001^2: 3e-4
+
+
+def test_an_index_matched_glass_passes_grazing_light_straight_through(np_rng):
+    """Glass of opacity 0 and ior 1 changes no direction: every sample is ``-wo`` with weight 1, down to grazing
+    views (it was reflected below a cosine of 2.4e-4)."""
+    cos_o = np.array([1.0, 0.5, 0.01, 3e-4, 2e-4, 1e-4, 1e-6, 1e-8], np.float64)
+    wo = np.stack([np.sqrt(1.0 - cos_o**2), np.zeros_like(cos_o), cos_o], -1)
+    wo = np.repeat(wo, 64, axis=0)
+    wi, weight, _, delta = sample(params(opacity=0.0, ior=1.0), (0.0, 0.0, 1.0), wo, np_rng.random((len(wo), 4)))
+    assert (delta == 1).all()
+    np.testing.assert_allclose(weight, 1.0)
+    np.testing.assert_allclose(wi, -wo, atol=1e-6)
 
 
 def test_colours_above_one_give_finite_nonnegative_weights(np_rng):

@@ -105,13 +105,27 @@ def fresnel_schlick_scalar(f0: float, cos_theta: float):
 
 
 @wp.func
+def refracted_cos2(cos_i: float, eta: float):
+    """``cos^2`` of the refracted direction for incidence ``cos_i`` and ``eta = n_t / n_i`` (Snell): ``1 - sin_i^2 /
+    eta^2``, written ``cos_i^2 + sin_i^2 (1 - 1 / eta^2)`` so that it is ``cos_i^2`` exactly at ``eta = 1``, and 1 at
+    normal incidence for any ``eta`` (``1 / eta^2`` may overflow). At most 0: total internal reflection. As ``1 -
+    sin_i^2 / eta^2``, ``sin_i^2`` rounded to 1 below a cosine of 2.4e-4, where an index-matched interface (ior 1,
+    as a MaterialX specular of 0 gives) reflected all the light instead of none."""
+    c2 = cos_i * cos_i
+    s2 = wp.max(1.0 - c2, 0.0)
+    if s2 <= 0.0:
+        return 1.0
+    return c2 + s2 * (1.0 - 1.0 / (eta * eta))
+
+
+@wp.func
 def fresnel_dielectric(cos_i: float, eta: float):
     """Exact unpolarised Fresnel reflectance of a smooth dielectric interface; ``eta = n_t / n_i``, ``cos_i > 0``
     on the incident side. Returns 1 for total internal reflection."""
-    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
-    if sin2_t >= 1.0:
+    cos2_t = refracted_cos2(cos_i, eta)
+    if cos2_t <= 0.0:
         return 1.0
-    cos_t = wp.sqrt(1.0 - sin2_t)
+    cos_t = wp.sqrt(cos2_t)
     r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
     r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
     return 0.5 * (r_parl * r_parl + r_perp * r_perp)
@@ -128,10 +142,10 @@ def refract(wo: wp.vec3, n: wp.vec3, eta: float):
     """Snell refraction of ``wo`` (on the side of ``n``) through the interface, ``eta = n_t / n_i``; the result
     points away from the surface on the other side. Zero for total internal reflection."""
     cos_i = wp.dot(n, wo)
-    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
-    if sin2_t >= 1.0:
+    cos2_t = refracted_cos2(cos_i, eta)
+    if cos2_t <= 0.0:
         return wp.vec3(0.0)
-    cos_t = wp.sqrt(1.0 - sin2_t)
+    cos_t = wp.sqrt(cos2_t)
     return -wo / eta + (cos_i / eta - cos_t) * n
 
 
