@@ -104,6 +104,29 @@ def test_specification_defaults_and_approximations(tmp_path):
     assert "geometry_opacity 0.3 is drawn a hole" in leaf_warning and "coat_ior 1.6" in leaf_warning
 
 
+def test_a_scaled_specular_keeps_an_index_below_one_below_one_and_survives_a_negative_one(tmp_path):
+    """The specular weight scales the dielectric F0 ``((ior - 1) / (ior + 1))^2``; the index drawn has that F0. An
+    index below 1 (a bubble: transmission 1, specular_IOR 0.75) stays below 1, so refraction bends the authored way
+    (it became 1.22); a negative index, drawn as wrt's smallest (1e-3) as UsdPreviewSurface's is, divided by zero
+    at -1 and load_usd raised ZeroDivisionError."""
+    stage, path = new_stage(tmp_path)
+    looks = {"Bubble": {"specular_IOR": 0.75, "specular": 0.5, "transmission": 1.0},
+             "Negative": {"specular_IOR": -1.0, "specular": 0.5}}
+    for k, (name, inputs) in enumerate(looks.items()):
+        bind(add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0)), mtlx_material(stage, f"/Looks/{name}", **inputs)[0])
+    stage.Save()
+    scene, _ = load(path)
+    mats = {m.path.rsplit("/", 1)[1]: m for m in scene.materials}
+
+    def f0(ior):
+        return ((ior - 1.0) / (ior + 1.0)) ** 2
+
+    bubble, negative = mats["Bubble"].ior, mats["Negative"].ior
+    assert bubble < 1.0
+    assert f0(bubble) == pytest.approx(0.5 * f0(0.75))
+    assert f0(negative) == pytest.approx(0.5 * f0(1e-3))
+
+
 def write_png(path, rows):
     PilImage.fromarray(np.asarray(rows, np.uint8)).save(path)
     return str(path)

@@ -91,6 +91,7 @@ NUM_SLOTS = len(SLOTS)
 CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3, "rgb": 4, "rgba": 4}  # UsdUVTexture outputs
 FLAG_SPECULAR_WORKFLOW = wp.constant(1)  # useSpecularWorkflow = 1
 FLAG_DISPLAY_COLOR = wp.constant(2)  # diffuseColor comes from the mesh's colour primvar (Material.color_primvar)
+MIN_IOR = wp.constant(1.0e-3)  # smaller (and negative) ior values are drawn as this index
 DEFAULT_GREY = 0.5  # albedo of meshes with neither a material nor displayColor
 # Shaders whose output is a mesh's colour primvar (the rgb of a 4-vector one), by id: the input naming the primvar and
 # the one giving the value where a mesh lacks it (zero when unauthored, in both libraries).
@@ -508,7 +509,7 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
     if m == 0 and not wp.isnan(display_opacity):
         s.opacity = wp.clamp(display_opacity, 0.0, 1.0)
     s.opacity_threshold = mats.params[m, 3]
-    s.ior = wp.max(mats.params[m, 4], 1.0e-3)
+    s.ior = wp.max(mats.params[m, 4], MIN_IOR)
     s.clearcoat = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT, st, mats.params[m, 5]), 0.0, 1.0)
     s.clearcoat_roughness = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT_ROUGHNESS, st, mats.params[m, 6]), 0.0, 1.0)
     s.specular_workflow = wp.where((flags & FLAG_SPECULAR_WORKFLOW) != 0, 1, 0)

@@ -20,9 +20,10 @@ opacity (dielectric)       ``1 - transmission``                    ``1 - transmi
 Approximations, each named in the material's one warning when it changes what is drawn:
 
 - The specular weight and the mean of the specular colour scale the dielectric F0 ``((ior - 1) / (ior + 1))^2``,
-  as OpenPBR defines ``specular_weight``; wrt takes F0 from ``ior``, so ``ior`` becomes the index of that scaled F0
-  (``specular = 0``: ``ior = 1``, no dielectric reflection; metals keep their reflection). A tinted specular colour
-  loses its hue, and the changed ``ior`` also refracts transmitted light.
+  as OpenPBR defines ``specular_weight``; wrt takes F0 from ``ior``, so ``ior`` becomes the index of that scaled F0,
+  on the same side of 1 as the authored index (``specular = 0``: ``ior = 1``, no dielectric reflection; metals keep
+  their reflection). A tinted specular colour loses its hue, and the changed ``ior`` also refracts transmitted light.
+  An index below wrt's smallest (1e-3), negative ones too, is taken as that, as UsdPreviewSurface's ``ior`` is.
 - Geometry opacity is a coverage; wrt has cut-outs, so it becomes a cut-out at 0.5 (a hole where it is below 0.5,
   as glTF's default alpha cutoff), which is exact for the 0/1 masks of leaves and fences. A constant between 0 and 1
   is rounded that way. With a cut-out, ``transmission`` is ignored (one opacity per material).
@@ -67,6 +68,7 @@ import numpy as np
 
 from .materials import (
     COLOR_PRIMVAR_READERS,
+    MIN_IOR,
     Material,
     PrimvarInput,
     TextureInput,
@@ -270,7 +272,8 @@ class _Graph:
                               ("specular_color", color_texture)):
             if texture is not None:
                 self.notes.append(f"the texture of {self.inputs[role][0]} is ignored (wrt has one constant ior)")
-        ior = float(np.mean(ior))
+        authored = float(np.mean(ior))
+        ior = max(authored, float(MIN_IOR))  # as wrt draws it: an index of -1 divided by zero below
         factor = float(np.mean(weight)) * float(np.mean(color))
         weight_name, color_name = self.inputs["specular_weight"][0], self.inputs["specular_color"][0]
         if np.ptp(np.resize(color, 3)) > 1e-6 and not pure_metal:
@@ -280,9 +283,11 @@ class _Graph:
         f0 = ((ior - 1.0) / (ior + 1.0)) ** 2 * max(factor, 0.0)
         r = math.sqrt(min(f0, 0.99))
         scaled = (1.0 + r) / (1.0 - r)
+        if ior < 1.0:  # the same F0 on the same side of 1: transmitted light bends the way the authored index does
+            scaled = 1.0 / scaled
         if not pure_metal:
             self.notes.append(f"{weight_name} times the mean {color_name}, {factor:.3g}, scales the dielectric F0: "
-                              f"{self.inputs['ior'][0]} {ior:.3g} is drawn as {scaled:.3g}")
+                              f"{self.inputs['ior'][0]} {authored:.3g} is drawn as {scaled:.3g}")
         return scaled
 
     def opacity(self) -> tuple[float, float, TextureInput | None]:
