@@ -781,3 +781,63 @@ def test_dask_local_cluster_frames_match_serial_and_survive_a_killed_worker(anim
     assert sorted(row["frame"] for row in rows) == frames
     for frame in range(1, 9):
         assert (dask.parent / f"f_{frame}.png").read_bytes() == (serial.parent / f"f_{frame}.png").read_bytes()
+
+
+def big_static_and_small_scrambled_stage(path) -> None:
+    """Two native instances: a static 20,000-triangle ball and a soup of 16 small triangles, sorted along x at time 1
+    and dealt to each other's places at time 2 (the same shapes, other triangles where: a fresh tree is as good as
+    the first, a refitted one's leaves span the soup)."""
+    from pxr import Sdf, Usd, UsdGeom, Vt
+
+    from wrt.procedural import displaced_sphere
+
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.Camera.Define(stage, "/Cam").AddTranslateOp().Set((0, 0, 8))
+
+    def mesh(prim_path, triangles):
+        m = UsdGeom.Mesh.Define(stage, prim_path)
+        m.CreateFaceVertexCountsAttr([3] * len(triangles))
+        m.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.asarray(triangles, np.int32).reshape(-1)))
+        return m.CreatePointsAttr()
+
+    points, indices = displaced_sphere(20000)
+    mesh("/Protos/Big/M", indices).Set(Vt.Vec3fArray.FromNumpy(np.asarray(points, np.float32)))
+    rng = np.random.default_rng(1)
+    centers = np.sort(rng.uniform(-1, 1, (16, 3)), axis=0)
+    corners = rng.normal(0, 0.05, (16, 3, 3))
+    soup = mesh("/Protos/Small/M", np.arange(48).reshape(-1, 3))
+    for t, placed in ((1, centers), (2, centers[rng.permutation(16)])):
+        soup.Set(Vt.Vec3fArray.FromNumpy((placed[:, None] + corners).reshape(-1, 3).astype(np.float32)), t)
+    stage.GetPrimAtPath("/Protos").SetSpecifier(Sdf.SpecifierClass)
+    for name, x in (("Big", -1.5), ("Small", 1.5)):
+        instance = UsdGeom.Xform.Define(stage, f"/{name}")
+        instance.GetPrim().GetReferences().AddInternalReference(f"/Protos/{name}")
+        instance.GetPrim().SetInstanceable(True)
+        instance.AddTranslateOp().Set((x, 0, 0))
+    stage.Save()
+
+
+def test_refit_or_rebuild_is_decided_per_tree(tmp_path):
+    """The 20% rule summed the SAH costs of every BLAS: a small mesh whose refitted tree cost 3.4 times a fresh
+    one's hid behind a large static mesh's cost, and was traced refitted for the rest of the shot; where
+    the sum did pass the limit, the static tree was rebuilt with it. Each tree now is held to its own cost."""
+    from wrt.animation import REFIT_SAH_LIMIT
+    from wrt.bvh.stats import sah_cost
+
+    path = tmp_path / "two_trees.usda"
+    big_static_and_small_scrambled_stage(path)
+    renderer = FrameRenderer(path, device="cpu", **SIZE)  # the trees looked up below are the CPU's
+    renderer.render(1)
+    first_trees = list(renderer._scene._cache[("accel", "wrt", "sah", "cpu")].blas)
+    image = renderer.render(2)
+    fresh_scene = wrt.load_usd(path, time=2)
+    fresh = wrt.render(fresh_scene, device="cpu", **SIZE)
+    np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"])
+    np.testing.assert_array_equal(image.rgb, fresh.rgb)
+    traced = renderer._scene._cache[("accel", "wrt", "sah", "cpu")].blas
+    built = get_accelerator(fresh_scene, "wrt", "sah", "cpu").blas
+    assert [b.num_prims for b in traced] == [b.num_prims for b in built] and traced[1].num_prims == 16
+    for ours, fresh_tree in zip(traced, built):
+        assert sah_cost(ours) <= REFIT_SAH_LIMIT * sah_cost(fresh_tree)
+    assert traced[0] is first_trees[0]  # the static ball's tree is kept, not rebuilt with the soup's
+    assert renderer.log[1]["change"] == "refit" and renderer.log[1]["rebuilt_trees"] == 1

@@ -15,8 +15,9 @@ change     what moved                                          accelerator
 
 A refitted tree is correct but slows down as vertices drift from where the builder grouped them. The policy: refit
 while the refitted tree's SAH cost stays within :data:`REFIT_SAH_LIMIT` of the cost it had when built, else
-rebuild. The limit is a fixed number (not a timing), so the same frames always give the same trees and the same
-images; ``benchmarks/RESULTS.md`` records the refit and rebuild times it was chosen from.
+rebuild; tree by tree, so a two-level accelerator rebuilds only the BLASes past the limit (:func:`follow`). The
+limit is a fixed number (not a timing), so the same frames always give the same trees and the same images;
+``benchmarks/RESULTS.md`` records the refit and rebuild times it was chosen from.
 
 Closest hits break exact ``t`` ties by the smaller triangle id, so a refitted and a rebuilt tree give the same
 image.
@@ -140,40 +141,53 @@ def _shape_state(scene) -> list:
     return [a for s in shapes for a in (s.to_world, s.params)]
 
 
-def _sah(accel) -> float:
+def tree_costs(accel) -> list[float]:
+    """SAH cost of each tree of ``accel``: every BLAS of a two-level accelerator, the one tree of a flattened one
+    (0 for an accelerator whose tree wrt does not keep, ``wp.Mesh``'s)."""
     from .bvh.stats import sah_cost
 
     trees = getattr(accel, "blas", None) or [getattr(accel, "bvh", None)]
-    return float(sum(sah_cost(t) for t in trees if t is not None))
+    return [0.0 if t is None else float(sah_cost(t)) for t in trees]
 
 
-def follow(accel, scene, change: str):
+def _past_limit(cost: float, built: float) -> bool:
+    # Built over zero area (a grow-in from a scale of 0), any cost above 0 is past the limit: the tree of one
+    # point is no tree for the grown mesh, and refitting it forever cost 3x the nodes of a fresh build.
+    return cost > REFIT_SAH_LIMIT * built
+
+
+def follow(accel, scene, change: str) -> tuple[str, int]:
     """Brings ``accel`` (built for an earlier frame) to ``scene`` for a ``change`` of :func:`classify_change` other
-    than ``"build"``. Returns ``"static"``, ``"tlas"``, ``"refit"``, or ``"build"`` when it cannot follow (the caller
-    builds anew)."""
+    than ``"build"``. Returns ``("static" | "tlas" | "refit", trees rebuilt)``, or ``("build", 0)`` when it cannot
+    follow (the caller builds anew).
+
+    The refit limit holds tree by tree: each BLAS of a two-level accelerator is built anew once its own cost passes
+    :data:`REFIT_SAH_LIMIT` times its cost when built, and the others stay refitted. Summed over the trees, a small
+    mesh that deforms wildly hid behind a large static one's cost (and when the sum did pass, the static tree was
+    rebuilt with it)."""
+    from .bvh.stats import sah_cost
     from .tlas import InstancedAccelerator
 
     if change == "static":
-        return "static"
+        return "static", 0
+    built = getattr(accel, "built_sah", None)
     if isinstance(accel, InstancedAccelerator):
+        if change == "refit" and built is None:
+            return "build", 0
         try:
-            accel.update(scene, refit_blas=change == "refit")
+            rebuilt = accel.update(scene, refit_blas=change == "refit",
+                                   rebuild=lambda b, tree: _past_limit(sah_cost(tree), built[b]))
         except ValueError:  # a prototype gained or lost all its instances
-            return "build"
-    elif hasattr(accel, "refit"):
-        accel.refit(scene)  # one flattened tree: instance motion moves its vertices too
-        change = "refit"
-    else:
-        return "build"
-    if change == "refit":
-        built = getattr(accel, "built_sah", None)
-        if built is None:
-            return "build"
-        # Built over zero area (a grow-in from a scale of 0), any cost above 0 is past the limit: the tree of one
-        # point is no tree for the grown mesh, and refitting it forever cost 3x the nodes of a fresh build.
-        if _sah(accel) > REFIT_SAH_LIMIT * built:
-            return "build"
-    return change
+            return "build", 0
+        for b in rebuilt:
+            built[b] = float(sah_cost(accel.blas[b]))
+        return change, len(rebuilt)
+    if not hasattr(accel, "refit"):
+        return "build", 0
+    accel.refit(scene)  # one flattened tree: instance motion moves its vertices too
+    if built is None or any(map(_past_limit, tree_costs(accel), built)):
+        return "build", 0
+    return "refit", 0
 
 
 class FrameRenderer:
@@ -188,7 +202,8 @@ class FrameRenderer:
             ``integrator``, ``max_depth``, ``ao_radius``).
 
     Attributes:
-        log: one dict per rendered frame: ``frame``, ``change`` (what the BVH did), ``load_ms``, ``update_ms``
+        log: one dict per rendered frame: ``frame``, ``change`` (what the BVH did), ``rebuilt_trees`` (trees built
+            anew: all of them on a ``build``, those past the refit limit on a ``refit``), ``load_ms``, ``update_ms``
             (build, refit or TLAS rebuild), ``render_ms``.
     """
 
@@ -215,22 +230,24 @@ class FrameRenderer:
         # good frame's, and a later frame equal to that one was drawn with them as 'static'.
         previous, self._scene = self._scene, None
         change = classify_change(previous, scene)
+        rebuilt = 0  # trees built anew
         if change != "build":
             scene.drop_stale_caches()  # settles the new scene's record first, so the accelerators moved in stay
             accels = {k: v for k, v in previous._cache.items() if k[0] == "accel"}
             for key, accel in accels.items():
-                done = follow(accel, scene, change)
+                done, count = follow(accel, scene, change)
                 if done == "build":
                     change = "build"
                     break
                 scene._cache[key] = accel
-                change = done
+                change, rebuilt = done, rebuilt + count
             if change == "build":
                 for key in accels:
                     scene._cache.pop(key, None)
         renderer = Renderer(scene, camera=self.camera, **self.options)
         if change == "build":
-            renderer.accel.built_sah = _sah(renderer.accel)
+            renderer.accel.built_sah = tree_costs(renderer.accel)
+            rebuilt = len(renderer.accel.built_sah)
         updated = _time.perf_counter()
         image = renderer.render(spp=spp, seed=seed)
         self._scene = scene
@@ -238,6 +255,7 @@ class FrameRenderer:
             {
                 "frame": frame,
                 "change": change,
+                "rebuilt_trees": rebuilt,
                 "load_ms": 1e3 * (loaded - start),
                 "update_ms": 1e3 * (updated - loaded),
                 "render_ms": renderer.timers["render"][0],

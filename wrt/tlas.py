@@ -275,27 +275,33 @@ class InstancedAccelerator(Accelerator):
         check_finite_transforms(scene)
         self.device = device
         self.builder = builder
+        self.build_options = build_options
         points, indices = scene.geometry()
         self.blas, self._device_blas, self._blas_first, self._blas_parts = [], [], [], []
-        self._blas_arrays, self._refitters = [], []
+        self._refitters = []
         for part, first, count in blas_parts(scene):
-            sub_points, sub = _part_triangles(scene, points, indices, part, first, count)
-            bvh = build_bvh(sub_points, sub, builder, device=device, **build_options)
-            d = bvh.to_device(sub_points, sub, device)
+            bvh, d = self._build_blas(scene, points, indices, part, first, count)
             self.blas.append(bvh)
             self._device_blas.append(d)
             self._blas_first.append(first)
             self._blas_parts.append((part, first, count))
-            self._blas_arrays += [d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2, d.nodes]
         if not self._device_blas:  # keep the array non-empty: an empty BLAS no ray enters
             empty = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), builder, device=device)
             self._device_blas.append(empty.to_device(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device))
             self._blas_first.append(0)
         self._build_tlas(scene)
 
-    def update(self, scene: Scene, refit_blas: bool) -> None:
+    def _build_blas(self, scene: Scene, points, indices, part: int, first: int, count: int) -> tuple:
+        """The host tree and its upload for one :func:`blas_parts` part of ``scene``."""
+        sub_points, sub = _part_triangles(scene, points, indices, part, first, count)
+        bvh = build_bvh(sub_points, sub, self.builder, device=self.device, **self.build_options)
+        return bvh, bvh.to_device(sub_points, sub, self.device)
+
+    def update(self, scene: Scene, refit_blas: bool, rebuild=None) -> list[int]:
         """Follows ``scene``, a later frame of the scene this was built for with the same topology: refits every
-        BLAS to the moved vertices when ``refit_blas``, then rebuilds the TLAS over the new instance transforms.
+        BLAS to the moved vertices when ``refit_blas``, builds anew each refitted BLAS ``b`` for which
+        ``rebuild(b, tree)`` is true (``tree``: the refitted :class:`wrt.bvh.FlatBvh`), then rebuilds the TLAS over
+        the new instance transforms. Returns the indices of the BLASes built anew.
 
         Raises:
             ValueError: when ``scene`` needs other BLASes (a prototype gained or lost all its instances, say).
@@ -303,15 +309,22 @@ class InstancedAccelerator(Accelerator):
         check_finite_transforms(scene)
         if [tuple(p) for p in blas_parts(scene)] != self._blas_parts:
             raise ValueError("the scene's prototypes changed; build a new InstancedAccelerator")
+        rebuilt = []
         if refit_blas:
             from .bvh.refit import Refitter
 
             points, indices = scene.geometry()
             if not self._refitters:
                 self._refitters = [Refitter(b, d, self.device) for b, d in zip(self.blas, self._device_blas)]
-            for refitter, (part, first, count) in zip(self._refitters, self._blas_parts):
+            for b, (refitter, (part, first, count)) in enumerate(zip(self._refitters, self._blas_parts)):
                 refitter.refit(*_part_triangles(scene, points, indices, part, first, count))
+                if rebuild is not None and rebuild(b, self.blas[b]):
+                    # The host tree and the upload are replaced, not refilled: the TLAS below takes the new ones.
+                    self.blas[b], self._device_blas[b] = self._build_blas(scene, points, indices, part, first, count)
+                    self._refitters[b] = Refitter(self.blas[b], self._device_blas[b], self.device)
+                    rebuilt.append(b)
         self._build_tlas(scene)
+        return rebuilt
 
     def _build_tlas(self, scene: Scene) -> None:
         """The TLAS over world boxes of the world-space BLAS, every instance of a prototype BLAS and every shape."""
@@ -401,6 +414,8 @@ class InstancedAccelerator(Accelerator):
         self.device_tlas = t
         self._tlas_arrays = [t.lowers, t.uppers, t.left_first, t.prim_count, t.entry_blas, t.entry_instance]
         self._tlas_arrays += [t.world_to_local, t.blases, t.blas_first, t.shape_xforms, t.shape_rows]
+        self._blas_arrays = [a for d in self._device_blas[: len(self.blas)] for a in (
+            d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2, d.nodes)]
         self.build_seconds = sum(b.build_seconds for b in self.blas) + self.tlas.build_seconds
 
     def device_bytes(self) -> dict:
