@@ -68,6 +68,14 @@ def test_every_frame_gets_its_own_file_and_runaway_ranges_are_refused():
         parse_frames("1:1.000000000001:1e-13")  # frames equal at 12 digits would render one time many times
 
 
+@pytest.mark.parametrize("text", ["1:5:1e-320", "-1e308:1e308", "0:1e308:1e-308"])
+def test_frames_whose_count_passes_float_range_are_refused_naming_the_option(text):
+    """A range whose frame count is past float64 (a subnormal step, or END - START overflowing) raised a bare
+    OverflowError 'cannot convert float infinity to integer' (a traceback from wrt render --frames)."""
+    with pytest.raises(ValueError, match=r"--frames .* gives more than 1,000,000 frames"):
+        parse_frames(text)
+
+
 def test_refit_gives_the_boxes_of_the_moved_triangles(np_rng):
     points = np_rng.uniform(-1, 1, (600, 3)).astype(np.float32)
     indices = np_rng.integers(0, 600, (400, 3)).astype(np.int32)

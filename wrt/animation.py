@@ -67,9 +67,11 @@ def parse_frames(text: str) -> list[float]:
         raise ValueError(f"--frames step must be positive, got {step:g}")
     if end < start:
         raise ValueError(f"--frames range {text!r} is empty (END < START)")
-    count = int(math.floor((end - start) / step + 1e-9)) + 1
-    if count > MAX_FRAMES:
-        raise ValueError(f"--frames {text!r} gives {count:,} frames; at most {MAX_FRAMES:,} in one run")
+    steps = (end - start) / step + 1e-9
+    if not steps < MAX_FRAMES:  # infinite too: a subnormal step, or END - START past float64
+        many = f"{int(math.floor(steps)) + 1:,}" if math.isfinite(steps) else f"more than {MAX_FRAMES:,}"
+        raise ValueError(f"--frames {text!r} gives {many} frames; at most {MAX_FRAMES:,} in one run")
+    count = int(math.floor(steps)) + 1
     # Rounded to 12 significant digits: 0.2 + 6 * 0.3 is 1.9999999999999998 in binary, and END must be END.
     frames = [_round_frame(start + k * step) for k in range(count)]
     if len(set(frames)) < len(frames):
