@@ -849,3 +849,141 @@ def test_refit_or_rebuild_is_decided_per_tree(tmp_path):
         assert sah_cost(ours) <= REFIT_SAH_LIMIT * sah_cost(fresh_tree)
     assert traced[0] is first_trees[0]  # the static ball's tree is kept, not rebuilt with the soup's
     assert renderer.log[1]["change"] == "refit" and renderer.log[1]["rebuilt_trees"] == 1
+
+
+def everything_sampled_stage(path) -> None:
+    """Time samples on every kind of thing a frame reads, over [1, 3]: a mesh's points, an xform's translate and
+    rotation, a visibility, PointInstancer positions, the camera's transform and focal length, a sphere light's
+    intensity, colour and radius, and a value that is sampled on some prims and static (or a default beside samples)
+    on others (sphere radii, displayColor)."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, Vt
+
+    stage = Usd.Stage.CreateNew(str(path))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(3)
+    camera = UsdGeom.Camera.Define(stage, "/Cam")
+    move = camera.AddTranslateOp()
+    move.Set((0, 0, 7), 1), move.Set((0.5, 0.3, 6), 3)
+    camera.CreateFocalLengthAttr().Set(35.0, 1), camera.GetFocalLengthAttr().Set(45.0, 3)
+    points, quads = quad_grid(4)
+    sheet = UsdGeom.Mesh.Define(stage, "/Sheet")
+    sheet.CreateFaceVertexCountsAttr(Vt.IntArray([4] * len(quads)))
+    sheet.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(quads.reshape(-1)))
+    for t, bend in ((1, 0.0), (2, 0.6), (3, -0.4)):
+        bent = points + np.float32([0, 0, 1]) * bend * points[:, :1] ** 2
+        sheet.CreatePointsAttr().Set(Vt.Vec3fArray.FromNumpy(bent.astype(np.float32)), t)
+    sheet.AddTranslateOp().Set((0, 0, -1))
+    color = sheet.CreateDisplayColorPrimvar()
+    color.Set([Gf.Vec3f(0.8, 0.8, 0.8)])  # a default beside samples: the samples win at every time
+    color.Set([Gf.Vec3f(0.9, 0.2, 0.2)], 1), color.Set([Gf.Vec3f(0.2, 0.9, 0.2)], 3)
+    spinner = UsdGeom.Xform.Define(stage, "/Spinner")
+    slide, turn = spinner.AddTranslateOp(), spinner.AddRotateXYZOp()
+    slide.Set((-1, 0, 0), 1), slide.Set((1, 0.5, 0), 3)
+    turn.Set((0, 0, 0), 1), turn.Set((30, 60, 90), 3)
+    UsdGeom.Cube.Define(stage, "/Spinner/Box").CreateSizeAttr(0.5)
+    for name, x, radius in (("Sampled", -1.2, {1: 0.2, 3: 0.45}), ("Static", 1.2, 0.3)):
+        ball = UsdGeom.Sphere.Define(stage, f"/{name}")
+        ball.AddTranslateOp().Set((x, 1.0, 0.3))
+        if isinstance(radius, dict):
+            for t, r in radius.items():
+                ball.CreateRadiusAttr().Set(r, t)
+        else:
+            ball.CreateRadiusAttr(radius)
+        ball.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0.2, 0.3, 0.9)])
+    blinker = UsdGeom.Sphere.Define(stage, "/Blinker")
+    blinker.AddTranslateOp().Set((0, -1.1, 0.3))
+    blinker.CreateRadiusAttr(0.25)
+    blinker.CreateVisibilityAttr().Set(UsdGeom.Tokens.inherited, 1)
+    blinker.GetVisibilityAttr().Set(UsdGeom.Tokens.invisible, 2)  # tokens are held: hidden from 2 on
+    blinker.GetVisibilityAttr().Set(UsdGeom.Tokens.inherited, 3)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/PI")
+    UsdGeom.Sphere.Define(stage, "/PI/Ball").CreateRadiusAttr(0.12)
+    instancer.CreatePrototypesRel().SetTargets([Sdf.Path("/PI/Ball")])
+    instancer.CreateProtoIndicesAttr([0, 0, 0])
+    instancer.CreatePositionsAttr().Set([(-1.5, -1.5, 0), (0, -1.5, 0), (1.5, -1.5, 0)], 1)
+    instancer.GetPositionsAttr().Set([(-1.5, -0.5, 0.5), (0, -1.8, 0), (1.5, 1.5, 0.2)], 3)
+    light = UsdLux.SphereLight.Define(stage, "/Bulb")
+    light.AddTranslateOp().Set((0, 2, 3))
+    light.CreateIntensityAttr().Set(20.0, 1), light.GetIntensityAttr().Set(60.0, 3)
+    light.CreateColorAttr().Set((1, 1, 1), 1), light.GetColorAttr().Set((1, 0.5, 0.2), 3)
+    light.CreateRadiusAttr().Set(0.1, 1), light.GetRadiusAttr().Set(0.6, 3)
+    UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(1.5)  # static beside the animated light
+    stage.Save()
+
+
+def test_frames_of_a_stage_sampled_everywhere_equal_fresh_loads(tmp_path):
+    """Frames that follow the last one (refit, TLAS update) against fresh loads: colour and every AOV of
+    each frame equal a render of a fresh load_usd at its time, between samples, before and past the authored range
+    and going back, and the frames do differ."""
+    path = tmp_path / "sampled.usda"
+    everything_sampled_stage(path)
+    renderer = FrameRenderer(path, integrator="whitted", **SIZE)
+    pictures = set()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wrt.errors.TimeRangeWarning)
+        for frame in (1, 1.5, 2, 2.75, 3, 4, 0, 2):
+            image = renderer.render(frame)
+            fresh = wrt.render(wrt.load_usd(path, time=frame), integrator="whitted", **SIZE)
+            pictures.add(fresh.rgb.tobytes())
+            np.testing.assert_array_equal(image.rgb, fresh.rgb, err_msg=f"frame {frame}")
+            for name in set(fresh.aovs) - {"cost"}:
+                np.testing.assert_array_equal(image.aovs[name], fresh.aovs[name], err_msg=f"frame {frame}: {name}")
+    assert len(pictures) >= 5
+    assert {row["change"] for row in renderer.log[1:]} <= {"refit", "tlas", "static", "build"}
+
+
+def test_a_frame_renderer_sees_the_file_edited_between_its_frames(tmp_path):
+    """A Dask worker keeps its FrameRenderer from one run to the next, so a file saved in between by someone else
+    (here a referenced layer) must be read again, as a fresh load reads it (a guard for any caching of stages)."""
+    import os
+
+    ball = tmp_path / "ball.usda"
+    shot = tmp_path / "shot.usda"
+
+    def write_ball(radius):
+        ball.write_text(f'#usda 1.0\n(\n    defaultPrim = "Ball"\n)\n'
+                        f'def Sphere "Ball"\n{{\n    double radius = {radius}\n}}\n')
+
+    write_ball(0.5)
+    shot.write_text('#usda 1.0\ndef Camera "Cam"\n{\n    double3 xformOp:translate = (0, 0, 5)\n'
+                    '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n'
+                    'def "Ball" (\n    references = @./ball.usda@\n)\n{\n}\n')
+    renderer = FrameRenderer(shot, **SIZE)
+    before = renderer.render(1)
+    write_ball(1.2)
+    stamp = ball.stat().st_mtime_ns + 2_000_000_000  # a later time stamp, however coarse the file system's clock
+    os.utime(ball, ns=(stamp, stamp))
+    after = renderer.render(1)
+    fresh = wrt.render(wrt.load_usd(shot, time=1), **SIZE)
+    np.testing.assert_array_equal(after.rgb, fresh.rgb)
+    assert (after.aovs["prim"] >= 0).sum() > (before.aovs["prim"] >= 0).sum()
+
+
+@pytest.mark.parametrize(
+    "metadata",
+    ["startFrame = 1\n    endFrame = 3",  # the deprecated keys USD still reads
+     "startTimeCode = 2\n    startFrame = 7\n    endTimeCode = 3",
+     "startTimeCode = 1\n    endFrame = 3",  # mixed: USD says no authored range
+     "startTimeCode = 1\n    endTimeCode = 3"],
+)
+def test_frames_outside_the_range_are_those_usd_puts_outside(tmp_path, metadata):
+    """The --frames warning read startTimeCode and endTimeCode from the root layer alone: a stage authoring its range
+    as startFrame and endFrame (USD reads them when the time codes are missing) got no warning for frames past it,
+    where load_usd(time=...) did warn, asking the stage."""
+    from pxr import Usd
+
+    from wrt.animation import warn_frames_outside_range
+
+    path = tmp_path / "range.usda"
+    path.write_text(f"#usda 1.0\n(\n    {metadata}\n)\ndef Sphere \"Ball\"\n{{\n}}\n")
+    stage = Usd.Stage.Open(str(path))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warn_frames_outside_range(path, [0.0, 2.0, 9.0])
+    messages = [str(w.message) for w in caught]
+    if stage.HasAuthoredTimeCodeRange():
+        start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+        assert messages == [f"range.usda: frames 0 and 9 (2 of 3) are outside the stage's time range [{start:g}, "
+                            f"{end:g}]; USD holds the values of the nearest time samples"]
+    else:
+        assert messages == []

@@ -97,16 +97,24 @@ def outside_range(start: float, end: float) -> str:
 
 
 def stage_time_range(path) -> tuple[float, float] | None:
-    """The authored ``(startTimeCode, endTimeCode)`` of the stage at ``path``, or None when not both are authored or
-    the file cannot be read. Read from its root layer alone, without composing the stage: ``Usd.Stage`` reads them
-    there (or from its session layer, where wrt authors none)."""
+    """The authored ``(startTimeCode, endTimeCode)`` of the stage at ``path``, as ``Usd.Stage`` reads them (the
+    deprecated ``startFrame`` and ``endFrame`` where the time codes are missing), or None when the stage has no
+    authored range or the file cannot be read. Asked of a stage whose population mask holds no prim: its root layer
+    stack is opened, nothing is composed. Reading the root layer's time codes alone missed a range authored as
+    frames."""
     try:
         layer = Sdf.Layer.FindOrOpen(os.fspath(path))
     except Tf.ErrorException:
         return None
-    if layer is None or not (layer.HasStartTimeCode() and layer.HasEndTimeCode()):
+    if layer is None:
         return None
-    return float(layer.startTimeCode), float(layer.endTimeCode)
+    with trap_usd_diagnostics() as trap:
+        stage = Usd.Stage.OpenMasked(layer, Usd.StagePopulationMask())
+        if trap is not None:
+            trap.EraseMatching(lambda d: True)  # a missing sublayer: the load reports it, once
+    if not stage.HasAuthoredTimeCodeRange():
+        return None
+    return float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode())
 
 
 def stage_meters_per_unit(stage: Usd.Stage, source: str) -> float:
