@@ -52,6 +52,8 @@ def main() -> None:
         rest = log[1:] or log
         med = {k: statistics.median(r[k] for r in rest) for k in ("load_ms", "update_ms", "render_ms")}
         changes = ", ".join(f"{n} {c}" for c, n in sorted(Counter(r["change"] for r in log).items()))
+        rebuilt = sum(r.get("rebuilt_trees", 0) for r in log if r["change"] == "refit")  # BLASes past the refit limit
+        changes += f" ({rebuilt} BLAS rebuilt in refits)" if rebuilt else ""
         print(f"| {asset_id} | {frames} ({len(log)}) | {changes} | {first:.0f} | {med['load_ms']:.1f} | "
               f"{med['update_ms']:.1f} | {med['render_ms']:.1f} |", flush=True)
         print(f"<!-- {asset_id}: {time.perf_counter() - start:.1f} s in all -->", flush=True)
