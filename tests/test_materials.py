@@ -876,10 +876,14 @@ def test_material_indices_outside_the_material_list_are_refused(material_ids, ba
     scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], [[0, 1, 2], [1, 3, 2]])
     scene.materials = [wrt.Material(path="/A"), wrt.Material(path="/B")]
     scene.meshes[0].material_ids = np.array(material_ids, np.int32)
-    with pytest.raises(wrt.SceneError, match=rf"^/triangles: material index {bad} \(triangle"):
+    with pytest.raises(wrt.SceneError, match=rf"^/triangles: material_ids: material index {bad} of triangle"):
         wrt.render(scene, width=4, height=4)
     scene.meshes[0].material_ids = np.array([1, -1], np.int32)  # -1 is the default material
     assert wrt.render(scene, width=4, height=4).rgb.shape == (4, 4, 3)
+    # A shape's one index: named by its field, with no triangle (it said 'triangle 0').
+    scene.shapes = [wrt.Shape("/Ball", "sphere", np.eye(4), material_id=bad)]
+    with pytest.raises(wrt.SceneError, match=rf"^/Ball: material_id: material index {bad}, but the scene has 2"):
+        wrt.render(scene, width=4, height=4)
 
 
 def test_mdl_and_materialx_materials_fall_back_to_their_base_colour(tmp_path):

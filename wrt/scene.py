@@ -891,22 +891,23 @@ class Scene:
             parts = []
             for m in self._geometry_meshes():
                 ids = np.full(len(m.indices), -1, np.int32) if m.material_ids is None else m.material_ids
-                parts.append(self._checked_material_ids(ids, m.path) + 1)
+                parts.append(self._checked_material_ids(ids, m.path, "material_ids", "triangle") + 1)
             for s in self._geometry_shapes():
-                parts.append(self._checked_material_ids(np.array([s.material_id], np.int32), s.path) + 1)
+                parts.append(self._checked_material_ids(np.array([s.material_id], np.int32), s.path, "material_id") + 1)
             self._cache[key] = np.concatenate(parts or [np.zeros(0, np.int32)]).astype(np.int32)
         return self._cache[key]
 
-    def _checked_material_ids(self, ids: np.ndarray, path: str) -> np.ndarray:
-        """Raises :class:`SceneError` naming the mesh or shape at ``path`` when one of its material indices is
-        neither -1 (the default material) nor a row of :attr:`materials`: such triangles took the default
-        material without a word."""
+    def _checked_material_ids(self, ids: np.ndarray, path: str, field: str, element: str = "") -> np.ndarray:
+        """Raises :class:`SceneError` naming the mesh or shape at ``path`` and its ``field`` when one of its material
+        indices is neither -1 (the default material) nor a row of :attr:`materials` (of its ``element`` k, where it
+        has one per element): such triangles took the default material without a word."""
         from .errors import SceneError
 
         bad = np.flatnonzero((ids < -1) | (ids >= len(self.materials)))
         if len(bad):
+            where = f" of {element} {int(bad[0])}" if element else ""
             raise SceneError(
-                f"material index {int(ids[bad[0]])} (triangle {int(bad[0])}), but the scene has "
+                f"{field}: material index {int(ids[bad[0]])}{where}, but the scene has "
                 f"{len(self.materials)} material(s); use -1 for the default material",
                 prim=path,
             )
