@@ -153,7 +153,7 @@ def test_a_list_of_the_scene_given_something_else_is_refused_naming_the_list():
     scene = red_square()
     wrt.trace(scene, [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
     scene.meshes.append(SQUARE)
-    with pytest.raises(TypeError, match=r"meshes\[1\] is a ndarray, not a wrt.Mesh"):
+    with pytest.raises(TypeError, match=r"^scene\.meshes\[1\] is a ndarray, not a wrt.Mesh"):
         wrt.trace(scene, [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
 
 

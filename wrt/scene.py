@@ -413,7 +413,7 @@ class Scene:
                             f"{type(self.cameras).__name__}")
         for k, mesh in enumerate(self.meshes):
             if not isinstance(mesh, Mesh):
-                raise TypeError(f"Scene(meshes=...): meshes[{k}] is a {type(mesh).__name__}, not a wrt.Mesh")
+                raise TypeError(f"scene.meshes[{k}] is a {type(mesh).__name__}, not a wrt.Mesh")
 
     def invalidate(self) -> None:
         """Forgets every cached array, tree and device copy, and makes the scene's arrays writeable again until its
