@@ -77,15 +77,17 @@ def test_a_scene_that_fails_to_load_is_loaded_once(tmp_path, monkeypatch):
     assert [r["error"] for r in rows] == ["MemoryError: huge.usda: out of host memory"] * 3
 
 
-def test_bad_and_oversized_sphere_sizes_are_error_rows_that_name_them(tmp_path, monkeypatch):
+def test_bad_and_oversized_sphere_sizes_are_refused_or_error_rows_that_name_them(tmp_path, monkeypatch):
     """sphere:N was read with float(): 'abc' failed as "could not convert string to float", 'inf' with an
-    OverflowError, and a size beyond the host's memory was generated until the system killed the process."""
-    monkeypatch.setattr("wrt.resources.available_host_bytes", lambda: 1 << 30)  # 1 GiB: room for the small sphere
-    scenes = ["sphere:abc", "sphere:inf", "sphere:4", "sphere:1e8", "sphere:2000"]
-    rows = run_grid(tiny_grid(scenes=scenes, accels=["wrt:sah"], rays=["primary"]), tmp_path, progress=False)
-    errors = {r["scene"]: r["error"] for r in rows if "error" in r}
+    OverflowError, and a size beyond the host's memory was generated until the system killed the process. A size
+    that is no size is refused before the run; one beyond the memory is an error row (the memory is the loader's)."""
     for name in ("sphere:abc", "sphere:inf", "sphere:4"):
-        assert f"{name}: N must be a whole number of triangles" in errors[name]
+        with pytest.raises(ValueError, match=f"{name}: N must be a whole number of triangles"):
+            tiny_grid(scenes=["sphere:2000", name]).validated()
+    monkeypatch.setattr("wrt.resources.available_host_bytes", lambda: 1 << 30)  # 1 GiB: room for the small sphere
+    rows = run_grid(tiny_grid(scenes=["sphere:1e8", "sphere:2000"], accels=["wrt:sah"], rays=["primary"]), tmp_path,
+                    progress=False)
+    errors = {r["scene"]: r["error"] for r in rows if "error" in r}
     assert "sphere:1e8 needs about" in errors["sphere:1e8"] and "1.0 GiB is available" in errors["sphere:1e8"]
     assert [r["scene"] for r in rows if "mrays" in r] == ["sphere:2000"]  # the run went on to the good scene
 

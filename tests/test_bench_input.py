@@ -154,3 +154,37 @@ def test_bvh_stats_presplit_gives_the_sah_cost_of_the_tree_bench_traces(tmp_path
         costs[presplit] = json.loads(out[out.index("[\n"):])[0]["sah_cost"]  # after Warp's banner, if it printed
     assert costs["6"] < costs["0"]  # the scene does exercise the pre-splits
     assert row["sah_cost"] == pytest.approx(costs["6"])
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("--threads", "0", "argument --threads: must be positive integers or 'all', got '0'"),
+    ("--threads", "", "argument --threads: names nothing"),  # measured no CPU row and exited 0
+    ("--accels", "foo", "argument --accels: accelerator 'foo': unknown accelerator kind 'foo'"),
+    ("--accels", "wrt:nosuch", "argument --accels: accelerator 'wrt:nosuch': unknown BVH builder 'nosuch'"),
+    ("--rays", "foo", "argument --rays: unknown ray kind 'foo'"),
+    ("--scenes", "", "argument --scenes: names nothing"),
+    ("--scenes", "sphere:200,sphere:0", "argument --scenes: sphere:0: N must be a whole number of triangles"),
+    ("--scenes", "sphere:abc", "argument --scenes: sphere:abc: N must be a whole number of triangles"),
+    ("--devices", "cpuu", "argument --devices: unknown or unavailable device 'cpuu'"),
+])
+def test_bad_bench_options_are_named_before_any_scene_loads(tmp_path, monkeypatch, capsys, option, value, message):
+    """These errors named only the value ('unknown ray kind 'foo'') or a field ('threads must be ...'), not the option
+    typed; sphere:0 and sphere:abc became error rows once the scenes before them had run, and --threads '' ran no
+    CPU row at all and exited 0."""
+    loaded = []
+    monkeypatch.setattr(bench_module, "resolve_scene", lambda name: loaded.append(name))
+    argv = ["bench", "--scenes", "sphere:200", "--accels", "wrt:sah", "--rays", "primary", "--n-rays", "100", "-q",
+            "-o", str(tmp_path / "out"), option, value]
+    try:
+        code = main(argv)
+    except SystemExit as e:  # argparse's own refusals
+        code = e.code
+    assert code == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(err) == 1 and message in err[0], err
+    assert loaded == [] and not (tmp_path / "out" / "rows.jsonl").exists()
+
+
+def test_an_empty_thread_list_in_a_suite_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="suite.json: threads must list at least one thread count"):
+        Grid.from_suite(write_suite(tmp_path, threads=[]))

@@ -108,51 +108,73 @@ class Grid:
         """This grid with ``threads`` as ints (``"all"``: every core; repeats dropped), after checking every field.
 
         Raises:
-            ValueError: naming the field, for a list field that is not a list, a count that is not a positive
-                integer, an unknown ray kind or a bad thread count.
+            GridError: naming the field, for a list field that is not a list, a count that is not a positive
+                integer, an unknown ray kind or accelerator, a ``sphere:N`` that is no size or a bad thread count.
         """
         for name in ("scenes", "accels", "devices", "rays", "threads"):
             value = getattr(self, name)
             if not isinstance(value, (list, tuple)):
-                raise ValueError(f"{name} must be a list, got {value!r}")
+                raise GridError(name, f"{name} must be a list, got {value!r}")
         for name in ("scenes", "accels", "devices", "rays"):
             bad = [v for v in getattr(self, name) if not isinstance(v, str) or not v.strip()]
             if bad:  # a number or null would stop the whole run with a traceback
-                raise ValueError(f"{name} must be a list of names, got {bad[0]!r} in it")
+                raise GridError(name, f"{name} must be a list of names, got {bad[0]!r} in it")
         for name in ("n_rays", "repeats"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+                raise GridError(name, f"{name} must be a positive integer, got {value!r}")
         check_host_memory(self.n_rays * RAY_BYTES, f"n_rays {self.n_rays}")
         bad = [k for k in self.rays if k not in RAY_KINDS]
         if bad:
-            raise ValueError(f"unknown ray kind {bad[0]!r}{did_you_mean(bad[0], RAY_KINDS)}; valid ray kinds: "
-                             f"{', '.join(RAY_KINDS)}")
+            raise GridError("rays", f"unknown ray kind {bad[0]!r}{did_you_mean(bad[0], RAY_KINDS)}; valid ray kinds: "
+                            f"{', '.join(RAY_KINDS)}")
         for spec in self.accels:  # misspelt here, every row of the accelerator became an error row at run time
-            check_accel_spec(spec)
+            try:
+                check_accel_spec(spec)
+            except ValueError as e:
+                raise GridError("accels", str(e)) from None
+        for name in self.scenes:  # 'sphere:abc' became an error row per group, after the scenes before it ran
+            if name.startswith("sphere:"):
+                try:
+                    sphere_count(name)
+                except ValueError as e:
+                    raise GridError("scenes", str(e)) from None
+        if not self.threads:  # every CPU row was dropped: the run 'measured' nothing and exited 0
+            raise GridError("threads", "threads must list at least one thread count")
         threads = []
         for t in self.threads:
             count = (os.cpu_count() or 1) if str(t) == "all" else _positive_count(t)
             if count is None:
-                raise ValueError(f"threads must be positive integers or 'all', got {t!r}")
+                raise GridError("threads", f"threads must be positive integers or 'all', got {t!r}")
             if count not in threads:
                 threads.append(count)
         if self.scaling is not None:
-            _check_scaling(self.scaling)
+            try:
+                _check_scaling(self.scaling)
+            except ValueError as e:
+                raise GridError("scaling", str(e)) from None
             # A sweep group is told from a scene group by its name: one name for both would measure the sweep size
             # with the grid's accelerators and ray count, unmarked, and the scene's group twice.
             both = [f"sphere:{int(float(n))}" for n in self.scaling.get("sizes", [])
                     if f"sphere:{int(float(n))}" in self.scenes]
             if both:
-                raise ValueError(f"scaling size {both[0].split(':')[1]} is also the scene {both[0]!r}; drop one of "
-                                 "them (a sweep row and a scene row of one name cannot be told apart)")
+                raise GridError("scaling", f"scaling size {both[0].split(':')[1]} is also the scene {both[0]!r}; drop "
+                                "one of them (a sweep row and a scene row of one name cannot be told apart)")
         sweep = self.scaling and self.scaling.get("sizes") and self.scaling.get("accels", self.accels)
         if not self.devices or not (self.scenes and self.rays and self.accels or sweep):
             empty = [name for name in ("scenes", "accels", "devices", "rays") if not getattr(self, name)]
-            raise ValueError(f"the grid measures nothing: {', '.join(empty)} empty")
+            raise GridError(empty[0], f"the grid measures nothing: {', '.join(empty)} empty")
         # Each name once: a repeated scene, accelerator, device or ray kind measured the same rows twice.
         unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("scenes", "accels", "devices", "rays")}
         return dataclasses.replace(self, threads=threads, **unique)
+
+
+class GridError(ValueError):
+    """A bad field of a :class:`Grid`: ``field`` names it, so that ``wrt bench`` can name the option that set it."""
+
+    def __init__(self, field: str, message: str):
+        super().__init__(message)
+        self.field = field  # the Grid field: "scenes", "accels", "devices", "rays", "n_rays", "repeats", ...
 
 
 ACCEL_KINDS = ("wrt", "warp", "embree")  # what an accelerator name starts with
@@ -306,6 +328,14 @@ def resolve_scene(name: str) -> Scene:
 def sphere_triangles(name: str) -> int:
     """The triangle count ``N`` of a ``sphere:N`` scene name (``1e6`` and ``1000000`` alike), after checking that
     the mesh and its BVH fit in the host memory available."""
+    count = sphere_count(name)
+    check_host_memory(count * SPHERE_TRIANGLE_BYTES, name)
+    return count
+
+
+def sphere_count(name: str) -> int:
+    """The triangle count ``N`` of a ``sphere:N`` scene name; ValueError naming it unless ``N`` is a whole number,
+    8 or more (the memory it needs is checked when it is made, on the machine that makes it)."""
     text = name.split(":", 1)[1]
     try:
         count = float(text)
@@ -313,7 +343,6 @@ def sphere_triangles(name: str) -> int:
         count = float("nan")
     if not (math.isfinite(count) and count >= 8 and count == int(count)):
         raise ValueError(f"{name}: N must be a whole number of triangles, 8 or more (e.g. sphere:1e6), got {text!r}")
-    check_host_memory(int(count) * SPHERE_TRIANGLE_BYTES, name)
     return int(count)
 
 
@@ -740,14 +769,14 @@ def run_grid(
             resumed = {row_key(r): r for r in rows}
     begun = False  # whether out/ holds this run's results yet
 
+    grid = grid.validated()
+    devices, unavailable = _resolve_devices(grid.devices) if not dask else (grid.devices, {})  # dask: on the worker
     missing = [a for a in grid.accels if a == "embree" and not _has_embree()]
-    if missing:
+    if missing:  # after the checks: a misspelt device was refused under this warning
         import warnings
 
         warnings.warn("embree rows skipped: the optional package embreex is not installed (pip install 'wrt[bench]')")
-        grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing])
-    grid = grid.validated()
-    devices, unavailable = _resolve_devices(grid.devices) if not dask else (grid.devices, {})  # dask: on the worker
+        grid = dataclasses.replace(grid, accels=[a for a in grid.accels if a not in missing]).validated()
     thread_counts = grid.threads
     groups = [(s, d, k) for s in grid.scenes for d in devices for k in grid.rays]
     scaling = grid.scaling or {}
@@ -825,7 +854,7 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
     (name -> the error naming it), so that the other devices' rows still run and its own become error rows.
 
     Raises:
-        ValueError: for a name that is no device (a misspelling), or when no device named is available.
+        GridError: for a name that is no device (a misspelling), or when no device named is available.
     """
     devices, unavailable = [], {}
     for name in names:
@@ -833,11 +862,11 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
             devices.append(resolve_device(name))
         except ValueError as e:
             if not (name == "cuda" or name.startswith("cuda:") and name[5:].isdigit()):
-                raise
+                raise GridError("devices", str(e)) from None
             devices.append(name)
             unavailable[name] = e
     if len(unavailable) == len(names):
-        raise next(iter(unavailable.values()))
+        raise GridError("devices", str(next(iter(unavailable.values()))))
     return devices, unavailable
 
 

@@ -913,7 +913,12 @@ def _run_preview(args) -> int:
 
 
 def _csv(text: str) -> list[str]:
-    return [item.strip() for item in text.split(",") if item.strip()]
+    """An argparse type: a comma-separated list of at least one name (``--scenes ''`` is refused, as an unset shell
+    variable gives it: an empty ``--threads`` measured no CPU row and exited 0)."""
+    items = [item.strip() for item in text.split(",") if item.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError(f"names nothing, got {text!r}")
+    return items
 
 
 def _add_bench(sub) -> None:
@@ -957,18 +962,25 @@ def _add_bench(sub) -> None:
 def _run_bench(args) -> int:
     import dataclasses
 
-    from .bench import REFERENCE, Grid, run_grid
+    from .bench import REFERENCE, Grid, GridError, run_grid
 
     if args.quick and args.suite != "quick":  # the suite named would be dropped without a word
         raise ValueError(f"give a suite ({args.suite}) or --quick, not both")
     grid = Grid.from_suite(args.suite)
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
-    grid = dataclasses.replace(grid, **{k: v for k, v in overrides.items() if v is not None})
-    grid = grid.validated()  # a bad field is a one-line error that names it
+    typed = {k: v for k, v in overrides.items() if v is not None}
+    grid = dataclasses.replace(grid, **typed)
     out = Path(args.out)
-    if all(p.is_dir() or not p.exists() for p in (out, *out.parents)):  # a file in the way: run_grid names it
-        _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by a bare errno
-    rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
+    try:
+        grid = grid.validated()  # a bad field is a one-line error that names it
+        if all(p.is_dir() or not p.exists() for p in (out, *out.parents)):  # a file in the way: run_grid names it
+            _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by an errno
+        rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
+    except GridError as e:  # raised before any row is measured; it named the value only ('unknown ray kind ...')
+        if e.field not in typed:  # from the suite file
+            raise
+        message = str(e).removeprefix(f"{e.field} ")  # 'threads must be ...' reads 'argument --threads: must be ...'
+        raise ValueError(f"argument --{e.field.replace('_', '-')}: {message}") from None
     failed = [r for r in rows if "error" in r]
     measured = len(rows) - len(failed) - rows.resumed  # resumed rows were measured by the earlier run
     summary = (f"wrt: {counted(measured, 'row')} measured, {rows.resumed} resumed, {len(failed)} failed; results in "
