@@ -4,6 +4,7 @@ interrupted or without matplotlib, and the size columns of rows traced in anothe
 import json
 import sys
 
+import numpy as np
 import pytest
 
 import wrt.bench as bench_module
@@ -188,3 +189,22 @@ def test_bad_bench_options_are_named_before_any_scene_loads(tmp_path, monkeypatc
 def test_an_empty_thread_list_in_a_suite_is_refused(tmp_path):
     with pytest.raises(ValueError, match="suite.json: threads must list at least one thread count"):
         Grid.from_suite(write_suite(tmp_path, threads=[]))
+
+
+def test_agreement_checks_the_hits_of_the_kernel_that_was_timed(tmp_path, monkeypatch):
+    """wrt rows were timed with the kernels that count no costs, then traced once more with the counting kernels for
+    the agreement check: a wrong answer of the timed kernel was never compared with wp.Mesh's."""
+    from wrt.trace import BvhAccelerator
+
+    intersect = BvhAccelerator._intersect
+
+    def timed_kernel_loses_hits(self, origins, directions, t_mins, t_maxs, hits, costs):
+        intersect(self, origins, directions, t_mins, t_maxs, hits, costs)
+        if not costs:
+            prim = hits.prim.numpy()  # a view of the CPU buffer
+            prim[np.flatnonzero(prim >= 0)[:7]] = -1
+
+    monkeypatch.setattr(BvhAccelerator, "_intersect", timed_kernel_loses_hits)
+    rows = run_grid(small_grid(scenes=["sphere:200"], accels=["warp:sah", "wrt:sah"], n_rays=300, repeats=1),
+                    tmp_path, progress=False)
+    assert [(r["accel"], r["disagreements"]) for r in rows] == [("warp:sah", 0), ("wrt:sah", 7)]
