@@ -208,3 +208,76 @@ def test_agreement_checks_the_hits_of_the_kernel_that_was_timed(tmp_path, monkey
     rows = run_grid(small_grid(scenes=["sphere:200"], accels=["warp:sah", "wrt:sah"], n_rays=300, repeats=1),
                     tmp_path, progress=False)
     assert [(r["accel"], r["disagreements"]) for r in rows] == [("warp:sah", 0), ("wrt:sah", 7)]
+
+
+@pytest.mark.parametrize("wrong", ["false hit", "hit moved"])
+def test_a_wrong_hit_on_an_edge_of_its_triangle_is_a_disagreement_not_a_tie(tmp_path, monkeypatch, wrong):
+    """Edge ties were judged by the barycentrics each answer reports: a wrong hit reported at u = v = 0 (a vertex, as
+    a buffer cleared to zeros reads) counted as a tie, so 7 false hits, or 7 hits 1.5 times too far, were no
+    disagreement: the row showed 97.667 % agreement with no '(7 differ)' and the CLI warned of nothing."""
+    answer = bench_module._Subject.answer
+
+    def wrong_on_a_vertex(subject):
+        hits = answer(subject)
+        if subject.spec == "wrt:sah":
+            if wrong == "false hit":
+                rays = np.flatnonzero(hits.prim < 0)[:7]  # rays that meet nothing: report triangle 0 at t = 1
+                hits.prim[rays], hits.t[rays] = 0, 1.0
+            else:
+                rays = np.flatnonzero(hits.prim >= 0)[:7]
+                hits.t[rays] *= 1.5
+            hits.u[rays], hits.v[rays] = 0.0, 0.0
+        return hits
+
+    monkeypatch.setattr(bench_module._Subject, "answer", wrong_on_a_vertex)
+    rows = run_grid(small_grid(scenes=["sphere:200"], accels=["warp:sah", "wrt:sah"], n_rays=300, repeats=1),
+                    tmp_path, progress=False)
+    assert [(r["accel"], r["disagreements"]) for r in rows] == [("warp:sah", 0), ("wrt:sah", 7)]
+    assert "(7 differ)" in (tmp_path / "table.md").read_text()
+
+
+MIRRORED_INSTANCES_USDA = """#usda 1.0
+class "Proto"
+{
+    def Mesh "M"
+    {
+        int[] faceVertexCounts = [3, 3]
+        int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (1, 1, 0.5), (0, 1, 0)]
+    }
+}
+def Xform "A" (inherits = </Proto>
+    instanceable = true)
+{
+    double3 xformOp:translate = (2, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "Mirrored" (inherits = </Proto>
+    instanceable = true)
+{
+    double3 xformOp:scale = (-1, 1, 1)
+    uniform token[] xformOpOrder = ["xformOp:scale"]
+}
+"""
+
+
+@pytest.mark.parametrize("accel", ["warp:sah", "wrt:sah"])
+def test_hits_checked_for_agreement_lie_on_the_triangles_they_name(tmp_path, accel):
+    """The hits a row is checked with name rows of Scene.triangles() with their barycentrics, so that a hit can be
+    told from one off its own triangle; those of instances named the prototype's triangle, in its corner order."""
+    path = tmp_path / "instances.usda"
+    path.write_text(MIRRORED_INSTANCES_USDA)
+    scene = bench_module.resolve_scene(str(path))
+    origins, directions = bench_module.ray_set(scene, "incoherent", 2000, seed=1)
+    subject = bench_module._Subject(accel, scene, bench_module.resolve_device("cpu"), 1)
+    subject.prepare(origins, directions, any_hit=False)
+    subject.run()
+    hits = subject.answer()
+    points, indices = scene.triangles()
+    h = hits.prim >= 0
+    assert set(hits.prim[h]) == {0, 1, 2, 3}  # both instances hit
+    corners = points[indices[hits.prim[h]]].astype(np.float64)
+    u, v = hits.u[h, None].astype(np.float64), hits.v[h, None].astype(np.float64)
+    on_triangle = (1 - u - v) * corners[:, 0] + u * corners[:, 1] + v * corners[:, 2]
+    along = origins[h].astype(np.float64) + hits.t[h, None] * directions[h].astype(np.float64)
+    np.testing.assert_allclose(on_triangle, along, atol=1e-5)

@@ -41,13 +41,13 @@ import warp as wp
 from .bvh import Builder
 from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
-from .compare import compare_hits
+from .compare import compare_hits, off_triangle
 from .errors import SceneError, did_you_mean
 from .rays import RAY_KINDS, ray_set
 from .resources import check_host_memory
 from .scene import Scene
 from .strict_json import strict_json
-from .trace import WARP_BUILDERS, BvhAccelerator, HitBuffer, Hits, WarpMeshAccelerator, resolve_device
+from .trace import WARP_BUILDERS, BvhAccelerator, HitBuffer, Hits, WarpMeshAccelerator, read_hits, resolve_device
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"  # the named suites, shipped with the package
 REFERENCE = "warp:sah"  # agreement and ratios are measured against this accelerator
@@ -364,7 +364,7 @@ class _Subject:
     """One accelerator prepared for timing: ``run()`` traces the prepared rays once, synchronously."""
 
     def __init__(self, spec: str, scene: Scene, device, threads: int):
-        self.spec, self.device, self.threads = spec, device, threads
+        self.spec, self.device, self.threads, self.scene = spec, device, threads, scene
         kind, _, rest = spec.partition(":")
         self.stats = {}
         if kind == "embree":
@@ -449,10 +449,10 @@ class _Subject:
         if self.any_hit:
             return self.blocked.numpy().astype(bool)
         # The hits of the last timed launch, as it left them: traced again with the kernels that count costs (which
-        # no row reports), the answer checked was another kernel's than the one timed.
-        h = self.hits
-        zeros = np.zeros(len(self.rays[0]), np.int32)
-        return Hits(h.t.numpy().copy(), h.u.numpy().copy(), h.v.numpy().copy(), h.prim.numpy().copy(), zeros, zeros)
+        # no row reports), the answer checked was another kernel's than the one timed. Read as wrt.trace reads them:
+        # prims as rows of Scene.triangles(), as Embree's are (the buffer holds an instance's prototype triangles).
+        hits = read_hits(self.scene, self.hits)
+        return dataclasses.replace(hits, t=hits.t.copy(), u=hits.u.copy(), v=hits.v.copy(), prim=hits.prim.copy())
 
 
 def _has_embree() -> bool:
@@ -510,14 +510,18 @@ def inputs_digest(*arrays: np.ndarray) -> str:
     return digest.hexdigest()
 
 
-def _agreement(answer, reference, directions, scale) -> dict:
+def _agreement(answer, reference, triangles, origins, directions, scale) -> dict:
     """``agreement`` (fraction of rays answered as ``reference`` answers them) and ``disagreements`` (rays answered
-    otherwise, edge ties of closest hits left out: see :mod:`wrt.compare`)."""
+    otherwise, edge ties of closest hits left out: see :mod:`wrt.compare`; ``triangles``: ``(points, indices)``)."""
     if reference is None:
         return {"agreement": None}
     if isinstance(answer, np.ndarray):  # any hit: blocked or not
         return {"agreement": float(np.mean(answer == reference)), "disagreements": int(np.sum(answer != reference))}
-    found = compare_hits(answer, reference, directions=directions, scale=scale)
+    # A hit off its own triangle is no tie, whatever barycentrics it reports (u = v = 0, a vertex, made any wrong
+    # hit one).
+    wrong = (off_triangle(answer, *triangles, origins, directions, scale)
+             | off_triangle(reference, *triangles, origins, directions, scale))
+    found = compare_hits(answer, reference, directions=directions, scale=scale, wrong=wrong)
     return {"agreement": found["agreement"], "disagreements": found["disagreements"]}
 
 
@@ -565,7 +569,7 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
                 mrays_min=len(origins) / max(times) / 1e6,
                 mrays_max=len(origins) / min(times) / 1e6,
                 hit_fraction=float(np.mean(hit)) if len(hit) else 0.0,
-                **_agreement(answer, reference, directions, scale),
+                **_agreement(answer, reference, (points, indices), origins, directions, scale),
                 **subject.stats,
             )
         except Exception as e:  # noqa: BLE001 - one failing accelerator must not stop the grid

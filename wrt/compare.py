@@ -10,7 +10,8 @@ finely than the points it is computed from, so below that floor a relative toler
 Ties: a ray that passes within ``edge_eps`` (barycentric) of a triangle's edge or vertex, as seen by either result,
 is an *exact tie*: the two watertight tests may round it to different sides of the edge, e.g. onto the next triangle
 or off a silhouette. Disagreements on such rays are counted separately as ``tie_disagreements``; all other
-disagreements are real (``disagreements``).
+disagreements are real (``disagreements``), and so are those of a hit off its own triangle (:func:`off_triangle`,
+passed as ``wrong``), whatever barycentrics it reports.
 
 Instances: an instance traced in its own space (``accel="wrt"``) and its flattened world-space copy in
 ``Scene.triangles()`` (``accel="warp"``) are the same triangles rounded differently to float32, by up to a few ulps
@@ -66,8 +67,42 @@ def near_edge_world(scene, hits, origins, directions, scale: float) -> np.ndarra
     return out
 
 
+OFF_TRIANGLE_RTOL = 1e-4  # a hit farther than this (relative to the coordinates) from its own triangle is wrong
+
+
+def off_triangle(hits, points, indices, origins, directions, scale: float, edge_eps: float = EDGE_EPS) -> np.ndarray:
+    """bool mask of hits that contradict themselves: the point ``origin + t * direction`` is not the point of
+    triangle ``prim`` at barycentrics ``(u, v)`` (farther apart than ``OFF_TRIANGLE_RTOL`` of the coordinates'
+    magnitude), or those barycentrics lie outside the triangle by more than ``edge_eps``. Such a hit is wrong
+    whatever the other answer is; its barycentrics, on an edge or not, make it no tie.
+
+    Args:
+        hits: a :class:`wrt.Hits` whose ``prim`` indexes the rows of ``indices``.
+        points: ``(V, 3)`` vertices, world space; ``indices``: ``(T, 3)`` triangles (``Scene.triangles()``).
+        origins: ``(N, 3)`` ray origins; ``directions``: ``(N, 3)`` ray directions.
+        scale: largest coordinate magnitude of the scene.
+    """
+    out = np.zeros(len(hits.prim), bool)
+    h = np.flatnonzero(hits.prim >= 0)
+    if len(h) == 0:
+        return out
+    tri = np.asarray(points, np.float64)[np.asarray(indices)[hits.prim[h]]]
+    u, v = hits.u[h].astype(np.float64), hits.v[h].astype(np.float64)
+    w = 1.0 - u - v
+    on_triangle = w[:, None] * tri[:, 0] + u[:, None] * tri[:, 1] + v[:, None] * tri[:, 2]
+    with np.errstate(invalid="ignore", over="ignore"):
+        along = np.asarray(origins, np.float64)[h] + hits.t[h, None].astype(np.float64) * np.asarray(
+            directions, np.float64)[h]
+        apart = np.linalg.norm(along - on_triangle, axis=1)
+        near = apart <= OFF_TRIANGLE_RTOL * (scale + np.linalg.norm(along, axis=1))
+        inside = np.minimum(np.minimum(w, u), v) >= -edge_eps
+    out[h] = ~(near & inside)  # NaN anywhere: off
+    return out
+
+
 def compare_hits(
-    a, b, rtol: float = 1e-5, edge_eps: float = EDGE_EPS, directions=None, scale: float = 0.0, ties=None
+    a, b, rtol: float = 1e-5, edge_eps: float = EDGE_EPS, directions=None, scale: float = 0.0, ties=None,
+    wrong=None
 ) -> dict:
     """Counts agreement between hit sets ``a`` and ``b`` (see module docstring).
 
@@ -79,6 +114,8 @@ def compare_hits(
         directions: ``(N, 3)`` ray directions, for the absolute tolerance; none without them.
         scale: largest coordinate magnitude of the scene, for the absolute tolerance.
         ties: optional ``(N,)`` bool mask of further rays to count as exact ties (e.g. :func:`near_edge_world`).
+        wrong: optional ``(N,)`` bool mask of rays answered wrongly by ``a`` or ``b`` on their own (e.g.
+            :func:`off_triangle`): never counted as ties, whatever barycentrics they report.
 
     Returns:
         dict with ``rays``, ``hits_a``, ``hits_b``, ``hit_mismatch`` (one hits, the other misses),
@@ -90,7 +127,8 @@ def compare_hits(
     """
     n = len(a.prim)
     # Checked here: numpy would raise an IndexError about boolean masks, or broadcast one tie to every ray.
-    for name, array, ndim in (("b", b.prim, 1), ("directions", directions, 2), ("ties", ties, 1)):
+    for name, array, ndim in (("b", b.prim, 1), ("directions", directions, 2), ("ties", ties, 1),
+                              ("wrong", wrong, 1)):
         if array is not None and (np.ndim(array) != ndim or len(array) != n):
             shape = np.shape(array)
             raise ValueError(f"compare_hits: {name} must have one entry per ray of a ({n}), got shape {shape}")
@@ -108,6 +146,8 @@ def compare_hits(
     tie = near_edge(a, edge_eps) | near_edge(b, edge_eps)
     if ties is not None:
         tie = tie | np.asarray(ties, bool)
+    if wrong is not None:
+        tie = tie & ~np.asarray(wrong, bool)
     return {
         "rays": int(n),
         "hits_a": int(hit_a.sum()),

@@ -656,6 +656,12 @@ def trace(
     hits = HitBuffer(len(rays[0]), acc.device)
     if len(rays[0]):
         acc.intersect(*rays, hits, threads=threads)
+    return read_hits(scene, hits)
+
+
+def read_hits(scene: Scene, hits: HitBuffer) -> Hits:
+    """The ``Hits`` of a buffer an accelerator of ``scene`` filled: ``prim`` as rows of ``Scene.triangles()``, with
+    the barycentrics of those rows (the buffer holds geometry ids and the prototype's corner order)."""
     cost = hits.cost.numpy().reshape(-1, 2)
     # + 0.0 turns -0.0 into 0.0 (IEEE: -0 + 0 = +0) and leaves every other t as it is. The kernels' t is a quotient
     # whose signs follow the side a ray leaves from, so a hit at the origin of a ray leaving its surface came back
