@@ -563,11 +563,14 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
             if spec == REFERENCE and reference is None:
                 reference = answer
             hit = answer if any_hit else answer.prim >= 0
+            # The median of the launches' rates: the rate of the median time, with an even count of launches, was
+            # the harmonic mean of the middle two rates.
+            rates = [len(origins) / t / 1e6 if t != 0 else math.inf for t in times]
             row.update(
                 build_ms=1000.0 * subject.build_seconds,
-                mrays=len(origins) / statistics.median(times) / 1e6,
-                mrays_min=len(origins) / max(times) / 1e6,
-                mrays_max=len(origins) / min(times) / 1e6,
+                mrays=statistics.median(rates),
+                mrays_min=min(rates),
+                mrays_max=max(rates),
                 hit_fraction=float(np.mean(hit)) if len(hit) else 0.0,
                 **_agreement(answer, reference, (points, indices), origins, directions, scale),
                 **subject.stats,
