@@ -7,10 +7,10 @@ excluded), hit fraction, tree statistics where the accelerator exposes them (``w
 ``leaves``, ``node_bytes`` and ``bytes`` of the binary tree, ``layout_nodes`` and ``layout_bytes`` of the layout it
 traces, as ``wrt bvh-stats --layout`` gives them), and agreement with ``warp:sah`` on the same rays. Rows go to a
 JSON-lines file as soon as they are measured; a failing scene or accelerator becomes an error row and the run goes
-on (a scene without triangles too); ``resume`` skips rows already in the file, which must have been measured
-with the same ray counts and repeats (recorded in ``settings.json`` beside it), and measures again, with a warning, a
-row whose triangles and rays (hashed), device hardware, wrt code (a hash of its source) or Warp version differ from
-this run's (``IDENTITY_FIELDS``).
+on (a scene without triangles, or of zero-area ones only, too); ``resume`` skips rows already in the file, which
+must have been measured with the same ray counts and repeats (recorded in ``settings.json`` beside it), and
+measures again, with a warning, a row whose triangles and rays (hashed), device hardware, wrt code (a hash of its
+source) or Warp version differ from this run's (``IDENTITY_FIELDS``).
 
 Accelerator names: ``wrt:BUILDER`` (wrt's BVH; ``wrt:BUILDER:LAYOUT`` where layouts exist), ``warp:BUILDER``
 (``wp.Mesh`` with that ``bvh_constructor``) and ``embree`` (Intel Embree through the ``embreex`` package, CPU only).
@@ -530,11 +530,14 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     triangles = scene.stats()["rendered_triangles"]
     if not triangles:  # rows of an empty stage timed rays that meet nothing: 0 % hits, 100 % agreement, any Mrays/s
         raise ValueError("the scene has no triangles to trace (no meshes, gprims, points or curves are rendered)")
+    points, indices = scene.triangles()
+    if not _has_area(points, indices):  # as an empty stage: rays that can meet nothing, '0 % hits' at any Mrays/s
+        raise ValueError(f"the scene's {triangles} triangles all have zero area (collinear or repeated corners): "
+                         "no ray can hit one")
     origins, directions = ray_set(scene, kind, grid.n_rays, seed=1)
     if not len(origins):  # no row can time zero rays (Warp fails on the empty slice; Embree "ran" at 0 Mrays/s)
         raise ValueError(f"no {kind} rays: they start where primary rays hit, and none of them hit the scene")
     any_hit = kind in ANY_HIT_KINDS
-    points, indices = scene.triangles()
     scale = float(np.abs(points).max()) if len(points) else 0.0
     base = {"scene": scene_name, "triangles": triangles, "device": str(device), "rays": kind}
     base.update(n_rays=int(len(origins)), inputs=inputs_digest(points, indices, origins, directions))
@@ -579,6 +582,16 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
             row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
             row["traceback"] = traceback.format_exc(limit=3)
         emit(row)
+
+
+def _has_area(points: np.ndarray, indices: np.ndarray, chunk: int = 1 << 16) -> bool:
+    """Whether any of the ``(T, 3)`` triangles ``indices`` into ``(V, 3)`` ``points`` has a nonzero area (in float64);
+    read a chunk at a time, so that a real scene answers after its first chunk, without a copy of every triangle."""
+    for start in range(0, len(indices), chunk):
+        corners = np.asarray(points)[np.asarray(indices[start:start + chunk])].astype(np.float64)
+        if np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]).any():
+            return True
+    return False
 
 
 def _run_group(group, grid: Grid, thread_counts, emit, skip, loaded: dict) -> None:
