@@ -2,7 +2,9 @@
 interrupted or without matplotlib, and the size columns of rows traced in another layout."""
 
 import json
+import math
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -311,3 +313,36 @@ def test_a_scene_of_degenerate_triangles_only_is_an_error_row_and_the_run_goes_o
         ("sphere:300", "warp:sah", True), ("sphere:300", "wrt:sah", True)]
     assert "2 triangles all have zero area" in rows[2]["error"]
     assert "1 failed" in capsys.readouterr().err
+
+
+def test_the_rate_plot_marks_failed_rows_and_groups_n_a(tmp_path, monkeypatch):
+    """A failed row, and a row that measured nothing (NaN), were drawn as no bar, as a row never run is, and a group
+    that failed whole was not on the plot at all: nothing told a failure from a rate of 0."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    drawn = {}
+    monkeypatch.setattr(Figure, "savefig", lambda fig, path, **kwargs: drawn.setdefault(Path(path).name, fig))
+
+    def row(scene, accel, mrays):
+        return dict(scene=scene, triangles=10, device="cpu", rays="primary", accel=accel, threads=1, build_ms=1.0,
+                    mrays=mrays, mrays_min=mrays, mrays_max=mrays, hit_fraction=0.5, agreement=1.0)
+
+    rows = [row("a", "warp:sah", 2.0), row("a", "wrt:sah", 3.0), row("b", "warp:sah", 4.0),
+            {"scene": "b", "accel": "wrt:sah", "device": "cpu", "rays": "primary", "threads": 1, "error": "boom"},
+            row("c", "warp:sah", math.nan), row("c", "wrt:sah", 1.0),
+            {"scene": "d", "accel": "*", "device": "cpu", "rays": "primary", "threads": None, "error": "no file"}]
+    bench_module.plot(rows, tmp_path)
+    ax = drawn["mrays.png"].axes[0]
+    groups = [label.get_text().split("\n")[0] for label in ax.get_xticklabels()]
+    assert groups == ["a", "b", "c", "d"]
+    bars = {(container.get_label(), groups[k]): bar.get_height()
+            for container in ax.containers for k, bar in enumerate(container)}
+    assert bars == {("warp:sah x1", "a"): 2.0, ("wrt:sah x1", "a"): 3.0, ("warp:sah x1", "b"): 4.0,
+                    ("wrt:sah x1", "b"): 0, ("warp:sah x1", "c"): 0, ("wrt:sah x1", "c"): 1.0,
+                    ("warp:sah x1", "d"): 0, ("wrt:sah x1", "d"): 0}
+    ticks = ax.get_xticks()
+    marks = sorted((int(round(text.get_position()[0] - ticks[0])), text.get_text()) for text in ax.texts)
+    assert marks == [(1, "n/a"), (2, "n/a"), (3, "failed")]  # b's wrt:sah, c's warp:sah, all of d

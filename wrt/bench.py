@@ -995,19 +995,27 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
     good = [r for r in rows if "error" not in r]
     paths = []
     if good:
-        labels = sorted({(r["scene"], r["rays"]) for r in good})
-        several = len({r["device"] for r in good}) > 1
-        series = sorted({(r["accel"], r["device"], r["threads"]) for r in good}, key=str)
+        # Failed rows and groups keep their place, marked: drawn as no bar, they read as a rate of 0 or as not run.
+        labels = sorted({(r["scene"], r["rays"]) for r in rows})
+        several = len({r["device"] for r in rows}) > 1
+        series = sorted({(r["accel"], r["device"], r["threads"]) for r in rows if r["accel"] != "*"}, key=str)
         fig, ax = plt.subplots(figsize=(max(6, 1.2 * len(labels)), 4))
         width = 0.8 / max(len(series), 1)
+        centres = np.arange(len(labels)) + 0.4 - width / 2
         for i, (accel, device, threads) in enumerate(series):
-            values = [next((r["mrays"] for r in good if (r["scene"], r["rays"]) == lab
-                            and (r["accel"], r["device"], r["threads"]) == (accel, device, threads)), 0)
-                      for lab in labels]
-            values = [v if _plottable(v) else 0 for v in values]  # no bar, as for a row not measured
+            found = [next((r for r in rows if (r["scene"], r["rays"]) == lab
+                           and (r["accel"], r["device"], r["threads"]) == (accel, device, threads)), None)
+                     for lab in labels]
+            failed = [r is not None and ("error" in r or not _plottable(r["mrays"])) for r in found]
+            values = [0 if r is None or bad else r["mrays"] for r, bad in zip(found, failed)]
             name = f"{accel} {device}" if several else accel
             ax.bar(np.arange(len(labels)) + i * width, values, width, label=f"{name} x{threads}")
-        ax.set_xticks(np.arange(len(labels)) + 0.4 - width / 2, [f"{s}\n{k}" for s, k in labels], fontsize=7)
+            for k in np.flatnonzero(failed):
+                ax.text(k + i * width, 0, "n/a", ha="center", va="bottom", rotation=90, fontsize=6)
+        for k, (scene, kind) in enumerate(labels):
+            if any(r["accel"] == "*" and (r["scene"], r["rays"]) == (scene, kind) for r in rows):
+                ax.text(centres[k], 0, "failed", ha="center", va="bottom", rotation=90, fontsize=6)
+        ax.set_xticks(centres, [f"{s}\n{k}" for s, k in labels], fontsize=7)
         ax.set_ylabel("Mrays/s (median)")
         ax.legend(fontsize=7)
         fig.tight_layout()
