@@ -346,3 +346,18 @@ def test_the_rate_plot_marks_failed_rows_and_groups_n_a(tmp_path, monkeypatch):
     ticks = ax.get_xticks()
     marks = sorted((int(round(text.get_position()[0] - ticks[0])), text.get_text()) for text in ax.texts)
     assert marks == [(1, "n/a"), (2, "n/a"), (3, "failed")]  # b's wrt:sah, c's warp:sah, all of d
+
+
+def test_the_ratio_to_a_reference_row_that_failed_reads_n_a_not_blank():
+    """The 'x warp:sah' cell was blank where warp:sah failed in the group, as where it was never run: a failed
+    reference looked like one not asked for. n/a where it failed; blank where it is not in the run."""
+    def row(scene, accel, mrays):
+        return dict(scene=scene, triangles=10, device="cpu", rays="primary", accel=accel, threads=1, build_ms=1.0,
+                    mrays=mrays, mrays_min=mrays, mrays_max=mrays, hit_fraction=0.5, agreement=1.0)
+
+    failed = {"scene": "a", "accel": "warp:sah", "device": "cpu", "rays": "primary", "threads": 1, "error": "boom"}
+    rows = [failed, row("a", "wrt:sah", 3.0), row("b", "warp:sah", 2.0), row("b", "wrt:sah", 3.0),
+            row("c", "wrt:sah", 5.0)]
+    cells = {line.split("|")[1].strip(): line.split("|")[11].strip()
+             for line in bench_module.markdown_table(rows).splitlines() if "| wrt:sah |" in line}
+    assert cells == {"a": "n/a", "b": "1.50", "c": ""}

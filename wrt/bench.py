@@ -907,10 +907,11 @@ def write_summary(rows: list[dict], out: Path) -> None:
 
 
 def _ratio(row, rows, accel) -> float | None:
+    """``row``'s rate over that of ``accel`` in its group: NaN (shown as n/a) where that row failed or measured
+    nothing, None (a blank cell) where ``accel`` was not run."""
     for other in rows:
-        if (other.get("accel") == accel and "mrays" in other and row_key(other)[2:] == row_key(row)[2:]
-                and other["scene"] == row["scene"]):
-            return row["mrays"] / other["mrays"] if other["mrays"] else math.nan  # shown as n/a
+        if other.get("accel") == accel and row_key(other)[2:] == row_key(row)[2:] and other["scene"] == row["scene"]:
+            return row["mrays"] / other["mrays"] if other.get("mrays") else math.nan
     return None
 
 
