@@ -66,3 +66,23 @@ def assets():
 def np_rng():
     """A fixed-seed numpy generator, fresh for each test."""
     return np.random.default_rng(123)
+
+
+@pytest.fixture
+def ctrl_c_after(monkeypatch):
+    """``ctrl_c_after("b.usda")``: ``wrt.Renderer.render`` raises KeyboardInterrupt (Ctrl-C) once the scene of that
+    file has its samples, so a partial image is written before the interrupt, as in a batch cut short."""
+    import wrt
+
+    render = wrt.Renderer.render
+
+    def interrupt(name: str) -> None:
+        def interrupted(self, *args, **kwargs):
+            image = render(self, *args, **kwargs)
+            if self.scene.source.endswith(name):
+                raise KeyboardInterrupt
+            return image
+
+        monkeypatch.setattr(wrt.Renderer, "render", interrupted)
+
+    return interrupt

@@ -618,20 +618,10 @@ def test_a_bad_device_is_one_error_before_any_scene_loads(tmp_path, capsys, comm
     assert not (tmp_path / "out").exists()
 
 
-def test_an_interrupted_batch_logs_the_scene_cut_short(tmp_path, monkeypatch):
+def test_an_interrupted_batch_logs_the_scene_cut_short(tmp_path, ctrl_c_after):
     """Ctrl-C in a batch kept the rows of the scenes done but wrote none for the scene cut short, whose image (the
     samples done so far) then looked like a finished one; its row now says it was interrupted."""
-    import wrt
-
-    render = wrt.Renderer.render
-
-    def interrupted_at_b(self, *args, **kwargs):  # Ctrl-C once b.usda has its samples: a partial image is written
-        image = render(self, *args, **kwargs)
-        if self.scene.source.endswith("b.usda"):
-            raise KeyboardInterrupt
-        return image
-
-    monkeypatch.setattr(wrt.Renderer, "render", interrupted_at_b)
+    ctrl_c_after("b.usda")
     stage = ('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
              '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
     scenes = []

@@ -82,17 +82,10 @@ def test_resume_renders_an_image_written_again_since_its_row_or_whose_scene_chan
     assert "rendering b.usda again: b.usda changed" in err and "skipped c.usda" in err, err
 
 
-def test_resume_renders_the_scene_an_interrupted_batch_cut_short(batch, tmp_path, monkeypatch, capsys):
+def test_resume_renders_the_scene_an_interrupted_batch_cut_short(batch, tmp_path, monkeypatch, capsys, ctrl_c_after):
     argv, out = batch
     render = wrt.Renderer.render
-
-    def interrupted_at_b(self, *args, **kwargs):  # Ctrl-C once b.usda has its samples: a partial image is written
-        image = render(self, *args, **kwargs)
-        if self.scene.source.endswith("b.usda"):
-            raise KeyboardInterrupt
-        return image
-
-    monkeypatch.setattr(wrt.Renderer, "render", interrupted_at_b)
+    ctrl_c_after("b.usda")
     assert main(["render", *argv]) == 130
     assert (out / "b.png").exists()  # the samples so far
     monkeypatch.setattr(wrt.Renderer, "render", render)
