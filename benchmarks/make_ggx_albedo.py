@@ -1,32 +1,41 @@
 """Writes ``wrt/data/ggx_albedo.npy``: the directional albedo of wrt's GGX lobe, for the multiple-scattering
 compensation of :mod:`wrt.microfacet_albedo` (Kulla and Conty 2017).
 
-The table is stored rather than computed when wrt is imported: a quadrature accurate to about 1e-3 takes a minute
-in numpy (the horizon cuts the sample space along a curve, so a midpoint grid converges slowly), and loading 8 KB
-takes a millisecond. It is deterministic (a midpoint grid, no random numbers); run this script again after a change
-to the GGX lobe in ``wrt/bsdf.py`` (distribution, Smith term, ``MIN_ALPHA``). ``tests/test_bsdf.py`` recomputes
-some entries with :func:`vndf_albedo` and fails when the file and this script disagree.
+The table is stored rather than computed when wrt is imported: a quadrature accurate to about 1e-4 takes a few
+minutes in numpy (the horizon cuts the sample space along a curve, so a midpoint grid converges slowly), and loading
+24 KB takes a millisecond. It is deterministic (a midpoint grid, no random numbers); its rows and columns are
+``wrt.microfacet_albedo.table_roughness`` and ``table_cosines`` (dense at low roughness and grazing views, where a
+smooth lobe's albedo dips at a viewing cosine of about alpha). Run this script again after a change to the GGX lobe
+in ``wrt/bsdf.py`` (distribution, Smith term, ``MIN_ALPHA``) or to those axes. ``tests/test_microfacet_albedo.py``
+recomputes some rows with :func:`vndf_albedo` and fails when the file and this script disagree, and checks the
+lookups against an independent float64 quadrature.
 
 Usage: ``python benchmarks/make_ggx_albedo.py [--grid 512]``.
 """
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
 
-OUT = Path(__file__).resolve().parents[1] / "wrt" / "data" / "ggx_albedo.npy"
-N_ROUGHNESS = 32  # table rows: perceptual roughness k / 31 (GGX alpha = roughness^2)
-N_MU = 32  # table columns: cosine of the viewing angle (j / 31)^2, dense at grazing angles where E dips
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from wrt.microfacet_albedo import table_cosines, table_roughness  # noqa: E402
+
+OUT = ROOT / "wrt" / "data" / "ggx_albedo.npy"
+N_ROUGHNESS = 48  # table rows: perceptual roughness table_roughness(48), 0.02 to 1 (GGX alpha = roughness^2)
+N_MU = 64  # table columns: cosine of the viewing angle table_cosines(64) = (j / 63)^4, dense at grazing angles
 MIN_ALPHA = 4.0e-4  # wrt.bsdf.MIN_ALPHA
-MIN_MU = 1.0e-4  # the column mu = 0 is taken at this cosine (the limit at grazing view)
+MIN_MU = 1.0e-9  # the column mu = 0 is taken at this cosine (E there is within 1e-5 of its limit 1 at mu = 0)
+MU_CHUNK = 8  # cosines integrated at once (a 512 x 512 grid per cosine: 2 MB per array)
 
 
 def smith_lambda(cos_t, alpha):
-    """Smith's ``Lambda`` for GGX (``wrt.bsdf.ggx_masking_length`` is ``cos_t (1 + 2 Lambda)``; the clamp
-    only matters below a cosine of 1e-6)."""
-    c2 = np.maximum(cos_t * cos_t, 1e-12)
-    return 0.5 * (np.sqrt(1.0 + alpha * alpha * np.maximum(1.0 - c2, 0.0) / c2) - 1.0)
+    """Smith's ``Lambda`` for GGX, ``(sqrt(cos^2 + alpha^2 sin^2) / cos - 1) / 2`` (``wrt.bsdf.ggx_masking_length``
+    is ``cos_t (1 + 2 Lambda)``), without the tangent, whose square was clamped at a cosine of 1e-6."""
+    c2 = cos_t * cos_t
+    return 0.5 * (np.sqrt(c2 + alpha * alpha * np.maximum(1.0 - c2, 0.0)) / cos_t - 1.0)
 
 
 def vndf_albedo(roughness, mu, grid: int) -> np.ndarray:
@@ -61,16 +70,17 @@ def vndf_albedo(roughness, mu, grid: int) -> np.ndarray:
     cos_vh = sin_o * h[..., 0] + mu * h[..., 2]
     mu_i = 2.0 * cos_vh * h[..., 2] - mu
     lam_o = smith_lambda(mu, alpha)
-    weight = np.where(mu_i > 0.0, (1.0 + lam_o) / (1.0 + lam_o + smith_lambda(np.maximum(mu_i, 1e-6), alpha)), 0.0)
+    weight = np.where(mu_i > 0.0, (1.0 + lam_o) / (1.0 + lam_o + smith_lambda(np.maximum(mu_i, 1e-300), alpha)), 0.0)
     e = weight.mean(-1)
     b = (weight * np.clip(1.0 - cos_vh, 0.0, 1.0) ** 5).mean(-1)
     return np.stack([e, b], -1)
 
 
 def make_table(grid: int) -> np.ndarray:
-    """``(N_ROUGHNESS, N_MU, 2)`` float32 :func:`vndf_albedo` at the table's nodes, one roughness row at a time."""
-    mu = np.linspace(0.0, 1.0, N_MU) ** 2
-    rows = [vndf_albedo(r, mu, grid) for r in np.linspace(0.0, 1.0, N_ROUGHNESS)]
+    """``(N_ROUGHNESS, N_MU, 2)`` float32 :func:`vndf_albedo` at the table's nodes, a few cosines at a time."""
+    mu = table_cosines(N_MU)
+    rows = [np.concatenate([vndf_albedo(r, mu[k:k + MU_CHUNK], grid) for k in range(0, N_MU, MU_CHUNK)])
+            for r in table_roughness(N_ROUGHNESS)]
     return np.stack(rows).astype(np.float32)
 
 

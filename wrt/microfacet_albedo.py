@@ -8,12 +8,17 @@ exactly the missing ``1 - E(mu_o)``; :mod:`wrt.bsdf` weights it with a Fresnel c
 specular lobes to scale the layers below them.
 
 The table ``wrt/data/ggx_albedo.npy`` holds ``E`` and ``B`` (the part of ``E`` weighted by ``(1 - cos_vh)^5``, so
-that a Schlick lobe of ``F0, F90`` reflects ``F0 (E - B) + F90 B``) at perceptual roughness ``k / 31`` (rows) and
-``mu = (j / 31)^2`` (columns, dense at grazing angles, where ``E`` of a smooth lobe dips). It is made by
-``benchmarks/make_ggx_albedo.py`` (a one-minute quadrature, hence stored; loading it takes about a millisecond). Lookups
-are bilinear in ``(roughness, sqrt(mu))``; ``1 - E_avg`` is the average loss of that interpolant (stored as the loss:
-for smooth lobes ``E_avg`` is within 1e-5 of 1, where float32 keeps few digits of the difference), so the added lobe
-restores what the interpolated ``E`` says is missing.
+that a Schlick lobe of ``F0, F90`` reflects ``F0 (E - B) + F90 B``) on axes dense where ``E`` changes fast: rows at
+perceptual roughness ``0.02 + 0.03 ((1 + 0.98 / 0.03)^x - 1)`` for ``x = k / (R - 1)`` (:func:`table_roughness`:
+nearly even in ``log alpha`` below roughness 0.1, nearly even in roughness above 0.3), columns at ``mu = (j / (M -
+1))^4`` (:func:`table_cosines`). A smooth lobe's ``E`` dips at ``mu`` of about ``alpha`` (to 0.89 at roughness 0.03
+and ``mu`` 0.001) and is 1 again at ``mu = 0``, a dip that 32 rows even in roughness and 32 columns at ``(j /
+31)^2`` did not resolve: the lookups were off by up to 4% below ``mu`` 0.01 (a white metal of roughness 0.05
+reflected 1.023 at ``mu`` 1e-4). Within 2.5e-3 of a float64 quadrature at 48 x 64 (``tests/ggx_albedo_oracle.py``).
+It is made by ``benchmarks/make_ggx_albedo.py`` (a few minutes of quadrature, hence stored; loading it takes about a
+millisecond). Lookups are bilinear in ``(x, mu^(1/4))``; ``1 - E_avg`` is the average loss of that interpolant
+(stored as the loss: for smooth lobes ``E_avg`` is within 1e-5 of 1, where float32 keeps few digits of the
+difference), so the added lobe restores what the interpolated ``E`` says is missing.
 
 The compensation lobe is importance-sampled from the same table: its directions are drawn with a density
 proportional to ``c_j mu_i`` in column interval ``j`` (azimuth uniform), ``c_j`` the larger of ``1 - E`` at the
@@ -35,40 +40,54 @@ from .sampling import PI
 
 TABLE_PATH = Path(__file__).parent / "data" / "ggx_albedo.npy"  # written by benchmarks/make_ggx_albedo.py
 LOSS_ROUNDING = 2.0**-22  # float32 rounding of 1 - E looked up near E = 1 (4 ulps below 1): the f_ms density floor
+FIRST_ROUGHNESS = wp.constant(0.02)  # roughness of row 0: wrt.bsdf.DELTA_ROUGHNESS (a mirror below, never looked up)
+ROUGHNESS_KNEE = wp.constant(0.03)  # rows even in log(roughness - FIRST_ROUGHNESS + knee): log below it, linear above
+ROUGHNESS_SPAN = wp.constant(float(np.log1p((1.0 - FIRST_ROUGHNESS) / ROUGHNESS_KNEE)))  # that log's range up to 1
+
+
+def table_roughness(rows: int) -> np.ndarray:
+    """``(rows,)`` float64 perceptual roughness of the table's rows, 0.02 to 1 (inverse of :func:`roughness_row`)."""
+    x = np.linspace(0.0, 1.0, rows)
+    return FIRST_ROUGHNESS + ROUGHNESS_KNEE * np.expm1(x * ROUGHNESS_SPAN)
+
+
+def table_cosines(cols: int) -> np.ndarray:
+    """``(cols,)`` float64 viewing cosines ``mu = (j / (cols - 1))^4`` of the table's columns, 0 to 1."""
+    return np.linspace(0.0, 1.0, cols) ** 4
 
 
 @wp.struct
 class GgxAlbedo:
     """The albedo tables on one device."""
 
-    albedo: wp.array2d[wp.vec2]  # (R, M) E and B at roughness k / (R - 1), mu = (j / (M - 1))^2
-    average_loss: wp.array[float]  # (R,) 1 - E_avg at roughness k / (R - 1)
+    albedo: wp.array2d[wp.vec2]  # (R, M) E and B at roughness table_roughness(R)[k], mu = (j / (M - 1))^4
+    average_loss: wp.array[float]  # (R,) 1 - E_avg of row k
     ms_density: wp.array2d[float]  # (R, M - 1) the f_ms sampling density's c_j >= 1 - E over column interval j
     ms_cdf: wp.array2d[float]  # (R, M) sum of c_j' (mu_{j'+1}^2 - mu_j'^2) over the intervals j' < j
 
 
 def average_loss(albedo: np.ndarray, samples: int = 4097) -> np.ndarray:
     """``(R,)`` float64 ``1 - E_avg = 2 int_0^1 (1 - E(mu)) mu dmu`` of each row of ``albedo`` (``(R, M)``, columns
-    at ``mu = (j / (M - 1))^2``), interpolated linearly in ``sqrt(mu)`` as the lookups do (trapezoid rule on
-    ``samples`` points: within 1e-8)."""
+    at :func:`table_cosines`), interpolated linearly in ``mu^(1/4)`` as the lookups do (trapezoid rule on ``samples``
+    points: within 1e-8)."""
     nodes = np.linspace(0.0, 1.0, albedo.shape[1])
     s = np.linspace(0.0, 1.0, samples)
-    mu = s * s
+    mu = s**4
     y = 2.0 * (1.0 - np.stack([np.interp(s, nodes, row) for row in albedo])) * mu
     return 0.5 * ((y[:, 1:] + y[:, :-1]) * np.diff(mu)).sum(axis=1)
 
 
 def multiple_scattering_sampling(albedo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The sampling tables of the compensation lobe for ``albedo`` (``(R, M)`` E, columns at ``mu = (j / (M -
-    1))^2``): ``(R, M - 1)`` float64 ``c_j``, the larger of ``1 - E`` at columns ``j`` and ``j + 1`` (so at least
-    the linear interpolant of ``1 - E`` inside the interval) plus :data:`LOSS_ROUNDING`, and ``(R, M)`` their
+    """The sampling tables of the compensation lobe for ``albedo`` (``(R, M)`` E, columns at :func:`table_cosines`):
+    ``(R, M - 1)`` float64 ``c_j``, the larger of ``1 - E`` at columns ``j`` and ``j + 1`` (so at least the linear
+    interpolant of ``1 - E`` inside the interval) plus :data:`LOSS_ROUNDING`, and ``(R, M)`` their
     cumulative integral over ``mu^2``. Directions drawn with density ``c_j mu`` per interval make ``f_ms cos / pdf``
     nearly constant. The floor keeps it so where a smooth lobe's ``E`` is within a few float32 ulps of 1, whose
     lookups' rounding made ``1 - E`` up to 3.4 times ``c`` (roughness 0.03, ``mu`` 0.9); it adds 3% to the
     density's integral at roughness 0.03, less above, and keeps every ``c_j`` above 0."""
     loss = np.maximum(1.0 - albedo, 0.0)
     density = np.maximum(loss[:, :-1], loss[:, 1:]) + LOSS_ROUNDING
-    mu2 = np.linspace(0.0, 1.0, albedo.shape[1]) ** 4
+    mu2 = table_cosines(albedo.shape[1]) ** 2
     cdf = np.concatenate([np.zeros((len(albedo), 1)), np.cumsum(density * np.diff(mu2), axis=1)], axis=1)
     return density, cdf
 
@@ -103,20 +122,28 @@ def ggx_albedo_tables(device=None) -> GgxAlbedo:
 
 @wp.func
 def roughness_row(rows: int, roughness: float):
-    """Table row ``i`` below ``roughness`` and the weight ``fx`` of row ``i + 1`` in the linear interpolation."""
-    x = wp.clamp(roughness, 0.0, 1.0) * float(rows - 1)
+    """Table row ``i`` below ``roughness`` and the weight ``fx`` of row ``i + 1`` in the linear interpolation, in the
+    rows' coordinate ``log(1 + (roughness - 0.02) / 0.03)`` (:func:`table_roughness`); roughness below 0.02 (a mirror,
+    never looked up by the BSDF) reads row 0."""
+    r = wp.clamp(roughness, FIRST_ROUGHNESS, 1.0)
+    x = wp.log(1.0 + (r - FIRST_ROUGHNESS) / ROUGHNESS_KNEE) * (float(rows - 1) / ROUGHNESS_SPAN)
     i = wp.min(int(x), rows - 2)
     return i, x - float(i)
+
+
+@wp.func
+def cosine_column(cols: int, mu: float):
+    """Table column ``j`` below ``mu`` and the weight ``fy`` of column ``j + 1``, linear in ``mu^(1/4)``."""
+    y = wp.sqrt(wp.sqrt(wp.clamp(mu, 0.0, 1.0))) * float(cols - 1)
+    j = wp.min(int(y), cols - 2)
+    return j, y - float(j)
 
 
 @wp.func
 def lookup_ggx_albedo(t: GgxAlbedo, roughness: float, mu: float):
     """``(E, B)`` of a lobe of perceptual ``roughness`` for a viewer at ``mu = cos theta``, bilinear."""
     i, fx = roughness_row(t.albedo.shape[0], roughness)
-    cols = t.albedo.shape[1]
-    y = wp.sqrt(wp.clamp(mu, 0.0, 1.0)) * float(cols - 1)
-    j = wp.min(int(y), cols - 2)
-    fy = y - float(j)
+    j, fy = cosine_column(t.albedo.shape[1], mu)
     lower = wp.lerp(t.albedo[i, j], t.albedo[i, j + 1], fy)
     upper = wp.lerp(t.albedo[i + 1, j], t.albedo[i + 1, j + 1], fy)
     return wp.lerp(lower, upper, fx)
@@ -157,11 +184,14 @@ def sample_multiple_scattering_cos(t: GgxAlbedo, roughness: float, total: float,
             lo = mid
         else:
             hi = mid - 1
-    # Invert the linear integral of the constant density over mu^2 inside it (c >= LOSS_ROUNDING > 0).
+    # Invert the linear integral of the constant density over mu^2 inside it (c >= LOSS_ROUNDING > 0); the columns'
+    # mu^2 are (j / (cols - 1))^8.
     s0 = float(lo) / float(cols - 1)
     s1 = float(lo + 1) / float(cols - 1)
     v0 = s0 * s0 * s0 * s0
+    v0 = v0 * v0
     v1 = s1 * s1 * s1 * s1
+    v1 = v1 * v1
     c = wp.lerp(t.ms_density[i, lo], t.ms_density[i + 1, lo], fx)
     return wp.sqrt(wp.clamp(v0 + (target - wp.lerp(t.ms_cdf[i, lo], t.ms_cdf[i + 1, lo], fx)) / c, v0, v1))
 
@@ -174,6 +204,5 @@ def multiple_scattering_pdf(t: GgxAlbedo, roughness: float, total: float, mu: fl
     if mu <= 0.0:
         return 0.0
     i, fx = roughness_row(t.ms_cdf.shape[0], roughness)
-    cols = t.ms_cdf.shape[1]
-    j = wp.min(int(wp.sqrt(wp.min(mu, 1.0)) * float(cols - 1)), cols - 2)
+    j, fy = cosine_column(t.ms_cdf.shape[1], mu)
     return wp.lerp(t.ms_density[i, j], t.ms_density[i + 1, j], fx) * mu / (PI * total)
