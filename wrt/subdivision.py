@@ -10,7 +10,10 @@ masks of DeRose, Kass and Truong 1998 ("Subdivision surfaces in character animat
   semi-sharp crease;
 - a vertex point is ``(Q + 2R + (n - 3)S) / n`` (face points ``Q`` and edge midpoints ``R`` averaged, ``n`` edges)
   for a smooth vertex or a dart, ``(6S + a + b) / 8`` on a crease (two sharp edges, ends ``a`` and ``b``), and ``S``
-  at a corner (three or more sharp edges, or a ``cornerIndices`` entry), blended for semi-sharp creases and corners.
+  at a corner (three or more sharp edges, or a ``cornerIndices`` entry). Where a step makes semi-sharp features run
+  out, so that the rule after the step differs (a corner that becomes a crease or smooth, a crease that becomes
+  smooth), the two rules are blended by the mean sharpness of the features that turn smooth (OpenSubdiv's
+  ``Crease::ComputeFractionalWeightAtVertex``).
 
 Sharpness drops by one per level (OpenSubdiv's "uniform" creasing); USD's 10 and above is infinitely sharp. Boundary
 edges are sharp (``interpolateBoundary`` ``edgeOnly`` and ``edgeAndCorner``, and ``none``, which wrt draws as
@@ -27,6 +30,21 @@ import numpy as np
 INFINITELY_SHARP = 10.0  # UsdGeomMesh's SHARPNESS_INFINITE
 MAX_REFINE_LEVEL = 8
 REFINED_QUAD_BYTES = 1300  # host bytes a load holds at its peak per refined quad (1240 measured: a grid with uvs)
+
+
+SMOOTH, CREASE, CORNER = 0, 1, 2  # vertex rules (a dart, one sharp edge, takes the smooth rule)
+
+
+def _decrement(sharpness: np.ndarray) -> np.ndarray:
+    """Sharpness one step later: one less, none below zero, infinitely sharp staying so (uniform creasing)."""
+    return np.where(sharpness >= INFINITELY_SHARP, INFINITELY_SHARP, np.maximum(sharpness - 1.0, 0.0))
+
+
+def _vertex_rule(corner_sharpness: np.ndarray, sharp_edges: np.ndarray) -> np.ndarray:
+    """Rule per point: corner where it is sharp itself or has three or more sharp edges, crease with two, else
+    smooth."""
+    rule = np.where(sharp_edges >= 3, CORNER, np.where(sharp_edges == 2, CREASE, SMOOTH))
+    return np.where(corner_sharpness > 0.0, CORNER, rule)
 
 
 def _sum_by(index: np.ndarray, values: np.ndarray, size: int) -> np.ndarray:
@@ -74,32 +92,36 @@ class _Level:
         sharp = np.where(self.edge_faces != 2, INFINITELY_SHARP, sharp)  # boundary and non-manifold edges
         self.edge_sharpness = sharp
 
-        # Per point: incident edges, sharp incident edges, faces.
+        # Per point: incident edges, faces, and its sharpness (corner) this level.
         ends = self.edge_ends.reshape(-1)
         self.valence = np.bincount(ends, minlength=n_points)
-        creased = np.repeat(sharp > 0.0, 2)
-        self.sharp_edges = np.bincount(ends, weights=creased, minlength=n_points)
-        self.sharp_sum = np.bincount(ends, weights=np.repeat(np.minimum(sharp, INFINITELY_SHARP), 2) * creased,
-                                     minlength=n_points)
         self.point_faces = np.bincount(face_indices, minlength=n_points)
         corner = corner_sharpness.copy()
+        sharp_edges = np.bincount(ends, weights=np.repeat(sharp > 0.0, 2), minlength=n_points)
         if corner_boundary:  # edgeAndCorner: a boundary point of one face is a corner
-            corner[(self.point_faces == 1) & (self.sharp_edges >= 2)] = INFINITELY_SHARP
+            corner[(self.point_faces == 1) & (sharp_edges >= 2)] = INFINITELY_SHARP
         self.corner_sharpness = corner
 
-        # Vertex rule per point: 0 smooth (or dart), 1 crease, 2 corner; and its sharpness for blending.
-        rule = np.where(self.sharp_edges >= 3, 2, np.where(self.sharp_edges == 2, 1, 0))
-        rule = np.where(corner > 0.0, 2, rule)
-        crease_sharpness = np.where(self.sharp_edges > 0, self.sharp_sum / np.maximum(self.sharp_edges, 1), 0.0)
-        self.rule = rule
-        self.rule_sharpness = np.where(corner > 0.0, corner, np.where(rule == 2, INFINITELY_SHARP, crease_sharpness))
+        # Vertex rules of this level (parent) and of the next (child), from the sharpness of the point and its edges
+        # now and one step later, and the weight of the parent's rule where they differ (OpenSubdiv's
+        # Crease::DetermineVertexVertexRule and ComputeFractionalWeightAtVertex, uniform creasing): the mean
+        # sharpness of what turns smooth in this step (the point's, and its edges' of sharpness up to 1).
+        self.parent_rule = _vertex_rule(corner, sharp_edges)
+        child_sharp_edges = np.bincount(ends, weights=np.repeat(_decrement(sharp) > 0.0, 2), minlength=n_points)
+        self.child_rule = _vertex_rule(_decrement(corner), child_sharp_edges)
+        ending = (sharp > 0.0) & (sharp <= 1.0)
+        ending_sum = np.bincount(ends, weights=np.repeat(np.where(ending, sharp, 0.0), 2), minlength=n_points)
+        ending_count = np.bincount(ends, weights=np.repeat(ending, 2), minlength=n_points)
+        corner_ends = (corner > 0.0) & (corner <= 1.0)
+        ending_sum += np.where(corner_ends, corner, 0.0)
+        ending_count += corner_ends
+        self.parent_weight = np.minimum(ending_sum / np.maximum(ending_count, 1), 1.0)
 
     def child_sharpness(self):
         """Edge sharpness lookup and corner sharpness of the refined mesh (one less, none below zero)."""
         n_points = self.n_points
         parent = np.flatnonzero(self.edge_sharpness > 0.0)
-        sharp = self.edge_sharpness[parent]
-        sharp = np.where(sharp >= INFINITELY_SHARP, INFINITELY_SHARP, np.maximum(sharp - 1.0, 0.0))
+        sharp = _decrement(self.edge_sharpness[parent])
         middle = n_points + parent
         new_points = self.refined_points
         keys = np.concatenate([_edge_keys(self.edge_ends[parent, 0], middle, new_points),
@@ -108,8 +130,7 @@ class _Level:
         order = np.argsort(keys)
         keys, values = keys[order], values[order]
         corner = np.zeros(new_points)
-        c = self.corner_sharpness
-        corner[:n_points] = np.where(c >= INFINITELY_SHARP, INFINITELY_SHARP, np.maximum(c - 1.0, 0.0))
+        corner[:n_points] = _decrement(self.corner_sharpness)
         return _SharpnessTable(keys, values), corner
 
     @property
@@ -144,13 +165,22 @@ class _Level:
         ends = self.edge_ends.reshape(-1)
         r = _sum_by(ends, np.repeat(midpoint, 2, axis=0), n_points) / valence
         smooth = (q + 2.0 * r + (valence - 3.0) * data) / valence
-        # Crease rule: (6 S + a + b) / 8 over the other ends of the sharp edges.
-        is_sharp = np.repeat(self.edge_sharpness > 0.0, 2)
+        # Crease rule: (6 S + a + b) / 8 over the other ends of the sharp edges (those of this step for the parent
+        # rule, those still sharp after it for the child rule); corner rule: S.
         others = self.edge_ends[:, ::-1].reshape(-1)
-        crease = (6.0 * data + _sum_by(ends[is_sharp], data[others[is_sharp]], n_points)) / 8.0
-        sharp_point = np.where((self.rule == 1)[:, None], crease, data)
-        s = np.clip(self.rule_sharpness, 0.0, 1.0)[:, None]
-        vertex_points = np.where((self.rule == 0)[:, None], smooth, (1.0 - s) * smooth + s * sharp_point)
+
+        def crease(edge_is_sharp):
+            at = np.repeat(edge_is_sharp, 2)
+            return (6.0 * data + _sum_by(ends[at], data[others[at]], n_points)) / 8.0
+
+        def masked(rule, edge_is_sharp):
+            by_rule = np.where((rule == CREASE)[:, None], crease(edge_is_sharp), data)
+            return np.where((rule == SMOOTH)[:, None], smooth, by_rule)
+
+        parent = masked(self.parent_rule, self.edge_sharpness > 0.0)
+        child = masked(self.child_rule, _decrement(self.edge_sharpness) > 0.0)
+        w = np.where(self.child_rule == self.parent_rule, 1.0, self.parent_weight)[:, None]
+        vertex_points = np.where((self.parent_rule == SMOOTH)[:, None], smooth, w * parent + (1.0 - w) * child)
         lonely = self.point_faces == 0  # points no face uses stay where they are
         vertex_points[lonely] = data[lonely]
         return np.concatenate([vertex_points, edge_points, face_points])
