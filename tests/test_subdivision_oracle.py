@@ -141,3 +141,39 @@ def test_closed_meshes_match_the_opensubdiv_rules(mesh):
     got, _, _ = _wrt_quads(faces, points, 3)
     expected, _, _ = refine(faces, points, 3)
     np.testing.assert_allclose(got, expected, atol=1e-12)
+
+
+def _non_manifold_meshes():
+    """Non-manifold and degenerate inputs: ``name -> (points, faces)``."""
+    points, faces = GRID_POINTS, GRID_FACES
+    flipped = [list(f) for f in faces]
+    flipped[5] = flipped[5][::-1]
+    repeated = [list(f) for f in faces]
+    repeated[0] = [0, 5, 6, 6]
+    small = (CUBE - CUBE[0]) * np.array([0.5, 0.7, 0.3]) + CUBE[7]  # its point 0 on the cube's point 7
+    two_cubes = np.concatenate([CUBE, small[1:]])
+    other = {0: 7, **{k: 7 + k for k in range(1, 8)}}
+    fin = np.concatenate([points, [[2, 2, 5], [3, 2, 5]]])
+    top = np.array([[2, j, 3.0 + 0.1 * j] for j in range(5)])
+    n = len(points)
+    return {
+        "a face wound the other way": (points, flipped),
+        "two cubes meeting at a point": (two_cubes, CUBE_FACES + [[other[v] for v in f] for f in CUBE_FACES]),
+        "a face repeating a point": (points, repeated),
+        "a point no face uses": (np.concatenate([points, [[9.0, 9.0, 9.0]]]), faces),
+        "a fin on one edge": (fin, faces + [[12, 13, n + 1, n]]),
+        "a fin along a whole row": (np.concatenate([points, top]),
+                                    faces + [[10 + j, 11 + j, n + j + 1, n + j] for j in range(4)]),
+    }
+
+
+@pytest.mark.parametrize("case", list(_non_manifold_meshes()))
+def test_non_manifold_input_is_sharp_as_opensubdiv_tags_it(case):
+    """OpenSubdiv makes non-manifold edges and points infinitely sharp (a point along a fin keeps the crease rule).
+    wrt refined them with the smooth rule: the edges of a face wound the other way and the point where two cubes meet
+    were averaged over both sides, and a fin's points took the crease rule of its two boundary edges (0.54 off
+    OpenSubdiv's points on the flipped face, 0.99 at the fin)."""
+    points, faces = _non_manifold_meshes()[case]
+    got, _, _ = _wrt_quads(faces, points, 2)
+    expected, _, _ = refine(faces, points, 2)
+    np.testing.assert_allclose(got, expected, atol=1e-12)

@@ -209,6 +209,15 @@ class _SharpnessTable:
     def __init__(self, keys: np.ndarray, values: np.ndarray):
         self.keys, self.values = keys, values
 
+    def with_infinite(self, keys: np.ndarray) -> _SharpnessTable:
+        """This table with the edges ``keys`` infinitely sharp."""
+        all_keys = np.concatenate([self.keys, keys])
+        values = np.concatenate([self.values, np.full(len(keys), INFINITELY_SHARP)])
+        order = np.argsort(all_keys, kind="stable")
+        all_keys, values = all_keys[order], values[order]
+        unique, first = np.unique(all_keys, return_index=True)
+        return _SharpnessTable(unique, np.maximum.reduceat(values, first) if len(values) else values)
+
     def __call__(self, keys: np.ndarray) -> np.ndarray:
         if len(self.keys) == 0:
             return np.zeros(len(keys))
@@ -252,6 +261,12 @@ class Refinement:
             if len(indices) and (indices.min() < 0 or indices.max() >= n_points):
                 raise ValueError(f"cornerIndices out of range for {n_points} points")
             corner_sharpness[indices.astype(np.int64)] = _sharpness(sharpness, "cornerSharpnesses")
+        # Non-manifold input (an edge of three faces or of two wound oppositely, a face that repeats a point, faces
+        # that meet at a point only) is infinitely sharp, as OpenSubdiv tags it: refined smoothly, it was averaged
+        # over faces that are not one surface around it.
+        sharp_edges, sharp_points = _non_manifold(counts, face_indices, n_points)
+        edge_sharpness = edge_sharpness.with_infinite(sharp_edges)
+        corner_sharpness[sharp_points] = INFINITELY_SHARP
 
         self.levels = []
         for _ in range(levels):
@@ -283,6 +298,62 @@ class Refinement:
         for level in self.levels:
             data = level.face_varying(data)
         return data
+
+
+def _non_manifold(counts: np.ndarray, face_indices: np.ndarray, n_points: int):
+    """Edge keys and a point mask of the non-manifold parts of a mesh, as OpenSubdiv's ``Vtr::Level`` finds them and
+    ``Far::TopologyRefinerFactory`` sharpens them: edges of more than two faces, of two faces that run it the same
+    way (opposite windings), twice in one face, or from a point to itself; points on such an edge, points whose
+    faces do not make one fan around them (two cones meeting at their apex), and points no face uses. A point
+    between exactly two non-manifold edges with more faces than edges and no boundary (along a fin) keeps its
+    crease rule."""
+    face, following, _ = _face_walk(counts)
+    a, b = face_indices, face_indices[following]
+    keys, edge_of, uses = np.unique(_edge_keys(a, b, n_points), return_inverse=True, return_counts=True)
+    edge_of = edge_of.reshape(-1)
+    n_edges = len(keys)
+    # Per edge: its uses, how many run from the smaller point, how many faces it has.
+    forward = np.bincount(edge_of, weights=a < b, minlength=n_edges)
+    order = np.lexsort((face, edge_of))
+    repeated = np.zeros(n_edges, bool)
+    twice = (edge_of[order][1:] == edge_of[order][:-1]) & (face[order][1:] == face[order][:-1])
+    repeated[edge_of[order][1:][twice]] = True
+    bad_edge = (uses > 2) | ((uses == 2) & (forward != 1)) | repeated | (keys // n_points == keys % n_points)
+
+    ends = np.stack([keys // n_points, keys % n_points], axis=1).reshape(-1)
+    point_edges = np.bincount(ends, minlength=n_points)  # a point-to-itself edge counts twice, as it ends twice
+    point_faces = np.bincount(face_indices, minlength=n_points)
+    boundary = np.bincount(ends, weights=np.repeat(uses == 1, 2), minlength=n_points)
+    bad_at = np.bincount(ends, weights=np.repeat(bad_edge, 2), minlength=n_points)
+
+    # Fans: join the two corners at each end of every manifold edge shared by two faces; a manifold point's corners
+    # are then one component.
+    inner = (uses == 2) & ~bad_edge
+    first_use = np.full(n_edges, -1)
+    second_use = np.full(n_edges, -1)
+    sorted_edges = edge_of[order]
+    starts = np.flatnonzero(np.r_[True, sorted_edges[1:] != sorted_edges[:-1]])
+    first_use[sorted_edges[starts]] = order[starts]
+    has_second = np.r_[starts[1:], len(order)] - starts >= 2
+    second_use[sorted_edges[starts[has_second]]] = order[starts[has_second] + 1]
+    i, j = first_use[inner], second_use[inner]
+    links = np.concatenate([np.stack([i, following[j]], 1), np.stack([following[i], j], 1)])
+    labels = np.arange(len(face_indices))
+    while len(links):
+        low = np.minimum(labels[links[:, 0]], labels[links[:, 1]])
+        joined = labels.copy()
+        np.minimum.at(joined, links[:, 0], low)
+        np.minimum.at(joined, links[:, 1], low)
+        joined = joined[joined]
+        if np.array_equal(joined, labels):
+            break
+        labels = joined
+    fans = np.bincount(np.unique(face_indices * len(face_indices) + labels) // len(face_indices), minlength=n_points)
+
+    one_fan = (fans == 1) & (bad_at == 0) & (point_edges >= 2) & (
+        ((boundary == 0) & (point_edges == point_faces)) | ((boundary == 2) & (point_edges == point_faces + 1)))
+    along_fin = (bad_at == 2) & (boundary == 0) & (point_faces > point_edges)
+    return keys[bad_edge], ~one_fan & ~along_fin
 
 
 def _sharpness(values, name: str) -> np.ndarray:
