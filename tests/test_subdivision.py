@@ -75,7 +75,7 @@ def test_boundary_follows_the_curve_rule_and_corners_stay():
     m, n = 4, 5
     points, quads = _open_grid(m, n, rng)
     edge_and_corner = Refinement(np.full(m * n, 4), quads, len(points), 1).vertex(points)
-    edge_only = Refinement(np.full(m * n, 4), quads, len(points), 1, corner_boundary=False).vertex(points)
+    edge_only = Refinement(np.full(m * n, 4), quads, len(points), 1, boundary="edgeOnly").vertex(points)
     corner = 0  # grid point (0, 0): neighbours along the boundary are points 1 and n + 1
     np.testing.assert_allclose(edge_and_corner[corner], points[corner])
     np.testing.assert_allclose(edge_only[corner], (6 * points[0] + points[1] + points[n + 1]) / 8)
@@ -328,3 +328,29 @@ def test_cli_refine_level(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["render", str(path), "-o", str(out), "--refine-level", "12"])
     assert "must be 0 to 8" in capsys.readouterr().err
+
+
+def test_interpolate_boundary_none_hides_the_boundary_faces(tmp_path):
+    """A 3 x 3 grid of quads with ``interpolateBoundary = none`` (USD: "boundary faces are effectively treated as
+    holes"): only the middle face is drawn, its points those of ``edgeOnly``; it was drawn whole as ``edgeOnly``,
+    with a warning."""
+    def grid_stage(path, boundary):
+        stage = Usd.Stage.CreateNew(str(path))
+        mesh = UsdGeom.Mesh.Define(stage, "/Grid")
+        mesh.CreatePointsAttr([(i, j, 0.1 * ((i * 7 + j * 3) % 5)) for i in range(4) for j in range(4)])
+        mesh.CreateFaceVertexCountsAttr([4] * 9)
+        mesh.CreateFaceVertexIndicesAttr([v for i in range(3) for j in range(3)
+                                          for v in (4 * i + j, 4 * i + j + 4, 4 * i + j + 5, 4 * i + j + 1)])
+        mesh.CreateInterpolateBoundaryAttr(boundary)
+        stage.Save()
+        return wrt.load_usd(path, refine_level=2).meshes[0]
+
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        none = grid_stage(tmp_path / "none.usda", "none")
+    edge_only = grid_stage(tmp_path / "edge.usda", "edgeOnly")
+    assert set(none.face_ids.tolist()) == {4} and len(none.indices) == 16 * 2
+    middle = edge_only.face_ids == 4
+    np.testing.assert_array_equal(none.points[none.indices], edge_only.points[edge_only.indices[middle]])

@@ -19,8 +19,7 @@ def _wrt_quads(faces, points, levels, creases=None, corners=None, boundary="edge
                        np.array(list(creases.values()), np.float64))
     if corners:
         corner_args = (np.array(list(corners)), np.array(list(corners.values()), np.float64))
-    r = Refinement(counts, indices, len(points), levels, crease_args, corner_args,
-                   corner_boundary=boundary == "edgeAndCorner")
+    r = Refinement(counts, indices, len(points), levels, crease_args, corner_args, boundary=boundary)
     return r.vertex(points)[r.face_indices.reshape(-1, 4)], r.parent_face, r
 
 
@@ -177,3 +176,16 @@ def test_non_manifold_input_is_sharp_as_opensubdiv_tags_it(case):
     got, _, _ = _wrt_quads(faces, points, 2)
     expected, _, _ = refine(faces, points, 2)
     np.testing.assert_allclose(got, expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("creases", [{}, {(0, 1): 10.0, (1, 2): 10.0, (2, 3): 10.0, (3, 4): 10.0}])
+def test_interpolate_boundary_none_makes_the_boundary_faces_holes(creases):
+    """USD: with ``none`` "boundary faces are effectively treated as holes"; OpenSubdiv hides the faces at a
+    boundary point unless its boundary edges are authored infinitely sharp, and refines the rest as ``edgeOnly``.
+    A 4 x 4 grid keeps its middle 2 x 2 faces (with the first row's edges creased: the middle 3 x 2). wrt drew
+    ``none`` as ``edgeOnly``, boundary faces included."""
+    got, _, r = _wrt_quads(GRID_FACES, GRID_POINTS, 2, creases=creases, boundary="none")
+    expected, _, holes = refine(GRID_FACES, GRID_POINTS, 2, creases=creases, boundary="none")
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    assert sorted(r.boundary_holes.tolist()) == sorted(holes)
+    assert 16 - len(holes) == (6 if creases else 4)

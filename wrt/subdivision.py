@@ -16,11 +16,11 @@ masks of DeRose, Kass and Truong 1998 ("Subdivision surfaces in character animat
   ``Crease::ComputeFractionalWeightAtVertex``).
 
 Sharpness drops by one per level (OpenSubdiv's "uniform" creasing); USD's 10 and above is infinitely sharp. Boundary
-edges are sharp (``interpolateBoundary`` ``edgeOnly`` and ``edgeAndCorner``, and ``none``, which wrt draws as
-``edgeOnly``), and with ``edgeAndCorner`` (USD's fallback) a boundary point of a single face is a corner. Per-point
-data (points, ``vertex`` primvars) follows the same masks; face-varying data (texture coordinates) is interpolated
-linearly within each face, as ``faceVaryingLinearInterpolation = all``. The result after ``N`` levels is a quad mesh
-whose points converge to the limit surface as ``N`` grows; it is not the limit surface itself.
+edges are sharp (``interpolateBoundary`` ``edgeOnly``, ``edgeAndCorner`` and ``none``), with ``edgeAndCorner`` (USD's
+fallback) a boundary point of a single face is a corner, and with ``none`` the faces at boundary points are holes.
+Per-point data (points, ``vertex`` primvars) follows the same masks; face-varying data (texture coordinates) is
+interpolated linearly within each face, as ``faceVaryingLinearInterpolation = all``. The result after ``N`` levels is a
+quad mesh whose points converge to the limit surface as ``N`` grows; it is not the limit surface itself.
 """
 
 from __future__ import annotations
@@ -237,13 +237,14 @@ class Refinement:
         creases: ``(indices, lengths, sharpnesses)`` of ``creaseIndices``, ``creaseLengths`` and
             ``creaseSharpnesses`` (one per crease or one per crease edge), or None.
         corners: ``(indices, sharpnesses)`` of ``cornerIndices`` and ``cornerSharpnesses``, or None.
-        corner_boundary: ``interpolateBoundary = edgeAndCorner`` (boundary points of one face are corners).
+        boundary: ``interpolateBoundary``: ``edgeAndCorner`` (boundary points of one face are corners), ``edgeOnly``
+            or ``none`` (as ``edgeOnly``, and the faces at boundary points are holes: ``boundary_holes``).
 
     Raises:
         ValueError: creases or corners that do not fit the mesh (the message says which).
     """
 
-    def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, corner_boundary=True):
+    def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, boundary="edgeAndCorner"):
         counts = np.asarray(counts, np.int64)
         face_indices = np.asarray(face_indices, np.int64)
         drawn = counts >= 3
@@ -264,6 +265,12 @@ class Refinement:
         # Non-manifold input (an edge of three faces or of two wound oppositely, a face that repeats a point, faces
         # that meet at a point only) is infinitely sharp, as OpenSubdiv tags it: refined smoothly, it was averaged
         # over faces that are not one surface around it.
+        # interpolateBoundary = none: faces at a boundary point are holes (their points still shape the rest), unless
+        # all its boundary edges are authored infinitely sharp (OpenSubdiv's VTX_BOUNDARY_NONE).
+        self.boundary_holes = np.zeros(0, np.int64)  # input faces not drawn, in faceVertexCounts numbering
+        if boundary == "none":
+            self.boundary_holes = self.parent_face[_boundary_faces(counts, face_indices, n_points, edge_sharpness)]
+        corner_boundary = boundary == "edgeAndCorner"
         sharp_edges, sharp_points = _non_manifold(counts, face_indices, n_points)
         edge_sharpness = edge_sharpness.with_infinite(sharp_edges)
         corner_sharpness[sharp_points] = INFINITELY_SHARP
@@ -298,6 +305,17 @@ class Refinement:
         for level in self.levels:
             data = level.face_varying(data)
         return data
+
+
+def _boundary_faces(counts: np.ndarray, face_indices: np.ndarray, n_points: int, authored) -> np.ndarray:
+    """Faces at a point with a boundary edge (of one face) that is not authored infinitely sharp."""
+    face, following, _ = _face_walk(counts)
+    keys, uses = np.unique(_edge_keys(face_indices, face_indices[following], n_points), return_counts=True)
+    open_edges = keys[(uses == 1) & (authored(keys) < INFINITELY_SHARP)]
+    at_boundary = np.zeros(n_points, bool)
+    at_boundary[open_edges // n_points] = True
+    at_boundary[open_edges % n_points] = True
+    return np.unique(face[at_boundary[face_indices]])
 
 
 def _non_manifold(counts: np.ndarray, face_indices: np.ndarray, n_points: int):

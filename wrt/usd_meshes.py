@@ -190,6 +190,9 @@ class MeshReading:
                 i = int(np.argmax(bad))
                 detail = f"holeIndices[{i}] = {holes[i]} for {len(counts)} faces"
                 self._skip("holeIndices out of range were ignored", prim, detail)
+        if refinement is not None:  # interpolateBoundary = none hides the faces at boundary points too
+            holes = np.union1d(holes, refinement.boundary_holes)
+        if len(holes):
             drawn = ~np.isin(face_ids, holes)
             tri_corners, face_ids = tri_corners[drawn], face_ids[drawn]
         vertex_ids = polygons[1][tri_corners]
@@ -267,18 +270,15 @@ class MeshReading:
             sharpness = value_at(mesh.GetCornerSharpnessesAttr(), t)
             corners = (corner_indices, np.asarray(sharpness if sharpness is not None else [], np.float64))
         boundary = value_at(mesh.GetInterpolateBoundaryAttr(), t) or "edgeAndCorner"
-        if boundary == "none":
-            self._skip("interpolateBoundary = none is drawn as edgeOnly (boundary faces kept)", prim)
-        elif boundary not in ("edgeOnly", "edgeAndCorner"):  # USD does not check allowed tokens (as orientation)
+        if boundary not in ("none", "edgeOnly", "edgeAndCorner"):  # USD does not check allowed tokens (as orientation)
             self._skip("interpolateBoundary is not none, edgeOnly or edgeAndCorner; read as edgeAndCorner", prim,
                        repr(boundary))
             boundary = "edgeAndCorner"
-        corner_boundary = boundary == "edgeAndCorner"
         try:
-            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners, corner_boundary)
+            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners, boundary)
         except ValueError as e:
             self._skip("creases or corners that do not fit the mesh were ignored", prim, str(e))
-            return Refinement(counts, face_indices, n_points, self.refine_level, corner_boundary=corner_boundary)
+            return Refinement(counts, face_indices, n_points, self.refine_level, boundary=boundary)
 
     def _check_topology(self, prim, counts, face_indices, points):
         mesh = UsdGeom.Mesh(prim)
