@@ -354,3 +354,29 @@ def test_interpolate_boundary_none_hides_the_boundary_faces(tmp_path):
     assert set(none.face_ids.tolist()) == {4} and len(none.indices) == 16 * 2
     middle = edge_only.face_ids == 4
     np.testing.assert_array_equal(none.points[none.indices], edge_only.points[edge_only.indices[middle]])
+
+
+def test_triangle_subdivision_rule_is_read(tmp_path):
+    """A tetrahedron with ``triangleSubdivisionRule = smooth``: an edge point between two triangles is
+    0.03 (a + b) + 0.47 (F0 + F1) (OpenSubdiv's TRI_SUB_SMOOTH weights) where the standard rule gives
+    (a + b + F0 + F1) / 4. The attribute was not read."""
+    points = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], np.float64)
+    faces = [[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]]
+
+    def refined(path, rule):
+        stage = Usd.Stage.CreateNew(str(path))
+        mesh = UsdGeom.Mesh.Define(stage, "/Tet")
+        mesh.CreatePointsAttr([Gf.Vec3f(*p) for p in points])
+        mesh.CreateFaceVertexCountsAttr([3] * 4)
+        mesh.CreateFaceVertexIndicesAttr([v for f in faces for v in f])
+        if rule:
+            mesh.CreateTriangleSubdivisionRuleAttr(rule)
+        stage.Save()
+        return wrt.load_usd(path, refine_level=1).meshes[0].points
+
+    a, b = points[0], points[1]  # edge 0-1 between faces 0 and 1
+    f0, f1 = points[faces[0]].mean(axis=0), points[faces[1]].mean(axis=0)
+    smooth = refined(tmp_path / "s.usda", "smooth")
+    standard = refined(tmp_path / "c.usda", None)
+    for got, expected in ((smooth, 0.03 * (a + b) + 0.47 * (f0 + f1)), (standard, (a + b + f0 + f1) / 4)):
+        assert np.isclose(np.linalg.norm(got - expected, axis=1), 0.0, atol=1e-6).any()

@@ -9,7 +9,7 @@ from catmark_reference import refine
 from wrt.subdivision import Refinement
 
 
-def _wrt_quads(faces, points, levels, creases=None, corners=None, boundary="edgeAndCorner"):
+def _wrt_quads(faces, points, levels, creases=None, corners=None, boundary="edgeAndCorner", triangle_smooth=False):
     """The refined quads' corner points ``(Q, 4, k)`` and parent faces of ``wrt.subdivision.Refinement``."""
     counts = [len(f) for f in faces]
     indices = [v for f in faces for v in f]
@@ -19,7 +19,8 @@ def _wrt_quads(faces, points, levels, creases=None, corners=None, boundary="edge
                        np.array(list(creases.values()), np.float64))
     if corners:
         corner_args = (np.array(list(corners)), np.array(list(corners.values()), np.float64))
-    r = Refinement(counts, indices, len(points), levels, crease_args, corner_args, boundary=boundary)
+    r = Refinement(counts, indices, len(points), levels, crease_args, corner_args, boundary=boundary,
+                   triangle_smooth=triangle_smooth)
     return r.vertex(points)[r.face_indices.reshape(-1, 4)], r.parent_face, r
 
 
@@ -189,3 +190,14 @@ def test_interpolate_boundary_none_makes_the_boundary_faces_holes(creases):
     np.testing.assert_allclose(got, expected, atol=1e-12)
     assert sorted(r.boundary_holes.tolist()) == sorted(holes)
     assert 16 - len(holes) == (6 if creases else 4)
+
+
+def test_triangle_subdivision_rule_smooth_weighs_edges_next_to_triangles():
+    """``triangleSubdivisionRule = smooth`` (OpenSubdiv's TRI_SUB_SMOOTH): the pyramid's triangle edges get face
+    weights 0.47 (0.36 next to the quad) instead of 0.25; a creased edge stays the midpoint."""
+    creases = {(0, 1): 0.5}
+    got, _, _ = _wrt_quads(PYRAMID_FACES, PYRAMID, 2, creases=creases, triangle_smooth=True)
+    expected, _, _ = refine(PYRAMID_FACES, PYRAMID, 2, creases=creases, triangle_smooth=True)
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    plain, _, _ = refine(PYRAMID_FACES, PYRAMID, 2, creases=creases)
+    assert np.abs(expected - plain).max() > 0.01

@@ -78,8 +78,10 @@ def refined_quads(counts, levels: int) -> int:
 class _Level:
     """One Catmull-Clark step of a mesh of ``counts`` faces (each >= 3 corners) over ``face_indices``."""
 
-    def __init__(self, counts, face_indices, n_points, edge_sharpness, corner_sharpness, corner_boundary):
+    def __init__(self, counts, face_indices, n_points, edge_sharpness, corner_sharpness, corner_boundary,
+                 triangle_smooth=False):
         self.counts, self.face_indices, self.n_points = counts, face_indices, n_points
+        self.triangle_smooth = triangle_smooth
         face, following, preceding = _face_walk(counts)
         self.face, self.following, self.preceding = face, following, preceding
         a, b = face_indices, face_indices[following]
@@ -155,6 +157,16 @@ class _Level:
         midpoint = 0.5 * (a + b)
         face_sum = _sum_by(self.fv_edge, face_point_at, len(self.edge_ends))
         smooth_edge = 0.5 * midpoint + face_sum / (2.0 * np.maximum(self.edge_faces, 1)[:, None])
+        if self.triangle_smooth:
+            # triangleSubdivisionRule = smooth: an edge of two faces, a triangle among them, weighs each face point by
+            # the mean of 0.47 per triangle and 0.25 per other face, its ends by the rest (OpenSubdiv's
+            # TRI_SUB_SMOOTH, catmarkScheme.h).
+            is_triangle = (self.counts == 3)[self.face]
+            triangles = np.bincount(self.fv_edge, weights=is_triangle, minlength=len(self.edge_ends))
+            weights = np.bincount(self.fv_edge, weights=np.where(is_triangle, 0.47, 0.25), minlength=len(triangles))
+            face_weight = (0.5 * weights)[:, None]
+            by_triangles = (1.0 - 2.0 * face_weight) * midpoint + face_weight * face_sum
+            smooth_edge = np.where(((self.edge_faces == 2) & (triangles > 0))[:, None], by_triangles, smooth_edge)
         s = np.clip(self.edge_sharpness, 0.0, 1.0)[:, None]
         edge_points = (1.0 - s) * smooth_edge + s * midpoint
 
@@ -239,12 +251,14 @@ class Refinement:
         corners: ``(indices, sharpnesses)`` of ``cornerIndices`` and ``cornerSharpnesses``, or None.
         boundary: ``interpolateBoundary``: ``edgeAndCorner`` (boundary points of one face are corners), ``edgeOnly``
             or ``none`` (as ``edgeOnly``, and the faces at boundary points are holes: ``boundary_holes``).
+        triangle_smooth: ``triangleSubdivisionRule = smooth`` (other edge weights next to triangles).
 
     Raises:
         ValueError: creases or corners that do not fit the mesh (the message says which).
     """
 
-    def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, boundary="edgeAndCorner"):
+    def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, boundary="edgeAndCorner",
+                 triangle_smooth=False):
         counts = np.asarray(counts, np.int64)
         face_indices = np.asarray(face_indices, np.int64)
         drawn = counts >= 3
@@ -277,7 +291,8 @@ class Refinement:
 
         self.levels = []
         for _ in range(levels):
-            level = _Level(counts, face_indices, n_points, edge_sharpness, corner_sharpness, corner_boundary)
+            level = _Level(counts, face_indices, n_points, edge_sharpness, corner_sharpness, corner_boundary,
+                           triangle_smooth)
             self.levels.append(level)
             edge_sharpness, corner_sharpness = level.child_sharpness()
             counts, face_indices, parent = level.topology()

@@ -274,11 +274,14 @@ class MeshReading:
             self._skip("interpolateBoundary is not none, edgeOnly or edgeAndCorner; read as edgeAndCorner", prim,
                        repr(boundary))
             boundary = "edgeAndCorner"
+        triangle_smooth = value_at(mesh.GetTriangleSubdivisionRuleAttr(), t) == "smooth"
         try:
-            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners, boundary)
+            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners, boundary,
+                              triangle_smooth)
         except ValueError as e:
             self._skip("creases or corners that do not fit the mesh were ignored", prim, str(e))
-            return Refinement(counts, face_indices, n_points, self.refine_level, boundary=boundary)
+            return Refinement(counts, face_indices, n_points, self.refine_level, boundary=boundary,
+                              triangle_smooth=triangle_smooth)
 
     def _check_topology(self, prim, counts, face_indices, points):
         mesh = UsdGeom.Mesh(prim)
