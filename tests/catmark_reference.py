@@ -162,9 +162,13 @@ def _vertex_mask(kind, level, v, p, face_points, edge_s):
     return (n - 2.0) / n * p[v] + (ring + centres) / (n * n)
 
 
-def refine_once(level: Level, p: np.ndarray, edge_s, vert_s, triangle_smooth=False):
-    """One level: the child level, its points and sharpness."""
+def refine_once(level: Level, p: np.ndarray, edge_s, vert_s, triangle_smooth=False, linear=False):
+    """One level: the child level, its points and sharpness (``linear``: the bilinear masks, as ``varying``
+    primvars refine: points stay, edge points are midpoints)."""
     face_points = [np.mean([p[v] for v in f], axis=0) for f in level.faces]
+    if linear:
+        edge_s = [INF] * len(level.edges)
+        vert_s = [INF] * level.n_points
 
     edge_points = []
     for e, (a, b) in enumerate(level.edges):
@@ -228,7 +232,8 @@ def refine_once(level: Level, p: np.ndarray, edge_s, vert_s, triangle_smooth=Fal
     return child, points, c_edge, c_vert
 
 
-def refine(faces, points, levels, creases=None, corners=None, boundary="edgeAndCorner", triangle_smooth=False):
+def refine(faces, points, levels, creases=None, corners=None, boundary="edgeAndCorner", triangle_smooth=False,
+           linear=False):
     """``levels`` steps of the mesh ``faces`` (lists of point indices) over ``points`` ``(V, k)``.
 
     Args:
@@ -236,6 +241,7 @@ def refine(faces, points, levels, creases=None, corners=None, boundary="edgeAndC
         corners: ``{point: sharpness}``.
         boundary: ``interpolateBoundary``.
         triangle_smooth: ``triangleSubdivisionRule = smooth``.
+        linear: bilinear refinement (``varying`` primvars).
 
     Returns:
         ``(quads (Q, 4, k) float64, parent face of each quad (Q,), base faces that are holes)``.
@@ -246,7 +252,7 @@ def refine(faces, points, levels, creases=None, corners=None, boundary="edgeAndC
     parent = list(range(len(level.faces)))
     for _ in range(levels):
         counts = [len(f) for f in level.faces]
-        level, p, edge_s, vert_s = refine_once(level, p, edge_s, vert_s, triangle_smooth)
+        level, p, edge_s, vert_s = refine_once(level, p, edge_s, vert_s, triangle_smooth, linear)
         parent = [parent[f] for f, c in enumerate(counts) for _ in range(c)]
     quads = np.array([[p[v] for v in f] for f in level.faces])
     return quads, np.array(parent), holes

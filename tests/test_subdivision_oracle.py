@@ -201,3 +201,47 @@ def test_triangle_subdivision_rule_smooth_weighs_edges_next_to_triangles():
     np.testing.assert_allclose(got, expected, atol=1e-12)
     plain, _, _ = refine(PYRAMID_FACES, PYRAMID, 2, creases=creases)
     assert np.abs(expected - plain).max() > 0.01
+
+
+@pytest.mark.parametrize("interpolation", ["vertex", "varying", "uniform"])
+def test_loaded_mesh_is_the_reference_refinement_moved_and_coloured(tmp_path, interpolation):
+    """A cube under a scale and a translation, its points sampled at times 1 and 3, read at 2 with refine_level 2:
+    the refined points are the reference refinement of the points USD interpolates, moved by USD's transform, each
+    triangle inside a reference quad of its control face; a ``vertex`` displayColor follows the same masks, a
+    ``varying`` one the bilinear ones, a ``uniform`` one is its control face's on every child quad."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+
+    import wrt
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "cube.usda"))
+    xform = UsdGeom.Xform.Define(stage, "/X")
+    xform.AddTranslateOp().Set(Gf.Vec3d(10, 0, 0))
+    xform.AddScaleOp().Set(Gf.Vec3f(2, 1, 0.5))
+    mesh = UsdGeom.Mesh.Define(stage, "/X/Cube")
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*p) for p in CUBE]), 1)
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*p) for p in CUBE * [1.0, 2.0, 1.0]]), 3)
+    mesh.CreateFaceVertexCountsAttr([4] * 6)
+    mesh.CreateFaceVertexIndicesAttr([v for f in CUBE_FACES for v in f])
+    colours = np.random.default_rng(7).random((6 if interpolation == "uniform" else 8, 3))
+    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, interpolation).Set(
+        [Gf.Vec3f(*v) for v in colours])
+    stage.Save()
+
+    to_world = np.array(xform.ComputeLocalToWorldTransform(2.0), np.float64)  # row vectors: p' = [p 1] M
+    expected, parents, _ = refine(CUBE_FACES, np.array(mesh.GetPointsAttr().Get(2.0), np.float64), 2)
+    expected = expected @ to_world[:3, :3] + to_world[3, :3]  # (Q, 4, 3)
+
+    m = wrt.load_usd(tmp_path / "cube.usda", refine_level=2, time=2.0).meshes[0]
+    corners = m.points[m.indices].astype(np.float64)  # (T, 3, 3): two triangles per refined quad
+    assert len(corners) == 2 * len(expected)
+    close = np.linalg.norm(corners[:, :, None, None] - expected[None, None], axis=-1) < 2e-5  # (T, 3, Q, 4)
+    assert close.any(axis=(2, 3)).all()  # every corner is a reference point
+    quad = np.argmax(close.any(axis=3).all(axis=1), axis=1)  # the reference quad holding all three corners
+    assert close.any(axis=3).all(axis=1)[np.arange(len(quad)), quad].all()
+    np.testing.assert_array_equal(parents[quad], m.face_ids)
+    if interpolation == "uniform":
+        np.testing.assert_allclose(m.colors, np.repeat(colours[m.face_ids][:, None], 3, axis=1), atol=1e-6)
+        return
+    refined, _, _ = refine(CUBE_FACES, colours, 2, linear=interpolation == "varying")
+    corner_in_quad = np.argmax(close[np.arange(len(quad)), :, quad], axis=-1)  # (T, 3)
+    np.testing.assert_allclose(m.colors, refined[quad[:, None], corner_in_quad], atol=1e-6)
