@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 pxr = pytest.importorskip("pxr")
-from pxr import Usd, UsdGeom, UsdSkel  # noqa: E402
+from pxr import Sdf, Usd, UsdGeom, UsdSkel  # noqa: E402
 
 from wrt.usd import load_usd  # noqa: E402
 
@@ -452,5 +452,26 @@ def test_a_blend_shape_that_does_not_fit_is_left_out_with_a_warning(tmp_path, ca
         scene = load_usd(write(tmp_path / "bound", bound), time=5.0)
     mesh = {m.path: m for m in scene.meshes}["/Root/Bar"]
     expected, normals = world_triangles(stage, "/Root/Bar", Usd.TimeCode(5))
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
+    np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)
+
+
+@pytest.mark.parametrize("sampled", ["jointWeights", "geomBindTransform"])
+def test_influences_with_only_time_samples_are_read_at_their_first_sample_with_the_default_time(tmp_path, sampled):
+    """``time=None`` reads an attribute that has only time samples at its first sample, each attribute on its own
+    (as every other attribute is read): the bar's jointWeights or geomBindTransform written as samples only, the
+    jointIndices not. The influences were read at the jointIndices' time (the default): weights with no default
+    value left the bar unposed under 'jointIndices and jointWeights do not match', and a sampled geomBindTransform
+    was taken as the identity, 0.43 from USD's pose at the first sample."""
+    path = write(tmp_path, skel_root())
+    layer = Sdf.Layer.FindOrOpen(path)
+    spec = layer.GetAttributeAtPath(f"/Root/Bar.primvars:skel:{sampled}")
+    layer.SetTimeSample(spec.path, 1.0, spec.default)
+    spec.ClearDefaultValue()
+    layer.Save()
+    stage = Usd.Stage.Open(path)
+    assert stage.GetPrimAtPath("/Root/Bar").GetAttribute(f"primvars:skel:{sampled}").GetTimeSamples() == [1.0]
+    expected, normals = world_triangles(baked(path), "/Root/Bar", Usd.TimeCode(1))
+    mesh = {m.path: m for m in loaded(path, None).meshes}["/Root/Bar"]
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
     np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)

@@ -14,9 +14,10 @@ inverse transposes of the same joint transforms and weights (``UsdSkel.SkinNorma
 
 Time: the animation is read at the load's time; with the default time, an animation whose joint transforms or blend
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
-(:func:`wrt.usd_values.read_time`). A mesh whose skinning fails (joint indices out of range, influences that do not
-match its points, a skeleton that cannot be posed, bind transforms that do not match its joints, weights or a pose
-that are not finite) keeps its unposed points, with a warning naming it. A blend shape that does not fit its mesh
+(:func:`wrt.usd_values.read_time`), the mesh's jointIndices, jointWeights and geomBindTransform each on its own.
+A mesh whose skinning fails (joint indices out of range, influences that do not match its points, a skeleton that
+cannot be posed, bind transforms that do not match its joints, weights or a pose that are not finite) keeps its
+unposed points, with a warning naming it. A blend shape that does not fit its mesh
 (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points without
 them; a point index out of range; offsets that are not finite) is left out, with a warning naming the mesh, the
 BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply.
@@ -99,8 +100,7 @@ class SkelPoser:
             return points, normals, prim  # blend shapes only: still in the mesh's own space
         if isinstance(xforms, str):
             raise ValueError(xforms)
-        mesh_time = read_time(query.GetJointIndicesPrimvar().GetAttr(), self.time)  # influences as points are read
-        skin = _Influences(query, xforms, mesh_time)
+        skin = _Influences(query, xforms, self.time)
         if query.IsRigidlyDeformed():
             m = skin.rigid_transform()
             if normals is not None:
@@ -181,17 +181,22 @@ class _Influences:
     """
 
     def __init__(self, query: UsdSkel.SkinningQuery, xforms, time: Usd.TimeCode):
-        influences = query.ComputeJointInfluences(time)
-        if not influences:
+        # Each attribute read at its own time, as points are (read_time: its first sample at the default time when it
+        # has samples only); ComputeJointInfluences and GetGeomBindTransform read all at one time.
+        primvars = query.GetJointIndicesPrimvar(), query.GetJointWeightsPrimvar()
+        self.indices, self.weights = (p.ComputeFlattened(read_time(p.GetAttr(), time)) for p in primvars)
+        self.per_point = query.GetNumInfluencesPerComponent()
+        rigid = query.GetInterpolation() == "constant"
+        if (self.indices is None or self.weights is None or len(self.indices) != len(self.weights)
+                or (rigid and len(self.indices) != self.per_point)):
             raise ValueError("jointIndices and jointWeights do not match")
-        self.indices, self.weights = influences
         weights = np.asarray(self.weights)
         if not np.isfinite(weights).all():
             i = int(np.argmin(np.isfinite(weights)))
             raise ValueError(f"jointWeights[{i}] = {weights[i]} is not finite")
-        self.per_point = query.GetNumInfluencesPerComponent()
         self.method = query.GetSkinningMethod()
-        self.bind = query.GetGeomBindTransform(time)
+        bind = query.GetGeomBindTransformAttr()  # invalid when not authored (the identity)
+        self.bind = query.GetGeomBindTransform(read_time(bind, time) if bind else time)
         mapper = query.GetJointMapper()
         if mapper and not mapper.IsNull() and not mapper.IsIdentity():
             xforms = mapper.RemapTransforms(xforms, Vt.Matrix4dArray())  # into the mesh's skel:joints order
