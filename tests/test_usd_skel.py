@@ -259,6 +259,11 @@ BAD_SKELETONS = {  # a skeleton or influences that cannot pose the bar: (text of
     # NaN joint weights or animation made the load fail: "/Root/Bar: points are not finite after the world transform".
     "NaN joint weight": ("primvars:skel:jointWeights = [1.0,", "primvars:skel:jointWeights = [nan,"),
     "NaN joint translation": ("5: [(1, 0, 0), (0, 0.5, 0)]", "5: [(1, 0, 0), (nan, 0.5, 0)]"),
+    # A bind transform that cannot be inverted (UsdSkel requires them invertible): Gf's inverse of it is FLT_MAX
+    # scaled, and the load failed on the rigidly bound quad: "/Root/Rigid: points are not finite after the world
+    # transform".
+    "singular bind transform": (f"bindTransforms = [{IDENTITY}, {AT_X1}]",
+                                f"bindTransforms = [{IDENTITY}, {AT_X1.replace('(1, 0, 0, 0)', '(0, 0, 0, 0)')}]"),
 }
 
 
@@ -278,15 +283,25 @@ def test_failed_skinning_keeps_unposed_points_with_a_warning(tmp_path, case):
     np.testing.assert_allclose(mesh.points, authored, atol=1e-6)
 
 
-def test_rigid_binding_to_a_joint_out_of_range_keeps_unposed_points_with_a_warning(tmp_path):
-    """A rigidly bound mesh (constant influences) whose joint index is out of range: UsdSkel's SkinTransform fails
-    into the identity, so the quad was drawn in its authored points placed by the skeleton, 1.0 from where they are,
-    without a word. It is left unposed and named, as a skinned mesh with a bad index is."""
-    constant = 'int[] primvars:skel:jointIndices = [1] (\n            interpolation = "constant"'
+RIGID_INDEX = 'int[] primvars:skel:jointIndices = [1] (\n            interpolation = "constant"'
+BAD_RIGID = {  # a rigid binding that cannot pose the quad: (replacement of RIGID_INDEX, what the warning says)
+    "joint out of range": (RIGID_INDEX.replace("[1]", "[5]"), r"jointIndices\[0\] = 5 is out of range"),
+    "unknown skinning method": ('uniform token primvars:skel:skinningMethod = "linear"\n        ' + RIGID_INDEX,
+                                "unknown skel:skinningMethod 'linear'"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_RIGID))
+def test_rigid_binding_that_fails_keeps_unposed_points_with_a_warning(tmp_path, case):
+    """A rigidly bound mesh (constant influences) whose joint index is out of range, or whose skinningMethod is
+    neither of UsdSkel's two: UsdSkel's SkinTransform fails into the identity, so the quad was drawn in its authored
+    points placed by the skeleton, 1.0 from where they are, without a word. It is left unposed and named, as a
+    skinned mesh with a bad index is."""
+    replacement, why = BAD_RIGID[case]
     body = skel_root()
-    assert constant in body
-    path = write(tmp_path, body.replace(constant, constant.replace("[1]", "[5]")))
-    with pytest.warns(UserWarning, match=r"skinning failed.*jointIndices\[0\] = 5 is out of range.*/Root/Rigid"):
+    assert RIGID_INDEX in body
+    path = write(tmp_path, body.replace(RIGID_INDEX, replacement))
+    with pytest.warns(UserWarning, match=rf"skinning failed.*{why}.*/Root/Rigid"):
         scene = load_usd(path, time=5.0)
     mesh = {m.path: m for m in scene.meshes}["/Root/Rigid"]
     authored = np.array([(2, -0.2, 0), (2.4, -0.2, 0), (2.4, 0.2, 0), (2, 0.2, 0)]) + (0, 1, 1)  # SkelRoot and own

@@ -16,11 +16,11 @@ Time: the animation is read at the load's time; with the default time, an animat
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
 (:func:`wrt.usd_values.read_time`), the mesh's jointIndices, jointWeights and geomBindTransform each on its own.
 A mesh whose skinning fails (joint indices out of range, influences that do not match its points, a skeleton that
-cannot be posed, bind transforms that do not match its joints, weights or a pose that are not finite) keeps its
-unposed points, with a warning naming it. A blend shape that does not fit its mesh
-(``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points without
-them; a point index out of range; offsets that are not finite) is left out, with a warning naming the mesh, the
-BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply.
+cannot be posed, bind transforms that do not match its joints or cannot be inverted, an unknown skinning method,
+weights or a pose that are not finite) keeps its unposed points, with a warning naming it. A blend shape that does
+not fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's
+points without them; a point index out of range; offsets that are not finite) is left out, with a warning naming the
+mesh, the BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply.
 """
 
 from __future__ import annotations
@@ -123,10 +123,14 @@ class SkelPoser:
                 if any(a and read_time(a, self.time) != self.time for a in attrs):
                     anim_time = Usd.TimeCode.EarliestTime()
             joints = len(skel_query.GetJointOrder()) if skel_query else 0
+            binds = skel_query.GetJointWorldBindTransforms() if skel_query else []
+            singular = [k for k, m in enumerate(binds) if not (np.isfinite(m).all() and m.GetDeterminant() != 0.0)]
             xforms = "the skeleton cannot be posed (no animation or rest transforms for its joints)"
-            if skel_query and len(skel_query.GetJointWorldBindTransforms()) != joints:
+            if skel_query and len(binds) != joints:
                 # ComputeSkinningTransforms then returns the joints' unbound transforms (its failure is not seen here).
                 xforms = f"the skeleton's bindTransforms do not match its {joints} joints"
+            elif singular:  # skinning uses their inverses; Gf's inverse of a singular matrix is FLT_MAX scaled
+                xforms = f"the skeleton's bindTransforms[{singular[0]}] cannot be inverted"
             elif skel_query:
                 computed = skel_query.ComputeSkinningTransforms(anim_time)
                 xforms = computed if computed is not None and len(computed) == joints else xforms
@@ -195,6 +199,9 @@ class _Influences:
             i = int(np.argmin(np.isfinite(weights)))
             raise ValueError(f"jointWeights[{i}] = {weights[i]} is not finite")
         self.method = query.GetSkinningMethod()
+        if self.method not in (UsdSkel.Tokens.classicLinear, UsdSkel.Tokens.dualQuaternion):
+            # SkinPoints fails on it, but SkinTransform (rigid bindings) returns the identity, not seen from Python
+            raise ValueError(f"unknown skel:skinningMethod '{self.method}'")
         bind = query.GetGeomBindTransformAttr()  # invalid when not authored (the identity)
         self.bind = query.GetGeomBindTransform(read_time(bind, time) if bind else time)
         mapper = query.GetJointMapper()
