@@ -6,7 +6,8 @@ bound on the Skeleton or inherited from the SkelRoot, and meshes of triangles sk
 constant interpolation with 1 to 4 per point and weights that need not sum to 1, a local ``skel:joints`` order, a
 ``geomBindTransform``, blend shapes with and without ``pointIndices`` and inbetweens, either skinning method, and
 transforms on the mesh and on Xforms between it and its SkelRoot; ``skel:skeleton`` bound on the SkelRoot, on an
-Xform or on each mesh, and a nested SkelRoot that borrows the outer one's skeleton.
+Xform or on each mesh, a nested SkelRoot that borrows the outer one's skeleton, and constant influences on an Xform
+inherited by a mesh beneath it.
 """
 
 from __future__ import annotations
@@ -200,6 +201,23 @@ def _skel_root(stage, path: str, rng, options, depth=0):
                 UsdSkel.BindingAPI.Apply(group).CreateSkeletonRel().SetTargets([skel.GetPath()])
         bound = skel.GetPath() if bind_at == "mesh" else None
         meshes.append(_mesh(stage, f"{parent}/Mesh{k}", rng, joints, shape_names, bound))
+        if parent != path and rng.random() < 0.3:
+            # Constant influences on the Xform, inherited by a mesh of no influences of its own (bound rigidly)
+            holder = UsdSkel.BindingAPI.Apply(stage.GetPrimAtPath(parent))
+            per_point = int(rng.integers(1, 3))
+            # in range of the sibling's own skel:joints too, should it inherit them (a blend-shape-only mesh does)
+            local = UsdSkel.BindingAPI(meshes[-1]).GetJointsAttr().Get() or joints
+            holder.CreateJointIndicesPrimvar(True, per_point).Set(
+                Vt.IntArray([int(i) for i in rng.integers(0, len(local), per_point)]))
+            holder.CreateJointWeightsPrimvar(True, per_point).Set(Vt.FloatArray(list(rng.uniform(0.2, 1, per_point))))
+            plain = UsdGeom.Mesh.Define(stage, f"{parent}/Held{k}")
+            plain.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(rng.uniform(-1, 1, (3, 3)).astype(np.float32)))
+            plain.GetFaceVertexCountsAttr().Set(Vt.IntArray([3]))
+            plain.GetFaceVertexIndicesAttr().Set(Vt.IntArray([0, 1, 2]))
+            plain.GetSubdivisionSchemeAttr().Set("none")
+            _xform(plain.GetPrim(), rng, "static")
+            if bound is not None:
+                UsdSkel.BindingAPI.Apply(plain.GetPrim()).CreateSkeletonRel().SetTargets([bound])
     if depth == 0 and options.get("borrow", rng.random() < 0.2):
         # A nested SkelRoot without a skeleton of its own: its mesh is bound to this one's (inherited or its own rel)
         inner = UsdSkel.Root.Define(stage, f"{path}/Borrow")

@@ -490,3 +490,42 @@ def test_influences_with_only_time_samples_are_read_at_their_first_sample_with_t
     mesh = {m.path: m for m in loaded(path, None).meshes}["/Root/Bar"]
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
     np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)
+
+
+def test_constant_influences_inherited_from_an_ancestor_bind_the_meshes_below_rigidly(tmp_path):
+    """Constant jointIndices and jointWeights authored on an Xform are inherited by the meshes beneath it (as constant
+    primvars are), which UsdSkel then moves rigidly with that joint: the quad under the Xform was drawn unposed, where
+    BakeSkinning moves it with the tip (1.6 away), without a word."""
+    body = skel_root().replace('''    def Mesh "Rigid" (
+        prepend apiSchemas = ["SkelBindingAPI"]
+    )
+    {''', '''    def Xform "Holder" (
+        prepend apiSchemas = ["SkelBindingAPI"]
+    )
+    {
+        int[] primvars:skel:jointIndices = [1] (
+            interpolation = "constant"
+        )
+        float[] primvars:skel:jointWeights = [1] (
+            interpolation = "constant"
+        )
+
+    def Mesh "Rigid"
+    {''').replace('''        int[] primvars:skel:jointIndices = [1] (
+            interpolation = "constant"
+        )
+        float[] primvars:skel:jointWeights = [1] (
+            interpolation = "constant"
+        )
+        double3 xformOp:translate = (0, 0, 1)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }''', '''        double3 xformOp:translate = (0, 0, 1)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+    }''')
+    assert 'def Xform "Holder"' in body and body.count('interpolation = "constant"') == 2
+    path = write(tmp_path, body)
+    stage = baked(path)
+    expected, _ = world_triangles(stage, "/Root/Holder/Rigid", Usd.TimeCode(7))
+    mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Holder/Rigid"]
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)

@@ -1,13 +1,13 @@
 """Poses meshes skinned by a UsdSkel skeleton as USD poses them at the load's time (glTF, Maya and Houdini
 characters keep their bind pose in ``points`` and move only through their skeleton).
 
-A mesh is posed when it has joint influences (``primvars:skel:jointIndices``/``jointWeights``) or blend shapes
-(``skel:blendShapes``), a skeleton bound to it or an ancestor (``skel:skeleton``) and a ``SkelRoot`` above it: the
-same conditions as UsdSkel's. Its points go through its blend shapes (weighted by the skeleton's animation), then
-through linear blend (or dual quaternion) skinning by ``UsdSkel.SkinPoints`` with the influences of its
-``UsdSkel.SkinningQuery``, after ``geomBindTransform``; a rigidly bound mesh (constant joint influences) is moved by
-``UsdSkel.SkinTransform``. The result is in the
-skeleton's space: the caller places it with the skeleton prim's transform, not the mesh's own, as
+A mesh is posed when it has joint influences (``primvars:skel:jointIndices``/``jointWeights``; constant ones may be
+inherited from an ancestor, binding every mesh beneath it rigidly) or blend shapes (``skel:blendShapes``), a skeleton
+bound to it or an ancestor (``skel:skeleton``) and a ``SkelRoot`` above it: the same conditions as UsdSkel's. Its
+points go through its blend shapes (weighted by the skeleton's animation), then through linear blend (or dual
+quaternion) skinning by ``UsdSkel.SkinPoints`` with the influences of its ``UsdSkel.SkinningQuery``, after
+``geomBindTransform``; a rigidly bound mesh (constant joint influences) is moved by ``UsdSkel.SkinTransform``. The
+result is in the skeleton's space: the caller places it with the skeleton prim's transform, not the mesh's own, as
 ``UsdSkel.BakeSkinning`` and UsdSkelImaging do. Authored normals (every interpolation) are skinned with the
 inverse transposes of the same joint transforms and weights (``UsdSkel.SkinNormals``), after blend shapes'
 ``normalOffsets``.
@@ -50,6 +50,7 @@ class SkelPoser:
         self.shown_path = shown_path
         self.cache = UsdSkel.Cache()
         self.roots = set()  # SkelRoot paths populated in the cache
+        self.skel_roots = {}  # prim path -> the SkelRoot at or above it, or None
         self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or why not, anim time, anim query)
 
     def pose(self, prim: Usd.Prim, points: np.ndarray, normals, vertex_ids: np.ndarray, content_root: str):
@@ -68,12 +69,21 @@ class SkelPoser:
             skeleton's, or ``prim``'s own for a mesh posed by blend shapes only. None when USD does not pose ``prim``
             or its skinning failed (recorded through ``skip``).
         """
-        if not (prim.HasAttribute("primvars:skel:jointIndices") or prim.HasAttribute("skel:blendShapes")):
-            return None
-        skeleton = UsdSkel.BindingAPI(prim).GetInheritedSkeleton()
-        root = _skel_root(prim)
-        if not skeleton or root is None:
+        own = prim.HasAttribute("primvars:skel:jointIndices") or prim.HasAttribute("skel:blendShapes")
+        root = self._skel_root(prim)
+        if root is None:
             return None  # USD does not pose it either
+        skeleton = UsdSkel.BindingAPI(prim).GetInheritedSkeleton()
+        if not skeleton:
+            return None
+        if not own:  # constant influences inherited from an ancestor bind it rigidly (UsdSkel's query knows)
+            try:
+                self._populate(root)
+                query = self.cache.GetSkinningQuery(prim)
+            except RuntimeError:  # Tf errors: nothing USD would pose either
+                return None
+            if not (query and query.HasJointInfluences()):
+                return None
         if not skeleton.GetPath().HasPrefix(Sdf.Path(content_root)):
             self.skip(FAILED, prim, "skeleton outside the instance prototype")
             return None
@@ -86,10 +96,31 @@ class SkelPoser:
             self.skip(FAILED, prim, str(e).strip().splitlines()[-1][:120] or type(e).__name__)
             return None
 
-    def _pose(self, prim, root, skeleton, points, normals, vertex_ids):
+    def _populate(self, root: Usd.Prim):
         if str(root.GetPath()) not in self.roots:
             self.cache.Populate(UsdSkel.Root(root), Usd.PrimDefaultPredicate)
             self.roots.add(str(root.GetPath()))
+
+    def _skel_root(self, prim: Usd.Prim) -> Usd.Prim | None:
+        """The ``SkelRoot`` at or above ``prim`` (within its prototype, for prims inside one), or None; remembered
+        for every prim walked, as every mesh asks."""
+        walked = []  # prims above prim whose answer is not known yet
+        p, root = prim, None
+        while p and not p.IsPseudoRoot():
+            if p.IsA(UsdSkel.Root):
+                root = p
+                break
+            if p.GetPath() in self.skel_roots:
+                root = self.skel_roots[p.GetPath()]
+                break
+            walked.append(p.GetPath())
+            p = p.GetParent()
+        for path in walked:
+            self.skel_roots[path] = root
+        return root
+
+    def _pose(self, prim, root, skeleton, points, normals, vertex_ids):
+        self._populate(root)
         query = self.cache.GetSkinningQuery(prim)
         if not query:
             raise ValueError("invalid joint influences or skel:joints")
@@ -283,16 +314,6 @@ def _normal_offsets(shapes, sub_shapes, point_indices, n_points: int) -> np.ndar
         at = np.asarray(point_indices[shape], np.int64)
         np.add.at(total, at if len(at) else np.arange(n_points), weight * np.asarray(offsets, np.float64))
     return total if total.any() else None
-
-
-def _skel_root(prim: Usd.Prim) -> Usd.Prim | None:
-    """The ``SkelRoot`` at or above ``prim`` (within its prototype, for prims inside one), or None."""
-    p = prim
-    while p and not p.IsPseudoRoot():
-        if p.IsA(UsdSkel.Root):
-            return p
-        p = p.GetParent()
-    return None
 
 
 def _inverse_transpose(linear: np.ndarray) -> np.ndarray:
