@@ -21,6 +21,7 @@ from wrt.usd import load_usd  # noqa: E402
 IDENTITY = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )"
 AT_X1 = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (1, 0, 0, 1) )"
 SEGMENTS = 4  # of the bar, along x from 0 to 2
+PROXIES = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 
 
 def fmt(values) -> str:
@@ -529,3 +530,30 @@ def test_constant_influences_inherited_from_an_ancestor_bind_the_meshes_below_ri
     expected, _ = world_triangles(stage, "/Root/Holder/Rigid", Usd.TimeCode(7))
     mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Holder/Rigid"]
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
+
+
+def test_mesh_in_an_instance_skinned_by_a_skel_root_above_it_is_named(tmp_path):
+    """A native instance under a SkelRoot whose prototype holds a skinned mesh (the SkelRoot and skeleton outside the
+    prototype): USD poses each instance's proxy, which wrt (reading a prototype once for all its instances) cannot;
+    the mesh was drawn unposed without a word. It still is, and is named."""
+    instances = "\n".join(
+        f'    def Xform "{name}" (\n        instanceable = true\n        prepend references = </Proto>\n    )\n    {{\n'
+        f'        double3 xformOp:translate = ({x}, 0, 0)\n'
+        f'        uniform token[] xformOpOrder = ["xformOp:translate"]\n    }}'
+        for name, x in (("A", 3), ("B", -3))
+    )
+    root = skel_root()
+    start, end = root.index('    def Mesh "Bar"'), root.index('    def Mesh "Rigid"')
+    bar_mesh = root[start:end].replace("</Root/Bar/bulge>", "</Proto/Bar/bulge>")
+    body = 'class Xform "Proto"\n{\n' + bar_mesh + "}\n" + root[:start] + instances + "\n" + root[end:]
+    path = write(tmp_path, body)
+    stage = Usd.Stage.Open(path)
+    cache, root_prim = UsdSkel.Cache(), UsdSkel.Root(stage.GetPrimAtPath("/Root"))
+    cache.Populate(root_prim, PROXIES)
+    posed = {str(q.GetPrim().GetPath()) for b in cache.ComputeSkelBindings(root_prim, PROXIES)
+             for q in b.GetSkinningTargets()}
+    assert {"/Root/A/Bar", "/Root/B/Bar"} <= posed  # USD poses each instance's proxy
+    with pytest.warns(UserWarning, match=r"UsdSkel skinning failed.*SkelRoot above its instance.*/Root/A/Bar"):
+        scene = load_usd(path, time=5.0)
+    assert len(scene.prototypes) == 1
+    np.testing.assert_allclose(scene.prototypes[0].meshes[0].points, np.array(bar()[0]) + (5, 5, 5), atol=1e-6)

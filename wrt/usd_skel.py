@@ -17,16 +17,17 @@ shape weights have only time samples is read at its first sample, as wrt reads e
 (:func:`wrt.usd_values.read_time`), the mesh's jointIndices, jointWeights and geomBindTransform each on its own.
 A mesh whose skinning fails (joint indices out of range, influences that do not match its points, a skeleton that
 cannot be posed, bind transforms that do not match its joints or cannot be inverted, an unknown skinning method,
-weights or a pose that are not finite) keeps its unposed points, with a warning naming it. A blend shape that does
-not fit its mesh (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's
-points without them; a point index out of range; offsets that are not finite) is left out, with a warning naming the
-mesh, the BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply.
+weights or a pose that are not finite, a SkelRoot or skeleton outside the native prototype that holds it) keeps its
+unposed points, with a warning naming it. A blend shape that does not fit its mesh (``offsets`` or ``normalOffsets``
+of another length than its ``pointIndices``, or than the mesh's points without them; a point index out of range;
+offsets that are not finite) is left out, with a warning naming the mesh, the BlendShape and what is wrong; the
+mesh's other blend shapes and its skinning still apply.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdSkel, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from .usd_values import read_time
 
@@ -72,6 +73,8 @@ class SkelPoser:
         own = prim.HasAttribute("primvars:skel:jointIndices") or prim.HasAttribute("skel:blendShapes")
         root = self._skel_root(prim)
         if root is None:
+            if prim.IsInPrototype() and self._skinned_from_above_its_instance(prim):
+                self.skip(FAILED, prim, "SkelRoot above its instance (each instance would be posed on its own)")
             return None  # USD does not pose it either
         skeleton = UsdSkel.BindingAPI(prim).GetInheritedSkeleton()
         if not skeleton:
@@ -95,6 +98,18 @@ class SkelPoser:
         except (RuntimeError, ValueError, IndexError, TypeError) as e:  # RuntimeError: Tf errors, null prims
             self.skip(FAILED, prim, str(e).strip().splitlines()[-1][:120] or type(e).__name__)
             return None
+
+    def _skinned_from_above_its_instance(self, prim: Usd.Prim) -> bool:
+        """Whether USD skins ``prim``, a mesh in a native prototype with no SkelRoot in it, through its proxy in the
+        first instance (by a SkelRoot, skeleton and influences found above that instance): USD poses each instance's
+        proxy on its own, which a prototype read once cannot be."""
+        proxy = prim.GetStage().GetPrimAtPath(self.shown_path(prim))
+        if not proxy or proxy.IsInPrototype() or self._skel_root(proxy) is None:
+            return False
+        if not UsdSkel.BindingAPI(proxy).GetInheritedSkeleton():
+            return False
+        influences = UsdGeom.PrimvarsAPI(proxy).FindPrimvarWithInheritance("skel:jointIndices")
+        return bool(influences and influences.HasAuthoredValue()) or proxy.HasAuthoredValue("skel:blendShapes")
 
     def _populate(self, root: Usd.Prim):
         if str(root.GetPath()) not in self.roots:
