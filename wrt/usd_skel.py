@@ -122,13 +122,14 @@ class SkelPoser:
         walked = []  # prims above prim whose answer is not known yet
         p, root = prim, None
         while p and not p.IsPseudoRoot():
+            path = p.GetPath()
+            if path in self.skel_roots:
+                root = self.skel_roots[path]
+                break
             if p.IsA(UsdSkel.Root):
                 root = p
                 break
-            if p.GetPath() in self.skel_roots:
-                root = self.skel_roots[p.GetPath()]
-                break
-            walked.append(p.GetPath())
+            walked.append(path)
             p = p.GetParent()
         for path in walked:
             self.skel_roots[path] = root
