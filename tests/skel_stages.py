@@ -1,13 +1,13 @@
 """Seeded generator of UsdSkel stages for differential tests of wrt's skinning (tests/test_skel_generated.py).
 
 Each stage holds one or more SkelRoots (some nested, some under transformed Xforms), each with a random joint tree
-(chains and branches), an animation that is time-sampled, static, partial and reordered, or absent (rest pose),
-bound on the Skeleton or inherited from the SkelRoot, and meshes of triangles skinned by it: influences of vertex or
-constant interpolation with 1 to 4 per point and weights that need not sum to 1, a local ``skel:joints`` order, a
-``geomBindTransform``, blend shapes with and without ``pointIndices`` and inbetweens, either skinning method, and
-transforms on the mesh and on Xforms between it and its SkelRoot; ``skel:skeleton`` bound on the SkelRoot, on an
-Xform or on each mesh, a nested SkelRoot that borrows the outer one's skeleton, and constant influences on an Xform
-inherited by a mesh beneath it.
+(chains and branches), an animation that is time-sampled, static, partial and reordered, of blend shape weights only
+or absent (rest pose), bound on the Skeleton or inherited from the SkelRoot, and meshes of triangles skinned by it:
+influences of vertex or constant interpolation with 1 to 4 per point and weights that need not sum to 1, a local
+``skel:joints`` order, a ``geomBindTransform``, blend shapes with and without ``pointIndices`` and inbetweens, either
+skinning method, and transforms on the mesh and on Xforms between it and its SkelRoot; ``skel:skeleton`` bound on the
+SkelRoot, on an Xform or on each mesh, a nested SkelRoot that borrows the outer one's skeleton, and constant
+influences on an Xform inherited by a mesh beneath it.
 """
 
 from __future__ import annotations
@@ -79,7 +79,7 @@ def _skeleton(stage, path, rng, options):
     bind_world = [_matrix(rng, scale=rng.random() < 0.3) for _ in joints]
     skel.GetBindTransformsAttr().Set(Vt.Matrix4dArray(bind_world))
     rest = _local_of(joints, [_matrix(rng, scale=False) for _ in joints])
-    anim_kind = options.get("anim", rng.choice(["sampled", "static", "partial", "none"]))
+    anim_kind = options.get("anim", rng.choice(["sampled", "static", "partial", "shapes", "none"]))
     if anim_kind != "none" or rng.random() < 0.8:  # no animation and no rest pose: skinning fails (the last case)
         skel.GetRestTransformsAttr().Set(Vt.Matrix4dArray(rest))
     _xform(skel.GetPrim(), rng, rng.choice(["none", "static", "animated"]))
@@ -91,10 +91,12 @@ def _animation(stage, path, rng, joints, kind, blend_shapes):
     order = list(joints)
     if kind == "partial":  # a subset of the joints, in another order: the rest keep their rest transforms
         order = [joints[i] for i in rng.permutation(len(joints))[: max(1, len(joints) - 1)]]
+    elif kind == "shapes":  # blend shape weights only: every joint keeps its rest transform
+        order = []
     anim.GetJointsAttr().Set(Vt.TokenArray(order))
     n = len(order)
     times = [Usd.TimeCode.Default()] if kind == "static" else [Usd.TimeCode(t) for t in (1.0, 5.0, 10.0)]
-    for t in times:
+    for t in times if n else ():
         anim.GetTranslationsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*rng.uniform(-1, 1, 3)) for _ in range(n)]), t)
         anim.GetRotationsAttr().Set(Vt.QuatfArray([_rotation(rng) for _ in range(n)]), t)
         anim.GetScalesAttr().Set(Vt.Vec3hArray([Gf.Vec3h(*rng.uniform(0.6, 1.4, 3)) for _ in range(n)]), t)
@@ -240,8 +242,8 @@ def generate(seed: int, path: str, instanced: bool = False, **options) -> str:
         seed: the RNG seed; the same seed gives the same stage.
         path: the file to write.
         instanced: the SkelRoots live in a class prim referenced by two instanceable Xforms.
-        options: ``anim`` ("sampled", "static", "partial" or "none"), ``nested`` and ``borrow`` (bool) fix those
-            choices.
+        options: ``anim`` ("sampled", "static", "partial", "shapes" or "none"), ``nested`` and ``borrow`` (bool)
+            fix those choices.
     """
     rng = np.random.default_rng(seed)
     stage = Usd.Stage.CreateInMemory()
