@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 pxr = pytest.importorskip("pxr")
-from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdSkel  # noqa: E402
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdSkel, Vt  # noqa: E402
 from skel_oracle import PREDICATE, world_points  # noqa: E402
 from skel_stages import TIMES, generate  # noqa: E402
 
@@ -134,6 +134,13 @@ CORRUPTIONS = {  # bad skel data, applied to the first skinned mesh, Skeleton, S
                                                    _set_at(0, float("inf"))),
     "weights shorter than indices": lambda s: _edit_array(_skinned(s).GetAttribute("primvars:skel:jointWeights"),
                                                           lambda v: v[:-1]),
+    "weights of another elementSize": lambda s: _skinned(s).GetAttribute("primvars:skel:jointWeights").SetMetadata(
+        "elementSize", 5),
+    "empty joint influences": lambda s: [_skinned(s).GetAttribute(f"primvars:skel:joint{name}").Set(array())
+                                         for name, array in (("Indices", Vt.IntArray), ("Weights", Vt.FloatArray))],
+    "no jointWeights": lambda s: _skinned(s).RemoveProperty("primvars:skel:jointWeights"),
+    "joint indices of uniform interpolation": lambda s: _skinned(s).GetAttribute(
+        "primvars:skel:jointIndices").SetMetadata("interpolation", "uniform"),
     "skeleton target missing": lambda s: UsdSkel.BindingAPI(_skinned(s)).CreateSkeletonRel().SetTargets(
         [Sdf.Path("/Nowhere/Skel")]),
     "skeleton target not a Skeleton": lambda s: UsdSkel.BindingAPI(_skinned(s)).CreateSkeletonRel().SetTargets(
