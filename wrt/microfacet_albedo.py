@@ -24,10 +24,11 @@ The compensation lobe is importance-sampled from the same table: its directions 
 proportional to ``c_j mu_i`` in column interval ``j`` (azimuth uniform), ``c_j`` the larger of ``1 - E`` at the
 interval's two columns, so that ``f_ms cos_i / pdf = F_ms (1 - E(mu_o)) (1 - E(mu_i)) / c_j * C / (1 - E_avg)`` (``C``
 the density's normalisation) stays within ``F_ms (1 - E(mu_o))`` times 1.5 (at roughness 0.02; 1.24 at 0.03, 1.14
-from 0.065 up, with the 48 x 64 table). At low roughness ``1 - E`` lives in a narrow band of grazing directions, which cosine-weighted
-sampling rarely hits, and weighs ``(1 - E(mu_i)) / (1 - E_avg)`` there: up to 19000 at roughness 0.03, 1500 at 0.065,
-110 at 0.13. The densities ``c`` and their cumulative sums over ``mu^2`` are derived from the stored ``E`` when the
-table is loaded (as ``1 - E_avg`` is), so the sampler always follows the lobe that is evaluated.
+from 0.065 up, with the 48 x 64 table). At low roughness ``1 - E`` lives in a narrow band of grazing directions,
+which cosine-weighted sampling rarely hits, and weighs ``(1 - E(mu_i)) / (1 - E_avg)`` there: up to 19000 at
+roughness 0.03, 1500 at 0.065, 110 at 0.13. The densities ``c`` and their cumulative sums over ``mu^2`` are
+derived from the stored ``E`` when the table is loaded (as ``1 - E_avg`` is), so the sampler always follows the lobe
+that is evaluated.
 """
 
 import functools
