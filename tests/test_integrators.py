@@ -507,3 +507,24 @@ def test_a_specular_colour_above_one_leaves_the_diffuse_lobe_black_not_negative(
     img = wrt.render(scene, camera=cam, width=4, height=4, spp=spp, device="cpu", integrator=integrator, max_depth=1)
     expected = specular_albedo(1.5, 0.5) + 1.0 - specular_albedo(1.0, 0.5)
     assert img.rgb.mean() == pytest.approx(expected, rel=0.02)
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+def test_a_coarse_mirror_sphere_whose_normal_map_has_no_frame_shows_the_dome_everywhere(integrator):
+    """The sphere above with a normal map but no texture coordinates (no ``st`` area: the map gives no tilt, the
+    interpolated normal is kept) is the plain mirror sphere: 1 at every pixel under the white dome. The map's
+    fallbacks returned the interpolated normal as it was, leaning away near the silhouette: 66 of 1460 pixels were
+    below 0.9."""
+    sphere = uv_sphere(radius=1.0, rings=8, segments=16, material=0, smooth=True)
+    up = np.ones((2, 2, 4), np.float32)  # the tangent-space normal (0, 0, 1) stored as (n + 1) / 2
+    up[..., :2] = 0.5
+    normal_map = wrt.TextureInput(image=0, scale=np.array([2, 2, 2, 1], np.float32),
+                                  bias=np.array([-1, -1, -1, 0], np.float32))
+    material = Material(diffuse_color=1.0, metallic=1.0, roughness=0.0, textures={"normal": normal_map})
+    scene = wrt.Scene(meshes=[sphere], materials=[material], textures=[up],
+                      lights=[DomeLight(color=np.ones(3, np.float32))])
+    cam = wrt.Camera.orthographic(eye=(0, 0, 4), target=(0, 0, 0), height=2.2)
+    img = wrt.render(scene, camera=cam, width=48, height=48, spp=2, device="cpu", integrator=integrator)
+    hit = img.aovs["prim"] >= 0
+    assert hit.mean() > 0.5
+    np.testing.assert_allclose(img.rgb[hit], 1.0, atol=1e-4)

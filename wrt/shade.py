@@ -324,14 +324,22 @@ def keep_reflection_above(n: wp.vec3, ng: wp.vec3, wo: wp.vec3):
 
 
 @wp.func
+def unmapped_normal(h: HitPoint, d: wp.vec3):
+    """``h.ns`` kept on the viewer's side (:func:`keep_reflection_above`): the normal of a hit whose normal map has
+    no direction there, as of one without a map. Returned as it was interpolated, it leaned away from the viewer near
+    a coarse mesh's silhouette, where a mirror was black (a map read at a constant ``st``, or a mesh without ``st``)."""
+    return keep_reflection_above(h.ns, h.ng, -wp.normalize(d))
+
+
+@wp.func
 def tilted_normal(mats: DeviceMaterials, binding: int, h: HitPoint, t: wp.vec3, bt: wp.vec3, d: wp.vec3):
     """``normalize(x t + y bt + z h.ns)`` for the value ``(x, y, z)`` of normal map ``binding`` at ``h.st``, kept on
-    the viewer's side (:func:`keep_reflection_above`); ``h.ns`` where it has no direction."""
+    the viewer's side (:func:`keep_reflection_above`); :func:`unmapped_normal` where it has no direction."""
     c = lookup_binding(mats, binding, h.st)
     m = c[0] * t + c[1] * bt + c[2] * h.ns
     m_length = wp.length(m)
     if not (m_length > 0.0 and wp.isfinite(m_length)):
-        return h.ns
+        return unmapped_normal(h, d)
     return keep_reflection_above(m / m_length, h.ng, -wp.normalize(d))
 
 
@@ -351,14 +359,15 @@ def mapped_normal(
     ray, as Storm's), ``T`` the direction of increasing s (the map's coordinates, after its ``UsdTransform2d``)
     made orthogonal to ``N``, and ``B = +-cross(N, T)`` on the side of increasing t (OpenGL convention: +Y up the
     map; the side also follows mirroring transforms and mirrored texture coordinates). Then kept on the viewer's
-    side of the surface (:func:`keep_reflection_above`). ``h.ns`` is returned where the frame or the map value has
-    no direction (texture coordinates of zero area, a zero texel), and so for a map read at a constant ``st``,
-    which has no tangent directions at all: Storm's ``T`` and ``B``, from the screen derivatives of ``st``, are
-    zero there, so its ``normalize(TBN n)`` is ``N`` too. (A frame built about ``N`` would turn the tilt with the
-    object's orientation in world space: a rotated instance shaded unlike the object rotated.)"""
+    side of the surface (:func:`keep_reflection_above`). ``h.ns``, so kept (:func:`unmapped_normal`), is returned
+    where the frame or the map value has no direction (texture coordinates of zero area, a zero texel), and so for
+    a map read at a constant ``st``, which has no tangent directions at all: Storm's ``T`` and ``B``, from the
+    screen derivatives of ``st``, are zero there, so its ``normalize(TBN n)`` is ``N`` too. (A frame built about
+    ``N`` would turn the tilt with the object's orientation in world space: a rotated instance shaded unlike the
+    object rotated.)"""
     xf = mats.tex_transform[binding]
     if xf[0, 0] == 0.0 and xf[0, 1] == 0.0 and xf[1, 0] == 0.0 and xf[1, 1] == 0.0:  # constant_st_transform
-        return h.ns
+        return unmapped_normal(h, d)
     # Tangents of the triangle: dp/ds and dp/dt of the map's coordinates, times the sign of the st area (their
     # directions, without dividing by it). The UsdTransform2d's translation cancels in the differences.
     st0 = surf.uvs[prim, 0]
@@ -368,7 +377,7 @@ def mapped_normal(
     d2 = xf * wp.vec3(st2[0], st2[1], 0.0)
     det = d1[0] * d2[1] - d1[1] * d2[0]
     if det == 0.0 or not wp.isfinite(det):
-        return h.ns
+        return unmapped_normal(h, d)
     p0 = scene.points[scene.indices[prim, 0]]
     e1 = scene.points[scene.indices[prim, 1]] - p0
     e2 = scene.points[scene.indices[prim, 2]] - p0
@@ -383,7 +392,7 @@ def mapped_normal(
     t = dp_ds - wp.dot(dp_ds, n) * n
     t_length = stable_length(t)
     if not (t_length > 0.0 and wp.isfinite(t_length)):
-        return h.ns
+        return unmapped_normal(h, d)
     t = t / t_length
     bt = wp.cross(n, t)
     if wp.dot(bt, dp_dt) < 0.0:
@@ -414,7 +423,7 @@ def shading_point(
         # An interpolated normal leans away from the viewer near a coarse mesh's silhouette as a mapped one can:
         # the BSDF was black there and mirror rays went into the surface (a smooth-shaded mirror sphere of 16
         # segments showed black rims in a white furnace).
-        h.ns = keep_reflection_above(h.ns, h.ng, -wp.normalize(d))
+        h.ns = unmapped_normal(h, d)
     return h
 
 
