@@ -198,3 +198,23 @@ def test_shape_params_that_are_not_finite_are_refused_naming_the_shape(kind, par
     scene.shapes[0].params = params
     with pytest.raises(ValueError, match=r"shape /S: params must be 4 finite numbers"):
         wrt.trace(scene, *ray)
+
+
+def test_a_light_edited_in_place_after_invalidate_is_checked_by_a_kept_renderer_as_by_a_new_render():
+    """``invalidate()`` makes the lights' arrays writeable too; a NaN written into a light's colour then drew a kept
+    Renderer's image black without a word, where a new render refuses it naming the light's field. Mended in place,
+    the kept Renderer draws the first image again."""
+    scene = red_square()
+    renderer = wrt.Renderer(scene, **OPTIONS)
+    first = renderer.render().rgb
+    assert first[..., 0].max() > 0.5
+
+    scene.invalidate()
+    scene.lights[0].color[0] = np.nan
+    message = r"DistantLight color must be finite"
+    with pytest.raises(wrt.SceneError, match=message):
+        renderer.render()
+    with pytest.raises(wrt.SceneError, match=message):
+        wrt.render(scene, **OPTIONS)
+    scene.lights[0].color[0] = 2.0
+    np.testing.assert_array_equal(renderer.render().rgb, first)

@@ -398,7 +398,12 @@ class Renderer:
 
     def _build(self) -> None:
         """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
-        if parts_changed(getattr(self, "_scene_lights", ()), tuple(dataclass_parts(self.scene.lights))):
+        # Lights are checked again when one was replaced or given a new field, and after scene.invalidate(), which
+        # makes their arrays writeable: a NaN written into a light's colour then drew a kept Renderer's image black
+        # without a word, where a new render refused it.
+        if self.scene.cache_generation != getattr(self, "_scene_generation", None) or parts_changed(
+            getattr(self, "_scene_lights", ()), tuple(dataclass_parts(self.scene.lights))
+        ):
             check_lights(self.scene.lights)
         # The default ao_radius follows the scene as the BVH does: a kept Renderer kept the radius of the scene it was
         # made for, and after a mesh was added far away its ao image differed from a fresh render's.
