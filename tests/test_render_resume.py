@@ -156,3 +156,20 @@ def test_frames_resume_from_the_log_skips_finished_frames_only(tmp_path, capsys)
     assert main([*argv, "--resume", "--seed", "1"]) == 0
     err = capsys.readouterr().err
     assert "rendering frame 1, frame 2, frame 3 again: options changed" in err and "rendered 3 frames" in err, err
+
+
+def test_resume_from_another_folder_finds_the_files_a_run_named_by_relative_paths(tmp_path, monkeypatch, capsys):
+    """Rows hold the paths as typed: a batch run with relative paths and resumed from another folder (the same files
+    named from there) matched no row and rendered everything again. Relative paths are taken from the folder the
+    row's run started in (``cwd``)."""
+    for name in ("a.usda", "b.usda"):
+        (tmp_path / name).write_text(STAGE)
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", "a.usda", "b.usda", "-o", "out/", *SIZE]) == 0
+    (tmp_path / "sub").mkdir()
+    monkeypatch.chdir(tmp_path / "sub")
+    capsys.readouterr()
+    assert main(["render", "../a.usda", "../b.usda", "-o", "../out/", *SIZE, "--resume"]) == 0
+    assert "0 of 2 scenes rendered, 2 skipped" in capsys.readouterr().err
+    assert [r["cwd"] for r in rows_of(tmp_path / "out" / "render-log.jsonl")] == [str(tmp_path)] * 2 + [
+        str(tmp_path / "sub")] * 2

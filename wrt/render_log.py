@@ -25,12 +25,13 @@ OK_STATUSES = ("ok", "skipped")  # a row of a finished image: rendered by its ru
 
 
 def new_run() -> dict:
-    """The fields naming this run in each of its rows: ``run``, an id that sorts by start time, and
-    ``run_started_at``, the start as ISO 8601 UTC (pandas reads ``*_at`` columns as dates)."""
+    """The fields naming this run in each of its rows: ``run``, an id that sorts by start time,
+    ``run_started_at``, the start as ISO 8601 UTC (pandas reads ``*_at`` columns as dates), and ``cwd``, the folder
+    that the row's relative paths (as typed) are relative to."""
     now = time.time()
     stamp = time.strftime("%Y%m%dT%H%M%S", time.gmtime(now))
     started = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime(now)) + f".{int(now % 1 * 1e6):06d}Z"
-    return {"run": f"{stamp}-{secrets.token_hex(3)}", "run_started_at": started}
+    return {"run": f"{stamp}-{secrets.token_hex(3)}", "run_started_at": started, "cwd": os.getcwd()}
 
 
 def mtime_ns(path) -> int | None:
@@ -82,8 +83,11 @@ def append_row(log: Path, line: str) -> None:
         f.write(line.encode() + b"\n")
 
 
-def _same_path(a, b) -> bool:
-    return Path(a).resolve() == Path(b).resolve()
+def _row_path(row: dict, path) -> Path:
+    """``path`` of ``row`` (its scene, image or an AOV file) as an absolute path: a relative one is taken from the
+    folder its run started in, so ``--resume`` from another folder finds the same files (rows of runs before the
+    ``cwd`` field: from the current folder)."""
+    return (Path(row.get("cwd", ".")) / path).resolve()
 
 
 class ResumeIndex:
@@ -93,7 +97,7 @@ class ResumeIndex:
         self.last = {}
         for row in rows:
             if isinstance(row.get("output"), str):
-                self.last[Path(row["output"]).resolve()] = row
+                self.last[_row_path(row, row["output"])] = row
 
     def finished(self, scene, output, options: dict, kinds) -> tuple[dict | None, str]:
         """``(row, "")`` when ``output`` is an image finished with ``options`` on a device of ``kinds`` (a set of
@@ -106,7 +110,7 @@ class ResumeIndex:
         status = row.get("status", "error" if "error" in row else None)
         if status not in OK_STATUSES:
             return None, f"its last row ({run}) says {status or 'nothing of its status'}"
-        if not _same_path(row.get("scene", scene), scene):
+        if "scene" in row and _row_path(row, row["scene"]) != Path(scene).resolve():
             return None, f"{run} wrote it from {row.get('scene')}"
         if "run" not in row or "scene_mtime_ns" not in row:
             return None, f"{run} recorded no options (an older wrt)"
@@ -120,7 +124,7 @@ class ResumeIndex:
         if kinds is not None and device_kind(row.get("device")) not in kinds:
             return None, f"{run} rendered it on {row.get('device')}"
         for file in row.get("aov_files", []):
-            if mtime_ns(file) is None:
+            if mtime_ns(_row_path(row, file)) is None:
                 return None, f"{file} of {run} is missing"
         stamp = mtime_ns(output)
         if stamp is None:
