@@ -150,3 +150,117 @@ def test_points_inside_usds_compute_extent(tmp_path, seed):
         np.testing.assert_allclose((centres - radii[:, None]).min(axis=0), extent[0], atol=2e-6)
         np.testing.assert_allclose((centres + radii[:, None]).max(axis=0), extent[1], atol=2e-6)
 
+
+INHERITED_WIDTHS = '''
+class Xform "Proto"
+{
+    def Points "Cloud"
+    {
+        point3f[] points = [(0, 0, 0), (3, 0, 0)]
+    }
+    def Points "Own"
+    {
+        point3f[] points = [(6, 0, 0)]
+        float[] widths = [0.8] (interpolation = "vertex")
+    }
+    def BasisCurves "Wire"
+    {
+        uniform token type = "linear"
+        int[] curveVertexCounts = [2]
+        point3f[] points = [(9, -1, 0), (9, 1, 0)]
+    }
+}
+class Xform "Outer"
+{
+    def Xform "Inner" (
+        instanceable = true
+        prepend references = </Proto>
+    )
+    {
+    }
+    def PointInstancer "PI"
+    {
+        rel prototypes = [</Outer/PI/Protos/Root>]
+        int[] protoIndices = [0]
+        point3f[] positions = [(0, 3, 0)]
+        def Scope "Protos"
+        {
+            def Xform "Root"
+            {
+                def Points "Cloud"
+                {
+                    point3f[] points = [(0, 0, 0)]
+                }
+            }
+        }
+    }
+}
+def Xform "I1" (
+    instanceable = true
+    prepend references = </Proto>
+)
+{
+    float[] primvars:widths = [0.5] (interpolation = "constant")
+    double3 xformOp:translate = (0, 5, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "I2" (
+    instanceable = true
+    prepend references = </Proto>
+)
+{
+    float[] primvars:widths = [1.5] (interpolation = "constant")
+    double3 xformOp:translate = (0, 10, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "I3" (
+    instanceable = true
+    prepend references = </Proto>
+)
+{
+    double3 xformOp:translate = (0, 15, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "Above"
+{
+    float[] primvars:widths = [0.25] (interpolation = "constant")
+    def Xform "I4" (
+        instanceable = true
+        prepend references = </Proto>
+    )
+    {
+        double3 xformOp:translate = (0, 20, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+    }
+}
+def Xform "Nest" (
+    instanceable = true
+    prepend references = </Outer>
+)
+{
+    float[] primvars:widths = [0.4] (interpolation = "constant")
+    double3 xformOp:translate = (0, 30, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+'''
+
+
+def test_widths_handed_down_by_native_instances(tmp_path):
+    """A constant ``primvars:widths`` on a native instance (or above it) is the width of the prototype's points and
+    curves that have no widths primvar of their own, one width per instance, as USD's primvar inheritance gives it
+    through the instance proxies (``FindPrimvarWithInheritance``): over their ``widths`` attribute too, and through
+    a nested instance and a PointInstancer inside the prototype."""
+    from usda_text import write
+
+    path = write(tmp_path, INHERITED_WIDTHS)
+    stage = Usd.Stage.Open(path)
+    centres, radii, paths, instances = oracle.spheres(stage)
+    assert len(set(np.round(radii, 6))) >= 4  # the instances' widths differ
+    scene = load(path)
+    o = centres + [0.0, 0.0, 10.0]
+    d = np.tile([0.0, 0.0, -1.0], (len(centres), 1))
+    check_rays(scene, centres, radii, paths, instances, o, d)
+    # The wire's tube has the width its instance hands down (radius 0.5 without one).
+    wire = np.array([(9.0, y, 10.0) for y in (5, 10, 15, 20, 30)])
+    hits = wrt.trace(scene, wire.astype(np.float32), d[:5].astype(np.float32))
+    np.testing.assert_allclose(hits.t, 10.0 - np.array([0.25, 0.75, 0.5, 0.125, 0.2]), rtol=1e-6)

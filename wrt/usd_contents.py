@@ -38,6 +38,10 @@ class Content:
         # hands down applies.
         self.outer_colors: list[str] = []
         self.colors: dict = {}  # outer (primvar, colour) -> content key: this prototype read again with that colour
+        # A Points or curves prim in it has no widths primvar (own or inherited inside): one an instance hands down
+        # applies, and ``widths`` maps each such width to the key of this prototype read again with it.
+        self.wants_widths = False
+        self.widths: dict = {}
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.lights: list[Sdf.Path] = []  # UsdLux lights (not mesh lights) of a native prototype, likewise
         # (light prim, (4, 4) column-vector transform to this space) of the UsdLux lights of a PointInstancer's
@@ -65,6 +69,7 @@ class Context:
         outer_purpose=None,
         outer_forced=False,
         outer_color=None,
+        outer_widths=None,
     ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
@@ -72,6 +77,7 @@ class Context:
         self.outer_material = outer_material  # material index bound above a native instance, or None
         self.outer_forced = outer_forced  # that binding is strongerThanDescendants: it wins over bindings inside
         self.outer_color = outer_color  # (primvar, (r, g, b)): constant colour inherited by a native instance, or None
+        self.outer_widths = outer_widths  # constant primvars:widths inherited by a native instance (float), or None
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
         self.world = world  # the stage itself (cameras and UsdLux lights are read only here)
 

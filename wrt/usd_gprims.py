@@ -177,7 +177,12 @@ class GprimReading:
         per_element = self._opacity_per_element(prim) if material_id < 0 else None
         opacity = self._one_opacity(prim, True, not ctx.world) if material_id < 0 and not per_element else None
         m = affine_part(self._to_space(prim, ctx), lambda reason: self._skip(reason, prim))
-        groups, constant = self.tubes.read(prim, points, m.T, primvar, counts, per_element)
+        # Inside a native prototype USD's primvar inheritance stops at its root: a widths primvar handed down by
+        # the instance (ctx.outer_widths) comes next, before the prim's widths attribute.
+        if not self.tubes.has_widths_primvar(prim):
+            ctx.content.wants_widths = True
+        groups, constant = self.tubes.read(prim, points, m.T, primvar, counts, per_element,
+                                           outer_widths=ctx.outer_widths)
         axis = width_axis(m.T[:3, :3])
         color = constant if constant is not None else color
         double_sided = bool(value_at(UsdGeom.Gprim(prim).GetDoubleSidedAttr(), self.time))

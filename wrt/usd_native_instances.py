@@ -1,14 +1,20 @@
-"""Native instances (``instanceable`` prims): each prototype read once per outer material, purpose and inherited
-colour, and the instance placed as one row of its container's instances."""
+"""Native instances (``instanceable`` prims): each prototype read once per outer material, purpose, inherited
+colour and inherited width of its points and curves, and the instance placed as one row of its container's
+instances."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from pxr import Sdf, Usd, UsdShade
+from pxr import Sdf, Usd, UsdGeom, UsdShade
 
 from .usd_contents import Content, Context, instance_looks
+from .usd_values import read_time
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
+MAX_INHERITED_WIDTHS = 64  # distinct primvars:widths handed down by instances, per native prototype (one copy each)
+_NAN_WIDTH = math.nan  # one NaN object, so that a NaN width handed down keys one copy (NaN != NaN)
 
 
 class NativeInstanceReading:
@@ -31,15 +37,15 @@ class NativeInstanceReading:
                 forced = strength == UsdShade.Tokens.strongerThanDescendants
         path = str(prototype.GetPath())
         if forced:
-            key = ("native", path, outer, purpose, True, None)
+            key = ("native", path, outer, purpose, True, None, None)
             content = self._content(key, prototype, None, outer, purpose, outer_forced=True)
         else:
-            key = ("native", path, None, purpose, False, None)
+            key = ("native", path, None, purpose, False, None, None)
             content = self._content(key, prototype, None, None, purpose)
             if content.uses_outer and not material:
                 ctx.content.uses_outer = True  # this instance's meshes take the material bound above its container
             if content.uses_outer and outer is not None:
-                key = ("native", path, outer, purpose, False, None)
+                key = ("native", path, outer, purpose, False, None, None)
                 content = self._content(key, prototype, None, outer, purpose)
         # A constant displayColor (or the colour primvar a material reads) on the instance or above it colours the
         # prototype's meshes that have none, as primvars are inherited through instance proxies (instances of one
@@ -50,6 +56,15 @@ class NativeInstanceReading:
         color = own_color if own_color is not None else ctx.outer_color
         if color is not None and color[0] in content.outer_colors:
             key = self._colored(key, content, color, prim)
+        # A constant primvars:widths on the instance or above it sizes the prototype's points and curves that have
+        # no widths primvar, as FindPrimvarWithInheritance on the instance proxies finds it.
+        if content.wants_widths:
+            widths = self._inherited_widths(prim)
+            if widths is None:
+                ctx.content.wants_widths = True  # the width may come from above this instance's container
+                widths = ctx.outer_widths
+            if widths is not None:
+                key = self._widened(key, widths, prim)
         m = self._to_space(prim, ctx).T  # column vectors
         # A constant displayOpacity on the instance or above it is the opacity of the prototype's geometry that has
         # none: one value per instance (Instances.opacities), no copy of the prototype.
@@ -91,10 +106,39 @@ class NativeInstanceReading:
                 self._skip(f"instances inheriting more than {MAX_INHERITED_COLORS} colours per prototype keep "
                            "its own colours (each colour is a copy of the prototype)", prim)
                 return key
-            _, path, outer, purpose, forced, _ = key
-            colored = ("native", path, outer, purpose, forced, color)
+            _, path, outer, purpose, forced, _, _ = key
+            colored = ("native", path, outer, purpose, forced, color, None)
             self._content(colored, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_forced=forced,
                           outer_color=color)
             content.colors[color] = colored
         return content.colors[color]
 
+    def _inherited_widths(self, prim: Usd.Prim) -> float | None:
+        """The constant ``primvars:widths`` native instance ``prim`` hands down (its own or its nearest ancestor's, up
+        to the root of the prototype ``prim`` is in; its first value), or None."""
+        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        primvar = inherited.get("widths")
+        if primvar is None:
+            return None
+        values = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
+        if not len(values):
+            return None
+        return float(values[0]) if not math.isnan(values[0]) else _NAN_WIDTH
+
+    def _widened(self, key: tuple, widths: float, prim: Usd.Prim) -> tuple:
+        """The key of the content read under ``key`` (a native prototype, coloured or not) read again with its points'
+        and curves' inherited ``widths``; each width is a copy of the prototype's geometry, so past
+        :data:`MAX_INHERITED_WIDTHS` widths per prototype the instance keeps the prototype's own (with a warning)."""
+        content = self.contents[key]
+        if widths not in content.widths:
+            if len(content.widths) >= MAX_INHERITED_WIDTHS:
+                self._skip(f"instances inheriting more than {MAX_INHERITED_WIDTHS} widths per prototype keep its "
+                           "own widths (each width is a copy of the prototype)", prim)
+                return key
+            _, path, outer, purpose, forced, color, _ = key
+            widened = ("native", path, outer, purpose, forced, color, widths)
+            self._content(widened, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_forced=forced,
+                          outer_color=color, outer_widths=widths)
+            content.widths[widths] = widened
+        return content.widths[widths]

@@ -5,9 +5,10 @@ per-point widths and colours linear along each segment (the schema defines no cu
 span by span (:class:`wrt.nurbs.NurbsSpans`), ``vertex`` primvars following their rational basis, ``varying`` ones
 (``count - order + 2`` per curve) linear across each knot interval.
 
-Widths come from ``primvars:widths`` when it has a value (its own, else a constant one inherited from an ancestor),
-else from ``widths`` with its interpolation metadata, else 1 (UsdImaging's fallback for points; Storm draws curves
-without widths as one-pixel lines, which a ray tracer cannot show, so they are tubes of width 1 too, with a warning).
+Widths come from ``primvars:widths`` when it has a value (its own, else a constant one inherited from an ancestor,
+or in a native prototype one its instance hands down), else from ``widths`` with its interpolation metadata, else 1
+(UsdImaging's fallback for points; Storm draws curves without widths as one-pixel lines, which a ray tracer cannot
+show, so they are tubes of width 1 too, with a warning).
 They are scaled into the content's space by the length of the prim's transform applied to ``(1, 1, 1) / sqrt(3)``, as
 Storm and RenderMan scale point widths, so points stay round spheres and tubes round under a non-uniform scale (an
 instance's transform above scales them the same way: :func:`wrt.tubes.place_round`). Cubic spans are cut in the
@@ -70,7 +71,7 @@ class TubeReader(FieldReader):
     :class:`wrt.usd_primvars.FieldReader` for the arguments)."""
 
     def read(self, prim: Usd.Prim, points: np.ndarray, to_space: np.ndarray, color_primvar, counts=None,
-             opacity_primvar=None):
+             opacity_primvar=None, outer_widths=None):
         """The instance groups of ``prim`` and its constant colour.
 
         Args:
@@ -80,6 +81,8 @@ class TubeReader(FieldReader):
             counts: ``curveVertexCounts`` ``(C,)`` int64 for curves, None for Points.
             opacity_primvar: its ``displayOpacity`` primvar when that gives values per point or curve (read per
                 instance as colours are, NaN read as 1 and values clamped to [0, 1] with a warning), else None.
+            outer_widths: the constant ``primvars:widths`` a native instance hands down to its prototype (float), or
+                None: the widths where ``prim`` has no widths primvar (own or inherited inside the prototype).
 
         Returns:
             ``(groups, color)``: :class:`TubeGroup` list, and the ``(3,)`` float32 colour for all of them when the
@@ -90,8 +93,8 @@ class TubeReader(FieldReader):
         scale = float(np.linalg.norm(to_space[:3, :3] @ np.full(3, 3.0**-0.5)))
         fields = (color_primvar, opacity_primvar)
         if counts is None:
-            return self._points(prim, points, centres, scale, fields)
-        return self._curves(prim, points, centres, scale, fields, counts, to_space)
+            return self._points(prim, points, centres, scale, fields, outer_widths)
+        return self._curves(prim, points, centres, scale, fields, counts, to_space, outer_widths)
 
     def _fields(self, prim, fields, sizes):
         """The ``(colors, opacities)`` fields (:meth:`FieldReader.field`) of the ``(colour, opacity)`` primvars
@@ -105,10 +108,10 @@ class TubeReader(FieldReader):
 
     # Points
 
-    def _points(self, prim, points, centres, scale, fields):
+    def _points(self, prim, points, centres, scale, fields, outer_widths):
         n = len(points)
         sizes = {"constant": 1, "uniform": 1, "vertex": n, "varying": n, "faceVarying": n}
-        widths = self._widths(prim, UsdGeom.Points(prim), sizes)
+        widths = self._widths(prim, UsdGeom.Points(prim), sizes, outer_widths)
         radii = self._radii(prim, widths, n) * scale
         colors, opacities = self._fields(prim, fields, sizes)
         # Points are independent: one that is not finite (a diverged particle) is left out, the others drawn.
@@ -128,7 +131,7 @@ class TubeReader(FieldReader):
 
     # Curves
 
-    def _curves(self, prim, points, centres, scale, fields, counts, to_space):
+    def _curves(self, prim, points, centres, scale, fields, counts, to_space, outer_widths):
         curves = UsdGeom.Curves(prim)
         kind = prim.GetTypeName()
         counts_attr = curves.GetCurveVertexCountsAttr()
@@ -147,7 +150,7 @@ class TubeReader(FieldReader):
             self.skip(f"{kind} with normals (ribbons) are drawn as round tubes", prim)
         sizes = {"constant": 1, "uniform": len(counts), "vertex": len(points), "varying": spans.n_varying,
                  "faceVarying": spans.n_varying}
-        widths = self._widths(prim, curves, sizes)
+        widths = self._widths(prim, curves, sizes, outer_widths)
         if widths is None:
             self.skip(f"{kind} without widths are drawn as tubes of width 1 (Storm draws one-pixel lines)", prim)
         colors, opacities = self._fields(prim, fields, sizes)
@@ -296,13 +299,23 @@ class TubeReader(FieldReader):
             value = fallback
         return value
 
-    def _widths(self, prim, schema, sizes):
+    @staticmethod
+    def has_widths_primvar(prim) -> bool:
+        """Whether ``prim`` has a ``primvars:widths`` of its own or a constant one on an ancestor (inside a native
+        prototype: up to its root)."""
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("widths")
+        return bool(primvar and primvar.HasValue())
+
+    def _widths(self, prim, schema, sizes, outer_widths=None):
         """``(interpolation, (k, 1) float64)`` widths of ``prim``, or None: its ``primvars:widths``, else a constant
-        one of its nearest ancestor that has one (USD's primvar inheritance), else its ``widths`` attribute, the
-        order UsdImaging's points and curves adapters read them in (an inherited primvar wins over the attribute)."""
+        one of its nearest ancestor that has one (USD's primvar inheritance; inside a native prototype, past its
+        root, ``outer_widths``: the one its instance hands down), else its ``widths`` attribute, the order
+        UsdImaging's points and curves adapters read them in (an inherited primvar wins over the attribute)."""
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("widths")
         if primvar and primvar.HasValue():
             return self.field(prim, primvar, sizes, 1)
+        if outer_widths is not None:
+            return "constant", np.array([[outer_widths]], np.float64)
         attr = schema.GetWidthsAttr()
         if not attr.HasValue():
             return None
