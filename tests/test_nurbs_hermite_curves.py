@@ -111,6 +111,21 @@ def test_nurbs_curves_hit_at_the_recursive_definition(tmp_path, np_rng, order):
         np.testing.assert_allclose(hits.t, 5 - radii, atol=(CURVE_TOLERANCE + RHO_ROUNDING) * radii.max() + 1e-5)
 
 
+@pytest.mark.parametrize("order, knots, points", [
+    (2, [0, 0, 1, 1, 2, 2], [(0, 0, 0), (2, 0, 0), (5, 0, 0), (7, 0, 0)]),
+    (3, [0, 0, 0, 1, 1, 1, 2, 2, 2], [(0, 0, 0), (1, 0, 0), (2, 0, 0), (5, 0, 0), (6, 0, 0), (7, 0, 0)]),
+])
+def test_nurbs_curve_broken_at_a_knot_of_full_multiplicity_is_capped_on_both_sides(tmp_path, order, knots, points):
+    """A knot repeated ``order`` times breaks a NURBS curve: here into a piece from x = 0 to 2 and one from 5 to 7.
+    Each piece ends in a round cap of the tube's radius, so rays along the axis from the gap meet the caps at x = 2.25
+    and 4.75. The first piece's end had no sphere (a span's end was taken for the next span's start), so the ray
+    into its open end went through the tube to the far side of the cap at x = 0."""
+    body = nurbs_body("C", points, order, knots).replace("[0.2]", "[0.5]")
+    scene = load(write(tmp_path, body))
+    hits = trace(scene, [(3.5, 0, 0), (3.5, 0, 0)], [(-1, 0, 0), (1, 0, 0)])
+    np.testing.assert_allclose(hits.t, [1.25, 1.25], atol=1e-5)
+
+
 def test_nurbs_curve_colours_uniform_and_varying(tmp_path):
     """A uniform displayColor colours each curve; varying (count - order + 2 values per curve, one per knot of its
     domain) changes linearly across each knot interval."""

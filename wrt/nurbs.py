@@ -138,7 +138,8 @@ class NurbsSpans:
         degree: ``(S,)`` int64 degree (order - 1) of the span's curve.
         first: ``(S,)`` int64 row of the curve's ``P[0]`` minus the index in ``knots`` of its ``U[0]``.
         curve: ``(S,)`` int64 curve of each span.
-        last: ``(S,)`` bool: the span ends its curve (its end gets a sphere).
+        last: ``(S,)`` bool: the span ends its curve, or a piece of it that a knot of multiplicity ``order``
+            breaks off (its end gets a sphere).
         varying: ``(S, 2)`` int64 ``varying`` value at each end of the span's knot interval.
         n_varying: ``varying`` values the prim needs: ``count - order + 2`` per curve (one per knot of its domain,
             as RenderMan's RiNuCurves counts them).
@@ -254,9 +255,20 @@ def nurbs_curve_spans(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray,
     degree = orders[curve] - 1
     local = interval - knot_starts[curve] - degree  # knot interval within the curve's domain, from 0
     varying = varying_starts[curve][:, None] + local[:, None] + np.array([0, 1])
+    # A span ends its curve's drawn piece at the curve's last span, and where a knot repeated ``order`` times breaks
+    # the curve (the next span starts elsewhere): both ends get a sphere there.
     last = np.append(curve[1:] != curve[:-1], True) if len(curve) else np.zeros(0, bool)
+    last |= _knot_multiplicity(knots, curve_of_knot)[interval + 1] >= orders[curve]
     return NurbsSpans(interval, start, end, degree, row_starts[curve] - knot_starts[curve], curve, last, varying,
                       int((counts - orders + 2).sum()), knots, weights)
+
+
+def _knot_multiplicity(knots: np.ndarray, curve_of_knot: np.ndarray) -> np.ndarray:
+    """``(len(knots),)`` how many times each knot's value appears among its curve's knots (they never decrease)."""
+    new_run = np.ones(len(knots), bool)
+    new_run[1:] = (knots[1:] != knots[:-1]) | (curve_of_knot[1:] != curve_of_knot[:-1])
+    run = np.cumsum(new_run) - 1
+    return np.bincount(run)[run]
 
 
 PATCH_TOLERANCE = 1e-3  # a NURBS patch's triangles stay within this fraction of its control box's diagonal
