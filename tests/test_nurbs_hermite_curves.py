@@ -126,6 +126,26 @@ def test_nurbs_curve_broken_at_a_knot_of_full_multiplicity_is_capped_on_both_sid
     np.testing.assert_allclose(hits.t, [1.25, 1.25], atol=1e-5)
 
 
+@pytest.mark.parametrize("weights", [None, [1.0, 3.0, 0.5, 1.0]])
+def test_nurbs_widths_that_swell_inside_a_straight_span_are_followed(tmp_path, weights):
+    """A straight cubic NURBS span with vertex widths (0, 1, 1, 0) or (0.1, 1, 1, 0.1) swells in its middle: rays
+    down onto it meet its top, the rational basis' radius there, within the tolerance. Its pieces were counted from
+    the bend of its points alone: one segment between its end radii, nothing drawn (or radius 0.05 where it is
+    0.39), as BasisCurves' spans once were."""
+    pts = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)]
+    knots = [0, 0, 0, 0, 1, 1, 1, 1]
+    w = [1.0] * 4 if weights is None else weights
+    for widths in ([0.0, 1.0, 1.0, 0.0], [0.1, 1.0, 1.0, 0.1]):
+        body = nurbs_body("C", pts, 4, knots, weights).replace(
+            '[0.2] (interpolation = "constant")', f'{floats(widths)} (interpolation = "vertex")')
+        scene = load(write(tmp_path, body))
+        us = np.array([0.2, 0.35, 0.5, 0.7, 0.9])
+        centres = np.array([nurbs_point(pts, w, knots, 4, u) for u in us])
+        radii = np.array([nurbs_point(np.array(widths)[:, None], w, knots, 4, u)[0] for u in us]) / 2
+        hits = trace(scene, centres + [0, 0, 5], [(0, 0, -1)] * len(us))
+        np.testing.assert_allclose(hits.t, 5 - radii, atol=(CURVE_TOLERANCE + RHO_ROUNDING) * radii.max() + 1e-5)
+
+
 def test_nurbs_curve_colours_uniform_and_varying(tmp_path):
     """A uniform displayColor colours each curve; varying (count - order + 2 values per curve, one per knot of its
     domain) changes linearly across each knot interval."""

@@ -11,7 +11,8 @@ say so). A surface is the tensor product of two such bases.
 A span is one knot interval of non-zero length inside the range; the spans are what is cut into straight pieces (a
 curve) or a grid (a patch). ``C''`` within a span is not a low-degree polynomial once weights differ, so the number
 of pieces comes from second differences of ``C`` on :data:`PILOT_SAMPLES` points per span: with ``K`` equal steps
-of the span's parameter ``t`` in ``[0, 1]``, a chord strays at most ``max |C''| / (8 K^2)`` from the curve.
+of the span's parameter ``t`` in ``[0, 1]``, a chord strays at most ``max |C''| / (8 K^2)`` from the curve (and a
+curve's radius, sampled on the same points, as little from its own).
 """
 
 from __future__ import annotations
@@ -185,14 +186,19 @@ class NurbsSpans:
         u = self.start[span] + t * (self.end[span] - self.start[span])
         return (u - a) / (b - a)
 
+    radius_t = np.linspace(0.0, 1.0, PILOT_SAMPLES)  # parameters where :meth:`segments` wants each span's radius
+
     def segments(self, points: np.ndarray, radii: np.ndarray) -> np.ndarray:
         """``(S,)`` straight segments per span: chords within ``CURVE_TOLERANCE`` of the span's largest radius
-        (:func:`pieces`); ``radii`` ``(S, k)`` sampled along each span."""
+        (:func:`pieces`), and the radius along them as close (widths that swell inside a straight span are cut
+        too); ``radii`` ``(S, PILOT_SAMPLES)`` at :attr:`radius_t` of each span."""
         s = np.repeat(np.arange(len(self.curve)), PILOT_SAMPLES)
-        t = np.tile(np.linspace(0.0, 1.0, PILOT_SAMPLES), len(self.curve))
+        t = np.tile(self.radius_t, len(self.curve))
         samples = self.at(points, s, t)
         samples = samples.reshape(len(self.curve), PILOT_SAMPLES, samples.shape[-1])  # no spans: no samples
-        return pieces(samples, CURVE_TOLERANCE * radii.max(axis=1), MAX_SPAN_SEGMENTS)
+        tolerance = CURVE_TOLERANCE * radii.max(axis=1)
+        return np.maximum(pieces(samples, tolerance, MAX_SPAN_SEGMENTS),
+                          pieces(radii[:, :, None], tolerance, MAX_SPAN_SEGMENTS))
 
 
 def nurbs_curve_spans(counts: np.ndarray, orders: np.ndarray, knots: np.ndarray, ranges: np.ndarray | None,

@@ -85,6 +85,8 @@ class Spans:
         """Where ``t`` of ``span`` lies between the span's two ``varying`` values (linear): ``t`` itself."""
         return t
 
+    radius_t = RADIUS_SAMPLES  # parameters where :meth:`segments` wants each span's radius
+
     def segments(self, points: np.ndarray, radii: np.ndarray) -> np.ndarray:
         """Straight segments per span (:func:`span_segments`); ``radii`` ``(S, 4)`` at :data:`RADIUS_SAMPLES`."""
         return span_segments(self, points, radii)

@@ -27,7 +27,6 @@ from pxr import Usd, UsdGeom
 
 from .nurbs import nurbs_curve_spans
 from .tubes import (
-    RADIUS_SAMPLES,
     RHO_LEVELS,
     curve_spans,
     hermite_spans,
@@ -181,9 +180,9 @@ class TubeReader(FieldReader):
         # Cut each span into straight segments in the prim's space, move the polyline vertices into the content's
         # space (the bases are affine: the moved curve at t is the curve of the moved points), then place a sphere
         # at each vertex and a tube along each segment.
-        sampled = np.repeat(np.arange(len(spans.curve)), len(RADIUS_SAMPLES))
-        sample_t = np.tile(RADIUS_SAMPLES, len(spans.curve))
-        segments = spans.segments(controls, radius(sampled, sample_t).reshape(len(spans.curve), len(RADIUS_SAMPLES)))
+        sampled = np.repeat(np.arange(len(spans.curve)), len(spans.radius_t))
+        sample_t = np.tile(spans.radius_t, len(spans.curve))
+        segments = spans.segments(controls, radius(sampled, sample_t).reshape(len(spans.curve), len(spans.radius_t)))
         span, t, starts_segment, sphere = sample_spans(spans, segments)
         with np.errstate(invalid="ignore", over="ignore"):  # past float range: named below
             at = spans.at(controls, span, t) @ to_space[:3, :3].T + to_space[:3, 3]
