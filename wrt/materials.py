@@ -561,9 +561,10 @@ def readable_surface(material):
     return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in readable), None)
 
 
-def bound_material(prim, purposes: tuple[str, ...] | None = None) -> tuple:
+def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None) -> tuple:
     """The material bound to ``prim`` (a mesh, a subset or a native instance) for rendering, an invalid
-    ``UsdShade.Material`` when none, and the binding relationship that binds it (for its strength).
+    ``UsdShade.Material`` when none, and the binding relationship that binds it (None for one bound above a native
+    instance).
 
     ``purposes`` (the render settings' ``materialBindingPurposes``, ``""`` for all-purpose bindings) orders the
     binding purposes: the material of the first purpose that binds one wrt can read, else of the first that binds
@@ -572,40 +573,40 @@ def bound_material(prim, purposes: tuple[str, ...] | None = None) -> tuple:
     OpenPBR) while a ``material:binding:preview`` binds a UsdPreviewSurface, the preview binding, as usdview shows
     it. An asset whose meshes bind their UsdPreviewSurface only for preview was drawn in the default grey. (usdview
     takes a preview binding first also where the full one is readable: there wrt, a final-frame renderer, keeps the
-    full one.)"""
-    from pxr import UsdShade
+    full one.)
 
-    binding = UsdShade.MaterialBindingAPI(prim)
+    ``walk(purpose)``: the :class:`wrt.usd_bindings.Found` of the bindings of that purpose alone, or None (see
+    :class:`wrt.usd_bindings.OwnWalks`, the default), as ``ComputeBoundMaterial`` walks them before it falls back
+    to all-purpose ones."""
+    from pxr import Usd, UsdShade
+
+    from .usd_bindings import ALL_PURPOSE, OwnWalks
+
+    walk = walk or OwnWalks(prim)
+    nothing = (UsdShade.Material(), Usd.Relationship())
+
+    def with_fallback(purpose):  # ComputeBoundMaterial(purpose)
+        found = walk(purpose) or walk(ALL_PURPOSE)
+        return found[:2] if found else nothing
+
     if purposes is not None:
-        return _bound_in_order(binding, purposes)
-    full, full_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
+        # A purpose without a binding of its own passes its turn in the order.
+        found = []
+        for purpose in purposes:
+            material, rel = (walk(purpose) or nothing)[:2]
+            if not material:
+                continue
+            if readable_surface(material):
+                return material, rel
+            found.append((material, rel))
+        return found[0] if found else nothing
+    full, full_binding = with_fallback(UsdShade.Tokens.full)
     if full and readable_surface(full):
         return full, full_binding
-    preview, preview_binding = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
+    preview, preview_binding = with_fallback(UsdShade.Tokens.preview)
     if preview and _context_preview_surface(preview):
         return preview, preview_binding
     return full, full_binding
-
-
-def _bound_in_order(binding, purposes: tuple[str, ...]) -> tuple:
-    """``(material, binding relationship)`` of the first of ``purposes`` whose binding gives a material wrt reads,
-    else of the first that gives any, else an invalid material (all-purpose bindings count only where ``""`` is
-    listed)."""
-    from pxr import Usd, UsdShade
-
-    # ComputeBoundMaterial(purpose) falls back to the all-purpose binding; a purpose whose result comes through the
-    # all-purpose relationship has no binding of its own, and its turn in the order passes.
-    any_purpose = binding.ComputeBoundMaterial(UsdShade.Tokens.allPurpose)
-    fallback = any_purpose[1].GetPath() if any_purpose[0] else None
-    found = []
-    for purpose in purposes:
-        material, rel = binding.ComputeBoundMaterial(purpose) if purpose else any_purpose
-        if not material or (purpose and rel.GetPath() == fallback):
-            continue
-        if readable_surface(material):
-            return material, rel
-        found.append((material, rel))
-    return found[0] if found else (UsdShade.Material(), Usd.Relationship())
 
 
 def _shader_name(shader) -> str:
@@ -687,11 +688,13 @@ class MaterialReader:
         time: ``Usd.TimeCode`` to read inputs at.
         skip: ``skip(reason, prim, detail=None)`` records a warning (see ``wrt.usd``); one reason per material.
         purposes: the render settings' ``materialBindingPurposes``, or None (see :func:`bound_material`).
+        stage: the ``Usd.Stage`` read (materials bound above native instances are found in it by path).
     """
 
-    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None):
+    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None, stage=None):
         from .usd_ancestors import BindingsAbove  # (pxr: imported where USD is read)
 
+        self.stage = stage  # where materials bound above native instances are found by path
         self.time = time
         self.skip = skip
         self.purposes = purposes
@@ -705,31 +708,67 @@ class MaterialReader:
 
     # Bindings
 
-    def bound(self, prim) -> tuple:
-        """:func:`bound_material` of ``prim`` (under this reader's purposes); where neither ``prim`` nor an ancestor
-        authors a binding, an invalid material without asking USD, whose search walks every ancestor (quadratic in
-        the depth of a hierarchy with a mesh at each level)."""
-        if not self.bindings_above.any(prim):
-            from pxr import Usd, UsdShade
+    def bound(self, prim, outer: tuple | None = None, missing: set | None = None) -> tuple:
+        """:func:`bound_material` of ``prim`` (under this reader's purposes); inside a native prototype ``outer``
+        (:meth:`instance_bindings` of the instance being read) completes each purpose's walk, which stops at the
+        prototype root (:func:`wrt.usd_bindings.combine`), and ``missing`` gains the purposes whose walk found no
+        binding inside (those an instance's bindings may give). Where neither ``prim`` nor an ancestor authors a
+        binding, no walk inside is asked of USD, whose search walks every ancestor (quadratic in the depth of a
+        hierarchy with a mesh at each level)."""
+        return bound_material(prim, self.purposes, self._walk(prim, outer, missing))
 
-            return UsdShade.Material(), Usd.Relationship()
-        return bound_material(prim, self.purposes)
+    def _walk(self, prim, outer, missing):
+        """``walk(purpose)`` of ``prim``: the :class:`wrt.usd_bindings.Found` of that purpose's bindings alone,
+        joined with ``outer``, or None (see :meth:`bound`)."""
+        from .usd_bindings import OwnWalks, combine, outer_entry
 
-    def face_materials(self, prim, n_faces: int) -> tuple[np.ndarray, np.ndarray] | None:
-        """The materials of the faces of mesh ``prim``, or None when the mesh and its subsets bind no material at all
-        (the one face of a gprim, Points or BasisCurves prim: its own binding, its subsets ignored with a warning).
+        own = OwnWalks(prim) if self.bindings_above.any(prim) else (lambda purpose: None)
+        if outer is None and missing is None:
+            return own
 
-        Returns:
-            ``(faces, unbound)``: ``(F,)`` int32 material index of each face (-1: default material) and ``(F,)`` bool,
-            the faces that neither the mesh nor a ``materialBind`` subset binds (a material bound above a native
-            instance applies to them, as ``ComputeBoundMaterial`` on the instance proxy gives).
-        """
+        def walk(purpose):
+            found = own(purpose)
+            if found is None and missing is not None:
+                missing.add(purpose)
+            return combine(found, outer_entry(outer, purpose), self._material_at)
+
+        return walk
+
+    def _material_at(self, path: str):
+        from pxr import UsdShade
+
+        return UsdShade.Material(self.stage.GetPrimAtPath(path)) if path else UsdShade.Material()
+
+    def instance_bindings(self, prim, outer: tuple | None, missing: set) -> tuple | None:
+        """What each binding purpose's walk finds on and above native instance ``prim`` (joined with ``outer``, its
+        container's, inside a prototype), as a tuple of :class:`wrt.usd_bindings.OuterBinding` (None: nothing):
+        the part of the walk of the instance's proxies that its prototype, read once, cannot see. ``missing``
+        gains the purposes whose walk found nothing up to the root of ``prim``'s container."""
+        from pxr import UsdShade
+
+        from .usd_bindings import ALL_PURPOSE, OuterBinding
+
+        walk = self._walk(prim, outer, missing)
+        purposes = self.purposes if self.purposes is not None else (UsdShade.Tokens.full, UsdShade.Tokens.preview)
+        entries = []
+        for purpose in dict.fromkeys((*purposes, ALL_PURPOSE)):
+            found = walk(purpose)
+            if found is not None:
+                path = str(found.material.GetPath()) if found.material else ""
+                entries.append(OuterBinding(purpose, path, found.stronger))
+        return tuple(entries) or None
+
+    def face_materials(self, prim, n_faces: int, outer: tuple | None = None,
+                       missing: set | None = None) -> np.ndarray | None:
+        """The material index of each face of mesh ``prim`` (``(F,)`` int32, -1: the default material), or None when
+        the mesh and its subsets bind no material at all (the one face of a gprim, Points or BasisCurves prim: its
+        own binding, its subsets ignored with a warning). A ``materialBind`` subset's faces take the subset's
+        material (its walk passes through the mesh: a subset that binds nothing has the mesh's). ``outer``,
+        ``missing``: see :meth:`bound`."""
         from pxr import UsdGeom, UsdShade
 
-        material, _ = self.bound(prim)
-        base = self.material_index(material) if material else -1
-        faces = np.full(n_faces, base, np.int32)
-        unbound = np.full(n_faces, not material, bool)
+        material, _ = self.bound(prim, outer, missing)
+        faces = np.full(n_faces, self.material_index(material) if material else -1, np.int32)
         bound = bool(material)
         subsets = UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets()
         if subsets and not prim.IsA(UsdGeom.Mesh):  # the subset holding index 0 bound all of a curves prim
@@ -738,7 +777,7 @@ class MaterialReader:
             subsets = []
         owner = np.full(n_faces, -1, np.int64)  # the subset (index into subsets) that gave each face its material
         for k, subset in enumerate(subsets):
-            sub_material, _ = self.bound(subset.GetPrim())
+            sub_material, _ = self.bound(subset.GetPrim(), outer, missing)
             if not sub_material:
                 continue
             element_type = subset.GetElementTypeAttr().Get()
@@ -767,9 +806,8 @@ class MaterialReader:
                           f"{len(np.unique(taken))} face(s) also in {', '.join(earlier)}")
             faces[indices] = material
             owner[indices] = k
-            unbound[indices] = False
             bound = True
-        return (faces, unbound) if bound else None
+        return faces if bound else None
 
     def uv_set(self, face_materials: np.ndarray | None, prim=None) -> str | None:
         """The texture-coordinate primvar to read for mesh ``prim`` whose faces use ``face_materials``; None when none

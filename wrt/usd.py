@@ -46,11 +46,11 @@ naming each one (``/instancer[index]``), and so are the instances of an inactive
 (or one under an inactive prim). Visibility inside a PointInstancer's prototype is taken from the prototype root
 down (the scope holding the prototypes is often made invisible so they are not drawn in place), as UsdImaging takes
 it; purpose is inherited through the prototype's ancestors too, as ``ComputePurpose`` and UsdImaging compute it. A
-material bound on or above a native instance (chosen by the meshes' rule, :func:`wrt.materials.bound_material`:
-preview bindings included) applies to the prototype's meshes that bind none themselves (on the faces that their
-``materialBind`` subsets leave unbound), and to all of them (subsets and nested instances included) when it
-is bound ``strongerThanDescendants``. A constant ``displayColor`` on or above a native instance colours the
-prototype's meshes and gprims that have none (a copy of the prototype per colour, up to ``MAX_INHERITED_COLORS``).
+native prototype's prims bind as their instance proxies do: each binding purpose's walk inside the prototype goes
+on through the instance and its ancestors (:mod:`wrt.usd_bindings`; a prototype is read again for instances whose
+bindings change a walk inside), then the meshes' rule (:func:`wrt.materials.bound_material`) picks the purpose.
+A constant ``displayColor`` on or above a native instance colours the prototype's meshes and gprims that have none
+(a copy of the prototype per colour, up to ``MAX_INHERITED_COLORS``).
 A PointInstancer's ``primvars:displayColor`` (``constant``, or ``vertex``/``varying``: one per instance, flattened
 through its indices, read as ``positions`` are) becomes ``Instances.colors`` instead, no copy per colour: it colours
 the prototype meshes and gprims that have no displayColor of their own at shading time; instances nested in a
@@ -262,7 +262,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.contents = {}  # (kind, root path, outer material) -> Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
-        self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None)
+        self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None,
+                                        stage=self.stage)
         self.skel = SkelPoser(time, self._skip, self._shown_path)  # poses meshes skinned by UsdSkel skeletons
         self.tubes = TubeReader(time, self._skip, self._error)  # Points and curves as spheres and tubes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles
@@ -488,8 +489,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         local, _ = self.xforms.ComputeRelativeTransform(root, space_root)
         return self.xforms.GetLocalToWorldTransform(prim) * root_world.GetInverse() * local
 
-    def _content(self, key: tuple, root: Usd.Prim, space_root, outer_material, outer_purpose=None,
-                 outer_forced=False, outer_color=None, outer_widths=None) -> Content:
+    def _content(self, key: tuple, root: Usd.Prim, space_root, outer_bindings, outer_purpose=None,
+                 outer_color=None, outer_widths=None) -> Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:
@@ -498,28 +499,19 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             content = Content(str(root.GetPath()))
             # Prototypes are often kept under an ``over`` so they are not drawn in place; instanced, they are drawn
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
-            inside = Context(content, space_root, outer_material, outer_purpose=outer_purpose,
-                              outer_forced=outer_forced, outer_color=outer_color, outer_widths=outer_widths)
+            inside = Context(content, space_root, outer_bindings, outer_purpose=outer_purpose,
+                              outer_color=outer_color, outer_widths=outer_widths)
             self._walk(root, inside, PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content
         return self.contents[key]
 
     def _face_materials(self, prim: Usd.Prim, n_faces: int, ctx: Context) -> np.ndarray | None:
-        """``(F,)`` int32 material of each face of ``prim`` (-1: default), or None for none at all: its own bindings
-        (:meth:`MaterialReader.face_materials`), and on the faces they leave unbound (all of them, or those outside
-        its ``materialBind`` subsets) the material bound above the native instance being read; that one wins over
-        its own when it is bound strongerThanDescendants."""
-        own = None if ctx.outer_forced else self.materials.face_materials(prim, n_faces)
-        if own is None:
-            ctx.content.uses_outer = True
-            return None if ctx.outer_material is None else np.full(n_faces, ctx.outer_material, np.int32)
-        faces, unbound = own
-        if unbound.any():
-            ctx.content.uses_outer = True
-            if ctx.outer_material is not None:
-                faces = np.where(unbound, np.int32(ctx.outer_material), faces)
-        return faces
+        """``(F,)`` int32 material of each face of ``prim`` (-1: default), or None for none at all
+        (:meth:`MaterialReader.face_materials`): inside a native prototype each binding purpose's walk goes on past
+        the prototype root through the bindings on and above the instance being read (``ctx.outer_bindings``), as
+        ``ComputeBoundMaterial`` walks an instance proxy's."""
+        return self.materials.face_materials(prim, n_faces, ctx.outer_bindings, ctx.content.outer_purposes)
 
 
 __all__ = ["load_usd", "triangulate"]

@@ -33,7 +33,9 @@ class Content:
         # (content key, (K, 4, 4) column-vector transforms to this space, source, indices, looks): looks are the
         # instances' (K, 4) colour and displayOpacity (NaN: none; see instance_looks), or None.
         self.instances: list = []
-        self.uses_outer = False  # a mesh binds no material itself: a material bound above an instance applies
+        # Binding purposes ("" all-purpose, "full", ...) whose walk from some prim inside finds no material up to this
+        # content's root: there the bindings on and above an instance of it apply (Context.outer_bindings).
+        self.outer_purposes: set[str] = set()
         # Colour primvars (displayColor, or the one a material reads) that a mesh or gprim lacks: one an instance
         # hands down applies.
         self.outer_colors: list[str] = []
@@ -64,18 +66,18 @@ class Context:
         self,
         content: Content,
         space_root: Usd.Prim | None = None,
-        outer_material=None,
+        outer_bindings=None,
         world=False,
         outer_purpose=None,
-        outer_forced=False,
         outer_color=None,
         outer_widths=None,
     ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
         self.stop = space_root  # visibility and purpose are inherited from below this prim (None: everything)
-        self.outer_material = outer_material  # material index bound above a native instance, or None
-        self.outer_forced = outer_forced  # that binding is strongerThanDescendants: it wins over bindings inside
+        # What each binding purpose's walk finds on and above the native instance being read (a tuple of
+        # wrt.usd_bindings.OuterBinding), or None: the end of the walk of the prims inside.
+        self.outer_bindings = outer_bindings
         self.outer_color = outer_color  # (primvar, (r, g, b)): constant colour inherited by a native instance, or None
         self.outer_widths = outer_widths  # constant primvars:widths inherited by a native instance (float), or None
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom, UsdShade
+from pxr import Sdf, Usd, UsdGeom
 
 from .usd_contents import Content, Context, instance_looks
 from .usd_values import read_time
@@ -26,27 +26,21 @@ class NativeInstanceReading:
         if not prototype:
             self._skip("instances without a prototype were skipped", prim)
             return
-        outer, forced = ctx.outer_material, ctx.outer_forced
-        if not forced:
-            material, binding = self.materials.bound(prim)  # as the meshes' own
-            if material:
-                outer = self.materials.material_index(material)
-                # A strongerThanDescendants binding (on the instance or above it) overrides the prototype's own
-                # bindings, as ComputeBoundMaterial on the instance proxies gives; it cannot be seen from inside.
-                strength = UsdShade.MaterialBindingAPI.GetMaterialBindingStrength(binding)
-                forced = strength == UsdShade.Tokens.strongerThanDescendants
+        # The walk of each binding purpose from a prim of the prototype goes on through the instance and its
+        # ancestors (ComputeBoundMaterial on the instance proxies): what it finds there completes the walks inside.
+        missing = set()  # purposes whose walk finds nothing up to the root of this instance's container
+        outer = self.materials.instance_bindings(prim, ctx.outer_bindings, missing)
         path = str(prototype.GetPath())
-        if forced:
-            key = ("native", path, outer, purpose, True, None, None)
-            content = self._content(key, prototype, None, outer, purpose, outer_forced=True)
-        else:
-            key = ("native", path, None, purpose, False, None, None)
-            content = self._content(key, prototype, None, None, purpose)
-            if content.uses_outer and not material:
-                ctx.content.uses_outer = True  # this instance's meshes take the material bound above its container
-            if content.uses_outer and outer is not None:
-                key = ("native", path, outer, purpose, False, None, None)
-                content = self._content(key, prototype, None, outer, purpose)
+        # Read once without them; again with them where they change a walk inside: one of them is bound
+        # strongerThanDescendants, or gives a purpose that some walk inside finds nothing for.
+        forced = outer is not None and any(entry.stronger for entry in outer)
+        key = ("native", path, None, purpose, None, None)
+        content = None if forced else self._content(key, prototype, None, None, purpose)
+        if forced or (outer is not None and any(entry.purpose in content.outer_purposes for entry in outer)):
+            key = ("native", path, outer, purpose, None, None)
+            content = self._content(key, prototype, None, outer, purpose)
+        # Purposes that neither the prototype nor this instance binds: its container's instances may.
+        ctx.content.outer_purposes |= content.outer_purposes & missing
         # A constant displayColor (or the colour primvar a material reads) on the instance or above it colours the
         # prototype's meshes that have none, as primvars are inherited through instance proxies (instances of one
         # prototype in different colours).
@@ -106,10 +100,9 @@ class NativeInstanceReading:
                 self._skip(f"instances inheriting more than {MAX_INHERITED_COLORS} colours per prototype keep "
                            "its own colours (each colour is a copy of the prototype)", prim)
                 return key
-            _, path, outer, purpose, forced, _, _ = key
-            colored = ("native", path, outer, purpose, forced, color, None)
-            self._content(colored, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_forced=forced,
-                          outer_color=color)
+            _, path, outer, purpose, _, _ = key
+            colored = ("native", path, outer, purpose, color, None)
+            self._content(colored, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color)
             content.colors[color] = colored
         return content.colors[color]
 
@@ -136,9 +129,9 @@ class NativeInstanceReading:
                 self._skip(f"instances inheriting more than {MAX_INHERITED_WIDTHS} widths per prototype keep its "
                            "own widths (each width is a copy of the prototype)", prim)
                 return key
-            _, path, outer, purpose, forced, color, _ = key
-            widened = ("native", path, outer, purpose, forced, color, widths)
-            self._content(widened, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_forced=forced,
-                          outer_color=color, outer_widths=widths)
+            _, path, outer, purpose, color, _ = key
+            widened = ("native", path, outer, purpose, color, widths)
+            self._content(widened, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color,
+                          outer_widths=widths)
             content.widths[widths] = widened
         return content.widths[widths]

@@ -1,0 +1,86 @@
+"""Material binding resolution one purpose at a time, and across native instances whose prototype is read once.
+
+``UsdShade.MaterialBindingAPI.ComputeBoundMaterial(purpose)`` walks from a prim up to the root twice: first for
+bindings of ``purpose`` alone (the nearest wins, unless one further up is ``strongerThanDescendants``: then the
+highest such), and only when that walk finds no material, again for all-purpose bindings (``materialBinding.cpp``;
+the UsdShade "Material Resolution" rules). So a ``material:binding:full`` on an ancestor wins over an all-purpose
+binding on the prim itself.
+
+wrt reads a native instance's prototype once, its prims at their prototype paths (``/__Prototype_1/Mesh``), whose
+walk stops at the prototype root; the instance prim and its ancestors are the rest of the instance proxy's walk.
+:class:`OuterBinding` holds that rest's answer, per purpose, and :func:`combine` joins the two halves as the whole
+walk would: the outer material when it is bound ``strongerThanDescendants``, else the inner one, else the outer one.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from pxr import Usd, UsdShade
+
+ALL_PURPOSE = ""  # UsdShade.Tokens.allPurpose
+
+
+class OuterBinding(NamedTuple):
+    """What the walk of one binding purpose finds on and above a native instance (hashable: part of the key its
+    prototype is read under)."""
+
+    purpose: str  # the binding purpose ("" all-purpose, "full", "preview", ...)
+    material: str  # path of the material the walk ends at ("": a binding to no Material, see Found)
+    stronger: bool  # its binding is strongerThanDescendants: it wins over every binding inside the prototype
+
+
+class Found(NamedTuple):
+    """What the walk of one binding purpose ends at. A binding whose target is no Material (a missing prim, an
+    Xform) is found as any other, a ``material`` that is not valid: it wins over weaker bindings above it, and a
+    purpose's binding of it keeps ``ComputeBoundMaterial`` from falling back to all-purpose ones, as USD resolves it
+    (a ``material:binding:full`` to a missing prim on an ancestor leaves its prims without a material)."""
+
+    material: UsdShade.Material  # the bound material (not valid: the binding targets no Material)
+    rel: Usd.Relationship | None  # the binding relationship; None for one found above a native instance
+    stronger: bool  # that binding is strongerThanDescendants
+
+
+def binding_purpose(rel: Usd.Relationship) -> str:
+    """The purpose of binding relationship ``rel``: ``material:binding[:purpose][:collection:name]``."""
+    parts = rel.GetName().split(":")
+    return parts[2] if len(parts) > 2 and parts[2] != "collection" else ALL_PURPOSE
+
+
+def is_stronger(rel) -> bool:
+    """Binding relationship ``rel`` says ``bindMaterialAs = strongerThanDescendants``."""
+    return UsdShade.MaterialBindingAPI.GetMaterialBindingStrength(rel) == UsdShade.Tokens.strongerThanDescendants
+
+
+class OwnWalks:
+    """``walk(purpose)``: the :class:`Found` of the walk of ``purpose`` bindings alone from ``prim`` up to its root
+    (``ALL_PURPOSE``: all-purpose bindings), None where it finds no binding; one ``ComputeBoundMaterial`` call
+    answers a purpose and, where it fell back, the all-purpose walk too."""
+
+    def __init__(self, prim: Usd.Prim):
+        self.binding = UsdShade.MaterialBindingAPI(prim)
+        self.found = {}  # purpose -> Found or None
+
+    def __call__(self, purpose: str) -> Found | None:
+        if purpose not in self.found:
+            material, rel = self.binding.ComputeBoundMaterial(purpose or UsdShade.Tokens.allPurpose)
+            of = binding_purpose(rel) if rel else None  # (no relationship: no binding of either walk)
+            found = Found(material, rel, is_stronger(rel)) if rel else None
+            if of != purpose:  # the purpose's own walk found nothing: ComputeBoundMaterial fell back
+                self.found[ALL_PURPOSE] = found
+                found = None
+            self.found[purpose] = found
+        return self.found[purpose]
+
+
+def combine(inner: Found | None, outer: OuterBinding | None, material_at) -> Found | None:
+    """One purpose's whole walk: ``inner`` (the walk inside a native prototype) joined with ``outer`` (the rest, on
+    and above the instance; None where it finds nothing); ``material_at(path)`` gives a ``UsdShade.Material``."""
+    if outer is not None and (outer.stronger or inner is None):
+        return Found(material_at(outer.material), None, outer.stronger)
+    return inner
+
+
+def outer_entry(outer: tuple | None, purpose: str) -> OuterBinding | None:
+    """The entry of ``purpose`` in ``outer`` (a tuple of :class:`OuterBinding`), or None."""
+    return next((entry for entry in outer or () if entry.purpose == purpose), None)
