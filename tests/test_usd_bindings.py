@@ -164,3 +164,50 @@ def test_binding_to_no_material_inside_a_prototype_hides_the_instances_binding(t
     stage.GetRootLayer().Save()
     drawn = _drawn_materials(load(path))
     assert drawn == _usd_materials(Usd.Stage.Open(path), drawn) == {("/World/I/Mesh", 0): "", ("/World/I/Mesh", 1): ""}
+
+
+def _tint_material(stage, path):
+    """A UsdPreviewSurface whose diffuseColor reads primvar ``tint`` (fallback 0)."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, path + "/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    reader = UsdShade.Shader.Define(stage, path + "/Reader")
+    reader.CreateIdAttr("UsdPrimvarReader_float3")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("tint")
+    reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(reader.ConnectableAPI(), "result")
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material
+
+
+def _constant_color(prim, name, rgb):
+    primvar = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(name, Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant)
+    primvar.Set([Gf.Vec3f(*rgb)])
+
+
+def test_an_instance_hands_down_every_colour_primvar_its_prototype_lacks(tmp_path):
+    """A prototype whose plain mesh lacks displayColor and whose mesh bound to a material reading ``tint`` lacks
+    ``tint``: an instance authoring both colours each (FindPrimvarWithInheritance on the proxies finds them); wrt
+    handed down only the first name its prototype wanted, and the other mesh drew none."""
+    path = str(tmp_path / "two_colors.usda")
+    stage = Usd.Stage.CreateNew(path)
+    tint = _tint_material(stage, "/Looks/Tint")
+    stage.DefinePrim("/Protos/P", "Xform")
+    _bind(_quads(stage, "/Protos/P/Tinted", 1), tint)
+    _quads(stage, "/Protos/P/Plain", 1)
+    stage.GetPrimAtPath("/Protos").SetSpecifier(Sdf.SpecifierOver)
+    instance = stage.DefinePrim("/World/I", "Xform")
+    instance.GetReferences().AddInternalReference("/Protos/P")
+    instance.SetInstanceable(True)
+    _constant_color(instance, "displayColor", (0.25, 0.5, 0.75))
+    _constant_color(instance, "tint", (0.9, 0.1, 0.2))
+    stage.GetRootLayer().Save()
+    scene = load(path)
+    stage = Usd.Stage.Open(path)
+    colors = scene.corner_attributes()[1]
+    for proxy, name in (("/World/I/Plain", "displayColor"), ("/World/I/Tinted", "tint")):
+        rows = [g for p, _, g, _ in rendered_rows(scene) if p == proxy]
+        want = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(proxy)).FindPrimvarWithInheritance(name).Get()[0]
+        np.testing.assert_allclose(colors[rows].reshape(-1, 3), np.tile(np.array(want), (3 * len(rows), 1)),
+                                   rtol=1e-6)
+    assert compare(stage, scene) == []

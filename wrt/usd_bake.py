@@ -96,8 +96,9 @@ class MeshBaking:
                 found[name] = values[corner_index[:, order]]
             elif not self._has_color(prim, name):
                 ctx.content.want_colors([name])
-                if ctx.outer_color is not None and ctx.outer_color[0] == name:
-                    found[name] = np.tile(np.asarray(ctx.outer_color[1], np.float32), (len(local.face_ids), 3, 1))
+                outer = dict(ctx.outer_color or ())
+                if name in outer:
+                    found[name] = np.tile(np.asarray(outer[name], np.float32), (len(local.face_ids), 3, 1))
         if len(names) == 1 or not found:
             return found.get(names[0])
         # Each triangle shades with its material's primvar; those of materials that read none keep the first.

@@ -78,7 +78,9 @@ class Context:
         # What each binding purpose's walk finds on and above the native instance being read (a tuple of
         # wrt.usd_bindings.OuterBinding), or None: the end of the walk of the prims inside.
         self.outer_bindings = outer_bindings
-        self.outer_color = outer_color  # (primvar, (r, g, b)): constant colour inherited by a native instance, or None
+        # ((primvar, (r, g, b)), ...): constant colours inherited by a native instance (displayColor, a primvar a
+        # material reads), or None
+        self.outer_color = outer_color
         self.outer_widths = outer_widths  # constant primvars:widths inherited by a native instance (float), or None
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
         self.world = world  # the stage itself (cameras and UsdLux lights are read only here)

@@ -85,15 +85,18 @@ class LookReading:
         if not (primvar and primvar.HasValue()):
             primvar = None
             ctx.content.want_colors([color_name])
-            if ctx.outer_color is not None and ctx.outer_color[0] == color_name:
-                color = np.asarray(ctx.outer_color[1], np.float32)
+            outer = dict(ctx.outer_color or ())
+            if color_name in outer:
+                color = np.asarray(outer[color_name], np.float32)
         return -1 if material is None else int(material[0]), primvar, color
 
-    def _inherited_color(self, prim: Usd.Prim, names: list[str]) -> tuple | None:
-        """The constant colour primvar that native instance ``prim`` hands down to its prototype's meshes lacking
-        one of ``names`` (the first of them it has): its own or its nearest ancestor's (up to the root of the
-        prototype ``prim`` is in), as ``(name, (r, g, b))``, or None."""
+    def _inherited_colors(self, prim: Usd.Prim, names: list[str]) -> tuple:
+        """The constant colour primvars that native instance ``prim`` hands down to its prototype's meshes lacking
+        them, of ``names``: its own or its nearest ancestor's (up to the root of the prototype ``prim`` is in), as
+        ``((name, (r, g, b)), ...)``, each name it has (a prototype's meshes may lack several: displayColor, and
+        the primvar a material reads)."""
         inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        found = []
         for name in names:
             primvar = inherited.get(name)
             if primvar is None:
@@ -101,13 +104,12 @@ class LookReading:
             values = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
             values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
             if len(values) >= 3 and np.all(np.isfinite(values[:3])):
-                return name, tuple(float(v) for v in values[:3])
-            return None
-        return None
+                found.append((name, tuple(float(v) for v in values[:3])))
+        return tuple(found)
 
     def _inherited_opacity(self, prim: Usd.Prim) -> float | None:
         """The constant ``displayOpacity`` native instance ``prim`` hands down to its prototype's geometry that has
-        none (its own or its nearest ancestor's, as for :meth:`_inherited_color`; the mean of its values, see
+        none (its own or its nearest ancestor's, as for :meth:`_inherited_colors`; the mean of its values, see
         :func:`wrt.usd_primvars.unit_opacities`), or None."""
         inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
         primvar = inherited.get("displayOpacity")

@@ -44,12 +44,15 @@ class NativeInstanceReading:
         # A constant displayColor (or the colour primvar a material reads) on the instance or above it colours the
         # prototype's meshes that have none, as primvars are inherited through instance proxies (instances of one
         # prototype in different colours).
-        own_color = self._inherited_color(prim, content.outer_colors)
-        if own_color is None:
-            ctx.content.want_colors(content.outer_colors)  # the colour may come from above this instance's container
-        color = own_color if own_color is not None else ctx.outer_color
-        if color is not None and color[0] in content.outer_colors:
-            key = self._colored(key, content, color, prim)
+        own = self._inherited_colors(prim, content.outer_colors)
+        have = {name for name, _ in own}
+        # The colours it has not may come from above this instance's container.
+        ctx.content.want_colors([name for name in content.outer_colors if name not in have])
+        above = tuple((name, rgb) for name, rgb in ctx.outer_color or ()
+                      if name not in have and name in content.outer_colors)
+        colors = tuple(sorted(own + above))
+        if colors:
+            key = self._colored(key, content, colors, prim)
         # A constant primvars:widths on the instance or above it sizes the prototype's points and curves that have
         # no widths primvar, as FindPrimvarWithInheritance on the instance proxies finds it.
         if content.wants_widths:
@@ -92,8 +95,8 @@ class NativeInstanceReading:
             self._skip(f"{what} inside PointInstancer prototypes are not supported; skipped", prim)
 
     def _colored(self, key: tuple, content: Content, color: tuple, prim: Usd.Prim) -> tuple:
-        """The key of ``content`` (a native prototype read under ``key``) read again with inherited ``color``
-        (``(primvar, (r, g, b))``); each colour is a copy of the prototype's geometry, so past
+        """The key of ``content`` (a native prototype read under ``key``) read again with inherited colours ``color``
+        (``((primvar, (r, g, b)), ...)``); each set of colours is a copy of the prototype's geometry, so past
         :data:`MAX_INHERITED_COLORS` colours per prototype the instance keeps the prototype's own (with a warning)."""
         if color not in content.colors:
             if len(content.colors) >= MAX_INHERITED_COLORS:
