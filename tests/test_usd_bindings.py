@@ -211,3 +211,27 @@ def test_an_instance_hands_down_every_colour_primvar_its_prototype_lacks(tmp_pat
         np.testing.assert_allclose(colors[rows].reshape(-1, 3), np.tile(np.array(want), (3 * len(rows), 1)),
                                    rtol=1e-6)
     assert compare(stage, scene) == []
+
+
+@pytest.mark.parametrize("name", ["displayColor", "displayOpacity"])
+def test_a_non_constant_primvar_inside_a_prototype_blocks_the_instances(tmp_path, name):
+    """USD's primvar inheritance stops at a non-constant primvar on an ancestor (FindPrimvarWithInheritance gives
+    none), inside a prototype too: the instance's constant one does not reach the mesh below it. wrt handed the
+    instance's colour (and opacity) down to it."""
+    path = str(tmp_path / "blocked.usda")
+    stage = Usd.Stage.CreateNew(path)
+    stage.DefinePrim("/Protos/P", "Xform")
+    group = stage.DefinePrim("/Protos/P/G", "Xform")
+    _quads(stage, "/Protos/P/G/Mesh", 1)
+    stage.GetPrimAtPath("/Protos").SetSpecifier(Sdf.SpecifierOver)
+    instance = stage.DefinePrim("/World/I", "Xform")
+    instance.GetReferences().AddInternalReference("/Protos/P")
+    instance.SetInstanceable(True)
+    type_name = Sdf.ValueTypeNames.FloatArray if name == "displayOpacity" else Sdf.ValueTypeNames.Color3fArray
+    value = [0.5] if name == "displayOpacity" else [Gf.Vec3f(1, 0, 0)]
+    UsdGeom.PrimvarsAPI(instance).CreatePrimvar(name, type_name, UsdGeom.Tokens.constant).Set(value)
+    UsdGeom.PrimvarsAPI(group).CreatePrimvar(name, type_name, UsdGeom.Tokens.uniform).Set(value)
+    stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(path)
+    assert not UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/World/I/G/Mesh")).FindPrimvarWithInheritance(name)
+    assert compare(stage, load(path)) == []

@@ -51,7 +51,10 @@ class AncestorMemo:
         return answer
 
 
-_BLOCKED = UsdGeom.Primvar()  # a non-constant primvar above: it blocks inheritance (an invalid primvar)
+BLOCKED = UsdGeom.Primvar()  # a non-constant primvar above: it blocks inheritance (an invalid primvar)
+# A non-constant primvar on a PointInstancer above: it blocks inheritance as well, but is the instances' own (one value
+# per instance, as Hydra's instancer primvars: Instances.colors, Instances.opacities), applied where a prim has none.
+PER_INSTANCE = UsdGeom.Primvar()
 
 
 class InheritedPrimvars:
@@ -63,6 +66,14 @@ class InheritedPrimvars:
         self.memos = {}  # primvar name -> AncestorMemo of the search from a prim upwards
 
     def find(self, prim: Usd.Prim, name: str) -> UsdGeom.Primvar:
+        found = self.lookup(prim, name)
+        return UsdGeom.PrimvarsAPI(prim).GetPrimvar(name) if found is None else found
+
+    def lookup(self, prim: Usd.Prim, name: str) -> UsdGeom.Primvar | None:
+        """:meth:`find`'s answer with its kinds of none told apart: the primvar found (it has a value),
+        :data:`BLOCKED` where a non-constant one on an ancestor blocks inheritance (:data:`PER_INSTANCE` on a
+        PointInstancer), None where no prim up to the root (of the prototype, in one) has one: only then does a native
+        instance's colour reach ``prim``, as the walk of its instance proxy goes on through the instance."""
         local = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
         if local.HasAuthoredValue():
             return local
@@ -70,8 +81,7 @@ class InheritedPrimvars:
         if memo is None:
             attr_name = name if name.startswith("primvars:") else "primvars:" + name  # (USD's _MakeNamespaced)
             memo = self.memos[name] = AncestorMemo(_primvar_on(attr_name))
-        found = memo(prim.GetParent())
-        return local if found is None else found
+        return memo(prim.GetParent())
 
 
 def _primvar_on(attr_name: str):
@@ -82,7 +92,9 @@ def _primvar_on(attr_name: str):
         if attr and attr.HasAuthoredValue():
             primvar = UsdGeom.Primvar(attr)
             if primvar:
-                return primvar if primvar.GetInterpolation() == UsdGeom.Tokens.constant else _BLOCKED
+                if primvar.GetInterpolation() == UsdGeom.Tokens.constant:
+                    return primvar
+                return PER_INSTANCE if p.IsA(UsdGeom.PointInstancer) else BLOCKED
         return KEEP_LOOKING
 
     return own

@@ -87,14 +87,15 @@ class MeshBaking:
         """``(T, 3, 3)`` float32 colours at the corners of the mesh's triangles (winding ``order``), or None: each
         triangle's from the colour primvar its material reads (``names``, :meth:`MaterialReader.color_primvars`; the
         first for triangles of materials that read none), NaN rows where the mesh has not got it. A primvar the mesh
-        lacks is one its content wants from above (:meth:`Content.want_colors`): a native instance's constant
-        colour of that name (``ctx.outer_color``) fills it in."""
+        lacks (and no non-constant one above it blocks) is one its content wants from above
+        (:meth:`Content.want_colors`): a native instance's constant colour of that name (``ctx.outer_color``) fills it
+        in."""
         found = {}
         for name in names:
             if name in local.colors:
                 values, corner_index = local.colors[name]
                 found[name] = values[corner_index[:, order]]
-            elif not self._has_color(prim, name):
+            elif self.inherited_primvars.lookup(prim, name) is None:  # (not blocked by a non-constant one above)
                 ctx.content.want_colors([name])
                 outer = dict(ctx.outer_color or ())
                 if name in outer:

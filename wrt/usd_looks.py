@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .usd_ancestors import BLOCKED
 from .usd_contents import Context
 from .usd_primvars import first_of_constant, unit_opacities
 from .usd_values import read_time
@@ -22,19 +23,15 @@ class LookReading:
         colours its meshes)."""
         return self.inherited_primvars.find(prim, name)
 
-    def _has_color(self, prim: Usd.Prim, name: str) -> bool:
-        """``prim`` has colour primvar ``name`` of its own or inherits one inside its space (see
-        :meth:`_color_primvar`)."""
-        primvar = self._color_primvar(prim, name)
-        return bool(primvar and primvar.HasValue())
-
     def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool, keep_opaque: bool = False) -> float | None:
         """The ``displayOpacity`` of ``prim`` (its own or a constant inherited one) for prims drawn with the default
         material in one opacity (gprims, points, curves, tet meshes, NURBS patches): the mean of its values (see
         :func:`wrt.usd_primvars.unit_opacities`), as gprims take the mean displayColor, or None when it has none or
         is opaque (unless ``keep_opaque``, as :meth:`_read_opacities`). ``one_per_prim``: values that differ are named
         in a warning (their displayColor is read per element)."""
-        primvar = self.inherited_primvars.find(prim, "displayOpacity")
+        primvar = self.inherited_primvars.lookup(prim, "displayOpacity")
+        if primvar is BLOCKED and keep_opaque:  # blocked above: no instance's opacity reaches it either
+            return 1.0
         if not (primvar and primvar.HasValue()):
             return None
         values = self._opacity_values(primvar)
@@ -84,6 +81,7 @@ class LookReading:
         color = None
         if not (primvar and primvar.HasValue()):
             primvar = None
+        if primvar is None and self.inherited_primvars.lookup(prim, color_name) is None:  # (not blocked above)
             ctx.content.want_colors([color_name])
             outer = dict(ctx.outer_color or ())
             if color_name in outer:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import UsdGeom
 
+from .usd_ancestors import BLOCKED
 from .usd_primvars import finite_colors, first_of_constant, unit_opacities
 from .usd_values import value_at
 
@@ -50,7 +51,9 @@ class MeshPrimvarReading:
         every interpolation and indexing as colours, see :func:`wrt.usd_primvars.unit_opacities` for bad values), or
         None when it has none or is 1 everywhere (opaque: nothing to carry), unless ``keep_opaque`` (a prototype's
         geometry: its own 1 wins over an instance's opacity, Instances.opacities)."""
-        primvar = self.inherited_primvars.find(prim, "displayOpacity")
+        primvar = self.inherited_primvars.lookup(prim, "displayOpacity")
+        if primvar is BLOCKED and keep_opaque:  # a non-constant one above blocks an instance's opacity too
+            return np.ones(1, np.float32), np.zeros(topology[2].shape, np.int64)
         if not (primvar and primvar.HasValue()):
             return None
         found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, 1)
