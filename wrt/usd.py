@@ -104,6 +104,7 @@ from .subdivision import MAX_REFINE_LEVEL
 from .usd_ancestors import ComputedPurposes, InheritedPrimvars
 from .usd_attributes import AttributeReading
 from .usd_bake import MeshBaking
+from .usd_bindings import CollectionsInside
 from .usd_cameras import CameraReading
 from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, place_instances
 from .usd_gprims import GprimReading
@@ -262,6 +263,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.contents = {}  # (kind, root path, outer material) -> Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
+        self.collections_inside = CollectionsInside(stage)  # collection bindings that reach into native instances
         self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None,
                                         stage=self.stage)
         self.skel = SkelPoser(time, self._skip, self._shown_path)  # poses meshes skinned by UsdSkel skeletons
@@ -490,7 +492,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         return self.xforms.GetLocalToWorldTransform(prim) * root_world.GetInverse() * local
 
     def _content(self, key: tuple, root: Usd.Prim, space_root, outer_bindings, outer_purpose=None,
-                 outer_color=None, outer_widths=None) -> Content:
+                 outer_color=None, outer_widths=None, proxy=None) -> Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:
@@ -500,7 +502,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # Prototypes are often kept under an ``over`` so they are not drawn in place; instanced, they are drawn
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
             inside = Context(content, space_root, outer_bindings, outer_purpose=outer_purpose,
-                              outer_color=outer_color, outer_widths=outer_widths)
+                              outer_color=outer_color, outer_widths=outer_widths, proxy=proxy)
             self._walk(root, inside, PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content
@@ -511,7 +513,16 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         (:meth:`MaterialReader.face_materials`): inside a native prototype each binding purpose's walk goes on past
         the prototype root through the bindings on and above the instance being read (``ctx.outer_bindings``), as
         ``ComputeBoundMaterial`` walks an instance proxy's."""
-        return self.materials.face_materials(prim, n_faces, ctx.outer_bindings, ctx.content.outer_purposes)
+        return self.materials.face_materials(self._binding_prim(prim, ctx), n_faces, ctx.outer_bindings,
+                                             ctx.content.outer_purposes)
+
+    def _binding_prim(self, prim: Usd.Prim, ctx: Context) -> Usd.Prim:
+        """The prim whose bindings ``prim`` has: itself, or in a prototype read for one instance (``ctx.proxy``)
+        that instance's proxy of it."""
+        if ctx.proxy is None:
+            return prim
+        root, instance = ctx.proxy
+        return self.stage.GetPrimAtPath(prim.GetPath().ReplacePrefix(Sdf.Path(root), Sdf.Path(instance)))
 
 
 __all__ = ["load_usd", "triangulate"]

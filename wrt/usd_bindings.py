@@ -14,6 +14,7 @@ walk would: the outer material when it is bound ``strongerThanDescendants``, els
 
 from __future__ import annotations
 
+import bisect
 from typing import NamedTuple
 
 from pxr import Usd, UsdShade
@@ -84,3 +85,59 @@ def combine(inner: Found | None, outer: OuterBinding | None, material_at) -> Fou
 def outer_entry(outer: tuple | None, purpose: str) -> OuterBinding | None:
     """The entry of ``purpose`` in ``outer`` (a tuple of :class:`OuterBinding`), or None."""
     return next((entry for entry in outer or () if entry.purpose == purpose), None)
+
+
+class CollectionsInside:
+    """``reach(prim)``: a collection bound (``material:binding:collection:...``) on ``prim`` or an ancestor holds
+    some of ``prim``'s descendants and not others, or ``prim`` without its descendants, so that the instance proxies
+    of native instance ``prim`` bind unlike the instance itself (a collection that names ``/World/Inst/Body``): its
+    prototype's prims are then resolved through this instance's proxies (``Context.proxy``). Each collection's
+    membership (``ComputeMembershipQuery``) is computed once; one given by a membership expression counts as
+    reaching inside."""
+
+    def __init__(self, stage: Usd.Stage):
+        self.stage = stage
+        self.collections = {}  # prim path -> paths of the collections its collection bindings name
+        self.members = {}  # collection path -> (path expansion rule map, its paths as sorted strings), or None
+
+    def reach(self, prim: Usd.Prim) -> bool:
+        path = prim.GetPath()
+        p = prim
+        while p and not p.IsPseudoRoot():
+            if any(not self._uniform(collection, path) for collection in self._bound_collections(p)):
+                return True
+            p = p.GetParent()
+        return False
+
+    def _bound_collections(self, p: Usd.Prim) -> list:
+        path = p.GetPath()
+        if path not in self.collections:
+            found = []
+            for name in p.GetAuthoredPropertyNames():
+                if name.startswith("material:binding") and ":collection:" in name:
+                    rel = p.GetRelationship(name)
+                    targets = rel.GetForwardedTargets() if rel else []
+                    if targets and targets[0].IsPropertyPath():
+                        found.append(targets[0])
+            self.collections[path] = found
+        return self.collections[path]
+
+    def _uniform(self, collection_path, path) -> bool:
+        """The collection at ``collection_path`` holds all of the subtree at ``path`` or none of it."""
+        if collection_path not in self.members:
+            collection = Usd.CollectionAPI.Get(self.stage, collection_path)
+            entry = ({}, [])  # no collection: it binds nothing
+            if collection:
+                query = collection.ComputeMembershipQuery()
+                rules = query.GetAsPathExpansionRuleMap() if query.UsesPathExpansionRuleMap() else None
+                entry = None if rules is None else (dict(rules), sorted(str(k) for k in rules))
+            self.members[collection_path] = entry
+        entry = self.members[collection_path]
+        if entry is None:
+            return False
+        rules, keys = entry
+        below = str(path) + "/"
+        i = bisect.bisect_left(keys, below)
+        if i < len(keys) and keys[i].startswith(below):  # a path inside the subtree is included or excluded
+            return False
+        return rules.get(path) != "explicitOnly"  # (the prim in, its descendants out)

@@ -71,6 +71,7 @@ class Context:
         outer_purpose=None,
         outer_color=None,
         outer_widths=None,
+        proxy=None,
     ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
@@ -78,6 +79,9 @@ class Context:
         # What each binding purpose's walk finds on and above the native instance being read (a tuple of
         # wrt.usd_bindings.OuterBinding), or None: the end of the walk of the prims inside.
         self.outer_bindings = outer_bindings
+        # (prototype root path, path of the instance read): its prims bind as the instance's proxies at those paths
+        # do (a collection bound above names some of them: wrt.usd_bindings.CollectionsInside), or None
+        self.proxy = proxy
         # ((primvar, (r, g, b)), ...): constant colours inherited by a native instance (displayColor, a primvar a
         # material reads), or None
         self.outer_color = outer_color

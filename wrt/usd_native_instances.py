@@ -28,19 +28,17 @@ class NativeInstanceReading:
             return
         # The walk of each binding purpose from a prim of the prototype goes on through the instance and its
         # ancestors (ComputeBoundMaterial on the instance proxies): what it finds there completes the walks inside.
-        missing = set()  # purposes whose walk finds nothing up to the root of this instance's container
-        outer = self.materials.instance_bindings(prim, ctx.outer_bindings, missing)
+        binding_prim = self._binding_prim(prim, ctx)
         path = str(prototype.GetPath())
-        # Read once without them; again with them where they change a walk inside: one of them is bound
-        # strongerThanDescendants, or gives a purpose that some walk inside finds nothing for.
-        forced = outer is not None and any(entry.stronger for entry in outer)
-        key = ("native", path, None, purpose, None, None)
-        content = None if forced else self._content(key, prototype, None, None, purpose)
-        if forced or (outer is not None and any(entry.purpose in content.outer_purposes for entry in outer)):
-            key = ("native", path, outer, purpose, None, None)
-            content = self._content(key, prototype, None, outer, purpose)
-        # Purposes that neither the prototype nor this instance binds: its container's instances may.
-        ctx.content.outer_purposes |= content.outer_purposes & missing
+        if self.materials.bindings_above.any(binding_prim) and self.collections_inside.reach(binding_prim):
+            # A collection bound above holds some of its proxies and not others: its prims are resolved through
+            # this instance's proxies (a copy of the prototype for it), their walks go on to the container's root.
+            proxy = (path, str(binding_prim.GetPath()))
+            key = ("native", path, ctx.outer_bindings, purpose, None, proxy, None)
+            content = self._content(key, prototype, None, ctx.outer_bindings, purpose, proxy=proxy)
+            ctx.content.outer_purposes |= content.outer_purposes
+        else:
+            content, key = self._shared_prototype(prototype, binding_prim, ctx, purpose)
         # A constant displayColor (or the colour primvar a material reads) on the instance or above it colours the
         # prototype's meshes that have none, as primvars are inherited through instance proxies (instances of one
         # prototype in different colours).
@@ -70,6 +68,24 @@ class NativeInstanceReading:
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), looks))
         self._read_cameras(prim, self.contents[key].cameras, ctx)
         self._read_lights(prim, self.contents[key].lights, ctx)
+
+    def _shared_prototype(self, prototype: Usd.Prim, binding_prim: Usd.Prim, ctx: Context, purpose) -> tuple:
+        """``(content, key)`` of the prototype of native instance ``binding_prim`` (in its container's namespace,
+        see :meth:`_binding_prim`), read once for all instances whose bindings change no walk inside it."""
+        missing = set()  # purposes whose walk finds nothing up to the root of this instance's container
+        outer = self.materials.instance_bindings(binding_prim, ctx.outer_bindings, missing)
+        path = str(prototype.GetPath())
+        # Read once without them; again with them where they change a walk inside: one of them is bound
+        # strongerThanDescendants, or gives a purpose that some walk inside finds nothing for.
+        forced = outer is not None and any(entry.stronger for entry in outer)
+        key = ("native", path, None, purpose, None, None, None)
+        content = None if forced else self._content(key, prototype, None, None, purpose)
+        if forced or (outer is not None and any(entry.purpose in content.outer_purposes for entry in outer)):
+            key = ("native", path, outer, purpose, None, None, None)
+            content = self._content(key, prototype, None, outer, purpose)
+        # Purposes that neither the prototype nor this instance binds: its container's instances may.
+        ctx.content.outer_purposes |= content.outer_purposes & missing
+        return content, key
 
     def _read_through_instances(self, prim: Usd.Prim, relatives: list, ctx: Context, listed: str, read, what: str,
                                 place=None):
@@ -103,9 +119,10 @@ class NativeInstanceReading:
                 self._skip(f"instances inheriting more than {MAX_INHERITED_COLORS} colours per prototype keep "
                            "its own colours (each colour is a copy of the prototype)", prim)
                 return key
-            _, path, outer, purpose, _, _ = key
-            colored = ("native", path, outer, purpose, color, None)
-            self._content(colored, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color)
+            _, path, outer, purpose, _, proxy, _ = key
+            colored = ("native", path, outer, purpose, color, proxy, None)
+            self._content(colored, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color,
+                          proxy=proxy)
             content.colors[color] = colored
         return content.colors[color]
 
@@ -132,9 +149,9 @@ class NativeInstanceReading:
                 self._skip(f"instances inheriting more than {MAX_INHERITED_WIDTHS} widths per prototype keep its "
                            "own widths (each width is a copy of the prototype)", prim)
                 return key
-            _, path, outer, purpose, color, _ = key
-            widened = ("native", path, outer, purpose, color, widths)
+            _, path, outer, purpose, color, proxy, _ = key
+            widened = ("native", path, outer, purpose, color, proxy, widths)
             self._content(widened, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color,
-                          outer_widths=widths)
+                          outer_widths=widths, proxy=proxy)
             content.widths[widths] = widened
         return content.widths[widths]

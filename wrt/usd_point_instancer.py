@@ -52,10 +52,11 @@ class PointInstancerReading:
             # The prototype's space is its parent's: the root's own transform is the most local part. Its purpose,
             # where nothing in it authors one, is the one its ancestors author (_prototype_purpose).
             purpose = self._prototype_purpose(target, prim, ctx)
-            key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.outer_widths)
+            key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.proxy,
+                   ctx.outer_widths)
             parent = target.GetParent()
             content = self._content(key, target, parent, ctx.outer_bindings, purpose, outer_color=ctx.outer_color,
-                                    outer_widths=ctx.outer_widths)
+                                    outer_widths=ctx.outer_widths, proxy=ctx.proxy)
             # The prototype's prims walk up through this instancer's ancestors: what they lack, this content lacks.
             ctx.content.outer_purposes |= content.outer_purposes
             ctx.content.wants_widths |= content.wants_widths
