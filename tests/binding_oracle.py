@@ -51,17 +51,29 @@ def drawn_as(material: UsdShade.Material | None) -> UsdShade.Material | None:
     return material if material and surface_id(material) in READABLE_IDS else None
 
 
-def face_material(prim: Usd.Prim, face: int) -> UsdShade.Material | None:
+def face_material(prim: Usd.Prim, face: int, cache: dict | None = None) -> UsdShade.Material | None:
     """The material of face ``face`` of mesh ``prim``: that of the last ``materialBind`` face subset holding it that
-    binds one, else the mesh's."""
+    binds one, else the mesh's. ``cache``: each mesh's bindings kept by path."""
+    key = prim.GetPath()
+    if cache is None or key not in cache:
+        subsets = []
+        for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
+            if subset.GetElementTypeAttr().Get() == UsdGeom.Tokens.face:
+                subsets.append((set(subset.GetIndicesAttr().Get() or []), bound(subset.GetPrim())))
+        facts = (bound(prim), subsets)
+        if cache is None:
+            return _face_material(facts, face)
+        cache[key] = facts
+    return _face_material(cache[key], face)
+
+
+def _face_material(facts, face: int):
+    mesh_material, subsets = facts
     found = None
-    for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
-        indices = subset.GetIndicesAttr().Get() or []
-        if subset.GetElementTypeAttr().Get() == UsdGeom.Tokens.face and face in list(indices):
-            material = bound(subset.GetPrim())
-            if material:
-                found = material
-    return found if found else bound(prim)
+    for indices, material in subsets:
+        if face in indices and material:
+            found = material
+    return found if found else mesh_material
 
 
 def material_key(material: UsdShade.Material | None) -> str:
@@ -79,15 +91,20 @@ def prototype_free(path: str) -> str:
     return "*" + path[path.index("/", 1):] if path.startswith("/__Prototype_") else path
 
 
-def corner_values(primvar: UsdGeom.Primvar, mesh: UsdGeom.Mesh, face: int) -> np.ndarray:
-    """``(n, k)`` the values of ``primvar`` at the corners of ``face`` (float64, flattened through its indices)."""
+def corner_values(primvar: UsdGeom.Primvar, mesh: UsdGeom.Mesh) -> tuple:
+    """``(values (K, k) float64 flattened through the indices, interpolation, first corner of each face, counts,
+    faceVertexIndices)`` of ``primvar`` on ``mesh``: what :func:`face_corners` reads."""
     values = np.asarray(primvar.ComputeFlattened(), np.float64)
-    values = values.reshape(len(values), -1)
     counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get())
-    indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get())
-    start = int(counts[:face].sum())
-    corners = np.arange(start, start + counts[face])
-    interpolation = primvar.GetInterpolation()
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    return (values.reshape(len(values), -1), primvar.GetInterpolation(), starts, counts,
+            np.asarray(mesh.GetFaceVertexIndicesAttr().Get()))
+
+
+def face_corners(facts: tuple, face: int) -> np.ndarray:
+    """``(n, k)`` the values at the corners of ``face`` (``facts``: :func:`corner_values`)."""
+    values, interpolation, starts, counts, indices = facts
+    corners = np.arange(starts[face], starts[face] + counts[face])
     if interpolation == UsdGeom.Tokens.constant:
         return values[np.zeros(len(corners), int)]
     if interpolation == UsdGeom.Tokens.uniform:
@@ -97,12 +114,17 @@ def corner_values(primvar: UsdGeom.Primvar, mesh: UsdGeom.Mesh, face: int) -> np
     return values[indices[corners]]
 
 
-def expected_corners(prim: Usd.Prim, face: int, name: str) -> np.ndarray | None:
-    """The values of primvar ``name`` found with USD's inheritance at the corners of ``face``, or None."""
-    primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
-    if not (primvar and primvar.HasValue()):
-        return None
-    return corner_values(primvar, UsdGeom.Mesh(prim), face)
+def expected_corners(prim: Usd.Prim, face: int, name: str, cache: dict | None = None) -> np.ndarray | None:
+    """The values of primvar ``name`` found with USD's inheritance at the corners of ``face``, or None (``cache``:
+    each mesh's kept by path and name)."""
+    key = (prim.GetPath(), name)
+    if cache is None or key not in cache:
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
+        facts = corner_values(primvar, UsdGeom.Mesh(prim)) if primvar and primvar.HasValue() else None
+        if cache is None:
+            return None if facts is None else face_corners(facts, face)
+        cache[key] = facts
+    return None if cache[key] is None else face_corners(cache[key], face)
 
 
 def within(got: np.ndarray, allowed: np.ndarray, tol: float = 1e-5) -> bool:
@@ -130,11 +152,14 @@ def compare(stage: Usd.Stage, scene) -> list[str]:
     inst_opacities = scene.instances.opacities if len(scene.instances.opacities) else None
     names = [prototype_free(m.path) for m in scene.materials]
     seen = set()
+    cache, prims = {}, {}
     for path, face, geometry, instance in rendered_rows(scene):
-        prim = stage.GetPrimAtPath(path)
+        if path not in prims:
+            prims[path] = stage.GetPrimAtPath(path)
+        prim = prims[path]
         if not prim or not prim.IsA(UsdGeom.Mesh):
             continue
-        expected = drawn_as(face_material(prim, face))
+        expected = drawn_as(face_material(prim, face, cache))
         k = int(tri_materials[geometry]) - 1
         got = names[k] if k >= 0 else ""
         want = material_key(expected)
@@ -153,7 +178,7 @@ def compare(stage: Usd.Stage, scene) -> list[str]:
             corners = colors[geometry].astype(np.float64)
             if np.isnan(corners).any() and inst_colors is not None and instance >= 0:
                 corners = np.broadcast_to(inst_colors[instance], (3, 3)).astype(np.float64)
-            allowed = expected_corners(prim, face, color_name)
+            allowed = expected_corners(prim, face, color_name, cache)
             if allowed is None:
                 ok = np.isnan(corners).all() or (fallback is not None and within(corners, np.array([fallback])))
                 want_text = "none"
@@ -167,7 +192,7 @@ def compare(stage: Usd.Stage, scene) -> list[str]:
             if np.isnan(got_opacity).any() and inst_opacities is not None and instance >= 0:
                 got_opacity = np.full(3, inst_opacities[instance], np.float64)
             got_opacity = np.where(np.isnan(got_opacity), 1.0, got_opacity)
-            allowed = expected_corners(prim, face, "displayOpacity")
+            allowed = expected_corners(prim, face, "displayOpacity", cache)
             allowed = np.ones((1, 1)) if allowed is None else np.clip(allowed, 0.0, 1.0)
             if not within(got_opacity[:, None], allowed) and key not in seen:
                 problems.append(f"{path} face {face}: displayOpacity {got_opacity.round(3).tolist()}, USD "
