@@ -1,9 +1,9 @@
 """USD's ``UsdShade`` and ``UsdGeom.PrimvarsAPI`` as an oracle for the material and colours of every triangle that
 ``wrt.load_usd`` draws.
 
-For each rendered triangle (instances expanded) :func:`compare` finds the prim that draws it and its face
-(:meth:`wrt.Scene.hit_prims`: a native instance's part by its instance-proxy path, a PointInstancer's prototype part
-by its own path) and checks:
+For each rendered triangle and analytic shape (instances expanded) :func:`compare` finds the prim that draws it and
+its face (:meth:`wrt.Scene.hit_prims`: a native instance's part by its instance-proxy path, a PointInstancer's
+prototype part by its own path) and checks:
 
 - its material against ``UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial`` under the rule the README gives
   (``full``, which falls back to all-purpose bindings; where that binds nothing or an MDL look, a ``preview`` binding
@@ -120,11 +120,21 @@ def expected_corners(prim: Usd.Prim, face: int, name: str, cache: dict | None = 
     key = (prim.GetPath(), name)
     if cache is None or key not in cache:
         primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
-        facts = corner_values(primvar, UsdGeom.Mesh(prim)) if primvar and primvar.HasValue() else None
+        facts = None
+        if primvar and primvar.HasValue():
+            facts = corner_values(primvar, UsdGeom.Mesh(prim)) if prim.IsA(UsdGeom.Mesh) else _gprim_values(primvar)
         if cache is None:
             return None if facts is None else face_corners(facts, face)
         cache[key] = facts
     return None if cache[key] is None else face_corners(cache[key], face)
+
+
+def _gprim_values(primvar: UsdGeom.Primvar) -> tuple:
+    """A gprim's one value, as :func:`corner_values` gives a mesh's: the mean of its values (README: gprims take the
+    mean of a primvar that is not constant), for its one face."""
+    values = np.asarray(primvar.ComputeFlattened(), np.float64)
+    mean = values.reshape(len(values), -1).mean(axis=0)[None]
+    return mean, UsdGeom.Tokens.constant, np.array([0, 1]), np.array([1]), np.zeros(1, int)
 
 
 def within(got: np.ndarray, allowed: np.ndarray, tol: float = 1e-5) -> bool:
@@ -133,9 +143,10 @@ def within(got: np.ndarray, allowed: np.ndarray, tol: float = 1e-5) -> bool:
 
 
 def rendered_rows(scene):
-    """Per rendered triangle: ``(prim path, face, geometry id, instance id)``."""
+    """Per rendered triangle, then per rendered analytic shape (a gprim): ``(prim path, face, geometry id, instance
+    id)`` (face 0 for a shape)."""
     _, indices = scene.triangles()
-    rows = np.arange(len(indices), dtype=np.int64)
+    rows = np.arange(len(indices) + scene.stats()["rendered_shapes"], dtype=np.int64)
     geometry, instance = scene.split_ids(rows)
     prim_ids, faces = scene.hit_prims(geometry, instance)
     paths = scene.prim_paths()
@@ -157,7 +168,7 @@ def compare(stage: Usd.Stage, scene) -> list[str]:
         if path not in prims:
             prims[path] = stage.GetPrimAtPath(path)
         prim = prims[path]
-        if not prim or not prim.IsA(UsdGeom.Mesh):
+        if not prim or not prim.IsA(UsdGeom.Gprim):
             continue
         expected = drawn_as(face_material(prim, face, cache))
         k = int(tri_materials[geometry]) - 1

@@ -114,7 +114,9 @@ class _Generator:
         rng = self.rng
         for _ in range(rng.randint(1, 3)):
             roll = rng.random()
-            if roll < 0.45 or depth >= 3:
+            if roll < 0.08:
+                self.gprim(parent)
+            elif roll < 0.45 or depth >= 3:
                 self.mesh(parent)
             elif roll < 0.75:
                 g = UsdGeom.Xform.Define(self.stage, parent.GetPath().AppendChild(self.name("G"))).GetPrim()
@@ -152,6 +154,15 @@ class _Generator:
         self.prims.append(prim)
         self.meshes.append(prim)
         return prim
+
+    def gprim(self, parent: Usd.Prim) -> Usd.Prim:
+        """A unit Cube or Sphere (drawn as an analytic shape: its own binding, one colour)."""
+        kind = self.rng.choice([UsdGeom.Cube, UsdGeom.Sphere])
+        gprim = kind.Define(self.stage, parent.GetPath().AppendChild(self.name(kind.__name__)))
+        gprim.AddTranslateOp().Set(Gf.Vec3d(self.x, 0, 0))
+        self.x += 1.0
+        self.prims.append(gprim.GetPrim())
+        return gprim.GetPrim()
 
     def class_prim(self) -> None:
         """``/_Base``: a class whose binding and colour the prims inheriting it get."""
@@ -323,6 +334,8 @@ class _Generator:
                 if roll < 0.25:
                     if is_mesh:
                         self.mesh_primvar(prim, name)
+                    elif prim.IsA(UsdGeom.Gprim):
+                        self.constant_primvar(prim, name)
                     else:
                         self.constant_primvar(prim, name)
                 elif roll < 0.3:  # blocked here: USD's inheritance looks past it
