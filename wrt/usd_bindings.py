@@ -2,9 +2,9 @@
 
 ``UsdShade.MaterialBindingAPI.ComputeBoundMaterial(purpose)`` walks from a prim up to the root twice: first for
 bindings of ``purpose`` alone (the nearest wins, unless one further up is ``strongerThanDescendants``: then the
-highest such), and only when that walk finds no material, again for all-purpose bindings (``materialBinding.cpp``;
+highest such), and only when that walk finds no binding, again for all-purpose bindings (``materialBinding.cpp``;
 the UsdShade "Material Resolution" rules). So a ``material:binding:full`` on an ancestor wins over an all-purpose
-binding on the prim itself.
+binding on the prim itself (and a binding to a prim that is no Material is a binding: :class:`Found`).
 
 wrt reads a native instance's prototype once, its prims at their prototype paths (``/__Prototype_1/Mesh``), whose
 walk stops at the prototype root; the instance prim and its ancestors are the rest of the instance proxy's walk.
