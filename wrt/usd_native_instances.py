@@ -9,7 +9,7 @@ import math
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
-from .usd_contents import Content, Context, instance_looks
+from .usd_contents import Context, instance_looks
 from .usd_values import read_time
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
@@ -50,7 +50,7 @@ class NativeInstanceReading:
                       if name not in have and name in content.outer_colors)
         colors = tuple(sorted(own + above))
         if colors:
-            key = self._colored(key, content, colors, prim)
+            key = self._copy_with(key, content.colors, colors, MAX_INHERITED_COLORS, "colours", prim, color=colors)
         # A constant primvars:widths on the instance or above it sizes the prototype's points and curves that have
         # no widths primvar, as FindPrimvarWithInheritance on the instance proxies finds it.
         if content.wants_widths:
@@ -59,7 +59,8 @@ class NativeInstanceReading:
                 ctx.content.wants_widths = True  # the width may come from above this instance's container
                 widths = ctx.outer_widths
             if widths is not None:
-                key = self._widened(key, widths, prim)
+                key = self._copy_with(key, self.contents[key].widths, widths, MAX_INHERITED_WIDTHS, "widths", prim,
+                                      widths=widths)
         m = self._to_space(prim, ctx).T  # column vectors
         # A constant displayOpacity on the instance or above it is the opacity of the prototype's geometry that has
         # none: one value per instance (Instances.opacities), no copy of the prototype.
@@ -110,21 +111,23 @@ class NativeInstanceReading:
         else:
             self._skip(f"{what} inside PointInstancer prototypes are not supported; skipped", prim)
 
-    def _colored(self, key: tuple, content: Content, color: tuple, prim: Usd.Prim) -> tuple:
-        """The key of ``content`` (a native prototype read under ``key``) read again with inherited colours ``color``
-        (``((primvar, (r, g, b)), ...)``); each set of colours is a copy of the prototype's geometry, so past
-        :data:`MAX_INHERITED_COLORS` colours per prototype the instance keeps the prototype's own (with a warning)."""
-        if color not in content.colors:
-            if len(content.colors) >= MAX_INHERITED_COLORS:
-                self._skip(f"instances inheriting more than {MAX_INHERITED_COLORS} colours per prototype keep "
-                           "its own colours (each colour is a copy of the prototype)", prim)
+    def _copy_with(self, key: tuple, copies: dict, value, limit: int, what: str, prim: Usd.Prim, **inherited) -> tuple:
+        """The key of the native prototype read under ``key`` read again with an inherited value (``color``:
+        ``((primvar, (r, g, b)), ...)``, or ``widths``: a float) in place of the key's, remembered in ``copies``
+        (that content's ``colors`` or ``widths``) by ``value``. Each is a copy of the prototype's geometry, so past
+        ``limit`` of them per prototype the instance keeps the prototype's own ``what`` (with a warning)."""
+        if value not in copies:
+            if len(copies) >= limit:
+                self._skip(f"instances inheriting more than {limit} {what} per prototype keep its own {what} (each is "
+                           "a copy of the prototype)", prim)
                 return key
-            _, path, outer, purpose, _, proxy, _ = key
-            colored = ("native", path, outer, purpose, color, proxy, None)
-            self._content(colored, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color,
-                          proxy=proxy)
-            content.colors[color] = colored
-        return content.colors[color]
+            _, path, outer, purpose, color, proxy, widths = key
+            color, widths = inherited.get("color", color), inherited.get("widths", widths)
+            copy = ("native", path, outer, purpose, color, proxy, widths)
+            self._content(copy, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color,
+                          outer_widths=widths, proxy=proxy)
+            copies[value] = copy
+        return copies[value]
 
     def _inherited_widths(self, prim: Usd.Prim) -> float | None:
         """The constant ``primvars:widths`` native instance ``prim`` hands down (its own or its nearest ancestor's, up
@@ -139,19 +142,3 @@ class NativeInstanceReading:
             return None
         return float(values[0]) if not math.isnan(values[0]) else _NAN_WIDTH
 
-    def _widened(self, key: tuple, widths: float, prim: Usd.Prim) -> tuple:
-        """The key of the content read under ``key`` (a native prototype, coloured or not) read again with its points'
-        and curves' inherited ``widths``; each width is a copy of the prototype's geometry, so past
-        :data:`MAX_INHERITED_WIDTHS` widths per prototype the instance keeps the prototype's own (with a warning)."""
-        content = self.contents[key]
-        if widths not in content.widths:
-            if len(content.widths) >= MAX_INHERITED_WIDTHS:
-                self._skip(f"instances inheriting more than {MAX_INHERITED_WIDTHS} widths per prototype keep its "
-                           "own widths (each width is a copy of the prototype)", prim)
-                return key
-            _, path, outer, purpose, color, proxy, _ = key
-            widened = ("native", path, outer, purpose, color, proxy, widths)
-            self._content(widened, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color,
-                          outer_widths=widths, proxy=proxy)
-            content.widths[widths] = widened
-        return content.widths[widths]
