@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
+from .usd_ancestors import KEEP_LOOKING, AncestorMemo
 from .usd_values import read_time
 
 _ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
@@ -51,7 +52,9 @@ class SkelPoser:
         self.shown_path = shown_path
         self.cache = UsdSkel.Cache()
         self.roots = set()  # SkelRoot paths populated in the cache
-        self.skel_roots = {}  # prim path -> the SkelRoot at or above it, or None
+        # The SkelRoot at or above a prim (within its prototype, for prims inside one), or None; remembered for every
+        # prim walked, as every mesh asks.
+        self._skel_root = AncestorMemo(lambda p: p if p.IsA(UsdSkel.Root) else KEEP_LOOKING)
         self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or why not, anim time, anim query)
 
     def pose(self, prim: Usd.Prim, points: np.ndarray, normals, vertex_ids: np.ndarray, content_root: str):
@@ -115,25 +118,6 @@ class SkelPoser:
         if str(root.GetPath()) not in self.roots:
             self.cache.Populate(UsdSkel.Root(root), Usd.PrimDefaultPredicate)
             self.roots.add(str(root.GetPath()))
-
-    def _skel_root(self, prim: Usd.Prim) -> Usd.Prim | None:
-        """The ``SkelRoot`` at or above ``prim`` (within its prototype, for prims inside one), or None; remembered
-        for every prim walked, as every mesh asks."""
-        walked = []  # prims above prim whose answer is not known yet
-        p, root = prim, None
-        while p and not p.IsPseudoRoot():
-            path = p.GetPath()
-            if path in self.skel_roots:
-                root = self.skel_roots[path]
-                break
-            if p.IsA(UsdSkel.Root):
-                root = p
-                break
-            walked.append(path)
-            p = p.GetParent()
-        for path in walked:
-            self.skel_roots[path] = root
-        return root
 
     def _pose(self, prim, root, skeleton, points, normals, vertex_ids):
         self._populate(root)
