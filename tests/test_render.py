@@ -434,6 +434,28 @@ def test_progressive_render_interrupted_midway_resumes_from_the_samples_it_finis
     np.testing.assert_array_equal(image.rgb, reference)
 
 
+def test_resume_that_cannot_add_to_the_previous_samples_says_it_starts_over():
+    """``resume=True`` after a render of another seed, or after the scene was edited (its rebuild drops the sums),
+    started over from no samples without a word: a caller adding samples took the image for their sum. It warns;
+    a first render, or a resume that adds, warns nothing."""
+    import dataclasses
+    import warnings
+
+    room = wrt.load_usd(default_scene_path())  # edited below: not the module's shared scene
+    renderer = wrt.Renderer(room, width=8, height=6, integrator="path")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        renderer.render(spp=1, seed=1, resume=True)  # nothing before it: nothing to say
+        renderer.render(spp=1, seed=1, resume=True)  # adds
+    with pytest.warns(UserWarning, match=r"resume=True starts over from no samples: seed 2 is not the previous"):
+        fresh = renderer.render(spp=1, seed=2, resume=True)
+    np.testing.assert_array_equal(fresh.rgb, wrt.Renderer(room, width=8, height=6, integrator="path").render(
+        spp=1, seed=2).rgb)
+    room.meshes[0] = dataclasses.replace(room.meshes[0])
+    with pytest.warns(UserWarning, match=r"starts over from no samples: the scene changed since the previous render"):
+        renderer.render(spp=1, seed=2, resume=True)
+
+
 def test_a_kept_renderer_follows_a_replaced_mesh_an_in_place_edit_and_a_new_light():
     """A kept Renderer drew the geometry and lights it was built with after the scene changed, though the README
     says a replaced mesh is noticed at the next render. It builds again when the scene changed, and only then."""

@@ -417,7 +417,9 @@ class Renderer:
         self.scene.freeze(self._scene_lights)  # a light's array edited in place went unseen, as a mesh's did
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
-        self._progressive = None  # running sums of the last render, for render(resume=True)
+        # Running sums of the last render, for render(resume=True); a rebuild for an edited scene drops them.
+        self._sums_dropped = getattr(self, "_progressive", None) is not None
+        self._progressive = None
 
     def _scene_ao_radius(self) -> float:
         """A tenth of the scene's bounding-box diagonal (1 for an empty scene): the default ``ao_radius``."""
@@ -590,6 +592,11 @@ class Renderer:
         quick_look = self.integrator in ("normals", "depth", "albedo")
         state = self._progressive
         resuming = resume and state is not None and state["seed"] == seed and not quick_look
+        if resume and not resuming and not quick_look and (state is not None or self._sums_dropped):
+            # The image is of these samples alone: said, where a caller adding samples would take it for the sum.
+            why = (f"seed {seed} is not the previous render's ({state['seed']})" if state is not None
+                   else "the scene changed since the previous render")
+            warnings.warn(f"resume=True starts over from no samples: {why}", stacklevel=2)
         if quick_look:
             spp = 1
         if (state["samples"] if resuming else 0) + spp > MAX_SPP:
