@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 from pxr import Usd, UsdGeom
+from usd_placements import drawn_placements
 
 AXES = {"X": 0, "Y": 1, "Z": 2}
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
@@ -174,42 +175,13 @@ class Solid:
 
 
 def placements(stage: Usd.Stage, time=Usd.TimeCode.Default()):
-    """``[(prim path as wrt names it, gprim prim, (4, 4) row-vector own-to-world)]``: every drawn gprim, in native
-    instances at its instance-proxy path, in a PointInstancer once per instance (at the prototype prim's path)."""
-    out = []
-    cache = UsdGeom.XformCache(time)
-    for prim in stage.Traverse(Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimIsDefined & ~Usd.PrimIsAbstract)):
-        if prim.IsA(UsdGeom.PointInstancer):
-            instancer = UsdGeom.PointInstancer(prim)
-            targets = instancer.GetPrototypesRel().GetTargets()
-            indices = instancer.GetProtoIndicesAttr().Get(time)
-            xforms = instancer.ComputeInstanceTransformsAtTime(time, time)
-            to_world = np.array(cache.GetLocalToWorldTransform(prim))
-            for index, m in zip(indices, xforms):
-                proto = stage.GetPrimAtPath(targets[index])
-                for g in Usd.PrimRange(proto):
-                    if g.IsA(UsdGeom.Gprim):
-                        below = np.array(cache.ComputeRelativeTransform(g, proto)[0]) if g != proto else np.eye(4)
-                        out.append((str(g.GetPath()), g, below @ np.array(m) @ to_world))
-            continue
-        if not prim.IsA(UsdGeom.Gprim) or prim.GetTypeName() not in ORACLE_TYPES:
-            continue
-        if any(p.IsA(UsdGeom.PointInstancer) for p in _ancestors(prim)):
-            continue
-        if UsdGeom.Imageable(prim).ComputeVisibility(time) == UsdGeom.Tokens.invisible:
-            continue
-        out.append((str(prim.GetPath()), prim, np.array(cache.GetLocalToWorldTransform(prim))))
-    return out
+    """``[(prim path as wrt names it, gprim prim, (4, 4) row-vector own-to-world)]``: every drawn gprim of
+    :data:`ORACLE_TYPES` (:func:`usd_placements.drawn_placements`)."""
+    keep = lambda prim: prim.IsA(UsdGeom.Gprim) and prim.GetTypeName() in ORACLE_TYPES  # noqa: E731
+    return [(name, prim, m) for name, prim, m, _ in drawn_placements(stage, keep, time)]
 
 
 ORACLE_TYPES = ("Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Cylinder_1", "Capsule_1", "Plane")
-
-
-def _ancestors(prim):
-    prim = prim.GetParent()
-    while prim and not prim.IsPseudoRoot():
-        yield prim
-        prim = prim.GetParent()
 
 
 def trace(stage: Usd.Stage, origins, directions, t_min=0.0, time=Usd.TimeCode.Default()):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 from pxr import Usd, UsdGeom
+from usd_placements import drawn_placements
 
 
 def oracle_widths(prim: Usd.Prim, n: int, time=Usd.TimeCode.Default()) -> np.ndarray:
@@ -32,34 +33,9 @@ def oracle_widths(prim: Usd.Prim, n: int, time=Usd.TimeCode.Default()) -> np.nda
 
 def placements(stage: Usd.Stage, time=Usd.TimeCode.Default()):
     """``[(prim path as wrt names it, Points prim, (4, 4) row-vector own-to-world, instance name)]`` of every drawn
-    Points prim: in native instances at its instance-proxy path, in a PointInstancer once per instance (named
-    ``/Instancer[j]``; else None: each point is named ``/Points[i]``)."""
-    out = []
-    cache = UsdGeom.XformCache(time)
-    predicate = Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimIsDefined & ~Usd.PrimIsAbstract)
-    for prim in stage.Traverse(predicate):
-        if prim.IsA(UsdGeom.PointInstancer):
-            instancer = UsdGeom.PointInstancer(prim)
-            targets = instancer.GetPrototypesRel().GetTargets()
-            indices = instancer.GetProtoIndicesAttr().Get(time)
-            xforms = instancer.ComputeInstanceTransformsAtTime(time, time)
-            to_world = np.array(cache.GetLocalToWorldTransform(prim))
-            for j, (index, m) in enumerate(zip(indices, xforms)):
-                proto = stage.GetPrimAtPath(targets[index])
-                for g in Usd.PrimRange(proto):
-                    if g.IsA(UsdGeom.Points):
-                        # ComputeInstanceTransformsAtTime holds the prototype root's own transform already.
-                        below = np.array(cache.ComputeRelativeTransform(g, proto)[0]) if g != proto else np.eye(4)
-                        out.append((str(g.GetPath()), g, below @ np.array(m) @ to_world, f"{prim.GetPath()}[{j}]"))
-            continue
-        if not prim.IsA(UsdGeom.Points):
-            continue
-        if any(p.IsA(UsdGeom.PointInstancer) for p in _ancestors(prim)):
-            continue
-        if UsdGeom.Imageable(prim).ComputeVisibility(time) == UsdGeom.Tokens.invisible:
-            continue
-        out.append((str(prim.GetPath()), prim, np.array(cache.GetLocalToWorldTransform(prim)), None))
-    return out
+    Points prim (:func:`usd_placements.drawn_placements`; instance name ``/Instancer[j]``, else None: each point is
+    named ``/Points[i]``)."""
+    return drawn_placements(stage, lambda prim: prim.IsA(UsdGeom.Points), time)
 
 
 def spheres(stage: Usd.Stage, time=Usd.TimeCode.Default()):
@@ -118,10 +94,3 @@ def trace(centres, radii, origins, directions, t_min=0.0):
     p = origins[hit] + best[hit, None] * directions[hit]
     normal[hit] = (p - centres[sphere[hit]]) / radii[sphere[hit], None]
     return {"t": best, "sphere": sphere, "normal": normal, "clearance": clearance}
-
-
-def _ancestors(prim):
-    prim = prim.GetParent()
-    while prim and not prim.IsPseudoRoot():
-        yield prim
-        prim = prim.GetParent()
