@@ -36,7 +36,7 @@ def write_stage(directory: str, seed: int) -> str:
     rng = random.Random(seed)
     ext_path = os.path.join(directory, f"looks_{seed}.usda")
     ext = Usd.Stage.CreateNew(ext_path)
-    _preview_material(ext, "/Looks/Ext", (0.9, 0.9, 0.1))
+    preview_material(ext, "/Looks/Ext", (0.9, 0.9, 0.1))
     ext.GetRootLayer().Save()
 
     path = os.path.join(directory, f"bind_{seed}.usda")
@@ -44,8 +44,8 @@ def write_stage(directory: str, seed: int) -> str:
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     stage.DefinePrim("/Looks", "Scope")
     for k, name in enumerate(PREVIEW):
-        _preview_material(stage, f"/Looks/{name}", (0.2 * k + 0.1, 0.5, 0.9 - 0.2 * k))
-    _tint_material(stage, f"/Looks/{TINT}")
+        preview_material(stage, f"/Looks/{name}", (0.2 * k + 0.1, 0.5, 0.9 - 0.2 * k))
+    tint_material(stage, f"/Looks/{TINT}", TINT_FALLBACK)
     _mdl_material(stage, f"/Looks/{MDL}")
     UsdGeom.Xform.Define(stage, NOT_MATERIAL)
     stage.DefinePrim("/ExtLooks").GetReferences().AddReference(os.path.basename(ext_path), "/Looks")
@@ -64,7 +64,7 @@ def write_stage(directory: str, seed: int) -> str:
     return path
 
 
-def _preview_material(stage, path: str, color) -> UsdShade.Material:
+def preview_material(stage, path: str, color) -> UsdShade.Material:
     material = UsdShade.Material.Define(stage, path)
     shader = UsdShade.Shader.Define(stage, path + "/Surface")
     shader.CreateIdAttr("UsdPreviewSurface")
@@ -73,17 +73,21 @@ def _preview_material(stage, path: str, color) -> UsdShade.Material:
     return material
 
 
-def _tint_material(stage, path: str) -> None:
+def tint_material(stage, path: str, fallback=None) -> UsdShade.Material:
+    """A UsdPreviewSurface whose diffuseColor reads primvar ``tint`` (``fallback`` where a mesh has none; none
+    authored: 0)."""
     material = UsdShade.Material.Define(stage, path)
     shader = UsdShade.Shader.Define(stage, path + "/Surface")
     shader.CreateIdAttr("UsdPreviewSurface")
     reader = UsdShade.Shader.Define(stage, path + "/Reader")
     reader.CreateIdAttr("UsdPrimvarReader_float3")
     reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("tint")
-    reader.CreateInput("fallback", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(*TINT_FALLBACK))
+    if fallback is not None:
+        reader.CreateInput("fallback", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(*fallback))
     reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
     shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(reader.ConnectableAPI(), "result")
     material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material
 
 
 def _mdl_material(stage, path: str) -> None:

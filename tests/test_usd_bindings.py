@@ -19,7 +19,7 @@ wp.config.quiet = True
 pxr = pytest.importorskip("pxr")
 import warp.examples  # noqa: E402
 from binding_oracle import compare, face_material, material_key, rendered_rows  # noqa: E402
-from binding_stages import write_stage  # noqa: E402
+from binding_stages import preview_material, tint_material, write_stage  # noqa: E402
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade  # noqa: E402
 
 import wrt  # noqa: E402
@@ -50,13 +50,9 @@ def test_warp_example_asset_matches_usd(path):
     assert compare(Usd.Stage.Open(path), load(path)) == []
 
 
-def _material(stage, path, color):
-    material = UsdShade.Material.Define(stage, path)
-    shader = UsdShade.Shader.Define(stage, path + "/Surface")
-    shader.CreateIdAttr("UsdPreviewSurface")
-    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*color))
-    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
-    return material
+def _inner_and_outer(stage):
+    """Materials /Looks/Inner (red) and /Looks/Outer (green): bound inside a prototype and above its instances."""
+    return preview_material(stage, "/Looks/Inner", (1, 0, 0)), preview_material(stage, "/Looks/Outer", (0, 1, 0))
 
 
 def _quads(stage, path, n=2):
@@ -92,7 +88,7 @@ def test_purpose_binding_on_an_instance_beats_other_purposes_inside_its_prototyp
     inner preview binding, its fallback, over the instance's full one)."""
     path = str(tmp_path / "instance.usda")
     stage = Usd.Stage.CreateNew(path)
-    inner, outer = _material(stage, "/Looks/Inner", (1, 0, 0)), _material(stage, "/Looks/Outer", (0, 1, 0))
+    inner, outer = _inner_and_outer(stage)
     stage.DefinePrim("/Protos/P", "Xform")
     mesh = _quads(stage, "/Protos/P/Mesh")
     if inside == "subset":
@@ -127,7 +123,7 @@ def test_stronger_binding_above_an_instance_beats_its_prototype_and_weaker_one_d
     purpose only where nothing inside binds (as ``ComputeBoundMaterial`` on the proxies)."""
     path = str(tmp_path / "strength.usda")
     stage = Usd.Stage.CreateNew(path)
-    inner, outer = _material(stage, "/Looks/Inner", (1, 0, 0)), _material(stage, "/Looks/Outer", (0, 1, 0))
+    inner, outer = _inner_and_outer(stage)
     stage.DefinePrim("/Protos/P", "Xform")
     _bind(_quads(stage, "/Protos/P/Bound"), inner)
     _quads(stage, "/Protos/P/Unbound")
@@ -155,7 +151,7 @@ def test_binding_to_no_material_inside_a_prototype_hides_the_instances_binding(t
     the instance's material there."""
     path = str(tmp_path / "no_material.usda")
     stage = Usd.Stage.CreateNew(path)
-    outer = _material(stage, "/Looks/Outer", (0, 1, 0))
+    outer = preview_material(stage, "/Looks/Outer", (0, 1, 0))
     stage.DefinePrim("/Protos/P", "Xform")
     mesh = _quads(stage, "/Protos/P/Mesh")
     UsdShade.MaterialBindingAPI.Apply(mesh).GetDirectBindingRel().SetTargets([Sdf.Path(target)])
@@ -169,20 +165,6 @@ def test_binding_to_no_material_inside_a_prototype_hides_the_instances_binding(t
     assert drawn == _usd_materials(Usd.Stage.Open(path), drawn) == {("/World/I/Mesh", 0): "", ("/World/I/Mesh", 1): ""}
 
 
-def _tint_material(stage, path):
-    """A UsdPreviewSurface whose diffuseColor reads primvar ``tint`` (fallback 0)."""
-    material = UsdShade.Material.Define(stage, path)
-    shader = UsdShade.Shader.Define(stage, path + "/Surface")
-    shader.CreateIdAttr("UsdPreviewSurface")
-    reader = UsdShade.Shader.Define(stage, path + "/Reader")
-    reader.CreateIdAttr("UsdPrimvarReader_float3")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("tint")
-    reader.CreateOutput("result", Sdf.ValueTypeNames.Float3)
-    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(reader.ConnectableAPI(), "result")
-    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
-    return material
-
-
 def _constant_color(prim, name, rgb):
     primvar = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(name, Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.constant)
     primvar.Set([Gf.Vec3f(*rgb)])
@@ -194,7 +176,7 @@ def test_an_instance_hands_down_every_colour_primvar_its_prototype_lacks(tmp_pat
     handed down only the first name its prototype wanted, and the other mesh drew none."""
     path = str(tmp_path / "two_colors.usda")
     stage = Usd.Stage.CreateNew(path)
-    tint = _tint_material(stage, "/Looks/Tint")
+    tint = tint_material(stage, "/Looks/Tint")
     stage.DefinePrim("/Protos/P", "Xform")
     _bind(_quads(stage, "/Protos/P/Tinted", 1), tint)
     _quads(stage, "/Protos/P/Plain", 1)
@@ -248,7 +230,7 @@ def test_a_collection_binding_that_names_instance_proxies_binds_them(tmp_path, m
     prototype's own binding. wrt asked about the instance prim and bound all of its prims, or none."""
     path = str(tmp_path / "collection.usda")
     stage = Usd.Stage.CreateNew(path)
-    inner, outer = _material(stage, "/Looks/Inner", (1, 0, 0)), _material(stage, "/Looks/Outer", (0, 1, 0))
+    inner, outer = _inner_and_outer(stage)
     stage.DefinePrim("/Protos/P", "Xform")
     _bind(_quads(stage, "/Protos/P/A"), inner)
     _quads(stage, "/Protos/P/B")
@@ -284,7 +266,7 @@ def test_material_binding_purposes_walk_through_an_instance(tmp_path):
 
     path = str(tmp_path / "purposes.usda")
     stage = Usd.Stage.CreateNew(path)
-    inner, outer = _material(stage, "/Looks/Inner", (1, 0, 0)), _material(stage, "/Looks/Outer", (0, 1, 0))
+    inner, outer = _inner_and_outer(stage)
     stage.DefinePrim("/Protos/P", "Xform")
     _bind(_quads(stage, "/Protos/P/Mesh", 1), inner)
     stage.GetPrimAtPath("/Protos").SetSpecifier(Sdf.SpecifierOver)
