@@ -589,7 +589,7 @@ def _run_render(args) -> int:
         return 0
     log = Path(args.log) if args.log else outputs[0].parent / "render-log.jsonl"
     _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []), paths)
-    from .render_log import append_row, mtime_ns, new_run
+    from .render_log import append_row, mtime_ns, new_run, skipped_fields
 
     jobs = [(path, output, path.name) for path, output in zip(paths, outputs)]
     options = _log_options(args)
@@ -611,9 +611,7 @@ def _run_render(args) -> int:
         if output in done:  # the image and its AOV files as that run left them
             before = done[output]
             progress(f"--resume: skipped {path.name}: {output} is finished (run {before['run']}, same options)")
-            write_row(dict(row, status="skipped", resumed_from=before.get("resumed_from", before["run"]),
-                           device=before["device"], output_mtime_ns=before["output_mtime_ns"],
-                           aov_files=before.get("aov_files", [])), start)
+            write_row({**row, **skipped_fields(before), "aov_files": before.get("aov_files", [])}, start)
             continue
         try:
             image, *aovs = _render_one(args, path, output, progress)
@@ -695,7 +693,7 @@ def _run_frames(args, paths: list, progress) -> int:
     for folder in {check_image_path(file).parent for _, file in jobs}:
         _check_output_location(folder)
     _warn_unused_exposure(args.exposure, [output])
-    from .render_log import append_row, mtime_ns, new_run
+    from .render_log import append_row, mtime_ns, new_run, skipped_fields
     from .strict_json import strict_json
 
     run, options = new_run(), {k: v for k, v in _log_options(args).items() if k not in ("time", "aov", "aov_dir")}
@@ -711,10 +709,8 @@ def _run_frames(args, paths: list, progress) -> int:
             for frame, file in jobs:
                 if file in finished:  # a row for it in this run too: each run's rows list every frame
                     before = finished[file]
-                    append_row(log, strict_json({**fields, "frame": frame, "status": "skipped", "output": str(file),
-                                                 "resumed_from": before.get("resumed_from", before["run"]),
-                                                 "device": before["device"],
-                                                 "output_mtime_ns": before["output_mtime_ns"]}))
+                    append_row(log, strict_json({**fields, "frame": frame, "output": str(file),
+                                                 **skipped_fields(before)}))
             jobs = [(frame, file) for frame, file in jobs if file not in finished]
             if finished:
                 progress(f"--resume: skipped {counted_of(len(finished), len(frames), 'frame')}: finished before, with "

@@ -83,6 +83,13 @@ def append_row(log: Path, line: str) -> None:
         f.write(line.encode() + b"\n")
 
 
+def skipped_fields(before: dict) -> dict:
+    """The fields of this run's row for an image ``--resume`` skips, carried from ``before``, the row that said it
+    was finished: ``status`` skipped, the run that rendered it (``resumed_from``), its device and image time."""
+    return {"status": "skipped", "resumed_from": before.get("resumed_from", before["run"]), "device": before["device"],
+            "output_mtime_ns": before["output_mtime_ns"]}
+
+
 def _row_path(row: dict, path) -> Path:
     """``path`` of ``row`` (its scene, image or an AOV file) as an absolute path: a relative one is taken from the
     folder its run started in, so ``--resume`` from another folder finds the same files (rows of runs before the
@@ -143,4 +150,5 @@ def _shown(value) -> str:
     return str(value)
 
 
-__all__ = ["OPTION_FIELDS", "ResumeIndex", "append_row", "device_kind", "mtime_ns", "new_run", "read_rows"]
+__all__ = ["OPTION_FIELDS", "ResumeIndex", "append_row", "device_kind", "mtime_ns", "new_run", "read_rows",
+           "skipped_fields"]
