@@ -153,8 +153,7 @@ class _Level:
         face_points = self._face_average(data[fi])
         face_point_at = face_points[self.face]  # per face-vertex: its face's point
 
-        a, b = data[self.edge_ends[:, 0]], data[self.edge_ends[:, 1]]
-        midpoint = 0.5 * (a + b)
+        midpoint = self._midpoints(data)
         face_sum = _sum_by(self.fv_edge, face_point_at, len(self.edge_ends))
         smooth_edge = 0.5 * midpoint + face_sum / (2.0 * np.maximum(self.edge_faces, 1)[:, None])
         if self.triangle_smooth:
@@ -167,18 +166,33 @@ class _Level:
             face_weight = (0.5 * weights)[:, None]
             by_triangles = (1.0 - 2.0 * face_weight) * midpoint + face_weight * face_sum
             smooth_edge = np.where(((self.edge_faces == 2) & (triangles > 0))[:, None], by_triangles, smooth_edge)
-        s = np.clip(self.edge_sharpness, 0.0, 1.0)[:, None]
-        edge_points = (1.0 - s) * smooth_edge + s * midpoint
 
         # Smooth vertex rule: (Q + 2R + (n - 3) S) / n.
         n_points = self.n_points
         valence = np.maximum(self.valence, 1)[:, None]
         q = _sum_by(fi, face_point_at, n_points) / np.maximum(self.point_faces, 1)[:, None]
-        ends = self.edge_ends.reshape(-1)
-        r = _sum_by(ends, np.repeat(midpoint, 2, axis=0), n_points) / valence
+        r = _sum_by(self.edge_ends.reshape(-1), np.repeat(midpoint, 2, axis=0), n_points) / valence
         smooth = (q + 2.0 * r + (valence - 3.0) * data) / valence
-        # Crease rule: (6 S + a + b) / 8 over the other ends of the sharp edges (those of this step for the parent
-        # rule, those still sharp after it for the child rule); corner rule: S.
+        return np.concatenate([self.vertex_points(data, smooth), self.edge_points(midpoint, smooth_edge), face_points])
+
+    def _midpoints(self, data: np.ndarray) -> np.ndarray:
+        """``(E, k)``: the middle of every edge."""
+        return 0.5 * (data[self.edge_ends[:, 0]] + data[self.edge_ends[:, 1]])
+
+    def edge_points(self, midpoint: np.ndarray, smooth_edge: np.ndarray) -> np.ndarray:
+        """Edge points from the scheme's smooth edge points: the midpoint on a sharp edge, the two blended by the
+        sharpness of a semi-sharp edge below 1 (the same in every scheme, OpenSubdiv's ``Scheme``)."""
+        s = np.clip(self.edge_sharpness, 0.0, 1.0)[:, None]
+        return (1.0 - s) * smooth_edge + s * midpoint
+
+    def vertex_points(self, data: np.ndarray, smooth: np.ndarray) -> np.ndarray:
+        """Vertex points of this level's rules from the scheme's smooth vertex points ``smooth`` ``(V, k)``: the crease
+        rule ``(6 S + a + b) / 8`` and the corner rule ``S`` are those of Catmull-Clark and Loop alike (OpenSubdiv's
+        ``Scheme``), and so is the blend of the rules before and after a step where semi-sharp features run out."""
+        n_points = self.n_points
+        ends = self.edge_ends.reshape(-1)
+        # Crease rule over the other ends of the sharp edges (those of this step for the parent rule, those still
+        # sharp after it for the child rule).
         others = self.edge_ends[:, ::-1].reshape(-1)
 
         def crease(edge_is_sharp):
@@ -195,13 +209,12 @@ class _Level:
         vertex_points = np.where((self.parent_rule == SMOOTH)[:, None], smooth, w * parent + (1.0 - w) * child)
         lonely = self.point_faces == 0  # points no face uses stay where they are
         vertex_points[lonely] = data[lonely]
-        return np.concatenate([vertex_points, edge_points, face_points])
+        return vertex_points
 
     def linear(self, data: np.ndarray) -> np.ndarray:
         """Per-point ``data`` of the refined mesh interpolated linearly (``varying`` primvars): points keep their
         value, edge points take the midpoint, face points the face's average."""
-        midpoint = 0.5 * (data[self.edge_ends[:, 0]] + data[self.edge_ends[:, 1]])
-        return np.concatenate([data, midpoint, self._face_average(data[self.face_indices])])
+        return np.concatenate([data, self._midpoints(data), self._face_average(data[self.face_indices])])
 
     def _face_average(self, fv_data: np.ndarray) -> np.ndarray:
         return _sum_by(self.face, fv_data, len(self.counts)) / self.counts[:, None]
@@ -257,6 +270,8 @@ class Refinement:
         ValueError: creases or corners that do not fit the mesh (the message says which).
     """
 
+    _level_type = _Level  # one step of the scheme
+
     def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, boundary="edgeAndCorner",
                  triangle_smooth=False):
         counts = np.asarray(counts, np.int64)
@@ -291,8 +306,8 @@ class Refinement:
 
         self.levels = []
         for _ in range(levels):
-            level = _Level(counts, face_indices, n_points, edge_sharpness, corner_sharpness, corner_boundary,
-                           triangle_smooth)
+            level = self._level_type(counts, face_indices, n_points, edge_sharpness, corner_sharpness,
+                                     corner_boundary, triangle_smooth)
             self.levels.append(level)
             edge_sharpness, corner_sharpness = level.child_sharpness()
             counts, face_indices, parent = level.topology()
