@@ -162,7 +162,7 @@ def _memory_size(text: str) -> int:
 
 
 def _refine_level(text: str) -> int:
-    """An argparse type: a Catmull-Clark refine level, 0 to ``MAX_REFINE_LEVEL``."""
+    """An argparse type: a subdivision refine level, 0 to ``MAX_REFINE_LEVEL``."""
     from .subdivision import MAX_REFINE_LEVEL
 
     try:
@@ -174,8 +174,9 @@ def _refine_level(text: str) -> int:
     return value
 
 
-REFINE_HELP = ("Catmull-Clark steps for meshes whose subdivisionScheme is catmullClark (USD's fallback), as Hydra's "
-               "refine level; each step makes 4x the faces. 0 draws the control cage, smooth-shaded")
+REFINE_HELP = ("subdivision steps for meshes by their subdivisionScheme (catmullClark, USD's fallback; loop, for "
+               "triangle meshes), as Hydra's refine level; each step makes 4x the faces. 0 draws the control cage, "
+               "smooth-shaded")
 
 
 CAMERA_HELP = ("camera prim path; default: the stage's RenderSettings camera, else its first camera, else one framing "

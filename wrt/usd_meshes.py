@@ -1,14 +1,15 @@
 """A ``UsdGeom.Mesh`` read in its own space: topology checks, triangulation (:func:`triangulate`: fans, concave faces
 ear-clipped by :mod:`wrt.polygons`), holes,
-Catmull-Clark refinement (:mod:`wrt.subdivision`), posing by a skeleton (:mod:`wrt.usd_skel`) and smooth normals of
-subdivision surfaces; ``TetMesh`` and ``NurbsPatch`` prims read the same way once :mod:`wrt.usd_surfaces` made them
-triangles."""
+Catmull-Clark (:mod:`wrt.subdivision`) and Loop (:mod:`wrt.loop_subdivision`) refinement, posing by a
+skeleton (:mod:`wrt.usd_skel`) and smooth normals of subdivision surfaces; ``TetMesh`` and ``NurbsPatch`` prims read
+the same way once :mod:`wrt.usd_surfaces` made them triangles."""
 
 from __future__ import annotations
 
 import numpy as np
 from pxr import Usd, UsdGeom
 
+from .loop_subdivision import LoopRefinement, refined_triangles
 from .polygons import clip_concave_faces
 from .resources import check_host_memory
 from .scene import Mesh
@@ -172,7 +173,7 @@ class MeshReading:
         scheme = self._subdivision_scheme(prim, mesh)
         refinement = self._refinement(prim, scheme, counts, face_indices, len(points))
         polygons = (counts, face_indices) if refinement is None else (refinement.counts, refinement.face_indices)
-        # Concave faces are clipped in the authored points; refined quads are fanned (Catmull-Clark moves them).
+        # Concave faces are clipped in the authored points; refined faces are fanned (quads; Loop's are triangles).
         plane_points = points if refinement is None else None
         # Faces listed in holeIndices are not drawn; their indices and uniform primvar entries still count.
         holes = self._int_array(prim, mesh.GetHoleIndicesAttr())
@@ -247,17 +248,22 @@ class MeshReading:
         return np.concatenate([np.where(bad_values[:, None], 0.0, values), face[rows]]), corner_index
 
     def _refinement(self, prim, scheme, counts, face_indices, n_points) -> Refinement | None:
-        """The Catmull-Clark refinement of a ``catmullClark`` mesh at ``self.refine_level``, or None."""
-        if not self.refine_level or scheme not in SMOOTH_SCHEMES:
+        """The refinement of a ``catmullClark`` or ``loop`` mesh at ``self.refine_level``, or None."""
+        if not self.refine_level or scheme not in REFINED_SCHEMES:
             return None
-        if scheme != "catmullClark":
-            self._skip("loop subdivision is not implemented; these meshes are drawn as their control cage", prim)
+        if scheme == "loop" and (counts > 3).any():
+            # OpenSubdiv refuses such a mesh ("non-triangular faces not supported by Loop scheme").
+            self._skip("loop meshes with faces of more than three corners are not refined (Loop subdivision takes "
+                       "triangles only, as OpenSubdiv); drawn as their control cage", prim)
             return None
         # Refused before refining: past the memory, numpy failed deep inside the refinement without naming the mesh
         # (or the system killed the load).
-        quads = refined_quads(counts, self.refine_level)
-        check_host_memory(quads * REFINED_QUAD_BYTES, f"{self.source}: {self._shown_path(prim)}: refine_level "
-                          f"{self.refine_level} ({quads:,} quads)")
+        if scheme == "loop":
+            faces, kind = refined_triangles(counts, self.refine_level), "triangles"
+        else:
+            faces, kind = refined_quads(counts, self.refine_level), "quads"
+        check_host_memory(faces * REFINED_QUAD_BYTES, f"{self.source}: {self._shown_path(prim)}: refine_level "
+                          f"{self.refine_level} ({faces:,} {kind})")
         mesh, t = UsdGeom.Mesh(prim), self.time
         creases = corners = None
         crease_indices = self._int_array(prim, mesh.GetCreaseIndicesAttr())
@@ -274,14 +280,17 @@ class MeshReading:
             self._skip("interpolateBoundary is not none, edgeOnly or edgeAndCorner; read as edgeAndCorner", prim,
                        repr(boundary))
             boundary = "edgeAndCorner"
-        triangle_smooth = value_at(mesh.GetTriangleSubdivisionRuleAttr(), t) == "smooth"
+        options = {"boundary": boundary}
+        if scheme == "loop":
+            scheme_type = LoopRefinement
+        else:
+            scheme_type = Refinement
+            options["triangle_smooth"] = value_at(mesh.GetTriangleSubdivisionRuleAttr(), t) == "smooth"
         try:
-            return Refinement(counts, face_indices, n_points, self.refine_level, creases, corners, boundary,
-                              triangle_smooth)
+            return scheme_type(counts, face_indices, n_points, self.refine_level, creases, corners, **options)
         except ValueError as e:
             self._skip("creases or corners that do not fit the mesh were ignored", prim, str(e))
-            return Refinement(counts, face_indices, n_points, self.refine_level, boundary=boundary,
-                              triangle_smooth=triangle_smooth)
+            return scheme_type(counts, face_indices, n_points, self.refine_level, **options)
 
     def _check_topology(self, prim, counts, face_indices, points):
         mesh = UsdGeom.Mesh(prim)
@@ -321,6 +330,7 @@ class MeshReading:
 # usdview (Storm) draws them below its refinement levels; "none" and "bilinear" meshes keep their face normals.
 SMOOTH_SCHEMES = ("catmullClark", "loop")
 SUBDIVISION_SCHEMES = ("catmullClark", "loop", "bilinear", "none")  # the allowed tokens of subdivisionScheme
+REFINED_SCHEMES = ("catmullClark", "loop")  # those refine_level refines
 
 
 def vertex_normals(points: np.ndarray, counts: np.ndarray, face_indices: np.ndarray, left_handed: bool) -> np.ndarray:

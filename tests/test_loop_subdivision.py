@@ -1,0 +1,326 @@
+"""Loop refinement (``wrt.loop_subdivision``, ``subdivisionScheme = "loop"``, ``load_usd(refine_level=N)``): against
+``loop_reference`` (the published masks, point by point), against properties that need no reference (flat patches,
+linear precision on a regular lattice, the limit mask at an icosahedron's vertex), and the USD side: primvars, holes,
+subsets, non-triangle faces, the memory check, a render."""
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+from loop_reference import beta, refine
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+
+import wrt
+from wrt.loop_subdivision import LoopRefinement
+
+TETRA = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], np.float64)
+TETRA_FACES = [(0, 1, 2), (0, 3, 1), (0, 2, 3), (1, 3, 2)]
+OCTA = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], np.float64)
+OCTA_FACES = [(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)]
+
+
+def _icosahedron():
+    """The 12 points ``(0, +-1, +-phi)`` and their cyclic shifts, and the 20 triangles of edge 2, wound outward."""
+    phi = (1.0 + math.sqrt(5.0)) / 2.0
+    base = [(0.0, a, b * phi) for a in (-1, 1) for b in (-1, 1)]
+    points = np.array([p[k:] + p[:k] for k in range(3) for p in base])
+    faces = []
+    for tri in itertools.combinations(range(12), 3):
+        a, b, c = points[list(tri)]
+        if all(np.isclose(np.linalg.norm(x - y), 2.0) for x, y in ((a, b), (b, c), (c, a))):
+            faces.append(tri if np.dot(np.cross(b - a, c - a), a + b + c) > 0 else tri[::-1])
+    assert len(faces) == 20
+    return points, faces
+
+
+ICOSA, ICOSA_FACES = _icosahedron()
+
+
+def _triangle_grid(m, n, heights=None):
+    """``(m + 1) x (n + 1)`` points over ``m x n`` squares cut along one diagonal direction (valence 6 inside)."""
+    x, y = np.meshgrid(np.arange(m + 1.0), np.arange(n + 1.0), indexing="ij")
+    z = np.zeros_like(x) if heights is None else heights
+    points = np.stack([x, y, z], axis=-1).reshape(-1, 3)
+    at = lambda i, j: i * (n + 1) + j  # noqa: E731
+    faces = [f for i in range(m) for j in range(n)
+             for f in ((at(i, j), at(i + 1, j), at(i + 1, j + 1)), (at(i, j), at(i + 1, j + 1), at(i, j + 1)))]
+    return points, faces
+
+
+def _wrt_triangles(faces, points, levels, creases=None, corners=None, boundary="edgeAndCorner"):
+    """``(T, 3, k)`` corner values and parent faces of ``LoopRefinement``, creases and corners as dicts."""
+    crease_args = corner_args = None
+    if creases:
+        crease_args = (np.array([v for edge in creases for v in edge]), np.full(len(creases), 2),
+                       np.array(list(creases.values()), np.float64))
+    if corners:
+        corner_args = (np.array(list(corners)), np.array(list(corners.values()), np.float64))
+    r = LoopRefinement([len(f) for f in faces], [v for f in faces for v in f], len(points), levels, crease_args,
+                       corner_args, boundary)
+    return r.vertex(points)[r.face_indices.reshape(-1, 3)], r.parent_face, r
+
+
+def test_tetrahedron_by_hand():
+    """Valence 3: beta = 3/16, so a vertex point is 7/16 S + 3/16 (sum of the others) = S / 4 (the points sum to
+    zero); an edge point is 3/8 (a + b) + 1/8 (c + d) = (a + b) / 4 (c + d = -(a + b))."""
+    assert beta(3) == pytest.approx(3 / 16) and beta(6) == pytest.approx(1 / 16)
+    triangles, parents, r = _wrt_triangles(TETRA_FACES, TETRA, 1)
+    at_corners = np.array([[TETRA[a], TETRA[a] + TETRA[b], TETRA[a] + TETRA[c]]
+                           for face in TETRA_FACES for a, b, c in zip(face, np.roll(face, -1), np.roll(face, 1))])
+    corners = triangles.reshape(4, 4, 3, 3)[:, :3].reshape(-1, 3, 3)
+    np.testing.assert_allclose(corners, at_corners / 4.0, atol=1e-15)
+    np.testing.assert_array_equal(parents, np.repeat(np.arange(4), 4))
+    assert (r.counts == 3).all() and len(r.counts) == 16
+
+
+@pytest.mark.parametrize("mesh, levels", [("tetra", 3), ("octa", 2), ("icosa", 2)])
+def test_closed_meshes_match_the_published_masks(mesh, levels):
+    points, faces = {"tetra": (TETRA, TETRA_FACES), "octa": (OCTA, OCTA_FACES), "icosa": (ICOSA, ICOSA_FACES)}[mesh]
+    points = points + np.random.default_rng(1).normal(scale=0.1, size=points.shape)  # no symmetry to hide behind
+    got, parents, _ = _wrt_triangles(faces, points, levels)
+    expected, expected_parents, _ = refine(faces, points, levels)
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    np.testing.assert_array_equal(parents, expected_parents)
+
+
+GRID_CASES = {
+    "edgeAndCorner": {},
+    "edgeOnly": {"boundary": "edgeOnly"},
+    "none": {"boundary": "none"},
+    "sharp crease": {"creases": {(6, 7): 10.0, (7, 8): 10.0, (8, 9): 10.0}},
+    "semi-sharp crease": {"creases": {(6, 7): 1.5, (7, 8): 0.5, (8, 9): 2.0}},
+    "crease to the boundary": {"creases": {(5, 6): 1.3, (6, 7): 1.3}},
+    "corners": {"corners": {7: 10.0, 13: 0.6}},
+}
+
+
+@pytest.mark.parametrize("case", GRID_CASES)
+def test_grid_with_a_boundary_matches_the_published_masks(case):
+    """A 3 x 4 grid of 24 triangles with random heights: boundary edges 1/2 1/2, boundary points 1/8 3/4 1/8,
+    corners kept (``edgeAndCorner``) or on the boundary curve (``edgeOnly``), the faces at boundary points holes
+    (``none``), creases sharp and semi-sharp over three levels (sharpness dropping by one per level)."""
+    heights = np.random.default_rng(4).normal(size=(4, 5))
+    points, faces = _triangle_grid(3, 4, heights)
+    options = GRID_CASES[case]
+    got, parents, r = _wrt_triangles(faces, points, 3, **options)
+    expected, expected_parents, holes = refine(faces, points, 3, **options)
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    np.testing.assert_array_equal(parents, expected_parents)
+    np.testing.assert_array_equal(r.boundary_holes, sorted(holes))
+    assert (case == "none") == bool(len(holes))
+
+
+def test_a_flat_patch_stays_flat():
+    """A tilted planar patch of jittered triangles, with a crease and a corner: every mask is an affine
+    combination, so every refined point stays on the plane."""
+    rng = np.random.default_rng(8)
+    flat, faces = _triangle_grid(5, 4)
+    flat[:, :2] += rng.uniform(-0.2, 0.2, size=(len(flat), 2))
+    normal = np.array([1.0, -2.0, 3.0]) / math.sqrt(14.0)
+    basis = np.linalg.svd(normal[None])[2][1:]  # two unit vectors across the normal
+    points = flat[:, :2] @ basis + 2.0 * normal
+    triangles, _, _ = _wrt_triangles(faces, points, 3, creases={(7, 8): 1.5}, corners={12: 3.0})
+    np.testing.assert_allclose(triangles @ normal, 2.0, atol=1e-12)
+
+
+def test_a_regular_lattice_refines_to_the_half_lattice():
+    """Points ``i u + j v`` of a lattice of equilateral triangles (valence 6 inside): the regular masks reproduce
+    linear functions, so every refined point away from the grid's corners (which the boundary rules pull in) is a
+    point of the lattice of half the spacing, on the plane."""
+    m, n = 6, 6
+    lattice, faces = _triangle_grid(m, n)
+    u, v = np.array([1.0, 0.0, 0.0]), np.array([0.5, math.sqrt(3.0) / 2.0, 0.0])
+    points = lattice[:, :1] * u + lattice[:, 1:2] * v
+    r = LoopRefinement([3] * len(faces), [x for f in faces for x in f], len(points), 2)
+    refined = r.vertex(points)
+    ij = np.linalg.lstsq(np.stack([u[:2], v[:2]], axis=1), refined[:, :2].T, rcond=None)[0].T  # lattice coordinates
+    inside = ((ij >= 1.0 - 1e-9) & (ij <= np.array([m, n]) - 1.0 + 1e-9)).all(axis=1)
+    assert inside.sum() > 200
+    np.testing.assert_allclose(refined[inside, 2], 0.0, atol=1e-15)
+    np.testing.assert_allclose(4.0 * ij[inside], np.round(4.0 * ij[inside]), atol=1e-12)
+
+
+def test_icosahedron_vertices_converge_to_the_loop_limit_mask():
+    """The limit of a smooth point of valence n is ``(1 - n chi) S + chi sum(ring)``, ``chi = 1 / (n + 3 / (8
+    beta))`` (Loop 1987; Hoppe et al. 1994), from the control points alone. A vertex of a perturbed icosahedron
+    (valence 5) refined 1 to 6 times approaches it geometrically."""
+    points = ICOSA + np.random.default_rng(3).normal(scale=0.2, size=ICOSA.shape)
+    faces = [v for f in ICOSA_FACES for v in f]
+    ring = sorted({v for f in ICOSA_FACES if 0 in f for v in f} - {0})
+    chi = 1.0 / (5 + 3.0 / (8.0 * beta(5)))
+    limit = (1.0 - 5 * chi) * points[0] + chi * points[ring].sum(axis=0)
+    errors = [np.linalg.norm(LoopRefinement([3] * 20, faces, 12, level).vertex(points)[0] - limit)
+              for level in range(1, 7)]
+    assert errors[0] > 0.05
+    assert all(b < 0.5 * a for a, b in zip(errors, errors[1:]))
+    assert errors[-1] < 1e-3
+
+
+def test_face_varying_and_varying_data_are_linear_in_each_triangle():
+    """Face-varying data refine linearly within each triangle (the reference's linear masks on the triangles taken
+    apart), varying data linearly over the mesh."""
+    rng = np.random.default_rng(6)
+    points, faces = _triangle_grid(2, 3, rng.normal(size=(3, 4)))
+    r = LoopRefinement([3] * len(faces), [v for f in faces for v in f], len(points), 2)
+    fv = rng.normal(size=(3 * len(faces), 2))
+    apart = [(3 * k, 3 * k + 1, 3 * k + 2) for k in range(len(faces))]
+    expected, _, _ = refine(apart, fv, 2, linear=True)
+    np.testing.assert_allclose(r.face_varying(fv).reshape(-1, 3, 2), expected, atol=1e-12)
+    data = rng.normal(size=(len(points), 3))
+    expected, _, _ = refine(faces, data, 2, linear=True)
+    np.testing.assert_allclose(r.varying(data)[r.face_indices.reshape(-1, 3)], expected, atol=1e-12)
+
+
+def test_faces_of_more_than_three_corners_are_refused():
+    with pytest.raises(ValueError, match="more than three corners"):
+        LoopRefinement([3, 4], [0, 1, 2, 0, 2, 3, 4], 5, 1)
+
+
+# USD
+
+
+def _mesh_stage(path, points, faces, scheme, **attrs):
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = UsdGeom.Mesh.Define(stage, "/Mesh")
+    mesh.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in points]))
+    mesh.CreateFaceVertexCountsAttr([len(f) for f in faces])
+    mesh.CreateFaceVertexIndicesAttr([int(v) for f in faces for v in f])
+    mesh.CreateSubdivisionSchemeAttr(scheme)
+    for name, value in attrs.items():
+        mesh.GetPrim().GetAttribute(name).Set(value)
+    stage.Save()
+    return stage, mesh
+
+
+@pytest.mark.parametrize("interpolation", ["vertex", "varying", "faceVarying", "uniform"])
+def test_loaded_loop_mesh_is_the_reference_refinement_with_its_primvars_and_holes(tmp_path, interpolation):
+    """An octahedron with ``subdivisionScheme = "loop"``, face 7 a hole, read with refine_level 2: its triangles are
+    the reference's in order (a hole's 16 left out), ``Mesh.face_ids`` their control faces, and ``displayColor`` of
+    each interpolation follows them: ``vertex`` by the Loop masks, ``varying`` and ``faceVarying`` linearly,
+    ``uniform`` its control face's. Loop meshes were drawn as their cage with a warning."""
+    points = OCTA * [1.0, 1.2, 0.8]
+    stage, mesh = _mesh_stage(tmp_path / "octa.usda", points, OCTA_FACES, "loop", holeIndices=Vt.IntArray([7]))
+    n_values = {"vertex": 6, "varying": 6, "faceVarying": 24, "uniform": 8}[interpolation]
+    colours = np.random.default_rng(5).random((n_values, 3))
+    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, interpolation).Set(
+        [Gf.Vec3f(*c) for c in colours])
+    stage.Save()
+
+    m = wrt.load_usd(tmp_path / "octa.usda", refine_level=2).meshes[0]
+    expected, parents, _ = refine(OCTA_FACES, points, 2)
+    drawn = parents != 7
+    np.testing.assert_allclose(m.points[m.indices], expected[drawn], atol=1e-6)
+    np.testing.assert_array_equal(m.face_ids, parents[drawn])
+    if interpolation == "uniform":
+        expected_colours = np.repeat(colours[parents[drawn]][:, None], 3, axis=1)
+    elif interpolation == "faceVarying":
+        apart = [(3 * k, 3 * k + 1, 3 * k + 2) for k in range(8)]
+        expected_colours = refine(apart, colours, 2, linear=True)[0][drawn]
+    else:
+        expected_colours = refine(OCTA_FACES, colours, 2, linear=interpolation == "varying")[0][drawn]
+    np.testing.assert_allclose(m.colors, expected_colours, atol=1e-6)
+    assert m.normals is not None  # smooth normals of the refined points, as for catmullClark
+
+
+def test_subsets_and_creases_of_a_loaded_loop_mesh(tmp_path):
+    """A material bound to faces 2 and 5 by a subset binds their 16 child triangles each; crease and corner
+    attributes and ``interpolateBoundary`` reach the Loop masks (against the reference)."""
+    heights = np.random.default_rng(9).normal(size=(4, 5))
+    points, faces = _triangle_grid(3, 4, heights)
+    stage, mesh = _mesh_stage(tmp_path / "grid.usda", points, faces, "loop", interpolateBoundary="edgeOnly",
+                              creaseIndices=Vt.IntArray([6, 7, 8]), creaseLengths=Vt.IntArray([3]),
+                              creaseSharpnesses=Vt.FloatArray([1.5]), cornerIndices=Vt.IntArray([13]),
+                              cornerSharpnesses=Vt.FloatArray([2.0]))
+    material = UsdShade.Material.Define(stage, "/Red")
+    shader = UsdShade.Shader.Define(stage, "/Red/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1, 0, 0))
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    subset = UsdGeom.Subset.CreateGeomSubset(mesh, "red", UsdGeom.Tokens.face, Vt.IntArray([2, 5]),
+                                             familyName=UsdShade.Tokens.materialBind)
+    UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(material)
+    stage.Save()
+    m = wrt.load_usd(tmp_path / "grid.usda", refine_level=2).meshes[0]
+    expected, parents, _ = refine(faces, points, 2, creases={(6, 7): 1.5, (7, 8): 1.5}, corners={13: 2.0},
+                                  boundary="edgeOnly")
+    np.testing.assert_allclose(m.points[m.indices], expected, atol=1e-5)
+    red = np.isin(parents, [2, 5])
+    assert red.sum() == 32
+    assert len(set(m.material_ids[red].tolist())) == 1
+    assert set(m.material_ids[red].tolist()).isdisjoint(m.material_ids[~red].tolist())
+
+
+def test_a_loop_mesh_with_quads_is_drawn_as_its_cage_with_a_warning_naming_it(tmp_path):
+    """OpenSubdiv refuses a Loop mesh with faces of more than three corners ("non-triangular faces not supported by
+    Loop scheme"); wrt draws its cage, smooth-shaded, and names it."""
+    cube = [(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    _mesh_stage(tmp_path / "cube.usda", cube, quads, "loop")
+    with pytest.warns(UserWarning, match=r"loop meshes with faces of more than three corners are not refined.*"
+                                         r"drawn as their control cage.*/Mesh"):
+        m = wrt.load_usd(tmp_path / "cube.usda", refine_level=2).meshes[0]
+    assert len(m.indices) == 12 and m.normals is not None
+
+
+def test_a_loop_refinement_past_the_memory_is_refused_naming_its_triangles(tmp_path, monkeypatch):
+    import wrt.resources
+
+    monkeypatch.setattr(wrt.resources, "available_host_bytes", lambda: 10 << 20)
+    _mesh_stage(tmp_path / "octa.usda", OCTA, OCTA_FACES, "loop")
+    with pytest.raises(MemoryError, match=rf"/Mesh: refine_level 6 \({8 * 4**6:,} triangles\) needs about"):
+        wrt.load_usd(tmp_path / "octa.usda", refine_level=6)
+
+
+def _covered(triangles_xy, x, y):
+    """``(P,)`` whether each point ``(x, y)`` lies in one of the triangles ``(T, 3, 2)`` (either winding)."""
+    a, b, c = (triangles_xy[:, k][:, None] for k in range(3))
+    p = np.stack([x, y], axis=-1)[None]
+
+    def side(u, v):
+        return (v[..., 0] - u[..., 0]) * (p[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (p[..., 0] - u[..., 0])
+
+    s1, s2, s3 = side(a, b), side(b, c), side(c, a)
+    inside = ((s1 >= 0) & (s2 >= 0) & (s3 >= 0)) | ((s1 <= 0) & (s2 <= 0) & (s3 <= 0))
+    return inside.any(axis=0)
+
+
+def test_rendered_loop_octahedron_has_the_reference_silhouette_and_nears_its_limit(tmp_path):
+    """An octahedron with ``subdivisionScheme = "loop"`` rendered through ``load_usd`` and ``render`` by an
+    orthographic camera down -z (1 unit = 100 pixels): the cage's silhouette is the diamond |x| + |y| <= 1; refined 3
+    times it is the reference refinement's triangles projected (pixels may differ on the outline only); and its
+    half-width approaches the limit of the vertex (1, 0, 0), ``(1 - 4 chi) S + chi sum(ring)`` = 0.436 (valence 4,
+    the ring sums to zero), from above, level by level."""
+    stage, _ = _mesh_stage(tmp_path / "octa.usda", OCTA, OCTA_FACES, "loop")
+    camera = UsdGeom.Camera.Define(stage, "/Camera")
+    camera.CreateProjectionAttr(UsdGeom.Tokens.orthographic)
+    camera.CreateHorizontalApertureAttr(24.0)  # tenths of a unit: 2.4 wide
+    camera.CreateVerticalApertureAttr(24.0)
+    camera.AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
+    stage.Save()
+    centres = (np.arange(240) + 0.5) / 100.0 - 1.2
+    x, y = np.meshgrid(centres, -centres)  # row 0 at the top
+
+    def silhouette(level):
+        scene = wrt.load_usd(tmp_path / "octa.usda", refine_level=level)
+        return wrt.render(scene, camera="/Camera", width=240, height=240, device="cpu").aovs["prim"] >= 0
+
+    def half_width(hit):
+        columns = np.flatnonzero(hit.any(axis=0))
+        return (columns[-1] - columns[0] + 1) / 200.0
+
+    cage = silhouette(0)
+    assert half_width(cage) == pytest.approx(1.0, abs=0.01)
+    off_outline = np.abs(np.abs(x) + np.abs(y) - 1.0) > 0.015  # pixel centres on the diamond's edges may go either way
+    np.testing.assert_array_equal(cage[off_outline], (np.abs(x) + np.abs(y) < 1.0)[off_outline])
+
+    refined = silhouette(3)
+    expected = _covered(refine(OCTA_FACES, OCTA, 3)[0][..., :2], x.ravel(), y.ravel()).reshape(x.shape)
+    near_outline = expected != (np.roll(expected, 1, 0) & np.roll(expected, -1, 0) & np.roll(expected, 1, 1)
+                                & np.roll(expected, -1, 1))
+    assert (refined == expected)[~near_outline].all() and (refined != expected).sum() < 0.01 * expected.sum()
+
+    chi = 1.0 / (4 + 3.0 / (8.0 * beta(4)))
+    limit = 1.0 - 4 * chi
+    halves = [half_width(silhouette(level)) for level in (1, 2, 4)]
+    assert halves[0] > halves[1] > halves[2] >= limit - 0.01 and halves[2] - limit < 0.01

@@ -1,0 +1,100 @@
+"""Loop refinement of triangle meshes (``subdivisionScheme = "loop"``), for ``load_usd(..., refine_level=N)``.
+
+Each level splits every triangle into four over its edge points (Loop 1987, "Smooth subdivision surfaces based on
+triangles") and moves the points by the masks OpenSubdiv's ``Sdc::Scheme<SCHEME_LOOP>`` uses:
+
+- an edge point is ``3/8 (a + b) + 1/8 (c + d)`` (its ends ``a``, ``b``; ``c``, ``d`` the far corners of its two
+  triangles), or the midpoint on a sharp edge (a boundary edge, an edge of more than two faces, a crease of
+  sharpness >= 1), blended by the sharpness of a semi-sharp crease;
+- a vertex point is ``(1 - n beta) S + beta sum(ring)`` with Loop's ``beta = (5/8 - (3/8 + 1/4 cos(2 pi / n))^2) / n``
+  over its ``n`` neighbours for a smooth point or a dart, ``3/4 S + 1/8 (a + b)`` on a crease or boundary, ``S`` at a
+  corner.
+
+Everything but these masks and the split is the scheme-independent part of :mod:`wrt.subdivision`, shared with
+Catmull-Clark: crease and corner sharpness (dropping by one per level, the rules before and after blended where
+semi-sharp features run out), ``interpolateBoundary`` (``edgeAndCorner``, ``edgeOnly``, ``none``), non-manifold parts
+made infinitely sharp, lonely points kept, ``varying`` and face-varying data interpolated linearly (in each triangle).
+OpenSubdiv refuses a Loop mesh with faces of more than three corners ("non-triangular faces not supported by Loop
+scheme", ``Far::TopologyRefinerFactory``); so does :class:`LoopRefinement`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .subdivision import Refinement, _Level, _sum_by
+
+
+def loop_beta(valence: np.ndarray) -> np.ndarray:
+    """Loop's weight of each neighbour of a smooth point of ``valence`` neighbours (1/16 at 6, 3/16 at 3)."""
+    n = np.maximum(np.asarray(valence, np.float64), 1.0)
+    return (0.625 - (0.375 + 0.25 * np.cos(2.0 * np.pi / n)) ** 2) / n
+
+
+def refined_triangles(counts, levels: int) -> int:
+    """Triangles that ``levels`` Loop steps make of the triangles among faces of ``counts`` corners (4 per triangle
+    per step): known before refining, for the memory check."""
+    return int((np.asarray(counts) == 3).sum()) * 4**levels
+
+
+class _LoopLevel(_Level):
+    """One Loop step of a triangle mesh: points first, then one point per edge; no face points."""
+
+    @property
+    def refined_points(self) -> int:
+        return self.n_points + len(self.edge_ends)
+
+    def topology(self):
+        """``(counts, face_indices, parent face)`` of the refined triangles, four per triangle in its winding: one at
+        each corner (the corner, its leading edge's point, its trailing edge's point), then the middle one."""
+        n = self.n_points
+        leading = n + self.fv_edge
+        corners = np.stack([self.face_indices, leading, leading[self.preceding]], axis=1).reshape(-1, 3, 3)
+        middle = leading.reshape(-1, 1, 3)
+        triangles = np.concatenate([corners, middle], axis=1).reshape(-1)
+        return np.full(4 * len(self.counts), 3, np.int64), triangles, np.repeat(np.arange(len(self.counts)), 4)
+
+    def vertex(self, data: np.ndarray) -> np.ndarray:
+        """Per-point ``data`` ``(V, k)`` of the refined mesh by Loop's masks: vertex points, then edge points."""
+        midpoint = self._midpoints(data)
+        far_corners = _sum_by(self.fv_edge, data[self.face_indices[self.preceding]], len(self.edge_ends))
+        smooth_edge = 0.75 * midpoint + 0.25 * far_corners / np.maximum(self.edge_faces, 1)[:, None]
+        ends = self.edge_ends.reshape(-1)
+        ring = _sum_by(ends, data[self.edge_ends[:, ::-1].reshape(-1)], self.n_points)
+        beta = loop_beta(self.valence)[:, None]
+        smooth = (1.0 - self.valence[:, None] * beta) * data + beta * ring
+        return np.concatenate([self.vertex_points(data, smooth), self.edge_points(midpoint, smooth_edge)])
+
+    def linear(self, data: np.ndarray) -> np.ndarray:
+        """Per-point ``data`` interpolated linearly (``varying`` primvars): points kept, edge points the midpoints."""
+        return np.concatenate([data, self._midpoints(data)])
+
+    def face_varying(self, data: np.ndarray) -> np.ndarray:
+        """Per-face-vertex ``data`` ``(N, k)`` of the refined triangles, interpolated linearly within each triangle."""
+        k = data.shape[1]
+        leading = 0.5 * (data + data[self.following])  # per face-vertex: the middle of the edge it starts
+        corners = np.stack([data, leading, leading[self.preceding]], axis=1).reshape(-1, 3, 3, k)
+        return np.concatenate([corners, leading.reshape(-1, 1, 3, k)], axis=1).reshape(-1, k)
+
+
+class LoopRefinement(Refinement):
+    """``levels`` Loop steps of a triangle mesh: its refined triangles and maps for per-point, per-face-vertex and
+    per-face data, with the arguments of :class:`wrt.subdivision.Refinement` (``triangleSubdivisionRule`` is
+    Catmull-Clark's only).
+
+    Raises:
+        ValueError: a face of more than three corners (OpenSubdiv refuses those for Loop), or creases or corners
+            that do not fit the mesh.
+    """
+
+    _level_type = _LoopLevel
+
+    def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, boundary="edgeAndCorner"):
+        counts = np.asarray(counts, np.int64)
+        if (counts > 3).any():
+            raise ValueError(f"{int((counts > 3).sum())} of {len(counts)} faces have more than three corners; Loop "
+                             "subdivision takes triangles only")
+        super().__init__(counts, face_indices, n_points, levels, creases, corners, boundary)
+
+
+__all__ = ["LoopRefinement", "loop_beta", "refined_triangles"]
