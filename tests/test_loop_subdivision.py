@@ -1,18 +1,21 @@
-"""Loop refinement (``wrt.loop_subdivision``, ``subdivisionScheme = "loop"``, ``load_usd(refine_level=N)``): against
-``loop_reference`` (the published masks, point by point), against properties that need no reference (flat patches,
-linear precision on a regular lattice, the limit mask at an icosahedron's vertex), and the USD side: primvars, holes,
-subsets, non-triangle faces, the memory check, a render."""
+"""Loop refinement (``wrt.loop_subdivision``, ``subdivisionScheme = "loop"``) and bilinear refinement
+(``subdivisionScheme = "bilinear"``) of ``load_usd(refine_level=N)``: against ``loop_reference`` (the published masks,
+point by point) and ``catmark_reference``'s bilinear masks, against properties that need no reference (flat patches,
+linear precision on a regular lattice, the limit mask at an icosahedron's vertex, the exact bilinear patch), and the
+USD side: primvars, holes, subsets, non-triangle faces, the memory check, a render."""
 
 import itertools
 import math
 
 import numpy as np
 import pytest
+from catmark_reference import refine as catmark_refine
 from loop_reference import beta, refine
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
 import wrt
 from wrt.loop_subdivision import LoopRefinement
+from wrt.subdivision import BilinearRefinement
 
 TETRA = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], np.float64)
 TETRA_FACES = [(0, 1, 2), (0, 3, 1), (0, 2, 3), (1, 3, 2)]
@@ -177,6 +180,37 @@ def test_faces_of_more_than_three_corners_are_refused():
         LoopRefinement([3, 4], [0, 1, 2, 0, 2, 3, 4], 5, 1)
 
 
+# Bilinear
+
+
+def test_bilinear_quad_lies_on_its_bilinear_patch():
+    """A non-planar quad ``B(u, v) = (1-u)(1-v) p0 + u(1-v) p1 + uv p2 + (1-u)v p3``: after N bilinear steps its
+    points are exactly ``B(i / 2^N, j / 2^N)``, every one of them."""
+    corners = np.array([[0.0, 0.0, 0.0], [2.0, 0.1, 0.5], [2.3, 1.9, -0.7], [-0.2, 1.5, 1.1]])
+    for levels in (1, 3):
+        r = BilinearRefinement([4], [0, 1, 2, 3], 4, levels)
+        got = r.vertex(corners)
+        t = np.arange(2**levels + 1) / 2**levels
+        uu, vv = (g.reshape(-1, 1) for g in np.meshgrid(t, t, indexing="ij"))
+        patch = (1 - uu) * (1 - vv) * corners[0] + uu * (1 - vv) * corners[1] + uu * vv * corners[2] \
+            + (1 - uu) * vv * corners[3]
+        assert len(got) == len(patch) and len(r.counts) == 4**levels
+        nearest = np.linalg.norm(got[:, None] - patch[None], axis=-1).min(axis=1)
+        np.testing.assert_allclose(nearest, 0.0, atol=1e-12)
+        assert len(np.unique(np.round(got, 9), axis=0)) == len(patch)
+
+
+def test_bilinear_splits_every_face_into_quads_as_opensubdiv():
+    """A triangle, a quad and a pentagon: ``n`` quads per face of ``n`` corners over its edge midpoints and centroid
+    (OpenSubdiv's bilinear scheme splits to quads), against ``catmark_reference``'s linear masks."""
+    points = np.random.default_rng(2).normal(size=(8, 3))
+    faces = [(0, 1, 2), (0, 2, 3, 4), (2, 5, 6, 7, 3)]
+    r = BilinearRefinement([len(f) for f in faces], [v for f in faces for v in f], 8, 2)
+    expected, parents, _ = catmark_refine(faces, points, 2, linear=True)
+    np.testing.assert_allclose(r.vertex(points)[r.face_indices.reshape(-1, 4)], expected, atol=1e-12)
+    np.testing.assert_array_equal(r.parent_face, parents)
+
+
 # USD
 
 
@@ -270,6 +304,28 @@ def test_a_loop_refinement_past_the_memory_is_refused_naming_its_triangles(tmp_p
     _mesh_stage(tmp_path / "octa.usda", OCTA, OCTA_FACES, "loop")
     with pytest.raises(MemoryError, match=rf"/Mesh: refine_level 6 \({8 * 4**6:,} triangles\) needs about"):
         wrt.load_usd(tmp_path / "octa.usda", refine_level=6)
+
+
+def test_loaded_bilinear_mesh_is_refined_flat(tmp_path):
+    """``subdivisionScheme = "bilinear"``: a non-planar quad next to a triangle, refined twice: 16 + 12 quads (32 +
+    24 triangles), every point of the quad's on its bilinear patch, face normals (no smooth normals), creases
+    ignored, a ``vertex`` colour interpolated linearly. Bilinear meshes were never refined."""
+    points = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 1], [0, 1, 0], [2, 0.5, 0]], np.float64)
+    faces = [(0, 1, 2, 3), (1, 4, 2)]
+    stage, mesh = _mesh_stage(tmp_path / "quad.usda", points, faces, "bilinear", creaseIndices=Vt.IntArray([0, 1]),
+                              creaseLengths=Vt.IntArray([2]), creaseSharpnesses=Vt.FloatArray([10.0]))
+    UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, "vertex").Set(
+        [Gf.Vec3f(*p) for p in points / 2.0])
+    stage.Save()
+    m = wrt.load_usd(tmp_path / "quad.usda", refine_level=2).meshes[0]
+    assert len(m.indices) == 2 * (16 + 12) and m.normals is None
+    corners = m.points[m.indices]
+    on_quad = corners[m.face_ids == 0].reshape(-1, 3)
+    np.testing.assert_allclose(on_quad[:, 2], on_quad[:, 0] * on_quad[:, 1], atol=1e-6)  # z = x y on this patch
+    np.testing.assert_allclose(m.colors, corners / 2.0, atol=1e-6)  # linear data of linear data: the same map
+    expected, parents, _ = catmark_refine(faces, points, 2, linear=True)
+    assert len(np.unique(np.round(corners.reshape(-1, 3), 5), axis=0)) == len(
+        np.unique(np.round(expected.reshape(-1, 3), 5), axis=0))
 
 
 def _covered(triangles_xy, x, y):

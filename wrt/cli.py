@@ -175,8 +175,8 @@ def _refine_level(text: str) -> int:
 
 
 REFINE_HELP = ("subdivision steps for meshes by their subdivisionScheme (catmullClark, USD's fallback; loop, for "
-               "triangle meshes), as Hydra's refine level; each step makes 4x the faces. 0 draws the control cage, "
-               "smooth-shaded")
+               "triangle meshes; bilinear), as Hydra's refine level; each step makes 4x the faces. 0 draws the control "
+               "cage, smooth-shaded")
 
 
 CAMERA_HELP = ("camera prim path; default: the stage's RenderSettings camera, else its first camera, else one framing "

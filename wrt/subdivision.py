@@ -1,6 +1,7 @@
 """Catmull-Clark refinement of polygon meshes (``subdivisionScheme = "catmullClark"``), with USD's creases, corners
-and boundary rules, for ``load_usd(..., refine_level=N)``, and the scheme-independent parts (sharpness, vertex
-rules, boundaries, non-manifold input) that Loop refinement (:mod:`wrt.loop_subdivision`) shares.
+and boundary rules, for ``load_usd(..., refine_level=N)``; bilinear refinement (``"bilinear"``) on the same split;
+the scheme-independent parts (sharpness, vertex rules, boundaries, non-manifold input) that Loop refinement
+(:mod:`wrt.loop_subdivision`) shares.
 
 Each level splits every face of ``n`` vertices into ``n`` quads (Catmull and Clark 1978) and moves the points by the
 masks of DeRose, Kass and Truong 1998 ("Subdivision surfaces in character animation"):
@@ -70,7 +71,7 @@ def _edge_keys(a: np.ndarray, b: np.ndarray, n_points: int) -> np.ndarray:
 
 
 def refined_quads(counts, levels: int) -> int:
-    """Quads that ``levels`` (>= 1) Catmull-Clark steps make of faces of ``counts`` corners: ``n`` per
+    """Quads that ``levels`` (>= 1) Catmull-Clark or bilinear steps make of faces of ``counts`` corners: ``n`` per
     face of ``n >= 3`` corners, then 4 per quad each further step. Known before refining, so a refinement too large
     for the memory can be refused first."""
     counts = np.asarray(counts, np.int64)
@@ -339,6 +340,26 @@ class Refinement:
         return data
 
 
+class _BilinearLevel(_Level):
+    """One bilinear step: faces split as Catmull-Clark splits them (``n`` quads per face of ``n`` corners, triangles
+    into 3), points kept, edge points the midpoints, face points the centroids (OpenSubdiv's bilinear scheme: its
+    corner mask at points, crease mask on edges, whatever the sharpness)."""
+
+    def vertex(self, data: np.ndarray) -> np.ndarray:
+        return self.linear(data)
+
+
+class BilinearRefinement(Refinement):
+    """``levels`` bilinear steps of a polygon mesh (``subdivisionScheme = "bilinear"``): each quad into 4 quads over
+    its edge midpoints and centroid, so a non-planar quad approaches its bilinear patch; creases, corners and
+    ``interpolateBoundary`` change nothing (OpenSubdiv's bilinear scheme makes no boundary faces holes either)."""
+
+    _level_type = _BilinearLevel
+
+    def __init__(self, counts, face_indices, n_points, levels):
+        super().__init__(counts, face_indices, n_points, levels, boundary="edgeOnly")
+
+
 def _boundary_faces(counts: np.ndarray, face_indices: np.ndarray, n_points: int, authored) -> np.ndarray:
     """Faces at a point with a boundary edge (of one face) that is not authored infinitely sharp."""
     face, following, _ = _face_walk(counts)
@@ -447,4 +468,4 @@ def _crease_table(creases, n_points: int) -> _SharpnessTable:
     return _SharpnessTable(unique, maxima)
 
 
-__all__ = ["MAX_REFINE_LEVEL", "REFINED_QUAD_BYTES", "Refinement", "refined_quads"]
+__all__ = ["MAX_REFINE_LEVEL", "REFINED_QUAD_BYTES", "BilinearRefinement", "Refinement", "refined_quads"]

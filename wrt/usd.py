@@ -148,8 +148,8 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
             ``wrt.primitives.DEFAULT_SEGMENTS`` segments per circle; an int: that many segments (3 to 4096).
         refine_level: subdivision steps (0 to ``wrt.subdivision.MAX_REFINE_LEVEL``) applied to meshes by their
             ``subdivisionScheme``: Catmull-Clark for ``catmullClark`` (USD's fallback), Loop for ``loop`` (triangle
-            meshes only), as Hydra's refine level; each step makes four times the faces. 0 draws the control cage,
-            smooth-shaded, as usdview does at low complexity.
+            meshes only), bilinear for ``bilinear``, as Hydra's refine level; each step makes four times the faces.
+            0 draws the control cage, smooth-shaded, as usdview does at low complexity.
         variants: variant selections, prim path -> {variant set: variant} (``{"/World/Car": {"paint": "red"}}``),
             made on the session layer before anything is read (:mod:`wrt.usd_variants`); the file is left as it is.
         render_settings: path of the ``RenderSettings`` prim to read into ``Scene.render_settings``; ``None``: the
@@ -259,7 +259,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.source = source
         self.time = time
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
-        self.refine_level = refine_level  # subdivision steps for catmullClark and loop meshes
+        self.refine_level = refine_level  # subdivision steps for catmullClark, loop and bilinear meshes
         self.xforms = xform_cache(time, stage)  # sample-only transform ops read at their first sample (see above)
         self.contents = {}  # (kind, root path, outer material) -> Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)

@@ -1,5 +1,5 @@
 """A mesh's primvars mapped to its triangle corners: normals, colours, ``displayOpacity`` and texture coordinates, of
-every interpolation, indexed or not, and through a Catmull-Clark or Loop refinement."""
+every interpolation, indexed or not, and through a Catmull-Clark, Loop or bilinear refinement."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """A ``UsdGeom.Mesh`` read in its own space: topology checks, triangulation (:func:`triangulate`: fans, concave faces
 ear-clipped by :mod:`wrt.polygons`), holes,
-Catmull-Clark (:mod:`wrt.subdivision`) and Loop (:mod:`wrt.loop_subdivision`) refinement, posing by a
+Catmull-Clark and bilinear (:mod:`wrt.subdivision`) and Loop (:mod:`wrt.loop_subdivision`) refinement, posing by a
 skeleton (:mod:`wrt.usd_skel`) and smooth normals of subdivision surfaces; ``TetMesh`` and ``NurbsPatch`` prims read
 the same way once :mod:`wrt.usd_surfaces` made them triangles."""
 
@@ -13,7 +13,7 @@ from .loop_subdivision import LoopRefinement, refined_triangles
 from .polygons import clip_concave_faces
 from .resources import check_host_memory
 from .scene import Mesh
-from .subdivision import REFINED_QUAD_BYTES, Refinement, refined_quads
+from .subdivision import REFINED_QUAD_BYTES, BilinearRefinement, Refinement, refined_quads
 from .usd_contents import Context
 from .usd_values import value_at
 
@@ -248,7 +248,7 @@ class MeshReading:
         return np.concatenate([np.where(bad_values[:, None], 0.0, values), face[rows]]), corner_index
 
     def _refinement(self, prim, scheme, counts, face_indices, n_points) -> Refinement | None:
-        """The refinement of a ``catmullClark`` or ``loop`` mesh at ``self.refine_level``, or None."""
+        """The refinement of a ``catmullClark``, ``loop`` or ``bilinear`` mesh at ``self.refine_level``, or None."""
         if not self.refine_level or scheme not in REFINED_SCHEMES:
             return None
         if scheme == "loop" and (counts > 3).any():
@@ -264,6 +264,8 @@ class MeshReading:
             faces, kind = refined_quads(counts, self.refine_level), "quads"
         check_host_memory(faces * REFINED_QUAD_BYTES, f"{self.source}: {self._shown_path(prim)}: refine_level "
                           f"{self.refine_level} ({faces:,} {kind})")
+        if scheme == "bilinear":  # no creases, corners or boundary rules: every new point is an average
+            return BilinearRefinement(counts, face_indices, n_points, self.refine_level)
         mesh, t = UsdGeom.Mesh(prim), self.time
         creases = corners = None
         crease_indices = self._int_array(prim, mesh.GetCreaseIndicesAttr())
@@ -330,7 +332,7 @@ class MeshReading:
 # usdview (Storm) draws them below its refinement levels; "none" and "bilinear" meshes keep their face normals.
 SMOOTH_SCHEMES = ("catmullClark", "loop")
 SUBDIVISION_SCHEMES = ("catmullClark", "loop", "bilinear", "none")  # the allowed tokens of subdivisionScheme
-REFINED_SCHEMES = ("catmullClark", "loop")  # those refine_level refines
+REFINED_SCHEMES = ("catmullClark", "loop", "bilinear")  # those refine_level refines
 
 
 def vertex_normals(points: np.ndarray, counts: np.ndarray, face_indices: np.ndarray, left_handed: bool) -> np.ndarray:
