@@ -185,6 +185,28 @@ def test_an_infinite_colour_or_an_opacity_outside_0_1_is_refused_naming_the_mesh
         Shape("/Ball", "sphere", np.eye(4), color=(np.inf, 0.0, 0.0))
 
 
+def test_normals_that_are_not_finite_are_refused_naming_the_mesh_and_triangle():
+    """A NaN or infinite ``mesh.normals`` corner made the interpolated shading normal NaN: the triangle was shaded
+    with its face normal, or a NaN normal, without a word (the loader replaces such authored normals with the face
+    normal and warns; NaN points are refused here). Refused when made and when assigned, as points are; zero rows
+    still mean none (the face normal)."""
+    up = np.zeros((2, 3, 3), np.float32)
+    up[..., 2] = 1.0
+    bad = up.copy()
+    bad[1, 2] = [np.nan, 0.0, 1.0]
+    with pytest.raises(wrt.SceneError, match=r"^/Bad: normals must be finite \(zero rows: none\); triangle 1 has"):
+        wrt.Mesh("/Bad", SQUARE, [[0, 1, 2], [0, 2, 3]], [0, 0], normals=bad)
+    scene = red_square()
+    ray = (np.float32([[-0.5, 0.5, 1.0]]), np.float32([[0.0, 0.0, -1.0]]))
+    assert wrt.trace(scene, *ray).prim.tolist() == [1]
+    scene.meshes[0].normals = np.zeros((2, 3, 3), np.float32)  # none: accepted
+    assert wrt.trace(scene, *ray).prim.tolist() == [1]
+    up[0, 0, 0] = np.inf
+    scene.meshes[0].normals = up
+    with pytest.raises(wrt.SceneError, match=r"^/Square: normals must be finite \(zero rows: none\); triangle 0"):
+        wrt.trace(scene, *ray)
+
+
 @pytest.mark.parametrize("kind,params", [("capsule", (np.nan, 0.0, 0.0, 1.0)), ("cylinder", (np.nan, 0.0, 0.0, 1.0)),
                                          ("tapered", (1.0, np.inf, 0.0, 1.0))])
 def test_shape_params_that_are_not_finite_are_refused_naming_the_shape(kind, params):

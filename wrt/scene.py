@@ -176,6 +176,12 @@ class Mesh(CountsAssignments):
             t = int(np.flatnonzero(np.isinf(self.colors).any(axis=(1, 2)))[0])
             raise SceneError(f"colors must be finite (NaN: none); triangle {t} has {self.colors[t].tolist()}",
                              prim=self.path)
+        # As points are: a NaN or infinite normal made the interpolated shading normal NaN, so the triangle was shaded
+        # with its face normal (NaN) or a NaN normal (inf) without a word. Zero rows still mean none.
+        if self.normals is not None and not np.isfinite(self.normals).all():
+            t = int(np.flatnonzero(~np.isfinite(self.normals).all(axis=(1, 2)))[0])
+            raise SceneError(f"normals must be finite (zero rows: none); triangle {t} has {self.normals[t].tolist()}",
+                             prim=self.path)
         if self.opacities is not None:
             outside = np.flatnonzero(((self.opacities < 0.0) | (self.opacities > 1.0)).any(axis=1))
             if len(outside):
