@@ -382,13 +382,50 @@ def test_refined_skinned_mesh_is_the_refinement_of_its_posed_cage(tmp_path):
 def test_mesh_joints_the_skeleton_lacks_are_posed_as_bake_skinning_poses_them(tmp_path):
     """``skel:joints`` naming a joint the skeleton does not have: its influences take the identity, as in
     BakeSkinning (and in wrt's skinned normals). ``ComputeSkinnedPoints`` gave those points another joint's transform:
-    the bar's root end was drawn 1.56 away from BakeSkinning's points while its normals matched."""
+    the bar's root end was drawn 1.56 away from BakeSkinning's points while its normals matched. USD says nothing of
+    the missing joint (its SkinningQuery is valid, BakeSkinning succeeds); wrt poses as it does and names the mesh and
+    the joint in a warning, which was silent."""
     body = skel_root().replace('skel:joints = ["root/tip", "root"]', 'skel:joints = ["root/tip", "root/missing"]')
     path = write(tmp_path, body)
     expected, normals = world_triangles(baked(path), "/Root/Bar", Usd.TimeCode(7))
-    mesh = {m.path: m for m in loaded(path, 7.0).meshes}["/Root/Bar"]
+    with pytest.warns(UserWarning, match=r"skel:joints name joints their skeleton lacks.*skel:joints\[1\] = "
+                                         r"'root/missing' is not a joint of /Root/Skel.*: /Root/Bar$"):
+        scene = load_usd(path, time=7.0)
+    mesh = {m.path: m for m in scene.meshes}["/Root/Bar"]
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
     np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)
+    # An entry no point is weighted to moves nothing: no warning.
+    extra = skel_root().replace('skel:joints = ["root/tip", "root"]', 'skel:joints = ["root/tip", "root", "spare"]')
+    loaded(write(tmp_path, extra), 7.0)
+
+
+ZERO_MATRIX = "( (0, 0, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0) )"
+FLAT_MATRIX = "( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 0, 0), (0, 0, 0, 1) )"  # z scaled to 0
+NAN_MATRIX = "( (nan, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )"
+
+
+@pytest.mark.parametrize("mesh,matrix", [("Rigid", ZERO_MATRIX), ("Rigid", FLAT_MATRIX), ("Bar", ZERO_MATRIX),
+                                         ("Bar", NAN_MATRIX)], ids=["rigid-zero", "rigid-flat", "bar-zero", "bar-nan"])
+def test_a_geom_bind_transform_that_cannot_be_inverted_keeps_unposed_points_with_a_warning(tmp_path, mesh, matrix):
+    """A zero or flattening ``primvars:skel:geomBindTransform`` (UsdSkel skins normals with its inverse transpose; USD
+    says nothing and BakeSkinning collapses the mesh) drew the rigid quad or the skinned bar collapsed to a point or a
+    plane, normals zero, without a word; a NaN one failed on the posed points, naming neither. The mesh is left
+    unposed and named with the attribute, as a skeleton's singular bindTransforms are."""
+    bound = np.array(eval(matrix.replace("nan", "float('nan')")), np.float64)
+    assert not np.isfinite(bound).all() or np.linalg.det(bound[:3, :3]) == 0.0  # the oracle: NaN or singular
+    body = skel_root()
+    if mesh == "Rigid":
+        body = body.replace(RIGID_INDEX, f"matrix4d primvars:skel:geomBindTransform = {matrix}\n        {RIGID_INDEX}")
+        authored = np.array([(2, -0.2, 0), (2.4, -0.2, 0), (2.4, 0.2, 0), (2, 0.2, 0)]) + (0, 1, 1)
+    else:
+        old = "geomBindTransform = ( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (-0.5, 0, 0, 1) )"
+        assert old in body
+        body = body.replace(old, f"geomBindTransform = {matrix}")
+        authored = np.array(bar()[0], np.float64) + (5, 6, 5)  # the mesh's and the SkelRoot's translations
+    why = "is not finite" if "nan" in matrix else r"cannot be inverted"
+    with pytest.warns(UserWarning, match=rf"skinning failed.*geomBindTransform {why}.*/Root/{mesh}"):
+        scene = load_usd(write(tmp_path, body), time=5.0)
+    np.testing.assert_allclose({m.path: m for m in scene.meshes}[f"/Root/{mesh}"].points, authored, atol=1e-6)
 
 
 def test_blend_shape_normal_offsets_turn_the_normals_as_bake_skinning_turns_them(tmp_path):

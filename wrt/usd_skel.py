@@ -16,12 +16,14 @@ Time: the animation is read at the load's time; with the default time, an animat
 shape weights have only time samples is read at its first sample, as wrt reads every other attribute
 (:func:`wrt.usd_values.read_time`), the mesh's jointIndices, jointWeights and geomBindTransform each on its own.
 A mesh whose skinning fails (joint indices out of range, influences that do not match its points, a skeleton that
-cannot be posed, bind transforms that do not match its joints or cannot be inverted, an unknown skinning method,
-weights or a pose that are not finite, a SkelRoot or skeleton outside the native prototype that holds it) keeps its
-unposed points, with a warning naming it. A blend shape that does not fit its mesh (``offsets`` or ``normalOffsets``
-of another length than its ``pointIndices``, or than the mesh's points without them; a point index out of range;
-offsets that are not finite) is left out, with a warning naming the mesh, the BlendShape and what is wrong; the
-mesh's other blend shapes and its skinning still apply.
+cannot be posed, bind transforms that do not match its joints or cannot be inverted, a ``geomBindTransform`` that is
+not finite or cannot be inverted, an unknown skinning method, weights or a pose that are not finite, a SkelRoot or
+skeleton outside the native prototype that holds it) keeps its unposed points, with a warning naming it. A
+``skel:joints`` entry the skeleton lacks, weighted by some point, poses those points with the identity as UsdSkel
+does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that does not fit its mesh
+(``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points without
+them; a point index out of range; offsets that are not finite) is left out, with a warning naming the mesh, the
+BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply.
 """
 
 from __future__ import annotations
@@ -35,6 +37,8 @@ from .usd_values import read_time
 _ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
 FAILED = "UsdSkel skinning failed; these meshes are drawn in their unposed points"  # warning reason
 BAD_SHAPE = "UsdSkel blend shapes that do not fit their mesh were left out; the rest of its pose applies"  # reason
+MISSING_JOINTS = ("UsdSkel skel:joints name joints their skeleton lacks; points weighted to them take the identity, "
+                  "as UsdSkel's")  # warning reason: the mesh is posed as BakeSkinning poses it
 
 
 class SkelPoser:
@@ -132,6 +136,10 @@ class SkelPoser:
         if isinstance(xforms, str):
             raise ValueError(xforms)
         skin = _Influences(query, xforms, self.time)
+        missing = skin.weighted_joints_missing_from(self.cache.GetSkelQuery(skeleton).GetJointOrder())
+        if missing:  # USD says nothing of them; almost always a skeleton renamed or re-exported without the mesh
+            k, name = missing[0]
+            self.skip(MISSING_JOINTS, prim, f"skel:joints[{k}] = '{name}' is not a joint of {skeleton.GetPath()}")
         if query.IsRigidlyDeformed():
             m = skin.rigid_transform()
             if normals is not None:
@@ -211,8 +219,8 @@ class _Influences:
     ``SkinTransform``, which take the transforms in the influences' order).
 
     The transforms are remapped here, once for points and normals: a joint of ``skel:joints`` that the skeleton lacks
-    gets the identity, as in ``UsdSkel.BakeSkinning``. ``SkinningQuery.ComputeSkinnedPoints``, which remaps inside,
-    gave such a joint's points another joint's transform.
+    gets the identity, as in ``UsdSkel.BakeSkinning`` (the poser warns of it: :meth:`weighted_joints_missing_from`).
+    ``SkinningQuery.ComputeSkinnedPoints``, which remaps inside, gave such a joint's points another joint's transform.
     """
 
     def __init__(self, query: UsdSkel.SkinningQuery, xforms, time: Usd.TimeCode):
@@ -235,16 +243,35 @@ class _Influences:
             raise ValueError(f"unknown skel:skinningMethod '{self.method}'")
         bind = query.GetGeomBindTransformAttr()  # invalid when not authored (the identity)
         self.bind = query.GetGeomBindTransform(read_time(bind, time) if bind else time)
+        # Refused as the skeleton's singular bindTransforms are: a zero or flat geomBindTransform (own or inherited)
+        # collapsed the mesh to a point or a plane, its normals to zero, without a word.
+        if not np.isfinite(np.array(self.bind)).all():
+            raise ValueError("primvars:skel:geomBindTransform is not finite")
+        if self.bind.GetDeterminant3() == 0.0:
+            raise ValueError("primvars:skel:geomBindTransform cannot be inverted (it flattens the mesh)")
         mapper = query.GetJointMapper()
         if mapper and not mapper.IsNull() and not mapper.IsIdentity():
             xforms = mapper.RemapTransforms(xforms, Vt.Matrix4dArray())  # into the mesh's skel:joints order
         self.xforms = xforms
+        self.joint_order = query.GetJointOrder()  # the mesh's skel:joints, or None
         # Checked here: SkinTransform (rigid bindings) returns the identity for an index out of range, and the failure
         # is not seen from Python.
         indices = np.asarray(self.indices)
         bad = np.flatnonzero((indices < 0) | (indices >= len(xforms)))
         if len(bad):
             raise ValueError(f"jointIndices[{bad[0]}] = {indices[bad[0]]} is out of range for {len(xforms)} joints")
+
+    def weighted_joints_missing_from(self, skeleton_joints) -> list[tuple[int, str]]:
+        """``(index, name)`` of each entry of the mesh's ``skel:joints`` that ``skeleton_joints`` lacks and that a
+        non-zero joint weight refers to (unused entries move nothing)."""
+        if self.joint_order is None:
+            return []
+        known = set(skeleton_joints)
+        missing = [k for k, name in enumerate(self.joint_order) if name not in known]
+        if not missing:
+            return []
+        weighted = set(np.asarray(self.indices)[np.asarray(self.weights) != 0.0].tolist())
+        return [(k, str(self.joint_order[k])) for k in missing if k in weighted]
 
     def points(self, points: np.ndarray) -> np.ndarray:
         """``(V, 3)`` float64 ``points`` (the mesh's, blend shapes applied) skinned into the skeleton's space."""
