@@ -315,9 +315,6 @@ class _Generator:
         if indexed:
             pv.SetIndices(Vt.IntArray([rng.randrange(n_values) for _ in range(n)]))
 
-    def under_instancer(self, prim: Usd.Prim) -> bool:
-        return any(self.stage.GetPrimAtPath(p).IsA(UsdGeom.PointInstancer) for p in prim.GetPath().GetPrefixes())
-
     def decorate_all(self) -> None:
         """Bindings and primvars on random prims made, after the hierarchy is complete (collections see it all)."""
         rng = self.rng
@@ -346,9 +343,9 @@ class _Generator:
                     type_name = Sdf.ValueTypeNames.FloatArray if name == "displayOpacity" else \
                         Sdf.ValueTypeNames.Color3fArray
                     UsdGeom.PrimvarsAPI(prim).CreatePrimvar(name, type_name, UsdGeom.Tokens.constant).GetAttr().Block()
-                elif roll < 0.33 and not is_mesh and not self.under_instancer(prim):
-                    # A non-constant primvar on a group: it blocks inheritance. (Not under a PointInstancer: wrt hands
-                    # the instancer's constant primvars to its instances past it, as instance primvars.)
+                elif roll < 0.33 and not is_mesh and not prim.IsA(UsdGeom.PointInstancer):
+                    # A non-constant primvar on a group: it blocks inheritance, an instancer's constant primvar too.
+                    # (Not on the instancer itself: Hydra would make it an instance primvar.)
                     pv = UsdGeom.PrimvarsAPI(prim).CreatePrimvar(name, Sdf.ValueTypeNames.Color3fArray
                                                                  if name != "displayOpacity"
                                                                  else Sdf.ValueTypeNames.FloatArray,

@@ -125,6 +125,31 @@ def test_constant_display_color_colours_every_instance(tmp_path):
     np.testing.assert_allclose(albedo, [(0.2, 0.4, 0.8)] * 3, atol=1e-6)
 
 
+@pytest.mark.parametrize("interpolation", ["constant", "vertex"])
+def test_a_non_constant_primvar_inside_a_prototype_beneath_the_instancer_blocks_its_constant_colour(tmp_path,
+                                                                                                     interpolation):
+    """A prototype beneath the instancer inherits the instancer's constant displayColor, and USD's inheritance stops
+    at a non-constant displayColor on a prim between (FindPrimvarWithInheritance on the mesh finds none); Hydra makes
+    only the instancer's non-constant primvars instance primvars ("inherited primvars don't vary per-instance, so we
+    let the prototypes pick them up"), which apply to prototype meshes without a displayColor. The constant colour
+    went past the blocker as an instance colour: the quads were drawn red, not in the default grey."""
+    path = instancer_stage(tmp_path / "pi.usda", colors=RGB[:2] if interpolation == "vertex" else RGB[:1],
+                           interpolation=interpolation, n=2)
+    stage = Usd.Stage.Open(path)
+    group = UsdGeom.Xform.Define(stage, "/PI/Protos/P").GetPrim()
+    Sdf.CopySpec(stage.GetRootLayer(), "/Protos/Shape", stage.GetRootLayer(), "/PI/Protos/P/Shape")
+    UsdGeom.PrimvarsAPI(group).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                             UsdGeom.Tokens.uniform).Set([(1.0, 0.0, 1.0)])
+    UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).GetPrototypesRel().SetTargets([group.GetPath()])
+    stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(path)
+    assert not UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI/Protos/P/Shape")).FindPrimvarWithInheritance(
+        "displayColor")
+    albedo, _ = albedo_at_instances(load(path))
+    expected = RGB[:2] if interpolation == "vertex" else [(GREY,) * 3] * 2
+    np.testing.assert_allclose(albedo[:2], expected, atol=1e-6)
+
+
 def test_indexed_display_color_is_flattened(tmp_path):
     """An indexed primvar gives each instance ``values[indices[i]]``, as ComputeFlattened does."""
     path = instancer_stage(tmp_path / "pi.usda", colors=RGB[:2], indices=[1, 0, 1])

@@ -62,6 +62,12 @@ class PointInstancerReading:
             ctx.content.wants_widths |= content.wants_widths
             ctx.content.want_colors(content.outer_colors)
             name = self._instance_color_name(prim, content.outer_colors)
+            if name is not None and target.GetPath().HasPrefix(prim.GetPath()) and \
+                    UsdGeom.PrimvarsAPI(prim).GetPrimvar(name).GetInterpolation() == UsdGeom.Tokens.constant:
+                # A constant colour on the instancer reaches the prototypes beneath it by inheritance, read with their
+                # geometry, and stops at a non-constant primvar of its name between (FindPrimvarWithInheritance);
+                # Hydra makes only non-constant ones instance primvars. As an instance colour it went past that.
+                name = None
             if name not in colors_by_name:
                 colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
             looks = instance_looks(colors_by_name[name], opacities)
