@@ -261,33 +261,39 @@ def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
 @pytest.mark.parametrize(
     "field, needle",
     [
-        (dict(scenes="sphere:2000"), "scenes must be a list"),
-        (dict(n_rays=-5), "n_rays must be a positive integer"),
-        (dict(repeats=0), "repeats must be a positive integer"),
-        (dict(threads=["abc"]), "threads must be positive integers"),
-        (dict(rays=["sideways"]), "unknown ray kind"),
-        (dict(scenes=[2000]), "scenes must be a list of names, got 2000"),  # was an AttributeError traceback
-        (dict(accels=["wrt:sah", None]), "accels must be a list of names, got None"),
-        (dict(accels=[]), "the grid measures nothing: accels empty"),  # was 0 rows and exit status 0
+        (dict(scenes="sphere:2000"), "scenes: must be a list"),
+        (dict(n_rays=-5), "n_rays: must be a positive integer"),
+        (dict(repeats=0), "repeats: must be a positive integer"),
+        (dict(threads=[1, "abc"]), r"threads\[1\]: must be positive integers"),
+        (dict(rays=["primary", "sideways"]), r"rays\[1\]: unknown ray kind"),
+        (dict(scenes=[2000]), r"scenes\[0\]: must be a list of names, got 2000"),  # was an AttributeError traceback
+        (dict(accels=["wrt:sah", None]), r"accels\[1\]: must be a list of names, got None"),
+        (dict(accels=[]), "accels: the grid measures nothing: accels empty"),  # was 0 rows and exit status 0
         # A misspelt accelerator became an error row for every scene, ray kind and device, at run time.
-        (dict(accels=["wrt:sah", "foo"]), "accelerator 'foo': unknown accelerator kind 'foo'; accelerators"),
-        (dict(accels=["wrt:octree"]), "accelerator 'wrt:octree': unknown BVH builder 'octree'"),
-        (dict(accels=["wrt:sah:wide9"]), "accelerator 'wrt:sah:wide9': unknown BVH layout 'wide9'"),
-        (dict(accels=["warp:ploc"]), "accelerator 'warp:ploc': wp.Mesh has no builder 'ploc'; its builders"),
-        (dict(rays=[], devices=[]), "the grid measures nothing: devices, rays empty"),
+        (dict(accels=["wrt:sah", "foo"]), r"accels\[1\]: accelerator 'foo': unknown accelerator kind 'foo'; "
+                                          "accelerators"),
+        (dict(accels=["wrt:octree"]), r"accels\[0\]: accelerator 'wrt:octree': unknown BVH builder 'octree'"),
+        (dict(accels=["wrt:sah:wide9"]), r"accels\[0\]: accelerator 'wrt:sah:wide9': unknown BVH layout 'wide9'"),
+        (dict(accels=["warp:ploc"]), r"accels\[0\]: accelerator 'warp:ploc': wp.Mesh has no builder 'ploc'; its"),
+        (dict(rays=[], devices=[]), "devices: the grid measures nothing: devices, rays empty"),
+        (dict(scenes=["sphere:2000", "sphere:abc"]), r"scenes\[1\]: sphere:abc: N must be a whole number"),
         # The scaling sweep's fields were not checked: a misspelt key dropped the sweep without a word, a string of
         # sizes was read digit by digit, and a bad ray kind or count failed on every sweep row.
-        (dict(scaling={"size": [1000]}), r"unknown scaling keys \['size'\]"),
-        (dict(scaling={"sizes": "1000"}), "scaling sizes must be a list"),
-        (dict(scaling={"sizes": [1000, None]}), "scaling sizes must be a list"),
-        (dict(scaling={"sizes": [1000], "accels": "wrt:sah"}), "scaling accels must be a list"),
-        (dict(scaling={"sizes": [1000], "rays": "sideways"}), "unknown scaling ray kind 'sideways'"),
-        (dict(scaling={"sizes": [1000], "n_rays": -5}), "scaling n_rays must be a positive integer"),
+        (dict(scaling={"size": [1000]}), r"scaling: unknown scaling keys \['size'\]"),
+        (dict(scaling={"sizes": "1000"}), "scaling.sizes: must be a list"),
+        (dict(scaling={"sizes": [1000, None]}), "scaling.sizes: must be a list"),
+        (dict(scaling={"sizes": [1000], "accels": "wrt:sah"}), "scaling.accels: must be a list"),
+        (dict(scaling={"sizes": [1000], "accels": ["wrt:sah", "wrt:sha"]}),
+         r"scaling.accels\[1\]: accelerator 'wrt:sha': unknown BVH builder 'sha'"),
+        (dict(scaling={"sizes": [1000], "rays": "sideways"}), "scaling.rays: unknown scaling ray kind 'sideways'"),
+        (dict(scaling={"sizes": [1000], "n_rays": -5}), "scaling.n_rays: must be a positive integer"),
         # sphere:2000 as a scene and a sweep size: its sweep group ran as a second scene group, unmarked.
-        (dict(scaling={"sizes": [1000, 2e3]}), "scaling size 2000 is also the scene 'sphere:2000'"),
+        (dict(scaling={"sizes": [1000, 2e3]}), "scaling: size 2000 is also the scene 'sphere:2000'"),
     ],
 )
 def test_bad_grid_fields_are_named(tmp_path, field, needle):
+    """A suite's bad value is refused naming the file and the key it sits at, the entry of a list too: the messages
+    named the value only ('suite.json: accelerator 'foo': ...'), which a long suite leaves the reader to search."""
     suite = tmp_path / "suite.json"
     suite.write_text(json.dumps({**dict(scenes=["sphere:2000"], accels=["wrt:sah"], rays=["primary"]), **field}))
     with pytest.raises(ValueError, match=f"suite.json: {needle}"):

@@ -189,7 +189,7 @@ def test_bad_bench_options_are_named_before_any_scene_loads(tmp_path, monkeypatc
 
 
 def test_an_empty_thread_list_in_a_suite_is_refused(tmp_path):
-    with pytest.raises(ValueError, match="suite.json: threads must list at least one thread count"):
+    with pytest.raises(ValueError, match="suite.json: threads: must list at least one thread count"):
         Grid.from_suite(write_suite(tmp_path, threads=[]))
 
 
@@ -361,3 +361,39 @@ def test_the_ratio_to_a_reference_row_that_failed_reads_n_a_not_blank():
     cells = {line.split("|")[1].strip(): line.split("|")[11].strip()
              for line in bench_module.markdown_table(rows).splitlines() if "| wrt:sah |" in line}
     assert cells == {"a": "n/a", "b": "1.50", "c": ""}
+
+
+def test_a_bad_device_of_a_suite_is_named_with_the_file_and_key(tmp_path, monkeypatch, capsys):
+    """Devices are checked when the run starts, after the suite is read: a misspelt one was refused as 'unknown or
+    unavailable device' alone, naming neither the suite file nor the key."""
+    loaded = []
+    monkeypatch.setattr(bench_module, "resolve_scene", lambda name: loaded.append(name))
+    suite = write_suite(tmp_path, devices=["cpu", "cpuu"], rays=["primary"], n_rays=100)
+    assert main(["bench", str(suite), "-q", "-o", str(tmp_path / "out")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(err) == 1 and "suite.json: devices[1]: unknown or unavailable device 'cpuu'" in err[0], err
+    assert loaded == []
+
+
+@pytest.mark.parametrize("strict", [False, True])
+def test_strict_bench_exits_1_when_a_row_disagrees_with_wp_mesh(tmp_path, monkeypatch, capsys, strict):
+    """A row that answered rays otherwise than ``warp:sah`` (the independent wp.Mesh answer; here 7 of wrt's hits
+    dropped) was a warning line only, with exit status 0: a scripted run could not tell. ``--strict`` makes it
+    status 1, as a failed row is, with an error line; without it the warning and status 0 stay."""
+    answer = bench_module._Subject.answer
+
+    def loses_hits(subject):
+        hits = answer(subject)
+        if subject.spec == "wrt:sah":
+            hits.prim[np.flatnonzero(hits.prim >= 0)[:7]] = -1
+        return hits
+
+    monkeypatch.setattr(bench_module._Subject, "answer", loses_hits)
+    argv = ["bench", "--scenes", "sphere:200", "--accels", "warp:sah,wrt:sah", "--rays", "primary", "--n-rays", "300",
+            "--repeats", "1", "-q", "-o", str(tmp_path / "out")]
+    code = main(argv + ["--strict"] * strict)
+    err = capsys.readouterr().err
+    assert code == (1 if strict else 0)
+    kind = "error" if strict else "warning"
+    assert f"wrt: {kind}: sphere:200 / wrt:sah / cpu / primary: 7 of 300 rays answered otherwise than by warp:sah" \
+        in err, err

@@ -74,10 +74,12 @@ class Grid:
 
     @classmethod
     def from_suite(cls, path) -> Grid:
-        """Reads a suite file (JSON); ``path`` may also name a file in ``wrt/suites`` without ``.json``."""
-        path = Path(path)
-        if not path.exists() and (SUITES_DIR / f"{path}.json").exists():
-            path = SUITES_DIR / f"{path}.json"
+        """Reads a suite file (JSON); ``path`` may also name a file in ``wrt/suites`` without ``.json``.
+
+        Raises:
+            ValueError: naming the file and, for a bad value, the key it sits at (``quick.json: accels[1]: ...``).
+        """
+        path = suite_path(path)
         if not path.exists():
             known = sorted(p.stem for p in SUITES_DIR.glob("*.json")) if SUITES_DIR.exists() else []
             raise FileNotFoundError(f"no benchmark suite {str(path)!r}{did_you_mean(path, known)}; suites in "
@@ -101,8 +103,12 @@ class Grid:
         data.pop("description", None)
         try:
             return cls(**data).validated()
+        except GridError as e:  # it named the value only ('unknown ray kind ...'), not where it sits in the file
+            raise ValueError(f"{path.name}: {e.where()}") from None
         except ValueError as e:
             raise ValueError(f"{path.name}: {e}") from None
+        except MemoryError as e:  # an n_rays past the memory
+            raise MemoryError(f"{path.name}: {e}") from None
 
     def validated(self) -> Grid:
         """This grid with ``threads`` as ints (``"all"``: every core; repeats dropped), after checking every field.
@@ -116,41 +122,45 @@ class Grid:
             if not isinstance(value, (list, tuple)):
                 raise GridError(name, f"{name} must be a list, got {value!r}")
         for name in ("scenes", "accels", "devices", "rays"):
-            bad = [v for v in getattr(self, name) if not isinstance(v, str) or not v.strip()]
+            bad = [k for k, v in enumerate(getattr(self, name)) if not isinstance(v, str) or not v.strip()]
             if bad:  # a number or null would stop the whole run with a traceback
-                raise GridError(name, f"{name} must be a list of names, got {bad[0]!r} in it")
+                raise GridError(name, f"{name} must be a list of names, got {getattr(self, name)[bad[0]]!r} in it",
+                                bad[0])
         for name in ("n_rays", "repeats"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise GridError(name, f"{name} must be a positive integer, got {value!r}")
         check_host_memory(self.n_rays * RAY_BYTES, f"n_rays {self.n_rays}")
-        bad = [k for k in self.rays if k not in RAY_KINDS]
+        bad = [i for i, k in enumerate(self.rays) if k not in RAY_KINDS]
         if bad:
-            raise GridError("rays", f"unknown ray kind {bad[0]!r}{did_you_mean(bad[0], RAY_KINDS)}; valid ray kinds: "
-                            f"{', '.join(RAY_KINDS)}")
-        for spec in self.accels:  # misspelt here, every row of the accelerator became an error row at run time
+            kind = self.rays[bad[0]]
+            raise GridError("rays", f"unknown ray kind {kind!r}{did_you_mean(kind, RAY_KINDS)}; valid ray kinds: "
+                            f"{', '.join(RAY_KINDS)}", bad[0])
+        for i, spec in enumerate(self.accels):  # misspelt here, every row of the accelerator became an error row
             try:
                 check_accel_spec(spec)
             except ValueError as e:
-                raise GridError("accels", str(e)) from None
-        for name in self.scenes:  # 'sphere:abc' became an error row per group, after the scenes before it ran
+                raise GridError("accels", str(e), i) from None
+        for i, name in enumerate(self.scenes):  # 'sphere:abc' became an error row per group, after the scenes before
             if name.startswith("sphere:"):
                 try:
                     sphere_count(name)
                 except ValueError as e:
-                    raise GridError("scenes", str(e)) from None
+                    raise GridError("scenes", str(e), i) from None
         if not self.threads:  # every CPU row was dropped: the run 'measured' nothing and exited 0
             raise GridError("threads", "threads must list at least one thread count")
         threads = []
-        for t in self.threads:
+        for i, t in enumerate(self.threads):
             count = (os.cpu_count() or 1) if str(t) == "all" else _positive_count(t)
             if count is None:
-                raise GridError("threads", f"threads must be positive integers or 'all', got {t!r}")
+                raise GridError("threads", f"threads must be positive integers or 'all', got {t!r}", i)
             if count not in threads:
                 threads.append(count)
         if self.scaling is not None:
             try:
                 _check_scaling(self.scaling)
+            except GridError:
+                raise
             except ValueError as e:
                 raise GridError("scaling", str(e)) from None
             # A sweep group is told from a scene group by its name: one name for both would measure the sweep size
@@ -170,11 +180,30 @@ class Grid:
 
 
 class GridError(ValueError):
-    """A bad field of a :class:`Grid`: ``field`` names it, so that ``wrt bench`` can name the option that set it."""
+    """A bad field of a :class:`Grid`: ``field`` names it, so that ``wrt bench`` can name the option that set it, and
+    ``index`` the entry of a list field (or of ``scaling``'s) that is bad, so that a suite's error names its key."""
 
-    def __init__(self, field: str, message: str):
+    def __init__(self, field: str, message: str, index: int | None = None):
         super().__init__(message)
-        self.field = field  # the Grid field: "scenes", "accels", "devices", "rays", "n_rays", "repeats", ...
+        self.field = field  # the Grid field: "scenes", "accels", ..., or "scaling.accels" for a key of scaling
+        self.index = index  # the bad entry of a list, or None
+
+    def where(self) -> str:
+        """The message led by the key it is about, as a suite file spells it: ``accels[1]: accelerator ...``
+        (the field's name dropped from the start of the message: ``threads: must list ...``)."""
+        key = self.field + ("" if self.index is None else f"[{self.index}]")
+        message = str(self)
+        for prefix in (f"{self.field.replace('.', ' ')} ", f"{self.field} "):
+            message = message.removeprefix(prefix)
+        return f"{key}: {message}"
+
+
+def suite_path(path) -> Path:
+    """The file a suite name gives: ``path`` itself, or the file of that name in ``wrt/suites`` (``quick``)."""
+    path = Path(path)
+    if not path.exists() and (SUITES_DIR / f"{path}.json").exists():
+        return SUITES_DIR / f"{path}.json"
+    return path
 
 
 ACCEL_KINDS = ("wrt", "warp", "embree")  # what an accelerator name starts with
@@ -220,19 +249,22 @@ def _check_scaling(scaling) -> None:
     if not isinstance(sizes, (list, tuple)) or not all(
         isinstance(n, (int, float)) and not isinstance(n, bool) and math.isfinite(n) and n >= 1 for n in sizes
     ):
-        raise ValueError(f"scaling sizes must be a list of triangle counts, got {sizes!r}")
+        raise GridError("scaling.sizes", f"scaling sizes must be a list of triangle counts, got {sizes!r}")
     accels = scaling.get("accels", [])
     if not isinstance(accels, (list, tuple)) or not all(isinstance(a, str) and a.strip() for a in accels):
-        raise ValueError(f"scaling accels must be a list of names, got {accels!r}")
-    for spec in accels:  # misspelt, it failed as an error row at every size of the sweep
-        check_accel_spec(spec)
+        raise GridError("scaling.accels", f"scaling accels must be a list of names, got {accels!r}")
+    for i, spec in enumerate(accels):  # misspelt, it failed as an error row at every size of the sweep
+        try:
+            check_accel_spec(spec)
+        except ValueError as e:
+            raise GridError("scaling.accels", str(e), i) from None
     kind = scaling.get("rays", "incoherent")
     if kind not in RAY_KINDS:
-        raise ValueError(f"unknown scaling ray kind {kind!r}{did_you_mean(kind, RAY_KINDS)}; valid ray kinds: "
-                         f"{', '.join(RAY_KINDS)}")
+        raise GridError("scaling.rays", f"unknown scaling ray kind {kind!r}{did_you_mean(kind, RAY_KINDS)}; valid "
+                        f"ray kinds: {', '.join(RAY_KINDS)}")
     n_rays = scaling.get("n_rays", 1)
     if isinstance(n_rays, bool) or not isinstance(n_rays, int) or n_rays < 1:
-        raise ValueError(f"scaling n_rays must be a positive integer, got {n_rays!r}")
+        raise GridError("scaling.n_rays", f"scaling n_rays must be a positive integer, got {n_rays!r}")
     check_host_memory(n_rays * RAY_BYTES, f"scaling n_rays {n_rays}")
 
 
@@ -878,12 +910,12 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
         GridError: for a name that is no device (a misspelling), or when no device named is available.
     """
     devices, unavailable = [], {}
-    for name in names:
+    for i, name in enumerate(names):
         try:
             devices.append(resolve_device(name))
         except ValueError as e:
             if not (name == "cuda" or name.startswith("cuda:") and name[5:].isdigit()):
-                raise GridError("devices", str(e)) from None
+                raise GridError("devices", str(e), i) from None
             devices.append(name)
             unavailable[name] = e
     if len(unavailable) == len(names):

@@ -952,6 +952,9 @@ def _add_bench(sub) -> None:
         help="spread the (scene, device, ray kind) groups over a Dask cluster: the scheduler at ADDRESS "
         "(tcp://host:8786), else a local one with a worker per GPU or CPU core (pip install 'wrt[dask]')",
     )
+    p.add_argument("--strict", action="store_true",
+                   help="exit with status 1 when a row answers some ray otherwise than warp:sah (ray by ray, edge "
+                   "ties left out), as for a failed row; without it such rows are only warned about")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=_run_bench)
 
@@ -959,7 +962,7 @@ def _add_bench(sub) -> None:
 def _run_bench(args) -> int:
     import dataclasses
 
-    from .bench import REFERENCE, Grid, GridError, run_grid
+    from .bench import REFERENCE, Grid, GridError, run_grid, suite_path
 
     if args.quick and args.suite != "quick":  # the suite named would be dropped without a word
         raise ValueError(f"give a suite ({args.suite}) or --quick, not both")
@@ -974,8 +977,8 @@ def _run_bench(args) -> int:
             _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by an errno
         rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     except GridError as e:  # raised before any row is measured; it named the value only ('unknown ray kind ...')
-        if e.field not in typed:  # from the suite file
-            raise
+        if e.field not in typed:  # from the suite file (a device it lists is checked only now): name file and key
+            raise ValueError(f"{suite_path(args.suite).name}: {e.where()}") from None
         message = str(e).removeprefix(f"{e.field} ")  # 'threads must be ...' reads 'argument --threads: must be ...'
         raise ValueError(f"argument --{e.field.replace('_', '-')}: {message}") from None
     failed = [r for r in rows if "error" in r]
@@ -985,15 +988,17 @@ def _run_bench(args) -> int:
     print(summary, file=sys.stderr)
     for r in failed:
         print(f"wrt: failed: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['error']}", file=sys.stderr)
-    for r in rows:  # a wrong answer, of the row or of wp.Mesh, must not pass as a speed-up
-        if r.get("disagreements"):
-            print(f"wrt: warning: {r['scene']} / {r['accel']} / {r['device']} / {r['rays']}: {r['disagreements']} of "
-                  f"{r['n_rays']} rays answered otherwise than by {REFERENCE} (edge ties left out)", file=sys.stderr)
+    disagreeing = [r for r in rows if r.get("disagreements")]
+    for r in disagreeing:  # a wrong answer, of the row or of wp.Mesh, must not pass as a speed-up
+        print(f"wrt: {'error' if args.strict else 'warning'}: {r['scene']} / {r['accel']} / {r['device']} / "
+              f"{r['rays']}: {r['disagreements']} of {r['n_rays']} rays answered otherwise than by {REFERENCE} (edge "
+              "ties left out)", file=sys.stderr)
     unchecked = [r for r in rows if "error" not in r and r.get("agreement") is None and r["accel"] != REFERENCE]
     if unchecked:
         print(f"wrt: warning: {counted(len(unchecked), 'row')} not checked against {REFERENCE} (it failed or was not "
               "run in their group)", file=sys.stderr)
-    return 1 if failed else 0
+    # --strict: a script sees the disagreement in the status (it was a warning line only, status 0).
+    return 1 if failed or (args.strict and disagreeing) else 0
 
 
 def build_parser() -> argparse.ArgumentParser:
