@@ -20,6 +20,7 @@ from wrt.microfacet_albedo import (
     multiple_scattering_pdf,
     sample_multiple_scattering_cos,
 )
+from wrt.shade import keep_reflection_above
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
 N_PARAMS = 11  # base rgb, specular grey, metallic, roughness, opacity, ior, clearcoat, clearcoat roughness, workflow
@@ -334,6 +335,75 @@ def test_an_index_matched_glass_passes_grazing_light_straight_through(np_rng):
     assert (delta == 1).all()
     np.testing.assert_allclose(weight, 1.0)
     np.testing.assert_allclose(wi, -wo, atol=1e-6)
+
+
+@wp.kernel
+def sample_bent_glass_kernel(
+    p: wp.array[float],
+    tables: GgxAlbedo,
+    n: wp.array[wp.vec3],
+    wo: wp.array[wp.vec3],
+    front: int,
+    kept: int,
+    u: wp.array2d[float],
+    # outputs
+    wi: wp.array[wp.vec3],
+    weight: wp.array[wp.vec3],
+    transmitted: wp.array[wp.int32],
+):
+    """Sample ``i`` of :func:`sample_bsdf` at shading normal ``n[i]`` (with ``kept``, turned by
+    :func:`keep_reflection_above` as the shading points' are) about the geometric normal +Z, viewer ``wo[i]`` on the
+    side ``front``."""
+    i = wp.tid()
+    s = surface_from(p)
+    ng = wp.vec3(0.0, 0.0, 1.0)
+    ns = n[i]
+    if kept == 1:
+        ns = keep_reflection_above(ns, ng, wo[i])
+    lobes = lobe_albedos(s, tables, wp.dot(ns, wo[i]))
+    b = sample_bsdf(s, tables, lobes, ns, ng, wo[i], front, u[i, 0], u[i, 1], u[i, 2], u[i, 3])
+    wi[i] = b.wi
+    weight[i] = b.weight
+    transmitted[i] = b.transmitted
+
+
+def sample_bent_glass(ior, front, kept, np_rng, count=20_000):
+    """``(n, wo, wi, weight, transmitted)`` of clear glass sampled at random shading normals up to 90 degrees from
+    the geometric normal +Z and random viewers above it, facing each other (``n . wo > 0``)."""
+    unit = np_rng.normal(size=(2, count, 3))
+    unit /= np.linalg.norm(unit, axis=-1, keepdims=True)
+    unit[..., 2] = np.abs(unit[..., 2])
+    n, wo = (x[np.einsum("ij,ij->i", unit[0], unit[1]) > 0.0] for x in unit)
+    outs = [wp.empty(len(n), dtype=t, device="cpu") for t in (wp.vec3, wp.vec3, wp.int32)]
+    u = wp.array(np_rng.random((len(n), 4)).astype(np.float32), dtype=float, device="cpu")
+    wp.launch(sample_bent_glass_kernel, len(n), inputs=[params(opacity=0.0, ior=ior), ggx_albedo_tables("cpu"),
+                                                       vec3s(n), vec3s(wo), front, kept, u], outputs=outs,
+              device="cpu")
+    return (n, wo, *(o.numpy() for o in outs))
+
+
+@pytest.mark.parametrize("front", [1, 0])
+@pytest.mark.parametrize("ior", [1.5, 1.2, 2.4])
+def test_glass_about_a_bent_normal_transmits_below_and_reflects_above_the_surface(front, ior, np_rng):
+    """Clear glass (opacity 0) at shading normals bent up to 90 degrees from the geometric normal +Z, viewers on both
+    sides of the glass: a transmitted sample points below the surface and a reflected one above (the geometric side
+    test, in float64). With the normals the shading points use (:func:`keep_reflection_above`) every sample weighs
+    1: the interface absorbs nothing. Without it a mirror ray that would go below the surface weighs 0, as the
+    opaque mirrors' do. Leaving the glass (``front`` 0), Snell's law about normals tilted towards the viewer sent 1
+    in 10 transmitted directions back above the surface."""
+    for kept in (1, 0):
+        n, wo, wi, weight, transmitted = sample_bent_glass(ior, front, kept, np_rng)
+        lit = weight[:, 0] > 0.0
+        above = wi[:, 2].astype(np.float64) > 0.0
+        assert not (lit & (transmitted == 1) & above).any(), "transmitted above the surface"
+        assert not (lit & (transmitted == 0) & ~above).any(), "reflected below the surface"
+        assert (transmitted == 1).sum() > len(n) // 20
+        np.testing.assert_array_equal(weight[lit], 1.0)
+        if kept:
+            assert lit.all()
+        else:
+            mirror_below = 2.0 * np.einsum("ij,ij->i", n, wo) * n[:, 2] - wo[:, 2] <= 1e-6  # reflect(wo, n) . ng
+            assert mirror_below[~lit].all()
 
 
 def test_colours_above_one_give_finite_nonnegative_weights(np_rng):

@@ -478,6 +478,29 @@ def test_a_clear_pane_shows_the_sky_behind_it_unchanged(integrator, ior):
     np.testing.assert_allclose(img.rgb, 1.0, atol=0.02)
 
 
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_pane_whose_bent_normal_turns_the_refraction_back_reflects_all_the_light(integrator):
+    """A clear pane (opacity 0, ior 1.5) at z = 0 whose authored normal leans 46 degrees from its face, seen from
+    below at 83 degrees from the face normal: leaving the glass about that normal, Snell's law gives a direction below
+    the pane again, which cannot cross it, so all the light is reflected: the pane shows the red emitter below it
+    (radiance 1, as large as the view needs) and nothing of the green one above. The refracted ray started above the
+    pane and re-crossed it there: a third of the light came through the pane from the green emitter."""
+    tilt, view = np.radians(46.0), np.radians(83.0)
+    pane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), material=0)  # faces +Z
+    pane.normals = np.tile(np.array([np.sin(tilt), 0.0, np.cos(tilt)], np.float32), (2, 3, 1))
+    below = quad((0, 0, -3), (2e4, 0, 0), (0, 2e4, 0), name="/below", material=1)
+    above = quad((0, 0, 3), (2e4, 0, 0), (0, -2e4, 0), name="/above", material=2)
+    glass = Material(opacity=0.0, ior=1.5, roughness=0.0)
+    black = {"diffuse_color": 0.0, "use_specular_workflow": True, "specular_color": 0.0}  # reflects nothing
+    red, green = (Material(emissive_color=c, **black) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)))
+    scene = wrt.Scene(meshes=[pane, below, above], materials=[glass, red, green])
+    d = np.array([np.sin(view), 0.0, np.cos(view)])  # the view direction, up through the pane
+    cam = wrt.Camera.orthographic(eye=-2.0 * d, target=(0, 0, 0), up=(0, 0, 1), height=0.2)
+    img = wrt.render(scene, camera=cam, width=4, height=4, spp=8, device="cpu", integrator=integrator)
+    assert (img.aovs["prim"] == 0).any() and (img.aovs["prim"] <= 1).all()  # the pane, seen from below
+    np.testing.assert_allclose(img.rgb.reshape(-1, 3), [[1.0, 0.0, 0.0]] * 16, atol=1e-5)
+
+
 @pytest.mark.parametrize("roughness", [0.0, 0.4])
 def test_whitted_reflects_the_dome_in_a_specular_workflow_mirror(roughness):
     """useSpecularWorkflow = 1 with specularColor 1 (a mirror, as Maya and usdzconvert write metals) under a dome of

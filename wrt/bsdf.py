@@ -150,6 +150,28 @@ def refract(wo: wp.vec3, n: wp.vec3, eta: float):
 
 
 @wp.func
+def glass_refraction(n: wp.vec3, ng: wp.vec3, wo: wp.vec3, eta: float):
+    """``(fr, wt)``: the Fresnel reflectance of the smooth dielectric seen from ``wo`` about shading normal ``n`` and
+    the unit refracted direction (``eta = n_t / n_i``; ``n``, ``ng`` and ``wo`` on one side, ``dot(n, wo) > 0``).
+
+    A refraction that does not cross the geometric surface (``dot(wt, ng) >= 0``) is total internal reflection:
+    ``(1, 0)``. Leaving a denser medium about a normal bent far from ``ng`` (an interpolated normal near a glass
+    sphere's rim, a normal map), Snell's law sent ``wt`` back to the viewer's side: its ray started behind the
+    surface, re-crossed it at once and took up to a third of the light through a window pane to its far side. As
+    pbrt-v4 and Mitsuba (a ray continues on the side its direction points to) and Cycles (a transmission must point
+    below ``Ng``), the direction is tested against the geometric normal; it is taken as reflected rather than dropped,
+    so that the lossless interface still returns all the light it does not transmit."""
+    fr = fresnel_dielectric(wp.dot(n, wo), eta)
+    wt = wp.vec3(0.0)
+    if fr < 1.0:
+        wt = wp.normalize(refract(wo, n, eta))
+        if wp.dot(wt, ng) >= 0.0:
+            fr = 1.0
+            wt = wp.vec3(0.0)
+    return fr, wt
+
+
+@wp.func
 def ggx_d(cos_h: float, sin2_h: float, alpha: float):
     """GGX normal distribution ``D(h)`` for ``cos_h = n . h`` and ``sin2_h = |n x h|^2``.
 
@@ -485,13 +507,15 @@ def sample_bsdf(
         eta = s.ior
         if front == 0:
             eta = 1.0 / s.ior
-        fr = fresnel_dielectric(cos_o, eta)
+        fr, wt = glass_refraction(n, ng, wo, eta)
         out.delta = 1
         if u1 < fr:
             out.wi = reflect(wo, n)
             out.weight = wp.vec3(1.0)
+            if wp.dot(ng, out.wi) <= 0.0:  # a mirror ray into the surface (as the opaque mirrors below): no light
+                out.weight = wp.vec3(0.0)
         else:
-            out.wi = wp.normalize(refract(wo, n, eta))
+            out.wi = wt
             # Radiance is compressed by 1 / eta^2 entering a denser medium and expanded again leaving it, which a
             # closed object's two crossings cancel; an open surface (a window pane without thickness) has one
             # crossing only, where the factor dimmed what lay behind a clear pane to 0.47 (ior 1.5). Both drop it.

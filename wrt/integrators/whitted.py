@@ -19,12 +19,11 @@ from ..bsdf import (
     DELTA_ROUGHNESS,
     Surface,
     eval_bsdf_lobes,
-    fresnel_dielectric,
+    glass_refraction,
     is_glass,
     lobe_albedos,
     opaque_fraction,
     reflect,
-    refract,
     specular_albedo,
     surface_albedo,
     surface_f0,
@@ -242,8 +241,9 @@ def continue_whitted_kernel(
     eta = s.ior
     if h.front == 0:
         eta = 1.0 / s.ior
-    if is_glass(s):
-        fr = fresnel_dielectric(cos_o, eta)
+    wt = wp.vec3(0.0)
+    if is_glass(s) and cos_o > 0.0:
+        fr, wt = glass_refraction(h.ns, h.ng, wo, eta)
         w_reflect += wp.vec3(fr * (1.0 - op))
         w_refract = (1.0 - fr) * (1.0 - op)
     p_reflect = luminance(w_reflect)
@@ -261,7 +261,7 @@ def continue_whitted_kernel(
         origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
         T = wp.cw_mul(T, w_reflect) * (total / p_reflect)
     else:
-        directions[i] = wp.normalize(refract(wo, h.ns, eta))
+        directions[i] = wt
         origins[i] = offset_ray_origin(h.p, -h.ng, h.reach, h.err, h.inner)
         T = T * total  # w_refract / (w_refract / total); no 1 / eta^2: see bsdf.sample_bsdf
     throughput[i] = T
