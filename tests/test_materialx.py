@@ -104,6 +104,26 @@ def test_specification_defaults_and_approximations(tmp_path):
     assert "geometry_opacity 0.3 is drawn a hole" in leaf_warning and "coat_ior 1.6" in leaf_warning
 
 
+@pytest.mark.parametrize("shader_id, transmission, thin", [(STANDARD, "transmission", "thin_walled"),
+                                                          (OPEN_PBR, "transmission_weight", "geometry_thin_walled")])
+def test_a_thin_walled_glass_is_named_in_the_warning(tmp_path, shader_id, transmission, thin):
+    """A thin-walled transmissive surface (a window modelled as one plane) is drawn as the boundary of a solid: its
+    transmission refracts and its back is inside the glass (seen from there past 42 degrees, a pane of index 1.5
+    reflects everything). The warning names ``thin_walled`` when it is authored true, and only then; it was dropped
+    without a word."""
+    stage, path = new_stage(tmp_path)
+    for k, value in enumerate((True, False)):
+        material, shader = mtlx_material(stage, f"/Looks/Thin{k}", shader_id, **{transmission: 1.0})
+        shader.CreateInput(thin, Sdf.ValueTypeNames.Bool).Set(value)
+        bind(add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0)), material)
+    stage.Save()
+    _, messages = load(path)
+    (thin_walled,) = [m for m in messages if "/Looks/Thin0:" in m]
+    (solid,) = [m for m in messages if "/Looks/Thin1:" in m]  # transmission itself is approximated
+    assert f"{thin} (1) is ignored" in thin_walled
+    assert "is ignored" not in solid
+
+
 def test_a_scaled_specular_keeps_an_index_below_one_below_one_and_survives_a_negative_one(tmp_path):
     """The specular weight scales the dielectric F0 ``((ior - 1) / (ior + 1))^2``; the index drawn has that F0. An
     index below 1 (a bubble: transmission 1, specular_IOR 0.75) stays below 1, so refraction bends the authored way

@@ -35,7 +35,8 @@ Approximations, each named in the material's one warning when it changes what is
   graph feeds that product to its ``uniform_edf`` unchanged). A 1000-nit panel is 1000 times a UsdLux light of
   intensity 1: lower the exposure.
 - Lobes wrt does not have (diffuse roughness, subsurface, sheen/fuzz, thin film, anisotropy, coat-affected colour
-  and roughness) are ignored.
+  and roughness) are ignored, and so is ``thin_walled`` (OpenPBR ``geometry_thin_walled``): a thin-walled surface is
+  drawn as the boundary of a solid, whose transmission refracts and whose back is inside the glass.
 - ``normal`` (OpenPBR ``geometry_normal``) from a tangent-space ``normalmap`` node of an image is wrt's normal map
   (:func:`wrt.shade.shading_point`, the same frame as UsdPreviewSurface's); from anything else it is ignored.
   ``coat_normal`` and ``tangent`` inputs are not read (the coat takes the mapped normal too).
@@ -114,11 +115,12 @@ OPEN_PBR_SURFACE = {
     "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
     "opacity": ("geometry_opacity", 1.0),
 }
-# Inputs of lobes wrt does not have, with the value that switches them off.
+# Inputs of lobes wrt does not have, with the value that switches them off (thin_walled: drawn as a solid's boundary).
 STANDARD_SURFACE_IGNORED = {"diffuse_roughness": 0.0, "subsurface": 0.0, "sheen": 0.0, "thin_film_thickness": 0.0,
-                            "specular_anisotropy": 0.0, "coat_affect_color": 0.0, "coat_affect_roughness": 0.0}
+                            "specular_anisotropy": 0.0, "coat_affect_color": 0.0, "coat_affect_roughness": 0.0,
+                            "thin_walled": 0.0}
 OPEN_PBR_IGNORED = {"base_diffuse_roughness": 0.0, "subsurface_weight": 0.0, "fuzz_weight": 0.0,
-                    "thin_film_weight": 0.0, "specular_roughness_anisotropy": 0.0}
+                    "thin_film_weight": 0.0, "specular_roughness_anisotropy": 0.0, "geometry_thin_walled": 0.0}
 NORMAL_INPUTS = {"ND_standard_surface_surfaceshader": "normal", "ND_standard_surface_surfaceshader_100": "normal",
                  "ND_open_pbr_surface_surfaceshader": "geometry_normal"}  # info:id -> its shading-normal input
 MODELS = {  # info:id -> (inputs, ignored inputs)
