@@ -63,7 +63,7 @@ class _LoopLevel(_Level):
         ring = _sum_by(ends, data[self.edge_ends[:, ::-1].reshape(-1)], self.n_points)
         beta = loop_beta(self.valence)[:, None]
         smooth = (1.0 - self.valence[:, None] * beta) * data + beta * ring
-        return np.concatenate([self.vertex_points(data, smooth), self.edge_points(midpoint, smooth_edge)])
+        return np.concatenate([self.vertex_points(data, smooth, data[self.edge_ends]), self.edge_points(midpoint, smooth_edge)])
 
     def linear(self, data: np.ndarray) -> np.ndarray:
         """Per-point ``data`` interpolated linearly (``varying`` primvars): points kept, edge points the midpoints."""
@@ -94,7 +94,8 @@ class LoopRefinement(Refinement):
         if (counts > 3).any():
             raise ValueError(f"{int((counts > 3).sum())} of {len(counts)} faces have more than three corners; Loop "
                              "subdivision takes triangles only")
-        super().__init__(counts, face_indices, n_points, levels, creases, corners, boundary)
+        # Face-varying data stays linear in each triangle (faceVaryingLinearInterpolation is Catmull-Clark's only here).
+        super().__init__(counts, face_indices, n_points, levels, creases, corners, boundary, face_varying="all")
 
 
 __all__ = ["LoopRefinement", "loop_beta", "refined_triangles"]

@@ -20,9 +20,10 @@ masks of DeRose, Kass and Truong 1998 ("Subdivision surfaces in character animat
 Sharpness drops by one per level (OpenSubdiv's "uniform" creasing); USD's 10 and above is infinitely sharp. Boundary
 edges are sharp (``interpolateBoundary`` ``edgeOnly``, ``edgeAndCorner`` and ``none``), with ``edgeAndCorner`` (USD's
 fallback) a boundary point of a single face is a corner, and with ``none`` the faces at boundary points are holes.
-Per-point data (points, ``vertex`` primvars) follows the same masks; face-varying data (texture coordinates) is
-interpolated linearly within each face, as ``faceVaryingLinearInterpolation = all``. The result after ``N`` levels is a
-quad mesh whose points converge to the limit surface as ``N`` grows; it is not the limit surface itself.
+Per-point data (points, ``vertex`` primvars) follows the same masks; face-varying data (texture coordinates) follows
+them too away from its seams, per ``faceVaryingLinearInterpolation`` (``wrt.subdivision_fvar``; ``all`` is linear in
+each face, here). The result after ``N`` levels is a quad mesh whose points converge to the limit surface as ``N``
+grows; it is not the limit surface itself.
 """
 
 from __future__ import annotations
@@ -150,13 +151,18 @@ class _Level:
         )
         return np.full(len(quads), 4, np.int64), quads.reshape(-1), self.face
 
-    def vertex(self, data: np.ndarray) -> np.ndarray:
-        """Per-point ``data`` ``(V, k)`` of the refined mesh: points first, then edge points, then face points."""
+    def vertex(self, data: np.ndarray, edge_values=None, corner_values=None) -> np.ndarray:
+        """Per-point ``data`` ``(V, k)`` of the refined mesh: points first, then edge points, then face points.
+
+        A face-varying channel (``wrt.subdivision_fvar``) passes the values at each edge's ends ``(E, 2, k)`` and at
+        each face-vertex ``(N, k)``, as its points may hold several; by default both are ``data``'s."""
         fi = self.face_indices
-        face_points = self._face_average(data[fi])
+        face_points = self._face_average(data[fi] if corner_values is None else corner_values)
         face_point_at = face_points[self.face]  # per face-vertex: its face's point
 
-        midpoint = self._midpoints(data)
+        if edge_values is None:
+            edge_values = data[self.edge_ends]
+        midpoint = 0.5 * (edge_values[:, 0] + edge_values[:, 1])
         face_sum = _sum_by(self.fv_edge, face_point_at, len(self.edge_ends))
         smooth_edge = 0.5 * midpoint + face_sum / (2.0 * np.maximum(self.edge_faces, 1)[:, None])
         if self.triangle_smooth:
@@ -176,7 +182,8 @@ class _Level:
         q = _sum_by(fi, face_point_at, n_points) / np.maximum(self.point_faces, 1)[:, None]
         r = _sum_by(self.edge_ends.reshape(-1), np.repeat(midpoint, 2, axis=0), n_points) / valence
         smooth = (q + 2.0 * r + (valence - 3.0) * data) / valence
-        return np.concatenate([self.vertex_points(data, smooth), self.edge_points(midpoint, smooth_edge), face_points])
+        return np.concatenate([self.vertex_points(data, smooth, edge_values), self.edge_points(midpoint, smooth_edge),
+                               face_points])
 
     def _midpoints(self, data: np.ndarray) -> np.ndarray:
         """``(E, k)``: the middle of every edge."""
@@ -188,19 +195,20 @@ class _Level:
         s = np.clip(self.edge_sharpness, 0.0, 1.0)[:, None]
         return (1.0 - s) * smooth_edge + s * midpoint
 
-    def vertex_points(self, data: np.ndarray, smooth: np.ndarray) -> np.ndarray:
+    def vertex_points(self, data: np.ndarray, smooth: np.ndarray, edge_values: np.ndarray) -> np.ndarray:
         """Vertex points of this level's rules from the scheme's smooth vertex points ``smooth`` ``(V, k)``: the crease
         rule ``(6 S + a + b) / 8`` and the corner rule ``S`` are those of Catmull-Clark and Loop alike (OpenSubdiv's
-        ``Scheme``), and so is the blend of the rules before and after a step where semi-sharp features run out."""
+        ``Scheme``), and so is the blend of the rules before and after a step where semi-sharp features run out.
+        ``edge_values`` ``(E, 2, k)``: the values at each edge's ends (a face-varying point may hold several)."""
         n_points = self.n_points
         ends = self.edge_ends.reshape(-1)
         # Crease rule over the other ends of the sharp edges (those of this step for the parent rule, those still
         # sharp after it for the child rule).
-        others = self.edge_ends[:, ::-1].reshape(-1)
+        others = edge_values[:, ::-1].reshape(-1, data.shape[1])  # per edge end: the value at the other end
 
         def crease(edge_is_sharp):
             at = np.repeat(edge_is_sharp, 2)
-            return (6.0 * data + _sum_by(ends[at], data[others[at]], n_points)) / 8.0
+            return (6.0 * data + _sum_by(ends[at], others[at], n_points)) / 8.0
 
         def masked(rule, edge_is_sharp):
             by_rule = np.where((rule == CREASE)[:, None], crease(edge_is_sharp), data)
@@ -268,6 +276,7 @@ class Refinement:
         boundary: ``interpolateBoundary``: ``edgeAndCorner`` (boundary points of one face are corners), ``edgeOnly``
             or ``none`` (as ``edgeOnly``, and the faces at boundary points are holes: ``boundary_holes``).
         triangle_smooth: ``triangleSubdivisionRule = smooth`` (other edge weights next to triangles).
+        face_varying: ``faceVaryingLinearInterpolation``, how ``face_varying`` refines (``wrt.subdivision_fvar``).
 
     Raises:
         ValueError: creases or corners that do not fit the mesh (the message says which).
@@ -276,7 +285,8 @@ class Refinement:
     _level_type = _Level  # one step of the scheme
 
     def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, boundary="edgeAndCorner",
-                 triangle_smooth=False):
+                 triangle_smooth=False, face_varying="cornersPlus1"):
+        self.face_varying_mode, self.corner_boundary = face_varying, boundary == "edgeAndCorner"
         counts = np.asarray(counts, np.int64)
         face_indices = np.asarray(face_indices, np.int64)
         drawn = counts >= 3
@@ -332,9 +342,21 @@ class Refinement:
             data = level.linear(data)
         return data
 
-    def face_varying(self, data: np.ndarray) -> np.ndarray:
-        """``(N, k)`` per-face-vertex data of the input mesh -> per face-vertex of the refined one (float64)."""
-        data = np.asarray(data, np.float64)[self.input_face_vertices]
+    def face_varying(self, data: np.ndarray, value_ids=None) -> np.ndarray:
+        """``(N, k)`` per-face-vertex data of the input mesh -> per face-vertex of the refined one (float64), smooth
+        or linear as ``face_varying`` asks. ``value_ids`` ``(N,)``: face-vertices of a point with the same id hold one
+        value (an indexed primvar's indices); None: each face-vertex its own (an unindexed primvar, as Storm hands
+        it to OpenSubdiv)."""
+        data = np.asarray(data, np.float64)
+        if self.face_varying_mode != "all":
+            from .subdivision_fvar import refine_face_varying  # it builds on this module's levels
+
+            if value_ids is None:
+                value_ids = np.arange(len(data))
+            kept = self.input_face_vertices
+            return refine_face_varying(self.levels, data[kept], np.asarray(value_ids)[kept], self.face_varying_mode,
+                                       self.corner_boundary)
+        data = data[self.input_face_vertices]
         for level in self.levels:
             data = level.face_varying(data)
         return data
@@ -357,7 +379,7 @@ class BilinearRefinement(Refinement):
     _level_type = _BilinearLevel
 
     def __init__(self, counts, face_indices, n_points, levels):
-        super().__init__(counts, face_indices, n_points, levels, boundary="edgeOnly")
+        super().__init__(counts, face_indices, n_points, levels, boundary="edgeOnly", face_varying="all")
 
 
 def _boundary_faces(counts: np.ndarray, face_indices: np.ndarray, n_points: int, authored) -> np.ndarray:
