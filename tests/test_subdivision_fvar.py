@@ -1,7 +1,9 @@
 """Face-varying primvars through Catmull-Clark refinement, per ``faceVaryingLinearInterpolation``: seamless data against
 the vertex masks (``catmark_reference``), data with seams against ``fvar_reference`` (OpenSubdiv's face-varying rules,
 corner by corner) and, along a cut, against the boundary-curve rule written out in one dimension, ``all`` against
-linear interpolation in each face."""
+linear interpolation in each face; through ``load_usd`` and a render's texture lookup."""
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -194,3 +196,146 @@ def test_all_keeps_linear_interpolation_in_each_face():
                     for i, f in enumerate(faces)]
         np.testing.assert_allclose(got, np.concatenate(expected), atol=1e-12)
 
+
+# Through USD.
+
+
+def _bind_texture(stage, mesh, file: str, raw=False):
+    """Binds ``mesh`` a UsdPreviewSurface whose diffuseColor is the texture ``file`` looked up at ``primvars:st``."""
+    from pxr import Sdf, UsdShade
+
+    material = UsdShade.Material.Define(stage, "/Textured")
+    surface = UsdShade.Shader.Define(stage, "/Textured/Surface")
+    surface.CreateIdAttr("UsdPreviewSurface")
+    texture = UsdShade.Shader.Define(stage, "/Textured/Texture")
+    texture.CreateIdAttr("UsdUVTexture")
+    texture.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(file)
+    if raw:
+        texture.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+    reader = UsdShade.Shader.Define(stage, "/Textured/St")
+    reader.CreateIdAttr("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+    texture.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+    surface.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(texture.ConnectableAPI(), "rgb")
+    material.CreateSurfaceOutput().ConnectToSource(surface.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+
+
+def _cube_usda(path: Path, token=None, indexed=True) -> Path:
+    """The two-chart cube with ``primvars:st`` (indexed by chart, or the same values unindexed) read by a textured
+    material, ``faceVaryingLinearInterpolation`` authored as ``token``."""
+    from PIL import Image
+    from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+
+    faces, data, ids, _ = _two_charts()
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = UsdGeom.Mesh.Define(stage, "/Cube")
+    mesh.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in CUBE]))
+    mesh.CreateFaceVertexCountsAttr([4] * 6)
+    mesh.CreateFaceVertexIndicesAttr(_corners_of(faces).tolist())
+    if token is not None:
+        mesh.CreateFaceVaryingLinearInterpolationAttr(token)
+    st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+    if indexed:
+        table, first = np.unique(ids, return_index=True)
+        st.Set([Gf.Vec2f(*v) for v in data[first]])
+        st.SetIndices(Vt.IntArray(np.searchsorted(table, ids).tolist()))
+    else:
+        st.Set([Gf.Vec2f(*v) for v in data])
+    Image.new("RGB", (2, 2), (0, 255, 0)).save(path.parent / "green.png")
+    _bind_texture(stage, mesh, "green.png")
+    stage.Save()
+    return path
+
+
+def _loaded_quads(path, levels=2):
+    """The loaded mesh's uvs per refined quad ``(Q, 4, 2)``, undoing the fan of each quad into two triangles (each
+    refined point checked against the reference's)."""
+    import wrt
+
+    m = wrt.load_usd(path, refine_level=levels).meshes[0]
+    tris = m.uvs.astype(np.float64).reshape(-1, 2, 3, 2)
+    points = m.points[m.indices].astype(np.float64).reshape(-1, 2, 3, 3)
+    expected_points, _, _ = refine(CUBE_FACES, CUBE, levels)
+    np.testing.assert_allclose(points[:, 0], expected_points[:, :3], atol=1e-5)  # fan: (0 1 2), (0 2 3)
+    np.testing.assert_allclose(points[:, 1], expected_points[:, [0, 2, 3]], atol=1e-5)
+    return np.concatenate([tris[:, 0], tris[:, 1, 2:]], axis=1)
+
+
+@pytest.mark.parametrize("token", [None, "none", "cornersOnly", "boundaries", "all"])
+def test_load_usd_reads_face_varying_linear_interpolation(tmp_path, token):
+    """``load_usd(refine_level=2)`` refines ``st`` as the mesh's ``faceVaryingLinearInterpolation`` says (unauthored:
+    USD's fallback ``cornersPlus1``), with seams where its indices differ; unindexed, the same values are a value per
+    face-vertex (seams everywhere), as Storm hands them to OpenSubdiv."""
+    faces, data, ids, _ = _two_charts()
+    mode = token or "cornersPlus1"
+    got = _loaded_quads(_cube_usda(tmp_path / "indexed.usda", token))
+    np.testing.assert_allclose(got, refine_face_varying(faces, data, ids, 2, mode), atol=2e-6)
+    unindexed = _loaded_quads(_cube_usda(tmp_path / "flat.usda", token, indexed=False))
+    np.testing.assert_allclose(unindexed, refine_face_varying(faces, data, np.arange(len(data)), 2, mode), atol=2e-6)
+
+
+def test_an_unknown_face_varying_interpolation_warns_and_reads_the_fallback(tmp_path):
+    """A token USD does not know (USD does not check allowed tokens) is read as the fallback, cornersPlus1, with a
+    warning naming the mesh and the token."""
+    with pytest.warns(UserWarning, match=r"faceVaryingLinearInterpolation is not.*read as cornersPlus1.*"
+                                         r"'cornersPlusOne'.*/Cube"):
+        got = _loaded_quads(_cube_usda(tmp_path / "bad.usda", "cornersPlusOne"))
+    np.testing.assert_array_equal(got, _loaded_quads(_cube_usda(tmp_path / "good.usda", "cornersPlus1")))
+
+
+def _textured_grid(path: Path, token) -> Path:
+    """A flat 3 x 3 grid (interior points moved in its plane) whose seamless ``st`` (indexed by point) is its points'
+    (x, y) / 3, under a raw texture whose red and green rise linearly with s and t."""
+    from PIL import Image
+    from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+
+    points, faces = _grid(3, 3)
+    inner = (points[:, 0] % 3 != 0) & (points[:, 1] % 3 != 0)
+    points[inner, :2] += np.random.default_rng(4).uniform(-0.35, 0.35, (int(inner.sum()), 2))
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = UsdGeom.Mesh.Define(stage, "/Grid")
+    mesh.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in points]))
+    mesh.CreateFaceVertexCountsAttr([4] * len(faces))
+    mesh.CreateFaceVertexIndicesAttr(_corners_of(faces).tolist())
+    if token is not None:
+        mesh.CreateFaceVaryingLinearInterpolationAttr(token)
+    st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+    st.Set([Gf.Vec2f(*(p[:2] / 3.0)) for p in points])
+    st.SetIndices(Vt.IntArray(_corners_of(faces).tolist()))
+    ramp = (np.arange(64) + 0.5) / 64.0  # texel centres: bilinear lookups give s and t back
+    rgb = np.stack(np.broadcast_arrays(ramp[None, :], ramp[::-1, None], 0.0), axis=-1)  # row 0 is t = 1
+    Image.fromarray(np.round(rgb * 255).astype(np.uint8)).save(path.parent / "ramp.png")
+    _bind_texture(stage, mesh, "ramp.png", raw=True)
+    stage.Save()
+    return path
+
+
+def _ramp_errors(path):
+    """``|albedo.rg - (x, y) / 3|`` at the hits of an orthographic view down onto the grid, away from the texture's
+    border texels."""
+    import wrt
+
+    scene = wrt.load_usd(path, refine_level=3)
+    to_world = np.eye(4)
+    to_world[:3, 3] = (1.5, 1.5, 5.0)
+    camera = wrt.Camera(to_world=to_world, projection="orthographic", horizontal_aperture=32.0,
+                        vertical_aperture=32.0)
+    aovs = wrt.render(scene, camera=camera, width=40, height=40, integrator="albedo").aovs
+    # The first sample's ray goes through the pixel's centre (rows from the top); the view spans 3.2 units.
+    centres = (np.arange(40) + 0.5) / 40 * 3.2 - 1.6
+    expected = np.stack(np.broadcast_arrays(1.5 + centres[None, :], 1.5 - centres[:, None]), axis=-1) / 3.0
+    inside = (aovs["prim"].reshape(40, 40) >= 0) & (expected > 0.02).all(-1) & (expected < 0.98).all(-1)
+    assert inside.sum() > 1000
+    return np.abs(aovs["albedo"].reshape(40, 40, 3)[..., :2] - expected)[inside]
+
+
+def test_a_refined_texture_lookup_follows_the_smoothed_surface(tmp_path):
+    """Refined twice over, the grid's texture coordinates follow its points' masks (``cornersPlus1``, unauthored), so
+    the texture seen at each hit is the one at its (x, y), as a planar projection of the refined surface gives;
+    interpolated linearly in each control face (``all``, as every mode was read before) they kink at the control
+    edges and miss it by up to about a tenth of a control face."""
+    smooth = _ramp_errors(_textured_grid(tmp_path / "smooth.usda", None))
+    assert smooth.max() < 0.006
+    linear = _ramp_errors(_textured_grid(tmp_path / "linear.usda", "all"))
+    assert linear.max() > 0.02

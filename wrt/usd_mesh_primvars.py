@@ -160,7 +160,9 @@ class MeshPrimvarReading:
             # Per point or per face-vertex data of the control cage becomes data of the refined mesh.
             per_element = values if indices is None else values[indices]
             if interpolation == "faceVarying":
-                return refinement.face_varying(per_element), tri_corners
+                # An indexed primvar's indices say which face-vertices share a value (where its seams are); an
+                # unindexed one has a value per face-vertex, all seams, as Storm hands both to OpenSubdiv.
+                return refinement.face_varying(per_element, indices), tri_corners
             refine = refinement.vertex if interpolation == "vertex" else refinement.varying
             return refine(per_element), refinement.face_indices[tri_corners]
 

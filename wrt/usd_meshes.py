@@ -14,6 +14,7 @@ from .polygons import clip_concave_faces
 from .resources import check_host_memory
 from .scene import Mesh
 from .subdivision import REFINED_QUAD_BYTES, BilinearRefinement, Refinement, refined_quads
+from .subdivision_fvar import FACE_VARYING_MODES, FALLBACK_FACE_VARYING_MODE
 from .usd_contents import Context
 from .usd_values import value_at
 
@@ -288,6 +289,12 @@ class MeshReading:
         else:
             scheme_type = Refinement
             options["triangle_smooth"] = value_at(mesh.GetTriangleSubdivisionRuleAttr(), t) == "smooth"
+            face_varying = value_at(mesh.GetFaceVaryingLinearInterpolationAttr(), t) or FALLBACK_FACE_VARYING_MODE
+            if face_varying not in FACE_VARYING_MODES:
+                self._skip(f"faceVaryingLinearInterpolation is not one of {', '.join(FACE_VARYING_MODES)}; read as "
+                           f"{FALLBACK_FACE_VARYING_MODE}", prim, repr(face_varying))
+                face_varying = FALLBACK_FACE_VARYING_MODE
+            options["face_varying"] = face_varying
         try:
             return scheme_type(counts, face_indices, n_points, self.refine_level, creases, corners, **options)
         except ValueError as e:
