@@ -63,7 +63,8 @@ class _LoopLevel(_Level):
         ring = _sum_by(ends, data[self.edge_ends[:, ::-1].reshape(-1)], self.n_points)
         beta = loop_beta(self.valence)[:, None]
         smooth = (1.0 - self.valence[:, None] * beta) * data + beta * ring
-        return np.concatenate([self.vertex_points(data, smooth, data[self.edge_ends]), self.edge_points(midpoint, smooth_edge)])
+        vertex_points = self.vertex_points(data, smooth, data[self.edge_ends])
+        return np.concatenate([vertex_points, self.edge_points(midpoint, smooth_edge)])
 
     def linear(self, data: np.ndarray) -> np.ndarray:
         """Per-point ``data`` interpolated linearly (``varying`` primvars): points kept, edge points the midpoints."""
