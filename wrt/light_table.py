@@ -345,6 +345,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
         warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used", stacklevel=3)
     dome_index, dome = -1, None
     mesh_lights = [light for light in lights if isinstance(light, MeshLight)]
+    emitted = {}  # id of a light's texture -> (it, its texels, their mean): see _shared_texels
     for light in lights:
         if isinstance(light, MeshLight):
             continue  # its triangles come after the analytic lights
@@ -386,8 +387,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             _, _, z, origin = light_axes(light.to_world)
             n = _emitting_normal(u, v, z)
             L = light.radiance
-            texels = None if light.texture is None else _emitted_texels(light.texture)
-            mean = np.ones(3) if texels is None else texels.reshape(-1, 3).mean(axis=0, dtype=np.float64)
+            texels, mean = (None, np.ones(3)) if light.texture is None else _shared_texels(emitted, light.texture)
             _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L * mean))
             h.texture[-1] = texels
@@ -530,15 +530,20 @@ def _upload_textures(textures: list, count: int, device) -> tuple[wp.array, wp.a
     list have none) and their texels packed one after the other (one white texel when there are none)."""
     info = np.zeros((max(count, 1), 3), np.int32)
     offset = 1
+    first = {}  # id of an image -> the light whose row packs it: lights sharing one image share its texels
     for k, texels in enumerate(textures):
         if texels is not None:
+            if id(texels) in first:
+                info[k] = info[first[id(texels)]]
+                continue
+            first[id(texels)] = k
             info[k] = (offset, texels.shape[1], texels.shape[0])
             offset += texels.shape[0] * texels.shape[1]
     # Filled in place: a list of the images concatenated held a second copy of them all (a dome's 400 MB at 8k).
     packed = np.ones((offset, 3), np.float32)
-    for k, texels in enumerate(textures):
-        if texels is not None:
-            packed[info[k][0] : info[k][0] + texels.shape[0] * texels.shape[1]] = texels.reshape(-1, 3)
+    for k in first.values():
+        texels = textures[k]
+        packed[info[k][0] : info[k][0] + texels.shape[0] * texels.shape[1]] = texels.reshape(-1, 3)
     return wp.array(info, dtype=wp.vec3i, device=device), wp.array(packed, dtype=wp.vec3, device=device)
 
 
@@ -659,6 +664,17 @@ def _latitude_hat_weights(hgt: int) -> np.ndarray:
     weights[1:] += rising
     weights[:-1] += total - rising
     return weights
+
+
+def _shared_texels(memo: dict, texture: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(texels, mean)``: :func:`_emitted_texels` of a light's ``texture`` and their ``(3,)`` float64 mean, made
+    once per image object (``memo``, kept over one build): lights that read one file share its image
+    (``usd_lights.LightTextures``), and 10,000 instanced lamps packed 10,000 copies of it on the device."""
+    key = id(texture)
+    if key not in memo:  # the texture is kept in the entry, so that its id names it while the memo lives
+        texels = _emitted_texels(texture)
+        memo[key] = (texture, texels, texels.reshape(-1, 3).mean(axis=0, dtype=np.float64))
+    return memo[key][1], memo[key][2]
 
 
 def _emitted_texels(texture: np.ndarray) -> np.ndarray:

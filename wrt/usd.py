@@ -278,6 +278,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
         self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)
         self.instanced_lights = {}  # prim path -> MeshLight of the mesh lights read inside prototypes
+        self.light_textures = {}  # the images of light textures, each file read once (usd_lights.LightTextures)
 
     def read(self) -> Scene:
         scene = Scene(
@@ -366,7 +367,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
 
         def read(proxy: Usd.Prim):
             if self._visible(proxy):
-                light = read_light(proxy, self.xforms, self.time, self.scene.up_axis, self._skip)
+                light = read_light(proxy, self.xforms, self.time, self.scene.up_axis, self._skip,
+                                   textures=self.light_textures)
                 if light is not None:
                     self.scene.lights.append(light)
 

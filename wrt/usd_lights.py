@@ -30,7 +30,7 @@ from .usd_xforms import affine_part
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 
 
-def read_light(prim, xforms, time, up_axis: str, skip, to_world=None):
+def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=None):
     """The light of a ``UsdLux`` light prim, or None (recorded through ``skip``) for unsupported kinds.
 
     Args:
@@ -41,10 +41,25 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None):
         skip: ``skip(reason, prim, detail=None)``.
         to_world: ``(4, 4)`` float64 column-vector local-to-world transform placing the light (one instance of a
             PointInstancer's prototype), or None: the prim's own world transform.
+        textures: a dict kept over one load (:class:`LightTextures`' memory): each texture file is read once, and
+            the lights that name it share its image; None: read here.
     """
+    get, legacy = input_reader(prim, time)
+    if to_world is None:
+        to_world = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
+    result = _read_light(prim, to_world, time, up_axis, skip, get, LightTextures(textures))
+    if legacy:
+        skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
+             "inputs: attributes", prim, ", ".join(legacy))
+    return result
+
+
+def input_reader(prim, time):
+    """``(get, legacy)``: ``get(attr, default)`` reads a light input of ``prim`` at ``time`` (``default`` where it
+    has no value), and ``legacy`` lists the names it read without their ``inputs:`` prefix, for one warning."""
     from .usd_values import value_at
 
-    legacy = []  # names read without their "inputs:" prefix, for one warning
+    legacy = []
 
     def get(attr, default):
         # Files written before UsdLux prefixed its inputs (Omniverse and Isaac Sim content of that time) author
@@ -61,13 +76,32 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None):
         value = value_at(attr, time) if attr else None
         return default if value is None else value
 
-    if to_world is None:
-        to_world = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
-    result = _read_light(prim, to_world, time, up_axis, skip, get)
-    if legacy:
-        skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
-             "inputs: attributes", prim, ", ".join(legacy))
-    return result
+    return get, legacy
+
+
+class LightTextures:
+    """The images of light textures, each file read once per ``memory`` (a dict: ``(resolved path, colour space)``
+    -> image, or the :class:`wrt.textures.TextureError` that reading it raised). A textured RectLight in a
+    PointInstancer's prototype was read from disk once per instance (10,000 lamps, 10,000 reads of one file)."""
+
+    def __init__(self, memory: dict | None):
+        self.memory = {} if memory is None else memory
+
+    def load(self, resolved: str, color_space: str = "auto"):
+        """The image at ``resolved`` (:func:`wrt.textures.load_image`); raises its ``TextureError`` again for a
+        file that could not be read."""
+        from .textures import TextureError, load_image
+
+        key = (resolved, color_space)
+        if key not in self.memory:
+            try:
+                self.memory[key] = load_image(resolved, color_space)
+            except TextureError as e:
+                self.memory[key] = e
+        found = self.memory[key]
+        if isinstance(found, TextureError):
+            raise TextureError(str(found))
+        return found
 
 
 def warn_glowless_mesh_light(light: MeshLight, prim, mesh, materials, skip) -> None:
@@ -86,7 +120,7 @@ def warn_glowless_mesh_light(light: MeshLight, prim, mesh, materials, skip) -> N
                  '"independent" to emit the light\'s colour', prim)
 
 
-def _read_light(prim, to_world, time, up_axis: str, skip, get):
+def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     """:func:`read_light` with ``get(attr, default)`` reading an attribute (or its unprefixed name)."""
     from pxr import UsdLux
 
@@ -125,7 +159,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get):
              prim)
     try:
         shaping, ies = read_shaping(prim, get)
-        result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get)
+        result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
         result = _tiny_normalized(result, prim, skip)
         if shaping is not None:
             result = _shaped(result, shaping, m, prim, skip)
@@ -230,7 +264,7 @@ def _shadow_tinted(prim, get) -> bool:
     return False
 
 
-def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
+def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures):
     """The light object of ``prim``'s UsdLux type (see :func:`read_light`)."""
     from pxr import UsdGeom, UsdLux
 
@@ -282,7 +316,8 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         if found is None:
             return None
         light = RectLight(m, found[0], found[1], color, normalize, path)
-        light.texture, light.texture_path = _read_texture(prim, get(r.GetTextureFileAttr(), None), "RectLight", skip)
+        light.texture, light.texture_path = _read_texture(prim, get(r.GetTextureFileAttr(), None), "RectLight", skip,
+                                                        textures)
         return light
     if prim.IsA(UsdLux.DiskLight):
         found = sizes((UsdLux.DiskLight(prim).GetRadiusAttr(), "radius", 0.5))
@@ -301,7 +336,7 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get):
         return MeshLight(path, color, normalize, _material_sync(prim, skip))
     dome_types = [UsdLux.DomeLight] + ([UsdLux.DomeLight_1] if hasattr(UsdLux, "DomeLight_1") else [])
     if any(prim.IsA(t) for t in dome_types):
-        return _read_dome(prim, m, color, time, up_axis, skip, get)
+        return _read_dome(prim, m, color, time, up_axis, skip, get, textures)
     skip(f"{prim.GetTypeName() or 'this'} lights are not supported; skipped", prim, prim.GetTypeName())
     return None
 
@@ -336,7 +371,7 @@ def _shaped(light, shaping: Shaping, m, prim, skip):
     return light
 
 
-def _read_dome(prim, m, color, time, up_axis, skip, get):
+def _read_dome(prim, m, color, time, up_axis, skip, get, textures):
     from pxr import UsdLux
 
     from .dome_formats import FORMATS, automatic_format, to_latlong
@@ -356,7 +391,7 @@ def _read_dome(prim, m, color, time, up_axis, skip, get):
             skip(f"DomeLight texture format {fmt!r} is not one of UsdLux's ({', '.join(FORMATS)}); the dome is "
                  "constant", prim)
         return dome
-    texture, dome.texture_path = _read_texture(prim, asset, "DomeLight", skip)
+    texture, dome.texture_path = _read_texture(prim, asset, "DomeLight", skip, textures)
     if texture is not None:
         height, width = texture.shape[:2]
         if fmt == "automatic" and automatic_format(width, height) is None:
@@ -366,10 +401,10 @@ def _read_dome(prim, m, color, time, up_axis, skip, get):
     return dome
 
 
-def _read_texture(prim, asset, kind: str, skip):
-    """The ``(H, W, 4)`` image of a light's ``inputs:texture:file`` value ``asset`` and its resolved path, or
-    ``(None, "")`` (with a warning through ``skip`` when a file is named but cannot be read)."""
-    from .textures import TextureError, load_image
+def _read_texture(prim, asset, kind: str, skip, textures: LightTextures):
+    """The ``(H, W, 4)`` image of a light's ``inputs:texture:file`` value ``asset`` (from ``textures``) and its
+    resolved path, or ``(None, "")`` (with a warning through ``skip`` when a file is named but cannot be read)."""
+    from .textures import TextureError
 
     if asset is None or not (getattr(asset, "path", "") or ""):
         return None, ""
@@ -378,7 +413,7 @@ def _read_texture(prim, asset, kind: str, skip):
         skip(f"{kind} texture {asset.path} was not found; the light's colour is used", prim)
         return None, ""
     try:
-        return load_image(resolved, "auto"), resolved
+        return textures.load(resolved), resolved
     except TextureError as e:
         skip(f"{kind} texture: {e}; the light's colour is used", prim)
         return None, ""

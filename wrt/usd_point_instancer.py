@@ -90,7 +90,7 @@ class PointInstancerReading:
                     name = path + "".join(f"[{k}]" for k in indices if k >= 0)
                     light = read_light(prim, self.xforms, self.time, self.scene.up_axis,
                                        lambda reason, _, detail=None, name=name: self._skip_path(reason, name, detail),
-                                       to_world=to_world)
+                                       to_world=to_world, textures=self.light_textures)
                     if light is not None:
                         light.path = name
                         found.append((sources.setdefault(placement.source, len(sources)), indices, light))

@@ -1,0 +1,119 @@
+"""Scenes of many lights: a light texture file is read once however many lights name it."""
+
+import warnings
+
+import numpy as np
+from pxr import Gf, Sdf, UsdGeom, UsdLux
+from test_point_instanced_lights import new_stage
+
+import wrt
+import wrt.textures
+from wrt.image import write_srgb_png
+from wrt.lights import RectLight
+
+
+def write_texture(path):
+    rng = np.random.default_rng(123)
+    write_srgb_png(path, rng.integers(30, 256, (4, 6, 3)).astype(np.uint8))
+
+
+def lamp(stage, root, texture, kinds="all"):
+    """A lamp prototype at ``root``: a normalized, shaped SphereLight and a normalized, textured, light-linked
+    RectLight; with ``kinds="all"`` also a point-like SphereLight, a DiskLight, a CylinderLight, a normalized
+    SphereLight small enough for float32 to lose its radiance at some instances, and a DistantLight."""
+    UsdGeom.Xform.Define(stage, root).AddTranslateOp().Set(Gf.Vec3d(0.0, 0.0, 0.2))
+    bulb = UsdLux.SphereLight.Define(stage, f"{root}/Bulb")
+    bulb.CreateRadiusAttr(0.05)
+    bulb.CreateIntensityAttr(30.0)
+    bulb.CreateNormalizeAttr(True)
+    UsdLux.ShapingAPI.Apply(bulb.GetPrim()).CreateShapingConeAngleAttr(60.0)
+    UsdGeom.Xformable(bulb).AddRotateXOp().Set(30.0)
+    panel = UsdLux.RectLight.Define(stage, f"{root}/Panel")
+    panel.CreateWidthAttr(0.3)
+    panel.CreateHeightAttr(0.2)
+    panel.CreateIntensityAttr(4.0)
+    panel.CreateNormalizeAttr(True)
+    panel.CreateTextureFileAttr(Sdf.AssetPath(texture))
+    UsdLux.LightAPI(panel).GetLightLinkCollectionAPI().CreateExcludesRel().AddTarget("/Wall")
+    UsdGeom.Xformable(panel).AddTranslateOp().Set(Gf.Vec3d(0.1, 0.0, 0.3))
+    if kinds != "all":
+        return
+    point = UsdLux.SphereLight.Define(stage, f"{root}/Point")
+    point.CreateTreatAsPointAttr(True)
+    point.CreateColorAttr(Gf.Vec3f(1.0, 0.5, 0.2))
+    UsdLux.DiskLight.Define(stage, f"{root}/Disk").CreateRadiusAttr(0.1)
+    tube = UsdLux.CylinderLight.Define(stage, f"{root}/Tube")
+    tube.CreateLengthAttr(0.5)
+    tube.CreateRadiusAttr(0.02)
+    tube.CreateNormalizeAttr(True)
+    speck = UsdLux.SphereLight.Define(stage, f"{root}/Speck")  # radiance 1 / (4 pi r^2): past float32 when scaled
+    speck.CreateRadiusAttr(1e-19)
+    speck.CreateNormalizeAttr(True)
+    UsdLux.DistantLight.Define(stage, f"{root}/Sun").CreateAngleAttr(0.0)
+
+
+def scales(n: int) -> np.ndarray:
+    """``(n, 3)`` instance scales: even ones, and (every third) uneven, sheared-by-rotation ones, scales just
+    inside and outside the 1e-4 tolerance of a round sphere, a zero scale, tiny and huge ones."""
+    rng = np.random.default_rng(7)
+    out = np.repeat(rng.uniform(0.5, 2.0, (n, 1)), 3, axis=1)
+    out[::3] = rng.uniform(0.5, 2.0, (len(out[::3]), 3))
+    special = [(1.0, 1.0, 1.0 + 0.4e-4), (1.0, 1.0, 1.0 + 0.6e-4), (1.0, 1.0, 1.0 + 3e-4), (0.0, 1.0, 1.0),
+               (1e-12, 1e-12, 1e-12), (1e30, 1e30, 1e30), (1.0, 1.0, 1.0)]
+    out[1 : 1 + len(special)] = special
+    return out
+
+
+def instanced_stage(path, n: int, kinds="all", even=False):
+    """A stage of a PointInstancer of ``n`` lamps (:func:`lamp`), turned every way and scaled by :func:`scales` (or
+    only scaled evenly, ``even``), with the instancer itself moved and turned."""
+    write_texture(path.parent / "glow.png")
+    stage = new_stage(path)
+    lamp(stage, "/Lamps/Protos/Lamp", "glow.png", kinds)
+    pi = UsdGeom.PointInstancer.Define(stage, "/Lamps")
+    pi.CreatePrototypesRel().SetTargets([Sdf.Path("/Lamps/Protos/Lamp")])
+    pi.CreateProtoIndicesAttr([0] * n)
+    rng = np.random.default_rng(11)
+    pi.CreatePositionsAttr(rng.uniform(-3.0, 3.0, (n, 3)) + (0.0, 0.0, 2.0))
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    if not even:  # half-precision quaternions: turned spheres are ellipsoids to 1e-4 (read_light's tolerance)
+        pi.CreateOrientationsAttr([Gf.Quath(*row) for row in q])
+    pi.CreateScalesAttr(np.full((n, 3), 1.5) if even else scales(n))
+    UsdGeom.Xformable(pi).AddTranslateOp().Set(Gf.Vec3d(0.2, -0.1, 0.05))
+    UsdGeom.Xformable(pi).AddRotateZOp().Set(25.0)
+    stage.Save()
+    return stage, pi.GetPrim()
+
+
+def load(path):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(str(path))
+    return scene, [str(w.message) for w in caught]
+
+
+def test_a_light_texture_file_is_read_and_uploaded_once(tmp_path, monkeypatch):
+    instanced_stage(tmp_path / "lamps.usda", 12, kinds="two", even=True)
+    stage = new_stage(tmp_path / "plain.usda")
+    for k in range(3):
+        rect = UsdLux.RectLight.Define(stage, f"/Panel{k}")
+        rect.CreateTextureFileAttr(Sdf.AssetPath("glow.png"))
+        UsdGeom.Xformable(rect).AddTranslateOp().Set(Gf.Vec3d(k, 0.0, 2.0))
+    stage.Save()
+    reads = []
+    load_image = wrt.textures.load_image
+    monkeypatch.setattr(wrt.textures, "load_image", lambda *a: (reads.append(a), load_image(*a))[1])
+    for name, lights in (("lamps.usda", 12), ("plain.usda", 3)):
+        reads.clear()
+        scene, _ = load(tmp_path / name)
+        panels = [light for light in scene.lights if isinstance(light, RectLight)]
+        assert len(panels) == lights and len(reads) == 1, (name, reads)  # one read per light before
+        expected = load_image(panels[0].texture_path, "auto")
+        for panel in panels:
+            np.testing.assert_array_equal(panel.texture, expected)
+        renderer = wrt.Renderer(scene, width=4, height=4, device="cpu")
+        assert renderer.device_lights.texels.shape[0] == 1 + 4 * 6  # one white texel and the image, packed once
+        info = renderer.device_lights.texture.numpy()
+        assert len({tuple(row) for row in info[[k for k, light in enumerate(scene.lights)
+                                                if isinstance(light, RectLight)]]}) == 1
