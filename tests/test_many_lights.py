@@ -1,15 +1,22 @@
-"""Scenes of many lights: a light texture file is read once however many lights name it."""
+"""Scenes of many lights: a light inside a PointInstancer's prototype is read from USD once and copied to every
+instance, and a light texture file is read once however many lights name it.
 
+Oracles: the lights read one by one (``read_light`` at each instance's transform, the per-light path, compared field
+by field and bit for bit, warnings too), and USD itself (each light authored by hand at the world matrix USD computes
+per instance, as ``test_point_instanced_lights`` does)."""
+
+import dataclasses
 import warnings
 
 import numpy as np
 from pxr import Gf, Sdf, UsdGeom, UsdLux
-from test_point_instanced_lights import new_stage
+from test_point_instanced_lights import T, assert_same_light, author_by_hand, new_stage, usd_placed_lights
 
 import wrt
 import wrt.textures
+import wrt.usd_point_instancer
 from wrt.image import write_srgb_png
-from wrt.lights import RectLight
+from wrt.lights import RectLight, SphereLight
 
 
 def write_texture(path):
@@ -86,11 +93,79 @@ def instanced_stage(path, n: int, kinds="all", even=False):
     return stage, pi.GetPrim()
 
 
+def read_one_by_one(to_worlds, names, read, skip_path, sphere_inputs):
+    """The per-light path: ``read_light`` at each instance's transform, as wrt read these lights before."""
+    lights = []
+    for m, name in zip(to_worlds, names):
+        light = read(m, lambda reason, _, detail=None, name=name: skip_path(reason, name, detail))
+        if light is not None:
+            light.path = name
+        lights.append(light)
+    return lights
+
+
 def load(path):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = wrt.load_usd(str(path))
     return scene, [str(w.message) for w in caught]
+
+
+def assert_identical(a, b):
+    """Lights ``a`` and ``b`` agree in every field, bit for bit (arrays in dtype and shape too)."""
+    assert type(a) is type(b), (a, b)
+    for field in dataclasses.fields(a):
+        x, y = getattr(a, field.name), getattr(b, field.name)
+        if dataclasses.is_dataclass(x) and not isinstance(x, type):
+            assert_identical(x, y)
+        elif isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+            assert isinstance(x, np.ndarray) and isinstance(y, np.ndarray), (a.path, field.name)
+            assert x.dtype == y.dtype and np.array_equal(x, y), (a.path, field.name, x, y)
+        else:
+            assert type(x) is type(y) and x == y, (a.path, field.name, x, y)
+
+
+def test_placed_lights_are_the_lights_read_one_by_one(tmp_path, monkeypatch):
+    stage, instancer = instanced_stage(tmp_path / "lamps.usda", 40)
+    placed, messages = load(tmp_path / "lamps.usda")
+    monkeypatch.setattr(wrt.usd_point_instancer, "placed_lights", read_one_by_one)
+    one_by_one, expected_messages = load(tmp_path / "lamps.usda")
+    assert messages == expected_messages
+    assert len(placed.lights) == len(one_by_one.lights) == 7 * 40
+    assert [light.path for light in placed.lights] == [light.path for light in one_by_one.lights]
+    for a, b in zip(placed.lights, one_by_one.lights):
+        assert_identical(a, b)
+    kinds = {type(light).__name__ for light in placed.lights}
+    assert kinds == {"SphereLight", "RectLight", "DiskLight", "CylinderLight", "DistantLight"}
+    assert any(isinstance(light, SphereLight) and light.frame is not None for light in placed.lights)  # ellipsoids
+    assert any(light.path.endswith("Speck[5]") and light.treat_as_point for light in placed.lights)
+    # And USD's own placement: each light authored by hand at the world matrix USD computes for it.
+    world = UsdGeom.XformCache(T).GetLocalToWorldTransform(instancer)
+    even = [(p, m) for p, m in usd_placed_lights(stage, instancer, world) if p.GetName() == "Bulb"]
+    author_by_hand(tmp_path / "by_hand.usda", even)
+    by_hand, _ = load(tmp_path / "by_hand.usda")
+    bulbs = [light for light in placed.lights if "/Bulb[" in light.path]
+    assert len(bulbs) == len(by_hand.lights) == 40
+    for a, b in zip(bulbs, by_hand.lights):
+        if a.frame is None and not a.treat_as_point:  # round spheres, where float64 rounding does not move radiance
+            assert_same_light(a, b)
+
+
+def test_a_prototype_light_is_read_from_usd_once_for_all_its_instances(tmp_path, monkeypatch):
+    stage, instancer = instanced_stage(tmp_path / "lamps.usda", 12, kinds="two", even=True)
+    calls = []
+    read_light = wrt.usd_point_instancer.read_light
+    monkeypatch.setattr(wrt.usd_point_instancer, "read_light", lambda prim, *a, **k: (calls.append(prim),
+                                                                                      read_light(prim, *a, **k))[1])
+    scene, messages = load(tmp_path / "lamps.usda")
+    assert len(scene.lights) == 24 and len(calls) == 2  # one read of the bulb, one of the panel: 24 before
+    world = UsdGeom.XformCache(T).GetLocalToWorldTransform(instancer)
+    author_by_hand(tmp_path / "by_hand.usda", usd_placed_lights(stage, instancer, world))
+    by_hand, _ = load(tmp_path / "by_hand.usda")
+    placed = {light.path: light for light in scene.lights}
+    for k in range(12):
+        assert_same_light(placed[f"/Lamps/Protos/Lamp/Bulb[{k}]"], by_hand.lights[2 * k])
+        assert_same_light(placed[f"/Lamps/Protos/Lamp/Panel[{k}]"], by_hand.lights[2 * k + 1])
 
 
 def test_a_light_texture_file_is_read_and_uploaded_once(tmp_path, monkeypatch):

@@ -79,6 +79,16 @@ def input_reader(prim, time):
     return get, legacy
 
 
+def sphere_inputs(prim, time) -> tuple[float, bool]:
+    """``(radius, treatAsPoint)`` of SphereLight ``prim`` as authored at ``time`` (a radius :func:`read_light` takes:
+    it reads the prim first)."""
+    from pxr import UsdLux
+
+    get, _ = input_reader(prim, time)
+    light = UsdLux.SphereLight(prim)
+    return float(get(light.GetRadiusAttr(), 0.5)), bool(get(light.GetTreatAsPointAttr(), False))
+
+
 class LightTextures:
     """The images of light textures, each file read once per ``memory`` (a dict: ``(resolved path, colour space)``
     -> image, or the :class:`wrt.textures.TextureError` that reading it raised). A textured RectLight in a

@@ -9,7 +9,8 @@ from pxr import Usd, UsdGeom
 from .instancing import group_rows
 from .light_links import part_path
 from .usd_contents import Content, Context, instance_looks, placed_indices, placements
-from .usd_lights import read_light
+from .usd_lights import read_light, sphere_inputs
+from .usd_placed_lights import placed_lights
 from .usd_primvars import finite_colors, unit_opacities
 from .usd_values import held_value, spun_rotations, value_at
 
@@ -85,15 +86,17 @@ class PointInstancerReading:
         for placement in placements(world, self.contents):
             for prim, to_space in placement.content.placed_lights:
                 path = part_path(str(prim.GetPath()), placement.content.path, placement.root)
-                for row, to_world in enumerate(placement.to_world @ to_space):
-                    indices = placed_indices(placement.levels, row)
-                    name = path + "".join(f"[{k}]" for k in indices if k >= 0)
-                    light = read_light(prim, self.xforms, self.time, self.scene.up_axis,
-                                       lambda reason, _, detail=None, name=name: self._skip_path(reason, name, detail),
-                                       to_world=to_world, textures=self.light_textures)
-                    if light is not None:
-                        light.path = name
-                        found.append((sources.setdefault(placement.source, len(sources)), indices, light))
+                indices = [placed_indices(placement.levels, row) for row in range(len(placement.to_world))]
+                names = [path + "".join(f"[{k}]" for k in found_at if k >= 0) for found_at in indices]
+
+                def read(to_world, skip, prim=prim):
+                    return read_light(prim, self.xforms, self.time, self.scene.up_axis, skip, to_world=to_world,
+                                      textures=self.light_textures)
+
+                lights = placed_lights(placement.to_world @ to_space, names, read, self._skip_path,
+                                       lambda prim=prim: sphere_inputs(prim, self.time))
+                source = sources.setdefault(placement.source, len(sources))
+                found += [(source, at, light) for at, light in zip(indices, lights) if light is not None]
         self.scene.lights += [light for *_, light in sorted(found, key=lambda entry: entry[:2])]
 
     def _prototype_roots(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer) -> tuple[list, list]:
