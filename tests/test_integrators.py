@@ -321,12 +321,19 @@ def test_path_buffers_are_written_before_they_are_read(integrator, device):
     # shadow_t_mins and hits.instance are never written: they are initialised at allocation (0 and -1).
     poison([getattr(w, name) for name in w.FIELDS] + [h.t, h.u, h.v, h.prim, h.cost])
     poison([s.t_mins, s.t_maxs, s.hits.t, s.hits.u, s.hits.v, s.hits.prim, s.hits.cost])
+    b = w.batch  # whitted's shadow rays of several lights per path (the sun and the glowing triangles here)
+    batched = [] if b is None else [b.origins, b.dirs, b.t_maxs, b.lights, b.blocked, b.contribution]
+    if b is not None:
+        poison(batched + [b.scratch.t_mins, b.scratch.t_maxs, b.scratch.hits.t, b.scratch.hits.prim])
     img = renderer.render(spp=2, seed=5)
     np.testing.assert_array_equal(img.rgb, clean.rgb)
     for name in ("prim", "normal", "depth"):
         np.testing.assert_array_equal(img.aovs[name], clean.aovs[name])
-    for name in ("origins", "directions", "t_mins", "t_maxs", "shadow_origins", "shadow_dirs", "shadow_t_maxs"):
+    shadows = ["shadow_origins", "shadow_dirs", "shadow_t_maxs"] if b is None else []
+    for name in ["origins", "directions", "t_mins", "t_maxs"] + shadows:
         assert not np.isnan(getattr(w, name).numpy()).any(), name
+    for array in batched[:3]:
+        assert not np.isnan(array.numpy()).any()
 
 
 @pytest.mark.parametrize("accel", ["wrt", "warp"])

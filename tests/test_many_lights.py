@@ -1,22 +1,27 @@
 """Scenes of many lights: a light inside a PointInstancer's prototype is read from USD once and copied to every
-instance, and a light texture file is read once however many lights name it.
+instance, a light texture file is read once however many lights name it, and ``whitted`` lights many lights per launch.
 
 Oracles: the lights read one by one (``read_light`` at each instance's transform, the per-light path, compared field
 by field and bit for bit, warnings too), and USD itself (each light authored by hand at the world matrix USD computes
-per instance, as ``test_point_instanced_lights`` does)."""
+per instance, as ``test_point_instanced_lights`` does); images against the sum of one-light images (light transport
+is linear, and point lights draw no random numbers), and bit for bit whatever the number of lights per launch."""
 
 import dataclasses
 import warnings
 
 import numpy as np
+import warp as wp
 from pxr import Gf, Sdf, UsdGeom, UsdLux
+from shading_helpers import quad
 from test_point_instanced_lights import T, assert_same_light, author_by_hand, new_stage, usd_placed_lights
 
 import wrt
+import wrt.integrators.whitted as whitted
 import wrt.textures
 import wrt.usd_point_instancer
 from wrt.image import write_srgb_png
 from wrt.lights import RectLight, SphereLight
+from wrt.materials import Material
 
 
 def write_texture(path):
@@ -192,3 +197,80 @@ def test_a_light_texture_file_is_read_and_uploaded_once(tmp_path, monkeypatch):
         info = renderer.device_lights.texture.numpy()
         assert len({tuple(row) for row in info[[k for k, light in enumerate(scene.lights)
                                                 if isinstance(light, RectLight)]]}) == 1
+
+
+def floor_and_box(box_material=None):
+    """A white floor at z = 0 and a white box hovering over it (geometry for shadows)."""
+    floor = quad((0, 0, 0), (8, 0, 0), (0, 8, 0), name="/floor")
+    box = [quad((0.3, 0.2, 0.8), (0.8, 0, 0), (0, 0.8, 0), name="/box", material=box_material)]
+    return [floor] + box
+
+
+def point_lights(count: int) -> list:
+    rng = np.random.default_rng(5)
+    lights = [SphereLight(position=rng.uniform((-2, -2, 1), (2, 2, 3)), radius=0.1, color=rng.uniform(0.2, 2.0, 3),
+                          treat_as_point=True, path=f"/P{k}") for k in range(count)]
+    lights.append(wrt.DistantLight(direction=np.array([0.2, 0.3, -1.0]), color=np.array([0.5, 0.4, 0.3]),
+                                   angle=0.0, path="/Sun"))
+    return lights
+
+
+CAMERA = wrt.Camera.look_at((0.5, -4.0, 4.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0), fov_y_deg=50.0)
+
+
+def test_whitted_image_of_many_point_lights_is_the_sum_of_one_light_images():
+    lights = point_lights(14)
+    scene = wrt.Scene(meshes=floor_and_box(), lights=lights)
+    image = wrt.render(scene, camera=CAMERA, width=24, height=24, spp=1, device="cpu", integrator="whitted").rgb
+    total = np.zeros_like(image)
+    for light in lights:
+        one = wrt.Scene(meshes=floor_and_box(), lights=[light])
+        total += wrt.render(one, camera=CAMERA, width=24, height=24, spp=1, device="cpu", integrator="whitted").rgb
+    assert image.mean() > 0.05
+    np.testing.assert_allclose(image, total, rtol=1e-5, atol=1e-6)
+
+
+def area_light_scene():
+    """Sphere, textured rect, disk and cylinder lights, one of them shadow-linked, a glowing quad (emissive
+    triangles: one light group) and a box of a cut-out material over a floor."""
+    rng = np.random.default_rng(9)
+    lights = []
+    for k in range(5):
+        m = np.eye(4)
+        m[:3, 3] = rng.uniform((-2, -2, 1.5), (2, 2, 2.5))
+        lights += [SphereLight(position=m[:3, 3].copy(), radius=0.2, color=np.full(3, 2.0), path=f"/S{k}"),
+                   RectLight(to_world=m, width=0.5, height=0.3, color=np.full(3, 3.0), path=f"/R{k}",
+                             texture=rng.uniform(0.0, 1.0, (3, 5, 3)).astype(np.float32)),
+                   wrt.DiskLight(to_world=m, radius=0.2, color=np.full(3, 2.0), path=f"/D{k}"),
+                   wrt.CylinderLight(to_world=m, length=0.5, radius=0.05, color=np.full(3, 2.0), path=f"/C{k}")]
+    lights[0].shadow_link = wrt.LinkCollection.explicit("/floor")  # the box casts none of its shadow
+    glow = quad((-1.5, 1.5, 1.2), (0.5, 0, 0), (0, 0.5, 0), name="/glow", material=1)
+    materials = [Material(diffuse_color=0.8, opacity=0.3, opacity_threshold=0.5),
+                 Material(diffuse_color=0.0, emissive_color=(2.0, 1.5, 1.0))]
+    return wrt.Scene(meshes=floor_and_box(box_material=0) + [glow], lights=lights, materials=materials)
+
+
+def test_whitted_image_is_the_same_whatever_the_lights_per_launch(monkeypatch):
+    scene = area_light_scene()
+    images = []
+    for lights_per_launch in (1, 3, 100):
+        monkeypatch.setattr(whitted, "SHADOW_RAYS_PER_BATCH", lights_per_launch * 16 * 16 * 2)
+        renderer = wrt.Renderer(scene, camera=CAMERA, width=16, height=16, device="cpu", integrator="whitted")
+        images.append(renderer.render(spp=2, seed=4).rgb)
+    assert images[0].mean() > 0.05
+    np.testing.assert_array_equal(images[1], images[0])  # one light per launch: as wrt lit them before
+    np.testing.assert_array_equal(images[2], images[0])
+
+
+def test_whitted_launches_do_not_grow_with_the_number_of_lights(monkeypatch):
+    launches = []
+    launch = wp.launch
+    monkeypatch.setattr(wp, "launch", lambda kernel, *a, **k: (launches.append(kernel.key), launch(kernel, *a, **k)))
+    counts = []
+    for count in (2, 30):
+        scene = wrt.Scene(meshes=floor_and_box(), lights=point_lights(count))
+        renderer = wrt.Renderer(scene, camera=CAMERA, width=8, height=8, device="cpu", integrator="whitted")
+        launches.clear()
+        renderer.render(spp=1)
+        counts.append(len(launches))
+    assert counts[0] == counts[1], counts  # 30 lights: 3 launches more per light and bounce before

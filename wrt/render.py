@@ -26,7 +26,14 @@ from .image import Image
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
 from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_path_kernel
-from .integrators.whitted import continue_whitted_kernel, shade_whitted_kernel, whitted_light_kernel
+from .integrators.whitted import (
+    ShadowRays,
+    add_unoccluded_lights_kernel,
+    continue_whitted_kernel,
+    lights_per_batch,
+    shade_whitted_kernel,
+    whitted_lights_kernel,
+)
 from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, set_headlight_directions
 from .lights import default_lights
@@ -209,6 +216,8 @@ class _Wavefront:
         self.hits = HitBuffer(n, device)
         self.scratch = CullScratch(n, device, nothing_to_cull, no_holes)
         self.counter = wp.zeros(1, dtype=wp.int32, device=device)
+        self.owner = self  # the wavefront whose buffers a view shares
+        self.batch = None  # ShadowRays of several lights per path (shadow_rays), made on first use
 
     @classmethod
     def bytes_per_path(cls) -> int:
@@ -221,7 +230,7 @@ class _Wavefront:
         if m == self.n:
             return self
         v = object.__new__(_Wavefront)
-        v.n, v.device, v.counter = m, self.device, self.counter
+        v.n, v.device, v.counter, v.owner = m, self.device, self.counter, self.owner
         for name in list(self.FIELDS) + ["shadow_t_mins"]:
             setattr(v, name, getattr(self, name)[:m])
         v.hits = self.hits.slice(0, m)
@@ -231,6 +240,17 @@ class _Wavefront:
     @property
     def rays(self) -> list:
         return [self.origins, self.directions, self.t_mins, self.t_maxs]
+
+    def shadow_rays(self, lights: int = 1) -> ShadowRays:
+        """The shadow rays of ``lights`` lights per path, ray ``j * n + i`` light ``j``'s of path ``i``: for one
+        light the wavefront's own arrays, for more buffers kept with it (grown when too small)."""
+        if lights == 1:
+            return ShadowRays.of(self.shadow_origins, self.shadow_dirs, self.shadow_t_mins, self.shadow_t_maxs,
+                                 self.shadow_lights, self.blocked, self.nee, self.scratch)
+        m, owner = lights * self.n, self.owner
+        if owner.batch is None or owner.batch.n < m:
+            owner.batch = ShadowRays(m, self.device, self.scratch.nothing_to_cull, self.scratch.no_holes)
+        return owner.batch.head(m)
 
 
 def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None:
@@ -514,6 +534,8 @@ class Renderer:
         self._whitted_groups = [(k, 1) for k in range(n_analytic) if kinds[k] != int(LIGHT_DOME)]
         if self.device_lights.count > n_analytic:
             self._whitted_groups.append((n_analytic, self.device_lights.count - n_analytic))
+        groups = np.array(self._whitted_groups or [(0, 0)], np.int32).reshape(-1, 2)
+        self._whitted_group_array = wp.array(groups, dtype=wp.vec2i, device=dev)
 
     def set_cameras(self, cameras) -> None:
         """Renders from ``cameras`` (a list, tuple or generator; any length) from now on, e.g. new poses each
@@ -748,15 +770,15 @@ class Renderer:
             wp.launch(count_covered_kernel, aovs.n, inputs=[w.hits.prim, aovs.n, w.n // aovs.n],
                       outputs=[aovs.launch_covered])
 
-    def _occluded(self, w: _Wavefront, to_lights: bool = True):
-        """``w.blocked`` of the shadow rays, which pass through the holes of cut-outs (in :meth:`launch_frame` without
-        reading back: :func:`wrt.shade.repeat_passes`) and, when they go ``to_lights`` (``w.shadow_lights``),
-        through the geometry that casts no shadow of their light."""
+    def _occluded(self, w: _Wavefront, to_lights: bool = True, shadows: ShadowRays | None = None):
+        """``blocked`` of the shadow rays (``shadows``, or ``w``'s own), which pass through the holes of cut-outs (in
+        :meth:`launch_frame` without reading back: :func:`wrt.shade.repeat_passes`) and, when they go ``to_lights``
+        (their ``lights``), through the geometry that casts no shadow of their light."""
+        shadows = shadows or w.shadow_rays()
         passes = MAX_SHADOW_HOLE_PASSES if self._sync_free else None
         links = self.device_lights.links if to_lights else None
-        occluded_through_holes(self.accel, self.surfaces, self.materials,
-                               [w.shadow_origins, w.shadow_dirs, w.shadow_t_mins, w.shadow_t_maxs], w.blocked,
-                               w.scratch, passes, links, w.shadow_lights)
+        occluded_through_holes(self.accel, self.surfaces, self.materials, shadows.rays, shadows.blocked,
+                               shadows.scratch, passes, links, shadows.lights)
 
     def _occlude_and_add(self, w: _Wavefront):
         self._occluded(w)
@@ -799,16 +821,7 @@ class Renderer:
                 [w.radiance, w.alive],
                 self.device,
             )
-            for first, count in self._whitted_groups:
-                launch_per_path(
-                    whitted_light_kernel,
-                    w.n,
-                    [ds, surf, mats, lights, first, count, w.origins, w.directions, *hit, w.throughput, w.alive,
-                     w.views],
-                    [w.rng, w.shadow_origins, w.shadow_dirs, w.shadow_t_maxs, w.shadow_lights, w.nee],
-                    self.device,
-                )
-                self._occlude_and_add(w)
+            self._light_whitted(w, hit)
             launch_per_path(
                 continue_whitted_kernel,
                 w.n,
@@ -818,6 +831,33 @@ class Renderer:
             )
             if not self._any_alive(w):
                 break
+
+    def _light_whitted(self, w: _Wavefront, hit: list):
+        """Direct light at each hit from every light group (:attr:`_whitted_groups`): as many groups per launch as
+        :func:`wrt.integrators.whitted.lights_per_batch` allows, their shadow rays traced together; the image is
+        the one a launch per group gave."""
+        groups = len(self._whitted_groups)
+        per = lights_per_batch(groups, w.n)
+        shadows = w.shadow_rays(per) if groups else None
+        threads = resolve_threads(None, self.device)
+        common = [self.device_scene, self.surfaces, self.materials, self.device_lights, self._whitted_group_array]
+        for start in range(0, groups, per):
+            count = min(per, groups - start)
+            batch = shadows.head(count * w.n)
+
+            def light(a: int, b: int, start=start, count=count, batch=batch):
+                wp.launch(whitted_lights_kernel, b - a, device=self.device,
+                          inputs=[*common, start, count, a, w.origins, w.directions, *hit, w.throughput, w.alive,
+                                  w.views],
+                          outputs=[w.rng, batch.origins, batch.dirs, batch.t_maxs, batch.lights, batch.contribution])
+
+            def add(a: int, b: int, count=count, batch=batch):
+                wp.launch(add_unoccluded_lights_kernel, b - a, device=self.device,
+                          inputs=[count, a, batch.contribution, batch.t_maxs, batch.blocked], outputs=[w.radiance])
+
+            run_in_chunks(light, w.n, threads)  # on the CPU, pieces of the paths on a thread pool
+            self._occluded(w, shadows=batch)
+            run_in_chunks(add, w.n, threads)
 
     def _trace_ao(self, w: _Wavefront):
         h = w.hits

@@ -36,7 +36,7 @@ from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, shading_point
+from ..shade import CullScratch, DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
 from .path import aim_shadow_ray, clear_shadow_ray
 
@@ -133,13 +133,15 @@ def shade_whitted_kernel(
 
 
 @wp.kernel
-def whitted_light_kernel(
+def whitted_lights_kernel(
     scene: DeviceScene,
     surf: DeviceSurfaces,
     mats: DeviceMaterials,
     lights: DeviceLights,
-    first: int,
-    count: int,
+    groups: wp.array[wp.vec2i],
+    first_group: int,
+    num_groups: int,
+    offset: int,
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
     hit_t: wp.array[float],
@@ -158,12 +160,16 @@ def whitted_light_kernel(
     shadow_lights: wp.array[wp.int32],
     contribution: wp.array[wp.vec3],
 ):
-    """Direct light from lights ``[first, first + count)`` (one of them, picked by power, when ``count > 1``):
-    its contribution if unoccluded and the shadow ray that decides it; none from a light not linked to the
-    surface."""
-    i = wp.tid()
-    clear_shadow_ray(i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)  # unless aimed below
-    contribution[i] = wp.vec3(0.0)
+    """Direct light of path ``offset + tid`` from light groups ``[first_group, first_group + num_groups)`` of
+    ``groups`` (each ``(first, count)``: lights ``[first, first + count)``, one of them picked by power when
+    ``count > 1``), in group order: each one's contribution if unoccluded and the shadow ray that decides it, at
+    ``j * n + i`` for the ``j``-th group of path ``i`` (``n`` paths); none from a light not linked to the surface.
+    The random numbers are drawn group after group, as one launch per group drew them."""
+    i = wp.tid() + offset
+    n = origins.shape[0]
+    for j in range(num_groups):
+        clear_shadow_ray(j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)  # unless aimed below
+        contribution[j * n + i] = wp.vec3(0.0)
     if alive[i] == 0:
         return
     o = origins[i]
@@ -171,32 +177,55 @@ def whitted_light_kernel(
     prim = hit_prim[i]
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
-    state = rng[i]
-    u_pick, state = rand01(state)
-    u1, state = rand01(state)
-    u2, state = rand01(state)
-    rng[i] = state
-    k = first
-    p_pick = float(1.0)
-    if count > 1:
-        k = first + sample_cdf(lights.cdf, first, count, u_pick)
-        p_pick = lights.pmf[k] / (lights.cdf[first + count] - lights.cdf[first])
-    ls = sample_light_in_view(
-        lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
-    )
-    if max_component(ls.value) <= 0.0 or p_pick <= 0.0:
-        return
-    if not lit_by(lights.links, link_group(lights.links, prim, hit_instance[i]), k):
-        return
+    group = link_group(lights.links, prim, hit_instance[i])
     wo = -d
     lobes = lobe_albedos(s, mats.ggx_albedo, wp.dot(h.ns, wo))
-    f_d, f_s, _ = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
-    f = lit_bsdf(lights, k, f_d, f_s)
-    if max_component(f) <= 0.0:
-        return
-    cos_i = wp.abs(wp.dot(h.ns, ls.wi))
-    contribution[i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
-    aim_shadow_ray(lights, k, h, ls, i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)
+    state = rng[i]
+    for j in range(num_groups):
+        g = groups[first_group + j]
+        first = g[0]
+        count = g[1]
+        u_pick, state = rand01(state)
+        u1, state = rand01(state)
+        u2, state = rand01(state)
+        k = first
+        p_pick = float(1.0)
+        if count > 1:
+            k = first + sample_cdf(lights.cdf, first, count, u_pick)
+            p_pick = lights.pmf[k] / (lights.cdf[first + count] - lights.cdf[first])
+        ls = sample_light_in_view(
+            lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, k, views[i], h.p, h.ns, u1, u2
+        )
+        if max_component(ls.value) > 0.0 and p_pick > 0.0 and lit_by(lights.links, group, k):
+            f_d, f_s, _ = eval_bsdf_lobes(s, mats.ggx_albedo, lobes, h.ns, h.ng, wo, ls.wi)
+            f = lit_bsdf(lights, k, f_d, f_s)
+            if max_component(f) > 0.0:
+                cos_i = wp.abs(wp.dot(h.ns, ls.wi))
+                contribution[j * n + i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
+                aim_shadow_ray(lights, k, h, ls, j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs,
+                               shadow_lights)
+    rng[i] = state
+
+
+@wp.kernel
+def add_unoccluded_lights_kernel(
+    num_groups: int,
+    offset: int,
+    contribution: wp.array[wp.vec3],
+    shadow_t_maxs: wp.array[float],
+    blocked: wp.array[wp.int32],
+    # outputs
+    radiance: wp.array[wp.vec3],
+):
+    """Adds to path ``offset + tid`` (of ``n = len(radiance)``) the contribution of each of its ``num_groups``
+    shadow rays (``j * n + i``) that reached its light, in group order."""
+    i = wp.tid() + offset
+    n = radiance.shape[0]
+    L = radiance[i]
+    for j in range(num_groups):
+        if shadow_t_maxs[j * n + i] > 0.0 and blocked[j * n + i] == 0:
+            L = L + contribution[j * n + i]
+    radiance[i] = L
 
 
 @wp.kernel
@@ -271,3 +300,54 @@ def continue_whitted_kernel(
     if max_component(T) <= 0.0:
         alive[i] = 0
         t_maxs[i] = 0.0
+
+
+SHADOW_RAYS_PER_BATCH = 1 << 20  # shadow rays traced together: about 90 bytes of device memory each
+
+
+def lights_per_batch(groups: int, paths: int) -> int:
+    """Light groups lit in one launch for ``paths`` paths: as many as :data:`SHADOW_RAYS_PER_BATCH` shadow rays
+    hold (at least 1, at most ``groups``). One launch per light made 10,000 lights 10,000 launches of the light
+    kernel, the shadow-ray trace and the add per bounce (30 s for a 32 x 32 image on the CPU)."""
+    return max(1, min(groups, SHADOW_RAYS_PER_BATCH // max(paths, 1)))
+
+
+class ShadowRays:
+    """``n`` shadow rays towards lights and the next-event contribution each adds if unoccluded (device arrays),
+    with the scratch buffers of their trace through holes (:class:`wrt.shade.CullScratch`).
+
+    Args:
+        n: number of rays.
+        device: Warp device.
+        nothing_to_cull: as :class:`wrt.shade.CullScratch` takes it.
+        no_holes: likewise.
+    """
+
+    def __init__(self, n: int, device, nothing_to_cull: bool, no_holes: bool):
+        self.n = n
+        self.origins = wp.empty(n, dtype=wp.vec3, device=device)
+        self.dirs = wp.empty(n, dtype=wp.vec3, device=device)
+        self.t_mins = wp.zeros(n, dtype=float, device=device)
+        self.t_maxs = wp.empty(n, dtype=float, device=device)
+        self.lights = wp.empty(n, dtype=wp.int32, device=device)  # the light of each ray (-1: none), for shadow links
+        self.blocked = wp.empty(n, dtype=wp.int32, device=device)
+        self.contribution = wp.empty(n, dtype=wp.vec3, device=device)
+        self.scratch = CullScratch(n, device, nothing_to_cull, no_holes)
+
+    @classmethod
+    def of(cls, origins, dirs, t_mins, t_maxs, lights, blocked, contribution, scratch) -> "ShadowRays":
+        """Shadow rays held in arrays that exist already (a wavefront's own, one per path)."""
+        rays = object.__new__(cls)
+        rays.n = len(origins)
+        rays.origins, rays.dirs, rays.t_mins, rays.t_maxs = origins, dirs, t_mins, t_maxs
+        rays.lights, rays.blocked, rays.contribution, rays.scratch = lights, blocked, contribution, scratch
+        return rays
+
+    def head(self, m: int) -> "ShadowRays":
+        """The first ``m`` rays (views, not copies)."""
+        return ShadowRays.of(self.origins[:m], self.dirs[:m], self.t_mins[:m], self.t_maxs[:m], self.lights[:m],
+                             self.blocked[:m], self.contribution[:m], self.scratch.head(m))
+
+    @property
+    def rays(self) -> list:
+        return [self.origins, self.dirs, self.t_mins, self.t_maxs]
