@@ -7,6 +7,7 @@ per instance, as ``test_point_instanced_lights`` does); images against the sum o
 is linear, and point lights draw no random numbers), and bit for bit whatever the number of lights per launch."""
 
 import dataclasses
+import math
 import warnings
 
 import numpy as np
@@ -19,6 +20,8 @@ import wrt
 import wrt.integrators.whitted as whitted
 import wrt.textures
 import wrt.usd_point_instancer
+from wrt.affine_lights import right_angled, similar
+from wrt.errors import SceneError
 from wrt.image import write_srgb_png
 from wrt.lights import RectLight, SphereLight
 from wrt.materials import Material
@@ -274,3 +277,32 @@ def test_whitted_launches_do_not_grow_with_the_number_of_lights(monkeypatch):
         renderer.render(spp=1)
         counts.append(len(launches))
     assert counts[0] == counts[1], counts  # 30 lights: 3 launches more per light and bounce before
+
+
+def test_check_fields_takes_a_float_as_float32_and_the_minimum_do():
+    """The float fast path of ``check_fields`` (plain lights are read faster) refuses what numpy's path refuses."""
+    edge = 2.0**128 - 2.0**103  # float32 rounds this and above to infinity
+    values = [0.0, -0.0, 1e-300, 1.5, edge, np.nextafter(edge, 0.0), -edge, math.inf, -math.inf, math.nan, -1e-300]
+    for value in values:
+        with np.errstate(over="ignore"):
+            finite = bool(np.isfinite(np.float32(value)))
+        ok = finite and value >= 0.0
+        try:
+            light = SphereLight(position=np.zeros(3), radius=float(value), color=np.ones(3))
+        except SceneError:
+            assert not ok, value
+        else:
+            assert ok and type(light.radius) is float and light.radius == value, value
+
+
+def test_similar_is_numpys_allclose_of_the_column_lengths_and_right_angles():
+    rng = np.random.default_rng(3)
+    for _ in range(3000):
+        m = np.diag(1.0 + rng.uniform(-2e-4, 2e-4, 3)) * 10.0 ** rng.integers(-30, 30)
+        m = m @ np.linalg.qr(rng.normal(size=(3, 3)))[0] if rng.uniform() < 0.5 else m
+        lengths = np.linalg.norm(m, axis=0)
+        expected = np.allclose(lengths, lengths.mean(), rtol=1e-4) and right_angled(*m.T)
+        assert similar(m) == expected
+    infinite = np.diag([np.inf, np.inf, np.inf])  # lengths np.allclose takes as equal
+    with np.errstate(invalid="ignore"):
+        assert similar(infinite) == (np.allclose([np.inf] * 3, np.inf) and right_angled(*infinite.T))
