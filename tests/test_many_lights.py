@@ -7,6 +7,7 @@ per instance, as ``test_point_instanced_lights`` does); images against the sum o
 is linear, and point lights draw no random numbers), and bit for bit whatever the number of lights per launch."""
 
 import dataclasses
+import importlib
 import math
 import warnings
 
@@ -25,6 +26,7 @@ from wrt.errors import SceneError
 from wrt.image import write_srgb_png
 from wrt.lights import RectLight, SphereLight
 from wrt.materials import Material
+from wrt.usd_placed_lights import placed_lights
 
 
 def write_texture(path):
@@ -306,3 +308,27 @@ def test_similar_is_numpys_allclose_of_the_column_lengths_and_right_angles():
     infinite = np.diag([np.inf, np.inf, np.inf])  # lengths np.allclose takes as equal
     with np.errstate(invalid="ignore"):
         assert similar(infinite) == (np.allclose([np.inf] * 3, np.inf) and right_angled(*infinite.T))
+
+
+def device_bytes(*objects) -> int:
+    """Bytes of the Warp arrays held by ``objects`` (their attributes, one level down)."""
+    arrays = [v for o in objects for v in vars(o).values() if isinstance(v, wp.array)]
+    return sum(a.capacity for a in arrays)
+
+
+def test_the_memory_check_counts_whitteds_shadow_rays_of_several_lights(monkeypatch):
+    asked = []
+    render_module = importlib.import_module("wrt.render")  # wrt.render is the function
+    monkeypatch.setattr(render_module, "check_memory", lambda needed, *a, **k: asked.append(needed))
+    scene = wrt.Scene(meshes=floor_and_box(), lights=point_lights(30))
+    renderer = wrt.Renderer(scene, camera=CAMERA, width=8, height=8, device="cpu", integrator="whitted")
+    renderer.render(spp=1)
+    w = renderer._wavefront
+    batch = w.batch  # 31 lights per launch
+    assert batch is not None and len(batch.origins) == 31 * 64
+    wavefront = device_bytes(w, w.hits, w.scratch, w.scratch.hits)
+    assert asked[-1] >= wavefront + device_bytes(batch, batch.scratch, batch.scratch.hits)
+
+
+def test_a_light_with_no_instances_places_none():
+    assert placed_lights(np.zeros((0, 4, 4)), [], None, None, None) == []

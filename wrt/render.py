@@ -672,7 +672,11 @@ class Renderer:
         what = f"rendering {self.width}x{self.height}{views} at {batch} samples per launch"
         if n_pixels * batch > MAX_LAUNCH_PATHS:
             raise ValueError(f"{what} is {n_pixels * batch} paths; a launch takes at most 2^31 - 1: lower batch")
-        check_memory(render_bytes(n_pixels, n_pixels * batch), self.device, what=what)
+        needed = render_bytes(n_pixels, n_pixels * batch)
+        per = lights_per_batch(len(self._whitted_groups), n_pixels * batch) if self.integrator == "whitted" else 1
+        if per > 1:  # whitted's shadow rays of several lights per path (_Wavefront.shadow_rays)
+            needed += per * n_pixels * batch * ShadowRays.BYTES_PER_RAY
+        check_memory(needed, self.device, what=what)
 
     @property
     def samples_so_far(self) -> int:

@@ -70,8 +70,8 @@ def _template(read, to_worlds: np.ndarray, sphere_inputs) -> tuple:
     (:func:`_shapes`) and a sphere light's authored ``(radius, treatAsPoint)``; ``(None, [], None, None)`` where the
     light is skipped or of a kind not copied, or no instance places as a copy."""
     plain = _plain_rows(to_worlds)
-    first = int(np.argmax(plain))
-    for _ in range(2):  # the shapes are known once the kind is: at most one more read
+    first = int(np.argmax(plain)) if len(plain) else 0
+    for _ in range(2 if len(plain) else 0):  # the shapes are known once the kind is: at most one more read
         if not plain[first]:
             break
         warned = []

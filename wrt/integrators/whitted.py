@@ -323,6 +323,8 @@ class ShadowRays:
         no_holes: likewise.
     """
 
+    BYTES_PER_RAY = 3 * 12 + 4 * 4 + CullScratch.BYTES_PER_RAY  # three vec3 and four 4-byte arrays, the scratch
+
     def __init__(self, n: int, device, nothing_to_cull: bool, no_holes: bool):
         self.n = n
         self.origins = wp.empty(n, dtype=wp.vec3, device=device)
