@@ -333,6 +333,18 @@ def test_output_ending_in_a_slash_is_a_folder(tmp_path):
         assert png.size == (8, 6)
 
 
+@pytest.mark.parametrize("frames", [[], ["--frames", "1:1"]])
+def test_output_naming_an_existing_folder_without_a_slash_says_so(tmp_path, capsys, frames):
+    """``-o renders`` where the folder ``renders`` exists (the slash forgotten) said "cannot write renders:
+    supported image formats are .png, .exr, .npy" (``renders_0001`` with --frames), as if the format were wrong."""
+    folder = tmp_path / "renders"
+    folder.mkdir()
+    assert main(["render", "-o", str(folder), "--width", "8", "--height", "6", "-q", *frames]) == 2
+    errors = [line for line in error_lines(capsys.readouterr().err) if line.startswith("wrt: error:")]
+    assert len(errors) == 1 and f"{folder}: it is a directory" in errors[0] and f"-o {folder}/" in errors[0], errors
+    assert list(folder.iterdir()) == []
+
+
 def test_interrupted_render_saves_the_samples_it_has(tmp_path, monkeypatch, capsys):
     """Ctrl-C during a long ``wrt render`` saved nothing. The image of the samples finished so far is written, and
     it is the image a render with that many samples gives; the exit status stays 130."""

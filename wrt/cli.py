@@ -310,12 +310,20 @@ def _names_a_folder(output: str) -> bool:
     return output.endswith(("/", os.sep))
 
 
+def _check_not_an_existing_folder(output: str) -> None:
+    """Raises IsADirectoryError when ``-o`` names a folder that exists without the ``/`` that makes it one
+    (``-o renders``): the error was that ``renders`` (or ``renders_0001`` with --frames) is no image format."""
+    if not _names_a_folder(output) and Path(output).is_dir():
+        raise IsADirectoryError(f"cannot write {output}: it is a directory; -o {output}/ writes the image into it")
+
+
 def _output_for(args, path: Path, several: bool) -> Path:
     """Where the image of scene ``path`` goes (see ``--output``)."""
     if not several:  # {stem} too: a script's pattern works for one scene as for several
         output = (args.output or "wrt.png").replace("{stem}", path.stem)
         if _names_a_folder(output):  # as for several scenes
             return Path(output) / f"{path.stem}.png"
+        _check_not_an_existing_folder(output)
         return Path(output)
     pattern = args.output or "{stem}.png"
     if "{stem}" in pattern:  # replaced as text: other braces are part of the name, not format fields
@@ -684,6 +692,7 @@ def _run_frames(args, paths: list, progress) -> int:
         raise FileNotFoundError(f"{paths[0]}: no such file")
     frames = parse_frames(args.frames)
     output = (args.output or "frame_####.png").replace("{stem}", paths[0].stem)  # as for still images
+    _check_not_an_existing_folder(output)
     if _names_a_folder(output):  # as for a still image: it became the pattern "out_####", no suffix
         output += f"{paths[0].stem}_####.png"
     from .image import check_image_path
