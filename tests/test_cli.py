@@ -645,3 +645,16 @@ def test_an_interrupted_batch_logs_the_scene_cut_short(tmp_path, ctrl_c_after):
     rows = [json.loads(line) for line in (out / "render-log.jsonl").read_text().splitlines()]
     assert [(Path(r["scene"]).name, r["status"]) for r in rows] == [("a.usda", "ok"), ("b.usda", "interrupted")]
     assert sorted(p.name for p in out.glob("*.png")) == ["a.png", "b.png"]
+
+
+def test_version_option_prints_the_versions_of_wrt_and_warp(capsys):
+    """``wrt --version`` said "the following arguments are required: COMMAND" with exit status 2."""
+    import re
+
+    pyproject = (Path(__file__).resolve().parents[1] / "pyproject.toml").read_text(encoding="utf-8")
+    version = re.search(r'^version = "([^"]+)"', pyproject, re.MULTILINE).group(1)
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"wrt {version} ") and f"warp-lang {wp.config.version}" in out, out

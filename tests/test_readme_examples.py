@@ -227,10 +227,11 @@ def test_readme_script_command_line_names_a_script_and_its_options(line, args):
 
 
 def wrt_options() -> set[str]:
-    """Every long option of every ``wrt`` subcommand."""
+    """Every long option of ``wrt`` (``--version``) and of every ``wrt`` subcommand."""
     parser = build_parser()
     (subparsers,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
-    return {s for sub in subparsers.choices.values() for a in sub._actions for s in a.option_strings}
+    parsers = [parser, *subparsers.choices.values()]
+    return {s for p in parsers for a in p._actions for s in a.option_strings}
 
 
 def test_options_named_in_the_readme_prose_exist():

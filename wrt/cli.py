@@ -1017,6 +1017,13 @@ def build_parser() -> argparse.ArgumentParser:
         description="wrt: a ray tracer for USD scenes written in NVIDIA Warp kernels.",
         epilog="Run 'wrt COMMAND --help' for the options of a command.",
     )
+    import warp as wp
+
+    from . import __version__
+
+    # For bug reports; without it 'wrt --version' said that a COMMAND is required.
+    parser.add_argument("--version", action="version", version=f"wrt {__version__} (warp-lang {wp.config.version}, "
+                        f"Python {sys.version.split()[0]})")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     _add_render(sub)
