@@ -380,3 +380,25 @@ def test_triangle_subdivision_rule_is_read(tmp_path):
     standard = refined(tmp_path / "c.usda", None)
     for got, expected in ((smooth, 0.03 * (a + b) + 0.47 * (f0 + f1)), (standard, (a + b + f0 + f1) / 4)):
         assert np.isclose(np.linalg.norm(got - expected, axis=1), 0.0, atol=1e-6).any()
+
+
+@pytest.mark.parametrize("scheme", ["catmullClark", "loop", "bilinear"])
+def test_a_mesh_with_no_face_of_three_corners_refines_to_nothing_beside_a_refined_one(tmp_path, scheme):
+    """A mesh whose faces all have fewer than three corners draws nothing; refined, it stopped the whole load with an
+    IndexError from the topology walk (numpy's, naming neither mesh nor file). The other mesh still refines."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "lines.usda"))
+    for name, counts, indices in (("Lines", [2, 1], [0, 1, 2]), ("Tri", [3], [0, 1, 2])):
+        mesh = UsdGeom.Mesh.Define(stage, f"/{name}")
+        mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+        mesh.CreateFaceVertexCountsAttr(counts)
+        mesh.CreateFaceVertexIndicesAttr(indices)
+        mesh.CreateSubdivisionSchemeAttr(scheme)
+        st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, "faceVarying")
+        st.Set([(0, 0), (1, 0), (0, 1)])
+        st.SetIndices(Vt.IntArray(indices))
+    stage.Save()
+    r = Refinement([2, 1], [0, 1, 2], 3, 2)
+    assert len(r.counts) == 0 and len(r.face_indices) == 0
+    by_path = {m.path: m for m in wrt.load_usd(tmp_path / "lines.usda", refine_level=1).meshes}
+    assert "/Lines" not in by_path or len(by_path["/Lines"].indices) == 0
+    assert len(by_path["/Tri"].indices) == (4 if scheme == "loop" else 6)

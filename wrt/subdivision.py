@@ -304,12 +304,16 @@ class Refinement:
             if len(indices) and (indices.min() < 0 or indices.max() >= n_points):
                 raise ValueError(f"cornerIndices out of range for {n_points} points")
             corner_sharpness[indices.astype(np.int64)] = _sharpness(sharpness, "cornerSharpnesses")
+        self.boundary_holes = np.zeros(0, np.int64)  # input faces not drawn, in faceVertexCounts numbering
+        self.levels = []
+        if not len(counts):  # no face of three corners or more: nothing to refine (the topology walk needs a face)
+            self.counts, self.face_indices, self.n_points = counts, face_indices, n_points
+            return
         # Non-manifold input (an edge of three faces or of two wound oppositely, a face that repeats a point, faces
         # that meet at a point only) is infinitely sharp, as OpenSubdiv tags it: refined smoothly, it was averaged
         # over faces that are not one surface around it.
         # interpolateBoundary = none: faces at a boundary point are holes (their points still shape the rest), unless
         # all its boundary edges are authored infinitely sharp (OpenSubdiv's VTX_BOUNDARY_NONE).
-        self.boundary_holes = np.zeros(0, np.int64)  # input faces not drawn, in faceVertexCounts numbering
         if boundary == "none":
             self.boundary_holes = self.parent_face[_boundary_faces(counts, face_indices, n_points, edge_sharpness)]
         corner_boundary = boundary == "edgeAndCorner"
@@ -317,7 +321,6 @@ class Refinement:
         edge_sharpness = edge_sharpness.with_infinite(sharp_edges)
         corner_sharpness[sharp_points] = INFINITELY_SHARP
 
-        self.levels = []
         for _ in range(levels):
             level = self._level_type(counts, face_indices, n_points, edge_sharpness, corner_sharpness,
                                      corner_boundary, triangle_smooth)
