@@ -41,6 +41,8 @@ def placed_lights(to_worlds: np.ndarray, names: list[str], read, skip_path, sphe
             scales the radius by the transform, and makes the light a point where it comes to 0).
     """
     to_worlds = np.asarray(to_worlds, np.float64)
+    if not len(to_worlds):  # a light with no instances places none
+        return []
 
     def read_one(k: int):
         light = read(to_worlds[k], lambda reason, _, detail=None: skip_path(reason, names[k], detail))
@@ -70,8 +72,8 @@ def _template(read, to_worlds: np.ndarray, sphere_inputs) -> tuple:
     (:func:`_shapes`) and a sphere light's authored ``(radius, treatAsPoint)``; ``(None, [], None, None)`` where the
     light is skipped or of a kind not copied, or no instance places as a copy."""
     plain = _plain_rows(to_worlds)
-    first = int(np.argmax(plain)) if len(plain) else 0
-    for _ in range(2 if len(plain) else 0):  # the shapes are known once the kind is: at most one more read
+    first = int(np.argmax(plain))
+    for _ in range(2):  # the shapes are known once the kind is: at most one more read
         if not plain[first]:
             break
         warned = []
