@@ -40,30 +40,47 @@ def refined_triangles(counts, levels: int) -> int:
 class _LoopLevel(_Level):
     """One Loop step of a triangle mesh: points first, then one point per edge; no face points."""
 
+    refined_corners = 3  # corners of each refined face
+
     @property
     def refined_points(self) -> int:
         return self.n_points + len(self.edge_ends)
 
+    def split(self, at_point: np.ndarray, at_lead: np.ndarray, at_face=None) -> np.ndarray:
+        """What each refined face-vertex holds, in ``topology``'s order, from what each face-vertex's point holds
+        (``at_point`` ``(N, ...)``) and its leading edge's point (``at_lead`` ``(N, ...)``); no face points
+        (``at_face`` unused): four triangles per triangle, one at each corner (the corner, its leading edge's point,
+        its trailing edge's point), then the middle one."""
+        corners = np.stack([at_point, at_lead, at_lead[self.preceding]], axis=1)
+        corners = corners.reshape(-1, 3, *corners.shape[1:])
+        middle = at_lead.reshape(-1, 1, 3, *at_lead.shape[1:])
+        triangles = np.concatenate([corners, middle], axis=1)
+        return triangles.reshape(-1, *triangles.shape[3:])
+
     def topology(self):
-        """``(counts, face_indices, parent face)`` of the refined triangles, four per triangle in its winding: one at
-        each corner (the corner, its leading edge's point, its trailing edge's point), then the middle one."""
-        n = self.n_points
-        leading = n + self.fv_edge
-        corners = np.stack([self.face_indices, leading, leading[self.preceding]], axis=1).reshape(-1, 3, 3)
-        middle = leading.reshape(-1, 1, 3)
-        triangles = np.concatenate([corners, middle], axis=1).reshape(-1)
+        """``(counts, face_indices, parent face)`` of the refined triangles, four per triangle in its winding
+        (``split``)."""
+        triangles = self.split(self.face_indices, self.n_points + self.fv_edge)
         return np.full(4 * len(self.counts), 3, np.int64), triangles, np.repeat(np.arange(len(self.counts)), 4)
 
-    def vertex(self, data: np.ndarray) -> np.ndarray:
-        """Per-point ``data`` ``(V, k)`` of the refined mesh by Loop's masks: vertex points, then edge points."""
-        midpoint = self._midpoints(data)
-        far_corners = _sum_by(self.fv_edge, data[self.face_indices[self.preceding]], len(self.edge_ends))
+    def vertex(self, data: np.ndarray, edge_values=None, corner_values=None) -> np.ndarray:
+        """Per-point ``data`` ``(V, k)`` of the refined mesh by Loop's masks: vertex points, then edge points.
+
+        A face-varying channel (``wrt.subdivision_fvar``) passes the values at each edge's ends ``(E, 2, k)`` and at
+        each face-vertex ``(N, k)`` (an edge's far corners are those of its triangles), as its points may hold
+        several; by default both are ``data``'s."""
+        if edge_values is None:
+            edge_values = data[self.edge_ends]
+        if corner_values is None:
+            corner_values = data[self.face_indices]
+        midpoint = 0.5 * (edge_values[:, 0] + edge_values[:, 1])
+        far_corners = _sum_by(self.fv_edge, corner_values[self.preceding], len(self.edge_ends))
         smooth_edge = 0.75 * midpoint + 0.25 * far_corners / np.maximum(self.edge_faces, 1)[:, None]
         ends = self.edge_ends.reshape(-1)
-        ring = _sum_by(ends, data[self.edge_ends[:, ::-1].reshape(-1)], self.n_points)
+        ring = _sum_by(ends, edge_values[:, ::-1].reshape(-1, data.shape[1]), self.n_points)
         beta = loop_beta(self.valence)[:, None]
         smooth = (1.0 - self.valence[:, None] * beta) * data + beta * ring
-        vertex_points = self.vertex_points(data, smooth, data[self.edge_ends])
+        vertex_points = self.vertex_points(data, smooth, edge_values)
         return np.concatenate([vertex_points, self.edge_points(midpoint, smooth_edge)])
 
     def linear(self, data: np.ndarray) -> np.ndarray:
@@ -72,10 +89,7 @@ class _LoopLevel(_Level):
 
     def face_varying(self, data: np.ndarray) -> np.ndarray:
         """Per-face-vertex ``data`` ``(N, k)`` of the refined triangles, interpolated linearly within each triangle."""
-        k = data.shape[1]
-        leading = 0.5 * (data + data[self.following])  # per face-vertex: the middle of the edge it starts
-        corners = np.stack([data, leading, leading[self.preceding]], axis=1).reshape(-1, 3, 3, k)
-        return np.concatenate([corners, leading.reshape(-1, 1, 3, k)], axis=1).reshape(-1, k)
+        return self.split(data, 0.5 * (data + data[self.following]))
 
 
 class LoopRefinement(Refinement):

@@ -139,17 +139,34 @@ class _Level:
         corner[:n_points] = _decrement(self.corner_sharpness)
         return _SharpnessTable(keys, values), corner
 
+    refined_corners = 4  # corners of each refined face
+
     @property
     def refined_points(self) -> int:
         return self.n_points + len(self.edge_ends) + len(self.counts)
 
+    def split(self, at_point: np.ndarray, at_lead: np.ndarray, at_face: np.ndarray) -> np.ndarray:
+        """What each refined face-vertex holds, in ``topology``'s order, from what each face-vertex's point holds
+        (``at_point`` ``(N, ...)``), its leading edge's point (``at_lead`` ``(N, ...)``) and each face's point
+        (``at_face`` ``(F, ...)``): one quad per face-vertex (its point, its leading edge, its face, its trailing
+        edge)."""
+        quads = np.stack([at_point, at_lead, at_face[self.face], at_lead[self.preceding]], axis=1)
+        return quads.reshape(-1, *quads.shape[2:])
+
+    def corner_children(self) -> np.ndarray:
+        """``(N,)`` the refined face-vertex at each face-vertex's point, first of its refined face (next to the
+        leading edge's point, after the trailing one's)."""
+        n = len(self.face_indices)
+        held = self.split(np.arange(n), np.full(n, -1), np.full(len(self.counts), -1))
+        corners = np.empty(n, np.int64)
+        corners[held[held >= 0]] = np.flatnonzero(held >= 0)
+        return corners
+
     def topology(self):
         """``(counts, face_indices, parent face)`` of the refined quads, one per face-vertex, winding kept."""
         n, e = self.n_points, len(self.edge_ends)
-        quads = np.stack(
-            [self.face_indices, n + self.fv_edge, n + e + self.face, n + self.fv_edge[self.preceding]], axis=1
-        )
-        return np.full(len(quads), 4, np.int64), quads.reshape(-1), self.face
+        quads = self.split(self.face_indices, n + self.fv_edge, n + e + np.arange(len(self.counts)))
+        return np.full(len(self.face_indices), 4, np.int64), quads, self.face
 
     def vertex(self, data: np.ndarray, edge_values=None, corner_values=None) -> np.ndarray:
         """Per-point ``data`` ``(V, k)`` of the refined mesh: points first, then edge points, then face points.
@@ -232,11 +249,7 @@ class _Level:
 
     def face_varying(self, data: np.ndarray) -> np.ndarray:
         """Per-face-vertex ``data`` ``(N, k)`` of the refined quads, interpolated linearly within each face."""
-        k = data.shape[1]
-        centre = self._face_average(data)
-        quads = np.stack([data, 0.5 * (data + data[self.following]), centre[self.face],
-                          0.5 * (data + data[self.preceding])], axis=1)
-        return quads.reshape(-1, k)
+        return self.split(data, 0.5 * (data + data[self.following]), self._face_average(data))
 
 
 class _SharpnessTable:

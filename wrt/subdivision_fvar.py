@@ -1,6 +1,9 @@
-"""Face-varying data (texture coordinates) through Catmull-Clark refinement, as USD's ``faceVaryingLinearInterpolation``
-asks: OpenSubdiv's ``Sdc::Options::FVarLinearInterpolation``, after its ``Vtr::FVarLevel``, ``Vtr::FVarRefinement``
-and ``Far::PrimvarRefiner::InterpolateFaceVarying``.
+"""Face-varying data (texture coordinates) through Catmull-Clark or Loop refinement, as USD's
+``faceVaryingLinearInterpolation`` asks: OpenSubdiv's ``Sdc::Options::FVarLinearInterpolation``, after its
+``Vtr::FVarLevel``, ``Vtr::FVarRefinement`` and ``Far::PrimvarRefiner::InterpolateFaceVarying``. The seam and boundary
+rules below are the same in both schemes (OpenSubdiv's); only the masks of values that match their point and the split
+of the faces are the level's (``_Level.vertex`` and ``split``: Loop's edge points take the far corners as each
+triangle holds them).
 
 A face-varying channel has a value per face-vertex; face-vertices of one point that hold the same value are one value
 of that point. An edge whose faces disagree on the value at either end is a seam (a face-varying boundary). Where a
@@ -13,11 +16,11 @@ refined apart, each over its span (the faces around the point that hold it) as a
 - a semi-sharp one (semi-sharp edges inside its span, or a semi-sharp point) is a corner until that sharpness runs
   out, then a crease, blended on that step by OpenSubdiv's fractional weight.
 
-Edge points on a seam are the midpoints in each face, face points the face's average. The modes decide which values
-are corners: ``none`` none of them, ``cornersOnly`` a value of a single face (and a boundary point of one face where
-``interpolateBoundary`` does not make it a corner), ``cornersPlus1`` also every value of a point with three or more,
-and both of a point with two where a span holds a seam or an infinitely sharp edge, ``cornersPlus2`` also both of a
-point with two where one is a corner, and a point with one value where a seam ends (a dart); ``boundaries`` every
+Edge points on a seam are the midpoints in each face, face points (Catmull-Clark's) the face's average. The modes decide
+which values are corners: ``none`` none of them, ``cornersOnly`` a value of a single face (and a boundary point of one
+face where ``interpolateBoundary`` does not make it a corner), ``cornersPlus1`` also every value of a point with three
+or more, and both of a point with two where a span holds a seam or an infinitely sharp edge, ``cornersPlus2`` also both
+of a point with two where one is a corner, and a point with one value where a seam ends (a dart); ``boundaries`` every
 value on a seam or on the mesh's boundary (linear along them); ``all`` is linear everywhere
 (``Refinement.face_varying``'s linear path). Points that are infinitely sharp corners, or non-manifold, keep all their
 values.
@@ -186,14 +189,16 @@ def _fractional_weight(parent_point, child_point, parent_edges, child_edges, gro
 
 
 def _step(level, values: _Values, smooth_boundaries: bool, child_level) -> _Values:
-    """One Catmull-Clark step of a face-varying channel: the values of the refined level (``PrimvarRefiner``'s
-    ``interpFVarFromFaces``, ``...FromEdges`` and ``...FromVerts``, ``FVarRefinement``'s tag propagation);
-    ``child_level`` is the next step's ``_Level`` (None after the last), whose linear edges it marks."""
+    """One step of a face-varying channel over ``level`` (a Catmull-Clark or Loop ``_Level``: its masks and split):
+    the values of the refined level (``PrimvarRefiner``'s ``interpFVarFromFaces``, ``...FromEdges`` and
+    ``...FromVerts``, ``FVarRefinement``'s tag propagation); ``child_level`` is the next step's ``_Level`` (None after
+    the last), whose linear edges it marks."""
     group, data, kind = values.group, values.data, values.kind
     fv_data = data[group]
     n, n_values, n_edges, n_points = len(group), len(data), len(level.edge_ends), level.n_points
     following, preceding = level.following, level.preceding
-    face_points = level._face_average(fv_data)
+    n_faces = level.refined_points - n_points - n_edges  # face points: one per face (Catmull-Clark), none (Loop)
+    face_points = level._face_average(fv_data) if n_faces else np.zeros((0, data.shape[1]))
 
     # The point's masks, for values that match it: each edge's end values from one of its faces (they agree on an
     # edge off the seams), each point's value from any face-vertex at it.
@@ -238,13 +243,13 @@ def _step(level, values: _Values, smooth_boundaries: bool, child_level) -> _Valu
     partner_stays = stays[partner] & (values.partner >= 0)
     child_dependent = values.dependent & stays & partner_stays
 
-    # Child values, one quad per face-vertex (its point, its leading edge, its face, its trailing edge): a point's
-    # values carry on, an edge on a seam (or linear) gets one value per face (the midpoint there), others one.
+    # Child values, split as the level splits its faces: a point's values carry on, an edge on a seam (or linear)
+    # gets one value per face (the midpoint there), others one, a face point one.
     seam = _seams(level, group)
     split = seam | values.linear
     # Child value ids: the parent's values, then one per face-vertex whose leading edge is split, one per other edge,
-    # one per face.
-    lead, trail = level.fv_edge, level.fv_edge[preceding]
+    # one per face point.
+    lead = level.fv_edge
     uses = np.flatnonzero(split[lead])
     edges = np.flatnonzero(~split)
     use_id = np.full(n, -1)
@@ -252,11 +257,9 @@ def _step(level, values: _Values, smooth_boundaries: bool, child_level) -> _Valu
     edge_id = np.full(n_edges, -1)
     edge_id[edges] = n_values + len(uses) + np.arange(len(edges))
     face_start = n_values + len(uses) + len(edges)
-    child_group = np.stack([group,
-                            np.where(split[lead], use_id, edge_id[lead]),
-                            face_start + level.face,
-                            np.where(split[trail], use_id[preceding], edge_id[trail])], axis=1).reshape(-1)
-    n_child = face_start + len(level.counts)
+    child_group = level.split(group, np.where(split[lead], use_id, edge_id[lead]),
+                              face_start + np.arange(len(level.counts)))
+    n_child = face_start + n_faces
     from_use = slice(n_values, n_values + len(uses))
     child_data = np.zeros((n_child, data.shape[1]))
     child_data[:n_values] = vertex_data
@@ -267,13 +270,16 @@ def _step(level, values: _Values, smooth_boundaries: bool, child_level) -> _Valu
     kinds = np.full(n_child, MATCH)
     kinds[:n_values] = child_kind
     kinds[from_use] = CREASE if smooth_boundaries else CORNER
+    # Crease ends carry on to the refined face-vertices at their points, first of their refined faces; a seam's
+    # edge point's span runs from the edge point before the far end's corner to the one after this corner.
+    corner = level.corner_children()
     start = np.full(n_child, -1)
     end = np.full(n_child, -1)
     carried = values.start >= 0
-    start[:n_values] = np.where(carried, 4 * values.start, -1)
-    end[:n_values] = np.where(carried, 4 * values.end, -1)
-    start[from_use] = 4 * following[uses] + 3  # the next quad's trailing edge point: its next corner is on the seam
-    end[from_use] = 4 * uses + 1
+    start[:n_values] = np.where(carried, corner[values.start], -1)
+    end[:n_values] = np.where(carried, corner[values.end], -1)
+    start[from_use] = corner[following[uses]] + level.refined_corners - 1
+    end[from_use] = corner[uses] + 1
     dependent = np.zeros(n_child, bool)
     dependent[:n_values] = child_dependent
     partner = np.full(n_child, -1)
@@ -292,8 +298,8 @@ def _step(level, values: _Values, smooth_boundaries: bool, child_level) -> _Valu
 
 
 def refine_face_varying(levels, data: np.ndarray, value_ids: np.ndarray, mode: str, corner_boundary: bool):
-    """Per-face-vertex ``data`` ``(N, k)`` of a mesh's first level through ``levels`` (``subdivision._Level``) ->
-    per face-vertex of the refined quads (float64).
+    """Per-face-vertex ``data`` ``(N, k)`` of a mesh's first level through ``levels`` (``subdivision._Level`` or
+    ``loop_subdivision._LoopLevel``) -> per face-vertex of the refined faces (float64).
 
     Args:
         levels: the refinement's steps.
