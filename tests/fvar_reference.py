@@ -1,19 +1,37 @@
-"""A float64 oracle for face-varying data through Catmull-Clark refinement, written corner by corner from OpenSubdiv's
-face-varying rules (``Vtr::FVarLevel::completeTopologyFromFaceValues`` and ``gatherValueSpans``, the masks of
-``Far::PrimvarRefiner::interpFVarFrom{Faces,Edges,Verts}``, ``Sdc::Crease::ComputeFractionalWeightAtVertex``) and the
-mode descriptions of USD's ``faceVaryingLinearInterpolation``. Slow and plain on purpose: it walks the faces around
-each point in order and classifies every level afresh but for dependent sharpness, which it hands down (OpenSubdiv
-classifies the base level and hands all tags down; they agree on manifold meshes without semi-sharp seam edges), and
-shares nothing with ``wrt.subdivision_fvar``.
+"""A float64 oracle for face-varying data through Catmull-Clark or Loop refinement, written corner by corner from
+OpenSubdiv's face-varying rules (``Vtr::FVarLevel::completeTopologyFromFaceValues`` and ``gatherValueSpans``, the masks
+of ``Far::PrimvarRefiner::interpFVarFrom{Faces,Edges,Verts}``, ``Sdc::Crease::ComputeFractionalWeightAtVertex``) and the
+mode descriptions of USD's ``faceVaryingLinearInterpolation``. Slow and plain on purpose: it walks the faces around each
+point in order and classifies every level afresh but for dependent sharpness, which it hands down (OpenSubdiv classifies
+the base level and hands all tags down; they agree on manifold meshes without semi-sharp seam edges), and shares nothing
+with ``wrt.subdivision_fvar``.
 
-Geometry (sharpness, rules, the child topology) comes from ``catmark_reference``. ``refine_face_varying(...)``
-returns the refined quads' corner values ``(Q, 4, k)`` in ``catmark_reference.refine``'s quad order.
+Geometry (sharpness, rules, the child topology) comes from ``catmark_reference`` (``loop_reference`` for Loop, whose
+masks apply to values that match their point, the far corners of an edge's triangles as each triangle holds them;
+the seam and boundary rules are the same). ``refine_face_varying(...)`` returns the refined faces' corner values
+``(Q, 4, k)`` in ``catmark_reference.refine``'s quad order (``(T, 3, k)`` in ``loop_reference.refine``'s triangle
+order for Loop).
 """
 
 from __future__ import annotations
 
+import loop_reference
 import numpy as np
 from catmark_reference import INF, Level, _vertex_mask, base_tags, decrement, fractional_weight, refine_once, rule
+
+
+def curve(values, levels, linear):
+    """A polyline's points after ``levels`` steps of the boundary-curve rule with pinned ends (``(6 v + a + b) / 8``
+    at points, midpoints on segments), or of linear interpolation."""
+    values = np.asarray(values, np.float64)
+    for _ in range(levels):
+        middles = 0.5 * (values[1:] + values[:-1])
+        points = values.copy()
+        if not linear:
+            points[1:-1] = 0.75 * values[1:-1] + 0.125 * (values[2:] + values[:-2])
+        values = np.empty((2 * len(points) - 1, points.shape[1]))
+        values[0::2], values[1::2] = points, middles
+    return values
 
 
 def _ordered_corners(level: Level, v: int):
@@ -132,9 +150,15 @@ def classify(level: Level, values, edge_s, vert_s, mode: str, boundary: str, may
     return tags, seams
 
 
-def _geometric_vertex(level, v, value, values, data, face_values, edge_s, vert_s):
-    """The point's own mask (rules and blending as ``catmark_reference.refine_once``) on face-varying values that
-    match it: each neighbour's value seen from a face at ``v``."""
+def _geometric_vertex(level, v, value, values, data, face_values, edge_s, vert_s, loop=False):
+    """The point's own mask (rules and blending as ``catmark_reference.refine_once``, Loop's masks with ``loop``) on
+    face-varying values that match it: each neighbour's value seen from a face at ``v``."""
+
+    def mask(kind, p, edge_s):
+        if loop:
+            return loop_reference._vertex_mask(kind, level, v, p, edge_s)
+        return _vertex_mask(kind, level, v, p, face_values, edge_s)
+
     p = np.zeros((level.n_points, data.shape[1]))
     p[v] = data[value]
     for f in level.vertex_faces[v]:
@@ -143,7 +167,7 @@ def _geometric_vertex(level, v, value, values, data, face_values, edge_s, vert_s
             p[w] = data[values[f][face.index(w)]]
     p_edges = [edge_s[e] for e in level.vertex_edges[v]]
     p_rule = rule(vert_s[v], p_edges)
-    parent = _vertex_mask(p_rule, level, v, p, face_values, edge_s)
+    parent = mask(p_rule, p, edge_s)
     if p_rule in ("smooth", "dart"):
         return parent
     c_edge_s = list(edge_s)
@@ -152,23 +176,25 @@ def _geometric_vertex(level, v, value, values, data, face_values, edge_s, vert_s
     c_rule = rule(decrement(vert_s[v]), [c_edge_s[e] for e in level.vertex_edges[v]])
     if c_rule == p_rule:
         return parent
-    child = _vertex_mask(c_rule, level, v, p, face_values, c_edge_s)
+    child = mask(c_rule, p, c_edge_s)
     w = fractional_weight(vert_s[v], decrement(vert_s[v]), p_edges)
     return w * parent + (1.0 - w) * child
 
 
 def refine_face_varying(faces, data, value_ids, levels, mode="cornersPlus1", creases=None, corners=None,
-                        boundary="edgeAndCorner", triangle_smooth=False):
+                        boundary="edgeAndCorner", triangle_smooth=False, scheme="catmullClark"):
     """``levels`` steps of face-varying ``data`` (one row per face-vertex, in face order) on the mesh ``faces``.
 
     Args:
         value_ids: per face-vertex: face-vertices of a point with the same id hold the same value.
         mode: ``faceVaryingLinearInterpolation``; ``all`` interpolates linearly in each face.
         creases, corners, boundary, triangle_smooth: as ``catmark_reference.refine``.
+        scheme: ``catmullClark`` or ``loop`` (triangles; ``triangle_smooth`` does not apply).
 
     Returns:
-        ``(Q, 4, k)`` values at the refined quads' corners.
+        ``(Q, 4, k)`` values at the refined quads' corners, ``(T, 3, k)`` at the refined triangles' for Loop.
     """
+    loop = scheme == "loop"
     n_points = max(v for f in faces for v in f) + 1
     level = Level(faces, n_points)
     edge_s, vert_s, _ = base_tags(level, creases or {}, corners or {}, boundary)
@@ -187,7 +213,10 @@ def refine_face_varying(faces, data, value_ids, levels, mode="cornersPlus1", cre
     may_depend = None
     for _ in range(levels):
         dummy = np.zeros((level.n_points, 1))
-        child, _, c_edge, c_vert = refine_once(level, dummy, edge_s, vert_s, triangle_smooth)
+        if loop:
+            child, _, c_edge, c_vert = loop_reference.refine_once(level, dummy, edge_s, vert_s)
+        else:
+            child, _, c_edge, c_vert = refine_once(level, dummy, edge_s, vert_s, triangle_smooth)
         tags, seams = classify(level, values, edge_s, vert_s, mode, boundary, may_depend)
         linear_edges = set(seams)
         if mode in ("boundaries", "all"):
@@ -201,8 +230,13 @@ def refine_face_varying(faces, data, value_ids, levels, mode="cornersPlus1", cre
         for fi, face in enumerate(level.faces):
             fe = level.face_edges[fi]
             for i, v in enumerate(face):
-                c_values.append([("vert", values[fi][i]), edge_key(fe[i], fi), ("face", fi),
-                                 edge_key(fe[i - 1], fi)])
+                if loop:  # a triangle at each corner, then the middle one
+                    c_values.append([("vert", values[fi][i]), edge_key(fe[i], fi), edge_key(fe[i - 1], fi)])
+                else:
+                    c_values.append([("vert", values[fi][i]), edge_key(fe[i], fi), ("face", fi),
+                                     edge_key(fe[i - 1], fi)])
+            if loop:
+                c_values.append([edge_key(e, fi) for e in fe])
         dependents = {("vert", key[1]) for key, tag in tags.items() if tag[0] == "dep"}
         c_tags, _ = classify(child, c_values, c_edge, c_vert, mode, boundary, dependents)
 
@@ -225,7 +259,10 @@ def refine_face_varying(faces, data, value_ids, levels, mode="cornersPlus1", cre
             if s >= 1.0:
                 new[("edge", e)] = mid
                 continue
-            if len(ef) == 2 and triangle_smooth and any(len(level.faces[f]) == 3 for f in ef):
+            if loop:  # 3/8 (a + b) + 1/8 (c + d): the far corner of each triangle, as that triangle holds it
+                far = [store[values[f][i]] for f in ef for i, w in enumerate(level.faces[f]) if w not in (a, b)]
+                smooth = 0.75 * mid + 0.25 / len(ef) * sum(far)
+            elif len(ef) == 2 and triangle_smooth and any(len(level.faces[f]) == 3 for f in ef):
                 fw = 0.5 * sum(0.470 if len(level.faces[f]) == 3 else 0.25 for f in ef)
                 smooth = (1.0 - 2.0 * fw) * mid + fw * (face_values[ef[0]] + face_values[ef[1]])
             else:
@@ -247,7 +284,7 @@ def refine_face_varying(faces, data, value_ids, levels, mode="cornersPlus1", cre
                 continue
             if tag[0] == "match":
                 new[("vert", key)] = _geometric_vertex(level, v, index[key], int_values, dense, face_values,
-                                                       edge_s, vert_s)
+                                                       edge_s, vert_s, loop)
                 continue
             if tag[0] == "corner":
                 new[("vert", key)] = value

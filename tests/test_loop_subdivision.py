@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 from catmark_reference import refine as catmark_refine
+from fvar_reference import curve, refine_face_varying
 from loop_reference import beta, refine
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
 
@@ -51,7 +52,8 @@ def _triangle_grid(m, n, heights=None):
     return points, faces
 
 
-def _wrt_triangles(faces, points, levels, creases=None, corners=None, boundary="edgeAndCorner"):
+def _wrt_triangles(faces, points, levels, creases=None, corners=None, boundary="edgeAndCorner",
+                   face_varying="cornersPlus1"):
     """``(T, 3, k)`` corner values and parent faces of ``LoopRefinement``, creases and corners as dicts."""
     crease_args = corner_args = None
     if creases:
@@ -60,7 +62,7 @@ def _wrt_triangles(faces, points, levels, creases=None, corners=None, boundary="
     if corners:
         corner_args = (np.array(list(corners)), np.array(list(corners.values()), np.float64))
     r = LoopRefinement([len(f) for f in faces], [v for f in faces for v in f], len(points), levels, crease_args,
-                       corner_args, boundary)
+                       corner_args, boundary, face_varying)
     return r.vertex(points)[r.face_indices.reshape(-1, 3)], r.parent_face, r
 
 
@@ -160,19 +162,157 @@ def test_icosahedron_vertices_converge_to_the_loop_limit_mask():
     assert errors[-1] < 1e-3
 
 
-def test_face_varying_and_varying_data_are_linear_in_each_triangle():
-    """Face-varying data refine linearly within each triangle (the reference's linear masks on the triangles taken
-    apart), varying data linearly over the mesh."""
+def test_all_keeps_face_varying_data_linear_in_each_triangle_and_varying_data_linear():
+    """``faceVaryingLinearInterpolation = all``: face-varying data refine linearly within each triangle (the
+    reference's linear masks on the triangles taken apart), even seamless ones; varying data linearly over the
+    mesh."""
     rng = np.random.default_rng(6)
     points, faces = _triangle_grid(2, 3, rng.normal(size=(3, 4)))
-    r = LoopRefinement([3] * len(faces), [v for f in faces for v in f], len(points), 2)
-    fv = rng.normal(size=(3 * len(faces), 2))
+    corners = np.array([v for f in faces for v in f])
+    r = LoopRefinement([3] * len(faces), corners, len(points), 2, face_varying="all")
     apart = [(3 * k, 3 * k + 1, 3 * k + 2) for k in range(len(faces))]
-    expected, _, _ = refine(apart, fv, 2, linear=True)
-    np.testing.assert_allclose(r.face_varying(fv).reshape(-1, 3, 2), expected, atol=1e-12)
+    seamless = rng.normal(size=(len(points), 2))[corners]
+    for fv, ids in ((rng.normal(size=(3 * len(faces), 2)), None), (seamless, corners)):
+        expected, _, _ = refine(apart, fv, 2, linear=True)
+        np.testing.assert_allclose(r.face_varying(fv, ids).reshape(-1, 3, 2), expected, atol=1e-12)
     data = rng.normal(size=(len(points), 3))
     expected, _, _ = refine(faces, data, 2, linear=True)
     np.testing.assert_allclose(r.varying(data)[r.face_indices.reshape(-1, 3)], expected, atol=1e-12)
+
+
+# Face-varying data per faceVaryingLinearInterpolation, as OpenSubdiv applies it to Loop meshes.
+
+FV_MODES = ("none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all")
+
+
+def _smooth(p):
+    """A smooth function of position, ``(V, 3) -> (V, 2)``: seamless face-varying data."""
+    return np.stack([p[:, 0] + 0.3 * p[:, 1] ** 2, np.sin(p[:, 2]) + 0.5 * p[:, 0] * p[:, 1]], axis=-1)
+
+
+def _wrt_face_varying(faces, data, ids, levels, mode, creases=None, corners=None, boundary="edgeAndCorner"):
+    """``(T, 3, k)`` refined face-varying corner values of ``LoopRefinement``."""
+    points = np.zeros((max(map(max, faces)) + 1, 1))
+    r = _wrt_triangles(faces, points, levels, creases, corners, boundary, mode)[2]
+    return r.face_varying(data, ids).reshape(-1, 3, np.shape(data)[1])
+def _corners_of(faces):
+    return np.array([v for f in faces for v in f])
+
+
+CREASED_OCTA = {"creases": {(0, 2): 1.5, (2, 4): 10.0, (1, 5): 0.5}, "corners": {3: 2.0}}
+
+
+@pytest.mark.parametrize("mode", FV_MODES[:-1])
+@pytest.mark.parametrize("mesh", ["octahedron", "creased octahedron", "icosahedron"])
+def test_seamless_face_varying_data_on_a_closed_loop_mesh_refines_as_vertex_data(mode, mesh):
+    """Every corner of a point holding the same value (a smooth function of the points, indexed by point): the values
+    follow Loop's masks at the points, creases and corners included, in every mode but ``all``, as OpenSubdiv
+    refines them; they were linear in each triangle whatever the mode."""
+    points, faces = (ICOSA, ICOSA_FACES) if mesh == "icosahedron" else (OCTA, OCTA_FACES)
+    options = CREASED_OCTA if mesh == "creased octahedron" else {}
+    data, corners = _smooth(points), _corners_of(faces)
+    expected, _, _ = refine(faces, data, 3, **options)
+    np.testing.assert_allclose(_wrt_face_varying(faces, data[corners], corners, 3, mode, **options), expected,
+                               atol=1e-12)
+
+
+def _octahedron_charts():
+    """The octahedron cut along its equator into two charts (the faces at point 4, those at point 5), the second
+    chart's values shifted (indexed by chart)."""
+    corners = _corners_of(OCTA_FACES)
+    chart = np.repeat([0, 0, 0, 0, 1, 1, 1, 1], 3)
+    return OCTA_FACES, _smooth(OCTA)[corners] + chart[:, None] * [3.0, 0.0], corners * 2 + chart, {}
+
+
+def _icosahedron_cap():
+    """The five faces at the icosahedron's point 0 a chart of their own, bounded by five seam edges."""
+    corners = _corners_of(ICOSA_FACES)
+    cap = np.repeat([0 in f for f in ICOSA_FACES], 3)
+    return ICOSA_FACES, _smooth(ICOSA)[corners] + cap[:, None] * [0.0, 2.0], corners * 2 + cap, {}
+
+
+def _cut_triangle_grid(slit=False, **options):
+    """A 4 x 4 triangle grid cut along the line y = 2 (the triangles on either side hold different values there);
+    ``slit``: only from the boundary to the grid's middle point, where the cut ends inside a chart (a dart)."""
+    points, faces = _triangle_grid(4, 4)
+    corners = _corners_of(faces)
+    side = np.repeat(points[np.array(faces)].mean(axis=1)[:, 1] > 2.0, 3)
+    on_cut = points[corners, 1] == 2.0
+    if slit:
+        on_cut &= points[corners, 0] < 2.0
+    moved = side & on_cut
+    data = _smooth(points)[corners] + moved[:, None] * np.where(slit, 2.0 - points[corners, :1], 1.0) * [0.0, 1.0]
+    return faces, data, corners * 2 + moved, options or {"boundary": "edgeOnly"}
+
+
+def _seamless_grid(boundary):
+    """A 3 x 3 triangle grid, seamless data of its jittered points: the modes differ on its boundary only."""
+    points, faces = _triangle_grid(3, 3)
+    corners = _corners_of(faces)
+    data = _smooth(points + np.random.default_rng(5).normal(0.0, 0.2, points.shape))
+    return faces, data[corners], corners, {"boundary": boundary}
+
+
+FV_CASES = {
+    "octahedron charts": _octahedron_charts,
+    "octahedron charts creased": lambda: (*_octahedron_charts()[:3], CREASED_OCTA),
+    "icosahedron cap": _icosahedron_cap,
+    "cut grid": _cut_triangle_grid,
+    "slit grid": lambda: _cut_triangle_grid(slit=True),
+    # two values at the cut's middle point, one side's span holding a semi-sharp edge: the other is sharp with it
+    "cut grid dependent": lambda: _cut_triangle_grid(creases={(11, 12): 1.5}),
+    "seamless grid edgeAndCorner": lambda: _seamless_grid("edgeAndCorner"),
+    "seamless grid edgeOnly": lambda: _seamless_grid("edgeOnly"),
+}
+
+
+@pytest.mark.parametrize("mode", FV_MODES)
+@pytest.mark.parametrize("case", FV_CASES)
+def test_loop_face_varying_data_follow_opensubdivs_rules(case, mode):
+    """Charts cut apart on closed Loop meshes (the octahedron in two, a cap of the icosahedron), a triangle grid cut
+    across or slit to its middle, creases and corners on and next to the seams, an open grid's boundary: each mode's
+    values agree with the reference (OpenSubdiv's face-varying rules over Loop's masks) at every refined corner."""
+    faces, data, ids, options = FV_CASES[case]()
+    got = _wrt_face_varying(faces, data, ids, 3, mode, **options)
+    expected = refine_face_varying(faces, data, ids, 3, mode, scheme="loop", **options)
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+
+
+def _diamond_grid():
+    """4 x 4 squares cut along diagonals that meet at the middle point (mirror symmetric about x = 2 and y = 2): each
+    end of the line y = 2 is a corner of one triangle on either side of it."""
+    points, _ = _triangle_grid(4, 4)
+    faces = []
+    for i, j in itertools.product(range(4), range(4)):
+        a, b, c, d = i * 5 + j, (i + 1) * 5 + j, (i + 1) * 5 + j + 1, i * 5 + j + 1
+        faces += [(a, b, c), (a, c, d)] if (i < 2) == (j < 2) else [(a, b, d), (b, c, d)]
+    return points, faces
+
+
+@pytest.mark.parametrize("mode", ["cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries"])
+def test_each_side_of_a_cut_across_a_loop_mesh_follows_the_curve_rule_along_it(mode):
+    """Along a cut across a triangle grid each side's values are a curve of their own: the B-spline boundary rule
+    with the ends (corners of one triangle each) pinned, or linear with ``boundaries``; the other side's values and
+    the points around do not enter. Independent random values on each side of the cut and at every other point."""
+    points, faces = _diamond_grid()
+    corners = _corners_of(faces)
+    rng = np.random.default_rng(11)
+    per_point, other_side = rng.random((len(points), 2)), rng.random((len(points), 2))
+    moved = np.repeat(points[np.array(faces)].mean(axis=1)[:, 1] > 2.0, 3) & (points[corners, 1] == 2.0)
+    data = np.where(moved[:, None], other_side[corners], per_point[corners])
+    levels = 3
+    r = LoopRefinement([3] * len(faces), corners, len(points), levels, face_varying=mode)
+    got = r.face_varying(data, corners * 2 + moved)
+    # Where the refined corners lie, by linear refinement (exactly on the lattice of step 1 / 2^levels).
+    at = r.varying(points)[r.face_indices]
+    triangle_y = np.repeat(at.reshape(-1, 3, 3).mean(axis=1)[:, 1], 3)
+    cut = np.flatnonzero(at[:, 1] == 2.0)
+    for below, control in ((True, per_point), (False, other_side)):
+        on = cut[(triangle_y[cut] < 2.0) == below]
+        expected = curve(control[[i * 5 + 2 for i in range(5)]], levels, linear=mode == "boundaries")
+        position = np.rint(at[on, 0] * 2**levels).astype(int)
+        np.testing.assert_array_equal(np.unique(position), np.arange(len(expected)))
+        np.testing.assert_allclose(got[on], expected[position], atol=1e-12)
 
 
 def test_faces_of_more_than_three_corners_are_refused():
@@ -255,6 +395,26 @@ def test_loaded_loop_mesh_is_the_reference_refinement_with_its_primvars_and_hole
         expected_colours = refine(OCTA_FACES, colours, 2, linear=interpolation == "varying")[0][drawn]
     np.testing.assert_allclose(m.colors, expected_colours, atol=1e-6)
     assert m.normals is not None  # smooth normals of the refined points, as for catmullClark
+
+
+@pytest.mark.parametrize("mode", ["none", "all"])
+def test_a_loaded_loop_mesh_reads_face_varying_linear_interpolation(tmp_path, mode):
+    """An indexed faceVarying ``displayColor`` of one value per point on a loop octahedron: with
+    ``faceVaryingLinearInterpolation = none`` it refines as the points do (Loop's masks), with ``all`` linearly in each
+    triangle. Loop meshes' face-varying data were linear whatever the mode."""
+    stage, mesh = _mesh_stage(tmp_path / "octa.usda", OCTA, OCTA_FACES, "loop", faceVaryingLinearInterpolation=mode)
+    colours = np.random.default_rng(3).random((6, 3))
+    corners = _corners_of(OCTA_FACES)
+    primvar = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray, "faceVarying")
+    primvar.Set([Gf.Vec3f(*c) for c in colours])
+    primvar.SetIndices(Vt.IntArray([int(v) for v in corners]))
+    stage.Save()
+    m = wrt.load_usd(tmp_path / "octa.usda", refine_level=2).meshes[0]
+    if mode == "none":
+        expected = refine(OCTA_FACES, colours, 2)[0]
+    else:
+        expected = refine([(3 * k, 3 * k + 1, 3 * k + 2) for k in range(8)], colours[corners], 2, linear=True)[0]
+    np.testing.assert_allclose(m.colors, expected, atol=1e-6)
 
 
 def test_subsets_and_creases_of_a_loaded_loop_mesh(tmp_path):

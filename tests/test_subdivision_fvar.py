@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from catmark_reference import refine
-from fvar_reference import refine_face_varying
+from fvar_reference import curve, refine_face_varying
 
 from wrt.subdivision import Refinement
 
@@ -142,20 +142,6 @@ def test_seams_follow_opensubdivs_face_varying_rules(case, mode):
     np.testing.assert_allclose(got, refine_face_varying(faces, data, ids, 3, mode, **options), atol=1e-12)
 
 
-def _curve(values, levels, linear):
-    """A polyline's points after ``levels`` steps of the boundary-curve rule with pinned ends (``(6 v + a + b) / 8``
-    at points, midpoints on segments), or of linear interpolation."""
-    values = np.asarray(values, np.float64)
-    for _ in range(levels):
-        middles = 0.5 * (values[1:] + values[:-1])
-        points = values.copy()
-        if not linear:
-            points[1:-1] = 0.75 * values[1:-1] + 0.125 * (values[2:] + values[:-2])
-        values = np.empty((2 * len(points) - 1, points.shape[1]))
-        values[0::2], values[1::2] = points, middles
-    return values
-
-
 @pytest.mark.parametrize("mode", ["cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries"])
 def test_each_side_of_a_cut_follows_the_curve_rule_along_it(mode):
     """Along a cut across a grid each side's values are a curve of their own: the B-spline boundary rule with the
@@ -179,7 +165,7 @@ def test_each_side_of_a_cut_follows_the_curve_rule_along_it(mode):
         at = cut[(face_y[cut] < 2.0) == below]
         order = np.argsort(refined[at, 0], kind="stable")
         xs, values = refined[at[order], 0], got[at[order]]
-        expected = _curve(control[[i * 5 + 2 for i in range(5)]], levels, linear=mode == "boundaries")
+        expected = curve(control[[i * 5 + 2 for i in range(5)]], levels, linear=mode == "boundaries")
         np.testing.assert_allclose(xs[np.r_[True, np.diff(xs) > 1e-9]], np.linspace(0, 4, len(expected)))
         for x, value in zip(xs, values):
             np.testing.assert_allclose(value, expected[int(round(x * 2**levels))], atol=1e-12)

@@ -13,7 +13,9 @@ triangles") and moves the points by the masks OpenSubdiv's ``Sdc::Scheme<SCHEME_
 Everything but these masks and the split is the scheme-independent part of :mod:`wrt.subdivision`, shared with
 Catmull-Clark: crease and corner sharpness (dropping by one per level, the rules before and after blended where
 semi-sharp features run out), ``interpolateBoundary`` (``edgeAndCorner``, ``edgeOnly``, ``none``), non-manifold parts
-made infinitely sharp, lonely points kept, ``varying`` and face-varying data interpolated linearly (in each triangle).
+made infinitely sharp, lonely points kept, ``varying`` data interpolated linearly, and face-varying data per
+``faceVaryingLinearInterpolation`` (:mod:`wrt.subdivision_fvar`: Loop's masks away from seams, the same seam and
+boundary rules; ``all`` linear in each triangle), as OpenSubdiv applies the modes to Loop meshes.
 OpenSubdiv refuses a Loop mesh with faces of more than three corners ("non-triangular faces not supported by Loop
 scheme", ``Far::TopologyRefinerFactory``); so does :class:`LoopRefinement`.
 """
@@ -95,7 +97,7 @@ class _LoopLevel(_Level):
 class LoopRefinement(Refinement):
     """``levels`` Loop steps of a triangle mesh: its refined triangles and maps for per-point, per-face-vertex and
     per-face data, with the arguments of :class:`wrt.subdivision.Refinement` (``triangleSubdivisionRule`` is
-    Catmull-Clark's only).
+    Catmull-Clark's only), ``face_varying`` included.
 
     Raises:
         ValueError: a face of more than three corners (OpenSubdiv refuses those for Loop), or creases or corners
@@ -104,13 +106,13 @@ class LoopRefinement(Refinement):
 
     _level_type = _LoopLevel
 
-    def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, boundary="edgeAndCorner"):
+    def __init__(self, counts, face_indices, n_points, levels, creases=None, corners=None, boundary="edgeAndCorner",
+                 face_varying="cornersPlus1"):
         counts = np.asarray(counts, np.int64)
         if (counts > 3).any():
             raise ValueError(f"{int((counts > 3).sum())} of {len(counts)} faces have more than three corners; Loop "
                              "subdivision takes triangles only")
-        # Face-varying data stays linear in each triangle (faceVaryingLinearInterpolation is Catmull-Clark's only here).
-        super().__init__(counts, face_indices, n_points, levels, creases, corners, boundary, face_varying="all")
+        super().__init__(counts, face_indices, n_points, levels, creases, corners, boundary, face_varying=face_varying)
 
 
 __all__ = ["LoopRefinement", "loop_beta", "refined_triangles"]

@@ -283,18 +283,17 @@ class MeshReading:
             self._skip("interpolateBoundary is not none, edgeOnly or edgeAndCorner; read as edgeAndCorner", prim,
                        repr(boundary))
             boundary = "edgeAndCorner"
-        options = {"boundary": boundary}
+        face_varying = value_at(mesh.GetFaceVaryingLinearInterpolationAttr(), t) or FALLBACK_FACE_VARYING_MODE
+        if face_varying not in FACE_VARYING_MODES:
+            self._skip(f"faceVaryingLinearInterpolation is not one of {', '.join(FACE_VARYING_MODES)}; read as "
+                       f"{FALLBACK_FACE_VARYING_MODE}", prim, repr(face_varying))
+            face_varying = FALLBACK_FACE_VARYING_MODE
+        options = {"boundary": boundary, "face_varying": face_varying}  # OpenSubdiv applies both to Loop meshes too
         if scheme == "loop":
             scheme_type = LoopRefinement
         else:
             scheme_type = Refinement
             options["triangle_smooth"] = value_at(mesh.GetTriangleSubdivisionRuleAttr(), t) == "smooth"
-            face_varying = value_at(mesh.GetFaceVaryingLinearInterpolationAttr(), t) or FALLBACK_FACE_VARYING_MODE
-            if face_varying not in FACE_VARYING_MODES:
-                self._skip(f"faceVaryingLinearInterpolation is not one of {', '.join(FACE_VARYING_MODES)}; read as "
-                           f"{FALLBACK_FACE_VARYING_MODE}", prim, repr(face_varying))
-                face_varying = FALLBACK_FACE_VARYING_MODE
-            options["face_varying"] = face_varying
         try:
             return scheme_type(counts, face_indices, n_points, self.refine_level, creases, corners, **options)
         except ValueError as e:
