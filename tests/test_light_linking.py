@@ -464,3 +464,91 @@ def test_link_rules_cannot_change_under_a_kept_renderer():
     np.testing.assert_array_equal(renderer.render().rgb[FLOOR_PX][..., 0], 0.0)
     copy = pickle.loads(pickle.dumps(sun.light_link))
     assert dict(copy.rules) == dict(sun.light_link.rules) and not copy.includes("/World/Ground/Floor")
+
+
+def random_collections(stage, rng, count: int, targets: list) -> list:
+    """``count`` SphereLights under ``/L`` whose light and shadow links include and exclude random ``targets`` with
+    random expansion rules and includeRoot (a quarter left at UsdLux's fallback: every prim)."""
+    lights = []
+    for k in range(count):
+        api = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, f"/L/S{k}"))
+        for collection in (api.GetLightLinkCollectionAPI(), api.GetShadowLinkCollectionAPI()):
+            if rng.random() < 0.25:
+                continue
+            collection.CreateIncludeRootAttr(bool(rng.random() < 0.3))
+            collection.CreateExpansionRuleAttr(str(rng.choice(["expandPrims", "explicitOnly",
+                                                               "expandPrimsAndProperties"])))
+            for rel in (collection.CreateIncludesRel(), collection.CreateExcludesRel()):
+                rel.SetTargets([Sdf.Path(p) for p in rng.choice(targets, rng.integers(0, 4), replace=False)])
+        lights.append(api)
+    return lights
+
+
+def test_collections_decide_every_path_at_once_as_usd_does_one_by_one():
+    """``LinkCollection.includes_each`` (a collection's rules applied to all drawn paths at once) answers for each
+    path as USD's ``IsPathIncluded`` does, for random includes, excludes, expansion rules and includeRoot over a
+    tree with missing targets, and as ``includes`` does for ``/`` and the empty path."""
+    from wrt.light_links import LinkCollection, PathIndex, read_collection
+
+    rng = np.random.default_rng(5)
+    stage = Usd.Stage.CreateInMemory()
+    prims = ["/W", "/W/A", "/W/A/B", "/W/A/B/C", "/W/A/B/C/D", "/W/A/E", "/W/F", "/W/F/G", "/Other", "/Other/H"]
+    for path in prims:
+        UsdGeom.Xform.Define(stage, path)
+    targets = prims + ["/Missing", "/W/A/Missing"]
+    lights = random_collections(stage, rng, 60, targets)
+    paths = prims + ["/Missing/x", "/W/A/B/C/D/deeper", "/W/A/B/C/D"]  # a repeat, and paths below no prim
+    index, checked = PathIndex(paths + ["/", ""]), 0
+    for api in lights:
+        for collection in (api.GetLightLinkCollectionAPI(), api.GetShadowLinkCollectionAPI()):
+            ours = read_collection(collection, "light linking", None)
+            if ours is None:  # every prim: USD's query says so for each path
+                assert all(collection.ComputeMembershipQuery().IsPathIncluded(Sdf.Path(p)) for p in paths)
+                continue
+            if not isinstance(ours, LinkCollection):  # no includes nor excludes: an (empty) expression, not rules
+                continue
+            checked += 1
+            query = collection.ComputeMembershipQuery()
+            found = ours.includes_each(index)
+            assert found.tolist()[:len(paths)] == [query.IsPathIncluded(Sdf.Path(p)) for p in paths], dict(ours.rules)
+            assert found.tolist()[len(paths):] == [ours.includes("/"), ours.includes("")] == [False, False]
+    assert checked > 50
+
+
+def test_link_groups_give_every_drawn_geometry_usds_membership(tmp_path):
+    """Each drawn geometry's link group (meshes, gprims, native instance parts at their proxy paths, point
+    prototypes) holds, for each light, the LIT and CASTS_SHADOW bits of USD's own query of its collections at the
+    path it is drawn at: expression collections and random rule-based ones."""
+    from wrt.light_links import CASTS_SHADOW, LIT, drawn_ids, link_groups
+
+    path = expression_stage(tmp_path)
+    stage = Usd.Stage.Open(path)
+    UsdGeom.Mesh.Define(stage, "/World/Grp/Sheet")
+    targets = ["/World", "/World/Floor", "/World/Grp", "/World/I", "/World/I/geo", "/World/I/geo/Left",
+               "/World/PI/Protos/B", "/World/PI", "/World/Box", "/World/Missing"]
+    random_collections(stage, np.random.default_rng(9), 40, targets)
+    stage.Save()
+    scene = load(path)
+    links = link_groups(scene, scene.lights)
+    paths, world, starts, parts = drawn_ids(scene)
+    triangles = np.cumsum([0] + [len(m.indices) for m in scene.meshes])[:-1]
+    total = sum(len(m.indices) for m in scene.meshes) + sum(len(m.indices) for p in scene.prototypes
+                                                            for m in p.meshes)
+    drawn = list(zip(world, [links.geometry_groups[t] for t in triangles]
+                     + [links.geometry_groups[total + j] for j in range(len(scene.shapes))]))
+    for i, start in enumerate(starts):
+        own = links.instance_groups[i]
+        proto = scene.prototypes[scene.instances.prototype[i]]
+        for k in range(len(proto.meshes) + len(proto.shapes)):
+            drawn.append((parts[start + k], own if own >= 0 else links.part_groups[-1 - own + k]))
+    queries = []
+    for light in scene.lights:
+        api = UsdLux.LightAPI(stage.GetPrimAtPath(light.path))
+        queries.append((api.GetLightLinkCollectionAPI().ComputeMembershipQuery(),
+                        api.GetShadowLinkCollectionAPI().ComputeMembershipQuery()))
+    assert len(drawn) > 8 and len(queries) == 45
+    for at, group in drawn:
+        sdf = Sdf.Path(paths[at])
+        expected = [(LIT if lit.IsPathIncluded(sdf) else 0) | (CASTS_SHADOW if shadow.IsPathIncluded(sdf) else 0)
+                    for lit, shadow in queries]
+        assert links.masks[group].tolist() == expected, paths[at]

@@ -17,6 +17,7 @@ triangles of a mesh light (:class:`wrt.lights.MeshLight`) are linked as their li
 """
 
 import dataclasses
+import itertools
 import types
 from collections.abc import Mapping
 
@@ -96,6 +97,49 @@ class LinkCollection:
             here = here.rsplit("/", 1)[0] or "/"
         return path != "/" and self.rules.get("/") in (EXPAND_PRIMS, EXPAND_PRIMS_AND_PROPERTIES)
 
+    def includes_each(self, paths: "PathIndex") -> np.ndarray:
+        """``(P,)`` bool: :meth:`includes` of each of ``paths``' paths, the rules applied to every path below them at
+        once (shallowest first, so the rule nearest a path wins, as the walk up from it decides; ``explicitOnly``
+        marks its own path only, which is how the walk passes it over on the way up). Asking :meth:`includes` per
+        light and drawn path took 14 s for 2,000 linked lights over 2,000 meshes."""
+        root = self.rules.get("/") in (EXPAND_PRIMS, EXPAND_PRIMS_AND_PROPERTIES)
+        found = np.full(len(paths.paths), root) & ~paths.is_root
+        for path in sorted((p for p in self.rules if p != "/"), key=lambda p: p.count("/")):
+            rule = self.rules[path]
+            rows = paths.exactly.get(path, ()) if rule == EXPLICIT_ONLY else paths.below.get(path, ())
+            found[list(rows)] = rule != EXCLUDE
+        for k in paths.unusual:  # not absolute: asked one by one, as before
+            found[k] = self.includes(paths.paths[k])
+        return found
+
+
+class PathIndex:
+    """Drawn paths indexed for :meth:`LinkCollection.includes_each`: the rows of each path and of the paths at and
+    below each prim path, found by the same walk up as :meth:`LinkCollection.includes` takes.
+
+    Attributes:
+        paths: the paths, in their order.
+        exactly: prim path -> rows of ``paths`` that are that path.
+        below: prim path -> rows of ``paths`` at or below it.
+        is_root: ``(P,)`` bool, the paths that are ``/`` (members of no collection).
+        unusual: rows of relative paths, which the walk up does not take apart.
+    """
+
+    def __init__(self, paths: list):
+        self.paths = list(paths)
+        self.exactly, self.below, self.unusual = {}, {}, []
+        self.is_root = np.zeros(len(self.paths), bool)
+        for k, path in enumerate(self.paths):
+            here = path.rstrip("/") or "/"
+            self.is_root[k] = here == "/"
+            if not here.startswith("/"):
+                self.unusual.append(k)
+                continue
+            self.exactly.setdefault(here, []).append(k)
+            while here != "/":
+                self.below.setdefault(here, []).append(k)
+                here = here.rsplit("/", 1)[0] or "/"
+
 
 @dataclasses.dataclass(frozen=True)
 class MembershipExpression:
@@ -143,11 +187,13 @@ def resolve_expressions(scene) -> None:
     if not any(isinstance(e, MembershipExpression) for e in expressions):
         return
     paths = drawn_paths(scene)
+    # Each path made an Sdf.Path once, not once per light: building it cost three times USD's answer.
+    sdf_paths = [Sdf.Path(path) for path in paths]
     for light in scene.lights:
         for name in ("light_link", "shadow_link"):
             expression = getattr(light, name)
             if isinstance(expression, MembershipExpression):
-                members = [path for path in paths if expression.query.IsPathIncluded(Sdf.Path(path))]
+                members = list(itertools.compress(paths, map(expression.query.IsPathIncluded, sdf_paths)))
                 found = None if len(members) == len(paths) else LinkCollection.explicit(*members)
                 setattr(light, name, found)
 
@@ -204,15 +250,30 @@ def link_groups(scene, lights: list):
         check_links(light)
     if all(light.light_link is None and light.shadow_link is None for light in lights):
         return None
-    groups = {}  # mask row (bytes) -> group id
+    groups = {}  # mask row (bytes) of the linked lights -> group id
+    instance_parts = _instance_parts(scene)
+    paths = PathIndex(dict.fromkeys([m.path for m in scene.meshes] + [s.path for s in scene.shapes]
+                                    + [path for parts, _ in instance_parts for path in parts]))
+    rows = {path: k for k, path in enumerate(paths.paths)}
+    # Bits of each path for the lights linked to less than every prim (the others' are LIT | CASTS_SHADOW for all);
+    # a collection shared by several lights is applied once.
+    linked = [k for k, light in enumerate(lights) if light.light_link is not None or light.shadow_link is not None]
+    bits = np.zeros((len(paths.paths), len(linked)), np.uint8)
+    applied = {}
+
+    def members(collection) -> np.ndarray:
+        if collection is None:
+            return np.ones(len(paths.paths), bool)
+        if id(collection) not in applied:
+            applied[id(collection)] = (collection, collection.includes_each(paths))
+        return applied[id(collection)][1]
+
+    for column, k in enumerate(linked):
+        bits[:, column] = np.where(members(lights[k].light_link), LIT, 0) | np.where(
+            members(lights[k].shadow_link), CASTS_SHADOW, 0)
 
     def group_of(path: str) -> int:
-        row = np.zeros(len(lights), np.uint8)
-        for k, light in enumerate(lights):
-            lit, shadow = light.light_link, light.shadow_link
-            row[k] = (LIT if lit is None or lit.includes(path) else 0) | (
-                CASTS_SHADOW if shadow is None or shadow.includes(path) else 0)
-        return groups.setdefault(row.tobytes(), len(groups))
+        return groups.setdefault(bits[rows[path]].tobytes(), len(groups))
 
     # Geometry ids in their order: world triangles, prototype triangles, world shapes, prototype shapes; a prototype's
     # are numbered by part (its meshes, then its shapes).
@@ -224,17 +285,18 @@ def link_groups(scene, lights: list):
     instance_groups = np.zeros(len(scene.instances), np.int32)
     part_groups = []
     runs = {}  # the part groups of a prototype whose parts differ -> offset of their run in part_groups
-    for paths, rows in _instance_parts(scene):
-        found = tuple(group_of(path) for path in paths)
+    for parts, instances in instance_parts:
+        found = tuple(group_of(path) for path in parts)
         if len(set(found)) <= 1:
-            instance_groups[rows] = found[0] if found else 0
+            instance_groups[instances] = found[0] if found else 0
             continue
         if found not in runs:  # instances whose parts fall in the same groups share one run
             runs[found] = len(part_groups)
             part_groups += found
-        instance_groups[rows] = -1 - runs[found]
-    masks = np.frombuffer(b"".join(groups), np.uint8).reshape(len(groups), len(lights))
-    return HostLinks(masks.copy(), np.concatenate(geometry).astype(np.int32), instance_groups,
+        instance_groups[instances] = -1 - runs[found]
+    masks = np.full((len(groups), len(lights)), LIT | CASTS_SHADOW, np.uint8)
+    masks[:, linked] = np.frombuffer(b"".join(groups), np.uint8).reshape(len(groups), len(linked))
+    return HostLinks(masks, np.concatenate(geometry).astype(np.int32), instance_groups,
                      np.array(part_groups, np.int32))
 
 
