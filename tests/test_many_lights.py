@@ -297,6 +297,29 @@ def test_check_fields_takes_a_float_as_float32_and_the_minimum_do():
             assert ok and type(light.radius) is float and light.radius == value, value
 
 
+def test_check_fields_takes_small_float_arrays_as_numpy_does():
+    """The array fast path of ``check_fields`` (a light's position, colour and axis) accepts exactly the arrays whose
+    values are finite in float32 and not below the minimum, and stores them as the field's dtype, equal to numpy's
+    conversion, as a new array, for float32 and float64 input alike."""
+    edge = 2.0**128 - 2.0**103  # float32 rounds this and above to infinity
+    values = [0.0, -0.0, 1e-300, 1.5, edge, np.nextafter(edge, 0.0), -edge, math.inf, math.nan, -1e-300, -2.0]
+    for dtype in (np.float64, np.float32):
+        for value in values:
+            color = np.array([0.5, value, 2.0], dtype)
+            with np.errstate(over="ignore"):
+                ok = bool(np.all(np.isfinite(color.astype(np.float32))) and np.all(color.astype(np.float64) >= 0.0))
+            try:
+                light = SphereLight(position=color.copy(), radius=0.1, color=color)
+            except SceneError:
+                assert not ok, (dtype, value)
+                continue
+            assert ok, (dtype, value)
+            assert light.color.dtype == np.float32 and light.color is not color
+            np.testing.assert_array_equal(light.color, color.astype(np.float64).astype(np.float32))
+            assert light.position.dtype == np.float64
+            np.testing.assert_array_equal(light.position, color.astype(np.float64))
+
+
 def test_similar_is_numpys_allclose_of_the_column_lengths_and_right_angles():
     rng = np.random.default_rng(3)
     for _ in range(3000):

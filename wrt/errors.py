@@ -85,6 +85,14 @@ def check_fields(obj, *fields: tuple) -> None:
             # stays finite in float32 (NaN compares False), kept as it is, as float(numbers) below keeps it.
             if minimum is None or value >= minimum:
                 continue
+        if type(value) is np.ndarray and value.shape == shape and value.dtype.kind == "f" and 0 < value.size <= 16:
+            # A small float array (a light's position, colour, axis), likewise without numpy's checks: its values
+            # as Python floats, each finite in float32 and not below the minimum, and the array as ``dtype``, as
+            # the path below makes it (float32 and float64 both pass through float64 unchanged).
+            values = value.tolist() if value.ndim == 1 else value.ravel().tolist()
+            if all(abs(v) < FLOAT32_ROUNDS_TO_INF and (minimum is None or v >= minimum) for v in values):
+                setattr(obj, name, value.astype(dtype))
+                continue
         need = "a finite number" if shape == () else f"finite numbers of shape {shape}"
         need += "" if minimum is None else f" >= {minimum:g}"
         try:

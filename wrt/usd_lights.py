@@ -57,23 +57,34 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=N
 def input_reader(prim, time):
     """``(get, legacy)``: ``get(attr, default)`` reads a light input of ``prim`` at ``time`` (``default`` where it
     has no value), and ``legacy`` lists the names it read without their ``inputs:`` prefix, for one warning."""
-    from .usd_values import value_at
+    from .usd_values import read_time
 
     legacy = []
+    authored = set(prim.GetAuthoredPropertyNames())  # names with scene description: a valid old name is one of them
+    defined = None  # the names the prim's schemas define, read when an old name is not authored
 
     def get(attr, default):
         # Files written before UsdLux prefixed its inputs (Omniverse and Isaac Sim content of that time) author
         # "intensity", "radius", "texture:file" ...: USD no longer reads them, so such a light came out at the
         # schema's fallbacks (intensity 1, white, radius 0.5) without a word. The old name counts when the
         # prefixed one is not authored, as Omniverse's renderers still read it.
+        nonlocal defined
         name = attr.GetName() if attr is not None else ""
-        if name.startswith(INPUTS_PREFIX) and not (attr and attr.HasAuthoredValue()):
-            old = prim.GetAttribute(name[len(INPUTS_PREFIX):])
+        has_value = bool(attr) and attr.HasAuthoredValue()
+        if name.startswith(INPUTS_PREFIX) and not has_value:
+            # An old name neither authored nor defined by a schema is no attribute (most lights): not asked for.
+            old_name = name[len(INPUTS_PREFIX):]
+            if old_name not in authored and defined is None:
+                defined = set(prim.GetPrimDefinition().GetPropertyNames())
+            old = prim.GetAttribute(old_name) if old_name in authored or old_name in defined else None
             if old and old.HasAuthoredValue():
                 if old.GetName() not in legacy:
                     legacy.append(old.GetName())
-                attr = old
-        value = value_at(attr, time) if attr else None
+                attr, has_value = old, True
+        if not attr:
+            return default
+        # value_at(attr, time), its HasAuthoredValue known: read_time only where it can matter.
+        value = attr.Get(read_time(attr, time) if has_value else time)
         return default if value is None else value
 
     return get, legacy
