@@ -355,3 +355,61 @@ def test_the_memory_check_counts_whitteds_shadow_rays_of_several_lights(monkeypa
 
 def test_a_light_with_no_instances_places_none():
     assert placed_lights(np.zeros((0, 4, 4)), [], None, None, None) == []
+
+
+def reference_input_reader(prim, time):
+    """The light input reader as it was (every input's ``HasAuthoredValue`` asked twice, every old name looked up):
+    the slow reference the faster one must agree with."""
+    from wrt.usd_lights import INPUTS_PREFIX
+    from wrt.usd_values import value_at
+
+    legacy = []
+
+    def get(attr, default):
+        name = attr.GetName() if attr is not None else ""
+        if name.startswith(INPUTS_PREFIX) and not (attr and attr.HasAuthoredValue()):
+            old = prim.GetAttribute(name[len(INPUTS_PREFIX):])
+            if old and old.HasAuthoredValue():
+                if old.GetName() not in legacy:
+                    legacy.append(old.GetName())
+                attr = old
+        value = value_at(attr, time) if attr else None
+        return default if value is None else value
+
+    return get, legacy
+
+
+def test_plain_lights_are_the_lights_the_reference_reader_reads(tmp_path, monkeypatch):
+    """Lights with old unprefixed inputs (alone, and beside an authored prefixed one), time samples only, blocked
+    values, ShadowAPI and shaping inputs, a mesh light on a Sphere (whose schema defines ``radius``) read as the
+    reference reader of every input reads them, field by field and bit for bit, warnings too."""
+    stage = new_stage(tmp_path / "plain.usda")
+    old = UsdLux.SphereLight.Define(stage, "/Old")
+    old.GetPrim().CreateAttribute("intensity", Sdf.ValueTypeNames.Float).Set(7.0)
+    old.GetPrim().CreateAttribute("radius", Sdf.ValueTypeNames.Float).Set(0.25)
+    old.GetPrim().CreateAttribute("shaping:cone:angle", Sdf.ValueTypeNames.Float).Set(40.0)
+    both = UsdLux.DiskLight.Define(stage, "/Both")
+    both.CreateColorAttr(Gf.Vec3f(0.2, 0.4, 0.8))
+    both.GetPrim().CreateAttribute("color", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1.0, 0.0, 0.0))
+    both.GetPrim().CreateAttribute("exposure", Sdf.ValueTypeNames.Float).Set(1.0)
+    sampled = UsdLux.RectLight.Define(stage, "/Sampled")
+    sampled.CreateWidthAttr().Set(2.0, 3.0)
+    sampled.CreateIntensityAttr().Set(5.0, 1.0)
+    sampled.CreateHeightAttr().Block()
+    shadowed = UsdLux.SphereLight.Define(stage, "/Shadowed")
+    UsdLux.ShadowAPI.Apply(shadowed.GetPrim()).CreateShadowColorAttr(Gf.Vec3f(0.5, 0.0, 0.0))
+    shadowed.CreateDiffuseAttr(0.5)
+    ball = UsdGeom.Sphere.Define(stage, "/Ball")
+    ball.CreateRadiusAttr(0.5)
+    UsdLux.MeshLightAPI.Apply(ball.GetPrim())
+    ball.GetPrim().CreateAttribute("intensity", Sdf.ValueTypeNames.Float).Set(3.0)
+    stage.Save()
+    fast, fast_messages = load(tmp_path / "plain.usda")
+    monkeypatch.setattr(wrt.usd_lights, "input_reader", reference_input_reader)
+    slow, slow_messages = load(tmp_path / "plain.usda")
+    assert fast_messages == slow_messages and any("inputs: prefix" in m for m in fast_messages)
+    assert [light.path for light in fast.lights] == [light.path for light in slow.lights]
+    assert len(fast.lights) == 5
+    for a, b in zip(fast.lights, slow.lights):
+        assert_identical(a, b)
+    assert fast.lights[[light.path for light in fast.lights].index("/Old")].radius == 0.25
