@@ -552,3 +552,18 @@ def test_link_groups_give_every_drawn_geometry_usds_membership(tmp_path):
         expected = [(LIT if lit.IsPathIncluded(sdf) else 0) | (CASTS_SHADOW if shadow.IsPathIncluded(sdf) else 0)
                     for lit, shadow in queries]
         assert links.masks[group].tolist() == expected, paths[at]
+
+
+def test_a_mesh_named_by_a_relative_path_is_lit_as_the_root_rule_says():
+    """A Scene built in Python may name its meshes by relative paths; the walk up from one never reached '/', so a
+    linked light hung the render (and ``includes``). Only the root's rule can take such a path in (every rule is an
+    absolute path)."""
+    assert LinkCollection.excluding("/World").includes("World/Floor")
+    assert not LinkCollection.only("/World").includes("World/Floor")
+    floor = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="World/Floor")
+    linked = [LinkCollection.only("/World"), LinkCollection.excluding("/World")]
+    lit = []
+    for link in linked:
+        sun = wrt.DistantLight(direction=DOWN, color=np.array([2.0, 0, 0]), light_link=link)
+        lit.append(render(wrt.Scene(meshes=[floor], lights=[sun]), "whitted", camera=TOP)[FLOOR_PX][..., 0].max())
+    assert lit[0] == 0.0 and lit[1] > 0.1

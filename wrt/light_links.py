@@ -88,7 +88,9 @@ class LinkCollection:
         from the path, an ``exclude`` leaves it out, and any other rule takes it in, but ``explicitOnly`` only on the
         path itself (on an ancestor it is passed over); no rule: not a member. ``/`` is not a prim: never one."""
         path = here = path.rstrip("/") or "/"
-        while here != "/":
+        # A relative path (a Scene built in Python may name a mesh 'World/Floor') matches no rule but the root's; its
+        # walk up never reached '/' and hung the render.
+        while here != "/" and here.startswith("/"):
             rule = self.rules.get(here)
             if rule == EXCLUDE:
                 return False
