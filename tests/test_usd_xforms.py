@@ -3,11 +3,15 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
 pxr = pytest.importorskip("pxr")
-from pxr import Gf, Usd, UsdGeom  # noqa: E402
+from gprim_stages import placed_shapes  # noqa: E402
+from pxr import Gf, Sdf, Usd, UsdGeom  # noqa: E402
+from usd_placements import drawn_placements  # noqa: E402
 
 import wrt  # noqa: E402
 import wrt.usd_xforms  # noqa: E402
@@ -175,3 +179,183 @@ def test_a_reset_transform_inside_a_point_instancer_prototype_places_it_as_usd_b
             np.testing.assert_allclose(got.mean(axis=0), center, atol=1e-6, err_msg=name)
             aligned = box.ComputeAlignedRange()
             assert np.all(got >= np.array(aligned.GetMin()) - 1e-6) and np.all(got <= np.array(aligned.GetMax()) + 1e-6)
+
+
+# Malformed xformOpOrder on every kind of prim wrt places: cubes' parents, a camera, a light, a native instance and a
+# prim of its prototype, a PointInstancer and its prototype's root. Each prim's order as USD reads it is in
+# MALFORMED_ORDERS: its ops with the bad ones left out.
+MALFORMED = """#usda 1.0
+(
+    defaultPrim = "P"
+)
+
+def Xform "P"
+{
+    double3 xformOp:translate = (0, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+
+    def Xform "Typo"
+    {
+        double3 xformOp:translate = (1, 2, 3)
+        float3 xformOp:scale = (2, 2, 2)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:translat", "xformOp:scale"]
+        def Cube "C" {}
+    }
+
+    def Xform "InvertMissing"
+    {
+        double3 xformOp:translate = (4, 0, 0)
+        float xformOp:rotateZ = 30
+        uniform token[] xformOpOrder = ["xformOp:translate", "!invert!xformOp:scale:gone", "xformOp:rotateZ"]
+        def Cube "C" {}
+    }
+
+    def Xform "StringTranslate"
+    {
+        string xformOp:translate = "up"
+        double3 xformOp:translate:b = (0, 6, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:translate:b"]
+        def Cube "C" {}
+    }
+
+    def Xform "NotAnOp"
+    {
+        double3 offset = (1, 1, 1)
+        double3 xformOp:translate = (0, -6, 0)
+        uniform token[] xformOpOrder = ["offset", "xformOp:translate"]
+        def Cube "C" {}
+    }
+
+    def Xform "LateReset"
+    {
+        double3 xformOp:translate = (9, 9, 9)
+        double3 xformOp:translate:after = (0, 0, -4)
+        uniform token[] xformOpOrder = ["xformOp:translate", "!resetXformStack!", "xformOp:translate:after"]
+        def Cube "C" {}
+    }
+
+    def Camera "Cam"
+    {
+        double3 xformOp:translate = (0, 1, 20)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateY:missing"]
+    }
+
+    def SphereLight "Lamp"
+    {
+        double3 xformOp:translate = (3, 3, 3)
+        uniform token[] xformOpOrder = ["xformOp:rotateXYZ", "xformOp:translate"]
+    }
+
+    def Xform "Inst" (
+        instanceable = true
+        references = </Proto>
+    )
+    {
+        double3 xformOp:translate = (-5, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:orient"]
+    }
+
+    def PointInstancer "PI"
+    {
+        double3 xformOp:translate = (0, -9, 0)
+        uniform token[] xformOpOrder = ["xformOp:scale", "xformOp:translate"]
+        int[] protoIndices = [0, 0]
+        point3f[] positions = [(0, 0, 0), (3, 0, 0)]
+        rel prototypes = </P/PI/Protos/Ball>
+        def Scope "Protos"
+        {
+            def Xform "Ball"
+            {
+                double3 xformOp:translate = (0, 0, 1)
+                uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:transform"]
+                def Cube "C" {}
+            }
+        }
+    }
+}
+
+class Xform "Proto"
+{
+    def Cube "C"
+    {
+        double3 xformOp:translate = (0, 2, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale:x"]
+    }
+}
+"""
+MALFORMED_ORDERS = {  # prim -> (its order with the bad ops left out, the warning that names it, the op named)
+    "/P/Typo": (["xformOp:translate", "xformOp:scale"], "do not exist", "xformOp:translat"),
+    "/P/InvertMissing": (["xformOp:translate", "xformOp:rotateZ"], "do not exist", "!invert!xformOp:scale:gone"),
+    "/P/StringTranslate": (["xformOp:translate:b"], "no transform op", "xformOp:translate"),
+    "/P/NotAnOp": (["xformOp:translate"], "no transform op", "offset"),
+    "/P/LateReset": (["!resetXformStack!", "xformOp:translate:after"], "!resetXformStack!", "xformOp:translate"),
+    "/P/Cam": (["xformOp:translate"], "do not exist", "xformOp:rotateY:missing"),
+    "/P/Lamp": (["xformOp:translate"], "do not exist", "xformOp:rotateXYZ"),
+    "/P/Inst": (["xformOp:translate"], "do not exist", "xformOp:orient"),
+    "/P/PI": (["xformOp:translate"], "do not exist", "xformOp:scale"),
+    "/P/PI/Protos/Ball": (["xformOp:translate"], "do not exist", "xformOp:transform"),
+    "/Proto/C": (["xformOp:translate"], "do not exist", "xformOp:scale:x"),
+}
+ANIMATED = """
+def Xform "Moving"
+{
+    double3 xformOp:translate.timeSamples = {1: (0, 0, 5), 2: (0, 0, 6)}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def _sorted_transforms(ms) -> np.ndarray:
+    """``(N, 16)`` the ``(4, 4)`` matrices ``ms`` flattened, rounded and sorted: placed copies compared as a set."""
+    flat = np.round(np.array([np.asarray(m, np.float64).reshape(16) for m in ms]), 9)
+    return flat[np.lexsort(flat.T[::-1])]
+
+
+@pytest.mark.parametrize("time, usd_time, animated", [(None, DEFAULT, False), (None, 1.0, True), (1.0, 1.0, False)],
+                         ids=["default-still", "default-animated", "time-1"])
+def test_a_malformed_xform_op_order_places_prims_as_usd_leaving_out_the_bad_ops(tmp_path, time, usd_time, animated):
+    """Ops named in xformOpOrder that do not exist (a typo, an !invert! of a missing op), that are no transform op
+    (a string translate, an attribute outside xformOp:) and ops before a !resetXformStack! that is not first: every
+    prim wrt places (gprims, a camera, a light, native and PointInstancer instances, their prototypes' prims) is
+    where USD's XformCache puts it on the stage with those ops taken out of its order, and each prim and bad op is
+    named in a warning. wrt placed a missing op as the identity without a word (as XformCache does; USD's own
+    GetOrderedXformOps warns), and stopped the load with "cannot read this prim" naming the wrong prim for a string
+    translate or a name outside xformOp:, which USD posts an error for and reads as the identity. At the default time
+    with a time sample on the stage the ops are read op by op (wrt's first-sample rule), which covers that path; the
+    oracle reads the stage at time 1, where every op reads as wrt reads it at the default time."""
+    path = tmp_path / "malformed.usda"
+    path.write_text(MALFORMED + (ANIMATED if animated else ""))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path, time=time)
+
+    fixed = Usd.Stage.Open(Sdf.Layer.OpenAsAnonymous(str(path)))  # a copy: the file's layer stays as authored
+    for prim_path, (order, _, _) in MALFORMED_ORDERS.items():
+        fixed.GetPrimAtPath(prim_path).GetAttribute("xformOpOrder").Set(order)
+    usd_time = Usd.TimeCode(usd_time)
+    cubes = drawn_placements(fixed, lambda p: p.IsA(UsdGeom.Cube), usd_time)
+    assert len(cubes) == len(placed_shapes(scene)) == 8
+    np.testing.assert_allclose(_sorted_transforms([m for m, _ in placed_shapes(scene)]),
+                               _sorted_transforms([m.T for _, _, m, _ in cubes]), atol=1e-6)
+    cache = UsdGeom.XformCache(usd_time)
+    camera = np.array(cache.GetLocalToWorldTransform(fixed.GetPrimAtPath("/P/Cam"))).T
+    np.testing.assert_allclose(scene.cameras["/P/Cam"].to_world, camera, atol=1e-9)
+    lamp = np.array(cache.GetLocalToWorldTransform(fixed.GetPrimAtPath("/P/Lamp")))[3, :3]
+    np.testing.assert_allclose([light.position for light in scene.lights if light.path == "/P/Lamp"], [lamp])
+    # The oracle is USD's reading: on the stage as authored, XformCache leaves each missing op out likewise (those
+    # whose name is no op type's too, after posting an error for it).
+    authored = Usd.Stage.Open(str(path))
+    for prim_path in ("/P/InvertMissing/C", "/P/Cam", "/P/Lamp", "/P/LateReset/C"):
+        np.testing.assert_allclose(np.array(UsdGeom.XformCache(usd_time).GetLocalToWorldTransform(
+            authored.GetPrimAtPath(prim_path))), np.array(cache.GetLocalToWorldTransform(
+                fixed.GetPrimAtPath(prim_path))), atol=1e-9, err_msg=prim_path)
+
+    messages = [str(w.message) for w in caught if "xformOpOrder" in str(w.message)]
+    for prim_path, (_, reason, op) in MALFORMED_ORDERS.items():
+        shown = "/P/Inst/C" if prim_path == "/Proto/C" else prim_path  # named at its instance proxy
+        named = [m for m in messages if reason in m]
+        assert len(named) == 1, messages  # one warning per kind of problem
+        assert named[0].startswith(f"{path}: "), named[0]
+        assert f"({op}: 1" in named[0] or f", {op}: 1" in named[0], named[0]
+        assert shown in named[0] or "..." in named[0], named[0]
+    assert "8 prim(s)" in next(m for m in messages if "do not exist" in m)

@@ -71,7 +71,9 @@ Time: ``time=None`` reads ``Usd.TimeCode.Default()``. A mesh attribute (or a vis
 default value but has time samples is read at its earliest sample instead, so meshes animated from frame 1 still
 load, and a prim hidden at frame 1 stays hidden. Transforms and cameras get the same fallback, op by op and
 attribute by attribute (:mod:`wrt.usd_xforms`), so a camera animated only through time samples is where its first
-frame puts it rather than at the origin, and an op that authors a default beside its samples gives the default.
+frame puts it rather than at the origin, and an op that authors a default beside its samples gives the default. An
+``xformOpOrder`` naming an op that does not exist, or that is no transform op, is read as USD reads it (that op left
+out, with a warning), for every prim placed and its ancestors.
 
 This module holds :func:`load_usd` and the prim walk (``_StageReader``: which reader each prim goes to, transforms to
 a content's space, prototypes read once); the reader's parts live in modules of their own: :mod:`wrt.usd_stage`
@@ -193,9 +195,10 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
     try:
         return reader.read()
     finally:
-        # The material reader and the skeleton poser hold the stage reader's skip method: a cycle that kept the
-        # stage and its layers open until the next garbage collection, so a file edited and loaded again in that
-        # time read as before.
+        # The material reader, the skeleton poser and the transforms hold the stage reader's skip method: a cycle that
+        # kept the stage and its layers open until the next garbage collection, so a file edited and loaded again in
+        # that time read as before.
+        reader.xforms = None
         reader.materials = None
         reader.skel = None
         reader.tubes = None
@@ -260,7 +263,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.time = time
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
         self.refine_level = refine_level  # subdivision steps for catmullClark, loop and bilinear meshes
-        self.xforms = xform_cache(time, stage)  # sample-only transform ops read at their first sample (see above)
+        self.xforms = xform_cache(time, stage, self._skip)  # sample-only ops read at their first sample (see above)
         self.contents = {}  # (kind, root path, outer material) -> Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.

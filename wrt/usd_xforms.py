@@ -6,17 +6,32 @@ samples (a transform animated from frame 1 would sit at the origin), and at ``Ea
 sample of ops that also author a default, which the default time must give (as points, visibility and material
 inputs are read). :class:`DefaultTimeXforms` resolves op by op instead where an op is read at its first sample, and
 asks an ``XformCache`` at the default time elsewhere (the same matrices there); other times use ``XformCache`` itself.
+
+A malformed ``xformOpOrder`` is read as USD reads it, each bad op the identity and the others kept
+(``UsdGeomXformable::GetOrderedXformOps`` and ``XformQuery``, which Hydra's transforms come from): an op whose attribute
+does not exist (a typo, an ``!invert!`` of a missing op; USD warns), whose name is no transform op's or whose value is
+of a type the op cannot take (a ``string`` translate; USD posts an error and returns the identity, which stopped wrt's
+load); ops before a ``!resetXformStack!`` that is not first are dropped (USD drops them without a word). Each is named
+in a warning (:data:`MISSING_OP`, :data:`INVALID_OP`, :data:`OPS_BEFORE_RESET`); the prims are resolved op by op.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from .usd_values import read_time
 
 DEFAULT = Usd.TimeCode.Default()
 PROJECTIVE = "world transform is projective; its last column was ignored"
+MISSING_OP = ("transform ops named in xformOpOrder that do not exist were left out (the identity), as USD leaves them "
+              "out")
+INVALID_OP = ("transform ops named in xformOpOrder that are no transform op (by name or value type) were left out (the "
+              "identity), as USD leaves them out")
+OPS_BEFORE_RESET = "ops before a !resetXformStack! that is not first in xformOpOrder were ignored, as USD ignores them"
+RESET = "!resetXformStack!"  # UsdGeom.XformOpTypes.resetXformStack
+INVERT = "!invert!"  # the prefix of an inverted op's name in xformOpOrder
+XFORM_OP_ORDER = UsdGeom.Tokens.xformOpOrder
 
 
 def affine_part(m: np.ndarray, warn) -> np.ndarray:
@@ -34,70 +49,142 @@ def affine_part(m: np.ndarray, warn) -> np.ndarray:
     return affine
 
 
-def xform_cache(time: Usd.TimeCode, stage: Usd.Stage | None = None):
+def xform_cache(time: Usd.TimeCode, stage: Usd.Stage | None = None, warn=None):
     """An object with ``UsdGeom.XformCache``'s ``GetLocalToWorldTransform`` and ``ComputeRelativeTransform`` at
-    ``time`` under wrt's rule for the default time, for the prims of ``stage``."""
-    return DefaultTimeXforms(stage) if time.IsDefault() else UsdGeom.XformCache(time)
+    ``time`` under wrt's rule for the default time, for the prims of ``stage``; ``warn(reason, prim, op name)`` is
+    called for each malformed op a transform asked for meets (see the module docstring)."""
+    return DefaultTimeXforms(stage, warn) if time.IsDefault() else Xforms(time, warn=warn)
 
 
-class DefaultTimeXforms:
-    """Transforms at the default time, each op read at :func:`wrt.usd_values.read_time` (memoised per prim).
+class Xforms:
+    """Transforms at ``time``: from a ``UsdGeom.XformCache`` (C++) below prims whose ops it reads as wrt does, op by
+    op in Python (memoised per prim) below the others: a malformed ``xformOpOrder`` (whose bad op the cache leaves out
+    without a word, or raises for), or at the default time an op read at its first time sample.
 
-    Below prims none of whose ops is read at a time sample (most prims of most stages: no samples, or a default beside
-    them) every op reads its default value, so ``XformCache`` at the default time gives the same matrices, from C++;
-    on a stage with no time sample at all that holds for every prim. Resolving each prim's ops in Python was a
-    quarter of the load of 100k native instances.
+    Each prim a transform is asked for, and its ancestors, is looked at once: its ``xformOpOrder`` against the ops USD
+    finds for it (one C++ call). An op of the wrong value type passes that look; the cache raises for it, and the prims
+    up its chain are then resolved op by op.
     """
 
-    def __init__(self, stage: Usd.Stage | None = None):
-        self._cache = UsdGeom.XformCache(DEFAULT)  # exact where no op up the chain is read at a time sample
+    def __init__(self, time: Usd.TimeCode, stage: Usd.Stage | None = None, warn=None):
+        self._time = time
+        self._warn = warn if warn is not None else lambda reason, prim, op: None
+        self._cache = UsdGeom.XformCache(time)  # exact where no prim up the chain is resolved op by op
         # No layer of the stage holds a time sample (a still robot fleet): every op reads its default, asked once for
         # the stage (in C++, and without the stage time queries that hang usd-core at timeCodesPerSecond = 0) rather
-        # than op by op for each prim.
-        self._still = stage is not None and not any(layer.ListAllTimeSamples() for layer in stage.GetUsedLayers())
-        self._sampled = {}  # prim path -> the prim or an ancestor has an op read at a time sample
-        self._world = {}  # prim path -> row-vector local-to-world Gf.Matrix4d, for prims where _sampled is True
+        # than op by op for each prim. At other times than the default the cache reads every op as wrt does.
+        self._still = not time.IsDefault() or (
+            stage is not None and not any(layer.ListAllTimeSamples() for layer in stage.GetUsedLayers()))
+        self._by_op = {Sdf.Path.absoluteRootPath: False}  # prim path -> the prim or an ancestor is read op by op
+        self._world = {}  # prim path -> row-vector local-to-world Gf.Matrix4d, for prims where _by_op is True
+
+    def _op_time(self, attr: Usd.Attribute) -> Usd.TimeCode:
+        """The time ``attr``, an op, is read at: the default time's rule (:func:`read_time`), else ``time``."""
+        return read_time(attr, DEFAULT) if self._time.IsDefault() else self._time
 
     def _local(self, prim: Usd.Prim) -> tuple[Gf.Matrix4d, bool]:
-        """``prim``'s local transform and whether it resets the transform stack."""
+        """``prim``'s local transform and whether it resets the transform stack, as
+        ``UsdGeomXformable::GetLocalTransformation`` computes it from its ``XformQuery``: the ops after the last
+        ``!resetXformStack!``, an op next to its own inverse left out with it, each malformed op left out (the
+        identity) and named to ``warn``."""
         if not prim.IsA(UsdGeom.Xformable):
             return Gf.Matrix4d(1.0), False
-        xformable = UsdGeom.Xformable(prim)
+        order = [str(name) for name in UsdGeom.Xformable(prim).GetXformOpOrderAttr().Get() or []]
+        resets = RESET in order
+        if resets:
+            last = len(order) - 1 - order[::-1].index(RESET)
+            for name in order[:last]:
+                if name != RESET:
+                    self._warn(OPS_BEFORE_RESET, prim, name)
+            order = order[last + 1:]
+        named = [(name, self._op(prim, name)) for name in order]
+        named = [(name, op) for name, op in named if op is not None]  # as USD's list of ops, the bad ones left out
         m = Gf.Matrix4d(1.0)
-        for op in xformable.GetOrderedXformOps():  # row vectors: the first op is applied first
-            m = op.GetOpTransform(read_time(op.GetAttr(), DEFAULT)) * m
-        return m, xformable.GetResetXformStack()
+        i = 0
+        while i < len(named):  # row vectors: the first op is applied first
+            name, op = named[i]
+            if i + 1 < len(named) and named[i + 1][1].GetAttr() == op.GetAttr() and \
+                    named[i + 1][1].IsInverseOp() != op.IsInverseOp():
+                i += 2  # an op and its inverse side by side: skipped, exactly the identity (as USD skips them)
+                continue
+            try:
+                m = op.GetOpTransform(self._op_time(op.GetAttr())) * m
+            except Tf.ErrorException:  # a value the op cannot take: USD posts an error and returns the identity
+                self._warn(INVALID_OP, prim, name)
+            i += 1
+        return m, resets
 
-    def _has_sampled_op(self, prim: Usd.Prim) -> bool:
-        """Whether ``prim`` or an ancestor has a transform op read at its first time sample rather than its default
-        (memoised, walked without recursion: hierarchies can be deeper than Python's stack)."""
-        if self._still:
+    def _op(self, prim: Usd.Prim, name: str) -> UsdGeom.XformOp | None:
+        """The op ``name`` of ``prim``'s ``xformOpOrder`` (``!invert!`` prefixed or not), or None, named to ``warn``,
+        where it has no attribute (USD leaves it out) or its name is no transform op's (USD returns the identity)."""
+        inverse = name.startswith(INVERT)
+        attr = prim.GetAttribute(name[len(INVERT):] if inverse else name) if name else Usd.Attribute()
+        if not attr:
+            self._warn(MISSING_OP, prim, str(name))
+            return None
+        try:
+            op = UsdGeom.XformOp(attr, inverse)
+        except Tf.ErrorException:  # a name outside xformOp: (TF_CODING_ERROR from the op's constructor)
+            op = None
+        if not op or op.GetOpType() == UsdGeom.XformOp.TypeInvalid:
+            self._warn(INVALID_OP, prim, str(name))
+            return None
+        return op
+
+    def _own_ops_by_op(self, prim: Usd.Prim) -> bool:
+        """Whether ``prim``'s own ops must be read op by op: its ``xformOpOrder`` names an op USD leaves out, has one
+        whose name is no transform op's or a ``!resetXformStack!`` after an op, or (at the default time) an op is read
+        at its first time sample. Two C++ calls for a well-formed prim (about 10 us; this runs for every prim placed and
+        each ancestor, once): an attribute's existence asked token by token (``HasAttribute``) took longer."""
+        order = prim.GetAttribute(XFORM_OP_ORDER).Get()
+        if not order:
             return False
-        chain = []  # prims up to the first one already known (or the root)
-        p, found = prim, False
-        while p and not p.IsPseudoRoot():
-            known = self._sampled.get(p.GetPath())
-            if known is not None:
-                found = known
-                break
-            chain.append(p)
-            p = p.GetParent()
-        for q in reversed(chain):
-            # As read_time decides (Xformable.GetTimeSamples would be faster, but hangs usd-core on stages with
-            # timeCodesPerSecond = 0, and does not see spline-valued ops).
-            found = found or (q.IsA(UsdGeom.Xformable) and any(
-                not read_time(op.GetAttr(), DEFAULT).IsDefault() for op in UsdGeom.Xformable(q).GetOrderedXformOps()))
-            self._sampled[q.GetPath()] = found
+        # Not asked whether prim is Xformable: one that is not (an xformOpOrder on a Scope, which USD ignores) and
+        # is malformed is only resolved op by op, as the identity (_local).
+        try:
+            ops = UsdGeom.Xformable(prim).GetOrderedXformOps()  # without the ops whose attribute is missing (USD warns)
+        except Tf.ErrorException:  # a name that is no transform op's
+            return True
+        if len(ops) != len(order) - (order[0] == RESET):  # an op left out, or ops dropped before a late reset
+            return True
+        # As read_time decides (Xformable.GetTimeSamples would be faster, but hangs usd-core on stages with
+        # timeCodesPerSecond = 0, and does not see spline-valued ops).
+        return not self._still and any(not read_time(op.GetAttr(), DEFAULT).IsDefault() for op in ops)
+
+    def _resolved_by_op(self, prim: Usd.Prim) -> bool:
+        """Whether ``prim`` or an ancestor is resolved op by op (memoised, walked without recursion: hierarchies can be
+        deeper than Python's stack). Every prim of the chain is looked at, so each malformed one is found."""
+        chain = []  # (prim, path) up to the first one already known (the pseudo-root is)
+        path = prim.GetPath()
+        found = self._by_op.get(path)
+        while found is None:
+            chain.append((prim, path))
+            prim = prim.GetParent()
+            path = prim.GetPath()
+            found = self._by_op.get(path)
+        for q, path in reversed(chain):
+            found = self._own_ops_by_op(q) or found
+            self._by_op[path] = found
         return found
 
+    def _by_op_after_error(self, prim: Usd.Prim):
+        """Marks ``prim`` and its ancestors to be resolved op by op: the cache raised for an op up the chain (a value
+        the op cannot take, which only reading it finds)."""
+        while not prim.IsPseudoRoot():
+            self._by_op[prim.GetPath()] = True
+            prim = prim.GetParent()
+
     def GetLocalToWorldTransform(self, prim: Usd.Prim) -> Gf.Matrix4d:  # noqa: N802 (XformCache's name)
-        if not self._has_sampled_op(prim):
-            return self._cache.GetLocalToWorldTransform(prim)
+        if not self._resolved_by_op(prim):
+            try:
+                return self._cache.GetLocalToWorldTransform(prim)
+            except Tf.ErrorException:
+                self._by_op_after_error(prim)
         key = prim.GetPath()
         if key not in self._world:
-            chain = []  # prims up to the first one whose world transform is known, or has no sampled op up its chain
+            chain = []  # prims up to the first one whose world transform is known, or has no op-by-op prim up its chain
             p = prim
-            while p and not p.IsPseudoRoot() and p.GetPath() not in self._world and self._has_sampled_op(p):
+            while p and not p.IsPseudoRoot() and p.GetPath() not in self._world and self._resolved_by_op(p):
                 chain.append(p)
                 p = p.GetParent()
             known = self._world.get(p.GetPath())
@@ -111,8 +198,11 @@ class DefaultTimeXforms:
     def ComputeRelativeTransform(self, prim: Usd.Prim, ancestor: Usd.Prim) -> tuple[Gf.Matrix4d, bool]:  # noqa: N802
         """``prim``'s transform to ``ancestor``'s space; with a resetXformStack between them, to the world's (and
         True), as ``XformCache.ComputeRelativeTransform``."""
-        if not self._has_sampled_op(prim):
-            return self._cache.ComputeRelativeTransform(prim, ancestor)
+        if not self._resolved_by_op(prim):
+            try:
+                return self._cache.ComputeRelativeTransform(prim, ancestor)
+            except Tf.ErrorException:
+                self._by_op_after_error(prim)
         m = Gf.Matrix4d(1.0)
         p = prim
         while p and p != ancestor and not p.IsPseudoRoot():
@@ -122,3 +212,16 @@ class DefaultTimeXforms:
                 return m, True
             p = p.GetParent()
         return m, False
+
+
+class DefaultTimeXforms(Xforms):
+    """Transforms at the default time, each op read at :func:`wrt.usd_values.read_time` (memoised per prim).
+
+    Below prims none of whose ops is read at a time sample (most prims of most stages: no samples, or a default beside
+    them) every op reads its default value, so ``XformCache`` at the default time gives the same matrices, from C++;
+    on a stage with no time sample at all that holds for every prim. Resolving each prim's ops in Python was a
+    quarter of the load of 100k native instances.
+    """
+
+    def __init__(self, stage: Usd.Stage | None = None, warn=None):
+        super().__init__(DEFAULT, stage, warn)
