@@ -357,3 +357,59 @@ def test_python_instances_take_opacities():
         instances.opacities = bad
         with pytest.raises(ValueError, match=match):
             instances.check_opacities()
+
+
+@pytest.mark.parametrize("interpolation", ["vertex", "constant"])
+def test_a_non_constant_opacity_inside_a_point_instancer_prototype_blocks_only_what_it_blocks_for_colour(
+        tmp_path, references, interpolation):
+    """A non-constant displayOpacity (and displayColor) on the prototype's root Xform blocks inheritance:
+    FindPrimvarWithInheritance on the strip finds neither. The instancer's ``vertex`` values are Hydra's instance
+    primvars, which reach prototype prims without their own past it: its colours colour the strips (they did), and
+    its opacities (0.25, 0.75) are the strips' now, as the colours are; the blocker forced them opaque. A
+    ``constant`` one on the instancer reaches its prototypes beneath it by inheritance only (Hydra makes no instance
+    primvar of it), which the blocker stops: opaque, and the strips' colour their own."""
+    opaque, empty = references
+    colors = [(0.0, 1.0, 0.0), (0.0, 0.0, 1.0)]
+
+    def build(stage):
+        pi = instancer(stage)
+        mesh = stage.GetPrimAtPath("/PI/Protos/Strip/Mesh")
+        UsdGeom.PrimvarsAPI(mesh).RemovePrimvar("displayColor")  # the instancer's colour may reach it
+        root = stage.GetPrimAtPath("/PI/Protos/Strip")
+        opacity_primvar(root, [0.1], UsdGeom.Tokens.uniform)  # uniform on an Xform: blocks inheritance
+        UsdGeom.PrimvarsAPI(root).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                UsdGeom.Tokens.uniform).Set([(1.0, 0.0, 1.0)])
+        count = 2 if interpolation == "vertex" else 1
+        opacity_primvar(pi, [0.25, 0.75][:count], interpolation)
+        UsdGeom.PrimvarsAPI(pi).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                              interpolation).Set(colors[:count])
+        strip = UsdGeom.PrimvarsAPI(mesh)
+        assert not strip.FindPrimvarWithInheritance("displayOpacity")  # USD: the strip has none
+        assert not strip.FindPrimvarWithInheritance("displayColor")
+
+    scene, messages = stage_with(tmp_path, build, f"blocked_{interpolation}.usda")
+    assert not [m for m in messages if "display" in m], messages
+    (proto,) = scene.prototypes
+    if interpolation == "vertex":
+        # As the colour path: the instances' values apply to the strips, which carry none of their own.
+        np.testing.assert_allclose(scene.instances.colors, colors)
+        np.testing.assert_allclose(scene.instances.opacities, [0.25, 0.75])
+        assert all(mesh.opacities is None for mesh in proto.meshes)
+        a = np.where(COLUMN_X < 0.0, 0.25, 0.75)[None, :, None]
+        own = render(stage_with(tmp_path, lambda stage: build_opaque(stage, colors), "blocked_opaque.usda")[0])
+        np.testing.assert_allclose(render(scene), a * own + (1 - a) * empty, rtol=1e-4, atol=1e-6)
+    else:
+        # Neither is an instance value: the strips are opaque and grey, as without either.
+        assert np.isnan(scene.instances.colors).all() and np.isnan(scene.instances.opacities).all()
+        grey = render(stage_with(tmp_path, lambda stage: build_opaque(stage, None), "grey_opaque.usda")[0])
+        np.testing.assert_allclose(render(scene), grey, rtol=1e-4, atol=1e-6)
+
+
+def build_opaque(stage, colors):
+    """The instancer of :func:`instancer`, its strips without displayColor, coloured per instance by ``colors`` (or
+    not at all: the default grey) and opaque."""
+    pi = instancer(stage)
+    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI/Protos/Strip/Mesh")).RemovePrimvar("displayColor")
+    if colors is not None:
+        UsdGeom.PrimvarsAPI(pi).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                              UsdGeom.Tokens.vertex).Set(colors)

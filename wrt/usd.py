@@ -498,7 +498,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         return self.xforms.GetLocalToWorldTransform(prim) * root_world.GetInverse() * local
 
     def _content(self, key: tuple, root: Usd.Prim, space_root, outer_bindings, outer_purpose=None,
-                 outer_color=None, outer_widths=None, proxy=None) -> Content:
+                 outer_color=None, outer_widths=None, proxy=None, instance_opacity=False) -> Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:
@@ -508,7 +508,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # Prototypes are often kept under an ``over`` so they are not drawn in place; instanced, they are drawn
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
             inside = Context(content, space_root, outer_bindings, outer_purpose=outer_purpose,
-                              outer_color=outer_color, outer_widths=outer_widths, proxy=proxy)
+                              outer_color=outer_color, outer_widths=outer_widths, proxy=proxy,
+                              instance_opacity=instance_opacity)
             self._walk(root, inside, PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content

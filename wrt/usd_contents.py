@@ -72,6 +72,7 @@ class Context:
         outer_color=None,
         outer_widths=None,
         proxy=None,
+        instance_opacity=False,
     ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
@@ -88,6 +89,21 @@ class Context:
         self.outer_widths = outer_widths  # constant primvars:widths inherited by a native instance (float), or None
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
         self.world = world  # the stage itself (cameras and UsdLux lights are read only here)
+        # A PointInstancer's prototype whose instancer gives its instances a displayOpacity (Hydra's instance primvar)
+        self.instance_opacity = instance_opacity
+
+    @property
+    def keep_opaque(self) -> bool:
+        """A prim's own displayOpacity of 1 is kept: in a prototype it wins over its instance's opacity."""
+        return not self.world
+
+    @property
+    def blocked_opaque(self) -> bool:
+        """A prim whose displayOpacity a non-constant one above blocks (FindPrimvarWithInheritance finds none) is
+        opaque, so that no instance's opacity reaches it either: in a prototype, but not in a PointInstancer's whose
+        instancer gives its instances one, which reaches the prims without one past such a blocker, as its colour
+        does (the nearest instance that gives an opacity is that instancer)."""
+        return not self.world and not self.instance_opacity
 
 
 def _drawn_root(key: tuple, source: str, content_path: str) -> str:

@@ -58,7 +58,7 @@ class GprimReading:
             color=color,
             material_id=material_id,
             double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
-            opacity=self._one_opacity(prim, False, not ctx.world) if material_id < 0 else None,
+            opacity=self._one_opacity(prim, False, ctx.keep_opaque, ctx.blocked_opaque) if material_id < 0 else None,
         )
         # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them.
         if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
@@ -175,7 +175,9 @@ class GprimReading:
         material_id, primvar, color = self._gprim_look(prim, ctx)
         # displayOpacity per point or curve is one per instance, as colours are; a single value is the shapes' own.
         per_element = self._opacity_per_element(prim) if material_id < 0 else None
-        opacity = self._one_opacity(prim, True, not ctx.world) if material_id < 0 and not per_element else None
+        opacity = None
+        if material_id < 0 and not per_element:
+            opacity = self._one_opacity(prim, True, ctx.keep_opaque, ctx.blocked_opaque)
         m = affine_part(self._to_space(prim, ctx), lambda reason: self._skip(reason, prim))
         # Inside a native prototype USD's primvar inheritance stops at its root: a widths primvar handed down by
         # the instance (ctx.outer_widths) comes next, before the prim's widths attribute.

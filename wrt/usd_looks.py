@@ -23,14 +23,15 @@ class LookReading:
         colours its meshes)."""
         return self.inherited_primvars.find(prim, name)
 
-    def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool, keep_opaque: bool = False) -> float | None:
+    def _one_opacity(self, prim: Usd.Prim, one_per_prim: bool, keep_opaque: bool = False,
+                     blocked_opaque: bool = False) -> float | None:
         """The ``displayOpacity`` of ``prim`` (its own or a constant inherited one) for prims drawn with the default
         material in one opacity (gprims, points, curves, tet meshes, NURBS patches): the mean of its values (see
         :func:`wrt.usd_primvars.unit_opacities`), as gprims take the mean displayColor, or None when it has none or
-        is opaque (unless ``keep_opaque``, as :meth:`_read_opacities`). ``one_per_prim``: values that differ are named
-        in a warning (their displayColor is read per element)."""
+        is opaque (unless ``keep_opaque``; ``blocked_opaque`` as :meth:`_read_opacities`). ``one_per_prim``: values
+        that differ are named in a warning (their displayColor is read per element)."""
         primvar = self.inherited_primvars.lookup(prim, "displayOpacity")
-        if primvar is BLOCKED and keep_opaque:  # blocked above: no instance's opacity reaches it either
+        if primvar is BLOCKED and blocked_opaque:  # blocked above: no instance's opacity reaches it either
             return 1.0
         if not (primvar and primvar.HasValue()):
             return None

@@ -46,13 +46,14 @@ class MeshPrimvarReading:
         values, corner_index = found
         return finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), corner_index
 
-    def _read_opacities(self, prim, topology, keep_opaque=False):
+    def _read_opacities(self, prim, topology, keep_opaque=False, blocked_opaque=False):
         """``(values (K,) float32, corner index (T, 3))`` from ``displayOpacity`` (its own or a constant inherited one;
         every interpolation and indexing as colours, see :func:`wrt.usd_primvars.unit_opacities` for bad values), or
         None when it has none or is 1 everywhere (opaque: nothing to carry), unless ``keep_opaque`` (a prototype's
-        geometry: its own 1 wins over an instance's opacity, Instances.opacities)."""
+        geometry: its own 1 wins over an instance's opacity, Instances.opacities). ``blocked_opaque``: a
+        non-constant one above, which blocks inheritance, makes it opaque (``Context.blocked_opaque``)."""
         primvar = self.inherited_primvars.lookup(prim, "displayOpacity")
-        if primvar is BLOCKED and keep_opaque:  # a non-constant one above blocks an instance's opacity too
+        if primvar is BLOCKED and blocked_opaque:  # a non-constant one above blocks an instance's opacity too
             return np.ones(1, np.float32), np.zeros(topology[2].shape, np.int64)
         if not (primvar and primvar.HasValue()):
             return None

@@ -98,7 +98,8 @@ class MeshReading:
         uv_source = None if uv_set is None else (uv_set, self.materials.st_fallback(face_materials, uv_set))
         color_names = self.materials.color_primvars(face_materials)
         default_faces = face_materials is None or bool(np.any(face_materials < 0))
-        local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, keep_opaque=not ctx.world)
+        local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, ctx.keep_opaque,
+                                      ctx.blocked_opaque)
         if local is None:
             return None
         # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
@@ -136,18 +137,19 @@ class MeshReading:
         double_sided = bool(value_at(gprim.GetDoubleSidedAttr(), self.time))
         colors = {} if surface.colors is None else {color_names[0]: surface.colors}
         default = face_materials is None or face_materials[0] < 0
-        opacity = self._one_opacity(prim, True, not ctx.world) if default else None
+        opacity = self._one_opacity(prim, True, ctx.keep_opaque, ctx.blocked_opaque) if default else None
         opacities = None if opacity is None else (np.array([opacity], np.float32), np.zeros_like(surface.triangles))
         local = LocalMesh(surface.points, surface.triangles, surface.face_ids, flip, None, colors, double_sided,
                            cage=cage, opacities=opacities)
         return self._bake(prim, m, ctx, local, face_materials, color_names)
 
     def _read_local_mesh(self, prim: Usd.Prim, counts: np.ndarray, uv_source: tuple | None,
-                         color_names=("displayColor",), default_faces=True, keep_opaque=False) -> LocalMesh | None:
+                         color_names=("displayColor",), default_faces=True, keep_opaque=False,
+                         blocked_opaque=False) -> LocalMesh | None:
         """The mesh at ``prim`` in its own space, ``counts`` its faceVertexCounts (read first for the materials), with
         texture coordinates ``uv_source`` (``(primvar, (2,) st where the mesh lacks it)`` or None), colours from the
         primvars ``color_names`` it has, and its ``displayOpacity`` when some faces have the default material
-        (``default_faces``; ``keep_opaque``: see :meth:`_read_opacities`)."""
+        (``default_faces``; ``keep_opaque``, ``blocked_opaque``: see :meth:`_read_opacities`)."""
         mesh = UsdGeom.Mesh(prim)
         t = self.time
         face_indices = self._int_array(prim, mesh.GetFaceVertexIndicesAttr())
@@ -207,7 +209,7 @@ class MeshReading:
             normals = self._usable_normals(prim, normals, points[vertex_ids], flip)
         colors = {name: found for name in color_names if (found := self._read_colors(prim, topology, name)) is not None}
         uvs = self._read_uvs(prim, topology, *uv_source) if uv_source else None
-        opacities = self._read_opacities(prim, topology, keep_opaque) if default_faces else None
+        opacities = self._read_opacities(prim, topology, keep_opaque, blocked_opaque) if default_faces else None
         smooth = normals is None and scheme in SMOOTH_SCHEMES
         cage = polygons if smooth else None  # its normals are made in _read_mesh, after any posing and refining
         double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))

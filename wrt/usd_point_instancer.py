@@ -53,25 +53,30 @@ class PointInstancerReading:
             # The prototype's space is its parent's: the root's own transform is the most local part. Its purpose,
             # where nothing in it authors one, is the one its ancestors author (_prototype_purpose).
             purpose = self._prototype_purpose(target, prim, ctx)
+            beneath = target.GetPath().HasPrefix(prim.GetPath())
+            # A constant displayOpacity reaches the prototypes beneath the instancer by inheritance, as a constant
+            # colour does (below); the instance opacities the others get reach prims without one past a non-constant
+            # one above them (Context.blocked_opaque), as instance colours do: prototypes are read apart for each.
+            target_opacities = None if beneath and self._constant_primvar(prim, "displayOpacity") else opacities
             key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.proxy,
-                   ctx.outer_widths)
+                   ctx.outer_widths, target_opacities is not None)
             parent = target.GetParent()
             content = self._content(key, target, parent, ctx.outer_bindings, purpose, outer_color=ctx.outer_color,
-                                    outer_widths=ctx.outer_widths, proxy=ctx.proxy)
+                                    outer_widths=ctx.outer_widths, proxy=ctx.proxy,
+                                    instance_opacity=target_opacities is not None)
             # The prototype's prims walk up through this instancer's ancestors: what they lack, this content lacks.
             ctx.content.outer_purposes |= content.outer_purposes
             ctx.content.wants_widths |= content.wants_widths
             ctx.content.want_colors(content.outer_colors)
             name = self._instance_color_name(prim, content.outer_colors)
-            if name is not None and target.GetPath().HasPrefix(prim.GetPath()) and \
-                    UsdGeom.PrimvarsAPI(prim).GetPrimvar(name).GetInterpolation() == UsdGeom.Tokens.constant:
+            if name is not None and beneath and self._constant_primvar(prim, name):
                 # A constant colour on the instancer reaches the prototypes beneath it by inheritance, read with their
                 # geometry, and stops at a non-constant primvar of its name between (FindPrimvarWithInheritance);
                 # Hydra makes only non-constant ones instance primvars. As an instance colour it went past that.
                 name = None
             if name not in colors_by_name:
                 colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
-            looks = instance_looks(colors_by_name[name], opacities)
+            looks = instance_looks(colors_by_name[name], target_opacities)
             ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
                                           None if looks is None else looks[rows]))
 
@@ -205,6 +210,13 @@ class PointInstancerReading:
                               "name instances by id)", prim, pi.GetIdsAttr())
         keep &= shown[:n]
         return keep
+
+    @staticmethod
+    def _constant_primvar(prim: Usd.Prim, name: str) -> bool:
+        """PointInstancer ``prim`` has primvar ``name``, of constant interpolation (an inherited primvar, which
+        Hydra does not make an instance primvar)."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
+        return bool(primvar) and primvar.HasValue() and primvar.GetInterpolation() == UsdGeom.Tokens.constant
 
     def _instance_color_name(self, prim: Usd.Prim, wanted: list[str]) -> str | None:
         """The colour primvar of PointInstancer ``prim`` that colours its instances of a prototype whose geometry
