@@ -10,7 +10,7 @@ from pxr import Gf, Usd, UsdGeom, UsdRender
 import wrt
 from wrt.camera import generate_rays_kernel
 from wrt.rays import camera_rays
-from wrt.render import resolve_view
+from wrt.render import resolve_camera, resolve_view
 
 
 def quad_scene(x0, x1, y0, y1, z):
@@ -362,6 +362,16 @@ def test_camera_arguments_from_a_notebook_get_errors_naming_them(call, message):
 NAN, INF = float("nan"), float("inf")
 
 
+def asked_for(path, camera: str):
+    """Loads ``path``, whose camera ``camera`` wrt cannot use: it is skipped with one warning naming it, and
+    :func:`resolve_camera` (a render's ``camera=``, ``--camera``) raises why, which it returns from."""
+    with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped") as caught:
+        scene = wrt.load_usd(path)
+    assert camera not in scene.cameras and camera in scene.skipped_cameras
+    assert any(camera in str(w.message) for w in caught)
+    return resolve_camera(scene, camera)
+
+
 @pytest.mark.parametrize(
     "attr, value",
     [
@@ -375,7 +385,8 @@ NAN, INF = float("nan"), float("inf")
     ],
 )
 def test_usd_camera_film_values_must_be_finite(tmp_path, attr, value):
-    """A NaN or inf film value made every camera ray NaN: an image of background only, without a word."""
+    """A NaN or inf film value made every camera ray NaN: an image of background only, without a word. The camera
+    is skipped with a warning, and asking for it raises."""
     path = tmp_path / "cam.usda"
     path.write_text(f"""#usda 1.0
 def Camera "C"
@@ -386,7 +397,7 @@ def Camera "C"
 }}
 """)
     with pytest.raises(wrt.SceneError, match=rf"cam\.usda: /C: camera needs finite.*{value}"):  # /C named once
-        wrt.load_usd(path)
+        asked_for(path, "/C")
 
 
 def test_usd_camera_errors_show_values_as_authored(tmp_path):
@@ -399,7 +410,7 @@ def test_usd_camera_errors_show_values_as_authored(tmp_path):
     authored = float(stage.GetPrimAtPath("/C").GetAttribute("horizontalAperture").Get())
     assert repr(authored) == "20.954999923706055"  # the float32 noise the message printed
     with pytest.raises(wrt.SceneError) as raised:
-        wrt.load_usd(path)
+        asked_for(path, "/C")
     assert str(raised.value).endswith("cam.usda: /C: camera needs finite positive focalLength and apertures, got "
                                       "focal_length=0, apertures=20.955x15.2908"), str(raised.value)
 
@@ -721,7 +732,64 @@ def test_camera_exposure_attributes_scale_the_radiance_images(tmp_path):
 
 def test_camera_exposure_that_is_not_finite_names_the_camera(tmp_path):
     with pytest.raises(wrt.SceneError, match=r"exposure\.usda: /Exposed: camera needs .*exposure scale.* inf"):
-        wrt.load_usd(_exposed_cameras_stage(tmp_path, f_stop=0.0))
+        asked_for(_exposed_cameras_stage(tmp_path, f_stop=0.0), "/Exposed")
     # Finite in float64 but inf in the float32 image: every lit pixel was inf.
     with pytest.raises(ValueError, match=r"exposure scale of at most 3\.403e\+38 .* got 1\.6\d*e\+60"):
         wrt.Camera.look_at((0, 0, 4), (0, 0, 0), exposure_scale=2.0**200)
+
+
+BAD_CAMERAS = {  # camera -> what it authors that wrt.Camera cannot take, and the words of the reason
+    "/ZeroFocal": ("float focalLength = 0", "finite positive focalLength and apertures, got focal_length=0,"),
+    "/NegativeAperture": ("float horizontalAperture = -2", "apertures=-2x"),
+    "/Inverted": ("float2 clippingRange = (5, 1)", "clipping range must satisfy 0 <= near < far, got (5.0, 1.0)"),
+    "/Unreadable": ("float2 clippingRange = None", "camera clippingRange has no value (blocked)"),
+    "/NotFinite": ('double3 xformOp:translate = (nan, 0, 0)\n    uniform token[] xformOpOrder = ["xformOp:translate"]',
+                   "transform is not finite"),
+}
+
+
+def test_a_camera_wrt_cannot_use_is_skipped_with_a_warning_unless_it_is_the_one_asked_for(tmp_path):
+    """Cameras of a zero focal length, a negative aperture, an inverted clipping range, one blocked (unreadable) and
+    a transform that is not finite stopped the load of the stage, whichever camera was to render it. Now each is
+    skipped with one warning naming the file, the camera and why; the stage's first usable camera is the default; a
+    render asked for one (camera=, --camera: resolve_camera) or whose render settings name it raises that reason,
+    naming the file and the camera (and the settings); camera= still overrides the settings' camera."""
+    body = "".join(f'def Camera "{path[1:]}"\n{{\n    {authored}\n}}\n' for path, (authored, _) in BAD_CAMERAS.items())
+    path = tmp_path / "cams.usda"
+    path.write_text('#usda 1.0\n(\n    renderSettingsPrimPath = "/Render/Settings"\n)\n' + body + """
+def Camera "Good"
+{
+    double3 xformOp:translate = (0, 0, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Scope "Render"
+{
+    def RenderSettings "Settings"
+    {
+        rel camera = </ZeroFocal>
+        uniform int2 resolution = (8, 6)
+    }
+}
+def Cube "Box"
+{
+}
+""")
+    assert UsdRender.Settings.Get(Usd.Stage.Open(str(path)), "/Render/Settings").GetCameraRel().GetTargets()
+    with pytest.warns(UserWarning) as caught:
+        scene = wrt.load_usd(path)
+    (warned,) = [str(w.message) for w in caught if "cameras wrt cannot use" in str(w.message)]
+    assert warned.startswith(f"{path}: ") and f"{len(BAD_CAMERAS)} prim(s)" in warned, warned
+    assert all(reason in warned for _, reason in BAD_CAMERAS.values()), warned
+    assert list(scene.cameras) == ["/Good"] and sorted(scene.skipped_cameras) == sorted(BAD_CAMERAS)
+    for camera, (_, reason) in BAD_CAMERAS.items():
+        with pytest.raises(wrt.SceneError) as raised:
+            resolve_camera(scene, camera)
+        assert str(raised.value).startswith(f"{path}: {camera}: ") and reason in str(raised.value), str(raised.value)
+    # The render settings' camera, unless camera= overrides it; without settings, the first usable camera.
+    with pytest.raises(wrt.SceneError, match=r"cams\.usda: /Render/Settings renders camera /ZeroFocal, which wrt "
+                                             r"cannot use: camera needs finite positive focalLength"):
+        resolve_view(scene)
+    assert resolve_view(scene, "/Good")[0].path == "/Good"  # (a copy framed by the settings)
+    assert resolve_view(scene, "/Good")[1:] == (8, 6)  # the settings' resolution still
+    scene.render_settings = None
+    assert resolve_view(scene)[0] is scene.cameras["/Good"]

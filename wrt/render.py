@@ -121,6 +121,8 @@ def resolve_camera(scene: Scene, camera) -> Camera:
     if isinstance(camera, str):
         if camera in scene.cameras:
             return scene.cameras[camera]
+        if camera in scene.skipped_cameras:  # the loader's reason, which a render from another camera only warned of
+            raise SceneError(scene.skipped_cameras[camera], path=scene.source, prim=camera)
         known = ", ".join(scene.cameras) or "none"
         error = SceneError(f"no camera at {camera!r}; cameras in the scene: {known}", path=scene.source)
         error.prim = camera  # set after: the message names it once, where it reads best
@@ -142,6 +144,9 @@ def resolve_view(scene: Scene, camera=None, width: int | None = None, height: in
                 DEFAULT_HEIGHT if height is None else height)
     width, height = settings.image_size(width, height)
     if camera is None and settings.camera is not None:
+        if settings.camera in scene.skipped_cameras:
+            raise SceneError(f"{settings.product or settings.path} renders camera {settings.camera}, which wrt cannot "
+                             f"use: {scene.skipped_cameras[settings.camera]}", path=settings.source)
         if settings.camera not in scene.cameras:  # a camera wrt skips (one inside a PointInstancer prototype)
             raise ValueError(f"{settings.source}: {settings.product or settings.path}: camera {settings.camera} is "
                              f"not among the cameras wrt reads: {', '.join(scene.cameras) or 'none'}")

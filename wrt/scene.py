@@ -342,6 +342,9 @@ class Scene:
         instances: :class:`wrt.instancing.Instances` placing the prototypes in the world (and colouring them: its
             ``colors``).
         cameras: prim path -> :class:`wrt.Camera`, in stage order.
+        skipped_cameras: prim path -> why the loader could not use that camera (a zero focal length, ...): a render
+            asked for it by path, or whose render settings name it, raises this reason
+            (:func:`wrt.render.resolve_view`).
         lights: the stage's lights: :class:`DistantLight` and the classes of :mod:`wrt.lights`.
         materials: :class:`wrt.materials.Material` list that ``Mesh.material_ids`` index.
         textures: ``(H, W, 4)`` float32 linear RGBA images that material textures index.
@@ -357,6 +360,7 @@ class Scene:
     prototypes: list = dataclasses.field(default_factory=list)
     instances: Instances = dataclasses.field(default_factory=Instances.empty)
     cameras: dict[str, Camera] = dataclasses.field(default_factory=dict)
+    skipped_cameras: dict[str, str] = dataclasses.field(default_factory=dict)
     lights: list = dataclasses.field(default_factory=list)
     materials: list = dataclasses.field(default_factory=list)
     textures: list = dataclasses.field(default_factory=list)

@@ -1,15 +1,26 @@
 """``UsdGeom.Camera`` prims read into :class:`wrt.camera.Camera`: at their instance-proxy paths inside native
-instances (hidden ones too), skipped inside PointInstancer prototypes."""
+instances (hidden ones too), skipped inside PointInstancer prototypes.
+
+A camera whose values :class:`wrt.camera.Camera` refuses (a zero focal length, a negative aperture, an inverted
+clipping range, a transform that is not finite, ...) or that cannot be read (a blocked clipping range) is skipped with
+a warning naming it and why (:data:`UNUSABLE_CAMERA`): the stage may well be rendered from another camera. The reason
+is kept in ``Scene.skipped_cameras``, and a render asked for it by path, or whose render settings name it, raises it
+(:func:`wrt.render.resolve_camera`, :func:`wrt.render.resolve_view`).
+"""
 
 from __future__ import annotations
 
 import numpy as np
-from pxr import Usd, UsdGeom
+from pxr import Tf, Usd, UsdGeom
 
 from .camera import Camera
+from .errors import SceneError
 from .usd_contents import PROTOTYPE_PREDICATE, Context
+from .usd_stage import tf_message
 from .usd_values import value_at
 from .usd_xforms import affine_part
+
+UNUSABLE_CAMERA = "cameras wrt cannot use were skipped (rendering one by its path raises this reason)"
 
 
 class CameraReading:
@@ -21,7 +32,16 @@ class CameraReading:
         instance-proxy paths (``/Instance/Cam``), which USD places in the world."""
 
         def read(proxy: Usd.Prim):
-            self.scene.cameras[str(proxy.GetPath())] = self._read_camera(proxy)
+            path = str(proxy.GetPath())
+            try:
+                self.scene.cameras[path] = self._read_camera(proxy)
+            except SceneError:
+                raise
+            except (ValueError, TypeError, Tf.ErrorException) as e:
+                # A bad camera stopped the load of a stage rendered from another one: kept for when it is asked for.
+                reason = str(e) if isinstance(e, ValueError) else f"camera cannot be read ({tf_message(e)})"
+                self.scene.skipped_cameras[path] = reason
+                self._skip(UNUSABLE_CAMERA, proxy, reason)
 
         self._read_through_instances(prim, cameras, ctx, "cameras", read, "cameras")
 
@@ -46,35 +66,40 @@ class CameraReading:
         camera = UsdGeom.Camera(prim)
         time = self.time
 
-        def number(attr):
-            return float(value_at(attr, time))
+        def value(attr):
+            found = value_at(attr, time)
+            if found is None:  # blocked: "float() argument must be ... not 'NoneType'" named nothing
+                raise ValueError(f"camera {attr.GetName()} has no value (blocked)")
+            return found
 
-        near, far = value_at(camera.GetClippingRangeAttr(), time)
+        def number(attr):
+            return float(value(attr))
+
+        near, far = value(camera.GetClippingRangeAttr())
         projection = str(value_at(camera.GetProjectionAttr(), time))
         if projection != UsdGeom.Tokens.orthographic:
             if projection != UsdGeom.Tokens.perspective:  # as UsdGeom.Camera.GetCamera reads it
                 self._skip("cameras with an unknown projection are perspective", prim, f"projection = {projection!r}")
             projection = "perspective"
-        m = affine_part(np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64),  # row vectors
-                        lambda reason: self._skip(reason, prim))
-        try:
-            loaded = Camera(
-                to_world=m.T,  # column vectors
-                focal_length=number(camera.GetFocalLengthAttr()),
-                horizontal_aperture=number(camera.GetHorizontalApertureAttr()),
-                vertical_aperture=number(camera.GetVerticalApertureAttr()),
-                horizontal_aperture_offset=number(camera.GetHorizontalApertureOffsetAttr()),
-                vertical_aperture_offset=number(camera.GetVerticalApertureOffsetAttr()),
-                clipping_range=(float(near), float(far)),
-                clipping_planes=[tuple(plane) for plane in value_at(camera.GetClippingPlanesAttr(), time) or []],
-                projection=projection,
-                fit="expandAperture",  # USD's fallback aspectRatioConformPolicy
-                f_stop=number(camera.GetFStopAttr()),
-                focus_distance=number(camera.GetFocusDistanceAttr()),
-                exposure_scale=_exposure_scale(camera, number),
-            )
-        except ValueError as e:  # unnamed above: the SceneError names the file and the prim, once
-            raise self._error(str(e), prim) from None
+        world = np.array(self.xforms.GetLocalToWorldTransform(prim), dtype=np.float64)  # row vectors
+        if not np.all(np.isfinite(world)):  # (before affine_part, which took NaN for a projective column)
+            raise ValueError("camera transform is not finite")
+        m = affine_part(world, lambda reason: self._skip(reason, prim))
+        loaded = Camera(  # ValueError naming the field it refuses, as "camera needs ...": the caller names the prim
+            to_world=m.T,  # column vectors
+            focal_length=number(camera.GetFocalLengthAttr()),
+            horizontal_aperture=number(camera.GetHorizontalApertureAttr()),
+            vertical_aperture=number(camera.GetVerticalApertureAttr()),
+            horizontal_aperture_offset=number(camera.GetHorizontalApertureOffsetAttr()),
+            vertical_aperture_offset=number(camera.GetVerticalApertureOffsetAttr()),
+            clipping_range=(float(near), float(far)),
+            clipping_planes=[tuple(plane) for plane in value_at(camera.GetClippingPlanesAttr(), time) or []],
+            projection=projection,
+            fit="expandAperture",  # USD's fallback aspectRatioConformPolicy
+            f_stop=number(camera.GetFStopAttr()),
+            focus_distance=number(camera.GetFocusDistanceAttr()),
+            exposure_scale=_exposure_scale(camera, number),
+        )
         loaded.path = str(prim.GetPath())  # for messages at render time, e.g. a singular transform
         return loaded
 
