@@ -218,14 +218,17 @@ class FrameRenderer:
         self.options = options
         self.log = []
         self._scene = None
+        self._frames = None  # the StageFrames that loads every frame: the stage and unchanged meshes kept
 
     def render(self, frame: float, spp: int = 1, seed: int = 0):
         """The :class:`wrt.Image` of time code ``frame``."""
         from .render import Renderer
-        from .usd import load_usd
+        from .usd_frames import StageFrames
 
         start = _time.perf_counter()
-        scene = load_usd(self.path, time=frame, **self.load_options)
+        if self._frames is None:
+            self._frames = StageFrames(self.path, **self.load_options)
+        scene = self._frames.load(frame)
         loaded = _time.perf_counter()
         # Forgotten until this frame is done: following refits the accelerators in place, so after a frame that
         # failed past this point (a camera missing at its time, out of memory) they hold its vertices, not the last

@@ -94,7 +94,7 @@ import warnings
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc
 
-from .errors import SceneError
+from .errors import SceneError, user_stacklevel
 from .instancing import invert_transforms, thicken_flat_transforms
 from .light_links import resolve_expressions
 from .lights import MeshLight
@@ -112,6 +112,7 @@ from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, place_instances
 from .usd_gprims import GprimReading
 from .usd_lights import read_light, warn_glowless_mesh_light
 from .usd_looks import LookReading
+from .usd_mesh_memo import MeshMemo
 from .usd_mesh_primvars import MeshPrimvarReading
 from .usd_meshes import MeshReading, triangulate
 from .usd_native_instances import NativeInstanceReading
@@ -170,28 +171,33 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         UserWarning: the stage has composition errors (a reference, payload or subLayer that does not compose); the
             scene holds the rest.
     """
+    return load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_settings)
+
+
+def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_settings, frames=None) -> Scene:
+    """:func:`load_usd` with its options in order, the stage kept by ``frames`` (a
+    :class:`wrt.usd_frames.StageFrames`, or None: opened for this load alone) with the meshes it reused."""
     try:
         source = os.fspath(path)
     except TypeError:  # os.fspath's message named no argument
         raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}") from None
     time_code = _time_code(time)
 
-    with trap_usd_diagnostics() as trap:
-        stage = open_stage(source)
-        if variants:
-            apply_variants(stage, source, variants)
-        warn_composition_errors(stage, source, trap)
-    warn_other_layer_units(stage, source)
+    if frames is None:
+        stage = open_variants(source, variants)
+    else:
+        stage = frames.stage(source, variants)
     settings = read_render_settings(stage, source, render_settings)
     if stage.GetTimeCodesPerSecond() <= 0:
         # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
         warnings.warn(f"{os.path.basename(source)}: timeCodesPerSecond = {stage.GetTimeCodesPerSecond():g} is invalid; "
-                      "time samples are read only at their authored time codes", stacklevel=2)
+                      "time samples are read only at their authored time codes", stacklevel=user_stacklevel())
     if not time_code.IsDefault():
         check_time_in_range(stage, source, time_code.GetValue())
     segments = _gprim_segments(tessellate_gprims)
     _check_refine_level(refine_level)
-    reader = _StageReader(stage, source, time_code, segments, int(refine_level), settings)
+    reader = _StageReader(stage, source, time_code, segments, int(refine_level), settings,
+                          None if frames is None else frames.memo)
     try:
         return reader.read()
     finally:
@@ -203,6 +209,18 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         reader.skel = None
         reader.tubes = None
         reader.surfaces = None
+
+
+def open_variants(source: str, variants) -> Usd.Stage:
+    """The stage at ``source`` with ``variants`` selected (see :func:`load_usd`), its composition errors and layers
+    in other units warned about."""
+    with trap_usd_diagnostics() as trap:
+        stage = open_stage(source)
+        if variants:
+            apply_variants(stage, source, variants)
+        warn_composition_errors(stage, source, trap)
+    warn_other_layer_units(stage, source)
+    return stage
 
 
 def _time_code(time) -> Usd.TimeCode:
@@ -254,7 +272,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
     docstring), which share this object's state."""
 
     def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0, refine_level: int = 0,
-                 settings: RenderSettings | None = None):
+                 settings: RenderSettings | None = None, mesh_memo: MeshMemo | None = None):
         self.stage = stage
         self.settings = settings
         # Purposes drawn: the render settings' includedPurposes (default always), else default and render.
@@ -274,6 +292,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.tubes = TubeReader(time, self._skip, self._error)  # Points and curves as spheres and tubes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles
         self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
+        self.skip_log = None  # [(reason, prim path, detail)] recording skips while a mesh read is being kept
+        self.mesh_memo = mesh_memo  # meshes read at another time of this stage, reused where nothing differs
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
         self.computed_purposes = ComputedPurposes()  # ComputePurpose, each prim's answer kept (a deep hierarchy)
         self.inherited_primvars = InheritedPrimvars()  # FindPrimvarWithInheritance, likewise

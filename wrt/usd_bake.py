@@ -83,6 +83,12 @@ class MeshBaking:
             opacities=opacities,
         )
 
+    def _colors_from_above(self, prim, local: LocalMesh, names: list) -> list:
+        """The colour primvars of ``names`` that ``local`` (the mesh at ``prim``) lacks and that no non-constant one
+        above it blocks: those an instance's colour fills in."""
+        return [name for name in names
+                if name not in local.colors and self.inherited_primvars.lookup(prim, name) is None]
+
     def _corner_colors(self, prim, local: LocalMesh, names: list, material_ids, order, ctx: Context):
         """``(T, 3, 3)`` float32 colours at the corners of the mesh's triangles (winding ``order``), or None: each
         triangle's from the colour primvar its material reads (``names``, :meth:`MaterialReader.color_primvars`; the
@@ -91,15 +97,15 @@ class MeshBaking:
         (:meth:`Content.want_colors`): a native instance's constant colour of that name (``ctx.outer_color``) fills it
         in."""
         found = {}
+        from_above = self._colors_from_above(prim, local, names)
+        ctx.content.want_colors(from_above)
+        outer = dict(ctx.outer_color or ())
         for name in names:
             if name in local.colors:
                 values, corner_index = local.colors[name]
                 found[name] = values[corner_index[:, order]]
-            elif self.inherited_primvars.lookup(prim, name) is None:  # (not blocked by a non-constant one above)
-                ctx.content.want_colors([name])
-                outer = dict(ctx.outer_color or ())
-                if name in outer:
-                    found[name] = np.tile(np.asarray(outer[name], np.float32), (len(local.face_ids), 3, 1))
+            elif name in from_above and name in outer:
+                found[name] = np.tile(np.asarray(outer[name], np.float32), (len(local.face_ids), 3, 1))
         if len(names) == 1 or not found:
             return found.get(names[0])
         # Each triangle shades with its material's primvar; those of materials that read none keep the first.

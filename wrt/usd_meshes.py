@@ -6,6 +6,8 @@ the same way once :mod:`wrt.usd_surfaces` made them triangles."""
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from pxr import Usd, UsdGeom
 
@@ -90,28 +92,69 @@ class MeshReading:
     """Mesh reading of the stage reader (``time``, ``refine_level``, ``materials``, ``skel``, ``surfaces``)."""
 
     def _read_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: Context) -> Mesh | None:
-        """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in."""
+        """The mesh at ``prim`` with ``m`` (``(4, 4)`` row-vector transform to its content's space) baked in; a kept
+        read of it reused where nothing it is made from differs (``mesh_memo``, :mod:`wrt.usd_mesh_memo`)."""
+        memo = self.mesh_memo
+        key = None if memo is None else memo.key(prim, ctx, self.time, self.skel.skel_root)
+        n_faces = None if key is None else memo.n_faces(key)  # a kept read's: its counts cannot differ
+        counts = None
+        if n_faces is None:
+            counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
+            n_faces = len(counts)
         # Materials first: the texture-coordinate primvar to read depends on them.
-        counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
-        face_materials = self._face_materials(prim, len(counts), ctx)
+        face_materials = self._face_materials(prim, n_faces, ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
         uv_source = None if uv_set is None else (uv_set, self.materials.st_fallback(face_materials, uv_set))
         color_names = self.materials.color_primvars(face_materials)
         default_faces = face_materials is None or bool(np.any(face_materials < 0))
-        local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, ctx.keep_opaque,
-                                      ctx.blocked_opaque)
-        if local is None:
-            return None
-        # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins points
-        # only): skinning the rest pose's normals left blend shapes' dents unshaded and joints' bends approximate.
-        posed = self.skel.pose(prim, local.points, local.normals, local.vertex_ids, ctx.content.path)
-        if posed is not None:
-            # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
-            local.points, local.normals, space = posed
-            m = self._to_space(space, ctx)
-        if local.refinement is not None:
-            local.points = local.refinement.vertex(local.points)
-        return self._bake(prim, m, ctx, local, face_materials, color_names)
+        if key is not None:
+            used = [] if face_materials is None else np.unique(face_materials).tolist()
+            inputs = memo.inputs(face_materials, uv_source, color_names,
+                                 [self.materials.color_primvar_of(k) for k in used], default_faces)
+            kept = memo.find(key, inputs)
+            if kept is not None:
+                return self._reuse_mesh(prim, m, ctx, kept, face_materials, color_names)
+            if counts is None:
+                counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
+        self.skip_log = []  # the warnings of this read (besides self.skipped), kept with it
+        try:
+            local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, ctx.keep_opaque,
+                                          ctx.blocked_opaque)
+            if local is None:
+                return None
+            # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins
+            # points only): skinning the rest pose's normals left blend shapes' dents unshaded and joints' bends
+            # approximate.
+            posed = self.skel.pose(prim, local.points, local.normals, local.vertex_ids, ctx.content.path)
+            if posed is not None:
+                # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
+                local.points, local.normals, space = posed
+                m = self._to_space(space, ctx)
+            if local.refinement is not None:
+                local.points = local.refinement.vertex(local.points)
+            read_skips, self.skip_log = self.skip_log, []
+            mesh = self._bake(prim, m, ctx, local, face_materials, color_names)
+            bake_skips = self.skip_log
+        finally:
+            self.skip_log = None
+        if key is not None and posed is None:
+            memo.keep(key, inputs, n_faces, m, local, mesh, read_skips, bake_skips)
+        return mesh
+
+    def _reuse_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: Context, kept, face_materials, color_names: list):
+        """The mesh of ``kept`` (a :class:`wrt.usd_mesh_memo.KeptMesh` whose inputs are this read's), with the
+        warnings its read recorded recorded again: the kept mesh where ``m`` is the transform baked into it, else its
+        mesh in its own space baked with ``m``."""
+        for skip in kept.read_skips:
+            self._skip_path(*skip)
+        if np.ascontiguousarray(m, np.float64).tobytes() != kept.to_space:
+            self.mesh_memo.counts["rebaked"] += 1
+            return self._bake(prim, m, ctx, kept.local, face_materials, color_names)
+        self.mesh_memo.counts["reused"] += 1
+        for skip in kept.bake_skips:
+            self._skip_path(*skip)
+        ctx.content.want_colors(self._colors_from_above(prim, kept.local, color_names))  # as _bake asks
+        return copy.copy(kept.mesh)
 
     def _read_surface(self, prim: Usd.Prim, m: np.ndarray, ctx: Context) -> Mesh | None:
         """A TetMesh (its boundary) or NurbsPatch (tessellated) at ``prim`` as a triangle mesh

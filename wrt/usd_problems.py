@@ -8,11 +8,11 @@ import warnings
 
 from pxr import Tf, Usd
 
-from .errors import SceneError
+from .errors import SceneError, user_stacklevel
 
 
 class ProblemReport:
-    """Errors and skipped prims of the stage reader (``stage``, ``source``, ``time``, ``skipped``,
+    """Errors and skipped prims of the stage reader (``stage``, ``source``, ``time``, ``skipped``, ``skip_log``,
     ``shown_prototypes``, ``prototype_instance_counts``)."""
 
     def _property_stack(self, attr: Usd.Attribute) -> list:
@@ -80,6 +80,8 @@ class ProblemReport:
 
     def _skip_path(self, reason: str, path: str, detail: str | None = None):
         self.skipped.setdefault(reason, []).append((path, detail))
+        if self.skip_log is not None:  # a mesh read being kept (wrt.usd_mesh_memo) records its own
+            self.skip_log.append((reason, path, detail))
 
     def _warn_skipped(self):
         """One warning per reason, with the number of prims, a tally of details (the prims with each) and the first
@@ -93,5 +95,6 @@ class ProblemReport:
             kinds = f" ({', '.join(f'{k}: {n}' for k, n in tally.items())})" if tally else ""
             paths = list(dict.fromkeys(p for p, _ in found))
             shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
-            warnings.warn(f"{self.source}: {reason}: {len(paths)} prim(s){kinds}: {shown}", stacklevel=4)
+            warnings.warn(f"{self.source}: {reason}: {len(paths)} prim(s){kinds}: {shown}",
+                          stacklevel=user_stacklevel())
 

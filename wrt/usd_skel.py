@@ -58,7 +58,7 @@ class SkelPoser:
         self.roots = set()  # SkelRoot paths populated in the cache
         # The SkelRoot at or above a prim (within its prototype, for prims inside one), or None; remembered for every
         # prim walked, as every mesh asks.
-        self._skel_root = AncestorMemo(lambda p: p if p.IsA(UsdSkel.Root) else KEEP_LOOKING)
+        self.skel_root = AncestorMemo(lambda p: p if p.IsA(UsdSkel.Root) else KEEP_LOOKING)
         self.poses = {}  # skeleton path -> (skinning transforms (Vt.Matrix4dArray) or why not, anim time, anim query)
 
     def pose(self, prim: Usd.Prim, points: np.ndarray, normals, vertex_ids: np.ndarray, content_root: str):
@@ -78,7 +78,7 @@ class SkelPoser:
             or its skinning failed (recorded through ``skip``).
         """
         own = prim.HasAttribute("primvars:skel:jointIndices") or prim.HasAttribute("skel:blendShapes")
-        root = self._skel_root(prim)
+        root = self.skel_root(prim)
         if root is None:
             if prim.IsInPrototype() and self._skinned_from_above_its_instance(prim):
                 self.skip(FAILED, prim, "SkelRoot above its instance (each instance would be posed on its own)")
@@ -111,7 +111,7 @@ class SkelPoser:
         first instance (by a SkelRoot, skeleton and influences found above that instance): USD poses each instance's
         proxy on its own, which a prototype read once cannot be."""
         proxy = prim.GetStage().GetPrimAtPath(self.shown_path(prim))
-        if not proxy or proxy.IsInPrototype() or self._skel_root(proxy) is None:
+        if not proxy or proxy.IsInPrototype() or self.skel_root(proxy) is None:
             return False
         if not UsdSkel.BindingAPI(proxy).GetInheritedSkeleton():
             return False

@@ -74,7 +74,7 @@ def warn_other_layer_units(stage: Usd.Stage, source: str) -> None:
                 f"{os.path.basename(source)}: {key} = {shown(value)}, but {len(others)} layer(s) it composes author "
                 f"another ({', '.join(others[:3])}{', ...' if len(others) > 3 else ''}); USD does not convert them and "
                 "neither does wrt: they are drawn as authored",
-                stacklevel=3,
+                stacklevel=user_stacklevel(),
             )
 
 
@@ -88,7 +88,7 @@ def check_time_in_range(stage: Usd.Stage, source: str, time: float) -> None:
     start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
     if not start <= time <= end:
         warnings.warn(f"{os.path.basename(source)}: time {time:g} is {outside_range(start, end)}", TimeRangeWarning,
-                      stacklevel=3)
+                      stacklevel=user_stacklevel())
 
 
 def outside_range(start: float, end: float) -> str:
@@ -125,7 +125,8 @@ def stage_meters_per_unit(stage: Usd.Stage, source: str) -> float:
         return value
     fallback = float(UsdGeom.LinearUnits.centimeters)
     warnings.warn(f"{os.path.basename(source)}: metersPerUnit = {value:g} is not a finite number above "
-                  f"{MIN_METERS_PER_UNIT:g}; using {fallback:g} (centimetres, USD's default)", stacklevel=4)
+                  f"{MIN_METERS_PER_UNIT:g}; using {fallback:g} (centimetres, USD's default)",
+                  stacklevel=user_stacklevel())
     return fallback
 
 
@@ -136,11 +137,17 @@ def stage_up_axis(stage: Usd.Stage, source: str) -> str:
     if value in ("Y", "Z"):
         return value
     warnings.warn(f"{os.path.basename(source)}: upAxis = {value!r} is not Y or Z; using Y (USD's default)",
-                  stacklevel=4)
+                  stacklevel=user_stacklevel())
     return "Y"
 
 
 def open_stage(source: str) -> Usd.Stage:
+    """``Usd.Stage.Open(source)``, refusing what is no file and naming what USD cannot open; first lets go of the
+    stages kept for frames whose files changed (:func:`wrt.usd_frames.release_changed`), whose layers USD would
+    hand out again as they were."""
+    from .usd_frames import release_changed  # (that module's loads open stages here)
+
+    release_changed()
     # USD reads a named pipe or a terminal until a writer closes it (a render that waits forever), and answers a folder
     # with 'Cannot determine file format'. Paths that do not exist go on to USD: its resolver may still find them.
     if os.path.exists(source) and not os.path.isfile(source):

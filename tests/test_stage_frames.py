@@ -1,0 +1,343 @@
+"""Frames loaded from a kept stage (wrt.usd_frames.StageFrames, as wrt.animation.FrameRenderer loads them) against an
+independent oracle, a fresh wrt.load_usd at the same time: every array and value of the Scene, and the rendered image,
+equal at every frame, in any order of frames, after the file is edited on disk or in memory; and the meshes that
+cannot differ are reused, not read again."""
+
+import dataclasses
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, UsdSkel, Vt
+
+import wrt
+from wrt.animation import FrameRenderer
+from wrt.usd_frames import StageFrames
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")  # the stage's hole and failed skinning, at each load
+SIZE = {"width": 40, "height": 30}
+FRAMES = (1, 2.5, 4, 2, 1, 3, 3)  # between samples, backwards, repeated
+
+
+def assert_same(a, b, where="scene", depth=0):
+    """``a`` and ``b`` hold the same values: numpy arrays of the same dtype, shape and bytes (NaN included),
+    dataclasses and plain objects field by field (their private fields aside), lists, tuples and dicts item by item."""
+    assert depth < 12, where
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        assert isinstance(a, np.ndarray) and isinstance(b, np.ndarray), where
+        assert (a.dtype, a.shape) == (b.dtype, b.shape), where
+        assert np.ascontiguousarray(a).tobytes() == np.ascontiguousarray(b).tobytes(), where
+    elif isinstance(a, (list, tuple)):
+        assert type(a) is type(b) and len(a) == len(b), where
+        for k, (x, y) in enumerate(zip(a, b)):
+            assert_same(x, y, f"{where}[{k}]", depth + 1)
+    elif isinstance(a, dict):
+        assert type(a) is type(b) and list(a) == list(b), where
+        for k in a:
+            assert_same(a[k], b[k], f"{where}[{k!r}]", depth + 1)
+    elif dataclasses.is_dataclass(a) or hasattr(a, "__dict__") and not callable(a):
+        assert type(a) is type(b), where
+        fields = [f.name for f in dataclasses.fields(a)] if dataclasses.is_dataclass(a) else list(vars(a))
+        for name in fields:
+            if not name.startswith("_"):
+                assert_same(getattr(a, name), getattr(b, name), f"{where}.{name}", depth + 1)
+    elif isinstance(a, float) and a != a:
+        assert isinstance(b, float) and b != b, where
+    else:
+        assert a == b, (where, a, b)
+
+
+def mesh(stage, path, points, counts, indices):
+    m = UsdGeom.Mesh.Define(stage, path)
+    m.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(points, np.float32)))
+    m.CreateFaceVertexCountsAttr(Vt.IntArray(list(counts)))
+    m.CreateFaceVertexIndicesAttr(Vt.IntArray(list(indices)))
+    return m
+
+
+def grid(n=3, z=0.0, scale=1.0):
+    """Points and quads of an ``n x n`` grid over [-scale, scale]^2 with a bump, at height ``z``."""
+    u = np.linspace(-scale, scale, n + 1)
+    x, y = np.meshgrid(u, u, indexing="ij")
+    points = np.stack([x, y, z + 0.2 * scale * np.sin(2 * x) * np.cos(y)], -1).reshape(-1, 3)
+    a = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).reshape(-1)
+    quads = np.stack([a, a + n + 1, a + n + 2, a + 1], 1).reshape(-1)
+    return points, [4] * (n * n), quads.tolist()
+
+
+def write_texture(path: Path, shade: int) -> None:
+    from PIL import Image
+
+    i, j = np.meshgrid(np.arange(8), np.arange(8), indexing="ij")
+    rgb = np.stack([shade * ((i + j) % 2), 40 + 20 * i, 200 - 20 * j], -1).astype(np.uint8)
+    Image.fromarray(rgb).save(path)
+
+
+def preview_material(stage, path, color=None, texture=None):
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    diffuse = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+    if texture:
+        reader = UsdShade.Shader.Define(stage, f"{path}/St")
+        reader.CreateIdAttr("UsdPrimvarReader_float2")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+        image = UsdShade.Shader.Define(stage, f"{path}/Image")
+        image.CreateIdAttr("UsdUVTexture")
+        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(texture)
+        image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+        diffuse.ConnectToSource(image.ConnectableAPI(), "rgb")
+    elif color is not None:
+        for t, value in color.items():
+            diffuse.Set(value, t)
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    return material
+
+
+def animated_stage(path: Path) -> Path:
+    """Static meshes (a subset bound to its own material, a texture, displayColor, smooth and flat) beside everything
+    that moves: a parent Xform's transform, points, visibility (of a mesh whose material comes first), a parent's
+    constant displayColor, points moved by velocities from one sample, a material's input, a light's intensity, the
+    camera, native instances (one moving, one coloured) and a PointInstancer's positions; a skinned mesh whose
+    skeleton's animation bends it."""
+    write_texture(path.with_name("tex.png"), 250)
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(4)
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    move = cam.AddTranslateOp()
+    move.Set(Gf.Vec3d(0, 0, 9), 1), move.Set(Gf.Vec3d(0.8, -0.5, 10), 4)
+    cam.CreateFocalLengthAttr().Set(30.0, 1), cam.GetFocalLengthAttr().Set(36.0, 4)
+    UsdGeom.Xform.Define(stage, "/World")
+    pulsing = preview_material(stage, "/Looks/Pulsing", color={1: Gf.Vec3f(1, 0, 0), 4: Gf.Vec3f(0, 0.3, 1)})
+    plain = preview_material(stage, "/Looks/Plain", color={Usd.TimeCode.Default(): Gf.Vec3f(0.2, 0.9, 0.3)})
+    textured = preview_material(stage, "/Looks/Textured", texture="tex.png")
+
+    # Hidden at frame 2: its material is not read then, so the material indices of the meshes after it shift.
+    blink = mesh(stage, "/World/Blink", *grid(2, 0.2, 0.5))
+    blink.AddTranslateOp().Set(Gf.Vec3d(2, -1.5, 0))
+    blink.CreateVisibilityAttr().Set(UsdGeom.Tokens.inherited, 1)
+    blink.GetVisibilityAttr().Set(UsdGeom.Tokens.invisible, 2)
+    blink.GetVisibilityAttr().Set(UsdGeom.Tokens.inherited, 3)
+    UsdShade.MaterialBindingAPI.Apply(blink.GetPrim()).Bind(preview_material(stage, "/Looks/Blink", color={
+        Usd.TimeCode.Default(): Gf.Vec3f(0.5, 0.5, 0.9)}))
+    bound = mesh(stage, "/World/Bound", *grid(4, 0, 0.8))
+    bound.AddTranslateOp().Set(Gf.Vec3d(-2, 1.5, 0))
+    UsdShade.MaterialBindingAPI.Apply(bound.GetPrim()).Bind(pulsing)
+    subset = UsdShade.MaterialBindingAPI(bound).CreateMaterialBindSubset("Half", Vt.IntArray([0, 1, 2, 3, 4]))
+    UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(plain)
+    tex = mesh(stage, "/World/Textured", *grid(3, 0, 0.8))
+    tex.AddTranslateOp().Set(Gf.Vec3d(0, 1.5, 0))
+    st = UsdGeom.PrimvarsAPI(tex).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+    st.Set(Vt.Vec2fArray.FromNumpy((grid(3)[0][:, :2] * 0.5 + 0.5).astype(np.float32)))
+    UsdShade.MaterialBindingAPI.Apply(tex.GetPrim()).Bind(textured)
+    flat = mesh(stage, "/World/Flat", *grid(3, 0, 0.8))
+    flat.CreateSubdivisionSchemeAttr("none")
+    flat.CreateHoleIndicesAttr([1, 99])  # 99 is no face: a warning at every load
+    flat.CreateDisplayColorAttr([(0.9, 0.8, 0.1)])
+    flat.AddTranslateOp().Set(Gf.Vec3d(2, 1.5, 0))
+
+    mover = UsdGeom.Xform.Define(stage, "/World/Mover")
+    op = mover.AddTranslateOp()
+    op.Set(Gf.Vec3d(-2, -1.5, 0), 1), op.Set(Gf.Vec3d(-1.2, -1, 0.5), 4)
+    mesh(stage, "/World/Mover/Box", *grid(2, 0, 0.5)).CreateDisplayColorAttr([(0.8, 0.3, 0.3)])
+    wave = mesh(stage, "/World/Wave", *grid(3, 0, 0.6))
+    wave.AddTranslateOp().Set(Gf.Vec3d(0, -1.5, 0))
+    for t, z in ((1, 0.0), (3, 0.6)):
+        wave.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(grid(3, z, 0.6)[0].astype(np.float32)), t)
+    tinted = UsdGeom.Xform.Define(stage, "/World/Tinted")
+    tinted.AddTranslateOp().Set(Gf.Vec3d(-2, -3, 0))
+    color = UsdGeom.PrimvarsAPI(tinted).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                        UsdGeom.Tokens.constant)
+    color.Set(Vt.Vec3fArray([(1, 0, 0)]), 1), color.Set(Vt.Vec3fArray([(0, 0, 1)]), 4)
+    mesh(stage, "/World/Tinted/Child", *grid(2, 0, 0.5))
+    drift = mesh(stage, "/World/Drift", *grid(2, 0, 0.4))
+    drift.AddTranslateOp().Set(Gf.Vec3d(0, -3, 0))
+    drift.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(grid(2, 0, 0.4)[0].astype(np.float32)), 1)
+    drift.CreateVelocitiesAttr().Set(Vt.Vec3fArray([(0.0, 0.0, 12.0)] * 9), 1)
+
+    bulb = UsdLux.SphereLight.Define(stage, "/World/Bulb")
+    bulb.AddTranslateOp().Set(Gf.Vec3d(0, 0, 4))
+    bulb.CreateIntensityAttr().Set(30.0, 1), bulb.GetIntensityAttr().Set(90.0, 4)
+    UsdLux.DistantLight.Define(stage, "/World/Sun").CreateIntensityAttr(1.0)
+
+    proto = stage.CreateClassPrim("/Protos/Kit")
+    mesh(stage, "/Protos/Kit/Part", *grid(2, 0, 0.3)).CreateDisplayColorAttr([(0.3, 0.3, 0.9)])
+    mesh(stage, "/Protos/Kit/Uncoloured", *grid(2, 0.3, 0.2))  # takes the colour of an instance that has one
+    for k in range(2):
+        instance = UsdGeom.Xform.Define(stage, f"/World/Kit{k}")
+        instance.GetPrim().GetReferences().AddInternalReference(proto.GetPath())
+        instance.GetPrim().SetInstanceable(True)
+        if k:
+            UsdGeom.PrimvarsAPI(instance).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                        UsdGeom.Tokens.constant).Set([(0.9, 0.5, 0.1)])
+        op = instance.AddTranslateOp()
+        op.Set(Gf.Vec3d(2 + k, -3, 0), 1)
+        if k:
+            op.Set(Gf.Vec3d(3, -2.5, 0.7), 4)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/World/Crowd")
+    mesh(stage, "/World/Crowd/Proto/Cell", *grid(2, 0, 0.2))
+    instancer.CreatePrototypesRel().SetTargets([Sdf.Path("/World/Crowd/Proto")])
+    instancer.CreateProtoIndicesAttr([0, 0, 0])
+    positions = instancer.CreatePositionsAttr()
+    positions.Set([(-3, 0, 0), (-3, 0.6, 0), (-3, -0.6, 0)], 1)
+    positions.Set([(-3.5, 0, 1), (-3, 1, 0), (-2, 0, 0)], 4)
+
+    root = UsdSkel.Root.Define(stage, "/World/Char")
+    skeleton = UsdSkel.Skeleton.Define(stage, "/World/Char/Skel")
+    skeleton.CreateJointsAttr(["a", "a/b"])
+    rest = [Gf.Matrix4d(1), Gf.Matrix4d(1).SetTranslate(Gf.Vec3d(0, 0, 0.5))]
+    skeleton.CreateBindTransformsAttr([rest[0], rest[0] * rest[1]])
+    skeleton.CreateRestTransformsAttr(rest)
+    animation = UsdSkel.Animation.Define(stage, "/World/Char/Anim")
+    animation.CreateJointsAttr(["a", "a/b"])
+    translations = animation.CreateTranslationsAttr()
+    for t, z in ((1, 0.5), (2, float("nan")), (4, 0.5)):  # skinning fails at 2 (to 4): drawn unposed then
+        translations.Set(Vt.Vec3fArray([(0, 0, 0), (0, 0, z)]), t)
+    animation.CreateScalesAttr(Vt.Vec3hArray([(1, 1, 1), (1, 1, 1)]))
+    rotations = animation.CreateRotationsAttr()
+    rotations.Set(Vt.QuatfArray([Gf.Quatf(1), Gf.Quatf(1)]), 1)
+    rotations.Set(Vt.QuatfArray([Gf.Quatf(1), Gf.Quatf(0.8, Gf.Vec3f(0.6, 0, 0))]), 4)
+    UsdSkel.BindingAPI.Apply(skeleton.GetPrim()).CreateAnimationSourceRel().SetTargets([animation.GetPath()])
+    limb = mesh(stage, "/World/Char/Limb", [(x, y, z) for z in (0, 0.5, 1) for y in (0, 0.2) for x in (0, 0.2)],
+                [4] * 4, [0, 1, 3, 2, 4, 5, 7, 6, 0, 4, 6, 2, 4, 8, 10, 6])
+    binding = UsdSkel.BindingAPI.Apply(limb.GetPrim())
+    binding.CreateSkeletonRel().SetTargets([skeleton.GetPath()])
+    binding.CreateJointIndicesPrimvar(False, 1).Set(Vt.IntArray([0] * 4 + [1] * 8))
+    binding.CreateJointWeightsPrimvar(False, 1).Set(Vt.FloatArray([1.0] * 12))
+    UsdGeom.Xformable(root).AddTranslateOp().Set(Gf.Vec3d(3.5, 0, 0))
+    stage.GetRootLayer().Save()
+    return path
+
+
+@pytest.fixture
+def stage_file(tmp_path) -> Path:
+    return animated_stage(tmp_path / "shot.usda")
+
+
+def load_fresh(path, time):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", wrt.errors.TimeRangeWarning)
+        return wrt.load_usd(path, time=time)
+
+
+def load_warned(load, time) -> tuple:
+    """``(scene, messages of the warnings the load gave)``."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.simplefilter("ignore", wrt.errors.TimeRangeWarning)
+        scene = load(time)
+    return scene, [str(w.message) for w in caught]
+
+
+def test_every_frame_of_a_kept_stage_equals_a_fresh_load_and_static_meshes_are_reused(stage_file):
+    frames = StageFrames(stage_file)
+    scenes = []
+    for t in FRAMES:
+        scene, warned = load_warned(frames.load, t)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(stage_file, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned and any("holeIndices" in w for w in warned), (t, warned)
+        scenes.append(scene)
+    assert len({scene.geometry()[0].tobytes() for scene in scenes}) >= 4  # the frames do differ
+    pulsing = [next(m for m in scene.materials if m.path == "/Looks/Pulsing") for scene in scenes]
+    assert len({m.diffuse_color.tobytes() for m in pulsing}) >= 3
+    counts = frames.memo.counts
+    # Reused whole: Bound, Textured, Flat, the native prototype's and the PointInstancer prototype's meshes at every
+    # frame after the first; baked again with their new transform: Mover/Box (Kit1 moves as an instance).
+    n = len(FRAMES) - 1
+    assert counts["reused"] >= 5 * n and counts["rebaked"] >= 3, counts
+    by_path = {m.path: m for m in scenes[-1].meshes}
+    before = {m.path: m for m in scenes[-2].meshes}
+    assert by_path["/World/Flat"].points is before["/World/Flat"].points  # the same arrays, not read again
+    for moving in ("/World/Wave", "/World/Tinted/Child", "/World/Drift", "/World/Char/Limb", "/World/Mover/Box"):
+        assert by_path[moving].points is not before[moving].points, moving
+
+
+def test_skinned_stages_of_the_skeleton_generator_equal_fresh_loads(tmp_path):
+    from skel_stages import TIMES, generate
+
+    for seed in (3, 11):
+        path = generate(seed, str(tmp_path / f"skel{seed}.usda"), anim="sampled")
+        frames = StageFrames(path)
+        for t in (*TIMES, TIMES[1]):
+            assert_same(frames.load(t), load_fresh(path, t), f"seed {seed} frame {t}")
+
+
+def test_frames_rendered_out_of_order_equal_fresh_renders(stage_file):
+    renderer = FrameRenderer(stage_file, **SIZE)
+    for t in (3, 1, 2.5):
+        image = renderer.render(t)
+        fresh = wrt.render(load_fresh(stage_file, t), **SIZE)
+        np.testing.assert_array_equal(image.rgb, fresh.rgb, err_msg=f"frame {t}")
+        np.testing.assert_array_equal(image.aovs["prim"], fresh.aovs["prim"], err_msg=f"frame {t}")
+    assert renderer._frames.memo.counts["reused"] > 0
+
+
+def bump(path: Path) -> None:
+    """A later modification time, however coarse the file system's clock."""
+    stamp = path.stat().st_mtime_ns + 2_000_000_000
+    os.utime(path, ns=(stamp, stamp))
+
+
+def test_files_edited_on_disk_between_frames_are_read_again(stage_file):
+    """The stage's file (a static mesh's points), a texture it reads and a layer it references are each edited on disk
+    between two frames: the next frame, and a fresh load made before it while the stale stage is still kept, read the
+    files as they are now."""
+    frames = StageFrames(stage_file)
+    first = frames.load(2)
+    text = stage_file.read_text()
+    stage_file.write_text(text.replace("xformOp:translate = (2, 1.5, 0)", "xformOp:translate = (2, 1, 0)"))
+    bump(stage_file)
+    fresh = load_fresh(stage_file, 2)  # while the frames still hold the stage as it was
+    flat = next(m for m in fresh.meshes if m.path == "/World/Flat")
+    assert not np.array_equal(flat.points, next(m for m in first.meshes if m.path == "/World/Flat").points)
+    assert_same(frames.load(2), fresh, "after the edit")
+
+    write_texture(stage_file.with_name("tex.png"), 90)
+    bump(stage_file.with_name("tex.png"))
+    textures = frames.load(2).textures
+    assert_same(textures, load_fresh(stage_file, 2).textures, "texture")
+    assert not np.array_equal(textures[0], first.textures[0])
+
+    layer = stage_file.with_name("part.usda")
+    layer.write_text('#usda 1.0\n(\n    defaultPrim = "Part"\n)\ndef Mesh "Part"\n{\n'
+                     '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    stage_file.write_text(stage_file.read_text() + 'def "Extra" (\n    references = @./part.usda@\n)\n{\n}\n')
+    bump(stage_file)
+    assert_same(frames.load(3), load_fresh(stage_file, 3), "with the referenced layer")
+    layer.write_text(layer.read_text().replace("(0, 1, 0)", "(0, 2, 0)"))
+    bump(layer)
+    edited = frames.load(3)
+    assert_same(edited, load_fresh(stage_file, 3), "after the referenced layer's edit")
+    assert next(m for m in edited.meshes if m.path == "/Extra").points[2, 1] == 2.0
+
+
+def test_a_layer_edited_in_memory_between_frames_is_read_again(stage_file):
+    """A layer held (and edited, unsaved) by someone else in the process: a fresh load reads it as USD holds it, and
+    so must the next frame of a kept stage."""
+    held = Sdf.Layer.FindOrOpen(str(stage_file))
+    frames = StageFrames(stage_file)
+    frames.load(1)
+    held.GetAttributeAtPath("/World/Flat.points").default = Vt.Vec3fArray([(0, 0, 0)] * 16)
+    scene = frames.load(1)
+    assert_same(scene, load_fresh(stage_file, 1), "edited in memory")
+    assert np.ptp(next(m for m in scene.meshes if m.path == "/World/Flat").points, axis=0).max() == 0
+
+
+def test_the_default_time_and_time_codes_are_kept_apart(tmp_path):
+    """An attribute with a default value and one time sample does not vary in time, yet reads as the default at
+    ``time=None`` and as the sample at any time code."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "one_sample.usda"))
+    sheet = mesh(stage, "/Sheet", *grid(2))
+    sheet.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(grid(2, 1.0)[0].astype(np.float32)), 5)
+    stage.GetRootLayer().Save()
+    path = tmp_path / "one_sample.usda"
+    frames = StageFrames(path)
+    for t in (None, 5, None, 1, None):
+        assert_same(frames.load(t), load_fresh(path, t), f"time {t}")
+    assert frames.memo.counts["reused"] == 3

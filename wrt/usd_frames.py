@@ -1,0 +1,125 @@
+"""One USD file loaded at many time codes (an animation's frames), keeping the opened stage and the meshes that
+cannot differ between the loads: :meth:`StageFrames.load` gives the :class:`wrt.scene.Scene` that
+:func:`wrt.load_usd` gives at that time, array for array, in any order of times.
+
+The stage is opened once and kept while it is what a fresh open would give: every layer it uses is a local file whose
+size, modification time and inode are those it had when opened, and no change was made to the stage since (a
+``Usd.Notice.StageContentsChanged``: an edit of one of its layers in memory). Anything else (a file edited or
+replaced on disk, a layer that is no local file, composition errors, whose missing files may appear) opens it
+afresh and forgets every kept mesh. A fresh :func:`wrt.load_usd` of a file whose layers a kept stage holds would read
+those layers as USD holds them, not the file (USD's layer registry): so :func:`wrt.usd_stage.open_stage` first lets
+go of kept stages whose files changed (:func:`release_changed`).
+
+Meshes are reused by :class:`wrt.usd_mesh_memo.MeshMemo` (which meshes can be, and when); everything else (the prim
+walk, visibility, transforms, materials, instancing, cameras, lights, render settings) is read at every load.
+Warnings about the stage as a whole that come with opening it (layers in other units) come with the load that opens
+it.
+"""
+
+from __future__ import annotations
+
+import os
+import weakref
+
+from pxr import Ar, Tf, Usd
+
+from .usd_mesh_memo import MeshMemo
+
+_KEPT = weakref.WeakSet()  # every StageFrames holding a stage, for release_changed
+
+
+class StageFrames:
+    """Loads one stage at many time codes (see the module docstring).
+
+    Args:
+        path: the USD file.
+        **options: :func:`wrt.load_usd` options other than ``time`` (``tessellate_gprims``, ``refine_level``,
+            ``variants``, ``render_settings``), the same for every load.
+
+    Attributes:
+        memo: the :class:`wrt.usd_mesh_memo.MeshMemo` of the kept stage (its ``counts`` say how each mesh was read),
+            or None before the first load.
+    """
+
+    def __init__(self, path, **options):
+        self.path = path
+        self.options = {"tessellate_gprims": False, "refine_level": 0, "variants": None, "render_settings": None,
+                        **options}
+        self.memo = None
+        self._stage = None
+        self._opened_with = None  # (source, variants) the kept stage was opened with
+        self._stamps = {}  # file -> stamp (_stamp) of each layer the kept stage uses, when opened
+        self._edited = [False]  # set by the stage's change notices (a list: the listener must not hold self)
+        self._listener = None
+
+    def load(self, time=None):
+        """The :class:`wrt.scene.Scene` of :func:`wrt.load_usd` at ``time`` (see its arguments and errors)."""
+        from .usd import load_stage_at
+
+        o = self.options
+        return load_stage_at(self.path, time, o["tessellate_gprims"], o["refine_level"], o["variants"],
+                             o["render_settings"], frames=self)
+
+    def stage(self, source: str, variants) -> Usd.Stage:
+        """The kept stage of ``source`` with ``variants``, opened (with :func:`wrt.usd.open_variants`) unless the
+        kept one is still what opening it gives."""
+        from .usd import open_variants
+
+        opened_with = (source, repr(variants))
+        if self._stage is not None and (self._opened_with != opened_with or not self.unchanged()):
+            self.release()
+        if self._stage is None:
+            stage = open_variants(source, variants)
+            stamps = _layer_stamps(stage)
+            if stamps is None or stage.GetCompositionErrors():
+                return stage  # opened for this load alone; nothing kept
+            self._stage, self._opened_with, self._stamps, self.memo = stage, opened_with, stamps, MeshMemo()
+            edited = self._edited = [False]
+            self._listener = Tf.Notice.Register(Usd.Notice.StageContentsChanged,
+                                                lambda notice, sender: edited.__setitem__(0, True), stage)
+            _KEPT.add(self)
+        return self._stage
+
+    def unchanged(self) -> bool:
+        """The kept stage is what opening its file now gives: not edited in memory, its layers' files as they were."""
+        return not self._edited[0] and all(_stamp(file) == stamp for file, stamp in self._stamps.items())
+
+    def release(self) -> None:
+        """Lets go of the kept stage and its meshes (the next load opens the file again)."""
+        if self._listener is not None:
+            self._listener.Revoke()
+        self._stage = self._opened_with = self._listener = self.memo = None
+        self._stamps = {}
+        _KEPT.discard(self)
+
+
+def release_changed() -> None:
+    """Lets go of every kept stage that is no longer what opening its file gives, so that USD's layer registry no
+    longer holds the layers as they were (a fresh load of the file reads it from disk)."""
+    for frames in list(_KEPT):
+        if not frames.unchanged():
+            frames.release()
+
+
+def _layer_stamps(stage: Usd.Stage) -> dict | None:
+    """``{file: stamp}`` of every layer ``stage`` uses (the package of a layer inside a ``.usdz``), or None when one
+    is not a local file (its changes could not be seen). Anonymous layers (the session layer) are the stage's own."""
+    stamps = {}
+    for layer in stage.GetUsedLayers():
+        if layer.anonymous:
+            continue
+        file = Ar.SplitPackageRelativePathOuter(layer.realPath)[0] if layer.realPath else ""
+        stamp = _stamp(file) if file else None
+        if stamp is None:
+            return None
+        stamps[file] = stamp
+    return stamps
+
+
+def _stamp(file: str) -> tuple | None:
+    """What changes when ``file`` is written or replaced: inode, size, modification and change times (ns)."""
+    try:
+        s = os.stat(file)
+    except OSError:
+        return None
+    return s.st_ino, s.st_size, s.st_mtime_ns, s.st_ctime_ns
