@@ -96,7 +96,7 @@ def preview_material(stage, path, color=None, texture=None):
     return material
 
 
-def animated_stage(path: Path) -> Path:
+def animated_stage(path: Path, shading_moves: bool = True) -> Path:
     """Static meshes (a subset bound to its own material, a texture, displayColor, smooth and flat) beside everything
     that moves: a parent Xform's transform, points, visibility (of a mesh whose material comes first), a parent's
     constant displayColor, points moved by velocities from one sample, a material's input, a light's intensity, the
@@ -112,9 +112,12 @@ def animated_stage(path: Path) -> Path:
     move.Set(Gf.Vec3d(0, 0, 9), 1), move.Set(Gf.Vec3d(0.8, -0.5, 10), 4)
     cam.CreateFocalLengthAttr().Set(30.0, 1), cam.GetFocalLengthAttr().Set(36.0, 4)
     UsdGeom.Xform.Define(stage, "/World")
-    pulsing = preview_material(stage, "/Looks/Pulsing", color={1: Gf.Vec3f(1, 0, 0), 4: Gf.Vec3f(0, 0.3, 1)})
+    pulsing = preview_material(stage, "/Looks/Pulsing", color={1: Gf.Vec3f(1, 0, 0), 4: Gf.Vec3f(0, 0.3, 1)}
+                               if shading_moves else {Usd.TimeCode.Default(): Gf.Vec3f(1, 0, 0)})
     plain = preview_material(stage, "/Looks/Plain", color={Usd.TimeCode.Default(): Gf.Vec3f(0.2, 0.9, 0.3)})
     textured = preview_material(stage, "/Looks/Textured", texture="tex.png")
+    rough = UsdShade.Shader.Get(stage, "/Looks/Plain/Surface").CreateInput("roughness", Sdf.ValueTypeNames.Float)
+    rough.Set(0.9), rough.Set(0.2, 1)  # one sample: no variation in time, but time=None reads the default
 
     # Hidden at frame 2: its material is not read then, so the material indices of the meshes after it shift.
     blink = mesh(stage, "/World/Blink", *grid(2, 0.2, 0.5))
@@ -137,6 +140,11 @@ def animated_stage(path: Path) -> Path:
     flat = mesh(stage, "/World/Flat", *grid(3, 0, 0.8))
     flat.CreateSubdivisionSchemeAttr("none")
     flat.CreateHoleIndicesAttr([1, 99])  # 99 is no face: a warning at every load
+    odd = UsdShade.Material.Define(stage, "/Looks/Odd")  # a shader wrt cannot read: a warning at every load
+    odd_shader = UsdShade.Shader.Define(stage, "/Looks/Odd/Surface")
+    odd_shader.CreateIdAttr("OddSurface")
+    odd.CreateSurfaceOutput().ConnectToSource(odd_shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(flat.GetPrim()).Bind(odd)
     flat.CreateDisplayColorAttr([(0.9, 0.8, 0.1)])
     flat.AddTranslateOp().Set(Gf.Vec3d(2, 1.5, 0))
 
@@ -240,7 +248,8 @@ def test_every_frame_of_a_kept_stage_equals_a_fresh_load_and_static_meshes_are_r
         scene, warned = load_warned(frames.load, t)
         fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(stage_file, time=t), t)
         assert_same(scene, fresh, f"frame {t}")
-        assert warned == fresh_warned and any("holeIndices" in w for w in warned), (t, warned)
+        assert warned == fresh_warned, (t, warned)
+        assert any("holeIndices" in w for w in warned) and any("OddSurface" in w for w in warned), warned
         scenes.append(scene)
     assert len({scene.geometry()[0].tobytes() for scene in scenes}) >= 4  # the frames do differ
     pulsing = [next(m for m in scene.materials if m.path == "/Looks/Pulsing") for scene in scenes]
@@ -255,6 +264,21 @@ def test_every_frame_of_a_kept_stage_equals_a_fresh_load_and_static_meshes_are_r
     assert by_path["/World/Flat"].points is before["/World/Flat"].points  # the same arrays, not read again
     for moving in ("/World/Wave", "/World/Tinted/Child", "/World/Drift", "/World/Char/Limb", "/World/Mover/Box"):
         assert by_path[moving].points is not before[moving].points, moving
+
+
+def test_materials_of_a_stage_whose_shading_holds_still_are_reused(tmp_path):
+    """No shader input varies: every material but the textured one is read once (the textured one at every load, as
+    its image is), and every frame still equals a fresh load, warnings included."""
+    path = animated_stage(tmp_path / "still_shading.usda", shading_moves=False)
+    frames = StageFrames(path)
+    for t in (*FRAMES, None, 1, None):
+        scene, warned = load_warned(frames.load, t)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned and any("OddSurface" in w for w in warned), (t, warned)
+    # Read at the first time code and at the first None; Blink hidden at 2 and 2.5.
+    assert frames.material_memo.counts == {"read": 8, "reused": 4 * (len(FRAMES) + 1) - 2}
+    assert len(scene.textures) == 1 and scene.materials[-1].textures
 
 
 def test_skinned_stages_of_the_skeleton_generator_equal_fresh_loads(tmp_path):

@@ -689,12 +689,15 @@ class MaterialReader:
         skip: ``skip(reason, prim, detail=None)`` records a warning (see ``wrt.usd``); one reason per material.
         purposes: the render settings' ``materialBindingPurposes``, or None (see :func:`bound_material`).
         stage: the ``Usd.Stage`` read (materials bound above native instances are found in it by path).
+        memo: a :class:`wrt.usd_material_memo.MaterialMemo` of reads to reuse and keep, or None.
     """
 
-    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None, stage=None):
+    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None, stage=None, memo=None):
         from .usd_ancestors import BindingsAbove  # (pxr: imported where USD is read)
 
         self.stage = stage  # where materials bound above native instances are found by path
+        self.memo = memo  # a wrt.usd_material_memo.MaterialMemo: reads kept at another time of the stage, or None
+        self.file_lookups = 0  # calls of file_images: a read that made one is not kept
         self.time = time
         self.skip = skip
         self.purposes = purposes
@@ -862,13 +865,38 @@ class MaterialReader:
         """Index of ``material`` (a ``UsdShade.Material``) in :attr:`materials`, reading it on first use."""
         path = str(material.GetPath())
         if path not in self._by_path:
-            mat = self._read_material(material)
+            mat = self._kept_or_read(material, path)
             if mat is None:
                 self._by_path[path] = -1
             else:
                 self._by_path[path] = len(self.materials)
                 self.materials.append(mat)
         return self._by_path[path]
+
+    def _kept_or_read(self, material, path: str) -> Material | None:
+        """:meth:`_read_material`, or the memo's copy of a read of it at another time that cannot differ (its
+        warnings recorded again); a read that looked up no image file is kept."""
+        found = None if self.memo is None else self.memo.find(path, self.time)
+        if found is not None:
+            for skip in found[1]:
+                self.skip(*skip)
+            return found[0]
+        if self.memo is None:
+            return self._read_material(material)
+        skip, skips, lookups = self.skip, [], self.file_lookups
+
+        def recorded(reason, prim, detail=None):
+            skips.append((reason, prim, detail))
+            skip(reason, prim, detail)
+
+        self.skip = recorded
+        try:
+            mat = self._read_material(material)
+        finally:
+            self.skip = skip
+        if self.file_lookups == lookups:
+            self.memo.keep(path, self.time, mat, skips)
+        return mat
 
     def _read_material(self, material) -> Material | None:
         from .materialx import MODELS, read_materialx_surface  # that module imports this one
@@ -1217,6 +1245,7 @@ class MaterialReader:
         """``(image, tiles)`` of the image file named by input ``name`` of ``shader`` (a UsdUVTexture or a MaterialX
         image node) in :attr:`textures`: ``image`` is -1 (with a warning) when nothing can be read. ``tiles`` is
         None, or for a ``<UDIM>`` file the :attr:`TextureInput.tiles` table, ``image`` being its first tile."""
+        self.file_lookups += 1
         asset = self._constant(shader, name)
         if isinstance(asset, str) and asset:
             asset = self._string_asset(shader, name, asset)

@@ -112,6 +112,7 @@ from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, place_instances
 from .usd_gprims import GprimReading
 from .usd_lights import read_light, warn_glowless_mesh_light
 from .usd_looks import LookReading
+from .usd_material_memo import MaterialMemo
 from .usd_mesh_memo import MeshMemo
 from .usd_mesh_primvars import MeshPrimvarReading
 from .usd_meshes import MeshReading, triangulate
@@ -197,7 +198,7 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
     segments = _gprim_segments(tessellate_gprims)
     _check_refine_level(refine_level)
     reader = _StageReader(stage, source, time_code, segments, int(refine_level), settings,
-                          None if frames is None else frames.memo)
+                          *((None, None) if frames is None else (frames.memo, frames.material_memo)))
     try:
         return reader.read()
     finally:
@@ -272,7 +273,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
     docstring), which share this object's state."""
 
     def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0, refine_level: int = 0,
-                 settings: RenderSettings | None = None, mesh_memo: MeshMemo | None = None):
+                 settings: RenderSettings | None = None, mesh_memo: MeshMemo | None = None,
+                 material_memo: MaterialMemo | None = None):
         self.stage = stage
         self.settings = settings
         # Purposes drawn: the render settings' includedPurposes (default always), else default and render.
@@ -287,7 +289,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
         self.collections_inside = CollectionsInside(stage)  # collection bindings that reach into native instances
         self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None,
-                                        stage=self.stage)
+                                        stage=self.stage, memo=material_memo)
         self.skel = SkelPoser(time, self._skip, self._shown_path)  # poses meshes skinned by UsdSkel skeletons
         self.tubes = TubeReader(time, self._skip, self._error)  # Points and curves as spheres and tubes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles

@@ -10,8 +10,9 @@ afresh and forgets every kept mesh. A fresh :func:`wrt.load_usd` of a file whose
 those layers as USD holds them, not the file (USD's layer registry): so :func:`wrt.usd_stage.open_stage` first lets
 go of kept stages whose files changed (:func:`release_changed`).
 
-Meshes are reused by :class:`wrt.usd_mesh_memo.MeshMemo` (which meshes can be, and when); everything else (the prim
-walk, visibility, transforms, materials, instancing, cameras, lights, render settings) is read at every load.
+Meshes are reused by :class:`wrt.usd_mesh_memo.MeshMemo` and materials by :class:`wrt.usd_material_memo.MaterialMemo`
+(which can be, and when); everything else (the prim walk, visibility, transforms, bindings, textures, instancing,
+cameras, lights, render settings) is read at every load.
 Warnings about the stage as a whole that come with opening it (layers in other units) come with the load that opens
 it.
 """
@@ -23,6 +24,7 @@ import weakref
 
 from pxr import Ar, Tf, Usd
 
+from .usd_material_memo import MaterialMemo
 from .usd_mesh_memo import MeshMemo
 
 _KEPT = weakref.WeakSet()  # every StageFrames holding a stage, for release_changed
@@ -38,7 +40,8 @@ class StageFrames:
 
     Attributes:
         memo: the :class:`wrt.usd_mesh_memo.MeshMemo` of the kept stage (its ``counts`` say how each mesh was read),
-            or None before the first load.
+            or None while no stage is kept.
+        material_memo: its :class:`wrt.usd_material_memo.MaterialMemo`, likewise.
     """
 
     def __init__(self, path, **options):
@@ -46,6 +49,7 @@ class StageFrames:
         self.options = {"tessellate_gprims": False, "refine_level": 0, "variants": None, "render_settings": None,
                         **options}
         self.memo = None
+        self.material_memo = None
         self._stage = None
         self._opened_with = None  # (source, variants) the kept stage was opened with
         self._stamps = {}  # file -> stamp (_stamp) of each layer the kept stage uses, when opened
@@ -73,7 +77,8 @@ class StageFrames:
             stamps = _layer_stamps(stage)
             if stamps is None or stage.GetCompositionErrors():
                 return stage  # opened for this load alone; nothing kept
-            self._stage, self._opened_with, self._stamps, self.memo = stage, opened_with, stamps, MeshMemo()
+            self._stage, self._opened_with, self._stamps = stage, opened_with, stamps
+            self.memo, self.material_memo = MeshMemo(), MaterialMemo(stage)
             edited = self._edited = [False]
             self._listener = Tf.Notice.Register(Usd.Notice.StageContentsChanged,
                                                 lambda notice, sender: edited.__setitem__(0, True), stage)
@@ -88,7 +93,7 @@ class StageFrames:
         """Lets go of the kept stage and its meshes (the next load opens the file again)."""
         if self._listener is not None:
             self._listener.Revoke()
-        self._stage = self._opened_with = self._listener = self.memo = None
+        self._stage = self._opened_with = self._listener = self.memo = self.material_memo = None
         self._stamps = {}
         _KEPT.discard(self)
 

@@ -1,0 +1,55 @@
+"""Materials read at one time code of a kept stage (:class:`wrt.usd_frames.StageFrames`) and reused at another,
+where USD says that nothing they are read from can differ.
+
+A material's read (:meth:`wrt.materials.MaterialReader.material_index`) takes the attributes of the shading prims its
+outputs lead to (shaders and node graphs, inside the material or connected from elsewhere), and, through textures,
+image files. Which prims those are is not traced: materials are reused only on a stage where no ``UsdShade.Shader``
+or ``NodeGraph`` (a ``Material`` is one) has an attribute that might vary (``UsdAttribute.ValueMightBeTimeVarying``),
+asked once per kept stage, prototypes included; and only materials whose read looked up no image file (the order
+images are first read in numbers them in ``Scene.textures``, and a file may change): the others are read afresh. A
+reused material is a copy of the kept one, and the warnings its read recorded are recorded again. Reads at the
+default time and at time codes are kept apart (an attribute with a default and one sample reads as either).
+"""
+
+from __future__ import annotations
+
+import copy
+
+from pxr import Usd, UsdShade
+
+
+class MaterialMemo:
+    """The kept material reads of one kept stage.
+
+    Args:
+        stage: the kept stage.
+    """
+
+    def __init__(self, stage: Usd.Stage):
+        self.reusable = not shading_might_vary(stage)
+        self._kept = {}  # (material path, default time) -> (Material or None, ((reason, prim, detail), ...))
+        self.counts = {"reused": 0, "read": 0}  # reads of each kind, for tests and benchmarks
+
+    def find(self, path: str, time: Usd.TimeCode):
+        """``(a copy of the kept Material or None, the warnings of its read)``, or None when none is kept."""
+        kept = self._kept.get((path, time.IsDefault())) if self.reusable else None
+        if kept is None:
+            return None
+        self.counts["reused"] += 1
+        return copy.deepcopy(kept[0]), kept[1]
+
+    def keep(self, path: str, time: Usd.TimeCode, material, skips: list) -> None:
+        if self.reusable:
+            self.counts["read"] += 1
+            self._kept[(path, time.IsDefault())] = (copy.deepcopy(material), tuple(skips))
+
+
+def shading_might_vary(stage: Usd.Stage) -> bool:
+    """Some shader or node graph of ``stage`` (its native prototypes too) has an attribute that might vary."""
+    roots = [stage.GetPseudoRoot(), *stage.GetPrototypes()]
+    for root in roots:
+        for prim in Usd.PrimRange(root, Usd.PrimAllPrimsPredicate):
+            if (prim.IsA(UsdShade.Shader) or prim.IsA(UsdShade.NodeGraph)) and any(
+                    a.ValueMightBeTimeVarying() for a in prim.GetAuthoredAttributes()):
+                return True
+    return False
