@@ -267,18 +267,21 @@ def test_every_frame_of_a_kept_stage_equals_a_fresh_load_and_static_meshes_are_r
 
 
 def test_materials_of_a_stage_whose_shading_holds_still_are_reused(tmp_path):
-    """No shader input varies: every material but the textured one is read once (the textured one at every load, as
-    its image is), and every frame still equals a fresh load, warnings included."""
+    """No shader input varies: every material but the textured one is read once (the textured one at every load, its
+    image decoded once), and every frame still equals a fresh load, warnings included."""
     path = animated_stage(tmp_path / "still_shading.usda", shading_moves=False)
     frames = StageFrames(path)
+    images = set()
     for t in (*FRAMES, None, 1, None):
         scene, warned = load_warned(frames.load, t)
+        images.add(id(scene.textures[0]))
         fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
         assert_same(scene, fresh, f"frame {t}")
         assert warned == fresh_warned and any("OddSurface" in w for w in warned), (t, warned)
     # Read at the first time code and at the first None; Blink hidden at 2 and 2.5.
     assert frames.material_memo.counts == {"read": 8, "reused": 4 * (len(FRAMES) + 1) - 2}
     assert len(scene.textures) == 1 and scene.materials[-1].textures
+    assert len(images) == 1  # the image file decoded once
 
 
 def test_skinned_stages_of_the_skeleton_generator_equal_fresh_loads(tmp_path):

@@ -1311,7 +1311,8 @@ class MaterialReader:
         key = (resolved, color_space)
         if key not in self._images:
             try:
-                pixels = load_image(resolved, color_space)
+                pixels = load_image(resolved, color_space) if self.memo is None else self.memo.image(
+                    resolved, color_space, load_image)
             except TextureError as e:
                 self.skip(f"texture {authored}: {e}; the texture's fallback value is used", prim)
                 self._images[key] = -1

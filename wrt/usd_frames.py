@@ -87,7 +87,7 @@ class StageFrames:
 
     def unchanged(self) -> bool:
         """The kept stage is what opening its file now gives: not edited in memory, its layers' files as they were."""
-        return not self._edited[0] and all(_stamp(file) == stamp for file, stamp in self._stamps.items())
+        return not self._edited[0] and all(file_stamp(file) == stamp for file, stamp in self._stamps.items())
 
     def release(self) -> None:
         """Lets go of the kept stage and its meshes (the next load opens the file again)."""
@@ -114,14 +114,14 @@ def _layer_stamps(stage: Usd.Stage) -> dict | None:
         if layer.anonymous:
             continue
         file = Ar.SplitPackageRelativePathOuter(layer.realPath)[0] if layer.realPath else ""
-        stamp = _stamp(file) if file else None
+        stamp = file_stamp(file) if file else None
         if stamp is None:
             return None
         stamps[file] = stamp
     return stamps
 
 
-def _stamp(file: str) -> tuple | None:
+def file_stamp(file: str) -> tuple | None:
     """What changes when ``file`` is written or replaced: inode, size, modification and change times (ns)."""
     try:
         s = os.stat(file)

@@ -28,6 +28,7 @@ class MaterialMemo:
     def __init__(self, stage: Usd.Stage):
         self.reusable = not shading_might_vary(stage)
         self._kept = {}  # (material path, default time) -> (Material or None, ((reason, prim, detail), ...))
+        self._images = {}  # (resolved path, colour space) -> (file stamp, read-only pixels)
         self.counts = {"reused": 0, "read": 0}  # reads of each kind, for tests and benchmarks
 
     def find(self, path: str, time: Usd.TimeCode):
@@ -42,6 +43,25 @@ class MaterialMemo:
         if self.reusable:
             self.counts["read"] += 1
             self._kept[(path, time.IsDefault())] = (copy.deepcopy(material), tuple(skips))
+
+
+    def image(self, resolved: str, color_space: str, load):
+        """``load(resolved, color_space)``, the pixels of an image file, kept while the file (the package of one
+        inside a ``.usdz``) keeps its stamp (:func:`wrt.usd_frames.file_stamp`): decoded once, whatever the
+        materials that read it and whether they vary."""
+        from pxr import Ar
+
+        from .usd_frames import file_stamp
+
+        stamp = file_stamp(Ar.SplitPackageRelativePathOuter(resolved)[0])
+        kept = self._images.get((resolved, color_space))
+        if stamp is not None and kept is not None and kept[0] == stamp:
+            return kept[1]
+        pixels = load(resolved, color_space)
+        if stamp is not None:
+            pixels.flags.writeable = False  # shared by the scenes of every load that reads it
+            self._images[(resolved, color_space)] = (stamp, pixels)
+        return pixels
 
 
 def shading_might_vary(stage: Usd.Stage) -> bool:
