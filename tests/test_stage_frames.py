@@ -368,3 +368,26 @@ def test_the_default_time_and_time_codes_are_kept_apart(tmp_path):
     for t in (None, 5, None, 1, None):
         assert_same(frames.load(t), load_fresh(path, t), f"time {t}")
     assert frames.memo.counts["reused"] == 3
+
+
+def test_an_instance_colour_that_varies_keeps_a_bounded_number_of_reads(tmp_path):
+    """A native instance whose constant displayColor changes at every frame has its prototype read again with each
+    colour: every frame equals a fresh load, and the reads kept stay few (one per colour kept every mesh of it)."""
+    from wrt.usd_mesh_memo import KEPT_PER_KEY
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "tinted.usda"))
+    stage.CreateClassPrim("/Kit")
+    mesh(stage, "/Kit/Part", *grid(2))
+    instance = UsdGeom.Xform.Define(stage, "/Instance")
+    instance.GetPrim().GetReferences().AddInternalReference("/Kit")
+    instance.GetPrim().SetInstanceable(True)
+    color = UsdGeom.PrimvarsAPI(instance).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                          UsdGeom.Tokens.constant)
+    for t in range(1, 13):
+        color.Set(Vt.Vec3fArray([(t / 12, 0.5, 1 - t / 12)]), t)
+    stage.GetRootLayer().Save()
+    path = tmp_path / "tinted.usda"
+    frames = StageFrames(path)
+    for t in range(1, 13):
+        assert_same(frames.load(t), load_fresh(path, t), f"frame {t}")
+    assert len(frames.memo) <= KEPT_PER_KEY

@@ -33,7 +33,9 @@ from .usd_meshes import LocalMesh
 # Attributes that move the points of a point-based prim between (or past) samples, one sample of points too.
 RATE_ATTRIBUTES = ("velocities", "accelerations")
 INHERITED_PREFIX = "primvars:"  # the only attributes above a mesh whose values its read takes (transforms compared)
-KEPT_PER_KEY = 4  # reads kept per prim and context (a prototype read again for other bindings is another read)
+# Reads kept per prim and context, the latest: a prototype read again for other bindings or an instance's colour is
+# another read (a colour that varies would otherwise keep one read per frame).
+KEPT_PER_KEY = 4
 
 
 class MeshInputs(NamedTuple):
@@ -44,6 +46,7 @@ class MeshInputs(NamedTuple):
     color_names: tuple  # colour primvars read, in order
     color_primvars: tuple  # the colour primvar of each material the faces use (MaterialReader.color_primvar_of)
     default_faces: bool  # some faces have the default material (displayOpacity is read)
+    outer_color: tuple | None  # the context's colours from a native instance (Context.outer_color)
 
 
 class KeptMesh(NamedTuple):
@@ -68,12 +71,16 @@ class MeshMemo:
         self._kept: dict[tuple, list[KeptMesh]] = {}
         self.counts = {"reused": 0, "rebaked": 0, "read": 0}  # reads of each kind, for tests and benchmarks
 
+    def __len__(self) -> int:
+        """The number of reads kept."""
+        return sum(map(len, self._kept.values()))
+
     def key(self, prim: Usd.Prim, ctx, time: Usd.TimeCode, skel_root) -> tuple | None:
         """The key ``prim``'s read in context ``ctx`` is kept under, or None when it cannot be reused (see the module
         docstring); ``skel_root(prim)``: its SkelRoot or None."""
         if skel_root(prim) is not None or self._subtree_varies(prim) or self._inherits(prim.GetParent()):
             return None
-        return (str(prim.GetPath()), ctx.content.path, ctx.world, ctx.outer_color, time.IsDefault())
+        return (str(prim.GetPath()), ctx.content.path, ctx.world, time.IsDefault())
 
     def n_faces(self, key: tuple | None) -> int | None:
         """The face count of a kept read under ``key`` (they all have the same), or None."""
@@ -98,10 +105,10 @@ class MeshMemo:
         kept[:] = [k for k in kept if k.inputs != entry.inputs][-(KEPT_PER_KEY - 1):] + [entry]
 
     @staticmethod
-    def inputs(face_materials, uv_source, color_names, color_primvars, default_faces) -> MeshInputs:
+    def inputs(face_materials, uv_source, color_names, color_primvars, default_faces, outer_color) -> MeshInputs:
         uv = None if uv_source is None else (uv_source[0], np.asarray(uv_source[1], np.float64).tobytes())
         faces = None if face_materials is None else np.asarray(face_materials, np.int32).tobytes()
-        return MeshInputs(faces, uv, tuple(color_names), tuple(color_primvars), bool(default_faces))
+        return MeshInputs(faces, uv, tuple(color_names), tuple(color_primvars), bool(default_faces), outer_color)
 
     def _subtree_varies(self, prim: Usd.Prim) -> bool:
         path = prim.GetPath()

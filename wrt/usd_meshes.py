@@ -110,7 +110,7 @@ class MeshReading:
         if key is not None:
             used = [] if face_materials is None else np.unique(face_materials).tolist()
             inputs = memo.inputs(face_materials, uv_source, color_names,
-                                 [self.materials.color_primvar_of(k) for k in used], default_faces)
+                                 [self.materials.color_primvar_of(k) for k in used], default_faces, ctx.outer_color)
             kept = memo.find(key, inputs)
             if kept is not None:
                 return self._reuse_mesh(prim, m, ctx, kept, face_materials, color_names)
