@@ -80,7 +80,8 @@ class MeshMemo:
         docstring); ``skel_root(prim)``: its SkelRoot or None."""
         if skel_root(prim) is not None or self._subtree_varies(prim) or self._inherits(prim.GetParent()):
             return None
-        return (str(prim.GetPath()), ctx.content.path, ctx.world, time.IsDefault())
+        # blocked_opaque (with world) decides how displayOpacity is read: Context.keep_opaque and blocked_opaque.
+        return (str(prim.GetPath()), ctx.content.path, ctx.world, ctx.blocked_opaque, time.IsDefault())
 
     def n_faces(self, key: tuple | None) -> int | None:
         """The face count of a kept read under ``key`` (they all have the same), or None."""
