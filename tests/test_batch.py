@@ -229,3 +229,15 @@ def test_a_camera_changed_after_upload_changes_nothing_until_set_cameras():
     after = renderer.render(seed=1).rgb.numpy()
     np.testing.assert_allclose(after[0], 4.0 * before[0], rtol=1e-6)
     np.testing.assert_allclose(after[1], 2.0 * before[1], rtol=1e-6)
+
+
+def test_a_misspelt_aov_name_lists_the_names_there_are():
+    """``img.aovs["dpth"]`` was a plain KeyError saying ``'dpth'``; it names the AOVs the image has (the batch's too),
+    and the names that are there still read as a dict's."""
+    scene = sensor_scene()
+    one = wrt.render(scene, camera=ring_of_cameras(1)[0], width=8, height=6, device="cpu")
+    batch = wrt.render_batch(scene, ring_of_cameras(2), 8, 6, device="cpu")
+    for aovs in (one.aovs, batch.aovs, batch.image(1).aovs):
+        with pytest.raises(KeyError, match=r"no AOV 'dpth'; this image has: .*\bdepth\b"):
+            aovs["dpth"]
+        assert "dpth" not in aovs and aovs.get("dpth") is None and aovs["depth"] is dict.__getitem__(aovs, "depth")

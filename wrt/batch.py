@@ -17,7 +17,7 @@ import dataclasses
 import numpy as np
 import warp as wp
 
-from .image import Image
+from .image import Aovs, Image
 from .scene import Scene
 
 
@@ -38,6 +38,9 @@ class BatchImage:
     aovs: dict
     scene: Scene = dataclasses.field(repr=False)
     integrator: str = "whitted"
+
+    def __post_init__(self):
+        self.aovs = Aovs(self.aovs)
 
     def __len__(self) -> int:
         return self.rgb.shape[0]

@@ -197,6 +197,14 @@ def check_image_path(path) -> Path:
     return path
 
 
+class Aovs(dict):
+    """AOV name -> array: a name it lacks (a typo, ``"dpth"``) is a KeyError that lists the names it has; a plain dict's
+    said only ``'dpth'``."""
+
+    def __missing__(self, name):
+        raise KeyError(f"no AOV {name!r}; this image has: {', '.join(self) or 'none'}")
+
+
 @dataclasses.dataclass
 class Image:
     """A rendered image.
@@ -224,7 +232,10 @@ class Image:
     """
 
     rgb: np.ndarray
-    aovs: dict = dataclasses.field(default_factory=dict)
+    aovs: dict = dataclasses.field(default_factory=Aovs)
+
+    def __post_init__(self):
+        self.aovs = Aovs(self.aovs)
 
     @property
     def width(self) -> int:
