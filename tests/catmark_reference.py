@@ -162,6 +162,55 @@ def _vertex_mask(kind, level, v, p, face_points, edge_s):
     return (n - 2.0) / n * p[v] + (ring + centres) / (n * n)
 
 
+
+def blended_vertex_points(level, p, edge_s, vert_s, mask) -> list:
+    """Each point's vertex point: ``mask(kind, v, edge sharpness)`` of its rule (smooth, dart, crease, corner), and
+    where the rule after this step differs, the two blended by OpenSubdiv's fractional weight (the same in every
+    scheme; ``mask`` is the scheme's)."""
+    vertex_points = []
+    for v in range(level.n_points):
+        edges = level.vertex_edges[v]
+        if not level.vertex_faces[v]:
+            vertex_points.append(p[v])
+            continue
+        p_edges = [edge_s[e] for e in edges]
+        p_rule = rule(vert_s[v], p_edges)
+        parent = mask(p_rule, v, edge_s)
+        if p_rule in ("smooth", "dart"):
+            vertex_points.append(parent)
+            continue
+        c_vertex = decrement(vert_s[v])
+        c_edge_s = {e: decrement(edge_s[e]) for e in edges}
+        c_rule = rule(c_vertex, c_edge_s.values())
+        if c_rule == p_rule:
+            vertex_points.append(parent)
+            continue
+        child_s = list(edge_s)
+        for e, s in c_edge_s.items():
+            child_s[e] = s
+        child = mask(c_rule, v, child_s)
+        w = fractional_weight(vert_s[v], c_vertex, p_edges)
+        vertex_points.append(w * parent + (1.0 - w) * child)
+    return vertex_points
+
+
+def child_sharpness(level, child, edge_s, vert_s, new_points: int):
+    """``(edge sharpness, point sharpness)`` of the ``child`` level: each half of a sharp edge one less sharp (its
+    point at index ``n + e``), boundary edges infinitely sharp, points one less sharp and ``new_points`` new ones
+    smooth."""
+    n = level.n_points
+    halves = {}
+    for e, (a, b) in enumerate(level.edges):
+        s = decrement(edge_s[e])
+        if s > 0.0:
+            halves[(min(a, n + e), max(a, n + e))] = s
+            halves[(min(b, n + e), max(b, n + e))] = s
+    c_edge = [halves.get((min(a, b), max(a, b)), 0.0) for a, b in child.edges]
+    for e in range(len(child.edges)):
+        if len(child.edge_faces[e]) < 2:
+            c_edge[e] = INF
+    return c_edge, [decrement(s) for s in vert_s] + [0.0] * new_points
+
 def refine_once(level: Level, p: np.ndarray, edge_s, vert_s, triangle_smooth=False, linear=False):
     """One level: the child level, its points and sharpness (``linear``: the bilinear masks, as ``varying``
     primvars refine: points stay, edge points are midpoints)."""
@@ -185,50 +234,19 @@ def refine_once(level: Level, p: np.ndarray, edge_s, vert_s, triangle_smooth=Fal
             smooth = 0.25 * (p[a] + p[b]) + 0.5 / len(faces) * sum(face_points[f] for f in faces)
         edge_points.append(s * mid + (1.0 - s) * smooth)
 
-    vertex_points = []
-    for v in range(level.n_points):
-        edges = level.vertex_edges[v]
-        if not level.vertex_faces[v]:
-            vertex_points.append(p[v])
-            continue
-        p_edges = [edge_s[e] for e in edges]
-        p_rule = rule(vert_s[v], p_edges)
-        parent = _vertex_mask(p_rule, level, v, p, face_points, edge_s)
-        if p_rule in ("smooth", "dart"):
-            vertex_points.append(parent)
-            continue
-        c_vertex = decrement(vert_s[v])
-        c_edge_s = {e: decrement(edge_s[e]) for e in edges}
-        c_rule = rule(c_vertex, c_edge_s.values())
-        if c_rule == p_rule:
-            vertex_points.append(parent)
-            continue
-        child_s = list(edge_s)
-        for e, s in c_edge_s.items():
-            child_s[e] = s
-        child = _vertex_mask(c_rule, level, v, p, face_points, child_s)
-        w = fractional_weight(vert_s[v], c_vertex, p_edges)
-        vertex_points.append(w * parent + (1.0 - w) * child)
+    vertex_points = blended_vertex_points(
+        level, p, edge_s, vert_s, lambda kind, v, sharpness: _vertex_mask(kind, level, v, p, face_points, sharpness))
 
     # Child topology, points and sharpness.
     n, ne = level.n_points, len(level.edges)
     points = np.array(vertex_points + edge_points + face_points)
-    faces, child_edge_s = [], {}
+    faces = []
     for fi, f in enumerate(level.faces):
         fe = level.face_edges[fi]
         for i, v in enumerate(f):
             faces.append((v, n + fe[i], n + ne + fi, n + fe[i - 1]))
-    for e, (a, b) in enumerate(level.edges):
-        s = decrement(edge_s[e])
-        if s > 0.0:
-            child_edge_s[(min(a, n + e), max(a, n + e))] = s
-            child_edge_s[(min(b, n + e), max(b, n + e))] = s
     child = Level(faces, len(points))
-    c_edge = [child_edge_s.get((min(a, b), max(a, b)), 0.0) for a, b in child.edges]
-    for e in range(len(child.edges)):
-        if len(child.edge_faces[e]) < 2:
-            c_edge[e] = INF
-    c_vert = [decrement(s) for s in vert_s] + [0.0] * (ne + len(level.faces))
+    c_edge, c_vert = child_sharpness(level, child, edge_s, vert_s, ne + len(level.faces))
     return child, points, c_edge, c_vert
 
 

@@ -15,9 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from catmark_reference import Level, _crease_pair, base_tags, decrement, fractional_weight, rule
-
-INF = 10.0
+from catmark_reference import INF, Level, _crease_pair, base_tags, blended_vertex_points, child_sharpness
 
 
 def beta(n: int) -> float:
@@ -53,50 +51,19 @@ def refine_once(level: Level, p: np.ndarray, edge_s, vert_s, linear=False):
         s = edge_s[e]
         edge_points.append(s * mid + (1.0 - s) * smooth)
 
-    vertex_points = []
-    for v in range(level.n_points):
-        edges = level.vertex_edges[v]
-        if not level.vertex_faces[v]:
-            vertex_points.append(p[v])
-            continue
-        p_edges = [edge_s[e] for e in edges]
-        p_rule = rule(vert_s[v], p_edges)
-        parent = _vertex_mask(p_rule, level, v, p, edge_s)
-        if p_rule in ("smooth", "dart"):
-            vertex_points.append(parent)
-            continue
-        c_vertex = decrement(vert_s[v])
-        c_edge_s = {e: decrement(edge_s[e]) for e in edges}
-        c_rule = rule(c_vertex, c_edge_s.values())
-        if c_rule == p_rule:
-            vertex_points.append(parent)
-            continue
-        child_s = list(edge_s)
-        for e, s in c_edge_s.items():
-            child_s[e] = s
-        child = _vertex_mask(c_rule, level, v, p, child_s)
-        w = fractional_weight(vert_s[v], c_vertex, p_edges)
-        vertex_points.append(w * parent + (1.0 - w) * child)
+    vertex_points = blended_vertex_points(
+        level, p, edge_s, vert_s, lambda kind, v, sharpness: _vertex_mask(kind, level, v, p, sharpness))
 
     n = level.n_points
     points = np.array(vertex_points + edge_points)
-    faces, child_edge_s = [], {}
+    faces = []
     for fi, f in enumerate(level.faces):
         fe = level.face_edges[fi]
         for i, v in enumerate(f):
             faces.append((v, n + fe[i], n + fe[i - 1]))
         faces.append(tuple(n + e for e in fe))
-    for e, (a, b) in enumerate(level.edges):
-        s = decrement(edge_s[e])
-        if s > 0.0:
-            child_edge_s[(min(a, n + e), max(a, n + e))] = s
-            child_edge_s[(min(b, n + e), max(b, n + e))] = s
     child = Level(faces, len(points))
-    c_edge = [child_edge_s.get((min(a, b), max(a, b)), 0.0) for a, b in child.edges]
-    for e in range(len(child.edges)):
-        if len(child.edge_faces[e]) < 2:
-            c_edge[e] = INF
-    c_vert = [decrement(s) for s in vert_s] + [0.0] * len(level.edges)
+    c_edge, c_vert = child_sharpness(level, child, edge_s, vert_s, len(level.edges))
     return child, points, c_edge, c_vert
 
 
