@@ -58,15 +58,21 @@ class _Values:
         self.linear = linear
 
 
+def _uses(level) -> tuple[np.ndarray, np.ndarray]:
+    """``(E,)`` each edge's first and last use: the first and last face-vertex whose leading edge it is (every edge
+    has one). Found by a stable sort, not by assigning ``arange`` through repeated indices, whose winner numpy does
+    not guarantee ("if an element is set more than once, it is not possible to predict the final result")."""
+    order = np.argsort(level.fv_edge, kind="stable")
+    ends = np.cumsum(level.edge_faces)  # edge_faces: the uses of each edge
+    return order[ends - level.edge_faces], order[ends - 1]
+
+
 def _across_lead_edge(level) -> np.ndarray:
     """``(N,)`` the face-vertex of the same point in the face across each face-vertex's leading edge (to the next
     point of its face), or -1 where that edge has not two faces running it oppositely."""
     fv_edge = level.fv_edge
     n = len(fv_edge)
-    first = np.zeros(len(level.edge_ends), np.int64)  # an edge of two faces: its first and last use are the two
-    first[fv_edge[::-1]] = np.arange(n)[::-1]
-    last = np.zeros_like(first)
-    last[fv_edge] = np.arange(n)
+    first, last = _uses(level)  # an edge of two faces: its first and last use are the two
     other = np.where(level.edge_faces[fv_edge] == 2, first[fv_edge] + last[fv_edge] - np.arange(n), -1)
     across = np.full(n, -1)
     has = np.flatnonzero(other >= 0)
@@ -84,10 +90,9 @@ def _seams(level, group: np.ndarray) -> np.ndarray:
     low = np.where(forward, here, there)  # the value at the edge's first end, in this face
     high = np.where(forward, there, here)
     seam = np.zeros(len(level.edge_ends), bool)
+    first = _uses(level)[0]
     for per_use in (low, high):
-        first = np.full(len(seam), -1)
-        first[level.fv_edge[::-1]] = per_use[::-1]
-        seam |= np.bincount(level.fv_edge, weights=per_use != first[level.fv_edge], minlength=len(seam)) > 0
+        seam |= np.bincount(level.fv_edge, weights=per_use != per_use[first][level.fv_edge], minlength=len(seam)) > 0
     return seam
 
 
@@ -202,8 +207,7 @@ def _step(level, values: _Values, smooth_boundaries: bool, child_level) -> _Valu
 
     # The point's masks, for values that match it: each edge's end values from one of its faces (they agree on an
     # edge off the seams), each point's value from any face-vertex at it.
-    use = np.full(n_edges, -1)
-    use[level.fv_edge[::-1]] = np.arange(n)[::-1]
+    use = _uses(level)[0]
     forward = (level.face_indices[use] == level.edge_ends[:, 0])[:, None, None]
     here, there = fv_data[use], fv_data[following[use]]
     edge_values = np.where(forward, np.stack([here, there], 1), np.stack([there, here], 1))
