@@ -391,3 +391,18 @@ def test_an_instance_colour_that_varies_keeps_a_bounded_number_of_reads(tmp_path
     for t in range(1, 13):
         assert_same(frames.load(t), load_fresh(path, t), f"frame {t}")
     assert len(frames.memo) <= KEPT_PER_KEY
+
+
+def test_arrays_kept_for_later_frames_stay_read_only_after_invalidate(stage_file):
+    """A static mesh's arrays and a texture image are shared with the frames after: ``Scene.invalidate`` leaves them
+    read-only (an edit in place would have changed the next frame), and the next frame still equals a fresh load."""
+    frames = StageFrames(stage_file)
+    scene = frames.load(1)
+    scene.invalidate()
+    flat = next(m for m in scene.meshes if m.path == "/World/Flat")
+    with pytest.raises(ValueError, match="read-only"):
+        flat.points += 1.0
+    with pytest.raises(ValueError, match="read-only"):
+        scene.textures[0][0, 0] = 0.0
+    flat.points = flat.points + 1.0  # assigning a new array is the way to edit it
+    assert_same(frames.load(2), load_fresh(stage_file, 2), "the next frame")

@@ -11,7 +11,9 @@ those layers as USD holds them, not the file (USD's layer registry): so :func:`w
 go of kept stages whose files changed (:func:`release_changed`).
 
 Meshes are reused by :class:`wrt.usd_mesh_memo.MeshMemo` and materials by :class:`wrt.usd_material_memo.MaterialMemo`
-(which can be, and when); everything else (the prim walk, visibility, transforms, bindings, textures, instancing,
+(which can be, and when); the arrays of the meshes kept and the texture images are shared by the scenes of the loads
+and read-only from the load on (:meth:`wrt.scene.Scene.invalidate` leaves them so: an edit in place would change later
+frames). Everything else (the prim walk, visibility, transforms, bindings, textures, instancing,
 cameras, lights, render settings) is read at every load.
 Warnings about the stage as a whole that come with opening it (layers in other units) come with the load that opens
 it.
