@@ -60,23 +60,20 @@ def input_reader(prim, time):
     from .usd_values import read_time
 
     legacy = []
-    authored = set(prim.GetAuthoredPropertyNames())  # names with scene description: a valid old name is one of them
-    defined = None  # the names the prim's schemas define, read when an old name is not authored
+    # Names with scene description: an old name with an authored value is one of them (a schema's fallback is none).
+    authored = set(prim.GetAuthoredPropertyNames())
 
     def get(attr, default):
         # Files written before UsdLux prefixed its inputs (Omniverse and Isaac Sim content of that time) author
         # "intensity", "radius", "texture:file" ...: USD no longer reads them, so such a light came out at the
         # schema's fallbacks (intensity 1, white, radius 0.5) without a word. The old name counts when the
         # prefixed one is not authored, as Omniverse's renderers still read it.
-        nonlocal defined
         name = attr.GetName() if attr is not None else ""
         has_value = bool(attr) and attr.HasAuthoredValue()
         if name.startswith(INPUTS_PREFIX) and not has_value:
-            # An old name neither authored nor defined by a schema is no attribute (most lights): not asked for.
+            # An old name with no scene description has no authored value (most lights): not asked for.
             old_name = name[len(INPUTS_PREFIX):]
-            if old_name not in authored and defined is None:
-                defined = set(prim.GetPrimDefinition().GetPropertyNames())
-            old = prim.GetAttribute(old_name) if old_name in authored or old_name in defined else None
+            old = prim.GetAttribute(old_name) if old_name in authored else None
             if old and old.HasAuthoredValue():
                 if old.GetName() not in legacy:
                     legacy.append(old.GetName())
