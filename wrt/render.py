@@ -56,6 +56,7 @@ from .shade import (
     primary_aovs_kernel,
     start_paths_kernel,
 )
+from .textures import scene_images
 from .trace import HitBuffer, check_scene, get_accelerator, resolve_device, resolve_threads, run_in_chunks
 
 MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
@@ -172,7 +173,8 @@ def shading_data(scene: Scene, device) -> tuple:
     """``(DeviceMaterials, uvs, materials, double_sided, emission estimates)`` of ``scene`` on ``device``, cached."""
     key = ("shading", str(device))
     if key not in scene._cache:
-        mats = upload_materials(scene.materials, scene.textures, device)
+        images = scene_images(scene.textures)  # checked and made RGBA float32: they may be built in Python
+        mats = upload_materials(scene.materials, images, device)
         uvs = scene.corner_uvs()
         tri_materials = scene.triangle_materials()
         sided = scene.triangle_double_sided().astype(np.int32)
@@ -183,7 +185,7 @@ def shading_data(scene: Scene, device) -> tuple:
             wp.array(tri_materials, dtype=wp.int32, device=device),
             wp.array(sided, dtype=wp.int32, device=device),
         )
-        scene._cache[key] = (mats, *arrays, emission_estimates(scene.materials, scene.textures))
+        scene._cache[key] = (mats, *arrays, emission_estimates(scene.materials, images))
     return scene._cache[key]
 
 

@@ -347,7 +347,8 @@ class Scene:
             (:func:`wrt.render.resolve_view`).
         lights: the stage's lights: :class:`DistantLight` and the classes of :mod:`wrt.lights`.
         materials: :class:`wrt.materials.Material` list that ``Mesh.material_ids`` index.
-        textures: ``(H, W, 4)`` float32 linear RGBA images that material textures index.
+        textures: ``(H, W, 4)`` float32 linear RGBA images that material textures index (``(H, W, 3)`` ones, read
+            with alpha 1, and other float dtypes too: :func:`wrt.textures.scene_images`).
         up_axis: ``"Y"`` or ``"Z"``, the stage's upAxis.
         meters_per_unit: the stage's metersPerUnit.
         source: the file the scene was read from, if any.

@@ -372,6 +372,34 @@ def exr_rgba(channels: dict[str, np.ndarray], name: str, chromaticities=None) ->
     return rgba
 
 
+def scene_images(textures: list) -> list[np.ndarray]:
+    """``Scene.textures`` as ``(H, W, 4)`` float32 images for :func:`pack_images`: an ``(H, W, 3)`` image gets alpha
+    1, other float dtypes are cast, images already so are kept (the same objects).
+
+    Raises:
+        SceneError: naming ``scene.textures[k]``, for any other shape, an empty image or samples that are not floats.
+            Unchecked, images built in Python went wrong in every way: an ``(H, W, 3)`` one was packed as
+            ``3 H W / 4`` texels (another image, its last quarter uninitialised memory, without a word, or a bare
+            reshape error), an 8-bit one stopped at a numpy casting error, and an empty one killed the process
+            with a division by zero in the lookup's ``repeat`` wrap.
+    """
+    from .errors import SceneError
+
+    images = []
+    for k, texture in enumerate(textures):
+        image = np.asarray(texture)
+        if image.ndim != 3 or image.shape[2] not in (3, 4) or image.size == 0:
+            raise SceneError(f"scene.textures[{k}] must be an (H, W, 3) or (H, W, 4) image of at least one texel, got "
+                             f"shape {image.shape}")
+        if image.dtype.kind != "f":
+            raise SceneError(f"scene.textures[{k}] must hold linear float values, got {image.dtype} (an 8-bit image: "
+                             f"wrt.textures.load_image reads files into linear float32 RGBA)")
+        if image.shape[2] == 3:
+            image = np.concatenate([image, np.ones(image.shape[:2] + (1,), image.dtype)], axis=2)
+        images.append(image.astype(np.float32, copy=False))
+    return images
+
+
 def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Concatenates ``(H, W, 4)`` images into one texel array.
 

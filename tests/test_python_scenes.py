@@ -1,0 +1,68 @@
+"""Scenes built in Python, as a robotics or simulation user builds them without USD: the inputs such users pass
+(images straight from numpy or Pillow, ...), each compared with an analytic answer or refused naming what is
+wrong."""
+
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import wrt
+
+SQUARE = np.float32([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
+SQUARE_UVS = np.float32([[0, 0], [1, 0], [1, 1], [0, 1]])[[[0, 1, 2], [0, 2, 3]]]
+# Looking straight down at the square, which fills the middle of the image.
+TOP = wrt.Camera.orthographic((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), height=4.0)
+
+
+def textured_square(texture) -> wrt.Scene:
+    """The unit square with ``texture`` (``scene.textures[0]``) as its diffuseColor, st spanning the image."""
+    material = wrt.Material("/Textured", textures={"diffuseColor": wrt.TextureInput(0)})
+    mesh = wrt.Mesh("/Square", SQUARE, np.int32([[0, 1, 2], [0, 2, 3]]), np.zeros(2, np.int32), uvs=SQUARE_UVS,
+                    material_ids=np.zeros(2, np.int32), double_sided=True)
+    return wrt.Scene(meshes=[mesh], materials=[material], textures=[texture])
+
+
+def test_an_rgb_texture_built_in_python_is_read_with_alpha_one():
+    """``scene.textures`` documents ``(H, W, 4)`` images, but an ``(H, W, 3)`` one is what numpy and Pillow hand a
+    user. It was packed as ``3 H W / 4`` RGBA texels: a 4 x 4 image of one colour rendered other colours and
+    uninitialised memory without a word. Oracle: the albedo of a texture of one colour is that colour everywhere on
+    the square."""
+    color = np.float32([0.25, 0.5, 0.75])
+    image = wrt.render(textured_square(np.tile(color, (4, 4, 1))), camera=TOP, width=8, height=8,
+                       integrator="albedo")
+    on_square = image.aovs["coverage"] > 0.5
+    assert on_square.sum() == 16
+    np.testing.assert_allclose(image.rgb[on_square], np.broadcast_to(color, (16, 3)), atol=1e-3)
+
+
+@pytest.mark.parametrize("texture, words", [
+    (np.zeros((4, 4), np.float32), "(H, W, 3) or (H, W, 4)"),
+    (np.zeros((4, 4, 2), np.float32), "(H, W, 3) or (H, W, 4)"),
+    (np.zeros((4, 4, 4), np.uint8), "linear float values, got uint8"),
+])
+def test_a_texture_of_another_shape_or_dtype_is_refused_naming_it(texture, words):
+    """A grey image and a two-channel one stopped at a bare numpy reshape error, an 8-bit one at a casting error
+    (converted, its 255 would have been 255 times too bright): now a SceneError names ``scene.textures[0]``."""
+    with pytest.raises(wrt.SceneError, match=r"scene\.textures\[0\]") as raised:
+        wrt.render(textured_square(texture), camera=TOP, width=4, height=4)
+    assert words in str(raised.value)
+
+
+def test_an_empty_texture_is_refused_instead_of_killing_the_process():
+    """A ``(0, 0, 4)`` texture with the default ``repeat`` wrap divided by zero in the lookup: the process died of
+    SIGFPE on the CPU. Run in a child process, so that a crash fails this test only."""
+    code = textwrap.dedent("""
+        import numpy as np
+        import wrt
+        from tests.test_python_scenes import TOP, textured_square
+        try:
+            wrt.render(textured_square(np.zeros((0, 0, 4), np.float32)), camera=TOP, width=4, height=4)
+        except wrt.SceneError as e:
+            print("refused:", e)
+    """)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "refused: scene.textures[0] must be an (H, W, 3) or (H, W, 4) image of at least one texel" in done.stdout
