@@ -66,3 +66,44 @@ def test_an_empty_texture_is_refused_instead_of_killing_the_process():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "refused: scene.textures[0] must be an (H, W, 3) or (H, W, 4) image of at least one texel" in done.stdout
+
+
+def square_mesh(path: str = "/Proto/Square") -> wrt.Mesh:
+    return wrt.Mesh(path, SQUARE, np.int32([[0, 1, 2], [0, 2, 3]]), np.zeros(2, np.int32))
+
+
+ONE_INSTANCE = dict(instances=wrt.Instances.from_transforms([0], np.eye(4)[None]))
+
+
+@pytest.mark.parametrize("fields, words", [
+    (lambda: dict(prototypes=[wrt.Prototype("/Proto", square_mesh())], **ONE_INSTANCE),
+     r"scene\.prototypes\[0\]\.meshes takes a list of wrt\.Mesh, got Mesh"),
+    (lambda: dict(prototypes=[wrt.Prototype("/Proto", [SQUARE])], **ONE_INSTANCE),
+     r"scene\.prototypes\[0\]\.meshes\[0\] is a ndarray, not a wrt\.Mesh"),
+    (lambda: dict(prototypes=[[square_mesh()]], **ONE_INSTANCE),
+     r"scene\.prototypes\[0\] is a list, not a wrt\.Prototype"),
+    (lambda: dict(prototypes=[wrt.Prototype("/Proto", [square_mesh()])], instances=np.eye(4)[None]),
+     r"scene\.instances is a ndarray, not a wrt\.Instances"),
+    (lambda: dict(shapes=[square_mesh()]), r"scene\.shapes\[0\] is a Mesh, not a wrt\.Shape"),
+    (lambda: dict(materials=[{"diffuse_color": (1, 0, 0)}]), r"scene\.materials\[0\] is a dict, not a wrt\.Material"),
+    (lambda: dict(cameras={"/Camera": (0.0, 0.0, 5.0)}), r"scene\.cameras\['/Camera'\] is a tuple, not a wrt\.Camera"),
+])
+def test_a_scene_part_of_the_wrong_type_is_refused_naming_it(fields, words):
+    """Each of these failed at the scene's construction or its first render with an error naming none of them: an
+    ``AttributeError`` ('list' object has no attribute 'meshes', 'numpy.ndarray' object has no attribute
+    'check_affine', 'dict' object has no attribute '__dict__', 'tuple' object has no attribute 'to_struct'), "'Mesh'
+    object is not iterable" or "must be called with a dataclass type or instance"; a shape that is no Shape was even
+    taken. Now Scene refuses it at once, naming the entry."""
+    with pytest.raises(TypeError, match=words):
+        scene = wrt.Scene(meshes=[square_mesh("/Ground")], **fields())
+        wrt.render(scene, width=4, height=3)
+
+
+def test_a_part_replaced_by_one_of_the_wrong_type_is_refused_at_the_next_render():
+    """The same check runs again when the scene's parts change, as the mesh list's does."""
+    scene = wrt.Scene(meshes=[square_mesh("/Ground")], prototypes=[wrt.Prototype("/Proto", [square_mesh()])],
+                      **ONE_INSTANCE)
+    wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+    scene.prototypes[0].meshes.append(SQUARE)
+    with pytest.raises(TypeError, match=r"scene\.prototypes\[0\]\.meshes\[1\] is a ndarray, not a wrt\.Mesh"):
+        wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])

@@ -34,7 +34,14 @@ import warp as wp
 
 from .assignments import CountsAssignments, assignments, check_assigned, mark_checked, mark_unchecked
 from .camera import Camera
-from .instancing import ROW_DTYPE_LIMIT, Instances, expand_instance_triangles, invert_transforms, world_boxes
+from .instancing import (
+    ROW_DTYPE_LIMIT,
+    Instances,
+    Prototype,
+    expand_instance_triangles,
+    invert_transforms,
+    world_boxes,
+)
 from .light_links import LinkCollection, drawn_ids
 from .render_settings import RenderSettings
 from .transforms import mat34
@@ -425,6 +432,39 @@ class Scene:
         for k, mesh in enumerate(self.meshes):
             if not isinstance(mesh, Mesh):
                 raise TypeError(f"scene.meshes[{k}] is a {type(mesh).__name__}, not a wrt.Mesh")
+        self._check_members()
+
+    def _check_members(self) -> None:
+        """Raises ``TypeError`` naming the entry when a shape, prototype (or its meshes and shapes), material, camera
+        or the instances are not of their wrt class: each failed later with an error naming none of them, an
+        ``AttributeError`` ('list' object has no attribute 'meshes', 'numpy.ndarray' object has no attribute
+        'check_affine', 'dict' object has no attribute '__dict__'), "'Mesh' object is not iterable" for
+        ``Prototype(path, mesh)``, or "must be called with a dataclass type or instance" for a prototype holding
+        points."""
+        from .materials import Material
+        from .primitives import Shape
+
+        def check(values, cls, where: str) -> None:
+            if isinstance(values, tuple):
+                values = list(values)
+            if not isinstance(values, list):
+                raise TypeError(f"{where} takes a list of wrt.{cls.__name__}, got {type(values).__name__}")
+            for k, value in enumerate(values):
+                if not isinstance(value, cls):
+                    raise TypeError(f"{where}[{k}] is a {type(value).__name__}, not a wrt.{cls.__name__}")
+
+        if not isinstance(self.instances, Instances):
+            raise TypeError(f"scene.instances is a {type(self.instances).__name__}, not a wrt.Instances (use "
+                            "wrt.Instances.from_transforms(prototype, to_world))")
+        check(self.shapes, Shape, "scene.shapes")
+        check(self.materials, Material, "scene.materials")
+        check(self.prototypes, Prototype, "scene.prototypes")
+        for k, prototype in enumerate(self.prototypes):
+            check(prototype.meshes, Mesh, f"scene.prototypes[{k}].meshes")
+            check(prototype.shapes, Shape, f"scene.prototypes[{k}].shapes")
+        for path, camera in self.cameras.items():
+            if not isinstance(camera, Camera):
+                raise TypeError(f"scene.cameras[{path!r}] is a {type(camera).__name__}, not a wrt.Camera")
 
     def invalidate(self) -> None:
         """Forgets every cached array, tree and device copy, and makes the scene's arrays writeable again until its
