@@ -107,3 +107,28 @@ def test_a_part_replaced_by_one_of_the_wrong_type_is_refused_at_the_next_render(
     scene.prototypes[0].meshes.append(SQUARE)
     with pytest.raises(TypeError, match=r"scene\.prototypes\[0\]\.meshes\[1\] is a ndarray, not a wrt\.Mesh"):
         wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+
+
+def test_a_mesh_without_face_ids_is_a_face_per_triangle_everywhere():
+    """``Mesh(path, points, indices, None)`` is taken and renders, but ``hit_paths`` and ``hit_prims`` then failed with
+    numpy's "all the input arrays must have same number of dimensions", and so did a render of a single-sided mesh
+    with a coincident reversed twin (a wall's two sides as two meshes). Oracle: the same scene with ``face_ids =
+    arange(T)``, each triangle its own face, as ``Scene.from_triangles`` makes it."""
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+
+    def twins(face_ids) -> wrt.Scene:
+        return wrt.Scene(meshes=[wrt.Mesh("/Front", SQUARE, indices, face_ids),
+                                 wrt.Mesh("/Back", SQUARE, indices[:, ::-1].copy(), face_ids)])
+
+    camera = wrt.Camera.look_at((0.3, -0.2, 4.0), (0.0, 0.0, 0.0))
+    origins, directions = [[0.5, -0.5, 5.0], [-0.5, 0.5, -5.0], [3.0, 3.0, 5.0]], [[0, 0, -1], [0, 0, 1], [0, 0, -1]]
+    for face_ids in (None, np.arange(2)):
+        scene = twins(face_ids)
+        hits = wrt.trace(scene, origins, directions)
+        prims, instances = scene.hit_paths(hits)
+        # Equal t on both twins goes to the smaller triangle id, the front's; (0.5, -0.5) is in its triangle 0.
+        assert prims.tolist() == ["/Front", "/Front", ""] and instances.tolist() == ["", "", ""]
+        _, elements = scene.hit_prims(hits.local_prim, hits.instance)
+        assert elements.tolist() == [0, 1, -1]
+    np.testing.assert_array_equal(wrt.render(twins(None), camera=camera, width=8, height=6).rgb,
+                                  wrt.render(twins(np.arange(2)), camera=camera, width=8, height=6).rgb)

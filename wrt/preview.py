@@ -282,7 +282,7 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
         poly = _triangles_block(pv, mesh.points.copy(), mesh.indices, {
             "color": colors[first : first + n],
             "prim": np.arange(first, first + n, dtype=np.int32),
-            "face_id": mesh.face_ids.copy(),
+            "face_id": mesh.triangle_faces().copy(),
         })
         poly.field_data["path"] = [mesh.path]
         add(poly, mesh.path, k)
@@ -299,7 +299,7 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
             poly = _triangles_block(pv, points[vertex[i] : vertex[i + 1]].copy(), indices[a:b] - vertex[i], {
                 "color": colors[a:b],
                 "prim": np.arange(a, b, dtype=np.int64 if b > np.iinfo(np.int32).max else np.int32),
-                "face_id": np.concatenate([m.face_ids for m in proto.meshes] or [np.zeros(0, np.int32)]),
+                "face_id": np.concatenate([m.triangle_faces() for m in proto.meshes] or [np.zeros(0, np.int32)]),
             })
             path = drawn.instances.path(i)
             poly.field_data["path"] = [path]

@@ -103,7 +103,8 @@ class Mesh(CountsAssignments):
         points: ``(V, 3)`` float32, world space.
         indices: ``(T, 3)`` int32 rows into ``points``. Winding is corrected for ``orientation = leftHanded``
             and for mirroring transforms, so ``cross(p1 - p0, p2 - p0)`` always points to the front side.
-        face_ids: ``(T,)`` int32, source face of each triangle.
+        face_ids: ``(T,)`` int32, source face of each triangle, or ``None``: each triangle is a face of its own
+            (:meth:`triangle_faces`).
         normals: ``(T, 3, 3)`` float32 unit world-space shading normal at each triangle corner, or ``None``
             when the mesh authors none (then the face normal is used).
         colors: ``(T, 3, 3)`` float32 linear colour at each triangle corner, or ``None``: ``displayColor``, or the
@@ -197,6 +198,14 @@ class Mesh(CountsAssignments):
                                  f"{self.opacities[t].tolist()}", prim=self.path)
         self.check_vertices()
         mark_checked(self)
+
+    def triangle_faces(self) -> np.ndarray:
+        """``(T,)`` :attr:`face_ids`, or ``arange(T)`` where it is None (the constructor takes None, and
+        ``hit_paths``, ``hit_prims`` and a render with coincident single-sided triangles failed on it with a bare
+        numpy error from inside a concatenation)."""
+        if self.face_ids is None:
+            return np.arange(len(self.indices), dtype=np.int32)
+        return self.face_ids
 
     def check_vertices(self) -> None:
         """Raises :class:`SceneError` naming the mesh, the first triangle that uses a NaN or infinite vertex and that
@@ -826,7 +835,7 @@ class Scene:
             part_of += [len(p.meshes) + np.arange(len(p.shapes)) for p in self.prototypes]
             part = np.concatenate([*part_of, [-1]]).astype(np.int64)
             starts_geometry = np.concatenate([[0], np.cumsum([len(m.indices) for m in meshes], dtype=np.int64)])
-            face_ids = np.concatenate([np.zeros(0, np.int32)] + [m.face_ids for m in meshes])
+            face_ids = np.concatenate([np.zeros(0, np.int32)] + [m.triangle_faces() for m in meshes])
             self._cache[key] = (tuple(paths), own.astype(np.int64), part, starts_geometry, face_ids, starts, parts)
         return self._cache[key]
 
@@ -988,7 +997,7 @@ class Scene:
             firsts = np.cumsum([0] + [len(m.indices) for m in meshes])[:-1]
 
             def face_starts() -> np.ndarray:  # each polygon's first row: a run of one face id in one mesh
-                face_ids = np.concatenate([np.zeros(0, np.int64)] + [m.face_ids for m in meshes])
+                face_ids = np.concatenate([np.zeros(0, np.int64)] + [m.triangle_faces() for m in meshes])
                 starts = np.zeros(len(indices), bool)
                 starts[firsts[firsts < len(indices)]] = True
                 starts[1:] |= face_ids[1:] != face_ids[:-1]
