@@ -132,3 +132,29 @@ def test_a_mesh_without_face_ids_is_a_face_per_triangle_everywhere():
         assert elements.tolist() == [0, 1, -1]
     np.testing.assert_array_equal(wrt.render(twins(None), camera=camera, width=8, height=6).rgb,
                                   wrt.render(twins(np.arange(2)), camera=camera, width=8, height=6).rgb)
+
+
+BOX_POINTS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+BOX_INDICES = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4], [2, 6, 3], [3, 6, 7],
+                        [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]])
+
+
+@pytest.mark.parametrize("accel", ["wrt", "warp"])
+def test_an_instance_flattened_by_a_zero_scale_is_drawn_flat_as_its_baked_mesh_is(accel):
+    """An instance built in Python whose transform squashes its box into a plane (z scale 0) vanished without a word
+    from every accelerator, though the same box baked flat into a mesh is drawn, and so is a USD instance so scaled
+    (the loader gives it a thickness of ``FLAT_THICKNESS`` of its size). Oracle: the box's points times the
+    transform, a square at z = 0.3, hit from both sides within that thickness."""
+    to_world = np.eye(4)[None].copy()
+    to_world[0, 2, 2], to_world[0, 2, 3] = 0.0, 0.3
+    prototype = wrt.Prototype("/Box", [wrt.Mesh("/Box/Mesh", BOX_POINTS, BOX_INDICES, None)])
+    scene = wrt.Scene(prototypes=[prototype], instances=wrt.Instances.from_transforms([0], to_world))
+    origins = [[0.1, 0.2, 5.0], [-0.3, 0.4, -5.0], [0.7, 0.0, 5.0]]
+    directions = [[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]
+    hits = wrt.trace(scene, origins, directions, accel=accel)
+    np.testing.assert_allclose(hits.t, [4.7, 5.3, np.inf], atol=1e-3)
+    assert hits.instance.tolist() == [0, 0, -1]
+    # Flattened after an invalidate() too, the transform edited in place.
+    scene.invalidate()
+    scene.instances.to_world[0, 2, 3] = -0.2
+    np.testing.assert_allclose(wrt.trace(scene, origins, directions, accel=accel).t, [5.2, 4.8, np.inf], atol=1e-3)

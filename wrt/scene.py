@@ -40,6 +40,7 @@ from .instancing import (
     Prototype,
     expand_instance_triangles,
     invert_transforms,
+    thicken_flat_transforms,
     world_boxes,
 )
 from .light_links import LinkCollection, drawn_ids
@@ -392,8 +393,11 @@ class Scene:
         self._generation = 0  # how many times the cache was cleared
         self._recheck = False  # check every object again at the next drop_stale_caches (set by invalidate)
         self.check_instances()
+        self._flat_checked = None  # the instances.to_world that _thicken_flat_instances looked at last
+        inverses = self._thicken_flat_instances()
         self._checked = (assignments(), self._members())  # the state of the last full check (drop_stale_caches)
         self._cached_parts = self._parts()  # what the cache is made from (see drop_stale_caches)
+        self._cache[("instance_inverses",)] = inverses
         self._frozen = []  # weak references to the arrays this scene made read-only (see freeze); weak, so that
         # the arrays of lights a kept Renderer froze and that were replaced since are freed
         self._frozen_parts = False  # whether the arrays of _cached_parts are among them
@@ -557,13 +561,38 @@ class Scene:
             for obj in objects:
                 mark_unchecked(obj)
         check_assigned(objects)
+        inverses = self._thicken_flat_instances()
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
             self.invalidate()
+        if inverses is not None:  # computed anyway: the first trace needs them
+            self._cache[("instance_inverses",)] = inverses
         self._recheck = False
         self._cached_parts = parts
         self._checked = (count, members)
         return parts
+
+    def _thicken_flat_instances(self) -> tuple | None:
+        """Gives instances flattened into a plane by a zero scale a thickness, as the USD loader does
+        (:func:`wrt.instancing.thicken_flat_transforms`; ``instances.to_world`` becomes a copy with those rows
+        thickened): built in Python they were dropped without a word by every accelerator, while the same mesh baked
+        flat, or the USD instance, is drawn. Looks at a ``to_world`` once (again after :meth:`invalidate`); returns
+        :meth:`instance_inverses` then, else None."""
+        instances = self.instances
+        if instances.to_world is self._flat_checked and not self._recheck:
+            return None
+        inverses, ok = invert_transforms(instances.to_world)
+        singular = np.flatnonzero(~ok & (instances.elements < 0 if len(instances.elements) else True))
+        if len(singular):  # the spheres and tubes of Points and curves (elements) are placed round, never flat
+            thick, thickened = thicken_flat_transforms(instances.to_world[singular])
+            rows = singular[thickened]
+            if len(rows):
+                to_world = instances.to_world.copy()
+                to_world[rows] = thick[thickened]
+                instances.to_world = to_world
+                inverses[rows], ok[rows] = invert_transforms(to_world[rows])
+        self._flat_checked = instances.to_world
+        return inverses, ok
 
     def _members(self) -> tuple:
         """The lists of the scene and the objects in them whose fields :meth:`_parts` reads; a field assigned anew
@@ -1116,6 +1145,7 @@ class Scene:
         inverts every instance to find the singular ones, and inverting them again costs about 1 s per 1M."""
         # The loader set the scene's parts after making it: take them as they are now. Only the transforms that the
         # inverses are made from turn read-only; the other arrays stay writeable until a trace, render or bounds().
+        self._flat_checked = self.instances.to_world  # the loader thickened the flat ones
         self._settle(assignments(), self._members())
         self.freeze([self.instances.to_world])
         self._cache[("instance_inverses",)] = (world_to_local, np.ones(len(world_to_local), dtype=bool))
