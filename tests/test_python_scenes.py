@@ -158,3 +158,21 @@ def test_an_instance_flattened_by_a_zero_scale_is_drawn_flat_as_its_baked_mesh_i
     scene.invalidate()
     scene.instances.to_world[0, 2, 3] = -0.2
     np.testing.assert_allclose(wrt.trace(scene, origins, directions, accel=accel).t, [5.2, 4.8, np.inf], atol=1e-3)
+
+
+def test_a_shape_given_a_row_vector_transform_is_refused_and_a_flat_one_is_drawn_flat():
+    """``wrt.Shape`` took a ``Gf.Matrix4d``-style transform (translation in the bottom row) and drew a sheared shape at
+    the origin without a word, where instances, lights and cameras refuse one; and a sphere flattened by a zero z
+    scale vanished, though the USD loader draws such a gprim thin. Oracle: the unit sphere moved to x = 0.5 and
+    squashed flat is the disc of radius 1 there, at z = 0."""
+    from wrt.primitives import Shape
+
+    to_world = np.eye(4)
+    to_world[0, 3] = 0.5
+    with pytest.raises(ValueError, match=r"shape /Ball to_world has bottom row \[0.5, 0.0, 0.0, 1.0\]"):
+        Shape("/Ball", "sphere", to_world.T)
+    to_world[2, 2] = 0.0
+    origins = [[0.5, 0.0, 5.0], [0.5, 0.9, -5.0], [1.4, 0.0, 5.0], [1.6, 0.0, 5.0]]
+    directions = [[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0]]
+    hits = wrt.trace(wrt.Scene(shapes=[Shape("/Ball", "sphere", to_world)]), origins, directions)
+    np.testing.assert_allclose(hits.t, [5.0, 5.0, 5.0, np.inf], atol=1e-3)

@@ -43,7 +43,9 @@ import numpy as np
 import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
+from .errors import bottom_row_problem
 from .floats import unit_scales
+from .instancing import invert_transforms, thicken_flat_transforms
 
 SHAPE_SPHERE = wp.constant(0)
 SHAPE_BOX = wp.constant(1)
@@ -459,7 +461,19 @@ class Shape(CountsAssignments):
     def __post_init__(self):
         if self.kind not in SHAPE_KINDS:
             raise ValueError(f"unknown shape kind {self.kind!r}; valid kinds: {', '.join(SHAPE_KINDS)}")
-        self.to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)
+        to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)
+        # As for instances, lights and cameras: a Gf.Matrix4d passed untransposed has its translation in the bottom
+        # row, which was dropped without a word (the shape drawn at the origin, sheared).
+        problem = bottom_row_problem(f"shape {self.path} to_world", to_world) if np.isfinite(to_world).all() else None
+        if problem:
+            raise ValueError(problem)
+        # A zero scale on one axis flattens it into a disc or sheet: thickened, as the USD loader thickens such
+        # gprims; built in Python it had no canonical space to intersect in and vanished without a word.
+        if not invert_transforms(to_world[None])[1][0]:
+            thick, flat = thicken_flat_transforms(to_world[None])
+            to_world = thick[0] if flat[0] else to_world
+        if to_world is not self.to_world:  # only a real change: each assignment counts as a scene edit
+            self.to_world = to_world
         self.params = np.asarray(self.params, np.float32).reshape(4)
         if not np.isfinite(self.params).all():  # a capsule of NaN height, a cylinder of NaN caps: missed by every ray
             raise ValueError(f"shape {self.path}: params must be 4 finite numbers, got {self.params.tolist()}")
