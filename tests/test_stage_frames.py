@@ -406,3 +406,62 @@ def test_arrays_kept_for_later_frames_stay_read_only_after_invalidate(stage_file
         scene.textures[0][0, 0] = 0.0
     flat.points = flat.points + 1.0  # assigning a new array is the way to edit it
     assert_same(frames.load(2), load_fresh(stage_file, 2), "the next frame")
+
+
+def write_clip(path: Path, z: float) -> None:
+    """A value clip of ``/Model``: the points of ``Sheet`` (three samples, lifted by ``z``), written as a simulation
+    would, beside any layer USD holds."""
+    stage = Usd.Stage.CreateInMemory()
+    sheet = UsdGeom.Mesh.Define(stage, "/Model/Sheet")
+    for t in (1, 2, 3):
+        sheet.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(grid(2, z + 0.1 * t)[0].astype(np.float32)), t)
+    stage.GetRootLayer().Export(str(path))
+    bump(path)
+
+
+@pytest.mark.parametrize("clips", ["explicit", "template"])
+def test_value_clips_written_or_rewritten_after_the_stage_opened_are_read(tmp_path, clips):
+    """A mesh whose points come only from value clips (no spec in the stage's layers, so that they are not among its
+    authored attributes), one clip per time code: a clip missing when the stage opens is written before a later frame
+    (a simulation writing its cache while the frames render), and a clip the kept stage has read is rewritten. Every
+    frame equals a fresh load at its time, which reads the clips on disk."""
+    root = tmp_path / "shot.usda"
+    folder = tmp_path / "cache"
+    folder.mkdir()
+    write_clip(folder / "clip.1.usda", 1)
+    write_clip(folder / "clip.2.usda", 2)
+    stage = Usd.Stage.CreateNew(str(root))
+    sheet = UsdGeom.Mesh.Define(stage, "/Model/Sheet")
+    sheet.CreateFaceVertexCountsAttr(Vt.IntArray(grid(2)[1]))
+    sheet.CreateFaceVertexIndicesAttr(Vt.IntArray(grid(2)[2]))
+    api = Usd.ClipsAPI(stage.GetPrimAtPath("/Model"))
+    api.SetClipPrimPath("/Model")
+    if clips == "explicit":
+        api.SetClipAssetPaths([Sdf.AssetPath(f"./cache/clip.{i}.usda") for i in (1, 2, 3)])
+        api.SetClipActive([(1, 0), (2, 1), (3, 2)])
+        api.SetClipTimes([(1, 1), (3, 3)])
+    else:
+        api.SetClipTemplateAssetPath("./cache/clip.#.usda")
+        api.SetClipTemplateStartTime(1)
+        api.SetClipTemplateEndTime(3)
+        api.SetClipTemplateStride(1)
+    stage.GetRootLayer().Save()
+    del stage
+
+    def same(t, where):
+        scene = frames.load(t)
+        assert_same(scene, load_fresh(root, t), f"{where}, time {t}")
+        return scene
+
+    frames = StageFrames(root)
+    first = same(1, "clip 3 missing")
+    same(2, "clip 3 missing")
+    same(3, "clip 3 missing")
+    write_clip(folder / "clip.3.usda", 3)
+    os.utime(folder, ns=(folder.stat().st_mtime_ns + 2_000_000_000,) * 2)
+    written = same(3, "clip 3 written")
+    np.testing.assert_allclose(written.meshes[0].points, grid(2, 3.3)[0], rtol=1e-6)  # clip 3's sample at 3
+    write_clip(folder / "clip.1.usda", 5)
+    rewritten = same(1, "clip 1 rewritten")
+    assert not np.array_equal(rewritten.meshes[0].points, first.meshes[0].points)
+    same(2, "clip 1 rewritten")

@@ -3,9 +3,10 @@ cannot differ between the loads: :meth:`StageFrames.load` gives the :class:`wrt.
 :func:`wrt.load_usd` gives at that time, array for array, in any order of times.
 
 The stage is opened once and kept while it is what a fresh open would give: every layer it uses is a local file whose
-size, modification time and inode are those it had when opened, and no change was made to the stage since (a
-``Usd.Notice.StageContentsChanged``: an edit of one of its layers in memory). Anything else (a file edited or
-replaced on disk, a layer that is no local file, composition errors, whose missing files may appear) opens it
+size, modification time and inode are those it had when opened, as are the files its value clips name (a missing
+one still missing) and the folders its clip templates find files in (:mod:`wrt.usd_clips`), and no change was made to
+the stage since (a ``Usd.Notice.StageContentsChanged``: an edit of one of its layers in memory). Anything else (a file
+edited or replaced on disk, a layer that is no local file, composition errors, whose missing files may appear) opens it
 afresh and forgets every kept mesh. A fresh :func:`wrt.load_usd` of a file whose layers a kept stage holds would read
 those layers as USD holds them, not the file (USD's layer registry): so :func:`wrt.usd_stage.open_stage` first lets
 go of kept stages whose files changed (:func:`release_changed`).
@@ -26,6 +27,7 @@ import weakref
 
 from pxr import Ar, Tf, Usd
 
+from .usd_clips import clip_roots, clip_stamps
 from .usd_material_memo import MaterialMemo
 from .usd_mesh_memo import MeshMemo
 
@@ -76,11 +78,13 @@ class StageFrames:
             self.release()
         if self._stage is None:
             stage = open_variants(source, variants)
+            clipped = clip_roots(stage)
             stamps = _layer_stamps(stage)
-            if stamps is None or stage.GetCompositionErrors():
+            clips = clip_stamps(stage, clipped, file_stamp) if stamps is not None else None
+            if clips is None or stage.GetCompositionErrors():
                 return stage  # opened for this load alone; nothing kept
-            self._stage, self._opened_with, self._stamps = stage, opened_with, stamps
-            self.memo, self.material_memo = MeshMemo(), MaterialMemo(stage)
+            self._stage, self._opened_with, self._stamps = stage, opened_with, {**stamps, **clips}
+            self.memo, self.material_memo = MeshMemo(clipped), MaterialMemo(stage)
             edited = self._edited = [False]
             self._listener = Tf.Notice.Register(Usd.Notice.StageContentsChanged,
                                                 lambda notice, sender: edited.__setitem__(0, True), stage)

@@ -5,10 +5,11 @@ A mesh's read (:meth:`wrt.usd_meshes.MeshReading._read_mesh`) takes: the mesh's 
 descendants (GeomSubsets), the ``primvars:`` its ancestors hand down (:class:`wrt.usd_ancestors.InheritedPrimvars`),
 a skeleton's pose, its transform to its content's space, what its materials ask of it (their indices per face, the
 texture-coordinate and colour primvars they read), and the context it is read in (world or prototype, an instance's
-colour). The first three are asked of USD once per kept stage: a mesh is reusable only when no attribute of it or of a
-descendant might vary (``UsdAttribute.ValueMightBeTimeVarying``; ``velocities`` or ``accelerations`` authored at all
-count as varying, as they move one sample of points), no ``primvars:`` attribute above it might, and no ``SkelRoot``
-is above it (skinned meshes are read every time). The others are found again at every read, as a fresh read finds
+colour). The first three are asked of USD once per kept stage: a mesh is reusable only when no attribute of it or of
+a descendant might vary (``UsdAttribute.ValueMightBeTimeVarying``; ``velocities`` or ``accelerations`` authored at all
+count as varying, as they move one sample of points; so does every prim value clips may reach,
+:func:`wrt.usd_clips.under_clips`), no ``primvars:`` attribute above it might, and no ``SkelRoot`` is above it
+(skinned meshes are read every time). The others are found again at every read, as a fresh read finds
 them, and compared with those of the kept read: the transform's bytes, the material indices, primvar names and
 fallbacks, and the context go into the comparison. Equal: the kept :class:`wrt.scene.Mesh` is handed out again (a new
 object sharing its read-only arrays), or, where only the transform differs, the kept mesh in its own space is baked
@@ -28,6 +29,7 @@ import numpy as np
 from pxr import Usd
 
 from .scene import Mesh
+from .usd_clips import under_clips
 from .usd_meshes import LocalMesh
 
 # Attributes that move the points of a point-based prim between (or past) samples, one sample of points too.
@@ -64,7 +66,8 @@ class KeptMesh(NamedTuple):
 class MeshMemo:
     """The kept reads of one kept stage, and USD's answers about which prims might vary."""
 
-    def __init__(self):
+    def __init__(self, clip_roots: list = ()):
+        self.clip_roots = list(clip_roots)  # prims with value clips (wrt.usd_clips.clip_roots): all below vary
         self._varies = {}  # prim path -> one of its own attributes might vary
         self._subtree = {}  # prim path -> _varies of it or a descendant
         self._inherits_varying = {}  # prim path -> a primvar on it or above it might vary
@@ -120,7 +123,8 @@ class MeshMemo:
     def _own_varies(self, prim: Usd.Prim) -> bool:
         path = prim.GetPath()
         if path not in self._varies:
-            self._varies[path] = any(a.ValueMightBeTimeVarying() for a in prim.GetAuthoredAttributes()) or any(
+            self._varies[path] = under_clips(prim, self.clip_roots) or any(
+                a.ValueMightBeTimeVarying() for a in prim.GetAuthoredAttributes()) or any(
                 prim.HasAttribute(name) and prim.GetAttribute(name).HasAuthoredValue() for name in RATE_ATTRIBUTES)
         return self._varies[path]
 
