@@ -465,3 +465,68 @@ def test_value_clips_written_or_rewritten_after_the_stage_opened_are_read(tmp_pa
     rewritten = same(1, "clip 1 rewritten")
     assert not np.array_equal(rewritten.meshes[0].points, first.meshes[0].points)
     same(2, "clip 1 rewritten")
+
+
+def test_material_bindings_kept_between_frames_equal_fresh_loads(tmp_path):
+    """Every way a face gets its material, kept between frames (bindings resolve without a time): a collection binding
+    that names one mesh and leaves out its sibling, a ``strongerThanDescendants`` binding over a child's own, a full
+    binding wrt cannot read beside a readable preview one, subsets whose indices vary in time, a mesh hidden at some
+    frames (the material indices of those after it shift), native instances of a prototype whose one mesh binds
+    inside and the other nothing (an instance's weaker binding reaches that one), one instance binding over both.
+    Every frame equals a fresh load, and the bindings' answers are given again."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "bindings.usda"))
+    red = preview_material(stage, "/Looks/Red", color={Usd.TimeCode.Default(): Gf.Vec3f(1, 0, 0)})
+    green = preview_material(stage, "/Looks/Green", color={Usd.TimeCode.Default(): Gf.Vec3f(0, 1, 0)})
+    blue = preview_material(stage, "/Looks/Blue", color={1: Gf.Vec3f(0, 0, 1), 4: Gf.Vec3f(0, 1, 1)})
+    odd = UsdShade.Material.Define(stage, "/Looks/Odd")
+    odd_shader = UsdShade.Shader.Define(stage, "/Looks/Odd/Surface")
+    odd_shader.CreateIdAttr("OddSurface")
+    odd.CreateSurfaceOutput().ConnectToSource(odd_shader.ConnectableAPI(), "surface")
+    world = UsdGeom.Xform.Define(stage, "/World").GetPrim()
+
+    hidden = mesh(stage, "/World/Blink", *grid(2))
+    UsdShade.MaterialBindingAPI.Apply(hidden.GetPrim()).Bind(green)
+    hidden.CreateVisibilityAttr().Set(UsdGeom.Tokens.invisible, 2)
+    hidden.GetVisibilityAttr().Set(UsdGeom.Tokens.inherited, 3)
+    mesh(stage, "/World/Picked/In", *grid(2, 1))
+    mesh(stage, "/World/Picked/Out", *grid(2, 2))
+    collection = Usd.CollectionAPI.Apply(world, "picked")
+    collection.CreateIncludesRel().AddTarget("/World/Picked")
+    collection.CreateExcludesRel().AddTarget("/World/Picked/Out")
+    UsdShade.MaterialBindingAPI.Apply(world).Bind(collection, blue, "picked")
+    group = UsdGeom.Xform.Define(stage, "/World/Group").GetPrim()
+    UsdShade.MaterialBindingAPI.Apply(group).Bind(red, UsdShade.Tokens.strongerThanDescendants)
+    child = mesh(stage, "/World/Group/Child", *grid(2, 3))
+    UsdShade.MaterialBindingAPI.Apply(child.GetPrim()).Bind(green)
+    preview_only = mesh(stage, "/World/Preview", *grid(2, 4))
+    binding = UsdShade.MaterialBindingAPI.Apply(preview_only.GetPrim())
+    binding.Bind(odd, materialPurpose=UsdShade.Tokens.full)
+    binding.Bind(green, materialPurpose=UsdShade.Tokens.preview)
+    split = mesh(stage, "/World/Split", *grid(3, 5))
+    UsdShade.MaterialBindingAPI.Apply(split.GetPrim()).Bind(red)
+    subset = UsdShade.MaterialBindingAPI(split).CreateMaterialBindSubset("Part", Vt.IntArray([0, 1]))
+    subset.GetIndicesAttr().Set(Vt.IntArray([4, 5, 6, 7, 8]), 3)
+    UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(blue)
+    stage.CreateClassPrim("/Protos/Kit")
+    part = mesh(stage, "/Protos/Kit/Part", *grid(2))
+    UsdShade.MaterialBindingAPI.Apply(part.GetPrim()).Bind(green)
+    mesh(stage, "/Protos/Kit/Bare", *grid(2, 1))  # binds nothing inside: an instance's weaker binding reaches it
+    # One prototype only: USD numbers several prototypes in no fixed order, one open to the next (a fresh load too).
+    for k in range(2):
+        instance = UsdGeom.Xform.Define(stage, f"/World/Kit{k}").GetPrim()
+        instance.GetReferences().AddInternalReference("/Protos/Kit")
+        instance.SetInstanceable(True)
+        UsdGeom.Xformable(instance).AddTranslateOp().Set(Gf.Vec3d(3 * k, 0, 6))
+        UsdShade.MaterialBindingAPI.Apply(instance).Bind(red, UsdShade.Tokens.strongerThanDescendants if k else
+                                                         UsdShade.Tokens.weakerThanDescendants)
+    stage.GetRootLayer().Save()
+    path = tmp_path / "bindings.usda"
+
+    frames = StageFrames(path)
+    for t in (1, 2, 3, 2.5, None, 1, 4):
+        scene = frames.load(t)
+        assert_same(scene, load_fresh(path, t), f"frame {t}")
+    names = {m.path: scene.materials[m.material_ids[0]].path for m in scene.meshes if m.material_ids is not None}
+    assert names["/World/Picked/In"] == "/Looks/Blue" and names["/World/Group/Child"] == "/Looks/Red"
+    assert names["/World/Preview"] == "/Looks/Green"
+    assert frames.material_memo.binding_counts["reused"] > 0

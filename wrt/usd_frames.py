@@ -14,8 +14,9 @@ go of kept stages whose files changed (:func:`release_changed`).
 Meshes are reused by :class:`wrt.usd_mesh_memo.MeshMemo` and materials by :class:`wrt.usd_material_memo.MaterialMemo`
 (which can be, and when); the arrays of the meshes kept and the texture images are shared by the scenes of the loads
 and read-only from the load on (:meth:`wrt.scene.Scene.invalidate` leaves them so: an edit in place would change later
-frames). Everything else (the prim walk, visibility, transforms, bindings, textures, instancing,
-cameras, lights, render settings) is read at every load.
+frames). So are the material bindings (:attr:`wrt.usd_material_memo.MaterialMemo.bindings`: relationships and
+collections, resolved without a time, which only a change of composition changes). Everything else (the prim walk,
+visibility, transforms, textures, instancing, cameras, lights, render settings) is read at every load.
 Warnings about the stage as a whole that come with opening it (layers in other units) come with the load that opens
 it.
 """

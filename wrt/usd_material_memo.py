@@ -30,6 +30,11 @@ class MaterialMemo:
         self._kept = {}  # (material path, default time) -> (Material or None, ((reason, prim, detail), ...))
         self._images = {}  # (resolved path, colour space) -> (file stamp, read-only pixels)
         self.counts = {"reused": 0, "read": 0}  # reads of each kind, for tests and benchmarks
+        # (prim path, outer bindings, purposes) -> (material, binding relationship, purposes whose walk found none):
+        # MaterialReader.bound's answer. Bindings are relationships (never time-varying) and collections (their
+        # membership too), resolved without a time: only composition changes them, and it reopens a kept stage.
+        self.bindings = {}
+        self.binding_counts = {"reused": 0}  # answers given again, for tests
 
     def find(self, path: str, time: Usd.TimeCode):
         """``(a copy of the kept Material or None, the warnings of its read)``, or None when none is kept."""

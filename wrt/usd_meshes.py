@@ -12,6 +12,7 @@ import numpy as np
 from pxr import Usd, UsdGeom
 
 from .loop_subdivision import LoopRefinement, refined_triangles
+from .materials import used_materials
 from .polygons import clip_concave_faces
 from .resources import check_host_memory
 from .scene import Mesh
@@ -108,7 +109,7 @@ class MeshReading:
         color_names = self.materials.color_primvars(face_materials)
         default_faces = face_materials is None or bool(np.any(face_materials < 0))
         if key is not None:
-            used = [] if face_materials is None else np.unique(face_materials).tolist()
+            used = [] if face_materials is None else used_materials(face_materials).tolist()
             inputs = memo.inputs(face_materials, uv_source, color_names,
                                  [self.materials.color_primvar_of(k) for k in used], default_faces, ctx.outer_color)
             kept = memo.find(key, inputs)
