@@ -66,8 +66,6 @@ def test_instance_transforms_are_inverted_once_per_scene(monkeypatch):
     to_world = np.tile(np.eye(4), (n, 1, 1))
     to_world[:, 0, 3] = np.arange(n)  # instance k at x = k
     to_world[5, :3, :3] = 0.0  # a zero scale: left out
-    scene = Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n), to_world))
-
     calls = []
     original = wrt_scene.invert_transforms
 
@@ -77,6 +75,9 @@ def test_instance_transforms_are_inverted_once_per_scene(monkeypatch):
 
     monkeypatch.setattr(wrt_scene, "invert_transforms", counting)
     monkeypatch.setattr(wrt_tlas, "invert_transforms", counting)
+    # Built after the patch: the scene inverts the transforms as it is made (to find instances flattened to a plane)
+    # and keeps them for the first trace.
+    scene = Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n), to_world))
     origins = np.stack([np.arange(n), np.zeros(n), np.full(n, 2.0)], axis=1).astype(np.float32)
     directions = np.tile(np.float32([0.0, 0.0, -1.0]), (n, 1))
     hits = wrt.trace(scene, origins, directions)
