@@ -264,13 +264,23 @@ def refine(faces, points, levels, creases=None, corners=None, boundary="edgeAndC
     Returns:
         ``(quads (Q, 4, k) float64, parent face of each quad (Q,), base faces that are holes)``.
     """
+    return refine_levels(faces, points, levels, creases, corners, boundary, len,
+                         lambda *state: refine_once(*state, triangle_smooth, linear))
+
+
+def refine_levels(faces, points, levels, creases, corners, boundary, children, step):
+    """``levels`` steps ``step(level, points, edge sharpness, point sharpness)`` (returning the same four for the
+    child level) of the mesh ``faces`` over ``points``, each face becoming ``children(face)`` faces in its order.
+
+    Returns:
+        ``(faces (F, n, k) float64 corner values, parent face of each (F,), base faces that are holes)``.
+    """
     level = Level(faces, len(points))
     edge_s, vert_s, holes = base_tags(level, creases or {}, corners or {}, boundary)
     p = np.asarray(points, np.float64)
     parent = list(range(len(level.faces)))
     for _ in range(levels):
-        counts = [len(f) for f in level.faces]
-        level, p, edge_s, vert_s = refine_once(level, p, edge_s, vert_s, triangle_smooth, linear)
+        counts = [children(f) for f in level.faces]
+        level, p, edge_s, vert_s = step(level, p, edge_s, vert_s)
         parent = [parent[f] for f, c in enumerate(counts) for _ in range(c)]
-    quads = np.array([[p[v] for v in f] for f in level.faces])
-    return quads, np.array(parent), holes
+    return np.array([[p[v] for v in f] for f in level.faces]), np.array(parent), holes

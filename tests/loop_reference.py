@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from catmark_reference import INF, Level, _crease_pair, base_tags, blended_vertex_points, child_sharpness
+from catmark_reference import INF, Level, _crease_pair, blended_vertex_points, child_sharpness, refine_levels
 
 
 def beta(n: int) -> float:
@@ -79,13 +79,5 @@ def refine(faces, points, levels, creases=None, corners=None, boundary="edgeAndC
     Returns:
         ``(triangles (T, 3, k) float64, parent face of each triangle (T,), base faces that are holes)``.
     """
-    level = Level(faces, len(points))
-    edge_s, vert_s, holes = base_tags(level, creases or {}, corners or {}, boundary)
-    p = np.asarray(points, np.float64)
-    parent = list(range(len(level.faces)))
-    for _ in range(levels):
-        n_faces = len(level.faces)
-        level, p, edge_s, vert_s = refine_once(level, p, edge_s, vert_s, linear)
-        parent = [parent[f] for f in range(n_faces) for _ in range(4)]
-    triangles = np.array([[p[v] for v in f] for f in level.faces])
-    return triangles, np.array(parent), holes
+    return refine_levels(faces, points, levels, creases, corners, boundary, lambda face: 4,
+                         lambda *state: refine_once(*state, linear))
