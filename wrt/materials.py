@@ -696,13 +696,16 @@ class MaterialReader:
         purposes: the render settings' ``materialBindingPurposes``, or None (see :func:`bound_material`).
         stage: the ``Usd.Stage`` read (materials bound above native instances are found in it by path).
         memo: a :class:`wrt.usd_material_memo.MaterialMemo` of reads to reuse and keep, or None.
+        skipped: with ``memo``, the list ``skip`` records into, in order (``wrt.usd_problems``): a kept read's slice
+            of it is kept with it, and added to it again where the read is reused.
     """
 
-    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None, stage=None, memo=None):
+    def __init__(self, time, skip, purposes: tuple[str, ...] | None = None, stage=None, memo=None, skipped=None):
         from .usd_ancestors import BindingsAbove  # (pxr: imported where USD is read)
 
         self.stage = stage  # where materials bound above native instances are found by path
         self.memo = memo  # a wrt.usd_material_memo.MaterialMemo: reads kept at another time of the stage, or None
+        self.skipped = skipped
         self.file_lookups = 0  # calls of file_images: a read that made one is not kept
         self.time = time
         self.skip = skip
@@ -896,24 +899,14 @@ class MaterialReader:
         warnings recorded again); a read that looked up no image file is kept."""
         found = None if self.memo is None else self.memo.find(path, self.time)
         if found is not None:
-            for skip in found[1]:
-                self.skip(*skip)
+            self.skipped += found[1]
             return found[0]
         if self.memo is None:
             return self._read_material(material)
-        skip, skips, lookups = self.skip, [], self.file_lookups
-
-        def recorded(reason, prim, detail=None):
-            skips.append((reason, prim, detail))
-            skip(reason, prim, detail)
-
-        self.skip = recorded
-        try:
-            mat = self._read_material(material)
-        finally:
-            self.skip = skip
+        start, lookups = len(self.skipped), self.file_lookups
+        mat = self._read_material(material)
         if self.file_lookups == lookups:
-            self.memo.keep(path, self.time, mat, skips)
+            self.memo.keep(path, self.time, mat, self.skipped[start:])
         return mat
 
     def _read_material(self, material) -> Material | None:

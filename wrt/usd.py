@@ -288,13 +288,12 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
         self.collections_inside = CollectionsInside(stage)  # collection bindings that reach into native instances
+        self.skipped = []  # [(reason, prim path, detail or None)], reported once per reason at the end
         self.materials = MaterialReader(time, self._skip, settings.material_binding_purposes if settings else None,
-                                        stage=self.stage, memo=material_memo)
+                                        stage=self.stage, memo=material_memo, skipped=self.skipped)
         self.skel = SkelPoser(time, self._skip, self._shown_path)  # poses meshes skinned by UsdSkel skeletons
         self.tubes = TubeReader(time, self._skip, self._error)  # Points and curves as spheres and tubes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles
-        self.skipped = {}  # reason -> [(prim path, detail or None)], reported once per reason at the end
-        self.skip_log = None  # [(reason, prim path, detail)] recording skips while a mesh read is being kept
         self.mesh_memo = mesh_memo  # meshes read at another time of this stage, reused where nothing differs
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
         self.computed_purposes = ComputedPurposes()  # ComputePurpose, each prim's answer kept (a deep hierarchy)

@@ -27,7 +27,7 @@ class MaterialMemo:
 
     def __init__(self, stage: Usd.Stage):
         self.reusable = not shading_might_vary(stage)
-        self._kept = {}  # (material path, default time) -> (Material or None, ((reason, prim, detail), ...))
+        self._kept = {}  # (material path, default time) -> (Material or None, ((reason, shown path, detail), ...))
         self._images = {}  # (resolved path, colour space) -> (file stamp, read-only pixels)
         self.counts = {"reused": 0, "read": 0}  # reads of each kind, for tests and benchmarks
         # (prim path, outer bindings, purposes) -> (material, binding relationship, purposes whose walk found none):

@@ -117,43 +117,37 @@ class MeshReading:
                 return self._reuse_mesh(prim, m, ctx, kept, face_materials, color_names)
             if counts is None:
                 counts = self._int_array(prim, UsdGeom.Mesh(prim).GetFaceVertexCountsAttr())
-        self.skip_log = []  # the warnings of this read (besides self.skipped), kept with it
-        try:
-            local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, ctx.keep_opaque,
-                                          ctx.blocked_opaque)
-            if local is None:
-                return None
-            # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins
-            # points only): skinning the rest pose's normals left blend shapes' dents unshaded and joints' bends
-            # approximate.
-            posed = self.skel.pose(prim, local.points, local.normals, local.vertex_ids, ctx.content.path)
-            if posed is not None:
-                # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
-                local.points, local.normals, space = posed
-                m = self._to_space(space, ctx)
-            if local.refinement is not None:
-                local.points = local.refinement.vertex(local.points)
-            read_skips, self.skip_log = self.skip_log, []
-            mesh = self._bake(prim, m, ctx, local, face_materials, color_names)
-            bake_skips = self.skip_log
-        finally:
-            self.skip_log = None
+        start = len(self.skipped)  # the warnings from here on are this read's, kept with it
+        local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, ctx.keep_opaque,
+                                      ctx.blocked_opaque)
+        if local is None:
+            return None
+        # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins
+        # points only): skinning the rest pose's normals left blend shapes' dents unshaded and joints' bends
+        # approximate.
+        posed = self.skel.pose(prim, local.points, local.normals, local.vertex_ids, ctx.content.path)
+        if posed is not None:
+            # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
+            local.points, local.normals, space = posed
+            m = self._to_space(space, ctx)
+        if local.refinement is not None:
+            local.points = local.refinement.vertex(local.points)
+        baked = len(self.skipped)
+        mesh = self._bake(prim, m, ctx, local, face_materials, color_names)
         if key is not None and posed is None:
-            memo.keep(key, inputs, n_faces, m, local, mesh, read_skips, bake_skips)
+            memo.keep(key, inputs, n_faces, m, local, mesh, self.skipped[start:baked], self.skipped[baked:])
         return mesh
 
     def _reuse_mesh(self, prim: Usd.Prim, m: np.ndarray, ctx: Context, kept, face_materials, color_names: list):
         """The mesh of ``kept`` (a :class:`wrt.usd_mesh_memo.KeptMesh` whose inputs are this read's), with the
         warnings its read recorded recorded again: the kept mesh where ``m`` is the transform baked into it, else its
         mesh in its own space baked with ``m``."""
-        for skip in kept.read_skips:
-            self._skip_path(*skip)
+        self.skipped += kept.read_skips
         if np.ascontiguousarray(m, np.float64).tobytes() != kept.to_space:
             self.mesh_memo.counts["rebaked"] += 1
             return self._bake(prim, m, ctx, kept.local, face_materials, color_names)
         self.mesh_memo.counts["reused"] += 1
-        for skip in kept.bake_skips:
-            self._skip_path(*skip)
+        self.skipped += kept.bake_skips
         ctx.content.want_colors(self._colors_from_above(prim, kept.local, color_names))  # as _bake asks
         return copy.copy(kept.mesh)
 

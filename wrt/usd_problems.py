@@ -12,7 +12,7 @@ from .errors import SceneError, user_stacklevel
 
 
 class ProblemReport:
-    """Errors and skipped prims of the stage reader (``stage``, ``source``, ``time``, ``skipped``, ``skip_log``,
+    """Errors and skipped prims of the stage reader (``stage``, ``source``, ``time``, ``skipped``,
     ``shown_prototypes``, ``prototype_instance_counts``)."""
 
     def _property_stack(self, attr: Usd.Attribute) -> list:
@@ -79,15 +79,17 @@ class ProblemReport:
         return self.shown_prototypes[key] + path[len(key):]
 
     def _skip_path(self, reason: str, path: str, detail: str | None = None):
-        self.skipped.setdefault(reason, []).append((path, detail))
-        if self.skip_log is not None:  # a mesh read being kept (wrt.usd_mesh_memo) records its own
-            self.skip_log.append((reason, path, detail))
+        # In order: the slice of a read kept for other frames is its warnings (wrt.usd_mesh_memo, usd_material_memo).
+        self.skipped.append((reason, path, detail))
 
     def _warn_skipped(self):
         """One warning per reason, with the number of prims, a tally of details (the prims with each) and the first
         few prim paths, each prim counted and named once: a prim recorded for several of its primvars (a constant
         displayColor and displayOpacity of several values each) read '2 prim(s): /Ball, /Ball'."""
-        for reason, found in self.skipped.items():
+        by_reason = {}
+        for reason, path, detail in self.skipped:
+            by_reason.setdefault(reason, []).append((path, detail))
+        for reason, found in by_reason.items():
             tally = {}
             for _, detail in dict.fromkeys(found):  # a record repeated whole (path and detail) counts once
                 if detail is not None:
