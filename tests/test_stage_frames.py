@@ -530,3 +530,109 @@ def test_material_bindings_kept_between_frames_equal_fresh_loads(tmp_path):
     assert names["/World/Picked/In"] == "/Looks/Blue" and names["/World/Group/Child"] == "/Looks/Red"
     assert names["/World/Preview"] == "/Looks/Green"
     assert frames.material_memo.binding_counts["reused"] > 0
+
+
+def write_placement_clip(path: Path) -> None:
+    """A value clip of ``/Clipped``: its translate (one sample per time code) and its visibility (hidden at 2)."""
+    stage = Usd.Stage.CreateInMemory()
+    clipped = UsdGeom.Xform.Define(stage, "/Clipped")
+    op = clipped.AddTranslateOp()
+    for t in (1, 2, 3, 4):
+        op.Set(Gf.Vec3d(0.5 * t, 0, 0), t)
+    visibility = clipped.CreateVisibilityAttr()
+    for t, token in ((1, UsdGeom.Tokens.inherited), (2, UsdGeom.Tokens.invisible), (3, UsdGeom.Tokens.inherited)):
+        visibility.Set(token, t)
+    stage.GetRootLayer().Export(str(path))
+
+
+def placement_stage(path: Path) -> Path:
+    """Static meshes, cameras and lights below ancestors whose transform or visibility is animated (by time samples,
+    by one sample beside a default, or only by a value clip), inside native instances and PointInstancer prototypes
+    too, beside ones below ancestors that hold still."""
+    write_placement_clip(path.with_name("placement_clip.usda"))
+    stage = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(4)
+    stage.CreateClassPrim("/Kit")
+    mesh(stage, "/Kit/Part", *grid(2, 0.1, 0.3))
+    UsdGeom.Camera.Define(stage, "/Kit/Cam").AddTranslateOp().Set(Gf.Vec3d(0, 0, 3))
+    for name in ("Still", "Moving", "Blinking", "Clipped", "OnceMoved", "OnceHidden"):
+        parent = UsdGeom.Xform.Define(stage, f"/{name}")
+        inner = UsdGeom.Xform.Define(stage, f"/{name}/Inner")
+        inner.AddTranslateOp().Set(Gf.Vec3d(0, 0.5, 0))
+        mesh(stage, f"/{name}/Inner/Part", *grid(2, 0, 0.4))
+        UsdGeom.Camera.Define(stage, f"/{name}/Inner/Cam").AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
+        UsdLux.SphereLight.Define(stage, f"/{name}/Inner/Lamp").CreateIntensityAttr(5.0)
+        instance = UsdGeom.Xform.Define(stage, f"/{name}/Inner/Instance")
+        instance.GetPrim().GetReferences().AddInternalReference("/Kit")
+        instance.GetPrim().SetInstanceable(True)
+        instance.AddTranslateOp().Set(Gf.Vec3d(1, 0, 0))
+        if name == "Moving":
+            op = parent.AddTranslateOp()
+            op.Set(Gf.Vec3d(0, 0, 0), 1), op.Set(Gf.Vec3d(1, 2, 3), 4)
+        elif name == "Blinking":
+            visibility = parent.CreateVisibilityAttr()
+            visibility.Set(UsdGeom.Tokens.inherited, 1), visibility.Set(UsdGeom.Tokens.invisible, 2)
+            visibility.Set(UsdGeom.Tokens.inherited, 3)
+        elif name == "Clipped":
+            parent.AddTranslateOp()  # declared; its values come only from the clip
+            api = Usd.ClipsAPI(parent.GetPrim())
+            api.SetClipPrimPath("/Clipped")
+            api.SetClipAssetPaths([Sdf.AssetPath("./placement_clip.usda")])
+            api.SetClipActive([(1, 0)])
+            api.SetClipTimes([(1, 1), (4, 4)])
+        elif name == "OnceMoved":  # a default and one sample: still in time, yet the default at time=None
+            op = parent.AddTranslateOp()
+            op.Set(Gf.Vec3d(0, 0, 0)), op.Set(Gf.Vec3d(0, 0, 2), 3)
+        elif name == "OnceHidden":
+            visibility = parent.CreateVisibilityAttr()
+            visibility.Set(UsdGeom.Tokens.inherited), visibility.Set(UsdGeom.Tokens.invisible, 3)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Crowd")
+    cell = UsdGeom.Xform.Define(stage, "/Crowd/Protos/Cell")
+    op = cell.AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, 0), 1), op.Set(Gf.Vec3d(0, 0, 1), 4)
+    part = mesh(stage, "/Crowd/Protos/Cell/Part", *grid(2, 0, 0.2))
+    part.CreateVisibilityAttr().Set(UsdGeom.Tokens.inherited, 1), part.GetVisibilityAttr().Set("invisible", 3)
+    mesh(stage, "/Crowd/Protos/Cell/Fixed", *grid(2, 0.5, 0.2))
+    instancer.CreatePrototypesRel().SetTargets([cell.GetPath()])
+    instancer.CreateProtoIndicesAttr([0, 0])
+    instancer.CreatePositionsAttr([(-3, 0, 0), (-3, 1, 0)])
+    stage.GetRootLayer().Save()
+    return path
+
+
+def test_visibility_and_transforms_kept_between_frames_equal_fresh_loads(tmp_path):
+    """Meshes, cameras, lights and instances below an ancestor whose transform or visibility is animated, given only
+    by a value clip, or one sample beside a default, in native instances and a PointInstancer prototype (its transform
+    and a mesh's visibility inside animated): every frame equals a fresh load, warnings included, in any order of
+    times; the still transforms are given again."""
+    path = placement_stage(tmp_path / "placements.usda")
+    frames = StageFrames(path)
+    scenes = {}
+    for t in (1, 2, 2.5, None, 3, 4, 5, 1, None, 2):
+        scene, warned = load_warned(frames.load, t)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned, (t, warned)
+        scenes[t] = scene
+    assert frames.placement_memo.counts["transforms"] > 0
+
+    # The stage does animate what it should (against USD's own transforms and visibility; at time=None wrt reads an
+    # op with samples and no default at its first sample, which XformCache does not).
+    stage = Usd.Stage.Open(str(path))
+    for t in (1, 2, 3):
+        time = Usd.TimeCode(t)
+        drawn = {m.path: m for m in scenes[t].meshes}
+        for name in ("Moving", "Clipped", "OnceMoved", "Blinking", "OnceHidden"):
+            prim = stage.GetPrimAtPath(f"/{name}/Inner/Part")
+            hidden = UsdGeom.Imageable(prim).ComputeVisibility(time) == UsdGeom.Tokens.invisible
+            assert (prim.GetPath().pathString not in drawn) == hidden, (name, t)
+            if not hidden:
+                world = np.array(UsdGeom.XformCache(time).GetLocalToWorldTransform(prim))
+                local = np.array(UsdGeom.Mesh(prim).GetPointsAttr().Get(time), np.float64)
+                expected = np.c_[local, np.ones(len(local))] @ world
+                np.testing.assert_allclose(drawn[prim.GetPath().pathString].points, expected[:, :3], atol=1e-6)
+    assert "/Blinking/Inner/Part" not in {m.path for m in scenes[2].meshes}
+    assert "/Clipped/Inner/Part" not in {m.path for m in scenes[2].meshes}
+    assert "/OnceHidden/Inner/Part" in {m.path for m in scenes[None].meshes}

@@ -117,6 +117,7 @@ from .usd_mesh_memo import MeshMemo
 from .usd_mesh_primvars import MeshPrimvarReading
 from .usd_meshes import MeshReading, triangulate
 from .usd_native_instances import NativeInstanceReading
+from .usd_placement_memo import PlacementMemo
 from .usd_point_instancer import PointInstancerReading
 from .usd_problems import ProblemReport
 from .usd_skel import SkelPoser
@@ -198,7 +199,7 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
     segments = _gprim_segments(tessellate_gprims)
     _check_refine_level(refine_level)
     reader = _StageReader(stage, source, time_code, segments, int(refine_level), settings,
-                          *((None, None) if frames is None else (frames.memo, frames.material_memo)))
+                          *(() if frames is None else (frames.memo, frames.material_memo, frames.placement_memo)))
     try:
         return reader.read()
     finally:
@@ -274,7 +275,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
 
     def __init__(self, stage: Usd.Stage, source: str, time: Usd.TimeCode, segments: int = 0, refine_level: int = 0,
                  settings: RenderSettings | None = None, mesh_memo: MeshMemo | None = None,
-                 material_memo: MaterialMemo | None = None):
+                 material_memo: MaterialMemo | None = None, placement_memo: PlacementMemo | None = None):
         self.stage = stage
         self.settings = settings
         # Purposes drawn: the render settings' includedPurposes (default always), else default and render.
@@ -283,7 +284,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.time = time
         self.segments = segments  # > 0: gprims become meshes of this many segments per circle
         self.refine_level = refine_level  # subdivision steps for catmullClark, loop and bilinear meshes
-        self.xforms = xform_cache(time, stage, self._skip)  # sample-only ops read at their first sample (see above)
+        # Sample-only ops read at their first sample (see above); a kept stage's still transforms given again.
+        self.xforms = xform_cache(time, stage, self._skip, placement_memo)
         self.contents = {}  # (kind, root path, outer material) -> Content, each prototype read once
         self.reading = set()  # content keys being read (a prototype that contains itself is an error)
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
@@ -296,6 +298,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.surfaces = SurfaceReader(time, self._skip, self._error)  # TetMesh and NurbsPatch as triangles
         self.mesh_memo = mesh_memo  # meshes read at another time of this stage, reused where nothing differs
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
+        self.placement_memo = placement_memo  # visibility answers (and transforms) of a kept stage that cannot vary
         self.computed_purposes = ComputedPurposes()  # ComputePurpose, each prim's answer kept (a deep hierarchy)
         self.inherited_primvars = InheritedPrimvars()  # FindPrimvarWithInheritance, likewise
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)

@@ -34,11 +34,11 @@ def clip_roots(stage: Usd.Stage) -> list:
 
 def under_clips(prim: Usd.Prim, roots: list) -> bool:
     """Values of ``prim`` may come from clips: it is at or below one of ``roots`` (:func:`clip_roots`), or in a native
-    prototype while there are clips at all."""
+    prototype or an instance proxy (whose prototype's clips are at prototype paths) while there are clips at all."""
     if not roots:
         return False
     path = prim.GetPath()
-    return prim.IsInPrototype() or any(path.HasPrefix(root) for root in roots)
+    return prim.IsInPrototype() or prim.IsInstanceProxy() or any(path.HasPrefix(root) for root in roots)
 
 
 def clip_stamps(stage: Usd.Stage, roots: list, file_stamp) -> dict | None:

@@ -11,12 +11,13 @@ afresh and forgets every kept mesh. A fresh :func:`wrt.load_usd` of a file whose
 those layers as USD holds them, not the file (USD's layer registry): so :func:`wrt.usd_stage.open_stage` first lets
 go of kept stages whose files changed (:func:`release_changed`).
 
-Meshes are reused by :class:`wrt.usd_mesh_memo.MeshMemo` and materials by :class:`wrt.usd_material_memo.MaterialMemo`
-(which can be, and when); the arrays of the meshes kept and the texture images are shared by the scenes of the loads
-and read-only from the load on (:meth:`wrt.scene.Scene.invalidate` leaves them so: an edit in place would change later
-frames). So are the material bindings (:attr:`wrt.usd_material_memo.MaterialMemo.bindings`: relationships and
-collections, resolved without a time, which only a change of composition changes). Everything else (the prim walk,
-visibility, transforms, textures, instancing, cameras, lights, render settings) is read at every load.
+Meshes are reused by :class:`wrt.usd_mesh_memo.MeshMemo`, materials by :class:`wrt.usd_material_memo.MaterialMemo`,
+visibility and transforms by :class:`wrt.usd_placement_memo.PlacementMemo` (which can be, and when); the arrays of
+the meshes kept and the texture images are shared by the scenes of the loads and read-only from the load on
+(:meth:`wrt.scene.Scene.invalidate` leaves them so: an edit in place would change later frames). So are the material
+bindings (:attr:`wrt.usd_material_memo.MaterialMemo.bindings`: relationships and collections, resolved without a
+time, which only a change of composition changes). Everything else (the prim walk,
+textures, instancing, cameras, lights, render settings) is read at every load.
 Warnings about the stage as a whole that come with opening it (layers in other units) come with the load that opens
 it.
 """
@@ -31,6 +32,7 @@ from pxr import Ar, Tf, Usd
 from .usd_clips import clip_roots, clip_stamps
 from .usd_material_memo import MaterialMemo
 from .usd_mesh_memo import MeshMemo
+from .usd_placement_memo import PlacementMemo
 
 _KEPT = weakref.WeakSet()  # every StageFrames holding a stage, for release_changed
 
@@ -47,6 +49,7 @@ class StageFrames:
         memo: the :class:`wrt.usd_mesh_memo.MeshMemo` of the kept stage (its ``counts`` say how each mesh was read),
             or None while no stage is kept.
         material_memo: its :class:`wrt.usd_material_memo.MaterialMemo`, likewise.
+        placement_memo: its :class:`wrt.usd_placement_memo.PlacementMemo` (visibility and transforms), likewise.
     """
 
     def __init__(self, path, **options):
@@ -54,7 +57,7 @@ class StageFrames:
         self.options = {"tessellate_gprims": False, "refine_level": 0, "variants": None, "render_settings": None,
                         **options}
         self.memo = None
-        self.material_memo = None
+        self.material_memo = self.placement_memo = None
         self._stage = None
         self._opened_with = None  # (source, variants) the kept stage was opened with
         self._stamps = {}  # file -> stamp (_stamp) of each layer the kept stage uses, when opened
@@ -85,7 +88,8 @@ class StageFrames:
             if clips is None or stage.GetCompositionErrors():
                 return stage  # opened for this load alone; nothing kept
             self._stage, self._opened_with, self._stamps = stage, opened_with, {**stamps, **clips}
-            self.memo, self.material_memo = MeshMemo(clipped), MaterialMemo(stage)
+            self.memo, self.material_memo, self.placement_memo = MeshMemo(clipped), MaterialMemo(stage), PlacementMemo(
+                clipped)
             edited = self._edited = [False]
             self._listener = Tf.Notice.Register(Usd.Notice.StageContentsChanged,
                                                 lambda notice, sender: edited.__setitem__(0, True), stage)
@@ -100,7 +104,7 @@ class StageFrames:
         """Lets go of the kept stage and its meshes (the next load opens the file again)."""
         if self._listener is not None:
             self._listener.Revoke()
-        self._stage = self._opened_with = self._listener = self.memo = self.material_memo = None
+        self._stage = self._opened_with = self._listener = self.memo = self.material_memo = self.placement_memo = None
         self._stamps = {}
         _KEPT.discard(self)
 

@@ -13,6 +13,7 @@ from .usd_values import value_at
 
 class Visibility:
     """Visibility and purpose filters of the stage reader (``time``, ``purposes``, ``visibility``,
+    ``placement_memo``: a kept stage's :class:`wrt.usd_placement_memo.PlacementMemo` or None,
     ``computed_purposes``: a :class:`wrt.usd_ancestors.ComputedPurposes`)."""
 
     def _visible(self, prim: Usd.Prim, stop: Usd.Prim | None = None) -> bool:
@@ -20,16 +21,21 @@ class Visibility:
         (``value_at``), so with ``time=None`` a prim hidden only by its first time sample is hidden, as its points are
         that sample's."""
         # Each prim's answer is kept (per stop): asking every prim of a deep hierarchy walked all its ancestors,
-        # quadratic in the depth (a mesh under each of 1000 nested Xforms took 10 s).
+        # quadratic in the depth (a mesh under each of 1000 nested Xforms took 10 s). A kept stage keeps those of
+        # chains whose visibility cannot vary for its later loads (still).
+        memo = self.placement_memo
+        still = {} if memo is None else memo.visible(self.time)
         stop_path = stop.GetPath() if stop else None
         chain = []  # (key, prim) from prim up to the first ancestor already known, the stop or the root
-        visible = True
+        visible, is_still = True, memo is not None
         p = prim
         while p and p != stop and not p.IsPseudoRoot():
             key = (p.GetPath(), stop_path)
-            known = self.visibility.get(key)
-            if known is not None:
-                visible = known
+            if key in still:
+                visible = still[key]
+                break
+            if key in self.visibility:  # read in this load: its chain might vary
+                visible, is_still = self.visibility[key], False
                 break
             chain.append((key, p))
             p = p.GetParent()
@@ -38,6 +44,9 @@ class Visibility:
                 img = UsdGeom.Imageable(p)
                 visible = not (img and value_at(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible)
             self.visibility[key] = visible
+            is_still = is_still and memo.visibility_still(p)
+            if is_still:
+                still[key] = visible
         return visible
 
     def _purpose(self, prim: Usd.Prim, ctx: Context):

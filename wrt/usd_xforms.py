@@ -49,11 +49,12 @@ def affine_part(m: np.ndarray, warn) -> np.ndarray:
     return affine
 
 
-def xform_cache(time: Usd.TimeCode, stage: Usd.Stage | None = None, warn=None):
+def xform_cache(time: Usd.TimeCode, stage: Usd.Stage | None = None, warn=None, memo=None):
     """An object with ``UsdGeom.XformCache``'s ``GetLocalToWorldTransform`` and ``ComputeRelativeTransform`` at
     ``time`` under wrt's rule for the default time, for the prims of ``stage``; ``warn(reason, prim, op name)`` is
-    called for each malformed op a transform asked for meets (see the module docstring)."""
-    return DefaultTimeXforms(stage, warn) if time.IsDefault() else Xforms(time, warn=warn)
+    called for each malformed op a transform asked for meets (see the module docstring). ``memo``: a
+    :class:`wrt.usd_placement_memo.PlacementMemo` of the kept stage, whose transforms are given again and kept."""
+    return DefaultTimeXforms(stage, warn, memo) if time.IsDefault() else Xforms(time, warn=warn, memo=memo)
 
 
 class Xforms:
@@ -66,8 +67,9 @@ class Xforms:
     up its chain are then resolved op by op.
     """
 
-    def __init__(self, time: Usd.TimeCode, stage: Usd.Stage | None = None, warn=None):
+    def __init__(self, time: Usd.TimeCode, stage: Usd.Stage | None = None, warn=None, memo=None):
         self._time = time
+        self._memo = memo  # a wrt.usd_placement_memo.PlacementMemo: transforms that cannot vary, or None
         self._warn = warn if warn is not None else lambda reason, prim, op: None
         self._cache = UsdGeom.XformCache(time)  # exact where no prim up the chain is resolved op by op
         # No layer of the stage holds a time sample (a still robot fleet): every op reads its default, asked once for
@@ -175,11 +177,28 @@ class Xforms:
             prim = prim.GetParent()
 
     def GetLocalToWorldTransform(self, prim: Usd.Prim) -> Gf.Matrix4d:  # noqa: N802 (XformCache's name)
+        return self._cached(prim, None)[0]
+
+    def _cached(self, prim: Usd.Prim, ancestor: Usd.Prim | None) -> tuple[Gf.Matrix4d, bool]:
+        """``prim``'s transform to ``ancestor``'s space (None: the world's) and whether a reset is between them: the
+        memo's, else the cache's where no prim up the chain is resolved op by op (kept in the memo), else op by op."""
+        kept = None if self._memo is None else self._memo.transform(self._time, prim, ancestor)
+        if kept is not None:
+            return kept
         if not self._resolved_by_op(prim):
             try:
-                return self._cache.GetLocalToWorldTransform(prim)
+                found = (self._cache.GetLocalToWorldTransform(prim), False) if ancestor is None else \
+                    self._cache.ComputeRelativeTransform(prim, ancestor)
             except Tf.ErrorException:
                 self._by_op_after_error(prim)
+            else:
+                if self._memo is not None:
+                    self._memo.keep_transform(self._time, prim, ancestor, *found)
+                return found
+        return (self._world_by_op(prim), False) if ancestor is None else self._relative_by_op(prim, ancestor)
+
+    def _world_by_op(self, prim: Usd.Prim) -> Gf.Matrix4d:
+        """``prim``'s world transform, the prims up its chain resolved op by op from the cache's."""
         key = prim.GetPath()
         if key not in self._world:
             chain = []  # prims up to the first one whose world transform is known, or has no op-by-op prim up its chain
@@ -198,11 +217,10 @@ class Xforms:
     def ComputeRelativeTransform(self, prim: Usd.Prim, ancestor: Usd.Prim) -> tuple[Gf.Matrix4d, bool]:  # noqa: N802
         """``prim``'s transform to ``ancestor``'s space; with a resetXformStack between them, to the world's (and
         True), as ``XformCache.ComputeRelativeTransform``."""
-        if not self._resolved_by_op(prim):
-            try:
-                return self._cache.ComputeRelativeTransform(prim, ancestor)
-            except Tf.ErrorException:
-                self._by_op_after_error(prim)
+        return self._cached(prim, ancestor)
+
+    def _relative_by_op(self, prim: Usd.Prim, ancestor: Usd.Prim) -> tuple[Gf.Matrix4d, bool]:
+        """:meth:`ComputeRelativeTransform`, every prim up to ``ancestor`` resolved op by op."""
         m = Gf.Matrix4d(1.0)
         p = prim
         while p and p != ancestor and not p.IsPseudoRoot():
@@ -223,5 +241,5 @@ class DefaultTimeXforms(Xforms):
     quarter of the load of 100k native instances.
     """
 
-    def __init__(self, stage: Usd.Stage | None = None, warn=None):
-        super().__init__(DEFAULT, stage, warn)
+    def __init__(self, stage: Usd.Stage | None = None, warn=None, memo=None):
+        super().__init__(DEFAULT, stage, warn, memo)
