@@ -636,3 +636,36 @@ def test_visibility_and_transforms_kept_between_frames_equal_fresh_loads(tmp_pat
     assert "/Blinking/Inner/Part" not in {m.path for m in scenes[2].meshes}
     assert "/Clipped/Inner/Part" not in {m.path for m in scenes[2].meshes}
     assert "/OnceHidden/Inner/Part" in {m.path for m in scenes[None].meshes}
+
+
+def test_a_mesh_whose_own_transform_visibility_and_extent_vary_is_baked_again_not_read(tmp_path):
+    """A mesh whose points hold still while its own transform, visibility and ``extent`` are animated (as exporters
+    write rigid motion): none of them is read by the mesh's read, so the kept mesh is baked again with each frame's
+    transform; every frame equals a fresh load, and a deforming mesh beside it is still read at every frame."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "rigid.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(4)
+    rigid = mesh(stage, "/Rigid", *grid(3, 0, 0.5))
+    rigid.CreateDisplayColorAttr([(0.9, 0.2, 0.1)])
+    op = rigid.AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, 0), 1), op.Set(Gf.Vec3d(2, 1, 0), 4)
+    for t, token in ((1, UsdGeom.Tokens.inherited), (3, UsdGeom.Tokens.invisible), (4, UsdGeom.Tokens.inherited)):
+        rigid.CreateVisibilityAttr().Set(token, t)
+    for t in (1, 4):
+        rigid.CreateExtentAttr().Set(Vt.Vec3fArray([(-0.5 - t, -0.5, -0.1), (0.5 + t, 0.5, 0.1)]), t)
+    wave = mesh(stage, "/Wave", *grid(2))
+    wave.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(grid(2, 1.0)[0].astype(np.float32)), 4)
+    wave.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(grid(2, 0.0)[0].astype(np.float32)), 1)
+    stage.GetRootLayer().Save()
+    path = tmp_path / "rigid.usda"
+    frames = StageFrames(path)
+    times = (1, 2, 3, 4, 2.5, None, 1)
+    for t in times:
+        scene, warned = load_warned(frames.load, t)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned, (t, warned)
+        assert ("/Rigid" in {m.path for m in scene.meshes}) == (t != 3)
+    # Read at the first time code and at None; baked again or handed out at the four other loads that draw it.
+    counts = frames.memo.counts
+    assert counts["read"] == 2 and counts["reused"] + counts["rebaked"] == 4, counts

@@ -6,7 +6,8 @@ descendants (GeomSubsets), the ``primvars:`` its ancestors hand down (:class:`wr
 a skeleton's pose, its transform to its content's space, what its materials ask of it (their indices per face, the
 texture-coordinate and colour primvars they read), and the context it is read in (world or prototype, an instance's
 colour). The first three are asked of USD once per kept stage: a mesh is reusable only when no attribute of it or of
-a descendant might vary (``UsdAttribute.ValueMightBeTimeVarying``; ``velocities`` or ``accelerations`` authored at all
+a descendant might vary (``UsdAttribute.ValueMightBeTimeVarying``; its own transform ops, ``visibility`` and
+``extent`` aside, which its read does not take; ``velocities`` or ``accelerations`` authored at all
 count as varying, as they move one sample of points; so does every prim value clips may reach,
 :func:`wrt.usd_clips.under_clips`), no ``primvars:`` attribute above it might, and no ``SkelRoot`` is above it
 (skinned meshes are read every time). The others are found again at every read, as a fresh read finds
@@ -35,6 +36,10 @@ from .usd_meshes import LocalMesh
 # Attributes that move the points of a point-based prim between (or past) samples, one sample of points too.
 RATE_ATTRIBUTES = ("velocities", "accelerations")
 INHERITED_PREFIX = "primvars:"  # the only attributes above a mesh whose values its read takes (transforms compared)
+# A mesh's own attributes that its read does not take, which may vary: its transform (compared) and visibility (asked
+# before the read), and its extent (never read).
+PLACEMENT_ATTRIBUTES = ("visibility", "extent", "xformOpOrder")
+XFORM_OP_PREFIX = "xformOp:"
 # Reads kept per prim and context, the latest: a prototype read again for other bindings or an instance's colour is
 # another read (a colour that varies would otherwise keep one read per frame).
 KEPT_PER_KEY = 4
@@ -123,8 +128,9 @@ class MeshMemo:
     def _own_varies(self, prim: Usd.Prim) -> bool:
         path = prim.GetPath()
         if path not in self._varies:
+            read = [a for a in prim.GetAuthoredAttributes() if not _placement(a.GetName())]
             self._varies[path] = under_clips(prim, self.clip_roots) or any(
-                a.ValueMightBeTimeVarying() for a in prim.GetAuthoredAttributes()) or any(
+                a.ValueMightBeTimeVarying() for a in read) or any(
                 prim.HasAttribute(name) and prim.GetAttribute(name).HasAuthoredValue() for name in RATE_ATTRIBUTES)
         return self._varies[path]
 
@@ -146,6 +152,11 @@ class MeshMemo:
         for path in chain:
             self._inherits_varying[path] = found
         return found
+
+
+def _placement(name: str) -> bool:
+    """``name`` is one of :data:`PLACEMENT_ATTRIBUTES` or a transform op's."""
+    return name in PLACEMENT_ATTRIBUTES or name.startswith(XFORM_OP_PREFIX)
 
 
 def _freeze(value) -> None:
