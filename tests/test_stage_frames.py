@@ -669,3 +669,48 @@ def test_a_mesh_whose_own_transform_visibility_and_extent_vary_is_baked_again_no
     # Read at the first time code and at None; baked again or handed out at the four other loads that draw it.
     counts = frames.memo.counts
     assert counts["read"] == 2 and counts["reused"] + counts["rebaked"] == 4, counts
+
+
+def test_light_texture_files_are_decoded_once_for_the_frames_of_a_kept_stage(tmp_path):
+    """A textured dome and a textured RectLight that moves: every frame equals a fresh load, each image file is
+    decoded once for all the frames (a dome's image was decoded at every frame) and stays read-only, and a file
+    rewritten between frames is read again."""
+    from PIL import Image
+
+    def write_sky(shade):  # 2:1, a latitude-longitude image used as it is (another layout is resampled per load)
+        rgb = np.zeros((8, 16, 3), np.uint8)
+        rgb[:4], rgb[4:] = (shade, 90, 40), (20, 60, shade)
+        Image.fromarray(rgb).save(tmp_path / "sky.png")
+
+    write_sky(250)
+    write_texture(tmp_path / "panel.png", 120)
+    stage = Usd.Stage.CreateNew(str(tmp_path / "lit.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(4)
+    UsdLux.DomeLight.Define(stage, "/Sky").CreateTextureFileAttr(Sdf.AssetPath("sky.png"))
+    panel = UsdLux.RectLight.Define(stage, "/Panel")
+    panel.CreateTextureFileAttr(Sdf.AssetPath("panel.png"))
+    op = panel.AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, 2), 1), op.Set(Gf.Vec3d(1, 0, 3), 4)
+    mesh(stage, "/Floor", *grid(2))
+    stage.GetRootLayer().Save()
+    path = tmp_path / "lit.usda"
+
+    def textures(scene):
+        return {light.path: light.texture for light in scene.lights}
+
+    frames = StageFrames(path)
+    images = set()
+    for t in (1, 2, None, 3, 1):
+        scene = frames.load(t)
+        assert_same(scene, load_fresh(path, t), f"frame {t}")
+        images.update((path, id(texture)) for path, texture in textures(scene).items())
+    assert len(images) == 2  # one array per file over all the frames
+    scene.invalidate()
+    with pytest.raises(ValueError, match="read-only"):
+        textures(scene)["/Sky"][0, 0] = 0.0
+    write_sky(30)
+    bump(tmp_path / "sky.png")
+    scene = frames.load(2)
+    assert_same(scene, load_fresh(path, 2), "after sky.png was rewritten")
+    assert textures(scene)["/Sky"][0, 0, 0] < 0.1  # the new file's

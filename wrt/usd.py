@@ -110,7 +110,7 @@ from .usd_bindings import CollectionsInside
 from .usd_cameras import CameraReading
 from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, place_instances
 from .usd_gprims import GprimReading
-from .usd_lights import read_light, warn_glowless_mesh_light
+from .usd_lights import LightTextures, read_light, warn_glowless_mesh_light
 from .usd_looks import LookReading
 from .usd_material_memo import MaterialMemo
 from .usd_mesh_memo import MeshMemo
@@ -305,7 +305,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
         self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)
         self.instanced_lights = {}  # prim path -> MeshLight of the mesh lights read inside prototypes
-        self.light_textures = {}  # the images of light textures, each file read once (usd_lights.LightTextures)
+        self.light_textures = LightTextures(material_memo)  # the images of light textures, each file read once
 
     def read(self) -> Scene:
         scene = Scene(

@@ -41,13 +41,13 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=N
         skip: ``skip(reason, prim, detail=None)``.
         to_world: ``(4, 4)`` float64 column-vector local-to-world transform placing the light (one instance of a
             PointInstancer's prototype), or None: the prim's own world transform.
-        textures: a dict kept over one load (:class:`LightTextures`' memory): each texture file is read once, and
-            the lights that name it share its image; None: read here.
+        textures: a :class:`LightTextures` kept over one load: each texture file is read once, and the lights that
+            name it share its image; None: read here.
     """
     get, legacy = input_reader(prim, time)
     if to_world is None:
         to_world = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
-    result = _read_light(prim, to_world, time, up_axis, skip, get, LightTextures(textures))
+    result = _read_light(prim, to_world, time, up_axis, skip, get, LightTextures() if textures is None else textures)
     if legacy:
         skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
              "inputs: attributes", prim, ", ".join(legacy))
@@ -98,12 +98,18 @@ def sphere_inputs(prim, time) -> tuple[float, bool]:
 
 
 class LightTextures:
-    """The images of light textures, each file read once per ``memory`` (a dict: ``(resolved path, colour space)``
-    -> image, or the :class:`wrt.textures.TextureError` that reading it raised). A textured RectLight in a
-    PointInstancer's prototype was read from disk once per instance (10,000 lamps, 10,000 reads of one file)."""
+    """The images of light textures, each file read once (``memory``: ``(resolved path, colour space)`` -> image, or
+    the :class:`wrt.textures.TextureError` that reading it raised). A textured RectLight in a PointInstancer's
+    prototype was read from disk once per instance (10,000 lamps, 10,000 reads of one file).
 
-    def __init__(self, memory: dict | None):
-        self.memory = {} if memory is None else memory
+    Args:
+        kept: a kept stage's :class:`wrt.usd_material_memo.MaterialMemo`, whose ``image`` decodes each file once
+            for every frame while the file is unchanged (a dome's image was decoded at every frame), or None.
+    """
+
+    def __init__(self, kept=None):
+        self.memory = {}
+        self.kept = kept
 
     def load(self, resolved: str, color_space: str = "auto"):
         """The image at ``resolved`` (:func:`wrt.textures.load_image`); raises its ``TextureError`` again for a
@@ -113,7 +119,8 @@ class LightTextures:
         key = (resolved, color_space)
         if key not in self.memory:
             try:
-                self.memory[key] = load_image(resolved, color_space)
+                self.memory[key] = load_image(resolved, color_space) if self.kept is None else self.kept.image(
+                    resolved, color_space, load_image)
             except TextureError as e:
                 self.memory[key] = e
         found = self.memory[key]

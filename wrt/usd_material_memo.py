@@ -53,7 +53,7 @@ class MaterialMemo:
     def image(self, resolved: str, color_space: str, load):
         """``load(resolved, color_space)``, the pixels of an image file, kept while the file (the package of one
         inside a ``.usdz``) keeps its stamp (:func:`wrt.usd_frames.file_stamp`): decoded once, whatever the
-        materials that read it and whether they vary."""
+        materials (and lights: :class:`wrt.usd_lights.LightTextures`) that read it and whether they vary."""
         from pxr import Ar
 
         from .usd_frames import file_stamp
