@@ -571,6 +571,14 @@ def placement_stage(path: Path) -> Path:
         if name == "Moving":
             op = parent.AddTranslateOp()
             op.Set(Gf.Vec3d(0, 0, 0), 1), op.Set(Gf.Vec3d(1, 2, 3), 4)
+            color = UsdGeom.PrimvarsAPI(inner).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                            UsdGeom.Tokens.constant)  # inherited by Part
+            color.Set(Vt.Vec3fArray([(1, 0, 0)]), 1), color.Set(Vt.Vec3fArray([(0, 0, 1)]), 4)
+        elif name == "Still":  # purposes: kept whole for a kept stage (uniform)
+            guide = UsdGeom.Xform.Define(stage, "/Still/Inner/Guide")
+            guide.CreatePurposeAttr(UsdGeom.Tokens.guide)
+            mesh(stage, "/Still/Inner/Guide/Hidden", *grid(2, 1, 0.2))
+            mesh(stage, "/Still/Inner/Render", *grid(2, 2, 0.2)).CreatePurposeAttr(UsdGeom.Tokens.render)
         elif name == "Blinking":
             visibility = parent.CreateVisibilityAttr()
             visibility.Set(UsdGeom.Tokens.inherited, 1), visibility.Set(UsdGeom.Tokens.invisible, 2)
@@ -605,8 +613,8 @@ def placement_stage(path: Path) -> Path:
 def test_visibility_and_transforms_kept_between_frames_equal_fresh_loads(tmp_path):
     """Meshes, cameras, lights and instances below an ancestor whose transform or visibility is animated, given only
     by a value clip, or one sample beside a default, in native instances and a PointInstancer prototype (its transform
-    and a mesh's visibility inside animated): every frame equals a fresh load, warnings included, in any order of
-    times; the still transforms are given again."""
+    and a mesh's visibility inside animated), beside purposes and an inherited colour that varies: every frame equals
+    a fresh load, warnings included, in any order of times; the still transforms are given again."""
     path = placement_stage(tmp_path / "placements.usda")
     frames = StageFrames(path)
     scenes = {}
@@ -636,6 +644,11 @@ def test_visibility_and_transforms_kept_between_frames_equal_fresh_loads(tmp_pat
     assert "/Blinking/Inner/Part" not in {m.path for m in scenes[2].meshes}
     assert "/Clipped/Inner/Part" not in {m.path for m in scenes[2].meshes}
     assert "/OnceHidden/Inner/Part" in {m.path for m in scenes[None].meshes}
+    drawn = {m.path: m for m in scenes[1].meshes}
+    assert "/Still/Inner/Render" in drawn and "/Still/Inner/Guide/Hidden" not in drawn
+    later = next(m for m in scenes[4].meshes if m.path == "/Moving/Inner/Part")
+    np.testing.assert_allclose(np.unique(drawn["/Moving/Inner/Part"].colors.reshape(-1, 3), axis=0), [(1, 0, 0)])
+    np.testing.assert_allclose(np.unique(later.colors.reshape(-1, 3), axis=0), [(0, 0, 1)])
 
 
 def test_a_mesh_whose_own_transform_visibility_and_extent_vary_is_baked_again_not_read(tmp_path):

@@ -299,8 +299,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.mesh_memo = mesh_memo  # meshes read at another time of this stage, reused where nothing differs
         self.visibility = {}  # (prim path, stop path or None) -> no ancestor up to the stop is invisible
         self.placement_memo = placement_memo  # visibility answers (and transforms) of a kept stage that cannot vary
-        self.computed_purposes = ComputedPurposes()  # ComputePurpose, each prim's answer kept (a deep hierarchy)
-        self.inherited_primvars = InheritedPrimvars()  # FindPrimvarWithInheritance, likewise
+        # ComputePurpose and FindPrimvarWithInheritance, each prim's answer kept (a deep hierarchy), a kept stage's
+        # for all its loads (neither answer depends on the time).
+        self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
+        self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
         self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)

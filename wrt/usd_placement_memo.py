@@ -8,12 +8,17 @@ the world or to an ancestor (:class:`wrt.usd_xforms.Xforms`) where no prim from 
 whose malformed ops are warned about at every read, is read again). Every prim value clips may reach counts as
 varying (:func:`wrt.usd_clips.under_clips`), as for meshes. Reads at the default time and at time codes are kept
 apart: a value with a default and one time sample does not vary in time, but reads as the default at ``time=None``.
+
+Two answers the prim walk asks of each prim's ancestors hold for every time, and are kept whole: its purpose (a
+uniform attribute, read at the default time) and which ancestor's primvar it inherits (decided by which prims author
+a value and its interpolation, not by the value).
 """
 
 from __future__ import annotations
 
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
+from .usd_ancestors import ComputedPurposes, InheritedPrimvars
 from .usd_clips import under_clips
 
 
@@ -31,6 +36,8 @@ class PlacementMemo:
         self._visible = ({}, {})  # [default time]: (prim path, stop path or None) -> visible, its chain still
         self._transforms = ({}, {})  # [default time]: (prim path, ancestor path or None) -> (Gf.Matrix4d, resets)
         self.counts = {"transforms": 0}  # transforms given again, for tests
+        self.purposes = ComputedPurposes()  # the stage reader's computed_purposes at every load
+        self.primvars = InheritedPrimvars()  # its inherited_primvars, likewise
 
     def visible(self, time: Usd.TimeCode) -> dict:
         """The kept visibility answers at times of ``time``'s kind: ``(prim path, stop path or None) -> visible``
