@@ -98,7 +98,7 @@ def eye_normals(stage_path: str, camera: str, normals: np.ndarray) -> np.ndarray
 def test_png_products_are_tagged_srgb_and_hold_the_srgb_pixels(tmp_path, with_alpha):
     """A PNG product was written sRGB-encoded without an sRGB chunk. It carries sRGB, gAMA and cHRM as the PNG
     specification recommends, and its data, decoded without Pillow, is the float64 sRGB of the channels scaled by
-    2^exposure (alpha linear)."""
+    2^exposure (alpha linear; the colour unpremultiplied by it, as PNG's alpha is unassociated)."""
     from png_chunks import decode_pixels, read_chunks, srgb_chunks_problems
 
     render_products = importlib.import_module("wrt.render_products")
@@ -106,7 +106,10 @@ def test_png_products_are_tagged_srgb_and_hold_the_srgb_pixels(tmp_path, with_al
     channels = {c: rng.uniform(0.0, 0.6, (4, 6)).astype(np.float32) for c in ("RGBA" if with_alpha else "RGB")}
     chunks = read_chunks(render_products.write_product(tmp_path / "beauty.png", channels, exposure=1.0))
     assert srgb_chunks_problems(chunks) == []
-    x = np.clip(np.stack([channels[c] for c in "RGB"], axis=-1).astype(np.float64) * 2.0, 0.0, 1.0)
+    x = np.stack([channels[c] for c in "RGB"], axis=-1).astype(np.float64)
+    if with_alpha:
+        x /= channels["A"].astype(np.float64)[..., None]
+    x = np.clip(x * 2.0, 0.0, 1.0)
     expected = np.round(255.0 * np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055))
     if with_alpha:
         expected = np.dstack([expected, np.round(channels["A"].astype(np.float64) * 255.0)])
@@ -679,3 +682,39 @@ def test_alpha_is_the_coverage_of_the_pixels_samples(tmp_path):
     png = np.asarray(PilImage.open(written["/Render/Png"]))
     assert png.shape == (10, 20, 4)
     np.testing.assert_array_equal(png[..., 3], np.round(alpha * 255))
+
+
+def test_png_alpha_is_straight_so_it_composites_as_the_premultiplied_exr(tmp_path):
+    """PNG alpha is unassociated (PNG specification, 4.3.2: colour not premultiplied), OpenEXR's RGBA premultiplied.
+    The PNG product held the premultiplied colour under its coverage alpha: composited over a white plate as a PNG
+    reader does (``C a + plate (1 - a)``), an edge a quad covers three quarters of came out darker than the EXR of
+    the same render composited as premultiplied (``C + plate (1 - a)``), by ``C a (1 - a)``. Both now agree to the
+    PNG's 8-bit rounding, and the edges' PNG colour is the inside's."""
+    from png_chunks import decode_pixels, read_chunks
+
+    quad = fmt([[0.09, -100, -10], [1.17, -100, -10], [1.17, 100, -10], [0.09, 100, -10]])
+    body = (f'def Mesh "Quad"\n{{\n    point3f[] points = {quad}\n    int[] faceVertexCounts = [4]\n'
+            '    int[] faceVertexIndices = [0, 1, 2, 3]\n    color3f[] primvars:displayColor = [(0.8, 0.5, 0.3)]\n}\n'
+            'def DistantLight "Sun"\n{\n}\n'
+            'def Camera "Cam"\n{\n    float focalLength = 50\n    float horizontalAperture = 36\n'
+            '    float verticalAperture = 18\n}\n'
+            'def Scope "Render"\n{\n    def RenderSettings "Settings"\n    {\n        rel camera = </Cam>\n'
+            '        uniform int2 resolution = (20, 10)\n        rel products = [</Render/Exr>, </Render/Png>]\n'
+            '    }\n' + product("Exr", ["color"], "beauty.exr") + product("Png", ["color"], "beauty.png")
+            + 'def Scope "Vars"\n{\n' + var("color", "color", "color4f") + "}\n}\n")
+    path = write(tmp_path, body, "edges.usda")
+    text = open(path).read().replace("(\n", '(\n    renderSettingsPrimPath = "/Render/Settings"\n', 1)
+    open(path, "w").write(text)
+    written = wrt.render_products(load(path), tmp_path / "out", spp=64, device="cpu")
+    exr = read_exr(written["/Render/Exr"])
+    alpha = exr["A"].astype(np.float64)
+    assert 0.5 < alpha[0, 10] < 1.0 and 0.0 < alpha[0, 13] < 0.5  # the edges are partly covered
+    png = decode_pixels(read_chunks(written["/Render/Png"])).astype(np.float64) / 255.0
+    np.testing.assert_array_equal(png[..., 3], np.round(alpha * 255) / 255)
+    srgb = png[..., :3]
+    colour = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)  # straight, linear
+    over_white_png = colour * png[..., 3:] + (1.0 - png[..., 3:])
+    over_white_exr = np.stack([exr[c] for c in "RGB"], axis=-1) + (1.0 - alpha[..., None])
+    np.testing.assert_allclose(over_white_png, over_white_exr, atol=0.01)
+    for edge in (10, 13):  # the straight colour of an edge pixel is the quad's, as inside it
+        np.testing.assert_allclose(colour[:, edge], colour[:, 11], atol=0.01)

@@ -8,7 +8,8 @@ has no output for is left out with one warning naming it; a product left with no
 
 Files: ``OUTDIR/<last component of productName>`` (the product's prim name without one); the folder is the caller's,
 never the stage's, so ``../x.png`` and ``/abs/x.png`` both become ``OUTDIR/x.png``. A product of the beauty alone
-may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage`` AOV); every other
+may be a ``.png`` (8-bit sRGB, RGBA where its dataType has four components, alpha the ``coverage`` AOV, the colour
+unpremultiplied by it); every other
 product is an OpenEXR file of float32 channels (ids too: exact below 2^24), the name's extension replaced with a
 warning where it is another. The first beauty RenderVar of a product fills ``R, G, B`` (``A``), the others a layer
 named after their ``driver:parameters:aov:name`` where it is authored, else after their prim: ``depth`` (one
@@ -230,14 +231,21 @@ def exr_windows(product, camera) -> dict:
 def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float = 0.0,
                   attributes: dict | None = None) -> Path:
     """Writes ``channels`` to ``path``: an 8-bit sRGB PNG of ``R, G, B`` (``A``), scaled by ``2**exposure``, or
-    an EXR of every channel, with the header ``attributes``."""
+    an EXR of every channel, with the header ``attributes``. The channels are premultiplied by ``A``, as OpenEXR's
+    RGBA is; a PNG's colour is not (its alpha is unassociated), so it gets ``RGB / A`` where ``A > 0``."""
     def write(target: Path) -> None:
         if path.suffix.lower() == ".exr":
             write_exr(target, channels, attributes)
             return
-        rgb = to_srgb8(np.stack([channels[c] for c in "RGB"], axis=-1), exposure)
+        rgb = np.stack([channels[c] for c in "RGB"], axis=-1).astype(np.float64)
         if "A" in channels:
-            rgb = np.dstack([rgb, np.round(np.clip(channels["A"], 0, 1) * 255).astype(np.uint8)])
+            alpha = np.clip(np.asarray(channels["A"], np.float64), 0.0, 1.0)[..., None]
+            # Unpremultiplied in linear, before the sRGB curve: an edge pixel gets the colour of the surface it
+            # partly covers, so that a viewer compositing C a + background (1 - a) does not darken the edge again.
+            rgb = np.divide(rgb, alpha, out=rgb.copy(), where=alpha > 0.0)
+            rgb = np.dstack([to_srgb8(rgb, exposure), np.round(alpha[..., 0] * 255).astype(np.uint8)])
+        else:
+            rgb = to_srgb8(rgb, exposure)
         write_srgb_png(target, rgb)
 
     write_atomically(path, write)
