@@ -312,6 +312,37 @@ def Scope "Render" {
     assert scene.render_settings.included_purposes == ("default", "guide")
 
 
+
+def test_blocked_settings_values_are_the_schemas_fallbacks(tmp_path):
+    """A value block (``= None``) on the settings is no value: the schema's fallback, as USD's prim definition gives
+    it, as where nothing is authored; on a product, the settings' value, which it does not override. A blocked
+    resolution or data window stopped the load with a bare TypeError ('NoneType' object is not iterable), a blocked
+    pixelAspectRatio likewise, a blocked conform policy was the policy 'None', and a blocked includedPurposes hid
+    render-purpose prims."""
+    from pxr import Usd
+
+    blocked = ("uniform int2 resolution = None", "uniform float pixelAspectRatio = None",
+               "uniform token aspectRatioConformPolicy = None", "uniform float4 dataWindowNDC = None",
+               "uniform bool disableDepthOfField = None", "uniform token[] includedPurposes = None")
+    settings = "rel camera = </World/Side>\n        " + "\n        ".join(blocked)
+    product = "uniform int2 resolution = None\n        uniform float pixelAspectRatio = 2"
+    stage = write_stage(tmp_path, settings=settings + "\n        rel products = </Render/Product>", product=product)
+    opened = Usd.Stage.Open(str(stage))
+    definition = opened.GetPrimAtPath("/Render/Settings").GetPrimDefinition()
+    fallback = {name: definition.GetAttributeFallbackValue(name) for name in (
+        "resolution", "pixelAspectRatio", "aspectRatioConformPolicy", "dataWindowNDC", "disableDepthOfField",
+        "includedPurposes")}
+    got = wrt.load_usd(stage).render_settings
+    assert got.product == "/Render/Product"
+    assert got.resolution == tuple(fallback["resolution"])
+    assert got.pixel_aspect_ratio == 2.0  # the product's own
+    assert got.conform_policy == fallback["aspectRatioConformPolicy"]
+    assert got.data_window == tuple(fallback["dataWindowNDC"])
+    assert got.disable_depth_of_field is fallback["disableDepthOfField"]
+    assert set(got.included_purposes) == {"default", *fallback["includedPurposes"]}
+    view = write_stage(tmp_path, settings=settings, name="plain.usda")
+    assert wrt.load_usd(view).render_settings.pixel_aspect_ratio == fallback["pixelAspectRatio"]
+
 BAD_SETTINGS = [
     ("rel camera = </World/Box>", r"camera relationship targets /World/Box, which is a Cube"),
     ("rel camera = </World/Nothing>", r"camera relationship targets /World/Nothing, which is no prim"),

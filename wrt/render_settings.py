@@ -214,7 +214,7 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
     path = str(path)
     settings = UsdRender.Settings(prim)
     base = _read_base(settings, authored_only=False)
-    included = [str(t) for t in settings.GetIncludedPurposesAttr().Get() or []]
+    included = [str(t) for t in _value_or_fallback(settings.GetIncludedPurposesAttr()) or []]
     base["included_purposes"] = ("default", *(t for t in included if t != "default"))  # default: always drawn
     binding_purposes = settings.GetMaterialBindingPurposesAttr()
     if binding_purposes.HasAuthoredValue():
@@ -311,15 +311,25 @@ def _read_base(schema, authored_only: bool) -> dict:
         "disable_depth_of_field": schema.GetDisableDepthOfFieldAttr(),
     }
     for field, attr in attrs.items():
-        if authored_only and not attr.HasAuthoredValue():
+        if authored_only and not attr.HasAuthoredValue():  # a blocked value too: it overrides nothing
             continue
-        value = attr.Get()
+        value = _value_or_fallback(attr)
         if field in ("resolution", "data_window"):
             value = tuple(value)
         elif field == "conform_policy":
             value = str(value)
         values[field] = value
     return values
+
+
+def _value_or_fallback(attr):
+    """``attr``'s value, or the schema's fallback where a value block (``= None``) leaves it none: a blocked value is
+    no value, as where nothing is authored (``Get`` gives None there, and a blocked resolution failed as a bare
+    TypeError)."""
+    value = attr.Get()
+    if value is None:
+        value = attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
+    return value
 
 
 def _check_values(values: dict, where: dict) -> None:
