@@ -460,3 +460,41 @@ def test_material_binding_purposes_choose_the_material_drawn(tmp_path, purposes,
             assert all(not np.allclose(albedo, c, atol=1e-6) for c in (RED, GREEN, BLUE))
         else:
             np.testing.assert_allclose(albedo, np.broadcast_to(expected, albedo.shape), atol=1e-6)
+
+
+def exr_float_attribute(path, name: str) -> float:
+    """The ``float`` header attribute ``name`` of an OpenEXR file, parsed from its bytes (OpenEXR file layout: magic
+    and version, then ``name\\0type\\0size value`` attributes up to an empty name)."""
+    import struct
+
+    data, at = open(path, "rb").read(), 8
+    while data[at] != 0:
+        end = data.index(b"\0", at)
+        key, kind_end = data[at:end].decode(), data.index(b"\0", end + 1)
+        (size,) = struct.unpack_from("<i", data, kind_end + 1)
+        if key == name:
+            assert data[end + 1:kind_end] == b"float"
+            return struct.unpack_from("<f", data, kind_end + 5)[0]
+        at = kind_end + 5 + size
+    raise KeyError(name)
+
+
+@pytest.mark.parametrize("policy", ["expandAperture", "adjustPixelAspectRatio"])
+def test_exr_images_say_the_shape_of_their_pixels(tmp_path, policy):
+    """``wrt render -o x.exr`` and ``Image.save`` of a stage whose settings render non-square pixels wrote
+    ``pixelAspectRatio`` 1, so a compositor showed the image squashed; EXR products said it right. Now the header
+    holds the rendered pixels' shape: the authored ratio, or under ``adjustPixelAspectRatio`` the apertures' aspect
+    over the resolution's (the film is the apertures), as UsdRenderComputeSpec gives it; PNG has no such field."""
+    from pxr import Usd, UsdGeom
+
+    settings = ("rel camera = </World/Side>\n        uniform int2 resolution = (64, 48)\n"
+                "        uniform float pixelAspectRatio = 2\n"
+                f'        uniform token aspectRatioConformPolicy = "{policy}"')
+    stage = write_stage(tmp_path, settings=settings)
+    opened = Usd.Stage.Open(str(stage))
+    side = UsdGeom.Camera(opened.GetPrimAtPath("/World/Side")).GetCamera(Usd.TimeCode.Default())
+    expected = 2.0 if policy == "expandAperture" else side.horizontalAperture / side.verticalAperture / (64 / 48)
+    assert main(["render", str(stage), "-o", str(tmp_path / "cli.exr"), "-q"]) == 0
+    assert exr_float_attribute(tmp_path / "cli.exr", "pixelAspectRatio") == pytest.approx(expected, rel=1e-6)
+    wrt.render(wrt.load_usd(stage), width=16, height=12).save(tmp_path / "python.exr")
+    assert exr_float_attribute(tmp_path / "python.exr", "pixelAspectRatio") == pytest.approx(expected, rel=1e-6)

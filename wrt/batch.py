@@ -32,12 +32,15 @@ class BatchImage:
             :meth:`image` converts them to rows of ``Scene.triangles()`` as :class:`wrt.Image` has them.
         scene: the scene rendered.
         integrator: the integrator used.
+        pixel_aspect_ratios: width / height of one pixel on each camera's film (:attr:`wrt.Image.pixel_aspect_ratio`;
+            empty: square).
     """
 
     rgb: wp.array
     aovs: dict
     scene: Scene = dataclasses.field(repr=False)
     integrator: str = "whitted"
+    pixel_aspect_ratios: tuple = ()
 
     def __post_init__(self):
         self.aovs = Aovs(self.aovs)
@@ -61,7 +64,8 @@ class BatchImage:
         rgb = self.rgb[k].numpy()  # one camera's slice, not the whole batch
         aovs = {name: a[k].numpy() for name, a in self.aovs.items()}
         image = finish_image(rgb, aovs, "whitted", self.scene)  # rgb is already final, quick looks included
-        return Image(rgb=rgb, aovs=image.aovs)
+        shape = self.pixel_aspect_ratios[k] if self.pixel_aspect_ratios else 1.0
+        return Image(rgb=rgb, aovs=image.aovs, pixel_aspect_ratio=shape)
 
 
 def render_batch(

@@ -334,6 +334,13 @@ class Camera:
             return h * aspect, h
         return w, h  # adjustPixelAspectRatio
 
+    def rendered_pixel_aspect(self, width: int, height: int) -> float:
+        """Width / height of one pixel of a ``width x height`` image on the film: :attr:`pixel_aspect_ratio`, except
+        under ``adjustPixelAspectRatio``, whose film is the apertures whatever the pixel counts (the shape an EXR's
+        ``pixelAspectRatio`` states)."""
+        film_w, film_h = self.film_size(width, height)
+        return film_w * height / (film_h * width)
+
     def to_struct(self, width: int, height: int) -> DeviceCamera:
         """The :class:`DeviceCamera` for an image of ``width x height`` pixels."""
         self.check()

@@ -229,10 +229,13 @@ class Image:
               ``accel="warp"``), including re-traces past culled back faces and cut-out holes;
             - ``"coverage"`` float32 share of the pixel's samples (all of them, not sample 0 alone) whose camera
               ray hit something: the alpha of the antialiased ``rgb``, whose misses add the background.
+        pixel_aspect_ratio: width / height of one pixel on the film (UsdRender's ``pixelAspectRatio``; not 1 under
+            render settings of non-square pixels), which ``.exr`` files state in their header.
     """
 
     rgb: np.ndarray
     aovs: dict = dataclasses.field(default_factory=Aovs)
+    pixel_aspect_ratio: float = 1.0  # width / height of one pixel on the film, written into the EXR header
 
     def __post_init__(self):
         self.aovs = Aovs(self.aovs)
@@ -284,7 +287,8 @@ class Image:
                 self._write_png(target, exposure)
             elif suffix == ".exr":
                 rgb = np.asarray(self.rgb, np.float32)
-                write_exr(target, {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]})
+                write_exr(target, {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]},
+                          {"pixelAspectRatio": float(self.pixel_aspect_ratio)})
             else:
                 with open(target, "wb") as f:  # np.save(path) appends ".npy" to a name ending in ".NPY"
                     np.save(f, self.rgb.astype(np.float32))

@@ -897,8 +897,10 @@ class Renderer:
 
     def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers) -> Image:
         rgb = image_sum.numpy() / samples * self._exposure_scales()[0]  # a factor of 1 changes no bit
-        return finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width, samples),
-                            self.integrator, self.scene)
+        image = finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width, samples),
+                             self.integrator, self.scene)
+        image.pixel_aspect_ratio = self.camera.rendered_pixel_aspect(self.width, self.height)
+        return image
 
     def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers):
         from .batch import BatchImage
@@ -916,7 +918,8 @@ class Renderer:
             wp.launch(mean_image_kernel, len(rgb), inputs=[image_sum, total, scales, h * w], outputs=[rgb],
                       device=self.device)
             rgb = rgb.reshape((n, h, w))
-        return BatchImage(rgb=rgb, aovs=arrays, scene=self.scene, integrator=self.integrator)
+        return BatchImage(rgb=rgb, aovs=arrays, scene=self.scene, integrator=self.integrator,
+                          pixel_aspect_ratios=tuple(c.rendered_pixel_aspect(w, h) for c in self.cameras))
 
 
 def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
