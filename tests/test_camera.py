@@ -72,6 +72,33 @@ def test_depth_is_distance_along_the_primary_ray():
     np.testing.assert_allclose(img.aovs["depth"], expected, rtol=1e-5)
 
 
+
+def test_z_is_as_precise_as_depth_far_from_the_origin():
+    """A tilted camera 1e6 from the world origin, 5 units above a quad: ``z`` (distance along the view axis) is the
+    float64 one of the film, to the precision ``depth`` has there. It was taken from the hit point minus the eye, two
+    float32 points of that size whose difference had lost its digits: 5e-3 off a z of 5, where depth was 1e-6 off.
+    (An orthographic camera there starts its rays at film points rounded to float32 ulps of 1e6, 1/16: depth and z
+    are as far off, measured from those points.)"""
+    far = 1.0e6
+    tilt = math.radians(10.0)
+    forward = np.array([0.0, math.sin(tilt), -math.cos(tilt)])  # -Z turned by +10 degrees about X
+    up = np.array([0.0, math.cos(tilt), math.sin(tilt)])
+    to_world = np.eye(4)
+    to_world[:3, 0], to_world[:3, 1], to_world[:3, 2], to_world[:3, 3] = (1, 0, 0), up, -forward, far
+    cam = wrt.Camera(to_world=to_world, focal_length=50.0, horizontal_aperture=36.0)
+    scene = quad_scene(far - 100.0, far + 100.0, far - 100.0, far + 100.0, far - 5.0)
+    width, height = 32, 24
+    img = wrt.render(scene, camera=cam, width=width, height=height, device="cpu")
+    # The ray through each pixel centre, advancing one unit of depth along the view axis per unit (film at unit
+    # depth): it meets the quad, 5 below the eye, at that depth.
+    j, i = np.meshgrid(np.arange(width), np.arange(height))
+    x = ((j + 0.5) / width - 0.5) * 36.0 / 50.0
+    y = (0.5 - (i + 0.5) / height) * 36.0 * height / width / 50.0
+    rays = x[..., None] * np.array([1.0, 0.0, 0.0]) + y[..., None] * up + forward
+    z = 5.0 / -rays[..., 2]
+    np.testing.assert_allclose(img.aovs["depth"], z * np.linalg.norm(rays, axis=-1), atol=2e-5)
+    np.testing.assert_allclose(img.aovs["z"], z, atol=2e-5)
+
 def test_look_at_fov_is_vertical():
     cam = wrt.Camera.look_at(eye=(0, 0, 0), target=(0, 0, -1), up=(0, 1, 0), fov_y_deg=90.0)
     scene = quad_scene(-1000.0, 1000.0, -1000.0, 1000.0, -10.0)

@@ -1058,7 +1058,11 @@ def primary_aovs_kernel(
     s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
     depth[i] = hit_t[i] * wp.length(d)
     cam = cams[i // view_pixels]
-    z[i] = wp.dot(h.p - cam.origin, wp.normalize(cam.forward))
+    # Along the ray, as depth is, not from the hit point minus the eye: far from the world origin those two float32
+    # points have lost the digits of their difference (5e-3 of a z of 5 at 1e6). The ray's origin is the eye, or
+    # for an orthographic camera a film point near it.
+    axis = wp.normalize(cam.forward)
+    z[i] = wp.dot(origins[i] - cam.origin, axis) + depth[i] * wp.dot(wp.normalize(d), axis)
     normal[i] = h.ns
     geometric_normal[i] = h.ng
     albedo[i] = s.base_color
