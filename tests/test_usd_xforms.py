@@ -359,3 +359,44 @@ def test_a_malformed_xform_op_order_places_prims_as_usd_leaving_out_the_bad_ops(
         assert f"({op}: 1" in named[0] or f", {op}: 1" in named[0], named[0]
         assert shown in named[0] or "..." in named[0], named[0]
     assert "8 prim(s)" in next(m for m in messages if "do not exist" in m)
+
+
+def _spline(times_values) -> "pxr.Ts.Spline":
+    """A double spline through ``(time, value)`` knots, curved between them."""
+    from pxr import Ts
+
+    spline = Ts.Spline("double")
+    for time, value in times_values:
+        knot = Ts.Knot("double")
+        knot.SetTime(time)
+        knot.SetValue(value)
+        knot.SetNextInterpolation(Ts.InterpCurve)
+        spline.SetKnot(knot)
+    return spline
+
+
+@pytest.mark.skipif(not hasattr(Usd.Attribute, "SetSpline"), reason="usd-core without attribute splines (before 25.05)")
+@pytest.mark.parametrize("with_sample", [False, True])
+def test_spline_animated_ops_at_the_default_time_read_their_first_knot(tmp_path, with_sample):
+    """An op animated by a spline (USD 25.05's scalar attribute splines: rotateY, translateX) and no default is read
+    at its first knot with ``time=None``, as an op with only time samples is read at its first sample: USD's answer at
+    ``EarliestTime``. A stage without a single time sample took every op at its default, which a spline has not got
+    (the identity), while the same op on a stage with a sample elsewhere read its first knot."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "spline.usda"))
+    arm = UsdGeom.Xform.Define(stage, "/Arm")
+    arm.AddRotateYOp(UsdGeom.XformOp.PrecisionDouble).GetAttr().SetSpline(_spline([(1.0, 30.0), (5.0, 90.0)]))
+    arm.AddTranslateXOp(UsdGeom.XformOp.PrecisionDouble).GetAttr().SetSpline(_spline([(2.0, 1.5), (8.0, 4.0)]))
+    mesh = UsdGeom.Mesh.Define(stage, "/Arm/Quad")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    if with_sample:  # a time sample elsewhere: the ops were asked one by one, and read their first knot
+        UsdGeom.Xform.Define(stage, "/Other").AddTranslateOp().Set(Gf.Vec3d(0, 5, 0), 3.0)
+    stage.Save()
+    expected = np.array(UsdGeom.XformCache(Usd.TimeCode.EarliestTime()).GetLocalToWorldTransform(mesh.GetPrim()))
+    assert not np.allclose(expected, np.eye(4))  # the knots place it; the default would not
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = wrt.load_usd(str(tmp_path / "spline.usda"))
+    points = np.array(mesh.GetPointsAttr().Get(), np.float64) @ expected[:3, :3] + expected[3, :3]
+    np.testing.assert_allclose(scene.meshes[0].points, points, atol=1e-6)

@@ -32,6 +32,10 @@ OPS_BEFORE_RESET = "ops before a !resetXformStack! that is not first in xformOpO
 RESET = "!resetXformStack!"  # UsdGeom.XformOpTypes.resetXformStack
 INVERT = "!invert!"  # the prefix of an inverted op's name in xformOpOrder
 XFORM_OP_ORDER = UsdGeom.Tokens.xformOpOrder
+# The ops of one scalar value: the only ones a spline (USD 25.05's attribute splines, of double attributes) can animate.
+SCALAR_OPS = frozenset((UsdGeom.XformOp.TypeRotateX, UsdGeom.XformOp.TypeRotateY, UsdGeom.XformOp.TypeRotateZ,
+                        UsdGeom.XformOp.TypeTranslateX, UsdGeom.XformOp.TypeTranslateY, UsdGeom.XformOp.TypeTranslateZ,
+                        UsdGeom.XformOp.TypeScaleX, UsdGeom.XformOp.TypeScaleY, UsdGeom.XformOp.TypeScaleZ))
 
 
 def affine_part(m: np.ndarray, warn) -> np.ndarray:
@@ -74,7 +78,8 @@ class Xforms:
         self._cache = UsdGeom.XformCache(time)  # exact where no prim up the chain is resolved op by op
         # No layer of the stage holds a time sample (a still robot fleet): every op reads its default, asked once for
         # the stage (in C++, and without the stage time queries that hang usd-core at timeCodesPerSecond = 0) rather
-        # than op by op for each prim. At other times than the default the cache reads every op as wrt does.
+        # than op by op for each prim, but for the scalar ops that hold a spline (ListAllTimeSamples lists no knots).
+        # At other times than the default the cache reads every op as wrt does.
         self._still = not time.IsDefault() or (
             stage is not None and not any(layer.ListAllTimeSamples() for layer in stage.GetUsedLayers()))
         self._by_op = {Sdf.Path.absoluteRootPath: False}  # prim path -> the prim or an ancestor is read op by op
@@ -149,9 +154,13 @@ class Xforms:
             return True
         if len(ops) != len(order) - (order[0] == RESET):  # an op left out, or ops dropped before a late reset
             return True
+        if not self._time.IsDefault():
+            return False
+        if self._still:  # no layer holds a time sample, but a scalar op may hold a spline, which has no default
+            ops = [op for op in ops if op.GetOpType() in SCALAR_OPS and op.GetAttr().HasSpline()]
         # As read_time decides (Xformable.GetTimeSamples would be faster, but hangs usd-core on stages with
         # timeCodesPerSecond = 0, and does not see spline-valued ops).
-        return not self._still and any(not read_time(op.GetAttr(), DEFAULT).IsDefault() for op in ops)
+        return any(not read_time(op.GetAttr(), DEFAULT).IsDefault() for op in ops)
 
     def _resolved_by_op(self, prim: Usd.Prim) -> bool:
         """Whether ``prim`` or an ancestor is resolved op by op (memoised, walked without recursion: hierarchies can be
