@@ -196,6 +196,51 @@ def PointInstancer "PI"
     assert len(scene.instances) == 2
 
 
+def test_pointinstancer_prototypes_that_are_classes_are_skipped_with_a_warning(tmp_path):
+    """A prototype that is a ``class`` prim or lies under one (prototypes kept in a class scope) is abstract: USD's
+    ``PrimIsAbstract``, which Hydra's prototype predicate and a walk of the prototype with it leave out, so nothing is
+    drawn; its instances are skipped with a warning naming it, as those of an ``over`` are (they vanished without a
+    word)."""
+    path = tmp_path / "pi_class.usda"
+    path.write_text(f"""#usda 1.0
+class Scope "_Protos"
+{{
+    def Xform "Tree"
+    {{
+        def Mesh "T"
+{TRIANGLE}
+    }}
+}}
+class Xform "_Bush"
+{{
+    def Mesh "T"
+{TRIANGLE}
+}}
+def PointInstancer "PI"
+{{
+    rel prototypes = [</_Protos/Tree>, </_Bush>, </PI/Protos/P>]
+    int[] protoIndices = [0, 1, 2, 0]
+    point3f[] positions = [(0, 0, 0), (10, 0, 0), (20, 0, 0), (30, 0, 0)]
+    def Scope "Protos"
+    {{
+        def Xform "P"
+        {{
+            def Mesh "T"
+{TRIANGLE}
+        }}
+    }}
+}}
+""")
+    stage = Usd.Stage.Open(str(path))
+    abstract = [str(t) for t in UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).GetPrototypesRel().GetTargets()
+                if stage.GetPrimAtPath(t).IsAbstract()]
+    assert abstract == ["/_Protos/Tree", "/_Bush"]
+    with pytest.warns(UserWarning, match=r"class prims.*\(/_Protos/Tree: 1, /_Bush: 1\): /PI$"):
+        scene = wrt.load_usd(path)
+    assert [[m.path for m in p.meshes] for p in scene.prototypes] == [["/PI/Protos/P/T"]]
+    assert len(scene.instances) == 1
+
+
 PURPOSE_USDA = """#usda 1.0
 def Xform "Lib"
 {

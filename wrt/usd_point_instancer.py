@@ -50,6 +50,11 @@ class PointInstancerReading:
                 self._skip("instances of PointInstancer prototypes that are not defined (an over, not a def) were "
                            "skipped", prim, str(path))
                 continue
+            if target.IsAbstract():
+                # A class, or a prim under one: Hydra's prototype predicate leaves it out (it drew nothing, unwarned).
+                self._skip("instances of PointInstancer prototypes that are class prims (or under one) were skipped, "
+                           "as Hydra skips them", prim, str(path))
+                continue
             # The prototype's space is its parent's: the root's own transform is the most local part. Its purpose,
             # where nothing in it authors one, is the one its ancestors author (_prototype_purpose).
             purpose = self._prototype_purpose(target, prim, ctx)
