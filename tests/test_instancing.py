@@ -1410,6 +1410,65 @@ def test_cameras_inside_hidden_native_instances_are_read_too(tmp_path):
             np.testing.assert_allclose(camera.to_world, to_world, atol=1e-12)
         assert len(scene.instances) == (2 if time == 1.0 else 1) + 1  # the rigs drawn, and the Scatter one
 
+
+def test_an_instanceable_camera_keeps_its_camera(tmp_path):
+    """A Camera prim that is itself instanceable (a camera rig referenced with ``instanceable = true``, as tools that
+    make every reference instanceable write it) is a camera of the stage at its own path, as USD lists it, before the
+    cameras inside it, hidden or not, and inside a native prototype through each instance; its attributes live on the
+    instance prim, not in the prototype, and it was left out (``camera="/ShotCam"`` said there was no such camera),
+    while an instanceable gprim kept its geometry and an instanceable light its light."""
+    (tmp_path / "rig.usda").write_text("""#usda 1.0
+(
+    defaultPrim = "Cam"
+)
+def Camera "Cam"
+{
+    float focalLength = 35
+    double3 xformOp:translate = (0, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def Camera "Inner"
+    {
+        float focalLength = 20
+    }
+}
+""")
+    path = tmp_path / "shot.usda"
+    path.write_text("""#usda 1.0
+def Camera "ShotCam" (instanceable = true
+    references = @./rig.usda@)
+{
+}
+def Camera "HiddenCam" (instanceable = true
+    references = @./rig.usda@)
+{
+    token visibility = "invisible"
+    double3 xformOp:translate = (4, 0, 10)
+}
+def Xform "Set" (instanceable = true
+    references = </Lib>)
+{
+    double3 xformOp:translate = (0, 5, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+class "Lib"
+{
+    def Camera "Crane" (instanceable = true
+        references = @./rig.usda@)
+    {
+    }
+}
+""")
+    scene = wrt.load_usd(path)
+    stage = Usd.Stage.Open(str(path))
+    expected = {str(p.GetPath()): np.array(UsdGeom.Camera(p).GetCamera().transform).T
+                for p in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies()) if p.IsA(UsdGeom.Camera)}
+    assert list(scene.cameras) == list(expected) == [
+        "/ShotCam", "/ShotCam/Inner", "/HiddenCam", "/HiddenCam/Inner", "/Set/Crane", "/Set/Crane/Inner"]
+    for name, to_world in expected.items():
+        np.testing.assert_allclose(scene.cameras[name].to_world, to_world, atol=1e-12)
+        focal = UsdGeom.Camera(stage.GetPrimAtPath(name)).GetFocalLengthAttr().Get()
+        assert scene.cameras[name].focal_length == pytest.approx(focal)
+
 INSTANCEABLE_GPRIMS = """#usda 1.0
 class "Lib"
 {

@@ -348,6 +348,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         if prim.IsPseudoRoot() or prim.IsPrototype():
             return
         if prim.IsInstance() and not prim.IsA(UsdGeom.PointInstancer):
+            if prim.IsA(UsdGeom.Camera):
+                # An instanceable camera keeps its camera (its attributes are on the instance prim, not in the
+                # prototype), hidden or not, before the cameras inside it, as an instanceable gprim keeps its geometry.
+                self._read_cameras(prim, [Sdf.Path(".")], ctx)
             # An instance of guide or proxy purpose is still read: a prototype prim of authored render purpose is
             # drawn, as USD computes purpose through instance proxies.
             if self._visible(prim, ctx.stop):
