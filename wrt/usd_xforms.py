@@ -36,6 +36,7 @@ XFORM_OP_ORDER = UsdGeom.Tokens.xformOpOrder
 SCALAR_OPS = frozenset((UsdGeom.XformOp.TypeRotateX, UsdGeom.XformOp.TypeRotateY, UsdGeom.XformOp.TypeRotateZ,
                         UsdGeom.XformOp.TypeTranslateX, UsdGeom.XformOp.TypeTranslateY, UsdGeom.XformOp.TypeTranslateZ,
                         UsdGeom.XformOp.TypeScaleX, UsdGeom.XformOp.TypeScaleY, UsdGeom.XformOp.TypeScaleZ))
+HAS_SPLINES = hasattr(Usd.Attribute, "HasSpline")  # usd-core before splines has no layer that holds one
 
 
 def affine_part(m: np.ndarray, warn) -> np.ndarray:
@@ -157,7 +158,7 @@ class Xforms:
         if not self._time.IsDefault():
             return False
         if self._still:  # no layer holds a time sample, but a scalar op may hold a spline, which has no default
-            ops = [op for op in ops if op.GetOpType() in SCALAR_OPS and op.GetAttr().HasSpline()]
+            ops = [op for op in ops if HAS_SPLINES and op.GetOpType() in SCALAR_OPS and op.GetAttr().HasSpline()]
         # As read_time decides (Xformable.GetTimeSamples would be faster, but hangs usd-core on stages with
         # timeCodesPerSecond = 0, and does not see spline-valued ops).
         return any(not read_time(op.GetAttr(), DEFAULT).IsDefault() for op in ops)
