@@ -437,10 +437,12 @@ def usd_triangles(stage: Usd.Stage, time) -> tuple[np.ndarray, int]:
 
 
 def _walk(root: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, space: Usd.Prim | None, base: np.ndarray,
-          stop: Usd.Prim | None, found: list, predicate=Usd.PrimDefaultPredicate):
+          stop: Usd.Prim | None, found: list, predicate=Usd.PrimDefaultPredicate, instancer_purpose: str | None = None):
     """Appends the fan triangles of the meshes drawn in ``root``'s subtree to ``found``. A prim is placed by its
     transform relative to ``space`` (its world transform when None) then row-vector ``base``; it is visible when
-    nothing from it up to ``stop`` (included) is invisible, or, without a stop, by ``ComputeVisibility``.
+    nothing from it up to ``stop`` (included) is invisible, or, without a stop, by ``ComputeVisibility``; it is drawn
+    by its purpose (:func:`_purpose`; ``instancer_purpose``: the purpose of the PointInstancer whose prototype
+    ``root`` is in, if any).
 
     Inside an instance (native or a PointInstancer's) a resetXformStack resets to the instance's space, as Hydra
     draws instances; USD's own instance-proxy transforms reset to the world.
@@ -457,22 +459,34 @@ def _walk(root: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, space: U
             continue
         to_world = (np.array(xforms.GetLocalToWorldTransform(prim)) if space is None
                     else np.array(xforms.ComputeRelativeTransform(prim, space)[0])) @ base
-        drawn = img.ComputePurpose() in DRAWN_PURPOSES
+        purpose = _purpose(img, instancer_purpose)
         if prim.IsA(UsdGeom.PointInstancer):
             it.PruneChildren()
-            if drawn:
-                _instanced(prim, tc, xforms, to_world, found)
+            # Walked whatever its purpose: a guide instancer's prototype prims that author a drawn purpose are drawn.
+            _instanced(prim, tc, xforms, to_world, found, purpose)
             continue
-        if prim.IsA(UsdGeom.Mesh) and drawn:
+        if prim.IsA(UsdGeom.Mesh) and purpose in DRAWN_PURPOSES:
             found.append(_fan(prim, tc, to_world))
         if prim.IsInstance() and prim != root:
             it.PruneChildren()
             for child in prim.GetFilteredChildren(Usd.TraverseInstanceProxies(predicate)):
-                _walk(child, tc, xforms, prim, to_world, stop, found, predicate)
+                _walk(child, tc, xforms, prim, to_world, stop, found, predicate, instancer_purpose)
 
 
-def _instanced(prim: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, to_world: np.ndarray, found: list):
-    """The triangles of PointInstancer ``prim``'s instances, the instancer placed by ``to_world``."""
+def _purpose(img: UsdGeom.Imageable, instancer_purpose: str | None) -> str:
+    """``ComputePurpose``; inside a PointInstancer's prototype, where neither the prim nor an ancestor authors a
+    purpose (``ComputePurposeInfo`` not inheritable), the instancer's, as UsdImaging's instancer adapter hands it down
+    (``instanceInheritablePurpose``): a guide instancer draws the prototype prims that author render or default."""
+    if instancer_purpose is None:
+        return img.ComputePurpose()
+    info = img.ComputePurposeInfo()
+    return info.purpose if info.isInheritable else instancer_purpose
+
+
+def _instanced(prim: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, to_world: np.ndarray, found: list,
+               purpose: str):
+    """The triangles of PointInstancer ``prim``'s instances, the instancer placed by ``to_world``, of purpose
+    ``purpose``."""
     pi = UsdGeom.PointInstancer(prim)
     # The prototype root's own transform is applied here rather than by IncludeProtoXform: that picks each
     # instance's prototype from protoIndices at its time sample at or before tc, read back at that time, which under a
@@ -488,7 +502,7 @@ def _instanced(prim: Usd.Prim, tc: Usd.TimeCode, xforms: UsdGeom.XformCache, to_
         proto = protos[index]
         if keep and proto and proto.IsActive():
             own = np.array(xforms.GetLocalTransformation(proto)[0])
-            _walk(proto, tc, xforms, proto, own @ np.array(m) @ to_world, proto, found, PROTOTYPE_PREDICATE)
+            _walk(proto, tc, xforms, proto, own @ np.array(m) @ to_world, proto, found, PROTOTYPE_PREDICATE, purpose)
 
 
 def _shown_below(prim: Usd.Prim, root: Usd.Prim, tc: Usd.TimeCode) -> bool:
