@@ -402,3 +402,23 @@ def test_a_mesh_with_no_face_of_three_corners_refines_to_nothing_beside_a_refine
     by_path = {m.path: m for m in wrt.load_usd(tmp_path / "lines.usda", refine_level=1).meshes}
     assert "/Lines" not in by_path or len(by_path["/Lines"].indices) == 0
     assert len(by_path["/Tri"].indices) == (4 if scheme == "loop" else 6)
+
+
+@pytest.mark.parametrize("scheme", ["catmullClark", "loop", "bilinear", "none"])
+@pytest.mark.parametrize("refine_level", [0, 1])
+def test_faces_of_fewer_than_three_corners_are_warned_about(tmp_path, scheme, refine_level):
+    """Faces of 0, 1 or 2 corners draw nothing, refined or not; a warning names the file, the prim and how many (as
+    Storm warns "degenerated face found"). Refined, they were dropped without a word; the triangle still draws."""
+    path = tmp_path / "few.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = UsdGeom.Mesh.Define(stage, "/Few")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([2, 3, 0, 1])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 0, 1, 2, 2])
+    mesh.CreateSubdivisionSchemeAttr(scheme)
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"few\.usda: faces of fewer than three corners draw nothing: 1 prim\(s\) "
+                                         r"\(3 of 4 faces: 1\): /Few"):
+        (m,) = wrt.load_usd(path, refine_level=refine_level).meshes
+    assert (m.face_ids == 1).all() and len(m.indices) == (1 if not refine_level or scheme == "none"
+                                                          else 4 if scheme == "loop" else 6)

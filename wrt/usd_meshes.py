@@ -211,6 +211,9 @@ class MeshReading:
 
         # Check the topology before using it.
         self._check_topology(prim, counts, face_indices, points)
+        degenerate = int((counts < 3).sum())
+        if degenerate:  # refined or not, as Storm warns "degenerated face found" (HdMeshUtil)
+            self._skip("faces of fewer than three corners draw nothing", prim, f"{degenerate} of {len(counts)} faces")
         scheme = self._subdivision_scheme(prim, mesh)
         refinement = self._refinement(prim, scheme, counts, face_indices, len(points))
         polygons = (counts, face_indices) if refinement is None else (refinement.counts, refinement.face_indices)
