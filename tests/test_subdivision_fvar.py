@@ -325,3 +325,69 @@ def test_a_refined_texture_lookup_follows_the_smoothed_surface(tmp_path):
     assert smooth.max() < 0.006
     linear = _ramp_errors(_textured_grid(tmp_path / "linear.usda", "all"))
     assert linear.max() > 0.02
+
+
+def _first_span_ends(faces, ids):
+    """Brute force over the face-vertices (flat order) of ``faces`` holding value ``ids``: per (point, id), the first
+    face-vertex whose leading edge, and the first whose trailing edge, does not join it to a face-vertex of the same
+    value across an edge of two opposite faces (-1 where there is none); a dart's, its seam and the face-vertex
+    across it."""
+    flat = [(f, k) for f, face in enumerate(faces) for k in range(len(face))]
+    flat_id = {fk: i for i, fk in enumerate(flat)}
+    edge_faces = {}
+    for f, face in enumerate(faces):
+        for k in range(len(face)):
+            edge_faces.setdefault(frozenset((face[k], face[(k + 1) % len(face)])), []).append(f)
+
+    def across(f, k):  # the face-vertex at the same point across the leading edge, or None
+        p, q = faces[f][k], faces[f][(k + 1) % len(faces[f])]
+        if len(edge_faces[frozenset((p, q))]) != 2:
+            return None
+        for g, face in enumerate(faces):
+            for j in range(len(face)):
+                if g != f and face[j] == p and face[j - 1] == q:
+                    return (g, j)
+        return None
+
+    lead_same = {fk: (a := across(*fk)) is not None and ids[flat_id[a]] == ids[flat_id[fk]] for fk in flat}
+    trail_same = {across(*fk) for fk in flat if lead_same[fk]}
+    start, end = {}, {}
+    for i, (f, k) in enumerate(flat):
+        value = (faces[f][k], ids[i])
+        start.setdefault(value, -1)
+        end.setdefault(value, -1)
+        if not lead_same[(f, k)] and start[value] < 0:
+            start[value] = i
+        if (f, k) not in trail_same and end[value] < 0:
+            end[value] = i
+    # A dart (a value all around an interior point, one seam reaching it) spans from its seam round to it.
+    for i, (f, k) in enumerate(flat):
+        value = (faces[f][k], ids[i])
+        ring = all(lead_same[fk] for j, fk in enumerate(flat) if (faces[fk[0]][fk[1]], ids[j]) == value)
+        if ring and start[value] < 0:
+            g, j = across(f, k)
+            far_here = ids[flat_id[(f, (k + 1) % len(faces[f]))]]
+            if far_here != ids[flat_id[(g, j - 1 if j else len(faces[g]) - 1)]]:  # a seam: the far end differs
+                start[value], end[value] = i, flat_id[(g, j)]
+    return start, end
+
+
+def test_span_ends_are_the_first_face_vertex_of_each_value():
+    """A value with several face-vertices that bound its span (two fans of one value at a bowtie's shared point) gets
+    the first of them as its crease ends, as a brute-force loop finds them; it was assigned through repeated indices
+    (``start[group[at]] = at``), whose winner numpy does not guarantee. A 2 x 2 grid beside it has one each, and a
+    dart."""
+    from wrt.subdivision_fvar import _classify
+
+    faces = [[0, 1, 2], [0, 3, 4], [5, 6, 9, 8], [6, 7, 10, 9], [8, 9, 12, 11], [9, 10, 13, 12]]
+    ids = [0] * 6 + [p for face in faces[2:] for p in face]
+    ids[9] = 1  # a seam at point 8 between the grid's quads 0 and 2: a dart at point 9
+    counts, indices = [len(f) for f in faces], np.concatenate(faces)
+    level = Refinement(counts, indices, 14, 1).levels[0]
+    keys = indices * (max(ids) + 1) + np.array(ids)
+    unique, group = np.unique(keys, return_inverse=True)
+    values = _classify(level, group.reshape(-1), np.zeros((len(unique), 2)), "cornersPlus1", True)
+    start, end = _first_span_ends(faces, ids)
+    expected = [(start[(k // (max(ids) + 1), k % (max(ids) + 1))], end[(k // (max(ids) + 1), k % (max(ids) + 1))])
+                for k in unique]
+    np.testing.assert_array_equal(np.stack([values.start, values.end], 1), expected)

@@ -106,6 +106,14 @@ def _same_across(level, group):
     return lead_same, trail_same, across
 
 
+def _first_per_value(group: np.ndarray, chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The values that hold a ``chosen`` face-vertex, and the first such face-vertex of each (``np.unique``'s first
+    index), not assigned through repeated indices, whose winner numpy does not guarantee."""
+    at = np.flatnonzero(chosen)
+    held, first = np.unique(group[at], return_index=True)
+    return held, at[first]
+
+
 def _classify(level, group: np.ndarray, data: np.ndarray, mode: str, corner_boundary: bool) -> _Values:
     """The kinds and crease ends of the values of the base level (``FVarLevel::completeTopologyFromFaceValues``)."""
     linear_boundaries = mode in ("boundaries", "all")
@@ -170,15 +178,16 @@ def _classify(level, group: np.ndarray, data: np.ndarray, mode: str, corner_boun
 
     # Crease ends: the face-vertices whose leading (start) and trailing (end) edges bound the span; a dart's span
     # starts and ends at its seam.
+    # A value may have several (a disjoint one: a corner, whose ends are never read): its first face-vertex wins.
     start = np.full(n_values, -1)
     end = np.full(n_values, -1)
-    at = np.flatnonzero(~lead_same)
-    start[group[at]] = at
-    at = np.flatnonzero(~trail_same)
-    end[group[at]] = at
-    at = np.flatnonzero(lead_same & seam[edge] & ring[group])
-    start[group[at]] = at
-    end[group[at]] = across[at]
+    held, at = _first_per_value(group, ~lead_same)
+    start[held] = at
+    held, at = _first_per_value(group, ~trail_same)
+    end[held] = at
+    held, at = _first_per_value(group, lead_same & seam[edge] & ring[group])
+    start[held] = at
+    end[held] = across[at]
     return _Values(group, data, kind, start, end, dependent_value, partner, linear)
 
 
