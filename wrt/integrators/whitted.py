@@ -228,6 +228,35 @@ def add_unoccluded_lights_kernel(
     radiance[i] = L
 
 
+@wp.func
+def whitted_continuation(s: Surface, tables: GgxAlbedo, ns: wp.vec3, ng: wp.vec3, front: int, wo: wp.vec3, u: float):
+    """``(wi, weight, transmitted)``: the ray a Whitted path goes on with from surface ``s`` seen from ``wo``
+    (shading normal ``ns`` and geometric ``ng`` on its side, ``front``: on the winding's front), the mirror ray or
+    the refracted one (``transmitted`` 1), picked by ``u`` in [0, 1) with probability proportional to their weights,
+    and the factor of the path's throughput (zero: the path ends here)."""
+    cos_o = wp.max(wp.dot(ns, wo), 0.0)
+    op = opaque_fraction(s)
+    w_reflect = wp.vec3(0.0)
+    w_refract = float(0.0)
+    if s.roughness < DELTA_ROUGHNESS:
+        w_reflect = traced_specular(s, tables, cos_o) * op
+    eta = s.ior
+    if front == 0:
+        eta = 1.0 / s.ior
+    wt = wp.vec3(0.0)
+    if is_glass(s) and cos_o > 0.0:
+        fr, wt = glass_refraction(ns, ng, wo, eta)
+        w_reflect += wp.vec3(fr * (1.0 - op))
+        w_refract = (1.0 - fr) * (1.0 - op)
+    p_reflect = luminance(w_reflect)
+    total = p_reflect + w_refract
+    if total <= 0.0 or cos_o <= 0.0:
+        return wp.vec3(0.0), wp.vec3(0.0), 0
+    if u * total < p_reflect:
+        return reflect(wo, ns), w_reflect * (total / p_reflect), 0
+    return wt, wp.vec3(total), 1  # w_refract / (w_refract / total); no 1 / eta^2: see bsdf.sample_bsdf
+
+
 @wp.kernel
 def continue_whitted_kernel(
     scene: DeviceScene,
@@ -256,50 +285,32 @@ def continue_whitted_kernel(
     if alive[i] == 0:  # ended at this hit (a miss or a hole), or earlier
         t_maxs[i] = 0.0
         return
+    if bounce >= max_depth:
+        alive[i] = 0
+        t_maxs[i] = 0.0
+        return
     d = directions[i]
     prim = hit_prim[i]
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], origins[i], d, hit_t[i])
     s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
-    wo = -d
-    cos_o = wp.max(wp.dot(h.ns, wo), 0.0)
-    op = opaque_fraction(s)
-    w_reflect = wp.vec3(0.0)
-    w_refract = float(0.0)
-    if s.roughness < DELTA_ROUGHNESS:
-        w_reflect = traced_specular(s, mats.ggx_albedo, cos_o) * op
-    eta = s.ior
-    if h.front == 0:
-        eta = 1.0 / s.ior
-    wt = wp.vec3(0.0)
-    if is_glass(s) and cos_o > 0.0:
-        fr, wt = glass_refraction(h.ns, h.ng, wo, eta)
-        w_reflect += wp.vec3(fr * (1.0 - op))
-        w_refract = (1.0 - fr) * (1.0 - op)
-    p_reflect = luminance(w_reflect)
-    total = p_reflect + w_refract
-    if bounce >= max_depth or total <= 0.0 or cos_o <= 0.0:
+    # Drawn whether or not the path goes on: a path that ends here never reads its generator again.
+    u, state = rand01(rng[i])
+    rng[i] = state
+    wi, weight, transmitted = whitted_continuation(s, mats.ggx_albedo, h.ns, h.ng, h.front, -d, u)
+    T = wp.cw_mul(throughput[i], weight)
+    if max_component(T) <= 0.0:
         alive[i] = 0
         t_maxs[i] = 0.0
         return
-    state = rng[i]
-    u, state = rand01(state)
-    rng[i] = state
-    T = throughput[i]
-    if u * total < p_reflect:
-        directions[i] = reflect(wo, h.ns)
-        origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
-        T = wp.cw_mul(T, w_reflect) * (total / p_reflect)
-    else:
-        directions[i] = wt
+    directions[i] = wi
+    if transmitted == 1:
         origins[i] = offset_ray_origin(h.p, -h.ng, h.reach, h.err, h.inner)
-        T = T * total  # w_refract / (w_refract / total); no 1 / eta^2: see bsdf.sample_bsdf
+    else:
+        origins[i] = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
     throughput[i] = T
     link_groups[i] = link_group(lights.links, prim, hit_instance[i])
     t_mins[i] = 0.0
     t_maxs[i] = wp.inf
-    if max_component(T) <= 0.0:
-        alive[i] = 0
-        t_maxs[i] = 0.0
 
 
 SHADOW_RAYS_PER_BATCH = 1 << 20  # shadow rays traced together: about 90 bytes of device memory each
