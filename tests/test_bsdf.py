@@ -10,6 +10,7 @@ import pytest
 import warp as wp
 
 from wrt.bsdf import Surface, eval_bsdf, fresnel_dielectric, lobe_albedos, sample_bsdf
+from wrt.integrators.whitted import whitted_continuation
 from wrt.microfacet_albedo import (
     GgxAlbedo,
     ggx_albedo_tables,
@@ -93,6 +94,25 @@ def eval_bsdf_kernel(
     f[i] = fi
     pdf[i] = pi
 
+
+
+@wp.kernel
+def whitted_continuation_kernel(
+    p: wp.array[float],
+    tables: GgxAlbedo,
+    ns: wp.array[wp.vec3],
+    ng: wp.array[wp.vec3],
+    wo: wp.array[wp.vec3],
+    # outputs
+    wi: wp.array[wp.vec3],
+    weight: wp.array[wp.vec3],
+):
+    """Case ``i``: :func:`whitted_continuation` at shading normal ``ns[i]``, geometric ``ng[i]``, viewer ``wo[i]``,
+    its reflection picked (``u = 0``)."""
+    i = wp.tid()
+    d, w, _ = whitted_continuation(surface_from(p), tables, ns[i], ng[i], 1, wo[i], 0.0)
+    wi[i] = d
+    weight[i] = w
 
 def vec3s(a) -> wp.array:
     return wp.array(np.ascontiguousarray(a, np.float32), dtype=wp.vec3, device="cpu")
@@ -625,3 +645,24 @@ def test_multiple_scattering_directions_follow_their_pdf(roughness, device, np_r
     assert ((lobe <= 0.0) | (pdf > 0.0)).all()
     ratio = lobe[pdf > 0.0] / pdf[pdf > 0.0]
     assert ratio.max() <= 1.7, ratio.max()
+
+
+@pytest.mark.parametrize("surface", ["mirror", "glass"])
+def test_whitted_ends_a_mirror_ray_below_the_geometric_surface(surface):
+    """A shading normal bent so far that the mirror direction goes below the geometric face: Whitted's mirror ray
+    carries no light there, as the path tracer's (``sample_bsdf`` zeroes it); it went on into the surface. The same
+    view about the face normal still reflects. Above or below: float64 numpy."""
+    p = params(base=(1, 1, 1), metallic=1.0, roughness=0.0) if surface == "mirror" else params(opacity=0.0,
+                                                                                             roughness=0.0)
+    ng = np.array([0.0, 0.0, 1.0])
+    bent = np.array([1.0, 0.0, 1.0]) / np.sqrt(2.0)
+    wo = np.array([-0.2, 0.0, 0.98]) / np.linalg.norm([-0.2, 0.0, 0.98])
+    ns = np.stack([bent, ng])
+    expected = 2.0 * (ns @ wo)[:, None] * ns - wo  # float64 mirror directions
+    assert expected[0] @ ng < 0.0 < expected[1] @ ng and (ns @ wo > 0.0).all()
+    wi, weight = (wp.empty(2, dtype=wp.vec3, device="cpu") for _ in range(2))
+    wp.launch(whitted_continuation_kernel, 2, inputs=[p, ggx_albedo_tables("cpu"), vec3s(ns), vec3s([ng, ng]),
+                                                      vec3s([wo, wo])], outputs=[wi, weight], device="cpu")
+    np.testing.assert_allclose(wi.numpy()[1], expected[1], atol=1e-6)
+    assert (weight.numpy()[1] > 0.0).all()
+    np.testing.assert_array_equal(weight.numpy()[0], 0.0)

@@ -138,6 +138,16 @@ def reflect(wo: wp.vec3, n: wp.vec3):
 
 
 @wp.func
+def mirror_reflection(wo: wp.vec3, n: wp.vec3, ng: wp.vec3):
+    """``(wi, lit)``: the mirror direction of ``wo`` about shading normal ``n``, and 1 where it leaves above the
+    geometric surface (``dot(ng, wi) > 0``, ``ng`` on the side of ``wo``), else 0: a mirror ray into the surface
+    carries no light. (:func:`wrt.shade.keep_reflection_above` bends ``n`` so that it leaves above; this catches
+    what rounding at grazing views lets through.) Every mirror ray of ``path`` and ``whitted`` is taken here."""
+    wi = reflect(wo, n)
+    return wi, wp.where(wp.dot(ng, wi) > 0.0, 1.0, 0.0)
+
+
+@wp.func
 def refract(wo: wp.vec3, n: wp.vec3, eta: float):
     """Snell refraction of ``wo`` (on the side of ``n``) through the interface, ``eta = n_t / n_i``; the result
     points away from the surface on the other side. Zero for total internal reflection."""
@@ -510,10 +520,9 @@ def sample_bsdf(
         fr, wt = glass_refraction(n, ng, wo, eta)
         out.delta = 1
         if u1 < fr:
-            out.wi = reflect(wo, n)
-            out.weight = wp.vec3(1.0)
-            if wp.dot(ng, out.wi) <= 0.0:  # a mirror ray into the surface (as the opaque mirrors below): no light
-                out.weight = wp.vec3(0.0)
+            wi, lit = mirror_reflection(wo, n, ng)
+            out.wi = wi
+            out.weight = wp.vec3(lit)
         else:
             out.wi = wt
             # Radiance is compressed by 1 / eta^2 entering a denser medium and expanded again leaving it, which a
@@ -531,11 +540,10 @@ def sample_bsdf(
         out.wi = to_world(sample_cosine_hemisphere(u2, u3), n)
     elif u1 < w[0] + w[1] or (w[2] <= 0.0 and w[3] <= 0.0):
         if s.roughness < DELTA_ROUGHNESS:
-            out.wi = reflect(wo, n)
-            out.weight = lobes.spec * ((1.0 - lobes.coat) / w[1])  # spec = F(cos_o) for a mirror
+            wi, lit = mirror_reflection(wo, n, ng)
+            out.wi = wi
+            out.weight = lobes.spec * ((1.0 - lobes.coat) / w[1] * lit)  # spec = F(cos_o) for a mirror
             out.delta = 1
-            if wp.dot(ng, out.wi) <= 0.0:
-                out.weight = wp.vec3(0.0)
             return out
         h = to_world(sample_ggx_vndf(wo_local, ggx_alpha(s.roughness), u2, u3), n)
         out.wi = reflect(wo, h)
@@ -545,11 +553,10 @@ def sample_bsdf(
         out.wi = to_world(direction_at_cos(cos_i, u3), n)
     else:
         if s.clearcoat_roughness < DELTA_ROUGHNESS:
-            out.wi = reflect(wo, n)
-            out.weight = wp.vec3(lobes.coat / w[3])  # coat = clearcoat Fc(cos_o) for a mirror
+            wi, lit = mirror_reflection(wo, n, ng)
+            out.wi = wi
+            out.weight = wp.vec3(lobes.coat / w[3] * lit)  # coat = clearcoat Fc(cos_o) for a mirror
             out.delta = 1
-            if wp.dot(ng, out.wi) <= 0.0:
-                out.weight = wp.vec3(0.0)
             return out
         h = to_world(sample_ggx_vndf(wo_local, ggx_alpha(s.clearcoat_roughness), u2, u3), n)
         out.wi = reflect(wo, h)

@@ -22,8 +22,8 @@ from ..bsdf import (
     glass_refraction,
     is_glass,
     lobe_albedos,
+    mirror_reflection,
     opaque_fraction,
-    reflect,
     specular_albedo,
     surface_albedo,
     surface_f0,
@@ -253,7 +253,8 @@ def whitted_continuation(s: Surface, tables: GgxAlbedo, ns: wp.vec3, ng: wp.vec3
     if total <= 0.0 or cos_o <= 0.0:
         return wp.vec3(0.0), wp.vec3(0.0), 0
     if u * total < p_reflect:
-        return reflect(wo, ns), w_reflect * (total / p_reflect), 0
+        wi, lit = mirror_reflection(wo, ns, ng)  # as the path tracer's: none into the surface
+        return wi, w_reflect * (total / p_reflect * lit), 0
     return wt, wp.vec3(total), 1  # w_refract / (w_refract / total); no 1 / eta^2: see bsdf.sample_bsdf
 
 
