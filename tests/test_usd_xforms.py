@@ -400,3 +400,54 @@ def test_spline_animated_ops_at_the_default_time_read_their_first_knot(tmp_path,
         scene = wrt.load_usd(str(tmp_path / "spline.usda"))
     points = np.array(mesh.GetPointsAttr().Get(), np.float64) @ expected[:3, :3] + expected[3, :3]
     np.testing.assert_allclose(scene.meshes[0].points, points, atol=1e-6)
+
+
+VALUELESS = """#usda 1.0
+def Xform "Empty"
+{
+    double3 xformOp:translate
+    float3 xformOp:scale = (2, 2, 2)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+    def Cube "C" {}
+}
+def Xform "Paired"
+{
+    double3 xformOp:translate
+    double3 xformOp:translate:b = (0, 3, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate", "!invert!xformOp:translate", "xformOp:translate:b"]
+    def Cube "C" {}
+}
+def Xform "Unused"
+{
+    double3 xformOp:translate
+    double3 xformOp:translate:b = (0, 0, 4)
+    uniform token[] xformOpOrder = ["xformOp:translate:b"]
+    def Cube "C" {}
+}
+def Xform "Moving"
+{
+    double3 xformOp:translate.timeSamples = {1: (0, 0, 5), 2: (0, 0, 6)}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def Cube "C" {}
+}
+"""
+
+
+@pytest.mark.parametrize("time", [None, 1.0], ids=["default", "time-1"])
+def test_an_xform_op_declared_with_no_value_is_the_identity_with_a_warning(tmp_path, time):
+    """An op in xformOpOrder declared with neither a default nor time samples is the identity, as USD's XformCache
+    reads it (the oracle), and is named in a warning with its file and prim; it was the identity without a word. An
+    op USD leaves out anyway (next to its own inverse, or not in xformOpOrder) is not named."""
+    path = tmp_path / "valueless.usda"
+    path.write_text(VALUELESS)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path, time=time)
+    stage = Usd.Stage.Open(str(path))
+    cubes = drawn_placements(stage, lambda p: p.IsA(UsdGeom.Cube), Usd.TimeCode(1.0))
+    assert len(cubes) == len(placed_shapes(scene)) == 4
+    np.testing.assert_allclose(_sorted_transforms([m for m, _ in placed_shapes(scene)]),
+                               _sorted_transforms([m.T for _, _, m, _ in cubes]), atol=1e-9)
+    named = [str(w.message) for w in caught if "no value" in str(w.message)]
+    assert len(named) == 1 and named[0].startswith(f"{path}: "), named
+    assert "1 prim(s) (xformOp:translate: 1): /Empty" in named[0], named[0]

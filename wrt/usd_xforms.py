@@ -11,8 +11,11 @@ A malformed ``xformOpOrder`` is read as USD reads it, each bad op the identity a
 (``UsdGeomXformable::GetOrderedXformOps`` and ``XformQuery``, which Hydra's transforms come from): an op whose attribute
 does not exist (a typo, an ``!invert!`` of a missing op; USD warns), whose name is no transform op's or whose value is
 of a type the op cannot take (a ``string`` translate; USD posts an error and returns the identity, which stopped wrt's
-load); ops before a ``!resetXformStack!`` that is not first are dropped (USD drops them without a word). Each is named
-in a warning (:data:`MISSING_OP`, :data:`INVALID_OP`, :data:`OPS_BEFORE_RESET`); the prims are resolved op by op.
+load); ops before a ``!resetXformStack!`` that is not first are dropped (USD drops them without a word). An op
+declared with no value (``double3 xformOp:translate`` with neither a default nor time samples) is the identity, as
+USD reads it without a word, unless USD leaves it out anyway (next to its own inverse, before a late reset). Each is
+named in a warning (:data:`MISSING_OP`, :data:`INVALID_OP`, :data:`OPS_BEFORE_RESET`, :data:`VALUELESS_OP`); the
+prims are resolved op by op.
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ MISSING_OP = ("transform ops named in xformOpOrder that do not exist were left o
               "out")
 INVALID_OP = ("transform ops named in xformOpOrder that are no transform op (by name or value type) were left out (the "
               "identity), as USD leaves them out")
+VALUELESS_OP = ("transform ops declared with no value (no default, no time samples) were read as the identity, as USD "
+                "reads them")
 OPS_BEFORE_RESET = "ops before a !resetXformStack! that is not first in xformOpOrder were ignored, as USD ignores them"
 RESET = "!resetXformStack!"  # UsdGeom.XformOpTypes.resetXformStack
 INVERT = "!invert!"  # the prefix of an inverted op's name in xformOpOrder
@@ -115,6 +120,10 @@ class Xforms:
                     named[i + 1][1].IsInverseOp() != op.IsInverseOp():
                 i += 2  # an op and its inverse side by side: skipped, exactly the identity (as USD skips them)
                 continue
+            if not op.GetAttr().HasValue():  # GetOpTransform's identity, which USD gives without a word
+                self._warn(VALUELESS_OP, prim, name)
+                i += 1
+                continue
             try:
                 m = op.GetOpTransform(self._op_time(op.GetAttr())) * m
             except Tf.ErrorException:  # a value the op cannot take: USD posts an error and returns the identity
@@ -141,9 +150,10 @@ class Xforms:
 
     def _own_ops_by_op(self, prim: Usd.Prim) -> bool:
         """Whether ``prim``'s own ops must be read op by op: its ``xformOpOrder`` names an op USD leaves out, has one
-        whose name is no transform op's or a ``!resetXformStack!`` after an op, or (at the default time) an op is read
-        at its first time sample. Two C++ calls for a well-formed prim (about 10 us; this runs for every prim placed and
-        each ancestor, once): an attribute's existence asked token by token (``HasAttribute``) took longer."""
+        whose name is no transform op's or a ``!resetXformStack!`` after an op, an op with no value, or (at the default
+        time) an op is read at its first time sample. Two C++ calls for a well-formed prim, and one per op (about 10 us;
+        this runs for every prim placed and each ancestor, once): an attribute's existence asked token by token
+        (``HasAttribute``) took longer."""
         order = prim.GetAttribute(XFORM_OP_ORDER).Get()
         if not order:
             return False
@@ -154,6 +164,8 @@ class Xforms:
         except Tf.ErrorException:  # a name that is no transform op's
             return True
         if len(ops) != len(order) - (order[0] == RESET):  # an op left out, or ops dropped before a late reset
+            return True
+        if not all(op.GetAttr().HasValue() for op in ops):  # an op declared with no value: named where it applies
             return True
         if not self._time.IsDefault():
             return False
