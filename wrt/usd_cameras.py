@@ -37,8 +37,9 @@ class CameraReading:
                 self.scene.cameras[path] = self._read_camera(proxy)
             except SceneError:
                 raise
-            except (ValueError, TypeError, Tf.ErrorException) as e:
+            except (ValueError, Tf.ErrorException) as e:
                 # A bad camera stopped the load of a stage rendered from another one: kept for when it is asked for.
+                # (Values of the wrong type are ValueErrors naming the attribute; a TypeError is a bug, not skipped.)
                 reason = str(e) if isinstance(e, ValueError) else f"camera cannot be read ({tf_message(e)})"
                 self.scene.skipped_cameras[path] = reason
                 self._skip(UNUSABLE_CAMERA, proxy, reason)
@@ -72,10 +73,23 @@ class CameraReading:
                 raise ValueError(f"camera {attr.GetName()} has no value (blocked)")
             return found
 
-        def number(attr):
-            return float(value(attr))
+        def numbers(attr, found, count: int) -> tuple:
+            """``found``, read from ``attr``, as ``count`` floats, else a ValueError naming the attribute (an
+            attribute authored with another type than the schema's: a ``float clippingRange``)."""
+            try:
+                values = tuple(float(x) for x in (found if count > 1 else [found]))
+            except (TypeError, ValueError):
+                values = ()
+            if len(values) != count:
+                raise ValueError(f"camera {attr.GetName()} must be {count} number{'s' * (count > 1)}, got {found!r}")
+            return values
 
-        near, far = value(camera.GetClippingRangeAttr())
+        def number(attr):
+            return numbers(attr, value(attr), 1)[0]
+
+        near, far = numbers(camera.GetClippingRangeAttr(), value(camera.GetClippingRangeAttr()), 2)
+        planes_attr = camera.GetClippingPlanesAttr()
+        planes = [numbers(planes_attr, plane, 4) for plane in _elements(planes_attr, value_at(planes_attr, time))]
         projection = str(value_at(camera.GetProjectionAttr(), time))
         if projection != UsdGeom.Tokens.orthographic:
             if projection != UsdGeom.Tokens.perspective:  # as UsdGeom.Camera.GetCamera reads it
@@ -92,8 +106,8 @@ class CameraReading:
             vertical_aperture=number(camera.GetVerticalApertureAttr()),
             horizontal_aperture_offset=number(camera.GetHorizontalApertureOffsetAttr()),
             vertical_aperture_offset=number(camera.GetVerticalApertureOffsetAttr()),
-            clipping_range=(float(near), float(far)),
-            clipping_planes=[tuple(plane) for plane in value_at(camera.GetClippingPlanesAttr(), time) or []],
+            clipping_range=(near, far),
+            clipping_planes=planes,
             projection=projection,
             fit="expandAperture",  # USD's fallback aspectRatioConformPolicy
             f_stop=number(camera.GetFStopAttr()),
@@ -102,6 +116,16 @@ class CameraReading:
         )
         loaded.path = str(prim.GetPath())  # for messages at render time, e.g. a singular transform
         return loaded
+
+
+def _elements(attr: Usd.Attribute, found) -> list:
+    """The elements of array ``found`` read from ``attr`` (none for no value), else a ValueError naming it."""
+    if found is None:
+        return []
+    try:
+        return list(found)
+    except TypeError:
+        raise ValueError(f"camera {attr.GetName()} must be an array, got {found!r}") from None
 
 
 def _exposure_scale(camera: UsdGeom.Camera, number) -> float:
