@@ -10,7 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdLux, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, Vt
 from test_materials import add_quad, bind, new_stage, preview_material
 from usda_text import load_recording_warnings
 
@@ -413,3 +413,105 @@ def build_opaque(stage, colors):
     if colors is not None:
         UsdGeom.PrimvarsAPI(pi).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
                                               UsdGeom.Tokens.vertex).Set(colors)
+
+
+NESTED_QUAD = """int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points = [(-0.5, -0.5, 0), (0.5, -0.5, 0), (0.5, 0.5, 0), (-0.5, 0.5, 0)]"""
+
+
+def _nested_mixed_stage(variant: str) -> str:
+    """A native instance ``/N1`` (red, opacity 0.3) of an assembly holding a PointInstancer whose prototype holds a
+    mesh ``M`` and a native instance ``N2`` of a kit holding a mesh ``M``, both under ``X``: the instancer colours its
+    instance blue (``pi_colour``), or ``X`` authors uniform displayColor and displayOpacity (``blocked``)."""
+    pi = 'color3f[] primvars:displayColor = [(0, 0, 1)] (interpolation = "vertex")' if variant == "pi_colour" else ""
+    blockers = ('color3f[] primvars:displayColor = [(1, 0, 1)] (interpolation = "uniform")\n'
+                '                    float[] primvars:displayOpacity = [0.1] (interpolation = "uniform")'
+                if variant == "blocked" else "")
+    return f"""#usda 1.0
+def Xform "Kit"
+{{
+    def Mesh "M"
+    {{
+        {NESTED_QUAD}
+    }}
+}}
+def Xform "Assembly"
+{{
+    def PointInstancer "PI"
+    {{
+        rel prototypes = </Assembly/PI/Protos/PP>
+        int[] protoIndices = [0]
+        point3f[] positions = [(0, 0, 0)]
+        {pi}
+        def Scope "Protos"
+        {{
+            def Xform "PP"
+            {{
+                def Xform "X"
+                {{
+                    {blockers}
+                    def Mesh "M"
+                    {{
+                        {NESTED_QUAD}
+                    }}
+                    def Xform "N2" (
+                        instanceable = true
+                        references = </Kit>
+                    )
+                    {{
+                    }}
+                }}
+            }}
+        }}
+    }}
+}}
+def Xform "N1" (
+    instanceable = true
+    references = </Assembly>
+)
+{{
+    color3f[] primvars:displayColor = [(1, 0, 0)]
+    float[] primvars:displayOpacity = [0.3]
+}}
+"""
+
+
+def _looks_in(scene, source: str) -> dict:
+    """``{"direct" or "nested": (colour or None, opacity or None)}`` of the meshes drawn by the instances of the
+    world-level ``source``: the mesh's own value, else its instance's (NaN: none)."""
+    inst, found = scene.instances, {}
+    for r in range(len(inst)):
+        if inst.path(r).split("[")[0].split("/")[1] != source.strip("/"):
+            continue
+        for mesh in scene.prototypes[inst.prototype[r]].meshes:
+            color = mesh.colors[0, 0] if mesh.colors is not None else np.full(3, np.nan)
+            if np.isnan(color).any() and len(inst.colors):
+                color = inst.colors[r]
+            opacity = mesh.opacities[0, 0] if mesh.opacities is not None else np.nan
+            if np.isnan(opacity) and len(inst.opacities):
+                opacity = inst.opacities[r]
+            found["direct" if "/X/M" in mesh.path else "nested"] = (
+                None if np.isnan(color).any() else tuple(np.round(color, 6).tolist()),
+                None if np.isnan(opacity) or opacity >= 1.0 else round(float(opacity), 6))
+    return found
+
+
+@pytest.mark.parametrize("variant", ["pi_colour", "blocked"])
+def test_a_native_instance_in_a_point_instancer_prototype_in_a_native_instance_takes_colour_and_opacity_alike(
+        tmp_path, variant):
+    """Nested mixed instancing: a mesh of a native instance ``N2`` inside a PointInstancer's prototype inside a native
+    instance ``N1`` takes the colour and opacity that a mesh beside ``N2`` takes, whose proxies' walks are the same
+    above them; the opacity is the one FindPrimvarWithInheritance finds on the proxy (the oracle), none where it finds
+    none. ``N1``'s red reached the kit's mesh past the instancer's blue instance colour and past a uniform colour
+    that blocks it (its opacity followed the walk: 0.3, and blue, or 0.3 past the blocker)."""
+    path = tmp_path / f"nested_{variant}.usda"
+    path.write_text(_nested_mixed_stage(variant))
+    scene, _ = load_recording_warnings(path)
+    looks = _looks_in(scene, "/N1")
+    stage = Usd.Stage.Open(str(path))
+    for name, proxy in (("direct", "/N1/PI/Protos/PP/X/M"), ("nested", "/N1/PI/Protos/PP/X/N2/M")):
+        found = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(proxy)).FindPrimvarWithInheritance("displayOpacity")
+        assert looks[name][1] == (round(float(found.Get()[0]), 6) if found else None), (name, looks)
+    assert looks["nested"] == looks["direct"], looks
+    assert looks["direct"][0] == ((0.0, 0.0, 1.0) if variant == "pi_colour" else None), looks

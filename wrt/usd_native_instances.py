@@ -9,6 +9,7 @@ import math
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
+from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Context, instance_looks
 from .usd_values import read_time
 
@@ -46,8 +47,11 @@ class NativeInstanceReading:
         have = {name for name, _ in own}
         # The colours it has not may come from above this instance's container.
         ctx.content.want_colors([name for name in content.outer_colors if name not in have])
+        # Only where nothing up to the root of its container has the primvar: a non-constant one on the instance or
+        # above it (a PointInstancer's instance colours among them) blocks the walk of its proxies there.
         above = tuple((name, rgb) for name, rgb in ctx.outer_color or ()
-                      if name not in have and name in content.outer_colors)
+                      if name not in have and name in content.outer_colors
+                      and self.inherited_primvars.lookup(prim, name) is None)
         colors = tuple(sorted(own + above))
         if colors:
             key = self._copy_with(key, content.colors, colors, MAX_INHERITED_COLORS, "colours", prim, color=colors)
@@ -65,6 +69,11 @@ class NativeInstanceReading:
         # A constant displayOpacity on the instance or above it is the opacity of the prototype's geometry that has
         # none: one value per instance (Instances.opacities), no copy of the prototype.
         opacity = self._inherited_opacity(prim)
+        found = self.inherited_primvars.lookup(prim, "displayOpacity") if opacity is None else None
+        if ctx.blocked_opaque and found is not None and found is not PER_INSTANCE:  # (invalid primvars compare equal)
+            # A non-constant one on the instance or above it blocks an outer instance's opacity, as a mesh's
+            # (Context.blocked_opaque; a PointInstancer's instance opacities get past it, and are nearer).
+            opacity = 1.0
         looks = None if opacity is None else instance_looks(None, np.array([opacity], np.float32))
         ctx.content.instances.append((key, m[None], str(prim.GetPath()), np.array([-1], np.int32), looks))
         self._read_cameras(prim, self.contents[key].cameras, ctx)
