@@ -55,3 +55,29 @@ def power_scales(x: float):
 def unit_scales(v: wp.vec3):
     """``power_scales`` of ``v``'s largest component: ``v * down`` has its largest component in ``[1, 2)``."""
     return power_scales(largest_magnitude(v))
+
+
+@wp.func
+def next_up(x: float):
+    """The smallest float32 above ``x`` (``2^-149`` above 0 and -0; ``x`` itself for inf and NaN)."""
+    bits = float_bits(x)
+    y = x
+    if x == 0.0:
+        y = int_bits_as_float(1)
+    elif x > 0.0 and x < FLOAT32_MAX:
+        y = int_bits_as_float(bits + 1)
+    elif x < 0.0 and x > -wp.inf:
+        y = int_bits_as_float(bits - 1)  # a negative float's magnitude shrinks as its bits (sign set) count down
+    return y
+
+
+@wp.func
+def scaled_limit(limit: float, down: float, up: float):
+    """``limit * up`` for a ray scaled by ``(down, up)`` (``unit_scales``), rounded up where it is not exact (below
+    float32's normal range; up to inf past its largest value), so that a float32 ``t`` of the scaled ray compares
+    with it (``t >= t_min``, ``t < t_max``) as ``t * down`` does with ``limit``. To the nearest, a ``t_min`` of
+    2^-149 scaled by 2^-10 became 0, and kept hits at ``t = 0``."""
+    scaled = limit * up
+    if scaled * down < limit:  # exact when up < 1, where products can round below the normal range
+        scaled = next_up(scaled)
+    return scaled

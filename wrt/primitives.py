@@ -44,7 +44,7 @@ import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
 from .errors import bottom_row_problem
-from .floats import unit_scales
+from .floats import scaled_limit, unit_scales
 from .instancing import invert_transforms, thicken_flat_transforms
 
 SHAPE_SPHERE = wp.constant(0)
@@ -253,10 +253,13 @@ def intersect_shape(kind: int, params: wp.vec4, o: wp.vec3, d: wp.vec3, t_min: f
     The direction is first scaled by a power of two so that its largest component lies in ``[1, 2)``: a shape of
     radius 1e-20 seen by a unit ray has a canonical direction of length 1e20, and the quadratics' ``d . d``
     overflowed (or underflowed, for huge shapes or tiny directions), so such shapes were missed. Scaling by a power
-    of two is exact, so rays that were fine before get the same bits."""
+    of two is exact, so rays that were fine before get the same bits; limits that the scaling takes below float32's
+    normal range are rounded up (``scaled_limit``), as ``ray_batch`` rounds them for the world ray's own scaling."""
     down, up = unit_scales(d)
     # o + t (d * down) is o + (t * down) d: the range scales up, the hit down.
-    return down * canonical_hit(kind, params, o, d * down, t_min * up, t_max * up)
+    lo = scaled_limit(t_min, down, up)
+    hi = scaled_limit(t_max, down, up)
+    return down * canonical_hit(kind, params, o, d * down, lo, hi)
 
 
 @wp.func
