@@ -489,3 +489,35 @@ def test_cube_gprims_agree_with_their_exact_tessellation(assets, asset_id):
     report = compare_hits(ours, theirs, directions=directions, scale=scale)
     assert report["hits_a"] > 300 and report["disagreements"] == 0, report
     assert report["tie_disagreements"] <= 1e-4 * report["rays"], report
+
+
+@pytest.mark.parametrize("device", ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else []))
+def test_limits_below_float32_normals_keep_their_meaning_on_scaled_shapes(device):
+    """Rays from points on the top face of a box and on a disk, both 1000 across, with limits of 2^-149 (the smallest
+    float32): ``t_min`` excludes the hit at ``t = 0`` on the surface (a ray into the box then meets its far face),
+    ``t_max`` keeps it. The shape's test scales the limits by the inverse of its canonical direction's length again
+    (1/1000 here), which rounded them to 0: every hit at 0 came back despite ``t_min > 0`` (the far faces were
+    missed), and every one was lost with ``t_max > 0``, while triangles keep both limits as given."""
+    tiny = np.nextafter(np.float32(0), np.float32(1))
+    scale = np.diag([1000.0, 1000.0, 1000.0, 1.0])
+    rng = np.random.default_rng(3)
+    n = 200
+    radius, angle = 900.0 * np.sqrt(rng.uniform(0, 1, n)), rng.uniform(0, 2 * np.pi, n)  # inside the disk too
+    origins = np.stack([radius * np.cos(angle), radius * np.sin(angle), np.full(n, 1000.0)], 1).astype(np.float32)
+    directions = np.concatenate([rng.uniform(-0.3, 0.3, (n, 2)), -np.ones((n, 1))], 1).astype(np.float32)
+    # float64: where each ray leaves the box [-1000, 1000]^3 (the far face, z = -1000, or a side).
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    exit_t = ((1000.0 * np.sign(d64) - o64) / d64).min(axis=1)
+    box = wrt.Scene(shapes=[Shape("/Box", "box", scale)])
+    moved_up = scale.copy()
+    moved_up[2, 3] = 1000.0  # the disk in the box's top face plane
+    disk = wrt.Scene(shapes=[Shape("/Disk", "disk", moved_up)])
+    for name, scene in (("box", box), ("disk", disk)):
+        at_zero = wrt.trace(scene, origins, directions, t_max=tiny, device=device)
+        assert (at_zero.t == 0.0).all(), name
+        assert wrt.occluded(scene, origins, directions, t_max=tiny, device=device).all(), name
+        past_zero = wrt.trace(scene, origins, directions, t_min=tiny, device=device)
+        expected = exit_t if name == "box" else np.full(n, np.inf)
+        np.testing.assert_allclose(past_zero.t, expected, rtol=1e-5, err_msg=name)
+        np.testing.assert_array_equal(wrt.occluded(scene, origins, directions, t_min=tiny, device=device),
+                                      np.isfinite(expected), err_msg=name)
