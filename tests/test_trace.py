@@ -1257,3 +1257,30 @@ def test_random_rays_and_ranges_in_any_array_form_match_a_float64_oracle(builder
         reported = hits.t[hits.hit].astype(np.float64)
         assert ((reported >= t_min[hits.hit]) & (reported < t_max[hits.hit])).all(), label
         np.testing.assert_array_equal(wrt.occluded(scene, fortran, reversed_view, **query), hits.hit, str(label))
+
+
+@pytest.mark.parametrize("accel, builder", [("wrt", "sah"), ("warp", "sah"), ("warp", "lbvh")])
+def test_occluded_agrees_with_trace_on_intervals_ending_at_hits(accel, builder):
+    """Any hit reports a ray blocked exactly when the closest-hit query finds a hit in ``[t_min, t_max)``, also for
+    intervals whose ends sit on a hit: ``[t, t + 1 ulp)`` around each ray's own hit and ``[-inf, t)`` below it.
+    ``accel="warp"`` decided its any-hit rays by ``wp.mesh_query_ray_anyhit`` from a start moved to ``t_min`` (or
+    the box entry), with no ``t`` to check against the limits: 107 of 4,000 rays were blocked in ``[t, t + 1 ulp)``
+    where its trace found nothing there, and 3 blocked below ``t_max = t``, two of them with no hit before ``t`` at
+    all (float64 oracle)."""
+    rng = np.random.default_rng(1)
+    corners = rng.uniform(-6, 6, (300, 1, 3)) + rng.normal(0, 1, (300, 3, 3))  # a soup of 300 triangles
+    scene = wrt.Scene.from_triangles(corners.reshape(-1, 3).astype(np.float32), np.arange(900).reshape(-1, 3))
+    n = 4000
+    origins = rng.uniform(-8, 8, (n, 3)).astype(np.float32)
+    directions = rng.normal(size=(n, 3)).astype(np.float32)
+    first = wrt.trace(scene, origins, directions, accel=accel, builder=builder)
+    hit = first.hit
+    assert hit.sum() > 1000
+    o, d, t = origins[hit], directions[hit], first.t[hit]
+    past = np.nextafter(t, np.float32(np.inf))
+    for t_min, t_max in ((t, past), (np.float32(-np.inf), t), (np.nextafter(t, np.float32(-np.inf)), past)):
+        hits = wrt.trace(scene, o, d, t_min=t_min, t_max=t_max, accel=accel, builder=builder)
+        lo, hi = np.broadcast_to(t_min, t.shape), np.broadcast_to(t_max, t.shape)
+        assert np.all(hits.t[hits.hit] >= lo[hits.hit]) and np.all(hits.t[hits.hit] < hi[hits.hit])
+        blocked = wrt.occluded(scene, o, d, t_min=t_min, t_max=t_max, accel=accel, builder=builder)
+        np.testing.assert_array_equal(blocked, hits.hit)
