@@ -314,6 +314,17 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return out, ok
 
 
+def device_transforms(world_to_local: np.ndarray, to_world: np.ndarray) -> np.ndarray:
+    """``(N, 3, 4)`` float32 ``[A | c]`` of :mod:`wrt.transforms` for the device: ``A`` the linear part of
+    ``world_to_local`` (:func:`invert_transforms`' rows), ``c`` the translation of ``to_world`` ``(N, 4, 4)`` (where the
+    local origin lies in the world); rows of zeros (singular transforms) stay zero."""
+    out = np.zeros((len(to_world), 3, 4), np.float32)
+    out[:, :, :3] = world_to_local[:, :, :3]
+    drawn = np.any(world_to_local[:, :, :3] != 0, axis=(1, 2))
+    out[drawn, :, 3] = to_world[drawn, :3, 3]
+    return out
+
+
 def thicken_flat_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(to_world with flat ones thickened, thickened (N,) bool)``: the ``(N, 4, 4)`` column-vector transforms that
     :func:`invert_transforms` finds singular but that keep two directions (a zero scale on one axis, a mesh squashed

@@ -38,6 +38,7 @@ from .instancing import (
     ROW_DTYPE_LIMIT,
     Instances,
     Prototype,
+    device_transforms,
     expand_instance_triangles,
     invert_transforms,
     thicken_flat_transforms,
@@ -1127,7 +1128,7 @@ class Scene:
             self._cache[key] = (
                 wp.array(kinds, dtype=wp.int32, device=device),
                 wp.array(params, dtype=wp.vec4, device=device),
-                wp.array(to_local.astype(np.float32), dtype=mat34, device=device),
+                wp.array(device_transforms(to_local, to_world), dtype=mat34, device=device),
             )
         return self._cache[key]
 
@@ -1157,9 +1158,10 @@ class Scene:
         key = ("world_to_local", str(device))
         if key not in self._cache:
             inverse, _ = self.instance_inverses()
-            if len(inverse) == 0:
-                inverse = np.zeros((1, 3, 4))
-            self._cache[key] = wp.array(inverse.astype(np.float32), dtype=mat34, device=device)
+            transforms = device_transforms(inverse, self.instances.to_world)
+            if len(transforms) == 0:
+                transforms = np.zeros((1, 3, 4), np.float32)
+            self._cache[key] = wp.array(transforms, dtype=mat34, device=device)
         return self._cache[key]
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:

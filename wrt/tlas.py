@@ -36,7 +36,7 @@ from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, order_children, reachable, unit_ray
 from .bvh.turns import waits
 from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
-from .instancing import invert_transforms, world_boxes
+from .instancing import device_transforms, invert_transforms, world_boxes
 from .primitives import intersect_shape, shape_uv
 from .scene import Scene
 from .trace import Accelerator, HitBuffer
@@ -347,7 +347,7 @@ class InstancedAccelerator(Accelerator):
                 continue
             mine = rows[part - 1]
             lo, hi = world_boxes(self.blas[b].lowers[0].astype(np.float64), self.blas[b].uppers[0].astype(np.float64),
-                                 instances.to_world[mine])
+                                 as_placed(instances.to_world[mine]))
             entry_blas.append(np.full(len(mine), b))
             entry_instance.append(mine)
             lowers.append(lo)
@@ -372,7 +372,7 @@ class InstancedAccelerator(Accelerator):
         # 1M PointInstancer spheres take 44 s (7 s now), and the TLAS is rebuilt every animated frame.
         local = [s.local_bounds() for s in scene._geometry_shapes()] or [(np.zeros(3), np.zeros(3))]
         local_lo, local_hi = (np.array(b, np.float64)[shape_rows - n_tri] for b in zip(*local))
-        lo, hi = world_boxes(local_lo, local_hi, shape_to_world)
+        lo, hi = world_boxes(local_lo, local_hi, as_placed(shape_to_world))
         lowers.append(np.where(shape_ok[:, None], lo, np.inf))  # a degenerate shape: a box no ray enters
         uppers.append(np.where(shape_ok[:, None], hi, -np.inf))
         entry_blas.append(-1 - np.arange(len(shape_rows)))
@@ -406,7 +406,8 @@ class InstancedAccelerator(Accelerator):
         t.world_to_local = scene.world_to_local(device)
         t.blases = wp.array(self._device_blas, dtype=DeviceBvh, device=device)
         t.blas_first = wp.array(np.asarray(self._blas_first, np.int32), dtype=wp.int32, device=device)
-        t.shape_xforms = wp.array(_non_empty(shape_to_local.astype(np.float32)), dtype=mat34, device=device)
+        t.shape_xforms = wp.array(_non_empty(device_transforms(shape_to_local, shape_to_world)), dtype=mat34,
+                                  device=device)
         t.shape_rows = wp.array(_non_empty(shape_rows), dtype=wp.int32, device=device)
         t.shape_kinds, t.shape_params, _ = scene.shape_arrays(device)
         t.num_triangles = n_tri
@@ -492,6 +493,14 @@ def _part_vertex_offsets(scene: Scene) -> np.ndarray:
         counts += [sum(len(m.points) for m in p.meshes) for p in scene.prototypes]
         scene._cache[key] = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     return scene._cache[key]
+
+
+def as_placed(to_world: np.ndarray) -> np.ndarray:
+    """``(N, 4, 4)`` transforms with their translations rounded to float32, as the device places each entry's local
+    origin (``wrt.transforms``: ``[A | c]``), so that the entries' world boxes hold what the kernels trace."""
+    placed = to_world.copy()
+    placed[:, :3, 3] = placed[:, :3, 3].astype(np.float32)
+    return placed
 
 
 def _non_empty(a: np.ndarray) -> np.ndarray:
