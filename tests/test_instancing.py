@@ -1704,3 +1704,52 @@ def test_instances_at_extreme_scales_hit_as_a_float64_solution_says(scale):
     np.testing.assert_array_equal(hits.instance, row // 8)
     np.testing.assert_array_equal(hits.local_prim, row % 8)
     assert wrt.occluded(scene, origins, directions).all()
+
+
+def test_instances_and_shapes_far_from_the_origin_are_traced_as_exactly_as_their_placement():
+    """A sphere of radius 1 and an instanced octahedron (turned, mirrored) placed 1e5 from the world origin at
+    float32-exact positions, rays from a few units away: each hit lies on the float64 surface to float32 precision of
+    the rays' distance from it, and every ray aimed inside a triangle hits it. Rays moved into local space as
+    ``A world + b`` summed terms of 1e5 that cancel: 1,999 of 2,000 hits on the sphere lay off its surface (by up to
+    about 1% of its radius), and 38 of 2,000 rays got another triangle of the octahedron or none; ``A (world - c)``
+    takes the difference first."""
+    from wrt.primitives import Shape
+
+    rng = np.random.default_rng(5)
+    turn, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    centre = np.array([1e5 + 0.25, 1e5 - 0.5, -1e5 + 0.75])  # float32-exact
+    to_world = np.eye(4)
+    to_world[:3, :3] = turn @ np.diag([1.0, -1.0, 1.0])
+    to_world[:3, 3] = centre
+    n = 2000
+    aim = rng.uniform(-0.6, 0.6, (n, 3)) @ to_world[:3, :3].T + centre
+    origins = (aim + rng.normal(size=(n, 3)) * 3).astype(np.float32)
+    directions = (aim - origins).astype(np.float32)
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+
+    ball = wrt.Scene(shapes=[Shape("/Ball", "sphere", to_world)])
+    hits = wrt.trace(ball, origins, directions)
+    assert hits.hit.all()  # every ray aims inside the sphere
+    points = o64 + hits.t[:, None].astype(np.float64) * d64
+    np.testing.assert_allclose(np.linalg.norm(points - centre, axis=1), 1.0, atol=1e-5)
+
+    pts = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32)
+    faces = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)])
+    proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
+    octa = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms([0], to_world[None]))
+    world = pts.astype(np.float64) @ to_world[:3, :3].T + centre
+    weights = rng.dirichlet([4, 4, 4], n)
+    targets = np.einsum("nk,nkj->nj", weights, world[faces[rng.integers(0, 8, n)]])
+    origins = (targets + rng.normal(size=(n, 3)) * 3).astype(np.float32)
+    directions = (targets - origins).astype(np.float32)
+    t, row = closest_hits_numpy(world, faces, origins.astype(np.float64), directions.astype(np.float64), np.zeros(n),
+                                np.full(n, np.inf))
+    assert np.isfinite(t).all()
+    hits = wrt.trace(octa, origins, directions)
+    np.testing.assert_array_equal(hits.local_prim, row)
+    # The hit points lie in their triangles' planes (float64), not merely along the rays near them.
+    corners = world[faces[row]]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    points = origins.astype(np.float64) + hits.t[:, None].astype(np.float64) * directions.astype(np.float64)
+    np.testing.assert_allclose(np.einsum("nj,nj->n", points - corners[:, 0], normals), 0.0, atol=1e-5)
