@@ -176,3 +176,65 @@ def test_a_shape_given_a_row_vector_transform_is_refused_and_a_flat_one_is_drawn
     directions = [[0.0, 0.0, -1.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 0.0, -1.0]]
     hits = wrt.trace(wrt.Scene(shapes=[Shape("/Ball", "sphere", to_world)]), origins, directions)
     np.testing.assert_allclose(hits.t, [5.0, 5.0, 5.0, np.inf], atol=1e-3)
+
+
+# The square of two triangles with two points no triangle uses: 6 points, as many as the triangles' corners.
+SQUARE_AND_TWO = np.concatenate([SQUARE, np.float32([[5, 5, 5], [6, 6, 6]])])
+
+
+def linear_color(p: np.ndarray) -> np.ndarray:
+    return np.stack([0.5 + 0.2 * p[..., 0], 0.5 + 0.3 * p[..., 1], 0.4 + 0.1 * p[..., 2]], -1)
+
+
+def linear_normal(p: np.ndarray) -> np.ndarray:
+    return np.stack([0.3 * p[..., 0], 0.2 * p[..., 1], np.ones(p.shape[:-1])], -1)
+
+
+def test_per_vertex_normals_and_colors_are_read_per_vertex_when_there_are_as_many_points_as_corners():
+    """``(V, 3)`` normals and colours, one per point, were taken for ``(T, 3, 3)`` corners flattened whenever ``V``
+    happened to equal ``3T`` (and refused otherwise), so this square drew scrambled colours and normals without a
+    word. A row per point is now read per point, with a warning where the corners reading would differ. Oracle:
+    colours and normals linear in the position interpolate to that linear function at each pixel's hit point (the
+    camera ray meeting z = 0), the normal divided by its length."""
+    from wrt.rays import camera_rays
+
+    with pytest.warns(UserWarning) as warned:
+        mesh = wrt.Mesh("/Square", SQUARE_AND_TWO, np.int32([[0, 1, 2], [0, 2, 3]]), None, double_sided=True,
+                        colors=linear_color(SQUARE_AND_TWO), normals=linear_normal(SQUARE_AND_TWO))
+    assert [str(w.message) for w in warned] == [
+        f"/Square: {name} of shape (6, 3) have a row per point and per triangle corner (2 triangles): read as one per "
+        "point; pass one per corner as (2, 3, 3)" for name in ("normals", "colors")]
+    scene = wrt.Scene(meshes=[mesh])
+    image = wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")
+    origins, directions = camera_rays(scene, TOP, 8, 8)
+    hit = (origins - origins[:, 2:] / directions[:, 2:] * directions).reshape(8, 8, 3)
+    on_square = image.aovs["coverage"] > 0.5
+    assert on_square.sum() == 16
+    np.testing.assert_allclose(image.rgb[on_square], linear_color(hit)[on_square], atol=1e-5)
+    normal = linear_normal(hit)
+    np.testing.assert_allclose(image.aovs["normal"][on_square],
+                               (normal / np.linalg.norm(normal, axis=-1, keepdims=True))[on_square], atol=1e-5)
+
+
+def test_per_vertex_uvs_and_opacities_are_gathered_into_corners_and_a_triangle_soup_warns_of_nothing():
+    """``(V, 2)`` texture coordinates and ``(V,)`` opacities are one per point as well; for a triangle soup (every
+    triangle its own three points, ``indices = arange(3T)``) both readings agree, so nothing is said. Oracle: the
+    values indexed by the triangles' corners in numpy."""
+    import warnings
+
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+    uvs, opacities = SQUARE_AND_TWO[:, :2] * 0.5 + 0.5, np.linspace(0.0, 1.0, 6, dtype=np.float32)
+    with pytest.warns(UserWarning) as warned:
+        mesh = wrt.Mesh("/Square", SQUARE_AND_TWO, indices, None, uvs=uvs, opacities=opacities)
+    assert ["opacities of shape (6,)" in str(warned[0].message), "uvs of shape (6, 2)" in str(warned[1].message)] == [
+        True, True]
+    np.testing.assert_array_equal(mesh.uvs, uvs[indices])
+    np.testing.assert_array_equal(mesh.opacities, opacities[indices])
+    soup = SQUARE[indices].reshape(-1, 3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mesh = wrt.Mesh("/Soup", soup, np.arange(6, dtype=np.int32).reshape(2, 3), None, colors=linear_color(soup))
+    np.testing.assert_array_equal(mesh.colors, linear_color(soup).astype(np.float32).reshape(2, 3, 3))
+    # Given one per corner, as before, they stay as given.
+    corners = linear_color(SQUARE)[indices].astype(np.float32)
+    np.testing.assert_array_equal(wrt.Mesh("/Square", SQUARE_AND_TWO, indices, None, colors=corners).colors, corners)

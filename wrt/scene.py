@@ -89,6 +89,28 @@ PER_TRIANGLE_ARRAYS = (
 )
 
 
+# The per-triangle arrays above that hold a value per corner, so that a value per vertex can be gathered into them.
+PER_CORNER_ARRAYS = ("normals", "colors", "opacities", "uvs")
+
+
+def per_vertex_to_corners(path: str, name: str, values: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """``values[indices]``: a mesh's per-vertex ``(V, ...)`` attribute ``name`` as one per triangle corner ``(T, 3,
+    ...)``. With as many points as corners (``V = 3T``) the array could also be corners flattened; a row per point
+    is how numpy users hold vertex normals and colours (trimesh, Open3D), and it was read as corners, scrambling
+    them without a word. Where the two readings differ a warning says which was taken."""
+    import warnings
+
+    from .errors import user_stacklevel
+
+    corners = values[indices]
+    if len(values) == 3 * len(indices) and not np.array_equal(corners, values.reshape(corners.shape), equal_nan=True):
+        shape = (len(indices), 3, *values.shape[1:])
+        warnings.warn(f"{path}: {name} of shape {values.shape} have a row per point and per triangle corner "
+                      f"({len(indices)} triangles): read as one per point; pass one per corner as {shape}",
+                      stacklevel=user_stacklevel())
+    return corners
+
+
 # Arrays made read-only by Scene.freeze: id(array) -> {id(scene): weak reference} of the scenes holding it so. A
 # scene's invalidate() makes an array writeable only when no other live scene holds it: two scenes drawing one mesh,
 # the first to render froze its points, its invalidate() gave write access back, and the other scene drew the points
@@ -108,7 +130,9 @@ class Mesh(CountsAssignments):
         face_ids: ``(T,)`` int32, source face of each triangle, or ``None``: each triangle is a face of its own
             (:meth:`triangle_faces`).
         normals: ``(T, 3, 3)`` float32 unit world-space shading normal at each triangle corner, or ``None``
-            when the mesh authors none (then the face normal is used).
+            when the mesh authors none (then the face normal is used). Given one per vertex, ``(V, 3)``, it is
+            gathered into corners (:func:`per_vertex_to_corners`); so are ``colors``, ``uvs`` (``(V, 2)``) and
+            ``opacities`` (``(V,)``).
         colors: ``(T, 3, 3)`` float32 linear colour at each triangle corner, or ``None``: ``displayColor``, or the
             colour primvar the triangle's material's diffuseColor reads (:attr:`wrt.materials.Material.color_primvar`);
             NaN rows where the mesh has not got that primvar (the material's constant, or an instance's colour, then
@@ -174,6 +198,8 @@ class Mesh(CountsAssignments):
             if value is None:
                 continue
             array = np.ascontiguousarray(value, dtype=dtype)
+            if name in PER_CORNER_ARRAYS and array.shape == (len(self.points), *corner[1:]):
+                array = per_vertex_to_corners(self.path, name, array, self.indices)
             if array.size != triangles * int(np.prod(corner)):
                 expected = (triangles, *corner)
                 raise SceneError(f"{name} must have shape {expected}, one entry per triangle; got {array.shape}",
