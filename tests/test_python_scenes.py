@@ -238,3 +238,51 @@ def test_per_vertex_uvs_and_opacities_are_gathered_into_corners_and_a_triangle_s
     # Given one per corner, as before, they stay as given.
     corners = linear_color(SQUARE)[indices].astype(np.float32)
     np.testing.assert_array_equal(wrt.Mesh("/Square", SQUARE_AND_TWO, indices, None, colors=corners).colors, corners)
+
+
+def test_an_instance_scaled_to_a_line_or_a_point_warns_as_the_usd_loader_does(tmp_path):
+    """Instances built in Python whose transform leaves fewer than two directions (scaled to a line or a point) draw
+    nothing, but vanished without the warning that ``load_usd`` gives for the same PointInstancer instances. Oracle:
+    the USD twin of the scene (a PointInstancer of the same box and scales) loaded by ``load_usd``: the same reason,
+    the same instance indices, and the same hits (the flat one drawn, the others not)."""
+    import warnings
+
+    from tests.usda_text import fmt, write
+
+    scales = [(1.0, 1.0, 1.0), (1.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)]
+    positions = [(3.0 * k, 0.0, 0.0) for k in range(4)]
+    stage = write(tmp_path, f"""
+def PointInstancer "PI"
+{{
+    rel prototypes = [</PI/Box>]
+    int[] protoIndices = [0, 0, 0, 0]
+    point3f[] positions = {fmt(positions)}
+    float3[] scales = {fmt(scales)}
+    def Mesh "Box"
+    {{
+        point3f[] points = {fmt(BOX_POINTS)}
+        int[] faceVertexCounts = {[3] * len(BOX_INDICES)}
+        int[] faceVertexIndices = {BOX_INDICES.reshape(-1).tolist()}
+    }}
+}}
+""")
+    with warnings.catch_warnings(record=True) as from_usd:
+        warnings.simplefilter("always")
+        twin = wrt.load_usd(stage)
+    to_world = np.stack([np.diag([*s, 1.0]) for s in scales])
+    to_world[:, :3, 3] = positions
+    prototype = wrt.Prototype("/PI/Box", [wrt.Mesh("/PI/Box", BOX_POINTS, BOX_INDICES, None)])
+    with warnings.catch_warnings(record=True) as from_python:
+        warnings.simplefilter("always")
+        scene = wrt.Scene(prototypes=[prototype], instances=wrt.Instances.from_transforms([0] * 4, to_world, "/PI"))
+    usd_lines = [str(w.message) for w in from_usd if "singular" in str(w.message)]
+    python_lines = [str(w.message) for w in from_python]
+    assert usd_lines == [f"{stage}: instances with a singular transform (a zero scale) were skipped: 2 prim(s): "
+                         "/PI[2], /PI[3]"]
+    assert python_lines == ["scene: instances with a singular transform (a zero scale) were skipped: 2 prim(s): "
+                            "/PI[2], /PI[3]"]
+    origins = [[3.0 * k, 0.0, 5.0] for k in range(4)]
+    directions = [[0.0, 0.0, -1.0]] * 4
+    for accel in ("wrt", "warp"):
+        np.testing.assert_allclose(wrt.trace(scene, origins, directions, accel=accel).t,
+                                   wrt.trace(twin, origins, directions, accel=accel).t, atol=1e-3)

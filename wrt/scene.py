@@ -618,8 +618,23 @@ class Scene:
                 to_world[rows] = thick[thickened]
                 instances.to_world = to_world
                 inverses[rows], ok[rows] = invert_transforms(to_world[rows])
+        if not ok.all():
+            self._warn_singular_instances(np.flatnonzero(~ok))
         self._flat_checked = instances.to_world
         return inverses, ok
+
+    def _warn_singular_instances(self, rows: np.ndarray) -> None:
+        """Warns naming the instances at ``rows``, whose transforms keep fewer than two directions (a line or a point)
+        and draw nothing, in the words of the USD loader's warning for the same instances (it leaves them out; here
+        they keep their rows, so instance ids stay the caller's): they vanished without a word."""
+        import warnings
+
+        from .errors import user_stacklevel
+
+        paths = list(dict.fromkeys(self.instances.path(int(i)) for i in rows[:4]))
+        shown = ", ".join(paths[:3]) + (", ..." if len(rows) > 3 else "")
+        warnings.warn(f"{self.source or 'scene'}: instances with a singular transform (a zero scale) were skipped: "
+                      f"{len(rows)} prim(s): {shown}", stacklevel=user_stacklevel())
 
     def _members(self) -> tuple:
         """The lists of the scene and the objects in them whose fields :meth:`_parts` reads; a field assigned anew
