@@ -2,6 +2,7 @@
 (images straight from numpy or Pillow, ...), each compared with an analytic answer or refused naming what is
 wrong."""
 
+import re
 import subprocess
 import sys
 import textwrap
@@ -286,3 +287,49 @@ def PointInstancer "PI"
     for accel in ("wrt", "warp"):
         np.testing.assert_allclose(wrt.trace(scene, origins, directions, accel=accel).t,
                                    wrt.trace(twin, origins, directions, accel=accel).t, atol=1e-3)
+
+
+@pytest.mark.parametrize("path", [5, None, b"/Square", "pathlib"])
+def test_a_mesh_path_that_is_no_string_is_refused_naming_the_mesh(path):
+    """An int, None, bytes or a ``pathlib`` path was taken as a mesh's path: ``hit_paths`` and ``prim_paths`` then
+    handed that object back (``[5]``) and a message joining paths failed with "expected str instance, int found" far
+    from the mistake. Refused with a TypeError naming the mesh, at construction and when assigned later."""
+    import pathlib
+
+    path = pathlib.PurePosixPath("/Square") if path == "pathlib" else path
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+    with pytest.raises(TypeError, match=r"^wrt\.Mesh of 4 points and 2 triangles: path must be a str, a prim path "
+                                        r"such as '/World/Mesh', got "):
+        wrt.Mesh(path, SQUARE, indices, None)
+    scene = wrt.Scene(meshes=[wrt.Mesh("/Square", SQUARE, indices, None)])
+    scene.meshes[0].path = path
+    with pytest.raises(TypeError, match=r"wrt\.Mesh of 4 points and 2 triangles: path must be a str"):
+        wrt.trace(scene, [0.5, -0.5, 5.0], [0.0, 0.0, -1.0])
+
+
+def test_an_sdf_path_or_numpy_string_is_taken_as_the_path_it_names():
+    """``Sdf.Path`` (what a USD user holds) and ``np.str_`` (a path from a numpy array of names) mean the path they
+    name: stored as a ``str``, so hit paths compare and print as strings. Oracle: the plain string."""
+    from pxr import Sdf
+
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+    for path in (Sdf.Path("/World/Square"), np.str_("/World/Square")):
+        scene = wrt.Scene(meshes=[wrt.Mesh(path, SQUARE, indices, None)])
+        prims, _ = scene.hit_paths(wrt.trace(scene, [0.5, -0.5, 5.0], [0.0, 0.0, -1.0]))
+        assert type(scene.meshes[0].path) is str and prims.tolist() == ["/World/Square"]
+        assert type(prims[0]) is str
+
+
+@pytest.mark.parametrize("make, what", [
+    (lambda: wrt.primitives.Shape(5, "sphere", np.eye(4)), "wrt.Shape 'sphere'"),
+    (lambda: wrt.Prototype(5, [wrt.Mesh("/P/Square", SQUARE, np.int32([[0, 1, 2]]), None)]), "wrt.Prototype"),
+    (lambda: wrt.Material(5), "wrt.Material"),
+    (lambda: wrt.SphereLight(position=(0, 0, 1), radius=0.1, color=(1, 1, 1), path=5), "wrt.SphereLight"),
+    (lambda: wrt.DistantLight((0, 0, -1), (1, 1, 1), path=b"/Sun"), "wrt.DistantLight"),
+    (lambda: wrt.Instances.from_transforms([0], np.eye(4)[None], name=5), "wrt.Instances.from_transforms"),
+])
+def test_other_scene_parts_refuse_a_path_that_is_no_string(make, what):
+    """The same for shapes, prototypes, materials, lights and instances' names; a light's path stays optional."""
+    with pytest.raises(TypeError, match=rf"^{re.escape(what)}: path must be a str"):
+        make()
+    assert wrt.DistantLight((0, 0, -1), (1, 1, 1), path=None).path == ""

@@ -62,6 +62,21 @@ def did_you_mean(value, valid) -> str:
     return f" (did you mean {names[close[0]]!r}?)" if len(close) == 1 else ""
 
 
+def prim_path(value, what: str, *, optional: bool = False) -> str:
+    """``value`` as a prim path string: a ``str`` subclass (``np.str_``) or an ``Sdf.Path`` becomes a ``str``, and
+    ``None`` an empty one where the path is ``optional`` (a light's). Anything else raises ``TypeError`` naming
+    ``what``: an int, bytes or ``pathlib`` path was taken as a mesh's path, and hit paths, light links and messages
+    then held that object (``[5]``), or joined it into a string and failed far from the mistake."""
+    if type(value) is str:
+        return value
+    if isinstance(value, str) or (type(value).__name__ == "Path" and type(value).__module__ == "pxr.Sdf"):
+        return str(value)
+    if optional and value is None:
+        return ""
+    raise TypeError(f"{what}: path must be a str, a prim path such as '/World/Mesh', got {type(value).__name__} "
+                    f"{value!r}")
+
+
 FLOAT32_ROUNDS_TO_INF = 2.0**128 - 2.0**103  # the smallest magnitude float32 rounds to infinity (max + half an ulp)
 
 
@@ -78,6 +93,9 @@ def check_fields(obj, *fields: tuple) -> None:
     Raises:
         SceneError: naming the prim, the type of ``obj`` and the field.
     """
+    path = prim_path(obj.path, f"wrt.{type(obj).__name__}", optional=True)
+    if path is not obj.path:
+        obj.path = path
     for name, shape, minimum, dtype in fields:
         value = getattr(obj, name)
         if shape == () and type(value) is float and abs(value) < FLOAT32_ROUNDS_TO_INF:

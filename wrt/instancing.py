@@ -55,6 +55,13 @@ class Prototype(CountsAssignments):
     meshes: list = dataclasses.field(default_factory=list)
     shapes: list = dataclasses.field(default_factory=list)
 
+    def __post_init__(self):
+        from .errors import prim_path
+
+        path = prim_path(self.path, "wrt.Prototype")
+        if path is not self.path:
+            self.path = path
+
     @property
     def num_triangles(self) -> int:
         """Triangles in one copy of the prototype."""
@@ -215,8 +222,11 @@ class Instances(CountsAssignments):
     def from_transforms(cls, prototype, to_world, name: str = "/instances", colors=None) -> Instances:
         """Instances made in Python: ``prototype`` ``(N,)`` int, ``to_world`` ``(N, 4, 4)`` (column vectors) and
         optionally ``colors`` ``(N, 3)`` (see the class docstring)."""
+        from .errors import prim_path
+
         prototype = np.asarray(prototype, np.int32).reshape(-1)
         n = len(prototype)
+        name = prim_path(name, "wrt.Instances.from_transforms")
         return cls(prototype, to_world, np.zeros(n, np.int32), np.arange(n, dtype=np.int32), [name], colors)
 
     def take(self, rows) -> Instances:

@@ -43,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
-from .errors import bottom_row_problem
+from .errors import bottom_row_problem, prim_path
 from .floats import scaled_limit, unit_scales
 from .instancing import invert_transforms, thicken_flat_transforms
 
@@ -462,6 +462,9 @@ class Shape(CountsAssignments):
     opacity: float | None = None
 
     def __post_init__(self):
+        path = prim_path(self.path, f"wrt.Shape {self.kind!r}")
+        if path is not self.path:
+            self.path = path
         if self.kind not in SHAPE_KINDS:
             raise ValueError(f"unknown shape kind {self.kind!r}; valid kinds: {', '.join(SHAPE_KINDS)}")
         to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)

@@ -174,7 +174,12 @@ class Mesh(CountsAssignments):
             SceneError: naming the mesh and the array.
         """
         from .bvh.common import triangle_arrays
-        from .errors import SceneError
+        from .errors import SceneError, prim_path
+
+        path = prim_path(self.path, f"wrt.Mesh of {len(self.points)} points and {np.size(self.indices) // 3} "
+                                    "triangles" if hasattr(self.points, "__len__") else "wrt.Mesh")
+        if path is not self.path:
+            self.path = path
 
         def assign(name: str, array: np.ndarray) -> None:
             value = getattr(self, name)
