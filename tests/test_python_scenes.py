@@ -333,3 +333,38 @@ def test_other_scene_parts_refuse_a_path_that_is_no_string(make, what):
     with pytest.raises(TypeError, match=rf"^{re.escape(what)}: path must be a str"):
         make()
     assert wrt.DistantLight((0, 0, -1), (1, 1, 1), path=None).path == ""
+
+
+@pytest.mark.parametrize("radius", [0.0, 1e-30])
+def test_a_normalized_sphere_light_of_no_size_is_the_point_light_the_usd_loader_makes_of_it(tmp_path, radius):
+    """``SphereLight(radius=0, normalize=True)`` built in Python lit nothing (its radiance ``color / area`` is 0 for no
+    area, inf past float32 for a tiny one), while ``load_usd`` draws the same UsdLux light as the point light it tends
+    to (intensity ``color / 4``). Oracle: the render of the USD twin, and the point light's analytic irradiance at the
+    square's centre straight below, ``E = (color / 4) / d^2``, seen as ``albedo E / pi``."""
+    from tests.usda_text import fmt, write
+
+    stage = write(tmp_path, f"""
+def Mesh "Square"
+{{
+    point3f[] points = {fmt(SQUARE)}
+    int[] faceVertexCounts = [3, 3]
+    int[] faceVertexIndices = [0, 1, 2, 0, 2, 3]
+    uniform bool doubleSided = 1
+}}
+def SphereLight "Light"
+{{
+    float inputs:radius = {radius!r}
+    float inputs:intensity = 10
+    bool inputs:normalize = 1
+    double3 xformOp:translate = (0, 0, 2)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+""")
+    light = wrt.SphereLight((0.0, 0.0, 2.0), radius, (10.0, 10.0, 10.0), normalize=True, path="/Light")
+    scene = wrt.Scene(meshes=[wrt.Mesh("/Square", SQUARE, np.int32([[0, 1, 2], [0, 2, 3]]), None, double_sided=True)],
+                      lights=[light])
+    camera = wrt.Camera.look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
+    image = wrt.render(scene, camera=camera, width=9, height=9).rgb
+    np.testing.assert_allclose(image, wrt.render(wrt.load_usd(stage), camera=camera, width=9, height=9).rgb,
+                               rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(image[4, 4], 0.5 * (10.0 / 4.0) / 2.0**2 / np.pi, rtol=1e-3)

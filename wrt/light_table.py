@@ -367,7 +367,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
                 _add(h, LIGHT_DISTANT, e, d, zero, zero, zero, (1.0, 0.0, 0, 0), 0, 0.0)
             h.power[-1] = luminance_np(e) * math.pi * radius**2
         elif isinstance(light, SphereLight):
-            if light.treat_as_point:
+            if light.drawn_as_point:
                 i = light.intensity
                 _add(h, LIGHT_POINT, i, light.position, zero, zero, zero, (0, 0, 0, 0), 0,
                      4.0 * math.pi * luminance_np(i))

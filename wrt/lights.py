@@ -183,6 +183,16 @@ class SphereLight:
         return normalized_radiance(self.color, self.area, self.normalize)
 
     @property
+    def drawn_as_point(self) -> bool:
+        """Whether the light is drawn as a point light: ``treat_as_point``, or a sphere of no size (a ``radius`` of
+        0) or a normalized one too small for its radiance (``color / area``) to fit in float32, as ``load_usd`` makes
+        such lights point lights (the limit they tend to). Built in Python they lit nothing, their radiance 0 or
+        inf."""
+        if self.treat_as_point or not self.world_radius > 0.0:
+            return True
+        return self.normalize and not (self.area > 0.0 and np.all(np.isfinite(self.radiance)))
+
+    @property
     def intensity(self) -> np.ndarray:
         """``(3,)`` radiant intensity when treated as a point (averaged over directions for an ellipsoid)."""
         if self.normalize:
