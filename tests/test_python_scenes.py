@@ -368,3 +368,25 @@ def SphereLight "Light"
     np.testing.assert_allclose(image, wrt.render(wrt.load_usd(stage), camera=camera, width=9, height=9).rgb,
                                rtol=1e-5, atol=1e-7)
     np.testing.assert_allclose(image[4, 4], 0.5 * (10.0 / 4.0) / 2.0**2 / np.pi, rtol=1e-3)
+
+
+@pytest.mark.parametrize("name, ids, words", [
+    ("material_ids", np.int64([2**32, 2**32]), r"material_ids must fit in int32; entry 0 is 4294967296"),
+    ("material_ids", [0.7, 0.7], r"material_ids must be integers; entry 0 is 0.7"),
+    ("material_ids", ["red", "red"], r"material_ids must be integers, got dtype <U3"),
+    ("face_ids", np.int64([0, 2**40]), r"face_ids must fit in int32; entry 1 is 1099511627776"),
+    ("face_ids", [0.0, np.nan], r"face_ids must be integers; entry 1 is nan"),
+])
+def test_face_and_material_ids_that_are_no_int32_integers_are_refused(name, ids, words):
+    """Material index 2**32 wrapped round to 0 and drew the first material, 0.7 was cut to 0, and a face id of 2**40
+    became 0, each without a word (triangle indices were refused so already). Now a SceneError names the mesh, the
+    array and the entry; whole floats (``np.zeros(T)``) still mean the integers they hold. Oracle: the material's
+    colour where the ids are whole floats."""
+    red = wrt.Material("/Red", diffuse_color=(1.0, 0.0, 0.0))
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+    fields = {"face_ids": None, name: ids}
+    with pytest.raises(wrt.SceneError, match=rf"^/Square: {words}"):
+        wrt.Mesh("/Square", SQUARE, indices, **fields)
+    mesh = wrt.Mesh("/Square", SQUARE, indices, np.zeros(2), material_ids=np.zeros(2), double_sided=True)
+    image = wrt.render(wrt.Scene(meshes=[mesh], materials=[red]), camera=TOP, width=8, height=8, integrator="albedo")
+    np.testing.assert_allclose(image.rgb[image.aovs["coverage"] > 0.5], np.broadcast_to([1.0, 0.0, 0.0], (16, 3)))

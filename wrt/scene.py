@@ -111,6 +111,35 @@ def per_vertex_to_corners(path: str, name: str, values: np.ndarray, indices: np.
     return corners
 
 
+def _checked_ids(path: str, name: str, value) -> np.ndarray:
+    """``value`` (a mesh's ``face_ids`` or ``material_ids``) as an array of integers, before its cast to int32: a
+    value past int32 wrapped round (material 2**32 drew material 0) and one of 0.7 was cut to 0, each without a word.
+    Whole floats (``np.zeros(T)``) are taken.
+
+    Raises:
+        SceneError: naming the mesh, the array and the first bad entry.
+    """
+    from .errors import SceneError
+
+    array = np.asarray(value)
+    if array.dtype.kind not in "biuf":
+        raise SceneError(f"{name} must be integers, got dtype {array.dtype}", prim=path)
+    if array.dtype.kind == "f":
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(array.reshape(-1) != np.round(array.reshape(-1)))
+        if len(bad):
+            raise SceneError(f"{name} must be integers; entry {int(bad[0])} is {array.reshape(-1)[bad[0]].item()!r}",
+                             prim=path)
+    fits = array.dtype.kind == "b" or (array.dtype.kind in "iu" and np.can_cast(array.dtype, np.int32))
+    if array.size and not fits:  # int32 and smaller (the loader's) need no look
+        limits = np.iinfo(np.int32)
+        bad = np.flatnonzero((array.reshape(-1) < limits.min) | (array.reshape(-1) > limits.max))
+        if len(bad):
+            raise SceneError(f"{name} must fit in int32; entry {int(bad[0])} is {array.reshape(-1)[bad[0]].item()!r}",
+                             prim=path)
+    return array
+
+
 # Arrays made read-only by Scene.freeze: id(array) -> {id(scene): weak reference} of the scenes holding it so. A
 # scene's invalidate() makes an array writeable only when no other live scene holds it: two scenes drawing one mesh,
 # the first to render froze its points, its invalidate() gave write access back, and the other scene drew the points
@@ -202,6 +231,8 @@ class Mesh(CountsAssignments):
             value = getattr(self, name)
             if value is None:
                 continue
+            if dtype == np.int32:
+                value = _checked_ids(self.path, name, value)
             array = np.ascontiguousarray(value, dtype=dtype)
             if name in PER_CORNER_ARRAYS and array.shape == (len(self.points), *corner[1:]):
                 array = per_vertex_to_corners(self.path, name, array, self.indices)
