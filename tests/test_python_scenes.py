@@ -390,3 +390,22 @@ def test_face_and_material_ids_that_are_no_int32_integers_are_refused(name, ids,
     mesh = wrt.Mesh("/Square", SQUARE, indices, np.zeros(2), material_ids=np.zeros(2), double_sided=True)
     image = wrt.render(wrt.Scene(meshes=[mesh], materials=[red]), camera=TOP, width=8, height=8, integrator="albedo")
     np.testing.assert_allclose(image.rgb[image.aovs["coverage"] > 0.5], np.broadcast_to([1.0, 0.0, 0.0], (16, 3)))
+
+
+def test_eight_bit_colors_are_refused_and_zero_one_integers_taken():
+    """``uint8`` colours of 0-255 (a point cloud's or trimesh's vertex colours) were read as linear values up to 255
+    times too bright, without a word, on meshes, instances and shapes alike. Refused naming the object; integer
+    colours of 0 and 1 (``[(1, 0, 0)]``) are still the colours they say. Oracle: the albedo of a mesh coloured
+    ``(1, 0, 0)`` is red."""
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+    vertex_colors = np.full((4, 3), 255, np.uint8)
+    words = r"colors must be linear float values, got uint8 values up to 255 \(8-bit colours: divide by 255"
+    with pytest.raises(wrt.SceneError, match=rf"^/Square: {words}"):
+        wrt.Mesh("/Square", SQUARE, indices, None, colors=vertex_colors)
+    with pytest.raises(ValueError, match=rf"^Instances {words}"):
+        wrt.Instances.from_transforms([0], np.eye(4)[None], colors=vertex_colors[:1])
+    with pytest.raises(ValueError, match=rf"^shape /Ball: {words}"):
+        wrt.primitives.Shape("/Ball", "sphere", np.eye(4), color=vertex_colors[0])
+    mesh = wrt.Mesh("/Square", SQUARE, indices, None, colors=np.tile([1, 0, 0], (4, 1)), double_sided=True)
+    image = wrt.render(wrt.Scene(meshes=[mesh]), camera=TOP, width=8, height=8, integrator="albedo")
+    np.testing.assert_allclose(image.rgb[image.aovs["coverage"] > 0.5], np.broadcast_to([1.0, 0.0, 0.0], (16, 3)))

@@ -77,6 +77,17 @@ def prim_path(value, what: str, *, optional: bool = False) -> str:
                     f"{value!r}")
 
 
+def eight_bit_colors(value) -> str | None:
+    """Why colours ``value`` are refused, or None: integers above 1 (an ``(N, 3)`` ``uint8`` array of 0-255 from an
+    image or point cloud), which were read as linear values up to 255 times too bright, without a word. Integers
+    of 0 and 1 (``[(1, 0, 0)]``) mean what they say."""
+    array = np.asarray(value)
+    if array.dtype.kind not in "iu" or array.size == 0 or array.max() <= 1:
+        return None
+    return (f"colors must be linear float values, got {array.dtype} values up to {array.max().item()} (8-bit colours: "
+            "divide by 255 and convert sRGB to linear)")
+
+
 FLOAT32_ROUNDS_TO_INF = 2.0**128 - 2.0**103  # the smallest magnitude float32 rounds to infinity (max + half an ulp)
 
 

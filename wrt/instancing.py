@@ -171,7 +171,11 @@ class Instances(CountsAssignments):
         infinite value (NaN means no colour; inf would shade as inf); stores it as float32. Also run before each
         trace and render, for colours assigned after construction: the shading kernels colour only the instances
         the array reaches, so a short array would leave the rest grey without a word."""
+        from .errors import eight_bit_colors
+
         colors = self.colors
+        if problem := eight_bit_colors(colors):
+            raise ValueError(f"Instances {problem}")
         if colors is None or np.size(colors) == 0:  # None, as from_transforms takes it: no colours
             colors = np.zeros((0, 3), np.float32) if np.shape(colors) != (0, 3) else colors
         colors = np.ascontiguousarray(colors, dtype=np.float32)

@@ -43,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
-from .errors import bottom_row_problem, prim_path
+from .errors import bottom_row_problem, eight_bit_colors, prim_path
 from .floats import scaled_limit, unit_scales
 from .instancing import invert_transforms, thicken_flat_transforms
 
@@ -484,6 +484,8 @@ class Shape(CountsAssignments):
         if not np.isfinite(self.params).all():  # a capsule of NaN height, a cylinder of NaN caps: missed by every ray
             raise ValueError(f"shape {self.path}: params must be 4 finite numbers, got {self.params.tolist()}")
         if self.color is not None:
+            if problem := eight_bit_colors(self.color):
+                raise ValueError(f"shape {self.path}: {problem}")
             self.color = np.asarray(self.color, np.float32).reshape(3)
             if not np.isfinite(self.color).all():  # NaN would read as "none" on the device, inf shade as inf
                 raise ValueError(f"shape {self.path}: color must be 3 finite numbers or None, got "

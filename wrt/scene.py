@@ -203,7 +203,7 @@ class Mesh(CountsAssignments):
             SceneError: naming the mesh and the array.
         """
         from .bvh.common import triangle_arrays
-        from .errors import SceneError, prim_path
+        from .errors import SceneError, eight_bit_colors, prim_path
 
         path = prim_path(self.path, f"wrt.Mesh of {len(self.points)} points and {np.size(self.indices) // 3} "
                                     "triangles" if hasattr(self.points, "__len__") else "wrt.Mesh")
@@ -233,6 +233,8 @@ class Mesh(CountsAssignments):
                 continue
             if dtype == np.int32:
                 value = _checked_ids(self.path, name, value)
+            if name == "colors" and (problem := eight_bit_colors(value)):
+                raise SceneError(problem, prim=self.path)
             array = np.ascontiguousarray(value, dtype=dtype)
             if name in PER_CORNER_ARRAYS and array.shape == (len(self.points), *corner[1:]):
                 array = per_vertex_to_corners(self.path, name, array, self.indices)
