@@ -56,7 +56,7 @@ def round_limits_for_unit_rays_kernel(
     t_maxs[i] = unit_ray_limit(t_maxs[i], down, up)
 
 
-def _host_array(name: str, values):
+def host_array(name: str, values):
     """``values`` as something numpy converts without a device copy failing: ``wp.array``s on a GPU (which refuse
     implicit conversion) are copied to the host, and GPU tensors are read through DLPack."""
     if isinstance(values, wp.array):
@@ -86,7 +86,7 @@ def as_float32(name: str, values, vectors: bool = False, round_up: bool = False)
     With ``round_up`` (limits), values are rounded toward +inf, not to the nearest float32: a float32 ``t`` then
     compares with the result (``t >= t_min``, ``t < t_max``) as with the value given. To the nearest, ``t_min = 1 +
     1e-12`` became 1 and kept a hit at ``t = 1``, and ``t_min = 1e-50`` became 0 and kept hits at ``t = 0``."""
-    raw = _host_array(name, values)
+    raw = host_array(name, values)
     try:
         raw = raw if isinstance(raw, np.ndarray) else np.asarray(raw)
         if raw.dtype.kind == "O":  # Python objects (ints beyond int64, None, text): checked one by one

@@ -111,6 +111,17 @@ def per_vertex_to_corners(path: str, name: str, values: np.ndarray, indices: np.
     return corners
 
 
+def _on_host(name: str, value):
+    """``value`` as numpy reads it: a ``wp.array`` on a GPU (a simulation's state) or a GPU tensor (``torch`` on CUDA)
+    is copied to the host (:func:`wrt.ray_batch.host_array`), as :func:`wrt.trace` takes rays; numpy refused both
+    ("Warp does not support implicit NumPy conversion for arrays on device cuda:0"), naming no mesh."""
+    if isinstance(value, np.ndarray):
+        return value
+    from .ray_batch import host_array
+
+    return host_array(name, value)
+
+
 def _checked_ids(path: str, name: str, value) -> np.ndarray:
     """``value`` (a mesh's ``face_ids`` or ``material_ids``) as an array of integers, before its cast to int32: a
     value past int32 wrapped round (material 2**32 drew material 0) and one of 0.7 was cut to 0, each without a word.
@@ -219,7 +230,7 @@ class Mesh(CountsAssignments):
         # Checked, not reshaped: (V, 4) points were read as other vertices, float indices truncated and an index
         # of 2**32 wrapped round to vertex 0, each drawing other triangles without a word.
         try:
-            points, indices = triangle_arrays(self.points, self.indices)
+            points, indices = triangle_arrays(_on_host("points", self.points), _on_host("indices", self.indices))
         except ValueError as e:
             raise SceneError(str(e), prim=self.path) from None
         assign("points", points)
@@ -231,6 +242,10 @@ class Mesh(CountsAssignments):
             value = getattr(self, name)
             if value is None:
                 continue
+            try:
+                value = _on_host(name, value)
+            except ValueError as e:
+                raise SceneError(str(e), prim=self.path) from None
             if dtype == np.int32:
                 value = _checked_ids(self.path, name, value)
             if name == "colors" and (problem := eight_bit_colors(value)):
