@@ -457,3 +457,41 @@ def test_mesh_arrays_on_a_gpu_are_read_as_rays_are(holder):
     assert wrt.trace(wrt.Scene(meshes=[mesh]), [0.5, -0.5, 5.0], [0.0, 0.0, -1.0]).t.tolist() == [4.0]
     mesh.points = make(SQUARE)  # a later frame's points, checked at the next trace
     assert wrt.trace(wrt.Scene(meshes=[mesh]), [0.5, -0.5, 5.0], [0.0, 0.0, -1.0]).t.tolist() == [5.0]
+
+
+def test_instance_prototype_ids_past_int32_or_not_whole_are_refused():
+    """``Instances.from_transforms`` cast its prototype ids to int32 first: 2**32 wrapped round to 0 and drew prototype
+    0, and 0.7 was cut to 0, without a word (an id of 1 where there is one prototype is refused). Now a ValueError
+    names the entry, from the constructor and for ids assigned later."""
+    with pytest.raises(ValueError, match=r"^Instances prototype must fit in int32; entry 0 is 4294967296"):
+        wrt.Instances.from_transforms(np.int64([2**32]), np.eye(4)[None])
+    with pytest.raises(ValueError, match=r"^Instances prototype must be integers; entry 1 is 0.7"):
+        wrt.Instances.from_transforms([0.0, 0.7], np.stack([np.eye(4)] * 2))
+    scene = wrt.Scene(prototypes=[wrt.Prototype("/Proto", [square_mesh()])], **ONE_INSTANCE)
+    scene.instances.prototype = np.int64([2**32])
+    with pytest.raises(ValueError, match=r"^Instances prototype must fit in int32"):
+        wrt.trace(scene, [0.5, -0.5, 5.0], [0.0, 0.0, -1.0])
+
+
+@pytest.mark.parametrize("holder", ["dlpack", "cuda"])
+def test_instance_transforms_and_colors_on_a_gpu_are_read(holder):
+    """A robot's link poses on the GPU (a ``wp.array`` on CUDA, a ``torch`` tensor) as ``Instances.to_world`` (and
+    colours, prototype ids) failed with numpy's refusal; they are copied to the host. Oracle: the square lifted by
+    each pose's translation, hit at ``5 - z``, and the colours as given."""
+    import warp as wp
+
+    if holder == "cuda" and not wp.is_cuda_available():
+        pytest.skip("needs CUDA")
+    make = DLPackOnly if holder == "dlpack" else (lambda values: wp_array(values, "cuda:0"))
+    to_world = np.stack([np.eye(4)] * 2)
+    to_world[:, 2, 3] = 1.0, 2.0
+    to_world[1, 0, 3] = 4.0
+    instances = wrt.Instances.from_transforms(make(np.zeros(2, np.int32)), make(to_world),
+                                              colors=make(np.float32([[0.2, 0.4, 0.6], [1.0, 0.0, 0.0]])))
+    scene = wrt.Scene(prototypes=[wrt.Prototype("/Proto", [square_mesh()])], instances=instances)
+    hits = wrt.trace(scene, [[0.5, -0.5, 5.0], [4.5, -0.5, 5.0]], [0.0, 0.0, -1.0])
+    assert hits.t.tolist() == [4.0, 3.0] and hits.instance.tolist() == [0, 1]
+    np.testing.assert_array_equal(scene.instances.colors, np.float32([[0.2, 0.4, 0.6], [1.0, 0.0, 0.0]]))
+    to_world[:, 2, 3] = 2.0, 1.0  # the next frame's poses
+    scene.instances.to_world = make(to_world)
+    assert wrt.trace(scene, [[0.5, -0.5, 5.0], [4.5, -0.5, 5.0]], [0.0, 0.0, -1.0]).t.tolist() == [3.0, 4.0]

@@ -77,6 +77,25 @@ def prim_path(value, what: str, *, optional: bool = False) -> str:
                     f"{value!r}")
 
 
+def int32_problem(array: np.ndarray) -> str | None:
+    """Why ``array``, ids or indices to be cast to int32, is refused, or None: numbers that are not whole (0.7 was cut
+    to 0), or past int32 (2**32 wrapped round to 0), each then naming another material, prototype or face without a
+    word; or no numbers at all. Whole floats (``np.zeros(N)``) are taken."""
+    if array.dtype.kind not in "biuf":
+        return f"must be integers, got dtype {array.dtype}"
+    flat = array.reshape(-1)
+    if array.dtype.kind == "f":
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(flat != np.round(flat))
+        if len(bad):
+            return f"must be integers; entry {int(bad[0])} is {flat[bad[0]].item()!r}"
+    if array.dtype.kind == "b" or (array.dtype.kind in "iu" and np.can_cast(array.dtype, np.int32)):
+        return None  # int32 and smaller (the loader's) need no look
+    limits = np.iinfo(np.int32)
+    bad = np.flatnonzero((flat < limits.min) | (flat > limits.max))
+    return f"must fit in int32; entry {int(bad[0])} is {flat[bad[0]].item()!r}" if len(bad) else None
+
+
 def eight_bit_colors(value) -> str | None:
     """Why colours ``value`` are refused, or None: integers above 1 (an ``(N, 3)`` ``uint8`` array of 0-255 from an
     image or point cloud), which were read as linear values up to 255 times too bright, without a word. Integers

@@ -26,6 +26,8 @@ import dataclasses
 import numpy as np
 
 from .assignments import CountsAssignments, mark_checked
+from .errors import int32_problem
+from .ray_batch import host_array
 from .unique import sorted_unique
 
 ROW_DTYPE_LIMIT = (1 << 31) - 1  # expanded triangle ids up to this fit int32; larger scenes report int64 ids
@@ -146,6 +148,9 @@ class Instances(CountsAssignments):
             value = getattr(self, name)
             if not (isinstance(value, np.ndarray) and value.dtype == dtype and value.ndim == len(shape)
                     and value.shape[1:] == shape[1:] and value.flags.c_contiguous):
+                value = np.asarray(host_array(f"Instances {name}", value))
+                if dtype == np.int32 and (problem := int32_problem(value)):
+                    raise ValueError(f"Instances {name} {problem}")
                 try:
                     setattr(self, name, np.ascontiguousarray(value, dtype=dtype).reshape(shape))
                 except (TypeError, ValueError) as e:
@@ -173,7 +178,7 @@ class Instances(CountsAssignments):
         the array reaches, so a short array would leave the rest grey without a word."""
         from .errors import eight_bit_colors
 
-        colors = self.colors
+        colors = self.colors if self.colors is None else host_array("Instances colors", self.colors)
         if problem := eight_bit_colors(colors):
             raise ValueError(f"Instances {problem}")
         if colors is None or np.size(colors) == 0:  # None, as from_transforms takes it: no colours
@@ -228,7 +233,10 @@ class Instances(CountsAssignments):
         optionally ``colors`` ``(N, 3)`` (see the class docstring)."""
         from .errors import prim_path
 
-        prototype = np.asarray(prototype, np.int32).reshape(-1)
+        prototype = np.asarray(host_array("Instances prototype", prototype))
+        if problem := int32_problem(prototype):  # before the cast: 2**32 drew prototype 0
+            raise ValueError(f"Instances prototype {problem}")
+        prototype = prototype.astype(np.int32).reshape(-1)
         n = len(prototype)
         name = prim_path(name, "wrt.Instances.from_transforms")
         return cls(prototype, to_world, np.zeros(n, np.int32), np.arange(n, dtype=np.int32), [name], colors)

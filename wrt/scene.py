@@ -123,31 +123,17 @@ def _on_host(name: str, value):
 
 
 def _checked_ids(path: str, name: str, value) -> np.ndarray:
-    """``value`` (a mesh's ``face_ids`` or ``material_ids``) as an array of integers, before its cast to int32: a
-    value past int32 wrapped round (material 2**32 drew material 0) and one of 0.7 was cut to 0, each without a word.
-    Whole floats (``np.zeros(T)``) are taken.
+    """``value`` (a mesh's ``face_ids`` or ``material_ids``) as an array of integers before its cast to int32
+    (:func:`wrt.errors.int32_problem`: material 2**32 drew material 0, 0.7 was cut to 0, each without a word).
 
     Raises:
         SceneError: naming the mesh, the array and the first bad entry.
     """
-    from .errors import SceneError
+    from .errors import SceneError, int32_problem
 
     array = np.asarray(value)
-    if array.dtype.kind not in "biuf":
-        raise SceneError(f"{name} must be integers, got dtype {array.dtype}", prim=path)
-    if array.dtype.kind == "f":
-        with np.errstate(invalid="ignore"):
-            bad = np.flatnonzero(array.reshape(-1) != np.round(array.reshape(-1)))
-        if len(bad):
-            raise SceneError(f"{name} must be integers; entry {int(bad[0])} is {array.reshape(-1)[bad[0]].item()!r}",
-                             prim=path)
-    fits = array.dtype.kind == "b" or (array.dtype.kind in "iu" and np.can_cast(array.dtype, np.int32))
-    if array.size and not fits:  # int32 and smaller (the loader's) need no look
-        limits = np.iinfo(np.int32)
-        bad = np.flatnonzero((array.reshape(-1) < limits.min) | (array.reshape(-1) > limits.max))
-        if len(bad):
-            raise SceneError(f"{name} must fit in int32; entry {int(bad[0])} is {array.reshape(-1)[bad[0]].item()!r}",
-                             prim=path)
+    if problem := int32_problem(array):
+        raise SceneError(f"{name} {problem}", prim=path)
     return array
 
 
