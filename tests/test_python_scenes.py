@@ -495,3 +495,22 @@ def test_instance_transforms_and_colors_on_a_gpu_are_read(holder):
     to_world[:, 2, 3] = 2.0, 1.0  # the next frame's poses
     scene.instances.to_world = make(to_world)
     assert wrt.trace(scene, [[0.5, -0.5, 5.0], [4.5, -0.5, 5.0]], [0.0, 0.0, -1.0]).t.tolist() == [3.0, 4.0]
+
+
+def test_a_textured_mesh_without_uvs_reads_the_st_fallback_with_the_loaders_warning():
+    """A mesh built without ``uvs`` under a textured material read st = (0, 0), whatever its ``TextureInput``'s
+    ``st_fallback`` (documented as the st of a mesh without the primvar, which ``load_usd`` fills in, with a
+    warning naming the mesh), and said nothing. Oracle: a 2 x 2 texture of four colours read at st_fallback
+    (0.75, 0.25), the centre of its bottom-right texel (row 0 is the top), is that texel's colour everywhere."""
+    texels = np.float32([[[1, 0, 0, 1], [0, 1, 0, 1]], [[0, 0, 1, 1], [1, 1, 0, 1]]])
+    texture = wrt.TextureInput(0, st_fallback=np.float32([0.75, 0.25]))
+    material = wrt.Material("/Textured", textures={"diffuseColor": texture})
+    mesh = wrt.Mesh("/Square", SQUARE, np.int32([[0, 1, 2], [0, 2, 3]]), None, material_ids=[0, 0],
+                    double_sided=True)
+    scene = wrt.Scene(meshes=[mesh], materials=[material], textures=[texels])
+    with pytest.warns(UserWarning, match=r"^scene: meshes without the texture coordinates their material reads "
+                                         r"\(Mesh\.uvs is None\) show the texture at the primvar reader's fallback "
+                                         r"st \(TextureInput\.st_fallback\): 1 prim\(s\): /Square$"):
+        image = wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")
+    np.testing.assert_allclose(image.rgb[image.aovs["coverage"] > 0.5], np.broadcast_to([1.0, 1.0, 0.0], (16, 3)),
+                               atol=1e-5)

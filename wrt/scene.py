@@ -1139,10 +1139,42 @@ class Scene:
         key = ("corner_uvs",)
         if key not in self._cache:
             meshes = self._geometry_meshes()
-            parts = [m.uvs if m.uvs is not None else np.zeros((len(m.indices), 3, 2), np.float32) for m in meshes]
+            fallbacks = self._st_fallbacks(meshes)
+            parts = [m.uvs if m.uvs is not None else np.broadcast_to(fallbacks.get(id(m), np.zeros(2, np.float32)),
+                                                                     (len(m.indices), 3, 2)) for m in meshes]
             parts += [np.zeros((len(self._geometry_shapes()), 3, 2), np.float32)]
             self._cache[key] = np.concatenate(parts or [np.zeros((0, 3, 2), np.float32)]).astype(np.float32)
         return self._cache[key]
+
+    def _st_fallbacks(self, meshes: list) -> dict:
+        """``id(mesh) -> (2,) st`` for the meshes without ``uvs`` whose materials read a texture through texture
+        coordinates: the ``st_fallback`` of the first such texture, as the USD loader fills in a mesh without the
+        primvar (:meth:`wrt.materials.MaterialReader.st_fallback`). Built in Python they read st = (0, 0), whatever
+        the fallback said, without the loader's warning, which names them here too."""
+        from .materials import used_materials
+
+        textured = [next((t for t in getattr(m, "textures", {}).values() if t.uv_set is not None), None)
+                    for m in self.materials]
+        if not any(t is not None for t in textured):
+            return {}
+        found, named = {}, []
+        for mesh in meshes:
+            if mesh.uvs is not None or mesh.material_ids is None or not len(mesh.material_ids):
+                continue
+            used = [k for k in used_materials(mesh.material_ids) if 0 <= k < len(textured) and textured[k]]
+            if used:
+                found[id(mesh)] = np.asarray(textured[used[0]].st_fallback, np.float32).reshape(2)
+                named.append(mesh.path)
+        if named and self.source is None:  # a stage's loader fills such meshes in and warns itself
+            import warnings
+
+            from .errors import user_stacklevel
+
+            shown = ", ".join(named[:3]) + (", ..." if len(named) > 3 else "")
+            warnings.warn(f"scene: meshes without the texture coordinates their material reads (Mesh.uvs is None) show "
+                          f"the texture at the primvar reader's fallback st (TextureInput.st_fallback): "
+                          f"{len(named)} prim(s): {shown}", stacklevel=user_stacklevel())
+        return found
 
     def to_device(self, device) -> DeviceScene:
         """The :class:`DeviceScene` on ``device``, uploaded on first use and cached."""
