@@ -514,3 +514,34 @@ def test_a_textured_mesh_without_uvs_reads_the_st_fallback_with_the_loaders_warn
         image = wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")
     np.testing.assert_allclose(image.rgb[image.aovs["coverage"] > 0.5], np.broadcast_to([1.0, 1.0, 0.0], (16, 3)),
                                atol=1e-5)
+
+
+@pytest.mark.parametrize("scale", [(1.0, 0.0, 0.0), (0.0, 0.0, 0.0)])
+def test_a_shape_scaled_to_a_line_or_a_point_warns_and_draws_what_its_usd_twin_draws(tmp_path, scale):
+    """A ``Shape`` whose ``to_world`` scales it to a line or a point vanished without a word, while ``load_usd`` names
+    such a gprim in a warning (and draws its tessellation, of no area). Oracle: the USD twin's hits, none."""
+    from tests.usda_text import write
+    from wrt.primitives import Shape
+
+    stage = write(tmp_path, f"""
+def Sphere "Ball"
+{{
+    float3 xformOp:scale = {tuple(scale)}
+    uniform token[] xformOpOrder = ["xformOp:scale"]
+}}
+""")
+    with pytest.warns(UserWarning, match=r"Ball"):
+        twin = wrt.load_usd(stage)
+    with pytest.warns(UserWarning, match=r"^scene: shapes whose to_world scales them to a line or a point \(a "
+                                         r"singular transform\) draw nothing of any area, as load_usd's tessellation "
+                                         r"of such a gprim: 1 prim\(s\): /Ball$"):
+        scene = wrt.Scene(shapes=[Shape("/Ball", "sphere", np.diag([*scale, 1.0]))])
+    origins = np.float32([[0, 0, 5], [0.5, 0, 5], [5, 0, 0], [0.3, 5, 0]])
+    directions = np.float32([[0, 0, -1], [0, 0, -1], [-1, 0, 0], [0, -1, 0]])
+    hits = wrt.trace(scene, origins, directions)
+    np.testing.assert_array_equal(hits.t, wrt.trace(twin, origins, directions, accel="warp").t)
+    assert np.isinf(hits.t).all()
+    # A shape appended later is named at the next trace, once.
+    scene.shapes.append(Shape("/Rod", "cylinder", np.diag([*scale, 1.0])))
+    with pytest.warns(UserWarning, match=r"1 prim\(s\): /Rod$"):
+        wrt.trace(scene, origins, directions)

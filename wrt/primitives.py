@@ -478,6 +478,11 @@ class Shape(CountsAssignments):
         if not invert_transforms(to_world[None])[1][0]:
             thick, flat = thicken_flat_transforms(to_world[None])
             to_world = thick[0] if flat[0] else to_world
+        # A line or a point draws nothing: the Scene holding it says so (Scene.warn_vanishing_shapes; load_usd draws
+        # such gprims as meshes and says so itself), as it vanished without a word.
+        object.__setattr__(self, "draws_nothing", not invert_transforms(to_world[None])[1][0]
+                           and bool(np.isfinite(to_world).all()))
+        object.__setattr__(self, "warned", False)
         if to_world is not self.to_world:  # only a real change: each assignment counts as a scene edit
             self.to_world = to_world
         self.params = np.asarray(self.params, np.float32).reshape(4)

@@ -455,6 +455,7 @@ class Scene:
 
     def __post_init__(self):
         self._check_containers()
+        self.warn_vanishing_shapes()
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
         self._generation = 0  # how many times the cache was cleared
         self._recheck = False  # check every object again at the next drop_stale_caches (set by invalidate)
@@ -627,6 +628,7 @@ class Scene:
             for obj in objects:
                 mark_unchecked(obj)
         check_assigned(objects)
+        self.warn_vanishing_shapes()
         inverses = self._thicken_flat_instances()
         parts = self._parts()
         if parts_changed(self._cached_parts, parts):
@@ -674,6 +676,25 @@ class Scene:
         shown = ", ".join(paths[:3]) + (", ..." if len(rows) > 3 else "")
         warnings.warn(f"{self.source or 'scene'}: instances with a singular transform (a zero scale) were skipped: "
                       f"{len(rows)} prim(s): {shown}", stacklevel=user_stacklevel())
+
+    def warn_vanishing_shapes(self) -> None:
+        """Warns once per shape (and per transform assigned to it) naming the analytic shapes whose ``to_world`` scales
+        them to a line or a point (``Shape.draws_nothing``): they vanished without a word, where ``load_usd`` names
+        such a gprim in a warning (and draws its tessellation, of no area)."""
+        shapes = [s for s in self._geometry_shapes() if getattr(s, "draws_nothing", False) and not s.warned]
+        if not shapes:
+            return
+        import warnings
+
+        from .errors import user_stacklevel
+
+        for shape in shapes:
+            object.__setattr__(shape, "warned", True)
+        paths = list(dict.fromkeys(s.path for s in shapes))
+        shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
+        warnings.warn(f"{self.source or 'scene'}: shapes whose to_world scales them to a line or a point (a singular "
+                      f"transform) draw nothing of any area, as load_usd's tessellation of such a gprim: "
+                      f"{len(paths)} prim(s): {shown}", stacklevel=user_stacklevel())
 
     def _members(self) -> tuple:
         """The lists of the scene and the objects in them whose fields :meth:`_parts` reads; a field assigned anew
