@@ -545,3 +545,33 @@ def Sphere "Ball"
     scene.shapes.append(Shape("/Rod", "cylinder", np.diag([*scale, 1.0])))
     with pytest.warns(UserWarning, match=r"1 prim\(s\): /Rod$"):
         wrt.trace(scene, origins, directions)
+
+
+def test_up_axis_in_lower_case_is_taken_and_another_axis_refused():
+    """``Scene(up_axis="z")`` was taken for Y-up without a word (the default camera and sun the wrong way up), and
+    ``"X"``, which no USD stage's ``upAxis`` can be, likewise. Oracle: the render of the same scene with ``"Z"``."""
+    def scene(up_axis) -> wrt.Scene:
+        return wrt.Scene(meshes=[square_mesh("/Ground")], up_axis=up_axis)
+
+    np.testing.assert_array_equal(wrt.render(scene("z"), width=6, height=4).rgb,
+                                  wrt.render(scene("Z"), width=6, height=4).rgb)
+    with pytest.raises(ValueError, match=r"^Scene up_axis must be 'Y' or 'Z' \(a USD stage's upAxis\), got 'X'"):
+        scene("X")
+    later = scene("Y")
+    later.up_axis = "x"
+    with pytest.raises(ValueError, match=r"got 'x'"):
+        wrt.render(later, width=6, height=4)
+
+
+def test_camera_paths_are_strings():
+    """A camera under an int key was taken, and ``render(camera=...)`` looks cameras up by path string; an
+    ``Sdf.Path`` key becomes its string."""
+    from pxr import Sdf
+
+    camera = wrt.Camera.look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
+    with pytest.raises(TypeError, match=r"^scene\.cameras\[5\]: path must be a str"):
+        wrt.Scene(meshes=[square_mesh("/Ground")], cameras={5: camera})
+    scene = wrt.Scene(meshes=[square_mesh("/Ground")], cameras={Sdf.Path("/Cam"): camera})
+    assert list(scene.cameras) == ["/Cam"] and type(list(scene.cameras)[0]) is str
+    np.testing.assert_array_equal(wrt.render(scene, camera="/Cam", width=4, height=4).rgb,
+                                  wrt.render(scene, camera=camera, width=4, height=4).rgb)

@@ -455,6 +455,7 @@ class Scene:
 
     def __post_init__(self):
         self._check_containers()
+        self._check_up_axis()
         self.warn_vanishing_shapes()
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
         self._generation = 0  # how many times the cache was cleared
@@ -545,6 +546,11 @@ class Scene:
         for path, camera in self.cameras.items():
             if not isinstance(camera, Camera):
                 raise TypeError(f"scene.cameras[{path!r}] is a {type(camera).__name__}, not a wrt.Camera")
+        if any(type(path) is not str for path in self.cameras):  # render(camera=path) looks them up by str
+            from .errors import prim_path
+
+            self.cameras = {prim_path(path, f"scene.cameras[{path!r}]"): camera
+                            for path, camera in self.cameras.items()}
 
     def invalidate(self) -> None:
         """Forgets every cached array, tree and device copy, and makes the scene's arrays writeable again until its
@@ -606,6 +612,7 @@ class Scene:
         (or a list grown or shrunk) since the last check: a cached BVH or upload would otherwise trace the old
         geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity, so the
         arrays checked are made read-only (:meth:`freeze`) until :meth:`invalidate`."""
+        self._check_up_axis()  # a plain field of the scene, assigned without a count
         count, members = assignments(), self._members()  # counted first: an assignment during the walk is seen next
         last_count, last_members = self._checked
         if (self._frozen_parts and count == last_count and len(members) == len(last_members)
@@ -676,6 +683,17 @@ class Scene:
         shown = ", ".join(paths[:3]) + (", ..." if len(rows) > 3 else "")
         warnings.warn(f"{self.source or 'scene'}: instances with a singular transform (a zero scale) were skipped: "
                       f"{len(rows)} prim(s): {shown}", stacklevel=user_stacklevel())
+
+    def _check_up_axis(self) -> None:
+        """Takes ``up_axis`` ``"y"`` or ``"z"`` as ``"Y"`` or ``"Z"`` and refuses anything else with a ``ValueError``:
+        ``Scene(up_axis="z")`` (a Z-up robot's world) was taken for Y-up without a word (the default camera and sun
+        the wrong way up), and ``"X"`` too, which a USD stage's ``upAxis`` cannot be."""
+        if self.up_axis in ("Y", "Z"):
+            return
+        if isinstance(self.up_axis, str) and self.up_axis.upper() in ("Y", "Z"):
+            self.up_axis = self.up_axis.upper()
+            return
+        raise ValueError(f"Scene up_axis must be 'Y' or 'Z' (a USD stage's upAxis), got {self.up_axis!r}")
 
     def warn_vanishing_shapes(self) -> None:
         """Warns once per shape (and per transform assigned to it) naming the analytic shapes whose ``to_world`` scales
