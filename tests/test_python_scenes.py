@@ -575,3 +575,11 @@ def test_camera_paths_are_strings():
     assert list(scene.cameras) == ["/Cam"] and type(list(scene.cameras)[0]) is str
     np.testing.assert_array_equal(wrt.render(scene, camera="/Cam", width=4, height=4).rgb,
                                   wrt.render(scene, camera=camera, width=4, height=4).rgb)
+
+
+def test_a_warning_of_a_constructor_points_at_the_callers_line():
+    """A warning raised by the checks of ``wrt.Mesh(...)`` pointed at ``<string>:13``, the made-up file of the
+    ``__init__`` that ``dataclasses`` generates, not at the line that made the mesh."""
+    with pytest.warns(UserWarning, match="colors of shape") as warned:
+        wrt.Mesh("/Square", SQUARE_AND_TWO, np.int32([[0, 1, 2], [0, 2, 3]]), None, colors=SQUARE_AND_TWO)
+    assert warned[0].filename == __file__

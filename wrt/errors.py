@@ -45,9 +45,19 @@ def user_stacklevel() -> int:
     user's ``load_usd(...)``), however deep in wrt the warning is found: a fixed level pointed into wrt's own files
     for the warnings found one call deeper."""
     frame, level = sys._getframe(1), 1
-    while frame is not None and frame.f_code.co_filename.startswith(_PACKAGE):
+    while frame is not None and (frame.f_code.co_filename.startswith(_PACKAGE) or _dataclass_init(frame)):
         frame, level = frame.f_back, level + 1
     return level
+
+
+def _dataclass_init(frame) -> bool:
+    """Whether ``frame`` runs the ``__init__`` that ``dataclasses`` generated for one of wrt's classes (a warning of
+    ``wrt.Mesh(...)``'s checks pointed at ``<string>:13``, that code's made-up file, not at the user's line)."""
+    code = frame.f_code
+    if code.co_name != "__init__" or code.co_filename != "<string>":
+        return False
+    owner = frame.f_locals.get("self")
+    return owner is not None and type(owner).__module__.startswith("wrt.")
 
 
 def did_you_mean(value, valid) -> str:
