@@ -583,3 +583,23 @@ def test_a_warning_of_a_constructor_points_at_the_callers_line():
     with pytest.warns(UserWarning, match="colors of shape") as warned:
         wrt.Mesh("/Square", SQUARE_AND_TWO, np.int32([[0, 1, 2], [0, 2, 3]]), None, colors=SQUARE_AND_TWO)
     assert warned[0].filename == __file__
+
+
+@pytest.mark.parametrize("name, value, words", [
+    ("normals", np.ones((4, 3), complex), r"normals must be real numbers, got dtype complex128"),
+    ("normals", np.full((4, 3), "1"), r"normals must be real numbers, got dtype <U1"),
+    ("colors", np.ones((4, 3), bool), r"colors must be real numbers, got dtype bool"),
+    ("colors", np.array([[None] * 3] * 4, object), r"colors must be real numbers, got dtype object"),
+    ("uvs", [[0, 0], [1]], r"uvs must be an array of numbers: "),
+])
+def test_corner_arrays_that_are_no_real_numbers_are_refused_as_points_are(name, value, words):
+    """Points of complex, text, bool or object dtype were refused naming the mesh, but normals, colours and texture
+    coordinates took them: complex values lost their imaginary part with only numpy's warning, "1" and True were read
+    as 1, None as NaN (no colour), and a ragged list failed with numpy's message naming no mesh. Oracle: the
+    points' refusal of the same dtypes."""
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+    if not isinstance(value, list):
+        with pytest.raises(wrt.SceneError, match=rf"^/Square: points must be real numbers, got dtype {value.dtype}"):
+            wrt.Mesh("/Square", value.reshape(-1)[:12].reshape(4, 3), indices, None)
+    with pytest.raises(wrt.SceneError, match=rf"^/Square: {words}"):
+        wrt.Mesh("/Square", SQUARE, indices, None, **{name: value})

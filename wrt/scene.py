@@ -122,6 +122,25 @@ def _on_host(name: str, value):
     return host_array(name, value)
 
 
+def _real_numbers(path: str, name: str, value) -> np.ndarray:
+    """``value`` (a mesh's normals, colours, opacities or texture coordinates) as a numpy array of real numbers, as
+    its points must be: complex values lost their imaginary part with only numpy's warning, text ("1") and bools were
+    read as numbers, None as NaN, each without a word, and a ragged list failed with numpy's message naming no mesh.
+
+    Raises:
+        SceneError: naming the mesh and the array.
+    """
+    from .errors import SceneError
+
+    try:
+        array = np.asarray(value)
+    except ValueError as e:  # ragged
+        raise SceneError(f"{name} must be an array of numbers: {e}", prim=path) from None
+    if array.dtype.kind not in "iuf":
+        raise SceneError(f"{name} must be real numbers, got dtype {array.dtype}", prim=path)
+    return array
+
+
 def _checked_ids(path: str, name: str, value) -> np.ndarray:
     """``value`` (a mesh's ``face_ids`` or ``material_ids``) as an array of integers before its cast to int32
     (:func:`wrt.errors.int32_problem`: material 2**32 drew material 0, 0.7 was cut to 0, each without a word).
@@ -234,6 +253,8 @@ class Mesh(CountsAssignments):
                 raise SceneError(str(e), prim=self.path) from None
             if dtype == np.int32:
                 value = _checked_ids(self.path, name, value)
+            else:
+                value = _real_numbers(self.path, name, value)
             if name == "colors" and (problem := eight_bit_colors(value)):
                 raise SceneError(problem, prim=self.path)
             array = np.ascontiguousarray(value, dtype=dtype)
