@@ -239,6 +239,10 @@ def test_per_vertex_uvs_and_opacities_are_gathered_into_corners_and_a_triangle_s
     # Given one per corner, as before, they stay as given.
     corners = linear_color(SQUARE)[indices].astype(np.float32)
     np.testing.assert_array_equal(wrt.Mesh("/Square", SQUARE_AND_TWO, indices, None, colors=corners).colors, corners)
+    # One per triangle (face normals) is neither, and the refusal names both shapes taken.
+    with pytest.raises(wrt.SceneError, match=r"^/Square: normals must have shape \(2, 3, 3\), one entry per triangle "
+                                             r"\(or \(6, 3\), one per point\); got \(2, 3\)"):
+        wrt.Mesh("/Square", SQUARE_AND_TWO, indices, None, normals=np.zeros((2, 3)))
 
 
 def test_an_instance_scaled_to_a_line_or_a_point_warns_as_the_usd_loader_does(tmp_path):

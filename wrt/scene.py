@@ -262,8 +262,10 @@ class Mesh(CountsAssignments):
                 array = per_vertex_to_corners(self.path, name, array, self.indices)
             if array.size != triangles * int(np.prod(corner)):
                 expected = (triangles, *corner)
-                raise SceneError(f"{name} must have shape {expected}, one entry per triangle; got {array.shape}",
-                                 prim=self.path)
+                per_point = (f" (or {(len(self.points), *corner[1:])}, one per point)" if name in PER_CORNER_ARRAYS
+                             else "")
+                raise SceneError(f"{name} must have shape {expected}, one entry per triangle{per_point}; got "
+                                 f"{array.shape}", prim=self.path)
             assign(name, array.reshape((triangles, *corner)))
         # As the loader reads them (usd_primvars.finite_colors, unit_opacities) and Instances and Shape check theirs:
         # an infinite colour made every sample there non-finite (dropped: the mesh drawn black), an opacity outside
