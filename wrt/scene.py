@@ -221,10 +221,9 @@ class Mesh(CountsAssignments):
         from .bvh.common import triangle_arrays
         from .errors import SceneError, eight_bit_colors, prim_path
 
-        path = prim_path(self.path, f"wrt.Mesh of {len(self.points)} points and {np.size(self.indices) // 3} "
-                                    "triangles" if hasattr(self.points, "__len__") else "wrt.Mesh")
-        if path is not self.path:
-            self.path = path
+        if type(self.path) is not str:  # named by its size, the message made only when needed
+            rows = [len(a) if hasattr(a, "__len__") else 0 for a in (self.points, self.indices)]  # (V, 3), (T, 3)
+            self.path = prim_path(self.path, f"wrt.Mesh of {rows[0]} points and {rows[1]} triangles")
 
         def assign(name: str, array: np.ndarray) -> None:
             value = getattr(self, name)
