@@ -607,3 +607,21 @@ def test_corner_arrays_that_are_no_real_numbers_are_refused_as_points_are(name, 
             wrt.Mesh("/Square", value.reshape(-1)[:12].reshape(4, 3), indices, None)
     with pytest.raises(wrt.SceneError, match=rf"^/Square: {words}"):
         wrt.Mesh("/Square", SQUARE, indices, None, **{name: value})
+
+
+@pytest.mark.parametrize("name, value", [
+    ("normals", np.stack([np.tile(np.float32([0, 0, 1]), (2, 1))] * 3)),  # (3, T, 3): stacked corner by corner
+    ("uvs", np.zeros((2, 2, 3), np.float32)),  # (T, 2, 3): u and v rows, transposed
+])
+def test_per_triangle_arrays_of_the_right_size_in_another_layout_are_refused(name, value):
+    """Any array of ``T * 9`` numbers was reshaped into ``(T, 3, 3)``: normals stacked corner by corner, ``(3, T,
+    3)``, and transposed texture coordinates, ``(T, 2, 3)``, became other triangles' values without a word. Only the
+    attribute's own shape and its flattenings are taken (``(T, 9)``, ``(3T, 3)``, ``(9T,)``). Oracle: the shapes
+    given."""
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+    with pytest.raises(wrt.SceneError, match=rf"^/Square: {name} must have shape \(2, 3, [23]\), one entry per "
+                                             rf"triangle .*; got {re.escape(str(value.shape))}"):
+        wrt.Mesh("/Square", SQUARE, indices, None, **{name: value})
+    flat = {"normals": (2, 9), "uvs": (12,)}[name]
+    mesh = wrt.Mesh("/Square", SQUARE, indices, None, **{name: np.ascontiguousarray(value).reshape(flat)})
+    assert getattr(mesh, name).shape == (2, 3, {"normals": 3, "uvs": 2}[name])

@@ -259,7 +259,12 @@ class Mesh(CountsAssignments):
             array = np.ascontiguousarray(value, dtype=dtype)
             if name in PER_CORNER_ARRAYS and array.shape == (len(self.points), *corner[1:]):
                 array = per_vertex_to_corners(self.path, name, array, self.indices)
-            if array.size != triangles * int(np.prod(corner)):
+            # Its own shape, or one flattened: per triangle (T, 9), per corner (3T, 3) or whole (9T,). Others of
+            # that size are another layout: normals stacked corner by corner, (3, T, 3), or uvs (T, 2, 3), were
+            # reshaped into other triangles' values without a word.
+            size = int(np.prod(corner))
+            layouts = {(triangles, *corner), (triangles * size,), (triangles, size), (3 * triangles, *corner[1:])}
+            if array.shape not in layouts:
                 expected = (triangles, *corner)
                 per_point = (f" (or {(len(self.points), *corner[1:])}, one per point)" if name in PER_CORNER_ARRAYS
                              else "")
