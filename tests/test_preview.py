@@ -1051,3 +1051,46 @@ def test_cli_image_above_the_pixel_limit_is_refused_naming_the_options(tmp_path,
     line = [x for x in capsys.readouterr().err.splitlines() if x.startswith("wrt")][-1]
     assert line.startswith("wrt: error: --width 10000 --height 10000: 10000x10000 is 100,000,000 pixels"), line
     assert not (tmp_path / "p.png").exists()
+
+
+FAR_BALL = """#usda 1.0
+(
+    upAxis = "Z"
+)
+def Sphere "Ball"
+{
+    double radius = 0.5
+    double3 xformOp:translate = (10000000.25, -20000000.5, 3.125)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Camera "Cam"
+{
+    float2 clippingRange = (0.1, 1000)
+    double3 xformOp:translate = (10000000, -20000000, 8.25)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def test_shapes_and_the_eye_far_from_the_origin_are_drawn_round(tmp_path):
+    """1e7 from the origin a float32's step is 1: a ball of radius 0.5 there was drawn as a flat bar (its tessellation
+    rounded to float32) and the eye dot as a point, where the renderer draws the ball round. Every drawn vertex of the
+    ball lies on the sphere ``UsdGeom`` puts there, and the eye dot is as wide as it is high and deep."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "far.usda"
+    path.write_text(FAR_BALL)
+    stage = Usd.Stage.Open(str(path))
+    prim = stage.GetPrimAtPath("/Ball")
+    centre = np.array(UsdGeom.XformCache().GetLocalToWorldTransform(prim).ExtractTranslation())
+    radius = UsdGeom.Sphere(prim).GetRadiusAttr().Get()
+    plotter = wrt.preview(wrt.load_usd(path), window_size=(64, 48), show_text=False)
+    try:
+        drawn = np.asarray(plotter.actors["shapes"].mapper.dataset.points, np.float64)
+        dot = np.asarray(plotter.actors["eye"].mapper.dataset.points, np.float64)
+    finally:
+        plotter.close()
+    np.testing.assert_allclose(np.linalg.norm(drawn - centre, axis=1), radius, rtol=1e-6)
+    extent = dot.max(axis=0) - dot.min(axis=0)
+    assert extent.min() > 0, extent
+    np.testing.assert_allclose(extent, extent[0], rtol=0.02)  # a UV sphere: 1 % narrower between its rings

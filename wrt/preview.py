@@ -779,7 +779,9 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
         faces.append((copies + base + len(pts) * np.arange(len(rows))[:, None, None]).reshape(-1, 3))
         cells.append(np.repeat(rows, len(tris)))
         base += len(rows) * len(pts)
-    mesh = pv.PolyData.from_regular_faces(np.concatenate(points).astype(np.float32), np.concatenate(faces))
+    # float64 points, as placed: in float32 a ball of radius 0.5 at 1e7 from the origin (an ulp is 1 there) was drawn
+    # as a flat bar, where the renderer, which intersects shapes in their own space, draws it round.
+    mesh = pv.PolyData.from_regular_faces(np.concatenate(points), np.concatenate(faces))
     cells = np.concatenate(cells)
     mesh.cell_data["color"] = colors[cells]
     mesh.cell_data["double_sided"] = np.array([s.double_sided for s, _, _ in placed], np.uint8)[cells]
@@ -797,7 +799,9 @@ def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_dept
     lines = np.hstack([np.full((len(segments), 1), 2), np.array(segments)]).ravel()
     plotter.add_mesh(pv.PolyData(frame, lines=lines), color=FRUSTUM_COLOR, line_width=2, name="frustum")
     eye, _ = camera_frame(cam, width, height)
-    plotter.add_mesh(pv.Sphere(radius=eye_radius, center=eye), color=FRUSTUM_COLOR, name="eye")
+    dot = pv.Sphere(radius=eye_radius)
+    dot.points = dot.points.astype(np.float64) + eye  # pyvista's float32 centre put the dot on a 1-unit grid at 1e7
+    plotter.add_mesh(dot, color=FRUSTUM_COLOR, name="eye")
 
 
 def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> str:
