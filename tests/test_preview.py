@@ -1094,3 +1094,27 @@ def test_shapes_and_the_eye_far_from_the_origin_are_drawn_round(tmp_path):
     extent = dot.max(axis=0) - dot.min(axis=0)
     assert extent.min() > 0, extent
     np.testing.assert_allclose(extent, extent[0], rtol=0.02)  # a UV sphere: 1 % narrower between its rings
+
+
+def test_to_pyvista_makes_at_most_its_budget_of_instance_blocks(monkeypatch):
+    """A block costs about a millisecond of pyvista bookkeeping, and the triangle budget let in up to 2M blocks of
+    one-triangle instances (100,000 PointInstancer instances took 105 s): the first ``INSTANCE_BLOCK_BUDGET`` are
+    made, each where its transform puts the prototype, and ``instances_left_out`` counts the others."""
+    from wrt.scene import Mesh
+
+    monkeypatch.setattr(preview_module, "INSTANCE_BLOCK_BUDGET", 4, raising=False)
+    local = np.array([[0, 0, 0], [1, 0, 0], [0, 2, 1]], np.float32)
+    prototype = Prototype("/P", [Mesh("/P/M", local, np.array([[0, 1, 2]]), np.arange(1))])
+    rng = np.random.default_rng(123)
+    to_world = np.tile(np.eye(4), (10, 1, 1))
+    to_world[:, :3, :3] = rng.normal(size=(10, 3, 3))
+    to_world[:, :3, 3] = rng.normal(size=(10, 3)) * 10
+    scene = wrt.Scene(prototypes=[prototype], instances=Instances.from_transforms(np.zeros(10, int), to_world))
+    for kwargs, shown in (({}, 4), ({"max_instances": 7}, 7), ({"max_instances": 0}, 0)):
+        blocks = to_pyvista(scene, **kwargs)
+        assert blocks.n_blocks == shown, kwargs
+        assert blocks.field_data["instances_left_out"][0] == 10 - shown
+        for block, matrix in zip(blocks, to_world):
+            np.testing.assert_allclose(block.points, local @ matrix[:3, :3].T + matrix[:3, 3], rtol=1e-5, atol=1e-5)
+    with pytest.raises(ValueError, match="max_instances"):
+        to_pyvista(scene, max_instances=-1)

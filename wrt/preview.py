@@ -53,6 +53,8 @@ from .wording import counted
 
 TRIANGLE_BUDGET = 2_000_000  # most triangles drawn; larger scenes are simplified by vertex clustering
 EXPAND_FACTOR = 4  # instanced scenes above EXPAND_FACTOR * budget show only the instances within the budget
+INSTANCE_BLOCK_BUDGET = 10_000  # most instance blocks to_pyvista makes: each costs about a millisecond of pyvista
+# bookkeeping, so the 2M one-triangle instances the triangle budget lets in took over half an hour
 SHAPE_SEGMENTS = 24  # analytic shapes are drawn tessellated with this many segments per circle
 MIN_SHAPE_SEGMENTS = 6  # coarsest circles of analytic shapes, drawn so to keep within the triangle budget
 SHAPE_BUDGET = 20_000  # most analytic shapes drawn
@@ -243,7 +245,7 @@ def _first_instances(scene: Scene, n: int) -> Scene:
     return dataclasses.replace(scene, instances=scene.instances.take(slice(0, n)))
 
 
-def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
+def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int | None = None):
     """The scene's meshes as a ``pyvista.MultiBlock``: one ``PolyData`` block per non-instanced mesh, named by prim
     path, then one block per instance (its prototype's meshes merged, moved to world space), named by the instance's
     path (``/instancer[index]`` for a PointInstancer's).
@@ -253,17 +255,21 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET):
     points, cells and blocks add up to ``Scene.stats()``'s ``points``, ``rendered_triangles`` and ``meshes`` plus
     ``instances``. Cell arrays: ``"color"`` ``(T, 3)`` uint8 sRGB (see :func:`triangle_colors`), ``"prim"`` triangle
     id (the row of ``Scene.triangles()``, as in ``Hits.prim``) and ``"face_id"`` int32 source face. Instances are
-    added in order while the total stays within ``max_triangles``; the others are left out, and the MultiBlock's
-    ``field_data["instances_left_out"]`` counts them. Analytic shapes (spheres, cubes, ... and those of prototypes)
-    are not among the blocks: :func:`shape_meshes` tessellates them.
+    added in order while the total stays within ``max_triangles`` and they number at most ``max_instances``; the
+    others are left out, and the MultiBlock's ``field_data["instances_left_out"]`` counts them. Analytic shapes
+    (spheres, cubes, ... and those of prototypes) are not among the blocks: :func:`shape_meshes` tessellates them.
 
     Args:
         scene: a :class:`wrt.Scene`, or a USD file to load.
         max_triangles: triangle budget for the instance blocks.
+        max_instances: most instance blocks (``None``: ``INSTANCE_BLOCK_BUDGET``).
     """
     pv = import_pyvista()
     scene = _as_scene(scene)
-    shown = _instances_within(scene, max_triangles)
+    max_instances = INSTANCE_BLOCK_BUDGET if max_instances is None else max_instances
+    if isinstance(max_instances, bool) or not isinstance(max_instances, (int, np.integer)) or max_instances < 0:
+        raise ValueError(f"max_instances must be a non-negative integer, got {max_instances!r}")
+    shown = min(_instances_within(scene, max_triangles), max_instances)
     drawn = _first_instances(scene, shown) if shown < len(scene.instances) else scene
     colors = triangle_colors(drawn)
     blocks = pv.MultiBlock()
