@@ -1118,3 +1118,50 @@ def test_to_pyvista_makes_at_most_its_budget_of_instance_blocks(monkeypatch):
             np.testing.assert_allclose(block.points, local @ matrix[:3, :3].T + matrix[:3, 3], rtol=1e-5, atol=1e-5)
     with pytest.raises(ValueError, match="max_instances"):
         to_pyvista(scene, max_instances=-1)
+
+
+FAR_INSTANCES = """#usda 1.0
+(
+    upAxis = "Z"
+)
+def PointInstancer "PI"
+{
+    rel prototypes = [</PI/Tri>]
+    int[] protoIndices = [0, 0]
+    point3f[] positions = [(0.25, -0.5, 1), (2.75, 3.5, 1)]
+    quath[] orientations = [(1, 0, 0, 0), (0.7071068, 0, 0, 0.7071068)]
+    double3 xformOp:translate = (10000000, -20000000, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def Mesh "Tri"
+    {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(-0.3, -0.3, 0), (0.3, -0.3, 0), (0, 0.4, 0.2)]
+    }
+}
+"""
+
+
+def test_instances_far_from_the_origin_keep_their_shape(tmp_path):
+    """wrt traces an instance in its prototype's space, so a triangle of 0.6 placed 1e7 from the origin keeps its
+    shape; the preview and ``to_pyvista`` moved its points to the world in float32 (a step of 1 there) and drew it
+    as a line. The drawn points are those of ``UsdGeom.PointInstancer``'s instance transforms, in float64."""
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "far_instances.usda"
+    path.write_text(FAR_INSTANCES)
+    stage = Usd.Stage.Open(str(path))
+    instancer = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    local = np.array(UsdGeom.Mesh(stage.GetPrimAtPath("/PI/Tri")).GetPointsAttr().Get(), np.float64)
+    parent = np.array(UsdGeom.XformCache().GetLocalToWorldTransform(instancer.GetPrim()))
+    placed = [np.array(m) @ parent for m in instancer.ComputeInstanceTransformsAtTime(0, 0)]  # row vectors
+    expected = np.concatenate([np.c_[local, np.ones(3)] @ m for m in placed])[:, :3]
+    scene = wrt.load_usd(path)
+    plotter = wrt.preview(scene, window_size=(64, 48), show_text=False)
+    try:
+        drawn = np.asarray(plotter.actors["scene"].mapper.dataset.points, np.float64)
+    finally:
+        plotter.close()
+    np.testing.assert_allclose(drawn, expected, rtol=0, atol=1e-6)
+    blocks = to_pyvista(scene)
+    np.testing.assert_allclose(np.concatenate([np.asarray(b.points, np.float64) for b in blocks]), expected, atol=1e-6)

@@ -378,7 +378,7 @@ def thicken_flat_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def expand_instance_triangles(
-    prototypes: list, instances: Instances, invertible: np.ndarray | None = None
+    prototypes: list, instances: Instances, invertible: np.ndarray | None = None, dtype=np.float32
 ) -> tuple[np.ndarray, np.ndarray]:
     """World-space triangles of every instance, in the documented expanded order (see module docstring).
 
@@ -389,9 +389,10 @@ def expand_instance_triangles(
     Args:
         invertible: ``(N,)`` bool, the instances whose transform ``invert_transforms`` can invert, when the caller
             has it already (``Scene.instance_inverses``); computed here otherwise.
+        dtype: of the points; float64 keeps the shape of instances far from the origin (the preview draws them so).
 
     Returns:
-        ``points`` ``(V, 3)`` float32 and ``indices`` ``(T, 3)`` int64 into them.
+        ``points`` ``(V, 3)`` ``dtype`` and ``indices`` ``(T, 3)`` int64 into them.
     """
     local = []
     for p in prototypes:
@@ -404,7 +405,7 @@ def expand_instance_triangles(
     n_tris = np.array([len(idx) for _, idx in local] or [0], np.int64)
     point_counts, tri_counts = n_points[instances.prototype], n_tris[instances.prototype]
     point_bases, tri_bases = np.cumsum(point_counts) - point_counts, np.cumsum(tri_counts) - tri_counts
-    points = np.empty((int(point_counts.sum()), 3), np.float32)
+    points = np.empty((int(point_counts.sum()), 3), dtype)
     indices = np.empty((int(tri_counts.sum()), 3), np.int64)
     mirrored = instances.mirrored
     if invertible is None:
@@ -420,7 +421,7 @@ def expand_instance_triangles(
             to_world = instances.to_world[chunk]
             to_world[~invertible[chunk], :3, :3] = 0.0  # collapsed: every point at the instance's origin
             moved = pts[None] @ to_world[:, :3, :3].transpose(0, 2, 1) + to_world[:, None, :3, 3]
-            points[point_bases[chunk][:, None] + np.arange(len(pts))] = moved.astype(np.float32)
+            points[point_bases[chunk][:, None] + np.arange(len(pts))] = moved
             corners = np.where(mirrored[chunk][:, None, None], idx[None][..., [0, 2, 1]], idx[None])
             indices[tri_bases[chunk][:, None] + np.arange(len(idx))] = corners + point_bases[chunk][:, None, None]
     return points, indices

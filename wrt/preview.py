@@ -45,6 +45,7 @@ import warp as wp
 from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
 from .image import to_srgb8
+from .instancing import expand_instance_triangles
 from .render import Renderer, render, resolve_view
 from .scene import Scene, contents_summary
 from .shade import CullScratch, intersect_visible
@@ -230,6 +231,18 @@ def _expand_rows(scene: Scene, values: np.ndarray) -> np.ndarray:
     return values[scene.split_ids(rows)[0]]
 
 
+def world_triangles(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """``Scene.triangles()`` with float64 points: the non-instanced meshes' float32 points (as wrt traces them), then
+    the instances' moved in float64. wrt traces an instance in its prototype's space, so it keeps its shape far from
+    the origin, where the float32 of ``Scene.triangles()`` (a step of 1 at 1e7) drew a triangle of 0.6 as a line."""
+    points, indices = scene.triangles()
+    if not len(scene.instances):
+        return points, indices
+    flat = sum(len(m.points) for m in scene.meshes)
+    moved, _ = expand_instance_triangles(scene.prototypes, scene.instances, scene.instance_inverses()[1], np.float64)
+    return np.concatenate([points[:flat].astype(np.float64), moved]), indices
+
+
 def _instances_within(scene: Scene, max_triangles: int) -> int:
     """How many instances, taken in order, fit in ``max_triangles`` together with the non-instanced meshes."""
     if not len(scene.instances):
@@ -294,7 +307,7 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int |
         add(poly, mesh.path, k)
         first += n
     if shown:
-        points, indices = drawn.triangles()
+        points, indices = world_triangles(drawn)
         offsets = drawn.instance_offsets()
         vertex = np.cumsum([0] + [sum(len(m.points) for m in drawn.prototypes[p].meshes)
                                   for p in drawn.instances.prototype])
@@ -341,13 +354,13 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
     budget, in at most ``CLUSTER_STEPS`` clusterings; the finest grid that fits wins.
 
     Args:
-        points: ``(V, 3)`` float32, world space.
+        points: ``(V, 3)`` float32 or float64, world space.
         indices: ``(T, 3)`` int32.
         colors: ``(T, C)`` per-triangle values that follow their triangle.
         max_triangles: triangle budget.
 
     Returns:
-        ``(points, indices, colors)`` of the simplified soup.
+        ``(points, indices, colors)`` of the simplified soup, points float64.
     """
     points = np.asarray(points, np.float64)
     indices = np.asarray(indices, np.int64)
@@ -374,7 +387,7 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         # Place each cluster at the mean of its points.
         ids = ids.reshape(-1)
         sums = np.stack([np.bincount(ids, points[used, k], minlength=len(uniq)) for k in range(3)], axis=1)
-        centres = (sums / np.bincount(ids, minlength=len(uniq))[:, None]).astype(np.float32)
+        centres = sums / np.bincount(ids, minlength=len(uniq))[:, None]  # float64: far from the origin too
         # Keep each triangle facing as its source did: snapping the corners turns some over (0.5 % of a sphere's),
         # and those of a single-sided surface are drawn culled from the side they face.
         kept = tris[rows]
@@ -416,7 +429,7 @@ def cluster_vertices(points, indices, colors, max_triangles: int):
         # Even a 2x2x2 grid is over the budget, or the only grids that fit collapse every triangle (a budget of a
         # few triangles): keep every k-th source triangle instead.
         keep = np.linspace(0, len(indices) - 1, min(max_triangles, len(indices))).astype(np.int64)
-        return points.astype(np.float32), indices[keep].astype(np.int32), np.asarray(colors)[keep]
+        return points, indices[keep].astype(np.int32), np.asarray(colors)[keep]
     return fits[1]
 
 
@@ -693,7 +706,7 @@ def _add_scene(pv, plotter, scene: Scene, max_triangles: int) -> str:
         shown = _instances_within(scene, max_triangles)
         note = f"showing {shown:,} of {len(scene.instances):,} instances"
         scene = _first_instances(scene, shown)
-    points, indices = scene.triangles()
+    points, indices = world_triangles(scene)
     sided = _expand_rows(scene, scene.triangle_double_sided().astype(np.uint8))
     attributes = np.column_stack([triangle_colors(scene), sided])
     if len(indices) > max_triangles:
