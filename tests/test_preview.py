@@ -1165,3 +1165,32 @@ def test_instances_far_from_the_origin_keep_their_shape(tmp_path):
     np.testing.assert_allclose(drawn, expected, rtol=0, atol=1e-6)
     blocks = to_pyvista(scene)
     np.testing.assert_allclose(np.concatenate([np.asarray(b.points, np.float64) for b in blocks]), expected, atol=1e-6)
+
+
+def test_a_sheared_cameras_far_end_holds_the_scene_and_the_missing_rays(tmp_path):
+    """Below a parent scaled along another axis a camera's axes are sheared, and its planes of equal depth (the
+    renderer's clipping planes) tilt away from the view direction's normal plane. The display far plane is at the
+    deepest corner of the scene's box in camera-space depth (it was measured along the view direction: 0.16 too deep
+    here) and missing rays end on the drawn far rectangle (they ended on the untilted plane, up to 5.2 deep off)."""
+    floor = quad((0, 0, 0), (10, 0, 0), (0, 10, 0), name="/floor")  # (-5, -5, 0) to (5, 5, 0)
+    cam = wrt.Camera.look_at(eye=(0, -6, 4), target=(0, 0, 0), fov_y_deg=60, clipping_range=(0.1, 100))
+    shear = np.eye(4)
+    shear[0, 0], shear[2, 1] = 1.5, 0.6
+    cam.to_world = shear @ cam.to_world
+    plotter = wrt.preview(wrt.Scene(meshes=[floor]), camera=cam, rays=60, width=40, height=30, window_size=(64, 48),
+                          show_text=False)
+    try:
+        ends = np.asarray(plotter.actors["rays_miss"].mapper.dataset.points, np.float64).reshape(2, -1, 3)[1]
+        far = np.asarray(plotter.actors["frustum"].mapper.dataset.points, np.float64)[4:8]
+    finally:
+        plotter.close()
+    to_camera = np.linalg.inv(cam.to_world)
+
+    def camera_depth(points):  # -z in the camera's own space, float64
+        return -(np.c_[points, np.ones(len(points))] @ to_camera.T)[:, 2]
+
+    lower, upper = np.array([-5.0, -5.0, 0.0]), np.array([5.0, 5.0, 0.0])
+    box = np.stack(np.meshgrid(*zip(lower, upper), indexing="ij"), axis=-1).reshape(-1, 3)
+    assert len(ends) > 10
+    np.testing.assert_allclose(camera_depth(far), min(camera_depth(box).max(), 100.0), rtol=1e-6)
+    np.testing.assert_allclose(camera_depth(ends), camera_depth(far)[0], rtol=1e-6)

@@ -529,6 +529,17 @@ def camera_frame(cam: Camera, width: int, height: int) -> tuple[np.ndarray, np.n
     return np.array(s.origin, np.float64), forward / np.linalg.norm(forward)
 
 
+def view_depths(cam: Camera, width: int, height: int, vectors) -> np.ndarray:
+    """``(N,)`` float64 depth that each of ``vectors`` (``(N, 3)``, world space, from the eye) advances: camera-space
+    depth times the world length of the camera's z axis, the depth :func:`frustum_corners` takes. It is the length
+    along the unit view direction where the camera's axes are square to it; under a shear (a camera below a parent
+    scaled along another axis) the planes of equal depth, the renderer's clipping planes among them, are tilted."""
+    s = cam.to_struct(width, height)
+    right, up, forward = (np.array(v, np.float64) for v in (s.right, s.up, s.forward))
+    camera_space = np.linalg.solve(np.column_stack([right, up, forward]), np.asarray(vectors, np.float64).T)
+    return camera_space[2] * np.linalg.norm(forward)
+
+
 def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, builder="sah", device="cpu"):
     """``n`` camera rays through an even grid of the ``width x height`` film, traced as the renderer traces
     its first sample (same kernel, same ``[near, far]`` range, same accelerator).
@@ -647,7 +658,7 @@ def preview(
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
     eye, forward = camera_frame(cam, width, height)
     ray_data = sample_rays(scene, cam, width, height, rays, builder, device) if rays else None
-    far, image_depth = _display_depths(cam, eye, forward, lower, upper, ray_data)
+    far, image_depth = _display_depths(cam, width, height, lower, upper, ray_data)
     diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
     _add_frustum(pv, plotter, cam, width, height, far, image_depth, eye_radius=min(0.01 * diagonal, 0.2 * image_depth))
     label = cam.path or ("(given)" if isinstance(camera, Camera) else "(framing the scene)")
@@ -660,7 +671,7 @@ def preview(
         else:
             lines.append(f"BVH ({builder}) {summary}")
     if ray_data is not None:
-        lines.append(_add_rays(pv, plotter, *ray_data, forward, far))
+        lines.append(_add_rays(pv, plotter, *ray_data, view_depths(cam, width, height, ray_data[1]), far))
     if image:
         picture = render(scene, camera=cam, width=width, height=height, device=device, builder=builder)
         quad = pv.PolyData(frustum_corners(cam, width, height, image_depth), faces=[4, 0, 1, 2, 3])
@@ -851,11 +862,12 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> str:
     return f"{counted(bvh.num_nodes, 'node')}, depth {levels}: {what}, {count}"
 
 
-def _add_rays(pv, plotter, origins, directions, t, forward, far: float) -> str:
-    """Draws rays from their origin to their hit (with a dot) or, on a miss, to the display far plane."""
+def _add_rays(pv, plotter, origins, directions, t, depth_rates, far: float) -> str:
+    """Draws rays from their origin to their hit (with a dot) or, on a miss, to the display far plane, ``far`` deep
+    (``depth_rates``: the :func:`view_depths` of the directions)."""
     origins, directions, t = (np.asarray(a, np.float64) for a in (origins, directions, t))
     hit = np.isfinite(t)
-    t_end = np.where(hit, t, far / np.maximum(directions @ forward, 1e-6))
+    t_end = np.where(hit, t, far / np.maximum(depth_rates, 1e-6))
     ends = origins + t_end[:, None] * directions
     for mask, color, label in ((hit, HIT_COLOR, "rays_hit"), (~hit, MISS_COLOR, "rays_miss")):
         k = int(mask.sum())
@@ -882,14 +894,15 @@ def _as_scene(scene) -> Scene:
     raise TypeError(f"scene must be a wrt.Scene or a USD file path, not {type(scene).__name__}")
 
 
-def _display_depths(cam: Camera, eye, forward, lower, upper, ray_data) -> tuple[float, float]:
-    """Depths (world distances along the view direction) of the display far plane and of the image plane."""
+def _display_depths(cam: Camera, width: int, height: int, lower, upper, ray_data) -> tuple[float, float]:
+    """Depths (:func:`view_depths`) of the display far plane and of the image plane."""
+    eye, _ = camera_frame(cam, width, height)
     # The clipping range is camera-space depth: a camera scaled with its scene (a units change on a parent) clips
     # at its near and far times that scale, as the renderer's rays do.
     depth_scale = float(np.linalg.norm(cam.to_world[:3, 2]))  # world length of one unit of camera-space depth
     near, far = (float(v) * depth_scale for v in cam.clipping_range)
     corners = np.stack(np.meshgrid(*zip(lower, upper), indexing="ij"), axis=-1).reshape(-1, 3)
-    depths = (corners - eye) @ forward
+    depths = view_depths(cam, width, height, corners - eye)
     diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
     deepest = float(depths.max()) if depths.max() > near else near + diagonal  # scene behind the camera
     display_far = min(far, deepest)
@@ -899,7 +912,7 @@ def _display_depths(cam: Camera, eye, forward, lower, upper, ray_data) -> tuple[
         hit = np.isfinite(t)
         if hit.any():
             ends = origins[hit] + t[hit, None] * directions[hit]
-            nearest = float(np.min((ends - eye) @ forward))
+            nearest = float(np.min(view_depths(cam, width, height, ends - eye)))
     if nearest is None and depths.min() > near:
         nearest = float(depths.min())
     if nearest is None or nearest <= near:
