@@ -1120,6 +1120,15 @@ def test_to_pyvista_makes_at_most_its_budget_of_instance_blocks(monkeypatch):
         to_pyvista(scene, max_instances=-1)
 
 
+@pytest.mark.parametrize("budget", [-3, 0, 2.5, True])
+def test_to_pyvista_refuses_a_triangle_budget_that_is_no_positive_integer(budget):
+    """wrt.preview refuses these; to_pyvista took them and left every instance out without a word."""
+    prototype = Prototype("/P", [wrt.Mesh("/P/M", np.eye(3, dtype=np.float32), np.array([[0, 1, 2]]), [0])])
+    scene = wrt.Scene(prototypes=[prototype], instances=Instances.from_transforms([0], np.eye(4)[None]))
+    with pytest.raises(ValueError, match="max_triangles must be a positive integer"):
+        to_pyvista(scene, max_triangles=budget)
+
+
 FAR_INSTANCES = """#usda 1.0
 (
     upAxis = "Z"

@@ -280,8 +280,10 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int |
     pv = import_pyvista()
     scene = _as_scene(scene)
     max_instances = INSTANCE_BLOCK_BUDGET if max_instances is None else max_instances
-    if isinstance(max_instances, bool) or not isinstance(max_instances, (int, np.integer)) or max_instances < 0:
-        raise ValueError(f"max_instances must be a non-negative integer, got {max_instances!r}")
+    for label, value, least in (("max_triangles", max_triangles, 1), ("max_instances", max_instances, 0)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+            kind = "positive" if least else "non-negative"
+            raise ValueError(f"{label} must be a {kind} integer, got {value!r}")  # -3 left every instance out unsaid
     shown = min(_instances_within(scene, max_triangles), max_instances)
     drawn = _first_instances(scene, shown) if shown < len(scene.instances) else scene
     colors = triangle_colors(drawn)
