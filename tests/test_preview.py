@@ -1203,3 +1203,26 @@ def test_a_sheared_cameras_far_end_holds_the_scene_and_the_missing_rays(tmp_path
     assert len(ends) > 10
     np.testing.assert_allclose(camera_depth(far), min(camera_depth(box).max(), 100.0), rtol=1e-6)
     np.testing.assert_allclose(camera_depth(ends), camera_depth(far)[0], rtol=1e-6)
+
+
+def test_to_pyvista_places_instances_after_one_of_a_prototype_without_triangles():
+    """An instance of a prototype whose mesh has points but no faces took the next instance's points (the expanded
+    triangles hold no points of such prototypes), and every later block was shifted: the third block had one point
+    for its triangle. Each block holds its prototype's points moved by its transform, and its triangles' corners."""
+    points_only = Prototype("/E", [wrt.Mesh("/E/M", np.float32([[9, 9, 9], [8, 8, 8]]), np.zeros((0, 3), np.int32),
+                                            np.zeros(0, np.int32))])
+    local = np.float32([[0, 0, 0], [1, 0, 0], [0, 2, 1]])
+    triangle = Prototype("/T", [wrt.Mesh("/T/M", local, np.array([[0, 1, 2]]), [0])])
+    to_world = np.tile(np.eye(4), (4, 1, 1))
+    to_world[:, :3, 3] = [[0, 0, 0], [10, 0, 0], [20, 0, 0], [30, 5, 0]]
+    to_world[3, :3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 2]]
+    scene = wrt.Scene(prototypes=[points_only, triangle], instances=Instances.from_transforms([0, 1, 0, 1], to_world))
+    blocks = to_pyvista(scene)
+    assert blocks.n_blocks == 4
+    for block, k, matrix in zip(blocks, [0, 1, 0, 1], to_world):
+        source = scene.prototypes[k].meshes[0]
+        expected = source.points.astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+        np.testing.assert_allclose(block.points, expected, atol=1e-6)
+        assert block.n_cells == len(source.indices)
+        if block.n_cells:
+            np.testing.assert_allclose(block.points[block.regular_faces], expected[source.indices], atol=1e-6)

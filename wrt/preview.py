@@ -311,13 +311,23 @@ def to_pyvista(scene, max_triangles: int = TRIANGLE_BUDGET, max_instances: int |
     if shown:
         points, indices = world_triangles(drawn)
         offsets = drawn.instance_offsets()
-        vertex = np.cumsum([0] + [sum(len(m.points) for m in drawn.prototypes[p].meshes)
-                                  for p in drawn.instances.prototype])
+        local = [np.concatenate([m.points for m in p.meshes] or [np.zeros((0, 3), np.float32)]).astype(np.float64)
+                 for p in drawn.prototypes]
+        with_triangles = [any(len(m.indices) for m in p.meshes) for p in drawn.prototypes]
+        # The expansion holds the points of prototypes with triangles only (expand_instance_triangles): counted so, an
+        # instance of a prototype of points alone took the next instance's points, and every later block was shifted.
+        vertex = np.cumsum([0] + [len(local[p]) if with_triangles[p] else 0 for p in drawn.instances.prototype])
         vertex += sum(len(m.points) for m in scene.meshes)
         for i in range(shown):
             a, b = int(offsets[i]), int(offsets[i + 1])
-            proto = drawn.prototypes[drawn.instances.prototype[i]]
-            poly = _triangles_block(pv, points[vertex[i] : vertex[i + 1]].copy(), indices[a:b] - vertex[i], {
+            k = drawn.instances.prototype[i]
+            proto = drawn.prototypes[k]
+            if with_triangles[k]:
+                moved = points[vertex[i] : vertex[i + 1]].copy()
+            else:  # its points, moved here
+                to_world = drawn.instances.to_world[i]
+                moved = local[k] @ to_world[:3, :3].T + to_world[:3, 3]
+            poly = _triangles_block(pv, moved, indices[a:b] - vertex[i], {
                 "color": colors[a:b],
                 "prim": np.arange(a, b, dtype=np.int64 if b > np.iinfo(np.int32).max else np.int32),
                 "face_id": np.concatenate([m.triangle_faces() for m in proto.meshes] or [np.zeros(0, np.int32)]),
