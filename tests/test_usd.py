@@ -816,12 +816,30 @@ def test_load_usd_names_a_time_or_path_of_the_wrong_kind(tmp_path):
     str, bytes or os.PathLike object, not int", neither naming the argument."""
     stage, path = make_stage(tmp_path)
     stage.Save()
-    for time, shown in (("x", "'x'"), (float("nan"), "nan"), ([1], r"\[1\]")):
-        with pytest.raises(ValueError, match=f"^time must be a finite time code or None, got {shown}$"):
+    with pytest.raises(ValueError, match="^time must be a finite time code or None, got nan$"):
+        load_usd(path, time=float("nan"))
+    for time, shown in (("x", "str 'x'"), ([1], r"list \[1\]")):
+        with pytest.raises(TypeError, match=f"^time must be a number, a Usd.TimeCode or None, got {shown}$"):
             load_usd(path, time=time)
     with pytest.raises(TypeError, match="^path must be a file path .*, got int$"):
         load_usd(3)
 
+
+
+def test_load_usd_refuses_a_time_that_is_no_number(tmp_path):
+    """``time=True`` and ``time="1"`` loaded frame 1 (float() reads both), hiding a caller's mistake; they raise a
+    TypeError naming the argument. Ints, floats, numpy scalars and ``Usd.TimeCode`` read the time USD reads there."""
+    stage, path = make_stage(tmp_path)
+    mesh = define_mesh(stage)
+    for t, dz in ((1.0, 0.0), (3.0, 4.0)):
+        mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*p) + Gf.Vec3f(0, 0, dz) for p in POINTS]), t)
+    stage.Save()
+    for time in (True, np.bool_(False), "1", b"1"):
+        with pytest.raises(TypeError, match=r"^time must be a number, a Usd.TimeCode or None, got "):
+            load_usd(path, time=time)
+    expected = np.array(mesh.GetPointsAttr().Get(2.0))[:, 2]  # USD's own interpolation at time 2
+    for time in (2, 2.0, np.float32(2.0), np.int64(2), Usd.TimeCode(2.0)):
+        np.testing.assert_allclose(load_usd(path, time=time).meshes[0].points[:, 2], expected)
 
 def test_time_default_wins_over_samples(tmp_path):
     stage, path = make_stage(tmp_path)

@@ -88,6 +88,7 @@ and purpose), :mod:`wrt.usd_ancestors` (inherited primvars, purposes and binding
 from __future__ import annotations
 
 import math
+import numbers
 import os
 import warnings
 
@@ -226,16 +227,21 @@ def open_variants(source: str, variants) -> Usd.Stage:
 
 
 def _time_code(time) -> Usd.TimeCode:
-    """``load_usd``'s ``time`` as a time code: None is the default time; a ``Usd.TimeCode`` is kept; anything else
-    must be a finite number."""
+    """``load_usd``'s ``time`` as a time code: None is the default time; a ``Usd.TimeCode`` is kept; else a finite
+    real number (int, float, numpy scalar). A bool or a string is refused, not read as a number: ``time=True`` and
+    ``time="1"`` both loaded frame 1, hiding a caller's mistake.
+
+    Raises:
+        TypeError: ``time`` is not None, a ``Usd.TimeCode`` or a real number.
+        ValueError: ``time`` is NaN or infinite.
+    """
     if time is None:
         return Usd.TimeCode.Default()
     if isinstance(time, Usd.TimeCode):
         return time
-    try:
-        value = float(time)
-    except (TypeError, ValueError):  # float()'s message named no argument: "could not convert string to float"
-        value = math.nan
+    if isinstance(time, (bool, np.bool_)) or not isinstance(time, numbers.Real):
+        raise TypeError(f"time must be a number, a Usd.TimeCode or None, got {type(time).__name__} {time!r}")
+    value = float(time)
     if not math.isfinite(value):
         raise ValueError(f"time must be a finite time code or None, got {time!r}")
     return Usd.TimeCode(value)
