@@ -1,6 +1,7 @@
 """Camera conventions: USD's film mapping, row 0 at the top, pixel centres, orthographic cameras."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -769,14 +770,13 @@ BAD_CAMERAS = {  # camera -> what it authors that wrt.Camera cannot take, and th
     "/ZeroFocal": ("float focalLength = 0", "finite positive focalLength and apertures, got focal_length=0,"),
     "/NegativeAperture": ("float horizontalAperture = -2", "apertures=-2x"),
     "/Inverted": ("float2 clippingRange = (5, 1)", "clipping range must satisfy 0 <= near < far, got (5.0, 1.0)"),
-    "/Unreadable": ("float2 clippingRange = None", "camera clippingRange has no value (blocked)"),
     "/NotFinite": ('double3 xformOp:translate = (nan, 0, 0)\n    uniform token[] xformOpOrder = ["xformOp:translate"]',
                    "transform is not finite"),
 }
 
 
 def test_a_camera_wrt_cannot_use_is_skipped_with_a_warning_unless_it_is_the_one_asked_for(tmp_path):
-    """Cameras of a zero focal length, a negative aperture, an inverted clipping range, one blocked (unreadable) and
+    """Cameras of a zero focal length, a negative aperture, an inverted clipping range and
     a transform that is not finite stopped the load of the stage, whichever camera was to render it. Now each is
     skipped with one warning naming the file, the camera and why; the stage's first usable camera is the default; a
     render asked for one (camera=, --camera: resolve_camera) or whose render settings name it raises that reason,
@@ -850,3 +850,52 @@ def test_a_camera_attribute_of_another_type_is_named_and_a_type_error_is_not_a_s
     monkeypatch.setattr(wrt.usd_cameras, "Camera", broken)
     with pytest.raises(wrt.SceneError, match=r"/Good: cannot read this prim \(a bug in wrt\)"):  # as any prim's bug
         wrt.load_usd(path)
+
+
+CAMERA_ATTRIBUTES = ("projection", "focalLength", "horizontalAperture", "verticalAperture", "horizontalApertureOffset",
+                     "verticalApertureOffset", "clippingRange", "clippingPlanes", "fStop", "focusDistance", "exposure",
+                     "exposure:iso", "exposure:time", "exposure:fStop", "exposure:responsivity")
+
+
+@pytest.mark.parametrize("blocked", [(name,) for name in CAMERA_ATTRIBUTES] + [CAMERA_ATTRIBUTES])
+def test_a_blocked_camera_value_is_the_schema_fallback(tmp_path, blocked):
+    """A camera value blocked (``= None``) over an authored one reads as the schema's fallback, as USD's own
+    ``GetCamera`` reads it: a blocked projection over ``orthographic`` was the token 'None', perspective with a
+    warning, and any other blocked value (a clipping range, a focal length) skipped the camera with a warning."""
+    base = tmp_path / "base.usda"
+    stage = Usd.Stage.CreateNew(str(base))
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    authored = {"projection": "orthographic", "focalLength": 35.0, "horizontalAperture": 30.0,
+                "verticalAperture": 20.0, "horizontalApertureOffset": 1.0, "verticalApertureOffset": -1.0,
+                "clippingRange": Gf.Vec2f(0.5, 50.0), "clippingPlanes": [Gf.Vec4f(0, 0, 1, 3)], "fStop": 2.8,
+                "focusDistance": 10.0, "exposure": 1.0, "exposure:iso": 200.0, "exposure:time": 0.5,
+                "exposure:fStop": 2.0, "exposure:responsivity": 2.0}
+    for name, value in authored.items():
+        cam.GetPrim().GetAttribute(name).Set(value)
+    stage.Save()
+    path = tmp_path / "shot.usda"
+    shot = Usd.Stage.CreateNew(str(path))
+    shot.GetRootLayer().subLayerPaths.append(str(base))
+    for name in blocked:
+        shot.GetPrimAtPath("/Cam").GetAttribute(name).Block()
+    shot.Save()
+    usd_cam = UsdGeom.Camera(shot.GetPrimAtPath("/Cam"))
+    fallback = usd_cam.GetPrim().GetPrimDefinition().GetAttributeFallbackValue
+    assert all(usd_cam.GetPrim().GetAttribute(name).Get() is None for name in blocked)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # neither skipped nor an unknown projection
+        scene = wrt.load_usd(path)
+    loaded = scene.cameras["/Cam"]
+    value = {name: fallback(name) if name in blocked else usd_cam.GetPrim().GetAttribute(name).Get()
+             for name in CAMERA_ATTRIBUTES}
+    gf = usd_cam.GetCamera(Usd.TimeCode.Default())  # USD's own reading of a blocked value: the fallback too
+    assert loaded.projection == ("orthographic" if gf.projection == Gf.Camera.Orthographic else "perspective")
+    assert loaded.projection == str(value["projection"])
+    np.testing.assert_allclose(
+        [loaded.focal_length, loaded.horizontal_aperture, loaded.vertical_aperture, loaded.horizontal_aperture_offset,
+         loaded.vertical_aperture_offset, loaded.f_stop, loaded.focus_distance],
+        [gf.focalLength, gf.horizontalAperture, gf.verticalAperture, gf.horizontalApertureOffset,
+         gf.verticalApertureOffset, gf.fStop, gf.focusDistance], rtol=1e-6)
+    np.testing.assert_allclose(loaded.clipping_range, (gf.clippingRange.min, gf.clippingRange.max), rtol=1e-6)
+    assert len(loaded.clipping_planes) == len(gf.clippingPlanes)
+    np.testing.assert_allclose(loaded.exposure_scale, usd_cam.ComputeLinearExposureScale(), rtol=1e-6)

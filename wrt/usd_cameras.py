@@ -2,10 +2,11 @@
 instances (hidden ones too), skipped inside PointInstancer prototypes.
 
 A camera whose values :class:`wrt.camera.Camera` refuses (a zero focal length, a negative aperture, an inverted
-clipping range, a transform that is not finite, ...) or that cannot be read (a blocked clipping range) is skipped with
-a warning naming it and why (:data:`UNUSABLE_CAMERA`): the stage may well be rendered from another camera. The reason
-is kept in ``Scene.skipped_cameras``, and a render asked for it by path, or whose render settings name it, raises it
-(:func:`wrt.render.resolve_camera`, :func:`wrt.render.resolve_view`).
+clipping range, a transform that is not finite, ...) is skipped with a warning naming it and why
+(:data:`UNUSABLE_CAMERA`): the stage may well be rendered from another camera. The reason is kept in
+``Scene.skipped_cameras``, and a render asked for it by path, or whose render settings name it, raises it
+(:func:`wrt.render.resolve_camera`, :func:`wrt.render.resolve_view`). A blocked value (``= None``) is the schema's
+fallback, as ``UsdGeom.Camera.GetCamera`` reads it.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from .camera import Camera
 from .errors import SceneError
 from .usd_contents import PROTOTYPE_PREDICATE, Context
 from .usd_stage import tf_message
-from .usd_values import value_at
+from .usd_values import value_at, value_or_fallback
 from .usd_xforms import affine_part
 
 UNUSABLE_CAMERA = "cameras wrt cannot use were skipped (rendering one by its path raises this reason)"
@@ -68,8 +69,10 @@ class CameraReading:
         time = self.time
 
         def value(attr):
-            found = value_at(attr, time)
-            if found is None:  # blocked: "float() argument must be ... not 'NoneType'" named nothing
+            # A blocked value (= None) is the schema's fallback, as GetCamera reads it: a blocked projection was the
+            # token 'None' (perspective with a warning), other blocked values skipped the camera.
+            found = value_or_fallback(attr, time)
+            if found is None:  # (every attribute read here has a fallback)
                 raise ValueError(f"camera {attr.GetName()} has no value (blocked)")
             return found
 
@@ -90,7 +93,7 @@ class CameraReading:
         near, far = numbers(camera.GetClippingRangeAttr(), value(camera.GetClippingRangeAttr()), 2)
         planes_attr = camera.GetClippingPlanesAttr()
         planes = [numbers(planes_attr, plane, 4) for plane in _elements(planes_attr, value_at(planes_attr, time))]
-        projection = str(value_at(camera.GetProjectionAttr(), time))
+        projection = str(value(camera.GetProjectionAttr()))
         if projection != UsdGeom.Tokens.orthographic:
             if projection != UsdGeom.Tokens.perspective:  # as UsdGeom.Camera.GetCamera reads it
                 self._skip("cameras with an unknown projection are perspective", prim, f"projection = {projection!r}")

@@ -14,6 +14,16 @@ def value_at(attr: Usd.Attribute, time: Usd.TimeCode):
     return attr.Get(read_time(attr, time))
 
 
+def value_or_fallback(attr: Usd.Attribute, time: Usd.TimeCode):
+    """:func:`value_at`, or the schema's fallback for ``attr`` where a value block (``= None``) leaves it none (None
+    where the schema has none): a blocked value is no value, as where nothing is authored, and USD's own readers
+    (``UsdGeom.Camera.GetCamera``, UsdImaging) then use the fallback."""
+    value = value_at(attr, time)
+    if value is None:
+        value = attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
+    return value
+
+
 def read_time(attr: Usd.Attribute, time: Usd.TimeCode) -> Usd.TimeCode:
     """The time code :func:`value_at` reads ``attr`` at: ``time``, or ``EarliestTime`` when ``time`` is default and
     ``attr`` has only time samples. For USD queries that read attributes themselves (a primvar's
