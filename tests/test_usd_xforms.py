@@ -451,3 +451,71 @@ def test_an_xform_op_declared_with_no_value_is_the_identity_with_a_warning(tmp_p
     named = [str(w.message) for w in caught if "no value" in str(w.message)]
     assert len(named) == 1 and named[0].startswith(f"{path}: "), named
     assert "1 prim(s) (xformOp:translate: 1): /Empty" in named[0], named[0]
+
+
+SINGULAR_INVERSES = """#usda 1.0
+def Xform "ZeroScale"
+{
+    double3 xformOp:translate = (1, 2, 3)
+    float3 xformOp:scale = (1, 0, 1)
+    uniform token[] xformOpOrder = ["xformOp:translate", "!invert!xformOp:scale"]
+    def Cube "C" {}
+}
+def Xform "ZeroScaleX"
+{
+    double xformOp:scaleX = 0
+    double xformOp:rotateZ = 30
+    uniform token[] xformOpOrder = ["!invert!xformOp:scaleX", "xformOp:rotateZ"]
+    def Cube "C" {}
+}
+def Xform "SingularMatrix"
+{
+    matrix4d xformOp:transform = ((1, 0, 0, 0), (0, 0, 0, 0), (0, 0, 1, 0), (4, 0, 0, 1))
+    double3 xformOp:translate = (0, 5, 0)
+    uniform token[] xformOpOrder = ["!invert!xformOp:transform", "xformOp:translate"]
+    def Cube "C" {}
+}
+def Xform "Invertible"
+{
+    float3 xformOp:scale = (2, 4, 0.5)
+    uniform token[] xformOpOrder = ["!invert!xformOp:scale"]
+    def Cube "C" {}
+}
+"""
+SINGULAR_LEFT_OUT = {  # prim -> its order without the op that has no inverse
+    "/ZeroScale": ["xformOp:translate"],
+    "/SingularMatrix": ["xformOp:translate"],
+}
+
+
+@pytest.mark.parametrize("time", [None, 1.0])
+def test_an_inverted_op_without_an_inverse_is_left_out_with_a_warning(tmp_path, time):
+    """An !invert! of a scale with a zero component has no inverse: USD's XformCache gives inf and NaN, and wrt
+    stopped the whole load ("world transform is not finite"), while an !invert! of a singular xformOp:transform (for
+    which USD posts an error and takes the identity) was left out with a warning calling it no transform op. Both
+    are left out (the identity), the rest of the stage drawn, with one warning naming each prim and op; every cube is
+    where XformCache puts it with that op taken out of the order; an invertible inverted scale, and an inverted
+    scaleX of 0 (which USD reads as a finite, flat matrix), stay as USD reads them."""
+    path = tmp_path / "singular.usda"
+    path.write_text(SINGULAR_INVERSES)
+    authored = Usd.Stage.Open(str(path))
+    usd_time = Usd.TimeCode.Default() if time is None else Usd.TimeCode(time)
+    nan = np.array(UsdGeom.XformCache(usd_time).GetLocalToWorldTransform(authored.GetPrimAtPath("/ZeroScale/C")))
+    assert not np.isfinite(nan).all()  # the case: USD's own cache has no finite transform there
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path, time=time)
+
+    fixed = Usd.Stage.Open(Sdf.Layer.OpenAsAnonymous(str(path)))
+    for prim_path, order in SINGULAR_LEFT_OUT.items():
+        fixed.GetPrimAtPath(prim_path).GetAttribute("xformOpOrder").Set(order)
+    cache = UsdGeom.XformCache(usd_time)
+    expected = [np.array(cache.GetLocalToWorldTransform(p)).T for p in fixed.Traverse() if p.IsA(UsdGeom.Cube)]
+    assert len(expected) == 4
+    np.testing.assert_allclose(_sorted_transforms([m for m, _ in placed_shapes(scene)]),
+                               _sorted_transforms(expected), atol=1e-3)  # (the flat one drawn a hair thick)
+    (message,) = [str(w.message) for w in caught if "have no inverse" in str(w.message)]
+    assert message.startswith(f"{path}: ") and "2 prim(s)" in message, message
+    for prim_path, op in (("/ZeroScale", "!invert!xformOp:scale"), ("/SingularMatrix", "!invert!xformOp:transform")):
+        assert prim_path in message and f"{op}: 1" in message, message
+    assert "no transform op" not in " ".join(str(w.message) for w in caught)

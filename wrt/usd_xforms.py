@@ -16,9 +16,14 @@ declared with no value (``double3 xformOp:translate`` with neither a default nor
 USD reads it without a word, unless USD leaves it out anyway (next to its own inverse, before a late reset). Each is
 named in a warning (:data:`MISSING_OP`, :data:`INVALID_OP`, :data:`OPS_BEFORE_RESET`, :data:`VALUELESS_OP`); the
 prims are resolved op by op.
+An ``!invert!`` of an op that has no inverse is left out likewise (:data:`SINGULAR_INVERSE`): a singular
+``xformOp:transform`` (USD posts an error and takes the identity) and a scale with a zero component (USD gives inf
+and NaN, which stopped the load).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
@@ -33,6 +38,8 @@ INVALID_OP = ("transform ops named in xformOpOrder that are no transform op (by 
               "identity), as USD leaves them out")
 VALUELESS_OP = ("transform ops declared with no value (no default, no time samples) were read as the identity, as USD "
                 "reads them")
+SINGULAR_INVERSE = ("inverted transform ops that have no inverse (a zero scale, a singular matrix) were left out (the "
+                    "identity), as USD leaves out a singular !invert!xformOp:transform")
 OPS_BEFORE_RESET = "ops before a !resetXformStack! that is not first in xformOpOrder were ignored, as USD ignores them"
 RESET = "!resetXformStack!"  # UsdGeom.XformOpTypes.resetXformStack
 INVERT = "!invert!"  # the prefix of an inverted op's name in xformOpOrder
@@ -41,7 +48,24 @@ XFORM_OP_ORDER = UsdGeom.Tokens.xformOpOrder
 SCALAR_OPS = frozenset((UsdGeom.XformOp.TypeRotateX, UsdGeom.XformOp.TypeRotateY, UsdGeom.XformOp.TypeRotateZ,
                         UsdGeom.XformOp.TypeTranslateX, UsdGeom.XformOp.TypeTranslateY, UsdGeom.XformOp.TypeTranslateZ,
                         UsdGeom.XformOp.TypeScaleX, UsdGeom.XformOp.TypeScaleY, UsdGeom.XformOp.TypeScaleZ))
+SCALE_OPS = frozenset((UsdGeom.XformOp.TypeScale, UsdGeom.XformOp.TypeScaleX, UsdGeom.XformOp.TypeScaleY,
+                       UsdGeom.XformOp.TypeScaleZ))
 HAS_SPLINES = hasattr(Usd.Attribute, "HasSpline")  # usd-core before splines has no layer that holds one
+
+
+def _finite_op(op: UsdGeom.XformOp, time: Usd.TimeCode) -> bool:
+    """Whether ``op``'s transform at ``time`` is finite (False for one USD cannot compute)."""
+    try:
+        local = op.GetOpTransform(time)
+    except Tf.ErrorException:
+        return False
+    return all(map(math.isfinite, (x for row in local for x in row)))
+
+
+def _singular_inverse(op: UsdGeom.XformOp, time: Usd.TimeCode) -> bool:
+    """Whether ``op``, which USD could not compute, is an inverted op whose own transform is fine: a singular matrix
+    (or scale), rather than a value of the wrong type."""
+    return op.IsInverseOp() and _finite_op(UsdGeom.XformOp(op.GetAttr(), False), time)
 
 
 def affine_part(m: np.ndarray, warn) -> np.ndarray:
@@ -125,9 +149,17 @@ class Xforms:
                 i += 1
                 continue
             try:
-                m = op.GetOpTransform(self._op_time(op.GetAttr())) * m
+                local = op.GetOpTransform(self._op_time(op.GetAttr()))
             except Tf.ErrorException:  # a value the op cannot take: USD posts an error and returns the identity
-                self._warn(INVALID_OP, prim, name)
+                self._warn(SINGULAR_INVERSE if _singular_inverse(op, self._op_time(op.GetAttr())) else INVALID_OP,
+                           prim, name)
+            else:
+                # An inverted scale with a zero component: USD gives inf and NaN (the cache's world transform too),
+                # which stopped the load; left out as a singular inverted matrix is.
+                if op.IsInverseOp() and not all(map(math.isfinite, (x for row in local for x in row))):
+                    self._warn(SINGULAR_INVERSE, prim, name)
+                else:
+                    m = local * m
             i += 1
         return m, resets
 
@@ -166,6 +198,11 @@ class Xforms:
         if len(ops) != len(order) - (order[0] == RESET):  # an op left out, or ops dropped before a late reset
             return True
         if not all(op.GetAttr().HasValue() for op in ops):  # an op declared with no value: named where it applies
+            return True
+        # An inverted scale of a zero component has no inverse: the cache's transform is not finite (_local leaves
+        # the op out). Only inverted scales are asked (rare; pivots are inverted translates).
+        if any(op.IsInverseOp() and op.GetOpType() in SCALE_OPS and not _finite_op(op, self._op_time(op.GetAttr()))
+               for op in ops):
             return True
         if not self._time.IsDefault():
             return False
