@@ -412,9 +412,8 @@ def write_instancer(tmp_path, proto_indices=(0, 0, 0), targets=("/PI/Proto",), p
     [
         ({"proto_indices": (0, 2, 0)}, "protoIndices[1] = 2 is out of range for 1 prototype(s)"),
         ({"targets": ("/PI/Proto", "/Missing")}, "prototypes[1] targets /Missing, which does not exist"),
-        ({"positions": 2}, "positions has 2 entries; protoIndices has 3"),
     ],
-    ids=["proto_index_out_of_range", "missing_prototype", "short_positions"],
+    ids=["proto_index_out_of_range", "missing_prototype"],
 )
 def test_bad_instancer_raises_scene_error_naming_the_prim(tmp_path, kwargs, message):
     path = write_instancer(tmp_path, **kwargs)
@@ -437,6 +436,34 @@ def test_positions_longer_than_proto_indices_draw_nothing_with_a_warning_as_usd_
         scene = wrt.load_usd(path)
     assert len(scene.instances) == 0 and scene.meshes == []
 
+
+
+@pytest.mark.parametrize("positions, shown", [("missing", "no"), ("blocked", "blocked"), (0, "0"), (2, "2")])
+def test_an_instancer_without_a_position_per_instance_draws_nothing_with_a_warning(tmp_path, positions, shown):
+    """``positions`` missing, blocked (over a weaker layer's), empty or shorter than ``protoIndices``:
+    ``ComputeInstanceTransformsAtTime`` computes no transforms (USD warns "no positions") and Hydra draws none of the
+    instances; wrt stopped the whole load with SceneError. The instancer draws nothing, with a warning naming the file,
+    the instancer and the counts; the rest of the stage is drawn."""
+    base = write_instancer(tmp_path, proto_indices=(0, 0, 0), positions=3 if positions == "blocked" else
+                           (positions if isinstance(positions, int) else 0))
+    path = str(tmp_path / "shot.usda")
+    stage = Usd.Stage.CreateNew(path)
+    stage.GetRootLayer().subLayerPaths.append(base)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    if positions == "missing":
+        Sdf.Layer.FindOrOpen(base).GetPrimAtPath("/PI").RemoveProperty(Sdf.Layer.FindOrOpen(base).GetPropertyAtPath(
+            "/PI.positions"))
+    elif positions == "blocked":
+        pi.GetPositionsAttr().Block()
+    octahedron(stage, "/Other")
+    stage.Save()
+    t = Usd.TimeCode.Default()
+    assert len(pi.ComputeInstanceTransformsAtTime(t, t)) == 0  # the oracle: USD computes no instance
+    assert not pi.GetPositionsAttr().HasValue() if positions in ("missing", "blocked") else True
+    with pytest.warns(UserWarning, match=rf"shot\.usda: PointInstancers with fewer positions than protoIndices were "
+                      rf"skipped .*\({shown} positions for 3 protoIndices: 1\): /PI$"):
+        scene = wrt.load_usd(path)
+    assert len(scene.instances) == 0 and [m.path for m in scene.meshes] == ["/Other"]
 
 @pytest.mark.parametrize("name", ["scales", "orientations", "orientationsf"])
 def test_orientations_or_scales_longer_than_proto_indices_are_cut_with_a_warning_as_usd_computes(tmp_path, name):

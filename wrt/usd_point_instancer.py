@@ -141,8 +141,9 @@ class PointInstancerReading:
     def _instance_transforms(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> tuple:
         """``(n, 4, 4)`` column-vector transforms of the ``n`` instances of ``pi`` in its own space, and the function
         that read their attributes (:func:`held_value` when velocities move them, else :func:`value_at`), with which
-        their primvars are read too. The transforms are None, with a warning, where ``positions`` is longer than
-        ``protoIndices``: ``ComputeInstanceTransformsAtTime`` computes none then (it warns, and draws nothing)."""
+        their primvars are read too. The transforms are None, with a warning, where ``positions`` is missing, blocked,
+        shorter or longer than ``protoIndices``: ``ComputeInstanceTransformsAtTime`` computes none then (it warns,
+        and Hydra draws nothing)."""
         t = self.time
 
         def per_instance(attr, width, name, default, value):
@@ -170,10 +171,16 @@ class PointInstancerReading:
         # With usable velocities or angular velocities USD holds every attribute at its sample at or before the
         # time and moves from there; without, it interpolates them all.
         read = held_value if moved is not None or spun is not None else value_at
-        positions = per_instance(positions_attr, 3, "positions", None,
-                                 moved if moved is not None else _value_if_any(positions_attr, t, read))
-        if positions is None:
-            raise self._error("positions is missing (PointInstancer needs one per protoIndices entry)", prim)
+        raw = moved if moved is not None else _value_if_any(positions_attr, t, read)
+        if raw is None or len(raw) < n:
+            # ComputeInstanceTransformsAtTime computes none (it warns "no positions"), and Hydra draws none: the rest
+            # of the stage is drawn. It stopped the load, for a missing or blocked positions too.
+            blocked = raw is None and positions_attr.GetResolveInfo(t).ValueIsBlocked()
+            found = "blocked" if blocked else "no" if raw is None else f"{len(raw)}"
+            self._skip("PointInstancers with fewer positions than protoIndices were skipped (USD computes no instance "
+                       "transforms for them)", prim, f"{found} positions for {n} protoIndices")
+            return None, read
+        positions = per_instance(positions_attr, 3, "positions", None, raw)
         if len(positions) > n:
             self._skip("PointInstancers whose positions are longer than protoIndices were skipped (USD computes no "
                        "instance transforms for them)", prim, f"{len(positions)} positions for {n} protoIndices")
