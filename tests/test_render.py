@@ -724,3 +724,48 @@ def test_coverage_counts_every_sample_however_the_render_is_run():
     renderer.launch_frame()
     renderer.launch_frame()
     np.testing.assert_array_equal(renderer.frame_image().aovs["coverage"], one.aovs["coverage"])
+
+
+LIGHTS_ONLY = """#usda 1.0
+def Camera "Cam"
+{
+    float2 clippingRange = (0.1, 100)
+}
+"""
+
+
+@pytest.mark.parametrize("light, seen", [
+    ('def DomeLight "Dome"\n{\n    color3f inputs:color = (0.2, 0.4, 0.6)\n}\n', (0.2, 0.4, 0.6)),
+    ('def SphereLight "Bulb"\n{\n    float inputs:radius = 2\n    bool inputs:normalize = 1\n'
+     '    color3f inputs:color = (1, 0.5, 0.25)\n    float inputs:intensity = 50\n'
+     '    double3 xformOp:translate = (0, 0, -10)\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n',
+     np.array([1.0, 0.5, 0.25]) * 50 / (4 * np.pi * 2.0**2)),
+])
+def test_a_stage_of_lights_a_camera_sees_renders_them_without_nothing_to_render(tmp_path, light, seen):
+    """A stage whose only prims are a dome, or an area light in view, is not "nothing to render": the camera sees
+    them (an HDRI or a light preview). The warning said the image was background only. The centre pixel shows the
+    light's radiance (the dome's colour; a normalized sphere light's ``intensity * color / (4 pi r^2)``)."""
+    path = tmp_path / "lights.usda"
+    path.write_text(LIGHTS_ONLY + light)
+    scene = wrt.load_usd(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        img = wrt.render(scene, width=9, height=9, device="cpu")
+    np.testing.assert_allclose(img.rgb[4, 4], seen, rtol=1e-4)
+
+
+@pytest.mark.parametrize("light, integrator, why", [
+    ('def SphereLight "Point"\n{\n    bool treatAsPoint = 1\n}\n', "whitted", "no light a camera ray sees"),
+    ('def DistantLight "Sun"\n{\n    float inputs:angle = 0\n}\n', "path", "no light a camera ray sees"),
+    ('def DomeLight "Dome"\n{\n}\n', "normals", "the normals integrator shows no light"),
+])
+def test_a_stage_of_lights_no_camera_ray_sees_warns_nothing_to_render(tmp_path, light, integrator, why):
+    """Point lights and delta distant lights light surfaces only, and the integrators that read no light show none:
+    with no geometry, such a stage still renders background only, with the warning saying why."""
+    path = tmp_path / "lights.usda"
+    path.write_text(LIGHTS_ONLY + light)
+    scene = wrt.load_usd(path)
+    assert scene.lights
+    with pytest.warns(UserWarning, match=rf"lights\.usda: nothing to render \(no triangles, and {why}\)"):
+        img = wrt.render(scene, width=4, height=4, device="cpu", integrator=integrator)
+    assert (img.aovs["prim"] == -1).all()

@@ -75,6 +75,18 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 luminance weights of 
 SMALLEST_SUN_DISC = 1e-30
 
 
+def seen_by_camera(light) -> bool:
+    """Whether a camera ray can see ``light`` itself (:func:`wrt.integrators.emitters.lights_on_segment` and
+    ``environment``, in the integrators that read lights): a dome, a distant light with a disc, an area light (a sphere
+    that is not a point, a rect, a disk, a cylinder). Point and delta distant lights light surfaces only; a mesh
+    light is its mesh's triangles."""
+    if isinstance(light, DistantLight):
+        return light.angle > 0.0 and light.size_factor >= SMALLEST_SUN_DISC
+    if isinstance(light, SphereLight):
+        return not light.treat_as_point
+    return isinstance(light, (DomeLight, RectLight, DiskLight, CylinderLight))
+
+
 def luminance_np(c) -> float:
     return float(np.asarray(c, np.float64) @ LUMINANCE)
 

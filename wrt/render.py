@@ -35,7 +35,7 @@ from .integrators.whitted import (
     whitted_lights_kernel,
 )
 from .light_sampling import LIGHT_DOME
-from .light_table import build_lights, no_response_triangles, set_headlight_directions
+from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import default_lights
 from .materials import emission_estimates, upload_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH
@@ -417,7 +417,14 @@ class Renderer:
         self.timers = {}
         stats = scene.stats()
         if stats["rendered_triangles"] == 0 and stats.get("rendered_shapes", 0) == 0:
-            warnings.warn(f"{scene.source or 'scene'}: nothing to render (no triangles); the image is background only")
+            # A dome, a soft sun or an area light alone is what the camera sees (an HDRI or light preview): said only
+            # where nothing at all can appear.
+            lit = integrator in LIGHT_SAMPLING_INTEGRATORS
+            if not (lit and any(map(seen_by_camera, scene.lights))):
+                lights = ("" if not scene.lights else f", and the {integrator} integrator shows no light" if not lit
+                          else ", and no light a camera ray sees")
+                warnings.warn(f"{scene.source or 'scene'}: nothing to render (no triangles{lights}); the image is "
+                              "background only")
         self._accel_options = (accel, builder)
         self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
         self.dropped_samples = 0  # non-finite samples left out of the last render
