@@ -973,3 +973,32 @@ def test_the_missing_texture_coordinates_warning_names_the_meshs_2_3_and_4_vecto
     listed = re.search(r"the mesh has ([^:]*): 1\)", named[0]).group(1).split(", ")
     expected = {"st", "uv3", "uv4", "uvd", "uvh", "uvw"}  # st: the quad's own texCoord2f[]
     assert set(listed) == expected, named[0]
+
+
+@pytest.mark.parametrize("bad", ["indices", "length"])
+def test_texture_coordinates_that_do_not_fit_read_as_unauthored(tmp_path, bad):
+    """An ``st`` with an index out of range (USD's ComputeFlattened gives None) or a length its interpolation does
+    not take is dropped, as Hydra drops it: the mesh takes the primvar reader's fallback st, as a mesh without st
+    does, with a warning naming the file, the mesh and the primvar. The stage failed to load."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png)
+    stage = Usd.Stage.Open(path)
+    st = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad")).GetPrimvar("st")
+    if bad == "indices":
+        st.SetIndices(Vt.IntArray([0, 1, 2, 9]))
+        assert st.ComputeFlattened() is None  # the oracle: USD cannot flatten it
+    else:
+        st.Set(st.Get()[:3])
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    (dropped,) = [m for m in messages if "primvars that do not fit their prim" in m]
+    assert dropped.startswith(f"{path}: ") and dropped.endswith(": /Quad") and "primvars:st" in dropped, dropped
+    stage.GetPrimAtPath("/Quad").RemoveProperty("primvars:st")
+    stage.GetPrimAtPath("/Quad").RemoveProperty("primvars:st:indices")
+    stage.GetRootLayer().Export(str(tmp_path / "unauthored.usda"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        expected = wrt.load_usd(tmp_path / "unauthored.usda")
+    (got,), (want,) = scene.meshes, expected.meshes
+    np.testing.assert_array_equal(got.uvs, want.uvs)
+    np.testing.assert_array_equal(albedo(path), albedo(str(tmp_path / "unauthored.usda")))

@@ -9,7 +9,8 @@ import warnings
 
 import numpy as np
 import pytest
-from usda_text import floats, fmt, load, preview_material, trace, write
+from pxr import Usd, UsdGeom
+from usda_text import floats, fmt, load, load_recording_warnings, preview_material, trace, write
 
 import wrt
 from wrt.errors import SceneError
@@ -486,27 +487,62 @@ def test_curves_without_points_are_skipped_with_a_warning(tmp_path):
          '    point3f[] points = [(0, 0, 0), (1, 0, 0)]', r"curveVertexCounts\[0\] = 2 makes no periodic bspline"),
         ('uniform token type = "linear"\n    int[] curveVertexCounts = [2, 1]\n'
          '    point3f[] points = [(0, 0, 0), (1, 0, 0), (2, 0, 0)]', r"curveVertexCounts\[1\] = 1 makes no linear"),
-        ('uniform token type = "linear"\n    int[] curveVertexCounts = [2]\n'
-         '    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n    float[] widths = [1, 1, 1]',
-         "widths has 3 values; vertex interpolation needs 2"),
-        ('uniform token type = "linear"\n    int[] curveVertexCounts = [2, 2]\n'
-         '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)]\n'
-         '    color3f[] primvars:displayColor = [(1, 0, 0)] (interpolation = "uniform")',
-         "displayColor has 1 values; uniform interpolation needs 2"),
     ],
 )
-def test_bad_curve_topology_and_primvar_lengths_raise(tmp_path, body, message):
+def test_bad_curve_topology_raises(tmp_path, body, message):
     path = write(tmp_path, f'def BasisCurves "C"\n{{\n    {body}\n}}\n')
     with pytest.raises(SceneError, match=message) as e:
         load(path)
     assert path in str(e.value) and "/C" in str(e.value)
 
 
-def test_points_widths_of_the_wrong_length_raise(tmp_path):
-    path = write(tmp_path, 'def Points "P"\n{\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n'
-                 '    float[] widths = [1, 1, 1] (interpolation = "vertex")\n}\n')
-    with pytest.raises(SceneError, match="/P: widths has 3 values; vertex interpolation needs 2"):
-        load(path)
+LINES = ('    uniform token type = "linear"\n    int[] curveVertexCounts = [2, 2]\n'
+         '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)]\n')
+DOTS = '    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n    float[] widths = [0.5, 0.5] (interpolation = "vertex")\n'
+
+
+@pytest.mark.parametrize("prim, body, attribute, message", [
+    ('BasisCurves "C"', LINES + '    float[] widths = [1, 1, 1]', "widths",
+     "widths has 3 values; vertex interpolation needs 4"),
+    ('BasisCurves "C"', LINES + '    color3f[] primvars:displayColor = [(1, 0, 0)] (interpolation = "uniform")',
+     "primvars:displayColor", "primvars:displayColor has 1 values; uniform interpolation needs 2"),
+    ('Points "C"', '    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n    float[] widths = [1, 1, 1] (interpolation = '
+     '"vertex")', "widths", "widths has 3 values; vertex interpolation needs 2"),
+    ('Points "C"', DOTS + '    color3f[] primvars:displayColor = [(1, 0, 0)] (interpolation = "vertex")\n'
+     '    int[] primvars:displayColor:indices = [0, 4]', "primvars:displayColor",
+     "displayColor:indices[1] = 4 is out of range for 1 values"),
+    ('Points "C"', DOTS + '    float[] primvars:displayOpacity = [0.5] (interpolation = "vertex")\n'
+     '    int[] primvars:displayOpacity:indices = [0, -1]', "primvars:displayOpacity",
+     "displayOpacity:indices[1] = -1 is out of range for 1 values"),
+    ('Sphere "C"', '    color3f[] primvars:displayColor = [(1, 0, 0)] (interpolation = "constant")\n'
+     '    int[] primvars:displayColor:indices = [2]', "primvars:displayColor",
+     "displayColor:indices[0] = 2 is out of range for 1 values"),
+])
+def test_a_primvar_that_does_not_fit_is_dropped_with_a_warning(tmp_path, prim, body, attribute, message):
+    """Widths, colours and opacities of points, curves and gprims whose length does not fit their interpolation, or
+    whose indices are out of range (USD's ComputeFlattened gives None), are dropped, as Hydra drops such a primvar:
+    the prim is drawn as if it had none, with a warning naming the file, the prim and the primvar. The stage failed
+    to load (or, for a gprim's colour, went grey without a word)."""
+    path = write(tmp_path, f'def {prim}\n{{\n{body}\n}}\n')
+    stage = Usd.Stage.Open(path)
+    primvar = UsdGeom.Primvar(stage.GetPrimAtPath("/C").GetAttribute(attribute))
+    if primvar.IsIndexed():
+        assert primvar.ComputeFlattened() is None  # the oracle: USD cannot flatten it
+    scene, messages = load_recording_warnings(path)
+    (dropped,) = [m for m in messages if "primvars that do not fit their prim" in m]
+    assert dropped.startswith(f"{path}: ") and dropped.endswith(": /C") and message in dropped, dropped
+    stage.GetPrimAtPath("/C").RemoveProperty(attribute)
+    stage.GetPrimAtPath("/C").RemoveProperty(attribute + ":indices")
+    unauthored = str(tmp_path / "unauthored.usda")
+    stage.GetRootLayer().Export(unauthored)
+    camera = wrt.Camera.orthographic(eye=(0.5, 0.5, 5), target=(0.5, 0.5, 0), height=3.0)
+    images = []
+    for scene in (scene, load(unauthored)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            images.append(wrt.render(scene, camera=camera, width=16, height=16, device="cpu", integrator="albedo"))
+    np.testing.assert_array_equal(images[0].rgb, images[1].rgb)
+    np.testing.assert_array_equal(images[0].aovs["prim"], images[1].aovs["prim"])
 
 
 def test_material_bind_subsets_of_curves_are_ignored_with_a_warning(tmp_path):

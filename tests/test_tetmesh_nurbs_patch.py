@@ -171,10 +171,6 @@ def test_tet_mesh_points_move_with_time(tmp_path):
     "extra, tets, message",
     [
         ("", "[(0, 1, 2, 4)]", r"tetVertexIndices\[0\] = \(0, 1, 2, 4\) is out of range for 4 points"),
-        ('    color3f[] primvars:displayColor = [(1, 0, 0), (0, 0, 1)] (interpolation = "uniform")\n',
-         "[(0, 1, 2, 3)]", "displayColor has 2 values; uniform interpolation needs 1"),
-        ('    color3f[] primvars:displayColor = [(1, 0, 0)] (interpolation = "faceVarying")\n', "[(0, 1, 2, 3)]",
-         "displayColor has interpolation 'faceVarying'; TetMesh prims take constant, uniform, vertex, varying"),
     ],
 )
 def test_bad_tet_meshes_raise_naming_the_prim(tmp_path, extra, tets, message):
@@ -184,6 +180,28 @@ def test_bad_tet_meshes_raise_naming_the_prim(tmp_path, extra, tets, message):
         load(path)
     assert path in str(e.value) and "/T" in str(e.value)
 
+
+
+@pytest.mark.parametrize("extra, message", [
+    ('    color3f[] primvars:displayColor = [(1, 0, 0), (0, 0, 1)] (interpolation = "uniform")\n',
+     "displayColor has 2 values; uniform interpolation needs 1"),
+    ('    color3f[] primvars:displayColor = [(1, 0, 0)] (interpolation = "faceVarying")\n',
+     "displayColor has interpolation 'faceVarying'; TetMesh prims take constant, uniform, vertex, varying"),
+])
+def test_a_tet_mesh_colour_that_does_not_fit_is_dropped_with_a_warning(tmp_path, extra, message):
+    """A TetMesh's displayColor of a length or interpolation it does not take is dropped (as Hydra drops such a
+    primvar), the mesh drawn as without it, with a warning naming the file, the prim and the primvar; it stopped the
+    load."""
+    body = f'def TetMesh "T"\n{{\n    point3f[] points = {fmt(TET)}\n    int4[] tetVertexIndices = [(0, 1, 2, 3)]\n'
+    path = write(tmp_path, body + extra + "}\n")
+    unauthored = write(tmp_path, body + "}\n", name="unauthored.usda")
+    with pytest.warns(UserWarning) as caught:
+        scene = wrt.load_usd(path)
+    (dropped,) = [str(w.message) for w in caught if "primvars that do not fit their prim" in str(w.message)]
+    assert dropped.startswith(f"{path}: ") and dropped.endswith(": /T") and message in dropped, dropped
+    (got,), (want,) = scene.meshes, load(unauthored).meshes
+    assert got.colors is None and want.colors is None
+    np.testing.assert_array_equal(got.indices, want.indices)
 
 def test_tet_mesh_with_a_point_that_is_not_finite_raises(tmp_path):
     path = write(tmp_path, tet_body("T", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, math.nan)], [(0, 1, 2, 3)]))

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import gc
 import math
+import os
 import warnings
 
 import numpy as np
@@ -1045,6 +1046,8 @@ def test_topology_of_other_integer_types_reads_as_int(tmp_path):
     ],
 )
 def test_primvar_size_mismatch(tmp_path, name, interpolation, count, fragment):
+    """A primvar whose length does not fit its interpolation is dropped, as Hydra drops it, the mesh drawn as if it
+    had none, with a warning naming the file, the mesh and what is wrong; it stopped the load of the stage."""
     stage, path = make_stage(tmp_path)
     mesh = define_mesh(stage, "/World/Mesh")
     values = Vt.Vec3fArray.FromNumpy(unit_vectors(count).astype(np.float32))
@@ -1053,7 +1056,35 @@ def test_primvar_size_mismatch(tmp_path, name, interpolation, count, fragment):
     else:
         mesh.CreateDisplayColorPrimvar(interpolation).Set(values)
     stage.Save()
-    expect_scene_error(path, "/World/Mesh", fragment)
+    expect_primvar_dropped(path, "/World/Mesh", f"primvars:{name}", fragment)
+
+
+def expect_primvar_dropped(path, prim: str, attribute: str, *fragments):
+    """Loads ``path`` and checks that attribute ``attribute`` of ``prim`` was dropped with one warning naming the
+    file, the prim and ``fragments``: the meshes are those of the stage without it (read as unauthored)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_usd(path)
+    (message,) = [str(w.message) for w in caught if "primvars that do not fit their prim" in str(w.message)]
+    assert message.startswith(f"{path}: ") and message.endswith(f": {prim}"), message
+    assert all(fragment in message for fragment in fragments), message
+    unauthored = Usd.Stage.Open(Sdf.Layer.OpenAsAnonymous(str(path)))
+    assert unauthored.GetPrimAtPath(prim).RemoveProperty(attribute)
+    if attribute.endswith(("displayColor", "st", "normals", "displayOpacity")):
+        unauthored.GetPrimAtPath(prim).RemoveProperty(attribute + ":indices")
+    copy = os.path.join(os.path.dirname(path), "unauthored.usda")
+    unauthored.GetRootLayer().Export(copy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        expected = load(copy)
+    assert len(scene.meshes) == len(expected.meshes)
+    for got, want in zip(scene.meshes, expected.meshes):
+        for field in ("points", "indices", "normals", "colors", "uvs", "opacities"):
+            a, b = getattr(got, field), getattr(want, field)
+            assert (a is None) == (b is None), field
+            if a is not None:
+                np.testing.assert_array_equal(a, b, err_msg=field)
+    return scene
 
 
 SEVERAL = [(0.9, 0.1, 0.2), (0.1, 0.8, 0.3), (0.2, 0.3, 0.7), (0.6, 0.6, 0.1)]  # colours of a constant primvar
@@ -1148,17 +1179,25 @@ def test_a_constant_primvar_warning_names_each_prim_once(tmp_path):
 
 def test_normals_attribute_size_mismatch(tmp_path):
     body = mesh_usda(extra='normal3f[] normals = [(0, 0, 1), (0, 0, 1)] (interpolation = "vertex")')
-    expect_scene_error(write_usda(tmp_path, body), "/Mesh", "normals has 2 values; vertex interpolation needs 7")
+    expect_primvar_dropped(write_usda(tmp_path, body), "/Mesh", "normals",
+                           "normals has 2 values; vertex interpolation needs 7")
 
 
-def test_indexed_primvar_bad_index(tmp_path):
+@pytest.mark.parametrize("name", ["displayColor", "displayOpacity", "normals"])
+def test_indexed_primvar_bad_index(tmp_path, name):
+    """Indices out of range: USD's ComputeFlattened fails (None, with a warning) and Hydra drops the primvar; wrt
+    drops it too, the mesh drawn as if it had none, with a warning naming the file, the mesh, the primvar and the
+    index. It stopped the load of the stage."""
     stage, path = make_stage(tmp_path)
     mesh = define_mesh(stage)
-    colors = mesh.CreateDisplayColorPrimvar("uniform")
-    colors.Set(Vt.Vec3fArray([Gf.Vec3f(1, 0, 0)]))
-    colors.SetIndices(Vt.IntArray([0, 3]))
+    type_name = {"displayColor": Sdf.ValueTypeNames.Color3fArray, "displayOpacity": Sdf.ValueTypeNames.FloatArray,
+                 "normals": Sdf.ValueTypeNames.Normal3fArray}[name]
+    primvar = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar(name, type_name, "uniform")
+    primvar.Set([Gf.Vec3f(0.6, 0.8, 0)] if name != "displayOpacity" else [0.5])
+    primvar.SetIndices(Vt.IntArray([0, 3]))
     stage.Save()
-    expect_scene_error(path, "/Mesh", "indices[1] = 3 is out of range")
+    assert primvar.ComputeFlattened() is None  # the oracle: USD cannot flatten it
+    expect_primvar_dropped(path, "/Mesh", f"primvars:{name}", f"primvars:{name}:indices[1] = 3 is out of range")
 
 
 def test_bad_camera(tmp_path):

@@ -20,7 +20,7 @@ from .primitives import (
 from .scene import Mesh
 from .tubes import width_axis
 from .usd_contents import Content, Context, instance_looks
-from .usd_primvars import first_of_constant
+from .usd_primvars import first_of_constant, flattened
 from .usd_values import value_at
 from .usd_xforms import affine_part
 
@@ -42,9 +42,10 @@ class GprimReading:
         to_world = affine_part(m, lambda reason: self._skip(reason, prim)).T @ local
 
         material_id, primvar, color = self._gprim_look(prim, ctx)
-        if primvar is not None:
+        raw = flattened(primvar, t, prim, self._skip) if primvar is not None else None
+        if raw is not None:  # (indices out of range: dropped with a warning, the colour as if unauthored)
             color = np.full(3, 0.5, np.float32)
-            values = np.asarray(primvar.ComputeFlattened(t) or [], np.float64)
+            values = np.asarray(raw or [], np.float64)
             values = values[:, :3] if values.ndim == 2 else values.reshape(-1, 3)  # the rgb of a color4f
             if primvar.GetInterpolation() == UsdGeom.Tokens.constant:
                 values = first_of_constant(values, prim, primvar.GetAttr().GetName(), self._skip)

@@ -9,7 +9,7 @@ from pxr import Usd, UsdGeom
 
 from .usd_ancestors import BLOCKED
 from .usd_contents import Context
-from .usd_primvars import first_of_constant, unit_opacities
+from .usd_primvars import first_of_constant, flattened, unit_opacities
 from .usd_values import read_time
 
 
@@ -52,7 +52,7 @@ class LookReading:
         """The flattened values of ``displayOpacity`` primvar ``primvar`` at the reader's time as float64 (maybe
         none; a constant one's first, see :func:`wrt.usd_primvars.first_of_constant`), or None when they are not an
         array of numbers."""
-        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        raw = flattened(primvar, read_time(primvar.GetAttr(), self.time), primvar.GetAttr().GetPrim(), self._skip)
         values = np.asarray(raw if raw is not None else [])
         if values.ndim != 1 or values.dtype.kind not in "fiu":
             return None
@@ -100,7 +100,8 @@ class LookReading:
             primvar = inherited.get(name)
             if primvar is None:
                 continue
-            values = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+            values = flattened(primvar, read_time(primvar.GetAttr(), self.time), primvar.GetAttr().GetPrim(),
+                               self._skip)
             values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
             if len(values) >= 3 and np.all(np.isfinite(values[:3])):
                 found.append((name, tuple(float(v) for v in values[:3])))

@@ -7,7 +7,7 @@ import numpy as np
 from pxr import UsdGeom
 
 from .usd_ancestors import BLOCKED
-from .usd_primvars import finite_colors, first_of_constant, unit_opacities
+from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, unit_opacities
 from .usd_values import value_at
 
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -66,7 +66,7 @@ class MeshPrimvarReading:
 
     def _read_uvs(self, prim, topology, uv_set: str, fallback: np.ndarray):
         """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (the first two
-        components of 3- or 4-vectors), or None when it is not an array of such vectors. A mesh without it takes
+        components of 3- or 4-vectors). A mesh without it, or whose one cannot be used (dropped with a warning), takes
         ``fallback`` (``(2,)``, its primvar reader's) at every corner, as the specification's UsdPrimvarReader gives,
         with a warning naming the primvar and the texture-coordinate primvars the mesh has: it read its only other
         2-vector primvar instead, silently, and without one sampled the texture at st = (0, 0) (whatever the
@@ -88,7 +88,8 @@ class MeshPrimvarReading:
                 if bad:
                     self._skip("texture coordinates that are not finite were read as none: the textures there show "
                                "their fallback", prim, f"{uv_set}: {bad} of {len(found[0])} values")
-            return found
+                return found
+            # Dropped (warned about): read as unauthored, the fallback below, not st = (0, 0) at every corner.
         others = [str(p.GetPrimvarName()) for p in api.GetPrimvarsWithValues()
                   if str(p.GetTypeName()) in TEXTURE_COORDINATE_TYPES]
         reason = ("meshes without the texture-coordinate primvar their material reads show the texture at the "
@@ -101,7 +102,8 @@ class MeshPrimvarReading:
         """Reads a primvar of ``components``-vectors and maps it to triangle corners.
 
         Returns ``(values (K, components) float64, corner_index (T, 3) int64)`` so that ``values[corner_index]`` is
-        the per-corner data, or None (with a warning) when the value is not an array of such vectors.
+        the per-corner data, or None (with a warning) when the value is not an array of such vectors, an index is out
+        of range or the length does not fit the interpolation (:data:`wrt.usd_primvars.PRIMVAR_DROPPED`).
         """
         counts, face_indices, tri_corners, face_ids, n_points, refinement = topology
         name = attr.GetName()
@@ -143,20 +145,19 @@ class MeshPrimvarReading:
             "varying": (n_points, "one per point"),
             "faceVarying": (len(face_indices), "one per face-vertex"),
         }[interpolation]
+        # A primvar that does not fit is dropped, the mesh drawn as if it had none, as Hydra drops it (and USD's
+        # ComputeFlattened fails for indices out of range): it stopped the load of the whole stage.
         if n_elements != needed[0]:
-            raise self._error(
-                f"{name} has {n_elements} {what}; {interpolation} interpolation needs {needed[0]} ({needed[1]})",
-                prim,
-                attr,
-            )
-
+            self._skip(PRIMVAR_DROPPED, prim,
+                       f"{name} has {n_elements} {what}; {interpolation} interpolation needs {needed[0]} ({needed[1]})")
+            return None
         if indices is not None:
             bad = (indices < 0) | (indices >= len(values))
             if bad.any():
                 i = int(np.argmax(bad))
-                raise self._error(
-                    f"{name}:indices[{i}] = {indices[i]} is out of range for {len(values)} values", prim, attr
-                )
+                self._skip(PRIMVAR_DROPPED, prim,
+                           f"{name}:indices[{i}] = {indices[i]} is out of range for {len(values)} values")
+                return None
         if refinement is not None and interpolation in ("vertex", "varying", "faceVarying"):
             # Per point or per face-vertex data of the control cage becomes data of the refined mesh.
             per_element = values if indices is None else values[indices]

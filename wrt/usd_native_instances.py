@@ -11,6 +11,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Context, instance_looks
+from .usd_primvars import flattened
 from .usd_values import read_time
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
@@ -145,7 +146,7 @@ class NativeInstanceReading:
         primvar = inherited.get("widths")
         if primvar is None:
             return None
-        values = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        values = flattened(primvar, read_time(primvar.GetAttr(), self.time), primvar.GetAttr().GetPrim(), self._skip)
         values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
         if not len(values):
             return None

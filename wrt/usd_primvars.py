@@ -9,6 +9,36 @@ from pxr import Usd
 
 from .usd_values import read_time
 
+# The warning of a primvar dropped: it is read as unauthored.
+PRIMVAR_DROPPED = ("primvars that do not fit their prim (indices out of range, a length its interpolation does not "
+                   "take) were ignored, read as unauthored, as Hydra drops them")
+
+
+def index_problem(primvar, time: Usd.TimeCode) -> str | None:
+    """What is wrong with the indices of indexed ``primvar`` at ``time`` (``displayColor:indices[2] = 5 is out of
+    range for 1 values``), or None: the reason ``ComputeFlattened`` failed (it returns None, with a warning)."""
+    if not primvar.IsIndexed():
+        return None
+    indices = np.asarray(primvar.GetIndicesAttr().Get(time) or [], np.int64).reshape(-1)
+    values = primvar.GetAttr().Get(time)
+    n = len(values) if values is not None else 0
+    bad = (indices < 0) | (indices >= n)
+    if not bad.any():
+        return None
+    i = int(np.argmax(bad))
+    return f"{primvar.GetPrimvarName()}:indices[{i}] = {indices[i]} is out of range for {n} values"
+
+
+def flattened(primvar, time: Usd.TimeCode, prim, skip):
+    """``primvar.ComputeFlattened`` at ``time``, or None with a warning (:data:`PRIMVAR_DROPPED`) through ``skip``
+    naming ``prim`` and the index out of range where USD cannot flatten it (it returns None then, and warns)."""
+    raw = primvar.ComputeFlattened(time)
+    if raw is None:
+        problem = index_problem(primvar, time)
+        if problem is not None:
+            skip(PRIMVAR_DROPPED, prim, problem)
+    return raw
+
 
 def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
     """``values`` (rows of colour primvar ``name``), the rows that are not finite replaced by grey 0.5 with a warning
@@ -78,8 +108,12 @@ class FieldReader:
 
     def field(self, prim, primvar, sizes, components):
         """``(interpolation, (k, components) float64)`` of ``primvar`` (flattened through its indices), or None (with
-        a warning) when its elementSize is not 1."""
-        raw = primvar.ComputeFlattened(read_time(primvar.GetAttr(), self.time))
+        a warning) when its elementSize is not 1, an index is out of range or its length does not fit."""
+        time = read_time(primvar.GetAttr(), self.time)
+        raw = primvar.ComputeFlattened(time)
+        if raw is None and (problem := index_problem(primvar, time)) is not None:
+            self.skip(PRIMVAR_DROPPED, prim, problem)
+            return None
         if primvar.GetElementSize() != 1:
             self.skip(f"{primvar.GetPrimvarName()} with elementSize != 1 was ignored", prim)
             return None
@@ -87,11 +121,12 @@ class FieldReader:
 
     def values(self, prim, attr, raw, interpolation, sizes, components):
         """``(interpolation, (k, components) float64)`` of the array ``raw`` of ``attr`` (the rgb of 4-vector colours;
-        ``faceVarying`` read as ``varying``), checked against ``sizes`` (interpolation -> values needed).
+        ``faceVarying`` read as ``varying``), checked against ``sizes`` (interpolation -> values needed): None, with a
+        warning (:data:`PRIMVAR_DROPPED`), for an interpolation the prim type does not take or the wrong length for
+        it, as Hydra drops such a primvar (the prim is drawn as if it had none).
 
         Raises:
-            SceneError: not an array of numbers (or colours), an interpolation the prim type does not take, or the
-                wrong length for it.
+            SceneError: not an array of numbers (or colours).
         """
         values = np.asarray(raw if raw is not None else np.zeros((0, components)))
         name = attr.GetName()
@@ -106,11 +141,13 @@ class FieldReader:
         if interpolation == "constant":
             values = first_of_constant(values, prim, name, self.skip)
         if interpolation not in sizes:
-            raise self.error(f"{name} has interpolation {interpolation!r}; {prim.GetTypeName()} prims take "
-                             f"{', '.join(sizes)}", prim, attr)
+            self.skip(PRIMVAR_DROPPED, prim, f"{name} has interpolation {interpolation!r}; {prim.GetTypeName()} "
+                      f"prims take {', '.join(sizes)}")
+            return None
         if len(values) != sizes[interpolation]:
-            raise self.error(f"{name} has {len(values)} values; {interpolation} interpolation needs "
-                             f"{sizes[interpolation]}", prim, attr)
+            self.skip(PRIMVAR_DROPPED, prim, f"{name} has {len(values)} values; {interpolation} interpolation "
+                      f"needs {sizes[interpolation]}")
+            return None
         values = values[:, :components]
         if components == 3:
             values = finite_colors(values, prim, name, self.skip)
@@ -118,4 +155,5 @@ class FieldReader:
         return interpolation, values
 
 
-__all__ = ["CONSTANT_OF_SEVERAL", "FieldReader", "finite_colors", "first_of_constant", "unit_opacities"]
+__all__ = ["CONSTANT_OF_SEVERAL", "PRIMVAR_DROPPED", "FieldReader", "finite_colors", "first_of_constant", "flattened",
+           "index_problem", "unit_opacities"]

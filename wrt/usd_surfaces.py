@@ -57,8 +57,8 @@ class SurfaceReader(FieldReader):
         """The boundary of TetMesh ``prim`` of ``points`` ``(n, 3)``, or None when it has no tetrahedra.
 
         Raises:
-            SceneError: ``tetVertexIndices`` is not ``int4[]`` or indexes past the points, a point is not finite, or
-                a colour has the wrong length for its interpolation.
+            SceneError: ``tetVertexIndices`` is not ``int4[]`` or indexes past the points, or a point is not finite
+                (a colour of the wrong length for its interpolation is dropped with a warning).
         """
         attr = UsdGeom.TetMesh(prim).GetTetVertexIndicesAttr()
         raw = value_at(attr, self.time)
@@ -93,8 +93,8 @@ class SurfaceReader(FieldReader):
 
         Raises:
             SceneError: vertex counts that do not match the points, orders, knots or ranges that make no B-spline,
-                weights that are not positive numbers, a point that is not finite, or a colour of the wrong length for
-                its interpolation.
+                weights that are not positive numbers, or a point that is not finite (a colour of the wrong length for
+                its interpolation is dropped with a warning).
         """
         patch = UsdGeom.NurbsPatch(prim)
         nu, nv = (self._int(prim, a) for a in (patch.GetUVertexCountAttr(), patch.GetVVertexCountAttr()))
