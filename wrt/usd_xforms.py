@@ -200,9 +200,11 @@ class Xforms:
         if not all(op.GetAttr().HasValue() for op in ops):  # an op declared with no value: named where it applies
             return True
         # An inverted scale of a zero component has no inverse: the cache's transform is not finite (_local leaves
-        # the op out). Only inverted scales are asked (rare; pivots are inverted translates).
-        if any(op.IsInverseOp() and op.GetOpType() in SCALE_OPS and not _finite_op(op, self._op_time(op.GetAttr()))
-               for op in ops):
+        # the op out). Only inverted scales are asked (rare; pivots are inverted translates), and the ops only where
+        # the order names an inverted op at all (one string search for most prims).
+        if INVERT in " ".join(order) and any(
+                op.IsInverseOp() and op.GetOpType() in SCALE_OPS and not _finite_op(op, self._op_time(op.GetAttr()))
+                for op in ops):
             return True
         if not self._time.IsDefault():
             return False
