@@ -334,6 +334,14 @@ class Camera:
             return h * aspect, h
         return w, h  # adjustPixelAspectRatio
 
+    def image_aspect(self) -> float | None:
+        """Width / height in pixels of the image whose film is exactly the apertures (pixels of
+        :attr:`pixel_aspect_ratio`), as ``usdrecord --imageWidth`` sizes its image; ``None`` under a :attr:`fit`
+        that keeps one aperture only (``look_at``'s ``"vertical"``), where the other does not shape the film."""
+        if self.fit in ("horizontal", "vertical", "adjustApertureWidth", "adjustApertureHeight"):
+            return None
+        return self.horizontal_aperture / self.vertical_aperture / self.pixel_aspect_ratio
+
     def rendered_pixel_aspect(self, width: int, height: int) -> float:
         """Width / height of one pixel of a ``width x height`` image on the film: :attr:`pixel_aspect_ratio`, except
         under ``adjustPixelAspectRatio``, whose film is the apertures whatever the pixel counts (the shape an EXR's

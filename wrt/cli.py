@@ -246,9 +246,9 @@ def _add_render(sub) -> None:
                    "bytes: a number with an optional K, M, G or T suffix (powers of 1024), e.g. 4G; default: no limit "
                    "but the device's free memory")
     p.add_argument("--width", type=positive_int, help="image width in pixels; default: the stage's RenderSettings "
-                   "resolution, else 640")
+                   "resolution, else 640 (given alone: the camera's aspect fixes the height)")
     p.add_argument("--height", type=positive_int, help="image height in pixels; default: the stage's RenderSettings "
-                   "resolution, else 480")
+                   "resolution, else 480 (given alone: the camera's aspect fixes the width)")
     p.add_argument("--camera", help=CAMERA_HELP)
     add_stage_options(p)
     from .render import MAX_SPP
@@ -828,9 +828,9 @@ def _add_preview(sub) -> None:
     )
     p.add_argument("--image", action="store_true", help="render with wrt and show the image on the image plane")
     p.add_argument("--width", type=positive_int, help="image width in pixels (frustum aspect, --image); default: the "
-                   "stage's RenderSettings resolution, else 640")
+                   "stage's RenderSettings resolution, else 640 (given alone: the camera's aspect fixes the height)")
     p.add_argument("--height", type=positive_int, help="image height in pixels; default: the stage's RenderSettings "
-                   "resolution, else 480")
+                   "resolution, else 480 (given alone: the camera's aspect fixes the width)")
     p.add_argument("--window", type=_window_size, default="1280x800", metavar="WxH", help="window (or PNG) size")
     p.add_argument(
         "--max-triangles",

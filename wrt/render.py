@@ -131,18 +131,33 @@ def resolve_camera(scene: Scene, camera) -> Camera:
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
 
 
+def default_image_size(camera: Camera, width: int | None, height: int | None) -> tuple[int, int]:
+    """``(width, height)`` of a render without render settings: the given ones; where one alone is given, the other
+    keeps ``camera``'s aspect (:meth:`Camera.image_aspect`: its apertures', else the 4:3 of ``DEFAULT_WIDTH x
+    DEFAULT_HEIGHT``), rounded and at least 1, so a smaller image is the same shot, not a stretched one (as
+    ``usdrecord --imageWidth`` takes the height from the camera); neither: ``DEFAULT_WIDTH x DEFAULT_HEIGHT``."""
+    if width is None and height is None:
+        return DEFAULT_WIDTH, DEFAULT_HEIGHT
+    aspect = camera.image_aspect() or DEFAULT_WIDTH / DEFAULT_HEIGHT
+    if height is None:
+        return width, max(1, round(width / aspect))
+    if width is None:
+        return max(1, round(height * aspect)), height
+    return width, height
+
+
 def resolve_view(scene: Scene, camera=None, width: int | None = None, height: int | None = None, settings=None):
     """``(camera, width, height)`` a render of ``scene`` uses: each of ``camera``, ``width`` and ``height`` that is
     given, else the stage's render settings' (``settings``, by default ``Scene.render_settings``: its camera, its
-    resolution), else wrt's default (:func:`resolve_camera`, ``DEFAULT_WIDTH x DEFAULT_HEIGHT``). A stage camera
+    resolution), else wrt's default (:func:`resolve_camera`, :func:`default_image_size`). A stage camera
     (``None`` or a prim path) then takes the settings' conform policy, pixel aspect ratio, depth of field and data
     window (which may make the image smaller: the pixels inside it); the camera wrt makes to frame a stage without
     cameras takes the data window only (its film is wrt's, not the stage's); a :class:`Camera` object is used as it
     is."""
     settings = scene.render_settings if settings is None else settings
     if settings is None:
-        return (resolve_camera(scene, camera), DEFAULT_WIDTH if width is None else width,
-                DEFAULT_HEIGHT if height is None else height)
+        cam = resolve_camera(scene, camera)
+        return (cam, *default_image_size(cam, width, height))
     width, height = settings.image_size(width, height)
     if camera is None and settings.camera is not None:
         if settings.camera in scene.skipped_cameras:
@@ -316,6 +331,8 @@ def resolve_views(scene: Scene, cameras: list, width: int | None, height: int | 
             views.append(resolve_view(scene, camera, width, height))
         except TypeError as error:
             raise TypeError(f"cameras[{k}] of {len(cameras)}: {error}") from None
+        if scene.render_settings is None:  # one image size: a side not given follows the first camera's aspect
+            width, height = views[0][1:]
     return views
 
 
@@ -345,8 +362,9 @@ class Renderer:
         scene: the scene to render.
         camera: a :class:`Camera`, a camera prim path, or ``None`` (see :func:`resolve_view`: the stage's render
             settings choose it, and frame stage cameras).
-        width: image width in pixels; ``None``: the render settings' resolution, else 640.
-        height: image height in pixels; ``None``: the render settings' resolution, else 480.
+        width: image width in pixels; ``None``: the render settings' resolution, else 640 (else the camera's aspect
+            of ``height``: :func:`default_image_size`).
+        height: image height in pixels; ``None``: the render settings' resolution, else 480 (likewise).
         device: Warp device; Warp's default device when ``None``.
         builder: BVH builder name.
         accel: ``"wrt"`` or ``"warp"``.
@@ -554,7 +572,10 @@ class Renderer:
     def set_cameras(self, cameras) -> None:
         """Renders from ``cameras`` (a list, tuple or generator; any length) from now on, e.g. new poses each
         simulation step; the BVH, materials and lights stay (a default headlight turns with each camera)."""
-        views = resolve_views(self.scene, camera_list(cameras), *self._asked_size)
+        # Without render settings the size is the one made (a side not given took the first camera's aspect then);
+        # with them, the size asked for, which each stage camera's data window crops again.
+        asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
+        views = resolve_views(self.scene, camera_list(cameras), *asked)
         _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
         cameras = [view[0] for view in views]
         n = len(cameras) * self.width * self.height
@@ -1022,8 +1043,9 @@ def render(
         scene: a :class:`Scene` (``wrt.load_usd(path)`` or built in Python).
         camera: a :class:`Camera` (``Camera.look_at(eye, target)``), a camera prim path, or ``None``: the stage's
             render settings' camera, else its first camera, else one that frames the scene.
-        width: image width in pixels; ``None``: the render settings' resolution, else 640.
-        height: image height in pixels; ``None``: the render settings' resolution, else 480.
+        width: image width in pixels; ``None``: the render settings' resolution, else 640 (else the camera's aspect
+            of ``height``: :func:`default_image_size`).
+        height: image height in pixels; ``None``: the render settings' resolution, else 480 (likewise).
         spp: samples per pixel (a positive integer).
         device: Warp device (``"cpu"``, ``"cuda:0"``); ``None``: Warp's default device.
         seed: seed of every random decision, 0 to 2^31 - 1; the same seed gives the same image on one device.
