@@ -8,7 +8,8 @@ then, for each ``RenderProduct`` of its ``products``, overridden by the values t
 ``UsdRenderComputeSpec`` merges them (one :class:`RenderSettings` per product in ``products``, each with its
 ``productName``, ``productType`` and ``orderedVars`` RenderVars: ``sourceName``, ``sourceType``, ``dataType``). The
 settings object itself is the merge with the first product. ``includedPurposes``, ``materialBindingPurposes`` and
-``renderingColorSpace`` are the settings prim's own (they cannot vary per product). A product that cannot be read (a
+``renderingColorSpace`` are the settings prim's own (they cannot vary per product). Every value is read at the
+render's time (``load_usd(..., time=T)``). A product that cannot be read (a
 camera that is no camera, a value the schema does not allow) is left out with a warning naming it, the first too. A
 render uses the first product's camera and resolution where the caller did not say otherwise (see
 :func:`wrt.render.resolve_view`): an explicit camera, width or height wins over the stage's (one size alone keeps the
@@ -179,9 +180,12 @@ class RenderSettings:
         return cropped, j1 - j0, k1 - k0
 
 
-def read_render_settings(stage, source: str, path: str | None = None) -> RenderSettings | None:
+def read_render_settings(stage, source: str, path: str | None = None, time=None) -> RenderSettings | None:
     """The render settings at prim ``path``, else those ``renderSettingsPrimPath`` names; ``None`` when neither, or
-    (with a warning) when the metadata names no ``RenderSettings`` prim.
+    (with a warning) when the metadata names no ``RenderSettings`` prim. Their attributes are read at ``time`` (a
+    ``Usd.TimeCode``; ``None``: the default time, where a value of time samples only is read at its first, as
+    :func:`wrt.usd_values.value_at` reads every attribute), the render's: the schema makes them ``uniform``, yet
+    stages do animate them (a ``productName`` per frame), and a render of frame 12 is then frame 12's.
 
     Raises:
         SceneError: naming the file and prim: no ``RenderSettings`` prim at the ``path`` given, or on the settings
@@ -189,8 +193,9 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
             value the schema does not allow (a resolution that is not positive, a pixel aspect ratio that is not a
             finite positive number, an unknown conform policy, a data window that is not finite or empty).
     """
-    from pxr import Sdf, UsdRender
+    from pxr import Sdf, Usd, UsdRender
 
+    time = Usd.TimeCode.Default() if time is None else time
     name = os.path.basename(source)
     given = path is not None
     if not given:
@@ -213,25 +218,25 @@ def read_render_settings(stage, source: str, path: str | None = None) -> RenderS
         return None
     path = str(path)
     settings = UsdRender.Settings(prim)
-    base = _read_base(settings, authored_only=False)
-    included = [str(t) for t in _value_or_fallback(settings.GetIncludedPurposesAttr()) or []]
+    base = _read_base(settings, time, authored_only=False)
+    included = [str(t) for t in _value_or_fallback(settings.GetIncludedPurposesAttr(), time) or []]
     base["included_purposes"] = ("default", *(t for t in included if t != "default"))  # default: always drawn
     binding_purposes = settings.GetMaterialBindingPurposesAttr()
     if binding_purposes.HasAuthoredValue():
-        base["material_binding_purposes"] = tuple(str(t) for t in binding_purposes.Get() or [])
-    base["rendering_color_space"] = str(settings.GetRenderingColorSpaceAttr().Get() or "")
+        base["material_binding_purposes"] = tuple(str(t) for t in _value_at(binding_purposes, time) or [])
+    base["rendering_color_space"] = str(_value_at(settings.GetRenderingColorSpaceAttr(), time) or "")
     _check_values(base, dict(path=source, prim=path))
     _warn_color_space(base["rendering_color_space"], f"{name}: {path}")
     products = []
     for prim in _targets(stage, settings.GetProductsRel(), UsdRender.Product, f"{name}: {path}"):
         try:
-            products.append(_merged(stage, source, path, base, prim))
+            products.append(_merged(stage, source, path, base, prim, time))
         except SceneError as error:
             # A product must not keep the stage from loading, the first no more than a later one: a plain render
             # then uses the first product that can be read, or the settings' own values when none can.
             warnings.warn(f"{error}; this RenderProduct is left out", stacklevel=user_stacklevel())
     if not products:
-        return _merged(stage, source, path, base, None)
+        return _merged(stage, source, path, base, None, time)
     return dataclasses.replace(products[0], products=tuple(products))
 
 
@@ -251,21 +256,22 @@ def _targets(stage, rel, schema, where: str) -> list:
     return prims
 
 
-def _merged(stage, source: str, path: str, base: dict, product_prim) -> RenderSettings:
+def _merged(stage, source: str, path: str, base: dict, product_prim, time) -> RenderSettings:
     """The settings at ``path`` (``base``: their values) merged with the overrides of ``product_prim`` (or None),
-    with the product's name, type and RenderVars, as ``UsdRenderComputeSpec`` builds each product."""
+    with the product's name, type and RenderVars at ``time``, as ``UsdRenderComputeSpec`` builds each product."""
     from pxr import UsdGeom, UsdRender
 
     values, camera_from = dict(base), path
     if product_prim is not None:
         product = str(product_prim.GetPath())
         schema = UsdRender.Product(product_prim)
-        overrides = _read_base(schema, authored_only=True)
+        overrides = _read_base(schema, time, authored_only=True)
         camera_from = product if "camera" in overrides else path
-        values.update(overrides, product=product, product_name=str(schema.GetProductNameAttr().Get() or ""),
-                      product_type=str(schema.GetProductTypeAttr().Get() or "raster"))
+        values.update(overrides, product=product,
+                      product_name=str(_value_at(schema.GetProductNameAttr(), time) or ""),
+                      product_type=str(_value_at(schema.GetProductTypeAttr(), time) or "raster"))
         where = f"{os.path.basename(source)}: {product}"
-        values["render_vars"] = tuple(_read_var(UsdRender.Var(var))
+        values["render_vars"] = tuple(_read_var(UsdRender.Var(var), time)
                                       for var in _targets(stage, schema.GetOrderedVarsRel(), UsdRender.Var, where))
     camera = values.get("camera")
     if camera is not None:
@@ -279,12 +285,14 @@ def _merged(stage, source: str, path: str, base: dict, product_prim) -> RenderSe
     return RenderSettings(path=path, source=source, **values)
 
 
-def _read_var(var) -> RenderVar:
-    """The :class:`RenderVar` of a ``UsdRender.Var`` (the schema's fallbacks where nothing is authored)."""
-    aov_name = var.GetPrim().GetAttribute("driver:parameters:aov:name").Get()  # a driver parameter: no schema getter
-    return RenderVar(path=str(var.GetPath()), source_name=str(var.GetSourceNameAttr().Get() or ""),
-                     source_type=str(var.GetSourceTypeAttr().Get() or "raw"),
-                     data_type=str(var.GetDataTypeAttr().Get() or "color3f"),
+def _read_var(var, time) -> RenderVar:
+    """The :class:`RenderVar` of a ``UsdRender.Var`` at ``time`` (the schema's fallbacks where nothing is
+    authored)."""
+    aov_name = var.GetPrim().GetAttribute("driver:parameters:aov:name")  # a driver parameter: no schema getter
+    aov_name = _value_at(aov_name, time) if aov_name else None
+    return RenderVar(path=str(var.GetPath()), source_name=str(_value_at(var.GetSourceNameAttr(), time) or ""),
+                     source_type=str(_value_at(var.GetSourceTypeAttr(), time) or "raw"),
+                     data_type=str(_value_at(var.GetDataTypeAttr(), time) or "color3f"),
                      aov_name=aov_name.strip() if isinstance(aov_name, str) else "")
 
 
@@ -296,9 +304,9 @@ def _warn_color_space(space: str, where: str) -> None:
                       "which wrt renders in; colours are not converted", stacklevel=user_stacklevel())
 
 
-def _read_base(schema, authored_only: bool) -> dict:
-    """The ``UsdRenderSettingsBase`` values of ``schema`` as :class:`RenderSettings` fields: every one (fallbacks
-    included), or only those authored (a product's overrides)."""
+def _read_base(schema, time, authored_only: bool) -> dict:
+    """The ``UsdRenderSettingsBase`` values of ``schema`` at ``time`` as :class:`RenderSettings` fields: every one
+    (fallbacks included), or only those authored (a product's overrides)."""
     values = {}
     targets = schema.GetCameraRel().GetForwardedTargets()
     if targets:
@@ -313,7 +321,7 @@ def _read_base(schema, authored_only: bool) -> dict:
     for field, attr in attrs.items():
         if authored_only and not attr.HasAuthoredValue():  # a blocked value too: it overrides nothing
             continue
-        value = _value_or_fallback(attr)
+        value = _value_or_fallback(attr, time)
         if field in ("resolution", "data_window"):
             value = tuple(value)
         elif field == "conform_policy":
@@ -322,11 +330,19 @@ def _read_base(schema, authored_only: bool) -> dict:
     return values
 
 
-def _value_or_fallback(attr):
-    """``attr``'s value, or the schema's fallback where a value block (``= None``) leaves it none: a blocked value is
-    no value, as where nothing is authored (``Get`` gives None there, and a blocked resolution failed as a bare
-    TypeError)."""
-    value = attr.Get()
+def _value_at(attr, time):
+    """``attr`` at ``time`` by wrt's rule (:func:`wrt.usd_values.value_at`: a default-time read of time samples only
+    gives the first)."""
+    from .usd_values import value_at
+
+    return value_at(attr, time)
+
+
+def _value_or_fallback(attr, time):
+    """``attr``'s value at ``time``, or the schema's fallback where a value block (``= None``) leaves it none: a
+    blocked value is no value, as where nothing is authored (``Get`` gives None there, and a blocked resolution failed
+    as a bare TypeError)."""
+    value = _value_at(attr, time)
     if value is None:
         value = attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
     return value

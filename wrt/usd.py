@@ -193,7 +193,7 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
         stage = open_variants(source, variants)
     else:
         stage = frames.stage(source, variants)
-    settings = read_render_settings(stage, source, render_settings)
+    settings = read_render_settings(stage, source, render_settings, time_code)  # at the render's time
     if stage.GetTimeCodesPerSecond() <= 0:
         # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
         warnings.warn(f"{os.path.basename(source)}: timeCodesPerSecond = {stage.GetTimeCodesPerSecond():g} is invalid; "

@@ -1,0 +1,72 @@
+"""Render settings read at the render's time (``load_usd(time=...)``, a ``--frames`` frame), as
+``Usd.Attribute.Get(time)`` reads them; the default time reads a value of time samples only at its first, as wrt reads
+every attribute. They were read at the default time only: a time-sampled ``resolution`` gave the schema's 2048x1080."""
+
+import numpy as np
+from pxr import Usd, UsdRender
+
+import wrt
+from wrt.cli import main
+
+STAGE = """#usda 1.0
+(
+    renderSettingsPrimPath = "/Render/Settings"
+    startTimeCode = 1
+    endTimeCode = 2
+)
+def Cube "Box"
+{
+    double size = 1
+}
+def Camera "Cam"
+{
+    double3 xformOp:translate = (0, 0, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Scope "Render"
+{
+    def RenderSettings "Settings"
+    {
+        rel camera = </Cam>
+        uniform int2 resolution.timeSamples = {1: (12, 6), 2: (8, 10)}
+        uniform float4 dataWindowNDC.timeSamples = {1: (0, 0, 1, 1), 2: (0, 0, 0.5, 1)}
+        rel products = </Render/Product>
+    }
+    def RenderProduct "Product"
+    {
+        token productName.timeSamples = {1: "beauty.0001.exr", 2: "beauty.0002.exr"}
+        uniform float pixelAspectRatio.timeSamples = {1: 1, 2: 2}
+    }
+}
+"""
+
+
+def usd_values(path, time):
+    """``(resolution, dataWindowNDC, productName, pixelAspectRatio)`` as USD reads them at ``time``."""
+    stage = Usd.Stage.Open(str(path))
+    settings = UsdRender.Settings(stage.GetPrimAtPath("/Render/Settings"))
+    product = UsdRender.Product(stage.GetPrimAtPath("/Render/Product"))
+    return (tuple(settings.GetResolutionAttr().Get(time)), tuple(settings.GetDataWindowNDCAttr().Get(time)),
+            product.GetProductNameAttr().Get(time), product.GetPixelAspectRatioAttr().Get(time))
+
+
+def test_settings_are_read_at_the_load_time(tmp_path):
+    path = tmp_path / "shot.usda"
+    path.write_text(STAGE)
+    for time, usd_time in ((1, 1), (2, 2), (1.5, 1.5), (None, Usd.TimeCode.EarliestTime())):
+        settings = wrt.load_usd(path, time=time).render_settings
+        resolution, window, name, ratio = usd_values(path, usd_time)
+        assert settings.resolution == resolution, time
+        np.testing.assert_allclose(settings.data_window, window)
+        assert settings.product_name == name and settings.pixel_aspect_ratio == ratio, time
+    assert wrt.load_usd(path, time=2).render_settings.resolution == (8, 10)  # not the schema's 2048x1080
+
+
+def test_frames_render_each_frame_at_its_settings(tmp_path):
+    path = tmp_path / "shot.usda"
+    path.write_text(STAGE)
+    assert main(["render", str(path), "--frames", "1:2", "-o", str(tmp_path / "f_#.npy"), "-q"]) == 0
+    for frame in (1, 2):
+        (width, height), window = usd_values(path, frame)[:2]
+        shown = round(width * (window[2] - window[0])), round(height * (window[3] - window[1]))
+        assert np.load(tmp_path / f"f_{frame}.npy").shape == (shown[1], shown[0], 3)
