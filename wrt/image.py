@@ -168,6 +168,16 @@ def write_atomically(path: Path, write) -> None:
         partial.unlink(missing_ok=True)
 
 
+def exr_windows(window: tuple[int, int, int, int] | None, width: int, height: int) -> dict:
+    """The EXR header's ``displayWindow`` and ``dataWindow`` of a ``width x height`` image placed in its shot by
+    ``window`` (:attr:`Image.window`: the shot's width and height, the image's top-left pixel in it; ``None``: the
+    image is the whole shot), so that a compositor places a crop where it lies in the shot. One rule for
+    :meth:`Image.save` and the render products (:func:`wrt.render_products.exr_windows`)."""
+    full_w, full_h, x0, y0 = (width, height, 0, 0) if window is None else window
+    return {"displayWindow": (np.array([0, 0], np.int32), np.array([full_w - 1, full_h - 1], np.int32)),
+            "dataWindow": (np.array([x0, y0], np.int32), np.array([x0 + width - 1, y0 + height - 1], np.int32))}
+
+
 def write_exr(path: Path, channels: dict[str, np.ndarray], attributes: dict | None = None) -> None:
     """Writes float32 ``(H, W)`` channels (e.g. ``{"R": r, "G": g, "B": b}``) to an OpenEXR file, with the header
     ``attributes`` (as the OpenEXR package takes them: ``{"dataWindow": (min, max), "id/paths": "..."}``)."""
@@ -231,11 +241,15 @@ class Image:
               ray hit something: the alpha of the antialiased ``rgb``, whose misses add the background.
         pixel_aspect_ratio: width / height of one pixel on the film (UsdRender's ``pixelAspectRatio``; not 1 under
             render settings of non-square pixels), which ``.exr`` files state in their header.
+        window: ``(width, height, x0, y0)`` of the shot this image is a crop of (the render settings'
+            ``dataWindowNDC``) and the image's top-left pixel in it, rows from the top; ``None``: the whole shot.
+            ``.exr`` files write it as their ``displayWindow`` and ``dataWindow``, as EXR render products do.
     """
 
     rgb: np.ndarray
     aovs: dict = dataclasses.field(default_factory=Aovs)
     pixel_aspect_ratio: float = 1.0  # width / height of one pixel on the film, written into the EXR header
+    window: tuple[int, int, int, int] | None = None  # (shot width, height, x0, y0): where a crop lies, EXR's windows
 
     def __post_init__(self):
         self.aovs = Aovs(self.aovs)
@@ -288,7 +302,8 @@ class Image:
             elif suffix == ".exr":
                 rgb = np.asarray(self.rgb, np.float32)
                 write_exr(target, {"R": rgb[..., 0], "G": rgb[..., 1], "B": rgb[..., 2]},
-                          {"pixelAspectRatio": float(self.pixel_aspect_ratio)})
+                          {**exr_windows(self.window, self.width, self.height),
+                           "pixelAspectRatio": float(self.pixel_aspect_ratio)})
             else:
                 with open(target, "wb") as f:  # np.save(path) appends ".npy" to a name ending in ".NPY"
                     np.save(f, self.rgb.astype(np.float32))

@@ -38,7 +38,7 @@ from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
 from .lights import default_lights
 from .materials import emission_estimates, upload_materials
-from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH
+from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
 from .scene import Scene, dataclass_parts, parts_changed
 from .shade import (
@@ -173,6 +173,16 @@ def resolve_view(scene: Scene, camera=None, width: int | None = None, height: in
     if not cam.path:  # made by wrt to frame the scene: the image is still the shot's, data window included
         return settings.crop(cam, width, height)
     return settings.frame(cam, width, height)
+
+
+def view_window(scene: Scene, camera, width: int | None, height: int | None) -> tuple[int, int, int, int] | None:
+    """:attr:`Image.window` of the image :func:`resolve_view` gives for these arguments: the shot's size and the
+    image's top-left pixel in it where the render settings' data window crops it (a stage camera, or the camera that
+    frames a stage without cameras); ``None`` where the image is the whole shot."""
+    settings = scene.render_settings
+    if settings is None or isinstance(camera, Camera) or settings.data_window == FULL_WINDOW:
+        return None
+    return settings.placement(*settings.image_size(width, height))
 
 
 def _check_one_size(views: list, width: int, height: int) -> None:
@@ -409,6 +419,8 @@ class Renderer:
         scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
         views = [resolve_view(scene, camera, width, height)] if cameras is None else resolve_views(scene, cameras,
                                                                                                    width, height)
+        # Where one camera's image is a crop of its shot (Image.window); a batch's images are of many cameras.
+        self._window = view_window(scene, camera, width, height) if cameras is None else None
         width, height = views[0][1:]
         _check_one_size(views, width, height)
         check_pixels(width, height, len(views))
@@ -928,6 +940,7 @@ class Renderer:
         image = finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width, samples),
                              self.integrator, self.scene)
         image.pixel_aspect_ratio = self.camera.rendered_pixel_aspect(self.width, self.height)
+        image.window = self._window
         return image
 
     def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers):

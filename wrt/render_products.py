@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from .image import check_exposure, to_srgb8, write_atomically, write_exr, write_srgb_png
+from .image import exr_windows as image_exr_windows
 from .rays import camera_rays
 from .render import MAX_PATHS_PER_LAUNCH, Renderer, check_pixels, resolve_view
 
@@ -220,11 +221,8 @@ def exr_windows(product, camera) -> dict:
     compositor places a crop where it lies in the shot, and ``pixelAspectRatio``: that of ``camera``, the product's
     view (:func:`wrt.render.resolve_view`), whose pixels have it (the product's own, or under
     ``adjustPixelAspectRatio`` the one computed from the apertures)."""
-    width, height = product.resolution
-    j0, j1, k0, k1 = product.window_pixels(width, height)
-    # EXR rows go down from the top; the window's rows are counted up from the bottom.
-    return {"displayWindow": (np.array([0, 0], np.int32), np.array([width - 1, height - 1], np.int32)),
-            "dataWindow": (np.array([j0, height - k1], np.int32), np.array([j1 - 1, height - 1 - k0], np.int32)),
+    j0, j1, k0, k1 = product.window_pixels(*product.resolution)
+    return {**image_exr_windows(product.placement(*product.resolution), j1 - j0, k1 - k0),
             "pixelAspectRatio": float(camera.pixel_aspect_ratio)}
 
 

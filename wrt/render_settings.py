@@ -158,6 +158,16 @@ class RenderSettings:
                              path=self.source or None, prim=self.product or self.path)
         return j0, j1, k0, k1
 
+    def placement(self, width: int, height: int) -> tuple[int, int, int, int]:
+        """``(width, height, x0, y0)``: a ``width x height`` image and the top-left pixel (counted from its top-left,
+        as EXR counts them) of the pixels the data window holds, where they lie in it (:attr:`wrt.Image.window`).
+
+        Raises:
+            SceneError: the data window holds no pixel centre of the image.
+        """
+        j0, _, _, k1 = self.window_pixels(width, height)
+        return width, height, j0, height - k1  # rows of the window count up from the bottom, EXR's down from the top
+
     def crop(self, camera: Camera, width: int, height: int) -> tuple[Camera, int, int]:
         """``(camera, width, height)`` of the pixels of a ``width x height`` image of ``camera`` that the data window
         holds: a camera whose film is exactly theirs, and their count (``camera`` itself without a window).

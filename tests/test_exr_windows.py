@@ -1,0 +1,77 @@
+"""``Image.save`` to ``.exr`` places a crop of the render settings' ``dataWindowNDC`` in its shot, as EXR render
+products do: ``displayWindow`` the whole resolution, ``dataWindow`` the pixels whose centres lie in the window, rows
+from the top. ``wrt render -o x.exr`` wrote the crop at the origin, as a whole image. The header is read back with
+``struct`` (OpenEXR's file layout), not with the package that wrote it."""
+
+import struct
+
+import numpy as np
+
+import wrt
+from wrt.cli import main
+
+RESOLUTION = (24, 12)
+WINDOW = (0.1, 0.3, 0.6, 0.9)  # xmin, ymin, xmax, ymax; (0, 0) the lower left
+BODY = f"""def Cube "Box"
+{{
+    double size = 1
+}}
+def Camera "Cam"
+{{
+    double3 xformOp:translate = (0, 0, 5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+def Scope "Render"
+{{
+    def RenderSettings "Settings"
+    {{
+        rel camera = </Cam>
+        uniform int2 resolution = {RESOLUTION}
+        uniform float4 dataWindowNDC = {WINDOW}
+        rel products = </Render/Shot>
+    }}
+    def RenderProduct "Shot"
+    {{
+        token productName = "shot.exr"
+    }}
+}}
+"""
+
+
+def box2i_attributes(path) -> dict:
+    """Every ``box2i`` attribute of a single-part EXR header: name -> ``((xmin, ymin), (xmax, ymax))``. The header
+    follows the magic number and version: attributes of name, type (NUL-terminated), int32 size and value, up to an
+    empty name."""
+    data = open(path, "rb").read()
+    assert data[:4] == b"\x76\x2f\x31\x01"
+    at, boxes = 8, {}
+    while data[at] != 0:
+        name_end = data.index(b"\0", at)
+        type_end = data.index(b"\0", name_end + 1)
+        (size,) = struct.unpack_from("<i", data, type_end + 1)
+        if data[name_end + 1:type_end] == b"box2i":
+            x0, y0, x1, y1 = struct.unpack_from("<4i", data, type_end + 5)
+            boxes[data[at:name_end].decode()] = ((x0, y0), (x1, y1))
+        at = type_end + 5 + size
+    return boxes
+
+
+def test_saved_exr_of_a_crop_is_placed_in_its_shot(tmp_path):
+    stage = tmp_path / "shot.usda"
+    stage.write_text(f'#usda 1.0\n(\n    renderSettingsPrimPath = "/Render/Settings"\n)\n{BODY}')
+    stage = str(stage)
+    out = tmp_path / "x.exr"
+    assert main(["render", stage, "-o", str(out), "-q"]) == 0
+    width, height = RESOLUTION
+    columns = [j for j in range(width) if WINDOW[0] <= (j + 0.5) / width < WINDOW[2]]
+    rows = [i for i in range(height) if WINDOW[1] <= 1 - (i + 0.5) / height < WINDOW[3]]  # NDC y goes up
+    boxes = box2i_attributes(out)
+    assert boxes["displayWindow"] == ((0, 0), (width - 1, height - 1))
+    assert boxes["dataWindow"] == ((columns[0], rows[0]), (columns[-1], rows[-1]))
+    products = wrt.render_products(wrt.load_usd(stage), tmp_path / "products", device="cpu")
+    assert box2i_attributes(products["/Render/Shot"]) == boxes  # the products' rule
+
+
+def test_saved_exr_of_a_whole_image_is_at_the_origin(tmp_path):
+    out = wrt.Image(rgb=np.zeros((3, 5, 3), np.float32)).save(tmp_path / "whole.exr")
+    assert box2i_attributes(out) == {"displayWindow": ((0, 0), (4, 2)), "dataWindow": ((0, 0), (4, 2))}
