@@ -65,7 +65,7 @@ class BatchImage:
         aovs = {name: a[k].numpy() for name, a in self.aovs.items()}
         image = finish_image(rgb, aovs, "whitted", self.scene)  # rgb is already final, quick looks included
         shape = self.pixel_aspect_ratios[k] if self.pixel_aspect_ratios else 1.0
-        return Image(rgb=rgb, aovs=image.aovs, pixel_aspect_ratio=shape)
+        return Image(rgb=rgb, aovs=image.aovs, pixel_aspect_ratio=shape, data=self.integrator == "normals")
 
 
 def render_batch(

@@ -60,6 +60,13 @@ def to_srgb8(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     return np.round(linear_to_srgb(scaled) * 255.0).astype(np.uint8)
 
 
+def data_to_8bit(values: np.ndarray) -> np.ndarray:
+    """``(H, W, 3)`` data in [0, 1] (a normal map's ``0.5 (n + 1)``) -> uint8 ``round(255 v)``, not sRGB-encoded:
+    normal maps are stored so (clipped to [0, 1]; NaN written as 0)."""
+    values = np.clip(np.nan_to_num(np.asarray(values, np.float64), nan=0.0), 0.0, 1.0)
+    return np.round(values * 255.0).astype(np.uint8)
+
+
 def write_srgb_png(target, pixels: np.ndarray) -> None:
     """Writes ``(H, W, 3)`` or ``(H, W, 4)`` uint8 sRGB-encoded ``pixels`` (alpha straight, not encoded) as a PNG
     tagged sRGB (:data:`SRGB_PNG_CHUNKS`) to ``target``, a path or a binary file object."""
@@ -128,8 +135,7 @@ def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
         )
     if value.ndim == 3 and value.shape[-1] == 3:
         if "normal" in name:
-            return np.round(np.clip(0.5 * (value + 1.0), 0, 1) * 255
-                            * (np.abs(value).sum(-1, keepdims=True) > 0)).astype(np.uint8)
+            return data_to_8bit(0.5 * (value + 1.0)) * (np.abs(value).sum(-1, keepdims=True) > 0).astype(np.uint8)
         return to_srgb8(value)
     if value.dtype.kind in "iu":
         return _id_colors(value)
@@ -244,12 +250,16 @@ class Image:
         window: ``(width, height, x0, y0)`` of the shot this image is a crop of (the render settings'
             ``dataWindowNDC``) and the image's top-left pixel in it, rows from the top; ``None``: the whole shot.
             ``.exr`` files write it as their ``displayWindow`` and ``dataWindow``, as EXR render products do.
+        data: ``rgb`` holds data, not colour: the ``normals`` integrator's ``0.5 (n + 1)``, which a ``.png`` stores
+            as it is (``round(255 v)``, neither sRGB-encoded nor scaled by ``exposure``), as normal maps are stored
+            and as the ``normal`` AOV's preview is.
     """
 
     rgb: np.ndarray
     aovs: dict = dataclasses.field(default_factory=Aovs)
     pixel_aspect_ratio: float = 1.0  # width / height of one pixel on the film, written into the EXR header
     window: tuple[int, int, int, int] | None = None  # (shot width, height, x0, y0): where a crop lies, EXR's windows
+    data: bool = False  # rgb is data, not colour (the normals integrator's 0.5 (n + 1)): a PNG stores it as it is
 
     def __post_init__(self):
         self.aovs = Aovs(self.aovs)
@@ -279,7 +289,8 @@ class Image:
 
     def _write_png(self, target, exposure: float) -> None:
         """The 8-bit sRGB PNG of ``rgb * 2**exposure`` into ``target``, a path or a binary file object."""
-        write_srgb_png(target, to_srgb8(self.rgb, exposure))
+        # A normal map's values are what a reader takes back, so no transfer curve may change them.
+        write_srgb_png(target, data_to_8bit(self.rgb) if self.data else to_srgb8(self.rgb, exposure))
 
     def save(self, path, exposure: float = 0.0) -> Path:
         """Writes the colour image: ``.exr`` linear HDR float32, ``.npy`` raw linear float32, ``.png`` 8-bit sRGB

@@ -979,7 +979,7 @@ def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
         depth = np.where(hit, out["depth"], 0.0)
         far = float(depth.max()) if hit.any() else 1.0
         rgb = np.repeat((depth / (far or 1.0))[..., None], 3, axis=-1)
-    return Image(rgb=np.asarray(rgb, np.float32).reshape(h, w, 3), aovs=out)
+    return Image(rgb=np.asarray(rgb, np.float32).reshape(h, w, 3), aovs=out, data=integrator == "normals")
 
 
 class _AovBuffers:
