@@ -37,6 +37,7 @@ import warnings
 
 from .camera import CONFORM_POLICIES, Camera
 from .errors import SceneError, user_stacklevel
+from .usd_values import value_at, value_or_fallback
 
 DEFAULT_WIDTH = 640  # image width without a stage resolution or an explicit one, in pixels
 DEFAULT_HEIGHT = 480  # image height, likewise
@@ -229,12 +230,12 @@ def read_render_settings(stage, source: str, path: str | None = None, time=None)
     path = str(path)
     settings = UsdRender.Settings(prim)
     base = _read_base(settings, time, authored_only=False)
-    included = [str(t) for t in _value_or_fallback(settings.GetIncludedPurposesAttr(), time) or []]
+    included = [str(t) for t in value_or_fallback(settings.GetIncludedPurposesAttr(), time) or []]
     base["included_purposes"] = ("default", *(t for t in included if t != "default"))  # default: always drawn
     binding_purposes = settings.GetMaterialBindingPurposesAttr()
     if binding_purposes.HasAuthoredValue():
-        base["material_binding_purposes"] = tuple(str(t) for t in _value_at(binding_purposes, time) or [])
-    base["rendering_color_space"] = str(_value_at(settings.GetRenderingColorSpaceAttr(), time) or "")
+        base["material_binding_purposes"] = tuple(str(t) for t in value_at(binding_purposes, time) or [])
+    base["rendering_color_space"] = str(value_at(settings.GetRenderingColorSpaceAttr(), time) or "")
     _check_values(base, dict(path=source, prim=path))
     _warn_color_space(base["rendering_color_space"], f"{name}: {path}")
     products = []
@@ -278,8 +279,8 @@ def _merged(stage, source: str, path: str, base: dict, product_prim, time) -> Re
         overrides = _read_base(schema, time, authored_only=True)
         camera_from = product if "camera" in overrides else path
         values.update(overrides, product=product,
-                      product_name=str(_value_at(schema.GetProductNameAttr(), time) or ""),
-                      product_type=str(_value_at(schema.GetProductTypeAttr(), time) or "raster"))
+                      product_name=str(value_at(schema.GetProductNameAttr(), time) or ""),
+                      product_type=str(value_at(schema.GetProductTypeAttr(), time) or "raster"))
         where = f"{os.path.basename(source)}: {product}"
         values["render_vars"] = tuple(_read_var(UsdRender.Var(var), time)
                                       for var in _targets(stage, schema.GetOrderedVarsRel(), UsdRender.Var, where))
@@ -299,10 +300,10 @@ def _read_var(var, time) -> RenderVar:
     """The :class:`RenderVar` of a ``UsdRender.Var`` at ``time`` (the schema's fallbacks where nothing is
     authored)."""
     aov_name = var.GetPrim().GetAttribute("driver:parameters:aov:name")  # a driver parameter: no schema getter
-    aov_name = _value_at(aov_name, time) if aov_name else None
-    return RenderVar(path=str(var.GetPath()), source_name=str(_value_at(var.GetSourceNameAttr(), time) or ""),
-                     source_type=str(_value_at(var.GetSourceTypeAttr(), time) or "raw"),
-                     data_type=str(_value_at(var.GetDataTypeAttr(), time) or "color3f"),
+    aov_name = value_at(aov_name, time) if aov_name else None
+    return RenderVar(path=str(var.GetPath()), source_name=str(value_at(var.GetSourceNameAttr(), time) or ""),
+                     source_type=str(value_at(var.GetSourceTypeAttr(), time) or "raw"),
+                     data_type=str(value_at(var.GetDataTypeAttr(), time) or "color3f"),
                      aov_name=aov_name.strip() if isinstance(aov_name, str) else "")
 
 
@@ -331,31 +332,13 @@ def _read_base(schema, time, authored_only: bool) -> dict:
     for field, attr in attrs.items():
         if authored_only and not attr.HasAuthoredValue():  # a blocked value too: it overrides nothing
             continue
-        value = _value_or_fallback(attr, time)
+        value = value_or_fallback(attr, time)
         if field in ("resolution", "data_window"):
             value = tuple(value)
         elif field == "conform_policy":
             value = str(value)
         values[field] = value
     return values
-
-
-def _value_at(attr, time):
-    """``attr`` at ``time`` by wrt's rule (:func:`wrt.usd_values.value_at`: a default-time read of time samples only
-    gives the first)."""
-    from .usd_values import value_at
-
-    return value_at(attr, time)
-
-
-def _value_or_fallback(attr, time):
-    """``attr``'s value at ``time``, or the schema's fallback where a value block (``= None``) leaves it none: a
-    blocked value is no value, as where nothing is authored (``Get`` gives None there, and a blocked resolution failed
-    as a bare TypeError)."""
-    value = _value_at(attr, time)
-    if value is None:
-        value = attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
-    return value
 
 
 def _check_values(values: dict, where: dict) -> None:
