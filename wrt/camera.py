@@ -31,6 +31,8 @@ import warp as wp
 
 from .errors import bottom_row_problem, did_you_mean
 
+wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
+
 APERTURE_UNIT = 0.1  # the film unit in scene units, as in Gf.Camera (orthographic apertures, the thin lens)
 # UsdRender's aspectRatioConformPolicy tokens; Camera.fit takes them and wrt's two names ("horizontal" is
 # adjustApertureHeight and "vertical" adjustApertureWidth under other names).

@@ -43,6 +43,8 @@ import warp as wp
 
 from .textures import TextureError
 
+wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
+
 MAGIC = b"#?"  # every Radiance file's first line starts with it
 SUFFIXES = (".hdr", ".pic", ".rgbe")  # file names read as Radiance images whatever their first bytes
 RLE_MIN_LENGTH = 8  # shortest scanline that may use the adaptive run-length form

@@ -22,6 +22,8 @@ import warp as wp
 
 from .floats import unit_scales
 
+wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
+
 SMALLEST_NORMAL = wp.constant(wp.float64(2.0**-126))  # float32's smallest normal; below it floats step by 2^-149
 SUBNORMAL_STEP = wp.constant(wp.float64(2.0**-149))  # float32's smallest subnormal, the step of every float below it
 SUBNORMAL_STEPS = wp.constant(wp.float64(2.0**149))  # 1 / SUBNORMAL_STEP

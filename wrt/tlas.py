@@ -43,6 +43,7 @@ from .trace import Accelerator, HitBuffer
 from .transforms import mat34, transform_point, transform_vector
 
 wp.set_module_options({"fuse_fp": False})  # bit-identical hits on every device: see the note in wrt/trace.py
+wp.set_module_options({"enable_backward": False})  # no adjoint code: nothing differentiates a trace (wrt/trace.py)
 
 wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})  # the traversal stack type's C++ code
 

@@ -31,14 +31,16 @@ from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .errors import did_you_mean
-from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
+from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
 from .ray_batch import upload_rays
 from .scene import Scene
 
 # No floating-point contraction (FMA) in the trace kernels: the watertight triangle test relies on an edge shared by
 # two triangles giving exactly opposite edge functions (``cx * by - cy * bx``), which a fused multiply-add breaks;
-# and nvrtc and clang fuse different operations, so CUDA and CPU hits would differ near edges.
-wp.set_module_options({"fuse_fp": False})
+# and nvrtc and clang fuse different operations, so CUDA and CPU hits would differ near edges. No backward pass:
+# nothing differentiates a trace, and the adjoint kernels doubled the code compiled at the first render (the forward
+# kernels are the same code either way).
+wp.set_module_options({"fuse_fp": False, "enable_backward": False})
 wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})  # the traversal stack type's C++ code
 
 ACCELERATORS = ("wrt", "warp")  # names accepted by accel=
@@ -57,112 +59,6 @@ trace_bvh_kernel, trace_bvh_kernel_uncounted = closest_hit_kernels(
 
 
 occluded_bvh_kernel = any_hit_kernel(bvh_occluded, DeviceBvh, "occluded_bvh_kernel", __name__)
-
-
-MESH_QUERY_SLACK = wp.constant(1.0 + 2.0**-18)  # relative, on the query length: 32 ulps; 4 were enough
-
-
-@wp.func
-def mesh_query_start(origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float, lower: wp.vec3,
-                     upper: wp.vec3):
-    """Where a ``wp.mesh_query_ray`` for ``[t_min, t_max)`` starts its ray (it accepts ``t >= 0`` only): at
-    ``t_min``, but for a negative ``t_min`` no further back than the ray's entry into the mesh's box ``lower, upper``
-    (nor past the origin, so rays with ``t_min = 0`` and ``t_min < 0`` meet what lies ahead alike). Started at
-    ``t_min`` itself, a ``t_min`` far behind the scene (-1e5 in a unit scene) rounded the start by more than the
-    triangles' size, and ``-inf`` made it NaN: every ray missed."""
-    start = t_min
-    if t_min < 0.0:
-        origin_lower, origin_upper = box_origins(origin, direction)
-        # +inf when the ray misses the box; rounded down by a few ulps, so a hit on the box's face stays ahead.
-        entry = intersect_ray_box(origin_lower, origin_upper, safe_inverse(direction), lower, upper, t_min, t_max)
-        start = wp.max(t_min, wp.min(entry, 0.0))
-    return start
-
-
-@wp.func
-def mesh_query(mesh: wp.uint64, origin: wp.vec3, direction: wp.vec3, t_min: float, t_max: float, lower: wp.vec3,
-               upper: wp.vec3):
-    """Closest hit through ``wp.mesh_query_ray``, restricted to ``[t_min, t_max)`` and in wrt's conventions
-    (``lower, upper``: the mesh's box)."""
-    t = float(wp.inf)
-    u = float(0.0)
-    v = float(0.0)
-    prim = int(-1)
-    if ray_can_hit(origin, direction, t_min, t_max):
-        start = mesh_query_start(origin, direction, t_min, t_max, lower, upper)
-        # Its traversal drops a box entered within rounding of the limit (no slack), so a hit on a flat floor just
-        # below t_max was lost: query a little further and drop what lies at or past t_max here (a closest hit past
-        # t_max means none before it).
-        q = wp.mesh_query_ray(mesh, origin + start * direction, direction, (t_max - start) * MESH_QUERY_SLACK)
-        if q.result and q.t + start < t_max:
-            t = q.t + start
-            u = q.v
-            v = 1.0 - q.u - q.v
-            prim = q.face
-    return t, u, v, prim
-
-
-@wp.kernel
-def trace_mesh_kernel(
-    mesh: wp.uint64,
-    lower: wp.vec3,
-    upper: wp.vec3,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    ts: wp.array[float],
-    us: wp.array[float],
-    vs: wp.array[float],
-    prims: wp.array[wp.int32],
-    costs: wp.array[wp.vec2i],
-):
-    """Closest hit of every ray through Warp's ``wp.Mesh`` BVH (costs are not available: written as 0)."""
-    i = wp.tid()
-    t, u, v, prim = mesh_query(mesh, origins[i], directions[i], t_mins[i], t_maxs[i], lower, upper)
-    ts[i] = t
-    us[i] = u
-    vs[i] = v
-    prims[i] = prim
-    costs[i] = wp.vec2i(0, 0)
-
-
-@wp.kernel
-def occluded_mesh_kernel(
-    mesh: wp.uint64,
-    lower: wp.vec3,
-    upper: wp.vec3,
-    origins: wp.array[wp.vec3],
-    directions: wp.array[wp.vec3],
-    t_mins: wp.array[float],
-    t_maxs: wp.array[float],
-    # outputs
-    blocked: wp.array[wp.int32],
-):
-    """1 for every ray that hits anything in ``[t_min, t_max)`` (``lower, upper``: the mesh's box). A ray with a
-    finite ``t_max`` is blocked exactly when ``trace_mesh_kernel`` finds a hit for it: it is asked through the same
-    closest-hit query, ``mesh_query``. ``wp.mesh_query_ray_anyhit`` gives no ``t`` to check against the limits, and
-    from its start moved to ``t_min`` (or the box entry) its rounding differs from the closest-hit query's: asked
-    first, it blocked 149 of 1,335 rays in ``[t, t + 1 ulp)`` around their own hits where trace found none, and some
-    at ``t_max = t`` with no hit below it (and its traversal, like the closest-hit one's, drops a box entered within
-    rounding of the limit, so it also missed a floor one ulp under ``t_max``). A ray with an infinite ``t_max`` has
-    no limit to lose a box or a hit at and takes ``wp.mesh_query_ray_anyhit``, so ``wp.Mesh`` any-hit rays in the
-    benchmarks (``t_max = inf``) cost Warp's query alone."""
-    i = wp.tid()
-    origin = origins[i]
-    direction = directions[i]
-    t_min = t_mins[i]
-    t_max = t_maxs[i]
-    hit = False
-    if ray_can_hit(origin, direction, t_min, t_max):
-        if wp.isfinite(t_max):
-            t, u, v, prim = mesh_query(mesh, origin, direction, t_min, t_max, lower, upper)
-            hit = prim >= 0
-        else:
-            start = mesh_query_start(origin, direction, t_min, t_max, lower, upper)
-            hit = wp.mesh_query_ray_anyhit(mesh, origin + start * direction, direction, t_max - start)
-    blocked[i] = wp.where(hit, 1, 0)
 
 
 @wp.kernel

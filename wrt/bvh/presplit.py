@@ -23,6 +23,8 @@ import math
 
 import warp as wp
 
+wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
+
 # A piece whose box surface area is below this multiple of its triangle's area is not split. A tilted, well-shaped
 # triangle has 6-12; 16 split far more of chess_set and slowed its diffuse rays on an H200 (GPU_NOTES.md, row 41).
 SPLIT_RATIO = 32.0

@@ -22,6 +22,8 @@ import warp as wp
 from ..geometry import ENTRY_SLACK, ROBUST_FAR_SLACK
 from .stack import STACK_PREAMBLE, WideStack
 
+wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
+
 BOX_PLANES = 6  # lower x, y, z and upper x, y, z: one run of ``width`` floats each per node
 
 

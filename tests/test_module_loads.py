@@ -1,0 +1,65 @@
+"""What the README's first command compiles: Warp builds a whole module (every kernel in it, with its adjoint unless
+the module turns ``enable_backward`` off) the first time any of its kernels is launched, so on a fresh machine a
+render pays for every kernel that shares a module with one it launches.
+
+The render runs in a fresh interpreter, so that no other test has loaded a module; which modules were loaded comes
+from Warp's module registry (``Module.execs``), which kernels were launched from a wrapper around ``wp.launch``.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+RENDER_AND_REPORT = """
+import json, sys
+import warp as wp
+
+launched = set()
+_launch = wp.launch
+
+
+def launch(kernel, *args, **kwargs):
+    launched.add((kernel.module.name, kernel.key))
+    return _launch(kernel, *args, **kwargs)
+
+
+wp.launch = launch
+from wrt.cli import main
+
+main(["render", "--width", "64", "--height", "48", "--device", "cpu", "-o", sys.argv[1]])
+kernels = {}
+for name, module in list(sys.modules.items()):
+    if name.startswith("wrt"):
+        for value in list(vars(module).values()):
+            if isinstance(value, wp.Kernel):
+                kernels.setdefault(value.module.name, set()).add(value.key)
+report = {}
+for name, keys in kernels.items():
+    module = wp.get_module(name)
+    if module.execs:
+        report[name] = {"kernels": sorted(keys), "launched": sorted(k for m, k in launched if m == name),
+                        "enable_backward": module.options["enable_backward"]}
+print(json.dumps(report))
+"""
+
+
+@pytest.fixture(scope="module")
+def default_render_modules(tmp_path_factory):
+    """``{module: {"kernels", "launched", "enable_backward"}}`` of the Warp modules a default ``wrt render`` loaded."""
+    out = tmp_path_factory.mktemp("render") / "wrt.png"
+    result = subprocess.run([sys.executable, "-c", RENDER_AND_REPORT, str(out)], capture_output=True, text=True,
+                            timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert out.is_file()
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def test_default_render_compiles_no_backward_pass(default_render_modules):
+    """Nothing differentiates a render: a module built with its adjoint kernels compiles about twice the code."""
+    assert default_render_modules  # the render loaded modules, and the report found them
+    with_adjoints = [name for name, m in default_render_modules.items() if m["enable_backward"]]
+    assert with_adjoints == []
