@@ -1,5 +1,5 @@
 """Writes a canopy of cut-out leaves over a floor, lit by a distant light: the scene for timing shadow, camera and
-bounce rays that pass cut-out holes (``wrt.shade.occluded_through_holes`` and ``intersect_visible``).
+bounce rays that pass cut-out holes (``wrt.hidden_hits.occluded_through_holes`` and ``intersect_visible``).
 
 Each leaf is a quad of a UsdPreviewSurface whose ``opacity`` comes from the alpha of a checkerboard texture and
 whose ``opacityThreshold`` is 0.5, so half of every leaf is a hole; the leaves lie in ``--layers`` loose layers, so a

@@ -9,8 +9,9 @@ from shading_helpers import quad, top_down_camera
 from test_materials import add_quad, bind, new_stage, preview_material, textured_stage, write_png
 
 import wrt
+from wrt.hidden_hits import CullScratch, occluded_through_holes
 from wrt.primitives import Shape
-from wrt.shade import MAX_CULL_PASSES, MAX_SHADOW_HOLE_PASSES, CullScratch, occluded_through_holes
+from wrt.shade import MAX_CULL_PASSES, MAX_SHADOW_HOLE_PASSES
 
 SUN = wrt.DistantLight(direction=np.array([0.0, 0.0, -1.0]), color=np.full(3, 2.0))  # straight down
 HOLE = wrt.Material("/Looks/Hole", opacity=0.0, opacity_threshold=0.5)  # a hole everywhere

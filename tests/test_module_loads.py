@@ -63,3 +63,22 @@ def test_default_render_compiles_no_backward_pass(default_render_modules):
     assert default_render_modules  # the render loaded modules, and the report found them
     with_adjoints = [name for name, m in default_render_modules.items() if m["enable_backward"]]
     assert with_adjoints == []
+
+
+# Kernels a default render compiles without launching them, each kept beside the kernels it belongs with: the cost of
+# compiling it is small, and a module of its own would be one more module to load.
+COMPILED_UNLAUNCHED = {
+    "trace_bvh_kernel_uncounted",  # the counting trace kernel's twin (traverse.closest_hit_kernels): bounce rays
+    "split_rows_kernel",  # a few lines: rows of flattened instances back to (geometry id, instance)
+    "mean_image_kernel",  # one line: the images of a batch of cameras
+}
+
+
+def test_default_render_compiles_only_modules_of_launched_kernels(default_render_modules):
+    """No module is loaded for a kernel the render does not launch: the path tracer, the wp.Mesh queries and the
+    back-face and cut-out passes (the default scene is double-sided, without cut-outs) share no module with the
+    kernels a whitted render launches."""
+    unlaunched = {name: sorted(set(m["kernels"]) - set(m["launched"]) - COMPILED_UNLAUNCHED)
+                  for name, m in default_render_modules.items()}
+    assert {name: keys for name, keys in unlaunched.items() if keys} == {}
+    assert all(m["launched"] for m in default_render_modules.values())

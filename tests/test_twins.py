@@ -1,6 +1,6 @@
 """Coincident single-sided faces of opposite winding (the two-sided leaf: a front face and a reversed back face at
 one place, a material each): each side shows its own face, and the camera ray never falls through the pair
-(``wrt.twins``, ``wrt.shade.cull_hidden_hits_kernel``)."""
+(``wrt.twins``, ``wrt.hidden_hits.cull_hidden_hits_kernel``)."""
 
 import dataclasses
 

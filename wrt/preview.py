@@ -44,11 +44,11 @@ import warp as wp
 
 from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
+from .hidden_hits import CullScratch, intersect_visible
 from .image import to_srgb8
 from .instancing import expand_instance_triangles
 from .render import Renderer, render, resolve_view
 from .scene import Scene, contents_summary
-from .shade import CullScratch, intersect_visible
 from .trace import HitBuffer, get_accelerator, resolve_device
 from .wording import counted
 

@@ -22,10 +22,11 @@ import warp as wp
 
 from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean
+from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
-from .integrators.path import add_unoccluded_kernel, count_alive_kernel, shade_path_kernel
+from .integrators.path import add_unoccluded_kernel, shade_path_kernel
 from .integrators.whitted import (
     ShadowRays,
     add_unoccluded_lights_kernel,
@@ -44,15 +45,13 @@ from .scene import Scene, dataclass_parts, parts_changed
 from .shade import (
     MAX_CULL_PASSES,
     MAX_SHADOW_HOLE_PASSES,
-    CullScratch,
     DeviceSurfaces,
     accumulate_samples_kernel,
     add_covered_kernel,
+    count_alive_kernel,
     count_covered_kernel,
     coverage_kernel,
-    intersect_visible,
     mean_image_kernel,
-    occluded_through_holes,
     primary_aovs_kernel,
     start_paths_kernel,
 )
@@ -568,9 +567,9 @@ class Renderer:
         s.partner_ranges = wp.array(ranges, dtype=wp.vec2i, device=dev)
         self.surfaces = s
         # Camera and bounce rays skip holes of cut-outs, camera rays back faces of single-sided meshes too
-        # (shade.intersect_visible).
+        # (hidden_hits.intersect_visible).
         cut_outs = np.array([False] + [m.opacity_threshold > 0.0 for m in scene.materials])  # per device material
-        # Shadow rays see both sides, but pass through holes too (shade.occluded_through_holes).
+        # Shadow rays see both sides, but pass through holes too (hidden_hits.occluded_through_holes).
         self.no_holes = not cut_outs[geometry_materials].any()
         self.nothing_to_cull = bool(scene.triangle_double_sided().all()) and self.no_holes
         # Whitted lights each UsdLux light (but the dome) separately and all emissive triangles as one light.
@@ -745,8 +744,8 @@ class Renderer:
         passes past holes (which use up no bounce) and shadow rays up to :data:`wrt.shade.MAX_SHADOW_HOLE_PASSES`,
         so the frame passes as many holes in a row as :meth:`render`; without cut-outs back-face culling runs up to
         :data:`CAPTURE_CULL_PASSES` passes. Inside a CUDA graph capture the passes are a loop of the graph that
-        stops once no ray needs another (:func:`wrt.shade.repeat_passes`); outside one, all of them run. Buffers are
-        allocated on the first call, so make one call before capturing. :meth:`frame_image` reads the result. A
+        stops once no ray needs another (:func:`wrt.hidden_hits.repeat_passes`); outside one, all of them run. Buffers
+        are allocated on the first call, so make one call before capturing. :meth:`frame_image` reads the result. A
         recorded graph replays the scene's device arrays as they were: after an edit of the scene, call once outside
         a capture (it builds them again) and record again; :meth:`set_cameras` with the same camera count is
         followed."""
@@ -823,8 +822,8 @@ class Renderer:
 
     def _occluded(self, w: _Wavefront, to_lights: bool = True, shadows: ShadowRays | None = None):
         """``blocked`` of the shadow rays (``shadows``, or ``w``'s own), which pass through the holes of cut-outs (in
-        :meth:`launch_frame` without reading back: :func:`wrt.shade.repeat_passes`) and, when they go ``to_lights``
-        (their ``lights``), through the geometry that casts no shadow of their light."""
+        :meth:`launch_frame` without reading back: :func:`wrt.hidden_hits.repeat_passes`) and, when they go
+        ``to_lights`` (their ``lights``), through the geometry that casts no shadow of their light."""
         shadows = shadows or w.shadow_rays()
         passes = MAX_SHADOW_HOLE_PASSES if self._sync_free else None
         links = self.device_lights.links if to_lights else None

@@ -186,10 +186,10 @@ class Accelerator:
     Limits are taken as the float32 arrays given. Kernels with ``unit_rays`` scale them with each ray's direction
     (``traverse.unit_ray``), which rounds a limit whose product with ``|direction|`` is below float32's normal range
     (1e-38): ``ray_batch.upload_rays(..., unit_rays=True)`` prepares arrays for them, as :func:`trace` does. Renders
-    (``shade.intersect_visible``, shadow and cull passes) and ``wrt bench`` call these methods with limits as their
-    kernels compute them, unrounded: their directions are unit length, whose limits ``unit_ray`` scales by 1 or
+    (``hidden_hits.intersect_visible``, shadow and cull passes) and ``wrt bench`` call these methods with limits as
+    their kernels compute them, unrounded: their directions are unit length, whose limits ``unit_ray`` scales by 1 or
     1/2, so only a limit below 2^-125 could round, and theirs are 0, inf, clipping distances, light distances or a
-    culled hit's ``t`` plus at least 1e-30 (``shade.t_past``).
+    culled hit's ``t`` plus at least 1e-30 (``hidden_hits.t_past``).
     """
 
     name = ""

@@ -11,11 +11,11 @@ of the light behind them). After ``rr_depth`` bounces Russian roulette ends path
 probability. ``max_depth`` counts surface interactions: 1 gives direct lighting only.
 
 Cut-out surfaces (``opacity < opacityThreshold``) are passed straight through by the trace before a hit gets here
-(:func:`wrt.shade.intersect_visible`, for camera and bounce rays alike), so holes use up no bounce, and the segment
-from the last scattering point to the hit behind the holes is one ray: lights seen through holes are MIS-weighted by
-their pdf from that point, as next-event estimation weights them. A ray still in a hole after
+(:func:`wrt.hidden_hits.intersect_visible`, for camera and bounce rays alike), so holes use up no bounce, and the
+segment from the last scattering point to the hit behind the holes is one ray: lights seen through holes are
+MIS-weighted by their pdf from that point, as next-event estimation weights them. A ray still in a hole after
 :data:`wrt.shade.MAX_CULL_PASSES` holes in a row ends its path, as a shadow ray is blocked after as many
-(:func:`wrt.shade.occluded_through_holes`).
+(:func:`wrt.hidden_hits.occluded_through_holes`).
 """
 
 import warp as wp
@@ -267,16 +267,4 @@ def add_unoccluded_kernel(
         radiance[i] = radiance[i] + contribution[i]
 
 
-@wp.kernel
-def count_alive_kernel(
-    alive: wp.array[wp.int32],
-    # outputs
-    count: wp.array[wp.int32],
-):
-    """``count[0] += number of live paths``."""
-    i = wp.tid()
-    if alive[i] == 1:
-        wp.atomic_add(count, 0, 1)
-
-
-__all__ = ["add_unoccluded_kernel", "count_alive_kernel", "mis_weight", "shade_path_kernel"]
+__all__ = ["add_unoccluded_kernel", "mis_weight", "shade_path_kernel"]

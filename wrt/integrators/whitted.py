@@ -30,13 +30,14 @@ from ..bsdf import (
     unreflected,
 )
 from ..geometry import offset_ray_origin
+from ..hidden_hits import CullScratch
 from ..light_links import link_group, lit_by
 from ..light_sampling import DeviceLights, hit_emitter, lit_bsdf, sample_light_in_view
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
-from ..shade import CullScratch, DeviceSurfaces, shading_point
+from ..shade import DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
 from .path import aim_shadow_ray, clear_shadow_ray
 
@@ -111,7 +112,7 @@ def shade_whitted_kernel(
     h = shading_point(scene, surf, mats, prim, hit_instance[i], hit_u[i], hit_v[i], o, d, t_hit)
     s = eval_surface(mats, h.material, h.st, h.display, h.opacity)
     if s.opacity_threshold > 0.0 and s.opacity < s.opacity_threshold:
-        # A hole the trace did not get past (more in a row than it passes: wrt.shade.intersect_visible) ends the
+        # A hole the trace did not get past (more in a row than it passes: wrt.hidden_hits.intersect_visible) ends the
         # path, as it blocks a shadow ray.
         radiance[i] = L
         alive[i] = 0
@@ -326,12 +327,12 @@ def lights_per_batch(groups: int, paths: int) -> int:
 
 class ShadowRays:
     """``n`` shadow rays towards lights and the next-event contribution each adds if unoccluded (device arrays),
-    with the scratch buffers of their trace through holes (:class:`wrt.shade.CullScratch`).
+    with the scratch buffers of their trace through holes (:class:`wrt.hidden_hits.CullScratch`).
 
     Args:
         n: number of rays.
         device: Warp device.
-        nothing_to_cull: as :class:`wrt.shade.CullScratch` takes it.
+        nothing_to_cull: as :class:`wrt.hidden_hits.CullScratch` takes it.
         no_holes: likewise.
     """
 

@@ -1,0 +1,514 @@
+"""Hits that a ray must pass: back faces of single-sided meshes (camera rays) and holes of cut-out materials (camera,
+bounce and shadow rays), passed by tracing the ray again from just past them through the accelerator (see the
+conventions in :mod:`wrt.shade`).
+
+These kernels live apart from :mod:`wrt.shade` because Warp compiles a whole module the first time any of its kernels
+is launched, and a scene whose meshes are all double-sided and have no cut-outs (the default scene) launches none of
+them: a first render there does not compile them.
+"""
+
+import warnings
+
+import warp as wp
+
+from .light_links import DeviceLinks, casts_shadow, link_group, upload_links
+from .materials import DeviceMaterials, cut_out
+from .scene import DeviceScene
+from .shade import MAX_CULL_PASSES, MAX_SHADOW_HOLE_PASSES, PARTNER_TOLERANCE, DeviceSurfaces, shape_frame
+from .transforms import transform_vector
+
+wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # the rounding of wrt.shade (see there)
+
+CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
+CULL_LEAST_STEP = wp.constant(1.0e-30)  # the step past a culled face at t = 0
+
+
+@wp.func
+def t_past(t: float):
+    """The ``t_min`` that traces a ray again from just past its hit at ``t``. The step is relative to ``t`` alone
+    (the watertight test measures hits from the ray origin, so t's rounding is relative): an absolute floor of 1e-9
+    skipped whatever lay just behind the culled face in a scene a few micrometres across."""
+    return t + wp.max(t * CULL_EPSILON, CULL_LEAST_STEP)
+
+
+@wp.func
+def in_hole(surf: DeviceSurfaces, mats: DeviceMaterials, prim: int, u: float, v: float):
+    """True when the hit ``(u, v)`` on ``prim`` (a geometry id, as hit buffers hold it: instances and analytic shapes
+    included) lies in a hole of a cut-out material (``opacity < opacityThreshold``)."""
+    st = (1.0 - u - v) * surf.uvs[prim, 0] + u * surf.uvs[prim, 1] + v * surf.uvs[prim, 2]
+    return cut_out(mats, surf.materials[prim], st)
+
+
+@wp.func
+def back_face(scene: DeviceScene, surf: DeviceSurfaces, prim: int, instance: int, o: wp.vec3, d: wp.vec3, t: float):
+    """True when the ray ``(o, d)`` meets ``prim`` (hit at ``t`` in ``instance``) on the back of a single-sided
+    triangle or shape."""
+    if surf.double_sided[prim] == 1:
+        return False
+    if prim >= scene.num_prims:
+        p, n, reach, err = shape_frame(scene, prim, instance, o, d, t)
+        return wp.dot(n, d) > 0.0
+    a = scene.points[scene.indices[prim, 0]]
+    b = scene.points[scene.indices[prim, 1]]
+    c = scene.points[scene.indices[prim, 2]]
+    if instance >= 0:
+        d = transform_vector(scene.world_to_local[instance], d)  # n_world . d = n_local . (A d)
+    return wp.dot(wp.cross(b - a, c - a), d) > 0.0
+
+
+@wp.func
+def hidden_hit(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    prim: int,
+    instance: int,
+    u: float,
+    v: float,
+    o: wp.vec3,
+    d: wp.vec3,
+    t: float,
+):
+    """True when a camera ray's hit ``(t, u, v, prim, instance)`` is not seen: a hole of a cut-out material, or the
+    back of a single-sided triangle."""
+    if in_hole(surf, mats, prim, u, v):
+        return True
+    return back_face(scene, surf, prim, instance, o, d, t)
+
+
+@wp.func
+def corner_weight(scene: DeviceScene, prim: int, w: wp.vec3, p: wp.vec3):
+    """The barycentric weight in ``w`` (of ``prim``'s corners 0, 1, 2) of ``prim``'s corner at position ``p``."""
+    if scene.points[scene.indices[prim, 1]] == p:
+        return w[1]
+    if scene.points[scene.indices[prim, 2]] == p:
+        return w[2]
+    return w[0]
+
+
+@wp.func
+def twin_uv(scene: DeviceScene, prim: int, twin: int, u: float, v: float):
+    """The hit ``(u, v)`` on ``prim`` as barycentrics on its ``twin`` (the same corner positions in another order)."""
+    w = wp.vec3(1.0 - u - v, u, v)
+    return wp.vec2(corner_weight(scene, prim, w, scene.points[scene.indices[twin, 1]]),
+                   corner_weight(scene, prim, w, scene.points[scene.indices[twin, 2]]))
+
+
+@wp.func
+def has_corner(scene: DeviceScene, prim: int, p: wp.vec3):
+    """True when one of ``prim``'s corners is at ``p``."""
+    return (scene.points[scene.indices[prim, 0]] == p or scene.points[scene.indices[prim, 1]] == p
+            or scene.points[scene.indices[prim, 2]] == p)
+
+
+@wp.func
+def partner_weights(scene: DeviceScene, prim: int, partner: int, u: float, v: float):
+    """Barycentric weights on ``partner`` (of its corners 0, 1, 2) of the hit ``(u, v)`` on ``prim``: exact for a
+    twin (the same corner positions, :func:`twin_uv`), else of the hit point (object space, from its barycentrics)
+    projected onto the partner's plane; all -1 when the point lies off that plane by more than
+    :data:`PARTNER_TOLERANCE` of the partner's size (or the partner is degenerate)."""
+    a = scene.points[scene.indices[partner, 0]]
+    b = scene.points[scene.indices[partner, 1]]
+    c = scene.points[scene.indices[partner, 2]]
+    if has_corner(scene, prim, a) and has_corner(scene, prim, b) and has_corner(scene, prim, c):
+        uv = twin_uv(scene, prim, partner, u, v)
+        return wp.vec3(1.0 - uv[0] - uv[1], uv[0], uv[1])
+    p = ((1.0 - u - v) * scene.points[scene.indices[prim, 0]] + u * scene.points[scene.indices[prim, 1]]
+         + v * scene.points[scene.indices[prim, 2]])
+    e1, e2, q = b - a, c - a, p - a
+    n = wp.cross(e1, e2)
+    nn = wp.dot(n, n)
+    size2 = wp.max(wp.max(wp.dot(e1, e1), wp.dot(e2, e2)), wp.length_sq(c - b))
+    off = wp.dot(q, n)
+    if nn <= 0.0 or off * off > PARTNER_TOLERANCE * PARTNER_TOLERANCE * size2 * nn:
+        return wp.vec3(-1.0)
+    # p - a = s e1 + r e2 in the plane: cross(q, e2) = s n and cross(e1, q) = r n (q's normal part drops out).
+    s = wp.dot(wp.cross(q, e2), n) / nn
+    r = wp.dot(wp.cross(e1, q), n) / nn
+    return wp.vec3(1.0 - s - r, s, r)
+
+
+@wp.func
+def locate_partner(scene: DeviceScene, surf: DeviceSurfaces, prim: int, u: float, v: float):
+    """The partner of ``prim`` (:mod:`wrt.twins`) that contains the hit ``(u, v)`` on it: the largest smallest
+    barycentric weight, at least ``-PARTNER_TOLERANCE`` (of equals the first: the smallest geometry id); -1 when
+    none does."""
+    best = int(-1)
+    best_weight = float(-PARTNER_TOLERANCE)
+    for k in range(surf.partner_offsets[prim], surf.partner_offsets[prim + 1]):
+        r = surf.partner_ranges[k]
+        for partner in range(r[0], r[0] + r[1]):
+            w = partner_weights(scene, prim, partner, u, v)
+            weight = wp.min(wp.min(w[0], w[1]), w[2])
+            if weight > best_weight:
+                best = partner
+                best_weight = weight
+    return best
+
+
+@wp.func
+def partner_uv(scene: DeviceScene, prim: int, partner: int, u: float, v: float):
+    """The hit ``(u, v)`` on ``prim`` as ``(u, v)`` on ``partner`` (:func:`partner_weights`), clamped into it (a
+    point on a shared edge may round a hair outside)."""
+    w = partner_weights(scene, prim, partner, u, v)
+    w = wp.vec3(wp.max(w[0], 0.0), wp.max(w[1], 0.0), wp.max(w[2], 0.0))
+    total = w[0] + w[1] + w[2]
+    return wp.vec2(w[1] / total, w[2] / total)
+
+
+@wp.func
+def hidden(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    back_faces: int,
+    prim: int,
+    instance: int,
+    u: float,
+    v: float,
+    o: wp.vec3,
+    d: wp.vec3,
+    t: float,
+):
+    """:func:`hidden_hit` with ``back_faces = 1`` (camera rays), else (bounce rays, which see both sides) a hole."""
+    if back_faces == 1:
+        return hidden_hit(scene, surf, mats, prim, instance, u, v, o, d, t)
+    return in_hole(surf, mats, prim, u, v)
+
+
+@wp.kernel
+def cull_hidden_hits_kernel(
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    back_faces: int,
+    origins: wp.array[wp.vec3],
+    directions: wp.array[wp.vec3],
+    t_maxs: wp.array[float],
+    hit_t: wp.array[float],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
+    # outputs
+    retry_t_mins: wp.array[float],
+    retry_t_maxs: wp.array[float],
+    retries: wp.array[wp.int32],
+):
+    """Marks rays whose closest hit is not seen (:func:`hidden`): they are re-traced from just past it
+    (``retry_t_maxs > 0``); every other ray gets an empty range. A hit with a coincident partner (:mod:`wrt.twins`)
+    that contains the hit point and is seen there becomes a hit on that partner instead (``hit_u, hit_v, hit_prim``
+    are rewritten in place) when the hit is hidden (the re-trace from past ``t`` would skip the partner too) or, for
+    bounce rays, on the hit's back: they see a two-sided card's other face there, as camera rays do, not the back of
+    the face the tie rule reported."""
+    i = wp.tid()
+    retry_t_mins[i] = 0.0
+    retry_t_maxs[i] = 0.0
+    prim = hit_prim[i]
+    if prim < 0:
+        return
+    instance, u, v, o, d, t = hit_instance[i], hit_u[i], hit_v[i], origins[i], directions[i], hit_t[i]
+    partners = int(0)
+    if surf.num_partners > 0 and prim < scene.num_prims:
+        partners = surf.partner_offsets[prim + 1] - surf.partner_offsets[prim]
+    hide = hidden(scene, surf, mats, back_faces, prim, instance, u, v, o, d, t)
+    # Kept as it is unless hidden or, for a bounce ray, on the back of a face whose partner may show its front there.
+    if not hide and (partners == 0 or back_faces == 1 or not back_face(scene, surf, prim, instance, o, d, t)):
+        return
+    if partners > 0:
+        partner = locate_partner(scene, surf, prim, u, v)
+        if partner >= 0:
+            uv = partner_uv(scene, prim, partner, u, v)
+            if not hidden(scene, surf, mats, back_faces, partner, instance, uv[0], uv[1], o, d, t):
+                hit_u[i] = uv[0]
+                hit_v[i] = uv[1]
+                hit_prim[i] = partner
+                return
+    if not hide:
+        return  # a bounce ray on the back of a face whose partner is a hole there (or none there): it sees that back
+    retry_t_mins[i] = t_past(t)
+    retry_t_maxs[i] = t_maxs[i]
+    wp.atomic_add(retries, 0, 1)
+
+
+@wp.kernel
+def merge_hits_kernel(
+    retry_t_maxs: wp.array[float],
+    t2: wp.array[float],
+    u2: wp.array[float],
+    v2: wp.array[float],
+    prim2: wp.array[wp.int32],
+    cost2: wp.array[wp.vec2i],
+    instance2: wp.array[wp.int32],
+    # outputs
+    t: wp.array[float],
+    u: wp.array[float],
+    v: wp.array[float],
+    prim: wp.array[wp.int32],
+    cost: wp.array[wp.vec2i],
+    instance: wp.array[wp.int32],
+):
+    """Takes the re-traced hit of every culled ray and adds its traversal cost."""
+    i = wp.tid()
+    if retry_t_maxs[i] > 0.0:
+        t[i] = t2[i]
+        u[i] = u2[i]
+        v[i] = v2[i]
+        prim[i] = prim2[i]
+        cost[i] = cost[i] + cost2[i]
+        instance[i] = instance2[i]
+
+
+def intersect_visible(
+    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, scene: DeviceScene, rays, hits, scratch, passes=None,
+    camera_rays=True,
+) -> None:
+    """``accel.intersect`` that skips holes of cut-out materials and, for camera rays, back faces of single-sided
+    meshes (see the module docstring).
+
+    Args:
+        accel: the :class:`wrt.trace.Accelerator`.
+        surfaces: per-triangle shading data (``double_sided``, materials, texture coordinates).
+        mats: the materials (for cut-outs).
+        scene: the device scene.
+        rays: ``[origins, directions, t_mins, t_maxs]`` device arrays.
+        hits: the :class:`wrt.trace.HitBuffer` to fill.
+        scratch: a :class:`CullScratch` of the same size.
+        passes: run up to this many cull passes without reading anything back to the host (for CUDA graph
+            capture: :func:`repeat_passes`); ``None``: up to :data:`MAX_CULL_PASSES`, stopping once no ray needs
+            another.
+        camera_rays: also cull back faces, and add the traversal costs to ``hits.cost`` (the cost AOV); ``False``
+            for bounce rays, which see both sides of every surface (but take a back face's coincident partner) and
+            pass holes only.
+    """
+    origins, directions, _, t_maxs = rays
+    accel.intersect(*rays, hits, costs=camera_rays)
+    # Bounce rays need the pass for holes, and for coincident partners (cull_hidden_hits_kernel).
+    nothing_hidden = scratch.nothing_to_cull if camera_rays else scratch.no_holes and surfaces.num_partners == 0
+    if nothing_hidden:
+        return
+    n = len(origins)
+
+    def cull():  # marks the rays whose hit is hidden for a re-trace from past it; scratch.retries counts them
+        scratch.retries.zero_()
+        wp.launch(
+            cull_hidden_hits_kernel,
+            n,
+            inputs=[scene, surfaces, mats, int(camera_rays), origins, directions, t_maxs, hits.t, hits.u, hits.v,
+                    hits.prim, hits.instance],
+            outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries],
+            device=scratch.device,
+        )
+
+    def retrace_and_cull():
+        accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, scratch.hits, costs=camera_rays)
+        h2 = scratch.hits
+        wp.launch(
+            merge_hits_kernel,
+            n,
+            inputs=[scratch.t_maxs, h2.t, h2.u, h2.v, h2.prim, h2.cost, h2.instance],
+            outputs=[hits.t, hits.u, hits.v, hits.prim, hits.cost, hits.instance],
+            device=scratch.device,
+        )
+        cull()
+
+    cull()
+    repeat_passes(retrace_and_cull, scratch, MAX_CULL_PASSES if passes is None else passes, passes is not None)
+
+
+@wp.kernel
+def start_shadow_holes_kernel(
+    t_mins: wp.array[float],
+    t_maxs: wp.array[float],
+    blocked: wp.array[wp.int32],
+    # outputs
+    retry_t_mins: wp.array[float],
+    retry_t_maxs: wp.array[float],
+    retries: wp.array[wp.int32],
+):
+    """Blocked shadow rays keep their range, to look for their closest hit (it may be a hole), and are counted in
+    ``retries``; the others get an empty one (``retry_t_maxs = 0``: decided)."""
+    i = wp.tid()
+    retry_t_mins[i] = 0.0
+    retry_t_maxs[i] = 0.0
+    if blocked[i] == 1:
+        retry_t_mins[i] = t_mins[i]
+        retry_t_maxs[i] = t_maxs[i]
+        wp.atomic_add(retries, 0, 1)
+
+
+@wp.kernel
+def pass_shadow_holes_kernel(
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    links: DeviceLinks,
+    shadow_lights: wp.array[wp.int32],
+    hit_t: wp.array[float],
+    hit_u: wp.array[float],
+    hit_v: wp.array[float],
+    hit_prim: wp.array[wp.int32],
+    hit_instance: wp.array[wp.int32],
+    # outputs
+    retry_t_mins: wp.array[float],
+    retry_t_maxs: wp.array[float],
+    blocked: wp.array[wp.int32],
+    retries: wp.array[wp.int32],
+):
+    """Decides each shadow ray still undecided (``retry_t_maxs > 0``) by its closest hit in its range: none ->
+    unblocked; a hole (:func:`in_hole`), or geometry that casts no shadow of the ray's light (``shadow_lights``,
+    ``collection:shadowLink``) -> undecided, looked at again from just past it (and blocked until then); anything
+    else -> blocked."""
+    i = wp.tid()
+    if retry_t_maxs[i] <= 0.0:
+        return
+    prim = hit_prim[i]
+    passed = False
+    if prim >= 0:
+        passed = in_hole(surf, mats, prim, hit_u[i], hit_v[i])
+        if links.shadow_linked == 1 and not passed:
+            passed = not casts_shadow(links, link_group(links, prim, hit_instance[i]), shadow_lights[i])
+    if passed:
+        retry_t_mins[i] = t_past(hit_t[i])
+        wp.atomic_add(retries, 0, 1)
+        return
+    if prim < 0:
+        blocked[i] = 0
+    retry_t_mins[i] = 0.0
+    retry_t_maxs[i] = 0.0
+
+
+def occluded_through_holes(
+    accel, surfaces: DeviceSurfaces, mats: DeviceMaterials, rays, blocked, scratch, passes=None, links=None,
+    shadow_lights=None,
+) -> None:
+    """``accel.occluded`` for shadow rays, which pass through the holes of cut-out materials (see the module
+    docstring), and through geometry that casts no shadow of their light (shadow linking): rays the any-hit query
+    reports blocked are traced for their closest hit, again from just past it while it is a hole or such geometry.
+    A ray still in a hole after the last pass stays blocked.
+
+    Args:
+        accel: the :class:`wrt.trace.Accelerator`.
+        surfaces: per-triangle shading data (materials, texture coordinates).
+        mats: the materials (for cut-outs).
+        rays: ``[origins, directions, t_mins, t_maxs]`` device arrays.
+        blocked: ``(N,)`` int32 device array: 1 where ray ``i`` is blocked, else 0.
+        scratch: a :class:`CullScratch` of the same size.
+        passes: run up to this many closest-hit passes without reading anything back to the host (for CUDA
+            graph capture: :func:`repeat_passes`); ``None``: up to :data:`MAX_SHADOW_HOLE_PASSES`, stopping once no
+            ray needs another.
+        links: the lights' :class:`wrt.light_links.DeviceLinks`, or None (every geometry casts every shadow).
+        shadow_lights: ``(N,)`` int32 device array: the light each ray is the shadow ray of (-1: none), with
+            ``links``.
+    """
+    origins, directions, t_mins, t_maxs = rays
+    if links is None or links.shadow_linked == 0:
+        links, shadow_lights = _no_links(scratch.device), blocked  # shadow_lights is not read then
+    accel.occluded(*rays, blocked)
+    if scratch.no_holes and links.shadow_linked == 0:
+        return
+    n = len(origins)
+    scratch.retries.zero_()
+    wp.launch(start_shadow_holes_kernel, n, inputs=[t_mins, t_maxs, blocked],
+              outputs=[scratch.t_mins, scratch.t_maxs, scratch.retries], device=scratch.device)
+    h = scratch.hits
+
+    def one_pass():
+        scratch.retries.zero_()
+        accel.intersect(origins, directions, scratch.t_mins, scratch.t_maxs, h, costs=False)
+        wp.launch(
+            pass_shadow_holes_kernel,
+            n,
+            inputs=[surfaces, mats, links, shadow_lights, h.t, h.u, h.v, h.prim, h.instance],
+            outputs=[scratch.t_mins, scratch.t_maxs, blocked, scratch.retries],
+            device=scratch.device,
+        )
+
+    limit = MAX_SHADOW_HOLE_PASSES if passes is None else passes
+    if repeat_passes(one_pass, scratch, limit, passes is not None):
+        # One message for every call (warned once): a dense canopy, or a forest left out of a sun's shadowLink, would
+        # otherwise be shadowed without a word.
+        warnings.warn(f"some shadow rays still met a cut-out hole, or geometry outside their light's shadowLink, "
+                      f"after {limit} passes; they count as blocked, so what lies behind is shadowed "
+                      "(wrt.shade.MAX_SHADOW_HOLE_PASSES)", stacklevel=2)
+
+
+_NO_LINKS = {}  # device -> DeviceLinks with linking off
+
+
+def _no_links(device) -> DeviceLinks:
+    key = str(wp.get_device(device))
+    if key not in _NO_LINKS:
+        _NO_LINKS[key] = upload_links(None, device)
+    return _NO_LINKS[key]
+
+
+@wp.kernel
+def count_pass_kernel(limit: int, done: wp.array[wp.int32], retries: wp.array[wp.int32]):
+    """Counts a pass of a loop recorded in a CUDA graph; after ``limit`` passes it ends the loop (``retries = 0``)."""
+    done[0] = done[0] + 1
+    if done[0] >= limit:
+        retries[0] = 0
+
+
+def repeat_passes(one_pass, scratch, limit: int, no_host_reads: bool) -> bool:
+    """Runs ``one_pass()`` while ``scratch.retries[0] > 0`` (each pass counts the rays that need another), at most
+    ``limit`` times; returns whether some ray still needed another after the last (read back only without
+    ``no_host_reads``; else False).
+
+    With ``no_host_reads`` (``Renderer.launch_frame``) nothing is read back: inside a CUDA graph capture that can
+    hold conditional nodes (CUDA 12.4+) the passes are a loop of the graph, which stops as the host loop does (a
+    20,000-leaf canopy's frame took 21.7 ms running all 31 + 32 passes per bounce in every replay, 15.2 ms with the
+    loop); elsewhere exactly ``limit`` passes run."""
+    device = wp.get_device(scratch.device)
+    if not no_host_reads:
+        for _ in range(limit):
+            if int(scratch.retries.numpy()[0]) == 0:
+                return False
+            one_pass()
+        return int(scratch.retries.numpy()[0]) > 0
+    if device.is_cuda and device.is_capturing and wp.is_conditional_graph_supported():
+        scratch.passes_done.zero_()
+
+        def counted_pass():
+            one_pass()
+            wp.launch(count_pass_kernel, 1, inputs=[limit], outputs=[scratch.passes_done, scratch.retries],
+                      device=device)
+
+        wp.capture_while(scratch.retries, counted_pass)
+        return False
+    for _ in range(limit):
+        one_pass()
+    return False
+
+
+class CullScratch:
+    """Buffers for :func:`intersect_visible` and :func:`occluded_through_holes` (``n`` rays on ``device``).
+
+    Args:
+        n: number of rays.
+        device: Warp device.
+        nothing_to_cull: every mesh double-sided and no cut-outs: camera rays need no cull pass.
+        no_holes: no cut-out material on any geometry: shadow rays are plain any-hit queries.
+    """
+
+    BYTES_PER_RAY = 4 + 4 + 28  # t_mins, t_maxs and hits (a trace.HitBuffer: its BYTES_PER_RAY)
+
+    def __init__(self, n: int, device, nothing_to_cull: bool, no_holes: bool):
+        from .trace import HitBuffer
+
+        self.device = device
+        self.nothing_to_cull = nothing_to_cull
+        self.no_holes = no_holes
+        self.t_mins = wp.empty(n, dtype=float, device=device)
+        self.t_maxs = wp.empty(n, dtype=float, device=device)
+        self.retries = wp.zeros(1, dtype=wp.int32, device=device)
+        self.passes_done = wp.zeros(1, dtype=wp.int32, device=device)  # of a loop in a CUDA graph (repeat_passes)
+        self.hits = HitBuffer(n, device)
+
+    def head(self, m: int) -> "CullScratch":
+        """The buffers of the first ``m`` rays (views, not copies; the retry counter is shared)."""
+        out = object.__new__(CullScratch)
+        out.device, out.nothing_to_cull, out.no_holes = self.device, self.nothing_to_cull, self.no_holes
+        out.retries, out.passes_done = self.retries, self.passes_done
+        out.t_mins, out.t_maxs, out.hits = self.t_mins[:m], self.t_maxs[:m], self.hits.slice(0, m)
+        return out
