@@ -3,12 +3,16 @@ the module turns ``enable_backward`` off) the first time any of its kernels is l
 render pays for every kernel that shares a module with one it launches.
 
 The render runs in a fresh interpreter, so that no other test has loaded a module; which modules were loaded comes
-from Warp's module registry (``Module.execs``), which kernels were launched from a wrapper around ``wp.launch``.
+from Warp's module registry (``Module.execs``), which kernels were launched from a wrapper around ``wp.launch``, and
+how often each module was loaded from Warp's own "Module ... load on device" lines.
 """
 
 from __future__ import annotations
 
+import collections
 import json
+import os
+import re
 import subprocess
 import sys
 
@@ -30,7 +34,8 @@ def launch(kernel, *args, **kwargs):
 wp.launch = launch
 from wrt.cli import main
 
-main(["render", "--width", "64", "--height", "48", "--device", "cpu", "-o", sys.argv[1]])
+wp.config.log_level = wp.LOG_INFO  # Warp's module-load lines (importing wrt quietened them)
+main(["render", "--device", "cpu", "-o", sys.argv[1]])
 kernels = {}
 for name, module in list(sys.modules.items()):
     if name.startswith("wrt"):
@@ -48,14 +53,22 @@ print(json.dumps(report))
 
 
 @pytest.fixture(scope="module")
-def default_render_modules(tmp_path_factory):
-    """``{module: {"kernels", "launched", "enable_backward"}}`` of the Warp modules a default ``wrt render`` loaded."""
+def default_render(tmp_path_factory):
+    """The standard output of a default ``wrt render`` (640x480, whitted, on the CPU, its launches split between two
+    threads) in a fresh interpreter: Warp's log lines, then the report."""
     out = tmp_path_factory.mktemp("render") / "wrt.png"
+    env = {**os.environ, "WRT_THREADS": "2"}
     result = subprocess.run([sys.executable, "-c", RENDER_AND_REPORT, str(out)], capture_output=True, text=True,
-                            timeout=600)
+                            timeout=600, env=env)
     assert result.returncode == 0, result.stderr
     assert out.is_file()
-    return json.loads(result.stdout.strip().splitlines()[-1])
+    return result.stdout
+
+
+@pytest.fixture
+def default_render_modules(default_render):
+    """``{module: {"kernels", "launched", "enable_backward"}}`` of the Warp modules a default ``wrt render`` loaded."""
+    return json.loads(default_render.strip().splitlines()[-1])
 
 
 def test_default_render_compiles_no_backward_pass(default_render_modules):
@@ -82,3 +95,11 @@ def test_default_render_compiles_only_modules_of_launched_kernels(default_render
                   for name, m in default_render_modules.items()}
     assert {name: keys for name, keys in unlaunched.items() if keys} == {}
     assert all(m["launched"] for m in default_render_modules.values())
+
+
+def test_default_render_loads_each_module_once(default_render):
+    """Launches split across threads load each module once: threads that reached a module's first launch together
+    each compiled it (on an empty kernel cache the trace and whitted modules were compiled twice, on both cores)."""
+    loads = collections.Counter(re.findall(r"^Module (\S+) \S+ load on device 'cpu'", default_render, re.M))
+    assert loads  # Warp printed its module-load lines
+    assert {name: n for name, n in loads.items() if n > 1} == {}

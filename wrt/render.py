@@ -296,7 +296,7 @@ def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None
         wp.launch(kernel, end - start, inputs=[piece(x) for x in inputs], outputs=[piece(x) for x in outputs],
                   device=device)
 
-    run_in_chunks(work, n, resolve_threads(None, device))  # one piece on a GPU
+    run_in_chunks(work, n, resolve_threads(None, device), [kernel])  # one piece on a GPU
 
 
 def check_lights(lights) -> None:
@@ -905,9 +905,9 @@ class Renderer:
                 wp.launch(add_unoccluded_lights_kernel, b - a, device=self.device,
                           inputs=[count, a, batch.contribution, batch.t_maxs, batch.blocked], outputs=[w.radiance])
 
-            run_in_chunks(light, w.n, threads)  # on the CPU, pieces of the paths on a thread pool
+            run_in_chunks(light, w.n, threads, [whitted_lights_kernel])  # on the CPU, pieces on a thread pool
             self._occluded(w, shadows=batch)
-            run_in_chunks(add, w.n, threads)
+            run_in_chunks(add, w.n, threads, [add_unoccluded_lights_kernel])
 
     def _trace_ao(self, w: _Wavefront):
         h = w.hits

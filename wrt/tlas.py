@@ -427,6 +427,9 @@ class InstancedAccelerator(Accelerator):
         tlas = sum(a.capacity for a in self._tlas_arrays)
         return {"blas": int(blas), "tlas": int(tlas), "total": int(blas + tlas)}
 
+    def kernels(self, costs) -> tuple:
+        return (occluded_tlas_kernel,) if costs is None else (trace_tlas_kernel,)
+
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
         # Always counted: the TLAS kernel's register cap (TLAS_MAX_REGISTERS) already decides its spills.
         wp.launch(

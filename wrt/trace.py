@@ -155,16 +155,23 @@ def _thread_count(threads) -> int:
     return int(threads)
 
 
-def run_in_chunks(work, n: int, threads: int) -> None:
+def run_in_chunks(work, n: int, threads: int, kernels=()) -> None:
     """Calls ``work(start, end)`` over ``[0, n)``: in one piece, or in ``threads`` pieces on a thread pool.
 
     Warp's CPU launches run one kernel on one thread but release the GIL, so pieces of one ray batch run on
     several cores at once. Every ray is independent, so the result does not depend on the split.
+
+    ``kernels`` are those ``work`` launches: their modules are loaded here before the pieces start. Warp compiles a
+    module at the first launch of any of its kernels, and threads that reach it together each compiled it: on an
+    empty kernel cache every core compiled the trace and integrator modules at once, a first render of the
+    default scene compiling ``wrt.trace`` and ``wrt.integrators.whitted`` twice on two cores.
     """
     pieces = min(threads, n // MIN_RAYS_PER_THREAD)
     if pieces <= 1:
         work(0, n)
         return
+    for kernel in kernels:
+        wp.load_module(kernel.module, device="cpu")  # pieces only on the CPU (resolve_threads)
     bounds = np.linspace(0, n, pieces + 1).astype(int)
     with ThreadPoolExecutor(pieces) as pool:
         for future in [pool.submit(work, int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]:
@@ -203,7 +210,7 @@ class Accelerator:
         def work(a, b):
             self._intersect(origins[a:b], directions[a:b], t_mins[a:b], t_maxs[a:b], hits.slice(a, b), costs)
 
-        run_in_chunks(work, len(origins), resolve_threads(threads, wp.get_device(self.device)))
+        run_in_chunks(work, len(origins), resolve_threads(threads, wp.get_device(self.device)), self.kernels(costs))
 
     def occluded(self, origins, directions, t_mins, t_maxs, blocked, threads=None) -> None:
         """Sets ``blocked[i] = 1`` where ray ``i`` hits anything."""
@@ -211,7 +218,12 @@ class Accelerator:
         def work(a, b):
             self._occluded(origins[a:b], directions[a:b], t_mins[a:b], t_maxs[a:b], blocked[a:b])
 
-        run_in_chunks(work, len(origins), resolve_threads(threads, wp.get_device(self.device)))
+        run_in_chunks(work, len(origins), resolve_threads(threads, wp.get_device(self.device)), self.kernels(None))
+
+    def kernels(self, costs) -> tuple:
+        """The kernels that ``_intersect`` (``costs`` True or False) or ``_occluded`` (``costs=None``) launch (see
+        :func:`run_in_chunks`)."""
+        return ()
 
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
         raise NotImplementedError
@@ -343,6 +355,12 @@ class BvhAccelerator(Accelerator):
         bvh.points, bvh.indices, bvh.build_seconds = self._host_inputs
         return bvh
 
+    def kernels(self, costs) -> tuple:
+        if costs is None:
+            return (self.occluded_kernel,)
+        kernel = self.trace_kernel if costs else self.uncounted_trace_kernel
+        return (kernel,) if self.split is None else (kernel, split_rows_kernel)
+
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
         wp.launch(
             self.trace_kernel if costs else self.uncounted_trace_kernel,
@@ -417,6 +435,13 @@ class WarpMeshAccelerator(Accelerator):
             return
         wp.launch(kernel, n, inputs=[self.mesh.id, *self.box, *inputs], outputs=outputs, device=self.device,
                   block_dim=traverse.trace_block_dim(self.device))
+
+    def kernels(self, costs) -> tuple:
+        if self.mesh is None:  # no triangles: nothing is launched
+            return ()
+        if costs is None:
+            return (occluded_mesh_kernel,)
+        return (trace_mesh_kernel,) if self.split is None else (trace_mesh_kernel, split_rows_kernel)
 
     def _intersect(self, origins, directions, t_mins, t_maxs, hits: HitBuffer, costs: bool) -> None:
         misses = [np.inf, 0.0, 0.0, -1, wp.vec2i(0, 0)]
