@@ -727,3 +727,66 @@ def test_light_texture_files_are_decoded_once_for_the_frames_of_a_kept_stage(tmp
     scene = frames.load(2)
     assert_same(scene, load_fresh(path, 2), "after sky.png was rewritten")
     assert textures(scene)["/Sky"][0, 0, 0] < 0.1  # the new file's
+
+
+@pytest.mark.parametrize("layout, shape", [("angular", (16, 16)), ("cubeMapVerticalCross", (16, 12)),
+                                           ("automatic", (16, 16))])
+def test_a_dome_texture_in_another_layout_is_resampled_once_for_the_frames_of_a_kept_stage(tmp_path, monkeypatch,
+                                                                                            layout, shape):
+    """A dome whose image is no lat-long one (an angular map, a vertical cross, or a square read as angular) while
+    the dome turns: every frame equals a fresh load, the image is resampled to lat-long once for all the frames (it
+    was at every frame: about a second for a 1k angular map), and a file rewritten between frames is again."""
+    from PIL import Image
+
+    import wrt.dome_formats as dome_formats
+
+    def write_probe(shade):
+        rgb = np.zeros((*shape, 3), np.uint8)
+        rgb[: shape[0] // 2], rgb[shape[0] // 2:] = (shade, 90, 40), (20, 60, shade)
+        Image.fromarray(rgb).save(tmp_path / "probe.png")
+
+    write_probe(250)
+    stage = Usd.Stage.CreateNew(str(tmp_path / "probe.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(4)
+    dome = UsdLux.DomeLight.Define(stage, "/Sky")
+    dome.CreateTextureFileAttr(Sdf.AssetPath("probe.png"))
+    dome.CreateTextureFormatAttr(layout)
+    turn = dome.AddRotateYOp()
+    turn.Set(0.0, 1), turn.Set(90.0, 4)
+    mesh(stage, "/Floor", *grid(2))
+    stage.GetRootLayer().Save()
+    path = tmp_path / "probe.usda"
+
+    resampled = []
+    to_latlong = dome_formats.to_latlong
+
+    def counted(image, fmt):
+        resampled.append(fmt)
+        return to_latlong(image, fmt)
+
+    def kept_load(t):
+        monkeypatch.setattr(dome_formats, "to_latlong", counted)
+        try:
+            return load_warned(frames.load, t)
+        finally:
+            monkeypatch.setattr(dome_formats, "to_latlong", to_latlong)
+
+    frames = StageFrames(path)
+    for t in (1, 2, None, 3, 1):
+        scene, warned = kept_load(t)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned, (t, warned)
+    sky = next(light for light in scene.lights if light.path == "/Sky")
+    assert sky.texture.shape[1] == 2 * sky.texture.shape[0] != shape[1]  # resampled to lat-long
+    assert len(resampled) == 1, resampled  # once over the frames
+    write_probe(30)
+    bump(tmp_path / "probe.png")
+    scene, warned = kept_load(2)
+    fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), 2)
+    assert_same(scene, fresh, "after probe.png was rewritten")
+    assert warned == fresh_warned
+    assert len(resampled) == 2, resampled  # the new file's
+    assert not np.array_equal(next(light for light in scene.lights if light.path == "/Sky").texture, sky.texture)
+

@@ -28,7 +28,8 @@ class MaterialMemo:
     def __init__(self, stage: Usd.Stage):
         self.reusable = not shading_might_vary(stage)
         self._kept = {}  # (material path, default time) -> (Material or None, ((reason, shown path, detail), ...))
-        self._images = {}  # (resolved path, colour space) -> (file stamp, read-only pixels)
+        # (resolved path, colour space) -> (file stamp, read-only pixels, {key: what was made from them}: derived)
+        self._images = {}
         self.counts = {"reused": 0, "read": 0}  # reads of each kind, for tests and benchmarks
         # (prim path, outer bindings, purposes) -> (material, binding relationship, purposes whose walk found none):
         # MaterialReader.bound's answer. Bindings are relationships (never time-varying) and collections (their
@@ -65,8 +66,21 @@ class MaterialMemo:
         pixels = load(resolved, color_space)
         if stamp is not None:
             pixels.flags.writeable = False  # shared by the scenes of every load that reads it
-            self._images[(resolved, color_space)] = (stamp, pixels)
+            self._images[(resolved, color_space)] = (stamp, pixels, {})
         return pixels
+
+    def derived(self, resolved: str, color_space: str, pixels, key, make):
+        """``make()``, an array made from ``pixels`` alone (a dome's lat-long map of them: ``key`` says which), kept
+        read-only with them while they are the kept pixels of ``resolved`` (:meth:`image`): a rewritten file is
+        decoded again, and what it gives is made again."""
+        kept = self._images.get((resolved, color_space))
+        if kept is None or kept[1] is not pixels:
+            return make()
+        if key not in kept[2]:
+            made = make()
+            made.flags.writeable = False  # shared by the scenes of every load that reads it
+            kept[2][key] = made
+        return kept[2][key]
 
 
 def shading_might_vary(stage: Usd.Stage) -> bool:
