@@ -790,3 +790,75 @@ def test_a_dome_texture_in_another_layout_is_resampled_once_for_the_frames_of_a_
     assert len(resampled) == 2, resampled  # the new file's
     assert not np.array_equal(next(light for light in scene.lights if light.path == "/Sky").texture, sky.texture)
 
+
+def test_materials_that_hold_still_are_reused_beside_one_that_varies(tmp_path, monkeypatch):
+    """Materials are kept one by one: beside a material whose input varies, one whose interface input varies and one
+    fed by a node graph outside it whose shader's input varies (each read at every load), the static materials (two
+    plain ones, one fed by a static node graph outside it, one inside a native instance's prototype) are read once per
+    kind of time (a time code, the default), and every frame equals a fresh load, warnings included. Before, one
+    varying shader input anywhere made every material be read at every load."""
+    from wrt.materials import MaterialReader
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "looks.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(4)
+    preview_material(stage, "/Looks/Anim", color={1: Gf.Vec3f(1, 0, 0), 4: Gf.Vec3f(0, 0.3, 1)})
+    for k in range(2):
+        preview_material(stage, f"/Looks/Still{k}", color={Usd.TimeCode.Default(): Gf.Vec3f(0.2, 0.3 * k, 0.4)})
+    interface = preview_material(stage, "/Looks/Interface")
+    tint = interface.CreateInput("tint", Sdf.ValueTypeNames.Color3f)
+    tint.Set(Gf.Vec3f(0.9, 0.9, 0.1), 1), tint.Set(Gf.Vec3f(0.1, 0.9, 0.9), 4)
+    UsdShade.Shader.Get(stage, "/Looks/Interface/Surface").GetInput("diffuseColor").ConnectToSource(tint)
+    for name, fallback in (("Moving", {1: Gf.Vec3f(1, 1, 0), 4: Gf.Vec3f(0, 1, 1)}),
+                           ("Resting", {Usd.TimeCode.Default(): Gf.Vec3f(0.5, 0.1, 0.8)})):
+        graph = UsdShade.NodeGraph.Define(stage, f"/Graphs/{name}")  # outside the material it feeds
+        reader = UsdShade.Shader.Define(stage, f"/Graphs/{name}/Reader")
+        reader.CreateIdAttr("UsdPrimvarReader_float3")
+        reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("tint")
+        values = reader.CreateInput("fallback", Sdf.ValueTypeNames.Float3)
+        for t, value in fallback.items():
+            values.Set(value, t)
+        graph.CreateOutput("rgb", Sdf.ValueTypeNames.Color3f).ConnectToSource(reader.ConnectableAPI(), "result")
+        looks = preview_material(stage, f"/Looks/Via{name}")
+        UsdShade.Shader.Get(stage, f"/Looks/Via{name}/Surface").GetInput("diffuseColor").ConnectToSource(
+            graph.ConnectableAPI(), "rgb")
+    stage.CreateClassPrim("/Protos/Kit")
+    inside = preview_material(stage, "/Protos/Kit/Looks/Inside", color={Usd.TimeCode.Default(): Gf.Vec3f(0, 1, 0)})
+    UsdShade.MaterialBindingAPI.Apply(mesh(stage, "/Protos/Kit/Part", *grid(2)).GetPrim()).Bind(inside)
+    for k in range(2):
+        instance = UsdGeom.Xform.Define(stage, f"/World/Kit{k}").GetPrim()
+        instance.GetReferences().AddInternalReference("/Protos/Kit")
+        instance.SetInstanceable(True)
+        UsdGeom.Xformable(instance).AddTranslateOp().Set(Gf.Vec3d(3 * k, 0, 6))
+    names = ("Anim", "Still0", "Still1", "Interface", "ViaMoving", "ViaResting")
+    for k, name in enumerate(names):
+        looks = UsdShade.Material(stage.GetPrimAtPath(f"/Looks/{name}"))
+        UsdShade.MaterialBindingAPI.Apply(mesh(stage, f"/World/{name}", *grid(2, k)).GetPrim()).Bind(looks)
+    stage.GetRootLayer().Save()
+    path = tmp_path / "looks.usda"
+
+    reads = []
+    read_material = MaterialReader._read_material
+
+    def counted(reader, material):
+        reads.append(str(material.GetPath()))
+        return read_material(reader, material)
+
+    frames = StageFrames(path)
+    times = (1, 2.5, 4, None, 2, None, 3)
+    seen = set()
+    for t in times:
+        monkeypatch.setattr(MaterialReader, "_read_material", counted)
+        scene, warned = load_warned(frames.load, t)
+        monkeypatch.setattr(MaterialReader, "_read_material", read_material)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned, (t, warned)
+        seen.add(tuple(m.diffuse_color.tobytes() for m in scene.materials if m.path == "/Looks/ViaMoving"))
+    assert len(seen) >= 3  # the graph's fallback does reach the material
+    counts = {name: reads.count(name) for name in sorted(set(reads))}
+    varying = ("/Looks/Anim", "/Looks/Interface", "/Looks/ViaMoving")
+    static = ("/Looks/Still0", "/Looks/Still1", "/Looks/ViaResting")
+    assert counts == {**{p: len(times) for p in varying}, **{p: 2 for p in static},
+                      **{p: 2 for p in counts if "Inside" in p}}, counts
+    assert any("Inside" in p for p in counts)

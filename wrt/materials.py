@@ -886,7 +886,7 @@ class MaterialReader:
         """Index of ``material`` (a ``UsdShade.Material``) in :attr:`materials`, reading it on first use."""
         path = str(material.GetPath())
         if path not in self._by_path:
-            mat = self._kept_or_read(material, path)
+            mat = self._kept_or_read(material)
             if mat is None:
                 self._by_path[path] = -1
             else:
@@ -894,10 +894,10 @@ class MaterialReader:
                 self.materials.append(mat)
         return self._by_path[path]
 
-    def _kept_or_read(self, material, path: str) -> Material | None:
+    def _kept_or_read(self, material) -> Material | None:
         """:meth:`_read_material`, or the memo's copy of a read of it at another time that cannot differ (its
         warnings recorded again); a read that looked up no image file is kept."""
-        found = None if self.memo is None else self.memo.find(path, self.time)
+        found = None if self.memo is None else self.memo.find(material, self.time)
         if found is not None:
             self.skipped += found[1]
             return found[0]
@@ -906,7 +906,7 @@ class MaterialReader:
         start, lookups = len(self.skipped), self.file_lookups
         mat = self._read_material(material)
         if self.file_lookups == lookups:
-            self.memo.keep(path, self.time, mat, self.skipped[start:])
+            self.memo.keep(material, self.time, mat, self.skipped[start:])
         return mat
 
     def _read_material(self, material) -> Material | None:

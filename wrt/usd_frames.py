@@ -88,8 +88,8 @@ class StageFrames:
             if clips is None or stage.GetCompositionErrors():
                 return stage  # opened for this load alone; nothing kept
             self._stage, self._opened_with, self._stamps = stage, opened_with, {**stamps, **clips}
-            self.memo, self.material_memo, self.placement_memo = MeshMemo(clipped), MaterialMemo(stage), PlacementMemo(
-                clipped)
+            self.memo, self.material_memo = MeshMemo(clipped), MaterialMemo(clipped)
+            self.placement_memo = PlacementMemo(clipped)
             edited = self._edited = [False]
             self._listener = Tf.Notice.Register(Usd.Notice.StageContentsChanged,
                                                 lambda notice, sender: edited.__setitem__(0, True), stage)

@@ -3,12 +3,14 @@ where USD says that nothing they are read from can differ.
 
 A material's read (:meth:`wrt.materials.MaterialReader.material_index`) takes the attributes of the shading prims its
 outputs lead to (shaders and node graphs, inside the material or connected from elsewhere), and, through textures,
-image files. Which prims those are is not traced: materials are reused only on a stage where no ``UsdShade.Shader``
-or ``NodeGraph`` (a ``Material`` is one) has an attribute that might vary (``UsdAttribute.ValueMightBeTimeVarying``),
-asked once per kept stage, prototypes included; and only materials whose read looked up no image file (the order
-images are first read in numbers them in ``Scene.textures``, and a file may change): the others are read afresh. A
-reused material is a copy of the kept one, and the warnings its read recorded are recorded again. Reads at the
-default time and at time codes are kept apart (an attribute with a default and one sample reads as either).
+image files. Each material is asked once per kept stage whether it is reusable (:func:`network_might_vary`): the
+material, the prims inside it and every prim its network's connections reach (connections do not vary in time) have
+no attribute that might vary (``UsdAttribute.ValueMightBeTimeVarying``) and none is where value clips may reach
+(:func:`wrt.usd_clips.under_clips`, as :class:`wrt.usd_mesh_memo.MeshMemo` counts them); one animated material
+leaves the others reused. Only materials whose read looked up no image file are kept (the order images are first
+read in numbers them in ``Scene.textures``, and a file may change): the others are read afresh. A reused material
+is a copy of the kept one, and the warnings its read recorded are recorded again. Reads at the default time and at
+time codes are kept apart (an attribute with a default and one sample reads as either).
 """
 
 from __future__ import annotations
@@ -17,16 +19,19 @@ import copy
 
 from pxr import Usd, UsdShade
 
+from .usd_clips import under_clips
+
 
 class MaterialMemo:
     """The kept material reads of one kept stage.
 
     Args:
-        stage: the kept stage.
+        clip_roots: prims with value clips (:func:`wrt.usd_clips.clip_roots`): every shading prim below might vary.
     """
 
-    def __init__(self, stage: Usd.Stage):
-        self.reusable = not shading_might_vary(stage)
+    def __init__(self, clip_roots: list = ()):
+        self.clip_roots = list(clip_roots)
+        self._varies = {}  # material path -> network_might_vary, asked once per kept stage
         self._kept = {}  # (material path, default time) -> (Material or None, ((reason, shown path, detail), ...))
         # (resolved path, colour space) -> (file stamp, read-only pixels, {key: what was made from them}: derived)
         self._images = {}
@@ -37,19 +42,26 @@ class MaterialMemo:
         self.bindings = {}
         self.binding_counts = {"reused": 0}  # answers given again, for tests
 
-    def find(self, path: str, time: Usd.TimeCode):
+    def reusable(self, material: UsdShade.Material) -> bool:
+        """Nothing ``material``'s read takes might vary (:func:`network_might_vary`)."""
+        path = str(material.GetPath())
+        if path not in self._varies:
+            self._varies[path] = network_might_vary(material.GetPrim(), self.clip_roots)
+        return not self._varies[path]
+
+    def find(self, material: UsdShade.Material, time: Usd.TimeCode):
         """``(a copy of the kept Material or None, the warnings of its read)``, or None when none is kept."""
-        kept = self._kept.get((path, time.IsDefault())) if self.reusable else None
+        kept = self._kept.get((str(material.GetPath()), time.IsDefault()))
         if kept is None:
             return None
         self.counts["reused"] += 1
         return copy.deepcopy(kept[0]), kept[1]
 
-    def keep(self, path: str, time: Usd.TimeCode, material, skips: list) -> None:
-        if self.reusable:
+    def keep(self, material: UsdShade.Material, time: Usd.TimeCode, read, skips: list) -> None:
+        """Keeps ``read`` (a Material or None) of ``material`` and the warnings it recorded, if it is reusable."""
+        if self.reusable(material):
             self.counts["read"] += 1
-            self._kept[(path, time.IsDefault())] = (copy.deepcopy(material), tuple(skips))
-
+            self._kept[(str(material.GetPath()), time.IsDefault())] = (copy.deepcopy(read), tuple(skips))
 
     def image(self, resolved: str, color_space: str, load):
         """``load(resolved, color_space)``, the pixels of an image file, kept while the file (the package of one
@@ -83,12 +95,25 @@ class MaterialMemo:
         return kept[2][key]
 
 
-def shading_might_vary(stage: Usd.Stage) -> bool:
-    """Some shader or node graph of ``stage`` (its native prototypes too) has an attribute that might vary."""
-    roots = [stage.GetPseudoRoot(), *stage.GetPrototypes()]
-    for root in roots:
-        for prim in Usd.PrimRange(root, Usd.PrimAllPrimsPredicate):
-            if (prim.IsA(UsdShade.Shader) or prim.IsA(UsdShade.NodeGraph)) and any(
-                    a.ValueMightBeTimeVarying() for a in prim.GetAuthoredAttributes()):
+def network_might_vary(material: Usd.Prim, clip_roots: list = ()) -> bool:
+    """Some prim ``material``'s read may take (see the module docstring) has an attribute that might vary, or is where
+    value clips may reach: the material, every prim inside it or inside a node graph its connections reach, and every
+    prim that a connection of theirs names (at any depth; instance proxies and prototypes alike)."""
+    stage = material.GetStage()
+    inside = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
+    seen = set()
+    todo = [material]
+    while todo:
+        prim = todo.pop()
+        if not prim or prim.GetPath() in seen:
+            continue
+        seen.add(prim.GetPath())
+        if under_clips(prim, clip_roots):
+            return True
+        for attr in prim.GetAuthoredAttributes():
+            if attr.ValueMightBeTimeVarying():
                 return True
+            todo += [stage.GetPrimAtPath(target.GetPrimPath()) for target in attr.GetConnections()]
+        if prim.IsA(UsdShade.NodeGraph):  # a Material is one; what is inside it, connected or not
+            todo += prim.GetFilteredChildren(inside)
     return False
