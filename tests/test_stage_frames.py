@@ -862,3 +862,34 @@ def test_materials_that_hold_still_are_reused_beside_one_that_varies(tmp_path, m
     assert counts == {**{p: len(times) for p in varying}, **{p: 2 for p in static},
                       **{p: 2 for p in counts if "Inside" in p}}, counts
     assert any("Inside" in p for p in counts)
+
+
+def test_a_material_whose_input_comes_from_value_clips_is_read_at_every_frame(tmp_path):
+    """A shader input declared without a value, given by value clips, a colour per clip: the material is read at
+    every frame, as a fresh load reads it."""
+    for k, color in enumerate(((1, 0, 0), (0, 1, 0), (0, 0, 1)), 1):
+        clip = Usd.Stage.CreateInMemory()
+        diffuse = UsdShade.Shader.Define(clip, "/Model/Looks/Clipped/Surface").CreateInput(
+            "diffuseColor", Sdf.ValueTypeNames.Color3f)
+        diffuse.Set(Gf.Vec3f(*color), k)
+        clip.GetRootLayer().Export(str(tmp_path / f"look.{k}.usda"))
+    stage = Usd.Stage.CreateNew(str(tmp_path / "clipped_look.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(3)
+    looks = preview_material(stage, "/Model/Looks/Clipped")
+    UsdShade.MaterialBindingAPI.Apply(mesh(stage, "/Model/Sheet", *grid(2)).GetPrim()).Bind(looks)
+    api = Usd.ClipsAPI(stage.GetPrimAtPath("/Model"))
+    api.SetClipPrimPath("/Model")
+    api.SetClipAssetPaths([Sdf.AssetPath(f"./look.{k}.usda") for k in (1, 2, 3)])
+    api.SetClipActive([(1, 0), (2, 1), (3, 2)])
+    api.SetClipTimes([(1, 1), (2, 2), (3, 3)])
+    stage.GetRootLayer().Save()
+    path = tmp_path / "clipped_look.usda"
+
+    frames = StageFrames(path)
+    colors = set()
+    for t in (1, 2, 3, 1):
+        scene = frames.load(t)
+        assert_same(scene, load_fresh(path, t), f"frame {t}")
+        colors.add(scene.materials[0].diffuse_color.tobytes())
+    assert len(colors) == 3  # each clip's colour
