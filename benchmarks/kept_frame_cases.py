@@ -1,0 +1,90 @@
+"""Kept-stage frame loads (``wrt.usd_frames.StageFrames``) of two stages where one thing varies and the rest does
+not: ``dome``, a 1024x1024 ``angular`` DomeLight texture on a dome that turns, beside a floor quad (the image was
+resampled to lat-long at every frame); ``looks``, 300 quads each bound to its own UsdPreviewSurface material, one of
+which is animated (every material was read again at every frame). Prints the first load and the mean of the 7 later
+ones (frames 1..8), and the material memo's counts.
+
+Usage: python benchmarks/kept_frame_cases.py FOLDER {dome,looks}
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from wrt.usd_frames import StageFrames
+
+MATERIALS = 300  # quads and materials of ``looks``
+PROBE_SIZE = 1024  # pixels of the angular map's side
+
+
+def quad(stage, path: str, x: float):
+    m = UsdGeom.Mesh.Define(stage, path)
+    m.CreatePointsAttr([(x, 0, 0), (x + 1, 0, 0), (x + 1, 1, 0), (x, 1, 0)])
+    m.CreateFaceVertexCountsAttr([4])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    return m
+
+
+def dome_stage(folder: Path) -> Path:
+    from PIL import Image
+
+    rng = np.random.default_rng(1)
+    Image.fromarray(rng.integers(0, 255, (PROBE_SIZE, PROBE_SIZE, 3), dtype=np.uint8)).save(folder / "probe.png")
+    stage = Usd.Stage.CreateNew(str(folder / "dome.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(8)
+    dome = UsdLux.DomeLight.Define(stage, "/Sky")
+    dome.CreateTextureFileAttr(Sdf.AssetPath("probe.png"))
+    dome.CreateTextureFormatAttr("angular")
+    turn = dome.AddRotateYOp()
+    turn.Set(0.0, 1), turn.Set(90.0, 8)
+    quad(stage, "/Floor", 0)
+    stage.GetRootLayer().Save()
+    return folder / "dome.usda"
+
+
+def looks_stage(folder: Path) -> Path:
+    stage = Usd.Stage.CreateNew(str(folder / "looks.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(8)
+    for k in range(MATERIALS):
+        material = UsdShade.Material.Define(stage, f"/Looks/M{k}")
+        shader = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Surface")
+        shader.CreateIdAttr("UsdPreviewSurface")
+        color = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+        shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.3)
+        shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.1)
+        if k == 0:  # the one animated material
+            color.Set(Gf.Vec3f(1, 0, 0), 1), color.Set(Gf.Vec3f(0, 0, 1), 8)
+        else:
+            color.Set(Gf.Vec3f(0.5, k / MATERIALS, 0.2))
+        material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+        UsdShade.MaterialBindingAPI.Apply(quad(stage, f"/World/Q{k}", 1.1 * k).GetPrim()).Bind(material)
+    stage.GetRootLayer().Save()
+    return folder / "looks.usda"
+
+
+def main() -> None:
+    warnings.simplefilter("ignore")
+    folder, case = Path(sys.argv[1]), sys.argv[2]
+    folder.mkdir(parents=True, exist_ok=True)
+    frames = StageFrames({"dome": dome_stage, "looks": looks_stage}[case](folder))
+    seconds = []
+    for t in range(1, 9):
+        start = time.perf_counter()
+        frames.load(t)
+        seconds.append(time.perf_counter() - start)
+    later = [s * 1e3 for s in seconds[1:]]
+    print(f"{case}: first {seconds[0] * 1e3:.0f} ms, later frames mean {statistics.mean(later):.0f} ms "
+          f"(min {min(later):.0f}, max {max(later):.0f}), materials {frames.material_memo.counts}")
+
+
+if __name__ == "__main__":
+    main()
