@@ -156,7 +156,7 @@ def test_overs_inside_a_native_prototype_are_not_drawn_as_in_a_plain_reference(t
                     'def Xform "Inst" (\n    instanceable = true\n    references = @./asset.usda@\n)\n{\n}\n')
     scene = load(path)
     assert [m.path for m in scene.meshes] == ["/Plain/Shown"]
-    assert [[m.path for m in p.meshes] for p in scene.prototypes] == [["/__Prototype_1/Shown"]]
+    assert [[m.path for m in p.meshes] for p in scene.prototypes] == [["/Inst/Shown"]]  # named by its instance
 
 
 def test_overs_inside_a_pointinstancer_prototype_are_not_drawn(tmp_path):

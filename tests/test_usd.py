@@ -641,7 +641,7 @@ def test_native_instances_share_one_prototype(tmp_path):
     scene = load(path)
     # The prototype is read once, in its own space; each instanceable prim is one instance of it.
     assert scene.meshes == [] and len(scene.prototypes) == 1 and len(scene.instances) == 2
-    assert [m.path for m in scene.prototypes[0].meshes] == ["/__Prototype_1/Tri"]
+    assert [m.path for m in scene.prototypes[0].meshes] == ["/A/Tri"]  # named by its first instance
     assert [scene.instances.path(i) for i in range(2)] == ["/A", "/B"]
     # Scene.triangles() still expands them, in instance order.
     points, indices = scene.triangles()

@@ -47,8 +47,9 @@ class Prototype(CountsAssignments):
     """Geometry that is drawn only through instances, in its own (prototype) space.
 
     Attributes:
-        path: prim path of the prototype root (a native prototype ``/__Prototype_N``, or the prim a PointInstancer's
-            ``prototypes`` relationship targets), or a made-up name.
+        path: prim path of the prototype root (a native prototype's first instance, the least of their paths, as
+            USD's ``/__Prototype_N`` changes per opening; or the prim a PointInstancer's ``prototypes`` relationship
+            targets), or a made-up name.
         meshes: :class:`wrt.scene.Mesh` list in prototype space, in stage pre-order.
         shapes: :class:`wrt.primitives.Shape` list in prototype space (analytic gprims), in stage pre-order.
     """
@@ -106,7 +107,7 @@ class Instances(CountsAssignments):
             (``Mesh.colors`` / ``Shape.color`` None), read at shading time by instance id, so a million colours cost
             12 bytes each, not a copy of the prototype each.
         roots: instance-proxy paths where instances' prototype roots lie (:mod:`wrt.light_links` names each drawn
-            part by it: ``/World/Instance/geo/mesh`` for part ``/__Prototype_1/geo/mesh``); empty: parts keep their
+            part by it: ``/World/Instance/geo/mesh`` for part ``/World/First/geo/mesh``); empty: parts keep their
             own paths.
         root: ``(N,)`` int32 index into ``roots`` of each instance (-1: its parts keep their own paths), or empty.
         opacities: ``(N,)`` float32 ``displayOpacity`` of each instance in [0, 1] (a PointInstancer's primvar, one a

@@ -403,8 +403,7 @@ class MeshLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
-        mesh: path of the meshes that emit when it is not ``path`` (a native prototype's, ``/__Prototype_1/Light``,
-            which USD numbers anew each time the stage is opened); "": ``path``.
+        mesh: path of the meshes that emit when it is not ``path``; "": ``path``.
     """
 
     path: str

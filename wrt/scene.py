@@ -952,7 +952,7 @@ class Scene:
         decides membership by): the non-instanced meshes and analytic shapes (gprims, and the Points or curves prim
         of a point's sphere or a curve's segment), then the parts of the instances at the paths they are drawn at.
         A native instance's part is named by its instance-proxy path (``/Plain/Body``: one path per instance; its
-        prototype path, ``/__Prototype_1/Body``, is renamed by USD each time the stage is opened); a PointInstancer
+        prototype's mesh is named once, by the prototype's first instance); a PointInstancer
         prototype's part by the prototype prim's own path (``/PI/Protos/A/Mesh``, shared by the instancer's
         instances), moved to the instance-proxy path when the instancer lies in a native instance. Entry ``k`` is
         prim id ``k`` of :meth:`hit_prims`."""

@@ -110,7 +110,7 @@ from .usd_attributes import AttributeReading
 from .usd_bake import MeshBaking
 from .usd_bindings import CollectionsInside
 from .usd_cameras import CameraReading
-from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, place_instances
+from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, named, place_instances
 from .usd_gprims import GprimReading
 from .usd_lights import LightTextures, read_light, warn_glowless_mesh_light
 from .usd_looks import LookReading
@@ -313,7 +313,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
-        self.shown_prototypes = {}  # native prototype path -> the path it is shown at in messages (_shown_path)
+        self.shown_prototypes = {}  # native prototype path -> (abstract, the path it is named by) (_prototype_name)
         self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)
         self.instanced_lights = {}  # prim path -> MeshLight of the mesh lights read inside prototypes
         self.light_textures = LightTextures(material_memo)  # the images of light textures, each file read once
@@ -330,8 +330,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self._walk(self.stage.GetPseudoRoot(), Context(world, world=True))
         scene.meshes = world.meshes
         scene.shapes = world.shapes
-        inverses = place_instances(world, self.contents, scene, self._skip_path)
-        scene.materials = self.materials.materials
+        # Prototypes and what they hold are named by their first instance's proxies (_stable_path), not by USD's
+        # numbering (/__Prototype_N), which differs per opening; inside, the reader keeps USD's paths.
+        inverses = place_instances(world, self.contents, scene, self._skip_path, self._stable_path)
+        scene.materials = [named(material, self._stable_path) for material in self.materials.materials]
         scene.textures = self.materials.textures
         if inverses is not None:
             scene.remember_instance_inverses(inverses)
@@ -487,8 +489,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         if ctx.world:
             self.scene.lights.append(light)
             return
-        if prim.IsInPrototype():  # named as warnings name it, not by the prototype's path (USD renumbers those)
-            light.path, light.mesh = self._shown_path(prim), path
+        if prim.IsInPrototype():  # named as warnings and its mesh are, not by the prototype path (USD renumbers those)
+            light.path = self._shown_path(prim)
         self.instanced_lights[path] = light  # added once the walk is over, unless drawn in place too
 
     def _not_a_mesh_light(self, prim: Usd.Prim, what: str):

@@ -4,11 +4,13 @@ into ``Scene.prototypes`` and one level of ``Scene.instances``."""
 
 from __future__ import annotations
 
+import copy
 from typing import NamedTuple
 
 import numpy as np
 from pxr import Sdf, Usd
 
+from .assignments import mark_checked
 from .instancing import Instances, Prototype, invert_transforms, thicken_flat_transforms
 from .light_links import part_path
 from .primitives import Shape
@@ -166,10 +168,12 @@ def placed_indices(levels: tuple, row: int) -> list[int]:
     return found[::-1]
 
 
-def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> np.ndarray | None:
+def place_instances(world: Content, contents: dict, scene: Scene, skip_path, stable_name=None) -> np.ndarray | None:
     """Resolves nested instancing into ``scene.prototypes`` and one level of ``scene.instances``: ``world`` is the
     stage's content, ``contents`` every content read (key -> :class:`Content`), ``skip_path(reason, path)`` records
-    an instance left out. Returns the inverses of the instances' transforms, or None without instances."""
+    an instance left out, ``stable_name(path)`` is the path a prototype, mesh or shape read at ``path`` is named by
+    in the scene (a native prototype's, which USD numbers anew per opening; None: its own). Returns the inverses of
+    the instances' transforms, or None without instances."""
     # Per placed entry (numpy arrays are made once at the end: per-entry arrays took seconds for 40k nested
     # instances): its prototype, world-level source, name and root (ids into the dicts below) and its (K,) rows.
     entries, matrices, indices, name_indices, elements, colors_of = [], [], [], [], {}, []
@@ -180,7 +184,12 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
         if content.meshes or content.shapes:
             if content.prototype < 0:
                 content.prototype = len(scene.prototypes)
-                scene.prototypes.append(Prototype(content.path, content.meshes, content.shapes))
+                path, meshes, shapes = content.path, content.meshes, content.shapes
+                if stable_name is not None:
+                    path = stable_name(path)
+                    meshes = [named(m, stable_name) for m in meshes]
+                    shapes = [named(s, stable_name) for s in shapes]
+                scene.prototypes.append(Prototype(path, meshes, shapes))
             if content.tube is not None:  # a Points or curves prim's sphere or tube piece: its point or curve
                 elements[len(entries)] = name.own
             entries.append((content.prototype, order_ids.setdefault(source, len(order_ids)),
@@ -244,6 +253,20 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path) -> 
         instances = instances.take(ok)
     scene.instances = instances
     return inverses[ok]  # the scene's first trace needs them too
+
+
+def named(part, stable_name):
+    """``part`` (a mesh, shape or material) named ``stable_name(part.path)``: itself, or a shallow copy (a kept stage's
+    memo holds the read one) that keeps its checked state, only its path, a prim path, being new."""
+    path = stable_name(part.path)
+    if path == part.path:
+        return part
+    checked = not part.__dict__.get("_unchecked", False)
+    renamed = copy.copy(part)
+    renamed.path = path
+    if checked:
+        mark_checked(renamed)
+    return renamed
 
 
 class _Name:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import warnings
 
-from pxr import Tf, Usd
+from pxr import Sdf, Tf, Usd
 
 from .errors import SceneError, user_stacklevel
 
@@ -62,21 +62,47 @@ class ProblemReport:
         return self.prototype_instance_counts[key]
 
     def _shown_path(self, prim: Usd.Prim) -> str:
-        """The path that names ``prim`` in errors and warnings, as usdview shows it: inside a native instance's
-        prototype (``/__Prototype_1/Tri``, a name USD makes up per opening that no file holds), its proxy in the
-        prototype's first drawn instance (``/A/Tri``; nested instances resolved the same way)."""
+        """The path that names ``prim`` in the scene, errors and warnings, as usdview shows it: inside a native
+        instance's prototype (``/__Prototype_1/Tri``, a name USD makes up per opening that no file holds), its proxy
+        in the prototype's first instance (``/A/Tri``, see :meth:`_prototype_name`)."""
         path = str(prim.GetPath())
         if not prim.IsInPrototype():
             return path
         root = prim
         while not root.IsPrototype():
             root = root.GetParent()
-        key = str(root.GetPath())
+        return self._prototype_name(root)[1] + path[len(str(root.GetPath())):]
+
+    def _prototype_name(self, prototype: Usd.Prim) -> tuple[bool, str]:
+        """``(abstract, path)``: the path native prototype ``prototype`` is named by, that of its first instance
+        (the least path, instances nested in other prototypes at their own names, so that USD's numbering, which
+        differs per opening, chooses nothing), one under a class (abstract) only where it has no other."""
+        key = str(prototype.GetPath())
         if key not in self.shown_prototypes:
-            instances = root.GetInstances()
-            first = min(instances, key=lambda p: (p.IsAbstract(), str(p.GetPath()))) if instances else None
-            self.shown_prototypes[key] = self._shown_path(first) if first else key
-        return self.shown_prototypes[key] + path[len(key):]
+            names = []
+            for instance in prototype.GetInstances():
+                if instance.IsInPrototype():
+                    root = instance
+                    while not root.IsPrototype():
+                        root = root.GetParent()
+                    abstract, _ = self._prototype_name(root)
+                    names.append((abstract or instance.IsAbstract(), self._shown_path(instance)))
+                else:
+                    names.append((instance.IsAbstract(), str(instance.GetPath())))
+            self.shown_prototypes[key] = min(names) if names else (True, key)
+        return self.shown_prototypes[key]
+
+    def _stable_path(self, path: str) -> str:
+        """``path`` (a prim path, or one with an element index, ``/P/Points[3]``) named by :meth:`_shown_path` when
+        it lies in a native prototype."""
+        if not path.startswith("/"):
+            return path
+        end = path.find("/", 1)
+        top = path if end < 0 else path[:end]
+        root = self.stage.GetPrimAtPath(top) if Sdf.Path.IsValidPathString(top) else None
+        if not root or not root.IsPrototype():
+            return path
+        return self._prototype_name(root)[1] + path[len(top):]
 
     def _skip_path(self, reason: str, path: str, detail: str | None = None):
         # In order: the slice of a read kept for other frames is its warnings (wrt.usd_mesh_memo, usd_material_memo).
