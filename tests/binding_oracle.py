@@ -17,7 +17,7 @@ prototype part by its own path) and checks:
 from __future__ import annotations
 
 import numpy as np
-from pxr import Usd, UsdGeom, UsdShade
+from pxr import Sdf, Usd, UsdGeom, UsdShade
 
 READABLE_IDS = ("UsdPreviewSurface",)
 MATERIAL_PRIMVARS = {"Tint": ("tint", (0.1, 0.2, 0.3))}  # material name -> (colour primvar it reads, fallback)
@@ -85,6 +85,13 @@ def material_key(material: UsdShade.Material | None) -> str:
     if prim.IsInstanceProxy():
         prim = prim.GetPrimInPrototype()
     return prototype_free(str(prim.GetPath()))
+
+
+def scene_material_key(stage: Usd.Stage, path: str) -> str:
+    """:func:`material_key` of the material wrt names ``path``: inside a native instance wrt names it by a proxy in
+    the prototype's first instance (``/A/Looks/M``), USD by the instance's own proxy or its prototype path."""
+    prim = stage.GetPrimAtPath(path) if Sdf.Path.IsValidPathString(path) else None
+    return material_key(UsdShade.Material(prim)) if prim else prototype_free(path)
 
 
 def prototype_free(path: str) -> str:
@@ -161,7 +168,7 @@ def compare(stage: Usd.Stage, scene) -> list[str]:
     opacities = scene.corner_opacities()
     inst_colors = scene.instances.colors if len(scene.instances.colors) else None
     inst_opacities = scene.instances.opacities if len(scene.instances.opacities) else None
-    names = [prototype_free(m.path) for m in scene.materials]
+    names = [scene_material_key(stage, m.path) for m in scene.materials]
     seen = set()
     cache, prims = {}, {}
     for path, face, geometry, instance in rendered_rows(scene):
