@@ -184,3 +184,42 @@ def test_hits_keep_their_instance_proxy_paths_and_material(stage_path):
     (material,) = scene.materials
     bound = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(blades[0])).ComputeBoundMaterial()[0].GetPrim()
     assert stage.GetPrimAtPath(material.path).GetPrimInPrototype() == bound.GetPrimInPrototype()
+
+
+# Leaf is instanced only inside two other prototypes: its first instance is a nested one either way.
+NESTED_ONLY = f"""#usda 1.0
+class Xform "Leaf"
+{{
+    def Mesh "Blade"
+    {{{TRIANGLE.format(s=1)}
+        uniform token orientation = "leftHandd"
+    }}
+}}
+class Xform "BushX"
+{{
+{_instance("L", "Leaf")}}}
+class Xform "BushY"
+{{
+    def Mesh "Trunk"
+    {{{TRIANGLE.format(s=3)}
+    }}
+{_instance("L", "Leaf")}}}
+def Xform "World"
+{{
+{_instance("B", "BushX", x=10)}{_instance("A", "BushY", x=20)}}}
+"""
+
+
+def test_a_prototype_instanced_only_inside_others_is_named_by_their_names_not_their_numbers(tmp_path):
+    """The first instance of a prototype whose instances all lie in other prototypes is chosen by the names those
+    have (``/World/A/L`` before ``/World/B/L``), in the scene and in warnings: it was chosen by USD's numbering
+    (``/__Prototype_1/L`` before ``/__Prototype_2/L``), so a warning named ``/World/B/L/Blade`` at some loads."""
+    path = tmp_path / "nested.usda"
+    path.write_text(NESTED_ONLY)
+    for _ in range(6):
+        with pytest.warns(UserWarning, match=r"orientation") as caught:
+            scene = wrt.load_usd(path)
+        (warning,) = [str(w.message) for w in caught if "orientation" in str(w.message)]
+        assert warning.endswith(": /World/A/L/Blade (and in 1 other instance)")
+        leaf = next(p for p in scene.prototypes if p.meshes[0].path.endswith("/Blade"))
+        assert leaf.path == "/World/A/L" and leaf.meshes[0].path == "/World/A/L/Blade"
