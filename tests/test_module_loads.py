@@ -103,3 +103,31 @@ def test_default_render_loads_each_module_once(default_render):
     loads = collections.Counter(re.findall(r"^Module (\S+) \S+ load on device 'cpu'", default_render, re.M))
     assert loads  # Warp printed its module-load lines
     assert {name: n for name, n in loads.items() if n > 1} == {}
+
+
+def test_an_instanced_trace_builds_each_module_once_per_device():
+    """Warp keeps one build of a module per device and threads per block (``Module.execs``), so a kernel launched at
+    another block size than its module's others builds the whole module again. ``RowSplitter`` launched
+    ``split_rows_kernel`` at Warp's default 256 beside trace kernels at 64 threads per block on CUDA: every
+    instanced ``accel="warp"`` or non-binary trace compiled ``wrt.trace`` twice. (On the CPU both are 256; the
+    check bites under ``-p trace_on_cuda``.)"""
+    import numpy as np
+    import warp as wp
+
+    import wrt
+    from wrt.instancing import Instances
+
+    points = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    proto = wrt.Prototype("/P", [wrt.Mesh("/P/Tri", points, np.array([[0, 1, 2]]), None)])
+    to_world = np.broadcast_to(np.eye(4), (3, 4, 4)).copy()
+    to_world[:, 2, 3] = [0.0, -1.0, -2.0]  # column-vector transforms: the translation is the last column
+    scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(3, int), to_world))
+    device = wp.get_device(getattr(wrt.trace, "keywords", {}).get("device", "cpu"))
+    origins = np.array([[0.25, 0.25, 1.0]] * 2, np.float32)
+    directions = np.array([[0.0, 0.0, -1.0]] * 2, np.float32)
+    for accel, layout in (("warp", "binary"), ("wrt", "compact")):
+        hits = wrt.trace(scene, origins, directions, accel=accel, layout=layout)
+        assert list(hits.instance) == [0, 0] and list(hits.prim) == [0, 0], (accel, layout)
+    for name in ("wrt.trace", "wrt.mesh_trace"):  # the second holds the wp.Mesh kernels
+        builds = [block_dim for context, block_dim in wp.get_module(name).execs if context == device.context]
+        assert len(builds) <= 1, (name, builds)

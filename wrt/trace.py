@@ -270,6 +270,9 @@ class RowSplitter:
             inputs=self.inputs,
             outputs=[hits.u, hits.v, hits.prim, hits.instance],
             device=self.device,
+            # The trace kernels' block size: Warp builds a module once per block size, so Warp's default here built
+            # all of wrt.trace a second time on CUDA.
+            block_dim=traverse.trace_block_dim(self.device),
         )
 
 
