@@ -625,3 +625,36 @@ def test_per_triangle_arrays_of_the_right_size_in_another_layout_are_refused(nam
     flat = {"normals": (2, 9), "uvs": (12,)}[name]
     mesh = wrt.Mesh("/Square", SQUARE, indices, None, **{name: np.ascontiguousarray(value).reshape(flat)})
     assert getattr(mesh, name).shape == (2, 3, {"normals": 3, "uvs": 2}[name])
+
+
+# Looking straight up at the square, whose front (its winding's) faces +Z: a single-sided one is culled from here.
+BELOW = wrt.Camera.orthographic((0.0, 0.0, -5.0), (0.0, 0.0, 0.0), height=4.0)
+
+
+@pytest.mark.parametrize("value", ["no", "False", np.array([True, False]), None, 2])
+def test_double_sided_that_is_no_bool_is_refused_naming_the_mesh_or_shape(value):
+    """``Mesh(double_sided="no")`` (any string, a mask, None...) was taken by its truth: "no" and "False" made the
+    mesh double-sided without a word, and an array failed deep in the scene naming no mesh. Refused naming the mesh
+    or shape, when made and when assigned later."""
+    from wrt.primitives import Shape
+
+    indices = np.int32([[0, 1, 2], [0, 2, 3]])
+    with pytest.raises(TypeError, match=r"^/Square: double_sided must be True or False, got "):
+        wrt.Mesh("/Square", SQUARE, indices, None, double_sided=value)
+    with pytest.raises(TypeError, match=r"^shape /Ball: double_sided must be True or False, got "):
+        Shape("/Ball", "sphere", np.eye(4), double_sided=value)
+    mesh = wrt.Mesh("/Square", SQUARE, indices, None)
+    scene = wrt.Scene(meshes=[mesh])
+    mesh.double_sided = value
+    with pytest.raises(TypeError, match=r"^/Square: double_sided must be True or False"):
+        wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+
+
+@pytest.mark.parametrize("value", [np.bool_(True), np.bool_(False), 1, 0])
+def test_double_sided_as_a_numpy_bool_or_zero_one_is_the_bool_it_says(value):
+    """A numpy bool (``mask[k]``) and the integers 0 and 1 mean what they say. Oracle: seen from behind, the square
+    covers its 16 pixels when double-sided and none when back-face culled."""
+    mesh = wrt.Mesh("/Square", SQUARE, np.int32([[0, 1, 2], [0, 2, 3]]), None, double_sided=value)
+    assert type(mesh.double_sided) is bool and mesh.double_sided == bool(value)
+    image = wrt.render(wrt.Scene(meshes=[mesh]), camera=BELOW, width=8, height=8, integrator="albedo")
+    assert image.aovs["coverage"].sum() == (16.0 if value else 0.0)

@@ -87,6 +87,17 @@ def prim_path(value, what: str, *, optional: bool = False) -> str:
                     f"{value!r}")
 
 
+def flag(value, what: str) -> bool:
+    """``value`` as a ``bool``: a numpy bool (``mask[k]``) and the integers 0 and 1 mean what they say. Anything else
+    raises ``TypeError`` naming ``what``: ``double_sided="no"`` (or "False", None, an array) was taken by its truth,
+    making a mesh double-sided without a word."""
+    if type(value) is bool:
+        return value
+    if isinstance(value, (bool, np.bool_)) or (isinstance(value, (int, np.integer)) and value in (0, 1)):
+        return bool(value)
+    raise TypeError(f"{what} must be True or False, got {type(value).__name__} {value!r}")
+
+
 def int32_problem(array: np.ndarray) -> str | None:
     """Why ``array``, ids or indices to be cast to int32, is refused, or None: numbers that are not whole (0.7 was cut
     to 0), or past int32 (2**32 wrapped round to 0), each then naming another material, prototype or face without a

@@ -43,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
-from .errors import bottom_row_problem, eight_bit_colors, prim_path
+from .errors import bottom_row_problem, eight_bit_colors, flag, prim_path
 from .floats import scaled_limit, unit_scales
 from .instancing import invert_transforms, thicken_flat_transforms
 
@@ -467,6 +467,8 @@ class Shape(CountsAssignments):
             self.path = path
         if self.kind not in SHAPE_KINDS:
             raise ValueError(f"unknown shape kind {self.kind!r}; valid kinds: {', '.join(SHAPE_KINDS)}")
+        if type(self.double_sided) is not bool:  # "no" was taken by its truth: double-sided
+            self.double_sided = flag(self.double_sided, f"shape {self.path}: double_sided")
         to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)
         # As for instances, lights and cameras: a Gf.Matrix4d passed untransposed has its translation in the bottom
         # row, which was dropped without a word (the shape drawn at the origin, sheared).
