@@ -658,3 +658,28 @@ def test_double_sided_as_a_numpy_bool_or_zero_one_is_the_bool_it_says(value):
     assert type(mesh.double_sided) is bool and mesh.double_sided == bool(value)
     image = wrt.render(wrt.Scene(meshes=[mesh]), camera=BELOW, width=8, height=8, integrator="albedo")
     assert image.aovs["coverage"].sum() == (16.0 if value else 0.0)
+
+
+@pytest.mark.parametrize("value, words", [
+    (0.7, r"0\.7"), (2**32, r"4294967296"), (np.int64(-2**40), r"np.int64\(-1099511627776\)"), ("0", r"'0'"),
+    ([0], r"\[0\]"),
+])
+def test_a_shape_material_id_that_is_no_int32_integer_is_refused(value, words):
+    """``Shape.material_id`` went into an int32 array at render time: 0.7 was cut to material 0, 2**32 wrapped round
+    to material 0, each without a word. Refused naming the shape, as a mesh's material_ids are, when made and when
+    assigned later; a whole float is the integer it holds. Oracle: the material's colour (albedo) on the sphere."""
+    from wrt.primitives import Shape
+
+    with pytest.raises(ValueError, match=rf"^shape /Ball: material_id must be an int32 integer .*, got {words}$"):
+        Shape("/Ball", "sphere", np.eye(4), material_id=value)
+    red = wrt.Material("/Red", diffuse_color=(1.0, 0.0, 0.0))
+    ball = Shape("/Ball", "sphere", np.eye(4), material_id=0.0, double_sided=True)
+    assert type(ball.material_id) is int and ball.material_id == 0
+    image = wrt.render(wrt.Scene(shapes=[ball], materials=[red]), camera=TOP, width=8, height=8, integrator="albedo")
+    covered = image.aovs["coverage"] > 0.5
+    assert covered.sum() > 0
+    np.testing.assert_allclose(image.rgb[covered], np.broadcast_to([1.0, 0.0, 0.0], (int(covered.sum()), 3)))
+    scene = wrt.Scene(shapes=[ball], materials=[red])
+    ball.material_id = value
+    with pytest.raises(ValueError, match=r"^shape /Ball: material_id must be an int32 integer"):
+        wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])

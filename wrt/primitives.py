@@ -43,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
-from .errors import bottom_row_problem, eight_bit_colors, flag, prim_path
+from .errors import bottom_row_problem, eight_bit_colors, flag, int32_problem, prim_path
 from .floats import scaled_limit, unit_scales
 from .instancing import invert_transforms, thicken_flat_transforms
 
@@ -469,6 +469,8 @@ class Shape(CountsAssignments):
             raise ValueError(f"unknown shape kind {self.kind!r}; valid kinds: {', '.join(SHAPE_KINDS)}")
         if type(self.double_sided) is not bool:  # "no" was taken by its truth: double-sided
             self.double_sided = flag(self.double_sided, f"shape {self.path}: double_sided")
+        if type(self.material_id) is not int or not -(2**31) <= self.material_id < 2**31:
+            self.material_id = self._checked_material_id()  # the scene casts it to int32: 0.7, 2**32 drew material 0
         to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)
         # As for instances, lights and cameras: a Gf.Matrix4d passed untransposed has its translation in the bottom
         # row, which was dropped without a word (the shape drawn at the origin, sheared).
@@ -502,6 +504,24 @@ class Shape(CountsAssignments):
             if not 0.0 <= self.opacity <= 1.0:  # NaN too: it would mean "none" on the device
                 raise ValueError(f"shape {self.path}: opacity must be in [0, 1] or None, got {self.opacity!r}")
         mark_checked(self)
+
+    def _checked_material_id(self) -> int:
+        """:attr:`material_id` as an ``int``, checked as a mesh's ``material_ids`` are
+        (:func:`wrt.errors.int32_problem`; a whole float is the integer it holds): the scene casts it to int32, where
+        0.7 was cut to material 0 and 2**32 wrapped round to it, each without a word.
+
+        Raises:
+            ValueError: naming the shape.
+        """
+        value = self.material_id
+        try:
+            array = np.asarray(value)
+        except ValueError:  # ragged
+            array = np.asarray(None)
+        if array.ndim != 0 or int32_problem(array.reshape(1)):
+            raise ValueError(f"shape {self.path}: material_id must be an int32 integer (an index into Scene.materials, "
+                             f"-1: the default material), got {value!r}")
+        return int(array)
 
     def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Canonical-space box ``(lower, upper)``."""
