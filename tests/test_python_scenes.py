@@ -683,3 +683,35 @@ def test_a_shape_material_id_that_is_no_int32_integer_is_refused(value, words):
     ball.material_id = value
     with pytest.raises(ValueError, match=r"^shape /Ball: material_id must be an int32 integer"):
         wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+
+
+@pytest.mark.parametrize("holder", ["dlpack", "cuda", "3x4"])
+def test_a_shape_transform_on_a_gpu_or_without_its_bottom_row_is_read(holder):
+    """A shape's ``to_world`` as a ``wp.array`` on CUDA or a GPU tensor failed with numpy's refusal, naming no shape,
+    and a ``(3, 4)`` affine matrix (the device's own layout, without the bottom row) with numpy's "cannot reshape
+    array of size 12 into shape (4,4)". The first two are copied to the host as a mesh's arrays are, and the row
+    ``(0, 0, 0, 1)`` is added to the third. Oracle: the unit sphere moved to z = 1 is hit at 5 - 1 - 1 = 3."""
+    import warp as wp
+
+    from wrt.primitives import Shape
+
+    if holder == "cuda" and not wp.is_cuda_available():
+        pytest.skip("needs CUDA")
+    to_world = np.eye(4)
+    to_world[2, 3] = 1.0
+    given = {"dlpack": DLPackOnly, "cuda": lambda values: wp_array(values, "cuda:0"),
+             "3x4": lambda values: values[:3]}[holder](to_world)
+    ball = Shape("/Ball", "sphere", given)
+    np.testing.assert_array_equal(ball.to_world, to_world)
+    np.testing.assert_allclose(wrt.trace(wrt.Scene(shapes=[ball]), [0.0, 0.0, 5.0], [0.0, 0.0, -1.0]).t, [3.0],
+                               rtol=1e-6)
+
+
+@pytest.mark.parametrize("value", [np.eye(4)[:, :3], np.eye(3), np.zeros((2, 4, 4)), [["a"] * 4] * 4])
+def test_a_shape_transform_of_another_shape_is_refused_naming_the_shape(value):
+    """A ``(4, 3)`` (a row-vector affine matrix), ``(3, 3)`` or stacked transform failed with numpy's reshape or
+    conversion message, naming no shape."""
+    from wrt.primitives import Shape
+
+    with pytest.raises(ValueError, match=r"^shape /Ball: to_world must be a \(4, 4\) .* its top \(3, 4\), got "):
+        Shape("/Ball", "sphere", value)

@@ -46,6 +46,7 @@ from .assignments import CountsAssignments, mark_checked
 from .errors import bottom_row_problem, eight_bit_colors, flag, int32_problem, prim_path
 from .floats import scaled_limit, unit_scales
 from .instancing import invert_transforms, thicken_flat_transforms
+from .ray_batch import host_array
 
 SHAPE_SPHERE = wp.constant(0)
 SHAPE_BOX = wp.constant(1)
@@ -471,7 +472,7 @@ class Shape(CountsAssignments):
             self.double_sided = flag(self.double_sided, f"shape {self.path}: double_sided")
         if type(self.material_id) is not int or not -(2**31) <= self.material_id < 2**31:
             self.material_id = self._checked_material_id()  # the scene casts it to int32: 0.7, 2**32 drew material 0
-        to_world = np.asarray(self.to_world, np.float64).reshape(4, 4)
+        to_world = self._checked_to_world()
         # As for instances, lights and cameras: a Gf.Matrix4d passed untransposed has its translation in the bottom
         # row, which was dropped without a word (the shape drawn at the origin, sheared).
         problem = bottom_row_problem(f"shape {self.path} to_world", to_world) if np.isfinite(to_world).all() else None
@@ -504,6 +505,30 @@ class Shape(CountsAssignments):
             if not 0.0 <= self.opacity <= 1.0:  # NaN too: it would mean "none" on the device
                 raise ValueError(f"shape {self.path}: opacity must be in [0, 1] or None, got {self.opacity!r}")
         mark_checked(self)
+
+    def _checked_to_world(self) -> np.ndarray:
+        """:attr:`to_world` as a ``(4, 4)`` float64 array: one on a GPU (a ``wp.array`` on CUDA, a torch tensor) is
+        copied to the host (:func:`wrt.ray_batch.host_array`), as a mesh's arrays are, and a ``(3, 4)`` one (the
+        affine part, as the device holds it) gets its bottom row ``(0, 0, 0, 1)``; both failed with numpy's messages,
+        naming no shape. A ``(16,)`` one is read row by row, as before.
+
+        Raises:
+            ValueError: naming the shape, for any other shape or no numbers.
+        """
+        value = self.to_world
+        if type(value) is np.ndarray and value.shape == (4, 4) and value.dtype == np.float64:
+            return value  # the loader's, kept as it is (the same object: an assignment counts as an edit)
+        try:
+            matrix = np.asarray(host_array(f"shape {self.path} to_world", value), np.float64)
+        except (TypeError, ValueError):  # text, a ragged list, an object numpy and DLPack cannot read
+            matrix = None
+        if matrix is not None and matrix.shape == (3, 4):
+            matrix = np.concatenate([matrix, [[0.0, 0.0, 0.0, 1.0]]])
+        if matrix is None or matrix.shape not in ((4, 4), (16,)):
+            got = f"shape {matrix.shape}" if matrix is not None else f"{type(value).__name__} {value!r}"
+            raise ValueError(f"shape {self.path}: to_world must be a (4, 4) column-vector transform, p_world = M @ (p, "
+                             f"1), or its top (3, 4), got {got}")
+        return matrix.reshape(4, 4)
 
     def _checked_material_id(self) -> int:
         """:attr:`material_id` as an ``int``, checked as a mesh's ``material_ids`` are
