@@ -715,3 +715,33 @@ def test_a_shape_transform_of_another_shape_is_refused_naming_the_shape(value):
 
     with pytest.raises(ValueError, match=r"^shape /Ball: to_world must be a \(4, 4\) .* its top \(3, 4\), got "):
         Shape("/Ball", "sphere", value)
+
+
+@pytest.mark.parametrize("holder", ["dlpack", "cuda"])
+def test_light_arrays_on_a_gpu_are_read(holder):
+    """A light's position, direction, colour, transform or texture on the GPU (a ``wp.array`` on CUDA, a torch tensor)
+    failed with numpy's refusal, or was refused as no numbers ("must be finite numbers of shape (3,), got
+    <DLPackOnly ...>", "texture must be an (H, W, 3) or (H, W, 4) array of numbers"); they are copied to the host as a
+    mesh's arrays are. Oracle: the same lights made from numpy arrays."""
+    import warp as wp
+
+    if holder == "cuda" and not wp.is_cuda_available():
+        pytest.skip("needs CUDA")
+    make = DLPackOnly if holder == "dlpack" else (lambda values: wp_array(values, "cuda:0"))
+    to_world = np.eye(4)
+    to_world[:3, 3] = 1.0, 2.0, 3.0
+    color, texture = np.float32([1.0, 0.5, 0.25]), np.full((2, 4, 3), 0.5, np.float32)
+    pairs = [
+        (wrt.DistantLight(make(np.float32([0.0, 0.0, -2.0])), make(color)),
+         wrt.DistantLight(np.float32([0.0, 0.0, -2.0]), color)),
+        (wrt.SphereLight(make(np.float64([1.0, 2.0, 3.0])), 0.5, make(color), axis=make(np.float64([0.0, 1.0, 0.0]))),
+         wrt.SphereLight(np.float64([1.0, 2.0, 3.0]), 0.5, color, axis=np.float64([0.0, 1.0, 0.0]))),
+        (wrt.RectLight(make(to_world), 1.0, 2.0, make(color), texture=make(texture)),
+         wrt.RectLight(to_world, 1.0, 2.0, color, texture=texture)),
+        (wrt.DomeLight(make(color), to_world=make(np.eye(4)), texture=make(texture)),
+         wrt.DomeLight(color, to_world=np.eye(4), texture=texture)),
+    ]
+    for light, twin in pairs:
+        for name in ("direction", "position", "axis", "color", "to_world", "texture"):
+            if hasattr(twin, name):
+                np.testing.assert_array_equal(getattr(light, name), getattr(twin, name), err_msg=name)

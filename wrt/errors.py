@@ -164,9 +164,13 @@ def check_fields(obj, *fields: tuple) -> None:
                 continue
         need = "a finite number" if shape == () else f"finite numbers of shape {shape}"
         need += "" if minimum is None else f" >= {minimum:g}"
+        from .ray_batch import host_array  # here, not at the top: it imports Warp
+
         try:
-            numbers = np.asarray(value)
-        except ValueError:  # a ragged list
+            # On a GPU (a CUDA wp.array, a torch tensor) copied to the host, as a mesh's arrays are: numpy refused the
+            # first, naming no light, and read the second as no numbers.
+            numbers = np.asarray(host_array(f"{type(obj).__name__} {name}", value))
+        except ValueError:  # a ragged list, or an object DLPack cannot read either
             numbers = None
         if numbers is not None:  # None, strings and other objects are not numbers (None would read as NaN)
             numbers = numbers.astype(np.float64) if numbers.dtype.kind in "biuf" else None

@@ -58,6 +58,7 @@ from .affine_lights import ellipsoid_area, elliptic_tube_area, flat, right_angle
 from .errors import SceneError, bottom_row_problem, check_fields
 from .light_links import LinkCollection
 from .light_shaping import Shaping
+from .ray_batch import host_array
 from .scene import DistantLight
 
 HEADLIGHT_ILLUMINANCE = 0.8 * math.pi  # default headlight: a white surface facing the camera shows 0.8 from it
@@ -469,8 +470,8 @@ def _checked_texture(light) -> np.ndarray | None:
     deep in Warp, a TypeError about 'dome_texels')."""
     if light.texture is None:
         return None
-    try:
-        texture = np.asarray(light.texture, np.float32)
+    try:  # one on a GPU copied to the host, as a mesh's arrays are
+        texture = np.asarray(host_array(f"{type(light).__name__} texture", light.texture), np.float32)
     except (TypeError, ValueError):
         texture = np.zeros(0)
     if texture.ndim != 3 or texture.shape[2] not in (3, 4) or texture.size == 0:
