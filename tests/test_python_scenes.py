@@ -745,3 +745,32 @@ def test_light_arrays_on_a_gpu_are_read(holder):
         for name in ("direction", "position", "axis", "color", "to_world", "texture"):
             if hasattr(twin, name):
                 np.testing.assert_array_equal(getattr(light, name), getattr(twin, name), err_msg=name)
+
+
+def test_instance_sources_that_are_no_strings_are_refused_naming_them():
+    """``Instances(..., sources=[5])`` built directly was taken, and ``hit_paths`` handed back 5 (a ``pathlib`` path,
+    bytes likewise), as a mesh's path was before it was checked, and ``sources="/PI"`` named every instance "/". Refused
+    with a TypeError naming the entry, when made and when assigned later; an ``Sdf.Path`` becomes the str it names. A
+    ``source`` index outside ``sources`` is refused too."""
+    from pxr import Sdf
+
+    def instances(sources) -> wrt.Instances:
+        return wrt.Instances(np.zeros(1, np.int32), np.eye(4)[None], np.zeros(1, np.int32), np.zeros(1, np.int32),
+                             sources)
+
+    with pytest.raises(TypeError, match=r"^Instances sources\[0\]: path must be a str"):
+        instances([5])
+    named = instances([Sdf.Path("/PI")])
+    assert named.sources == ["/PI"] and type(named.sources[0]) is str
+    scene = wrt.Scene(prototypes=[wrt.Prototype("/Proto", [square_mesh()])], instances=named)
+    assert wrt.trace(scene, [0.5, -0.5, 5.0], [0.0, 0.0, -1.0]).instance.tolist() == [0]
+    assert scene.instances.path(0) == "/PI[0]"
+    scene.instances.sources = [b"/PI"]
+    with pytest.raises(TypeError, match=r"^Instances sources\[0\]: path must be a str"):
+        wrt.trace(scene, [0.5, -0.5, 5.0], [0.0, 0.0, -1.0])
+    with pytest.raises(TypeError, match=r"^Instances sources takes a list of prim paths, got str '/PI'"):
+        instances("/PI")
+    for source in (1, -1):  # past the one source: a bare IndexError from hit_paths, or the last source
+        with pytest.raises(ValueError, match=rf"^Instances source must hold an index into sources \(1\) per "
+                                             rf"instance; entry 0 is {source}"):
+            wrt.Instances(np.zeros(1, np.int32), np.eye(4)[None], np.int32([source]), np.zeros(1, np.int32), ["/PI"])

@@ -165,12 +165,36 @@ class Instances(CountsAssignments):
             if len(getattr(self, name)) != n:
                 raise ValueError(f"Instances arrays must all have one entry per instance: {name} has "
                                  f"{len(getattr(self, name))}, prototype {n}")
+        self.check_sources()
         if len(self.roots) and (len(self.root) != n or np.any(self.root >= len(self.roots))):
             raise ValueError(f"Instances root must hold one index into roots ({len(self.roots)}) per instance ({n})")
         self.check_colors()
         self.check_opacities()
         self.check_affine()
         mark_checked(self)
+
+    def check_sources(self) -> None:
+        """Raises ``TypeError`` naming the entry unless :attr:`sources` and :attr:`roots` are lists of prim path strings
+        (:func:`wrt.errors.prim_path`: an ``Sdf.Path`` or ``np.str_`` becomes its ``str``, a tuple a list): built
+        directly, ``sources=[5]`` was taken and ``hit_paths`` handed back 5, and ``sources="/PI"`` named each
+        instance by a letter of it, each without a word. Raises ``ValueError`` for a :attr:`source` outside them."""
+        from .errors import prim_path
+
+        for name in ("sources", "roots"):
+            paths = getattr(self, name)
+            if isinstance(paths, tuple):
+                paths = list(paths)
+            if not isinstance(paths, list):
+                raise TypeError(f"Instances {name} takes a list of prim paths, got {type(paths).__name__} {paths!r}")
+            if not all(type(path) is str for path in paths):
+                paths = [prim_path(path, f"Instances {name}[{k}]") for k, path in enumerate(paths)]
+            if paths is not getattr(self, name):  # only a real change: each assignment counts as a scene edit
+                setattr(self, name, paths)
+        # Each instance's entry of sources (-1 read the last, one past the end raised a bare IndexError from hit_paths).
+        bad = np.flatnonzero((self.source < 0) | (self.source >= len(self.sources))) if self.sources else ()
+        if len(bad):
+            raise ValueError(f"Instances source must hold an index into sources ({len(self.sources)}) per instance; "
+                             f"entry {int(bad[0])} is {int(self.source[bad[0]])}")
 
     def check_colors(self) -> None:
         """Raises ``ValueError`` unless :attr:`colors` has one row per instance (or none: empty or None) and no
