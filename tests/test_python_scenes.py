@@ -774,3 +774,17 @@ def test_instance_sources_that_are_no_strings_are_refused_naming_them():
         with pytest.raises(ValueError, match=rf"^Instances source must hold an index into sources \(1\) per "
                                              rf"instance; entry 0 is {source}"):
             wrt.Instances(np.zeros(1, np.int32), np.eye(4)[None], np.int32([source]), np.zeros(1, np.int32), ["/PI"])
+
+
+@pytest.mark.parametrize("value", [0, -1.0, "m", float("nan"), float("inf"), None, True])
+def test_meters_per_unit_that_is_no_positive_finite_number_is_refused(value):
+    """``Scene(meters_per_unit=...)`` took 0, -1, "m" and NaN without a word, values no USD stage's metersPerUnit can
+    hold (``load_usd`` replaces them with centimetres and a warning). Refused, when made and when assigned later; a
+    numpy float is the float it holds."""
+    with pytest.raises(ValueError, match=r"^Scene meters_per_unit must be a finite number above 1e-30"):
+        wrt.Scene(meshes=[square_mesh("/Ground")], meters_per_unit=value)
+    scene = wrt.Scene(meshes=[square_mesh("/Ground")], meters_per_unit=np.float32(0.5))
+    assert type(scene.meters_per_unit) is float and scene.meters_per_unit == 0.5
+    scene.meters_per_unit = value
+    with pytest.raises(ValueError, match=r"^Scene meters_per_unit must be a finite number above 1e-30"):
+        wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])

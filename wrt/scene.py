@@ -484,7 +484,7 @@ class Scene:
 
     def __post_init__(self):
         self._check_containers()
-        self._check_up_axis()
+        self._check_axis_and_units()
         self.warn_vanishing_shapes()
         self._cache = {}  # device-side objects (BVHs, wp.Mesh) keyed by (kind, device, options)
         self._generation = 0  # how many times the cache was cleared
@@ -641,7 +641,7 @@ class Scene:
         (or a list grown or shrunk) since the last check: a cached BVH or upload would otherwise trace the old
         geometry without a word. Tracing and rendering check first. Arrays edited in place keep their identity, so the
         arrays checked are made read-only (:meth:`freeze`) until :meth:`invalidate`."""
-        self._check_up_axis()  # a plain field of the scene, assigned without a count
+        self._check_axis_and_units()  # plain fields of the scene, assigned without a count
         count, members = assignments(), self._members()  # counted first: an assignment during the walk is seen next
         last_count, last_members = self._checked
         if (self._frozen_parts and count == last_count and len(members) == len(last_members)
@@ -713,10 +713,19 @@ class Scene:
         warnings.warn(f"{self.source or 'scene'}: instances with a singular transform (a zero scale) were skipped: "
                       f"{len(rows)} prim(s): {shown}", stacklevel=user_stacklevel())
 
-    def _check_up_axis(self) -> None:
+    def _check_axis_and_units(self) -> None:
         """Takes ``up_axis`` ``"y"`` or ``"z"`` as ``"Y"`` or ``"Z"`` and refuses anything else with a ``ValueError``:
         ``Scene(up_axis="z")`` (a Z-up robot's world) was taken for Y-up without a word (the default camera and sun
-        the wrong way up), and ``"X"`` too, which a USD stage's ``upAxis`` cannot be."""
+        the wrong way up), and ``"X"`` too, which a USD stage's ``upAxis`` cannot be. Likewise refuses a
+        ``meters_per_unit`` that is no finite number above ``MIN_METERS_PER_UNIT`` (0, -1, "m", NaN were taken
+        without a word; ``load_usd`` replaces such a stage's value with centimetres) and makes a numpy one a float."""
+        if type(self.meters_per_unit) is not float or not MIN_METERS_PER_UNIT < self.meters_per_unit < math.inf:
+            value = self.meters_per_unit
+            if (isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating))
+                    or not MIN_METERS_PER_UNIT < float(value) < math.inf):
+                raise ValueError(f"Scene meters_per_unit must be a finite number above {MIN_METERS_PER_UNIT:g} (a USD "
+                                 f"stage's metersPerUnit), got {value!r}")
+            self.meters_per_unit = float(value)
         if self.up_axis in ("Y", "Z"):
             return
         if isinstance(self.up_axis, str) and self.up_axis.upper() in ("Y", "Z"):
