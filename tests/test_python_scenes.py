@@ -788,3 +788,13 @@ def test_meters_per_unit_that_is_no_positive_finite_number_is_refused(value):
     scene.meters_per_unit = value
     with pytest.raises(ValueError, match=r"^Scene meters_per_unit must be a finite number above 1e-30"):
         wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+
+
+def test_instance_opacities_on_a_gpu_are_read():
+    """``Instances.opacities`` on the GPU failed with numpy's refusal (a torch tensor: "can't convert cuda:0 device
+    type tensor to numpy"), naming no instances, where the other instance arrays are copied to the host. Oracle: the
+    opacities as given."""
+    instances = wrt.Instances.from_transforms([0, 0], np.stack([np.eye(4)] * 2))
+    instances.opacities = DLPackOnly(np.float32([0.25, 1.0]))
+    instances.check()
+    np.testing.assert_array_equal(instances.opacities, np.float32([0.25, 1.0]))

@@ -220,9 +220,9 @@ class Instances(CountsAssignments):
 
     def check_opacities(self) -> None:
         """Raises ``ValueError`` unless :attr:`opacities` has one value per instance (or none: empty or None), each
-        in [0, 1] or NaN (none); stores it as float32. Run before each trace and render too, as
-        :meth:`check_colors`."""
-        opacities = self.opacities
+        in [0, 1] or NaN (none); stores it as float32 (on the host, as the colours). Run before each trace and render
+        too, as :meth:`check_colors`."""
+        opacities = self.opacities if self.opacities is None else host_array("Instances opacities", self.opacities)
         if opacities is None or np.size(opacities) == 0:
             opacities = np.zeros(0, np.float32) if np.shape(opacities) != (0,) else opacities
         opacities = np.ascontiguousarray(opacities, dtype=np.float32)
