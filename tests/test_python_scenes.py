@@ -798,3 +798,28 @@ def test_instance_opacities_on_a_gpu_are_read():
     instances.opacities = DLPackOnly(np.float32([0.25, 1.0]))
     instances.check()
     np.testing.assert_array_equal(instances.opacities, np.float32([0.25, 1.0]))
+
+
+def test_eight_bit_material_colors_are_refused_and_emission_taken():
+    """A material's reflectances given as ``uint8`` 0-255 (``Material(diffuse_color=np.uint8([255, 0, 0]))``) were
+    read as albedos up to 255 (the surface 255 times too bright), without a word, while the same colours on a mesh,
+    shape or instances were refused. Refused naming the material and field, before the conversion of one number to
+    three; integers of 0 and 1 still mean what they say, and an integer emission is a radiance, which may exceed 1.
+    Oracle: the albedo of a material of diffuse ``(1, 0, 0)`` is red."""
+    words = r"colors must be linear float values, got uint8 values up to 255 \(8-bit colours"
+    for name in ("diffuse_color", "specular_color"):
+        with pytest.raises(wrt.SceneError, match=rf"/Red: {name} {words}"):
+            wrt.Material("/Red", **{name: np.uint8([255, 0, 0])})
+    with pytest.raises(wrt.SceneError, match=rf"/Red: diffuse_color {words}"):
+        wrt.Material("/Red", diffuse_color=np.uint8(255))  # one number for three channels
+    red = wrt.Material("/Red", diffuse_color=[1, 0, 0], emissive_color=[10, 10, 10])
+    np.testing.assert_array_equal(red.emissive_color, [10.0, 10.0, 10.0])
+    red.emissive_color = np.zeros(3, np.float32)
+    mesh = wrt.Mesh("/Square", SQUARE, np.int32([[0, 1, 2], [0, 2, 3]]), None, material_ids=np.zeros(2, np.int32),
+                    double_sided=True)
+    scene = wrt.Scene(meshes=[mesh], materials=[red])
+    image = wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")
+    np.testing.assert_allclose(image.rgb[image.aovs["coverage"] > 0.5], np.broadcast_to([1.0, 0.0, 0.0], (16, 3)))
+    red.diffuse_color = np.uint8([255, 0, 0])  # assigned later: checked before the next render
+    with pytest.raises(wrt.SceneError, match=rf"/Red: diffuse_color {words}"):
+        wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")

@@ -52,7 +52,7 @@ import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
 from .bsdf import Surface
-from .errors import check_fields
+from .errors import SceneError, check_fields, eight_bit_colors
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import (
     UDIM_FIRST,
@@ -191,6 +191,7 @@ class Material(CountsAssignments):
     textures: dict = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
+        _refuse_eight_bit(self)
         for name in ("diffuse_color", "emissive_color", "specular_color"):
             value = getattr(self, name)
             try:
@@ -233,6 +234,19 @@ class Material(CountsAssignments):
     def emissive(self) -> bool:
         """True when the material emits light."""
         return bool(np.any(self.emissive_color > 0.0)) or "emissiveColor" in self.textures
+
+
+def _refuse_eight_bit(material: Material) -> None:
+    """Raises ``SceneError`` for reflectances given as 8-bit integers (``errors.eight_bit_colors``), as a mesh's,
+    shape's or instances' colours are refused; checked before one number becomes three float32s, which hid the dtype.
+    Emission is a radiance, so an integer above 1 means what it says."""
+    for name in ("diffuse_color", "specular_color"):
+        try:
+            problem = eight_bit_colors(getattr(material, name))
+        except ValueError:  # a ragged list: check_fields reports it
+            continue
+        if problem:
+            raise SceneError(f"{name} {problem}", prim=material.path)
 
 
 @dataclasses.dataclass
