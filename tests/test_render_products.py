@@ -645,17 +645,13 @@ def test_render_settings_warnings_point_at_the_load_usd_call(tmp_path):
         assert [w.filename for w in caught] == [__file__] * expected, [str(w.message) for w in caught]
 
 
-def test_alpha_is_the_coverage_of_the_pixels_samples(tmp_path):
-    """A quad whose left edge covers 3/4 of column 10 (its centre inside) and whose right edge covers 1/4 of column
-    13 (its centre outside), against an empty black background at 256 spp: alpha, in the EXR and in the PNG, is the
-    share of the pixel the quad covers, worked out from the film, as the antialiased colour is; the colour over
-    alpha is the quad's. Alpha was the pixel-centre ray's hit (1 and 0 there): composited over a plate, one edge
-    came out dark and the other glowed."""
-    # Camera at the origin looking down -Z; film 36 x 18 at focal length 50: at z = -10 the 20 columns are 0.36 wide,
-    # column j spans x in [-3.6 + 0.36 j, -3.24 + 0.36 j].
+def edge_quad_stage(tmp_path, color) -> str:
+    """A stage rendering an EXR and a PNG product (RGBA) of a quad of ``color`` in a 20 x 10 film: camera at the origin
+    looking down -Z, film 36 x 18 at focal length 50, so at z = -10 the columns are 0.36 wide (column j spans x in
+    [-3.6 + 0.36 j, -3.24 + 0.36 j]); the quad spans x in [0.09, 1.17], covering 3/4 of column 10 and 1/4 of 13."""
     quad = fmt([[0.09, -100, -10], [1.17, -100, -10], [1.17, 100, -10], [0.09, 100, -10]])
     body = (f'def Mesh "Quad"\n{{\n    point3f[] points = {quad}\n    int[] faceVertexCounts = [4]\n'
-            '    int[] faceVertexIndices = [0, 1, 2, 3]\n    color3f[] primvars:displayColor = [(0.8, 0.8, 0.8)]\n}\n'
+            f'    int[] faceVertexIndices = [0, 1, 2, 3]\n    color3f[] primvars:displayColor = [{tuple(color)}]\n}}\n'
             'def DistantLight "Sun"\n{\n}\n'  # a light of its own: no default dome shows behind the quad
             'def Camera "Cam"\n{\n    float focalLength = 50\n    float horizontalAperture = 36\n'
             '    float verticalAperture = 18\n}\n'
@@ -666,7 +662,16 @@ def test_alpha_is_the_coverage_of_the_pixels_samples(tmp_path):
     path = write(tmp_path, body, "edges.usda")
     text = open(path).read().replace("(\n", '(\n    renderSettingsPrimPath = "/Render/Settings"\n', 1)
     open(path, "w").write(text)
-    scene = load(path)
+    return path
+
+
+def test_alpha_is_the_coverage_of_the_pixels_samples(tmp_path):
+    """A quad whose left edge covers 3/4 of column 10 (its centre inside) and whose right edge covers 1/4 of column
+    13 (its centre outside), against an empty black background at 256 spp: alpha, in the EXR and in the PNG, is the
+    share of the pixel the quad covers, worked out from the film, as the antialiased colour is; the colour over
+    alpha is the quad's. Alpha was the pixel-centre ray's hit (1 and 0 there): composited over a plate, one edge
+    came out dark and the other glowed."""
+    scene = load(edge_quad_stage(tmp_path, (0.8, 0.8, 0.8)))
     written = wrt.render_products(scene, tmp_path / "out", spp=256, device="cpu")
     coverage = np.zeros(20)
     coverage[[10, 11, 12, 13]] = [0.75, 1.0, 1.0, 0.25]
@@ -692,20 +697,8 @@ def test_png_alpha_is_straight_so_it_composites_as_the_premultiplied_exr(tmp_pat
     PNG's 8-bit rounding, and the edges' PNG colour is the inside's."""
     from png_chunks import decode_pixels, read_chunks
 
-    quad = fmt([[0.09, -100, -10], [1.17, -100, -10], [1.17, 100, -10], [0.09, 100, -10]])
-    body = (f'def Mesh "Quad"\n{{\n    point3f[] points = {quad}\n    int[] faceVertexCounts = [4]\n'
-            '    int[] faceVertexIndices = [0, 1, 2, 3]\n    color3f[] primvars:displayColor = [(0.8, 0.5, 0.3)]\n}\n'
-            'def DistantLight "Sun"\n{\n}\n'
-            'def Camera "Cam"\n{\n    float focalLength = 50\n    float horizontalAperture = 36\n'
-            '    float verticalAperture = 18\n}\n'
-            'def Scope "Render"\n{\n    def RenderSettings "Settings"\n    {\n        rel camera = </Cam>\n'
-            '        uniform int2 resolution = (20, 10)\n        rel products = [</Render/Exr>, </Render/Png>]\n'
-            '    }\n' + product("Exr", ["color"], "beauty.exr") + product("Png", ["color"], "beauty.png")
-            + 'def Scope "Vars"\n{\n' + var("color", "color", "color4f") + "}\n}\n")
-    path = write(tmp_path, body, "edges.usda")
-    text = open(path).read().replace("(\n", '(\n    renderSettingsPrimPath = "/Render/Settings"\n', 1)
-    open(path, "w").write(text)
-    written = wrt.render_products(load(path), tmp_path / "out", spp=64, device="cpu")
+    written = wrt.render_products(load(edge_quad_stage(tmp_path, (0.8, 0.5, 0.3))), tmp_path / "out", spp=64,
+                                  device="cpu")
     exr = read_exr(written["/Render/Exr"])
     alpha = exr["A"].astype(np.float64)
     assert 0.5 < alpha[0, 10] < 1.0 and 0.0 < alpha[0, 13] < 0.5  # the edges are partly covered
