@@ -95,7 +95,6 @@ def eval_bsdf_kernel(
     pdf[i] = pi
 
 
-
 @wp.kernel
 def whitted_continuation_kernel(
     p: wp.array[float],

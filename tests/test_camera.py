@@ -73,7 +73,6 @@ def test_depth_is_distance_along_the_primary_ray():
     np.testing.assert_allclose(img.aovs["depth"], expected, rtol=1e-5)
 
 
-
 def test_z_is_as_precise_as_depth_far_from_the_origin():
     """A tilted camera 1e6 from the world origin, 5 units above a quad: ``z`` (distance along the view axis) is the
     float64 one of the film, to the precision ``depth`` has there. It was taken from the hit point minus the eye, two
