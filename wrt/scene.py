@@ -704,14 +704,19 @@ class Scene:
         """Warns naming the instances at ``rows``, whose transforms keep fewer than two directions (a line or a point)
         and draw nothing, in the words of the USD loader's warning for the same instances (it leaves them out; here
         they keep their rows, so instance ids stay the caller's): they vanished without a word."""
+        paths = list(dict.fromkeys(self.instances.path(int(i)) for i in rows[:4]))
+        self._warn_prims("instances with a singular transform (a zero scale) were skipped", paths, len(rows))
+
+    def _warn_prims(self, what: str, paths: list, count: int | None = None) -> None:
+        """Warns ``SOURCE: what: N prim(s): /A, /B, /C, ...`` at the user's line, in the words of the USD loader's
+        warnings (:mod:`wrt.usd_problems`); ``count``: how many there are, where ``paths`` holds the first few."""
         import warnings
 
         from .errors import user_stacklevel
 
-        paths = list(dict.fromkeys(self.instances.path(int(i)) for i in rows[:4]))
-        shown = ", ".join(paths[:3]) + (", ..." if len(rows) > 3 else "")
-        warnings.warn(f"{self.source or 'scene'}: instances with a singular transform (a zero scale) were skipped: "
-                      f"{len(rows)} prim(s): {shown}", stacklevel=user_stacklevel())
+        count = len(paths) if count is None else count
+        shown = ", ".join(paths[:3]) + (", ..." if count > 3 else "")
+        warnings.warn(f"{self.source or 'scene'}: {what}: {count} prim(s): {shown}", stacklevel=user_stacklevel())
 
     def _check_axis_and_units(self) -> None:
         """Takes ``up_axis`` ``"y"`` or ``"z"`` as ``"Y"`` or ``"Z"`` and refuses anything else with a ``ValueError``:
@@ -740,17 +745,11 @@ class Scene:
         shapes = [s for s in self._geometry_shapes() if getattr(s, "draws_nothing", False) and not s.warned]
         if not shapes:
             return
-        import warnings
-
-        from .errors import user_stacklevel
-
         for shape in shapes:
             object.__setattr__(shape, "warned", True)
-        paths = list(dict.fromkeys(s.path for s in shapes))
-        shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
-        warnings.warn(f"{self.source or 'scene'}: shapes whose to_world scales them to a line or a point (a singular "
-                      f"transform) draw nothing of any area, as load_usd's tessellation of such a gprim: "
-                      f"{len(paths)} prim(s): {shown}", stacklevel=user_stacklevel())
+        self._warn_prims("shapes whose to_world scales them to a line or a point (a singular transform) draw nothing "
+                         "of any area, as load_usd's tessellation of such a gprim",
+                         list(dict.fromkeys(s.path for s in shapes)))
 
     def _members(self) -> tuple:
         """The lists of the scene and the objects in them whose fields :meth:`_parts` reads; a field assigned anew
@@ -1243,14 +1242,8 @@ class Scene:
                 found[id(mesh)] = np.asarray(textured[used[0]].st_fallback, np.float32).reshape(2)
                 named.append(mesh.path)
         if named and self.source is None:  # a stage's loader fills such meshes in and warns itself
-            import warnings
-
-            from .errors import user_stacklevel
-
-            shown = ", ".join(named[:3]) + (", ..." if len(named) > 3 else "")
-            warnings.warn(f"scene: meshes without the texture coordinates their material reads (Mesh.uvs is None) show "
-                          f"the texture at the primvar reader's fallback st (TextureInput.st_fallback): "
-                          f"{len(named)} prim(s): {shown}", stacklevel=user_stacklevel())
+            self._warn_prims("meshes without the texture coordinates their material reads (Mesh.uvs is None) show the "
+                             "texture at the primvar reader's fallback st (TextureInput.st_fallback)", named)
         return found
 
     def to_device(self, device) -> DeviceScene:
