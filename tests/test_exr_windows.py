@@ -75,3 +75,22 @@ def test_saved_exr_of_a_crop_is_placed_in_its_shot(tmp_path):
 def test_saved_exr_of_a_whole_image_is_at_the_origin(tmp_path):
     out = wrt.Image(rgb=np.zeros((3, 5, 3), np.float32)).save(tmp_path / "whole.exr")
     assert box2i_attributes(out) == {"displayWindow": ((0, 0), (4, 2)), "dataWindow": ((0, 0), (4, 2))}
+
+
+def test_batch_exrs_of_a_crop_are_placed_in_their_shots(tmp_path):
+    # BatchImage.image(k) carried no window: every batch EXR (render_batch, several cameras) was at the origin.
+    stage = tmp_path / "shot.usda"
+    stage.write_text(f'#usda 1.0\n(\n    renderSettingsPrimPath = "/Render/Settings"\n)\n{BODY}')
+    scene = wrt.load_usd(str(stage))
+    single = wrt.render(scene, camera="/Cam", device="cpu").save(tmp_path / "single.exr")
+    batch = wrt.render_batch(scene, ["/Cam", "/Cam"], width=RESOLUTION[0], height=RESOLUTION[1], device="cpu")
+    for k in range(len(batch)):
+        out = batch.image(k).save(tmp_path / f"batch{k}.exr")
+        assert box2i_attributes(out) == box2i_attributes(single)
+    assert box2i_attributes(single)["dataWindow"] != box2i_attributes(single)["displayWindow"]  # a crop indeed
+    free = wrt.Camera.look_at((0, 0, 5), (0, 0, 0))  # a wrt.Camera object: its image is whole, not cropped
+    renderer = wrt.Renderer(scene, cameras=[free], width=8, height=6, device="cpu")
+    assert box2i_attributes(renderer.render().image(0).save(tmp_path / "free.exr"))["dataWindow"] == ((0, 0), (7, 5))
+    renderer = wrt.Renderer(scene, cameras=["/Cam"], device="cpu")
+    renderer.set_cameras(["/Cam", "/Cam"])  # new cameras, their windows with them
+    assert box2i_attributes(renderer.render().image(1).save(tmp_path / "set.exr")) == box2i_attributes(single)

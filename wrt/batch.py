@@ -34,6 +34,8 @@ class BatchImage:
         integrator: the integrator used.
         pixel_aspect_ratios: width / height of one pixel on each camera's film (:attr:`wrt.Image.pixel_aspect_ratio`;
             empty: square).
+        windows: where each camera's image lies in its shot (:attr:`wrt.Image.window`: a stage camera under the
+            render settings' ``dataWindowNDC``; ``None``: the whole shot; empty: every image is whole).
     """
 
     rgb: wp.array
@@ -41,6 +43,7 @@ class BatchImage:
     scene: Scene = dataclasses.field(repr=False)
     integrator: str = "whitted"
     pixel_aspect_ratios: tuple = ()
+    windows: tuple = ()
 
     def __post_init__(self):
         self.aovs = Aovs(self.aovs)
@@ -65,7 +68,8 @@ class BatchImage:
         aovs = {name: a[k].numpy() for name, a in self.aovs.items()}
         image = finish_image(rgb, aovs, "whitted", self.scene)  # rgb is already final, quick looks included
         shape = self.pixel_aspect_ratios[k] if self.pixel_aspect_ratios else 1.0
-        return Image(rgb=rgb, aovs=image.aovs, pixel_aspect_ratio=shape, data=self.integrator == "normals")
+        window = self.windows[k] if self.windows else None
+        return Image(rgb=rgb, aovs=image.aovs, pixel_aspect_ratio=shape, window=window, data=image.data)
 
 
 def render_batch(

@@ -418,8 +418,8 @@ class Renderer:
         scene.drop_stale_caches()  # before the first cached read: the bounds frame the default camera
         views = [resolve_view(scene, camera, width, height)] if cameras is None else resolve_views(scene, cameras,
                                                                                                    width, height)
-        # Where one camera's image is a crop of its shot (Image.window); a batch's images are of many cameras.
-        self._window = view_window(scene, camera, width, height) if cameras is None else None
+        # Where each camera's image is a crop of its shot (Image.window): stage cameras under a data window.
+        self._windows = [view_window(scene, c, width, height) for c in ([camera] if cameras is None else cameras)]
         width, height = views[0][1:]
         _check_one_size(views, width, height)
         check_pixels(width, height, len(views))
@@ -586,7 +586,9 @@ class Renderer:
         # Without render settings the size is the one made (a side not given took the first camera's aspect then);
         # with them, the size asked for, which each stage camera's data window crops again.
         asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
-        views = resolve_views(self.scene, camera_list(cameras), *asked)
+        cameras = camera_list(cameras)
+        views = resolve_views(self.scene, cameras, *asked)
+        windows = [view_window(self.scene, c, *asked) for c in cameras]
         _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
         cameras = [view[0] for view in views]
         n = len(cameras) * self.width * self.height
@@ -594,6 +596,7 @@ class Renderer:
             raise ValueError(f"need 1 to {MAX_PIXELS // (self.width * self.height)} cameras, got {len(cameras)}")
         resized = len(cameras) != len(self.cameras)
         self._upload_cameras(cameras, batched=True)  # a bad camera raises before any change: the old ones render on
+        self._windows = windows
         self.batched = True
         if resized:
             # launch_frame's buffers are sized for the old count: it wrote past their end (a crash, or a wrong
@@ -939,7 +942,7 @@ class Renderer:
         image = finish_image(rgb.reshape(self.height, self.width, 3), aovs.numpy(self.height, self.width, samples),
                              self.integrator, self.scene)
         image.pixel_aspect_ratio = self.camera.rendered_pixel_aspect(self.width, self.height)
-        image.window = self._window
+        image.window = self._windows[0]
         return image
 
     def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers):
@@ -959,7 +962,8 @@ class Renderer:
                       device=self.device)
             rgb = rgb.reshape((n, h, w))
         return BatchImage(rgb=rgb, aovs=arrays, scene=self.scene, integrator=self.integrator,
-                          pixel_aspect_ratios=tuple(c.rendered_pixel_aspect(w, h) for c in self.cameras))
+                          pixel_aspect_ratios=tuple(c.rendered_pixel_aspect(w, h) for c in self.cameras),
+                          windows=tuple(self._windows))
 
 
 def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
