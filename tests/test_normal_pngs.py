@@ -48,3 +48,32 @@ def test_cli_normals_png_and_normal_aov_png_agree(tmp_path):
     aov_png = [p for p in tmp_path.iterdir() if p.name.startswith("n.") and "normal" in p.name]
     assert len(aov_png) == 1, sorted(p.name for p in tmp_path.iterdir())
     np.testing.assert_array_equal(png_pixels(out), png_pixels(aov_png[0]))
+
+
+def test_depth_png_and_depth_aov_png_are_depth_over_the_farthest_hit(tmp_path):
+    # One convention for depth as a picture: grey = distance / farthest hit's, misses 0, stored unencoded. The
+    # integrator's PNG was sRGB-encoded and the AOV preview a different grey ramp (0.1 to 0.9 from nearest to farthest).
+    path = write(tmp_path, BODY)
+    out = tmp_path / "d.png"
+    assert main(["render", path, "--integrator", "depth", "--aov", "depth", "--width", "16", "--height", "12",
+                 "-o", str(out), "-q"]) == 0
+    image = wrt.render(load(path), width=16, height=12, integrator="depth", device="cpu")
+    depth = image.aovs["depth"].astype(np.float64)
+    hit = image.aovs["prim"] >= 0
+    assert hit.sum() > 20 and (~hit).sum() > 20
+    # The sphere of radius 1 seen from 8 away: its hits lie between 7 (the nearest point) and sqrt(63) (its rim).
+    assert 7.0 - 1e-4 < depth[hit].min() and depth[hit].max() < 63 ** 0.5 + 1e-4
+    want = np.repeat(np.where(hit, np.round(255.0 * depth / depth[hit].max()), 0.0)[..., None], 3, axis=-1)
+    np.testing.assert_allclose(png_pixels(out), want, atol=1)
+    aov_png = [p for p in tmp_path.iterdir() if p.name.startswith("d.") and "depth" in p.name]
+    assert len(aov_png) == 1, sorted(p.name for p in tmp_path.iterdir())
+    np.testing.assert_array_equal(png_pixels(out), png_pixels(aov_png[0]))
+
+
+def test_batch_normals_png_is_the_single_renders(tmp_path):
+    path = write(tmp_path, BODY)
+    scene = load(path)
+    single = wrt.render(scene, camera="/Cam", width=16, height=12, integrator="normals", device="cpu")
+    batch = wrt.render_batch(scene, ["/Cam"], width=16, height=12, integrator="normals", device="cpu")
+    np.testing.assert_array_equal(png_pixels(batch.image(0).save(tmp_path / "b.png")),
+                                  png_pixels(single.save(tmp_path / "s.png")))

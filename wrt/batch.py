@@ -57,7 +57,7 @@ class BatchImage:
 
     def image(self, k: int) -> Image:
         """Camera ``k`` as a host :class:`wrt.Image` (the same object a single-camera render returns)."""
-        from .render import finish_image
+        from .render import DATA_INTEGRATORS, finish_image
 
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)):  # 1.0 failed in Warp, True meant camera 1
             raise TypeError(f"camera index must be an integer, got {k!r}")
@@ -69,7 +69,8 @@ class BatchImage:
         image = finish_image(rgb, aovs, "whitted", self.scene)  # rgb is already final, quick looks included
         shape = self.pixel_aspect_ratios[k] if self.pixel_aspect_ratios else 1.0
         window = self.windows[k] if self.windows else None
-        return Image(rgb=rgb, aovs=image.aovs, pixel_aspect_ratio=shape, window=window, data=image.data)
+        return Image(rgb=rgb, aovs=image.aovs, pixel_aspect_ratio=shape, window=window,
+                     data=self.integrator in DATA_INTEGRATORS)
 
 
 def render_batch(

@@ -4,7 +4,7 @@ Formats: ``.exr`` linear HDR (OpenEXR, 32-bit float), ``.npy`` raw linear float3
 ``2^exposure`` scaling and clipping to [0, 1] (no other tone curve; NaN is written as 0, +inf as 1), tagged as sRGB
 (sRGB, gAMA and cHRM chunks). AOVs are written as ``.npy`` and, for a quick look, as colour-mapped PNGs
 (:func:`aov_preview`): the traversal cost as a heat map of nodes visited and triangles tested, normals as
-``0.5 (n + 1)``, depths and ids as grey levels and random colours, coverage as an alpha matte.
+``0.5 (n + 1)``, depths as grey levels over the farthest one, ids as random colours, coverage as an alpha matte.
 """
 
 from __future__ import annotations
@@ -67,6 +67,17 @@ def data_to_8bit(values: np.ndarray) -> np.ndarray:
     return np.round(values * 255.0).astype(np.uint8)
 
 
+def depth_grey(depth: np.ndarray) -> np.ndarray:
+    """``(H, W)`` distances -> ``(H, W)`` grey levels in [0, 1]: the distance over the farthest finite one (near
+    dark, far white, in proportion), and 0 where there is none (a miss: ``inf`` or NaN). Depth as a picture is data,
+    as a normal map is: the ``depth`` integrator's ``rgb`` and the ``depth`` and ``z`` AOVs' previews, both stored
+    as ``round(255 v)`` (:func:`data_to_8bit`), not sRGB-encoded."""
+    depth = np.asarray(depth, np.float64)
+    finite = np.isfinite(depth)
+    far = float(depth[finite].max()) if finite.any() else 0.0
+    return np.clip(np.where(finite, depth, 0.0) / (far if far > 0.0 else 1.0), 0.0, 1.0)
+
+
 def write_srgb_png(target, pixels: np.ndarray) -> None:
     """Writes ``(H, W, 3)`` or ``(H, W, 4)`` uint8 sRGB-encoded ``pixels`` (alpha straight, not encoded) as a PNG
     tagged sRGB (:data:`SRGB_PNG_CHUNKS`) to ``target``, a path or a binary file object."""
@@ -121,8 +132,8 @@ def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
     """A viewable ``(H, W, 3)`` uint8 picture of AOV ``name``.
 
     ``cost`` becomes two heat maps side by side (nodes visited | triangles tested), each scaled to its maximum,
-    which its caption states; normals map to ``0.5 (n + 1)``; depths to grey (near dark, far light); ids to random
-    colours; albedo to sRGB.
+    which its caption states; normals map to ``0.5 (n + 1)``; depths to grey (:func:`depth_grey`, as the ``depth``
+    integrator's image); ids to random colours; albedo to sRGB.
     """
     value = np.asarray(value)
     if name == "cost":
@@ -141,12 +152,7 @@ def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
         return _id_colors(value)
     if name == "coverage":  # a share in [0, 1]: 0 black and 1 white, as alpha mattes show
         return np.round(np.repeat(np.clip(value, 0.0, 1.0)[..., None], 3, axis=-1) * 255).astype(np.uint8)
-    finite = np.isfinite(value)
-    grey = np.zeros(value.shape, np.float64)
-    if finite.any():
-        lo, hi = float(value[finite].min()), float(value[finite].max())
-        grey[finite] = (value[finite] - lo) / ((hi - lo) or 1.0) * 0.9 + 0.1
-    return np.round(np.repeat(grey[..., None], 3, axis=-1) * 255).astype(np.uint8)
+    return data_to_8bit(np.repeat(depth_grey(value)[..., None], 3, axis=-1))  # depth and z: as the depth integrator
 
 
 _PARTIAL_COUNTER = itertools.count()  # numbers the temporary files of write_atomically
@@ -250,16 +256,17 @@ class Image:
         window: ``(width, height, x0, y0)`` of the shot this image is a crop of (the render settings'
             ``dataWindowNDC``) and the image's top-left pixel in it, rows from the top; ``None``: the whole shot.
             ``.exr`` files write it as their ``displayWindow`` and ``dataWindow``, as EXR render products do.
-        data: ``rgb`` holds data, not colour: the ``normals`` integrator's ``0.5 (n + 1)``, which a ``.png`` stores
-            as it is (``round(255 v)``, neither sRGB-encoded nor scaled by ``exposure``), as normal maps are stored
-            and as the ``normal`` AOV's preview is.
+        data: ``rgb`` holds data, not colour: the ``normals`` integrator's ``0.5 (n + 1)`` or the ``depth``
+            integrator's :func:`depth_grey`, which a ``.png`` stores as it is (``round(255 v)``, neither
+            sRGB-encoded nor scaled by ``exposure``), as normal maps are stored and as the ``normal``, ``depth`` and
+            ``z`` AOVs' previews are.
     """
 
     rgb: np.ndarray
     aovs: dict = dataclasses.field(default_factory=Aovs)
     pixel_aspect_ratio: float = 1.0  # width / height of one pixel on the film, written into the EXR header
     window: tuple[int, int, int, int] | None = None  # (shot width, height, x0, y0): where a crop lies, EXR's windows
-    data: bool = False  # rgb is data, not colour (the normals integrator's 0.5 (n + 1)): a PNG stores it as it is
+    data: bool = False  # rgb is data, not colour (the normals and depth quick looks): a PNG stores it as it is
 
     def __post_init__(self):
         self.aovs = Aovs(self.aovs)

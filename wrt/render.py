@@ -23,7 +23,7 @@ import warp as wp
 from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
-from .image import Image
+from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
 from .integrators.ao import ao_value_kernel, shade_ao_kernel
 from .integrators.path import add_unoccluded_kernel, shade_path_kernel
@@ -62,6 +62,7 @@ MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
 MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
 MAX_LAUNCH_PATHS = (1 << 31) - 1  # Warp's arrays and wp.tid() are 32-bit: no launch can index more paths
 DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
+DATA_INTEGRATORS = ("normals", "depth")  # their images are data (Image.data): a PNG stores them unencoded
 MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (2^32 + 2 wrapped onto 2)
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
 MAX_SEED = 0x7FFFFFFF  # seeds are 31-bit (wp.rand_init takes a signed 32-bit seed)
@@ -979,10 +980,8 @@ def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
     elif integrator == "albedo":
         rgb = out["albedo"].copy()
     elif integrator == "depth":
-        depth = np.where(hit, out["depth"], 0.0)
-        far = float(depth.max()) if hit.any() else 1.0
-        rgb = np.repeat((depth / (far or 1.0))[..., None], 3, axis=-1)
-    return Image(rgb=np.asarray(rgb, np.float32).reshape(h, w, 3), aovs=out, data=integrator == "normals")
+        rgb = np.repeat(depth_grey(np.where(hit, out["depth"], np.inf))[..., None], 3, axis=-1)
+    return Image(rgb=np.asarray(rgb, np.float32).reshape(h, w, 3), aovs=out, data=integrator in DATA_INTEGRATORS)
 
 
 class _AovBuffers:
