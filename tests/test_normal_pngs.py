@@ -2,7 +2,10 @@
 as the ``normal`` AOV's preview is: the two PNGs of one render are the same pixels. The integrator's was sRGB-encoded
 (0.5 written as 188, not 128), so a normal read back from it was wrong."""
 
+import warnings
+
 import numpy as np
+import pytest
 from PIL import Image as PilImage
 from usda_text import load, write
 
@@ -77,3 +80,25 @@ def test_batch_normals_png_is_the_single_renders(tmp_path):
     batch = wrt.render_batch(scene, ["/Cam"], width=16, height=12, integrator="normals", device="cpu")
     np.testing.assert_array_equal(png_pixels(batch.image(0).save(tmp_path / "b.png")),
                                   png_pixels(single.save(tmp_path / "s.png")))
+
+
+def test_exposure_on_a_data_image_is_said_unused(tmp_path):
+    # A normals or depth image's PNG is its data, which exposure leaves as they are: it was ignored without a word.
+    path = write(tmp_path, BODY)
+    image = wrt.render(load(path), width=8, height=6, integrator="depth", device="cpu")
+    with pytest.warns(UserWarning, match="does not scale this image: it is data"):
+        brighter = image.save(tmp_path / "up.png", exposure=2.0)
+    np.testing.assert_array_equal(png_pixels(brighter), png_pixels(image.save(tmp_path / "plain.png")))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        image.save(tmp_path / "linear.exr", exposure=2.0)  # linear files: exposure never applies, as documented
+        wrt.Image(rgb=np.full((2, 2, 3), 0.1, np.float32)).save(tmp_path / "colour.png", exposure=2.0)
+
+
+@pytest.mark.parametrize("integrator", ["normals", "depth"])
+def test_cli_exposure_on_a_data_image_is_said_unused_once(tmp_path, capsys, integrator):
+    path = write(tmp_path, BODY)
+    assert main(["render", path, "--integrator", integrator, "--exposure", "1", "--width", "8", "--height", "6",
+                 "-o", str(tmp_path / "x.png"), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("does not scale") == 1 and f"the {integrator} integrator's image" in err, err

@@ -378,13 +378,28 @@ def _check_log_path(log: Path, outputs: list, scenes: list) -> None:
     _check_output_file(log)
 
 
-def _warn_unused_exposure(exposure: float, outputs: list) -> None:
+def _warn_unused_exposure(exposure: float, outputs: list, integrator: str) -> None:
     """One warning when ``--exposure`` is given but some outputs are linear (``.exr``, ``.npy``), which it leaves
-    as they are: a user asking for a brighter EXR would otherwise get the same file without a word."""
+    as they are, or the integrator's image is data (:data:`wrt.render.DATA_INTEGRATORS`), which a PNG stores as it
+    is: a user asking for a brighter image would otherwise get the same file without a word."""
+    from .image import DATA_EXPOSURE_WARNING
+    from .render import DATA_INTEGRATORS
+
     linear = [Path(o) for o in outputs if Path(o).suffix.lower() != ".png"]
-    if exposure != 0.0 and linear:
+    if exposure != 0.0 and integrator in DATA_INTEGRATORS:
+        warnings.warn(DATA_EXPOSURE_WARNING.format(what="--exposure", image=f"the {integrator} integrator's image"),
+                      stacklevel=2)
+    elif exposure != 0.0 and linear:
         warnings.warn(f"--exposure applies to .png images only; {linear[0].name} is written linear, unscaled",
                       stacklevel=2)
+
+
+def _png_exposure(args) -> float:
+    """The exposure a render's PNGs get: none for a data image (said once by :func:`_warn_unused_exposure`, before the
+    render, and not again by each ``Image.save``)."""
+    from .render import DATA_INTEGRATORS
+
+    return 0.0 if args.integrator in DATA_INTEGRATORS else args.exposure
 
 
 def _warn_unused_integrator_options(args) -> None:
@@ -499,14 +514,14 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     except KeyboardInterrupt:  # keep what a long render has so far, then stop as interrupted
         image = renderer.image_so_far()
         if image is not None:
-            out = image.save(output, exposure=args.exposure)
+            out = image.save(output, exposure=_png_exposure(args))
             progress(f"interrupted after {renderer.samples_so_far} of {args.spp} spp: wrote {out}")
         raise
     progress(
         f"rendered {width}x{height} at {args.spp} spp ({args.integrator})",
         renderer.timers["render"][0] / 1000.0,
     )
-    out = image.save(output, exposure=args.exposure)
+    out = image.save(output, exposure=_png_exposure(args))
     progress(f"wrote {out}")
     written = [Path(out)]
     for name in args.aov:
@@ -590,7 +605,7 @@ def _run_render(args) -> int:
     _check_distinct_outputs(paths, outputs)
     for output in outputs:  # an unwritable output fails now, not after a long render
         _check_output_file(check_image_path(output))
-    _warn_unused_exposure(args.exposure, outputs)
+    _warn_unused_exposure(args.exposure, outputs, args.integrator)
     if args.aov_dir:
         _check_output_location(Path(args.aov_dir))
     if not several and not args.log:
@@ -702,7 +717,7 @@ def _run_frames(args, paths: list, progress) -> int:
     # An unwritable output fails now, not after the first frame's load and render.
     for folder in {check_image_path(file).parent for _, file in jobs}:
         _check_output_location(folder)
-    _warn_unused_exposure(args.exposure, [output])
+    _warn_unused_exposure(args.exposure, [output], args.integrator)
     from .render_log import append_row, mtime_ns, new_run, skipped_fields
     from .strict_json import strict_json
 
@@ -740,7 +755,7 @@ def _run_frames(args, paths: list, progress) -> int:
 
         for device in devices:  # before the first frame loads, naming the option
             resolve_device_option(device, "--devices" if args.devices else "--device")
-    common = {"spp": args.spp, "seed": args.seed, "exposure": args.exposure, "progress": progress.bar,
+    common = {"spp": args.spp, "seed": args.seed, "exposure": _png_exposure(args), "progress": progress.bar,
               "log": args.log, "log_row": log_row}  # a row per frame as it finishes: an interrupted run keeps them
     common.update(_renderer_options(args), **_load_options(args))
     start = time.perf_counter()

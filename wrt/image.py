@@ -14,6 +14,7 @@ import importlib.util
 import itertools
 import math
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +39,9 @@ def linear_to_srgb(x: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
 
 
+# Said where an exposure is given for a data image (Image.data), whose PNG it leaves unscaled.
+DATA_EXPOSURE_WARNING = ("{what} does not scale {image}: it is data (a normals or depth quick look), which a PNG "
+                         "stores as it is, not as colour")
 # Beyond +-150 stops every float32 radiance is 0 or white after scaling; 2.0**1024 overflows a Python float.
 MAX_EXPOSURE = 150.0
 
@@ -301,7 +305,8 @@ class Image:
 
     def save(self, path, exposure: float = 0.0) -> Path:
         """Writes the colour image: ``.exr`` linear HDR float32, ``.npy`` raw linear float32, ``.png`` 8-bit sRGB
-        of ``rgb * 2**exposure`` clipped to [0, 1] (``exposure`` applies to PNG only).
+        of ``rgb * 2**exposure`` clipped to [0, 1] (``exposure`` applies to PNG only, and not to a :attr:`data`
+        image, whose PNG stores its values as they are: a warning says so).
 
         Raises:
             ValueError: for any other extension, ``.exr`` without the OpenEXR package, or an ``exposure`` that
@@ -313,6 +318,8 @@ class Image:
         if path.is_dir():  # else the error would name the temporary file written beside it
             raise IsADirectoryError(f"cannot write {path}: it is a directory")
         suffix = path.suffix.lower()
+        if exposure != 0.0 and self.data and suffix == ".png":  # else a brighter PNG asked for came out the same
+            warnings.warn(DATA_EXPOSURE_WARNING.format(what="exposure", image="this image"), stacklevel=2)
 
         def write(target: Path) -> None:
             if suffix == ".png":
