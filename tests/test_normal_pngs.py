@@ -102,3 +102,50 @@ def test_cli_exposure_on_a_data_image_is_said_unused_once(tmp_path, capsys, inte
                  "-o", str(tmp_path / "x.png"), "-q"]) == 0
     err = capsys.readouterr().err
     assert err.count("does not scale") == 1 and f"the {integrator} integrator's image" in err, err
+
+
+PRODUCT_STAGE = """#usda 1.0
+(
+    renderSettingsPrimPath = "/Render/Settings"
+)
+""" + BODY + """def Scope "Render"
+{
+    def RenderSettings "Settings"
+    {
+        rel camera = </Cam>
+        uniform int2 resolution = (16, 12)
+        rel products = </Render/Shot>
+    }
+    def RenderProduct "Shot"
+    {
+        token productName = "shot.png"
+        rel orderedVars = </Render/Color>
+    }
+    def RenderVar "Color"
+    {
+        uniform string sourceName = "color"
+        uniform token dataType = "color4f"
+    }
+}
+"""
+
+
+def test_png_product_of_normals_is_the_normal_map_as_it_is(tmp_path):
+    # A normals PNG product was sRGB-encoded (and divided by coverage) where Image.save stores 0.5 (n + 1) as it is.
+    stage = tmp_path / "shot.usda"
+    stage.write_text(PRODUCT_STAGE)
+    scene = wrt.load_usd(str(stage))
+    with pytest.warns(UserWarning, match="does not scale the normals integrator's products"):
+        files = wrt.render_products(scene, tmp_path / "out", integrator="normals", spp=4, device="cpu",
+                                    exposure=1.0)
+    image = wrt.render(scene, integrator="normals", device="cpu")
+    normal = image.aovs["normal"].astype(np.float64)
+    hit = image.aovs["prim"] >= 0
+    assert hit.sum() > 20 and (~hit).sum() > 20
+    with PilImage.open(files["/Render/Shot"]) as png:
+        rgba = np.asarray(png)
+    assert rgba.shape == (12, 16, 4)
+    want = np.where(hit[..., None], np.round(255.0 * 0.5 * (normal + 1.0)), 0.0)
+    np.testing.assert_allclose(rgba[..., :3], want, atol=1)  # float32 ties: 1 off
+    np.testing.assert_array_equal(rgba[..., :3], png_pixels(image.save(tmp_path / "n.png")))
+    np.testing.assert_array_equal(rgba[..., 3], np.round(255.0 * image.aovs["coverage"]))

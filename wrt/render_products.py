@@ -32,10 +32,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .image import check_exposure, to_srgb8, write_atomically, write_exr, write_srgb_png
+from .image import (
+    DATA_EXPOSURE_WARNING,
+    check_exposure,
+    data_to_8bit,
+    to_srgb8,
+    write_atomically,
+    write_exr,
+    write_srgb_png,
+)
 from .image import exr_windows as image_exr_windows
 from .rays import camera_rays
-from .render import MAX_PATHS_PER_LAUNCH, Renderer, check_pixels, resolve_view
+from .render import DATA_INTEGRATORS, MAX_PATHS_PER_LAUNCH, Renderer, check_pixels, resolve_view
 
 BEAUTY = "rgb"  # Image.rgb: the integrator's image, linear radiance
 # sourceName -> what wrt writes for it: BEAUTY, an Image.aovs key, or one made from them ("Neye", "P", "Peye",
@@ -227,16 +235,22 @@ def exr_windows(product, camera) -> dict:
 
 
 def write_product(path: Path, channels: dict[str, np.ndarray], exposure: float = 0.0,
-                  attributes: dict | None = None) -> Path:
+                  attributes: dict | None = None, data: bool = False) -> Path:
     """Writes ``channels`` to ``path``: an 8-bit sRGB PNG of ``R, G, B`` (``A``), scaled by ``2**exposure``, or
     an EXR of every channel, with the header ``attributes``. The channels are premultiplied by ``A``, as OpenEXR's
-    RGBA is; a PNG's colour is not (its alpha is unassociated), so it gets ``RGB / A`` where ``A > 0``."""
+    RGBA is; a PNG's colour is not (its alpha is unassociated), so it gets ``RGB / A`` where ``A > 0``. With
+    ``data`` (:attr:`wrt.Image.data`: a normals or depth quick look, made from each pixel centre's ray, so not
+    premultiplied) a PNG stores ``R, G, B`` as they are, as :meth:`wrt.Image.save` does."""
     def write(target: Path) -> None:
         if path.suffix.lower() == ".exr":
             write_exr(target, channels, attributes)
             return
         rgb = np.stack([channels[c] for c in "RGB"], axis=-1).astype(np.float64)
-        if "A" in channels:
+        if data:  # a normal map's values, which a reader takes back: neither divided by alpha nor encoded
+            rgb = data_to_8bit(rgb)
+            if "A" in channels:
+                rgb = np.dstack([rgb, data_to_8bit(channels["A"])])
+        elif "A" in channels:
             alpha = np.clip(np.asarray(channels["A"], np.float64), 0.0, 1.0)[..., None]
             # Unpremultiplied in linear, before the sRGB curve: an edge pixel gets the colour of the surface it
             # partly covers, so that a viewer compositing C a + background (1 - a) does not darken the edge again.
@@ -304,6 +318,10 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
         raise ValueError(f"{scene.source or 'scene'}: {what} to write")
     exposure = check_exposure(exposure)
     where = os.path.basename(settings.source)
+    if exposure != 0.0 and integrator in DATA_INTEGRATORS:  # said once, before the renders; the EXRs' note is moot
+        warnings.warn(f"{where}: " + DATA_EXPOSURE_WARNING.format(what="exposure", image=f"the {integrator} "
+                                                                  "integrator's products"), stacklevel=2)
+        exposure = 0.0
     directory = Path(directory)
     # Every product is resolved (view, outputs, file name) before any is rendered: a bad one fails the call before
     # it has spent renders and written files.
@@ -345,5 +363,5 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
                     warnings.warn(f"{where}: exposure applies to .png products only; {name} is written linear, "
                                   "unscaled", stacklevel=2)
                     warned_exposure = True
-            files[product.product] = write_product(directory / name, channels, exposure, attributes)
+            files[product.product] = write_product(directory / name, channels, exposure, attributes, image.data)
     return {product.product: files[product.product] for product, _, _, _ in plan}  # in the settings' order
