@@ -113,8 +113,10 @@ def int32_problem(array: np.ndarray) -> str | None:
     if array.dtype.kind == "b" or (array.dtype.kind in "iu" and np.can_cast(array.dtype, np.int32)):
         return None  # int32 and smaller (the loader's) need no look
     limits = np.iinfo(np.int32)
+    if flat.size == 0 or limits.min <= flat.min() and flat.max() <= limits.max:  # (no index array made when it fits)
+        return None
     bad = np.flatnonzero((flat < limits.min) | (flat > limits.max))
-    return f"must fit in int32; entry {int(bad[0])} is {flat[bad[0]].item()!r}" if len(bad) else None
+    return f"must fit in int32; entry {int(bad[0])} is {flat[bad[0]].item()!r}"
 
 
 def eight_bit_colors(value) -> str | None:
