@@ -113,12 +113,13 @@ def test_a_fixed_pass_count_decides_one_hole_fewer(accel):
     """``passes=k`` (a CUDA-graph frame: no host reads) runs exactly ``k`` closest-hit passes: a ray through three
     holes is decided (unblocked) by the fourth; ``None`` stops by itself."""
     renderer = wrt.Renderer(layered_scene(3), width=1, height=1, device="cpu", accel=accel)
-    rays = [wp.array([[0.0, 0.0, 1e-4]], dtype=wp.vec3, device="cpu"),
-            wp.array([[-1.0, 0.0, 1.0]], dtype=wp.vec3, device="cpu"),
-            wp.zeros(1, dtype=float, device="cpu"), wp.full(1, np.inf, dtype=float, device="cpu")]
+    device = renderer.device  # (cuda:0 under -p render_on_cuda, which CPU arrays here made an illegal memory access)
+    rays = [wp.array([[0.0, 0.0, 1e-4]], dtype=wp.vec3, device=device),
+            wp.array([[-1.0, 0.0, 1.0]], dtype=wp.vec3, device=device),
+            wp.zeros(1, dtype=float, device=device), wp.full(1, np.inf, dtype=float, device=device)]
     for passes, blocked in ((0, 1), (3, 1), (4, 0), (None, 0)):
-        out = wp.zeros(1, dtype=wp.int32, device="cpu")
-        scratch = CullScratch(1, "cpu", nothing_to_cull=False, no_holes=False)
+        out = wp.zeros(1, dtype=wp.int32, device=device)
+        scratch = CullScratch(1, device, nothing_to_cull=False, no_holes=False)
         occluded_through_holes(renderer.accel, renderer.surfaces, renderer.materials, rays, out, scratch, passes)
         assert out.numpy()[0] == blocked, passes
 

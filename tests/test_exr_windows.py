@@ -6,9 +6,12 @@ from the top. ``wrt render -o x.exr`` wrote the crop at the origin, as a whole i
 import struct
 
 import numpy as np
+import pytest
 
 import wrt
 from wrt.cli import main
+
+pytest.importorskip("OpenEXR")  # writes EXR files (an optional dependency of wrt, a test dependency)
 
 RESOLUTION = (24, 12)
 WINDOW = (0.1, 0.3, 0.6, 0.9)  # xmin, ymin, xmax, ymax; (0, 0) the lower left
