@@ -267,8 +267,8 @@ def test_every_frame_of_a_kept_stage_equals_a_fresh_load_and_static_meshes_are_r
 
 
 def test_materials_of_a_stage_whose_shading_holds_still_are_reused(tmp_path):
-    """No shader input varies: every material but the textured one is read once (the textured one at every load, its
-    image decoded once), and every frame still equals a fresh load, warnings included."""
+    """No shader input varies: every material, the textured one too (its image file unchanged), is read once per kind
+    of time, its image decoded once, and every frame still equals a fresh load, warnings included."""
     path = animated_stage(tmp_path / "still_shading.usda", shading_moves=False)
     frames = StageFrames(path)
     images = set()
@@ -278,8 +278,10 @@ def test_materials_of_a_stage_whose_shading_holds_still_are_reused(tmp_path):
         fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
         assert_same(scene, fresh, f"frame {t}")
         assert warned == fresh_warned and any("OddSurface" in w for w in warned), (t, warned)
-    # Read at the first time code and at the first None; Blink hidden at 2 and 2.5.
-    assert frames.material_memo.counts == {"read": 8, "reused": 4 * (len(FRAMES) + 1) - 2}
+    # Five materials read at the first time code and at the first None, reused at the other loads; Blink hidden at 2
+    # and 2.5.
+    loads = len(FRAMES) + 3
+    assert frames.material_memo.counts == {"read": 10, "reused": 5 * loads - 2 - 10}
     assert len(scene.textures) == 1 and scene.materials[-1].textures
     assert len(images) == 1  # the image file decoded once
 
@@ -893,3 +895,97 @@ def test_a_material_whose_input_comes_from_value_clips_is_read_at_every_frame(tm
         assert_same(scene, load_fresh(path, t), f"frame {t}")
         colors.add(scene.materials[0].diffuse_color.tobytes())
     assert len(colors) == 3  # each clip's colour
+
+
+def textured_looks_stage(tmp_path: Path) -> Path:
+    """Static textured materials: three with an image file each, two sharing one, one whose file is missing (until a
+    test writes it), one with UDIM tiles 1001 and 1002 (1003 missing), and one authored in a sublayer in a folder of
+    its own, its relative path resolved there; each bound to a mesh."""
+    (tmp_path / "maps").mkdir()
+    for k in range(3):
+        write_texture(tmp_path / f"t{k}.png", 60 * k + 40)
+    for tile in (1001, 1002):
+        write_texture(tmp_path / f"u.{tile}.png", tile - 900)
+    write_texture(tmp_path / "maps" / "sub.png", 200)
+    sub = Usd.Stage.CreateNew(str(tmp_path / "maps" / "sub.usda"))
+    preview_material(sub, "/Looks/Sub", texture="./sub.png")
+    sub.GetRootLayer().Save()
+    stage = Usd.Stage.CreateNew(str(tmp_path / "textured.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(4)
+    stage.GetRootLayer().subLayerPaths.append("./maps/sub.usda")
+    files = {"T0": "./t0.png", "T1": "./t1.png", "T2": "./t2.png", "Shared": "./t1.png", "Missing": "./late.png",
+             "Udim": "./u.<UDIM>.png"}
+    for name, file in files.items():
+        preview_material(stage, f"/Looks/{name}", texture=file)
+    for k, name in enumerate((*files, "Sub")):
+        sheet = mesh(stage, f"/World/{name}", *grid(2, k))
+        UsdGeom.PrimvarsAPI(sheet).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                                 UsdGeom.Tokens.vertex).Set(
+            Vt.Vec2fArray.FromNumpy(np.asarray(sheet.GetPointsAttr().Get(), np.float32)[:, :2] + 1))
+        UsdShade.MaterialBindingAPI.Apply(sheet.GetPrim()).Bind(
+            UsdShade.Material(stage.GetPrimAtPath(f"/Looks/{name}")))
+    mover = mesh(stage, "/World/Mover", *grid(2, 9)).AddTranslateOp()  # something varies: frames differ
+    mover.Set(Gf.Vec3d(0, 0, 0), 1), mover.Set(Gf.Vec3d(0, 0, 3), 4)
+    stage.GetRootLayer().Save()
+    return tmp_path / "textured.usda"
+
+
+def counted_frames(path: Path, times, monkeypatch, frames=None) -> tuple:
+    """``(the StageFrames, {material path: reads})``: each frame of ``path`` at ``times`` loaded from the kept stage
+    equals a fresh load, warnings included."""
+    from wrt.materials import MaterialReader
+
+    reads = []
+    read_material = MaterialReader._read_material
+
+    def counted(reader, material):
+        reads.append(str(material.GetPath()))
+        return read_material(reader, material)
+
+    frames = frames or StageFrames(path)
+    for t in times:
+        monkeypatch.setattr(MaterialReader, "_read_material", counted)
+        scene, warned = load_warned(frames.load, t)
+        monkeypatch.setattr(MaterialReader, "_read_material", read_material)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned, (t, warned)
+    return frames, {name: reads.count(name) for name in sorted(set(reads))}
+
+
+def test_static_textured_materials_are_read_once_over_the_frames(tmp_path, monkeypatch):
+    """Textured materials whose network cannot vary, their image files unchanged (a missing one still missing, UDIM
+    tiles, a path relative to a sublayer), are read once per kind of time; every frame equals a fresh load, its
+    textures in the same order, warnings included. Before, each was read at every load."""
+    path = textured_looks_stage(tmp_path)
+    times = (1, 2.5, 4, None, 2, None, 3)
+    frames, counts = counted_frames(path, times, monkeypatch)
+    looks = ("T0", "T1", "T2", "Shared", "Missing", "Udim", "Sub")
+    assert counts == {f"/Looks/{name}": 2 for name in looks}, counts
+    scene = frames.load(3)
+    assert len(scene.textures) == 6  # t0, t1, t2, two UDIM tiles, sub
+    udim = next(m for m in scene.materials if m.path == "/Looks/Udim").textures["diffuseColor"]
+    assert list(udim.tiles[:3] >= 0) == [True, True, False]
+
+
+def test_a_texture_rewritten_or_appearing_between_frames_has_its_material_read_again(tmp_path, monkeypatch):
+    """A texture file rewritten between frames, a missing one that appears and a new UDIM tile: the materials that
+    read them are read again (equal to fresh loads, the new pixels in them), the others reused."""
+    path = textured_looks_stage(tmp_path)
+    frames, _ = counted_frames(path, (1, 2), monkeypatch)
+    write_texture(tmp_path / "t2.png", 7)
+    bump(tmp_path / "t2.png")
+    _, counts = counted_frames(path, (3, 4), monkeypatch, frames)
+    assert counts == {"/Looks/T2": 1}, counts
+    write_texture(tmp_path / "late.png", 99)
+    _, counts = counted_frames(path, (2, 3), monkeypatch, frames)
+    assert counts == {"/Looks/Missing": 1}, counts
+    assert next(m for m in frames.load(2).materials if m.path == "/Looks/Missing").textures
+    write_texture(tmp_path / "u.1003.png", 30)
+    _, counts = counted_frames(path, (1, 4), monkeypatch, frames)
+    assert counts == {"/Looks/Udim": 1}, counts
+    write_texture(tmp_path / "maps" / "sub.png", 10)
+    bump(tmp_path / "maps" / "sub.png")
+    _, counts = counted_frames(path, (3, 1), monkeypatch, frames)
+    assert counts == {"/Looks/Sub": 1}, counts

@@ -720,7 +720,7 @@ class MaterialReader:
         self.stage = stage  # where materials bound above native instances are found by path
         self.memo = memo  # a wrt.usd_material_memo.MaterialMemo: reads kept at another time of the stage, or None
         self.skipped = skipped
-        self.file_lookups = 0  # calls of file_images: a read that made one is not kept
+        self.lookups = None  # while a read is being kept: its file_images calls (wrt.usd_material_memo.FileLookup)
         self.time = time
         self.skip = skip
         self.purposes = purposes
@@ -909,18 +909,25 @@ class MaterialReader:
         return self._by_path[path]
 
     def _kept_or_read(self, material) -> Material | None:
-        """:meth:`_read_material`, or the memo's copy of a read of it at another time that cannot differ (its
-        warnings recorded again); a read that looked up no image file is kept."""
-        found = None if self.memo is None else self.memo.find(material, self.time)
-        if found is not None:
-            self.skipped += found[1]
-            return found[0]
-        if self.memo is None:
+        """:meth:`_read_material`, or the memo's read of it at another time that cannot differ, its image files looked
+        up again (:func:`wrt.usd_material_memo.replay`: a file that changed has it read again)."""
+        from .usd_material_memo import replay
+
+        kept = None if self.memo is None else self.memo.find(material, self.time)
+        if kept is not None:
+            replayed = replay(self, kept)
+            if replayed is not None:
+                self.memo.counts["reused"] += 1
+                return replayed[0]
+        if self.memo is None or not self.memo.reusable(material):
             return self._read_material(material)
-        start, lookups = len(self.skipped), self.file_lookups
-        mat = self._read_material(material)
-        if self.file_lookups == lookups:
-            self.memo.keep(material, self.time, mat, self.skipped[start:])
+        start, outer = len(self.skipped), self.lookups
+        self.lookups = []
+        try:
+            mat = self._read_material(material)
+            self.memo.keep(material, self.time, mat, self.skipped[start:], self.lookups, start)
+        finally:
+            self.lookups = outer
         return mat
 
     def _read_material(self, material) -> Material | None:
@@ -1269,8 +1276,37 @@ class MaterialReader:
     def file_images(self, shader, color_space: str, material_path: str, name: str = "file"):
         """``(image, tiles)`` of the image file named by input ``name`` of ``shader`` (a UsdUVTexture or a MaterialX
         image node) in :attr:`textures`: ``image`` is -1 (with a warning) when nothing can be read. ``tiles`` is
-        None, or for a ``<UDIM>`` file the :attr:`TextureInput.tiles` table, ``image`` being its first tile."""
-        self.file_lookups += 1
+        None, or for a ``<UDIM>`` file the :attr:`TextureInput.tiles` table, ``image`` being its first tile; a read
+        being kept records the call (:class:`wrt.usd_material_memo.FileLookup`)."""
+        if self.lookups is None:
+            return self._file_images(shader, color_space, material_path, name)
+        from .usd_material_memo import FileLookup
+
+        start = len(self.skipped)
+        image, tiles = self._file_images(shader, color_space, material_path, name)
+        self.lookups.append(FileLookup((shader, color_space, material_path, name), (start, len(self.skipped)), image,
+                                       tiles, self.pixels_of(image, tiles)))
+        return image, tiles
+
+    def pixels_of(self, image: int, tiles) -> tuple:
+        """The images (read-only pixel arrays) ``image`` and the UDIM ``tiles`` found index in :attr:`textures`."""
+        found = [image] + ([] if tiles is None else [int(k) for k in tiles if k >= 0])
+        return tuple(self.textures[k] for k in found if k >= 0)
+
+    def mark(self) -> tuple:
+        """Where the images, textures and warnings of this reader stand: :meth:`rewind` forgets what came after."""
+        return len(self.textures), len(self.skipped), len(self._images), len(self._udim)
+
+    def rewind(self, mark: tuple) -> None:
+        """Forgets the textures, warnings and looked-up files added since :meth:`mark` gave ``mark`` (the dicts keep
+        their insertion order: what came after is their tail)."""
+        textures, skipped, images, udim = mark
+        del self.textures[textures:], self.texture_paths[textures:], self.skipped[skipped:]
+        for cache, size in ((self._images, images), (self._udim, udim)):
+            for key in list(cache)[size:]:
+                del cache[key]
+
+    def _file_images(self, shader, color_space: str, material_path: str, name: str):
         asset = self._constant(shader, name)
         if isinstance(asset, str) and asset:
             asset = self._string_asset(shader, name, asset)

@@ -7,19 +7,45 @@ image files. Each material is asked once per kept stage whether it is reusable (
 material, the prims inside it and every prim its network's connections reach (connections do not vary in time) have
 no attribute that might vary (``UsdAttribute.ValueMightBeTimeVarying``) and none is where value clips may reach
 (:func:`wrt.usd_clips.under_clips`, as :class:`wrt.usd_mesh_memo.MeshMemo` counts them); one animated material
-leaves the others reused. Only materials whose read looked up no image file are kept (the order images are first
-read in numbers them in ``Scene.textures``, and a file may change): the others are read afresh. A reused material
-is a copy of the kept one, and the warnings its read recorded are recorded again. Reads at the default time and at
-time codes are kept apart (an attribute with a default and one sample reads as either).
+leaves the others reused. The order images are first looked up in numbers them in ``Scene.textures``, and a file
+may change, so a reused material's image files are looked up again, in order (:func:`replay`): where each gives
+the kept read's pixels (the memo's array, kept while the file keeps its stamp) or is still missing, the material is a
+copy of the kept one, its texture indices those of this load; else it is read afresh. The warnings its read recorded
+are recorded again, in order with those of the lookups. Reads at the default time and at time codes are kept apart
+(an attribute with a default and one sample reads as either).
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 
+import numpy as np
 from pxr import Usd, UsdShade
 
 from .usd_clips import under_clips
+
+
+@dataclasses.dataclass(frozen=True)
+class FileLookup:
+    """One :meth:`wrt.materials.MaterialReader.file_images` call of a kept read: its arguments, the span of the
+    read's warnings it recorded (``skips``, start and end), what it gave (``image``, ``tiles``: indices in that
+    load's ``Scene.textures``) and the pixel arrays behind them (``pixels``: the memo's, kept while the file is)."""
+
+    args: tuple
+    skips: tuple[int, int]
+    image: int
+    tiles: object
+    pixels: tuple
+
+
+@dataclasses.dataclass(frozen=True)
+class KeptRead:
+    """A material's kept read: the Material (or None), every warning it recorded and its image file lookups."""
+
+    material: object
+    skips: tuple
+    lookups: tuple[FileLookup, ...]
 
 
 class MaterialMemo:
@@ -49,19 +75,18 @@ class MaterialMemo:
             self._varies[path] = network_might_vary(material.GetPrim(), self.clip_roots)
         return not self._varies[path]
 
-    def find(self, material: UsdShade.Material, time: Usd.TimeCode):
-        """``(a copy of the kept Material or None, the warnings of its read)``, or None when none is kept."""
-        kept = self._kept.get((str(material.GetPath()), time.IsDefault()))
-        if kept is None:
-            return None
-        self.counts["reused"] += 1
-        return copy.deepcopy(kept[0]), kept[1]
+    def find(self, material: UsdShade.Material, time: Usd.TimeCode) -> KeptRead | None:
+        """The kept read of ``material`` at a time of this kind, or None."""
+        return self._kept.get((str(material.GetPath()), time.IsDefault()))
 
-    def keep(self, material: UsdShade.Material, time: Usd.TimeCode, read, skips: list) -> None:
-        """Keeps ``read`` (a Material or None) of ``material`` and the warnings it recorded, if it is reusable."""
-        if self.reusable(material):
-            self.counts["read"] += 1
-            self._kept[(str(material.GetPath()), time.IsDefault())] = (copy.deepcopy(read), tuple(skips))
+    def keep(self, material: UsdShade.Material, time: Usd.TimeCode, read, skips: list, lookups: list,
+             start: int) -> None:
+        """Keeps ``read`` (a Material or None) of ``material``, the warnings it recorded (``skips``, from position
+        ``start`` of the reader's list on) and its image file ``lookups``."""
+        self.counts["read"] += 1
+        lookups = [dataclasses.replace(f, skips=(f.skips[0] - start, f.skips[1] - start)) for f in lookups]
+        self._kept[(str(material.GetPath()), time.IsDefault())] = KeptRead(copy.deepcopy(read), tuple(skips),
+                                                                           tuple(lookups))
 
     def image(self, resolved: str, color_space: str, load):
         """``load(resolved, color_space)``, the pixels of an image file, kept while the file (the package of one
@@ -117,3 +142,35 @@ def network_might_vary(material: Usd.Prim, clip_roots: list = ()) -> bool:
         if prim.IsA(UsdShade.NodeGraph):  # a Material is one; what is inside it, connected or not
             todo += prim.GetFilteredChildren(inside)
     return False
+
+
+def replay(reader, kept: KeptRead) -> tuple | None:
+    """``(a copy of the kept Material or None,)`` for ``reader``'s load, or None (``reader`` as it was) where an image
+    file the read looked up changed. The lookups are made again in order, between the kept warnings, as a fresh read
+    makes them: each file is resolved again and its images added to ``reader.textures`` (or found there), and its
+    warnings recorded, where a fresh read would; the copy's texture indices are those it gave. Changed: a file found
+    or decoded where it was not (a missing file that appeared, a new UDIM tile), or the other way, or other pixels
+    than the kept read's (:meth:`MaterialMemo.image` decodes a file again when its stamp changed)."""
+    mark = reader.mark()
+    renumber = {-1: -1}
+    done = 0
+    for lookup in kept.lookups:
+        reader.skipped += kept.skips[done:lookup.skips[0]]
+        image, tiles = reader.file_images(*lookup.args)
+        same = (image >= 0) == (lookup.image >= 0) and (tiles is None) == (lookup.tiles is None) and (
+            tiles is None or np.array_equal(tiles >= 0, lookup.tiles >= 0))
+        pixels = reader.pixels_of(image, tiles) if same else ()
+        if not same or len(pixels) != len(lookup.pixels) or any(a is not b for a, b in zip(pixels, lookup.pixels)):
+            reader.rewind(mark)
+            return None
+        renumber[lookup.image] = image
+        if tiles is not None:
+            renumber.update(zip(lookup.tiles.tolist(), tiles.tolist()))
+        done = lookup.skips[1]
+    reader.skipped += kept.skips[done:]
+    material = copy.deepcopy(kept.material)
+    for tex in getattr(material, "textures", {}).values():
+        tex.image = renumber[tex.image]
+        if tex.tiles is not None:
+            tex.tiles = np.array([renumber[k] for k in tex.tiles.tolist()], tex.tiles.dtype)
+    return (material,)
