@@ -1,10 +1,12 @@
 """Kept-stage frame loads (``wrt.usd_frames.StageFrames``) of two stages where one thing varies and the rest does
 not: ``dome``, a 1024x1024 ``angular`` DomeLight texture on a dome that turns, beside a floor quad (the image was
 resampled to lat-long at every frame); ``looks``, 300 quads each bound to its own UsdPreviewSurface material, one of
-which is animated (every material was read again at every frame). Prints the first load and the mean of the 7 later
-ones (frames 1..8), and the material memo's counts.
+which is animated (every material was read again at every frame); ``textured``, the same with the static
+materials' colour from image files (each was read again at every frame, its image decoded once); or any stage file
+given as the case (a textured asset). Prints the first load and the mean of the 7 later ones (frames 1..8), and the
+material memo's counts.
 
-Usage: python benchmarks/kept_frame_cases.py FOLDER {dome,looks}
+Usage: python benchmarks/kept_frame_cases.py FOLDER {dome,looks,textured,STAGE_FILE}
 """
 
 from __future__ import annotations
@@ -50,8 +52,19 @@ def dome_stage(folder: Path) -> Path:
     return folder / "dome.usda"
 
 
-def looks_stage(folder: Path) -> Path:
-    stage = Usd.Stage.CreateNew(str(folder / "looks.usda"))
+def textured_stage(folder: Path) -> Path:
+    """``looks`` with each static material's diffuseColor read from one of 8 image files (256x256) through a
+    UsdUVTexture fed by a UsdPrimvarReader_float2."""
+    return looks_stage(folder, textured=True)
+
+
+def looks_stage(folder: Path, textured: bool = False) -> Path:
+    from PIL import Image
+
+    rng = np.random.default_rng(2)
+    for k in range(8 if textured else 0):
+        Image.fromarray(rng.integers(0, 255, (256, 256, 3), dtype=np.uint8)).save(folder / f"tex{k}.png")
+    stage = Usd.Stage.CreateNew(str(folder / ("textured.usda" if textured else "looks.usda")))
     stage.SetStartTimeCode(1)
     stage.SetEndTimeCode(8)
     for k in range(MATERIALS):
@@ -63,19 +76,29 @@ def looks_stage(folder: Path) -> Path:
         shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.1)
         if k == 0:  # the one animated material
             color.Set(Gf.Vec3f(1, 0, 0), 1), color.Set(Gf.Vec3f(0, 0, 1), 8)
+        elif textured:
+            reader = UsdShade.Shader.Define(stage, f"/Looks/M{k}/St")
+            reader.CreateIdAttr("UsdPrimvarReader_float2")
+            reader.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("st")
+            image = UsdShade.Shader.Define(stage, f"/Looks/M{k}/Image")
+            image.CreateIdAttr("UsdUVTexture")
+            image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(f"./tex{k % 8}.png"))
+            image.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "result")
+            color.ConnectToSource(image.ConnectableAPI(), "rgb")
         else:
             color.Set(Gf.Vec3f(0.5, k / MATERIALS, 0.2))
         material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
         UsdShade.MaterialBindingAPI.Apply(quad(stage, f"/World/Q{k}", 1.1 * k).GetPrim()).Bind(material)
     stage.GetRootLayer().Save()
-    return folder / "looks.usda"
+    return folder / ("textured.usda" if textured else "looks.usda")
 
 
 def main() -> None:
     warnings.simplefilter("ignore")
     folder, case = Path(sys.argv[1]), sys.argv[2]
     folder.mkdir(parents=True, exist_ok=True)
-    frames = StageFrames({"dome": dome_stage, "looks": looks_stage}[case](folder))
+    cases = {"dome": dome_stage, "looks": looks_stage, "textured": textured_stage}
+    frames = StageFrames(cases[case](folder) if case in cases else Path(case))
     seconds = []
     for t in range(1, 9):
         start = time.perf_counter()
@@ -83,7 +106,8 @@ def main() -> None:
         seconds.append(time.perf_counter() - start)
     later = [s * 1e3 for s in seconds[1:]]
     print(f"{case}: first {seconds[0] * 1e3:.0f} ms, later frames mean {statistics.mean(later):.0f} ms "
-          f"(min {min(later):.0f}, max {max(later):.0f}), materials {frames.material_memo.counts}")
+          f"(min {min(later):.0f}, max {max(later):.0f}), "
+          f"materials {getattr(frames.material_memo, 'counts', 'none kept')}")
 
 
 if __name__ == "__main__":
