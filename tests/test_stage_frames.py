@@ -915,9 +915,13 @@ def textured_looks_stage(tmp_path: Path) -> Path:
     stage.SetEndTimeCode(4)
     stage.GetRootLayer().subLayerPaths.append("./maps/sub.usda")
     files = {"T0": "./t0.png", "T1": "./t1.png", "T2": "./t2.png", "Shared": "./t1.png", "Missing": "./late.png",
-             "Udim": "./u.<UDIM>.png"}
+             "Udim": "./u.<UDIM>.png", "Odd": "./t0.png", "AlsoMissing": "./late.png"}
     for name, file in files.items():
         preview_material(stage, f"/Looks/{name}", texture=file)
+    odd = UsdShade.Shader.Get(stage, "/Looks/Odd/Image")  # two warnings: one before its file lookup, one in it
+    odd.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("linear")
+    odd.GetPrim().RemoveProperty("inputs:file")
+    odd.CreateInput("file", Sdf.ValueTypeNames.String).Set("./t0.png")
     for k, name in enumerate((*files, "Sub")):
         sheet = mesh(stage, f"/World/{name}", *grid(2, k))
         UsdGeom.PrimvarsAPI(sheet).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
@@ -955,13 +959,14 @@ def counted_frames(path: Path, times, monkeypatch, frames=None) -> tuple:
 
 
 def test_static_textured_materials_are_read_once_over_the_frames(tmp_path, monkeypatch):
-    """Textured materials whose network cannot vary, their image files unchanged (a missing one still missing, UDIM
-    tiles, a path relative to a sublayer), are read once per kind of time; every frame equals a fresh load, its
-    textures in the same order, warnings included. Before, each was read at every load."""
+    """Textured materials whose network cannot vary, their image files unchanged (a missing one still missing, read by
+    two, UDIM tiles, a path relative to a sublayer, one authored as a string), are read once per kind of time; every
+    frame equals a fresh load, its textures in the same order, warnings included. Before, each was read at every
+    load."""
     path = textured_looks_stage(tmp_path)
     times = (1, 2.5, 4, None, 2, None, 3)
     frames, counts = counted_frames(path, times, monkeypatch)
-    looks = ("T0", "T1", "T2", "Shared", "Missing", "Udim", "Sub")
+    looks = ("T0", "T1", "T2", "Shared", "Missing", "Udim", "Odd", "AlsoMissing", "Sub")
     assert counts == {f"/Looks/{name}": 2 for name in looks}, counts
     scene = frames.load(3)
     assert len(scene.textures) == 6  # t0, t1, t2, two UDIM tiles, sub
@@ -980,7 +985,7 @@ def test_a_texture_rewritten_or_appearing_between_frames_has_its_material_read_a
     assert counts == {"/Looks/T2": 1}, counts
     write_texture(tmp_path / "late.png", 99)
     _, counts = counted_frames(path, (2, 3), monkeypatch, frames)
-    assert counts == {"/Looks/Missing": 1}, counts
+    assert counts == {"/Looks/Missing": 1, "/Looks/AlsoMissing": 1}, counts
     assert next(m for m in frames.load(2).materials if m.path == "/Looks/Missing").textures
     write_texture(tmp_path / "u.1003.png", 30)
     _, counts = counted_frames(path, (1, 4), monkeypatch, frames)
@@ -989,3 +994,29 @@ def test_a_texture_rewritten_or_appearing_between_frames_has_its_material_read_a
     bump(tmp_path / "maps" / "sub.png")
     _, counts = counted_frames(path, (3, 1), monkeypatch, frames)
     assert counts == {"/Looks/Sub": 1}, counts
+
+
+def test_every_kept_frame_warns_about_layers_in_other_units_as_a_fresh_load(tmp_path):
+    """A referenced layer in other units (metersPerUnit, upAxis): every frame of the kept stage gives the warnings a
+    fresh load gives. Before, only the frame that opened the stage did."""
+    link = Usd.Stage.CreateNew(str(tmp_path / "link.usda"))
+    UsdGeom.SetStageMetersPerUnit(link, 1.0)
+    UsdGeom.SetStageUpAxis(link, UsdGeom.Tokens.z)
+    link.SetDefaultPrim(mesh(link, "/Link", *grid(2)).GetPrim())
+    link.GetRootLayer().Save()
+    stage = Usd.Stage.CreateNew(str(tmp_path / "units.usda"))
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(3)
+    stage.DefinePrim("/Arm").GetReferences().AddReference("./link.usda")
+    UsdGeom.Xformable(stage.GetPrimAtPath("/Arm")).AddTranslateOp().Set(Gf.Vec3d(0, 0, 1), 1)
+    stage.GetRootLayer().Save()
+    path = tmp_path / "units.usda"
+    frames = StageFrames(path)
+    for t in (1, 2, None, 3):
+        scene, warned = load_warned(frames.load, t)
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned and sum("composes author" in w for w in warned) == 2, (t, warned)
+    assert frames.memo is not None  # the stage was kept

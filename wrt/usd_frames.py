@@ -74,8 +74,10 @@ class StageFrames:
 
     def stage(self, source: str, variants) -> Usd.Stage:
         """The kept stage of ``source`` with ``variants``, opened (with :func:`wrt.usd.open_variants`) unless the
-        kept one is still what opening it gives."""
+        kept one is still what opening it gives; a kept one warns about its layers in other units again, as opening
+        it would (only the frame that opened it did)."""
         from .usd import open_variants
+        from .usd_stage import warn_other_layer_units
 
         opened_with = (source, repr(variants))
         if self._stage is not None and (self._opened_with != opened_with or not self.unchanged()):
@@ -94,6 +96,8 @@ class StageFrames:
             self._listener = Tf.Notice.Register(Usd.Notice.StageContentsChanged,
                                                 lambda notice, sender: edited.__setitem__(0, True), stage)
             _KEPT.add(self)
+            return stage
+        warn_other_layer_units(self._stage, source)
         return self._stage
 
     def unchanged(self) -> bool:
