@@ -492,6 +492,34 @@ def test_orientations_or_scales_longer_than_proto_indices_are_cut_with_a_warning
     np.testing.assert_allclose(scene.instances.to_world, expected, atol=2e-3 if name == "orientations" else 1e-5)
 
 
+@pytest.mark.parametrize("name", ["scales", "orientations", "orientationsf"])
+def test_orientations_or_scales_shorter_than_proto_indices_are_ignored_with_a_warning(tmp_path, name):
+    """``scales`` or ``orientations`` shorter than ``protoIndices``: ``ComputeInstanceTransformsAtTime`` warns ("found
+    [2] scales, but expected [3]") and reads past their end, and Storm drops an instance primvar shorter than the
+    instances; wrt stopped the whole load with SceneError. They are read as unauthored, with a warning naming the
+    file, the instancer and both lengths: the transforms are USD's with the attribute blocked."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0), positions=3)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    if name == "scales":
+        attr = pi.CreateScalesAttr([Gf.Vec3f(2, 3, 4)] * 2)
+    elif name == "orientationsf":
+        attr = pi.CreateOrientationsfAttr(Vt.QuatfArray([Gf.Quatf(0.6, 0.8, 0, 0)] * 2))
+    else:
+        attr = pi.CreateOrientationsAttr(Vt.QuathArray([Gf.Quath(0.6, 0.8, 0, 0)] * 2))
+    octahedron(stage, "/Other")
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"bad\.usda: PointInstancer orientations or scales shorter than protoIndices"
+                      rf" were ignored.*\(2 {name} for 3 protoIndices: 1\): /PI$"):
+        scene = wrt.load_usd(path)
+    attr.Block()
+    t = Usd.TimeCode.Default()
+    expected = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
+    assert expected.shape == (3, 4, 4)
+    np.testing.assert_allclose(scene.instances.to_world, expected, atol=1e-6)
+    assert [m.path for m in scene.meshes] == ["/Other"]
+
+
 def test_invisible_and_inactive_ids_hide_instances_by_id_as_usd_masks_them(tmp_path):
     """``ids`` name the instances that ``invisibleIds`` and ``inactiveIds`` hide (not their indices), as
     ``ComputeMaskAtTime`` computes it; ``ids`` shorter than ``protoIndices`` are an error naming the instancer (its

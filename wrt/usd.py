@@ -39,14 +39,14 @@ with ``ids`` read by the same time rule as ``invisibleIds``); the instance trans
 the earlier sample moved by them, and orientations with ``angularVelocities`` the earlier sample turned by them, as
 USD computes it; then every per-instance attribute is held at its earlier sample (USD's velocity path), and without
 either they are all interpolated. A ``protoIndices`` entry out of range, a prototype target that does not exist, or
-per-instance arrays other than ``positions`` shorter than ``protoIndices`` (``ids`` too, where a mask uses them)
-raise :class:`wrt.errors.SceneError` naming the instancer (``positions`` missing, blocked, shorter or longer: the
-instancer draws nothing, with a warning, as USD computes no instance); instances flattened into a plane by a zero
-scale are drawn flat (:func:`wrt.instancing.thicken_flat_transforms`), those scaled to a line or a point are
-skipped with a warning naming each one (``/instancer[index]``), and so are the instances of an inactive prototype
-(or one under an inactive prim). Visibility inside a PointInstancer's prototype is taken from the prototype root
-down (the scope holding the prototypes is often made invisible so they are not drawn in place), as UsdImaging takes
-it; purpose is inherited through the prototype's ancestors too, as ``ComputePurpose`` and UsdImaging compute it. A
+``ids`` shorter than ``protoIndices`` (where a mask uses them) raise :class:`wrt.errors.SceneError` naming the instancer
+(``positions`` missing, blocked, shorter or longer: the instancer draws nothing, with a warning, as USD computes no
+instance; ``orientations`` or ``scales`` shorter: read as unauthored, with a warning); instances flattened into a plane
+by a zero scale are drawn flat (:func:`wrt.instancing.thicken_flat_transforms`), those scaled to a line or a point are
+skipped with a warning naming each one (``/instancer[index]``), and so are the instances of an inactive prototype (or
+one under an inactive prim). Visibility inside a PointInstancer's prototype is taken from the prototype root down (the
+scope holding the prototypes is often made invisible so they are not drawn in place), as UsdImaging takes it; purpose is
+inherited through the prototype's ancestors too, as ``ComputePurpose`` and UsdImaging compute it. A
 native prototype's prims bind as their instance proxies do: each binding purpose's walk inside the prototype goes
 on through the instance and its ancestors (:mod:`wrt.usd_bindings`; a prototype is read again for instances whose
 bindings change a walk inside), then the meshes' rule (:func:`wrt.materials.bound_material`) picks the purpose.

@@ -150,6 +150,13 @@ class PointInstancerReading:
             if value is None or len(value) == 0:
                 return None if default is None else np.tile(default, (n, 1))
             array = np.asarray(value, np.float64).reshape(len(value), -1)
+            if default is not None and array.shape[1] == width and len(array) < n:
+                # ComputeInstanceTransformsAtTime warns about these ("found [2] scales, but expected [3]") and then
+                # reads past their end; Storm drops an instance primvar shorter than the instances. Read as unauthored
+                # (identity), the rest of the instancer drawn: it stopped the whole load with SceneError.
+                self._skip("PointInstancer orientations or scales shorter than protoIndices were ignored (read as "
+                           "unauthored)", prim, f"{len(array)} {name} for {n} protoIndices")
+                return None
             if array.shape != (len(value), width) or len(array) < n:
                 raise self._error(f"{name} has {len(array)} entries; protoIndices has {n}", prim, attr)
             if len(array) > n and default is not None:
@@ -187,7 +194,11 @@ class PointInstancerReading:
             return None, read
         quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]),
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
+        if quats is None:  # ignored, and the angular velocities that turn them with them
+            quats, spun = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)), None
         scales = per_instance(scales_attr, 3, "scales", np.ones(3), _value_if_any(scales_attr, t, read))
+        if scales is None:
+            scales = np.ones((n, 3))
 
         # Column-vector instance transforms: translate(position) @ spin @ rotate(orientation) @ scale(scale).
         m = np.zeros((n, 4, 4))
