@@ -531,6 +531,11 @@ def test_a_primvar_that_does_not_fit_is_dropped_with_a_warning(tmp_path, prim, b
     scene, messages = load_recording_warnings(path)
     (dropped,) = [m for m in messages if "primvars that do not fit their prim" in m]
     assert dropped.startswith(f"{path}: ") and dropped.endswith(": /C") and message in dropped, dropped
+    assert_drawn_as_unauthored(tmp_path, stage, scene, attribute)
+
+
+def assert_drawn_as_unauthored(tmp_path, stage, scene, attribute):
+    """``scene`` (loaded from ``stage``) renders as ``stage`` with ``attribute`` of ``/C`` (and its indices) removed."""
     stage.GetPrimAtPath("/C").RemoveProperty(attribute)
     stage.GetPrimAtPath("/C").RemoveProperty(attribute + ":indices")
     unauthored = str(tmp_path / "unauthored.usda")
@@ -543,6 +548,36 @@ def test_a_primvar_that_does_not_fit_is_dropped_with_a_warning(tmp_path, prim, b
             images.append(wrt.render(scene, camera=camera, width=16, height=16, device="cpu", integrator="albedo"))
     np.testing.assert_array_equal(images[0].rgb, images[1].rgb)
     np.testing.assert_array_equal(images[0].aovs["prim"], images[1].aovs["prim"])
+
+
+TET = ('    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]\n'
+       '    int4[] tetVertexIndices = [(0, 1, 2, 3)]\n')
+
+
+@pytest.mark.parametrize("prim, body", [('Points "C"', DOTS), ('BasisCurves "C"', LINES), ('TetMesh "C"', TET)],
+                         ids=["points", "curves", "tetmesh"])
+@pytest.mark.parametrize("value", ['float[] primvars:displayColor = [0.1, 0.2]',
+                                   'string[] primvars:displayColor = ["red", "red"]',
+                                   'float2[] primvars:displayColor = [(1, 0), (0, 1)]'],
+                         ids=["float", "string", "float2"])
+def test_a_colour_primvar_of_the_wrong_type_is_dropped_with_a_warning_as_on_meshes(tmp_path, prim, body, value):
+    """A displayColor that is not an array of 3- or 4-vectors on Points, curves or a TetMesh is dropped with the
+    meshes' warning (naming the file, the prim, the type authored and the value read), the prim drawn as if it had
+    none, as a mesh's is since d1121a3; it stopped the whole load with SceneError ("must be an array of 3- or
+    4-vectors"). The oracle is the stage with the primvar removed, and a mesh beside it, dropped with the same
+    warning."""
+    mesh = ('def Mesh "M"\n{\n    point3f[] points = [(5, 0, 0), (6, 0, 0), (5, 1, 0)]\n'
+            '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+            f'    {value} (interpolation = "constant")\n}}\n')
+    path = write(tmp_path, f'def {prim}\n{{\n{body}    {value} (interpolation = "constant")\n}}\n' + mesh)
+    stage = Usd.Stage.Open(path)
+    held = stage.GetPrimAtPath("/C").GetAttribute("primvars:displayColor").Get()
+    assert type(held).__name__ not in ("Vec3fArray", "Vec4fArray")  # the oracle: USD holds no colours there
+    type_name = str(stage.GetRootLayer().GetAttributeAtPath("/C.primvars:displayColor").typeName)
+    scene, messages = load_recording_warnings(path)
+    (dropped,) = [m for m in messages if "displayColor values that are not an array of 3-vectors were ignored" in m]
+    assert dropped.startswith(f"{path}: ") and dropped.endswith(": /C, /M") and type_name in dropped, dropped
+    assert_drawn_as_unauthored(tmp_path, stage, scene, "primvars:displayColor")
 
 
 def test_material_bind_subsets_of_curves_are_ignored_with_a_warning(tmp_path):

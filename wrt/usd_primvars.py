@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Usd
 
+from .usd_problems import authored_type
 from .usd_values import read_time
 
 # The warning of a primvar dropped: it is read as unauthored.
@@ -123,10 +124,9 @@ class FieldReader:
         """``(interpolation, (k, components) float64)`` of the array ``raw`` of ``attr`` (the rgb of 4-vector colours;
         ``faceVarying`` read as ``varying``), checked against ``sizes`` (interpolation -> values needed): None, with a
         warning (:data:`PRIMVAR_DROPPED`), for an interpolation the prim type does not take or the wrong length for
-        it, as Hydra drops such a primvar (the prim is drawn as if it had none).
-
-        Raises:
-            SceneError: not an array of numbers (or colours).
+        it, as Hydra drops such a primvar (the prim is drawn as if it had none), and for a value that is not an array
+        of ``components``-vectors (numbers, or 3- or 4-vectors for colours), as meshes drop one
+        (:meth:`wrt.usd_mesh_primvars.MeshPrimvarReading._read_primvar`): it stopped the whole load with SceneError.
         """
         values = np.asarray(raw if raw is not None else np.zeros((0, components)))
         name = attr.GetName()
@@ -136,8 +136,9 @@ class FieldReader:
         elif values.dtype.kind in "fiu":
             values = values.astype(np.float64).reshape(len(values) if values.ndim else 1, -1)
         if values.dtype.kind not in "fiu" or values.shape[1] not in shape:
-            what = "numbers" if components == 1 else "3- or 4-vectors"
-            raise self.error(f"{name} must be an array of {what}, not {type(raw).__name__}", prim, attr)
+            self.skip(f"{name} values that are not an array of {components}-vectors were ignored", prim,
+                      f"{authored_type(attr, self.time)} holding {type(raw).__name__}")
+            return None
         if interpolation == "constant":
             values = first_of_constant(values, prim, name, self.skip)
         if interpolation not in sizes:

@@ -11,23 +11,32 @@ from pxr import Sdf, Tf, Usd
 from .errors import SceneError, user_stacklevel
 
 
+def property_stack(attr: Usd.Attribute, time: Usd.TimeCode) -> list:
+    """The property specs of ``attr`` at ``time``, strongest first (empty when USD cannot give them)."""
+    try:
+        return attr.GetPropertyStack(time)
+    except Tf.ErrorException:
+        return []
+
+
+def authored_type(attr: Usd.Attribute, time: Usd.TimeCode) -> str:
+    """The value type ``attr`` is authored with: a schema attribute's type name is the schema's whatever was authored
+    (``float[] points`` read as ``point3f[]``, ``float3 points`` too); its strongest spec holds the authored one."""
+    stack = property_stack(attr, time)
+    return str(stack[0].typeName) if stack else str(attr.GetTypeName())
+
+
 class ProblemReport:
     """Errors and skipped prims of the stage reader (``stage``, ``source``, ``time``, ``skipped``,
     ``shown_prototypes``, ``prototype_instance_counts``)."""
 
     def _property_stack(self, attr: Usd.Attribute) -> list:
         """The property specs of ``attr`` at the read time, strongest first (empty when USD cannot give them)."""
-        try:
-            return attr.GetPropertyStack(self.time)
-        except Tf.ErrorException:
-            return []
+        return property_stack(attr, self.time)
 
     def _authored_type(self, attr: Usd.Attribute) -> str:
-        """The value type ``attr`` is authored with: a schema attribute's type name is the schema's whatever was
-        authored (``float[] points`` read as ``point3f[]``, ``float3 points`` too); its strongest spec holds the
-        authored one."""
-        stack = self._property_stack(attr)
-        return str(stack[0].typeName) if stack else str(attr.GetTypeName())
+        """:func:`authored_type` of ``attr`` at the read time."""
+        return authored_type(attr, self.time)
 
     def _error(self, message: str, prim: Usd.Prim, attr: Usd.Attribute | None = None) -> SceneError:
         """A SceneError naming the file and the prim, plus the layer the bad value is authored in if different."""
