@@ -728,3 +728,44 @@ def test_curves_prim_with_every_curve_left_out_loads_empty(tmp_path, head, point
     assert "/C" in " | ".join(str(w.message) for w in record)
     hits = trace(scene, [(0, 0, 5), (0, 3, 5)], [(0, 0, -1)] * 2)
     np.testing.assert_allclose(hits.t, [np.inf, 4.5])
+
+
+SPHERE_COLOURS = [
+    ('float[] primvars:displayColor = [1, 0, 0] (interpolation = "constant")', "drop"),
+    ('float[] primvars:displayColor = [1, 0] (interpolation = "vertex")', "drop"),
+    ('color3f[] primvars:displayColor = [(1, 0, 0)] (interpolation = "sideways")', "drop"),
+    ('color3f[] primvars:displayColor = [] (interpolation = "vertex")', "drop"),
+    ('color3f[] primvars:displayColor = [(1, 0, 0), (nan, 0, 0), (0, 0, 1)] (interpolation = "vertex")', "grey"),
+]
+
+
+@pytest.mark.parametrize("value, outcome", SPHERE_COLOURS, ids=["float3", "float2", "sideways", "empty", "nan"])
+def test_a_gprims_unusable_colour_primvar_is_dropped_with_a_mesh_warning(tmp_path, value, outcome):
+    """A Sphere's displayColor that is not an array of 3-vectors (a float[] of three was read as one red; of two it
+    failed with numpy's reshape message), of an unknown interpolation or of no values is dropped with the warning a
+    mesh beside it gets, the sphere coloured as if it had none; non-finite values are grey with the meshes' warning
+    (they turned the whole sphere grey without a word), the rest of them still averaged (a mesh names that warning's
+    primvar displayColor, points, curves and gprims primvars:displayColor). Oracles: the stage with the
+    primvar removed; ``ComputeFlattened``'s values in float64."""
+    mesh = ('def Mesh "M"\n{\n    point3f[] points = [(5, 0, 0), (6, 0, 0), (5, 1, 0)]\n'
+            '    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+            f'    {value.replace("vertex", "constant") if outcome == "drop" else value}\n}}\n')
+    mesh = mesh.replace('"constant")', '"sideways")') if "sideways" in value else mesh
+    path = write(tmp_path, f'def Sphere "C"\n{{\n    {value}\n}}\n' + mesh)
+    stage = Usd.Stage.Open(path)
+    primvar = UsdGeom.Gprim(stage.GetPrimAtPath("/C")).GetDisplayColorPrimvar()
+    scene, messages = load_recording_warnings(path)
+    (shape,) = scene.shapes
+    if outcome == "drop":
+        (warned,) = [m for m in messages if "/C" in m]
+        assert warned.startswith(f"{path}: ") and "displayColor" in warned and warned.endswith("/C, /M"), messages
+        stage.GetPrimAtPath("/C").RemoveProperty("primvars:displayColor")
+        unauthored = str(tmp_path / "unauthored.usda")
+        stage.GetRootLayer().Export(unauthored)
+        np.testing.assert_array_equal(shape.color, load(unauthored).shapes[0].color)
+    else:
+        values = np.array(primvar.ComputeFlattened(), np.float64)
+        values[~np.isfinite(values).all(axis=1)] = 0.5
+        np.testing.assert_allclose(shape.color, values.mean(axis=0), rtol=1e-6)
+        (warned,) = [m for m in messages if "non-finite" in m and m.endswith(": /C")]
+        assert warned.startswith(f"{path}: ") and "replaced by grey 0.5" in warned, messages

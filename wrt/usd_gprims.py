@@ -20,7 +20,7 @@ from .primitives import (
 from .scene import Mesh
 from .tubes import width_axis
 from .usd_contents import Content, Context, instance_looks
-from .usd_primvars import first_of_constant, flattened
+from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened
 from .usd_values import value_at
 from .usd_xforms import affine_part
 
@@ -42,15 +42,9 @@ class GprimReading:
         to_world = affine_part(m, lambda reason: self._skip(reason, prim)).T @ local
 
         material_id, primvar, color = self._gprim_look(prim, ctx)
-        raw = flattened(primvar, t, prim, self._skip) if primvar is not None else None
-        if raw is not None:  # (indices out of range: dropped with a warning, the colour as if unauthored)
-            color = np.full(3, 0.5, np.float32)
-            values = np.asarray(raw or [], np.float64)
-            values = values[:, :3] if values.ndim == 2 else values.reshape(-1, 3)  # the rgb of a color4f
-            if primvar.GetInterpolation() == UsdGeom.Tokens.constant:
-                values = first_of_constant(values, prim, primvar.GetAttr().GetName(), self._skip)
-            if len(values) and np.all(np.isfinite(values)):
-                color = values.mean(axis=0).astype(np.float32)
+        values = self._gprim_colors(prim, primvar) if primvar is not None else None
+        if values is not None:  # (a primvar that cannot be used: dropped with a warning, the colour as if unauthored)
+            color = values.mean(axis=0).astype(np.float32)
         shape = Shape(
             path=str(prim.GetPath()),
             kind=kind,
@@ -65,6 +59,39 @@ class GprimReading:
         if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
             raise self._error("bounds are not finite after the world transform", prim)
         return shape
+
+    def _gprim_colors(self, prim: Usd.Prim, primvar: UsdGeom.Primvar) -> np.ndarray | None:
+        """``(k, 3)`` float64 values of colour primvar ``primvar`` of gprim ``prim``, whose mean colours it, or None
+        with a warning where a mesh drops it too (:meth:`wrt.usd_mesh_primvars.MeshPrimvarReading._read_primvar`):
+        indices out of range, values that are not an array of 3- or 4-vectors (a ``float[]`` of three values was read
+        as one colour, of two failed with numpy's reshape message), an unknown interpolation, an elementSize other
+        than 1, no values at all; non-finite values are grey 0.5, with a warning (they made the whole colour grey
+        without a word). A non-constant one is taken at any length: the counts Hydra checks it against are those of
+        the mesh UsdImaging makes of the gprim, which USD's API does not give and which change between versions."""
+        t = self.time
+        raw = flattened(primvar, t, prim, self._skip)
+        if raw is None:  # indices out of range (with a warning), or no value
+            return None
+        name = primvar.GetAttr().GetName()
+        interpolation = primvar.GetInterpolation()
+        if hasattr(raw, "__len__") and len(raw) == 0:
+            self._skip(PRIMVAR_DROPPED, prim, f"{name} has 0 values; {interpolation} interpolation needs some")
+            return None
+        values = np.asarray(raw)
+        if values.ndim != 2 or values.shape[1] not in (3, 4) or values.dtype.kind not in "fiu":
+            self._skip(f"{name} values that are not an array of 3-vectors were ignored", prim,
+                       f"{self._authored_type(primvar.GetAttr())} holding {type(raw).__name__}")
+            return None
+        if interpolation not in ("constant", "uniform", "varying", "vertex", "faceVarying"):
+            self._skip(f"{name} with unknown interpolation {interpolation!r} was ignored", prim)
+            return None
+        if primvar.GetElementSize() != 1:
+            self._skip(f"{name} with elementSize != 1 was ignored", prim)
+            return None
+        values = values[:, :3].astype(np.float64)  # the rgb of a color4f
+        if interpolation == UsdGeom.Tokens.constant:
+            values = first_of_constant(values, prim, name, self._skip)
+        return finite_colors(values, prim, name, self._skip)
 
     def _canonical_space(self, prim: Usd.Prim) -> tuple | None:
         """``(kind, local, params)`` of gprim ``prim``: its :class:`Shape` kind, the ``(4, 4)`` column-vector
