@@ -425,3 +425,45 @@ def test_takes_instance_color_walks_no_mesh_once_uploaded_and_follows_new_colour
     painted.colors = None
     scene.drop_stale_caches()
     assert scene.takes_instance_color().tolist() == [True, True, True, True]
+
+
+NATIVE_COLOURS = {
+    "nan": 'color3f[] primvars:displayColor = [(nan, 0, 0)]',
+    "float3": 'float[] primvars:displayColor = [1, 0, 0]',
+    "float2": 'float[] primvars:displayColor = [1, 0]',
+    "single": 'color3f primvars:displayColor = (1, 0, 0)',
+    "empty": 'color3f[] primvars:displayColor = []',
+    "several": 'color3f[] primvars:displayColor = [(1, 0, 0), (0, 1, 0)]',
+}
+
+
+@pytest.mark.parametrize("kind", NATIVE_COLOURS)
+def test_a_native_instances_unusable_colour_is_read_as_a_plain_references_with_a_warning(tmp_path, kind):
+    """A constant displayColor on a native instance that its prototype's mesh inherits is checked as the mesh checks
+    it when the reference is not instanceable (USD composes the same value either way): not an array of 3-vectors
+    (three numbers or a single colour3f were taken as a colour) or empty, dropped; several values, the first;
+    non-finite, grey 0.5; each with the plain mesh's warning, naming the instance (it said nothing). Oracle: the
+    same stage with instanceable = false, rendered."""
+    def stage_text(instanceable):
+        return ('#usda 1.0\n(\n    upAxis = "Z"\n)\ndef Xform "Lib"\n{\n    def Mesh "Tri"\n    {\n'
+                '        point3f[] points = [(-1, -1, 0), (1, -1, 0), (0, 1, 0)]\n'
+                '        int[] faceVertexCounts = [3]\n'
+                '        int[] faceVertexIndices = [0, 1, 2]\n    }\n}\n'
+                f'def Xform "A" (\n    instanceable = {instanceable}\n    references = </Lib>\n)\n{{\n'
+                f'    {NATIVE_COLOURS[kind]} (interpolation = "constant")\n}}\n'
+                f'def Xform "B" (\n    instanceable = {instanceable}\n    references = </Lib>\n)\n{{\n'
+                '    double3 xformOp:translate = (3, 0, 0)\n'
+                '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n')
+    images, reasons = [], []
+    for instanceable in ("true", "false"):
+        path = tmp_path / f"{instanceable}.usda"
+        path.write_text(stage_text(instanceable))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            scene = wrt.load_usd(str(path))
+        reasons.append(sorted(str(w.message).split(": ")[1] for w in caught if "displayColor" in str(w.message)))
+        assert (len(scene.instances) > 0) == (instanceable == "true")
+        camera = wrt.Camera.orthographic(eye=(1.5, 0, 5), target=(1.5, 0, 0), height=3.0)
+        images.append(wrt.render(scene, camera=camera, width=12, height=6, device="cpu", integrator="albedo").rgb)
+    np.testing.assert_array_equal(images[0], images[1])
+    assert reasons[0] == reasons[1] and reasons[0], reasons

@@ -9,7 +9,7 @@ from pxr import Usd, UsdGeom
 
 from .usd_ancestors import BLOCKED
 from .usd_contents import Context
-from .usd_primvars import first_of_constant, flattened, unit_opacities
+from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened, unit_opacities
 from .usd_values import read_time
 
 
@@ -93,18 +93,32 @@ class LookReading:
         """The constant colour primvars that native instance ``prim`` hands down to its prototype's meshes lacking
         them, of ``names``: its own or its nearest ancestor's (up to the root of the prototype ``prim`` is in), as
         ``((name, (r, g, b)), ...)``, each name it has (a prototype's meshes may lack several: displayColor, and
-        the primvar a material reads)."""
+        the primvar a material reads). Checked as a mesh checks the one it inherits outside instances, with its
+        warnings naming the prim that holds it: one that is not an array of 3- or 4-vectors, or holds no value, is
+        dropped (it was taken when it held three numbers, a ``float[]`` or a single ``color3f``, and skipped without a
+        word otherwise), several values are read as the first, non-finite ones as grey 0.5 (both silently before)."""
         inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
         found = []
         for name in names:
             primvar = inherited.get(name)
             if primvar is None:
                 continue
-            values = flattened(primvar, read_time(primvar.GetAttr(), self.time), primvar.GetAttr().GetPrim(),
-                               self._skip)
-            values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
-            if len(values) >= 3 and np.all(np.isfinite(values[:3])):
-                found.append((name, tuple(float(v) for v in values[:3])))
+            attr = primvar.GetAttr()
+            holder, time = attr.GetPrim(), read_time(attr, self.time)
+            raw = flattened(primvar, time, holder, self._skip)
+            if raw is None:  # indices out of range: dropped, with a warning
+                continue
+            values = np.asarray(raw)
+            if values.size == 0:
+                self._skip(PRIMVAR_DROPPED, holder, f"{attr.GetName()} has 0 values; constant interpolation needs 1")
+                continue
+            if values.ndim != 2 or values.shape[1] not in (3, 4) or values.dtype.kind not in "fiu":
+                self._skip(f"{attr.GetName()} values that are not an array of 3-vectors were ignored", holder,
+                           f"{self._authored_type(attr)} holding {type(raw).__name__}")
+                continue
+            values = first_of_constant(values[:, :3].astype(np.float64), holder, attr.GetName(), self._skip)
+            values = finite_colors(values, holder, name, self._skip)
+            found.append((name, tuple(float(v) for v in values[0])))
         return tuple(found)
 
     def _inherited_opacity(self, prim: Usd.Prim) -> float | None:
