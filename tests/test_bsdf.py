@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from wrt.bsdf import Surface, eval_bsdf, fresnel_dielectric, lobe_albedos, sample_bsdf
+from wrt.bsdf import Surface, eval_bsdf, fresnel_dielectric, lobe_albedos, sample_bsdf, thin_dielectric_reflectance
 from wrt.integrators.whitted import whitted_continuation
 from wrt.microfacet_albedo import (
     GgxAlbedo,
@@ -24,7 +24,7 @@ from wrt.microfacet_albedo import (
 from wrt.shade import keep_reflection_above
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
-N_PARAMS = 11  # base rgb, specular grey, metallic, roughness, opacity, ior, clearcoat, clearcoat roughness, workflow
+N_PARAMS = 12  # base rgb, specular grey, metallic, roughness, opacity, ior, clearcoat, its roughness, workflow, thin
 
 
 @wp.func
@@ -40,14 +40,15 @@ def surface_from(p: wp.array[float]):
     s.clearcoat = p[8]
     s.clearcoat_roughness = p[9]
     s.specular_workflow = int(p[10])
+    s.thin_walled = int(p[11])
     return s
 
 
 def params(base=(0.8, 0.6, 0.4), metallic=0.0, roughness=0.5, opacity=1.0, ior=1.5, clearcoat=0.0,
-           clearcoat_roughness=0.01, specular=None) -> wp.array:
+           clearcoat_roughness=0.01, specular=None, thin_walled=False) -> wp.array:
     """The surface numbers for :func:`surface_from` (``specular``: the specular workflow with that grey F0)."""
     values = [*base, specular or 0.0, metallic, roughness, opacity, ior, clearcoat, clearcoat_roughness,
-              0.0 if specular is None else 1.0]
+              0.0 if specular is None else 1.0, float(thin_walled)]
     return wp.array(np.array(values, np.float32), dtype=float, device="cpu")
 
 
@@ -423,6 +424,110 @@ def test_glass_about_a_bent_normal_transmits_below_and_reflects_above_the_surfac
         else:
             mirror_below = 2.0 * np.einsum("ij,ij->i", n, wo) * n[:, 2] - wo[:, 2] <= 1e-6  # reflect(wo, n) . ng
             assert mirror_below[~lit].all()
+
+
+@wp.kernel
+def sheet_samples_kernel(
+    p: wp.array[float],
+    tables: GgxAlbedo,
+    wo: wp.array[wp.vec3],
+    front: int,
+    whitted: int,
+    u: wp.array2d[float],
+    # outputs
+    wi: wp.array[wp.vec3],
+    weight: wp.array[wp.vec3],
+    transmitted: wp.array[wp.int32],
+):
+    """Sample ``i`` of the continuation of a surface at normal +Z (shading and geometric) seen from ``wo[i]`` on the
+    side ``front``: :func:`sample_bsdf` with the numbers ``u[i]``, or with ``whitted`` 1 :func:`whitted_continuation`
+    with ``u[i, 1]``."""
+    i = wp.tid()
+    s = surface_from(p)
+    n = wp.vec3(0.0, 0.0, 1.0)
+    if whitted == 1:
+        d, w, t = whitted_continuation(s, tables, n, n, front, wo[i], u[i, 1])
+        wi[i] = d
+        weight[i] = w
+        transmitted[i] = t
+    else:
+        b = sample_bsdf(s, tables, lobe_albedos(s, tables, wo[i][2]), n, n, wo[i], front, u[i, 0], u[i, 1], u[i, 2],
+                        u[i, 3])
+        wi[i] = b.wi
+        weight[i] = b.weight
+        transmitted[i] = b.transmitted
+
+
+def thin_sheet_reflectance_float64(cos_i, eta):
+    """``R' = R + T^2 R / (1 - R^2)`` of a thin dielectric sheet, ``R`` the unpolarised Fresnel reflectance of an
+    interface of relative index ``eta`` at incidence ``cos_i`` (s and p amplitudes, float64), ``T = 1 - R``; 1 at
+    total internal reflection."""
+    cos_i, eta = np.broadcast_arrays(np.asarray(cos_i, np.float64), np.asarray(eta, np.float64))
+    cos2_t = 1.0 - (1.0 - cos_i**2) / eta**2
+    cos_t = np.sqrt(np.maximum(cos2_t, 0.0))
+    r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    r = 0.5 * (r_s**2 + r_p**2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sheet = r + (1.0 - r) ** 2 * r / (1.0 - r**2)
+    return np.where(cos2_t <= 0.0, 1.0, sheet)
+
+
+@pytest.mark.parametrize("whitted", [0, 1])
+@pytest.mark.parametrize("front", [1, 0])
+@pytest.mark.parametrize("ior", [1.5, 1.33, 2.4, 0.75])
+def test_a_thin_walled_sheet_reflects_both_faces_and_passes_the_rest_straight_through(ior, front, whitted):
+    """Clear thin-walled glass (opacity 0) seen from either side at five angles, 4000 evenly spread lobe numbers per
+    angle: the share of mirror samples is ``R' = R + T^2 R / (1 - R^2)`` (float64 Fresnel, within the grid's step),
+    the same from both sides (a sheet has no inside), the rest leave along ``-wo`` (no refraction bend), and every
+    sample weighs 1, so ``R' + T' = 1``: the sheet neither absorbs nor adds light. For the path tracer's lobe
+    (:func:`sample_bsdf`) and Whitted's continuation. Before thin-walled glass, the sheet refracted (eta 1 / ior
+    from the back) as the boundary of a solid."""
+    cos_o = np.array([1.0, 0.8, 0.5, 0.2, 0.05])
+    per = 4000
+    wo = np.stack([np.sqrt(1.0 - cos_o**2), np.zeros_like(cos_o), cos_o], -1)
+    wo = np.repeat(wo, per, axis=0)
+    u = np.full((len(wo), 4), 0.5)
+    u[:, 0] = 0.5  # the glass, not the (absent: opacity 0) opaque lobes
+    u[:, 1] = np.tile((np.arange(per) + 0.5) / per, len(cos_o))
+    outs = [wp.empty(len(wo), dtype=t, device="cpu") for t in (wp.vec3, wp.vec3, wp.int32)]
+    wp.launch(sheet_samples_kernel, len(wo), inputs=[params(opacity=0.0, ior=ior, roughness=0.0, thin_walled=True),
+                                                    ggx_albedo_tables("cpu"), vec3s(wo), front, whitted,
+                                                    wp.array(u.astype(np.float32), dtype=float, device="cpu")],
+              outputs=outs, device="cpu")
+    wi, weight, transmitted = (o.numpy() for o in outs)
+    np.testing.assert_allclose(weight, 1.0, rtol=1e-6)  # Whitted's reflection: (R' + T') / R' * R' in float32
+    through = transmitted == 1
+    np.testing.assert_allclose(wi[through], -wo[through], atol=1e-6)
+    mirror = wo * np.array([-1.0, -1.0, 1.0])
+    np.testing.assert_allclose(wi[~through], mirror[~through], atol=1e-6)
+    reflected = (~through).reshape(len(cos_o), per).mean(axis=1)
+    np.testing.assert_allclose(reflected, thin_sheet_reflectance_float64(cos_o, ior), atol=1.5 / per)
+
+
+@wp.kernel
+def thin_reflectance_kernel(
+    cos_i: wp.array[float],
+    eta: wp.array[float],
+    # outputs
+    reflectance: wp.array[float],
+):
+    """``reflectance[i]``: :func:`thin_dielectric_reflectance` at ``cos_i[i], eta[i]``."""
+    i = wp.tid()
+    reflectance[i] = thin_dielectric_reflectance(cos_i[i], eta[i])
+
+
+def test_the_thin_sheet_reflectance_matches_float64():
+    """``R'`` at seven angles and six indices against float64: 0 for an index-matched sheet (ior 1), twice a
+    single face's ``R`` over ``1 + R`` otherwise, 1 where an index below 1 reflects everything at the first face."""
+    cos_i = np.array([1.0, 0.9, 0.7, 0.5, 0.3, 0.1, 0.01])
+    eta = np.array([0.75, 1.0, 1.2, 1.5, 2.4, 10.0])
+    c, e = (x.ravel().astype(np.float32).astype(np.float64) for x in np.meshgrid(cos_i, eta, indexing="ij"))
+    out = wp.empty(len(c), dtype=float, device="cpu")
+    wp.launch(thin_reflectance_kernel, len(c), inputs=[wp.array(c, dtype=float, device="cpu"),
+                                                      wp.array(e, dtype=float, device="cpu")],
+              outputs=[out], device="cpu")
+    np.testing.assert_allclose(out.numpy(), thin_sheet_reflectance_float64(c, e), rtol=1e-4, atol=1e-6)
 
 
 def test_colours_above_one_give_finite_nonnegative_weights(np_rng):

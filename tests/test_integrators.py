@@ -485,6 +485,59 @@ def test_a_clear_pane_shows_the_sky_behind_it_unchanged(integrator, ior):
     np.testing.assert_allclose(img.rgb, 1.0, atol=0.02)
 
 
+def pane_view(integrator, pane_material):
+    """Red linear channel ``(32, 32)`` of a red emitter (a 1.2 x 1.2 square of radiance 1 at z = -3, facing +Z) seen
+    by an orthographic camera looking down -Z through a pane at z = 0 tilted 45 degrees about the y axis (none
+    where ``pane_material`` is None), with nothing else in the scene."""
+    emitter = quad((0, 0, -3), (1.2, 0, 0), (0, 1.2, 0), name="/emitter", material=0)
+    red = Material(diffuse_color=0.0, emissive_color=(1.0, 0.0, 0.0))
+    meshes, materials = [emitter], [red]
+    if pane_material is not None:
+        c = np.cos(np.radians(45.0))
+        meshes.append(quad((0, 0, 0), (20 * c, 0, -20 * c), (0, 20, 0), name="/pane", material=1))
+        materials.append(pane_material)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=3.0)
+    img = wrt.render(wrt.Scene(meshes=meshes, materials=materials), camera=cam, width=32, height=32, spp=16,
+                     device="cpu", integrator=integrator)
+    return img.rgb[..., 0]
+
+
+def red_centroid(red):
+    """``(row, column)`` of the centre of the pixels brighter than 0.3."""
+    rows, cols = np.nonzero(red > 0.3)
+    return np.array([rows.mean(), cols.mean()])
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+def test_a_thin_walled_pane_leaves_what_is_behind_it_in_place(integrator):
+    """A clear thin-walled pane (opacity 0, ior 1.5, ``thin_walled``) tilted 45 degrees in front of an emitter: the
+    emitter keeps its place in the image (the two faces of a sheet bend a ray back: it leaves undeflected) and shows
+    ``1 - R'`` of its radiance, ``R' = 2R / (1 + R)`` with ``R`` the float64 Fresnel reflectance at 45 degrees. The
+    same pane as a solid's boundary refracts every ray by 17 degrees into the glass, which it never leaves: the
+    emitter moves by about 0.9 units (10 pixels)."""
+    bare = pane_view(integrator, None)
+    thin = pane_view(integrator, Material(opacity=0.0, ior=1.5, roughness=0.0, thin_walled=True))
+    solid = pane_view(integrator, Material(opacity=0.0, ior=1.5, roughness=0.0))
+    assert np.abs(red_centroid(thin) - red_centroid(bare)).max() < 0.25
+    assert np.abs(red_centroid(solid) - red_centroid(bare)).max() > 5.0
+    cos_i, eta = np.cos(np.radians(45.0)), 1.5
+    cos_t = np.sqrt(1.0 - (1.0 - cos_i**2) / eta**2)
+    r_s, r_p = (cos_i - eta * cos_t) / (cos_i + eta * cos_t), (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    r = 0.5 * (r_s**2 + r_p**2)
+    inside = bare > 0.999  # pixels wholly on the emitter
+    assert inside.sum() > 64
+    assert thin[inside].mean() == pytest.approx(1.0 - 2.0 * r / (1.0 + r), abs=0.04)
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+@pytest.mark.parametrize("ior", [1.5, 2.4])
+def test_a_thin_walled_glass_sphere_in_a_white_furnace_shows_the_dome(integrator, ior):
+    """A clear thin-walled sphere under a white dome of radiance 1 shows 1: the sheet reflects ``R'`` and passes
+    ``1 - R'``, absorbing nothing, however often the light bounces inside the ball."""
+    means = furnace_means(Material(opacity=0.0, ior=ior, roughness=0.0, thin_walled=True), integrator=integrator)
+    np.testing.assert_allclose(means, 1.0, atol=0.02)
+
+
 @pytest.mark.parametrize("integrator", ["whitted", "path"])
 def test_a_pane_whose_bent_normal_turns_the_refraction_back_reflects_all_the_light(integrator):
     """A clear pane (opacity 0, ior 1.5) at z = 0 whose authored normal leans 46 degrees from its face, seen from

@@ -26,6 +26,12 @@ Model (an approximation of the UsdPreviewSurface specification, stated once):
 - ``opacity < 1`` (with ``opacityThreshold = 0``): a fraction ``1 - opacity`` of the light meets a smooth
   dielectric interface of index ``ior`` (Snell refraction, exact Fresnel reflectance), the rest meets the opaque
   BSDF above. ``opacityThreshold > 0`` is a cut-out instead, handled by the integrators.
+- A thin-walled dielectric (``Surface.thin_walled``: a window pane, a soap bubble, a leaf modelled as one sheet) is
+  a slab of two parallel smooth interfaces of index ``ior`` and no thickness, as pbrt-v4's ``ThinDielectricBxDF``:
+  the light bouncing between its faces sums to a reflectance ``R' = R + T^2 R / (1 - R^2)`` (``R`` the Fresnel
+  reflectance at the incident angle, the same at both faces, ``T = 1 - R``), reflected about the normal, and the
+  rest, ``1 - R'``, passes straight through (the two refractions cancel: no bend, no inside). It replaces the
+  refracting interface in the ``1 - opacity`` share; the opaque BSDF above is unchanged.
 
 Sampling draws one lobe with probability proportional to its albedo and samples GGX through its distribution of
 visible normals (Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT 2018), the diffuse lobe by the
@@ -78,6 +84,7 @@ class Surface:
     clearcoat_roughness: float  # roughness of the clearcoat lobe
     opacity_threshold: float  # > 0: cut-out mode (opacity < threshold is a hole)
     specular_workflow: int  # 1: F0 = specularColor; 0: metallic workflow
+    thin_walled: int  # 1: the dielectric is a sheet without thickness (thin_dielectric_reflectance); 0: solid
 
 
 @wp.func
@@ -179,6 +186,35 @@ def glass_refraction(n: wp.vec3, ng: wp.vec3, wo: wp.vec3, eta: float):
             fr = 1.0
             wt = wp.vec3(0.0)
     return fr, wt
+
+
+@wp.func
+def thin_dielectric_reflectance(cos_i: float, eta: float):
+    """Reflectance ``R' = R + T^2 R / (1 - R^2)`` of a thin-walled smooth dielectric sheet of relative index ``eta``
+    seen at ``cos_i > 0``: :func:`fresnel_dielectric` ``R`` at its first face, then the light transmitted into the
+    sheet (``T = 1 - R``) bouncing between two faces that each reflect ``R`` (the inner angle is the refracted one,
+    where Fresnel's reflectance is the same), a geometric series. 1 where the first face reflects everything (total
+    internal reflection of an ``eta`` below 1). The sheet transmits the rest, ``1 - R'``, undeflected."""
+    r = fresnel_dielectric(cos_i, eta)
+    if r >= 1.0:
+        return 1.0
+    t = 1.0 - r
+    return r + t * t * r / (1.0 - r * r)
+
+
+@wp.func
+def dielectric_interface(s: Surface, n: wp.vec3, ng: wp.vec3, wo: wp.vec3, front: int):
+    """``(fr, wt)``: the reflectance of the glass of ``s`` seen from ``wo`` about shading normal ``n`` and the unit
+    direction of its transmitted light (``n``, ``ng`` and ``wo`` on one side, ``dot(n, wo) > 0``; ``front``: ``wo``
+    on the winding's front side). A solid's boundary refracts (:func:`glass_refraction`, ``eta = ior`` entering from
+    the front, ``1 / ior`` leaving through the back); a thin-walled sheet has no inside, so ``eta`` is ``ior`` from
+    either side, and it reflects :func:`thin_dielectric_reflectance` and lets the rest through along ``-wo``."""
+    if s.thin_walled == 1:
+        return thin_dielectric_reflectance(wp.dot(n, wo), s.ior), -wo
+    eta = s.ior
+    if front == 0:
+        eta = 1.0 / s.ior
+    return glass_refraction(n, ng, wo, eta)
 
 
 @wp.func
@@ -494,7 +530,8 @@ def sample_bsdf(
         n: shading normal on the side of ``wo``.
         ng: geometric normal on the side of ``wo``.
         wo: unit direction towards the viewer.
-        front: 1 when ``wo`` is on the front side of the surface (decides ``eta`` for refraction).
+        front: 1 when ``wo`` is on the front side of the surface (decides ``eta`` for refraction; a thin-walled
+            surface has the same two sides).
         u0: picks glass vs opaque.
         u1: picks the lobe (and reflection vs refraction).
         u2: direction.
@@ -511,13 +548,11 @@ def sample_bsdf(
     if cos_o <= 0.0:
         return out
 
-    # Glass: the dielectric interface takes 1 - opacity of the light; reflect or refract by its Fresnel term.
+    # Glass: the dielectric interface takes 1 - opacity of the light; reflect or transmit by its Fresnel term (a
+    # thin-walled sheet's by its two faces').
     k = opaque_fraction(s)
     if u0 >= k:
-        eta = s.ior
-        if front == 0:
-            eta = 1.0 / s.ior
-        fr, wt = glass_refraction(n, ng, wo, eta)
+        fr, wt = dielectric_interface(s, n, ng, wo, front)
         out.delta = 1
         if u1 < fr:
             wi, lit = mirror_reflection(wo, n, ng)

@@ -91,6 +91,7 @@ NUM_SLOTS = len(SLOTS)
 CHANNELS = {"r": 0, "g": 1, "b": 2, "a": 3, "rgb": 4, "rgba": 4}  # UsdUVTexture outputs
 FLAG_SPECULAR_WORKFLOW = wp.constant(1)  # useSpecularWorkflow = 1
 FLAG_DISPLAY_COLOR = wp.constant(2)  # diffuseColor comes from the mesh's colour primvar (Material.color_primvar)
+FLAG_THIN_WALLED = wp.constant(4)  # the dielectric of opacity < 1 is a thin sheet (Material.thin_walled)
 MIN_IOR = wp.constant(1.0e-3)  # smaller (and negative) ior values are drawn as this index
 DEFAULT_GREY = 0.5  # albedo of meshes with neither a material nor displayColor
 # Shaders whose output is a mesh's colour primvar (the rgb of a 4-vector one), by id: the input naming the primvar and
@@ -164,6 +165,9 @@ class Material(CountsAssignments):
         ior: index of refraction.
         clearcoat: clearcoat weight.
         clearcoat_roughness: clearcoat roughness.
+        thin_walled: the dielectric of ``opacity < 1`` is a sheet without thickness (a window pane modelled as one
+            plane): it reflects both faces' light and lets the rest through unbent (see :mod:`wrt.bsdf`); no effect on
+            an opaque surface.
         diffuse_from_display_color: diffuseColor is read from the mesh's colour primvar ``color_primvar`` (times
             ``color_primvar_scale``); ``diffuse_color`` is used where the mesh (and its instance) has none.
         color_primvar: the colour primvar (``displayColor``, ``temperature``, ...) diffuseColor reads.
@@ -185,6 +189,7 @@ class Material(CountsAssignments):
     ior: float = 1.5
     clearcoat: float = 0.0
     clearcoat_roughness: float = 0.01
+    thin_walled: bool = False
     diffuse_from_display_color: bool = False
     color_primvar: str = "displayColor"
     color_primvar_scale: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(3, np.float32))
@@ -372,8 +377,10 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
             mat.clearcoat_roughness,
             0.0,
         )
-        flags[k] = (int(FLAG_SPECULAR_WORKFLOW) if mat.use_specular_workflow else 0) | (
-            int(FLAG_DISPLAY_COLOR) if mat.diffuse_from_display_color else 0
+        flags[k] = (
+            (int(FLAG_SPECULAR_WORKFLOW) if mat.use_specular_workflow else 0)
+            | (int(FLAG_DISPLAY_COLOR) if mat.diffuse_from_display_color else 0)
+            | (int(FLAG_THIN_WALLED) if mat.thin_walled else 0)
         )
         mat.check_textures()
         for name, tex in mat.textures.items():
@@ -527,6 +534,7 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
     s.clearcoat = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT, st, mats.params[m, 5]), 0.0, 1.0)
     s.clearcoat_roughness = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT_ROUGHNESS, st, mats.params[m, 6]), 0.0, 1.0)
     s.specular_workflow = wp.where((flags & FLAG_SPECULAR_WORKFLOW) != 0, 1, 0)
+    s.thin_walled = wp.where((flags & FLAG_THIN_WALLED) != 0, 1, 0)
     # Keep colours physical: negative texels (or biases) would make energy from nothing.
     s.base_color = wp.vec3(wp.max(s.base_color[0], 0.0), wp.max(s.base_color[1], 0.0), wp.max(s.base_color[2], 0.0))
     s.emission = wp.vec3(wp.max(s.emission[0], 0.0), wp.max(s.emission[1], 0.0), wp.max(s.emission[2], 0.0))

@@ -7,10 +7,11 @@ under a constant dome; use ``path`` for occluded sky light), plus ``metallic`` t
 multiple scattering, as the path tracer's BSDF has it: 1 for a white metal) for rough metals. Then one
 continuation ray: the mirror direction for smooth metals (roughness below ``DELTA_ROUGHNESS``, weight
 ``metallic * F``) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with probability
-proportional to their Fresnel weights). In the specular workflow (``useSpecularWorkflow = 1``) the whole specular
-lobe counts as a metal's (weight ``F`` of ``specularColor``, the dome's diffuse term times 1 - the lobe's albedo). Other
-surfaces end the ray: a rough metal's GGX lobe takes its light from the light sampling above, and a mirror ray from
-it would add the same lights a second time. ``max_depth`` bounds the number of mirror/refraction bounces.
+proportional to their Fresnel weights; a thin-walled sheet's transmission goes straight on, see :mod:`wrt.bsdf`). In
+the specular workflow (``useSpecularWorkflow = 1``) the whole specular lobe counts as a metal's (weight ``F`` of
+``specularColor``, the dome's diffuse term times 1 - the lobe's albedo). Other surfaces end the ray: a rough
+metal's GGX lobe takes its light from the light sampling above, and a mirror ray from it would add the same lights a
+second time. ``max_depth`` bounds the number of mirror/refraction bounces.
 """
 
 import warp as wp
@@ -18,8 +19,8 @@ import warp as wp
 from ..bsdf import (
     DELTA_ROUGHNESS,
     Surface,
+    dielectric_interface,
     eval_bsdf_lobes,
-    glass_refraction,
     is_glass,
     lobe_albedos,
     mirror_reflection,
@@ -233,7 +234,7 @@ def add_unoccluded_lights_kernel(
 def whitted_continuation(s: Surface, tables: GgxAlbedo, ns: wp.vec3, ng: wp.vec3, front: int, wo: wp.vec3, u: float):
     """``(wi, weight, transmitted)``: the ray a Whitted path goes on with from surface ``s`` seen from ``wo``
     (shading normal ``ns`` and geometric ``ng`` on its side, ``front``: on the winding's front), the mirror ray or
-    the refracted one (``transmitted`` 1), picked by ``u`` in [0, 1) with probability proportional to their weights,
+    the transmitted one (``transmitted`` 1), picked by ``u`` in [0, 1) with probability proportional to their weights,
     and the factor of the path's throughput (zero: the path ends here)."""
     cos_o = wp.max(wp.dot(ns, wo), 0.0)
     op = opaque_fraction(s)
@@ -241,12 +242,9 @@ def whitted_continuation(s: Surface, tables: GgxAlbedo, ns: wp.vec3, ng: wp.vec3
     w_refract = float(0.0)
     if s.roughness < DELTA_ROUGHNESS:
         w_reflect = traced_specular(s, tables, cos_o) * op
-    eta = s.ior
-    if front == 0:
-        eta = 1.0 / s.ior
     wt = wp.vec3(0.0)
     if is_glass(s) and cos_o > 0.0:
-        fr, wt = glass_refraction(ns, ng, wo, eta)
+        fr, wt = dielectric_interface(s, ns, ng, wo, front)
         w_reflect += wp.vec3(fr * (1.0 - op))
         w_refract = (1.0 - fr) * (1.0 - op)
     p_reflect = luminance(w_reflect)
