@@ -106,22 +106,37 @@ def test_specification_defaults_and_approximations(tmp_path):
 
 @pytest.mark.parametrize("shader_id, transmission, thin", [(STANDARD, "transmission", "thin_walled"),
                                                           (OPEN_PBR, "transmission_weight", "geometry_thin_walled")])
-def test_a_thin_walled_glass_is_named_in_the_warning(tmp_path, shader_id, transmission, thin):
-    """A thin-walled transmissive surface (a window modelled as one plane) is drawn as the boundary of a solid: its
-    transmission refracts and its back is inside the glass (seen from there past 42 degrees, a pane of index 1.5
-    reflects everything). The warning names ``thin_walled`` when it is authored true, and only then; it was dropped
-    without a word."""
+def test_a_thin_walled_glass_is_drawn_as_a_thin_sheet(tmp_path, shader_id, transmission, thin):
+    """``thin_walled`` (OpenPBR ``geometry_thin_walled``) authored true makes the material's dielectric a thin-walled
+    sheet (``Material.thin_walled``, drawn unbent: see tests/test_integrators.py) and its warning says so instead of
+    naming the input as ignored; false keeps a solid's boundary. On an opaque surface it changes nothing and adds no
+    warning; fed by a node it is ignored, named in the warning. Before, every ``thin_walled`` true was "ignored"."""
     stage, path = new_stage(tmp_path)
-    for k, value in enumerate((True, False)):
-        material, shader = mtlx_material(stage, f"/Looks/Thin{k}", shader_id, **{transmission: 1.0})
-        shader.CreateInput(thin, Sdf.ValueTypeNames.Bool).Set(value)
+    looks = {"Sheet": ({transmission: 1.0}, True), "Solid": ({transmission: 1.0}, False), "Opaque": ({}, True),
+             "Wired": ({transmission: 1.0}, None)}
+    for k, (name, (inputs, value)) in enumerate(looks.items()):
+        material, shader = mtlx_material(stage, f"/Looks/{name}", shader_id, **inputs)
+        attr = shader.CreateInput(thin, Sdf.ValueTypeNames.Bool)
+        if value is None:
+            node = UsdShade.Shader.Define(stage, f"/Looks/{name}/Flag")
+            node.CreateIdAttr("ND_constant_boolean")
+            attr.ConnectToSource(node.ConnectableAPI().CreateOutput("out", Sdf.ValueTypeNames.Bool))
+        else:
+            attr.Set(value)
         bind(add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0)), material)
     stage.Save()
-    _, messages = load(path)
-    (thin_walled,) = [m for m in messages if "/Looks/Thin0:" in m]
-    (solid,) = [m for m in messages if "/Looks/Thin1:" in m]  # transmission itself is approximated
-    assert f"{thin} (1) is ignored" in thin_walled
-    assert "is ignored" not in solid
+    scene, messages = load(path)
+    authored = {name: UsdShade.Shader.Get(stage, f"/Looks/{name}/Surface").GetInput(thin).Get() for name in looks}
+    mats = {m.path.rsplit("/", 1)[1]: m for m in scene.materials}
+    assert {name: mats[name].thin_walled for name in looks} == {**authored, "Wired": False}
+    assert (mats["Sheet"].opacity, mats["Solid"].opacity, mats["Opaque"].opacity) == (0.0, 0.0, 1.0)
+    notes = {name: [m for m in messages if f"/Looks/{name}:" in m] for name in looks}
+    assert not any(f"{thin} (1) is ignored" in m for m in messages), messages
+    (sheet,), (solid,), (wired,) = notes["Sheet"], notes["Solid"], notes["Wired"]
+    assert f"{transmission} is drawn as a smooth thin-walled dielectric" in sheet
+    assert f"{transmission} is drawn as a smooth dielectric" in solid and "is ignored" not in solid
+    assert f"{thin} (connected to ND_constant_boolean) is ignored" in wired
+    assert notes["Opaque"] == []
 
 
 def test_a_scaled_specular_keeps_an_index_below_one_below_one_and_survives_a_negative_one(tmp_path):

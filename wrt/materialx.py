@@ -28,15 +28,19 @@ Approximations, each named in the material's one warning when it changes what is
   as glTF's default alpha cutoff), which is exact for the 0/1 masks of leaves and fences. A constant between 0 and 1
   is rounded that way. With a cut-out, ``transmission`` is ignored (one opacity per material).
 - ``transmission`` is wrt's smooth dielectric (opacity = 1 - transmission: Snell refraction at ``ior``);
-  transmission colour, depth, scattering and roughness are ignored.
+  transmission colour, depth, scattering and roughness are ignored. With ``thin_walled`` (OpenPBR
+  ``geometry_thin_walled``) true it is a thin-walled sheet instead (a window pane or a leaf modelled as one plane,
+  :class:`wrt.materials.Material` ``thin_walled``): it reflects what both faces of a sheet of index ``ior`` reflect
+  and lets the rest through unbent, with no inside. ``thin_walled`` changes nothing else: the opaque lobes already
+  shade both sides of a surface alike, and of the lobes it turns into their thin forms (subsurface as translucency)
+  wrt has none but transmission. A ``thin_walled`` fed by a node is ignored (a solid), with a note.
 - The coat is wrt's clearcoat (F0 0.04, index 1.5): ``coat_color`` and another coat index are ignored.
 - OpenPBR's ``emission_luminance`` is in nits; wrt's radiance is in UsdLux's units, where a light of intensity 1
   has luminance 1 nit, so the emitted radiance is ``emission_luminance * emission_color`` (MaterialX's own OpenPBR
   graph feeds that product to its ``uniform_edf`` unchanged). A 1000-nit panel is 1000 times a UsdLux light of
   intensity 1: lower the exposure.
 - Lobes wrt does not have (diffuse roughness, subsurface, sheen/fuzz, thin film, anisotropy, coat-affected colour
-  and roughness) are ignored, and so is ``thin_walled`` (OpenPBR ``geometry_thin_walled``): a thin-walled surface is
-  drawn as the boundary of a solid, whose transmission refracts and whose back is inside the glass.
+  and roughness) are ignored.
 - ``normal`` (OpenPBR ``geometry_normal``) from a tangent-space ``normalmap`` node of an image is wrt's normal map
   (:func:`wrt.shade.shading_point`, the same frame as UsdPreviewSurface's); from anything else it is ignored.
   ``coat_normal`` and ``tangent`` inputs are not read (the coat takes the mapped normal too).
@@ -96,6 +100,7 @@ STANDARD_SURFACE_101 = {
     "emission_weight": ("emission", 0.0),
     "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
     "opacity": ("opacity", (1.0, 1.0, 1.0)),
+    "thin_walled": ("thin_walled", False),
 }
 STANDARD_SURFACE_100 = {**STANDARD_SURFACE_101, "base_weight": ("base", 0.8), "base_color": ("base_color", (1.0,) * 3)}
 OPEN_PBR_SURFACE = {
@@ -114,13 +119,13 @@ OPEN_PBR_SURFACE = {
     "emission_weight": ("emission_luminance", 0.0),
     "emission_color": ("emission_color", (1.0, 1.0, 1.0)),
     "opacity": ("geometry_opacity", 1.0),
+    "thin_walled": ("geometry_thin_walled", False),
 }
-# Inputs of lobes wrt does not have, with the value that switches them off (thin_walled: drawn as a solid's boundary).
+# Inputs of lobes wrt does not have, with the value that switches them off.
 STANDARD_SURFACE_IGNORED = {"diffuse_roughness": 0.0, "subsurface": 0.0, "sheen": 0.0, "thin_film_thickness": 0.0,
-                            "specular_anisotropy": 0.0, "coat_affect_color": 0.0, "coat_affect_roughness": 0.0,
-                            "thin_walled": 0.0}
+                            "specular_anisotropy": 0.0, "coat_affect_color": 0.0, "coat_affect_roughness": 0.0}
 OPEN_PBR_IGNORED = {"base_diffuse_roughness": 0.0, "subsurface_weight": 0.0, "fuzz_weight": 0.0,
-                    "thin_film_weight": 0.0, "specular_roughness_anisotropy": 0.0, "geometry_thin_walled": 0.0}
+                    "thin_film_weight": 0.0, "specular_roughness_anisotropy": 0.0}
 NORMAL_INPUTS = {"ND_standard_surface_surfaceshader": "normal", "ND_standard_surface_surfaceshader_100": "normal",
                  "ND_open_pbr_surface_surfaceshader": "geometry_normal"}  # info:id -> its shading-normal input
 MODELS = {  # info:id -> (inputs, ignored inputs)
@@ -161,7 +166,8 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
     clearcoat = put("clearcoat", *graph.scalar("coat"))
     clearcoat_roughness = put("clearcoatRoughness", *graph.scalar("coat_roughness"))
     ior = graph.ior(pure_metal=metallic >= 1.0 and "metallic" not in textures)
-    opacity, threshold, opacity_texture = graph.opacity()
+    thin_walled = graph.thin_walled()
+    opacity, threshold, opacity_texture = graph.opacity(thin_walled)
     if opacity_texture is not None:
         textures["opacity"] = opacity_texture
     normal_map = graph.normal_map(NORMAL_INPUTS[shader.GetShaderId()])
@@ -174,7 +180,7 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
                     shader.GetPrim())
     mat = Material(path=path, diffuse_color=diffuse, emissive_color=emissive, metallic=metallic, roughness=roughness,
                    ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, opacity=opacity,
-                   opacity_threshold=threshold, textures=textures)
+                   opacity_threshold=threshold, thin_walled=thin_walled, textures=textures)
     if primvar is not None:
         primvar.apply(mat)
     return mat
@@ -292,9 +298,22 @@ class _Graph:
                               f"{self.inputs['ior'][0]} {authored:.3g} is drawn as {scaled:.3g}")
         return scaled
 
-    def opacity(self) -> tuple[float, float, TextureInput | None]:
+    def thin_walled(self) -> bool:
+        """The constant ``thin_walled`` (OpenPBR ``geometry_thin_walled``); False, with a note, where a node feeds it
+        or its value is not a number."""
+        name = self.inputs["thin_walled"][0]
+        found = self.reader._producer(self.shader, name)
+        if found is None:
+            return False
+        value = _array(found[1]) if found[0] == "value" else None
+        if value is None:
+            self.notes.append(f"{name} ({_describe(found)}) is ignored: the surface is drawn as a solid's boundary")
+            return False
+        return bool(value[0] != 0.0)
+
+    def opacity(self, thin_walled: bool) -> tuple[float, float, TextureInput | None]:
         """``(opacity, opacityThreshold, texture)``: geometry opacity as a cut-out, else transmission as wrt's
-        dielectric."""
+        dielectric (a thin-walled sheet's where ``thin_walled``)."""
         coverage, coverage_texture = self.read("opacity")
         coverage = float(np.mean(coverage))
         transmission, transmission_texture = self.read("transmission")
@@ -312,7 +331,8 @@ class _Graph:
             transmission_texture.scale = -transmission_texture.scale
             transmission_texture.bias = 1.0 - transmission_texture.bias
         if transmission_texture is not None or transmission > 0.0:
-            self.notes.append(f"{transmission_name} is drawn as a smooth dielectric of opacity 1 - "
+            sheet = "thin-walled " if thin_walled else ""
+            self.notes.append(f"{transmission_name} is drawn as a smooth {sheet}dielectric of opacity 1 - "
                               f"{transmission_name} (no colour, depth or roughness)")
         return 1.0 - transmission, 0.0, transmission_texture
 
