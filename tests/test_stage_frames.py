@@ -1020,3 +1020,36 @@ def test_every_kept_frame_warns_about_layers_in_other_units_as_a_fresh_load(tmp_
         assert_same(scene, fresh, f"frame {t}")
         assert warned == fresh_warned and sum("composes author" in w for w in warned) == 2, (t, warned)
     assert frames.memo is not None  # the stage was kept
+
+
+def test_a_material_edited_in_a_frames_scene_leaves_the_next_frames_as_fresh_loads(tmp_path):
+    """Every material of a kept frame's scene (reused or read, textured, UDIM, and the one whose input varies) edited
+    in place and by assignment, in every array and field: the next frames still equal fresh loads, the kept materials
+    reused and the varying one read again with its new value. The reused materials are copies of the kept read, which
+    must share nothing an edit can reach. Before, the memo kept the UDIM tile table of the scene's material as the
+    file's: shifted in place, the next frame's UDIM material had other tiles than a fresh load's."""
+    path = textured_looks_stage(tmp_path)
+    stage = Usd.Stage.Open(str(path))
+    UsdShade.MaterialBindingAPI.Apply(mesh(stage, "/World/Pulse", *grid(2, 11)).GetPrim()).Bind(
+        preview_material(stage, "/Looks/Pulse", color={1: Gf.Vec3f(1, 0, 0), 4: Gf.Vec3f(0, 0, 1)}))
+    stage.GetRootLayer().Save()
+    frames = StageFrames(path)
+    for t in (1, 2, 3, 2, None, 4, None):
+        scene = frames.load(t)
+        assert_same(scene, load_fresh(path, t), f"frame {t}")
+        for m in scene.materials:
+            m.diffuse_color[:] = 7
+            m.color_primvar_scale *= 3
+            m.roughness = 0.01
+            for tex in m.textures.values():
+                for array in (tex.scale, tex.bias, tex.transform, tex.st_fallback, tex.fallback):
+                    array += 5
+                if tex.tiles is not None:  # texture indices shifted in place, as when appending another's
+                    tex.tiles[tex.tiles >= 0] += 1
+                tex.image += 1
+                tex.wrap = ("clamp", "clamp")
+            m.textures["emissiveColor"] = wrt.materials.TextureInput(image=0)
+    pulse = [next(m for m in frames.load(t).materials if m.path == "/Looks/Pulse").diffuse_color for t in (1, 4)]
+    np.testing.assert_allclose(pulse, [(1, 0, 0), (0, 0, 1)])  # an input that varies is read at its time
+    counts = frames.material_memo.counts
+    assert counts["reused"] >= 9 * 4 and counts["read"] == 2 * 9, counts  # 9 static looks, read once per kind of time

@@ -84,7 +84,10 @@ class MaterialMemo:
         """Keeps ``read`` (a Material or None) of ``material``, the warnings it recorded (``skips``, from position
         ``start`` of the reader's list on) and its image file ``lookups``."""
         self.counts["read"] += 1
-        lookups = [dataclasses.replace(f, skips=(f.skips[0] - start, f.skips[1] - start)) for f in lookups]
+        # A lookup's UDIM tile table is the one the read put in its Material, which goes into this load's scene: the
+        # memo keeps its own, or an edit of the scene's would be taken for the file's tiles at the next frame.
+        lookups = [dataclasses.replace(f, skips=(f.skips[0] - start, f.skips[1] - start),
+                                       tiles=None if f.tiles is None else f.tiles.copy()) for f in lookups]
         self._kept[(str(material.GetPath()), time.IsDefault())] = KeptRead(copy.deepcopy(read), tuple(skips),
                                                                            tuple(lookups))
 
