@@ -125,6 +125,7 @@ from .usd_problems import ProblemReport
 from .usd_skel import SkelPoser
 from .usd_stage import (
     check_time_in_range,
+    held_diagnostics,
     open_stage,
     stage_meters_per_unit,
     stage_up_axis,
@@ -217,14 +218,17 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
         reader.surfaces = None
 
 
-def open_variants(source: str, variants) -> Usd.Stage:
+def open_variants(source: str, variants, posted: list | None = None) -> Usd.Stage:
     """The stage at ``source`` with ``variants`` selected (see :func:`load_usd`), its composition errors and layers
-    in other units warned about."""
+    in other units warned about. ``posted``: a list that gets the USD diagnostics the opening posted and USD then
+    reports (:func:`wrt.usd_stage.held_diagnostics`), for a stage kept for frames to report them again."""
     with trap_usd_diagnostics() as trap:
         stage = open_stage(source)
         if variants:
             apply_variants(stage, source, variants)
         warn_composition_errors(stage, source, trap)
+        if posted is not None:
+            posted += held_diagnostics(trap)
     warn_other_layer_units(stage, source)
     return stage
 

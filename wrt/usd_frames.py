@@ -18,8 +18,8 @@ the meshes kept and the texture images are shared by the scenes of the loads and
 bindings (:attr:`wrt.usd_material_memo.MaterialMemo.bindings`: relationships and collections, resolved without a
 time, which only a change of composition changes). Everything else (the prim walk,
 textures, instancing, cameras, lights, render settings) is read at every load.
-Warnings about the stage as a whole that come with opening it (layers in other units) come with the load that opens
-it.
+What opening the stage reports (USD's own diagnostics, such as invalid value clips, and wrt's warnings about layers
+in other units) every load of a kept stage reports again, as a fresh load would.
 """
 
 from __future__ import annotations
@@ -61,6 +61,7 @@ class StageFrames:
         self._stage = None
         self._opened_with = None  # (source, variants) the kept stage was opened with
         self._stamps = {}  # file -> stamp (_stamp) of each layer the kept stage uses, when opened
+        self._posted = []  # the USD diagnostics its opening posted (wrt.usd_stage.held_diagnostics)
         self._edited = [False]  # set by the stage's change notices (a list: the listener must not hold self)
         self._listener = None
 
@@ -74,22 +75,25 @@ class StageFrames:
 
     def stage(self, source: str, variants) -> Usd.Stage:
         """The kept stage of ``source`` with ``variants``, opened (with :func:`wrt.usd.open_variants`) unless the
-        kept one is still what opening it gives; a kept one warns about its layers in other units again, as opening
-        it would (only the frame that opened it did)."""
+        kept one is still what opening it gives; a kept one reports what opening it reported again, as opening it
+        would (only the frame that opened it did): USD's own diagnostics (invalid value clips, ...), then the
+        warnings about its layers in other units. A stage whose opening posted a USD error is not kept."""
         from .usd import open_variants
-        from .usd_stage import warn_other_layer_units
+        from .usd_stage import post_again, reposted, warn_other_layer_units
 
         opened_with = (source, repr(variants))
         if self._stage is not None and (self._opened_with != opened_with or not self.unchanged()):
             self.release()
         if self._stage is None:
-            stage = open_variants(source, variants)
+            posted = []
+            stage = open_variants(source, variants, posted)
             clipped = clip_roots(stage)
             stamps = _layer_stamps(stage)
             clips = clip_stamps(stage, clipped, file_stamp) if stamps is not None else None
-            if clips is None or stage.GetCompositionErrors():
+            if clips is None or stage.GetCompositionErrors() or not reposted(posted):
                 return stage  # opened for this load alone; nothing kept
             self._stage, self._opened_with, self._stamps = stage, opened_with, {**stamps, **clips}
+            self._posted = posted
             self.memo, self.material_memo = MeshMemo(clipped), MaterialMemo(clipped)
             self.placement_memo = PlacementMemo(clipped)
             edited = self._edited = [False]
@@ -97,6 +101,7 @@ class StageFrames:
                                                 lambda notice, sender: edited.__setitem__(0, True), stage)
             _KEPT.add(self)
             return stage
+        post_again(self._posted)
         warn_other_layer_units(self._stage, source)
         return self._stage
 
@@ -109,7 +114,7 @@ class StageFrames:
         if self._listener is not None:
             self._listener.Revoke()
         self._stage = self._opened_with = self._listener = self.memo = self.material_memo = self.placement_memo = None
-        self._stamps = {}
+        self._stamps, self._posted = {}, []
         _KEPT.discard(self)
 
 

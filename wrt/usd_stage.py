@@ -26,6 +26,34 @@ def trap_usd_diagnostics():
     return trap() if trap is not None else contextlib.nullcontext()
 
 
+def held_diagnostics(trap) -> list:
+    """``(kind, function, file, line, text)`` of each diagnostic ``trap`` (a :func:`trap_usd_diagnostics`) holds, in
+    the order USD posted them: what it reports as the trap ends. ``kind`` is ``"Warning"``, ``"StatusObject"`` or
+    ``"Error"``. Empty where this usd-core has no trap."""
+    held = []
+    if trap is not None:
+        trap.ForEach(lambda d: held.append((type(d).__name__, d.sourceFunction, d.sourceFileName, d.sourceLineNumber,
+                                            d.commentary)))
+    return held
+
+
+def reposted(held: list) -> bool:
+    """:func:`post_again` posts all of ``held`` again: it holds warnings and statuses alone (no error)."""
+    return all(kind in ("Warning", "StatusObject") for kind, *_ in held)
+
+
+def post_again(held: list) -> None:
+    """Posts the warnings and statuses of ``held`` (:func:`held_diagnostics`) to USD's diagnostics again, from where
+    USD posted them, so that they print as they did (the function named without USD's namespace, as USD prints its
+    own); an error is not posted again (a stage whose opening posted one is not kept: :func:`reposted`)."""
+    for kind, function, file, line, text in held:
+        function = re.sub(r"^pxrInternal_\w+?__pxrReserved__::", "", function)
+        if kind == "Warning":
+            Tf._Warn(text, "", function, file, line)  # Tf.Warn, from a code location of the caller's choosing
+        elif kind == "StatusObject":
+            Tf._Status(text, "", function, file, line)
+
+
 def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
     """Warns about the stage's composition errors (a reference, payload or subLayer whose file is missing, a
     reference to a prim path that is not there): USD only prints them from C++ to stderr, where Python cannot catch
