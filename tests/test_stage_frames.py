@@ -1081,3 +1081,58 @@ def test_every_kept_frame_prints_what_usd_reported_opening_the_stage_as_a_fresh_
         fresh = capfd.readouterr().err
         assert printed == fresh and "Invalid clip index 5" in printed, (t, printed, fresh)
     assert frames.memo is not None  # the stage was kept
+
+
+def clipped_looks_stage(tmp_path: Path) -> Path:
+    """A model whose ``Looks`` author value clips (three files, a colour each, for ``Clipped``'s diffuseColor; none
+    for ``Still``'s, a constant) referenced twice as native instances (its looks in their prototype) and once not,
+    beside a static material outside any clips; each material bound to a sheet, and a sheet outside the instances
+    bound to the second instance's ``Clipped`` (an instance proxy)."""
+    for k, color in enumerate(((1, 0, 0), (0, 1, 0), (0, 0, 1)), 1):
+        clip = Usd.Stage.CreateInMemory()
+        UsdShade.Shader.Define(clip, "/Model/Looks/Clipped/Surface").CreateInput(
+            "diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*color), k)
+        clip.GetRootLayer().Export(str(tmp_path / f"look.{k}.usda"))
+    model = Usd.Stage.CreateNew(str(tmp_path / "model.usda"))
+    still = preview_material(model, "/Model/Looks/Still", color={Usd.TimeCode.Default(): Gf.Vec3f(0.2, 0.6, 0.3)})
+    for name, look in (("Sheet", preview_material(model, "/Model/Looks/Clipped")), ("Plain", still)):
+        UsdShade.MaterialBindingAPI.Apply(mesh(model, f"/Model/{name}", *grid(2, len(name))).GetPrim()).Bind(look)
+    api = Usd.ClipsAPI(model.GetPrimAtPath("/Model/Looks"))  # inside what an instance brings in: in its prototype
+    api.SetClipPrimPath("/Model/Looks")
+    api.SetClipAssetPaths([Sdf.AssetPath(f"./look.{k}.usda") for k in (1, 2, 3)])
+    api.SetClipActive([(1, 0), (2, 1), (3, 2)])
+    api.SetClipTimes([(1, 1), (2, 2), (3, 3)])
+    model.SetDefaultPrim(model.GetPrimAtPath("/Model"))
+    model.GetRootLayer().Save()
+    stage = Usd.Stage.CreateNew(str(tmp_path / "clipped_looks.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(3)
+    for name, instanced in (("A", True), ("B", True), ("C", False)):
+        prim = stage.DefinePrim(f"/World/{name}")
+        prim.GetReferences().AddReference("./model.usda")
+        prim.SetInstanceable(instanced)
+        UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(3 * len(name) + ord(name), 0, 0))
+    free = preview_material(stage, "/Looks/Free", color={Usd.TimeCode.Default(): Gf.Vec3f(0.9, 0.1, 0.1)})
+    UsdShade.MaterialBindingAPI.Apply(mesh(stage, "/World/Free", *grid(2, 7)).GetPrim()).Bind(free)
+    borrowed = UsdShade.Material(stage.GetPrimAtPath("/World/B/Looks/Clipped"))  # an instance proxy
+    UsdShade.MaterialBindingAPI.Apply(mesh(stage, "/World/Borrower", *grid(2, 8)).GetPrim()).Bind(borrowed)
+    stage.GetRootLayer().Save()
+    return tmp_path / "clipped_looks.usda"
+
+
+def test_materials_under_value_clips_are_read_again_only_where_clips_give_their_inputs(tmp_path, monkeypatch):
+    """Value clips give one material's input, in a native instance's prototype and outside instances: that material
+    is read at every frame and follows its clips (each frame equal to a fresh load), while a static material under
+    the same clips is read once per kind of time, as is one outside any clips. Before, every material under clips,
+    and every one in a prototype while the stage had clips, was read at every frame. USD's
+    ``ValueMightBeTimeVarying`` of an instance proxy's clipped input says False (its prototype's says True)."""
+    path = clipped_looks_stage(tmp_path)
+    times = (1, 2, 3, None, 2, 1)
+    frames, counts = counted_frames(path, times, monkeypatch)
+    clipped = {name: n for name, n in counts.items() if name.endswith("/Clipped")}
+    static = {name: n for name, n in counts.items() if not name.endswith("/Clipped")}
+    assert len(clipped) == 3 and set(clipped.values()) == {len(times)}, counts  # the prototype's, B's proxy, C's
+    assert len(static) == 3 and set(static.values()) == {2}, counts  # the prototype's, C's and Free
+    for where in ("/World/A/Looks/Clipped", "/World/B/Looks/Clipped", "/World/C/Looks/Clipped"):
+        colors = {tuple(next(m for m in frames.load(t).materials if m.path == where).diffuse_color) for t in (1, 2, 3)}
+        assert colors == {(1, 0, 0), (0, 1, 0), (0, 0, 1)}, (where, colors)  # each clip's colour, as USD reads it

@@ -11,8 +11,11 @@ tell: every clip file named (a missing one too) and the folder a template's file
 An attribute whose values come from clips alone has no spec in the stage's layers: ``UsdPrim.GetAuthoredAttributes``
 does not list it (a mesh's ``points``), though a read finds its values. The meshes at or below a prim with clips
 (:func:`clip_roots`), and every native prototype's prim while the stage has clips (an instance's clips reach its
-prototype), are therefore taken as varying: never reused (:func:`under_clips`). Shading is not: a shader input with
-no spec is no input to ``UsdShadeShader.GetInput`` (a fresh load reads none either), and one with a spec is listed.
+prototype), are therefore taken as varying: never reused (:func:`under_clips`). Shading is asked more closely
+(:func:`wrt.usd_material_memo.network_might_vary`): a shader input with no spec is no input to
+``UsdShadeShader.GetInput`` (a fresh load reads none either), one with a spec is listed, and
+``ValueMightBeTimeVarying`` counts the clips that give its values (asked of the prototype's prim for an instance
+proxy, whose own answer misses them).
 """
 
 from __future__ import annotations

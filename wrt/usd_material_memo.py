@@ -5,9 +5,10 @@ A material's read (:meth:`wrt.materials.MaterialReader.material_index`) takes th
 outputs lead to (shaders and node graphs, inside the material or connected from elsewhere), and, through textures,
 image files. Each material is asked once per kept stage whether it is reusable (:func:`network_might_vary`): the
 material, the prims inside it and every prim its network's connections reach (connections do not vary in time) have
-no attribute that might vary (``UsdAttribute.ValueMightBeTimeVarying``) and none is where value clips may reach
-(:func:`wrt.usd_clips.under_clips`, as :class:`wrt.usd_mesh_memo.MeshMemo` counts them); one animated material
-leaves the others reused. The order images are first looked up in numbers them in ``Scene.textures``, and a file
+no attribute that might vary (``UsdAttribute.ValueMightBeTimeVarying``, which counts value clips; where clips may
+reach, :func:`wrt.usd_clips.under_clips`, unauthored schema attributes too, an instance proxy's asked of its
+prototype); one animated material, or one whose inputs clips give, leaves the others reused.
+The order images are first looked up in numbers them in ``Scene.textures``, and a file
 may change, so a reused material's image files are looked up again, in order (:func:`replay`): where each gives
 the kept read's pixels (the memo's array, kept while the file keeps its stamp) or is still missing, the material is a
 copy of the kept one, its texture indices those of this load; else it is read afresh. The warnings its read recorded
@@ -52,7 +53,8 @@ class MaterialMemo:
     """The kept material reads of one kept stage.
 
     Args:
-        clip_roots: prims with value clips (:func:`wrt.usd_clips.clip_roots`): every shading prim below might vary.
+        clip_roots: prims with value clips (:func:`wrt.usd_clips.clip_roots`): the shading prims they may reach are
+            asked more (:func:`network_might_vary`).
     """
 
     def __init__(self, clip_roots: list = ()):
@@ -124,9 +126,14 @@ class MaterialMemo:
 
 
 def network_might_vary(material: Usd.Prim, clip_roots: list = ()) -> bool:
-    """Some prim ``material``'s read may take (see the module docstring) has an attribute that might vary, or is where
-    value clips may reach: the material, every prim inside it or inside a node graph its connections reach, and every
-    prim that a connection of theirs names (at any depth; instance proxies and prototypes alike)."""
+    """Some prim ``material``'s read may take (see the module docstring) has an attribute that might vary: the
+    material, every prim inside it or inside a node graph its connections reach, and every prim that a connection of
+    theirs names (at any depth; instance proxies and prototypes alike). Where value clips may reach a prim
+    (:func:`wrt.usd_clips.under_clips`) every attribute it has is asked, its schema's unauthored ones too (clips give
+    those values), and an instance proxy's are asked of its prim in the prototype: USD says an instance proxy's
+    clip-driven input cannot vary (``ValueMightBeTimeVarying`` False, usd-core 0.26) while its prototype's says it
+    might, and both read the same values. ``ValueMightBeTimeVarying`` counts clips: several clips, or one retimed,
+    say True."""
     stage = material.GetStage()
     inside = Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)
     seen = set()
@@ -137,7 +144,11 @@ def network_might_vary(material: Usd.Prim, clip_roots: list = ()) -> bool:
             continue
         seen.add(prim.GetPath())
         if under_clips(prim, clip_roots):
-            return True
+            asked = prim
+            while asked.IsInstanceProxy():
+                asked = asked.GetPrimInPrototype()
+            if any(attr.ValueMightBeTimeVarying() for attr in asked.GetAttributes()):
+                return True
         for attr in prim.GetAuthoredAttributes():
             if attr.ValueMightBeTimeVarying():
                 return True
