@@ -38,8 +38,12 @@ def held_diagnostics(trap) -> list:
 
 
 def reposted(held: list) -> bool:
-    """:func:`post_again` posts all of ``held`` again: it holds warnings and statuses alone (no error)."""
-    return all(kind in ("Warning", "StatusObject") for kind, *_ in held)
+    """:func:`post_again` posts all of ``held`` again: it holds warnings and statuses alone (no error), and this
+    usd-core has the (private) functions that post them from another code location."""
+    if not held:
+        return True
+    return hasattr(Tf, "_Warn") and hasattr(Tf, "_Status") and all(kind in ("Warning", "StatusObject")
+                                                                   for kind, *_ in held)
 
 
 def post_again(held: list) -> None:
