@@ -7,6 +7,7 @@ device memory each. Bad instancer data raises or is skipped with the prim path n
 from __future__ import annotations
 
 import importlib
+import re
 import warnings
 
 import numpy as np
@@ -1808,3 +1809,43 @@ def test_instances_and_shapes_far_from_the_origin_are_traced_as_exactly_as_their
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     points = origins.astype(np.float64) + hits.t[:, None].astype(np.float64) * directions.astype(np.float64)
     np.testing.assert_allclose(np.einsum("nj,nj->n", points - corners[:, 0], normals), 0.0, atol=1e-5)
+
+
+@pytest.mark.parametrize("name", ["positions", "scales", "orientations", "orientationsf", "velocities"])
+def test_non_finite_instance_attributes_skip_those_instances_with_a_warning(tmp_path, name):
+    """A NaN or inf in ``positions``, ``scales``, ``orientations`` (or ``orientationsf``) or in the ``velocities`` that
+    move the positions stopped the whole load with SceneError. ``ComputeInstanceTransformsAtTime`` hands back
+    non-finite matrices for those instances only: they are skipped, with a warning naming the file, the instancer,
+    the attribute and how many; the other instances are USD's."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0, 0), positions=4)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    nan, inf = float("nan"), float("inf")
+    t = Usd.TimeCode.Default()
+    if name == "positions":
+        pi.GetPositionsAttr().Set([Gf.Vec3f(0, 0, 0), Gf.Vec3f(nan, 0, 0), Gf.Vec3f(6, 0, 0), Gf.Vec3f(0, inf, 0)])
+    elif name == "scales":
+        pi.CreateScalesAttr([Gf.Vec3f(1, 2, 3), Gf.Vec3f(1, inf, 1), Gf.Vec3f(2, 2, 2), Gf.Vec3f(nan, 1, 1)])
+    elif name == "orientationsf":
+        pi.CreateOrientationsfAttr(Vt.QuatfArray([Gf.Quatf(0.6, 0.8, 0, 0), Gf.Quatf(nan, 0, 0, 0),
+                                                  Gf.Quatf(1, 0, 0, 0), Gf.Quatf(0, 0, inf, 0)]))
+    elif name == "orientations":
+        pi.CreateOrientationsAttr(Vt.QuathArray([Gf.Quath(0.6, 0.8, 0, 0), Gf.Quath(nan, 0, 0, 0),
+                                                 Gf.Quath(1, 0, 0, 0), Gf.Quath(0, 0, inf, 0)]))
+    else:  # velocities move the positions sampled at 0 to time 1
+        t = Usd.TimeCode(1.0)
+        for time in (0.0, 2.0):
+            pi.GetPositionsAttr().Set([Gf.Vec3f(3.0 * k, 0, 0) for k in range(4)], time)
+            pi.CreateVelocitiesAttr().Set([Gf.Vec3f(1, 0, 0), Gf.Vec3f(nan, 0, 0), Gf.Vec3f(0, 1, 0),
+                                           Gf.Vec3f(0, 0, inf)], time)
+    stage.Save()
+    shown = "positions (moved by velocities or accelerations)" if name == "velocities" else name
+    with pytest.warns(UserWarning, match=r"bad\.usda: PointInstancer instances with non-finite \(NaN or inf\) .*"
+                      rf"were skipped.*\(2 of 4 instances by {re.escape(shown)}: 1\): /PI$"):
+        scene = wrt.load_usd(path, time=None if t.IsDefault() else t.GetValue())
+    expected = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
+    assert expected.shape == (4, 4, 4)
+    finite = np.isfinite(expected).all(axis=(1, 2))
+    assert list(finite) == [True, False, True, False]
+    atol = 2e-3 if name == "orientations" else 1e-5  # quath rounding
+    np.testing.assert_allclose(scene.instances.to_world, expected[finite], atol=atol)

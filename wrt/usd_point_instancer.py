@@ -27,13 +27,14 @@ class PointInstancerReading:
         n = len(proto_indices)
         if n == 0:
             return
-        m, read = self._instance_transforms(prim, pi, n)
+        m, read, finite = self._instance_transforms(prim, pi, n)
         if m is None:
             return
         colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
         opacities = self._instance_opacities(prim, n, read)
-        keep = self._instance_mask(prim, pi, n)
-        to_space = self._to_space(prim, ctx).T @ m
+        keep = self._instance_mask(prim, pi, n) & finite
+        with np.errstate(invalid="ignore", over="ignore"):  # the non-finite instances (left out by keep)
+            to_space = self._to_space(prim, ctx).T @ m
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
         # prototype took 6 s for 10000 prototypes and 1M instances).
         kept = np.flatnonzero(keep)
@@ -141,9 +142,10 @@ class PointInstancerReading:
     def _instance_transforms(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> tuple:
         """``(n, 4, 4)`` column-vector transforms of the ``n`` instances of ``pi`` in its own space, and the function
         that read their attributes (:func:`held_value` when velocities move them, else :func:`value_at`), with which
-        their primvars are read too. The transforms are None, with a warning, where ``positions`` is missing, blocked,
-        shorter or longer than ``protoIndices``: ``ComputeInstanceTransformsAtTime`` computes none then (it warns,
-        and Hydra draws nothing)."""
+        their primvars are read too, and ``(n,)`` bool: the instances whose transform is finite
+        (:meth:`_finite_instances`).
+        The transforms are None, with a warning, where ``positions`` is missing, blocked, shorter or longer than
+        ``protoIndices``: ``ComputeInstanceTransformsAtTime`` computes none then (it warns, and Hydra draws nothing)."""
         t = self.time
 
         def per_instance(attr, width, name, default, value):
@@ -163,9 +165,6 @@ class PointInstancerReading:
                 # ComputeInstanceTransformsAtTime warns about these and uses the first n, as here.
                 self._skip("PointInstancer orientations or scales longer than protoIndices: the entries past them "
                            "were ignored", prim, f"{len(array)} {name} for {n} protoIndices")
-            if not np.all(np.isfinite(array[:n])):
-                i = int(np.argmax(~np.isfinite(array[:n]).all(axis=1)))
-                raise self._error(f"{name}[{i}] is not finite", prim, attr)
             return array[:n] if default is not None else array  # positions: the caller checks the length
 
         positions_attr, scales_attr = pi.GetPositionsAttr(), pi.GetScalesAttr()
@@ -186,12 +185,12 @@ class PointInstancerReading:
             found = "blocked" if blocked else "no" if raw is None else f"{len(raw)}"
             self._skip("PointInstancers with fewer positions than protoIndices were skipped (USD computes no instance "
                        "transforms for them)", prim, f"{found} positions for {n} protoIndices")
-            return None, read
+            return None, read, None
         positions = per_instance(positions_attr, 3, "positions", None, raw)
         if len(positions) > n:
             self._skip("PointInstancers whose positions are longer than protoIndices were skipped (USD computes no "
                        "instance transforms for them)", prim, f"{len(positions)} positions for {n} protoIndices")
-            return None, read
+            return None, read, None
         quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]),
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
         if quats is None:  # ignored, and the angular velocities that turn them with them
@@ -202,12 +201,38 @@ class PointInstancerReading:
 
         # Column-vector instance transforms: translate(position) @ spin @ rotate(orientation) @ scale(scale).
         m = np.zeros((n, 4, 4))
-        m[:, :3, :3] = _quat_to_matrix(quats) * scales[:, None, :]
-        if spun is not None:
-            m[:, :3, :3] = spun[1][:n] @ m[:, :3, :3]
+        with np.errstate(invalid="ignore", over="ignore"):  # non-finite instances are left out below
+            m[:, :3, :3] = _quat_to_matrix(quats) * scales[:, None, :]
+            if spun is not None:
+                m[:, :3, :3] = spun[1][:n] @ m[:, :3, :3]
         m[:, :3, 3] = positions
         m[:, 3, 3] = 1.0
-        return m, read
+        velocity_names = "positions (moved by velocities or accelerations)" if moved is not None else "positions"
+        spin_name = f"{orient_attr.GetName()} (turned by angularVelocities)"
+        parts = [(velocity_names, positions), (str(orient_attr.GetName()), quats), ("scales", scales)]
+        parts += [(spin_name, spun[1][:n])] if spun is not None else []
+        return m, read, self._finite_instances(prim, m, parts)
+
+    def _finite_instances(self, prim: Usd.Prim, m: np.ndarray, parts: list) -> np.ndarray:
+        """``(n,)`` bool: the instances whose transform ``m`` (``(n, 4, 4)``) is finite. The others are left out with
+        a warning naming the attribute (of ``parts``, ``(name, (n, ...) values)``) and how many: it stopped the whole
+        load with SceneError. ``ComputeInstanceTransformsAtTime`` hands back their non-finite matrices without a
+        word, and a renderer can place such an instance nowhere; the other instances are drawn."""
+        finite = np.isfinite(m).all(axis=(1, 2))
+        if finite.all():
+            return finite
+        n, unnamed = len(m), ~finite
+        for name, values in parts:
+            bad = ~np.isfinite(values.reshape(n, -1)).all(axis=1)
+            if bad.any():
+                self._skip("PointInstancer instances with non-finite (NaN or inf) positions, orientations, scales or "
+                           "velocities were skipped", prim, f"{int(bad.sum())} of {n} instances by {name}")
+                unnamed &= ~bad
+        if unnamed.any():  # finite parts whose product overflows
+            self._skip("PointInstancer instances with non-finite (NaN or inf) positions, orientations, scales or "
+                       "velocities were skipped", prim, f"{int(unnamed.sum())} of {n} instances by a transform that "
+                       "overflows")
+        return finite
 
     def _instance_mask(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> np.ndarray:
         """``(n,)`` bool: the instances of ``pi`` that ``invisibleIds`` and ``inactiveIds`` leave drawn."""
