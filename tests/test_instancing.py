@@ -523,8 +523,7 @@ def test_orientations_or_scales_shorter_than_proto_indices_are_ignored_with_a_wa
 
 def test_invisible_and_inactive_ids_hide_instances_by_id_as_usd_masks_them(tmp_path):
     """``ids`` name the instances that ``invisibleIds`` and ``inactiveIds`` hide (not their indices), as
-    ``ComputeMaskAtTime`` computes it; ``ids`` shorter than ``protoIndices`` are an error naming the instancer (its
-    mask covered only the first instances, and wrt drew every instance, the invisible ones too, without a word)."""
+    ``ComputeMaskAtTime`` computes it (``ids`` of another length than ``protoIndices``: see the test below)."""
     path = write_instancer(tmp_path, proto_indices=(0, 0, 0, 0), positions=4)
     stage = Usd.Stage.Open(path)
     pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
@@ -536,10 +535,40 @@ def test_invisible_and_inactive_ids_hide_instances_by_id_as_usd_masks_them(tmp_p
     assert kept.tolist() == [0, 2]
     scene = load(path)
     assert [scene.instances.path(i) for i in range(len(scene.instances))] == [f"/PI[{k}]" for k in kept]
-    pi.GetIdsAttr().Set(Vt.Int64Array([40, 30]))
+
+
+@pytest.mark.parametrize("ids, hidden", [((40, 30), 30), ((40, 30, 20, 10, 0), 0), ((40, 30, 20, 10, 0), 40),
+                                         ((40, 30, 30, 10), 30), ((40, 30, 20), 99)],
+                         ids=["shorter", "longer", "longer_hiding_a_first_id", "duplicates", "shorter_hiding_none"])
+def test_ids_of_another_length_than_proto_indices_mask_as_usd_computes(tmp_path, ids, hidden):
+    """``ids`` shorter or longer than ``protoIndices`` while ``invisibleIds`` hides one of them: ``ComputeMaskAtTime``
+    makes one mask entry per id, and ``ComputeInstanceTransformsAtTime`` then computes no instance (it warns "mask
+    of size [2], but expected size [4]"); shorter ids stopped the whole load with SceneError, longer ones were cut
+    without a word. The instancer draws nothing, with a warning naming the file, the instancer and both lengths; the
+    rest of the stage is drawn. Where nothing is hidden USD makes no mask and the ids' length does not matter;
+    duplicate ids hide every instance that holds them, as USD's mask does."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0, 0), positions=4)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    pi.CreateIdsAttr(Vt.Int64Array(ids))
+    pi.CreateInvisibleIdsAttr(Vt.Int64Array([hidden]))
+    octahedron(stage, "/Other")
     stage.Save()
-    with pytest.raises(wrt.SceneError, match=r"/PI.*ids has 2 entries; protoIndices has 4"):
-        load(path)
+    t = Usd.TimeCode.Default()
+    expected = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)]).reshape(-1, 4, 4)
+    mask_mismatch = len(ids) != 4 and hidden in ids
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    told = [str(w.message) for w in caught if "ids" in str(w.message)]
+    if mask_mismatch:
+        assert len(expected) == 0
+        assert len(told) == 1 and re.search(r"bad\.usda: PointInstancers whose ids .* were skipped.*"
+                                            rf"\({len(ids)} ids for 4 protoIndices: 1\): /PI$", told[0]), told
+    else:
+        assert told == [] and len(expected) > 0
+    np.testing.assert_allclose(scene.instances.to_world.reshape(-1, 4, 4), expected, atol=1e-6)
+    assert [m.path for m in scene.meshes] == ["/Other"]
 
 
 @pytest.mark.parametrize("deactivated", ["/PI/Protos", "/PI/Protos/Q"], ids=["scope", "root"])

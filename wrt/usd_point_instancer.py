@@ -32,7 +32,10 @@ class PointInstancerReading:
             return
         colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
         opacities = self._instance_opacities(prim, n, read)
-        keep = self._instance_mask(prim, pi, n) & finite
+        keep = self._instance_mask(prim, pi, n)
+        if keep is None:
+            return
+        keep &= finite
         with np.errstate(invalid="ignore", over="ignore"):  # the non-finite instances (left out by keep)
             to_space = self._to_space(prim, ctx).T @ m
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
@@ -234,8 +237,9 @@ class PointInstancerReading:
                        "overflows")
         return finite
 
-    def _instance_mask(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> np.ndarray:
-        """``(n,)`` bool: the instances of ``pi`` that ``invisibleIds`` and ``inactiveIds`` leave drawn."""
+    def _instance_mask(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> np.ndarray | None:
+        """``(n,)`` bool: the instances of ``pi`` that ``invisibleIds`` and ``inactiveIds`` leave drawn; None, with a
+        warning, where they hide some of ``ids`` of another length than ``protoIndices``."""
         keep = np.ones(n, bool)
         # As ComputeMaskAtTime computes it (inactiveIds' explicit items and invisibleIds name instances by their
         # ids, else by index; nothing named, no mask), but with invisibleIds and ids each read by value_at's
@@ -253,10 +257,15 @@ class PointInstancerReading:
         shown = ~np.isin(np.asarray(ids, np.int64).reshape(-1), named)
         if shown.all():
             return keep
-        if len(shown) < n:  # the mask has one entry per id: the instances past them have none
-            raise self._error(f"ids has {len(shown)} entries; protoIndices has {n} (invisibleIds and inactiveIds "
-                              "name instances by id)", prim, pi.GetIdsAttr())
-        keep &= shown[:n]
+        if len(shown) != n:
+            # The mask has one entry per id, and ComputeInstanceTransformsAtTime computes no instance where its length
+            # is not protoIndices' (it warns): nothing is drawn, the rest of the stage is. Shorter ids stopped the
+            # load with SceneError; longer ones were cut without a word.
+            self._skip("PointInstancers whose ids are not as many as protoIndices while invisibleIds or inactiveIds "
+                       "hide some were skipped (USD computes no instance transforms for them)", prim,
+                       f"{len(shown)} ids for {n} protoIndices")
+            return None
+        keep &= shown
         return keep
 
     @staticmethod
