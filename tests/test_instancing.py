@@ -409,18 +409,38 @@ def write_instancer(tmp_path, proto_indices=(0, 0, 0), targets=("/PI/Proto",), p
 
 
 @pytest.mark.parametrize(
-    "kwargs, message",
+    "kwargs, kept, message",
     [
-        ({"proto_indices": (0, 2, 0)}, "protoIndices[1] = 2 is out of range for 1 prototype(s)"),
-        ({"targets": ("/PI/Proto", "/Missing")}, "prototypes[1] targets /Missing, which does not exist"),
+        ({"proto_indices": (0, 2, 0, -1)}, [0, 2], r"out of range of its prototypes were skipped.*"
+         r"\(2 of 4 instances, the first protoIndices\[1\] = 2 for 1 prototypes: 1\)"),
+        ({"proto_indices": (0, 1, 0, 1), "targets": ("/PI/Proto", "/Missing")}, [0, 2],
+         r"prototypes that do not exist were skipped.*\(/Missing, 2 of 4 instances: 1\)"),
+        ({"proto_indices": (0, 0, 0, 0), "targets": ()}, [], r"out of range of its prototypes were skipped.*"
+         r"\(4 of 4 instances, the first protoIndices\[0\] = 0 for 0 prototypes: 1\)"),
     ],
-    ids=["proto_index_out_of_range", "missing_prototype"],
+    ids=["proto_index_out_of_range", "missing_prototype", "no_prototypes"],
 )
-def test_bad_instancer_raises_scene_error_naming_the_prim(tmp_path, kwargs, message):
-    path = write_instancer(tmp_path, **kwargs)
-    with pytest.raises(wrt.SceneError) as info:
-        load(path)
-    assert message in str(info.value) and "/PI" in str(info.value)
+def test_instances_of_bad_proto_indices_or_missing_prototypes_are_skipped_with_a_warning(tmp_path, kwargs, kept,
+                                                                                         message):
+    """A ``protoIndices`` entry out of range (negative, past the last prototype, or any where ``prototypes`` targets
+    nothing) or a prototype target that does not exist stopped the whole load with SceneError. UsdImaging skips those
+    instances with a warning ("Invalid index found", "Targeted prototype was not found") and draws the others: so
+    does wrt, naming the file, the instancer and how many. The others are placed as USD places them once the bad
+    entries are mended."""
+    path = write_instancer(tmp_path, positions=4, **kwargs)
+    stage = Usd.Stage.Open(path)
+    octahedron(stage, "/Other")
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"bad\.usda: .*PointInstancer.*" + message + r": /PI$"):
+        scene = wrt.load_usd(path)
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == [f"/PI[{k}]" for k in kept]
+    assert [m.path for m in scene.meshes] == ["/Other"]
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    pi.GetPrototypesRel().SetTargets(["/PI/Proto"])
+    pi.GetProtoIndicesAttr().Set([0] * 4)
+    t = Usd.TimeCode.Default()
+    expected = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
+    np.testing.assert_allclose(scene.instances.to_world.reshape(-1, 4, 4), expected[kept].reshape(-1, 4, 4))
 
 
 def test_positions_longer_than_proto_indices_draw_nothing_with_a_warning_as_usd_computes(tmp_path):

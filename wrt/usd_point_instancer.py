@@ -14,6 +14,8 @@ from .usd_placed_lights import placed_lights
 from .usd_primvars import finite_colors, unit_opacities
 from .usd_values import held_value, spun_rotations, value_at
 
+MISSING_PROTOTYPE = "missing"  # a prototypes target that names no prim (its instances are skipped)
+
 
 class PointInstancerReading:
     """PointInstancer reading of the stage reader (``stage``, ``time``, ``contents``)."""
@@ -23,7 +25,7 @@ class PointInstancerReading:
         by prototype."""
         pi = UsdGeom.PointInstancer(prim)
         targets, protos = self._prototype_roots(prim, pi)
-        proto_indices = self._proto_indices(prim, pi, len(protos))
+        proto_indices, in_range = self._proto_indices(prim, pi, len(protos))
         n = len(proto_indices)
         if n == 0:
             return
@@ -35,7 +37,7 @@ class PointInstancerReading:
         keep = self._instance_mask(prim, pi, n)
         if keep is None:
             return
-        keep &= finite
+        keep &= finite & in_range
         with np.errstate(invalid="ignore", over="ignore"):  # the non-finite instances (left out by keep)
             to_space = self._to_space(prim, ctx).T @ m
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
@@ -44,6 +46,11 @@ class PointInstancerReading:
         for path, target, group in zip(targets, protos, group_rows(proto_indices[kept], len(protos))):
             rows = kept[group]
             if len(rows) == 0:
+                continue
+            if target is MISSING_PROTOTYPE:
+                # UsdImaging warns ("Targeted prototype was not found") and draws the other prototypes' instances.
+                self._skip("instances of PointInstancer prototypes that do not exist were skipped", prim,
+                           f"{path}, {len(rows)} of {n} instances")
                 continue
             if target is None:
                 self._skip("instances of inactive PointInstancer prototypes (or of prototypes under an inactive "
@@ -115,7 +122,8 @@ class PointInstancerReading:
 
     def _prototype_roots(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer) -> tuple[list, list]:
         """The ``prototypes`` targets of ``pi`` and their prims, None for one that is inactive or under an inactive
-        prim (its instances are skipped with a warning). Raises for a target that does not exist."""
+        prim, :data:`MISSING_PROTOTYPE` for one that does not exist (the instances of both are skipped with a
+        warning)."""
         targets = pi.GetPrototypesRel().GetTargets()
         protos = []
         for k, path in enumerate(targets):
@@ -124,23 +132,24 @@ class PointInstancerReading:
                 protos.append(target)
             elif any(p and not p.IsActive() for p in map(self.stage.GetPrimAtPath, path.GetPrefixes())):
                 protos.append(None)  # deactivated, as Hydra finds it: drawn nowhere (below, with a warning)
-            else:
-                raise self._error(f"prototypes[{k}] targets {path}, which does not exist", prim, None)
+            else:  # it stopped the whole load with SceneError
+                protos.append(MISSING_PROTOTYPE)
         return targets, protos
 
-    def _proto_indices(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n_protos: int) -> np.ndarray:
-        """``(n,)`` int64 ``protoIndices`` of ``pi``, checked against its ``n_protos`` prototypes."""
+    def _proto_indices(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n_protos: int) -> tuple:
+        """``(n,)`` int64 ``protoIndices`` of ``pi`` and ``(n,)`` bool: those in range of its ``n_protos`` prototypes.
+        The instances of the others (negative, or past the last prototype, as all are where ``prototypes`` targets
+        nothing) are skipped with a warning saying how many, as UsdImaging skips them ("Invalid index found"); they
+        stopped the whole load with SceneError."""
         raw = value_at(pi.GetProtoIndicesAttr(), self.time)
         proto_indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
-        bad = (proto_indices < 0) | (proto_indices >= n_protos)
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise self._error(
-                f"protoIndices[{i}] = {proto_indices[i]} is out of range for {n_protos} prototype(s)",
-                prim,
-                pi.GetProtoIndicesAttr(),
-            )
-        return proto_indices
+        in_range = (proto_indices >= 0) & (proto_indices < n_protos)
+        if not in_range.all():
+            i = int(np.argmin(in_range))
+            self._skip("PointInstancer instances whose protoIndices are out of range of its prototypes were skipped",
+                       prim, f"{int((~in_range).sum())} of {len(in_range)} instances, the first protoIndices[{i}] = "
+                       f"{proto_indices[i]} for {n_protos} prototypes")
+        return proto_indices, in_range
 
     def _instance_transforms(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> tuple:
         """``(n, 4, 4)`` column-vector transforms of the ``n`` instances of ``pi`` in its own space, and the function
