@@ -154,6 +154,53 @@ def test_the_rgb_of_a_color4_primvar_is_read(tmp_path):
     np.testing.assert_allclose(albedo(load(path)[0]), halves(*TEMPERATURE), atol=1e-6)
 
 
+COLOR4_STAGE = """#usda 1.0
+def Mesh "Tri" {
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    uniform token subdivisionScheme = "none"
+    color4f[] primvars:displayColor = [(0.1, 0.2, 0.3, 0.5), (0.4, 0.5, 0.6, 0.5), (0.7, 0.8, 0.9, 0.5)] (
+        interpolation = "vertex")
+}
+def Xform "Parent" {
+    color4f[] primvars:displayColor = [(0.6, 0.3, 0.2, 0.25)] (interpolation = "constant")
+    def Mesh "Child" {
+        point3f[] points = [(0, 0, 2), (1, 0, 2), (0, 1, 2)]
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        uniform token subdivisionScheme = "none"
+    }
+}
+def Cube "Box" {
+    double3 xformOp:translate = (5, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    color4f[] primvars:displayColor = [(0.6, 0.3, 0.2, 0.25)] (interpolation = "constant")
+}
+"""
+
+
+def test_a_color4f_display_color_gives_its_rgb_on_meshes_as_on_gprims(tmp_path):
+    """A ``color4f[] primvars:displayColor`` (the schema says color3f[]; exporters write rgba) was dropped on meshes as
+    "not an array of 3-vectors" (the mesh read the schema's type, not the authored one) while gprims, points, curves,
+    PointInstancers and material colour primvars take its rgb: meshes take it too, their own or inherited, without a
+    warning. The oracle is USD's flattened value of the primvar the mesh finds by inheritance."""
+    path = tmp_path / "rgba.usda"
+    path.write_text(COLOR4_STAGE)
+    scene, told = load(str(path))
+    assert not any("displayColor" in m for m in told), told
+    stage = Usd.Stage.Open(str(path))
+    meshes = {m.path: m for m in scene.meshes}
+    for name in ("/Tri", "/Parent/Child"):
+        primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(name)).FindPrimvarWithInheritance("displayColor")
+        rgb = np.array(primvar.ComputeFlattened(), np.float64)[:, :3]
+        corners = rgb if len(rgb) == 3 else np.repeat(rgb, 3, axis=0)  # vertex, or constant at each corner
+        assert meshes[name].colors is not None, name
+        np.testing.assert_allclose(np.asarray(meshes[name].colors, np.float64).reshape(-1, 3), corners, atol=1e-6)
+    box_rgb = np.array(UsdGeom.Gprim(stage.GetPrimAtPath("/Box")).GetDisplayColorAttr().Get(), np.float64)[0, :3]
+    np.testing.assert_allclose(scene.shapes[0].color, box_rgb, atol=1e-6)
+
+
 @pytest.mark.parametrize("node_id", ["ND_geompropvalue_color3", "ND_UsdPrimvarReader_vector3"])
 def test_materialx_reads_a_colour_primvar(tmp_path, node_id):
     """standard_surface base_color from a primvar reader node shows the primvar (times base 1); it was its constant,

@@ -4,7 +4,7 @@ every interpolation, indexed or not, and through a Catmull-Clark, Loop or biline
 from __future__ import annotations
 
 import numpy as np
-from pxr import UsdGeom
+from pxr import Sdf, UsdGeom
 
 from .usd_ancestors import BLOCKED
 from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, unit_opacities
@@ -39,7 +39,10 @@ class MeshPrimvarReading:
         primvar = self._color_primvar(prim, name)
         if not (primvar and primvar.HasValue()):
             return None
-        width = 4 if "Vec4" in primvar.GetTypeName().cppTypeName else 3
+        # The authored type, not the schema's: displayColor is color3f[] in the schema whatever was authored, and
+        # a color4f[] one (common in exported files) was dropped as "not an array of 3-vectors" on meshes alone.
+        authored = Sdf.ValueTypeNames.Find(self._authored_type(primvar.GetAttr()))
+        width = 4 if "Vec4" in (authored or primvar.GetTypeName()).cppTypeName else 3
         found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology, width)
         if found is None:
             return None
