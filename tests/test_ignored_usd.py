@@ -147,3 +147,47 @@ def test_lights_on_gprims_make_them_mesh_lights(tmp_path):
     assert [s.path for s in scene.shapes] == ["/Plain"] and [m.path for m in scene.meshes] == ["/Bulb", "/Panel"]
     assert [light.path for light in scene.lights] == ["/Bulb", "/Panel"]
     assert not about(messages, "ignored.usda", "LightAPI"), messages
+
+
+def test_model_draw_modes_that_ask_for_stand_ins_are_named_and_drawn_in_full(tmp_path):
+    """``model:drawMode`` of ``cards``, ``bounds`` or ``origin`` makes usdview draw a model as a stand-in, where
+    ``model:applyDrawMode`` is true or, unauthored, the model is a component (UsdGeomModelAPI); wrt drew its full
+    geometry without a word. It still draws it, and names each such model with the mode USD resolves for it
+    (inherited from a group, too). A mode of ``default``, ``applyDrawMode = false`` or a prim that is no model (no
+    kind) changes nothing in usdview and is not named."""
+    cases = {  # model: (kind, drawMode, applyDrawMode); None leaves it unauthored
+        "/World/Bounds": ("component", "bounds", True),
+        "/World/Cards": ("component", "cards", None),
+        "/World/Off": ("component", "origin", False),
+        "/World/Default": ("component", "default", True),
+        "/World/Group/Child": ("component", None, True),  # inherits Group's origin
+        "/NoModel": (None, "bounds", True),
+    }
+
+    def build(stage):
+        Usd.ModelAPI(UsdGeom.Xform.Define(stage, "/World").GetPrim()).SetKind("assembly")
+        group = UsdGeom.Xform.Define(stage, "/World/Group").GetPrim()
+        Usd.ModelAPI(group).SetKind("group")
+        UsdGeom.ModelAPI.Apply(group).CreateModelDrawModeAttr("origin")
+        for x, (path, (kind, mode, apply)) in enumerate(cases.items()):
+            prim = UsdGeom.Xform.Define(stage, path).GetPrim()
+            if kind:
+                Usd.ModelAPI(prim).SetKind(kind)
+            api = UsdGeom.ModelAPI.Apply(prim)
+            if mode:
+                api.CreateModelDrawModeAttr(mode)
+            if apply is not None:
+                api.CreateModelApplyDrawModeAttr(apply)
+            quad(stage, path + "/Quad", x=2.0 * x)
+
+    scene, messages = load_with_warnings(tmp_path, build)
+    named = about(messages, "model:drawMode asks for a stand-in", "drawn as full geometry")
+    assert len(named) == 1, messages
+    stage = Usd.Stage.Open(str(tmp_path / "ignored.usda"))
+    for path, mode in [("/World/Bounds", "bounds"), ("/World/Cards", "cards"), ("/World/Group/Child", "origin")]:
+        prim = stage.GetPrimAtPath(path)
+        assert prim.IsModel() and UsdGeom.ModelAPI(prim).ComputeModelDrawMode() == mode  # USD's resolution
+        assert f"model:drawMode = {mode}" in named[0]
+    assert set(named[0].rsplit("): ", 1)[1].split(", ")) == {"/World/Bounds", "/World/Cards", "/World/Group/Child"}
+    assert not stage.GetPrimAtPath("/NoModel").IsModel()
+    assert sorted(m.path for m in scene.meshes) == sorted(path + "/Quad" for path in cases)  # all drawn in full

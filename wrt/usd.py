@@ -111,6 +111,7 @@ from .usd_bake import MeshBaking
 from .usd_bindings import CollectionsInside
 from .usd_cameras import CameraReading
 from .usd_contents import PROTOTYPE_PREDICATE, Content, Context, named, place_instances
+from .usd_draw_modes import stand_in_draw_mode
 from .usd_gprims import GprimReading
 from .usd_lights import LightTextures, read_light, warn_glowless_mesh_light
 from .usd_looks import LookReading
@@ -362,6 +363,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
     def _read_prim(self, prim: Usd.Prim, it, ctx: Context):
         if prim.IsPseudoRoot() or prim.IsPrototype():
             return
+        draw_mode = stand_in_draw_mode(prim)
+        if draw_mode is not None:
+            self._skip("models whose model:drawMode asks for a stand-in (cards, bounds or origin) were drawn as full "
+                       "geometry (wrt draws no stand-ins)", prim, f"model:drawMode = {draw_mode}")
         if prim.IsInstance() and not prim.IsA(UsdGeom.PointInstancer):
             if prim.IsA(UsdGeom.Camera):
                 # An instanceable camera keeps its camera (its attributes are on the instance prim, not in the
