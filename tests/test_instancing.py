@@ -1860,7 +1860,8 @@ def test_instances_and_shapes_far_from_the_origin_are_traced_as_exactly_as_their
     np.testing.assert_allclose(np.einsum("nj,nj->n", points - corners[:, 0], normals), 0.0, atol=1e-5)
 
 
-@pytest.mark.parametrize("name", ["positions", "scales", "orientations", "orientationsf", "velocities"])
+@pytest.mark.parametrize("name", ["positions", "scales", "orientations", "orientationsf", "velocities",
+                                  "angularVelocities"])
 def test_non_finite_instance_attributes_skip_those_instances_with_a_warning(tmp_path, name):
     """A NaN or inf in ``positions``, ``scales``, ``orientations`` (or ``orientationsf``) or in the ``velocities`` that
     move the positions stopped the whole load with SceneError. ``ComputeInstanceTransformsAtTime`` hands back
@@ -1881,14 +1882,22 @@ def test_non_finite_instance_attributes_skip_those_instances_with_a_warning(tmp_
     elif name == "orientations":
         pi.CreateOrientationsAttr(Vt.QuathArray([Gf.Quath(0.6, 0.8, 0, 0), Gf.Quath(nan, 0, 0, 0),
                                                  Gf.Quath(1, 0, 0, 0), Gf.Quath(0, 0, inf, 0)]))
-    else:  # velocities move the positions sampled at 0 to time 1
+    elif name == "velocities":  # velocities move the positions sampled at 0 to time 1
         t = Usd.TimeCode(1.0)
         for time in (0.0, 2.0):
             pi.GetPositionsAttr().Set([Gf.Vec3f(3.0 * k, 0, 0) for k in range(4)], time)
             pi.CreateVelocitiesAttr().Set([Gf.Vec3f(1, 0, 0), Gf.Vec3f(nan, 0, 0), Gf.Vec3f(0, 1, 0),
                                            Gf.Vec3f(0, 0, inf)], time)
+    else:  # angular velocities turn the orientations sampled at 0 to time 1 (a NaN one placed NaN without a word)
+        t = Usd.TimeCode(1.0)
+        for time in (0.0, 2.0):
+            pi.GetPositionsAttr().Set([Gf.Vec3f(3.0 * k, 0, 0) for k in range(4)], time)
+            pi.CreateOrientationsfAttr().Set(Vt.QuatfArray([Gf.Quatf(1, 0, 0, 0)] * 4), time)
+            pi.CreateAngularVelocitiesAttr().Set([Gf.Vec3f(0, 0, 30), Gf.Vec3f(nan, 0, 0), Gf.Vec3f(0, 9, 0),
+                                                  Gf.Vec3f(inf, 0, 0)], time)
     stage.Save()
-    shown = "positions (moved by velocities or accelerations)" if name == "velocities" else name
+    shown = {"velocities": "positions (moved by velocities or accelerations)",
+             "angularVelocities": "orientationsf (turned by angularVelocities)"}.get(name, name)
     with pytest.warns(UserWarning, match=r"bad\.usda: PointInstancer instances with non-finite \(NaN or inf\) .*"
                       rf"were skipped.*\(2 of 4 instances by {re.escape(shown)}: 1\): /PI$"):
         scene = wrt.load_usd(path, time=None if t.IsDefault() else t.GetValue())

@@ -79,10 +79,11 @@ def spun_rotations(orientations: Usd.Attribute, angular_velocities: Usd.Attribut
         return None
     quats, omega, dt = found
     omega = omega[:, :3]
-    speed = np.linalg.norm(omega, axis=1)
-    axis = omega / np.maximum(speed, 1e-300)[:, None]
-    angle = np.radians(speed * dt)
-    cos, sin = np.cos(angle)[:, None, None], np.sin(angle)[:, None, None]
+    with np.errstate(invalid="ignore", over="ignore"):  # a NaN or inf rate: its instance is left out by the caller
+        speed = np.linalg.norm(omega, axis=1)
+        axis = omega / np.maximum(speed, 1e-300)[:, None]
+        angle = np.radians(speed * dt)
+        cos, sin = np.cos(angle)[:, None, None], np.sin(angle)[:, None, None]
     cross = np.zeros((len(axis), 3, 3))
     cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
     cross -= cross.transpose(0, 2, 1)
