@@ -1136,3 +1136,164 @@ def test_materials_under_value_clips_are_read_again_only_where_clips_give_their_
     for where in ("/World/A/Looks/Clipped", "/World/B/Looks/Clipped", "/World/C/Looks/Clipped"):
         colors = {tuple(next(m for m in frames.load(t).materials if m.path == where).diffuse_color) for t in (1, 2, 3)}
         assert colors == {(1, 0, 0), (0, 1, 0), (0, 0, 1)}, (where, colors)  # each clip's colour, as USD reads it
+
+
+def write_rig_clip(path: Path, k: int) -> None:
+    """Value clip ``k`` of ``/Model/Rig``, one sample at time ``k``: the points of ``Sheet`` (lifted by ``k``), the
+    translate of ``Arm`` (``k`` along x) and its visibility (hidden at 2)."""
+    clip = Usd.Stage.CreateInMemory()
+    UsdGeom.Mesh.Define(clip, "/Model/Rig/Sheet").GetPointsAttr().Set(
+        Vt.Vec3fArray.FromNumpy(grid(2, 0.5 * k)[0].astype(np.float32)), k)
+    arm = UsdGeom.Xform.Define(clip, "/Model/Rig/Arm")
+    arm.AddTranslateOp().Set(Gf.Vec3d(k, 0, 0), k)
+    arm.CreateVisibilityAttr().Set(UsdGeom.Tokens.invisible if k == 2 else UsdGeom.Tokens.inherited, k)
+    clip.GetRootLayer().Export(str(path))
+
+
+def clipped_rig_stage(tmp_path: Path) -> Path:
+    """A model whose ``Rig`` authors value clips (three files) that give ``Sheet``'s points (no spec in the model),
+    ``Arm``'s translate (declared) and visibility, beside ``Still``, a static mesh under the same clips, a static
+    ``Part`` mesh, a light and a camera under ``Arm``, and ``Lid``, a static mesh of the model outside the clips. The
+    model is referenced twice as native instances (the clips in their prototype) and once not, beside ``Static``, a
+    mesh outside any clips, ``Mount``, an Xform of the shot whose translate clips give (one clip retimed over the
+    frames) with a static mesh below, and ``Swarm``, an instanceable PointInstancer (its prototypes instance proxies)
+    whose ``Protos`` take the same clips: its ``Sheet`` follows them, its ``Still`` holds still."""
+    for k in (1, 2, 3):
+        write_rig_clip(tmp_path / f"rig.{k}.usda", k)
+    model = Usd.Stage.CreateNew(str(tmp_path / "model.usda"))
+    rig = UsdGeom.Xform.Define(model, "/Model/Rig")
+    rig.AddTranslateOp().Set(Gf.Vec3d(0, 2, 0))
+    sheet = UsdGeom.Mesh.Define(model, "/Model/Rig/Sheet")
+    sheet.CreateFaceVertexCountsAttr(Vt.IntArray(grid(2)[1]))
+    sheet.CreateFaceVertexIndicesAttr(Vt.IntArray(grid(2)[2]))
+    mesh(model, "/Model/Rig/Still", *grid(2, 3.0, 0.5))
+    arm = UsdGeom.Xform.Define(model, "/Model/Rig/Arm")
+    arm.AddTranslateOp()  # declared; its values come only from the clips
+    mesh(model, "/Model/Rig/Arm/Part", *grid(2, -1.0, 0.3))
+    UsdLux.SphereLight.Define(model, "/Model/Rig/Arm/Lamp").CreateIntensityAttr(5.0)
+    UsdGeom.Camera.Define(model, "/Model/Rig/Arm/Cam").AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
+    mesh(model, "/Model/Lid", *grid(2, 4.0, 0.5))
+    api = Usd.ClipsAPI(rig.GetPrim())  # inside what an instance brings in: in its prototype
+    api.SetClipPrimPath("/Model/Rig")
+    api.SetClipAssetPaths([Sdf.AssetPath(f"./rig.{k}.usda") for k in (1, 2, 3)])
+    api.SetClipActive([(1, 0), (2, 1), (3, 2)])
+    api.SetClipTimes([(1, 1), (2, 2), (3, 3)])
+    model.SetDefaultPrim(model.GetPrimAtPath("/Model"))
+    model.GetRootLayer().Save()
+
+    mount = Usd.Stage.CreateInMemory()
+    op = UsdGeom.Xform.Define(mount, "/World/Mount").AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, 0), 0), op.Set(Gf.Vec3d(0, 0, 2), 1)
+    mount.GetRootLayer().Export(str(tmp_path / "mount.usda"))
+    stage = Usd.Stage.CreateNew(str(tmp_path / "clipped_rig.usda"))
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(3)
+    for name, instanced in (("A", True), ("B", True), ("C", False)):
+        prim = stage.DefinePrim(f"/World/{name}")
+        prim.GetReferences().AddReference("./model.usda")
+        prim.SetInstanceable(instanced)
+        UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(6 * "ABC".index(name), 0, 0))
+    mesh(stage, "/World/Static", *grid(2, -2.0))
+    mount = UsdGeom.Xform.Define(stage, "/World/Mount")
+    mount.AddTranslateOp()  # declared; its values come only from the clip
+    mesh(stage, "/World/Mount/Held", *grid(2, 1.0, 0.4))
+    api = Usd.ClipsAPI(mount.GetPrim())
+    api.SetClipPrimPath("/World/Mount")
+    api.SetClipAssetPaths([Sdf.AssetPath("./mount.usda")])
+    api.SetClipActive([(1, 0)])
+    api.SetClipTimes([(1, 0), (3, 1)])  # retimed: the clip's 0 to 1 over the frames 1 to 3
+    swarm = Usd.Stage.CreateNew(str(tmp_path / "swarm.usda"))
+    instancer = UsdGeom.PointInstancer.Define(swarm, "/Swarm")
+    protos = UsdGeom.Scope.Define(swarm, "/Swarm/Protos")
+    sheet = UsdGeom.Mesh.Define(swarm, "/Swarm/Protos/Sheet")
+    sheet.CreateFaceVertexCountsAttr(Vt.IntArray(grid(2)[1]))
+    sheet.CreateFaceVertexIndicesAttr(Vt.IntArray(grid(2)[2]))
+    still = mesh(swarm, "/Swarm/Protos/Still", *grid(2, 3.0, 0.5))
+    instancer.CreatePrototypesRel().SetTargets([sheet.GetPath(), still.GetPath()])
+    instancer.CreateProtoIndicesAttr([0, 1, 0])
+    instancer.CreatePositionsAttr([(0, -6, 0), (3, -6, 0), (6, -6, 0)])
+    api = Usd.ClipsAPI(protos.GetPrim())
+    api.SetClipPrimPath("/Model/Rig")
+    api.SetClipAssetPaths([Sdf.AssetPath(f"./rig.{k}.usda") for k in (1, 2, 3)])
+    api.SetClipActive([(1, 0), (2, 1), (3, 2)])
+    api.SetClipTimes([(1, 1), (2, 2), (3, 3)])
+    swarm.SetDefaultPrim(instancer.GetPrim())
+    swarm.GetRootLayer().Save()
+    prim = stage.DefinePrim("/World/Swarm")
+    prim.GetReferences().AddReference("./swarm.usda")
+    prim.SetInstanceable(True)
+    stage.GetRootLayer().Save()
+    return tmp_path / "clipped_rig.usda"
+
+
+def test_meshes_and_placements_under_value_clips_are_read_again_only_where_clips_give_them(tmp_path, monkeypatch):
+    """Value clips give one mesh's points, an Xform's translate and visibility (in a native instance's prototype and
+    outside instances) and, retimed, another Xform's translate: every frame equals a fresh load (meshes, lights and
+    cameras under the clip-driven Xforms follow them), the clip-driven mesh is read at every frame and the static
+    meshes under the moving Xforms are baked again, while the static meshes under the same clips are read once per
+    kind of time, as are those outside any clips, and their transforms and visibility are given again. Before, every
+    mesh under clips, and every prim in a prototype or instance proxy while the stage had clips, was read at every
+    frame. USD's ``ValueMightBeTimeVarying`` and ``TransformMightBeTimeVarying`` of an instance proxy say False where
+    clips drive it (its prototype's say True): the lights and cameras read through the instances show it."""
+    from wrt.usd_meshes import MeshReading
+    from wrt.usd_placement_memo import PlacementMemo
+
+    path = clipped_rig_stage(tmp_path)
+    reads, given = [], []
+    read_local, kept_transform = MeshReading._read_local_mesh, PlacementMemo.transform
+
+    def counted(reader, prim, *args):
+        reads.append(str(prim.GetPath()))
+        return read_local(reader, prim, *args)
+
+    def counted_transform(memo, time, prim, ancestor):
+        found = kept_transform(memo, time, prim, ancestor)
+        if found is not None:
+            given.append(str(prim.GetPath()))
+        return found
+
+    times = (1, 2, 3, None, 2.5, 1, 3)
+    frames = StageFrames(path)
+    scenes = {}
+    for t in times:
+        monkeypatch.setattr(MeshReading, "_read_local_mesh", counted)
+        monkeypatch.setattr(PlacementMemo, "transform", counted_transform)
+        scene, warned = load_warned(frames.load, t)
+        monkeypatch.undo()
+        fresh, fresh_warned = load_warned(lambda t: wrt.load_usd(path, time=t), t)
+        assert_same(scene, fresh, f"frame {t}")
+        assert warned == fresh_warned, (t, warned)
+        scenes[t] = scene
+    counts = {name: reads.count(name) for name in sorted(set(reads))}
+    prototype = next(p for p in counts if p.startswith("/__Prototype"))[:len("/__Prototype_1")]
+    varying = (f"{prototype}/Rig/Sheet", "/World/C/Rig/Sheet", "/World/Swarm/Protos/Sheet")
+    static = (f"{prototype}/Rig/Still", "/World/C/Rig/Still", f"{prototype}/Rig/Arm/Part", "/World/C/Rig/Arm/Part",
+              f"{prototype}/Lid", "/World/C/Lid", "/World/Static", "/World/Mount/Held", "/World/Swarm/Protos/Still")
+    # Read at 1 and at None (a clip's values are time samples: the default time reads none), then reused or rebaked;
+    # each varying one at every frame.
+    assert counts == {**{p: len(times) for p in varying}, **{p: 2 for p in static}}, counts
+    assert frames.memo.counts["rebaked"] > 0 and frames.memo.counts["reused"] > 0
+    for still in ("/World/C/Rig/Still", "/World/Static", "/World/C/Lid", f"{prototype}/Rig/Still"):
+        assert still in given, (still, sorted(set(given)))
+    assert not {"/World/C/Rig/Arm/Part", "/World/Mount/Held", "/World/A/Rig/Arm/Lamp"} & set(given), given
+    assert (Sdf.Path("/World/C/Rig/Still"), None) in frames.placement_memo.visible(Usd.TimeCode(1))
+    assert (Sdf.Path("/World/C/Rig/Arm/Part"), None) not in frames.placement_memo.visible(Usd.TimeCode(1))
+
+    # The clips do drive what they should, against USD's own transforms, points and visibility.
+    stage = Usd.Stage.Open(str(path))
+    for t in (1, 2, 3):
+        time = Usd.TimeCode(t)
+        drawn = {m.path: m for m in scenes[t].meshes}
+        for where in ("/World/C/Rig/Sheet", "/World/C/Rig/Arm/Part", "/World/Mount/Held"):
+            prim = stage.GetPrimAtPath(where)
+            hidden = UsdGeom.Imageable(prim).ComputeVisibility(time) == UsdGeom.Tokens.invisible
+            assert (where not in drawn) == hidden == (t == 2 and "Arm" in where), (where, t)
+            if not hidden:
+                world = np.array(UsdGeom.XformCache(time).GetLocalToWorldTransform(prim))
+                local = np.array(UsdGeom.Mesh(prim).GetPointsAttr().Get(time), np.float64)
+                expected = np.c_[local, np.ones(len(local))] @ world
+                np.testing.assert_allclose(drawn[where].points, expected[:, :3], atol=1e-6)
+    assert len({scenes[t].geometry()[0].tobytes() for t in (1, 2, 3)}) == 3
+    lamps = {t: [light for light in scenes[t].lights if "Lamp" in getattr(light, "path", "")] for t in (1, 3)}
+    assert len(lamps[1]) == 3 and len(lamps[3]) == 3, lamps

@@ -9,13 +9,17 @@ used layers, stamped when it was opened, hold no clip layer not yet read). :func
 tell: every clip file named (a missing one too) and the folder a template's files appear in.
 
 An attribute whose values come from clips alone has no spec in the stage's layers: ``UsdPrim.GetAuthoredAttributes``
-does not list it (a mesh's ``points``), though a read finds its values. The meshes at or below a prim with clips
-(:func:`clip_roots`), and every native prototype's prim while the stage has clips (an instance's clips reach its
-prototype), are therefore taken as varying: never reused (:func:`under_clips`). Shading is asked more closely
-(:func:`wrt.usd_material_memo.network_might_vary`): a shader input with no spec is no input to
-``UsdShadeShader.GetInput`` (a fresh load reads none either), one with a spec is listed, and
-``ValueMightBeTimeVarying`` counts the clips that give its values (asked of the prototype's prim for an instance
-proxy, whose own answer misses them).
+does not list it (a mesh's ``points``), though a read finds its values (a schema's attribute: one that is neither in
+the schema nor declared in the stage does not exist, and no read finds a value for it). So where clips may reach a
+prim (:func:`under_clips`: at or below a prim with clips, or in a native prototype or an instance proxy while the
+stage has clips) every attribute it has is asked whether it might vary (:func:`asked_attributes`),
+``UsdAttribute.ValueMightBeTimeVarying`` counting the clips (several clips, or one retimed, say True; clips that give
+no value for it, or a default that overrides them, False), and an instance proxy's are asked of its prim in the
+prototype (:func:`asked_prim`): USD says an instance proxy's clip-driven attribute, or transform, cannot vary
+(usd-core 0.26) while its prototype's says it might, and both read the same values. Clips above a native instance
+(on the instance prim or its ancestors) do not reach its prototype: its prims read no value of theirs, and USD's
+answers for them say so. Meshes (:mod:`wrt.usd_mesh_memo`), visibility and transforms
+(:mod:`wrt.usd_placement_memo`) and shading (:func:`wrt.usd_material_memo.network_might_vary`) are asked so.
 """
 
 from __future__ import annotations
@@ -42,6 +46,25 @@ def under_clips(prim: Usd.Prim, roots: list) -> bool:
         return False
     path = prim.GetPath()
     return prim.IsInPrototype() or prim.IsInstanceProxy() or any(path.HasPrefix(root) for root in roots)
+
+
+def asked_prim(prim: Usd.Prim) -> Usd.Prim:
+    """The prim whose ``ValueMightBeTimeVarying`` and ``TransformMightBeTimeVarying`` tell whether ``prim``'s values
+    might vary: an instance proxy's prim in its prototype (the proxy's own answer misses its prototype's clips), else
+    ``prim``."""
+    while prim.IsInstanceProxy():
+        prim = prim.GetPrimInPrototype()
+    return prim
+
+
+def asked_attributes(prim: Usd.Prim, roots: list) -> list:
+    """The attributes of ``prim`` whose ``ValueMightBeTimeVarying`` tell whether some value of it might vary: where
+    clips may reach it (:func:`under_clips` of ``roots``), every attribute of :func:`asked_prim` (its schema's
+    unauthored ones too, to which clips give values); elsewhere its authored ones (an unauthored one reads its
+    fallback at every time)."""
+    if under_clips(prim, roots):
+        return asked_prim(prim).GetAttributes()
+    return prim.GetAuthoredAttributes()
 
 
 def clip_stamps(stage: Usd.Stage, roots: list, file_stamp) -> dict | None:

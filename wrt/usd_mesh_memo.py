@@ -8,10 +8,11 @@ texture-coordinate and colour primvars they read), and the context it is read in
 colour). The first three are asked of USD once per kept stage: a mesh is reusable only when no attribute of it or of
 a descendant might vary (``UsdAttribute.ValueMightBeTimeVarying``; its own transform ops, ``visibility`` and
 ``extent`` aside, which its read does not take; ``velocities`` or ``accelerations`` authored at all
-count as varying, as they move one sample of points; so does every prim value clips may reach,
-:func:`wrt.usd_clips.under_clips`), no ``primvars:`` attribute above it might, and no ``SkelRoot`` is above it
-(skinned meshes are read every time). The others are found again at every read, as a fresh read finds
-them, and compared with those of the kept read: the transform's bytes, the material indices, primvar names and
+count as varying, as they move one sample of points; where value clips may reach, every attribute is asked, its
+schema's unauthored ones too, an instance proxy's of its prim in the prototype,
+:func:`wrt.usd_clips.asked_attributes`), no ``primvars:`` attribute above it might, and no ``SkelRoot`` is above it
+(skinned meshes are read every time). The others are found again at every read, as a fresh read finds them, and
+compared with those of the kept read: the transform's bytes, the material indices, primvar names and
 fallbacks, and the context go into the comparison. Equal: the kept :class:`wrt.scene.Mesh` is handed out again (a new
 object sharing its read-only arrays), or, where only the transform differs, the kept mesh in its own space is baked
 with the new one. The warnings the kept read recorded (``_skip``) are recorded again, in the same order, and so are
@@ -30,7 +31,7 @@ import numpy as np
 from pxr import Usd
 
 from .scene import Mesh
-from .usd_clips import under_clips
+from .usd_clips import asked_attributes, asked_prim, under_clips
 from .usd_meshes import LocalMesh
 
 # Attributes that move the points of a point-based prim between (or past) samples, one sample of points too.
@@ -72,7 +73,7 @@ class MeshMemo:
     """The kept reads of one kept stage, and USD's answers about which prims might vary."""
 
     def __init__(self, clip_roots: list = ()):
-        self.clip_roots = list(clip_roots)  # prims with value clips (wrt.usd_clips.clip_roots): all below vary
+        self.clip_roots = list(clip_roots)  # prims with value clips (wrt.usd_clips.clip_roots): asked more below
         self._varies = {}  # prim path -> one of its own attributes might vary
         self._subtree = {}  # prim path -> _varies of it or a descendant
         self._inherits_varying = {}  # prim path -> a primvar on it or above it might vary
@@ -128,10 +129,10 @@ class MeshMemo:
     def _own_varies(self, prim: Usd.Prim) -> bool:
         path = prim.GetPath()
         if path not in self._varies:
-            read = [a for a in prim.GetAuthoredAttributes() if not _placement(a.GetName())]
-            self._varies[path] = under_clips(prim, self.clip_roots) or any(
-                a.ValueMightBeTimeVarying() for a in read) or any(
-                prim.HasAttribute(name) and prim.GetAttribute(name).HasAuthoredValue() for name in RATE_ATTRIBUTES)
+            read = [a for a in asked_attributes(prim, self.clip_roots) if not _placement(a.GetName())]
+            asked = asked_prim(prim) if under_clips(prim, self.clip_roots) else prim  # clips give rates too
+            self._varies[path] = any(a.ValueMightBeTimeVarying() for a in read) or any(
+                asked.HasAttribute(name) and asked.GetAttribute(name).HasAuthoredValue() for name in RATE_ATTRIBUTES)
         return self._varies[path]
 
     def _inherits(self, prim: Usd.Prim) -> bool:
@@ -145,7 +146,7 @@ class MeshMemo:
                 break
             chain.append(path)
             if any(a.GetName().startswith(INHERITED_PREFIX) and a.ValueMightBeTimeVarying()
-                   for a in prim.GetAuthoredAttributes()):
+                   for a in asked_attributes(prim, self.clip_roots)):
                 found = True
                 break
             prim = prim.GetParent()

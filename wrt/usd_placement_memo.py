@@ -5,13 +5,16 @@ A prim's visibility answer (no prim from it up to a stop invisible, :meth:`wrt.u
 is kept where no ``visibility`` on that chain might vary (``UsdAttribute.ValueMightBeTimeVarying``); its transform to
 the world or to an ancestor (:class:`wrt.usd_xforms.Xforms`) where no prim from it up to the root might move
 (``UsdGeomXformable.TransformMightBeTimeVarying``) and a ``UsdGeom.XformCache`` gave it (a chain resolved op by op,
-whose malformed ops are warned about at every read, is read again). Every prim value clips may reach counts as
-varying (:func:`wrt.usd_clips.under_clips`), as for meshes. Reads at the default time and at time codes are kept
-apart: a value with a default and one time sample does not vary in time, but reads as the default at ``time=None``.
+whose malformed ops are warned about at every read, is read again). Where value clips may reach a prim
+(:func:`wrt.usd_clips.under_clips`) both count the clips that give its values, and an instance proxy (a light's or a
+camera's, read through its instance) is asked through its prim in the prototype (:func:`wrt.usd_clips.asked_prim`):
+USD says a proxy's clip-driven visibility or transform cannot vary. Reads at the default time and at time codes are
+kept apart: a value with a default and one time sample does not vary in time, but reads as the default at ``time=None``.
 
 Two answers the prim walk asks of each prim's ancestors hold for every time, and are kept whole: its purpose (a
 uniform attribute, read at the default time) and which ancestor's primvar it inherits (decided by which prims author
-a value and its interpolation, not by the value).
+a value and its interpolation, not by the value): value clips give no uniform value (such as a purpose) and no
+metadata (an interpolation), and whether a clip-driven attribute has a value does not depend on the time.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from __future__ import annotations
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from .usd_ancestors import ComputedPurposes, InheritedPrimvars
-from .usd_clips import under_clips
+from .usd_clips import asked_prim, under_clips
 
 
 class PlacementMemo:
@@ -49,9 +52,8 @@ class PlacementMemo:
         path = prim.GetPath()
         varies = self._visibility_varies.get(path)
         if varies is None:
-            img = UsdGeom.Imageable(prim)
-            varies = self._visibility_varies[path] = under_clips(prim, self.clip_roots) or bool(
-                img and img.GetVisibilityAttr().ValueMightBeTimeVarying())
+            img = UsdGeom.Imageable(asked_prim(prim) if under_clips(prim, self.clip_roots) else prim)
+            varies = self._visibility_varies[path] = bool(img and img.GetVisibilityAttr().ValueMightBeTimeVarying())
         return not varies
 
     def transform(self, time: Usd.TimeCode, prim: Usd.Prim, ancestor: Usd.Prim | None):
@@ -86,9 +88,10 @@ class PlacementMemo:
 
 
 def _moves(prim: Usd.Prim, clip_roots: list) -> bool:
-    """``prim``'s own transform might vary."""
+    """``prim``'s own transform might vary (asked of its prim in the prototype where clips may reach an instance
+    proxy: its own answer misses them)."""
     if under_clips(prim, clip_roots):
-        return True
+        prim = asked_prim(prim)
     try:
         return prim.IsA(UsdGeom.Xformable) and UsdGeom.Xformable(prim).TransformMightBeTimeVarying()
     except Tf.ErrorException:  # a malformed xformOpOrder: such chains are read op by op, never kept
