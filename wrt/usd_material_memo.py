@@ -24,7 +24,7 @@ import dataclasses
 import numpy as np
 from pxr import Usd, UsdShade
 
-from .usd_clips import under_clips
+from .usd_clips import asked_attributes, under_clips
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,12 +143,9 @@ def network_might_vary(material: Usd.Prim, clip_roots: list = ()) -> bool:
         if not prim or prim.GetPath() in seen:
             continue
         seen.add(prim.GetPath())
-        if under_clips(prim, clip_roots):
-            asked = prim
-            while asked.IsInstanceProxy():
-                asked = asked.GetPrimInPrototype()
-            if any(attr.ValueMightBeTimeVarying() for attr in asked.GetAttributes()):
-                return True
+        clipped = under_clips(prim, clip_roots)  # every attribute asked, of the prototype for a proxy
+        if clipped and any(attr.ValueMightBeTimeVarying() for attr in asked_attributes(prim, clip_roots)):
+            return True
         for attr in prim.GetAuthoredAttributes():
             if attr.ValueMightBeTimeVarying():
                 return True
