@@ -387,6 +387,33 @@ def test_ray_kinds():
         ray_set(scene, "specular", 10)
 
 
+@pytest.mark.parametrize("mirror", [1.0, -1.0])
+def test_secondary_rays_leave_analytic_shapes_along_their_normals(mirror):
+    """Shadow and diffuse rays start at the hits of primary rays: on an analytic shape (an ellipsoid, a sphere placed
+    by a non-uniform instance transform, mirrored or not) ``ray_set`` read the hit's row as a triangle's and failed
+    with an IndexError. The ellipsoid's normal is checked against its implicit surface's gradient, in float64."""
+    semi = np.array([2.0, 1.0, 0.5])  # semi-axes of the ellipsoid (x^2/a^2 + y^2/b^2 + z^2/c^2 = 1)
+    centre = np.array([0.3, -0.2, 0.1])
+    to_world = np.eye(4)
+    to_world[:3, :3] = np.diag(semi * [mirror, 1.0, 1.0])
+    to_world[:3, 3] = centre
+    proto = wrt.Prototype("/Ball", shapes=[wrt.Shape("/Ball/sphere", "sphere", np.eye(4), double_sided=True)])
+    floor = wrt.Mesh("/floor", np.array([[-3, -2, -3], [3, -2, -3], [3, -2, 3], [-3, -2, 3]], np.float32),
+                     np.array([[0, 1, 2], [0, 2, 3]]), np.arange(2), double_sided=True)
+    scene = wrt.Scene(meshes=[floor], prototypes=[proto],
+                      instances=wrt.Instances.from_transforms([0], to_world[None]))
+    for kind in ("shadow", "diffuse"):
+        origins, directions = ray_set(scene, kind, 3000, seed=2)
+        local = (origins.astype(np.float64) - centre) / semi
+        on_ball = np.abs(np.linalg.norm(local, axis=1) - 1) < 1e-2
+        assert on_ball.sum() > 100, kind
+        gradient = local[on_ball] / semi  # outward normal of the ellipsoid
+        # Rays leave from outside the ellipsoid (the camera sees its outside), into the outer half-space.
+        assert (np.linalg.norm(local[on_ball], axis=1) > 1).all(), kind
+        if kind == "diffuse":
+            assert (np.einsum("ij,ij->i", gradient, directions[on_ball]) > 0).all()
+
+
 def test_displaced_sphere_is_closed_and_sized():
     points, indices = displaced_sphere(100_000)
     assert 0.9e5 < len(indices) < 1.1e5

@@ -10,8 +10,26 @@ import numpy as np
 import warp as wp
 
 from .camera import generate_rays_kernel
+from .primitives import SHAPE_KINDS, shape_surface
 from .render import resolve_view
 from .scene import DistantLight, Scene
+
+wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
+
+
+@wp.kernel
+def shape_normals_kernel(
+    kinds: wp.array[wp.int32],
+    params: wp.array[wp.vec4],
+    points: wp.array[wp.vec3],
+    # outputs
+    normals: wp.array[wp.vec3],
+):
+    """Unit normals, canonical space, of analytic shapes (``primitives.SHAPE_*``, their ``params``) at hit points
+    given in their canonical space: the normals the renderer shades with (``primitives.shape_surface``)."""
+    i = wp.tid()
+    surface, normal = shape_surface(kinds[i], params[i], points[i])
+    normals[i] = normal
 
 
 def camera_rays(scene: Scene, camera=None, width: int | None = None, height: int | None = None, *,
@@ -71,13 +89,39 @@ def incoherent_rays(scene: Scene, n: int, seed: int = 0) -> tuple[np.ndarray, np
     return origins.astype(np.float32), directions.astype(np.float32)
 
 
+def _shape_normals(scene: Scene, points: np.ndarray, prims: np.ndarray, instances: np.ndarray) -> np.ndarray:
+    """World-space normals (not unit) at world ``points`` ``(N, 3)`` float64 on analytic shapes: geometry ids
+    ``prims`` (rows of ``Scene.geometry()`` past its triangles) in ``instances`` (-1: none). Each point goes into its
+    shape's canonical space through the float64 inverse of its transform (the instance's times the shape's), and the
+    canonical normal comes back through that inverse's transpose."""
+    shapes = scene._geometry_shapes()
+    which = prims - scene.num_geometry_triangles
+    to_world = np.array([shapes[k].to_world for k in which], np.float64).reshape(-1, 4, 4)
+    placed = instances >= 0
+    to_world[placed] = scene.instances.to_world[instances[placed]] @ to_world[placed]
+    to_local = np.linalg.inv(to_world[:, :3, :3])
+    local = np.einsum("nij,nj->ni", to_local, points - to_world[:, :3, 3])
+    kinds = np.array([SHAPE_KINDS[shapes[k].kind] for k in which], np.int32)
+    params = np.array([shapes[k].params for k in which], np.float32).reshape(-1, 4)
+    normals = wp.empty(len(which), dtype=wp.vec3, device="cpu")
+    wp.launch(shape_normals_kernel, len(which), inputs=[kinds, params, local.astype(np.float32)],
+              outputs=[normals], device="cpu")
+    return np.einsum("nji,nj->ni", to_local, normals.numpy().astype(np.float64))
+
+
 def _surface_points(scene: Scene, origins, directions, hits):
-    """World-space hit points and unit geometric normals (facing the incoming ray) of the rays that hit."""
+    """World-space hit points and unit geometric normals (facing the incoming ray) of the rays that hit: a
+    triangle's face normal, an analytic shape's surface normal."""
     points, indices = scene.triangles()
     h = hits.prim >= 0
-    p0, p1, p2 = (points[indices[hits.prim[h], k]].astype(np.float64) for k in range(3))
     position = origins[h].astype(np.float64) + hits.t[h, None].astype(np.float64) * directions[h]
-    normal = np.cross(p1 - p0, p2 - p0)
+    # Rows past the triangles are analytic shapes (Hits.prim): they have no corners to take a face normal from.
+    triangle = hits.prim[h] < len(indices)
+    normal = np.empty_like(position)
+    p0, p1, p2 = (points[indices[hits.prim[h][triangle], k]].astype(np.float64) for k in range(3))
+    normal[triangle] = np.cross(p1 - p0, p2 - p0)
+    normal[~triangle] = _shape_normals(scene, position[~triangle], hits.local_prim[h][~triangle],
+                                       hits.instance[h][~triangle])
     length = np.linalg.norm(normal, axis=1, keepdims=True)
     normal = np.where(length > 0, normal / np.where(length > 0, length, 1.0), -directions[h])
     facing = np.einsum("ij,ij->i", normal, directions[h]) > 0
