@@ -1151,6 +1151,25 @@ def test_non_finite_instance_or_shape_transform_raises_naming_it(np_rng, bad):
         wrt.occluded(scene, np.zeros((1, 3)), np.ones((1, 3)))
 
 
+@pytest.mark.parametrize("accel, layout", [("wrt", "binary"), ("wrt", "compact"), ("wrt", "wide8"), ("warp", "binary")])
+@pytest.mark.parametrize("entry, bad", [((0, 0), np.nan), ((1, 1), np.inf), ((0, 3), np.nan), ((2, 3), 1e39)])
+def test_instance_placed_by_no_float32_transform_raises_naming_it_in_every_accelerator(accel, layout, entry, bad):
+    """An instance whose transform holds a NaN or inf, or whose translation float32 cannot hold (the devices place
+    an instance's origin in float32), is one error naming it, whichever accelerator traces it. Only the two-level
+    BVH raised; the flattened layouts and ``wp.Mesh`` left a NaN scale out without a word and named a NaN
+    translation's triangle row, the two-level BVH left the 1e39 one out, and the scene warned each time that a
+    zero scale was skipped."""
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    proto = Prototype("/P", [Mesh("/P/tri", tri, [[0, 1, 2]], [0], double_sided=True)])
+    to_world = np.stack([np.eye(4)] * 3)
+    to_world[2][entry] = bad
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "singular transform (a zero scale)" warning: it is no zero scale
+        scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms([0, 0, 0], to_world))
+    with pytest.raises(ValueError, match=r"instance 2 \(/instances\[2\]\) "):
+        wrt.trace(scene, [[0.2, 0.2, 5.0]], [[0, 0, -1]], accel=accel, layout=layout)
+
+
 @pytest.mark.parametrize("z_scale", [0.0, 1e-31])
 def test_flat_instance_is_drawn_flat_alike_in_every_layout_and_in_wp_mesh(z_scale):
     """A scene built in Python with an instance squashed flat: drawn flat, as the USD loader draws such instances and

@@ -361,6 +361,15 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return out, ok
 
 
+def unplaceable(to_world: np.ndarray) -> np.ndarray:
+    """``(N,)`` bool: the ``(N, 4, 4)`` transforms that place nothing a trace can reach: a NaN or inf anywhere, or a
+    translation that float32 cannot hold (the devices place an instance's origin in float32, :func:`device_transforms`:
+    past 3.4e38 it is inf). Accelerators refuse scenes with such instances (``wrt.trace.check_finite_transforms``)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        placed = np.isfinite(to_world[:, :3, 3].astype(np.float32)).all(axis=1)
+    return ~(np.isfinite(to_world).all(axis=(1, 2)) & placed)
+
+
 def device_transforms(world_to_local: np.ndarray, to_world: np.ndarray) -> np.ndarray:
     """``(N, 3, 4)`` float32 ``[A | c]`` of :mod:`wrt.transforms` for the device: ``A`` the linear part of
     ``world_to_local`` (:func:`invert_transforms`' rows), ``c`` the translation of ``to_world`` ``(N, 4, 4)`` (where the

@@ -42,6 +42,7 @@ from .instancing import (
     expand_instance_triangles,
     invert_transforms,
     thicken_flat_transforms,
+    unplaceable,
     world_boxes,
 )
 from .light_links import LinkCollection, drawn_ids
@@ -695,8 +696,11 @@ class Scene:
                 to_world[rows] = thick[thickened]
                 instances.to_world = to_world
                 inverses[rows], ok[rows] = invert_transforms(to_world[rows])
-        if not ok.all():
-            self._warn_singular_instances(np.flatnonzero(~ok))
+        # Instances that no float32 transform places (NaN, inf, a translation past 3.4e38) are no zero scale: every
+        # accelerator refuses them, naming them (trace.check_finite_transforms).
+        singular = ~ok & ~unplaceable(instances.to_world)
+        if singular.any():
+            self._warn_singular_instances(np.flatnonzero(singular))
         self._flat_checked = instances.to_world
         return inverses, ok
 

@@ -39,7 +39,7 @@ from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import device_transforms, invert_transforms, world_boxes
 from .primitives import intersect_shape, shape_uv
 from .scene import Scene
-from .trace import Accelerator, HitBuffer
+from .trace import Accelerator, HitBuffer, check_finite_transforms
 from .transforms import mat34, transform_point, transform_vector
 
 wp.set_module_options({"fuse_fp": False})  # bit-identical hits on every device: see the note in wrt/trace.py
@@ -450,20 +450,6 @@ class InstancedAccelerator(Accelerator):
             device=self.device,
             block_dim=traverse.trace_block_dim(self.device),
         )
-
-
-def check_finite_transforms(scene: Scene) -> None:
-    """Raises ``ValueError`` naming the first instance or shape whose transform holds a NaN or inf. Such an entry
-    cannot be inverted, and was left out of the TLAS as a zero scale is, so it vanished without a word (the USD
-    loader warns about the singular instances it skips; scenes built in Python reach here unchecked)."""
-    instances = scene.instances
-    finite = np.isfinite(instances.to_world).all(axis=(1, 2))
-    if not finite.all():
-        i = int(np.argmin(finite))
-        raise ValueError(f"instance {i} ({instances.path(i)}) has a NaN or infinite transform")
-    for shape in [*scene.shapes, *(s for p in scene.prototypes for s in p.shapes)]:
-        if not np.isfinite(shape.to_world).all():
-            raise ValueError(f"shape {shape.path} has a NaN or infinite transform")
 
 
 def blas_parts(scene: Scene) -> list[tuple[int, int, int]]:

@@ -31,6 +31,7 @@ from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .errors import did_you_mean
+from .instancing import unplaceable
 from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
 from .ray_batch import upload_rays
 from .scene import Scene
@@ -249,6 +250,26 @@ def check_flattenable(scene: Scene, what: str) -> None:
         )
 
 
+def check_finite_transforms(scene: Scene) -> None:
+    """Raises ``ValueError`` naming the first instance or shape whose transform holds a NaN or inf, or the first
+    instance placed beyond float32's range (:func:`wrt.instancing.unplaceable`). Such an instance cannot be inverted
+    or placed on a device: the two-level BVH left it out as a zero scale, so it vanished without a word, and the
+    flattened copies that the other layouts and ``wp.Mesh`` trace dropped it too, or refused the NaN triangle rows it
+    became, naming only a row (the USD loader warns about the singular instances it skips; scenes built in Python
+    reach here unchecked)."""
+    instances = scene.instances
+    bad = np.flatnonzero(unplaceable(instances.to_world))
+    if len(bad):
+        i = int(bad[0])
+        if np.isfinite(instances.to_world[i]).all():
+            raise ValueError(f"instance {i} ({instances.path(i)}) is placed beyond float32's range (translation "
+                             f"{instances.to_world[i, :3, 3].tolist()}, |x| > 3.4e38), and rays are traced in float32")
+        raise ValueError(f"instance {i} ({instances.path(i)}) has a NaN or infinite transform")
+    for shape in [*scene.shapes, *(s for p in scene.prototypes for s in p.shapes)]:
+        if not np.isfinite(shape.to_world).all():
+            raise ValueError(f"shape {shape.path} has a NaN or infinite transform")
+
+
 class RowSplitter:
     """Maps hits on the flattened ``Scene.triangles()`` of an instanced scene back to ``(geometry id, instance)``
     in a hit buffer (see :func:`split_rows_kernel`)."""
@@ -291,6 +312,7 @@ class BvhAccelerator(Accelerator):
 
     def __init__(self, scene: Scene, builder: str, device, layout: str = "binary", **build_options):
         check_flattenable(scene, f"layout={layout!r}")
+        check_finite_transforms(scene)
         if Builder.from_str(builder) is Builder.SAH:  # "binned_sah" too
             build_options.setdefault("presplit", ACCELERATOR_PRESPLIT)
         self.split = RowSplitter(scene, device) if len(scene.instances) else None
@@ -411,6 +433,7 @@ class WarpMeshAccelerator(Accelerator):
         self._build(scene)
 
     def _build(self, scene: Scene) -> None:
+        check_finite_transforms(scene)
         points, indices = scene.triangles()
         self.split = RowSplitter(scene, self.device) if len(scene.instances) else None
         self.num_prims = len(indices)
