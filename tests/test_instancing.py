@@ -623,6 +623,28 @@ def test_instance_whose_inverse_overflows_float32_is_skipped_with_the_singular_o
     assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/PI[0]", "/PI[2]"]
 
 
+def test_instance_placed_past_float32_is_skipped_saying_so(tmp_path):
+    """A native instance translated by 1e39 (a double xformOp: float32 cannot place it) was skipped with the warning
+    of a zero scale, which it does not have; the warning says where it is, and the instance beside it is drawn."""
+    path = str(tmp_path / "far.usda")
+    stage = Usd.Stage.CreateNew(path)
+    stage.CreateClassPrim("/Lib")
+    octahedron(stage, "/Lib/Mesh")
+    for name, x in (("/Far", 1e39), ("/Near", 0.0)):
+        xform = UsdGeom.Xform.Define(stage, name)
+        xform.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        xform.GetPrim().GetReferences().AddInternalReference("/Lib")
+        xform.GetPrim().SetInstanceable(True)
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    said = [str(w.message) for w in caught]
+    assert any(re.search(r"placed beyond float32's range.*: 1 prim\(s\): /Far$", m) for m in said), said
+    assert not any("zero scale" in m for m in said), said
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/Near"]
+
+
 def test_zero_scale_instance_is_drawn_flat_whole_through_nested_instances(tmp_path):
     """A PointInstancer instance of scale (0, 1, 1) whose prototype holds a turned native instance: composed in
     float64, that nested piece's transform is singular only up to rounding (a determinant of ~1e-16, not 0), which

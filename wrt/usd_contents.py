@@ -11,7 +11,7 @@ import numpy as np
 from pxr import Sdf, Usd
 
 from .assignments import mark_checked
-from .instancing import Instances, Prototype, invert_transforms, thicken_flat_transforms
+from .instancing import Instances, Prototype, invert_transforms, thicken_flat_transforms, unplaceable
 from .light_links import part_path
 from .primitives import Shape
 from .scene import Mesh, Scene
@@ -247,8 +247,12 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path, sta
         if len(rows):
             instances.to_world[rows] = thick[thickened]  # the array made above: no one else holds it
             inverses[rows], ok[rows] = invert_transforms(instances.to_world[rows])
-    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok))):
+    # An instance placed past float32's range (a translation of 1e39) is no zero scale: said as it is.
+    far = unplaceable(instances.to_world)
+    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & ~far))):
         skip_path("instances with a singular transform (a zero scale) were skipped", path)
+    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & far))):
+        skip_path("instances placed beyond float32's range (|x| > 3.4e38) were skipped", path)
     if not ok.all():
         instances = instances.take(ok)
     scene.instances = instances
