@@ -823,3 +823,39 @@ def test_eight_bit_material_colors_are_refused_and_emission_taken():
     red.diffuse_color = np.uint8([255, 0, 0])  # assigned later: checked before the next render
     with pytest.raises(wrt.SceneError, match=rf"/Red: diffuse_color {words}"):
         wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")
+
+
+@pytest.mark.parametrize("name", ["thin_walled", "use_specular_workflow", "diffuse_from_display_color"])
+@pytest.mark.parametrize("value", ["false", "no", None, 2, np.array([True])])
+def test_material_flags_that_are_no_bool_are_refused_naming_the_material(name, value):
+    """``Material(thin_walled="false")`` (a string, None, 2, an array) was taken by its truth: "false" made the glass
+    a thin sheet, or the material specular-workflow, without a word. Refused naming the material and field, when made
+    and when assigned later, as a mesh's ``double_sided`` is."""
+    with pytest.raises(TypeError, match=rf"^material /Glass: {name} must be True or False, got "):
+        wrt.Material("/Glass", **{name: value})
+    glass = wrt.Material("/Glass", opacity=0.0)
+    mesh = wrt.Mesh("/Square", SQUARE, np.int32([[0, 1, 2], [0, 2, 3]]), None, material_ids=np.zeros(2, np.int32))
+    scene = wrt.Scene(meshes=[mesh], materials=[glass])
+    setattr(glass, name, value)
+    with pytest.raises(TypeError, match=rf"^material /Glass: {name} must be True or False"):
+        wrt.render(scene, camera=TOP, width=4, height=4)
+
+
+@pytest.mark.parametrize("value", [np.bool_(True), np.bool_(False), 1, 0])
+def test_material_flags_as_numpy_bools_or_zero_one_are_the_bools_they_say(value):
+    """A numpy bool and the integers 0 and 1 mean what they say, stored as a ``bool``."""
+    material = wrt.Material("/Glass", thin_walled=value, use_specular_workflow=value)
+    assert material.thin_walled is bool(value) and material.use_specular_workflow is bool(value)
+
+
+@pytest.mark.parametrize("kwargs, error, words", [
+    ({"color_primvar": 5}, TypeError, r"color_primvar must be a str, .* got int 5"),
+    ({"textures": None}, TypeError, r"textures must be a dict of input name -> TextureInput, got NoneType"),
+    ({"textures": {"diffuseColor": 0}}, TypeError, r"textures\['diffuseColor'\] must be a wrt.TextureInput, got int"),
+])
+def test_a_material_color_primvar_or_textures_of_another_type_is_refused(kwargs, error, words):
+    """A ``color_primvar`` that is no name was kept and matched no primvar, without a word; ``textures=None`` failed
+    with "'NoneType' object is not iterable", and an image index where a TextureInput belongs at the upload on a
+    missing attribute. Refused naming the material."""
+    with pytest.raises(error, match=rf"^material /M: {words}"):
+        wrt.Material("/M", **kwargs)

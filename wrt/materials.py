@@ -52,7 +52,7 @@ import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
 from .bsdf import Surface
-from .errors import SceneError, check_fields, eight_bit_colors
+from .errors import SceneError, check_fields, eight_bit_colors, flag
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import (
     UDIM_FIRST,
@@ -211,18 +211,37 @@ class Material(CountsAssignments):
         numbers = [(name, (), None, float) for name in ("metallic", "roughness", "opacity", "opacity_threshold", "ior",
                                                          "clearcoat", "clearcoat_roughness")]
         check_fields(self, *colors, *numbers)
+        self._check_flags()
         self.check_textures()
         mark_checked(self)
+
+    def _check_flags(self) -> None:
+        """Raises ``TypeError`` naming the material for a flag that is no bool (``thin_walled="false"``, taken by its
+        truth: a thin sheet without a word) and for a ``color_primvar`` that is no ``str``."""
+        for name in ("use_specular_workflow", "thin_walled", "diffuse_from_display_color"):
+            value = getattr(self, name)
+            if type(value) is not bool:
+                setattr(self, name, flag(value, f"material {self.path}: {name}"))
+        if not isinstance(self.color_primvar, str):
+            raise TypeError(f"material {self.path}: color_primvar must be a str, a primvar name such as "
+                            f"'displayColor', got {type(self.color_primvar).__name__} {self.color_primvar!r}")
 
     def check_textures(self) -> None:
         """Raises ``ValueError`` naming the material when :attr:`textures` feeds an input that is not texturable or
         a normal map reads one channel. Run by the constructor and again at each upload: an entry added to the dict
         later (``material.textures["diffuse_color"] = ...``) is no assignment, and failed there with a bare
         ``tuple.index(x): x not in tuple``."""
+        if not isinstance(self.textures, dict):  # None failed with "'NoneType' object is not iterable"
+            raise TypeError(f"material {self.path}: textures must be a dict of input name -> TextureInput, got "
+                            f"{type(self.textures).__name__} {self.textures!r}")
         unknown = set(self.textures) - set(SLOTS)
         if unknown:
             raise ValueError(f"material {self.path}: textures on unknown inputs {sorted(unknown)}; texturable "
                              f"inputs: {SLOTS}")
+        for name, tex in self.textures.items():
+            if not isinstance(tex, TextureInput):  # an image index or array failed at the upload on a missing field
+                raise TypeError(f"material {self.path}: textures[{name!r}] must be a wrt.TextureInput, got "
+                                f"{type(tex).__name__}")
         normal_map = self.textures.get("normal")
         if normal_map is not None and normal_map.channel != "rgb":
             raise ValueError(f"material {self.path}: a normal map reads the rgb output, not {normal_map.channel!r}")
