@@ -859,3 +859,43 @@ def test_a_material_color_primvar_or_textures_of_another_type_is_refused(kwargs,
     missing attribute. Refused naming the material."""
     with pytest.raises(error, match=rf"^material /M: {words}"):
         wrt.Material("/M", **kwargs)
+
+
+@pytest.mark.parametrize("field, value, words", [
+    ("image", 0.7, r"image must be an integer, an index into scene\.textures, got 0\.7"),
+    ("image", "0", r"image must be an integer, an index into scene\.textures, got '0'"),
+    ("scale", (np.nan, 1.0, 1.0, 1.0), r"scale must be 1, 3 or 4 finite numbers"),
+    ("scale", (1.0, 1.0), r"scale must be 1, 3 or 4 finite numbers"),
+    ("bias", (np.inf, 0.0, 0.0, 0.0), r"bias must be 1, 3 or 4 finite numbers"),
+    ("transform", np.eye(2), r"transform must be a \(3, 3\) matrix of finite numbers"),
+    ("transform", np.full((3, 3), np.nan), r"transform must be a \(3, 3\) matrix of finite numbers"),
+    ("st_fallback", (np.nan, 0.0), r"st_fallback must be 2 finite numbers"),
+    ("uv_set", 3, r"uv_set must be a str"),
+])
+def test_texture_input_fields_of_a_wrong_type_shape_or_value_are_refused_naming_the_material(field, value, words):
+    """A TextureInput built in Python went unchecked: a NaN ``scale``, ``bias`` or ``transform`` rendered the texture
+    black without a word, an ``image`` of 0.7 read image 0, and a ``scale`` of two numbers or a ``(2, 2)`` transform
+    failed at the upload with numpy's "could not broadcast". Refused naming the material and input, when the
+    material is made and when the field is assigned later, before the next render."""
+    error = TypeError if field == "uv_set" else ValueError
+    with pytest.raises(error, match=rf"^material /Textured: diffuseColor: {words}"):
+        wrt.Material("/Textured", textures={"diffuseColor": wrt.TextureInput(**{"image": 0, field: value})})
+    scene = textured_square(np.ones((2, 2, 4), np.float32))
+    wrt.render(scene, camera=TOP, width=4, height=4, integrator="albedo")
+    setattr(scene.materials[0].textures["diffuseColor"], field, value)
+    with pytest.raises(error, match=rf"^material /Textured: diffuseColor: {words}"):
+        wrt.render(scene, camera=TOP, width=4, height=4, integrator="albedo")
+
+
+def test_a_texture_scale_of_one_or_three_numbers_is_read_as_a_usd_one_is():
+    """``scale`` and ``bias`` of one number serve all four channels and of three take the default alpha, as the USD
+    reader reads a float3 authored for the float4 (:func:`wrt.materials.four_components`); three failed at the upload
+    with numpy's broadcast message. Oracle: the albedo of a grey 0.5 texture is ``0.5 * scale + bias``."""
+    texture = wrt.TextureInput(0, scale=(0.5, 1.0, 1.5), bias=0.125)
+    scene = textured_square(np.full((2, 2, 4), 0.5, np.float32))
+    scene.materials[0].textures["diffuseColor"] = texture
+    image = wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")
+    np.testing.assert_array_equal(texture.scale, np.float32([0.5, 1.0, 1.5, 1.0]))
+    np.testing.assert_array_equal(texture.bias, np.float32([0.125] * 4))
+    on_square = image.aovs["coverage"] > 0.5
+    np.testing.assert_allclose(image.rgb[on_square], np.broadcast_to([0.375, 0.625, 0.875], (16, 3)), atol=1e-3)

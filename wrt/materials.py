@@ -52,7 +52,7 @@ import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
 from .bsdf import Surface
-from .errors import SceneError, check_fields, eight_bit_colors, flag
+from .errors import SceneError, check_fields, eight_bit_colors, flag, int32_problem
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import (
     UDIM_FIRST,
@@ -146,6 +146,61 @@ class TextureInput(CountsAssignments):
     st_fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2, np.float32))
     tiles: np.ndarray | None = None
     fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.array(TEXTURE_FALLBACK, np.float32))
+
+    def check(self, where: str = "TextureInput") -> None:
+        """Raises ``ValueError`` (``TypeError`` for a ``uv_set`` that is no name) starting with ``where`` for a field
+        of a wrong type, shape or value, and brings ``image`` to an ``int`` and the arrays to float32 (only where they
+        are not so already: an array replaced at each check would look like an edit to the scene's caches). Run by
+        :meth:`Material.check_textures`, naming the material and input, when the material is made, before a trace or
+        render that follows an assignment to a field of either (:meth:`wrt.Scene.drop_stale_caches`), and at each
+        upload. Unchecked, a NaN
+        ``scale``, ``bias`` or ``transform`` rendered the texture black without a word, an ``image`` of 0.7 read image
+        0, and a ``scale`` of 2 numbers or a ``(2, 2)`` transform failed at the upload with numpy's broadcast
+        message."""
+        image = np.asarray(self.image) if isinstance(self.image, (int, float, np.number)) else np.asarray(None)
+        if image.ndim != 0 or image.dtype.kind == "b" or int32_problem(image.reshape(1)):
+            raise ValueError(f"{where}: image must be an integer, an index into scene.textures, got {self.image!r}")
+        if type(self.image) is not int:
+            self.image = int(image)
+        # A channel or wrap mode of another name failed at the upload with a bare KeyError ('x').
+        if not isinstance(self.channel, str) or self.channel not in CHANNELS:
+            raise ValueError(f"{where}: channel must be one of {', '.join(CHANNELS)}, got {self.channel!r}")
+        wrap = tuple(self.wrap) if isinstance(self.wrap, (tuple, list)) else ()
+        if len(wrap) != 2 or any(not isinstance(mode, str) or mode not in WRAP_MODES for mode in wrap):
+            raise ValueError(f"{where}: wrap must be (wrapS, wrapT), each one of {', '.join(WRAP_MODES)}, got "
+                             f"{self.wrap!r}")
+        if self.uv_set is not None and not isinstance(self.uv_set, str):
+            raise TypeError(f"{where}: uv_set must be a str, a primvar name such as 'st', or None (a constant st), "
+                            f"got {type(self.uv_set).__name__} {self.uv_set!r}")
+        for name, sizes, shape, default in (("scale", (1, 3, 4), (4,), (1.0, 1.0, 1.0, 1.0)),
+                                            ("bias", (1, 3, 4), (4,), (0.0, 0.0, 0.0, 0.0)),
+                                            ("fallback", (4,), (4,), None),
+                                            ("transform", (9,), (3, 3), None),
+                                            ("st_fallback", (2,), (2,), None)):
+            value = getattr(self, name)
+            if type(value) is np.ndarray and value.dtype == np.float32 and value.shape == shape and np.all(
+                    np.isfinite(value)):
+                continue  # as a check leaves it
+            numbers = _finite_float32(value, sizes)
+            if numbers is None:
+                need = {(1, 3, 4): "1, 3 or 4 finite numbers (RGBA; 3 take the default alpha)",
+                        (9,): "a (3, 3) matrix of finite numbers"}.get(sizes, f"{sizes[0]} finite numbers")
+                raise ValueError(f"{where}: {name} must be {need}, got {value!r}")
+            setattr(self, name, four_components(numbers, default) if default else numbers.reshape(shape))
+
+
+def _finite_float32(value, sizes: tuple) -> np.ndarray | None:
+    """``value`` as float32 numbers (flattened) when it holds a count in ``sizes`` of numbers finite in float32,
+    else None (a string, None, a ragged list, NaN, 1e39)."""
+    try:
+        array = np.asarray(value)
+    except ValueError:  # ragged
+        return None
+    if array.dtype.kind not in "biuf" or array.size not in sizes:
+        return None
+    with np.errstate(over="ignore"):
+        numbers = array.astype(np.float32).reshape(-1)
+    return numbers if np.all(np.isfinite(numbers)) else None
 
 
 @dataclasses.dataclass
@@ -242,6 +297,8 @@ class Material(CountsAssignments):
             if not isinstance(tex, TextureInput):  # an image index or array failed at the upload on a missing field
                 raise TypeError(f"material {self.path}: textures[{name!r}] must be a wrt.TextureInput, got "
                                 f"{type(tex).__name__}")
+            tex.check(f"material {self.path}: {name}")  # a field assigned since it was made (tex.scale = ...)
+            mark_checked(tex)
         normal_map = self.textures.get("normal")
         if normal_map is not None and normal_map.channel != "rgb":
             raise ValueError(f"material {self.path}: a normal map reads the rgb output, not {normal_map.channel!r}")
@@ -341,20 +398,10 @@ def default_material() -> Material:
 
 def check_texture_input(tex: TextureInput, num_images: int, where: str):
     """Raises ``ValueError`` (``where`` names the material input) when ``tex`` indexes an image outside the
-    ``num_images`` of the scene, its fallback is not 4 finite numbers, or its UDIM table is not ``(UDIM_TILES,)``
-    image indices or -1."""
+    ``num_images`` of the scene, or its UDIM table images other than those or -1; its own fields are checked by
+    :meth:`TextureInput.check` (:meth:`Material.check_textures`)."""
     if not 0 <= tex.image < num_images:
         raise ValueError(f"{where} uses texture {tex.image}, but there are {num_images}")
-    # A channel or wrap mode of another name failed at the upload with a bare KeyError ('x').
-    if tex.channel not in CHANNELS:
-        raise ValueError(f"{where}: channel must be one of {', '.join(CHANNELS)}, got {tex.channel!r}")
-    wrap = tuple(tex.wrap) if isinstance(tex.wrap, (tuple, list)) else ()
-    if len(wrap) != 2 or any(mode not in WRAP_MODES for mode in wrap):
-        raise ValueError(f"{where}: wrap must be (wrapS, wrapT), each one of {', '.join(WRAP_MODES)}, got "
-                         f"{tex.wrap!r}")
-    fallback = np.asarray(tex.fallback)
-    if fallback.shape != (4,) or fallback.dtype.kind not in "biuf" or not np.all(np.isfinite(fallback)):
-        raise ValueError(f"{where}: the fallback must be 4 finite numbers, got {tex.fallback!r}")
     if tex.tiles is None:
         return
     tiles = np.asarray(tex.tiles)

@@ -664,6 +664,10 @@ class Scene:
         if self._recheck:
             for obj in objects:
                 mark_unchecked(obj)
+        for material in self.materials:  # a TextureInput's field assigned (tex.scale = ...): its material checks it
+            textures = getattr(material, "textures", None)
+            if isinstance(textures, dict) and any(getattr(t, "_unchecked", True) for t in textures.values()):
+                mark_unchecked(material)
         check_assigned(objects)
         self.warn_vanishing_shapes()
         inverses = self._thicken_flat_instances()
