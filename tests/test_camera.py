@@ -898,3 +898,35 @@ def test_a_blocked_camera_value_is_the_schema_fallback(tmp_path, blocked):
     np.testing.assert_allclose(loaded.clipping_range, (gf.clippingRange.min, gf.clippingRange.max), rtol=1e-6)
     assert len(loaded.clipping_planes) == len(gf.clippingPlanes)
     np.testing.assert_allclose(loaded.exposure_scale, usd_cam.ComputeLinearExposureScale(), rtol=1e-6)
+
+
+@pytest.mark.parametrize("kwargs, error, words", [
+    (dict(clipping_range=("a", "b")), ValueError, r"^camera clipping range must satisfy 0 <= near < far, got \('a'"),
+    (dict(to_world="x"), ValueError, r"^camera to_world must be a \(4, 4\) matrix of numbers, got 'x'"),
+    (dict(to_world=[[1, 0], [0]]), ValueError, r"^camera to_world must be a \(4, 4\) matrix of numbers"),
+    (dict(clipping_planes="x"), ValueError, r"^camera clipping planes must be finite \(a, b, c, d\) rows .*got 'x'"),
+    (dict(path=5), TypeError, r"^wrt.Camera: path must be a str"),
+])
+def test_python_camera_fields_of_another_type_are_refused_naming_the_field(kwargs, error, words):
+    """A clipping range of strings failed with Python's "'<=' not supported between instances", a transform or
+    clipping planes of text or a ragged list with numpy's conversion message, naming no camera; a path that is no
+    string was kept and shown in messages. Refused as the other camera fields are, when made and when assigned before
+    a render."""
+    with pytest.raises(error, match=words):
+        wrt.Camera(**kwargs)
+    cam = wrt.Camera.look_at((0, 0, 10), (0, 0, 0))
+    name, value = next(iter(kwargs.items()))
+    setattr(cam, name, value)
+    with pytest.raises(error, match=words):
+        wrt.render(wrt.Scene.from_triangles(np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.int32([[0, 1, 2]])),
+                   camera=cam, width=2, height=2)
+
+
+def test_python_camera_takes_an_infinite_far_clip():
+    """``clipping_range=(near, inf)`` is no far clip: the triangle 1e6 away is still drawn."""
+    far = 1.0e6
+    scene = wrt.Scene.from_triangles(np.float32([[-far, -far, -far], [far, -far, -far], [0, far, -far]]),
+                                     np.int32([[0, 1, 2]]))
+    cam = wrt.Camera.look_at((0, 0, 0), (0, 0, -1), clipping_range=(0.1, INF))
+    image = wrt.render(scene, camera=cam, width=2, height=2, integrator="albedo")
+    assert image.aovs["coverage"].min() == 1.0

@@ -29,7 +29,7 @@ import math
 import numpy as np
 import warp as wp
 
-from .errors import bottom_row_problem, did_you_mean
+from .errors import bottom_row_problem, did_you_mean, prim_path
 
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
 
@@ -218,7 +218,13 @@ class Camera:
         plain attributes, set after construction too (``wrt.procedural.ring_of_cameras`` shifts film offsets so),
         and a NaN written into ``to_world`` was reported as a singular transform ("a zero scale"), a NaN focal
         length or an inverted clipping range rendered background without a word."""
-        self.to_world = np.asarray(self.to_world, dtype=np.float64)
+        path = prim_path(self.path, "wrt.Camera", optional=True)  # an int was kept, and named in messages
+        if path is not self.path:
+            self.path = path
+        try:
+            self.to_world = np.asarray(self.to_world, dtype=np.float64)
+        except (TypeError, ValueError):  # numpy's "could not convert string to float" named no camera
+            raise ValueError(f"{self.label()} to_world must be a (4, 4) matrix of numbers, got {self.to_world!r}")
         if self.to_world.size != 16:  # numpy's reshape error named no argument
             raise ValueError(f"{self.label()} to_world must be a (4, 4) matrix, got shape {self.to_world.shape}")
         self.to_world = self.to_world.reshape(4, 4)
@@ -255,14 +261,17 @@ class Camera:
         if np.shape(self.clipping_range) != (2,):  # "too many values to unpack"
             raise ValueError(f"camera clipping range must be (near, far), got {self.clipping_range!r}")
         near, far = self.clipping_range
-        if not (0 <= near < far):
+        if not (_finite(near) and (_finite(far) or far == math.inf) and 0 <= near < far):  # ("a", "b"): a TypeError
             raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
         if not np.all(np.isfinite(self.to_world)):
             raise ValueError(f"{self.label()} transform is not finite")
         problem = bottom_row_problem(f"{self.label()} to_world", self.to_world)
         if problem:
             raise ValueError(problem)
-        planes = np.asarray(self.clipping_planes, dtype=np.float64)
+        try:
+            planes = np.asarray(self.clipping_planes, dtype=np.float64)
+        except (TypeError, ValueError):  # text, a ragged list: refused below, not with numpy's message
+            planes = np.full((1, 4), np.nan)
         if planes.size == 0:
             planes = np.zeros((0, 4))
         if (
@@ -273,7 +282,7 @@ class Camera:
         ):
             raise ValueError(
                 f"{self.label()} clipping planes must be finite (a, b, c, d) rows with a non-zero normal "
-                f"(a, b, c), got {planes.tolist()}"
+                f"(a, b, c), got {planes.tolist() if np.all(np.isfinite(planes)) else self.clipping_planes!r}"
             )
         if len(planes) > MAX_CLIPPING_PLANES:
             raise ValueError(
