@@ -657,7 +657,7 @@ def test_a_render_with_nothing_changed_does_not_walk_every_field_of_the_scene(mo
     quad.materials[0].diffuse_color = np.array([1.0, 0.0, 0.0], np.float32)  # a field assigned
     red = renderer.render().rgb
     assert walks and quad.cache_generation != generation and red[6, 8, 1] < grey[6, 8, 1]
-    quad.materials[0].textures["diffuse_color"] = TextureInput(image=0)  # a dict entry
+    quad.materials[0].textures["diffuseColor"] = TextureInput(image=0)  # a dict entry
     generation = quad.cache_generation
     quad.drop_stale_caches()
     assert quad.cache_generation != generation
