@@ -456,6 +456,38 @@ def test_resume_that_cannot_add_to_the_previous_samples_says_it_starts_over():
         renderer.render(spp=1, seed=2, resume=True)
 
 
+@pytest.mark.parametrize("name", ["resume", "progress"])
+@pytest.mark.parametrize("value", ["false", "no", None, 2])
+def test_render_flags_that_are_no_bool_are_refused_naming_them(name, value):
+    """``Renderer.render(resume="false")`` (a string, None, 2) was taken by its truth: "false" added the samples to
+    the previous render's and returned their mean, without a word. Refused as a mesh's ``double_sided`` is; a numpy
+    bool and 0 and 1 mean what they say. Oracle: ``resume=np.bool_(False)`` gives the image of a fresh renderer."""
+    scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    camera = wrt.Camera.look_at((0.3, 0.3, 3), (0.3, 0.3, 0))
+    renderer = wrt.Renderer(scene, camera=camera, width=8, height=6, integrator="path", device="cpu")
+    renderer.render(spp=1, seed=0)
+    with pytest.raises(TypeError, match=rf"^{name} must be True or False, got "):
+        renderer.render(spp=1, seed=0, **{name: value})
+    if name == "progress":  # wrt.render passes it on
+        with pytest.raises(TypeError, match=r"^progress must be True or False, got "):
+            wrt.render(scene, camera=camera, width=8, height=6, device="cpu", progress=value)
+    again = renderer.render(spp=1, seed=1, resume=np.bool_(False)).rgb
+    fresh = wrt.Renderer(scene, camera=camera, width=8, height=6, integrator="path", device="cpu")
+    np.testing.assert_array_equal(again, fresh.render(spp=1, seed=1).rgb)
+
+
+@pytest.mark.parametrize("value", ["false", None])
+def test_camera_rays_t_range_that_is_no_bool_is_refused(value):
+    """``camera_rays(..., t_range="false")`` returned four arrays where the caller unpacked two ("too many values to
+    unpack", naming nothing). Refused naming it."""
+    from wrt.rays import camera_rays
+
+    scene = wrt.Scene.from_triangles([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    with pytest.raises(TypeError, match=r"^camera_rays: t_range must be True or False, got "):
+        camera_rays(scene, width=4, height=4, t_range=value)
+    assert len(camera_rays(scene, width=4, height=4, t_range=0)) == 2
+
+
 def test_a_kept_renderer_follows_a_replaced_mesh_an_in_place_edit_and_a_new_light():
     """A kept Renderer drew the geometry and lights it was built with after the scene changed, though the README
     says a replaced mesh is noticed at the next render. It builds again when the scene changed, and only then."""

@@ -10,6 +10,7 @@ import numpy as np
 import warp as wp
 
 from .camera import generate_rays_kernel
+from .errors import flag
 from .primitives import SHAPE_KINDS, shape_surface
 from .render import resolve_view
 from .scene import DistantLight, Scene
@@ -43,6 +44,7 @@ def camera_rays(scene: Scene, camera=None, width: int | None = None, height: int
     ``(N,)`` float32 ``t_mins, t_maxs`` of that interval come after the rays, so that
     ``wrt.trace(scene, o, d, t_min=t_mins, t_max=t_maxs)`` finds the hits the render sees (``t_maxs <= t_mins``
     where a clipping plane cuts the whole ray); without it the rays alone, which hit what the camera clips."""
+    t_range = flag(t_range, "camera_rays: t_range")  # "false" gave four arrays where two were unpacked
     cam, width, height = resolve_view(scene, camera, width, height)
     n = width * height
     out = [wp.empty(n, dtype=wp.vec3, device="cpu") for _ in range(2)]

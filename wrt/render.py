@@ -21,7 +21,7 @@ import numpy as np
 import warp as wp
 
 from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
-from .errors import SceneError, did_you_mean
+from .errors import SceneError, did_you_mean, flag
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
@@ -660,6 +660,8 @@ class Renderer:
         if batch is not None and (isinstance(batch, bool) or not isinstance(batch, (int, np.integer)) or batch < 1):
             raise ValueError(f"batch must be a positive integer, got {batch!r}")
         spp, seed = int(spp), check_seed(seed)
+        # By their truth, resume="false" added these samples to the previous render's without a word.
+        progress, resume = flag(progress, "progress"), flag(resume, "resume")
         self._follow_scene()  # a rebuild drops the progressive sums
         quick_look = self.integrator in ("normals", "depth", "albedo")
         state = self._progressive
