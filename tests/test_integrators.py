@@ -592,6 +592,24 @@ def test_a_specular_colour_above_one_leaves_the_diffuse_lobe_black_not_negative(
     assert img.rgb.mean() == pytest.approx(expected, rel=0.02)
 
 
+@pytest.mark.parametrize("integrator, spp", [("whitted", 4), ("path", 16)])
+def test_a_negative_specular_colour_reflects_as_zero_not_negative_light(integrator, spp):
+    """useSpecularWorkflow with specularColor (-0.5, 0.3, 0.3) under a dome of radiance 1: a reflectance below 0 has
+    no meaning, and the diffuse colour's negative values are already read as 0; the specular one was used as it was,
+    a negative F0, and the path tracer made pixels of -0.3 red. Oracle: no pixel is negative, and the image is that
+    of specularColor (0, 0.3, 0.3), the same samples."""
+    def image(specular):
+        material = Material(diffuse_color=0.5, use_specular_workflow=True, specular_color=specular, roughness=0.3)
+        plane = quad((0, 0, 0), (100, 0, 0), (0, 100, 0), material=0)
+        scene = wrt.Scene(meshes=[plane], materials=[material], lights=[DomeLight(color=np.ones(3, np.float32))])
+        cam = wrt.Camera.look_at(eye=(0, 1, 3), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=20)
+        return wrt.render(scene, camera=cam, width=4, height=4, spp=spp, device="cpu", integrator=integrator).rgb
+
+    negative = image((-0.5, 0.3, 0.3))
+    assert negative.min() >= 0.0
+    np.testing.assert_array_equal(negative, image((0.0, 0.3, 0.3)))
+
+
 @pytest.mark.parametrize("integrator", ["path", "whitted"])
 def test_a_coarse_mirror_sphere_whose_normal_map_has_no_frame_shows_the_dome_everywhere(integrator):
     """The sphere above with a normal map but no texture coordinates (no ``st`` area: the map gives no tilt, the

@@ -601,8 +601,11 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
     s.clearcoat_roughness = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT_ROUGHNESS, st, mats.params[m, 6]), 0.0, 1.0)
     s.specular_workflow = wp.where((flags & FLAG_SPECULAR_WORKFLOW) != 0, 1, 0)
     s.thin_walled = wp.where((flags & FLAG_THIN_WALLED) != 0, 1, 0)
-    # Keep colours physical: negative texels (or biases) would make energy from nothing.
+    # Keep colours physical: negative texels (or biases) would make energy from nothing, and a negative specularColor
+    # (F0) negative pixels.
     s.base_color = wp.vec3(wp.max(s.base_color[0], 0.0), wp.max(s.base_color[1], 0.0), wp.max(s.base_color[2], 0.0))
+    s.specular_color = wp.vec3(wp.max(s.specular_color[0], 0.0), wp.max(s.specular_color[1], 0.0),
+                               wp.max(s.specular_color[2], 0.0))
     s.emission = wp.vec3(wp.max(s.emission[0], 0.0), wp.max(s.emission[1], 0.0), wp.max(s.emission[2], 0.0))
     return s
 
