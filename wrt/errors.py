@@ -98,6 +98,21 @@ def flag(value, what: str) -> bool:
     raise TypeError(f"{what} must be True or False, got {type(value).__name__} {value!r}")
 
 
+def check_flags(obj, *names: str) -> None:
+    """Makes fields ``names`` of a light built in Python ``bool`` s, as :func:`flag` reads a mesh's ``double_sided``:
+    ``normalize="false"`` (or "no", None, an array) was taken by its truth, normalizing the light without a word.
+    Run after :func:`check_fields`, which makes ``obj.path`` a ``str``.
+
+    Raises:
+        TypeError: naming the prim, the type of ``obj`` and the field.
+    """
+    for name in names:
+        value = getattr(obj, name)
+        if type(value) is not bool:
+            where = f"{obj.path}: " if obj.path else ""
+            setattr(obj, name, flag(value, f"{where}{type(obj).__name__} {name}"))
+
+
 def int32_problem(array: np.ndarray) -> str | None:
     """Why ``array``, ids or indices to be cast to int32, is refused, or None: numbers that are not whole (0.7 was cut
     to 0), or past int32 (2**32 wrapped round to 0), each then naming another material, prototype or face without a

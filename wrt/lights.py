@@ -55,7 +55,7 @@ import math
 import numpy as np
 
 from .affine_lights import ellipsoid_area, elliptic_tube_area, flat, right_angled, similar
-from .errors import SceneError, bottom_row_problem, check_fields
+from .errors import SceneError, bottom_row_problem, check_fields, check_flags
 from .light_links import LinkCollection
 from .light_shaping import Shaping
 from .ray_batch import host_array
@@ -144,6 +144,7 @@ class SphereLight:
     def __post_init__(self):
         check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR,
                      ("axis", (3,), None, np.float64), *_MULTIPLIERS)
+        check_flags(self, "normalize", "treat_as_point", "shadows")
         if self.frame is not None:
             check_fields(self, ("frame", (3, 3), None, np.float64))
         self.axis = self.unit_axis()
@@ -243,6 +244,7 @@ class RectLight:
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR, *_MULTIPLIERS)
+        check_flags(self, "normalize", "shadows")
         check_affine(self)
         _check_shaping(self)
         self.texture = _checked_texture(self)
@@ -293,6 +295,7 @@ class DiskLight:
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("radius"), _COLOR, *_MULTIPLIERS)
+        check_flags(self, "normalize", "shadows")
         check_affine(self)
         _check_shaping(self)
 
@@ -341,6 +344,7 @@ class CylinderLight:
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR, *_MULTIPLIERS)
+        check_flags(self, "normalize", "shadows")
         check_affine(self)
         _check_shaping(self)
 
@@ -425,6 +429,7 @@ class MeshLight:
 
     def __post_init__(self):
         check_fields(self, _COLOR, *_MULTIPLIERS)
+        check_flags(self, "normalize", "shadows")
         if self.material_sync not in MATERIAL_SYNC_MODES:
             raise SceneError(f"MeshLight material_sync must be one of {', '.join(MATERIAL_SYNC_MODES)}, got "
                              f"{self.material_sync!r}", prim=self.path or None)
@@ -461,6 +466,7 @@ class DomeLight:
 
     def __post_init__(self):
         check_fields(self, _COLOR, _TO_WORLD, *_MULTIPLIERS)
+        check_flags(self, "shadows")
         check_affine(self)
         self.texture = _checked_texture(self)
 

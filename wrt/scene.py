@@ -360,10 +360,11 @@ class DistantLight:
     shadow_link: LinkCollection | None = None
 
     def __post_init__(self):
-        from .errors import SceneError, check_fields
+        from .errors import SceneError, check_fields, check_flags
 
         check_fields(self, ("direction", (3,), None, np.float64), ("color", (3,), 0.0, np.float32),
                      ("angle", (), 0.0, float), ("diffuse", (), 0.0, float), ("specular", (), 0.0, float))
+        check_flags(self, "normalize", "shadows")
         length = np.linalg.norm(self.direction)
         if not length > 0.0:  # a zero direction lit nothing, without a word
             raise SceneError(f"DistantLight direction must not be zero, got {self.direction.tolist()}",
