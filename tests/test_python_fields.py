@@ -70,3 +70,55 @@ def test_a_light_flag_assigned_later_is_checked_at_the_next_render_as_a_meshs_is
     light.normalize = np.bool_(False)
     wrt.render(scene, camera=TOP, width=4, height=4)
     assert light.normalize is False
+
+
+class DLPackOnly:
+    """An array numpy cannot read but DLPack hands over, as a ``torch`` tensor on CUDA is: a CPU Warp array behind
+    ``__dlpack__`` only."""
+
+    def __init__(self, values):
+        import warp as wp
+
+        self.warp = wp.array(np.ascontiguousarray(values), device="cpu")
+
+    def __dlpack__(self, stream=None):
+        return self.warp.__dlpack__(stream=stream)
+
+    def __dlpack_device__(self):
+        return self.warp.__dlpack_device__()
+
+    def __array__(self, dtype=None, copy=None):
+        raise TypeError("can't convert cuda:0 device type tensor to numpy")
+
+
+def warp_cpu(values):
+    import warp as wp
+
+    return wp.array(np.ascontiguousarray(values), device="cpu")
+
+
+@pytest.mark.parametrize("holder", ["numpy", "list", "warp", "dlpack"])
+@pytest.mark.parametrize("kind", ["rect", "disk", "cylinder", "dome"])
+def test_a_light_transform_without_its_bottom_row_is_read_as_a_shapes_is(kind, holder):
+    """A light's ``(3, 4)`` affine ``to_world`` (the device's own layout, which a shape takes) was refused ("must be
+    finite numbers of shape (4, 4)"); it gets the row ``(0, 0, 0, 1)``, in any holder a ``(4, 4)`` may come in.
+    Oracle: the same light made from the whole matrix, and its area from the scales (2 and 3 on X and Y)."""
+    m = np.diag([2.0, 3.0, 1.0, 1.0])
+    m[:3, 3] = 1.0, -2.0, 3.0
+    top = {"numpy": lambda a: a, "list": lambda a: a.tolist(), "warp": warp_cpu, "dlpack": DLPackOnly}[holder](m[:3])
+    light = make_light(kind)
+    light.to_world = top
+    light.__post_init__()
+    np.testing.assert_array_equal(light.to_world, m)
+    assert light.to_world.dtype == np.float64
+    areas = {"rect": 2.0 * 2.0 * 6.0, "disk": np.pi * 6.0}
+    if kind in areas:
+        np.testing.assert_allclose(light.area, areas[kind], rtol=1e-12)
+
+
+@pytest.mark.parametrize("value", [np.eye(4)[:, :3], np.eye(3), np.zeros((2, 3, 4))])
+def test_a_light_transform_of_another_shape_is_still_refused_naming_the_light(value):
+    """A ``(4, 3)`` (row-vector affine), ``(3, 3)`` or stacked transform stays refused, naming the light."""
+    with pytest.raises(wrt.SceneError, match=r"^/L: RectLight to_world must be finite numbers of shape \(4, 4\) \(or "
+                                             r"its top \(3, 4\)\), got "):
+        wrt.RectLight(value, 1.0, 1.0, WHITE, path="/L")

@@ -20,6 +20,15 @@ def bottom_row_problem(name: str, matrix) -> str | None:
             "M @ (p, 1), with bottom row (0, 0, 0, 1) (the transpose of a Gf.Matrix4d)")
 
 
+def with_bottom_row(matrix: np.ndarray) -> np.ndarray:
+    """``matrix`` as a ``(4, 4)`` column-vector transform where it is its top ``(3, 4)`` (the affine part, as the
+    device holds it): the row ``(0, 0, 0, 1)`` added; any other array as it is. Shapes and lights read a ``to_world``
+    so; a light refused the ``(3, 4)`` that a shape takes."""
+    if matrix.shape != (3, 4):
+        return matrix
+    return np.concatenate([matrix, np.array([[0.0, 0.0, 0.0, 1.0]], matrix.dtype)])
+
+
 class SceneError(ValueError):
     """A scene file or its content cannot be used.
 
@@ -180,6 +189,7 @@ def check_fields(obj, *fields: tuple) -> None:
                 setattr(obj, name, value.astype(dtype))
                 continue
         need = "a finite number" if shape == () else f"finite numbers of shape {shape}"
+        need += " (or its top (3, 4))" if shape == (4, 4) else ""
         need += "" if minimum is None else f" >= {minimum:g}"
         from .ray_batch import host_array  # here, not at the top: it imports Warp
 
@@ -191,6 +201,8 @@ def check_fields(obj, *fields: tuple) -> None:
             numbers = None
         if numbers is not None:  # None, strings and other objects are not numbers (None would read as NaN)
             numbers = numbers.astype(np.float64) if numbers.dtype.kind in "biuf" else None
+        if numbers is not None and shape == (4, 4):  # a transform: its top (3, 4) as a shape's is read
+            numbers = with_bottom_row(numbers)
         if numbers is not None and numbers.size == int(np.prod(shape)):
             numbers = numbers.reshape(shape)
             with np.errstate(over="ignore"):

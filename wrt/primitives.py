@@ -43,7 +43,7 @@ import numpy as np
 import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
-from .errors import bottom_row_problem, eight_bit_colors, flag, int32_problem, prim_path
+from .errors import bottom_row_problem, eight_bit_colors, flag, int32_problem, prim_path, with_bottom_row
 from .floats import scaled_limit, unit_scales
 from .instancing import invert_transforms, thicken_flat_transforms
 from .ray_batch import host_array
@@ -522,8 +522,8 @@ class Shape(CountsAssignments):
             matrix = np.asarray(host_array(f"shape {self.path} to_world", value), np.float64)
         except (TypeError, ValueError):  # text, a ragged list, an object numpy and DLPack cannot read
             matrix = None
-        if matrix is not None and matrix.shape == (3, 4):
-            matrix = np.concatenate([matrix, [[0.0, 0.0, 0.0, 1.0]]])
+        if matrix is not None:
+            matrix = with_bottom_row(matrix)
         if matrix is None or matrix.shape not in ((4, 4), (16,)):
             got = f"shape {matrix.shape}" if matrix is not None else f"{type(value).__name__} {value!r}"
             raise ValueError(f"shape {self.path}: to_world must be a (4, 4) column-vector transform, p_world = M @ (p, "
