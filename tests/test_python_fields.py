@@ -122,3 +122,48 @@ def test_a_light_transform_of_another_shape_is_still_refused_naming_the_light(va
     with pytest.raises(wrt.SceneError, match=r"^/L: RectLight to_world must be finite numbers of shape \(4, 4\) \(or "
                                              r"its top \(3, 4\)\), got "):
         wrt.RectLight(value, 1.0, 1.0, WHITE, path="/L")
+
+
+@pytest.mark.parametrize("holder", ["warp", "dlpack"])
+def test_shape_params_color_and_opacity_on_a_gpu_are_read_as_a_meshs_arrays_are(holder):
+    """A shape's params, colour and opacity held as a GPU array (a ``wp.array`` on CUDA, a torch tensor: here a CPU
+    array behind DLPack only) failed with numpy's refusal ("can't convert cuda:0 device type tensor to numpy"),
+    naming no shape, where a mesh's arrays are copied to the host. Oracle: the same shape from numpy arrays, and the
+    colour the albedo integrator shows on it."""
+    make = {"warp": warp_cpu, "dlpack": DLPackOnly}[holder]
+    color = np.float32([0.25, 0.5, 1.0])
+    ball = wrt.primitives.Shape("/Ball", "capsule", np.eye(4), params=make(np.float32([0.5, 0.0, 0.0, 1.0])),
+                                color=make(color), opacity=make(np.float32([1.0])), double_sided=True)
+    twin = wrt.primitives.Shape("/Ball", "capsule", np.eye(4), params=np.float32([0.5, 0.0, 0.0, 1.0]), color=color,
+                                opacity=1.0, double_sided=True)
+    for name in ("params", "color"):
+        np.testing.assert_array_equal(getattr(ball, name), getattr(twin, name))
+        assert getattr(ball, name).dtype == np.float32
+    assert ball.opacity == 1.0
+    image = wrt.render(wrt.Scene(shapes=[ball]), camera=TOP, width=8, height=8, integrator="albedo")
+    covered = image.aovs["coverage"] > 0.5
+    assert covered.sum() > 0
+    np.testing.assert_allclose(image.rgb[covered], np.broadcast_to(color, (int(covered.sum()), 3)), rtol=1e-6)
+
+
+@pytest.mark.parametrize("name, value, need", [
+    ("params", "abcd", "4 finite numbers"), ("params", [1.0, 0.0, 0.0], "4 finite numbers"),
+    ("params", np.array([1, 0, 0, 1], complex), "4 finite numbers"), ("params", [True, False, False, True],
+                                                                       "4 finite numbers"),
+    ("color", "red", "3 finite numbers or None"), ("color", [True, False, False], "3 finite numbers or None"),
+    ("color", np.ones((2, 3)), "3 finite numbers or None"),
+    ("opacity", "0.5", r"a number in \[0, 1\] or None"), ("opacity", True, r"a number in \[0, 1\] or None"),
+    ("opacity", [0.5, 0.5], r"a number in \[0, 1\] or None"),
+])
+def test_shape_params_color_or_opacity_that_are_no_real_numbers_are_refused_naming_the_shape(name, value, need):
+    """Text, bools, complex values or a wrong count failed with numpy's message naming no shape (``could not convert
+    string to float``, ``cannot reshape array of size 3``), or were taken: ``opacity="0.5"`` and ``True`` as numbers,
+    bools as 0 and 1, complex values with their imaginary part dropped. Refused naming the shape, as a mesh's colours
+    are, when made and when assigned later."""
+    with pytest.raises(ValueError, match=rf"^shape /Ball: {name} must be {need}, got "):
+        wrt.primitives.Shape("/Ball", "sphere", np.eye(4), **{name: value})
+    ball = wrt.primitives.Shape("/Ball", "sphere", np.eye(4))
+    scene = wrt.Scene(shapes=[ball])
+    setattr(ball, name, value)
+    with pytest.raises(ValueError, match=rf"^shape /Ball: {name} must be {need}, got "):
+        wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])

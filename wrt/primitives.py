@@ -490,21 +490,42 @@ class Shape(CountsAssignments):
         object.__setattr__(self, "warned", False)
         if to_world is not self.to_world:  # only a real change: each assignment counts as a scene edit
             self.to_world = to_world
-        self.params = np.asarray(self.params, np.float32).reshape(4)
+        self.params = self._real_numbers("params", 4, "4 finite numbers").astype(np.float32)
         if not np.isfinite(self.params).all():  # a capsule of NaN height, a cylinder of NaN caps: missed by every ray
             raise ValueError(f"shape {self.path}: params must be 4 finite numbers, got {self.params.tolist()}")
         if self.color is not None:
-            if problem := eight_bit_colors(self.color):
+            color = self._real_numbers("color", 3, "3 finite numbers or None")
+            if problem := eight_bit_colors(color):
                 raise ValueError(f"shape {self.path}: {problem}")
-            self.color = np.asarray(self.color, np.float32).reshape(3)
+            self.color = color.astype(np.float32)
             if not np.isfinite(self.color).all():  # NaN would read as "none" on the device, inf shade as inf
                 raise ValueError(f"shape {self.path}: color must be 3 finite numbers or None, got "
                                  f"{self.color.tolist()}")
         if self.opacity is not None:
-            self.opacity = float(self.opacity)
+            self.opacity = float(self._real_numbers("opacity", 1, "a number in [0, 1] or None")[0])
             if not 0.0 <= self.opacity <= 1.0:  # NaN too: it would mean "none" on the device
                 raise ValueError(f"shape {self.path}: opacity must be in [0, 1] or None, got {self.opacity!r}")
         mark_checked(self)
+
+    def _real_numbers(self, name: str, count: int, need: str) -> np.ndarray:
+        """Field ``name`` as ``(count,)`` real numbers, in the dtype given (integers kept for
+        :func:`wrt.errors.eight_bit_colors`): one on a GPU (a ``wp.array`` on CUDA, a torch tensor) is copied to the
+        host (:func:`wrt.ray_batch.host_array`), as a mesh's arrays are; numpy refused it, naming no shape. Text
+        (``color="red"``, ``opacity="0.5"``), bools, complex values (their imaginary part dropped with only numpy's
+        warning) and arrays of another size (numpy's "cannot reshape") are refused, as a mesh's colours are.
+
+        Raises:
+            ValueError: naming the shape and the field.
+        """
+        value = getattr(self, name)
+        try:
+            array = np.asarray(host_array(f"shape {self.path} {name}", value))
+        except (TypeError, ValueError):  # a ragged list, an object DLPack cannot read
+            array = None
+        if array is None or array.dtype.kind not in "iuf" or array.size != count:
+            got = f"{type(value).__name__} {value!r}" if array is None or array.size <= 16 else f"shape {array.shape}"
+            raise ValueError(f"shape {self.path}: {name} must be {need}, got {got}")
+        return array.reshape(count)
 
     def _checked_to_world(self) -> np.ndarray:
         """:attr:`to_world` as a ``(4, 4)`` float64 array: one on a GPU (a ``wp.array`` on CUDA, a torch tensor) is
