@@ -167,3 +167,35 @@ def test_shape_params_color_or_opacity_that_are_no_real_numbers_are_refused_nami
     setattr(ball, name, value)
     with pytest.raises(ValueError, match=rf"^shape /Ball: {name} must be {need}, got "):
         wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+
+
+@pytest.mark.parametrize("kind, params, words", [
+    ("capsule", (-0.5, 0.0, 0.0, 1.0), r"params\[0\] \(H, .*\) of a capsule must be >= 0, got -0\.5"),
+    ("tapered", (0.0, 0.5, 0.0, 1.0), r"params\[0\] \(H, .*\) of a tapered capsule must be > 0, got 0\.0"),
+    ("cone", (1.0, 2.0, 0.0, 1.0), r"params\[1\] \(rho, the top radius\) of a cone must be in \[0, 1\], got 2\.0"),
+    ("cone", (1.0, -1.0, 0.0, 1.0), r"params\[1\] \(rho, the top radius\) of a cone must be in \[0, 1\], got -1\.0"),
+    ("tapered", (1.0, 1.5, 0.0, 1.0), r"params\[1\] \(rho, .*\) of a tapered must be in \[0, 1\], got 1\.5"),
+])
+def test_shape_params_outside_their_kinds_range_are_refused_naming_the_shape(kind, params, words):
+    """A capsule of negative height, a tapered capsule of none or a cone widening past its base (``rho = 2``: cut off
+    at its canonical box ``[-1, 1]^3``: a ray straight down at x = 1.5 missed its top cap of radius 2) were taken
+    without a word. Refused naming the shape, when made and when assigned later."""
+    with pytest.raises(ValueError, match=rf"^shape /S: {words}"):
+        wrt.primitives.Shape("/S", kind, np.eye(4), params=params)
+    shape = wrt.primitives.Shape("/S", kind, np.eye(4), params=(1.0, 0.5, 0.0, 1.0))
+    scene = wrt.Scene(shapes=[shape])
+    shape.params = params
+    with pytest.raises(ValueError, match=rf"^shape /S: {words}"):
+        wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+
+
+@pytest.mark.parametrize("kind, params, t", [
+    ("capsule", (0.0, 0.0, 0.0, 1.0), 4.0), ("cone", (1.0, 1.0, 0.0, 1.0), 4.0), ("cone", (1.0, 0.0, 0.0, 1.0), 4.5),
+    ("tapered", (1.0, 1.0, 0.0, 1.0), 4.0),
+])
+def test_shape_params_at_the_ends_of_their_range_are_taken(kind, params, t):
+    """The ends of the ranges stay: a capsule of ``H = 0`` (a sphere), a cone of ``rho = 1`` (a cylinder) or 0 (an
+    apex), a tapered capsule of ``rho = 1`` (a capsule). Oracle: the radius at z = 0 seen by a ray from x = 5 (1, and
+    0.5 halfway up a cone to its apex)."""
+    scene = wrt.Scene(shapes=[wrt.primitives.Shape("/S", kind, np.eye(4), params=params)])
+    np.testing.assert_allclose(wrt.trace(scene, [5.0, 0.0, 0.0], [-1.0, 0.0, 0.0]).t, [t], rtol=1e-6)

@@ -493,6 +493,8 @@ class Shape(CountsAssignments):
         self.params = self._real_numbers("params", 4, "4 finite numbers").astype(np.float32)
         if not np.isfinite(self.params).all():  # a capsule of NaN height, a cylinder of NaN caps: missed by every ray
             raise ValueError(f"shape {self.path}: params must be 4 finite numbers, got {self.params.tolist()}")
+        if problem := self._params_problem():
+            raise ValueError(f"shape {self.path}: {problem}")
         if self.color is not None:
             color = self._real_numbers("color", 3, "3 finite numbers or None")
             if problem := eight_bit_colors(color):
@@ -506,6 +508,21 @@ class Shape(CountsAssignments):
             if not 0.0 <= self.opacity <= 1.0:  # NaN too: it would mean "none" on the device
                 raise ValueError(f"shape {self.path}: opacity must be in [0, 1] or None, got {self.opacity!r}")
         mark_checked(self)
+
+    def _params_problem(self) -> str | None:
+        """Why finite :attr:`params` are refused for the shape's kind, or None: a capsule's negative ``H`` (half the
+        height), a tapered capsule's ``H`` that is not positive, or a cone's or tapered capsule's ``rho`` outside
+        [0, 1] (the module docstring's table). The loader never makes them; built in Python, a cone widening to
+        ``rho = 2`` was cut off at its canonical box, a negative ``H`` or ``rho`` drew a shape of no USD prim, and a
+        tapered capsule of ``H = 0`` failed in its tessellation (ZeroDivisionError), each without a word naming it."""
+        h, rho = float(self.params[0]), float(self.params[1])
+        if self.kind == "capsule" and h < 0.0:
+            return f"params[0] (H, half the height over the radius) of a capsule must be >= 0, got {h!r}"
+        if self.kind == "tapered" and not h > 0.0:
+            return f"params[0] (H, half the distance between the spheres) of a tapered capsule must be > 0, got {h!r}"
+        if self.kind in ("cone", "tapered") and not 0.0 <= rho <= 1.0:
+            return f"params[1] (rho, the top radius) of a {self.kind} must be in [0, 1], got {rho!r}"
+        return None
 
     def _real_numbers(self, name: str, count: int, need: str) -> np.ndarray:
         """Field ``name`` as ``(count,)`` real numbers, in the dtype given (integers kept for
