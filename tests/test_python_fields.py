@@ -199,3 +199,18 @@ def test_shape_params_at_the_ends_of_their_range_are_taken(kind, params, t):
     0.5 halfway up a cone to its apex)."""
     scene = wrt.Scene(shapes=[wrt.primitives.Shape("/S", kind, np.eye(4), params=params)])
     np.testing.assert_allclose(wrt.trace(scene, [5.0, 0.0, 0.0], [-1.0, 0.0, 0.0]).t, [t], rtol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["rect", "dome"])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int64, bool])
+def test_a_light_texture_of_integer_samples_is_refused_as_a_scene_texture_is(kind, dtype):
+    """A dome or rect light's ``texture`` of 8-bit samples (``uint8`` 0-255, an image straight from Pillow) was cast to
+    float and lit the scene 255 times too brightly without a word, where ``scene.textures`` refuses integer samples.
+    Refused naming the light; float textures of any width are taken, as float32."""
+    texture = np.full((2, 4, 3), 128).astype(dtype)
+    with pytest.raises(wrt.SceneError, match=rf"^/L: {LIGHT_CLASSES[kind]} texture must hold linear float values, "
+                                             rf"got {np.dtype(dtype)} \(an 8-bit image"):
+        make_light(kind, texture=texture)
+    light = make_light(kind, texture=np.full((2, 4, 3), 0.5, np.float64))
+    assert light.texture.dtype == np.float32
+    np.testing.assert_array_equal(light.texture, np.full((2, 4, 3), 0.5))

@@ -473,18 +473,23 @@ class DomeLight:
 
 def _checked_texture(light) -> np.ndarray | None:
     """``light.texture`` as float32, or None; any shape but ``(H, W, 3 or 4)`` raises, naming the light (it failed
-    deep in Warp, a TypeError about 'dome_texels')."""
+    deep in Warp, a TypeError about 'dome_texels'), and so do samples that are not floats, as ``scene.textures``'
+    do: an 8-bit image (``uint8`` 0-255) lit the scene 255 times too brightly without a word."""
     if light.texture is None:
         return None
     try:  # one on a GPU copied to the host, as a mesh's arrays are
-        texture = np.asarray(host_array(f"{type(light).__name__} texture", light.texture), np.float32)
+        texture = np.asarray(host_array(f"{type(light).__name__} texture", light.texture))
     except (TypeError, ValueError):
         texture = np.zeros(0)
-    if texture.ndim != 3 or texture.shape[2] not in (3, 4) or texture.size == 0:
+    if texture.ndim != 3 or texture.shape[2] not in (3, 4) or texture.size == 0 or texture.dtype.kind not in "biuf":
         shape = getattr(light.texture, "shape", type(light.texture).__name__)
         raise SceneError(f"{type(light).__name__} texture must be an (H, W, 3) or (H, W, 4) array of numbers, got "
                          f"{shape}", prim=light.path or None)
-    return texture
+    if texture.dtype.kind != "f":
+        raise SceneError(f"{type(light).__name__} texture must hold linear float values, got {texture.dtype} (an 8-bit "
+                         "image: wrt.textures.load_image reads files into linear float32 RGBA)",
+                         prim=light.path or None)
+    return texture.astype(np.float32, copy=False)
 
 
 def _check_shaping(light) -> None:
