@@ -88,13 +88,16 @@ ONE_INSTANCE = dict(instances=wrt.Instances.from_transforms([0], np.eye(4)[None]
     (lambda: dict(shapes=[square_mesh()]), r"scene\.shapes\[0\] is a Mesh, not a wrt\.Shape"),
     (lambda: dict(materials=[{"diffuse_color": (1, 0, 0)}]), r"scene\.materials\[0\] is a dict, not a wrt\.Material"),
     (lambda: dict(cameras={"/Camera": (0.0, 0.0, 5.0)}), r"scene\.cameras\['/Camera'\] is a tuple, not a wrt\.Camera"),
+    (lambda: dict(lights=[wrt.Shaping()]), r"^scene\.lights\[0\] is a Shaping, not a wrt light \(one of "
+                                           r"wrt\.DistantLight, wrt\.SphereLight, .*wrt\.MeshLight\)$"),
+    (lambda: dict(lights=[None]), r"^scene\.lights\[0\] is a NoneType, not a wrt light"),
 ])
 def test_a_scene_part_of_the_wrong_type_is_refused_naming_it(fields, words):
     """Each of these failed at the scene's construction or its first render with an error naming none of them: an
     ``AttributeError`` ('list' object has no attribute 'meshes', 'numpy.ndarray' object has no attribute
     'check_affine', 'dict' object has no attribute '__dict__', 'tuple' object has no attribute 'to_struct'), "'Mesh'
-    object is not iterable" or "must be called with a dataclass type or instance"; a shape that is no Shape was even
-    taken. Now Scene refuses it at once, naming the entry."""
+    object is not iterable", "must be called with a dataclass type or instance" or "unsupported light Shaping"; a
+    shape that is no Shape was even taken. Now Scene refuses it at once, naming the entry."""
     with pytest.raises(TypeError, match=words):
         scene = wrt.Scene(meshes=[square_mesh("/Ground")], **fields())
         wrt.render(scene, width=4, height=3)

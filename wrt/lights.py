@@ -471,6 +471,10 @@ class DomeLight:
         self.texture = _checked_texture(self)
 
 
+# The kinds of light Scene.lights holds.
+LIGHT_TYPES = (DistantLight, SphereLight, RectLight, DiskLight, CylinderLight, DomeLight, MeshLight)
+
+
 def _checked_texture(light) -> np.ndarray | None:
     """``light.texture`` as float32, or None; any shape but ``(H, W, 3 or 4)`` raises, naming the light (it failed
     deep in Warp, a TypeError about 'dome_texels'), and so do samples that are not floats, as ``scene.textures``'

@@ -547,12 +547,13 @@ class Scene:
         self._check_members()
 
     def _check_members(self) -> None:
-        """Raises ``TypeError`` naming the entry when a shape, prototype (or its meshes and shapes), material, camera
-        or the instances are not of their wrt class: each failed later with an error naming none of them, an
+        """Raises ``TypeError`` naming the entry when a shape, prototype (or its meshes and shapes), material, camera,
+        light or the instances are not of their wrt class: each failed later with an error naming none of them, an
         ``AttributeError`` ('list' object has no attribute 'meshes', 'numpy.ndarray' object has no attribute
         'check_affine', 'dict' object has no attribute '__dict__'), "'Mesh' object is not iterable" for
         ``Prototype(path, mesh)``, or "must be called with a dataclass type or instance" for a prototype holding
         points."""
+        from .lights import LIGHT_TYPES
         from .materials import Material
         from .primitives import Shape
 
@@ -569,6 +570,10 @@ class Scene:
             raise TypeError(f"scene.instances is a {type(self.instances).__name__}, not a wrt.Instances (use "
                             "wrt.Instances.from_transforms(prototype, to_world))")
         check(self.shapes, Shape, "scene.shapes")
+        for k, light in enumerate(self.lights):  # 'unsupported light str' at the first render named no entry
+            if not isinstance(light, LIGHT_TYPES):
+                raise TypeError(f"scene.lights[{k}] is a {type(light).__name__}, not a wrt light (one of "
+                                f"{', '.join('wrt.' + t.__name__ for t in LIGHT_TYPES)})")
         check(self.materials, Material, "scene.materials")
         check(self.prototypes, Prototype, "scene.prototypes")
         for k, prototype in enumerate(self.prototypes):
