@@ -214,3 +214,13 @@ def test_a_light_texture_of_integer_samples_is_refused_as_a_scene_texture_is(kin
     light = make_light(kind, texture=np.full((2, 4, 3), 0.5, np.float64))
     assert light.texture.dtype == np.float32
     np.testing.assert_array_equal(light.texture, np.full((2, 4, 3), 0.5))
+
+
+@pytest.mark.parametrize("kind, words", [
+    ("Sphere", r"'Sphere' \(did you mean 'sphere'\?\)"), (["sphere"], r"\['sphere'\]"), (None, "None"),
+])
+def test_an_unknown_shape_kind_is_refused_naming_the_shape(kind, words):
+    """An unknown kind was refused naming no shape ("unknown shape kind 'Sphere'"), and a list failed with Python's
+    "unhashable type: 'list'"; refused naming the shape, with the kind meant where one is close."""
+    with pytest.raises(ValueError, match=rf"^shape /S: unknown shape kind {words}; valid kinds: sphere, box, "):
+        wrt.primitives.Shape("/S", kind, np.eye(4))

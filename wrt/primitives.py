@@ -43,7 +43,15 @@ import numpy as np
 import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
-from .errors import bottom_row_problem, eight_bit_colors, flag, int32_problem, prim_path, with_bottom_row
+from .errors import (
+    bottom_row_problem,
+    did_you_mean,
+    eight_bit_colors,
+    flag,
+    int32_problem,
+    prim_path,
+    with_bottom_row,
+)
 from .floats import scaled_limit, unit_scales
 from .instancing import invert_transforms, thicken_flat_transforms
 from .ray_batch import host_array
@@ -466,8 +474,10 @@ class Shape(CountsAssignments):
         path = prim_path(self.path, f"wrt.Shape {self.kind!r}")
         if path is not self.path:
             self.path = path
-        if self.kind not in SHAPE_KINDS:
-            raise ValueError(f"unknown shape kind {self.kind!r}; valid kinds: {', '.join(SHAPE_KINDS)}")
+        if not (isinstance(self.kind, str) and self.kind in SHAPE_KINDS):  # a list failed as unhashable
+            hint = did_you_mean(self.kind, SHAPE_KINDS) if isinstance(self.kind, str) else ""
+            raise ValueError(f"shape {self.path}: unknown shape kind {self.kind!r}{hint}; valid kinds: "
+                             f"{', '.join(SHAPE_KINDS)}")
         if type(self.double_sided) is not bool:  # "no" was taken by its truth: double-sided
             self.double_sided = flag(self.double_sided, f"shape {self.path}: double_sided")
         if type(self.material_id) is not int or not -(2**31) <= self.material_id < 2**31:
