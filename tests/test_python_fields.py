@@ -224,3 +224,17 @@ def test_an_unknown_shape_kind_is_refused_naming_the_shape(kind, words):
     "unhashable type: 'list'"; refused naming the shape, with the kind meant where one is close."""
     with pytest.raises(ValueError, match=rf"^shape /S: unknown shape kind {words}; valid kinds: sphere, box, "):
         wrt.primitives.Shape("/S", kind, np.eye(4))
+
+
+@pytest.mark.parametrize("name", ["intensity", "exposure", "colorTemperature"])
+def test_a_usdlux_input_that_is_no_light_field_is_refused_at_the_next_render(name):
+    """``light.intensity = 2`` (or ``exposure``, UsdLux's names; wrt folds them into ``color``) was kept as an
+    attribute no render reads: the light shone on as before without a word. The next render refuses it naming the
+    light and the attribute."""
+    ball = wrt.primitives.Shape("/Ball", "sphere", np.eye(4), double_sided=True)
+    light = make_light("rect")
+    scene = wrt.Scene(shapes=[ball], lights=[light])
+    wrt.render(scene, camera=TOP, width=4, height=4)
+    setattr(light, name, 2.0)
+    with pytest.raises(wrt.SceneError, match=rf"^/L: RectLight has no field {name}: its color is UsdLux's intensity "):
+        wrt.render(scene, camera=TOP, width=4, height=4)

@@ -475,6 +475,29 @@ class DomeLight:
 LIGHT_TYPES = (DistantLight, SphereLight, RectLight, DiskLight, CylinderLight, DomeLight, MeshLight)
 
 
+# UsdLux inputs that wrt folds into a light's ``color``: no field of any light, so that set on one built in Python
+# (``light.intensity = 2``) they were kept as attributes that no render reads.
+FOLDED_INPUTS = ("intensity", "exposure", "color_temperature", "enable_color_temperature", "colorTemperature",
+                 "enableColorTemperature")
+
+
+def check_folded_inputs(light) -> None:
+    """Refuses a light given an attribute named after a UsdLux input that wrt folds into ``color``
+    (:data:`FOLDED_INPUTS`): a dataclass keeps any attribute, and the light shone on as before without a word.
+    Checked with the light's fields before a render (:func:`wrt.render.check_lights`), not at each assignment, which
+    would slow every light's construction (the loader's too).
+
+    Raises:
+        SceneError: naming the light and the attribute.
+    """
+    state = getattr(light, "__dict__", {})
+    for name in FOLDED_INPUTS:
+        if name in state:
+            raise SceneError(f"{type(light).__name__} has no field {name}: its color is UsdLux's intensity * "
+                             "2**exposure * color (times the blackbody colour of an enabled colorTemperature); set "
+                             "color", prim=getattr(light, "path", "") or None)
+
+
 def _checked_texture(light) -> np.ndarray | None:
     """``light.texture`` as float32, or None; any shape but ``(H, W, 3 or 4)`` raises, naming the light (it failed
     deep in Warp, a TypeError about 'dome_texels'), and so do samples that are not floats, as ``scene.textures``'
