@@ -334,12 +334,16 @@ def test_an_sdf_path_or_numpy_string_is_taken_as_the_path_it_names():
     (lambda: wrt.SphereLight(position=(0, 0, 1), radius=0.1, color=(1, 1, 1), path=5), "wrt.SphereLight"),
     (lambda: wrt.DistantLight((0, 0, -1), (1, 1, 1), path=b"/Sun"), "wrt.DistantLight"),
     (lambda: wrt.Instances.from_transforms([0], np.eye(4)[None], name=5), "wrt.Instances.from_transforms"),
+    (lambda: wrt.MeshLight("/Glow", (1, 1, 1), mesh=5), "wrt.MeshLight /Glow mesh"),
 ])
 def test_other_scene_parts_refuse_a_path_that_is_no_string(make, what):
-    """The same for shapes, prototypes, materials, lights and instances' names; a light's path stays optional."""
+    """The same for shapes, prototypes, materials, lights and instances' names, and a MeshLight's ``mesh`` (5 was
+    refused only at the render, as "MeshLight names no mesh of the scene"); a light's path and a MeshLight's ``mesh``
+    stay optional."""
     with pytest.raises(TypeError, match=rf"^{re.escape(what)}: path must be a str"):
         make()
     assert wrt.DistantLight((0, 0, -1), (1, 1, 1), path=None).path == ""
+    assert wrt.MeshLight("/Glow", (1, 1, 1), mesh=None).mesh_path == "/Glow"
 
 
 @pytest.mark.parametrize("radius", [0.0, 1e-30])

@@ -55,7 +55,7 @@ import math
 import numpy as np
 
 from .affine_lights import ellipsoid_area, elliptic_tube_area, flat, right_angled, similar
-from .errors import SceneError, bottom_row_problem, check_fields, check_flags
+from .errors import SceneError, bottom_row_problem, check_fields, check_flags, prim_path
 from .light_links import LinkCollection
 from .light_shaping import Shaping
 from .ray_batch import host_array
@@ -430,6 +430,8 @@ class MeshLight:
     def __post_init__(self):
         check_fields(self, _COLOR, *_MULTIPLIERS)
         check_flags(self, "normalize", "shadows")
+        if type(self.mesh) is not str:  # an int or pathlib path named no mesh: "MeshLight names no mesh of the scene"
+            self.mesh = prim_path(self.mesh, f"wrt.MeshLight {self.path} mesh", optional=True)
         if self.material_sync not in MATERIAL_SYNC_MODES:
             raise SceneError(f"MeshLight material_sync must be one of {', '.join(MATERIAL_SYNC_MODES)}, got "
                              f"{self.material_sync!r}", prim=self.path or None)
