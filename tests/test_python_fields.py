@@ -97,7 +97,16 @@ def warp_cpu(values):
     return wp.array(np.ascontiguousarray(values), device="cpu")
 
 
-@pytest.mark.parametrize("holder", ["numpy", "list", "warp", "dlpack"])
+def warp_cuda(values):
+    """``values`` as a ``wp.array`` on the GPU (the test skips without one), which numpy refuses to read."""
+    import warp as wp
+
+    if not wp.is_cuda_available():
+        pytest.skip("needs CUDA")
+    return wp.array(np.ascontiguousarray(values), device="cuda:0")
+
+
+@pytest.mark.parametrize("holder", ["numpy", "list", "warp", "dlpack", "cuda"])
 @pytest.mark.parametrize("kind", ["rect", "disk", "cylinder", "dome"])
 def test_a_light_transform_without_its_bottom_row_is_read_as_a_shapes_is(kind, holder):
     """A light's ``(3, 4)`` affine ``to_world`` (the device's own layout, which a shape takes) was refused ("must be
@@ -105,7 +114,8 @@ def test_a_light_transform_without_its_bottom_row_is_read_as_a_shapes_is(kind, h
     Oracle: the same light made from the whole matrix, and its area from the scales (2 and 3 on X and Y)."""
     m = np.diag([2.0, 3.0, 1.0, 1.0])
     m[:3, 3] = 1.0, -2.0, 3.0
-    top = {"numpy": lambda a: a, "list": lambda a: a.tolist(), "warp": warp_cpu, "dlpack": DLPackOnly}[holder](m[:3])
+    top = {"numpy": lambda a: a, "list": lambda a: a.tolist(), "warp": warp_cpu, "dlpack": DLPackOnly,
+           "cuda": warp_cuda}[holder](m[:3])
     light = make_light(kind)
     light.to_world = top
     light.__post_init__()
@@ -124,13 +134,13 @@ def test_a_light_transform_of_another_shape_is_still_refused_naming_the_light(va
         wrt.RectLight(value, 1.0, 1.0, WHITE, path="/L")
 
 
-@pytest.mark.parametrize("holder", ["warp", "dlpack"])
+@pytest.mark.parametrize("holder", ["warp", "dlpack", "cuda"])
 def test_shape_params_color_and_opacity_on_a_gpu_are_read_as_a_meshs_arrays_are(holder):
     """A shape's params, colour and opacity held as a GPU array (a ``wp.array`` on CUDA, a torch tensor: here a CPU
     array behind DLPack only) failed with numpy's refusal ("can't convert cuda:0 device type tensor to numpy"),
     naming no shape, where a mesh's arrays are copied to the host. Oracle: the same shape from numpy arrays, and the
     colour the albedo integrator shows on it."""
-    make = {"warp": warp_cpu, "dlpack": DLPackOnly}[holder]
+    make = {"warp": warp_cpu, "dlpack": DLPackOnly, "cuda": warp_cuda}[holder]
     color = np.float32([0.25, 0.5, 1.0])
     ball = wrt.primitives.Shape("/Ball", "capsule", np.eye(4), params=make(np.float32([0.5, 0.0, 0.0, 1.0])),
                                 color=make(color), opacity=make(np.float32([1.0])), double_sided=True)
