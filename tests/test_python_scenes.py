@@ -113,6 +113,19 @@ def test_a_part_replaced_by_one_of_the_wrong_type_is_refused_at_the_next_render(
         wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
 
 
+def test_a_light_appended_of_the_wrong_type_is_refused_at_the_next_render():
+    """The same for an entry appended to ``scene.lights`` after a render, by a kept Renderer and a new render alike
+    (it failed with 'unsupported light NoneType', naming no entry)."""
+    scene = wrt.Scene(meshes=[square_mesh("/Ground")], lights=[wrt.DistantLight((0, 0, -1), (1, 1, 1))])
+    renderer = wrt.Renderer(scene, camera=TOP, width=4, height=4)
+    renderer.render()
+    scene.lights.append(None)
+    with pytest.raises(TypeError, match=r"^scene\.lights\[1\] is a NoneType, not a wrt light"):
+        renderer.render()
+    with pytest.raises(TypeError, match=r"^scene\.lights\[1\] is a NoneType, not a wrt light"):
+        wrt.render(scene, camera=TOP, width=4, height=4)
+
+
 def test_a_mesh_without_face_ids_is_a_face_per_triangle_everywhere():
     """``Mesh(path, points, indices, None)`` is taken and renders, but ``hit_paths`` and ``hit_prims`` then failed with
     numpy's "all the input arrays must have same number of dimensions", and so did a render of a single-sided mesh

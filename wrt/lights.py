@@ -477,6 +477,16 @@ class DomeLight:
 LIGHT_TYPES = (DistantLight, SphereLight, RectLight, DiskLight, CylinderLight, DomeLight, MeshLight)
 
 
+def check_light_types(lights: list) -> None:
+    """Raises ``TypeError`` naming ``scene.lights[k]``, the first entry of ``lights`` that is no wrt light (None, a
+    Shaping, a path): it failed at the render with 'unsupported light NoneType', naming no entry. The Scene checks
+    them when made, a render again (a light appended to the list since)."""
+    for k, light in enumerate(lights):
+        if not isinstance(light, LIGHT_TYPES):
+            raise TypeError(f"scene.lights[{k}] is a {type(light).__name__}, not a wrt light (one of "
+                            f"{', '.join('wrt.' + t.__name__ for t in LIGHT_TYPES)})")
+
+
 # UsdLux inputs that wrt folds into a light's ``color``: no field of any light, so that set on one built in Python
 # (``light.intensity = 2``) they were kept as attributes that no render reads.
 FOLDED_INPUTS = ("intensity", "exposure", "color_temperature", "enable_color_temperature", "colorTemperature",

@@ -37,7 +37,7 @@ from .integrators.whitted import (
 )
 from .light_sampling import LIGHT_DOME
 from .light_table import build_lights, no_response_triangles, seen_by_camera, set_headlight_directions
-from .lights import check_folded_inputs, default_lights
+from .lights import check_folded_inputs, check_light_types, default_lights
 from .materials import emission_estimates, upload_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
@@ -308,6 +308,7 @@ def check_lights(lights) -> None:
     Raises:
         SceneError: naming the light and the field.
     """
+    check_light_types(lights)  # one appended to scene.lights since the Scene was made
     for light in lights:
         check_folded_inputs(light)  # light.intensity = 2: no field of wrt's lights
     for part in dataclass_parts(lights):

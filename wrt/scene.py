@@ -553,7 +553,7 @@ class Scene:
         'check_affine', 'dict' object has no attribute '__dict__'), "'Mesh' object is not iterable" for
         ``Prototype(path, mesh)``, or "must be called with a dataclass type or instance" for a prototype holding
         points."""
-        from .lights import LIGHT_TYPES
+        from .lights import check_light_types
         from .materials import Material
         from .primitives import Shape
 
@@ -570,10 +570,7 @@ class Scene:
             raise TypeError(f"scene.instances is a {type(self.instances).__name__}, not a wrt.Instances (use "
                             "wrt.Instances.from_transforms(prototype, to_world))")
         check(self.shapes, Shape, "scene.shapes")
-        for k, light in enumerate(self.lights):  # 'unsupported light str' at the first render named no entry
-            if not isinstance(light, LIGHT_TYPES):
-                raise TypeError(f"scene.lights[{k}] is a {type(light).__name__}, not a wrt light (one of "
-                                f"{', '.join('wrt.' + t.__name__ for t in LIGHT_TYPES)})")
+        check_light_types(self.lights)
         check(self.materials, Material, "scene.materials")
         check(self.prototypes, Prototype, "scene.prototypes")
         for k, prototype in enumerate(self.prototypes):
