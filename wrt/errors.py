@@ -108,7 +108,7 @@ def flag(value, what: str) -> bool:
 
 
 def check_flags(obj, *names: str) -> None:
-    """Makes fields ``names`` of a light built in Python ``bool`` s, as :func:`flag` reads a mesh's ``double_sided``:
+    """Makes fields ``names`` of a light built in Python bools, as :func:`flag` reads a mesh's ``double_sided``:
     ``normalize="false"`` (or "no", None, an array) was taken by its truth, normalizing the light without a word.
     Run after :func:`check_fields`, which makes ``obj.path`` a ``str``.
 
