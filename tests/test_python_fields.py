@@ -252,8 +252,9 @@ def test_a_usdlux_input_that_is_no_light_field_is_refused_at_the_next_render(nam
 
 def test_a_shape_whose_box_is_past_float32_is_refused_naming_it():
     """A sphere of radius 1e39 built in Python failed at the trace with "triangle vertices must be finite (found NaN
-    or inf); triangle 0 uses one", naming no shape (``load_usd`` refuses such a gprim, and a mesh such points).
-    Refused naming the shape, in the world and in a prototype; a radius of 1e30 stays. Oracle: a ray from 3e30 meets
+    or inf); triangle 0 uses one", and a render without a camera with "look_at: eye must be 3 finite numbers", naming
+    no shape (``load_usd`` refuses such a gprim, and a mesh such points). Refused naming the shape, in the world and in
+    a prototype, by a trace, a render and ``Scene.bounds()``; a radius of 1e30 stays. Oracle: a ray from 3e30 meets
     that sphere at t = 2e30."""
     def ball(radius: float) -> wrt.primitives.Shape:
         return wrt.primitives.Shape("/Ball", "sphere", np.diag([radius, radius, radius, 1.0]))
@@ -262,6 +263,10 @@ def test_a_shape_whose_box_is_past_float32_is_refused_naming_it():
              r"float32's range")
     with pytest.raises(ValueError, match=words):
         wrt.trace(wrt.Scene(shapes=[ball(1e39)]), [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
+    with pytest.raises(ValueError, match=words):
+        wrt.render(wrt.Scene(shapes=[ball(1e39)]), width=4, height=4)
+    with pytest.raises(ValueError, match=words):
+        wrt.Scene(shapes=[ball(1e39)]).bounds()
     prototype = wrt.Prototype("/P", [], shapes=[ball(1e39)])
     scene = wrt.Scene(prototypes=[prototype], instances=wrt.Instances.from_transforms([0], np.eye(4)[None]))
     with pytest.raises(ValueError, match=words):

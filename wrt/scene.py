@@ -789,6 +789,23 @@ class Scene:
         for mesh in self._geometry_meshes():
             mesh.check_vertices()
 
+    def check_shape_boxes(self) -> None:
+        """Raises ``ValueError`` naming the first shape (in the world or a prototype) whose box its ``to_world`` takes
+        past float32's range, as ``load_usd`` refuses such a gprim and a mesh such points: a sphere of radius 1e39
+        built in Python made the scene's bounds infinite (the default camera's eye NaN: "look_at: eye must be 3 finite
+        numbers"), and the build failed with "triangle vertices must be finite", each naming no shape."""
+        shapes = self._geometry_shapes()
+        if not shapes:
+            return
+        lowers, uppers = (np.array(b) for b in zip(*(shape.local_bounds() for shape in shapes)))
+        with np.errstate(invalid="ignore"):  # a NaN transform is named by the trace (tlas.check_finite_transforms)
+            lo, hi = world_boxes(lowers, uppers, np.stack([shape.to_world for shape in shapes]))
+            past = np.flatnonzero(np.maximum(np.abs(lo), np.abs(hi)).max(axis=1) > np.finfo(np.float32).max)
+        if len(past):
+            k = int(past[0])
+            raise ValueError(f"shape {shapes[k].path}: its box, {lo[k].tolist()} to {hi[k].tolist()}, is past "
+                             "float32's range")
+
     def check_instances(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of
         :attr:`prototypes` (-1 drew the last prototype when flattened (``accel="warp"``) and nothing in the two-level
@@ -1368,6 +1385,7 @@ class Scene:
         if key in self._cache:
             return self._cache[key]
         self.check_vertices()  # a NaN made the default camera's eye NaN: named here, not as a camera error
+        self.check_shape_boxes()  # likewise a shape past float32
         points, indices = _concatenate_meshes(self.meshes)
         lower = np.full(3, np.inf)
         upper = np.full(3, -np.inf)

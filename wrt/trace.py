@@ -31,7 +31,7 @@ from .bvh.stack import STACK_BUILD_OPTIONS
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, closest_hit_kernels
 from .bvh.wide import WIDE_WIDTHS, device_wide_bvh
 from .errors import did_you_mean
-from .instancing import unplaceable, world_boxes
+from .instancing import unplaceable
 from .mesh_trace import occluded_mesh_kernel, trace_mesh_kernel
 from .ray_batch import upload_rays
 from .scene import Scene
@@ -265,21 +265,10 @@ def check_finite_transforms(scene: Scene) -> None:
             raise ValueError(f"instance {i} ({instances.path(i)}) is placed beyond float32's range (translation "
                              f"{instances.to_world[i, :3, 3].tolist()}, |x| > 3.4e38), and rays are traced in float32")
         raise ValueError(f"instance {i} ({instances.path(i)}) has a NaN or infinite transform")
-    shapes = [*scene.shapes, *(s for p in scene.prototypes for s in p.shapes)]
-    for shape in shapes:
+    for shape in [*scene.shapes, *(s for p in scene.prototypes for s in p.shapes)]:
         if not np.isfinite(shape.to_world).all():
             raise ValueError(f"shape {shape.path} has a NaN or infinite transform")
-    if not shapes:
-        return
-    # As load_usd refuses such a gprim and a mesh such points: a box past float32 (a radius of 1e39) made the scene's
-    # bounds infinite, and the build failed with "triangle vertices must be finite", naming no shape.
-    lowers, uppers = (np.array(b) for b in zip(*(shape.local_bounds() for shape in shapes)))
-    lo, hi = world_boxes(lowers, uppers, np.stack([shape.to_world for shape in shapes]))
-    past = np.flatnonzero(np.maximum(np.abs(lo), np.abs(hi)).max(axis=1) > np.finfo(np.float32).max)
-    if len(past):
-        k = int(past[0])
-        raise ValueError(f"shape {shapes[k].path}: its box, {lo[k].tolist()} to {hi[k].tolist()}, is past float32's "
-                         "range")
+    scene.check_shape_boxes()  # a box past float32 (a radius of 1e39): the build named no shape
 
 
 class RowSplitter:
