@@ -18,7 +18,7 @@ import sys
 
 import pytest
 
-RENDER_AND_REPORT = """
+LAUNCHES_RECORDED = """
 import json, sys
 import warp as wp
 
@@ -32,10 +32,9 @@ def launch(kernel, *args, **kwargs):
 
 
 wp.launch = launch
-from wrt.cli import main
+"""
 
-wp.config.log_level = wp.LOG_INFO  # Warp's module-load lines (importing wrt quietened them)
-main(["render", "--device", "cpu", "-o", sys.argv[1]])
+MODULES_REPORTED = """
 kernels = {}
 for name, module in list(sys.modules.items()):
     if name.startswith("wrt"):
@@ -51,24 +50,62 @@ for name, keys in kernels.items():
 print(json.dumps(report))
 """
 
+# wrt render on the CPU, writing argv[1], with the options that follow it
+RENDER_AND_REPORT = LAUNCHES_RECORDED + """
+from wrt.cli import main
+
+wp.config.log_level = wp.LOG_INFO  # Warp's module-load lines (importing wrt quietened them)
+main(["render", "--device", "cpu", "-o", sys.argv[1], *sys.argv[2:]])
+""" + MODULES_REPORTED
+
+# wrt.trace of one ray into the default scene, the README's first query
+TRACE_AND_REPORT = LAUNCHES_RECORDED + """
+import numpy as np
+
+import wrt
+from wrt.cli import default_scene_path
+
+scene = wrt.load_usd(str(default_scene_path()))
+hits = wrt.trace(scene, np.array([[0, 1, 5]], np.float32), np.array([[0, 0, -1]], np.float32), device="cpu")
+assert hits.prim[0] >= 0  # the ray meets the room's back wall
+""" + MODULES_REPORTED
+
+
+def run_and_report(script: str, *args: str) -> str:
+    """The standard output of ``script`` run with ``args`` in a fresh interpreter (launches split between two
+    threads), whose last line is its report."""
+    env = {**os.environ, "WRT_THREADS": "2"}
+    result = subprocess.run([sys.executable, "-c", script, *args], capture_output=True, text=True, timeout=600,
+                            env=env)
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def loaded_modules(stdout: str) -> dict:
+    """``{module: {"kernels", "launched", "enable_backward"}}`` of the Warp modules that a run loaded."""
+    return json.loads(stdout.strip().splitlines()[-1])
+
+
+def unlaunched_kernels(modules: dict, allowed=frozenset()) -> dict:
+    """``{module: kernels}`` of the loaded modules' kernels that were not launched, beyond ``allowed``."""
+    unlaunched = {name: sorted(set(m["kernels"]) - set(m["launched"]) - set(allowed)) for name, m in modules.items()}
+    return {name: keys for name, keys in unlaunched.items() if keys}
+
 
 @pytest.fixture(scope="module")
 def default_render(tmp_path_factory):
     """The standard output of a default ``wrt render`` (640x480, whitted, on the CPU, its launches split between two
     threads) in a fresh interpreter: Warp's log lines, then the report."""
     out = tmp_path_factory.mktemp("render") / "wrt.png"
-    env = {**os.environ, "WRT_THREADS": "2"}
-    result = subprocess.run([sys.executable, "-c", RENDER_AND_REPORT, str(out)], capture_output=True, text=True,
-                            timeout=600, env=env)
-    assert result.returncode == 0, result.stderr
+    stdout = run_and_report(RENDER_AND_REPORT, str(out))
     assert out.is_file()
-    return result.stdout
+    return stdout
 
 
 @pytest.fixture
 def default_render_modules(default_render):
     """``{module: {"kernels", "launched", "enable_backward"}}`` of the Warp modules a default ``wrt render`` loaded."""
-    return json.loads(default_render.strip().splitlines()[-1])
+    return loaded_modules(default_render)
 
 
 def test_default_render_compiles_no_backward_pass(default_render_modules):
@@ -91,10 +128,34 @@ def test_default_render_compiles_only_modules_of_launched_kernels(default_render
     """No module is loaded for a kernel the render does not launch: the path tracer, the wp.Mesh queries and the
     back-face and cut-out passes (the default scene is double-sided, without cut-outs) share no module with the
     kernels a whitted render launches."""
-    unlaunched = {name: sorted(set(m["kernels"]) - set(m["launched"]) - COMPILED_UNLAUNCHED)
-                  for name, m in default_render_modules.items()}
-    assert {name: keys for name, keys in unlaunched.items() if keys} == {}
+    assert unlaunched_kernels(default_render_modules, COMPILED_UNLAUNCHED) == {}
     assert all(m["launched"] for m in default_render_modules.values())
+
+
+def test_a_path_render_compiles_only_modules_of_launched_kernels(tmp_path):
+    """A path-traced render loads the path tracer's module and not the whitted one (each integrator is a module of
+    its own, ``wrt/integrators/``), and compiles no more unlaunched kernels than a whitted render does."""
+    out = tmp_path / "path.png"
+    modules = loaded_modules(run_and_report(RENDER_AND_REPORT, str(out), "--integrator", "path", "--width", "64",
+                                            "--height", "48"))
+    assert out.is_file()
+    assert "wrt.integrators.path" in modules and "wrt.integrators.whitted" not in modules
+    assert unlaunched_kernels(modules, COMPILED_UNLAUNCHED) == {}
+
+
+# wrt.trace's kernels that a closest-hit query of wrt's BVH compiles without launching: the twin of the counting trace
+# kernel it launches (a module of its own would compile the traversal code again for every render that traces bounce
+# rays), the any-hit kernel and the instance rows' mapping (unused by an uninstanced scene).
+TRACE_UNLAUNCHED = {"trace_bvh_kernel_uncounted", "occluded_bvh_kernel", "split_rows_kernel"}
+
+
+def test_a_trace_compiles_no_module_of_the_renderer():
+    """``wrt.trace`` (the README's first query) loads the BVH builder's modules and ``wrt.trace``, none of the
+    renderer's: shading, integrators and cut-out passes share no module with a trace."""
+    modules = loaded_modules(run_and_report(TRACE_AND_REPORT))
+    assert "wrt.trace" in modules
+    assert [name for name in modules if name != "wrt.trace" and not name.startswith("wrt.bvh.")] == []
+    assert unlaunched_kernels(modules, TRACE_UNLAUNCHED) == {}
 
 
 def test_default_render_loads_each_module_once(default_render):
