@@ -602,6 +602,24 @@ def test_zero_scaled_camera_is_refused_only_when_used(tmp_path):
         wrt.render(scene, camera="/Flat", width=4, height=4, device="cpu")
 
 
+def test_a_zero_scaled_only_camera_is_skipped_with_a_warning_and_the_scene_framed(tmp_path):
+    """The stage's first camera is the default view: a singular one stopped a plain render with a ValueError."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "flat.usda"))
+    UsdGeom.Camera.Define(stage, "/Flat").AddScaleOp().Set(Gf.Vec3f(0, 0, 0))
+    mesh = UsdGeom.Mesh.Define(stage, "/Tri")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([3])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"cameras wrt cannot use were skipped.*singular.*/Flat"):
+        scene = wrt.load_usd(tmp_path / "flat.usda")
+    assert "/Flat" not in scene.cameras
+    img = wrt.render(scene, width=8, height=8, device="cpu")
+    assert img.aovs["coverage"].max() > 0  # framed by the default camera: the triangle is seen
+    with pytest.raises(wrt.SceneError, match="/Flat.*singular"):
+        wrt.render(scene, camera="/Flat", width=4, height=4, device="cpu")
+
+
 CLIPPED_WORLD = """#usda 1.0
 def Xform "World"
 {{

@@ -2,7 +2,7 @@
 instances (hidden ones too), skipped inside PointInstancer prototypes.
 
 A camera whose values :class:`wrt.camera.Camera` refuses (a zero focal length, a negative aperture, an inverted
-clipping range, a transform that is not finite, ...) is skipped with a warning naming it and why
+clipping range, a transform that is not finite or singular, ...) is skipped with a warning naming it and why
 (:data:`UNUSABLE_CAMERA`): the stage may well be rendered from another camera. The reason is kept in
 ``Scene.skipped_cameras``, and a render asked for it by path, or whose render settings name it, raises it
 (:func:`wrt.render.resolve_camera`, :func:`wrt.render.resolve_view`). A blocked value (``= None``) is the schema's
@@ -102,6 +102,8 @@ class CameraReading:
         if not np.all(np.isfinite(world)):  # (before affine_part, which took NaN for a projective column)
             raise ValueError("camera transform is not finite")
         m = affine_part(world, lambda reason: self._skip(reason, prim))
+        if not abs(np.linalg.det(m[:3, :3])) > 0.0:  # as Camera.to_struct refuses it, but skipped: the stage's first
+            raise ValueError("camera transform is singular (a zero scale), so it has no view")  # camera is the default
         loaded = Camera(  # ValueError naming the field it refuses, as "camera needs ...": the caller names the prim
             to_world=m.T,  # column vectors
             focal_length=number(camera.GetFocalLengthAttr()),
