@@ -1086,3 +1086,46 @@ def SphereLight "New"
     assert len(messages) == 1, messages
     assert "2 prim(s)" in messages[0] and "/Old" in messages[0] and "/Both" in messages[0]
     assert "/New" not in messages[0] and "intensity" in messages[0] and "radius" in messages[0]
+
+
+MISTYPED_LIGHTS = """#usda 1.0
+def SphereLight "Words"
+{
+    string inputs:intensity = "bright"
+}
+def DistantLight "Named"
+{
+    token inputs:color = "red"
+}
+def RectLight "Hot" (
+    prepend apiSchemas = ["ShapingAPI"]
+)
+{
+    bool inputs:enableColorTemperature = 1
+    string inputs:colorTemperature = "warm"
+}
+def DiskLight "Cold"
+{
+    string inputs:colorTemperature = "cold"
+    float inputs:intensity = 3
+}
+"""
+
+
+def test_a_light_input_of_the_wrong_type_skips_that_light_with_a_warning_naming_it(tmp_path):
+    """A string intensity or a token colour stopped the whole load with "cannot read this prim", naming no input; a
+    colour temperature that is not enabled is not read, whatever its type."""
+    path = tmp_path / "mistyped.usda"
+    path.write_text(MISTYPED_LIGHTS)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    messages = [str(w.message) for w in caught if "not a number were skipped" in str(w.message)]
+    assert len(messages) == 1, messages
+    for name, shown in (("/Words", "inputs:intensity = 'bright'"), ("/Named", "inputs:color = 'red'"),
+                        ("/Hot", "inputs:colorTemperature = 'warm'")):
+        assert name in messages[0] and shown in messages[0]
+    assert [light.path for light in scene.lights] == ["/Cold"]
+    stage = Usd.Stage.Open(str(path))
+    intensity = UsdLux.DiskLight(stage.GetPrimAtPath("/Cold")).GetIntensityAttr().Get()
+    np.testing.assert_allclose(scene.lights[0].color, intensity)

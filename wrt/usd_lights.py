@@ -167,11 +167,31 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     from pxr import UsdLux
 
     light = UsdLux.LightAPI(prim)
-    color = np.array(get(light.GetColorAttr(), (1.0, 1.0, 1.0)), dtype=np.float64)
-    intensity = float(get(light.GetIntensityAttr(), 1.0))
-    exposure = float(get(light.GetExposureAttr(), 0.0))
-    if get(light.GetEnableColorTemperatureAttr(), False):
-        kelvin = float(get(light.GetColorTemperatureAttr(), 6500.0))
+    mistyped = []
+
+    def read(attr, fallback, convert):
+        """``convert`` of ``attr``'s value; ``fallback``'s for a value of the wrong type (a string intensity, a
+        token colour), named in ``mistyped``: it stopped the whole load with "cannot read this prim"."""
+        value = get(attr, fallback)
+        try:
+            return convert(value)
+        except (TypeError, ValueError):
+            mistyped.append(f"{attr.GetName()} = {value!r}")
+            return convert(fallback)
+
+    def vector(value):
+        return np.array(value, dtype=np.float64)
+
+    color = read(light.GetColorAttr(), (1.0, 1.0, 1.0), vector)
+    intensity = read(light.GetIntensityAttr(), 1.0, float)
+    exposure = read(light.GetExposureAttr(), 0.0, float)
+    blackbody = bool(get(light.GetEnableColorTemperatureAttr(), False))
+    kelvin = read(light.GetColorTemperatureAttr(), 6500.0, float) if blackbody else 6500.0
+    if mistyped:
+        skip("lights whose colour, intensity, exposure or colour temperature is not a number were skipped", prim,
+             ", ".join(mistyped))
+        return None
+    if blackbody:
         if math.isnan(kelvin):  # UsdLux.BlackbodyTemperatureAsRgb segfaults on NaN (it clamps the rest)
             skip("lights whose colorTemperature is NaN were skipped", prim,
                  f"inputs:colorTemperature = {kelvin:g}")
