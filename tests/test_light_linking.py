@@ -567,3 +567,23 @@ def test_a_mesh_named_by_a_relative_path_is_lit_as_the_root_rule_says():
         sun = wrt.DistantLight(direction=DOWN, color=np.array([2.0, 0, 0]), light_link=link)
         lit.append(render(wrt.Scene(meshes=[floor], lights=[sun]), "whitted", camera=TOP)[FLOOR_PX][..., 0].max())
     assert lit[0] == 0.0 and lit[1] > 0.1
+
+
+def test_an_expansion_rule_usd_does_not_define_is_read_as_usds_query_reads_it(tmp_path):
+    """A ``bogus`` expansionRule (UsdCollectionAPI allows the token, USD's query takes it as expandPrims) stopped the
+    whole load with LinkCollection's SceneError, which named no file; it is warned about and membership is USD's."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "rule.usda"))
+    for path in ("/W/A/Child", "/W/B"):
+        UsdGeom.Mesh.Define(stage, path)  # (no faces: the membership is what is checked)
+    light = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, "/W/L"))
+    collection = light.GetLightLinkCollectionAPI()
+    collection.CreateIncludeRootAttr(False)
+    collection.CreateExpansionRuleAttr("bogus")
+    collection.CreateIncludesRel().AddTarget("/W/A")
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"rule\.usda: light linking collections with an expansionRule USD does not "
+                                         r"define .*'bogus'.*: /W/L"):
+        scene = wrt.load_usd(tmp_path / "rule.usda")
+    query = collection.ComputeMembershipQuery()
+    for path in ("/W/A", "/W/A/Child", "/W/B", "/W"):
+        assert scene.lights[0].light_link.includes(path) == query.IsPathIncluded(Sdf.Path(path)), path

@@ -174,6 +174,11 @@ def read_collection(collection, kind: str, skip):
     except Tf.ErrorException:  # one USD cannot resolve
         skip(f"{kind} collections USD cannot resolve are ignored; these lights use every prim", collection.GetPrim())
         return None
+    unknown = sorted({rule for rule in rules.values() if rule not in RULES})
+    if unknown:  # an expansionRule token of no meaning stopped the whole load with LinkCollection's SceneError
+        skip(f"{kind} collections with an expansionRule USD does not define are read as expandPrims, as USD's query "
+             "reads them", collection.GetPrim(), ", ".join(repr(rule) for rule in unknown))
+        rules = {path: rule if rule in RULES else EXPAND_PRIMS for path, rule in rules.items()}
     if rules.get("/") in (EXPAND_PRIMS, EXPAND_PRIMS_AND_PROPERTIES) and EXCLUDE not in rules.values():
         return None
     return LinkCollection(rules)
