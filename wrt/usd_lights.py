@@ -82,6 +82,9 @@ def input_reader(prim, time):
             return default
         # value_at(attr, time), its HasAuthoredValue known: read_time only where it can matter.
         value = attr.Get(read_time(attr, time) if has_value else time)
+        if value is None:  # a value block (= None) resolves to the schema's fallback, as USD's value resolution says:
+            # a blocked DistantLight intensity was 1, not 50000 (an old unprefixed name has no fallback: default)
+            value = prim.GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
         return default if value is None else value
 
     return get, legacy
