@@ -104,7 +104,11 @@ class GprimReading:
 
         def number(attr, name, zero_ok=False):
             value = value_at(attr, t)
-            value = float(value) if value is not None else float("nan")
+            try:
+                value = float(value) if value is not None else float("nan")
+            except (TypeError, ValueError):  # authored with a wrong type: a string radius stopped the whole load
+                bad_size(f"{name} = {value!r}")
+                return None
             if not (math.isfinite(value) and (value > 0.0 or (zero_ok and value == 0.0))):
                 bad_size(f"{name} = {value:g}")
                 return None
