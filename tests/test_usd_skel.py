@@ -284,6 +284,29 @@ def test_failed_skinning_keeps_unposed_points_with_a_warning(tmp_path, case):
     np.testing.assert_allclose(mesh.points, authored, atol=1e-6)
 
 
+REFUSED_INFLUENCES = {  # joint influences UsdSkel's query refuses: (text of skel_root(), its replacement)
+    "weights of another interpolation": ('2\n            interpolation = "vertex"\n        )\n        matrix4d',
+                                         '2\n            interpolation = "constant"\n        )\n        matrix4d'),
+    "indices of elementSize 0": ('elementSize = 2\n            interpolation = "vertex"\n        )\n        float[]',
+                                 'elementSize = 0\n            interpolation = "vertex"\n        )\n        float[]'),
+}
+
+
+@pytest.mark.parametrize("case", REFUSED_INFLUENCES)
+def test_influences_usd_refuses_are_named_and_the_mesh_posed_as_bake_skinning_poses_it(tmp_path, case):
+    """UsdSkel ignores such influences (printing a warning that names no mesh) and bakes the blend shapes alone: wrt
+    drew the same without a word of its own."""
+    old, new = REFUSED_INFLUENCES[case]
+    body = skel_root()
+    assert old in body
+    path = write(tmp_path, body.replace(old, new))
+    with pytest.warns(UserWarning, match=r"joint influences that UsdSkel cannot use .* not skinned.*: /Root/Bar$"):
+        scene = load_usd(path, time=5.0)
+    mesh = {m.path: m for m in scene.meshes}["/Root/Bar"]
+    expected, _ = world_triangles(baked(path), "/Root/Bar", Usd.TimeCode(5.0))
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=1e-5)
+
+
 RIGID_INDEX = 'int[] primvars:skel:jointIndices = [1] (\n            interpolation = "constant"'
 BAD_RIGID = {  # a rigid binding that cannot pose the quad: (replacement of RIGID_INDEX, what the warning says)
     "joint out of range": (RIGID_INDEX.replace("[1]", "[5]"), r"jointIndices\[0\] = 5 is out of range"),

@@ -36,6 +36,9 @@ from .usd_values import read_time
 
 _ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
 FAILED = "UsdSkel skinning failed; these meshes are drawn in their unposed points"  # warning reason
+REFUSED_INFLUENCES = ("UsdSkel joint influences that UsdSkel cannot use (an elementSize of 0 or that differs, an "
+                      "interpolation that differs, weights that are not numbers) were ignored, as UsdSkel ignores "
+                      "them; these meshes are not skinned (blend shapes still apply)")  # warning reason
 BAD_SHAPE = "UsdSkel blend shapes that do not fit their mesh were left out; the rest of its pose applies"  # reason
 MISSING_JOINTS = ("UsdSkel skel:joints name joints their skeleton lacks; points weighted to them take the identity, "
                   "as UsdSkel's")  # warning reason: the mesh is posed as BakeSkinning poses it
@@ -132,6 +135,8 @@ class SkelPoser:
         if query.HasBlendShapes() and anim:
             points, normals = self._blend(prim, query, anim, anim_time, points, normals, vertex_ids)
         if not query.HasJointInfluences():
+            if prim.GetAttribute("primvars:skel:jointIndices").HasAuthoredValue():  # UsdSkel printed, naming no mesh
+                self.skip(REFUSED_INFLUENCES, prim)
             return points, normals, prim  # blend shapes only: still in the mesh's own space
         if isinstance(xforms, str):
             raise ValueError(xforms)
