@@ -617,3 +617,50 @@ def test_mesh_in_an_instance_skinned_by_a_skel_root_above_it_is_named(tmp_path):
         scene = load_usd(path, time=5.0)
     assert len(scene.prototypes) == 1
     np.testing.assert_allclose(scene.prototypes[0].meshes[0].points, np.array(bar()[0]) + (5, 5, 5), atol=1e-6)
+
+
+PROP_UNDER_SKEL_ROOT = """#usda 1.0
+class Xform "Proto"
+{
+    def Mesh "Tri"
+    {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    }
+}
+def SkelRoot "Root" (
+    prepend apiSchemas = ["SkelBindingAPI"]
+)
+{
+    rel skel:skeleton = </Root/Skel>
+    def Skeleton "Skel"
+    {
+        uniform token[] joints = ["j"]
+        uniform matrix4d[] bindTransforms = [( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )]
+        uniform matrix4d[] restTransforms = [( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )]
+    }
+    def Xform "Prop" (
+        instanceable = true
+        references = </Proto>
+    )
+    {
+    }
+}
+"""
+
+
+def test_an_unskinned_mesh_in_an_instance_under_a_skel_root_loads_as_usd_draws_it(tmp_path):
+    """A plain prop instanced under a character's SkelRoot (no influences, no blend shapes): the check for a mesh
+    that USD would pose per instance asked ``Usd.Prim.HasAuthoredValue``, which does not exist, and the load failed
+    with an AttributeError."""
+    path = tmp_path / "prop.usda"
+    path.write_text(PROP_UNDER_SKEL_ROOT)
+    stage = Usd.Stage.Open(str(path))
+    cache, root = UsdSkel.Cache(), UsdSkel.Root(stage.GetPrimAtPath("/Root"))
+    cache.Populate(root, PROXIES)
+    targets = [q for b in cache.ComputeSkelBindings(root, PROXIES) for q in b.GetSkinningTargets()]
+    assert not [q for q in targets if q.HasJointInfluences() or q.HasBlendShapes()]  # USD poses nothing
+    scene = loaded(str(path), None)  # and wrt warns of nothing
+    assert len(scene.prototypes) == 1 and len(scene.instances) == 1
+    np.testing.assert_allclose(scene.prototypes[0].meshes[0].points, [(0, 0, 0), (1, 0, 0), (0, 1, 0)])

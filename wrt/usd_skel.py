@@ -119,7 +119,8 @@ class SkelPoser:
         if not UsdSkel.BindingAPI(proxy).GetInheritedSkeleton():
             return False
         influences = UsdGeom.PrimvarsAPI(proxy).FindPrimvarWithInheritance("skel:jointIndices")
-        return bool(influences and influences.HasAuthoredValue()) or proxy.HasAuthoredValue("skel:blendShapes")
+        shapes = proxy.GetAttribute("skel:blendShapes")  # (a Usd.Prim has no HasAuthoredValue of its own)
+        return bool(influences and influences.HasAuthoredValue()) or shapes.HasAuthoredValue()
 
     def _populate(self, root: Usd.Prim):
         if str(root.GetPath()) not in self.roots:
