@@ -351,6 +351,12 @@ BAD_SETTINGS = [
     ("uniform float pixelAspectRatio = nan", r"pixelAspectRatio must be a finite positive"),
     ('uniform token aspectRatioConformPolicy = "stretch"', r"aspectRatioConformPolicy 'stretch' is none of"),
     ("uniform float4 dataWindowNDC = (0.5, 0, 0.2, 1)", r"dataWindowNDC \(0.5, 0, 0.2, 1\) must be finite"),
+    # Values of another type than the schema's stopped the load with Python's "too many values to unpack" (a string
+    # resolution), "'int' object is not iterable", "must be real number, not str" or "tuple index out of range".
+    ('uniform string resolution = "64x32"', r"resolution must be 2 numbers, got '64x32'"),
+    ("uniform int resolution = 64", r"resolution must be 2 numbers, got 64"),
+    ('uniform string pixelAspectRatio = "wide"', r"pixelAspectRatio must be 1 number, got 'wide'"),
+    ("uniform float2 dataWindowNDC = (0, 1)", r"dataWindowNDC must be 4 numbers"),
 ]
 
 

@@ -333,18 +333,29 @@ def _read_base(schema, time, authored_only: bool) -> dict:
         if authored_only and not attr.HasAuthoredValue():  # a blocked value too: it overrides nothing
             continue
         value = value_or_fallback(attr, time)
-        if field in ("resolution", "data_window"):
-            value = tuple(value)
+        if field in ("resolution", "data_window") and not isinstance(value, str) and hasattr(value, "__len__"):
+            value = tuple(value)  # (another type is refused by _check_values, naming the attribute)
         elif field == "conform_policy":
             value = str(value)
         values[field] = value
     return values
 
 
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _check_values(values: dict, where: dict) -> None:
-    """Raises SceneError (``where``: file and prim) for values the schema does not allow."""
+    """Raises SceneError (``where``: file and prim) for values the schema does not allow, or of another type than the
+    schema's (a ``string resolution``: it stopped the render with "too many values to unpack")."""
+    for field, name, count in (("resolution", "resolution", 2), ("data_window", "dataWindowNDC", 4),
+                               ("pixel_aspect_ratio", "pixelAspectRatio", 1)):
+        found = values[field]
+        numbers = found if count > 1 and isinstance(found, tuple) else (found,)
+        if len(numbers) != count or not all(_is_number(v) for v in numbers):
+            raise SceneError(f"{name} must be {count} number{'s' * (count > 1)}, got {found!r}", **where)
     w, h = values["resolution"]
-    if not (w > 0 and h > 0):
+    if not (w > 0 and h > 0 and math.isfinite(w) and math.isfinite(h)):  # (a float2 one may hold inf)
         raise SceneError(f"resolution {w}x{h} must be positive", **where)
     ratio = values["pixel_aspect_ratio"]
     if not (math.isfinite(ratio) and ratio > 0):
