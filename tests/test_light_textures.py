@@ -356,3 +356,23 @@ def test_dome_under_a_transform_scaling_an_axis_to_zero_renders():
     img = wrt.render(wrt.Scene(meshes=[plane], lights=[dome]), camera=cam, width=4, height=4, spp=16, device="cpu",
                      integrator="path", max_depth=1)
     np.testing.assert_allclose(img.rgb, ALBEDO * 2.0, rtol=1e-4)
+
+
+@pytest.mark.parametrize("value, shown", [(math.nan, "16 NaN"), (math.inf, "16 infinite"), (-2.0, "16 negative")])
+def test_light_texels_that_cannot_be_emitted_are_named_in_a_warning(tmp_path, value, shown):
+    """Negative, NaN and infinite texels of a light's texture emit nothing (the light table makes them 0): an HDR
+    whose sun overflowed half floats to inf lit with a black sun without a word."""
+    pytest.importorskip("OpenEXR")  # wrt reads EXR through it
+    from exr_bytes import half_exr
+
+    red = np.ones((4, 8))
+    red[:2, :4] = value  # 8 texels of the red channel and 8 of the green: 16 values
+    (tmp_path / "sky.exr").write_bytes(half_exr(8, 4, {"R": red, "G": red, "B": np.ones((4, 8))}))
+    (tmp_path / "dome.usda").write_text('#usda 1.0\ndef DomeLight "Dome"\n{\n'
+                                        '    asset inputs:texture:file = @sky.exr@\n}\ndef Sphere "Ball"\n{\n}\n')
+    with pytest.warns(UserWarning, match=rf"texels that are negative, NaN or infinite emit nothing .*sky\.exr: {shown} "
+                                         r"of 96 values.*: /Dome$"):
+        scene = wrt.load_usd(tmp_path / "dome.usda")
+    img = wrt.render(scene, camera=wrt.Camera.look_at((0, 0, 5), (0, 0, 0)), width=8, height=6, spp=2, device="cpu",
+                     integrator="path")
+    assert np.isfinite(img.rgb).all() and (img.rgb >= 0).all()

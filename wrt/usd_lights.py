@@ -4,6 +4,7 @@ device side in :mod:`wrt.light_table` and :mod:`wrt.light_sampling`)."""
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -115,6 +116,7 @@ class LightTextures:
         self.memory = {}
         self.kept = kept
         self.latlongs = {}  # (resolved path, layout) -> the lat-long image of a dome's texture, for this load
+        self.dark = {}  # resolved path -> what of its colour cannot be emitted ("" for none), counted once per load
 
     def latlong(self, resolved: str, image, fmt: str):
         """The lat-long image of ``image`` (:meth:`load` of ``resolved``) laid out as ``fmt``
@@ -481,7 +483,23 @@ def _read_texture(prim, asset, kind: str, skip, textures: LightTextures):
         skip(f"{kind} texture {asset.path} was not found; the light's colour is used", prim)
         return None, ""
     try:
-        return textures.load(resolved), resolved
+        image = textures.load(resolved)
     except TextureError as e:
         skip(f"{kind} texture: {e}; the light's colour is used", prim)
         return None, ""
+    if resolved not in textures.dark:
+        textures.dark[resolved] = _unemitted(image, os.path.basename(resolved))
+    if textures.dark[resolved]:  # light_table makes them 0: an HDR's sun stored as inf went black without a word
+        skip("light texture texels that are negative, NaN or infinite emit nothing (read as 0)", prim,
+             textures.dark[resolved])
+    return image, resolved
+
+
+def _unemitted(image: np.ndarray, name: str) -> str:
+    """What of ``image``'s colour (``(H, W, 3+)``) a light cannot emit, named for a warning ("" for none)."""
+    rgb = np.asarray(image)[..., :3]
+    with np.errstate(invalid="ignore"):
+        counts = {"NaN": int(np.isnan(rgb).sum()), "infinite": int(np.isinf(rgb).sum()),
+                  "negative": int((rgb < 0).sum())}
+    found = [f"{n} {what}" for what, n in counts.items() if n]
+    return f"{name}: {', '.join(found)} of {rgb.size} values" if found else ""
