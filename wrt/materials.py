@@ -55,6 +55,7 @@ from .bsdf import Surface
 from .errors import SceneError, check_fields, eight_bit_colors, flag, int32_problem
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import (
+    HALF_MAX,
     UDIM_FIRST,
     UDIM_TILES,
     WRAP_CLAMP,
@@ -1458,7 +1459,21 @@ class MaterialReader:
                 self._images[key] = len(self.textures)
                 self.textures.append(pixels)
                 self.texture_paths.append(resolved)
+                unpacked = _unpacked_texels(pixels)
+                if unpacked:  # pack_images stores float16: they were changed without a word
+                    self.skip(f"texture {authored}: texels that are NaN or past float16's range were changed (NaN "
+                              "read as 0, others clamped to +-65504)", prim, unpacked)
         return self._images[key]
+
+
+def _unpacked_texels(pixels: np.ndarray) -> str:
+    """How many values of ``pixels`` :func:`wrt.textures.pack_images` cannot store as they are ("" for none)."""
+    if np.asarray(pixels).dtype.kind != "f":
+        return ""
+    with np.errstate(invalid="ignore"):
+        nan, past = int(np.isnan(pixels).sum()), int((np.abs(pixels) > HALF_MAX).sum())
+    found = [f"{n} {what}" for what, n in (("NaN", nan), ("past +-65504", past)) if n]
+    return f"{', '.join(found)} of {np.size(pixels)} values" if found else ""
 
 
 def emission_estimates(materials: list[Material], textures: list[np.ndarray]) -> list[np.ndarray]:
