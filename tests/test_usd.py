@@ -1381,3 +1381,35 @@ def Xform "P"
     # Straight down onto the sphere (centre (9, 0, 0)) and onto the curve (radius 0.1 along x = 9, z = 5).
     hits = wrt.trace(scene, np.array([[9.2, -0.2, 10.0], [9.0, 1.5, 10.0]]), np.array([[0.0, 0.0, -1.0]] * 2))
     np.testing.assert_allclose(hits.t, [10.0 - math.sqrt(4.0 - 0.2**2 - 0.2**2), 4.9], rtol=1e-5)
+
+
+def _triangle(name: str, z: float, attr: str = "") -> str:
+    """A usda ``Mesh`` of one triangle at height ``z``, with the attribute line ``attr``."""
+    return (f'def Mesh "{name}"\n{{\n    {attr}\n    int[] faceVertexCounts = [3]\n'
+            f'    int[] faceVertexIndices = [0, 1, 2]\n'
+            f'    point3f[] points = [(0, 0, {z}), (1, 0, {z}), (0, 1, {z})]\n}}\n')
+
+
+STRING_TYPED_TOKENS = ("#usda 1.0\n"
+                       'def Xform "A"\n{\n    token purpose = "guide"\n'
+                       'def Xform "B"\n{\n    string purpose = "render"\n' + _triangle("UnderStringPurpose", 0) + "}\n"
+                       + _triangle("Guide", 0) + "}\n"
+                       + _triangle("StringGuide", 1, 'string purpose = "guide"')
+                       + 'def Xform "C"\n{\n    string visibility = "invisible"\n'
+                       + _triangle("UnderStringInvisible", 2) + "}\n"
+                       + _triangle("Hidden", 3, 'token visibility = "invisible"'))
+
+
+def test_visibility_and_purpose_authored_as_strings_are_read_as_usd_computes_them(tmp_path):
+    """``string visibility = "invisible"`` or ``string purpose = "guide"`` read in Python as the tokens' text, and hid
+    the meshes; USD's ``Get<TfToken>`` fails on a string, so ComputeVisibility and ComputePurpose read the fallbacks
+    (visible, and a default purpose that stops a guide one inherited from above), and usdview draws them."""
+    path = tmp_path / "strings.usda"
+    path.write_text(STRING_TYPED_TOKENS)
+    stage = Usd.Stage.Open(str(path))
+    meshes = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
+    drawn = sorted(str(p.GetPath()) for p in meshes
+                   if UsdGeom.Imageable(p).ComputeVisibility() != UsdGeom.Tokens.invisible
+                   and UsdGeom.Imageable(p).ComputePurpose() in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render))
+    assert drawn == ["/A/B/UnderStringPurpose", "/C/UnderStringInvisible", "/StringGuide"]  # the oracle's own answer
+    assert sorted(m.path for m in wrt.load_usd(path).meshes) == drawn

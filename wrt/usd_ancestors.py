@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from pxr import Usd, UsdGeom
 
+from .usd_values import token_typed
+
 KEEP_LOOKING = object()  # an ``own`` answer: this prim says nothing, ask its parent
 
 
@@ -106,6 +108,8 @@ def _authored_purpose(p: Usd.Prim):
     if img:
         attr = img.GetPurposeAttr()
         if attr.HasAuthoredValue():
+            if not token_typed(attr):  # a string "guide": ComputePurpose reads the fallback, inherited below it
+                return UsdGeom.Tokens.default_
             return attr.Get() or KEEP_LOOKING  # an empty token says nothing
     return KEEP_LOOKING
 

@@ -5,13 +5,21 @@ and orientations moved by their velocities between samples, as USD moves them.""
 from __future__ import annotations
 
 import numpy as np
-from pxr import Usd
+from pxr import Sdf, Usd
 
 
 def value_at(attr: Usd.Attribute, time: Usd.TimeCode):
     """``attr`` at ``time``, or at its earliest time sample when ``time`` is default and it has no authored default
     (a schema fallback, such as visibility's ``inherited`` or a light's intensity, does not count)."""
     return attr.Get(read_time(attr, time))
+
+
+def token_typed(attr: Usd.Attribute) -> bool:
+    """Whether ``attr`` holds a token, as its schema declares (``visibility``, ``purpose``): one authored as a
+    ``string`` reads in Python as the same text, but USD's ``Get<TfToken>`` fails on it, so ``ComputeVisibility``
+    and ``ComputePurpose`` read the fallback (visible; default)."""
+    stack = attr.GetPropertyStack()  # (GetTypeName gives the schema's type, whatever the layers author)
+    return not stack or stack[0].typeName == Sdf.ValueTypeNames.Token
 
 
 def value_or_fallback(attr: Usd.Attribute, time: Usd.TimeCode):

@@ -8,7 +8,7 @@ from __future__ import annotations
 from pxr import Usd, UsdGeom
 
 from .usd_contents import Context
-from .usd_values import value_at
+from .usd_values import token_typed, value_at
 
 
 class Visibility:
@@ -42,7 +42,8 @@ class Visibility:
         for key, p in reversed(chain):
             if visible:
                 img = UsdGeom.Imageable(p)
-                visible = not (img and value_at(img.GetVisibilityAttr(), self.time) == UsdGeom.Tokens.invisible)
+                attr = img.GetVisibilityAttr() if img else None  # a string "invisible" hid it; USD draws it
+                visible = not (attr and value_at(attr, self.time) == UsdGeom.Tokens.invisible and token_typed(attr))
             self.visibility[key] = visible
             is_still = is_still and memo.visibility_still(p)
             if is_still:
@@ -59,7 +60,7 @@ class Visibility:
             img = UsdGeom.Imageable(p)
             attr = img.GetPurposeAttr() if img else None
             if attr is not None and attr.HasAuthoredValue():
-                return attr.Get()
+                return attr.Get() if token_typed(attr) else UsdGeom.Tokens.default_  # as ComputePurpose reads it
             p = p.GetParent()
         return ctx.outer_purpose or UsdGeom.Tokens.default_
 
