@@ -1459,16 +1459,23 @@ class MaterialReader:
                 self._images[key] = len(self.textures)
                 self.textures.append(pixels)
                 self.texture_paths.append(resolved)
-                unpacked = _unpacked_texels(pixels)
+                unpacked = _unpacked_texels(pixels, resolved)
                 if unpacked:  # pack_images stores float16: they were changed without a word
                     self.skip(f"texture {authored}: texels that are NaN or past float16's range were changed (NaN "
                               "read as 0, others clamped to +-65504)", prim, unpacked)
         return self._images[key]
 
 
-def _unpacked_texels(pixels: np.ndarray) -> str:
-    """How many values of ``pixels`` :func:`wrt.textures.pack_images` cannot store as they are ("" for none)."""
-    if np.asarray(pixels).dtype.kind != "f":
+# Files whose decoded texels lie in [0, 1] (8- or 16-bit integers): not scanned (a 4k texture at every kept frame).
+_BOUNDED_FORMATS = (".png", ".jpg", ".jpeg", ".bmp", ".gif", ".tga", ".webp")
+
+
+def _unpacked_texels(pixels: np.ndarray, resolved: str) -> str:
+    """How many values of ``pixels`` (read from file ``resolved``) :func:`wrt.textures.pack_images` cannot store as
+    they are ("" for none)."""
+    if np.asarray(pixels).dtype.kind != "f" or resolved.lower().rstrip("]").endswith(_BOUNDED_FORMATS):
+        return ""
+    if max(float(pixels.max()), -float(pixels.min())) <= HALF_MAX:  # (False for a NaN): two passes, no temporaries
         return ""
     with np.errstate(invalid="ignore"):
         nan, past = int(np.isnan(pixels).sum()), int((np.abs(pixels) > HALF_MAX).sum())
