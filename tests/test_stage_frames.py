@@ -1297,3 +1297,30 @@ def test_meshes_and_placements_under_value_clips_are_read_again_only_where_clips
     assert len({scenes[t].geometry()[0].tobytes() for t in (1, 2, 3)}) == 3
     lamps = {t: [light for light in scenes[t].lights if "Lamp" in getattr(light, "path", "")] for t in (1, 3)}
     assert len(lamps[1]) == 3 and len(lamps[3]) == 3, lamps
+
+
+@pytest.mark.skipif(not hasattr(Tf, "DiagnosticTrap"), reason="this usd-core reports while opening, uncaught")
+def test_a_kept_frame_names_the_function_of_a_usd_method_warning_as_a_fresh_load(tmp_path, capfd):
+    """Value clips naming a clip file that is not there: USD warns from a method (``Usd_Clip::_GetLayerForClip``)
+    as it opens the stage, and prints the function's own name (``in _GetLayerForClip``). Every frame of the kept
+    stage prints what a fresh load prints. Before, the later frames named it with its class
+    (``in Usd_Clip::_GetLayerForClip``)."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "missing_clip.usda"))
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(3)
+    mesh(stage, "/Model/Sheet", *grid(2))
+    api = Usd.ClipsAPI(stage.GetPrimAtPath("/Model"))
+    api.SetClipPrimPath("/Model")
+    api.SetClipAssetPaths([Sdf.AssetPath("./not_there.usda")])
+    api.SetClipActive([(1, 0)])
+    stage.GetRootLayer().Save()
+    path = tmp_path / "missing_clip.usda"
+    frames = StageFrames(path)
+    capfd.readouterr()
+    for t in (1, 2, 3):
+        frames.load(t)
+        printed = capfd.readouterr().err
+        load_fresh(path, t)
+        fresh = capfd.readouterr().err
+        assert printed == fresh and "Unable to open clip layer" in printed, (t, printed, fresh)
+    assert frames.memo is not None  # the stage was kept

@@ -48,14 +48,28 @@ def reposted(held: list) -> bool:
 
 def post_again(held: list) -> None:
     """Posts the warnings and statuses of ``held`` (:func:`held_diagnostics`) to USD's diagnostics again, from where
-    USD posted them, so that they print as they did (the function named without USD's namespace, as USD prints its
+    USD posted them, so that they print as they did (the function named by its own name alone, as USD prints its
     own); an error is not posted again (a stage whose opening posted one is not kept: :func:`reposted`)."""
     for kind, function, file, line, text in held:
-        function = re.sub(r"^pxrInternal_\w+?__pxrReserved__::", "", function)
+        function = bare_function_name(function)
         if kind == "Warning":
             Tf._Warn(text, "", function, file, line)  # Tf.Warn, from a code location of the caller's choosing
         elif kind == "StatusObject":
             Tf._Status(text, "", function, file, line)
+
+
+def bare_function_name(qualified: str) -> str:
+    """The name USD prints for a diagnostic's function (C++ ``__func__``: ``_GetLayerForClip``) from the one a held
+    diagnostic gives (``pxrInternal_v0_26_11__pxrReserved__::Usd_Clip::_GetLayerForClip``): the part after the last
+    ``::`` outside template arguments, its own template arguments dropped. Only USD's namespace was dropped before:
+    a warning from a method printed as ``in Usd_Clip::_GetLayerForClip``, not as a fresh load prints it."""
+    depth, start = 0, 0
+    for k, c in enumerate(qualified):
+        depth += (c == "<") - (c == ">")
+        if depth == 0 and qualified.startswith("::", k):
+            start = k + 2
+    name = qualified[start:]
+    return name[:name.index("<")] if "<" in name and not name.startswith("operator") else name
 
 
 def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
