@@ -1324,3 +1324,18 @@ def test_a_kept_frame_names_the_function_of_a_usd_method_warning_as_a_fresh_load
         fresh = capfd.readouterr().err
         assert printed == fresh and "Unable to open clip layer" in printed, (t, printed, fresh)
     assert frames.memo is not None  # the stage was kept
+
+
+@pytest.mark.skipif(not hasattr(Tf, "DiagnosticTrap"), reason="this usd-core has no trap to hold diagnostics")
+def test_a_warning_posted_again_prints_as_usd_printed_it(capfd):
+    """Warnings held while they were posted (from Python, in a lambda: ``<lambda>``) print the same lines when posted
+    again (``wrt.usd_stage.post_again``) as USD printed them the first time."""
+    from wrt.usd_stage import held_diagnostics, post_again
+
+    capfd.readouterr()
+    with Tf.DiagnosticTrap() as trap:
+        (lambda: Tf.Warn("posted from a lambda"))()
+        held = held_diagnostics(trap)
+    first = capfd.readouterr().err
+    post_again(held)
+    assert capfd.readouterr().err == first and "posted from a lambda" in first, first

@@ -61,7 +61,8 @@ def post_again(held: list) -> None:
 def bare_function_name(qualified: str) -> str:
     """The name USD prints for a diagnostic's function (C++ ``__func__``: ``_GetLayerForClip``) from the one a held
     diagnostic gives (``pxrInternal_v0_26_11__pxrReserved__::Usd_Clip::_GetLayerForClip``): the part after the last
-    ``::`` outside template arguments, its own template arguments dropped. Only USD's namespace was dropped before:
+    ``::`` outside template arguments, its own template arguments dropped (a function posted from Python,
+    ``__main__.<module>``, is named as it was). Only USD's namespace was dropped before:
     a warning from a method printed as ``in Usd_Clip::_GetLayerForClip``, not as a fresh load prints it."""
     depth, start = 0, 0
     for k, c in enumerate(qualified):
@@ -69,7 +70,8 @@ def bare_function_name(qualified: str) -> str:
         if depth == 0 and qualified.startswith("::", k):
             start = k + 2
     name = qualified[start:]
-    return name[:name.index("<")] if "<" in name and not name.startswith("operator") else name
+    template = re.fullmatch(r"(.*?\w)<.*>", name)  # f<int>; not Python's __main__.<module>, nor an operator
+    return template.group(1) if template and not name.startswith("operator") else name
 
 
 def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
