@@ -1948,3 +1948,29 @@ def test_non_finite_instance_attributes_skip_those_instances_with_a_warning(tmp_
     assert list(finite) == [True, False, True, False]
     atol = 2e-3 if name == "orientations" else 1e-5  # quath rounding
     np.testing.assert_allclose(scene.instances.to_world, expected[finite], atol=atol)
+
+
+def test_non_finite_instances_hidden_anyway_are_not_named_as_skipped(tmp_path):
+    """A NaN position on an instance that ``invisibleIds`` hides, and an inf one on an instance whose ``protoIndices``
+    is out of range: USD computes no matrix for the hidden one (``ComputeInstanceTransformsAtTime`` with its mask
+    gives only the shown instances', all finite), and the other is skipped for its index alone. The instancer draws
+    USD's finite shown instances, one warning naming the index and none a non-finite attribute; both were counted as
+    skipped for their NaN or inf too."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0, 7), positions=4)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    nan, inf = float("nan"), float("inf")
+    pi.GetPositionsAttr().Set([Gf.Vec3f(0, 0, 0), Gf.Vec3f(nan, 0, 0), Gf.Vec3f(6, 0, 0), Gf.Vec3f(inf, 0, 0)])
+    pi.CreateInvisibleIdsAttr([1])
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    messages = [str(w.message) for w in caught]
+    assert not any("non-finite" in m for m in messages), messages
+    assert sum("out of range of its prototypes" in m for m in messages) == 1, messages
+    t = Usd.TimeCode.Default()
+    pi.GetProtoIndicesAttr().Set([0, 0, 0, 0])  # mended in memory: USD computes nothing with an index out of range
+    shown = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
+    assert len(shown) == 3 and np.isfinite(shown[:2]).all()  # USD's mask: instances 0, 2 and 3 (3 out of range)
+    np.testing.assert_allclose(scene.instances.to_world, shown[:2], atol=1e-6)

@@ -29,7 +29,7 @@ class PointInstancerReading:
         n = len(proto_indices)
         if n == 0:
             return
-        m, read, finite = self._instance_transforms(prim, pi, n)
+        m, read, parts = self._instance_transforms(prim, pi, n)
         if m is None:
             return
         colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
@@ -37,7 +37,8 @@ class PointInstancerReading:
         keep = self._instance_mask(prim, pi, n)
         if keep is None:
             return
-        keep &= finite & in_range
+        keep &= in_range
+        keep &= self._finite_instances(prim, m, parts, keep)
         with np.errstate(invalid="ignore", over="ignore"):  # the non-finite instances (left out by keep)
             to_space = self._to_space(prim, ctx).T @ m
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
@@ -154,8 +155,8 @@ class PointInstancerReading:
     def _instance_transforms(self, prim: Usd.Prim, pi: UsdGeom.PointInstancer, n: int) -> tuple:
         """``(n, 4, 4)`` column-vector transforms of the ``n`` instances of ``pi`` in its own space, and the function
         that read their attributes (:func:`held_value` when velocities move them, else :func:`value_at`), with which
-        their primvars are read too, and ``(n,)`` bool: the instances whose transform is finite
-        (:meth:`_finite_instances`).
+        their primvars are read too, and the ``(name, (n, ...) values)`` of the attributes the transforms are made of
+        (for :meth:`_finite_instances`).
         The transforms are None, with a warning, where ``positions`` is missing, blocked, shorter or longer than
         ``protoIndices``: ``ComputeInstanceTransformsAtTime`` computes none then (it warns, and Hydra draws nothing)."""
         t = self.time
@@ -223,19 +224,21 @@ class PointInstancerReading:
         spin_name = f"{orient_attr.GetName()} (turned by angularVelocities)"
         parts = [(velocity_names, positions), (str(orient_attr.GetName()), quats), ("scales", scales)]
         parts += [(spin_name, spun[1][:n])] if spun is not None else []
-        return m, read, self._finite_instances(prim, m, parts)
+        return m, read, parts
 
-    def _finite_instances(self, prim: Usd.Prim, m: np.ndarray, parts: list) -> np.ndarray:
-        """``(n,)`` bool: the instances whose transform ``m`` (``(n, 4, 4)``) is finite. The others are left out with
-        a warning naming the attribute (of ``parts``, ``(name, (n, ...) values)``) and how many: it stopped the whole
-        load with SceneError. ``ComputeInstanceTransformsAtTime`` hands back their non-finite matrices without a
-        word, and a renderer can place such an instance nowhere; the other instances are drawn."""
+    def _finite_instances(self, prim: Usd.Prim, m: np.ndarray, parts: list, shown: np.ndarray) -> np.ndarray:
+        """``(n,)`` bool: the instances whose transform ``m`` (``(n, 4, 4)``) is finite. The others of ``shown`` (the
+        instances drawn but for this) are left out with a warning naming the attribute (of ``parts``, ``(name, (n,
+        ...) values)``) and how many: it stopped the whole load with SceneError. ``ComputeInstanceTransformsAtTime``
+        hands back their non-finite matrices without a word, and a renderer can place such an instance nowhere; the
+        other instances are drawn. One hidden anyway (``invisibleIds``, a ``protoIndices`` out of range) is not
+        named: USD computes no matrix for a hidden one, and it was counted as skipped for its NaN."""
         finite = np.isfinite(m).all(axis=(1, 2))
-        if finite.all():
+        if finite[shown].all():
             return finite
-        n, unnamed = len(m), ~finite
+        n, unnamed = len(m), ~finite & shown
         for name, values in parts:
-            bad = ~np.isfinite(values.reshape(n, -1)).all(axis=1)
+            bad = ~np.isfinite(values.reshape(n, -1)).all(axis=1) & shown
             if bad.any():
                 self._skip("PointInstancer instances with non-finite (NaN or inf) positions, orientations, scales or "
                            "velocities were skipped", prim, f"{int(bad.sum())} of {n} instances by {name}")
