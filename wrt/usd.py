@@ -38,9 +38,10 @@ with ``ids`` read by the same time rule as ``invisibleIds``); the instance trans
 ``positions`` (and a mesh's ``points``) with ``velocities`` (and ``accelerations``) authored at the same samples are
 the earlier sample moved by them, and orientations with ``angularVelocities`` the earlier sample turned by them, as
 USD computes it; then every per-instance attribute is held at its earlier sample (USD's velocity path), and without
-either they are all interpolated. A ``protoIndices`` entry out of range, a prototype target that does not exist, or
-``ids`` shorter than ``protoIndices`` (where a mask uses them) raise :class:`wrt.errors.SceneError` naming the instancer
-(``positions`` missing, blocked, shorter or longer: the instancer draws nothing, with a warning, as USD computes no
+either they are all interpolated. A ``protoIndices`` entry out of range or a prototype target that does not exist skip
+those instances with a warning naming the instancer (``protoIndices`` not ``int[]``, ``ids`` of another length than
+``protoIndices`` where a mask uses them, or ``positions`` missing, blocked, shorter or longer: the instancer draws
+nothing, with a warning, as USD computes no
 instance; ``orientations`` or ``scales`` shorter: read as unauthored, with a warning); instances flattened into a plane
 by a zero scale are drawn flat (:func:`wrt.instancing.thicken_flat_transforms`), those scaled to a line or a point are
 skipped with a warning naming each one (``/instancer[index]``), and so are the instances of an inactive prototype (or

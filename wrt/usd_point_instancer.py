@@ -4,7 +4,7 @@ velocities as USD moves them), the visibility mask, and per-instance ``displayCo
 from __future__ import annotations
 
 import numpy as np
-from pxr import Usd, UsdGeom
+from pxr import Usd, UsdGeom, Vt
 
 from .instancing import group_rows
 from .light_links import part_path
@@ -141,8 +141,15 @@ class PointInstancerReading:
         """``(n,)`` int64 ``protoIndices`` of ``pi`` and ``(n,)`` bool: those in range of its ``n_protos`` prototypes.
         The instances of the others (negative, or past the last prototype, as all are where ``prototypes`` targets
         nothing) are skipped with a warning saying how many, as UsdImaging skips them ("Invalid index found"); they
-        stopped the whole load with SceneError."""
-        raw = value_at(pi.GetProtoIndicesAttr(), self.time)
+        stopped the whole load with SceneError. ``protoIndices`` of another type than ``int[]`` (``float[]``,
+        ``int64[]``) give none, with a warning: ``ComputeInstanceTransformsAtTime`` computes no instances for them, and
+        Hydra draws none (the floats were truncated without a word)."""
+        attr = pi.GetProtoIndicesAttr()
+        raw = value_at(attr, self.time)
+        if raw is not None and not isinstance(raw, Vt.IntArray):
+            self._skip("PointInstancers whose protoIndices are not int[] were skipped (USD computes no instances for "
+                       "them)", prim, f"protoIndices is {self._authored_type(attr)}")
+            return np.zeros(0, np.int64), np.zeros(0, bool)
         proto_indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
         in_range = (proto_indices >= 0) & (proto_indices < n_protos)
         if not in_range.all():

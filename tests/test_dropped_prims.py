@@ -1,0 +1,68 @@
+"""A bad part of a stage is dropped with a warning naming the prim (and attribute), the rest loads as the same stage
+without that part: a PointInstancer whose ``protoIndices`` are not ``int[]``, one whose prototype holds an instance
+of itself, and a prim placed where float32 cannot hold it (a NaN transform, a translation of 1e39) each stopped the
+whole load with ``SceneError`` (or were read without a word)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+pxr = pytest.importorskip("pxr")
+from pxr import Usd, UsdGeom  # noqa: E402
+from usda_text import write  # noqa: E402
+
+import wrt  # noqa: E402
+
+KEPT = """
+def Mesh "Kept" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+}
+"""  # the part of each stage that is good: it loads as it does alone
+
+
+def load_warned(path):
+    """The scene of ``path`` and the messages of the warnings its load gave."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    return scene, [str(w.message) for w in caught]
+
+
+def assert_same_as_kept_alone(scene, tmp_path):
+    """``scene`` holds what the stage of :data:`KEPT` alone holds: the same triangles, no instances."""
+    alone = wrt.load_usd(write(tmp_path, KEPT, "alone.usda"))
+    points, indices = scene.triangles()
+    expected_points, expected_indices = alone.triangles()
+    np.testing.assert_array_equal(points[indices], expected_points[expected_indices])
+    assert [m.path for m in scene.meshes] == ["/Kept"]
+    assert len(scene.instances) == 0 and not scene.shapes
+
+
+@pytest.mark.parametrize("authored", ["float[] protoIndices = [0, 0.7, 1.6]", "int64[] protoIndices = [0, 0, 0]"])
+def test_proto_indices_not_int_array_draw_no_instances(tmp_path, authored):
+    """USD reads ``protoIndices`` as ``int[]`` only: ``ComputeInstanceTransformsAtTime`` computes no instances for a
+    ``float[]`` or ``int64[]`` one (Hydra draws none). wrt truncated the floats to 0, 0, 1 without a word."""
+    path = write(tmp_path, KEPT + f"""
+def PointInstancer "P" {{
+    {authored}
+    point3f[] positions = [(0, 0, 0), (2, 0, 0), (4, 0, 0)]
+    rel prototypes = [</P/Protos/A>, </P/Protos/B>]
+    def Scope "Protos" {{
+        def Cube "A" {{}}
+        def Sphere "B" {{}}
+    }}
+}}
+""")
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/P"))
+    assert len(pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default())) == 0  # USD: none
+    scene, messages = load_warned(path)
+    assert_same_as_kept_alone(scene, tmp_path)
+    found = [m for m in messages if "/P" in m and "protoIndices" in m]
+    assert found and authored.split()[0] in found[0], messages
+
