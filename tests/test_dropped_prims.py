@@ -66,3 +66,42 @@ def PointInstancer "P" {{
     found = [m for m in messages if "/P" in m and "protoIndices" in m]
     assert found and authored.split()[0] in found[0], messages
 
+
+RECURSIVE = """
+def PointInstancer "P" {
+    int[] protoIndices = [0, 0, 1]
+    point3f[] positions = [(0, 0, 0), (3, 0, 0), (6, 0, 0)]
+    rel prototypes = [</P/Protos/A>, </P/Protos/B>]
+    def Scope "Protos" {
+        def Xform "A" {
+            def Cube "Box" {}
+            def PointInstancer "Inner" {
+                int[] protoIndices = [0, 1]
+                point3f[] positions = [(0, 2, 0), (0, 4, 0)]
+                rel prototypes = [</P/Protos/A>, </P/Protos/B>]
+            }
+        }
+        def Sphere "B" {}
+    }
+}
+"""
+
+
+def test_instances_of_a_prototype_inside_itself_are_skipped(tmp_path):
+    """A prototype holding an instancer of itself would hold itself without end: those instances are skipped with a
+    warning naming the inner instancer, and the stage loads as the same stage where the inner instancer targets
+    only the other prototype (its instances of B drawn); it stopped the whole load with SceneError."""
+    path = write(tmp_path, KEPT + RECURSIVE)
+    scene, messages = load_warned(path)
+    stage = Usd.Stage.Open(path)  # the oracle: the recursive instance hidden through USD's own invisibleIds
+    UsdGeom.PointInstancer(stage.GetPrimAtPath("/P/Protos/A/Inner")).GetInvisibleIdsAttr().Set([0])
+    stage.GetRootLayer().Export(str(tmp_path / "hidden.usda"))
+    expected = wrt.load_usd(tmp_path / "hidden.usda")
+    points, indices = scene.triangles()
+    expected_points, expected_indices = expected.triangles()
+    np.testing.assert_array_equal(points[indices], expected_points[expected_indices])
+    assert len(scene.instances) == len(expected.instances) > 0
+    np.testing.assert_array_equal(scene.instances.to_world, expected.instances.to_world)
+    assert [p.path for p in scene.prototypes] == [p.path for p in expected.prototypes]
+    assert any("instance of itself" in m and "/P/Protos/A/Inner" in m for m in messages), messages
+

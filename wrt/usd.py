@@ -302,7 +302,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         # Sample-only ops read at their first sample (see above); a kept stage's still transforms given again.
         self.xforms = xform_cache(time, stage, self._skip, placement_memo)
         self.contents = {}  # (kind, root path, outer material) -> Content, each prototype read once
-        self.reading = set()  # content keys being read (a prototype that contains itself is an error)
+        self.reading = set()  # content keys being read (instances of a prototype inside itself are skipped)
         # UsdShade materials and textures, read once each, bound by the settings' materialBindingPurposes if any.
         self.collections_inside = CollectionsInside(stage)  # collection bindings that reach into native instances
         self.skipped = []  # [(reason, prim path, detail or None)], reported once per reason at the end
@@ -552,7 +552,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                  outer_color=None, outer_widths=None, proxy=None, instance_opacity=False) -> Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
-            if key in self.reading:
+            if key in self.reading:  # PointInstancers skip these first; native prototypes cannot (USD refuses cycles)
                 raise self._error("prototype contains an instance of itself", root)
             self.reading.add(key)
             content = Content(str(root.GetPath()))

@@ -67,6 +67,12 @@ class PointInstancerReading:
                 self._skip("instances of PointInstancer prototypes that are class prims (or under one) were skipped, "
                            "as Hydra skips them", prim, str(path))
                 continue
+            if any(k[:2] == ("pi", str(target.GetPath())) for k in self.reading):
+                # A prototype being read that holds an instancer of itself would hold itself without end (the other
+                # prototypes' instances, and this one's at the levels above, are drawn): it stopped the whole load.
+                self._skip("PointInstancer instances of a prototype that holds them (an instance of itself) were "
+                           "skipped", prim, f"{path}, {len(rows)} of {n} instances")
+                continue
             # The prototype's space is its parent's: the root's own transform is the most local part. Its purpose,
             # where nothing in it authors one, is the one its ancestors author (_prototype_purpose).
             purpose = self._prototype_purpose(target, prim, ctx)
