@@ -105,3 +105,58 @@ def test_instances_of_a_prototype_inside_itself_are_skipped(tmp_path):
     assert [p.path for p in scene.prototypes] == [p.path for p in expected.prototypes]
     assert any("instance of itself" in m and "/P/Protos/A/Inner" in m for m in messages), messages
 
+
+@pytest.mark.parametrize("op", ["double3 xformOp:translate = (1e39, 0, 0)", "double3 xformOp:translate = (nan, 0, 0)",
+                                "float3 xformOp:scale = (inf, 1, 1)"])
+@pytest.mark.parametrize("prim", ["Mesh", "Sphere", "Points", "Curves", "Instance", "Instancer"])
+def test_prim_placed_beyond_float32_is_dropped(tmp_path, op, prim):
+    """A mesh, gprim, Points, curve, native instance or PointInstancer whose world transform is not finite, or which it
+    takes past float32's range, is dropped with a warning naming it, as an instance so placed is; it stopped the
+    whole load ('world transform is not finite', 'points are not finite after the world transform')."""
+    bodies = {
+        "Mesh": 'def Mesh "Bad" { int[] faceVertexCounts = [3]\n int[] faceVertexIndices = [0, 1, 2]\n'
+                ' point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]',
+        "Sphere": 'def Sphere "Bad" {',
+        "Points": 'def Points "Bad" { point3f[] points = [(0, 0, 0)]\n float[] widths = [1]',
+        "Curves": 'def BasisCurves "Bad" { uniform token type = "linear"\n int[] curveVertexCounts = [2]\n'
+                  ' point3f[] points = [(0, 0, 0), (1, 0, 0)]\n float[] widths = [0.1, 0.1]',
+        "Instance": 'def Xform "Bad" (\n instanceable = true\n references = </Asset>\n) {',
+        "Instancer": 'def PointInstancer "Bad" { int[] protoIndices = [0]\n point3f[] positions = [(0, 0, 0)]\n'
+                     ' rel prototypes = </Asset>',
+    }
+    path = write(tmp_path, KEPT + 'over "Asset" {\n def Cube "Box" {}\n}\n' + bodies[prim] + f"""
+    {op}
+    uniform token[] xformOpOrder = ["{op.split()[1]}"]
+}}
+""")
+    scene, messages = load_warned(path)
+    assert_same_as_kept_alone(scene, tmp_path)
+    assert any("/Bad" in m for m in messages), messages
+
+
+def curves(points: str, counts: str) -> str:
+    """USDA of linear BasisCurves ``/Curves`` scaled by 10."""
+    return f"""
+def BasisCurves "Curves" {{
+    uniform token type = "linear"
+    int[] curveVertexCounts = {counts}
+    point3f[] points = {points}
+    float[] widths = [0.1] (
+        interpolation = "constant"
+    )
+    float3 xformOp:scale = (10, 10, 10)
+    uniform token[] xformOpOrder = ["xformOp:scale"]
+}}
+"""
+
+
+def test_a_curve_placed_beyond_float32_is_left_out_the_others_drawn(tmp_path):
+    """A curve whose points its transform takes past float32's range (1e38 scaled by 10) is left out with a warning
+    naming the prim and curve, as one with a NaN point is, and the prim's other curves are drawn as that curve
+    alone draws; it stopped the whole load ('curve points are past float32's range with their widths')."""
+    good = "(0, 0, 0), (1, 0, 0), (1, 1, 0)"
+    scene, messages = load_warned(write(tmp_path, curves(f"[{good}, (0, 0, 0), (1e38, 0, 0)]", "[3, 2]")))
+    alone = wrt.load_usd(write(tmp_path, curves(f"[{good}]", "[3]"), "alone.usda"))
+    assert len(scene.instances) == len(alone.instances) > 0
+    np.testing.assert_array_equal(scene.instances.to_world, alone.instances.to_world)
+    assert any("/Curves" in m and "first curve 1" in m for m in messages), messages

@@ -378,12 +378,14 @@ def test_gprims_flattened_by_a_zero_scale_are_drawn_flat(tmp_path):
 
 
 @pytest.mark.parametrize("kind, attrs", [("Sphere", {"Radius": 1e39}), ("Cylinder_1", {"RadiusBottom": 1e39})])
-def test_gprims_past_float32_are_refused_naming_them(tmp_path, kind, attrs):
-    """A finite double size whose box is past float32's range is refused as mesh points are. It loaded, and the
-    render raised 'ao_radius must be a positive number, got inf' from the scene's infinite bounds."""
+def test_gprims_past_float32_are_skipped_naming_them(tmp_path, kind, attrs):
+    """A finite double size whose box is past float32's range is skipped with a warning naming it, as mesh points
+    so placed are. It loaded, and the render raised 'ao_radius must be a positive number, got inf' from the scene's
+    infinite bounds; then it was refused with SceneError, stopping the whole load."""
     path, prim_path = gprim_stage(tmp_path, kind, **attrs)
-    with pytest.raises(wrt.SceneError, match=rf"{kind}_Z.usda: {prim_path}: bounds are not finite after the world"):
-        wrt.load_usd(path)
+    with pytest.warns(UserWarning, match=rf"{kind}_Z.usda: .*float32's range.*: 1 prim\(s\): {prim_path}$"):
+        scene = wrt.load_usd(path)
+    assert scene.shapes == [] and scene.meshes == []
 
 
 @pytest.mark.parametrize("kind, attrs", [("Cylinder", {"Height": 4.0}), ("Cone", {}), ("Capsule", {}),

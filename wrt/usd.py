@@ -123,7 +123,7 @@ from .usd_meshes import MeshReading, triangulate
 from .usd_native_instances import NativeInstanceReading
 from .usd_placement_memo import PlacementMemo
 from .usd_point_instancer import PointInstancerReading
-from .usd_problems import ProblemReport
+from .usd_problems import NOT_FINITE_TRANSFORM, ProblemReport
 from .usd_skel import SkelPoser
 from .usd_stage import (
     check_time_in_range,
@@ -427,8 +427,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                     self.scene.lights.append(light)
 
         def place(proxy: Usd.Prim):
-            if self._visible(proxy, ctx.stop):
-                ctx.content.placed_lights.append((proxy, self._to_space(proxy, ctx).T))
+            m = self._to_space(proxy, ctx) if self._visible(proxy, ctx.stop) else None
+            if m is not None:
+                ctx.content.placed_lights.append((proxy, m.T))
 
         self._read_through_instances(prim, lights, ctx, "lights", read, "UsdLux lights", place)
 
@@ -439,13 +440,16 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._skip("volume lights (VolumeLightAPI) are not supported: wrt has no volumes", prim, prim.GetTypeName())
         if prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.TetMesh) or prim.IsA(UsdGeom.NurbsPatch):
             read = self._read_mesh if prim.IsA(UsdGeom.Mesh) else self._read_surface
-            self._add_mesh(prim, read(prim, self._to_space(prim, ctx), ctx), ctx)
+            m = self._to_space(prim, ctx)
+            if m is not None:
+                self._add_mesh(prim, read(prim, m, ctx), ctx)
             return
         if prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves):
             self._not_a_mesh_light(prim, "Points and curves")
             self._read_tubes(prim, ctx)
             return
-        shape = self._read_gprim(prim, self._to_space(prim, ctx), ctx)
+        m = self._to_space(prim, ctx)
+        shape = None if m is None else self._read_gprim(prim, m, ctx)
         if shape is not None:
             # A zero scale on one axis flattens the gprim into a disc or sheet, which Storm draws as its flat
             # tessellation, each half fronting its own side: it is drawn thin (as instances are), so each half keeps
@@ -517,8 +521,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         world = {light.mesh_path for light in self.scene.lights if isinstance(light, MeshLight)}
         self.scene.lights += [light for path, light in self.instanced_lights.items() if path not in world]
 
-    def _to_space(self, prim: Usd.Prim, ctx: Context) -> np.ndarray:
-        """``(4, 4)`` row-vector (USD) transform from ``prim`` to the space of ``ctx``'s content."""
+    def _to_space(self, prim: Usd.Prim, ctx: Context) -> np.ndarray | None:
+        """``(4, 4)`` row-vector (USD) transform from ``prim`` to the space of ``ctx``'s content, or None (with a
+        warning naming ``prim``, which is left out) where it is not finite: as an instance so placed is skipped (it
+        stopped the whole load)."""
         if ctx.space_root is None:
             m = self.xforms.GetLocalToWorldTransform(prim)
         else:
@@ -527,7 +533,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                 m = self._reset_in_prototype(prim, ctx.space_root, m)
         m = np.array(m, dtype=np.float64)
         if not np.all(np.isfinite(m)):
-            raise self._error("world transform is not finite", prim)
+            self._skip(NOT_FINITE_TRANSFORM, prim)
+            return None
         return m
 
     def _reset_in_prototype(self, prim: Usd.Prim, space_root: Usd.Prim, m: Gf.Matrix4d) -> Gf.Matrix4d:

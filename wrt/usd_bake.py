@@ -10,6 +10,7 @@ from pxr import Usd
 from .scene import Mesh
 from .usd_contents import Context
 from .usd_meshes import LocalMesh, vertex_normals
+from .usd_problems import BEYOND_FLOAT32
 from .usd_xforms import affine_part
 
 _FLIP = np.array([0, 2, 1])  # corner permutation that reverses a triangle's winding, keeping corner 0
@@ -28,7 +29,8 @@ class MeshBaking:
 
     def _bake(self, prim: Usd.Prim, m: np.ndarray, ctx: Context, local: LocalMesh, face_materials,
               color_names: list):
-        """The :class:`Mesh` of ``local`` with ``m`` baked in; ``face_materials`` ``(F,)`` per source face or None."""
+        """The :class:`Mesh` of ``local`` with ``m`` baked in; ``face_materials`` ``(F,)`` per source face or None.
+        None, with a warning, where ``m`` takes its points past float32's range."""
         if local.cage is not None:  # made from the final (posed) points, once
             local.normals = (vertex_normals(local.points, *local.cage, local.flip), local.vertex_ids)
 
@@ -37,7 +39,8 @@ class MeshBaking:
         linear = m[:3, :3]
         points = local.points @ linear + m[3, :3]
         if not np.all(np.isfinite(points.astype(np.float32))):
-            raise self._error("points are not finite after the world transform", prim)
+            self._skip(BEYOND_FLOAT32, prim)  # it stopped the whole load
+            return None
 
         # A mirroring transform flips the winding just as leftHanded does; both together cancel.
         det = float(np.linalg.det(linear))

@@ -21,6 +21,7 @@ from .scene import Mesh
 from .tubes import width_axis
 from .usd_contents import Content, Context, instance_looks
 from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened
+from .usd_problems import BEYOND_FLOAT32
 from .usd_values import value_at
 from .usd_xforms import affine_part
 
@@ -55,9 +56,10 @@ class GprimReading:
             double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
             opacity=self._one_opacity(prim, False, ctx.keep_opaque, ctx.blocked_opaque) if material_id < 0 else None,
         )
-        # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them.
+        # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them (skipped).
         if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
-            raise self._error("bounds are not finite after the world transform", prim)
+            self._skip(BEYOND_FLOAT32, prim)
+            return None
         return shape
 
     def _gprim_colors(self, prim: Usd.Prim, primvar: UsdGeom.Primvar) -> np.ndarray | None:
@@ -175,12 +177,14 @@ class GprimReading:
             local = shape_transform(linear)
         return kind, local, params
 
-    def _tessellated(self, shape: Shape, prim: Usd.Prim, segments: int | None = None) -> Mesh:
-        """``shape`` as a triangle mesh of ``segments`` (default ``self.segments``) segments per circle."""
+    def _tessellated(self, shape: Shape, prim: Usd.Prim, segments: int | None = None) -> Mesh | None:
+        """``shape`` as a triangle mesh of ``segments`` (default ``self.segments``) segments per circle, or None
+        (with a warning) where its points are past float32's range."""
         points, indices, normals = tessellate(shape, segments or self.segments)
         n = len(indices)
         if not np.all(np.isfinite(points.astype(np.float32))):
-            raise self._error("points are not finite after the world transform", prim)
+            self._skip(BEYOND_FLOAT32, prim)
+            return None
         return Mesh(
             path=shape.path,
             points=points,
@@ -210,7 +214,10 @@ class GprimReading:
         opacity = None
         if material_id < 0 and not per_element:
             opacity = self._one_opacity(prim, True, ctx.keep_opaque, ctx.blocked_opaque)
-        m = affine_part(self._to_space(prim, ctx), lambda reason: self._skip(reason, prim))
+        m = self._to_space(prim, ctx)
+        if m is None:
+            return
+        m = affine_part(m, lambda reason: self._skip(reason, prim))
         # Inside a native prototype USD's primvar inheritance stops at its root: a widths primvar handed down by
         # the instance (ctx.outer_widths) comes next, before the prim's widths attribute.
         if not self.tubes.has_widths_primvar(prim):
@@ -227,7 +234,7 @@ class GprimReading:
             content = Content(path)
             content.tube = (group.kind == "sphere", axis)
             if self.segments:
-                content.meshes.append(self._tessellated(shape, prim))
+                content.meshes += [mesh for mesh in [self._tessellated(shape, prim)] if mesh is not None]
             else:
                 content.shapes.append(shape)
             key = ("tubes", path, len(self.contents))  # a content of its own, placed only by these instances

@@ -130,11 +130,13 @@ class MeshReading:
             # Skinned points are in the skeleton's space: the skeleton places them, not the mesh's own transform.
             local.points, local.normals, space = posed
             m = self._to_space(space, ctx)
+            if m is None:  # the skeleton cannot be placed: named, and the mesh left out
+                return None
         if local.refinement is not None:
             local.points = local.refinement.vertex(local.points)
         baked = len(self.skipped)
         mesh = self._bake(prim, m, ctx, local, face_materials, color_names)
-        if key is not None and posed is None:
+        if key is not None and posed is None and mesh is not None:
             memo.keep(key, inputs, n_faces, m, local, mesh, self.skipped[start:baked], self.skipped[baked:])
         return mesh
 

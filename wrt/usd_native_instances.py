@@ -66,7 +66,10 @@ class NativeInstanceReading:
             if widths is not None:
                 key = self._copy_with(key, self.contents[key].widths, widths, MAX_INHERITED_WIDTHS, "widths", prim,
                                       widths=widths)
-        m = self._to_space(prim, ctx).T  # column vectors
+        m = self._to_space(prim, ctx)
+        if m is None:  # named in a warning, and left out
+            return
+        m = m.T  # column vectors
         # A constant displayOpacity on the instance or above it is the opacity of the prototype's geometry that has
         # none: one value per instance (Instances.opacities), no copy of the prototype.
         opacity = self._inherited_opacity(prim)

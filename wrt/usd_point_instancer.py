@@ -39,8 +39,11 @@ class PointInstancerReading:
             return
         keep &= in_range
         keep &= self._finite_instances(prim, m, parts, keep)
+        to_space = self._to_space(prim, ctx)
+        if to_space is None:  # named in a warning, and left out
+            return
         with np.errstate(invalid="ignore", over="ignore"):  # the non-finite instances (left out by keep)
-            to_space = self._to_space(prim, ctx).T @ m
+            to_space = to_space.T @ m
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
         # prototype took 6 s for 10000 prototypes and 1M instances).
         kept = np.flatnonzero(keep)

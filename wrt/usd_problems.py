@@ -10,6 +10,10 @@ from pxr import Sdf, Tf, Usd
 
 from .errors import SceneError, user_stacklevel
 
+# A prim that cannot be placed is left out, the rest of the stage drawn, as an instance so placed is (wrt.usd_contents).
+NOT_FINITE_TRANSFORM = "prims whose world transform is not finite (NaN or inf) were skipped"
+BEYOND_FLOAT32 = "prims that their world transform places beyond float32's range (|x| > 3.4e38) were skipped"
+
 
 def property_stack(attr: Usd.Attribute, time: Usd.TimeCode) -> list:
     """The property specs of ``attr`` at ``time``, strongest first (empty when USD cannot give them)."""

@@ -189,7 +189,14 @@ class TubeReader(FieldReader):
         radii = np.maximum(radius(span, t), 0.0) * scale  # catmullRom overshoot can make a width negative
         finite = _finite_boxes(at, radii)
         if not finite.all():
-            raise self.error("curve points are past float32's range with their widths", prim)
+            # A curve its transform and widths take past float32's range is left out, as one with a point that is
+            # not finite is, the others drawn (it stopped the whole load). All rows of its spans go, so each kept
+            # row that starts a segment still has its end next.
+            bad = np.unique(spans.curve[span[~finite]])
+            self.skip("curves past float32's range with their widths (after the world transform) were left out",
+                      prim, f"{len(bad)} of {len(counts)}, first curve {int(bad[0])}")
+            keep = ~np.isin(spans.curve[span], bad)
+            span, t, starts_segment, sphere, at, radii = (v[keep] for v in (span, t, starts_segment, sphere, at, radii))
         # Per instance: the value at each sphere, and the mean of its ends' values along each tube piece.
         per_row = []
         for field, low, high in ((colors, 0.0, np.inf), (opacities, 0.0, 1.0)):
