@@ -160,3 +160,35 @@ def test_a_curve_placed_beyond_float32_is_left_out_the_others_drawn(tmp_path):
     assert len(scene.instances) == len(alone.instances) > 0
     np.testing.assert_array_equal(scene.instances.to_world, alone.instances.to_world)
     assert any("/Curves" in m and "first curve 1" in m for m in messages), messages
+
+
+@pytest.mark.parametrize("authored", [
+    "float[] positions = [0, 0, 0]", "double3[] positions = [(1, 0, 0)]",
+    "point3f[] positions = [(1, 0, 0)]\n    float4[] orientations = [(0, 1, 0, 0)]",
+    "point3f[] positions = [(1, 0, 0)]\n    float[] scales = [2]",
+    "point3f[] positions = [(1, 0, 0)]\n    double3[] scales = [(2, 3, 4)]",
+])
+def test_instancer_attributes_not_of_the_schema_type_are_read_as_usd_reads_them(tmp_path, authored):
+    """``ComputeInstanceTransformsAtTime`` reads positions, orientations and scales as their schema types only:
+    positions of another type give no instances, orientations or scales of another are unauthored. wrt placed the
+    instances as USD does, with a warning naming the instancer and the attribute; a float[] one raised SceneError
+    ('positions has 3 entries; protoIndices has 1'), a double3[] or float4[] one was read as if of the schema's type."""
+    path = write(tmp_path, KEPT + f"""
+def PointInstancer "P" {{
+    int[] protoIndices = [0]
+    {authored}
+    rel prototypes = </P/Protos/A>
+    def Scope "Protos" {{
+        def Cube "A" {{}}
+    }}
+}}
+""")
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/P"))
+    expected = [np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(),
+                                                                           Usd.TimeCode.Default())]
+    scene, messages = load_warned(path)
+    assert len(scene.instances) == len(expected)
+    np.testing.assert_allclose(scene.instances.to_world, np.reshape(expected, (-1, 4, 4)))
+    name = authored.split("\n")[-1].split()[1]
+    assert any("/P" in m and name in m for m in messages), messages

@@ -4,7 +4,7 @@ velocities as USD moves them), the visibility mask, and per-instance ``displayCo
 from __future__ import annotations
 
 import numpy as np
-from pxr import Usd, UsdGeom, Vt
+from pxr import Sdf, Usd, UsdGeom, Vt
 
 from .instancing import group_rows
 from .light_links import part_path
@@ -198,10 +198,22 @@ class PointInstancerReading:
 
         positions_attr, scales_attr = pi.GetPositionsAttr(), pi.GetScalesAttr()
         orient_attr = pi.GetOrientationsfAttr() if pi.GetOrientationsfAttr().HasValue() else pi.GetOrientationsAttr()
+        # ComputeInstanceTransformsAtTime reads each as its schema type only (point3f[], quath[] or quatf[], float3[]):
+        # positions of another (float[], double3[]) give no instances, orientations or scales of another are none. A
+        # float[] raised SceneError; a double3[] or float4[] one was read as if of the schema's type.
+        if not self._of_schema_type(positions_attr):
+            self._skip("PointInstancers whose positions are not of the schema's type (point3f[]) were skipped (USD "
+                       "computes no instance transforms for them)", prim,
+                       f"positions is {self._authored_type(positions_attr)}")
+            return None, value_at, None
+        ignored = [a for a in (orient_attr, scales_attr) if not self._of_schema_type(a)]
+        for attr in ignored:
+            self._skip("PointInstancer orientations or scales not of the schema's type were ignored (read as "
+                       "unauthored, as USD reads them)", prim, f"{attr.GetName()} is {self._authored_type(attr)}")
         moved = self._moved(pi, positions_attr)
         wrong_lengths = []
-        spun = spun_rotations(orient_attr, pi.GetAngularVelocitiesAttr(), t, self.stage.GetTimeCodesPerSecond(),
-                              wrong_lengths)
+        spun = None if orient_attr in ignored else spun_rotations(
+            orient_attr, pi.GetAngularVelocitiesAttr(), t, self.stage.GetTimeCodesPerSecond(), wrong_lengths)
         self._skip_wrong_rates(prim, wrong_lengths)
         # With usable velocities or angular velocities USD holds every attribute at its sample at or before the
         # time and moves from there; without, it interpolates them all.
@@ -221,10 +233,12 @@ class PointInstancerReading:
                        "instance transforms for them)", prim, f"{len(positions)} positions for {n} protoIndices")
             return None, read, None
         quats = per_instance(orient_attr, 4, str(orient_attr.GetName()), np.array([0.0, 0.0, 0.0, 1.0]),
+                             None if orient_attr in ignored else
                              spun[0] if spun is not None else _value_if_any(orient_attr, t, read))
         if quats is None:  # ignored, and the angular velocities that turn them with them
             quats, spun = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)), None
-        scales = per_instance(scales_attr, 3, "scales", np.ones(3), _value_if_any(scales_attr, t, read))
+        scales = per_instance(scales_attr, 3, "scales", np.ones(3),
+                              None if scales_attr in ignored else _value_if_any(scales_attr, t, read))
         if scales is None:
             scales = np.ones((n, 3))
 
@@ -241,6 +255,11 @@ class PointInstancerReading:
         parts = [(velocity_names, positions), (str(orient_attr.GetName()), quats), ("scales", scales)]
         parts += [(spin_name, spun[1][:n])] if spun is not None else []
         return m, read, parts
+
+    def _of_schema_type(self, attr: Usd.Attribute) -> bool:
+        """``attr`` holds no value, or one of its schema's value type (``float3[]`` for ``point3f[]``: roles aside)."""
+        authored = Sdf.ValueTypeNames.Find(self._authored_type(attr))
+        return not attr.HasValue() or (bool(authored) and authored.type == attr.GetTypeName().type)
 
     def _finite_instances(self, prim: Usd.Prim, m: np.ndarray, parts: list, shown: np.ndarray) -> np.ndarray:
         """``(n,)`` bool: the instances whose transform ``m`` (``(n, 4, 4)``) is finite. The others of ``shown`` (the
