@@ -1,7 +1,8 @@
 """A bad part of a stage is dropped with a warning naming the prim (and attribute), the rest loads as the same stage
-without that part: a PointInstancer whose ``protoIndices`` are not ``int[]``, one whose prototype holds an instance
-of itself, and a prim placed where float32 cannot hold it (a NaN transform, a translation of 1e39) each stopped the
-whole load with ``SceneError`` (or were read without a word)."""
+without that part: a PointInstancer whose ``protoIndices``, ``positions``, ``orientations`` or ``scales`` are not of
+their schema type, one whose prototype holds an instance of itself, and a prim or curve placed where float32 cannot
+hold it (a NaN transform, a translation of 1e39) each stopped the whole load with ``SceneError`` (or were read
+without a word)."""
 
 from __future__ import annotations
 
