@@ -1144,3 +1144,61 @@ def test_a_blocked_light_input_is_the_schemas_fallback(tmp_path):
     schema = Usd.SchemaRegistry().FindConcretePrimDefinition("DistantLight")
     np.testing.assert_allclose(scene.lights[0].color, schema.GetAttributeFallbackValue("inputs:intensity"))
     np.testing.assert_allclose(scene.lights[0].angle, schema.GetAttributeFallbackValue("inputs:angle"), rtol=1e-6)
+
+
+MISTYPED_SWITCHES = """#usda 1.0
+def SphereLight "Words"
+{
+    string inputs:normalize = "yes"
+    token inputs:enableColorTemperature = "x"
+    float inputs:colorTemperature = 2000
+    string treatAsPoint = "yes"
+    float inputs:radius = 0.25
+}
+def SphereLight "Numbers" (
+    prepend apiSchemas = ["ShadowAPI"]
+)
+{
+    int inputs:shadow:enable = 0
+    bool[] inputs:normalize = [1]
+}
+def SphereLight "Typed"
+{
+    bool inputs:normalize = 1
+    bool treatAsPoint = 1
+    bool inputs:shadow:enable = 0
+}
+"""
+
+
+def test_a_light_switch_of_the_wrong_type_is_the_schema_fallback_with_a_warning_naming_it(tmp_path):
+    """A bool light input authored with another type is no bool to USD's typed readers (``Get<bool>`` fails, Hydra
+    reads the schema's fallback); wrt took Python's truth of the value: ``"yes"`` normalized, an ``int 0`` turned
+    shadows off. The oracle: the schema registry's fallbacks; bool-typed inputs are read as authored."""
+    path = tmp_path / "switches.usda"
+    path.write_text(MISTYPED_SWITCHES)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    messages = [str(w.message) for w in caught if "not bool" in str(w.message)]
+    assert len(messages) == 1, [str(w.message) for w in caught]
+    for shown in ("/Words", "inputs:normalize = 'yes'", "inputs:enableColorTemperature = 'x'",
+                  "treatAsPoint = 'yes'", "/Numbers", "inputs:shadow:enable = 0"):
+        assert shown in messages[0]
+    assert "/Typed" not in messages[0]
+    stage = Usd.Stage.Open(str(path))
+    sphere = stage.GetPrimAtPath("/Words").GetPrimDefinition()
+    shadow = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition("ShadowAPI")
+    lights = {light.path: light for light in scene.lights}
+    for name in ("/Words", "/Numbers"):
+        assert lights[name].normalize == sphere.GetAttributeFallbackValue("inputs:normalize")
+        assert lights[name].treat_as_point == sphere.GetAttributeFallbackValue("treatAsPoint")
+        assert lights[name].shadows == shadow.GetAttributeFallbackValue("inputs:shadow:enable")
+    # enableColorTemperature at its fallback (off): the colour is the authored white, no 2000 K tint
+    assert not sphere.GetAttributeFallbackValue("inputs:enableColorTemperature")
+    np.testing.assert_allclose(lights["/Words"].color, UsdLux.SphereLight(stage.GetPrimAtPath("/Words"))
+                               .GetColorAttr().Get())
+    typed = UsdLux.SphereLight(stage.GetPrimAtPath("/Typed"))
+    assert lights["/Typed"].normalize == typed.GetNormalizeAttr().Get() is True
+    assert lights["/Typed"].treat_as_point == typed.GetTreatAsPointAttr().Get() is True
+    assert lights["/Typed"].shadows is False

@@ -29,6 +29,8 @@ from .scene import DistantLight
 from .usd_xforms import affine_part
 
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
+MISTYPED_FLAGS = ("light switches authored with a type that is not bool (a string normalize) were read as the "
+                  "schema's fallback, as USD's typed readers read them")
 
 
 def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=None):
@@ -98,7 +100,22 @@ def sphere_inputs(prim, time) -> tuple[float, bool]:
 
     get, _ = input_reader(prim, time)
     light = UsdLux.SphereLight(prim)
-    return float(get(light.GetRadiusAttr(), 0.5)), bool(get(light.GetTreatAsPointAttr(), False))
+    return float(get(light.GetRadiusAttr(), 0.5)), flag(get, light.GetTreatAsPointAttr(), False)
+
+
+def flag(get, attr, fallback: bool, warn=None) -> bool:
+    """A bool light input read with ``get`` (:func:`input_reader`), or its schema's ``fallback`` where it is authored
+    with another type (``string inputs:normalize = "yes"``, an ``int`` or a ``token``): USD's typed readers
+    (``Get<bool>``, which Hydra and UsdImaging use) fail on such a value and read the fallback, where Python's truth
+    of the text turned ``"no"`` on. USD hands a bool-typed value to Python as a ``bool`` and nothing else does, so
+    the value's Python type tells the authored one, also for an old unprefixed name. ``warn(detail)`` is told of
+    each such input."""
+    value = get(attr, fallback)
+    if isinstance(value, bool):
+        return value
+    if warn is not None:
+        warn(f"{attr.GetName()} = {value!r}")
+    return fallback
 
 
 class LightTextures:
@@ -174,6 +191,9 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     light = UsdLux.LightAPI(prim)
     mistyped = []
 
+    def warn_flag(detail):
+        skip(MISTYPED_FLAGS, prim, detail)
+
     def read(attr, fallback, convert):
         """``convert`` of ``attr``'s value; ``fallback``'s for a value of the wrong type (a string intensity, a
         token colour), named in ``mistyped``: it stopped the whole load with "cannot read this prim"."""
@@ -190,7 +210,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     color = read(light.GetColorAttr(), (1.0, 1.0, 1.0), vector)
     intensity = read(light.GetIntensityAttr(), 1.0, float)
     exposure = read(light.GetExposureAttr(), 0.0, float)
-    blackbody = bool(get(light.GetEnableColorTemperatureAttr(), False))
+    blackbody = flag(get, light.GetEnableColorTemperatureAttr(), False, warn_flag)
     kelvin = read(light.GetColorTemperatureAttr(), 6500.0, float) if blackbody else 6500.0
     if mistyped:
         skip("lights whose colour, intensity, exposure or colour temperature is not a number were skipped", prim,
@@ -206,7 +226,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     # inf in numpy instead, and be skipped below like any other colour that is not finite.
     with np.errstate(over="ignore", invalid="ignore"):
         color = (color * intensity * np.exp2(exposure)).astype(np.float32)
-    normalize = bool(get(light.GetNormalizeAttr(), False))
+    normalize = flag(get, light.GetNormalizeAttr(), False, warn_flag)
     m = np.asarray(to_world, dtype=np.float64)
     path = str(prim.GetPath())
     if not (np.all(np.isfinite(color)) and np.all(np.isfinite(m))):
@@ -220,7 +240,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     if multipliers is None:
         return None
     # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
-    shadows = bool(get(prim.GetAttribute("inputs:shadow:enable"), True))
+    shadows = flag(get, prim.GetAttribute("inputs:shadow:enable"), True, warn_flag)
     if shadows and _shadow_tinted(prim, get):  # a light without shadows has nothing for them to change
         skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
              prim)
@@ -369,7 +389,8 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textur
         found = sizes((s.GetRadiusAttr(), "radius", 0.5))
         if found is None:
             return None
-        radius, treat = found[0], bool(get(s.GetTreatAsPointAttr(), False))
+        radius = found[0]
+        treat = flag(get, s.GetTreatAsPointAttr(), False, lambda detail: skip(MISTYPED_FLAGS, prim, detail))
         m3 = m[:3, :3].copy()
         if similar(m3):  # a round sphere: the world radius, as fast as ever
             radius = radius * float(np.mean(np.linalg.norm(m3, axis=0)))
