@@ -1202,3 +1202,95 @@ def test_a_light_switch_of_the_wrong_type_is_the_schema_fallback_with_a_warning_
     assert lights["/Typed"].normalize == typed.GetNormalizeAttr().Get() is True
     assert lights["/Typed"].treat_as_point == typed.GetTreatAsPointAttr().Get() is True
     assert lights["/Typed"].shadows is False
+
+
+def giant_light_stage(light: str) -> str:
+    """A grey quad (displayColor 0.5) at z = -3 facing +Z, a camera at z = -1 looking down at it, and ``light``."""
+    return f"""#usda 1.0
+{light}
+def Mesh "Quad"
+{{
+    point3f[] points = [(-1, -1, -3), (1, -1, -3), (1, 1, -3), (-1, 1, -3)]
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    color3f[] primvars:displayColor = [(0.5, 0.5, 0.5)]
+}}
+def Camera "Cam"
+{{
+    double3 xformOp:translate = (0, 0, -1)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+"""
+
+
+@pytest.mark.parametrize("light", [
+    'def RectLight "Giant"\n{\n    float inputs:width = 1e38\n    float inputs:height = 1e38\n}',
+    'def DiskLight "Giant"\n{\n    float inputs:radius = 1e38\n    bool inputs:normalize = 1\n}',
+    'def CylinderLight "Giant"\n{\n    float inputs:radius = 1e30\n    float inputs:length = 1e38\n}',
+    'def SphereLight "Giant"\n{\n    float inputs:radius = 1e38\n}',
+    'def SphereLight "Giant"\n{\n    float inputs:radius = 1e38\n    bool treatAsPoint = 1\n}',
+])
+def test_a_light_whose_area_passes_float32_is_skipped_with_a_warning_naming_it(tmp_path, light):
+    """Sizes near 1e38 overflowed the light table's float32 area (or a point sphere's intensity) behind numpy's bare
+    'overflow encountered in cast', and the infinite area lit wrongly: a 1e38-wide RectLight over the grey quad
+    gave 0 (whitted) or 0.3 (path) where an emitting plane filling the hemisphere gives albedo * L = 0.5. Now the
+    light is skipped with a warning naming it, no RuntimeWarning escapes, and the image is the stage's without it."""
+    path = tmp_path / "giant.usda"
+    path.write_text(giant_light_stage(light + '\ndef DistantLight "Sun"\n{\n    float inputs:intensity = 2\n}'))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.simplefilter("error", RuntimeWarning)
+        scene = wrt.load_usd(path)
+        image = wrt.render(scene, width=8, height=6, spp=1).rgb
+    messages = [str(w.message) for w in caught if "to fit in float32 were skipped" in str(w.message)]
+    assert len(messages) == 1 and "/Giant" in messages[0], [str(w.message) for w in caught]
+    assert [light.path for light in scene.lights] == ["/Sun"]
+    stage = Usd.Stage.Open(str(path))
+    stage.RemovePrim("/Giant")
+    without = tmp_path / "without.usda"
+    stage.Export(str(without))
+    np.testing.assert_array_equal(image, wrt.render(wrt.load_usd(without), width=8, height=6, spp=1).rgb)
+
+
+def test_a_wide_light_whose_area_fits_float32_lights_as_the_plane_it_nears(tmp_path):
+    """A RectLight 1e19 wide (area 1e38, within float32) filling the quad's hemisphere: radiance L over it gives a
+    Lambertian surface of albedo 0.5 the radiance 0.5 L (irradiance pi L), as an infinite emitting plane would."""
+    path = tmp_path / "wide.usda"
+    path.write_text(giant_light_stage('def RectLight "Wide"\n{\n    float inputs:width = 1e19\n'
+                                      '    float inputs:height = 1e19\n}'))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        scene = wrt.load_usd(path)
+        image = wrt.render(scene, width=8, height=6, spp=1).rgb
+    assert [light.path for light in scene.lights] == ["/Wide"]
+    np.testing.assert_allclose(image, 0.5, rtol=2e-2)  # 1 spp of solid-angle sampling: noise below 1%
+
+
+def test_an_instanced_light_scaled_past_float32_is_skipped_alone_with_a_warning_naming_it(tmp_path):
+    """A PointInstancer's RectLight whose instance scale makes its area pass float32 is skipped, named with its
+    instance, and the other instance kept; the copied light went to the light table and overflowed there."""
+    path = tmp_path / "instanced.usda"
+    path.write_text(giant_light_stage("""def PointInstancer "Inst"
+{
+    rel prototypes = [</Inst/Proto>]
+    int[] protoIndices = [0, 0]
+    point3f[] positions = [(0, 0, 0), (5, 0, 0)]
+    float3[] scales = [(1, 1, 1), (1e10, 1e10, 1)]
+    def Xform "Proto"
+    {
+        def RectLight "Lamp"
+        {
+            float inputs:width = 1e15
+            float inputs:height = 1e15
+        }
+    }
+}"""))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.simplefilter("error", RuntimeWarning)
+        scene = wrt.load_usd(path)
+        image = wrt.render(scene, width=8, height=6, spp=1).rgb
+    messages = [str(w.message) for w in caught if "to fit in float32 were skipped" in str(w.message)]
+    assert len(messages) == 1 and "/Inst/Proto/Lamp[1]" in messages[0], [str(w.message) for w in caught]
+    assert [light.path for light in scene.lights] == ["/Inst/Proto/Lamp[0]"]
+    np.testing.assert_allclose(image, 0.5, rtol=2e-2)  # the kept lamp fills the quad's hemisphere: albedo * L

@@ -141,7 +141,10 @@ def test_placed_lights_are_the_lights_read_one_by_one(tmp_path, monkeypatch):
     monkeypatch.setattr(wrt.usd_point_instancer, "placed_lights", read_one_by_one)
     one_by_one, expected_messages = load(tmp_path / "lamps.usda")
     assert messages == expected_messages
-    assert len(placed.lights) == len(one_by_one.lights) == 7 * 40
+    # The instance scaled by 1e30 of each area light passes float32 in area: skipped, named, both ways alike.
+    huge = [m for m in messages if "to fit in float32 were skipped" in m]
+    assert len(huge) == 1 and "5 prim(s)" in huge[0] and "/Lamps/Protos/Lamp/Bulb[6]" in huge[0], huge
+    assert len(placed.lights) == len(one_by_one.lights) == 7 * 40 - 5
     assert [light.path for light in placed.lights] == [light.path for light in one_by_one.lights]
     for a, b in zip(placed.lights, one_by_one.lights):
         assert_identical(a, b)
@@ -155,7 +158,7 @@ def test_placed_lights_are_the_lights_read_one_by_one(tmp_path, monkeypatch):
     author_by_hand(tmp_path / "by_hand.usda", even)
     by_hand, _ = load(tmp_path / "by_hand.usda")
     bulbs = [light for light in placed.lights if "/Bulb[" in light.path]
-    assert len(bulbs) == len(by_hand.lights) == 40
+    assert len(bulbs) == len(by_hand.lights) == 39
     for a, b in zip(bulbs, by_hand.lights):
         if a.frame is None and not a.treat_as_point:  # round spheres, where float64 rounding does not move radiance
             assert_same_light(a, b)

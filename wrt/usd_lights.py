@@ -28,6 +28,7 @@ from .lights import (
 from .scene import DistantLight
 from .usd_xforms import affine_part
 
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 INPUTS_PREFIX = "inputs:"  # UsdLux attributes carry it since USD 21.05; older files author the bare names
 MISTYPED_FLAGS = ("light switches authored with a type that is not bool (a string normalize) were read as the "
                   "schema's fallback, as USD's typed readers read them")
@@ -248,6 +249,10 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         shaping, ies = read_shaping(prim, get)
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
         result = _tiny_normalized(result, prim, skip)
+        if result is not None and not fits_float32(result):
+            skip("lights too large for their area (or a point sphere's intensity) to fit in float32 were skipped",
+                 prim, f"area {result.area:.3g}")
+            result = None
         if shaping is not None:
             result = _shaped(result, shaping, m, prim, skip)
     except SceneError as e:  # a value the checks above let through, e.g. a radius that overflows once scaled
@@ -284,6 +289,19 @@ def _tiny_normalized(light, prim, skip):
              f"area {area:.3g}" if area > 0.0 else "area below float64's range")
         return None
     return light  # a light of no area (a size of 0, a transform that flattens it) emits nothing, as its sizes say
+
+
+def fits_float32(light) -> bool:
+    """Whether the light table can hold ``light`` in float32: a sphere, rect, disk or cylinder light's area (a
+    point sphere's intensity) below float32's largest. Sizes near 1e19 and beyond overflowed there behind numpy's
+    bare warning, and the infinite area lit wrongly (a 1e38-wide RectLight over a grey plane: 0 or 0.3 where an
+    infinite emitting plane gives the albedo)."""
+    if not isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight)):
+        return True
+    if isinstance(light, SphereLight) and light.drawn_as_point:
+        with np.errstate(over="ignore"):  # an intensity past float32 is inf here: skipped by the caller
+            return bool(np.all(np.abs(light.intensity) < FLOAT32_MAX))
+    return light.area < FLOAT32_MAX
 
 
 def _area_underflowed(light) -> bool:

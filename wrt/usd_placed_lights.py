@@ -21,6 +21,7 @@ import numpy as np
 from .affine_lights import FLAT_RATIO
 from .light_shaping import Shaping, primary_axis
 from .lights import CylinderLight, DiskLight, RectLight, SphereLight, round_tube
+from .usd_lights import fits_float32
 
 PLACED_KINDS = (SphereLight, RectLight, DiskLight, CylinderLight)  # the kinds copied; others are read per instance
 MARGIN = 0.9  # factor on the tolerances of affine_lights.similar and flat by which a copy's shape must be clear
@@ -172,4 +173,6 @@ def _placed(template, m: np.ndarray, shape: int, sphere: tuple | None):
         area = light.area  # usd_lights._tiny_normalized: the lights it changes are read on their own
         if not (area > 0.0 and np.all(np.isfinite(light.radiance))):
             return None
+    if not fits_float32(light):  # read on its own, to be skipped with read_light's warning
+        return None
     return light
