@@ -1204,6 +1204,18 @@ def test_a_light_switch_of_the_wrong_type_is_the_schema_fallback_with_a_warning_
     assert lights["/Typed"].shadows is False
 
 
+def _render_without_runtime_warnings(path):
+    """``(scene, rgb, the float32-skip warnings, every warning)`` of a load and 8x6 render of ``path`` in which a
+    RuntimeWarning (numpy's overflow) fails."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.simplefilter("error", RuntimeWarning)
+        scene = wrt.load_usd(path)
+        image = wrt.render(scene, width=8, height=6, spp=1).rgb
+    messages = [str(w.message) for w in caught if "to fit in float32 were skipped" in str(w.message)]
+    return scene, image, messages, caught
+
+
 def giant_light_stage(light: str) -> str:
     """A grey quad (displayColor 0.5) at z = -3 facing +Z, a camera at z = -1 looking down at it, and ``light``."""
     return f"""#usda 1.0
@@ -1237,12 +1249,7 @@ def test_a_light_whose_area_passes_float32_is_skipped_with_a_warning_naming_it(t
     light is skipped with a warning naming it, no RuntimeWarning escapes, and the image is the stage's without it."""
     path = tmp_path / "giant.usda"
     path.write_text(giant_light_stage(light + '\ndef DistantLight "Sun"\n{\n    float inputs:intensity = 2\n}'))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        warnings.simplefilter("error", RuntimeWarning)
-        scene = wrt.load_usd(path)
-        image = wrt.render(scene, width=8, height=6, spp=1).rgb
-    messages = [str(w.message) for w in caught if "to fit in float32 were skipped" in str(w.message)]
+    scene, image, messages, caught = _render_without_runtime_warnings(path)
     assert len(messages) == 1 and "/Giant" in messages[0], [str(w.message) for w in caught]
     assert [light.path for light in scene.lights] == ["/Sun"]
     stage = Usd.Stage.Open(str(path))
@@ -1285,12 +1292,7 @@ def test_an_instanced_light_scaled_past_float32_is_skipped_alone_with_a_warning_
         }
     }
 }"""))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        warnings.simplefilter("error", RuntimeWarning)
-        scene = wrt.load_usd(path)
-        image = wrt.render(scene, width=8, height=6, spp=1).rgb
-    messages = [str(w.message) for w in caught if "to fit in float32 were skipped" in str(w.message)]
+    scene, image, messages, caught = _render_without_runtime_warnings(path)
     assert len(messages) == 1 and "/Inst/Proto/Lamp[1]" in messages[0], [str(w.message) for w in caught]
     assert [light.path for light in scene.lights] == ["/Inst/Proto/Lamp[0]"]
     np.testing.assert_allclose(image, 0.5, rtol=2e-2)  # the kept lamp fills the quad's hemisphere: albedo * L
