@@ -1083,6 +1083,16 @@ def test_every_kept_frame_prints_what_usd_reported_opening_the_stage_as_a_fresh_
     assert frames.memo is not None  # the stage was kept
 
 
+def three_clips(prim, name: str) -> None:
+    """Value clips on ``prim`` from ``./{name}.1.usda`` to ``./{name}.3.usda``, one per time code 1 to 3, each holding
+    the prim at its own path."""
+    api = Usd.ClipsAPI(prim)
+    api.SetClipPrimPath(str(prim.GetPath()))
+    api.SetClipAssetPaths([Sdf.AssetPath(f"./{name}.{k}.usda") for k in (1, 2, 3)])
+    api.SetClipActive([(1, 0), (2, 1), (3, 2)])
+    api.SetClipTimes([(1, 1), (2, 2), (3, 3)])
+
+
 def clipped_looks_stage(tmp_path: Path) -> Path:
     """A model whose ``Looks`` author value clips (three files, a colour each, for ``Clipped``'s diffuseColor; none
     for ``Still``'s, a constant) referenced twice as native instances (its looks in their prototype) and once not,
@@ -1097,11 +1107,7 @@ def clipped_looks_stage(tmp_path: Path) -> Path:
     still = preview_material(model, "/Model/Looks/Still", color={Usd.TimeCode.Default(): Gf.Vec3f(0.2, 0.6, 0.3)})
     for name, look in (("Sheet", preview_material(model, "/Model/Looks/Clipped")), ("Plain", still)):
         UsdShade.MaterialBindingAPI.Apply(mesh(model, f"/Model/{name}", *grid(2, len(name))).GetPrim()).Bind(look)
-    api = Usd.ClipsAPI(model.GetPrimAtPath("/Model/Looks"))  # inside what an instance brings in: in its prototype
-    api.SetClipPrimPath("/Model/Looks")
-    api.SetClipAssetPaths([Sdf.AssetPath(f"./look.{k}.usda") for k in (1, 2, 3)])
-    api.SetClipActive([(1, 0), (2, 1), (3, 2)])
-    api.SetClipTimes([(1, 1), (2, 2), (3, 3)])
+    three_clips(model.GetPrimAtPath("/Model/Looks"), "look")  # inside what an instance brings in: in its prototype
     model.SetDefaultPrim(model.GetPrimAtPath("/Model"))
     model.GetRootLayer().Save()
     stage = Usd.Stage.CreateNew(str(tmp_path / "clipped_looks.usda"))
@@ -1173,11 +1179,7 @@ def clipped_rig_stage(tmp_path: Path) -> Path:
     UsdLux.SphereLight.Define(model, "/Model/Rig/Arm/Lamp").CreateIntensityAttr(5.0)
     UsdGeom.Camera.Define(model, "/Model/Rig/Arm/Cam").AddTranslateOp().Set(Gf.Vec3d(0, 0, 5))
     mesh(model, "/Model/Lid", *grid(2, 4.0, 0.5))
-    api = Usd.ClipsAPI(rig.GetPrim())  # inside what an instance brings in: in its prototype
-    api.SetClipPrimPath("/Model/Rig")
-    api.SetClipAssetPaths([Sdf.AssetPath(f"./rig.{k}.usda") for k in (1, 2, 3)])
-    api.SetClipActive([(1, 0), (2, 1), (3, 2)])
-    api.SetClipTimes([(1, 1), (2, 2), (3, 3)])
+    three_clips(rig.GetPrim(), "rig")  # inside what an instance brings in: in its prototype
     model.SetDefaultPrim(model.GetPrimAtPath("/Model"))
     model.GetRootLayer().Save()
 
