@@ -19,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import did_you_mean, flag
+
 IMAGE_FORMATS = (".png", ".exr", ".npy")  # extensions Image.save writes
 # The sRGB chunk (rendering intent 0, perceptual) and the gAMA and cHRM values the PNG specification (11.3.3.5)
 # recommends beside it for decoders that do not read sRGB: gamma 1/2.2 and the Rec.709 primaries with D65 white, all
@@ -339,12 +341,14 @@ class Image:
     def save_aovs(self, directory, names=None, png: bool = False) -> list[Path]:
         """Writes AOVs as ``DIRECTORY/NAME.npy`` (and ``NAME.png`` previews with ``png``, see :func:`aov_preview`);
         ``names`` selects some (default: all). Returns the paths written."""
+        png = flag(png, "save_aovs: png")  # by its truth, png="false" wrote the PNG previews too
+        if isinstance(names, str):  # list("depth") asked for AOVs 'd', 'e', 'p', 't', 'h'
+            raise TypeError(f"save_aovs: names must be a list of AOV names, such as [{names!r}], got str {names!r}")
+        names = list(self.aovs) if names is None else list(names)
+        for name in names:
+            self._check_aov(name)
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
-        names = list(self.aovs) if names is None else list(names)
-        unknown = [n for n in names if n not in self.aovs]
-        if unknown:
-            raise ValueError(f"unknown AOV {', '.join(unknown)}; available: {', '.join(self.aovs)}")
         paths = []
         for name in names:
             paths.append(directory / f"{name}.npy")
@@ -358,10 +362,14 @@ class Image:
                 paths.append(self.save_aov_png(name, directory / f"{name}.png"))
         return paths
 
+    def _check_aov(self, name) -> None:
+        """Raises ``ValueError`` unless ``name`` is one of :attr:`aovs`, with the name meant where one is close."""
+        if not isinstance(name, str) or name not in self.aovs:
+            raise ValueError(f"unknown AOV {name!r}{did_you_mean(name, self.aovs)}; available: {', '.join(self.aovs)}")
+
     def save_aov_png(self, name: str, path) -> Path:
         """Writes the :func:`aov_preview` of AOV ``name`` as a PNG."""
-        if name not in self.aovs:
-            raise ValueError(f"unknown AOV {name!r}; available: {', '.join(self.aovs)}")
+        self._check_aov(name)
         path = Path(path)
         preview = aov_preview(name, self.aovs[name])  # display colours, meant to be shown as they are: sRGB
         write_atomically(path, lambda target: write_srgb_png(target, preview))
