@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import wrt
+import wrt.rays as rays
 
 
 @pytest.fixture
@@ -36,3 +37,49 @@ def test_save_aovs_refuses_one_name_as_a_str(image, tmp_path):
 def test_an_unknown_aov_names_the_one_meant(image, tmp_path, save):
     with pytest.raises(ValueError, match=r"unknown AOV 'Depth' \(did you mean 'depth'\?\); available: depth"):
         save(image, tmp_path)
+
+
+@pytest.fixture(scope="module")
+def floor():
+    return wrt.Scene.from_triangles([[-5, 0, -5], [5, 0, -5], [5, 0, 5], [-5, 0, 5]], [[0, 2, 1], [0, 3, 2]])
+
+
+@pytest.mark.parametrize("make", [rays.random_rays, rays.incoherent_rays,
+                                  lambda scene, n, seed=0: rays.ray_set(scene, "incoherent", n, seed)])
+@pytest.mark.parametrize("n, seed, name", [(-1, 0, "n"), (2.5, 0, "n"), (float("nan"), 0, "n"), (True, 0, "n"),
+                                           (4, -1, "seed"), (4, 1.5, "seed"), (4, None, "seed")])
+def test_ray_sets_name_a_bad_count_or_seed(floor, make, n, seed, name):
+    with pytest.raises(ValueError, match=f"{name} must be a non-negative integer"):
+        make(floor, n, seed)
+
+
+def test_ray_sets_take_numpy_ints_and_a_large_seed(floor):
+    a = rays.random_rays(floor, np.int64(6), seed=2**40)
+    b = rays.random_rays(floor, 6, seed=np.uint64(2**40))
+    assert a[0].shape == (6, 3)
+    np.testing.assert_array_equal(a[0], b[0])
+
+
+@pytest.mark.parametrize("call, meant", [(lambda s: rays.ray_set(s, "Diffuse", 4), "diffuse"),
+                                         (lambda s: rays.secondary_rays(s, "Shadow", *_hits(s)), "shadow")])
+def test_a_mistyped_ray_kind_names_the_one_meant(floor, call, meant):
+    with pytest.raises(ValueError, match=rf"ray kind '\w+' \(did you mean '{meant}'\?\)"):
+        call(floor)
+
+
+def _hits(scene):
+    origins = np.array([[0.0, 3.0, 0.0]], np.float32)
+    directions = np.array([[0.0, -1.0, 0.0]], np.float32)
+    return origins, directions, wrt.trace(scene, origins, directions)
+
+
+def test_diffuse_rays_name_a_bad_seed(floor):
+    with pytest.raises(ValueError, match="seed must be a non-negative integer, got -1"):
+        rays.secondary_rays(floor, "diffuse", *_hits(floor), seed=-1)
+
+
+@pytest.mark.parametrize("side", [0, -2, 2.5, float("nan"), True])
+def test_camera_rays_name_a_bad_image_side(floor, side):
+    cam = wrt.Camera.look_at(eye=(0, 3, 8), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=60)
+    with pytest.raises(ValueError, match="width must be a positive integer"):
+        rays.camera_rays(floor, cam, width=side, height=4)

@@ -10,9 +10,9 @@ import numpy as np
 import warp as wp
 
 from .camera import generate_rays_kernel
-from .errors import flag
+from .errors import did_you_mean, flag
 from .primitives import SHAPE_KINDS, shape_surface
-from .render import resolve_view
+from .render import check_sides, resolve_view
 from .scene import DistantLight, Scene
 
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
@@ -45,6 +45,7 @@ def camera_rays(scene: Scene, camera=None, width: int | None = None, height: int
     ``wrt.trace(scene, o, d, t_min=t_mins, t_max=t_maxs)`` finds the hits the render sees (``t_maxs <= t_mins``
     where a clipping plane cuts the whole ray); without it the rays alone, which hit what the camera clips."""
     t_range = flag(t_range, "camera_rays: t_range")  # "false" gave four arrays where two were unpacked
+    check_sides(width, height)  # width=0 gave no rays, 1.5 failed in Python's words ('float' object is not iterable)
     cam, width, height = resolve_view(scene, camera, width, height)
     n = width * height
     out = [wp.empty(n, dtype=wp.vec3, device="cpu") for _ in range(2)]
@@ -55,9 +56,20 @@ def camera_rays(scene: Scene, camera=None, width: int | None = None, height: int
     return rays if t_range else rays[:2]
 
 
+def check_count(n, seed) -> tuple[int, int]:
+    """``(n, seed)`` of a ray set as ints: ``n`` rays and the ``seed`` of its generator, each a non-negative
+    integer. A float, a negative number or NaN failed in numpy's words, naming neither ('negative dimensions are
+    not allowed', 'SeedSequence expects int')."""
+    for name, value in (("n", n), ("seed", seed)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+    return int(n), int(seed)
+
+
 def random_rays(scene: Scene, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """``n`` incoherent rays: half start outside the scene box and aim at random points inside it (most hit),
     half start at random points inside the box with uniformly random unit directions."""
+    n, seed = check_count(n, seed)
     rng = np.random.default_rng(seed)
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
     extent = np.maximum(upper - lower, 1e-6 * max(float(np.abs(upper - lower).max()), 1e-30))
@@ -80,6 +92,7 @@ def incoherent_rays(scene: Scene, n: int, seed: int = 0) -> tuple[np.ndarray, np
     """``n`` rays from uniformly random points of the scene box in uniformly random unit directions. The box of a
     flat scene is thickened by a tenth of its size along its flat axes: inside the flat box every ray started on the
     surface, where hitting it at ``t = 0`` or missing it is rounding (``wp.Mesh`` and wrt differed on 12 % of them)."""
+    n, seed = check_count(n, seed)
     rng = np.random.default_rng(seed)
     lower, upper = (np.asarray(b, np.float64) for b in scene.bounds())
     size = float((upper - lower).max())
@@ -136,6 +149,10 @@ def _surface_points(scene: Scene, origins, directions, hits):
 def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int = 0):
     """Shadow rays (towards the scene's first distant light, else :data:`DEFAULT_SUN` rotated to the up axis) or
     cosine-weighted diffuse bounce rays from the hits of a primary ray set."""
+    if kind not in ("shadow", "diffuse"):
+        raise ValueError(f"unknown secondary ray kind {kind!r}{did_you_mean(kind, ('shadow', 'diffuse'))}; valid: "
+                         "shadow, diffuse")
+    seed = check_count(0, seed)[1]
     position, normal = _surface_points(scene, origins, directions, hits)
     if kind == "shadow":
         suns = [light for light in scene.lights if isinstance(light, DistantLight)]
@@ -153,8 +170,6 @@ def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int
         sphere /= np.linalg.norm(sphere, axis=1, keepdims=True)
         out = normal + sphere
         out /= np.maximum(np.linalg.norm(out, axis=1, keepdims=True), 1e-12)
-    else:
-        raise ValueError(f"unknown secondary ray kind {kind!r}; valid: shadow, diffuse")
     return position.astype(np.float32), np.ascontiguousarray(out, dtype=np.float32)
 
 
@@ -176,7 +191,9 @@ def ray_set(scene: Scene, kind: str, n: int, seed: int = 0) -> tuple[np.ndarray,
     stage's shot (its render settings' camera, aspect and data window) at about ``n`` pixels. Shadow and diffuse rays
     start at the hits of those primary rays, so there are as many of them as primary rays hit."""
     if kind not in RAY_KINDS:
-        raise ValueError(f"unknown ray kind {kind!r}; valid ray kinds: {', '.join(RAY_KINDS)}")
+        raise ValueError(f"unknown ray kind {kind!r}{did_you_mean(kind, RAY_KINDS)}; valid ray kinds: "
+                         f"{', '.join(RAY_KINDS)}")
+    n, seed = check_count(n, seed)  # n=-1 failed in math's words (a square root of a negative pixel count)
     if kind == "incoherent":
         return incoherent_rays(scene, n, seed)
     width, height = _shot_size(scene, n)

@@ -97,6 +97,14 @@ def render_bytes(n_pixels: int, paths: int) -> int:
     return paths * _Wavefront.bytes_per_path() + n_pixels * pixel
 
 
+def check_sides(width, height) -> None:
+    """Raises ``ValueError`` unless ``width`` and ``height`` are each ``None`` (the render settings' or wrt's
+    default) or a positive integer."""
+    for name, value in (("width", width), ("height", height)):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0):
+            raise ValueError(f"{name} must be a positive integer, got {value!r}")
+
+
 def check_seed(seed) -> int:
     """``seed`` as an int; the generator takes 31-bit seeds, and a float was truncated (0.5 rendered as 0) and
     larger or negative seeds wrapped onto others (2^31 rendered as 0) without a word.
@@ -409,10 +417,7 @@ class Renderer:
         cameras=None,
     ):
         check_scene(scene)
-        for name, value in (("width", width), ("height", height)):
-            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer))
-                                      or value <= 0):
-                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        check_sides(width, height)
         if cameras is not None:
             if camera is not None:
                 raise ValueError("give either camera or cameras, not both")
