@@ -83,3 +83,50 @@ def test_camera_rays_name_a_bad_image_side(floor, side):
     cam = wrt.Camera.look_at(eye=(0, 3, 8), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=60)
     with pytest.raises(ValueError, match="width must be a positive integer"):
         rays.camera_rays(floor, cam, width=side, height=4)
+
+
+SHOT = """#usda 1.0
+(
+    renderSettingsPrimPath = "/Render/Settings"
+)
+def Sphere "Ball"
+{
+}
+def Scope "Render"
+{
+    def RenderSettings "Settings"
+    {
+        uniform int2 resolution = (32, 16)
+    }
+    def RenderSettings "Other"
+    {
+        uniform int2 resolution = (12, 12)
+    }
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def shot(tmp_path_factory):
+    path = tmp_path_factory.mktemp("shot") / "shot.usda"
+    path.write_text(SHOT)
+    return path
+
+
+@pytest.mark.parametrize("settings", [3, b"/Render/Other", ["/Render/Other"]])
+def test_load_usd_names_render_settings_that_are_no_path(shot, settings):
+    with pytest.raises(TypeError, match="load_usd: render_settings: path must be a str"):
+        wrt.load_usd(shot, render_settings=settings)
+
+
+def test_load_usd_takes_render_settings_as_an_sdf_path(shot):
+    from pxr import Sdf
+
+    scene = wrt.load_usd(shot, render_settings=Sdf.Path("/Render/Other"))
+    assert scene.render_settings.path == "/Render/Other" and scene.render_settings.resolution == (12, 12)
+
+
+def test_load_usd_takes_a_numpy_bool_for_tessellate_gprims(shot):
+    meshes, same = (wrt.load_usd(shot, tessellate_gprims=flag) for flag in (np.True_, True))
+    assert len(meshes.shapes) == 0 and meshes.num_geometry_triangles == same.num_geometry_triangles > 0
+    assert len(wrt.load_usd(shot, tessellate_gprims=np.False_).shapes) == 1  # the analytic sphere

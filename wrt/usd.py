@@ -97,7 +97,7 @@ import warnings
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc
 
-from .errors import SceneError, user_stacklevel
+from .errors import SceneError, prim_path, user_stacklevel
 from .instancing import invert_transforms, thicken_flat_transforms
 from .light_links import resolve_expressions
 from .lights import MeshLight
@@ -191,6 +191,8 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
     except TypeError:  # os.fspath's message named no argument
         raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}") from None
     time_code = _time_code(time)
+    if render_settings is not None:  # an int failed in Boost.Python's words, naming no argument
+        render_settings = prim_path(render_settings, "load_usd: render_settings")
 
     if frames is None:
         stage = open_variants(source, variants)
@@ -258,6 +260,8 @@ def _time_code(time) -> Usd.TimeCode:
 
 def _gprim_segments(tessellate_gprims) -> int:
     """Segments per circle of tessellated gprims for ``load_usd``'s ``tessellate_gprims``; 0: analytic shapes."""
+    if isinstance(tessellate_gprims, np.bool_):  # mask[k]: refused as 'a bool or an int', got True
+        tessellate_gprims = bool(tessellate_gprims)
     if tessellate_gprims is True:
         return DEFAULT_SEGMENTS
     if tessellate_gprims is False or tessellate_gprims is None:
