@@ -6,6 +6,7 @@ import pytest
 
 import wrt
 import wrt.rays as rays
+from wrt import animation, distributed
 
 
 @pytest.fixture
@@ -130,3 +131,48 @@ def test_load_usd_takes_a_numpy_bool_for_tessellate_gprims(shot):
     meshes, same = (wrt.load_usd(shot, tessellate_gprims=flag) for flag in (np.True_, True))
     assert len(meshes.shapes) == 0 and meshes.num_geometry_triangles == same.num_geometry_triangles > 0
     assert len(wrt.load_usd(shot, tessellate_gprims=np.False_).shapes) == 1  # the analytic sphere
+
+
+def test_pending_frames_resume_is_a_flag(tmp_path):
+    pattern = str(tmp_path / "f_#.npy")
+    (tmp_path / "f_1.npy").write_bytes(b"x")  # frame 1 written by an earlier run
+    with pytest.raises(TypeError, match="pending_frames: resume must be True or False"):
+        animation.pending_frames([1.0, 2.0], pattern, "false")
+    assert [f for f, _ in animation.pending_frames([1.0, 2.0], pattern, np.True_)] == [2.0]
+    assert [f for f, _ in animation.pending_frames([1.0, 2.0], pattern, 0)] == [1.0, 2.0]
+
+
+@pytest.mark.parametrize("option, error, match", [
+    (dict(progress="false"), TypeError, "render_frames: progress must be True or False"),
+    (dict(devices="cpu"), ValueError, r"devices must be a non-empty list of Warp devices, such as \['cpu'\]"),
+    (dict(devices=()), ValueError, "devices must be a non-empty list"),
+])
+def test_render_frames_checks_its_options_before_a_frame(shot, tmp_path, option, error, match):
+    with pytest.raises(error, match=match):
+        animation.render_frames(shot, [(1.0, tmp_path / "f.npy")], **option)
+    assert not (tmp_path / "f.npy").exists()
+
+
+@pytest.mark.parametrize("option, error, match", [
+    (dict(progress="false"), TypeError, "progress must be True or False"),
+    (dict(n_workers=0), ValueError, "n_workers must be a positive integer or None, got 0"),
+    (dict(n_workers=-1), ValueError, "n_workers must be a positive integer or None"),
+    (dict(n_workers=1.5), ValueError, "n_workers must be a positive integer or None"),
+])
+def test_run_tasks_checks_its_options_before_starting_a_cluster(monkeypatch, option, error, match):
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(distributed, "connect", no_cluster)
+    with pytest.raises(error, match=match):
+        distributed.run_tasks(abs, [1], **option)
+
+
+@pytest.mark.parametrize("option", [dict(resume="false"), dict(progress="no"), dict(resume=None)])
+def test_run_grid_flags_are_bools(tmp_path, option):
+    from wrt.bench import Grid, run_grid
+
+    with pytest.raises(TypeError, match="run_grid: (resume|progress) must be True or False"):
+        run_grid(Grid(scenes=["sphere:20"], accels=["wrt:sah"], rays=["primary"], n_rays=10), tmp_path / "out",
+                 **option)
+    assert not (tmp_path / "out").exists()

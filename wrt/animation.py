@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError, TimeRangeWarning
+from .errors import SceneError, TimeRangeWarning, flag
 from .image import write_atomically
 
 REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20% worse than when it was built
@@ -298,6 +298,7 @@ def _quiet_time_range():
 def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
     """``(frame, file)`` of every frame to render; with ``resume``, frames whose file exists and is not empty are
     left out (files are written whole or not at all: :func:`wrt.image.write_atomically`)."""
+    resume = flag(resume, "pending_frames: resume")  # by its truth, "false" left out the frames already written
     jobs = [(f, frame_output(output, f)) for f in frames]
     return [(f, p) for f, p in jobs if not (resume and p.is_file() and p.stat().st_size > 0)]
 
@@ -335,8 +336,12 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     from .image import check_exposure
 
     check_exposure(exposure)  # before the first frame, not at its save
+    progress = flag(progress, "render_frames: progress")  # by its truth, "false" showed the bar
     from .bvh.common import resolve_device
 
+    if isinstance(devices, str) or not len(devices):  # "cuda:0" was read as devices 'c', 'u', ...; () as 0 workers
+        raise ValueError(f"render_frames: devices must be a non-empty list of Warp devices, such as "
+                         f"{[devices or 'cpu']!r}, got {devices!r}")
     for device in devices:  # a bad name failed only in a spawned worker, seconds later, under a started progress bar
         resolve_device(device)
     path = os.fspath(path)

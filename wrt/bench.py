@@ -42,7 +42,7 @@ from .bvh import Builder
 from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits, off_triangle
-from .errors import SceneError, did_you_mean
+from .errors import SceneError, did_you_mean, flag
 from .rays import RAY_KINDS, ray_set
 from .resources import check_host_memory
 from .scene import Scene
@@ -805,6 +805,8 @@ def run_grid(
     """
     from tqdm import tqdm
 
+    # By their truth, resume="false" kept the earlier run's rows and progress="false" showed the bar.
+    resume, progress = flag(resume, "run_grid: resume"), flag(progress, "run_grid: progress")
     rows, resumed, warned = [], {}, set()  # resumed: row key -> a row of the earlier run, kept until measured again
     jsonl = None
     if out is not None:

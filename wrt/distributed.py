@@ -15,6 +15,10 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
+
+from .errors import flag
+
 DEVICE_ENV = "WRT_DEVICE"  # overrides worker_device(), e.g. "cuda:1", for workers started by hand
 CONNECT_TIMEOUT = 30.0  # seconds to wait for the scheduler at an address
 INSTALL_HINT = "pip install 'wrt[dask]'"
@@ -123,6 +127,10 @@ def run_tasks(
     """
     from tqdm import tqdm
 
+    progress = flag(progress, "progress")  # by its truth, "false" showed the bar
+    if n_workers is not None and (isinstance(n_workers, bool) or not isinstance(n_workers, (int, np.integer))
+                                  or n_workers < 1):  # 0 fell back to default_workers(), -1 failed in Dask's words
+        raise ValueError(f"n_workers must be a positive integer or None, got {n_workers!r}")
     items = list(items)
     client, cluster = connect(address, n_workers, retries)
     results = {} if on_result is None else None
