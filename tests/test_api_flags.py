@@ -176,3 +176,17 @@ def test_run_grid_flags_are_bools(tmp_path, option):
         run_grid(Grid(scenes=["sphere:20"], accels=["wrt:sah"], rays=["primary"], n_rays=10), tmp_path / "out",
                  **option)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name", ["bvh_leaves", "image", "show_text", "off_screen"])
+@pytest.mark.parametrize("value", ["false", 2])
+def test_preview_flags_are_bools(floor, name, value):
+    with pytest.raises(TypeError, match=f"{name} must be True or False"):
+        wrt.preview(floor, **{name: value})
+
+
+def test_preview_names_the_bvh_colouring_meant(floor):
+    with pytest.raises(ValueError, match=r"unknown BVH colouring 'SAH' \(did you mean 'sah'\?\)"):
+        wrt.preview(floor, bvh_color="SAH")
+    with pytest.raises(ValueError, match="give bvh_depth or bvh_leaves, not both"):
+        wrt.preview(floor, bvh_depth=1, bvh_leaves=np.True_)  # a numpy bool means what it says

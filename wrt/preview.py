@@ -44,6 +44,7 @@ import warp as wp
 
 from .bvh import Builder, FlatBvh
 from .camera import Camera, generate_rays_kernel
+from .errors import did_you_mean, flag
 from .hidden_hits import CullScratch, intersect_visible
 from .image import to_srgb8
 from .instancing import expand_instance_triangles
@@ -630,6 +631,11 @@ def preview(
         ValueError: bad arguments (unknown camera, builder or colouring, both ``bvh_depth`` and ``bvh_leaves``).
     """
     pv = import_pyvista()
+    # By their truth, image="false" rendered the scene, show_text="false" wrote the summary and off_screen="false"
+    # opened no window.
+    bvh_leaves, image, show_text = (flag(value, label) for value, label in
+                                    ((bvh_leaves, "bvh_leaves"), (image, "image"), (show_text, "show_text")))
+    off_screen = None if off_screen is None else flag(off_screen, "off_screen")
     if bvh_depth is not None and bvh_leaves:
         raise ValueError("give bvh_depth or bvh_leaves, not both")
     if bvh_depth is not None and (
@@ -640,7 +646,8 @@ def preview(
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value <= 0:
             raise ValueError(f"{label} must be a positive integer, got {value!r}")
     if bvh_color not in BVH_COLORINGS:
-        raise ValueError(f"unknown BVH colouring {bvh_color!r}; valid: {', '.join(BVH_COLORINGS)}")
+        raise ValueError(f"unknown BVH colouring {bvh_color!r}{did_you_mean(bvh_color, BVH_COLORINGS)}; valid: "
+                         f"{', '.join(BVH_COLORINGS)}")
     if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)) or not 0 <= rays <= MAX_RAYS:
         raise ValueError(f"rays must be an integer from 0 to {MAX_RAYS:,}, got {rays!r}")
     for label, value in (("width", width), ("height", height)):
