@@ -190,3 +190,10 @@ def test_preview_names_the_bvh_colouring_meant(floor):
         wrt.preview(floor, bvh_color="SAH")
     with pytest.raises(ValueError, match="give bvh_depth or bvh_leaves, not both"):
         wrt.preview(floor, bvh_depth=1, bvh_leaves=np.True_)  # a numpy bool means what it says
+
+
+@pytest.mark.parametrize("projection, meant", [("Orthographic", "orthographic"), ("ortho", "orthographic"),
+                                               ("persp", "perspective")])
+def test_a_mistyped_camera_projection_names_the_one_meant(projection, meant):
+    with pytest.raises(ValueError, match=rf"not '{projection}' \(did you mean '{meant}'\?\)"):
+        wrt.Camera.look_at((0, 3, 8), (0, 0, 0), projection=projection)

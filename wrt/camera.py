@@ -229,7 +229,8 @@ class Camera:
             raise ValueError(f"{self.label()} to_world must be a (4, 4) matrix, got shape {self.to_world.shape}")
         self.to_world = self.to_world.reshape(4, 4)
         if self.projection not in ("perspective", "orthographic"):
-            raise ValueError(f"camera projection must be 'perspective' or 'orthographic', not {self.projection!r}")
+            raise ValueError(f"camera projection must be 'perspective' or 'orthographic', not {self.projection!r}"
+                             f"{did_you_mean(self.projection, ('perspective', 'orthographic'))}")
         if self.fit not in FITS:
             raise ValueError(f"camera fit must be one of {', '.join(FITS)}, not {self.fit!r}"
                              f"{did_you_mean(self.fit, FITS)}")
