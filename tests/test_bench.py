@@ -282,6 +282,8 @@ def test_resume_names_a_line_that_is_not_a_row(tmp_path, line):
         (dict(scaling={"size": [1000]}), r"scaling: unknown scaling keys \['size'\]"),
         (dict(scaling={"sizes": "1000"}), "scaling.sizes: must be a list"),
         (dict(scaling={"sizes": [1000, None]}), "scaling.sizes: must be a list"),
+        (dict(scaling={"sizes": [1000.5]}), "scaling.sizes: must be a list of triangle counts, whole numbers of 8"),
+        (dict(scaling={"sizes": [5]}), "scaling.sizes: must be a list of triangle counts, whole numbers of 8"),
         (dict(scaling={"sizes": [1000], "accels": "wrt:sah"}), "scaling.accels: must be a list"),
         (dict(scaling={"sizes": [1000], "accels": ["wrt:sah", "wrt:sha"]}),
          r"scaling.accels\[1\]: accelerator 'wrt:sha': unknown BVH builder 'sha'"),

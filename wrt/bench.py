@@ -247,9 +247,12 @@ def _check_scaling(scaling) -> None:
                          f"{', '.join(SCALING_KEYS)}")
     sizes = scaling.get("sizes", [])
     if not isinstance(sizes, (list, tuple)) or not all(
-        isinstance(n, (int, float)) and not isinstance(n, bool) and math.isfinite(n) and n >= 1 for n in sizes
+        # As sphere_count reads a sphere:N scene: 1000.5 was cut to sphere:1000, and 5 failed as sphere:5 at the run
+        isinstance(n, (int, float)) and not isinstance(n, bool) and math.isfinite(n) and n >= 8 and n == int(n)
+        for n in sizes
     ):
-        raise GridError("scaling.sizes", f"scaling sizes must be a list of triangle counts, got {sizes!r}")
+        raise GridError("scaling.sizes", f"scaling sizes must be a list of triangle counts, whole numbers of 8 or "
+                        f"more, got {sizes!r}")
     accels = scaling.get("accels", [])
     if not isinstance(accels, (list, tuple)) or not all(isinstance(a, str) and a.strip() for a in accels):
         raise GridError("scaling.accels", f"scaling accels must be a list of names, got {accels!r}")
