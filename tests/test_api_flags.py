@@ -197,3 +197,12 @@ def test_preview_names_the_bvh_colouring_meant(floor):
 def test_a_mistyped_camera_projection_names_the_one_meant(projection, meant):
     with pytest.raises(ValueError, match=rf"not '{projection}' \(did you mean '{meant}'\?\)"):
         wrt.Camera.look_at((0, 3, 8), (0, 0, 0), projection=projection)
+
+
+@pytest.mark.parametrize("field, meant", [(dict(channel="RGB"), "rgb"), (dict(channel="RGBA"), "rgba"),
+                                          (dict(wrap=("Repeat", "clamp")), "repeat"),
+                                          (dict(wrap=("repeat", "mirrored")), "mirror")])
+def test_a_mistyped_texture_channel_or_wrap_names_the_one_meant(field, meant):
+    texture = wrt.TextureInput(image=0, **field)
+    with pytest.raises(ValueError, match=rf"\(did you mean '{meant}'\?\)"):
+        wrt.Material(path="/M", textures={"diffuseColor": texture})

@@ -52,7 +52,7 @@ import warp as wp
 
 from .assignments import CountsAssignments, mark_checked
 from .bsdf import Surface
-from .errors import SceneError, check_fields, eight_bit_colors, flag, int32_problem
+from .errors import SceneError, check_fields, did_you_mean, eight_bit_colors, flag, int32_problem
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import (
     HALF_MAX,
@@ -165,11 +165,13 @@ class TextureInput(CountsAssignments):
             self.image = int(image)
         # A channel or wrap mode of another name failed at the upload with a bare KeyError ('x').
         if not isinstance(self.channel, str) or self.channel not in CHANNELS:
-            raise ValueError(f"{where}: channel must be one of {', '.join(CHANNELS)}, got {self.channel!r}")
+            raise ValueError(f"{where}: channel must be one of {', '.join(CHANNELS)}, got {self.channel!r}"
+                             f"{did_you_mean(self.channel, CHANNELS)}")
         wrap = tuple(self.wrap) if isinstance(self.wrap, (tuple, list)) else ()
         if len(wrap) != 2 or any(not isinstance(mode, str) or mode not in WRAP_MODES for mode in wrap):
+            bad = [mode for mode in wrap if isinstance(mode, str) and mode not in WRAP_MODES]
             raise ValueError(f"{where}: wrap must be (wrapS, wrapT), each one of {', '.join(WRAP_MODES)}, got "
-                             f"{self.wrap!r}")
+                             f"{self.wrap!r}{did_you_mean(bad[0], WRAP_MODES) if bad else ''}")
         if self.uv_set is not None and not isinstance(self.uv_set, str):
             raise TypeError(f"{where}: uv_set must be a str, a primvar name such as 'st', or None (a constant st), "
                             f"got {type(self.uv_set).__name__} {self.uv_set!r}")
