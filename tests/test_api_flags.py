@@ -206,3 +206,16 @@ def test_a_mistyped_texture_channel_or_wrap_names_the_one_meant(field, meant):
     texture = wrt.TextureInput(image=0, **field)
     with pytest.raises(ValueError, match=rf"\(did you mean '{meant}'\?\)"):
         wrt.Material(path="/M", textures={"diffuseColor": texture})
+
+
+def test_a_camera_is_named_by_str_or_sdf_path_and_a_typo_names_the_one_meant(shot):
+    from pxr import Sdf, Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(shot))
+    UsdGeom.Camera.Define(stage, "/World/Cam").AddTranslateOp().Set((0, 0, 10))
+    stage.GetRootLayer().Export(str(shot.with_name("cam.usda")))
+    scene = wrt.load_usd(shot.with_name("cam.usda"))
+    camera = wrt.Renderer(scene, camera=Sdf.Path("/World/Cam")).camera
+    assert camera.path == "/World/Cam" and camera.to_world[2, 3] == 10.0  # the stage's camera, as UsdGeom placed it
+    with pytest.raises(wrt.SceneError, match=r"no camera at '/World/cam' \(did you mean '/World/Cam'\?\)"):
+        wrt.Renderer(scene, camera="/World/cam")

@@ -127,13 +127,16 @@ def resolve_camera(scene: Scene, camera) -> Camera:
             return next(iter(scene.cameras.values()))
         lower, upper = scene.bounds()
         return frame_scene(lower, upper, scene.up_axis)
+    if type(camera).__name__ == "Path" and type(camera).__module__ == "pxr.Sdf":  # GetPath(): was 'not Path'
+        camera = str(camera)
     if isinstance(camera, str):
         if camera in scene.cameras:
             return scene.cameras[camera]
         if camera in scene.skipped_cameras:  # the loader's reason, which a render from another camera only warned of
             raise SceneError(scene.skipped_cameras[camera], path=scene.source, prim=camera)
         known = ", ".join(scene.cameras) or "none"
-        error = SceneError(f"no camera at {camera!r}; cameras in the scene: {known}", path=scene.source)
+        error = SceneError(f"no camera at {camera!r}{did_you_mean(camera, scene.cameras)}; cameras in the scene: "
+                           f"{known}", path=scene.source)
         error.prim = camera  # set after: the message names it once, where it reads best
         raise error
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
