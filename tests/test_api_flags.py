@@ -219,3 +219,10 @@ def test_a_camera_is_named_by_str_or_sdf_path_and_a_typo_names_the_one_meant(sho
     assert camera.path == "/World/Cam" and camera.to_world[2, 3] == 10.0  # the stage's camera, as UsdGeom placed it
     with pytest.raises(wrt.SceneError, match=r"no camera at '/World/cam' \(did you mean '/World/Cam'\?\)"):
         wrt.Renderer(scene, camera="/World/cam")
+
+
+@pytest.mark.parametrize("option, meant", [("max_leaf_size", "leaf_size"), ("pre_split", "presplit"),
+                                           ("bin", "bins")])
+def test_build_bvh_names_an_unknown_option_and_the_one_meant(floor, option, meant):
+    with pytest.raises(TypeError, match=rf"build_bvh has no option '{option}' \(did you mean '{meant}'\?\)"):
+        wrt.build_bvh(*floor.triangles(), "sah", **{option: 4})

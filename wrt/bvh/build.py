@@ -16,6 +16,7 @@ mean the same thing (``sah``, ``median``, ``lbvh``). Every builder keeps the dep
 from __future__ import annotations
 
 import enum
+import inspect
 import math
 import os
 import time
@@ -78,6 +79,11 @@ def build_bvh(points, indices, builder: str = "sah", **options) -> FlatBvh:
         ValueError: for an unknown builder, bad options, bad indices or non-finite vertices.
     """
     start_time = time.perf_counter()
+    valid = [name for name, p in inspect.signature(build_bvh_device).parameters.items() if p.kind is p.KEYWORD_ONLY]
+    unknown = [name for name in options if name not in valid]
+    if unknown:  # Python's own message named build_bvh_device, a function the caller never called
+        raise TypeError(f"build_bvh has no option {unknown[0]!r}{did_you_mean(unknown[0], valid)}; options: "
+                        f"{', '.join(valid)}")
     bvh = build_bvh_device(points, indices, builder, **options).to_host()
     bvh.build_seconds = time.perf_counter() - start_time
     bvh.points, bvh.indices = points, indices
