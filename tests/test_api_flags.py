@@ -168,11 +168,12 @@ def test_run_tasks_checks_its_options_before_starting_a_cluster(monkeypatch, opt
         distributed.run_tasks(abs, [1], **option)
 
 
-@pytest.mark.parametrize("option", [dict(resume="false"), dict(progress="no"), dict(resume=None)])
+@pytest.mark.parametrize("option", [dict(resume="false"), dict(progress="no"), dict(resume=None), dict(dask=2),
+                                    dict(dask=[])])
 def test_run_grid_flags_are_bools(tmp_path, option):
     from wrt.bench import Grid, run_grid
 
-    with pytest.raises(TypeError, match="run_grid: (resume|progress) must be True or False"):
+    with pytest.raises(TypeError, match="run_grid: (resume|progress|dask) must be"):
         run_grid(Grid(scenes=["sphere:20"], accels=["wrt:sah"], rays=["primary"], n_rays=10), tmp_path / "out",
                  **option)
     assert not (tmp_path / "out").exists()

@@ -810,6 +810,12 @@ def run_grid(
 
     # By their truth, resume="false" kept the earlier run's rows and progress="false" showed the bar.
     resume, progress = flag(resume, "run_grid: resume"), flag(progress, "run_grid: progress")
+    if dask is not None and not isinstance(dask, str):  # dask=2 was taken as the address of a scheduler
+        try:
+            dask = flag(dask, "run_grid: dask")
+        except TypeError:
+            raise TypeError(f"run_grid: dask must be None, True or False, or a scheduler address str, got "
+                            f"{type(dask).__name__} {dask!r}") from None
     rows, resumed, warned = [], {}, set()  # resumed: row key -> a row of the earlier run, kept until measured again
     jsonl = None
     if out is not None:
