@@ -158,6 +158,7 @@ def test_render_frames_checks_its_options_before_a_frame(shot, tmp_path, option,
     (dict(n_workers=0), ValueError, "n_workers must be a positive integer or None, got 0"),
     (dict(n_workers=-1), ValueError, "n_workers must be a positive integer or None"),
     (dict(n_workers=1.5), ValueError, "n_workers must be a positive integer or None"),
+    (dict(address=8786), TypeError, "address must be a scheduler address str"),
 ])
 def test_run_tasks_checks_its_options_before_starting_a_cluster(monkeypatch, option, error, match):
     def no_cluster(*args):

@@ -131,6 +131,9 @@ def run_tasks(
     if n_workers is not None and (isinstance(n_workers, bool) or not isinstance(n_workers, (int, np.integer))
                                   or n_workers < 1):  # 0 fell back to default_workers(), -1 failed in Dask's words
         raise ValueError(f"n_workers must be a positive integer or None, got {n_workers!r}")
+    if address is not None and not isinstance(address, str):  # Dask's message named no argument
+        raise TypeError(f"address must be a scheduler address str, such as 'tcp://host:8786', or None, got "
+                        f"{type(address).__name__} {address!r}")
     items = list(items)
     client, cluster = connect(address, n_workers, retries)
     results = {} if on_result is None else None
