@@ -798,7 +798,7 @@ class Scene:
         if not shapes:
             return
         lowers, uppers = (np.array(b) for b in zip(*(shape.local_bounds() for shape in shapes)))
-        with np.errstate(invalid="ignore"):  # a NaN transform is named by the trace (tlas.check_finite_transforms)
+        with np.errstate(invalid="ignore"):  # a NaN transform is named by the trace (trace.check_finite_transforms)
             lo, hi = world_boxes(lowers, uppers, np.stack([shape.to_world for shape in shapes]))
             past = np.flatnonzero(np.maximum(np.abs(lo), np.abs(hi)).max(axis=1) > np.finfo(np.float32).max)
         if len(past):
