@@ -273,3 +273,15 @@ def test_a_shape_whose_box_is_past_float32_is_refused_naming_it():
         wrt.trace(scene, [0.0, 0.0, 5.0], [0.0, 0.0, -1.0])
     hits = wrt.trace(wrt.Scene(shapes=[ball(1e30)]), [0.0, 0.0, 3e30], [0.0, 0.0, -1.0])
     np.testing.assert_allclose(hits.t, [2e30], rtol=1e-6)
+
+
+def test_a_usdlux_input_given_since_a_kept_renderer_was_built_is_refused_at_its_next_render():
+    """A kept Renderer follows its lights by their fields, and ``light.exposure = 2`` adds none: its next render
+    went on without a word, where a new render refuses it. It refuses it too, naming the light and the attribute."""
+    ball = wrt.primitives.Shape("/Ball", "sphere", np.eye(4), double_sided=True)
+    light = make_light("rect")
+    renderer = wrt.Renderer(wrt.Scene(shapes=[ball], lights=[light]), camera=TOP, width=4, height=4)
+    renderer.render()
+    light.exposure = 2.0
+    with pytest.raises(wrt.SceneError, match=r"^/L: RectLight has no field exposure: its color is UsdLux's "):
+        renderer.render()

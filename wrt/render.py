@@ -509,6 +509,8 @@ class Renderer:
         # Lights are compared with their fields: a light given a new colour or intensity (light.color = ...) kept
         # shining with the old one.
         lights = tuple(dataclass_parts(self.scene.lights))
+        for light in self.scene.lights:  # light.exposure = 2 adds no field: the record above does not change
+            check_folded_inputs(light)
         if self.scene.cache_generation != self._scene_generation or parts_changed(self._scene_lights, lights):
             if wp.get_device(self.device).is_capturing:  # a build's uploads cannot be recorded into a CUDA graph
                 raise RuntimeError("the scene changed since the renderer was built: call launch_frame() once "
