@@ -948,3 +948,18 @@ def test_python_camera_takes_an_infinite_far_clip():
     cam = wrt.Camera.look_at((0, 0, 0), (0, 0, -1), clipping_range=(0.1, INF))
     image = wrt.render(scene, camera=cam, width=2, height=2, integrator="albedo")
     assert image.aovs["coverage"].min() == 1.0
+
+
+@pytest.mark.parametrize("clipping_range, words", [((5.0, 1.0), "must satisfy 0 <= near < far"),
+                                                   ((1.0, 2.0, 3.0), r"must be \(near, far\)")])
+def test_a_bad_clipping_range_names_the_camera(clipping_range, words):
+    """A camera's other bad fields are named with its path ('camera /Cam transform is not finite'); its clipping
+    range said only 'camera clipping range ...', naming no camera among the scene's, at the render after the
+    assignment too."""
+    with pytest.raises(ValueError, match=rf"^camera /Cam clipping range {words}"):
+        wrt.Camera(path="/Cam", clipping_range=clipping_range)
+    cam = wrt.Camera.look_at((0, 0, 10), (0, 0, 0), path="/Cam")
+    cam.clipping_range = clipping_range
+    with pytest.raises(ValueError, match=rf"^camera /Cam clipping range {words}"):
+        wrt.render(wrt.Scene.from_triangles(np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.int32([[0, 1, 2]])),
+                   camera=cam, width=2, height=2)

@@ -260,10 +260,10 @@ class Camera:
                              f"exposure, exposure:time, :iso, :fStop and :responsivity), got "
                              f"{_show(self.exposure_scale)}")
         if np.shape(self.clipping_range) != (2,):  # "too many values to unpack"
-            raise ValueError(f"camera clipping range must be (near, far), got {self.clipping_range!r}")
+            raise ValueError(f"{self.label()} clipping range must be (near, far), got {self.clipping_range!r}")
         near, far = self.clipping_range
         if not (_finite(near) and (_finite(far) or far == math.inf) and 0 <= near < far):  # ("a", "b"): a TypeError
-            raise ValueError(f"camera clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
+            raise ValueError(f"{self.label()} clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
         if not np.all(np.isfinite(self.to_world)):
             raise ValueError(f"{self.label()} transform is not finite")
         problem = bottom_row_problem(f"{self.label()} to_world", self.to_world)
