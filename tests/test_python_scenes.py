@@ -919,3 +919,15 @@ def test_a_texture_scale_of_one_or_three_numbers_is_read_as_a_usd_one_is():
     np.testing.assert_array_equal(texture.bias, np.float32([0.125] * 4))
     on_square = image.aovs["coverage"] > 0.5
     np.testing.assert_allclose(image.rgb[on_square], np.broadcast_to([0.375, 0.625, 0.875], (16, 3)), atol=1e-3)
+
+
+def test_a_texture_image_given_as_a_zero_d_array_is_read_as_its_index():
+    """``image=np.array(1)`` (a 0-d array: ``np.asarray`` of an index, a reduction's result) is one integer, and was
+    read as one before TextureInput's fields were checked; the check refused it as no integer. Oracle: the albedo is
+    the texel of scene.textures[1]."""
+    scene = textured_square(np.full((2, 2, 4), 0.5, np.float32))
+    scene.textures.append(np.broadcast_to(np.float32([0.25, 0.5, 0.75, 1.0]), (2, 2, 4)).copy())
+    scene.materials[0].textures["diffuseColor"] = wrt.TextureInput(np.array(1))
+    image = wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")
+    on_square = image.aovs["coverage"] > 0.5
+    np.testing.assert_allclose(image.rgb[on_square], np.broadcast_to([0.25, 0.5, 0.75], (16, 3)), atol=1e-3)

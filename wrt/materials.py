@@ -158,7 +158,10 @@ class TextureInput(CountsAssignments):
         ``scale``, ``bias`` or ``transform`` rendered the texture black without a word, an ``image`` of 0.7 read image
         0, and a ``scale`` of 2 numbers or a ``(2, 2)`` transform failed at the upload with numpy's broadcast
         message."""
-        image = np.asarray(self.image) if isinstance(self.image, (int, float, np.number)) else np.asarray(None)
+        # A 0-d array (np.array(2), a reduction's result) is one number, as it was taken before this check.
+        number = isinstance(self.image, (int, float, np.number)) or (
+            isinstance(self.image, np.ndarray) and self.image.ndim == 0)
+        image = np.asarray(self.image) if number else np.asarray(None)
         if image.ndim != 0 or image.dtype.kind == "b" or int32_problem(image.reshape(1)):
             raise ValueError(f"{where}: image must be an integer, an index into scene.textures, got {self.image!r}")
         if type(self.image) is not int:
