@@ -598,12 +598,24 @@ class Shape(CountsAssignments):
 
     def local_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Canonical-space box ``(lower, upper)``."""
-        if self.kind in ("capsule", "tapered"):
-            h, top = float(self.params[0]), 1.0 if self.kind == "capsule" else float(self.params[1])
-            return np.array([-1.0, -1.0, -1.0 - h]), np.array([1.0, 1.0, top + h])
-        if self.kind in ("plane", "disk"):
-            return np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 0.0])
-        return np.full(3, -1.0), np.full(3, 1.0)
+        lower, upper = local_boxes([self])
+        return lower[0], upper[0]
+
+
+def local_boxes(shapes: list) -> tuple[np.ndarray, np.ndarray]:
+    """``(N, 3)`` float64 canonical-space boxes ``(lowers, uppers)`` of ``shapes``, in one pass of numpy (a scene of
+    100k shapes checked them one by one at every build): the unit cube, flat for a plane or disk, a capsule's and
+    tapered capsule's stretched along z by their ``H`` (up to the top sphere ``rho`` of a tapered one)."""
+    kinds = np.array([shape.kind for shape in shapes], dtype=object)
+    params = np.array([shape.params for shape in shapes], np.float64).reshape(-1, 4)
+    lowers, uppers = np.full((len(shapes), 3), -1.0), np.full((len(shapes), 3), 1.0)
+    flat = (kinds == "plane") | (kinds == "disk")
+    lowers[flat, 2] = uppers[flat, 2] = 0.0
+    long = (kinds == "capsule") | (kinds == "tapered")
+    top = np.where(kinds == "tapered", params[:, 1], 1.0)
+    lowers[long, 2] = -1.0 - params[long, 0]
+    uppers[long, 2] = top[long] + params[long, 0]
+    return lowers, uppers
 
 
 def axis_rotation(axis: str) -> np.ndarray:

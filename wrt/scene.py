@@ -797,7 +797,9 @@ class Scene:
         shapes = self._geometry_shapes()
         if not shapes:
             return
-        lowers, uppers = (np.array(b) for b in zip(*(shape.local_bounds() for shape in shapes)))
+        from .primitives import local_boxes  # (primitives imports this module)
+
+        lowers, uppers = local_boxes(shapes)  # one pass: this runs at every build
         with np.errstate(invalid="ignore"):  # a NaN transform is named by the trace (trace.check_finite_transforms)
             lo, hi = world_boxes(lowers, uppers, np.stack([shape.to_world for shape in shapes]))
             past = np.flatnonzero(np.maximum(np.abs(lo), np.abs(hi)).max(axis=1) > np.finfo(np.float32).max)
