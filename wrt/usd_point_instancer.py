@@ -257,9 +257,19 @@ class PointInstancerReading:
         return m, read, parts
 
     def _of_schema_type(self, attr: Usd.Attribute) -> bool:
-        """``attr`` holds no value, or one of its schema's value type (``float3[]`` for ``point3f[]``: roles aside)."""
+        """``attr`` holds no value, or one of its schema's value type (``float3[]`` for ``point3f[]``: roles aside),
+        or, for orientations, a quaternion array of either precision: a ``quatf[] orientations`` (common in files
+        written by scripts) is taken as the rotation it plainly is, as wrt always read it, though
+        ``ComputeInstanceTransformsAtTime`` reads only ``quath[]`` there."""
         authored = Sdf.ValueTypeNames.Find(self._authored_type(attr))
-        return not attr.HasValue() or (bool(authored) and authored.type == attr.GetTypeName().type)
+        if not attr.HasValue():
+            return True
+        if not authored:
+            return False
+        quaternions = {Sdf.ValueTypeNames.QuathArray.type, Sdf.ValueTypeNames.QuatfArray.type}
+        if attr.GetTypeName().type in quaternions:
+            return authored.type in quaternions
+        return authored.type == attr.GetTypeName().type
 
     def _finite_instances(self, prim: Usd.Prim, m: np.ndarray, parts: list, shown: np.ndarray) -> np.ndarray:
         """``(n,)`` bool: the instances whose transform ``m`` (``(n, 4, 4)``) is finite. The others of ``shown`` (the
