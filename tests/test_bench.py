@@ -330,7 +330,7 @@ def test_repeated_names_are_measured_once(tmp_path):
                      devices=["cpu", "cpu"], rays=["primary", "primary"], n_rays=300, repeats=1)
     rows = run_grid(grid, tmp_path, progress=False)
     assert [r["accel"] for r in rows] == ["warp:sah", "wrt:sah"] and len(read_rows(tmp_path)) == 2
-    sweep = dict(sizes=[300, 3e2, 300.5], accels=["wrt:sah"], n_rays=300)  # one sphere, written three ways
+    sweep = dict(sizes=[300, 3e2, 300.0], accels=["wrt:sah"], n_rays=300)  # one sphere, written three ways
     rows = run_grid(tiny_grid(scenes=[], scaling=sweep), tmp_path / "sweep", progress=False)
     assert [(r["scene"], r["accel"], r.get("sweep")) for r in rows] == [("sphere:300", "wrt:sah", True)]
 
