@@ -217,6 +217,37 @@ def test_xyze_pixels_are_converted_to_rec709(tmp_path):
     np.testing.assert_allclose(image[0, :, :3], expected, atol=2.5 / 128)
 
 
+def test_exponent_255_decodes_to_the_finite_value_the_format_defines(tmp_path):
+    """E = 255 is ``m / 256 * 2^127`` (up to 1.7e38), in float32's range: it reads as float64 decoding gives it."""
+    pixels = np.array([[[255, 255, 255, 255], [128, 1, 0, 255], [200, 100, 50, 254]]], np.uint8)
+    image = load_image(hdr_file(tmp_path / "bright.hdr", pixels, rle=False))
+    np.testing.assert_array_equal(image[0, :, :3], from_rgbe(pixels)[0].astype(np.float32))
+    assert np.all(np.isfinite(image))
+
+
+def test_bright_xyze_pixels_convert_without_overflow(tmp_path):
+    """XYZ (v, v, v) of E = 255 is equal-energy white RGB (v, v, v), finite: the float32 matrix product overflowed
+    to inf, which a dome reads as black."""
+    pixels = np.array([[[255, 255, 255, 255], [128, 128, 128, 255]]], np.uint8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        image = load_image(hdr_file(tmp_path / "x.hdr", pixels, rle=False, header=("FORMAT=32-bit_rle_xyze",)))
+    np.testing.assert_allclose(image[0, :, :3], from_rgbe(pixels)[0], rtol=1e-5)
+
+
+def test_components_past_float32_after_exposure_are_clamped_with_a_warning_naming_the_file(tmp_path):
+    """``EXPOSURE=0.25`` takes E = 255 components past 3.4e38: clamped to float32's largest value and counted in
+    a warning naming the file (they were inf, which a light reads as 0); the others are divided as before."""
+    pixels = np.array([[[255, 10, 0, 255], [128, 64, 32, 130]]], np.uint8)
+    path = hdr_file(tmp_path / "sun.hdr", pixels, rle=False, header=("EXPOSURE=0.25",))
+    with pytest.warns(UserWarning, match=r"sun\.hdr: 1 pixel component past float32's range"):
+        image = load_image(path)
+    expected = from_rgbe(pixels)[0] * 4.0  # float64
+    assert image[0, 0, 0] == np.finfo(np.float32).max and expected[0, 0] > np.finfo(np.float32).max
+    np.testing.assert_allclose(image[0, 0, 1:3], expected[0, 1:3], rtol=1e-6)
+    np.testing.assert_allclose(image[0, 1, :3], expected[1], rtol=1e-6)
+
+
 def latlong_sky(h=16):
     """A lat-long dome image: a blue-white sky above the horizon, a dim ground, a bright sun."""
     rgb = np.empty((h, 2 * h, 3))
@@ -267,6 +298,25 @@ def test_dome_with_an_hdr_texture_renders_as_the_same_image_in_exr(tmp_path):
     exr = render_plane(dome_stage(tmp_path / "exr", "sky.exr"))
     assert hdr.mean() > 0.1
     np.testing.assert_allclose(hdr, exr, rtol=1e-5)
+
+
+def test_a_dome_of_exponent_255_renders_as_the_same_dome_scaled_by_a_power_of_two(tmp_path):
+    """Raising every exponent byte by k (the brightest to 255) multiplies the radiance, so the image, by exactly
+    2^k. The dome's sampling CDFs summed past float32's range (inf): its light samples, so the path image, were
+    wrong (12% off) without a word."""
+    pixels = rgbe(latlong_sky())
+    k = 255 - int(pixels[..., 3].max())
+    bright = pixels.copy()
+    bright[..., 3] = np.where(pixels[..., 3] > 0, pixels[..., 3].astype(int) + k, 0)
+    (tmp_path / "bright").mkdir()
+    hdr_file(tmp_path / "sky.hdr", pixels)
+    hdr_file(tmp_path / "bright" / "sky.hdr", bright)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plain = render_plane(dome_stage(tmp_path, "sky.hdr")).astype(np.float64)
+        lit = render_plane(dome_stage(tmp_path / "bright", "sky.hdr")).astype(np.float64)
+    assert plain.mean() > 0.1
+    np.testing.assert_allclose(lit / 2.0**k, plain, rtol=1e-4)
 
 
 def test_hdr_textures_inside_a_usdz_light_a_dome_and_colour_a_material(tmp_path):

@@ -657,7 +657,10 @@ def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     # function times sin(theta) over 2 (which sums to 1).
     row_means = texels.mean(axis=1, dtype=np.float64)
     mean = _latitude_hat_weights(hgt) @ row_means / 2.0
-    return row.astype(np.float32), col.reshape(-1).astype(np.float32), mean.astype(np.float32)
+    # Sampling reads only ratios of the CDFs: scaled to a total of 1 in float64 they fit float32 whatever the image's
+    # brightness (a Radiance dome of exponent byte 255 sums past 3.4e38: its CDFs were inf and its samples wrong).
+    total = row[-1]
+    return (row / total).astype(np.float32), (col / total).reshape(-1).astype(np.float32), mean.astype(np.float32)
 
 
 def _latitude_hat_weights(hgt: int) -> np.ndarray:

@@ -25,6 +25,10 @@ Choices:
   reader) and OpenImageIO decode it: a component stored as 0 stays 0, so a pure red sun stays red. Radiance itself
   adds half a step, ``(m + 0.5) / 256 * 2^(E - 128)``; the two differ by at most 1/256 of a pixel's brightest
   component.
+- The brightest exponent byte, 255, is a number like the others: up to ``255 / 256 * 2^127`` (1.7e38), which
+  float32 holds. An ``EXPOSURE`` or ``COLORCORR`` below 1, or the XYZ to RGB conversion, can take such a
+  component past float32's range: it is clamped to float32's largest value (3.4e38), with a warning naming the
+  file and how many components, rather than made inf (which a light reads as 0: a black sun) or NaN.
 - ``EXPOSURE`` and ``COLORCORR`` are divided out, as Radiance defines them, so the image holds the radiance before
   they were applied (``pfilt -e 2`` doubles the pixels and writes ``EXPOSURE=2``). Readers that ignore them
   (stb_image) show such a file brighter or darker by that factor.
@@ -36,6 +40,7 @@ Choices:
 from __future__ import annotations
 
 import re
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,6 +60,7 @@ RESOLUTION = re.compile(rb"([-+])([XY]) +(\d+) +([-+])([XY]) +(\d+)")
 EXPONENT_SCALE = np.where(np.arange(256) > 0, np.ldexp(1.0, np.arange(256) - 136), 0.0).astype(np.float32)  # by E
 REC709_XY = ((0.64, 0.33), (0.30, 0.60), (0.15, 0.06))  # chromaticities of the Rec.709 / sRGB primaries
 HEADER_END = re.compile(rb"\n\r?\n")  # the empty line after the header; Windows tools end lines with \r\n
+FLOAT32_MAX = float(np.finfo(np.float32).max)  # a component past it is clamped to it (see the module docstring)
 MAX_WINDOW = 2**31 - 1  # bytes one decode_adaptive_scanlines_kernel launch reads (int32 offsets)
 
 # Faults decode_adaptive_scanlines_kernel reports, status[2]
@@ -185,6 +191,7 @@ def read_radiance(data: bytes, name: str) -> np.ndarray:
     planes = np.empty((min(rows, count), 4, length), np.uint8)  # a chunk of scanlines, R, G, B, E planes each
     adaptive = RLE_MIN_LENGTH <= length <= RLE_MAX_LENGTH  # other lengths are always flat or old run-length
     at = header.offset
+    clamped = 0  # components past float32's range, clamped to its largest value
     for first in range(0, count, rows):
         n, i = min(rows, count - first), 0
         while i < n:
@@ -194,7 +201,10 @@ def read_radiance(data: bytes, name: str) -> np.ndarray:
             if i < n:
                 at = _read_old_rle(pixels, at, planes[i], (name, first + i, count))
                 i += 1
-        _to_float(planes[:n], header, target[first : first + n])
+        clamped += _to_float(planes[:n], header, target[first : first + n])
+    if clamped:
+        warnings.warn(f"Radiance HDR {name}: {clamped} pixel component{'s' if clamped > 1 else ''} past float32's "
+                      f"range (3.4e38, after EXPOSURE, COLORCORR or the XYZ conversion) clamped to it", stacklevel=3)
     return rgba
 
 
@@ -254,21 +264,32 @@ def xyz_to_rec709() -> np.ndarray:
     return np.linalg.inv(rgb_to_xyz)
 
 
-def _to_float(planes: np.ndarray, header: RadianceHeader, out: np.ndarray):
-    """Writes the linear RGBA of ``(N, 4, L)`` uint8 RGBE planes into ``out`` (``(N, L, 4)`` float32).
+def _to_float(planes: np.ndarray, header: RadianceHeader, out: np.ndarray) -> int:
+    """Writes the linear RGBA of ``(N, 4, L)`` uint8 RGBE planes into ``out`` (``(N, L, 4)`` float32); returns how
+    many components passed float32's range and were clamped to it.
 
     Called chunk by chunk, so that a header promising more pixels than the file holds fails before the image's
     memory (reserved, not yet touched) is written."""
     out[..., 3] = 1.0
-    scale = EXPONENT_SCALE[planes[:, 3]]
     if header.xyz:
-        matrix = xyz_to_rec709() * header.scale[None, :]
-        out[..., :3] = (planes[:, :3].transpose(0, 2, 1) * scale[..., None]) @ matrix.T.astype(np.float32)
-        return
+        # In float64: a bright X, Y and Z overflow float32 in the matrix product, to inf or to inf - inf = NaN.
+        scale = np.ldexp(1.0, planes[:, 3].astype(np.int64) - 136) * (planes[:, 3] > 0)
+        matrix = xyz_to_rec709() * header.scale[None, :].astype(np.float64)
+        rgb = (planes[:, :3].transpose(0, 2, 1) * scale[..., None]) @ matrix.T
+        past = np.abs(rgb) > FLOAT32_MAX
+        out[..., :3] = np.clip(rgb, -FLOAT32_MAX, FLOAT32_MAX)
+        return int(past.sum())
+    scale = EXPONENT_SCALE[planes[:, 3]]
     for c in range(3):
         np.multiply(planes[:, c], scale, out=out[..., c])
         if header.scale[c] != 1.0:
-            out[..., c] *= header.scale[c]
+            with np.errstate(over="ignore"):
+                out[..., c] *= header.scale[c]
+    if header.scale.max() <= 1.0:  # every component is at most 255 / 256 * 2^127
+        return 0
+    past = np.isinf(out[..., :3])
+    out[..., :3][past] = FLOAT32_MAX
+    return int(past.sum())
 
 
 def _decode_adaptive(pixels: np.ndarray, at: int, planes: np.ndarray, where) -> tuple[int, int]:
