@@ -532,6 +532,48 @@ def test_a_blend_shape_that_does_not_fit_is_left_out_with_a_warning(tmp_path, ca
     np.testing.assert_allclose(mesh.normals, normals, atol=2e-6)
 
 
+UNPAIRED = {  # the Face quad's skel:blendShapes and skel:blendShapeTargets of other lengths: (lines, left out)
+    "names": ('uniform token[] skel:blendShapes = ["bulge", "extra"]\n'
+              "        rel skel:blendShapeTargets = </Root/Face/bulge>", r"skel:blendShapes \['extra'\] past its 1"),
+    "targets": ('uniform token[] skel:blendShapes = ["bulge"]\n'
+                "        rel skel:blendShapeTargets = [</Root/Face/bulge>, </Root/Face/extra>]",
+                r"skel:blendShapeTargets \['/Root/Face/extra'\] past its 1"),
+}
+
+
+@pytest.mark.parametrize("case", list(UNPAIRED))
+def test_blend_shapes_past_their_targets_are_left_out_with_a_warning_naming_the_mesh(tmp_path, case):
+    """``skel:blendShapes[i]`` pairs with ``skel:blendShapeTargets[i]``; the entries past the shorter list are left
+    out, named with the mesh, and the paired ``bulge`` still moves the Face quad's point 2 by its weight (0.5 at time
+    1 to 1 at time 10). USD's ComputeSubShapeWeights refused the weights' size and with it every blend shape: the
+    quad was drawn unposed under USD's 'Size of weights [2] != number of blend shapes [1]' alone, naming no mesh."""
+    lines, left_out = UNPAIRED[case]
+    animated = '''uniform token[] blendShapes = ["bulge", "extra"]
+        float[] blendShapeWeights.timeSamples = { 1: [0.5, 0.7], 10: [1, 1] }'''
+    bound = '''uniform token[] skel:blendShapes = ["bulge"]
+        rel skel:blendShapeTargets = </Root/Face/bulge>'''
+    body = skel_root().replace('''uniform token[] blendShapes = ["bulge"]
+        float[] blendShapeWeights.timeSamples = { 1: [0.5], 10: [1] }''', animated).replace(bound, lines).replace(
+        '''            uniform int[] pointIndices = [2]
+        }''', '''            uniform int[] pointIndices = [2]
+        }
+
+        def BlendShape "extra"
+        {
+            uniform vector3f[] offsets = [(0, 0, 0.9)]
+            uniform int[] pointIndices = [0]
+        }''')
+    assert animated in body and 'BlendShape "extra"' in body and lines in body
+    with pytest.warns(UserWarning, match=rf"differ in length.*\({left_out} skel:.*: /Root/Face$"):
+        scene = load_usd(write(tmp_path, body), time=5.0)
+    weight = 0.5 + 0.5 * (5 - 1) / (10 - 1)  # bulge's, linearly between its samples
+    points = np.array([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], np.float64)
+    points[2] += weight * np.array([0, 0, 0.5])
+    points += (0, 1, -3)  # the quad's translate and the SkelRoot's (blend shapes only: the mesh's own space)
+    mesh = {m.path: m for m in scene.meshes}["/Root/Face"]
+    np.testing.assert_allclose(mesh.points[mesh.indices], points[fan([4], [0, 1, 2, 3])], atol=1e-6)
+
+
 @pytest.mark.parametrize("sampled", ["jointWeights", "geomBindTransform"])
 def test_influences_with_only_time_samples_are_read_at_their_first_sample_with_the_default_time(tmp_path, sampled):
     """``time=None`` reads an attribute that has only time samples at its first sample, each attribute on its own

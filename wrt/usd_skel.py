@@ -23,7 +23,10 @@ skeleton outside the native prototype that holds it) keeps its unposed points, w
 does, with a warning naming the mesh and the joint (USD says nothing). A blend shape that does not fit its mesh
 (``offsets`` or ``normalOffsets`` of another length than its ``pointIndices``, or than the mesh's points without
 them; a point index out of range; offsets that are not finite) is left out, with a warning naming the mesh, the
-BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply.
+BlendShape and what is wrong; the mesh's other blend shapes and its skinning still apply. A ``skel:blendShapes``
+longer than its ``skel:blendShapeTargets`` (or shorter) pairs them entry by entry as far as the shorter goes and
+leaves out the rest, with a warning naming the mesh and the names (or targets) left out; USD warns of the sizes only,
+naming no mesh, and applies none of the mesh's blend shapes.
 """
 
 from __future__ import annotations
@@ -40,6 +43,9 @@ REFUSED_INFLUENCES = ("UsdSkel joint influences that UsdSkel cannot use (an elem
                       "interpolation that differs, weights that are not numbers) were ignored, as UsdSkel ignores "
                       "them; these meshes are not skinned (blend shapes still apply)")  # warning reason
 BAD_SHAPE = "UsdSkel blend shapes that do not fit their mesh were left out; the rest of its pose applies"  # reason
+UNPAIRED_SHAPES = ("UsdSkel skel:blendShapes and skel:blendShapeTargets differ in length; the entries past the "
+                   "shorter list were left out (USD leaves out every blend shape of the mesh); the rest of its pose "
+                   "applies")  # warning reason: skel:blendShapes[i] pairs with skel:blendShapeTargets[i]
 MISSING_JOINTS = ("UsdSkel skel:joints name joints their skeleton lacks; points weighted to them take the identity, "
                   "as UsdSkel's")  # warning reason: the mesh is posed as BakeSkinning poses it
 
@@ -193,6 +199,8 @@ class SkelPoser:
         if mapper and not mapper.IsNull() and not mapper.IsIdentity():
             weights = mapper.Remap(weights, Vt.FloatArray())  # into the mesh's skel:blendShapes order
         shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
+        if len(weights) != shapes.GetNumBlendShapes():
+            weights = self._paired_weights(prim, weights, shapes.GetNumBlendShapes())
         sub_weights, shape_ids, sub_ids = shapes.ComputeSubShapeWeights(weights)
         point_indices = shapes.ComputeBlendShapePointIndices()
         sub_offsets = shapes.ComputeSubShapePointOffsets()
@@ -217,6 +225,23 @@ class SkelPoser:
                 values, corners = normals
                 normals = (values[corners] + offsets[vertex_ids]).reshape(-1, 3), np.arange(corners.size).reshape(-1, 3)
         return np.array(moved, np.float64), normals
+
+    def _paired_weights(self, prim, weights, count: int):
+        """``weights`` (in ``skel:blendShapes`` order) cut or padded with zeros to the ``count`` blend shapes of
+        ``skel:blendShapeTargets``, the entries past the shorter list recorded through ``skip``: ComputeSubShapeWeights
+        refuses weights of another size, and with them every blend shape of the mesh."""
+        binding = UsdSkel.BindingAPI(prim)
+        if len(weights) > count:
+            names = list(binding.GetBlendShapesAttr().Get() or [])[count : len(weights)]
+            left_out = f"skel:blendShapes {names} past its {count} skel:blendShapeTargets"
+        else:
+            targets = [str(t) for t in binding.GetBlendShapeTargetsRel().GetTargets()][len(weights) : count]
+            left_out = f"skel:blendShapeTargets {targets} past its {len(weights)} skel:blendShapes"
+        self.skip(UNPAIRED_SHAPES, prim, left_out)
+        paired = np.zeros(count, np.float32)
+        n = min(count, len(weights))
+        paired[:n] = np.asarray(weights, np.float32)[:n]
+        return Vt.FloatArray.FromNumpy(paired)
 
 
 class _Influences:
