@@ -59,6 +59,7 @@ LIGHT_POINT = wp.constant(6)
 LIGHT_TRIANGLE = wp.constant(7)
 LIGHT_ELLIPSOID = wp.constant(8)  # a SphereLight scaled unevenly or sheared
 LIGHT_ELLIPTIC_TUBE = wp.constant(9)  # a CylinderLight scaled unevenly across its axis or sheared
+LIGHT_LINE = wp.constant(10)  # a CylinderLight with treatAsLine: a segment, radiance holds I_s (wrt.lights)
 
 # DeviceLights.shadows: what blocks a light's shadow rays.
 SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
@@ -79,9 +80,10 @@ class DeviceLights:
     triangle's row is 56 bytes (60 with light linking), where it took 160 with them."""
 
     kinds: wp.array[wp.int32]  # (num_analytic) LIGHT_* kind; the triangles' is LIGHT_TRIANGLE (light_kind)
-    radiance: wp.array[wp.vec3]  # L (area, dome, soft distant), E (delta distant), I (point); triangles: see params
+    radiance: wp.array[wp.vec3]  # L (area, dome, soft distant), E (delta distant), I (point), I_s (line);
+    # triangles: see params
     position: wp.array[wp.vec3]  # (num_analytic) centre; for distant lights the direction of travel
-    axis_u: wp.array[wp.vec3]  # (num_analytic) rect: full X edge; disk: X radius vector; cylinder: full axis
+    axis_u: wp.array[wp.vec3]  # (num_analytic) rect: full X edge; disk: X radius vector; cylinder, line: full axis
     axis_v: wp.array[wp.vec3]  # (num_analytic) rect: full Y edge; disk: Y radius vector
     normal: wp.array[wp.vec3]  # (num_analytic) rect, disk: unit emitting normal
     params: wp.array[wp.vec4]  # (radius | cos of half angle | ellipsoid's |det|^(1/3), solid angle of cone,
@@ -506,6 +508,27 @@ def sample_light(
             out.dist = wp.sqrt(d2)
             out.wi = to / out.dist
             out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) / d2
+        return out
+    if kind == LIGHT_LINE:
+        # A point of the segment uniform in the angle phi it is seen at from p's foot on the line (s = h tan phi):
+        # the pdf h / ((phi_b - phi_a) d^2) cancels the 1 / d^2 and, with sin(theta) = h / d, leaves
+        # I_s sin(theta) / d^2 / pdf = I_s (phi_b - phi_a) / d (uniform along the length was 4x noisier up close).
+        seg = lights.axis_u[k]
+        seg_length = wp.length(seg)
+        if seg_length > 0.0:
+            seg_dir = seg / seg_length
+            seg_s = wp.dot(p - lights.position[k], seg_dir)  # p's coordinate along the line, from the centre
+            seg_foot = lights.position[k] + seg_s * seg_dir
+            seg_h = wp.length(p - seg_foot)  # p's distance from the line
+            if seg_h > 0.0:  # (on the line itself: sin(theta) = 0, it sends p nothing)
+                phi_a = wp.atan((-0.5 * seg_length - seg_s) / seg_h)
+                phi_b = wp.atan((0.5 * seg_length - seg_s) / seg_h)
+                to = seg_foot + seg_h * wp.tan(phi_a + u1 * (phi_b - phi_a)) * seg_dir - p
+                out.dist = wp.length(to)
+                if out.dist > 0.0:
+                    out.wi = to / out.dist
+                    seg_value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi))
+                    out.value = seg_value * ((phi_b - phi_a) / out.dist)
         return out
     if kind == LIGHT_DOME:
         if lights.dome_textured == 0:

@@ -22,6 +22,7 @@ from .light_sampling import (
     LIGHT_DOME,
     LIGHT_ELLIPSOID,
     LIGHT_ELLIPTIC_TUBE,
+    LIGHT_LINE,
     LIGHT_POINT,
     LIGHT_RECT,
     LIGHT_SPHERE,
@@ -78,12 +79,15 @@ SMALLEST_SUN_DISC = 1e-30
 def seen_by_camera(light) -> bool:
     """Whether a camera ray can see ``light`` itself (:func:`wrt.integrators.emitters.lights_on_segment` and
     ``environment``, in the integrators that read lights): a dome, a distant light with a disc, an area light (a sphere
-    that is not a point, a rect, a disk, a cylinder). Point and delta distant lights light surfaces only; a mesh
+    that is not a point, a rect, a disk, a cylinder that is not a line). Point, line and delta distant lights light
+    surfaces only; a mesh
     light is its mesh's triangles."""
     if isinstance(light, DistantLight):
         return light.angle > 0.0 and light.size_factor >= SMALLEST_SUN_DISC
     if isinstance(light, SphereLight):
         return not light.treat_as_point
+    if isinstance(light, CylinderLight):
+        return not light.treat_as_line
     return isinstance(light, (DomeLight, RectLight, DiskLight, CylinderLight))
 
 
@@ -412,6 +416,12 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L))
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
+        elif isinstance(light, CylinderLight) and light.treat_as_line:
+            axis = light.world_shape()[0]
+            i = light.line_intensity  # I_s: its power is pi^2 |axis| I_s, as the tube's pi A L
+            _add(h, LIGHT_LINE, i, light_axes(light.to_world)[3], axis, zero, zero, (0, 0, 0, 0), 0,
+                 math.pi**2 * float(np.linalg.norm(axis)) * luminance_np(i))
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True)
         elif isinstance(light, CylinderLight):
             axis, r = light.world_shape()
             origin = light_axes(light.to_world)[3]

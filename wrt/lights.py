@@ -16,6 +16,12 @@ times the blackbody colour when ``enableColorTemperature`` is on):
 - ``SphereLight`` with ``treatAsPoint``: a point light of radiant intensity ``I = pi r^2 L`` (the sphere's
   intensity seen from afar), ``I = color / 4`` with ``normalize``; an ellipsoid's ``I = A L / 4`` (its intensity
   averaged over directions: a convex body's mean projected area is a quarter of its area, Cauchy).
+- ``CylinderLight`` with ``treatAsLine`` (UsdLux: "effectively, a zero-radius cylinder"): a line light along the
+  tube's axis, of intensity per unit length ``dI/ds = I_s sin(theta)`` in a direction at ``theta`` to the axis (the
+  tube's projected width ``2 r sin(theta)`` per unit length seen from afar: ``I_s = 2 r L``), ``I_s = color / (pi l)``
+  with ``normalize``; an elliptic or oblique tube's ``I_s = A L / (pi l)`` (its power, ``pi A L``, as the round tube's
+  is, over the ``pi^2 l`` that ``sin(theta)`` integrates to). Like a point light it is sampled (uniformly along its
+  length) and never seen by rays.
 - **DistantLight** with ``normalize`` on: ``color`` is the illuminance ``E`` at normal incidence. With ``normalize``
   off, ``color`` is the radiance of the sun disc of angular diameter ``angle``, so ``E = color * pi sin^2(angle/2)``.
   ``angle = 0`` makes a delta light whose ``color`` is ``E`` either way. Half the angle is clamped to [0, pi], as
@@ -327,6 +333,7 @@ class CylinderLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        treat_as_line: render as a line light along the axis (UsdLux ``treatAsLine``; see the module docstring).
     """
 
     to_world: np.ndarray
@@ -341,10 +348,11 @@ class CylinderLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    treat_as_line: bool = False
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR, *_MULTIPLIERS)
-        check_flags(self, "normalize", "shadows")
+        check_flags(self, "normalize", "shadows", "treat_as_line")
         check_affine(self)
         _check_shaping(self)
 
@@ -374,6 +382,18 @@ class CylinderLight:
     @property
     def radiance(self) -> np.ndarray:
         return normalized_radiance(self.color, self.area, self.normalize)
+
+    @property
+    def line_intensity(self) -> np.ndarray:
+        """``(3,)`` float32 ``I_s`` of the light treated as a line: radiant intensity per unit length at right angles
+        to the axis (see the module docstring); 0 for a line of no length, which emits nothing."""
+        length = float(np.linalg.norm(self.world_shape()[0]))
+        if not length > 0.0:
+            return np.zeros(3, np.float32)
+        color = np.asarray(self.color, np.float64)
+        per_length = color / (math.pi * length) if self.normalize else color * (self.area / (math.pi * length))
+        with np.errstate(over="ignore"):  # past float32: fits_float32 skips the light
+            return per_length.astype(np.float32)
 
 
 # UsdLux light:materialSyncMode values: how a mesh light's material and its light relate (see MeshLight).

@@ -277,6 +277,8 @@ def _tiny_normalized(light, prim, skip):
         return light
     if isinstance(light, SphereLight) and light.treat_as_point:
         return light
+    if isinstance(light, CylinderLight) and light.treat_as_line:  # its intensity is color / (pi l): no area in it
+        return light
     area = light.area
     if area > 0.0 and np.all(np.isfinite(light.radiance)):
         return light
@@ -301,6 +303,9 @@ def fits_float32(light) -> bool:
     if isinstance(light, SphereLight) and light.drawn_as_point:
         with np.errstate(over="ignore"):  # an intensity past float32 is inf here: skipped by the caller
             return bool(np.all(np.abs(light.intensity) < FLOAT32_MAX))
+    if isinstance(light, CylinderLight) and light.treat_as_line:
+        length = float(np.linalg.norm(light.world_shape()[0]))
+        return length < FLOAT32_MAX and bool(np.all(np.abs(light.line_intensity) < FLOAT32_MAX))
     return light.area < FLOAT32_MAX
 
 
@@ -436,6 +441,10 @@ def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textur
         if found is None:
             return None
         light = CylinderLight(m, found[0], found[1], color, normalize, path)
+        light.treat_as_line = flag(get, c.GetTreatAsLineAttr(), False,
+                                   lambda detail: skip(MISTYPED_FLAGS, prim, detail))
+        if light.treat_as_line:  # its axis and area are all it keeps of the tube: a flattened one is no concern
+            return light
         if not round_tube(m[:3, :3]) and found[0] > 0.0 and found[1] > 0.0 and light.tube() is None:
             skip("CylinderLights flattened by their transform (a singular matrix: a ribbon or a line) are rendered as "
                  "round tubes of the mean scaled radius", prim)

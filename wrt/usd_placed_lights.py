@@ -166,10 +166,11 @@ def _placed(template, m: np.ndarray, shape: int, sphere: tuple | None):
             light.axis = primary_axis(m, np.array([0.0, 0.0, -1.0]))
     else:
         light.to_world = m.copy()
-    if isinstance(light, CylinderLight) and light.length > 0.0 and light.radius > 0.0:
+    if isinstance(light, CylinderLight) and light.length > 0.0 and light.radius > 0.0 and not light.treat_as_line:
         if not round_tube(m3) and light.tube() is None:  # flattened: read_light warns
             return None
-    if light.normalize and not (isinstance(light, SphereLight) and light.treat_as_point):
+    if light.normalize and not (isinstance(light, SphereLight) and light.treat_as_point
+                                or isinstance(light, CylinderLight) and light.treat_as_line):
         area = light.area  # usd_lights._tiny_normalized: the lights it changes are read on their own
         if not (area > 0.0 and np.all(np.isfinite(light.radiance))):
             return None

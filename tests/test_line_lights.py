@@ -1,0 +1,98 @@
+"""CylinderLight ``treatAsLine``: UsdLux's "zero-radius cylinder", a line light along the tube's axis of intensity
+``I_s sin(theta)`` per unit length (``I_s = 2 r L``, ``color / (pi l)`` with ``normalize``), checked against the
+irradiance integrated over the line in float64."""
+
+import warnings
+
+import numpy as np
+import pytest
+from pxr import Gf, Usd, UsdGeom, UsdLux
+from shading_helpers import pixel_points, quad, top_down_camera
+
+import wrt
+
+ALBEDO = 0.5  # the default material's grey: radiance = ALBEDO * E / pi
+RES = 16  # pixels per side of the patch that is checked
+PATCH = 1.6  # side of the checked patch of the plane z = 0, scene units
+
+
+def line_irradiance(points, start, end, per_length, n=20000) -> np.ndarray:
+    """``(H, W)`` float64 irradiance at ``points`` (``(H, W, 3)``, on z = 0 facing +Z) from a line from ``start`` to
+    ``end`` of intensity ``per_length * sin(theta)`` per unit length: the midpoint rule over ``n`` pieces."""
+    start, end = np.asarray(start, np.float64), np.asarray(end, np.float64)
+    length = np.linalg.norm(end - start)
+    axis = (end - start) / length
+    s = (np.arange(n) + 0.5) / n
+    q = start + s[:, None] * (end - start)  # (n, 3) points of the line
+    v = q[None, None] - points[:, :, None]  # (H, W, n, 3) from each point to the line
+    d = np.linalg.norm(v, axis=-1)
+    sin_t = np.linalg.norm(np.cross(v, axis), axis=-1) / d
+    cos_r = np.maximum(v[..., 2], 0.0) / d
+    return (per_length * sin_t * cos_r / d**2).sum(-1) * (length / n)
+
+
+def line_stage(tmp_path, normalize: bool, treat="bool") -> str:
+    """A CylinderLight of length 3 and radius 0.6 along X at height 1 over the patch, ``treatAsLine`` authored as a
+    ``treat`` (a bool, or an int: not a bool)."""
+    path = str(tmp_path / "line.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    light = UsdLux.CylinderLight.Define(stage, "/Tube")
+    light.CreateLengthAttr(3.0)
+    light.CreateRadiusAttr(0.6)
+    light.CreateIntensityAttr(2.0)
+    light.CreateNormalizeAttr(normalize)
+    light.CreateTreatAsLineAttr(True)
+    UsdGeom.XformCommonAPI(light).SetTranslate(Gf.Vec3d(0.1, 0.2, 1.0))
+    stage.Save()
+    if treat == "int":  # as text: USD authors the schema's type through its API
+        text = (tmp_path / "line.usda").read_text()
+        assert "bool treatAsLine = 1" in text
+        (tmp_path / "line.usda").write_text(text.replace("bool treatAsLine = 1", "int treatAsLine = 1"))
+    return path
+
+
+def render_plane(lights, spp=256):
+    """Radiance ``(H, W)`` of a large grey plane z = 0 lit by ``lights`` (direct light only), seen from above through
+    the light, and the world point under each pixel."""
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")], lights=list(lights))
+    img = wrt.render(scene, camera=top_down_camera(height=PATCH), width=RES, height=RES, spp=spp, seed=1,
+                     device="cpu", integrator="path", max_depth=1)
+    assert (img.aovs["prim"] >= 0).all()
+    return img.rgb.mean(axis=-1), pixel_points((0, 0, 0), PATCH, RES, RES)
+
+
+@pytest.mark.parametrize("normalize", [False, True])
+def test_a_cylinder_light_treated_as_a_line_lights_as_the_line_integral_says(tmp_path, normalize):
+    """The tube of radius 0.6 at height 1 lights the plane as the line along its axis does (``I_s = 2 r L``, or
+    ``color / (pi l)`` normalized: the tube's power either way), and camera rays through it see the plane. treatAsLine
+    was not read: the tube was drawn, the pixels under it showing its radiance, and it lit the plane as a tube."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lights = wrt.load_usd(line_stage(tmp_path, normalize)).lights
+    assert len(lights) == 1 and lights[0].treat_as_line
+    rendered, points = render_plane(lights)
+    per_length = 2.0 / (np.pi * 3.0) if normalize else 2.0 * 0.6 * 2.0
+    expected = ALBEDO * line_irradiance(points, (-1.4, 0.2, 1.0), (1.6, 0.2, 1.0), per_length) / np.pi
+    assert abs(rendered.mean() / expected.mean() - 1.0) < 0.02
+    np.testing.assert_allclose(rendered, expected, rtol=0.1)  # pixels: E varies over each
+
+
+def test_a_line_light_has_the_tubes_power():
+    """The line's power ``pi^2 l I_s`` (``I_s sin(theta)`` integrated over the sphere and the length) is the tube's
+    ``pi A L``, and ``color`` normalized (``L = color / A``: ``pi color``)."""
+    to_world = np.eye(4)
+    light = wrt.CylinderLight(to_world=to_world, length=2.0, radius=0.3, color=np.full(3, 5.0), treat_as_line=True)
+    per_length = float(light.line_intensity[0])
+    np.testing.assert_allclose(np.pi**2 * 2.0 * per_length, np.pi * light.area * 5.0, rtol=1e-6)
+    normalized = wrt.CylinderLight(to_world=to_world, length=2.0, radius=0.3, color=np.full(3, 5.0), normalize=True,
+                                   treat_as_line=True)
+    np.testing.assert_allclose(np.pi**2 * 2.0 * float(normalized.line_intensity[0]), np.pi * 5.0, rtol=1e-6)
+
+
+def test_treat_as_line_authored_as_an_int_is_the_fallback_with_a_warning(tmp_path):
+    """``int treatAsLine = 1`` is not a bool: read as the schema's fallback (false), as USD's typed readers read it,
+    with a warning naming it and the prim."""
+    with pytest.warns(UserWarning, match=r"not bool.*treatAsLine = 1.*/Tube"):
+        lights = wrt.load_usd(line_stage(tmp_path, False, treat="int")).lights
+    assert not lights[0].treat_as_line
