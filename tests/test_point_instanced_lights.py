@@ -330,3 +330,36 @@ def test_lights_follow_the_instancers_visibility_and_their_prototypes_from_the_r
     scene, _ = load(tmp_path / "shown.usda")
     assert sorted(light.path for light in scene.lights) == ["/Guide/Protos/Bulb[0]", "/GuideLight",
                                                             "/Shown/Protos/Bulb[0]"]
+
+
+def test_line_lights_in_a_point_instancer_prototype_are_the_lights_usd_places_by_hand(tmp_path):
+    """A normalized CylinderLight with ``treatAsLine`` in a prototype, placed turned and scaled (one instance
+    unevenly across its axis: an elliptic tube's line), is each instance's line light as read on its own."""
+    stage = new_stage(tmp_path / "instanced.usda")
+    tube = UsdLux.CylinderLight.Define(stage, "/Tubes/Protos/Tube")
+    tube.CreateLengthAttr(1.5)
+    tube.CreateRadiusAttr(0.1)
+    tube.CreateIntensityAttr(6.0)
+    tube.CreateNormalizeAttr(True)
+    tube.CreateTreatAsLineAttr(True)
+    pi = UsdGeom.PointInstancer.Define(stage, "/Tubes")
+    pi.CreatePrototypesRel().SetTargets([Sdf.Path("/Tubes/Protos/Tube")])
+    pi.CreateProtoIndicesAttr([0, 0, 0])
+    pi.CreatePositionsAttr([(-1.0, 0.0, 1.0), (0.5, 0.5, 0.8), (1.0, -1.0, 1.2)])
+    turn = Gf.Rotation(Gf.Vec3d(0, 0, 1), 50.0).GetQuat()
+    pi.CreateOrientationsAttr([Gf.Quath(1, 0, 0, 0), Gf.Quath(turn), Gf.Quath(1, 0, 0, 0)])
+    pi.CreateScalesAttr([(1, 1, 1), (2, 2, 2), (1, 3, 1)])
+    stage.Save()
+    placed = usd_placed_lights(stage, pi.GetPrim(), UsdGeom.XformCache(T).GetLocalToWorldTransform(pi.GetPrim()))
+    author_by_hand(tmp_path / "by_hand.usda", placed)
+    instanced, messages = load(tmp_path / "instanced.usda")
+    assert not [m for m in messages if "Tubes" in m], messages
+    by_hand, _ = load(tmp_path / "by_hand.usda")
+    assert len(instanced.lights) == len(by_hand.lights) == 3
+    for a, b in zip(instanced.lights, by_hand.lights):
+        assert a.treat_as_line
+        assert_same_light(a, b)
+        np.testing.assert_allclose(a.line_intensity, b.line_intensity, rtol=1e-6)
+    image = top_down_image(instanced)
+    assert image.mean() > 0.01
+    np.testing.assert_allclose(image, top_down_image(by_hand), rtol=1e-4, atol=1e-6)
