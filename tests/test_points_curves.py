@@ -769,3 +769,30 @@ def test_a_gprims_unusable_colour_primvar_is_dropped_with_a_mesh_warning(tmp_pat
         np.testing.assert_allclose(shape.color, values.mean(axis=0), rtol=1e-6)
         (warned,) = [m for m in messages if "non-finite" in m and m.endswith(": /C")]
         assert warned.startswith(f"{path}: ") and "replaced by grey 0.5" in warned, messages
+
+
+def test_light_api_on_points_and_curves_is_named_not_ignored(tmp_path):
+    """MeshLightAPI on Points and LightAPI on curves (each a light per UsdLux) are not drawn as lights: wrt names
+    both prims and their types in one warning, and draws their spheres and tubes as the geometry they are, adding no
+    light (USD's own ``ComputeLightList`` lists both)."""
+    from pxr import UsdLux
+
+    path = str(tmp_path / "glow.usda")
+    stage = Usd.Stage.CreateNew(path)
+    dots = UsdGeom.Points.Define(stage, "/Dots")
+    dots.CreatePointsAttr([(0, 0, 0), (1, 0, 0)])
+    dots.CreateWidthsAttr([0.2, 0.2])
+    UsdLux.MeshLightAPI.Apply(dots.GetPrim())
+    hair = UsdGeom.BasisCurves.Define(stage, "/Hair")
+    hair.CreatePointsAttr([(0, 0, 0), (0, 1, 0)])
+    hair.CreateCurveVertexCountsAttr([2])
+    hair.CreateTypeAttr(UsdGeom.Tokens.linear)
+    hair.CreateWidthsAttr([0.1, 0.1])
+    UsdLux.LightAPI.Apply(hair.GetPrim())
+    stage.Save()
+    listed = UsdLux.ListAPI(stage.GetPseudoRoot()).ComputeLightList(UsdLux.ListAPI.ComputeModeIgnoreCache)
+    assert {str(p) for p in listed} == {"/Dots", "/Hair"}
+    with pytest.warns(UserWarning, match=r"lights on Points and curves .*not supported.*\(Points: 1, BasisCurves: 1\)"
+                                         r": /Dots, /Hair"):
+        scene = wrt.load_usd(path)
+    assert scene.lights == [] and scene.instances  # the spheres and the tube are drawn (as instanced shapes)
