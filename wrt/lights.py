@@ -20,8 +20,8 @@ times the blackbody colour when ``enableColorTemperature`` is on):
   tube's axis, of intensity per unit length ``dI/ds = I_s sin(theta)`` in a direction at ``theta`` to the axis (the
   tube's projected width ``2 r sin(theta)`` per unit length seen from afar: ``I_s = 2 r L``), ``I_s = color / (pi l)``
   with ``normalize``; an elliptic or oblique tube's ``I_s = A L / (pi l)`` (its power, ``pi A L``, as the round tube's
-  is, over the ``pi^2 l`` that ``sin(theta)`` integrates to). Like a point light it is sampled (uniformly along its
-  length) and never seen by rays.
+  is, over the ``pi^2 l`` that ``sin(theta)`` integrates to). Like a point light it is sampled (by the angle each
+  point of it is seen at) and never seen by rays.
 - **DistantLight** with ``normalize`` on: ``color`` is the illuminance ``E`` at normal incidence. With ``normalize``
   off, ``color`` is the radiance of the sun disc of angular diameter ``angle``, so ``E = color * pi sin^2(angle/2)``.
   ``angle = 0`` makes a delta light whose ``color`` is ``E`` either way. Half the angle is clamped to [0, pi], as
