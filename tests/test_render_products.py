@@ -4,7 +4,9 @@ steer outside the output folder, ``materialBindingPurposes`` and ``renderingColo
 
 import importlib
 import json
+import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import OpenEXR
@@ -13,7 +15,7 @@ from PIL import Image as PilImage
 from usda_text import fmt, load, write
 
 import wrt
-from wrt.cli import main
+from wrt.cli import build_parser, main
 from wrt.rays import camera_rays
 
 WORLD = """def Xform "World"
@@ -360,6 +362,28 @@ def test_cli_products(tmp_path, capsys):
     assert "RenderProducts" not in capsys.readouterr().err
     assert main(["render", stage, "-o", str(tmp_path / "cam.png"), "-q"]) == 0  # the same run warns without it
     assert "camera.usda: /Render/Settings has 2 RenderProducts" in capsys.readouterr().err
+
+
+# The options of one image that --products refuses, each with a value (None: a flag).
+REFUSED_WITH_PRODUCTS = {"-o": "x.png", "--width": "8", "--height": "8", "--camera": "/World/Front", "--aov": "depth",
+                         "--aov-dir": "aovs", "--frames": "1:2", "--resume": None, "--log": "log.jsonl",
+                         "--max-memory": "4G"}
+
+
+@pytest.mark.parametrize("option", REFUSED_WITH_PRODUCTS)
+def test_options_refused_with_products_are_the_ones_the_help_and_readme_name(option, tmp_path, capsys):
+    """``--products`` refused ``--resume`` while ``wrt render --help`` and the README listed the refused options
+    without it."""
+    value = REFUSED_WITH_PRODUCTS[option]
+    args = ["render", str(tmp_path / "none.usda"), "--products", str(tmp_path / "out"), option]
+    assert main(args + ([value] if value is not None else [])) == 2  # refused before the (missing) file is read
+    assert f"wrt: error: {option} cannot be combined with --products" in capsys.readouterr().err
+    (commands,) = [a for a in build_parser()._actions if a.dest == "command"]
+    (products,) = [a for a in commands.choices["render"]._actions if "--products" in a.option_strings]
+    assert re.search(rf"(?<![\w-]){re.escape(option)}(?![\w-])", products.help.split("Not with")[1])
+    readme = " ".join((Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8").split())
+    refused = readme.split("`--products` takes one scene and not ")[1].split(".")[0]
+    assert f"`{option}`" in refused
 
 
 def test_cli_view_line_names_where_the_camera_and_size_come_from(tmp_path, capsys):

@@ -282,8 +282,8 @@ def _add_render(sub) -> None:
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
                    "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
                    "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
-                   "EXR. Not with -o, --width, --height, --camera, --aov, --aov-dir, --frames, --log, --max-memory or "
-                   "several scenes", type=_non_empty)
+                   "EXR. Not with -o, --width, --height, --camera, --aov, --aov-dir, --frames, --resume, --log, "
+                   "--max-memory or several scenes", type=_non_empty)
     from .integrators import INTEGRATORS
 
     p.add_argument("--integrator", default="whitted", choices=INTEGRATORS, help="light transport: whitted (shadows, "
