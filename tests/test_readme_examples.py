@@ -274,3 +274,17 @@ def test_wrt_names_in_the_readme_resolve():
     names = {n for span in spans for n in re.findall(r"(?<![\w/.])wrt(?:\.[A-Za-z_]\w*)+", span)}
     assert len(names) > 10  # the pattern finds them
     assert {n for n in names if not resolves(n)} == set()
+
+
+def github_anchor(heading: str) -> str:
+    """The fragment GitHub gives a Markdown heading: lower case, punctuation dropped, spaces as hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_links_within_the_readme_name_its_headings():
+    """A ``[text](#fragment)`` link whose heading was renamed or removed leads nowhere on GitHub, without a word."""
+    text = re.sub(r"^```.*?^```", "", README.read_text(encoding="utf-8"), flags=re.S | re.M)
+    anchors = {github_anchor(h) for h in re.findall(r"^#+ (.+)$", text, flags=re.M)}
+    links = re.findall(r"\]\(#([^)\s]+)\)", text)
+    assert len(links) > 5  # the pattern finds them, links broken across lines included
+    assert sorted({link for link in links if link not in anchors}) == []
