@@ -26,6 +26,7 @@ README says takes it. The repository files the README names (``wrt/tlas.py``, ``
 import argparse
 import glob
 import importlib
+import json
 import os
 import re
 import shlex
@@ -288,3 +289,54 @@ def test_links_within_the_readme_name_its_headings():
     links = re.findall(r"\]\(#([^)\s]+)\)", text)
     assert len(links) > 5  # the pattern finds them, links broken across lines included
     assert sorted({link for link in links if link not in anchors}) == []
+
+
+ANIMATED_USDA = """#usda 1.0
+(
+    endTimeCode = 2
+    startTimeCode = 1
+)
+def Cube "Box"
+{
+    double3 xformOp:translate.timeSamples = {1: (0, 0, 0), 2: (0.5, 0, 0)}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def readme_log_fields() -> tuple[set, set, set]:
+    """The log fields the README lists: those of every row, those frame rows add and those frame rows lack."""
+    text = " ".join(README.read_text(encoding="utf-8").split())
+    rows = text.split("Each row has ", 1)[1].split(" Rows of older", 1)[0]
+    every, frames = rows.split("; frame rows add ", 1)
+    added, lacked = (frames.split(", and have no ", 1) + [""])[:2]
+
+    def names(part: str) -> set:
+        return set(re.findall(r"`([a-z_]+)`", part))
+
+    statuses = names(every.split("`status` (", 1)[1].split(")", 1)[0])  # ok, error with error, ...
+    options_note = {"null"}  # "as given: `null` is the stage's or wrt's default"
+
+    def drop_notes(part: str) -> str:  # "(a frame's time is its `frame`; ...)" names no field
+        return re.sub(r"\([^()]*\)", "", part)
+
+    return names(every) - statuses - options_note, names(drop_notes(added)), names(drop_notes(lacked))
+
+
+def test_log_rows_hold_the_fields_the_readme_lists(tmp_path, capsys):
+    """Frame rows had ``rebuilt_trees``, and no ``time``, ``aov`` or ``aov_dir``, while the README listed the same
+    options for them as for a scene's row."""
+    from wrt.cli import default_scene_path, main
+
+    every, added, lacked = readme_log_fields()
+    assert {"run", "scene", "width", "output_mtime_ns", "aov_files"} <= every and "frame" in added  # parsed
+    size = ["--width", "4", "--height", "3", "-q"]
+    assert main(["render", str(default_scene_path()), "-o", str(tmp_path / "one.png"), "--log",
+                 str(tmp_path / "one.jsonl"), *size]) == 0
+    (scene_row,) = [json.loads(line) for line in (tmp_path / "one.jsonl").read_text().splitlines()]
+    assert set(scene_row) == every
+    (tmp_path / "animated.usda").write_text(ANIMATED_USDA)
+    assert main(["render", str(tmp_path / "animated.usda"), "--frames", "1:2", "-o", str(tmp_path / "f_#.png"),
+                 "--log", str(tmp_path / "frames.jsonl"), *size]) == 0
+    frame_rows = [json.loads(line) for line in (tmp_path / "frames.jsonl").read_text().splitlines()]
+    assert [set(row) for row in frame_rows] == [every - lacked | added] * 2
