@@ -861,6 +861,21 @@ def test_material_flags_that_are_no_bool_are_refused_naming_the_material(name, v
         wrt.render(scene, camera=TOP, width=4, height=4)
 
 
+@pytest.mark.parametrize("kwargs, error, words", [
+    ({"thin_walled": "false"}, TypeError, "thin_walled must be True or False"),
+    ({"color_primvar": 5}, TypeError, "color_primvar must be a str"),
+    ({"diffuse_color": np.uint8([200, 0, 0])}, wrt.SceneError, "diffuse_color colors must be linear float values"),
+    ({"textures": {"diffuseColor": wrt.TextureInput(image=0, scale=(1.0, 1.0))}}, ValueError,
+     "diffuseColor: scale must be 1, 3 or 4 finite numbers"),
+])
+def test_a_material_without_a_path_is_named_as_a_wrt_material(kwargs, error, words):
+    """A material made in Python without a path (its default) was named "material : thin_walled ..." (an empty path
+    before the colon), and its 8-bit colours not at all: "diffuse_color colors must be ...". Named ``Material``, as its
+    other fields' messages ("Material opacity must be ...") and lights without a path ("SphereLight ...") are."""
+    with pytest.raises(error, match=rf"^Material {words}"):
+        wrt.Material(**kwargs)
+
+
 @pytest.mark.parametrize("value", [np.bool_(True), np.bool_(False), 1, 0])
 def test_material_flags_as_numpy_bools_or_zero_one_are_the_bools_they_say(value):
     """A numpy bool and the integers 0 and 1 mean what they say, stored as a ``bool``."""

@@ -282,9 +282,9 @@ class Material(CountsAssignments):
         for name in ("use_specular_workflow", "thin_walled", "diffuse_from_display_color"):
             value = getattr(self, name)
             if type(value) is not bool:
-                setattr(self, name, flag(value, f"material {self.path}: {name}"))
+                setattr(self, name, flag(value, f"{material_label(self)} {name}"))
         if not isinstance(self.color_primvar, str):
-            raise TypeError(f"material {self.path}: color_primvar must be a str, a primvar name such as "
+            raise TypeError(f"{material_label(self)} color_primvar must be a str, a primvar name such as "
                             f"'displayColor', got {type(self.color_primvar).__name__} {self.color_primvar!r}")
 
     def check_textures(self) -> None:
@@ -293,21 +293,22 @@ class Material(CountsAssignments):
         later (``material.textures["diffuse_color"] = ...``) is no assignment, and failed there with a bare
         ``tuple.index(x): x not in tuple``."""
         if not isinstance(self.textures, dict):  # None failed with "'NoneType' object is not iterable"
-            raise TypeError(f"material {self.path}: textures must be a dict of input name -> TextureInput, got "
+            raise TypeError(f"{material_label(self)} textures must be a dict of input name -> TextureInput, got "
                             f"{type(self.textures).__name__} {self.textures!r}")
         unknown = set(self.textures) - set(SLOTS)
         if unknown:
-            raise ValueError(f"material {self.path}: textures on unknown inputs {sorted(unknown)}; texturable "
+            raise ValueError(f"{material_label(self)} textures on unknown inputs {sorted(unknown)}; texturable "
                              f"inputs: {SLOTS}")
         for name, tex in self.textures.items():
             if not isinstance(tex, TextureInput):  # an image index or array failed at the upload on a missing field
-                raise TypeError(f"material {self.path}: textures[{name!r}] must be a wrt.TextureInput, got "
+                raise TypeError(f"{material_label(self)} textures[{name!r}] must be a wrt.TextureInput, got "
                                 f"{type(tex).__name__}")
-            tex.check(f"material {self.path}: {name}")  # a field assigned since it was made (tex.scale = ...)
+            tex.check(f"{material_label(self)} {name}")  # a field assigned since it was made (tex.scale = ...)
             mark_checked(tex)
         normal_map = self.textures.get("normal")
         if normal_map is not None and normal_map.channel != "rgb":
-            raise ValueError(f"material {self.path}: a normal map reads the rgb output, not {normal_map.channel!r}")
+            raise ValueError(f"{material_label(self)} normal: a normal map reads the rgb output, not "
+                             f"{normal_map.channel!r}")
 
     @property
     def uv_set(self) -> str:
@@ -323,6 +324,13 @@ class Material(CountsAssignments):
         return bool(np.any(self.emissive_color > 0.0)) or "emissiveColor" in self.textures
 
 
+def material_label(material: Material) -> str:
+    """How messages name ``material``: ``material /Looks/Red:`` by its path, or ``Material`` where it has none (one
+    made in Python), as its other fields' messages (``Material opacity must be ...``) and lights without a path name
+    theirs; ``material :`` named nothing."""
+    return f"material {material.path}:" if material.path else "Material"
+
+
 def _refuse_eight_bit(material: Material) -> None:
     """Raises ``SceneError`` for reflectances given as 8-bit integers (``errors.eight_bit_colors``), as a mesh's,
     shape's or instances' colours are refused; checked before one number becomes three float32s, which hid the dtype.
@@ -333,7 +341,8 @@ def _refuse_eight_bit(material: Material) -> None:
         except ValueError:  # a ragged list: check_fields reports it
             continue
         if problem:
-            raise SceneError(f"{name} {problem}", prim=material.path)
+            raise SceneError(f"{name} {problem}" if material.path else f"Material {name} {problem}",
+                             prim=material.path or None)
 
 
 @dataclasses.dataclass
@@ -456,7 +465,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
         )
         mat.check_textures()
         for name, tex in mat.textures.items():
-            check_texture_input(tex, len(textures), f"material {mat.path}: {name}")
+            check_texture_input(tex, len(textures), f"{material_label(mat)} {name}")
             slots[k, SLOTS.index(name)] = len(bindings)
             bindings.append(tex)
     b = max(len(bindings), 1)
