@@ -1,6 +1,8 @@
 """Flags, choices and numbers of the public Python API outside the render's own: a bool taken by its truth, a name
 iterated letter by letter or a number numpy refused in its own words were each mistakes passed on without a word."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -228,3 +230,22 @@ def test_a_camera_is_named_by_str_or_sdf_path_and_a_typo_names_the_one_meant(sho
 def test_build_bvh_names_an_unknown_option_and_the_one_meant(floor, option, meant):
     with pytest.raises(TypeError, match=rf"build_bvh has no option '{option}' \(did you mean '{meant}'\?\)"):
         wrt.build_bvh(*floor.triangles(), "sah", **{option: 4})
+
+
+@pytest.mark.parametrize("argument, value, error", [
+    ("time", "1", TypeError), ("time", float("nan"), ValueError), ("render_settings", 3, TypeError),
+    ("variants", ["/World"], TypeError), ("variants", {"/World": "red"}, TypeError),
+    ("tessellate_gprims", 2, ValueError), ("tessellate_gprims", "yes", ValueError), ("refine_level", 9, ValueError),
+])
+def test_load_usd_documents_the_error_each_bad_argument_raises(argument, value, error):
+    """``load_usd``'s docstring named only ``time`` under TypeError and ValueError, while a ``render_settings`` that
+    is no prim path and ``variants`` of the wrong shape raise TypeError, and an out-of-range ``tessellate_gprims`` or
+    ``refine_level`` ValueError."""
+    from wrt.cli import default_scene_path
+
+    with pytest.raises(error, match=argument):
+        wrt.load_usd(default_scene_path(), **{argument: value})
+    raises = wrt.load_usd.__doc__.split("Raises:", 1)[1].split("Warns:", 1)[0]
+    (entry,) = [part for part in re.split(r"\n\s+(?=\w+(?:\.\w+)*: )", raises) if part.strip().startswith(
+        f"{error.__name__}:")]
+    assert f"``{argument}``" in entry

@@ -173,8 +173,10 @@ def load_usd(path, *, time=None, tessellate_gprims: bool | int = False, refine_l
         wrt.errors.SceneError: the file is missing or not USD, or a mesh, primvar or camera is invalid, a variant
             selection names a prim, set or variant that does not exist, or the render settings are not a
             ``RenderSettings`` prim or hold a value the schema does not allow.
-        TypeError: ``time`` is not None, a number or a ``Usd.TimeCode`` (a bool or a string).
-        ValueError: ``time`` is not finite.
+        TypeError: ``time`` is not None, a number or a ``Usd.TimeCode`` (a bool or a string), ``render_settings``
+            is no prim path (an int, bytes), or ``variants`` is no dict of prim path -> {variant set: variant}.
+        ValueError: ``time`` is not finite, ``tessellate_gprims`` is no bool or int from 3 to 4096, or
+            ``refine_level`` no int from 0 to ``wrt.subdivision.MAX_REFINE_LEVEL``.
 
     Warns:
         UserWarning: the stage has composition errors (a reference, payload or subLayer that does not compose); the
