@@ -20,7 +20,8 @@ The command lines of the ``bash`` blocks are checked without running them: each 
 the prose are checked the same way: each is an option of some ``wrt`` subcommand, or of the repository script the
 README says takes it. The repository files the README names (``wrt/tlas.py``, ``benchmarks/RESULTS.md``,
 ``docs/*.png``) exist, and every ``wrt.``-dotted name in backticks (``wrt.rays.camera_rays``,
-``wrt.shade.MAX_CULL_PASSES``) imports.
+``wrt.shade.MAX_CULL_PASSES``) imports. Links to ``#headings`` lead to a heading, and the log fields the README lists
+are those of the rows ``wrt render`` writes.
 """
 
 import argparse
