@@ -298,9 +298,9 @@ def _add_render(sub) -> None:
                    help="PNG only: scale the image by 2^EXPOSURE (in stops) before sRGB")
     from .render import AOV_NAMES
 
-    p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a colour-mapped PNG of "
-                   "this AOV beside the image as OUTPUT.NAME.png (repeatable); cost: heat maps of nodes visited and "
-                   "triangles tested")
+    p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a PNG preview of "
+                   "this AOV beside the image as OUTPUT.NAME.png (repeatable): normals as 0.5 (n + 1), depth as grey "
+                   "levels, ids as random colours, cost as heat maps of nodes visited and triangles tested")
     p.add_argument("-q", "--quiet", action="store_true", help="print no progress lines")
     p.set_defaults(run=_run_render)
 

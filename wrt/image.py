@@ -2,7 +2,7 @@
 
 Formats: ``.exr`` linear HDR (OpenEXR, 32-bit float), ``.npy`` raw linear float32, ``.png`` 8-bit sRGB after
 ``2^exposure`` scaling and clipping to [0, 1] (no other tone curve; NaN is written as 0, +inf as 1), tagged as sRGB
-(sRGB, gAMA and cHRM chunks). AOVs are written as ``.npy`` and, for a quick look, as colour-mapped PNGs
+(sRGB, gAMA and cHRM chunks). AOVs are written as ``.npy`` and, for a quick look, as PNG previews
 (:func:`aov_preview`): the traversal cost as a heat map of nodes visited and triangles tested, normals as
 ``0.5 (n + 1)``, depths as grey levels over the farthest one, ids as random colours, coverage as an alpha matte.
 """
