@@ -1901,6 +1901,69 @@ def test_instances_and_shapes_far_from_the_origin_are_traced_as_exactly_as_their
     np.testing.assert_allclose(np.einsum("nj,nj->n", points - corners[:, 0], normals), 0.0, atol=1e-5)
 
 
+@pytest.mark.xfail(strict=True, reason=(
+    "an instance's or shape's translation c is held in float32 on the device ([A | c], wrt.transforms; kernels not "
+    "changed here): a placement that float32 cannot hold is moved by up to half a float32 step of its distance from "
+    "the world origin (5e-4 at 1e4), as much as a 1 mm object's size there; holding c as two float32s (c_hi + c_lo, "
+    "subtracted in turn) would keep it, at 12 more bytes per instance"))
+@pytest.mark.parametrize("kind", ["sphere", "instance"])
+def test_small_objects_at_placements_float32_cannot_hold_are_hit_where_float64_puts_them(kind):
+    """A sphere of radius 1e-3 and an instanced octahedron of that size, 1e4 from the world origin at a centre that is
+    no float32 (3e-5 off the nearest, 3% of their size), rays from a few sizes away aimed inside them: the sphere's
+    hit points lie on its float64 surface, and each ray aimed well inside a triangle hits that triangle at the
+    float64 ``t``."""
+    from wrt.primitives import Shape
+
+    rng = np.random.default_rng(2)
+    centre = np.array([1e4 + 1e-4 / 3, -7.5e3 + 2e-4 / 7, 3e3 + 1e-4 / 9])
+    size = 1e-3
+    to_world = np.eye(4)
+    to_world[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0] * size
+    to_world[:3, 3] = centre
+    n = 2000
+    if kind == "sphere":
+        scene = wrt.Scene(shapes=[Shape("/Ball", "sphere", to_world)])
+        q = rng.normal(size=(n, 3))
+        targets = centre + 0.7 * size * q / np.linalg.norm(q, axis=1, keepdims=True)
+    else:
+        pts = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32)
+        faces = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)])
+        proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
+        scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms([0], to_world[None]))
+        world = pts.astype(np.float64) @ to_world[:3, :3].T + centre
+        targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[faces[rng.integers(0, 8, n)]])
+    origins = (targets + rng.normal(size=(n, 3)) * 3 * size).astype(np.float32)
+    directions = (targets - origins).astype(np.float32)
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    hits = wrt.trace(scene, origins, directions)
+    if kind == "sphere":
+        assert hits.hit.all()
+        points = o64 + hits.t[:, None].astype(np.float64) * d64
+        np.testing.assert_allclose(np.linalg.norm(points - centre, axis=1), size, rtol=1e-3)
+    else:
+        t, row = closest_hits_numpy(world, faces, o64, d64, np.zeros(n), np.full(n, np.inf))
+        clear = barycentric_margins(world, faces, o64, d64, t, row) > 1e-2
+        assert clear.sum() > 0.9 * n
+        np.testing.assert_array_equal(hits.prim[clear], row[clear])
+        np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-3)
+
+
+def barycentric_margins(points, indices, origins, directions, t, row) -> np.ndarray:
+    """``(N,)`` float64 smallest barycentric weight of each ray's hit point in its triangle ``row`` (how far inside
+    the triangle the ray passes, relative to it), NaN for misses."""
+    out = np.full(len(t), np.nan)
+    hit = row >= 0
+    p0, p1, p2 = (points[indices[row[hit], k]].astype(np.float64) for k in range(3))
+    p = origins[hit] + t[hit, None] * directions[hit]
+    e1, e2, w = p1 - p0, p2 - p0, p - p0
+    d11, d12, d22 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+    w1, w2 = (w * e1).sum(1), (w * e2).sum(1)
+    det = d11 * d22 - d12 * d12
+    u, v = (d22 * w1 - d12 * w2) / det, (d11 * w2 - d12 * w1) / det
+    out[hit] = np.minimum(np.minimum(u, v), 1 - u - v)
+    return out
+
+
 @pytest.mark.parametrize("name", ["positions", "scales", "orientations", "orientationsf", "velocities",
                                   "angularVelocities"])
 def test_non_finite_instance_attributes_skip_those_instances_with_a_warning(tmp_path, name):
