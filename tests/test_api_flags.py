@@ -63,6 +63,16 @@ def test_ray_sets_take_numpy_ints_and_a_large_seed(floor):
     np.testing.assert_array_equal(a[0], b[0])
 
 
+@pytest.mark.parametrize("kind", rays.RAY_KINDS)
+def test_a_ray_set_of_no_rays_is_empty(floor, kind):
+    # A shot of about 0 pixels was still 1x1: primary, shadow and diffuse sets of n=0 held one ray.
+    for n in (0, np.int64(0)):
+        origins, directions = rays.ray_set(floor, kind, n)
+        for a in (origins, directions):
+            assert a.shape == (0, 3) and a.dtype == np.float32
+    assert len(rays.ray_set(floor, kind, 1)[0]) <= 1
+
+
 @pytest.mark.parametrize("call, meant", [(lambda s: rays.ray_set(s, "Diffuse", 4), "diffuse"),
                                          (lambda s: rays.secondary_rays(s, "Shadow", *_hits(s)), "shadow")])
 def test_a_mistyped_ray_kind_names_the_one_meant(floor, call, meant):

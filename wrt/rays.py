@@ -189,11 +189,14 @@ def _shot_size(scene: Scene, n: int) -> tuple[int, int]:
 def ray_set(scene: Scene, kind: str, n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """About ``n`` rays of one benchmark kind (see :data:`RAY_KINDS`). Primary rays are :func:`camera_rays` of the
     stage's shot (its render settings' camera, aspect and data window) at about ``n`` pixels. Shadow and diffuse rays
-    start at the hits of those primary rays, so there are as many of them as primary rays hit."""
+    start at the hits of those primary rays, so there are as many of them as primary rays hit.
+    ``n = 0`` gives no rays of any kind."""
     if kind not in RAY_KINDS:
         raise ValueError(f"unknown ray kind {kind!r}{did_you_mean(kind, RAY_KINDS)}; valid ray kinds: "
                          f"{', '.join(RAY_KINDS)}")
     n, seed = check_count(n, seed)  # n=-1 failed in math's words (a square root of a negative pixel count)
+    if n == 0:  # the shot of about 0 pixels is still 1x1: n=0 gave one primary ray (and its secondary ray)
+        return np.empty((0, 3), np.float32), np.empty((0, 3), np.float32)
     if kind == "incoherent":
         return incoherent_rays(scene, n, seed)
     width, height = _shot_size(scene, n)
