@@ -3,6 +3,7 @@ interrupted or without matplotlib, and the size columns of rows traced in anothe
 
 import json
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 
 import wrt.bench as bench_module
-from wrt.bench import Grid, run_grid
+from wrt.bench import Grid, GridError, run_grid
 from wrt.bvh.report import parse_builders
 from wrt.cli import main
 
@@ -168,7 +169,7 @@ def test_bvh_stats_presplit_gives_the_sah_cost_of_the_tree_bench_traces(tmp_path
     ("--scenes", "", "argument --scenes: names nothing"),
     ("--scenes", "sphere:200,sphere:0", "argument --scenes: sphere:0: N must be a whole number of triangles"),
     ("--scenes", "sphere:abc", "argument --scenes: sphere:abc: N must be a whole number of triangles"),
-    ("--devices", "cpuu", "argument --devices: unknown or unavailable device 'cpuu'"),
+    ("--devices", "cpuu", "argument --devices: unknown device 'cpuu' (did you mean 'cpu'?)"),
 ])
 def test_bad_bench_options_are_named_before_any_scene_loads(tmp_path, monkeypatch, capsys, option, value, message):
     """These errors named only the value ('unknown ray kind 'foo'') or a field ('threads must be ...'), not the option
@@ -371,8 +372,28 @@ def test_a_bad_device_of_a_suite_is_named_with_the_file_and_key(tmp_path, monkey
     suite = write_suite(tmp_path, devices=["cpu", "cpuu"], rays=["primary"], n_rays=100)
     assert main(["bench", str(suite), "-q", "-o", str(tmp_path / "out")]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
-    assert len(err) == 1 and "suite.json: devices[1]: unknown or unavailable device 'cpuu'" in err[0], err
+    assert len(err) == 1 and "suite.json: devices[1]: unknown device 'cpuu' (did you mean 'cpu'?)" in err[0], err
     assert loaded == []
+
+
+@pytest.mark.parametrize("fields, message", [
+    (dict(devices=["CPU"]), r"devices\[0\]: unknown device 'CPU' \(did you mean 'cpu'\?\)"),
+    (dict(devices=["cpu", "Cuda:1"]), r"devices\[1\]: unknown device 'Cuda:1' \(did you mean 'cuda:1'\?\)"),
+    (dict(devices=["gpu"]), r"devices\[0\]: unknown device 'gpu' \(did you mean 'cuda'\?\)"),
+    (dict(devices=["cuda:x"]), r"devices\[0\]: unknown device 'cuda:x'.*; devices are cpu, cuda and cuda:N"),
+    (dict(accels=["wrt:sha"]), r"accels\[0\]: accelerator 'wrt:sha': unknown BVH builder 'sha' \(did you mean 'sah'"),
+    (dict(rays=["Primary"]), r"rays\[0\]: unknown ray kind 'Primary' \(did you mean 'primary'\?\)"),
+])
+def test_a_grid_is_refused_when_made_naming_the_bad_value(fields, message):
+    """Grid(devices=["CPU"]) was taken and refused only by run_grid, a misspelt accelerator or ray kind too."""
+    with pytest.raises(GridError) as error:
+        small_grid(**fields)
+    assert re.search(message, error.value.where()), error.value.where()
+
+
+def test_a_grid_takes_every_warp_device_name_without_looking_for_the_device():
+    # Whether this machine has the GPU is for run_grid (or the Dask worker that runs the rows) to find.
+    assert small_grid(devices=["cpu", "cuda", "cuda:0", "cuda:7"]).devices == ["cpu", "cuda", "cuda:0", "cuda:7"]
 
 
 @pytest.mark.parametrize("strict", [False, True])

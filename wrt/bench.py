@@ -110,13 +110,26 @@ class Grid:
         except MemoryError as e:  # an n_rays past the memory
             raise MemoryError(f"{path.name}: {e}") from None
 
+    def __post_init__(self):
+        # Checked when made, as a suite file is: Grid(devices=["CPU"]) or a misspelt accelerator or ray kind was
+        # refused only when run_grid ran it. The fields may still be edited afterwards; run_grid checks them again.
+        self._thread_counts()
+
     def validated(self) -> Grid:
         """This grid with ``threads`` as ints (``"all"``: every core; repeats dropped), after checking every field.
 
         Raises:
             GridError: naming the field, for a list field that is not a list, a count that is not a positive
-                integer, an unknown ray kind or accelerator, a ``sphere:N`` that is no size or a bad thread count.
+                integer, an unknown ray kind, device or accelerator, a ``sphere:N`` that is no size or a bad thread
+                count. The same error is raised when a ``Grid`` is made.
         """
+        # Each name once: a repeated scene, accelerator, device or ray kind measured the same rows twice.
+        threads = self._thread_counts()
+        unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("scenes", "accels", "devices", "rays")}
+        return dataclasses.replace(self, threads=threads, **unique)
+
+    def _thread_counts(self) -> list[int]:
+        """The thread counts of ``threads``, each once, after checking every field (see :meth:`validated`)."""
         for name in ("scenes", "accels", "devices", "rays", "threads"):
             value = getattr(self, name)
             if not isinstance(value, (list, tuple)):
@@ -131,6 +144,8 @@ class Grid:
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise GridError(name, f"{name} must be a positive integer, got {value!r}")
         check_host_memory(self.n_rays * RAY_BYTES, f"n_rays {self.n_rays}")
+        for i, name in enumerate(self.devices):  # whether this machine has it is for run_grid (or a Dask worker)
+            check_device_name(name, i)
         bad = [i for i, k in enumerate(self.rays) if k not in RAY_KINDS]
         if bad:
             kind = self.rays[bad[0]]
@@ -174,9 +189,24 @@ class Grid:
         if not self.devices or not (self.scenes and self.rays and self.accels or sweep):
             empty = [name for name in ("scenes", "accels", "devices", "rays") if not getattr(self, name)]
             raise GridError(empty[0], f"the grid measures nothing: {', '.join(empty)} empty")
-        # Each name once: a repeated scene, accelerator, device or ray kind measured the same rows twice.
-        unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("scenes", "accels", "devices", "rays")}
-        return dataclasses.replace(self, threads=threads, **unique)
+        return threads
+
+
+def _is_device_name(name: str) -> bool:
+    """Whether ``name`` is a Warp device name: ``cpu``, ``cuda`` or ``cuda:N``."""
+    kind, colon, ordinal = name.partition(":")
+    return name in ("cpu", "cuda") or bool(kind == "cuda" and colon and ordinal.isdigit() and ordinal.isascii())
+
+
+def check_device_name(name: str, index: int | None = None) -> None:
+    """Raises GridError naming ``name`` (entry ``index`` of ``devices``) unless it is a Warp device name, with the
+    one meant: ``'CPU'``, ``'Cuda:0'``, ``'gpu'`` (Warp's names are lowercase; ``wp.get_device('CPU')`` fails)."""
+    if isinstance(name, str) and _is_device_name(name):
+        return
+    meant = str(name).strip().lower()
+    meant = {"gpu": "cuda"}.get(meant, meant)
+    hint = f" (did you mean {meant!r}?)" if _is_device_name(meant) else did_you_mean(name, ("cpu", "cuda"))
+    raise GridError("devices", f"unknown device {name!r}{hint}; devices are cpu, cuda and cuda:N", index)
 
 
 class GridError(ValueError):

@@ -993,15 +993,14 @@ def _run_bench(args) -> int:
     grid = Grid.from_suite(args.suite)
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     typed = {k: v for k, v in overrides.items() if v is not None}
-    grid = dataclasses.replace(grid, **typed)
     out = Path(args.out)
     try:
-        grid = grid.validated()  # a bad field is a one-line error that names it
+        grid = dataclasses.replace(grid, **typed).validated()  # a bad field is a one-line error that names it
         if all(p.is_dir() or not p.exists() for p in (out, *out.parents)):  # a file in the way: run_grid names it
             _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by an errno
         rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
     except GridError as e:  # raised before any row is measured; it named the value only ('unknown ray kind ...')
-        if e.field not in typed:  # from the suite file (a device it lists is checked only now): name file and key
+        if e.field not in typed:  # from the suite file (a device found missing only now): name file and key
             raise ValueError(f"{suite_path(args.suite).name}: {e.where()}") from None
         message = str(e).removeprefix(f"{e.field} ")  # 'threads must be ...' reads 'argument --threads: must be ...'
         raise ValueError(f"argument --{e.field.replace('_', '-')}: {message}") from None
