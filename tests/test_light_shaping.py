@@ -286,6 +286,60 @@ def test_usd_shaping_that_cannot_be_used_is_reported(tmp_path):
     assert [light.path for light in scene.lights] == ["/Sun"]
 
 
+@pytest.mark.parametrize("fields, message", [
+    (dict(cone_angle=270.0), r"Shaping cone_angle must be in \[0, 180\] degrees, got 270.0"),
+    (dict(cone_angle=-5.0), r"Shaping cone_angle must be in \[0, 180\] degrees, got -5.0"),
+    (dict(cone_softness=1.5), r"Shaping cone_softness must be in \[0, 1\], got 1.5"),
+    (dict(cone_softness=-0.25), r"Shaping cone_softness must be in \[0, 1\], got -0.25"),
+    (dict(focus=-1.0), "Shaping focus must be a finite number >= 0, got -1.0"),
+    (dict(focus_tint=(0.5, -0.1, 0.0)), r"Shaping focus_tint must be finite numbers of shape \(3,\) >= 0"),
+])
+def test_shaping_out_of_its_range_is_refused_naming_the_field(fields, message):
+    """The schema's ranges (softness [0, 1], focus >= 0; the cone is an angle off the axis, [0, 180]) were clamped
+    without a word: a softness of 1.5 rendered as 1, a cone of -5 degrees as a dark light."""
+    with pytest.raises(wrt.SceneError, match=message):
+        wrt.Shaping(**fields)
+    assert wrt.Shaping(cone_angle=180.0, cone_softness=1.0, focus=0.0).cone_angle == 180.0  # the ends are in range
+
+
+def test_shaping_given_a_bad_value_after_it_was_made_is_refused_naming_the_light():
+    light = make_light("disk", wrt.Shaping(cone_angle=30.0))
+    light.shaping.cone_softness = 2.0
+    with pytest.raises(wrt.SceneError, match=r"^/Spot: DiskLight shaping: Shaping cone_softness must be in \[0, 1\]"):
+        render_plane([light], spp=1, res=2)
+
+
+def test_usd_shaping_out_of_its_range_is_clamped_as_the_schema_says_with_a_warning(tmp_path):
+    """The schema clamps the softness to [0, 1] and ignores a negative focus; a cone past 180 degrees limits nothing
+    and one below 0 lets no light out. A stage's such values are read so (the light is kept, not skipped as a bad
+    Shaping), and the warning names the light and the inputs."""
+
+    def build(stage):
+        wide = UsdLux.DiskLight.Define(stage, "/Wide")
+        api = UsdLux.ShapingAPI.Apply(wide.GetPrim())
+        api.CreateShapingConeAngleAttr(270.0)
+        api.CreateShapingConeSoftnessAttr(1.5)
+        api.CreateShapingFocusAttr(-2.0)
+        api.CreateShapingFocusTintAttr(Gf.Vec3f(-0.5, 0.25, 0.0))
+        shut = UsdLux.SphereLight.Define(stage, "/Shut")
+        api = UsdLux.ShapingAPI.Apply(shut.GetPrim())
+        api.CreateShapingConeAngleAttr(-10.0)
+        api.CreateShapingConeSoftnessAttr(-1.0)
+        UsdLux.SphereLight.Define(stage, "/Fine").GetPrim().ApplyAPI(UsdLux.ShapingAPI)
+
+    with pytest.warns(UserWarning, match="light shaping inputs outside their range were clamped") as record:
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    message = "\n".join(str(w.message) for w in record if "shaping inputs" in str(w.message))
+    assert "/Wide" in message and "/Shut" in message and "/Fine" not in message
+    assert "inputs:shaping:cone:angle = 270" in message and "inputs:shaping:focus = -2" in message
+    shapings = {light.path: light.shaping for light in scene.lights}
+    wide, shut = shapings["/Wide"], shapings["/Shut"]
+    assert (wide.cone_angle, wide.cone_softness, wide.focus) == (180.0, 1.0, 0.0)
+    np.testing.assert_array_equal(wide.focus_tint, (0.0, 0.25, 0.0))
+    assert (shut.cone_angle, shut.cone_softness) == (0.0, 0.0)
+    assert shapings["/Fine"].at_fallbacks()
+
+
 @pytest.mark.parametrize("make, message", [
     (lambda: wrt.Shaping(cone_angle=float("nan")), "Shaping cone_angle must be a finite number"),
     (lambda: wrt.Shaping(focus_tint=(1.0, 0.0)), "Shaping focus_tint must be finite numbers of shape"),

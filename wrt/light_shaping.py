@@ -12,6 +12,11 @@ local -Z, in the world):
   and the softness clamped to [0, 1]: nothing beyond the cone, and with softness 0 a hard edge (full emission up to
   the cone angle itself).
 
+A :class:`Shaping` built in Python refuses a value outside these ranges (cone angle [0, 180], softness [0, 1], focus
+and tint >= 0), naming the field: a softness of 5 or a cone angle of 270 was clamped without a word. A stage's
+values outside them are clamped by :func:`read_shaping`, as the schema says for the softness and the focus (the
+cone formula gives no light below 0 degrees and no limit past 180), with a warning naming the light.
+
 The cone is applied at its value, the fallback of 90 degrees included: sphere and cylinder lights with ShapingAPI
 emit only into the half space in front of their -Z axis unless a wider cone (180: everywhere) is authored, as the
 schema says (the sphere lights Omniverse writes carry an authored 180). Rect and disk lights emit into that half
@@ -29,9 +34,13 @@ import math
 import numpy as np
 import warp as wp
 
-from .errors import check_fields
+from .errors import SceneError, check_fields
 
 PROFILE_STEPS = 2048  # angles at which power_fraction integrates the shaping factor
+SHAPING_RANGES = {  # field -> (lowest, highest, unit) of a Shaping's bounded inputs
+    "cone_angle": (0.0, 180.0, " degrees"),  # off the axis: 180 lets every direction through
+    "cone_softness": (0.0, 1.0, ""),  # share of the cone angle
+}
 
 
 @dataclasses.dataclass
@@ -39,12 +48,15 @@ class Shaping:
     """``UsdLux.ShapingAPI`` of a sphere, rect, disk or cylinder light (the light's ``shaping``).
 
     Attributes:
-        cone_angle: degrees off the light's primary axis (its -Z) beyond which it emits nothing (clamped to
-            [0, 180]; the schema's fallback is 90).
-        cone_softness: the share of the cone angle over which emission fades smoothly to 0 at its edge (clamped to
-            [0, 1]).
-        focus: exponent of ``|cos|`` off the axis that narrows the emission (<= 0: none).
-        focus_tint: ``(3,)`` the colour factor the focus fades to off the axis (black: to nothing; white: no focus).
+        cone_angle: degrees off the light's primary axis (its -Z) beyond which it emits nothing, in [0, 180] (the
+            schema's fallback is 90; 180: no cone).
+        cone_softness: the share of the cone angle over which emission fades smoothly to 0 at its edge, in [0, 1].
+        focus: exponent of ``|cos|`` off the axis that narrows the emission, >= 0 (0: none).
+        focus_tint: ``(3,)`` the colour factor the focus fades to off the axis, >= 0 (black: to nothing; white: no
+            focus).
+
+    Raises:
+        SceneError: naming the field, for a value that is not a finite number or lies outside its range.
     """
 
     cone_angle: float = 90.0
@@ -55,7 +67,12 @@ class Shaping:
 
     def __post_init__(self):
         check_fields(self, ("cone_angle", (), None, float), ("cone_softness", (), None, float),
-                     ("focus", (), None, float), ("focus_tint", (3,), None, np.float32))
+                     ("focus", (), 0.0, float), ("focus_tint", (3,), 0.0, np.float32))
+        for name, (low, high, unit) in SHAPING_RANGES.items():
+            value = getattr(self, name)
+            if not low <= value <= high:
+                raise SceneError(f"Shaping {name} must be in [{low:g}, {high:g}]{unit}, got {value!r}",
+                                 prim=self.path or None)
 
     def at_fallbacks(self) -> bool:
         """True when every input has the schema's fallback value."""
@@ -104,13 +121,15 @@ def primary_axis(to_world, fallback) -> np.ndarray:
 SHAPING_INPUTS = ("cone:angle", "cone:softness", "focus", "focusTint", "ies:file")  # after "inputs:shaping:"
 
 
-def read_shaping(prim, get) -> tuple[Shaping | None, bool]:
+def read_shaping(prim, get, skip) -> tuple[Shaping | None, bool]:
     """The :class:`Shaping` of a light prim (None without ShapingAPI or an authored shaping input: Hydra reads the
-    inputs either way) and whether it names an IES profile.
+    inputs either way) and whether it names an IES profile. Inputs outside the ranges a :class:`Shaping` takes are
+    clamped to them, as the schema clamps the softness and ignores a negative focus, with a warning through ``skip``.
 
     Args:
         prim: a ``UsdLux`` light prim.
         get: ``get(attr, default)`` of :func:`wrt.usd_lights.read_light` (unprefixed names of old files included).
+        skip: ``skip(reason, prim, detail=None)``.
     """
     from pxr import UsdLux
 
@@ -120,13 +139,27 @@ def read_shaping(prim, get) -> tuple[Shaping | None, bool]:
         return None, False
     api = UsdLux.ShapingAPI(prim)
     ies = get(api.GetShapingIesFileAttr(), None)
-    shaping = Shaping(
-        cone_angle=get(api.GetShapingConeAngleAttr(), 90.0),
-        cone_softness=get(api.GetShapingConeSoftnessAttr(), 0.0),
-        focus=get(api.GetShapingFocusAttr(), 0.0),
-        focus_tint=get(api.GetShapingFocusTintAttr(), (0.0, 0.0, 0.0)),
-    )
-    return shaping, bool(getattr(ies, "path", "") if ies is not None else "")
+    values = {"cone_angle": get(api.GetShapingConeAngleAttr(), 90.0),
+              "cone_softness": get(api.GetShapingConeSoftnessAttr(), 0.0),
+              "focus": get(api.GetShapingFocusAttr(), 0.0),
+              "focus_tint": get(api.GetShapingFocusTintAttr(), (0.0, 0.0, 0.0))}
+    bounds = {name: (low, high) for name, (low, high, _) in SHAPING_RANGES.items()}
+    bounds.update(focus=(0.0, math.inf), focus_tint=(0.0, math.inf))
+    clamped = []
+    for (name, (low, high)), usd_name in zip(bounds.items(), ("cone:angle", "cone:softness", "focus", "focusTint")):
+        try:
+            value = np.asarray(values[name], np.float64)
+        except (TypeError, ValueError):  # not numbers: Shaping names them, and the light is skipped
+            continue
+        inside = np.clip(value, low, high)  # NaN stays NaN, for Shaping to refuse
+        if np.any(inside != value) and not np.any(np.isnan(value)):
+            clamped.append(f"inputs:shaping:{usd_name} = {values[name]}")
+            values[name] = float(inside) if inside.ndim == 0 else inside
+    if clamped:
+        skip("light shaping inputs outside their range were clamped to it (cone angle [0, 180], softness [0, 1], "
+             "focus and focus tint >= 0), as UsdLux clamps the softness and ignores a negative focus", prim,
+             ", ".join(clamped))
+    return Shaping(**values), bool(getattr(ies, "path", "") if ies is not None else "")
 
 
 @wp.func

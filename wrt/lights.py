@@ -552,10 +552,16 @@ def _checked_texture(light) -> np.ndarray | None:
 
 
 def _check_shaping(light) -> None:
-    """Refuses a ``shaping`` that is not a :class:`Shaping` (or None), naming the light."""
+    """Refuses a ``shaping`` that is not a :class:`Shaping` (or None), or one given a bad value since it was made
+    (``light.shaping.cone_angle = 270``), naming the light: the shaping's own check names no light."""
     if light.shaping is not None and not isinstance(light.shaping, Shaping):
         raise SceneError(f"{type(light).__name__} shaping must be a wrt.Shaping or None, got "
                          f"{type(light.shaping).__name__}", prim=light.path or None)
+    if light.shaping is not None:
+        try:
+            light.shaping.__post_init__()
+        except SceneError as e:
+            raise SceneError(f"{type(light).__name__} shaping: {e}", prim=light.path or None) from None
 
 
 def normalized_radiance(color, area: float, normalize: bool) -> np.ndarray:

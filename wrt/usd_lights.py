@@ -246,7 +246,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
              prim)
     try:
-        shaping, ies = read_shaping(prim, get)
+        shaping, ies = read_shaping(prim, get, skip)
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
         result = _tiny_normalized(result, prim, skip)
         if result is not None and not fits_float32(result):
