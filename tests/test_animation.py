@@ -43,6 +43,14 @@ def test_parse_frames():
             parse_frames(bad)
 
 
+@pytest.mark.parametrize("frame", [float("nan"), float("inf"), -float("inf"), np.float32("nan"), "3", None, True])
+def test_frame_output_refuses_a_frame_that_is_no_finite_number(frame):
+    # NaN and inf were written into the name (frame_0nan.png, frame_-0inf.png); "3" failed in Python's words.
+    with pytest.raises(ValueError, match=r"frame_output: frame must be a finite number, got "):
+        frame_output("out/frame_####.png", frame)
+    assert frame_output("out/frame_####.png", np.float32(2.5)) == Path("out/frame_0002.5.png")
+
+
 def test_frame_output_patterns():
     assert frame_output("out/frame_####.png", 12) == Path("out/frame_0012.png")
     assert frame_output("f#.exr", 123) == Path("f123.exr")

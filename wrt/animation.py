@@ -87,7 +87,17 @@ def frame_output(pattern, frame: float) -> Path:
     """The file of ``frame``: the last run of ``#`` in ``pattern`` becomes the frame number zero-padded to its
     length (``out/frame_####.png`` -> ``out/frame_0012.png``); a pattern without ``#`` gets ``_####`` before its
     suffix. Fractional frames keep their fraction to :data:`FRAME_DIGITS` significant digits (``frame_0012.5.png``),
-    so the frames of :func:`parse_frames` get files of their own."""
+    so the frames of :func:`parse_frames` get files of their own.
+
+    Raises:
+        ValueError: for a ``frame`` that is not a finite number (NaN and inf were named ``frame_0nan.png``).
+    """
+    try:
+        finite = not isinstance(frame, (bool, np.bool_, str, bytes)) and math.isfinite(float(frame))
+    except (TypeError, ValueError):
+        finite = False
+    if not finite:
+        raise ValueError(f"frame_output: frame must be a finite number, got {frame!r}")
     pattern = str(pattern)
     if "#" not in pattern:
         p = Path(pattern)
