@@ -240,3 +240,50 @@ def test_a_light_edited_in_place_after_invalidate_is_checked_by_a_kept_renderer_
         wrt.render(scene, **OPTIONS)
     scene.lights[0].color[0] = 2.0
     np.testing.assert_array_equal(renderer.render().rgb, first)
+
+
+def _stage_like_scene() -> wrt.Scene:
+    """The red square with a stage camera at /Cam (as load_usd gives it) and a second one at /Side."""
+    scene = red_square()
+    scene.cameras = {"/Cam": wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60, path="/Cam"),
+                     "/Side": wrt.Camera.look_at((3.0, 0.5, 3.0), (0.0, 0.0, 0.0), fov_y_deg=40, path="/Side")}
+    return scene
+
+
+@pytest.mark.parametrize("edit", ["assigned", "in_place", "stage_field", "stage_replaced", "framed"])
+def test_a_kept_renderer_draws_a_camera_edited_since_as_a_new_renderer_does(edit):
+    """A camera given a new pose, a stage camera changed or replaced in ``scene.cameras``, and (where no camera is
+    given on a stage without cameras) the camera wrt frames the edited scene with: a kept Renderer read its cameras
+    once, when made, and went on drawing the old view without a word."""
+    camera = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+    moved = wrt.Camera.look_at((-2.0, 1.0, 4.0), (0.2, 0.0, 0.0), fov_y_deg=50)
+    scene = _stage_like_scene() if edit.startswith("stage") else red_square()
+    given = {"assigned": camera, "in_place": camera, "framed": None}.get(edit, "/Cam")
+    renderer = wrt.Renderer(scene, camera=given, width=16, height=12, device="cpu")
+    first = renderer.render().rgb
+    if edit in ("assigned", "stage_field"):
+        (camera if edit == "assigned" else scene.cameras["/Cam"]).to_world = moved.to_world.copy()
+    elif edit == "in_place":
+        camera.to_world[:] = moved.to_world
+    elif edit == "stage_replaced":
+        scene.cameras["/Cam"] = scene.cameras["/Side"]
+    else:
+        scene.meshes.append(square("/Far", 0, offset=(6.0, 0.0, -3.0)))
+    kept = renderer.render().rgb  # before a new Renderer is made: making one rebuilt the kept one's scene data
+    fresh = wrt.Renderer(scene, camera=given, width=16, height=12, device="cpu").render().rgb
+    assert not np.array_equal(fresh, first)  # the edit shows
+    np.testing.assert_array_equal(kept, fresh)
+
+
+def test_a_camera_made_bad_since_the_renderer_was_built_is_refused_at_its_render():
+    camera = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+    renderer = wrt.Renderer(red_square(), camera=camera, width=16, height=12, device="cpu")
+    renderer.render()
+    camera.to_world[0, 3] = np.nan
+    with pytest.raises(ValueError, match="camera transform is not finite"):
+        renderer.render()
+    scene = _stage_like_scene()
+    renderer = wrt.Renderer(scene, camera="/Cam", width=16, height=12, device="cpu")
+    del scene.cameras["/Cam"]
+    with pytest.raises(wrt.SceneError, match=r"no camera at '/Cam'"):
+        renderer.render()

@@ -292,6 +292,16 @@ class Camera:
             )
         self.clipping_planes = planes
 
+    def snapshot(self) -> tuple:
+        """Every field's value now, arrays as their bytes (an edit in place shows too), for telling whether the
+        camera changed since (a kept :class:`wrt.Renderer` follows its cameras so)."""
+        values = list(map(self.__dict__.get, CAMERA_FIELDS))
+        for k, v in enumerate(values):
+            if type(v) not in IMMUTABLE_TYPES:  # an array (or list) as its bytes then, so later edits in place show
+                a = v if type(v) is np.ndarray else np.asarray(v)
+                values[k] = (type(v), a.shape, a.dtype.str, a.tobytes())
+        return tuple(values)
+
     def label(self) -> str:
         """``camera /Path`` for messages, or just ``camera`` for one built in Python (no double space)."""
         return f"camera {self.path}" if self.path else "camera"
@@ -396,6 +406,10 @@ class Camera:
         s.planes_b = wp.mat44(*rows[4:].astype(np.float32).reshape(-1))
         s.num_planes = len(planes)
         return s
+
+
+CAMERA_FIELDS = tuple(f.name for f in dataclasses.fields(Camera))  # in order; Camera.snapshot reads them all
+IMMUTABLE_TYPES = (float, int, str, tuple)  # field values Camera.snapshot keeps as they are (a tuple of numbers)
 
 
 def _check_keywords(method: str, kwargs: dict, own: str) -> None:

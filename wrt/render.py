@@ -142,6 +142,20 @@ def resolve_camera(scene: Scene, camera) -> Camera:
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
 
 
+def camera_source(scene: Scene, camera) -> Camera | None:
+    """The :class:`Camera` a view of ``camera`` (as :func:`resolve_view` takes it) is made from, as it is now: itself,
+    the scene's camera at its path (for ``None`` the render settings' camera, else the first), or None where wrt
+    makes the camera (a stage without cameras) or the path names no camera now."""
+    if isinstance(camera, Camera):
+        return camera
+    if camera is None:
+        settings = scene.render_settings
+        camera = settings.camera if settings is not None and settings.camera is not None else None
+        if camera is None:
+            return next(iter(scene.cameras.values()), None)
+    return scene.cameras.get(str(camera))
+
+
 def default_image_size(camera: Camera, width: int | None, height: int | None) -> tuple[int, int]:
     """``(width, height)`` of a render without render settings: the given ones; where one alone is given, the other
     keeps ``camera``'s aspect (:meth:`Camera.image_aspect`: its apertures', else the 4:3 of ``DEFAULT_WIDTH x
@@ -402,6 +416,10 @@ class Renderer:
             alone.
         ao_radius: occlusion distance of ``ao`` in scene units; default a tenth of the scene's bounding-box
             diagonal, measured again whenever the renderer builds again for an edited scene.
+
+    Each render follows the cameras as a new Renderer would take them: a :class:`Camera` given and edited since (a
+    field set, ``to_world`` edited in place), the scene's camera at the path given replaced or edited, and the camera
+    wrt makes to frame a stage without cameras after a scene edit.
     """
 
     def __init__(
@@ -469,7 +487,9 @@ class Renderer:
         self._accel_options = (accel, builder)
         self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
         self.dropped_samples = 0  # non-finite samples left out of the last render
+        self._camera_args = [camera] if cameras is None else cameras  # as given: followed at each render
         self._build()
+        self._camera_key = self._camera_sources_key()
 
     def _build(self) -> None:
         """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
@@ -517,6 +537,34 @@ class Renderer:
                                    "outside the capture, then record the frame again")
             check_scene(self.scene)
             self._build()
+
+    def _camera_sources_key(self) -> tuple:
+        """What the renderer's cameras are made from, as it is now: each camera given, or the scene's camera at its
+        path, with its fields (:meth:`Camera.snapshot`); the scene's edit count where wrt frames the scene."""
+        key = []
+        for arg in self._camera_args:
+            source = camera_source(self.scene, arg)
+            key.append(("framed", self.scene.cache_generation) if source is None else (id(source), source.snapshot()))
+        return tuple(key)
+
+    def _follow_cameras(self) -> None:
+        """Resolves and uploads the cameras again when one changed since they were uploaded (a field set,
+        ``camera.to_world[0, 3] = 2`` in place, a stage camera replaced in ``scene.cameras``, or, for the camera wrt
+        makes, a scene edit that moves its bounds), as a new Renderer would: a kept Renderer drew the old view."""
+        key = self._camera_sources_key()
+        if key == self._camera_key:
+            return
+        if wp.get_device(self.device).is_capturing:  # the uploads cannot be recorded into a CUDA graph
+            raise RuntimeError("a camera changed since the renderer last drew: call launch_frame() once outside the "
+                               "capture, then record the frame again")
+        asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
+        views = resolve_views(self.scene, self._camera_args, *asked)
+        _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
+        self._upload_cameras([view[0] for view in views], self.batched)  # raises naming a bad camera
+        self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
+        self._camera_key = key
+        self._sums_dropped = self._sums_dropped or self._progressive is not None
+        self._progressive = None  # the sums are of the old view
 
     def _warn_unsampled(self, unsampled, shapes: int) -> None:
         """Names, in one warning, the emitters that the integrator shows but does not sample as lights: the emissive
@@ -600,7 +648,7 @@ class Renderer:
         # Without render settings the size is the one made (a side not given took the first camera's aspect then);
         # with them, the size asked for, which each stage camera's data window crops again.
         asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
-        cameras = camera_list(cameras)
+        cameras = given = camera_list(cameras)
         views = resolve_views(self.scene, cameras, *asked)
         windows = [view_window(self.scene, c, *asked) for c in cameras]
         _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
@@ -612,6 +660,8 @@ class Renderer:
         self._upload_cameras(cameras, batched=True)  # a bad camera raises before any change: the old ones render on
         self._windows = windows
         self.batched = True
+        self._camera_args = given
+        self._camera_key = self._camera_sources_key()
         if resized:
             # launch_frame's buffers are sized for the old count: it wrote past their end (a crash, or a wrong
             # frame_image) with more cameras and read past the camera array with fewer.
@@ -632,8 +682,8 @@ class Renderer:
         else:
             self._cams, self._lenses = cams, lenses
         self.cameras, self.camera = cameras, cameras[0]
-        # Read now, as the pose and lens are: a camera changed after this takes effect through set_cameras, and a
-        # scale made NaN after its check would have darkened the image silently.
+        # Read now, as the pose and lens are: a camera changed after this is uploaded again at the next render
+        # (_follow_cameras), and a scale made NaN after its check would have darkened the image silently.
         self._exposures = [float(c.exposure_scale) for c in cameras]
         self._forwards = np.array([np.array(s.forward) for s in structs], np.float64)  # (V, 3) viewing directions
         if hasattr(self, "device_lights"):  # set_cameras; the first call comes before the lights are built
@@ -676,6 +726,7 @@ class Renderer:
         # By their truth, resume="false" added these samples to the previous render's without a word.
         progress, resume = flag(progress, "progress"), flag(resume, "resume")
         self._follow_scene()  # a rebuild drops the progressive sums
+        self._follow_cameras()  # so does a camera edit
         quick_look = self.integrator in ("normals", "depth", "albedo")
         state = self._progressive
         resuming = resume and state is not None and state["seed"] == seed and not quick_look
@@ -767,8 +818,9 @@ class Renderer:
         are allocated on the first call, so make one call before capturing. :meth:`frame_image` reads the result. A
         recorded graph replays the scene's device arrays as they were: after an edit of the scene, call once outside
         a capture (it builds them again) and record again; :meth:`set_cameras` with the same camera count is
-        followed."""
+        followed, and so is a camera edited since once a call outside the capture has uploaded it again."""
         self._follow_scene()
+        self._follow_cameras()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
             self._check_launch(n_pixels, 1)
