@@ -645,6 +645,43 @@ def test_instance_placed_past_float32_is_skipped_saying_so(tmp_path):
     assert [scene.instances.path(i) for i in range(len(scene.instances))] == ["/Near"]
 
 
+@pytest.mark.parametrize("accel", ["wrt", "wrt:wide", "warp"])
+def test_instance_whose_scale_takes_its_prototype_past_float32_is_named(tmp_path, accel):
+    """An instance scaled by 3e38 (finite, its origin placeable) takes a prototype 2 across (corners at +-2) to 6e38
+    from its origin, past float32's 3.4e38: every build refused 'triangle vertices must be finite; triangle 2 uses
+    one', a row of no triangle the scene holds, and a render without a camera the NaN eye of its default camera. The
+    error names the instance, its prim path and its box (float64 numpy, here)."""
+    path = str(tmp_path / "huge.usda")
+    stage = Usd.Stage.CreateNew(path)
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    tri = UsdGeom.Mesh.Define(stage, "/PI/Proto")
+    tri.CreatePointsAttr([(-2, -2, 0), (2, -2, 0), (0, 2, 0)])
+    tri.CreateFaceVertexCountsAttr([3])
+    tri.CreateFaceVertexIndicesAttr([0, 1, 2])
+    pi.CreatePrototypesRel().SetTargets(["/PI/Proto"])
+    pi.CreateProtoIndicesAttr([0, 0, 0])
+    pi.CreatePositionsAttr([Gf.Vec3f(3.0 * k, 0, 0) for k in range(3)])
+    pi.CreateScalesAttr([Gf.Vec3f(1, 1, 1), Gf.Vec3f(1, 1, 1), Gf.Vec3f(3e38, 3e38, 1)])
+    stage.Save()
+    scene = wrt.load_usd(path)
+    assert len(scene.instances) == 3
+    scale = float(np.float32(3e38))  # the oracle: the triangle's box (+-2 in x and y) scaled, moved to x = 6
+    lo, hi = [6.0 - 2.0 * scale, -2.0 * scale, 0.0], [6.0 + 2.0 * scale, 2.0 * scale, 0.0]
+    assert max(map(abs, lo + hi)) > float(np.finfo(np.float32).max)
+    kind, _, layout = accel.partition(":")
+    message = (r"^instance 2 \(/PI\[2\]\) of prototype /PI/Proto: its transform takes the prototype's box to "
+               + re.escape(f"{lo} to {hi}"))
+    with pytest.raises(ValueError, match=message + r".*past float32's range"):
+        wrt.trace(scene, np.float32([[0, 0, 5]]), np.float32([[0, 0, -1]]), accel=kind,
+                  **({"layout": layout} if layout else {}))
+    if accel == "wrt":
+        with pytest.raises(ValueError, match=message):
+            wrt.render(scene, width=4, height=4, device="cpu")
+        scene.invalidate()
+        scene.instances.to_world[2, :2, :2] = np.diag([1e38, 1e38])  # 2e38 + 6 is within float32: drawn
+        assert wrt.trace(scene, np.float32([[0, 0, 5]]), np.float32([[0, 0, -1]])).t[0] == pytest.approx(5.0)
+
+
 def test_zero_scale_instance_is_drawn_flat_whole_through_nested_instances(tmp_path):
     """A PointInstancer instance of scale (0, 1, 1) whose prototype holds a turned native instance: composed in
     float64, that nested piece's transform is singular only up to rounding (a determinant of ~1e-16, not 0), which

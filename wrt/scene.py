@@ -432,6 +432,19 @@ def dataclass_parts(objects) -> list:
     return parts
 
 
+def _prototype_reach(prototype) -> float:
+    """The largest ``|coordinate|`` of ``prototype``'s points and shape boxes, prototype space (0 when empty): a
+    bound on its box that takes one vectorized pass (:meth:`Scene.check_instance_boxes`)."""
+    reach = max((float(np.abs(m.points).max()) for m in prototype.meshes if len(m.points)), default=0.0)
+    if prototype.shapes:
+        from .primitives import local_boxes  # (primitives imports this module)
+
+        with np.errstate(invalid="ignore", over="ignore"):
+            lo, hi = world_boxes(*local_boxes(prototype.shapes), np.stack([s.to_world for s in prototype.shapes]))
+            reach = max(reach, float(np.nanmax(np.abs(np.concatenate([lo, hi])))))
+    return reach
+
+
 class _IdLayout(NamedTuple):
     """How geometry ids and rows of ``Scene.triangles()`` are laid out (``Scene._id_layout``)."""
 
@@ -807,6 +820,39 @@ class Scene:
             k = int(past[0])
             raise ValueError(f"shape {shapes[k].path}: its box, {lo[k].tolist()} to {hi[k].tolist()}, is past "
                              "float32's range")
+
+    def check_instance_boxes(self) -> None:
+        """Raises ``ValueError`` naming the first instance (its index, and its prim path where the scene knows it)
+        whose transform takes its prototype's box past float32's range: a scale of 1e37 on a prototype 50 units
+        across made its flattened triangles, or its box in the two-level BVH, infinite, and the build failed with
+        "triangle vertices must be finite; triangle 2 uses one", naming a row of no triangle the scene holds (a
+        render without a camera first made the scene's bounds infinite: "look_at: eye must be 3 finite numbers")."""
+        instances, prototypes = self.instances, self.prototypes
+        if not len(instances) or not prototypes:
+            return
+        limit = float(np.finfo(np.float32).max)
+        reach = np.array([_prototype_reach(p) for p in prototypes])
+        which = instances.prototype
+        valid = (which >= 0) & (which < len(prototypes))  # others are named by check_instances
+        m = instances.to_world
+        with np.errstate(invalid="ignore", over="ignore"):  # a NaN or inf transform is named by check_finite_transforms
+            # |world coordinate| <= |translation| + (largest row sum of |linear part|) * (largest |local coordinate|)
+            # <= e (1 + 3 reach) for e the largest |entry|: one pass over the transforms clears every scene but those
+            # near the limit (1M instances, a few ms), then the bound per instance, then the exact box.
+            entry = max(float(m.max(initial=0.0)), -float(m.min(initial=0.0)))
+            if not entry * (1.0 + 3.0 * float(reach.max())) > limit:  # NaN: named elsewhere
+                return
+            bound = np.abs(m[:, :3, 3]).max(axis=1) + np.abs(m[:, :3, :3]).sum(axis=2).max(axis=1) * np.where(
+                valid, reach[np.where(valid, which, 0)], 0.0)
+            suspects = np.flatnonzero(bound > limit)
+            for i in suspects:
+                prototype = prototypes[which[i]]
+                lo, hi = world_boxes(*prototype.bounds(), m[i][None])
+                if max(np.abs(lo).max(), np.abs(hi).max()) > limit:
+                    name = f" ({instances.path(i)})" if instances.sources else ""
+                    raise ValueError(f"instance {i}{name} of prototype {prototype.path}: its transform takes the "
+                                     f"prototype's box to {lo[0].tolist()} to {hi[0].tolist()}, past float32's "
+                                     "range, and rays are traced in float32")
 
     def check_instances(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of
@@ -1388,6 +1434,7 @@ class Scene:
             return self._cache[key]
         self.check_vertices()  # a NaN made the default camera's eye NaN: named here, not as a camera error
         self.check_shape_boxes()  # likewise a shape past float32
+        self.check_instance_boxes()  # and an instance whose scale takes its prototype past it
         points, indices = _concatenate_meshes(self.meshes)
         lower = np.full(3, np.inf)
         upper = np.full(3, -np.inf)

@@ -265,6 +265,7 @@ def check_finite_transforms(scene: Scene) -> None:
             raise ValueError(f"instance {i} ({instances.path(i)}) is placed beyond float32's range (translation "
                              f"{instances.to_world[i, :3, 3].tolist()}, |x| > 3.4e38), and rays are traced in float32")
         raise ValueError(f"instance {i} ({instances.path(i)}) has a NaN or infinite transform")
+    scene.check_instance_boxes()  # a scale that takes the prototype past float32: the build named a triangle row
     for shape in [*scene.shapes, *(s for p in scene.prototypes for s in p.shapes)]:
         if not np.isfinite(shape.to_world).all():
             raise ValueError(f"shape {shape.path} has a NaN or infinite transform")
