@@ -251,12 +251,13 @@ def check_flattenable(scene: Scene, what: str) -> None:
 
 
 def check_finite_transforms(scene: Scene) -> None:
-    """Raises ``ValueError`` naming the first instance or shape whose transform holds a NaN or inf, or the first
-    instance placed beyond float32's range (:func:`wrt.instancing.unplaceable`). Such an instance cannot be inverted
-    or placed on a device: the two-level BVH left it out as a zero scale, so it vanished without a word, and the
-    flattened copies that the other layouts and ``wp.Mesh`` trace dropped it too, or refused the NaN triangle rows it
-    became, naming only a row (the USD loader warns about the singular instances it skips; scenes built in Python
-    reach here unchecked)."""
+    """Raises ``ValueError`` naming the first instance or shape whose transform holds a NaN or inf, the first
+    instance placed beyond float32's range (:func:`wrt.instancing.unplaceable`), then the first shape or instance
+    whose transform takes its box past that range (:meth:`Scene.check_shape_boxes`, ``check_instance_boxes``).
+    Such an instance cannot be inverted or placed on a device: the two-level BVH left it out as a zero scale, so it
+    vanished without a word, and the flattened copies that the other layouts and ``wp.Mesh`` trace dropped it too,
+    or refused the NaN triangle rows it became, naming only a row (the USD loader warns about the singular instances
+    it skips; scenes built in Python reach here unchecked)."""
     instances = scene.instances
     bad = np.flatnonzero(unplaceable(instances.to_world))
     if len(bad):
@@ -265,11 +266,11 @@ def check_finite_transforms(scene: Scene) -> None:
             raise ValueError(f"instance {i} ({instances.path(i)}) is placed beyond float32's range (translation "
                              f"{instances.to_world[i, :3, 3].tolist()}, |x| > 3.4e38), and rays are traced in float32")
         raise ValueError(f"instance {i} ({instances.path(i)}) has a NaN or infinite transform")
-    scene.check_instance_boxes()  # a scale that takes the prototype past float32: the build named a triangle row
     for shape in [*scene.shapes, *(s for p in scene.prototypes for s in p.shapes)]:
         if not np.isfinite(shape.to_world).all():
             raise ValueError(f"shape {shape.path} has a NaN or infinite transform")
     scene.check_shape_boxes()  # a box past float32 (a radius of 1e39): the build named no shape
+    scene.check_instance_boxes()  # a scale that takes its prototype past float32: the build named a triangle row
 
 
 class RowSplitter:
