@@ -562,7 +562,7 @@ class Renderer:
         _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
         self._upload_cameras([view[0] for view in views], self.batched)  # raises naming a bad camera
         self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
-        self._camera_key = key
+        self._camera_key = self._camera_sources_key()  # after the checks, which may convert fields (a list to_world)
         self._sums_dropped = self._sums_dropped or self._progressive is not None
         self._progressive = None  # the sums are of the old view
 
