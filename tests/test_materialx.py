@@ -492,3 +492,27 @@ def test_a_constant_texcoord_reads_one_point_of_the_image(tmp_path):
     scene, messages = load(texcoord_stage(tmp_path, png, ("constant", (0.25, 0.75))))
     assert not messages, messages
     np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([1, 0, 0], (2, 2, 3)), atol=1e-3)  # top-left: red
+
+
+def test_constant_addressing_reads_the_image_nodes_default_outside_the_unit_square(tmp_path):
+    """``uaddressmode``/``vaddressmode`` ``constant`` give the node's ``default`` outside [0, 1], as the MaterialX
+    specification defines it ("Texture coordinates outside the 0-1 range return the value of the node's default
+    input"); the image inside. It read black (UsdUVTexture's ``black``) there, whatever the default."""
+    png = write_png(tmp_path / "corners.png", CORNERS)
+    stage, path = new_stage(tmp_path, "constant.usda")
+    bind(add_quad(stage, "/Quad", st_range=2.0), mtlx_material(stage, "/Looks/Border")[0])
+    shader = UsdShade.Shader.Get(stage, "/Looks/Border/Surface")
+    image = UsdShade.Shader.Define(stage, "/Looks/Border/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("default", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.2, 0.4, 0.6))
+    for key in ("uaddressmode", "vaddressmode"):
+        image.CreateInput(key, Sdf.ValueTypeNames.String).Set("constant")
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    img = albedo(scene, 4)  # st over [0, 2]^2: the image fills the bottom-left quarter
+    np.testing.assert_allclose(img[2:, :2], np.array(CORNERS) / 255.0, atol=1e-3)
+    outside = np.concatenate([img[:2].reshape(-1, 3), img[2:, 2:].reshape(-1, 3)])
+    np.testing.assert_allclose(outside, np.broadcast_to([0.2, 0.4, 0.6], outside.shape), atol=1e-3)

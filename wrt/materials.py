@@ -62,6 +62,7 @@ from .textures import (
     WRAP_MODES,
     TextureError,
     load_image,
+    outside_to_fallback,
     pack_images,
     sample_image,
     udim_tile,
@@ -122,8 +123,9 @@ class TextureInput(CountsAssignments):
     Attributes:
         image: index into ``Scene.textures`` (of a UDIM texture: its first tile found).
         channel: ``"r"``, ``"g"``, ``"b"``, ``"a"`` or ``"rgb"``: the texture output the input reads.
-        wrap: ``(wrapS, wrapT)`` tokens: ``repeat``, ``mirror``, ``clamp`` or ``black`` (a UDIM texture clamps
-            within each tile instead).
+        wrap: ``(wrapS, wrapT)`` tokens: ``repeat``, ``mirror``, ``clamp``, ``black`` or ``fallback`` (``fallback``
+            outside [0, 1], the image clamped inside, as MaterialX's ``constant``; a UDIM texture clamps within each
+            tile instead).
         scale: ``(4,)`` multiplies the texel.
         bias: ``(4,)`` is added after ``scale``.
         transform: ``(3, 3)`` affine map applied to ``st`` (``UsdTransform2d``), column-vector convention; for a
@@ -530,7 +532,8 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
     tile's edges (bilinear filtering never mixes in a neighbouring tile, whatever ``wrapS``/``wrapT`` say); where that
     tile has no file, or ``st`` lies outside the tiles, the texture's fallback stands in for the texel (scaled and
     biased too, as MaterialX's UsdUVTexture graph feeds the image's default through them); so it does where ``st``
-    is not finite (NaN or infinite texture coordinates, which the loader warns about) for any texture."""
+    is not finite (NaN or infinite texture coordinates, which the loader warns about) for any texture, and outside
+    the unit square along a ``fallback`` wrap mode (MaterialX's ``constant`` address mode)."""
     xf = mats.tex_transform[b]
     p = xf * wp.vec3(st[0], st[1], 1.0)
     uv = wp.vec2(p[0], p[1])
@@ -545,7 +548,7 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
         uv = uv - wp.vec2(wp.floor(uv[0]), wp.floor(uv[1]))
         wrap = wp.vec2i(WRAP_CLAMP, WRAP_CLAMP)
     c = mats.tex_fallback[b]
-    if k >= 0 and wp.isfinite(uv[0]) and wp.isfinite(uv[1]):
+    if k >= 0 and wp.isfinite(uv[0]) and wp.isfinite(uv[1]) and not outside_to_fallback(uv, wrap):
         c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
     c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
     return select_channel(c, mats.tex_channel[b])
@@ -1290,7 +1293,7 @@ class MaterialReader:
         of black. A token that is none of these is named in a warning and read as ``useMetadata``, as Storm does."""
         token = self._constant(tex, key)
         token = "useMetadata" if token is None else str(token)
-        if token in WRAP_MODES:
+        if token in WRAP_MODES and token != "fallback":  # (wrt's mode for MaterialX's constant: no UsdUVTexture token)
             return token
         if token != "useMetadata":
             self.skip(f"material {material_path}: {key} is not one of black, clamp, repeat, mirror or useMetadata; "

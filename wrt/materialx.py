@@ -51,16 +51,16 @@ output. An image node becomes a :class:`wrt.materials.TextureInput`: ``file`` (f
 colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded, ``lin_rec709``/``raw`` and other
 linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
-black), ``uvtiling``/``uvoffset``/``realworldimagesize``/``realworldtilesize`` of ``tiledimage`` as the texture
-transform, and texture coordinates from ``ND_texcoord_vector2`` (the mesh's ``st``) or ``ND_geompropvalue_vector2`` (the
-primvar named by ``geomprop``; its ``default`` where the mesh lacks it), or a constant ``texcoord`` (read there on
-every point). Where the file cannot be read, the node's ``default`` is used (the surface input's
-constant when the node has none). ``base_color`` may also come from a mesh's colour primvar: an
-``ND_UsdPrimvarReader_color3``/``vector3`` or ``ND_geompropvalue_color3``/``vector3`` node
-(:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where the mesh lacks it). Math and channel
-nodes between an input and these sources (``multiply``, ``add``, ``mix``, ``convert``, ...) are folded at load time
-(:mod:`wrt.materialx_fold`): into a constant, or into the texture's or primvar's scale. Any other node keeps the
-input's constant: its own authored value, else the specification's default. Defaults are the MaterialX library's
+the node's ``default`` outside [0, 1], black without one), ``uvtiling``/``uvoffset``/``realworldimagesize``/
+``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
+(the mesh's ``st``) or ``ND_geompropvalue_vector2`` (the primvar named by ``geomprop``; its ``default`` where the mesh
+lacks it), or a constant ``texcoord`` (read there on every point). Where the file cannot be read, the node's ``default``
+is used (the surface input's constant when the node has none). ``base_color`` may also come from a mesh's colour
+primvar: an ``ND_UsdPrimvarReader_color3``/``vector3`` or ``ND_geompropvalue_color3``/``vector3`` node
+(:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where the mesh lacks it). Math and channel nodes
+between an input and these sources (``multiply``, ``add``, ``mix``, ``convert``, ...) are folded at load time
+(:mod:`wrt.materialx_fold`): into a constant, or into the texture's or primvar's scale. Any other node keeps the input's
+constant: its own authored value, else the specification's default. Defaults are the MaterialX library's
 (``libraries/bxdf/standard_surface.mtlx`` 1.0.1 and 1.0.0, ``open_pbr_surface.mtlx`` 1.1).
 """
 
@@ -409,7 +409,10 @@ class _Graph:
         if tiled:
             wrap = ("repeat", "repeat")
         else:
-            wrap = tuple(ADDRESS_MODES.get(str(reader._constant(node, key) or "periodic"), "repeat")
+            # "constant" gives the node's default outside [0, 1]: its fallback where authored, else the default's own
+            # default, 0 in every channel (black).
+            modes = {**ADDRESS_MODES, "constant": "black" if default is None else "fallback"}
+            wrap = tuple(modes.get(str(reader._constant(node, key) or "periodic"), "repeat")
                          for key in ("uaddressmode", "vaddressmode"))
         channel = "r" if node_id.endswith("_float") else "rgb"
         transform = self._tiling(node) if tiled else np.eye(3, dtype=np.float32)

@@ -31,11 +31,13 @@ import warp as wp
 from .exr_yca import yca_rgba
 from .png_checks import png_chunk_problem
 
-WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3}  # UsdUVTexture wrapS/wrapT tokens
+# UsdUVTexture wrapS/wrapT tokens, and "fallback": MaterialX's "constant" address mode, the image node's default
+WRAP_MODES = {"repeat": 0, "mirror": 1, "clamp": 2, "black": 3, "fallback": 4}
 WRAP_REPEAT = wp.constant(0)
 WRAP_MIRROR = wp.constant(1)
 WRAP_CLAMP = wp.constant(2)
 WRAP_BLACK = wp.constant(3)
+WRAP_FALLBACK = wp.constant(4)  # the texture's fallback outside [0, 1] (its binding's, see wrt.materials)
 HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
@@ -432,9 +434,9 @@ def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.nd
 
 @wp.func
 def wrap_coord(x: int, n: int, mode: int):
-    """Texel index ``x`` wrapped into ``[0, n)``; ``black`` clamps, as :func:`sample_image` has already given black
-    outside the image."""
-    if mode == WRAP_CLAMP or mode == WRAP_BLACK:
+    """Texel index ``x`` wrapped into ``[0, n)``; ``black`` and ``fallback`` clamp, as their lookups have already
+    given black or the fallback outside the image."""
+    if mode == WRAP_CLAMP or mode == WRAP_BLACK or mode == WRAP_FALLBACK:
         return wp.clamp(x, 0, n - 1)
     if mode == WRAP_MIRROR:
         period = 2 * n
@@ -473,6 +475,14 @@ def fetch_texel(texels: wp.array[wp.vec4h], offset: int, size: wp.vec2i, x: int,
 def outside_unit(c: float, mode: int):
     """True where wrap mode ``mode`` makes texture coordinate ``c`` black: ``black`` outside [0, 1]."""
     return mode == WRAP_BLACK and (c < 0.0 or c > 1.0)
+
+
+@wp.func
+def outside_to_fallback(st: wp.vec2, wrap: wp.vec2i):
+    """True where wrap modes ``wrap`` make ``st`` read the texture's fallback: ``fallback`` outside [0, 1]."""
+    s_out = wrap[0] == WRAP_FALLBACK and (st[0] < 0.0 or st[0] > 1.0)
+    t_out = wrap[1] == WRAP_FALLBACK and (st[1] < 0.0 or st[1] > 1.0)
+    return s_out or t_out
 
 
 @wp.func
