@@ -516,3 +516,34 @@ def test_constant_addressing_reads_the_image_nodes_default_outside_the_unit_squa
     np.testing.assert_allclose(img[2:, :2], np.array(CORNERS) / 255.0, atol=1e-3)
     outside = np.concatenate([img[:2].reshape(-1, 3), img[2:, 2:].reshape(-1, 3)])
     np.testing.assert_allclose(outside, np.broadcast_to([0.2, 0.4, 0.6], outside.shape), atol=1e-3)
+
+
+@pytest.mark.parametrize("readable", [False, True])
+def test_an_extract_of_a_colour4_image_reads_the_channel_of_its_default(tmp_path, readable):
+    """OpenPBR ``geometry_opacity`` from channel 3 (alpha) of an ``ND_image_color4`` through ``ND_extract_color4``:
+    where the file cannot be read the node's ``default`` (0.9, 0.9, 0.9, 0.2) stands in for the image, so the
+    opacity is its alpha, 0.2, a hole; where it can, the texture's fallback (a missing UDIM tile's texel) is that
+    default too. The default was cut to the one number of the surface input it feeds, its red, 0.9: opaque."""
+    stage, path = new_stage(tmp_path, "extract.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Leaf", OPEN_PBR)[0])
+    shader = UsdShade.Shader.Get(stage, "/Looks/Leaf/Surface")
+    png = write_png(tmp_path / "mask.png", np.full((2, 2, 4), 255)) if readable else "missing.png"
+    image = UsdShade.Shader.Define(stage, "/Looks/Leaf/Image")
+    image.CreateIdAttr("ND_image_color4")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("default", Sdf.ValueTypeNames.Color4f).Set(Gf.Vec4f(0.9, 0.9, 0.9, 0.2))
+    alpha = UsdShade.Shader.Define(stage, "/Looks/Leaf/Alpha")
+    alpha.CreateIdAttr("ND_extract_color4")
+    alpha.CreateInput("in", Sdf.ValueTypeNames.Color4f).ConnectToSource(image.ConnectableAPI(), "out")
+    alpha.CreateInput("index", Sdf.ValueTypeNames.Int).Set(3)
+    shader.CreateInput("geometry_opacity", Sdf.ValueTypeNames.Float).ConnectToSource(alpha.ConnectableAPI(), "out")
+    stage.Save()
+    scene, _ = load(path)
+    (mat,) = scene.materials
+    assert mat.opacity_threshold == 0.5
+    if readable:
+        texture = mat.textures["opacity"]
+        assert texture.channel == "a"
+        assert texture.fallback[3] == pytest.approx(0.2)
+    else:
+        assert "opacity" not in mat.textures and mat.opacity == pytest.approx(0.2)

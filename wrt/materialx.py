@@ -74,13 +74,15 @@ import numpy as np
 from .materials import (
     COLOR_PRIMVAR_READERS,
     MIN_IOR,
+    TEXTURE_FALLBACK,
     Material,
     PrimvarInput,
     TextureInput,
     constant_st_transform,
+    four_components,
     two_finite_numbers,
 )
-from .materialx_fold import Folded, Unfoldable, fold
+from .materialx_fold import TYPE_SIZES, Folded, Unfoldable, fold
 from .usd_values import value_at
 
 # role -> (input name, specification default); the roles are what wrt's model reads.
@@ -392,9 +394,11 @@ class _Graph:
                 self.notes.append(f"{name} ({_describe(found)}) is ignored")
 
     def _image(self, node, node_id: str, constant: np.ndarray) -> tuple[np.ndarray, TextureInput | None]:
-        """``(fallback, texture)`` of image node ``node``; texture None where its file cannot be read."""
+        """``(fallback, texture)`` of image node ``node``; texture None where its file cannot be read. ``fallback``
+        is the node's ``default``, of the node's own type (an ``extract`` of a color4 image's alpha reads the
+        default's alpha), else ``constant``."""
         reader = self.reader
-        default = _array(reader._constant(node, "default"), constant.size)
+        default = _array(reader._constant(node, "default"), TYPE_SIZES[IMAGE_NODE.match(node_id).group(2)])
         fallback = constant if default is None else default
         file_input = node.GetInput("file")
         if not file_input:
@@ -421,7 +425,7 @@ class _Graph:
             transform = constant_st_transform(transform, constant_st)
         return fallback, TextureInput(image=image, channel=channel, wrap=wrap, transform=transform, uv_set=uv_set,
                                       st_fallback=st_fallback, tiles=tiles,
-                                      fallback=np.resize(fallback, 4).astype(np.float32))  # r, or rgb (4th unread)
+                                      fallback=four_components(fallback, TEXTURE_FALLBACK))
 
     def _color_space(self, file_input) -> str:
         """wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image's ``file`` input, from the ``colorSpace``
