@@ -1002,3 +1002,29 @@ def test_texture_coordinates_that_do_not_fit_read_as_unauthored(tmp_path, bad):
     (got,), (want,) = scene.meshes, expected.meshes
     np.testing.assert_array_equal(got.uvs, want.uvs)
     np.testing.assert_array_equal(albedo(path), albedo(str(tmp_path / "unauthored.usda")))
+
+
+def test_constant_only_inputs_connected_to_a_texture_are_named_and_keep_their_defaults(tmp_path):
+    """``ior`` and ``opacityThreshold`` connected to a UsdUVTexture (which wrt cannot vary over a surface) keep the
+    schema's defaults, 1.5 and 0 (``Sdr``'s UsdPreviewSurface definition), with a warning naming the material and
+    each input. They were dropped without a word: a textured cut-out mask drew no holes and nothing said why."""
+    png = write_png(tmp_path / "mask.png", np.full((2, 2, 3), 255))
+    stage, path = new_stage(tmp_path)
+    material, shader = preview_material(stage, "/Looks/Mask")
+    tex = UsdShade.Shader.Define(stage, "/Looks/Mask/Image")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
+    tex.CreateOutput("r", Sdf.ValueTypeNames.Float)
+    for name in ("ior", "opacityThreshold"):
+        shader.CreateInput(name, Sdf.ValueTypeNames.Float).ConnectToSource(tex.ConnectableAPI(), "r")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    from pxr import Sdr
+
+    definition = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface")
+    (mat,) = scene.materials
+    assert mat.ior == pytest.approx(definition.GetShaderInput("ior").GetDefaultValue())
+    assert mat.opacity_threshold == definition.GetShaderInput("opacityThreshold").GetDefaultValue()
+    (warning,) = [m for m in messages if "read as constants only" in m]
+    assert "/Looks/Mask" in warning and "ior <- UsdUVTexture" in warning and "opacityThreshold <- " in warning

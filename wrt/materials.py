@@ -1059,9 +1059,13 @@ class MaterialReader:
                 self._read_input(shader, name, mat)
         for name, field in (("useSpecularWorkflow", "use_specular_workflow"),
                             ("opacityThreshold", "opacity_threshold"), ("ior", "ior")):
-            value = self._constant(shader, name)
-            if value is not None:  # unauthored: the default stays
-                self._set_constant(mat, name, field, False, value, shader.GetPrim())
+            found = self._producer(shader, name)
+            if found is not None and found[0] == "shader":  # a texture: it was dropped without a word
+                self.skip(f"material {path}: useSpecularWorkflow, opacityThreshold and ior are read as constants "
+                          "only; connected to a shader, they keep their defaults", found[1].GetPrim(),
+                          detail=f"{name} <- {_shader_name(found[1])}")
+            elif found is not None:  # unauthored: the default stays
+                self._set_constant(mat, name, field, False, found[1], shader.GetPrim())
         see_through = (mat.opacity < 1.0 or "opacity" in mat.textures) and mat.opacity_threshold <= 0
         if see_through and str(self._constant(shader, "opacityMode") or "") == "presence":
             self.skip("opacityMode = presence (opacity as coverage) is not supported; opacity below 1 is drawn as "
