@@ -1028,3 +1028,62 @@ def test_constant_only_inputs_connected_to_a_texture_are_named_and_keep_their_de
     assert mat.opacity_threshold == definition.GetShaderInput("opacityThreshold").GetDefaultValue()
     (warning,) = [m for m in messages if "read as constants only" in m]
     assert "/Looks/Mask" in warning and "ior <- UsdUVTexture" in warning and "opacityThreshold <- " in warning
+
+
+def materialx_preview_stage(tmp_path, png, wrap, name):
+    """A quad (``st`` over [0, 1]) bound to MaterialX's UsdPreviewSurface (``outputs:mtlx:surface``) whose diffuseColor
+    is MaterialX's ``ND_UsdUVTexture`` of ``png`` (``file`` of colorSpace ``lin_rec709``, fallback (0.2, 0.4, 0.6,
+    1), ``wrapS``/``wrapT`` ``wrap`` unless None), its ``st`` an ``ND_UsdTransform2d`` scaling by 2 an
+    ``ND_UsdPrimvarReader_vector2`` of ``st``."""
+    stage, path = new_stage(tmp_path, f"{name}.usda")
+    material = UsdShade.Material.Define(stage, "/Looks/Mx")
+    shader = UsdShade.Shader.Define(stage, "/Looks/Mx/Surface")
+    shader.CreateIdAttr("ND_UsdPreviewSurface_surfaceshader")
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(shader.ConnectableAPI(), "out")
+    reader = UsdShade.Shader.Define(stage, "/Looks/Mx/Reader")
+    reader.CreateIdAttr("ND_UsdPrimvarReader_vector2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")
+    xf = UsdShade.Shader.Define(stage, "/Looks/Mx/Xf")
+    xf.CreateIdAttr("ND_UsdTransform2d")
+    xf.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "out")
+    xf.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(2, 2))
+    tex = UsdShade.Shader.Define(stage, "/Looks/Mx/Image")
+    tex.CreateIdAttr("ND_UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
+    tex.GetInput("file").GetAttr().SetColorSpace("lin_rec709")
+    tex.CreateInput("fallback", Sdf.ValueTypeNames.Color4f).Set(Gf.Vec4f(0.2, 0.4, 0.6, 1))
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(xf.ConnectableAPI(), "out")
+    if wrap:
+        for key in ("wrapS", "wrapT"):
+            tex.CreateInput(key, Sdf.ValueTypeNames.String).Set(wrap)
+    tex.CreateOutput("rgb", Sdf.ValueTypeNames.Color3f)
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    return path
+
+
+@pytest.mark.parametrize("wrap", [None, "black"])
+def test_materialx_preview_surface_textures_are_read(tmp_path, wrap):
+    """MaterialX's own nodes of the UsdPreviewSurface network (``libraries/bxdf/usd_preview_surface.mtlx``:
+    ``ND_UsdUVTexture``, ``ND_UsdTransform2d``, ``ND_UsdPrimvarReader_vector2``) texture an
+    ``ND_UsdPreviewSurface_surfaceshader`` as the UsdPreviewSurface nodes do, by the MaterialX definitions: wrap
+    modes ``periodic`` by default, ``black`` the node's fallback outside [0, 1] (MaterialX's ``constant``, the
+    first of the node's wrap modes, reads the image's default, which is the fallback), and the file's colour space
+    its ``colorSpace`` (``lin_rec709``: not decoded). The texture was dropped as an unsupported shader, the diffuse
+    colour left at its default."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    scene, messages = load_with_messages(materialx_preview_stage(tmp_path, png, wrap, f"mx{wrap}"))
+    assert not messages, messages
+    img = albedo_of(scene, res=8)  # st over [0, 2]^2
+    texels = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [128 / 255] * 3]])  # 2x2 blocks, rows from the top
+    image = np.repeat(np.repeat(texels, 2, 0), 2, 1)  # the whole image on 4x4 pixels
+    np.testing.assert_allclose(img[4:, :4], image, atol=2e-3)  # st in [0, 1]^2
+    outside = np.tile(image, (2, 2, 1)) if wrap is None else np.broadcast_to([0.2, 0.4, 0.6], (8, 8, 3))
+    np.testing.assert_allclose(img[:4], outside[:4], atol=2e-3)
+    np.testing.assert_allclose(img[4:, 4:], outside[4:, 4:], atol=2e-3)
+
+
+def albedo_of(scene, res=4):
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
+    return wrt.render(scene, camera=cam, width=res, height=res, device="cpu", integrator="albedo").rgb

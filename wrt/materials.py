@@ -11,7 +11,8 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   edges are ignored with a warning).
 - The material is read from the first of its surface outputs, render contexts' (``outputs:mtlx:surface``, ...)
   before the universal ``outputs:surface`` as Storm picks them, that leads to a ``UsdPreviewSurface`` (or MaterialX's
-  ``ND_UsdPreviewSurface_surfaceshader``) or to a MaterialX ``standard_surface`` or OpenPBR, which are mapped onto
+  ``ND_UsdPreviewSurface_surfaceshader``, its textures MaterialX's nodes of UsdUVTexture, UsdTransform2d and
+  UsdPrimvarReader: :data:`UV_TEXTURE_IDS`) or to a MaterialX ``standard_surface`` or OpenPBR, which are mapped onto
   this model (:mod:`wrt.materialx`). Anything else (MDL, other
   MaterialX surfaces, no surface) falls back to a Lambertian surface of the shader's constant base colour where one is
   authored (:data:`FALLBACK_COLOR_INPUTS`), else to the default material (displayColor, else grey), with one warning
@@ -632,6 +633,16 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
 
 # Shaders read as UsdPreviewSurface: its own id and MaterialX's node of it (the same inputs).
 PREVIEW_SURFACE_IDS = ("UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader")
+# UsdUVTexture and MaterialX's nodes of it (libraries/bxdf/usd_preview_surface.mtlx: versions 2.2 and 2.3), which
+# a MaterialX UsdPreviewSurface network reads its textures with; MaterialX's take their file's colour space from its
+# colorSpace and have MaterialX's wrap modes (MATERIALX_WRAPS).
+UV_TEXTURE_IDS = ("UsdUVTexture", "ND_UsdUVTexture", "ND_UsdUVTexture_23")
+# MaterialX ND_UsdUVTexture wrapS/wrapT (default periodic) -> wrt's wrap mode. "black", the first of the node's
+# modes, is MaterialX's constant address mode (modes are passed on by their index): the image's default outside
+# [0, 1], which the node's graph makes its fallback.
+MATERIALX_WRAPS = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "black": "fallback"}
+ST_READER_PREFIXES = ("UsdPrimvarReader", "ND_UsdPrimvarReader")  # texture-coordinate readers (varname, fallback)
+TRANSFORM2D_IDS = ("UsdTransform2d", "ND_UsdTransform2d")
 
 # Base colour inputs of surface shaders other than UsdPreviewSurface, for their Lambertian fallback:
 # (colour input, weight inputs that multiply it, texture input that replaces the colour when it names a file).
@@ -1137,7 +1148,7 @@ class MaterialReader:
             return
         source, output = found[1], found[2]
         source_id = source.GetShaderId() or ""
-        if source_id == "UsdUVTexture":
+        if source_id in UV_TEXTURE_IDS:
             tex, fallback = self._texture(source, output, mat.path)
             if tex is not None:
                 mat.textures[name] = tex
@@ -1147,7 +1158,7 @@ class MaterialReader:
             primvar = self.color_primvar_input(source, mat.path)
             if primvar is not None:
                 primvar.apply(mat)
-        elif source_id.startswith("UsdPrimvarReader"):
+        elif source_id.startswith(ST_READER_PREFIXES):
             varname = self._constant(source, "varname")
             fallback = self._constant(source, "fallback")
             if fallback is not None:
@@ -1190,7 +1201,7 @@ class MaterialReader:
                           shader.GetPrim(), detail=str(found[1]))
             return
         source, output = found[1], found[2]
-        if (source.GetShaderId() or "") != "UsdUVTexture" or output not in ("rgb", "rgba"):
+        if (source.GetShaderId() or "") not in UV_TEXTURE_IDS or output not in ("rgb", "rgba"):
             self.skip(f"material {mat.path}: normal is connected to {source.GetShaderId() or 'a shader'}'s {output} "
                       "output, not a UsdUVTexture's rgb; it is ignored", source.GetPrim())
             return
@@ -1233,8 +1244,16 @@ class MaterialReader:
             value = fallback * scale + bias
         fallback_value = value[:3] if channel == "rgb" else np.full(3, value[CHANNELS[channel]], np.float32)
 
+        materialx = (tex.GetShaderId() or "") != "UsdUVTexture"
         color_space = str(self._constant(tex, "sourceColorSpace") or "auto")
-        if color_space not in ("auto", "sRGB", "raw"):
+        if materialx:  # no sourceColorSpace: the file's colorSpace, as MaterialX's image nodes
+            from .materialx import file_color_space  # that module imports this one
+
+            color_space, unknown = file_color_space(tex.GetInput("file"))
+            if unknown is not None:
+                self.skip(f"material {material_path}: texture colour space {unknown!r} is read as linear (no gamut "
+                          "conversion)", tex.GetPrim())
+        elif color_space not in ("auto", "sRGB", "raw"):
             # "linear" or "srgb" (tokens are case-sensitive) were read as auto without a word: an 8-bit map meant
             # linear was decoded as sRGB, 0.5 read as 0.21.
             self.skip(f"material {material_path}: sourceColorSpace is not one of auto, sRGB or raw; it is read as "
@@ -1244,7 +1263,8 @@ class MaterialReader:
         if image < 0:
             return None, fallback_value
 
-        wraps = [self._wrap_mode(tex, key, material_path) for key in ("wrapS", "wrapT")]
+        wrap_mode = self._materialx_wrap_mode if materialx else self._wrap_mode
+        wraps = [wrap_mode(tex, key, material_path) for key in ("wrapS", "wrapT")]
         uv_set, transform, st_fallback = self._st_source(tex, material_path)
         return (
             TextureInput(
@@ -1304,6 +1324,16 @@ class MaterialReader:
                       "it is read as useMetadata (black outside the image)", tex.GetPrim(), detail=token)
         return "black"
 
+    def _materialx_wrap_mode(self, tex, key: str, material_path: str) -> str:
+        """``wrapS`` or ``wrapT`` (``key``) of MaterialX's ``ND_UsdUVTexture`` ``tex`` as a :data:`WRAP_MODES` token
+        (:data:`MATERIALX_WRAPS`; unauthored: ``periodic``); another token is named in a warning and read as
+        ``periodic``."""
+        token = str(self._constant(tex, key) or "periodic")
+        if token not in MATERIALX_WRAPS:
+            self.skip(f"material {material_path}: {key} is not one of black, clamp, periodic or mirror; it is read as "
+                      "periodic", tex.GetPrim(), detail=token)
+        return MATERIALX_WRAPS.get(token, "repeat")
+
     def _st_source(self, tex, material_path: str) -> tuple[str | None, np.ndarray, np.ndarray]:
         """The primvar feeding ``tex``'s ``st``, the ``UsdTransform2d`` applied on the way (identity if none) and the
         primvar reader's ``fallback`` (``(2,)``, zero when unauthored, as in the schema). A shader other than those two
@@ -1326,10 +1356,10 @@ class MaterialReader:
                 return "st", transform, no_fallback
             node = found[1]
             node_id = node.GetShaderId() or ""
-            if node_id.startswith("UsdPrimvarReader"):
+            if node_id.startswith(ST_READER_PREFIXES):
                 varname = self._constant(node, "varname")
                 return (str(varname) if varname else "st"), transform, self._st_fallback(node, material_path)
-            if node_id == "UsdTransform2d":
+            if node_id in TRANSFORM2D_IDS:
                 rotation, scale, translation = (self._transform2d_input(node, name, default, material_path)
                                                 for name, default in TRANSFORM2D_DEFAULTS)
                 transform = transform @ _transform2d(rotation[0], scale, translation)

@@ -428,17 +428,12 @@ class _Graph:
                                       fallback=four_components(fallback, TEXTURE_FALLBACK))
 
     def _color_space(self, file_input) -> str:
-        """wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image's ``file`` input, from the ``colorSpace``
-        metadata of the input or of the interface input it connects to."""
-        name = ""
-        for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()]:
-            if attr.HasColorSpace():
-                name = str(attr.GetColorSpace())
-                break
-        if name in COLOR_SPACES:
-            return COLOR_SPACES[name]
-        self.notes.append(f"texture colour space {name!r} is read as linear (no gamut conversion)")
-        return "raw"
+        """wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image's ``file`` input
+        (:func:`file_color_space`); an unknown one is noted."""
+        space, unknown = file_color_space(file_input)
+        if unknown is not None:
+            self.notes.append(f"texture colour space {unknown!r} is read as linear (no gamut conversion)")
+        return space
 
     def _tiling(self, node) -> np.ndarray:
         """``tiledimage``'s texture-coordinate map ``(st * uvtiling - uvoffset) / realworldimagesize *
@@ -490,6 +485,20 @@ class _Graph:
         self.notes.append(f"texture coordinates from a {source_id or 'node without info:id'} node "
                           f"({source.GetPath()}) are not supported; primvar st is used")
         return "st", no_fallback, None
+
+def file_color_space(file_input) -> tuple[str, str | None]:
+    """``(space, unknown)``: wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image node's ``file`` input,
+    from the ``colorSpace`` metadata of the input or of the interface input it connects to, and the name of a colour
+    space wrt does not know (read as ``raw``), else None."""
+    name = ""
+    for attr in [file_input.GetAttr(), *file_input.GetValueProducingAttributes()] if file_input else []:
+        if attr.HasColorSpace():
+            name = str(attr.GetColorSpace())
+            break
+    if name in COLOR_SPACES:
+        return COLOR_SPACES[name], None
+    return "raw", name
+
 
 def _array(value, size: int | None = None) -> np.ndarray | None:
     """A constant as a finite float64 array (``size`` 3 broadcasts one number); None when it is not one."""
