@@ -547,3 +547,31 @@ def test_an_extract_of_a_colour4_image_reads_the_channel_of_its_default(tmp_path
         assert texture.fallback[3] == pytest.approx(0.2)
     else:
         assert "opacity" not in mat.textures and mat.opacity == pytest.approx(0.2)
+
+
+def test_a_weight_read_from_an_images_alpha_is_scaled_by_its_colour(tmp_path):
+    """OpenPBR ``emission_luminance`` from the alpha of an ``ND_image_color4`` (an emission mask, through
+    ``ND_extract_color4`` index 3) times a constant grey ``emission_color`` 0.5 emits ``alpha * colour``: texels of
+    alpha 0.6 show 0.3. The colour scaled only the texture's r, g and b, which the alpha output does not read: the
+    emission was the bare alpha, 0.6."""
+    rgba = np.zeros((2, 2, 4), np.uint8)
+    rgba[..., 3] = 153  # alpha 0.6 (alpha is never sRGB-decoded)
+    png = str(tmp_path / "mask.png")
+    PilImage.fromarray(rgba, "RGBA").save(png)
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Panel", OPEN_PBR, base_weight=0.0, specular_weight=0.0,
+                                     emission_color=Gf.Vec3f(0.5, 0.5, 0.5))
+    image = UsdShade.Shader.Define(stage, "/Looks/Panel/Image")
+    image.CreateIdAttr("ND_image_color4")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    alpha = UsdShade.Shader.Define(stage, "/Looks/Panel/Alpha")
+    alpha.CreateIdAttr("ND_extract_color4")
+    alpha.CreateInput("in", Sdf.ValueTypeNames.Color4f).ConnectToSource(image.ConnectableAPI(), "out")
+    alpha.CreateInput("index", Sdf.ValueTypeNames.Int).Set(3)
+    shader.CreateInput("emission_luminance", Sdf.ValueTypeNames.Float).ConnectToSource(alpha.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, _ = load(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu")
+    np.testing.assert_allclose(img.rgb, 0.3, rtol=2e-3)

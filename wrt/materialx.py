@@ -259,12 +259,12 @@ class _Graph:
                               "their defaults are used")
             color, weight = np.resize(np.asarray(color_default, np.float64), 3), float(weight_default)
         if color_texture is not None:
-            color_texture.scale[:3] *= weight
+            _multiply(color_texture, weight)
             if weight_texture is not None:
                 self.notes.append(f"the texture of {self.inputs[weight_role][0]} is ignored (its colour is textured)")
             return (color * weight).astype(np.float32), color_texture
         if weight_texture is not None:
-            weight_texture.scale[:3] *= float(np.mean(color))
+            _multiply(weight_texture, float(np.mean(color)))
             if np.ptp(color) > 1e-6:
                 self.notes.append(f"{self.inputs[color_role][0]} {_format(color)} tints a textured weight: its mean "
                                   "is used")
@@ -498,6 +498,20 @@ def file_color_space(file_input) -> tuple[str, str | None]:
     if name in COLOR_SPACES:
         return COLOR_SPACES[name], None
     return "raw", name
+
+
+def _multiply(texture, factor: float) -> None:
+    """Multiplies what ``texture`` (a :class:`TextureInput` or :class:`PrimvarInput`) gives by ``factor``: the scale
+    and bias of every channel it reads. A texture read as one channel (a float image, an extract of alpha) reads
+    its own channel, which scaling r, g and b alone missed for alpha: an emission mask kept no colour."""
+    if isinstance(texture, PrimvarInput):
+        texture.scale = (np.asarray(texture.scale, np.float32) * factor).astype(np.float32)
+        return
+    reads = slice(0, 3) if texture.channel in ("rgb", "rgba") else slice(0, 4)
+    for name in ("scale", "bias"):
+        values = np.array(getattr(texture, name), np.float32)
+        values[reads] *= factor
+        setattr(texture, name, values)
 
 
 def _array(value, size: int | None = None) -> np.ndarray | None:
