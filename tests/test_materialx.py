@@ -575,3 +575,32 @@ def test_a_weight_read_from_an_images_alpha_is_scaled_by_its_colour(tmp_path):
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
     img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu")
     np.testing.assert_allclose(img.rgb, 0.3, rtol=2e-3)
+
+
+def test_a_separate3_splits_an_orm_image_into_roughness_and_metalness(tmp_path):
+    """``specular_roughness`` and ``metalness`` from the ``outg`` and ``outb`` outputs of an ``ND_separate3_color3``
+    of one packed (occlusion, roughness, metalness) image, as glTF-style ORM maps are wired, render as the same
+    material of those constants (here one texel: roughness 0.6, metalness 0.2, read raw). The ``separate3`` was not
+    folded: both inputs kept their defaults (0.2 and 0), with a warning."""
+    png = write_png(tmp_path / "orm.png", [[[255, 153, 51]]])
+
+    def orm(stage):
+        material, shader = mtlx_material(stage, "/Looks/Orm", base_color=GOLD)
+        image = UsdShade.Shader.Define(stage, "/Looks/Orm/Image")
+        image.CreateIdAttr("ND_image_color3")
+        image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+        image.GetInput("file").GetAttr().SetColorSpace("raw")
+        split = UsdShade.Shader.Define(stage, "/Looks/Orm/Split")
+        split.CreateIdAttr("ND_separate3_color3")
+        split.CreateInput("in", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+        for name, output in (("specular_roughness", "outg"), ("metalness", "outb")):
+            split.CreateOutput(output, Sdf.ValueTypeNames.Float)
+            shader.CreateInput(name, Sdf.ValueTypeNames.Float).ConnectToSource(split.ConnectableAPI(), output)
+        return material
+
+    packed = lit_sphere_image(tmp_path, orm, "orm")
+    constants = lit_sphere_image(tmp_path, lambda s: mtlx_material(s, "/Looks/Orm", base_color=GOLD,
+                                                                   specular_roughness=0.6, metalness=0.2)[0], "const")
+    defaults = lit_sphere_image(tmp_path, lambda s: mtlx_material(s, "/Looks/Orm", base_color=GOLD)[0], "defaults")
+    np.testing.assert_allclose(packed, constants, rtol=0.01)
+    assert np.abs(defaults / constants - 1).max() > 0.05, (defaults, constants)  # the test tells them apart

@@ -228,7 +228,7 @@ class _Graph:
             return None
 
         try:
-            folded = fold(self.reader, node, leaf)
+            folded = fold(self.reader, node, leaf, output=found[2])
         except Unfoldable as e:
             node_id = e.node.GetShaderId() or "node without info:id"
             self.notes.append(f"{name} comes from a {node_id} node ({e.node.GetPath()}), which is not supported; "

@@ -16,6 +16,8 @@ node (``ND_<node>_*``)  output                                          of a tex
 ``add``, ``subtract``  ``in1 (0) +/- in2 (0)``                          --
 ``mix``                ``fg (0) * mix + bg (0) * (1 - mix)``            the chosen one where ``mix`` is 0 or 1
 ``extract``            channel ``index`` (0) of ``in``                  a texture's channel
+``separate2/3/4``      the output's channel of ``in`` (``outr``,        a texture's channel
+                       ``outg``, ... ``outx``, ...)
 ``combine3``           ``(in1, in2, in3)`` (0 each)                     --
 =====================  ==============================================  ===========================================
 
@@ -35,7 +37,8 @@ import numpy as np
 
 from .materials import CHANNELS, PrimvarInput, TextureInput
 
-FOLDABLE = re.compile(r"^ND_(multiply|add|subtract|mix|constant|convert|extract|combine3|dot)_(\w+)$")
+FOLDABLE = re.compile(r"^ND_(multiply|add|subtract|mix|constant|convert|extract|separate[234]|combine3|dot)_(\w+)$")
+SEPARATE_CHANNELS = {"outr": 0, "outg": 1, "outb": 2, "outa": 3, "outx": 0, "outy": 1, "outz": 2, "outw": 3}
 # Channels of each type; a nodedef name ends in its types (ND_mix_color3_color3, ND_multiply_color3FA: in2 a float).
 TYPE_SIZES = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3, "color4": 4,
               "vector4": 4}
@@ -60,20 +63,21 @@ class Unfoldable(Exception):
         self.node = node
 
 
-def fold(reader, node, leaf, depth: int = 0, memo: dict | None = None) -> Folded:
-    """The output of MaterialX ``node`` folded: ``leaf(node, info_id)`` gives sources (images, primvar readers) as a
-    :class:`Folded`, or None for any other node; ``reader`` (a :class:`wrt.materials.MaterialReader`) resolves
-    inputs. ``memo`` holds the nodes folded so far in this graph: a node that several inputs read (a diamond) is
-    folded once, where a chain of 20 of them was folded 2^20 times (a load of some 8 minutes).
+def fold(reader, node, leaf, depth: int = 0, memo: dict | None = None, output: str = "out") -> Folded:
+    """The output ``output`` of MaterialX ``node`` folded (``separate3``'s ``outg``, ...; other nodes have one):
+    ``leaf(node, info_id)`` gives sources (images, primvar readers) as a :class:`Folded`, or None for any other node;
+    ``reader`` (a :class:`wrt.materials.MaterialReader`) resolves inputs. ``memo`` holds the nodes folded so far in
+    this graph: a node that several inputs read (a diamond) is folded once, where a chain of 20 of them was folded
+    2^20 times (a load of some 8 minutes).
 
     Raises:
         Unfoldable: naming the first node (depth first) that cannot be folded.
     """
     memo = {} if memo is None else memo
-    key = (node.GetPath(), depth)  # the depth too: MAX_DEPTH is counted along each path
+    key = (node.GetPath(), depth, output)  # the depth too: MAX_DEPTH is counted along each path
     if key not in memo:
         try:
-            memo[key] = _fold(reader, node, leaf, depth, memo)
+            memo[key] = _fold(reader, node, leaf, depth, memo, output)
         except Unfoldable as e:
             memo[key] = e
     found = memo[key]
@@ -83,7 +87,7 @@ def fold(reader, node, leaf, depth: int = 0, memo: dict | None = None) -> Folded
     return Folded(found.value, copy.copy(found.source))
 
 
-def _fold(reader, node, leaf, depth: int, memo: dict) -> Folded:
+def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
     """:func:`fold` of a node not in ``memo``."""
     node_id = node.GetShaderId() or ""
     found = leaf(node, node_id)
@@ -99,7 +103,7 @@ def _fold(reader, node, leaf, depth: int, memo: dict) -> Folded:
         if producer is None:
             return Folded(np.array([default], np.float64))
         if producer[0] == "shader":
-            return fold(reader, producer[1], leaf, depth + 1, memo)
+            return fold(reader, producer[1], leaf, depth + 1, memo, producer[2])
         try:
             value = np.asarray(producer[1], np.float64).reshape(-1)
         except (TypeError, ValueError):
@@ -111,12 +115,17 @@ def _fold(reader, node, leaf, depth: int, memo: dict) -> Folded:
     names = TYPE_NAME.findall(types)  # the output's type: a convert's last, any other node's first
     if not names:
         raise Unfoldable(node)
-    size = 1 if op == "extract" else TYPE_SIZES[names[-1 if op == "convert" else 0]]
+    size = 1 if op == "extract" or op.startswith("separate") else TYPE_SIZES[names[-1 if op == "convert" else 0]]
     if op in ("constant", "dot", "convert"):
         found = arg("value" if op == "constant" else "in", 0.0)
         return found if found.source is not None else Folded(_converted(found.value, size))
     if op == "extract":
         return _extract(node, arg("in", 0.0), arg("index", 0.0))
+    if op.startswith("separate"):  # (an ORM map's occlusion, roughness and metalness)
+        k = SEPARATE_CHANNELS.get(output)
+        if k is None or k >= TYPE_SIZES[names[0]]:
+            raise Unfoldable(node)
+        return _extract(node, arg("in", 0.0), Folded(np.array([float(k)])))
     if op == "combine3":
         parts = [arg(name, 0.0) for name in ("in1", "in2", "in3")]
         if any(p.source is not None for p in parts):
