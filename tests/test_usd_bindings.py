@@ -222,12 +222,15 @@ def test_a_non_constant_primvar_inside_a_prototype_blocks_the_instances(tmp_path
     assert compare(stage, load(path)) == []
 
 
-@pytest.mark.parametrize("members", ["one proxy", "the instance alone", "all but one proxy"])
+@pytest.mark.parametrize("members", ["one proxy", "the instance alone", "all but one proxy",
+                                     "one proxy, the material targeted first"])
 def test_a_collection_binding_that_names_instance_proxies_binds_them(tmp_path, members):
     """A collection bound above native instances may hold some of their proxies and not others
     (``ComputeBoundMaterial`` asks the collection about each proxy's path): only the named proxy
     takes the material, an ``explicitOnly`` instance binds none of its proxies, an excluded proxy keeps the
-    prototype's own binding. wrt asked about the instance prim and bound all of its prims, or none."""
+    prototype's own binding. wrt asked about the instance prim and bound all of its prims, or none. A binding whose
+    relationship targets the material before the collection is the same binding to USD (it tells the two by their
+    path kinds); wrt took its first target for the collection, found none, and bound none of the proxies."""
     path = str(tmp_path / "collection.usda")
     stage = Usd.Stage.CreateNew(path)
     inner, outer = _inner_and_outer(stage)
@@ -241,7 +244,7 @@ def test_a_collection_binding_that_names_instance_proxies_binds_them(tmp_path, m
         instance.GetReferences().AddInternalReference("/Protos/P")
         instance.SetInstanceable(True)
     collection = Usd.CollectionAPI.Apply(world, "looks")
-    if members == "one proxy":
+    if members.startswith("one proxy"):
         collection.GetIncludesRel().AddTarget("/World/I/A")
     elif members == "the instance alone":
         collection.CreateExpansionRuleAttr(Usd.Tokens.explicitOnly)
@@ -251,6 +254,9 @@ def test_a_collection_binding_that_names_instance_proxies_binds_them(tmp_path, m
         collection.GetExcludesRel().AddTarget("/World/I/B")
     UsdShade.MaterialBindingAPI.Apply(world).Bind(collection, outer, "looks",
                                                   UsdShade.Tokens.strongerThanDescendants)
+    if members.endswith("first"):
+        rel = world.GetRelationship("material:binding:collection:looks")
+        rel.SetTargets(list(reversed(rel.GetTargets())))
     stage.GetRootLayer().Save()
     drawn = _drawn_materials(load(path))
     expected = _usd_materials(Usd.Stage.Open(path), drawn)

@@ -116,9 +116,12 @@ class CollectionsInside:
             for name in p.GetAuthoredPropertyNames():
                 if name.startswith("material:binding") and ":collection:" in name:
                     rel = p.GetRelationship(name)
-                    targets = rel.GetForwardedTargets() if rel else []
-                    if targets and targets[0].IsPropertyPath():
-                        found.append(targets[0])
+                    # The collection is the target that is a property path, whichever comes first, as USD tells
+                    # a collection binding's two targets apart.
+                    collection = next((t for t in (rel.GetForwardedTargets() if rel else []) if t.IsPropertyPath()),
+                                      None)
+                    if collection is not None:
+                        found.append(collection)
             self.collections[path] = found
         return self.collections[path]
 
