@@ -1087,3 +1087,38 @@ def test_materialx_preview_surface_textures_are_read(tmp_path, wrap):
 def albedo_of(scene, res=4):
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
     return wrt.render(scene, camera=cam, width=res, height=res, device="cpu", integrator="albedo").rgb
+
+
+def test_an_emission_texture_with_a_negative_bias_still_lights_the_scene(tmp_path):
+    """An emissive quad whose emissiveColor texture (a bright block on black, raw) is contrast-stretched by ``scale``
+    2 and ``bias`` -1 glows where the block is (2 t - 1 > 0 there, clamped to 0 elsewhere, as every texel): it
+    lights the floor below in ``whitted`` as the same quad with the stretch baked into its texture does. Its emission
+    was estimated from the texture's mean, 2 * 0.25 - 1 < 0, so it was no light: the floor took none of it, and the
+    stage, lit by nothing as far as wrt could tell, got the default light instead (a floor of 1.1, not 0.01)."""
+    block = np.zeros((64, 64, 3), np.uint8)  # fine texels: the two filter their block's edge alike within 2%
+    block[:32, :32] = 255
+
+    def floor_brightness(name, png, scale, bias):
+        stage, path = new_stage(tmp_path, f"{name}.usda")
+        bind(add_quad(stage, "/Floor", size=6.0), preview_material(stage, "/Looks/White",
+                                                                   diffuseColor=Gf.Vec3f(1, 1, 1))[0])
+        material, shader = preview_material(stage, "/Looks/Glow", diffuseColor=Gf.Vec3f(0, 0, 0))
+        tex = UsdShade.Shader.Define(stage, "/Looks/Glow/Image")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
+        tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+        tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(scale, scale, scale, 1))
+        tex.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(bias, bias, bias, 0))
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        shader.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(add_quad(stage, "/Lamp", center=(0, 0, 1), size=1.0, double_sided=True), material)
+        stage.Save()
+        scene, _ = load_with_messages(path)
+        cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=6.0)
+        img = wrt.render(scene, camera=cam, width=12, height=12, spp=16, seed=1, device="cpu").rgb
+        return img[3:5].mean()  # floor only, beside the lamp's footprint (rows 5 and 6)
+
+    stretched = floor_brightness("stretched", write_png(tmp_path / "block.png", block), 2.0, -1.0)
+    baked = floor_brightness("baked", write_png(tmp_path / "baked.png", block), 1.0, 0.0)  # 2 t - 1 clamped: t
+    assert baked > 0.0
+    assert stretched == pytest.approx(baked, rel=0.1)

@@ -57,6 +57,7 @@ from .errors import SceneError, check_fields, did_you_mean, eight_bit_colors, fl
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import (
     HALF_MAX,
+    PACK_TEXELS,
     UDIM_FIRST,
     UDIM_TILES,
     WRAP_CLAMP,
@@ -1542,17 +1543,31 @@ def emission_estimates(materials: list[Material], textures: list[np.ndarray]) ->
 
 def emission_estimate(mat: Material, textures: list[np.ndarray]) -> np.ndarray:
     """``(3,)`` float32 estimate of the radiance ``mat`` emits, clamped to 0: the constant ``emissiveColor``, or the
-    mean of its texture (after scale and bias; ``textures``: the scene's images). Zero where nothing is emitted."""
+    mean of its texture's emission (each texel after scale and bias, clamped to 0 as the device reads it;
+    ``textures``: the scene's images). Zero where nothing is emitted."""
     tex = mat.textures.get("emissiveColor")
     if tex is None:
         return np.maximum(np.asarray(mat.emissive_color, np.float32), 0.0)
     # A UDIM texture: the mean of its tiles' means (each tile covers a unit square of st); without tiles its
     # fallback everywhere.
     images = [tex.image] if tex.tiles is None else [k for k in tex.tiles if k >= 0]
-    if images:
-        mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0)
-    else:
-        mean = np.asarray(tex.fallback, np.float32)
-    mean = mean * tex.scale + tex.bias
+    scale, bias = np.asarray(tex.scale, np.float64), np.asarray(tex.bias, np.float64)
+    if not images:
+        mean = np.asarray(tex.fallback, np.float64) * scale + bias
+    elif np.all(scale >= 0.0) and np.all(bias >= 0.0) and all(textures[k].min() >= 0.0 for k in images):
+        mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0) * scale + bias
+    else:  # some texels emit less than nothing, read as 0: a contrast stretch (bias < 0) of a mask still glows
+        mean = np.mean([_glow_mean(textures[k], scale, bias) for k in images], axis=0)
     value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
     return np.maximum(value.astype(np.float32), 0.0)
+
+
+def _glow_mean(image: np.ndarray, scale: np.ndarray, bias: np.ndarray) -> np.ndarray:
+    """``(4,)`` mean over ``image`` (``(H, W, 4)``) of ``max(texel * scale + bias, 0)``, per channel, as the device
+    clamps each texel's emission; summed in slices (no image-sized float64 temporaries). Scaling the mean instead
+    estimated a mask stretched by ``scale`` 2, ``bias`` -1 at below 0: no light, though its bright texels glow."""
+    flat = image.reshape(-1, 4)
+    total = np.zeros(4)
+    for start in range(0, len(flat), PACK_TEXELS):
+        total += np.maximum(flat[start : start + PACK_TEXELS] * scale + bias, 0.0).sum(axis=0)
+    return total / max(len(flat), 1)

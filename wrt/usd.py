@@ -484,8 +484,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             ctx.content.shapes.append(shape)
 
     def _glows(self, shape: Shape) -> bool:
-        """``shape``'s material emits: a constant ``emissiveColor`` above 0, or a texture on it whose mean (after
-        scale and bias) is; the estimate the render uses to find the emissive triangles it samples."""
+        """``shape``'s material emits: a constant ``emissiveColor`` above 0, or a texture on it whose mean emission
+        (each texel after scale and bias, negatives read as 0) is; the estimate the render uses to find the emissive
+        triangles it samples."""
         if shape.material_id < 0:  # the default material emits nothing
             return False
         material = self.materials.materials[shape.material_id]
