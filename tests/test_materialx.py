@@ -604,3 +604,20 @@ def test_a_separate3_splits_an_orm_image_into_roughness_and_metalness(tmp_path):
     defaults = lit_sphere_image(tmp_path, lambda s: mtlx_material(s, "/Looks/Orm", base_color=GOLD)[0], "defaults")
     np.testing.assert_allclose(packed, constants, rtol=0.01)
     assert np.abs(defaults / constants - 1).max() > 0.05, (defaults, constants)  # the test tells them apart
+
+
+def test_a_displacement_shader_beside_a_standard_surface_is_named(tmp_path):
+    """A standard_surface material whose ``outputs:mtlx:displacement`` leads to an ``ND_displacement_float`` is
+    named in the displacement warning, as a UsdPreviewSurface material's is (the surface is drawn undisplaced); the
+    MaterialX surfaces were read before the displacement check and said nothing."""
+    stage, path = new_stage(tmp_path)
+    material, _ = mtlx_material(stage, "/Looks/Bumpy")
+    displace = UsdShade.Shader.Define(stage, "/Looks/Bumpy/Displace")
+    displace.CreateIdAttr("ND_displacement_float")
+    displace.CreateInput("displacement", Sdf.ValueTypeNames.Float).Set(1.0)
+    displace.CreateInput("scale", Sdf.ValueTypeNames.Float).Set(0.1)
+    material.CreateDisplacementOutput("mtlx").ConnectToSource(displace.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    _, messages = load(path)
+    assert any("displacement" in m and "/Looks/Bumpy" in m for m in messages), messages

@@ -1044,6 +1044,7 @@ class MaterialReader:
         path = str(prim.GetPath())
         readable = readable_surface(material)  # render contexts' outputs before the universal one, as Storm
         if readable and readable.GetShaderId() in MODELS:  # standard_surface or OpenPBR (wrt/materialx.py)
+            self._check_displacement(material)
             return read_materialx_surface(self, readable, path)
         # Else the shader Storm would draw (a render context's first) is named: the universal output may be absent.
         shader = readable or next((s for s in _surface_shaders(material) if s), None)
