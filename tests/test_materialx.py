@@ -441,9 +441,14 @@ def test_float_and_vector_images_are_data_not_srgb(tmp_path):
     np.testing.assert_allclose(texels[..., 0], 128 / 255, atol=1e-3)
 
 
+READER_INPUTS = {"ND_geompropvalue_vector2": ("geomprop", "default"),  # texcoord readers: (primvar, fallback)
+                 "ND_UsdPrimvarReader_vector2": ("varname", "fallback"),
+                 "UsdPrimvarReader_float2": ("varname", "fallback")}
+
+
 def texcoord_stage(tmp_path, png, texcoord):
     """A quad without ``st`` whose standard_surface base_color is an ``ND_image_color3`` (``clamp`` addressing) of
-    ``png``, its ``texcoord`` either ``("geomprop", name, default)``: an ``ND_geompropvalue_vector2`` of primvar
+    ``png``, its ``texcoord`` either ``(reader id, name, default)``: a reader of :data:`READER_INPUTS` of primvar
     ``name`` (``default`` authored unless None), or ``("constant", value)`` authored on the image node."""
     stage, path = new_stage(tmp_path, f"texcoord_{texcoord[0]}.usda")
     quad = add_quad(stage, "/Quad")
@@ -455,12 +460,13 @@ def texcoord_stage(tmp_path, png, texcoord):
     for key in ("uaddressmode", "vaddressmode"):
         image.CreateInput(key, Sdf.ValueTypeNames.String).Set("clamp")
     image.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
-    if texcoord[0] == "geomprop":
+    if texcoord[0] in READER_INPUTS:
         reader = UsdShade.Shader.Define(stage, "/Looks/Coords/Reader")
-        reader.CreateIdAttr("ND_geompropvalue_vector2")
-        reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set(texcoord[1])
+        reader.CreateIdAttr(texcoord[0])
+        name_input, default_input = READER_INPUTS[texcoord[0]]
+        reader.CreateInput(name_input, Sdf.ValueTypeNames.String).Set(texcoord[1])
         if texcoord[2] is not None:
-            reader.CreateInput("default", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*texcoord[2]))
+            reader.CreateInput(default_input, Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(*texcoord[2]))
         reader.CreateOutput("out", Sdf.ValueTypeNames.Float2)
         image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "out")
     else:
@@ -475,12 +481,14 @@ def texcoord_stage(tmp_path, png, texcoord):
 CORNERS = [[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]]
 
 
-def test_a_geompropvalue_texcoord_default_is_the_st_of_a_mesh_without_the_primvar(tmp_path):
+@pytest.mark.parametrize("reader", list(READER_INPUTS))
+def test_a_geompropvalue_texcoord_default_is_the_st_of_a_mesh_without_the_primvar(tmp_path, reader):
     """An ``ND_geompropvalue_vector2`` texcoord reading a primvar the mesh lacks gives its ``default`` on every
     point, as a UsdPrimvarReader_float2's fallback does (the warning names it). It gave (0, 0), the bottom-left
-    texel, whatever the default."""
+    texel, whatever the default. A UsdPrimvarReader (MaterialX's ``ND_UsdPrimvarReader_vector2`` or USD's own) as the
+    texcoord reads its ``varname`` and ``fallback`` alike; it was named in a warning and ``st`` read."""
     png = write_png(tmp_path / "corners.png", CORNERS)
-    scene, messages = load(texcoord_stage(tmp_path, png, ("geomprop", "uv_missing", (0.75, 0.25))))
+    scene, messages = load(texcoord_stage(tmp_path, png, (reader, "uv_missing", (0.75, 0.25))))
     assert any("uv_missing, fallback (0.75, 0.25)" in m for m in messages), messages
     np.testing.assert_allclose(albedo(scene, 2), 1.0, atol=1e-3)  # the bottom-right texel: white
 

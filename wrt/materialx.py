@@ -53,15 +53,16 @@ linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector``
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 the node's ``default`` outside [0, 1], black without one), ``uvtiling``/``uvoffset``/``realworldimagesize``/
 ``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
-(the mesh's ``st``) or ``ND_geompropvalue_vector2`` (the primvar named by ``geomprop``; its ``default`` where the mesh
-lacks it), or a constant ``texcoord`` (read there on every point). Where the file cannot be read, the node's ``default``
-is used (the surface input's constant when the node has none). ``base_color`` may also come from a mesh's colour
-primvar: an ``ND_UsdPrimvarReader_color3``/``vector3`` or ``ND_geompropvalue_color3``/``vector3`` node
-(:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where the mesh lacks it). Math and channel nodes
-between an input and these sources (``multiply``, ``add``, ``mix``, ``convert``, ...) are folded at load time
-(:mod:`wrt.materialx_fold`): into a constant, or into the texture's or primvar's scale. Any other node keeps the input's
-constant: its own authored value, else the specification's default. Defaults are the MaterialX library's
-(``libraries/bxdf/standard_surface.mtlx`` 1.0.1 and 1.0.0, ``open_pbr_surface.mtlx`` 1.1).
+(the mesh's ``st``) or a reader of :data:`TEXCOORD_READERS` (the primvar named by ``geomprop`` or ``varname``; its
+``default`` or ``fallback`` where the mesh lacks it), or a constant ``texcoord`` (read there on every point). Where the
+file cannot be read, the node's ``default`` is used (the surface input's constant when the node has none).
+``base_color`` may also come from a mesh's colour primvar: an ``ND_UsdPrimvarReader_color3``/``vector3`` or
+``ND_geompropvalue_color3``/``vector3`` node (:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where
+the mesh lacks it). Math and channel nodes between an input and these sources (``multiply``, ``add``, ``mix``,
+``convert``, ...) are folded at load time (:mod:`wrt.materialx_fold`): into a constant, or into the texture's or
+primvar's scale. Any other node keeps the input's constant: its own authored value, else the specification's default.
+Defaults are the MaterialX library's (``libraries/bxdf/standard_surface.mtlx`` 1.0.1 and 1.0.0,
+``open_pbr_surface.mtlx`` 1.1).
 """
 
 from __future__ import annotations
@@ -140,6 +141,11 @@ CUT_OUT_THRESHOLD = 0.5  # geometry opacity below this is a hole
 
 IMAGE_NODE = re.compile(r"^ND_(tiled)?image_(float|color3|color4|vector2|vector3|vector4)$")
 NORMAL_MAP_NODE = re.compile(r"^ND_normalmap(_float|_vector2)?$")  # 1.38's, and 1.39's of a float or vector2 scale
+# Texture-coordinate readers an image's texcoord may connect to: info:id -> (input naming the primvar, the one giving
+# the st of a mesh without it).
+TEXCOORD_READERS = {"ND_geompropvalue_vector2": ("geomprop", "default"),
+                    "ND_UsdPrimvarReader_vector2": ("varname", "fallback"),
+                    "UsdPrimvarReader_float2": ("varname", "fallback")}
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
 COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
 
@@ -454,8 +460,8 @@ class _Graph:
 
     def _texcoord(self, node) -> tuple[str | None, np.ndarray, np.ndarray | None]:
         """``(primvar, st_fallback, constant)`` of an image node's ``texcoord``: the primvar it reads (``st`` unless
-        a ``geompropvalue`` names another), the ``(2,)`` st of a mesh without it (the ``geompropvalue``'s
-        ``default``, as a UsdPrimvarReader_float2's ``fallback``; zero otherwise), and None; or, for a ``texcoord``
+        a ``geompropvalue`` or primvar reader names another), the ``(2,)`` st of a mesh without it (the
+        ``geompropvalue``'s ``default``, a reader's ``fallback``; zero otherwise), and None; or, for a ``texcoord``
         authored as a constant, ``(None, zero, (2,) constant)``: the image is read there on every point."""
         no_fallback = np.zeros(2, np.float32)
         found = self.reader._producer(node, "texcoord")
@@ -474,9 +480,10 @@ class _Graph:
             if index not in (None, 0):
                 self.notes.append(f"texcoord index {index} is read as primvar st")
             return "st", no_fallback, None
-        if source_id == "ND_geompropvalue_vector2":
-            name = self.reader._constant(source, "geomprop")
-            default = self.reader._constant(source, "default")
+        if source_id in TEXCOORD_READERS:
+            name_input, default_input = TEXCOORD_READERS[source_id]
+            name = self.reader._constant(source, name_input)
+            default = self.reader._constant(source, default_input)
             st_fallback = two_finite_numbers(default)
             if default is not None and st_fallback is None:
                 self.notes.append(f"the default of {source.GetPath()} is not two finite numbers; (0, 0) is used")
