@@ -1557,7 +1557,8 @@ def emission_estimate(mat: Material, textures: list[np.ndarray]) -> np.ndarray:
         mean = np.asarray(tex.fallback, np.float64) * scale + bias
     elif np.all(scale >= 0.0) and np.all(bias >= 0.0) and all(textures[k].min() >= 0.0 for k in images):
         mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0) * scale + bias
-    else:  # some texels emit less than nothing, read as 0: a contrast stretch (bias < 0) of a mask still glows
+    else:  # some texels emit less than nothing, read as 0 (a contrast stretch, bias < 0, of a mask still glows), or
+        # are NaN, read as 0 as the device stores them (a NaN mean made the emitter no light at all)
         mean = np.mean([_glow_mean(textures[k], scale, bias) for k in images], axis=0)
     value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
     return np.maximum(value.astype(np.float32), 0.0)
@@ -1565,10 +1566,13 @@ def emission_estimate(mat: Material, textures: list[np.ndarray]) -> np.ndarray:
 
 def _glow_mean(image: np.ndarray, scale: np.ndarray, bias: np.ndarray) -> np.ndarray:
     """``(4,)`` mean over ``image`` (``(H, W, 4)``) of ``max(texel * scale + bias, 0)``, per channel, as the device
-    clamps each texel's emission; summed in slices (no image-sized float64 temporaries). Scaling the mean instead
-    estimated a mask stretched by ``scale`` 2, ``bias`` -1 at below 0: no light, though its bright texels glow."""
+    clamps each texel's emission, each texel as the device stores it (NaN as 0, others within +-65504:
+    :func:`wrt.textures.pack_images`); summed in slices (no image-sized float64 temporaries). Scaling the mean
+    instead estimated a mask stretched by ``scale`` 2, ``bias`` -1 at below 0: no light, though its bright texels
+    glow."""
     flat = image.reshape(-1, 4)
     total = np.zeros(4)
     for start in range(0, len(flat), PACK_TEXELS):
-        total += np.maximum(flat[start : start + PACK_TEXELS] * scale + bias, 0.0).sum(axis=0)
+        texels = np.clip(np.nan_to_num(flat[start : start + PACK_TEXELS], nan=0.0), -HALF_MAX, HALF_MAX)
+        total += np.maximum(texels * scale + bias, 0.0).sum(axis=0)
     return total / max(len(flat), 1)
