@@ -1124,24 +1124,31 @@ def test_an_emission_texture_with_a_negative_bias_still_lights_the_scene(tmp_pat
     assert stretched == pytest.approx(baked, rel=0.1)
 
 
-def test_a_nan_texel_in_an_emission_texture_leaves_the_rest_of_it_a_light(tmp_path):
-    """An emissive quad whose emission texture (``Scene.textures``, as an EXR's NaN texels stay there) has one NaN
-    texel lights the floor below in ``whitted`` as the same texture with that texel 0 does, which is how the device
-    reads it. The NaN made the emission estimate NaN: the quad was no light, and the scene got the default light."""
+@pytest.mark.parametrize("texel, as_stored", [(np.nan, 0.0), (np.inf, 65504.0)])
+def test_an_emission_texel_past_float16_is_estimated_as_the_device_stores_it(texel, as_stored):
+    """An emissive quad whose emission texture (``Scene.textures``, where an EXR's NaN and infinite texels stay) has
+    one NaN or infinite texel lights the floor below in ``whitted`` as the same texture with that texel as the device
+    stores it (NaN 0, inf 65504) does, beside a second, constant lamp. The NaN made the emission estimate NaN: the
+    quad was no light, and the scene got the default light; inf made it infinite (with numpy's overflow warnings):
+    the second lamp was never sampled."""
     from shading_helpers import quad, top_down_camera
 
-    def floor_brightness(texel):
+    def floor_brightness(value):
         tex = np.ones((4, 4, 4), np.float32)
-        tex[0, 0, :3] = texel
+        tex[0, 0, :3] = value
         glow = wrt.Material(path="/Glow", diffuse_color=0.0, textures={"emissiveColor": wrt.TextureInput(image=0)})
         lamp = quad((0, 0, 1), (1, 0, 0), (0, -1, 0), name="/lamp", material=0)
         lamp.uvs = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], np.float32)
+        second = quad((2, 0, 1), (1, 0, 0), (0, -1, 0), name="/second", material=2)
         floor = quad((0, 0, 0), (6, 0, 0), (0, 6, 0), name="/floor", material=1)
-        scene = wrt.Scene(meshes=[floor, lamp], materials=[glow, wrt.Material(path="/White", diffuse_color=1.0)],
-                          textures=[tex])
-        img = wrt.render(scene, camera=top_down_camera(height=6.0), width=12, height=12, spp=8, seed=1, device="cpu")
+        materials = [glow, wrt.Material(path="/White", diffuse_color=1.0),
+                     wrt.Material(path="/Lamp", diffuse_color=0.0, emissive_color=np.full(3, 1000.0, np.float32))]
+        scene = wrt.Scene(meshes=[floor, lamp, second], materials=materials, textures=[tex])
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # no overflow warnings
+            img = wrt.render(scene, camera=top_down_camera(height=6.0), width=12, height=12, spp=8, seed=1,
+                             device="cpu")
         return img.rgb[3:5].mean()  # floor only, beside the lamp (rows 5 and 6)
 
-    zero = floor_brightness(0.0)
-    assert 0.0 < zero < 0.5  # lit by the lamp alone
-    assert floor_brightness(np.nan) == pytest.approx(zero, rel=1e-3)
+    stored = floor_brightness(as_stored)
+    assert floor_brightness(texel) == pytest.approx(stored, rel=1e-3)

@@ -1555,13 +1555,19 @@ def emission_estimate(mat: Material, textures: list[np.ndarray]) -> np.ndarray:
     scale, bias = np.asarray(tex.scale, np.float64), np.asarray(tex.bias, np.float64)
     if not images:
         mean = np.asarray(tex.fallback, np.float64) * scale + bias
-    elif np.all(scale >= 0.0) and np.all(bias >= 0.0) and all(textures[k].min() >= 0.0 for k in images):
+    elif np.all(scale >= 0.0) and np.all(bias >= 0.0) and all(_stored_as_is(textures[k]) for k in images):
         mean = np.mean([textures[k].reshape(-1, 4).mean(axis=0) for k in images], axis=0) * scale + bias
     else:  # some texels emit less than nothing, read as 0 (a contrast stretch, bias < 0, of a mask still glows), or
-        # are NaN, read as 0 as the device stores them (a NaN mean made the emitter no light at all)
+        # are stored otherwise (NaN as 0, inf as 65504: a NaN or infinite mean made the emitter no light, or the only
+        # one sampled)
         mean = np.mean([_glow_mean(textures[k], scale, bias) for k in images], axis=0)
     value = mean[:3] if tex.channel == "rgb" else np.full(3, mean[CHANNELS[tex.channel]])
     return np.maximum(value.astype(np.float32), 0.0)
+
+
+def _stored_as_is(image: np.ndarray) -> bool:
+    """Every texel of ``image`` is in [0, 65504]: the device stores it as it is (a NaN fails the comparisons)."""
+    return bool(image.min() >= 0.0 and image.max() <= HALF_MAX)
 
 
 def _glow_mean(image: np.ndarray, scale: np.ndarray, bias: np.ndarray) -> np.ndarray:
