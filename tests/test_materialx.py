@@ -629,3 +629,27 @@ def test_a_displacement_shader_beside_a_standard_surface_is_named(tmp_path):
     stage.Save()
     _, messages = load(path)
     assert any("displacement" in m and "/Looks/Bumpy" in m for m in messages), messages
+
+
+@pytest.mark.parametrize("node_id, value, expected", [("ND_convert_vector2_color3", (0.2, 0.4), (0.2, 0.4, 0.0)),
+                                                      ("ND_convert_vector2_vector3", (0.2, 0.4), (0.2, 0.4, 0.0)),
+                                                      ("ND_convert_float_color3", 0.3, (0.3, 0.3, 0.3)),
+                                                      ("ND_convert_color4_color3", (0.1, 0.2, 0.3, 0.4),
+                                                       (0.1, 0.2, 0.3))])
+def test_a_converted_constant_gets_the_channels_materialx_gives_it(tmp_path, node_id, value, expected):
+    """``base_color`` from a ``convert`` of a constant: a vector2 widened to three channels gets a third of 0 (as
+    MaterialX's implementations combine ``(x, y, 0)``), a float fills all three, a colour4 drops its alpha. The
+    vector2 was widened by repeating it, ``(x, y, x)``."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Converted")
+    convert = UsdShade.Shader.Define(stage, "/Looks/Converted/Convert")
+    convert.CreateIdAttr(node_id)
+    value_type = {1: Sdf.ValueTypeNames.Float, 2: Sdf.ValueTypeNames.Float2, 4: Sdf.ValueTypeNames.Color4f}
+    convert.CreateInput("in", value_type[np.size(value)]).Set(value if np.size(value) == 1 else
+                                                              {2: Gf.Vec2f, 4: Gf.Vec4f}[np.size(value)](*value))
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(convert.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, expected, atol=1e-6)

@@ -10,8 +10,9 @@ node (``ND_<node>_*``)  output                                          of a tex
 =====================  ==============================================  ===========================================
 ``constant``           ``value`` (0)                                   --
 ``dot``                ``in`` (a no-op)                                passed through
-``convert``            ``in``: a float fills every channel; 4 channels  passed through (wrt reads rgb, or one
-                       from 3 add 1 (alpha); 3 from 4 drop the last     channel broadcast, already)
+``convert``            ``in``: a float fills every channel; 3 from 2    passed through (wrt reads rgb, or one
+                       add 0, 4 from 3 add 1 (alpha); fewer drop the   channel broadcast, already)
+                       last
 ``multiply``           ``in1 (0) * in2 (1)``, per channel               times a constant: its ``scale``
 ``add``, ``subtract``  ``in1 (0) +/- in2 (0)``                          --
 ``mix``                ``fg (0) * mix + bg (0) * (1 - mix)``            the chosen one where ``mix`` is 0 or 1
@@ -157,7 +158,10 @@ def _sized(value: np.ndarray, size: int) -> np.ndarray:
 
 
 def _converted(value: np.ndarray, size: int) -> np.ndarray:
-    """``convert`` of a constant to ``size`` channels: a float fills all of them, a 3-channel value gains alpha 1."""
+    """``convert`` of a constant to ``size`` channels: a float fills all of them, a vector2 gains a third of 0 and
+    a 3-channel value an alpha (w) of 1, as MaterialX's implementations widen them; more channels drop the last."""
+    if value.size == 2 and size > 2:  # (x, y, 0); it repeated x
+        value = np.append(value, 0.0)
     if value.size == 3 and size == 4:
         return np.append(value, 1.0)
     return _sized(value, size)
