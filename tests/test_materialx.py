@@ -653,3 +653,21 @@ def test_a_converted_constant_gets_the_channels_materialx_gives_it(tmp_path, nod
     scene, messages = load(path)
     assert not messages, messages
     np.testing.assert_allclose(scene.materials[0].diffuse_color, expected, atol=1e-6)
+
+
+def test_a_colour_opacity_texture_is_named_as_read_by_its_red_channel(tmp_path):
+    """standard_surface ``opacity`` (a colour) from an ``ND_image_color3`` is a cut-out of the image's red channel,
+    which the material's warning says (the README gives a constant opacity's mean): red 1, green and blue 0 read as
+    opaque. It was read so without a word."""
+    png = write_png(tmp_path / "red.png", [[[255, 0, 0]]])
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Mask")
+    image = UsdShade.Shader.Define(stage, "/Looks/Mask/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("opacity is a colour image: its red channel is the cut-out" in m for m in messages), messages
+    assert (albedo(scene, 2) > 0.5).all()  # opaque everywhere: the red channel, 1 (the mean, 1/3, is a hole)

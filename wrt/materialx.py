@@ -328,6 +328,9 @@ class _Graph:
         transmission = float(np.mean(transmission))
         opacity_name, transmission_name = self.inputs["opacity"][0], self.inputs["transmission"][0]
         if coverage_texture is not None or coverage < 1.0:
+            if coverage_texture is not None and coverage_texture.channel in ("rgb", "rgba"):
+                # A colour image: wrt reads one number per point, the first channel (not the mean of the three)
+                self.notes.append(f"the texture of {opacity_name} is a colour image: its red channel is the cut-out")
             if coverage_texture is None and 0.0 < coverage < 1.0:
                 rounded = "a hole" if coverage < CUT_OUT_THRESHOLD else "opaque"
                 self.notes.append(f"{opacity_name} {coverage:.3g} is drawn {rounded} (a cut-out at "
