@@ -402,6 +402,70 @@ def test_spline_animated_ops_at_the_default_time_read_their_first_knot(tmp_path,
     np.testing.assert_allclose(scene.meshes[0].points, points, atol=1e-6)
 
 
+@pytest.mark.skipif(not hasattr(Usd.Attribute, "SetSpline"), reason="usd-core without attribute splines (before 25.05)")
+@pytest.mark.parametrize("extrapolation", ["linear", "sloped", "loopRepeat"])
+def test_splines_extrapolated_before_their_first_knot_are_read_at_it_with_the_default_time(tmp_path, extrapolation):
+    """With ``time=None`` a spline is read at its first knot, whatever it does before it: ``EarliestTime`` (-1.8e308)
+    took a linear or sloped extrapolation out to -inf, and the transform, the light, the camera and the sphere were
+    skipped as not finite; a loop repeated the last knot's value there. The knot's time is the stage's, through the
+    reference's layer offset. Oracle: USD's values at that knot's time (``XformCache``, ``attr.Get``)."""
+    from pxr import Ts, UsdLux
+
+    def spline(kind, knots):
+        made = Ts.Spline(kind)
+        for time, value in knots:
+            made.SetKnot(Ts.Knot(kind, time=time, value=value, nextInterp=Ts.InterpLinear))
+        before = Ts.Extrapolation({"linear": Ts.ExtrapLinear, "sloped": Ts.ExtrapSloped,
+                                   "loopRepeat": Ts.ExtrapLoopRepeat}[extrapolation])
+        before.slope = 4.0
+        made.SetPreExtrapolation(before)
+        return made
+
+    inner = Usd.Stage.CreateNew(str(tmp_path / "rig.usda"))
+    rig = UsdGeom.Xform.Define(inner, "/Rig")
+    arm = UsdGeom.Xform.Define(inner, "/Rig/Arm")
+    arm.AddRotateYOp().GetAttr().SetSpline(spline("float", [(1.0, 30.0), (5.0, 90.0)]))
+    mesh = UsdGeom.Mesh.Define(inner, "/Rig/Arm/Quad")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    UsdLux.SphereLight.Define(inner, "/Rig/Bulb").CreateIntensityAttr().SetSpline(spline("float", [(2.0, 3.0),
+                                                                                                   (6.0, 7.0)]))
+    UsdGeom.Camera.Define(inner, "/Rig/Cam").CreateFocalLengthAttr().SetSpline(spline("float", [(1.0, 30.0),
+                                                                                                (5.0, 70.0)]))
+    UsdGeom.Sphere.Define(inner, "/Rig/Ball").CreateRadiusAttr().SetSpline(spline("double", [(3.0, 0.5),
+                                                                                             (5.0, 2.0)]))
+    inner.SetDefaultPrim(rig.GetPrim())
+    inner.Save()
+    stage = Usd.Stage.CreateNew(str(tmp_path / "shot.usda"))
+    stage.DefinePrim("/Shot").GetReferences().AddReference("rig.usda", Sdf.LayerOffset(10.0, 2.0))
+    stage.Save()
+
+    def at_first_knot(attr):
+        first = Usd.TimeCode(min(attr.GetSpline().GetKnots().keys()))  # in the stage's time
+        assert first.GetValue() > 10.0  # moved by the layer offset
+        return attr.Get(first), first
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = wrt.load_usd(str(tmp_path / "shot.usda"))
+    quad, bulb = stage.GetPrimAtPath("/Shot/Arm/Quad"), stage.GetPrimAtPath("/Shot/Bulb")
+    _, first = at_first_knot(stage.GetPrimAtPath("/Shot/Arm").GetAttribute("xformOp:rotateY"))
+    to_world = np.array(UsdGeom.XformCache(first).GetLocalToWorldTransform(quad))
+    points = np.array(UsdGeom.Mesh(quad).GetPointsAttr().Get(), np.float64) @ to_world[:3, :3] + to_world[3, :3]
+    assert [m.path for m in scene.meshes] == ["/Shot/Arm/Quad"]
+    np.testing.assert_allclose(scene.meshes[0].points, points, atol=1e-6)
+    intensity, _ = at_first_knot(UsdLux.SphereLight(bulb).GetIntensityAttr())
+    assert [light.path for light in scene.lights] == ["/Shot/Bulb"]
+    np.testing.assert_allclose(scene.lights[0].color, [intensity] * 3)
+    focal, _ = at_first_knot(stage.GetPrimAtPath("/Shot/Cam").GetAttribute("focalLength"))
+    assert scene.cameras["/Shot/Cam"].focal_length == pytest.approx(focal)
+    radius, _ = at_first_knot(stage.GetPrimAtPath("/Shot/Ball").GetAttribute("radius"))
+    assert len(scene.shapes) == 1
+    np.testing.assert_allclose(np.linalg.norm(scene.shapes[0].to_world[:3, 0]) * scene.shapes[0].params[0], radius,
+                               rtol=1e-6)
+
+
 VALUELESS = """#usda 1.0
 def Xform "Empty"
 {

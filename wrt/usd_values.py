@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 from pxr import Sdf, Usd
 
+HAS_SPLINES = hasattr(Usd.Attribute, "HasSpline")  # usd-core before 25.05 has no attribute splines
+
 
 def value_at(attr: Usd.Attribute, time: Usd.TimeCode):
     """``attr`` at ``time``, or at its earliest time sample when ``time`` is default and it has no authored default
@@ -38,15 +40,26 @@ def read_time(attr: Usd.Attribute, time: Usd.TimeCode) -> Usd.TimeCode:
     ``ComputeFlattened``, an xform op's ``GetOpTransform``).
 
     ``EarliestTime`` rather than ``GetTimeSamples()[0]``: the result is the same, and ``GetTimeSamples`` can hang
-    usd-core 26.11 on stages with ``timeCodesPerSecond = 0``.
+    usd-core 26.11 on stages with ``timeCodesPerSecond = 0``. A spline (USD 25.05's animation of scalar values) is
+    read at its first knot instead: before it, its extrapolation (linear, sloped, a loop) gave ``EarliestTime`` -inf
+    or another knot's value.
     """
     if (
         time.IsDefault()
         and attr.HasAuthoredValue()
         and attr.GetResolveInfo(time).GetSource() != Usd.ResolveInfoSourceDefault
     ):
-        return Usd.TimeCode.EarliestTime()
+        return _first_knot(attr) or Usd.TimeCode.EarliestTime()
     return time
+
+
+def _first_knot(attr: Usd.Attribute) -> Usd.TimeCode | None:
+    """The time of the first knot of the spline that gives ``attr`` its values (in the stage's time: ``GetSpline``
+    applies layer offsets), or None where no spline does."""
+    if not (HAS_SPLINES and attr.HasSpline()):
+        return None
+    times = attr.GetSpline().GetKnots().keys()
+    return Usd.TimeCode(min(times)) if times else None
 
 
 def moved_positions(positions: Usd.Attribute, velocities: Usd.Attribute, accelerations: Usd.Attribute,

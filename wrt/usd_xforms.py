@@ -28,7 +28,7 @@ import math
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
-from .usd_values import read_time
+from .usd_values import HAS_SPLINES, read_time
 
 DEFAULT = Usd.TimeCode.Default()
 PROJECTIVE = "world transform is projective; its last column was ignored"
@@ -50,7 +50,6 @@ SCALAR_OPS = frozenset((UsdGeom.XformOp.TypeRotateX, UsdGeom.XformOp.TypeRotateY
                         UsdGeom.XformOp.TypeScaleX, UsdGeom.XformOp.TypeScaleY, UsdGeom.XformOp.TypeScaleZ))
 SCALE_OPS = frozenset((UsdGeom.XformOp.TypeScale, UsdGeom.XformOp.TypeScaleX, UsdGeom.XformOp.TypeScaleY,
                        UsdGeom.XformOp.TypeScaleZ))
-HAS_SPLINES = hasattr(Usd.Attribute, "HasSpline")  # usd-core before splines has no layer that holds one
 
 
 def _finite_op(op: UsdGeom.XformOp, time: Usd.TimeCode) -> bool:
