@@ -1341,3 +1341,44 @@ def test_a_warning_posted_again_prints_as_usd_printed_it(capfd):
     first = capfd.readouterr().err
     post_again(held)
     assert capfd.readouterr().err == first and "posted from a lambda" in first, first
+
+
+def test_loads_inside_a_stage_cache_context_read_the_file_and_leave_the_cached_stage_alone(tmp_path):
+    """A caller's ``Usd.StageCacheContext`` (a DCC's session) is not wrt's: inside one, ``load_usd`` and kept frames
+    handed back the caller's cached stage (read with its held interpolation, not the file's linear one) and wrote
+    their variant selections onto its session layer, and they put their own stages into the cache. Oracle: USD's
+    values on a stage opened outside any cache, and the cached stage's session layer and the cache's size."""
+    path = tmp_path / "shot.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    rig = UsdGeom.Xform.Define(stage, "/Rig")
+    move = rig.AddTranslateOp()
+    move.Set(Gf.Vec3d(0, 0, 0), 0), move.Set(Gf.Vec3d(10, 0, 0), 10)
+    looks = rig.GetPrim().GetVariantSets().AddVariantSet("size")
+    for name, scale in (("small", 1.0), ("big", 3.0)):
+        looks.AddVariant(name)
+        looks.SetVariantSelection(name)
+        with looks.GetVariantEditContext():
+            mesh(stage, "/Rig/Tri", np.array([(0, 0, 0), (1, 0, 0), (0, 1, 0)]) * scale, [3], [0, 1, 2])
+    looks.SetVariantSelection("small")
+    stage.Save()
+    cache = Usd.StageCache()
+    with Usd.StageCacheContext(cache):
+        cached = Usd.Stage.Open(str(path))
+    cached.SetInterpolationType(Usd.InterpolationTypeHeld)
+    session = cached.GetSessionLayer().ExportToString()
+
+    plain = Usd.Stage.Open(str(path))  # outside the cache: the file as USD composes it, interpolated linearly
+    with Usd.EditContext(plain, plain.GetSessionLayer()):  # the root layer is the cached stage's too
+        plain.GetPrimAtPath("/Rig").GetVariantSets().SetSelection("size", "big")
+    tri = plain.GetPrimAtPath("/Rig/Tri")
+    to_world = np.array(UsdGeom.XformCache(Usd.TimeCode(2.5)).GetLocalToWorldTransform(tri))
+    expected = np.array(UsdGeom.Mesh(tri).GetPointsAttr().Get(2.5), np.float64) @ to_world[:3, :3] + to_world[3, :3]
+    assert expected[0, 0] == pytest.approx(2.5)  # linear, where the held cached stage gives 0
+    with Usd.StageCacheContext(cache):
+        fresh = wrt.load_usd(path, time=2.5, variants={"/Rig": {"size": "big"}})
+        kept = StageFrames(path, variants={"/Rig": {"size": "big"}}).load(2.5)
+    for scene in (fresh, kept):
+        np.testing.assert_allclose(scene.meshes[0].points, expected, atol=1e-6)
+    assert cached.GetSessionLayer().ExportToString() == session
+    assert cached.GetPrimAtPath("/Rig").GetVariantSet("size").GetVariantSelection() == "small"
+    assert cache.Size() == 1

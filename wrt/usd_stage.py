@@ -157,7 +157,8 @@ def stage_time_range(path) -> tuple[float, float] | None:
     if layer is None:
         return None
     with trap_usd_diagnostics() as trap:
-        stage = Usd.Stage.OpenMasked(layer, Usd.StagePopulationMask())
+        with Usd.StageCacheContext(Usd.BlockStageCaches):  # not put into a caller's cache (open_stage)
+            stage = Usd.Stage.OpenMasked(layer, Usd.StagePopulationMask())
         if trap is not None:
             trap.EraseMatching(lambda d: True)  # a missing sublayer: the load reports it, once
     if not stage.HasAuthoredTimeCodeRange():
@@ -192,7 +193,7 @@ def stage_up_axis(stage: Usd.Stage, source: str) -> str:
 def open_stage(source: str) -> Usd.Stage:
     """``Usd.Stage.Open(source)``, refusing what is no file and naming what USD cannot open; first lets go of the
     stages kept for frames whose files changed (:func:`wrt.usd_frames.release_changed`), whose layers USD would
-    hand out again as they were."""
+    hand out again as they were. The stage is a new one, never a caller's ``Usd.StageCache``'s."""
     from .usd_frames import release_changed  # (that module's loads open stages here)
 
     release_changed()
@@ -202,7 +203,10 @@ def open_stage(source: str) -> Usd.Stage:
         kind = "a directory" if os.path.isdir(source) else "a pipe or device"
         raise SceneError(f"{kind}, not a USD file", path=source)
     try:
-        stage = Usd.Stage.Open(source)
+        # Opened for wrt alone, whatever StageCacheContext the caller holds: a cached stage is the caller's (its
+        # interpolation type, its edits), and the variants wrt selects would be written onto its session layer.
+        with Usd.StageCacheContext(Usd.BlockStageCaches):
+            stage = Usd.Stage.Open(source)
     except Tf.ErrorException as e:
         if not os.path.exists(source):
             raise SceneError("file not found", path=source) from None
