@@ -51,6 +51,31 @@ def test_frame_output_refuses_a_frame_that_is_no_finite_number(frame):
     assert frame_output("out/frame_####.png", np.float32(2.5)) == Path("out/frame_0002.5.png")
 
 
+def test_frames_of_a_third_step_are_the_time_codes_of_samples_authored_at_thirds(tmp_path):
+    """``--frames 0:1:0.3333333333333333`` gives the time codes 1/3 and 2/3 that a stage authors its subframe samples
+    at (Python's ``1 / 3``, written as ``0.3333333333333333``): rounded to 12 digits (0.333333333333, before the
+    sample), a visibility switched off at 1/3 was still on in that frame, one subframe late. Decimal steps stay
+    exact (0.2 + 6 * 0.3 is 2). Oracle: ``UsdGeom.Imageable.ComputeVisibility`` at each frame's time code."""
+    from pxr import Usd, UsdGeom
+
+    frames = parse_frames("0:1:0.3333333333333333")
+    path = tmp_path / "thirds.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    tri = UsdGeom.Mesh.Define(stage, "/Tri")
+    tri.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    tri.CreateFaceVertexCountsAttr([3])
+    tri.CreateFaceVertexIndicesAttr([0, 1, 2])
+    seen = tri.CreateVisibilityAttr()
+    for k, token in enumerate(["inherited", "invisible", "inherited", "invisible"]):
+        seen.Set(token, k / 3)
+    stage.Save()
+    assert len(frames) == 4 and frames[-1] == 1.0
+    drawn = [bool(wrt.load_usd(path, time=frame).meshes) for frame in frames]
+    expected = [UsdGeom.Imageable(tri).ComputeVisibility(Usd.TimeCode(frame)) != "invisible" for frame in frames]
+    assert drawn == expected == [True, False, True, False]
+    assert parse_frames("0.2:2:0.3")[-2:] == [1.7, 2.0] and parse_frames("0.1:0.3:0.1") == [0.1, 0.2, 0.3]
+
+
 def test_frame_output_patterns():
     assert frame_output("out/frame_####.png", 12) == Path("out/frame_0012.png")
     assert frame_output("f#.exr", 123) == Path("f123.exr")

@@ -32,6 +32,7 @@ import os
 import re
 import time as _time
 import warnings
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -72,11 +73,31 @@ def parse_frames(text: str) -> list[float]:
         many = f"{int(math.floor(steps)) + 1:,}" if math.isfinite(steps) else f"more than {MAX_FRAMES:,}"
         raise ValueError(f"--frames {text!r} gives {many} frames; at most {MAX_FRAMES:,} in one run")
     count = int(math.floor(steps)) + 1
-    # Rounded to 12 significant digits: 0.2 + 6 * 0.3 is 1.9999999999999998 in binary, and END must be END.
-    frames = [_round_frame(start + k * step) for k in range(count)]
-    if len(set(frames)) < len(frames):
+    frames = _exact_frames(parts, count, end, step)
+    if len(set(map(_round_frame, frames))) < len(frames):
         raise ValueError(f"--frames step {step:g} is too small: frames differ only past {FRAME_DIGITS} digits")
     return frames
+
+
+def _exact_frames(parts: list[str], count: int, end: float, step: float) -> list[float]:
+    """The ``count`` frames ``START + k * STEP`` of ``parts`` (their text), each the double nearest the exact decimal
+    sum (integer arithmetic over a common denominator), one within 1e-9 steps of END taken as END. Binary steps do
+    not add up (0.2 + 6 * 0.3 is 1.9999999999999998), and rounding them to 12 digits missed time codes authored at
+    thirds (0.333333333333 is not 1/3, USD's 0.3333333333333333: a sample there was a subframe late)."""
+    start_q, step_q = (_decimal(text) for text in (parts[0], parts[2] if len(parts) == 3 else "1"))
+    denominator = start_q.denominator * step_q.denominator // math.gcd(start_q.denominator, step_q.denominator)
+    a = start_q.numerator * (denominator // start_q.denominator)
+    b = step_q.numerator * (denominator // step_q.denominator)
+    frames = [(a + k * b) / denominator for k in range(count)]  # int / int: correctly rounded
+    return [end if abs(frame - end) <= 1e-9 * step else frame for frame in frames]
+
+
+def _decimal(text: str) -> Fraction:
+    """``text`` (a finite number float() reads) as the exact decimal it spells."""
+    try:
+        return Fraction(text.strip().replace("_", ""))
+    except (ValueError, ZeroDivisionError):
+        return Fraction(float(text))
 
 
 def _round_frame(frame: float) -> float:
