@@ -89,6 +89,24 @@ def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsy
     assert line.startswith("wrt: error: ") and line.endswith(message), line
 
 
+@pytest.mark.parametrize("args, message", [
+    (["rendr"], "argument COMMAND: invalid choice: 'rendr' (did you mean 'render'?) (choose from 'render', "),
+    (["render", "--builder", "SAH"], "argument --builder: invalid choice: 'SAH' (did you mean 'sah'?) (choose from"),
+    (["render", "--integrator", "pth"], "invalid choice: 'pth' (did you mean 'path'?) (choose from 'whitted', "),
+    (["render", "--aov", "dpeth"], "invalid choice: 'dpeth' (did you mean 'depth'?)"),
+    (["preview", "--bvh-color", "SAH"], "invalid choice: 'SAH' (did you mean 'sah'?)"),
+    (["bvh-stats", "x.usda", "--layout", "wide4"], "invalid choice: 'wide4' (did you mean 'wide'?)"),
+    (["render", "--integrator", "xyzzy"], "invalid choice: 'xyzzy' (choose from 'whitted', "),  # nothing close
+])
+def test_a_misspelt_choice_names_the_one_meant(capsys, args, message):
+    """argparse listed the choices only, where misspelt options and the library's own names get a did-you-mean."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    assert exit_info.value.code == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith("wrt: error: ") and message in line, line
+
+
 @pytest.mark.parametrize(
     "args, needle",
     [

@@ -83,6 +83,17 @@ class _Parser(argparse.ArgumentParser):
             command.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
         return parsed
 
+    def _check_value(self, action, value):
+        """As argparse's, but a misspelt choice (``--builder SAH``, ``--integrator pth``, ``rendr``) names the one
+        meant, as misspelt options and the library's own names do; argparse listed the choices only."""
+        try:
+            super()._check_value(action, value)
+        except argparse.ArgumentError as e:
+            hint = did_you_mean(value, action.choices) if action.choices is not None else ""
+            if not hint or repr(value) not in e.message:
+                raise
+            raise argparse.ArgumentError(action, e.message.replace(repr(value), repr(value) + hint, 1)) from None
+
     def _commands(self) -> dict:
         """The subcommand parsers by name (empty for a parser without subcommands)."""
         for action in self._actions:
