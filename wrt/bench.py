@@ -113,7 +113,7 @@ class Grid:
     def __post_init__(self):
         # Checked when made, as a suite file is: Grid(devices=["CPU"]) or a misspelt accelerator or ray kind was
         # refused only when run_grid ran it. The fields may still be edited afterwards; run_grid checks them again.
-        self._thread_counts()
+        self._checked()
 
     def validated(self) -> Grid:
         """This grid with ``threads`` as ints (``"all"``: every core; repeats dropped), after checking every field.
@@ -123,13 +123,16 @@ class Grid:
                 integer, an unknown ray kind, device or accelerator, a ``sphere:N`` that is no size or a bad thread
                 count. The same error is raised when a ``Grid`` is made.
         """
-        # Each name once: a repeated scene, accelerator, device or ray kind measured the same rows twice.
-        threads = self._thread_counts()
-        unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("scenes", "accels", "devices", "rays")}
-        return dataclasses.replace(self, threads=threads, **unique)
+        threads, accels, scaling = self._checked()
+        # Each name once (accelerators by their canonical names): a repeated scene, accelerator, device or ray kind
+        # measured the same rows twice.
+        unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("scenes", "devices", "rays")}
+        return dataclasses.replace(self, threads=threads, accels=list(dict.fromkeys(accels)), scaling=scaling,
+                                   **unique)
 
-    def _thread_counts(self) -> list[int]:
-        """The thread counts of ``threads``, each once, after checking every field (see :meth:`validated`)."""
+    def _checked(self) -> tuple[list[int], list[str], dict | None]:
+        """The thread counts of ``threads`` (each once), the accelerators' canonical names and ``scaling`` with its
+        accelerators' canonical names, after checking every field (see :meth:`validated`)."""
         for name in ("scenes", "accels", "devices", "rays", "threads"):
             value = getattr(self, name)
             if not isinstance(value, (list, tuple)):
@@ -151,9 +154,10 @@ class Grid:
             kind = self.rays[bad[0]]
             raise GridError("rays", f"unknown ray kind {kind!r}{did_you_mean(kind, RAY_KINDS)}; valid ray kinds: "
                             f"{', '.join(RAY_KINDS)}", bad[0])
+        accels = []
         for i, spec in enumerate(self.accels):  # misspelt here, every row of the accelerator became an error row
             try:
-                check_accel_spec(spec)
+                accels.append(check_accel_spec(spec))
             except ValueError as e:
                 raise GridError("accels", str(e), i) from None
         for i, name in enumerate(self.scenes):  # 'sphere:abc' became an error row per group, after the scenes before
@@ -171,6 +175,7 @@ class Grid:
                 raise GridError("threads", f"threads must be positive integers or 'all', got {t!r}", i)
             if count not in threads:
                 threads.append(count)
+        scaling = self.scaling
         if self.scaling is not None:
             try:
                 _check_scaling(self.scaling)
@@ -178,6 +183,8 @@ class Grid:
                 raise
             except ValueError as e:
                 raise GridError("scaling", str(e)) from None
+            if "accels" in self.scaling:  # named as the grid's are
+                scaling = dict(self.scaling, accels=list(dict.fromkeys(map(check_accel_spec, self.scaling["accels"]))))
             # A sweep group is told from a scene group by its name: one name for both would measure the sweep size
             # with the grid's accelerators and ray count, unmarked, and the scene's group twice.
             both = [f"sphere:{int(float(n))}" for n in self.scaling.get("sizes", [])
@@ -185,11 +192,11 @@ class Grid:
             if both:
                 raise GridError("scaling", f"scaling size {both[0].split(':')[1]} is also the scene {both[0]!r}; drop "
                                 "one of them (a sweep row and a scene row of one name cannot be told apart)")
-        sweep = self.scaling and self.scaling.get("sizes") and self.scaling.get("accels", self.accels)
-        if not self.devices or not (self.scenes and self.rays and self.accels or sweep):
+        sweep = scaling and scaling.get("sizes") and scaling.get("accels", accels)
+        if not self.devices or not (self.scenes and self.rays and accels or sweep):
             empty = [name for name in ("scenes", "accels", "devices", "rays") if not getattr(self, name)]
             raise GridError(empty[0], f"the grid measures nothing: {', '.join(empty)} empty")
-        return threads
+        return threads, accels, scaling
 
 
 def _is_device_name(name: str) -> bool:
@@ -239,15 +246,19 @@ def suite_path(path) -> Path:
 ACCEL_KINDS = ("wrt", "warp", "embree")  # what an accelerator name starts with
 
 
-def check_accel_spec(spec: str) -> None:
-    """Raises ValueError naming ``spec`` unless it is ``wrt[:BUILDER[:LAYOUT]]``, ``warp[:BUILDER]`` or ``embree``
-    with known names."""
+def check_accel_spec(spec: str) -> str:
+    """The canonical name of accelerator ``spec`` (``wrt`` -> ``wrt:sah``, ``wrt:SAH:binary`` and ``wrt:binned_sah``
+    -> ``wrt:sah``, ``warp`` -> ``warp:sah``): rows are named, compared with :data:`REFERENCE`, deduplicated and
+    resumed by it. Two spellings of one accelerator were measured twice, and ``warp`` was not taken for the
+    reference, so no row of its group was checked. Raises ValueError naming ``spec`` unless it is
+    ``wrt[:BUILDER[:LAYOUT]]``, ``warp[:BUILDER]`` or ``embree`` with known names."""
     kind, _, rest = spec.partition(":")
     builder, _, layout = rest.partition(":")
     try:
         if kind == "wrt":
-            Builder.from_str(builder or "sah")
-            check_layout(layout or "binary")
+            builder = Builder.from_str(builder or "sah").value
+            layout = check_layout(layout or "binary")
+            return f"wrt:{builder}" + ("" if layout == "binary" else f":{layout}")
         elif kind == "warp":
             builder = builder or "sah"
             if builder not in WARP_BUILDERS:
@@ -255,6 +266,7 @@ def check_accel_spec(spec: str) -> None:
                                  f"builders are {', '.join(WARP_BUILDERS)}")
             if layout:
                 raise ValueError(f"wp.Mesh has no layouts; use warp:{builder}")
+            return f"warp:{builder}"
         elif kind != "embree":
             raise ValueError(f"unknown accelerator kind {kind!r}{did_you_mean(kind, ACCEL_KINDS)}; accelerators are "
                              "wrt:BUILDER[:LAYOUT], warp:BUILDER or embree")
@@ -262,6 +274,7 @@ def check_accel_spec(spec: str) -> None:
             raise ValueError("embree takes no builder or layout")
     except ValueError as e:
         raise ValueError(f"accelerator {spec!r}: {e}") from None
+    return "embree"
 
 
 SCALING_KEYS = ("sizes", "accels", "rays", "n_rays")  # the fields of Grid.scaling
