@@ -431,3 +431,16 @@ def test_spellings_of_one_accelerator_are_one_row_checked_against_warp_sah(tmp_p
     assert sorted(r["accel"] for r in rows) == ["warp:sah", "wrt:sah"]
     assert all(r["agreement"] == 1.0 for r in rows), rows
 
+
+@pytest.mark.parametrize("name, message", [
+    ("folder", "folder: a directory, not a benchmark suite (a JSON file)"),  # was '[Errno 21] Is a directory: ...'
+    ("scene.usda", "scene.usda is a scene, not a benchmark suite; measure it with --scenes "),  # 'not a JSON suite'
+    ("missing.usdc", "missing.usdc is a scene, not a benchmark suite; measure it with --scenes "),
+])
+def test_a_suite_argument_that_is_a_folder_or_a_scene_says_so(tmp_path, capsys, name, message):
+    (tmp_path / "folder").mkdir()
+    (tmp_path / "scene.usda").write_text("#usda 1.0\n")
+    assert main(["bench", str(tmp_path / name), "-o", str(tmp_path / "out")]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(err) == 1 and err[0].startswith("wrt: error: ") and message in err[0], err
+    assert not (tmp_path / "out").exists()

@@ -80,10 +80,14 @@ class Grid:
             ValueError: naming the file and, for a bad value, the key it sits at (``quick.json: accels[1]: ...``).
         """
         path = suite_path(path)
+        if path.suffix.lower() in USD_SUFFIXES:  # 'wrt bench scene.usd': it was 'not a JSON suite (Expecting ...)'
+            raise ValueError(f"{path} is a scene, not a benchmark suite; measure it with --scenes {path}")
         if not path.exists():
             known = sorted(p.stem for p in SUITES_DIR.glob("*.json")) if SUITES_DIR.exists() else []
             raise FileNotFoundError(f"no benchmark suite {str(path)!r}{did_you_mean(path, known)}; suites in "
                                     f"{SUITES_DIR}: {', '.join(known) or 'none'}")
+        if path.is_dir():  # it failed in Python's words, '[Errno 21] Is a directory', naming no suite
+            raise IsADirectoryError(f"{path}: a directory, not a benchmark suite (a JSON file)")
         try:
             data = json.loads(path.read_text())
         except json.JSONDecodeError as e:
@@ -233,6 +237,9 @@ class GridError(ValueError):
         for prefix in (f"{self.field.replace('.', ' ')} ", f"{self.field} "):
             message = message.removeprefix(prefix)
         return f"{key}: {message}"
+
+
+USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")  # scene files, which a suite name is not
 
 
 def suite_path(path) -> Path:
