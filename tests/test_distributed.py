@@ -181,3 +181,14 @@ def test_bench_dask_cuda_rows_fail_on_workers_without_a_gpu(tmp_path, monkeypatc
     rows = run_grid(grid, tmp_path, progress=False, dask=True)
     assert [(r["device"], r["accel"], "mrays" in r) for r in rows] == [("cpu", "wrt:sah", True), ("cuda:0", "*", False)]
     assert "cuda:0" in rows[1]["error"] and "no CUDA device" in rows[1]["error"]
+
+
+def test_a_malformed_scheduler_address_is_named_with_dask_s_reason(tmp_path, capsys):
+    """'--dask 8786' failed at once, in Dask's 'missing port number', yet was reported as 'cannot reach a Dask
+    scheduler at '8786' within 30 s (ValueError)', with exit status 1 (the environment) for a typing mistake."""
+    with pytest.raises(ValueError, match="Dask scheduler address '8786': missing port number"):
+        run_tasks(cube_and_pid, [1], address="8786", progress=False)
+    assert main(["bench", "--dask", "8786", "--scenes", "sphere:500", "-o", str(tmp_path), "-q"]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert err == ["wrt: error: Dask scheduler address '8786': missing port number in address '8786'; give one such "
+                   "as 'tcp://host:8786'"]

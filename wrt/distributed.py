@@ -72,7 +72,9 @@ def connect(address: str | None = None, n_workers: int | None = None, retries: i
     if address:
         try:
             return Client(address, timeout=CONNECT_TIMEOUT), None
-        except (OSError, TimeoutError, ValueError) as e:
+        except ValueError as e:  # no address at all ('8786': missing port), refused at once: not 'cannot reach'
+            raise ValueError(f"Dask scheduler address {address!r}: {e}; give one such as 'tcp://host:8786'") from None
+        except (OSError, TimeoutError) as e:
             raise DaskUnavailable(
                 f"cannot reach a Dask scheduler at {address!r} within {CONNECT_TIMEOUT:.0f} s ({type(e).__name__})"
             ) from e
