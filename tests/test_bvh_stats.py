@@ -219,6 +219,24 @@ def test_cli_bvh_stats_bad_input_is_one_line_and_exit_2(capsys, args, needle):
     assert len(err) == 1 and needle in err[0], err
 
 
+def test_a_warp_leaf_size_past_a_c_int_is_refused_not_a_crash(tmp_path):
+    """Warp reads bvh_leaf_size as a C int: --warp-leaf-size 2147483648 ended the process with a segmentation fault
+    (run in a subprocess, so that the crash fails this test and not the test session)."""
+    import subprocess
+    import sys
+
+    args = ["bvh-stats", str(warp_assets("cube.usd")), "--builder", "warp:sah", "--warp-leaf-size", "2147483648"]
+    result = subprocess.run([sys.executable, "-m", "wrt", *args], capture_output=True, text=True, timeout=300)
+    err = [line for line in result.stderr.splitlines() if line.startswith("wrt")]
+    assert result.returncode == 2 and err == ["wrt: error: argument --warp-leaf-size: must be an integer from 1 to "
+                                              "2147483647, got 2147483648 (see 'wrt bvh-stats --help')"], result
+    script = ("from wrt.bvh.warp_mesh import warp_mesh_bvh\nimport numpy as np\n"
+              "warp_mesh_bvh(np.eye(3, dtype=np.float32), np.array([[0, 1, 2]], np.int32), leaf_size=2**31)")
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 1 and "ValueError: Warp's bvh_leaf_size must be an integer from 1 to 2147483647, " \
+        "got 2147483648" in result.stderr, result
+
+
 def test_cli_bvh_stats_missing_file(capsys, tmp_path):
     assert main(["bvh-stats", str(tmp_path / "missing.usd")]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -157,11 +157,12 @@ def _non_negative_float(text: str) -> float:
 
 def add_bvh_stats(sub) -> None:
     """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
-    from ..cli import HelpFormatter, _finite_float, _positive_float, add_stage_options, int_at_least, positive_int
+    from ..cli import HelpFormatter, _finite_float, _positive_float, add_stage_options, int_at_least
     from ..trace import ACCELERATOR_PRESPLIT
     from .common import MAX_BINS, MAX_LEAF_SIZE
     from .presplit import MAX_SPLIT_LEVELS
     from .stats import MAX_EPO_SAMPLES
+    from .warp_mesh import MAX_WARP_LEAF_SIZE
 
     # Each value is checked as it is read, so an error names the option typed (it named the Python argument, as
     # 'presplit must lie in [0, 6]', and came after the scene's load).
@@ -187,7 +188,8 @@ def add_bvh_stats(sub) -> None:
     p.add_argument("--layout", default="binary", choices=LAYOUTS, help="layout whose node count and bytes are shown")
     p.add_argument("--leaf-size", type=up_to(1, MAX_LEAF_SIZE), default=None,
                    help="wrt's most triangles per leaf (default 8)")
-    p.add_argument("--warp-leaf-size", type=positive_int, default=None, help="Warp's bvh_leaf_size (default: Warp's)")
+    p.add_argument("--warp-leaf-size", type=up_to(1, MAX_WARP_LEAF_SIZE), default=None,
+                   help="Warp's bvh_leaf_size (default: Warp's)")
     p.add_argument("--bins", type=up_to(2, MAX_BINS), default=16, help="SAH bins per axis for sah")
     p.add_argument("--traversal-cost", type=_non_negative_float, default=1.0, help="SAH constant C_t (node visit)")
     p.add_argument("--intersection-cost", type=_positive_float, default=1.0, help="SAH constant C_i (triangle test)")

@@ -180,6 +180,19 @@ def check_warp_builder(builder: str, device) -> None:
                          "device for warp:lbvh, or warp:sah")
 
 
+MAX_WARP_LEAF_SIZE = 2**31 - 1  # Warp reads bvh_leaf_size as a C int: 2^31 wrapped and crashed the process
+
+
+def check_warp_leaf_size(leaf_size) -> None:
+    """Raises ValueError unless ``leaf_size`` is None or an integer from 1 to ``MAX_WARP_LEAF_SIZE``; Warp itself
+    refuses 0 and less, but 2^31 and more ended the process with a segmentation fault."""
+    if leaf_size is None:
+        return
+    if isinstance(leaf_size, bool) or not isinstance(leaf_size, (int, np.integer)) or not (
+            1 <= leaf_size <= MAX_WARP_LEAF_SIZE):
+        raise ValueError(f"Warp's bvh_leaf_size must be an integer from 1 to {MAX_WARP_LEAF_SIZE}, got {leaf_size!r}")
+
+
 def warp_mesh_bvh(points, indices, builder: str = "sah", leaf_size: int | None = None, device="cpu") -> FlatBvh:
     """Builds ``wp.Mesh(points, indices, bvh_constructor=builder)`` and reads its tree (build time included).
 
@@ -192,6 +205,7 @@ def warp_mesh_bvh(points, indices, builder: str = "sah", leaf_size: int | None =
     """
     device = wp.get_device(device)
     check_warp_builder(builder, device)
+    check_warp_leaf_size(leaf_size)
     pts = wp.array(np.asarray(points, np.float32).reshape(-1, 3), dtype=wp.vec3, device=device)
     idx = wp.array(np.asarray(indices, np.int32).reshape(-1), dtype=wp.int32, device=device)
     if idx.shape[0] == 0:  # wp.Mesh holds no tree at all (0 nodes): the empty tree wrt's builders give
