@@ -676,3 +676,15 @@ def test_version_option_prints_the_versions_of_wrt_and_warp(capsys):
     assert exit_info.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith(f"wrt {version} ") and f"warp-lang {wp.config.version}" in out, out
+
+
+def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):
+    """'wrt render a.usda ./a.usda' said 'a.usda and ./a.usda would both write out/a.png ... rename one': renaming
+    the one file would not help; it is given twice."""
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", "a.usda", str(tmp_path / "a.usda"), "-o", "out/", "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert errors == [f"wrt: error: {tmp_path / 'a.usda'} is given twice (as a.usda and {tmp_path / 'a.usda'}); "
+                      "give each scene once"]
+    assert not (tmp_path / "out").exists()

@@ -431,6 +431,8 @@ def _check_distinct_outputs(paths: list, outputs: list) -> None:
     first = {}
     for path, output in zip(paths, outputs):
         key = output.resolve()
+        if key in first and Path(first[key]).resolve() == Path(path).resolve():  # one file named twice
+            raise ValueError(f"{path} is given twice (as {first[key]} and {path}); give each scene once")
         if key in first:
             raise ValueError(f"{first[key]} and {path} would both write {output} (images are named by the scene's "
                              "file name without extension); render them in separate runs or rename one")
