@@ -444,3 +444,12 @@ def test_a_suite_argument_that_is_a_folder_or_a_scene_says_so(tmp_path, capsys, 
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
     assert len(err) == 1 and err[0].startswith("wrt: error: ") and message in err[0], err
     assert not (tmp_path / "out").exists()
+
+
+def test_one_scene_in_two_spellings_is_measured_once(tmp_path, monkeypatch):
+    """sphere:100 and sphere:1e2, a.usda and ./a.usda (and its absolute path) were each measured as scenes of their
+    own: the same rows twice, where a name repeated as typed is measured once."""
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")
+    monkeypatch.chdir(tmp_path)
+    scenes = ["sphere:100", "a.usda", "sphere:1e2", "./a.usda", str(tmp_path / "a.usda"), "missing.usda"]
+    assert small_grid(scenes=scenes).validated().scenes == ["sphere:100", "a.usda", "missing.usda"]

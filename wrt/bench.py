@@ -130,9 +130,12 @@ class Grid:
         threads, accels, scaling = self._checked()
         # Each name once (accelerators by their canonical names): a repeated scene, accelerator, device or ray kind
         # measured the same rows twice.
-        unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("scenes", "devices", "rays")}
+        unique = {name: list(dict.fromkeys(getattr(self, name))) for name in ("devices", "rays")}
+        scenes = {}  # one scene in two spellings (sphere:100 and sphere:1e2, a.usda and ./a.usda) is one scene too
+        for name in self.scenes:
+            scenes.setdefault(_scene_key(name), name)
         return dataclasses.replace(self, threads=threads, accels=list(dict.fromkeys(accels)), scaling=scaling,
-                                   **unique)
+                                   scenes=list(scenes.values()), **unique)
 
     def _checked(self) -> tuple[list[int], list[str], dict | None]:
         """The thread counts of ``threads`` (each once), the accelerators' canonical names and ``scaling`` with its
@@ -408,6 +411,14 @@ def resolve_scene(name: str) -> Scene:
         raise SceneError(f"no such file, and {kind!r} is no scene kind{did_you_mean(kind, SCENE_KINDS)}; scenes are "
                          "USD paths, warp:NAME, asset:ID or sphere:N", path=name)
     return load_usd(name)
+
+
+def _scene_key(name: str) -> str:
+    """What a scene name measures: ``sphere:N`` by its triangle count, a file that exists by its resolved path."""
+    if name.startswith("sphere:"):
+        return f"sphere:{sphere_count(name)}"
+    path = Path(name)
+    return str(path.resolve()) if path.exists() else name
 
 
 def sphere_triangles(name: str) -> int:
