@@ -688,3 +688,19 @@ def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):
     assert errors == [f"wrt: error: {tmp_path / 'a.usda'} is given twice (as a.usda and {tmp_path / 'a.usda'}); "
                       "give each scene once"]
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["render", "-o", "{dir}/.png"], "cannot write .png: the file name is an extension alone; give a name before it, "
+                                     "e.g. {dir}/image.png"),  # was 'supported image formats are .png, ...'
+    (["render", "--frames", "1:2", "-o", "{dir}/.EXR"], "cannot write .EXR: the file name is an extension alone"),
+    (["render", "-o", "{dir}/x.png "], "cannot write 'x.png ': supported image formats are .png, .exr, .npy"),
+    (["preview", "-o", "{dir}/.png"], "cannot write .png: the file name is an extension alone"),  # 'written as .png'
+])
+def test_an_output_name_that_is_an_extension_alone_says_so(tmp_path, capsys, args, message):
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")  # refused before it is read
+    args = [a.replace("{dir}", str(tmp_path)) for a in args]
+    assert main([args[0], str(tmp_path / "a.usda"), *args[1:], "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert len(errors) == 1 and errors[0].startswith("wrt: error: " + message.replace("{dir}", str(tmp_path))), errors
+    assert list(tmp_path.iterdir()) == [tmp_path / "a.usda"]

@@ -721,6 +721,9 @@ def _run_frames(args, paths: list, progress) -> int:
     frames = parse_frames(args.frames)
     output = (args.output or "frame_####.png").replace("{stem}", paths[0].stem)  # as for still images
     _check_not_an_existing_folder(output)
+    from .image import check_not_extension_alone
+
+    check_not_extension_alone(output)  # '.png' would become the pattern '.png_####', named as no image format
     if _names_a_folder(output):  # as for a still image: it became the pattern "out_####", no suffix
         output += f"{paths[0].stem}_####.png"
     from .image import check_image_path
@@ -883,6 +886,10 @@ def _run_preview(args) -> int:
     progress = _Progress(args.quiet)
     path = Path(args.scene) if args.scene else default_scene_path()
     output = args.output
+    if output is not None:
+        from .image import check_not_extension_alone
+
+        check_not_extension_alone(output)
     if output is not None and Path(output).suffix.lower() != ".png":
         raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
     if output is not None:  # an unwritable output fails now, not after the load and the preview

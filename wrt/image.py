@@ -210,16 +210,28 @@ def write_exr(path: Path, channels: dict[str, np.ndarray], attributes: dict | No
         f.write(str(path))
 
 
+def check_not_extension_alone(path) -> Path:
+    """``path`` as a Path; ValueError when its name is an image extension alone (``-o .png``): that is a hidden file
+    without an extension, to Python and to viewers, and was refused as 'cannot write .png: supported image formats
+    are .png, ...'."""
+    path = Path(path)
+    if path.name.lower() in IMAGE_FORMATS:
+        raise ValueError(f"cannot write {path.name}: the file name is an extension alone; give a name before it, "
+                         f"e.g. {path.with_name('image' + path.name)}")
+    return path
+
+
 def check_image_path(path) -> Path:
     """``path`` as a Path if :meth:`Image.save` can write its format; callers check before a long render.
 
     Raises:
         ValueError: for an extension other than ``IMAGE_FORMATS``, or ``.exr`` without the OpenEXR package.
     """
-    path = Path(path)
+    path = check_not_extension_alone(path)
     suffix = path.suffix.lower()
     if suffix not in IMAGE_FORMATS:
-        raise ValueError(f"cannot write {path.name}: supported image formats are {', '.join(IMAGE_FORMATS)}")
+        name = path.name if path.name == path.name.strip() else repr(path.name)  # 'x.png ': a space typed after it
+        raise ValueError(f"cannot write {name}: supported image formats are {', '.join(IMAGE_FORMATS)}")
     if suffix == ".exr" and importlib.util.find_spec("OpenEXR") is None:
         raise ValueError(f"cannot write {path.name}: EXR output needs the OpenEXR package (pip install OpenEXR)")
     return path
