@@ -453,3 +453,16 @@ def test_one_scene_in_two_spellings_is_measured_once(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     scenes = ["sphere:100", "a.usda", "sphere:1e2", "./a.usda", str(tmp_path / "a.usda"), "missing.usda"]
     assert small_grid(scenes=scenes).validated().scenes == ["sphere:100", "a.usda", "missing.usda"]
+
+
+def test_rows_of_an_earlier_run_under_other_spellings_are_resumed_by_canonical_name(tmp_path):
+    """Rows an earlier run measured as 'wrt' and 'warp' (named as typed, before names were made canonical) were kept
+    beside this run's 'wrt:sah' and 'warp:sah' rows of the same measurement: each row twice in the table."""
+    grid = small_grid(accels=["warp:sah", "wrt:sah"])
+    run_grid(grid, tmp_path, progress=False)
+    jsonl = tmp_path / "rows.jsonl"
+    old = [dict(row, accel=row["accel"].split(":")[0]) for row in map(json.loads, jsonl.read_text().splitlines())]
+    jsonl.write_text("".join(json.dumps(row) + "\n" for row in old))
+    rows = run_grid(grid, tmp_path, resume=True, progress=False)
+    assert rows.resumed == 2 and sorted(r["accel"] for r in rows) == ["warp:sah", "wrt:sah"], rows
+    assert [r["mrays"] for r in rows] == [r["mrays"] for r in old]  # not measured again

@@ -808,7 +808,22 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
                              f"{', '.join(ROW_KEY_FIELDS)}); remove it to resume")
         if "error" not in row:
             rows.append(_row_from_json(row))
-    return rows
+    return _canonical_rows(rows)
+
+
+def _canonical_rows(rows: list[dict]) -> list[dict]:
+    """``rows`` with their accelerators by canonical name (:func:`check_accel_spec`), the last of each key kept:
+    rows of a run before names were made canonical ('wrt', 'warp') are resumed as this run's 'wrt:sah' and
+    'warp:sah' rows, not kept beside them."""
+    kept = {}
+    for row in rows:
+        try:
+            row = dict(row, accel=check_accel_spec(row["accel"]))
+        except (TypeError, ValueError, AttributeError):  # a name no longer known: kept as it is, and never matched
+            pass
+        kept.pop(row_key(row), None)  # the later row of a key, in its place in the file
+        kept[row_key(row)] = row
+    return list(kept.values())
 
 
 def _write_rows(jsonl: Path, rows: list[dict]) -> None:
