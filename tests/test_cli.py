@@ -704,3 +704,19 @@ def test_an_output_name_that_is_an_extension_alone_says_so(tmp_path, capsys, arg
     errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     assert len(errors) == 1 and errors[0].startswith("wrt: error: " + message.replace("{dir}", str(tmp_path))), errors
     assert list(tmp_path.iterdir()) == [tmp_path / "a.usda"]
+
+
+@pytest.mark.parametrize("content", [b"my notes\n", b"\x89PNG\r\n\x1a\n\x00\x00"])
+def test_a_log_that_is_another_file_is_refused_before_a_render(tmp_path, capsys, content):
+    """--log naming notes or an image appended JSON rows to it; only a later --resume said it was no log."""
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")
+    log = tmp_path / "notes.txt"
+    log.write_bytes(content)
+    args = ["render", str(tmp_path / "a.usda"), "-o", str(tmp_path / "out") + "/", "--log", str(log), "-q"]
+    assert main(args) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert errors == [f"wrt: error: --log {log}: line 1 is not a JSON row, so the file is no log of wrt's; rows are "
+                      "appended to a log: give a new file, or the log of an earlier wrt render"], errors
+    assert log.read_bytes() == content and not (tmp_path / "out").exists()
+    log.write_text("\n" + json.dumps({"run": "r", "scene": "x.usda", "status": "ok"}) + "\n")  # a log: appended to
+    assert main(args) == 0 and len(log.read_text().split("\n")) == 4  # "", the row before, the new one, ""

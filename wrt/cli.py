@@ -375,7 +375,7 @@ def _check_output_file(path: Path) -> None:
 def _check_log_path(log: Path, outputs: list, scenes: list) -> None:
     """Raises ValueError when the log would be written where an image goes, or where a folder of the images must be
     created (``-o out --log out``): the run would fail at its first log row, after the first render; or into one of
-    the ``scenes`` read: its rows would be appended to the USD file, breaking it."""
+    the ``scenes`` read: its rows would be appended to the USD file, breaking it; or into a file that is no log."""
     log = log.resolve()
     for scene in scenes:
         if log == Path(scene).resolve():
@@ -387,6 +387,9 @@ def _check_log_path(log: Path, outputs: list, scenes: list) -> None:
             raise ValueError(f"--log {log} is where the image {output} or its folder goes; give the log a file name "
                              "of its own, e.g. --log render-log.jsonl")
     _check_output_file(log)
+    from .render_log import check_appendable
+
+    check_appendable(log)
 
 
 def _warn_unused_exposure(exposure: float, outputs: list, integrator: str) -> None:

@@ -73,6 +73,21 @@ def read_rows(log: Path, option: str = "--log") -> list[dict]:
     return rows
 
 
+def check_appendable(log: Path, option: str = "--log") -> None:
+    """Raises ValueError naming ``option`` when ``log`` is a file whose first line is no JSON row (notes, an image):
+    rows were appended to whatever file ``--log`` named, and only a later ``--resume`` refused it as no log."""
+    try:
+        with open(log, "rb") as f:
+            head, number = b"", 0
+            while not head.strip() and (chunk := f.readline(1 << 16)):  # the first line that is not blank
+                head, number = chunk, number + 1
+    except (FileNotFoundError, IsADirectoryError, NotADirectoryError):
+        return  # made by the run; a folder in the way is named where the run checks its outputs
+    if head.strip() and not head.lstrip().startswith(b"{"):
+        raise ValueError(f"{option} {log}: line {number} is not a JSON row, so the file is no log of wrt's; rows are "
+                         "appended to a log: give a new file, or the log of an earlier wrt render")
+
+
 def append_row(log: Path, line: str) -> None:
     """Appends ``line`` to ``log`` as a line of its own, also after a last line cut short by a killed run."""
     with open(log, "a+b") as f:
