@@ -720,3 +720,24 @@ def test_a_log_that_is_another_file_is_refused_before_a_render(tmp_path, capsys,
     assert log.read_bytes() == content and not (tmp_path / "out").exists()
     log.write_text("\n" + json.dumps({"run": "r", "scene": "x.usda", "status": "ok"}) + "\n")  # a log: appended to
     assert main(args) == 0 and len(log.read_text().split("\n")) == 4  # "", the row before, the new one, ""
+
+
+@pytest.mark.parametrize("args, message", [
+    (["render", ""], "argument scene: is empty"),  # was '.: a directory, not a USD file'
+    (["render", "{dir}/a.usda", " "], "argument scene: is empty"),
+    (["preview", "", "-o", "{dir}/p.png"], "argument scene: is empty"),  # showed the bundled room, status 0
+    (["bvh-stats", ""], "argument scene: is empty"),  # was 'file not found', naming no file
+    (["bench", ""], "argument suite: is empty"),
+    (["render", "{dir}/a.usda", "--camera", ""], "argument --camera: is empty"),
+    (["render", "{dir}/a.usda", "--render-settings", ""], "argument --render-settings: is empty"),  # ' is nothing'
+])
+def test_an_empty_scene_or_prim_path_is_named_as_empty(tmp_path, capsys, args, message):
+    """An unset shell variable ('wrt preview "$SCENE"') gives an empty argument: it was read as the current folder, a
+    prim path '', or no scene at all."""
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")
+    with pytest.raises(SystemExit) as exit_info:
+        main([a.replace("{dir}", str(tmp_path)) for a in args])
+    assert exit_info.value.code == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith(f"wrt: error: {message} (see 'wrt {args[0]} --help')"), line
+    assert sorted(tmp_path.iterdir()) == [tmp_path / "a.usda"]

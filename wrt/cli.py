@@ -123,7 +123,8 @@ non_negative_int = int_at_least(0, "a non-negative integer")
 
 def _non_empty(text: str) -> str:
     """An argparse type: a value that is not empty (or blank), as an unset shell variable gives (``--frames "$F"``):
-    taken as no option, it rendered a still image, or wrote into the current folder."""
+    taken as no option, it rendered a still image, or wrote into the current folder; a scene ``''`` was the current
+    folder ('.: a directory'), or no scene (``wrt preview ''`` showed the bundled room)."""
     if not text.strip():
         raise argparse.ArgumentTypeError("is empty")
     return text
@@ -210,9 +211,9 @@ def add_stage_options(p) -> None:
     p.add_argument("--variant", action="append", default=[], type=_variant, metavar="PRIM:SET=VARIANT",
                    help="select a variant before the stage is read, e.g. /World/Car:paint=red (repeatable; applied "
                    "in order on the session layer, the file is not changed)")
-    p.add_argument("--render-settings", metavar="PRIM", help="RenderSettings prim to follow (camera, resolution, "
-                   "aspect ratio conform, data window, included and material binding purposes, products); default: "
-                   "the one the stage's renderSettingsPrimPath names")
+    p.add_argument("--render-settings", metavar="PRIM", type=_non_empty, help="RenderSettings prim to follow (camera, "
+                   "resolution, aspect ratio conform, data window, included and material binding purposes, products); "
+                   "default: the one the stage's renderSettingsPrimPath names")
 
 
 def _seed(text: str) -> int:
@@ -238,6 +239,7 @@ def _add_render(sub) -> None:
     p.add_argument(
         "scene",
         nargs="*",
+        type=_non_empty,
         help="USD files (.usd, .usda, .usdc, .usdz); default: the bundled room. With several, each is rendered in "
         "turn, a failing one is recorded in the log and the others go on",
     )
@@ -260,7 +262,7 @@ def _add_render(sub) -> None:
                    "resolution, else 640 (given alone: the camera's aspect fixes the height)")
     p.add_argument("--height", type=positive_int, help="image height in pixels; default: the stage's RenderSettings "
                    "resolution, else 480 (given alone: the camera's aspect fixes the width)")
-    p.add_argument("--camera", help=CAMERA_HELP)
+    p.add_argument("--camera", type=_non_empty, help=CAMERA_HELP)
     add_stage_options(p)
     from .render import MAX_SPP
 
@@ -838,10 +840,11 @@ def _add_preview(sub) -> None:
         "the view is rendered off-screen to a PNG instead. Needs pyvista: pip install 'wrt[preview]'.",
         formatter_class=HelpFormatter,
     )
-    p.add_argument("scene", nargs="?", help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
+    p.add_argument("scene", nargs="?", type=_non_empty,
+                   help="USD file (.usd, .usda, .usdc, .usdz); default: the bundled room")
     p.add_argument("-o", "--output", type=_non_empty,
                    help="write the view to this PNG instead of a window (no display: preview.png)")
-    p.add_argument("--camera", help=CAMERA_HELP)
+    p.add_argument("--camera", type=_non_empty, help=CAMERA_HELP)
     add_stage_options(p)
     bvh = p.add_mutually_exclusive_group()
     bvh.add_argument(
@@ -974,7 +977,7 @@ def _add_bench(sub) -> None:
         "or the name of one in wrt/suites (quick, cpu, gpu). Options given here override the suite.",
         formatter_class=HelpFormatter,
     )
-    p.add_argument("suite", nargs="?", default="quick", help="suite file or name")
+    p.add_argument("suite", nargs="?", default="quick", type=_non_empty, help="suite file or name")
     p.add_argument("--quick", action="store_true",
                    help="run the small 'quick' suite (about a minute on a CPU, once the kernels are compiled)")
     suites = "; default: the suite's"  # each of these replaces one field of the suite

@@ -157,7 +157,7 @@ def _non_negative_float(text: str) -> float:
 
 def add_bvh_stats(sub) -> None:
     """Adds the ``bvh-stats`` subcommand to an argparse sub-parser set."""
-    from ..cli import HelpFormatter, _finite_float, _positive_float, add_stage_options, int_at_least
+    from ..cli import HelpFormatter, _finite_float, _non_empty, _positive_float, add_stage_options, int_at_least
     from ..trace import ACCELERATOR_PRESPLIT
     from .common import MAX_BINS, MAX_LEAF_SIZE
     from .presplit import MAX_SPLIT_LEVELS
@@ -177,7 +177,7 @@ def add_bvh_stats(sub) -> None:
         "own trees are read from wp.Mesh with --builder warp:sah (or warp:median, warp:lbvh on CUDA, warp:cubql).",
         formatter_class=HelpFormatter,
     )
-    p.add_argument("scene", help="USD file (.usd, .usda, .usdc, .usdz)")
+    p.add_argument("scene", type=_non_empty, help="USD file (.usd, .usda, .usdc, .usdz)")
     p.add_argument(
         "--builder",
         action="append",
