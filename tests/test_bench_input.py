@@ -466,3 +466,13 @@ def test_rows_of_an_earlier_run_under_other_spellings_are_resumed_by_canonical_n
     rows = run_grid(grid, tmp_path, resume=True, progress=False)
     assert rows.resumed == 2 and sorted(r["accel"] for r in rows) == ["warp:sah", "wrt:sah"], rows
     assert [r["mrays"] for r in rows] == [r["mrays"] for r in old]  # not measured again
+
+
+def test_a_misspelt_asset_id_names_the_one_meant(tmp_path, monkeypatch):
+    """'asset:chess_sets' said only "no asset 'chess_sets' in .../manifest.json", among dozens of ids."""
+    (tmp_path / "manifest.json").write_text(json.dumps({"assets": [{"id": "chess_set", "path": "chess.usda"},
+                                                                   {"id": "fancy_teapot", "path": "teapot.usda"}]}))
+    monkeypatch.setenv("WRT_ASSETS", str(tmp_path))
+    with pytest.raises(ValueError, match=r"no asset 'chess_sets' \(did you mean 'chess_set'\?\) in "):
+        bench_module.asset_path("chess_sets")
+    assert bench_module.asset_path("chess_set") == tmp_path / "chess.usda"

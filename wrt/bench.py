@@ -450,8 +450,8 @@ def asset_path(asset_id: str) -> Path:
         manifest = root / "manifest.json"
         if manifest.is_file():
             entries = {e["id"]: e for e in json.loads(manifest.read_text())["assets"]}
-            if asset_id not in entries:
-                raise ValueError(f"no asset {asset_id!r} in {manifest}")
+            if asset_id not in entries:  # 42 ids in the shared manifest: the one meant, not all of them
+                raise ValueError(f"no asset {asset_id!r}{did_you_mean(asset_id, entries)} in {manifest}")
             return root / entries[asset_id]["path"]
     raise FileNotFoundError(f"asset {asset_id!r}: no shared asset folder found (set WRT_ASSETS)")
 
