@@ -741,3 +741,17 @@ def test_an_empty_scene_or_prim_path_is_named_as_empty(tmp_path, capsys, args, m
     (line,) = error_lines(capsys.readouterr().err)
     assert line.startswith(f"wrt: error: {message} (see 'wrt {args[0]} --help')"), line
     assert sorted(tmp_path.iterdir()) == [tmp_path / "a.usda"]
+
+
+def test_a_log_that_is_a_pipe_is_refused_and_dev_null_taken(tmp_path, capsys):
+    """A FIFO as --log failed after the first scene's render ('File or stream is not seekable'); the check of a log's
+    first line must not block on reading one. /dev/null keeps no log, as before."""
+    (tmp_path / "a.usda").write_text("#usda 1.0\n")
+    fifo = tmp_path / "log.fifo"
+    os.mkfifo(fifo)
+    args = ["render", str(tmp_path / "a.usda"), "-o", str(tmp_path / "out") + "/", "-q", "--width", "4", "--height",
+            "4"]
+    assert main([*args, "--log", str(fifo)]) == 2
+    assert error_lines(capsys.readouterr().err) == [f"wrt: error: --log {fifo}: a pipe or socket, not a file"]
+    assert not (tmp_path / "out").exists()
+    assert main([*args, "--log", os.devnull]) == 0 and (tmp_path / "out" / "a.png").is_file()

@@ -76,13 +76,17 @@ def read_rows(log: Path, option: str = "--log") -> list[dict]:
 def check_appendable(log: Path, option: str = "--log") -> None:
     """Raises ValueError naming ``option`` when ``log`` is a file whose first line is no JSON row (notes, an image):
     rows were appended to whatever file ``--log`` named, and only a later ``--resume`` refused it as no log."""
+    if log.is_fifo() or log.is_socket():  # no file to append rows to: 'File or stream is not seekable' at the first
+        raise ValueError(f"{option} {log}: a pipe or socket, not a file")
+    if not log.is_file():  # made by the run, or a device such as /dev/null (no log kept)
+        return
     try:
         with open(log, "rb") as f:
             head, number = b"", 0
             while not head.strip() and (chunk := f.readline(1 << 16)):  # the first line that is not blank
                 head, number = chunk, number + 1
-    except (FileNotFoundError, IsADirectoryError, NotADirectoryError):
-        return  # made by the run; a folder in the way is named where the run checks its outputs
+    except OSError:
+        return  # unreadable: the first row's write names the problem
     if head.strip() and not head.lstrip().startswith(b"{"):
         raise ValueError(f"{option} {log}: line {number} is not a JSON row, so the file is no log of wrt's; rows are "
                          "appended to a log: give a new file, or the log of an earlier wrt render")
