@@ -477,6 +477,36 @@ def test_subdivision_meshes_without_normals_get_smooth_vertex_normals(tmp_path, 
     np.testing.assert_allclose(mesh.normals, corners / np.sqrt(3.0), atol=1e-6)
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_smooth_vertex_normals_sum_every_corner_in_face_order(dtype):
+    """``vertex_normals`` (a subdivision cage's smooth normals) sums, at each point, the cross product of the two edges
+    of every polygon corner there; its float64 sum runs through np.bincount, not np.add.at: compared with a corner by
+    corner walk in Python floats on random polygons (3 to 7 corners, points shared by many faces, some unused)."""
+    from wrt.usd_meshes import vertex_normals
+
+    rng = np.random.default_rng(123)
+    points = rng.normal(size=(40, 3)).astype(dtype)
+    counts = rng.integers(3, 8, size=60)
+    face_indices = rng.integers(0, 35, size=int(counts.sum()))  # points 35.. are used by no face
+    sums = [[0.0, 0.0, 0.0] for _ in points]
+    start = 0
+    for n in counts.tolist():
+        face = face_indices[start:start + n].tolist()
+        for c in range(n):
+            p, q, r = (points[face[(c + d) % n]].astype(np.float64).tolist() for d in (0, 1, -1))
+            a, b = [q[k] - p[k] for k in range(3)], [r[k] - p[k] for k in range(3)]
+            cross = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+            sums[face[c]] = [s + x for s, x in zip(sums[face[c]], cross)]
+        start += n
+    expected = np.array([np.array(s) / math.sqrt(sum(x * x for x in s)) if any(s) else np.zeros(3) for s in sums])
+    tolerance = 1e-12 if dtype == np.float64 else 2e-4
+    for left_handed in (False, True):
+        normals = vertex_normals(points, counts, face_indices, left_handed)
+        assert normals.dtype == dtype
+        np.testing.assert_allclose(normals, -expected if left_handed else expected, rtol=tolerance, atol=tolerance)
+    assert not normals[35:].any()
+
+
 def test_primvar_normals_override_attribute(tmp_path):
     stage, path = make_stage(tmp_path)
     mesh = define_mesh(stage)

@@ -390,15 +390,34 @@ def vertex_normals(points: np.ndarray, counts: np.ndarray, face_indices: np.ndar
     """``(V, 3)`` smooth normal of every point: the sum, over the polygon corners at it, of the cross product of the
     corner's two edges (each face weighted by its area near the point), normalised; zero where they cancel."""
     counts = counts.astype(np.int64)
-    starts = np.cumsum(counts) - counts
-    face = np.repeat(np.arange(len(counts)), counts)
-    first, count = starts[face], counts[face]
-    position = np.arange(len(face_indices)) - first
-    corner = points[face_indices]
-    following = points[face_indices[first + (position + 1) % count]]
-    preceding = points[face_indices[first + (position - 1) % count]]
-    normals = np.zeros_like(points)
-    np.add.at(normals, face_indices, np.cross(following - corner, preceding - corner))
+    face_indices = np.asarray(face_indices)
+    corner = np.ascontiguousarray(points.T)[:, face_indices]  # (3, N) each corner's point, axis first
+    # Each corner's following and preceding corner in its face (the face's first and last wrapping round), taken from
+    # the corners gathered once: for faces all of one size (quad or triangle meshes) by shifting each face's columns.
+    k = int(counts[0]) if len(counts) else 0
+    if k > 0 and bool((counts == k).all()):
+        faces = corner.reshape(3, -1, k)
+        following = np.concatenate([faces[:, :, 1:], faces[:, :, :1]], axis=2).reshape(3, -1)
+        preceding = np.concatenate([faces[:, :, -1:], faces[:, :, :-1]], axis=2).reshape(3, -1)
+    else:
+        starts = np.cumsum(counts) - counts
+        drawn = counts > 0
+        following = np.arange(1, len(face_indices) + 1)
+        following[starts[drawn] + counts[drawn] - 1] = starts[drawn]
+        preceding = np.arange(-1, len(face_indices) - 1)
+        preceding[starts[drawn]] = starts[drawn] + counts[drawn] - 1
+        following, preceding = corner[:, following], corner[:, preceding]
+    # The corner's two edges and their cross product, component by component: the products and differences np.cross
+    # takes (the same values), which on (N, 3) rows took five times as long.
+    a, b = following - corner, preceding - corner
+    turns = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    if points.dtype == np.float64:
+        # bincount adds the weights in input order in float64, as np.add.at does (the same sums, bit for bit), at a
+        # tenth of its time: np.add.at was a third of load_usd for meshes of 400k points.
+        normals = np.stack([np.bincount(face_indices, turn, len(points)) for turn in turns], axis=1)
+    else:
+        normals = np.zeros_like(points)
+        np.add.at(normals, face_indices, np.stack(turns, axis=1))
     length = np.linalg.norm(normals, axis=1, keepdims=True)
     normals = np.where(length > 0.0, normals / np.where(length > 0.0, length, 1.0), 0.0)
     return -normals if left_handed else normals
