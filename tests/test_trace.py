@@ -935,6 +935,25 @@ def test_bounds_and_triangles_follow_a_replaced_or_added_mesh():
     assert scene.bounds()[1].tolist() == [1, 1, 9] and len(scene.triangles()[1]) == 3
 
 
+def test_bounds_are_those_of_the_points_triangles_use():
+    """``Scene.bounds()`` is the box of the points some triangle uses, whatever the points no triangle uses (far away
+    or NaN) and however often a point is used: compared with float64 numpy over the used points of random meshes."""
+    rng = np.random.default_rng(123)
+    meshes, used = [], []
+    for k in range(3):
+        points = rng.normal(size=(50, 3)).astype(np.float32) * np.float32(10 ** k)
+        points[40:] = 1e30  # no triangle uses these
+        points[45] = np.nan
+        indices = rng.integers(0, 40, size=(30, 3))
+        meshes.append(wrt.Mesh(f"/m{k}", points, indices, np.arange(30)))
+        used.append(points[np.unique(indices)].astype(np.float64))
+    lower, upper = wrt.Scene(meshes=meshes).bounds()
+    used = np.concatenate(used)
+    assert lower.dtype == upper.dtype == np.float32
+    assert lower.tolist() == used.min(axis=0).astype(np.float32).tolist()
+    assert upper.tolist() == used.max(axis=0).astype(np.float32).tolist()
+
+
 def test_default_camera_frames_a_scene_edited_after_a_render():
     """The default camera is framed from the scene's cached bounds: after a mesh is replaced by one far away, the next
     render must frame the new mesh, not the old box (whose cache was read before the trees were dropped)."""
