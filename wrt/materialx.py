@@ -399,7 +399,9 @@ class _Graph:
             if found is None:
                 continue
             value = _array(found[1]) if found[0] == "value" else None
-            if value is None or not np.allclose(value, off):
+            # Values equal to ``off`` (the common case) are close without np.allclose, whose 0.1 ms a call over the
+            # lobes of 133 materials was 7% of teapotScene's load_usd.
+            if value is None or not (bool((value == off).all()) or np.allclose(value, off)):
                 self.notes.append(f"{name} ({_describe(found)}) is ignored")
 
     def _image(self, node, node_id: str, constant: np.ndarray) -> tuple[np.ndarray, TextureInput | None]:
