@@ -282,7 +282,7 @@ def render_plane(path):
 
 def test_dome_with_an_hdr_texture_renders_as_the_same_image_in_exr(tmp_path):
     """Before, the .hdr could not be read: the dome fell back to its colour (white) with a warning."""
-    import OpenEXR
+    OpenEXR = pytest.importorskip("OpenEXR")  # (the GPU host has none)
 
     pixels = rgbe(latlong_sky())
     (tmp_path / "exr").mkdir()
