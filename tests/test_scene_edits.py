@@ -287,3 +287,50 @@ def test_a_camera_made_bad_since_the_renderer_was_built_is_refused_at_its_render
     del scene.cameras["/Cam"]
     with pytest.raises(wrt.SceneError, match=r"no camera at '/Cam'"):
         renderer.render()
+
+
+def _every_kind_of_light() -> list:
+    from wrt.lights import CylinderLight, DiskLight, DomeLight, MeshLight, RectLight, SphereLight
+
+    over = np.eye(4)
+    over[:3, 3] = (0.0, 0.0, 3.0)
+    link = wrt.LinkCollection.only("/Square")
+    return [
+        wrt.DistantLight(direction=np.array([0.2, 0.3, -1.0]), color=np.full(3, 1.5), light_link=link,
+                         shadow_link=link),
+        SphereLight(position=np.array([0.0, 0.5, 2.0]), radius=0.2, color=np.ones(3), frame=np.diag([1.0, 2.0, 1.0]),
+                    axis=np.array([0.0, 0.0, -2.0]), shaping=wrt.Shaping(cone_angle=60.0, focus_tint=np.ones(3))),
+        RectLight(to_world=over, width=0.5, height=0.4, color=np.ones(3), texture=np.ones((2, 2, 3))),
+        DiskLight(to_world=over, radius=0.3, color=[1.0, 0.5, 0.5]),
+        CylinderLight(to_world=over, length=0.5, radius=0.1, color=np.ones(3, np.float32)),
+        MeshLight(path="/Square", color=np.full(3, 0.1)),
+        DomeLight(color=np.full(3, 0.05), texture=np.ones((4, 8, 3), np.float32)),
+    ]
+
+
+def test_another_renderer_of_the_scene_does_not_make_a_kept_one_build_again_but_a_light_edit_does(monkeypatch):
+    """A second Renderer (or wrt.render) of the same scene checks its lights again, and the checks gave each light new
+    arrays of the values it held (its colour, transform, axis as a copy, its link collections as new ones): a kept
+    Renderer then saw changed lights and built its tree and shading data again at its next render, seconds on a big
+    scene. Checking an unchanged light changes nothing now, while a colour replaced or edited in place after
+    invalidate() is still drawn, as a fresh render draws it (the oracle)."""
+    builds = []
+    build = wrt.Renderer._build
+    monkeypatch.setattr(wrt.Renderer, "_build", lambda self: (builds.append(self), build(self))[1])
+    scene = wrt.Scene(meshes=[square("/Square")], lights=_every_kind_of_light())
+    options = dict(OPTIONS, integrator="path")
+    kept = wrt.Renderer(scene, **options)
+    first = kept.render().rgb
+    wrt.Renderer(scene, **options)
+    wrt.render(scene, **options)
+    np.testing.assert_array_equal(kept.render().rgb, first)
+    assert builds.count(kept) == 1
+
+    sun = scene.lights[0]
+    sun.color = np.full(3, 4.0)  # replaced
+    np.testing.assert_array_equal(kept.render().rgb, wrt.render(scene, **options).rgb)
+    assert builds.count(kept) == 2
+    scene.invalidate()
+    scene.lights[3].color[:] = 0.0  # edited in place
+    np.testing.assert_array_equal(kept.render().rgb, wrt.render(scene, **options).rgb)
+    assert builds.count(kept) == 3

@@ -107,6 +107,13 @@ def flag(value, what: str) -> bool:
     raise TypeError(f"{what} must be True or False, got {type(value).__name__} {value!r}")
 
 
+def unit_vector(vector: np.ndarray, length: float) -> np.ndarray:
+    """``vector / length`` (``length`` its norm), or ``vector`` itself where it is a unit vector already to rounding
+    (a light's direction checked again before a render): a new array at each check made a kept
+    :class:`wrt.Renderer` see a changed light, and build again."""
+    return vector if abs(length - 1.0) <= 1e-12 else vector / length
+
+
 def check_flags(obj, *names: str) -> None:
     """Makes fields ``names`` of a light built in Python bools, as :func:`flag` reads a mesh's ``double_sided``:
     ``normalize="false"`` (or "no", None, an array) was taken by its truth, normalizing the light without a word.
@@ -186,7 +193,8 @@ def check_fields(obj, *fields: tuple) -> None:
             # the path below makes it (float32 and float64 both pass through float64 unchanged).
             values = value.tolist() if value.ndim == 1 else value.ravel().tolist()
             if all(abs(v) < FLOAT32_ROUNDS_TO_INF and (minimum is None or v >= minimum) for v in values):
-                setattr(obj, name, value.astype(dtype))
+                if value.dtype != dtype:  # one of the right dtype is kept: a copy at each check before a render
+                    setattr(obj, name, value.astype(dtype))  # made a kept Renderer see a new light, and build again
                 continue
         need = "a finite number" if shape == () else f"finite numbers of shape {shape}"
         need += " (or its top (3, 4))" if shape == (4, 4) else ""

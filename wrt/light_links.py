@@ -55,7 +55,11 @@ class LinkCollection:
         if not isinstance(self.rules, Mapping):
             raise TypeError("LinkCollection rules must be a dict of prim path -> rule, got "
                             f"{type(self.rules).__name__}")
-        object.__setattr__(self, "rules", types.MappingProxyType(dict(self.rules)))
+        # The copy made at construction is kept when the light is checked again before a render: a new one at each
+        # check made a kept Renderer see a changed light, and build again.
+        if self.rules is not getattr(self, "_own_rules", None):
+            object.__setattr__(self, "rules", types.MappingProxyType(dict(self.rules)))
+            object.__setattr__(self, "_own_rules", self.rules)
         for path, rule in self.rules.items():
             if not (isinstance(path, str) and path.startswith("/")):
                 raise SceneError(f"LinkCollection rules: {path!r} is not an absolute prim path")

@@ -61,7 +61,7 @@ import math
 import numpy as np
 
 from .affine_lights import ellipsoid_area, elliptic_tube_area, flat, right_angled, similar
-from .errors import SceneError, bottom_row_problem, check_fields, check_flags, prim_path
+from .errors import SceneError, bottom_row_problem, check_fields, check_flags, prim_path, unit_vector
 from .light_links import LinkCollection
 from .light_shaping import Shaping
 from .ray_batch import host_array
@@ -178,7 +178,7 @@ class SphereLight:
         if not (length > 0.0 and math.isfinite(length)):
             raise SceneError(f"SphereLight axis must be a nonzero finite 3-vector, got {axis.tolist()}",
                              prim=self.path or None)
-        return axis / length
+        return unit_vector(axis, length)  # the same array where it is unit already (checked before)
 
     @property
     def area(self) -> float:

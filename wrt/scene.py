@@ -360,7 +360,7 @@ class DistantLight:
     shadow_link: LinkCollection | None = None
 
     def __post_init__(self):
-        from .errors import SceneError, check_fields, check_flags
+        from .errors import SceneError, check_fields, check_flags, unit_vector
 
         check_fields(self, ("direction", (3,), None, np.float64), ("color", (3,), 0.0, np.float32),
                      ("angle", (), 0.0, float), ("diffuse", (), 0.0, float), ("specular", (), 0.0, float))
@@ -369,7 +369,7 @@ class DistantLight:
         if not length > 0.0:  # a zero direction lit nothing, without a word
             raise SceneError(f"DistantLight direction must not be zero, got {self.direction.tolist()}",
                              prim=self.path or None)
-        self.direction = self.direction / length  # the kernels take it as a unit vector: a longer one brightened it
+        self.direction = unit_vector(self.direction, length)  # the kernels take it as unit: a longer one brightened it
 
     @property
     def half_angle(self) -> float:
