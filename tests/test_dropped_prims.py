@@ -108,7 +108,7 @@ def test_instances_of_a_prototype_inside_itself_are_skipped(tmp_path):
 
 
 @pytest.mark.parametrize("op", ["double3 xformOp:translate = (1e39, 0, 0)", "double3 xformOp:translate = (nan, 0, 0)",
-                                "float3 xformOp:scale = (inf, 1, 1)"])
+                                "float3 xformOp:scale = (inf, 1, 1)", "double3 xformOp:scale = (1e39, 1e39, 1e39)"])
 @pytest.mark.parametrize("prim", ["Mesh", "Sphere", "Points", "Curves", "Instance", "Instancer"])
 def test_prim_placed_beyond_float32_is_dropped(tmp_path, op, prim):
     """A mesh, gprim, Points, curve, native instance or PointInstancer whose world transform is not finite, or which it

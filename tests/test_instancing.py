@@ -650,7 +650,8 @@ def test_instance_whose_scale_takes_its_prototype_past_float32_is_named(tmp_path
     """An instance scaled by 3e38 (finite, its origin placeable) takes a prototype 2 across (corners at +-2) to 6e38
     from its origin, past float32's 3.4e38: every build refused 'triangle vertices must be finite; triangle 2 uses
     one', a row of no triangle the scene holds, and a render without a camera the NaN eye of its default camera. The
-    error names the instance, its prim path and its box (float64 numpy, here)."""
+    error names the instance, its prim path and its box (float64 numpy, here). (load_usd skips such an instance, with
+    a warning: given the scale in Python, after the load.)"""
     path = str(tmp_path / "huge.usda")
     stage = Usd.Stage.CreateNew(path)
     pi = UsdGeom.PointInstancer.Define(stage, "/PI")
@@ -661,11 +662,12 @@ def test_instance_whose_scale_takes_its_prototype_past_float32_is_named(tmp_path
     pi.CreatePrototypesRel().SetTargets(["/PI/Proto"])
     pi.CreateProtoIndicesAttr([0, 0, 0])
     pi.CreatePositionsAttr([Gf.Vec3f(3.0 * k, 0, 0) for k in range(3)])
-    pi.CreateScalesAttr([Gf.Vec3f(1, 1, 1), Gf.Vec3f(1, 1, 1), Gf.Vec3f(3e38, 3e38, 1)])
     stage.Save()
     scene = wrt.load_usd(path)
     assert len(scene.instances) == 3
-    scale = float(np.float32(3e38))  # the oracle: the triangle's box (+-2 in x and y) scaled, moved to x = 6
+    scene.invalidate()
+    scene.instances.to_world[2, :2, :2] = np.diag([3e38, 3e38])
+    scale = 3e38  # the oracle: the triangle's box (+-2 in x and y) scaled, moved to x = 6
     lo, hi = [6.0 - 2.0 * scale, -2.0 * scale, 0.0], [6.0 + 2.0 * scale, 2.0 * scale, 0.0]
     assert max(map(abs, lo + hi)) > float(np.finfo(np.float32).max)
     kind, _, layout = accel.partition(":")
@@ -680,6 +682,59 @@ def test_instance_whose_scale_takes_its_prototype_past_float32_is_named(tmp_path
         scene.invalidate()
         scene.instances.to_world[2, :2, :2] = np.diag([1e38, 1e38])  # 2e38 + 6 is within float32: drawn
         assert wrt.trace(scene, np.float32([[0, 0, 5]]), np.float32([[0, 0, -1]])).t[0] == pytest.approx(5.0)
+
+
+def test_instances_whose_transform_takes_their_prototype_past_float32_are_skipped_at_load(tmp_path):
+    """A PointInstancer instance (or a native instance) whose scale takes its prototype's box past float32's 3.4e38,
+    its origin placeable, was loaded without a word, and the trace then refused the whole scene naming it. It is left
+    out with a warning naming the file, the prim and the instance index, as one placed past float32 is, and the rest
+    is drawn. The oracle: USD's ComputeInstanceTransformsAtTime and the prototype's points, in float64."""
+    path = str(tmp_path / "huge.usda")
+    stage = Usd.Stage.CreateNew(path)
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    octahedron(stage, "/PI/Proto")  # corners at +-1
+    pi.CreatePrototypesRel().SetTargets(["/PI/Proto"])
+    pi.CreateProtoIndicesAttr([0] * 5)
+    pi.CreatePositionsAttr([Gf.Vec3f(3.0 * k, 0, 0) for k in range(5)])
+    turned = Gf.Quath(Gf.Rotation(Gf.Vec3d(0, 0, 1), 45).GetQuat())
+    pi.CreateOrientationsAttr([Gf.Quath(1)] * 2 + [turned] * 3)
+    # A corner at 3e38 + 3 fits float32; turned 45 degrees, 3e38 along x and y reaches 4.2e38 on the diagonal and
+    # 2.5e38 3.5e38, past float32's 3.4e38, while 2.2e38 does not (3.1e38).
+    pi.CreateScalesAttr([Gf.Vec3f(1, 1, 1), Gf.Vec3f(3e38, 3e38, 3e38), Gf.Vec3f(3e38, 3e38, 1),
+                         Gf.Vec3f(2.2e38, 2.2e38, 1), Gf.Vec3f(2.5e38, 2.5e38, 1)])
+    stage.CreateClassPrim("/Lib")
+    octahedron(stage, "/Lib/Mesh")
+    for name, scale in (("/Big", 3.5e38), ("/Small", 2.0)):
+        xform = UsdGeom.Xform.Define(stage, name)
+        xform.AddTranslateOp().Set(Gf.Vec3d(0, 5, 0))
+        xform.AddScaleOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(scale))
+        xform.GetPrim().GetReferences().AddInternalReference("/Lib")
+        xform.GetPrim().SetInstanceable(True)
+    stage.Save()
+
+    t = Usd.TimeCode.Default()
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], np.float64)
+    limit = float(np.finfo(np.float32).max)
+
+    def past(m) -> bool:  # m: USD's row-vector matrix
+        return bool(np.abs(np.c_[corners, np.ones(8)] @ np.array(m)).max() > limit)
+
+    drawn = [f"/PI[{k}]" for k, m in enumerate(pi.ComputeInstanceTransformsAtTime(t, t)) if not past(m)]
+    cache = UsdGeom.XformCache(t)
+    drawn += [name for name in ("/Big", "/Small") if not past(cache.GetLocalToWorldTransform(stage.GetPrimAtPath(
+        name)))]
+    assert drawn == ["/PI[0]", "/PI[1]", "/PI[3]", "/Small"]  # the oracle tells the cases apart as meant
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    said = [str(w.message) for w in caught]
+    assert [m for m in said if "past float32" in m] == [
+        f"{path}: instances whose transform takes their prototype past float32's range (|x| > 3.4e38) were skipped: "
+        "3 prim(s): /PI[2], /PI[4], /Big"], said
+    assert [scene.instances.path(i) for i in range(len(scene.instances))] == sorted(drawn)
+    hits = wrt.trace(scene, np.float32([[0, 0, 5], [0, 5, 5]]), np.float32([[0, 0, -1], [0, 0, -1]]))
+    np.testing.assert_allclose(hits.t, [4.0, 3.0])
+    assert wrt.render(scene, width=8, height=8, device="cpu").rgb.shape == (8, 8, 3)
 
 
 def test_zero_scale_instance_is_drawn_flat_whole_through_nested_instances(tmp_path):

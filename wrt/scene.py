@@ -445,6 +445,41 @@ def _prototype_reach(prototype) -> float:
     return reach
 
 
+def instances_past_float32(instances, prototypes: list, first_only: bool = True) -> list:
+    """The instances whose transform takes their prototype's box past float32's range, in index order, as ``(i,
+    lower, upper)`` (the world box, ``(3,)`` float64 each); the first only, with ``first_only``. Rows whose transform
+    is not finite, or whose prototype index is not a row of ``prototypes``, are left to the checks that name them.
+
+    Args:
+        instances: :class:`wrt.instancing.Instances`.
+        prototypes: the :class:`wrt.instancing.Prototype` list they index.
+    """
+    if not len(instances) or not prototypes:
+        return []
+    limit = float(np.finfo(np.float32).max)
+    reach = np.array([_prototype_reach(p) for p in prototypes])
+    which = instances.prototype
+    valid = (which >= 0) & (which < len(prototypes))  # others are named by check_instances
+    m = instances.to_world
+    found = []
+    with np.errstate(invalid="ignore", over="ignore"):  # a NaN or inf transform is named by check_finite_transforms
+        # |world coordinate| <= |translation| + (largest row sum of |linear part|) * (largest |local coordinate|)
+        # <= e (1 + 3 reach) for e the largest |entry|: one pass over the transforms clears every scene but those
+        # near the limit (1M instances, a few ms), then the bound per instance, then the exact box.
+        entry = max(float(m.max(initial=0.0)), -float(m.min(initial=0.0)))
+        if not entry * (1.0 + 3.0 * float(reach.max())) > limit:  # NaN: named elsewhere
+            return []
+        bound = np.abs(m[:, :3, 3]).max(axis=1) + np.abs(m[:, :3, :3]).sum(axis=2).max(axis=1) * np.where(
+            valid, reach[np.where(valid, which, 0)], 0.0)
+        for i in np.flatnonzero(bound > limit):
+            lo, hi = world_boxes(*prototypes[which[i]].bounds(), m[i][None])
+            if max(np.abs(lo).max(), np.abs(hi).max()) > limit:
+                found.append((int(i), lo[0], hi[0]))
+                if first_only:
+                    break
+    return found
+
+
 class _IdLayout(NamedTuple):
     """How geometry ids and rows of ``Scene.triangles()`` are laid out (``Scene._id_layout``)."""
 
@@ -828,31 +863,14 @@ class Scene:
         "triangle vertices must be finite; triangle 2 uses one", naming a row of no triangle the scene holds (a
         render without a camera first made the scene's bounds infinite: "look_at: eye must be 3 finite numbers")."""
         instances, prototypes = self.instances, self.prototypes
-        if not len(instances) or not prototypes:
-            return
-        limit = float(np.finfo(np.float32).max)
-        reach = np.array([_prototype_reach(p) for p in prototypes])
-        which = instances.prototype
-        valid = (which >= 0) & (which < len(prototypes))  # others are named by check_instances
-        m = instances.to_world
-        with np.errstate(invalid="ignore", over="ignore"):  # a NaN or inf transform is named by check_finite_transforms
-            # |world coordinate| <= |translation| + (largest row sum of |linear part|) * (largest |local coordinate|)
-            # <= e (1 + 3 reach) for e the largest |entry|: one pass over the transforms clears every scene but those
-            # near the limit (1M instances, a few ms), then the bound per instance, then the exact box.
-            entry = max(float(m.max(initial=0.0)), -float(m.min(initial=0.0)))
-            if not entry * (1.0 + 3.0 * float(reach.max())) > limit:  # NaN: named elsewhere
-                return
-            bound = np.abs(m[:, :3, 3]).max(axis=1) + np.abs(m[:, :3, :3]).sum(axis=2).max(axis=1) * np.where(
-                valid, reach[np.where(valid, which, 0)], 0.0)
-            suspects = np.flatnonzero(bound > limit)
-            for i in suspects:
-                prototype = prototypes[which[i]]
-                lo, hi = world_boxes(*prototype.bounds(), m[i][None])
-                if max(np.abs(lo).max(), np.abs(hi).max()) > limit:
-                    name = f" ({instances.path(i)})" if instances.sources else ""
-                    raise ValueError(f"instance {i}{name} of prototype {prototype.path}: its transform takes the "
-                                     f"prototype's box to {lo[0].tolist()} to {hi[0].tolist()}, past float32's "
-                                     "range, and rays are traced in float32")
+        past = instances_past_float32(instances, prototypes)
+        if len(past):
+            i, lo, hi = past[0]
+            name = f" ({instances.path(i)})" if instances.sources else ""
+            prototype = prototypes[instances.prototype[i]]
+            raise ValueError(f"instance {i}{name} of prototype {prototype.path}: its transform takes the prototype's "
+                             f"box to {lo.tolist()} to {hi.tolist()}, past float32's range, and rays are traced in "
+                             "float32")
 
     def check_instances(self) -> None:
         """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of

@@ -14,7 +14,7 @@ from .assignments import mark_checked
 from .instancing import Instances, Prototype, invert_transforms, thicken_flat_transforms, unplaceable
 from .light_links import part_path
 from .primitives import Shape
-from .scene import Mesh, Scene
+from .scene import Mesh, Scene, instances_past_float32
 from .tubes import place_round
 from .usd_xforms import PROJECTIVE
 
@@ -253,6 +253,13 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path, sta
         skip_path("instances with a singular transform (a zero scale) were skipped", path)
     for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & far))):
         skip_path("instances placed beyond float32's range (|x| > 3.4e38) were skipped", path)
+    # One whose transform takes its prototype's box past float32 (a scale of 1e37) is left out likewise: kept, the
+    # trace refused the whole scene for it, naming it.
+    past = [i for i, _, _ in instances_past_float32(instances, scene.prototypes, first_only=False) if ok[i]]
+    for path in dict.fromkeys(map(world_path, past)):
+        skip_path("instances whose transform takes their prototype past float32's range (|x| > 3.4e38) were skipped",
+                  path)
+    ok[past] = False
     if not ok.all():
         instances = instances.take(ok)
     scene.instances = instances
