@@ -302,7 +302,7 @@ def _every_kind_of_light() -> list:
                     axis=np.array([0.0, 0.0, -2.0]), shaping=wrt.Shaping(cone_angle=60.0, focus_tint=np.ones(3))),
         RectLight(to_world=over, width=0.5, height=0.4, color=np.ones(3), texture=np.ones((2, 2, 3))),
         DiskLight(to_world=over, radius=0.3, color=[1.0, 0.5, 0.5]),
-        CylinderLight(to_world=over, length=0.5, radius=0.1, color=np.ones(3, np.float32)),
+        CylinderLight(to_world=over, length=0.5, radius=0.1, color=np.ones((2, 3), np.float32)[1]),  # a view
         MeshLight(path="/Square", color=np.full(3, 0.1)),
         DomeLight(color=np.full(3, 0.05), texture=np.ones((4, 8, 3), np.float32)),
     ]

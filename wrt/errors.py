@@ -193,8 +193,11 @@ def check_fields(obj, *fields: tuple) -> None:
             # the path below makes it (float32 and float64 both pass through float64 unchanged).
             values = value.tolist() if value.ndim == 1 else value.ravel().tolist()
             if all(abs(v) < FLOAT32_ROUNDS_TO_INF and (minimum is None or v >= minimum) for v in values):
-                if value.dtype != dtype:  # one of the right dtype is kept: a copy at each check before a render
-                    setattr(obj, name, value.astype(dtype))  # made a kept Renderer see a new light, and build again
+                # One of the right dtype is kept (a copy at each check before a render made a kept Renderer see a
+                # new light, and build again), unless it is a view of the caller's array (a row of their colours),
+                # which it would then change unseen.
+                if value.dtype != dtype or not value.flags.owndata:
+                    setattr(obj, name, value.astype(dtype))
                 continue
         need = "a finite number" if shape == () else f"finite numbers of shape {shape}"
         need += " (or its top (3, 4))" if shape == (4, 4) else ""
