@@ -289,7 +289,7 @@ def test_a_camera_made_bad_since_the_renderer_was_built_is_refused_at_its_render
         renderer.render()
 
 
-def _every_kind_of_light() -> list:
+def _every_kind_of_light(colours: np.ndarray) -> list:
     from wrt.lights import CylinderLight, DiskLight, DomeLight, MeshLight, RectLight, SphereLight
 
     over = np.eye(4)
@@ -302,7 +302,7 @@ def _every_kind_of_light() -> list:
                     axis=np.array([0.0, 0.0, -2.0]), shaping=wrt.Shaping(cone_angle=60.0, focus_tint=np.ones(3))),
         RectLight(to_world=over, width=0.5, height=0.4, color=np.ones(3), texture=np.ones((2, 2, 3))),
         DiskLight(to_world=over, radius=0.3, color=[1.0, 0.5, 0.5]),
-        CylinderLight(to_world=over, length=0.5, radius=0.1, color=np.ones((2, 3), np.float32)[1]),  # a view
+        CylinderLight(to_world=over, length=0.5, radius=0.1, color=colours[1]),  # a view of the caller's array
         MeshLight(path="/Square", color=np.full(3, 0.1)),
         DomeLight(color=np.full(3, 0.05), texture=np.ones((4, 8, 3), np.float32)),
     ]
@@ -317,7 +317,8 @@ def test_another_renderer_of_the_scene_does_not_make_a_kept_one_build_again_but_
     builds = []
     build = wrt.Renderer._build
     monkeypatch.setattr(wrt.Renderer, "_build", lambda self: (builds.append(self), build(self))[1])
-    scene = wrt.Scene(meshes=[square("/Square")], lights=_every_kind_of_light())
+    colours = np.ones((2, 3), np.float32)
+    scene = wrt.Scene(meshes=[square("/Square")], lights=_every_kind_of_light(colours))
     options = dict(OPTIONS, integrator="path")
     kept = wrt.Renderer(scene, **options)
     first = kept.render().rgb
@@ -334,3 +335,5 @@ def test_another_renderer_of_the_scene_does_not_make_a_kept_one_build_again_but_
     scene.lights[3].color[:] = 0.0  # edited in place
     np.testing.assert_array_equal(kept.render().rgb, wrt.render(scene, **options).rgb)
     assert builds.count(kept) == 3
+    colours[1] = 5.0  # the caller's array a light's colour was a row of: no light's field, nothing drawn changes
+    np.testing.assert_array_equal(kept.render().rgb, wrt.render(scene, **options).rgb)
