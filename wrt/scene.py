@@ -461,7 +461,7 @@ def instances_past_float32(instances, prototypes: list, first_only: bool = True)
     which = instances.prototype
     valid = (which >= 0) & (which < len(prototypes))  # others are named by check_instances
     m = instances.to_world
-    found = []
+    found, boxes = [], {}  # prototype index -> its box, made once however many of its instances are suspects
     with np.errstate(invalid="ignore", over="ignore"):  # a NaN or inf transform is named by check_finite_transforms
         # |world coordinate| <= |translation| + (largest row sum of |linear part|) * (largest |local coordinate|)
         # <= e (1 + 3 reach) for e the largest |entry|: one pass over the transforms clears every scene but those
@@ -471,8 +471,10 @@ def instances_past_float32(instances, prototypes: list, first_only: bool = True)
             return []
         bound = np.abs(m[:, :3, 3]).max(axis=1) + np.abs(m[:, :3, :3]).sum(axis=2).max(axis=1) * np.where(
             valid, reach[np.where(valid, which, 0)], 0.0)
-        for i in np.flatnonzero(bound > limit):
-            lo, hi = world_boxes(*prototypes[which[i]].bounds(), m[i][None])
+        for i in np.flatnonzero((bound > limit) & valid):
+            if which[i] not in boxes:
+                boxes[which[i]] = prototypes[which[i]].bounds()
+            lo, hi = world_boxes(*boxes[which[i]], m[i][None])
             if max(np.abs(lo).max(), np.abs(hi).max()) > limit:
                 found.append((int(i), lo[0], hi[0]))
                 if first_only:
