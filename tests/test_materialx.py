@@ -557,6 +557,38 @@ def test_an_extract_of_a_colour4_image_reads_the_channel_of_its_default(tmp_path
         assert "opacity" not in mat.textures and mat.opacity == pytest.approx(0.2)
 
 
+# MaterialX's stdlib_defs.mtlx (1.38, AcademySoftwareFoundation/MaterialX libraries/stdlib): the ``default`` input of
+# each image node, 0 in every channel of the node's type.
+IMAGE_DEFAULTS = {"ND_image_float": (0.0,), "ND_image_color3": (0.0, 0.0, 0.0),
+                  "ND_tiledimage_color3": (0.0, 0.0, 0.0)}
+
+
+@pytest.mark.parametrize("node_id, surface_input", [("ND_image_color3", "emission_color"),
+                                                     ("ND_tiledimage_color3", "emission_color"),
+                                                     ("ND_image_float", "emission")])
+def test_a_missing_image_without_a_default_reads_materialx_s_default(tmp_path, node_id, surface_input):
+    """An image node whose file is missing and which has no ``default`` reads MaterialX's default for it, 0, so a
+    black panel whose ``emission_color`` (or ``emission`` weight) comes from it emits nothing: the render is black.
+    The surface input's constant, 1 authored beside the connection, stood in for it: the panel glowed white.
+    The warning names the file and the image node."""
+    stage, path = new_stage(tmp_path, "glow.usda")
+    material, shader = mtlx_material(stage, "/Looks/Panel", base=0.0, specular=0.0, emission=1.0,
+                                     emission_color=Gf.Vec3f(1.0, 1.0, 1.0))
+    image = UsdShade.Shader.Define(stage, "/Looks/Panel/Image")
+    image.CreateIdAttr(node_id)
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath("missing.png"))
+    shader.GetInput(surface_input).ConnectToSource(image.ConnectableAPI(), "out")  # its value 1 stays authored
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("missing.png" in m and "/Looks/Panel/Image" in m for m in messages), messages
+    (mat,) = scene.materials
+    np.testing.assert_allclose(mat.emissive_color, np.resize(IMAGE_DEFAULTS[node_id], 3) * 1.0, atol=1e-7)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu")
+    np.testing.assert_allclose(img.rgb, 0.0, atol=1e-6)
+
+
 def test_a_weight_read_from_an_images_alpha_is_scaled_by_its_colour(tmp_path):
     """OpenPBR ``emission_luminance`` from the alpha of an ``ND_image_color4`` (an emission mask, through
     ``ND_extract_color4`` index 3) times a constant grey ``emission_color`` 0.5 emits ``alpha * colour``: texels of

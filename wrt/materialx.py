@@ -55,7 +55,7 @@ the node's ``default`` outside [0, 1], black without one), ``uvtiling``/``uvoffs
 ``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
 (the mesh's ``st``) or a reader of :data:`TEXCOORD_READERS` (the primvar named by ``geomprop`` or ``varname``; its
 ``default`` or ``fallback`` where the mesh lacks it), or a constant ``texcoord`` (read there on every point). Where the
-file cannot be read, the node's ``default`` is used (the surface input's constant when the node has none).
+file cannot be read, the node's ``default`` is used (MaterialX's, 0 in every channel, when the node has none).
 ``base_color`` may also come from a mesh's colour primvar: an ``ND_UsdPrimvarReader_color3``/``vector3`` or
 ``ND_geompropvalue_color3``/``vector3`` node (:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where
 the mesh lacks it). Math and channel nodes between an input and these sources (``multiply``, ``add``, ``mix``,
@@ -227,7 +227,7 @@ class _Graph:
 
         def leaf(source, source_id: str) -> Folded | None:
             if IMAGE_NODE.match(source_id):
-                return Folded(*self._image(source, source_id, constant))
+                return Folded(*self._image(source, source_id))
             if role == "base_color" and source_id in COLOR_PRIMVAR_READERS:
                 primvar = self.reader.color_primvar_input(source, self.path)
                 return Folded(constant) if primvar is None else Folded(primvar.fallback.astype(np.float64), primvar)
@@ -369,7 +369,7 @@ class _Graph:
             self.notes.append(f"{name} comes from {what}, not a tangent-space normalmap node of a vector3 image; "
                               "it is ignored")
             return None
-        _, texture = self._image(source[1], image_id, np.array([0.5, 0.5, 1.0]))
+        _, texture = self._image(source[1], image_id, unauthored_default=np.array([0.5, 0.5, 1.0]))
         if texture is None:
             return None
         scale = _array(self.reader._constant(node, "scale"), 2)
@@ -404,13 +404,22 @@ class _Graph:
             if value is None or not (bool((value == off).all()) or np.allclose(value, off)):
                 self.notes.append(f"{name} ({_describe(found)}) is ignored")
 
-    def _image(self, node, node_id: str, constant: np.ndarray) -> tuple[np.ndarray, TextureInput | None]:
+    def _image(self, node, node_id: str, unauthored_default: np.ndarray | None = None
+               ) -> tuple[np.ndarray, TextureInput | None]:
         """``(fallback, texture)`` of image node ``node``; texture None where its file cannot be read. ``fallback``
         is the node's ``default``, of the node's own type (an ``extract`` of a color4 image's alpha reads the
-        default's alpha), else ``constant``."""
+        default's alpha); unauthored, MaterialX's (``stdlib_defs.mtlx``: 0 in every channel of the type: an
+        ``emission_color`` image whose file is missing emits nothing), or ``unauthored_default`` where given (a
+        normal map's flat (0.5, 0.5, 1), for its missing UDIM tiles)."""
         reader = self.reader
-        default = _array(reader._constant(node, "default"), TYPE_SIZES[IMAGE_NODE.match(node_id).group(2)])
-        fallback = constant if default is None else default
+        size = TYPE_SIZES[IMAGE_NODE.match(node_id).group(2)]
+        default = _array(reader._constant(node, "default"), size)
+        if default is not None:
+            fallback = default
+        elif unauthored_default is not None:
+            fallback = np.asarray(unauthored_default, np.float64)
+        else:
+            fallback = np.zeros(size)
         file_input = node.GetInput("file")
         if not file_input:
             self.notes.append(f"image node {node.GetPath()} has no file; {_format(fallback)} is used")
