@@ -303,6 +303,32 @@ def test_a_full_binding_to_standard_surface_wins_over_a_preview_binding(tmp_path
 
 
 
+@pytest.mark.parametrize("shader_id, full_id", [(STANDARD, None), (OPEN_PBR, None),
+                                               (STANDARD, "ND_gltf_pbr_surfaceshader")])
+def test_a_preview_binding_to_a_materialx_surface_is_drawn_where_the_full_one_binds_none(tmp_path, shader_id,
+                                                                                          full_id):
+    """A quad bound to a standard_surface (or OpenPBR) for ``preview`` only, or also to a look wrt cannot read
+    (gltf_pbr) for ``full``: ``ComputeBoundMaterial("full")`` gives nothing (or that look), and wrt draws the
+    material ``ComputeBoundMaterial("preview")`` gives, as it does a preview UsdPreviewSurface. Only UsdPreviewSurface
+    was accepted there: the quad was drawn in the default grey (or as the unreadable look's fallback)."""
+    stage, path = new_stage(tmp_path, "purpose.usda")
+    quad = add_quad(stage, "/Quad")
+    preview, _ = mtlx_material(stage, "/Looks/Preview", shader_id, base_color=Gf.Vec3f(1, 0, 0))
+    bind(quad, preview, UsdShade.Tokens.preview)
+    if full_id is not None:
+        bind(quad, mtlx_material(stage, "/Looks/Full", full_id)[0], UsdShade.Tokens.full)
+    stage.Save()
+    api = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath("/Quad"))
+    full = api.ComputeBoundMaterial(UsdShade.Tokens.full)[0]
+    assert (full.GetPath() if full else None) == (None if full_id is None else Sdf.Path("/Looks/Full"))
+    want = api.ComputeBoundMaterial(UsdShade.Tokens.preview)[0].GetPath()
+    scene, _ = load(path)
+    ids = scene.meshes[0].material_ids
+    drawn = None if ids is None or ids[0] < 0 else scene.materials[ids[0]]  # None: the default material
+    assert getattr(drawn, "path", None) == str(want)
+    np.testing.assert_allclose(drawn.diffuse_color, [1, 0, 0], atol=1e-6)  # base 1 (both specifications)
+
+
 def test_a_render_context_standard_surface_wins_over_the_universal_preview_surface(tmp_path):
     """A material with both a universal ``outputs:surface`` (UsdPreviewSurface, green) and ``outputs:mtlx:surface``
     (standard_surface, grey), as the usd-wg teapot and shader-ball assets are written: Storm takes a render

@@ -5,7 +5,7 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
 - Each mesh's material is ``UsdShade.MaterialBindingAPI.ComputeBoundMaterial(purpose="full")``, which applies
   USD's rules: direct and ``collection`` bindings, ``bindMaterialAs`` strength, inheritance down namespace, and
   ``material:binding:full`` over all-purpose bindings. Where that gives no material, or one without a
-  UsdPreviewSurface, a ``preview``-purpose binding to a UsdPreviewSurface is used instead (:func:`bound_material`).
+  surface wrt reads, a ``preview``-purpose binding to one it reads is used instead (:func:`bound_material`).
   The render settings' ``materialBindingPurposes``, when authored, replace that rule by their order.
   ``GeomSubset``\\ s of family ``materialBind`` override the mesh's material on their faces (subsets of points or
   edges are ignored with a warning).
@@ -665,13 +665,6 @@ def _surface_shaders(material):
             yield UsdShade.Shader(attr.GetPrim())
 
 
-def _context_preview_surface(material):
-    """The first ``UsdPreviewSurface`` (or MaterialX's node of it) that a render context's surface output
-    (``outputs:mtlx:surface``, ...) of ``material`` leads to, or None. A MaterialX cornell box, whose every material
-    is an ``ND_UsdPreviewSurface_surfaceshader`` in ``outputs:mtlx:surface``, was drawn grey and unlit."""
-    return next((s for s in _surface_shaders(material) if s and s.GetShaderId() in PREVIEW_SURFACE_IDS), None)
-
-
 def readable_surface(material):
     """The first shader a surface output of ``material`` leads to (render contexts' first, see
     :func:`_surface_shaders`) that wrt reads: a UsdPreviewSurface (or MaterialX's node of it), or a MaterialX
@@ -691,8 +684,10 @@ def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None) -> 
     binding purposes: the material of the first purpose that binds one wrt can read, else of the first that binds
     any. ``None`` (nothing authored): the ``full`` purpose first (it falls back to all-purpose bindings); when that
     binds nothing, or a material wrt cannot read (an MDL look, a MaterialX surface other than standard_surface and
-    OpenPBR) while a ``material:binding:preview`` binds a UsdPreviewSurface, the preview binding, as usdview shows
-    it. An asset whose meshes bind their UsdPreviewSurface only for preview was drawn in the default grey. (usdview
+    OpenPBR) while a ``material:binding:preview`` binds one it can (a UsdPreviewSurface, standard_surface or
+    OpenPBR), the preview binding, as usdview shows it. USD's resolution for a full render (``full``, then
+    all-purpose) never reaches preview bindings; without this an asset whose meshes bind their look only for preview
+    was drawn in the default grey (a standard_surface or OpenPBR one until this accepted them there). (usdview
     takes a preview binding first also where the full one is readable: there wrt, a final-frame renderer, keeps the
     full one.)
 
@@ -724,8 +719,10 @@ def bound_material(prim, purposes: tuple[str, ...] | None = None, walk=None) -> 
     full, full_binding = with_fallback(UsdShade.Tokens.full)
     if full and readable_surface(full):
         return full, full_binding
+    # USD's full render stops at all-purpose bindings; a preview look wrt can read is the asset's own look, drawn
+    # rather than the default grey, whatever surface it is (UsdPreviewSurface, standard_surface, OpenPBR).
     preview, preview_binding = with_fallback(UsdShade.Tokens.preview)
-    if preview and _context_preview_surface(preview):
+    if preview and readable_surface(preview):
         return preview, preview_binding
     return full, full_binding
 
