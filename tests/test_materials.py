@@ -1084,6 +1084,28 @@ def test_materialx_preview_surface_textures_are_read(tmp_path, wrap):
     np.testing.assert_allclose(img[4:, 4:], outside[4:, 4:], atol=2e-3)
 
 
+@pytest.mark.parametrize("mode, source_color_space", [("RGB", "raw"), ("L", "sRGB")])
+def test_a_materialx_usd_uv_texture_reads_its_source_color_space(tmp_path, mode, source_color_space):
+    """An ``ND_UsdUVTexture`` whose ``file`` has no ``colorSpace`` reads an authored ``sourceColorSpace`` as a
+    UsdUVTexture does: ``raw`` keeps an 8-bit RGB texel of 128 at 128/255, ``sRGB`` decodes an 8-bit grey one by the
+    sRGB transfer function (IEC 61966-2-1, in float64 here). It was ignored, the image read as ``auto``: the RGB texel
+    sRGB-decoded (0.216), the grey one kept (0.502)."""
+    png = write_png(tmp_path / "grey.png", np.full((2, 2, 3) if mode == "RGB" else (2, 2), 128))
+    path = materialx_preview_stage(tmp_path, png, None, f"{mode}{source_color_space}")
+    stage = Usd.Stage.Open(path)
+    tex = UsdShade.Shader.Get(stage, "/Looks/Mx/Image")
+    tex.GetInput("file").GetAttr().ClearColorSpace()
+    tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(source_color_space)
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert not messages, messages
+    (mat,) = scene.materials
+    texels = scene.textures[mat.textures["diffuseColor"].image][..., :3]
+    stored = 128 / 255
+    want = stored if source_color_space == "raw" else ((stored + 0.055) / 1.055) ** 2.4
+    np.testing.assert_allclose(texels, want, rtol=1e-5)
+
+
 def albedo_of(scene, res=4):
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
     return wrt.render(scene, camera=cam, width=res, height=res, device="cpu", integrator="albedo").rgb

@@ -636,7 +636,7 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
 PREVIEW_SURFACE_IDS = ("UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader")
 # UsdUVTexture and MaterialX's nodes of it (libraries/bxdf/usd_preview_surface.mtlx: versions 2.2 and 2.3), which
 # a MaterialX UsdPreviewSurface network reads its textures with; MaterialX's take their file's colour space from its
-# colorSpace and have MaterialX's wrap modes (MATERIALX_WRAPS).
+# colorSpace (else an authored sourceColorSpace) and have MaterialX's wrap modes (MATERIALX_WRAPS).
 UV_TEXTURE_IDS = ("UsdUVTexture", "ND_UsdUVTexture", "ND_UsdUVTexture_23")
 # MaterialX ND_UsdUVTexture wrapS/wrapT (default periodic) -> wrt's wrap mode. "black", the first of the node's
 # modes, is MaterialX's constant address mode (modes are passed on by their index): the image's default outside
@@ -1245,14 +1245,19 @@ class MaterialReader:
 
         materialx = (tex.GetShaderId() or "") != "UsdUVTexture"
         color_space = str(self._constant(tex, "sourceColorSpace") or "auto")
-        if materialx:  # no sourceColorSpace: the file's colorSpace, as MaterialX's image nodes
+        if materialx:  # the file's colorSpace, as MaterialX's image nodes, else sourceColorSpace as UsdUVTexture's
             from .materialx import file_color_space  # that module imports this one
 
-            color_space, unknown = file_color_space(tex.GetInput("file"))
+            # MaterialX's nodedef has no sourceColorSpace; one authored is what the writer meant for this texture
+            # (converters carry UsdUVTexture's over), so it is read as UsdUVTexture's where the file has no
+            # colorSpace: a raw mask written so was decoded as sRGB (auto).
+            file_space, unknown = file_color_space(tex.GetInput("file"))
             if unknown is not None:
                 self.skip(f"material {material_path}: texture colour space {unknown!r} is read as linear (no gamut "
                           "conversion)", tex.GetPrim())
-        elif color_space not in ("auto", "sRGB", "raw"):
+            if file_space != "auto":  # a colorSpace is authored on the file
+                color_space = file_space
+        if color_space not in ("auto", "sRGB", "raw"):
             # "linear" or "srgb" (tokens are case-sensitive) were read as auto without a word: an 8-bit map meant
             # linear was decoded as sRGB, 0.5 read as 0.21.
             self.skip(f"material {material_path}: sourceColorSpace is not one of auto, sRGB or raw; it is read as "
