@@ -667,3 +667,28 @@ def test_default_sun_of_a_z_up_scene_is_the_y_up_sun_turned_as_the_scene_is():
     _, y_dirs = ray_set(y_up, "shadow", 500, seed=3)
     _, z_dirs = ray_set(z_up, "shadow", 500, seed=3)
     np.testing.assert_allclose(z_dirs[0], [y_dirs[0][0], -y_dirs[0][2], y_dirs[0][1]], atol=1e-6)
+
+
+@pytest.mark.parametrize("size", [1e-3, 1.0, 1e3])
+def test_shadow_rays_of_a_scene_in_any_unit_start_under_a_slab_just_above_the_floor(size):
+    """A floor with a slab 1% of the scene's size above it, as the same part written in metres or millimetres: every
+    shadow ray from the floor (primary rays cast down from between the two) must hit the slab. The offset off the
+    surface was 1e-4 (1 + |p|) scene units, so at a size of 1e-3 the rays started 10% of the scene above the floor,
+    past the slab, and all missed it."""
+    from wrt.rays import secondary_rays
+
+    corners = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], np.float64)
+    quad = np.array([[0, 2, 1], [0, 3, 2]])  # facing +Y
+    floor = wrt.Mesh("/floor", (corners * size).astype(np.float32), quad, np.arange(2), double_sided=True)
+    slab = wrt.Mesh("/slab", ((corners * [50, 0, 50] + [0, 0.01, 0]) * size).astype(np.float32), quad, np.arange(2),
+                    double_sided=True)
+    scene = wrt.Scene(meshes=[floor, slab])
+    rng = np.random.default_rng(123)
+    origins = np.c_[rng.uniform(-0.5, 0.5, 200), np.full(200, 0.005), rng.uniform(-0.5, 0.5, 200)] * size
+    origins = origins.astype(np.float32)
+    directions = np.tile(np.float32([0.0, -1.0, 0.0]), (200, 1))
+    hits = wrt.trace(scene, origins, directions)
+    assert (hits.prim >= 0).all() and (hits.prim < 2).all()  # the floor's two triangles
+    shadow_origins, shadow_directions = secondary_rays(scene, "shadow", origins, directions, hits)
+    shadow = wrt.trace(scene, shadow_origins, shadow_directions)
+    np.testing.assert_array_equal(shadow.prim >= 2, True)  # the slab's triangles

@@ -141,8 +141,11 @@ def _surface_points(scene: Scene, origins, directions, hits):
     normal = np.where(length > 0, normal / np.where(length > 0, length, 1.0), -directions[h])
     facing = np.einsum("ij,ij->i", normal, directions[h]) > 0
     normal[facing] *= -1
-    # Offset along the normal, relative to the coordinate magnitude, so secondary rays leave the surface.
-    position += normal * (1e-4 * (1.0 + np.abs(position).max(axis=1, keepdims=True)))
+    # Offset along the normal so secondary rays leave the surface: relative to the hit's coordinates and to the
+    # length of the ray that found it (the float32 t errs by its share of that), so that the scene in any unit gets
+    # the same rays. An absolute 1e-4 (1 + |p|) lifted them a tenth of a millimetre-sized scene off its surface.
+    reach = np.abs(position).max(axis=1) + hits.t[h].astype(np.float64) * np.linalg.norm(directions[h], axis=1)
+    position += normal * (1e-4 * reach[:, None])
     return position, normal
 
 
