@@ -963,3 +963,29 @@ def test_a_bad_clipping_range_names_the_camera(clipping_range, words):
     with pytest.raises(ValueError, match=rf"^camera /Cam clipping range {words}"):
         wrt.render(wrt.Scene.from_triangles(np.float32([[0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.int32([[0, 1, 2]])),
                    camera=cam, width=2, height=2)
+
+
+@pytest.mark.parametrize("meters_per_unit", [1.0, 0.01])
+def test_default_camera_of_a_z_up_stage_is_the_y_up_one_turned_with_the_robot(tmp_path, meters_per_unit):
+    """A stage without a camera is framed along its upAxis: the same robot (a tall box and an arm along +X) written
+    Z-up, its points turned a quarter about +X (y, z -> -z, y), gets the Y-up stage's camera rays turned the same way,
+    upright (image rows go down the up axis, columns along +X), whatever metersPerUnit says."""
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # +Y to +Z
+    body = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (0.0, 2.0) for z in (-0.1, 0.1)])
+    arm = np.array([[0.0, 1.8, 0.0], [1.0, 1.8, 0.0], [1.0, 1.9, 0.1]])
+    rays = {}
+    for axis, points in (("Y", np.vstack([body, arm])), ("Z", np.vstack([body, arm]) @ turn.T)):
+        stage = Usd.Stage.CreateNew(str(tmp_path / f"robot_{axis}.usda"))
+        UsdGeom.SetStageUpAxis(stage, axis)
+        UsdGeom.SetStageMetersPerUnit(stage, meters_per_unit)
+        mesh = UsdGeom.Mesh.Define(stage, "/Robot/link")
+        mesh.CreatePointsAttr([Gf.Vec3f(*p) for p in points])
+        mesh.CreateFaceVertexCountsAttr([3, 3])
+        mesh.CreateFaceVertexIndicesAttr([0, 3, 5, 8, 9, 10])
+        stage.Save()
+        rays[axis] = camera_rays(wrt.load_usd(tmp_path / f"robot_{axis}.usda"), None, 16, 12)
+    np.testing.assert_allclose(rays["Z"][0], rays["Y"][0] @ turn.T, atol=1e-5)
+    np.testing.assert_allclose(rays["Z"][1], rays["Y"][1] @ turn.T, atol=1e-6)
+    d = rays["Z"][1].reshape(12, 16, 3)
+    assert (np.diff(d[:, 8, 2]) < 0).all()  # down the image is down +Z
+    assert (np.diff(d[6, :, 0]) > 0).all()  # right in the image is along +X: not mirrored
