@@ -98,8 +98,8 @@ def test_plots_skipped_without_matplotlib_say_so(tmp_path, monkeypatch):
 
 def test_an_interrupted_run_leaves_no_plots_of_an_earlier_run(tmp_path, monkeypatch):
     """Ctrl-C wrote table.md from the rows measured so far but kept an earlier run's plots beside it."""
-    for name in bench_module.PLOT_FILES:
-        (tmp_path / name).write_bytes(b"an earlier run's plot")
+    assert len(bench_module.plot(sweep_rows(), tmp_path)) == len(bench_module.PLOT_FILES)
+    earlier = {name: (tmp_path / name).read_bytes() for name in bench_module.PLOT_FILES}
     measure, calls = bench_module.measure_group, []
 
     def interrupted(*args):
@@ -115,7 +115,44 @@ def test_an_interrupted_run_leaves_no_plots_of_an_earlier_run(tmp_path, monkeypa
     assert [r["rays"] for r in rows] == ["primary"]
     assert "| primary |" in (tmp_path / "table.md").read_text()
     for name in bench_module.PLOT_FILES:
-        assert not (tmp_path / name).exists() or (tmp_path / name).read_bytes() != b"an earlier run's plot"
+        assert not (tmp_path / name).exists() or (tmp_path / name).read_bytes() != earlier[name]
+
+
+def sweep_rows():
+    """Rows that give every plot: a scaling sweep of two sizes with SAH costs."""
+    return [dict(scene=f"sphere:{n}", triangles=n, device="cpu", rays="incoherent", accel="wrt:sah", threads=1,
+                 build_ms=n / 1e3, mrays=2.0, mrays_min=1.0, mrays_max=3.0, hit_fraction=0.5, sah_cost=1.5, sweep=True)
+            for n in (10_000, 100_000)]
+
+
+FAILED_RUN = [{"scene": "a", "accel": "*", "device": "cpu", "rays": "primary", "threads": None, "error": "no file"}]
+
+
+def test_a_run_without_plots_keeps_files_wrt_did_not_write(tmp_path):
+    """A run with no rows for a plot deleted any file of that name in -o DIR, the user's own ones too."""
+    from PIL import Image
+
+    Image.new("RGB", (4, 4)).save(tmp_path / "mrays.png")  # the user's own PNG
+    (tmp_path / "build_vs_quality.png").write_bytes(b"my notes")
+    (tmp_path / "scaling.png").write_bytes(b"")
+    before = {name: (tmp_path / name).read_bytes() for name in bench_module.PLOT_FILES}
+    with pytest.warns(UserWarning) as caught:
+        bench_module.write_summary(FAILED_RUN, tmp_path)
+    assert {name: (tmp_path / name).read_bytes() for name in bench_module.PLOT_FILES} == before
+    for name in bench_module.PLOT_FILES:
+        assert any(f"{tmp_path / name} left as is" in str(w.message) for w in caught)
+
+
+def test_a_run_without_plots_removes_the_stale_plots_wrt_wrote(tmp_path, recwarn):
+    """An earlier run's plots, which wrt marks in a PNG text chunk, are removed: they would show its numbers."""
+    from PIL import Image
+
+    for path in bench_module.plot(sweep_rows(), tmp_path):
+        with Image.open(path) as image:  # Pillow reads the mark, not wrt's own chunk walk
+            assert image.text.get(bench_module.PLOT_MARK[0]) == bench_module.PLOT_MARK[1]
+    bench_module.write_summary(FAILED_RUN, tmp_path)
+    assert not any((tmp_path / name).exists() for name in bench_module.PLOT_FILES)
+    assert not [w for w in recwarn if "left as is" in str(w.message)]
 
 
 @pytest.mark.parametrize("out, message", [("", "the output folder is empty"), ("file", "is a file, not a folder")])

@@ -1011,7 +1011,8 @@ def _resolve_devices(names: list[str]) -> tuple[list, dict]:
 
 
 def write_summary(rows: list[dict], out: Path) -> None:
-    """Writes ``out/table.md`` and the plots of ``rows``, and removes the plots they have no rows for."""
+    """Writes ``out/table.md`` and the plots of ``rows``, and removes the plots of an earlier run that they have no
+    rows for: only those wrt wrote (:func:`written_by_wrt`), another file of that name is kept with a warning."""
     (out / "table.md").write_text(markdown_table(rows))
     try:
         written = plot(rows, out)
@@ -1021,8 +1022,15 @@ def write_summary(rows: list[dict], out: Path) -> None:
         warnings.warn("plots skipped: matplotlib is not installed (pip install 'wrt[bench]')")
         written = []
     for name in PLOT_FILES:  # a plot this run has no rows for must not show an earlier run's numbers
-        if out / name not in written:
-            (out / name).unlink(missing_ok=True)
+        path = out / name
+        if path in written or not path.exists():
+            continue
+        if written_by_wrt(path):
+            path.unlink()
+        else:  # the user's own file of that name (or a plot edited since): never removed
+            import warnings
+
+            warnings.warn(f"{path} left as is: this run has no rows for it and wrt did not write it (stale?)")
 
 
 def _ratio(row, rows, accel) -> float | None:
@@ -1096,6 +1104,28 @@ def _slope_label(x, y) -> str:
 
 
 PLOT_FILES = ("mrays.png", "build_vs_quality.png", "scaling.png")  # what plot() may write
+PLOT_MARK = ("wrt-bench", "plot")  # a PNG tEXt chunk (key, text) in each plot: it tells wrt's plots from the user's
+
+
+def written_by_wrt(path: Path) -> bool:
+    """Whether ``path`` is a PNG that :func:`plot` wrote: one holding the ``PLOT_MARK`` text chunk. Anything else
+    (another image, a file that is no PNG or cannot be read) is not."""
+    mark = b"\0".join(part.encode("latin-1") for part in PLOT_MARK)
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return False
+    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
+        return False
+    at = 8
+    while at + 8 <= len(data):  # chunks: 4-byte big-endian length, 4-byte type, data, 4-byte CRC
+        length, kind = int.from_bytes(data[at:at + 4], "big"), data[at + 4:at + 8]
+        if kind == b"tEXt" and data[at + 8:at + 8 + length] == mark:
+            return True
+        if kind == b"IEND":
+            break
+        at += 12 + length
+    return False
 
 
 def _plottable(*values) -> bool:
@@ -1140,7 +1170,7 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         ax.legend(fontsize=7)
         fig.tight_layout()
         paths.append(out / "mrays.png")
-        fig.savefig(paths[-1], dpi=110)
+        fig.savefig(paths[-1], dpi=110, metadata=dict([PLOT_MARK]))
         plt.close(fig)
 
     # wrt: rows only: wp.Mesh and Embree give no SAH cost.
@@ -1156,7 +1186,7 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         ax.set_xscale("log")
         fig.tight_layout()
         paths.append(out / "build_vs_quality.png")
-        fig.savefig(paths[-1], dpi=110)
+        fig.savefig(paths[-1], dpi=110, metadata=dict([PLOT_MARK]))
         plt.close(fig)
 
     scaling = [r for r in good if r.get("sweep") and _plottable(r["build_ms"], r["mrays"])]
@@ -1175,6 +1205,6 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         a2.set_xlabel("triangles"), a2.set_ylabel("ns per ray"), a2.legend(fontsize=7)
         fig.tight_layout()
         paths.append(out / "scaling.png")
-        fig.savefig(paths[-1], dpi=110)
+        fig.savefig(paths[-1], dpi=110, metadata=dict([PLOT_MARK]))
         plt.close(fig)
     return paths
