@@ -755,3 +755,22 @@ def test_a_log_that_is_a_pipe_is_refused_and_dev_null_taken(tmp_path, capsys):
     assert error_lines(capsys.readouterr().err) == [f"wrt: error: --log {fifo}: a pipe or socket, not a file"]
     assert not (tmp_path / "out").exists()
     assert main([*args, "--log", os.devnull]) == 0 and (tmp_path / "out" / "a.png").is_file()
+
+
+def test_exposure_help_states_the_range_the_option_accepts(capsys):
+    """--exposure refused values beyond +-150 stops, a range its help did not give."""
+    import re
+
+    from wrt.cli import build_parser
+
+    parser = build_parser()
+    with pytest.raises(SystemExit):
+        parser.parse_args(["render", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    low, high = map(float, re.search(r"--exposure EXPOSURE .*?from (-?[\d.]+) to (-?[\d.]+)\)", help_text).groups())
+    for value in (low, high):
+        assert parser.parse_args(["render", "--exposure", repr(value)]).exposure == value
+    for value in (low - 1, high + 1):
+        with pytest.raises(SystemExit):
+            parser.parse_args(["render", "--exposure", repr(value)])
+    capsys.readouterr()

@@ -307,8 +307,11 @@ def _add_render(sub) -> None:
                    help="bounces per path; default 10 (path), 8 (whitted)")
     p.add_argument("--ao-radius", type=_positive_float, default=None,
                    help="ao distance, in scene units; default a tenth of the scene's size")
+    from .image import MAX_EXPOSURE
+
     p.add_argument("--exposure", type=_exposure, default=0.0,
-                   help="PNG only: scale the image by 2^EXPOSURE (in stops) before sRGB")
+                   help=f"PNG only: scale the image by 2^EXPOSURE (in stops, from -{MAX_EXPOSURE:g} to "
+                   f"{MAX_EXPOSURE:g}) before sRGB")
     from .render import AOV_NAMES
 
     p.add_argument("--aov", action="append", default=[], choices=AOV_NAMES, help="also write a PNG preview of "
