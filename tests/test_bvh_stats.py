@@ -2,6 +2,7 @@
 and the ``wrt bvh-stats`` command."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -349,3 +350,28 @@ def test_cli_bad_values_are_named_by_their_option_before_the_scene_loads(tmp_pat
     assert exit_info.value.code == 2
     lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt")]
     assert len(lines) == 1 and lines[0].startswith(f"wrt: error: argument {option}: ") and words in lines[0], lines
+
+
+@pytest.mark.parametrize("builder, option, value", [
+    ("median", "--bins", "4"),  # binned SAH only
+    ("lbvh", "--bins", "4"),
+    ("warp:sah", "--leaf-size", "2"),  # wrt's builders only
+    ("sah", "--warp-leaf-size", "2"),  # wp.Mesh's trees only
+])
+def test_cli_bvh_stats_names_an_option_no_builder_uses(capsys, builder, option, value):
+    """--bins with no sah builder (or a leaf size for the other library's trees) was ignored without a word."""
+    path = str(warp_assets("cube.usd"))
+    common = ["bvh-stats", path, "--builder", builder, "--json", "--epo-samples", "64"]
+    assert main(common) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert main(common + [option, value]) == 0
+    out, err = capsys.readouterr()
+    assert re.search(f"wrt: warning: {option} is ignored: only .* use it, and the builders here are {builder}\n", err)
+    assert json.loads(out)[0]["nodes"] == plain[0]["nodes"]  # the tree is indeed the same
+
+
+def test_cli_bvh_stats_options_a_builder_uses_are_not_warned_about(capsys):
+    path = str(warp_assets("cube.usd"))
+    assert main(["bvh-stats", path, "--builder", "sah,warp:sah", "--bins", "4", "--leaf-size", "2",
+                 "--warp-leaf-size", "2", "--json", "--epo-samples", "64"]) == 0
+    assert "is ignored" not in capsys.readouterr().err

@@ -190,7 +190,7 @@ def add_bvh_stats(sub) -> None:
                    help="wrt's most triangles per leaf (default 8)")
     p.add_argument("--warp-leaf-size", type=up_to(1, MAX_WARP_LEAF_SIZE), default=None,
                    help="Warp's bvh_leaf_size (default: Warp's)")
-    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=16, help="SAH bins per axis for sah")
+    p.add_argument("--bins", type=up_to(2, MAX_BINS), default=None, help="SAH bins per axis for sah (default 16)")
     p.add_argument("--traversal-cost", type=_non_negative_float, default=1.0, help="SAH constant C_t (node visit)")
     p.add_argument("--intersection-cost", type=_positive_float, default=1.0, help="SAH constant C_i (triangle test)")
     p.add_argument("--epo-samples", type=up_to(1, MAX_EPO_SAMPLES), default=1 << 16,
@@ -205,6 +205,21 @@ def add_bvh_stats(sub) -> None:
     p.set_defaults(run=run_bvh_stats)
 
 
+def warn_unused_builder_options(args, builders: list[str]) -> None:
+    """One warning per builder option given that no builder of ``builders`` (canonical names) uses: it was ignored
+    without a word (``--bins 4 --builder median`` reported the median tree as if binned)."""
+    import warnings
+
+    wrt_builders = [b for b in builders if not b.startswith(WARP_PREFIX)]
+    for option, value, users, used in (
+        ("--bins", args.bins, "sah", "sah" in builders),
+        ("--leaf-size", args.leaf_size, "wrt's builders (not warp:<name>)", bool(wrt_builders)),
+        ("--warp-leaf-size", args.warp_leaf_size, "Warp's builders (warp:<name>)", len(wrt_builders) < len(builders)),
+    ):
+        if value is not None and not used:
+            warnings.warn(f"{option} is ignored: only {users} use it, and the builders here are {', '.join(builders)}")
+
+
 def run_bvh_stats(args) -> int:
     """Runs ``wrt bvh-stats``; returns the exit status."""
     import sys
@@ -215,6 +230,7 @@ def run_bvh_stats(args) -> int:
     from .common import resolve_device_option
 
     builders = parse_builders(args.builder or ["sah"])
+    warn_unused_builder_options(args, builders)
     device = resolve_device_option(args.device)
     # Gprims as triangle meshes, as wrt bench measures them: loaded as analytic shapes they are in no BVH over
     # triangles, and a stage of spheres and cubes reported an empty tree.
@@ -227,7 +243,7 @@ def run_bvh_stats(args) -> int:
         layout=args.layout,
         leaf_size=args.leaf_size,
         warp_leaf_size=args.warp_leaf_size,
-        bins=args.bins,
+        bins=16 if args.bins is None else args.bins,
         traversal_cost=args.traversal_cost,
         intersection_cost=args.intersection_cost,
         epo_samples=args.epo_samples,
