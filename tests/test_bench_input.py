@@ -513,3 +513,17 @@ def test_a_misspelt_asset_id_names_the_one_meant(tmp_path, monkeypatch):
     with pytest.raises(ValueError, match=r"no asset 'chess_sets' \(did you mean 'chess_set'\?\) in "):
         bench_module.asset_path("chess_sets")
     assert bench_module.asset_path("chess_set") == tmp_path / "chess.usda"
+
+
+def test_quick_suite_duration_is_stated_alike_in_help_suite_and_readme(capsys):
+    """--help said 'about a minute' and wrt/suites/quick.json 'under 2 minutes' for the same run."""
+    from wrt.cli import build_parser
+
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["bench", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    duration = re.search(r"--quick run the small 'quick' suite \(([^,)]+ on a CPU)", help_text).group(1)
+    suite = json.loads((Path(bench_module.__file__).parent / "suites" / "quick.json").read_text())
+    assert suite["description"].endswith(f"; {duration}")
+    readme = (Path(bench_module.__file__).parents[1] / "README.md").read_text()
+    assert re.search(rf"wrt bench --quick .*# .*{duration}\n", readme)

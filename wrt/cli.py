@@ -982,7 +982,7 @@ def _add_bench(sub) -> None:
     )
     p.add_argument("suite", nargs="?", default="quick", type=_non_empty, help="suite file or name")
     p.add_argument("--quick", action="store_true",
-                   help="run the small 'quick' suite (about a minute on a CPU, once the kernels are compiled)")
+                   help="run the small 'quick' suite (under a minute on a CPU, once the kernels are compiled)")
     suites = "; default: the suite's"  # each of these replaces one field of the suite
     p.add_argument("--scenes", type=_csv, help="comma-separated scenes: paths, warp:NAME, asset:ID, sphere:N" + suites)
     p.add_argument("--accels", type=_csv,
