@@ -479,8 +479,10 @@ def test_plots_keep_devices_apart_and_give_each_scaling_line_its_own_thread_coun
 def test_plots_of_an_earlier_run_do_not_stay_beside_rows_that_have_none(tmp_path):
     """A run into a folder that held an earlier run's plots left them there when it drew none (every row failed, or
     no sweep this time), so mrays.png showed numbers that table.md no longer had."""
-    for name in ("mrays.png", "build_vs_quality.png", "scaling.png"):
-        (tmp_path / name).write_bytes(b"an earlier run's plot")
+    earlier = [dict(scene=f"sphere:{n}", triangles=n, device="cpu", rays="incoherent", accel="wrt:sah", threads=1,
+                    build_ms=n / 1e3, mrays=2.0, mrays_min=1.0, mrays_max=3.0, hit_fraction=0.5, sah_cost=1.5,
+                    sweep=True) for n in (10_000, 100_000)]
+    assert len(bench_module.plot(earlier, tmp_path)) == 3  # an earlier run's plots, as wrt wrote them
     rows = run_grid(tiny_grid(scenes=["no/such/scene.usda"], rays=["primary"]), tmp_path, progress=False)
     assert all("error" in r for r in rows)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rows.jsonl", "settings.json", "table.md"]
