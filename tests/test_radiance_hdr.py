@@ -437,3 +437,22 @@ def test_damaged_files_read_or_raise_a_texture_error():
             assert image.dtype == np.float32 and image.shape[2] == 4
             outcomes.add("read")
     assert outcomes == {"read", "error"}
+
+
+def test_dome_cdfs_of_texels_at_float32s_largest_are_those_of_the_image_scaled_down():
+    """A dome's sampling CDFs are normalized, so scaling the image leaves them as they are. Texels near float32's
+    largest value (as read_radiance clamps a component past it, after an EXPOSURE below 1) overflowed float32 in the
+    luminance filter: CDFs of NaN (inf / inf), so light samples of no direction."""
+    from wrt.light_table import _dome_distribution
+
+    rng = np.random.default_rng(123)
+    texels = rng.random((6, 12, 3)).astype(np.float32)
+    texels[2:4, 4:7] = 1.0  # a bright patch: neighbours at the largest value
+    largest = np.float32(np.finfo(np.float32).max)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        row, col, mean = _dome_distribution(texels * largest)
+    expected_row, expected_col, expected_mean = _dome_distribution(texels.astype(np.float64))
+    np.testing.assert_allclose(row, expected_row, rtol=1e-6)
+    np.testing.assert_allclose(col, expected_col, rtol=1e-6)
+    np.testing.assert_allclose(mean / float(largest), expected_mean, rtol=1e-6)

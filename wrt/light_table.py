@@ -654,7 +654,11 @@ def _dome_distribution(texels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     hgt = texels.shape[0]
     theta = (np.arange(hgt) + 0.5) / hgt * np.pi
     sin_t = np.sin(theta)[:, None]
-    lum = 0.2126 * texels[..., 0] + 0.7152 * texels[..., 1] + 0.0722 * texels[..., 2]
+    # In float64: neighbours near float32's largest value (a Radiance component clamped to it) sum past its range
+    # in the filter below, and inf / inf made the CDFs NaN.
+    lum = 0.2126 * texels[..., 0].astype(np.float64)  # a channel at a time: no float64 copy of the whole image
+    lum += 0.7152 * texels[..., 1]
+    lum += 0.0722 * texels[..., 2]
     lum = 0.75 * lum + 0.125 * (np.roll(lum, 1, axis=1) + np.roll(lum, -1, axis=1))
     rows = np.concatenate([lum[:1], lum, lum[-1:]])
     lum = 0.75 * rows[1:-1] + 0.125 * (rows[:-2] + rows[2:])
