@@ -521,14 +521,31 @@ def sample_light(
             seg_foot = lights.position[k] + seg_s * seg_dir
             seg_h = wp.length(p - seg_foot)  # p's distance from the line
             if seg_h > 0.0:  # (on the line itself: sin(theta) = 0, it sends p nothing)
-                phi_a = wp.atan((-0.5 * seg_length - seg_s) / seg_h)
-                phi_b = wp.atan((0.5 * seg_length - seg_s) / seg_h)
-                to = seg_foot + seg_h * wp.tan(phi_a + u1 * (phi_b - phi_a)) * seg_dir - p
+                end_a = -0.5 * seg_length - seg_s  # the ends' coordinates from p's foot
+                end_b = 0.5 * seg_length - seg_s
+                # The angle the segment spans, phi_b - phi_a, as one atan2 of the length itself: the difference of
+                # two atans (and of the ends' coordinates, each rounded at |seg_s|) lost most of its digits where
+                # p is far from a short line (0.3% off 1e5 lengths away).
+                span = wp.atan2(seg_length * seg_h, seg_h * seg_h + end_a * end_b)
+                # Step the angle w = u1 * span from the end nearer the foot, placing the point by the tangent's
+                # addition formula (its offset from that end, no angle near pi / 2 rounded): phi_a + w rounded
+                # there, near the axis past an end, put the points 1% off.
+                seg_near = end_a
+                seg_near_at = -0.5 * seg_length
+                seg_w = u1 * span
+                if wp.abs(end_b) < wp.abs(end_a):
+                    seg_near = end_b
+                    seg_near_at = 0.5 * seg_length
+                    seg_w = -seg_w
+                seg_sin = wp.sin(seg_w)
+                seg_offset = (seg_h * seg_h + seg_near * seg_near) * seg_sin
+                seg_offset = seg_offset / (seg_h * wp.cos(seg_w) - seg_near * seg_sin)
+                to = lights.position[k] + (seg_near_at + seg_offset) * seg_dir - p
                 out.dist = wp.length(to)
                 if out.dist > 0.0:
                     out.wi = to / out.dist
                     seg_value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi))
-                    out.value = seg_value * ((phi_b - phi_a) / out.dist)
+                    out.value = seg_value * (span / out.dist)
         return out
     if kind == LIGHT_DOME:
         if lights.dome_textured == 0:
