@@ -193,11 +193,13 @@ def check_fields(obj, *fields: tuple) -> None:
             # the path below makes it (float32 and float64 both pass through float64 unchanged).
             values = value.tolist() if value.ndim == 1 else value.ravel().tolist()
             if all(abs(v) < FLOAT32_ROUNDS_TO_INF and (minimum is None or v >= minimum) for v in values):
-                # One of the right dtype is kept (a copy at each check before a render made a kept Renderer see a
-                # new light, and build again), unless it is a view of the caller's array (a row of their colours),
-                # which it would then change unseen.
-                if value.dtype != dtype or not value.flags.owndata:
-                    setattr(obj, name, value.astype(dtype))
+                # The copy made at the first check is the object's own, kept when it is checked again (as a second
+                # Renderer or wrt.render of the scene does): a copy at each check made a kept Renderer see a new
+                # light, and build again. The caller's array (or a row of it) stays theirs.
+                own = obj.__dict__.setdefault("_own_arrays", {})
+                if own.get(name) is not value or value.dtype != dtype:
+                    own[name] = value.astype(dtype)
+                    setattr(obj, name, own[name])
                 continue
         need = "a finite number" if shape == () else f"finite numbers of shape {shape}"
         need += " (or its top (3, 4))" if shape == (4, 4) else ""
