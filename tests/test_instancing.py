@@ -24,7 +24,7 @@ from wrt.compare import compare_hits, near_edge_world  # noqa: E402
 from wrt.instancing import Instances, Prototype  # noqa: E402
 from wrt.rays import camera_rays, random_rays  # noqa: E402
 from wrt.scene import Mesh  # noqa: E402
-from wrt.trace import get_accelerator  # noqa: E402
+from wrt.trace import check_finite_transforms, get_accelerator  # noqa: E402
 
 MAX_TIE_FRACTION = 1e-4  # as tests/test_trace.py
 MAX_BYTES_PER_INSTANCE = 128  # the issue's bound on device memory per instance
@@ -2188,3 +2188,23 @@ def test_non_finite_instances_hidden_anyway_are_not_named_as_skipped(tmp_path):
     shown = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
     assert len(shown) == 3 and np.isfinite(shown[:2]).all()  # USD's mask: instances 0, 2 and 3 (3 out of range)
     np.testing.assert_allclose(scene.instances.to_world, shown[:2], atol=1e-6)
+
+
+@pytest.mark.parametrize("prototype", [-1, 2])
+@pytest.mark.parametrize("past", ["translation", "scale"])
+def test_instance_of_a_missing_prototype_past_float32_is_named_for_its_index(np_rng, prototype, past):
+    """An instance drawing prototype -1 or 2 of two, with a translation past float32 (1e39) or a scale that takes an
+    octahedron past it (1e38): an accelerator's own check named the translation, and ``Scene.bounds`` left the
+    instance out without a word; both now name the index as ``check_instances`` does."""
+    scene = python_scene(np_rng, n=3)
+    to_world = scene.instances.to_world.copy()
+    if past == "translation":
+        to_world[1, 0, 3] = 1e39
+    else:
+        to_world[1, :3, :3] *= 1e38
+    scene.instances = Instances.from_transforms([0, prototype, 1], to_world)
+    message = rf"/instances\[1\]: draws prototype {prototype}, but the scene has 2"
+    with pytest.raises(wrt.SceneError, match=message):
+        check_finite_transforms(scene)
+    with pytest.raises(wrt.SceneError, match=message):
+        scene.bounds()

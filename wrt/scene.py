@@ -864,6 +864,7 @@ class Scene:
         across made its flattened triangles, or its box in the two-level BVH, infinite, and the build failed with
         "triangle vertices must be finite; triangle 2 uses one", naming a row of no triangle the scene holds (a
         render without a camera first made the scene's bounds infinite: "look_at: eye must be 3 finite numbers")."""
+        self.check_prototype_indices()  # a bad index first: bounds() left that instance out without a word
         instances, prototypes = self.instances, self.prototypes
         past = instances_past_float32(instances, prototypes)
         if len(past):
@@ -879,11 +880,17 @@ class Scene:
         :attr:`prototypes` (-1 drew the last prototype when flattened (``accel="warp"``) and nothing in the two-level
         BVH, and a too large index raised a bare ``IndexError``) or whose transform is not affine
         (:meth:`Instances.check_affine`)."""
-        from .errors import SceneError
-
         self.instances.check_affine()  # transforms (and colours) may have been changed since
         self.instances.check_colors()
         self.instances.check_opacities()
+        self.check_prototype_indices()
+
+    def check_prototype_indices(self) -> None:
+        """Raises :class:`SceneError` naming the first instance whose prototype index is not a row of
+        :attr:`prototypes` (:meth:`check_instances`' first check, alone: the checks of transforms and boxes make it
+        first, so such an instance is named for its index, not for a transform the index made meaningless)."""
+        from .errors import SceneError
+
         prototype = self.instances.prototype
         bad = np.flatnonzero((prototype < 0) | (prototype >= len(self.prototypes)))
         if len(bad):

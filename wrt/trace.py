@@ -251,13 +251,15 @@ def check_flattenable(scene: Scene, what: str) -> None:
 
 
 def check_finite_transforms(scene: Scene) -> None:
-    """Raises ``ValueError`` naming the first instance or shape whose transform holds a NaN or inf, the first
+    """Raises ``ValueError`` naming the first instance whose prototype index is not a row of the scene's prototypes
+    (:meth:`Scene.check_prototype_indices`), the first instance or shape whose transform holds a NaN or inf, the first
     instance placed beyond float32's range (:func:`wrt.instancing.unplaceable`), then the first shape or instance
     whose transform takes its box past that range (:meth:`Scene.check_shape_boxes`, ``check_instance_boxes``).
     Such an instance cannot be inverted or placed on a device: the two-level BVH left it out as a zero scale, so it
     vanished without a word, and the flattened copies that the other layouts and ``wp.Mesh`` trace dropped it too,
     or refused the NaN triangle rows it became, naming only a row (the USD loader warns about the singular instances
     it skips; scenes built in Python reach here unchecked)."""
+    scene.check_prototype_indices()  # an accelerator built directly named a bad index's translation, not the index
     instances = scene.instances
     bad = np.flatnonzero(unplaceable(instances.to_world))
     if len(bad):
