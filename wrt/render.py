@@ -541,6 +541,8 @@ class Renderer:
     def _camera_sources_key(self) -> tuple:
         """What the renderer's cameras are made from, as it is now: each camera given, or the scene's camera at its
         path, with its fields (:meth:`Camera.snapshot`); the scene's edit count where wrt frames the scene."""
+        # id(source) may be reused by a camera made after the old one was freed, but the key is then unchanged only
+        # where the snapshot is too, i.e. every field (the whole view) is the same: a reused id never hides a change.
         key = []
         for arg in self._camera_args:
             source = camera_source(self.scene, arg)
