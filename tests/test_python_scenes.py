@@ -946,3 +946,50 @@ def test_a_texture_image_given_as_a_zero_d_array_is_read_as_its_index():
     image = wrt.render(scene, camera=TOP, width=8, height=8, integrator="albedo")
     on_square = image.aovs["coverage"] > 0.5
     np.testing.assert_allclose(image.rgb[on_square], np.broadcast_to([0.25, 0.5, 0.75], (16, 3)), atol=1e-3)
+
+
+def test_instances_of_a_scale_float32_cannot_invert_are_not_called_zero_scaled(tmp_path):
+    """A PointInstancer instance scaled (3e38, 1, 1), finite and of a nonzero determinant (USD's own Gf.Matrix4d says
+    so), is skipped as float32 cannot invert it reliably; the warning called it "a singular transform (a zero scale)",
+    sending the user looking for a zero. One of a true zero scale (0, 0, 0) is still named a zero scale. The USD loader
+    and a Python-built Scene word it alike."""
+    import warnings
+
+    from pxr import Gf
+
+    from tests.usda_text import fmt, write
+
+    scales = [(1.0, 1.0, 1.0), (3e38, 1.0, 1.0), (0.0, 0.0, 0.0)]
+    assert [Gf.Matrix4d(Gf.Vec4d(*s, 1.0)).GetDeterminant() != 0 for s in scales] == [True, True, False]
+    positions = [(3.0 * k, 0.0, 0.0) for k in range(3)]
+    stage = write(tmp_path, f"""
+def PointInstancer "PI"
+{{
+    rel prototypes = [</PI/Box>]
+    int[] protoIndices = [0, 0, 0]
+    point3f[] positions = {fmt(positions)}
+    float3[] scales = {fmt(scales)}
+    def Mesh "Box"
+    {{
+        point3f[] points = {fmt(BOX_POINTS)}
+        int[] faceVertexCounts = {[3] * len(BOX_INDICES)}
+        int[] faceVertexIndices = {BOX_INDICES.reshape(-1).tolist()}
+    }}
+}}
+""")
+    with warnings.catch_warnings(record=True) as from_usd:
+        warnings.simplefilter("always")
+        wrt.load_usd(stage)
+    to_world = np.stack([np.diag([*s, 1.0]) for s in scales])
+    to_world[:, :3, 3] = positions
+    prototype = wrt.Prototype("/PI/Box", [wrt.Mesh("/PI/Box", BOX_POINTS, BOX_INDICES, None)])
+    with warnings.catch_warnings(record=True) as from_python:
+        warnings.simplefilter("always")
+        wrt.Scene(prototypes=[prototype], instances=wrt.Instances.from_transforms([0] * 3, to_world, "/PI"))
+    for caught in (from_usd, from_python):
+        lines = [str(w.message) for w in caught if "skipped" in str(w.message)]
+        uneven = [line for line in lines if "/PI[1]" in line]
+        zero = [line for line in lines if "/PI[2]" in line]
+        assert len(uneven) == 1 and "zero" not in uneven[0] and "float32" in uneven[0], lines
+        assert len(zero) == 1 and "a zero scale" in zero[0] and "/PI[1]" not in zero[0], lines
+        assert not any("/PI[0]" in line for line in lines), lines

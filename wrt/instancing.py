@@ -35,6 +35,11 @@ ROW_DTYPE_LIMIT = (1 << 31) - 1  # expanded triangle ids up to this fit int32; l
 # singular (invert_transforms): rounding leaves ~1e-16 on singular ones; thin or sheared invertible ones keep far
 # more (a turned scale (1, 1, 1e-13) keeps 1, a shear of 1e6 keeps 1e-6).
 SINGULAR_RELATIVE_DET = 1e-13
+# The words of the warnings for instances left out because their transform has no inverse (the USD loader's and a
+# Python-built Scene's alike): a zero scale, or a finite scale float32 cannot invert (singular_transforms).
+ZERO_SCALE_SKIPPED = "instances with a singular transform (a zero scale) were skipped"
+NO_FLOAT32_INVERSE_SKIPPED = ("instances whose transform cannot be inverted reliably in float32 (an extremely large, "
+                              "small or uneven scale) were skipped")
 # The thickness, relative to its largest scale, that thicken_flat_transforms gives an instance flattened by a zero
 # scale. Rays move into an instance's space through its float32 inverse, whose rounding grows as one over the
 # thickness: at 1e-6, 20 of 148 rays through a squashed instance hit or missed unlike its flattened copy; at 1e-5, 1;
@@ -359,6 +364,20 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ok[bad] = False
         out[bad] = 0.0
     return out, ok
+
+
+def singular_transforms(to_world: np.ndarray) -> np.ndarray:
+    """``(N,)`` bool: the ``(N, 4, 4)`` transforms whose linear part is singular up to rounding (a zero scale, maybe
+    composed with a turn), judged on it divided by its largest entry, so that a finite scale however large, small or
+    uneven (3e38, 1, 1) is not: :func:`invert_transforms` refuses those too (no float32 inverse), and the warnings
+    name the two apart (a warning calling (3e38, 1, 1) "a zero scale" sent the user looking for a zero)."""
+    linear = to_world[:, :3, :3].astype(np.float64)
+    scale = np.abs(linear).reshape(len(linear), -1).max(axis=1) if len(linear) else np.zeros(0)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        unit = linear / np.where(scale > 0, scale, 1.0)[:, None, None]
+        det = np.linalg.det(unit) if len(unit) else np.zeros(0)
+        bound = np.minimum(np.prod(np.linalg.norm(unit, axis=2), axis=1), np.prod(np.linalg.norm(unit, axis=1), axis=1))
+        return np.isfinite(scale) & ~(np.abs(det) > SINGULAR_RELATIVE_DET * bound)
 
 
 def unplaceable(to_world: np.ndarray) -> np.ndarray:

@@ -35,12 +35,15 @@ import warp as wp
 from .assignments import CountsAssignments, assignments, check_assigned, mark_checked, mark_unchecked
 from .camera import Camera
 from .instancing import (
+    NO_FLOAT32_INVERSE_SKIPPED,
     ROW_DTYPE_LIMIT,
+    ZERO_SCALE_SKIPPED,
     Instances,
     Prototype,
     device_transforms,
     expand_instance_triangles,
     invert_transforms,
+    singular_transforms,
     thicken_flat_transforms,
     unplaceable,
     world_boxes,
@@ -763,10 +766,14 @@ class Scene:
 
     def _warn_singular_instances(self, rows: np.ndarray) -> None:
         """Warns naming the instances at ``rows``, whose transforms keep fewer than two directions (a line or a point)
-        and draw nothing, in the words of the USD loader's warning for the same instances (it leaves them out; here
-        they keep their rows, so instance ids stay the caller's): they vanished without a word."""
-        paths = list(dict.fromkeys(self.instances.path(int(i)) for i in rows[:4]))
-        self._warn_prims("instances with a singular transform (a zero scale) were skipped", paths, len(rows))
+        or cannot be inverted reliably in float32 (a scale of (3e38, 1, 1)) and draw nothing, in the words of the USD
+        loader's warning for the same instances (it leaves them out; here they keep their rows, so instance ids stay
+        the caller's): they vanished without a word."""
+        zero = singular_transforms(self.instances.to_world[rows])  # told from a finite scale float32 cannot invert
+        for what, these in ((ZERO_SCALE_SKIPPED, rows[zero]), (NO_FLOAT32_INVERSE_SKIPPED, rows[~zero])):
+            if len(these):
+                paths = list(dict.fromkeys(self.instances.path(int(i)) for i in these[:4]))
+                self._warn_prims(what, paths, len(these))
 
     def _warn_prims(self, what: str, paths: list, count: int | None = None) -> None:
         """Warns ``SOURCE: what: N prim(s): /A, /B, /C, ...`` at the user's line, in the words of the USD loader's

@@ -11,7 +11,16 @@ import numpy as np
 from pxr import Sdf, Usd
 
 from .assignments import mark_checked
-from .instancing import Instances, Prototype, invert_transforms, thicken_flat_transforms, unplaceable
+from .instancing import (
+    NO_FLOAT32_INVERSE_SKIPPED,
+    ZERO_SCALE_SKIPPED,
+    Instances,
+    Prototype,
+    invert_transforms,
+    singular_transforms,
+    thicken_flat_transforms,
+    unplaceable,
+)
 from .light_links import part_path
 from .primitives import Shape
 from .scene import Mesh, Scene, instances_past_float32
@@ -249,8 +258,11 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path, sta
             inverses[rows], ok[rows] = invert_transforms(instances.to_world[rows])
     # An instance placed past float32's range (a translation of 1e39) is no zero scale: said as it is.
     far = unplaceable(instances.to_world)
-    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & ~far))):
-        skip_path("instances with a singular transform (a zero scale) were skipped", path)
+    zero = singular_transforms(instances.to_world)  # told from a finite scale float32 cannot invert (3e38, 1, 1)
+    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & ~far & zero))):
+        skip_path(ZERO_SCALE_SKIPPED, path)
+    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & ~far & ~zero))):
+        skip_path(NO_FLOAT32_INVERSE_SKIPPED, path)
     for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & far))):
         skip_path("instances placed beyond float32's range (|x| > 3.4e38) were skipped", path)
     # One whose transform takes its prototype's box past float32 (a scale of 1e37) is left out likewise: kept, the
