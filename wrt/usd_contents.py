@@ -258,10 +258,11 @@ def place_instances(world: Content, contents: dict, scene: Scene, skip_path, sta
             inverses[rows], ok[rows] = invert_transforms(instances.to_world[rows])
     # An instance placed past float32's range (a translation of 1e39) is no zero scale: said as it is.
     far = unplaceable(instances.to_world)
-    zero = singular_transforms(instances.to_world)  # told from a finite scale float32 cannot invert (3e38, 1, 1)
-    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & ~far & zero))):
+    refused = np.flatnonzero(~ok & ~far)  # only these are judged again (a determinant each: seconds for millions)
+    zero = singular_transforms(instances.to_world[refused])  # told from a finite scale float32 cannot invert
+    for path in dict.fromkeys(map(world_path, refused[zero])):
         skip_path(ZERO_SCALE_SKIPPED, path)
-    for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & ~far & ~zero))):
+    for path in dict.fromkeys(map(world_path, refused[~zero])):
         skip_path(NO_FLOAT32_INVERSE_SKIPPED, path)
     for path in dict.fromkeys(map(world_path, np.flatnonzero(~ok & far))):
         skip_path("instances placed beyond float32's range (|x| > 3.4e38) were skipped", path)
