@@ -337,3 +337,35 @@ def test_another_renderer_of_the_scene_does_not_make_a_kept_one_build_again_but_
     assert builds.count(kept) == 3
     colours[1] = 5.0  # the caller's array a light's colour was a row of: no light's field, nothing drawn changes
     np.testing.assert_array_equal(kept.render().rgb, wrt.render(scene, **options).rgb)
+
+
+def test_lamps_of_a_point_instancer_do_not_make_a_kept_renderer_build_again(tmp_path, monkeypatch):
+    """The lamps a PointInstancer places are shallow copies of one read light (usd_placed_lights), each given arrays
+    of its own: the record of the arrays a check made was one dict the copies shared, so each lamp's check took
+    another's entry for its own, copied its colour again, and a second Renderer of the scene made a kept one build
+    again at its next render, as before 10184b2 for every light. The oracle: the image of a fresh render."""
+    from pxr import Gf, Usd, UsdGeom, UsdLux
+
+    path = str(tmp_path / "lamps.usda")
+    stage = Usd.Stage.CreateNew(path)
+    floor = UsdGeom.Mesh.Define(stage, "/Floor")
+    floor.CreatePointsAttr([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    UsdLux.SphereLight.Define(stage, "/PI/Lamp").CreateRadiusAttr(0.1)
+    pi.CreatePrototypesRel().SetTargets(["/PI/Lamp"])
+    pi.CreateProtoIndicesAttr([0] * 3)
+    pi.CreatePositionsAttr([Gf.Vec3f(k - 1.0, 0.0, 1.0) for k in range(3)])
+    stage.Save()
+    scene = wrt.load_usd(path)
+    assert len(scene.lights) == 3
+
+    builds = []
+    build = wrt.Renderer._build
+    monkeypatch.setattr(wrt.Renderer, "_build", lambda self: (builds.append(self), build(self))[1])
+    kept = wrt.Renderer(scene, **OPTIONS)
+    first = kept.render().rgb
+    np.testing.assert_array_equal(wrt.render(scene, **OPTIONS).rgb, first)
+    np.testing.assert_array_equal(kept.render().rgb, first)
+    assert builds.count(kept) == 1

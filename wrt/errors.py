@@ -195,11 +195,13 @@ def check_fields(obj, *fields: tuple) -> None:
             if all(abs(v) < FLOAT32_ROUNDS_TO_INF and (minimum is None or v >= minimum) for v in values):
                 # The copy made at the first check is the object's own, kept when it is checked again (as a second
                 # Renderer or wrt.render of the scene does): a copy at each check made a kept Renderer see a new
-                # light, and build again. The caller's array (or a row of it) stays theirs.
-                own = obj.__dict__.setdefault("_own_arrays", {})
-                if own.get(name) is not value or value.dtype != dtype:
-                    own[name] = value.astype(dtype)
-                    setattr(obj, name, own[name])
+                # light, and build again. The caller's array (or a row of it) stays theirs. The record is an
+                # attribute per field, not one dict: shallow copies (a PointInstancer's lamps) shared the dict, and
+                # each lamp's check took another's entry, copying its arrays at every check again.
+                key = f"_own_{name}"
+                if obj.__dict__.get(key) is not value or value.dtype != dtype:
+                    obj.__dict__[key] = value.astype(dtype)
+                    setattr(obj, name, obj.__dict__[key])
                 continue
         need = "a finite number" if shape == () else f"finite numbers of shape {shape}"
         need += " (or its top (3, 4))" if shape == (4, 4) else ""
