@@ -32,6 +32,7 @@ import numpy as np
 import warp as wp
 
 from .bvh import DeviceBvh, build_bvh, traverse
+from .bvh.build import build_bvhs
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, order_children, reachable, unit_ray
 from .bvh.turns import waits
@@ -280,10 +281,13 @@ class InstancedAccelerator(Accelerator):
         points, indices = scene.geometry()
         self.blas, self._device_blas, self._blas_first, self._blas_parts = [], [], [], []
         self._refitters = []
-        for part, first, count in blas_parts(scene):
-            bvh, d = self._build_blas(scene, points, indices, part, first, count)
+        parts = blas_parts(scene)
+        meshes = [_part_triangles(scene, points, indices, *part) for part in parts]
+        # One call for every BLAS: on a CPU the small trees are built together (thousands of prototypes).
+        trees = build_bvhs(meshes, builder, device=device, **build_options)
+        for (part, first, count), bvh, (sub_points, sub) in zip(parts, trees, meshes):
             self.blas.append(bvh)
-            self._device_blas.append(d)
+            self._device_blas.append(bvh.to_device(sub_points, sub, device))
             self._blas_first.append(first)
             self._blas_parts.append((part, first, count))
         if not self._device_blas:  # keep the array non-empty: an empty BLAS no ray enters

@@ -25,7 +25,7 @@ import numpy as np
 import warp as wp
 
 from ..errors import did_you_mean
-from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput, stage
+from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput, resolve_device, stage
 from .layout import DeviceFlatBvh, FlatBvh
 from .presplit import MAX_SPLIT_LEVELS, map_slots_kernel, presplit_references
 
@@ -88,6 +88,45 @@ def build_bvh(points, indices, builder: str = "sah", **options) -> FlatBvh:
     bvh.build_seconds = time.perf_counter() - start_time
     bvh.points, bvh.indices = points, indices
     return bvh
+
+
+def build_bvhs(meshes, builder: str = "sah", **options) -> list[FlatBvh]:
+    """:func:`build_bvh` of each ``(points, indices)`` numpy mesh, the same trees; on a CPU device the small ``sah``
+    and ``middle`` trees (at most ``batched.BATCH_MAX_TRIANGLES`` triangles, no ``presplit``) are built together
+    (``batched.py``): a dozen launches per tree, whatever its size, were most of a small tree's time. GPU builds,
+    other builders and larger meshes are built one by one, as before.
+
+    Raises:
+        as :func:`build_bvh`, for the first mesh it refuses.
+    """
+    from .batched import batchable, build_binned_batch
+
+    trees: list = [None] * len(meshes)
+    device = resolve_device(options.get("device"))
+    kind = Builder.from_str(builder)
+    batch = []
+    if device.is_cpu and kind in (Builder.SAH, Builder.MIDDLE) and not options.get("presplit") and not set(
+        options) - {"leaf_size", "bins", "traversal_cost", "intersection_cost", "threads", "device"}:
+        batch = [j for j, (p, i) in enumerate(meshes) if batchable(p, i)]
+    if len(batch) > 1:
+        leaf_size = check_int_option("leaf_size", options.get("leaf_size", 8), 1, MAX_LEAF_SIZE)
+        bins = check_int_option("bins", options.get("bins", 16), 2, MAX_BINS)
+        costs = float(options.get("traversal_cost", 1.0)), float(options.get("intersection_cost", 1.0))
+        check_costs(*costs)
+        threads = options.get("threads")
+        threads = os.cpu_count() or 1 if threads is None else check_int_option("threads", threads, 1, None)
+        try:
+            built = build_binned_batch([meshes[j] for j in batch], use_sah=kind == Builder.SAH, leaf_size=leaf_size,
+                                       bins=bins, traversal_cost=costs[0], intersection_cost=costs[1],
+                                       builder=kind.value, threads=threads)
+        except ValueError:
+            built = [None] * len(batch)  # build them alone below, for build_bvh's message naming the mesh's triangle
+        for j, tree in zip(batch, built):
+            trees[j] = tree
+    for j, (points, indices) in enumerate(meshes):
+        if trees[j] is None:
+            trees[j] = build_bvh(points, indices, builder, **options)
+    return trees
 
 
 def check_costs(traversal_cost: float, intersection_cost: float) -> None:
@@ -216,4 +255,4 @@ def _build(kind, data, leaf_size, bins, morton_bits, ploc_radius, threads, timer
     )
 
 
-__all__ = ["MAX_DEPTH", "Builder", "build_bvh", "build_bvh_device", "builder_names"]
+__all__ = ["MAX_DEPTH", "Builder", "build_bvh", "build_bvh_device", "build_bvhs", "builder_names"]

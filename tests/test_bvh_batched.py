@@ -1,0 +1,104 @@
+"""Small trees built together on the CPU (``wrt.bvh.batched``): each is, bit for bit, the tree ``build_bvh`` builds
+over its mesh alone, and a scene of many prototypes no longer costs a dozen launches per prototype."""
+
+import numpy as np
+import pytest
+import warp as wp
+
+import wrt
+import wrt.tlas
+from wrt.bvh.build import build_bvh, build_bvhs
+from wrt.instancing import Instances, Prototype
+from wrt.scene import Mesh
+
+FIELDS = ("lowers", "uppers", "left_first", "prim_count", "prim_ids")
+
+
+def random_meshes(rng, count: int) -> list:
+    """Small meshes of every awkward kind: 1 to 3 triangles, degenerate triangles (a repeated index), duplicate
+    points, coplanar and coincident vertices, coordinates on a coarse grid (ties in every bin), and up to 300
+    triangles."""
+    meshes = []
+    for j in range(count):
+        n = int(rng.integers(1, 4)) if j % 4 == 0 else int(rng.integers(1, 300))
+        v = int(rng.integers(1, max(2, n)))
+        points = rng.normal(size=(v, 3)).astype(np.float32) * rng.choice([1e-3, 1.0, 1e3])
+        if j % 3 == 0:
+            points = np.round(points, 0).astype(np.float32)  # many equal centroids and boxes
+        if j % 5 == 0:
+            points[:, 2] = 0.0  # flat
+        if j % 7 == 0 and v > 1:
+            points[v // 2 :] = points[: v - v // 2]  # duplicate points
+        indices = rng.integers(0, v, size=(n, 3)).astype(np.int32)
+        degenerate = rng.random(n) < 0.2
+        indices[degenerate, 1] = indices[degenerate, 0]  # a repeated vertex
+        indices[::5, 2] = indices[::5, 0]
+        meshes.append((points, indices))
+    return meshes
+
+
+def assert_same_trees(alone, together):
+    assert len(alone) == len(together)
+    for j, (a, b) in enumerate(zip(alone, together)):
+        for field in FIELDS:
+            x, y = np.asarray(getattr(a, field)), np.asarray(getattr(b, field))
+            assert x.dtype == y.dtype and x.shape == y.shape, (j, field)
+            assert np.array_equal(x.view(np.uint8), y.view(np.uint8)), (j, field)  # bits: -0.0 and 0.0 differ
+
+
+@pytest.mark.parametrize("builder, options", [("sah", {}), ("middle", {}), ("sah", {"leaf_size": 1, "bins": 4}),
+                                               ("sah", {"leaf_size": 3, "traversal_cost": 0.0, "threads": 1})])
+def test_trees_built_together_are_the_trees_built_alone(builder, options):
+    """Random small meshes, built one by one by the kernel builder and together: every array of every flattened
+    tree is bit for bit the same."""
+    meshes = random_meshes(np.random.default_rng(len(options) + len(builder)), 60)
+    alone = [build_bvh(p, i, builder, device="cpu", **options) for p, i in meshes]
+    together = build_bvhs(meshes, builder, device="cpu", **options)
+    assert_same_trees(alone, together)
+    assert [t.points is p and t.indices is i for t, (p, i) in zip(together, meshes)] == [True] * len(meshes)
+
+
+def test_meshes_that_cannot_join_a_batch_are_built_alone_with_build_bvhs_errors():
+    """An empty mesh and a mesh above the batch's size are built alone (the same trees); a bad index or a NaN vertex
+    raises build_bvh's error for that mesh."""
+    rng = np.random.default_rng(3)
+    big = (rng.normal(size=(6000, 3)).astype(np.float32), rng.integers(0, 6000, (5000, 3)).astype(np.int32))
+    empty = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32))
+    meshes = random_meshes(rng, 5) + [big, empty] + random_meshes(rng, 5)
+    assert_same_trees([build_bvh(p, i, "sah", device="cpu") for p, i in meshes], build_bvhs(meshes, device="cpu"))
+    tri = np.eye(3, dtype=np.float32)
+    with pytest.raises(ValueError, match=r"indices must lie in \[0, 3\)"):
+        build_bvhs([(tri, np.array([[0, 1, 2]])), (tri, np.array([[0, 1, 3]])), (tri, np.array([[0, 1, 2]]))],
+                   device="cpu")
+    nan = tri.copy()
+    nan[1, 0] = np.nan
+    with pytest.raises(ValueError, match="must be finite"):
+        build_bvhs([(tri, np.array([[0, 1, 2]], np.int32)), (nan, np.array([[0, 1, 2]], np.int32))], device="cpu")
+
+
+def prototype_scene(count: int, rng) -> wrt.Scene:
+    """``count`` distinct small prototypes, each under two instances."""
+    protos = []
+    for p, (points, indices) in enumerate(random_meshes(rng, count)):
+        protos.append(Prototype(f"/P{p}", [Mesh(f"/P{p}/m", points, indices, np.arange(len(indices)))]))
+    to_world = np.stack([np.eye(4)] * (2 * count))
+    to_world[:, :3, 3] = rng.uniform(-50, 50, (2 * count, 3))
+    return wrt.Scene(prototypes=protos, instances=Instances.from_transforms(np.arange(2 * count) // 2, to_world))
+
+
+def test_many_prototypes_cost_no_launches_per_prototype(monkeypatch):
+    """The two-level BVH of 20 and of 40 small prototypes makes as many build launches (every BLAS built in one
+    pass; it made a dozen per prototype), and its trees are those built one by one."""
+    launches = []
+    real_launch = wp.launch
+    monkeypatch.setattr(wp, "launch", lambda kernel, *a, **k: (launches.append(kernel.key), real_launch(kernel, *a,
+                                                                                                        **k))[1])
+    counts = []
+    for count in (20, 40):
+        scene = prototype_scene(count, np.random.default_rng(count))
+        launches.clear()
+        acc = wrt.tlas.InstancedAccelerator(scene, "sah", "cpu")
+        counts.append(len(launches))
+        alone = [build_bvh(t.points, t.indices, "sah", device="cpu") for t in acc.blas]
+        assert_same_trees(alone, acc.blas)
+    assert counts[0] == counts[1], counts
