@@ -102,3 +102,18 @@ def test_many_prototypes_cost_no_launches_per_prototype(monkeypatch):
         alone = [build_bvh(t.points, t.indices, "sah", device="cpu") for t in acc.blas]
         assert_same_trees(alone, acc.blas)
     assert counts[0] == counts[1], counts
+
+
+def test_uploads_of_many_trees_hold_what_each_tree_uploads_alone():
+    """``upload_many``'s views (one upload per field for every BLAS) hold, array by array, what ``to_device`` uploads
+    for each tree alone."""
+    from wrt.bvh.layout import upload_many
+
+    meshes = random_meshes(np.random.default_rng(5), 30)
+    trees = build_bvhs(meshes, device="cpu")
+    for tree, (points, indices), many in zip(trees, meshes, upload_many(trees, meshes, "cpu")):
+        alone = tree.to_device(points, indices, "cpu")
+        for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids", "v0", "v1", "v2"):
+            x, y = getattr(alone, field).numpy(), getattr(many, field).numpy()
+            assert x.dtype == y.dtype and np.array_equal(x.view(np.uint8), y.view(np.uint8)), field
+        assert alone.num_prims == many.num_prims

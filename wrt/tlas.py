@@ -33,6 +33,7 @@ import warp as wp
 
 from .bvh import DeviceBvh, build_bvh, traverse
 from .bvh.build import build_bvhs
+from .bvh.layout import upload_many
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, order_children, reachable, unit_ray
 from .bvh.turns import waits
@@ -285,9 +286,13 @@ class InstancedAccelerator(Accelerator):
         meshes = [_part_triangles(scene, points, indices, *part) for part in parts]
         # One call for every BLAS: on a CPU the small trees are built together (thousands of prototypes).
         trees = build_bvhs(meshes, builder, device=device, **build_options)
-        for (part, first, count), bvh, (sub_points, sub) in zip(parts, trees, meshes):
+        if wp.get_device(device).is_cpu and trees:  # views of one upload per field (GPU: one upload per tree)
+            uploads = upload_many(trees, meshes, device)
+        else:
+            uploads = [bvh.to_device(sub_points, sub, device) for bvh, (sub_points, sub) in zip(trees, meshes)]
+        for (part, first, count), bvh, d in zip(parts, trees, uploads):
             self.blas.append(bvh)
-            self._device_blas.append(bvh.to_device(sub_points, sub, device))
+            self._device_blas.append(d)
             self._blas_first.append(first)
             self._blas_parts.append((part, first, count))
         if not self._device_blas:  # keep the array non-empty: an empty BLAS no ray enters
