@@ -1,6 +1,8 @@
 """Edits of a wrt.Scene between traces and renders, each compared with the same call on a freshly built scene (the
 oracle: the edited scene's parts rebuilt through their constructors), or refused naming the object and field."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -369,3 +371,43 @@ def test_lamps_of_a_point_instancer_do_not_make_a_kept_renderer_build_again(tmp_
     np.testing.assert_array_equal(wrt.render(scene, **OPTIONS).rgb, first)
     np.testing.assert_array_equal(kept.render().rgb, first)
     assert builds.count(kept) == 1
+
+
+def test_a_kept_renderer_follows_the_image_size_a_camera_edit_gives_a_new_renderer():
+    """Given one side only, the other follows the camera's aspect (its apertures under ``expandAperture``): after the
+    apertures changed, a kept Renderer drew the old size (the new film stretched onto it), where a new one makes the
+    size of the new aspect. ``render`` and ``launch_frame`` both take the new size."""
+    camera = wrt.Camera(to_world=CAMERA.to_world.copy(), fit="expandAperture", horizontal_aperture=20.0,
+                        vertical_aperture=15.0)
+    scene = red_square()
+    renderer = wrt.Renderer(scene, camera=camera, width=16, device="cpu")
+    renderer.render()
+    renderer.launch_frame()
+    camera.vertical_aperture = 10.0  # 2:1 now, so 16x8
+    kept = renderer.render().rgb
+    renderer.launch_frame()
+    fresh = wrt.Renderer(scene, camera=camera, width=16, device="cpu")
+    assert kept.shape == (8, 16, 3)  # 16 / (20 / 10)
+    np.testing.assert_array_equal(kept, fresh.render().rgb)
+    fresh.launch_frame()
+    np.testing.assert_array_equal(renderer.frame_image().rgb, fresh.frame_image().rgb)
+
+
+@pytest.mark.parametrize("field", [("data_window", (0.0, 0.0, 0.5, 0.5)), ("resolution", (20, 12)),
+                                   ("camera", "/Side")])
+def test_a_kept_renderer_follows_render_settings_replaced_since(field):
+    """The render settings (frozen, so replaced) choose the camera, the image size and the data window: a kept
+    Renderer followed a new camera there but drew the old data window and resolution without a word."""
+    from wrt.render_settings import RenderSettings
+
+    scene = _stage_like_scene()
+    scene.render_settings = RenderSettings(path="/Render", camera="/Cam", resolution=(16, 12),
+                                           data_window=(0.25, 0.0, 0.75, 0.5))
+    renderer = wrt.Renderer(scene, device="cpu")
+    first = renderer.render()
+    scene.render_settings = dataclasses.replace(scene.render_settings, **dict([field]))
+    kept = renderer.render()
+    fresh = wrt.Renderer(scene, device="cpu").render()
+    assert (fresh.window, fresh.rgb.shape) != (first.window, first.rgb.shape) or field[0] == "camera"
+    assert kept.window == fresh.window
+    np.testing.assert_array_equal(kept.rgb, fresh.rgb)

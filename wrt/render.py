@@ -418,8 +418,10 @@ class Renderer:
             diagonal, measured again whenever the renderer builds again for an edited scene.
 
     Each render follows the cameras as a new Renderer would take them: a :class:`Camera` given and edited since (a
-    field set, ``to_world`` edited in place), the scene's camera at the path given replaced or edited, and the camera
-    wrt makes to frame a stage without cameras after a scene edit.
+    field set, ``to_world`` edited in place), the scene's camera at the path given replaced or edited, the camera
+    wrt makes to frame a stage without cameras after a scene edit, and render settings replaced; the image takes the
+    size a new Renderer would (a camera's new aspect where one side was not given, the settings' new resolution or
+    data window).
     """
 
     def __init__(
@@ -488,6 +490,7 @@ class Renderer:
         self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
         self.dropped_samples = 0  # non-finite samples left out of the last render
         self._camera_args = [camera] if cameras is None else cameras  # as given: followed at each render
+        self._sides = self._asked_size  # the sides that size the image without render settings (set_cameras pins them)
         self._build()
         self._camera_key = self._camera_sources_key()
 
@@ -543,7 +546,8 @@ class Renderer:
         path, with its fields (:meth:`Camera.snapshot`); the scene's edit count where wrt frames the scene."""
         # id(source) may be reused by a camera made after the old one was freed, but the key is then unchanged only
         # where the snapshot is too, i.e. every field (the whole view) is the same: a reused id never hides a change.
-        key = []
+        # The render settings (frozen: replaced, never edited) choose the camera, the image size and the data window.
+        key = [self.scene.render_settings]
         for arg in self._camera_args:
             source = camera_source(self.scene, arg)
             key.append(("framed", self.scene.cache_generation) if source is None else (id(source), source.snapshot()))
@@ -559,10 +563,23 @@ class Renderer:
         if wp.get_device(self.device).is_capturing:  # the uploads cannot be recorded into a CUDA graph
             raise RuntimeError("a camera changed since the renderer last drew: call launch_frame() once outside the "
                                "capture, then record the frame again")
-        asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
+        asked = self._asked_size if self.scene.render_settings is not None else self._sides
         views = resolve_views(self.scene, self._camera_args, *asked)
-        _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
-        self._upload_cameras([view[0] for view in views], self.batched)  # raises naming a bad camera
+        size = views[0][1:]
+        _check_one_size(views, *size)
+        old_size = (self.width, self.height)
+        if size != old_size:
+            # The size follows too, as a new Renderer's: a camera's aspect (where one side was not given) or the
+            # render settings' resolution or data window changed. A kept Renderer drew the old size, stretched.
+            check_pixels(*size, len(views))
+            self.width, self.height = size
+        try:
+            self._upload_cameras([view[0] for view in views], self.batched)  # raises naming a bad camera
+        except Exception:
+            self.width, self.height = old_size
+            raise
+        if size != old_size:
+            self._wavefront = self._frame = None  # sized for the old image
         self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
         self._camera_key = self._camera_sources_key()  # after the checks, which may convert fields (a list to_world)
         self._sums_dropped = self._sums_dropped or self._progressive is not None
@@ -663,6 +680,7 @@ class Renderer:
         self._windows = windows
         self.batched = True
         self._camera_args = given
+        self._sides = (self.width, self.height)  # set_cameras keeps the size made
         self._camera_key = self._camera_sources_key()
         if resized:
             # launch_frame's buffers are sized for the old count: it wrote past their end (a crash, or a wrong
@@ -847,7 +865,7 @@ class Renderer:
         """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay)."""
         if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
-                               "count or of the scene)")
+                               "count, of the image size or of the scene)")
         _, image, _, aovs = self._frame
         return self._mean_image(image, 1, aovs)
 
