@@ -411,3 +411,20 @@ def test_a_kept_renderer_follows_render_settings_replaced_since(field):
     assert (fresh.window, fresh.rgb.shape) != (first.window, first.rgb.shape) or field[0] == "camera"
     assert kept.window == fresh.window
     np.testing.assert_array_equal(kept.rgb, fresh.rgb)
+
+
+def test_set_cameras_after_render_settings_were_replaced_renders_as_a_new_renderer():
+    """set_cameras framed stage cameras at the settings' new resolution but held the old one, and refused them with
+    the message for a mix of camera kinds under a data window (there was none)."""
+    from wrt.render_settings import RenderSettings
+
+    scene = _stage_like_scene()
+    scene.render_settings = RenderSettings(path="/Render", camera="/Cam", resolution=(16, 12))
+    renderer = wrt.Renderer(scene, device="cpu")
+    renderer.render()
+    scene.render_settings = dataclasses.replace(scene.render_settings, resolution=(20, 12))
+    renderer.set_cameras(["/Side"])
+    kept = renderer.render()
+    fresh = wrt.Renderer(scene, cameras=["/Side"], device="cpu").render()
+    assert fresh.image(0).rgb.shape == (12, 20, 3)
+    np.testing.assert_array_equal(kept.image(0).rgb, fresh.image(0).rgb)

@@ -565,21 +565,12 @@ class Renderer:
                                "capture, then record the frame again")
         asked = self._asked_size if self.scene.render_settings is not None else self._sides
         views = resolve_views(self.scene, self._camera_args, *asked)
+        # The size follows too, as a new Renderer's: a camera's aspect (where one side was not given) or the render
+        # settings' resolution or data window changed. A kept Renderer drew the old size, stretched.
         size = views[0][1:]
         _check_one_size(views, *size)
-        old_size = (self.width, self.height)
-        if size != old_size:
-            # The size follows too, as a new Renderer's: a camera's aspect (where one side was not given) or the
-            # render settings' resolution or data window changed. A kept Renderer drew the old size, stretched.
-            check_pixels(*size, len(views))
-            self.width, self.height = size
-        try:
-            self._upload_cameras([view[0] for view in views], self.batched)  # raises naming a bad camera
-        except Exception:
-            self.width, self.height = old_size
-            raise
-        if size != old_size:
-            self._wavefront = self._frame = None  # sized for the old image
+        check_pixels(*size, len(views))
+        self._upload_cameras_at([view[0] for view in views], size, self.batched)  # raises naming a bad camera
         self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
         self._camera_key = self._camera_sources_key()  # after the checks, which may convert fields (a list to_world)
         self._sums_dropped = self._sums_dropped or self._progressive is not None
@@ -663,20 +654,26 @@ class Renderer:
 
     def set_cameras(self, cameras) -> None:
         """Renders from ``cameras`` (a list, tuple or generator; any length) from now on, e.g. new poses each
-        simulation step; the BVH, materials and lights stay (a default headlight turns with each camera)."""
+        simulation step; the BVH, materials and lights stay (a default headlight turns with each camera). The image
+        keeps its size, unless the render settings were replaced since the last render: then it takes theirs."""
         # Without render settings the size is the one made (a side not given took the first camera's aspect then);
         # with them, the size asked for, which each stage camera's data window crops again.
         asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
         cameras = given = camera_list(cameras)
         views = resolve_views(self.scene, cameras, *asked)
         windows = [view_window(self.scene, c, *asked) for c in cameras]
-        _check_one_size(views, self.width, self.height)  # the buffers and every launch are of this size
+        # The renderer's size, unless the render settings were replaced since it last drew: then the size they give
+        # now (a new resolution or data window), as a new Renderer's; the old size was refused as a mix of camera
+        # kinds under a data window.
+        replaced = self.scene.render_settings != self._camera_key[0]
+        size = views[0][1:] if replaced else (self.width, self.height)
+        _check_one_size(views, *size)  # the buffers and every launch are of one size
         cameras = [view[0] for view in views]
-        n = len(cameras) * self.width * self.height
+        n = len(cameras) * size[0] * size[1]
         if n > MAX_PIXELS:  # (camera_list refused none)
-            raise ValueError(f"need 1 to {MAX_PIXELS // (self.width * self.height)} cameras, got {len(cameras)}")
+            raise ValueError(f"need 1 to {MAX_PIXELS // (size[0] * size[1])} cameras, got {len(cameras)}")
         resized = len(cameras) != len(self.cameras)
-        self._upload_cameras(cameras, batched=True)  # a bad camera raises before any change: the old ones render on
+        self._upload_cameras_at(cameras, size, batched=True)  # a bad camera raises before any change
         self._windows = windows
         self.batched = True
         self._camera_args = given
@@ -687,6 +684,19 @@ class Renderer:
             # frame_image) with more cameras and read past the camera array with fewer.
             self._frame = None
         self._progressive = None
+
+    def _upload_cameras_at(self, cameras: list, size: tuple[int, int], batched: bool) -> None:
+        """:meth:`_upload_cameras` for images of ``size``, the renderer's size from then on (its buffers made anew
+        where it changed); nothing changes when a camera is refused."""
+        old = (self.width, self.height)
+        self.width, self.height = size
+        try:
+            self._upload_cameras(cameras, batched)
+        except Exception:
+            self.width, self.height = old
+            raise
+        if size != old:
+            self._wavefront = self._frame = None  # sized for the old image
 
     def _upload_cameras(self, cameras: list, batched: bool) -> None:
         """Makes ``cameras`` the renderer's, their device structs and lenses uploaded; raises (naming the camera by
