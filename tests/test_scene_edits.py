@@ -428,3 +428,20 @@ def test_set_cameras_after_render_settings_were_replaced_renders_as_a_new_render
     fresh = wrt.Renderer(scene, cameras=["/Side"], device="cpu").render()
     assert fresh.image(0).rgb.shape == (12, 20, 3)
     np.testing.assert_array_equal(kept.image(0).rgb, fresh.image(0).rgb)
+
+
+def test_resume_after_a_camera_edit_or_set_cameras_starts_over_and_says_why():
+    """The sums of the old view are dropped (no old samples mixed in: the image is a new render's), and resume's
+    warning named a scene change after a camera edit, and said nothing after set_cameras."""
+    camera = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+    scene = red_square()
+    options = dict(width=8, height=6, device="cpu", integrator="path")
+    renderer = wrt.Renderer(scene, camera=camera, **options)
+    renderer.render(spp=2)
+    camera.to_world[:3, 3] = (1.0, 1.0, 4.0)
+    with pytest.warns(UserWarning, match=r"starts over from no samples: a camera changed since the previous render"):
+        kept = renderer.render(spp=2, resume=True).rgb
+    np.testing.assert_array_equal(kept, wrt.Renderer(scene, camera=camera, **options).render(spp=2).rgb)
+    renderer.set_cameras([camera])
+    with pytest.warns(UserWarning, match=r"starts over from no samples: set_cameras was called since the previous"):
+        renderer.render(spp=2, resume=True)

@@ -516,7 +516,8 @@ class Renderer:
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
         # Running sums of the last render, for render(resume=True); a rebuild for an edited scene drops them.
-        self._sums_dropped = getattr(self, "_progressive", None) is not None
+        # _sums_dropped: why they were dropped since the last render, for resume's warning (None: they were not).
+        self._sums_dropped = "the scene changed" if getattr(self, "_progressive", None) is not None else None
         self._progressive = None
 
     def _scene_ao_radius(self) -> float:
@@ -573,8 +574,7 @@ class Renderer:
         self._upload_cameras_at([view[0] for view in views], size, self.batched)  # raises naming a bad camera
         self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
         self._camera_key = self._camera_sources_key()  # after the checks, which may convert fields (a list to_world)
-        self._sums_dropped = self._sums_dropped or self._progressive is not None
-        self._progressive = None  # the sums are of the old view
+        self._drop_sums("a camera changed")  # the sums are of the old view
 
     def _warn_unsampled(self, unsampled, shapes: int) -> None:
         """Names, in one warning, the emitters that the integrator shows but does not sample as lights: the emissive
@@ -683,6 +683,13 @@ class Renderer:
             # launch_frame's buffers are sized for the old count: it wrote past their end (a crash, or a wrong
             # frame_image) with more cameras and read past the camera array with fewer.
             self._frame = None
+        self._drop_sums("set_cameras was called")
+
+    def _drop_sums(self, why: str) -> None:
+        """Drops the progressive sums (of another view) and keeps ``why`` for the warning of a ``resume=True``:
+        after a camera edit or set_cameras it said "the scene changed", or nothing at all."""
+        if self._progressive is not None:
+            self._sums_dropped = why
         self._progressive = None
 
     def _upload_cameras_at(self, cameras: list, size: tuple[int, int], batched: bool) -> None:
@@ -763,7 +770,7 @@ class Renderer:
         if resume and not resuming and not quick_look and (state is not None or self._sums_dropped):
             # The image is of these samples alone: said, where a caller adding samples would take it for the sum.
             why = (f"seed {seed} is not the previous render's ({state['seed']})" if state is not None
-                   else "the scene changed since the previous render")
+                   else f"{self._sums_dropped} since the previous render")
             warnings.warn(f"resume=True starts over from no samples: {why}", stacklevel=2)
         if quick_look:
             spp = 1
