@@ -33,6 +33,10 @@ from .common import MAX_DEPTH, BuildInput
 from .layout import FlatBvh
 
 BATCH_MAX_TRIANGLES = SUBTREE_SIZE  # meshes above this are built alone (their root is split in the level phase)
+# Most triangles in one pass: a pass holds about 350 bytes per triangle of node and slot scratch, and one pass over
+# all of teapot_scene_1000's 133 prototypes (329k triangles) raised the build's peak memory by 113 MB where building
+# them one by one took next to none; a pass costs a dozen launches, so 64k-triangle passes keep the speed.
+BATCH_PASS_TRIANGLES = 1 << 16
 
 
 @wp.kernel
@@ -68,6 +72,19 @@ def batchable(points, indices) -> bool:
             and int(indices.max()) < len(points))
 
 
+def batch_groups(counts: list[int], limit: int = BATCH_PASS_TRIANGLES) -> list[list[int]]:
+    """Consecutive runs of ``range(len(counts))`` of at most ``limit`` triangles each (``counts[j]``: mesh ``j``'s
+    triangles; a mesh above the limit makes a run of its own): the meshes of each pass of the batch."""
+    groups, size = [[]], 0
+    for j, n in enumerate(counts):
+        if groups[-1] and size + n > limit:
+            groups.append([])
+            size = 0
+        groups[-1].append(j)
+        size += n
+    return [g for g in groups if g]
+
+
 def build_binned_batch(
     meshes: list[tuple[np.ndarray, np.ndarray]],
     *,
@@ -80,7 +97,8 @@ def build_binned_batch(
     threads: int = 1,
 ) -> list[FlatBvh]:
     """The host tree of each ``(points, indices)`` mesh (each :func:`batchable`), on the CPU; options as
-    ``build_binned``'s. Each tree's ``build_seconds`` is its share of the batch's time, by triangle count.
+    ``build_binned``'s. Each tree's ``build_seconds`` is its share of the batch's time, by triangle count
+    (:func:`wrt.bvh.build.build_bvhs` sets it anew over all of its passes).
 
     Raises:
         ValueError: as :class:`BuildInput` for non-finite vertices (naming a row of the concatenated triangles).
@@ -169,7 +187,6 @@ def build_binned_batch(
         all_lowers, all_uppers = lowers.numpy(), uppers.numpy()
         all_left, all_count, all_prims = left_first.numpy(), prim_count.numpy(), st.out_prims.numpy()
 
-    seconds = time.perf_counter() - start_time
     trees = []
     for j, (p, i) in enumerate(meshes):
         # Tree j alone: its root is node 0 and its subtree follows from node 1; leaves count slots from 0.
@@ -186,9 +203,11 @@ def build_binned_batch(
             prim_count=count,
             prim_ids=(all_prims[first:last] - first).astype(np.int32),
             builder=builder,
-            build_seconds=seconds * (last - first) / n,
         )
         tree.points, tree.indices = p, i
         trees.append(tree)
+    seconds = time.perf_counter() - start_time
+    for tree in trees:
+        tree.build_seconds = seconds * tree.num_prims / n
     return trees
 

@@ -99,12 +99,13 @@ def build_bvhs(meshes, builder: str = "sah", **options) -> list[FlatBvh]:
     Raises:
         as :func:`build_bvh`, for the first mesh it refuses.
     """
-    from .batched import batchable, build_binned_batch
+    from .batched import batch_groups, batchable, build_binned_batch
 
     trees: list = [None] * len(meshes)
     device = resolve_device(options.get("device"))
     kind = Builder.from_str(builder)
     batch = []
+    start_time = time.perf_counter()
     if device.is_cpu and kind in (Builder.SAH, Builder.MIDDLE) and not options.get("presplit") and not set(
         options) - {"leaf_size", "bins", "traversal_cost", "intersection_cost", "threads", "device"}:
         batch = [j for j, (p, i) in enumerate(meshes) if batchable(p, i)]
@@ -116,13 +117,21 @@ def build_bvhs(meshes, builder: str = "sah", **options) -> list[FlatBvh]:
         threads = options.get("threads")
         threads = os.cpu_count() or 1 if threads is None else check_int_option("threads", threads, 1, None)
         try:
-            built = build_binned_batch([meshes[j] for j in batch], use_sah=kind == Builder.SAH, leaf_size=leaf_size,
-                                       bins=bins, traversal_cost=costs[0], intersection_cost=costs[1],
-                                       builder=kind.value, threads=threads)
-        except ValueError:
-            built = [None] * len(batch)  # build them alone below, for build_bvh's message naming the mesh's triangle
-        for j, tree in zip(batch, built):
-            trees[j] = tree
+            for group in batch_groups([len(meshes[j][1]) for j in batch]):
+                built = build_binned_batch([meshes[batch[g]] for g in group], use_sah=kind == Builder.SAH,
+                                           leaf_size=leaf_size, bins=bins, traversal_cost=costs[0],
+                                           intersection_cost=costs[1], builder=kind.value, threads=threads)
+                for g, tree in zip(group, built):
+                    trees[batch[g]] = tree
+        except ValueError:  # build them alone below, for build_bvh's message naming the mesh's triangle
+            trees = [None] * len(meshes)
+            batch = []
+    # Each batched tree's share, by triangles, of everything the batch took (the scan for batchable meshes and the
+    # trees' slicing too, most of a batch of thousands of tiny trees), so the trees' times add up to the wall time.
+    batched = [trees[j] for j in batch]
+    seconds, total = time.perf_counter() - start_time, sum(t.num_prims for t in batched)
+    for tree in batched:
+        tree.build_seconds = seconds * tree.num_prims / total
     for j, (points, indices) in enumerate(meshes):
         if trees[j] is None:
             trees[j] = build_bvh(points, indices, builder, **options)
