@@ -343,17 +343,23 @@ def upload_many(trees: list, meshes: list, device) -> list[DeviceBvh]:
     indices)`` mesh, the same arrays, each a view of one upload per field: eight uploads in all, where thousands of
     small BLASes spent most of their setup on eight allocations and copies each."""
     device = wp.get_device(device)
-    corners = [np.asarray(p, np.float32)[np.asarray(i)[t.prim_ids]] for t, (p, i) in zip(trees, meshes)]
     node_ends = np.cumsum([0] + [len(t.left_first) for t in trees])
     prim_ends = np.cumsum([0] + [len(t.prim_ids) for t in trees])
-    fields = [
-        (np.concatenate([t.lowers for t in trees]), wp.vec3, node_ends),
-        (np.concatenate([t.uppers for t in trees]), wp.vec3, node_ends),
-        (np.concatenate([t.left_first for t in trees]), wp.int32, node_ends),
-        (np.concatenate([t.prim_count for t in trees]), wp.int32, node_ends),
-        (np.concatenate([t.prim_ids for t in trees]), wp.int32, prim_ends),
-    ] + [(np.concatenate([c[:, k] for c in corners]), wp.vec3, prim_ends) for k in range(3)]
-    uploads = [(wp.array(np.ascontiguousarray(a), dtype=dtype, device=device), ends) for a, dtype, ends in fields]
+    v_firsts = np.cumsum([0] + [len(p) for p, _ in meshes])
+
+    def upload(parts, dtype, ends):  # one field at a time, so only one concatenation is alive at once
+        return wp.array(np.ascontiguousarray(np.concatenate(parts)), dtype=dtype, device=device), ends
+
+    uploads = [upload([t.lowers for t in trees], wp.vec3, node_ends),
+               upload([t.uppers for t in trees], wp.vec3, node_ends),
+               upload([t.left_first for t in trees], wp.int32, node_ends),
+               upload([t.prim_count for t in trees], wp.int32, node_ends),
+               upload([t.prim_ids for t in trees], wp.int32, prim_ends)]
+    # The slots' vertices as rows of all meshes' points: a list of every tree's (T, 3, 3) corners and their
+    # concatenation, alive together, were most of the peak memory of a two-level BVH's setup.
+    points = np.concatenate([np.asarray(p, np.float32).reshape(-1, 3) for p, _ in meshes])
+    slot_corners = np.concatenate([np.asarray(i)[t.prim_ids] + v for t, (_, i), v in zip(trees, meshes, v_firsts)])
+    uploads += [upload([points[slot_corners[:, k]]], wp.vec3, prim_ends) for k in range(3)]
     out = []
     for j, tree in enumerate(trees):
         s = DeviceBvh()
