@@ -190,3 +190,13 @@ def test_upload_of_many_trees_holds_little_more_than_one_copy_of_the_slot_vertic
         alone = trees[j].to_device(*meshes[j], "cpu")
         for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids", "v0", "v1", "v2"):
             assert np.array_equal(getattr(alone, field).numpy(), getattr(uploads[j], field).numpy()), field
+
+
+def test_one_batchable_mesh_among_others_is_built_alone():
+    """One small mesh beside an empty one and one above the batch's size: nothing to batch, each built alone (the
+    time sharing read the lone mesh's tree before anything had built it)."""
+    rng = np.random.default_rng(14)
+    big = (rng.normal(size=(6000, 3)).astype(np.float32), rng.integers(0, 6000, (5000, 3)).astype(np.int32))
+    empty = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32))
+    for meshes in ([random_meshes(rng, 1)[0], big, empty], random_meshes(rng, 1), []):
+        assert_same_trees([build_bvh(p, i, device="cpu") for p, i in meshes], build_bvhs(meshes, device="cpu"))

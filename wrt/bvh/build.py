@@ -128,7 +128,7 @@ def build_bvhs(meshes, builder: str = "sah", **options) -> list[FlatBvh]:
             batch = []
     # Each batched tree's share, by triangles, of everything the batch took (the scan for batchable meshes and the
     # trees' slicing too, most of a batch of thousands of tiny trees), so the trees' times add up to the wall time.
-    batched = [trees[j] for j in batch]
+    batched = [trees[j] for j in batch if trees[j] is not None]  # none when one mesh or none could join
     seconds, total = time.perf_counter() - start_time, sum(t.num_prims for t in batched)
     for tree in batched:
         tree.build_seconds = seconds * tree.num_prims / total
