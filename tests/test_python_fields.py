@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import wrt
+from tests.gpu_holders import DLPackOnly, wp_array
 
 # Looking straight down at the origin.
 TOP = wrt.Camera.orthographic((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), height=4.0)
@@ -72,31 +73,6 @@ def test_a_light_flag_assigned_later_is_checked_at_the_next_render_as_a_meshs_is
     assert light.normalize is False
 
 
-class DLPackOnly:
-    """An array numpy cannot read but DLPack hands over, as a ``torch`` tensor on CUDA is: a CPU Warp array behind
-    ``__dlpack__`` only."""
-
-    def __init__(self, values):
-        import warp as wp
-
-        self.warp = wp.array(np.ascontiguousarray(values), device="cpu")
-
-    def __dlpack__(self, stream=None):
-        return self.warp.__dlpack__(stream=stream)
-
-    def __dlpack_device__(self):
-        return self.warp.__dlpack_device__()
-
-    def __array__(self, dtype=None, copy=None):
-        raise TypeError("can't convert cuda:0 device type tensor to numpy")
-
-
-def warp_cpu(values):
-    import warp as wp
-
-    return wp.array(np.ascontiguousarray(values), device="cpu")
-
-
 def warp_cuda(values):
     """``values`` as a ``wp.array`` on the GPU (the test skips without one), which numpy refuses to read."""
     import warp as wp
@@ -114,7 +90,7 @@ def test_a_light_transform_without_its_bottom_row_is_read_as_a_shapes_is(kind, h
     Oracle: the same light made from the whole matrix, and its area from the scales (2 and 3 on X and Y)."""
     m = np.diag([2.0, 3.0, 1.0, 1.0])
     m[:3, 3] = 1.0, -2.0, 3.0
-    top = {"numpy": lambda a: a, "list": lambda a: a.tolist(), "warp": warp_cpu, "dlpack": DLPackOnly,
+    top = {"numpy": lambda a: a, "list": lambda a: a.tolist(), "warp": wp_array, "dlpack": DLPackOnly,
            "cuda": warp_cuda}[holder](m[:3])
     light = make_light(kind)
     light.to_world = top
@@ -140,7 +116,7 @@ def test_shape_params_color_and_opacity_on_a_gpu_are_read_as_a_meshs_arrays_are(
     array behind DLPack only) failed with numpy's refusal ("can't convert cuda:0 device type tensor to numpy"),
     naming no shape, where a mesh's arrays are copied to the host. Oracle: the same shape from numpy arrays, and the
     colour the albedo integrator shows on it."""
-    make = {"warp": warp_cpu, "dlpack": DLPackOnly, "cuda": warp_cuda}[holder]
+    make = {"warp": wp_array, "dlpack": DLPackOnly, "cuda": warp_cuda}[holder]
     color = np.float32([0.25, 0.5, 1.0])
     ball = wrt.primitives.Shape("/Ball", "capsule", np.eye(4), params=make(np.float32([0.5, 0.0, 0.0, 1.0])),
                                 color=make(color), opacity=make(np.float32([1.0])), double_sided=True)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import wrt
+from tests.gpu_holders import DLPackOnly, wp_array
 
 SQUARE = np.float32([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]])
 SQUARE_UVS = np.float32([[0, 0], [1, 0], [1, 1], [0, 1]])[[[0, 1, 2], [0, 2, 3]]]
@@ -261,22 +262,15 @@ def test_per_vertex_uvs_and_opacities_are_gathered_into_corners_and_a_triangle_s
         wrt.Mesh("/Square", SQUARE_AND_TWO, indices, None, normals=np.zeros((2, 3)))
 
 
-def test_an_instance_scaled_to_a_line_or_a_point_warns_as_the_usd_loader_does(tmp_path):
-    """Instances built in Python whose transform leaves fewer than two directions (scaled to a line or a point) draw
-    nothing, but vanished without the warning that ``load_usd`` gives for the same PointInstancer instances. Oracle:
-    the USD twin of the scene (a PointInstancer of the same box and scales) loaded by ``load_usd``: the same reason,
-    the same instance indices, and the same hits (the flat one drawn, the others not)."""
-    import warnings
-
+def box_instancer(tmp_path, scales, positions):
+    """A stage of one PointInstancer placing the box at ``positions``, scaled by ``scales``."""
     from tests.usda_text import fmt, write
 
-    scales = [(1.0, 1.0, 1.0), (1.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)]
-    positions = [(3.0 * k, 0.0, 0.0) for k in range(4)]
-    stage = write(tmp_path, f"""
+    return write(tmp_path, f"""
 def PointInstancer "PI"
 {{
     rel prototypes = [</PI/Box>]
-    int[] protoIndices = [0, 0, 0, 0]
+    int[] protoIndices = {[0] * len(positions)}
     point3f[] positions = {fmt(positions)}
     float3[] scales = {fmt(scales)}
     def Mesh "Box"
@@ -287,6 +281,18 @@ def PointInstancer "PI"
     }}
 }}
 """)
+
+
+def test_an_instance_scaled_to_a_line_or_a_point_warns_as_the_usd_loader_does(tmp_path):
+    """Instances built in Python whose transform leaves fewer than two directions (scaled to a line or a point) draw
+    nothing, but vanished without the warning that ``load_usd`` gives for the same PointInstancer instances. Oracle:
+    the USD twin of the scene (a PointInstancer of the same box and scales) loaded by ``load_usd``: the same reason,
+    the same instance indices, and the same hits (the flat one drawn, the others not)."""
+    import warnings
+
+    scales = [(1.0, 1.0, 1.0), (1.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)]
+    positions = [(3.0 * k, 0.0, 0.0) for k in range(4)]
+    stage = box_instancer(tmp_path, scales, positions)
     with warnings.catch_warnings(record=True) as from_usd:
         warnings.simplefilter("always")
         twin = wrt.load_usd(stage)
@@ -433,29 +439,6 @@ def test_eight_bit_colors_are_refused_and_zero_one_integers_taken():
     mesh = wrt.Mesh("/Square", SQUARE, indices, None, colors=np.tile([1, 0, 0], (4, 1)), double_sided=True)
     image = wrt.render(wrt.Scene(meshes=[mesh]), camera=TOP, width=8, height=8, integrator="albedo")
     np.testing.assert_allclose(image.rgb[image.aovs["coverage"] > 0.5], np.broadcast_to([1.0, 0.0, 0.0], (16, 3)))
-
-
-class DLPackOnly:
-    """An array numpy cannot read but DLPack hands over, as a ``torch`` tensor on CUDA is ("can't convert cuda:0
-    device type tensor to numpy"): a CPU Warp array behind ``__dlpack__`` only."""
-
-    def __init__(self, values):
-        self.warp = wp_array(values)
-
-    def __dlpack__(self, stream=None):
-        return self.warp.__dlpack__(stream=stream)
-
-    def __dlpack_device__(self):
-        return self.warp.__dlpack_device__()
-
-    def __array__(self, dtype=None, copy=None):
-        raise TypeError("can't convert cuda:0 device type tensor to numpy")
-
-
-def wp_array(values, device="cpu"):
-    import warp as wp
-
-    return wp.array(np.ascontiguousarray(values), device=device)
 
 
 @pytest.mark.parametrize("holder", ["dlpack", "cuda"])
@@ -957,26 +940,10 @@ def test_instances_of_a_scale_float32_cannot_invert_are_not_called_zero_scaled(t
 
     from pxr import Gf
 
-    from tests.usda_text import fmt, write
-
     scales = [(1.0, 1.0, 1.0), (3e38, 1.0, 1.0), (0.0, 0.0, 0.0)]
     assert [Gf.Matrix4d(Gf.Vec4d(*s, 1.0)).GetDeterminant() != 0 for s in scales] == [True, True, False]
     positions = [(3.0 * k, 0.0, 0.0) for k in range(3)]
-    stage = write(tmp_path, f"""
-def PointInstancer "PI"
-{{
-    rel prototypes = [</PI/Box>]
-    int[] protoIndices = [0, 0, 0]
-    point3f[] positions = {fmt(positions)}
-    float3[] scales = {fmt(scales)}
-    def Mesh "Box"
-    {{
-        point3f[] points = {fmt(BOX_POINTS)}
-        int[] faceVertexCounts = {[3] * len(BOX_INDICES)}
-        int[] faceVertexIndices = {BOX_INDICES.reshape(-1).tolist()}
-    }}
-}}
-""")
+    stage = box_instancer(tmp_path, scales, positions)
     with warnings.catch_warnings(record=True) as from_usd:
         warnings.simplefilter("always")
         wrt.load_usd(stage)
