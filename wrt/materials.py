@@ -67,6 +67,7 @@ from .textures import (
     outside_to_fallback,
     pack_images,
     sample_image,
+    stored_texels,
     udim_tile,
 )
 from .usd_values import value_at
@@ -1581,6 +1582,6 @@ def _glow_mean(image: np.ndarray, scale: np.ndarray, bias: np.ndarray) -> np.nda
     flat = image.reshape(-1, 4)
     total = np.zeros(4)
     for start in range(0, len(flat), PACK_TEXELS):
-        texels = np.clip(np.nan_to_num(flat[start : start + PACK_TEXELS], nan=0.0), -HALF_MAX, HALF_MAX)
+        texels = stored_texels(flat[start : start + PACK_TEXELS])
         total += np.maximum(texels * scale + bias, 0.0).sum(axis=0)
     return total / max(len(flat), 1)

@@ -402,6 +402,13 @@ def scene_images(textures: list) -> list[np.ndarray]:
     return images
 
 
+def stored_texels(texels: np.ndarray) -> np.ndarray:
+    """``texels`` (a new float array) as the device stores them: NaN as 0, the rest clamped to float16's finite
+    range, +-:data:`HALF_MAX`."""
+    part = np.nan_to_num(texels, nan=0.0)
+    return np.clip(part, -HALF_MAX, HALF_MAX, out=part)
+
+
 def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Concatenates ``(H, W, 4)`` images into one texel array.
 
@@ -425,8 +432,8 @@ def pack_images(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.nd
     for img, offset in zip(images, offsets):
         flat = img.reshape(-1, 4)
         for start in range(0, len(flat), PACK_TEXELS):
-            part = np.nan_to_num(flat[start : start + PACK_TEXELS], nan=0.0)
-            texels[offset + start : offset + start + len(part)] = np.clip(part, -HALF_MAX, HALF_MAX, out=part)
+            part = stored_texels(flat[start : start + PACK_TEXELS])
+            texels[offset + start : offset + start + len(part)] = part
     offsets = np.asarray(offsets or [0], np.int32)
     sizes = np.asarray(sizes or [(1, 1)], np.int32).reshape(-1, 2)
     return texels, offsets, sizes
