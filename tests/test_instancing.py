@@ -2210,3 +2210,25 @@ def test_instance_of_a_missing_prototype_past_float32_is_named_for_its_index(np_
         check_finite_transforms(scene)
     with pytest.raises(wrt.SceneError, match=message):
         scene.bounds()
+
+
+@pytest.mark.parametrize("unused", [np.nan, np.inf])
+def test_an_unused_nan_or_inf_point_leaves_the_prototype_box_check_on(unused):
+    """A prototype mesh may hold points no triangle uses (NaN or infinite ones too: ``Scene.bounds`` reads the used
+    points only), and an instance scaled by 1e37 takes its triangle, 50 across, to 5e38, past float32. An unused
+    NaN point made the bound the check clears scenes with NaN, and the check passed every instance of every
+    prototype: the scene's bounds went infinite, and the build failed on a triangle row of no mesh. The oracle: the
+    used corners times the scale, in float64."""
+    points = np.array([[0, 0, 0], [50, 0, 0], [0, 50, 0], [unused] * 3], np.float32)
+    mesh = Mesh(path="/P/tri", points=points, indices=np.array([[0, 1, 2]], np.int32), face_ids=None)
+    to_world = np.repeat(np.eye(4)[None], 2, axis=0)
+    to_world[1, :3, :3] *= 1e37
+    scene = wrt.Scene(prototypes=[Prototype(path="/P", meshes=[mesh])],
+                      instances=Instances.from_transforms([0, 0], to_world))
+    lo, hi = [0.0, 0.0, 0.0], [50.0 * 1e37, 50.0 * 1e37, 0.0]
+    assert hi[0] > float(np.finfo(np.float32).max)
+    message = r"^instance 1 .*of prototype /P: its transform takes the prototype's box to " + re.escape(f"{lo} to {hi}")
+    with pytest.raises(ValueError, match=message):
+        scene.check_instance_boxes()
+    with pytest.raises(ValueError, match=message):
+        check_finite_transforms(scene)

@@ -436,9 +436,14 @@ def dataclass_parts(objects) -> list:
 
 
 def _prototype_reach(prototype) -> float:
-    """The largest ``|coordinate|`` of ``prototype``'s points and shape boxes, prototype space (0 when empty): a
-    bound on its box that takes one vectorized pass (:meth:`Scene.check_instance_boxes`)."""
-    reach = max((float(np.abs(m.points).max()) for m in prototype.meshes if len(m.points)), default=0.0)
+    """The largest finite ``|coordinate|`` of ``prototype``'s points and shape boxes, prototype space (0 when empty):
+    a bound on its box that takes one vectorized pass (:meth:`Scene.check_instance_boxes`). Points that are not
+    finite are left out: unused ones do not count in its box (:meth:`Prototype.bounds`), used ones are named by the
+    checks of finite vertices; an unused NaN point made the bound NaN, which cleared every instance of the scene."""
+    reach = 0.0
+    for m in prototype.meshes:
+        size = np.abs(m.points)
+        reach = max(reach, float(size.max(initial=0.0, where=np.isfinite(size))))
     if prototype.shapes:
         from .primitives import local_boxes  # (primitives imports this module)
 
