@@ -706,3 +706,20 @@ def test_an_unskinned_mesh_in_an_instance_under_a_skel_root_loads_as_usd_draws_i
     scene = loaded(str(path), None)  # and wrt warns of nothing
     assert len(scene.prototypes) == 1 and len(scene.instances) == 1
     np.testing.assert_allclose(scene.prototypes[0].meshes[0].points, [(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+
+
+@pytest.mark.parametrize("animated", ["", "float[] blendShapeWeights = [1]"])
+def test_an_animation_that_names_no_blend_shapes_moves_none_as_bake_skinning(tmp_path, animated):
+    """A SkelAnimation of joints only (no ``blendShapes``), or one with weights but no names for them, binds no
+    weight to the meshes' blend shapes: USD's mapper from its (empty) order maps none, and BakeSkinning leaves them
+    unmoved. wrt skipped remapping through a null mapper and read the animation's weights as they were: the joints
+    alone were warned of as blend shapes 'past its 0 skel:blendShapes' (the mesh's lists are one each), and the
+    unnamed weight 1 moved the Face quad's point 2 by its bulge. The oracle: USD's BakeSkinning."""
+    body = skel_root().replace('''uniform token[] blendShapes = ["bulge"]
+        float[] blendShapeWeights.timeSamples = { 1: [0.5], 10: [1] }''', animated)
+    assert "bulge\"]\n        float[] blendShapeWeights" not in body
+    path = write(tmp_path, body)
+    scene = loaded(path, 5.0)  # no warning
+    expected, _ = world_triangles(baked(path), "/Root/Face", Usd.TimeCode(5.0))
+    mesh = {m.path: m for m in scene.meshes}["/Root/Face"]
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=1e-6)

@@ -196,8 +196,10 @@ class SkelPoser:
         mapper = query.GetBlendShapeMapper()
         if weights is None:
             return points, normals
-        if mapper and not mapper.IsNull() and not mapper.IsIdentity():
-            weights = mapper.Remap(weights, Vt.FloatArray())  # into the mesh's skel:blendShapes order
+        if mapper and not mapper.IsIdentity():
+            # Into the mesh's skel:blendShapes order; a null mapper (the animation names none of them, or no blend
+            # shapes at all: joints only) gives each weight 0, as BakeSkinning poses them.
+            weights = mapper.Remap(weights, Vt.FloatArray())
         shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
         if len(weights) != shapes.GetNumBlendShapes():
             weights = self._paired_weights(prim, weights, shapes.GetNumBlendShapes())
