@@ -708,16 +708,18 @@ def test_an_unskinned_mesh_in_an_instance_under_a_skel_root_loads_as_usd_draws_i
     np.testing.assert_allclose(scene.prototypes[0].meshes[0].points, [(0, 0, 0), (1, 0, 0), (0, 1, 0)])
 
 
-@pytest.mark.parametrize("animated", ["", "float[] blendShapeWeights = [1]"])
+@pytest.mark.parametrize("animated", ["", "float[] blendShapeWeights = [1]",
+                                      'uniform token[] blendShapes = ["bulge"]\n    float[] blendShapeWeights = []'])
 def test_an_animation_that_names_no_blend_shapes_moves_none_as_bake_skinning(tmp_path, animated):
-    """A SkelAnimation of joints only (no ``blendShapes``), or one with weights but no names for them, binds no
-    weight to the meshes' blend shapes: USD's mapper from its (empty) order maps none, and BakeSkinning leaves them
-    unmoved. wrt skipped remapping through a null mapper and read the animation's weights as they were: the joints
-    alone were warned of as blend shapes 'past its 0 skel:blendShapes' (the mesh's lists are one each), and the
-    unnamed weight 1 moved the Face quad's point 2 by its bulge. The oracle: USD's BakeSkinning."""
+    """A SkelAnimation of joints only (no ``blendShapes``), one with weights but no names for them, or one naming
+    ``bulge`` without a weight for it, binds no weight to the meshes' blend shapes: USD's mapper from its order to the
+    mesh's maps none (the identity pads with 0), and BakeSkinning leaves them unmoved. wrt skipped remapping through
+    a null or identity mapper and read the animation's weights as they were: the joints alone (or the missing weight)
+    were warned of as blend shapes 'past its 0 skel:blendShapes' (the mesh's lists are one each), and the unnamed
+    weight 1 moved the Face quad's point 2 by its bulge. The oracle: USD's BakeSkinning."""
     body = skel_root().replace('''uniform token[] blendShapes = ["bulge"]
         float[] blendShapeWeights.timeSamples = { 1: [0.5], 10: [1] }''', animated)
-    assert "bulge\"]\n        float[] blendShapeWeights" not in body
+    assert "blendShapeWeights.timeSamples" not in body
     path = write(tmp_path, body)
     scene = loaded(path, 5.0)  # no warning
     expected, _ = world_triangles(baked(path), "/Root/Face", Usd.TimeCode(5.0))

@@ -196,9 +196,10 @@ class SkelPoser:
         mapper = query.GetBlendShapeMapper()
         if weights is None:
             return points, normals
-        if mapper and not mapper.IsIdentity():
-            # Into the mesh's skel:blendShapes order; a null mapper (the animation names none of them, or no blend
-            # shapes at all: joints only) gives each weight 0, as BakeSkinning poses them.
+        if mapper:
+            # Into the mesh's skel:blendShapes order and size, as BakeSkinning poses them: a null mapper (the
+            # animation names none of them, or no blend shapes at all: joints only) gives each weight 0, the identity
+            # pads missing weights with 0.
             weights = mapper.Remap(weights, Vt.FloatArray())
         shapes = UsdSkel.BlendShapeQuery(UsdSkel.BindingAPI(prim))
         if len(weights) != shapes.GetNumBlendShapes():
