@@ -729,3 +729,25 @@ def test_a_colour_opacity_texture_is_named_as_read_by_its_red_channel(tmp_path):
     scene, messages = load(path)
     assert any("opacity is a colour image: its red channel is the cut-out" in m for m in messages), messages
     assert (albedo(scene, 2) > 0.5).all()  # opaque everywhere: the red channel, 1 (the mean, 1/3, is a hole)
+
+
+@pytest.mark.parametrize("inputs", [{}, {"displacement": 0.0}, {"displacement": 1.0, "scale": 0.0},
+                                    {"displacement": (0.0, 0.0, 0.0)}])
+def test_a_displacement_shader_that_moves_nothing_is_not_named(tmp_path, inputs):
+    """An ``ND_displacement_float`` (or ``_vector3``) whose ``displacement`` is 0, MaterialX's default where
+    unauthored (``stdlib_defs.mtlx``: displacement 0, scale 1), or whose ``scale`` is 0 displaces nothing, as a
+    UsdPreviewSurface's displacement of 0 does, which is not named: every such material was named in the displacement
+    warning ('drawn undisplaced'), though its surface is where it would be drawn anyway."""
+    stage, path = new_stage(tmp_path)
+    material, _ = mtlx_material(stage, "/Looks/Flat")
+    displace = UsdShade.Shader.Define(stage, "/Looks/Flat/Displace")
+    vector = isinstance(inputs.get("displacement"), tuple)
+    displace.CreateIdAttr("ND_displacement_vector3" if vector else "ND_displacement_float")
+    for name, value in inputs.items():
+        kind = Sdf.ValueTypeNames.Vector3f if isinstance(value, tuple) else Sdf.ValueTypeNames.Float
+        displace.CreateInput(name, kind).Set(value)
+    material.CreateDisplacementOutput("mtlx").ConnectToSource(displace.ConnectableAPI(), "out")
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    _, messages = load(path)
+    assert not any("displacement" in m for m in messages), messages

@@ -635,6 +635,9 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
 
 # Shaders read as UsdPreviewSurface: its own id and MaterialX's node of it (the same inputs).
 PREVIEW_SURFACE_IDS = ("UsdPreviewSurface", "ND_UsdPreviewSurface_surfaceshader")
+# MaterialX's displacement shaders (stdlib_defs.mtlx): they move the surface by displacement (default 0) times scale
+# (default 1), so that either at 0 moves nothing.
+MATERIALX_DISPLACEMENT_IDS = ("ND_displacement_float", "ND_displacement_vector3")
 # UsdUVTexture and MaterialX's nodes of it (libraries/bxdf/usd_preview_surface.mtlx: versions 2.2 and 2.3), which
 # a MaterialX UsdPreviewSurface network reads its textures with; MaterialX's take their file's colour space from its
 # colorSpace (else an authored sourceColorSpace) and have MaterialX's wrap modes (MATERIALX_WRAPS).
@@ -1094,14 +1097,24 @@ class MaterialReader:
                 if UsdShade.Utils.GetType(attr.GetName()) != UsdShade.AttributeType.Output:
                     continue  # a value on the material's own output: no shader displaces
                 shader = UsdShade.Shader(attr.GetPrim())
-                if shader.GetShaderId() in PREVIEW_SURFACE_IDS:
-                    found = self._producer(shader, "displacement")
-                    value = _rgb(found[1]) if found and found[0] == "value" else None
-                    if found is None or (value is not None and not value.any()):
-                        continue
+                shader_id = shader.GetShaderId()
+                if shader_id in PREVIEW_SURFACE_IDS and not self._nonzero(shader, "displacement", 0.0):
+                    continue
+                if shader_id in MATERIALX_DISPLACEMENT_IDS and not (self._nonzero(shader, "displacement", 0.0)
+                                                                   and self._nonzero(shader, "scale", 1.0)):
+                    continue
                 self.skip("displacement (outputs:displacement) is not supported; these materials' surfaces are drawn "
                           "undisplaced", material.GetPrim(), detail=_shader_name(shader))
                 return
+
+    def _nonzero(self, shader, name: str, default: float) -> bool:
+        """Whether input ``name`` of ``shader`` may be other than 0: connected, or a constant (``default``
+        unauthored) that is not 0."""
+        found = self._producer(shader, name)
+        if found is None:
+            return default != 0.0
+        value = _rgb(found[1]) if found[0] == "value" else None
+        return value is None or bool(value.any())
 
     def _fallback_color(self, material) -> tuple[str, np.ndarray] | None:
         """``(input name, (3,) colour)``: the constant base colour (times its weight) of a surface shader this reader
