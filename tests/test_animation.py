@@ -101,6 +101,13 @@ def test_every_frame_gets_its_own_file_and_runaway_ranges_are_refused():
         parse_frames("1:1.000000000001:1e-13")  # frames equal at 12 digits would render one time many times
 
 
+@pytest.mark.parametrize(("text", "frames"), [("1e-999999999:1", [0.0, 1.0]), ("0e999999999:2", [0.0, 1.0, 2.0])])
+def test_frames_spelt_with_huge_decimal_exponents_read_as_float_reads_them(text, frames):
+    """A decimal exponent of a billion reads as the double float() gives: the exact decimal was built as a Fraction
+    of a billion-digit power of ten, and the run hung."""
+    assert parse_frames(text) == frames
+
+
 @pytest.mark.parametrize("text", ["1:5:1e-320", "-1e308:1e308", "0:1e308:1e-308"])
 def test_frames_whose_count_passes_float_range_are_refused_naming_the_option(text):
     """A range whose frame count is past float64 (a subnormal step, or END - START overflowing) raised a bare

@@ -32,6 +32,7 @@ import os
 import re
 import time as _time
 import warnings
+from decimal import Decimal, InvalidOperation
 from fractions import Fraction
 from pathlib import Path
 
@@ -43,6 +44,7 @@ from .image import write_atomically
 REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20% worse than when it was built
 MAX_FRAMES = 1_000_000  # most frames one --frames range may give (a typo such as 1:1e9 would fill the memory)
 FRAME_DIGITS = 12  # significant digits of a frame time, in parse_frames and in file names
+MAX_EXACT_EXPONENT = 400  # decimal exponents read exactly; a double spans 1e-324 to 1e308
 
 FRAME_PATTERN = re.compile(r"#+")
 
@@ -93,11 +95,17 @@ def _exact_frames(parts: list[str], count: int, end: float, step: float) -> list
 
 
 def _decimal(text: str) -> Fraction:
-    """``text`` (a finite number float() reads) as the exact decimal it spells."""
+    """``text`` (a finite number float() reads) as the exact decimal it spells, or as the double float() reads for
+    a decimal exponent past any double's (``1e-999999999`` is 0.0): Fraction would build a power of ten of that many
+    digits (a billion: the run hung)."""
+    spelt = text.strip().replace("_", "")
     try:
-        return Fraction(text.strip().replace("_", ""))
-    except (ValueError, ZeroDivisionError):
+        exponent = Decimal(spelt).as_tuple().exponent
+    except InvalidOperation:
+        exponent = None
+    if not isinstance(exponent, int) or abs(exponent) > MAX_EXACT_EXPONENT:
         return Fraction(float(text))
+    return Fraction(spelt)
 
 
 def _round_frame(frame: float) -> float:
