@@ -78,6 +78,23 @@ def test_a_cylinder_light_treated_as_a_line_lights_as_the_line_integral_says(tmp
     np.testing.assert_allclose(rendered, expected, rtol=0.1)  # pixels: E varies over each
 
 
+def test_a_line_light_shorter_than_float32_can_square_lights_as_a_short_line():
+    """A normalized line light 1e-25 long (``I_s l = color / pi``, its length well inside float32's range) lit
+    nothing: the squares of its axis underflowed float32 to a length of 0. It lights the plane as a short line does,
+    intensity ``I_s l sin(theta)`` at ``theta`` to its axis (float64 at each pixel's centre: 2% over the patch)."""
+    to_world = np.eye(4)
+    to_world[:3, 3] = (0.1, 0.2, 1.0)
+    line = wrt.CylinderLight(to_world=to_world, length=1e-25, radius=0.0, color=np.full(3, 2.0), normalize=True,
+                             treat_as_line=True)
+    rendered, points = render_plane([line], spp=16)
+    v = np.array([0.1, 0.2, 1.0]) - points  # to the line, from each point of the plane
+    d = np.linalg.norm(v, axis=-1)
+    sin_t = np.linalg.norm(np.cross(v, [1.0, 0.0, 0.0]), axis=-1) / d
+    expected = ALBEDO * (2.0 / np.pi) * sin_t * (v[..., 2] / d) / d**2 / np.pi
+    assert abs(rendered.mean() / expected.mean() - 1.0) < 0.02
+    np.testing.assert_allclose(rendered, expected, rtol=0.1)  # pixels: E varies over each
+
+
 def test_a_line_light_has_the_tubes_power():
     """The line's power ``pi^2 l I_s`` (``I_s sin(theta)`` integrated over the sphere and the length) is the tube's
     ``pi A L``, and ``color`` normalized (``L = color / A``: ``pi color``)."""

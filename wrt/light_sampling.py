@@ -514,7 +514,12 @@ def sample_light(
         # the pdf h / ((phi_b - phi_a) d^2) cancels the 1 / d^2 and, with sin(theta) = h / d, leaves
         # I_s sin(theta) / d^2 / pdf = I_s (phi_b - phi_a) / d (uniform along the length was 4x noisier up close).
         seg = lights.axis_u[k]
-        seg_length = wp.length(seg)
+        # Its length from the axis scaled to a largest entry of 1: the squares of a line under 1e-19 long underflow
+        # float32, and it lit nothing (as a normalized tube too thin for float32 became, wrt.lights.drawn_as_line).
+        seg_scale = wp.max(wp.max(wp.abs(seg[0]), wp.abs(seg[1])), wp.abs(seg[2]))
+        seg_length = float(0.0)
+        if seg_scale > 0.0:
+            seg_length = seg_scale * wp.length(seg / seg_scale)
         if seg_length > 0.0:
             seg_dir = seg / seg_length
             seg_s = wp.dot(p - lights.position[k], seg_dir)  # p's coordinate along the line, from the centre
