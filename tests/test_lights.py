@@ -367,10 +367,12 @@ def test_distant_light_of_a_tiny_angle_lights_as_its_disc_says(tmp_path, angle, 
 
 
 @pytest.mark.parametrize("schema", [UsdLux.SphereLight, UsdLux.RectLight, UsdLux.DiskLight, UsdLux.CylinderLight])
-def test_normalized_light_too_small_for_float32_is_a_point_or_named(tmp_path, schema):
+def test_normalized_light_too_small_for_float32_is_a_point_a_line_or_named(tmp_path, schema):
     """A normalized light of size 1e-20, whose radiance ``intensity / area`` passes float32's range, emitted nothing
     with numpy's bare overflow warning. A sphere is the point light it tends to (intensity ``color / 4``: a white
-    floor 1 below shows ``E / pi = 1 / pi`` of intensity 4); the other shapes are skipped with a warning naming them."""
+    floor 1 below shows ``E / pi = 1 / pi`` of intensity 4), a cylinder the line light along its axis (``I_s = color /
+    (pi l)``: a line this short is a point of intensity ``I_s l = 4 / pi`` straight below it, ``E / pi = 4 / pi^2``);
+    rect and disk lights are skipped with a warning naming them."""
 
     def build(stage):
         add_floor(stage)
@@ -382,7 +384,7 @@ def test_normalized_light_too_small_for_float32_is_a_point_or_named(tmp_path, sc
         light.CreateIntensityAttr(4.0)
         light.CreateNormalizeAttr(True)
         UsdGeom.XformCommonAPI(light).SetTranslate(Gf.Vec3d(0, 0, 1))
-        if schema is not UsdLux.SphereLight:  # a dark light, so that the stage gets no default lights
+        if schema in (UsdLux.RectLight, UsdLux.DiskLight):  # a dark light, so that the stage gets no default lights
             UsdLux.DistantLight.Define(stage, "/Sun").CreateIntensityAttr(0.0)
 
     with warnings.catch_warnings(record=True) as caught:
@@ -390,14 +392,16 @@ def test_normalized_light_too_small_for_float32_is_a_point_or_named(tmp_path, sc
         scene = wrt.load_usd(write_stage(tmp_path, build))
     messages = [str(w.message) for w in caught]
     assert not [m for m in messages if "overflow" in m or "divide" in m], messages
-    if schema is not UsdLux.SphereLight:
+    if schema in (UsdLux.RectLight, UsdLux.DiskLight):
         assert [light.path for light in scene.lights] == ["/Sun"]
         assert any(re.search(r"normalized lights too small .* float32 were skipped: .*: /Tiny$", m) for m in messages)
         return
+    assert not [m for m in messages if "/Tiny" in m], messages
+    expected = 1.0 / math.pi if schema is UsdLux.SphereLight else 4.0 / math.pi**2
     for integrator in ("whitted", "path"):
         img = wrt.render(scene, camera=top_down_camera(height=0.02), width=2, height=2, spp=4, seed=1, device="cpu",
                          integrator=integrator)
-        np.testing.assert_allclose(img.rgb, 1.0 / math.pi, rtol=1e-3, err_msg=integrator)
+        np.testing.assert_allclose(img.rgb, expected, rtol=1e-3, err_msg=integrator)
 
 
 @pytest.mark.parametrize("schema", [UsdLux.SphereLight, UsdLux.RectLight, UsdLux.DiskLight, UsdLux.CylinderLight])

@@ -31,18 +31,18 @@ def line_irradiance(points, start, end, per_length, n=20000) -> np.ndarray:
     return (per_length * sin_t * cos_r / d**2).sum(-1) * (length / n)
 
 
-def line_stage(tmp_path, normalize: bool, treat="bool") -> str:
-    """A CylinderLight of length 3 and radius 0.6 along X at height 1 over the patch, ``treatAsLine`` authored as a
-    ``treat`` (a bool, or an int: not a bool)."""
+def line_stage(tmp_path, normalize: bool, treat="bool", radius=0.6, line=True) -> str:
+    """A CylinderLight of length 3 and radius ``radius`` along X at height 1 over the patch, ``treatAsLine`` (set to
+    ``line``) authored as a ``treat`` (a bool, or an int: not a bool)."""
     path = str(tmp_path / "line.usda")
     stage = Usd.Stage.CreateNew(path)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     light = UsdLux.CylinderLight.Define(stage, "/Tube")
     light.CreateLengthAttr(3.0)
-    light.CreateRadiusAttr(0.6)
+    light.CreateRadiusAttr(radius)
     light.CreateIntensityAttr(2.0)
     light.CreateNormalizeAttr(normalize)
-    light.CreateTreatAsLineAttr(True)
+    light.CreateTreatAsLineAttr(line)
     UsdGeom.XformCommonAPI(light).SetTranslate(Gf.Vec3d(0.1, 0.2, 1.0))
     stage.Save()
     if treat == "int":  # as text: USD authors the schema's type through its API
@@ -76,6 +76,35 @@ def test_a_cylinder_light_treated_as_a_line_lights_as_the_line_integral_says(tmp
     expected = ALBEDO * line_irradiance(points, (-1.4, 0.2, 1.0), (1.6, 0.2, 1.0), per_length) / np.pi
     assert abs(rendered.mean() / expected.mean() - 1.0) < 0.02
     np.testing.assert_allclose(rendered, expected, rtol=0.1)  # pixels: E varies over each
+
+
+@pytest.mark.parametrize("radius", [1e-40, 0.0])
+def test_a_normalized_cylinder_light_too_thin_for_float32_is_its_line(tmp_path, radius):
+    """A normalized tube's power is ``pi color`` whatever its radius, and its light ``I_s sin(theta)`` per unit length
+    (``I_s = color / (pi l)``) as its projected width is ``2 r sin(theta)``. One of radius 1e-40, whose radiance
+    ``color / (2 pi r l)`` passes float32's range, was skipped with a warning, and one of radius 0 (UsdLux's
+    "zero-radius cylinder", treatAsLine's meaning) lit nothing: each is now the line along its axis, lighting the
+    plane as the line integral in float64 says, without a warning."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lights = wrt.load_usd(line_stage(tmp_path, True, radius=radius, line=False)).lights
+    assert [light.path for light in lights] == ["/Tube"] and lights[0].treat_as_line
+    rendered, points = render_plane(lights)
+    expected = ALBEDO * line_irradiance(points, (-1.4, 0.2, 1.0), (1.6, 0.2, 1.0), 2.0 / (np.pi * 3.0)) / np.pi
+    assert abs(rendered.mean() / expected.mean() - 1.0) < 0.02
+    np.testing.assert_allclose(rendered, expected, rtol=0.1)
+
+
+def test_a_python_cylinder_light_too_thin_for_float32_lights_as_its_line():
+    """Built in Python, a normalized tube of radius 1e-40 (its radiance past float32) lit nothing; it lights as the
+    line along its axis, as ``load_usd`` reads one, within 2% of the line integral in float64."""
+    to_world = np.eye(4)
+    to_world[:3, 3] = (0.1, 0.2, 1.0)
+    tube = wrt.CylinderLight(to_world=to_world, length=3.0, radius=1e-40, color=np.full(3, 2.0), normalize=True)
+    assert not np.all(np.isfinite(tube.radiance))  # as a tube, float32 cannot hold it
+    rendered, points = render_plane([tube])
+    expected = ALBEDO * line_irradiance(points, (-1.4, 0.2, 1.0), (1.6, 0.2, 1.0), 2.0 / (np.pi * 3.0)) / np.pi
+    assert abs(rendered.mean() / expected.mean() - 1.0) < 0.02
 
 
 def test_a_line_light_shorter_than_float32_can_square_lights_as_a_short_line():

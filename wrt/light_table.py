@@ -87,7 +87,7 @@ def seen_by_camera(light) -> bool:
     if isinstance(light, SphereLight):
         return not light.treat_as_point
     if isinstance(light, CylinderLight):
-        return not light.treat_as_line
+        return not light.drawn_as_line
     return isinstance(light, (DomeLight, RectLight, DiskLight, CylinderLight))
 
 
@@ -416,7 +416,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L))
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
-        elif isinstance(light, CylinderLight) and light.treat_as_line:
+        elif isinstance(light, CylinderLight) and light.drawn_as_line:
             axis = light.world_shape()[0]
             i = light.line_intensity  # I_s: its power is pi^2 |axis| I_s, as the tube's pi A L
             _add(h, LIGHT_LINE, i, light_axes(light.to_world)[3], axis, zero, zero, (0, 0, 0, 0), 0,

@@ -384,6 +384,19 @@ class CylinderLight:
         return normalized_radiance(self.color, self.area, self.normalize)
 
     @property
+    def drawn_as_line(self) -> bool:
+        """Whether the light is drawn as a line light: ``treat_as_line``, or a normalized tube (its axis of some
+        length) of radius 0 or too thin for its radiance (``color / area``) to fit in float32, as ``load_usd`` makes
+        such lights line lights (UsdLux's "zero-radius cylinder", the limit they tend to, of the tube's power: a tube
+        emits ``I_s sin(theta)`` per unit length whatever its radius). Built in Python they lit nothing, their
+        radiance 0 or inf."""
+        if self.treat_as_line:
+            return True
+        if not (self.normalize and np.linalg.norm(self.world_shape()[0]) > 0.0):
+            return False
+        return not (self.area > 0.0 and np.all(np.isfinite(self.radiance)))
+
+    @property
     def line_intensity(self) -> np.ndarray:
         """``(3,)`` float32 ``I_s`` of the light treated as a line: radiant intensity per unit length at right angles
         to the axis (see the module docstring); 0 for a line of no length, which emits nothing."""

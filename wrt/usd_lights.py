@@ -272,7 +272,9 @@ def _tiny_normalized(light, prim, skip):
     """``light``, or None: a normalized area light so small that its radiance (``color / area``) passes float32's
     range emitted nothing without a word but numpy's overflow warning, and one whose area underflowed float64 to 0
     (a double-precision transform scaling it by 1e-100) emitted nothing without any. A sphere becomes the point
-    light it tends to (of intensity ``color / 4``); the other shapes are skipped with a warning naming them."""
+    light it tends to (of intensity ``color / 4``), a cylinder the line light along its axis (``treatAsLine``, of
+    intensity ``color / (pi l)``: the tube's power, ``pi color``, whatever its radius); the other shapes, and a
+    cylinder whose line is too short for float32 too, are skipped with a warning naming them."""
     if not (isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight)) and light.normalize):
         return light
     if isinstance(light, SphereLight) and light.treat_as_point:
@@ -286,6 +288,15 @@ def _tiny_normalized(light, prim, skip):
         if area > 0.0 or light.world_radius > 0.0:
             light.treat_as_point = True
         return light
+    if isinstance(light, CylinderLight) and light.drawn_as_line:
+        # A tube too thin to hold its radiance, or of radius 0, is its axis, of the tube's power (drawn_as_line). It
+        # was skipped (of radius 0: dark, as a tube of no area).
+        light.treat_as_line = True
+        if fits_float32(light):
+            return light
+        skip("normalized lights too small for their radiance (intensity / area) to fit in float32 were skipped", prim,
+             f"CylinderLight of area {area:.3g} and length {np.linalg.norm(light.world_shape()[0]):.3g}")
+        return None
     if area > 0.0 or _area_underflowed(light):
         skip("normalized lights too small for their radiance (intensity / area) to fit in float32 were skipped", prim,
              f"area {area:.3g}" if area > 0.0 else "area below float64's range")
@@ -303,7 +314,7 @@ def fits_float32(light) -> bool:
     if isinstance(light, SphereLight) and light.drawn_as_point:
         with np.errstate(over="ignore"):  # an intensity past float32 is inf here: skipped by the caller
             return bool(np.all(np.abs(light.intensity) < FLOAT32_MAX))
-    if isinstance(light, CylinderLight) and light.treat_as_line:
+    if isinstance(light, CylinderLight) and light.drawn_as_line:
         length = float(np.linalg.norm(light.world_shape()[0]))
         return length < FLOAT32_MAX and bool(np.all(np.abs(light.line_intensity) < FLOAT32_MAX))
     return light.area < FLOAT32_MAX
