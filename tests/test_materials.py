@@ -589,6 +589,31 @@ def test_an_authored_constant_st_reads_one_point_of_the_image(tmp_path, where):
     np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
 
 
+def test_an_unauthored_unconnected_transform2d_in_is_sdrs_default_with_a_warning(tmp_path):
+    """A UsdTransform2d whose ``in`` is neither connected nor authored reads Sdr's default for it, as Storm's material
+    network does (an unconnected ``in`` is its authored value, else Sdr's default; never a primvar) and as
+    MaterialX's ``ND_UsdTransform2d`` (no ``defaultgeomprop``) does: every point reads the image at that default,
+    transformed, here the middle of CHECKER's bottom-right (grey) block. wrt read the mesh's ``st``, the whole image,
+    as it does for a UsdUVTexture's ``st`` (MaterialX: ``defaultgeomprop="UV0"``). A warning names the shader."""
+    from pxr import Sdr
+
+    default = Sdr.Registry().GetShaderNodeByIdentifier("UsdTransform2d").GetShaderInput("in").GetDefaultValue()
+    translation = (0.75, 0.25)
+    u, v = default[0] + translation[0], default[1] + translation[1]
+    expected = CHECKER[int((1.0 - v) * CHECKER.shape[0]), int(u * CHECKER.shape[1])] / 255.0
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, color_space="raw", transform={"translation": translation})
+    stage = Usd.Stage.Open(path)
+    xf = stage.GetPrimAtPath("/Looks/Tex/Xf")
+    UsdShade.Shader(xf).GetInput("in").DisconnectSource()
+    xf.RemoveProperty("inputs:in")
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"UsdTransform2d's in that is neither connected nor authored reads \(0, 0\)"
+                      r".*: /Looks/Tex/Xf$"):
+        img = albedo(path)
+    np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
+
+
 def test_an_unauthored_unconnected_st_reads_the_mesh_st(tmp_path):
     """A UsdUVTexture whose ``st`` is neither connected nor authored reads the mesh's ``st`` primvar, as MaterialX's
     definition of the node gives it (``defaultgeomprop="UV0"``) and as assets such as the usd-wg Mini Car Kit expect

@@ -21,7 +21,7 @@ Reading (:class:`MaterialReader`, used by :func:`wrt.load_usd`):
   ``roughness``, ``clearcoat``, ``clearcoatRoughness``, ``opacity``, ``opacityThreshold``, ``ior``. Any of them may
   be a constant or a ``UsdUVTexture`` output (``r``/``g``/``b``/``a``/``rgb``) with ``file``, ``st`` (from a
   ``UsdPrimvarReader_float2``, optionally through a ``UsdTransform2d``, or a constant; unconnected and unauthored:
-  the mesh's ``st``), ``wrapS``/``wrapT`` (``useMetadata``, the
+  the mesh's ``st``, a ``UsdTransform2d``'s ``in`` Sdr's (0, 0)), ``wrapS``/``wrapT`` (``useMetadata``, the
   fallback, is ``black``: no wrap metadata is read from image files), ``scale``, ``bias``,
   ``fallback`` and ``sourceColorSpace``. ``diffuseColor`` may also come from a mesh's colour primvar through a
   ``UsdPrimvarReader_float3`` (or a MaterialX reader, :data:`COLOR_PRIMVAR_READERS`) of any ``varname``
@@ -1358,9 +1358,11 @@ class MaterialReader:
         on the way (a projection, a MaterialX node) is reported, and ``st`` read.
 
         An ``st`` (or a UsdTransform2d's ``in``) authored as a constant and connected to nothing is read there: the
-        primvar is None and the transform maps every point to that constant, transformed. One neither connected nor
-        authored reads the mesh's ``st`` primvar, as MaterialX defines the node (``defaultgeomprop="UV0"``) and as
-        assets leave it (the usd-wg Mini Car Kit), not the schema's fallback (0, 0)."""
+        primvar is None and the transform maps every point to that constant, transformed. An ``st`` neither connected
+        nor authored reads the mesh's ``st`` primvar, as MaterialX defines the node (``defaultgeomprop="UV0"``) and as
+        assets leave it (the usd-wg Mini Car Kit), not the schema's fallback (0, 0). A UsdTransform2d's ``in``
+        neither connected nor authored is Sdr's default, (0, 0), as Storm and MaterialX's ``ND_UsdTransform2d`` (no
+        ``defaultgeomprop``) read it, with a warning: the texture shows one point."""
         transform = np.eye(3, dtype=np.float32)
         no_fallback = np.zeros(2, np.float32)
         found, node, name = self._producer(tex, "st"), tex, "st"
@@ -1382,6 +1384,13 @@ class MaterialReader:
                                                 for name, default in TRANSFORM2D_DEFAULTS)
                 transform = transform @ _transform2d(rotation[0], scale, translation)
                 found, name = self._producer(node, "in"), "in"
+                if found is None:
+                    # Storm's material network reads an unconnected in's authored value, else Sdr's default (0, 0),
+                    # never a primvar; wrt read the mesh's st.
+                    self.skip(f"material {material_path}: a UsdTransform2d's in that is neither connected nor authored "
+                              "reads (0, 0), its default in Sdr, as Storm reads it: its texture shows one point",
+                              node.GetPrim())
+                    return None, constant_st_transform(transform, (0.0, 0.0)), no_fallback
                 continue
             self.skip("texture coordinates from shaders other than UsdPrimvarReader_float2 and UsdTransform2d are "
                       "not supported; these materials' textures read the st primvar", tex.GetPrim(),
