@@ -189,6 +189,9 @@ def write_exr(path, channels):
 
 # Channel sets and the RGBA each reads as, the letters naming the channels written: R, G and B in their places
 # (missing ones 0), Y grey, alpha 1 without A (OpenEXR's RGBA interface; Hydra's reader for the sets it reads whole).
+# The documented sources: OpenEXR's ImfRgbaFile.cpp, RgbaInputFile::setFrameBuffer, gives R, G and B a fillValue of
+# 0.0 and A one of 1.0; Hio's EXR reader keeps R G as a two-channel (HioFormatFloat16Vec2) texture, which Storm does
+# not swizzle (only one-channel textures become (c, c, c, 1)) and the GPU samples as (r, g, 0, 1).
 EXR_CHANNEL_SETS = {
     "R G": ({"R": "R", "G": "G"}, ("R", "G", 0, 1)),
     "R G B": ({"R": "R", "G": "G", "B": "B"}, ("R", "G", "B", 1)),
