@@ -936,14 +936,42 @@ def test_syntax_error_names_line_and_property(tmp_path):
     "kwargs, fragments",
     [
         (dict(indices=[0, 1, 2, 3, 1, 4, 5, 40, 2]), ["faceVertexIndices[7] = 40 is out of range for 7 points"]),
-        (dict(indices=[0, 1, 2, 3, 1, 4, 5, -1, 2]), ["faceVertexIndices[7] = -1"]),
+        (dict(indices=[0, 1, 2, 3, 1, 4, 5, -1, 2]), ["faceVertexIndices[7] = -1 is out of range for 7 points"]),
         (dict(counts=[4, -5]), ["faceVertexCounts[1] = -5 is negative"]),
-        (dict(counts=[4, 4]), ["sum to 8", "9 faceVertexIndices"]),
+        (dict(counts=[4, 4]), ["faceVertexCounts sum to 8 but there are 9 faceVertexIndices"]),
+        (dict(counts=[]), ["there are 9 faceVertexIndices but no faceVertexCounts"]),
+    ],
+    ids=["index-past-points", "negative-index", "negative-count", "counts-short", "no-counts"],
+)
+def test_a_mesh_of_invalid_topology_is_skipped_with_a_warning_and_the_rest_drawn(tmp_path, kwargs, fragments):
+    """A mesh whose topology USD's own check refuses (UsdGeom.Mesh.ValidateTopology: an index out of range, counts
+    that do not sum to the indices) stopped the whole load with SceneError. It is left out with a warning naming
+    the file, the prim and what is wrong, as wrt skips the other prims it cannot read (a mesh of faces but no
+    points, of points that are not 3-vectors) and as importers such as maya-usd skip it; the other mesh is drawn."""
+    bad = {"points": POINTS, "counts": COUNTS, "indices": INDICES} | kwargs
+    valid, reason = UsdGeom.Mesh.ValidateTopology(Vt.IntArray(bad["indices"]), Vt.IntArray(bad["counts"]),
+                                                  len(bad["points"]))
+    assert not valid, reason  # the oracle: USD refuses this topology
+    body = 'def Xform "World"\n{\n' + mesh_usda("Bad", **kwargs) + mesh_usda("Good") + "}\n"
+    path = write_usda(tmp_path, body)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_usd(path)
+    messages = [str(w.message) for w in caught if "/World/Bad" in str(w.message)]
+    assert len(messages) == 1, messages
+    assert messages[0].startswith(f"{path}: meshes of invalid topology were skipped: 1 prim(s) ("), messages
+    assert all(fragment in messages[0] for fragment in fragments) and messages[0].endswith(": /World/Bad")
+    assert [m.path for m in scene.meshes] == ["/World/Good"]
+
+
+@pytest.mark.parametrize(
+    "kwargs, fragments",
+    [
         (dict(points=POINTS[:5] + [(float("nan"), 0, 0)] + POINTS[6:]), ["points[5]", "not finite"]),
         (dict(points=POINTS[:6] + [(float("inf"), 0, 0)]), ["points[6]", "not finite"]),
     ],
 )
-def test_bad_topology(tmp_path, kwargs, fragments):
+def test_bad_points(tmp_path, kwargs, fragments):
     text = mesh_usda("Bad", **kwargs)
     body = 'def Xform "World"\n{\n' + text + "}\n"
     err = expect_scene_error(write_usda(tmp_path, body), "/World/Bad", *fragments)
@@ -953,9 +981,6 @@ def test_bad_topology(tmp_path, kwargs, fragments):
 @pytest.mark.parametrize(
     "old, new, fragments",
     [
-        # Indices and points but no counts: the mesh was dropped without a word (the mirror case raised).
-        ("int[] faceVertexCounts = [4, 5]", "", ["9 faceVertexIndices but no faceVertexCounts"]),
-        ("int[] faceVertexCounts = [4, 5]", "int[] faceVertexCounts = []", ["no faceVertexCounts"]),
         # Topology of a wrong type: float indices were truncated to ints, strings parsed, all without a word.
         ("int[] faceVertexIndices", "float[] faceVertexIndices", ["faceVertexIndices must be int[], not float[]"]),
         ("int[] faceVertexCounts = [4, 5]", 'string[] faceVertexCounts = ["4", "5"]',
@@ -966,9 +991,9 @@ def test_bad_topology(tmp_path, kwargs, fragments):
         ("int[] faceVertexCounts = [4, 5]", "int[] faceVertexCounts = [4, 5]\n    float[] holeIndices = [1e30]",
          ["holeIndices must be int[], not float[]"]),
     ],
-    ids=["no-counts", "empty-counts", "float-indices", "string-counts", "scalar-counts", "int2-counts", "float-holes"],
+    ids=["float-indices", "string-counts", "scalar-counts", "int2-counts", "float-holes"],
 )
-def test_missing_or_mistyped_topology(tmp_path, old, new, fragments):
+def test_mistyped_topology(tmp_path, old, new, fragments):
     text = mesh_usda("Bad")
     assert old in text
     body = 'def Xform "World"\n{\n' + text.replace(old, new) + "}\n"

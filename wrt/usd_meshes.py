@@ -197,7 +197,7 @@ class MeshReading:
         if raw_points is None:
             raw_points = value_at(mesh.GetPointsAttr(), t)
         if len(counts) == 0 and len(face_indices) == 0:
-            return None  # no faces: nothing to draw (indices without counts are refused by _check_topology)
+            return None  # no faces: nothing to draw (indices without counts: topology_problem)
         if raw_points is None or np.asarray(raw_points).size == 0:
             self._skip("meshes with faces but no points were skipped", prim)
             return None
@@ -212,7 +212,13 @@ class MeshReading:
         points = points.astype(np.float64)
 
         # Check the topology before using it.
-        self._check_topology(prim, counts, face_indices, points)
+        problem = topology_problem(counts, face_indices, len(points))
+        if problem is not None:
+            # UsdGeomMesh.ValidateTopology refuses such a mesh, and usdview (Storm) and maya-usd's importer draw the
+            # rest of the stage without it, as wrt skips other prims it cannot read; it stopped the whole load.
+            self._skip("meshes of invalid topology were skipped", prim, problem)
+            return None
+        self._check_points(prim, points)
         degenerate = int((counts < 3).sum())
         if degenerate:  # refined or not, as Storm warns "degenerated face found" (HdMeshUtil)
             self._skip("faces of fewer than three corners draw nothing", prim, f"{degenerate} of {len(counts)} faces")
@@ -345,38 +351,34 @@ class MeshReading:
             self._skip("creases or corners that do not fit the mesh were ignored", prim, str(e))
             return scheme_type(counts, face_indices, n_points, self.refine_level, **options)
 
-    def _check_topology(self, prim, counts, face_indices, points):
-        mesh = UsdGeom.Mesh(prim)
-        if len(counts) == 0:
-            raise self._error(
-                f"there are {len(face_indices)} faceVertexIndices but no faceVertexCounts",
-                prim,
-                mesh.GetFaceVertexCountsAttr(),
-            )
-        # Faces of 0, 1 or 2 vertices are valid topology (UsdGeom.Mesh.ValidateTopology) that draws nothing.
-        bad = counts < 0
-        if bad.any():
-            f = int(np.argmax(bad))
-            raise self._error(f"faceVertexCounts[{f}] = {counts[f]} is negative", prim, mesh.GetFaceVertexCountsAttr())
-        total = int(counts.sum())
-        if total != len(face_indices):
-            raise self._error(
-                f"faceVertexCounts sum to {total} but there are {len(face_indices)} faceVertexIndices",
-                prim,
-                mesh.GetFaceVertexCountsAttr(),
-            )
-        bad = (face_indices < 0) | (face_indices >= len(points))
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise self._error(
-                f"faceVertexIndices[{i}] = {face_indices[i]} is out of range for {len(points)} points",
-                prim,
-                mesh.GetFaceVertexIndicesAttr(),
-            )
+    def _check_points(self, prim, points):
+        """Raises SceneError naming the first point of ``points`` that is not finite."""
         bad = ~np.isfinite(points).all(axis=1)
         if bad.any():
             i = int(np.argmax(bad))
-            raise self._error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim, mesh.GetPointsAttr())
+            raise self._error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim,
+                              UsdGeom.Mesh(prim).GetPointsAttr())
+
+
+def topology_problem(counts: np.ndarray, face_indices: np.ndarray, n_points: int) -> str | None:
+    """What makes ``faceVertexCounts`` ``counts`` and ``faceVertexIndices`` ``face_indices`` of a mesh of
+    ``n_points`` points invalid, as ``UsdGeom.Mesh.ValidateTopology`` finds it (indices without counts, a negative
+    count, counts that do not sum to the indices, an index out of range), or None. Faces of 0, 1 or 2 vertices are
+    valid topology there, which draws nothing."""
+    if len(counts) == 0 and len(face_indices):
+        return f"there are {len(face_indices)} faceVertexIndices but no faceVertexCounts"
+    bad = counts < 0
+    if bad.any():
+        f = int(np.argmax(bad))
+        return f"faceVertexCounts[{f}] = {counts[f]} is negative"
+    total = int(counts.sum())
+    if total != len(face_indices):
+        return f"faceVertexCounts sum to {total} but there are {len(face_indices)} faceVertexIndices"
+    bad = (face_indices < 0) | (face_indices >= n_points)
+    if bad.any():
+        i = int(np.argmax(bad))
+        return f"faceVertexIndices[{i}] = {face_indices[i]} is out of range for {n_points} points"
+    return None
 
 
 # Subdivision surfaces without authored normals are shaded with smooth vertex normals of their control cage, as
