@@ -217,8 +217,8 @@ def test_a_sphere_light_axis_set_after_construction_is_used_as_a_direction():
 
 
 def test_usd_shaping_is_read_with_the_light_axis(tmp_path):
-    """ShapingAPI inputs come with the light; a sphere light's axis is its -Z in the world. Only an IES profile is
-    warned about, naming its light."""
+    """ShapingAPI inputs come with the light; a sphere light's axis is its -Z in the world. Only an IES profile that
+    is not found is warned about, naming its light and the file."""
 
     def build(stage):
         spot = UsdLux.SphereLight.Define(stage, "/Spot")
@@ -234,7 +234,7 @@ def test_usd_shaping_is_read_with_the_light_axis(tmp_path):
         UsdLux.ShapingAPI.Apply(ies.GetPrim()).CreateShapingIesFileAttr("lamp.ies")
         UsdLux.SphereLight.Define(stage, "/Bare")
 
-    with pytest.warns(UserWarning, match=r"IES.*not supported.*1 prim\(s\): /Ies$") as record:
+    with pytest.warns(UserWarning, match=r"IES.*not found.*1 prim\(s\) \(lamp\.ies: 1\): /Ies$") as record:
         scene = wrt.load_usd(write_stage(tmp_path, build))
     assert not [w for w in record if "Spot" in str(w.message) or "Plain" in str(w.message)]
     lights = {light.path: light for light in scene.lights}

@@ -28,6 +28,7 @@ from .affine_lights import (
     sample_elliptic_tube,
 )
 from .geometry import stable_length
+from .ies import ies_factor
 from .light_links import DeviceLinks
 from .light_shaping import cone_and_focus
 from .materials import DeviceMaterials, cut_out, eval_emission
@@ -96,6 +97,10 @@ class DeviceLights:
     shaping: wp.array[wp.vec4]  # (num_analytic) (cone angle, smooth start (radians), focus, 1); all 0: unshaped
     shaping_axis: wp.array[wp.vec3]  # (num_analytic) unit primary axis (the light's -Z) of shaped lights
     focus_tint: wp.array[wp.vec3]  # (num_analytic) ShapingAPI focusTint of shaped lights
+    ies: wp.array[wp.vec3i]  # (num_analytic) (offset into ies_data, vertical, horizontal angles) of an IES profile;
+    # vertical 0: none (read only where shaping is on)
+    ies_frame: wp.array[wp.mat33]  # (num_analytic) rows: the light's unit X, Y and primary axis (wrt.ies.ies_factor)
+    ies_data: wp.array[float]  # the IES profiles, one after the other (wrt.ies.IesProfile.device_data)
     pmf: wp.array[float]  # selection probability of each light
     cdf: wp.array[float]  # (count + 1) running sum of pmf
     count: int  # number of lights
@@ -214,12 +219,16 @@ def light_kind(lights: DeviceLights, k: int):
 
 @wp.func
 def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
-    """The colour factor of analytic light ``k``'s ShapingAPI on the radiance it emits along unit ``w`` (1 where
-    unshaped: :mod:`wrt.light_shaping`)."""
+    """The colour factor of analytic light ``k``'s ShapingAPI (its cone, focus and IES profile) on the radiance it
+    emits along unit ``w`` (1 where unshaped: :mod:`wrt.light_shaping`)."""
     params = lights.shaping[k]
     if params[3] == 0.0:
         return wp.vec3(1.0)
-    return cone_and_focus(params, lights.shaping_axis[k], lights.focus_tint[k], w)
+    f = cone_and_focus(params, lights.shaping_axis[k], lights.focus_tint[k], w)
+    info = lights.ies[k]
+    if info[1] > 0:
+        f = f * ies_factor(lights.ies_data, info, lights.ies_frame[k], w)
+    return f
 
 
 @wp.func

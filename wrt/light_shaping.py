@@ -23,7 +23,14 @@ schema says (the sphere lights Omniverse writes carry an authored 180). Rect and
 space anyway, so a ShapingAPI at its fallbacks changes nothing there, and such lights are uploaded as unshaped (the
 kernels then skip the factor). Every emission direction is shaped the same way, whether light sampling reaches the
 light or a camera or bounce ray sees it: from outside the cone a light looks dark, and both strategies of multiple
-importance sampling weigh the same radiance. IES profiles (``shaping:ies:*``) are not supported.
+importance sampling weigh the same radiance.
+
+An IES profile (``shaping:ies:file``, :mod:`wrt.ies`) multiplies the emission too, by its candela value in the
+direction light leaves in, in the light's frame: vertical angle ``theta`` off the primary axis (-Z), horizontal angle
+from the light's +X towards its +Y. ``shaping:ies:angleScale`` rescales ``theta`` before the lookup as the schema
+says (``theta / s`` for ``s > 0``, ``(theta - pi) / -s + pi`` for ``s < 0``), and ``shaping:ies:normalize`` divides
+the profile by its mean intensity over the sphere or hemisphere it covers (:meth:`wrt.ies.IesProfile.mean_intensity`,
+as OpenUSD's hdEmbree does), so that it shapes the light without changing its overall brightness much.
 """
 
 from __future__ import annotations
@@ -34,7 +41,8 @@ import math
 import numpy as np
 import warp as wp
 
-from .errors import SceneError, check_fields
+from .errors import SceneError, check_fields, check_flags
+from .ies import IesError, IesProfile, read_ies
 
 PROFILE_STEPS = 2048  # angles at which power_fraction integrates the shaping factor
 SHAPING_RANGES = {  # field -> (lowest, highest, unit) of a Shaping's bounded inputs
@@ -54,6 +62,9 @@ class Shaping:
         focus: exponent of ``|cos|`` off the axis that narrows the emission, >= 0 (0: none).
         focus_tint: ``(3,)`` the colour factor the focus fades to off the axis, >= 0 (black: to nothing; white: no
             focus).
+        ies: the :class:`wrt.ies.IesProfile` (``shaping:ies:file``, :func:`wrt.ies.read_ies`), or None.
+        ies_angle_scale: ``shaping:ies:angleScale``: rescales the profile's vertical angles (0: as they are).
+        ies_normalize: ``shaping:ies:normalize``: divide the profile by its mean intensity.
 
     Raises:
         SceneError: naming the field, for a value that is not a finite number or lies outside its range.
@@ -63,6 +74,9 @@ class Shaping:
     cone_softness: float = 0.0
     focus: float = 0.0
     focus_tint: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3, np.float32))
+    ies: IesProfile | None = None
+    ies_angle_scale: float = 0.0
+    ies_normalize: bool = False
     path = ""  # check_fields names this prim: none (load_usd's warning names the light of a bad shaping)
 
     def __post_init__(self):
@@ -73,10 +87,30 @@ class Shaping:
             if not low <= value <= high:
                 raise SceneError(f"Shaping {name} must be in [{low:g}, {high:g}]{unit}, got {value!r}",
                                  prim=self.path or None)
+        if self.ies is not None and not isinstance(self.ies, IesProfile):
+            raise SceneError(f"Shaping ies must be a wrt.ies.IesProfile or None, got {type(self.ies).__name__}",
+                             prim=self.path or None)
+        check_fields(self, ("ies_angle_scale", (), None, float))
+        check_flags(self, "ies_normalize")
+
+    def ies_scale(self) -> float:
+        """What the profile's candela values are multiplied by: 1, or 1 / its mean intensity with ``ies_normalize``
+        (1 for a profile that is dark everywhere, which nothing can normalize)."""
+        if self.ies is None or not self.ies_normalize:
+            return 1.0
+        mean = self.ies.mean_intensity()
+        return 1.0 / mean if mean > 0.0 else 1.0
+
+    def ies_power_fraction(self) -> float:
+        """The profile's factor averaged over the sphere, for picking lights by power (1 without a profile)."""
+        if self.ies is None:
+            return 1.0
+        return self.ies.total_intensity() / (4.0 * math.pi) * self.ies_scale()
 
     def at_fallbacks(self) -> bool:
         """True when every input has the schema's fallback value."""
-        return (self.cone_angle, self.cone_softness, self.focus) == (90.0, 0.0, 0.0) and not np.any(self.focus_tint)
+        return ((self.cone_angle, self.cone_softness, self.focus) == (90.0, 0.0, 0.0) and not np.any(self.focus_tint)
+                and self.ies is None)
 
     def device_params(self, emits_behind: bool) -> tuple[float, float, float] | None:
         """``(theta_cut, theta_smooth_start, focus)`` as :func:`cone_and_focus` takes them, or None where the shaping
@@ -118,27 +152,51 @@ def primary_axis(to_world, fallback) -> np.ndarray:
     return -z / length if length > 0.0 else np.asarray(fallback, np.float64)
 
 
-SHAPING_INPUTS = ("cone:angle", "cone:softness", "focus", "focusTint", "ies:file")  # after "inputs:shaping:"
+def x_axis(to_world, fallback) -> np.ndarray:
+    """``(3,)`` unit world direction of the light's local +X axis under ``to_world`` (``(4, 4)`` column-vector),
+    where an IES profile's horizontal angles start, or ``fallback`` where the transform flattens it."""
+    x = np.asarray(to_world, np.float64).reshape(4, 4)[:3, 0]
+    length = float(np.linalg.norm(x))
+    return x / length if length > 0.0 else np.asarray(fallback, np.float64)
 
 
-def read_shaping(prim, get, skip) -> tuple[Shaping | None, bool]:
+def ies_frame(axis, x) -> np.ndarray:
+    """``(3, 3)`` float32 rows: unit X and Y axes and the primary axis (``axis``, the light's -Z, unit) of a light
+    whose X axis is ``x`` (made perpendicular to ``axis``; any perpendicular where it lies along it): the frame an IES
+    profile is looked up in (:func:`wrt.ies.ies_factor`)."""
+    axis = np.asarray(axis, np.float64)
+    x = np.asarray(x, np.float64) - np.dot(x, axis) * axis
+    if not np.linalg.norm(x) > 1e-9:
+        x = np.cross(axis, (1.0, 0.0, 0.0) if abs(axis[0]) < 0.9 else (0.0, 1.0, 0.0))
+    x = x / np.linalg.norm(x)
+    y = np.cross(-axis, x)  # Y = Z x X, with Z = -axis
+    return np.array([x, y, axis], np.float32)
+
+
+SHAPING_INPUTS = ("cone:angle", "cone:softness", "focus", "focusTint", "ies:file", "ies:angleScale",
+                  "ies:normalize")  # after "inputs:shaping:"
+
+
+def read_shaping(prim, get, skip, profiles: dict | None = None) -> Shaping | None:
     """The :class:`Shaping` of a light prim (None without ShapingAPI or an authored shaping input: Hydra reads the
-    inputs either way) and whether it names an IES profile. Inputs outside the ranges a :class:`Shaping` takes are
-    clamped to them, as the schema clamps the softness and ignores a negative focus, with a warning through ``skip``.
+    inputs either way), its IES profile included. Inputs outside the ranges a :class:`Shaping` takes are clamped to
+    them, as the schema clamps the softness and ignores a negative focus, with a warning through ``skip``; an IES
+    file that is not found or cannot be read is left out (the light emits without it), with a warning naming it.
 
     Args:
         prim: a ``UsdLux`` light prim.
         get: ``get(attr, default)`` of :func:`wrt.usd_lights.read_light` (unprefixed names of old files included).
         skip: ``skip(reason, prim, detail=None)``.
+        profiles: resolved path -> its :class:`wrt.ies.IesProfile` or :class:`wrt.ies.IesError`, kept over one load
+            so that each file is read once; None: read here.
     """
     from pxr import UsdLux
 
     names = [f"{prefix}shaping:{name}" for name in SHAPING_INPUTS for prefix in ("inputs:", "")]
     authored = any(prim.GetAttribute(n) and prim.GetAttribute(n).HasAuthoredValue() for n in names)
     if not (prim.HasAPI(UsdLux.ShapingAPI) or authored):
-        return None, False
+        return None
     api = UsdLux.ShapingAPI(prim)
-    ies = get(api.GetShapingIesFileAttr(), None)
     values = {"cone_angle": get(api.GetShapingConeAngleAttr(), 90.0),
               "cone_softness": get(api.GetShapingConeSoftnessAttr(), 0.0),
               "focus": get(api.GetShapingFocusAttr(), 0.0),
@@ -159,7 +217,40 @@ def read_shaping(prim, get, skip) -> tuple[Shaping | None, bool]:
         skip("light shaping inputs outside their range were clamped to it (cone angle [0, 180], softness [0, 1], "
              "focus and focus tint >= 0), as UsdLux clamps the softness and ignores a negative focus", prim,
              ", ".join(clamped))
-    return Shaping(**values), bool(getattr(ies, "path", "") if ies is not None else "")
+    values["ies"] = _read_profile(prim, get(api.GetShapingIesFileAttr(), None), skip, profiles)
+    if values["ies"] is not None:
+        values["ies_angle_scale"] = get(api.GetShapingIesAngleScaleAttr(), 0.0)
+        normalize = get(api.GetShapingIesNormalizeAttr(), False)
+        values["ies_normalize"] = normalize if isinstance(normalize, bool) else False
+        if not isinstance(normalize, bool):
+            skip("light switches authored with a type that is not bool were read as the schema's fallback", prim,
+                 f"inputs:shaping:ies:normalize = {normalize!r}")
+    return Shaping(**values)
+
+
+def _read_profile(prim, asset, skip, profiles: dict | None):
+    """The :class:`wrt.ies.IesProfile` of ``shaping:ies:file`` value ``asset`` (an ``Sdf.AssetPath`` or None), or
+    None (with a warning naming the file where one is named but cannot be used)."""
+    name = getattr(asset, "path", "") or ""
+    if not name:
+        return None
+    resolved = getattr(asset, "resolvedPath", "") or ""
+    if not resolved:
+        skip("IES profiles (shaping:ies:file) that were not found are ignored; these lights emit without them", prim,
+             name)
+        return None
+    profiles = {} if profiles is None else profiles
+    if resolved not in profiles:
+        try:
+            profiles[resolved] = read_ies(resolved)
+        except IesError as e:
+            profiles[resolved] = e
+    found = profiles[resolved]
+    if isinstance(found, IesError):
+        skip("IES profiles (shaping:ies:file) that cannot be read are ignored; these lights emit without them", prim,
+             str(found))
+        return None
+    return found
 
 
 @wp.func

@@ -31,7 +31,7 @@ from .light_sampling import (
     SHADOWS_ON,
     DeviceLights,
 )
-from .light_shaping import Shaping, primary_axis
+from .light_shaping import Shaping, ies_frame, primary_axis
 from .lights import (
     GLOW_TINTS_LIGHT,
     NO_MATERIAL_RESPONSE,
@@ -64,6 +64,8 @@ class HostLights:
     shaping: list
     shaping_axis: list
     focus_tint: list
+    ies: list  # per light: its IES profile's wrt.ies.IesProfile.device_data, or None
+    ies_frame: list
     texture: list
     lobe_scale: list
     shapes: list
@@ -397,7 +399,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
                 _add(h, LIGHT_ELLIPSOID, L, light.position, zero, zero, zero, (g, 0, area, 0), 0,
                      math.pi * area * luminance_np(L))
                 h.shapes[-1] = m
-            _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True)
+            _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True, x=light.x_axis)
         elif isinstance(light, RectLight):
             u, v = light.edges()
             _, _, z, origin = light_axes(light.to_world)
@@ -407,7 +409,8 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L * mean))
             h.texture[-1] = texels
-            _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False,
+                         x=light_axes(light.to_world)[0])
         elif isinstance(light, DiskLight):
             x, y, z, origin = light_axes(light.to_world)
             u, v = x * light.radius, y * light.radius
@@ -415,13 +418,15 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             L = light.radiance
             _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L))
-            _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False)
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False,
+                         x=light_axes(light.to_world)[0])
         elif isinstance(light, CylinderLight) and light.drawn_as_line:
             axis = light.world_shape()[0]
             i = light.line_intensity  # I_s: its power is pi^2 |axis| I_s, as the tube's pi A L
             _add(h, LIGHT_LINE, i, light_axes(light.to_world)[3], axis, zero, zero, (0, 0, 0, 0), 0,
                  math.pi**2 * float(np.linalg.norm(axis)) * luminance_np(i))
-            _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True)
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True,
+                         x=light_axes(light.to_world)[0])
         elif isinstance(light, CylinderLight):
             axis, r = light.world_shape()
             origin = light_axes(light.to_world)[3]
@@ -431,7 +436,8 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
                  (r, 0, light.area, 0), 0, math.pi * light.area * luminance_np(L))
             if m is not None:
                 h.shapes[-1] = m
-            _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True)
+            _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True,
+                         x=light_axes(light.to_world)[0])
         else:
             raise TypeError(f"unsupported light {type(light).__name__}")
         h.shadows[-1] = SHADOWS_ON if light.shadows else SHADOWS_OFF
@@ -504,6 +510,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     d.shaping = arr(h.shaping, wp.vec4, 4)
     d.shaping_axis = arr(h.shaping_axis, wp.vec3)
     d.focus_tint = arr(h.focus_tint, wp.vec3)
+    d.ies, d.ies_frame, d.ies_data = _upload_profiles(h.ies, h.ies_frame, num_analytic, device)
     d.lobe_scale = arr(h.lobe_scale, wp.vec2, 2, tri_lobes)
     # Ellipsoids and elliptic tubes: their map from the unit shape and its inverse (analytic lights only).
     shapes = np.asarray(h.shapes, np.float64).reshape(-1, 3, 3) if h.shapes else np.eye(3)[None]
@@ -598,21 +605,52 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.shaping.append(np.zeros(4, np.float32))
     h.shaping_axis.append(np.zeros(3, np.float32))
     h.focus_tint.append(np.zeros(3, np.float32))
+    h.ies.append(None)
+    h.ies_frame.append(np.eye(3, dtype=np.float32))
     h.texture.append(None)
     h.lobe_scale.append(np.ones(2, np.float32))
     h.shapes.append(np.eye(3))
 
 
-def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool) -> None:
-    """Gives the light added last ``shaping`` around unit ``axis`` (nothing where it changes nothing), and scales
-    its power by the share the shaping lets out."""
+def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool, x=(1.0, 0.0, 0.0)) -> None:
+    """Gives the light added last ``shaping`` around unit ``axis`` (its IES profile turned by the light's X axis
+    ``x``; nothing where it changes nothing), and scales its power by the share the shaping lets out."""
     params = None if shaping is None else shaping.device_params(emits_behind)
-    if params is None:
+    if params is None and (shaping is None or shaping.ies is None):
         return
+    if params is None:  # a profile alone: the cone and focus let everything through
+        params = (math.pi, math.pi, 0.0)
+    else:
+        h.power[-1] *= shaping.power_fraction(emits_behind)
     h.shaping[-1] = np.array([*params, 1.0], np.float32)
     h.shaping_axis[-1] = np.asarray(axis, np.float32)
     h.focus_tint[-1] = np.asarray(shaping.focus_tint, np.float32)
-    h.power[-1] *= shaping.power_fraction(emits_behind)
+    if shaping.ies is not None:
+        h.ies[-1] = shaping.ies.device_data(shaping.ies_angle_scale, shaping.ies_scale())
+        h.ies_frame[-1] = ies_frame(axis, x)
+        h.power[-1] *= shaping.ies_power_fraction()
+
+
+def _upload_profiles(profiles: list, frames: list, count: int, device) -> tuple[wp.array, wp.array, wp.array]:
+    """The ``(offset, vertical count, horizontal count)`` of each of ``count`` lights' IES profile (``profiles``:
+    :meth:`wrt.ies.IesProfile.device_data` or None; vertical count 0: none), their frames and their data packed
+    one after the other (one 0 when there is none)."""
+    info = np.zeros((max(count, 1), 3), np.int32)
+    packed = [np.zeros(1, np.float32)]
+    offset = 1
+    shared = {}  # id of a profile's data -> its offset: lights sharing one profile share its data
+    for k, found in enumerate(profiles):
+        if found is None:
+            continue
+        data, n_v, n_h = found
+        if id(data) not in shared:
+            shared[id(data)] = offset
+            packed.append(data)
+            offset += len(data)
+        info[k] = (shared[id(data)], n_v, n_h)
+    frame_rows = np.asarray(frames, np.float32).reshape(-1, 3, 3) if frames else np.eye(3, dtype=np.float32)[None]
+    return (wp.array(info, dtype=wp.vec3i, device=device), wp.array(frame_rows, dtype=wp.mat33, device=device),
+            wp.array(np.concatenate(packed), dtype=float, device=device))
 
 
 def _right_angled(u, v) -> float:

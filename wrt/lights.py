@@ -43,9 +43,9 @@ times the blackbody colour when ``enableColorTemperature`` is on):
 - **Multipliers** ``diffuse`` and ``specular`` (UsdLux's non-physical controls) scale what surfaces reflect of a
   light through their diffuse lobe and their specular lobes (:func:`wrt.light_sampling.lobe_factor`); camera rays
   see lights unscaled.
-- **Shaping** (``ShapingAPI`` cone, softness, focus and focus tint, :mod:`wrt.light_shaping`) multiplies what sphere,
-  rect, disk and cylinder lights emit in each direction, after ``normalize``, for light sampling and for rays that
-  see the light alike.
+- **Shaping** (``ShapingAPI`` cone, softness, focus and focus tint, and an IES profile, :mod:`wrt.light_shaping`,
+  :mod:`wrt.ies`) multiplies what sphere, rect, disk and cylinder lights emit in each direction, after ``normalize``,
+  for light sampling and for rays that see the light alike.
 
 Light and shadow linking (``collection:lightLink``, ``collection:shadowLink``) limit the geometry a UsdLux light lights
 and the geometry that casts its shadows (:mod:`wrt.light_links`). Lights are invisible to shadow rays (they never
@@ -123,6 +123,8 @@ class SphereLight:
         shadows: the light casts shadows (``ShadowAPI`` ``inputs:shadow:enable``).
         shaping: its :class:`Shaping` (``ShapingAPI``), or None.
         axis: ``(3,)`` world direction of the light's -Z axis, which its shaping is centred on (made unit).
+        x_axis: ``(3,)`` world direction of the light's +X axis, where an IES profile's horizontal angles start (its
+            part perpendicular to ``axis`` counts).
         diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
@@ -141,6 +143,7 @@ class SphereLight:
     shadows: bool = True
     shaping: Shaping | None = None
     axis: np.ndarray = dataclasses.field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    x_axis: np.ndarray = dataclasses.field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
     diffuse: float = 1.0
     specular: float = 1.0
     light_link: LinkCollection | None = None
@@ -149,7 +152,7 @@ class SphereLight:
 
     def __post_init__(self):
         check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR,
-                     ("axis", (3,), None, np.float64), *_MULTIPLIERS)
+                     ("axis", (3,), None, np.float64), ("x_axis", (3,), None, np.float64), *_MULTIPLIERS)
         check_flags(self, "normalize", "treat_as_point", "shadows")
         if self.frame is not None:
             check_fields(self, ("frame", (3, 3), None, np.float64))

@@ -11,7 +11,7 @@ import numpy as np
 from .affine_lights import flat, similar
 from .errors import SceneError
 from .light_links import read_collection
-from .light_shaping import Shaping, primary_axis, read_shaping
+from .light_shaping import Shaping, primary_axis, read_shaping, x_axis
 from .lights import (
     GLOW_TINTS_LIGHT,
     MATERIAL_SYNC_MODES,
@@ -135,6 +135,7 @@ class LightTextures:
         self.kept = kept
         self.latlongs = {}  # (resolved path, layout) -> the lat-long image of a dome's texture, for this load
         self.dark = {}  # resolved path -> what of its colour cannot be emitted ("" for none), counted once per load
+        self.profiles = {}  # resolved path -> its IES profile (or the IesError reading it), read once per load
 
     def latlong(self, resolved: str, image, fmt: str):
         """The lat-long image of ``image`` (:meth:`load` of ``resolved``) laid out as ``fmt``
@@ -246,7 +247,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
              prim)
     try:
-        shaping, ies = read_shaping(prim, get, skip)
+        shaping = read_shaping(prim, get, skip, textures.profiles)
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
         result = _tiny_normalized(result, prim, skip)
         if result is not None and not fits_float32(result):
@@ -258,9 +259,6 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     except SceneError as e:  # a value the checks above let through, e.g. a radius that overflows once scaled
         skip("lights with values wrt cannot use were skipped", prim, str(e).removeprefix(f"{path}: "))
         return None
-    if ies:
-        skip("IES light profiles (ShapingAPI shaping:ies:file) are not supported; these lights emit without them",
-             prim)
     if result is not None:
         _read_links_and_filters(prim, light, result, skip)
         result.shadows = shadows
@@ -487,12 +485,13 @@ def _material_sync(prim, skip) -> str:
 
 def _shaped(light, shaping: Shaping, m, prim, skip):
     """``light`` (or None) with ``shaping``: sphere, rect, disk and cylinder lights take it (a sphere also its -Z
-    axis, from ``m``); distant and dome lights, which the ShapingAPI formulas are not written for, emit unshaped,
+    and X axes, from ``m``); distant and dome lights, which the ShapingAPI formulas are not written for, emit unshaped,
     with a warning unless the shaping is at its fallbacks."""
     if isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight)):
         light.shaping = shaping
         if isinstance(light, SphereLight):
             light.axis = primary_axis(m, light.axis)
+            light.x_axis = x_axis(m, light.x_axis)
     elif light is not None and not shaping.at_fallbacks():
         skip("light shaping (ShapingAPI) on mesh lights, distant and dome lights is not supported; these lights emit "
              "unshaped", prim)

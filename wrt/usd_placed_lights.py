@@ -19,7 +19,7 @@ import dataclasses
 import numpy as np
 
 from .affine_lights import FLAT_RATIO
-from .light_shaping import Shaping, primary_axis
+from .light_shaping import Shaping, primary_axis, x_axis
 from .lights import CylinderLight, DiskLight, RectLight, SphereLight, round_tube
 from .usd_lights import fits_float32
 
@@ -164,6 +164,7 @@ def _placed(template, m: np.ndarray, shape: int, sphere: tuple | None):
         light.position, light.radius, light.treat_as_point = m[:3, 3].copy(), radius, treat or radius <= 0.0
         if light.shaping is not None:
             light.axis = primary_axis(m, np.array([0.0, 0.0, -1.0]))
+            light.x_axis = x_axis(m, np.array([1.0, 0.0, 0.0]))
     else:
         light.to_world = m.copy()
     if isinstance(light, CylinderLight) and light.length > 0.0 and light.radius > 0.0 and not light.treat_as_line:

@@ -1,0 +1,262 @@
+"""IES light profiles (UsdLux ShapingAPI ``shaping:ies:*``): the LM-63 parser and the profile on the light's emission.
+
+Every expected value is computed here: a point light of intensity ``I`` shaped by a profile ``f(theta, phi)`` gives a
+plane below it the irradiance ``I f cos(incidence) / d^2``, with ``theta`` the angle off the light's -Z axis and
+``phi`` the angle round it from the light's +X towards +Y. The profiles are built so that the file's bilinear table is
+exact: ``f = A(theta) B(phi)``, each piecewise linear with knots at the file's angles, and the horizontal symmetries
+are unfolded here (a quadrant file mirrored into four, a half into two, ...) with ``np.interp``.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, UsdGeom, UsdLux
+from shading_helpers import pixel_points, quad, top_down_camera
+from test_lights import ALBEDO, write_stage
+
+import wrt
+from wrt.ies import IesError, parse_ies
+
+HEIGHT = 1.0  # of the light above the plane z = 0
+RES = 24
+PATCH = 3.0  # up to 65 degrees off the light's axis at the corners
+
+VERTICAL = [0.0, 30.0, 60.0, 90.0]
+A_VALUES = [400.0, 300.0, 120.0, 40.0]  # candela factor by vertical angle (degrees)
+
+
+def ies_text(vertical, horizontal, candela, multiplier=1.0, ballast=1.0, header="IESNA:LM-63-2002") -> str:
+    """An LM-63 file: ``candela[h][v]``, numbers wrapped over lines as real files do."""
+    values = [f"{c:g}" for row in candela for c in row]
+    body = "\n".join(" ".join(values[i:i + 7]) for i in range(0, len(values), 7))
+    return (f"{header}\n[TEST] synthetic\n[MANUFAC] wrt\nTILT=NONE\n"
+            f"1 -1 {multiplier:g} {len(vertical)} {len(horizontal)} 1 2 0 0 0\n{ballast:g} 1 10\n"
+            f"{' '.join(f'{v:g}' for v in vertical)}\n{' '.join(f'{h:g}' for h in horizontal)}\n{body}\n")
+
+
+def folded(phi_deg, horizontal):
+    """``phi`` (degrees, [0, 360)) folded into the file's horizontal range by LM-63's symmetry."""
+    phi = np.mod(phi_deg, 360.0)
+    first, last = horizontal[0], horizontal[-1]
+    if len(horizontal) == 1:
+        return np.zeros_like(phi)
+    if (first, last) == (0.0, 90.0):
+        phi = np.where(phi > 180.0, 360.0 - phi, phi)
+        return np.where(phi > 90.0, 180.0 - phi, phi)
+    if (first, last) == (0.0, 180.0):
+        return np.where(phi > 180.0, 360.0 - phi, phi)
+    if (first, last) == (90.0, 270.0):  # mirrored about the 90-270 plane: phi -> 180 - phi
+        return np.where(phi < 90.0, 180.0 - phi, np.where(phi > 270.0, 540.0 - phi, phi))
+    return phi
+
+
+def write_lamp(tmp_path, text, rotate=None, **inputs):
+    """A stage with a point SphereLight (normalized: intensity ``color / 4`` = 1) at HEIGHT, its profile the IES
+    text ``text`` in ``lamp.ies`` beside it, and ShapingAPI inputs ``inputs`` (``cone``, ``scale``,
+    ``normalize``)."""
+    (tmp_path / "lamp.ies").write_text(text)
+
+    def build(stage):
+        lamp = UsdLux.SphereLight.Define(stage, "/Lamp")
+        lamp.CreateTreatAsPointAttr(True)
+        lamp.CreateNormalizeAttr(True)
+        lamp.CreateIntensityAttr(4.0)
+        UsdGeom.XformCommonAPI(lamp).SetTranslate(Gf.Vec3d(0, 0, HEIGHT))
+        if rotate is not None:
+            UsdGeom.XformCommonAPI(lamp).SetRotate(Gf.Vec3f(*rotate))
+        api = UsdLux.ShapingAPI.Apply(lamp.GetPrim())
+        api.CreateShapingIesFileAttr(Sdf.AssetPath("./lamp.ies"))
+        api.CreateShapingConeAngleAttr(inputs.get("cone", 180.0))
+        if "scale" in inputs:
+            api.CreateShapingIesAngleScaleAttr(inputs["scale"])
+        if "normalize" in inputs:
+            api.CreateShapingIesNormalizeAttr(inputs["normalize"])
+
+    return write_stage(tmp_path, build)
+
+
+def render_lamp(path):
+    scene = wrt.load_usd(path)
+    scene.meshes.append(quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane"))
+    # One sample through each pixel centre: the formula at every pixel's point.
+    img = wrt.render(scene, camera=top_down_camera(height=PATCH), width=RES, height=RES, spp=1, device="cpu",
+                     integrator="whitted", max_depth=1)
+    assert np.isfinite(img.rgb).all()
+    return img.rgb, scene
+
+
+def expected_radiance(profile, frame=np.eye(3)):
+    """Radiance of the plane under a point light of intensity 1 at HEIGHT shaped by ``profile(theta, phi)``
+    (degrees), the light's X, Y and Z axes the columns of ``frame``."""
+    points = pixel_points((0, 0, 0), PATCH, RES, RES)
+    out = points - np.array([0.0, 0.0, HEIGHT])
+    d2 = (out**2).sum(-1)
+    w = out / np.sqrt(d2)[..., None]
+    local = w @ frame  # the emission direction in the light's frame
+    theta = np.degrees(np.arccos(np.clip(-local[..., 2], -1.0, 1.0)))
+    phi = np.degrees(np.arctan2(local[..., 1], local[..., 0]))
+    cos_incidence = -w[..., 2]
+    return ALBEDO / np.pi * profile(theta, phi) * cos_incidence / d2
+
+
+def a_of(theta):
+    return np.interp(theta, VERTICAL, A_VALUES, left=np.nan, right=0.0)
+
+
+HORIZONTAL_CASES = {
+    "one angle": ([0.0], [1.0]),
+    "0-90": ([0.0, 45.0, 90.0], [1.0, 0.5, 0.2]),
+    "0-180": ([0.0, 90.0, 180.0], [1.0, 0.3, 0.6]),
+    "90-270": ([90.0, 180.0, 270.0], [0.3, 1.0, 0.6]),
+    "0-360": ([0.0, 90.0, 180.0, 270.0, 360.0], [1.0, 0.4, 0.7, 0.2, 1.0]),
+}
+
+
+@pytest.mark.parametrize("case", list(HORIZONTAL_CASES))
+def test_point_light_profile_gives_candela_cos_over_r2(tmp_path, case):
+    """Each horizontal symmetry of LM-63: the plane gets ``I f(theta, phi) cos / d^2`` (the profile was skipped with
+    a warning: the plane was lit as by a bare point light)."""
+    horizontal, b_values = HORIZONTAL_CASES[case]
+    candela = [[a * b for a in A_VALUES] for b in b_values]
+    rgb, _ = render_lamp(write_lamp(tmp_path, ies_text(VERTICAL, horizontal, candela)))
+
+    def profile(theta, phi):
+        return a_of(theta) * np.interp(folded(phi, horizontal), horizontal, b_values)
+
+    expected = expected_radiance(profile)
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+    assert rgb[..., 0].max() > 0.0 and np.ptp(rgb[..., 0]) > 0.3 * rgb[..., 0].max()
+
+
+def test_profile_turns_with_the_light(tmp_path):
+    """The horizontal angles start at the light's +X: a lamp turned 90 degrees about Z turns its pattern."""
+    horizontal, b_values = HORIZONTAL_CASES["0-360"]
+    candela = [[a * b for a in A_VALUES] for b in b_values]
+    rgb, _ = render_lamp(write_lamp(tmp_path, ies_text(VERTICAL, horizontal, candela), rotate=(0.0, 0.0, 90.0)))
+    frame = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # columns: X -> +Y, Y -> -X
+
+    def profile(theta, phi):
+        return a_of(theta) * np.interp(np.mod(phi, 360.0), horizontal, b_values)
+
+    expected = expected_radiance(profile, frame)
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+
+
+@pytest.mark.parametrize("vertical, values", [
+    ([90.0, 135.0, 180.0], [50.0, 200.0, 400.0]),  # emits up only (the lamp is turned over)
+    ([0.0, 90.0, 180.0], [10.0, 80.0, 400.0]),  # the whole sphere
+])
+def test_vertical_ranges_behind_the_horizon(tmp_path, vertical, values):
+    """A lamp turned upside down (its -Z up) lights the plane with the profile's back half, theta past 90."""
+    rgb, _ = render_lamp(write_lamp(tmp_path, ies_text(vertical, [0.0], [values]), rotate=(180.0, 0.0, 0.0)))
+    frame = np.diag([1.0, -1.0, -1.0])  # turned about X: Y and Z flip
+
+    def profile(theta, phi):
+        return np.interp(theta, vertical, values, left=0.0, right=0.0)
+
+    expected = expected_radiance(profile, frame)
+    assert expected.min() > 0.0
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+
+
+def test_a_downward_profile_leaves_the_upper_hemisphere_dark(tmp_path):
+    """A 0-90 profile on a lamp turned upside down: the plane lies above its horizon and gets nothing."""
+    rgb, _ = render_lamp(write_lamp(tmp_path, ies_text(VERTICAL, [0.0], [A_VALUES]), rotate=(180.0, 0.0, 0.0)))
+    assert rgb.max() == 0.0
+
+
+@pytest.mark.parametrize("scale", [0.5, -2.0])
+def test_angle_scale_maps_theta_as_the_schema_says(tmp_path, scale):
+    """``theta_ies = theta / s`` for ``s > 0``; ``(theta - pi) / -s + pi`` for ``s < 0`` (schema.usda)."""
+    vertical, values = [0.0, 45.0, 90.0, 135.0, 180.0], [400.0, 200.0, 100.0, 60.0, 30.0]
+    rgb, _ = render_lamp(write_lamp(tmp_path, ies_text(vertical, [0.0], [values]), scale=scale))
+
+    def profile(theta, phi):
+        t = theta / scale if scale > 0 else (theta - 180.0) / -scale + 180.0
+        return np.interp(t, vertical, values, left=0.0, right=0.0)
+
+    expected = expected_radiance(profile)
+    unscaled = expected_radiance(lambda theta, phi: np.interp(theta, vertical, values))
+    assert np.abs(expected / unscaled - 1.0).max() > 0.3  # the scale shows
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+
+
+@pytest.mark.parametrize("vertical, span", [([0.0, 30.0, 60.0, 90.0], 2.0), ([0.0, 60.0, 120.0, 180.0], 4.0)])
+def test_normalize_divides_by_the_mean_intensity(tmp_path, vertical, span):
+    """``shaping:ies:normalize``: the profile over its mean over the hemisphere (a 0-90 file) or the sphere (0-180)
+    it covers, the mean integrated here on a fine grid in float64."""
+    horizontal, b_values = HORIZONTAL_CASES["0-180"]
+    candela = [[a * b for a in A_VALUES] for b in b_values]
+
+    def raw(theta, phi):
+        return np.interp(theta, vertical, A_VALUES, left=0.0, right=0.0) * np.interp(
+            folded(phi, horizontal), horizontal, b_values)
+
+    t = (np.arange(2000) + 0.5) * (vertical[-1] / 2000)
+    p = (np.arange(720) + 0.5) * 0.5
+    tt, pp = np.meshgrid(t, p, indexing="ij")
+    solid = np.sin(np.radians(tt)) * math.radians(vertical[-1] / 2000) * math.radians(0.5)
+    mean = float((raw(tt, pp) * solid).sum() / (span * math.pi))
+    rgb, _ = render_lamp(write_lamp(tmp_path, ies_text(vertical, horizontal, candela), normalize=True))
+    expected = expected_radiance(lambda theta, phi: raw(theta, phi) / mean)
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+
+
+def test_candela_multiplier_and_ballast_factor_scale_the_profile():
+    """The file's candela multiplier and ballast factor multiply its values; LM-63-1995's ballast-lamp photometric
+    factor too, where 2002's field of that place is 'future use'."""
+    p = parse_ies(ies_text([0.0, 90.0], [0.0], [[10.0, 20.0]], multiplier=2.0, ballast=0.5), "a.ies")
+    np.testing.assert_allclose(p.candela, [[10.0, 20.0]])
+    old = ies_text([0.0, 90.0], [0.0], [[10.0, 20.0]], multiplier=3.0, header="IESNA:LM-63-1995")
+    np.testing.assert_allclose(parse_ies(old.replace("\n1 1 10\n", "\n1 0.5 10\n"), "b.ies").candela, [[15.0, 30.0]])
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: t.replace("TILT=NONE", "TILT=INCLUDE"), r"lamp\.ies:4: TILT=INCLUDE is not supported"),
+    (lambda t: t.replace("TILT=NONE\n", ""), r"lamp\.ies: no TILT= line"),
+    (lambda t: t.replace(" 1 2 0 0 0", " 2 2 0 0 0"), r"lamp\.ies:5: photometric type B is not supported"),
+    (lambda t: t.replace("0 30 60 90", "0 30 x 90"), r"lamp\.ies:7: 'x' is not a number"),
+    (lambda t: t.rsplit("\n", 3)[0], r"lamp\.ies:\d+: the file ends early: expected 8 candela values"),
+    (lambda t: t.replace("0 30 60 90", "0 60 30 90"), r"lamp\.ies: vertical angles must be ascending"),
+    (lambda t: t.replace("\n0 90\n", "\n0 45\n"), r"horizontal angles 0-45 are none of LM-63's ranges"),
+])
+def test_malformed_files_name_the_file_and_line(edit, message):
+    text = edit(ies_text(VERTICAL, [0.0, 90.0], [A_VALUES, A_VALUES]))
+    with pytest.raises(IesError, match=message):
+        parse_ies(text, "lamp.ies")
+
+
+@pytest.mark.parametrize("broken, message", [
+    (None, r"IES profiles \(shaping:ies:file\) that were not found are ignored.*\./lamp\.ies.*/Lamp"),
+    ("TILT=NONE\n1 -1 1 3 1 1 2 0 0 0\n1 1 10\n0 45 90\n0\n100 oops 20\n",
+     r"IES profiles \(shaping:ies:file\) that cannot be read are ignored.*lamp\.ies:6: 'oops' is not a number.*/Lamp"),
+])
+def test_a_profile_that_cannot_be_used_is_warned_about_and_the_light_emits_without_it(tmp_path, broken, message):
+    path = write_lamp(tmp_path, broken or "")
+    if broken is None:
+        (tmp_path / "lamp.ies").unlink()
+    with pytest.warns(UserWarning, match=message):
+        rgb, scene = render_lamp(path)
+    assert scene.lights[0].shaping.ies is None
+    expected = expected_radiance(lambda theta, phi: np.ones_like(theta))  # the bare point light of intensity 1
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+
+
+def test_a_profile_on_an_area_light_scales_what_it_emits_towards_the_plane():
+    """A small disk light (its own cosine included) with a profile the same in every direction at 3 candela:
+    three times the bare light, for light sampling and the camera rays that see it alike."""
+    from wrt.ies import IesProfile
+    from wrt.lights import DiskLight
+
+    to_world = np.eye(4)
+    to_world[:3, 3] = (0, 0, HEIGHT)
+
+    def render(shaping):
+        disk = DiskLight(to_world=to_world, radius=0.05, color=np.full(3, 50.0), shaping=shaping, path="/Disk")
+        scene = wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")], lights=[disk])
+        return wrt.render(scene, camera=top_down_camera(height=PATCH), width=12, height=12, spp=16, seed=5,
+                          device="cpu", integrator="path", max_depth=1).rgb
+
+    flat = IesProfile([0.0, 90.0, 180.0], [0.0], [[3.0, 3.0, 3.0]])
+    np.testing.assert_allclose(render(wrt.Shaping(ies=flat)), 3.0 * render(None), rtol=1e-4, atol=1e-6)
