@@ -762,10 +762,58 @@ def test_light_whose_shadows_pass_a_blocker_lights_the_floor_behind_it_fully(pas
     np.testing.assert_allclose(render(light, spp=256).mean(), blocked.mean(), rtol=0.05, atol=1e-7)
 
 
+SHADOW_TINT = np.array([0.5, 0.25, 0.0])
+
+
+def render_over_blocker(light, integrator, spp=64):
+    """``(RES, RES, 3)`` radiance of the plane under :data:`BLOCKER`, lit by ``light`` alone (direct light only)."""
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")
+    img = wrt.render(wrt.Scene(meshes=[plane, BLOCKER], lights=[light]), camera=top_down_camera(height=PATCH),
+                     width=RES, height=RES, spp=spp, seed=1, device="cpu", integrator=integrator, max_depth=1)
+    assert np.isin(img.aovs["prim"], (0, 1)).all()
+    return img.rgb
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+@pytest.mark.parametrize("kind", ["rect", "sphere", "dome"])
+def test_shadow_color_tints_the_light_a_blocker_stops(kind, integrator):
+    """ShadowAPI ``shadow:color``: light the blocker stops arrives times the colour, per channel, what passes it
+    arrives whole: ``blocked + colour (unblocked - blocked)`` (it was black, with a warning). Whitted's dome term is
+    unoccluded, so its floor is the unblocked one."""
+    light, unblocked, blocked = lights_over_a_blocker()[kind]
+    rgb = render_over_blocker(dataclasses.replace(light, shadow_color=SHADOW_TINT), integrator,
+                              spp=256 if kind == "dome" else 64)
+    if kind == "dome" and integrator == "whitted":
+        blocked = unblocked
+    for c in (0, 1):
+        check(rgb[..., c], blocked + SHADOW_TINT[c] * (unblocked - blocked))
+    if kind == "dome":  # the sky past the blocker's edges, in a few samples: the mean compared
+        np.testing.assert_allclose(rgb[..., 2].mean(), blocked.mean(), rtol=0.05)
+    else:
+        assert rgb[..., 2].max() == 0.0
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+@pytest.mark.parametrize("kind", ["rect", "sphere"])
+def test_shadow_distance_keeps_farther_occluders_from_casting_shadows(kind, integrator):
+    """ShadowAPI ``shadow:distance``: occluders further from the surface point than it cast no shadow. The blocker
+    lies 0.3 above the floor: a distance of 0.2 lets the light through whole, one of 2 leaves the floor dark."""
+    light, unblocked, _ = lights_over_a_blocker()[kind]
+    check(render_over_blocker(dataclasses.replace(light, shadow_distance=0.2), integrator).mean(axis=-1), unblocked)
+    assert render_over_blocker(dataclasses.replace(light, shadow_distance=2.0), integrator, spp=4).max() == 0.0
+
+
+def test_shadow_api_fields_are_checked_naming_the_light():
+    with pytest.raises(wrt.SceneError, match="/Lamp: .*shadow_color must be finite numbers of shape"):
+        SphereLight(position=(0, 0, 1), radius=0.1, color=np.ones(3), path="/Lamp", shadow_color=(0.5, -1.0, 0.0))
+    with pytest.raises(wrt.SceneError, match="/Sun: .*shadow_distance must be a finite number"):
+        wrt.DistantLight(direction=(0, 0, -1), color=np.ones(3), path="/Sun", shadow_distance=float("nan"))
+
+
 def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
-    """``inputs:shadow:enable`` is read (applied API or not), and so are the diffuse and specular multipliers; a
-    shadow tint, which wrt does not render, is reported by prim, unless the light casts no shadows for it to tint
-    (the warning said it cast plain shadows)."""
+    """``inputs:shadow:enable`` is read (applied API or not), and so are the diffuse and specular multipliers, the
+    shadow colour and distance; the falloff, which wrt does not render, is reported by prim, unless the light casts
+    no shadows for it to change, and so is a colour on a mesh light."""
 
     def build(stage):
         off = UsdLux.SphereLight.Define(stage, "/NoShadows")
@@ -773,23 +821,33 @@ def test_usd_shadow_enable_and_unsupported_shadow_inputs(tmp_path):
         UsdLux.RectLight.Define(stage, "/Plain")
         tinted = UsdLux.DiskLight.Define(stage, "/Tinted")
         UsdLux.ShadowAPI.Apply(tinted.GetPrim()).CreateShadowColorAttr(Gf.Vec3f(0.2, 0.0, 0.0))
+        near = UsdLux.ShadowAPI.Apply(UsdLux.SphereLight.Define(stage, "/Near").GetPrim())
+        near.CreateShadowDistanceAttr(3.0)
+        near.CreateShadowFalloffAttr(1.0)
         shadowless = UsdLux.ShadowAPI.Apply(UsdLux.DiskLight.Define(stage, "/TintedShadowless").GetPrim())
         shadowless.CreateShadowEnableAttr(False)
         shadowless.CreateShadowFalloffAttr(2.0)
+        shadowless.CreateShadowColorAttr(Gf.Vec3f(0.2, 0.0, 0.0))
         UsdLux.DistantLight.Define(stage, "/Dim").CreateDiffuseAttr(0.5)
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = wrt.load_usd(write_stage(tmp_path, build))
     messages = [str(w.message) for w in caught]
-    assert any("shadow colour" in m and m.endswith("/Tinted") for m in messages), messages
+    assert [m for m in messages if "shadow" in m.lower()] == [m for m in messages if "falloff" in m], messages
+    assert any("shadow falloff" in m and m.endswith("/Near") for m in messages), messages
     assert not any("TintedShadowless" in m for m in messages), messages
     assert not any("multiplier" in m for m in messages), messages
-    shadows = {light.path: light.shadows for light in scene.lights}
-    assert shadows == {"/NoShadows": False, "/Plain": True, "/Tinted": True, "/TintedShadowless": False, "/Dim": True}
-    multipliers = {light.path: (light.diffuse, light.specular) for light in scene.lights}
-    assert multipliers == {"/NoShadows": (1, 1), "/Plain": (1, 1), "/Tinted": (1, 1), "/TintedShadowless": (1, 1),
-                           "/Dim": (0.5, 1)}
+    lights = {light.path: light for light in scene.lights}
+    shadows = {path: light.shadows for path, light in lights.items()}
+    assert shadows == {"/NoShadows": False, "/Plain": True, "/Tinted": True, "/Near": True,
+                       "/TintedShadowless": False, "/Dim": True}
+    np.testing.assert_allclose(lights["/Tinted"].shadow_color, (0.2, 0.0, 0.0), rtol=1e-6)
+    assert lights["/Tinted"].shadow_distance == -1.0 and lights["/Near"].shadow_distance == 3.0
+    assert lights["/Plain"].shadow_color is None and lights["/TintedShadowless"].shadow_color is None
+    multipliers = {path: (light.diffuse, light.specular) for path, light in lights.items()}
+    assert multipliers == {"/NoShadows": (1, 1), "/Plain": (1, 1), "/Tinted": (1, 1), "/Near": (1, 1),
+                           "/TintedShadowless": (1, 1), "/Dim": (0.5, 1)}
 
 
 def test_non_uniformly_scaled_sphere_light_is_an_ellipsoid(tmp_path):

@@ -66,6 +66,9 @@ LIGHT_LINE = wp.constant(10)  # a CylinderLight with treatAsLine: a segment, rad
 SHADOWS_OFF = wp.constant(0)  # nothing: ShadowAPI's shadow:enable is off (the rays are not traced)
 SHADOWS_ON = wp.constant(1)  # every prim
 SHADOWS_LINKED = wp.constant(2)  # only the prims its collection:shadowLink includes (it leaves some out)
+# ShadowAPI's colour or distance: occluded light arrives tinted, occluders past the distance cast nothing (its
+# collection:shadowLink, if any, still counts): shadow_api holds them.
+SHADOWS_TINTED = wp.constant(3)
 
 # A disk light is sampled by solid angle through the square around it, which wastes the 21% of samples that fall
 # outside the disk: worth it only where the disk looks large (sr of the square), where area sampling is noisy.
@@ -93,7 +96,9 @@ class DeviceLights:
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
     instances: wp.array[wp.int32]  # instance that draws a LIGHT_TRIANGLE entry's (prototype) triangle, -1: world
     instance_emitters: wp.array[wp.int32]  # (N,) each instance's first entry, -1: none sampled (or (1,) of -1)
-    shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF or SHADOWS_LINKED: what blocks the light
+    shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF, SHADOWS_LINKED or SHADOWS_TINTED: what blocks the light
+    shadow_api: wp.array[wp.vec4]  # (num_analytic) ShadowAPI (colour, distance) of SHADOWS_TINTED lights
+    shadow_api_on: int  # 1 when some light is SHADOWS_TINTED (otherwise shadow_api is not read)
     shaping: wp.array[wp.vec4]  # (num_analytic) (cone angle, smooth start (radians), focus, 1); all 0: unshaped
     shaping_axis: wp.array[wp.vec3]  # (num_analytic) unit primary axis (the light's -Z) of shaped lights
     focus_tint: wp.array[wp.vec3]  # (num_analytic) ShapingAPI focusTint of shaped lights
@@ -472,9 +477,34 @@ def shadow_direction(lights: DeviceLights, k: int, wi: wp.vec3):
 
 
 @wp.func
+def shadow_reach(lights: DeviceLights, k: int, t_max: float):
+    """``t_max`` of a shadow ray towards light ``k``, shortened to its ShadowAPI ``shadow:distance`` (occluders
+    further from the surface cast no shadow of it), kept above 0 so the ray still counts as aimed."""
+    if lights.shadow_api_on == 1:
+        if lights.shadows[k] == SHADOWS_TINTED:
+            reach = lights.shadow_api[k][3]
+            if reach >= 0.0:
+                return wp.max(wp.min(t_max, reach), 1.0e-30)
+    return t_max
+
+
+@wp.func
+def shadow_tint(lights: DeviceLights, k: int):
+    """What reaches a surface of light ``k`` (-1: none) when its shadow ray is blocked: its ShadowAPI
+    ``shadow:color`` (black for plain shadows)."""
+    if lights.shadow_api_on == 0 or k < 0:
+        return wp.vec3(0.0)
+    if lights.shadows[k] != SHADOWS_TINTED:
+        return wp.vec3(0.0)
+    row = lights.shadow_api[k]
+    return wp.vec3(row[0], row[1], row[2])
+
+
+@wp.func
 def sampled_alone(lights: DeviceLights, k: int):
-    """Light ``k`` is left to light sampling alone (MIS weight 1): its shadow rays pass geometry (any, or what its
-    shadowLink leaves out) at which a BSDF-sampled ray towards it would stop, losing its share of the light."""
+    """Light ``k`` is left to light sampling alone (MIS weight 1): its shadow rays pass geometry (any, what its
+    shadowLink leaves out, or occluders past its shadow distance), or bring its tinted light from behind it, where a
+    BSDF-sampled ray towards it would stop, losing its share of the light."""
     return lights.shadows[k] != SHADOWS_ON
 
 

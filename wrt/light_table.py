@@ -29,6 +29,7 @@ from .light_sampling import (
     SHADOWS_LINKED,
     SHADOWS_OFF,
     SHADOWS_ON,
+    SHADOWS_TINTED,
     DeviceLights,
 )
 from .light_shaping import Shaping, ies_frame, primary_axis
@@ -43,6 +44,7 @@ from .lights import (
     SphereLight,
     light_axes,
     normalized_radiance,
+    shadow_api_row,
 )
 from .scene import DistantLight
 
@@ -61,6 +63,7 @@ class HostLights:
     prims: list
     power: list
     shadows: list
+    shadow_api: list  # per light: wrt.lights.shadow_api_row, or None
     shaping: list
     shaping_axis: list
     focus_tint: list
@@ -441,6 +444,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
         else:
             raise TypeError(f"unsupported light {type(light).__name__}")
         h.shadows[-1] = SHADOWS_ON if light.shadows else SHADOWS_OFF
+        h.shadow_api[-1] = shadow_api_row(light)
         h.lobe_scale[-1] = np.array([light.diffuse, light.specular], np.float32)
     num_analytic = len(h.kinds)
 
@@ -535,8 +539,15 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     columns = np.concatenate([np.arange(num_analytic), np.where(tris.owner >= 0, num_analytic + tris.owner, -1)])
     links = link_groups(scene, on_device + mesh_lights)
     d.links = upload_links(links, device, columns)
-    d.shadows = wp.array(_shadow_modes(np.concatenate([np.int32(h.shadows).reshape(-1), tri_shadows]), links,
-                                       columns), dtype=wp.int32, device=device)
+    modes = _shadow_modes(np.concatenate([np.int32(h.shadows).reshape(-1), tri_shadows]), links, columns)
+    tinted = [k for k, row in enumerate(h.shadow_api) if row is not None]
+    modes[tinted] = SHADOWS_TINTED  # (shadows on: shadow_api_row is None for a light without them)
+    d.shadows = wp.array(modes, dtype=wp.int32, device=device)
+    rows = np.zeros((max(num_analytic, 1), 4), np.float32)
+    for k in tinted:
+        rows[k] = h.shadow_api[k]
+    d.shadow_api = wp.array(rows, dtype=wp.vec4, device=device)
+    d.shadow_api_on = 1 if tinted else 0
     return d, tris.unsampled
 
 
@@ -602,6 +613,7 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.prims.append(int(prim))
     h.power.append(float(power))
     h.shadows.append(SHADOWS_ON)
+    h.shadow_api.append(None)
     h.shaping.append(np.zeros(4, np.float32))
     h.shaping_axis.append(np.zeros(3, np.float32))
     h.focus_tint.append(np.zeros(3, np.float32))

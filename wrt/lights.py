@@ -48,7 +48,10 @@ times the blackbody colour when ``enableColorTemperature`` is on):
   for light sampling and for rays that see the light alike.
 
 Light and shadow linking (``collection:lightLink``, ``collection:shadowLink``) limit the geometry a UsdLux light lights
-and the geometry that casts its shadows (:mod:`wrt.light_links`). Lights are invisible to shadow rays (they never
+and the geometry that casts its shadows (:mod:`wrt.light_links`). ``ShadowAPI``: ``shadow:enable`` off lets the
+light through every occluder, ``shadow:color`` tints what occluders stop of it (``shadow_color``: the shadowed
+surface gets the light times the colour), and ``shadow:distance`` limits how far from a surface point occluders cast
+its shadows (``shadow_distance``); its falloff is not rendered. Lights are invisible to shadow rays (they never
 occlude) but visible to camera and bounce rays, which pass through them and pick up their radiance. Stages with no
 UsdLux light and no emissive material get :func:`default_lights`: a headlight along the view direction and a grey dome.
 """
@@ -81,6 +84,25 @@ _MULTIPLIERS = (("diffuse", (), 0.0, float), ("specular", (), 0.0, float))
 def _size(name: str) -> tuple:
     """The check_fields spec of a size: a NaN or infinite one lit nothing without a word."""
     return (name, (), 0.0, float)
+
+
+def check_shadow_api(light) -> None:
+    """Checks a light's ``shadow_color`` (None, or ``(3,)`` finite numbers >= 0) and ``shadow_distance`` (a finite
+    number), naming the light: ShadowAPI's colour and distance, as :mod:`wrt.light_table` uploads them."""
+    if light.shadow_color is not None:
+        check_fields(light, ("shadow_color", (3,), 0.0, np.float32))
+    check_fields(light, ("shadow_distance", (), None, float))
+
+
+def shadow_api_row(light) -> np.ndarray | None:
+    """``(4,)`` float32 ``(shadow colour, shadow distance)`` of a light whose shadows ShadowAPI changes (a colour
+    other than black or a distance >= 0, shadows on), or None: plain shadows (or none)."""
+    color = getattr(light, "shadow_color", None)
+    distance = getattr(light, "shadow_distance", -1.0)
+    tinted = color is not None and bool(np.any(np.asarray(color) > 0.0))
+    if not light.shadows or not (tinted or distance >= 0.0):
+        return None
+    return np.array([*(color if color is not None else np.zeros(3)), distance], np.float32)
 
 
 def check_affine(light) -> None:
@@ -129,6 +151,10 @@ class SphereLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        shadow_color: ``(3,)`` the colour its shadows are tinted by (``ShadowAPI`` ``inputs:shadow:color``): occluded
+            light arrives times it; None: black, plain shadows.
+        shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
+            negative: any distance.
         frame: ``(3, 3)`` linear part of the light's local-to-world transform, or None. With it ``radius`` is in
             its local units: the light is the ellipsoid ``position + radius * frame @ u`` (``|u| = 1``). A frame
             that flattens the sphere (a singular one) makes a sphere of the mean scaled radius.
@@ -148,12 +174,15 @@ class SphereLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    shadow_color: np.ndarray | None = None
+    shadow_distance: float = -1.0
     frame: np.ndarray | None = None
 
     def __post_init__(self):
         check_fields(self, ("position", (3,), None, np.float64), _size("radius"), _COLOR,
                      ("axis", (3,), None, np.float64), ("x_axis", (3,), None, np.float64), *_MULTIPLIERS)
         check_flags(self, "normalize", "treat_as_point", "shadows")
+        check_shadow_api(self)
         if self.frame is not None:
             check_fields(self, ("frame", (3, 3), None, np.float64))
         self.axis = self.unit_axis()
@@ -234,6 +263,10 @@ class RectLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        shadow_color: ``(3,)`` the colour its shadows are tinted by (``ShadowAPI`` ``inputs:shadow:color``): occluded
+            light arrives times it; None: black, plain shadows.
+        shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
+            negative: any distance.
     """
 
     to_world: np.ndarray
@@ -250,10 +283,13 @@ class RectLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    shadow_color: np.ndarray | None = None
+    shadow_distance: float = -1.0
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR, *_MULTIPLIERS)
         check_flags(self, "normalize", "shadows")
+        check_shadow_api(self)
         check_affine(self)
         _check_shaping(self)
         self.texture = _checked_texture(self)
@@ -288,6 +324,10 @@ class DiskLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        shadow_color: ``(3,)`` the colour its shadows are tinted by (``ShadowAPI`` ``inputs:shadow:color``): occluded
+            light arrives times it; None: black, plain shadows.
+        shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
+            negative: any distance.
     """
 
     to_world: np.ndarray
@@ -301,10 +341,13 @@ class DiskLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    shadow_color: np.ndarray | None = None
+    shadow_distance: float = -1.0
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("radius"), _COLOR, *_MULTIPLIERS)
         check_flags(self, "normalize", "shadows")
+        check_shadow_api(self)
         check_affine(self)
         _check_shaping(self)
 
@@ -336,6 +379,10 @@ class CylinderLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        shadow_color: ``(3,)`` the colour its shadows are tinted by (``ShadowAPI`` ``inputs:shadow:color``): occluded
+            light arrives times it; None: black, plain shadows.
+        shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
+            negative: any distance.
         treat_as_line: render as a line light along the axis (UsdLux ``treatAsLine``; see the module docstring).
     """
 
@@ -351,11 +398,14 @@ class CylinderLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    shadow_color: np.ndarray | None = None
+    shadow_distance: float = -1.0
     treat_as_line: bool = False
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("length"), _size("radius"), _COLOR, *_MULTIPLIERS)
         check_flags(self, "normalize", "shadows", "treat_as_line")
+        check_shadow_api(self)
         check_affine(self)
         _check_shaping(self)
 
@@ -498,6 +548,10 @@ class DomeLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        shadow_color: ``(3,)`` the colour its shadows are tinted by (``ShadowAPI`` ``inputs:shadow:color``): occluded
+            light arrives times it; None: black, plain shadows.
+        shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
+            negative: any distance.
     """
 
     color: np.ndarray
@@ -510,10 +564,13 @@ class DomeLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    shadow_color: np.ndarray | None = None
+    shadow_distance: float = -1.0
 
     def __post_init__(self):
         check_fields(self, _COLOR, _TO_WORLD, *_MULTIPLIERS)
         check_flags(self, "shadows")
+        check_shadow_api(self)
         check_affine(self)
         self.texture = _checked_texture(self)
 

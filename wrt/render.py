@@ -940,7 +940,9 @@ class Renderer:
 
     def _occlude_and_add(self, w: _Wavefront):
         self._occluded(w)
-        launch_per_path(add_unoccluded_kernel, w.n, [w.nee, w.shadow_t_maxs, w.blocked], [w.radiance], self.device)
+        launch_per_path(add_unoccluded_kernel, w.n,
+                        [self.device_lights, w.nee, w.shadow_t_maxs, w.blocked, w.shadow_lights], [w.radiance],
+                        self.device)
 
     def _any_alive(self, w: _Wavefront) -> bool:
         if self._sync_free:  # launch every bounce: finished paths do no work
@@ -1011,7 +1013,8 @@ class Renderer:
 
             def add(a: int, b: int, count=count, batch=batch):
                 wp.launch(add_unoccluded_lights_kernel, b - a, device=self.device,
-                          inputs=[count, a, batch.contribution, batch.t_maxs, batch.blocked], outputs=[w.radiance])
+                          inputs=[self.device_lights, count, a, batch.contribution, batch.t_maxs, batch.blocked,
+                                  batch.lights], outputs=[w.radiance])
 
             run_in_chunks(light, w.n, threads, [whitted_lights_kernel])  # on the CPU, pieces on a thread pool
             self._occluded(w, shadows=batch)

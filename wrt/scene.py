@@ -349,6 +349,10 @@ class DistantLight:
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
+        shadow_color: ``(3,)`` the colour its shadows are tinted by (``ShadowAPI`` ``inputs:shadow:color``): occluded
+            light arrives times it; None: black, plain shadows.
+        shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
+            negative: any distance.
     """
 
     direction: np.ndarray
@@ -361,6 +365,8 @@ class DistantLight:
     specular: float = 1.0
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
+    shadow_color: np.ndarray | None = None
+    shadow_distance: float = -1.0
 
     def __post_init__(self):
         from .errors import SceneError, check_fields, check_flags, unit_vector
@@ -368,6 +374,9 @@ class DistantLight:
         check_fields(self, ("direction", (3,), None, np.float64), ("color", (3,), 0.0, np.float32),
                      ("angle", (), 0.0, float), ("diffuse", (), 0.0, float), ("specular", (), 0.0, float))
         check_flags(self, "normalize", "shadows")
+        from .lights import check_shadow_api
+
+        check_shadow_api(self)
         length = np.linalg.norm(self.direction)
         if not length > 0.0:  # a zero direction lit nothing, without a word
             raise SceneError(f"DistantLight direction must not be zero, got {self.direction.tolist()}",

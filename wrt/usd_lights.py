@@ -243,9 +243,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         return None
     # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
     shadows = flag(get, prim.GetAttribute("inputs:shadow:enable"), True, warn_flag)
-    if shadows and _shadow_tinted(prim, get):  # a light without shadows has nothing for them to change
-        skip("shadow colour, distance and falloff (ShadowAPI) are not supported; these lights cast plain shadows",
-             prim)
+    shadow_color, shadow_distance = _shadow_api(prim, get, skip) if shadows else (None, -1.0)
     try:
         shaping = read_shaping(prim, get, skip, textures.profiles)
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
@@ -262,6 +260,12 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     if result is not None:
         _read_links_and_filters(prim, light, result, skip)
         result.shadows = shadows
+        if isinstance(result, MeshLight):
+            if shadow_color is not None or shadow_distance >= 0.0:
+                skip("shadow colour and distance (ShadowAPI) on mesh lights are not supported; these lights cast "
+                     "plain shadows", prim)
+        else:
+            result.shadow_color, result.shadow_distance = shadow_color, shadow_distance
         result.diffuse, result.specular = multipliers
     return result
 
@@ -370,19 +374,40 @@ def _read_links_and_filters(prim, light, result, skip):
         skip("light filters (light:filters) are not supported; these lights shine unfiltered", prim, str(kind))
 
 
-def _shadow_tinted(prim, get) -> bool:
-    """True when ShadowAPI's colour, distance or falloff differ from their fallbacks (plain black shadows)."""
-    fallbacks = {"color": (0.0, 0.0, 0.0), "distance": -1.0, "falloff": -1.0, "falloffGamma": 1.0}
-    for name, fallback in fallbacks.items():
+def _shadow_api(prim, get, skip) -> tuple[np.ndarray | None, float]:
+    """``(shadow colour, shadow distance)`` of a light that casts shadows (ShadowAPI's inputs, read whether or not
+    the API is applied, as Hydra reads them): the colour None where it is black (plain shadows, most lights), the
+    distance negative for none. A value of the wrong type, or a negative colour, reads as the fallback, and the
+    falloff, which wrt does not render, is named, each with a warning."""
+    wrong = []
+
+    def read(name, fallback, convert):
         value = get(prim.GetAttribute(f"inputs:shadow:{name}"), fallback)
-        if value is fallback:  # none authored (most lights): np.allclose took a sixth of reading a light
-            continue
+        if value is fallback:  # none authored (most lights): no conversion to pay for
+            return fallback
         try:
-            if not np.allclose(np.asarray(value, np.float64), fallback):
-                return True
-        except (TypeError, ValueError):  # a value of the wrong type: warned about like a tint
-            return True
-    return False
+            converted = convert(value)
+        except (TypeError, ValueError):
+            converted = None
+        if converted is None or not np.all(np.isfinite(converted)):
+            wrong.append(f"inputs:shadow:{name} = {value!r}")
+            return fallback
+        return converted
+
+    color = read("color", None, lambda v: np.asarray(v, np.float64).reshape(3))
+    if color is not None and np.any(color < 0.0):
+        wrong.append(f"inputs:shadow:color = {tuple(color.tolist())}")
+        color = None
+    distance = read("distance", -1.0, float)
+    falloff, gamma = read("falloff", -1.0, float), read("falloffGamma", 1.0, float)
+    if wrong:
+        skip("ShadowAPI inputs that are not finite numbers (or a negative shadow colour) were read as the schema's "
+             "fallbacks", prim, ", ".join(wrong))
+    if falloff > 0.0 and distance >= 0.0:  # without a distance the falloff has no zone to fade in
+        skip("shadow falloff (ShadowAPI shadow:falloff, falloffGamma) is not supported; these lights' shadows end "
+             "sharply at shadow:distance", prim, f"falloff {falloff:g}, gamma {gamma:g}")
+    tinted = color is not None and bool(np.any(color > 0.0))
+    return (color.astype(np.float32) if tinted else None), distance
 
 
 def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures):

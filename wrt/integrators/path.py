@@ -30,6 +30,8 @@ from ..light_sampling import (
     lit_bsdf,
     sample_light_in_view,
     shadow_direction,
+    shadow_reach,
+    shadow_tint,
     triangle_light_pdf,
 )
 from ..materials import DeviceMaterials, eval_surface
@@ -53,12 +55,12 @@ def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.v
     is seen obliquely, and crossed the emitter's own surface there: a finely tessellated glowing sphere shadowed
     1.3% of its own light."""
     if dist == wp.inf:
-        return shadow_direction(lights, k, wi), float(wp.inf)
+        return shadow_direction(lights, k, wi), shadow_reach(lights, k, float(wp.inf))
     to = p + dist * wi - o
     length = stable_length(to)
     if length <= 0.0:
         return wp.vec3(0.0), 0.0
-    return shadow_direction(lights, k, to / length), length * (1.0 - SHADOW_SHORTEN)
+    return shadow_direction(lights, k, to / length), shadow_reach(lights, k, length * (1.0 - SHADOW_SHORTEN))
 
 
 @wp.func
@@ -255,16 +257,22 @@ def shade_path_kernel(
 
 @wp.kernel
 def add_unoccluded_kernel(
+    lights: DeviceLights,
     contribution: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
     blocked: wp.array[wp.int32],
+    shadow_lights: wp.array[wp.int32],
     # outputs
     radiance: wp.array[wp.vec3],
 ):
-    """Adds each next-event contribution whose shadow ray reached its light."""
+    """Adds each next-event contribution whose shadow ray reached its light, and of those blocked the share their
+    light's ShadowAPI colour lets through."""
     i = wp.tid()
-    if shadow_t_maxs[i] > 0.0 and blocked[i] == 0:
-        radiance[i] = radiance[i] + contribution[i]
+    if shadow_t_maxs[i] > 0.0:
+        if blocked[i] == 0:
+            radiance[i] = radiance[i] + contribution[i]
+        elif lights.shadow_api_on == 1:
+            radiance[i] = radiance[i] + wp.cw_mul(contribution[i], shadow_tint(lights, shadow_lights[i]))
 
 
 __all__ = ["add_unoccluded_kernel", "mis_weight", "shade_path_kernel"]

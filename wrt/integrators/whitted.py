@@ -33,7 +33,7 @@ from ..bsdf import (
 from ..geometry import offset_ray_origin
 from ..hidden_hits import CullScratch
 from ..light_links import link_group, lit_by
-from ..light_sampling import DeviceLights, hit_emitter, lit_bsdf, sample_light_in_view
+from ..light_sampling import DeviceLights, hit_emitter, lit_bsdf, sample_light_in_view, shadow_tint
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
 from ..sampling import luminance, max_component, rand01, sample_cdf
@@ -211,22 +211,28 @@ def whitted_lights_kernel(
 
 @wp.kernel
 def add_unoccluded_lights_kernel(
+    lights: DeviceLights,
     num_groups: int,
     offset: int,
     contribution: wp.array[wp.vec3],
     shadow_t_maxs: wp.array[float],
     blocked: wp.array[wp.int32],
+    shadow_lights: wp.array[wp.int32],
     # outputs
     radiance: wp.array[wp.vec3],
 ):
     """Adds to path ``offset + tid`` (of ``n = len(radiance)``) the contribution of each of its ``num_groups``
-    shadow rays (``j * n + i``) that reached its light, in group order."""
+    shadow rays (``j * n + i``) that reached its light, in group order, and of those blocked the share their light's
+    ShadowAPI colour lets through."""
     i = wp.tid() + offset
     n = radiance.shape[0]
     L = radiance[i]
     for j in range(num_groups):
-        if shadow_t_maxs[j * n + i] > 0.0 and blocked[j * n + i] == 0:
-            L = L + contribution[j * n + i]
+        if shadow_t_maxs[j * n + i] > 0.0:
+            if blocked[j * n + i] == 0:
+                L = L + contribution[j * n + i]
+            elif lights.shadow_api_on == 1:
+                L = L + wp.cw_mul(contribution[j * n + i], shadow_tint(lights, shadow_lights[j * n + i]))
     radiance[i] = L
 
 
