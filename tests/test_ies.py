@@ -260,3 +260,22 @@ def test_a_profile_on_an_area_light_scales_what_it_emits_towards_the_plane():
 
     flat = IesProfile([0.0, 90.0, 180.0], [0.0], [[3.0, 3.0, 3.0]])
     np.testing.assert_allclose(render(wrt.Shaping(ies=flat)), 3.0 * render(None), rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: wrt.IesProfile([0.0, 90.0], [0.0], [[1.0, 2.0, 3.0]]), r"candela must hold 1 x 2 values"),
+    (lambda: wrt.IesProfile([0.0], [0.0], [[1.0]]), "at least 2 vertical angles"),
+    (lambda: wrt.IesProfile([0.0, 200.0], [0.0], [[1.0, 1.0]]), r"vertical angles must lie in \[0, 180\]"),
+    (lambda: wrt.IesProfile([0.0, 90.0], [0.0], [[1.0, -1.0]]), "finite and not negative"),
+])
+def test_profiles_built_in_python_are_checked(make, message):
+    with pytest.raises(wrt.IesError, match=message):
+        make()
+
+
+def test_a_shaping_refuses_a_profile_that_is_not_one():
+    """A file name where the profile goes (``Shaping(ies="lamp.ies")``) is refused, pointing at ``wrt.read_ies``."""
+    with pytest.raises(wrt.SceneError, match="Shaping ies must be a wrt.ies.IesProfile or None, got str"):
+        wrt.Shaping(ies="lamp.ies")
+    with pytest.raises(wrt.SceneError, match="ies_angle_scale must be a finite number"):
+        wrt.Shaping(ies=wrt.IesProfile([0.0, 90.0], [0.0], [[1.0, 1.0]]), ies_angle_scale=float("inf"))

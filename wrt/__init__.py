@@ -9,6 +9,7 @@ from .batch import BatchImage, render_batch
 from .bvh import FlatBvh, build_bvh
 from .camera import Camera
 from .errors import SceneError
+from .ies import IesError, IesProfile, read_ies
 from .image import Image
 from .instancing import Instances, Prototype
 from .light_links import LinkCollection
@@ -33,6 +34,8 @@ __all__ = [
     "DomeLight",
     "FlatBvh",
     "Hits",
+    "IesError",
+    "IesProfile",
     "Image",
     "Instances",
     "LinkCollection",
@@ -52,6 +55,7 @@ __all__ = [
     "load_usd",
     "occluded",
     "preview",
+    "read_ies",
     "render",
     "render_products",
     "to_pyvista",

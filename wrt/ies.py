@@ -114,8 +114,12 @@ class IesProfile:
     def __post_init__(self):
         self.vertical = np.asarray(self.vertical, np.float64).reshape(-1)
         self.horizontal = np.asarray(self.horizontal, np.float64).reshape(-1)
-        self.candela = np.asarray(self.candela, np.float64).reshape(len(self.horizontal), len(self.vertical))
         where = self.path or "IES profile"
+        self.candela = np.asarray(self.candela, np.float64)
+        if self.candela.size != len(self.horizontal) * len(self.vertical):
+            raise IesError(f"{where}: candela must hold {len(self.horizontal)} x {len(self.vertical)} values "
+                           f"(horizontal x vertical angles), got shape {self.candela.shape}")
+        self.candela = self.candela.reshape(len(self.horizontal), len(self.vertical))
         _check_angles(where, "vertical", self.vertical, 0.0, 180.0)
         if len(self.vertical) < 2:
             raise IesError(f"{where}: a profile needs at least 2 vertical angles, got 1")

@@ -88,8 +88,8 @@ class Shaping:
                 raise SceneError(f"Shaping {name} must be in [{low:g}, {high:g}]{unit}, got {value!r}",
                                  prim=self.path or None)
         if self.ies is not None and not isinstance(self.ies, IesProfile):
-            raise SceneError(f"Shaping ies must be a wrt.ies.IesProfile or None, got {type(self.ies).__name__}",
-                             prim=self.path or None)
+            raise SceneError(f"Shaping ies must be a wrt.ies.IesProfile or None, got {type(self.ies).__name__} "
+                             "(wrt.read_ies reads a file)", prim=self.path or None)
         check_fields(self, ("ies_angle_scale", (), None, float))
         check_flags(self, "ies_normalize")
 
