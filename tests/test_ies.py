@@ -51,6 +51,13 @@ def folded(phi_deg, horizontal):
     return phi
 
 
+def b_of(phi_deg, horizontal, b_values):
+    """The horizontal factor: linear between the file's angles, round the circle from the last back to 0 (360)."""
+    if horizontal[0] == 0.0 and horizontal[-1] > 180.0 and horizontal[-1] < 360.0:
+        horizontal, b_values = horizontal + [360.0], b_values + [b_values[0]]
+    return np.interp(folded(phi_deg, horizontal), horizontal, b_values)
+
+
 def write_lamp(tmp_path, text, rotate=None, **inputs):
     """A stage with a point SphereLight (normalized: intensity ``color / 4`` = 1) at HEIGHT, its profile the IES
     text ``text`` in ``lamp.ies`` beside it, and ShapingAPI inputs ``inputs`` (``cone``, ``scale``,
@@ -110,6 +117,7 @@ HORIZONTAL_CASES = {
     "0-180": ([0.0, 90.0, 180.0], [1.0, 0.3, 0.6]),
     "90-270": ([90.0, 180.0, 270.0], [0.3, 1.0, 0.6]),
     "0-360": ([0.0, 90.0, 180.0, 270.0, 360.0], [1.0, 0.4, 0.7, 0.2, 1.0]),
+    "0-270, 360 left out": ([0.0, 90.0, 180.0, 270.0], [1.0, 0.4, 0.7, 0.2]),
 }
 
 
@@ -122,7 +130,7 @@ def test_point_light_profile_gives_candela_cos_over_r2(tmp_path, case):
     rgb, _ = render_lamp(write_lamp(tmp_path, ies_text(VERTICAL, horizontal, candela)))
 
     def profile(theta, phi):
-        return a_of(theta) * np.interp(folded(phi, horizontal), horizontal, b_values)
+        return a_of(theta) * b_of(phi, horizontal, b_values)
 
     expected = expected_radiance(profile)
     np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())

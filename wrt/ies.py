@@ -4,7 +4,8 @@ the profile as the table the shading kernels sample (``UsdLux.ShapingAPI`` ``sha
 A profile gives the luminous intensity (candela) by vertical angle (0 along the light's primary axis, its -Z; 180
 straight back) and horizontal angle (0 along the light's +X, 90 along its +Y). Between the angles of the file it is
 bilinear; horizontal ranges follow LM-63's symmetries: one angle (the same in every plane), 0-90 (one quadrant,
-mirrored into the other three), 0-180 (mirrored about the 0-180 plane), 90-270 (mirrored about that plane) and 0-360.
+mirrored into the other three), 0-180 (mirrored about the 0-180 plane), 90-270 (mirrored about that plane) and 0-360
+(files that stop short of 360, which is 0 again, close the circle from their last angle back to 0).
 Directions outside the vertical range of the file (above the horizon of a 0-90 profile) get nothing. The values are
 the file's candela times its candela multiplier and ballast factor (and the ballast-lamp photometric factor of the
 files before LM-63-2002, which later versions replaced by fields that are no factor).
@@ -220,7 +221,7 @@ def _horizontal_range(h: np.ndarray) -> str | None:
         return "half"
     if near(h[0], 90.0) and near(h[-1], 270.0):
         return "back"
-    if near(h[0], 0.0) and near(h[-1], 360.0):
+    if near(h[0], 0.0) and h[-1] > 180.0 + ANGLE_TOLERANCE:  # 0-360, or files that leave out 360 (the same as 0)
         return "full"
     return None
 
