@@ -154,7 +154,18 @@ class IesProfile:
 
     def total_intensity(self) -> float:
         """The bilinear profile's intensity integrated over the sphere (candela times steradians: its luminous flux
-        in lumens)."""
+        in lumens); worked out once per profile while its arrays stay the same (the lamps of a PointInstancer share
+        one)."""
+        key = self._arrays_key()
+        memo = self.__dict__.get("_total")
+        if memo is None or memo[0] != key:
+            self.__dict__["_total"] = (key, self._integrated())
+        return self.__dict__["_total"][1]
+
+    def _arrays_key(self) -> bytes:
+        return self.vertical.tobytes() + b"|" + self.horizontal.tobytes() + b"|" + self.candela.tobytes()
+
+    def _integrated(self) -> float:
         h, c = self.full_circle()
         theta = np.radians(self.vertical)
         rings = np.array([_ring_mean(h, c[:, v]) for v in range(len(theta))])
@@ -181,8 +192,7 @@ class IesProfile:
         candela values times ``scale``. Made once per profile and arguments: the lamps of a PointInstancer that share
         a profile share its data."""
         made = self.__dict__.setdefault("_device", {})
-        key = (float(angle_scale), float(scale), self.candela.tobytes(), self.vertical.tobytes(),
-               self.horizontal.tobytes())
+        key = (float(angle_scale), float(scale), self._arrays_key())
         if key not in made:
             h, c = self.full_circle()
             data = np.concatenate([[angle_scale], np.radians(self.vertical), np.radians(h), (c * scale).reshape(-1)])
