@@ -287,3 +287,38 @@ def test_a_shaping_refuses_a_profile_that_is_not_one():
         wrt.Shaping(ies="lamp.ies")
     with pytest.raises(wrt.SceneError, match="ies_angle_scale must be a finite number"):
         wrt.Shaping(ies=wrt.IesProfile([0.0, 90.0], [0.0], [[1.0, 1.0]]), ies_angle_scale=float("inf"))
+
+
+def test_point_instanced_lamps_turn_their_profiles_with_their_instances(tmp_path):
+    """A PointInstancer of profiled lamps: each copy's pattern turns with its instance's orientation (its X axis,
+    where the horizontal angles start), and the lamps share the profile, read once. One lamp spun 90 degrees about Z
+    over the plane lights it as a lamp turned so; the other hangs below the plane, facing away from it."""
+    horizontal, b_values = HORIZONTAL_CASES["0-360"]
+    (tmp_path / "lamp.ies").write_text(ies_text(VERTICAL, horizontal, [[a * b for a in A_VALUES] for b in b_values]))
+
+    def build(stage):
+        lamp = UsdLux.SphereLight.Define(stage, "/Lamps/Protos/Lamp")
+        lamp.CreateTreatAsPointAttr(True)
+        lamp.CreateNormalizeAttr(True)
+        lamp.CreateIntensityAttr(4.0)
+        api = UsdLux.ShapingAPI.Apply(lamp.GetPrim())
+        api.CreateShapingIesFileAttr(Sdf.AssetPath("./lamp.ies"))
+        api.CreateShapingConeAngleAttr(180.0)
+        pi = UsdGeom.PointInstancer.Define(stage, "/Lamps")
+        pi.CreatePrototypesRel().SetTargets([Sdf.Path("/Lamps/Protos/Lamp")])
+        pi.CreateProtoIndicesAttr([0, 0])
+        # The first instance (read for the others to copy) hangs below the plane; the second is the copy under test.
+        pi.CreatePositionsAttr([(0.0, 0.0, -5.0), (0.0, 0.0, HEIGHT)])
+        spin = Gf.Rotation(Gf.Vec3d(0, 0, 1), 90.0).GetQuat()
+        pi.CreateOrientationsAttr([Gf.Quath(1, 0, 0, 0), Gf.Quath(spin)])
+
+    rgb, scene = render_lamp(write_stage(tmp_path, build))
+    assert len(scene.lights) == 2 and scene.lights[0].shaping.ies is scene.lights[1].shaping.ies
+    np.testing.assert_allclose(scene.lights[1].x_axis, (0.0, 1.0, 0.0), atol=1e-3)  # a half-precision quaternion
+    frame = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # columns: X -> +Y, Y -> -X
+
+    def profile(theta, phi):
+        return a_of(theta) * np.interp(np.mod(phi, 360.0), horizontal, b_values)
+
+    expected = expected_radiance(profile, frame)
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
