@@ -160,17 +160,20 @@ def x_axis(to_world, fallback) -> np.ndarray:
     return x / length if length > 0.0 else np.asarray(fallback, np.float64)
 
 
-def ies_frame(axis, x) -> np.ndarray:
+def ies_frame(axis, x, y=None) -> np.ndarray:
     """``(3, 3)`` float32 rows: unit X and Y axes and the primary axis (``axis``, the light's -Z, unit) of a light
     whose X axis is ``x`` (made perpendicular to ``axis``; any perpendicular where it lies along it): the frame an IES
-    profile is looked up in (:func:`wrt.ies.ies_factor`)."""
+    profile is looked up in (:func:`wrt.ies.ies_factor`). Y is ``Z x X``, turned round where the light's own Y axis
+    ``y`` (if given) points the other way: a mirroring transform mirrors the profile's horizontal angles too."""
     axis = np.asarray(axis, np.float64)
     x = np.asarray(x, np.float64) - np.dot(x, axis) * axis
     if not np.linalg.norm(x) > 1e-9:
         x = np.cross(axis, (1.0, 0.0, 0.0) if abs(axis[0]) < 0.9 else (0.0, 1.0, 0.0))
     x = x / np.linalg.norm(x)
-    y = np.cross(-axis, x)  # Y = Z x X, with Z = -axis
-    return np.array([x, y, axis], np.float32)
+    y_frame = np.cross(-axis, x)  # Y = Z x X, with Z = -axis
+    if y is not None and np.dot(y_frame, y) < 0.0:
+        y_frame = -y_frame
+    return np.array([x, y_frame, axis], np.float32)
 
 
 SHAPING_INPUTS = ("cone:angle", "cone:softness", "focus", "focusTint", "ies:file", "ies:angleScale",

@@ -413,7 +413,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
                  math.pi * light.area * luminance_np(L * mean))
             h.texture[-1] = texels
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False,
-                         x=light_axes(light.to_world)[0])
+                         x=light_axes(light.to_world)[0], y=light_axes(light.to_world)[1])
         elif isinstance(light, DiskLight):
             x, y, z, origin = light_axes(light.to_world)
             u, v = x * light.radius, y * light.radius
@@ -422,14 +422,14 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L))
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False,
-                         x=light_axes(light.to_world)[0])
+                         x=light_axes(light.to_world)[0], y=light_axes(light.to_world)[1])
         elif isinstance(light, CylinderLight) and light.drawn_as_line:
             axis = light.world_shape()[0]
             i = light.line_intensity  # I_s: its power is pi^2 |axis| I_s, as the tube's pi A L
             _add(h, LIGHT_LINE, i, light_axes(light.to_world)[3], axis, zero, zero, (0, 0, 0, 0), 0,
                  math.pi**2 * float(np.linalg.norm(axis)) * luminance_np(i))
             _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True,
-                         x=light_axes(light.to_world)[0])
+                         x=light_axes(light.to_world)[0], y=light_axes(light.to_world)[1])
         elif isinstance(light, CylinderLight):
             axis, r = light.world_shape()
             origin = light_axes(light.to_world)[3]
@@ -440,7 +440,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             if m is not None:
                 h.shapes[-1] = m
             _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True,
-                         x=light_axes(light.to_world)[0])
+                         x=light_axes(light.to_world)[0], y=light_axes(light.to_world)[1])
         else:
             raise TypeError(f"unsupported light {type(light).__name__}")
         h.shadows[-1] = SHADOWS_ON if light.shadows else SHADOWS_OFF
@@ -624,9 +624,11 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.shapes.append(np.eye(3))
 
 
-def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool, x=(1.0, 0.0, 0.0)) -> None:
-    """Gives the light added last ``shaping`` around unit ``axis`` (its IES profile turned by the light's X axis
-    ``x``; nothing where it changes nothing), and scales its power by the share the shaping lets out."""
+def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool, x=(1.0, 0.0, 0.0),
+                 y=None) -> None:
+    """Gives the light added last ``shaping`` around unit ``axis`` (its IES profile turned by the light's X and Y
+    axes ``x``, ``y``: :func:`wrt.light_shaping.ies_frame`; nothing where it changes nothing), and scales its power
+    by the share the shaping lets out."""
     params = None if shaping is None else shaping.device_params(emits_behind)
     if params is None and (shaping is None or shaping.ies is None):
         return
@@ -639,7 +641,7 @@ def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: boo
     h.focus_tint[-1] = np.asarray(shaping.focus_tint, np.float32)
     if shaping.ies is not None:
         h.ies[-1] = shaping.ies.device_data(shaping.ies_angle_scale, shaping.ies_scale())
-        h.ies_frame[-1] = ies_frame(axis, x)
+        h.ies_frame[-1] = ies_frame(axis, x, y)
         h.power[-1] *= shaping.ies_power_fraction()
 
 
