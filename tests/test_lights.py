@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import warp as wp
 from light_oracle import polygon_irradiance
-from pxr import Gf, Usd, UsdGeom, UsdLux
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 from shading_helpers import pixel_points, quad, top_down_camera
 
 import wrt
@@ -801,6 +801,22 @@ def test_shadow_distance_keeps_farther_occluders_from_casting_shadows(kind, inte
     light, unblocked, _ = lights_over_a_blocker()[kind]
     check(render_over_blocker(dataclasses.replace(light, shadow_distance=0.2), integrator).mean(axis=-1), unblocked)
     assert render_over_blocker(dataclasses.replace(light, shadow_distance=2.0), integrator, spp=4).max() == 0.0
+
+
+def test_usd_shadow_inputs_that_are_no_numbers_read_as_fallbacks_with_a_warning(tmp_path):
+    """A shadow distance authored as text, or a negative shadow colour, is read as the schema's fallback (any
+    distance, black), named in a warning with its light; the light is kept."""
+
+    def build(stage):
+        odd = UsdLux.DiskLight.Define(stage, "/Odd")
+        odd.GetPrim().CreateAttribute("inputs:shadow:distance", Sdf.ValueTypeNames.String).Set("far")
+        UsdLux.ShadowAPI.Apply(odd.GetPrim()).CreateShadowColorAttr(Gf.Vec3f(0.5, -0.2, 0.0))
+
+    with pytest.warns(UserWarning, match=r"ShadowAPI inputs that are not finite numbers.*inputs:shadow:color = "
+                                         r"\(0\.5, -0\.2.*inputs:shadow:distance = 'far'.*: /Odd$"):
+        scene = wrt.load_usd(write_stage(tmp_path, build))
+    (light,) = scene.lights
+    assert light.shadow_color is None and light.shadow_distance == -1.0
 
 
 def test_shadow_api_fields_are_checked_naming_the_light():
