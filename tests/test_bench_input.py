@@ -3,6 +3,7 @@ interrupted or without matplotlib, and the size columns of rows traced in anothe
 
 import json
 import math
+import os
 import re
 import sys
 from pathlib import Path
@@ -480,6 +481,25 @@ def test_a_suite_argument_that_is_a_folder_or_a_scene_says_so(tmp_path, capsys, 
     assert main(["bench", str(tmp_path / name), "-o", str(tmp_path / "out")]) == 2
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
     assert len(err) == 1 and err[0].startswith("wrt: error: ") and message in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_a_suite_that_is_a_named_pipe_is_a_one_line_error_not_a_hang(tmp_path):
+    """A FIFO given as the suite file made read_text() wait for a writer that never came: wrt bench hung. It is
+    refused as --log refuses one, naming the path; the process must end on its own (a fresh interpreter)."""
+    import subprocess
+
+    fifo = tmp_path / "suite.json"
+    os.mkfifo(fifo)
+    try:
+        done = subprocess.run([sys.executable, "-m", "wrt.cli", "bench", str(fifo), "-o", str(tmp_path / "out")],
+                              capture_output=True, text=True, timeout=120)
+    except subprocess.TimeoutExpired:
+        pytest.fail("wrt bench on a named pipe hung")
+    errors = [line for line in done.stderr.splitlines() if line.startswith("wrt:")]
+    assert done.returncode == 2 and errors == [f"wrt: error: {fifo}: a pipe or socket, not a benchmark suite (a JSON "
+                                               "file)"], done.stderr
     assert not (tmp_path / "out").exists()
 
 

@@ -42,7 +42,7 @@ from .bvh import Builder
 from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits, off_triangle
-from .errors import SceneError, did_you_mean, flag
+from .errors import SceneError, did_you_mean, flag, not_a_file
 from .rays import RAY_KINDS, ray_set
 from .resources import check_host_memory
 from .scene import Scene
@@ -88,6 +88,8 @@ class Grid:
                                     f"{SUITES_DIR}: {', '.join(known) or 'none'}")
         if path.is_dir():  # it failed in Python's words, '[Errno 21] Is a directory', naming no suite
             raise IsADirectoryError(f"{path}: a directory, not a benchmark suite (a JSON file)")
+        if not path.is_file():  # a named pipe: read_text() waited for a writer, forever; /dev/zero never ends
+            raise ValueError(f"{path}: {not_a_file(path)}, not a benchmark suite (a JSON file)")
         try:
             data = json.loads(path.read_text())
         except json.JSONDecodeError as e:

@@ -20,6 +20,17 @@ def bottom_row_problem(name: str, matrix) -> str | None:
             "M @ (p, 1), with bottom row (0, 0, 0, 1) (the transpose of a Gf.Matrix4d)")
 
 
+def not_a_file(path) -> str:
+    """What ``path``, which exists and is no regular file, is instead, in the words of the errors that refuse it:
+    ``a directory``, ``a pipe or socket`` (reading one waits for a writer, maybe forever) or ``a device``."""
+    if os.path.isdir(path):
+        return "a directory"
+    import stat
+
+    mode = os.stat(path).st_mode
+    return "a pipe or socket" if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode) else "a device"
+
+
 def with_bottom_row(matrix: np.ndarray) -> np.ndarray:
     """``matrix`` as a ``(4, 4)`` column-vector transform where it is its top ``(3, 4)`` (the affine part, as the
     device holds it): the row ``(0, 0, 0, 1)`` added; any other array as it is. Shapes and lights read a ``to_world``

@@ -77,7 +77,9 @@ def check_appendable(log: Path, option: str = "--log") -> None:
     """Raises ValueError naming ``option`` when ``log`` is a file whose first line is no JSON row (notes, an image):
     rows were appended to whatever file ``--log`` named, and only a later ``--resume`` refused it as no log."""
     if log.is_fifo() or log.is_socket():  # no file to append rows to: 'File or stream is not seekable' at the first
-        raise ValueError(f"{option} {log}: a pipe or socket, not a file")
+        from .errors import not_a_file
+
+        raise ValueError(f"{option} {log}: {not_a_file(log)}, not a file")
     if not log.is_file():  # made by the run, or a device such as /dev/null (no log kept)
         return
     try:
