@@ -4,6 +4,7 @@ import importlib.util
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -85,6 +86,24 @@ def test_frame_output_patterns():
     assert frame_output("f_####.png", -0.5) == Path("f_-0000.5.png")
     assert frame_output("f_####.png", -1.5) == Path("f_-0001.5.png")
     assert frame_output("f_####.png", -3) == Path("f_-0003.png")
+
+
+@pytest.mark.parametrize("frame, message", [
+    (1e300, "more than 12 digits before the point"),  # a 311-character name: the write failed after the render
+    (-1e300, "more than 12 digits before the point"),
+    (1234567890123.0, "more than 12 digits before the point"),  # was named f_1234567890120.png, another frame
+    (1e-300, "bytes long"),  # 0000.000...0001: past the 255 bytes of a file name
+])
+def test_frame_output_refuses_a_frame_its_file_name_cannot_spell(frame, message):
+    with pytest.raises(ValueError, match=re.escape(f"frame_output: frame {frame!r}: ") + ".*" + message):
+        frame_output("out/f_####.png", frame)
+
+
+@pytest.mark.parametrize("frame", [999999999999.0, -999999999999.0, 123456.5, 1e-20, 0.0])
+def test_frame_output_names_the_largest_and_smallest_frames_it_takes_exactly(frame):
+    """Oracle: the number in the name, read back by float(), is the frame."""
+    name = frame_output("out/f_####.png", frame).stem.removeprefix("f_")
+    assert float(name) == frame, name
 
 
 def test_every_frame_gets_its_own_file_and_runaway_ranges_are_refused():

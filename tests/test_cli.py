@@ -363,6 +363,23 @@ def test_output_naming_an_existing_folder_without_a_slash_says_so(tmp_path, caps
     assert list(folder.iterdir()) == []
 
 
+def test_a_frame_number_no_file_name_can_spell_is_refused_before_any_render(tmp_path, capsys, monkeypatch):
+    """``--frames 1e300`` is finite, so it was taken: the frame was loaded and rendered, and only the write of its
+    311-character file name failed ('File name too long'). Now one line, exit 2, and nothing rendered."""
+    from wrt.animation import FrameRenderer
+
+    def no_render(*args, **kwargs):
+        raise AssertionError("the frame was rendered")
+
+    monkeypatch.setattr(FrameRenderer, "render", no_render)
+    out = tmp_path / "out"
+    assert main(["render", "--frames", "1e300", "-o", f"{out}/f_####.png", "--width", "4", "--height", "4",
+                 "-q"]) == 2
+    errors = [line for line in error_lines(capsys.readouterr().err) if line.startswith("wrt: error:")]
+    assert len(errors) == 1 and "frame 1e+300: more than 12 digits before the point" in errors[0], errors
+    assert not out.exists()
+
+
 def test_interrupted_render_saves_the_samples_it_has(tmp_path, monkeypatch, capsys):
     """Ctrl-C during a long ``wrt render`` saved nothing. The image of the samples finished so far is written, and
     it is the image a render with that many samples gives; the exit status stays 130."""

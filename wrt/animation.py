@@ -45,6 +45,7 @@ REFIT_SAH_LIMIT = 1.2  # rebuild once refitting has made the tree's SAH cost 20%
 MAX_FRAMES = 1_000_000  # most frames one --frames range may give (a typo such as 1:1e9 would fill the memory)
 FRAME_DIGITS = 12  # significant digits of a frame time, in parse_frames and in file names
 MAX_EXACT_EXPONENT = 400  # decimal exponents read exactly; a double spans 1e-324 to 1e308
+MAX_NAME_BYTES = 255  # longest file name (one path component) of Linux, macOS and Windows file systems
 
 FRAME_PATTERN = re.compile(r"#+")
 
@@ -119,7 +120,10 @@ def frame_output(pattern, frame: float) -> Path:
     so the frames of :func:`parse_frames` get files of their own.
 
     Raises:
-        ValueError: for a ``frame`` that is not a finite number (NaN and inf were named ``frame_0nan.png``).
+        ValueError: for a ``frame`` that is not a finite number (NaN and inf were named ``frame_0nan.png``), one of
+            :data:`FRAME_DIGITS` or more digits before the point, which 12 significant digits would name as another
+            frame (1234567890123 as ``frame_1234567890120.png``; 1e300 had a 300-digit name), or one whose file name
+            would be longer than :data:`MAX_NAME_BYTES` (1e-300: the write failed after the render).
     """
     try:
         finite = not isinstance(frame, (bool, np.bool_, str, bytes)) and math.isfinite(float(frame))
@@ -133,12 +137,20 @@ def frame_output(pattern, frame: float) -> Path:
         pattern = str(p.with_name(f"{p.stem}_####{p.suffix}"))
     run = list(FRAME_PATTERN.finditer(pattern))[-1]
     # 12.5 -> "12.5", 3.0000000000000004 -> "3", 1.0000005 -> "1.0000005" (not "1.000001", the next frame's name)
+    if _round_frame(abs(frame)) >= 10.0**FRAME_DIGITS:
+        raise ValueError(f"frame_output: frame {frame!r}: more than {FRAME_DIGITS} digits before the point; a file "
+                         f"name spells a frame to {FRAME_DIGITS} significant digits, so frames must lie within "
+                         f"+-{10**FRAME_DIGITS - 1:,}")
     digits = np.format_float_positional(_round_frame(abs(frame)), trim="-")
     whole, _, fraction = digits.partition(".")
     number = ("-" if frame < 0 and digits != "0" else "") + whole.zfill(len(run.group()))
     if fraction:
         number += "." + fraction
-    return Path(pattern[: run.start()] + number + pattern[run.end() :])
+    path = Path(pattern[: run.start()] + number + pattern[run.end() :])
+    if len(os.fsencode(path.name)) > MAX_NAME_BYTES:
+        raise ValueError(f"frame_output: frame {frame!r}: its file name {path.name[:40]}... is "
+                         f"{len(os.fsencode(path.name))} bytes long, past the {MAX_NAME_BYTES} a file system takes")
+    return path
 
 
 def _digest(*arrays) -> str:
