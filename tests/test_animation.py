@@ -605,7 +605,7 @@ def test_cli_frames_log_is_strict_json(animated, tmp_path, monkeypatch):
 def test_cli_frames_log_keeps_the_rows_of_the_frames_finished_before_ctrl_c(animated, tmp_path, monkeypatch, capsys):
     """README: an interrupted run keeps what it has. The --frames log was written once every frame was done, so
     Ctrl-C at frame 3 of 3 left the images of frames 1 and 2 and no log at all (a batch of scenes flushes a row per
-    scene)."""
+    scene). The frame cut short has a row too, ``interrupted``, as a batch's scene cut short has (it had none)."""
     from wrt.cli import main
 
     render = FrameRenderer.render
@@ -621,8 +621,16 @@ def test_cli_frames_log_keeps_the_rows_of_the_frames_finished_before_ctrl_c(anim
                  "-q", "--width", "8", "--height", "6"]) == 130
     assert "wrt: interrupted" in capsys.readouterr().err
     rows = [json.loads(line) for line in log.read_text().splitlines()]
-    assert [(r["frame"], Path(r["output"]).name) for r in rows] == [(1.0, "f_1.npy"), (2.0, "f_2.npy")]
+    assert [(r["frame"], Path(r["output"]).name, r["status"]) for r in rows] == [
+        (1.0, "f_1.npy", "ok"), (2.0, "f_2.npy", "ok"), (3.0, "f_3.npy", "interrupted")]
+    assert len({r["run"] for r in rows}) == 1 and rows[2]["device"] == "cpu" and "output_mtime_ns" not in rows[2]
     assert sorted(p.name for p in tmp_path.glob("f_*.npy")) == ["f_1.npy", "f_2.npy"]
+    # --resume renders only the frame cut short, as it does the scene a batch cut short.
+    monkeypatch.setattr(FrameRenderer, "render", render)
+    assert main(["render", str(animated), "--frames", "1:3", "-o", str(tmp_path / "f_#.npy"), "--log", str(log),
+                 "-q", "--width", "8", "--height", "6", "--resume"]) == 0
+    rows = [json.loads(line) for line in log.read_text().splitlines()][3:]
+    assert sorted((r["frame"], r["status"]) for r in rows) == [(1.0, "skipped"), (2.0, "skipped"), (3.0, "ok")]
 
 
 def test_render_frames_refuses_an_unknown_device_before_starting_workers(animated, tmp_path, monkeypatch):
@@ -710,13 +718,15 @@ def test_frame_workers_start_with_ctrl_c_ignored():
 
 def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(animated, tmp_path):
     """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) during ``--frames --devices`` left the
-    process pool with shutdown(wait=True): every queued frame was rendered first, and their images thrown away."""
+    process pool with shutdown(wait=True): every queued frame was rendered first, and their images thrown away. The
+    log says which frames were cut short (it had no row for them)."""
     import signal
     import time
 
     out = tmp_path / "frames" / "f_#.npy"
     cmd = [sys.executable, "-m", "wrt.cli", "render", str(animated), "--frames", "1:8:0.004", "--devices", "cpu,cpu",
-           "-o", str(out), "--width", "16", "--height", "12", "-q"]  # 1751 frames: minutes of work
+           "-o", str(out), "--width", "16", "--height", "12", "-q",
+           "--log", str(tmp_path / "log.jsonl")]  # 1751 frames: minutes of work
     with open(tmp_path / "stderr.txt", "w") as err:
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err, start_new_session=True,
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
@@ -743,6 +753,10 @@ def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(a
     for path in written[:2]:  # complete images
         np.testing.assert_array_equal(np.load(path), serial.render(float(path.stem[2:])).rgb)
     assert len(frames) == len(written)
+    rows = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
+    assert {r["frame"] for r in rows if r["status"] == "ok"} == frames
+    cut = [r["frame"] for r in rows if r["status"] == "interrupted"]  # in a worker, or queued for the next free one
+    assert 1 <= len(cut) <= 3 and not frames & set(cut) and len(rows) == len(frames) + len(cut), rows
 
 
 def test_cli_frames_and_resume(animated, tmp_path):

@@ -408,6 +408,9 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                         written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
                 except SceneError as e:
                     rows.append(frame_error_row(frame, file, e, str(devices[0])))
+                except KeyboardInterrupt:  # as a batch of scenes logs the scene cut short; the frame wrote no file
+                    rows.append(frame_interrupted_row(frame, file, str(devices[0]), _time.perf_counter() - start))
+                    raise
                 else:
                     row = dict(renderer.log[-1], device=str(devices[0]), output=str(written))
                     rows.append(dict(row, seconds=_time.perf_counter() - start, finished_at=_time.time()))
@@ -424,6 +427,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         pool = concurrent.futures.ProcessPoolExecutor(
             len(devices), mp_context=multiprocessing.get_context("spawn"), initializer=_claim_device, initargs=(claims,)
         )
+        futures = {}
         try:
             with _children_ignore_ctrl_c():  # the workers start at the submits
                 futures = {pool.submit(render_frame_task, _task(path, frame, file, spp, seed, exposure, options)):
@@ -434,10 +438,15 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                 except SceneError as e:
                     rows.append(frame_error_row(*futures[future], e, getattr(e, "device", None)))
                 bar.update(1)
-        except BaseException:
+        except BaseException as e:
             # Ctrl-C or a failing frame: the frames written so far stay. Leaving the pool with shutdown(wait=True)
             # rendered every queued frame first and threw the images away.
+            started = [futures[f] for f in futures if f.running() or f.done()]  # handed to a worker (or queued next)
             _stop_pool(pool)
+            if isinstance(e, KeyboardInterrupt):  # those not written were cut short
+                logged = {row["frame"] for row in rows}
+                for frame, file in sorted(job for job in started if float(job[0]) not in logged):
+                    rows.append(frame_interrupted_row(frame, file))
             raise
         pool.shutdown()
     return rows
@@ -473,6 +482,18 @@ def frame_error_row(frame: float, file, error: SceneError, device: str | None = 
     row = {"frame": float(frame), "output": str(file), "error": f"SceneError: {str(error).splitlines()[0]}"}
     if device is not None:
         row["device"] = str(device)
+    return dict(row, finished_at=_time.time())
+
+
+def frame_interrupted_row(frame: float, file, device: str | None = None, seconds: float | None = None) -> dict:
+    """The log row of a frame that Ctrl-C cut short: ``frame``, ``output`` (the file it did not write), ``status``
+    ``"interrupted"`` (as the row of a scene a batch was rendering), ``device`` and ``seconds`` where known, and
+    ``finished_at``. ``--resume`` renders such a frame again."""
+    row = {"frame": float(frame), "output": str(file), "status": "interrupted"}
+    if device is not None:
+        row["device"] = str(device)
+    if seconds is not None:
+        row["seconds"] = seconds
     return dict(row, finished_at=_time.time())
 
 
@@ -622,6 +643,7 @@ __all__ = [
     "LogRows",
     "classify_change",
     "frame_error_row",
+    "frame_interrupted_row",
     "frame_output",
     "parse_frames",
     "pending_frames",

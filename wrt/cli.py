@@ -769,6 +769,8 @@ def _run_frames(args, paths: list, progress) -> int:
 
     def log_row(row: dict) -> dict:
         """A frame's row as the log gets it: the run, the scene, the options, and the image's modification time."""
+        if row.get("status") == "interrupted":  # cut short by Ctrl-C: no image of its own
+            return {**fields, **row}
         status = {"status": "error"} if "error" in row else {"status": "ok", "output_mtime_ns": mtime_ns(row["output"])}
         return {**fields, **row, **status}
     devices = [d.strip() for d in args.devices.split(",") if d.strip()] if args.devices else [args.device]
