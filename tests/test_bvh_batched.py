@@ -200,3 +200,20 @@ def test_one_batchable_mesh_among_others_is_built_alone():
     empty = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32))
     for meshes in ([random_meshes(rng, 1)[0], big, empty], random_meshes(rng, 1), []):
         assert_same_trees([build_bvh(p, i, device="cpu") for p, i in meshes], build_bvhs(meshes, device="cpu"))
+
+
+@pytest.mark.parametrize("name", ["traversal_cost", "intersection_cost"])
+@pytest.mark.parametrize("value", ["2.0", True, None, [1.0]])
+def test_batched_and_single_builds_refuse_a_cost_that_is_no_number_alike(name, value):
+    """``traversal_cost="2.0"`` was taken by the batched CPU build (float("2.0")) and refused by build_bvh in
+    Python's words ('<=' not supported between 'float' and 'str'); True was taken by both as 1. Now one ValueError
+    naming the option, from both paths."""
+    rng = np.random.default_rng(5)
+    meshes = [(rng.normal(size=(9, 3)).astype(np.float32), np.arange(9, dtype=np.int32).reshape(3, 3))
+              for _ in range(3)]
+    message = f"{name} must be a number, got {value!r}"
+    with pytest.raises(ValueError) as single:
+        build_bvh(*meshes[0], "sah", **{name: value}, device="cpu")
+    with pytest.raises(ValueError) as batched:
+        build_bvhs(meshes, "sah", **{name: value}, device="cpu")
+    assert str(single.value) == str(batched.value) == message

@@ -112,8 +112,7 @@ def build_bvhs(meshes, builder: str = "sah", **options) -> list[FlatBvh]:
     if len(batch) > 1:
         leaf_size = check_int_option("leaf_size", options.get("leaf_size", 8), 1, MAX_LEAF_SIZE)
         bins = check_int_option("bins", options.get("bins", 16), 2, MAX_BINS)
-        costs = float(options.get("traversal_cost", 1.0)), float(options.get("intersection_cost", 1.0))
-        check_costs(*costs)
+        costs = check_costs(options.get("traversal_cost", 1.0), options.get("intersection_cost", 1.0))
         threads = options.get("threads")
         threads = os.cpu_count() or 1 if threads is None else check_int_option("threads", threads, 1, None)
         try:
@@ -138,13 +137,20 @@ def build_bvhs(meshes, builder: str = "sah", **options) -> list[FlatBvh]:
     return trees
 
 
-def check_costs(traversal_cost: float, intersection_cost: float) -> None:
-    """Raises ValueError unless the SAH constants are finite, ``traversal_cost >= 0`` and ``intersection_cost > 0``."""
+def check_costs(traversal_cost: float, intersection_cost: float) -> tuple[float, float]:
+    """The SAH constants as floats; ValueError unless both are numbers (Python or numpy, not bool or str), finite,
+    ``traversal_cost >= 0`` and ``intersection_cost > 0``. One check for the batched and the single build: the batched
+    one took ``"2.0"`` (``float()`` reads it), which the single one refused in Python's words."""
+    for name, value in (("traversal_cost", traversal_cost), ("intersection_cost", intersection_cost)):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise ValueError(f"{name} must be a number, got {value!r}")
+    traversal_cost, intersection_cost = float(traversal_cost), float(intersection_cost)
     if not (0.0 <= traversal_cost < math.inf and 0.0 < intersection_cost < math.inf):
         raise ValueError(
             f"traversal_cost must be finite and >= 0 and intersection_cost finite and > 0, got {traversal_cost!r} "
             f"and {intersection_cost!r}"
         )
+    return traversal_cost, intersection_cost
 
 
 def check_int_option(name: str, value, lo: int, hi: int | None) -> int:
