@@ -217,3 +217,21 @@ def test_batched_and_single_builds_refuse_a_cost_that_is_no_number_alike(name, v
     with pytest.raises(ValueError) as batched:
         build_bvhs(meshes, "sah", **{name: value}, device="cpu")
     assert str(single.value) == str(batched.value) == message
+
+
+def test_an_update_keeps_the_build_time_and_reports_its_own_in_update_seconds():
+    """After ``update()`` (refits, a BLAS built anew, a new TLAS) ``build_seconds`` was the first build's BLAS
+    times plus the new TLAS's (and the new BLAS's): the time of neither the build nor the update. It now stays the
+    build's, and ``update_seconds`` is the update's, within the wall time of the call around it."""
+    import time
+
+    scene = prototype_scene(6, np.random.default_rng(11))
+    acc = wrt.tlas.InstancedAccelerator(scene, "sah", "cpu", threads=1)
+    built = acc.build_seconds
+    assert built == sum(b.build_seconds for b in acc.blas) + acc.tlas.build_seconds
+    start = time.perf_counter()
+    assert acc.update(scene, refit_blas=True, rebuild=lambda b, tree: b == 0) == [0]
+    outer = time.perf_counter() - start
+    assert acc.build_seconds == built
+    assert 0.0 < acc.update_seconds <= outer
+    assert wrt.tlas.InstancedAccelerator(scene, "sah", "cpu", threads=1).update_seconds is None  # none yet

@@ -28,6 +28,8 @@ triangles once per prototype (:meth:`InstancedAccelerator.device_bytes`).
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import warp as wp
 
@@ -268,7 +270,10 @@ class InstancedAccelerator(Accelerator):
         blas: host :class:`wrt.bvh.FlatBvh` of each BLAS (the world-space one first when there is one).
         tlas: host :class:`wrt.bvh.FlatBvh` over the entries (also ``bvh``, the world-space tree previews draw).
         skipped_instances: indices of instances left out because their transform cannot be inverted.
-        build_seconds: total build time of every BLAS and the TLAS.
+        build_seconds: total build time of every BLAS and the TLAS when the accelerator was made. :meth:`update`
+            leaves it as it is: it once became the first build's BLAS times plus the new TLAS's, the time of neither.
+        update_seconds: wall time of the last :meth:`update` (refits, BLASes built anew, the TLAS and the uploads);
+            None before the first.
     """
 
     name = "wrt"
@@ -300,6 +305,8 @@ class InstancedAccelerator(Accelerator):
             self._device_blas.append(empty.to_device(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device))
             self._blas_first.append(0)
         self._build_tlas(scene)
+        self.build_seconds = sum(b.build_seconds for b in self.blas) + self.tlas.build_seconds
+        self.update_seconds = None
 
     def _build_blas(self, scene: Scene, points, indices, part: int, first: int, count: int) -> tuple:
         """The host tree and its upload for one :func:`blas_parts` part of ``scene``."""
@@ -316,6 +323,7 @@ class InstancedAccelerator(Accelerator):
         Raises:
             ValueError: when ``scene`` needs other BLASes (a prototype gained or lost all its instances, say).
         """
+        start = time.perf_counter()
         check_finite_transforms(scene)
         if [tuple(p) for p in blas_parts(scene)] != self._blas_parts:
             raise ValueError("the scene's prototypes changed; build a new InstancedAccelerator")
@@ -334,6 +342,8 @@ class InstancedAccelerator(Accelerator):
                     self._refitters[b] = Refitter(self.blas[b], self._device_blas[b], self.device)
                     rebuilt.append(b)
         self._build_tlas(scene)
+        wp.synchronize_device(self.device)  # the uploads are part of the update
+        self.update_seconds = time.perf_counter() - start
         return rebuilt
 
     def _build_tlas(self, scene: Scene) -> None:
@@ -426,7 +436,6 @@ class InstancedAccelerator(Accelerator):
         self._tlas_arrays += [t.world_to_local, t.blases, t.blas_first, t.shape_xforms, t.shape_rows]
         self._blas_arrays = [a for d in self._device_blas[: len(self.blas)] for a in (
             d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2, d.nodes)]
-        self.build_seconds = sum(b.build_seconds for b in self.blas) + self.tlas.build_seconds
 
     def device_bytes(self) -> dict:
         """Device memory of the structure, in bytes: ``blas`` (nodes and triangles of every BLAS), ``tlas`` (TLAS
