@@ -130,3 +130,32 @@ def test_stats_of_a_presplit_tree_count_triangles_and_leave_out_epo():
     assert sum(k * v for k, v in stats["leaf_size_histogram"].items()) == stats["slots"]
     with pytest.raises(ValueError, match="epo_samples=0"):
         bvh.stats(epo_samples=64)
+
+
+def test_the_two_level_bvh_of_wrt_trace_presplits_a_large_blas_as_a_flat_scene_is():
+    """``wrt.trace`` builds a scene's SAH tree with pre-splits, but a scene with an analytic shape or an instance
+    goes to the two-level BVH, whose BLASes were built without them: the same mesh got another tree (the fan of a
+    sphere's pole tested in full) once a gprim stood beside it. Oracle: ``build_bvh(..., presplit=6)`` of the mesh,
+    the tree a scene of the mesh alone traces; the hits stay those of the flat scene."""
+    import wrt
+    from wrt.bvh.batched import BATCH_MAX_TRIANGLES
+    from wrt.trace import ACCELERATOR_PRESPLIT, get_accelerator
+
+    points, indices = displaced_sphere(2 * BATCH_MAX_TRIANGLES)
+    mesh = wrt.Mesh("/ball", points, indices, np.zeros(len(indices), np.int32))
+    cube = np.diag([0.1, 0.1, 0.1, 1.0])
+    cube[0, 3] = 3.0  # beside the ball, out of the rays' way
+    scene = wrt.Scene(meshes=[mesh], shapes=[wrt.Shape("/cube", "box", cube)])
+    accel = get_accelerator(scene, "wrt", "sah", "cpu")
+    assert type(accel).__name__ == "InstancedAccelerator"
+    expected = build_bvh(points, indices, "sah", presplit=ACCELERATOR_PRESPLIT)
+    assert expected.num_prims > len(indices)  # the poles' fans are split
+    (blas,) = accel.blas
+    for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
+        assert np.array_equal(getattr(blas, field), getattr(expected, field)), field
+    origins, directions = pole_rays(300)
+    flat = wrt.Scene(meshes=[mesh])
+    a, b = wrt.trace(scene, origins, directions), wrt.trace(flat, origins, directions)
+    sphere_rows = (a.prim >= 0) & (a.prim < len(indices))
+    assert sphere_rows.mean() > 0.5 and np.array_equal(a.prim[sphere_rows], b.prim[sphere_rows])
+    assert np.array_equal(a.t[sphere_rows], b.t[sphere_rows])

@@ -34,6 +34,7 @@ import numpy as np
 import warp as wp
 
 from .bvh import DeviceBvh, build_bvh, traverse
+from .bvh.batched import BATCH_MAX_TRIANGLES
 from .bvh.build import build_bvhs
 from .bvh.layout import upload_many
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
@@ -43,7 +44,7 @@ from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import device_transforms, invert_transforms, world_boxes
 from .primitives import intersect_shape, local_boxes, shape_uv
 from .scene import Scene
-from .trace import Accelerator, HitBuffer, check_finite_transforms
+from .trace import Accelerator, HitBuffer, accelerator_build_options, check_finite_transforms
 from .transforms import mat34, transform_point, transform_vector
 
 wp.set_module_options({"fuse_fp": False})  # bit-identical hits on every device: see the note in wrt/trace.py
@@ -264,7 +265,10 @@ class InstancedAccelerator(Accelerator):
         scene: the scene; its instances, prototypes and non-instanced meshes.
         builder: builder name, used for every BLAS and the TLAS.
         device: Warp device.
-        **build_options: passed to every BLAS build (``leaf_size`` etc.).
+        **build_options: passed to every BLAS build (``leaf_size`` etc.), with the defaults of
+            :func:`wrt.trace.accelerator_build_options` (SAH: ``presplit=6``). ``presplit`` applies to the BLASes of
+            more than ``batched.BATCH_MAX_TRIANGLES`` (4096) triangles only: the small ones are built together on a
+            CPU, which pre-splits cannot join, and thousands of prototypes built one by one took 4x as long.
 
     Attributes:
         blas: host :class:`wrt.bvh.FlatBvh` of each BLAS (the world-space one first when there is one).
@@ -283,14 +287,21 @@ class InstancedAccelerator(Accelerator):
         check_finite_transforms(scene)
         self.device = device
         self.builder = builder
-        self.build_options = build_options
+        self.build_options = accelerator_build_options(builder, build_options)
         points, indices = scene.geometry()
         self.blas, self._device_blas, self._blas_first, self._blas_parts = [], [], [], []
         self._refitters = []
         parts = blas_parts(scene)
         meshes = [_part_triangles(scene, points, indices, *part) for part in parts]
-        # One call for every BLAS: on a CPU the small trees are built together (thousands of prototypes).
-        trees = build_bvhs(meshes, builder, device=device, **build_options)
+        # One call for the small BLASes: on a CPU they are built together (thousands of prototypes).
+        trees = [None] * len(meshes)
+        for presplit in (False, True):
+            chosen = [j for j, (_, sub) in enumerate(meshes) if self._presplits(len(sub)) == presplit]
+            if not chosen:
+                continue
+            options = self._blas_options(len(meshes[chosen[0]][1]))  # the same for every mesh chosen
+            for j, tree in zip(chosen, build_bvhs([meshes[j] for j in chosen], builder, device=device, **options)):
+                trees[j] = tree
         if wp.get_device(device).is_cpu and trees:  # views of one upload per field (GPU: one upload per tree)
             uploads = upload_many(trees, meshes, device)
         else:
@@ -308,10 +319,21 @@ class InstancedAccelerator(Accelerator):
         self.build_seconds = sum(b.build_seconds for b in self.blas) + self.tlas.build_seconds
         self.update_seconds = None
 
+    def _presplits(self, triangles: int) -> bool:
+        """Whether a BLAS of ``triangles`` is built with the ``presplit`` option (see the class docstring)."""
+        return bool(self.build_options.get("presplit")) and triangles > BATCH_MAX_TRIANGLES
+
+    def _blas_options(self, triangles: int) -> dict:
+        """The build options of a BLAS of ``triangles``."""
+        options = dict(self.build_options)
+        if not self._presplits(triangles):
+            options.pop("presplit", None)
+        return options
+
     def _build_blas(self, scene: Scene, points, indices, part: int, first: int, count: int) -> tuple:
         """The host tree and its upload for one :func:`blas_parts` part of ``scene``."""
         sub_points, sub = _part_triangles(scene, points, indices, part, first, count)
-        bvh = build_bvh(sub_points, sub, self.builder, device=self.device, **self.build_options)
+        bvh = build_bvh(sub_points, sub, self.builder, device=self.device, **self._blas_options(len(sub)))
         return bvh, bvh.to_device(sub_points, sub, self.device)
 
     def update(self, scene: Scene, refit_blas: bool, rebuild=None) -> list[int]:

@@ -302,6 +302,15 @@ class RowSplitter:
         )
 
 
+def accelerator_build_options(builder: str, given: dict) -> dict:
+    """``given`` build options with the defaults of the trees that traces and renders build: SAH trees with
+    :data:`ACCELERATOR_PRESPLIT` pre-splits (``presplit=0`` turns them off). One rule for :class:`BvhAccelerator`
+    and the BLASes of :class:`wrt.tlas.InstancedAccelerator`, whose trees were built without them."""
+    if Builder.from_str(builder) is Builder.SAH:  # "binned_sah" too
+        return {"presplit": ACCELERATOR_PRESPLIT, **given}
+    return dict(given)
+
+
 class BvhAccelerator(Accelerator):
     """wrt's own BVH, in one of the layouts of ``wrt.bvh.layout.LAYOUTS`` (all give identical hits). On a scene with
     instances it traces the flattened ``Scene.triangles()`` (layouts other than binary have no instancing)."""
@@ -318,8 +327,7 @@ class BvhAccelerator(Accelerator):
     def __init__(self, scene: Scene, builder: str, device, layout: str = "binary", **build_options):
         check_flattenable(scene, f"layout={layout!r}")
         check_finite_transforms(scene)
-        if Builder.from_str(builder) is Builder.SAH:  # "binned_sah" too
-            build_options.setdefault("presplit", ACCELERATOR_PRESPLIT)
+        build_options = accelerator_build_options(builder, build_options)
         self.split = RowSplitter(scene, device) if len(scene.instances) else None
         points, indices = scene.triangles()
         self.layout = check_layout(layout)
