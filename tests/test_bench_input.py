@@ -547,3 +547,30 @@ def test_quick_suite_duration_is_stated_alike_in_help_suite_and_readme(capsys):
     assert suite["description"].endswith(f"; {duration}")
     readme = (Path(bench_module.__file__).parents[1] / "README.md").read_text()
     assert re.search(rf"wrt bench --quick .*# .*{duration}\n", readme)
+
+
+def test_a_thread_count_past_the_cores_is_kept_as_asked_and_its_effective_count_recorded(tmp_path, monkeypatch):
+    """``threads: [64]`` on a 2-core machine was recorded as 64 threads, as if 64 ran: the row now also says how many
+    ran at once, ``threads_effective``: the worker threads the launch was split over (seen on the thread pool the
+    trace made), at most the cores this process may run on (its CPU affinity). The count asked stays in ``threads``
+    (a suite written for a larger machine still runs here)."""
+    import concurrent.futures
+    import importlib
+
+    trace_module = importlib.import_module("wrt.trace")  # ``wrt.trace`` is also the function
+
+    pools = []
+
+    class Pool(concurrent.futures.ThreadPoolExecutor):
+        def __init__(self, workers, *args, **kwargs):
+            pools.append(workers)
+            super().__init__(workers, *args, **kwargs)
+
+    monkeypatch.setattr(trace_module, "ThreadPoolExecutor", Pool)
+    rays = 3 * trace_module.MIN_RAYS_PER_THREAD  # three pieces of the smallest size split off
+    (row,) = run_grid(small_grid(rays=["incoherent"], n_rays=rays, threads=[64], repeats=1), tmp_path, progress=False)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert pools and set(pools) == {3}, pools
+    assert row["threads"] == 64 and row["threads_effective"] == min(3, cores), row
+    table = (tmp_path / "table.md").read_text()
+    assert f"| 64 ({min(3, cores)} ran) |" in table, table

@@ -156,6 +156,21 @@ def _thread_count(threads) -> int:
     return int(threads)
 
 
+def chunk_count(n: int, threads: int) -> int:
+    """Pieces :func:`run_in_chunks` splits ``n`` rays into for ``threads`` threads: at most one per
+    :data:`MIN_RAYS_PER_THREAD` rays, at least one."""
+    return max(min(threads, n // MIN_RAYS_PER_THREAD), 1)
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system has one, else every core): threads past
+    it take turns."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # macOS, Windows
+        return max(os.cpu_count() or 1, 1)
+
+
 def run_in_chunks(work, n: int, threads: int, kernels=()) -> None:
     """Calls ``work(start, end)`` over ``[0, n)``: in one piece, or in ``threads`` pieces on a thread pool.
 
@@ -167,7 +182,7 @@ def run_in_chunks(work, n: int, threads: int, kernels=()) -> None:
     empty kernel cache every core compiled the trace and integrator modules at once, a first render of the
     default scene compiling ``wrt.trace`` and ``wrt.integrators.whitted`` twice on two cores.
     """
-    pieces = min(threads, n // MIN_RAYS_PER_THREAD)
+    pieces = chunk_count(n, threads)
     if pieces <= 1:
         work(0, n)
         return
