@@ -694,3 +694,40 @@ def test_shadow_rays_of_a_scene_in_any_unit_start_under_a_slab_just_above_the_fl
     shadow_origins, shadow_directions = secondary_rays(scene, "shadow", origins, directions, hits)
     shadow = wrt.trace(scene, shadow_origins, shadow_directions)
     np.testing.assert_array_equal(shadow.prim >= 2, True)  # the slab's triangles
+
+
+def test_shadow_rows_name_the_light_their_rays_aim_at_and_the_lights_they_leave_out(tmp_path):
+    """Shadow rays aim at the scene's first DistantLight (else a default sun), whatever other lights it has; nothing
+    in the rows or the table said so, so a scene lit by a sphere and a rect light looked measured towards them. The
+    rows now name it (``shadow_light``: the light's prim path, or ``default sun``) and count the lights left out
+    (``lights_not_aimed_at``), and the table says it under the rows. Oracle: the stage's lights as USD lists them,
+    and the direction of /Sun's -Z axis from ``UsdGeom.XformCache``."""
+    from pxr import Gf, Usd, UsdGeom
+
+    lit = tmp_path / "lit.usda"
+    lit.write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 2\n}\n'
+                   'def SphereLight "Lamp"\n{\n    double3 xformOp:translate = (0, 5, 0)\n'
+                   '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n'
+                   'def RectLight "Panel"\n{\n    double3 xformOp:translate = (0, 0, 5)\n'
+                   '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n'
+                   'def DistantLight "Sun"\n{\n    float3 xformOp:rotateXYZ = (-60, 20, 0)\n'
+                   '    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]\n}\n')
+    unlit = tmp_path / "unlit.usda"
+    unlit.write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    double radius = 2\n}\n'
+                     'def SphereLight "Lamp"\n{\n    double3 xformOp:translate = (0, 5, 0)\n'
+                     '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n')
+    rows = run_grid(tiny_grid(scenes=[str(lit), str(unlit)], accels=["wrt:sah"], rays=["primary", "shadow"],
+                              n_rays=1000, repeats=1), tmp_path / "out", progress=False)
+    shadow = {Path(r["scene"]).name: r for r in rows if r["rays"] == "shadow"}
+    assert (shadow["lit.usda"]["shadow_light"], shadow["lit.usda"]["lights_not_aimed_at"]) == ("/Sun", 2)
+    assert (shadow["unlit.usda"]["shadow_light"], shadow["unlit.usda"]["lights_not_aimed_at"]) == ("default sun", 1)
+    assert all("shadow_light" not in r for r in rows if r["rays"] == "primary")
+    table = (tmp_path / "out" / "table.md").read_text()
+    assert f"- shadow rays of {lit}: towards /Sun (2 other lights not aimed at)" in table, table
+    assert f"- shadow rays of {unlit}: towards the default sun (1 other light not aimed at)" in table, table
+    stage = Usd.Stage.Open(str(lit))
+    to_world = UsdGeom.XformCache().GetLocalToWorldTransform(stage.GetPrimAtPath("/Sun"))
+    toward = -np.array(to_world.TransformDir(Gf.Vec3d(0, 0, -1)))
+    _, directions = ray_set(bench_module.resolve_scene(str(lit)), "shadow", 500, seed=1)
+    np.testing.assert_allclose(directions, np.broadcast_to(toward / np.linalg.norm(toward), directions.shape),
+                               atol=1e-6)

@@ -43,7 +43,7 @@ from .bvh.layout import check_layout
 from .bvh.warp_mesh import check_warp_builder
 from .compare import compare_hits, off_triangle
 from .errors import SceneError, did_you_mean, flag, not_a_file
-from .rays import RAY_KINDS, ray_set
+from .rays import RAY_KINDS, ray_set, shadow_target
 from .resources import check_host_memory
 from .scene import Scene
 from .strict_json import strict_json
@@ -58,6 +58,7 @@ from .trace import (
     resolve_device,
     usable_cores,
 )
+from .wording import counted
 
 SUITES_DIR = Path(__file__).resolve().parent / "suites"  # the named suites, shipped with the package
 REFERENCE = "warp:sah"  # agreement and ratios are measured against this accelerator
@@ -649,6 +650,9 @@ def measure_group(scene_name, scene, device, kind, grid: Grid, accels, thread_co
     scale = float(np.abs(points).max()) if len(points) else 0.0
     base = {"scene": scene_name, "triangles": triangles, "device": str(device), "rays": kind}
     base.update(n_rays=int(len(origins)), inputs=inputs_digest(points, indices, origins, directions))
+    if kind == "shadow":  # one light, named: a scene lit by others must not look measured towards them
+        light = shadow_target(scene)[1]
+        base.update(shadow_light=light, lights_not_aimed_at=len(scene.lights) - (light != "default sun"))
     reference = None
     ordered = sorted(accels, key=lambda a: a != REFERENCE)  # the reference first, so others can be compared
     rows = [dict(base, accel=spec, threads=threads)
@@ -1088,6 +1092,11 @@ def markdown_table(rows: list[dict]) -> str:
             f"({fmt(r['mrays_min'], '.2f')}-{fmt(r['mrays_max'], '.2f')}) | {fmt(100 * r['hit_fraction'], '.1f')} | "
             f"{agree} | {fmt(ratio_w, '.2f')} | {fmt(ratio_e, '.2f')} | {fmt(r.get('sah_cost'), '.2f')} |"
         )
+    for r in rows:
+        if r.get("shadow_light") is not None:
+            target = "the default sun" if r["shadow_light"] == "default sun" else r["shadow_light"]
+            others = counted(r.get("lights_not_aimed_at", 0), "other light")
+            notes.add(f"- shadow rays of {r['scene']}: towards {target} ({others} not aimed at)")
     hardware_lines = sorted({f"- {r['device']}: CPU {r.get('cpu')} ({r.get('cpu_cores')} cores), {_gpu_text(r)}Warp "
                              f"{r.get('warp')}, wrt {r.get('wrt')} (source {r.get('wrt_source')})"
                              for r in rows if "cpu" in r})

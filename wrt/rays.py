@@ -149,23 +149,34 @@ def _surface_points(scene: Scene, origins, directions, hits):
     return position, normal
 
 
+def shadow_target(scene: Scene) -> tuple[np.ndarray, str]:
+    """``(direction, name)`` of what shadow rays aim at: the unit float64 direction towards the first
+    :class:`DistantLight` of ``scene.lights`` (the centre of its disc, whatever its angle or shadow flag) and its prim
+    path (``DistantLight N`` for one without), else :data:`DEFAULT_SUN` turned to the scene's up axis and ``default
+    sun``. Every other light (sphere, rect, disk, ... and later distant ones) is left out: shadow rays keep one
+    direction and no end, the workload every bench result so far was measured on."""
+    suns = [(k, light) for k, light in enumerate(scene.lights) if isinstance(light, DistantLight)]
+    if suns:
+        k, sun = suns[0]
+        to_light = -np.asarray(sun.direction, np.float64)
+        return to_light / np.linalg.norm(to_light), sun.path or f"DistantLight {k}"
+    # Y-up to Z-up is the quarter turn about +X that takes +Y to +Z ((x, y, z) -> (x, -z, y)), the turn
+    # frame_scene makes too; swapping y and z mirrored it to the side of the scene away from the camera.
+    to_light = DEFAULT_SUN if scene.up_axis != "Z" else DEFAULT_SUN[[0, 2, 1]] * (1.0, -1.0, 1.0)
+    return to_light / np.linalg.norm(to_light), "default sun"
+
+
 def secondary_rays(scene: Scene, kind: str, origins, directions, hits, seed: int = 0):
-    """Shadow rays (towards the scene's first distant light, else :data:`DEFAULT_SUN` rotated to the up axis) or
-    cosine-weighted diffuse bounce rays from the hits of a primary ray set."""
+    """Shadow rays (towards :func:`shadow_target`: the scene's first distant light, else :data:`DEFAULT_SUN` rotated
+    to the up axis; other lights are not aimed at) or cosine-weighted diffuse bounce rays from the hits of a primary
+    ray set."""
     if kind not in ("shadow", "diffuse"):
         raise ValueError(f"unknown secondary ray kind {kind!r}{did_you_mean(kind, ('shadow', 'diffuse'))}; valid: "
                          "shadow, diffuse")
     seed = check_count(0, seed)[1]
     position, normal = _surface_points(scene, origins, directions, hits)
     if kind == "shadow":
-        suns = [light for light in scene.lights if isinstance(light, DistantLight)]
-        if suns:
-            to_light = -np.asarray(suns[0].direction, np.float64)
-        else:
-            # Y-up to Z-up is the quarter turn about +X that takes +Y to +Z ((x, y, z) -> (x, -z, y)), the turn
-            # frame_scene makes too; swapping y and z mirrored it to the side of the scene away from the camera.
-            to_light = DEFAULT_SUN if scene.up_axis != "Z" else DEFAULT_SUN[[0, 2, 1]] * (1.0, -1.0, 1.0)
-        out = np.broadcast_to(to_light / np.linalg.norm(to_light), position.shape)
+        out = np.broadcast_to(shadow_target(scene)[0], position.shape)
     elif kind == "diffuse":
         rng = np.random.default_rng(seed)
         # Cosine-weighted: a uniform point on the unit sphere added to the normal (Malley-equivalent).
