@@ -755,8 +755,10 @@ def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(a
     assert len(frames) == len(written)
     rows = [json.loads(line) for line in (tmp_path / "log.jsonl").read_text().splitlines()]
     assert {r["frame"] for r in rows if r["status"] == "ok"} == frames
-    cut = [r["frame"] for r in rows if r["status"] == "interrupted"]  # in a worker, or queued for the next free one
-    assert 1 <= len(cut) <= 3 and not frames & set(cut) and len(rows) == len(frames) + len(cut), rows
+    # Cut short: a frame in each worker, one queued for the next free one (ProcessPoolExecutor marks it running), and
+    # one per worker sent back but not yet written.
+    cut = [r["frame"] for r in rows if r["status"] == "interrupted"]
+    assert 1 <= len(cut) <= 5 and not frames & set(cut) and len(rows) == len(frames) + len(cut), rows
 
 
 def test_cli_frames_and_resume(animated, tmp_path):

@@ -441,9 +441,11 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
         except BaseException as e:
             # Ctrl-C or a failing frame: the frames written so far stay. Leaving the pool with shutdown(wait=True)
             # rendered every queued frame first and threw the images away.
-            started = [futures[f] for f in futures if f.running() or f.done()]  # handed to a worker (or queued next)
+            # Handed to a worker (ProcessPoolExecutor marks one more, queued for the next free worker, running too) or
+            # sent back: those not written were cut short.
+            started = [futures[f] for f in futures if f.running() or f.done()]
             _stop_pool(pool)
-            if isinstance(e, KeyboardInterrupt):  # those not written were cut short
+            if isinstance(e, KeyboardInterrupt):
                 logged = {row["frame"] for row in rows}
                 for frame, file in sorted(job for job in started if float(job[0]) not in logged):
                     rows.append(frame_interrupted_row(frame, file))
