@@ -211,3 +211,17 @@ def test_a_finely_tessellated_glowing_sphere_does_not_shadow_its_own_light(tmp_p
     facing = np.sum(outward * corners[:, 0], axis=1) < 0.0  # front side towards the plane point at the origin
     expected = polygon_irradiance(np.zeros(3), (0, 0, 1), corners[facing], RADIANCE) / np.pi
     assert abs(rendered / expected - 1) < 0.008, (rendered, expected)  # 1.5% low before; noise 0.15%
+
+
+def test_gprims_sharing_a_textured_glow_read_its_texture_once(tmp_path, monkeypatch):
+    """Forty spheres bound to one textured glow are all drawn as emitters, and the texture's emission is estimated
+    once for the material, not once a gprim (a pass over every texel each time)."""
+    import wrt.usd
+
+    calls = []
+    estimate = wrt.usd.emission_estimate
+    monkeypatch.setattr(wrt.usd, "emission_estimate", lambda *a: calls.append(a) or estimate(*a))
+    lamps = [gprim("Sphere", 0.1, name=f"Lamp{i}") for i in range(40)]
+    scene, _ = load(tmp_path, white_plane(), glow("texture"), *lamps)
+    assert sorted(m.path for m in scene.meshes) == sorted(["/Floor"] + [f"/Lamp{i}" for i in range(40)])
+    assert len(calls) == 1

@@ -328,6 +328,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.shown_prototypes = {}  # native prototype path -> (abstract, the path it is named by) (_prototype_name)
         self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)
         self.instanced_lights = {}  # prim path -> MeshLight of the mesh lights read inside prototypes
+        self.glowing_materials = {}  # material id -> whether it emits (a pass over its emission texture, once)
         self.light_textures = LightTextures(material_memo)  # the images of light textures, each file read once
 
     def read(self) -> Scene:
@@ -489,8 +490,12 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         triangles it samples."""
         if shape.material_id < 0:  # the default material emits nothing
             return False
-        material = self.materials.materials[shape.material_id]
-        return bool(emission_estimate(material, self.materials.textures).max() > 0.0)
+        glows = self.glowing_materials.get(shape.material_id)
+        if glows is None:
+            material = self.materials.materials[shape.material_id]
+            glows = self.glowing_materials[shape.material_id] = bool(
+                emission_estimate(material, self.materials.textures).max() > 0.0)
+        return glows
 
     def _add_mesh(self, prim: Usd.Prim, mesh: Mesh | None, ctx: Context):
         """Adds ``mesh`` (None: nothing), drawn for ``prim``, to ``ctx.content``, and its light when ``prim`` is a
