@@ -445,3 +445,32 @@ def test_resume_after_a_camera_edit_or_set_cameras_starts_over_and_says_why():
     renderer.set_cameras([camera])
     with pytest.warns(UserWarning, match=r"starts over from no samples: set_cameras was called since the previous"):
         renderer.render(spp=2, resume=True)
+
+
+@pytest.mark.parametrize("steps", ["set_cameras, scene edit", "scene edit, launch_frame, scene edit",
+                                   "camera edit, launch_frame, scene edit"])
+def test_resume_warns_after_sums_dropped_and_a_scene_edit_before_the_next_render(steps):
+    """The sums of the last render, dropped by a set_cameras, a camera edit or a scene edit followed by a
+    launch_frame, stay dropped through a later scene edit: the build for that edit forgot they had been (it saw no
+    sums left to drop) and resume=True started over without a word. The image is still a new render's."""
+    camera = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+    scene = red_square()
+    options = dict(width=8, height=6, device="cpu", integrator="path")
+    renderer = wrt.Renderer(scene, camera=camera, **options)
+    renderer.render(spp=2)
+    if steps.startswith("set_cameras"):
+        renderer.set_cameras([camera])
+    elif steps.startswith("camera edit"):
+        camera.focal_length *= 1.25
+        renderer.launch_frame()
+    else:
+        scene.meshes = [*scene.meshes, square("/Right", 0, (3.0, 0.0, 0.0))]
+        renderer.launch_frame()
+    scene.meshes = [*scene.meshes, square("/Left", 0, (-3.0, 0.0, 0.0))]
+    with pytest.warns(UserWarning, match=r"resume=True starts over from no samples: .* since the previous render"):
+        kept = renderer.render(spp=2, resume=True).rgb
+    fresh = wrt.Renderer(scene, camera=camera, **options)
+    if steps.startswith("set_cameras"):
+        fresh.set_cameras([camera])
+    np.testing.assert_array_equal(kept.reshape(fresh.render(spp=2).rgb.shape), fresh.render(spp=2).rgb)
+

@@ -490,6 +490,9 @@ class Renderer:
         self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
         self.dropped_samples = 0  # non-finite samples left out of the last render
         self._camera_args = [camera] if cameras is None else cameras  # as given: followed at each render
+        # Why the last sums were dropped, for resume's warning (None: never): a later drop with no sums left (a
+        # scene edit's rebuild after a set_cameras) keeps it; it said nothing then.
+        self._sums_dropped, self._progressive = None, None
         self._sides = self._asked_size  # the sides that size the image without render settings (set_cameras pins them)
         self._build()
         self._camera_key = self._camera_sources_key()
@@ -516,9 +519,7 @@ class Renderer:
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
         # Running sums of the last render, for render(resume=True); a rebuild for an edited scene drops them.
-        # _sums_dropped: why they were dropped since the last render, for resume's warning (None: they were not).
-        self._sums_dropped = "the scene changed" if getattr(self, "_progressive", None) is not None else None
-        self._progressive = None
+        self._drop_sums("the scene changed")
 
     def _scene_ao_radius(self) -> float:
         """A tenth of the scene's bounding-box diagonal (1 for an empty scene): the default ``ao_radius``."""
@@ -690,7 +691,7 @@ class Renderer:
         after a camera edit or set_cameras it said "the scene changed", or nothing at all."""
         if self._progressive is not None:
             self._sums_dropped = why
-        self._progressive = None
+        self._progressive = None  # a drop with none left keeps the reason given when they were
 
     def _upload_cameras_at(self, cameras: list, size: tuple[int, int], batched: bool) -> None:
         """:meth:`_upload_cameras` for images of ``size``, the renderer's size from then on (its buffers made anew
