@@ -474,3 +474,14 @@ def test_resume_warns_after_sums_dropped_and_a_scene_edit_before_the_next_render
         fresh.set_cameras([camera])
     np.testing.assert_array_equal(kept.reshape(fresh.render(spp=2).rgb.shape), fresh.render(spp=2).rgb)
 
+
+def test_a_kept_renderer_frames_the_scene_along_an_up_axis_set_since():
+    """Without a camera wrt frames the scene along its upAxis (Z-up from -Y): after ``scene.up_axis = "Z"`` a new
+    Renderer frames the scene so, while a kept one went on drawing the Y-up view (the axis is a plain field of the
+    scene, no edit of its parts)."""
+    scene = red_square()
+    renderer = wrt.Renderer(scene, width=16, height=12, device="cpu")
+    renderer.render()
+    scene.up_axis = "Z"
+    kept = renderer.render().rgb
+    np.testing.assert_array_equal(kept, wrt.Renderer(scene, width=16, height=12, device="cpu").render().rgb)

@@ -552,7 +552,9 @@ class Renderer:
         key = [self.scene.render_settings]
         for arg in self._camera_args:
             source = camera_source(self.scene, arg)
-            key.append(("framed", self.scene.cache_generation) if source is None else (id(source), source.snapshot()))
+            # wrt frames the scene by its bounds and along its up_axis (a plain field, assigned without an edit count)
+            framed = ("framed", self.scene.cache_generation, self.scene.up_axis)
+            key.append(framed if source is None else (id(source), source.snapshot()))
         return tuple(key)
 
     def _follow_cameras(self) -> None:
