@@ -291,6 +291,25 @@ def test_a_camera_made_bad_since_the_renderer_was_built_is_refused_at_its_render
         renderer.render()
 
 
+
+@pytest.mark.parametrize("field, ragged", [("to_world", [[1, 0, 0, 0], [0, 1, 0]]),
+                                           ("clipping_planes", [[0, 0, 1, 0], [1, 0]])])
+def test_a_camera_given_a_ragged_list_since_is_refused_as_a_new_renderer_refuses_it(field, ragged):
+    """A ragged list set on a camera a kept Renderer draws: a new Renderer names the camera and field, the kept one
+    failed in numpy's words ('setting an array element with a sequence'), from the record of the camera's fields
+    it compares at each render."""
+    camera = wrt.Camera.look_at((0.3, -0.4, 5.0), (0.0, 0.0, 0.0), fov_y_deg=60)
+    scene = red_square()
+    renderer = wrt.Renderer(scene, camera=camera, width=8, height=6, device="cpu")
+    renderer.render()
+    setattr(camera, field, ragged)
+    with pytest.raises(ValueError) as fresh:
+        wrt.Renderer(scene, camera=camera, width=8, height=6, device="cpu")
+    assert field.replace("_", " ").split()[-1] in str(fresh.value) and "sequence" not in str(fresh.value)
+    with pytest.raises(ValueError) as kept:
+        renderer.render()
+    assert str(kept.value) == str(fresh.value)
+
 def _every_kind_of_light(colours: np.ndarray) -> list:
     from wrt.lights import CylinderLight, DiskLight, DomeLight, MeshLight, RectLight, SphereLight
 

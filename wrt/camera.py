@@ -298,7 +298,11 @@ class Camera:
         values = list(map(self.__dict__.get, CAMERA_FIELDS))
         for k, v in enumerate(values):
             if type(v) not in IMMUTABLE_TYPES:  # an array (or list) as its bytes then, so later edits in place show
-                a = v if type(v) is np.ndarray else np.asarray(v)
+                try:
+                    a = v if type(v) is np.ndarray else np.asarray(v)
+                except (TypeError, ValueError):  # a ragged list: equal to nothing, so check() names the field
+                    values[k] = object()
+                    continue
                 values[k] = (type(v), a.shape, a.dtype.str, a.tobytes())
         return tuple(values)
 
