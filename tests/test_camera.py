@@ -920,6 +920,7 @@ def test_a_blocked_camera_value_is_the_schema_fallback(tmp_path, blocked):
 
 @pytest.mark.parametrize("kwargs, error, words", [
     (dict(clipping_range=("a", "b")), ValueError, r"^camera clipping range must satisfy 0 <= near < far, got \('a'"),
+    (dict(clipping_range=[0.1, [1, 2]]), ValueError, r"^camera clipping range must be \(near, far\), got \[0.1, \[1"),
     (dict(to_world="x"), ValueError, r"^camera to_world must be a \(4, 4\) matrix of numbers, got 'x'"),
     (dict(to_world=[[1, 0], [0]]), ValueError, r"^camera to_world must be a \(4, 4\) matrix of numbers"),
     (dict(clipping_planes="x"), ValueError, r"^camera clipping planes must be finite \(a, b, c, d\) rows .*got 'x'"),

@@ -259,7 +259,11 @@ class Camera:
             raise ValueError(f"{self.label()} needs a non-negative exposure scale of at most {FLOAT32_MAX:.4g} (from "
                              f"exposure, exposure:time, :iso, :fStop and :responsivity), got "
                              f"{_show(self.exposure_scale)}")
-        if np.shape(self.clipping_range) != (2,):  # "too many values to unpack"
+        try:
+            shape = np.shape(self.clipping_range)
+        except ValueError:  # a ragged list ((0.1, (1, 2))): numpy's "inhomogeneous shape" named no camera
+            shape = None
+        if shape != (2,):  # "too many values to unpack"
             raise ValueError(f"{self.label()} clipping range must be (near, far), got {self.clipping_range!r}")
         near, far = self.clipping_range
         if not (_finite(near) and (_finite(far) or far == math.inf) and 0 <= near < far):  # ("a", "b"): a TypeError
