@@ -574,3 +574,13 @@ def test_a_thread_count_past_the_cores_is_kept_as_asked_and_its_effective_count_
     assert row["threads"] == 64 and row["threads_effective"] == min(3, cores), row
     table = (tmp_path / "table.md").read_text()
     assert f"| 64 ({min(3, cores)} ran) |" in table, table
+
+
+def test_rows_of_an_earlier_run_under_another_spelling_of_a_scene_are_resumed_as_this_runs(tmp_path):
+    """A run measures one scene in two spellings once (sphere:2e3 and sphere:2000); resumed under the other spelling,
+    the earlier run's rows were kept beside this run's new rows of the same measurement, each row twice."""
+    run_grid(small_grid(scenes=["sphere:2e3"]), tmp_path, progress=False)
+    old = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
+    rows = run_grid(small_grid(scenes=["sphere:2000"]), tmp_path, resume=True, progress=False)
+    assert rows.resumed == 1 and [r["scene"] for r in rows] == ["sphere:2000"], list(rows)
+    assert [r["mrays"] for r in rows] == [r["mrays"] for r in old]  # not measured again

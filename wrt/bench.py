@@ -845,6 +845,23 @@ def _canonical_rows(rows: list[dict]) -> list[dict]:
     return list(kept.values())
 
 
+def _as_grid_scenes(rows: list[dict], scenes: list[str]) -> list[dict]:
+    """``rows`` (resumed) with each scene row named as ``scenes`` spell its scene (:func:`_scene_key`), the last of
+    each key kept: a run measures one scene in two spellings once, and rows resumed under the other spelling were
+    kept beside this run's rows of the same measurement, each row twice in the table. Sweep rows keep their names."""
+    spelling = {_scene_key(name): name for name in scenes}
+    kept = {}
+    for row in rows:
+        if not row.get("sweep") and isinstance(row.get("scene"), str):
+            try:
+                row = dict(row, scene=spelling.get(_scene_key(row["scene"]), row["scene"]))
+            except (ValueError, OSError):  # a name no longer read (sphere:abc): kept as it is, never matched
+                pass
+        kept.pop(row_key(row), None)  # the later row of a key, in its place in the file
+        kept[row_key(row)] = row
+    return list(kept.values())
+
+
 def _write_rows(jsonl: Path, rows: list[dict]) -> None:
     """Replaces ``jsonl`` with ``rows`` in one step: an interruption leaves the old file or the new one."""
     tmp = jsonl.with_suffix(".jsonl.tmp")
@@ -929,6 +946,9 @@ def run_grid(
     begun = False  # whether out/ holds this run's results yet
 
     grid = grid.validated()
+    if resumed:  # an earlier run's rows of a scene spelt otherwise now (sphere:1e3 for sphere:1000) are this run's
+        rows = _as_grid_scenes(rows, grid.scenes)
+        resumed = {row_key(r): r for r in rows}
     devices, unavailable = _resolve_devices(grid.devices) if not dask else (grid.devices, {})  # dask: on the worker
     missing = [a for a in grid.accels if a == "embree" and not _has_embree()]
     if missing:  # after the checks: a misspelt device was refused under this warning
