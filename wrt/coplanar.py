@@ -560,9 +560,11 @@ def two_sided_cells(keys: np.ndarray, sides: np.ndarray) -> np.ndarray:
         if len(found) < 1024:
             break
         bits = min(21, int(np.log2(len(found))) + 2)
-        slot = ((keys[found] >> np.uint64(shift)) & np.uint64((1 << bits) - 1)).astype(np.intp) * 3 + sides[found]
-        present = np.bincount(slot, minlength=3 << bits).reshape(-1, 3) > 0
-        found = found[_partnered(present).ravel()[slot]]
+        some_keys, some_sides = (keys, sides) if shift == 0 else (keys[found], sides[found])  # (all at first)
+        slot = ((some_keys >> np.uint64(shift)) & np.uint64((1 << bits) - 1)).astype(np.intp) * 3 + some_sides
+        present = np.zeros(3 << bits, bool)  # (a scatter: a bincount's int64 counts took twice as long)
+        present[slot] = True
+        found = found[_partnered(present.reshape(-1, 3)).ravel()[slot]]
         if not len(found):
             return found
     order = found[np.argsort(keys[found], kind="stable")]
@@ -625,14 +627,19 @@ def _grid_probes(points, indices, keys, codes, tris):
     """The scans that pair the entries of each plane cell (``keys``) through a 2D grid over their plane
     (:func:`pair_entries_kernel`): ``(tris, codes, boxes, cells, scan_entries, scan_once, probes, probe_cells)``,
     the entries sorted by plane cell."""
-    # Entries sorted by plane cell (group); their boxes in the plane of the cell's largest normal component.
-    order = np.argsort(keys, kind="stable")
-    keys, codes, tris = keys[order], codes[order], tris[order]
-    group = np.cumsum(np.concatenate([[True], keys[1:] != keys[:-1]])) - 1
+    # Entries sorted by plane cell (group) (:func:`two_sided_cells` gives them sorted: a stable sort would keep them);
+    # their boxes in the plane of the cell's largest normal component.
+    if len(keys) > 1 and not (keys[1:] >= keys[:-1]).all():
+        order = np.argsort(keys, kind="stable")
+        keys, codes, tris = keys[order], codes[order], tris[order]
+    new_group = np.ones(len(keys), bool)
+    new_group[1:] = keys[1:] != keys[:-1]
+    group = np.cumsum(new_group) - 1
     axis, sides = codes // 3, codes % 3
-    corners = np.asarray(points)[indices[tris]].astype(np.float64)  # (E, 3, 3)
-    flat = np.stack([np.take_along_axis(corners, ((axis + k) % 3)[:, None, None], axis=2)[..., 0] for k in (1, 2)],
-                    axis=2)  # (E, 3, 2)
+    corner_ids, pts = np.asarray(indices)[tris], np.asarray(points)  # (E, 3)
+    flat = np.empty(corner_ids.shape + (2,), np.float64)  # (E, 3, 2)
+    for k in (1, 2):  # (gathered per coordinate: no (E, 3, 3) float64 corners)
+        flat[:, :, k - 1] = pts[corner_ids, ((axis + k) % 3)[:, None]]
     # (Reductions over a short axis written out: numpy's took several times as long.)
     lower = np.minimum(np.minimum(flat[:, 0], flat[:, 1]), flat[:, 2])
     upper = np.maximum(np.maximum(flat[:, 0], flat[:, 1]), flat[:, 2])
@@ -651,7 +658,7 @@ def _grid_probes(points, indices, keys, codes, tris):
     row_cell = first_cell[row_entry] + np.stack([rank % spans[row_entry, 0], rank // spans[row_entry, 0]], axis=1)
     row_rank = _SIDE_RANK[sides[row_entry]]
     # (Ascending triangles within a side rank: a probe that stops at its limit has found the lowest partners.)
-    order = np.lexsort((tris[row_entry], row_rank, row_cell[:, 1], row_cell[:, 0], group[row_entry]))
+    order = _row_order(group[row_entry], row_cell, row_rank, tris[row_entry])
     row_entry, row_cell, row_first, row_rank = row_entry[order], row_cell[order], (rank == 0)[order], row_rank[order]
     row_group = group[row_entry]
     big_entries = np.flatnonzero(big)  # sorted by group already
@@ -660,36 +667,62 @@ def _grid_probes(points, indices, keys, codes, tris):
     big_group = group[big_entries]
     big_range = len(row_entry) + np.stack([np.searchsorted(big_group, groups),
                                            np.searchsorted(big_group, groups, "right")], 1)
-    # Each 2D cell's run of rows, and in it the slices of side ranks 0 (side 1) and 1 (side 2).
+    # Each 2D cell's run of rows, and in it the bounds of side ranks 0 (side 1), 1 (side 2) and 2 (side 0).
     new_run = np.ones(len(row_entry), bool)
     new_run[1:] = ((row_group[1:] != row_group[:-1]) | (row_cell[1:, 0] != row_cell[:-1, 0])
                    | (row_cell[1:, 1] != row_cell[:-1, 1]))
     starts = np.flatnonzero(new_run)
     run = np.cumsum(new_run) - 1
-    per_rank = np.bincount(run * 3 + row_rank, minlength=3 * len(starts)).reshape(-1, 3)[run]
-    run_start = starts[run]
+    run_bounds = np.zeros((len(starts), 4), np.int64)  # (R, 4) each run's start and its side ranks' ends
+    run_bounds[:, 1:] = np.bincount(run * 3 + row_rank, minlength=3 * len(starts)).reshape(-1, 3)
+    run_bounds = np.cumsum(run_bounds, axis=1) + starts[:, None]
     # Probes, for single-sided seekers only: each small row the rows of its 2D cell that may face it (side 0: ranks
     # 0 and 1, side 1: ranks 1 and 2; a probe per rank, whose rows hold ascending triangles); each small entry (at
     # its first row) its plane cell's big entries; each big entry all of its plane cell.
     row_side = sides[row_entry]
     rows = np.flatnonzero(row_side != 2)
-    first = np.where(row_side[rows] == 0, 0, 1)  # the first side rank row r may face, then the next
-    ends = np.cumsum(per_rank[rows], axis=1)  # (R, 3) each side rank's end in the run
-    bounds = run_start[rows, None] + np.concatenate([np.zeros((len(rows), 1), np.int64), ends], axis=1)
-    lo, mid, hi = (np.take_along_axis(bounds, (first + k)[:, None], 1)[:, 0] for k in range(3))
-    rows, lo, hi = np.repeat(rows, 2), np.stack([lo, mid], 1).ravel(), np.stack([mid, hi], 1).ravel()
-    probes = [np.stack([row_entry[rows], lo, hi, np.zeros(len(rows), np.int64)], 1)]
+    at = run[rows] * 4 + np.where(row_side[rows] == 0, 0, 1)  # the first side rank row r may face, then the next
+    lo, mid, hi = (run_bounds.ravel()[at + k] for k in range(3))
     firsts = rows[row_first[rows]]
-    e = row_entry[firsts]
-    probes.append(np.stack([e, big_range[group[e], 0], big_range[group[e], 1], np.ones(len(e), np.int64)], 1))
-    e = big_entries[sides[big_entries] != 2]
-    for ranges in (small_range, big_range):
-        probes.append(np.stack([e, ranges[group[e], 0], ranges[group[e], 1], np.ones(len(e), np.int64)], 1))
-    probe_cells = np.concatenate([row_cell[rows]] + [np.zeros((len(p), 2), np.int64) for p in probes[1:]])
-    probes = np.concatenate(probes)
+    big_seekers = big_entries[sides[big_entries] != 2]
+    # (Written into one int32 array, as the kernel reads them: stacks and concatenations of int64 took as long.)
+    probes = np.zeros((2 * len(rows) + 2 * len(firsts) + 2 * len(big_seekers), 4), np.int32)
+    probe_cells = np.zeros((len(probes), 2), np.int32)
+    mode0 = probes[: 2 * len(rows)].reshape(-1, 2, 4)  # a view: two probes a row, its two side ranks
+    mode0[:, :, 0] = row_entry[rows, None]
+    mode0[:, 0, 1], mode0[:, 0, 2], mode0[:, 1, 1], mode0[:, 1, 2] = lo, mid, mid, hi
+    probe_cells[: 2 * len(rows)].reshape(-1, 2, 2)[:] = row_cell[rows, None]
+    at = 2 * len(rows)
+    e = np.repeat(row_entry[firsts], 2)  # (each small entry's first row twice, as each row has two probes)
+    for seekers, ranges in ((e, big_range), (big_seekers, small_range), (big_seekers, big_range)):
+        block = probes[at: at + len(seekers)]
+        block[:, 0], block[:, 1], block[:, 2], block[:, 3] = seekers, ranges[group[seekers], 0], \
+            ranges[group[seekers], 1], 1
+        at += len(seekers)
     scans = probes[:, 2] > probes[:, 1]
     return (tris, codes, np.concatenate([lower, upper], 1), cells, np.concatenate([row_entry, big_entries]),
             np.concatenate([row_first, np.ones(len(big_entries), bool)]), probes[scans], probe_cells[scans])
+
+
+def _row_order(groups, cells, ranks, tris):
+    """The order of rows sorted by (``groups``, ``cells[:, 0]``, ``cells[:, 1]``, ``ranks``, ``tris``), ties in row
+    order: ``np.lexsort`` of the five, or (a third of its time) a stable argsort of one int64 key packing them when
+    their ranges fit in 63 bits (``groups`` ascending; cells from their group's first, which keeps the order)."""
+    if not len(groups):
+        return np.zeros(0, np.int64)
+    starts = np.flatnonzero(np.concatenate([[True], groups[1:] != groups[:-1]]))
+    fields = [groups - groups[0]]
+    for k in range(2):
+        base = np.minimum.reduceat(cells[:, k], starts)
+        fields.append(cells[:, k] - np.repeat(base, np.diff(np.append(starts, len(groups)))))
+    fields += [ranks, tris]
+    widths = [int(f.max()).bit_length() for f in fields]
+    if sum(widths) > 63 or (np.diff(groups) < 0).any() or tris.min() < 0:
+        return np.lexsort((tris, ranks, cells[:, 1], cells[:, 0], groups))
+    key = np.zeros(len(groups), np.int64)
+    for f, w in zip(fields, widths):
+        key = (key << w) | f
+    return np.argsort(key, kind="stable")
 
 
 def _run_probes(points, indices, spaces, limit, tris, codes, boxes, cells, scan_entries, scan_once, probes,
@@ -708,8 +741,8 @@ def _run_probes(points, indices, spaces, limit, tris, codes, boxes, cells, scan_
               wp.array(cells, dtype=wp.float64, device=device),
               wp.array(scan_entries.astype(np.int32), dtype=wp.int32, device=device),
               wp.array(scan_once.astype(np.int32), dtype=wp.int32, device=device),
-              wp.array(probes.astype(np.int32), dtype=wp.vec4i, device=device),
-              wp.array(probe_cells.astype(np.int32), dtype=wp.vec2i, device=device)]
+              wp.array(np.asarray(probes, np.int32), dtype=wp.vec4i, device=device),
+              wp.array(np.asarray(probe_cells, np.int32), dtype=wp.vec2i, device=device)]
     capacity = max(1024, 2 * len(probes))
     while True:
         total = wp.zeros(1, dtype=wp.int32, device=device)
