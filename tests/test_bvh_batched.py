@@ -235,3 +235,56 @@ def test_an_update_keeps_the_build_time_and_reports_its_own_in_update_seconds():
     assert acc.build_seconds == built
     assert 0.0 < acc.update_seconds <= outer
     assert wrt.tlas.InstancedAccelerator(scene, "sah", "cpu", threads=1).update_seconds is None  # none yet
+
+
+def moved_scene(scene: wrt.Scene, rng) -> wrt.Scene:
+    """``scene`` with every prototype vertex moved at random (the same topology and instances): trees built for the
+    old vertices no longer fit."""
+    protos = [Prototype(p.path, [Mesh(m.path, rng.normal(size=m.points.shape).astype(np.float32) * 10, m.indices,
+                                      np.arange(len(m.indices))) for m in p.meshes]) for p in scene.prototypes]
+    return wrt.Scene(prototypes=protos, instances=scene.instances)
+
+
+def test_update_rebuilds_its_trees_together_as_each_is_built_alone(monkeypatch):
+    """``InstancedAccelerator.update`` built each BLAS past its refit limit alone (``build_bvh``: a dozen launches
+    per tree); it builds them together now. Rebuilding every tree of 20 and of 40 moved prototypes costs as many
+    launches more than refitting them only; every other tree rebuilt is, bit for bit, the tree ``build_bvh`` builds
+    over its moved mesh and holds that tree's ``to_device`` upload, the others are the refitted trees kept; and a
+    later refit moves the rebuilt trees' boxes to the next frame's vertices."""
+
+    launches = []
+    real_launch = wp.launch
+    monkeypatch.setattr(wp, "launch", lambda kernel, *a, **k: (launches.append(kernel.key), real_launch(kernel, *a,
+                                                                                                        **k))[1])
+    extra = []
+    for count in (20, 40):
+        scene = prototype_scene(count, np.random.default_rng(count))
+        moved = moved_scene(scene, np.random.default_rng(count + 1))
+        made = []
+        for rebuild in (None, lambda b, tree: True):
+            acc = wrt.tlas.InstancedAccelerator(scene, "sah", "cpu", threads=1)
+            launches.clear()
+            acc.update(moved, refit_blas=True, rebuild=rebuild)
+            made.append(len(launches))
+        extra.append(made[1] - made[0])
+    assert extra[0] == extra[1], extra  # one by one: 12 launches a tree
+
+    acc = wrt.tlas.InstancedAccelerator(scene, "sah", "cpu", threads=1)
+    kept = list(acc.blas)
+    assert acc.update(moved, refit_blas=True, rebuild=lambda b, tree: b % 2 == 0) == list(range(0, count, 2))
+    points, indices = moved.geometry()
+    meshes = [wrt.tlas._part_triangles(moved, points, indices, *part) for part in wrt.tlas.blas_parts(moved)]
+    assert_same_trees([build_bvh(*meshes[b], device="cpu") for b in range(0, count, 2)], acc.blas[::2])
+    assert all(acc.blas[b] is kept[b] for b in range(1, count, 2))
+    for b in range(0, count, 2):
+        alone = acc.blas[b].to_device(*meshes[b], "cpu")
+        for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids", "v0", "v1", "v2"):
+            assert np.array_equal(getattr(alone, field).numpy(), getattr(acc._device_blas[b], field).numpy()), field
+    later = moved_scene(moved, np.random.default_rng(99))
+    acc.update(later, refit_blas=True)
+    points, indices = later.geometry()
+    for b, part in enumerate(wrt.tlas.blas_parts(later)):
+        p, i = wrt.tlas._part_triangles(later, points, indices, *part)
+        corners = p[i].reshape(-1, 3)
+        np.testing.assert_array_equal(acc.blas[b].lowers[0], corners.min(axis=0))
+        np.testing.assert_array_equal(acc._device_blas[b].uppers.numpy()[0], corners.max(axis=0))

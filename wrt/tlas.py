@@ -293,19 +293,8 @@ class InstancedAccelerator(Accelerator):
         self._refitters = []
         parts = blas_parts(scene)
         meshes = [_part_triangles(scene, points, indices, *part) for part in parts]
-        # One call for the small BLASes: on a CPU they are built together (thousands of prototypes).
-        trees = [None] * len(meshes)
-        for presplit in (False, True):
-            chosen = [j for j, (_, sub) in enumerate(meshes) if self._presplits(len(sub)) == presplit]
-            if not chosen:
-                continue
-            options = self._blas_options(len(meshes[chosen[0]][1]))  # the same for every mesh chosen
-            for j, tree in zip(chosen, build_bvhs([meshes[j] for j in chosen], builder, device=device, **options)):
-                trees[j] = tree
-        if wp.get_device(device).is_cpu and trees:  # views of one upload per field (GPU: one upload per tree)
-            uploads = upload_many(trees, meshes, device)
-        else:
-            uploads = [bvh.to_device(sub_points, sub, device) for bvh, (sub_points, sub) in zip(trees, meshes)]
+        # One call for every BLAS: on a CPU the small trees are built together (thousands of prototypes).
+        trees, uploads = self._build_blases(meshes)
         for (part, first, count), bvh, d in zip(parts, trees, uploads):
             self.blas.append(bvh)
             self._device_blas.append(d)
@@ -330,12 +319,6 @@ class InstancedAccelerator(Accelerator):
             options.pop("presplit", None)
         return options
 
-    def _build_blas(self, scene: Scene, points, indices, part: int, first: int, count: int) -> tuple:
-        """The host tree and its upload for one :func:`blas_parts` part of ``scene``."""
-        sub_points, sub = _part_triangles(scene, points, indices, part, first, count)
-        bvh = build_bvh(sub_points, sub, self.builder, device=self.device, **self._blas_options(len(sub)))
-        return bvh, bvh.to_device(sub_points, sub, self.device)
-
     def update(self, scene: Scene, refit_blas: bool, rebuild=None) -> list[int]:
         """Follows ``scene``, a later frame of the scene this was built for with the same topology: refits every
         BLAS to the moved vertices when ``refit_blas``, builds anew each refitted BLAS ``b`` for which
@@ -356,17 +339,38 @@ class InstancedAccelerator(Accelerator):
             points, indices = scene.geometry()
             if not self._refitters:
                 self._refitters = [Refitter(b, d, self.device) for b, d in zip(self.blas, self._device_blas)]
-            for b, (refitter, (part, first, count)) in enumerate(zip(self._refitters, self._blas_parts)):
-                refitter.refit(*_part_triangles(scene, points, indices, part, first, count))
+            meshes = []
+            for b, (refitter, part) in enumerate(zip(self._refitters, self._blas_parts)):
+                mesh = _part_triangles(scene, points, indices, *part)
+                refitter.refit(*mesh)
                 if rebuild is not None and rebuild(b, self.blas[b]):
-                    # The host tree and the upload are replaced, not refilled: the TLAS below takes the new ones.
-                    self.blas[b], self._device_blas[b] = self._build_blas(scene, points, indices, part, first, count)
-                    self._refitters[b] = Refitter(self.blas[b], self._device_blas[b], self.device)
                     rebuilt.append(b)
+                    meshes.append(mesh)
+            # The host trees and uploads are replaced, not refilled (the TLAS below takes the new ones), all in one
+            # call as at the build: on a CPU the small trees are built together (thousands of deforming prototypes
+            # spent a dozen launches and allocations each, built one by one).
+            for b, tree, d in zip(rebuilt, *self._build_blases(meshes)) if meshes else ():
+                self.blas[b], self._device_blas[b] = tree, d
+                self._refitters[b] = Refitter(tree, d, self.device)
         self._build_tlas(scene)
         wp.synchronize_device(self.device)  # the uploads are part of the update
         self.update_seconds = time.perf_counter() - start
         return rebuilt
+
+    def _build_blases(self, meshes: list) -> tuple[list, list]:
+        """The host trees (:func:`wrt.bvh.build.build_bvhs`) and their uploads for ``(points, indices)`` meshes."""
+        trees = [None] * len(meshes)
+        for presplit in (False, True):
+            chosen = [j for j, (_, sub) in enumerate(meshes) if self._presplits(len(sub)) == presplit]
+            if not chosen:
+                continue
+            options = self._blas_options(len(meshes[chosen[0]][1]))  # the same for every mesh chosen
+            for j, tree in zip(chosen, build_bvhs([meshes[j] for j in chosen], self.builder, device=self.device,
+                                                  **options)):
+                trees[j] = tree
+        if wp.get_device(self.device).is_cpu and trees:  # views of one upload per field (GPU: one upload per tree)
+            return trees, upload_many(trees, meshes, self.device)
+        return trees, [bvh.to_device(sub_points, sub, self.device) for bvh, (sub_points, sub) in zip(trees, meshes)]
 
     def _build_tlas(self, scene: Scene) -> None:
         """The TLAS over world boxes of the world-space BLAS, every instance of a prototype BLAS and every shape."""
