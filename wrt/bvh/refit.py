@@ -64,11 +64,13 @@ class Refitter:
         # A tree built with pre-splits has more slots than triangles (``presplit.py``); its refitted leaves take
         # their triangles' whole boxes.
         self.triangles = host.num_triangles
+        # Each level's nodes (ascending), deepest first: views of one upload (an upload per level made a refitter
+        # of a small tree cost 1 ms, most of an update of thousands of deforming prototypes).
         depth = host.depths()
-        self.levels = [
-            wp.array(np.flatnonzero(depth == k).astype(np.int32), dtype=wp.int32, device=device)
-            for k in range(int(depth.max()), -1, -1)
-        ]
+        order = np.argsort(-depth, kind="stable")
+        nodes = wp.array(order[depth[order] >= 0].astype(np.int32), dtype=wp.int32, device=device)
+        ends = np.cumsum(np.bincount(depth[depth >= 0])[::-1])
+        self.levels = [nodes[int(a) : int(b)] for a, b in zip(np.concatenate([[0], ends[:-1]]), ends)]
 
     def refit(self, points: np.ndarray, indices: np.ndarray) -> FlatBvh:
         """Moves the tree's triangles to ``points`` (same ``indices`` as the build) and recomputes every box."""
