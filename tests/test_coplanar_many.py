@@ -103,3 +103,19 @@ def test_two_sided_cells_are_those_a_count_per_key_gives():
     want = sorted((k, i) for i, (k, s) in enumerate(zip(keys.tolist(), sides.tolist())) if seen[k] & faces[s])
     assert 100 < len(want) < n
     np.testing.assert_array_equal(two_sided_cells(keys, sides), [i for _, i in want])
+
+
+def test_small_triangles_over_a_big_one_pair_with_it_once():
+    """Small triangles of one winding over a big reversed one (past BIG_CELLS: paired plane-cell-wide), all on
+    z = 0, each in one plane cell: every small triangle pairs with the big one and the big one with each small one,
+    each pair once (each small entry probed the big entries twice, a third of shaderball_scene's pairs repeats)."""
+    n = 300  # (the big one's box over some 100 x 100 of the cells their mean size makes)
+    corners = np.array([[0, 0], [0.9, 0.1], [0.2, 0.8]])
+    small = (np.arange(n)[:, None, None] % 20) * [1.5, 0] + (np.arange(n)[:, None, None] // 20) * [0, 1.5] + corners
+    flat = np.concatenate([small.reshape(-1, 2), [[-1, -1], [-1, 400], [400, -1]]])
+    points = np.concatenate([flat, np.zeros((len(flat), 1))], axis=1).astype(np.float32)
+    tris = np.concatenate([np.arange(3 * n).reshape(n, 3), [[3 * n, 3 * n + 1, 3 * n + 2]]])
+    pairs, _, _ = coplanar_pairs(points, tris, np.full(n + 1, -1), np.zeros(n + 1, bool))
+    want = {(t, n) for t in range(n)} | {(n, t) for t in range(n)}
+    assert set(map(tuple, pairs.tolist())) == want
+    assert len(pairs) == len(want)

@@ -686,14 +686,14 @@ def _grid_probes(points, indices, keys, codes, tris):
     firsts = rows[row_first[rows]]
     big_seekers = big_entries[sides[big_entries] != 2]
     # (Written into one int32 array, as the kernel reads them: stacks and concatenations of int64 took as long.)
-    probes = np.zeros((2 * len(rows) + 2 * len(firsts) + 2 * len(big_seekers), 4), np.int32)
+    probes = np.zeros((2 * len(rows) + len(firsts) + 2 * len(big_seekers), 4), np.int32)
     probe_cells = np.zeros((len(probes), 2), np.int32)
     mode0 = probes[: 2 * len(rows)].reshape(-1, 2, 4)  # a view: two probes a row, its two side ranks
     mode0[:, :, 0] = row_entry[rows, None]
     mode0[:, 0, 1], mode0[:, 0, 2], mode0[:, 1, 1], mode0[:, 1, 2] = lo, mid, mid, hi
     probe_cells[: 2 * len(rows)].reshape(-1, 2, 2)[:] = row_cell[rows, None]
     at = 2 * len(rows)
-    e = np.repeat(row_entry[firsts], 2)  # (each small entry's first row twice, as each row has two probes)
+    e = row_entry[firsts]
     for seekers, ranges in ((e, big_range), (big_seekers, small_range), (big_seekers, big_range)):
         block = probes[at: at + len(seekers)]
         block[:, 0], block[:, 1], block[:, 2], block[:, 3] = seekers, ranges[group[seekers], 0], \
