@@ -75,14 +75,15 @@ def test_scattered_coplanar_triangles_pair_as_clipping_says(seed):
 
 def test_row_order_is_numpy_lexsort():
     """The row sort packs its five keys into one when they fit: the same order as ``np.lexsort`` (ties in row
-    order), and lexsort itself when they do not (cells far apart in one group, tris past 2**40)."""
+    order), and lexsort itself when they do not (cells far apart in one group, tris past 2**40, groups unsorted)."""
     rng = np.random.default_rng(5)
     n = 5000
     groups = np.sort(rng.integers(0, 300, n))
     cells = rng.integers(-40, 40, (n, 2)) + rng.integers(-10 ** 6, 10 ** 6, 300)[groups, None]
     ranks, tris = rng.integers(0, 3, n), rng.integers(0, 400, n)  # repeats: ties kept in row order
-    for c, t in ((cells, tris), (cells * 10 ** 6, tris), (cells, tris + 2 ** 40)):
-        np.testing.assert_array_equal(_row_order(groups, c, ranks, t), np.lexsort((t, ranks, c[:, 1], c[:, 0], groups)))
+    for g, c, t in ((groups, cells, tris), (groups, cells * 10 ** 6, tris), (groups, cells, tris + 2 ** 40),
+                    (groups[::-1], cells, tris)):
+        np.testing.assert_array_equal(_row_order(g, c, ranks, t), np.lexsort((t, ranks, c[:, 1], c[:, 0], g)))
     assert len(_row_order(groups[:0], cells[:0], ranks[:0], tris[:0])) == 0
 
 

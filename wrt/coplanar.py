@@ -693,11 +693,11 @@ def _grid_probes(points, indices, keys, codes, tris):
     mode0[:, 0, 1], mode0[:, 0, 2], mode0[:, 1, 1], mode0[:, 1, 2] = lo, mid, mid, hi
     probe_cells[: 2 * len(rows)].reshape(-1, 2, 2)[:] = row_cell[rows, None]
     at = 2 * len(rows)
-    e = row_entry[firsts]
+    e = row_entry[firsts]  # each small seeker once (at its first row), though each row makes two probes above
     for seekers, ranges in ((e, big_range), (big_seekers, small_range), (big_seekers, big_range)):
-        block = probes[at: at + len(seekers)]
-        block[:, 0], block[:, 1], block[:, 2], block[:, 3] = seekers, ranges[group[seekers], 0], \
-            ranges[group[seekers], 1], 1
+        block = probes[at : at + len(seekers)]
+        block[:, 0], block[:, 3] = seekers, 1
+        block[:, 1], block[:, 2] = ranges[group[seekers], 0], ranges[group[seekers], 1]
         at += len(seekers)
     scans = probes[:, 2] > probes[:, 1]
     return (tris, codes, np.concatenate([lower, upper], 1), cells, np.concatenate([row_entry, big_entries]),
@@ -710,6 +710,8 @@ def _row_order(groups, cells, ranks, tris):
     their ranges fit in 63 bits (``groups`` ascending; cells from their group's first, which keeps the order)."""
     if not len(groups):
         return np.zeros(0, np.int64)
+    if (groups[1:] < groups[:-1]).any() or tris.min() < 0:
+        return np.lexsort((tris, ranks, cells[:, 1], cells[:, 0], groups))
     starts = np.flatnonzero(np.concatenate([[True], groups[1:] != groups[:-1]]))
     fields = [groups - groups[0]]
     for k in range(2):
@@ -717,7 +719,7 @@ def _row_order(groups, cells, ranks, tris):
         fields.append(cells[:, k] - np.repeat(base, np.diff(np.append(starts, len(groups)))))
     fields += [ranks, tris]
     widths = [int(f.max()).bit_length() for f in fields]
-    if sum(widths) > 63 or (np.diff(groups) < 0).any() or tris.min() < 0:
+    if sum(widths) > 63:
         return np.lexsort((tris, ranks, cells[:, 1], cells[:, 0], groups))
     key = np.zeros(len(groups), np.int64)
     for f, w in zip(fields, widths):
