@@ -322,8 +322,9 @@ class InstancedAccelerator(Accelerator):
     def update(self, scene: Scene, refit_blas: bool, rebuild=None) -> list[int]:
         """Follows ``scene``, a later frame of the scene this was built for with the same topology: refits every
         BLAS to the moved vertices when ``refit_blas``, builds anew each refitted BLAS ``b`` for which
-        ``rebuild(b, tree)`` is true (``tree``: the refitted :class:`wrt.bvh.FlatBvh`), then rebuilds the TLAS over
-        the new instance transforms. Returns the indices of the BLASes built anew.
+        ``rebuild(b, tree)`` is true (``tree``: the refitted :class:`wrt.bvh.FlatBvh`; those picked are built together
+        once every tree is refitted), then rebuilds the TLAS over the new instance transforms. Returns the
+        indices of the BLASes built anew.
 
         Raises:
             ValueError: when ``scene`` needs other BLASes (a prototype gained or lost all its instances, say).
@@ -349,9 +350,10 @@ class InstancedAccelerator(Accelerator):
             # The host trees and uploads are replaced, not refilled (the TLAS below takes the new ones), all in one
             # call as at the build: on a CPU the small trees are built together (thousands of deforming prototypes
             # spent a dozen launches and allocations each, built one by one).
-            for b, tree, d in zip(rebuilt, *self._build_blases(meshes)) if meshes else ():
-                self.blas[b], self._device_blas[b] = tree, d
-                self._refitters[b] = Refitter(tree, d, self.device)
+            if meshes:
+                for b, tree, d in zip(rebuilt, *self._build_blases(meshes)):
+                    self.blas[b], self._device_blas[b] = tree, d
+                    self._refitters[b] = Refitter(tree, d, self.device)
         self._build_tlas(scene)
         wp.synchronize_device(self.device)  # the uploads are part of the update
         self.update_seconds = time.perf_counter() - start
