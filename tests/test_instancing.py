@@ -2077,14 +2077,6 @@ def barycentric_margins(points, indices, origins, directions, t, row) -> np.ndar
     return out
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "inside the TLAS traversal (tlas.tlas_intersect; not changed here): a ray is moved into an instance's space as "
-    "A (o - c) from its own origin, so float32 rounds it at the scale of |A| |o - c|, which a sheared or squashed "
-    "instance (|A| up to 300 or 1e6) stretches far past the instance's own size when the ray starts far from it, and "
-    "the stretched map turns rays that meet the instance at a fair angle into rays that graze its local triangles "
-    "(cos 2e-4 for cos 0.02 in the world): here 20 of 3,000 rays through the sheared octahedra and nearly all "
-    "through the squashed ones miss. Moving the origin near the instance first (to where the ray passes its local "
-    "origin, summed relative to c) and reporting t' + t0 keeps every one (a CPU trial of that kernel change)"))
 @pytest.mark.parametrize("stretch", ["sheared", "squashed"])
 def test_rays_from_afar_hit_stretched_instances_as_a_float64_solution_says(stretch):
     """Octahedra sheared by 300 or squashed to 1e-6 along one axis, rays from about 900 away aimed well inside random
@@ -2115,6 +2107,83 @@ def test_rays_from_afar_hit_stretched_instances_as_a_float64_solution_says(stret
     if stretch == "sheared":  # a squashed sheet's two faces lie within float32's reach of each other: ties
         np.testing.assert_array_equal(hits.prim[clear], row[clear])
     assert wrt.occluded(scene, origins, directions)[clear].all()
+
+
+def aimed_rays(rng, targets: np.ndarray, zero_components: int) -> tuple[np.ndarray, np.ndarray]:
+    """float32 rays from about 900 away to ``targets``, the last ``zero_components`` of each direction's components
+    (of a random axis order) exactly zero; 0, 1 or 2."""
+    targets = targets.astype(np.float32)
+    offsets = rng.normal(size=targets.shape) * 900
+    for i, axes in enumerate(rng.permuted(np.tile(np.arange(3), (len(targets), 1)), axis=1)):
+        offsets[i, axes[3 - zero_components:]] = 0.0
+    origins = (targets + offsets).astype(np.float32)
+    return origins, targets - origins
+
+
+@pytest.mark.parametrize("stretch", ["sheared", "squashed"])
+def test_limits_around_the_moved_origin_keep_the_float64_hits_of_stretched_instances(stretch):
+    """The TLAS moves a ray's origin to ``t0``, where it passes closest to an instance's local origin, before
+    entering it, and reports ``t0 + t``. Against float64: limits past ``t0`` (``t_min``) or before it (``t_max``) or
+    a window around it, rays starting inside an instance's box, directions with one or two zero components, and an
+    instance at the world origin. Every ray whose float64 answer holds with limits moved 1e-3 of ``t`` either way
+    gets it: the closest hit's instance, ``t`` (and triangle, sheared), a miss, and the any-hit query agrees."""
+    rng = np.random.default_rng(5)
+    n_instances = 7
+    to_world = stretched_octahedra(rng, stretch, n_instances)
+    # The last one unstretched, at the world origin, and fat enough for limits between its faces.
+    to_world[-1] = np.eye(4)
+    to_world[-1, :3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0] * 50.0
+    pts = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32)
+    faces = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)])
+    proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
+    scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n_instances, int), to_world))
+    # The instances as the device holds them (float32 [A | c], wrt.transforms): a 1e6 squash held in float32 moves
+    # the sheet's corners by up to 1e-2, out of its plane too, which a ray from 1 away sees as 1% of its t.
+    held = np.linalg.inv(np.linalg.inv(to_world[:, :3, :3]).astype(np.float32).astype(np.float64))
+    placed = to_world[:, :3, 3].astype(np.float32)
+    world = np.concatenate([pts.astype(np.float64) @ a.T + c for a, c in zip(held, placed)])
+    indices = np.concatenate([faces + 6 * i for i in range(n_instances)])
+    n = 1500
+    aim = rng.integers(0, len(indices), 4 * n)
+    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], 4 * n), world[indices[aim]])
+    groups = [aimed_rays(rng, targets[k * n:(k + 1) * n], k) for k in range(3)]
+    corners = world.reshape(n_instances, 6, 3)[aim[3 * n:] // 8]
+    lower, upper = corners.min(axis=1), corners.max(axis=1)
+    inside = (lower + rng.uniform(size=(n, 3)) * (upper - lower)).astype(np.float32)  # in the instance's world box
+    groups.append((inside, targets[3 * n:].astype(np.float32) - inside))
+    origins, directions = (np.concatenate(a) for a in zip(*groups))
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    # t0 of the instance aimed at, as the kernel finds it, and limits around it.
+    inverse = np.linalg.inv(to_world[aim // 8, :3, :3])
+    local_o = np.einsum("nij,nj->ni", inverse, o64 - to_world[aim // 8, :3, 3])
+    local_d = np.einsum("nij,nj->ni", inverse, d64)
+    t0 = np.maximum(-(local_o * local_d).sum(1) / (local_d * local_d).sum(1), 0.0)
+    t_entry, _ = closest_hits_numpy(world, indices, o64, d64, np.zeros(len(t0)), np.full(len(t0), np.inf))
+    spread = rng.uniform(0, 1.5, (len(t0), 2)) * np.abs(t0 - np.where(np.isfinite(t_entry), t_entry, 0))[:, None]
+    mode = rng.integers(0, 4, len(t0))
+    t_min = np.select([mode == 1, mode == 3], [t0 + spread[:, 0], t0 - spread[:, 0]], 0.0).astype(np.float32)
+    t_max = np.select([mode == 2, mode == 3], [t0 - spread[:, 1], t0 + spread[:, 1]], np.inf).astype(np.float32)
+    t_max[(mode == 2) & (t_max <= 0)] = np.inf
+    lo, hi = t_min.astype(np.float64), t_max.astype(np.float64)
+    t, row = closest_hits_numpy(world, indices, o64, d64, lo, hi)
+    slack = 1e-3 * np.maximum(np.abs(np.where(np.isfinite(t), t, t0)), 1e-3)
+    _, row_in = closest_hits_numpy(world, indices, o64, d64, lo + slack, hi - slack)
+    _, row_out = closest_hits_numpy(world, indices, o64, d64, lo - slack, hi + slack)
+    settled = (row_in == row) & (row_out == row)  # no hit within 1e-3 of t of either limit
+    clear_hit = settled & (row >= 0) & (barycentric_margins(world, indices, o64, d64, t, row) > 1e-2)
+    clear_miss = settled & (row < 0)
+    group = np.arange(len(t)) // n
+    assert all((clear_hit & (group == k)).sum() > 300 for k in range(4))
+    assert all((clear_hit & (mode == m)).sum() > 50 and (clear_miss & (mode == m)).sum() > 30 for m in (1, 2, 3))
+    hits = wrt.trace(scene, origins, directions, t_min=t_min, t_max=t_max)
+    np.testing.assert_array_equal(hits.instance[clear_hit], row[clear_hit] // 8)
+    np.testing.assert_allclose(hits.t[clear_hit], t[clear_hit], rtol=1e-3)
+    if stretch == "sheared":
+        np.testing.assert_array_equal(hits.prim[clear_hit], row[clear_hit])
+    assert not hits.hit[clear_miss].any()
+    blocked = wrt.occluded(scene, origins, directions, t_min=t_min, t_max=t_max)
+    assert blocked[clear_hit].all() and not blocked[clear_miss].any()
+    np.testing.assert_array_equal(blocked, hits.hit)
 
 
 @pytest.mark.parametrize("name", ["positions", "scales", "orientations", "orientationsf", "velocities",

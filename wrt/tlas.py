@@ -9,7 +9,10 @@ world-space BLAS. It is built by the same builders as any BVH: each entry is han
 Traversal (:func:`tlas_intersect`) walks the TLAS in world space; at a leaf it transforms the ray into each entry's
 space by the inverse transform (origin as a point, direction as a vector, not renormalised, so ``t`` is the same in
 both spaces) and runs the ordinary :func:`wrt.bvh.traverse.bvh_intersect` on the entry's BLAS with ``t_max`` set to
-the best hit so far. This is the lecture's "transform the ray, not the primitive", and Wald et al., "Ray tracing
+the best hit so far. An instance's ray first has its origin moved along it to near the instance (``t0``,
+:func:`entry_ray`), its limits moved with it (:func:`shifted_limit`), and its hits reported at ``t0 + t``: moved
+from far away, a stretched instance's local origin lost more than the instance's size to rounding. This is the
+lecture's "transform the ray, not the primitive", and Wald et al., "Ray tracing
 animated scenes using coherent grid traversal"/"two-level BVH" as in every production ray tracer (pbrt-v4
 ``Transform``/``BVHAggregate`` over instances, Embree/OptiX instance acceleration structures).
 
@@ -40,12 +43,13 @@ from .bvh.layout import upload_many
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
 from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, order_children, reachable, unit_ray
 from .bvh.turns import waits
+from .floats import FLOAT32_MAX, next_up
 from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import device_transforms, invert_transforms, world_boxes
 from .primitives import intersect_shape, local_boxes, shape_uv
 from .scene import Scene
 from .trace import Accelerator, HitBuffer, accelerator_build_options, check_finite_transforms
-from .transforms import mat34, transform_point, transform_vector
+from .transforms import linear_part, mat34, transform_point, transform_vector, translation
 
 wp.set_module_options({"fuse_fp": False})  # bit-identical hits on every device: see the note in wrt/trace.py
 wp.set_module_options({"enable_backward": False})  # no adjoint code: nothing differentiates a trace (wrt/trace.py)
@@ -82,14 +86,61 @@ class DeviceTlas:
 
 @wp.func
 def entry_ray(tlas: DeviceTlas, instance: int, origin: wp.vec3, direction: wp.vec3):
-    """The ray in an entry's space: unchanged for world-space geometry (``instance < 0``)."""
+    """``(o, d, t0)``: the ray in an entry's space, its origin first moved along it to ``t0`` (``o + t d`` in the
+    entry's space is the world ray's point at ``t0 + t``); unchanged, with ``t0 = 0``, for world-space geometry
+    (``instance < 0``).
+
+    Moved from its own origin as ``A w`` (``w = origin - c``, ``[A | c]`` the instance's world-to-local transform),
+    the local origin was rounded at the scale of ``|A| |w|``: a sheared or squashed instance (``|A|`` of 300 or 1e6)
+    seen from 900 away got a local origin off by far more than its own size, and rays that met it at a fair angle
+    grazed or missed its local triangles. ``A w`` now only finds ``t0``, where the ray passes closest to the local
+    origin (0 where that is behind the origin or no finite float: the origin stays where it was); it does not depend
+    on the ray's limits, so neither does a hit's ``t``. The local origin is then ``A (w + t0 d)``,
+    summed relative to ``c``: ``w + t0 d`` is rounded in the world (a shift of the world ray by float32's rounding
+    of ``|w|``, which the instance's world shape tolerates), and ``A`` multiplies a point near the instance. Closest
+    in the local space, not the world: a squashed instance's local origin was still 2e5 away along its stretched
+    axis where the ray passed 0.5 from ``c`` across it, and float32 kept the way there only to 1e-2 of its size."""
     o = origin
     d = direction
+    t0 = float(0.0)
     if instance >= 0:
         m = tlas.world_to_local[instance]
-        o = transform_point(m, origin)
+        a = linear_part(m)
+        w = origin - translation(m)
         d = transform_vector(m, direction)
-    return o, d
+        o = a * w
+        t0 = -wp.dot(o, d) / wp.dot(d, d)
+        if not (t0 > 0.0 and t0 < FLOAT32_MAX):  # behind the origin, or d . d over- or underflowed (a scale of 1e20)
+            t0 = 0.0
+        if t0 > 0.0:
+            o = a * (w + t0 * direction)
+    return o, d, t0
+
+
+@wp.func
+def shifted_limit(limit: float, t0: float):
+    """The smallest float32 ``t`` for which ``t0 + t`` rounds to ``limit`` or above: a limit on ``t`` for a ray whose
+    origin moved to ``t0`` (:func:`entry_ray`) that keeps a hit, reported at ``t0 + t``, exactly as the unmoved
+    limit keeps that ``t`` (``t_min <= t0 + t``, ``t0 + t < t_max``), and ``limit`` itself for ``t0 = 0``. So the
+    closest hit and the any-hit query agree on every ray, a limit at a hit's own ``t`` (or one float past it)
+    decides that hit exactly, and a later entry's hit at the best ``t`` so far loses the tie, as without the move.
+
+    The start is ``limit - t0`` less half the gap below ``limit`` (where sums start to round to ``limit``): where
+    ``t0`` is within a factor 2 of ``limit`` that is exact and the answer itself or the float above it (the floats
+    near ``limit - t0`` are far finer than ``limit``'s there, so stepping from ``limit - t0`` would take thousands of
+    steps); elsewhere it is within two floats of the answer. The steps after it find the float itself."""
+    x = limit
+    if t0 != 0.0 and wp.abs(limit) < wp.inf:
+        half_gap = 0.5 * (limit + next_up(-limit))  # limit - (the float below limit), halved
+        x = (limit - t0) - half_gap
+        for _ in range(3):
+            if x + t0 < limit:
+                x = next_up(x)
+        for _ in range(3):
+            below = -next_up(-x)
+            if below + t0 >= limit:
+                x = below
+    return x
 
 
 @wp.func
@@ -139,10 +190,13 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                     instance = tlas.entry_instance[s]
                     b = tlas.entry_blas[s]
                     if b >= 0:
-                        o, d = entry_ray(tlas, instance, origin, direction)
-                        t, u, v, prim, n, k = bvh_intersect(tlas.blases[b], o, d, t_min, best_t)
+                        o, d, t0 = entry_ray(tlas, instance, origin, direction)
+                        lo = shifted_limit(t_min, t0)
+                        t, u, v, prim, n, k = bvh_intersect(tlas.blases[b], o, d, lo, shifted_limit(best_t, t0))
                         nodes += n
                         tests += k
+                        if t0 != 0.0:
+                            t = t0 + t
                         if prim >= 0 and t < best_t:
                             best_t = t
                             best_u = u
@@ -204,8 +258,9 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
                 for s in range(first, first + count):
                     b = tlas.entry_blas[s]
                     if not found and b >= 0:
-                        o, d = entry_ray(tlas, tlas.entry_instance[s], origin, direction)
-                        if bvh_occluded(tlas.blases[b], o, d, t_min, t_max):
+                        o, d, t0 = entry_ray(tlas, tlas.entry_instance[s], origin, direction)
+                        lo = shifted_limit(t_min, t0)
+                        if bvh_occluded(tlas.blases[b], o, d, lo, shifted_limit(t_max, t0)):
                             found = True
                     elif not found:
                         o, d, _row, kind, params = shape_entry(tlas, b, origin, direction)
