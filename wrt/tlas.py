@@ -125,21 +125,27 @@ def shifted_limit(limit: float, t0: float):
     closest hit and the any-hit query agree on every ray, a limit at a hit's own ``t`` (or one float past it)
     decides that hit exactly, and a later entry's hit at the best ``t`` so far loses the tie, as without the move.
 
-    The start is ``limit - t0`` less half the gap below ``limit`` (where sums start to round to ``limit``): where
-    ``t0`` is within a factor 2 of ``limit`` that is exact and the answer itself or the float above it (the floats
-    near ``limit - t0`` are far finer than ``limit``'s there, so stepping from ``limit - t0`` would take thousands of
-    steps); elsewhere it is within two floats of the answer. The steps after it find the float itself."""
+    ``t0 >= 0`` (:func:`entry_ray`). The search starts at ``limit - t0`` less half the gap below ``limit`` (where
+    sums start to round to ``limit``): where ``t0`` is within a factor 2 of ``limit`` that is exact, and the answer
+    or the float below it (floats near ``limit - t0`` are far finer than ``limit``'s there: stepping from
+    ``limit - t0`` would take thousands of steps); elsewhere it is within two floats of the answer. The steps after
+    it find the float itself. The closest hit takes it for ``t_min`` only: above, it drops hits at or past the best
+    ``t`` after adding ``t0``, which needs only a limit no lower than this one."""
     x = limit
-    if t0 != 0.0 and wp.abs(limit) < wp.inf:
+    if limit == 0.0:
+        x = -t0  # t0 - t0 is 0, and t0 less the float below it is its gap: negative (t_min = 0 of most rays)
+    elif t0 != 0.0 and wp.abs(limit) < wp.inf:
         half_gap = 0.5 * (limit + next_up(-limit))  # limit - (the float below limit), halved
         x = (limit - t0) - half_gap
-        for _ in range(3):
-            if x + t0 < limit:
-                x = next_up(x)
-        for _ in range(3):
+        steps = int(0)  # at most two each way (tests/test_tlas_limits.py); the cap only guards against the unforeseen
+        while x + t0 < limit and steps < 4:
+            x = next_up(x)
+            steps += 1
+        below = -next_up(-x)
+        while below + t0 >= limit and steps < 8:
+            x = below
             below = -next_up(-x)
-            if below + t0 >= limit:
-                x = below
+            steps += 1
     return x
 
 
@@ -191,8 +197,12 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                     b = tlas.entry_blas[s]
                     if b >= 0:
                         o, d, t0 = entry_ray(tlas, instance, origin, direction)
-                        lo = shifted_limit(t_min, t0)
-                        t, u, v, prim, n, k = bvh_intersect(tlas.blases[b], o, d, lo, shifted_limit(best_t, t0))
+                        hi = best_t
+                        if t0 != 0.0:
+                            # Above every t with t0 + t < best_t; the check below drops a hit that rounds to best_t
+                            # or past it (any other hit in this BLAS is farther), cheaper than the exact limit.
+                            hi = next_up(best_t - t0)
+                        t, u, v, prim, n, k = bvh_intersect(tlas.blases[b], o, d, shifted_limit(t_min, t0), hi)
                         nodes += n
                         tests += k
                         if t0 != 0.0:
