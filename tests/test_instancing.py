@@ -2109,6 +2109,37 @@ def test_rays_from_afar_hit_stretched_instances_as_a_float64_solution_says(stret
     assert wrt.occluded(scene, origins, directions)[clear].all()
 
 
+@pytest.mark.parametrize("stretch", ["sheared", "squashed"])
+def test_rays_from_afar_hit_stretched_analytic_spheres_as_a_float64_solution_says(stretch):
+    """Spheres placed as the octahedra above (sheared by 300, or squashed to 1e-6: an ellipsoid 2e-6 thin), rays
+    from about 900 away aimed at points halfway from each centre to its surface: each hits its sphere at the float64
+    ``t`` (the ray and the ellipsoid solved in float64 in the unit sphere's space, from the ray's closest point to
+    the centre), and is occluded. The shapes' rays were moved into their space from their own origin, as instances'
+    were: 2,498 of the 3,000 rays missed the squashed ones."""
+    from wrt.primitives import Shape
+
+    rng = np.random.default_rng(3)
+    to_world = stretched_octahedra(rng, stretch, 6)
+    scene = wrt.Scene(shapes=[Shape(f"/Ball{k}", "sphere", m) for k, m in enumerate(to_world)])
+    n = 3000
+    k = rng.integers(0, 6, n)
+    q = rng.normal(size=(n, 3))
+    halfway = 0.5 * q / np.linalg.norm(q, axis=1, keepdims=True)
+    targets = np.einsum("nij,nj->ni", to_world[k, :3, :3], halfway) + to_world[k, :3, 3]
+    origins = (targets + rng.normal(size=(n, 3)) * 900).astype(np.float32)
+    directions = (targets - origins).astype(np.float32)
+    inverse = np.linalg.inv(to_world[k, :3, :3])
+    local_o = np.einsum("nij,nj->ni", inverse, origins - to_world[k, :3, 3])
+    local_d = np.einsum("nij,nj->ni", inverse, directions.astype(np.float64))
+    a, b = (local_d * local_d).sum(1), (local_o * local_d).sum(1)
+    closest = local_o - (b / a)[:, None] * local_d
+    t = -b / a - np.sqrt((1 - (closest * closest).sum(1)) / a)
+    hits = wrt.trace(scene, origins, directions)
+    np.testing.assert_array_equal(hits.prim, k)
+    np.testing.assert_allclose(hits.t, t, rtol=1e-3)
+    assert wrt.occluded(scene, origins, directions).all()
+
+
 def aimed_rays(rng, targets: np.ndarray, zero_components: int) -> tuple[np.ndarray, np.ndarray]:
     """float32 rays from about 900 away to ``targets``, the last ``zero_components`` of each direction's components
     (of a random axis order) exactly zero; 0, 1 or 2."""

@@ -41,15 +41,23 @@ from .bvh.batched import BATCH_MAX_TRIANGLES
 from .bvh.build import build_bvhs
 from .bvh.layout import upload_many
 from .bvh.stack import STACK_BUILD_OPTIONS, NodeStack
-from .bvh.traverse import any_hit_kernel, bvh_intersect, bvh_occluded, order_children, reachable, unit_ray
+from .bvh.traverse import (
+    any_hit_kernel,
+    bvh_intersect,
+    bvh_occluded,
+    node_box,
+    order_children,
+    reachable,
+    unit_ray,
+)
 from .bvh.turns import waits
-from .floats import FLOAT32_MAX, next_up
+from .floats import FLOAT32_MAX, largest_magnitude, next_up
 from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import device_transforms, invert_transforms, world_boxes
-from .primitives import intersect_shape, local_boxes, shape_uv
+from .primitives import SHAPE_CAPSULE, SHAPE_TAPERED, intersect_shape, local_boxes, shape_uv
 from .scene import Scene
 from .trace import Accelerator, HitBuffer, accelerator_build_options, check_finite_transforms
-from .transforms import linear_part, mat34, transform_point, transform_vector, translation
+from .transforms import linear_part, mat34, transform_vector, translation
 
 wp.set_module_options({"fuse_fp": False})  # bit-identical hits on every device: see the note in wrt/trace.py
 wp.set_module_options({"enable_backward": False})  # no adjoint code: nothing differentiates a trace (wrt/trace.py)
@@ -84,36 +92,54 @@ class DeviceTlas:
     num_entries: int  # entries in the TLAS; 0 means every ray misses
 
 
-@wp.func
-def entry_ray(tlas: DeviceTlas, instance: int, origin: wp.vec3, direction: wp.vec3):
-    """``(o, d, t0)``: the ray in an entry's space, its origin first moved along it to ``t0`` (``o + t d`` in the
-    entry's space is the world ray's point at ``t0 + t``); unchanged, with ``t0 = 0``, for world-space geometry
-    (``instance < 0``).
+# A ray is moved (moved_ray) only when its local origin lies farther from the local origin than twice its geometry's
+# reach (the largest coordinate of its box): a ray that starts on or near a surface keeps its exact t there (a ray
+# from a box's face reports the face at t = 0, which t_max = 2^-149 keeps and t_min = 2^-149 drops), and its origin
+# is as near the geometry as moving it would make it.
+FAR_ORIGIN = wp.constant(2.0)
 
-    Moved from its own origin as ``A w`` (``w = origin - c``, ``[A | c]`` the instance's world-to-local transform),
-    the local origin was rounded at the scale of ``|A| |w|``: a sheared or squashed instance (``|A|`` of 300 or 1e6)
-    seen from 900 away got a local origin off by far more than its own size, and rays that met it at a fair angle
-    grazed or missed its local triangles. ``A w`` now only finds ``t0``, where the ray passes closest to the local
-    origin (0 where that is behind the origin or no finite float: the origin stays where it was); it does not depend
-    on the ray's limits, so neither does a hit's ``t``. The local origin is then ``A (w + t0 d)``,
-    summed relative to ``c``: ``w + t0 d`` is rounded in the world (a shift of the world ray by float32's rounding
-    of ``|w|``, which the instance's world shape tolerates), and ``A`` multiplies a point near the instance. Closest
-    in the local space, not the world: a squashed instance's local origin was still 2e5 away along its stretched
-    axis where the ray passed 0.5 from ``c`` across it, and float32 kept the way there only to 1e-2 of its size."""
-    o = origin
-    d = direction
+
+@wp.func
+def moved_ray(m: mat34, origin: wp.vec3, direction: wp.vec3, reach: float):
+    """``(o, d, t0)``: the ray in the local space of world-to-local ``m`` (an instance's, or a shape's canonical
+    space), its origin moved along it to ``t0`` (``o + t d`` there is the world ray's point at ``t0 + t``) when it
+    lies farther than ``FAR_ORIGIN`` times ``reach`` (how far the geometry reaches from the local origin) from it.
+
+    Moved into local space from its own origin as ``A w`` (``w = origin - c``, ``m = [A | c]``), a ray's local
+    origin is rounded at the scale of ``|A| |w|``: a sheared or squashed instance (``|A|`` of 300 or 1e6) seen from
+    900 away got one off by far more than its own size, and rays that met it at a fair angle grazed or missed its
+    local triangles. Such a far ray's ``A w`` only finds ``t0``, where it passes closest to the local origin (0
+    where that is behind its origin or no finite float); the local origin is then ``A (w + t0 d)``, summed relative
+    to ``c``: ``w + t0 d`` is rounded in the world (a shift of the world ray by float32's rounding of ``|w|``, which
+    the instance's world shape tolerates), and ``A`` multiplies a point near the instance. Closest in local space,
+    not the world: a squashed instance's local origin was still 2e5 away along its stretched axis where the ray
+    passed 0.5 from ``c`` across it, and float32 kept the way there only to 1e-2 of its size. ``t0`` does not
+    depend on the ray's limits, so neither does a hit's ``t``."""
+    a = linear_part(m)
+    w = origin - translation(m)
+    d = transform_vector(m, direction)
+    o = a * w
     t0 = float(0.0)
-    if instance >= 0:
-        m = tlas.world_to_local[instance]
-        a = linear_part(m)
-        w = origin - translation(m)
-        d = transform_vector(m, direction)
-        o = a * w
+    if largest_magnitude(o) > FAR_ORIGIN * reach:
         t0 = -wp.dot(o, d) / wp.dot(d, d)
         if not (t0 > 0.0 and t0 < FLOAT32_MAX):  # behind the origin, or d . d over- or underflowed (a scale of 1e20)
             t0 = 0.0
         if t0 > 0.0:
             o = a * (w + t0 * direction)
+    return o, d, t0
+
+
+@wp.func
+def entry_ray(tlas: DeviceTlas, instance: int, b: int, origin: wp.vec3, direction: wp.vec3):
+    """``(o, d, t0)``: the ray in the space of an entry with BLAS ``b``, moved (:func:`moved_ray`; the BLAS's root box
+    gives the reach); unchanged, with ``t0 = 0``, for world-space geometry (``instance < 0``)."""
+    o = origin
+    d = direction
+    t0 = float(0.0)
+    if instance >= 0:
+        lower, upper = node_box(tlas.blases[b], 0)
+        reach = wp.max(largest_magnitude(lower), largest_magnitude(upper))
+        o, d, t0 = moved_ray(tlas.world_to_local[instance], origin, direction, reach)
     return o, d, t0
 
 
@@ -152,12 +178,17 @@ def shifted_limit(limit: float, t0: float):
 @wp.func
 def shape_entry(tlas: DeviceTlas, b: int, origin: wp.vec3, direction: wp.vec3):
     """The ray in the canonical space of the analytic shape of entry ``b`` (``b = -1 - k`` for shape entry ``k``),
-    and that shape's geometry id, kind and parameters."""
+    moved to ``t0`` as an instance's (:func:`moved_ray`), and that shape's geometry id, kind and parameters."""
     e = -1 - b
-    m = tlas.shape_xforms[e]
     row = tlas.shape_rows[e]
     j = row - tlas.num_triangles
-    return transform_point(m, origin), transform_vector(m, direction), row, tlas.shape_kinds[j], tlas.shape_params[j]
+    kind = tlas.shape_kinds[j]
+    params = tlas.shape_params[j]
+    reach = float(1.0)  # canonical shapes lie in [-1, 1]^3; (tapered) capsules out to h + 1 (h + rho) along z
+    if kind == SHAPE_CAPSULE or kind == SHAPE_TAPERED:
+        reach += wp.abs(params[0]) + wp.abs(params[1])
+    o, d, t0 = moved_ray(tlas.shape_xforms[e], origin, direction, reach)
+    return o, d, t0, row, kind, params
 
 
 @wp.func
@@ -196,7 +227,7 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                     instance = tlas.entry_instance[s]
                     b = tlas.entry_blas[s]
                     if b >= 0:
-                        o, d, t0 = entry_ray(tlas, instance, origin, direction)
+                        o, d, t0 = entry_ray(tlas, instance, b, origin, direction)
                         hi = best_t
                         if t0 != 0.0:
                             # Above every t with t0 + t < best_t; the check below drops a hit that rounds to best_t
@@ -215,12 +246,18 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                             best_instance = instance
                     else:
                         # An analytic shape, intersected in its canonical space.
-                        o, d, row, kind, params = shape_entry(tlas, b, origin, direction)
-                        t = intersect_shape(kind, params, o, d, t_min, best_t)
+                        o, d, t0, row, kind, params = shape_entry(tlas, b, origin, direction)
+                        hi = best_t
+                        if t0 != 0.0:
+                            hi = next_up(best_t - t0)  # as for a BLAS above
+                        t_local = intersect_shape(kind, params, o, d, shifted_limit(t_min, t0), hi)
                         tests += 1
+                        t = t_local
+                        if t0 != 0.0:
+                            t = t0 + t_local
                         if t < best_t:
                             best_t = t
-                            best_u, best_v = shape_uv(kind, params, o + t * d)
+                            best_u, best_v = shape_uv(kind, params, o + t_local * d)
                             best_prim = row
                             best_instance = instance
                 node = -1
@@ -268,13 +305,14 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
                 for s in range(first, first + count):
                     b = tlas.entry_blas[s]
                     if not found and b >= 0:
-                        o, d, t0 = entry_ray(tlas, tlas.entry_instance[s], origin, direction)
+                        o, d, t0 = entry_ray(tlas, tlas.entry_instance[s], b, origin, direction)
                         lo = shifted_limit(t_min, t0)
                         if bvh_occluded(tlas.blases[b], o, d, lo, shifted_limit(t_max, t0)):
                             found = True
                     elif not found:
-                        o, d, _row, kind, params = shape_entry(tlas, b, origin, direction)
-                        if intersect_shape(kind, params, o, d, t_min, t_max) < wp.inf:
+                        o, d, t0, _row, kind, params = shape_entry(tlas, b, origin, direction)
+                        lo = shifted_limit(t_min, t0)
+                        if intersect_shape(kind, params, o, d, lo, shifted_limit(t_max, t0)) < wp.inf:
                             found = True
                 node = -1
             else:
