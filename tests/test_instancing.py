@@ -2114,8 +2114,8 @@ def test_rays_from_afar_hit_stretched_analytic_spheres_as_a_float64_solution_say
     """Spheres placed as the octahedra above (sheared by 300, or squashed to 1e-6: an ellipsoid 2e-6 thin), rays
     from about 900 away aimed at points halfway from each centre to its surface: each hits its sphere at the float64
     ``t`` (the ray and the ellipsoid solved in float64 in the unit sphere's space, from the ray's closest point to
-    the centre), and is occluded. The shapes' rays were moved into their space from their own origin, as instances'
-    were: 2,498 of the 3,000 rays missed the squashed ones."""
+    the centre), and is occluded; limits before or past the sphere leave no hit. The shapes' rays were moved into
+    their space from their own origin, as instances' were: 2,498 of the 3,000 rays missed the squashed ones."""
     from wrt.primitives import Shape
 
     rng = np.random.default_rng(3)
@@ -2133,11 +2133,16 @@ def test_rays_from_afar_hit_stretched_analytic_spheres_as_a_float64_solution_say
     local_d = np.einsum("nij,nj->ni", inverse, directions.astype(np.float64))
     a, b = (local_d * local_d).sum(1), (local_o * local_d).sum(1)
     closest = local_o - (b / a)[:, None] * local_d
-    t = -b / a - np.sqrt((1 - (closest * closest).sum(1)) / a)
+    half_chord = np.sqrt((1 - (closest * closest).sum(1)) / a)
+    t, far = -b / a - half_chord, -b / a + half_chord
     hits = wrt.trace(scene, origins, directions)
     np.testing.assert_array_equal(hits.prim, k)
     np.testing.assert_allclose(hits.t, t, rtol=1e-3)
     assert wrt.occluded(scene, origins, directions).all()
+    # Limits before the near side and past the far side (t0, the ray's closest point to the centre, lies between).
+    for limits in ({"t_max": t * (1 - 1e-3)}, {"t_min": far * (1 + 1e-3)}):
+        assert not wrt.trace(scene, origins, directions, **limits).hit.any()
+        assert not wrt.occluded(scene, origins, directions, **limits).any()
 
 
 def aimed_rays(rng, targets: np.ndarray, zero_components: int) -> tuple[np.ndarray, np.ndarray]:
