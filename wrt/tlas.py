@@ -130,14 +130,14 @@ def moved_ray(m: mat34, origin: wp.vec3, direction: wp.vec3, reach: float):
 
 
 @wp.func
-def entry_ray(tlas: DeviceTlas, instance: int, b: int, origin: wp.vec3, direction: wp.vec3):
-    """``(o, d, t0)``: the ray in the space of an entry with BLAS ``b``, moved (:func:`moved_ray`; the BLAS's root box
-    gives the reach); unchanged, with ``t0 = 0``, for world-space geometry (``instance < 0``)."""
+def entry_ray(tlas: DeviceTlas, instance: int, blas: DeviceBvh, origin: wp.vec3, direction: wp.vec3):
+    """``(o, d, t0)``: the ray in the space of an entry with BLAS ``blas``, moved (:func:`moved_ray`; the BLAS's root
+    box gives the reach); unchanged, with ``t0 = 0``, for world-space geometry (``instance < 0``)."""
     o = origin
     d = direction
     t0 = float(0.0)
     if instance >= 0:
-        lower, upper = node_box(tlas.blases[b], 0)
+        lower, upper = node_box(blas, 0)
         reach = wp.max(largest_magnitude(lower), largest_magnitude(upper))
         o, d, t0 = moved_ray(tlas.world_to_local[instance], origin, direction, reach)
     return o, d, t0
@@ -227,13 +227,14 @@ def tlas_intersect(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min:
                     instance = tlas.entry_instance[s]
                     b = tlas.entry_blas[s]
                     if b >= 0:
-                        o, d, t0 = entry_ray(tlas, instance, b, origin, direction)
+                        blas = tlas.blases[b]
+                        o, d, t0 = entry_ray(tlas, instance, blas, origin, direction)
                         hi = best_t
                         if t0 != 0.0:
                             # Above every t with t0 + t < best_t; the check below drops a hit that rounds to best_t
                             # or past it (any other hit in this BLAS is farther), cheaper than the exact limit.
                             hi = next_up(best_t - t0)
-                        t, u, v, prim, n, k = bvh_intersect(tlas.blases[b], o, d, shifted_limit(t_min, t0), hi)
+                        t, u, v, prim, n, k = bvh_intersect(blas, o, d, shifted_limit(t_min, t0), hi)
                         nodes += n
                         tests += k
                         if t0 != 0.0:
@@ -305,9 +306,10 @@ def tlas_occluded(tlas: DeviceTlas, origin: wp.vec3, direction: wp.vec3, t_min: 
                 for s in range(first, first + count):
                     b = tlas.entry_blas[s]
                     if not found and b >= 0:
-                        o, d, t0 = entry_ray(tlas, tlas.entry_instance[s], b, origin, direction)
+                        blas = tlas.blases[b]
+                        o, d, t0 = entry_ray(tlas, tlas.entry_instance[s], blas, origin, direction)
                         lo = shifted_limit(t_min, t0)
-                        if bvh_occluded(tlas.blases[b], o, d, lo, shifted_limit(t_max, t0)):
+                        if bvh_occluded(blas, o, d, lo, shifted_limit(t_max, t0)):
                             found = True
                     elif not found:
                         o, d, t0, _row, kind, params = shape_entry(tlas, b, origin, direction)
