@@ -432,6 +432,26 @@ def test_a_kept_renderer_follows_render_settings_replaced_since(field):
     np.testing.assert_array_equal(kept.rgb, fresh.rgb)
 
 
+def test_render_settings_made_with_arrays_render_and_are_followed_as_tuples_are():
+    """Settings made in Python with numpy arrays (cameras take them): the data window's test against the full one
+    and a kept Renderer's check for replaced settings raised numpy's "truth value of an array is ambiguous"."""
+    from wrt.render_settings import RenderSettings
+
+    scene = _stage_like_scene()
+    scene.render_settings = RenderSettings(path="/Render", camera="/Cam", resolution=np.array([16, 12]),
+                                           data_window=np.array([0.25, 0.0, 0.75, 0.5]))
+    renderer = wrt.Renderer(scene, device="cpu")
+    first = renderer.render()
+    scene.render_settings = dataclasses.replace(scene.render_settings, resolution=np.array([20, 12]))
+    kept = renderer.render()
+    scene.render_settings = RenderSettings(path="/Render", camera="/Cam", resolution=(20, 12),
+                                           data_window=(0.25, 0.0, 0.75, 0.5))
+    fresh = wrt.Renderer(scene, device="cpu").render()
+    assert first.rgb.shape == (6, 8, 3) and fresh.rgb.shape == (6, 10, 3)  # half of each side's pixel centres
+    assert kept.window == fresh.window
+    np.testing.assert_array_equal(kept.rgb, fresh.rgb)
+
+
 def test_set_cameras_after_render_settings_were_replaced_renders_as_a_new_renderer():
     """set_cameras framed stage cameras at the settings' new resolution but held the old one, and refused them with
     the message for a mix of camera kinds under a data window (there was none)."""

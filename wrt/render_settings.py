@@ -35,6 +35,8 @@ import math
 import os
 import warnings
 
+import numpy as np
+
 from .camera import CONFORM_POLICIES, Camera
 from .errors import SceneError, user_stacklevel
 from .usd_values import value_at, value_or_fallback
@@ -65,6 +67,10 @@ class RenderVar:
     source_type: str = "raw"
     data_type: str = "color3f"
     aov_name: str = ""
+
+# The fields of RenderSettings that hold tuples: an array or a list given for one becomes a tuple.
+_TUPLE_FIELDS = ("resolution", "data_window", "included_purposes", "render_vars", "products",
+                 "material_binding_purposes")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -109,6 +115,17 @@ class RenderSettings:
     products: tuple[RenderSettings, ...] = ()
     material_binding_purposes: tuple[str, ...] | None = None
     rendering_color_space: str = ""
+
+    def __post_init__(self):
+        # Settings made in Python may hold arrays (resolution=np.array([64, 48])), as cameras take them; kept so, the
+        # data window's test against the full one and a kept Renderer's check for replaced settings (which compares
+        # them field by field) raised numpy's "truth value of an array is ambiguous". Tuples of plain values compare.
+        for field in _TUPLE_FIELDS:
+            value = getattr(self, field)
+            if isinstance(value, np.ndarray):
+                value = value.tolist()
+            if isinstance(value, list):
+                object.__setattr__(self, field, tuple(value))  # frozen: set as dataclasses' own __init__ does
 
     def image_size(self, width: int | None, height: int | None) -> tuple[int, int]:
         """``(width, height)`` before the data window: the given ones; where only one is given, the other keeps the
