@@ -2,6 +2,7 @@
 oracle: the edited scene's parts rebuilt through their constructors), or refused naming the object and field."""
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -449,6 +450,28 @@ def test_render_settings_made_with_arrays_render_and_are_followed_as_tuples_are(
     fresh = wrt.Renderer(scene, device="cpu").render()
     assert first.rgb.shape == (6, 8, 3) and fresh.rgb.shape == (6, 10, 3)  # half of each side's pixel centres
     assert kept.window == fresh.window
+    np.testing.assert_array_equal(kept.rgb, fresh.rgb)
+
+
+@pytest.mark.parametrize("field", [("product_name", "b.exr"), ("product", "/Render/Other"),
+                                   ("rendering_color_space", "lin_rec709_scene")])
+def test_render_settings_replaced_with_the_same_view_keep_resume_sums(field):
+    """Settings replaced by others that differ in what chooses no image (a product's name or path) dropped
+    resume=True's sums with a warning that a camera changed; they are kept, and the image is a new Renderer's of
+    all the samples."""
+    from wrt.render_settings import RenderSettings
+
+    scene = _stage_like_scene()
+    scene.render_settings = RenderSettings(path="/Render", camera="/Cam", resolution=(16, 12), product_name="a.exr",
+                                           product="/Render/Product")
+    options = dict(device="cpu", integrator="path")
+    renderer = wrt.Renderer(scene, **options)
+    renderer.render(spp=2, seed=3)
+    scene.render_settings = dataclasses.replace(scene.render_settings, **dict([field]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "starts over" warning
+        kept = renderer.render(spp=4, seed=3, resume=True)
+    fresh = wrt.Renderer(scene, **options).render(spp=6, seed=3)
     np.testing.assert_array_equal(kept.rgb, fresh.rgb)
 
 

@@ -548,14 +548,20 @@ class Renderer:
         path, with its fields (:meth:`Camera.snapshot`); the scene's edit count where wrt frames the scene."""
         # id(source) may be reused by a camera made after the old one was freed, but the key is then unchanged only
         # where the snapshot is too, i.e. every field (the whole view) is the same: a reused id never hides a change.
-        # The render settings (frozen: replaced, never edited) choose the camera, the image size and the data window.
-        key = [self.scene.render_settings]
+        # The render settings (frozen: replaced, never edited) choose the camera, the image size and the data window;
+        # settings replaced by others of another product name alone keep the view, and resume=True's sums with it.
+        key = [self._settings_view()]
         for arg in self._camera_args:
             source = camera_source(self.scene, arg)
             # wrt frames the scene by its bounds and along its up_axis (a plain field, assigned without an edit count)
             framed = ("framed", self.scene.cache_generation, self.scene.up_axis)
             key.append(framed if source is None else (id(source), source.snapshot()))
         return tuple(key)
+
+    def _settings_view(self) -> tuple | None:
+        """The fields of the scene's render settings that choose the image (None without settings)."""
+        settings = self.scene.render_settings
+        return None if settings is None else settings.view_fields()
 
     def _follow_cameras(self) -> None:
         """Resolves and uploads the cameras again when one changed since they were uploaded (a field set,
@@ -668,7 +674,7 @@ class Renderer:
         # The renderer's size, unless the render settings were replaced since it last drew: then the size they give
         # now (a new resolution or data window), as a new Renderer's; the old size was refused as a mix of camera
         # kinds under a data window.
-        replaced = self.scene.render_settings != self._camera_key[0]
+        replaced = self._settings_view() != self._camera_key[0]
         size = views[0][1:] if replaced else (self.width, self.height)
         _check_one_size(views, *size)  # the buffers and every launch are of one size
         cameras = [view[0] for view in views]

@@ -127,6 +127,13 @@ class RenderSettings:
             if isinstance(value, list):
                 object.__setattr__(self, field, tuple(value))  # frozen: set as dataclasses' own __init__ does
 
+    def view_fields(self) -> tuple:
+        """What of these settings chooses a render's image: the camera, the resolution, the film's fit and pixel
+        aspect, the data window and depth of field. Settings that differ elsewhere only (a product's name or path,
+        its RenderVars, the purposes and colour space read when the stage was loaded) render the same image."""
+        return (self.camera, self.resolution, self.pixel_aspect_ratio, self.conform_policy, self.data_window,
+                self.disable_depth_of_field)
+
     def image_size(self, width: int | None, height: int | None) -> tuple[int, int]:
         """``(width, height)`` before the data window: the given ones; where only one is given, the other keeps the
         ``resolution``'s aspect (as ``usdrecord --imageWidth`` takes the height from the camera: a smaller preview of
