@@ -414,6 +414,30 @@ def test_a_bad_device_of_a_suite_is_named_with_the_file_and_key(tmp_path, monkey
     assert loaded == []
 
 
+def test_devices_given_on_the_command_line_replace_a_suite_s_misspelt_ones_unchecked(tmp_path, monkeypatch):
+    """--devices replaces the suite's devices, yet a misspelt one in the file ('cpuu') stopped the run: the suite was
+    checked in full before the options replaced its values."""
+    asked = []
+    real = bench_module.run_grid
+
+    def run_grid(grid, *args, **kwargs):
+        asked.append(grid.devices)
+        return real(grid, *args, **kwargs)
+
+    monkeypatch.setattr(bench_module, "run_grid", run_grid)
+    suite = write_suite(tmp_path, devices=["cpuu"], rays=["primary"], n_rays=100, repeats=1)
+    assert main(["bench", str(suite), "--devices", "cpu", "-q", "-o", str(tmp_path / "out")]) == 0
+    assert asked == [["cpu"]]
+    rows = [json.loads(line) for line in (tmp_path / "out" / "rows.jsonl").read_text().splitlines()]
+    assert {r["device"] for r in rows} == {"cpu"} and all("error" not in r for r in rows)
+
+
+def test_a_bad_device_given_on_the_command_line_over_a_suite_names_the_option(tmp_path, capsys):
+    suite = write_suite(tmp_path, devices=["cpuu"], rays=["primary"], n_rays=100)
+    assert main(["bench", str(suite), "--devices", "CPU", "-q", "-o", str(tmp_path / "out")]) == 2
+    assert "argument --devices: unknown device 'CPU' (did you mean 'cpu'?)" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("fields, message", [
     (dict(devices=["CPU"]), r"devices\[0\]: unknown device 'CPU' \(did you mean 'cpu'\?\)"),
     (dict(devices=["cpu", "Cuda:1"]), r"devices\[1\]: unknown device 'Cuda:1' \(did you mean 'cuda:1'\?\)"),

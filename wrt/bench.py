@@ -84,12 +84,16 @@ class Grid:
     scaling: dict | None = None  # {"sizes": [...], "accels": [...], "rays": kind, "n_rays": n}
 
     @classmethod
-    def from_suite(cls, path) -> Grid:
+    def from_suite(cls, path, overrides: dict | None = None) -> Grid:
         """Reads a suite file (JSON); ``path`` may also name a file in ``wrt/suites`` without ``.json``.
+        ``overrides`` (grid fields, as ``wrt bench --devices ...`` gives them) replace the suite's values before any
+        is checked: a value overridden is never used, so a bad one in the file is not refused.
 
         Raises:
             ValueError: naming the file and, for a bad value, the key it sits at (``quick.json: accels[1]: ...``).
+            GridError: a bad value of ``overrides``, naming its field (not the file).
         """
+        overrides = overrides or {}
         path = suite_path(path)
         if path.suffix.lower() in USD_SUFFIXES:  # 'wrt bench scene.usd': it was 'not a JSON suite (Expecting ...)'
             raise ValueError(f"{path} is a scene, not a benchmark suite; measure it with --scenes {path}")
@@ -114,6 +118,9 @@ class Grid:
                              f"{', '.join(keys)}")
         required = [f.name for f in dataclasses.fields(cls)
                     if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+        # The values overridden are dropped unchecked: a misspelt device of the suite was refused even when
+        # --devices replaced them all.
+        data = {**data, **overrides}
         missing = [name for name in required if name not in data]
         if missing:
             raise ValueError(f"{path.name}: missing suite keys {missing}")
@@ -121,10 +128,14 @@ class Grid:
         try:
             return cls(**data).validated()
         except GridError as e:  # it named the value only ('unknown ray kind ...'), not where it sits in the file
+            if e.field in overrides:  # not the file's: the caller names the option that gave it
+                raise
             raise ValueError(f"{path.name}: {e.where()}") from None
         except ValueError as e:
             raise ValueError(f"{path.name}: {e}") from None
         except MemoryError as e:  # an n_rays past the memory
+            if "n_rays" in overrides:  # --n-rays's, not the file's
+                raise
             raise MemoryError(f"{path.name}: {e}") from None
 
     def __post_init__(self):

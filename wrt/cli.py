@@ -1015,18 +1015,16 @@ def _add_bench(sub) -> None:
 
 
 def _run_bench(args) -> int:
-    import dataclasses
-
     from .bench import REFERENCE, Grid, GridError, run_grid, suite_path
 
     if args.quick and args.suite != "quick":  # the suite named would be dropped without a word
         raise ValueError(f"give a suite ({args.suite}) or --quick, not both")
-    grid = Grid.from_suite(args.suite)
     overrides = {k: getattr(args, k) for k in ("scenes", "accels", "devices", "rays", "n_rays", "repeats", "threads")}
     typed = {k: v for k, v in overrides.items() if v is not None}
     out = Path(args.out)
     try:
-        grid = dataclasses.replace(grid, **typed).validated()  # a bad field is a one-line error that names it
+        # The options replace the suite's values before they are checked: a value overridden is never used.
+        grid = Grid.from_suite(args.suite, overrides=typed).validated()  # a bad field: a one-line error naming it
         if all(p.is_dir() or not p.exists() for p in (out, *out.parents)):  # a file in the way: run_grid names it
             _check_output_location(out)  # a folder that takes no files, named as render's -o does, not by an errno
         rows = run_grid(grid, args.out, resume=args.resume, progress=_Progress(args.quiet).bar, dask=args.dask)
