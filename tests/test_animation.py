@@ -742,6 +742,40 @@ def test_frame_workers_start_with_ctrl_c_ignored():
         signal.signal(signal.SIGINT, outer)
 
 
+def test_cli_frames_on_dask_log_the_frames_ctrl_c_cut_short(animated, tmp_path, monkeypatch, capsys):
+    """--frames --dask wrote no interrupted rows at Ctrl-C, where the plain and --devices runs do: the log said
+    nothing of the frame being written, nor of those a worker was rendering. Frames still queued get no row."""
+    pytest.importorskip("distributed")
+    from wrt import animation
+    from wrt.cli import main
+
+    frame_writer = animation._frame_writer
+
+    def interrupted_at_frame_2(jobs, rows):
+        write = frame_writer(jobs, rows)
+
+        def cut(result):
+            if result["row"]["frame"] == 2.0:
+                raise KeyboardInterrupt  # as Ctrl-C while the frame is written
+            write(result)
+
+        return cut
+
+    monkeypatch.setattr(animation, "_frame_writer", interrupted_at_frame_2)
+    log = tmp_path / "log.jsonl"
+    assert main(["render", str(animated), "--frames", "1:8", "--dask", "--workers", "1", "-o",
+                 str(tmp_path / "f_#.npy"), "--log", str(log), "-q", "--width", "8", "--height", "6"]) == 130
+    assert "wrt: interrupted" in capsys.readouterr().err
+    rows = [json.loads(line) for line in log.read_text().splitlines()]
+    written = {float(p.stem[2:]) for p in tmp_path.glob("f_*.npy")}
+    assert {r["frame"] for r in rows if r["status"] == "ok"} == written
+    cut = [r["frame"] for r in rows if r["status"] == "interrupted"]
+    assert 2.0 in cut and not written & set(cut) and len(rows) == len(written) + len(cut), rows
+    # The frame being written, the one the worker was rendering and one it sent back meanwhile at most: one worker
+    # holds one task at a time, so the frames queued behind them were not started.
+    assert len(cut) <= 3 and len(rows) < 8, rows
+
+
 def test_ctrl_c_stops_frames_on_two_devices_at_once_and_keeps_the_written_ones(animated, tmp_path):
     """Ctrl-C (SIGINT to the whole process group, as a terminal sends it) during ``--frames --devices`` left the
     process pool with shutdown(wait=True): every queued frame was rendered first, and their images thrown away. The

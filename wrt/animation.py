@@ -632,8 +632,14 @@ def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, se
         else:
             others.append(error)
 
+    def interrupted(cut_short):  # Ctrl-C: rows for the frames on a worker or sent back and not written, as --devices
+        logged = {row["frame"] for row in rows}
+        for job in sorted(cut_short, key=lambda job: job["frame"]):
+            if job["frame"] not in logged:
+                rows.append(frame_interrupted_row(job["frame"], files[job["frame"]]))
+
     run_tasks(task, tasks, address=address, n_workers=n_workers, on_result=lambda _, result: write(result),
-              on_error=failed, progress=progress, desc="wrt frames")
+              on_error=failed, on_interrupt=interrupted, progress=progress, desc="wrt frames")
     if others:
         raise others[0]
     return rows

@@ -94,6 +94,16 @@ def connect(address: str | None = None, n_workers: int | None = None, retries: i
     return Client(cluster), cluster
 
 
+def _started(client, futures: dict) -> list[int]:
+    """The indices (the values of ``futures``) of the tasks a worker is running or has finished, in order; every
+    one where the scheduler does not answer."""
+    try:
+        running = {key for keys in client.processing().values() for key in keys}
+    except Exception:  # noqa: BLE001 - a scheduler gone (its workers stopped by the same Ctrl-C): say all may be
+        return sorted(futures.values())
+    return sorted(i for future, i in futures.items() if future.done() or future.key in running)
+
+
 def run_tasks(
     fn,
     items,
@@ -102,6 +112,7 @@ def run_tasks(
     n_workers: int | None = None,
     on_result=None,
     on_error=None,
+    on_interrupt=None,
     retries: int = 2,
     timeout: float | None = None,
     progress: bool = True,
@@ -117,6 +128,9 @@ def run_tasks(
         on_result: ``on_result(item, result)``, called in this process in completion order, as each task finishes.
         on_error: ``on_error(item, exception)`` for a task that raised, or whose workers kept dying; without it the
             first such exception is raised once every other task has finished and been handed to ``on_result``.
+        on_interrupt: ``on_interrupt(items)`` at Ctrl-C, before the ``KeyboardInterrupt`` goes on: the items cut
+            short, those whose tasks a worker was running (as the scheduler says; every task not handed over where it
+            does not answer) or had finished and were not yet handed over (or being handed over).
         retries: how often a task is rerun after its worker dies (a ``LocalCluster``'s ``allowed-failures``; a
             remote scheduler uses its own setting). Exceptions raised by ``fn`` are not retried.
         timeout: seconds for the whole run; ``TimeoutError`` after that. None: no limit.
@@ -148,7 +162,7 @@ def run_tasks(
 
         with tqdm(total=len(items), desc=desc, disable=not progress) as bar:
             for future in as_completed(futures, timeout=timeout):
-                i = futures.pop(future)
+                i = futures[future]
                 try:
                     result = future.result()
                 except Exception as e:  # noqa: BLE001 - the task's own error, or KilledWorker
@@ -161,8 +175,13 @@ def run_tasks(
                         on_result(items[i], result)
                     else:
                         results[i] = result
+                del futures[future]  # handed over (kept until now: a Ctrl-C in on_result cut this item short)
                 future.release()  # forget it: a result already here is never recomputed when a worker dies
                 bar.update()
+    except KeyboardInterrupt:
+        if on_interrupt is not None:
+            on_interrupt([items[i] for i in _started(client, futures)])
+        raise
     finally:
         client.close()
         if cluster is not None:
