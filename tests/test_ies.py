@@ -350,3 +350,19 @@ def test_a_mirrored_light_mirrors_its_profile():
     expected = expected_radiance(profile, frame)
     # Sampled points of the disk see the light a little off its centre's angles (2% near the axis, where phi turns).
     np.testing.assert_allclose(rgb[..., 0], expected, rtol=0.02, atol=1e-3 * expected.max())
+
+
+def test_a_profile_packed_in_a_usdz_lights_as_the_same_file_beside_the_stage(tmp_path):
+    """A lamp and its IES file packed into one ``.usdz`` (the file resolves to ``lamp.usdz[lamp.ies]``, which no
+    plain ``open`` reads): the plane gets ``I f(theta) cos / d^2``, as from the files unpacked. The profile was warned
+    about as 'cannot be read (No such file or directory)' and the lamp lit as a bare point light."""
+    from pxr import UsdUtils
+
+    stage = write_lamp(tmp_path, ies_text(VERTICAL, [0.0], [A_VALUES]))
+    packed = str(tmp_path / "lamp.usdz")
+    assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(stage), packed)
+    (tmp_path / "lamp.ies").unlink()  # only the package's copy is left
+    rgb, scene = render_lamp(packed)
+    assert scene.lights[0].shaping.ies is not None
+    expected = expected_radiance(lambda theta, phi: a_of(theta))
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())

@@ -42,7 +42,7 @@ import numpy as np
 import warp as wp
 
 from .errors import SceneError, check_fields, check_flags
-from .ies import IesError, IesProfile, read_ies
+from .ies import IesError, IesProfile, parse_ies, read_ies
 
 PROFILE_STEPS = 2048  # angles at which power_fraction integrates the shaping factor
 SHAPING_RANGES = {  # field -> (lowest, highest, unit) of a Shaping's bounded inputs
@@ -245,7 +245,7 @@ def _read_profile(prim, asset, skip, profiles: dict | None):
     profiles = {} if profiles is None else profiles
     if resolved not in profiles:
         try:
-            profiles[resolved] = read_ies(resolved)
+            profiles[resolved] = _read_resolved_profile(resolved)
         except IesError as e:
             profiles[resolved] = e
     found = profiles[resolved]
@@ -254,6 +254,19 @@ def _read_profile(prim, asset, skip, profiles: dict | None):
              str(found))
         return None
     return found
+
+
+def _read_resolved_profile(resolved: str) -> IesProfile:
+    """The profile of the IES file at resolved asset path ``resolved``: a file, or one packed in a ``.usdz``
+    (``lamp.usdz[lamp.ies]``), which only USD's asset resolver opens, as it opens textures packed there."""
+    from pxr import Ar
+
+    if not Ar.IsPackageRelativePath(resolved):
+        return read_ies(resolved)
+    asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
+    if asset is None:
+        raise IesError(f"{resolved}: cannot be read (the package holds no such file)")
+    return parse_ies(bytes(asset.GetBuffer()).decode("latin-1"), resolved)
 
 
 @wp.func
