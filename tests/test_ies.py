@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdLux
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 from shading_helpers import pixel_points, quad, top_down_camera
 from test_lights import ALBEDO, write_stage
 
@@ -365,4 +365,22 @@ def test_a_profile_packed_in_a_usdz_lights_as_the_same_file_beside_the_stage(tmp
     rgb, scene = render_lamp(packed)
     assert scene.lights[0].shaping.ies is not None
     expected = expected_radiance(lambda theta, phi: a_of(theta))
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+
+
+def test_a_mirrored_point_lamp_mirrors_its_profile(tmp_path):
+    """A point SphereLight scaled by (1, -1, 1) (mirrored across its XZ plane): its local +Y, where the profile's
+    90-degree plane lies, is the world's -Y, as for the mirrored disk above. Sphere lights kept only their -Z and X
+    axes and looked the profile up with Y = Z x X, unmirrored: the pattern came out mirrored."""
+    horizontal, b_values = HORIZONTAL_CASES["0-360"]
+    path = write_lamp(tmp_path, ies_text(VERTICAL, horizontal, [[a * b for a in A_VALUES] for b in b_values]))
+    stage = Usd.Stage.Open(path)
+    UsdGeom.XformCommonAPI(stage.GetPrimAtPath("/Lamp")).SetScale(Gf.Vec3f(1.0, -1.0, 1.0))
+    stage.Save()
+    rgb, _ = render_lamp(path)
+
+    def profile(theta, phi):
+        return a_of(theta) * np.interp(np.mod(phi, 360.0), horizontal, b_values)
+
+    expected = expected_radiance(profile, np.diag([1.0, -1.0, 1.0]))
     np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())

@@ -160,6 +160,15 @@ def x_axis(to_world, fallback) -> np.ndarray:
     return x / length if length > 0.0 else np.asarray(fallback, np.float64)
 
 
+def y_axis(to_world) -> np.ndarray | None:
+    """``(3,)`` unit world direction of the light's local +Y axis under ``to_world`` (``(4, 4)`` column-vector), which
+    tells a mirroring transform's horizontal angles apart (:func:`ies_frame`), or None where the transform flattens
+    it."""
+    y = np.asarray(to_world, np.float64).reshape(4, 4)[:3, 1]
+    length = float(np.linalg.norm(y))
+    return y / length if length > 0.0 else None
+
+
 def ies_frame(axis, x, y=None) -> np.ndarray:
     """``(3, 3)`` float32 rows: unit X and Y axes and the primary axis (``axis``, the light's -Z, unit) of a light
     whose X axis is ``x`` (made perpendicular to ``axis``; any perpendicular where it lies along it): the frame an IES

@@ -402,7 +402,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
                 _add(h, LIGHT_ELLIPSOID, L, light.position, zero, zero, zero, (g, 0, area, 0), 0,
                      math.pi * area * luminance_np(L))
                 h.shapes[-1] = m
-            _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True, x=light.x_axis)
+            _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True, x=light.x_axis, y=light.y_axis)
         elif isinstance(light, RectLight):
             u, v = light.edges()
             _, _, z, origin = light_axes(light.to_world)

@@ -147,6 +147,8 @@ class SphereLight:
         axis: ``(3,)`` world direction of the light's -Z axis, which its shaping is centred on (made unit).
         x_axis: ``(3,)`` world direction of the light's +X axis, where an IES profile's horizontal angles start (its
             part perpendicular to ``axis`` counts).
+        y_axis: ``(3,)`` world direction of the light's +Y axis, or None: ``Z x X``. Under a mirroring transform it
+            points the other way, and so do an IES profile's 90-degree angles (``load_usd`` sets it).
         diffuse: multiplier of the light on diffuse reflection (``inputs:diffuse``; UsdLux's non-physical control).
         specular: multiplier of the light on specular reflection and transmission (``inputs:specular``).
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
@@ -170,6 +172,7 @@ class SphereLight:
     shaping: Shaping | None = None
     axis: np.ndarray = dataclasses.field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
     x_axis: np.ndarray = dataclasses.field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    y_axis: np.ndarray | None = None
     diffuse: float = 1.0
     specular: float = 1.0
     light_link: LinkCollection | None = None
@@ -185,6 +188,8 @@ class SphereLight:
         check_shadow_api(self)
         if self.frame is not None:
             check_fields(self, ("frame", (3, 3), None, np.float64))
+        if self.y_axis is not None:
+            check_fields(self, ("y_axis", (3,), None, np.float64))
         self.axis = self.unit_axis()
         _check_shaping(self)
 

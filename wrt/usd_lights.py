@@ -11,7 +11,7 @@ import numpy as np
 from .affine_lights import flat, similar
 from .errors import SceneError
 from .light_links import read_collection
-from .light_shaping import Shaping, primary_axis, read_shaping, x_axis
+from .light_shaping import Shaping, primary_axis, read_shaping, x_axis, y_axis
 from .lights import (
     GLOW_TINTS_LIGHT,
     MATERIAL_SYNC_MODES,
@@ -517,6 +517,7 @@ def _shaped(light, shaping: Shaping, m, prim, skip):
         if isinstance(light, SphereLight):
             light.axis = primary_axis(m, light.axis)
             light.x_axis = x_axis(m, light.x_axis)
+            light.y_axis = y_axis(m)
     elif light is not None and not shaping.at_fallbacks():
         skip("light shaping (ShapingAPI) on mesh lights, distant and dome lights is not supported; these lights emit "
              "unshaped", prim)

@@ -19,7 +19,7 @@ import dataclasses
 import numpy as np
 
 from .affine_lights import FLAT_RATIO
-from .light_shaping import Shaping, primary_axis, x_axis
+from .light_shaping import Shaping, primary_axis, x_axis, y_axis
 from .lights import CylinderLight, DiskLight, RectLight, SphereLight, round_tube
 from .usd_lights import fits_float32
 
@@ -165,6 +165,7 @@ def _placed(template, m: np.ndarray, shape: int, sphere: tuple | None):
         if light.shaping is not None:
             light.axis = primary_axis(m, np.array([0.0, 0.0, -1.0]))
             light.x_axis = x_axis(m, np.array([1.0, 0.0, 0.0]))
+            light.y_axis = y_axis(m)
     else:
         light.to_world = m.copy()
     if isinstance(light, CylinderLight) and light.length > 0.0 and light.radius > 0.0 and not light.treat_as_line:
