@@ -384,3 +384,15 @@ def test_a_mirrored_point_lamp_mirrors_its_profile(tmp_path):
 
     expected = expected_radiance(profile, np.diag([1.0, -1.0, 1.0]))
     np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+
+
+def test_errors_name_the_line_of_files_with_windows_text_in_their_keywords(tmp_path):
+    """A keyword line holding a Windows-1252 ellipsis (byte 0x85, which Latin-1 reads as U+0085, a line break to
+    Python's splitlines) and CRLF line ends: the error names the line the bad number is on, as an editor counts lines
+    (by CR, LF, CRLF). It named the line after it."""
+    text = ies_text(VERTICAL, [0.0], [A_VALUES]).replace("[TEST] synthetic", "[TEST] 12 \x85 synthetic")
+    text = text.replace("0 30 60 90", "0 30 x 90").replace("\n", "\r\n")
+    (tmp_path / "lamp.ies").write_bytes(text.encode("latin-1"))
+    bad_line = text.split("\r\n").index("0 30 x 90") + 1
+    with pytest.raises(IesError, match=rf"lamp\.ies:{bad_line}: 'x' is not a number"):
+        wrt.read_ies(str(tmp_path / "lamp.ies"))

@@ -266,7 +266,9 @@ def parse_ies(text: str, path: str = "<IES>") -> IesProfile:
     Raises:
         IesError: naming ``path`` and the line of what is wrong.
     """
-    lines = text.splitlines()
+    # CR, LF and CRLF end lines; str.splitlines also breaks at U+0085, which Latin-1 reads from the Windows-1252
+    # ellipsis of a keyword line, and the lines named in errors came one late.
+    lines = re.split(r"\r\n|\r|\n", text)
     tilt = next((k for k, line in enumerate(lines) if line.strip().upper().startswith("TILT")), None)
     if tilt is None:
         raise IesError(f"{path}: no TILT= line; not an IES LM-63 file")
