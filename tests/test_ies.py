@@ -396,3 +396,11 @@ def test_errors_name_the_line_of_files_with_windows_text_in_their_keywords(tmp_p
     bad_line = text.split("\r\n").index("0 30 x 90") + 1
     with pytest.raises(IesError, match=rf"lamp\.ies:{bad_line}: 'x' is not a number"):
         wrt.read_ies(str(tmp_path / "lamp.ies"))
+
+
+def test_a_free_text_line_that_begins_with_tilt_is_no_tilt_line():
+    """LM-63-1986 files have free text lines before ``TILT=``; one that starts with the word ``Tilted`` is text. It
+    was taken for the TILT line and the file refused as 'TILT= is not supported'."""
+    text = ies_text(VERTICAL, [0.0], [A_VALUES]).replace("IESNA:LM-63-2002\n[TEST] synthetic\n[MANUFAC] wrt\n",
+                                                           "ACME WALL WASHER\nTilted 15 degrees in its housing\n")
+    np.testing.assert_allclose(parse_ies(text, "old.ies").candela, [A_VALUES])

@@ -269,7 +269,8 @@ def parse_ies(text: str, path: str = "<IES>") -> IesProfile:
     # CR, LF and CRLF end lines; str.splitlines also breaks at U+0085, which Latin-1 reads from the Windows-1252
     # ellipsis of a keyword line, and the lines named in errors came one late.
     lines = re.split(r"\r\n|\r|\n", text)
-    tilt = next((k for k, line in enumerate(lines) if line.strip().upper().startswith("TILT")), None)
+    # "TILT=" and not just "TILT": the free text lines of LM-63-1986 files before it may begin with the word Tilted.
+    tilt = next((k for k, line in enumerate(lines) if re.match(r"\s*TILT\s*=", line, re.IGNORECASE)), None)
     if tilt is None:
         raise IesError(f"{path}: no TILT= line; not an IES LM-63 file")
     value = lines[tilt].split("=", 1)[1].strip() if "=" in lines[tilt] else ""
