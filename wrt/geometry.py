@@ -4,8 +4,7 @@
   runs along +Z; the three 2D edge functions are then evaluated with the same operands for an edge shared by two
   triangles, so a ray can never slip between them. Edge functions that come out exactly zero are recomputed in
   double precision, as the paper prescribes. The test is two-sided. Its ``t`` is clamped into where the ray is
-  inside the triangle's own box (``own_box_interval``), so every box that holds the triangle is entered at or
-  before it and left at or after it.
+  inside the triangle's own box (``own_box_t``), so every box that holds the triangle is entered at or before it.
 - Boxes: the slab test with the far distance scaled up by ``1 + 2 * gamma(3)`` (Ize, "Robust BVH Ray Traversal",
   JCGT 2013), so rounding can never cull a box that the ray touches.
 
@@ -36,7 +35,11 @@ class ShearedRay:
     sx: float  # shear constants: x' = x - sx * z, y' = y - sy * z, z' = sz * z
     sy: float
     sz: float
-    inv_dir: wp.vec3  # safe_inverse(direction), for own_box_interval: the traversals' own value (compilers share it)
+    # The slab test's view of the ray (safe_inverse, box_origins), for own_box_t: the same values the traversals
+    # compute, so the compilers share them.
+    inv_dir: wp.vec3
+    origin_lower: wp.vec3
+    origin_upper: wp.vec3
 
 
 @wp.func
@@ -79,6 +82,9 @@ def make_sheared_ray(origin: wp.vec3, direction: wp.vec3):
     r.sy = axis_component(direction, ky) / dz
     r.sz = 1.0 / dz
     r.inv_dir = safe_inverse(direction)
+    origin_lower, origin_upper = box_origins(origin, direction)
+    r.origin_lower = origin_lower
+    r.origin_upper = origin_upper
     return r
 
 
@@ -122,13 +128,12 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
 
     Returns:
         ``(hit, t, u, v)``: ``t`` in units of the ray direction's length, inside the triangle's box's computed
-        ``[entry, exit]`` (``own_box_interval``); valid only when ``hit`` and ``t >= 0`` is not checked here (the caller
+        ``[entry, exit]`` (``own_box_t``); valid only when ``hit`` and ``t >= 0`` is not checked here (the caller
         clips against its own ``[t_min, t_max)``).
     """
     a = p0 - ray.origin
     b = p1 - ray.origin
     c = p2 - ray.origin
-    box_near, box_far = own_box_interval(ray, a, b, c)
     az = axis_component(a, ray.kz)
     bz = axis_component(b, ray.kz)
     cz = axis_component(c, ray.kz)
@@ -168,7 +173,7 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
             # distance, the same bits for every triangle in the plane. From big_t / det it came out an ulp apart
             # from one triangle to the next, so of coplanar overlapping triangles the larger id could win the tie.
             t = ray.sz * az
-        t = clamp_into(t, box_near, box_far)
+        t = own_box_t(ray, p0, p1, p2, t)
     return hit, t, u, v
 
 
@@ -191,15 +196,14 @@ def safe_inverse(direction: wp.vec3):
     """Component-wise ``1 / direction`` with zeros (and components whose inverse would overflow) replaced by a huge
     finite value of the right sign, so the slab test never computes ``0 * inf``. Components down to 1e-38 keep
     their exact inverse: a direction need not be unit length, and one of length 1e-30 must still hit."""
-    return wp.vec3(inverse_or_flat(direction[0]), inverse_or_flat(direction[1]), inverse_or_flat(direction[2]))
-
-
-@wp.func
-def inverse_or_flat(d: float):
-    """``1 / d``, or ``FLAT_INVERSE`` with ``d``'s sign where ``|d| < 1e-38``: a select, not a branch, so that the
-    compilers see two calls on one direction as one value (``make_sheared_ray`` and the traversals both call
-    ``safe_inverse``; with a branch per component, CUDA computed the reciprocals twice and kept both)."""
-    return wp.where(wp.abs(d) < 1.0e-38, wp.copysign(FLAT_INVERSE, d), 1.0 / d)
+    inv = wp.vec3()
+    for k in range(3):
+        d = direction[k]
+        if wp.abs(d) < 1.0e-38:
+            inv[k] = wp.copysign(FLAT_INVERSE, d)
+        else:
+            inv[k] = 1.0 / d
+    return inv
 
 
 _FINITE_MIN = """
@@ -274,62 +278,43 @@ def box_origins(origin: wp.vec3, direction: wp.vec3):
 
 
 @wp.func
-def own_box_interval(ray: ShearedRay, a: wp.vec3, b: wp.vec3, c: wp.vec3):
-    """``(near, far)``: where the ray enters and leaves the box of the triangle with corners ``ray.origin + a, b, c``,
-    as ``intersect_ray_box`` computes them; ``intersect_ray_triangle`` clamps its ``t`` into them (``clamp_into``).
+def slab_bounds(origin_lower: wp.vec3, origin_upper: wp.vec3, inv_dir: wp.vec3, lower: wp.vec3, upper: wp.vec3):
+    """``(lo, hi)``: per axis, where the ray (as for ``intersect_ray_box``) enters and leaves the slab of the box
+    ``lower, upper``, operation for operation as ``intersect_ray_box`` (and ``wide_cpu.enter_lanes``) compute them
+    (kept apart from it, so the per-box code the compilers see is unchanged). Rounding is monotone, so a box inside
+    another gets slabs inside the other's."""
+    t0 = wp.cw_mul(lower - origin_lower, inv_dir)
+    t1 = wp.cw_mul(upper - origin_upper, inv_dir)
+    lo = wp.vec3(finite_min(t0[0], t1[0]) - flat_slab_slack(inv_dir[0], 1.0),
+                 finite_min(t0[1], t1[1]) - flat_slab_slack(inv_dir[1], 1.0),
+                 finite_min(t0[2], t1[2]) - flat_slab_slack(inv_dir[2], 1.0))
+    hi = wp.vec3(finite_max(t0[0], t1[0]) - flat_slab_slack(inv_dir[0], -1.0),
+                 finite_max(t0[1], t1[1]) - flat_slab_slack(inv_dir[1], -1.0),
+                 finite_max(t0[2], t1[2]) - flat_slab_slack(inv_dir[2], -1.0))
+    return lo, hi
+
+
+@wp.func
+def own_box_t(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, t: float):
+    """``t`` of a hit on the triangle ``p0, p1, p2``, clamped into where the ray is inside the triangle's own box,
+    as ``intersect_ray_box`` computes it (without its slack).
 
     The watertight test's ``t`` errs by float32 epsilons of the distances to the corners (a ray starting 1e-4 from a
-    face 2000 across: 30% of ``t``), times the aspect of a sliver; the slab test errs by ulps of ``t``. A box flat
+    face 2000 wide: 30% of ``t``), times the aspect of a sliver; the slab test errs by ulps of ``t``. A box flat
     along the ray (an axis-aligned face, a fanned cap) is entered and left at the hit, so a hit just below ``t_max``
-    (or at ``t_min``) lay outside it and was culled with the box.
-
-    Here each axis's slab is ``(min or max of the corners - origin) * inv_dir``: rounding is monotone, so
-    ``min(a, b, c)`` is the rounded difference of the triangle's lower bound and the origin, and these are the bits
-    of ``intersect_ray_box``'s slabs for the triangle's box, and lie inside its slabs for any box holding that one.
-    So a clamped ``t`` lies inside the computed ``[entry, exit]`` of every box that holds the whole triangle: a limit
-    that keeps the hit keeps its boxes. The exact ``t`` lies in the exact interval, so the clamp moves ``t`` towards
-    it (to within an ulp of the interval's ends). Along a zero (or subnormal) direction component the slab is taken
-    as unbounded: ``inv_dir`` holds ``FLAT_INVERSE`` there, not the inverse, so ``a * inv_dir`` is no distance (0 for
-    a ray in the box's face plane, and, for a subnormal component in an instance's space, far too small: a ray from
-    inside an octahedron scaled by 3e38 was clamped to t = 0 there), and the box test widens such slabs to at least
-    ``[-1e20, 1e20]`` (``box_origins``, ``flat_slab_slack``), so the clamp keeps inside them up to t = 1e20.
-
-    Computed before the edge functions, for every triangle tested: two values then stay live through the test
-    instead of the nine corner coordinates, which under the 64-register cap spilled more (ptxas -v, sm_90, spill
-    bytes of the uncounted binary trace and any-hit kernels: 28 and 0 before the clamp, 84 and 40 with the clamp
-    computed at the hit, 52 and 0 so)."""
-    t0 = wp.cw_mul(wp.min(wp.min(a, b), c), ray.inv_dir)
-    t1 = wp.cw_mul(wp.max(wp.max(a, b), c), ray.inv_dir)
-    near = finite_max(finite_max(slab_entry(t0[0], t1[0], ray.inv_dir[0]), slab_entry(t0[1], t1[1], ray.inv_dir[1])),
-                      slab_entry(t0[2], t1[2], ray.inv_dir[2]))
-    far = finite_min(finite_min(slab_exit(t0[0], t1[0], ray.inv_dir[0]), slab_exit(t0[1], t1[1], ray.inv_dir[1])),
-                     slab_exit(t0[2], t1[2], ray.inv_dir[2]))
-    return near, far
-
-
-@wp.func
-def slab_entry(t0: float, t1: float, inv: float):
-    """Where a ray enters a slab whose planes it meets at ``t0`` and ``t1``; ``-inf`` along a zero (or subnormal)
-    direction component, whose ``inv`` is ``FLAT_INVERSE`` rather than its inverse (see ``own_box_interval``)."""
-    return wp.where(wp.abs(inv) >= FLAT_INVERSE, -wp.inf, finite_min(t0, t1))
-
-
-@wp.func
-def slab_exit(t0: float, t1: float, inv: float):
-    """Where a ray leaves a slab (see ``slab_entry``); ``+inf`` along a zero (or subnormal) direction component."""
-    return wp.where(wp.abs(inv) >= FLAT_INVERSE, wp.inf, finite_max(t0, t1))
-
-
-@wp.func
-def clamp_into(t: float, near: float, far: float):
-    """``t`` clamped into ``[near, far]`` (``own_box_interval``). An interval that rounding left empty by no more
-    than the box test's slack (a ray grazing the box) is clamped into with its ends swapped; a hit on a box that the
-    ray misses by more (which the box test culls anyway) keeps its ``t``."""
+    (or at ``t_min``) lay outside it and was culled with the box. Every box holding the triangle contains its box,
+    and the slab bounds are monotone in the box (``slab_bounds``), so a clamped ``t`` lies in every such box's
+    computed ``[entry, exit]``: a limit that keeps the hit keeps its boxes. The exact ``t`` lies in the exact
+    interval, so the clamp only moves ``t`` towards it. An interval that rounding left empty by no more than the
+    box test's slack (a ray grazing the box) is clamped into with its ends swapped; a hit on a box the ray misses
+    by more (which the box test would cull anyway) keeps its ``t``."""
+    lo, hi = slab_bounds(ray.origin_lower, ray.origin_upper, ray.inv_dir, wp.min(wp.min(p0, p1), p2),
+                         wp.max(wp.max(p0, p1), p2))
+    near = finite_max(finite_max(lo[0], lo[1]), lo[2])
+    far = finite_min(finite_min(hi[0], hi[1]), hi[2])
     result = t
     if near <= far + wp.abs(far) * ROBUST_FAR_SLACK:
-        lo = finite_min(near, far)
-        hi = finite_max(near, far)
-        result = wp.where(t < lo, lo, wp.where(t > hi, hi, t))  # a NaN t stays NaN (a miss), as it was
+        result = finite_min(finite_max(t, finite_min(near, far)), finite_max(near, far))
     return result
 
 
