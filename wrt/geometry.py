@@ -3,8 +3,7 @@
 - Triangles: Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection", JCGT 2013. The ray is sheared so it
   runs along +Z; the three 2D edge functions are then evaluated with the same operands for an edge shared by two
   triangles, so a ray can never slip between them. Edge functions that come out exactly zero are recomputed in
-  double precision, as the paper prescribes. The test is two-sided. Its ``t`` is clamped into where the ray is
-  inside the triangle's own box (``own_box_t``), so every box that holds the triangle is entered at or before it.
+  double precision, as the paper prescribes. The test is two-sided.
 - Boxes: the slab test with the far distance scaled up by ``1 + 2 * gamma(3)`` (Ize, "Robust BVH Ray Traversal",
   JCGT 2013), so rounding can never cull a box that the ray touches.
 
@@ -35,11 +34,6 @@ class ShearedRay:
     sx: float  # shear constants: x' = x - sx * z, y' = y - sy * z, z' = sz * z
     sy: float
     sz: float
-    # The slab test's view of the ray (safe_inverse, box_origins), for own_box_t: the same values the traversals
-    # compute, so the compilers share them.
-    inv_dir: wp.vec3
-    origin_lower: wp.vec3
-    origin_upper: wp.vec3
 
 
 @wp.func
@@ -81,10 +75,6 @@ def make_sheared_ray(origin: wp.vec3, direction: wp.vec3):
     r.sx = axis_component(direction, kx) / dz
     r.sy = axis_component(direction, ky) / dz
     r.sz = 1.0 / dz
-    r.inv_dir = safe_inverse(direction)
-    origin_lower, origin_upper = box_origins(origin, direction)
-    r.origin_lower = origin_lower
-    r.origin_upper = origin_upper
     return r
 
 
@@ -127,9 +117,8 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     """Watertight, two-sided ray-triangle test.
 
     Returns:
-        ``(hit, t, u, v)``: ``t`` in units of the ray direction's length, inside the triangle's box's computed
-        ``[entry, exit]`` (``own_box_t``); valid only when ``hit`` and ``t >= 0`` is not checked here (the caller
-        clips against its own ``[t_min, t_max)``).
+        ``(hit, t, u, v)``: ``t`` in units of the ray direction's length; valid only when ``hit`` and ``t >= 0``
+        is not checked here (the caller clips against its own ``[t_min, t_max)``).
     """
     a = p0 - ray.origin
     b = p1 - ray.origin
@@ -173,7 +162,6 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
             # distance, the same bits for every triangle in the plane. From big_t / det it came out an ulp apart
             # from one triangle to the next, so of coplanar overlapping triangles the larger id could win the tie.
             t = ray.sz * az
-        t = own_box_t(ray, p0, p1, p2, t)
     return hit, t, u, v
 
 
@@ -275,47 +263,6 @@ def box_origins(origin: wp.vec3, direction: wp.vec3):
     down = wp.vec3(origin_shift(origin[0], direction[0], 1.0), origin_shift(origin[1], direction[1], 1.0),
                    origin_shift(origin[2], direction[2], 1.0))
     return origin - up, origin - down
-
-
-@wp.func
-def slab_bounds(origin_lower: wp.vec3, origin_upper: wp.vec3, inv_dir: wp.vec3, lower: wp.vec3, upper: wp.vec3):
-    """``(lo, hi)``: per axis, where the ray (as for ``intersect_ray_box``) enters and leaves the slab of the box
-    ``lower, upper``, operation for operation as ``intersect_ray_box`` (and ``wide_cpu.enter_lanes``) compute them
-    (kept apart from it, so the per-box code the compilers see is unchanged). Rounding is monotone, so a box inside
-    another gets slabs inside the other's."""
-    t0 = wp.cw_mul(lower - origin_lower, inv_dir)
-    t1 = wp.cw_mul(upper - origin_upper, inv_dir)
-    lo = wp.vec3(finite_min(t0[0], t1[0]) - flat_slab_slack(inv_dir[0], 1.0),
-                 finite_min(t0[1], t1[1]) - flat_slab_slack(inv_dir[1], 1.0),
-                 finite_min(t0[2], t1[2]) - flat_slab_slack(inv_dir[2], 1.0))
-    hi = wp.vec3(finite_max(t0[0], t1[0]) - flat_slab_slack(inv_dir[0], -1.0),
-                 finite_max(t0[1], t1[1]) - flat_slab_slack(inv_dir[1], -1.0),
-                 finite_max(t0[2], t1[2]) - flat_slab_slack(inv_dir[2], -1.0))
-    return lo, hi
-
-
-@wp.func
-def own_box_t(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, t: float):
-    """``t`` of a hit on the triangle ``p0, p1, p2``, clamped into where the ray is inside the triangle's own box,
-    as ``intersect_ray_box`` computes it (without its slack).
-
-    The watertight test's ``t`` errs by float32 epsilons of the distances to the corners (a ray starting 1e-4 from a
-    face 2000 wide: 30% of ``t``), times the aspect of a sliver; the slab test errs by ulps of ``t``. A box flat
-    along the ray (an axis-aligned face, a fanned cap) is entered and left at the hit, so a hit just below ``t_max``
-    (or at ``t_min``) lay outside it and was culled with the box. Every box holding the triangle contains its box,
-    and the slab bounds are monotone in the box (``slab_bounds``), so a clamped ``t`` lies in every such box's
-    computed ``[entry, exit]``: a limit that keeps the hit keeps its boxes. The exact ``t`` lies in the exact
-    interval, so the clamp only moves ``t`` towards it. An interval that rounding left empty by no more than the
-    box test's slack (a ray grazing the box) is clamped into with its ends swapped; a hit on a box the ray misses
-    by more (which the box test would cull anyway) keeps its ``t``."""
-    lo, hi = slab_bounds(ray.origin_lower, ray.origin_upper, ray.inv_dir, wp.min(wp.min(p0, p1), p2),
-                         wp.max(wp.max(p0, p1), p2))
-    near = finite_max(finite_max(lo[0], lo[1]), lo[2])
-    far = finite_min(finite_min(hi[0], hi[1]), hi[2])
-    result = t
-    if near <= far + wp.abs(far) * ROBUST_FAR_SLACK:
-        result = finite_min(finite_max(t, finite_min(near, far)), finite_max(near, far))
-    return result
 
 
 @wp.func
