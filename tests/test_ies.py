@@ -221,7 +221,9 @@ def test_candela_multiplier_and_ballast_factor_scale_the_profile():
 
 
 @pytest.mark.parametrize("edit, message", [
-    (lambda t: t.replace("TILT=NONE", "TILT=INCLUDE"), r"lamp\.ies:4: TILT=INCLUDE is not supported"),
+    (lambda t: t.replace("TILT=NONE", "TILT="), r"lamp\.ies:4: TILT= names nothing"),
+    (lambda t: t.replace("TILT=NONE", "TILT=INCLUDE\n1 1.5\n0\n1"), r"lamp\.ies:5: the number of tilt angles must be"),
+    (lambda t: t.replace("TILT=NONE", "TILT=INCLUDE\n1 2\n0 x\n1 1"), r"lamp\.ies:6: 'x' is not a number.*tilt angles"),
     (lambda t: t.replace("TILT=NONE\n", ""), r"lamp\.ies: no TILT= line"),
     (lambda t: t.replace(" 1 2 0 0 0", " 2 2 0 0 0"), r"lamp\.ies:5: photometric type B is not supported"),
     (lambda t: t.replace("0 30 60 90", "0 30 x 90"), r"lamp\.ies:7: 'x' is not a number"),
@@ -404,3 +406,35 @@ def test_a_free_text_line_that_begins_with_tilt_is_no_tilt_line():
     text = ies_text(VERTICAL, [0.0], [A_VALUES]).replace("IESNA:LM-63-2002\n[TEST] synthetic\n[MANUFAC] wrt\n",
                                                            "ACME WALL WASHER\nTilted 15 degrees in its housing\n")
     np.testing.assert_allclose(parse_ies(text, "old.ies").candela, [A_VALUES])
+
+
+# LM-63-2002 section 5.3: TILT=INCLUDE is followed by the lamp-to-luminaire geometry, the number of tilt angles, the
+# angles and their multiplying factors, and then the photometric data (number of lamps, lumens per lamp, ...).
+TILT_BLOCK = "TILT=INCLUDE\n1\n7\n0 15 30 45 60 75 90\n1.0 .95 .94 .90 .88 .87 .94\n"
+
+
+@pytest.mark.parametrize("tilt", [TILT_BLOCK, "TILT=INCLUDE\n3 3\n0 45 90 1 0.8\n0.5\n", "TILT=INCLUDE\n2\n0\n",
+                                  "TILT=lamp_tilt.dat\n"])
+def test_tilt_data_is_read_past_with_a_warning_and_the_candela_table_kept(tilt):
+    """A lamp's tilt (TILT=INCLUDE data before the photometric data, wrapped over lines as it may be, or a tilt file
+    named by TILT=<file>) is ignored, as Cycles and hdEmbree ignore it, with a warning naming the file; the candela
+    table comes out as the same file's with TILT=NONE. Such files were refused and the lamp lit without a profile."""
+    candela = [A_VALUES, [v / 2 for v in A_VALUES], [v / 4 for v in A_VALUES]]
+    plain = ies_text(VERTICAL, [0.0, 45.0, 90.0], candela, multiplier=2.0, ballast=0.5)
+    with pytest.warns(UserWarning, match=r"tilted\.ies:4: TILT=\S+: the lamp tilt is ignored"):
+        profile = parse_ies(plain.replace("TILT=NONE\n", tilt), "tilted.ies")
+    np.testing.assert_array_equal(profile.candela, np.asarray(candela, np.float64))
+    np.testing.assert_array_equal(profile.vertical, VERTICAL)
+    np.testing.assert_array_equal(profile.horizontal, [0.0, 45.0, 90.0])
+
+
+def test_a_lamp_with_tilt_data_lights_with_its_profile(tmp_path):
+    """Through a stage: the TILT=INCLUDE lamp gives I f(theta) cos / d^2, with the tilt warned about naming the
+    file, where it used to emit as a bare light."""
+    text = ies_text(VERTICAL, [0.0], [A_VALUES]).replace("TILT=NONE\n", TILT_BLOCK)
+    path = write_lamp(tmp_path, text)
+    with pytest.warns(UserWarning, match=r"lamp\.ies:4: TILT=INCLUDE: the lamp tilt is ignored"):
+        rgb, scene = render_lamp(path)
+    assert scene.lights[0].shaping.ies is not None
+    expected = expected_radiance(lambda theta, phi: a_of(theta))
+    np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())

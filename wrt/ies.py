@@ -1,5 +1,8 @@
-"""IES light profiles (ANSI/IES LM-63 1995, 2002 and 2019, ``TILT=NONE``, type C photometry): the file parser and
-the profile as the table the shading kernels sample (``UsdLux.ShapingAPI`` ``shaping:ies:file``).
+"""IES light profiles (ANSI/IES LM-63 1995, 2002 and 2019, type C photometry): the file parser and the profile as
+the table the shading kernels sample (``UsdLux.ShapingAPI`` ``shaping:ies:file``). A lamp's tilt is ignored, with a
+warning naming the file: ``TILT=INCLUDE`` data (the lamp-to-luminaire geometry, the tilt angles and their multiplying
+factors) is read past, and the file a ``TILT=<file>`` names is not read, as Cycles and hdEmbree use the candela table
+alone (the factors only dim a lamp tilted from the position it was measured in).
 
 A profile gives the luminous intensity (candela) by vertical angle (0 along the light's primary axis, its -Z; 180
 straight back) and horizontal angle (0 along the light's +X, 90 along its +Y). Between the angles of the file it is
@@ -16,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import warnings
 
 import numpy as np
 import warp as wp
@@ -273,11 +277,13 @@ def parse_ies(text: str, path: str = "<IES>") -> IesProfile:
     tilt = next((k for k, line in enumerate(lines) if re.match(r"\s*TILT\s*=", line, re.IGNORECASE)), None)
     if tilt is None:
         raise IesError(f"{path}: no TILT= line; not an IES LM-63 file")
-    value = lines[tilt].split("=", 1)[1].strip() if "=" in lines[tilt] else ""
-    if value.upper() != "NONE":
-        raise IesError(f"{path}:{tilt + 1}: TILT={value} is not supported (only TILT=NONE)")
+    value = lines[tilt].split("=", 1)[1].strip()
+    if not value:
+        raise IesError(f"{path}:{tilt + 1}: TILT= names nothing (NONE, INCLUDE or a tilt file)")
     header = lines[0].strip().upper() if lines else ""
     numbers = _Numbers(path, lines, tilt + 1)
+    if value.upper() != "NONE":
+        _skip_tilt(numbers, value, tilt + 1)
     numbers.take(2, "number of lamps and lumens per lamp")
     multiplier = numbers.take(1, "candela multiplier")[0]
     n_v, n_h = (numbers.count("number of vertical angles"), numbers.count("number of horizontal angles"))
@@ -297,6 +303,26 @@ def parse_ies(text: str, path: str = "<IES>") -> IesProfile:
         return IesProfile(vertical, horizontal, np.asarray(candela).reshape(n_h, n_v) * factor, path)
     except IesError as e:
         raise IesError(str(e)) from None
+
+
+def _skip_tilt(numbers: "_Numbers", value: str, line: int) -> None:
+    """Read past the lamp tilt data of a ``TILT=INCLUDE`` file (LM-63: the lamp-to-luminaire geometry, the number
+    of tilt angles, the angles and their multiplying factors, before the photometric data) and warn, naming the file,
+    that the tilt is ignored; a ``TILT=<file>`` file holds none of it here. The factors only dim a lamp tilted from
+    the position it was measured in, as Cycles and hdEmbree also read the candela table alone."""
+    if value.upper() == "INCLUDE":
+        numbers.take(1, "lamp-to-luminaire geometry of the TILT=INCLUDE data")
+        pairs = numbers.take(1, "number of tilt angles of the TILT=INCLUDE data")[0]
+        if pairs != int(pairs) or pairs < 0:
+            raise IesError(f"{numbers.path}:{numbers.line}: the number of tilt angles must be a whole number of at "
+                           f"least 0, got {pairs:g}")
+        numbers.take(int(pairs), f"{int(pairs)} tilt angles")
+        numbers.take(int(pairs), f"{int(pairs)} tilt multiplying factors")
+        where = "the tilt angles and factors that follow it are"
+    else:
+        where = "the tilt file it names is not read; the profile is"
+    warnings.warn(f"{numbers.path}:{line}: TILT={value}: the lamp tilt is ignored ({where} read as TILT=NONE)",
+                  stacklevel=3)
 
 
 class _Numbers:
