@@ -121,7 +121,7 @@ def frame_output(pattern, frame: float) -> Path:
 
     Raises:
         ValueError: for a ``frame`` that is not a finite number (NaN and inf were named ``frame_0nan.png``), one of
-            :data:`FRAME_DIGITS` or more digits before the point, which 12 significant digits would name as another
+            more than :data:`FRAME_DIGITS` digits before the point, which 12 significant digits would name as another
             frame (1234567890123 as ``frame_1234567890120.png``; 1e300 had a 300-digit name), or one whose file name
             would be longer than :data:`MAX_NAME_BYTES` (1e-300: the write failed after the render).
     """

@@ -254,7 +254,8 @@ def _add_render(sub) -> None:
         "a pattern with {stem} or a folder; default {stem}.png",
     )
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene (per frame with --frames) as it "
-                   "finishes; default with several scenes: render-log.jsonl beside the images", type=_non_empty)
+                   "finishes, and after Ctrl-C a row of status interrupted for each cut short; default with several "
+                   "scenes: render-log.jsonl beside the images", type=_non_empty)
     p.add_argument("--max-memory", type=_memory_size, help="refuse renders predicted to need more than this many "
                    "bytes: a number with an optional K, M, G or T suffix (powers of 1024), e.g. 4G; default: no limit "
                    "but the device's free memory")
@@ -991,10 +992,12 @@ def _add_bench(sub) -> None:
                    help="comma-separated accelerators: wrt:BUILDER[:LAYOUT], warp:BUILDER, embree" + suites)
     p.add_argument("--devices", type=_csv, help="comma-separated Warp devices, e.g. cpu,cuda:0" + suites)
     p.add_argument("--rays", type=_csv,
-                   help="comma-separated ray kinds: primary, shadow, diffuse, incoherent" + suites)
+                   help="comma-separated ray kinds: primary, shadow (towards the first DistantLight, else a default "
+                   "sun: the rows' shadow_light), diffuse, incoherent" + suites)
     p.add_argument("--n-rays", type=positive_int, help="rays per (scene, device, ray kind) group" + suites)
     p.add_argument("--repeats", type=positive_int, help="timed launches per row (median reported)" + suites)
-    p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all (all: every core)" + suites)
+    p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all (all: every core); rows also record "
+                   "threads_effective, the threads that ran at once (at most the usable cores)" + suites)
     p.add_argument("-o", "--out", default="bench-out", help="output folder")
     p.add_argument("--resume", action="store_true",
                    help="keep rows already in OUT/rows.jsonl and skip them (the same ray counts and repeats only); "
