@@ -318,11 +318,11 @@ def _skip_tilt(numbers: "_Numbers", value: str, line: int) -> None:
                            f"least 0, got {pairs:g}")
         numbers.take(int(pairs), f"{int(pairs)} tilt angles")
         numbers.take(int(pairs), f"{int(pairs)} tilt multiplying factors")
-        where = "the tilt angles and factors that follow it are"
+        skipped = "its tilt angles and multiplying factors are read past"
     else:
-        where = "the tilt file it names is not read; the profile is"
-    warnings.warn(f"{numbers.path}:{line}: TILT={value}: the lamp tilt is ignored ({where} read as TILT=NONE)",
-                  stacklevel=3)
+        skipped = "the tilt file is not read"
+    warnings.warn(f"{numbers.path}:{line}: TILT={value}: the lamp tilt is ignored ({skipped}); the candela table is "
+                  "used as with TILT=NONE", stacklevel=3)
 
 
 class _Numbers:
