@@ -255,6 +255,10 @@ def read_ies(path: str) -> IesProfile:
 
     Raises:
         IesError: naming the file (and the line) of a file that cannot be read or is no LM-63 type C profile.
+
+    Warns:
+        UserWarning: naming the file, where it has lamp tilt data (``TILT=INCLUDE`` or ``TILT=<file>``): the tilt is
+            ignored.
     """
     try:
         with open(path, "rb") as f:
@@ -269,6 +273,9 @@ def parse_ies(text: str, path: str = "<IES>") -> IesProfile:
 
     Raises:
         IesError: naming ``path`` and the line of what is wrong.
+
+    Warns:
+        UserWarning: naming ``path`` and the TILT line, where the file has lamp tilt data: the tilt is ignored.
     """
     # CR, LF and CRLF end lines; str.splitlines also breaks at U+0085, which Latin-1 reads from the Windows-1252
     # ellipsis of a keyword line, and the lines named in errors came one late.
