@@ -3,7 +3,9 @@
 numpy's float32 sums, which round as the kernels do."""
 
 import numpy as np
+import pytest
 import warp as wp
+from test_instancing import closest_hits_numpy, stretched_octahedra
 
 from wrt.tlas import shifted_limit
 
@@ -49,3 +51,60 @@ def test_a_shifted_limit_is_the_smallest_t_whose_reported_t0_plus_t_meets_the_li
     assert np.array_equal(shifted_limits(limits, np.zeros_like(t0s)), limits)
     infinite = np.array([np.inf, -np.inf], np.float32)
     assert np.array_equal(shifted_limits(infinite, np.float32([3.0, 3.0])), infinite)
+
+
+def sheared_octahedra_scene(scale: float):
+    """Octahedra sheared by 300 (``test_instancing.stretched_octahedra``) with every length times ``scale`` (a power
+    of two), rays from about 900 (times ``scale``) away aimed well inside random triangles, and the float64 closest
+    hit of each: ``(scene, origins, directions, t, row, clear)``, ``clear`` where the hit lies more than 1% of its
+    triangle inside it."""
+    import wrt
+    from wrt.instancing import Instances
+    from wrt.scene import Mesh, Prototype
+
+    rng = np.random.default_rng(3)
+    n_instances = 6
+    to_world = stretched_octahedra(rng, "sheared", n_instances)
+    to_world[:, :3, :] *= scale  # exact: a power of two
+    pts = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32)
+    faces = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)])
+    proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
+    scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n_instances, int), to_world))
+    world = np.concatenate([pts.astype(np.float64) @ m[:3, :3].T + m[:3, 3] for m in to_world])
+    indices = np.concatenate([faces + 6 * i for i in range(n_instances)])
+    n = 2000
+    aim = rng.integers(0, len(indices), n)
+    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
+    origins = (targets + rng.normal(size=(n, 3)) * 900 * scale).astype(np.float32)
+    directions = (targets - origins).astype(np.float32)
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
+    p0, p1, p2 = (world[indices[np.maximum(row, 0), k]] for k in range(3))
+    hit = o64 + np.where(row >= 0, t, 0)[:, None] * d64
+    inside = np.full(n, np.inf)
+    for a, b in ((p0, p1), (p1, p2), (p2, p0)):  # the hit's distance to each edge's line
+        edge = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
+        inside = np.minimum(inside, np.linalg.norm(np.cross(hit - a, edge), axis=1))
+    normal = np.cross(p1 - p0, p2 - p0)
+    cosine = np.abs((normal * d64).sum(1)) / np.linalg.norm(normal, axis=1) / np.linalg.norm(d64, axis=1)
+    clear = (row >= 0) & (inside > 1e-3 * scale) & (cosine > 0.1)
+    return scene, origins, directions, t, row, clear
+
+
+@pytest.mark.parametrize("scale", [2.0**-100, 2.0**100])
+def test_a_scene_scaled_by_a_power_of_two_moves_its_rays_as_the_unscaled_one(scale):
+    """The stretched instances of ``test_instancing`` (sheared by 300, rays from 900 away) with every length scaled by
+    2^-100 or 2^100: each ray whose float64 hit is clear hits that triangle at the float64 ``t``, bit for bit as in
+    the unscaled scene. ``moved_ray`` found ``t0`` from the local direction's ``d . d``, which for an instance
+    2^-100 across overflows (2^200) and for one 2^100 across underflows: such rays were never moved, and 1,115 and
+    1,130 of the 2,000 missed or hit another triangle (as every instance did before the move)."""
+    import wrt
+
+    scene, origins, directions, t, row, clear = sheared_octahedra_scene(scale)
+    assert clear.sum() > 0.8 * len(t)
+    hits = wrt.trace(scene, origins, directions)
+    np.testing.assert_array_equal(hits.prim[clear], row[clear])
+    np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-3)
+    assert wrt.occluded(scene, origins, directions)[clear].all()
+    unscaled = sheared_octahedra_scene(1.0)
+    np.testing.assert_array_equal(hits.t, wrt.trace(unscaled[0], unscaled[1], unscaled[2]).t)

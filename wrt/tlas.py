@@ -51,7 +51,7 @@ from .bvh.traverse import (
     unit_ray,
 )
 from .bvh.turns import waits
-from .floats import FLOAT32_MAX, largest_magnitude, next_up
+from .floats import FLOAT32_MAX, largest_magnitude, next_up, unit_scales
 from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
 from .instancing import device_transforms, invert_transforms, world_boxes
 from .primitives import SHAPE_CAPSULE, SHAPE_TAPERED, intersect_shape, local_boxes, shape_uv
@@ -114,15 +114,23 @@ def moved_ray(m: mat34, origin: wp.vec3, direction: wp.vec3, reach: float):
     the instance's world shape tolerates), and ``A`` multiplies a point near the instance. Closest in local space,
     not the world: a squashed instance's local origin was still 2e5 away along its stretched axis where the ray
     passed 0.5 from ``c`` across it, and float32 kept the way there only to 1e-2 of its size. ``t0`` does not
-    depend on the ray's limits, so neither does a hit's ``t``."""
+    depend on the ray's limits, so neither does a hit's ``t``.
+
+    ``t0`` is found from ``o`` and ``d`` scaled by the power of two that brings ``d``'s largest component into
+    ``[1, 2)`` (``unit_scales``; ``a`` scaled, as ``o`` may be infinite): the same bits where nothing over- or
+    underflows, and a scene scaled by ``2^-100`` or ``2^100`` is moved as the unscaled one (unscaled, ``d . d`` of an
+    instance 2^-100 across overflowed to inf, of one 2^100 across underflowed to 0, and such rays were never moved).
+    """
     a = linear_part(m)
     w = origin - translation(m)
     d = transform_vector(m, direction)
     o = a * w
     t0 = float(0.0)
     if largest_magnitude(o) > FAR_ORIGIN * reach:
-        t0 = -wp.dot(o, d) / wp.dot(d, d)
-        if not (t0 > 0.0 and t0 < FLOAT32_MAX):  # behind the origin, or d . d over- or underflowed (a scale of 1e20)
+        down, _ = unit_scales(d)
+        d_unit = d * down
+        t0 = -wp.dot((a * down) * w, d_unit) / wp.dot(d_unit, d_unit)
+        if not (t0 > 0.0 and t0 < FLOAT32_MAX):  # behind the origin, or no finite float
             t0 = 0.0
         if t0 > 0.0:
             o = a * (w + t0 * direction)
