@@ -108,3 +108,30 @@ def test_a_scene_scaled_by_a_power_of_two_moves_its_rays_as_the_unscaled_one(sca
     assert wrt.occluded(scene, origins, directions)[clear].all()
     unscaled = sheared_octahedra_scene(1.0)
     np.testing.assert_array_equal(hits.t, wrt.trace(unscaled[0], unscaled[1], unscaled[2]).t)
+
+
+@pytest.mark.parametrize("kind", ["box", "sphere", "capsule"])
+def test_a_shape_whose_canonical_ray_overflows_gives_no_hit_outside_the_limits(kind):
+    """A shape 2^-100 across at the world origin inside a box 2^100 across, and rays from z = 2^102 going up (away
+    from both: their hits lie at negative ``t``) with ``t_min`` at 1.5 times the big box's far face, which is then
+    the closest hit, at ``t = -(2^100 + 2^102) / d_z`` (float64). In the small shape's space the ray's origin is
+    2^202: no float32. The canonical box test took that infinite origin for a ray inside every slab and returned
+    ``t = -inf``, which the TLAS kept as the closest hit (prim 0, far outside ``[t_min, t_max)``), and the any-hit
+    query said occluded between ``t_min`` and 1.1 times the far face, where nothing lies. A canonical ray that is
+    not finite now misses, as a BLAS takes it (``ray_can_hit``)."""
+    import wrt
+    from wrt.primitives import Shape
+
+    small, big = 2.0**-100, 2.0**100
+    scene = wrt.Scene(shapes=[Shape("/Small", kind, np.diag([small, small, small, 1.0])),
+                              Shape("/Big", "box", np.diag([big, big, big, 1.0]))])
+    origins = np.array([[0, 0, 2.0**102], [0, 0, 2.0**102], [2.0**99, 0, 2.0**102]], np.float32)
+    directions = np.array([[0, 0, 1], [0, 0, 2.0**29], [0, 1e-3, 1]], np.float32)
+    far_face = -(big + 2.0**102) / directions[:, 2].astype(np.float64)
+    t_min = (1.5 * far_face).astype(np.float32)
+    hits = wrt.trace(scene, origins, directions, t_min=t_min)
+    np.testing.assert_array_equal(hits.prim, 1)
+    np.testing.assert_allclose(hits.t, far_face, rtol=1e-6)
+    t_max = (1.1 * far_face).astype(np.float32)
+    assert not wrt.occluded(scene, origins, directions, t_min=t_min, t_max=t_max).any()
+    assert not wrt.trace(scene, origins, directions, t_min=t_min, t_max=t_max).hit.any()

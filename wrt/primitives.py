@@ -53,6 +53,7 @@ from .errors import (
     with_bottom_row,
 )
 from .floats import scaled_limit, unit_scales
+from .geometry import ray_can_hit
 from .instancing import invert_transforms, thicken_flat_transforms
 from .ray_batch import host_array
 
@@ -263,12 +264,19 @@ def intersect_shape(kind: int, params: wp.vec4, o: wp.vec3, d: wp.vec3, t_min: f
     radius 1e-20 seen by a unit ray has a canonical direction of length 1e20, and the quadratics' ``d . d``
     overflowed (or underflowed, for huge shapes or tiny directions), so such shapes were missed. Scaling by a power
     of two is exact, so rays that were fine before get the same bits; limits that the scaling takes below float32's
-    normal range are rounded up (``scaled_limit``), as ``ray_batch`` rounds them for the world ray's own scaling."""
-    down, up = unit_scales(d)
-    # o + t (d * down) is o + (t * down) d: the range scales up, the hit down.
-    lo = scaled_limit(t_min, down, up)
-    hi = scaled_limit(t_max, down, up)
-    return down * canonical_hit(kind, params, o, d * down, lo, hi)
+    normal range are rounded up (``scaled_limit``), as ``ray_batch`` rounds them for the world ray's own scaling.
+
+    A ray that is no finite float32 ray in canonical space (a world origin 2^102 away from a shape 2^-100 across)
+    misses, as a BLAS takes it (``ray_can_hit``): the box test took an infinite origin for one inside every slab and
+    returned ``t = -inf``, a hit below any ``t_min``."""
+    t = float(wp.inf)
+    if ray_can_hit(o, d, t_min, t_max):
+        down, up = unit_scales(d)
+        # o + t (d * down) is o + (t * down) d: the range scales up, the hit down.
+        lo = scaled_limit(t_min, down, up)
+        hi = scaled_limit(t_max, down, up)
+        t = down * canonical_hit(kind, params, o, d * down, lo, hi)
+    return t
 
 
 @wp.func
