@@ -96,8 +96,8 @@ def test_a_scene_scaled_by_a_power_of_two_moves_its_rays_as_the_unscaled_one(sca
     """The stretched instances of ``test_instancing`` (sheared by 300, rays from 900 away) with every length scaled by
     2^-100 or 2^100: each ray whose float64 hit is clear hits that triangle at the float64 ``t``, bit for bit as in
     the unscaled scene. ``moved_ray`` found ``t0`` from the local direction's ``d . d``, which for an instance
-    2^-100 across overflows (2^200) and for one 2^100 across underflows: such rays were never moved, and 1,115 and
-    1,130 of the 2,000 missed or hit another triangle (as every instance did before the move)."""
+    2^-100 across overflows (2^200) and for one 2^100 across underflows: such rays were never moved, and 74 of the
+    1,791 clear rays missed or hit another triangle at either scale (none unscaled)."""
     import wrt
 
     scene, origins, directions, t, row, clear = sheared_octahedra_scene(scale)
