@@ -9,21 +9,17 @@ import numpy as np
 import warp as wp
 
 sys.path.insert(0, "tests")  # the stretched octahedra of tests/test_instancing.py
-from test_instancing import Instances, Mesh, Prototype, stretched_octahedra  # noqa: E402
+from test_instancing import octahedra_scene, stretched_octahedra  # noqa: E402
 
 import wrt  # noqa: E402
 from wrt.primitives import Shape  # noqa: E402
 
 print(wp.get_cuda_device_count(), "cuda devices")
-pts = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32)
-faces = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)])
 bad = 0
 for stretch in ("sheared", "squashed"):
     rng = np.random.default_rng(7)
     to_world = stretched_octahedra(rng, stretch, 40)
-    proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
-    instances = Instances.from_transforms(np.zeros(40, int), to_world)
-    scenes = {"instances": wrt.Scene(prototypes=[proto], instances=instances),
+    scenes = {"instances": octahedra_scene(to_world),
               "spheres": wrt.Scene(shapes=[Shape(f"/B{k}", "sphere", m) for k, m in enumerate(to_world)])}
     n = 50000
     targets = to_world[rng.integers(0, 40, n), :3, 3] + rng.normal(size=(n, 3))

@@ -2042,6 +2042,17 @@ def test_small_objects_at_placements_float32_cannot_hold_are_hit_where_float64_p
         np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-3)
 
 
+OCTAHEDRON = (np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32),
+              np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)]))
+
+
+def octahedra_scene(to_world: np.ndarray) -> wrt.Scene:
+    """Instances of the unit octahedron (``OCTAHEDRON``: points, faces) placed by ``(n, 4, 4)`` ``to_world``."""
+    pts, faces = OCTAHEDRON
+    proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
+    return wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(len(to_world), int), to_world))
+
+
 def stretched_octahedra(rng, stretch: str, n_instances: int) -> np.ndarray:
     """``(n, 4, 4)`` placements of the unit octahedron that stretch some directions far more than others: turned,
     sheared by 300 along a random pair of axes (``"sheared"``: its world shape a needle or a blade 300 long and 1/300
@@ -2086,10 +2097,8 @@ def test_rays_from_afar_hit_stretched_instances_as_a_float64_solution_says(stret
     rng = np.random.default_rng(3)
     n_instances = 6
     to_world = stretched_octahedra(rng, stretch, n_instances)
-    pts = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32)
-    faces = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)])
-    proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
-    scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n_instances, int), to_world))
+    pts, faces = OCTAHEDRON
+    scene = octahedra_scene(to_world)
     world = np.concatenate([pts.astype(np.float64) @ m[:3, :3].T + m[:3, 3] for m in to_world])
     indices = np.concatenate([faces + 6 * i for i in range(n_instances)])
     n = 3000
@@ -2169,10 +2178,8 @@ def test_limits_around_the_moved_origin_keep_the_float64_hits_of_stretched_insta
     # The last one unstretched, at the world origin, and fat enough for limits between its faces.
     to_world[-1] = np.eye(4)
     to_world[-1, :3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0] * 50.0
-    pts = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32)
-    faces = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)])
-    proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
-    scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n_instances, int), to_world))
+    pts, faces = OCTAHEDRON
+    scene = octahedra_scene(to_world)
     # The instances as the device holds them (float32 [A | c], wrt.transforms): a 1e6 squash held in float32 moves
     # the sheet's corners by up to 1e-2, out of its plane too, which a ray from 1 away sees as 1% of its t.
     held = np.linalg.inv(np.linalg.inv(to_world[:, :3, :3]).astype(np.float32).astype(np.float64))

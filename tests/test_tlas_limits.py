@@ -5,7 +5,7 @@ numpy's float32 sums, which round as the kernels do."""
 import numpy as np
 import pytest
 import warp as wp
-from test_instancing import closest_hits_numpy, stretched_octahedra
+from test_instancing import OCTAHEDRON, closest_hits_numpy, octahedra_scene, stretched_octahedra
 
 from wrt.tlas import shifted_limit
 
@@ -58,18 +58,13 @@ def sheared_octahedra_scene(scale: float):
     of two), rays from about 900 (times ``scale``) away aimed well inside random triangles, and the float64 closest
     hit of each: ``(scene, origins, directions, t, row, clear)``, ``clear`` where the hit lies more than 1% of its
     triangle inside it."""
-    import wrt
-    from wrt.instancing import Instances
-    from wrt.scene import Mesh, Prototype
 
     rng = np.random.default_rng(3)
     n_instances = 6
     to_world = stretched_octahedra(rng, "sheared", n_instances)
     to_world[:, :3, :] *= scale  # exact: a power of two
-    pts = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], np.float32)
-    faces = np.array([(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)])
-    proto = Prototype("/Octa", [Mesh("/Octa/mesh", pts, faces, np.arange(8))])
-    scene = wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(n_instances, int), to_world))
+    pts, faces = OCTAHEDRON
+    scene = octahedra_scene(to_world)
     world = np.concatenate([pts.astype(np.float64) @ m[:3, :3].T + m[:3, 3] for m in to_world])
     indices = np.concatenate([faces + 6 * i for i in range(n_instances)])
     n = 2000
