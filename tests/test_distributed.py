@@ -192,3 +192,33 @@ def test_a_malformed_scheduler_address_is_named_with_dask_s_reason(tmp_path, cap
     err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
     assert err == ["wrt: error: Dask scheduler address '8786': missing port number in address '8786'; give one such "
                    "as 'tcp://host:8786'"]
+
+
+def test_bench_dask_ctrl_c_keeps_the_rows_written_as_a_plain_run_does(tmp_path, monkeypatch):
+    """Ctrl-C in bench --dask (simulated while the second group's rows are written, on one worker) keeps the rows
+    already in rows.jsonl and their table, as the plain run interrupted at the same row does; neither writes a row
+    for the group cut short (bench rows have no status), and --resume measures only what is missing."""
+    grid = Grid(scenes=["sphere:200"], accels=["warp:sah", "wrt:sah"], rays=["primary", "shadow"], n_rays=300,
+                repeats=1)
+    replace_resumed = bench._replace_resumed
+
+    def ctrl_c_at_shadow_rows(row, *args):
+        if row["rays"] == "shadow":
+            raise KeyboardInterrupt
+        return replace_resumed(row, *args)
+
+    monkeypatch.setattr(bench, "_replace_resumed", ctrl_c_at_shadow_rows)
+    monkeypatch.setattr(distributed, "default_workers", lambda: 1)
+    written = {}
+    for name, dask in (("plain", None), ("dask", True)):
+        with pytest.raises(KeyboardInterrupt):
+            run_grid(grid, tmp_path / name, progress=False, dask=dask)
+        written[name] = [json.loads(line) for line in (tmp_path / name / "rows.jsonl").read_text().splitlines()]
+        table = (tmp_path / name / "table.md").read_text()
+        assert all(f"| {r['accel']} |" in table for r in written[name]), table
+    assert [(r["rays"], r["accel"]) for r in written["dask"]] == [("primary", "warp:sah"), ("primary", "wrt:sah")]
+    assert comparable(written["dask"]) == comparable(written["plain"])
+    monkeypatch.setattr(bench, "_replace_resumed", replace_resumed)
+    rows = run_grid(grid, tmp_path / "dask", progress=False, resume=True, dask=True)
+    assert rows.resumed == 2 and rows[:2] == written["dask"]
+    assert [(r["rays"], r["accel"]) for r in rows[2:]] == [("shadow", "warp:sah"), ("shadow", "wrt:sah")]
