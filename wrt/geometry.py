@@ -267,24 +267,6 @@ def box_origins(origin: wp.vec3, direction: wp.vec3):
     return origin - up, origin - down
 
 
-_OPAQUE_INDEX = """
-#if defined(__CUDA_ARCH__)
-    int r = i;
-    asm volatile("" : "+r"(r));
-    return r;
-#else
-    return i;
-#endif
-"""
-
-
-@wp.func_native(_OPAQUE_INDEX)
-def opaque_index(i: int) -> int:
-    """``i``, which the CUDA compiler cannot see through: the leaf loops read a hit's corners again through it
-    (``own_box_t``), so that the compiler does not keep the nine corner values of every triangle test live through
-    the test to reuse them at the rare hit (more spills under the 64-register cap)."""
-
-
 @wp.func
 def own_box_t(origin: wp.vec3, inv_dir: wp.vec3, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, t: float):
     """``t`` of a hit on the triangle ``p0, p1, p2`` (``intersect_ray_triangle``) clamped into where the ray is
