@@ -3,9 +3,7 @@
 - Triangles: Woop, Benthin and Wald, "Watertight Ray/Triangle Intersection", JCGT 2013. The ray is sheared so it
   runs along +Z; the three 2D edge functions are then evaluated with the same operands for an edge shared by two
   triangles, so a ray can never slip between them. Edge functions that come out exactly zero are recomputed in
-  double precision, as the paper prescribes. The test is two-sided. The leaf loops clamp a hit's ``t`` into where
-  the ray is inside the triangle's own box (``own_box_t``), so every box that holds the triangle is entered at or
-  before it and left at or after it.
+  double precision, as the paper prescribes. The test is two-sided.
 - Boxes: the slab test with the far distance scaled up by ``1 + 2 * gamma(3)`` (Ize, "Robust BVH Ray Traversal",
   JCGT 2013), so rounding can never cull a box that the ray touches.
 
@@ -265,72 +263,6 @@ def box_origins(origin: wp.vec3, direction: wp.vec3):
     down = wp.vec3(origin_shift(origin[0], direction[0], 1.0), origin_shift(origin[1], direction[1], 1.0),
                    origin_shift(origin[2], direction[2], 1.0))
     return origin - up, origin - down
-
-
-@wp.func
-def own_box_t(origin: wp.vec3, inv_dir: wp.vec3, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, t: float):
-    """``t`` of a hit on the triangle ``p0, p1, p2`` (``intersect_ray_triangle``) clamped into where the ray is
-    inside the triangle's own box, as ``intersect_ray_box`` computes it (``inv_dir = safe_inverse(direction)``).
-
-    The watertight test's ``t`` errs by float32 epsilons of the distances to the corners (a ray starting 1e-4 from a
-    face 2000 across: 30% of ``t``), times the aspect of a sliver; the slab test errs by ulps of ``t``. A box flat
-    along the ray (an axis-aligned face, a fanned cap) is entered and left at the hit, so a hit just below ``t_max``
-    (or at ``t_min``) lay outside it and was culled with the box. A clamped ``t`` lies inside the computed
-    ``[entry, exit]`` of every box that holds the whole triangle (``own_box_interval``): a limit that keeps the hit
-    keeps its boxes. The exact ``t`` lies in the exact interval, so the clamp moves ``t`` towards it.
-
-    The leaf loops call this only for a triangle the ray's line hits, with the corners loaded again, and compare the
-    clamped ``t`` with their limits: nothing more stays live through the triangle tests. Computed for every test
-    inside ``intersect_ray_triangle``, it cost the H100's BVH4 traversal 3-8% (GPU_NOTES.md row 74)."""
-    near, far = own_box_interval(inv_dir, p0 - origin, p1 - origin, p2 - origin)
-    return clamp_into(t, near, far)
-
-
-@wp.func
-def own_box_interval(inv_dir: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3):
-    """``(near, far)``: where the ray enters and leaves the box of the triangle with corners ``origin + a, b, c``,
-    as ``intersect_ray_box`` computes them.
-
-    Each axis's slab is ``(min or max of the corners - origin) * inv_dir``: rounding is monotone, so ``min(a, b, c)``
-    is the rounded difference of the triangle's lower bound and the origin, and these are the bits of
-    ``intersect_ray_box``'s slabs for the triangle's box, and lie inside its slabs for any box holding that one.
-    Along a zero (or subnormal) direction component the slab is taken as unbounded: ``inv_dir`` holds
-    ``FLAT_INVERSE`` there, not the inverse, so ``a * inv_dir`` is no distance (0 for a ray in the box's face plane;
-    far too small in the space of an instance scaled by 3e38), and the box test widens such slabs to at least
-    ``[-1e20, 1e20]`` (``box_origins``, ``flat_slab_slack``)."""
-    t0 = wp.cw_mul(wp.min(wp.min(a, b), c), inv_dir)
-    t1 = wp.cw_mul(wp.max(wp.max(a, b), c), inv_dir)
-    near = finite_max(finite_max(slab_entry(t0[0], t1[0], inv_dir[0]), slab_entry(t0[1], t1[1], inv_dir[1])),
-                      slab_entry(t0[2], t1[2], inv_dir[2]))
-    far = finite_min(finite_min(slab_exit(t0[0], t1[0], inv_dir[0]), slab_exit(t0[1], t1[1], inv_dir[1])),
-                     slab_exit(t0[2], t1[2], inv_dir[2]))
-    return near, far
-
-
-@wp.func
-def slab_entry(t0: float, t1: float, inv: float):
-    """Where a ray enters a slab whose planes it meets at ``t0`` and ``t1``; ``-inf`` along a zero (or subnormal)
-    direction component, whose ``inv`` is ``FLAT_INVERSE`` rather than its inverse (see ``own_box_interval``)."""
-    return wp.where(wp.abs(inv) >= FLAT_INVERSE, -wp.inf, finite_min(t0, t1))
-
-
-@wp.func
-def slab_exit(t0: float, t1: float, inv: float):
-    """Where a ray leaves a slab (see ``slab_entry``); ``+inf`` along a zero (or subnormal) direction component."""
-    return wp.where(wp.abs(inv) >= FLAT_INVERSE, wp.inf, finite_max(t0, t1))
-
-
-@wp.func
-def clamp_into(t: float, near: float, far: float):
-    """``t`` clamped into ``[near, far]`` (``own_box_interval``). An interval that rounding left empty by no more
-    than the box test's slack (a ray grazing the box) is clamped into with its ends swapped; a hit on a box that the
-    ray misses by more (which the box test culls anyway) keeps its ``t``."""
-    result = t
-    if near <= far + wp.abs(far) * ROBUST_FAR_SLACK:
-        lo = finite_min(near, far)
-        hi = finite_max(near, far)
-        result = wp.where(t < lo, lo, wp.where(t > hi, hi, t))  # a NaN t stays NaN (a miss), as it was
-    return result
 
 
 @wp.func

@@ -20,7 +20,6 @@ from ..geometry import (
     intersect_ray_box,
     intersect_ray_triangle,
     make_sheared_ray,
-    own_box_t,
     ray_can_hit,
     safe_inverse,
 )
@@ -266,8 +265,6 @@ def bvh_intersect(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: fl
                 for s in range(first, first + count):
                     tests += 1
                     hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
-                    if hit:  # clamp into the triangle's box only here, from the corners again (own_box_t)
-                        t = own_box_t(ray.origin, inv_dir, bvh.v0[s], bvh.v1[s], bvh.v2[s], t)
                     if hit and t >= t_min:
                         if t < best_t or (t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]):
                             best_t = t
@@ -314,8 +311,6 @@ def bvh_occluded(bvh: DeviceBvh, origin: wp.vec3, direction: wp.vec3, t_min: flo
             if count > 0:
                 for s in range(first, first + count):
                     hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
-                    if hit:  # clamp into the triangle's box only here, from the corners again (own_box_t)
-                        t = own_box_t(ray.origin, inv_dir, bvh.v0[s], bvh.v1[s], bvh.v2[s], t)
                     if hit and t >= t_min and t < t_max:
                         found = True
                 node = -1

@@ -35,7 +35,6 @@ from ..geometry import (
     intersect_ray_box,
     intersect_ray_triangle,
     make_sheared_ray,
-    own_box_t,
     ray_can_hit,
     safe_inverse,
 )
@@ -257,8 +256,6 @@ def _traversal_kernels(width: int) -> tuple:
                     for s in range(ref, ref + count):
                         tests += 1
                         hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
-                        if hit:  # clamp into the triangle's box only here, from the corners again (own_box_t)
-                            t = own_box_t(ray.origin, inv_dir, bvh.v0[s], bvh.v1[s], bvh.v2[s], t)
                         if hit and t >= t_min:
                             tie = t == best_t and best_slot >= 0 and bvh.prim_ids[s] < bvh.prim_ids[best_slot]
                             if t < best_t or tie:
@@ -355,8 +352,6 @@ def _traversal_kernels(width: int) -> tuple:
                 if count > 0:
                     for s in range(ref, ref + count):
                         hit, t, u, v = intersect_ray_triangle(ray, bvh.v0[s], bvh.v1[s], bvh.v2[s])
-                        if hit:  # clamp into the triangle's box only here, from the corners again (own_box_t)
-                            t = own_box_t(ray.origin, inv_dir, bvh.v0[s], bvh.v1[s], bvh.v2[s], t)
                         if hit and t >= t_min and t < t_max:
                             found = True
                     ref = -1
