@@ -229,7 +229,7 @@ def test_occluded_keeps_hits_just_below_t_max(accel):
     assert not wrt.occluded(scene, origins, directions, t_max=t, accel=accel).any()
 
 
-@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES row 74: a fix that cost 3-8%): "
+@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES rows 74, 76: fixes that cost 3-8%): "
                    "intersect_ray_box rounds a box's "
                    "entry down by 2^-20 of the entry itself (geometry.ENTRY_SLACK), but the watertight test's t of a "
                    "triangle on that box face errs by float32 epsilons of the distances to its corners (1000 here), "
@@ -267,7 +267,7 @@ def large_flat_box() -> wrt.Scene:
     return wrt.Scene.from_triangles(corners, faces)
 
 
-@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES row 74: a fix that cost 3-8%): "
+@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES rows 74, 76: fixes that cost 3-8%): "
                    "the mirror of the t_max case "
                    "above. intersect_ray_box keeps a box only up to ROBUST_FAR_SLACK (a few ulps) past its exit, but "
                    "the watertight test's t of a triangle on the face a ray leaves the box by errs by float32 "
@@ -309,7 +309,7 @@ def fanned_cap(segments: int) -> wrt.Scene:
     return wrt.Scene.from_triangles(points.astype(np.float32), faces.astype(np.int32))
 
 
-@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES row 74: a fix that cost 3-8%): "
+@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES rows 74, 76: fixes that cost 3-8%): "
                    "the watertight test's t of a sliver "
                    "errs by float32 epsilons times its aspect (up to 7e-6 relative at 1000 segments), more than "
                    "intersect_ray_box's slack (2^-20 on entries, a few ulps on exits) around the cap's flat boxes, "
