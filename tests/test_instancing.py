@@ -2053,6 +2053,14 @@ def octahedra_scene(to_world: np.ndarray) -> wrt.Scene:
     return wrt.Scene(prototypes=[proto], instances=Instances.from_transforms(np.zeros(len(to_world), int), to_world))
 
 
+def octahedra_triangles(linear: np.ndarray, placed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(world, indices)``: the float64 world corners and the faces of octahedra placed as ``linear @ p + placed``
+    (``(n, 3, 3)``, ``(n, 3)``), the triangles of :func:`octahedra_scene` for a float64 oracle."""
+    pts, faces = OCTAHEDRON
+    world = np.concatenate([pts.astype(np.float64) @ a.T + c for a, c in zip(linear, placed)])
+    return world, np.concatenate([faces + 6 * i for i in range(len(linear))])
+
+
 def stretched_octahedra(rng, stretch: str, n_instances: int) -> np.ndarray:
     """``(n, 4, 4)`` placements of the unit octahedron that stretch some directions far more than others: turned,
     sheared by 300 along a random pair of axes (``"sheared"``: its world shape a needle or a blade 300 long and 1/300
@@ -2097,10 +2105,8 @@ def test_rays_from_afar_hit_stretched_instances_as_a_float64_solution_says(stret
     rng = np.random.default_rng(3)
     n_instances = 6
     to_world = stretched_octahedra(rng, stretch, n_instances)
-    pts, faces = OCTAHEDRON
     scene = octahedra_scene(to_world)
-    world = np.concatenate([pts.astype(np.float64) @ m[:3, :3].T + m[:3, 3] for m in to_world])
-    indices = np.concatenate([faces + 6 * i for i in range(n_instances)])
+    world, indices = octahedra_triangles(to_world[:, :3, :3], to_world[:, :3, 3])
     n = 3000
     aim = rng.integers(0, len(indices), n)
     targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
@@ -2178,14 +2184,12 @@ def test_limits_around_the_moved_origin_keep_the_float64_hits_of_stretched_insta
     # The last one unstretched, at the world origin, and fat enough for limits between its faces.
     to_world[-1] = np.eye(4)
     to_world[-1, :3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0] * 50.0
-    pts, faces = OCTAHEDRON
     scene = octahedra_scene(to_world)
     # The instances as the device holds them (float32 [A | c], wrt.transforms): a 1e6 squash held in float32 moves
     # the sheet's corners by up to 1e-2, out of its plane too, which a ray from 1 away sees as 1% of its t.
     held = np.linalg.inv(np.linalg.inv(to_world[:, :3, :3]).astype(np.float32).astype(np.float64))
     placed = to_world[:, :3, 3].astype(np.float32)
-    world = np.concatenate([pts.astype(np.float64) @ a.T + c for a, c in zip(held, placed)])
-    indices = np.concatenate([faces + 6 * i for i in range(n_instances)])
+    world, indices = octahedra_triangles(held, placed)
     n = 1500
     aim = rng.integers(0, len(indices), 4 * n)
     targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], 4 * n), world[indices[aim]])

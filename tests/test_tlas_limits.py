@@ -5,7 +5,7 @@ numpy's float32 sums, which round as the kernels do."""
 import numpy as np
 import pytest
 import warp as wp
-from test_instancing import OCTAHEDRON, closest_hits_numpy, octahedra_scene, stretched_octahedra
+from test_instancing import closest_hits_numpy, octahedra_scene, octahedra_triangles, stretched_octahedra
 
 from wrt.tlas import shifted_limit
 
@@ -58,15 +58,12 @@ def sheared_octahedra_scene(scale: float):
     of two), rays from about 900 (times ``scale``) away aimed well inside random triangles, and the float64 closest
     hit of each: ``(scene, origins, directions, t, row, clear)``, ``clear`` where the hit lies more than 1% of its
     triangle inside it."""
-
     rng = np.random.default_rng(3)
     n_instances = 6
     to_world = stretched_octahedra(rng, "sheared", n_instances)
     to_world[:, :3, :] *= scale  # exact: a power of two
-    pts, faces = OCTAHEDRON
     scene = octahedra_scene(to_world)
-    world = np.concatenate([pts.astype(np.float64) @ m[:3, :3].T + m[:3, 3] for m in to_world])
-    indices = np.concatenate([faces + 6 * i for i in range(n_instances)])
+    world, indices = octahedra_triangles(to_world[:, :3, :3], to_world[:, :3, 3])
     n = 2000
     aim = rng.integers(0, len(indices), n)
     targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
