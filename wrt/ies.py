@@ -24,27 +24,14 @@ import warnings
 import numpy as np
 import warp as wp
 
+from .sampling import floor_index
+
 ANGLE_TOLERANCE = 1e-3  # degrees: an angle this close to 0, 90, 180, 270 or 360 counts as it
 # An IES profile spread over more than this many degrees of vertical angle covers the sphere, otherwise a hemisphere:
 # its normalization divides by its mean intensity over that (OpenUSD's hdEmbree, which also follows Karma and RIS).
 SPHERE_SPAN = 90.0 + math.degrees(0.1)
 PHOTOMETRIC_TYPE_C = 1
 PI_F = wp.constant(math.pi)
-
-
-@wp.func
-def angle_interval(data: wp.array[float], start: int, count: int, x: float):
-    """The ``i`` in ``[0, count - 2]`` with ``data[start + i] <= x`` where ``x`` lies in the ascending angles
-    ``data[start : start + count]`` (the nearest end interval outside them), by bisection."""
-    lo = int(0)
-    hi = count - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if data[start + mid] <= x:
-            lo = mid
-        else:
-            hi = mid
-    return lo
 
 
 @wp.func
@@ -68,7 +55,7 @@ def ies_factor(data: wp.array[float], info: wp.vec3i, frame: wp.mat33, w: wp.vec
     c_at = h_at + n_h
     if theta < data[v_at] or theta > data[v_at + n_v - 1]:
         return 0.0  # outside the profile's vertical range: no light
-    i = angle_interval(data, v_at, n_v, theta)
+    i = floor_index(data, v_at, n_v, theta)
     v0 = data[v_at + i]
     tv = wp.clamp((theta - v0) / wp.max(data[v_at + i + 1] - v0, 1e-30), 0.0, 1.0)
     row_a = int(0)
@@ -86,7 +73,7 @@ def ies_factor(data: wp.array[float], info: wp.vec3i, frame: wp.mat33, w: wp.vec
             row_a = n_h - 1
             th = wp.clamp((phi - last) / wp.max(first + 2.0 * PI_F - last, 1e-30), 0.0, 1.0)
         else:
-            row_a = angle_interval(data, h_at, n_h, phi)
+            row_a = floor_index(data, h_at, n_h, phi)
             row_b = row_a + 1
             h0 = data[h_at + row_a]
             th = wp.clamp((phi - h0) / wp.max(data[h_at + row_b] - h0, 1e-30), 0.0, 1.0)

@@ -155,6 +155,21 @@ def power_heuristic(pdf_a: float, pdf_b: float):
 
 
 @wp.func
+def floor_index(data: wp.array[float], start: int, count: int, x: float):
+    """The ``i`` in ``[0, count - 2]`` with ``data[start + i] <= x < data[start + i + 1]`` where ``x`` lies in the
+    ascending ``data[start : start + count]`` (the nearest end interval outside them), by bisection."""
+    lo = int(0)
+    hi = count - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if data[start + mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@wp.func
 def sample_cdf(cdf: wp.array[float], start: int, count: int, u: float):
     """Index ``k`` in ``[0, count)`` with ``cdf[start + k] <= target < cdf[start + k + 1]`` by binary search, where
     ``target = cdf[start] + u * (cdf[start + count] - cdf[start])``.
@@ -162,14 +177,7 @@ def sample_cdf(cdf: wp.array[float], start: int, count: int, u: float):
     ``cdf[start .. start + count]`` holds ``count + 1`` non-decreasing values.
     """
     target = cdf[start] + u * (cdf[start + count] - cdf[start])
-    lo = int(0)
-    hi = count
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if cdf[start + mid] <= target:
-            lo = mid
-        else:
-            hi = mid
+    lo = floor_index(cdf, start, count + 1, target)
     # Skip zero-width entries (a sample must never land on a zero-probability bin).
     while lo < count - 1 and cdf[start + lo + 1] <= cdf[start + lo]:
         lo += 1
