@@ -144,29 +144,33 @@ class Shaping:
         return float(np.sum(factor * fade * weight) / np.sum(weight))
 
 
+def unit_column(to_world, k: int) -> np.ndarray | None:
+    """``(3,)`` float64 unit world direction of local axis ``k`` under ``to_world`` (``(4, 4)`` column-vector), or
+    None where the transform flattens it."""
+    axis = np.asarray(to_world, np.float64).reshape(4, 4)[:3, k]
+    length = float(np.linalg.norm(axis))
+    return axis / length if length > 0.0 else None
+
+
 def primary_axis(to_world, fallback) -> np.ndarray:
     """``(3,)`` unit world direction of the light's -Z axis under ``to_world`` (``(4, 4)`` column-vector), or
     ``fallback`` where the transform flattens it."""
-    z = np.asarray(to_world, np.float64).reshape(4, 4)[:3, 2]
-    length = float(np.linalg.norm(z))
-    return -z / length if length > 0.0 else np.asarray(fallback, np.float64)
+    z = unit_column(to_world, 2)
+    return -z if z is not None else np.asarray(fallback, np.float64)
 
 
 def x_axis(to_world, fallback) -> np.ndarray:
     """``(3,)`` unit world direction of the light's local +X axis under ``to_world`` (``(4, 4)`` column-vector),
     where an IES profile's horizontal angles start, or ``fallback`` where the transform flattens it."""
-    x = np.asarray(to_world, np.float64).reshape(4, 4)[:3, 0]
-    length = float(np.linalg.norm(x))
-    return x / length if length > 0.0 else np.asarray(fallback, np.float64)
+    x = unit_column(to_world, 0)
+    return x if x is not None else np.asarray(fallback, np.float64)
 
 
 def y_axis(to_world) -> np.ndarray | None:
     """``(3,)`` unit world direction of the light's local +Y axis under ``to_world`` (``(4, 4)`` column-vector), which
     tells a mirroring transform's horizontal angles apart (:func:`ies_frame`), or None where the transform flattens
     it."""
-    y = np.asarray(to_world, np.float64).reshape(4, 4)[:3, 1]
-    length = float(np.linalg.norm(y))
-    return y / length if length > 0.0 else None
+    return unit_column(to_world, 1)
 
 
 def ies_frame(axis, x, y=None) -> np.ndarray:
