@@ -107,6 +107,29 @@ def test_task_errors_reach_on_error_or_are_raised_after_the_rest():
     assert sorted(arrived) == [0, 1, 2, 4, 5]  # the others still arrived before the error
 
 
+class _ClientCutWhileSubmitting:
+    """A Dask client whose map is cut short by Ctrl-C, as a run stopped while its tasks are still being sent."""
+
+    closed = False
+
+    def map(self, fn, items, pure=True):
+        raise KeyboardInterrupt
+
+    def close(self):
+        self.closed = True
+
+
+def test_ctrl_c_while_the_tasks_are_sent_stays_a_ctrl_c(monkeypatch):
+    """Ctrl-C before any task was handed back (inside client.map) reaches the caller as KeyboardInterrupt, with no
+    item cut short; the handler read the futures, not yet made, and raised UnboundLocalError in its place."""
+    client = _ClientCutWhileSubmitting()
+    monkeypatch.setattr(distributed, "connect", lambda *args: (client, None))
+    cut_short = []
+    with pytest.raises(KeyboardInterrupt):
+        run_tasks(cube_and_pid, [1, 2], on_result=lambda i, r: None, on_interrupt=cut_short.append, progress=False)
+    assert cut_short == [[]] and client.closed
+
+
 def test_unreachable_scheduler_is_named(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(distributed, "CONNECT_TIMEOUT", 1.0)
     with pytest.raises(DaskUnavailable, match="tcp://127.0.0.1:9"):

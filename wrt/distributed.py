@@ -154,6 +154,7 @@ def run_tasks(
     client, cluster = connect(address, n_workers, retries)
     results = {} if on_result is None else None
     failed = []
+    futures = {}  # future -> item index; none yet at a Ctrl-C while they are sent (on_interrupt then gets none)
     try:
         from distributed import as_completed
 
