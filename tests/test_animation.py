@@ -99,6 +99,19 @@ def test_frame_output_refuses_a_frame_its_file_name_cannot_spell(frame, message)
         frame_output("out/f_####.png", frame)
 
 
+def test_frame_output_refuses_a_folder_its_frame_number_makes_too_long(tmp_path):
+    """A pattern whose last run of # names the folder (shot_####/img.png): the number lands in the folder's name,
+    which a file system refuses past 255 bytes as it refuses a file's; only the last part of the path was measured,
+    so 1e-300 was named and failed at the write, after its render. Oracle: making the folder fails."""
+    pattern = str(tmp_path / "shot_####" / "img.png")
+    long_folder = Path(pattern.replace("####", np.format_float_positional(1e-300).zfill(4))).parent
+    with pytest.raises(OSError):
+        long_folder.mkdir()
+    with pytest.raises(ValueError, match=re.escape("frame_output: frame 1e-300: ") + ".*bytes long"):
+        frame_output(pattern, 1e-300)
+    assert frame_output(pattern, 12.5) == tmp_path / "shot_0012.5" / "img.png"
+
+
 @pytest.mark.parametrize("frame", [999999999999.0, -999999999999.0, 123456.5, 1e-20, 0.0])
 def test_frame_output_names_the_largest_and_smallest_frames_it_takes_exactly(frame):
     """Oracle: the number in the name, read back by float(), is the frame."""

@@ -123,7 +123,8 @@ def frame_output(pattern, frame: float) -> Path:
         ValueError: for a ``frame`` that is not a finite number (NaN and inf were named ``frame_0nan.png``), one of
             more than :data:`FRAME_DIGITS` digits before the point, which 12 significant digits would name as another
             frame (1234567890123 as ``frame_1234567890120.png``; 1e300 had a 300-digit name), or one whose file name
-            would be longer than :data:`MAX_NAME_BYTES` (1e-300: the write failed after the render).
+            would be longer than :data:`MAX_NAME_BYTES`, or a folder's where the # are there (1e-300: the write
+            failed after the render).
     """
     try:
         finite = not isinstance(frame, (bool, np.bool_, str, bytes)) and math.isfinite(float(frame))
@@ -147,9 +148,12 @@ def frame_output(pattern, frame: float) -> Path:
     if fraction:
         number += "." + fraction
     path = Path(pattern[: run.start()] + number + pattern[run.end() :])
-    if len(os.fsencode(path.name)) > MAX_NAME_BYTES:
-        raise ValueError(f"frame_output: frame {frame!r}: its file name {path.name[:40]}... is "
-                         f"{len(os.fsencode(path.name))} bytes long, past the {MAX_NAME_BYTES} a file system takes")
+    # Every part of the path: the number lands in a folder's name where the last run of # is there (shot_####/a.png).
+    part = max(path.parts, key=lambda name: len(os.fsencode(name)))
+    if len(os.fsencode(part)) > MAX_NAME_BYTES:
+        raise ValueError(f"frame_output: frame {frame!r}: the name {part[:40]}... in its path is "
+                         f"{len(os.fsencode(part))} bytes long, past the {MAX_NAME_BYTES} a file system takes for a "
+                         "file or folder")
     return path
 
 
