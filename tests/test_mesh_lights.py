@@ -355,3 +355,48 @@ def test_a_python_mesh_light_names_its_mesh():
     scene.lights = [wrt.MeshLight("/panel", color=np.ones(3)), wrt.MeshLight("/panel", color=np.full(3, 5.0))]
     with pytest.raises(wrt.SceneError, match="panel: two MeshLights name the same mesh"):  # the second took all
         render_floor(scene, "path", spp=1)
+
+
+DARK_LIGHTS = {  # a light its author put on the stage that gives none, and the warning naming it at load
+    "mesh_light_of_invalid_topology": (mesh_light(intensity=3.0).replace("[0, 1, 2, 3]", "[0, 1, 2, 7]"),
+                                       "mesh lights whose geometry was left out give no light"),
+    "emissive_mesh_of_invalid_topology": (
+        mesh_light(material="/Glow").replace('"MeshLightAPI", ', "").replace("[0, 1, 2, 3]", "[0, 1, 2, 7]")
+        + glowing_material((3.0, 3.0, 3.0)), "meshes of invalid topology were skipped"),
+    "sphere_gprim_light_of_negative_radius": (
+        'def Sphere "Light" (\n    prepend apiSchemas = ["MeshLightAPI"]\n)\n{\n    double radius = -1\n'
+        f'    double3 xformOp:translate = (0, 0, {HEIGHT})\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
+        "    float inputs:intensity = 3\n}\n", "mesh lights whose geometry was left out give no light"),
+    "rect_light_of_nan_intensity": (rect_light(intensity="nan"), "lights whose colour * intensity"),
+    "hidden_rect_light": (rect_light(intensity=3.0).replace("{\n", '{\n    token visibility = "invisible"\n', 1),
+                          None),
+}
+
+
+@pytest.mark.parametrize("case", sorted(DARK_LIGHTS))
+def test_a_stage_whose_only_light_gives_none_gets_no_default_lights(tmp_path, case):
+    """A stage whose author lit it, with a mesh light whose mesh is skipped (invalid topology), a mesh of an emissive
+    material skipped likewise, a gprim light of a bad size, a light of a NaN intensity or a hidden light, got the
+    default headlight and dome (meant for stages without lights), which lit the floor as 0.5 * (0.8 + 0.2) = 0.5 in
+    place of the author's lighting. USD lists such a stage's lights (``ComputeLightList``, hidden ones too): no
+    light reaches the floor now (0 exactly), the load names the light (but a hidden one, which is no mistake) and the
+    render says why the image is dark. A stage without the light still gets the default lights."""
+    from pxr import Usd, UsdLux
+
+    text, warned = DARK_LIGHTS[case]
+    scene, messages = load(tmp_path, floor(), text)
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    listed = [str(p) for p in UsdLux.LightListAPI(stage.GetPseudoRoot()).ComputeLightList(
+        UsdLux.LightListAPI.ComputeModeIgnoreCache)]
+    assert scene.lights == [] and scene.dark_lights == (listed or ["/Light"]) == ["/Light"], (scene.dark_lights, listed)
+    if warned is not None:
+        assert any(m.startswith(f"{tmp_path / 'stage.usda'}: {warned}") and m.endswith("/Light") for m in messages), \
+            messages
+    camera = top_down_camera(height=PATCH)
+    with pytest.warns(UserWarning, match=r"no light: the stage's lights give none .*: /Light; rendered without"):
+        img = wrt.render(scene, camera=camera, width=2, height=2, device="cpu")
+    np.testing.assert_array_equal(img.rgb, 0.0)
+    unlit, _ = load(tmp_path, floor(), name="unlit.usda")
+    assert unlit.dark_lights == []
+    np.testing.assert_allclose(wrt.render(unlit, camera=camera, width=2, height=2, device="cpu").rgb, ALBEDO,
+                               rtol=1e-5)

@@ -53,7 +53,8 @@ light through every occluder, ``shadow:color`` tints what occluders stop of it (
 surface gets the light times the colour), and ``shadow:distance`` limits how far from a surface point occluders cast
 its shadows (``shadow_distance``); its falloff is not rendered. Lights are invisible to shadow rays (they never
 occlude) but visible to camera and bounce rays, which pass through them and pick up their radiance. Stages with no
-UsdLux light and no emissive material get :func:`default_lights`: a headlight along the view direction and a grey dome.
+UsdLux light and no emissive material get :func:`default_lights`: a headlight along the view direction and a grey dome;
+not those whose lights all give none (hidden or skipped: ``Scene.dark_lights``).
 """
 
 from __future__ import annotations

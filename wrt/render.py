@@ -614,8 +614,15 @@ class Renderer:
         glows = np.array([float(np.max(e)) > 0.0 for e in emission])  # per material
         emissive_used = bool(glows[geometry_materials].any())
         # A stage with no light source at all gets the documented default lights, whose headlight (light 0) travels
-        # along the viewing direction of each camera of a batch.
-        default = not (scene.lights or emissive_used)
+        # along the viewing direction of each camera of a batch; not one whose author lit it with lights that gave
+        # none (hidden, or skipped: Scene.dark_lights), as Hydra renderers add none to a stage that has lights.
+        unlit = not (scene.lights or emissive_used)
+        default = unlit and not scene.dark_lights
+        if unlit and scene.dark_lights:
+            warnings.warn(f"{scene.source or 'scene'}: no light: the stage's lights give none (hidden, or skipped "
+                          f"as the load warned): {', '.join(scene.dark_lights[:5])}"
+                          f"{f' and {len(scene.dark_lights) - 5} more' if len(scene.dark_lights) > 5 else ''}; "
+                          "rendered without the default lights, which are for stages without lights", stacklevel=3)
         self.lights = default_lights(self._forwards[0]) if default else list(scene.lights)
         self.device_lights, unsampled = build_lights(self.lights, scene, emission, dev)
         shapes = glows[geometry_materials[scene.num_geometry_triangles :]].sum() if emissive_used else 0

@@ -527,6 +527,9 @@ class Scene:
             asked for it by path, or whose render settings name it, raises this reason
             (:func:`wrt.render.resolve_view`).
         lights: the stage's lights: :class:`DistantLight` and the classes of :mod:`wrt.lights`.
+        dark_lights: where ``lights`` is empty, the paths of the stage's UsdLux lights that gave none (hidden, or
+            skipped with a warning: bad values, a mesh light's mesh that could not be read) and of the meshes of an
+            emissive material that were skipped: a stage its author lit gets no default lights (the render warns).
         materials: :class:`wrt.materials.Material` list that ``Mesh.material_ids`` index.
         textures: ``(H, W, 4)`` float32 linear RGBA images that material textures index (``(H, W, 3)`` ones, read
             with alpha 1, and other float dtypes too: :func:`wrt.textures.scene_images`).
@@ -544,6 +547,7 @@ class Scene:
     cameras: dict[str, Camera] = dataclasses.field(default_factory=dict)
     skipped_cameras: dict[str, str] = dataclasses.field(default_factory=dict)
     lights: list = dataclasses.field(default_factory=list)
+    dark_lights: list[str] = dataclasses.field(default_factory=list)
     materials: list = dataclasses.field(default_factory=list)
     textures: list = dataclasses.field(default_factory=list)
     up_axis: str = "Y"

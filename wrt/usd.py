@@ -332,6 +332,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.instanced_lights = {}  # prim path -> MeshLight of the mesh lights read inside prototypes
         self.glowing_materials = {}  # material id -> whether it emits (a pass over its emission texture, once)
         self.light_textures = LightTextures(material_memo)  # the images of light textures, each file read once
+        # Shown paths of the UsdLux lights the walk met (hidden, skipped or read) and of the meshes bound to an emissive
+        # material that were skipped: a stage whose author lit it gets no default lights, even where none of these
+        # gives light (Scene.dark_lights).
+        self.authored_lights = {}
 
     def read(self) -> Scene:
         scene = Scene(
@@ -355,6 +359,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self._read_placed_lights(world)
         resolve_expressions(scene)  # linking collections in expression mode, against the paths drawn
         self._add_instanced_lights()
+        if not scene.lights:
+            scene.dark_lights = list(self.authored_lights)
         self._warn_skipped()
         return scene
 
@@ -373,6 +379,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
     def _read_prim(self, prim: Usd.Prim, it, ctx: Context):
         if prim.IsPseudoRoot() or prim.IsPrototype():
             return
+        if prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
+            self.authored_lights[self._shown_path(prim)] = None  # as UsdLux's ComputeLightList lists it: hidden too
         draw_mode = stand_in_draw_mode(prim)
         if draw_mode is not None:
             self._skip("models whose model:drawMode asks for a stand-in (cards, bounds or origin) were drawn as full "
@@ -459,7 +467,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             return
         m = self._to_space(prim, ctx)
         shape = None if m is None else self._read_gprim(prim, m, ctx)
-        if shape is not None:
+        if shape is None:
+            self._warn_dark_mesh_light(prim)
+        else:
             # A zero scale on one axis flattens the gprim into a disc or sheet, which Storm draws as its flat
             # tessellation, each half fronting its own side: it is drawn thin (as instances are), so each half keeps
             # its side. Drawn as that flat tessellation, whose halves overlap without sharing edges, culled back faces
@@ -490,19 +500,36 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         """``shape``'s material emits: a constant ``emissiveColor`` above 0, or a texture on it whose mean emission
         (each texel after scale and bias, negatives read as 0) is; the estimate the render uses to find the emissive
         triangles it samples."""
-        if shape.material_id < 0:  # the default material emits nothing
+        return self._material_glows(shape.material_id)
+
+    def _material_glows(self, material_id: int) -> bool:
+        """Material ``material_id`` (-1: the default material, which emits nothing) emits (see :meth:`_glows`)."""
+        if material_id < 0:
             return False
-        glows = self.glowing_materials.get(shape.material_id)
+        glows = self.glowing_materials.get(material_id)
         if glows is None:
-            material = self.materials.materials[shape.material_id]
-            glows = self.glowing_materials[shape.material_id] = bool(
+            material = self.materials.materials[material_id]
+            glows = self.glowing_materials[material_id] = bool(
                 emission_estimate(material, self.materials.textures).max() > 0.0)
         return glows
+
+    def _skipped_emitter(self, prim: Usd.Prim, face_materials: np.ndarray | None):
+        """Counts mesh ``prim``, skipped, among the stage's lights (``authored_lights``) when a material it is bound
+        to (``face_materials``: per face, or None) emits: its author lit the stage with it."""
+        if face_materials is not None and any(self._material_glows(int(k)) for k in np.unique(face_materials)):
+            self.authored_lights[self._shown_path(prim)] = None
+
+    def _warn_dark_mesh_light(self, prim: Usd.Prim):
+        """Names mesh light ``prim`` (MeshLightAPI, or LightAPI on a gprim) when its geometry was left out (invalid
+        topology, no points, a bad size or transform: each named too): it gives no light."""
+        if _is_mesh_light(prim):
+            self._skip("mesh lights whose geometry was left out give no light", prim)
 
     def _add_mesh(self, prim: Usd.Prim, mesh: Mesh | None, ctx: Context):
         """Adds ``mesh`` (None: nothing), drawn for ``prim``, to ``ctx.content``, and its light when ``prim`` is a
         mesh light (MeshLightAPI, or LightAPI on another gprim) outside instances."""
         if mesh is None:
+            self._warn_dark_mesh_light(prim)
             return
         ctx.content.meshes.append(mesh)
         if not _is_mesh_light(prim):

@@ -121,6 +121,8 @@ class MeshReading:
         local = self._read_local_mesh(prim, counts, uv_source, color_names, default_faces, ctx.keep_opaque,
                                       ctx.blocked_opaque)
         if local is None:
+            if len(self.skipped) > start:  # skipped (named), not merely empty
+                self._skipped_emitter(prim, face_materials)
             return None
         # Smooth normals made from the cage are made again from the posed cage (as Storm does, which skins
         # points only): skinning the rest pose's normals left blend shapes' dents unshaded and joints' bends
