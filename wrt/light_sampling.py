@@ -98,6 +98,7 @@ class DeviceLights:
     instance_emitters: wp.array[wp.int32]  # (N,) each instance's first entry, -1: none sampled (or (1,) of -1)
     shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF, SHADOWS_LINKED or SHADOWS_TINTED: what blocks the light
     shadow_api: wp.array[wp.vec4]  # (num_analytic) ShadowAPI (colour, distance) of SHADOWS_TINTED lights
+    shadow_fade: wp.array[wp.vec2]  # (num_analytic) their (falloff: width of the fading zone, 0: none; its gamma)
     shadow_api_on: int  # 1 when some light is SHADOWS_TINTED (otherwise shadow_api is not read)
     shaping: wp.array[wp.vec4]  # (num_analytic) (cone angle, smooth start (radians), focus, 1); all 0: unshaped
     shaping_axis: wp.array[wp.vec3]  # (num_analytic) unit primary axis (the light's -Z) of shaped lights
@@ -477,13 +478,21 @@ def shadow_direction(lights: DeviceLights, k: int, wi: wp.vec3):
 
 
 @wp.func
-def shadow_reach(lights: DeviceLights, k: int, t_max: float):
+def shadow_reach(lights: DeviceLights, k: int, t_max: float, u: float):
     """``t_max`` of a shadow ray towards light ``k``, shortened to its ShadowAPI ``shadow:distance`` (occluders
-    further from the surface cast no shadow of it), kept above 0 so the ray still counts as aimed."""
+    further from the surface cast no shadow of it), kept above 0 so the ray still counts as aimed.
+
+    In its falloff zone (the last ``F`` of the distance ``D``), an occluder at ``d`` casts a shadow of strength
+    ``((D - d) / F) ** gamma``: the reach is drawn, with ``u`` uniform in [0, 1) and independent of the light sample,
+    as ``D - F u ** (1 / gamma)``, which passes ``d`` with exactly that probability, so the shadow ray is blocked
+    (the light arrives times ``shadow:color``) as often as the shadow is strong: the fade in expectation."""
     if lights.shadow_api_on == 1:
         if lights.shadows[k] == SHADOWS_TINTED:
             reach = lights.shadow_api[k][3]
             if reach >= 0.0:
+                fade = lights.shadow_fade[k]
+                if fade[0] > 0.0 and fade[1] > 0.0:
+                    reach = reach - fade[0] * wp.where(fade[1] == 1.0, u, wp.pow(u, 1.0 / fade[1]))
                 return wp.max(wp.min(t_max, reach), 1.0e-30)
     return t_max
 

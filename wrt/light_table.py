@@ -543,10 +543,11 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     tinted = [k for k, row in enumerate(h.shadow_api) if row is not None]
     modes[tinted] = SHADOWS_TINTED  # (shadows on: shadow_api_row is None for a light without them)
     d.shadows = wp.array(modes, dtype=wp.int32, device=device)
-    rows = np.zeros((max(num_analytic, 1), 4), np.float32)
+    rows = np.zeros((max(num_analytic, 1), 6), np.float32)
     for k in tinted:
         rows[k] = h.shadow_api[k]
-    d.shadow_api = wp.array(rows, dtype=wp.vec4, device=device)
+    d.shadow_api = wp.array(rows[:, :4], dtype=wp.vec4, device=device)
+    d.shadow_fade = wp.array(rows[:, 4:], dtype=wp.vec2, device=device)
     d.shadow_api_on = 1 if tinted else 0
     return d, tris.unsampled
 

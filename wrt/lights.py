@@ -51,7 +51,8 @@ Light and shadow linking (``collection:lightLink``, ``collection:shadowLink``) l
 and the geometry that casts its shadows (:mod:`wrt.light_links`). ``ShadowAPI``: ``shadow:enable`` off lets the
 light through every occluder, ``shadow:color`` tints what occluders stop of it (``shadow_color``: the shadowed
 surface gets the light times the colour), and ``shadow:distance`` limits how far from a surface point occluders cast
-its shadows (``shadow_distance``); its falloff is not rendered. Lights are invisible to shadow rays (they never
+its shadows (``shadow_distance``), fading out over the last ``shadow_falloff`` of it (as ``shadow_falloff_gamma``
+shapes the fade). Lights are invisible to shadow rays (they never
 occlude) but visible to camera and bounce rays, which pass through them and pick up their radiance. Stages with no
 UsdLux light and no emissive material get :func:`default_lights`: a headlight along the view direction and a grey dome;
 not those whose lights all give none (hidden or skipped: ``Scene.dark_lights``).
@@ -88,22 +89,27 @@ def _size(name: str) -> tuple:
 
 
 def check_shadow_api(light) -> None:
-    """Checks a light's ``shadow_color`` (None, or ``(3,)`` finite numbers >= 0) and ``shadow_distance`` (a finite
-    number), naming the light: ShadowAPI's colour and distance, as :mod:`wrt.light_table` uploads them."""
+    """Checks a light's ``shadow_color`` (None, or ``(3,)`` finite numbers >= 0), ``shadow_distance`` and
+    ``shadow_falloff`` (finite numbers) and ``shadow_falloff_gamma`` (a finite number >= 0), naming the light:
+    ShadowAPI's inputs, as :mod:`wrt.light_table` uploads them."""
     if light.shadow_color is not None:
         check_fields(light, ("shadow_color", (3,), 0.0, np.float32))
-    check_fields(light, ("shadow_distance", (), None, float))
+    check_fields(light, ("shadow_distance", (), None, float), ("shadow_falloff", (), None, float),
+                 ("shadow_falloff_gamma", (), 0.0, float))
 
 
 def shadow_api_row(light) -> np.ndarray | None:
-    """``(4,)`` float32 ``(shadow colour, shadow distance)`` of a light whose shadows ShadowAPI changes (a colour
-    other than black or a distance >= 0, shadows on), or None: plain shadows (or none)."""
+    """``(6,)`` float32 ``(shadow colour, shadow distance, falloff, falloff gamma)`` of a light whose shadows
+    ShadowAPI changes (a colour other than black or a distance >= 0, shadows on), or None: plain shadows (or none).
+    The falloff is the width of the fading zone, at most the distance (as the schema says), 0 for none."""
     color = getattr(light, "shadow_color", None)
     distance = getattr(light, "shadow_distance", -1.0)
     tinted = color is not None and bool(np.any(np.asarray(color) > 0.0))
     if not light.shadows or not (tinted or distance >= 0.0):
         return None
-    return np.array([*(color if color is not None else np.zeros(3)), distance], np.float32)
+    falloff = min(max(getattr(light, "shadow_falloff", -1.0), 0.0), distance) if distance >= 0.0 else 0.0
+    gamma = getattr(light, "shadow_falloff_gamma", 1.0)
+    return np.array([*(color if color is not None else np.zeros(3)), distance, falloff, gamma], np.float32)
 
 
 def check_affine(light) -> None:
@@ -158,6 +164,10 @@ class SphereLight:
             light arrives times it; None: black, plain shadows.
         shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
             negative: any distance.
+        shadow_falloff: the width of the zone at the end of ``shadow_distance`` over which its shadows fade out
+            (``inputs:shadow:falloff``, at most the distance); 0 or negative (or no distance): none.
+        shadow_falloff_gamma: shadow strength in that zone is ``t ** gamma``, ``t`` falling linearly from 1 at its
+            start to 0 at ``shadow_distance`` (``inputs:shadow:falloffGamma``, >= 0).
         frame: ``(3, 3)`` linear part of the light's local-to-world transform, or None. With it ``radius`` is in
             its local units: the light is the ellipsoid ``position + radius * frame @ u`` (``|u| = 1``). A frame
             that flattens the sphere (a singular one) makes a sphere of the mean scaled radius.
@@ -180,6 +190,8 @@ class SphereLight:
     shadow_link: LinkCollection | None = None
     shadow_color: np.ndarray | None = None
     shadow_distance: float = -1.0
+    shadow_falloff: float = -1.0
+    shadow_falloff_gamma: float = 1.0
     frame: np.ndarray | None = None
 
     def __post_init__(self):
@@ -273,6 +285,10 @@ class RectLight:
             light arrives times it; None: black, plain shadows.
         shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
             negative: any distance.
+        shadow_falloff: the width of the zone at the end of ``shadow_distance`` over which its shadows fade out
+            (``inputs:shadow:falloff``, at most the distance); 0 or negative (or no distance): none.
+        shadow_falloff_gamma: shadow strength in that zone is ``t ** gamma``, ``t`` falling linearly from 1 at its
+            start to 0 at ``shadow_distance`` (``inputs:shadow:falloffGamma``, >= 0).
     """
 
     to_world: np.ndarray
@@ -291,6 +307,8 @@ class RectLight:
     shadow_link: LinkCollection | None = None
     shadow_color: np.ndarray | None = None
     shadow_distance: float = -1.0
+    shadow_falloff: float = -1.0
+    shadow_falloff_gamma: float = 1.0
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("width"), _size("height"), _COLOR, *_MULTIPLIERS)
@@ -334,6 +352,10 @@ class DiskLight:
             light arrives times it; None: black, plain shadows.
         shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
             negative: any distance.
+        shadow_falloff: the width of the zone at the end of ``shadow_distance`` over which its shadows fade out
+            (``inputs:shadow:falloff``, at most the distance); 0 or negative (or no distance): none.
+        shadow_falloff_gamma: shadow strength in that zone is ``t ** gamma``, ``t`` falling linearly from 1 at its
+            start to 0 at ``shadow_distance`` (``inputs:shadow:falloffGamma``, >= 0).
     """
 
     to_world: np.ndarray
@@ -349,6 +371,8 @@ class DiskLight:
     shadow_link: LinkCollection | None = None
     shadow_color: np.ndarray | None = None
     shadow_distance: float = -1.0
+    shadow_falloff: float = -1.0
+    shadow_falloff_gamma: float = 1.0
 
     def __post_init__(self):
         check_fields(self, _TO_WORLD, _size("radius"), _COLOR, *_MULTIPLIERS)
@@ -389,6 +413,10 @@ class CylinderLight:
             light arrives times it; None: black, plain shadows.
         shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
             negative: any distance.
+        shadow_falloff: the width of the zone at the end of ``shadow_distance`` over which its shadows fade out
+            (``inputs:shadow:falloff``, at most the distance); 0 or negative (or no distance): none.
+        shadow_falloff_gamma: shadow strength in that zone is ``t ** gamma``, ``t`` falling linearly from 1 at its
+            start to 0 at ``shadow_distance`` (``inputs:shadow:falloffGamma``, >= 0).
         treat_as_line: render as a line light along the axis (UsdLux ``treatAsLine``; see the module docstring).
     """
 
@@ -406,6 +434,8 @@ class CylinderLight:
     shadow_link: LinkCollection | None = None
     shadow_color: np.ndarray | None = None
     shadow_distance: float = -1.0
+    shadow_falloff: float = -1.0
+    shadow_falloff_gamma: float = 1.0
     treat_as_line: bool = False
 
     def __post_init__(self):
@@ -558,6 +588,10 @@ class DomeLight:
             light arrives times it; None: black, plain shadows.
         shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
             negative: any distance.
+        shadow_falloff: the width of the zone at the end of ``shadow_distance`` over which its shadows fade out
+            (``inputs:shadow:falloff``, at most the distance); 0 or negative (or no distance): none.
+        shadow_falloff_gamma: shadow strength in that zone is ``t ** gamma``, ``t`` falling linearly from 1 at its
+            start to 0 at ``shadow_distance`` (``inputs:shadow:falloffGamma``, >= 0).
     """
 
     color: np.ndarray
@@ -572,6 +606,8 @@ class DomeLight:
     shadow_link: LinkCollection | None = None
     shadow_color: np.ndarray | None = None
     shadow_distance: float = -1.0
+    shadow_falloff: float = -1.0
+    shadow_falloff_gamma: float = 1.0
 
     def __post_init__(self):
         check_fields(self, _COLOR, _TO_WORLD, *_MULTIPLIERS)

@@ -353,6 +353,10 @@ class DistantLight:
             light arrives times it; None: black, plain shadows.
         shadow_distance: how far from a surface point occluders cast its shadows (``inputs:shadow:distance``);
             negative: any distance.
+        shadow_falloff: the width of the zone at the end of ``shadow_distance`` over which its shadows fade out
+            (``inputs:shadow:falloff``, at most the distance); 0 or negative (or no distance): none.
+        shadow_falloff_gamma: shadow strength in that zone is ``t ** gamma``, ``t`` falling linearly from 1 at its
+            start to 0 at ``shadow_distance`` (``inputs:shadow:falloffGamma``, >= 0).
     """
 
     direction: np.ndarray
@@ -367,6 +371,8 @@ class DistantLight:
     shadow_link: LinkCollection | None = None
     shadow_color: np.ndarray | None = None
     shadow_distance: float = -1.0
+    shadow_falloff: float = -1.0
+    shadow_falloff_gamma: float = 1.0
 
     def __post_init__(self):
         from .errors import SceneError, check_fields, check_flags, unit_vector

@@ -243,7 +243,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         return None
     # The attribute counts whether or not ShadowAPI is applied, as in UsdLux's own fallback handling.
     shadows = flag(get, prim.GetAttribute("inputs:shadow:enable"), True, warn_flag)
-    shadow_color, shadow_distance = _shadow_api(prim, get, skip) if shadows else (None, -1.0)
+    shadow_color, shadow_distance, falloff = _shadow_api(prim, get, skip) if shadows else (None, -1.0, (-1.0, 1.0))
     try:
         shaping = read_shaping(prim, get, skip, textures.profiles)
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
@@ -266,6 +266,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
                      "plain shadows", prim)
         else:
             result.shadow_color, result.shadow_distance = shadow_color, shadow_distance
+            result.shadow_falloff, result.shadow_falloff_gamma = falloff
         result.diffuse, result.specular = multipliers
     return result
 
@@ -374,11 +375,11 @@ def _read_links_and_filters(prim, light, result, skip):
         skip("light filters (light:filters) are not supported; these lights shine unfiltered", prim, str(kind))
 
 
-def _shadow_api(prim, get, skip) -> tuple[np.ndarray | None, float]:
-    """``(shadow colour, shadow distance)`` of a light that casts shadows (ShadowAPI's inputs, read whether or not
-    the API is applied, as Hydra reads them): the colour None where it is black (plain shadows, most lights), the
-    distance negative for none. A value of the wrong type, or a negative colour, reads as the fallback, and the
-    falloff, which wrt does not render, is named, each with a warning."""
+def _shadow_api(prim, get, skip) -> tuple[np.ndarray | None, float, tuple[float, float]]:
+    """``(shadow colour, shadow distance, (falloff, falloff gamma))`` of a light that casts shadows (ShadowAPI's
+    inputs, read whether or not the API is applied, as Hydra reads them): the colour None where it is black (plain
+    shadows, most lights), the distance negative for none. A value of the wrong type, a negative colour or a negative
+    gamma reads as the fallback, with a warning."""
     wrong = []
 
     def read(name, fallback, convert):
@@ -400,14 +401,14 @@ def _shadow_api(prim, get, skip) -> tuple[np.ndarray | None, float]:
         color = None
     distance = read("distance", -1.0, float)
     falloff, gamma = read("falloff", -1.0, float), read("falloffGamma", 1.0, float)
+    if gamma < 0.0:  # the schema's validator asks for >= 0: a negative power would sharpen the fade into a step
+        wrong.append(f"inputs:shadow:falloffGamma = {gamma!r}")
+        gamma = 1.0
     if wrong:
-        skip("ShadowAPI inputs that are not finite numbers (or a negative shadow colour) were read as the schema's "
-             "fallbacks", prim, ", ".join(wrong))
-    if falloff > 0.0 and distance >= 0.0:  # without a distance the falloff has no zone to fade in
-        skip("shadow falloff (ShadowAPI shadow:falloff, falloffGamma) is not supported; these lights' shadows end "
-             "sharply at shadow:distance", prim, f"falloff {falloff:g}, gamma {gamma:g}")
+        skip("ShadowAPI inputs that are not finite numbers (or a negative shadow colour or falloff gamma) were read "
+             "as the schema's fallbacks", prim, ", ".join(wrong))
     tinted = color is not None and bool(np.any(color > 0.0))
-    return (color.astype(np.float32) if tinted else None), distance
+    return (color.astype(np.float32) if tinted else None), distance, (falloff, gamma)
 
 
 def _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures):

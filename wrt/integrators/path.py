@@ -35,7 +35,7 @@ from ..light_sampling import (
     triangle_light_pdf,
 )
 from ..materials import DeviceMaterials, eval_surface
-from ..sampling import luminance, max_component, rand01, sample_cdf
+from ..sampling import cdf_remainder, luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, light_sample_weight, lights_on_segment, mis_weight, surface_emission
@@ -46,21 +46,22 @@ SHADOW_SHORTEN = wp.constant(1.0e-4)  # shadow rays to lights at finite distance
 
 
 @wp.func
-def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.vec3, dist: float):
+def shadow_ray_to(lights: DeviceLights, k: int, o: wp.vec3, p: wp.vec3, wi: wp.vec3, dist: float, u: float):
     """Direction and ``t_max`` of the shadow ray from ``o`` (``p`` moved off its surface by ``offset_ray_origin``)
-    to light ``k`` sampled from ``p`` along unit ``wi`` at ``dist`` (inf: a light at infinity, along ``wi``).
+    to light ``k`` sampled from ``p`` along unit ``wi`` at ``dist`` (inf: a light at infinity, along ``wi``);
+    ``u`` draws the reach in a ShadowAPI falloff zone (:func:`wrt.light_sampling.shadow_reach`).
 
     Aimed from ``o`` at the sampled point, not along ``wi``: the ray along ``wi`` from ``o`` ended ``o - p`` away from
     that point (2e-5 on a floor 40 across), further than SHADOW_SHORTEN keeps it from the emitter where the light
     is seen obliquely, and crossed the emitter's own surface there: a finely tessellated glowing sphere shadowed
     1.3% of its own light."""
     if dist == wp.inf:
-        return shadow_direction(lights, k, wi), shadow_reach(lights, k, float(wp.inf))
+        return shadow_direction(lights, k, wi), shadow_reach(lights, k, float(wp.inf), u)
     to = p + dist * wi - o
     length = stable_length(to)
     if length <= 0.0:
         return wp.vec3(0.0), 0.0
-    return shadow_direction(lights, k, to / length), shadow_reach(lights, k, length * (1.0 - SHADOW_SHORTEN))
+    return shadow_direction(lights, k, to / length), shadow_reach(lights, k, length * (1.0 - SHADOW_SHORTEN), u)
 
 
 @wp.func
@@ -86,6 +87,7 @@ def aim_shadow_ray(
     k: int,
     h: HitPoint,
     ls: LightSample,
+    u: float,
     i: int,
     # outputs
     shadow_origins: wp.array[wp.vec3],
@@ -94,10 +96,11 @@ def aim_shadow_ray(
     shadow_lights: wp.array[wp.int32],
 ):
     """Writes ray ``i``'s shadow ray towards the point ``ls`` of light ``k`` sampled from hit ``h``: from ``h.p``
-    moved off its surface, aimed by :func:`shadow_ray_to` (whitted's and path's next-event estimation)."""
+    moved off its surface, aimed by :func:`shadow_ray_to` (whitted's and path's next-event estimation); ``u``,
+    uniform and independent of ``ls``, draws its reach in a ShadowAPI falloff zone."""
     o = offset_ray_origin(h.p, h.ng, h.reach, h.err, h.inner)
     shadow_origins[i] = o
-    to_light, t_max = shadow_ray_to(lights, k, o, h.p, ls.wi, ls.dist)
+    to_light, t_max = shadow_ray_to(lights, k, o, h.p, ls.wi, ls.dist, u)
     shadow_dirs[i] = to_light
     shadow_t_maxs[i] = t_max
     shadow_lights[i] = k
@@ -217,7 +220,10 @@ def shade_path_kernel(
                 w = light_sample_weight(lights, k, pmf * ls.pdf, pdf_f)
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
-                aim_shadow_ray(lights, k, h, ls, i, shadow_origins, shadow_dirs, shadow_t_maxs, shadow_lights)
+                # Where u_pick fell inside light k's share of the cdf: uniform, and independent of the light sample.
+                u_reach = cdf_remainder(lights.cdf, 0, lights.count, k, u_pick)
+                aim_shadow_ray(lights, k, h, ls, u_reach, i, shadow_origins, shadow_dirs, shadow_t_maxs,
+                               shadow_lights)
 
     # Sample the BSDF for the next ray.
     u0, state = rand01(state)

@@ -36,7 +36,7 @@ from ..light_links import link_group, lit_by
 from ..light_sampling import DeviceLights, hit_emitter, lit_bsdf, sample_light_in_view, shadow_tint
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
-from ..sampling import luminance, max_component, rand01, sample_cdf
+from ..sampling import cdf_remainder, luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
@@ -204,7 +204,11 @@ def whitted_lights_kernel(
             if max_component(f) > 0.0:
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 contribution[j * n + i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
-                aim_shadow_ray(lights, k, h, ls, j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs,
+                # u_pick, or where it fell inside light k's share of the group's cdf: uniform, independent of ls.
+                u_reach = u_pick
+                if count > 1:
+                    u_reach = cdf_remainder(lights.cdf, first, count, k - first, u_pick)
+                aim_shadow_ray(lights, k, h, ls, u_reach, j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs,
                                shadow_lights)
     rng[i] = state
 
