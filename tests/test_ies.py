@@ -438,3 +438,76 @@ def test_a_lamp_with_tilt_data_lights_with_its_profile(tmp_path):
     assert scene.lights[0].shaping.ies is not None
     expected = expected_radiance(lambda theta, phi: a_of(theta))
     np.testing.assert_allclose(rgb[..., 0], expected, rtol=2e-3, atol=1e-4 * expected.max())
+
+
+def flat_light(kind, shaping=None, color=1.0):
+    """A rect (1.0 x 0.5), disk (radius 0.4) or sphere (radius 0.3) light 1 above the origin, its -Z down, of
+    radiance ``color``; and its power unshaped, ``pi * area * L`` (a Lambertian emitter's), in float64."""
+    from wrt.lights import DiskLight, RectLight, SphereLight
+
+    to_world = np.eye(4)
+    to_world[:3, 3] = (0, 0, HEIGHT)
+    L = np.full(3, color)
+    if kind == "rect":
+        return RectLight(to_world=to_world, width=1.0, height=0.5, color=L, shaping=shaping), math.pi * 0.5 * color
+    if kind == "disk":
+        return DiskLight(to_world=to_world, radius=0.4, color=L, shaping=shaping), math.pi**2 * 0.16 * color
+    return (SphereLight(position=(0, 0, HEIGHT), radius=0.3, color=L, shaping=shaping),
+            math.pi * 4 * math.pi * 0.09 * color)
+
+
+# A profile of 1 candela out to 90 degrees (a downlight filling its hemisphere), at an angle scale, on a light: the
+# share of the light's power it lets out, in closed form. theta_eff = theta / s (s > 0) reaches 90 degrees at
+# theta = s pi / 2; for s < 0, theta_eff = (theta - pi) / -s + pi lies in [0, 90] for theta in [pi + s pi, pi + s pi/2].
+# A Lambertian emitter (rect, disk) weighs directions by cos theta over its front half (sin^2 of the edge), a sphere
+# all directions alike ((1 - cos) / 2 of the edge).
+ANGLE_SCALED = {
+    ("rect", 0.25): math.sin(math.pi / 8) ** 2,
+    ("disk", 0.1): math.sin(math.pi / 20) ** 2,
+    ("rect", 2.0): 1.0,  # stretched over the sphere: the whole front half
+    ("rect", -0.5): 0.0,  # turned behind the light, which emits nothing there
+    ("sphere", 0.25): (1.0 - math.cos(math.pi / 8)) / 2.0,
+    ("sphere", -0.5): (math.cos(math.pi / 2) - math.cos(3 * math.pi / 4)) / 2.0,
+    ("sphere", 0.0): 0.5,
+}
+
+
+@pytest.mark.parametrize("kind, scale", list(ANGLE_SCALED))
+def test_light_selection_weighs_a_profile_at_its_angle_scale_and_the_lights_cosine(kind, scale):
+    """Light selection picks lights by their power: one shaped by a profile and its ``angleScale`` beside an
+    unshaped sphere light of known power is picked in the ratio of their powers (``pmf = 1 / 2n + power share / 2``),
+    the profile's share worked out here in closed form. Before, the share was the profile's mean over the sphere (0.5
+    here) whatever the angle scale and the light's own cosine: 3.4x too much for a rect light at scale 0.25, 20x for a
+    disk at 0.1, infinitely much for a profile turned behind a rect light (picked for nothing: noise, not bias)."""
+    from wrt import light_table
+    from wrt.lights import SphereLight
+
+    shaping = wrt.Shaping(ies=wrt.IesProfile([0.0, 90.0], [0.0], [[1.0, 1.0]]), ies_angle_scale=scale, cone_angle=180)
+    shaped, bare_power = flat_light(kind, shaping, color=2.0)
+    reference = SphereLight(position=(3, 0, 1), radius=0.2, color=np.ones(3))
+    reference_power = math.pi * 4 * math.pi * 0.04
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")])
+    device_lights, _ = light_table.build_lights([shaped, reference], scene, [np.zeros(3)], "cpu")
+    pmf = device_lights.pmf.numpy()[:2].astype(np.float64)
+    expected = bare_power * ANGLE_SCALED[kind, scale] / (bare_power * ANGLE_SCALED[kind, scale] + reference_power)
+    np.testing.assert_allclose(2.0 * pmf[0] - 0.5, expected, rtol=2e-3, atol=1e-6)
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+def test_a_scaled_profile_beside_another_light_lights_as_the_two_alone(integrator):
+    """The selection weights change noise, never the mean: a rect light with a profile squeezed by ``angleScale``
+    0.25 beside a sphere light lights the plane as the sum of the two rendered alone (within noise)."""
+    from wrt.lights import SphereLight
+
+    shaping = wrt.Shaping(ies=wrt.IesProfile([0.0, 90.0], [0.0], [[1.0, 1.0]]), ies_angle_scale=0.25, cone_angle=180)
+    rect, _ = flat_light("rect", shaping, color=20.0)
+    sphere = SphereLight(position=(1.5, 0, 1), radius=0.2, color=np.full(3, 4.0))
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")
+
+    def render(lights, seed):
+        return wrt.render(wrt.Scene(meshes=[plane], lights=lights), camera=top_down_camera(height=PATCH), width=16,
+                          height=16, spp=256, seed=seed, device="cpu", integrator=integrator, max_depth=1).rgb
+
+    both = render([rect, sphere], 1).mean()
+    alone = render([rect], 2).mean() + render([sphere], 3).mean()
+    assert alone > 0.0 and abs(both / alone - 1.0) < 0.01, (both, alone)

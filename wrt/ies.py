@@ -156,10 +156,21 @@ class IesProfile:
     def _arrays_key(self) -> bytes:
         return self.vertical.tobytes() + b"|" + self.horizontal.tobytes() + b"|" + self.candela.tobytes()
 
-    def _integrated(self) -> float:
+    def ring_means(self, theta: np.ndarray) -> np.ndarray:
+        """The profile's intensity averaged over the horizontal circle at vertical angles ``theta`` (radians), 0
+        outside its vertical range: linear between its vertical angles, as the bilinear profile's ring mean is."""
+        vertical = np.radians(self.vertical)
+        theta = np.asarray(theta, np.float64)
+        inside = (theta >= vertical[0]) & (theta <= vertical[-1])
+        return np.where(inside, np.interp(theta, vertical, self._rings()), 0.0)
+
+    def _rings(self) -> np.ndarray:
         h, c = self.full_circle()
+        return np.array([_ring_mean(h, c[:, v]) for v in range(len(self.vertical))])
+
+    def _integrated(self) -> float:
         theta = np.radians(self.vertical)
-        rings = np.array([_ring_mean(h, c[:, v]) for v in range(len(theta))])
+        rings = self._rings()
         # Within each vertical interval the bilinear profile's ring mean is linear in theta, r(t) = a + b t: the
         # integral of r(t) sin(t) has the closed form -a cos(t) + b (sin(t) - t cos(t)).
         t0, t1 = theta[:-1], theta[1:]

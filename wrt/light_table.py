@@ -633,17 +633,15 @@ def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: boo
     params = None if shaping is None else shaping.device_params(emits_behind)
     if params is None and (shaping is None or shaping.ies is None):
         return
+    h.power[-1] *= shaping.power_fraction(emits_behind)  # the cone, focus and profile together
     if params is None:  # a profile alone: the cone and focus let everything through
         params = (math.pi, math.pi, 0.0)
-    else:
-        h.power[-1] *= shaping.power_fraction(emits_behind)
     h.shaping[-1] = np.array([*params, 1.0], np.float32)
     h.shaping_axis[-1] = np.asarray(axis, np.float32)
     h.focus_tint[-1] = np.asarray(shaping.focus_tint, np.float32)
     if shaping.ies is not None:
         h.ies[-1] = shaping.ies.device_data(shaping.ies_angle_scale, shaping.ies_scale())
         h.ies_frame[-1] = ies_frame(axis, x, y)
-        h.power[-1] *= shaping.ies_power_fraction()
 
 
 def _upload_profiles(profiles: list, frames: list, count: int, device) -> tuple[wp.array, wp.array, wp.array]:
