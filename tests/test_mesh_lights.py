@@ -400,3 +400,22 @@ def test_a_stage_whose_only_light_gives_none_gets_no_default_lights(tmp_path, ca
     assert unlit.dark_lights == []
     np.testing.assert_allclose(wrt.render(unlit, camera=camera, width=2, height=2, device="cpu").rgb, ALBEDO,
                                rtol=1e-5)
+
+
+def test_the_lights_of_a_hidden_instance_are_the_stages_lights_too(tmp_path):
+    """A stage lit only by a lamp prototype's light, drawn through a hidden native instance, lists that light
+    (``ComputeLightList`` lists it at its instance-proxy path): it gets no default lights either, as for a hidden
+    light of its own."""
+    from pxr import Usd, UsdLux
+
+    lamp = ('class Xform "Protos"\n{\n' + rect_light(intensity=3.0) + '}\n'
+            'def Xform "Lamp" (\n    instanceable = true\n    references = </Protos>\n)\n{\n'
+            '    token visibility = "invisible"\n}\n')
+    scene, _ = load(tmp_path, floor(), lamp)
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    listed = [str(p) for p in UsdLux.LightListAPI(stage.GetPseudoRoot()).ComputeLightList(
+        UsdLux.LightListAPI.ComputeModeIgnoreCache)]
+    assert scene.lights == [] and scene.dark_lights == listed == ["/Lamp/Light"], (scene.dark_lights, listed)
+    with pytest.warns(UserWarning, match=r"no light: the stage's lights give none .*: /Lamp/Light; rendered"):
+        img = wrt.render(scene, camera=top_down_camera(height=PATCH), width=2, height=2, device="cpu")
+    np.testing.assert_array_equal(img.rgb, 0.0)

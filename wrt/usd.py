@@ -327,6 +327,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
+        self.prototype_lights = {}  # native prototype path -> its UsdLux lights, for hidden instances
         self.shown_prototypes = {}  # native prototype path -> (abstract, the path it is named by) (_prototype_name)
         self.prototype_instance_counts = {}  # native prototype path -> times it is on the stage (_instance_count)
         self.instanced_lights = {}  # prim path -> MeshLight of the mesh lights read inside prototypes
@@ -405,6 +406,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                 # Cameras do not follow visibility (one under an invisible Xform is read): a hidden instance's are
                 # read too, or a camera whose instance is hidden at some frame was missing from it.
                 self._read_cameras(prim, self._prototype_cameras(prim.GetPrototype()), ctx)
+                shown = Sdf.Path(self._shown_path(prim))
+                for light in self._prototype_lights(prim.GetPrototype()):  # hidden, but authored: no default lights
+                    self.authored_lights[str(shown.AppendPath(light))] = None
             it.PruneChildren()
         elif prim.IsA(UsdGeom.PointInstancer):
             # Its prototypes are drawn through the instancer only, so its subtree is not walked in place. An
@@ -427,6 +431,20 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._read_cameras(prim, [Sdf.Path(".")], ctx)  # "." is the camera itself
         elif prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
             self._read_lights(prim, [Sdf.Path(".")], ctx)  # "." is the light itself
+
+    def _prototype_lights(self, prototype: Usd.Prim) -> list:
+        """Paths relative to ``prototype`` of the UsdLux lights in it and in the instances nested in it, which
+        ``ComputeLightList`` lists under each of its instances (hidden ones too); none for an instance without a
+        prototype. Looked for once per prototype, only for hidden instances (the walk reads the others')."""
+        if not prototype:
+            return []
+        key = prototype.GetPath()
+        if key not in self.prototype_lights:
+            self.prototype_lights[key] = [
+                p.GetPath().MakeRelativePath(key)
+                for p in Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(PROTOTYPE_PREDICATE))
+                if p.IsA(UsdLux.DistantLight) or p.HasAPI(UsdLux.LightAPI)]
+        return self.prototype_lights[key]
 
     def _read_lights(self, prim: Usd.Prim, lights: list, ctx: Context):
         """The UsdLux ``lights`` at paths relative to ``prim`` (a light itself, ``.``, or the lights of native
