@@ -406,9 +406,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                 # Cameras do not follow visibility (one under an invisible Xform is read): a hidden instance's are
                 # read too, or a camera whose instance is hidden at some frame was missing from it.
                 self._read_cameras(prim, self._prototype_cameras(prim.GetPrototype()), ctx)
-                shown = Sdf.Path(self._shown_path(prim))
-                for light in self._prototype_lights(prim.GetPrototype()):  # hidden, but authored: no default lights
-                    self.authored_lights[str(shown.AppendPath(light))] = None
+                hidden_lights = self._prototype_lights(prim.GetPrototype())  # authored all the same: no default lights
+                if hidden_lights:
+                    shown = Sdf.Path(self._shown_path(prim))
+                    self.authored_lights.update((str(shown.AppendPath(light)), None) for light in hidden_lights)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.PointInstancer):
             # Its prototypes are drawn through the instancer only, so its subtree is not walked in place. An
