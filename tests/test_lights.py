@@ -837,19 +837,23 @@ def test_shadow_falloff_fades_the_shadow_as_the_schema_says(integrator, distance
 
 
 def test_usd_shadow_inputs_that_are_no_numbers_read_as_fallbacks_with_a_warning(tmp_path):
-    """A shadow distance authored as text, or a negative shadow colour, is read as the schema's fallback (any
-    distance, black), named in a warning with its light; the light is kept."""
+    """A shadow distance authored as text, a negative shadow colour or a negative falloff gamma (the schema's
+    validator asks for >= 0) is read as the schema's fallback (any distance, black, 1), named in a warning with its
+    light; the light is kept."""
 
     def build(stage):
         odd = UsdLux.DiskLight.Define(stage, "/Odd")
         odd.GetPrim().CreateAttribute("inputs:shadow:distance", Sdf.ValueTypeNames.String).Set("far")
-        UsdLux.ShadowAPI.Apply(odd.GetPrim()).CreateShadowColorAttr(Gf.Vec3f(0.5, -0.2, 0.0))
+        shadow = UsdLux.ShadowAPI.Apply(odd.GetPrim())
+        shadow.CreateShadowColorAttr(Gf.Vec3f(0.5, -0.2, 0.0))
+        shadow.CreateShadowFalloffGammaAttr(-2.0)
 
     with pytest.warns(UserWarning, match=r"ShadowAPI inputs that are not finite numbers.*inputs:shadow:color = "
-                                         r"\(0\.5, -0\.2.*inputs:shadow:distance = 'far'.*: /Odd$"):
+                                         r"\(0\.5, -0\.2.*inputs:shadow:distance = 'far'.*"
+                                         r"inputs:shadow:falloffGamma = -2\.0: 1\): /Odd$"):
         scene = wrt.load_usd(write_stage(tmp_path, build))
     (light,) = scene.lights
-    assert light.shadow_color is None and light.shadow_distance == -1.0
+    assert light.shadow_color is None and light.shadow_distance == -1.0 and light.shadow_falloff_gamma == 1.0
 
 
 def test_shadow_api_fields_are_checked_naming_the_light():
