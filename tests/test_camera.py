@@ -133,6 +133,39 @@ def test_orthographic_camera_rays_are_parallel():
     np.testing.assert_allclose(img.aovs["depth"][hit], 5.0, rtol=1e-6)
 
 
+@pytest.mark.parametrize("focal_length", [0.0, -35.0])
+def test_orthographic_usd_camera_of_any_focal_length_is_framed_by_its_apertures(tmp_path, focal_length):
+    """USD's orthographic frustum is the apertures alone (``GetCamera().frustum`` takes no focal length), and usdview
+    draws an orthographic camera of ``focalLength = 0``; wrt skipped it as a camera of no positive focal length. Each
+    pixel centre's ray of USD's frustum, met with the plane z = 0 in float64, says which pixels see the quad."""
+    path = tmp_path / "ortho.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.CreateProjectionAttr("orthographic")
+    cam.CreateFocalLengthAttr(focal_length)
+    cam.CreateHorizontalApertureAttr(40.0)  # 4 x 3 scene units
+    cam.CreateVerticalApertureAttr(30.0)
+    cam.AddTranslateOp().Set(Gf.Vec3d(0.3, -0.2, 5.0))  # no pixel centre on the quad's edges
+    quad = UsdGeom.Mesh.Define(stage, "/Quad")
+    quad.CreatePointsAttr([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)])
+    quad.CreateFaceVertexCountsAttr([4])
+    quad.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    stage.Save()
+    width, height = 16, 12
+    img = wrt.render(wrt.load_usd(path), camera="/Cam", width=width, height=height, device="cpu")
+    frustum = cam.GetCamera(Usd.TimeCode.Default()).frustum
+    expected = np.zeros((height, width), bool)
+    for i in range(height):
+        for j in range(width):
+            ray = frustum.ComputePickRay(Gf.Vec2d(2 * (j + 0.5) / width - 1, 1 - 2 * (i + 0.5) / height))
+            o, d = np.array(ray.startPoint), np.array(ray.direction)
+            x, y, _ = o - o[2] / d[2] * d
+            expected[i, j] = abs(x) <= 1 and abs(y) <= 1
+    assert 0 < expected.sum() < width * height
+    np.testing.assert_array_equal(img.aovs["prim"] >= 0, expected)
+    np.testing.assert_allclose(img.aovs["depth"][expected], 5.0, rtol=1e-6)  # from the camera's plane, straight on
+
+
 def test_usd_camera_maps_film_to_pixels(tmp_path):
     stage = Usd.Stage.CreateNew(str(tmp_path / "cam.usda"))
     cam = UsdGeom.Camera.Define(stage, "/Cam")

@@ -170,7 +170,8 @@ class Camera:
     Attributes:
         to_world: ``(4, 4)`` float64 camera-to-world matrix, column-vector convention (see module docstring), affine:
             bottom row ``(0, 0, 0, 1)``.
-        focal_length: focal length, in the film unit.
+        focal_length: focal length, in the film unit (a perspective camera's is positive; an orthographic camera
+            does not use it, any finite number).
         horizontal_aperture: film width, in the film unit.
         vertical_aperture: film height, in the film unit (unused with ``fit="horizontal"``).
         horizontal_aperture_offset: film shift along +X, in the film unit.
@@ -239,7 +240,10 @@ class Camera:
                              f"{_show(self.pixel_aspect_ratio)}")
         # Finite as well as positive: an infinite aperture or focal length, or a NaN offset, makes every ray NaN, an
         # image of background only. Non-numbers (a string) count as not finite, so they too get this ValueError.
-        if not all(_finite(v) and v > 0 for v in (self.focal_length, self.horizontal_aperture, self.vertical_aperture)):
+        # An orthographic film is the apertures alone (USD's frustum takes no focal length): its focal length need
+        # only be a number, else a stage's orthographic camera of focalLength 0, which usdview draws, was skipped.
+        focal = self.focal_length if self.projection == "perspective" or not _finite(self.focal_length) else 1.0
+        if not all(_finite(v) and v > 0 for v in (focal, self.horizontal_aperture, self.vertical_aperture)):
             raise ValueError(
                 f"{self.label()} needs finite positive focalLength and apertures, got focal_length="
                 f"{_show(self.focal_length)}, apertures={_show(self.horizontal_aperture)}x"

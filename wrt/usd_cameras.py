@@ -1,9 +1,9 @@
 """``UsdGeom.Camera`` prims read into :class:`wrt.camera.Camera`: at their instance-proxy paths inside native
 instances (hidden ones too), skipped inside PointInstancer prototypes.
 
-A camera whose values :class:`wrt.camera.Camera` refuses (a zero focal length, a negative aperture, an inverted
-clipping range, a transform that is not finite or singular, ...) is skipped with a warning naming it and why
-(:data:`UNUSABLE_CAMERA`): the stage may well be rendered from another camera. The reason is kept in
+A camera whose values :class:`wrt.camera.Camera` refuses (a perspective camera's zero focal length, a negative
+aperture, an inverted clipping range, a transform that is not finite or singular, ...) is skipped with a warning
+naming it and why (:data:`UNUSABLE_CAMERA`): the stage may well be rendered from another camera. The reason is kept in
 ``Scene.skipped_cameras``, and a render asked for it by path, or whose render settings name it, raises it
 (:func:`wrt.render.resolve_camera`, :func:`wrt.render.resolve_view`). A blocked value (``= None``) is the schema's
 fallback, as ``UsdGeom.Camera.GetCamera`` reads it.
