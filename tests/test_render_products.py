@@ -551,6 +551,54 @@ def test_positions_and_ids_of_the_hits(tmp_path):
     assert len(np.unique(exr["prim"][want["prim"] == "/Strip"])) == 7  # triangles, not faces
 
 
+def test_camera_space_positions_keep_their_digits_far_from_the_world_origin(tmp_path):
+    """Peye of a camera a million units from the origin: the rays start at the eye in float32 (1000000.3 is
+    1000000.3125 there), and Peye subtracted the float64 eye from their hits, an error of 0.0125 in x (a tenth of the
+    values near the image centre) where cameraDepth and depth keep every digit. The oracle: each pixel centre's ray
+    of pxr's frustum met with the plane z = 0 in float64, moved by pxr's view matrix."""
+    from pxr import Gf, Usd, UsdGeom, UsdRender
+
+    x = 1.0e6 + 0.3
+    path = str(tmp_path / "far.usda")
+    stage = Usd.Stage.CreateNew(path)
+    plane = UsdGeom.Mesh.Define(stage, "/Plane")
+    plane.CreatePointsAttr([(x - 50, -50, 0), (x + 50, -50, 0), (x + 50, 50, 0), (x - 50, 50, 0)])
+    plane.CreateFaceVertexCountsAttr([4])
+    plane.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(x, 0.2, 5.0))
+    cam.AddRotateXYZOp().Set(Gf.Vec3f(-10.0, 15.0, 0.0))
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/Cam"])
+    width, height = 12, 8
+    settings.CreateResolutionAttr(Gf.Vec2i(width, height))
+    settings.CreateAspectRatioConformPolicyAttr("adjustApertureHeight")  # the frustum's window, height set below
+    shot = UsdRender.Product.Define(stage, "/Render/Shot")
+    shot.CreateProductNameAttr("far.exr")
+    settings.CreateProductsRel().SetTargets(["/Render/Shot"])
+    for name in ("Peye", "cameraDepth"):
+        var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
+        var.CreateSourceNameAttr(name)
+        shot.GetOrderedVarsRel().AddTarget(var.GetPath())
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.Save()
+    exr = read_exr(wrt.render_products(load(path), tmp_path / "out", device="cpu")["/Render/Shot"])
+    frustum = cam.GetCamera(Usd.TimeCode.Default()).frustum
+    window = frustum.GetWindow()
+    half = window.GetSize()[0] / 2 * height / width
+    frustum.SetWindow(Gf.Range2d(Gf.Vec2d(window.GetMin()[0], -half), Gf.Vec2d(window.GetMax()[0], half)))
+    view = np.array(frustum.ComputeViewMatrix()).T  # column vectors
+    want = np.zeros((height, width, 3))
+    for i in range(height):
+        for j in range(width):
+            ray = frustum.ComputePickRay(Gf.Vec2d(2 * (j + 0.5) / width - 1, 1 - 2 * (i + 0.5) / height))
+            o, d = np.array(ray.startPoint), np.array(ray.direction)
+            want[i, j] = view[:3, :3] @ (o - o[2] / d[2] * d) + view[:3, 3]
+    got = np.stack([exr[f"Peye.{c}"] for c in "XYZ"], axis=-1)
+    np.testing.assert_allclose(exr["cameraDepth"], -want[..., 2], atol=1e-4)  # (always kept its digits)
+    np.testing.assert_allclose(got, want, atol=1e-4)
+
+
 def test_prim_ids_of_native_instances_name_their_instance_proxy_paths(tmp_path):
     """Two native instances of one quad above the stage: their primIds differ and the header names them by the
     instance-proxy paths /Left/Body and /Right/Body (stable when the stage is opened again), as Scene.hit_paths names
