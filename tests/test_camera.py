@@ -718,6 +718,42 @@ def test_camera_rays_give_the_t_range_the_render_clips_to(tmp_path):
     np.testing.assert_allclose(bare.t, 40.0 / 50.0 * far.ravel(), rtol=1e-5)  # the near quad, which the render clips
 
 
+def test_clipping_planes_keep_their_digits_far_from_the_world_origin(tmp_path):
+    """A camera a million units from the origin with a tilted camera-space clipping plane: the plane was moved to
+    world space, where its offset d is about 1e6 and float32 kept no digits below 0.06, so the clip lay 0.03 off
+    where the clipping range (camera space, about the eye) keeps every digit. The oracle: each pixel centre's ray of
+    pxr's frustum met in float64 with the plane moved to world space by the camera's transform; the distance from
+    the ray's start to it is the ray's t_min."""
+    from pxr import Gf, Usd, UsdGeom
+
+    path = str(tmp_path / "far_clip.usda")
+    stage = Usd.Stage.CreateNew(path)
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(1.0e6 + 0.3, -2.0e6 + 0.1, 5.0))
+    cam.AddRotateXYZOp().Set(Gf.Vec3f(-10.0, 15.0, 5.0))
+    cam.CreateClippingPlanesAttr([Gf.Vec4f(0.4, -0.3, -1.0, -2.0)])  # kept where 0.4 x - 0.3 y - z >= 2
+    stage.Save()
+    width, height = 12, 10  # narrower than the apertures: their height grows
+    scene = wrt.load_usd(path)
+    _, _, t_mins, _ = camera_rays(scene, "/Cam", width, height, t_range=True)
+    usd_camera = cam.GetCamera(Usd.TimeCode.Default())
+    frustum = usd_camera.frustum
+    window = frustum.GetWindow()  # expanded to the image's aspect, as a stage camera's film is without settings
+    half = window.GetSize()[0] / 2 * height / width
+    frustum.SetWindow(Gf.Range2d(Gf.Vec2d(window.GetMin()[0], -half), Gf.Vec2d(window.GetMax()[0], half)))
+    to_world = np.array(usd_camera.transform).T  # column vectors
+    plane = np.array(usd_camera.clippingPlanes[0], np.float64) @ np.linalg.inv(to_world)
+    eye = to_world[:3, 3]
+    want = np.zeros(width * height)
+    for i in range(height):
+        for j in range(width):
+            ray = frustum.ComputePickRay(Gf.Vec2d(2 * (j + 0.5) / width - 1, 1 - 2 * (i + 0.5) / height))
+            d = np.array(ray.direction) / np.linalg.norm(ray.direction)
+            want[i * width + j] = -(plane[:3] @ eye + plane[3]) / (plane[:3] @ d)  # from the eye, the rays' start
+    assert want.min() > 1.0
+    np.testing.assert_allclose(t_mins, want, atol=1e-4)
+
+
 def test_clipping_planes_are_checked():
     with pytest.raises(ValueError, match="at most 8"):
         wrt.Camera(clipping_planes=np.tile([1.0, 0.0, 0.0, 0.0], (9, 1)))

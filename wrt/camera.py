@@ -57,8 +57,8 @@ class DeviceCamera:
     orthographic: int  # 1 for orthographic projection
     near: float  # clipping range, camera-space depth
     far: float
-    # Clipping planes in world space, one per row (a, b, c, d): points with a x + b y + c z + d < 0 are cut away.
-    # Two fixed matrices rather than an array, so the struct needs no device memory.
+    # Clipping planes in world space about the eye, one per row (a, b, c, d): points p with (a, b, c) . (p - origin)
+    # + d < 0 are cut away. Two fixed matrices rather than an array, so the struct needs no device memory.
     planes_a: wp.mat44  # planes 0-3
     planes_b: wp.mat44  # planes 4-7
     num_planes: int
@@ -91,7 +91,7 @@ def clipped_ray(cam: DeviceCamera, origin: wp.vec3, ray: wp.vec3):
         # runs parallel to the plane on its cut side.
         n = wp.vec3(plane[0], plane[1], plane[2])
         rate = wp.dot(n, d)
-        side = wp.dot(n, origin) + plane[3]
+        side = wp.dot(n, origin - cam.origin) + plane[3]
         if rate > 0.0:
             t0 = wp.max(t0, -side / rate)
         elif rate < 0.0:
@@ -408,9 +408,13 @@ class Camera:
         s.orthographic = 1 if self.projection == "orthographic" else 0
         s.near = float(self.clipping_range[0])
         s.far = float(self.clipping_range[1])
-        # A camera-space plane p maps to p @ inverse(to_world) in world space; rescaled to a unit normal so that its
-        # distances keep float32 precision whatever the camera's scale.
-        planes = self.clipping_planes @ np.linalg.inv(m)
+        # A camera-space plane p maps to p @ inverse(to_world) in world space; taken about the eye (to_world without
+        # its translation), as the clipping range is, since far from the world origin a world-space d of 1e6 kept no
+        # digits below 0.06 in float32; rescaled to a unit normal so that its distances keep float32 precision
+        # whatever the camera's scale.
+        about_eye = m.copy()
+        about_eye[:3, 3] = 0.0
+        planes = self.clipping_planes @ np.linalg.inv(about_eye)
         planes /= np.linalg.norm(planes[:, :3], axis=1, keepdims=True)
         rows = np.zeros((MAX_CLIPPING_PLANES, 4))
         rows[: len(planes)] = planes
