@@ -407,6 +407,20 @@ def test_cli_bvh_color_without_boxes_is_warned_about(tmp_path, capsys):
         assert out.exists()
 
 
+def test_cli_without_a_display_checks_its_default_output_before_the_work(tmp_path, capsys, monkeypatch):
+    """Without a display and without -o the preview goes to ./preview.png, chosen only after the load and the drawing
+    and never checked: a folder of that name failed at the very end, in Python's words ('[Errno 21] Is a directory:
+    '.preview.png.123.0.partial.png' -> 'preview.png''), after all the work."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "preview.png").mkdir()
+    monkeypatch.setattr(preview_module, "has_display", lambda: False)
+    monkeypatch.setattr(wrt, "load_usd", lambda *a, **k: pytest.fail("the scene was loaded before the output check"))
+    assert main(["preview", "--window", "64x48", "-q"]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert len(errors) == 1 and "preview.png: it is a directory" in errors[0] and "-o" in errors[0], errors
+    assert [p.name for p in tmp_path.iterdir()] == ["preview.png"]
+
+
 def test_missing_pyvista_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "pyvista", None)
     with pytest.raises(PreviewUnavailable, match=r"pip install 'wrt\[preview\]'"):

@@ -898,14 +898,23 @@ def _run_preview(args) -> int:
     progress = _Progress(args.quiet)
     path = Path(args.scene) if args.scene else default_scene_path()
     output = args.output
-    if output is not None:
+    no_display = output is None and not has_display()
+    if no_display:  # decided before the load, so that a preview.png that cannot be written fails now, not after it
+        output = "preview.png"
+    if args.output is not None:
         from .image import check_not_extension_alone
 
         check_not_extension_alone(output)
     if output is not None and Path(output).suffix.lower() != ".png":
         raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
     if output is not None:  # an unwritable output fails now, not after the load and the preview
-        _check_output_file(Path(output))
+        try:
+            _check_output_file(Path(output))
+        except OSError as e:
+            if no_display:  # the user named no file: say where this one comes from, and how to choose another
+                raise type(e)(f"no display found, so the preview goes to preview.png: {e}; name a file with "
+                              "-o") from None
+            raise
     from .bvh.common import resolve_device_option
 
     resolve_device_option(args.device)  # before the load, as the output
@@ -921,8 +930,7 @@ def _run_preview(args) -> int:
         from .render import resolve_view
 
         _check_view_pixels(args, *resolve_view(scene, args.camera, args.width, args.height)[1:])
-    if output is None and not has_display():
-        output = "preview.png"
+    if no_display:
         progress("no display found: rendering off-screen to preview.png")
     start = time.perf_counter()
     try:
