@@ -495,6 +495,54 @@ def test_no_build_vs_quality_plot_without_a_tree_to_plot(tmp_path):
     assert not (tmp_path / "build_vs_quality.png").exists()
 
 
+def plotted_figures(monkeypatch, rows, out) -> dict:
+    """The figures ``plot`` draws for ``rows``, by file name, kept open (``plt.close`` skipped) to be inspected."""
+    import matplotlib.figure
+    import matplotlib.pyplot as plt
+
+    figures, save = {}, matplotlib.figure.Figure.savefig
+
+    def savefig(fig, path, **options):
+        figures[Path(path).name] = fig
+        save(fig, path, **options)
+
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", savefig)
+    monkeypatch.setattr(plt, "close", lambda fig=None: None)
+    bench_module.plot(rows, out)
+    return figures
+
+
+def tree_row(accel, build_ms, sah_cost, rays="primary", threads=1, scene="sphere:1000"):
+    return dict(scene=scene, triangles=930, device="cpu", rays=rays, accel=accel, threads=threads, build_ms=build_ms,
+                mrays=5.0, mrays_min=4.0, mrays_max=6.0, hit_fraction=0.2, sah_cost=sah_cost)
+
+
+@pytest.mark.parametrize("times", [(2.1, 2.2, 2.45, 2.34, 2.5, 2.83), (84, 88, 98, 94, 100, 113),
+                                   (8e3, 9e3, 9.5e3, 1e4, 1.1e4, 1.2e4), (0.4, 3, 40, 700, 9e3, 3e4)])
+def test_build_axis_labels_of_builds_within_a_decade_do_not_overlap(tmp_path, monkeypatch, times):
+    """Builds between 2.1 and 2.8 ms (one small scene, every row) put matplotlib's log axis in its mode that labels
+    every minor tick in scientific notation: '2.1x10^0', '2.2x10^0', ... drawn over each other, unreadable."""
+    import matplotlib.pyplot as plt
+
+    rows = [tree_row("wrt:sah", ms, 23.5) for ms in times[:3]]
+    rows += [tree_row("wrt:median", ms, 41.4) for ms in times[3:]]
+    fig = plotted_figures(monkeypatch, rows, tmp_path)["build_vs_quality.png"]
+    try:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        axis = fig.axes[0].xaxis
+        labels = [t for t in axis.get_majorticklabels() + axis.get_minorticklabels()
+                  if t.get_visible() and t.get_text() and fig.axes[0].get_xlim()[0] <= t.get_position()[0]
+                  <= fig.axes[0].get_xlim()[1]]
+        assert len(labels) >= 2  # the axis has numbers to read
+        boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
+        for left, right in zip(boxes, boxes[1:]):
+            assert left.x1 <= right.x0, [t.get_text() for t in labels]
+    finally:
+        monkeypatch.undo()  # pyplot's own close again
+        plt.close("all")
+
+
 def test_markdown_table_names_hardware():
     rows = [{"scene": "s", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "warp:sah", "threads": 1,
              "build_ms": 1.0, "mrays": 2.0, "mrays_min": 1.0, "mrays_max": 3.0, "hit_fraction": 0.5, "agreement": 1.0,

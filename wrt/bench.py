@@ -1241,6 +1241,12 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         ax.set_xlabel("build ms")
         ax.set_ylabel("SAH cost")
         ax.set_xscale("log")
+        # Plain numbers ('2.5', '100'): builds within a decade of each other (one small scene) made matplotlib label
+        # every minor tick as '2.1x10^0', '2.2x10^0', ..., drawn over one another.
+        from matplotlib.ticker import LogFormatter
+
+        ax.xaxis.set_major_formatter(LogFormatter(labelOnlyBase=False))
+        ax.xaxis.set_minor_formatter(LogFormatter(labelOnlyBase=False))
         fig.tight_layout()
         paths.append(out / "build_vs_quality.png")
         fig.savefig(paths[-1], dpi=110, metadata=dict([PLOT_MARK]))
