@@ -543,6 +543,34 @@ def test_build_axis_labels_of_builds_within_a_decade_do_not_overlap(tmp_path, mo
         plt.close("all")
 
 
+def test_build_vs_quality_draws_each_tree_once(tmp_path, monkeypatch):
+    """Every row builds its tree again, so one tree measured with two ray kinds at two thread counts was four points
+    with four identical labels printed over one another ('wrt:sah sphere:1000wrt:sah sph...'). Each tree (accelerator,
+    scene, device) is one point, at the median of its build times, with one label."""
+    import statistics
+
+    import matplotlib.pyplot as plt
+
+    builds = {("wrt:sah", "sphere:1000"): [2.1, 2.2, 2.45, 2.7], ("wrt:median", "sphere:1000"): [2.3, 2.5, 2.6, 2.8],
+              ("wrt:sah", "sphere:5000"): [9.0, 9.5, 9.1, 9.4]}
+    rows = [tree_row(accel, ms, 23.5 if accel == "wrt:sah" else 41.4, rays=rays, threads=threads, scene=scene)
+            for (accel, scene), times in builds.items()
+            for ms, (rays, threads) in zip(times, [("primary", 1), ("primary", 2), ("shadow", 1), ("shadow", 2)])]
+    fig = plotted_figures(monkeypatch, rows, tmp_path)["build_vs_quality.png"]
+    try:
+        ax = fig.axes[0]
+        points = np.concatenate([c.get_offsets() for c in ax.collections])
+        labels = {t.get_text(): t.xy for t in ax.texts}
+    finally:
+        monkeypatch.undo()
+        plt.close("all")
+    assert len(points) == len(builds)
+    assert sorted(labels) == sorted(f"{accel} {scene}" for accel, scene in builds)
+    for (accel, scene), times in builds.items():
+        assert labels[f"{accel} {scene}"] == pytest.approx((statistics.median(times), 23.5 if accel == "wrt:sah"
+                                                            else 41.4))
+
+
 def test_markdown_table_names_hardware():
     rows = [{"scene": "s", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "warp:sah", "threads": 1,
              "build_ms": 1.0, "mrays": 2.0, "mrays_min": 1.0, "mrays_max": 3.0, "hit_fraction": 0.5, "agreement": 1.0,

@@ -1235,9 +1235,16 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
                 if r.get("sah_cost") is not None and math.isfinite(r["sah_cost"]) and _plottable(r["build_ms"])]
     if with_sah:
         fig, ax = plt.subplots(figsize=(5, 4))
+        # Each row builds its tree again: one point per tree, at the median of its builds, not one per ray kind and
+        # thread count, whose identical labels were printed over one another.
+        trees = {}
         for r in with_sah:
-            ax.scatter(r["build_ms"], r["sah_cost"])
-            ax.annotate(f"{r['accel']} {r['scene']}", (r["build_ms"], r["sah_cost"]), fontsize=6)
+            trees.setdefault((r["accel"], r["scene"], r["device"]), []).append(r)
+        several = len({device for _, _, device in trees}) > 1
+        for (accel, scene, device), builds in trees.items():
+            at = (statistics.median(r["build_ms"] for r in builds), statistics.median(r["sah_cost"] for r in builds))
+            ax.scatter(*at)
+            ax.annotate(f"{accel} {scene}" + (f" {device}" if several else ""), at, fontsize=6)
         ax.set_xlabel("build ms")
         ax.set_ylabel("SAH cost")
         ax.set_xscale("log")
