@@ -661,6 +661,30 @@ def test_summary_says_when_the_boxes_are_the_top_level_tree(bunny):
             plotter.close()
 
 
+def test_summary_of_the_top_level_tree_counts_its_entries_and_leaves_as_they_are():
+    """A TLAS leaf holds up to two entries, so three balls in one place (and a fourth apart) beside a mesh are five
+    entries in four leaves; the text said the boxes were 'a leaf per instance or shape, one for the other meshes',
+    five boxes where four were drawn."""
+    from wrt.procedural import displaced_sphere
+
+    points, indices = displaced_sphere(100)
+    scene = wrt.Scene.from_triangles(points, indices)
+    scene.shapes = [ball(5.0), ball(5.0), ball(5.0), ball(9.0)]
+    bvh = get_accelerator(scene, "wrt", "sah", "cpu").bvh
+    leaves = int((bvh.prim_count > 0).sum())
+    entries = len(scene.shapes) + 1  # each shape, and one for the mesh
+    assert leaves < entries  # the case at hand: a leaf of two
+    plotter = wrt.preview(scene, bvh_leaves=True, window_size=(64, 48))
+    try:
+        line = next(x for x in plotter.actors["summary"].GetText(2).splitlines() if x.startswith("TLAS"))
+        drawn = plotter.actors["bvh"].mapper.dataset.n_cells // 12
+    finally:
+        plotter.close()
+    assert drawn == leaves
+    assert f"leaves, {leaves} boxes" in line and f"{entries} entries" in line, line
+    assert "a leaf per instance or shape" not in line, line
+
+
 def test_to_pyvista_gives_meshes_and_instances_without_triangles_empty_blocks(tmp_path):
     """A Points prim is read as instances of a sphere prototype, which has no triangles: to_pyvista raised pyvista's
     "Empty arrays are not allowed" for its blocks (usd-wg's simpleAssetScene too), and a mesh of points without faces

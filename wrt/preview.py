@@ -24,7 +24,8 @@ What is drawn, in the frustum's terms (see :mod:`wrt.camera` for the film conven
   number of triangle references below the node: the part of the SAH traversal cost (MacDonald and Booth,
   "Heuristics for ray tracing using space subdivision", 1990) that the box would carry were the cut the leaves.
   A scene with instances or analytic shapes is traced through a two-level BVH; its top level (TLAS) is drawn,
-  whose leaves are the instances, the shapes and one entry for all non-instanced meshes together.
+  whose entries are the instances, the shapes and one for all non-instanced meshes together, up to
+  ``TLAS_LEAF_SIZE`` (2) per leaf.
 - Scenes above ``max_triangles`` are simplified for display by vertex clustering (Rossignac and Borrel,
   "Multi-resolution 3D approximations for rendering complex scenes", 1993); analytic shapes (at most
   ``SHAPE_BUDGET``) get coarser circles, down to ``MIN_SHAPE_SEGMENTS`` segments, to stay within it too. The window
@@ -50,6 +51,7 @@ from .image import to_srgb8
 from .instancing import expand_instance_triangles
 from .render import Renderer, render, resolve_view
 from .scene import Scene, contents_summary
+from .tlas import TLAS_LEAF_SIZE
 from .trace import HitBuffer, get_accelerator, resolve_device
 from .wording import counted
 
@@ -686,7 +688,10 @@ def preview(
         accel = get_accelerator(scene, "wrt", builder, device)
         summary = _add_bvh(plotter, accel.bvh, bvh_depth, bvh_color, max_boxes)
         if hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
-            lines.append(f"TLAS ({builder}) {summary} (a leaf per instance or shape, one for the other meshes)")
+            # A leaf holds up to TLAS_LEAF_SIZE entries: 'a leaf per instance or shape' promised more boxes than drawn.
+            entries = counted(accel.num_entries, "entry", "entries")
+            lines.append(f"TLAS ({builder}) {summary} ({entries}: an instance or shape each, one for the other "
+                         f"meshes; up to {TLAS_LEAF_SIZE} per leaf)")
         else:
             lines.append(f"BVH ({builder}) {summary}")
     if ray_data is not None:
