@@ -571,6 +571,37 @@ def test_build_vs_quality_draws_each_tree_once(tmp_path, monkeypatch):
                                                             else 41.4))
 
 
+def test_mrays_plot_group_labels_of_scene_files_do_not_overlap(tmp_path, monkeypatch):
+    """Scenes given as file paths labelled each group of bars with the whole path, '/tmp/pv_scratch/nested.usda'
+    under a group 1.2 inches wide: the labels of neighbouring groups were printed over one another. Each group is
+    labelled with its file's name where that names one scene (the full path where two share a name), and the figure
+    is wide enough for them."""
+    import matplotlib.pyplot as plt
+
+    folder = "/a/rather/long/folder/of/benchmark/scenes"
+    scenes = [f"{folder}/{name}.usda" for name in ("instanced_forest", "kitchen_interior", "teapot")]
+    scenes += [f"{folder}/v2/teapot.usda", "sphere:1000"]  # two teapot.usda: told apart by their folders
+    rows = [tree_row(accel, 2.0, 20.0, rays=kind, scene=scene) for scene in scenes for kind in ("primary", "shadow")
+            for accel in ("warp:sah", "wrt:sah")]
+    fig = plotted_figures(monkeypatch, rows, tmp_path)["mrays.png"]
+    try:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        labels = [t for t in fig.axes[0].get_xticklabels() if t.get_text()]
+        texts = [t.get_text() for t in labels]
+        boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
+    finally:
+        monkeypatch.undo()
+        plt.close("all")
+    assert len(set(texts)) == len(texts) == 2 * len(scenes)
+    for name in ("instanced_forest.usda", "kitchen_interior.usda", "sphere:1000"):
+        assert sum(text.startswith(name + "\n") for text in texts) == 2, texts
+    assert sum(text.startswith(scenes[2] + "\n") for text in texts) == 2, texts  # teapot.usda, named in full
+    assert sum(text.startswith(scenes[3] + "\n") for text in texts) == 2, texts
+    for left, right in zip(boxes, boxes[1:]):
+        assert left.x1 <= right.x0, texts
+
+
 def test_markdown_table_names_hardware():
     rows = [{"scene": "s", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "warp:sah", "threads": 1,
              "build_ms": 1.0, "mrays": 2.0, "mrays_min": 1.0, "mrays_max": 3.0, "hit_fraction": 0.5, "agreement": 1.0,

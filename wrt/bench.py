@@ -1191,6 +1191,16 @@ def _plottable(*values) -> bool:
     return all(v is not None and math.isfinite(v) and v > 0 for v in values)
 
 
+def _plot_scene_names(scenes: list[str]) -> list[str]:
+    """How a plot names each of ``scenes``: a scene file by its file name (the table names it in full), unless
+    another scene of the plot has that name too; ``sphere:N``, ``warp:NAME`` and ``asset:ID`` as they are."""
+    short = [Path(scene).name or scene for scene in scenes]
+    owners = {}
+    for scene, name in zip(scenes, short):
+        owners.setdefault(name, set()).add(scene)
+    return [name if len(owners[name]) == 1 else scene for scene, name in zip(scenes, short)]
+
+
 def plot(rows: list[dict], out: Path) -> list[Path]:
     """Writes ``mrays.png``, ``build_vs_quality.png`` and, for scaling rows, ``scaling.png``; returns the paths.
     Rows of several devices get a bar (and a scaling line) per device."""
@@ -1206,7 +1216,12 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         labels = sorted({(r["scene"], r["rays"]) for r in rows})
         several = len({r["device"] for r in rows}) > 1
         series = sorted({(r["accel"], r["device"], r["threads"]) for r in rows if r["accel"] != "*"}, key=str)
-        fig, ax = plt.subplots(figsize=(max(6, 1.2 * len(labels)), 4))
+        texts = [f"{name}\n{kind}" for name, kind in zip(_plot_scene_names([s for s, _ in labels]),
+                                                         (k for _, k in labels))]
+        # Each group as wide as its longest label (about 0.07 inch per character at font size 7): whole paths under
+        # groups of 1.2 inches were printed over their neighbours'.
+        group = max([1.2] + [0.07 * len(line) for text in texts for line in text.splitlines()])
+        fig, ax = plt.subplots(figsize=(max(6, group * len(labels)), 4))
         width = 0.8 / max(len(series), 1)
         centres = np.arange(len(labels)) + 0.4 - width / 2
         for i, (accel, device, threads) in enumerate(series):
@@ -1222,7 +1237,7 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         for k, (scene, kind) in enumerate(labels):
             if any(r["accel"] == "*" and (r["scene"], r["rays"]) == (scene, kind) for r in rows):
                 ax.text(centres[k], 0, "failed", ha="center", va="bottom", rotation=90, fontsize=6)
-        ax.set_xticks(centres, [f"{s}\n{k}" for s, k in labels], fontsize=7)
+        ax.set_xticks(centres, texts, fontsize=7)
         ax.set_ylabel("Mrays/s (median)")
         ax.legend(fontsize=7)
         fig.tight_layout()
