@@ -602,6 +602,22 @@ def test_mrays_plot_group_labels_of_scene_files_do_not_overlap(tmp_path, monkeyp
         assert left.x1 <= right.x0, texts
 
 
+def test_mrays_plot_orders_the_bars_of_an_accelerator_by_thread_count(tmp_path, monkeypatch):
+    """The series were sorted by their text, "('wrt:sah', 'cpu', 16)" before "('wrt:sah', 'cpu', 2)": the bars and
+    the legend of --threads 1,2,16 read x1, x16, x2."""
+    import matplotlib.pyplot as plt
+
+    rows = [dict(tree_row(accel, 2.0, 20.0, threads=threads), mrays=float(threads))
+            for accel in ("warp:sah", "wrt:sah") for threads in (1, 2, 16)]
+    fig = plotted_figures(monkeypatch, rows, tmp_path)["mrays.png"]
+    try:
+        legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    finally:
+        monkeypatch.undo()
+        plt.close("all")
+    assert legend == [f"{accel} x{threads}" for accel in ("warp:sah", "wrt:sah") for threads in (1, 2, 16)]
+
+
 def test_markdown_table_names_hardware():
     rows = [{"scene": "s", "triangles": 1, "device": "cpu", "rays": "primary", "accel": "warp:sah", "threads": 1,
              "build_ms": 1.0, "mrays": 2.0, "mrays_min": 1.0, "mrays_max": 3.0, "hit_fraction": 0.5, "agreement": 1.0,

@@ -1215,7 +1215,9 @@ def plot(rows: list[dict], out: Path) -> list[Path]:
         # Failed rows and groups keep their place, marked: drawn as no bar, they read as a rate of 0 or as not run.
         labels = sorted({(r["scene"], r["rays"]) for r in rows})
         several = len({r["device"] for r in rows}) > 1
-        series = sorted({(r["accel"], r["device"], r["threads"]) for r in rows if r["accel"] != "*"}, key=str)
+        # By accelerator, device, then thread count as a number (as text, x16 came between x1 and x2).
+        series = sorted({(r["accel"], r["device"], r["threads"]) for r in rows if r["accel"] != "*"},
+                        key=lambda s: (str(s[0]), str(s[1]), s[2] if isinstance(s[2], int) else -1))
         texts = [f"{name}\n{kind}" for name, kind in zip(_plot_scene_names([s for s, _ in labels]),
                                                          (k for _, k in labels))]
         # Each group as wide as its longest label (about 0.07 inch per character at font size 7): whole paths under
