@@ -581,6 +581,7 @@ def test_mrays_plot_group_labels_of_scene_files_do_not_overlap(tmp_path, monkeyp
     folder = "/a/rather/long/folder/of/benchmark/scenes"
     scenes = [f"{folder}/{name}.usda" for name in ("instanced_forest", "kitchen_interior", "teapot")]
     scenes += [f"{folder}/v2/teapot.usda", "sphere:1000"]  # two teapot.usda: told apart by their folders
+    scenes += ["warp:examples/bunny.usd"]  # named as the table names it, 'warp:' and all
     rows = [tree_row(accel, 2.0, 20.0, rays=kind, scene=scene) for scene in scenes for kind in ("primary", "shadow")
             for accel in ("warp:sah", "wrt:sah")]
     fig = plotted_figures(monkeypatch, rows, tmp_path)["mrays.png"]
@@ -594,7 +595,7 @@ def test_mrays_plot_group_labels_of_scene_files_do_not_overlap(tmp_path, monkeyp
         monkeypatch.undo()
         plt.close("all")
     assert len(set(texts)) == len(texts) == 2 * len(scenes)
-    for name in ("instanced_forest.usda", "kitchen_interior.usda", "sphere:1000"):
+    for name in ("instanced_forest.usda", "kitchen_interior.usda", "sphere:1000", "warp:examples/bunny.usd"):
         assert sum(text.startswith(name + "\n") for text in texts) == 2, texts
     assert sum(text.startswith(scenes[2] + "\n") for text in texts) == 2, texts  # teapot.usda, named in full
     assert sum(text.startswith(scenes[3] + "\n") for text in texts) == 2, texts

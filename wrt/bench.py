@@ -1194,7 +1194,7 @@ def _plottable(*values) -> bool:
 def _plot_scene_names(scenes: list[str]) -> list[str]:
     """How a plot names each of ``scenes``: a scene file by its file name (the table names it in full), unless
     another scene of the plot has that name too; ``sphere:N``, ``warp:NAME`` and ``asset:ID`` as they are."""
-    short = [Path(scene).name or scene for scene in scenes]
+    short = [scene if scene.partition(":")[0] in SCENE_KINDS else Path(scene).name or scene for scene in scenes]
     owners = {}
     for scene, name in zip(scenes, short):
         owners.setdefault(name, set()).add(scene)
