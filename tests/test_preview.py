@@ -421,6 +421,23 @@ def test_cli_without_a_display_checks_its_default_output_before_the_work(tmp_pat
     assert [p.name for p in tmp_path.iterdir()] == ["preview.png"]
 
 
+@pytest.mark.parametrize("usda", ["#usda 1.0\n", '#usda 1.0\ndef SphereLight "L"\n{\n}\n'])
+def test_preview_of_a_scene_with_nothing_to_draw_says_so_in_its_own_words(tmp_path, usda):
+    """An empty stage, or one of lights alone, drew an empty frustum without a word, and with --rays warned in the
+    words of a render it never made: 'nothing to render (no triangles, and the depth integrator shows no light); the
+    image is background only' (the depth integrator being that of the renderer its sample rays are traced with)."""
+    path = tmp_path / "nothing.usda"
+    path.write_text(usda)
+    scene = wrt.load_usd(path)
+    for rays in (0, 5):
+        with pytest.warns(UserWarning) as caught:
+            plotter = wrt.preview(scene, rays=rays, window_size=(64, 48))
+        plotter.close()
+        messages = [str(w.message) for w in caught]
+        assert len(messages) == 1 and "nothing.usda: nothing to draw" in messages[0], messages
+        assert "integrator" not in messages[0] and "image" not in messages[0], messages
+
+
 def test_missing_pyvista_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "pyvista", None)
     with pytest.raises(PreviewUnavailable, match=r"pip install 'wrt\[preview\]'"):

@@ -38,6 +38,7 @@ import math
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -576,7 +577,10 @@ def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, buil
     # The renderer's own accelerator and culling: rays pass back faces of single-sided meshes and cut-out holes. Its
     # film is the ray grid: none of its pixels are drawn, and one of width x height was refused above the renderer's
     # pixel limit (a 10000x10000 film for 48 rays), where the film is only an aspect here.
-    renderer = Renderer(scene, camera=cam, width=gw, height=gh, device=device, builder=builder, integrator="depth")
+    with warnings.catch_warnings():  # its 'nothing to render ...; the image is ...' spoke of an image never made
+        warnings.filterwarnings("ignore", message=".*nothing to render", category=UserWarning)
+        renderer = Renderer(scene, camera=cam, width=gw, height=gh, device=device, builder=builder,
+                            integrator="depth")
     scratch = CullScratch(total, device, renderer.nothing_to_cull, renderer.no_holes)
     intersect_visible(renderer.accel, renderer.surfaces, renderer.materials, renderer.device_scene, out, hits, scratch)
     pick = np.round(np.linspace(0, total - 1, n)).astype(np.int64)
@@ -659,6 +663,11 @@ def preview(
     Builder.from_str(builder)  # checked now, not only when boxes, rays or the image need the tree
     device = resolve_device(device)
     scene = _as_scene(scene)
+    stats = scene.stats()
+    if not stats["rendered_triangles"] and not stats.get("rendered_shapes", 0):  # an empty view, else unexplained
+        lights = "; lights are not drawn" if scene.lights else ""
+        warnings.warn(f"{scene.source or 'scene'}: nothing to draw (no triangles or analytic shapes{lights}): the "
+                      "preview shows the camera alone", stacklevel=2)
     cam, width, height = resolve_view(scene, camera, width, height)
     if off_screen is None:
         off_screen = bool(pv.OFF_SCREEN) or not has_display()
