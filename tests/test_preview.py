@@ -197,7 +197,26 @@ def test_bvh_summary_counts_one_node_in_the_singular():
     bvh = get_accelerator(scene, "wrt", "sah", "cpu").bvh
     assert bvh.num_nodes == 1
     plotter = types.SimpleNamespace(add_mesh=lambda *args, **kwargs: None)
-    assert _add_bvh(plotter, bvh, None, "depth", 100).startswith("1 node, depth 0: leaves, 1 box")
+    assert _add_bvh(plotter, bvh, None, "depth", 100)[0].startswith("1 node, depth 0: leaves, 1 box")
+
+
+def test_preview_title_says_when_the_boxes_are_capped(bunny):
+    """Above max_boxes an even subset of the boxes is drawn, said only in the text in the view: the title, which
+    wrt preview prints and which a preview with show_text=False still has, said nothing of it."""
+    leaves = int((get_accelerator(bunny, "wrt", "sah", "cpu").bvh.prim_count > 0).sum())
+    plotter = wrt.preview(bunny, bvh_leaves=True, max_boxes=100, window_size=(64, 48), show_text=False)
+    try:
+        drawn = plotter.actors["bvh"].mapper.dataset.n_cells // 12
+        title = plotter.title
+    finally:
+        plotter.close()
+    assert drawn == 100 < leaves
+    assert f"showing 100 of {leaves:,} BVH boxes" in title, title
+    plotter = wrt.preview(bunny, bvh_depth=2, max_boxes=100, window_size=(64, 48), show_text=False)
+    try:
+        assert "boxes" not in plotter.title, plotter.title  # all four drawn: nothing to say
+    finally:
+        plotter.close()
 
 
 def test_bvh_boxes_polydata(bunny):

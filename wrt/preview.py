@@ -695,7 +695,9 @@ def preview(
     lines.append(f"camera {label}: {cam.projection}, film {width}x{height}")
     if bvh_depth is not None or bvh_leaves:
         accel = get_accelerator(scene, "wrt", builder, device)
-        summary = _add_bvh(plotter, accel.bvh, bvh_depth, bvh_color, max_boxes)
+        summary, capped = _add_bvh(plotter, accel.bvh, bvh_depth, bvh_color, max_boxes)
+        if capped:  # in the title too, as the simplification is: wrt preview prints it, and show_text may be off
+            title += f", {capped}"
         if hasattr(accel, "tlas"):  # instances or analytic shapes: a two-level BVH, whose top level is drawn
             # A leaf holds up to TLAS_LEAF_SIZE entries: 'a leaf per instance or shape' promised more boxes than drawn.
             entries = counted(accel.num_entries, "entry", "entries")
@@ -867,8 +869,9 @@ def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_dept
     plotter.add_mesh(dot, color=FRUSTUM_COLOR, name="eye")
 
 
-def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> str:
-    """Draws the BVH cut at ``depth`` (every leaf when ``None``); returns a summary for the text."""
+def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> tuple[str, str]:
+    """Draws the BVH cut at ``depth`` (every leaf when ``None``); returns a summary for the text and a note for the
+    title when only a subset of the boxes is drawn (else ``""``)."""
     from matplotlib.colors import LinearSegmentedColormap
 
     nodes = select_bvh_nodes(bvh, depth, leaves=depth is None)
@@ -892,7 +895,8 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> str:
     what = "leaves" if depth is None else f"cut at depth {depth}"
     count = counted(len(nodes), "box", "boxes") if shown == len(nodes) else f"{shown:,} of {len(nodes):,} boxes"
     levels = int(bvh.depths().max(initial=0))
-    return f"{counted(bvh.num_nodes, 'node')}, depth {levels}: {what}, {count}"
+    capped = f"showing {shown:,} of {len(nodes):,} BVH boxes" if shown < len(nodes) else ""
+    return f"{counted(bvh.num_nodes, 'node')}, depth {levels}: {what}, {count}", capped
 
 
 def _add_rays(pv, plotter, origins, directions, t, depth_rates, far: float) -> str:
