@@ -4,6 +4,8 @@ import faulthandler
 import json
 import os
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -153,6 +155,27 @@ def test_worker_device_outside_a_worker(monkeypatch):
     assert distributed.worker_device() in ("cpu", "cuda:0")
 
 
+HOLD_ENV = "WRT_TEST_HOLD"  # a file: hold_second_row() writes it, then waits while it exists
+
+
+def hold_second_row(task):
+    """A bench group on a Dask worker whose second row's launches wait (at most a minute) until the test removes the
+    file ``$WRT_TEST_HOLD``, written when the first row is finished."""
+    hold, original, calls = Path(os.environ[HOLD_ENV]), bench.time_runs, []
+
+    def held(run, repeats):
+        calls.append(1)
+        if len(calls) == 2:
+            hold.write_text("first row finished")
+            deadline = time.monotonic() + 60
+            while hold.exists() and time.monotonic() < deadline:
+                time.sleep(0.05)
+        return original(run, repeats)
+
+    bench.time_runs = held  # in the worker's own process
+    return RUN_GROUP_TASK(task)
+
+
 def comparable(rows):
     return sorted(json.dumps({k: v for k, v in r.items() if k not in TIMING_KEYS}, sort_keys=True) for r in rows)
 
@@ -245,3 +268,52 @@ def test_bench_dask_ctrl_c_keeps_the_rows_written_as_a_plain_run_does(tmp_path, 
     rows = run_grid(grid, tmp_path / "dask", progress=False, resume=True, dask=True)
     assert rows.resumed == 2 and rows[:2] == written["dask"]
     assert [(r["rays"], r["accel"]) for r in rows[2:]] == [("shadow", "warp:sah"), ("shadow", "wrt:sah")]
+
+
+def test_bench_dask_ctrl_c_keeps_the_finished_rows_of_a_group_cut_short(tmp_path, monkeypatch):
+    """Ctrl-C in bench --dask while a worker measured a group's second row lost the group's first row, finished on
+    the worker, since a group's rows came back only with the whole group; a plain run interrupted at the same row
+    keeps it. The Ctrl-C is simulated as a real one is delivered (the main thread's SIGINT handler), once the worker
+    has finished the first row."""
+    grid = Grid(scenes=["sphere:200"], accels=["warp:sah", "wrt:sah"], rays=["primary"], n_rays=300, repeats=1)
+    time_runs = bench.time_runs
+    calls = []
+
+    def ctrl_c_at_second_row(run, repeats):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return time_runs(run, repeats)
+
+    monkeypatch.setattr(bench, "time_runs", ctrl_c_at_second_row)
+    with pytest.raises(KeyboardInterrupt):
+        run_grid(grid, tmp_path / "plain", progress=False)
+    monkeypatch.setattr(bench, "time_runs", time_runs)
+    hold = tmp_path / "hold"
+    monkeypatch.setenv(HOLD_ENV, str(hold))
+    monkeypatch.setattr(bench, "_run_group_task", hold_second_row)
+    monkeypatch.setattr(distributed, "default_workers", lambda: 1)
+
+    def press_ctrl_c():
+        deadline = time.monotonic() + 120
+        while not hold.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(2.0)  # the first row, sent by the worker when it finished, reaches this process meanwhile
+        import _thread
+
+        _thread.interrupt_main()
+        time.sleep(1.0)
+        hold.unlink(missing_ok=True)  # the worker may go on: the run has stopped
+
+    presser = threading.Thread(target=press_ctrl_c, daemon=True)
+    presser.start()
+    with pytest.raises(KeyboardInterrupt):
+        run_grid(grid, tmp_path / "dask", progress=False, dask=True)
+    presser.join()
+    written = {}
+    for name in ("plain", "dask"):
+        jsonl = tmp_path / name / "rows.jsonl"
+        written[name] = [json.loads(line) for line in jsonl.read_text().splitlines()] if jsonl.exists() else []
+    assert [(r["rays"], r["accel"], "mrays" in r) for r in written["plain"]] == [("primary", "warp:sah", True)]
+    assert comparable(written["dask"]) == comparable(written["plain"])
+    assert "| warp:sah |" in (tmp_path / "dask" / "table.md").read_text()

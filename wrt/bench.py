@@ -761,7 +761,7 @@ def _run_group_task(task) -> list[dict]:
     A CUDA group runs on the worker's own GPU (``worker_device()``); its rows keep the grid's device name, so that
     tables and ``resume`` line up.
     """
-    from .distributed import worker_device
+    from .distributed import send_partial, worker_device
 
     (scene_name, device_name, kind), grid, thread_counts, done = task  # done: row key -> identity fields
     device = resolve_device(worker_device() if device_name.startswith("cuda") else device_name)
@@ -771,6 +771,7 @@ def _run_group_task(task) -> list[dict]:
 
     def collect(row):
         rows.append(dict(row, device=device_name, **info))
+        send_partial(rows[-1])  # kept by the client when a Ctrl-C there cuts this group short
 
     def skip(row):
         before = done.get(row_key(dict(row, device=device_name)))
@@ -1011,9 +1012,14 @@ def run_grid(
 
             done = {key: {name: r.get(name) for name in IDENTITY_FIELDS} for key, r in resumed.items()}
             tasks = [((s, str(d), k), grid, thread_counts, done) for s, d, k in groups]
+            def keep(group_rows):
+                for row in group_rows:
+                    emit(row)
+
+            # on_partial: at Ctrl-C, the rows a worker had finished of a group cut short, as a plain run keeps them.
             run_tasks(_run_group_task, tasks, address=None if dask is True else dask, progress=progress,
-                      desc="wrt bench", on_result=lambda task, group_rows: [emit(r) for r in group_rows],
-                      on_error=lost)
+                      desc="wrt bench", on_result=lambda task, group_rows: keep(group_rows), on_error=lost,
+                      on_partial=lambda task, group_rows: keep(group_rows))
             order = {task[0]: i for i, task in enumerate(tasks)}
             first = len(resumed)  # the resumed rows not measured again come first
             rows[first:] = sorted(rows[first:],

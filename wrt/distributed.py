@@ -94,6 +94,46 @@ def connect(address: str | None = None, n_workers: int | None = None, retries: i
     return Client(cluster), cluster
 
 
+PARTIAL_TOPIC = "wrt-partial-results"  # the Dask event topic of send_partial()
+
+
+def send_partial(value) -> None:
+    """From inside a task of :func:`run_tasks`: hands ``value``, a finished part of the task's result (a bench row
+    of a group), to the client at once, so that a Ctrl-C there that cuts the task short keeps it (``on_partial``);
+    the task's return value still carries the whole result. Does nothing outside a Dask worker."""
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):  # ValueError: not running inside a worker
+        return
+    import pickle
+
+    # Pickled: a Dask event must be msgpack-serializable, and a row holds numpy numbers.
+    worker.log_event(PARTIAL_TOPIC, {"key": worker.get_current_task(), "worker": worker.address,
+                                     "value": pickle.dumps(value)})
+
+
+class _Partials:
+    """The values each running task sent with :func:`send_partial`, by task key; those of the task's latest attempt
+    only (a task rerun after its worker died sends its parts again)."""
+
+    def __init__(self):
+        self.by_key = {}
+
+    def __call__(self, event) -> None:  # a Dask topic handler, called with (timestamp, message)
+        import pickle
+
+        message = event[1]
+        worker, values = self.by_key.get(message["key"], (None, []))
+        if worker != message["worker"]:
+            values = []
+        self.by_key[message["key"]] = (message["worker"], values + [pickle.loads(message["value"])])
+
+    def of(self, key) -> list:
+        return self.by_key.get(key, (None, []))[1]
+
+
 def _started(client, futures: dict) -> list[int]:
     """The indices (the values of ``futures``) of the tasks a worker is running or has finished, in order; every
     one where the scheduler does not answer."""
@@ -113,6 +153,7 @@ def run_tasks(
     on_result=None,
     on_error=None,
     on_interrupt=None,
+    on_partial=None,
     retries: int = 2,
     timeout: float | None = None,
     progress: bool = True,
@@ -131,6 +172,9 @@ def run_tasks(
         on_interrupt: ``on_interrupt(items)`` at Ctrl-C, before the ``KeyboardInterrupt`` goes on: the items cut
             short, those whose tasks a worker was running (as the scheduler says; every task not handed over where it
             does not answer) or had finished and were not yet handed over (or being handed over).
+        on_partial: ``on_partial(item, values)`` at Ctrl-C, before ``on_interrupt``, for each task cut short that had
+            sent parts of its result with ``send_partial()`` (in the order sent), so that they are kept; not for a
+            task whose result ``on_result`` was handling, which may have taken some of them already.
         retries: how often a task is rerun after its worker dies (a ``LocalCluster``'s ``allowed-failures``; a
             remote scheduler uses its own setting). Exceptions raised by ``fn`` are not retried.
         timeout: seconds for the whole run; ``TimeoutError`` after that. None: no limit.
@@ -155,6 +199,9 @@ def run_tasks(
     results = {} if on_result is None else None
     failed = []
     futures = {}  # future -> item index; none yet at a Ctrl-C while they are sent (on_interrupt then gets none)
+    partials, handing_over = _Partials(), None
+    if on_partial is not None:
+        client.subscribe_topic(PARTIAL_TOPIC, partials)
     try:
         from distributed import as_completed
 
@@ -173,13 +220,19 @@ def run_tasks(
                         on_error(items[i], e)
                 else:
                     if results is None:
+                        handing_over = future
                         on_result(items[i], result)
+                        handing_over = None
                     else:
                         results[i] = result
                 del futures[future]  # handed over (kept until now: a Ctrl-C in on_result cut this item short)
                 future.release()  # forget it: a result already here is never recomputed when a worker dies
                 bar.update()
     except KeyboardInterrupt:
+        if on_partial is not None:
+            for future, i in sorted(futures.items(), key=lambda pair: pair[1]):
+                if future is not handing_over and partials.of(future.key):
+                    on_partial(items[i], partials.of(future.key))
         if on_interrupt is not None:
             on_interrupt([items[i] for i in _started(client, futures)])
         raise
