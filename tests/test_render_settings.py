@@ -504,3 +504,59 @@ def test_exr_images_say_the_shape_of_their_pixels(tmp_path, policy):
     assert exr_float_attribute(tmp_path / "cli.exr", "pixelAspectRatio") == pytest.approx(expected, rel=1e-6)
     wrt.render(wrt.load_usd(stage), width=16, height=12).save(tmp_path / "python.exr")
     assert exr_float_attribute(tmp_path / "python.exr", "pixelAspectRatio") == pytest.approx(expected, rel=1e-6)
+
+
+BAD_PYTHON_SETTINGS = [
+    # Each failed only at the render, in Python's words: "float division by zero", "not enough values to unpack",
+    # "Array shapes must be non-negative", "cannot convert float NaN to integer", or rendered a cut or 1-pixel image.
+    (dict(resolution=(0, 10)), wrt.SceneError, r"resolution 0x10 must be positive"),
+    (dict(resolution=(-5, 5)), wrt.SceneError, r"resolution -5x5 must be positive"),
+    (dict(resolution=(64,)), wrt.SceneError, r"resolution must be 2 numbers, got \(64,\)"),
+    (dict(resolution=(64, 48, 3)), wrt.SceneError, r"resolution must be 2 numbers, got \(64, 48, 3\)"),
+    (dict(resolution=(True, 12)), wrt.SceneError, r"resolution must be 2 numbers, got \(True, 12\)"),
+    (dict(resolution=(16.5, 12)), wrt.SceneError, r"resolution 16.5x12 must be whole numbers of pixels"),
+    (dict(resolution=(float("nan"), 12)), wrt.SceneError, r"resolution nanx12 must be positive"),
+    (dict(resolution="16x12"), wrt.SceneError, r"resolution must be 2 numbers, got '16x12'"),
+    (dict(pixel_aspect_ratio=0), wrt.SceneError, r"pixel_aspect_ratio must be a finite positive number, got 0"),
+    (dict(conform_policy="expandApperture"), wrt.SceneError,
+     r"conform_policy 'expandApperture' is none of .* \(did you mean 'expandAperture'\?\)"),
+    (dict(data_window=(0, 0, 1)), wrt.SceneError, r"data_window must be 4 numbers, got \(0, 0, 1\)"),
+    (dict(data_window=(0, 0, np.inf, 1)), wrt.SceneError, r"data_window \(0, 0, inf, 1\) must be finite"),
+    (dict(camera=5), TypeError, r"camera: path must be a str.*got int 5"),
+    (dict(camera=" "), wrt.SceneError, r"camera is an empty path"),
+    (dict(disable_depth_of_field="no"), TypeError, r"disable_depth_of_field must be True or False, got str 'no'"),
+    (dict(included_purposes="render"), TypeError, r"included_purposes must be a tuple \(or list\) of str, got str"),
+    (dict(products=[1]), TypeError, r"products must be a tuple \(or list\) of RenderSettings"),
+    (dict(product_type=3), TypeError, r"product_type must be a str, got int 3"),
+]
+
+
+@pytest.mark.parametrize("fields, error, message", BAD_PYTHON_SETTINGS)
+def test_bad_settings_made_in_python_are_refused_when_made_naming_the_field(fields, error, message):
+    from wrt.render_settings import RenderSettings
+
+    with pytest.raises(error, match=r"RenderSettings '/Render': " + message):
+        RenderSettings(path="/Render", **fields)
+
+
+def test_settings_made_in_python_keep_their_valid_values_as_plain_numbers():
+    """Numpy numbers and whole floats are taken (as a stage's float2 resolution is), as the Python numbers."""
+    from wrt.render_settings import RenderSettings
+
+    settings = RenderSettings(path="/Render", resolution=(np.int64(16), 12.0), pixel_aspect_ratio=np.float32(2.0),
+                              data_window=np.array([0.25, 0.0, 0.75, 0.5]), disable_depth_of_field=np.bool_(True),
+                              included_purposes=["default", "proxy"])
+    assert settings.resolution == (16, 12) and all(type(v) is int for v in settings.resolution)
+    assert settings.pixel_aspect_ratio == 2.0 and type(settings.pixel_aspect_ratio) is float
+    assert settings.data_window == (0.25, 0.0, 0.75, 0.5) and settings.disable_depth_of_field is True
+    assert settings.included_purposes == ("default", "proxy")
+
+
+def test_a_settings_camera_wrt_does_not_read_is_named_without_a_stray_colon():
+    """Settings made in Python have no source file: the message began ': /Render: camera ...'."""
+    from wrt.render_settings import RenderSettings
+
+    scene = wrt.Scene.from_triangles(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]]))
+    scene.render_settings = RenderSettings(path="/Render", camera="/Nope", resolution=(8, 6))
+    with pytest.raises(wrt.SceneError, match=r"^/Render: camera /Nope is not among the cameras wrt reads: none$"):
+        resolve_view(scene)

@@ -189,8 +189,9 @@ def resolve_view(scene: Scene, camera=None, width: int | None = None, height: in
             raise SceneError(f"{settings.product or settings.path} renders camera {settings.camera}, which wrt cannot "
                              f"use: {scene.skipped_cameras[settings.camera]}", path=settings.source)
         if settings.camera not in scene.cameras:  # a camera wrt skips (one inside a PointInstancer prototype)
-            raise ValueError(f"{settings.source}: {settings.product or settings.path}: camera {settings.camera} is "
-                             f"not among the cameras wrt reads: {', '.join(scene.cameras) or 'none'}")
+            raise SceneError(f"camera {settings.camera} is not among the cameras wrt reads: "
+                             f"{', '.join(scene.cameras) or 'none'}", path=settings.source or None,
+                             prim=settings.product or settings.path)  # settings made in Python have no source
         camera = settings.camera
     cam = resolve_camera(scene, camera)
     if isinstance(camera, Camera):

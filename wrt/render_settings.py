@@ -31,6 +31,7 @@ in linear Rec.709 and converts nothing).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 import warnings
@@ -38,7 +39,7 @@ import warnings
 import numpy as np
 
 from .camera import CONFORM_POLICIES, Camera
-from .errors import SceneError, user_stacklevel
+from .errors import SceneError, did_you_mean, flag, prim_path, user_stacklevel
 from .usd_values import value_at, value_or_fallback
 
 DEFAULT_WIDTH = 640  # image width without a stage resolution or an explicit one, in pixels
@@ -126,6 +127,44 @@ class RenderSettings:
                 value = value.tolist()
             if isinstance(value, list):
                 object.__setattr__(self, field, tuple(value))  # frozen: set as dataclasses' own __init__ does
+        self._check_fields()
+
+    def _check_fields(self) -> None:
+        """Checks settings made in Python when they are made, as a stage's are when read, naming the field and the
+        value: a resolution (0, 10) failed only at the render, with "float division by zero", (64,) with "not
+        enough values to unpack", and a string for a tuple of names or a flag was taken without a word.
+
+        Raises:
+            SceneError: a value the schema does not allow (see :func:`read_render_settings`).
+            TypeError: a field of another type.
+        """
+        where = f"RenderSettings {self.path!r}"
+        set_field = functools.partial(object.__setattr__, self)  # frozen: set as dataclasses' own __init__ does
+        set_field("path", prim_path(self.path, "RenderSettings"))
+        values = {field: getattr(self, field) for field in _FIELD_NAMES}
+        _check_values(values, dict(prim=where), _FIELD_NAMES)
+        for field, value in values.items():
+            set_field(field, value)
+        if self.camera is not None:
+            set_field("camera", prim_path(self.camera, f"{where}: camera"))
+            if not self.camera.strip():  # at the render: "camera  is not among the cameras wrt reads"
+                raise SceneError("camera is an empty path; give a camera prim path, or None for the stage's first",
+                                 prim=where)
+        set_field("disable_depth_of_field", flag(self.disable_depth_of_field, f"{where}: disable_depth_of_field"))
+        for field in ("source", "product", "product_name", "product_type", "rendering_color_space"):
+            if not isinstance(getattr(self, field), str):
+                raise TypeError(f"{where}: {field} must be a str, got {type(getattr(self, field)).__name__} "
+                                f"{getattr(self, field)!r}")
+        kinds = {"included_purposes": str, "material_binding_purposes": str, "render_vars": RenderVar,
+                 "products": RenderSettings}
+        for field, kind in kinds.items():
+            value = getattr(self, field)
+            if value is None and field == "material_binding_purposes":
+                continue
+            if not (isinstance(value, tuple) and all(isinstance(item, kind) for item in value)):
+                # A string of names was taken as its letters.
+                raise TypeError(f"{where}: {field} must be a tuple (or list) of {kind.__name__}, got "
+                                f"{type(value).__name__} {value!r}")
 
     def view_fields(self) -> tuple:
         """What of these settings chooses a render's image: the camera, the resolution, the film's fit and pixel
@@ -366,32 +405,42 @@ def _read_base(schema, time, authored_only: bool) -> dict:
 
 
 def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
-def _check_values(values: dict, where: dict) -> None:
-    """Raises SceneError (``where``: file and prim) for values the schema does not allow, or of another type than the
-    schema's (a ``string resolution``: it stopped the render with "too many values to unpack")."""
-    for field, name, count in (("resolution", "resolution", 2), ("data_window", "dataWindowNDC", 4),
-                               ("pixel_aspect_ratio", "pixelAspectRatio", 1)):
-        found = values[field]
+# How messages name the fields _check_values checks: by the attribute a stage authors (the default), or by the field
+# of RenderSettings (settings made in Python).
+_USD_NAMES = {"resolution": "resolution", "data_window": "dataWindowNDC", "pixel_aspect_ratio": "pixelAspectRatio",
+              "conform_policy": "aspectRatioConformPolicy"}
+_FIELD_NAMES = {field: field for field in _USD_NAMES}
+
+
+def _check_values(values: dict, where: dict, names: dict = _USD_NAMES) -> None:
+    """Raises SceneError (``where``: file and prim; ``names``: how the message names each field) for values the schema
+    does not allow, or of another type than the schema's (a ``string resolution``: it stopped the render with "too
+    many values to unpack"). Makes them plain numbers and tuples."""
+    for field, count in (("resolution", 2), ("data_window", 4), ("pixel_aspect_ratio", 1)):
+        found, name = values[field], names[field]
         numbers = found if count > 1 and isinstance(found, tuple) else (found,)
         if len(numbers) != count or not all(_is_number(v) for v in numbers):
             raise SceneError(f"{name} must be {count} number{'s' * (count > 1)}, got {found!r}", **where)
     w, h = values["resolution"]
     if not (w > 0 and h > 0 and math.isfinite(w) and math.isfinite(h)):  # (a float2 one may hold inf)
-        raise SceneError(f"resolution {w}x{h} must be positive", **where)
+        raise SceneError(f"{names['resolution']} {w}x{h} must be positive", **where)
+    if w != int(w) or h != int(h):  # (16.5, 12) was cut to 16 pixels without a word
+        raise SceneError(f"{names['resolution']} {w}x{h} must be whole numbers of pixels", **where)
     ratio = values["pixel_aspect_ratio"]
     if not (math.isfinite(ratio) and ratio > 0):
-        raise SceneError(f"pixelAspectRatio must be a finite positive number, got {ratio}", **where)
+        raise SceneError(f"{names['pixel_aspect_ratio']} must be a finite positive number, got {ratio}", **where)
     if values["conform_policy"] not in CONFORM_POLICIES:
-        raise SceneError(f"aspectRatioConformPolicy {values['conform_policy']!r} is none of "
-                         f"{', '.join(CONFORM_POLICIES)}", **where)
+        raise SceneError(f"{names['conform_policy']} {values['conform_policy']!r} is none of "
+                         f"{', '.join(CONFORM_POLICIES)}{did_you_mean(values['conform_policy'], CONFORM_POLICIES)}",
+                         **where)
     window = values["data_window"]
     if not (all(math.isfinite(v) for v in window) and window[0] < window[2] and window[1] < window[3]):
         shown = ", ".join(f"{v:g}" for v in window)
-        raise SceneError(f"dataWindowNDC ({shown}) must be finite (xmin, ymin, xmax, ymax) with xmin < xmax and "
-                         "ymin < ymax", **where)
+        raise SceneError(f"{names['data_window']} ({shown}) must be finite (xmin, ymin, xmax, ymax) with xmin < xmax "
+                         "and ymin < ymax", **where)
     values["data_window"] = tuple(float(v) for v in window)
     values["pixel_aspect_ratio"] = float(ratio)
     values["resolution"] = (int(w), int(h))
