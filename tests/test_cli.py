@@ -78,6 +78,11 @@ def test_help_explains_the_options():
     (["preview", "--bvh-leafs"], "(did you mean '--bvh-leaves'?) (see 'wrt preview --help')"),
     (["bench", "--repaets=3"], "--repaets=3 (did you mean '--repeats'?) (see 'wrt bench --help')"),
     (["render", "--frobnicate"], "unrecognized arguments: --frobnicate (see 'wrt render --help')"),  # nothing close
+    # Before the command: 'the following arguments are required: COMMAND', naming neither the option nor the fix.
+    (["--frobnicate"], "unrecognized arguments: --frobnicate (see 'wrt --help')"),
+    (["--verison"], "unrecognized arguments: --verison (did you mean '--version'?) (see 'wrt --help')"),
+    (["--width", "8", "render"], "unrecognized arguments: --width; it is an option of wrt render, wrt preview: give it "
+     "after the command (see 'wrt --help')"),
 ])
 def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsys, args, message):
     """An unknown option after a command was reported by the top parser: 'see wrt --help', which lists commands, not

@@ -73,6 +73,7 @@ class _Parser(argparse.ArgumentParser):
         """As argparse's, but an unknown option after a command is reported by that command's parser, with the
         closest option it has: argparse's own error came from the top parser and pointed at 'wrt --help', which
         lists the commands, not their options."""
+        self._check_options_before_the_command(sys.argv[1:] if args is None else list(args))
         parsed, extras = self.parse_known_args(args, namespace)
         if extras:
             command = self._commands().get(getattr(parsed, "command", None), self)
@@ -82,6 +83,20 @@ class _Parser(argparse.ArgumentParser):
             hint = did_you_mean(unknown[2:].split("=")[0], names).replace(" '", " '--") if unknown[:2] == "--" else ""
             command.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
         return parsed
+
+    def _check_options_before_the_command(self, args: list) -> None:
+        """An unknown option before the command (``wrt --frobnicate``, ``wrt --width 8 render``) is named: argparse
+        said only that 'the following arguments are required: COMMAND', or took the option's value for the command."""
+        commands = self._commands()
+        for arg in args:
+            if not commands or arg in commands or arg == "--":
+                return
+            name = arg.split("=")[0]
+            if arg.startswith("-") and name not in self._option_string_actions:
+                owners = [command for command, parser in commands.items() if name in parser._option_string_actions]
+                hint = f"; it is an option of {', '.join(f'wrt {c}' for c in owners)}: give it after the command" \
+                    if owners else did_you_mean(name, self._option_string_actions)
+                self.error(f"unrecognized arguments: {arg}{hint}")
 
     def _check_value(self, action, value):
         """As argparse's, but a misspelt choice (``--builder SAH``, ``--integrator pth``, ``rendr``) names the one
