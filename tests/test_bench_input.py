@@ -208,6 +208,9 @@ def test_bvh_stats_presplit_gives_the_sah_cost_of_the_tree_bench_traces(tmp_path
     ("--scenes", "sphere:200,sphere:0", "argument --scenes: sphere:0: N must be a whole number of triangles"),
     ("--scenes", "sphere:abc", "argument --scenes: sphere:abc: N must be a whole number of triangles"),
     ("--devices", "cpuu", "argument --devices: unknown device 'cpuu' (did you mean 'cpu'?)"),
+    # 100,000,000 timed launches per row: a run of days, without a word.
+    ("--repeats", "100000000", "argument --repeats: must be at most 10,000 (the median of more launches is no "
+     "steadier), got 100,000,000"),
 ])
 def test_bad_bench_options_are_named_before_any_scene_loads(tmp_path, monkeypatch, capsys, option, value, message):
     """These errors named only the value ('unknown ray kind 'foo'') or a field ('threads must be ...'), not the option
@@ -445,6 +448,7 @@ def test_a_bad_device_given_on_the_command_line_over_a_suite_names_the_option(tm
     (dict(devices=["cuda:x"]), r"devices\[0\]: unknown device 'cuda:x'.*; devices are cpu, cuda and cuda:N"),
     (dict(accels=["wrt:sha"]), r"accels\[0\]: accelerator 'wrt:sha': unknown BVH builder 'sha' \(did you mean 'sah'"),
     (dict(rays=["Primary"]), r"rays\[0\]: unknown ray kind 'Primary' \(did you mean 'primary'\?\)"),
+    (dict(repeats=10_001), r"repeats: must be at most 10,000 .*, got 10,001"),
 ])
 def test_a_grid_is_refused_when_made_naming_the_bad_value(fields, message):
     """Grid(devices=["CPU"]) was taken and refused only by run_grid, a misspelt accelerator or ray kind too."""

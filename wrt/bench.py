@@ -68,6 +68,7 @@ ANY_HIT_KINDS = ("shadow",)  # ray kinds traced with the any-hit query
 # 105 bytes per ray. Requests beyond the memory available get an error naming them instead of being killed midway.
 SPHERE_TRIANGLE_BYTES = 800
 RAY_BYTES = 400
+MAX_REPEATS = 10_000  # timed launches per row
 
 
 @dataclasses.dataclass
@@ -177,6 +178,9 @@ class Grid:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise GridError(name, f"{name} must be a positive integer, got {value!r}")
+        if self.repeats > MAX_REPEATS:  # --repeats 100000000 timed launches for days, without a word
+            raise GridError("repeats", f"repeats must be at most {MAX_REPEATS:,} (the median of more launches is no "
+                            f"steadier), got {self.repeats:,}")
         check_host_memory(self.n_rays * RAY_BYTES, f"n_rays {self.n_rays}")
         for i, name in enumerate(self.devices):  # whether this machine has it is for run_grid (or a Dask worker)
             check_device_name(name, i)
