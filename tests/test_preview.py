@@ -413,6 +413,21 @@ def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch, arg
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("output", ["shots", "shots/"])
+def test_cli_output_that_is_a_folder_is_named_as_one(tmp_path, capsys, monkeypatch, output):
+    """-o FOLDER said 'cannot write shots: previews are written as .png', as if the name lacked a suffix."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "shots").mkdir()
+    try:
+        code = main(["preview", "-o", output, "-q"])
+    except SystemExit as e:
+        code = e.code
+    assert code == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt:")]
+    assert errors == ["wrt: error: cannot write shots: it is a directory"]
+    assert not list((tmp_path / "shots").iterdir())
+
+
 def test_cli_bvh_color_without_boxes_is_warned_about(tmp_path, capsys):
     """--bvh-color sah alone drew no boxes to colour, without a word (the boxes come with --bvh-depth or
     --bvh-leaves)."""

@@ -920,16 +920,17 @@ def _run_preview(args) -> int:
         from .image import check_not_extension_alone
 
         check_not_extension_alone(output)
+        # An unwritable output fails now, not after the load and the preview; a folder as such, not as a name that
+        # is no .png.
+        _check_output_file(Path(output))
     if output is not None and Path(output).suffix.lower() != ".png":
         raise ValueError(f"cannot write {Path(output).name}: previews are written as .png")
-    if output is not None:  # an unwritable output fails now, not after the load and the preview
+    if no_display:  # the default preview.png: checked now too, saying where the name comes from
         try:
             _check_output_file(Path(output))
         except OSError as e:
-            if no_display:  # the user named no file: say where this one comes from, and how to choose another
-                raise type(e)(f"no display found, so the preview goes to preview.png: {e}; name a file with "
-                              "-o") from None
-            raise
+            raise type(e)(f"no display found, so the preview goes to preview.png: {e}; name a file with "
+                          "-o") from None
     from .bvh.common import resolve_device_option
 
     resolve_device_option(args.device)  # before the load, as the output
