@@ -796,3 +796,15 @@ def test_exposure_help_states_the_range_the_option_accepts(capsys):
         with pytest.raises(SystemExit):
             parser.parse_args(["render", "--exposure", repr(value)])
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("option", ["-o", "--aov-dir", "--log"])
+def test_an_os_error_names_the_path_first_without_python_s_errno(tmp_path, capsys, monkeypatch, option):
+    """A name longer than the file system takes (255 bytes) read '[Errno 36] File name too long: ...': Python's
+    wording, the path last; now the path first, as wrt's own errors name it."""
+    monkeypatch.chdir(tmp_path)
+    name = "a" * 300 + (".png" if option == "-o" else "")
+    assert main(["render", "--width", "8", "--height", "6", "-q", option, name]) == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith("wrt: error: ") and line.endswith(f"{name}: file name too long"), line
+    assert not list(tmp_path.iterdir())

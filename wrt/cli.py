@@ -681,7 +681,7 @@ def _run_render(args) -> int:
             write_row(dict(row, status="interrupted"), start)
             raise
         except Exception as e:  # noqa: BLE001 - one failing scene must not stop the batch, as in wrt bench
-            message = str(e).splitlines()[0] if str(e) else type(e).__name__
+            message = error_line(e)
             row.update(status="error", error=f"{type(e).__name__}: {message}")
             failures.append(row)
             if not isinstance(e, (SceneError, ValueError, TypeError, OSError, MemoryError, RuntimeError)):
@@ -1105,6 +1105,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def error_line(error: Exception) -> str:
+    """The first line of ``error``'s message, or its type where it has none. An OS error of Python's own wording
+    (``[Errno 36] File name too long: 'aaaa...png'``) reads ``aaaa...png: file name too long``, the path first, as
+    wrt's own errors name it."""
+    if isinstance(error, OSError) and error.strerror and error.filename is not None and str(error).startswith("[Errno"):
+        paths = " -> ".join(os.fsdecode(p) for p in (error.filename, error.filename2) if p is not None)
+        return f"{paths}: {error.strerror[:1].lower()}{error.strerror[1:]}"
+    return str(error).splitlines()[0] if str(error) else type(error).__name__
+
+
 def _kernel_cache_hint(error: Exception, cache_dir: str | None) -> str:
     """What to do when ``error`` is an OS error about Warp's kernel cache folder, else ''. Warp makes that folder in
     the home folder when it starts (and writes compiled kernels there), so a missing or read-only home fails with
@@ -1136,7 +1146,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.run(args)
     except (SceneError, ValueError, TypeError, OSError, MemoryError) as e:  # OSError: unwritable output paths too
-        message = str(e).splitlines()[0] if str(e) else type(e).__name__
+        message = error_line(e)
         print(f"wrt: error: {message}{_kernel_cache_hint(e, wp.config.kernel_cache_dir)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except DaskUnavailable as e:
