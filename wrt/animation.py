@@ -71,13 +71,13 @@ def parse_frames(text: str) -> list[float]:
         raise ValueError(f"--frames step must be positive, got {step:g}")
     if end < start:
         raise ValueError(f"--frames range {text!r} is empty (END < START)")
-    if max(abs(start), abs(end)) >= 10.0**FRAME_DIGITS:  # frame_output refuses them too, naming itself, not --frames
-        raise ValueError(f"--frames {text!r}: frames must lie within +-{10**FRAME_DIGITS - 1:,} (a file name spells a "
-                         f"frame to {FRAME_DIGITS} significant digits)")
     steps = (end - start) / step + 1e-9
     if not steps < MAX_FRAMES:  # infinite too: a subnormal step, or END - START past float64
         many = f"{int(math.floor(steps)) + 1:,}" if math.isfinite(steps) else f"more than {MAX_FRAMES:,}"
         raise ValueError(f"--frames {text!r} gives {many} frames; at most {MAX_FRAMES:,} in one run")
+    if max(abs(start), abs(end)) >= 10.0**FRAME_DIGITS:  # frame_output refuses them too, naming itself, not --frames
+        raise ValueError(f"--frames {text!r}: frames must lie within +-{10**FRAME_DIGITS - 1:,} (a file name spells a "
+                         f"frame to {FRAME_DIGITS} significant digits)")
     count = int(math.floor(steps)) + 1
     frames = _exact_frames(parts, count, end, step)
     if len(set(map(_round_frame, frames))) < len(frames):
