@@ -282,6 +282,31 @@ def test_save_onto_a_directory_names_the_directory(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["d.png"]
 
 
+@pytest.mark.parametrize("path, error, message", [
+    ("shots", IsADirectoryError, r"shots: it is a directory"),  # was 'supported image formats are .png, ...'
+    ("", ValueError, r"image path '' is empty"),  # was 'cannot write : supported image formats are ...'
+    (5, TypeError, r"image path must be a str or os.PathLike, got int 5"),  # was pathlib's, naming no argument
+    ("notes.txt/x.png", NotADirectoryError, r"x\.png: .*notes\.txt is a file, not a directory"),  # '[Errno 17]'
+    ("notes.txt/a/x.exr", NotADirectoryError, r"x\.exr: .*notes\.txt is a file, not a directory"),
+])
+def test_save_to_a_path_that_cannot_be_an_image_names_what_is_wrong(tmp_path, monkeypatch, path, error, message):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "shots").mkdir()
+    (tmp_path / "notes.txt").write_text("a file")
+    with pytest.raises(error, match=message):
+        wrt.Image(rgb=np.zeros((2, 2, 3), np.float32)).save(path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt", "shots"]
+    assert not any((tmp_path / "shots").iterdir())
+
+
+def test_save_aovs_under_a_file_names_the_file_in_the_way(tmp_path):
+    """The folder's mkdir said '[Errno 17] File exists: ...', as if the AOVs were there already."""
+    (tmp_path / "notes.txt").write_text("a file")
+    image = wrt.Image(rgb=np.zeros((2, 2, 3), np.float32), aovs={"depth": np.ones((2, 2), np.float32)})
+    with pytest.raises(NotADirectoryError, match=r"aovs: .*notes\.txt is a file, not a directory"):
+        image.save_aovs(tmp_path / "notes.txt" / "aovs")
+
+
 @pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, where no one creates files")
 @pytest.mark.parametrize("suffix", [".png", ".exr", ".npy"])
 def test_save_into_a_folder_that_takes_no_files_names_the_target(suffix):

@@ -164,10 +164,21 @@ def aov_preview(name: str, value: np.ndarray) -> np.ndarray:
 _PARTIAL_COUNTER = itertools.count()  # numbers the temporary files of write_atomically
 
 
+def make_folder(folder: Path, written: Path) -> None:
+    """Makes ``folder`` and its parents, for the file ``written``; a file where one of them must go raises
+    NotADirectoryError naming both ('[Errno 17] File exists', naming the file in the way only, read as if the image
+    existed)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        in_way = next((p for p in (folder, *folder.parents) if p.exists() and not p.is_dir()), folder)
+        raise NotADirectoryError(f"cannot write {written}: {in_way} is a file, not a directory") from None
+
+
 def write_atomically(path: Path, write) -> None:
     """Calls ``write(file)`` on a temporary file beside ``path``, then renames it to ``path``: a run killed while
     writing leaves no truncated image where ``--resume`` would take it for a finished one."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(path.parent, path)
     # The temporary name keeps at most 100 bytes of the final one: a name near the file system's limit (255 bytes)
     # is valid for the image but was too long with the prefix and suffix added. Process id and a counter keep
     # temporary names apart.
@@ -227,6 +238,12 @@ def check_image_path(path) -> Path:
     Raises:
         ValueError: for an extension other than ``IMAGE_FORMATS``, or ``.exr`` without the OpenEXR package.
     """
+    if not isinstance(path, (str, os.PathLike)):  # pathlib said only 'expected str, bytes or os.PathLike object'
+        raise TypeError(f"image path must be a str or os.PathLike, got {type(path).__name__} {path!r}")
+    if not str(path).strip():  # Path("") is the current folder: 'cannot write : supported image formats are ...'
+        raise ValueError(f"image path {str(path)!r} is empty; give a file name such as image.png")
+    if Path(path).is_dir():  # before the extension: a folder was refused as 'supported image formats are ...'
+        raise IsADirectoryError(f"cannot write {path}: it is a directory")
     path = check_not_extension_alone(path)
     suffix = path.suffix.lower()
     if suffix not in IMAGE_FORMATS:
@@ -327,10 +344,8 @@ class Image:
                 :func:`check_exposure` refuses.
             IsADirectoryError: ``path`` is a directory.
         """
-        path = check_image_path(path)
+        path = check_image_path(path)  # a directory too: else the error would name the temporary file beside it
         exposure = check_exposure(exposure)
-        if path.is_dir():  # else the error would name the temporary file written beside it
-            raise IsADirectoryError(f"cannot write {path}: it is a directory")
         suffix = path.suffix.lower()
         if exposure != 0.0 and self.data and suffix == ".png":  # else a brighter PNG asked for came out the same
             warnings.warn(DATA_EXPOSURE_WARNING.format(what="exposure", image="this image"), stacklevel=2)
@@ -360,7 +375,7 @@ class Image:
         for name in names:
             self._check_aov(name)
         directory = Path(directory)
-        directory.mkdir(parents=True, exist_ok=True)
+        make_folder(directory, directory)
         paths = []
         for name in names:
             paths.append(directory / f"{name}.npy")
