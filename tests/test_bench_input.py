@@ -167,6 +167,26 @@ def test_an_output_folder_that_cannot_be_one_is_refused(tmp_path, monkeypatch, c
     assert not (tmp_path / "rows.jsonl").exists()
 
 
+def test_a_rows_file_that_is_a_folder_is_refused_before_any_row_is_measured(tmp_path, monkeypatch):
+    """OUT/rows.jsonl a folder: the run measured its first row, then failed to write it, saying '[Errno 21] Is a
+    directory: 'OUT/rows.jsonl.tmp' -> 'OUT/rows.jsonl''."""
+    (tmp_path / "rows.jsonl").mkdir()
+    monkeypatch.setattr(bench_module, "resolve_scene", lambda name: pytest.fail("a scene was loaded"))
+    with pytest.raises(ValueError, match=r"rows.jsonl', where the rows go, is a folder"):
+        run_grid(small_grid(), tmp_path, progress=False)
+
+
+def test_resuming_a_rows_file_that_is_not_text_names_the_file_and_line(tmp_path, capsys):
+    """Bytes that are no UTF-8 in rows.jsonl stopped --resume with "'utf-8' codec can't decode byte 0xff in
+    position 40", naming neither the file nor the line."""
+    (tmp_path / "rows.jsonl").write_bytes(b'{"scene": "sphere:2000"}\n{"accel": "\xff\xfe"}\n')
+    assert main(["bench", "--scenes", "sphere:2000", "--accels", "wrt:sah", "--rays", "primary", "--n-rays", "100",
+                 "-q", "--resume", "-o", str(tmp_path)]) == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: error")]
+    assert err == [f"wrt: error: {tmp_path / 'rows.jsonl'}: line 2 is not UTF-8 text, so the file holds no benchmark "
+                   "rows; remove it, or run without --resume to start over"]
+
+
 def test_an_absurd_sphere_size_gets_a_short_message(tmp_path):
     """sphere:1e99 was refused with a 90-digit number of TiB."""
     rows = run_grid(small_grid(scenes=["sphere:1e99"]), tmp_path, progress=False)

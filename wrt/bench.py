@@ -826,7 +826,13 @@ def _resumed_rows(jsonl: Path) -> list[dict]:
     Raises:
         ValueError: naming the file and line, for a damaged line other than the last.
     """
-    lines = [line for line in jsonl.read_text().splitlines() if line.strip()]
+    try:
+        text = jsonl.read_text(encoding="utf-8")
+    except UnicodeDecodeError as e:  # 'utf-8' codec can't decode byte 0xcd in position 1, naming no file
+        line = jsonl.read_bytes()[: e.start].count(b"\n") + 1
+        raise ValueError(f"{jsonl}: line {line} is not UTF-8 text, so the file holds no benchmark rows; remove it, "
+                         "or run without --resume to start over") from None
+    lines = [line for line in text.splitlines() if line.strip()]
     rows = []
     for number, line in enumerate(lines, 1):
         try:
@@ -953,6 +959,8 @@ def run_grid(
         files = [p for p in (out, *out.parents) if p.exists() and not p.is_dir()]
         if files:  # mkdir said only '[Errno 17] File exists'
             raise ValueError(f"output folder {str(out)!r}: {str(files[0])!r} is a file, not a folder")
+        if (out / "rows.jsonl").is_dir():  # found only when the first row was written, after it was measured
+            raise ValueError(f"output folder {str(out)!r}: {str(out / 'rows.jsonl')!r}, where the rows go, is a folder")
         out.mkdir(parents=True, exist_ok=True)
         jsonl = out / "rows.jsonl"
         if resume and jsonl.exists():
