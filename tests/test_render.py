@@ -299,6 +299,15 @@ def test_save_to_a_path_that_cannot_be_an_image_names_what_is_wrong(tmp_path, mo
     assert not any((tmp_path / "shots").iterdir())
 
 
+def test_save_aovs_into_an_empty_directory_name_is_refused(tmp_path, monkeypatch):
+    """save_aovs('') wrote the AOVs into the current folder (Path('') is '.'), without a word."""
+    monkeypatch.chdir(tmp_path)
+    image = wrt.Image(rgb=np.zeros((2, 2, 3), np.float32), aovs={"depth": np.ones((2, 2), np.float32)})
+    with pytest.raises(ValueError, match=r"save_aovs: directory '' is empty"):
+        image.save_aovs("")
+    assert not list(tmp_path.iterdir())
+
+
 def test_save_aovs_under_a_file_names_the_file_in_the_way(tmp_path):
     """The folder's mkdir said '[Errno 17] File exists: ...', as if the AOVs were there already."""
     (tmp_path / "notes.txt").write_text("a file")

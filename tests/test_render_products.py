@@ -275,6 +275,22 @@ def test_stage_without_products_is_an_error(tmp_path):
         wrt.render_products(scene, tmp_path / "out")
 
 
+@pytest.mark.parametrize("directory, error, message", [
+    ("", ValueError, r"render_products: directory '' is empty"),  # Path('') is the current folder: written there
+    (" ", ValueError, r"render_products: directory ' ' is empty"),
+    (None, TypeError, r"render_products: directory must be a folder path \(str or os.PathLike\), got NoneType"),
+])
+def test_a_directory_that_names_no_folder_is_refused_before_any_render(tmp_path, monkeypatch, directory, error,
+                                                                       message):
+    scene = load(write_stage(tmp_path, product("A", ["color"], "a.png"), ["A"]))
+    monkeypatch.chdir(tmp_path)
+    before = sorted(tmp_path.iterdir())
+    monkeypatch.setattr(wrt.Renderer, "render", lambda *args, **kwargs: pytest.fail("rendered"))
+    with pytest.raises(error, match=message):
+        wrt.render_products(scene, directory)
+    assert sorted(tmp_path.iterdir()) == before
+
+
 def test_render_var_targets_that_are_not_render_vars_are_named(tmp_path):
     products = product("A", ["color"], "a.png").replace("</Render/Vars/color>",
                                                          "</Render/Vars/color>, </World/Box>")

@@ -175,6 +175,21 @@ def make_folder(folder: Path, written: Path) -> None:
         raise NotADirectoryError(f"cannot write {written}: {in_way} is a file, not a directory") from None
 
 
+def check_folder_path(directory, what: str) -> Path:
+    """``directory`` as a Path of a folder to write files into; ``what`` names the argument in the error.
+
+    Raises:
+        TypeError: for anything but a ``str`` or ``os.PathLike`` (pathlib's message named no argument).
+        ValueError: for an empty or blank one: ``Path("")`` is the current folder, which took the files without a word.
+    """
+    if not isinstance(directory, (str, os.PathLike)):
+        raise TypeError(f"{what} must be a folder path (str or os.PathLike), got {type(directory).__name__} "
+                        f"{directory!r}")
+    if not str(directory).strip():
+        raise ValueError(f"{what} {str(directory)!r} is empty; name a folder ('.' for the current one)")
+    return Path(directory)
+
+
 def write_atomically(path: Path, write) -> None:
     """Calls ``write(file)`` on a temporary file beside ``path``, then renames it to ``path``: a run killed while
     writing leaves no truncated image where ``--resume`` would take it for a finished one."""
@@ -374,7 +389,7 @@ class Image:
         names = list(self.aovs) if names is None else list(names)
         for name in names:
             self._check_aov(name)
-        directory = Path(directory)
+        directory = check_folder_path(directory, "save_aovs: directory")
         make_folder(directory, directory)
         paths = []
         for name in names:

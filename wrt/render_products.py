@@ -35,6 +35,7 @@ import numpy as np
 from .image import (
     DATA_EXPOSURE_WARNING,
     check_exposure,
+    check_folder_path,
     data_to_8bit,
     to_srgb8,
     write_atomically,
@@ -313,6 +314,7 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
     Raises:
         ValueError: the scene has no render settings with a RenderProduct, or as :func:`wrt.render`.
     """
+    directory = check_folder_path(directory, "render_products: directory")  # '' wrote into the current folder
     settings = scene.render_settings
     products = settings.products if settings is not None else ()
     if not products:
@@ -324,7 +326,6 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
         warnings.warn(f"{where}: " + DATA_EXPOSURE_WARNING.format(what="exposure", image=f"the {integrator} "
                                                                   "integrator's products"), stacklevel=2)
         exposure = 0.0
-    directory = Path(directory)
     # Every product is resolved (view, outputs, file name) before any is rendered: a bad one fails the call before
     # it has spent renders and written files.
     views, plan, taken = {}, [], TakenNames()
