@@ -854,6 +854,9 @@ def test_load_usd_names_a_time_or_path_of_the_wrong_kind(tmp_path):
             load_usd(path, time=time)
     with pytest.raises(TypeError, match="^path must be a file path .*, got int$"):
         load_usd(3)
+    for empty in ("", " "):  # 'file not found', naming no file
+        with pytest.raises(SceneError, match=f"^the scene path '{empty}' is empty; give a USD file$"):
+            load_usd(empty)
 
 
 

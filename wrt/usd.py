@@ -194,6 +194,8 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
         source = os.fspath(path)
     except TypeError:  # os.fspath's message named no argument
         raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}") from None
+    if not str(source).strip():  # SceneError named no file: 'file not found'
+        raise SceneError(f"the scene path {source!r} is empty; give a USD file")
     time_code = _time_code(time)
     if render_settings is not None:  # an int failed in Boost.Python's words, naming no argument
         render_settings = prim_path(render_settings, "load_usd: render_settings")
