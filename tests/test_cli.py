@@ -754,6 +754,10 @@ def test_a_log_that_is_another_file_is_refused_before_a_render(tmp_path, capsys,
     (["bench", ""], "argument suite: is empty"),
     (["render", "{dir}/a.usda", "--camera", ""], "argument --camera: is empty"),
     (["render", "{dir}/a.usda", "--render-settings", ""], "argument --render-settings: is empty"),  # ' is nothing'
+    # "--device : unknown or unavailable device ''", after the option with nothing between it and the colon.
+    (["render", "{dir}/a.usda", "--device", ""], "argument --device: is empty"),
+    (["preview", "{dir}/a.usda", "--device", " "], "argument --device: is empty"),
+    (["bvh-stats", "{dir}/a.usda", "--device", ""], "argument --device: is empty"),
 ])
 def test_an_empty_scene_or_prim_path_is_named_as_empty(tmp_path, capsys, args, message):
     """An unset shell variable ('wrt preview "$SCENE"') gives an empty argument: it was read as the current folder, a

@@ -285,7 +285,7 @@ def _add_render(sub) -> None:
     p.add_argument("--spp", type=int_at_least(1, "an integer from 1 to 2^31 - 1", MAX_SPP), default=1,
                    help="samples per pixel")
     p.add_argument("--seed", type=_seed, default=0, help="seed of every random decision (jitter, lens, paths)")
-    p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
+    p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
     p.add_argument("--accel", default="wrt", choices=ACCELERATORS, help="wrt's BVH or Warp's wp.Mesh (triangles "
@@ -896,7 +896,7 @@ def _add_preview(sub) -> None:
         default=TRIANGLE_BUDGET,
         help="simplify the scene for display above this many triangles",
     )
-    p.add_argument("--device", default="cpu", help="Warp device, e.g. cpu or cuda:0")
+    p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device, e.g. cpu or cuda:0")
     builders = [b.value for b in Builder] + ["binned_sah"]
     p.add_argument("--builder", default="sah", choices=builders, help="BVH builder")
     p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")

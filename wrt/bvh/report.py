@@ -198,7 +198,7 @@ def add_bvh_stats(sub) -> None:
     p.add_argument("--presplit", type=up_to(0, MAX_SPLIT_LEVELS), default=0,
                    help="pre-split levels of wrt's builds: long diagonal triangles become up to 2**K references; the "
                    f"sah trees of renders and wrt bench use {ACCELERATOR_PRESPLIT}; no EPO for trees so built")
-    p.add_argument("--device", default="cpu", help="Warp device to build on, e.g. cpu or cuda:0")
+    p.add_argument("--device", default="cpu", type=_non_empty, help="Warp device to build on, e.g. cpu or cuda:0")
     p.add_argument("--time", type=_finite_float, default=None, help="USD time code; default: the default time")
     add_stage_options(p)
     p.add_argument("--json", action="store_true", help="print JSON rows instead of a table")
