@@ -632,3 +632,24 @@ def test_rows_of_an_earlier_run_under_another_spelling_of_a_scene_are_resumed_as
     rows = run_grid(small_grid(scenes=["sphere:2000"]), tmp_path, resume=True, progress=False)
     assert rows.resumed == 1 and [r["scene"] for r in rows] == ["sphere:2000"], list(rows)
     assert [r["mrays"] for r in rows] == [r["mrays"] for r in old]  # not measured again
+
+
+def test_an_empty_dask_address_starts_a_local_cluster_as_render_s_does(tmp_path, monkeypatch, capsys):
+    """'wrt bench --dask "$ADDR"' with ADDR unset ran every group here, without Dask and without a word; wrt render
+    --dask and run_tasks take an empty address for a LocalCluster."""
+    from wrt import distributed
+    from wrt.distributed import DaskUnavailable
+
+    asked = []
+
+    def run_tasks(fn, tasks, address=None, **kwargs):
+        asked.append(address)
+        raise DaskUnavailable("no cluster in this test")
+
+    monkeypatch.setattr(distributed, "run_tasks", run_tasks)
+    monkeypatch.setattr(bench_module, "resolve_scene", lambda name: pytest.fail("a group ran here"))
+    argv = ["bench", "--scenes", "sphere:200", "--accels", "wrt:sah", "--rays", "primary", "--n-rays", "100", "-q",
+            "-o", str(tmp_path / "out"), "--dask", ""]
+    assert main(argv) == 1
+    assert asked == [None]
+    assert "wrt: error: no cluster in this test" in capsys.readouterr().err

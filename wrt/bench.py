@@ -936,14 +936,16 @@ def run_grid(
 ) -> Rows:
     """Runs the whole grid; returns the rows (also appended to ``out/rows.jsonl`` as they come), resumed ones first.
 
-    ``dask``: None runs every group here, in turn; True sends the groups to a new ``LocalCluster`` and an address
-    (``tcp://host:8786``) to that scheduler (``wrt.distributed.run_tasks``), a group per task, each group's rows
-    written as it arrives. A group whose workers keep dying becomes an error row; its resumed rows stay.
+    ``dask``: None runs every group here, in turn; True (or ``""``) sends the groups to a new ``LocalCluster`` and
+    an address (``tcp://host:8786``) to that scheduler (``wrt.distributed.run_tasks``), a group per task, each
+    group's rows written as it arrives. A group whose workers keep dying becomes an error row; its resumed rows stay.
     """
     from tqdm import tqdm
 
     # By their truth, resume="false" kept the earlier run's rows and progress="false" showed the bar.
     resume, progress = flag(resume, "run_grid: resume"), flag(progress, "run_grid: progress")
+    if isinstance(dask, str) and not dask.strip():  # '' (--dask "$ADDR", unset) ran here, without Dask or a word
+        dask = True  # a LocalCluster, as run_tasks and wrt render --dask take an empty address
     if dask is not None and not isinstance(dask, str):  # dask=2 was taken as the address of a scheduler
         try:
             dask = flag(dask, "run_grid: dask")
