@@ -299,6 +299,15 @@ def test_save_to_a_path_that_cannot_be_an_image_names_what_is_wrong(tmp_path, mo
     assert not any((tmp_path / "shots").iterdir())
 
 
+def test_an_aov_png_onto_a_folder_names_the_folder_not_the_temporary_file(tmp_path):
+    """The rename of the written file failed: '[Errno 21] Is a directory: '.d.png.<pid>.0.partial.png' -> 'd.png''."""
+    (tmp_path / "d.png").mkdir()
+    image = wrt.Image(rgb=np.zeros((2, 2, 3), np.float32), aovs={"depth": np.ones((2, 2), np.float32)})
+    with pytest.raises(IsADirectoryError, match=r"^cannot write .*d\.png: it is a directory$"):
+        image.save_aov_png("depth", tmp_path / "d.png")
+    assert [p.name for p in tmp_path.iterdir()] == ["d.png"]
+
+
 def test_save_aovs_into_an_empty_directory_name_is_refused(tmp_path, monkeypatch):
     """save_aovs('') wrote the AOVs into the current folder (Path('') is '.'), without a word."""
     monkeypatch.chdir(tmp_path)

@@ -291,6 +291,18 @@ def test_a_directory_that_names_no_folder_is_refused_before_any_render(tmp_path,
     assert sorted(tmp_path.iterdir()) == before
 
 
+def test_a_product_file_that_is_a_folder_is_refused_before_any_render(tmp_path, monkeypatch):
+    """DIR/a.png a folder: the product was rendered, then its write failed naming the temporary file ('[Errno 21] Is
+    a directory: 'DIR/.a.png.<pid>.0.partial.png' -> 'DIR/a.png'')."""
+    products_module = importlib.import_module("wrt.render_products")  # wrt.render_products is the function
+    scene = load(write_stage(tmp_path, product("A", ["color"], "a.png"), ["A"]))
+    (tmp_path / "out" / "a.png").mkdir(parents=True)
+    monkeypatch.setattr(products_module, "render_views", lambda *args, **kwargs: pytest.fail("rendered"))
+    with pytest.raises(IsADirectoryError, match=r"shot.usda: /Render/A: cannot write .*a\.png: it is a directory$"):
+        wrt.render_products(scene, tmp_path / "out")
+    assert not list((tmp_path / "out" / "a.png").iterdir())
+
+
 def test_render_var_targets_that_are_not_render_vars_are_named(tmp_path):
     products = product("A", ["color"], "a.png").replace("</Render/Vars/color>",
                                                          "</Render/Vars/color>, </World/Box>")

@@ -194,6 +194,8 @@ def write_atomically(path: Path, write) -> None:
     """Calls ``write(file)`` on a temporary file beside ``path``, then renames it to ``path``: a run killed while
     writing leaves no truncated image where ``--resume`` would take it for a finished one."""
     make_folder(path.parent, path)
+    if path.is_dir():  # else the rename fails after the write, naming the temporary file
+        raise IsADirectoryError(f"cannot write {path}: it is a directory")
     # The temporary name keeps at most 100 bytes of the final one: a name near the file system's limit (255 bytes)
     # is valid for the image but was too long with the prefix and suffix added. Process id and a counter keep
     # temporary names apart.

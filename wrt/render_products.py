@@ -348,6 +348,9 @@ def render_products(scene, directory, *, spp: int = 1, device=None, seed: int = 
                 raise ValueError(f"{where}: {product.product}: {error}") from None
         png = len(outputs) == 1 and outputs[0].kind == BEAUTY
         plan.append((product, view, outputs, product_file_name(product, png, where, taken)))
+        if (directory / plan[-1][3]).is_dir():  # refused only after the render, naming the temporary file
+            raise IsADirectoryError(f"{where}: {product.product}: cannot write {directory / plan[-1][3]}: it is a "
+                                    "directory")
     by_view = {}
     for entry in plan:
         by_view.setdefault(entry[1], []).append(entry)
