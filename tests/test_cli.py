@@ -814,3 +814,16 @@ def test_an_os_error_names_the_path_first_without_python_s_errno(tmp_path, capsy
     (line,) = error_lines(capsys.readouterr().err)
     assert line.startswith("wrt: error: ") and line.endswith(f"{name}: file name too long"), line
     assert not list(tmp_path.iterdir())
+
+
+def test_a_reader_that_closes_stdout_ends_the_run_quietly(tmp_path):
+    """'wrt bvh-stats scene.usda | head -1': the reader gone, the run said 'wrt: error: [Errno 32] Broken pipe' with
+    status 2, the status of bad input. Now nothing is said and the status is a SIGPIPE's, 141, as other tools give."""
+    scene = tmp_path / "box.usda"
+    scene.write_text('#usda 1.0\ndef Cube "Box"\n{\n}\n')
+    process = subprocess.Popen([sys.executable, "-m", "wrt.cli", "bvh-stats", str(scene)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    process.stdout.close()  # before the table is printed: the load and the build come first
+    stderr = process.stderr.read()
+    assert process.wait(timeout=600) == 141, stderr
+    assert error_lines(stderr) == []

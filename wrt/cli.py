@@ -22,6 +22,7 @@ from .errors import did_you_mean
 from .wording import counted, counted_of
 
 EXIT_BAD_INPUT = 2  # exit status for bad input, as argparse uses for bad arguments
+EXIT_BROKEN_PIPE = 128 + 13  # exit status when stdout's reader is gone, as a shell reports a process SIGPIPE ended
 
 
 def default_scene_path() -> Path:
@@ -1145,6 +1146,12 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = show_warning
     try:
         return args.run(args)
+    except BrokenPipeError:
+        # The reader of stdout went away ('wrt bvh-stats scene.usda | head -1'): stop quietly, with the status of a
+        # process SIGPIPE ended, as other tools do; it was 'wrt: error: [Errno 32] Broken pipe', status 2 (bad input).
+        # Python's own flush at exit would fail on the closed pipe again: stdout goes to the null device.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except (SceneError, ValueError, TypeError, OSError, MemoryError) as e:  # OSError: unwritable output paths too
         message = error_line(e)
         print(f"wrt: error: {message}{_kernel_cache_hint(e, wp.config.kernel_cache_dir)}", file=sys.stderr)
