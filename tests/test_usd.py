@@ -9,6 +9,7 @@ from __future__ import annotations
 import gc
 import math
 import os
+import sys
 import warnings
 
 import numpy as np
@@ -857,6 +858,17 @@ def test_load_usd_names_a_time_or_path_of_the_wrong_kind(tmp_path):
     for empty in ("", " "):  # 'file not found', naming no file
         with pytest.raises(SceneError, match=f"^the scene path '{empty}' is empty; give a USD file$"):
             load_usd(empty)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="a file name of bytes that are no UTF-8 needs Linux")
+def test_a_file_name_that_is_not_utf8_is_named_as_such(tmp_path):
+    """USD takes paths as UTF-8: a name of other bytes (from an old archive) failed with Python's "'utf-8' codec
+    can't encode character '\\udcfe' in position 0: surrogates not allowed", naming no file."""
+    path = os.path.join(os.fsencode(tmp_path), b"\xfe.usda")
+    with open(path, "w") as f:
+        f.write('#usda 1.0\ndef Cube "Box"\n{\n}\n')
+    with pytest.raises(SceneError, match=r"\\xfe\.usda: the file name is not UTF-8 text, which USD cannot open"):
+        load_usd(os.fsdecode(path))
 
 
 

@@ -203,6 +203,12 @@ def open_stage(source: str) -> Usd.Stage:
         kind = "a directory" if os.path.isdir(source) else "a pipe or device"
         raise SceneError(f"{kind}, not a USD file", path=source)
     try:
+        source.encode("utf-8") if isinstance(source, str) else None
+    except UnicodeEncodeError:  # bytes that are no UTF-8: USD failed with Python's codec error, naming no file
+        shown = os.fsencode(source).decode("utf-8", errors="backslashreplace")
+        raise SceneError("the file name is not UTF-8 text, which USD cannot open; rename the file",
+                         path=shown) from None
+    try:
         # Opened for wrt alone, whatever StageCacheContext the caller holds: a cached stage is the caller's (its
         # interpolation type, its edits), and the variants wrt selects would be written onto its session layer.
         with Usd.StageCacheContext(Usd.BlockStageCaches):
