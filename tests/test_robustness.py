@@ -411,6 +411,18 @@ def test_batch_render_output_pattern_with_other_braces(tmp_path, pattern):
         assert (tmp_path / pattern.replace("{stem}", stem)).is_file()
 
 
+def test_batch_output_pattern_naming_a_folder_per_scene(tmp_path):
+    """-o out/{stem}/ with several scenes: the '/' was dropped, so 'out/cube' was refused as no image format ('cannot
+    write cube: supported image formats are ...'); one scene wrote out/cube/cube.png. Now each scene has its folder."""
+    from wrt.cli import default_scene_path, main
+
+    scenes = [str(default_scene_path()), str(warp_assets("cube.usd"))]
+    assert main(["render", *scenes, "-o", str(tmp_path / "out" / "{stem}") + "/", "--width", "8", "--height", "8",
+                 "-q"]) == 0
+    for stem in ("default_room", "cube"):
+        assert (tmp_path / "out" / stem / f"{stem}.png").is_file()
+
+
 def test_output_pattern_with_one_scene(tmp_path):
     """-o out/{stem}.png with one scene wrote a file named '{stem}.png'."""
     from wrt.cli import main

@@ -360,7 +360,9 @@ def _output_for(args, path: Path, several: bool) -> Path:
         return Path(output)
     pattern = args.output or "{stem}.png"
     if "{stem}" in pattern:  # replaced as text: other braces are part of the name, not format fields
-        return Path(pattern.replace("{stem}", path.stem))
+        output = pattern.replace("{stem}", path.stem)
+        # A folder per scene (-o out/{stem}/), as for one scene: Path() dropped the '/', making 'out/room' an image.
+        return Path(output) / f"{path.stem}.png" if _names_a_folder(output) else Path(output)
     from .image import IMAGE_FORMATS
 
     if Path(pattern).suffix.lower() in IMAGE_FORMATS:  # one image name for several scenes: not a folder name
