@@ -277,6 +277,9 @@ def test_stage_without_products_is_an_error(tmp_path):
 
 @pytest.mark.parametrize("directory, error, message", [
     ("", ValueError, r"render_products: directory '' is empty"),  # Path('') is the current folder: written there
+    # Refused at the first write, after the renders: 'cannot write notes.txt/out/a.png: notes.txt is a file, ...'.
+    ("notes.txt/out", NotADirectoryError, r"render_products: directory notes.txt/out: notes.txt is a file, not a "
+     "directory"),
     (" ", ValueError, r"render_products: directory ' ' is empty"),
     (None, TypeError, r"render_products: directory must be a folder path \(str or os.PathLike\), got NoneType"),
 ])
@@ -284,8 +287,10 @@ def test_a_directory_that_names_no_folder_is_refused_before_any_render(tmp_path,
                                                                        message):
     scene = load(write_stage(tmp_path, product("A", ["color"], "a.png"), ["A"]))
     monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("a file")
     before = sorted(tmp_path.iterdir())
-    monkeypatch.setattr(wrt.Renderer, "render", lambda *args, **kwargs: pytest.fail("rendered"))
+    products_module = importlib.import_module("wrt.render_products")  # wrt.render_products is the function
+    monkeypatch.setattr(products_module, "render_views", lambda *args, **kwargs: pytest.fail("rendered"))
     with pytest.raises(error, match=message):
         wrt.render_products(scene, directory)
     assert sorted(tmp_path.iterdir()) == before

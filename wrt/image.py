@@ -181,13 +181,19 @@ def check_folder_path(directory, what: str) -> Path:
     Raises:
         TypeError: for anything but a ``str`` or ``os.PathLike`` (pathlib's message named no argument).
         ValueError: for an empty or blank one: ``Path("")`` is the current folder, which took the files without a word.
+        NotADirectoryError: a file stands where the folder or one of its parents must go.
     """
     if not isinstance(directory, (str, os.PathLike)):
         raise TypeError(f"{what} must be a folder path (str or os.PathLike), got {type(directory).__name__} "
                         f"{directory!r}")
     if not str(directory).strip():
         raise ValueError(f"{what} {str(directory)!r} is empty; name a folder ('.' for the current one)")
-    return Path(directory)
+    directory = Path(directory)
+    # A file where the folder must go: refused now, not at the first write, after the work (render_products).
+    in_way = next((p for p in (directory, *directory.parents) if p.exists() and not p.is_dir()), None)
+    if in_way is not None:
+        raise NotADirectoryError(f"{what} {directory}: {in_way} is a file, not a directory")
+    return directory
 
 
 def write_atomically(path: Path, write) -> None:
