@@ -227,6 +227,9 @@ def test_bvh_stats_presplit_gives_the_sah_cost_of_the_tree_bench_traces(tmp_path
     ("--scenes", "", "argument --scenes: names nothing"),
     ("--scenes", "sphere:200,sphere:0", "argument --scenes: sphere:0: N must be a whole number of triangles"),
     ("--scenes", "sphere:abc", "argument --scenes: sphere:abc: N must be a whole number of triangles"),
+    # An error row per group: 'warp:' loaded Warp's asset folder ('a directory, not a USD file'), 'asset:' no ''.
+    ("--scenes", "sphere:200,warp:", "argument --scenes: 'warp:' names no scene; give warp:NAME (a file of Warp's"),
+    ("--scenes", "asset: ", "argument --scenes: 'asset:' names no scene; give asset:ID (a shared asset's id)"),
     ("--devices", "cpuu", "argument --devices: unknown device 'cpuu' (did you mean 'cpu'?)"),
     # 100,000,000 timed launches per row: a run of days, without a word.
     ("--repeats", "100000000", "argument --repeats: must be at most 10,000 (the median of more launches is no "

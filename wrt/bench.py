@@ -201,6 +201,10 @@ class Grid:
                     sphere_count(name)
                 except ValueError as e:
                     raise GridError("scenes", str(e), i) from None
+            kind, _, rest = name.partition(":")
+            if kind in ("warp", "asset") and not rest.strip():  # an error row per group, 'warp:' as Warp's asset folder
+                what = "NAME (a file of Warp's example assets)" if kind == "warp" else "ID (a shared asset's id)"
+                raise GridError("scenes", f"{name!r} names no scene; give {kind}:{what}", i)
         if not self.threads:  # every CPU row was dropped: the run 'measured' nothing and exited 0
             raise GridError("threads", "threads must list at least one thread count")
         threads = []
