@@ -176,6 +176,22 @@ def hold_second_row(task):
     return RUN_GROUP_TASK(task)
 
 
+def die_at_second_row(task):
+    """A bench group on a Dask worker whose worker dies (as to the OOM killer) a moment into the group's second row,
+    the first one finished and sent."""
+    original, calls = bench.time_runs, []
+
+    def dying(run, repeats):
+        calls.append(1)
+        if len(calls) == 2:
+            time.sleep(1.0)  # the first row's event leaves with the worker's next batch
+            os._exit(1)
+        return original(run, repeats)
+
+    bench.time_runs = dying  # in the worker's own process
+    return RUN_GROUP_TASK(task)
+
+
 def comparable(rows):
     return sorted(json.dumps({k: v for k, v in r.items() if k not in TIMING_KEYS}, sort_keys=True) for r in rows)
 
@@ -317,3 +333,16 @@ def test_bench_dask_ctrl_c_keeps_the_finished_rows_of_a_group_cut_short(tmp_path
     assert [(r["rays"], r["accel"], "mrays" in r) for r in written["plain"]] == [("primary", "warp:sah", True)]
     assert comparable(written["dask"]) == comparable(written["plain"])
     assert "| warp:sah |" in (tmp_path / "dask" / "table.md").read_text()
+
+
+def test_bench_dask_keeps_the_rows_a_worker_finished_before_it_died(tmp_path, monkeypatch):
+    """A group whose workers kept dying in its second row became one error row: the first row, measured and sent
+    by each attempt, was lost. It is kept (once, of the last attempt), beside the group's error row."""
+    grid = Grid(scenes=["sphere:200"], accels=["warp:sah", "wrt:sah"], rays=["primary"], n_rays=300, repeats=1)
+    monkeypatch.setattr(bench, "_run_group_task", die_at_second_row)
+    monkeypatch.setattr(distributed, "default_workers", lambda: 1)
+    rows = run_grid(grid, tmp_path, progress=False, dask=True)
+    written = [json.loads(line) for line in (tmp_path / "rows.jsonl").read_text().splitlines()]
+    assert sorted(map(json.dumps, written)) == sorted(map(json.dumps, rows))
+    assert [(r["accel"], "mrays" in r) for r in rows] == [("warp:sah", True), ("*", False)]
+    assert "KilledWorker" in rows[1]["error"]

@@ -1034,7 +1034,8 @@ def run_grid(
                 for row in group_rows:
                     emit(row)
 
-            # on_partial: at Ctrl-C, the rows a worker had finished of a group cut short, as a plain run keeps them.
+            # on_partial: the rows a worker had finished of a group cut short (Ctrl-C, or workers that kept dying), as
+            # a plain run keeps those before a Ctrl-C or a group's error row.
             run_tasks(_run_group_task, tasks, address=None if dask is True else dask, progress=progress,
                       desc="wrt bench", on_result=lambda task, group_rows: keep(group_rows), on_error=lost,
                       on_partial=lambda task, group_rows: keep(group_rows))

@@ -99,8 +99,9 @@ PARTIAL_TOPIC = "wrt-partial-results"  # the Dask event topic of send_partial()
 
 def send_partial(value) -> None:
     """From inside a task of :func:`run_tasks`: hands ``value``, a finished part of the task's result (a bench row
-    of a group), to the client at once, so that a Ctrl-C there that cuts the task short keeps it (``on_partial``);
-    the task's return value still carries the whole result. Does nothing outside a Dask worker."""
+    of a group), to the client at once, so that a Ctrl-C there, or the death of the worker, that cuts the task short
+    keeps it (``on_partial``); the task's return value still carries the whole result. Does nothing outside a Dask
+    worker."""
     try:
         from distributed import get_worker
 
@@ -110,7 +111,8 @@ def send_partial(value) -> None:
     import pickle
 
     # Pickled: a Dask event must be msgpack-serializable, and a row holds numpy numbers.
-    worker.log_event(PARTIAL_TOPIC, {"key": worker.get_current_task(), "worker": worker.address,
+    # attempt: a worker the nanny restarts may have the address of the one that died, never its process id.
+    worker.log_event(PARTIAL_TOPIC, {"key": worker.get_current_task(), "attempt": f"{worker.address} {os.getpid()}",
                                      "value": pickle.dumps(value)})
 
 
@@ -125,10 +127,10 @@ class _Partials:
         import pickle
 
         message = event[1]
-        worker, values = self.by_key.get(message["key"], (None, []))
-        if worker != message["worker"]:
+        attempt, values = self.by_key.get(message["key"], (None, []))
+        if attempt != message["attempt"]:
             values = []
-        self.by_key[message["key"]] = (message["worker"], values + [pickle.loads(message["value"])])
+        self.by_key[message["key"]] = (message["attempt"], values + [pickle.loads(message["value"])])
 
     def of(self, key) -> list:
         return self.by_key.get(key, (None, []))[1]
@@ -172,9 +174,10 @@ def run_tasks(
         on_interrupt: ``on_interrupt(items)`` at Ctrl-C, before the ``KeyboardInterrupt`` goes on: the items cut
             short, those whose tasks a worker was running (as the scheduler says; every task not handed over where it
             does not answer) or had finished and were not yet handed over (or being handed over).
-        on_partial: ``on_partial(item, values)`` at Ctrl-C, before ``on_interrupt``, for each task cut short that had
-            sent parts of its result with ``send_partial()`` (in the order sent), so that they are kept; not for a
-            task whose result ``on_result`` was handling, which may have taken some of them already.
+        on_partial: ``on_partial(item, values)`` for each task cut short that had sent parts of its result with
+            ``send_partial()`` (in the order sent; of its last attempt), so that they are kept: at Ctrl-C, before
+            ``on_interrupt`` (not for a task whose result ``on_result`` was handling, which may have taken some of
+            them already), and before ``on_error`` for a task that failed (its workers kept dying).
         retries: how often a task is rerun after its worker dies (a ``LocalCluster``'s ``allowed-failures``; a
             remote scheduler uses its own setting). Exceptions raised by ``fn`` are not retried.
         timeout: seconds for the whole run; ``TimeoutError`` after that. None: no limit.
@@ -214,6 +217,8 @@ def run_tasks(
                 try:
                     result = future.result()
                 except Exception as e:  # noqa: BLE001 - the task's own error, or KilledWorker
+                    if on_partial is not None and partials.of(future.key):
+                        on_partial(items[i], partials.of(future.key))
                     if on_error is None:
                         failed.append(e)
                     else:
