@@ -695,11 +695,12 @@ def test_version_option_prints_the_versions_of_wrt_and_warp(capsys):
 
     pyproject = (Path(__file__).resolve().parents[1] / "pyproject.toml").read_text(encoding="utf-8")
     version = re.search(r'^version = "([^"]+)"', pyproject, re.MULTILINE).group(1)
-    with pytest.raises(SystemExit) as exit_info:
-        main(["--version"])
-    assert exit_info.value.code == 0
-    out = capsys.readouterr().out
-    assert out.startswith(f"wrt {version} ") and f"warp-lang {wp.config.version}" in out, out
+    for option in ("--version", "--vers"):  # argparse's abbreviation too, as before 590b569 refused it
+        with pytest.raises(SystemExit) as exit_info:
+            main([option])
+        assert exit_info.value.code == 0
+        out = capsys.readouterr().out
+        assert out.startswith(f"wrt {version} ") and f"warp-lang {wp.config.version}" in out, out
 
 
 def test_a_scene_given_twice_is_named_as_such(tmp_path, capsys, monkeypatch):

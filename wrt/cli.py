@@ -93,7 +93,10 @@ class _Parser(argparse.ArgumentParser):
             if not commands or arg in commands or arg == "--":
                 return
             name = arg.split("=")[0]
-            if arg.startswith("-") and name not in self._option_string_actions:
+            # Known, or argparse's unambiguous abbreviation of a known one ('--vers' for '--version').
+            known = name in self._option_string_actions or (self.allow_abbrev and name.startswith("--") and len(
+                [o for o in self._option_string_actions if o.startswith(name)]) == 1)
+            if arg.startswith("-") and not known:
                 owners = [command for command, parser in commands.items() if name in parser._option_string_actions]
                 hint = f"; it is an option of {', '.join(f'wrt {c}' for c in owners)}: give it after the command" \
                     if owners else did_you_mean(name, self._option_string_actions)
