@@ -474,6 +474,39 @@ def test_mesh_without_the_primvar_reads_the_readers_fallback(tmp_path, mesh_st):
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
+@pytest.mark.parametrize("between", [None, "constant", "vertex"])
+def test_a_mesh_without_st_reads_a_constant_st_of_an_ancestor(tmp_path, between):
+    """A mesh without the texture-coordinate primvar its texture reads takes a constant one of its nearest ancestor
+    that has one (USD's primvar inheritance, as for its colour primvars; UsdImaging hands constant primvars down to
+    the gprims below): one st per group, say, picking a colour of a palette texture. wrt read the reader's fallback
+    there, with a warning that the mesh had none. A non-constant st on a prim in between blocks the inheritance (the
+    fallback is read). The oracle: CHECKER's texel at the st of ``FindPrimvarWithInheritance``, else the fallback."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    stage.RemovePrim("/Quad")
+    group = UsdGeom.Xform.Define(stage, "/Group")
+    UsdGeom.PrimvarsAPI(group).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.constant).Set(
+        [(0.75, 0.25)])  # the grey block's middle
+    middle = UsdGeom.Xform.Define(stage, "/Group/Middle")
+    if between is not None:
+        UsdGeom.PrimvarsAPI(middle).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, between).Set(
+            [(0.25, 0.25)] if between == "constant" else [(0.25, 0.25)] * 4)  # the blue block's middle
+    quad = add_quad(stage, "/Group/Middle/Quad")
+    UsdGeom.PrimvarsAPI(quad).RemovePrimvar("st")
+    bind(quad, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    reader = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St"))
+    reader.CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.25, 0.75))  # the red block's middle
+    stage.Save()
+    inherited = UsdGeom.PrimvarsAPI(quad).FindPrimvarWithInheritance("st")
+    s, t = inherited.Get()[0] if inherited else (0.25, 0.75)
+    expected = CHECKER[int((1.0 - t) * 8), int(s * 8)] / 255  # (rows from the top)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the blocked mesh has no st: named in a warning
+        img = albedo(path)
+    np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
+
+
 @pytest.mark.parametrize("type_name", ["TexCoord3fArray", "Float3Array", "Float4Array"])
 def test_texture_coordinates_of_three_or_four_components_read_their_first_two(tmp_path, type_name):
     """A texture-coordinate primvar of 3-vectors (Houdini writes its ``uv`` attribute, a vector, as ``texCoord3f[]``

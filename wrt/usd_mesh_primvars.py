@@ -74,9 +74,11 @@ class MeshPrimvarReading:
         with a warning naming the primvar and the texture-coordinate primvars the mesh has: it read its only other
         2-vector primvar instead, silently, and without one sampled the texture at st = (0, 0) (whatever the
         fallback) while the warning said it was left untextured. Values that are not finite are kept, with a warning:
-        the lookups there read the texture's fallback."""
+        the lookups there read the texture's fallback. A mesh without its own takes a constant one of its nearest
+        ancestor that has one (``FindPrimvarWithInheritance``, as its colour primvars: UsdImaging hands every constant
+        primvar down to the gprims below); it read the fallback there."""
         api = UsdGeom.PrimvarsAPI(prim)
-        primvar = api.GetPrimvar(uv_set)
+        primvar = self.inherited_primvars.find(prim, uv_set)
         if primvar and primvar.HasValue():
             # 3- and 4-vectors (Houdini's uv, a vector, as texCoord3f[]) give their first two components, as Storm
             # reads texture coordinates (HdGet_<primvar>().xy); they were ignored.
