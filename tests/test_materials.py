@@ -507,6 +507,58 @@ def test_a_mesh_without_st_reads_a_constant_st_of_an_ancestor(tmp_path, between)
     np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3)
 
 
+def test_native_instances_hand_their_constant_st_to_prototype_meshes_without_one(tmp_path):
+    """A constant st on a native instance (or above it, a PointInstancer's too) reaches its prototype's meshes that
+    have none, as ``FindPrimvarWithInheritance`` finds it through the instance proxies and UsdImaging hands it to the
+    prototype: instances of one textured asset each showing their own palette texel (nested instances too). They
+    all read the reader's fallback (wrt read the prototype once, at its own paths), and the warning named the
+    prototype's first instance, which had one; now it names the instance proxies that read the fallback. The oracle:
+    CHECKER's texel at the st USD finds on each instance proxy's mesh, else at the reader's fallback."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    stage.RemovePrim("/Quad")
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
+        Gf.Vec2f(0.25, 0.75))  # the red block's middle
+    asset = stage.CreateClassPrim("/Asset")
+    quad = add_quad(stage, "/Asset/Quad")
+    UsdGeom.PrimvarsAPI(quad).RemovePrimvar("st")
+    bind(quad, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    stage.CreateClassPrim("/Kit")
+    inner = stage.DefinePrim("/Kit/In", "Xform")
+    inner.GetReferences().AddInternalReference(asset.GetPath())
+    inner.SetInstanceable(True)
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    proto = stage.DefinePrim("/PI/Protos/P", "Xform")
+    proto.GetReferences().AddInternalReference(asset.GetPath())
+    proto.SetInstanceable(True)
+    pi.CreatePrototypesRel().SetTargets([proto.GetPath()])
+    pi.CreateProtoIndicesAttr([0])
+    pi.CreatePositionsAttr([(12, 0, 0)])
+    st = {"/A1": (0.75, 0.25), "/A2": (0.25, 0.25), "/A3": None, "/K1": (0.75, 0.25), "/PI": (0.25, 0.25)}
+    meshes = {"/A1": "/A1/Quad", "/A2": "/A2/Quad", "/A3": "/A3/Quad", "/K1": "/K1/In/Quad", "/PI": "/PI/Protos/P/Quad"}
+    for k, name in enumerate(("/A1", "/A2", "/A3", "/K1")):
+        instance = UsdGeom.Xform.Define(stage, name)
+        instance.AddTranslateOp().Set((3.0 * k, 0.0, 0.0))
+        instance.GetPrim().GetReferences().AddInternalReference("/Kit" if name == "/K1" else "/Asset")
+        instance.GetPrim().SetInstanceable(True)
+    for name, value in st.items():
+        if value is not None:
+            UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(name)).CreatePrimvar(
+                "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.constant).Set([value])
+    stage.Save()
+    only_a3 = r"reader's fallback st: 1 prim\(s\) \(st, fallback \(0.25, 0.75\): 1\): /A3/Quad$"
+    with pytest.warns(UserWarning, match=only_a3):
+        scene = wrt.load_usd(path)
+    for k, name in enumerate(st):
+        inherited = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(meshes[name])).FindPrimvarWithInheritance("st")
+        s, t = inherited.Get()[0] if inherited else (0.25, 0.75)
+        expected = CHECKER[int((1.0 - t) * 8), int(s * 8)] / 255
+        cam = wrt.Camera.orthographic(eye=(3.0 * k, 0, 5), target=(3.0 * k, 0, 0), height=2.0)
+        img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
+        np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3, err_msg=name)
+
+
 @pytest.mark.parametrize("type_name", ["TexCoord3fArray", "Float3Array", "Float4Array"])
 def test_texture_coordinates_of_three_or_four_components_read_their_first_two(tmp_path, type_name):
     """A texture-coordinate primvar of 3-vectors (Houdini writes its ``uv`` attribute, a vector, as ``texCoord3f[]``

@@ -350,6 +350,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.scene = scene
         world = Content("/")
         self._walk(self.stage.GetPseudoRoot(), Context(world, world=True))
+        for prim, uv_set, fallback in dict.fromkeys(world.uv_misses):  # no instance handed them one
+            self._missing_uvs_warning(prim, uv_set, fallback)
         scene.meshes = world.meshes
         scene.shapes = world.shapes
         # Prototypes and what they hold are named by their first instance's proxies (_stable_path), not by USD's
@@ -618,7 +620,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         return self.xforms.GetLocalToWorldTransform(prim) * root_world.GetInverse() * local
 
     def _content(self, key: tuple, root: Usd.Prim, space_root, outer_bindings, outer_purpose=None,
-                 outer_color=None, outer_widths=None, proxy=None, instance_opacity=False) -> Content:
+                 outer_color=None, outer_widths=None, proxy=None, instance_opacity=False, outer_uv=None) -> Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:  # PointInstancers skip these first; native prototypes cannot (USD refuses cycles)
@@ -629,7 +631,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
             inside = Context(content, space_root, outer_bindings, outer_purpose=outer_purpose,
                               outer_color=outer_color, outer_widths=outer_widths, proxy=proxy,
-                              instance_opacity=instance_opacity)
+                              instance_opacity=instance_opacity, outer_uv=outer_uv)
             self._walk(root, inside, PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content

@@ -55,6 +55,14 @@ class Content:
         # applies, and ``widths`` maps each such width to the key of this prototype read again with it.
         self.wants_widths = False
         self.widths: dict = {}
+        # Texture-coordinate primvars (st, ...) that a mesh lacks (none inside up to its root): a constant one an
+        # instance hands down applies, and ``uvs`` maps each such ((primvar, (s, t)), ...) to the key of this
+        # prototype read again with it.
+        self.outer_uvs: list[str] = []
+        self.uvs: dict = {}
+        # (mesh prim, primvar, fallback st) of the meshes that read their texture's fallback st for want of one: named
+        # in a warning where no instance hands one down (wrt.usd_native_instances), once they reach the world.
+        self.uv_misses: list[tuple] = []
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.lights: list[Sdf.Path] = []  # UsdLux lights (not mesh lights) of a native prototype, likewise
         # (light prim, (4, 4) column-vector transform to this space) of the UsdLux lights of a PointInstancer's
@@ -68,6 +76,10 @@ class Content:
     def want_colors(self, names):
         """Records colour primvars that geometry in this content lacks (see :attr:`outer_colors`)."""
         self.outer_colors += [name for name in names if name not in self.outer_colors]
+
+    def want_uvs(self, names):
+        """Records texture-coordinate primvars that meshes in this content lack (see :attr:`outer_uvs`)."""
+        self.outer_uvs += [name for name in names if name not in self.outer_uvs]
 
 
 class Context:
@@ -84,6 +96,7 @@ class Context:
         outer_widths=None,
         proxy=None,
         instance_opacity=False,
+        outer_uv=None,
     ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
@@ -98,6 +111,8 @@ class Context:
         # material reads), or None
         self.outer_color = outer_color
         self.outer_widths = outer_widths  # constant primvars:widths inherited by a native instance (float), or None
+        # ((primvar, (s, t)), ...): constant texture coordinates inherited by a native instance, or None
+        self.outer_uv = outer_uv
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
         self.world = world  # the stage itself (cameras and UsdLux lights are read only here)
         # A PointInstancer's prototype whose instancer gives its instances a displayOpacity (Hydra's instance primvar)

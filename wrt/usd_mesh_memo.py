@@ -50,7 +50,7 @@ class MeshInputs(NamedTuple):
     """What a mesh's read takes that is found again at every read (see the module docstring)."""
 
     face_materials: bytes | None  # (F,) int32 material of each face, or None
-    uv_source: tuple | None  # (texture-coordinate primvar, bytes of its (2,) fallback st), or None
+    uv_source: tuple | None  # (texture-coordinate primvar, bytes of its (2,) fallback st[, instance's st]), or None
     color_names: tuple  # colour primvars read, in order
     color_primvars: tuple  # the colour primvar of each material the faces use (MaterialReader.color_primvar_of)
     default_faces: bool  # some faces have the default material (displayOpacity is read)
@@ -116,7 +116,8 @@ class MeshMemo:
 
     @staticmethod
     def inputs(face_materials, uv_source, color_names, color_primvars, default_faces, outer_color) -> MeshInputs:
-        uv = None if uv_source is None else (uv_source[0], np.asarray(uv_source[1], np.float64).tobytes())
+        uv = None if uv_source is None else (uv_source[0], np.asarray(uv_source[1], np.float64).tobytes(),
+                                             *uv_source[2:])  # (and an instance's st, Context.outer_uv)
         faces = None if face_materials is None else np.asarray(face_materials, np.int32).tobytes()
         return MeshInputs(faces, uv, tuple(color_names), tuple(color_primvars), bool(default_faces), outer_color)
 

@@ -67,7 +67,8 @@ class MeshPrimvarReading:
         values = unit_opacities(values[:, 0], prim, self._skip)
         return None if np.all(values >= 1.0) and not keep_opaque else (values.astype(np.float32), corner_index)
 
-    def _read_uvs(self, prim, topology, uv_set: str, fallback: np.ndarray):
+    def _read_uvs(self, prim, topology, uv_set: str, fallback: np.ndarray, outer: tuple | None = None,
+                  lacking: bool = False):
         """``(values (K, 2) float64, corner index (T, 3))`` of texture-coordinate primvar ``uv_set`` (the first two
         components of 3- or 4-vectors). A mesh without it, or whose one cannot be used (dropped with a warning), takes
         ``fallback`` (``(2,)``, its primvar reader's) at every corner, as the specification's UsdPrimvarReader gives,
@@ -76,8 +77,10 @@ class MeshPrimvarReading:
         fallback) while the warning said it was left untextured. Values that are not finite are kept, with a warning:
         the lookups there read the texture's fallback. A mesh without its own takes a constant one of its nearest
         ancestor that has one (``FindPrimvarWithInheritance``, as its colour primvars: UsdImaging hands every constant
-        primvar down to the gprims below); it read the fallback there."""
-        api = UsdGeom.PrimvarsAPI(prim)
+        primvar down to the gprims below); it read the fallback there. In a native prototype, where nothing up to its
+        root has one, ``outer`` (``(s, t)``, the constant one its instance inherits) is read at every corner.
+        ``lacking``: neither the mesh nor a prim above it has the primvar; the caller names it in the warning
+        (:meth:`_missing_uvs_warning`), which waits for the instances that may hand one down."""
         primvar = self.inherited_primvars.find(prim, uv_set)
         if primvar and primvar.HasValue():
             # 3- and 4-vectors (Houdini's uv, a vector, as texCoord3f[]) give their first two components, as Storm
@@ -95,13 +98,21 @@ class MeshPrimvarReading:
                                "their fallback", prim, f"{uv_set}: {bad} of {len(found[0])} values")
                 return found
             # Dropped (warned about): read as unauthored, the fallback below, not st = (0, 0) at every corner.
-        others = [str(p.GetPrimvarName()) for p in api.GetPrimvarsWithValues()
+        elif outer is not None:
+            return np.asarray(outer, np.float64).reshape(1, 2), np.zeros(topology[2].shape, np.int64)
+        if not lacking:
+            self._missing_uvs_warning(prim, uv_set, fallback)
+        return np.asarray(fallback, np.float64).reshape(1, 2), np.zeros(topology[2].shape, np.int64)
+
+    def _missing_uvs_warning(self, prim, uv_set: str, fallback) -> None:
+        """Names mesh ``prim``, which reads its texture at the ``fallback`` st for want of primvar ``uv_set``, and the
+        texture-coordinate primvars it has (:data:`TEXTURE_COORDINATE_TYPES`)."""
+        others = [str(p.GetPrimvarName()) for p in UsdGeom.PrimvarsAPI(prim).GetPrimvarsWithValues()
                   if str(p.GetTypeName()) in TEXTURE_COORDINATE_TYPES]
         reason = ("meshes without the texture-coordinate primvar their material reads show the texture at the "
                   "primvar reader's fallback st")
         has = f"; the mesh has {', '.join(others)}" if others else ""
         self._skip(reason, prim, f"{uv_set}, fallback ({fallback[0]:g}, {fallback[1]:g}){has}")
-        return np.asarray(fallback, np.float64).reshape(1, 2), np.zeros(topology[2].shape, np.int64)
 
     def _read_primvar(self, prim, attr, interpolation, primvar, topology, components=3):
         """Reads a primvar of ``components``-vectors and maps it to triangle corners.

@@ -106,6 +106,15 @@ class MeshReading:
         face_materials = self._face_materials(prim, n_faces, ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
         uv_source = None if uv_set is None else (uv_set, self.materials.st_fallback(face_materials, uv_set))
+        if uv_set is not None and self.inherited_primvars.lookup(prim, uv_set) is None:
+            # Neither the mesh nor a prim above it (up to its content's root) has it: a native instance's constant
+            # one stands in (Content.want_uvs), as the walk of its proxies finds it; without one the fallback st is
+            # read, and named in a warning once no instance hands one down (Content.uv_misses).
+            ctx.content.want_uvs([uv_set])
+            outer = dict(ctx.outer_uv or ()).get(uv_set)
+            if outer is None:
+                ctx.content.uv_misses.append((prim, uv_set, tuple(uv_source[1])))
+            uv_source = (*uv_source, outer, True)
         color_names = self.materials.color_primvars(face_materials)
         default_faces = face_materials is None or bool(np.any(face_materials < 0))
         if key is not None:

@@ -1,6 +1,6 @@
 """Native instances (``instanceable`` prims): each prototype read once per outer material, purpose, inherited
-colour and inherited width of its points and curves, and the instance placed as one row of its container's
-instances."""
+colour, inherited width of its points and curves and inherited texture coordinates, and the instance placed as one
+row of its container's instances."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from .usd_values import read_time
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
 MAX_INHERITED_WIDTHS = 64  # distinct primvars:widths handed down by instances, per native prototype (one copy each)
+MAX_INHERITED_UVS = 64  # distinct texture coordinates handed down by instances, per native prototype (one copy each)
 _NAN_WIDTH = math.nan  # one NaN object, so that a NaN width handed down keys one copy (NaN != NaN)
 
 
@@ -36,7 +37,7 @@ class NativeInstanceReading:
             # A collection bound above holds some of its proxies and not others: its prims are resolved through
             # this instance's proxies (a copy of the prototype for it), their walks go on to the container's root.
             proxy = (path, str(binding_prim.GetPath()))
-            key = ("native", path, ctx.outer_bindings, purpose, None, proxy, None)
+            key = ("native", path, ctx.outer_bindings, purpose, None, proxy, None, None)
             content = self._content(key, prototype, None, ctx.outer_bindings, purpose, proxy=proxy)
             ctx.content.outer_purposes |= content.outer_purposes
         else:
@@ -66,6 +67,20 @@ class NativeInstanceReading:
             if widths is not None:
                 key = self._copy_with(key, self.contents[key].widths, widths, MAX_INHERITED_WIDTHS, "widths", prim,
                                       widths=widths)
+        # A constant texture-coordinate primvar (st) on the instance or above it is read by the prototype's meshes
+        # that have none, as FindPrimvarWithInheritance on the instance proxies finds it (one st per instance picking
+        # a palette texel).
+        if self.contents[key].outer_uvs:
+            uvs = self._inherited_uvs(prim, ctx, self.contents[key].outer_uvs)
+            if uvs:
+                key = self._copy_with(key, self.contents[key].uvs, uvs, MAX_INHERITED_UVS, "texture coordinates",
+                                      prim, uv=uvs)
+        # Its meshes that still lack one read the fallback: named (at their proxies in this instance) once this
+        # reaches the world without one.
+        root = Sdf.Path(self.contents[key].path)
+        for mesh, name, fallback in self.contents[key].uv_misses:
+            proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(mesh.GetPath().MakeRelativePath(root)))
+            ctx.content.uv_misses.append((proxy or mesh, name, fallback))
         m = self._to_space(prim, ctx)
         if m is None:  # named in a warning, and left out
             return
@@ -92,10 +107,10 @@ class NativeInstanceReading:
         # Read once without them; again with them where they change a walk inside: one of them is bound
         # strongerThanDescendants, or gives a purpose that some walk inside finds nothing for.
         forced = outer is not None and any(entry.stronger for entry in outer)
-        key = ("native", path, None, purpose, None, None, None)
+        key = ("native", path, None, purpose, None, None, None, None)
         content = None if forced else self._content(key, prototype, None, None, purpose)
         if forced or (outer is not None and any(entry.purpose in content.outer_purposes for entry in outer)):
-            key = ("native", path, outer, purpose, None, None, None)
+            key = ("native", path, outer, purpose, None, None, None, None)
             content = self._content(key, prototype, None, outer, purpose)
         # Purposes that neither the prototype nor this instance binds: its container's instances may.
         ctx.content.outer_purposes |= content.outer_purposes & missing
@@ -126,19 +141,21 @@ class NativeInstanceReading:
 
     def _copy_with(self, key: tuple, copies: dict, value, limit: int, what: str, prim: Usd.Prim, **inherited) -> tuple:
         """The key of the native prototype read under ``key`` read again with an inherited value (``color``:
-        ``((primvar, (r, g, b)), ...)``, or ``widths``: a float) in place of the key's, remembered in ``copies``
-        (that content's ``colors`` or ``widths``) by ``value``. Each is a copy of the prototype's geometry, so past
+        ``((primvar, (r, g, b)), ...)``, ``widths``: a float, or ``uv``: ``((primvar, (s, t)), ...)``) in place of the
+        key's, remembered in ``copies`` (that content's ``colors``, ``widths`` or ``uvs``) by ``value``. Each is a
+        copy of the prototype's geometry, so past
         ``limit`` of them per prototype the instance keeps the prototype's own ``what`` (with a warning)."""
         if value not in copies:
             if len(copies) >= limit:
                 self._skip(f"instances inheriting more than {limit} {what} per prototype keep its own {what} (each is "
                            "a copy of the prototype)", prim)
                 return key
-            _, path, outer, purpose, color, proxy, widths = key
+            _, path, outer, purpose, color, proxy, widths, uv = key
             color, widths = inherited.get("color", color), inherited.get("widths", widths)
-            copy = ("native", path, outer, purpose, color, proxy, widths)
+            uv = inherited.get("uv", uv)
+            copy = ("native", path, outer, purpose, color, proxy, widths, uv)
             self._content(copy, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color,
-                          outer_widths=widths, proxy=proxy)
+                          outer_widths=widths, proxy=proxy, outer_uv=uv)
             copies[value] = copy
         return copies[value]
 
@@ -155,3 +172,34 @@ class NativeInstanceReading:
             return None
         return float(values[0]) if not math.isnan(values[0]) else _NAN_WIDTH
 
+    def _inherited_uvs(self, prim: Usd.Prim, ctx: Context, names: list[str]) -> tuple:
+        """The constant texture-coordinate primvars of ``names`` that native instance ``prim`` hands down to its
+        prototype's meshes lacking them, as ``((name, (s, t)), ...)``: its own or its nearest ancestor's (up to the
+        root of the prototype ``prim`` is in; the first two components of its first value), else the one its
+        container inherits (``ctx.outer_uv``) where nothing up to that root has the primvar. The names it has not
+        may come from above its container (:meth:`Content.want_uvs`)."""
+        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        above = dict(ctx.outer_uv or ())
+        found = []
+        for name in names:
+            primvar = inherited.get(name)
+            st = None if primvar is None else self._first_st(primvar)
+            if st is None and self.inherited_primvars.lookup(prim, name) is None:
+                ctx.content.want_uvs([name])
+                st = above.get(name)
+            if st is not None:
+                found.append((name, st))
+        return tuple(sorted(found))
+
+    def _first_st(self, primvar: UsdGeom.Primvar) -> tuple | None:
+        """The first two components of the first value of constant primvar ``primvar`` (2-, 3- or 4-vectors), or None
+        when it holds none or is no array of such vectors (dropped with a warning, as a mesh's own)."""
+        attr = primvar.GetAttr()
+        holder = attr.GetPrim()
+        raw = flattened(primvar, read_time(attr, self.time), holder, self._skip)
+        values = np.asarray(raw if raw is not None else [])
+        if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu" or not len(values):
+            self._skip(f"{attr.GetName()} values that are not an array of 2-, 3- or 4-vectors were ignored", holder,
+                       f"{self._authored_type(attr)} holding {type(raw).__name__}")
+            return None
+        return float(values[0, 0]), float(values[0, 1])

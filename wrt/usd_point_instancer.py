@@ -85,14 +85,16 @@ class PointInstancerReading:
             # one above them (Context.blocked_opaque), as instance colours do: prototypes are read apart for each.
             target_opacities = None if beneath and self._constant_primvar(prim, "displayOpacity") else opacities
             key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.proxy,
-                   ctx.outer_widths, target_opacities is not None)
+                   ctx.outer_widths, target_opacities is not None, ctx.outer_uv)
             parent = target.GetParent()
             content = self._content(key, target, parent, ctx.outer_bindings, purpose, outer_color=ctx.outer_color,
                                     outer_widths=ctx.outer_widths, proxy=ctx.proxy,
-                                    instance_opacity=target_opacities is not None)
+                                    instance_opacity=target_opacities is not None, outer_uv=ctx.outer_uv)
             # The prototype's prims walk up through this instancer's ancestors: what they lack, this content lacks.
             ctx.content.outer_purposes |= content.outer_purposes
             ctx.content.wants_widths |= content.wants_widths
+            ctx.content.want_uvs(content.outer_uvs)
+            ctx.content.uv_misses += content.uv_misses  # (an instancer hands down no st of its own)
             ctx.content.want_colors(content.outer_colors)
             name = self._instance_color_name(prim, content.outer_colors)
             if name is not None and beneath and self._constant_primvar(prim, name):
