@@ -132,6 +132,45 @@ def test_generative_procedurals_are_named(tmp_path):
     assert len(found) == 1 and found[0].endswith(": /Crowd"), messages
 
 
+def test_prims_under_a_material_are_not_drawn_and_are_named(tmp_path):
+    """Hydra populates none of a Material's descendants (its adapter represents the material and everything below
+    it, the shaders read as its network): a mesh, light or camera kept under one (a preview swatch, say) is not
+    drawn. wrt drew them as any other prim, in the world and inside native prototypes. Now it draws what lies
+    outside materials alone (a NodeGraph, which Hydra does not represent, holds drawn prims), and names each
+    material that held something. The oracle: the points USD authors for the meshes outside materials."""
+
+    def build(stage):
+        quad(stage, "/Host")
+        material = UsdShade.Material.Define(stage, "/Looks/Mat")
+        shader = UsdShade.Shader.Define(stage, "/Looks/Mat/Surface")
+        shader.CreateIdAttr("UsdPreviewSurface")
+        material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+        quad(stage, "/Looks/Mat/Swatch", x=2.0)
+        UsdLux.SphereLight.Define(stage, "/Looks/Mat/Lamp")
+        UsdGeom.Camera.Define(stage, "/Looks/Mat/Cam")
+        UsdShade.NodeGraph.Define(stage, "/Graph")
+        quad(stage, "/Graph/Kept", x=4.0)
+        asset = stage.CreateClassPrim("/Asset")
+        UsdShade.Material.Define(stage, "/Asset/Mat")
+        quad(stage, "/Asset/Mat/Swatch", x=6.0)
+        quad(stage, "/Asset/Body", x=8.0)
+        instance = stage.DefinePrim("/Instance", "Xform")
+        instance.GetReferences().AddInternalReference(asset.GetPath())
+        instance.SetInstanceable(True)
+
+    scene, messages = load_with_warnings(tmp_path, build)
+    stage = Usd.Stage.Open(str(tmp_path / "ignored.usda"))
+    points, indices = scene.triangles()
+    drawn = np.unique(np.asarray(points, np.float64)[indices].reshape(-1, 3), axis=0)
+    expected = np.unique(np.concatenate([np.array(UsdGeom.Mesh(stage.GetPrimAtPath(path)).GetPointsAttr().Get())
+                                         for path in ("/Host", "/Graph/Kept", "/Instance/Body")]), axis=0)
+    np.testing.assert_array_equal(drawn, expected)
+    assert scene.lights == [] and list(scene.cameras) == []
+    found = about(messages, "ignored.usda", "under a Material")
+    assert len(found) == 1 and found[0].endswith("2 prim(s) (/Looks/Mat/Swatch, /Looks/Mat/Lamp, /Looks/Mat/Cam: 1, "
+                                                 "/Instance/Mat/Swatch: 1): /Looks/Mat, /Instance/Mat"), messages
+
+
 def test_lights_on_gprims_make_them_mesh_lights(tmp_path):
     """``LightAPI`` on a gprim other than a mesh (a glowing ``Sphere``) makes it a light in UsdLux, as MeshLightAPI
     does a mesh: wrt draws that sphere alone as its tessellation, a mesh light, without a warning (it used to draw it

@@ -97,7 +97,7 @@ import os
 import warnings
 
 import numpy as np
-from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdProc, UsdShade
 
 from .errors import SceneError, prim_path, user_stacklevel
 from .instancing import invert_transforms, thicken_flat_transforms
@@ -384,6 +384,16 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
     def _read_prim(self, prim: Usd.Prim, it, ctx: Context):
         if prim.IsPseudoRoot() or prim.IsPrototype():
             return
+        if prim.IsA(UsdShade.Material):
+            # Hydra populates none of a Material's descendants (UsdImagingMaterialAdapter represents itself and its
+            # descendants: its shaders are read as the material), so a mesh, light or camera kept under one (a swatch)
+            # is not drawn; wrt drew it.
+            it.PruneChildren()
+            held = [self._shown_path(p) for p in Usd.PrimRange(prim, Usd.TraverseInstanceProxies()) if _drawable(p)]
+            if held:
+                self._skip("prims under a Material are not drawn, as Hydra populates none of its descendants", prim,
+                           ", ".join(held[:3]) + (f" and {len(held) - 3} more" if len(held) > 3 else ""))
+            return
         if prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI):
             self.authored_lights[self._shown_path(prim)] = None  # as UsdLux's ComputeLightList lists it: hidden too
         draw_mode = stand_in_draw_mode(prim)
@@ -652,6 +662,12 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             return prim
         root, instance = ctx.proxy
         return self.stage.GetPrimAtPath(prim.GetPath().ReplacePrefix(Sdf.Path(root), Sdf.Path(instance)))
+
+
+def _drawable(prim: Usd.Prim) -> bool:
+    """``prim`` is something the stage reader draws or reads: a gprim, an instancer, a camera or a light."""
+    return (prim.IsA(UsdGeom.Gprim) or prim.IsA(UsdGeom.PointInstancer) or prim.IsA(UsdGeom.Camera)
+            or prim.IsA(UsdLux.DistantLight) or prim.HasAPI(UsdLux.LightAPI))
 
 
 __all__ = ["load_usd", "triangulate"]

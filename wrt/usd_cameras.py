@@ -12,7 +12,7 @@ fallback, as ``UsdGeom.Camera.GetCamera`` reads it.
 from __future__ import annotations
 
 import numpy as np
-from pxr import Tf, Usd, UsdGeom
+from pxr import Tf, Usd, UsdGeom, UsdShade
 
 from .camera import Camera
 from .errors import SceneError
@@ -57,8 +57,8 @@ class CameraReading:
             found = []
             it = iter(Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(PROTOTYPE_PREDICATE)))
             for p in it:
-                if p.IsA(UsdGeom.PointInstancer):
-                    it.PruneChildren()  # cameras in its prototypes are not read
+                if p.IsA(UsdGeom.PointInstancer) or p.IsA(UsdShade.Material):
+                    it.PruneChildren()  # cameras in its prototypes are not read, nor under a Material (wrt.usd)
                 elif p.IsA(UsdGeom.Camera):
                     found.append(p.GetPath().MakeRelativePath(key))
             self.prototype_cameras[key] = found
