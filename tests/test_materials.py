@@ -559,6 +559,33 @@ def test_native_instances_hand_their_constant_st_to_prototype_meshes_without_one
         np.testing.assert_allclose(img, np.broadcast_to(expected, img.shape), atol=2e-3, err_msg=name)
 
 
+def test_the_fallback_st_warning_names_a_prototype_outside_the_instance_at_its_own_path(tmp_path):
+    """A PointInstancer inside a native instance may draw a prototype from outside the instance (``/Protos/Quad``);
+    when it lacks st, the warning names it at its own path. The instance proxy path made for prims inside the
+    instance (``/World/I`` + ``../Protos/Quad``) named ``/World/Protos/Quad``, another mesh, which has an st."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    stage.RemovePrim("/Quad")
+    material = UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex"))
+    for name in ("/Protos/Quad", "/World/Protos/Quad"):
+        quad = add_quad(stage, name)
+        bind(quad, material)
+    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Protos/Quad")).RemovePrimvar("st")
+    stage.CreateClassPrim("/Asset")
+    pi = UsdGeom.PointInstancer.Define(stage, "/Asset/PI")
+    pi.CreatePrototypesRel().SetTargets(["/Protos/Quad"])
+    pi.CreateProtoIndicesAttr([0])
+    pi.CreatePositionsAttr([(0, 0, 0)])
+    instance = stage.DefinePrim("/World/I", "Xform")
+    instance.GetReferences().AddInternalReference("/Asset")
+    instance.SetInstanceable(True)
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"reader's fallback st: 1 prim\(s\) .*\): /Protos/Quad$") as caught:
+        wrt.load_usd(path)
+    assert not [w for w in caught if "/World/Protos/Quad" in str(w.message)]
+
+
 @pytest.mark.parametrize("type_name", ["TexCoord3fArray", "Float3Array", "Float4Array"])
 def test_texture_coordinates_of_three_or_four_components_read_their_first_two(tmp_path, type_name):
     """A texture-coordinate primvar of 3-vectors (Houdini writes its ``uv`` attribute, a vector, as ``texCoord3f[]``

@@ -79,7 +79,9 @@ class NativeInstanceReading:
         # reaches the world without one.
         root = Sdf.Path(self.contents[key].path)
         for mesh, name, fallback in self.contents[key].uv_misses:
-            proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(mesh.GetPath().MakeRelativePath(root)))
+            inside = mesh.GetPath().HasPrefix(root)  # (a PointInstancer in it may draw a prototype from outside)
+            proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(mesh.GetPath().MakeRelativePath(root))) \
+                if inside else None
             ctx.content.uv_misses.append((proxy or mesh, name, fallback))
         m = self._to_space(prim, ctx)
         if m is None:  # named in a warning, and left out
