@@ -120,7 +120,7 @@ from .usd_lights import LightTextures, read_light, warn_glowless_mesh_light
 from .usd_looks import LookReading
 from .usd_material_memo import MaterialMemo
 from .usd_mesh_memo import MeshMemo
-from .usd_mesh_primvars import MeshPrimvarReading
+from .usd_mesh_primvars import MeshPrimvarReading, texture_coordinate_primvars
 from .usd_meshes import MeshReading, triangulate
 from .usd_native_instances import NativeInstanceReading
 from .usd_placement_memo import PlacementMemo
@@ -350,8 +350,11 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.scene = scene
         world = Content("/")
         self._walk(self.stage.GetPseudoRoot(), Context(world, world=True))
-        for prim, uv_set, fallback in dict.fromkeys(world.uv_misses):  # no instance handed them one
-            self._missing_uvs_warning(prim, uv_set, fallback)
+        others = {}  # mesh -> its texture-coordinate primvars (each instance proxy of it has the same)
+        for prim, at, uv_set, fallback in dict.fromkeys(world.uv_misses):  # no instance handed them one
+            if prim not in others:
+                others[prim] = texture_coordinate_primvars(prim)
+            self._missing_uvs_warning(prim, uv_set, fallback, str(at), others[prim])
         scene.meshes = world.meshes
         scene.shapes = world.shapes
         # Prototypes and what they hold are named by their first instance's proxies (_stable_path), not by USD's

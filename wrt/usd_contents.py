@@ -60,8 +60,9 @@ class Content:
         # prototype read again with it.
         self.outer_uvs: list[str] = []
         self.uvs: dict = {}
-        # (mesh prim, primvar, fallback st) of the meshes that read their texture's fallback st for want of one: named
-        # in a warning where no instance hands one down (wrt.usd_native_instances), once they reach the world.
+        # (mesh prim, path it is drawn at, primvar, fallback st) of the meshes that read their texture's fallback st
+        # for want of one: named in a warning where no instance hands one down (wrt.usd_native_instances, which puts
+        # them at their instance-proxy paths), once they reach the world.
         self.uv_misses: list[tuple] = []
         self.cameras: list[Sdf.Path] = []  # cameras of a native prototype, relative to its root (nested ones too)
         self.lights: list[Sdf.Path] = []  # UsdLux lights (not mesh lights) of a native prototype, likewise

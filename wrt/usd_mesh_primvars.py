@@ -19,6 +19,12 @@ TEXTURE_COORDINATE_TYPES = ("texCoord2f[]", "texCoord2d[]", "texCoord2h[]", "tex
                             "float4[]", "double4[]", "half4[]")
 
 
+def texture_coordinate_primvars(prim) -> list[str]:
+    """The names of ``prim``'s primvars with values of :data:`TEXTURE_COORDINATE_TYPES`."""
+    return [str(p.GetPrimvarName()) for p in UsdGeom.PrimvarsAPI(prim).GetPrimvarsWithValues()
+            if str(p.GetTypeName()) in TEXTURE_COORDINATE_TYPES]
+
+
 class MeshPrimvarReading:
     """Mesh primvar reads of the stage reader (``time``, ``_skip``, ``_error``)."""
 
@@ -104,15 +110,19 @@ class MeshPrimvarReading:
             self._missing_uvs_warning(prim, uv_set, fallback)
         return np.asarray(fallback, np.float64).reshape(1, 2), np.zeros(topology[2].shape, np.int64)
 
-    def _missing_uvs_warning(self, prim, uv_set: str, fallback) -> None:
-        """Names mesh ``prim``, which reads its texture at the ``fallback`` st for want of primvar ``uv_set``, and the
-        texture-coordinate primvars it has (:data:`TEXTURE_COORDINATE_TYPES`)."""
-        others = [str(p.GetPrimvarName()) for p in UsdGeom.PrimvarsAPI(prim).GetPrimvarsWithValues()
-                  if str(p.GetTypeName()) in TEXTURE_COORDINATE_TYPES]
+    def _missing_uvs_warning(self, prim, uv_set: str, fallback, at: str | None = None, others=None) -> None:
+        """Names mesh ``prim`` (at path ``at``, its instance proxy's, where given), which reads its texture at the
+        ``fallback`` st for want of primvar ``uv_set``, and the texture-coordinate primvars it has (``others``, found
+        when not given: :func:`texture_coordinate_primvars`)."""
+        others = texture_coordinate_primvars(prim) if others is None else others
         reason = ("meshes without the texture-coordinate primvar their material reads show the texture at the "
                   "primvar reader's fallback st")
         has = f"; the mesh has {', '.join(others)}" if others else ""
-        self._skip(reason, prim, f"{uv_set}, fallback ({fallback[0]:g}, {fallback[1]:g}){has}")
+        detail = f"{uv_set}, fallback ({fallback[0]:g}, {fallback[1]:g}){has}"
+        if at is None or at == str(prim.GetPath()):
+            self._skip(reason, prim, detail)
+        else:
+            self._skip_path(reason, at, detail)
 
     def _read_primvar(self, prim, attr, interpolation, primvar, topology, components=3):
         """Reads a primvar of ``components``-vectors and maps it to triangle corners.

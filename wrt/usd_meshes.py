@@ -113,7 +113,7 @@ class MeshReading:
             ctx.content.want_uvs([uv_set])
             outer = dict(ctx.outer_uv or ()).get(uv_set)
             if outer is None:
-                ctx.content.uv_misses.append((prim, uv_set, tuple(uv_source[1])))
+                ctx.content.uv_misses.append((prim, prim.GetPath(), uv_set, tuple(uv_source[1])))
             uv_source = (*uv_source, outer, True)
         color_names = self.materials.color_primvars(face_materials)
         default_faces = face_materials is None or bool(np.any(face_materials < 0))

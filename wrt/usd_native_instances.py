@@ -78,11 +78,10 @@ class NativeInstanceReading:
         # Its meshes that still lack one read the fallback: named (at their proxies in this instance) once this
         # reaches the world without one.
         root = Sdf.Path(self.contents[key].path)
-        for mesh, name, fallback in self.contents[key].uv_misses:
-            inside = mesh.GetPath().HasPrefix(root)  # (a PointInstancer in it may draw a prototype from outside)
-            proxy = self.stage.GetPrimAtPath(prim.GetPath().AppendPath(mesh.GetPath().MakeRelativePath(root))) \
-                if inside else None
-            ctx.content.uv_misses.append((proxy or mesh, name, fallback))
+        for mesh, at, name, fallback in self.contents[key].uv_misses:
+            if at.HasPrefix(root):  # (a PointInstancer in it may draw a prototype from outside: kept at its path)
+                at = prim.GetPath().AppendPath(at.MakeRelativePath(root))
+            ctx.content.uv_misses.append((mesh, at, name, fallback))
         m = self._to_space(prim, ctx)
         if m is None:  # named in a warning, and left out
             return
@@ -178,17 +177,19 @@ class NativeInstanceReading:
         """The constant texture-coordinate primvars of ``names`` that native instance ``prim`` hands down to its
         prototype's meshes lacking them, as ``((name, (s, t)), ...)``: its own or its nearest ancestor's (up to the
         root of the prototype ``prim`` is in; the first two components of its first value), else the one its
-        container inherits (``ctx.outer_uv``) where nothing up to that root has the primvar. The names it has not
-        may come from above its container (:meth:`Content.want_uvs`)."""
-        inherited = {str(p.GetPrimvarName()): p for p in UsdGeom.PrimvarsAPI(prim).FindInheritablePrimvars()}
+        container inherits (``ctx.outer_uv``) where nothing up to that root has the primvar (the names it has not
+        may come from above its container, :meth:`Content.want_uvs`). A non-constant one on it or above it blocks."""
         above = dict(ctx.outer_uv or ())
         found = []
         for name in names:
-            primvar = inherited.get(name)
-            st = None if primvar is None else self._first_st(primvar)
-            if st is None and self.inherited_primvars.lookup(prim, name) is None:
+            primvar = self.inherited_primvars.lookup(prim, name)
+            if primvar is None:
                 ctx.content.want_uvs([name])
                 st = above.get(name)
+            elif primvar and primvar.GetInterpolation() == UsdGeom.Tokens.constant:
+                st = self._first_st(primvar)
+            else:  # blocked (or a PointInstancer's per-instance one, which Hydra does not hand on as st)
+                st = None
             if st is not None:
                 found.append((name, st))
         return tuple(sorted(found))
