@@ -135,9 +135,10 @@ def test_generative_procedurals_are_named(tmp_path):
 def test_prims_under_a_material_are_not_drawn_and_are_named(tmp_path):
     """Hydra populates none of a Material's descendants (its adapter represents the material and everything below
     it, the shaders read as its network): a mesh, light or camera kept under one (a preview swatch, say) is not
-    drawn. wrt drew them as any other prim, in the world and inside native prototypes. Now it draws what lies
-    outside materials alone (a NodeGraph, which Hydra does not represent, holds drawn prims), and names each
-    material that held something. The oracle: the points USD authors for the meshes outside materials."""
+    drawn (UsdImaging's legacy delegate culls the subtree of every typed prim that is not imageable, a Material
+    among them). wrt drew them as any other prim, in the world and inside native prototypes. Now it draws what lies
+    outside materials alone, and names each material that held something. The oracle: the points USD authors for the
+    meshes outside materials."""
 
     def build(stage):
         quad(stage, "/Host")
@@ -148,8 +149,6 @@ def test_prims_under_a_material_are_not_drawn_and_are_named(tmp_path):
         quad(stage, "/Looks/Mat/Swatch", x=2.0)
         UsdLux.SphereLight.Define(stage, "/Looks/Mat/Lamp")
         UsdGeom.Camera.Define(stage, "/Looks/Mat/Cam")
-        UsdShade.NodeGraph.Define(stage, "/Graph")
-        quad(stage, "/Graph/Kept", x=4.0)
         asset = stage.CreateClassPrim("/Asset")
         UsdShade.Material.Define(stage, "/Asset/Mat")
         quad(stage, "/Asset/Mat/Swatch", x=6.0)
@@ -163,7 +162,7 @@ def test_prims_under_a_material_are_not_drawn_and_are_named(tmp_path):
     points, indices = scene.triangles()
     drawn = np.unique(np.asarray(points, np.float64)[indices].reshape(-1, 3), axis=0)
     expected = np.unique(np.concatenate([np.array(UsdGeom.Mesh(stage.GetPrimAtPath(path)).GetPointsAttr().Get())
-                                         for path in ("/Host", "/Graph/Kept", "/Instance/Body")]), axis=0)
+                                         for path in ("/Host", "/Instance/Body")]), axis=0)
     np.testing.assert_array_equal(drawn, expected)
     assert scene.lights == [] and list(scene.cameras) == []
     found = about(messages, "ignored.usda", "under a Material")
