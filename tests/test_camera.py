@@ -124,6 +124,12 @@ def test_look_at_and_orthographic_take_another_fit():
     assert origins.reshape(20, 40, 3)[10, 39, 0] == pytest.approx(1.0 - 1.0 / 40, abs=1e-6)  # 2 units wide
 
 
+def test_helpers_take_the_projection_they_make():
+    """projection="orthographic" to Camera.orthographic raised "got multiple values for keyword argument"."""
+    for make, projection in ((wrt.Camera.orthographic, "orthographic"), (wrt.Camera.look_at, "perspective")):
+        assert make((0, 0, 5), (0, 0, 0), projection=projection).snapshot() == make((0, 0, 5), (0, 0, 0)).snapshot()
+
+
 def test_orthographic_camera_rays_are_parallel():
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=2.0)
     scene = quad_scene(-0.5, 0.5, -0.5, 0.5, 0.0)
@@ -409,6 +415,18 @@ def test_bad_camera_values_raise():
         (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 0), fov=60), r"Camera.look_at\(\) got an unexpected keyword "
          r"argument 'fov' \(did you mean 'fov_y_deg'\?\)"),
         (lambda: wrt.Camera.orthographic((0, 0, 5), (0, 0, 0), width=2), r"Camera.orthographic\(\) got an unexpected"),
+        # Keywords the helper sets itself raised Python's "Camera() got multiple values for keyword argument", and
+        # look_at(projection="orthographic") made an orthographic camera that ignored fov_y_deg.
+        (lambda: wrt.Camera.orthographic((0, 0, 5), (0, 0, 0), vertical_aperture=3),
+         r"Camera.orthographic\(\) works vertical_aperture out from height"),
+        (lambda: wrt.Camera.orthographic((0, 0, 5), (0, 0, 0), horizontal_aperture=3),
+         r"Camera.orthographic\(\) works horizontal_aperture out from height"),
+        (lambda: wrt.Camera.orthographic((0, 0, 5), (0, 0, 0), projection="perspective"),
+         r"Camera.orthographic\(\) makes orthographic cameras only, not projection='perspective'"),
+        (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 0), projection="orthographic"),
+         r"Camera.look_at\(\) makes perspective cameras only, not projection='orthographic'"),
+        (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 0), to_world=np.eye(4)),
+         r"Camera.look_at\(\) works to_world out from eye, target and up"),
         (lambda: wrt.Camera(fit="expand"), r"not 'expand' \(did you mean 'expandAperture'\?\)"),
         (lambda: wrt.Camera(to_world=np.eye(3)), r"camera to_world must be a \(4, 4\) matrix, got shape \(3, 3\)"),
         (lambda: wrt.Camera(clipping_range=(0.1, 1, 2)), r"clipping range must be \(near, far\), got \(0.1, 1, 2\)"),

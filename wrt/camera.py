@@ -323,7 +323,7 @@ class Camera:
         """A perspective camera at ``eye`` looking at ``target``, with a vertical field of view in degrees (square
         apertures of that angle and ``fit="vertical"``; another ``fit`` keeps the angle on its own axis instead, e.g.
         ``"horizontal"`` across the image's width)."""
-        _check_keywords("look_at", kwargs, "fov_y_deg")
+        _check_keywords("look_at", kwargs, "fov_y_deg", {"projection": "perspective"})
         if not (_finite(fov_y_deg) and 0.0 < fov_y_deg < 180.0):  # a string failed in the comparison
             raise ValueError(f"fov_y_deg must lie in (0, 180), got {_show(fov_y_deg)}")
         aperture = 2.0 * kwargs.get("focal_length", 50.0) * math.tan(math.radians(fov_y_deg) / 2.0)
@@ -336,16 +336,16 @@ class Camera:
     def orthographic(cls, eye, target, up=(0.0, 1.0, 0.0), height: float = 2.0, **kwargs) -> Camera:
         """An orthographic camera at ``eye`` looking at ``target`` whose view is ``height`` scene units tall (with
         another ``fit``, that extent lies on its axis: ``"horizontal"``, ``height`` units wide)."""
-        _check_keywords("orthographic", kwargs, "height")
+        _check_keywords("orthographic", kwargs, "height", {"projection": "orthographic"},
+                        horizontal_aperture="height", vertical_aperture="height")
         if not (_finite(height) and height > 0):
             raise ValueError(f"orthographic height must be a finite positive number, got {_show(height)}")
         aperture = height / APERTURE_UNIT
         return cls(
             to_world=_look_at_matrix(eye, target, up),
-            projection="orthographic",
             vertical_aperture=aperture,
             horizontal_aperture=aperture,
-            **{"fit": "vertical", **kwargs},
+            **{"fit": "vertical", **kwargs, "projection": "orthographic"},
         )
 
     @property
@@ -428,14 +428,25 @@ CAMERA_FIELDS = tuple(f.name for f in dataclasses.fields(Camera))  # in order; C
 IMMUTABLE_TYPES = (float, int, str, tuple)  # field values Camera.snapshot keeps as they are (a tuple of numbers)
 
 
-def _check_keywords(method: str, kwargs: dict, own: str) -> None:
+def _check_keywords(method: str, kwargs: dict, own: str, fixed: dict | None = None, **set_from: str) -> None:
     """TypeError for a keyword that is no :class:`Camera` field, from ``method``'s point of view: ``fov=60`` was
-    reported as ``Camera.__init__() got an unexpected keyword argument``, which the caller never called."""
-    fields = [f.name for f in dataclasses.fields(Camera) if f.name != "to_world"]
-    for name in kwargs:
+    reported as ``Camera.__init__() got an unexpected keyword argument``, which the caller never called. ``fixed``
+    maps a field to the one value ``method`` makes (``projection``: any other is a ValueError, not silently another
+    camera); ``set_from`` names the fields ``method`` works out itself and the argument they come from, so passing
+    one is a TypeError saying so, not Python's "got multiple values for keyword argument"."""
+    set_from = {"to_world": "eye, target and up", **set_from}
+    fields = [f.name for f in dataclasses.fields(Camera) if f.name not in set_from]
+    for name, value in kwargs.items():
+        if name in set_from:
+            raise TypeError(f"Camera.{method}() works {name} out from {set_from[name]}; set {name} on the camera "
+                            "it returns instead")
         if name not in fields:
             raise TypeError(f"Camera.{method}() got an unexpected keyword argument {name!r}"
                             f"{did_you_mean(name, [own, *fields])}")
+        if fixed and name in fixed and not (isinstance(value, str) and value == fixed[name]):
+            other = "Camera.orthographic" if fixed[name] == "perspective" else "Camera.look_at"
+            raise ValueError(f"Camera.{method}() makes {fixed[name]} cameras only, not {name}={value!r}: use "
+                             f"{other}() or Camera()")
 
 
 def _point(name: str, value) -> np.ndarray:
