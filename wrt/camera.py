@@ -11,9 +11,11 @@ Conventions, stated once:
 - Film quantities follow USD: focal length and apertures share one unit (so only their ratios matter for
   perspective framing); that unit is a tenth of a scene unit (``Gf.Camera.APERTURE_UNIT``) for orthographic
   apertures and for the thin lens's aperture, ``focalLength / fStop``.
-- ``fit="horizontal"`` keeps the horizontal aperture and lets the vertical extent follow the image aspect,
-  as usdview does (USD's ``adjustApertureHeight``). ``Camera.look_at`` uses ``fit="vertical"``
-  (``adjustApertureWidth``) so that its ``fov_y_deg`` holds at any aspect. ``fit`` also takes the other
+- ``fit="horizontal"`` (the default) keeps the horizontal aperture and lets the vertical extent follow the image
+  aspect (UsdRender's ``adjustApertureHeight``, CameraUtil's ``MatchHorizontally``). usdview does the other: its
+  free camera is made from a vertical field of view and always conformed with ``CameraUtilMatchVertically``, as is
+  a stage camera unless its viewport is masked or fitted, which is ``fit="vertical"`` (``adjustApertureWidth``).
+  ``Camera.look_at`` uses ``fit="vertical"`` so that its ``fov_y_deg`` holds at any aspect. ``fit`` also takes the other
   ``aspectRatioConformPolicy`` tokens of UsdRender (``expandAperture``, ``cropAperture``,
   ``adjustPixelAspectRatio``), applied as ``UsdRenderComputeSpec`` does; the image aspect is
   ``pixel_aspect_ratio * width / height``.
