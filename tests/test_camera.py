@@ -232,13 +232,112 @@ def _conformed(window: Gf.Range2d, policy: str, aspect: float) -> Gf.Range2d:
     says, about its centre (CameraUtilConformWindow, which usd-core lacks)."""
     (w, h), centre = window.GetSize(), window.GetMidpoint()
     if policy in ("expandAperture", "cropAperture"):  # grow (expand) or shrink (crop) the aperture that does not fit
-        wider = w / h > aspect
+        wider = w > aspect * h  # (a zero vertical aperture is narrower than any image)
         policy = "adjustApertureHeight" if wider == (policy == "expandAperture") else "adjustApertureWidth"
     if policy == "adjustApertureHeight":
         h = w / aspect
     elif policy == "adjustApertureWidth":
         w = h * aspect
     return Gf.Range2d(centre - Gf.Vec2d(w / 2, h / 2), centre + Gf.Vec2d(w / 2, h / 2))
+
+
+def _quad(stage, path: str, x0: float, x1: float, z: float):
+    quad = UsdGeom.Mesh.Define(stage, path)
+    quad.CreatePointsAttr([(x0, -1, z), (x1, -1, z), (x1, 1, z), (x0, 1, z)])
+    quad.CreateFaceVertexCountsAttr([4])
+    quad.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    quad.CreateDoubleSidedAttr(True)
+
+
+@pytest.mark.parametrize("projection, near, vertical, policy", [
+    ("orthographic", -10.0, 30.0, "expandAperture"),
+    ("orthographic", -10.0, 0.0, "adjustApertureHeight"),
+    ("orthographic", 0.5, 0.0, "expandAperture"),
+    ("perspective", 0.5, 0.0, "expandAperture"),
+])
+def test_usd_camera_of_a_negative_orthographic_near_or_an_unread_zero_aperture_casts_usds_rays(
+        tmp_path, projection, near, vertical, policy):
+    """USD takes an orthographic camera whose near plane lies behind it (``clippingRange`` (-10, 100): it sees what
+    lies up to 10 units behind its plane) and a ``verticalAperture`` of 0, which a conform policy that grows or
+    adjusts that aperture never reads; wrt skipped both cameras as 'clipping range must satisfy 0 <= near < far' and
+    'needs finite positive ... apertures'. Each pixel's ray runs from USD's near to its far plane (the frustum's
+    projection matrix after the camera's view matrix, the window conformed to the image), and its first hit on two
+    quads, one 3 units behind the camera's plane and one 5 in front, found in float64 on those segments, is the
+    pixel's z."""
+    path = str(tmp_path / "cam.usda")
+    stage = Usd.Stage.CreateNew(path)
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.CreateProjectionAttr(projection)
+    cam.CreateHorizontalApertureAttr(40.0)
+    cam.CreateVerticalApertureAttr(vertical)
+    cam.CreateClippingRangeAttr(Gf.Vec2f(near, 100.0))
+    cam.AddTranslateOp().Set(Gf.Vec3d(0.3, -0.2, 5.0))  # no pixel centre on a quad's edge
+    _quad(stage, "/Behind", -1.5, -0.25, 8.0)
+    _quad(stage, "/Ahead", 0.25, 1.5, 0.0)
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/Cam"])
+    width, height = 16, 12
+    settings.CreateResolutionAttr(Gf.Vec2i(width, height))
+    settings.CreateAspectRatioConformPolicyAttr(policy)
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.Save()
+
+    scene = wrt.load_usd(path)
+    camera, w, h = resolve_view(scene)
+    assert (w, h) == (width, height)
+    rays = [wp.empty(w * h, dtype=wp.vec3, device="cpu") for _ in range(2)]
+    rays += [wp.empty(w * h, dtype=float, device="cpu") for _ in range(2)]
+    wp.launch(generate_rays_kernel, w * h, inputs=[camera.to_struct(w, h), w, h, 0, 0], outputs=rays, device="cpu")
+    o, d, t_min, t_max = (r.numpy().astype(np.float64) for r in rays)
+
+    usd_camera = cam.GetCamera(Usd.TimeCode.Default())
+    frustum = usd_camera.frustum
+    frustum.SetWindow(_conformed(frustum.GetWindow(), policy, width / height))
+    clip_to_world = np.linalg.inv(np.linalg.inv(np.array(usd_camera.transform))
+                                  @ np.array(frustum.ComputeProjectionMatrix()))
+    k, j = (a.ravel() for a in np.meshgrid(range(height), range(width), indexing="ij"))
+    ndc = np.stack([2 * (j + 0.5) / width - 1, 1 - 2 * (k + 0.5) / height], axis=1)
+    ends = [np.concatenate([ndc, np.full((len(ndc), 1), z), np.ones((len(ndc), 1))], axis=1) @ clip_to_world
+            for z in (-1.0, 1.0)]
+    start, stop = (e[:, :3] / e[:, 3:] for e in ends)
+    np.testing.assert_allclose(o + t_min[:, None] * d, start, atol=1e-4)
+    np.testing.assert_allclose(o + t_max[:, None] * d, stop, atol=1e-3)
+
+    expected = np.full(len(ndc), np.inf)
+    for x0, x1, z in ((-1.5, -0.25, 8.0), (0.25, 1.5, 0.0)):
+        s = (z - start[:, 2]) / (stop[:, 2] - start[:, 2])
+        x, y = (start[:, a] + s * (stop[:, a] - start[:, a]) for a in (0, 1))
+        hit = (0 <= s) & (s <= 1) & (x0 <= x) & (x <= x1) & (np.abs(y) <= 1)
+        expected[hit] = np.minimum(expected[hit], 5.0 - z)  # camera-space depth, USD's cameraDepth
+    assert np.isfinite(expected).any() and (near > 0 or (expected < 0).any())  # the quad behind is seen
+    img = wrt.render(scene, camera=camera, width=w, height=h, device="cpu")
+    np.testing.assert_allclose(img.aovs["z"].ravel(), expected, rtol=1e-5)
+
+
+@pytest.mark.parametrize("policy", ["cropAperture", "adjustPixelAspectRatio"])
+def test_a_zero_aperture_the_conform_policy_reads_names_the_camera(tmp_path, policy):
+    """A zero verticalAperture is refused where the film would be flat (cropAperture shrinks the other aperture to
+    it; adjustPixelAspectRatio keeps it), naming the camera, the aperture and the policy, and the render settings
+    that ask for it, not with Python's ZeroDivisionError (adjustPixelAspectRatio's pixel shape)."""
+    with pytest.raises(ValueError, match=rf"camera /Cam needs a positive vertical_aperture, which fit '{policy}'"):
+        wrt.Camera(path="/Cam", vertical_aperture=0.0, fit=policy)
+    path = str(tmp_path / "cam.usda")
+    stage = Usd.Stage.CreateNew(path)
+    UsdGeom.Camera.Define(stage, "/Cam").CreateVerticalApertureAttr(0.0)
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/Cam"])
+    settings.CreateAspectRatioConformPolicyAttr(policy)
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.Save()
+    scene = wrt.load_usd(path)  # the camera's own expandAperture does not read it
+    with pytest.raises(wrt.SceneError, match=rf"/Render/Settings renders camera /Cam with aspectRatioConformPolicy "
+                                             rf"'{policy}', which it cannot take: .*vertical_aperture=0"):
+        resolve_view(scene)
+    for fit in ("horizontal", "adjustApertureHeight", "expandAperture"):
+        assert wrt.Camera(vertical_aperture=0.0, fit=fit).film_size(40, 30) == (20.955, 20.955 * 30 / 40)
+    with pytest.raises(ValueError, match=r"clipping range must satisfy 0 <= near < far"):
+        wrt.Camera(clipping_range=(-1.0, 10.0))  # a perspective camera's near plane lies in front of it
+    assert wrt.Camera(projection="orthographic", clipping_range=(-1.0, 10.0)).clipping_range == (-1.0, 10.0)
 
 
 @pytest.mark.parametrize("seed", range(8))

@@ -175,10 +175,13 @@ class Camera:
         focal_length: focal length, in the film unit (a perspective camera's is positive; an orthographic camera
             does not use it, any finite number).
         horizontal_aperture: film width, in the film unit.
-        vertical_aperture: film height, in the film unit (unused with ``fit="horizontal"``).
+        vertical_aperture: film height, in the film unit (unused with ``fit="horizontal"``). Either aperture may be 0
+            where :attr:`fit` does not read it (the vertical one under ``"horizontal"``, either under
+            ``expandAperture``), as USD allows.
         horizontal_aperture_offset: film shift along +X, in the film unit.
         vertical_aperture_offset: film shift along +Y, in the film unit.
-        clipping_range: ``(near, far)`` camera-space depth range (scene units for an unscaled camera).
+        clipping_range: ``(near, far)`` camera-space depth range (scene units for an unscaled camera); an
+            orthographic camera's near may be negative, a plane behind the camera, as USD's frustum takes it.
         clipping_planes: ``(K, 4)`` camera-space planes ``(a, b, c, d)``, at most 8; points with
             ``a x + b y + c z + d < 0`` are cut away (``UsdGeom.Camera.clippingPlanes``).
         projection: ``"perspective"`` or ``"orthographic"``.
@@ -245,12 +248,21 @@ class Camera:
         # An orthographic film is the apertures alone (USD's frustum takes no focal length): its focal length need
         # only be a number, else a stage's orthographic camera of focalLength 0, which usdview draws, was skipped.
         focal = self.focal_length if self.projection == "perspective" or not _finite(self.focal_length) else 1.0
-        if not all(_finite(v) and v > 0 for v in (focal, self.horizontal_aperture, self.vertical_aperture)):
+        apertures = (self.horizontal_aperture, self.vertical_aperture)
+        if not (_finite(focal) and focal > 0 and all(_finite(v) and v >= 0 for v in apertures)):  # 0: checked below
             raise ValueError(
                 f"{self.label()} needs finite positive focalLength and apertures, got focal_length="
                 f"{_show(self.focal_length)}, apertures={_show(self.horizontal_aperture)}x"
                 f"{_show(self.vertical_aperture)}"
             )
+        # An aperture of 0 (USD takes it: a flat frustum window) is harmless where the fit never reads it: the vertical
+        # one under "horizontal" or adjustApertureHeight, either one under expandAperture, which grows it to the image.
+        unread = _unread_apertures(self.fit, self.horizontal_aperture, self.vertical_aperture)
+        zero = [name for name, v in (("horizontal_aperture", self.horizontal_aperture),
+                                     ("vertical_aperture", self.vertical_aperture)) if v == 0 and name not in unread]
+        if zero:
+            raise ValueError(f"{self.label()} needs a positive {' and '.join(zero)}, which fit {self.fit!r} frames "
+                             f"the image with, got {', '.join(f'{name}=0' for name in zero)}")
         lens = {
             "horizontal_aperture_offset": self.horizontal_aperture_offset,
             "vertical_aperture_offset": self.vertical_aperture_offset,
@@ -272,8 +284,12 @@ class Camera:
         if shape != (2,):  # "too many values to unpack"
             raise ValueError(f"{self.label()} clipping range must be (near, far), got {self.clipping_range!r}")
         near, far = self.clipping_range
-        if not (_finite(near) and (_finite(far) or far == math.inf) and 0 <= near < far):  # ("a", "b"): a TypeError
-            raise ValueError(f"{self.label()} clipping range must satisfy 0 <= near < far, got {self.clipping_range}")
+        # An orthographic near plane may lie behind the camera (USD's frustum takes it: the camera sees what lies
+        # that far behind its plane); a perspective one cannot, all its rays start at the eye.
+        lowest = -math.inf if self.projection == "orthographic" else 0.0
+        if not (_finite(near) and (_finite(far) or far == math.inf) and lowest <= near < far):  # ("a", "b"): TypeError
+            rule = "near < far" if lowest < 0 else "0 <= near < far"
+            raise ValueError(f"{self.label()} clipping range must satisfy {rule}, got {self.clipping_range}")
         if not np.all(np.isfinite(self.to_world)):
             raise ValueError(f"{self.label()} transform is not finite")
         problem = bottom_row_problem(f"{self.label()} to_world", self.to_world)
@@ -363,7 +379,7 @@ class Camera:
         w, h = self.horizontal_aperture, self.vertical_aperture
         fit = self.fit
         if fit in ("expandAperture", "cropAperture"):  # the aperture wider than the image: its height grows (expand)
-            fit = "horizontal" if (w / h > aspect) == (fit == "expandAperture") else "vertical"
+            fit = "horizontal" if (w > aspect * h) == (fit == "expandAperture") else "vertical"  # (h may be 0)
         if fit in ("horizontal", "adjustApertureHeight"):
             return w, w / aspect
         if fit in ("vertical", "adjustApertureWidth"):
@@ -375,6 +391,8 @@ class Camera:
         :attr:`pixel_aspect_ratio`), as ``usdrecord --imageWidth`` sizes its image; ``None`` under a :attr:`fit`
         that keeps one aperture only (``look_at``'s ``"vertical"``), where the other does not shape the film."""
         if self.fit in ("horizontal", "vertical", "adjustApertureWidth", "adjustApertureHeight"):
+            return None
+        if self.horizontal_aperture == 0 or self.vertical_aperture == 0:  # expandAperture grows it to any image
             return None
         return self.horizontal_aperture / self.vertical_aperture / self.pixel_aspect_ratio
 
@@ -428,6 +446,17 @@ class Camera:
 
 CAMERA_FIELDS = tuple(f.name for f in dataclasses.fields(Camera))  # in order; Camera.snapshot reads them all
 IMMUTABLE_TYPES = (float, int, str, tuple)  # field values Camera.snapshot keeps as they are (a tuple of numbers)
+
+
+def _unread_apertures(fit: str, horizontal, vertical) -> tuple[str, ...]:
+    """The apertures (field names) that :meth:`Camera.film_size` never reads under ``fit``, whatever the image: an
+    aperture of 0 is harmless there. ``expandAperture`` grows the one that is narrower than the image, so it reads
+    only the other when one is 0."""
+    if fit in ("horizontal", "adjustApertureHeight") or (fit == "expandAperture" and vertical == 0):
+        return ("vertical_aperture",)
+    if fit in ("vertical", "adjustApertureWidth") or (fit == "expandAperture" and horizontal == 0):
+        return ("horizontal_aperture",)
+    return ()
 
 
 def _check_keywords(method: str, kwargs: dict, own: str, fixed: dict | None = None, **set_from: str) -> None:

@@ -193,16 +193,23 @@ class RenderSettings:
         is the apertures' aspect over the image's pixel counts', as ``UsdRenderComputeSpec`` computes it.
 
         Raises:
-            SceneError: the data window holds no pixel centre of the image.
+            SceneError: the data window holds no pixel centre of the image, or the conform policy reads an aperture
+                of 0 (which the camera's own ``expandAperture`` did not).
         """
         changes = {"fit": self.conform_policy, "pixel_aspect_ratio": self.pixel_aspect_ratio}
+        if self.disable_depth_of_field:
+            changes["f_stop"] = 0.0
+        try:  # Camera.check: a zero aperture the camera's own fit did not read may be one this policy reads
+            framed = dataclasses.replace(camera, **changes)
+        except ValueError as e:
+            raise SceneError(f"{self.product or self.path} renders camera {camera.path} with aspectRatioConformPolicy "
+                             f"{self.conform_policy!r}, which it cannot take: {e}", path=self.source or None)
         if self.conform_policy == "adjustPixelAspectRatio":
             # The film is the apertures as they are, so the pixels take their shape; the schema "disregards" the
             # authored value. The rays do not change (the film ignores it); what a product says its pixels are does.
-            changes["pixel_aspect_ratio"] = camera.horizontal_aperture / camera.vertical_aperture * height / width
-        if self.disable_depth_of_field:
-            changes["f_stop"] = 0.0
-        return self.crop(dataclasses.replace(camera, **changes), width, height)
+            ratio = camera.horizontal_aperture / camera.vertical_aperture * height / width
+            framed = dataclasses.replace(framed, pixel_aspect_ratio=ratio)
+        return self.crop(framed, width, height)
 
     def window_pixels(self, width: int, height: int) -> tuple[int, int, int, int]:
         """``(j0, j1, k0, k1)``: the columns ``j0 <= j < j1`` (from the left) and rows ``k0 <= k < k1`` (from the
