@@ -979,6 +979,48 @@ def test_a_mesh_of_invalid_topology_is_skipped_with_a_warning_and_the_rest_drawn
     assert [m.path for m in scene.meshes] == ["/World/Good"]
 
 
+def test_topology_problem_refuses_what_validate_topology_refuses():
+    """``topology_problem`` says it finds what ``UsdGeom.Mesh.ValidateTopology`` refuses, but it also refused
+    negative counts that still sum to the indices, which USD accepts (and ValidateTopology sums the counts in int32,
+    so counts that wrap round to the indices' number pass there too). Random topologies, half of them with counts that
+    sum to the indices, get the same verdict from both."""
+    from wrt.usd_meshes import topology_problem
+
+    rng = np.random.default_rng(7)
+    cases = [([2**31 - 1, 2**31 - 1, 2, 3], [0, 1, 2], 3), ([3, -1, 2], [0, 1, 2, 0], 3), ([-1], [], 3)]
+    for _ in range(3000):
+        counts = rng.integers(-3, 6, rng.integers(0, 6)).tolist()
+        total = max(sum(counts), 0) if rng.random() < 0.5 else int(rng.integers(0, 12))
+        n_points = int(rng.integers(0, 6))
+        cases.append((counts, rng.integers(-1, n_points + 2, total).tolist(), n_points))
+    for counts, indices, n_points in cases:
+        valid, reason = UsdGeom.Mesh.ValidateTopology(Vt.IntArray(indices), Vt.IntArray(counts), n_points)
+        problem = topology_problem(np.array(counts, np.int64), np.array(indices, np.int64), n_points)
+        assert (problem is None) == valid, (counts, indices, n_points, reason, problem)
+
+
+@pytest.mark.parametrize("counts, indices, fragment", [
+    ([4, -1, 6], INDICES, "faceVertexCounts[1] = -1 is negative"),
+    ([2**31 - 1, 2**31 - 1, 4, 7], INDICES, "faceVertexCounts sum to 4294967305"),  # int32's sum wraps round to 9
+])
+def test_a_mesh_validate_topology_accepts_but_wrt_cannot_fan_is_skipped_saying_so(tmp_path, counts, indices, fragment):
+    """A negative count that the others make up for passes ValidateTopology; the mesh has no polygons to draw, so it
+    is skipped with a warning that says USD accepts it, not as the 'invalid topology' USD's check finds, and the other
+    mesh is drawn."""
+    assert UsdGeom.Mesh.ValidateTopology(Vt.IntArray(indices), Vt.IntArray(counts), len(POINTS))[0]
+    body = 'def Xform "World"\n{\n' + mesh_usda("Odd", counts=counts, indices=indices) + mesh_usda("Good") + "}\n"
+    path = write_usda(tmp_path, body)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_usd(path)
+    messages = [str(w.message) for w in caught if "/World/Odd" in str(w.message)]
+    assert len(messages) == 1, messages
+    assert messages[0].startswith(f"{path}: meshes whose faceVertexCounts UsdGeom.Mesh.ValidateTopology accepts but "
+                                  "no faces can be made of were skipped: 1 prim(s) ("), messages
+    assert fragment in messages[0] and messages[0].endswith(": /World/Odd")
+    assert [m.path for m in scene.meshes] == ["/World/Good"]
+
+
 @pytest.mark.parametrize(
     "kwargs, fragments",
     [

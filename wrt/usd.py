@@ -7,7 +7,8 @@ the world transform into the points, and carries shading normals, ``displayColor
 a constant one inherited from an ancestor; opacity for the default material only), texture coordinates and the bound
 material (:mod:`wrt.materials`) per triangle. UsdLux lights, mesh lights (``MeshLightAPI``) too, are read by
 :mod:`wrt.usd_lights`; meshes skinned by a UsdSkel skeleton are posed by :mod:`wrt.usd_skel`. A mesh whose topology
-``UsdGeom.Mesh.ValidateTopology`` refuses is skipped with a warning naming the file, the prim and what is wrong;
+``UsdGeom.Mesh.ValidateTopology`` refuses, or accepts with negative counts that the others make up for, is skipped
+with a warning naming the file, the prim and what is wrong;
 topology of another type than ``int[]`` and points that are not finite raise :class:`wrt.errors.SceneError` naming
 the file and the prim; things that are skipped but a user might expect to see (unsupported gprims, lights or
 shaders) produce one warning each.

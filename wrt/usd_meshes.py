@@ -229,6 +229,11 @@ class MeshReading:
             # rest of the stage without it, as wrt skips other prims it cannot read; it stopped the whole load.
             self._skip("meshes of invalid topology were skipped", prim, problem)
             return None
+        problem = face_count_problem(counts, len(face_indices))
+        if problem is not None:  # triangulate refuses them: a SceneError that stopped the load
+            self._skip("meshes whose faceVertexCounts UsdGeom.Mesh.ValidateTopology accepts but no faces can be made "
+                       "of were skipped", prim, problem)
+            return None
         self._check_points(prim, points)
         degenerate = int((counts < 3).sum())
         if degenerate:  # refined or not, as Storm warns "degenerated face found" (HdMeshUtil)
@@ -373,23 +378,45 @@ class MeshReading:
 
 def topology_problem(counts: np.ndarray, face_indices: np.ndarray, n_points: int) -> str | None:
     """What makes ``faceVertexCounts`` ``counts`` and ``faceVertexIndices`` ``face_indices`` of a mesh of
-    ``n_points`` points invalid, as ``UsdGeom.Mesh.ValidateTopology`` finds it (indices without counts, a negative
-    count, counts that do not sum to the indices, an index out of range), or None. Faces of 0, 1 or 2 vertices are
-    valid topology there, which draws nothing."""
-    if len(counts) == 0 and len(face_indices):
-        return f"there are {len(face_indices)} faceVertexIndices but no faceVertexCounts"
-    bad = counts < 0
-    if bad.any():
-        f = int(np.argmax(bad))
-        return f"faceVertexCounts[{f}] = {counts[f]} is negative"
-    total = int(counts.sum())
-    if total != len(face_indices):
-        return f"faceVertexCounts sum to {total} but there are {len(face_indices)} faceVertexIndices"
+    ``n_points`` points invalid exactly where ``UsdGeom.Mesh.ValidateTopology`` refuses them (counts whose sum, taken
+    in int32 as USD takes it, is not the number of indices; an index out of range), or None. Valid topology there
+    may still hold no faces to draw: negative counts that the others make up for (:func:`face_count_problem`), and
+    faces of 0, 1 or 2 vertices, which draw nothing."""
+    total = int(np.sum(counts, dtype=np.int64))
+    if _int32_sum(total) != len(face_indices):  # a negative int32 sum, as USD's size_t, equals no length
+        if len(counts) == 0:
+            return f"there are {len(face_indices)} faceVertexIndices but no faceVertexCounts"
+        negative = counts < 0
+        why = ""
+        if negative.any():  # the likelier mistake to name
+            f = int(np.argmax(negative))
+            why = f" (faceVertexCounts[{f}] = {counts[f]} is negative)"
+        return f"faceVertexCounts sum to {total} but there are {len(face_indices)} faceVertexIndices{why}"
     bad = (face_indices < 0) | (face_indices >= n_points)
     if bad.any():
         i = int(np.argmax(bad))
         return f"faceVertexIndices[{i}] = {face_indices[i]} is out of range for {n_points} points"
     return None
+
+
+def face_count_problem(counts: np.ndarray, n_indices: int) -> str | None:
+    """Why the faces of ``counts`` (``faceVertexCounts`` that :func:`topology_problem` finds valid, as USD does)
+    cannot be cut from ``n_indices`` faceVertexIndices, or None: a negative count, or counts that sum to the indices
+    only in int32 (USD's sum wraps round), so that no face has its own corners."""
+    negative = counts < 0
+    if negative.any():
+        f = int(np.argmax(negative))
+        return f"faceVertexCounts[{f}] = {counts[f]} is negative"
+    total = int(np.sum(counts, dtype=np.int64))
+    if total != n_indices:
+        return (f"faceVertexCounts sum to {total} but there are {n_indices} faceVertexIndices (the same number in "
+                "int32, where USD sums them)")
+    return None
+
+
+def _int32_sum(total: int) -> int:
+    """``total`` wrapped round to int32, as ``ValidateTopology``'s ``std::accumulate`` of ints sums the counts."""
+    return (total + 2**31) % 2**32 - 2**31
 
 
 # Subdivision surfaces without authored normals are shaded with smooth vertex normals of their control cage, as
