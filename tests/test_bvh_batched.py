@@ -219,6 +219,25 @@ def test_batched_and_single_builds_refuse_a_cost_that_is_no_number_alike(name, v
     assert str(single.value) == str(batched.value) == message
 
 
+@pytest.mark.parametrize("name", ["traversal_cost", "intersection_cost"])
+def test_a_cost_given_as_a_0d_array_is_that_number(name):
+    """``np.array(2.0)`` is the number 2 to numpy (``float()`` reads it, as numpy scalars, which were taken); the
+    check refused it as 'must be a number'. A 0-d array of a real number now builds the trees that 2.0 builds, by
+    itself and batched, and measures as 2.0 does; a 0-d bool, string or complex array, and a 1-element array, are
+    still no number."""
+    rng = np.random.default_rng(6)
+    meshes = [(rng.normal(size=(30, 3)).astype(np.float32), rng.integers(0, 30, (40, 3)).astype(np.int32))
+              for _ in range(3)]
+    expected = build_bvhs(meshes, "sah", **{name: 2.0}, device="cpu")
+    for value in (np.array(2.0), np.array(2), np.array(2.0, np.float32)):
+        assert_same_trees(expected, [build_bvh(*meshes[0], "sah", **{name: value}, device="cpu")] +
+                          build_bvhs(meshes[1:], "sah", **{name: value}, device="cpu"))
+        assert expected[0].stats(**{name: value}, epo_samples=0) == expected[0].stats(**{name: 2.0}, epo_samples=0)
+    for value in (np.array(True), np.array("2"), np.array(2 + 0j), np.array([2.0])):
+        with pytest.raises(ValueError, match=f"{name} must be a number"):
+            build_bvh(*meshes[0], "sah", **{name: value}, device="cpu")
+
+
 def test_an_update_keeps_the_build_time_and_reports_its_own_in_update_seconds():
     """After ``update()`` (refits, a BLAS built anew, a new TLAS) ``build_seconds`` was the first build's BLAS
     times plus the new TLAS's (and the new BLAS's): the time of neither the build nor the update. It now stays the

@@ -138,13 +138,19 @@ def build_bvhs(meshes, builder: str = "sah", **options) -> list[FlatBvh]:
 
 
 def check_costs(traversal_cost: float, intersection_cost: float) -> tuple[float, float]:
-    """The SAH constants as floats; ValueError unless both are numbers (Python or numpy, not bool or str), finite,
-    ``traversal_cost >= 0`` and ``intersection_cost > 0``. One check for the batched and the single build: the batched
-    one took ``"2.0"`` (``float()`` reads it), which the single one refused in Python's words."""
+    """The SAH constants as floats; ValueError unless both are numbers (Python or numpy, a 0-d numpy array of one
+    too, not bool or str), finite, ``traversal_cost >= 0`` and ``intersection_cost > 0``. One check for the batched
+    and the single build: the batched one took ``"2.0"`` (``float()`` reads it), which the single one refused in
+    Python's words. Callers pass on the floats it returns, not what they were given."""
+    costs = []
     for name, value in (("traversal_cost", traversal_cost), ("intersection_cost", intersection_cost)):
-        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        # np.array(2.0), which build_bvh took before these checks, is the scalar it holds (a bool, str or complex
+        # one is still refused below).
+        number = value[()] if isinstance(value, np.ndarray) and value.ndim == 0 else value
+        if isinstance(number, (bool, np.bool_)) or not isinstance(number, (int, float, np.integer, np.floating)):
             raise ValueError(f"{name} must be a number, got {value!r}")
-    traversal_cost, intersection_cost = float(traversal_cost), float(intersection_cost)
+        costs.append(float(number))
+    traversal_cost, intersection_cost = costs
     if not (0.0 <= traversal_cost < math.inf and 0.0 < intersection_cost < math.inf):
         raise ValueError(
             f"traversal_cost must be finite and >= 0 and intersection_cost finite and > 0, got {traversal_cost!r} "
@@ -215,7 +221,7 @@ def build_bvh_device(
         raise ValueError(f"morton_bits must be 30 or 63, got {morton_bits}")
     ploc_radius = check_int_option("ploc_radius", ploc_radius, 1, 64)
     presplit = check_int_option("presplit", presplit, 0, MAX_SPLIT_LEVELS)
-    check_costs(traversal_cost, intersection_cost)
+    traversal_cost, intersection_cost = check_costs(traversal_cost, intersection_cost)
     if threads is not None:
         threads = check_int_option("threads", threads, 1, None)
     with stage("input checks and triangle boxes", timers):

@@ -234,7 +234,7 @@ class FlatBvh:
         from .build import check_costs, check_int_option
         from .stats import EPO_SAMPLES, MAX_EPO_SAMPLES, bvh_stats
 
-        check_costs(traversal_cost, intersection_cost)
+        traversal_cost, intersection_cost = check_costs(traversal_cost, intersection_cost)
         if epo_samples is None:
             epo_samples = EPO_SAMPLES if self.num_prims == self.num_triangles else 0
         epo_samples = check_int_option("epo_samples", epo_samples, 0, MAX_EPO_SAMPLES)

@@ -79,7 +79,7 @@ def collect_stats(
     """
     from .warp_mesh import warp_mesh_bvh
 
-    check_costs(traversal_cost, intersection_cost)  # Warp's trees are measured with them too
+    traversal_cost, intersection_cost = check_costs(traversal_cost, intersection_cost)  # Warp's trees use them too
     rows = []
     for name in parse_builders(builders):
         if name.startswith(WARP_PREFIX):
