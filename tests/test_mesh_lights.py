@@ -367,6 +367,11 @@ DARK_LIGHTS = {  # a light its author put on the stage that gives none, and the 
         'def Sphere "Light" (\n    prepend apiSchemas = ["MeshLightAPI"]\n)\n{\n    double radius = -1\n'
         f'    double3 xformOp:translate = (0, 0, {HEIGHT})\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
         "    float inputs:intensity = 3\n}\n", "mesh lights whose geometry was left out give no light"),
+    "emissive_sphere_of_negative_radius": (  # a gprim, not a mesh: it was not counted (default lights)
+        'def Sphere "Light" (\n    prepend apiSchemas = ["MaterialBindingAPI"]\n)\n{\n    double radius = -1\n'
+        f'    double3 xformOp:translate = (0, 0, {HEIGHT})\n    uniform token[] xformOpOrder = ["xformOp:translate"]\n'
+        "    rel material:binding = </Glow>\n}\n" + glowing_material((3.0, 3.0, 3.0)),
+        "gprims with a zero, negative or non-finite size were skipped"),
     "rect_light_of_nan_intensity": (rect_light(intensity="nan"), "lights whose colour * intensity"),
     "hidden_rect_light": (rect_light(intensity=3.0).replace("{\n", '{\n    token visibility = "invisible"\n', 1),
                           None),
@@ -376,7 +381,8 @@ DARK_LIGHTS = {  # a light its author put on the stage that gives none, and the 
 @pytest.mark.parametrize("case", sorted(DARK_LIGHTS))
 def test_a_stage_whose_only_light_gives_none_gets_no_default_lights(tmp_path, case):
     """A stage whose author lit it, with a mesh light whose mesh is skipped (invalid topology), a mesh of an emissive
-    material skipped likewise, a gprim light of a bad size, a light of a NaN intensity or a hidden light, got the
+    material skipped likewise, a gprim light or a gprim of an emissive material of a bad size, a light of a NaN
+    intensity or a hidden light, got the
     default headlight and dome (meant for stages without lights), which lit the floor as 0.5 * (0.8 + 0.2) = 0.5 in
     place of the author's lighting. USD lists such a stage's lights (``ComputeLightList``, hidden ones too): no
     light reaches the floor now (0 exactly), the load names the light (but a hidden one, which is no mistake) and the
@@ -400,6 +406,31 @@ def test_a_stage_whose_only_light_gives_none_gets_no_default_lights(tmp_path, ca
     assert unlit.dark_lights == []
     np.testing.assert_allclose(wrt.render(unlit, camera=camera, width=2, height=2, device="cpu").rgb, ALBEDO,
                                rtol=1e-5)
+
+
+@pytest.mark.parametrize("shown, indices", [("invisible", "[0]"), ("inherited", "[]")])
+def test_the_lights_in_the_prototypes_of_a_point_instancer_that_draws_none_are_the_stages_lights_too(
+        tmp_path, shown, indices):
+    """A stage lit only by a lamp prototype's light, instanced by a hidden PointInstancer (or one of no instances),
+    got the default lights: the walk does not enter an instancer's subtree and reads the prototypes only for the
+    instances it draws, so the light was never met. ``ComputeLightList`` lists it, at its path under the instancer:
+    such a stage gets no default lights either, as for a hidden native instance's light."""
+    from pxr import Usd, UsdLux
+
+    lamps = (f'def PointInstancer "Lamps"\n{{\n    token visibility = "{shown}"\n'
+             "    rel prototypes = </Lamps/Protos/Lamp>\n    point3f[] positions = [(0, 0, 0)]\n"
+             f"    int[] protoIndices = {indices}\n"
+             '    def Xform "Protos"\n    {\n        def Xform "Lamp"\n        {\n'
+             + rect_light(intensity=3.0) + "        }\n    }\n}\n")
+    scene, _ = load(tmp_path, floor(), lamps)
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    listed = [str(p) for p in UsdLux.LightListAPI(stage.GetPseudoRoot()).ComputeLightList(
+        UsdLux.LightListAPI.ComputeModeIgnoreCache)]
+    assert scene.lights == [] and scene.dark_lights == listed == ["/Lamps/Protos/Lamp/Light"], \
+        (scene.dark_lights, listed)
+    with pytest.warns(UserWarning, match=r"no light: the stage's lights give none .*: /Lamps/Protos/Lamp/Light"):
+        img = wrt.render(scene, camera=top_down_camera(height=PATCH), width=2, height=2, device="cpu")
+    np.testing.assert_array_equal(img.rgb, 0.0)
 
 
 def test_the_lights_of_a_hidden_instance_are_the_stages_lights_too(tmp_path):

@@ -534,8 +534,9 @@ class Scene:
             (:func:`wrt.render.resolve_view`).
         lights: the stage's lights: :class:`DistantLight` and the classes of :mod:`wrt.lights`.
         dark_lights: where ``lights`` is empty, the paths of the stage's UsdLux lights that gave none (hidden, or
-            skipped with a warning: bad values, a mesh light's mesh that could not be read) and of the meshes of an
-            emissive material that were skipped: a stage its author lit gets no default lights (the render warns).
+            skipped with a warning: bad values, a mesh light's mesh that could not be read; in a PointInstancer's
+            prototypes too, as ``ComputeLightList`` lists them) and of the meshes and gprims of an emissive material
+            that were skipped: a stage its author lit gets no default lights (the render warns).
         materials: :class:`wrt.materials.Material` list that ``Mesh.material_ids`` index.
         textures: ``(H, W, 4)`` float32 linear RGBA images that material textures index (``(H, W, 3)`` ones, read
             with alpha 1, and other float dtypes too: :func:`wrt.textures.scene_images`).

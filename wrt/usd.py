@@ -436,6 +436,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # proxy purpose is read too, as instances are: a prototype prim of authored render purpose is drawn.
             if self._visible(prim, ctx.stop):
                 self._read_instancer(prim, ctx)
+            self._instancer_lights(prim)
             it.PruneChildren()
         elif prim.IsA(UsdGeom.Gprim):
             if self._rendered(prim, ctx):
@@ -464,6 +465,18 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
                 for p in Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(PROTOTYPE_PREDICATE))
                 if p.IsA(UsdLux.DistantLight) or p.HasAPI(UsdLux.LightAPI)]
         return self.prototype_lights[key]
+
+    def _instancer_lights(self, prim: Usd.Prim):
+        """Counts the UsdLux lights in PointInstancer ``prim``'s prototypes among the stage's lights
+        (``authored_lights``), at their paths under it, as ``ComputeLightList`` lists them: its subtree is not walked,
+        and its prototypes are read only for the instances it draws, so a hidden instancer's (or one of no instances)
+        were never met, and the stage got the default lights."""
+        for target in UsdGeom.PointInstancer(prim).GetPrototypesRel().GetTargets():
+            root = self.stage.GetPrimAtPath(target)
+            if root and PROTOTYPE_PREDICATE(root):  # as the prototypes read are (an over or a class draws nothing)
+                shown = Sdf.Path(self._shown_path(root))
+                self.authored_lights.update((str(shown.AppendPath(light)), None)
+                                            for light in self._prototype_lights(root))
 
     def _read_lights(self, prim: Usd.Prim, lights: list, ctx: Context):
         """The UsdLux ``lights`` at paths relative to ``prim`` (a light itself, ``.``, or the lights of native
@@ -502,10 +515,13 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             self._not_a_mesh_light(prim, "Points and curves")
             self._read_tubes(prim, ctx)
             return
+        start = len(self.skipped)
         m = self._to_space(prim, ctx)
         shape = None if m is None else self._read_gprim(prim, m, ctx)
         if shape is None:
             self._warn_dark_mesh_light(prim)
+            if len(self.skipped) > start:  # skipped (named): an emissive one lit the stage, as a skipped mesh does
+                self._skipped_emitter(prim, self._face_materials(prim, 1, ctx))
         else:
             # A zero scale on one axis flattens the gprim into a disc or sheet, which Storm draws as its flat
             # tessellation, each half fronting its own side: it is drawn thin (as instances are), so each half keeps
@@ -551,8 +567,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         return glows
 
     def _skipped_emitter(self, prim: Usd.Prim, face_materials: np.ndarray | None):
-        """Counts mesh ``prim``, skipped, among the stage's lights (``authored_lights``) when a material it is bound
-        to (``face_materials``: per face, or None) emits: its author lit the stage with it."""
+        """Counts mesh or gprim ``prim``, skipped, among the stage's lights (``authored_lights``) when a material it is
+        bound to (``face_materials``: per face, or None) emits: its author lit the stage with it."""
         if face_materials is not None and any(self._material_glows(int(k)) for k in np.unique(face_materials)):
             self.authored_lights[self._shown_path(prim)] = None
 
