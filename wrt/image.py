@@ -294,8 +294,10 @@ class Image:
             row 0 is the top of the image.
         aovs: per-pixel data of the camera ray through each pixel centre (sample 0), all ``(H, W, ...)``:
 
-            - ``"depth"`` float32 distance along the ray (``inf`` on a miss);
-            - ``"z"`` float32 depth: distance along the viewing axis, scene units (``inf`` on a miss);
+            - ``"depth"`` float32 distance along the ray (``inf`` on a miss; negative for a hit behind the plane of
+              an orthographic camera whose near clip is negative);
+            - ``"z"`` float32 depth: distance along the viewing axis, scene units (``inf`` on a miss; negative
+              likewise);
             - ``"normal"`` ``(H, W, 3)`` float32 world-space shading normal, flipped to the camera's side with the
               face normal, and near silhouettes turned towards it just enough that the camera's mirror direction
               stays above the surface; 0 on a miss);
