@@ -1315,3 +1315,21 @@ def test_to_pyvista_places_instances_after_one_of_a_prototype_without_triangles(
         assert block.n_cells == len(source.indices)
         if block.n_cells:
             np.testing.assert_allclose(block.points[block.regular_faces], expected[source.indices], atol=1e-6)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a display is assumed off Linux")
+def test_a_window_asked_for_without_a_display_is_refused_saying_how_to_draw_off_screen(monkeypatch):
+    """``wrt.preview(off_screen=False)`` without a display returned a plotter anyway: VTK warned 'bad X server
+    connection' and nothing was drawn. Where ``wrt preview`` writes preview.png, the API says what is wrong and how
+    to draw off-screen; ``off_screen=None`` still falls back to off-screen."""
+    monkeypatch.delenv("DISPLAY", raising=False)
+    scene = wrt.Scene.from_triangles(np.eye(3), [[0, 1, 2]])
+    for value in (False, 0):
+        with pytest.raises(PreviewUnavailable, match=r"off_screen=False asks for a window, and there is no display "
+                           r"\(DISPLAY is not set\): pass off_screen=True .*\.screenshot"):
+            wrt.preview(scene, off_screen=value, window_size=(32, 24)).close()
+    plotter = wrt.preview(scene, window_size=(32, 24))
+    try:
+        assert plotter.off_screen
+    finally:
+        plotter.close()

@@ -133,6 +133,12 @@ def has_display() -> bool:
     return True
 
 
+def _no_display_reason() -> str:
+    """Why :func:`has_display` is False, in the user's terms."""
+    display = os.environ.get("DISPLAY")
+    return f"no X server answers at DISPLAY={display}" if display else "DISPLAY is not set"
+
+
 def offscreen_backend() -> str:
     """Makes sure VTK can render off-screen here and returns the VTK window class it will use.
 
@@ -630,10 +636,12 @@ def preview(
         max_triangles: above this many triangles the scene is simplified for display (the title says so).
         max_boxes: above this many BVH boxes an even subset is drawn (the text says so).
         off_screen: render off-screen; ``None`` means off-screen when there is no display or ``pyvista.OFF_SCREEN``.
+            ``False`` (a window) without a display raises :class:`PreviewUnavailable`.
         show_text: write a summary in the top-left corner of the view.
 
     Raises:
-        PreviewUnavailable: pyvista is missing, or VTK cannot render on this machine.
+        PreviewUnavailable: pyvista is missing, VTK cannot render on this machine, or ``off_screen=False`` asks for
+            a window where there is no display.
         ValueError: bad arguments (unknown camera, builder or colouring, both ``bvh_depth`` and ``bvh_leaves``).
     """
     pv = import_pyvista()
@@ -642,6 +650,11 @@ def preview(
     bvh_leaves, image, show_text = (flag(value, label) for value, label in
                                     ((bvh_leaves, "bvh_leaves"), (image, "image"), (show_text, "show_text")))
     off_screen = None if off_screen is None else flag(off_screen, "off_screen")
+    # A window without a display: VTK warned 'bad X server connection', and the plotter drew nothing.
+    if off_screen is not None and not off_screen and not has_display():
+        raise PreviewUnavailable(f"off_screen=False asks for a window, and there is no display ({_no_display_reason()})"
+                                 ": pass off_screen=True (or None, off-screen without a display) and save the view "
+                                 "with .screenshot('preview.png'), as wrt preview does, or run under xvfb-run")
     if bvh_depth is not None and bvh_leaves:
         raise ValueError("give bvh_depth or bvh_leaves, not both")
     if bvh_depth is not None and (
