@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 import types
+import warnings
 
 import numpy as np
 import pytest
@@ -1333,3 +1334,32 @@ def test_a_window_asked_for_without_a_display_is_refused_saying_how_to_draw_off_
         assert plotter.off_screen
     finally:
         plotter.close()
+
+
+def test_a_bvh_depth_past_the_trees_depth_says_it_draws_the_leaves(tmp_path, capsys):
+    """A cut deeper than the tree's deepest leaf draws the leaves, as bvh_leaves does; the preview drew them as if the
+    tree went that deep, without a word. The tree's depth is walked from its arrays here (walked_cut), not taken from
+    the preview."""
+    from wrt.procedural import displaced_sphere
+
+    scene = wrt.Scene.from_triangles(*displaced_sphere(60))
+    bvh = get_accelerator(scene, "wrt", "sah", "cpu").bvh
+    deepest = next(d for d in range(64) if walked_cut(bvh, d) == walked_cut(bvh, d + 1) == walked_cut(bvh, 64))
+    for depth, past in ((deepest - 1, False), (deepest, False), (deepest + 3, True)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            plotter = wrt.preview(scene, bvh_depth=depth, window_size=(32, 24))
+        try:
+            text = plotter.actors["summary"].GetText(2)
+        finally:
+            plotter.close()
+        said = [str(w.message) for w in caught if "deepest leaf" in str(w.message)]
+        expected = f"BVH depth {depth} is past the tree's deepest leaf (depth {deepest}): the boxes drawn are its " \
+                   "leaves"
+        assert said == ([expected] if past else []), (depth, said)
+        assert (f"cut at depth {depth}, past the deepest leaf (depth {deepest}): the leaves" in text) == past, text
+    out = tmp_path / "deep.png"
+    assert main(["preview", "--bvh-depth", "60", "--window", "32x24", "-o", str(out), "-q"]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: warning:")]
+    assert len(warned) == 1 and "BVH depth 60 is past the tree's deepest leaf" in warned[0], warned
+    assert out.is_file()

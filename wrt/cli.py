@@ -878,7 +878,8 @@ def _add_preview(sub) -> None:
         "--bvh-depth",
         type=non_negative_int,
         metavar="K",
-        help="draw the BVH cut at depth K (nodes at depth K plus shallower leaves)",
+        help="draw the BVH cut at depth K (nodes at depth K plus shallower leaves; past the tree's deepest leaf, "
+        "its leaves, with a warning)",
     )
     bvh.add_argument("--bvh-leaves", action="store_true", help="draw every BVH leaf")
     p.add_argument("--bvh-color", default="depth", choices=BVH_COLORINGS, help="BVH box colour: depth or SAH share")

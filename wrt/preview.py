@@ -620,7 +620,8 @@ def preview(
         scene: a :class:`wrt.Scene`, or a USD file to load.
         camera: the camera, as for :func:`wrt.render` (``None``: the render settings' camera, else the stage's
             first camera, else one framing it; see :func:`wrt.render.resolve_view`).
-        bvh_depth: draw the BVH cut at this depth (see module docstring).
+        bvh_depth: draw the BVH cut at this depth (see module docstring); past the tree's deepest leaf the cut is
+            its leaves, which a warning and the summary say.
         bvh_leaves: draw every BVH leaf instead.
         bvh_color: ``"depth"`` or ``"sah"`` (SAH cost share), the colouring of the boxes.
         rays: number of sample camera rays to draw.
@@ -905,9 +906,13 @@ def _add_bvh(plotter, bvh: FlatBvh, depth, color: str, max_boxes: int) -> tuple[
             bar = {"title": "SAH cost share", "fmt": "%.1e"}
             style = {"cmap": LinearSegmentedColormap.from_list("wrt_sah", SAH_COLORS), "log_scale": clim[0] > 0}
         plotter.add_mesh(boxes, scalars=scalars, clim=clim, line_width=2, scalar_bar_args=bar, name="bvh", **style)
-    what = "leaves" if depth is None else f"cut at depth {depth}"
-    count = counted(len(nodes), "box", "boxes") if shown == len(nodes) else f"{shown:,} of {len(nodes):,} boxes"
     levels = int(bvh.depths().max(initial=0))
+    what = "leaves" if depth is None else f"cut at depth {depth}"
+    if depth is not None and depth > levels:  # drawn as the leaves, which looked like a cut that deep
+        what += f", past the deepest leaf (depth {levels}): the leaves"
+        warnings.warn(f"BVH depth {depth} is past the tree's deepest leaf (depth {levels}): the boxes drawn are its "
+                      "leaves", stacklevel=3)
+    count = counted(len(nodes), "box", "boxes") if shown == len(nodes) else f"{shown:,} of {len(nodes):,} boxes"
     capped = f"showing {shown:,} of {len(nodes):,} BVH boxes" if shown < len(nodes) else ""
     return f"{counted(bvh.num_nodes, 'node')}, depth {levels}: {what}, {count}", capped
 
