@@ -610,7 +610,7 @@ def test_frustum_and_image_plane_scale_with_a_scaled_camera(scale):
                               window_size=(64, 48))
         try:
             drawn[s] = {a: np.asarray(plotter.actors[a].mapper.dataset.points, np.float64) / s
-                        for a in ("image", "frustum", "rays_hit")}
+                        for a in ("image", "frustum", "rays_hit", "near_plane")}
         finally:
             plotter.close()
     for actor, points in drawn[1.0].items():
@@ -1008,6 +1008,20 @@ def Camera "Ortho"
 """
 
 
+def usd_frustum(path, camera: str, width: int, height: int):
+    """``Gf.Frustum`` of ``UsdGeom.Camera.GetCamera(5.0)`` of ``camera`` in the stage at ``path``, its window grown to
+    the ``width x height`` aspect (UsdRender's ``expandAperture``, the fallback conform policy)."""
+    from pxr import Gf, Usd, UsdGeom
+
+    stage = Usd.Stage.Open(str(path))
+    frustum = UsdGeom.Camera(stage.GetPrimAtPath(camera)).GetCamera(5.0).frustum
+    lower, upper = (np.array(v) for v in (frustum.window.GetMin(), frustum.window.GetMax()))
+    centre, size = (lower + upper) / 2, upper - lower
+    size = np.maximum(size, [size[1] * width / height, size[0] * height / width])  # expandAperture
+    frustum.window = Gf.Range2d(Gf.Vec2d(*(centre - size / 2)), Gf.Vec2d(*(centre + size / 2)))
+    return frustum
+
+
 @pytest.mark.parametrize("camera", ["/Persp", "/Ortho"])
 @pytest.mark.parametrize("width, height", [(60, 40), (80, 20)])
 def test_frustum_is_the_usd_camera_frustum(tmp_path, camera, width, height):
@@ -1015,16 +1029,9 @@ def test_frustum_is_the_usd_camera_frustum(tmp_path, camera, width, height):
     ``UsdGeom.Camera.GetCamera(time)`` puts its corners at the same depths: film offsets, an orthographic camera, a
     camera animated in time, and an image aspect other than the apertures' (the window grown to it, UsdRender's
     ``expandAperture``, the fallback conform policy)."""
-    from pxr import Gf, Usd, UsdGeom
-
     path = tmp_path / "cameras.usda"
     path.write_text(CAMERAS)
-    stage = Usd.Stage.Open(str(path))
-    frustum = UsdGeom.Camera(stage.GetPrimAtPath(camera)).GetCamera(5.0).frustum
-    lower, upper = (np.array(v) for v in (frustum.window.GetMin(), frustum.window.GetMax()))
-    centre, size = (lower + upper) / 2, upper - lower
-    size = np.maximum(size, [size[1] * width / height, size[0] * height / width])  # expandAperture
-    frustum.window = Gf.Range2d(Gf.Vec2d(*(centre - size / 2)), Gf.Vec2d(*(centre + size / 2)))
+    frustum = usd_frustum(path, camera, width, height)
     eye, view = np.array(frustum.GetPosition()), np.array(frustum.ComputeViewDirection())
     plotter = wrt.preview(wrt.load_usd(path, time=5.0), camera=camera, width=width, height=height,
                           window_size=(64, 48), show_text=False)
@@ -1363,3 +1370,29 @@ def test_a_bvh_depth_past_the_trees_depth_says_it_draws_the_leaves(tmp_path, cap
     warned = [line for line in capsys.readouterr().err.splitlines() if line.startswith("wrt: warning:")]
     assert len(warned) == 1 and "BVH depth 60 is past the tree's deepest leaf" in warned[0], warned
     assert out.is_file()
+
+
+@pytest.mark.parametrize("camera", ["/Persp", "/Ortho"])
+def test_near_clipping_plane_is_drawn_where_usd_puts_it(tmp_path, camera):
+    """The frustum was drawn from the eye, and the near clipping plane, where rays start, was not drawn. Its
+    rectangle's corners (top-left, top-right, bottom-right, bottom-left) are the near corners of ``Gf.Frustum``'s
+    ``ComputeCorners`` (the clipping range's near: 0.5 for /Persp, USD's fallback 1 for /Ortho); a camera whose near
+    plane is at the eye draws none."""
+    path = tmp_path / "cameras.usda"
+    path.write_text(CAMERAS)
+    lb, rb, lt, rt = (np.array(c) for c in usd_frustum(path, camera, 60, 40).ComputeCorners()[:4])
+    scene = wrt.load_usd(path, time=5.0)
+    plotter = wrt.preview(scene, camera=camera, width=60, height=40, window_size=(32, 24), show_text=False)
+    try:
+        drawn = np.asarray(plotter.actors["near_plane"].mapper.dataset.points, np.float64)
+        lines = plotter.actors["near_plane"].mapper.dataset.lines
+    finally:
+        plotter.close()
+    np.testing.assert_allclose(drawn, [lt, rt, rb, lb], atol=1e-5)
+    np.testing.assert_array_equal(lines, [5, 0, 1, 2, 3, 0])  # a closed outline
+    at_eye = wrt.Camera.look_at(eye=(0, 5, 30), target=(0, 0, 0), fov_y_deg=30, clipping_range=(0.0, 100.0))
+    plotter = wrt.preview(scene, camera=at_eye, window_size=(32, 24), show_text=False)
+    try:
+        assert "near_plane" not in plotter.actors and "frustum" in plotter.actors
+    finally:
+        plotter.close()

@@ -14,6 +14,7 @@ What is drawn, in the frustum's terms (see :mod:`wrt.camera` for the film conven
 
 - The frustum runs from the eye to a *display far plane*: the camera's far clipping plane, pulled in to the
   deepest corner of the scene's bounding box (far planes are often 1e6 units away). Rays that miss end there.
+- The *near plane* rectangle is the near clipping plane, where camera rays start (none where it is at the eye).
 - The *image plane* rectangle sits at 80 % of the depth of the nearest sample hit (or of the scene's nearest
   corner), where the ``image=True`` quad is drawn.
 - BVH boxes are either the *cut at depth K* (every node at depth ``K`` plus the leaves above it, so every
@@ -869,7 +870,8 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
 
 
 def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_depth: float, eye_radius: float):
-    """Draws the frustum (eye to the far rectangle), the image-plane rectangle and a dot at the eye."""
+    """Draws the frustum (eye to the far rectangle), the image-plane rectangle, the near clipping plane's rectangle
+    (where the near plane is not at the eye) and a dot at the eye."""
     frame = np.concatenate([frustum_corners(cam, width, height, d) for d in (0.0, far, image_depth)])
     segments = [(k, 4 + k) for k in range(4)] + [(4 + k, 4 + (k + 1) % 4) for k in range(4)]
     segments += [(8 + k, 8 + (k + 1) % 4) for k in range(4)]
@@ -877,6 +879,11 @@ def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_dept
         segments += [(k, (k + 1) % 4) for k in range(4)]
     lines = np.hstack([np.full((len(segments), 1), 2), np.array(segments)]).ravel()
     plotter.add_mesh(pv.PolyData(frame, lines=lines), color=FRUSTUM_COLOR, line_width=2, name="frustum")
+    near = clipping_depths(cam)[0]
+    if near > 0.0:  # rays start there: what lies nearer the eye is clipped away
+        outline = np.hstack([[5], np.arange(4), [0]])
+        rectangle = pv.PolyData(frustum_corners(cam, width, height, near), lines=outline)
+        plotter.add_mesh(rectangle, color=FRUSTUM_COLOR, line_width=1, name="near_plane")
     eye, _ = camera_frame(cam, width, height)
     dot = pv.Sphere(radius=eye_radius)
     dot.points = dot.points.astype(np.float64) + eye  # pyvista's float32 centre put the dot on a 1-unit grid at 1e7
@@ -949,13 +956,19 @@ def _as_scene(scene) -> Scene:
     raise TypeError(f"scene must be a wrt.Scene or a USD file path, not {type(scene).__name__}")
 
 
+def clipping_depths(cam: Camera) -> tuple[float, float]:
+    """The near and far clipping planes' depths (:func:`view_depths`). The clipping range is camera-space depth: a
+    camera scaled with its scene (a units change on a parent) clips at its near and far times that scale, as the
+    renderer's rays do."""
+    depth_scale = float(np.linalg.norm(cam.to_world[:3, 2]))  # world length of one unit of camera-space depth
+    near, far = (float(v) * depth_scale for v in cam.clipping_range)
+    return near, far
+
+
 def _display_depths(cam: Camera, width: int, height: int, lower, upper, ray_data) -> tuple[float, float]:
     """Depths (:func:`view_depths`) of the display far plane and of the image plane."""
     eye, _ = camera_frame(cam, width, height)
-    # The clipping range is camera-space depth: a camera scaled with its scene (a units change on a parent) clips
-    # at its near and far times that scale, as the renderer's rays do.
-    depth_scale = float(np.linalg.norm(cam.to_world[:3, 2]))  # world length of one unit of camera-space depth
-    near, far = (float(v) * depth_scale for v in cam.clipping_range)
+    near, far = clipping_depths(cam)
     corners = np.stack(np.meshgrid(*zip(lower, upper), indexing="ij"), axis=-1).reshape(-1, 3)
     depths = view_depths(cam, width, height, corners - eye)
     diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
