@@ -1396,3 +1396,102 @@ def test_near_clipping_plane_is_drawn_where_usd_puts_it(tmp_path, camera):
         assert "near_plane" not in plotter.actors and "frustum" in plotter.actors
     finally:
         plotter.close()
+
+
+def transform(angles, scale, translate) -> np.ndarray:
+    """``(4, 4)`` column-vector matrix: scale, then turn about X, Y, Z by ``angles`` (radians), then translate."""
+    m = np.diag(np.r_[np.asarray(scale, np.float64), 1.0])
+    for axis, a in enumerate(angles):
+        turn = np.eye(4)
+        i, j = [k for k in range(3) if k != axis]
+        turn[[i, i, j, j], [i, j, i, j]] = np.cos(a), -np.sin(a), np.sin(a), np.cos(a)
+        m = turn @ m
+    m[:3, 3] = translate
+    return m
+
+
+def drawn_lines(mesh, light: int) -> list:
+    """The polylines (``(n, 3)`` float64 points each) of ``mesh``'s cells whose ``"light"`` is ``light``."""
+    flat, points, lines, k = np.asarray(mesh.lines), np.asarray(mesh.points, np.float64), [], 0
+    for owner in mesh.cell_data["light"]:
+        n = flat[k]
+        if owner == light:
+            lines.append(points[flat[k + 1 : k + 1 + n]])
+        k += n + 1
+    return lines
+
+
+def test_lights_are_drawn_with_their_world_space_shapes():
+    """Lights were not drawn at all. Each is now outlined where the renderer puts it, checked here against its own
+    fields in float64 numpy: a rect light's corners ``to_world @ (+-w/2, +-h/2, 0, 1)`` and a tick to its lit (-Z)
+    side, a disk's ellipse (uneven scale) and a cylinder's tube (radius uneven across it) in their local frames, a
+    sphere's points at its radius, a point light's star on its position, a distant light's arrow along its
+    direction; a dome is named in the summary, not drawn; show_lights=False draws none."""
+    from wrt.lights import CylinderLight, DiskLight, DomeLight, RectLight, SphereLight
+
+    white = np.ones(3)
+    rect = RectLight(transform((0.3, -0.5, 1.0), (1.0, 2.0, 1.0), (1, 4, 2)), 3.0, 1.5, white, path="/Rect")
+    disk = DiskLight(transform((1.2, 0.1, -0.4), (2.0, 0.5, 1.0), (-3, 2, 1)), 0.75, white, path="/Disk")
+    tube = CylinderLight(transform((0.2, 0.9, 0.0), (1.0, 1.0, 3.0), (2, -1, 3)), 4.0, 0.5, white, path="/Tube")
+    ball = SphereLight(np.array([0.5, 6.0, -2.0]), 1.25, white, path="/Ball")
+    point = SphereLight(np.array([-4.0, 3.0, 0.0]), 0.5, white, treat_as_point=True, path="/Point")
+    sun_direction = np.array([1.0, -3.0, 0.5]) / np.linalg.norm([1.0, -3.0, 0.5])
+    sun = wrt.DistantLight(sun_direction, white, path="/Sun")
+    lights = [rect, disk, tube, ball, point, sun, DomeLight(white, path="/Dome")]
+    floor = quad((-5, 0, -5), (10, 0, 0), (0, 0, 10), name="/floor")
+    scene = wrt.Scene(meshes=[floor], lights=lights)
+    plotter = wrt.preview(scene, window_size=(32, 24))
+    try:
+        mesh = plotter.actors["lights"].mapper.dataset
+        text = plotter.actors["summary"].GetText(2)
+    finally:
+        plotter.close()
+
+    def local(light, p):  # points in the light's own space
+        return (np.linalg.inv(light.to_world) @ np.c_[p, np.ones(len(p))].T).T[:, :3]
+
+    outline, tick = drawn_lines(mesh, 0)
+    corners = (rect.to_world @ np.array([[sx * 1.5, sy * 0.75, 0.0, 1.0] for sx in (-1, 1) for sy in (-1, 1)]).T).T
+    assert len(outline) == 5
+    np.testing.assert_allclose(outline[0], outline[-1])  # closed
+    np.testing.assert_allclose(sorted(map(tuple, outline[:4])), sorted(map(tuple, corners[:, :3])), atol=1e-9)
+    np.testing.assert_allclose(tick[0], rect.to_world[:3, 3], atol=1e-12)
+    assert local(rect, tick)[1, 2] < 0  # towards -Z, the side it lights
+
+    ring = np.concatenate(drawn_lines(mesh, 1)[:1])
+    q = local(disk, ring)
+    np.testing.assert_allclose(q[:, 2], 0.0, atol=1e-9)
+    np.testing.assert_allclose(np.hypot(q[:, 0], q[:, 1]), 0.75, rtol=1e-9)
+    assert local(disk, drawn_lines(mesh, 1)[1])[1, 2] < 0
+
+    q = local(tube, np.concatenate(drawn_lines(mesh, 2)))
+    np.testing.assert_allclose(np.hypot(q[:, 1], q[:, 2]), 0.5, rtol=1e-9)
+    assert np.all(np.abs(q[:, 0]) <= 2.0 + 1e-9)
+    np.testing.assert_allclose([q[:, 0].min(), q[:, 0].max()], [-2.0, 2.0], atol=1e-9)
+
+    p = np.concatenate(drawn_lines(mesh, 3))
+    np.testing.assert_allclose(np.linalg.norm(p - ball.position, axis=1), 1.25, rtol=1e-9)
+    for axis in range(3):  # its three great circles span it
+        np.testing.assert_allclose([p[:, axis].min(), p[:, axis].max()], ball.position[axis] + np.array([-1.25, 1.25]),
+                                   atol=1e-9)
+
+    star = drawn_lines(mesh, 4)
+    assert len(star) == 3
+    for segment in star:
+        np.testing.assert_allclose(segment.mean(axis=0), point.position, atol=1e-9)
+
+    shaft = drawn_lines(mesh, 5)[0]
+    np.testing.assert_allclose((shaft[1] - shaft[0]) / np.linalg.norm(shaft[1] - shaft[0]), sun_direction, atol=1e-9)
+    lower, upper = scene.bounds()
+    centre = (np.asarray(lower, np.float64) + np.asarray(upper, np.float64)) / 2
+    to_centre = centre - shaft[1]
+    np.testing.assert_allclose(to_centre / np.linalg.norm(to_centre), sun_direction, atol=1e-9)  # it points there
+
+    assert drawn_lines(mesh, 6) == []
+    assert "7 lights: 6 drawn, 1 dome not drawn (light from every direction)" in text, text
+    plotter = wrt.preview(scene, window_size=(32, 24), show_lights=False)
+    try:
+        assert "lights" not in plotter.actors
+        assert "7 lights" not in plotter.actors["summary"].GetText(2)
+    finally:
+        plotter.close()

@@ -1,7 +1,8 @@
-"""Previews with pyvista: the scene, the camera frustum, BVH boxes and sample camera rays in one 3D view.
+"""Previews with pyvista: the scene, its lights, the camera frustum, BVH boxes and sample camera rays in one 3D view.
 
 A preview shows what wrt will trace before any GPU time is spent: the meshes as ``Scene`` holds them (world
-space, one colour per triangle from its material or ``displayColor``), the frustum of the render camera, the BVH's boxes
+space, one colour per triangle from its material or ``displayColor``), the outlines of its lights
+(:mod:`wrt.preview_lights`), the frustum of the render camera, the BVH's boxes
 at one depth or its leaves, and a few camera rays from the eye to their closest hits (through :mod:`wrt.trace`, exactly
 as the renderer's first sample casts them). Optionally the wrt-rendered image hangs on the frustum's image plane.
 
@@ -51,6 +52,7 @@ from .errors import did_you_mean, flag
 from .hidden_hits import CullScratch, intersect_visible
 from .image import to_srgb8
 from .instancing import expand_instance_triangles
+from .preview_lights import light_glyphs
 from .render import Renderer, render, resolve_view
 from .scene import Scene, contents_summary
 from .tlas import TLAS_LEAF_SIZE
@@ -77,6 +79,7 @@ BACKGROUND = "white"
 DEPTH_COLORS = ["#440154", "#3b528b", "#21918c", "#5ec962", "#b5c900"]  # viridis without its pale yellow end
 SAH_COLORS = ["#0d0887", "#7e03a8", "#cc4778", "#f89540", "#e0a800"]  # plasma, likewise, so all boxes show on white
 FRUSTUM_COLOR = "crimson"
+LIGHT_COLOR = "#d4a000"  # a dark gold, which shows on white
 HIT_COLOR = "darkorange"
 MISS_COLOR = "steelblue"
 INSTALL_HINT = (
@@ -612,6 +615,7 @@ def preview(
     max_boxes: int = BOX_BUDGET,
     off_screen: bool | None = None,
     show_text: bool = True,
+    show_lights: bool = True,
 ):
     """A ``pyvista.Plotter`` showing the scene, the camera frustum and, on request, BVH boxes, rays and the image.
 
@@ -640,6 +644,7 @@ def preview(
         off_screen: render off-screen; ``None`` means off-screen when there is no display or ``pyvista.OFF_SCREEN``.
             ``False`` (a window) without a display raises :class:`PreviewUnavailable`.
         show_text: write a summary in the top-left corner of the view.
+        show_lights: draw the outlines of the scene's lights (see :mod:`wrt.preview_lights`).
 
     Raises:
         PreviewUnavailable: pyvista is missing, VTK cannot render on this machine, or ``off_screen=False`` asks for
@@ -649,8 +654,9 @@ def preview(
     pv = import_pyvista()
     # By their truth, image="false" rendered the scene, show_text="false" wrote the summary and off_screen="false"
     # opened no window.
-    bvh_leaves, image, show_text = (flag(value, label) for value, label in
-                                    ((bvh_leaves, "bvh_leaves"), (image, "image"), (show_text, "show_text")))
+    bvh_leaves, image, show_text, show_lights = (
+        flag(value, label) for value, label in
+        ((bvh_leaves, "bvh_leaves"), (image, "image"), (show_text, "show_text"), (show_lights, "show_lights")))
     off_screen = None if off_screen is None else flag(off_screen, "off_screen")
     # A window without a display: VTK warned 'bad X server connection', and the plotter drew nothing.
     if off_screen is not None and not off_screen and not has_display():
@@ -680,9 +686,9 @@ def preview(
     scene = _as_scene(scene)
     stats = scene.stats()
     if not stats["rendered_triangles"] and not stats.get("rendered_shapes", 0):  # an empty view, else unexplained
-        lights = "; lights are not drawn" if scene.lights else ""
-        warnings.warn(f"{scene.source or 'scene'}: nothing to draw (no triangles or analytic shapes{lights}): the "
-                      "preview shows the camera alone", stacklevel=2)
+        alone = "the camera and the lights" if scene.lights and show_lights else "the camera"
+        warnings.warn(f"{scene.source or 'scene'}: nothing to draw (no triangles or analytic shapes): the preview "
+                      f"shows {alone} alone", stacklevel=2)
     cam, width, height = resolve_view(scene, camera, width, height)
     if off_screen is None:
         off_screen = bool(pv.OFF_SCREEN) or not has_display()
@@ -706,6 +712,11 @@ def preview(
     far, image_depth = _display_depths(cam, width, height, lower, upper, ray_data)
     diagonal = max(float(np.linalg.norm(upper - lower)), 1e-6)
     _add_frustum(pv, plotter, cam, width, height, far, image_depth, eye_radius=min(0.01 * diagonal, 0.2 * image_depth))
+    if show_lights and scene.lights:
+        glyphs, light_note = light_glyphs(scene.lights, lower, upper)
+        if glyphs is not None:
+            plotter.add_mesh(glyphs, color=LIGHT_COLOR, line_width=2, name="lights")
+        lines.append(light_note)
     label = cam.path or ("(given)" if isinstance(camera, Camera) else "(framing the scene)")
     lines.append(f"camera {label}: {cam.projection}, film {width}x{height}")
     if bvh_depth is not None or bvh_leaves:
