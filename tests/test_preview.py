@@ -1495,3 +1495,17 @@ def test_lights_are_drawn_with_their_world_space_shapes():
         assert "7 lights" not in plotter.actors["summary"].GetText(2)
     finally:
         plotter.close()
+
+
+def test_light_summary_counts_what_is_not_drawn_and_what_is_left_out():
+    """Beyond the budget of lights drawn, the summary says how many were left out; a mesh light is drawn as its mesh
+    (with the scene), a dome not at all."""
+    from wrt.lights import MeshLight, SphereLight
+    from wrt.preview_lights import light_glyphs
+
+    balls = [SphereLight(np.array([float(k), 0.0, 0.0]), 0.25, np.ones(3)) for k in range(5)]
+    mesh, note = light_glyphs([MeshLight("/M", np.ones(3))] + balls, np.zeros(3), np.ones(3), max_lights=3)
+    assert sorted(set(mesh.cell_data["light"])) == [1, 2, 3]  # indices in the list given
+    assert note == "6 lights: 3 drawn, 2 left out, 1 mesh light drawn as its mesh", note
+    assert light_glyphs([MeshLight("/M", np.ones(3))], np.zeros(3), np.ones(3)) == (
+        None, "1 light: 1 mesh light drawn as its mesh")

@@ -95,14 +95,17 @@ def _outline(light, focus, diagonal: float, segments: int) -> list[tuple[np.ndar
 def light_glyphs(lights, lower, upper, segments: int = LIGHT_SEGMENTS, max_lights: int = LIGHT_BUDGET):
     """The outlines of ``lights`` (``Scene.lights``) as one ``pyvista.PolyData`` of lines, or None where none is
     drawn, and a note for the summary (``""`` without lights). Cell array ``"light"``: the index in ``lights`` of the
-    light each line draws. ``lower``, ``upper``: the scene's bounds, which size the glyphs of point and distant
+    light each line draws. The first ``max_lights`` lights that are drawn (domes and mesh lights are not) are; the
+    note counts the others. ``lower``, ``upper``: the scene's bounds, which size the glyphs of point and distant
     lights and place the latter's arrows."""
     lower, upper = np.asarray(lower, np.float64), np.asarray(upper, np.float64)
     focus = 0.5 * (lower + upper)
     diagonal = float(np.linalg.norm(upper - lower))
     diagonal = diagonal if diagonal > 0.0 else 1.0
     points, cells, owners, base = [], [], [], 0
-    for k, light in enumerate(lights[:max_lights]):
+    drawable = [k for k, light in enumerate(lights) if not isinstance(light, (DomeLight, MeshLight))]
+    for k in drawable[:max_lights]:
+        light = lights[k]
         for line, closed in _outline(light, focus, diagonal, segments):
             ids = base + np.arange(len(line))
             ids = np.append(ids, base) if closed else ids
@@ -114,8 +117,8 @@ def light_glyphs(lights, lower, upper, segments: int = LIGHT_SEGMENTS, max_light
     domes = sum(isinstance(light, DomeLight) for light in lights)
     meshes = sum(isinstance(light, MeshLight) for light in lights)
     parts = [f"{drawn:,} drawn"] if drawn else []
-    if len(lights) > max_lights:
-        parts.append(f"{len(lights) - max_lights:,} left out")
+    if len(drawable) > max_lights:
+        parts.append(f"{len(drawable) - max_lights:,} left out")
     if domes:
         parts.append(f"{counted(domes, 'dome')} not drawn (light from every direction)")
     if meshes:
