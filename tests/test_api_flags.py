@@ -192,7 +192,7 @@ def test_run_grid_flags_are_bools(tmp_path, option):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("name", ["bvh_leaves", "image", "show_text", "off_screen"])
+@pytest.mark.parametrize("name", ["bvh_leaves", "image", "show_text", "show_lights", "off_screen"])
 @pytest.mark.parametrize("value", ["false", 2])
 def test_preview_flags_are_bools(floor, name, value):
     with pytest.raises(TypeError, match=f"{name} must be True or False"):
