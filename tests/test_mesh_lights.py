@@ -450,3 +450,30 @@ def test_the_lights_of_a_hidden_instance_are_the_stages_lights_too(tmp_path):
     with pytest.warns(UserWarning, match=r"no light: the stage's lights give none .*: /Lamp/Light; rendered"):
         img = wrt.render(scene, camera=top_down_camera(height=PATCH), width=2, height=2, device="cpu")
     np.testing.assert_array_equal(img.rgb, 0.0)
+
+
+@pytest.mark.parametrize("drawn_none", ["hidden_instancer", "no_instances", "all_ids_invisible"])
+def test_the_lights_of_an_instancer_that_draws_none_are_the_stages_lights_too(tmp_path, drawn_none):
+    """A stage lit only by a lamp prototype of a PointInstancer that draws none of its instances (the instancer
+    hidden, no instances, or every id in invisibleIds) lists that light (``ComputeLightList`` lists the prototype's
+    light): it gets no default lights, as for a hidden native instance. The walk does not enter an instancer, so its
+    lamps were not counted, and the default headlight and dome lit the floor to 0.5."""
+    from pxr import Usd, UsdLux
+
+    instances, positions = ("[]", "[]") if drawn_none == "no_instances" else ("[0]", "[(0, 0, 0)]")
+    extra = {"hidden_instancer": '    token visibility = "invisible"\n',
+             "all_ids_invisible": "    int64[] invisibleIds = [0]\n"}.get(drawn_none, "")
+    lamps = ('def PointInstancer "Lamps"\n{\n    rel prototypes = </Lamps/Protos/Lamp>\n'
+             f'    int[] protoIndices = {instances}\n    point3f[] positions = {positions}\n'
+             f'{extra}    def Xform "Protos"\n    {{\n        def Xform "Lamp"\n        {{\n'
+             + "".join("        " + line + "\n" for line in rect_light(intensity=3.0).splitlines())
+             + "        }\n    }\n}\n")
+    scene, _ = load(tmp_path, floor(), lamps)
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    listed = [str(p) for p in UsdLux.LightListAPI(stage.GetPseudoRoot()).ComputeLightList(
+        UsdLux.LightListAPI.ComputeModeIgnoreCache)]
+    assert scene.lights == [] and scene.dark_lights == listed == ["/Lamps/Protos/Lamp/Light"], (scene.dark_lights,
+                                                                                                 listed)
+    with pytest.warns(UserWarning, match=r"no light: the stage's lights give none .*: /Lamps/Protos/Lamp/Light"):
+        img = wrt.render(scene, camera=top_down_camera(height=PATCH), width=2, height=2, device="cpu")
+    np.testing.assert_array_equal(img.rgb, 0.0)
