@@ -586,6 +586,46 @@ def test_the_fallback_st_warning_names_a_prototype_outside_the_instance_at_its_o
     assert not [w for w in caught if "/World/Protos/Quad" in str(w.message)]
 
 
+def test_native_instances_handing_down_one_nan_st_share_one_copy(tmp_path):
+    """66 native instances of a textured asset whose mesh has no st, each with the same constant st (NaN, NaN), all
+    show the texture's fallback colour, as a mesh's own st that is not finite does (and USD finds that one value on
+    every instance proxy). NaN != NaN made each instance's st a new value: 64 copies of the prototype, then the 65th
+    and 66th kept the prototype's own st, the reader's fallback, showing the checker's red texel there under a
+    warning of more than 64 texture coordinates."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    stage.RemovePrim("/Quad")
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
+        Gf.Vec2f(0.25, 0.75))  # the red block's middle
+    texture_fallback = Gf.Vec4f(0.2, 0.4, 0.6, 1.0)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/Image")).CreateInput("fallback", Sdf.ValueTypeNames.Float4).Set(
+        texture_fallback)
+    asset = stage.CreateClassPrim("/Asset")
+    quad = add_quad(stage, "/Asset/Quad")
+    UsdGeom.PrimvarsAPI(quad).RemovePrimvar("st")
+    bind(quad, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    count = 66
+    for k in range(count):
+        instance = UsdGeom.Xform.Define(stage, f"/A{k}")
+        instance.AddTranslateOp().Set((3.0 * k, 0.0, 0.0))
+        instance.GetPrim().GetReferences().AddInternalReference(asset.GetPath())
+        instance.GetPrim().SetInstanceable(True)
+        UsdGeom.PrimvarsAPI(instance.GetPrim()).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.constant).Set([(np.nan, np.nan)])
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert not any("more than 64" in m for m in messages), messages
+    assert any("texture coordinates that are not finite" in m and "66 prim(s)" in m for m in messages), messages
+    for k in (0, count - 1):
+        inherited = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(f"/A{k}/Quad")).FindPrimvarWithInheritance("st").Get()
+        assert np.isnan(np.asarray(inherited)).all()  # USD finds the NaN st on every proxy
+        cam = wrt.Camera.orthographic(eye=(3.0 * k, 0, 5), target=(3.0 * k, 0, 0), height=2.0)
+        img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
+        np.testing.assert_allclose(img, np.broadcast_to(np.array(texture_fallback)[:3], img.shape), atol=2e-3,
+                                   err_msg=f"/A{k}")
+
+
 @pytest.mark.parametrize("type_name", ["TexCoord3fArray", "Float3Array", "Float4Array"])
 def test_texture_coordinates_of_three_or_four_components_read_their_first_two(tmp_path, type_name):
     """A texture-coordinate primvar of 3-vectors (Houdini writes its ``uv`` attribute, a vector, as ``texCoord3f[]``

@@ -17,7 +17,7 @@ from .usd_values import read_time
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
 MAX_INHERITED_WIDTHS = 64  # distinct primvars:widths handed down by instances, per native prototype (one copy each)
 MAX_INHERITED_UVS = 64  # distinct texture coordinates handed down by instances, per native prototype (one copy each)
-_NAN_WIDTH = math.nan  # one NaN object, so that a NaN width handed down keys one copy (NaN != NaN)
+_NAN = math.nan  # one NaN object, so that a NaN width or st handed down keys one copy (NaN != NaN)
 
 
 class NativeInstanceReading:
@@ -171,7 +171,7 @@ class NativeInstanceReading:
         values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
         if not len(values):
             return None
-        return float(values[0]) if not math.isnan(values[0]) else _NAN_WIDTH
+        return float(values[0]) if not math.isnan(values[0]) else _NAN
 
     def _inherited_uvs(self, prim: Usd.Prim, ctx: Context, names: list[str]) -> tuple:
         """The constant texture-coordinate primvars of ``names`` that native instance ``prim`` hands down to its
@@ -205,4 +205,9 @@ class NativeInstanceReading:
             self._skip(f"{attr.GetName()} values that are not an array of 2-, 3- or 4-vectors were ignored", holder,
                        f"{self._authored_type(attr)} holding {type(raw).__name__}")
             return None
-        return float(values[0, 0]), float(values[0, 1])
+        if not np.isfinite(values[0, :2]).all():  # as a mesh's own (MeshPrimvarReading._read_uvs)
+            self._skip("texture coordinates that are not finite were read as none: the textures there show their "
+                       "fallback", holder, f"{primvar.GetPrimvarName()}, constant, handed down to a prototype")
+        # NaN as the one object: otherwise each instance's NaN st, a new float, was a new value (and a new copy of
+        # the prototype) until the copies ran out, past which instances read the reader's fallback st instead.
+        return tuple(_NAN if math.isnan(v) else v for v in (float(values[0, 0]), float(values[0, 1])))
