@@ -452,22 +452,29 @@ def test_the_lights_of_a_hidden_instance_are_the_stages_lights_too(tmp_path):
     np.testing.assert_array_equal(img.rgb, 0.0)
 
 
-@pytest.mark.parametrize("drawn_none", ["hidden_instancer", "no_instances", "all_ids_invisible"])
+@pytest.mark.parametrize("drawn_none", ["hidden_instancer", "no_instances", "all_ids_invisible",
+                                        "hidden_instancer_of_native_lamps"])
 def test_the_lights_of_an_instancer_that_draws_none_are_the_stages_lights_too(tmp_path, drawn_none):
     """A stage lit only by a lamp prototype of a PointInstancer that draws none of its instances (the instancer
-    hidden, no instances, or every id in invisibleIds) lists that light (``ComputeLightList`` lists the prototype's
-    light): it gets no default lights, as for a hidden native instance. The walk does not enter an instancer, so its
-    lamps were not counted, and the default headlight and dome lit the floor to 0.5."""
+    hidden, no instances, or every id in invisibleIds; a lamp that is a native instance too) lists that light
+    (``ComputeLightList`` lists the prototype's light, at its instance-proxy path in a native instance): it gets no
+    default lights, as for a hidden native instance. The walk does not enter an instancer, so its lamps were not
+    counted, and the default headlight and dome lit the floor to 0.5."""
     from pxr import Usd, UsdLux
 
     instances, positions = ("[]", "[]") if drawn_none == "no_instances" else ("[0]", "[(0, 0, 0)]")
-    extra = {"hidden_instancer": '    token visibility = "invisible"\n',
-             "all_ids_invisible": "    int64[] invisibleIds = [0]\n"}.get(drawn_none, "")
+    extra = {"all_ids_invisible": "    int64[] invisibleIds = [0]\n",
+             "no_instances": ""}.get(drawn_none, '    token visibility = "invisible"\n')
+    native = drawn_none.endswith("native_lamps")
+    lamp = rect_light(intensity=3.0)
+    inner = "" if native else "".join("        " + line + "\n" for line in lamp.splitlines())
     lamps = ('def PointInstancer "Lamps"\n{\n    rel prototypes = </Lamps/Protos/Lamp>\n'
              f'    int[] protoIndices = {instances}\n    point3f[] positions = {positions}\n'
-             f'{extra}    def Xform "Protos"\n    {{\n        def Xform "Lamp"\n        {{\n'
-             + "".join("        " + line + "\n" for line in rect_light(intensity=3.0).splitlines())
-             + "        }\n    }\n}\n")
+             f'{extra}    def Xform "Protos"\n    {{\n        def Xform "Lamp"'
+             + (' (\n            instanceable = true\n            references = </LampClass>\n        )' * native)
+             + f'\n        {{\n{inner}        }}\n    }}\n}}\n')
+    if native:
+        lamps += 'class Xform "LampClass"\n{\n' + lamp + '}\n'
     scene, _ = load(tmp_path, floor(), lamps)
     stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
     listed = [str(p) for p in UsdLux.LightListAPI(stage.GetPseudoRoot()).ComputeLightList(
