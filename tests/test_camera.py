@@ -73,6 +73,23 @@ def test_depth_is_distance_along_the_primary_ray():
     np.testing.assert_allclose(img.aovs["depth"], expected, rtol=1e-5)
 
 
+@pytest.mark.parametrize("scale", [1.0e-30, 1.0e-25, 1.0e20, 1.0e30])
+def test_a_camera_scaled_with_its_scene_sees_it_at_the_scaled_depth(scale):
+    """The camera and the quad of ``test_depth_is_distance_along_the_primary_ray`` scaled together by 1e-30 to
+    1e30: every pixel sees the quad at the analytic depth times the scale. The ray's length was ``wp.length`` of
+    components of the scale's size, whose squares overflow (1e20) or vanish (1e-25) in float32: every ray had a zero
+    or NaN direction and the image was background."""
+    to_world = np.diag([scale, scale, scale, 1.0])
+    cam = wrt.Camera(to_world=to_world, focal_length=50.0, horizontal_aperture=36.0)
+    scene = quad_scene(-100.0 * scale, 100.0 * scale, -100.0 * scale, 100.0 * scale, -10.0 * scale)
+    width, height = 16, 12
+    img = wrt.render(scene, camera=cam, width=width, height=height, device="cpu")
+    j, i = np.meshgrid(np.arange(width), np.arange(height))
+    x = ((j + 0.5) / width - 0.5) * 36.0 / 50.0
+    y = (0.5 - (i + 0.5) / height) * 36.0 * height / width / 50.0
+    np.testing.assert_allclose(img.aovs["depth"], 10.0 * scale * np.sqrt(1.0 + x**2 + y**2), rtol=1e-5)
+
+
 def test_z_is_as_precise_as_depth_far_from_the_origin():
     """A tilted camera 1e6 from the world origin, 5 units above a quad: ``z`` (distance along the view axis) is the
     float64 one of the film, to the precision ``depth`` has there. It was taken from the hit point minus the eye, two

@@ -32,6 +32,7 @@ import numpy as np
 import warp as wp
 
 from .errors import bottom_row_problem, did_you_mean, prim_path
+from .geometry import stable_length
 
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
 
@@ -80,8 +81,10 @@ def film_ray(cam: DeviceCamera, fx: float, fy: float):
 @wp.func
 def clipped_ray(cam: DeviceCamera, origin: wp.vec3, ray: wp.vec3):
     """``(origin, unit direction, t_min, t_max)`` of a ray whose direction ``ray`` advances one unit of camera-space
-    depth per unit: the clipping range becomes distances along the unit direction."""
-    length = wp.length(ray)
+    depth per unit: the clipping range becomes distances along the unit direction. The length is
+    :func:`stable_length`'s: ``wp.length`` squares the components, so a camera scaled with its scene by 1e20 (or
+    1e-20) got an infinite (or zero) length, a zero (or NaN) direction, and rendered nothing."""
+    length = stable_length(ray)
     d = ray / length
     t0 = cam.near * length
     t1 = cam.far * length
