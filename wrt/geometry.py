@@ -12,7 +12,7 @@ Barycentrics follow wrt's contract: ``hit = (1 - u - v) * p0 + u * p1 + v * p2``
 
 import warp as wp
 
-from .floats import largest_magnitude
+from .floats import largest_magnitude, unit_scales
 
 # A box's exit is widened by 2*gamma(3) of its magnitude (Ize's robust traversal scales it by 1 + 2*gamma(3)), towards
 # +t whatever its sign: scaling a negative exit (rays with t_min < 0) moved it towards -inf and shrank the box, so a
@@ -177,6 +177,19 @@ def stable_length(v: wp.vec3):
         if largest > 0.0 and wp.isfinite(largest):
             length = largest * wp.length(v / largest)
     return length
+
+
+@wp.func
+def face_normal(a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """``cross(b - a, c - a)`` (not normalised) with each edge first scaled by the power of two that brings its
+    largest component into ``[1, 2)``: the same direction, and the same bits once normalised, where nothing over-
+    or underflows, but the products cannot: in a scene scaled by 1e20 the cross product (an edge length squared)
+    was inf or NaN, by 1e-30 it was 0, and surfaces were shaded with a NaN normal or one facing the ray."""
+    ab = b - a
+    ac = c - a
+    down_b, _ = unit_scales(ab)
+    down_c, _ = unit_scales(ac)
+    return wp.cross(ab * down_b, ac * down_c)
 
 
 @wp.func

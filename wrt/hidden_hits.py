@@ -11,6 +11,7 @@ import warnings
 
 import warp as wp
 
+from .geometry import face_normal
 from .light_links import DeviceLinks, casts_shadow, link_group, upload_links
 from .materials import DeviceMaterials, cut_out
 from .scene import DeviceScene
@@ -53,7 +54,7 @@ def back_face(scene: DeviceScene, surf: DeviceSurfaces, prim: int, instance: int
     c = scene.points[scene.indices[prim, 2]]
     if instance >= 0:
         d = transform_vector(scene.world_to_local[instance], d)  # n_world . d = n_local . (A d)
-    return wp.dot(wp.cross(b - a, c - a), d) > 0.0
+    return wp.dot(face_normal(a, b, c), d) > 0.0
 
 
 @wp.func

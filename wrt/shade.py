@@ -40,7 +40,7 @@ import warp as wp
 
 from .camera import DeviceCamera, clipped_ray, film_ray
 from .floats import largest_magnitude
-from .geometry import stable_length
+from .geometry import face_normal, stable_length
 from .lights import DEFAULT_DOME_RADIANCE
 from .materials import DeviceMaterials, eval_surface, lookup_binding, normal_map
 from .primitives import shape_surface
@@ -213,7 +213,7 @@ def hit_point(
     h.reach = corner_reach(a, b, c, h.p) * sliver
     h.err = corner_err(a, b, c)
     h.inner = (a + b + c) / 3.0
-    ng = wp.cross(b - a, c - a)
+    ng = face_normal(a, b, c)
     n0 = scene.normals[prim, 0]
     n1 = scene.normals[prim, 1]
     n2 = scene.normals[prim, 2]
@@ -244,7 +244,7 @@ def hit_point(
         n2 = unit_or_zero(normal_to_world(m, n2))
     ns = w * n0 + u * n1 + v * n2
     h.front = 1
-    ng_length = stable_length(ng)  # an edge length squared: wp.length overflows for edges of 1e10
+    ng_length = stable_length(ng)  # an instance's A^T ng can be far from unit length
     if ng_length > 0.0:
         ng = ng / ng_length
     else:
