@@ -45,3 +45,32 @@ def test_a_single_sided_quad_seen_from_behind_is_culled_at_any_scale(scale):
     scene = wrt.Scene(meshes=[quad("/near", near, scale, double_sided=False), quad("/far", far, scale)])
     img = wrt.render(scene, camera=scaled_camera(scale), width=12, height=8, device="cpu", integrator="normals")
     np.testing.assert_array_equal(img.aovs["prim"] // 2, 1)  # triangles 2 and 3: the far quad
+
+
+def lit_shapes(scale: float):
+    """A sphere (an analytic shape) resting on an instanced floor quad, under a sun, and a camera above them, all
+    scaled by ``scale``."""
+    s = np.diag([scale, scale, scale, 1.0])
+    sphere = s.copy()
+    sphere[:3, 3] = np.array([0.0, 0.0, -10.0]) * scale
+    sphere[:3, :3] *= 3.0
+    floor = wrt.Prototype("/floor", meshes=[quad("/floor/quad", [[-9, -9, -13], [9, -9, -13], [9, 9, -13],
+                                                                  [-9, 9, -13]], 1.0)])
+    instances = wrt.Instances.from_transforms([0], s[None])
+    sun = wrt.DistantLight(np.array([0.3, -0.4, -1.0]), np.full(3, 2.0, np.float32))
+    scene = wrt.Scene(shapes=[wrt.Shape("/ball", "sphere", sphere)], prototypes=[floor], instances=instances,
+                      lights=[sun])
+    return scene, scaled_camera(scale)
+
+
+@pytest.mark.parametrize("scale", SCALES)
+def test_a_lit_shape_and_instance_render_as_unscaled_at_any_scale(scale):
+    """A sphere shape on an instanced floor under a sun (whitted draws no random numbers): the same image at any
+    scale as unscaled. Shading moved hit points back to the world by ``wp.inverse`` of the shape's or instance's
+    world-to-local matrix, whose float32 determinant vanished for a scale of 1e20 (and overflowed for 1e-20): NaN
+    points, and the sphere and the floor were black."""
+    ref, img = (wrt.render(scene, camera=camera, width=16, height=12, device="cpu")
+                for scene, camera in (lit_shapes(1.0), lit_shapes(scale)))
+    same = img.aovs["prim"] == ref.aovs["prim"]  # up to a pixel on the sphere's outline, which rounding moves
+    assert same.mean() > 0.98 and (ref.aovs["prim"] >= 0).mean() > 0.9 and ref.rgb.max() > 0.1
+    np.testing.assert_allclose(img.rgb[same], ref.rgb[same], atol=1e-3)

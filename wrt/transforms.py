@@ -17,6 +17,8 @@ ten times the hits their flattened copies lose.
 
 import warp as wp
 
+from .floats import largest_magnitude, power_scales
+
 mat34 = wp.types.matrix(shape=(3, 4), dtype=wp.float32)  # affine transform: rows of [linear | translation]
 
 
@@ -45,9 +47,22 @@ def transform_vector(m: mat34, v: wp.vec3):
 
 
 @wp.func
+def inverse_linear(m: mat34):
+    """``A^-1``, inverted from ``A`` scaled by the power of two that brings its largest entry into ``[1, 2)``: the
+    same bits where nothing over- or underflows (a power of two commutes with rounding), but ``wp.inverse`` divides
+    by the determinant, a product of three entries, which vanished in float32 for an instance or shape scaled by
+    5e12 or more (and overflowed for one scaled by 2e-13 or less): its inverse was NaN, and so were the hit points,
+    normals and offsets of shading on it (analytic shapes of a scene scaled by 1e20 were black)."""
+    a = linear_part(m)
+    largest = wp.max(wp.max(largest_magnitude(a[0]), largest_magnitude(a[1])), largest_magnitude(a[2]))
+    down, _ = power_scales(largest)
+    return wp.inverse(a * down) * down
+
+
+@wp.func
 def inverse_transform_point(m: mat34, p: wp.vec3):
     """The point that ``m`` maps to ``p``: ``A^-1 p + c`` (local to world for a world-to-local ``m``)."""
-    return wp.inverse(linear_part(m)) * p + translation(m)
+    return inverse_linear(m) * p + translation(m)
 
 
 @wp.func
@@ -56,7 +71,7 @@ def corners_to_world(m: mat34, a: wp.vec3, b: wp.vec3, c: wp.vec3):
     each corner moved by ``A^-1 p + c``. The one rule both the hit point (:func:`wrt.shade.hit_point`) and light
     sampling (:func:`wrt.light_sampling.emitter_triangle`) place an instanced triangle by, so that a point sampled
     on an emitter lies on the surface a ray hits (to the bit)."""
-    inverse = wp.inverse(linear_part(m))
+    inverse = inverse_linear(m)
     offset = translation(m)
     return inverse * a + offset, inverse * b + offset, inverse * c + offset
 
@@ -64,7 +79,7 @@ def corners_to_world(m: mat34, a: wp.vec3, b: wp.vec3, c: wp.vec3):
 @wp.func
 def inverse_transform_vector(m: mat34, v: wp.vec3):
     """The vector that ``m`` maps to ``v``: ``A^-1 v`` (a local tangent in world space, for a world-to-local ``m``)."""
-    return wp.inverse(linear_part(m)) * v
+    return inverse_linear(m) * v
 
 
 @wp.func
@@ -83,7 +98,7 @@ def abs_vec(v: wp.vec3):
 def inverse_transform_magnitude(m: mat34, v: wp.vec3):
     """``|A^-1| v + |c|`` per component, for ``v >= 0`` the magnitudes of a point's local coordinates: bounds the
     terms that ``inverse_transform_point`` sums into each world coordinate (the scale of its rounding)."""
-    inv = wp.inverse(linear_part(m))
+    inv = inverse_linear(m)
     out = abs_vec(translation(m))
     for r in range(3):
         out[r] += wp.abs(inv[r, 0]) * v[0] + wp.abs(inv[r, 1]) * v[1] + wp.abs(inv[r, 2]) * v[2]
