@@ -3,6 +3,7 @@ float32 product of two lengths (a cross product of edges, a squared length) over
 
 import numpy as np
 import pytest
+from shading_helpers import uv_sphere
 
 import wrt
 
@@ -74,3 +75,29 @@ def test_a_lit_shape_and_instance_render_as_unscaled_at_any_scale(scale):
     same = img.aovs["prim"] == ref.aovs["prim"]  # up to a pixel on the sphere's outline, which rounding moves
     assert same.mean() > 0.98 and (ref.aovs["prim"] >= 0).mean() > 0.9 and ref.rgb.max() > 0.1
     np.testing.assert_allclose(img.rgb[same], ref.rgb[same], atol=1e-3)
+
+
+def smooth_ball_and_shapes(scale: float):
+    """:func:`lit_shapes` with an instanced ball of smooth (authored) normals beside the sphere."""
+    scene, camera = lit_shapes(scale)
+    ball = uv_sphere(center=(0, 0, 0), radius=1.0, rings=8, segments=12, smooth=True)
+    proto = wrt.Prototype("/ball", meshes=[wrt.Mesh("/ball/mesh", ball.points, ball.indices,
+                                                     np.zeros(len(ball.indices), np.int32), normals=ball.normals)])
+    placed = np.diag([3 * scale, 3 * scale, 3 * scale, 1.0])
+    placed[:3, 3] = np.array([4.0, 3.0, -12.0]) * scale
+    instances = wrt.Instances.from_transforms([0, 1], np.stack([scene.instances.to_world[0], placed]))
+    return wrt.Scene(shapes=scene.shapes, prototypes=scene.prototypes + [proto], instances=instances,
+                     lights=scene.lights), camera
+
+
+@pytest.mark.parametrize("scale", [1.0e-25, 1.0e-20, 1.0e20, 1.0e30])
+def test_shading_normals_of_shapes_and_instances_are_those_unscaled_at_any_scale(scale):
+    """The shading normals of a sphere shape and of an instanced ball's authored normals are those of the unscaled
+    scene: both are moved to the world by ``A^T``, as long as the inverse of the scale, and ``wp.length`` of one 1e20
+    long overflowed (the ball's normals became zero and it was shaded flat: 0.17 off at 1e-20), of one 1e-20 long
+    went subnormal (6e-5 off at 1e20)."""
+    ref, img = (wrt.render(scene, camera=camera, width=16, height=12, device="cpu", integrator="normals")
+                for scene, camera in (smooth_ball_and_shapes(1.0), smooth_ball_and_shapes(scale)))
+    same = img.aovs["prim"] == ref.aovs["prim"]
+    assert same.mean() > 0.98 and len(np.unique(ref.aovs["prim"][ref.aovs["instance"] == 1])) > 5
+    np.testing.assert_allclose(img.aovs["normal"][same], ref.aovs["normal"][same], atol=1e-5)

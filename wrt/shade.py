@@ -117,8 +117,10 @@ class HitPoint:
 
 @wp.func
 def unit_or_zero(n: wp.vec3):
-    """``n`` normalised, or zero when it has no length (a corner without a normal)."""
-    length = wp.length(n)
+    """``n`` normalised, or zero when it has no length (a corner without a normal). Measured by
+    :func:`stable_length`: an instance scaled by 1e-20 moves a unit normal to one 1e20 long, whose ``wp.length``
+    overflowed, and its smooth normals were lost."""
+    length = stable_length(n)
     if length > 0.0:
         return n / length
     return wp.vec3(0.0)
@@ -252,8 +254,9 @@ def hit_point(
     if wp.dot(ng, d) > 0.0:
         ng = -ng
         h.front = 0
-    if wp.length(ns) > 0.0:
-        ns = wp.normalize(ns)
+    ns_length = stable_length(ns)  # a shape's normal is A^T n: 1e20 long on a shape scaled by 1e-20
+    if ns_length > 0.0:
+        ns = ns / ns_length
         if wp.dot(ns, ng) < 0.0:
             ns = -ns
     else:
