@@ -5,7 +5,13 @@ numpy's float32 sums, which round as the kernels do."""
 import numpy as np
 import pytest
 import warp as wp
-from test_instancing import closest_hits_numpy, octahedra_scene, octahedra_triangles, stretched_octahedra
+from test_instancing import (
+    barycentric_margins,
+    closest_hits_numpy,
+    octahedra_scene,
+    octahedra_triangles,
+    stretched_octahedra,
+)
 
 from wrt.tlas import shifted_limit
 
@@ -127,3 +133,40 @@ def test_a_shape_whose_canonical_ray_overflows_gives_no_hit_outside_the_limits(k
     t_max = (1.1 * far_face).astype(np.float32)
     assert not wrt.occluded(scene, origins, directions, t_min=t_min, t_max=t_max).any()
     assert not wrt.trace(scene, origins, directions, t_min=t_min, t_max=t_max).hit.any()
+
+
+@pytest.mark.parametrize("scale", [1.0e36, 5.0e36, 5.0e-39, 3.0e-39])
+def test_instances_scaled_past_2_to_100_hit_as_their_float64_triangles(scale):
+    """Octahedra (half of them turned) scaled by 1e36 to 3e-39 (each within float32, as are their inverses), rays
+    from 1.5 to 6 sizes away aimed well inside random triangles (a third of them along a world axis, give or take
+    1e-3): each hits the float64 closest triangle. A ray moved into such an instance's space has a direction as long
+    as the inverse scale: at 1e36 its components below 1e-38 (1% of it) were taken as 0 by the box test, and boxes
+    it entered were culled; at 3e-39 it overflowed float32."""
+    import wrt
+
+    rng = np.random.default_rng(5)
+    n_instances, n = 8, 2000
+    to_world = np.tile(np.eye(4), (n_instances, 1, 1))
+    for k in range(n_instances):  # half of them turned, half only scaled
+        to_world[k, :3, :3] = (np.linalg.qr(rng.normal(size=(3, 3)))[0] if k % 2 else np.eye(3)) * scale
+    to_world[:, :3, 3] = rng.uniform(-2, 2, (n_instances, 3)) * scale
+    scene = octahedra_scene(to_world)
+    world, indices = octahedra_triangles(to_world[:, :3, :3], to_world[:, :3, 3])
+    aim = rng.integers(0, len(indices), n)
+    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
+    away = rng.normal(size=(n, 3))
+    axis = rng.integers(0, 3, n // 3)
+    away[: n // 3] = rng.normal(scale=1e-3, size=(n // 3, 3))
+    away[np.arange(n // 3), axis] = rng.choice([-1.0, 1.0], n // 3)
+    away *= rng.uniform(1.5, 6, (n, 1)) / np.linalg.norm(away, axis=1, keepdims=True)
+    origins = (targets + away * scale).astype(np.float32)
+    directions = (-away).astype(np.float32)
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
+    margin = barycentric_margins(world, indices, o64, d64, t, row)
+    clear = (row >= 0) & (margin > 0.02)
+    assert clear.sum() > 0.5 * n
+    hits = wrt.trace(scene, origins, directions)
+    np.testing.assert_array_equal(hits.prim[clear], row[clear])
+    np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-4)
+    assert wrt.occluded(scene, origins, directions)[clear].all()

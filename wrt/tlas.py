@@ -25,6 +25,10 @@ once; shapes after the triangles) and the instance (-1 for world-space geometry)
 pseudo-barycentrics of :func:`wrt.primitives.shape_uv` (1/3 each on curved surfaces). Exact ties between entries go
 to the one visited first.
 
+An instance scaled past ``2^100`` (or below ``2^-100``) is traced in a copy of its prototype's BLAS scaled by the power
+of two that undoes its scale (:func:`instance_exponents`): moved into its own space, a ray's direction is as long as
+the inverse scale, and at 1e36 its components below 1e-38 (the box test's zero) were 1% of it, at 3e-39 it overflowed.
+
 Memory: the TLAS nodes, one world-to-prototype 3x4 float32 matrix (48 bytes) and two int32 per instance; the unique
 triangles once per prototype (:meth:`InstancedAccelerator.device_bytes`).
 """
@@ -69,6 +73,11 @@ wp.set_module_options({"extra_build_options": STACK_BUILD_OPTIONS})  # the trave
 TLAS_MAX_REGISTERS = 64
 TLAS_LEAF_SIZE = 2  # most entries per TLAS leaf (each costs a BLAS traversal, so leaves stay small)
 TLAS_INTERSECTION_COST = 4.0  # SAH cost of entering an entry relative to visiting a TLAS node
+# An instance whose world-to-local matrix has its largest entry beyond 2^+-EXTREME_EXPONENT is traced at its own scale
+# (instance_exponents): within it, a local direction's components below 1e-38, which the box test takes as 0, are
+# below 2^-100 of its length, far below float32's precision.
+EXTREME_EXPONENT = 100
+SCALED_REACH = 125  # a scaled prototype's points stay within 2^125 (4.3e37), where the triangle test's differences fit
 
 
 @wp.struct
@@ -408,11 +417,11 @@ class InstancedAccelerator(Accelerator):
         meshes = [_part_triangles(scene, points, indices, *part) for part in parts]
         # One call for every BLAS: on a CPU the small trees are built together (thousands of prototypes).
         trees, uploads = self._build_blases(meshes)
-        for (part, first, count), bvh, d in zip(parts, trees, uploads):
+        for part, bvh, d in zip(parts, trees, uploads):
             self.blas.append(bvh)
             self._device_blas.append(d)
-            self._blas_first.append(first)
-            self._blas_parts.append((part, first, count))
+            self._blas_first.append(part[1])
+            self._blas_parts.append(part)
         if not self._device_blas:  # keep the array non-empty: an empty BLAS no ray enters
             empty = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), builder, device=device)
             self._device_blas.append(empty.to_device(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device))
@@ -490,11 +499,11 @@ class InstancedAccelerator(Accelerator):
     def _build_tlas(self, scene: Scene) -> None:
         """The TLAS over world boxes of the world-space BLAS, every instance of a prototype BLAS and every shape."""
         device, builder = self.device, self.builder
-        blas_of_part = {part: b for b, (part, _, _) in enumerate(self._blas_parts)}
+        blas_of_part = {(part, k): b for b, (part, _, _, k) in enumerate(self._blas_parts)}
         # Entries: the world-space meshes (no transform), then every instance of a non-empty prototype.
         entry_blas, entry_instance, lowers, uppers = [], [], [], []
-        if 0 in blas_of_part:
-            b = blas_of_part[0]
+        if (0, 0) in blas_of_part:
+            b = blas_of_part[(0, 0)]
             entry_blas.append(np.array([b]))
             entry_instance.append(np.array([-1]))
             lowers.append(self.blas[b].lowers[:1].astype(np.float64))
@@ -503,12 +512,15 @@ class InstancedAccelerator(Accelerator):
         _, invertible = scene.instance_inverses()
         self.skipped_instances = np.flatnonzero(~invertible)
         rows = [r[invertible[r]] for r in instances.rows_of_prototypes(len(scene.prototypes))]
-        for part, b in blas_of_part.items():
+        exponents = instance_exponents(scene)
+        for (part, k), b in blas_of_part.items():
             if part == 0:
                 continue
-            mine = rows[part - 1]
+            mine = rows[part - 1][exponents[rows[part - 1]] == k]
+            placed = as_placed(instances.to_world[mine])
+            placed[:, :3, :3] *= 2.0**-k  # from the BLAS's scaled space
             lo, hi = world_boxes(self.blas[b].lowers[0].astype(np.float64), self.blas[b].uppers[0].astype(np.float64),
-                                 as_placed(instances.to_world[mine]))
+                                 placed)
             entry_blas.append(np.full(len(mine), b))
             entry_instance.append(mine)
             lowers.append(lo)
@@ -564,6 +576,10 @@ class InstancedAccelerator(Accelerator):
         t.entry_blas = wp.array(_non_empty(entry_blas[slots]), dtype=wp.int32, device=device)
         t.entry_instance = wp.array(_non_empty(entry_instance[slots]), dtype=wp.int32, device=device)
         t.world_to_local = scene.world_to_local(device)
+        if exponents.any():  # into the scaled BLASes' space: 2^k A
+            inverse, _ = scene.instance_inverses()
+            scaled = inverse * np.ldexp(1.0, exponents)[:, None, None]
+            t.world_to_local = wp.array(device_transforms(scaled, instances.to_world), dtype=mat34, device=device)
         t.blases = wp.array(self._device_blas, dtype=DeviceBvh, device=device)
         t.blas_first = wp.array(np.asarray(self._blas_first, np.int32), dtype=wp.int32, device=device)
         t.shape_xforms = wp.array(_non_empty(device_transforms(shape_to_local, shape_to_world)), dtype=mat34,
@@ -610,25 +626,56 @@ class InstancedAccelerator(Accelerator):
         )
 
 
-def blas_parts(scene: Scene) -> list[tuple[int, int, int]]:
-    """``(part, first, count)`` of every BLAS ``scene`` needs: part 0 is the world-space meshes, part ``p + 1``
-    prototype ``p`` (when it has triangles and an invertible instance); ``first, count`` are its
+def blas_parts(scene: Scene) -> list[tuple[int, int, int, int]]:
+    """``(part, first, count, k)`` of every BLAS ``scene`` needs: part 0 is the world-space meshes, part ``p + 1``
+    prototype ``p`` (when it has triangles and an invertible instance) scaled by ``2^k`` for its instances of
+    :func:`instance_exponents` ``k`` (one BLAS per exponent; 0 for nearly every scene); ``first, count`` are its
     :meth:`Scene.geometry` triangle rows."""
-    parts = [(0, 0, scene.num_flat_triangles)] if scene.num_flat_triangles else []
+    parts = [(0, 0, scene.num_flat_triangles, 0)] if scene.num_flat_triangles else []
     instances = scene.instances
     _, invertible = scene.instance_inverses()
-    drawn = np.bincount(instances.prototype[invertible], minlength=len(scene.prototypes))  # invertible instances
+    exponents = instance_exponents(scene)
+    # Invertible instances of each prototype at their own scale (exponent 0), and the other exponents drawn.
+    drawn = np.bincount(instances.prototype[invertible & (exponents == 0)], minlength=len(scene.prototypes))
+    scaled = {}
+    extreme = exponents != 0
+    for p, k in np.unique(np.stack([instances.prototype[extreme], exponents[extreme]], axis=1), axis=0):
+        scaled.setdefault(int(p), set()).add(int(k))
     for p, (first, count) in enumerate(scene.prototype_ranges()):
-        if count and drawn[p]:
-            parts.append((p + 1, int(first), int(count)))
+        for k in ([0] if drawn[p] else []) + sorted(scaled.get(p, ())):
+            if count:
+                parts.append((p + 1, int(first), int(count), k))
     return parts
 
 
-def _part_triangles(scene: Scene, points, indices, part: int, first: int, count: int) -> tuple:
-    """Vertices and triangles (re-indexed from 0) of one BLAS part (:func:`blas_parts`)."""
+def instance_exponents(scene: Scene) -> np.ndarray:
+    """``(N,)`` int: for each instance whose world-to-local matrix ``A`` (:meth:`Scene.instance_inverses`) has its
+    largest entry beyond ``2^EXTREME_EXPONENT`` or below ``2^-EXTREME_EXPONENT`` (an instance scaled by 1e36, or by
+    1e-36), the power of two ``k`` that brings ``2^k A``'s into ``[1, 2)``; 0 for every other (and every singular)
+    one. Such an instance is traced in its prototype's BLAS scaled by ``2^k`` (exactly: a power of two), with ``2^k
+    A``, so that a ray moved into its space has a direction near unit length, as in the world. ``k`` is capped so
+    that the scaled prototype stays within ``2^SCALED_REACH`` (an instance scaled by 3e38 made its points inf)."""
+    key = ("instance_exponents",)
+    if key not in scene._cache:
+        inverse, ok = scene.instance_inverses()
+        largest = np.abs(inverse[:, :, :3]).reshape(len(inverse), -1).max(axis=1) if len(inverse) else np.zeros(0)
+        k = 1 - np.frexp(largest)[1]  # largest = m 2^e with m in [0.5, 1): 2^(1 - e) largest is in [1, 2)
+        k = np.where(ok & (np.abs(k) > EXTREME_EXPONENT), k, 0).astype(np.int64)
+        if k.any():
+            reach = np.array([max((float(np.abs(m.points).max(initial=0.0)) for m in p.meshes), default=0.0)
+                              for p in scene.prototypes])
+            cap = SCALED_REACH - np.frexp(np.maximum(reach, 1e-38))[1]  # 2^cap reach <= 2^SCALED_REACH
+            k = np.minimum(k, cap[scene.instances.prototype])
+        scene._cache[key] = k
+    return scene._cache[key]
+
+
+def _part_triangles(scene: Scene, points, indices, part: int, first: int, count: int, exponent: int = 0) -> tuple:
+    """Vertices (times ``2^exponent``) and triangles (re-indexed from 0) of one BLAS part (:func:`blas_parts`)."""
     # geometry() concatenates the world-space meshes' vertices, then each prototype's, in order.
     v0, v1 = _part_vertex_offsets(scene)[part : part + 2]
-    return np.ascontiguousarray(points[v0:v1]), np.ascontiguousarray(indices[first : first + count] - v0)
+    part_points = points[v0:v1] if exponent == 0 else np.ldexp(points[v0:v1], exponent).astype(np.float32)
+    return np.ascontiguousarray(part_points), np.ascontiguousarray(indices[first : first + count] - v0)
 
 
 def _part_vertex_offsets(scene: Scene) -> np.ndarray:
