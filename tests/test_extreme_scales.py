@@ -1,9 +1,13 @@
-"""Renders of scenes scaled by 1e-30 to 1e30 with their cameras: shading must not depend on the scene's size. Each
-float32 product of two lengths (a cross product of edges, a squared length) over- or underflows at such scales."""
+"""Scenes scaled by 1e-30 to 1e30 with their cameras: shading must not depend on the scene's size. Each float32
+product of two lengths (a cross product of edges, a squared length) over- or underflows at such scales. And scenes
+near float32's range, which the triangle test cannot trace exactly, are named in a warning."""
+
+import warnings
 
 import numpy as np
 import pytest
 from shading_helpers import uv_sphere
+from test_instancing import barycentric_margins, closest_hits_numpy
 
 import wrt
 
@@ -101,3 +105,39 @@ def test_shading_normals_of_shapes_and_instances_are_those_unscaled_at_any_scale
     same = img.aovs["prim"] == ref.aovs["prim"]
     assert same.mean() > 0.98 and len(np.unique(ref.aovs["prim"][ref.aovs["instance"] == 1])) > 5
     np.testing.assert_allclose(img.aovs["normal"][same], ref.aovs["normal"][same], atol=1e-5)
+
+
+@pytest.mark.parametrize("reach", [4.0e37, 2.5e38])
+def test_a_scene_reaching_past_a_quarter_of_float32s_range_is_named_in_a_warning(reach):
+    """A triangle soup (and an instance of it) reaching 2.5e38, rays from inside its box: the warning names both,
+    since the triangle test's differences from the ray's origin overflow float32 there and rays miss (236 of 2,025
+    did, without a word). Reaching 4e37, nothing is said, and every ray well inside a triangle hits the float64
+    closest one."""
+    rng = np.random.default_rng(2)
+    centers = rng.uniform(-1, 1, (200, 1, 3))
+    points = (centers + rng.normal(scale=0.15, size=(200, 3, 3))).reshape(-1, 3)
+    points *= reach / np.abs(points).max()
+    indices = np.arange(600).reshape(-1, 3)
+    soup = wrt.Mesh("/soup", points.astype(np.float32), indices, np.zeros(200, np.int32), double_sided=True)
+    proto = wrt.Prototype("/proto", meshes=[wrt.Mesh("/proto/tri", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]],
+                                                     [0])])
+    placed = np.diag([reach, reach, reach, 1.0])[None]
+    scene = wrt.Scene(meshes=[soup], prototypes=[proto], instances=wrt.Instances.from_transforms([0], placed))
+    n = 2000
+    origins = (rng.uniform(-0.3, 0.3, (n, 3)) * reach).astype(np.float32)
+    aims = points[indices[rng.integers(0, 200, n)]].mean(axis=1)
+    directions = ((aims - origins) / reach).astype(np.float32)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hits = wrt.trace(scene, origins, directions)
+    said = [str(w.message) for w in caught if "float32's range" in str(w.message)]
+    if reach > 8.5e37:
+        assert len(said) == 1 and "/soup" in said[0] and "/instances" in said[0] and "2 prim(s)" in said[0], said
+        return
+    assert not said
+    world, tris = scene.triangles()
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    t, row = closest_hits_numpy(world.astype(np.float64), tris, o64, d64, np.zeros(n), np.full(n, np.inf))
+    clear = (row >= 0) & (barycentric_margins(world.astype(np.float64), tris, o64, d64, t, row) > 1e-3)
+    assert clear.sum() > n / 2
+    np.testing.assert_array_equal(hits.prim[clear], row[clear])

@@ -450,6 +450,9 @@ def dataclass_parts(objects) -> list:
     return parts
 
 
+TRACED_REACH = 2.0**126  # Scene.warn_past_traced_reach: coordinates beyond it can overflow the triangle test
+
+
 def _prototype_reach(prototype) -> float:
     """The largest finite ``|coordinate|`` of ``prototype``'s points and shape boxes, prototype space (0 when empty):
     a bound on its box that takes one vectorized pass (:meth:`Scene.check_instance_boxes`). Points that are not
@@ -468,10 +471,11 @@ def _prototype_reach(prototype) -> float:
     return reach
 
 
-def instances_past_float32(instances, prototypes: list, first_only: bool = True) -> list:
-    """The instances whose transform takes their prototype's box past float32's range, in index order, as ``(i,
-    lower, upper)`` (the world box, ``(3,)`` float64 each); the first only, with ``first_only``. Rows whose transform
-    is not finite, or whose prototype index is not a row of ``prototypes``, are left to the checks that name them.
+def instances_past_float32(instances, prototypes: list, first_only: bool = True, limit: float | None = None) -> list:
+    """The instances whose transform takes their prototype's box past float32's range (or past ``limit``), in index
+    order, as ``(i, lower, upper)`` (the world box, ``(3,)`` float64 each); the first only, with ``first_only``. Rows
+    whose transform is not finite, or whose prototype index is not a row of ``prototypes``, are left to the checks
+    that name them.
 
     Args:
         instances: :class:`wrt.instancing.Instances`.
@@ -479,7 +483,7 @@ def instances_past_float32(instances, prototypes: list, first_only: bool = True)
     """
     if not len(instances) or not prototypes:
         return []
-    limit = float(np.finfo(np.float32).max)
+    limit = float(np.finfo(np.float32).max) if limit is None else limit
     reach = np.array([_prototype_reach(p) for p in prototypes])
     which = instances.prototype
     valid = (which >= 0) & (which < len(prototypes))  # others are named by check_instances
@@ -799,6 +803,18 @@ class Scene:
             if len(these):
                 paths = list(dict.fromkeys(self.instances.path(int(i)) for i in these[:4]))
                 self._warn_prims(what, paths, len(these))
+
+    def warn_past_traced_reach(self) -> None:
+        """Warns naming the meshes and instances with a coordinate past :data:`TRACED_REACH` (2^126, 8.5e37), where
+        rays can miss their triangles: the watertight test subtracts a ray's origin from each corner and shears the
+        difference in float32, which overflows for coordinates near float32's 3.4e38 (7 of 2,025 rays into a soup
+        1.7e38 across missed, 236 at 2.5e38), and the kernels are not slowed down to check for it."""
+        paths = [m.path for m in self.meshes if len(m.indices) and np.abs(m.points[m.indices]).max() > TRACED_REACH]
+        paths += [self.instances.path(i) for i, _, _ in instances_past_float32(self.instances, self.prototypes,
+                                                                                first_only=False, limit=TRACED_REACH)]
+        if paths:
+            self._warn_prims("coordinates past 8.5e37 (a quarter of float32's range), where rays can miss triangles "
+                             "(the triangle test's differences overflow float32); scale the scene down", paths)
 
     def _warn_prims(self, what: str, paths: list, count: int | None = None) -> None:
         """Warns ``SOURCE: what: N prim(s): /A, /B, /C, ...`` at the user's line, in the words of the USD loader's

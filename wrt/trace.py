@@ -539,6 +539,7 @@ def get_accelerator(
     key = ("accel", accel, builder, str(device)) + (() if layout == "binary" else (layout,))
     if key not in scene._cache:
         scene.check_vertices()  # named with their mesh here; the builds' own check can name only a row
+        scene.warn_past_traced_reach()
         if accel == "wrt" and layout == "binary" and (len(scene.instances) or scene.shapes):
             from .tlas import InstancedAccelerator
 
