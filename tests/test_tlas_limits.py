@@ -170,3 +170,28 @@ def test_instances_scaled_past_2_to_100_hit_as_their_float64_triangles(scale):
     np.testing.assert_array_equal(hits.prim[clear], row[clear])
     np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-4)
     assert wrt.occluded(scene, origins, directions)[clear].all()
+
+
+@pytest.mark.parametrize("scale", [1.0e36, 3.0e-39])
+def test_rays_from_inside_an_instance_scaled_past_2_to_100_never_leave_it(scale):
+    """An icosphere instance scaled by 1e36 or 3e-39, rays from near its centre at every vertex and edge midpoint
+    (and along the axes): every one hits it. Scaled by 3e-39, its prototype was first scaled into float32's
+    subnormals with it, whose rounding opened a gap between its triangles that a ray passed through."""
+    from test_robustness import icosphere
+
+    import wrt
+
+    points, faces = icosphere(3)
+    proto = wrt.Prototype("/ball", meshes=[wrt.Mesh("/ball/mesh", points, faces, np.arange(len(faces)))])
+    placed = np.diag([scale, scale, scale, 1.0])[None]
+    scene = wrt.Scene(prototypes=[proto], instances=wrt.Instances.from_transforms([0], placed))
+    p = points.astype(np.float64)
+    targets = np.concatenate([p, (p[faces[:, 0]] + p[faces[:, 1]]) / 2, (p[faces[:, 1]] + p[faces[:, 2]]) / 2])
+    rng = np.random.default_rng(0)
+    targets = np.repeat(targets, 8, axis=0)
+    inside = rng.uniform(-0.3, 0.3, targets.shape)
+    origins = np.concatenate([inside, np.zeros((6, 3))]) * scale
+    directions = np.concatenate([targets - inside, np.eye(3), -np.eye(3)])
+    hits = wrt.trace(scene, origins.astype(np.float32), directions.astype(np.float32))
+    assert (hits.prim >= 0).all(), np.flatnonzero(hits.prim < 0)
+    assert wrt.occluded(scene, origins.astype(np.float32), directions.astype(np.float32)).all()

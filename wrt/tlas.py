@@ -654,7 +654,8 @@ def instance_exponents(scene: Scene) -> np.ndarray:
     1e-36), the power of two ``k`` that brings ``2^k A``'s into ``[1, 2)``; 0 for every other (and every singular)
     one. Such an instance is traced in its prototype's BLAS scaled by ``2^k`` (exactly: a power of two), with ``2^k
     A``, so that a ray moved into its space has a direction near unit length, as in the world. ``k`` is capped so
-    that the scaled prototype stays within ``2^SCALED_REACH`` (an instance scaled by 3e38 made its points inf)."""
+    that the scaled prototype stays within ``2^SCALED_REACH`` (an instance scaled by 3e38 made its points inf) and
+    above ``2^-EXTREME_EXPONENT``."""
     key = ("instance_exponents",)
     if key not in scene._cache:
         inverse, ok = scene.instance_inverses()
@@ -664,8 +665,10 @@ def instance_exponents(scene: Scene) -> np.ndarray:
         if k.any():
             reach = np.array([max((float(np.abs(m.points).max(initial=0.0)) for m in p.meshes), default=0.0)
                               for p in scene.prototypes])
-            cap = SCALED_REACH - np.frexp(np.maximum(reach, 1e-38))[1]  # 2^cap reach <= 2^SCALED_REACH
-            k = np.minimum(k, cap[scene.instances.prototype])
+            exponent = np.frexp(np.maximum(reach, 1e-38))[1][scene.instances.prototype]
+            # 2^k reach within [2^-EXTREME_EXPONENT, 2^SCALED_REACH]: no inf, and no subnormal points (an instance
+            # scaled by 3e-39 scaled its prototype there too, and a ray leaked between its triangles).
+            k = np.where(k != 0, np.clip(k, -EXTREME_EXPONENT - exponent, SCALED_REACH - exponent), 0)
         scene._cache[key] = k
     return scene._cache[key]
 
