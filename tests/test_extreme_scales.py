@@ -141,3 +141,14 @@ def test_a_scene_reaching_past_a_quarter_of_float32s_range_is_named_in_a_warning
     clear = (row >= 0) & (barycentric_margins(world.astype(np.float64), tris, o64, d64, t, row) > 1e-3)
     assert clear.sum() > n / 2
     np.testing.assert_array_equal(hits.prim[clear], row[clear])
+
+
+@pytest.mark.parametrize("scale", [1.0e-25, 1.0e-9, 1.0e20])
+def test_the_default_camera_frames_a_scaled_scene_as_the_unscaled_one(scale):
+    """Without a camera, a scene scaled by 1e-25 to 1e20 is seen as the unscaled one (the same prim in every pixel,
+    up to one on an outline). The framing took the scene's radius as at least 1e-6, so a scene 1e-9 across was
+    seen from 1e3 times too far and filled a pixel or two of the image."""
+    ref, img = (wrt.render(lit_shapes(s)[0], width=16, height=12, device="cpu", integrator="normals")
+                for s in (1.0, scale))
+    assert (ref.aovs["prim"] >= 0).mean() > 0.2
+    assert (img.aovs["prim"] == ref.aovs["prim"]).mean() > 0.98

@@ -512,11 +512,13 @@ def _look_at_matrix(eye, target, up) -> np.ndarray:
 
 
 def frame_scene(lower, upper, up_axis: str = "Y", fov_y_deg: float = 40.0) -> Camera:
-    """A perspective camera that sees the whole box ``[lower, upper]`` from the front and above."""
+    """A perspective camera that sees the whole box ``[lower, upper]`` from the front and above (a box of no size
+    as one 1e-6 across). A box of any other size fills the view: its radius was taken as at least 1e-6, and a scene
+    scaled by 1e-20 was a dot in the middle of the image."""
     lower = np.asarray(lower, dtype=np.float64)
     upper = np.asarray(upper, dtype=np.float64)
     center = (lower + upper) / 2.0
-    radius = max(float(np.linalg.norm(upper - lower)) / 2.0, 1e-6)
+    radius = float(np.linalg.norm(upper - lower)) / 2.0 or 1e-6
     distance = radius / math.sin(math.radians(fov_y_deg) / 2.0)
     if up_axis == "Z":
         up, view = np.array([0.0, 0.0, 1.0]), np.array([0.4, -1.0, 0.5])
