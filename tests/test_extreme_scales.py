@@ -152,3 +152,21 @@ def test_the_default_camera_frames_a_scaled_scene_as_the_unscaled_one(scale):
                 for s in (1.0, scale))
     assert (ref.aovs["prim"] >= 0).mean() > 0.2
     assert (img.aovs["prim"] == ref.aovs["prim"]).mean() > 0.98
+
+
+@pytest.mark.parametrize("scale", [1.0e-12, 1.0e-8])
+def test_a_path_traced_scene_scaled_down_draws_its_lights_with_the_same_odds(scale):
+    """The sphere, floor and sun of :func:`lit_shapes` with a sphere light, path traced with one seed: the same image
+    scaled by 1e-8 or 1e-12 as unscaled. The sun's odds of being sampled are its power over a disc of the scene's
+    radius, against the sphere light's own power; that radius was held at 1e-6 or more, so in the scaled scene the
+    sun was picked with other odds and the same seed drew another image (pixels 0.2 apart)."""
+    def image(s):
+        scene, camera = lit_shapes(s)
+        scene.lights = scene.lights + [wrt.SphereLight(np.array([4.0, 4.0, -8.0]) * s, 0.5 * s,
+                                                       np.full(3, 3.0, np.float32))]
+        return wrt.render(scene, camera=camera, width=16, height=12, device="cpu", integrator="path", spp=2, seed=3)
+
+    ref, img = image(1.0), image(scale)
+    same = img.aovs["prim"] == ref.aovs["prim"]
+    assert same.mean() > 0.98 and ref.rgb.max() > 0.1
+    np.testing.assert_allclose(img.rgb[same], ref.rgb[same], atol=1e-3)
