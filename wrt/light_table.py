@@ -13,7 +13,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
-from .errors import SceneError
+from .errors import SceneError, user_stacklevel
 from .light_links import CASTS_SHADOW, link_groups, upload_links
 from .light_sampling import (
     LIGHT_CYLINDER,
@@ -347,6 +347,28 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
     return prims[first:count][no_response]
 
 
+# Sizes (bounding box diagonals) of the scenes whose area lights are sampled as unscaled: the sampling squares
+# distances and divides by areas in float32, which over- or underflow beyond (a scene 1e-21 across drew its sphere light
+# 1% too bright, 1e-22 across 3 times, 1e-23 across 89 times, and its rect and disk lights black; 1e20 across, 25-99%
+# too dim). A light of any size in a scene of ordinary size is drawn as it should be (a rect light 1e19 wide).
+AREA_LIGHT_SCENE_SIZES = (2.0**-64, 2.0**64)  # 5.4e-20 to 1.8e19
+
+
+def warn_area_lights_past_float32(lights: list, size: float) -> None:
+    """Warns naming the sphere, rect, disk and cylinder lights of a scene of ``size`` (its box's diagonal) outside
+    :data:`AREA_LIGHT_SCENE_SIZES`, which may be drawn too dim, too bright or black: they were, without a word."""
+    if AREA_LIGHT_SCENE_SIZES[0] <= size <= AREA_LIGHT_SCENE_SIZES[1] or not size > 0.0:
+        return
+    paths = [light.path or type(light).__name__ for light in lights
+             if isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight))
+             and not (getattr(light, "drawn_as_point", False) or getattr(light, "drawn_as_line", False))]
+    if paths:
+        shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
+        warnings.warn(f"a scene {size:.3g} across (outside 5.4e-20 to 1.8e19) may draw its {len(paths)} area light(s) "
+                      f"too dim, too bright or black, as their sampling squares lengths in float32: {shown}; scale the "
+                      "scene towards unit size", stacklevel=user_stacklevel())
+
+
 def build_lights(lights: list, scene, material_emission: list, device) -> tuple[DeviceLights, UnsampledEmitters]:
     """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`,
     and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`.
@@ -364,6 +386,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     radius = float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) / 2.0 or 1e-6
     h = HostLights(*([] for _ in dataclasses.fields(HostLights)))
     zero = np.zeros(3)
+    warn_area_lights_past_float32(lights, 2.0 * radius)
     domes = [light for light in lights if isinstance(light, DomeLight)]
     if len(domes) > 1:
         warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used", stacklevel=3)
