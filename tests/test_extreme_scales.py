@@ -174,10 +174,15 @@ def test_a_path_traced_scene_scaled_down_draws_its_lights_with_the_same_odds(sca
 
 @pytest.mark.parametrize("scale, warned", [(1.0, False), (1.0e-20, False), (1.0e-23, True), (1.0e20, True)])
 def test_area_lights_of_a_scene_float32_cannot_sample_are_named_in_a_warning(scale, warned):
-    """Sphere, rect, disk and cylinder lights of a scene 2e-23 or 2e20 across (the sphere and floor of
-    :func:`lit_shapes`), whose sampling squares lengths past float32's range (a sphere light there lit its scene 89
-    times too bright, rect and disk ones not at all), are named in a warning; 2 to 2e-20 across, nothing is said."""
+    """Sphere, rect, disk and cylinder lights and emissive triangles of a scene 2e-23 or 2e20 across (the sphere and
+    floor of :func:`lit_shapes`), whose sampling squares lengths past float32's range (a sphere light there lit its
+    scene 89 times too bright, rect and disk ones and an emissive quad not at all), are named in a warning; 2 to
+    2e-20 across, nothing is said."""
     scene, camera = lit_shapes(scale)
+    glow = wrt.Material(path="/glow", diffuse_color=np.zeros(3, np.float32), emissive_color=np.full(3, 4.0, np.float32))
+    lamp = quad("/lamp", [[-2, 6, -12], [2, 6, -12], [2, 6, -8], [-2, 6, -8]], scale)
+    lamp.material_ids = np.zeros(2, np.int32)
+    scene.meshes, scene.materials = [lamp], [glow]
     s = np.diag([scale, scale, scale, 1.0])
     s[:3, 3] = np.array([0.0, 5.0, -10.0]) * scale
     color = np.full(3, 2.0, np.float32)
@@ -191,4 +196,10 @@ def test_area_lights_of_a_scene_float32_cannot_sample_are_named_in_a_warning(sca
     said = [str(w.message) for w in caught if "area light" in str(w.message)]
     assert len(said) == warned, said
     if warned:
-        assert "4 area light(s)" in said[0] and "/sphere, /rect, /disk, ..." in said[0], said
+        assert "area lights" in said[0] and "/sphere, /rect, /disk, ..." in said[0], said
+        scene.lights = scene.lights[:1]  # the sun alone: the emissive quad is named
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            wrt.render(scene, camera=camera, width=4, height=3, device="cpu")
+        said = [str(w.message) for w in caught if "area light" in str(w.message)]
+        assert len(said) == 1 and ": 2 emissive triangle(s); scale" in said[0], said

@@ -354,19 +354,22 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
 AREA_LIGHT_SCENE_SIZES = (2.0**-64, 2.0**64)  # 5.4e-20 to 1.8e19
 
 
-def warn_area_lights_past_float32(lights: list, size: float) -> None:
-    """Warns naming the sphere, rect, disk and cylinder lights of a scene of ``size`` (its box's diagonal) outside
-    :data:`AREA_LIGHT_SCENE_SIZES`, which may be drawn too dim, too bright or black: they were, without a word."""
+def warn_area_lights_past_float32(lights: list, size: float, emitters: int) -> None:
+    """Warns naming the sphere, rect, disk and cylinder lights, and counting the ``emitters`` emissive triangles (mesh
+    lights included), of a scene of ``size`` (its box's diagonal) outside :data:`AREA_LIGHT_SCENE_SIZES`, which may
+    be drawn too dim, too bright or black: they were, without a word (an emissive quad 1e20 across lit nothing)."""
     if AREA_LIGHT_SCENE_SIZES[0] <= size <= AREA_LIGHT_SCENE_SIZES[1] or not size > 0.0:
         return
     paths = [light.path or type(light).__name__ for light in lights
              if isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight))
              and not (getattr(light, "drawn_as_point", False) or getattr(light, "drawn_as_line", False))]
+    if emitters:
+        paths.append(f"{emitters:,} emissive triangle(s)")
     if paths:
         shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
-        warnings.warn(f"a scene {size:.3g} across (outside 5.4e-20 to 1.8e19) may draw its {len(paths)} area light(s) "
-                      f"too dim, too bright or black, as their sampling squares lengths in float32: {shown}; scale the "
-                      "scene towards unit size", stacklevel=user_stacklevel())
+        warnings.warn(f"a scene {size:.3g} across (outside 5.4e-20 to 1.8e19) may draw its area lights too dim, too "
+                      f"bright or black, as their sampling squares lengths in float32: {shown}; scale the scene "
+                      "towards unit size", stacklevel=user_stacklevel())
 
 
 def build_lights(lights: list, scene, material_emission: list, device) -> tuple[DeviceLights, UnsampledEmitters]:
@@ -386,7 +389,6 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     radius = float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) / 2.0 or 1e-6
     h = HostLights(*([] for _ in dataclasses.fields(HostLights)))
     zero = np.zeros(3)
-    warn_area_lights_past_float32(lights, 2.0 * radius)
     domes = [light for light in lights if isinstance(light, DomeLight)]
     if len(domes) > 1:
         warnings.warn(f"{len(domes)} dome lights: only the first ({domes[0].path}) is used", stacklevel=3)
@@ -477,6 +479,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers: appended as
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
     tris = emitter_triangles(scene, material_emission, mesh_lights)
+    warn_area_lights_past_float32(lights, 2.0 * radius, len(tris.ids))
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
     row_cdf = np.array([0.0, 1.0], np.float32)
