@@ -203,3 +203,14 @@ def test_area_lights_of_a_scene_float32_cannot_sample_are_named_in_a_warning(sca
             wrt.render(scene, camera=camera, width=4, height=3, device="cpu")
         said = [str(w.message) for w in caught if "area light" in str(w.message)]
         assert len(said) == 1 and ": 2 emissive triangle(s); scale" in said[0], said
+
+
+@pytest.mark.parametrize("scale", SCALES)
+def test_z_of_a_camera_scaled_with_its_scene_is_the_scaled_distance_along_the_view(scale):
+    """A camera and a quad 10 in front of it scaled together: ``z`` (distance along the viewing axis, scene units) is
+    10 times the scale in every pixel. The axis was ``wp.normalize`` of the camera's scaled forward column, whose
+    squares overflowed (1e20) or vanished (1e-25): a zero axis, and ``z`` was 0."""
+    scene = wrt.Scene(meshes=[quad("/quad", [[-100, -100, -10], [100, -100, -10], [100, 100, -10],
+                                             [-100, 100, -10]], scale)])
+    img = wrt.render(scene, camera=scaled_camera(scale), width=8, height=6, device="cpu", integrator="depth")
+    np.testing.assert_allclose(img.aovs["z"], 10.0 * scale, rtol=1e-5)

@@ -568,7 +568,7 @@ def primary_aovs_kernel(
     # Along the ray, as depth is, not from the hit point minus the eye: far from the world origin those two float32
     # points have lost the digits of their difference (5e-3 of a z of 5 at 1e6). The ray's origin is the eye, or
     # for an orthographic camera a film point near it.
-    axis = wp.normalize(cam.forward)
+    axis = cam.forward / stable_length(cam.forward)  # scaled with the camera: wp.normalize squared 1e20 to inf
     z[i] = wp.dot(origins[i] - cam.origin, axis) + depth[i] * wp.dot(wp.normalize(d), axis)
     normal[i] = h.ns
     geometric_normal[i] = h.ng
