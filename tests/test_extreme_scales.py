@@ -214,3 +214,18 @@ def test_z_of_a_camera_scaled_with_its_scene_is_the_scaled_distance_along_the_vi
                                              [-100, 100, -10]], scale)])
     img = wrt.render(scene, camera=scaled_camera(scale), width=8, height=6, device="cpu", integrator="depth")
     np.testing.assert_allclose(img.aovs["z"], 10.0 * scale, rtol=1e-5)
+
+
+@pytest.mark.parametrize("scale", [1.0e-20, 1.0e-15, 1.0e8, 1.0e20])
+def test_a_card_of_two_reversed_single_sided_quads_shows_its_facing_side_at_any_scale(scale):
+    """A tilted card of two coincident single-sided quads facing away from each other (cut along other diagonals,
+    so their triangles are partners, not twins): the camera sees the one facing it in every pixel, whichever comes
+    first. The hit point's weights on the partner are ratios of products of up to six lengths, computed in float32,
+    which overflowed in a card 2e10 across and vanished in one 2e-13 across: no partner held the point, and the camera
+    saw through the card in 12 to 44 of its 48 pixels."""
+    front = [[-100, -100, -4], [100, -100, -6], [100, 100, -8], [-100, 100, -6]]  # faces the camera at +Z
+    for meshes, seen in (([quad("/a", front, scale, False), quad("/b", front[::-1], scale, False)], 0),
+                         ([quad("/b", front[::-1], scale, False), quad("/a", front, scale, False)], 1)):
+        img = wrt.render(wrt.Scene(meshes=meshes), camera=scaled_camera(scale), width=8, height=6, device="cpu",
+                         integrator="normals")
+        np.testing.assert_array_equal(img.aovs["prim"] // 2, seen)

@@ -11,6 +11,7 @@ import warnings
 
 import warp as wp
 
+from .floats import largest_magnitude, unit_scales
 from .geometry import face_normal
 from .light_links import DeviceLinks, casts_shadow, link_group, upload_links
 from .materials import DeviceMaterials, cut_out
@@ -116,10 +117,14 @@ def partner_weights(scene: DeviceScene, prim: int, partner: int, u: float, v: fl
         return wp.vec3(1.0 - uv[0] - uv[1], uv[0], uv[1])
     p = ((1.0 - u - v) * scene.points[scene.indices[prim, 0]] + u * scene.points[scene.indices[prim, 1]]
          + v * scene.points[scene.indices[prim, 2]])
-    e1, e2, q = b - a, c - a, p - a
+    # Scaled by the power of two that brings the partner's longest edge component into [1, 2): the weights and the
+    # test are ratios of products of up to six lengths, which over- or underflowed float32 in a scene 1e8 (or 1e-12)
+    # across, where no partner was found and the camera saw through a card of two reversed single-sided faces.
+    down, _ = unit_scales(wp.vec3(largest_magnitude(b - a), largest_magnitude(c - a), largest_magnitude(c - b)))
+    e1, e2, q = (b - a) * down, (c - a) * down, (p - a) * down
     n = wp.cross(e1, e2)
     nn = wp.dot(n, n)
-    size2 = wp.max(wp.max(wp.dot(e1, e1), wp.dot(e2, e2)), wp.length_sq(c - b))
+    size2 = wp.max(wp.max(wp.dot(e1, e1), wp.dot(e2, e2)), wp.length_sq((c - b) * down))
     off = wp.dot(q, n)
     if nn <= 0.0 or off * off > PARTNER_TOLERANCE * PARTNER_TOLERANCE * size2 * nn:
         return wp.vec3(-1.0)
