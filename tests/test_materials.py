@@ -858,6 +858,19 @@ def test_single_channel_texture_drives_a_float_input(tmp_path):
     np.testing.assert_allclose(scene.textures[tex.image][..., 0], 0.2, atol=1e-6)
 
 
+def test_a_texture_without_a_file_reads_its_fallback_with_a_warning(tmp_path):
+    """A UsdUVTexture whose ``file`` is not authored reads its fallback (black), named in a warning: it was drawn
+    without a word, where a file that is not found is named."""
+    path = textured_stage(tmp_path, str(tmp_path / "unused.png"))
+    stage = Usd.Stage.Open(path)
+    stage.GetPrimAtPath("/Looks/Tex/Image").RemoveProperty("inputs:file")
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"names no file.*/Looks/Tex/Image"):
+        scene = wrt.load_usd(path)
+    assert scene.materials[0].textures == {}
+    np.testing.assert_allclose(scene.materials[0].diffuse_color, 0.0)  # UsdUVTexture's fallback is black
+
+
 def test_missing_texture_uses_the_fallback_with_a_warning(tmp_path):
     path = textured_stage(tmp_path, str(tmp_path / "nope.png"))
     with pytest.warns(UserWarning, match="nope.png"):
