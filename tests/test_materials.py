@@ -127,6 +127,32 @@ def test_inputs_that_are_not_finite_numbers_keep_their_defaults(tmp_path):
     assert "roughness" in next(str(w.message) for w in caught if "/M0" in str(w.message))
 
 
+def test_inputs_of_the_wrong_shape_keep_their_defaults(tmp_path):
+    """A colour authored as two numbers or as an array of colours, and a float input authored as a matrix, an array
+    of numbers or a string of digits, keep the schema defaults with the warning naming the input. They were read
+    without a word: the float2 colour (0.9, 0.1) as grey 0.9, the colour array as its first colour, the identity
+    matrix as roughness 1, the array as its first number and the string "0.7" as metallic 0.7."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material, shader = preview_material(stage, "/Looks/M")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.9, 0.1))
+    shader.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3fArray).Set(
+        Vt.Vec3fArray([Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 1, 0)]))
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Matrix4d).Set(Gf.Matrix4d(1.0))
+    shader.CreateInput("clearcoat", Sdf.ValueTypeNames.FloatArray).Set(Vt.FloatArray([0.25, 0.75]))
+    shader.CreateInput("metallic", Sdf.ValueTypeNames.String).Set("0.7")
+    bind(quad, material)
+    stage.Save()
+    with pytest.warns(UserWarning) as caught:
+        mat = wrt.load_usd(path).materials[0]
+    np.testing.assert_allclose(mat.diffuse_color, 0.18)  # the schema's defaults
+    np.testing.assert_allclose(mat.emissive_color, 0.0)
+    assert (mat.roughness, mat.clearcoat, mat.metallic) == (0.5, 0.0, 0.0)
+    warning = next(str(w.message) for w in caught if "/Looks/M" in str(w.message))
+    for name in ("diffuseColor", "emissiveColor", "roughness", "clearcoat", "metallic"):
+        assert name in warning, (name, warning)
+
+
 def test_material_interface_inputs_are_followed(tmp_path):
     stage, path = new_stage(tmp_path)
     quad = add_quad(stage, "/Quad")

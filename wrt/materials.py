@@ -1165,8 +1165,9 @@ class MaterialReader:
             tex, fallback = self._texture(source, output, mat.path)
             if tex is not None:
                 mat.textures[name] = tex
-            else:
-                self._set_constant(mat, name, field, is_color, fallback, source.GetPrim())
+            else:  # three numbers: a float input reads the first, as it reads the texture's red or its one channel
+                value = fallback if is_color else fallback[:1]
+                self._set_constant(mat, name, field, is_color, value, source.GetPrim())
         elif name == "diffuseColor" and source_id in COLOR_PRIMVAR_READERS:
             primvar = self.color_primvar_input(source, mat.path)
             if primvar is not None:
@@ -1227,10 +1228,13 @@ class MaterialReader:
         finite (or of a wrong type) keeps the field's default, with a warning: NaN would reach every pixel the material
         covers."""
         try:
-            v = np.asarray(value, np.float64).reshape(-1)
+            # A string of digits is no number: numpy would read "0.7" as 0.7.
+            v = np.empty(0) if isinstance(value, str) else np.asarray(value, np.float64).reshape(-1)
         except (TypeError, ValueError):  # authored with a wrong type, e.g. a string
             v = np.empty(0)
-        if v.size == 0 or not np.all(np.isfinite(v)):
+        # A colour is 1 (grey), 3 or 4 (rgba) numbers, anything else 1: a float2 colour was read as the grey of its
+        # first number, an array of colours as its first, a matrix as its first entry, without a word.
+        if v.size not in ((1, 3, 4) if is_color else (1,)) or not np.all(np.isfinite(v)):
             self.skip(f"material {mat.path}: an input is not a finite number; its default is used", prim, detail=name)
             return
         if is_color:
