@@ -24,7 +24,8 @@ from wrt.microfacet_albedo import (
 from wrt.shade import keep_reflection_above
 
 DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
-N_PARAMS = 12  # base rgb, specular grey, metallic, roughness, opacity, ior, clearcoat, its roughness, workflow, thin
+N_PARAMS = 13  # base rgb, specular grey, metallic, roughness, opacity, ior, clearcoat, its roughness, workflow, thin,
+# the clearcoat's ior
 
 
 @wp.func
@@ -41,14 +42,15 @@ def surface_from(p: wp.array[float]):
     s.clearcoat_roughness = p[9]
     s.specular_workflow = int(p[10])
     s.thin_walled = int(p[11])
+    s.clearcoat_ior = p[12]
     return s
 
 
 def params(base=(0.8, 0.6, 0.4), metallic=0.0, roughness=0.5, opacity=1.0, ior=1.5, clearcoat=0.0,
-           clearcoat_roughness=0.01, specular=None, thin_walled=False) -> wp.array:
+           clearcoat_roughness=0.01, specular=None, thin_walled=False, clearcoat_ior=1.5) -> wp.array:
     """The surface numbers for :func:`surface_from` (``specular``: the specular workflow with that grey F0)."""
     values = [*base, specular or 0.0, metallic, roughness, opacity, ior, clearcoat, clearcoat_roughness,
-              0.0 if specular is None else 1.0, float(thin_walled)]
+              0.0 if specular is None else 1.0, float(thin_walled), clearcoat_ior]
     return wp.array(np.array(values, np.float32), dtype=float, device="cpu")
 
 

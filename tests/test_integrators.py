@@ -423,6 +423,7 @@ def bsdf_albedo_kernel(
     s.opacity = 1.0
     s.ior = 1.5
     s.clearcoat_roughness = 0.01
+    s.clearcoat_ior = 1.5
     n = wp.vec3(0.0, 0.0, 1.0)
     wo = wp.vec3(wp.sqrt(1.0 - cos_o[i] * cos_o[i]), 0.0, cos_o[i])
     lobes = lobe_albedos(s, tables, cos_o[i])

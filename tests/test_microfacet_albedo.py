@@ -109,6 +109,7 @@ def lobe_albedos_kernel(
     s.ior = 1.5
     s.clearcoat = 1.0
     s.clearcoat_roughness = roughness[i]
+    s.clearcoat_ior = 1.5
     lobes = lobe_albedos(s, tables, mu[i])
     spec[i] = lobes.spec
     spec_ms[i] = lobes.spec_ms

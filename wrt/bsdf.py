@@ -10,13 +10,15 @@ Model (an approximation of the UsdPreviewSurface specification, stated once):
   + clearcoat * Dc Gc Fc(cos_vh) / (4 cos_o cos_i)`` with Schlick's Fresnel ``F`` at the half vector, the GGX
   (Trowbridge-Reitz) distribution ``D`` with ``alpha = roughness^2`` and the height-correlated Smith term ``G``
   (Heitz 2014); the grazing reflectance of Schlick's ``F`` is ``min(1, 50 max(F0))``. The clearcoat lobe has
-  ``F0 = 0.04`` and ``alpha = clearcoatRoughness^2``.
+  ``F0 = ((1 - ior) / (1 + ior))^2`` (the specification's ``ior`` is the clearcoat's index too, as in Storm and
+  MaterialX's UsdPreviewSurface graph; 0.04 at the fallback 1.5) and ``alpha = clearcoatRoughness^2``.
 - Energy compensation (Kulla and Conty, "Revisiting Physically Based Shading at Imageworks", 2017): ``f_ms =
   F_ms (1 - E(cos_o)) (1 - E(cos_i)) / (pi (1 - E_avg))`` returns the light the single-scattering GGX lobe loses
   between microfacets, ``E`` being a white lobe's directional albedo and ``F_ms = F_avg^2 E_avg / (1 - F_avg (1 -
   E_avg))`` its colour (tables in :mod:`wrt.microfacet_albedo`). Each layer keeps what the lobes above it do not
   reflect towards the viewer (albedo scaling): ``S`` is the specular lobe's directional albedo with ``f_ms``,
-  ``C`` the clearcoat's times ``clearcoat`` (single scattering: at ``F0 = 0.04`` the lost bounces are below 0.5%).
+  ``C`` the clearcoat's times ``clearcoat`` (single scattering: at ``F0 = 0.04`` the lost bounces are below 0.5%,
+  so a coat of a much higher or lower index, whose F0 nears 1, loses some of the light at high roughness).
   A white metal, dielectric or clearcoated surface therefore reflects all the light at every roughness and angle
   (within 1%), and no surface of colours in ``[0, 1]`` reflects more; the layering is not reciprocal (it looks at
   ``cos_o`` only). With ``F0 = 0`` the BSDF is exactly Lambertian: a surface of albedo ``rho`` under illuminance
@@ -66,7 +68,6 @@ from .sampling import (
 
 DELTA_ROUGHNESS = wp.constant(0.02)  # below this roughness a lobe is a perfect mirror
 MIN_ALPHA = wp.constant(4.0e-4)  # smallest GGX alpha evaluated (= DELTA_ROUGHNESS^2)
-CLEARCOAT_F0 = wp.constant(0.04)  # reflectance of the clearcoat layer at normal incidence (ior 1.5)
 
 
 @wp.struct
@@ -82,6 +83,7 @@ class Surface:
     ior: float  # index of refraction of the dielectric interface
     clearcoat: float  # clearcoat weight in [0, 1]
     clearcoat_roughness: float  # roughness of the clearcoat lobe
+    clearcoat_ior: float  # index of refraction of the clearcoat layer (UsdPreviewSurface: ior); its F0 follows
     opacity_threshold: float  # > 0: cut-out mode (opacity < threshold is a hole)
     specular_workflow: int  # 1: F0 = specularColor; 0: metallic workflow
     thin_walled: int  # 1: the dielectric is a sheet without thickness (thin_dielectric_reflectance); 0: solid
@@ -293,6 +295,15 @@ def surface_f0(s: Surface):
 
 
 @wp.func
+def clearcoat_f0(s: Surface):
+    """Reflectance of the clearcoat layer at normal incidence: ``((1 - ior) / (1 + ior))^2`` of its index (Storm
+    and MaterialX's UsdPreviewSurface graph take the coat's F0 from ``ior``; a fixed 0.04 drew a coat of index 3 at
+    0.36 of its reflectance and a coat on an index-matched ``ior = 1``, which reflects nothing)."""
+    r = (1.0 - s.clearcoat_ior) / (1.0 + s.clearcoat_ior)
+    return r * r
+
+
+@wp.func
 def surface_albedo(s: Surface):
     """Albedo of the diffuse lobe."""
     if s.specular_workflow == 1:
@@ -391,7 +402,7 @@ def clearcoat_albedo(tables: GgxAlbedo, s: Surface, cos_o: float):
     albedo; single scattering only: at ``F0 = 0.04`` the lost bounces are below 0.5%)."""
     if s.clearcoat <= 0.0:
         return 0.0
-    single, e = single_scattering_albedo(tables, wp.vec3(CLEARCOAT_F0), s.clearcoat_roughness, cos_o)
+    single, e = single_scattering_albedo(tables, wp.vec3(clearcoat_f0(s)), s.clearcoat_roughness, cos_o)
     return s.clearcoat * single[0]
 
 
@@ -462,7 +473,7 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, n
         pdf += w[2] * multiple_scattering_pdf(tables, s.roughness, lobes.ms_total, cos_i)
     if s.clearcoat > 0.0 and s.clearcoat_roughness >= DELTA_ROUGHNESS:
         ac = ggx_alpha(s.clearcoat_roughness)
-        fc = s.clearcoat * fresnel_schlick_scalar(CLEARCOAT_F0, cos_vh)
+        fc = s.clearcoat * fresnel_schlick_scalar(clearcoat_f0(s), cos_vh)
         f += wp.vec3(fc * ggx_d(cos_h, sin2_h, ac) * ggx_visibility(cos_o, cos_i, ac))
         pdf += w[3] * ggx_reflection_pdf(cos_o, cos_h, sin2_h, ac)
     return f_diffuse, f, pdf

@@ -231,6 +231,8 @@ class Material(CountsAssignments):
         ior: index of refraction.
         clearcoat: clearcoat weight.
         clearcoat_roughness: clearcoat roughness.
+        clearcoat_ior: index of refraction of the clearcoat layer, whose F0 is ``((1 - n) / (1 + n))^2``; None (the
+            default): ``ior``, as UsdPreviewSurface's specification has it (a MaterialX coat has its own index).
         thin_walled: the dielectric of ``opacity < 1`` is a sheet without thickness (a window pane modelled as one
             plane): it reflects both faces' light and lets the rest through unbent (see :mod:`wrt.bsdf`); no effect on
             an opaque surface.
@@ -255,6 +257,7 @@ class Material(CountsAssignments):
     ior: float = 1.5
     clearcoat: float = 0.0
     clearcoat_roughness: float = 0.01
+    clearcoat_ior: float | None = None
     thin_walled: bool = False
     diffuse_from_display_color: bool = False
     color_primvar: str = "displayColor"
@@ -276,6 +279,8 @@ class Material(CountsAssignments):
                                                                "color_primvar_scale")]
         numbers = [(name, (), None, float) for name in ("metallic", "roughness", "opacity", "opacity_threshold", "ior",
                                                          "clearcoat", "clearcoat_roughness")]
+        if self.clearcoat_ior is not None:
+            numbers.append(("clearcoat_ior", (), None, float))
         check_fields(self, *colors, *numbers)
         self._check_flags()
         self.check_textures()
@@ -461,7 +466,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
             mat.ior,
             mat.clearcoat,
             mat.clearcoat_roughness,
-            0.0,
+            mat.ior if mat.clearcoat_ior is None else mat.clearcoat_ior,
         )
         flags[k] = (
             (int(FLAG_SPECULAR_WORKFLOW) if mat.use_specular_workflow else 0)
@@ -620,6 +625,7 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
     s.ior = wp.max(mats.params[m, 4], MIN_IOR)
     s.clearcoat = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT, st, mats.params[m, 5]), 0.0, 1.0)
     s.clearcoat_roughness = wp.clamp(input_float(mats, m, SLOT_CLEARCOAT_ROUGHNESS, st, mats.params[m, 6]), 0.0, 1.0)
+    s.clearcoat_ior = wp.max(mats.params[m, 7], MIN_IOR)
     s.specular_workflow = wp.where((flags & FLAG_SPECULAR_WORKFLOW) != 0, 1, 0)
     s.thin_walled = wp.where((flags & FLAG_THIN_WALLED) != 0, 1, 0)
     # Keep colours physical: negative texels (or biases) would make energy from nothing, and a negative specularColor

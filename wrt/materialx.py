@@ -187,8 +187,8 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
         reader.skip(f"material {path}: {shader.GetShaderId()} is drawn approximately: {'; '.join(graph.notes)}",
                     shader.GetPrim())
     mat = Material(path=path, diffuse_color=diffuse, emissive_color=emissive, metallic=metallic, roughness=roughness,
-                   ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, opacity=opacity,
-                   opacity_threshold=threshold, thin_walled=thin_walled, textures=textures)
+                   ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, clearcoat_ior=CLEARCOAT_IOR,
+                   opacity=opacity, opacity_threshold=threshold, thin_walled=thin_walled, textures=textures)
     if primvar is not None:
         primvar.apply(mat)
     return mat
