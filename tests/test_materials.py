@@ -170,6 +170,29 @@ def test_the_clearcoat_reflects_the_fresnel_reflectance_of_ior(tmp_path, ior):
     np.testing.assert_allclose(img.rgb, ((1.0 - ior) / (1.0 + ior)) ** 2, rtol=1e-4, atol=1e-6)
 
 
+def test_inputs_past_float32_keep_their_defaults(tmp_path):
+    """Inputs authored as doubles beyond float32's range (``double ior = 1e300``, a ``color3d`` emissiveColor of
+    1e39) keep the schema defaults with the not-a-finite-number warning, as NaN does, and the stage renders: they
+    passed the float64 check and the render stopped with "Material ior must be a finite number"."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material, shader = preview_material(stage, "/Looks/M")
+    shader.CreateInput("ior", Sdf.ValueTypeNames.Double).Set(1e300)
+    shader.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3d).Set(Gf.Vec3d(1e39, 0.0, 0.0))
+    bind(quad, material)
+    stage.Save()
+    with pytest.warns(UserWarning) as caught:
+        scene = wrt.load_usd(path)
+    warning = next(str(w.message) for w in caught if "not a finite number" in str(w.message))
+    assert "ior" in warning and "emissiveColor" in warning, warning
+    mat = scene.materials[0]
+    assert mat.ior == 1.5
+    np.testing.assert_allclose(mat.emissive_color, 0.0)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=2, height=2, device="cpu", integrator="albedo")
+    np.testing.assert_allclose(img.rgb, 0.18)
+
+
 def test_material_interface_inputs_are_followed(tmp_path):
     stage, path = new_stage(tmp_path)
     quad = add_quad(stage, "/Quad")

@@ -1240,7 +1240,8 @@ class MaterialReader:
             v = np.empty(0)
         # A colour is 1 (grey), 3 or 4 (rgba) numbers, anything else 1: a float2 colour was read as the grey of its
         # first number, an array of colours as its first, a matrix as its first entry, without a word.
-        if v.size not in ((1, 3, 4) if is_color else (1,)) or not np.all(np.isfinite(v)):
+        # Finite in float32 too, which the device reads: a double ior of 1e300 stopped the render (Material's check).
+        if v.size not in ((1, 3, 4) if is_color else (1,)) or not np.all(np.abs(v) <= np.finfo(np.float32).max):
             self.skip(f"material {mat.path}: an input is not a finite number; its default is used", prim, detail=name)
             return
         if is_color:
