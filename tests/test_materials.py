@@ -193,6 +193,49 @@ def test_inputs_past_float32_keep_their_defaults(tmp_path):
     np.testing.assert_allclose(img.rgb, 0.18)
 
 
+def test_colours_and_materialx_inputs_past_float32_do_not_stop_the_load(tmp_path):
+    """A primvar reader's fallback, an OmniPBR base colour and MaterialX standard_surface inputs authored as doubles
+    beyond float32's range are read as not finite: the stage loads and renders finite pixels (each stopped the load
+    with "Material ... must be finite numbers"). The MaterialX surface keeps its specification defaults (base 1 and
+    base_color 0.8: diffuse 0.8, specular_IOR 1.5) and the OmniPBR one falls back to the mesh's displayColor."""
+    stage, path = new_stage(tmp_path)
+    quads = [add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0)) for k in range(3)]
+    for quad in quads:
+        quad.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0.2, 0.7, 0.1)])
+    material, shader = preview_material(stage, "/Looks/Reader")
+    reader = UsdShade.Shader.Define(stage, "/Looks/Reader/Primvar")
+    reader.CreateIdAttr("UsdPrimvarReader_float3")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("missing")
+    reader.CreateInput("fallback", Sdf.ValueTypeNames.Double3).Set(Gf.Vec3d(1e39, 0.0, 0.0))
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(reader.ConnectableAPI(), "result")
+    bind(quads[0], material)
+    for k, (context, kind, inputs) in enumerate([
+            ("mdl", "OmniPBR", {"diffuse_color_constant": Gf.Vec3d(1e39, 0.0, 0.0)}),
+            ("mtlx", "ND_standard_surface_surfaceshader", {"base": 1e300, "specular_IOR": 1e300})], start=1):
+        material = UsdShade.Material.Define(stage, f"/Looks/X{k}")
+        shader = UsdShade.Shader.Define(stage, f"/Looks/X{k}/Surface")
+        if context == "mdl":
+            shader.SetSourceAsset(Sdf.AssetPath(f"{kind}.mdl"), "mdl")
+            shader.SetSourceAssetSubIdentifier(kind, "mdl")
+        else:
+            shader.CreateIdAttr(kind)
+        for name, value in inputs.items():
+            shader.CreateInput(name, Sdf.ValueTypeNames.Double3 if isinstance(value, Gf.Vec3d)
+                               else Sdf.ValueTypeNames.Double).Set(value)
+        material.CreateSurfaceOutput(context).ConnectToSource(shader.ConnectableAPI(), "out")
+        bind(quads[k], material)
+    stage.Save()
+    scene, _ = load_with_messages(path)
+    mtlx = next(m for m in scene.materials if m.path == "/Looks/X2")
+    np.testing.assert_allclose(mtlx.diffuse_color, 0.8)
+    assert mtlx.ior == 1.5
+    cam = wrt.Camera.orthographic(eye=(3, 0, 5), target=(3, 0, 0), height=2.0)
+    img = wrt.render(scene, camera=cam, width=12, height=4, device="cpu", integrator="albedo")
+    assert np.isfinite(img.rgb).all()
+    np.testing.assert_allclose(img.rgb[:, 4:8][img.aovs["prim"][:, 4:8] >= 0], np.tile([0.2, 0.7, 0.1], (16, 1)),
+                               rtol=1e-5)  # OmniPBR: displayColor
+
+
 def test_material_interface_inputs_are_followed(tmp_path):
     stage, path = new_stage(tmp_path)
     quad = add_quad(stage, "/Quad")

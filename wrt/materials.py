@@ -768,12 +768,13 @@ def _authoring_layer(attr, time):
 
 
 def _rgb(value) -> np.ndarray | None:
-    """A constant input's value as ``(3,)`` float64 (one number for all three); None when it is not a finite one."""
+    """A constant input's value as ``(3,)`` float64 (one number for all three); None when it is not a finite one,
+    in float32 too (a ``double3`` of 1e39 became an infinite colour, which stopped the load)."""
     try:
         v = np.asarray(value, np.float64).reshape(-1)
     except (TypeError, ValueError):  # None, or authored with a wrong type
         return None
-    if v.size not in (1, 3, 4) or not np.all(np.isfinite(v)):
+    if v.size not in (1, 3, 4) or not np.all(np.abs(v) <= np.finfo(np.float32).max):
         return None
     return np.resize(v, 3) if v.size > 1 else np.full(3, v[0])
 
@@ -1134,6 +1135,8 @@ class MaterialReader:
                 for weight in weights:
                     w = _rgb(self._constant(shader, weight))
                     color = color if w is None else color * w
+                if not np.all(np.abs(color) <= np.finfo(np.float32).max):  # each finite, their product not
+                    continue
                 return name, np.maximum(color, 0.0).astype(np.float32)
         return None
 

@@ -536,12 +536,13 @@ def _multiply(texture, factor: float) -> None:
 
 
 def _array(value, size: int | None = None) -> np.ndarray | None:
-    """A constant as a finite float64 array (``size`` 3 broadcasts one number); None when it is not one."""
+    """A constant as a float64 array finite in float32 (``size`` 3 broadcasts one number); None when it is not one
+    (a ``double`` of 1e300 passed as finite and stopped the load, a float32 material field being infinite)."""
     try:
         v = np.asarray(value, np.float64).reshape(-1)
     except (TypeError, ValueError):  # None, a string, ...
         return None
-    if v.size == 0 or not np.all(np.isfinite(v)):
+    if v.size == 0 or not np.all(np.abs(v) <= np.finfo(np.float32).max):
         return None
     if size is not None and v.size != size:
         v = np.full(size, v[0]) if v.size == 1 else np.resize(v, size)
