@@ -17,8 +17,8 @@ Model (an approximation of the UsdPreviewSurface specification, stated once):
   between microfacets, ``E`` being a white lobe's directional albedo and ``F_ms = F_avg^2 E_avg / (1 - F_avg (1 -
   E_avg))`` its colour (tables in :mod:`wrt.microfacet_albedo`). Each layer keeps what the lobes above it do not
   reflect towards the viewer (albedo scaling): ``S`` is the specular lobe's directional albedo with ``f_ms``,
-  ``C`` the clearcoat's times ``clearcoat`` (single scattering: at ``F0 = 0.04`` the lost bounces are below 0.5%,
-  so a coat of a much higher or lower index, whose F0 nears 1, loses some of the light at high roughness).
+  ``C`` the clearcoat's times ``clearcoat`` (single scattering: what it loses between microfacets is left to the
+  layers below, so a white surface under a coat of any index still reflects all the light).
   A white metal, dielectric or clearcoated surface therefore reflects all the light at every roughness and angle
   (within 1%), and no surface of colours in ``[0, 1]`` reflects more; the layering is not reciprocal (it looks at
   ``cos_o`` only). With ``F0 = 0`` the BSDF is exactly Lambertian: a surface of albedo ``rho`` under illuminance
