@@ -199,6 +199,21 @@ def tiled_stage(tmp_path, png, uvtiling):
     return path
 
 
+def test_a_tiling_past_float32_reads_the_image_default_with_a_note(tmp_path):
+    """A ``tiledimage`` whose ``uvtiling`` and real-world sizes are each finite but whose texture transform passes
+    float32's range reads its default (0: black), named in the material's note: it stopped the load with
+    "transform must be a (3, 3) matrix of finite numbers"."""
+    png = write_png(tmp_path / "tile.png", np.full((2, 2, 3), 200))
+    path = tiled_stage(tmp_path, png, 3e38)
+    stage = Usd.Stage.Open(path)
+    image = UsdShade.Shader.Get(stage, "/Looks/Tiles/Graph/Image")
+    image.CreateInput("realworldimagesize", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(1e-10, 1e-10))
+    stage.Save()
+    with pytest.warns(UserWarning, match=r"/Looks/Tiles.*float32"):
+        scene = wrt.load_usd(path)
+    np.testing.assert_allclose(albedo(scene, 2), 0.0)
+
+
 def albedo(scene, res):
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
     return wrt.render(scene, camera=cam, width=res, height=res, device="cpu").aovs["albedo"]

@@ -792,12 +792,13 @@ def _transform2d(rotation_deg: float, scale, translation) -> np.ndarray:
 
 
 def two_finite_numbers(value) -> np.ndarray | None:
-    """A texture coordinate constant as ``(2,)`` float64; None when it is not two finite numbers."""
+    """A texture coordinate constant as ``(2,)`` float64; None when it is not two numbers finite in float32 (a
+    double2 of 1e39 became an infinite texture transform on the device, which stopped the load)."""
     try:
         v = np.asarray(value, np.float64).reshape(-1)
     except (TypeError, ValueError):  # a string, None, ...
         return None
-    return v if v.size == 2 and np.all(np.isfinite(v)) else None
+    return v if v.size == 2 and np.all(np.abs(v) <= np.finfo(np.float32).max) else None
 
 
 def constant_st_transform(transform: np.ndarray, st) -> np.ndarray:
@@ -1298,6 +1299,10 @@ class MaterialReader:
         wrap_mode = self._materialx_wrap_mode if materialx else self._wrap_mode
         wraps = [wrap_mode(tex, key, material_path) for key in ("wrapS", "wrapT")]
         uv_set, transform, st_fallback = self._st_source(tex, material_path)
+        if not np.all(np.isfinite(transform)):  # finite inputs whose product passes float32's range
+            self.skip(f"material {material_path}: a texture's UsdTransform2d maps st past float32's range; the "
+                      "texture's fallback value is used", tex.GetPrim())
+            return None, fallback_value
         return (
             TextureInput(
                 image=image,

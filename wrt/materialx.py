@@ -443,6 +443,10 @@ class _Graph:
         uv_set, st_fallback, constant_st = self._texcoord(node)
         if constant_st is not None:
             transform = constant_st_transform(transform, constant_st)
+        if not np.all(np.isfinite(transform)):  # finite tiling and sizes whose product passes float32's range
+            self.notes.append(f"the texture transform of {node.GetPath()} passes float32's range; "
+                              f"{_format(fallback)} is used")
+            return fallback, None
         return fallback, TextureInput(image=image, channel=channel, wrap=wrap, transform=transform, uv_set=uv_set,
                                       st_fallback=st_fallback, tiles=tiles,
                                       fallback=four_components(fallback, TEXTURE_FALLBACK))
