@@ -214,6 +214,36 @@ def test_a_tiling_past_float32_reads_the_image_default_with_a_note(tmp_path):
     np.testing.assert_allclose(albedo(scene, 2), 0.0)
 
 
+@pytest.mark.parametrize("source", ["ND_image_color3", "ND_geompropvalue_color3"])
+def test_a_base_weight_that_scales_a_texture_past_float32_keeps_the_defaults(tmp_path, source):
+    """``base`` 3e38 times a base_color image (or colour primvar) already multiplied by 10: each finite, the
+    texture's scale (the primvar's) past float32's range. The material keeps the library's base and base_color (0.8)
+    with a note, where the load stopped with "scale must be ... finite numbers" (an image) or "diffuse_color must be
+    finite numbers" (a primvar)."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    UsdGeom.PrimvarsAPI(quad).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray).Set([(0.5, 0.5, 0.5)])
+    material, shader = mtlx_material(stage, "/Looks/Big", base=3e38)
+    node = UsdShade.Shader.Define(stage, "/Looks/Big/Source")
+    node.CreateIdAttr(source)
+    if source == "ND_image_color3":
+        node.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(write_png(tmp_path / "c.png", np.full((2, 2, 3), 200)))
+    else:
+        node.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("displayColor")
+    node.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    times = UsdShade.Shader.Define(stage, "/Looks/Big/Times")
+    times.CreateIdAttr("ND_multiply_color3FA")
+    times.CreateInput("in1", Sdf.ValueTypeNames.Color3f).ConnectToSource(node.ConnectableAPI(), "out")
+    times.CreateInput("in2", Sdf.ValueTypeNames.Float).Set(10.0)
+    times.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(times.ConnectableAPI(), "out")
+    bind(quad, material)
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Big" in m and "not a finite float; their defaults are used" in m for m in messages), messages
+    np.testing.assert_allclose(albedo(scene, 2), 0.8, rtol=1e-6)
+
+
 def albedo(scene, res):
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=2.0)
     return wrt.render(scene, camera=cam, width=res, height=res, device="cpu").aovs["albedo"]

@@ -258,12 +258,17 @@ class _Graph:
         color, color_texture = self.read(color_role)
         weight, weight_texture = self.read(weight_role)
         color, weight = np.resize(color, 3), float(np.mean(weight))
-        if np.abs(color * weight).max() > np.finfo(np.float32).max:  # each finite, the product past float32's range
-            (color_name, color_default), (weight_name, weight_default) = (self.inputs[color_role],
-                                                                          self.inputs[weight_role])
+        (color_name, color_default), (weight_name, weight_default) = (self.inputs[color_role],
+                                                                      self.inputs[weight_role])
+        # Each finite, their product (or a texture's scale times the other) past float32's range: the defaults.
+        if np.abs(color * weight).max() > np.finfo(np.float32).max or not all(
+                _multiply(texture, factor, apply=False)
+                for texture, factor in ((color_texture, weight), (weight_texture, float(np.mean(color))))
+                if texture is not None):
             self.notes.append(f"{color_name} {_format(color)} times {weight_name} {weight:.3g} is not a finite float; "
                               "their defaults are used")
-            color, weight = np.resize(np.asarray(color_default, np.float64), 3), float(weight_default)
+            default = np.resize(np.asarray(color_default, np.float64), 3) * float(weight_default)
+            return default.astype(np.float32), None
         if color_texture is not None:
             _multiply(color_texture, weight)
             if weight_texture is not None:
@@ -525,18 +530,24 @@ def file_color_space(file_input) -> tuple[str, str | None]:
     return "raw", name
 
 
-def _multiply(texture, factor: float) -> None:
+def _multiply(texture, factor: float, apply: bool = True) -> bool:
     """Multiplies what ``texture`` (a :class:`TextureInput` or :class:`PrimvarInput`) gives by ``factor``: the scale
     and bias of every channel it reads. A texture read as one channel (a float image, an extract of alpha) reads
-    its own channel, which scaling r, g and b alone missed for alpha: an emission mask kept no colour."""
-    if isinstance(texture, PrimvarInput):
-        texture.scale = (np.asarray(texture.scale, np.float32) * factor).astype(np.float32)
-        return
-    reads = slice(0, 3) if texture.channel in ("rgb", "rgba") else slice(0, 4)
-    for name in ("scale", "bias"):
-        values = np.array(getattr(texture, name), np.float32)
+    its own channel, which scaling r, g and b alone missed for alpha: an emission mask kept no colour. Whether the
+    results stay within float32's range (an infinite scale stopped the load); ``apply`` False only says so."""
+    names = ("scale",) if isinstance(texture, PrimvarInput) else ("scale", "bias")
+    reads = slice(0, 3) if isinstance(texture, PrimvarInput) or texture.channel in ("rgb", "rgba") else slice(0, 4)
+    scaled = {}
+    for name in names:
+        values = np.array(getattr(texture, name), np.float64)
         values[reads] *= factor
-        setattr(texture, name, values)
+        scaled[name] = values
+    if not all(np.all(np.abs(v) <= np.finfo(np.float32).max) for v in scaled.values()):
+        return False
+    if apply:
+        for name, values in scaled.items():
+            setattr(texture, name, values.astype(np.float32))
+    return True
 
 
 def _array(value, size: int | None = None) -> np.ndarray | None:
