@@ -236,6 +236,30 @@ def test_colours_and_materialx_inputs_past_float32_do_not_stop_the_load(tmp_path
                                rtol=1e-5)  # OmniPBR: displayColor
 
 
+def test_a_connection_to_nothing_is_named_and_keeps_the_inputs_value(tmp_path):
+    """An input connected to a prim that does not exist, or to an output a shader does not declare, reads its own
+    authored value (else the schema default), as USD resolves it (no connected source) and Storm draws it, and is
+    named in a warning with its target: a renamed or deleted texture node was drawn in the default colour without a
+    word."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad")
+    material, shader = preview_material(stage, "/Looks/M", diffuseColor=Gf.Vec3f(0.9, 0.1, 0.1))
+    shader.GetInput("diffuseColor").GetAttr().AddConnection(Sdf.Path("/Looks/M/Gone.outputs:rgb"))
+    tex = UsdShade.Shader.Define(stage, "/Looks/M/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).GetAttr().AddConnection(
+        Sdf.Path("/Looks/M/Tex.outputs:r"))  # Tex declares no output r
+    bind(quad, material)
+    stage.Save()
+    with pytest.warns(UserWarning) as caught:
+        mat = wrt.load_usd(path).materials[0]
+    np.testing.assert_allclose(mat.diffuse_color, (0.9, 0.1, 0.1))
+    assert mat.roughness == 0.5 and mat.textures == {}
+    warning = next((str(w.message) for w in caught if "connect" in str(w.message)), "")
+    for name in ("diffuseColor", "/Looks/M/Gone.outputs:rgb", "roughness", "/Looks/M/Tex.outputs:r"):
+        assert name in warning, (name, [str(w.message) for w in caught])
+
+
 def test_material_interface_inputs_are_followed(tmp_path):
     stage, path = new_stage(tmp_path)
     quad = add_quad(stage, "/Quad")

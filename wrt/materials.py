@@ -1142,9 +1142,13 @@ class MaterialReader:
         return None
 
     def _producer(self, shader, name):
-        """What feeds input ``name``: ``("value", v)``, ``("shader", source, output_name)`` or None."""
+        """What feeds input ``name``: ``("value", v)``, ``("shader", source, output_name)`` or None. A connection to
+        a prim or property that does not exist is no source, as USD resolves it (the input's own value, else none),
+        and is named in a warning: a deleted or renamed texture node was drawn in the default colour without a
+        word."""
         from pxr import UsdShade
 
+        self._report_dangling(shader, name)
         attr = _source_attribute(shader, name)
         if attr is None:
             return None
@@ -1153,6 +1157,17 @@ class MaterialReader:
             return ("shader", UsdShade.Shader(attr.GetPrim()), str(base))
         value = value_at(attr, self.time)
         return None if value is None else ("value", value)
+
+    def _report_dangling(self, shader, name: str) -> None:
+        """Warns about the connections of input ``name`` of ``shader`` whose target does not exist."""
+        inp = shader.GetInput(name)
+        if not inp or not inp.GetAttr().HasAuthoredConnections():
+            return
+        stage = shader.GetPrim().GetStage()
+        for target in inp.GetAttr().GetConnections():
+            if not (target.IsPropertyPath() and stage.GetAttributeAtPath(target)):
+                self.skip("inputs connected to a prim or output that does not exist read their own value, else their "
+                          "default", shader.GetPrim(), detail=f"{name} -> {target}")
 
     def _constant(self, shader, name):
         """The constant value of input ``name`` (following interface connections), or None."""
