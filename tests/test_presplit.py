@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 import warp as wp
+from test_instancing import closest_hits_numpy
 
+import wrt
 from wrt.bvh import build_bvh
 from wrt.bvh.layout import LAYOUTS, convert_layout, layout_kernels
 from wrt.bvh.presplit import MAX_REFERENCES_PER_TRIANGLE, presplit_references
@@ -137,7 +139,6 @@ def test_the_two_level_bvh_of_wrt_trace_presplits_a_large_blas_as_a_flat_scene_i
     goes to the two-level BVH, whose BLASes were built without them: the same mesh got another tree (the fan of a
     sphere's pole tested in full) once a gprim stood beside it. Oracle: ``build_bvh(..., presplit=6)`` of the mesh,
     the tree a scene of the mesh alone traces; the hits stay those of the flat scene."""
-    import wrt
     from wrt.bvh.batched import BATCH_MAX_TRIANGLES
     from wrt.trace import ACCELERATOR_PRESPLIT, get_accelerator
 
@@ -159,3 +160,77 @@ def test_the_two_level_bvh_of_wrt_trace_presplits_a_large_blas_as_a_flat_scene_i
     sphere_rows = (a.prim >= 0) & (a.prim < len(indices))
     assert sphere_rows.mean() > 0.5 and np.array_equal(a.prim[sphere_rows], b.prim[sphere_rows])
     assert np.array_equal(a.t[sphere_rows], b.t[sphere_rows])
+
+
+def long_slivers_across_the_origin(rng, n: int, scale: float) -> np.ndarray:
+    """``(n, 3, 3)`` slivers ``2 scale`` long, each through the origin in a random direction, ``0.02 scale`` wide."""
+    along = rng.normal(size=(n, 3))
+    along /= np.linalg.norm(along, axis=1, keepdims=True)
+    across = np.cross(along, rng.normal(size=(n, 3)))
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    return np.stack([-along, along, 0.02 * across], 1) * scale
+
+
+def plane_crossings(tri: np.ndarray, axis: int, value: float) -> list:
+    """Float64 points where the triangle's edges meet the plane ``x[axis] = value`` (its corners on the plane too)."""
+    points = []
+    for i in range(3):
+        p, q = tri[i], tri[(i + 1) % 3]
+        dp, dq = p[axis] - value, q[axis] - value
+        if dp == 0:
+            points.append(p)
+        elif dq != 0 and (dp < 0) != (dq < 0):
+            x = p + (q - p) * (dp / (dp - dq))
+            x[axis] = value
+            points.append(x)
+    return points
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e4])
+def test_reference_boxes_cover_long_triangles_that_cross_the_origin(scale):
+    """The clipped bounds were widened by a few ulps of the half-box's own coordinates, but the clipped vertices are
+    rounded at the scale of the whole triangle (its edges and corners): a piece near the origin of a triangle
+    thousands of times its size got a box that left out a sliver of it (8e-5 of a 1e4 triangle, 11 ulps of the
+    coordinate there), where rays hit nothing. Oracle: float64 points of the triangle on every plane of its
+    references' boxes (where a clipped piece's bounds lie): each must lie in one of them."""
+    rng = np.random.default_rng(16)
+    slivers = long_slivers_across_the_origin(rng, 60, scale)
+    filler = rng.uniform(-1, 1, (8000, 1, 3)) + rng.normal(scale=0.01, size=(8000, 3, 3))  # the references' budget
+    tris = np.concatenate([slivers, filler]).astype(np.float32)
+    points = wp.array(tris.reshape(-1, 3), dtype=wp.vec3)
+    indices = wp.array(np.arange(3 * len(tris), dtype=np.int32).reshape(-1, 3), dtype=wp.int32)
+    lowers, uppers, _, ref_prims = (a.numpy().astype(np.float64) for a in presplit_references(points, indices))
+    split = 0
+    for t in range(len(slivers)):
+        mine = np.flatnonzero(ref_prims == t)
+        split += len(mine) > 1
+        tri = tris[t].astype(np.float64)
+        on_planes = np.array([x for r in mine for axis in range(3) for value in (lowers[r, axis], uppers[r, axis])
+                              for x in plane_crossings(tri, axis, value)])
+        outside = np.maximum(lowers[mine][None] - on_planes[:, None], on_planes[:, None] - uppers[mine][None])
+        gap = outside.max(-1).min(-1)  # how far each point lies outside the nearest of the references
+        assert gap.max() <= 1e-12 * scale, f"triangle {t}: a point of it lies {gap.max():.3g} outside its references"
+    assert split > 50
+
+
+def test_rays_at_the_end_of_a_split_piece_hit_the_triangle():
+    """The user's view of the gap above: axis-aligned rays (which hit at their own x and z exactly) at points of a
+    1.5e4-long triangle just past where its edge crosses x = 0, the middle of its box, where it is cut. wrt.trace
+    (``presplit=6``) missed half of the rays that a float64 test of the triangle says hit it."""
+    tri = np.array([[7534.27, 5876.2324, 2950.367], [-7534.27, -5876.2324, -2950.367],
+                    [126.2946, -154.3413, -15.114114]], np.float32)
+    rng = np.random.default_rng(0)
+    filler = rng.uniform(-1, 1, (300, 1, 3)) + rng.normal(scale=0.01, size=(300, 3, 3)) + [0.0, 0.0, 1e4]
+    points = np.concatenate([tri[None], filler]).reshape(-1, 3).astype(np.float32)
+    indices = np.arange(len(points), dtype=np.int32).reshape(-1, 3)
+    b, c = tri[1].astype(np.float64), tri[2].astype(np.float64)
+    crossing = b + (c - b) * (-b[0] / (c[0] - b[0]))  # where edge b-c meets x = 0
+    x, z = np.meshgrid(np.linspace(2e-5, 2e-4, 8), crossing[2] + np.linspace(-2e-5, 1.2e-4, 30))
+    origins = np.column_stack([x.ravel(), np.full(x.size, -1000.0), z.ravel()]).astype(np.float32)
+    directions = np.tile(np.float32([0, 1, 0]), (len(origins), 1))
+    t_ref, row_ref = closest_hits_numpy(points, indices, origins.astype(np.float64), directions.astype(np.float64),
+                                        np.zeros(len(origins)), np.full(len(origins), np.inf))
+    assert (row_ref == 0).sum() > 100
+    hits = wrt.trace(wrt.Scene.from_triangles(points, indices), origins, directions)
+    assert np.array_equal(hits.prim, row_ref), f"{np.count_nonzero(hits.prim != row_ref)} rays missed the triangle"
+    np.testing.assert_allclose(hits.t[row_ref == 0], t_ref[row_ref == 0], rtol=1e-6)

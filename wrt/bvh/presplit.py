@@ -14,9 +14,9 @@ partition references instead of triangles, and ``prim_ids`` maps each leaf slot 
 triangle may sit in several leaves. Traversal is unchanged: a ray may test a triangle twice, which gives the same
 ``t`` and id (the tie rule keeps the first), and any-hit answers do not change.
 
-Every reference box contains the part of its triangle in its half-box (the clipped bound is widened by a few ulps
-against rounding, then clamped to the half-box, whose split planes are exact), so the references together cover the
-triangle and no ray that hits it misses all its boxes.
+Every reference box contains the part of its triangle in its half-box (the clipped bound is widened against rounding
+by ``CLIP_PAD`` of the triangle's corners and extent, then clamped to the half-box, whose split planes are exact), so
+the references together cover the triangle and no ray that hits it misses all its boxes.
 """
 
 import math
@@ -113,10 +113,18 @@ def count_references_kernel(
     counts[i] = 1 << k
 
 
+# Relative pad of a clipped bound. A clipped vertex ``p + (q - p) * s`` is rounded at the scale of the triangle's
+# corners and edges, not of the half-box: each of the up to 6 clips errs by about ``u |x| + 5 u |q - p|`` per axis
+# (u = 2^-24), and the errors add up, so 40 u (2.4e-6) of the corners' magnitude plus the triangle's extent bounds
+# them. A pad of the half-box's own size left out a sliver of a long triangle cut near the origin.
+CLIP_PAD = wp.constant(2.4e-6)
+
+
 @wp.func
-def widened(lo: wp.vec3, hi: wp.vec3):
-    """``[lo, hi]`` grown by a few ulps of its coordinates' magnitude (the clipped vertices are rounded)."""
-    pad = wp.max(wp.max(wp.abs(lo), wp.abs(hi)), hi - lo) * 4.0e-7
+def widened(lo: wp.vec3, hi: wp.vec3, tri_lo: wp.vec3, tri_hi: wp.vec3):
+    """``[lo, hi]`` grown by the clipped vertices' rounding error, which scales with the triangle (its box
+    ``[tri_lo, tri_hi]``), per axis."""
+    pad = (wp.max(wp.abs(tri_lo), wp.abs(tri_hi)) + (tri_hi - tri_lo)) * CLIP_PAD
     return lo - pad, hi + pad
 
 
@@ -159,7 +167,7 @@ def write_references_kernel(
             else:
                 half_hi[axis] = mid
             r = clipped_bounds(a, b, c, half_lo, half_hi)
-            c_lo, c_hi = widened(wp.vec3(r[0], r[1], r[2]), wp.vec3(r[3], r[4], r[5]))
+            c_lo, c_hi = widened(wp.vec3(r[0], r[1], r[2]), wp.vec3(r[3], r[4], r[5]), tri_lo, tri_hi)
             if r[0] <= r[3] and r[1] <= r[4] and r[2] <= r[5]:
                 lo = wp.max(c_lo, half_lo)
                 hi = wp.min(c_hi, half_hi)
