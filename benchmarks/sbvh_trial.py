@@ -44,15 +44,21 @@ def clip_kernel(
     out_lo: wp.array[wp.vec3],
     out_hi: wp.array[wp.vec3],
 ):
-    """Bounds of triangle ``prims[i]`` inside the box ``[lo[i], hi[i]]``, widened by a few ulps and clamped to
-    the box; the box itself where rounding leaves nothing (conservative, as ``presplit``)."""
+    """Bounds of triangle ``prims[i]`` inside the box ``[lo[i], hi[i]]``, widened by their rounding
+    (``presplit.widened``) and clamped to the box; the box itself where rounding leaves nothing (conservative, as
+    ``presplit``)."""
     i = wp.tid()
     p = prims[i]
     b_lo = lo[i]
     b_hi = hi[i]
-    r = clipped_bounds(points[indices[p, 0]], points[indices[p, 1]], points[indices[p, 2]], b_lo, b_hi)
+    a = points[indices[p, 0]]
+    b = points[indices[p, 1]]
+    c = points[indices[p, 2]]
+    r = clipped_bounds(a, b, c, b_lo, b_hi)
     if r[0] <= r[3] and r[1] <= r[4] and r[2] <= r[5]:
-        c_lo, c_hi = widened(wp.vec3(r[0], r[1], r[2]), wp.vec3(r[3], r[4], r[5]))
+        tri_lo = wp.min(wp.min(a, b), c)
+        tri_hi = wp.max(wp.max(a, b), c)
+        c_lo, c_hi = widened(wp.vec3(r[0], r[1], r[2]), wp.vec3(r[3], r[4], r[5]), tri_lo, tri_hi)
         out_lo[i] = wp.max(c_lo, b_lo)
         out_hi[i] = wp.min(c_hi, b_hi)
     else:
