@@ -272,8 +272,11 @@ def test_bad_build_input_raises():
         build_bvh(tri, many, device="cpu")
     nan_points = np.vstack([tri, [[np.nan, 0, 0]]]).astype(np.float32)
     many[[31, 40], 1] = [1, 3]
-    with pytest.raises(ValueError, match=r"finite \(found NaN or inf\); triangle 40 uses one"):
+    with pytest.raises(ValueError, match=r"finite in float32 \(found NaN or inf, .*\); triangle 40 uses one"):
         build_bvh(nan_points, many, device="cpu")
+    # Finite float64 vertices past float32's range: the message named only NaN and inf, which the input had none of.
+    with pytest.raises(ValueError, match=r"a value past float32's 3.4e38\); triangle 0 uses one"):
+        build_bvh(tri.astype(np.float64) * 1e39, [[0, 1, 2]], device="cpu")
     # Malformed arrays are refused, not reinterpreted: 2**32 wrapped round to vertex 0 in the cast to int32, float
     # indices were truncated, and (V, 4) points or (T, 4) indices were reshaped into other vertices and triangles.
     for points, indices, needle in (

@@ -146,7 +146,9 @@ def check_triangles(points: wp.array, indices: wp.array) -> None:
     if bad_index < n:
         raise ValueError(f"triangle indices must lie in [0, {len(points)}); triangle {bad_index} has one outside")
     if bad_point < n:
-        raise ValueError(f"triangle vertices must be finite (found NaN or inf); triangle {bad_point} uses one")
+        # Float64 input past float32's range became inf in the cast: say so, as "NaN or inf" alone named no value given.
+        raise ValueError(f"triangle vertices must be finite in float32 (found NaN or inf, or a value past float32's "
+                         f"3.4e38); triangle {bad_point} uses one")
 
 
 @wp.kernel
@@ -297,7 +299,9 @@ def triangle_arrays(points, indices) -> tuple[np.ndarray, np.ndarray]:
     points, indices = np.asarray(points), np.asarray(indices)
     check_array_layouts(points, indices)
     check_index_range(indices, points.size // 3)
-    return points.astype(np.float32).reshape(-1, 3), indices.astype(np.int32).reshape(-1, 3)
+    with np.errstate(over="ignore"):  # values past float32's range become inf, refused by check_triangles by name
+        points = points.astype(np.float32)
+    return points.reshape(-1, 3), indices.astype(np.int32).reshape(-1, 3)
 
 
 def check_index_range(indices: np.ndarray, vertices: int) -> None:
