@@ -773,6 +773,34 @@ def test_triangle_hits_at_tiny_and_huge_coordinates(layout):
         np.testing.assert_allclose(t, ref.t[ref.hit], rtol=1e-5, err_msg=f"scale {s:g}")
 
 
+@pytest.mark.xfail(strict=True, reason="inside the triangle test (geometry.intersect_ray_triangle, not to be changed "
+                   "here): a vertex minus the ray origin overflows float32 where they lie more than 3.4e38 apart, and "
+                   "the NaN edge functions pass its inside test")
+def test_triangles_more_than_float32s_range_from_the_ray_origin():
+    """Coordinates within float32's range whose differences are not: a floor spanning +-3.3e38 and a small triangle
+    near its edge, one leaf of the tree. A ray from x = 1e38 down onto the floor reported the small triangle, 4.2e38
+    away from it (its vertices minus the origin are -inf, the edge functions NaN, and a triangle across the ray's
+    axis takes its plane's distance as t); a tilted floor seen from x = 2e38 was missed (a NaN t). Oracle: float64
+    Moller-Trumbore (``test_instancing.closest_hits_numpy``)."""
+    from test_instancing import closest_hits_numpy
+
+    floor = [[-3.3e38, -3.3e38, -1.0], [3.3e38, -3.3e38, -1.0], [0.0, 3.3e38, -1.0]]
+    small = [[-3.2e38, 0.0, 1.0], [-3.1e38, 0.0, 1.0], [-3.2e38, 1e37, 1.0]]
+    tilted = [[-3.3e38, -3.3e38, -1e37], [3.3e38, -3.3e38, 1e37], [0.0, 3.3e38, 0.0]]
+    cases = [(floor + small, [[1e38, 0.0, 5.0]]), (tilted, [[2e38, -2.5e38, 1e37], [-2e38, -2.5e38, 1e37]])]
+    for points, origins in cases:
+        points = np.array(points, np.float32)
+        indices = np.arange(len(points), dtype=np.int32).reshape(-1, 3)
+        origins = np.array(origins, np.float32)
+        directions = np.tile(np.float32([0, 0, -1]), (len(origins), 1))
+        t_ref, row_ref = closest_hits_numpy(points, indices, origins.astype(np.float64), directions.astype(np.float64),
+                                            np.zeros(len(origins)), np.full(len(origins), np.inf))
+        assert (row_ref == 0).all()
+        hits = wrt.trace(wrt.Scene.from_triangles(points, indices), origins, directions)
+        assert hits.prim.tolist() == row_ref.tolist()
+        np.testing.assert_allclose(hits.t, t_ref, rtol=1e-6)
+
+
 @pytest.mark.parametrize("layout", ["binary", "compact", "wide"])
 def test_coplanar_overlaps_follow_the_tie_rule_with_every_builder(layout, np_rng):
     """40 overlapping triangles in one plane ("z-fighting"): the closest t, and at equal t the smallest triangle id,
