@@ -234,3 +234,42 @@ def test_rays_at_the_end_of_a_split_piece_hit_the_triangle():
     hits = wrt.trace(wrt.Scene.from_triangles(points, indices), origins, directions)
     assert np.array_equal(hits.prim, row_ref), f"{np.count_nonzero(hits.prim != row_ref)} rays missed the triangle"
     np.testing.assert_allclose(hits.t[row_ref == 0], t_ref[row_ref == 0], rtol=1e-6)
+
+
+def clipped_box(tri: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple:
+    """Float64 Sutherland-Hodgman: the bounds of the triangle's part inside the box ``[lo, hi]``."""
+    poly = list(tri)
+    for axis in range(3):
+        for bound, sign in ((lo[axis], 1.0), (hi[axis], -1.0)):
+            out = []
+            for i, p in enumerate(poly):
+                q = poly[(i + 1) % len(poly)]
+                dp, dq = sign * (p[axis] - bound), sign * (q[axis] - bound)
+                if dp >= 0:
+                    out.append(p)
+                if (dp >= 0) != (dq >= 0):
+                    out.append(p + (q - p) * (dp / (dp - dq)))
+            poly = out
+    return np.min(poly, axis=0), np.max(poly, axis=0)
+
+
+def test_reference_boxes_of_slivers_far_from_the_origin_stay_tight():
+    """The pad against rounding follows the triangle's corners (their magnitude) and its extent in separate measures:
+    a 1-long sliver at 1000 is cut into pieces 1/16 long or less, and a pad of 2.4e-6 of the corners' magnitude
+    (2.4e-3) would have grown the boxes of the shortest pieces by 5% of their size. Oracle: the float64 bounds of the
+    triangle clipped to each reference box; every box exceeds them by at most 3% of the piece's size."""
+    rng = np.random.default_rng(4)
+    slivers = long_slivers_across_the_origin(rng, 20, 0.5) + np.array([1e3, -7e2, 3e2])
+    filler = rng.uniform(-1, 1, (2000, 1, 3)) + rng.normal(scale=0.01, size=(2000, 3, 3))
+    tris = np.concatenate([slivers, filler]).astype(np.float32)
+    points = wp.array(tris.reshape(-1, 3), dtype=wp.vec3)
+    indices = wp.array(np.arange(3 * len(tris), dtype=np.int32).reshape(-1, 3), dtype=wp.int32)
+    lowers, uppers, _, ref_prims = (a.numpy().astype(np.float64) for a in presplit_references(points, indices))
+    pieces = 0
+    for r in np.flatnonzero(ref_prims < len(slivers)):
+        lo, hi = clipped_box(tris[int(ref_prims[r])].astype(np.float64), lowers[r], uppers[r])
+        size = (hi - lo).max()
+        excess = max((lo - lowers[r]).max(), (uppers[r] - hi).max())
+        assert excess <= 0.03 * size, f"reference {r}: its box exceeds its piece by {excess / size:.1%} of the piece"
+        pieces += 1
+    assert pieces > 10 * len(slivers)

@@ -15,7 +15,7 @@ triangle may sit in several leaves. Traversal is unchanged: a ray may test a tri
 ``t`` and id (the tie rule keeps the first), and any-hit answers do not change.
 
 Every reference box contains the part of its triangle in its half-box (the clipped bound is widened against rounding
-by ``CLIP_PAD`` of the triangle's corners and extent, then clamped to the half-box, whose split planes are exact), so
+by fractions of the triangle's corners and extent, then clamped to the half-box, whose split planes are exact), so
 the references together cover the triangle and no ray that hits it misses all its boxes.
 """
 
@@ -113,18 +113,20 @@ def count_references_kernel(
     counts[i] = 1 << k
 
 
-# Relative pad of a clipped bound. A clipped vertex ``p + (q - p) * s`` is rounded at the scale of the triangle's
-# corners and edges, not of the half-box: each of the up to 6 clips errs by about ``u |x| + 5 u |q - p|`` per axis
-# (u = 2^-24), and the errors add up, so 40 u (2.4e-6) of the corners' magnitude plus the triangle's extent bounds
-# them. A pad of the half-box's own size left out a sliver of a long triangle cut near the origin.
-CLIP_PAD = wp.constant(2.4e-6)
+# Pads of a clipped bound, relative to the triangle's corners' magnitude and to its extent, per axis. A clipped vertex
+# ``p + (q - p) * s`` is rounded at the scale of the whole triangle, not of the half-box: each of the up to 6 clips
+# errs by about ``u |x|`` (the sum) plus ``5 u |q - p|`` (the edge times a quotient of two differences), u = 2^-24,
+# and the errors add up from clip to clip. A pad of the half-box's own size left out a sliver of a long triangle cut
+# near the origin, where the half-box's coordinates are far smaller than the triangle's edges.
+CORNER_PAD = wp.constant(6.0e-7)  # 10 u
+EXTENT_PAD = wp.constant(2.4e-6)  # 40 u
 
 
 @wp.func
 def widened(lo: wp.vec3, hi: wp.vec3, tri_lo: wp.vec3, tri_hi: wp.vec3):
     """``[lo, hi]`` grown by the clipped vertices' rounding error, which scales with the triangle (its box
     ``[tri_lo, tri_hi]``), per axis."""
-    pad = (wp.max(wp.abs(tri_lo), wp.abs(tri_hi)) + (tri_hi - tri_lo)) * CLIP_PAD
+    pad = wp.max(wp.abs(tri_lo), wp.abs(tri_hi)) * CORNER_PAD + (tri_hi - tri_lo) * EXTENT_PAD
     return lo - pad, hi + pad
 
 
