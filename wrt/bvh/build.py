@@ -27,7 +27,7 @@ import warp as wp
 from ..errors import did_you_mean
 from .common import MAX_BINS, MAX_DEPTH, MAX_LEAF_SIZE, BuildInput, resolve_device, stage
 from .layout import DeviceFlatBvh, FlatBvh
-from .presplit import MAX_SPLIT_LEVELS, map_slots_kernel, presplit_references
+from .presplit import MAX_SPLIT_LEVELS, References, map_slots_kernel, split_plan, write_references
 
 ALIASES = {"binned_sah": "sah"}  # alternative names -> canonical builder name
 
@@ -232,15 +232,18 @@ def build_bvh_device(
         types = (wp.vec3, wp.vec3, wp.int32, wp.int32, wp.int32)
         arrays = [wp.array(a, dtype=t, device=data.device) for a, t in zip(fields, types)]
         return DeviceFlatBvh(*arrays, builder=kind.value)
-    ref_prims = None
+    ref_prims = plan = None
     if presplit:
         with stage("pre-splits", timers):
-            data.prim_lowers, data.prim_uppers, data.centroids, ref_prims = presplit_references(
-                data.points, data.indices, presplit)
+            plan = split_plan(data.points, data.indices, presplit)
+            data.prim_lowers, data.prim_uppers, data.centroids, ref_prims = write_references(
+                data.points, data.indices, *plan)
             data.num_prims = len(ref_prims)
     tree = _build(kind, data, leaf_size, bins, morton_bits, ploc_radius, threads, timers,
                   traversal_cost, intersection_cost)
     if ref_prims is not None:
+        if plan[2] > len(plan[0]):  # some triangle was cut: a refit must cut it again (refit.py)
+            tree.references = References(plan[0], plan[1], wp.clone(tree.prim_ids), plan[2])
         wp.launch(map_slots_kernel, len(tree.prim_ids), inputs=[ref_prims, tree.prim_ids], device=data.device)
     return tree
 

@@ -100,6 +100,8 @@ class FlatBvh:
         build_seconds: wall time of the build, seconds.
         points: the ``(V, 3)`` vertices it was built over (numpy or ``wp.array``), for :meth:`stats`; optional.
         indices: the ``(T, 3)`` triangles it was built over, for :meth:`stats`; optional.
+        references: how a tree built with pre-splits cut its triangles (``presplit.References``), for refits; None
+            when none was cut.
     """
 
     lowers: np.ndarray
@@ -111,6 +113,7 @@ class FlatBvh:
     build_seconds: float = 0.0
     points: object = dataclasses.field(default=None, repr=False, compare=False)
     indices: object = dataclasses.field(default=None, repr=False, compare=False)
+    references: object = dataclasses.field(default=None, repr=False, compare=False)
 
     @classmethod
     def empty(cls, builder: str = "") -> FlatBvh:
@@ -284,6 +287,7 @@ class DeviceFlatBvh:
         prim_count: ``(M,)`` int32 triangle count of a leaf, 0 for inner nodes.
         prim_ids: ``(N,)`` int32 slot -> triangle id.
         builder: name of the builder that made it.
+        references: the pre-splits' ``presplit.References`` (None without cut triangles), for refits.
     """
 
     lowers: wp.array
@@ -292,6 +296,7 @@ class DeviceFlatBvh:
     prim_count: wp.array
     prim_ids: wp.array
     builder: str = ""
+    references: object = None
 
     @property
     def num_nodes(self) -> int:
@@ -335,6 +340,7 @@ class DeviceFlatBvh:
             prim_count=self.prim_count.numpy(),
             prim_ids=self.prim_ids.numpy(),
             builder=self.builder,
+            references=None if self.references is None else self.references.numpy(),
         )
 
 

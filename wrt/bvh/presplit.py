@@ -19,6 +19,9 @@ by fractions of the triangle's corners and extent, then clamped to the half-box,
 the references together cover the triangle and no ray that hits it misses all its boxes.
 """
 
+from __future__ import annotations
+
+import dataclasses
 import math
 
 import warp as wp
@@ -183,11 +186,27 @@ def write_references_kernel(
         ref_prims[s] = i
 
 
-def presplit_references(points: wp.array, indices: wp.array, max_levels: int = MAX_SPLIT_LEVELS):
-    """``(lowers, uppers, centroids, ref_prims)`` of the references of every triangle (see module docstring), on
-    the triangles' device; ``ref_prims`` maps a reference to its triangle. Where the references would outnumber
-    the triangles more than ``MAX_REFERENCES_PER_TRIANGLE`` times (a mesh made of slivers), fewer levels are
-    allowed."""
+@dataclasses.dataclass
+class References:
+    """How the slots of a tree built with pre-splits were cut, so that a refit cuts the moved triangles alike
+    (``refit.py``): each triangle's ``levels`` and first reference (``offsets``), the inputs of
+    ``write_references_kernel``, ``count`` references in all, and ``slot_refs``, the reference in each leaf slot.
+    Arrays are Warp arrays on the tree's device (``DeviceFlatBvh``) or numpy arrays (``FlatBvh``)."""
+
+    levels: object
+    offsets: object
+    slot_refs: object
+    count: int
+
+    def numpy(self) -> References:
+        """The same on the host."""
+        return References(self.levels.numpy(), self.offsets.numpy(), self.slot_refs.numpy(), self.count)
+
+
+def split_plan(points: wp.array, indices: wp.array, max_levels: int = MAX_SPLIT_LEVELS) -> tuple:
+    """``(levels, offsets, count)``: how many times each triangle is halved (see module docstring), where its
+    references start, and how many there are, on the triangles' device. Where the references would outnumber the
+    triangles more than ``MAX_REFERENCES_PER_TRIANGLE`` times (a mesh made of slivers), fewer levels are allowed."""
     device = points.device
     n = indices.shape[0]
     levels = wp.empty(n, dtype=wp.int32, device=device)
@@ -203,11 +222,23 @@ def presplit_references(points: wp.array, indices: wp.array, max_levels: int = M
         total = int(offsets[n - 1:].numpy()[0]) + int(counts[n - 1:].numpy()[0])
         if total <= budget:
             break
-    out = [wp.empty(total, dtype=wp.vec3, device=device) for _ in range(3)]
-    ref_prims = wp.empty(total, dtype=wp.int32, device=device)
-    wp.launch(write_references_kernel, n, inputs=[points, indices, levels, offsets], outputs=[*out, ref_prims],
-              device=device)
+    return levels, offsets, total
+
+
+def write_references(points: wp.array, indices: wp.array, levels: wp.array, offsets: wp.array, count: int) -> tuple:
+    """``(lowers, uppers, centroids, ref_prims)`` of the ``count`` references of a :func:`split_plan`."""
+    device = points.device
+    out = [wp.empty(count, dtype=wp.vec3, device=device) for _ in range(3)]
+    ref_prims = wp.empty(count, dtype=wp.int32, device=device)
+    wp.launch(write_references_kernel, indices.shape[0], inputs=[points, indices, levels, offsets],
+              outputs=[*out, ref_prims], device=device)
     return (*out, ref_prims)
+
+
+def presplit_references(points: wp.array, indices: wp.array, max_levels: int = MAX_SPLIT_LEVELS):
+    """``(lowers, uppers, centroids, ref_prims)`` of the references of every triangle (see module docstring and
+    :func:`split_plan`), on the triangles' device; ``ref_prims`` maps a reference to its triangle."""
+    return write_references(points, indices, *split_plan(points, indices, max_levels))
 
 
 @wp.kernel

@@ -14,6 +14,7 @@ import warp as wp
 
 from .common import check_triangles
 from .layout import DeviceBvh, FlatBvh, gather_triangles_kernel, pack_nodes
+from .presplit import write_references
 
 wp.set_module_options({"enable_backward": False})
 
@@ -47,6 +48,36 @@ def refit_level_kernel(
     uppers[node] = hi
 
 
+@wp.kernel
+def refit_pieces_level_kernel(
+    level: wp.array[wp.int32],
+    left_first: wp.array[wp.int32],
+    prim_count: wp.array[wp.int32],
+    slot_refs: wp.array[wp.int32],
+    ref_lowers: wp.array[wp.vec3],
+    ref_uppers: wp.array[wp.vec3],
+    # outputs
+    lowers: wp.array[wp.vec3],
+    uppers: wp.array[wp.vec3],
+):
+    """``refit_level_kernel`` for a tree built with pre-splits: a leaf's box is that of its slots' references (the
+    moved triangles cut again as at the build), not of their whole triangles."""
+    node = level[wp.tid()]
+    count = prim_count[node]
+    first = left_first[node]
+    if count > 0:
+        lo = ref_lowers[slot_refs[first]]
+        hi = ref_uppers[slot_refs[first]]
+        for s in range(first + 1, first + count):
+            lo = wp.min(lo, ref_lowers[slot_refs[s]])
+            hi = wp.max(hi, ref_uppers[slot_refs[s]])
+    else:
+        lo = wp.min(lowers[first], lowers[first + 1])
+        hi = wp.max(uppers[first], uppers[first + 1])
+    lowers[node] = lo
+    uppers[node] = hi
+
+
 class Refitter:
     """Refits one uploaded tree (its :class:`DeviceBvh`) in place; the struct's arrays keep their addresses, so
     structures that hold it (a TLAS's BLAS table) stay valid.
@@ -61,9 +92,16 @@ class Refitter:
         self.host = host
         self.device_bvh = device_bvh
         self.device = device
-        # A tree built with pre-splits has more slots than triangles (``presplit.py``); its refitted leaves take
-        # their triangles' whole boxes.
         self.triangles = host.num_triangles
+        # A tree built with pre-splits has more slots than triangles (``presplit.py``): the moved triangles are cut
+        # again as at the build (the same halvings of their new boxes), and each leaf takes its pieces' boxes. Whole
+        # triangle boxes made every piece of a sliver as large as the sliver: rays near a fan of them tested 4x the
+        # triangles of a tree built without pre-splits.
+        self.references = None
+        if host.references is not None:
+            r = host.references
+            self.references = [wp.array(a, dtype=wp.int32, device=device) for a in (r.levels, r.offsets, r.slot_refs)]
+            self.references.append(int(r.count))
         # Each level's nodes (ascending), deepest first: views of one upload (an upload per level made a refitter
         # of a small tree cost 1 ms, most of an update of thousands of deforming prototypes).
         depth = host.depths()
@@ -94,11 +132,17 @@ class Refitter:
             outputs=[d.v0, d.v1, d.v2],
             device=self.device,
         )
+        if self.references is None:
+            kernel, leaf_inputs = refit_level_kernel, [d.v0, d.v1, d.v2]
+        else:
+            levels, offsets, slot_refs, count = self.references
+            ref_lowers, ref_uppers, _, _ = write_references(points_d, indices_d, levels, offsets, count)
+            kernel, leaf_inputs = refit_pieces_level_kernel, [slot_refs, ref_lowers, ref_uppers]
         for level in self.levels:
             wp.launch(
-                refit_level_kernel,
+                kernel,
                 len(level),
-                inputs=[level, d.left_first, d.prim_count, d.v0, d.v1, d.v2],
+                inputs=[level, d.left_first, d.prim_count, *leaf_inputs],
                 outputs=[d.lowers, d.uppers],
                 device=self.device,
             )
@@ -109,4 +153,4 @@ class Refitter:
         return self.host
 
 
-__all__ = ["Refitter", "refit_level_kernel"]
+__all__ = ["Refitter", "refit_level_kernel", "refit_pieces_level_kernel"]
