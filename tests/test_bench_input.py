@@ -380,6 +380,20 @@ def test_a_scene_of_degenerate_triangles_only_is_an_error_row_and_the_run_goes_o
     assert "1 failed" in capsys.readouterr().err
 
 
+def test_a_bench_run_in_which_every_row_failed_exits_2_as_a_render_batch_none_of_whose_scenes_rendered(tmp_path,
+                                                                                                      capsys):
+    """README: a render batch in which none could be rendered exits with status 2 (some failed: 1, as bench does);
+    a bench run whose every row failed exited 1, as if some had been measured."""
+    degenerate = tmp_path / "degenerate.usda"
+    degenerate.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                          '    int[] faceVertexIndices = [0, 1, 2]\n'
+                          '    point3f[] points = [(0, 0, 0), (1, 1, 1), (2, 2, 2)]\n}\n')
+    argv = ["bench", "--scenes", f"{degenerate},{tmp_path / 'missing.usda'}", "--accels", "wrt:sah", "--rays",
+            "incoherent", "--n-rays", "100", "--repeats", "1", "-q", "-o", str(tmp_path / "out")]
+    assert main(argv) == 2
+    assert "0 rows measured, 0 resumed, 2 failed" in capsys.readouterr().err
+
+
 def test_the_rate_plot_marks_failed_rows_and_groups_n_a(tmp_path, monkeypatch):
     """A failed row, and a row that measured nothing (NaN), were drawn as no bar, as a row never run is, and a group
     that failed whole was not on the plot at all: nothing told a failure from a rate of 0."""
