@@ -173,6 +173,33 @@ def test_a_camera_not_on_the_stage_names_the_file_and_the_prim(tmp_path, capsys)
     assert len(errors) == 1 and str(scene) in errors[0] and "/Nope" in errors[0], errors
 
 
+def _box_and_cameras(tmp_path, n_cameras: int) -> Path:
+    """A stage of a Cube at /Box and ``n_cameras`` cameras /Cam0, /Cam1, ..."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "box.usda"))
+    UsdGeom.Cube.Define(stage, "/Box")
+    for i in range(n_cameras):
+        UsdGeom.Camera.Define(stage, f"/Cam{i}").AddTranslateOp().Set((0.0, 0.0, 10.0 + i))
+    stage.GetRootLayer().Save()
+    return tmp_path / "box.usda"
+
+
+def test_a_camera_path_naming_another_prim_says_what_prim_it_is_and_lists_a_few_cameras(tmp_path, capsys):
+    """'--camera /Box', a Cube, said "no camera at '/Box'" as for a path where nothing is: it now says what the
+    stage holds there (USD's type name) and lists the first cameras, not all of a stage's thousands."""
+    from pxr import Usd
+
+    scene = _box_and_cameras(tmp_path, 9)
+    stage = Usd.Stage.Open(str(scene))
+    kind = stage.GetPrimAtPath("/Box").GetTypeName()
+    assert main(["render", str(scene), "--camera", "/Box", "-o", str(tmp_path / "x.png"), "-q"]) == 2
+    (error,) = [line for line in error_lines(capsys.readouterr().err) if line.startswith("wrt: error:")]
+    assert f"'/Box' is a {kind}, not a camera; cameras in the scene: /Cam0, /Cam1, /Cam2, /Cam3, /Cam4, /Cam5 and 3 " \
+        "more" in error, error
+    assert str(scene) in error
+
+
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
 def test_a_scene_that_is_a_pipe_or_a_folder_is_a_one_line_error_not_a_hang(tmp_path):
     """README: bad input prints one line and exits 2. A named pipe given as the scene (``wrt render <(...)``, or a

@@ -131,6 +131,26 @@ def test_camera_by_path_and_bad_camera(tmp_path):
     assert str(error.value).startswith(f"{default_scene_path()}: ") and "no camera at '/World/Nope'" in str(error.value)
 
 
+def test_a_camera_path_naming_a_prim_of_another_type_says_its_type(tmp_path):
+    """wrt.render(camera='/World/Box'), a Cube, said 'no camera at' as for a path where nothing is; it names the
+    prim's type as USD gives it, and a Camera the scene does not hold (here: inactive) is said to be one."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "s.usda"))
+    UsdGeom.Cube.Define(stage, "/World/Box")
+    UsdGeom.Camera.Define(stage, "/World/Cam").AddTranslateOp().Set((0.0, 0.0, 10.0))
+    UsdGeom.Camera.Define(stage, "/World/Off").GetPrim().SetActive(False)
+    stage.GetRootLayer().Save()
+    scene = wrt.load_usd(tmp_path / "s.usda")
+    with pytest.raises(wrt.SceneError) as error:
+        wrt.render(scene, camera="/World/Box", width=8, height=6, device="cpu")
+    kind = stage.GetPrimAtPath("/World/Box").GetTypeName()
+    assert f"'/World/Box' is a {kind}, not a camera; cameras in the scene: /World/Cam" in str(error.value)
+    assert error.value.prim == "/World/Box"
+    with pytest.raises(wrt.SceneError, match="the Camera at '/World/Off' is not among the scene's cameras"):
+        wrt.render(scene, camera="/World/Off", width=8, height=6, device="cpu")
+
+
 def test_camera_lists_and_scene_type_get_errors_that_say_what_is_wrong(room):
     """A path given where a list of cameras belongs was read one character at a time ("no camera at '/'"); one
     argument alone was told "not both"; a path as the scene failed with an AttributeError from deep inside."""

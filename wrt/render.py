@@ -134,12 +134,23 @@ def resolve_camera(scene: Scene, camera) -> Camera:
             return scene.cameras[camera]
         if camera in scene.skipped_cameras:  # the loader's reason, which a render from another camera only warned of
             raise SceneError(scene.skipped_cameras[camera], path=scene.source, prim=camera)
-        known = ", ".join(scene.cameras) or "none"
-        error = SceneError(f"no camera at {camera!r}{did_you_mean(camera, scene.cameras)}; cameras in the scene: "
-                           f"{known}", path=scene.source)
+        there = None
+        if scene.source is not None:  # say what is there: '/Box' is a Cube, not a camera
+            from .usd_cameras import what_is_at
+
+            there = what_is_at(scene.source, camera, getattr(scene, "_variants", None))
+        there = there or f"no camera at {camera!r}{did_you_mean(camera, scene.cameras)}"
+        error = SceneError(f"{there}; cameras in the scene: {few_paths(scene.cameras)}", path=scene.source)
         error.prim = camera  # set after: the message names it once, where it reads best
         raise error
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
+
+
+def few_paths(paths, shown: int = 6) -> str:
+    """The first ``shown`` of ``paths`` and how many more (a stage may hold thousands of cameras), or ``none``."""
+    paths = list(paths)
+    more = f" and {len(paths) - shown} more" if len(paths) > shown else ""
+    return ", ".join(paths[:shown]) + more or "none"
 
 
 def camera_source(scene: Scene, camera) -> Camera | None:

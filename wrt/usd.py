@@ -217,7 +217,9 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
     reader = _StageReader(stage, source, time_code, segments, int(refine_level), settings,
                           *(() if frames is None else (frames.memo, frames.material_memo, frames.placement_memo)))
     try:
-        return reader.read()
+        scene = reader.read()
+        scene._variants = variants  # to open the stage as it was read again: what_is_at (a camera it lacks)
+        return scene
     finally:
         # The material reader, the skeleton poser and the transforms hold the stage reader's skip method: a cycle that
         # kept the stage and its layers open until the next garbage collection, so a file edited and loaded again in

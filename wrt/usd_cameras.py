@@ -141,3 +141,38 @@ def _exposure_scale(camera: UsdGeom.Camera, number) -> float:
         return float(np.exp2(stops) * number(camera.GetExposureTimeAttr()) * number(camera.GetExposureIsoAttr())
                      / 100.0 * number(camera.GetExposureResponsivityAttr()) / (fstop * fstop))
 
+
+
+def what_is_at(source: str, path: str, variants=None) -> str | None:
+    """Words for what the stage at ``source`` (with ``variants`` selected, as it was loaded) holds at ``path``, where
+    the scene has no camera: ``"'/Box' is a Cube, not a camera"``; None where there is no prim there or the stage
+    cannot be opened again. Asked only when a render names a camera the scene lacks (an error), so the stage is
+    opened again, its warnings unsaid: the load said them."""
+    import warnings
+
+    from pxr import Sdf
+
+    from .usd_stage import open_stage, trap_usd_diagnostics
+    from .usd_variants import apply_variants
+
+    if not (Sdf.Path.IsValidPathString(path) and Sdf.Path(path).IsAbsolutePath()):
+        return None
+    with warnings.catch_warnings(), trap_usd_diagnostics() as trap:
+        warnings.simplefilter("ignore")
+        try:
+            stage = open_stage(source)
+            if variants:
+                apply_variants(stage, source, variants)
+            prim = stage.GetPrimAtPath(path)
+        except (SceneError, Tf.ErrorException, OSError):
+            prim = None
+        finally:
+            if trap is not None:
+                trap.EraseMatching(lambda d: True)
+    if not prim or not prim.IsDefined():
+        return None
+    if prim.IsA(UsdGeom.Camera):  # on the stage, but not read: say why it may be so
+        return (f"the Camera at {path!r} is not among the scene's cameras (wrt reads none that is inactive or "
+                "abstract, in a PointInstancer's prototypes or under a Material; or it was taken out of scene.cameras)")
+    kind = prim.GetTypeName()
+    return f"{path!r} is {'a prim of no type' if not kind else f'a {kind}'}, not a camera"
