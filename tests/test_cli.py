@@ -716,6 +716,22 @@ def test_an_interrupted_batch_logs_the_scene_cut_short(tmp_path, ctrl_c_after):
     assert sorted(p.name for p in out.glob("*.png")) == ["a.png", "b.png"]
 
 
+def test_a_batch_into_a_folder_per_scene_logs_in_the_folder_that_holds_them_all(tmp_path, monkeypatch):
+    """'-o out/{stem}/' writes out/a/a.png and out/b/b.png; the batch log went into out/a, the first scene's folder,
+    where a user looking for the batch's log (README: out/render-log.jsonl) does not find it."""
+    stage = ('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = [0, 1, 2]\n'
+             '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    for name in ("a.usda", "b.usda"):
+        (tmp_path / name).write_text(stage)
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", "a.usda", "b.usda", "-o", "out/{stem}/", "--width", "8", "--height", "6", "-q"]) == 0
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*.png")) == ["out/a/a.png", "out/b/b.png"]
+    assert [p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("render-log.jsonl")] == [
+        "out/render-log.jsonl"]
+    rows = [json.loads(line) for line in (tmp_path / "out" / "render-log.jsonl").read_text().splitlines()]
+    assert [(r["scene"], r["status"]) for r in rows] == [("a.usda", "ok"), ("b.usda", "ok")]
+
+
 def test_version_option_prints_the_versions_of_wrt_and_warp(capsys):
     """``wrt --version`` said "the following arguments are required: COMMAND" with exit status 2."""
     import re

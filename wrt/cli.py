@@ -274,7 +274,8 @@ def _add_render(sub) -> None:
     )
     p.add_argument("--log", help="JSON-lines log, one flushed row per scene (per frame with --frames) as it "
                    "finishes, and after Ctrl-C a row of status interrupted for each cut short; default with several "
-                   "scenes: render-log.jsonl beside the images", type=_non_empty)
+                   "scenes: render-log.jsonl in the folder that holds all the images (out/ for -o out/{stem}/)",
+                   type=_non_empty)
     p.add_argument("--max-memory", type=_memory_size, help="refuse renders predicted to need more than this many "
                    "bytes: a number with an optional K, M, G or T suffix (powers of 1024), e.g. 4G; default: no limit "
                    "but the device's free memory")
@@ -654,7 +655,7 @@ def _run_render(args) -> int:
     if not several and not args.log:
         _render_one(args, paths[0], outputs[0], progress)  # errors: one line, exit 2
         return 0
-    log = Path(args.log) if args.log else outputs[0].parent / "render-log.jsonl"
+    log = Path(args.log) if args.log else _common_folder(outputs) / "render-log.jsonl"
     _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []), paths)
     from .render_log import append_row, mtime_ns, new_run, skipped_fields
 
@@ -832,6 +833,17 @@ def _run_frames(args, paths: list, progress) -> int:
         print(f"wrt: {counted_of(len(failures), len(rows), 'frame')} failed", file=sys.stderr)
         return 1 if len(failures) < len(rows) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
+
+
+def _common_folder(outputs: list) -> Path:
+    """The folder holding every one of ``outputs``, where a batch's log goes: ``-o out/{stem}/`` writes
+    ``out/a/a.png`` and ``out/b/b.png``, and the log went into the first scene's folder, ``out/a``."""
+    for folders in ([p.parent for p in outputs], [os.path.abspath(p.parent) for p in outputs]):
+        try:  # as given (relative ones stay relative), else absolute: a pattern may mix them ('{stem}' a full path)
+            return Path(os.path.commonpath(folders))
+        except ValueError:
+            pass
+    return outputs[0].parent  # on different drives (Windows): no common folder
 
 
 def _frame_list(frames: list, shown: int = 6) -> str:
