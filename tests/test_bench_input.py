@@ -223,6 +223,15 @@ def test_bvh_stats_presplit_gives_the_sah_cost_of_the_tree_bench_traces(tmp_path
     ("--threads", "", "argument --threads: names nothing"),  # measured no CPU row and exited 0
     ("--accels", "foo", "argument --accels: accelerator 'foo': unknown accelerator kind 'foo'"),
     ("--accels", "wrt:nosuch", "argument --accels: accelerator 'wrt:nosuch': unknown BVH builder 'nosuch'"),
+    # An empty part after a colon was read as the default builder or layout: a name cut short measured another tree.
+    ("--accels", "wrt:sah:", "argument --accels: accelerator 'wrt:sah:': the layout after ':' is empty (did you mean "
+     "'wrt:sah'?)"),
+    ("--accels", "wrt:lbvh:", "accelerator 'wrt:lbvh:': the layout after ':' is empty (did you mean 'wrt:lbvh'?)"),
+    ("--accels", "warp:", "argument --accels: accelerator 'warp:': the builder after ':' is empty (did you mean "
+     "'warp:sah'?)"),
+    ("--accels", "wrt::wide8", "accelerator 'wrt::wide8': the builder after ':' is empty (did you mean "
+     "'wrt:sah:wide8'?)"),
+    ("--accels", "embree:", "accelerator 'embree:': the part after ':' is empty (did you mean 'embree'?)"),
     ("--rays", "foo", "argument --rays: unknown ray kind 'foo'"),
     ("--scenes", "", "argument --scenes: names nothing"),
     ("--scenes", "sphere:200,sphere:0", "argument --scenes: sphere:0: N must be a whole number of triangles"),

@@ -297,6 +297,7 @@ def check_accel_spec(spec: str) -> str:
     kind, _, rest = spec.partition(":")
     builder, _, layout = rest.partition(":")
     try:
+        _check_no_empty_part(spec)
         if kind == "wrt":
             builder = Builder.from_str(builder or "sah").value
             layout = check_layout(layout or "binary")
@@ -317,6 +318,23 @@ def check_accel_spec(spec: str) -> str:
     except ValueError as e:
         raise ValueError(f"accelerator {spec!r}: {e}") from None
     return "embree"
+
+
+def _check_no_empty_part(spec: str) -> None:
+    """Raises ValueError naming the empty part of ``spec`` (``wrt:sah:``, ``warp:``, ``wrt::wide8``), with the name
+    meant: an empty builder or layout was read as the default one, so a name cut short measured another tree."""
+    parts = spec.split(":")
+    if parts[0] not in ACCEL_KINDS or all(parts[1:]):  # an unknown kind is named as such
+        return
+    kind = parts[0]
+    empty = next(i for i, part in enumerate(parts) if i and not part)
+    what = {"wrt": ("builder", "layout"), "warp": ("builder",)}.get(kind, ())
+    named = what[empty - 1] if empty - 1 < len(what) else "part"
+    defaults = {"wrt": ["sah", "binary"], "warp": ["sah"]}.get(kind, [])
+    filled = [part or default for part, default in zip(parts[1:], defaults)]
+    meant = ":".join([kind, *filled]).removesuffix(":binary")
+    raise ValueError(f"the {named} after ':' is empty (did you mean {meant!r}?); accelerators are "
+                     "wrt:BUILDER[:LAYOUT], warp:BUILDER or embree")
 
 
 SCALING_KEYS = ("sizes", "accels", "rays", "n_rays")  # the fields of Grid.scaling
