@@ -262,6 +262,17 @@ def test_bad_bench_options_are_named_before_any_scene_loads(tmp_path, monkeypatc
     assert loaded == [] and not (tmp_path / "out" / "rows.jsonl").exists()
 
 
+def test_repeats_help_states_the_cap_the_option_is_checked_against(tmp_path, capsys):
+    """--repeats above 10,000 is refused (Grid.validated), a cap its help did not give."""
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    cap = int(re.search(r"--repeats REPEATS .*?at most ([\d,]+)", help_text).group(1).replace(",", ""))
+    assert small_grid(repeats=cap).validated().repeats == cap
+    with pytest.raises(GridError, match=f"at most {cap:,}"):
+        small_grid(repeats=cap + 1).validated()
+
+
 def test_an_empty_thread_list_in_a_suite_is_refused(tmp_path):
     with pytest.raises(ValueError, match="suite.json: threads: must list at least one thread count"):
         Grid.from_suite(write_suite(tmp_path, threads=[]))

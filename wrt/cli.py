@@ -1038,7 +1038,8 @@ def _add_bench(sub) -> None:
                    help="comma-separated ray kinds: primary, shadow (towards the first DistantLight, else a default "
                    "sun: the rows' shadow_light), diffuse, incoherent" + suites)
     p.add_argument("--n-rays", type=positive_int, help="rays per (scene, device, ray kind) group" + suites)
-    p.add_argument("--repeats", type=positive_int, help="timed launches per row (median reported)" + suites)
+    p.add_argument("--repeats", type=positive_int,  # the cap: bench.MAX_REPEATS (bench imports Warp: not here)
+                   help="timed launches per row (median reported), at most 10,000" + suites)
     p.add_argument("--threads", type=_csv, help="CPU thread counts, e.g. 1,all (all: every core); rows also record "
                    "threads_effective, the threads that ran at once (at most the usable cores)" + suites)
     p.add_argument("-o", "--out", default="bench-out", help="output folder")
