@@ -336,6 +336,27 @@ def test_integer_build_options_are_checked_and_named():
     assert bvh.num_prims == 1
 
 
+def test_integer_build_options_given_as_0d_integer_arrays_are_those_integers():
+    """``np.array(8)`` is the integer 8 to numpy (``int()`` and ``operator.index`` read it, as numpy scalars, which
+    were taken); check_int_option refused it as 'must be an integer' while check_costs takes ``np.array(2.0)``. The
+    trees equal those of the Python ints; 0-d bool and float arrays and 1-element arrays are still refused."""
+    import operator
+
+    rng = np.random.default_rng(8)
+    points = rng.normal(size=(60, 3)).astype(np.float32)
+    indices = rng.integers(0, 60, (80, 3)).astype(np.int32)
+    for builder, options in (("sah", dict(leaf_size=2, bins=4, presplit=1, threads=1)),
+                             ("ploc", dict(leaf_size=2, morton_bits=63, ploc_radius=3))):
+        expected = build_bvh(points, indices, builder, **options, device="cpu")
+        as_arrays = {k: np.array(operator.index(v)) for k, v in options.items()}
+        got = build_bvh(points, indices, builder, **as_arrays, device="cpu")
+        for field in ("lowers", "uppers", "left_first", "prim_count", "prim_ids"):
+            np.testing.assert_array_equal(getattr(got, field), getattr(expected, field))
+    for value in (np.array(True), np.array(8.0), np.array([8]), np.array("8")):
+        with pytest.raises(ValueError, match="leaf_size must lie in .* and be an integer"):
+            build_bvh(points, indices, leaf_size=value, device="cpu")
+
+
 def test_empty_input_gives_an_empty_tree():
     bvh = build_bvh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int32), device="cpu")
     bvh.validate()

@@ -162,14 +162,17 @@ def check_costs(traversal_cost: float, intersection_cost: float) -> tuple[float,
 def check_int_option(name: str, value, lo: int, hi: int | None) -> int:
     """``value`` as an int when it is an integer (Python or numpy, not bool) in ``[lo, hi]`` (``hi=None``: no upper
     bound); else ``ValueError`` naming the option. ``int()`` alone truncated 8.7 to 8, took the string ``"8"`` and
-    ``True``, and failed on NaN or None with messages that did not name the option."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < lo or (
-        hi is not None and value > hi
+    ``True``, and failed on NaN or None with messages that did not name the option. A 0-d numpy array of an integer
+    (``np.array(8)``) is that integer, as :func:`check_costs` takes ``np.array(2.0)``; a 0-d bool or float one is
+    still refused."""
+    number = value[()] if isinstance(value, np.ndarray) and value.ndim == 0 else value
+    if isinstance(number, (bool, np.bool_)) or not isinstance(number, (int, np.integer)) or number < lo or (
+        hi is not None and number > hi
     ):
         if hi is None:
             raise ValueError(f"{name} must be an integer >= {lo}, got {value!r}")
         raise ValueError(f"{name} must lie in [{lo}, {hi}] and be an integer, got {value!r}")
-    return int(value)
+    return int(number)
 
 
 def build_bvh_device(
@@ -217,7 +220,8 @@ def build_bvh_device(
     kind = Builder.from_str(builder)
     leaf_size = check_int_option("leaf_size", leaf_size, 1, MAX_LEAF_SIZE)
     bins = check_int_option("bins", bins, 2, MAX_BINS)
-    if check_int_option("morton_bits", morton_bits, 0, None) not in (30, 63):
+    morton_bits = check_int_option("morton_bits", morton_bits, 0, None)
+    if morton_bits not in (30, 63):
         raise ValueError(f"morton_bits must be 30 or 63, got {morton_bits}")
     ploc_radius = check_int_option("ploc_radius", ploc_radius, 1, 64)
     presplit = check_int_option("presplit", presplit, 0, MAX_SPLIT_LEVELS)
