@@ -73,6 +73,47 @@ def test_depth_png_and_depth_aov_png_are_depth_over_the_farthest_hit(tmp_path):
     np.testing.assert_array_equal(png_pixels(out), png_pixels(aov_png[0]))
 
 
+def test_hits_behind_an_orthographic_camera_s_plane_are_not_drawn_black_as_misses(tmp_path):
+    """An orthographic camera of clippingRange (-10, 100) sees a quad 3 units behind its plane (depth -3) and one 5
+    in front; the depth picture clipped the negative depth to 0, black as the misses around. README: hits run in
+    proportion from grey 0.1 at the nearest to white at the farthest where some lies behind, misses 0. The pixel
+    centres' hits are found in float64 from the camera's aperture (4 x 3 units, centred on (0.3, -0.2))."""
+    from pxr import Gf, Usd, UsdGeom
+
+    path = str(tmp_path / "ortho.usda")
+    stage = Usd.Stage.CreateNew(path)
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.CreateProjectionAttr("orthographic")
+    cam.CreateHorizontalApertureAttr(40.0)  # tenths of a scene unit: 4 units
+    cam.CreateVerticalApertureAttr(30.0)
+    cam.CreateClippingRangeAttr(Gf.Vec2f(-10.0, 100.0))
+    cam.AddTranslateOp().Set(Gf.Vec3d(0.3, -0.2, 5.0))
+    quads = ((-1.5, -0.25, 8.0), (0.25, 1.5, 0.0))  # x from, x to, z (y from -1 to 1)
+    for i, (x0, x1, z) in enumerate(quads):
+        quad = UsdGeom.Mesh.Define(stage, f"/Quad{i}")
+        quad.CreatePointsAttr([(x0, -1, z), (x1, -1, z), (x1, 1, z), (x0, 1, z)])
+        quad.CreateFaceVertexCountsAttr([4])
+        quad.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        quad.CreateDoubleSidedAttr(True)
+    stage.Save()
+    width, height = 16, 12
+    x = 0.3 - 2.0 + 4.0 * (np.arange(width) + 0.5) / width
+    y = -0.2 + 1.5 - 3.0 * (np.arange(height) + 0.5) / height
+    depth = np.full((height, width), np.inf)
+    for x0, x1, z in quads:
+        depth[np.ix_(np.abs(y) <= 1.0, (x0 <= x) & (x <= x1))] = 5.0 - z
+    hit = np.isfinite(depth)
+    assert (depth[hit] < 0).any() and (depth[hit] > 0).any() and (~hit).any()
+    near, far = depth[hit].min(), depth[hit].max()
+    want = np.where(hit, 0.1 + 0.9 * (depth - near) / (far - near), 0.0)
+    image = wrt.render(wrt.load_usd(path), camera="/Cam", width=width, height=height, integrator="depth",
+                       device="cpu")
+    np.testing.assert_allclose(image.aovs["depth"], np.where(hit, depth, np.inf), rtol=1e-5)
+    np.testing.assert_allclose(image.rgb, np.repeat(want[..., None], 3, axis=-1), atol=1e-6)
+    stored = png_pixels(image.save(tmp_path / "d.png"))[..., 0]
+    assert (stored[hit] >= 25).all() and (stored[~hit] == 0).all()
+
+
 def test_batch_normals_png_is_the_single_renders(tmp_path):
     path = write(tmp_path, BODY)
     scene = load(path)

@@ -73,14 +73,26 @@ def data_to_8bit(values: np.ndarray) -> np.ndarray:
     return np.round(values * 255.0).astype(np.uint8)
 
 
+BEHIND_GREY = 0.1  # grey of the nearest hit where some hit lies behind the camera's plane (misses stay 0)
+
+
 def depth_grey(depth: np.ndarray) -> np.ndarray:
     """``(H, W)`` distances -> ``(H, W)`` grey levels in [0, 1]: the distance over the farthest finite one (near
-    dark, far white, in proportion), and 0 where there is none (a miss: ``inf`` or NaN). Depth as a picture is data,
-    as a normal map is: the ``depth`` integrator's ``rgb`` and the ``depth`` and ``z`` AOVs' previews, both stored
-    as ``round(255 v)`` (:func:`data_to_8bit`), not sRGB-encoded."""
+    dark, far white, in proportion), and 0 where there is none (a miss: ``inf`` or NaN). Where some distance is
+    negative (a hit behind the plane of an orthographic camera whose near clip is negative), the hits run in
+    proportion from :data:`BEHIND_GREY` at the nearest to white at the farthest: clipped to 0, those behind were
+    drawn black as misses. Depth as a picture is data, as a normal map is: the ``depth`` integrator's ``rgb`` and
+    the ``depth`` and ``z`` AOVs' previews, both stored as ``round(255 v)`` (:func:`data_to_8bit`), not
+    sRGB-encoded."""
     depth = np.asarray(depth, np.float64)
     finite = np.isfinite(depth)
-    far = float(depth[finite].max()) if finite.any() else 0.0
+    if not finite.any():
+        return np.zeros(depth.shape)
+    near, far = float(depth[finite].min()), float(depth[finite].max())
+    if near < 0.0:
+        span = far - near
+        ramp = (np.where(finite, depth, near) - near) / span if span > 0.0 else np.ones(depth.shape)
+        return np.where(finite, BEHIND_GREY + (1.0 - BEHIND_GREY) * ramp, 0.0)
     return np.clip(np.where(finite, depth, 0.0) / (far if far > 0.0 else 1.0), 0.0, 1.0)
 
 
