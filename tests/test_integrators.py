@@ -281,6 +281,39 @@ def test_a_thin_lens_blurs_a_point_into_the_circle_of_confusion_in_tenths_of_a_s
     assert 2.0 * math.sqrt(x_var) == pytest.approx(radius, rel=0.05)
 
 
+def _disk_share_beyond(a: np.ndarray, radius: float) -> np.ndarray:
+    """The share of a uniform disk of ``radius`` about 0 where ``x > a`` (float64)."""
+    a = np.clip(a / radius, -1.0, 1.0)
+    return (np.arccos(a) - a * np.sqrt(1.0 - a * a)) / np.pi
+
+
+def test_every_colour_sample_of_a_thin_lens_samples_the_lens():
+    """Sample 0 went through the lens centre (as the AOVs' ray does): every render blended a sharp pinhole image
+    into the blur at weight 1 / spp, so renders of 2 samples averaged over seeds showed an edge half sharp. A glowing
+    half-plane x < 0 at distance 10, focused at 5: the ray from lens point (l_x, l_y) through the focus-plane point
+    p hits the half-plane at x = 2 p - l_x, so a pixel's expected radiance is the share of the lens disk where
+    l_x > 2 p, averaged over the pixel (float64). The AOVs still come from the ray through both centres: sharp."""
+    glow = Material(diffuse_color=0.0, emissive_color=1.0)
+    plane = quad((-10.0, 0.0, -5.0), (20.0, 0, 0), (0, 40.0, 0), name="/plane", material=0)
+    scene = wrt.Scene(meshes=[plane], materials=[glow], meters_per_unit=0.01)
+    lens = wrt.Camera.look_at(eye=(0, 0, 5), target=(0, 0, 0), fov_y_deg=30, f_stop=2.0, focus_distance=5.0)
+    width, height, seeds = 64, 32, 16
+    renderer = wrt.Renderer(scene, camera=lens, width=width, height=height, device="cpu", integrator="path",
+                            max_depth=1)
+    images = [renderer.render(spp=2, seed=seed) for seed in range(seeds)]
+    mean = np.mean([image.rgb[..., 0] for image in images], axis=(0, 1))  # rows alike: the edge is vertical
+
+    half_width = 5.0 * math.tan(math.radians(15.0)) * width / height  # of the view, on the focus plane
+    radius = 50.0 * 0.1 / 2.0 / 2.0  # focal length 50 tenths of a unit at f/2
+    steps = (np.arange(200) + 0.5) / 200  # across each pixel
+    p = (-1.0 + 2.0 * (np.arange(width)[:, None] + steps[None, :]) / width) * half_width
+    expected = _disk_share_beyond(2.0 * p, radius).mean(axis=1)
+    assert expected.min() < 0.01 and expected.max() > 0.99 and ((expected > 0.1) & (expected < 0.9)).sum() > 8
+    np.testing.assert_allclose(mean, expected, atol=0.06)  # 1024 samples a column: sigma <= 0.016
+    centres = (-1.0 + 2.0 * (np.arange(width) + 0.5) / width) * half_width
+    assert (images[0].aovs["prim"][0] >= 0).tolist() == (centres < 0).tolist()  # the AOVs' ray: no blur
+
+
 @pytest.mark.parametrize("device", DEVICES)
 def test_path_tracer_is_deterministic_and_device_independent(device):
     scene = mirror_scene()

@@ -62,6 +62,7 @@ MAX_PIXELS = 1 << 26  # 67 Mpixel: larger requests are refused before allocating
 MAX_PATHS_PER_LAUNCH = 1 << 20  # default batch: as many samples per launch as fit in this many paths
 MAX_LAUNCH_PATHS = (1 << 31) - 1  # Warp's arrays and wp.tid() are 32-bit: no launch can index more paths
 DEFAULT_MAX_DEPTH = {"path": 10, "whitted": 8}  # surface interactions per path
+QUICK_LOOKS = ("normals", "depth", "albedo")  # integrators whose image is made from the AOVs (one sample)
 DATA_INTEGRATORS = ("normals", "depth")  # their images are data (Image.data): a PNG stores them unencoded
 MAX_DEPTH = 1024  # one launch per bounce; the kernels take it as a 32-bit int (2^32 + 2 wrapped onto 2)
 RR_DEPTH = 3  # Russian roulette starts after this many bounces
@@ -738,7 +739,8 @@ class Renderer:
         its index where ``batched``) before any change when one of them is bad."""
         structs = camera_structs(cameras, self.width, self.height, batched)
         cams = wp.array(structs, dtype=DeviceCamera, device=self.device)
-        lenses = wp.array([self._lens(c) for c in cameras], dtype=wp.vec2, device=self.device)
+        lens_list = [self._lens(c) for c in cameras]
+        lenses = wp.array(lens_list, dtype=wp.vec2, device=self.device)
         if getattr(self, "_cams", None) is not None and len(self._cams) == len(cams):
             # Copied into the arrays the kernels were given, not swapped for new ones: a frame recorded as a CUDA
             # graph (launch_frame) replays with the arrays it was recorded with, and kept drawing the old poses.
@@ -747,6 +749,7 @@ class Renderer:
         else:
             self._cams, self._lenses = cams, lenses
         self.cameras, self.camera = cameras, cameras[0]
+        self._thin_lens = any(radius > 0.0 for radius, _ in lens_list)  # some camera has depth of field
         # Read now, as the pose and lens are: a camera changed after this is uploaded again at the next render
         # (_follow_cameras), and a scale made NaN after its check would have darkened the image silently.
         self._exposures = [float(c.exposure_scale) for c in cameras]
@@ -792,7 +795,7 @@ class Renderer:
         progress, resume = flag(progress, "progress"), flag(resume, "resume")
         self._follow_scene()  # a rebuild drops the progressive sums
         self._follow_cameras()  # so does a camera edit
-        quick_look = self.integrator in ("normals", "depth", "albedo")
+        quick_look = self.integrator in QUICK_LOOKS
         state = self._progressive
         resuming = resume and state is not None and state["seed"] == seed and not quick_look
         if resume and not resuming and not quick_look and (state is not None or self._sums_dropped):
@@ -914,13 +917,24 @@ class Renderer:
         _, image, _, aovs = self._frame
         return self._mean_image(image, 1, aovs)
 
-    def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs):
+    def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, lens_first: int) -> None:
         wp.launch(
             start_paths_kernel,
             w.n,
-            inputs=[self._cams, self._lenses, self.width, self.height, first_sample, seed],
+            inputs=[self._cams, self._lenses, self.width, self.height, first_sample, seed, lens_first],
             outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.views],
         )
+
+    def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs):
+        # Behind a thin lens every colour sample samples the lens: sample 0 through its centre, the AOVs' ray, made
+        # the colour's mean a blend of the blur and a sharp pinhole image (weight 1 / spp). The AOV rays are then
+        # traced apart, once. The quick looks' image is their AOVs: their one sample stays the AOV ray.
+        lens_first = int(self._thin_lens and self.integrator not in QUICK_LOOKS)
+        if lens_first and aovs is not None and not aovs.done:
+            v = w.view(aovs.n)
+            self._start_paths(v, first_sample, seed, 0)
+            self._intersect(v, aovs, camera_rays=True, count_covered=False)
+        self._start_paths(w, first_sample, seed, lens_first)
         if self.integrator == "path":
             self._trace_paths(w, aovs)
         elif self.integrator == "whitted":
@@ -932,10 +946,11 @@ class Renderer:
             else:
                 w.radiance.zero_()
 
-    def _intersect(self, w: _Wavefront, aovs, camera_rays: bool = True):
+    def _intersect(self, w: _Wavefront, aovs, camera_rays: bool = True, count_covered: bool = True):
         """Closest hits of the current rays past the holes of cut-outs (for camera rays: past culled back faces too);
         of camera rays, the samples that hit are counted for the coverage AOV (added by
-        :meth:`_AovBuffers.add_covered`), and the first time, the AOVs of sample 0 are written."""
+        :meth:`_AovBuffers.add_covered`; not for the AOV rays traced apart, ``count_covered`` False), and the first
+        time, the AOVs of sample 0 are written."""
         passes = None
         if self._sync_free:
             passes = CAPTURE_CULL_PASSES if self.no_holes else MAX_CULL_PASSES
@@ -952,7 +967,7 @@ class Renderer:
                 outputs=aovs.outputs,
             )
             aovs.done = True
-        if aovs is not None and camera_rays:
+        if aovs is not None and camera_rays and count_covered:
             wp.launch(count_covered_kernel, aovs.n, inputs=[w.hits.prim, aovs.n, w.n // aovs.n],
                       outputs=[aovs.launch_covered])
 

@@ -32,8 +32,10 @@ Conventions:
   (:mod:`wrt.light_links`).
   Glass (``opacity < 1`` without a threshold) is not a hole and blocks them: a unidirectional path tracer gets its
   light through refraction.
-- Sample 0 of every pixel goes through the pixel centre and the lens centre; later samples jitter both
-  (deterministic in ``seed``, pixel and sample index). AOVs come from sample 0.
+- Sample 0 of every pixel goes through the pixel centre, and its AOV ray through the lens centre too; later samples
+  jitter both (deterministic in ``seed``, pixel and sample index). AOVs come from sample 0. Behind a thin lens the
+  colour's sample 0 samples the lens as the others do (``lens_first``; its AOV ray is then traced apart): through
+  the lens centre it blended a sharp pinhole image into the blur at weight ``1 / spp``.
 """
 
 import warp as wp
@@ -434,12 +436,15 @@ def camera_sample(
     height: int,
     pixel: int,
     sample: int,
+    lens_first: int,
     state: wp.uint32,
 ):
     """Camera ray of ``sample`` at ``pixel``: origin, unit direction, ``t`` range and the advanced RNG state.
 
-    Sample 0 goes through the pixel centre and the lens centre; others are jittered over the pixel and, with
-    ``lens_radius > 0``, over the thin lens focused at ``focus_distance`` (measured along the view axis).
+    Sample 0 goes through the pixel centre and, unless ``lens_first`` is 1, the lens centre (the AOV ray); others
+    are jittered over the pixel and, with ``lens_radius > 0``, over the thin lens focused at ``focus_distance``
+    (measured along the view axis). With ``lens_first`` 1 sample 0 samples the lens too, so that every colour
+    sample does (the colour's mean is the thin lens's blur, with no pinhole image blended in).
     """
     i = pixel // width
     j = pixel - i * width
@@ -447,13 +452,17 @@ def camera_sample(
     sy = float(0.5)
     lx = float(0.5)
     ly = float(0.5)
+    thin_lens = lens_radius > 0.0 and cam.orthographic == 0
     if sample > 0:
         sx, state = rand01(state)
         sy, state = rand01(state)
         lx, state = rand01(state)
         ly, state = rand01(state)
+    elif thin_lens and lens_first == 1:  # (a pinhole's sample 0 draws nothing: its images stay as they were)
+        lx, state = rand01(state)
+        ly, state = rand01(state)
     o, ray = film_ray(cam, (float(j) + sx) / float(width), (float(i) + sy) / float(height))
-    if lens_radius > 0.0 and cam.orthographic == 0 and sample > 0:
+    if thin_lens and (sample > 0 or lens_first == 1):
         # Lens and focus plane are in camera space; ray keeps advancing one unit of camera-space depth per unit.
         focus = o + focus_distance * ray
         lens = sample_concentric_disk(lx, ly) * lens_radius
@@ -477,6 +486,7 @@ def start_paths_kernel(
     height: int,
     first_sample: int,
     seed: int,
+    lens_first: int,
     # outputs
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
@@ -493,8 +503,10 @@ def start_paths_kernel(
     """Starts one path per (sample, view, pixel): entry ``i`` is pixel ``i % (V W H)`` of sample
     ``first_sample + i // (V W H)``, and that pixel is pixel ``p % (W H)`` of view (camera) ``p // (W H)``.
 
-    ``lenses[view]`` is (lens radius, focus distance). The random stream depends on the pixel within its view, not
-    on the view, so view ``k`` of a batch is exactly the image a render of camera ``k`` alone gives.
+    ``lenses[view]`` is (lens radius, focus distance); ``lens_first``: 1 where sample 0 samples the lens (a colour
+    path), 0 where it goes through the lens centre (the AOV ray) (:func:`camera_sample`). The random stream depends
+    on the pixel within its view, not on the view, so view ``k`` of a batch is exactly the image a render of camera
+    ``k`` alone gives.
     """
     i = wp.tid()
     n_view = width * height
@@ -505,7 +517,8 @@ def start_paths_kernel(
     pixel = p - view * n_view
     state = path_rng(seed, pixel, sample)
     lens = lenses[view]
-    o, d, t0, t1, state = camera_sample(cams[view], lens[0], lens[1], width, height, pixel, sample, state)
+    o, d, t0, t1, state = camera_sample(cams[view], lens[0], lens[1], width, height, pixel, sample, lens_first,
+                                         state)
     origins[i] = o
     directions[i] = d
     t_mins[i] = t0
