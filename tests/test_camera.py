@@ -500,7 +500,9 @@ def test_random_clipping_planes_and_image_shapes_keep_usds_frustum(tmp_path, see
 def test_clipping_range_limits_depth():
     cam = wrt.Camera(focal_length=50.0, horizontal_aperture=36.0, clipping_range=(0.1, 5.0))
     scene = quad_scene(-100.0, 100.0, -100.0, 100.0, -10.0)
-    img = wrt.render(scene, camera=cam, width=8, height=8, device="cpu")
+    with pytest.warns(UserWarning, match=r"camera sees nothing: its clipping range \(0.1, 5\) holds no part of the "
+                      r"scene, which lies from 10 to 10 along its view"):
+        img = wrt.render(scene, camera=cam, width=8, height=8, device="cpu")
     assert (img.aovs["prim"] == -1).all()
 
 

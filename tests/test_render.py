@@ -151,6 +151,34 @@ def test_a_camera_path_naming_a_prim_of_another_type_says_its_type(tmp_path):
         wrt.render(scene, camera="/World/Off", width=8, height=6, device="cpu")
 
 
+@pytest.mark.parametrize("clipping, outside", [
+    ((1e30, 1e31), True), ((11.0, 100.0), True), ((0.01, 4.0), True),  # beyond the scene, or the scene beyond far
+    ((7.0, 100.0), False), ((0.01, 6.0), False), ((0.01, 1e6), False),  # partly or wholly inside: no word
+])
+def test_a_clipping_range_that_holds_no_part_of_the_scene_is_warned_of(clipping, outside):
+    """A camera clipping range of (1e30, 1e31) rendered background without a word. Two quads face the camera 5 and
+    10 units ahead (the scene's extent along the view, by construction): a range holding none of 5 to 10 is warned
+    of, naming the camera, its range and that extent; a scene partly inside it never is."""
+    import warnings
+
+    from shading_helpers import quad
+
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (1, 0, 0), (0, 1, 0), name="/a"),
+                              quad((0.5, 0, -5), (3, 0, 0), (0, 3, 0), name="/b")])
+    cam = wrt.Camera.look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), fov_y_deg=40, clipping_range=clipping, path="/Cam")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        image = wrt.render(scene, camera=cam, width=8, height=6, device="cpu", integrator="depth")
+    said = [str(w.message) for w in caught if "sees nothing" in str(w.message)]
+    assert (image.aovs["prim"] >= 0).any() != outside  # the oracle of 'nothing seen': the render itself
+    if outside:
+        assert said == [f"scene: camera /Cam sees nothing: its clipping range ({clipping[0]:g}, {clipping[1]:g}) "
+                        "holds no part of the scene, which lies from 5 to 10 along its view; the image is background "
+                        "only"], said
+    else:
+        assert said == []
+
+
 def test_camera_lists_and_scene_type_get_errors_that_say_what_is_wrong(room):
     """A path given where a list of cameras belongs was read one character at a time ("no camera at '/'"); one
     argument alone was told "not both"; a path as the scene failed with an AttributeError from deep inside."""

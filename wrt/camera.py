@@ -335,6 +335,14 @@ class Camera:
                 values[k] = (type(v), a.shape, a.dtype.str, a.tobytes())
         return tuple(values)
 
+    def depth_extent(self, lower, upper) -> tuple[float, float]:
+        """``(nearest, farthest)`` camera-space depth (along the view, the clipping range's measure) of the corners of
+        the world box ``lower``-``upper``: every point of the box lies in that range, whatever the camera's
+        transform (scale and shear included)."""
+        corners = np.array([[(lower, upper)[k >> a & 1][a] for a in range(3)] + [1.0] for k in range(8)], np.float64)
+        depths = -(np.linalg.inv(np.asarray(self.to_world, np.float64)) @ corners.T)[2]
+        return float(depths.min()), float(depths.max())
+
     def label(self) -> str:
         """``camera /Path`` for messages, or just ``camera`` for one built in Python (no double space)."""
         return f"camera {self.path}" if self.path else "camera"

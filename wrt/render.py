@@ -21,7 +21,7 @@ import numpy as np
 import warp as wp
 
 from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
-from .errors import SceneError, did_you_mean, flag
+from .errors import SceneError, did_you_mean, flag, user_stacklevel
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
 from .integrators import INTEGRATORS, LIGHT_SAMPLING_INTEGRATORS
@@ -145,6 +145,20 @@ def resolve_camera(scene: Scene, camera) -> Camera:
         error.prim = camera  # set after: the message names it once, where it reads best
         raise error
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
+
+
+def warn_clipped_away(scene: Scene, cameras: list) -> None:
+    """Warns of each camera whose clipping range holds no point of the scene's box (a range of (1e30, 1e31), or a
+    far plane nearer than the scene): its image is background only, which was drawn without a word. A scene partly
+    inside the range is never warned of: the box's corners bound the depth of every point."""
+    lower, upper = scene.bounds()
+    for cam in cameras:
+        near, far = cam.clipping_range
+        nearest, farthest = cam.depth_extent(lower, upper)
+        if farthest < near or nearest > far:
+            warnings.warn(f"{scene.source or 'scene'}: {cam.label()} sees nothing: its clipping range ({near:g}, "
+                          f"{far:g}) holds no part of the scene, which lies from {nearest:g} to {farthest:g} along "
+                          "its view; the image is background only", stacklevel=user_stacklevel())
 
 
 def few_paths(paths, shown: int = 6) -> str:
@@ -509,6 +523,8 @@ class Renderer:
         self._sides = self._asked_size  # the sides that size the image without render settings (set_cameras pins them)
         self._build()
         self._camera_key = self._camera_sources_key()
+        if stats["rendered_triangles"] or stats.get("rendered_shapes", 0):
+            warn_clipped_away(scene, self.cameras)
 
     def _build(self) -> None:
         """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
