@@ -209,7 +209,7 @@ def test_preview_names_the_bvh_colouring_meant(floor):
 @pytest.mark.parametrize("projection, meant", [("Orthographic", "orthographic"), ("ortho", "orthographic"),
                                                ("persp", "perspective")])
 def test_a_mistyped_camera_projection_names_the_one_meant(projection, meant):
-    with pytest.raises(ValueError, match=rf"not '{projection}' \(did you mean '{meant}'\?\)"):
+    with pytest.raises(ValueError, match=rf"not projection='{projection}' \(did you mean '{meant}'\?\)"):
         wrt.Camera.look_at((0, 3, 8), (0, 0, 0), projection=projection)
 
 

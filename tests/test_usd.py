@@ -1314,7 +1314,7 @@ def test_indexed_primvar_bad_index(tmp_path, name):
 
 def test_bad_camera(tmp_path):
     """Skipped with a warning (the stage may be rendered from another camera); asking for it raises why."""
-    body = 'def Camera "Cam"\n{\n    float horizontalAperture = 0\n}\n'
+    body = 'def Camera "Cam"\n{\n    float horizontalAperture = -1\n}\n'  # 0 is fine: expandAperture grows it
     with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped.*camera needs finite positive.*/Cam"):
         scene = load_usd(write_usda(tmp_path, body))
     with pytest.raises(SceneError, match="scene.usda: /Cam: camera needs finite positive"):

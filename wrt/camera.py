@@ -487,7 +487,8 @@ def _check_keywords(method: str, kwargs: dict, own: str, fixed: dict | None = No
                             f"{did_you_mean(name, [own, *fields])}")
         if fixed and name in fixed and not (isinstance(value, str) and value == fixed[name]):
             other = "Camera.orthographic" if fixed[name] == "perspective" else "Camera.look_at"
-            raise ValueError(f"Camera.{method}() makes {fixed[name]} cameras only, not {name}={value!r}: use "
+            meant = did_you_mean(value, ("perspective", "orthographic")) if isinstance(value, str) else ""
+            raise ValueError(f"Camera.{method}() makes {fixed[name]} cameras only, not {name}={value!r}{meant}: use "
                              f"{other}() or Camera()")
 
 
