@@ -547,3 +547,21 @@ def test_a_kept_renderer_frames_the_scene_along_an_up_axis_set_since():
     scene.up_axis = "Z"
     kept = renderer.render().rgb
     np.testing.assert_array_equal(kept, wrt.Renderer(scene, width=16, height=12, device="cpu").render().rgb)
+
+
+def test_a_kept_renderer_follows_dark_lights_set_since_as_a_new_renderer_does():
+    """``scene.dark_lights`` (the stage's lights that give none) decides whether a scene without lights gets the
+    default lights: a kept Renderer read it only when something else changed, so after the last light was listed as
+    hidden it kept the default lights a new Renderer leaves out, and after the list was emptied it drew black where a
+    new Renderer draws the default lights."""
+    scene = wrt.Scene(meshes=[square("/Square")])
+    kept = wrt.Renderer(scene, **OPTIONS)
+    lit = kept.render(spp=1).rgb
+    assert lit.max() > 0.0
+    for dark in (["/Lamp"], []):
+        scene.dark_lights = dark
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", "scene: no light: the stage's lights give none")
+            expected = wrt.Renderer(scene, **OPTIONS).render(spp=1).rgb
+            np.testing.assert_array_equal(kept.render(spp=1).rgb, expected)
+        assert (expected.max() == 0.0) == bool(dark)

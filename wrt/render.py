@@ -544,6 +544,7 @@ class Renderer:
             self._upload_shading()
         self._scene_generation = self.scene.cache_generation
         self._scene_lights = tuple(dataclass_parts(self.scene.lights))
+        self._dark = bool(self.scene.dark_lights)  # what decides the default lights, with the lights (_upload_shading)
         self.scene.freeze(self._scene_lights)  # a light's array edited in place went unseen, as a mesh's did
         self._wavefront = None
         self._frame = None  # buffers of launch_frame
@@ -565,7 +566,9 @@ class Renderer:
         lights = tuple(dataclass_parts(self.scene.lights))
         for light in self.scene.lights:  # light.exposure = 2 adds no field: the record above does not change
             check_folded_inputs(light)
-        if self.scene.cache_generation != self._scene_generation or parts_changed(self._scene_lights, lights):
+        # scene.dark_lights set alone (the last light listed as hidden) kept or left out the default lights wrongly.
+        dark = bool(self.scene.dark_lights) != self._dark
+        if self.scene.cache_generation != self._scene_generation or parts_changed(self._scene_lights, lights) or dark:
             if wp.get_device(self.device).is_capturing:  # a build's uploads cannot be recorded into a CUDA graph
                 raise RuntimeError("the scene changed since the renderer was built: call launch_frame() once "
                                    "outside the capture, then record the frame again")
