@@ -860,6 +860,44 @@ def test_an_os_error_names_the_path_first_without_python_s_errno(tmp_path, capsy
     assert not list(tmp_path.iterdir())
 
 
+def test_an_os_error_about_a_file_descriptor_is_worded_naming_the_descriptor(capsys, monkeypatch):
+    """An OS error of a file descriptor (``os.stat(fd)`` of a closed one: ``filename`` is the int) raised TypeError
+    in ``error_line`` (``os.fsdecode(int)``) and in the kernel-cache hint (``Path(int)``): a traceback in place of
+    the one line. Python's own strerror is the oracle of the wording."""
+    import errno
+
+    import wrt.cli
+
+    fd = os.open(os.devnull, os.O_RDONLY)
+    os.close(fd)
+    with pytest.raises(OSError) as raised:
+        os.stat(fd)
+    assert raised.value.filename == fd
+    monkeypatch.setattr(wrt.cli, "build_parser", lambda: FailingParser(raised.value))
+    assert main([]) == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line == f"wrt: error: file descriptor {fd}: {os.strerror(errno.EBADF).lower()}", line
+    missing = Path(wp.config.kernel_cache_dir or "/") / "missing"  # named by bytes: Path(bytes) raised TypeError
+    with pytest.raises(OSError) as raised:
+        os.stat(os.fsencode(missing))
+    assert main([]) == 2
+    (line,) = error_lines(capsys.readouterr().err)
+    assert line.startswith(f"wrt: error: {missing}: {os.strerror(errno.ENOENT).lower()}"), line
+
+
+class FailingParser:
+    """A parser whose command raises ``error``."""
+
+    def __init__(self, error: Exception):
+        self.error = error
+
+    def parse_args(self, argv):
+        def run(args):
+            raise self.error
+
+        return type("Args", (), {"run": staticmethod(run)})()
+
+
 def test_a_reader_that_closes_stdout_ends_the_run_quietly(tmp_path):
     """'wrt bvh-stats scene.usda | head -1': the reader gone, the run said 'wrt: error: [Errno 32] Broken pipe' with
     status 2, the status of bad input. Now nothing is said and the status is a SIGPIPE's, 141, as other tools give."""

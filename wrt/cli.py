@@ -1130,9 +1130,10 @@ def build_parser() -> argparse.ArgumentParser:
 def error_line(error: Exception) -> str:
     """The first line of ``error``'s message, or its type where it has none. An OS error of Python's own wording
     (``[Errno 36] File name too long: 'aaaa...png'``) reads ``aaaa...png: file name too long``, the path first, as
-    wrt's own errors name it."""
+    wrt's own errors name it; one of a file descriptor (``os.stat(3)``) reads ``file descriptor 3: ...``."""
     if isinstance(error, OSError) and error.strerror and error.filename is not None and str(error).startswith("[Errno"):
-        paths = " -> ".join(os.fsdecode(p) for p in (error.filename, error.filename2) if p is not None)
+        paths = " -> ".join(f"file descriptor {p}" if isinstance(p, int) else os.fsdecode(p)
+                            for p in (error.filename, error.filename2) if p is not None)
         return f"{paths}: {error.strerror[:1].lower()}{error.strerror[1:]}"
     return str(error).splitlines()[0] if str(error) else type(error).__name__
 
@@ -1142,9 +1143,9 @@ def _kernel_cache_hint(error: Exception, cache_dir: str | None) -> str:
     the home folder when it starts (and writes compiled kernels there), so a missing or read-only home fails with
     only a path in the message."""
     failed = getattr(error, "filename", None)
-    if not (failed and cache_dir):
+    if not (isinstance(failed, (str, bytes, os.PathLike)) and failed and cache_dir):  # not a file descriptor
         return ""
-    failed, cache = Path(failed), Path(cache_dir)
+    failed, cache = Path(os.fsdecode(failed)), Path(cache_dir)  # bytes too (os.stat(b"...") names bytes)
     if failed != cache and failed not in cache.parents and cache not in failed.parents:
         return ""
     return f" (Warp's kernel cache {cache}: set WARP_CACHE_PATH to a writable folder)"
