@@ -607,6 +607,45 @@ def test_mesh_without_the_primvar_reads_the_readers_fallback(tmp_path, mesh_st):
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
+@pytest.mark.parametrize("on", ["mesh", "instance"])
+def test_an_empty_constant_st_is_named_as_empty_and_reads_the_readers_fallback(tmp_path, on):
+    """``texCoord2f[] primvars:st = []`` (constant) on a native instance, handed down to its prototype's mesh, was
+    named "values that are not an array of 2-, 3- or 4-vectors", which an empty array of them is: it is named by its
+    length now, as the mesh's own empty st is, and the mesh reads the reader's fallback. The oracle of the length is
+    USD's own primvar API; of the colour, CHECKER's texel at the fallback."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    reader = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St"))
+    reader.CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(0.75, 0.25))  # the grey block's middle
+    holder = "/Quad"
+    if on == "instance":
+        stage.RemovePrim("/Quad")
+        stage.CreateClassPrim("/Asset")
+        quad = add_quad(stage, "/Asset/Quad")
+        UsdGeom.PrimvarsAPI(quad).RemovePrimvar("st")
+        bind(quad, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+        holder = "/A1"
+        instance = UsdGeom.Xform.Define(stage, holder).GetPrim()
+        instance.GetReferences().AddInternalReference("/Asset")
+        instance.SetInstanceable(True)
+        UsdGeom.PrimvarsAPI(instance).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.constant)
+    st = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(holder)).GetPrimvar("st")
+    st.BlockIndices()
+    st.Set(Vt.Vec2fArray())
+    st.SetInterpolation(UsdGeom.Tokens.constant)
+    stage.Save()
+    assert len(UsdGeom.PrimvarsAPI(Usd.Stage.Open(path).GetPrimAtPath(holder)).GetPrimvar("st").Get()) == 0
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        img = albedo(path)
+    messages = [str(w.message) for w in caught]
+    assert not [m for m in messages if "not an array" in m], messages
+    assert [m for m in messages if "primvars:st has 0 values; constant interpolation needs 1" in m
+            and m.endswith(holder)], messages
+    np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
+
+
 @pytest.mark.parametrize("between", [None, "constant", "vertex"])
 def test_a_mesh_without_st_reads_a_constant_st_of_an_ancestor(tmp_path, between):
     """A mesh without the texture-coordinate primvar its texture reads takes a constant one of its nearest ancestor

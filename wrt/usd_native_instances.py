@@ -11,7 +11,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Context, instance_looks
-from .usd_primvars import flattened
+from .usd_primvars import PRIMVAR_DROPPED, flattened
 from .usd_values import read_time
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
@@ -201,9 +201,12 @@ class NativeInstanceReading:
         holder = attr.GetPrim()
         raw = flattened(primvar, read_time(attr, self.time), holder, self._skip)
         values = np.asarray(raw if raw is not None else [])
-        if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu" or not len(values):
+        if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu":
             self._skip(f"{attr.GetName()} values that are not an array of 2-, 3- or 4-vectors were ignored", holder,
                        f"{self._authored_type(attr)} holding {type(raw).__name__}")
+            return None
+        if not len(values):  # st = []: an array of vectors, empty (it was named as no array of them), as a mesh's own
+            self._skip(PRIMVAR_DROPPED, holder, f"{attr.GetName()} has 0 values; constant interpolation needs 1")
             return None
         if not np.isfinite(values[0, :2]).all():  # as a mesh's own (MeshPrimvarReading._read_uvs)
             self._skip("texture coordinates that are not finite were read as none: the textures there show their "
