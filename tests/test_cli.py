@@ -909,3 +909,23 @@ def test_a_reader_that_closes_stdout_ends_the_run_quietly(tmp_path):
     stderr = process.stderr.read()
     assert process.wait(timeout=600) == 141, stderr
     assert error_lines(stderr) == []
+
+
+def test_a_double_dash_before_the_command_ends_the_options_as_python_3_13_reads_it(capsys):
+    """``wrt -- render`` said "invalid choice: '--'": ``--`` ends the options, and Python 3.13's argparse drops the
+    one before a subcommand (gh-53780), so it parses as ``wrt render``; the ``--`` after the command is the command's
+    (a scene named ``-s.usda``). A ``--`` with no command after it is named."""
+    from wrt.cli import build_parser
+
+    def parsed(argv):
+        return vars(build_parser().parse_args(argv))
+
+    assert parsed(["--", "render", "--width", "8"]) == parsed(["render", "--width", "8"])
+    assert parsed(["--", "render", "--", "-s.usda"])["scene"] == parsed(["render", "--", "-s.usda"])["scene"]
+    for argv, after in ((["--"], "nothing"), (["--", "--version"], "'--version'")):
+        with pytest.raises(SystemExit) as exited:
+            build_parser().parse_args(argv)
+        assert exited.value.code == 2
+        (line,) = error_lines(capsys.readouterr().err)
+        assert line.startswith(f"wrt: error: '--' ends the options: a COMMAND (render, preview, bench, bvh-stats) "
+                               f"must follow it, got {after}"), line

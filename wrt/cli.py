@@ -74,7 +74,8 @@ class _Parser(argparse.ArgumentParser):
         """As argparse's, but an unknown option after a command is reported by that command's parser, with the
         closest option it has: argparse's own error came from the top parser and pointed at 'wrt --help', which
         lists the commands, not their options."""
-        self._check_options_before_the_command(sys.argv[1:] if args is None else list(args))
+        args = self._without_dashes_before_the_command(sys.argv[1:] if args is None else list(args))
+        self._check_options_before_the_command(args)
         parsed, extras = self.parse_known_args(args, namespace)
         if extras:
             command = self._commands().get(getattr(parsed, "command", None), self)
@@ -84,6 +85,21 @@ class _Parser(argparse.ArgumentParser):
             hint = did_you_mean(unknown[2:].split("=")[0], names).replace(" '", " '--") if unknown[:2] == "--" else ""
             command.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
         return parsed
+
+    def _without_dashes_before_the_command(self, args: list) -> list:
+        """``args`` without a ``--`` before the command (``wrt -- render``), which ends the top parser's options, as
+        Python 3.13's argparse drops it (before, 'invalid choice: '--''); a ``--`` followed by no command is named."""
+        commands = self._commands()
+        for i, arg in enumerate(args):
+            if not commands or arg in commands:
+                return args
+            if arg == "--":
+                after = args[i + 1] if i + 1 < len(args) else None
+                if after is None or after.startswith("-"):
+                    self.error(f"'--' ends the options: a COMMAND ({', '.join(commands)}) must follow it, got "
+                               f"{'nothing' if after is None else repr(after)}")
+                return args[:i] + args[i + 1:]
+        return args
 
     def _check_options_before_the_command(self, args: list) -> None:
         """An unknown option before the command (``wrt --frobnicate``, ``wrt --width 8 render``) is named: argparse
