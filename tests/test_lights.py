@@ -1,6 +1,7 @@
 """Lights: irradiance on a plane against closed-form values, UsdLux radiometry (intensity, exposure, colour,
 normalize) read from USD, and the default lights of a stage without any."""
 
+import copy
 import dataclasses
 import math
 import re
@@ -765,10 +766,12 @@ def test_light_whose_shadows_pass_a_blocker_lights_the_floor_behind_it_fully(pas
 SHADOW_TINT = np.array([0.5, 0.25, 0.0])
 
 
-def render_over_blocker(light, integrator, spp=64):
-    """``(RES, RES, 3)`` radiance of the plane under :data:`BLOCKER`, lit by ``light`` alone (direct light only)."""
+def render_over_blocker(light, integrator, spp=64, lights_given=False):
+    """``(RES, RES, 3)`` radiance of the plane under :data:`BLOCKER`, lit by ``light`` alone (or the list of lights
+    ``light`` where ``lights_given``; direct light only)."""
     plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")
-    img = wrt.render(wrt.Scene(meshes=[plane, BLOCKER], lights=[light]), camera=top_down_camera(height=PATCH),
+    lights = light if lights_given else [light]
+    img = wrt.render(wrt.Scene(meshes=[plane, BLOCKER], lights=lights), camera=top_down_camera(height=PATCH),
                      width=RES, height=RES, spp=spp, seed=1, device="cpu", integrator=integrator, max_depth=1)
     assert np.isin(img.aovs["prim"], (0, 1)).all()
     return img.rgb
@@ -834,6 +837,21 @@ def test_shadow_falloff_fades_the_shadow_as_the_schema_says(integrator, distance
     # Each sample is blocked or not: the mean of the pixels' 64 samples each within 4 standard errors.
     np.testing.assert_allclose(rgb.mean(axis=0), expected, atol=4 * ALBEDO * np.sqrt(s * (1 - s) / (len(rgb) * 64))
                                + 1e-6)
+
+
+def test_shadow_falloff_fades_the_shadow_of_each_of_many_lights():
+    """The falloff of lights each picked with probability 2**-18 (a sun split into 2**18 suns over :data:`BLOCKER`):
+    the floor is lit as the schema's strength says. Before, a shadow ray's reach was drawn from where the light-pick
+    number (24 bits) fell inside the light's share of the cdf, which takes 2**24 * 2**-18 = 64 values: the strength
+    a staircase of 64 steps, 33/64 for 32.1/64 (6 standard errors too dark here)."""
+    n, falloff, strength = 2**18, 0.4, 32.1 / 64
+    sun = wrt.DistantLight(direction=(0, 0, -1), color=np.full(3, np.pi / n), shadow_distance=0.3 + strength * falloff,
+                           shadow_falloff=falloff)
+    rgb = render_over_blocker([copy.copy(sun) for _ in range(n)], "path", spp=256, lights_given=True)
+    s = shadow_strength(0.3, sun.shadow_distance, falloff, 1.0)
+    assert abs(s - strength) < 1e-6
+    samples = rgb.size // 3 * 256
+    np.testing.assert_allclose(rgb.mean(), ALBEDO * (1.0 - s), atol=4 * ALBEDO * np.sqrt(s * (1 - s) / samples))
 
 
 def test_usd_shadow_inputs_that_are_no_numbers_read_as_fallbacks_with_a_warning(tmp_path):

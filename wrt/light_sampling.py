@@ -498,6 +498,19 @@ def shadow_reach(lights: DeviceLights, k: int, t_max: float, u: float):
 
 
 @wp.func
+def shadow_fades(lights: DeviceLights, k: int):
+    """Light ``k``'s shadows fade out over a ShadowAPI falloff zone: its shadow rays need a number of their own for
+    :func:`shadow_reach` (where the light-pick number fell inside the light's share of the cdf takes only about
+    ``pmf * 2**24`` values: a staircase, not a fade, for one of 1e5 lights)."""
+    if lights.shadow_api_on == 1:
+        if lights.shadows[k] == SHADOWS_TINTED:
+            if lights.shadow_api[k][3] >= 0.0:
+                fade = lights.shadow_fade[k]
+                return fade[0] > 0.0 and fade[1] > 0.0
+    return False
+
+
+@wp.func
 def shadow_tint(lights: DeviceLights, k: int):
     """What reaches a surface of light ``k`` (-1: none) when its shadow ray is blocked: its ShadowAPI
     ``shadow:color`` (black for plain shadows)."""

@@ -30,12 +30,13 @@ from ..light_sampling import (
     lit_bsdf,
     sample_light_in_view,
     shadow_direction,
+    shadow_fades,
     shadow_reach,
     shadow_tint,
     triangle_light_pdf,
 )
 from ..materials import DeviceMaterials, eval_surface
-from ..sampling import cdf_remainder, luminance, max_component, rand01, sample_cdf
+from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, light_sample_weight, lights_on_segment, mis_weight, surface_emission
@@ -220,8 +221,10 @@ def shade_path_kernel(
                 w = light_sample_weight(lights, k, pmf * ls.pdf, pdf_f)
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 nee[i] = wp.cw_mul(wp.cw_mul(T, f), ls.value) * (cos_i * w / pmf)
-                # Where u_pick fell inside light k's share of the cdf: uniform, and independent of the light sample.
-                u_reach = cdf_remainder(lights.cdf, 0, lights.count, k, u_pick)
+                # A number of its own for a fading shadow only, so that other renders draw the numbers they drew.
+                u_reach = float(0.0)
+                if shadow_fades(lights, k):
+                    u_reach, state = rand01(state)
                 aim_shadow_ray(lights, k, h, ls, u_reach, i, shadow_origins, shadow_dirs, shadow_t_maxs,
                                shadow_lights)
 

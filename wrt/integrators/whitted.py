@@ -33,10 +33,10 @@ from ..bsdf import (
 from ..geometry import offset_ray_origin
 from ..hidden_hits import CullScratch
 from ..light_links import link_group, lit_by
-from ..light_sampling import DeviceLights, hit_emitter, lit_bsdf, sample_light_in_view, shadow_tint
+from ..light_sampling import DeviceLights, hit_emitter, lit_bsdf, sample_light_in_view, shadow_fades, shadow_tint
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
-from ..sampling import cdf_remainder, luminance, max_component, rand01, sample_cdf
+from ..sampling import luminance, max_component, rand01, sample_cdf
 from ..scene import DeviceScene
 from ..shade import DeviceSurfaces, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
@@ -204,10 +204,10 @@ def whitted_lights_kernel(
             if max_component(f) > 0.0:
                 cos_i = wp.abs(wp.dot(h.ns, ls.wi))
                 contribution[j * n + i] = wp.cw_mul(wp.cw_mul(throughput[i], f), ls.value) * (cos_i / p_pick)
-                # u_pick, or where it fell inside light k's share of the group's cdf: uniform, independent of ls.
+                # u_pick (unused by a group of one light), or a number of its own for a fading shadow (shadow_fades).
                 u_reach = u_pick
-                if count > 1:
-                    u_reach = cdf_remainder(lights.cdf, first, count, k - first, u_pick)
+                if count > 1 and shadow_fades(lights, k):
+                    u_reach, state = rand01(state)
                 aim_shadow_ray(lights, k, h, ls, u_reach, j * n + i, shadow_origins, shadow_dirs, shadow_t_maxs,
                                shadow_lights)
     rng[i] = state
