@@ -929,3 +929,27 @@ def test_a_double_dash_before_the_command_ends_the_options_as_python_3_13_reads_
         (line,) = error_lines(capsys.readouterr().err)
         assert line.startswith(f"wrt: error: '--' ends the options: a COMMAND (render, preview, bench, bvh-stats) "
                                f"must follow it, got {after}"), line
+
+
+def test_an_image_too_large_names_the_render_settings_that_sized_it(tmp_path, capsys):
+    """A stage's RenderSettings resolution past the pixel limit was refused (before any allocation) as
+    "2147483647x2 is ... pixels", which with -q did not say where that size came from: the settings are named now
+    (the prim path as USD reads it), with the option where one side was given."""
+    from pxr import Gf, Usd, UsdRender
+
+    path = tmp_path / "huge.usda"
+    stage = Usd.Stage.CreateNew(str(path))
+    stage.DefinePrim("/Ball", "Sphere")
+    settings = UsdRender.Settings.Define(stage, "/Render/Huge")
+    settings.CreateResolutionAttr(Gf.Vec2i(2**31 - 1, 2))
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Huge")
+    stage.Save()
+    prim = str(UsdRender.Settings.GetStageRenderSettings(Usd.Stage.Open(str(path))).GetPath())
+    for options, source in (([], f"resolution of {prim}"), (["--height", "4"], f"--height 4, aspect of {prim}")):
+        assert main(["render", str(path), "-q", "-o", str(tmp_path / "x.png"), *options]) == 2
+        (line,) = error_lines(capsys.readouterr().err)
+        height = int(options[1]) if options else 2
+        width = (2**31 - 1) * height // 2
+        assert line == f"wrt: error: {source}: {width}x{height} is {width * height:,} pixels; at most {2**26:,} are " \
+                       "supported", line
+    assert not (tmp_path / "x.png").exists()

@@ -533,16 +533,19 @@ def _view_summary(args, settings, camera, width: int, height: int) -> str:
     return f"view: {shot}, {size}"
 
 
-def _check_view_pixels(args, width: int, height: int) -> None:
-    """:func:`wrt.render.check_pixels` of the image a stage's settings and ``--width``/``--height`` make, its error
-    naming those options where given. Checked after the load: a data window of the stage may crop a larger size."""
+def _check_view_pixels(args, width: int, height: int, settings=None) -> None:
+    """:func:`wrt.render.check_pixels` of the image a stage's ``settings`` and ``--width``/``--height`` make, its error
+    naming those options where given and the settings where they gave a side (with -q nothing else said where the
+    size came from). Checked after the load: a data window of the stage may crop a larger size."""
     from .render import check_pixels
 
     try:
         check_pixels(width, height)
     except ValueError as e:
-        given = " ".join(f"--{name} {getattr(args, name)}" for name in ("width", "height") if getattr(args, name))
-        raise ValueError(f"{given}: {e}" if given else str(e)) from None
+        given = [f"--{name} {getattr(args, name)}" for name in ("width", "height") if getattr(args, name)]
+        if settings is not None and len(given) < 2:
+            given.append(f"{'aspect' if given else 'resolution'} of {settings.product or settings.path}")
+        raise ValueError(f"{', '.join(given)}: {e}" if given else str(e)) from None
 
 
 def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
@@ -564,7 +567,7 @@ def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
     camera, width, height = resolve_view(scene, args.camera, args.width, args.height)  # the stage's settings, if any
     if settings is not None:
         progress(_view_summary(args, settings, camera, width, height))
-    _check_view_pixels(args, width, height)  # the limit is the clearer error where both apply
+    _check_view_pixels(args, width, height, settings)  # the limit is the clearer error where both apply
     needed = estimate_render_bytes(stats["rendered_triangles"], width, height, args.spp)
     check_memory(needed, args.device, args.max_memory, f"rendering {path.name} at {width}x{height}")
     renderer = wrt.Renderer(scene, device=args.device, **_renderer_options(args))
@@ -980,7 +983,7 @@ def _run_preview(args) -> int:
     if args.image:  # the film is rendered: refused now, naming the options, not inside the preview
         from .render import resolve_view
 
-        _check_view_pixels(args, *resolve_view(scene, args.camera, args.width, args.height)[1:])
+        _check_view_pixels(args, *resolve_view(scene, args.camera, args.width, args.height)[1:], scene.render_settings)
     if no_display:
         progress("no display found: rendering off-screen to preview.png")
     start = time.perf_counter()
