@@ -242,13 +242,13 @@ def test_many_prototypes_are_grouped_once_not_scanned_per_prototype():
     _, invertible = scene.instance_inverses()
     points, indices = scene.geometry()
     ranges = scene.prototype_ranges()
-    expected = [(p + 1, int(ranges[p][0]), int(ranges[p][1])) for p in range(n)
+    expected = [(p + 1, int(ranges[p][0]), int(ranges[p][1]), 0) for p in range(n)  # no instance at 2^+-100
                 if np.any((instances.prototype == p) & invertible)]
     parts = blas_parts(scene)
     assert [tuple(part) for part in parts] == expected and 0 < len(parts) < n
     starts = np.cumsum([0] + [len(proto.meshes[0].points) for proto in scene.prototypes])
-    for part, first, count in parts:
-        sub_points, sub = _part_triangles(scene, points, indices, part, first, count)
+    for part, first, count, exponent in parts:
+        sub_points, sub = _part_triangles(scene, points, indices, part, first, count, exponent)
         np.testing.assert_array_equal(sub_points, scene.prototypes[part - 1].meshes[0].points)
         np.testing.assert_array_equal(sub + starts[part - 1], indices[first : first + count])
 
