@@ -53,6 +53,7 @@ def largest_weights_kernel(
     s.clearcoat = clearcoat[m]
     s.clearcoat_roughness = roughness[m]
     s.clearcoat_ior = 1.5
+    s.specular_edge = 1.0  # UsdPreviewSurface's white F90
     n = wp.vec3(0.0, 0.0, 1.0)
     wo = wp.vec3(wp.sqrt(1.0 - cos_o[k] * cos_o[k]), 0.0, cos_o[k])
     lobes = lobe_albedos(s, tables, cos_o[k])

@@ -30,7 +30,9 @@ def stage_with(tmp_path, part=None, name="opacity.usda"):
     stage, path = new_stage(tmp_path, name)
     wall = add_quad(stage, "/Wall", center=(0, 0, -1), size=4.0)
     material, _ = preview_material(stage, "/Looks/Wall", diffuseColor=Gf.Vec3f(0.0), emissiveColor=Gf.Vec3f(*WALL),
-                                   useSpecularWorkflow=1, specularColor=Gf.Vec3f(0.0))  # reflects nothing
+                                   useSpecularWorkflow=1, specularColor=Gf.Vec3f(0.0), roughness=0.0)
+    # A black mirror seen head-on reflects nothing: Schlick's F is F0 = specularColor = 0 at normal incidence (its
+    # white F90 shows at grazing views only, and a mirror never reflects the sun).
     bind(wall, material)
     sun = UsdLux.DistantLight.Define(stage, "/Sun")  # travels along its -Z: lights the parts' +Z faces
     sun.CreateIntensityAttr(3.0)

@@ -157,12 +157,13 @@ def test_inputs_of_the_wrong_shape_keep_their_defaults(tmp_path):
 def test_the_clearcoat_reflects_the_fresnel_reflectance_of_ior(tmp_path, ior):
     """The specification's ``ior`` is the index "including the clearcoat", whose F0 is ``((1 - ior) / (1 + ior))^2``
     (Storm and MaterialX's UsdPreviewSurface graph build it so). A smooth clearcoat over a black base (specular
-    workflow, specularColor 0: no other lobe) under a white dome, seen at normal incidence, shows that F0. It showed
+    workflow, specularColor 0, a mirror: F0 = 0 at normal incidence) under a white dome, seen at normal incidence,
+    shows that F0. It showed
     0.04 (ior 1.5's) for every index: 0.16 of ior 3's 0.25, and a coat for ior 1, which has none."""
     stage, path = new_stage(tmp_path)
     bind(add_quad(stage, "/Quad", size=20.0), preview_material(
         stage, "/Looks/Coat", diffuseColor=Gf.Vec3f(0.0), useSpecularWorkflow=1, specularColor=Gf.Vec3f(0.0),
-        clearcoat=1.0, clearcoatRoughness=0.0, ior=ior)[0])
+        roughness=0.0, clearcoat=1.0, clearcoatRoughness=0.0, ior=ior)[0])
     UsdLux.DomeLight.Define(stage, "/Dome")
     stage.Save()
     cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=1.0)

@@ -110,6 +110,7 @@ def lobe_albedos_kernel(
     s.clearcoat = 1.0
     s.clearcoat_roughness = roughness[i]
     s.clearcoat_ior = 1.5
+    s.specular_edge = 1.0  # UsdPreviewSurface's white F90
     lobes = lobe_albedos(s, tables, mu[i])
     spec[i] = lobes.spec
     spec_ms[i] = lobes.spec_ms
@@ -138,8 +139,9 @@ def test_white_furnace_of_smooth_lobes_at_grazing_views_matches_a_float64_quadra
         wp.launch(lobe_albedos_kernel, len(r), inputs=[tables, wp.vec3(*f0), *arrays], outputs=outs, device=device)
         spec, spec_ms, coat = (o.numpy().astype(np.float64) for o in outs)
         where = [f"roughness {a:g}, mu {c:g}" for a, c in zip(r, m)]
-        # Schlick's F with f90 = 1 (f0 >= 0.02) over the GGX lobe: f0 (E - B) + B.
-        for got, want in ((spec, np.asarray(f0) * (e - b) + b), (coat, 0.04 * (e - b) + b)):
+        # Schlick's F over the GGX lobe, f0 (E - B) + f90 B: a metal's f90 is its colour (UsdPreviewSurface), f0 E;
+        # the clearcoat's is white, 0.04 (E - B) + B.
+        for got, want in ((spec, np.asarray(f0) * e), (coat, 0.04 * (e - b) + b)):
             error = np.abs(got.reshape(len(r), -1) - want).max(axis=1)
             assert error.max() <= 3e-3, (f0, error.max(), where[error.argmax()])
         if f0 == (1.0, 1.0, 1.0):

@@ -9,9 +9,15 @@ Model (an approximation of the UsdPreviewSurface specification, stated once):
 - ``f = (1 - C(cos_o)) * [(1 - S(cos_o)) * albedo / pi + D G F(cos_vh) / (4 cos_o cos_i) + f_ms]
   + clearcoat * Dc Gc Fc(cos_vh) / (4 cos_o cos_i)`` with Schlick's Fresnel ``F`` at the half vector, the GGX
   (Trowbridge-Reitz) distribution ``D`` with ``alpha = roughness^2`` and the height-correlated Smith term ``G``
-  (Heitz 2014); the grazing reflectance of Schlick's ``F`` is ``min(1, 50 max(F0))``. The clearcoat lobe has
+  (Heitz 2014). The grazing reflectance ``F90`` of Schlick's ``F`` follows the UsdPreviewSurface specification
+  and Storm's ``previewSurface.glslfx``: white in the specular workflow ("specularColor ... is the color at 0
+  incidence. Edge color is assumed to be (1.0, 1.0, 1.0)"), ``mix(1, diffuseColor, metallic)`` in the metallic
+  workflow (white for a dielectric, the albedo for a metal). The clearcoat lobe has
   ``F0 = ((1 - ior) / (1 + ior))^2`` (the specification's ``ior`` is the clearcoat's index too, as in Storm and
-  MaterialX's UsdPreviewSurface graph; 0.04 at the fallback 1.5) and ``alpha = clearcoatRoughness^2``.
+  MaterialX's UsdPreviewSurface graph; 0.04 at the fallback 1.5), ``F90`` white (the specification's clearcoat
+  colour; Storm's and MaterialX's) and ``alpha = clearcoatRoughness^2``. ``Surface.specular_edge`` (white for
+  UsdPreviewSurface) stands for that white edge: 0 for the fallback surface (no material bound, or no material
+  response), which is Lambertian, and a MaterialX specular weight scales it.
 - Energy compensation (Kulla and Conty, "Revisiting Physically Based Shading at Imageworks", 2017): ``f_ms =
   F_ms (1 - E(cos_o)) (1 - E(cos_i)) / (pi (1 - E_avg))`` returns the light the single-scattering GGX lobe loses
   between microfacets, ``E`` being a white lobe's directional albedo and ``F_ms = F_avg^2 E_avg / (1 - F_avg (1 -
@@ -21,8 +27,8 @@ Model (an approximation of the UsdPreviewSurface specification, stated once):
   layers below, so a white surface under a coat of any index still reflects all the light).
   A white metal, dielectric or clearcoated surface therefore reflects all the light at every roughness and angle
   (within 1%), and no surface of colours in ``[0, 1]`` reflects more; the layering is not reciprocal (it looks at
-  ``cos_o`` only). With ``F0 = 0`` the BSDF is exactly Lambertian: a surface of albedo ``rho`` under illuminance
-  ``E`` shows ``rho * E / pi``.
+  ``cos_o`` only). With ``F0 = 0`` and ``specular_edge = 0`` (the fallback surface) the BSDF is exactly Lambertian:
+  albedo ``rho`` under illuminance ``E`` shows ``rho * E / pi``.
 - Lobes with ``roughness < DELTA_ROUGHNESS`` are perfect mirrors (delta distributions): they are sampled, never
   evaluated, and carry no MIS weight.
 - ``opacity < 1`` (with ``opacityThreshold = 0``): a fraction ``1 - opacity`` of the light meets a smooth
@@ -87,30 +93,22 @@ class Surface:
     opacity_threshold: float  # > 0: cut-out mode (opacity < threshold is a hole)
     specular_workflow: int  # 1: F0 = specularColor; 0: metallic workflow
     thin_walled: int  # 1: the dielectric is a sheet without thickness (thin_dielectric_reflectance); 0: solid
+    specular_edge: float  # F90 of the dielectric (specular workflow) lobe: 1 (UsdPreviewSurface); 0: no lobe
 
 
 @wp.func
-def schlick_f90(f0: wp.vec3):
-    """Grazing reflectance of :func:`fresnel_schlick`: ``min(1, 50 max(f0))`` (as in Filament), so ``f0 = 0``
-    means no specular reflection."""
-    return wp.min(1.0, 50.0 * wp.max(f0[0], wp.max(f0[1], f0[2])))
-
-
-@wp.func
-def fresnel_schlick(f0: wp.vec3, cos_theta: float):
-    """Schlick's approximation of the Fresnel reflectance for reflectance ``f0`` at normal incidence, grazing
-    reflectance :func:`schlick_f90`."""
+def fresnel_schlick(f0: wp.vec3, f90: wp.vec3, cos_theta: float):
+    """Schlick's approximation of the Fresnel reflectance, ``f0`` at normal incidence and ``f90`` at grazing."""
     m = wp.clamp(1.0 - cos_theta, 0.0, 1.0)
     m5 = m * m * m * m * m
-    return f0 + (wp.vec3(schlick_f90(f0)) - f0) * m5
+    return f0 + (f90 - f0) * m5
 
 
 @wp.func
 def fresnel_schlick_scalar(f0: float, cos_theta: float):
-    """Scalar :func:`fresnel_schlick`."""
+    """Scalar :func:`fresnel_schlick` with a white ``f90`` (the clearcoat's)."""
     m = wp.clamp(1.0 - cos_theta, 0.0, 1.0)
-    f90 = wp.min(1.0, 50.0 * f0)
-    return f0 + (f90 - f0) * m * m * m * m * m
+    return f0 + (1.0 - f0) * m * m * m * m * m
 
 
 @wp.func
@@ -295,6 +293,19 @@ def surface_f0(s: Surface):
 
 
 @wp.func
+def surface_f90(s: Surface):
+    """Specular reflectance at grazing incidence: white in the specular workflow, ``mix(1, diffuseColor, metallic)``
+    in the metallic workflow, as the UsdPreviewSurface specification says and Storm's ``previewSurface.glslfx``
+    computes (MaterialX's graph also has a white edge for specularColor). It was ``min(1, 50 max(F0))`` (Filament's
+    guess for an unknown edge): a specular-workflow material of the default specularColor 0 had no grazing
+    reflection at all, where Storm shows a white rim. The white is ``s.specular_edge`` (see the module docstring)."""
+    edge = wp.vec3(s.specular_edge)
+    if s.specular_workflow == 1:
+        return edge
+    return wp.lerp(edge, s.base_color, s.metallic)
+
+
+@wp.func
 def clearcoat_f0(s: Surface):
     """Reflectance of the clearcoat layer at normal incidence: ``((1 - ior) / (1 + ior))^2`` of its index (Storm
     and MaterialX's UsdPreviewSurface graph take the coat's F0 from ``ior``; a fixed 0.04 drew a coat of index 3 at
@@ -326,13 +337,13 @@ def opaque_fraction(s: Surface):
 
 
 @wp.func
-def multiple_scattering_color(f0: wp.vec3, loss: float):
+def multiple_scattering_color(f0: wp.vec3, f90: wp.vec3, loss: float):
     """Fresnel colour of the multiple-scattering lobe for an average loss ``1 - E_avg`` (Kulla and Conty 2017):
     ``F_avg^2 E_avg / (1 - F_avg (1 - E_avg))``, ``F_avg = f0 + (f90 - f0) / 21`` the cosine-weighted average of
     Schlick's ``F``. 1 for a white lobe, below ``F_avg`` otherwise: every further bounce keeps ``F_avg`` of the
     light. ``F_avg`` is kept at most 1: a colour above 1 (diffuseColor 2 on a metal) made the denominator 0 or
     negative at roughness 1."""
-    f_avg = wp.min(f0 + (wp.vec3(schlick_f90(f0)) - f0) * (1.0 / 21.0), wp.vec3(1.0))
+    f_avg = wp.min(f0 + (f90 - f0) * (1.0 / 21.0), wp.vec3(1.0))
     return wp.cw_div(wp.cw_mul(f_avg, f_avg) * (1.0 - loss), wp.vec3(1.0) - f_avg * loss)
 
 
@@ -361,27 +372,28 @@ class LobeAlbedos:
 
 
 @wp.func
-def single_scattering_albedo(tables: GgxAlbedo, f0: wp.vec3, roughness: float, cos_o: float):
-    """``(albedo, E)`` of a specular lobe of reflectance ``f0`` for a viewer at ``cos_o``: ``F(cos_o)`` and 1 for a
-    mirror; for GGX ``f0 (E - B) + f90 B`` and a white lobe's ``E`` (see :mod:`wrt.microfacet_albedo`)."""
+def single_scattering_albedo(tables: GgxAlbedo, f0: wp.vec3, f90: wp.vec3, roughness: float, cos_o: float):
+    """``(albedo, E)`` of a specular lobe of reflectance ``f0`` (``f90`` at grazing) for a viewer at ``cos_o``:
+    ``F(cos_o)`` and 1 for a mirror; for GGX ``f0 (E - B) + f90 B`` and a white lobe's ``E`` (see
+    :mod:`wrt.microfacet_albedo`)."""
     if roughness < DELTA_ROUGHNESS:
-        return fresnel_schlick(f0, cos_o), 1.0
+        return fresnel_schlick(f0, f90, cos_o), 1.0
     eb = lookup_ggx_albedo(tables, roughness, cos_o)
-    return f0 * (eb[0] - eb[1]) + wp.vec3(schlick_f90(f0) * eb[1]), eb[0]
+    return f0 * (eb[0] - eb[1]) + f90 * eb[1], eb[0]
 
 
 @wp.func
-def specular_albedo(tables: GgxAlbedo, f0: wp.vec3, roughness: float, cos_o: float):
-    """Directional albedo of a specular lobe of reflectance ``f0`` for a viewer at ``cos_o``: the specular fields of
-    :class:`LobeAlbedos` (``spec``: :func:`single_scattering_albedo`; ``spec_ms``: the compensation lobe's
-    ``(1 - E) multiple_scattering_color``, 0 for a mirror), the others 0."""
+def specular_albedo(tables: GgxAlbedo, f0: wp.vec3, f90: wp.vec3, roughness: float, cos_o: float):
+    """Directional albedo of a specular lobe of reflectance ``f0`` (``f90`` at grazing) for a viewer at ``cos_o``:
+    the specular fields of :class:`LobeAlbedos` (``spec``: :func:`single_scattering_albedo`; ``spec_ms``: the
+    compensation lobe's ``(1 - E) multiple_scattering_color``, 0 for a mirror), the others 0."""
     lobes = LobeAlbedos()
-    single, e = single_scattering_albedo(tables, f0, roughness, cos_o)
+    single, e = single_scattering_albedo(tables, f0, f90, roughness, cos_o)
     lobes.spec = single
     if roughness >= DELTA_ROUGHNESS:
         lobes.loss_o = 1.0 - e
         lobes.average_loss = lookup_ggx_average_loss(tables, roughness)
-        lobes.ms_color = multiple_scattering_color(f0, lobes.average_loss)
+        lobes.ms_color = multiple_scattering_color(f0, f90, lobes.average_loss)
         lobes.spec_ms = lobes.ms_color * lobes.loss_o
     return lobes
 
@@ -402,7 +414,7 @@ def clearcoat_albedo(tables: GgxAlbedo, s: Surface, cos_o: float):
     albedo; single scattering only: at ``F0 = 0.04`` the lost bounces are below 0.5%)."""
     if s.clearcoat <= 0.0:
         return 0.0
-    single, e = single_scattering_albedo(tables, wp.vec3(clearcoat_f0(s)), s.clearcoat_roughness, cos_o)
+    single, e = single_scattering_albedo(tables, wp.vec3(clearcoat_f0(s)), wp.vec3(1.0), s.clearcoat_roughness, cos_o)
     return s.clearcoat * single[0]
 
 
@@ -427,7 +439,7 @@ def lobe_weights(s: Surface, spec: wp.vec3, spec_ms: wp.vec3, coat: float):
 def lobe_albedos(s: Surface, tables: GgxAlbedo, cos_o: float):
     """The :class:`LobeAlbedos` of ``s`` for a viewer at ``cos_o = dot(n, wo)``, to pass to :func:`eval_bsdf` and
     :func:`sample_bsdf` for that ``n`` and ``wo`` (``tables``: :func:`wrt.microfacet_albedo.ggx_albedo_tables`)."""
-    lobes = specular_albedo(tables, surface_f0(s), s.roughness, cos_o)
+    lobes = specular_albedo(tables, surface_f0(s), surface_f90(s), s.roughness, cos_o)
     if s.roughness >= DELTA_ROUGHNESS:
         lobes.ms_total = lookup_multiple_scattering_total(tables, s.roughness)
     lobes.coat = clearcoat_albedo(tables, s, cos_o)
@@ -467,7 +479,7 @@ def eval_opaque(s: Surface, tables: GgxAlbedo, lobes: LobeAlbedos, n: wp.vec3, n
     if s.roughness >= DELTA_ROUGHNESS:
         a = ggx_alpha(s.roughness)
         dg = ggx_d(cos_h, sin2_h, a) * ggx_visibility(cos_o, cos_i, a)
-        single = fresnel_schlick(f0, cos_vh) * dg
+        single = fresnel_schlick(f0, surface_f90(s), cos_vh) * dg
         f += (single + multiple_scattering(tables, lobes, s.roughness, cos_i)) * coat_below
         pdf += w[1] * ggx_reflection_pdf(cos_o, cos_h, sin2_h, a)
         pdf += w[2] * multiple_scattering_pdf(tables, s.roughness, lobes.ms_total, cos_i)

@@ -233,6 +233,10 @@ class Material(CountsAssignments):
         clearcoat_roughness: clearcoat roughness.
         clearcoat_ior: index of refraction of the clearcoat layer, whose F0 is ``((1 - n) / (1 + n))^2``; None (the
             default): ``ior``, as UsdPreviewSurface's specification has it (a MaterialX coat has its own index).
+        specular_edge: the grazing reflectance (F90) of the specular lobe of a dielectric (``metallic`` 0) and of
+            the specular workflow: 1, white, as UsdPreviewSurface specifies; 0 (with F0 0) leaves no specular lobe, as
+            the fallback surface has; a MaterialX specular weight scales it as it scales F0 (:mod:`wrt.materialx`).
+            At least 0; above 1 it is drawn as 1.
         thin_walled: the dielectric of ``opacity < 1`` is a sheet without thickness (a window pane modelled as one
             plane): it reflects both faces' light and lets the rest through unbent (see :mod:`wrt.bsdf`); no effect on
             an opaque surface.
@@ -258,6 +262,7 @@ class Material(CountsAssignments):
     clearcoat: float = 0.0
     clearcoat_roughness: float = 0.01
     clearcoat_ior: float | None = None
+    specular_edge: float = 1.0
     thin_walled: bool = False
     diffuse_from_display_color: bool = False
     color_primvar: str = "displayColor"
@@ -279,6 +284,7 @@ class Material(CountsAssignments):
                                                                "color_primvar_scale")]
         numbers = [(name, (), None, float) for name in ("metallic", "roughness", "opacity", "opacity_threshold", "ior",
                                                          "clearcoat", "clearcoat_roughness")]
+        numbers.append(("specular_edge", (), 0.0, float))
         if self.clearcoat_ior is not None:
             numbers.append(("clearcoat_ior", (), None, float))
         check_fields(self, *colors, *numbers)
@@ -385,8 +391,8 @@ class DeviceMaterials:
     """Every material and texture on the device; material 0 is the default (displayColor Lambert)."""
 
     colors: wp.array2d[wp.vec3]  # (M, 4) diffuseColor, emissiveColor, specularColor, colour primvar scale
-    params: wp.array2d[float]  # (M, 8) metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
-    #                            clearcoatRoughness, 0
+    params: wp.array2d[float]  # (M, 9) metallic, roughness, opacity, opacityThreshold, ior, clearcoat,
+    #                            clearcoatRoughness, the clearcoat's ior, specular_edge
     flags: wp.array[wp.int32]  # (M,) FLAG_* bits
     slots: wp.array2d[wp.int32]  # (M, NUM_SLOTS) texture binding per input, -1 for a constant
     tex_image: wp.array[wp.int32]  # (B,) image of each texture binding
@@ -406,7 +412,8 @@ class DeviceMaterials:
 
 
 def default_material() -> Material:
-    """Material 0: Lambertian with albedo from displayColor (grey 0.5 without one), no specular lobe, and opacity
+    """Material 0: Lambertian with albedo from displayColor (grey 0.5 without one), no specular lobe (its
+    ``specular_edge`` is 0: a specularColor of 0 still has UsdPreviewSurface's white grazing reflectance), and opacity
     from ``displayOpacity`` (opaque without one). Its index is 1: the ``1 - opacity`` that meets the dielectric
     passes straight through, unbent and unreflected, as Storm's fallback surface blends a see-through part over what
     lies behind it (index 1.5 would bend the view through a thin part as a lens does and mirror 4% of it)."""
@@ -417,6 +424,7 @@ def default_material() -> Material:
         specular_color=np.zeros(3, np.float32),
         roughness=1.0,
         ior=1.0,
+        specular_edge=0.0,
         diffuse_from_display_color=True,
     )
 
@@ -443,7 +451,7 @@ def no_response_material() -> Material:
     """The last device material: it reflects, transmits and emits nothing (black, index 1: no Fresnel reflection),
     the surface of a mesh light of ``materialSyncMode`` ``noMaterialResponse`` ("as if there is no Material bound at
     all"), whatever material its mesh has (:func:`wrt.light_table.no_response_triangles`)."""
-    return Material(path="<no material response>", diffuse_color=0.0, ior=1.0)
+    return Material(path="<no material response>", diffuse_color=0.0, ior=1.0, specular_edge=0.0)
 
 
 def upload_materials(materials: list[Material], textures: list[np.ndarray], device) -> DeviceMaterials:
@@ -452,7 +460,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     all_materials = [default_material()] + list(materials) + [no_response_material()]
     m = len(all_materials)
     colors = np.zeros((m, 4, 3), np.float32)
-    params = np.zeros((m, 8), np.float32)
+    params = np.zeros((m, 9), np.float32)
     flags = np.zeros(m, np.int32)
     slots = np.full((m, NUM_SLOTS), -1, np.int32)
     bindings = []
@@ -467,6 +475,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
             mat.clearcoat,
             mat.clearcoat_roughness,
             mat.ior if mat.clearcoat_ior is None else mat.clearcoat_ior,
+            mat.specular_edge,
         )
         flags[k] = (
             (int(FLAG_SPECULAR_WORKFLOW) if mat.use_specular_workflow else 0)
@@ -628,6 +637,7 @@ def eval_surface(mats: DeviceMaterials, m: int, st: wp.vec2, display_color: wp.v
     s.clearcoat_ior = wp.max(mats.params[m, 7], MIN_IOR)
     s.specular_workflow = wp.where((flags & FLAG_SPECULAR_WORKFLOW) != 0, 1, 0)
     s.thin_walled = wp.where((flags & FLAG_THIN_WALLED) != 0, 1, 0)
+    s.specular_edge = wp.min(mats.params[m, 8], 1.0)
     # Keep colours physical: negative texels (or biases) would make energy from nothing, and a negative specularColor
     # (F0) negative pixels.
     s.base_color = wp.vec3(wp.max(s.base_color[0], 0.0), wp.max(s.base_color[1], 0.0), wp.max(s.base_color[2], 0.0))

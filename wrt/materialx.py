@@ -22,7 +22,9 @@ Approximations, each named in the material's one warning when it changes what is
 - The specular weight and the mean of the specular colour scale the dielectric F0 ``((ior - 1) / (ior + 1))^2``,
   as OpenPBR defines ``specular_weight``; wrt takes F0 from ``ior``, so ``ior`` becomes the index of that scaled F0,
   on the same side of 1 as the authored index (``specular = 0``: ``ior = 1``, no dielectric reflection; metals keep
-  their reflection). A tinted specular colour loses its hue, and the changed ``ior`` also refracts transmitted light.
+  their reflection). The factor (at most 1) also scales the grazing reflectance, ``Material.specular_edge``, which
+  UsdPreviewSurface has white: OpenPBR's weight scales the whole Fresnel curve, and a specular of 0 reflects nothing
+  at any angle. A tinted specular colour loses its hue, and the changed ``ior`` also refracts transmitted light.
   An index below wrt's smallest (1e-3), negative ones too, is taken as that, as UsdPreviewSurface's ``ior`` is.
 - Geometry opacity is a coverage; wrt has cut-outs, so it becomes a cut-out at 0.5 (a hole where it is below 0.5,
   as glTF's default alpha cutoff), which is exact for the 0/1 masks of leaves and fences. A constant between 0 and 1
@@ -188,6 +190,7 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
                     shader.GetPrim())
     mat = Material(path=path, diffuse_color=diffuse, emissive_color=emissive, metallic=metallic, roughness=roughness,
                    ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, clearcoat_ior=CLEARCOAT_IOR,
+                   specular_edge=min(max(graph.specular_factor, 0.0), 1.0),
                    opacity=opacity, opacity_threshold=threshold, thin_walled=thin_walled, textures=textures)
     if primvar is not None:
         primvar.apply(mat)
@@ -204,6 +207,7 @@ class _Graph:
         self.path = path
         self.inputs = inputs
         self.notes: list[str] = []
+        self.specular_factor = 1.0  # the specular weight times the mean specular colour (set by ior)
 
     def read(self, role: str) -> tuple[np.ndarray, TextureInput | PrimvarInput | None]:
         """``(constant, texture)`` of the input playing ``role``: the constant is ``(3,)`` or ``(1,)`` float64 (the
@@ -296,6 +300,7 @@ class _Graph:
         authored = float(np.mean(ior))
         ior = max(authored, float(MIN_IOR))  # as wrt draws it: an index of -1 divided by zero below
         factor = float(np.mean(weight)) * float(np.mean(color))
+        self.specular_factor = factor
         weight_name, color_name = self.inputs["specular_weight"][0], self.inputs["specular_color"][0]
         if np.ptp(np.resize(color, 3)) > 1e-6 and not pure_metal:
             self.notes.append(f"{color_name} {_format(color)} is reduced to its mean")

@@ -28,6 +28,7 @@ from ..bsdf import (
     specular_albedo,
     surface_albedo,
     surface_f0,
+    surface_f90,
     unreflected,
 )
 from ..geometry import offset_ray_origin
@@ -51,7 +52,7 @@ def traced_specular(s: Surface, tables: GgxAlbedo, cos_o: float):
     one) for a viewer at ``cos_o``: the lobe's albedo (``F`` for a mirror, see :func:`wrt.bsdf.specular_albedo`),
     times ``metallic`` in the metallic workflow, where a dielectric's faint lobe is left out; in the specular
     workflow, which has no metallic input, all of it: its mirrors (specular colour 1, roughness 0) were black."""
-    lobe = specular_albedo(tables, surface_f0(s), s.roughness, cos_o)
+    lobe = specular_albedo(tables, surface_f0(s), surface_f90(s), s.roughness, cos_o)
     if s.specular_workflow == 1:
         return lobe.spec + lobe.spec_ms
     return (lobe.spec + lobe.spec_ms) * s.metallic
