@@ -36,7 +36,9 @@ Approximations, each named in the material's one warning when it changes what is
   and lets the rest through unbent, with no inside. ``thin_walled`` changes nothing else: the opaque lobes already
   shade both sides of a surface alike, and of the lobes it turns into their thin forms (subsurface as translucency)
   wrt has none but transmission. A ``thin_walled`` fed by a node is ignored (a solid), with a note.
-- The coat is wrt's clearcoat (F0 0.04, index 1.5): ``coat_color`` and another coat index are ignored.
+- The coat is wrt's clearcoat of index ``coat_IOR`` (OpenPBR ``coat_ior``; F0 ``((1 - n) / (1 + n))^2``, F90
+  white, as MaterialX's graphs make the coat a dielectric of that index): ``coat_color`` is ignored, and so is a
+  texture of the index (its constant is kept).
 - OpenPBR's ``emission_luminance`` is in nits; wrt's radiance is in UsdLux's units, where a light of intensity 1
   has luminance 1 nit, so the emitted radiance is ``emission_luminance * emission_color`` (MaterialX's own OpenPBR
   graph feeds that product to its ``uniform_edf`` unchanged). A 1000-nit panel is 1000 times a UsdLux light of
@@ -138,7 +140,6 @@ MODELS = {  # info:id -> (inputs, ignored inputs)
     "ND_standard_surface_surfaceshader_100": (STANDARD_SURFACE_100, STANDARD_SURFACE_IGNORED),
     "ND_open_pbr_surface_surfaceshader": (OPEN_PBR_SURFACE, OPEN_PBR_IGNORED),
 }
-CLEARCOAT_IOR = 1.5  # the index of wrt's clearcoat (F0 0.04)
 CUT_OUT_THRESHOLD = 0.5  # geometry opacity below this is a hole
 
 IMAGE_NODE = re.compile(r"^ND_(tiled)?image_(float|color3|color4|vector2|vector3|vector4)$")
@@ -183,13 +184,13 @@ def read_materialx_surface(reader, shader, path: str) -> Material:
     normal_map = graph.normal_map(NORMAL_INPUTS[shader.GetShaderId()])
     if normal_map is not None:
         textures["normal"] = normal_map
-    graph.coat_notes(clearcoat, "clearcoat" in textures)
+    clearcoat_ior = graph.coat_notes(clearcoat, "clearcoat" in textures)
     graph.ignored_notes(ignored)
     if graph.notes:
         reader.skip(f"material {path}: {shader.GetShaderId()} is drawn approximately: {'; '.join(graph.notes)}",
                     shader.GetPrim())
     mat = Material(path=path, diffuse_color=diffuse, emissive_color=emissive, metallic=metallic, roughness=roughness,
-                   ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, clearcoat_ior=CLEARCOAT_IOR,
+                   ior=ior, clearcoat=clearcoat, clearcoat_roughness=clearcoat_roughness, clearcoat_ior=clearcoat_ior,
                    specular_edge=min(max(graph.specular_factor, 0.0), 1.0),
                    opacity=opacity, opacity_threshold=threshold, thin_walled=thin_walled, textures=textures)
     if primvar is not None:
@@ -389,17 +390,21 @@ class _Graph:
         # A missing UDIM tile reads the image's default (0.5, 0.5, 1) decoded as every texel: the flat normal.
         return texture
 
-    def coat_notes(self, coat: float, textured: bool):
-        """Names the coat inputs wrt's clearcoat cannot follow, where the coat shows."""
+    def coat_notes(self, coat: float, textured: bool) -> float:
+        """The coat's index (``coat_IOR``, OpenPBR ``coat_ior``; at least wrt's smallest index, as ``ior``), and
+        notes on the coat inputs wrt's clearcoat cannot follow, where the coat shows. The index was ignored (always
+        1.5, with a note): a coat of index 2 reflected 0.04 head-on instead of 0.11."""
+        coat_ior, coat_ior_texture = self.read("coat_ior")
+        index = max(float(np.mean(coat_ior)), float(MIN_IOR))
         if coat <= 0.0 and not textured:
-            return
+            return index
         color, color_texture = self.read("coat_color")
         if color_texture is not None or not np.allclose(color, 1.0):
             self.notes.append(f"{self.inputs['coat_color'][0]} is ignored (wrt's clearcoat is clear)")
-        coat_ior, _ = self.read("coat_ior")
-        if abs(float(np.mean(coat_ior)) - CLEARCOAT_IOR) > 1e-6:
-            self.notes.append(f"{self.inputs['coat_ior'][0]} {float(np.mean(coat_ior)):.3g} is drawn as "
-                              f"{CLEARCOAT_IOR}")
+        if coat_ior_texture is not None:
+            self.notes.append(f"the texture of {self.inputs['coat_ior'][0]} is ignored (wrt has one constant coat "
+                              "index)")
+        return index
 
     def ignored_notes(self, ignored: dict):
         """Names the inputs of lobes wrt lacks (``ignored``: name -> the value that switches the lobe off) that are
