@@ -173,7 +173,8 @@ def mapped_material(normal, **fields) -> tuple[Material, np.ndarray]:
     texel[..., :3] = (np.asarray(normal) + 1.0) / 2.0
     scale, bias = np.array([2, 2, 2, 1], np.float32), np.array([-1, -1, -1, 0], np.float32)
     fields.setdefault("diffuse_color", np.full(3, 0.8, np.float32))
-    fields.setdefault("use_specular_workflow", True)  # specularColor 0: Lambertian
+    fields.setdefault("use_specular_workflow", True)  # specularColor 0 and specular_edge 0: Lambertian
+    fields.setdefault("specular_edge", 0.0)
     return Material(path="/bumpy", textures={"normal": TextureInput(image=0, scale=scale, bias=bias)}, **fields), texel
 
 

@@ -30,7 +30,8 @@ def floor_stage(path, preview_surface):
     floor.CreatePointsAttr([(-40, -40, 0), (40, -40, 0), (40, 40, 0), (-40, 40, 0)])
     floor.CreateFaceVertexCountsAttr([4])
     floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-    if preview_surface:  # ior 1: no specular layer, a pure Lambertian of albedo 1
+    if preview_surface:  # ior 1: F0 0, a Lambertian of albedo 1 but for the specification's white F90, a grazing
+        # lobe that a camera looking straight down barely sees (well within the tolerances below)
         shader = UsdShade.Shader.Define(stage, "/Look/Surface")
         shader.CreateIdAttr("UsdPreviewSurface")
         shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1, 1, 1))
