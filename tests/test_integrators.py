@@ -398,7 +398,8 @@ def test_bad_integrator_options():
 
 def specular_albedo(f0, roughness, n=400):
     """Directional albedo at normal view of a single-scattering GGX lobe of Schlick reflectance ``f0`` (grazing
-    reflectance ``min(1, 50 f0)``), by midpoint quadrature over the hemisphere."""
+    reflectance 1, as UsdPreviewSurface has for a dielectric and the specular workflow), by midpoint quadrature over
+    the hemisphere."""
     theta = (np.arange(n) + 0.5) / n * (np.pi / 2)
     phi = (np.arange(2 * n) + 0.5) / (2 * n) * (2 * np.pi)
     t, p = np.meshgrid(theta, phi, indexing="ij")
@@ -407,7 +408,7 @@ def specular_albedo(f0, roughness, n=400):
     h = wi + wo
     h /= np.linalg.norm(h, axis=-1, keepdims=True)
     cos_i, cos_h, cos_vh = wi[..., 2], h[..., 2], h @ wo
-    f90 = min(1.0, 50 * f0)
+    f90 = 1.0
     fresnel = f0 + (f90 - f0) * (1 - cos_vh) ** 5
     a = max(roughness**2, 4e-4)
     d = a * a / (np.pi * (cos_h**2 * (a * a - 1) + 1) ** 2)
