@@ -190,3 +190,25 @@ def test_round_lights_keep_their_round_representation():
     assert CylinderLight(to_world(rotation @ np.diag([4.0, 2.0, 2.0])), 1.0, 0.5, np.ones(3)).tube() is None
     assert CylinderLight(to_world(np.diag([1.0, 1.0, 0.0])), 1.0, 0.5, np.ones(3)).tube() is None
     assert CylinderLight(to_world(SHEAR), 1.0, 0.5, np.ones(3)).tube() is not None
+
+
+@pytest.mark.parametrize("scale", [1.0, 1.0e-9, 1.0e-20, 1.0e-30])
+def test_uneven_lights_stay_ellipsoids_and_elliptic_tubes_at_any_scale(scale):
+    """A squashed sphere light and a tube of uneven cross section scaled by ``scale`` keep their shape: the map from
+    the unit sphere or tube is the unscaled one times ``scale`` (and a frame scaled evenly stays round), also for
+    lights placed by instances (``usd_placed_lights._shapes``). The tests of even scales took an absolute tolerance
+    of 1e-8 (numpy's ``allclose``), so every light under 1e-8 across counted as round: an ellipsoid 1e-20 across
+    was drawn as a sphere (the floor under it lit 20% brighter than unscaled)."""
+    from wrt.usd_placed_lights import ELLIPSOID, ROUND, _shapes
+
+    ellipsoid = SphereLight(CENTRE * scale, 0.4, np.ones(3), frame=SQUASHED * scale).ellipsoid()
+    assert ellipsoid is not None
+    np.testing.assert_allclose(ellipsoid, 0.4 * SQUASHED * scale, rtol=1e-12)
+    m3 = turned((10, 30, -20)) @ np.diag([1.5, 3.0, 0.6])
+    tube = CylinderLight(to_world(m3 * scale, CENTRE * scale), 1.0, 0.2, np.ones(3)).tube()
+    assert tube is not None
+    np.testing.assert_allclose(tube, m3 * scale * np.array([1.0, 0.2, 0.2]), rtol=1e-12)
+    rotation = turned((30, 40, 50))
+    assert SphereLight(CENTRE, 0.5, np.ones(3), frame=2.0 * scale * rotation).ellipsoid() is None
+    np.testing.assert_array_equal(_shapes(SphereLight, np.stack([SQUASHED * scale, rotation * scale])),
+                                  [ELLIPSOID, ROUND])

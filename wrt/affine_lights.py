@@ -181,8 +181,10 @@ def similar(m: np.ndarray, rtol: float = 1e-4) -> bool:
     m = np.asarray(m, np.float64)
     lengths = np.linalg.norm(m, axis=0)
     mean = lengths.mean()
-    if np.isfinite(mean):  # np.allclose's test (atol 1e-8) without its per-call cost, a tenth of reading a light
-        even = bool(np.all(np.abs(lengths - mean) <= 1e-8 + rtol * abs(mean)))
+    if np.isfinite(mean):  # np.allclose's test without its per-call cost, a tenth of reading a light; relative
+        # alone: with allclose's atol of 1e-8, any frame below 1e-8 counted as even (an ellipsoid 1e-20 across drew
+        # as a round sphere)
+        even = bool(np.all(np.abs(lengths - mean) <= rtol * abs(mean)))
     else:  # infinite lengths, which allclose takes as equal
         even = bool(np.allclose(lengths, mean, rtol=rtol))
     return even and right_angled(*m.T, rtol=rtol)

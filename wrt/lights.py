@@ -129,7 +129,9 @@ def round_tube(m3: np.ndarray, rtol: float = 1e-4) -> bool:
     """Whether a CylinderLight of local-to-world linear part ``m3`` stays a round tube: its Y and Z axes of one
     length, at right angles to each other and to its X axis (the tube's)."""
     x, y, z = np.asarray(m3, np.float64).T
-    return bool(np.isclose(np.linalg.norm(y), np.linalg.norm(z), rtol=rtol) and right_angled(x, y, z, rtol=rtol))
+    # Relative alone (np.isclose's atol of 1e-8 made any tube thinner than 1e-8 round)
+    return bool(np.isclose(np.linalg.norm(y), np.linalg.norm(z), rtol=rtol, atol=0.0)
+                and right_angled(x, y, z, rtol=rtol))
 
 
 def light_axes(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -114,7 +114,7 @@ def _shapes(kind: type, m3: np.ndarray) -> np.ndarray:
     mean = np.abs(lengths.mean(axis=1, keepdims=True))
 
     def similar(rtol: float) -> np.ndarray:
-        even = np.all(np.abs(lengths - mean) <= 1e-8 + rtol * mean, axis=1)
+        even = np.all(np.abs(lengths - mean) <= rtol * mean, axis=1)  # relative alone, as affine_lights.similar
         return even & _right_angled(m3, lengths, rtol)
 
     with np.errstate(invalid="ignore"):
