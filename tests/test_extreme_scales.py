@@ -173,36 +173,32 @@ def test_a_path_traced_scene_scaled_down_draws_its_lights_with_the_same_odds(sca
 
 
 @pytest.mark.parametrize("scale, warned", [(1.0, False), (1.0e-20, False), (1.0e-23, True), (1.0e20, True)])
-def test_area_lights_of_a_scene_float32_cannot_sample_are_named_in_a_warning(scale, warned):
-    """Sphere, rect, disk and cylinder lights and emissive triangles of a scene 2e-23 or 2e20 across (the sphere and
-    floor of :func:`lit_shapes`), whose sampling squares lengths past float32's range (a sphere light there lit its
-    scene 89 times too bright, rect and disk ones and an emissive quad not at all), are named in a warning; 2 to
-    2e-20 across, nothing is said."""
-    scene, camera = lit_shapes(scale)
-    glow = wrt.Material(path="/glow", diffuse_color=np.zeros(3, np.float32), emissive_color=np.full(3, 4.0, np.float32))
-    lamp = quad("/lamp", [[-2, 6, -12], [2, 6, -12], [2, 6, -8], [-2, 6, -8]], scale)
-    lamp.material_ids = np.zeros(2, np.int32)
-    scene.meshes, scene.materials = [lamp], [glow]
-    s = np.diag([scale, scale, scale, 1.0])
-    s[:3, 3] = np.array([0.0, 5.0, -10.0]) * scale
+def test_ellipsoid_and_elliptic_tube_lights_of_a_scene_float32_cannot_sample_are_named_in_a_warning(scale, warned):
+    """Sphere and cylinder lights under an uneven scale (ellipsoids and elliptic tubes) of a scene 2e-23 or 2e20
+    across (the sphere and floor of :func:`lit_shapes`), whose sampling squares lengths past float32's range (they lit
+    nothing at 1e20), are named in a warning; round sphere, rect, disk and cylinder lights and emissive triangles,
+    sampled in lengths scaled per light, are not (:func:`test_area_lights_light_a_scene_as_unscaled_at_any_scale`);
+    2 to 2e-20 across, nothing is said."""
+    scene, camera = area_lit_shapes(scale, "rect sphere disk tube glow")
     color = np.full(3, 2.0, np.float32)
-    scene.lights = scene.lights + [wrt.SphereLight(s[:3, 3], 0.5 * scale, color, path="/sphere"),
-                                   wrt.RectLight(s, 1.0, 1.0, color, path="/rect"),
-                                   wrt.DiskLight(s, 0.5, color, path="/disk"),
-                                   wrt.CylinderLight(s, 0.5, 1.0, color, path="/tube")]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        wrt.render(scene, camera=camera, width=4, height=3, device="cpu")
-    said = [str(w.message) for w in caught if "area light" in str(w.message)]
-    assert len(said) == warned, said
-    if warned:
-        assert "area lights" in said[0] and "/sphere, /rect, /disk, ..." in said[0], said
-        scene.lights = scene.lights[:1]  # the sun alone: the emissive quad is named
+    tube = np.diag([scale, 2.0 * scale, 0.5 * scale, 1.0])
+    tube[:3, 3] = np.array([0.0, 5.0, -8.0]) * scale
+    uneven = [wrt.SphereLight(np.array([0.0, -5.0, -8.0]) * scale, 0.5, color, frame=np.diag([2.0, 1.0, 0.5]) * scale,
+                              path="/ellipsoid"),
+              wrt.CylinderLight(tube, 0.5, 1.0, color, path="/etube")]
+
+    def said(lights):
+        scene.lights = lights
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             wrt.render(scene, camera=camera, width=4, height=3, device="cpu")
-        said = [str(w.message) for w in caught if "area light" in str(w.message)]
-        assert len(said) == 1 and ": 2 emissive triangle(s); scale" in said[0], said
+        return [str(w.message) for w in caught if "light" in str(w.message)]
+
+    assert not said(scene.lights)
+    named = said(scene.lights + uneven)
+    assert len(named) == warned, named
+    if warned:
+        assert "elliptic tube lights" in named[0] and ": /ellipsoid, /etube; scale" in named[0], named
 
 
 @pytest.mark.parametrize("scale", SCALES)
@@ -229,3 +225,54 @@ def test_a_card_of_two_reversed_single_sided_quads_shows_its_facing_side_at_any_
         img = wrt.render(wrt.Scene(meshes=meshes), camera=scaled_camera(scale), width=8, height=6, device="cpu",
                          integrator="normals")
         np.testing.assert_array_equal(img.aovs["prim"] // 2, seen)
+
+
+def area_lit_shapes(scale: float, kinds: str):
+    """The sphere and floor of :func:`lit_shapes` lit by ``kinds`` of ``"rect sphere disk tube glow"`` (a rect,
+    sphere, disk and cylinder light, and an emissive quad), no sun, all scaled by ``scale``."""
+    scene, camera = lit_shapes(scale)
+    s = np.diag([scale, scale, scale, 1.0])
+    color = np.full(3, 3.0, np.float32)
+
+    def placed(x, y, z):  # (the lights' -Z, where rect and disk lights emit, faces the floor)
+        m = s.copy()
+        m[:3, 3] = np.array([x, y, z]) * scale
+        return m
+
+    lights = {"rect": wrt.RectLight(placed(-4, 4, -6), 2.0, 1.5, color, path="/rect"),
+              "sphere": wrt.SphereLight(np.array([4.0, 5.0, -7.0]) * scale, 0.7 * scale, color, path="/sphere"),
+              "disk": wrt.DiskLight(placed(3, -4, -5), 0.8, color, path="/disk"),
+              "tube": wrt.CylinderLight(placed(-3, -3, -7), 0.3, 3.0, color, path="/tube")}
+    scene.lights = [lights[k] for k in kinds.split() if k in lights]
+    if "glow" in kinds:
+        glow = wrt.Material(path="/glow", diffuse_color=np.zeros(3, np.float32),
+                            emissive_color=np.full(3, 4.0, np.float32))
+        lamp = quad("/lamp", [[5, 5, -6], [8, 5, -6], [8, 8, -6], [5, 8, -6]], scale)
+        lamp.material_ids = np.zeros(2, np.int32)
+        scene.meshes, scene.materials = [lamp], [glow]
+    return scene, camera
+
+
+@pytest.mark.parametrize("integrator", ["whitted", "path"])
+@pytest.mark.parametrize("kinds", ["rect", "sphere", "disk", "tube", "glow", "rect sphere disk tube glow"])
+@pytest.mark.parametrize("scale", [1.0e-30, 1.0e-20, 1.0e20, 1.0e30])
+def test_area_lights_light_a_scene_as_unscaled_at_any_scale(scale, kinds, integrator):
+    """Rect, sphere, disk and cylinder lights and an emissive quad light the sphere and floor of :func:`lit_shapes`
+    as in the unscaled scene, with the same seed: their sampling pdf is an area over a distance squared, which
+    over- or underflowed float32 (the lights were drawn up to 89 times too bright, too dim or black), and is now
+    taken with lengths scaled per light by a power of two (exact). Nothing is warned."""
+    def image(s):
+        scene, camera = area_lit_shapes(s, kinds)
+        return wrt.render(scene, camera=camera, width=16, height=12, device="cpu", integrator=integrator, spp=2,
+                          seed=5)
+
+    ref = image(1.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        img = image(scale)
+    same = img.aovs["prim"] == ref.aovs["prim"]
+    lit = ref.rgb[same].max(axis=-1) > 1e-3
+    assert same.mean() > 0.95 and lit.mean() > 0.15
+    np.testing.assert_allclose(img.rgb[same], ref.rgb[same], rtol=2e-3, atol=2e-4)
+    assert not [str(w.message) for w in caught if "area light" in str(w.message)]
+

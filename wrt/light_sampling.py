@@ -27,6 +27,7 @@ from .affine_lights import (
     sample_ellipsoid,
     sample_elliptic_tube,
 )
+from .floats import largest_magnitude, power_scales
 from .geometry import stable_length
 from .ies import ies_factor
 from .light_links import DeviceLinks
@@ -90,8 +91,9 @@ class DeviceLights:
     axis_u: wp.array[wp.vec3]  # (num_analytic) rect: full X edge; disk: X radius vector; cylinder, line: full axis
     axis_v: wp.array[wp.vec3]  # (num_analytic) rect: full Y edge; disk: Y radius vector
     normal: wp.array[wp.vec3]  # (num_analytic) rect, disk: unit emitting normal
-    params: wp.array[wp.vec4]  # (radius | cos of half angle | ellipsoid's |det|^(1/3), solid angle of cone,
-    # area | 1 - cos, right-angled axes);
+    params: wp.array[wp.vec4]  # (radius | cos of half angle | ellipsoid's |det|^(1/3), solid angle of cone |
+    # rect, disk, cylinder: their length scale's power of two ``down`` (light_scales), area (times down^2 for rect,
+    # disk, cylinder: in float32 range at any scene scale) | 1 - cos, right-angled axes);
     # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
     instances: wp.array[wp.int32]  # instance that draws a LIGHT_TRIANGLE entry's (prototype) triangle, -1: world
@@ -224,6 +226,33 @@ def light_kind(lights: DeviceLights, k: int):
 
 
 @wp.func
+def light_scales(lights: DeviceLights, k: int):
+    """``(down, up = 1 / down)``: the power of two that brings analytic light ``k``'s lengths near 1 (a sphere's
+    radius into [1, 2); a rect's, disk's or cylinder's largest edge, radius or axis component, set by
+    :mod:`wrt.light_table`, whose ``params[2]`` holds its area times ``down^2``), and 1 for other kinds. Its sampling
+    and pdf take distances times ``down``: exact, so the same bits where nothing over- or underflows, where an area
+    over a distance squared in world units over- or underflowed float32 in scenes past 1e19 or under 1e-19 across
+    (lights too dim, up to 89 times too bright, or black)."""
+    kind = light_kind(lights, k)
+    down = float(1.0)
+    up = float(1.0)
+    if kind == LIGHT_SPHERE:
+        down, up = power_scales(lights.params[k][0])
+    elif kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER:
+        down = lights.params[k][1]
+        up = 1.0 / down
+    return down, up
+
+
+@wp.func
+def intersect_sphere_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
+    """:func:`wrt.affine_lights.intersect_sphere` of sphere light ``k`` and the ray ``(o, unit d)``, in its scaled
+    lengths (:func:`light_scales`): its squares overflowed for a sphere 1e19 wide."""
+    down, up = light_scales(lights, k)
+    return intersect_sphere(lights.position[k] * down, lights.params[k][0] * down, o * down, d) * up
+
+
+@wp.func
 def emission_shaping(lights: DeviceLights, k: int, w: wp.vec3):
     """The colour factor of analytic light ``k``'s ShapingAPI (its cone, focus and IES profile) on the radiance it
     emits along unit ``w`` (1 where unshaped: :mod:`wrt.light_shaping`)."""
@@ -242,8 +271,13 @@ def plane_coords(u: wp.vec3, v: wp.vec3, q: wp.vec3):
     """``(a, b)`` with ``q = a u + b v`` for ``q`` in the plane of edges ``u, v`` (from their origin): the
     coordinates along the edges of a rect light (in [-0.5, 0.5] on it) or along the radius vectors of a disk light,
     which a transform can shear out of right angles (a projection on each edge is right for perpendicular edges
-    only). Solved from those projections, ``q.u / u.u`` and ``q.v / v.v``, which stay in float32 range wherever
-    the edges do."""
+    only). Solved from those projections, ``q.u / u.u`` and ``q.v / v.v``, of the vectors scaled first by the power
+    of two that brings the edges' largest component into [1, 2) (exact: the same bits where nothing over- or
+    underflows): ``u.u`` of a light 1e20 wide was inf, of one 1e-20 wide 0, and rays saw no light there."""
+    down, _ = power_scales(wp.max(largest_magnitude(u), largest_magnitude(v)))
+    u = u * down
+    v = v * down
+    q = q * down
     uu = wp.dot(u, u)
     vv = wp.dot(v, v)
     if uu <= 0.0 or vv <= 0.0:
@@ -289,10 +323,11 @@ def lit_bsdf(lights: DeviceLights, k: int, f_diffuse: wp.vec3, f_specular: wp.ve
 
 @wp.func
 def sphere_cone(lights: DeviceLights, k: int, p: wp.vec3):
-    """``(cos_max, 1 - cos_max)`` of the cone the sphere light subtends at ``p``; ``cos_max = 2`` when inside."""
-    c = lights.position[k]
-    r = lights.params[k][0]
-    d2 = wp.length_sq(c - p)
+    """``(cos_max, 1 - cos_max)`` of the cone the sphere light subtends at ``p``; ``cos_max = 2`` when inside. Lengths
+    are scaled by :func:`light_scales` (their squares over- or underflowed in scenes 1e20 or 1e-22 across)."""
+    down, _ = light_scales(lights, k)
+    r = lights.params[k][0] * down
+    d2 = wp.length_sq((lights.position[k] - p) * down)
     if d2 <= r * r:
         return 2.0, 0.0
     sin2 = r * r / d2
@@ -308,7 +343,7 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
     kind = lights.kinds[k]
     c = lights.position[k]
     if kind == LIGHT_SPHERE:
-        return intersect_sphere(c, lights.params[k][0], o, d), 1.0
+        return intersect_sphere_light(lights, k, o, d), 1.0
     if kind == LIGHT_RECT or kind == LIGHT_DISK:
         n = lights.normal[k]
         denom = wp.dot(d, n)
@@ -327,13 +362,15 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
             return t, -denom
         return float(wp.inf), 0.0
     if kind == LIGHT_CYLINDER:
-        axis = lights.axis_u[k]
+        # In the light's scaled lengths (light_scales): the squares below overflowed for a tube 1e19 wide.
+        down, up = light_scales(lights, k)
+        axis = lights.axis_u[k] * down
         half = 0.5 * wp.length(axis)
         if half <= 0.0:
             return float(wp.inf), 0.0
         w = axis / (2.0 * half)
-        r = lights.params[k][0]
-        oc = o - c
+        r = lights.params[k][0] * down
+        oc = (o - c) * down
         dp = d - wp.dot(d, w) * w
         op = oc - wp.dot(oc, w) * w
         a = wp.dot(dp, dp)
@@ -348,7 +385,7 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
         if t <= 0.0 or wp.abs(wp.dot(oc + t * d, w)) > half:
             return float(wp.inf), 0.0
         radial = op + t * dp
-        return t, wp.max(-wp.dot(d, radial / r), 0.0)
+        return t * up, wp.max(-wp.dot(d, radial / r), 0.0)
     if kind == LIGHT_ELLIPSOID:
         return intersect_ellipsoid(c, lights.shape_inverses[k], o, d), 1.0
     if kind == LIGHT_ELLIPTIC_TUBE:
@@ -359,15 +396,18 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
 @wp.func
 def seen_rect(lights: DeviceLights, k: int, p: wp.vec3):
     """Rect light ``k``, or the square around disk light ``k``, as seen from ``p``, and whether lights of its kind
-    are sampled by solid angle from there (else by area; see :mod:`wrt.spherical_rect`)."""
-    u = lights.axis_u[k]
-    v = lights.axis_v[k]
+    are sampled by solid angle from there (else by area; see :mod:`wrt.spherical_rect`). The rectangle and ``p`` are
+    in the light's scaled lengths (:func:`light_scales`: its points are the world's times ``down``): the edge
+    lengths squared overflowed for a light 1e19 wide."""
+    down, _ = light_scales(lights, k)
+    u = lights.axis_u[k] * down
+    v = lights.axis_v[k] * down
     scale = float(1.0)  # rect: full edges; disk: radius vectors
     least = float(0.0)
     if lights.kinds[k] == LIGHT_DISK:
         scale = 2.0
         least = DISK_SOLID_ANGLE_LEAST
-    r = spherical_rect(p, lights.position[k] - 0.5 * scale * (u + v), scale * u, scale * v)
+    r = spherical_rect(p * down, lights.position[k] * down - 0.5 * scale * (u + v), scale * u, scale * v)
     return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, least)
 
 
@@ -386,7 +426,8 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
     if kind == LIGHT_ELLIPTIC_TUBE:
         return elliptic_tube_pdf(lights.position[k], lights.shapes[k], lights.shape_inverses[k], p + dist * d, dist,
                                  cos_l)
-    area = lights.params[k][2]
+    down, _ = light_scales(lights, k)
+    area = lights.params[k][2]  # times down^2
     if kind == LIGHT_CYLINDER:
         area = 0.5 * area  # sampling covers the half facing the shading point
     if cos_l <= 0.0 or area <= 0.0:
@@ -394,7 +435,8 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
     if kind == LIGHT_RECT or kind == LIGHT_DISK:
         r, by_solid_angle = seen_rect(lights, k, p)
         if by_solid_angle:
-            return spherical_rect_pdf(r, n, p + dist * d)
+            return spherical_rect_pdf(r, n, (p + dist * d) * down)
+    dist = dist * down
     return dist * dist / (cos_l * area)
 
 
@@ -409,23 +451,35 @@ def distant_in_cone(lights: DeviceLights, k: int, d: wp.vec3):
 
 @wp.func
 def emitter_triangle(scene: DeviceScene, prim: int, instance: int):
-    """World-space corners ``a, b, c`` of triangle ``prim`` as ``instance`` draws it (-1: world geometry) and their
-    cross product ``(b - a) x (c - a)`` turned to the triangle's front side: a mirroring instance transform reverses
-    the corners' winding, not the side that :func:`wrt.shade.hit_point` calls the front (its normal moves by the
-    inverse transpose). The corners move by :func:`wrt.transforms.corners_to_world`, as ``hit_point``'s do, so
-    sampled points lie on the surface hit."""
+    """World-space corners ``a, b, c`` of triangle ``prim`` as ``instance`` draws it (-1: world geometry), their
+    cross product ``(b - a) x (c - a)`` times ``down^2`` turned to the triangle's front side, and ``down``: the power
+    of two that brings the edges' largest component into [1, 2) (:func:`scaled_cross`; the cross product itself, an
+    edge length squared, overflowed for a triangle 1e19 wide and vanished for one 1e-20 wide). It is turned to the
+    front side: a mirroring instance transform reverses the corners' winding, not the side that
+    :func:`wrt.shade.hit_point` calls the front (its normal moves by the inverse transpose). The corners move by
+    :func:`wrt.transforms.corners_to_world`, as ``hit_point``'s do, so sampled points lie on the surface hit."""
     a = scene.points[scene.indices[prim, 0]]
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
-    cr = wp.cross(b - a, c - a)
+    cr, down = scaled_cross(a, b, c)
     if instance >= 0:
         m = scene.world_to_local[instance]
         front = normal_to_world(m, cr)
         a, b, c = corners_to_world(m, a, b, c)
-        cr = wp.cross(b - a, c - a)
+        cr, down = scaled_cross(a, b, c)
         if wp.dot(cr, front) < 0.0:
             cr = -cr
-    return a, b, c, cr
+    return a, b, c, cr, down
+
+
+@wp.func
+def scaled_cross(a: wp.vec3, b: wp.vec3, c: wp.vec3):
+    """``((b - a) x (c - a) * down^2, down)``, ``down`` the power of two that brings the edges' largest component
+    into [1, 2): exact, the same bits scaled where nothing over- or underflows."""
+    ab = b - a
+    ac = c - a
+    down, _ = power_scales(wp.max(largest_magnitude(ab), largest_magnitude(ac)))
+    return wp.cross(ab * down, ac * down), down
 
 
 @wp.func
@@ -447,8 +501,8 @@ def triangle_light_pdf(
 ):
     """Solid-angle pdf of uniform area sampling of triangle ``prim`` (drawn by ``instance``, -1: world geometry)
     seen from ``o`` along unit ``d``; 0 from its back when it is single-sided."""
-    a, b, c, cr = emitter_triangle(scene, prim, instance)
-    area2 = stable_length(cr)
+    a, b, c, cr, down = emitter_triangle(scene, prim, instance)
+    area2 = stable_length(cr)  # times down^2, as the distance is taken times down
     if area2 <= 0.0:
         return 0.0
     cos_l = -wp.dot(d, cr / area2)
@@ -456,7 +510,8 @@ def triangle_light_pdf(
         cos_l = wp.abs(cos_l)
     if cos_l <= 0.0:
         return 0.0
-    return dist * dist / (cos_l * 0.5 * area2)
+    scaled = dist * down
+    return scaled * scaled / (cos_l * 0.5 * area2)
 
 
 @wp.func
@@ -640,13 +695,13 @@ def sample_light(
         return out
     if kind == LIGHT_SPHERE:
         c = lights.position[k]
-        r = lights.params[k][0]
         cos_max, one_minus = sphere_cone(lights, k, p)
         if cos_max > 1.0 or one_minus <= 0.0:
             return out  # inside the sphere: it emits outwards only
-        axis = wp.normalize(c - p)
+        sphere_down, _ = light_scales(lights, k)
+        axis = wp.normalize((c - p) * sphere_down)  # (its squares overflowed 1e19 radii away in world units)
         out.wi = wp.normalize(to_world(sample_uniform_cone(u1, u2, one_minus), axis))
-        t = intersect_sphere(c, r, p, out.wi)
+        t = intersect_sphere_light(lights, k, p, out.wi)
         if t == wp.inf:
             t = wp.dot(c - p, out.wi)  # grazing: rounding missed the sphere by a hair
         out.dist = t
@@ -663,11 +718,14 @@ def sample_light(
             out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -wi)) / pdf
         return out
 
-    # Area sampling (rect and disk lights that look large: by solid angle), cylinder, triangle.
+    # Area sampling (rect and disk lights that look large: by solid angle), cylinder, triangle. Lengths and the area
+    # are taken times the light's power of two ``down`` (light_scales; triangles: scaled_cross), exact where nothing
+    # over- or underflows: in world units a scene 1e20 across squared its distances past float32.
     pdf_solid_angle = float(0.0)  # > 0: q was sampled by solid angle with this pdf
     q = wp.vec3(0.0)
     ln = wp.vec3(0.0)
-    area = float(0.0)
+    area = float(0.0)  # times down^2
+    down, up = light_scales(lights, k)
     L = wp.vec3(0.0)
     two_sided = int(0)
     if kind == LIGHT_RECT or kind == LIGHT_DISK:
@@ -676,10 +734,11 @@ def sample_light(
         L = lights.radiance[k]
         seen, by_solid_angle = seen_rect(lights, k, p)
         if by_solid_angle:
-            q, inside = sample_spherical_rect(seen, n, u1, u2)
+            q_down, inside = sample_spherical_rect(seen, n, u1, u2)  # q * down
             if not inside:
                 return out
-            pdf_solid_angle = spherical_rect_pdf(seen, n, q)
+            pdf_solid_angle = spherical_rect_pdf(seen, n, q_down)
+            q = q_down * up
             if kind == LIGHT_DISK:  # a point of the square around the disk: keep it if it lies on the disk
                 if wp.length_sq(plane_coords(lights.axis_u[k], lights.axis_v[k], q - lights.position[k])) > 1.0:
                     return out
@@ -692,7 +751,7 @@ def sample_light(
     elif kind == LIGHT_CYLINDER:
         # Only the half of the tube facing p can be seen from it: sample that half uniformly by area.
         axis = lights.axis_u[k]
-        along = wp.normalize(axis)
+        along = wp.normalize(axis * down)
         to_p = p - lights.position[k]
         phi0 = wp.atan2(wp.dot(to_p, basis_y(along)), wp.dot(to_p, basis_x(along)))
         phi = phi0 + (u2 - 0.5) * PI
@@ -707,7 +766,7 @@ def sample_light(
         L = lights.radiance[k]
     else:
         prim = lights.prims[k]
-        a, b, c, cr = emitter_triangle(scene, prim, lights.instances[k])
+        a, b, c, cr, down = emitter_triangle(scene, prim, lights.instances[k])
         su = wp.sqrt(u1)
         bu = u2 * su  # weight of b
         bv = 1.0 - su  # weight of c ... (any uniform barycentric split works)
@@ -723,7 +782,7 @@ def sample_light(
             # A hole of an emissive cut-out: rays pass it and see no light there, so it sends none either.
             L = wp.vec3(0.0)
         two_sided = tri_double_sided[prim]
-    to = q - p
+    to = (q - p) * down
     d2 = wp.length_sq(to)
     if d2 <= 0.0 or area <= 0.0:
         return out
@@ -735,7 +794,7 @@ def sample_light(
     if cos_l <= 0.0:
         return out
     out.wi = wi
-    out.dist = dist
+    out.dist = dist / down
     if pdf_solid_angle > 0.0:
         out.pdf = pdf_solid_angle
     else:

@@ -347,29 +347,28 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
     return prims[first:count][no_response]
 
 
-# Sizes (bounding box diagonals) of the scenes whose area lights are sampled as unscaled: the sampling squares
-# distances and divides by areas in float32, which over- or underflow beyond (a scene 1e-21 across drew its sphere light
-# 1% too bright, 1e-22 across 3 times, 1e-23 across 89 times, and its rect and disk lights black; 1e20 across, 25-99%
-# too dim). A light of any size in a scene of ordinary size is drawn as it should be (a rect light 1e19 wide).
+# Sizes (bounding box diagonals) of the scenes whose ellipsoid and elliptic tube lights (sphere and cylinder lights
+# under an uneven scale or a shear) are sampled as unscaled: their sampling squares lengths in world units in float32,
+# which over- or underflows beyond (2e21 across they lit nothing). Round sphere,
+# rect, disk and cylinder lights and emissive triangles are sampled in lengths scaled by a power of two per light
+# (wrt.light_sampling.light_scales), at any scale.
 AREA_LIGHT_SCENE_SIZES = (2.0**-64, 2.0**64)  # 5.4e-20 to 1.8e19
 
 
-def warn_area_lights_past_float32(lights: list, size: float, emitters: int) -> None:
-    """Warns naming the sphere, rect, disk and cylinder lights, and counting the ``emitters`` emissive triangles (mesh
-    lights included), of a scene of ``size`` (its box's diagonal) outside :data:`AREA_LIGHT_SCENE_SIZES`, which may
-    be drawn too dim, too bright or black: they were, without a word (an emissive quad 1e20 across lit nothing)."""
+def warn_area_lights_past_float32(lights: list, size: float) -> None:
+    """Warns naming the ellipsoid and elliptic tube lights of a scene of ``size`` (its box's diagonal) outside
+    :data:`AREA_LIGHT_SCENE_SIZES`, which may be drawn too dim, too bright or black."""
     if AREA_LIGHT_SCENE_SIZES[0] <= size <= AREA_LIGHT_SCENE_SIZES[1] or not size > 0.0:
         return
     paths = [light.path or type(light).__name__ for light in lights
-             if isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight))
-             and not (getattr(light, "drawn_as_point", False) or getattr(light, "drawn_as_line", False))]
-    if emitters:
-        paths.append(f"{emitters:,} emissive triangle(s)")
+             if (isinstance(light, SphereLight) and not light.drawn_as_point and light.ellipsoid() is not None)
+             or (isinstance(light, CylinderLight) and not light.drawn_as_line and light.tube() is not None)]
     if paths:
         shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
-        warnings.warn(f"a scene {size:.3g} across (outside 5.4e-20 to 1.8e19) may draw its area lights too dim, too "
-                      f"bright or black, as their sampling squares lengths in float32: {shown}; scale the scene "
-                      "towards unit size", stacklevel=user_stacklevel())
+        warnings.warn(f"a scene {size:.3g} across (outside 5.4e-20 to 1.8e19) may draw its ellipsoid and elliptic "
+                      "tube lights (sphere and cylinder lights under an uneven scale or a shear) too dim, too bright "
+                      f"or black, as their sampling squares lengths in float32: {shown}; scale the scene towards "
+                      "unit size", stacklevel=user_stacklevel())
 
 
 def build_lights(lights: list, scene, material_emission: list, device) -> tuple[DeviceLights, UnsampledEmitters]:
@@ -437,7 +436,8 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             n = _emitting_normal(u, v, z)
             L = light.radiance
             texels, mean = (None, np.ones(3)) if light.texture is None else _shared_texels(emitted, light.texture)
-            _add(h, LIGHT_RECT, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
+            down = length_scale(u, v)
+            _add(h, LIGHT_RECT, L, origin, u, v, n, (0, down, light.area * down**2, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L * mean))
             h.texture[-1] = texels
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False,
@@ -447,7 +447,8 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             u, v = x * light.radius, y * light.radius
             n = _emitting_normal(u, v, z)
             L = light.radiance
-            _add(h, LIGHT_DISK, L, origin, u, v, n, (0, 0, light.area, _right_angled(u, v)), 0,
+            down = length_scale(u, v)
+            _add(h, LIGHT_DISK, L, origin, u, v, n, (0, down, light.area * down**2, _right_angled(u, v)), 0,
                  math.pi * light.area * luminance_np(L))
             _add_shaping(h, light.shaping, primary_axis(light.to_world, n), emits_behind=False,
                          x=light_axes(light.to_world)[0], y=light_axes(light.to_world)[1])
@@ -463,8 +464,9 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             origin = light_axes(light.to_world)[3]
             L = light.radiance
             m = light.tube()
+            down = length_scale(axis, [r]) if m is None else 1.0  # (an elliptic tube's lengths are unscaled)
             _add(h, LIGHT_CYLINDER if m is None else LIGHT_ELLIPTIC_TUBE, L, origin, axis, zero, zero,
-                 (r, 0, light.area, 0), 0, math.pi * light.area * luminance_np(L))
+                 (r, down, light.area * down**2, 0), 0, math.pi * light.area * luminance_np(L))
             if m is not None:
                 h.shapes[-1] = m
             _add_shaping(h, light.shaping, primary_axis(light.to_world, (0.0, 0.0, -1.0)), emits_behind=True,
@@ -479,7 +481,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers: appended as
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
     tris = emitter_triangles(scene, material_emission, mesh_lights)
-    warn_area_lights_past_float32(lights, 2.0 * radius, len(tris.ids))
+    warn_area_lights_past_float32(lights, 2.0 * radius)
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
     row_cdf = np.array([0.0, 1.0], np.float32)
@@ -630,6 +632,17 @@ def set_headlight_directions(d: DeviceLights, index: int, forwards, device) -> N
             old.assign(dirs)  # in place, so that a recorded CUDA graph sees the new directions (see set_cameras)
         else:
             d.headlight_dirs = dirs
+
+
+def length_scale(*lengths) -> float:
+    """The power of two ``down`` that brings the largest magnitude in ``lengths`` (vectors or lists of lengths) into
+    [1, 2) (1 when it is 0), kept a normal float32 with its inverse: rect, disk and cylinder lights are sampled in
+    their lengths times it (:func:`wrt.light_sampling.light_scales`), their ``params[2]`` the area times ``down^2``."""
+    largest = max(float(np.max(np.abs(np.asarray(x, np.float64)))) for x in lengths)
+    if not (largest > 0.0 and math.isfinite(largest)):
+        return 1.0
+    exponent = math.frexp(largest)[1] - 1  # largest in [2^exponent, 2^(exponent + 1))
+    return math.ldexp(1.0, -min(max(exponent, -126), 126))
 
 
 def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, power):
