@@ -276,3 +276,32 @@ def test_area_lights_light_a_scene_as_unscaled_at_any_scale(scale, kinds, integr
     np.testing.assert_allclose(img.rgb[same], ref.rgb[same], rtol=2e-3, atol=2e-4)
     assert not [str(w.message) for w in caught if "area light" in str(w.message)]
 
+
+@pytest.mark.parametrize("placed_by", ["shape", "instance"])
+@pytest.mark.parametrize("radius, missed", [(1.0, False), (1.0e-38, False), (6.0e-39, False), (5.0e-39, True)])
+def test_analytic_shapes_too_small_for_float32_are_named_in_a_warning(radius, missed, placed_by):
+    """A sphere shape of ``radius`` (placed by its own transform, or a unit one in a prototype by an instance's),
+    traced by unit rays aimed at its centre from 10 radii away: down to 6e-39 every ray hits it at 9 radii and
+    nothing is said; at 5e-39 (its world-to-shape matrix past 2^127, 1.7e38) rays miss it, and it is named in a
+    warning (it vanished without a word, where a transform that float32 cannot invert at all is named)."""
+    s = np.diag([radius, radius, radius, 1.0])
+    if placed_by == "shape":
+        scene = wrt.Scene(shapes=[wrt.Shape("/ball", "sphere", s)])
+    else:
+        proto = wrt.Prototype("/proto", shapes=[wrt.Shape("/proto/ball", "sphere", np.eye(4))])
+        scene = wrt.Scene(prototypes=[proto], instances=wrt.Instances.from_transforms([0], s[None]))
+    rng = np.random.default_rng(4)
+    aims = rng.uniform(-0.3, 0.3, (64, 3)) * radius
+    origins = np.tile(np.float32([0.0, 0.0, 10.0 * radius]), (64, 1))
+    directions = (aims - origins) / np.linalg.norm(aims - origins, axis=1, keepdims=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        hits = wrt.trace(scene, origins.astype(np.float32), directions.astype(np.float32))
+    said = [str(w.message) for w in caught if "too small" in str(w.message)]
+    if missed:
+        name = "/ball" if placed_by == "shape" else "/proto/ball"
+        assert len(said) == 1 and f"1 prim(s): {name}" in said[0], said
+        return
+    assert not said
+    assert (hits.prim >= 0).all()
+    np.testing.assert_allclose(hits.t, 9.0 * radius, rtol=0.02)

@@ -541,6 +541,7 @@ class InstancedAccelerator(Accelerator):
         shape_to_world = np.concatenate(shape_to_world or [np.zeros((0, 4, 4))])
         shape_rows = np.concatenate(shape_rows or [np.zeros(0)]).astype(np.int32)
         shape_to_local, shape_ok = invert_transforms(shape_to_world)
+        warn_shapes_too_small(scene, shape_to_local, shape_ok, shape_rows - n_tri)
         # Every entry's box at once, from its shape's canonical box: a Python step per entry made the first trace of
         # 1M PointInstancer spheres take 44 s (7 s now), and the TLAS is rebuilt every animated frame.
         local_lo, local_hi = (b[shape_rows - n_tri] for b in local_boxes(scene._geometry_shapes()))
@@ -646,6 +647,28 @@ def blas_parts(scene: Scene) -> list[tuple[int, int, int, int]]:
             if count:
                 parts.append((p + 1, int(first), int(count), k))
     return parts
+
+
+# A shape whose world-to-canonical matrix has an entry of 2^127 (1.7e38) or more (a sphere of radius 5.9e-39 or less)
+# is missed by every ray: its canonical ray direction is scaled into [1, 2) by a power of two (unit_scales) whose
+# exponent stops at float32's normal range, and no longer reaches it. (Smaller still, the matrix has no float32 inverse
+# and the shape is named as singular.)
+SHAPE_TO_LOCAL_LIMIT = 2.0**127
+
+
+def warn_shapes_too_small(scene: Scene, to_local: np.ndarray, ok: np.ndarray, shapes: np.ndarray) -> None:
+    """Warns naming the analytic shapes (``scene._geometry_shapes()[shapes[i]]`` placed by shape entry ``i``'s
+    world-to-canonical matrix ``to_local[i]``, :func:`invert_transforms`' ``ok``) that rays miss, as they are too
+    small for float32 (:data:`SHAPE_TO_LOCAL_LIMIT`): shapes scaled to 5e-39 or less, by their own transform or an
+    instance's, vanished without a word."""
+    if not len(shapes):
+        return
+    small = ok & (np.abs(to_local[:, :, :3]).reshape(len(to_local), -1).max(axis=1) >= SHAPE_TO_LOCAL_LIMIT)
+    if small.any():
+        geometry = scene._geometry_shapes()
+        paths = list(dict.fromkeys(geometry[j].path for j in shapes[small]))
+        scene._warn_prims("shapes too small for float32 (scaled by 5.9e-39 or less: their world-to-shape "
+                          "matrix passes 2^127) are missed by every ray; scale the scene up", paths)
 
 
 def instance_exponents(scene: Scene) -> np.ndarray:
