@@ -228,8 +228,10 @@ def light_kind(lights: DeviceLights, k: int):
 @wp.func
 def light_scales(lights: DeviceLights, k: int):
     """``(down, up = 1 / down)``: the power of two that brings analytic light ``k``'s lengths near 1 (a sphere's
-    radius into [1, 2); a rect's, disk's or cylinder's largest edge, radius or axis component, set by
-    :mod:`wrt.light_table`, whose ``params[2]`` holds its area times ``down^2``), and 1 for other kinds. Its sampling
+    radius into [1, 2); a rect's, disk's or cylinder's largest edge, radius or axis component, an ellipsoid's or
+    elliptic tube's largest entry of its map from the unit shape, set by :mod:`wrt.light_table`, whose ``params[2]``
+    holds its area times ``down^2``), and 1 for other kinds (an ellipsoid's or elliptic tube's map moves by ``down``,
+    its inverse by ``up``). Its sampling
     and pdf take distances times ``down``: exact, so the same bits where nothing over- or underflows, where an area
     over a distance squared in world units over- or underflowed float32 in scenes past 1e19 or under 1e-19 across
     (lights too dim, up to 89 times too bright, or black)."""
@@ -239,6 +241,9 @@ def light_scales(lights: DeviceLights, k: int):
     if kind == LIGHT_SPHERE:
         down, up = power_scales(lights.params[k][0])
     elif kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER:
+        down = lights.params[k][1]
+        up = 1.0 / down
+    elif kind == LIGHT_ELLIPSOID or kind == LIGHT_ELLIPTIC_TUBE:
         down = lights.params[k][1]
         up = 1.0 / down
     return down, up
@@ -386,10 +391,12 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
             return float(wp.inf), 0.0
         radial = op + t * dp
         return t * up, wp.max(-wp.dot(d, radial / r), 0.0)
-    if kind == LIGHT_ELLIPSOID:
-        return intersect_ellipsoid(c, lights.shape_inverses[k], o, d), 1.0
-    if kind == LIGHT_ELLIPTIC_TUBE:
-        return intersect_elliptic_tube(c, lights.shape_inverses[k], o, d)
+    if kind == LIGHT_ELLIPSOID or kind == LIGHT_ELLIPTIC_TUBE:  # in the light's scaled lengths (light_scales)
+        down, up = light_scales(lights, k)
+        if kind == LIGHT_ELLIPSOID:
+            return intersect_ellipsoid(c * down, lights.shape_inverses[k] * up, o * down, d) * up, 1.0
+        t, cos_l = intersect_elliptic_tube(c * down, lights.shape_inverses[k] * up, o * down, d)
+        return t * up, cos_l
     return float(wp.inf), 0.0
 
 
@@ -421,12 +428,13 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
         if cos_max > 1.0 or one_minus <= 0.0:
             return 0.0
         return 1.0 / (2.0 * PI * one_minus)
+    down, up = light_scales(lights, k)
     if kind == LIGHT_ELLIPSOID:
-        return ellipsoid_pdf(lights.position[k], lights.shape_inverses[k], lights.params[k][0], p, d)
+        return ellipsoid_pdf(lights.position[k] * down, lights.shape_inverses[k] * up, lights.params[k][0] * down,
+                             p * down, d)
     if kind == LIGHT_ELLIPTIC_TUBE:
-        return elliptic_tube_pdf(lights.position[k], lights.shapes[k], lights.shape_inverses[k], p + dist * d, dist,
-                                 cos_l)
-    down, _ = light_scales(lights, k)
+        return elliptic_tube_pdf(lights.position[k] * down, lights.shapes[k] * down, lights.shape_inverses[k] * up,
+                                 (p + dist * d) * down, dist * down, cos_l)
     area = lights.params[k][2]  # times down^2
     if kind == LIGHT_CYLINDER:
         area = 0.5 * area  # sampling covers the half facing the shading point
@@ -709,11 +717,13 @@ def sample_light(
         out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -out.wi)) * (2.0 * PI * one_minus)
         return out
     if kind == LIGHT_ELLIPSOID:
-        wi, t, pdf = sample_ellipsoid(lights.position[k], lights.shapes[k], lights.shape_inverses[k],
-                                      lights.params[k][0], p, u1, u2)
+        ell_down, ell_up = light_scales(lights, k)
+        wi, t, pdf = sample_ellipsoid(lights.position[k] * ell_down, lights.shapes[k] * ell_down,
+                                      lights.shape_inverses[k] * ell_up, lights.params[k][0] * ell_down, p * ell_down,
+                                      u1, u2)
         if pdf > 0.0:
             out.wi = wi
-            out.dist = t
+            out.dist = t * ell_up
             out.pdf = pdf
             out.value = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -wi)) / pdf
         return out
@@ -762,7 +772,9 @@ def sample_light(
         L = lights.radiance[k]
     elif kind == LIGHT_ELLIPTIC_TUBE:
         # The half facing p in the tube's canonical frame, uniform there by area ("area" = 1 / its area pdf).
-        q, ln, area = sample_elliptic_tube(lights.position[k], lights.shapes[k], lights.shape_inverses[k], p, u1, u2)
+        q_down, ln, area = sample_elliptic_tube(lights.position[k] * down, lights.shapes[k] * down,
+                                                lights.shape_inverses[k] * up, p * down, u1, u2)
+        q = q_down * up
         L = lights.radiance[k]
     else:
         prim = lights.prims[k]

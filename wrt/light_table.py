@@ -13,7 +13,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
-from .errors import SceneError, user_stacklevel
+from .errors import SceneError
 from .light_links import CASTS_SHADOW, link_groups, upload_links
 from .light_sampling import (
     LIGHT_CYLINDER,
@@ -347,30 +347,6 @@ def no_response_triangles(lights: DeviceLights, prims: np.ndarray) -> np.ndarray
     return prims[first:count][no_response]
 
 
-# Sizes (bounding box diagonals) of the scenes whose ellipsoid and elliptic tube lights (sphere and cylinder lights
-# under an uneven scale or a shear) are sampled as unscaled: their sampling squares lengths in world units in float32,
-# which over- or underflows beyond (2e21 across they lit nothing). Round sphere,
-# rect, disk and cylinder lights and emissive triangles are sampled in lengths scaled by a power of two per light
-# (wrt.light_sampling.light_scales), at any scale.
-AREA_LIGHT_SCENE_SIZES = (2.0**-64, 2.0**64)  # 5.4e-20 to 1.8e19
-
-
-def warn_area_lights_past_float32(lights: list, size: float) -> None:
-    """Warns naming the ellipsoid and elliptic tube lights of a scene of ``size`` (its box's diagonal) outside
-    :data:`AREA_LIGHT_SCENE_SIZES`, which may be drawn too dim, too bright or black."""
-    if AREA_LIGHT_SCENE_SIZES[0] <= size <= AREA_LIGHT_SCENE_SIZES[1] or not size > 0.0:
-        return
-    paths = [light.path or type(light).__name__ for light in lights
-             if (isinstance(light, SphereLight) and not light.drawn_as_point and light.ellipsoid() is not None)
-             or (isinstance(light, CylinderLight) and not light.drawn_as_line and light.tube() is not None)]
-    if paths:
-        shown = ", ".join(paths[:3]) + (", ..." if len(paths) > 3 else "")
-        warnings.warn(f"a scene {size:.3g} across (outside 5.4e-20 to 1.8e19) may draw its ellipsoid and elliptic "
-                      "tube lights (sphere and cylinder lights under an uneven scale or a shear) too dim, too bright "
-                      f"or black, as their sampling squares lengths in float32: {shown}; scale the scene towards "
-                      "unit size", stacklevel=user_stacklevel())
-
-
 def build_lights(lights: list, scene, material_emission: list, device) -> tuple[DeviceLights, UnsampledEmitters]:
     """Flattens ``lights`` (host light objects) plus the emissive triangles of ``scene`` into :class:`DeviceLights`,
     and says which instanced emitters were left out past :data:`MAX_INSTANCED_EMITTERS`.
@@ -426,7 +402,8 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             else:
                 m, L, area = light.ellipsoid(), light.radiance, light.area
                 g = abs(float(np.linalg.det(m))) ** (1.0 / 3.0)  # for its pdf (wrt.affine_lights.ellipsoid_pdf)
-                _add(h, LIGHT_ELLIPSOID, L, light.position, zero, zero, zero, (g, 0, area, 0), 0,
+                down = length_scale(m)
+                _add(h, LIGHT_ELLIPSOID, L, light.position, zero, zero, zero, (g, down, area * down**2, 0), 0,
                      math.pi * area * luminance_np(L))
                 h.shapes[-1] = m
             _add_shaping(h, light.shaping, light.unit_axis(), emits_behind=True, x=light.x_axis, y=light.y_axis)
@@ -464,7 +441,7 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
             origin = light_axes(light.to_world)[3]
             L = light.radiance
             m = light.tube()
-            down = length_scale(axis, [r]) if m is None else 1.0  # (an elliptic tube's lengths are unscaled)
+            down = length_scale(axis, [r]) if m is None else length_scale(m)
             _add(h, LIGHT_CYLINDER if m is None else LIGHT_ELLIPTIC_TUBE, L, origin, axis, zero, zero,
                  (r, down, light.area * down**2, 0), 0, math.pi * light.area * luminance_np(L))
             if m is not None:
@@ -481,7 +458,6 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     # Emissive triangles, then those of mesh lights, which carry their light's shadows and multipliers: appended as
     # columns below (one Python row per triangle took 24 us each, 24 s for a million-triangle emissive ceiling).
     tris = emitter_triangles(scene, material_emission, mesh_lights)
-    warn_area_lights_past_float32(lights, 2.0 * radius)
 
     # Dome texture (packed with the rect lights' textures) and its sampling distribution.
     row_cdf = np.array([0.0, 1.0], np.float32)
