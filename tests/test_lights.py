@@ -1398,12 +1398,14 @@ def test_a_light_whose_area_passes_float32_is_skipped_with_a_warning_naming_it(t
     np.testing.assert_array_equal(image, wrt.render(wrt.load_usd(without), width=8, height=6, spp=1).rgb)
 
 
-def test_a_wide_light_whose_area_fits_float32_lights_as_the_plane_it_nears(tmp_path):
-    """A RectLight 1e19 wide (area 1e38, within float32) filling the quad's hemisphere: radiance L over it gives a
-    Lambertian surface of albedo 0.5 the radiance 0.5 L (irradiance pi L), as an infinite emitting plane would."""
+@pytest.mark.parametrize("width", ["1e19", "1e30"])
+def test_a_wide_light_lights_as_the_plane_it_nears(tmp_path, width):
+    """A RectLight 1e19 or 1e30 wide (area 1e38 or 1e60: past float32, which skipped the light with a warning, as
+    its pdf took the area in float32) filling the quad's hemisphere: radiance L over it gives a Lambertian surface of
+    albedo 0.5 the radiance 0.5 L (irradiance pi L), as an infinite emitting plane would."""
     path = tmp_path / "wide.usda"
-    path.write_text(giant_light_stage('def RectLight "Wide"\n{\n    float inputs:width = 1e19\n'
-                                      '    float inputs:height = 1e19\n}'))
+    path.write_text(giant_light_stage(f'def RectLight "Wide"\n{{\n    float inputs:width = {width}\n'
+                                      f'    float inputs:height = {width}\n}}'))
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
         scene = wrt.load_usd(path)
@@ -1412,9 +1414,12 @@ def test_a_wide_light_whose_area_fits_float32_lights_as_the_plane_it_nears(tmp_p
     np.testing.assert_allclose(image, 0.5, rtol=2e-2)  # 1 spp of solid-angle sampling: noise below 1%
 
 
-def test_an_instanced_light_scaled_past_float32_is_skipped_alone_with_a_warning_naming_it(tmp_path):
-    """A PointInstancer's RectLight whose instance scale makes its area pass float32 is skipped, named with its
-    instance, and the other instance kept; the copied light went to the light table and overflowed there."""
+@pytest.mark.parametrize("width", ["1e15", "1e28"])
+def test_an_instanced_light_scaled_past_float32_is_skipped_alone_with_a_warning_naming_it(tmp_path, width):
+    """A PointInstancer's RectLight whose instance scale makes its size pass float32 (1e28 wide, scaled by 1e10) is
+    skipped, named with its instance, and the other instance kept; the copied light went to the light table and
+    overflowed there. Scaled to 1e25 wide (its area past float32, which skipped it too), both lamps are kept and
+    light the quad as two emitting planes: albedo * 2 L."""
     path = tmp_path / "instanced.usda"
     path.write_text(giant_light_stage("""def PointInstancer "Inst"
 {
@@ -1426,12 +1431,17 @@ def test_an_instanced_light_scaled_past_float32_is_skipped_alone_with_a_warning_
     {
         def RectLight "Lamp"
         {
-            float inputs:width = 1e15
-            float inputs:height = 1e15
+            float inputs:width = WIDTH
+            float inputs:height = WIDTH
         }
     }
-}"""))
+}""".replace("WIDTH", width)))
     scene, image, messages, caught = _render_without_runtime_warnings(path)
+    if width == "1e15":
+        assert not messages and [light.path for light in scene.lights] == ["/Inst/Proto/Lamp[0]", "/Inst/Proto/Lamp[1]"]
+        np.testing.assert_allclose(image.mean(), 1.0, rtol=1e-2)  # 1 spp of each lamp: noise of a few %
+        np.testing.assert_allclose(image, 1.0, rtol=5e-2)
+        return
     assert len(messages) == 1 and "/Inst/Proto/Lamp[1]" in messages[0], [str(w.message) for w in caught]
     assert [light.path for light in scene.lights] == ["/Inst/Proto/Lamp[0]"]
     np.testing.assert_allclose(image, 0.5, rtol=2e-2)  # the kept lamp fills the quad's hemisphere: albedo * L

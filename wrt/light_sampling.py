@@ -27,7 +27,7 @@ from .affine_lights import (
     sample_ellipsoid,
     sample_elliptic_tube,
 )
-from .floats import largest_magnitude, power_scales
+from .floats import FLOAT32_MAX, largest_magnitude, power_scales, unit_scales
 from .geometry import stable_length
 from .ies import ies_factor
 from .light_links import DeviceLinks
@@ -402,11 +402,17 @@ def intersect_light(lights: DeviceLights, k: int, o: wp.vec3, d: wp.vec3):
 
 @wp.func
 def seen_rect(lights: DeviceLights, k: int, p: wp.vec3):
-    """Rect light ``k``, or the square around disk light ``k``, as seen from ``p``, and whether lights of its kind
-    are sampled by solid angle from there (else by area; see :mod:`wrt.spherical_rect`). The rectangle and ``p`` are
-    in the light's scaled lengths (:func:`light_scales`: its points are the world's times ``down``): the edge
-    lengths squared overflowed for a light 1e19 wide."""
-    down, _ = light_scales(lights, k)
+    """Rect light ``k``, or the square around disk light ``k``, as seen from ``p``, whether lights of its kind are
+    sampled by solid angle from there (else by area; see :mod:`wrt.spherical_rect`), and ``(down, up)``: the
+    rectangle and ``p`` are in lengths times ``down``, the power of two that brings ``p``'s height above the plane
+    into [1, 2) (exact: the same bits where nothing over- or underflows). The rectangle is clipped to a square of
+    ``REACH`` heights around ``p``'s foot, so its lengths are near the height: in world units, the edge lengths squared
+    overflowed for a light 1e19 wide, and in the light's own (:func:`light_scales`) those of the clipped rectangle
+    of one 1e30 wide seen from 3 away underflowed."""
+    down, up = light_scales(lights, k)  # p in the light's plane (height 0, or no finite height): no solid angle
+    height = wp.abs(wp.dot(p - lights.position[k], lights.normal[k]))
+    if height > 0.0 and height < FLOAT32_MAX:
+        down, up = power_scales(height)
     u = lights.axis_u[k] * down
     v = lights.axis_v[k] * down
     scale = float(1.0)  # rect: full edges; disk: radius vectors
@@ -415,7 +421,7 @@ def seen_rect(lights: DeviceLights, k: int, p: wp.vec3):
         scale = 2.0
         least = DISK_SOLID_ANGLE_LEAST
     r = spherical_rect(p * down, lights.position[k] * down - 0.5 * scale * (u + v), scale * u, scale * v)
-    return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, least)
+    return r, lights.params[k][3] > 0.0 and solid_angle_usable(r, least), down, up
 
 
 @wp.func
@@ -441,9 +447,9 @@ def area_light_pdf(lights: DeviceLights, k: int, p: wp.vec3, n: wp.vec3, d: wp.v
     if cos_l <= 0.0 or area <= 0.0:
         return 0.0
     if kind == LIGHT_RECT or kind == LIGHT_DISK:
-        r, by_solid_angle = seen_rect(lights, k, p)
+        r, by_solid_angle, rect_down, _ = seen_rect(lights, k, p)
         if by_solid_angle:
-            return spherical_rect_pdf(r, n, (p + dist * d) * down)
+            return spherical_rect_pdf(r, n, (p + dist * d) * rect_down)
     dist = dist * down
     return dist * dist / (cos_l * area)
 
@@ -742,13 +748,13 @@ def sample_light(
         ln = lights.normal[k]
         area = lights.params[k][2]
         L = lights.radiance[k]
-        seen, by_solid_angle = seen_rect(lights, k, p)
+        seen, by_solid_angle, rect_down, rect_up = seen_rect(lights, k, p)
         if by_solid_angle:
-            q_down, inside = sample_spherical_rect(seen, n, u1, u2)  # q * down
+            q_down, inside = sample_spherical_rect(seen, n, u1, u2)  # q * rect_down
             if not inside:
                 return out
             pdf_solid_angle = spherical_rect_pdf(seen, n, q_down)
-            q = q_down * up
+            q = q_down * rect_up
             if kind == LIGHT_DISK:  # a point of the square around the disk: keep it if it lies on the disk
                 if wp.length_sq(plane_coords(lights.axis_u[k], lights.axis_v[k], q - lights.position[k])) > 1.0:
                     return out
@@ -794,7 +800,11 @@ def sample_light(
             # A hole of an emissive cut-out: rays pass it and see no light there, so it sends none either.
             L = wp.vec3(0.0)
         two_sided = tri_double_sided[prim]
-    to = (q - p) * down
+    # The direction and distance from q - p scaled by its own power of two (near a light 1e25 wide, times the
+    # light's it underflowed), the area pdf's squared distance times the light's: both exact, the same bits.
+    to = q - p
+    to_down, to_up = unit_scales(to)
+    to = to * to_down
     d2 = wp.length_sq(to)
     if d2 <= 0.0 or area <= 0.0:
         return out
@@ -806,11 +816,12 @@ def sample_light(
     if cos_l <= 0.0:
         return out
     out.wi = wi
-    out.dist = dist / down
+    out.dist = dist * to_up
     if pdf_solid_angle > 0.0:
         out.pdf = pdf_solid_angle
     else:
-        out.pdf = d2 / (cos_l * area)
+        ratio = down * to_up  # |q - p| times the light's down: d2 times ratio^2
+        out.pdf = d2 * ratio * ratio / (cos_l * area)
     if kind != LIGHT_TRIANGLE:  # triangles are not shaped (and have no row of shaping)
         L = wp.cw_mul(L, emission_shaping(lights, k, -wi))
     out.value = L / out.pdf

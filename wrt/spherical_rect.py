@@ -13,6 +13,7 @@ rectangle looks small, so callers use this only where :func:`solid_angle_usable`
 
 import warp as wp
 
+from .geometry import stable_length
 from .sampling import INV_PI, PI, sample_cosine_hemisphere, to_world
 
 # Below this solid angle (sr) float32 rounding of the edge angles is a visible fraction of it; above the maximum the
@@ -70,11 +71,13 @@ def with_angles(r: SphericalRect):
 @wp.func
 def spherical_rect(o: wp.vec3, corner: wp.vec3, ex: wp.vec3, ey: wp.vec3):
     """The rectangle ``corner + a ex + b ey`` (a, b in [0, 1]; ``ex`` and ``ey`` orthogonal) seen from ``o``, clipped
-    to the part within ``REACH`` heights of ``o``'s foot on its plane."""
+    to the part within ``REACH`` heights of ``o``'s foot on its plane. The edges' lengths are ``stable_length``'s
+    (``wp.length``'s bits where that keeps them): seen from 3 away, a light 1e21 wide has edges whose squares
+    overflow, and it lit nothing."""
     r = SphericalRect()
     r.o = o
-    ex_len = wp.length(ex)
-    ey_len = wp.length(ey)
+    ex_len = stable_length(ex)
+    ey_len = stable_length(ey)
     r.x = ex / ex_len
     r.y = ey / ey_len
     r.z = wp.cross(r.x, r.y)

@@ -249,8 +249,8 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
         result = _tiny_normalized(result, prim, skip)
         if result is not None and not fits_float32(result):
-            skip("lights too large for their area (or a point sphere's intensity) to fit in float32 were skipped",
-                 prim, f"area {result.area:.3g}")
+            skip("lights too large (a size past 8.5e37, or a point sphere's intensity past 3.4e38) to fit in float32 "
+                 "were skipped", prim, f"area {result.area:.3g}")
             result = None
         if shaping is not None:
             result = _shaped(result, shaping, m, prim, skip)
@@ -308,10 +308,13 @@ def _tiny_normalized(light, prim, skip):
 
 
 def fits_float32(light) -> bool:
-    """Whether the light table can hold ``light`` in float32: a sphere, rect, disk or cylinder light's area (a
-    point sphere's intensity) below float32's largest. Sizes near 1e19 and beyond overflowed there behind numpy's
-    bare warning, and the infinite area lit wrongly (a 1e38-wide RectLight over a grey plane: 0 or 0.3 where an
-    infinite emitting plane gives the albedo)."""
+    """Whether the light table can hold ``light`` in float32: the lengths that place a sphere, rect, disk or cylinder
+    light (its centre, edges or radius vectors, axis and radius; an ellipsoid's or elliptic tube's map) below a
+    quarter of float32's largest (:data:`LARGEST_LIGHT_LENGTH`: sums of two stay finite), and a point sphere's
+    intensity below float32's largest. Sizes near 1e38 overflowed there behind numpy's bare warning, and the infinite
+    lengths lit wrongly (a 1e38-wide RectLight over a grey plane: 0 or 0.3 where an infinite emitting plane gives
+    the albedo). The area need not fit: lights are sampled in lengths scaled per light
+    (:func:`wrt.light_sampling.light_scales`); a light 1e20 wide, its area past float32, was skipped."""
     if not isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight)):
         return True
     if isinstance(light, SphereLight) and light.drawn_as_point:
@@ -320,7 +323,28 @@ def fits_float32(light) -> bool:
     if isinstance(light, CylinderLight) and light.drawn_as_line:
         length = float(np.linalg.norm(light.world_shape()[0]))
         return length < FLOAT32_MAX and bool(np.all(np.abs(light.line_intensity) < FLOAT32_MAX))
-    return light.area < FLOAT32_MAX
+    return _lengths_fit(light)
+
+
+LARGEST_LIGHT_LENGTH = FLOAT32_MAX / 4.0
+
+
+def _lengths_fit(light) -> bool:
+    """:func:`fits_float32` for an area light: its placing lengths below :data:`LARGEST_LIGHT_LENGTH`."""
+    if isinstance(light, SphereLight):
+        m = light.ellipsoid()
+        lengths = [light.position, [light.world_radius]] + ([] if m is None else [m])
+    elif isinstance(light, RectLight):
+        lengths = [*light.edges(), light_axes(light.to_world)[3]]
+    elif isinstance(light, DiskLight):
+        x, y, _, origin = light_axes(light.to_world)
+        lengths = [x * light.radius, y * light.radius, origin]
+    else:
+        m = light.tube()
+        lengths = [*light.world_shape()[:1], [light.world_shape()[1]], light_axes(light.to_world)[3]]
+        lengths += [] if m is None else [m]
+    with np.errstate(invalid="ignore"):
+        return all(bool(np.all(np.abs(np.asarray(x, np.float64)) < LARGEST_LIGHT_LENGTH)) for x in lengths)
 
 
 def _area_underflowed(light) -> bool:
