@@ -283,3 +283,58 @@ def test_analytic_shapes_too_small_for_float32_are_named_in_a_warning(radius, mi
     assert not said
     assert (hits.prim >= 0).all()
     np.testing.assert_allclose(hits.t, 9.0 * radius, rtol=0.02)
+
+
+@pytest.mark.parametrize("thickness", [1.0e-20, 1.0e-28])
+def test_a_card_instance_squashed_along_its_normal_renders_as_unsquashed(thickness):
+    """A floor quad in its prototype's z = 0 plane, instanced flat under a small sphere light (a scale of
+    ``thickness`` along z, which moves none of its points): the image of the unsquashed instance. inverse_linear
+    scaled the whole world-to-local matrix ``diag(1/9, 1/9, 1/thickness)`` by one power of two, taking its two small
+    entries to 2^-67 or less, and their float32 determinant underflowed: the inverse was inf or 0, the floor's hit
+    points NaN or at its origin and the floor black or lit wrong, where ``wp.inverse`` of the unscaled matrix was
+    exact."""
+    def scene(t):
+        floor = wrt.Prototype("/card", meshes=[quad("/card/quad", [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]],
+                                                    1.0)])
+        placed = np.diag([9.0, 9.0, t, 1.0])
+        placed[:3, 3] = [0.0, 0.0, -13.0]
+        lamp = wrt.SphereLight(np.array([2.0, 1.0, -10.0]), 0.2, np.full(3, 2000.0))  # lights each pixel differently
+        return wrt.Scene(prototypes=[floor], instances=wrt.Instances.from_transforms([0], placed[None]), lights=[lamp])
+
+    ref, img = (wrt.render(scene(t), camera=scaled_camera(1.0), width=8, height=6, device="cpu")
+                for t in (1.0, thickness))
+    assert (ref.aovs["prim"] >= 0).all() and ref.rgb.min() > 0.1 and np.ptp(ref.rgb) > 0.1
+    np.testing.assert_array_equal(img.aovs["prim"], ref.aovs["prim"])
+    np.testing.assert_allclose(img.rgb, ref.rgb, atol=1e-4)
+
+
+def test_inverse_linear_of_unevenly_scaled_turned_matrices_is_their_float64_inverse():
+    """``inverse_linear`` of world-to-local matrices of transforms that scale unevenly (up to 1e30 between axes),
+    before or after a turn, of any overall size: their float64 inverses (numpy), to float32's precision. One power
+    of two for the whole matrix left its small entries' products to underflow."""
+    import warp as wp
+
+    from wrt.transforms import inverse_linear, mat34
+
+    @wp.kernel
+    def invert(ms: wp.array[mat34], out: wp.array[wp.mat33]):
+        i = wp.tid()
+        out[i] = inverse_linear(ms[i])
+
+    rng = np.random.default_rng(2)
+    linear = []
+    for scales in ([1, 1, 1e-20], [1e5, 1e5, 1e-15], [1, 1, 1e-30], [1e-10, 1e-10, 1e10], [1e20, 1e20, 1],
+                   [3e-20, 1e-30, 1e-30], [1e15, 1, 1e-15]):
+        turn = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        linear += [turn @ np.diag(scales), np.diag(scales) @ turn, np.diag(scales)]
+    to_world = np.tile(np.eye(4), (len(linear), 1, 1))
+    to_world[:, :3, :3] = linear
+    world_to_local = np.linalg.inv(to_world)[:, :3, :]
+    m = world_to_local.astype(np.float32)
+    out = wp.zeros(len(m), dtype=wp.mat33, device="cpu")
+    wp.launch(invert, len(m), inputs=[wp.array(m, dtype=mat34, device="cpu"), out], device="cpu")
+    expected = np.linalg.inv(m[:, :, :3].astype(np.float64))  # of the float32 matrix the kernel was given
+    got = out.numpy().astype(np.float64)
+    size = np.abs(expected).max(axis=(1, 2), keepdims=True)
+    error = (np.abs(got - expected) / size).max(axis=(1, 2))
+    assert (error < 1e-5).all(), error

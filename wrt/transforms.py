@@ -17,7 +17,7 @@ ten times the hits their flattened copies lose.
 
 import warp as wp
 
-from .floats import largest_magnitude, power_scales
+from .floats import unit_scales
 
 mat34 = wp.types.matrix(shape=(3, 4), dtype=wp.float32)  # affine transform: rows of [linear | translation]
 
@@ -48,15 +48,28 @@ def transform_vector(m: mat34, v: wp.vec3):
 
 @wp.func
 def inverse_linear(m: mat34):
-    """``A^-1``, inverted from ``A`` scaled by the power of two that brings its largest entry into ``[1, 2)``: the
-    same bits where nothing over- or underflows (a power of two commutes with rounding), but ``wp.inverse`` divides
-    by the determinant, a product of three entries, which vanished in float32 for an instance or shape scaled by
-    5e12 or more (and overflowed for one scaled by 2e-13 or less): its inverse was NaN, and so were the hit points,
-    normals and offsets of shading on it (analytic shapes of a scene scaled by 1e20 were black)."""
+    """``A^-1``, inverted from ``D_r A D_c``, ``A`` with each row and then each column scaled by the power of two that
+    brings its largest entry into ``[1, 2)``: ``A^-1 = D_c (D_r A D_c)^-1 D_r``, the same bits as ``wp.inverse(A)``
+    where nothing over- or underflows (each product in the adjugate and determinant takes its entries from distinct
+    rows and columns, so a power of two per row or column commutes with its rounding). ``wp.inverse`` divides by
+    the determinant, a product of three entries, which vanished in float32 for an instance or shape scaled by 5e12 or
+    more (and overflowed for one scaled by 2e-13 or less): its inverse was NaN, and so were the hit points, normals
+    and offsets of shading on it (analytic shapes of a scene scaled by 1e20 were black). One power of two for the
+    whole matrix was not enough for an uneven scale: a card instanced flat, ``(1, 1, 1e-20)``, kept two entries of
+    2^-67 whose determinant underflowed, where ``wp.inverse`` had inverted it exactly."""
     a = linear_part(m)
-    largest = wp.max(wp.max(largest_magnitude(a[0]), largest_magnitude(a[1])), largest_magnitude(a[2]))
-    down, _ = power_scales(largest)
-    return wp.inverse(a * down) * down
+    r0, _ = unit_scales(a[0])
+    r1, _ = unit_scales(a[1])
+    r2, _ = unit_scales(a[2])
+    b = wp.matrix_from_rows(a[0] * r0, a[1] * r1, a[2] * r2)
+    c0, _ = unit_scales(wp.vec3(b[0, 0], b[1, 0], b[2, 0]))
+    c1, _ = unit_scales(wp.vec3(b[0, 1], b[1, 1], b[2, 1]))
+    c2, _ = unit_scales(wp.vec3(b[0, 2], b[1, 2], b[2, 2]))
+    cols = wp.vec3(c0, c1, c2)
+    b = wp.matrix_from_rows(wp.cw_mul(b[0], cols), wp.cw_mul(b[1], cols), wp.cw_mul(b[2], cols))
+    inv = wp.inverse(b)
+    rows = wp.vec3(r0, r1, r2)
+    return wp.matrix_from_rows(wp.cw_mul(inv[0], rows) * c0, wp.cw_mul(inv[1], rows) * c1, wp.cw_mul(inv[2], rows) * c2)
 
 
 @wp.func
