@@ -308,3 +308,27 @@ def test_a_refitted_presplit_tree_keeps_its_pieces():
     _, fresh_cost, _ = closest_hits(fresh, moved, indices, "binary", origins, directions)
     near_pole = slice(0, len(origins) // 2)
     assert cost[near_pole, 1].mean() < 1.5 * fresh_cost[near_pole, 1].mean()
+
+
+@pytest.mark.parametrize("exponent", [-110, -70, 70, 120])
+def test_slivers_scaled_by_a_power_of_two_are_split_as_unscaled(exponent):
+    """Slivers scaled by ``2^exponent`` (exactly: a power of two) are cut into as many references as unscaled, the
+    ratio of box to triangle area that decides it being scale-free. ``split_levels`` squared lengths in float32: past
+    about 1e19 the box area was inf, below about 1e-19 the triangle's area 0, and no triangle was cut, so a mesh
+    1e20 across, or an instance scaled past 2^100 (traced in its prototype's BLAS scaled by 2^k, tlas.py), lost its
+    pre-splits."""
+    from wrt.bvh.presplit import split_plan
+
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=(300, 3))
+    along = rng.normal(size=(300, 3))
+    across = np.cross(along, rng.normal(size=(300, 3))) * rng.uniform(1e-3, 0.3, (300, 1))
+    tris = np.stack([a, a + along, a + along + across], 1).astype(np.float32)
+    indices = wp.array(np.arange(3 * len(tris), dtype=np.int32).reshape(-1, 3), dtype=wp.int32)
+    levels = []
+    for e in (0, exponent):
+        points = np.ldexp(tris.reshape(-1, 3), e).astype(np.float32)
+        assert np.array_equal(np.ldexp(points, -e), tris.reshape(-1, 3))  # exact: no over- or underflow
+        levels.append(split_plan(wp.array(points, dtype=wp.vec3), indices)[0].numpy())
+    assert (levels[0] > 0).sum() > 50  # many are cut
+    np.testing.assert_array_equal(levels[1], levels[0])

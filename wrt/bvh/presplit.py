@@ -26,6 +26,8 @@ import math
 
 import warp as wp
 
+from ..floats import unit_scales
+
 wp.set_module_options({"enable_backward": False})  # nothing differentiates these kernels: no adjoint code to compile
 
 # A piece whose box surface area is below this multiple of its triangle's area is not split. A tilted, well-shaped
@@ -88,10 +90,15 @@ def clipped_bounds(a: wp.vec3, b: wp.vec3, c: wp.vec3, lo: wp.vec3, hi: wp.vec3)
 @wp.func
 def split_levels(a: wp.vec3, b: wp.vec3, c: wp.vec3, max_levels: int, max_ratio: float):
     """How many times to halve the triangle's box: until a sliver's box-to-area ratio is below ``max_ratio``
-    (each halving about halves it), at most ``max_levels``; 0 for a triangle of no area."""
+    (each halving about halves it), at most ``max_levels``; 0 for a triangle of no area. The lengths are first
+    scaled by the power of two that brings the box's largest extent into ``[1, 2)``: the same ratio, bit for bit,
+    where nothing over- or underflows, but the squares cannot (a mesh 1e20 across, or an instance scaled past 2^100
+    and traced in its prototype's BLAS scaled by 2^k, had an infinite box area or a zero area and no cut triangle)."""
     e = wp.max(wp.max(a, b), c) - wp.min(wp.min(a, b), c)
+    down, _ = unit_scales(e)
+    e = e * down
     box_area = 2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
-    area = 0.5 * wp.length(wp.cross(b - a, c - a))
+    area = 0.5 * wp.length(wp.cross((b - a) * down, (c - a) * down))
     levels = int(0)
     if area > 0.0 and wp.isfinite(box_area):
         ratio = box_area / area
