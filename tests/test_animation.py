@@ -217,6 +217,24 @@ def test_refit_rejects_nan_vertices_and_other_topologies_and_keeps_the_tree(np_r
     refitter.refit(unused, indices).validate()
 
 
+def test_refit_to_float64_vertices_past_float32_names_the_range_without_numpys_warning(np_rng):
+    """A refit to float64 vertices past float32's 3.4e38 is refused naming that range, as a build of them is, and
+    without numpy's "overflow encountered in cast" RuntimeWarning, which the build drops (8296e7e) but the refit's
+    cast let through (an error where warnings are errors, in place of the message)."""
+    import warnings
+
+    points = np_rng.uniform(-1, 1, (60, 3)).astype(np.float32)
+    indices = np_rng.integers(0, 60, (40, 3)).astype(np.int32)
+    bvh = build_bvh(points, indices, "sah", device="cpu")
+    refitter = Refitter(bvh, bvh.to_device(points, indices, "cpu"), "cpu")
+    far = points.astype(np.float64)
+    far[indices[0, 2]] = [1e39, 0.0, 0.0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"a value past float32's 3.4e38\); triangle 0 uses one"):
+            refitter.refit(far, indices)
+
+
 def test_refitted_accelerator_traces_like_wp_mesh(np_rng):
     from wrt.procedural import displaced_sphere
 

@@ -122,7 +122,8 @@ class Refitter:
             return self.host
         # Checked like a build's input, since the slab test assumes finite boxes; then the moved triangles are
         # gathered into slot order on the device, straight into the tree's vertex arrays.
-        points_d = wp.array(np.asarray(points, np.float32), dtype=wp.vec3, device=self.device)
+        with np.errstate(over="ignore"):  # float64 values past float32's range become inf, named by check_triangles
+            points_d = wp.array(np.asarray(points, np.float32), dtype=wp.vec3, device=self.device)
         indices_d = wp.array(indices.astype(np.int32), dtype=wp.int32, device=self.device)
         check_triangles(points_d, indices_d)
         wp.launch(
