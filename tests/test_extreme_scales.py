@@ -338,3 +338,16 @@ def test_inverse_linear_of_unevenly_scaled_turned_matrices_is_their_float64_inve
     size = np.abs(expected).max(axis=(1, 2), keepdims=True)
     error = (np.abs(got - expected) / size).max(axis=(1, 2))
     assert (error < 1e-5).all(), error
+
+
+@pytest.mark.parametrize("scale", [1.0, 1.0e-30, 1.0e-34])
+def test_a_face_just_behind_a_culled_back_face_is_seen_at_any_scale(scale):
+    """A single-sided quad facing away from the camera and a double-sided one a tenth of its distance behind it, all
+    scaled by ``scale`` with the camera: every pixel sees the far quad through the near one's back. The camera ray
+    was traced again from ``t`` plus at least 1e-30 past the culled face (``hidden_hits.t_past``), an absolute step
+    that in a scene scaled by 1e-30 passed the far quad too, and the camera saw nothing."""
+    near = [[-100, -100, -5], [-100, 100, -5], [100, 100, -5], [100, -100, -5]]  # clockwise seen from +Z
+    far = [[-100, -100, -5.5], [100, -100, -5.5], [100, 100, -5.5], [-100, 100, -5.5]]
+    scene = wrt.Scene(meshes=[quad("/near", near, scale, double_sided=False), quad("/far", far, scale)])
+    img = wrt.render(scene, camera=scaled_camera(scale), width=12, height=8, device="cpu", integrator="normals")
+    np.testing.assert_array_equal(img.aovs["prim"] // 2, 1)  # triangles 2 and 3: the far quad

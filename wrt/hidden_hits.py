@@ -22,14 +22,18 @@ from .transforms import transform_vector
 wp.set_module_options({"fuse_fp": False, "enable_backward": False})  # the rounding of wrt.shade (see there)
 
 CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face before re-tracing
-CULL_LEAST_STEP = wp.constant(1.0e-30)  # the step past a culled face at t = 0
+# The step past a culled face at t = 0 (or so near 0 that t * CULL_EPSILON is no step): float32's least normal
+# number times 2, so the new t_min stays normal when unit_ray scales it by 1/2 (Accelerator docstring). An absolute
+# step of 1e-30 passed over whole scenes 1e-30 across, and their camera rays saw nothing behind a culled face.
+CULL_LEAST_STEP = wp.constant(2.0**-125)
 
 
 @wp.func
 def t_past(t: float):
     """The ``t_min`` that traces a ray again from just past its hit at ``t``. The step is relative to ``t`` alone
     (the watertight test measures hits from the ray origin, so t's rounding is relative): an absolute floor of 1e-9
-    skipped whatever lay just behind the culled face in a scene a few micrometres across."""
+    skipped whatever lay just behind the culled face in a scene a few micrometres across, one of 1e-30 in a scene
+    1e-30 across."""
     return t + wp.max(t * CULL_EPSILON, CULL_LEAST_STEP)
 
 

@@ -212,7 +212,7 @@ class Accelerator:
     (``hidden_hits.intersect_visible``, shadow and cull passes) and ``wrt bench`` call these methods with limits as
     their kernels compute them, unrounded: their directions are unit length, whose limits ``unit_ray`` scales by 1 or
     1/2, so only a limit below 2^-125 could round, and theirs are 0, inf, clipping distances, light distances or a
-    culled hit's ``t`` plus at least 1e-30 (``hidden_hits.t_past``).
+    culled hit's ``t`` plus at least 2^-125 (``hidden_hits.t_past``).
     """
 
     name = ""
