@@ -820,3 +820,26 @@ def test_a_displacement_shader_that_moves_nothing_is_not_named(tmp_path, inputs)
     stage.Save()
     _, messages = load(path)
     assert not any("displacement" in m for m in messages), messages
+
+
+@pytest.mark.parametrize("name, type_name, value, field, default", [
+    ("base_color", "Float2", Gf.Vec2f(0.1, 0.9), "diffuse_color", 0.8),  # was (0.1, 0.9, 0.1)
+    ("base_color", "Matrix3d", Gf.Matrix3d(0.1), "diffuse_color", 0.8),  # was its first three entries
+    ("specular_roughness", "Float3", Gf.Vec3f(0.9, 0.0, 0.0), "roughness", 0.2),  # was 0.9
+    ("specular_roughness", "String", "0.9", "roughness", 0.2),  # a string of digits was read as 0.9
+])
+def test_an_input_of_the_wrong_shape_keeps_its_default_with_a_note(tmp_path, name, type_name, value, field, default):
+    """A standard_surface input authored with another shape than its type's (a float2 or matrix for a colour, a
+    colour or a string of digits for a float) keeps the specification's default, named in the material's note, as a
+    UsdPreviewSurface input does (eb95f91): it was resized into a colour of its first numbers, or read as its first
+    number, without a word."""
+    stage, path = new_stage(tmp_path)
+    material, shader = mtlx_material(stage, "/Looks/Odd")
+    shader.CreateInput(name, getattr(Sdf.ValueTypeNames, type_name)).Set(value)
+    bind(add_quad(stage, "/Quad"), material)
+    stage.Save()
+    scene, messages = load(path)
+    (mat,) = scene.materials
+    np.testing.assert_allclose(getattr(mat, field), default, rtol=1e-6)
+    (warning,) = [m for m in messages if "/Looks/Odd:" in m]
+    assert f"{name} is not a finite number of its type; its default is used" in warning

@@ -221,13 +221,13 @@ class _Graph:
         if found is None:
             return default, None
         if found[0] == "value":
-            value = _array(found[1], default.size)
+            value = _input_array(found[1], default.size)
             if value is None:
                 self.notes.append(f"{name} is not a finite number of its type; its default is used")
                 return default, None
             return value, None
         node = found[1]
-        own = _array(value_at(self.shader.GetInput(name).GetAttr(), self.reader.time), default.size)
+        own = _input_array(value_at(self.shader.GetInput(name).GetAttr(), self.reader.time), default.size)
         constant = default if own is None else own  # the value authored beside the connection
 
         def leaf(source, source_id: str) -> Folded | None:
@@ -558,6 +558,20 @@ def _multiply(texture, factor: float, apply: bool = True) -> bool:
         for name, values in scaled.items():
             setattr(texture, name, values.astype(np.float32))
     return True
+
+
+def _input_array(value, size: int) -> np.ndarray | None:
+    """:func:`_array` of a surface input's constant, ``size`` numbers of its type: None also when it has another shape
+    (a colour, ``size`` 3, is 1, 3 or 4 numbers, a float one) or is a string, as for UsdPreviewSurface's inputs: a
+    float2 colour was resized to ``(a, b, a)``, a matrix read as its first entries, a colour or a string of digits
+    given for a float as its first number, without a word."""
+    if isinstance(value, str):
+        return None
+    try:
+        count = np.asarray(value, np.float64).size
+    except (TypeError, ValueError):  # None, or an unreadable type
+        return None
+    return _array(value, size) if count in ((1, 3, 4) if size == 3 else (size,)) else None
 
 
 def _array(value, size: int | None = None) -> np.ndarray | None:
