@@ -1570,3 +1570,35 @@ def test_an_emission_texel_past_float16_is_estimated_as_the_device_stores_it(tex
 
     stored = floor_brightness(as_stored)
     assert floor_brightness(texel) == pytest.approx(stored, rel=1e-3)
+
+
+@pytest.mark.parametrize("case", ["chained transforms", "constant in"])
+def test_texture_transforms_past_float32_warn_only_in_wrts_words(tmp_path, case):
+    """Texture transforms whose finite inputs multiply past float32's range (two UsdTransform2d scaling st by 1e30
+    each, or one mapping a constant ``in`` to 4.5e38) give the texture's fallback with wrt's warning and no other:
+    numpy's float32 product or cast raised its own "overflow encountered" RuntimeWarning first (an error where
+    warnings are errors, which stopped the load)."""
+    png = write_png(tmp_path / "flat.png", np.full((2, 2, 3), (200, 100, 50)))
+    path = textured_stage(tmp_path, png, color_space="raw", transform={"rotation": 0.0})
+    stage = Usd.Stage.Open(path)
+    xf = UsdShade.Shader.Get(stage, "/Looks/Tex/Xf")
+    if case == "chained transforms":
+        xf.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(1e30, 1e30))
+        outer = UsdShade.Shader.Define(stage, "/Looks/Tex/Xf2")
+        outer.CreateIdAttr("UsdTransform2d")
+        outer.CreateInput("in", Sdf.ValueTypeNames.Float2).ConnectToSource(xf.ConnectableAPI(), "result")
+        outer.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(1e30, 1e30))
+        st = UsdShade.Shader.Get(stage, "/Looks/Tex/Image").GetInput("st")
+        st.GetAttr().ClearConnections()
+        st.ConnectToSource(outer.ConnectableAPI(), "result")
+    else:
+        xf.GetInput("in").GetAttr().ClearConnections()
+        xf.GetInput("in").Set(Gf.Vec2f(0.5, 0.5))
+        xf.CreateInput("scale", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(3e38, 3e38))
+        xf.CreateInput("translation", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(3e38, 0.0))
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wrt.load_usd(path)
+    assert [w.category for w in caught] == [UserWarning], [str(w.message) for w in caught]
+    assert "float32" in str(caught[0].message)

@@ -843,3 +843,20 @@ def test_an_input_of_the_wrong_shape_keeps_its_default_with_a_note(tmp_path, nam
     np.testing.assert_allclose(getattr(mat, field), default, rtol=1e-6)
     (warning,) = [m for m in messages if "/Looks/Odd:" in m]
     assert f"{name} is not a finite number of its type; its default is used" in warning
+
+
+def test_a_tiling_past_float32_warns_only_in_wrts_words(tmp_path):
+    """A ``tiledimage`` whose texture transform passes float32's range is named in the material's note and in no
+    other warning: numpy's cast of the transform to float32 raised its own "overflow encountered in cast"
+    RuntimeWarning first (an error where warnings are errors, which stopped the load)."""
+    png = write_png(tmp_path / "tile.png", np.full((2, 2, 3), 200))
+    path = tiled_stage(tmp_path, png, 3e38)
+    stage = Usd.Stage.Open(path)
+    image = UsdShade.Shader.Get(stage, "/Looks/Tiles/Graph/Image")
+    image.CreateInput("realworldimagesize", Sdf.ValueTypeNames.Float2).Set(Gf.Vec2f(1e-10, 1e-10))
+    stage.Save()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wrt.load_usd(path)
+    assert [w.category for w in caught] == [UserWarning], [str(w.message) for w in caught]
+    assert "/Looks/Tiles" in str(caught[0].message) and "float32" in str(caught[0].message)

@@ -818,7 +818,8 @@ def constant_st_transform(transform: np.ndarray, st) -> np.ndarray:
     m = np.eye(3)
     m[:2, :2] = 0.0
     m[:2, 2] = point[:2]
-    return m.astype(np.float32)
+    with np.errstate(over="ignore"):  # a point past float32's range becomes inf, which the callers name
+        return m.astype(np.float32)
 
 
 def used_materials(face_materials: np.ndarray) -> np.ndarray:
@@ -1426,7 +1427,8 @@ class MaterialReader:
             if node_id in TRANSFORM2D_IDS:
                 rotation, scale, translation = (self._transform2d_input(node, name, default, material_path)
                                                 for name, default in TRANSFORM2D_DEFAULTS)
-                transform = transform @ _transform2d(rotation[0], scale, translation)
+                with np.errstate(over="ignore", invalid="ignore"):  # past float32: inf, named by _texture
+                    transform = transform @ _transform2d(rotation[0], scale, translation)
                 found, name = self._producer(node, "in"), "in"
                 if found is None:
                     # Storm's material network reads an unconnected in's authored value, else Sdr's default (0, 0),

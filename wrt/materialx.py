@@ -489,7 +489,8 @@ class _Graph:
             image_size = tile_size = np.ones(2)
         s = tile_size / image_size
         m = np.array([[tiling[0] * s[0], 0, -offset[0] * s[0]], [0, tiling[1] * s[1], -offset[1] * s[1]], [0, 0, 1]])
-        return m.astype(np.float32)
+        with np.errstate(over="ignore"):  # past float32's range: inf, named in the note (_image)
+            return m.astype(np.float32)
 
     def _texcoord(self, node) -> tuple[str | None, np.ndarray, np.ndarray | None]:
         """``(primvar, st_fallback, constant)`` of an image node's ``texcoord``: the primvar it reads (``st`` unless
