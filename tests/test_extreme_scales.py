@@ -310,8 +310,8 @@ def test_a_card_instance_squashed_along_its_normal_renders_as_unsquashed(thickne
 
 def test_inverse_linear_of_unevenly_scaled_turned_matrices_is_their_float64_inverse():
     """``inverse_linear`` of world-to-local matrices of transforms that scale unevenly (up to 1e30 between axes),
-    before or after a turn, of any overall size: their float64 inverses (numpy), to float32's precision. One power
-    of two for the whole matrix left its small entries' products to underflow."""
+    before, after or between turns, of any overall size: their float64 inverses (numpy), to float32's precision.
+    One power of two for the whole matrix left its small entries' products to underflow."""
     import warp as wp
 
     from wrt.instancing import invert_transforms
@@ -327,7 +327,8 @@ def test_inverse_linear_of_unevenly_scaled_turned_matrices_is_their_float64_inve
     for scales in ([1, 1, 1e-20], [1e5, 1e5, 1e-15], [1, 1, 1e-30], [1e-10, 1e-10, 1e10], [1e20, 1e20, 1],
                    [3e-20, 1e-30, 1e-30], [1e15, 1, 1e-15]):
         turn = np.linalg.qr(rng.normal(size=(3, 3)))[0]
-        linear += [turn @ np.diag(scales), np.diag(scales) @ turn, np.diag(scales)]
+        other = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        linear += [turn @ np.diag(scales), np.diag(scales) @ turn, np.diag(scales), turn @ np.diag(scales) @ other]
     to_world = np.tile(np.eye(4), (len(linear), 1, 1))
     to_world[:, :3, :3] = linear
     # Those that instances and shapes may have: invert_transforms refuses the ones too uneven for float32 (they are
