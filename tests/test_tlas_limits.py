@@ -195,3 +195,57 @@ def test_rays_from_inside_an_instance_scaled_past_2_to_100_never_leave_it(scale)
     hits = wrt.trace(scene, origins.astype(np.float32), directions.astype(np.float32))
     assert (hits.prim >= 0).all(), np.flatnonzero(hits.prim < 0)
     assert wrt.occluded(scene, origins.astype(np.float32), directions.astype(np.float32)).all()
+
+
+@pytest.mark.parametrize("unused, size, scale", [(1e30, 1.0, 1e36), (np.nan, 4.0, 1e37)])
+def test_an_unused_point_does_not_change_an_instance_scaled_past_2_to_100(unused, size, scale):
+    """Octahedra ``size`` across in their prototype, instanced at 1e36 or 1e37, whose prototype holds one more point
+    no face uses, at 1e30 or NaN: the instances are traced in a BLAS scaled by the power of two of the prototype
+    without that point (``instance_exponents``, its reach capped by ``SCALED_REACH``), every ray whose float64 hit
+    is clear (a third along a world axis, give or take 1e-3) hits that triangle, and every hit is the one without the
+    point. The exponent took the prototype's reach from every point: the unused 1e30 made it 25 instead of 120, and
+    NaN counted as a reach of 1 (123 instead of 122, the points 2^125)."""
+    from test_instancing import OCTAHEDRON
+
+    import wrt
+    from wrt.tlas import instance_exponents
+
+    rng = np.random.default_rng(7)
+    n_instances, n = 4, 1200
+    to_world = np.tile(np.eye(4), (n_instances, 1, 1))
+    for k in range(n_instances):
+        to_world[k, :3, :3] = (np.linalg.qr(rng.normal(size=(3, 3)))[0] if k % 2 else np.eye(3)) * scale
+    to_world[:, :3, 3] = rng.uniform(-1, 1, (n_instances, 3)) * scale  # within 8.5e37 (TRACED_REACH)
+    pts, faces = OCTAHEDRON
+    instances = wrt.Instances.from_transforms(np.zeros(n_instances, int), to_world)
+
+    def scene_of(points):
+        proto = wrt.Prototype("/Octa", [wrt.Mesh("/Octa/mesh", points.astype(np.float32), faces, np.arange(8))])
+        return wrt.Scene(prototypes=[proto], instances=instances)
+
+    scene = scene_of(np.concatenate([pts * size, [[unused, -unused, unused]]]))
+    # The exponents of the prototype without the point, found as the float64 numbers say.
+    largest = np.abs(np.linalg.inv(to_world[:, :3, :3])).reshape(n_instances, -1).max(axis=1)
+    expected = np.minimum(1 - np.frexp(largest)[1], 125 - np.frexp(size)[1])
+    np.testing.assert_array_equal(instance_exponents(scene), expected)
+    world, indices = octahedra_triangles(to_world[:, :3, :3] * size, to_world[:, :3, 3])
+    aim = rng.integers(0, len(indices), n)
+    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
+    away = rng.normal(size=(n, 3))
+    axis = rng.integers(0, 3, n // 3)
+    away[: n // 3] = rng.normal(scale=1e-3, size=(n // 3, 3))
+    away[np.arange(n // 3), axis] = rng.choice([-1.0, 1.0], n // 3)
+    away *= rng.uniform(1.5, 6, (n, 1)) / np.linalg.norm(away, axis=1, keepdims=True)
+    origins = (targets + away * scale).astype(np.float32)  # within 1.2e38
+    directions = (-away).astype(np.float32)
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
+    clear = (row >= 0) & (barycentric_margins(world, indices, o64, d64, t, row) > 0.02)
+    assert clear.sum() > 0.5 * n
+    hits = wrt.trace(scene, origins, directions)
+    np.testing.assert_array_equal(hits.prim[clear], row[clear])
+    np.testing.assert_allclose(hits.t[clear], t[clear], rtol=1e-3)
+    assert wrt.occluded(scene, origins, directions)[clear].all()
+    without = wrt.trace(scene_of(pts * size), origins, directions)
+    np.testing.assert_array_equal(hits.prim, without.prim)
+    np.testing.assert_array_equal(hits.t, without.t)

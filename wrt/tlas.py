@@ -62,6 +62,7 @@ from .primitives import SHAPE_CAPSULE, SHAPE_TAPERED, intersect_shape, local_box
 from .scene import Scene
 from .trace import Accelerator, HitBuffer, accelerator_build_options, check_finite_transforms
 from .transforms import linear_part, mat34, transform_vector, translation
+from .unique import sorted_unique
 
 wp.set_module_options({"fuse_fp": False})  # bit-identical hits on every device: see the note in wrt/trace.py
 wp.set_module_options({"enable_backward": False})  # no adjoint code: nothing differentiates a trace (wrt/trace.py)
@@ -686,8 +687,7 @@ def instance_exponents(scene: Scene) -> np.ndarray:
         k = 1 - np.frexp(largest)[1]  # largest = m 2^e with m in [0.5, 1): 2^(1 - e) largest is in [1, 2)
         k = np.where(ok & (np.abs(k) > EXTREME_EXPONENT), k, 0).astype(np.int64)
         if k.any():
-            reach = np.array([max((float(np.abs(m.points).max(initial=0.0)) for m in p.meshes), default=0.0)
-                              for p in scene.prototypes])
+            reach = np.array([_triangle_reach(p) for p in scene.prototypes])
             exponent = np.frexp(np.maximum(reach, 1e-38))[1][scene.instances.prototype]
             # 2^k reach within [2^-EXTREME_EXPONENT, 2^SCALED_REACH]: no inf, and no subnormal points (an instance
             # scaled by 3e-39 scaled its prototype there too, and a ray leaked between its triangles).
@@ -696,11 +696,28 @@ def instance_exponents(scene: Scene) -> np.ndarray:
     return scene._cache[key]
 
 
+def _triangle_reach(prototype) -> float:
+    """The largest ``|coordinate|`` of the points ``prototype``'s triangles use (0 when none), the reach of its BLAS:
+    points no face uses are left out, as from its box (:meth:`Prototype.bounds`) and the BVH build's checks (an
+    unused point at 1e30 capped an instance's exponent at 25 instead of 120, and an unused NaN counted as a reach of
+    1); a used one that is not finite is named by the checks of finite vertices."""
+    reach = 0.0
+    for m in prototype.meshes:
+        if len(m.indices):
+            size = np.abs(m.points[sorted_unique(m.indices)])
+            reach = max(reach, float(size.max(initial=0.0, where=np.isfinite(size))))
+    return reach
+
+
 def _part_triangles(scene: Scene, points, indices, part: int, first: int, count: int, exponent: int = 0) -> tuple:
     """Vertices (times ``2^exponent``) and triangles (re-indexed from 0) of one BLAS part (:func:`blas_parts`)."""
     # geometry() concatenates the world-space meshes' vertices, then each prototype's, in order.
     v0, v1 = _part_vertex_offsets(scene)[part : part + 2]
-    part_points = points[v0:v1] if exponent == 0 else np.ldexp(points[v0:v1], exponent).astype(np.float32)
+    if exponent == 0:
+        part_points = points[v0:v1]
+    else:  # points no face uses may leave float32 (their reach is not the BLAS's): inf there, unused
+        with np.errstate(over="ignore", invalid="ignore"):
+            part_points = np.ldexp(points[v0:v1], exponent).astype(np.float32)
     return np.ascontiguousarray(part_points), np.ascontiguousarray(indices[first : first + count] - v0)
 
 
