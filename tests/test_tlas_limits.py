@@ -249,3 +249,32 @@ def test_an_unused_point_does_not_change_an_instance_scaled_past_2_to_100(unused
     without = wrt.trace(scene_of(pts * size), origins, directions)
     np.testing.assert_array_equal(hits.prim, without.prim)
     np.testing.assert_array_equal(hits.t, without.t)
+
+
+def test_an_update_across_2_to_100_names_the_instance_whose_scale_crossed_it():
+    """Three octahedra at scale 1, then the same scene with the second scaled by 1e36 (traced in a BLAS scaled by
+    2^120): ``InstancedAccelerator.update`` refuses it naming that instance and its scale, where it said "the scene's
+    prototypes changed" (they had not), and ``follow`` (``FrameRenderer``'s step) then builds anew. A prototype that
+    loses all its instances is still reported as a change of the prototypes."""
+    from test_instancing import OCTAHEDRON, Instances, Mesh, Prototype
+
+    import wrt
+    from wrt.animation import follow
+
+    to_world = np.tile(np.eye(4), (3, 1, 1))
+    to_world[:, 0, 3] = [0, 3, 6]
+    accel = wrt.tlas.InstancedAccelerator(octahedra_scene(to_world), "sah", "cpu")
+    scaled = to_world.copy()
+    scaled[1, :3, :3] *= 1e36
+    scene = octahedra_scene(scaled)
+    with pytest.raises(ValueError, match=r"instance /instances\[1\] crossed 2\^100") as error:
+        accel.update(scene, refit_blas=False)
+    assert "prototypes" not in str(error.value)
+    assert follow(accel, scene, "tlas") == ("build", 0)
+    pts, faces = OCTAHEDRON
+    protos = [Prototype(f"/Octa{k}", [Mesh(f"/Octa{k}/mesh", pts, faces, np.arange(8))]) for k in range(2)]
+    unused = wrt.Scene(prototypes=protos, instances=Instances.from_transforms(np.zeros(3, int), to_world))
+    accel = wrt.tlas.InstancedAccelerator(
+        wrt.Scene(prototypes=protos, instances=Instances.from_transforms(np.array([0, 1, 0]), to_world)), "sah", "cpu")
+    with pytest.raises(ValueError, match="the scene's prototypes changed"):
+        accel.update(unused, refit_blas=False)

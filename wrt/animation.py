@@ -237,7 +237,7 @@ def follow(accel, scene, change: str) -> tuple[str, int]:
         try:
             rebuilt = accel.update(scene, refit_blas=change == "refit",
                                    rebuild=lambda b, tree: _past_limit(sah_cost(tree), built[b]))
-        except ValueError:  # a prototype gained or lost all its instances
+        except ValueError:  # a prototype gained or lost all its instances, or an instance crossed 2^100
             return "build", 0
         for b in rebuilt:
             built[b] = float(sah_cost(accel.blas[b]))

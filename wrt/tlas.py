@@ -450,12 +450,14 @@ class InstancedAccelerator(Accelerator):
         indices of the BLASes built anew.
 
         Raises:
-            ValueError: when ``scene`` needs other BLASes (a prototype gained or lost all its instances, say).
+            ValueError: when ``scene`` needs other BLASes (a prototype gained or lost all its instances, or an
+                instance's scale crossed ``2^100``: :func:`instance_exponents`), saying which.
         """
         start = time.perf_counter()
         check_finite_transforms(scene)
-        if [tuple(p) for p in blas_parts(scene)] != self._blas_parts:
-            raise ValueError("the scene's prototypes changed; build a new InstancedAccelerator")
+        parts = [tuple(p) for p in blas_parts(scene)]
+        if parts != self._blas_parts:
+            raise ValueError(f"{self._parts_change(scene, parts)}; build a new InstancedAccelerator")
         rebuilt = []
         if refit_blas:
             from .bvh.refit import Refitter
@@ -481,6 +483,20 @@ class InstancedAccelerator(Accelerator):
         wp.synchronize_device(self.device)  # the uploads are part of the update
         self.update_seconds = time.perf_counter() - start
         return rebuilt
+
+    def _parts_change(self, scene: Scene, parts: list) -> str:
+        """What made ``scene``'s BLAS ``parts`` (:func:`blas_parts`) differ from this structure's: instances whose
+        :func:`instance_exponents` changed (named), or the prototypes. An instance scaled past ``2^100`` (or back)
+        was reported as a change of the scene's prototypes, which were the same."""
+        old, new = self._exponents, instance_exponents(scene)
+        same_prototypes = {p[:3] for p in parts} == {p[:3] for p in self._blas_parts}
+        if same_prototypes and len(old) == len(new) and (old != new).any():
+            moved = np.flatnonzero(old != new)
+            names = ", ".join(scene.instances.path(int(i)) for i in moved[:3])
+            more = f" and {len(moved) - 3:,} more" if len(moved) > 3 else ""
+            return (f"the scale of instance {names}{more} crossed 2^100 or 2^-100 (or came back), which traces it in "
+                    "a copy of its prototype's BLAS scaled by another power of two (wrt.tlas.instance_exponents)")
+        return "the scene's prototypes changed (their triangles, or a prototype gained or lost all its instances)"
 
     def _build_blases(self, meshes: list) -> tuple[list, list]:
         """The host trees (:func:`wrt.bvh.build.build_bvhs`) and their uploads for ``(points, indices)`` meshes."""
@@ -513,7 +529,7 @@ class InstancedAccelerator(Accelerator):
         _, invertible = scene.instance_inverses()
         self.skipped_instances = np.flatnonzero(~invertible)
         rows = [r[invertible[r]] for r in instances.rows_of_prototypes(len(scene.prototypes))]
-        exponents = instance_exponents(scene)
+        exponents = self._exponents = instance_exponents(scene)
         for (part, k), b in blas_of_part.items():
             if part == 0:
                 continue
