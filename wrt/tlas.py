@@ -1,8 +1,8 @@
 """Two-level acceleration: a top-level BVH (TLAS) over instances, each pointing at a bottom-level BVH (BLAS).
 
-Every prototype gets one BLAS, built once in prototype space however many instances draw it; the non-instanced
-meshes of the scene form one more BLAS, in world space. The TLAS is a :class:`wrt.bvh.FlatBvh` over the world boxes
-of its *entries*: one per instance (its prototype's BLAS and its world-to-prototype transform) plus one for the
+Every prototype gets one BLAS, built once in prototype space however many instances draw it (and a scaled copy per
+other power of two its instances need, below); the non-instanced meshes of the scene form one more BLAS, in world
+space. The TLAS is a :class:`wrt.bvh.FlatBvh` over the world boxes of its *entries*: one per instance (its prototype's BLAS and its world-to-prototype transform) plus one for the
 world-space BLAS. It is built by the same builders as any BVH: each entry is handed over as a degenerate triangle
 ``(lower, upper, lower)``, whose box is the entry's box and whose centroid is the box centre.
 
@@ -30,7 +30,8 @@ of two that undoes its scale (:func:`instance_exponents`): moved into its own sp
 the inverse scale, and at 1e36 its components below 1e-38 (the box test's zero) were 1% of it, at 3e-39 it overflowed.
 
 Memory: the TLAS nodes, one world-to-prototype 3x4 float32 matrix (48 bytes) and two int32 per instance; the unique
-triangles once per prototype (:meth:`InstancedAccelerator.device_bytes`).
+triangles once per prototype, plus once more per other power of two its instances are traced at (only instances
+scaled past ``2^100`` or below ``2^-100`` ask for one: :func:`blas_parts`) (:meth:`InstancedAccelerator.device_bytes`).
 """
 
 from __future__ import annotations
@@ -613,8 +614,9 @@ class InstancedAccelerator(Accelerator):
             d.lowers, d.uppers, d.left_first, d.prim_count, d.prim_ids, d.v0, d.v1, d.v2, d.nodes)]
 
     def device_bytes(self) -> dict:
-        """Device memory of the structure, in bytes: ``blas`` (nodes and triangles of every BLAS), ``tlas`` (TLAS
-        nodes and per-entry data, instance transforms included) and ``total``."""
+        """Device memory of the structure, in bytes: ``blas`` (nodes and triangles of every BLAS, the scaled copies of
+        :func:`blas_parts` included), ``tlas`` (TLAS nodes and per-entry data, instance transforms included) and
+        ``total``."""
         blas = sum(a.capacity for a in self._blas_arrays)
         tlas = sum(a.capacity for a in self._tlas_arrays)
         return {"blas": int(blas), "tlas": int(tlas), "total": int(blas + tlas)}
