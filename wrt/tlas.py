@@ -2,8 +2,8 @@
 
 Every prototype gets one BLAS, built once in prototype space however many instances draw it (and a scaled copy per
 other power of two its instances need, below); the non-instanced meshes of the scene form one more BLAS, in world
-space. The TLAS is a :class:`wrt.bvh.FlatBvh` over the world boxes of its *entries*: one per instance (its prototype's BLAS and its world-to-prototype transform) plus one for the
-world-space BLAS. It is built by the same builders as any BVH: each entry is handed over as a degenerate triangle
+space. The TLAS is a :class:`wrt.bvh.FlatBvh` over the world boxes of its *entries*: one per instance (its
+prototype's BLAS and its world-to-prototype transform) plus one for the world-space BLAS. It is built by the same builders as any BVH: each entry is handed over as a degenerate triangle
 ``(lower, upper, lower)``, whose box is the entry's box and whose centroid is the box centre.
 
 Traversal (:func:`tlas_intersect`) walks the TLAS in world space; at a leaf it transforms the ray into each entry's
@@ -31,7 +31,8 @@ the inverse scale, and at 1e36 its components below 1e-38 (the box test's zero) 
 
 Memory: the TLAS nodes, one world-to-prototype 3x4 float32 matrix (48 bytes) and two int32 per instance; the unique
 triangles once per prototype, plus once more per other power of two its instances are traced at (only instances
-scaled past ``2^100`` or below ``2^-100`` ask for one: :func:`blas_parts`) (:meth:`InstancedAccelerator.device_bytes`).
+scaled past ``2^100`` or below ``2^-100`` ask for one: :func:`blas_parts`); see
+:meth:`InstancedAccelerator.device_bytes`.
 """
 
 from __future__ import annotations
