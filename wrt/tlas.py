@@ -3,8 +3,9 @@
 Every prototype gets one BLAS, built once in prototype space however many instances draw it (and a scaled copy per
 other power of two its instances need, below); the non-instanced meshes of the scene form one more BLAS, in world
 space. The TLAS is a :class:`wrt.bvh.FlatBvh` over the world boxes of its *entries*: one per instance (its
-prototype's BLAS and its world-to-prototype transform) plus one for the world-space BLAS. It is built by the same builders as any BVH: each entry is handed over as a degenerate triangle
-``(lower, upper, lower)``, whose box is the entry's box and whose centroid is the box centre.
+prototype's BLAS and its world-to-prototype transform) plus one for the world-space BLAS. It is built by the same
+builders as any BVH: each entry is handed over as a degenerate triangle ``(lower, upper, lower)``, whose box is the
+entry's box and whose centroid is the box centre.
 
 Traversal (:func:`tlas_intersect`) walks the TLAS in world space; at a leaf it transforms the ray into each entry's
 space by the inverse transform (origin as a point, direction as a vector, not renormalised, so ``t`` is the same in
