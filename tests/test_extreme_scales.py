@@ -357,3 +357,45 @@ def test_a_face_just_behind_a_culled_back_face_is_seen_at_any_scale(scale):
     scene = wrt.Scene(meshes=[quad("/near", near, scale, double_sided=False), quad("/far", far, scale)])
     img = wrt.render(scene, camera=scaled_camera(scale), width=12, height=8, device="cpu", integrator="normals")
     np.testing.assert_array_equal(img.aovs["prim"] // 2, 1)  # triangles 2 and 3: the far quad
+
+
+def sheared_card(scale: float, shear: float, back: bool):
+    """A single-sided square card (facing the camera, or away from it with ``back``) instanced by ``scale`` times the
+    inverse of ``[[1, shear, 0], [0, 1, 0], [0, 0, 1]]``, 10 ``scale`` in front of a camera scaled by ``scale``
+    looking along ``(0.6, 0.6, -0.53)``, whose rays' world-to-card directions are ``(1.2, 0.6, -0.53) / scale`` for
+    a shear of 1: past float32 for a scale of 1 / 3e38. ``(scene, camera)``."""
+    n = np.array([0.1, -0.5, 0.8]) / np.linalg.norm([0.1, -0.5, 0.8])  # the card's normal, in its prototype
+    u = np.cross(n, [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    corners = np.array([-u - v, u - v, u + v, -u + v])  # counter-clockwise about n: its front faces along n
+    mesh = wrt.Mesh("/card/quad", corners[::-1] if back else corners, [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32),
+                    double_sided=False)
+    view = np.array([0.6, 0.6, -0.53]) / np.linalg.norm([0.6, 0.6, -0.53])
+    placed = np.eye(4)
+    placed[:3, :3] = np.linalg.inv([[1.0, shear, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) * scale
+    placed[:3, 3] = 10 * scale * view
+    scene = wrt.Scene(prototypes=[wrt.Prototype("/card", meshes=[mesh])],
+                      instances=wrt.Instances.from_transforms([0], placed[None]))
+    right = np.cross([0.0, 0.0, 1.0], -view)
+    right /= np.linalg.norm(right)
+    camera = np.eye(4)
+    camera[:3, :3] = np.stack([right, np.cross(-view, right), -view], axis=1) * scale
+    return scene, wrt.Camera(to_world=camera, focal_length=500.0, horizontal_aperture=36.0)
+
+
+@pytest.mark.parametrize("shear", [0.0, 1.0])
+@pytest.mark.parametrize("scale", [1.0, 1.0e-36, 1.0e-38, 1.0 / 3.0e38])
+def test_an_instanced_single_sided_card_is_culled_from_behind_at_any_scale(scale, shear):
+    """A single-sided card instanced at scales down to 3.3e-39 (its world-to-card matrix's entries 3e38, near
+    float32's limit), plain or sheared, seen from the front (drawn in every pixel, as at scale 1) and from behind
+    (culled: nothing behind it). The back-face test took the camera ray into the card's space as ``A d``, which for
+    the sheared card at 3.3e-39 overflowed (1.2 times 3e38): inf in one component decided the sign, and its back
+    was drawn in every pixel."""
+    for back in (False, True):
+        scene, camera = sheared_card(scale, shear, back)
+        img = wrt.render(scene, camera=camera, width=8, height=6, device="cpu", integrator="normals")
+        if back:
+            np.testing.assert_array_equal(img.aovs["prim"], -1)
+        else:
+            assert (img.aovs["prim"] >= 0).all()

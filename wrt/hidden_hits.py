@@ -58,7 +58,16 @@ def back_face(scene: DeviceScene, surf: DeviceSurfaces, prim: int, instance: int
     b = scene.points[scene.indices[prim, 1]]
     c = scene.points[scene.indices[prim, 2]]
     if instance >= 0:
-        d = transform_vector(scene.world_to_local[instance], d)  # n_world . d = n_local . (A d)
+        m = scene.world_to_local[instance]
+        local = transform_vector(m, d)  # n_world . d = n_local . (A d)
+        if not wp.isfinite(local):
+            # A's entries reach float32's range for an instance scaled by 3e-39, and a sheared one's A d passes it:
+            # inf, its sign decided by one term, and a back face was drawn. Only the sign matters: with d' = d down
+            # / 16 (|d'| < 2 sqrt(3) / 16), each row's |r . d'| <= sqrt(3) max|A| |d'| < 0.4 max|A| is finite.
+            down, _ = unit_scales(d)
+            local = transform_vector(m, d * (down * 0.0625))
+        down, _ = unit_scales(local)  # the dot's products stay within float32 (face_normal's are below 8)
+        d = local * down
     return wp.dot(face_normal(a, b, c), d) > 0.0
 
 
