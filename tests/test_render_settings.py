@@ -560,3 +560,30 @@ def test_a_settings_camera_wrt_does_not_read_is_named_without_a_stray_colon():
     scene.render_settings = RenderSettings(path="/Render", camera="/Nope", resolution=(8, 6))
     with pytest.raises(wrt.SceneError, match=r"^/Render: camera /Nope is not among the cameras wrt reads: none$"):
         resolve_view(scene)
+
+
+def test_the_python_pixel_limit_error_names_the_render_settings_that_sized_the_image():
+    """A scene whose render settings ask for 2147483647x2 pixels: ``wrt.render`` and ``Renderer`` refused it as
+    "2147483647x2 is ... pixels", not saying that the size came from ``scene.render_settings`` (the CLI names them);
+    the settings are named now, with the side given where one was, and a size given whole is the caller's own; a
+    Renderer whose settings are replaced by such ones says so too."""
+    from wrt.render_settings import RenderSettings
+
+    quad = wrt.Mesh("/quad", np.array([[-1, -1, -5], [1, -1, -5], [1, 1, -5], [-1, 1, -5]], np.float32),
+                    [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32))
+    huge = RenderSettings(path="/Render/Huge", resolution=(2**31 - 1, 2))
+    scene = wrt.Scene(meshes=[quad], render_settings=huge)
+    limit = "pixels; at most 67,108,864 are supported"
+    with pytest.raises(ValueError, match=f"^resolution of scene.render_settings /Render/Huge: 2147483647x2 is "
+                                         f"4,294,967,294 {limit}$"):
+        wrt.render(scene, device="cpu")
+    with pytest.raises(ValueError, match=f"^height=4, aspect of scene.render_settings /Render/Huge: 4294967294x4 "
+                                         f"is 17,179,869,176 {limit}$"):
+        wrt.Renderer(scene, height=4, device="cpu")
+    with pytest.raises(ValueError, match=f"^100000x100000 is 10,000,000,000 {limit}$"):
+        wrt.Renderer(scene, width=100000, height=100000, device="cpu")
+    scene = wrt.Scene(meshes=[quad], render_settings=RenderSettings(path="/Render/Small", resolution=(8, 6)))
+    renderer = wrt.Renderer(scene, device="cpu")
+    scene.render_settings = huge
+    with pytest.raises(ValueError, match="^resolution of scene.render_settings /Render/Huge: 2147483647x2 is "):
+        renderer.render()

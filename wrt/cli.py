@@ -537,15 +537,10 @@ def _check_view_pixels(args, width: int, height: int, settings=None) -> None:
     """:func:`wrt.render.check_pixels` of the image a stage's ``settings`` and ``--width``/``--height`` make, its error
     naming those options where given and the settings where they gave a side (with -q nothing else said where the
     size came from). Checked after the load: a data window of the stage may crop a larger size."""
-    from .render import check_pixels
+    from .render import check_view_pixels
 
-    try:
-        check_pixels(width, height)
-    except ValueError as e:
-        given = [f"--{name} {getattr(args, name)}" for name in ("width", "height") if getattr(args, name)]
-        if settings is not None and len(given) < 2:
-            given.append(f"{'aspect' if given else 'resolution'} of {settings.product or settings.path}")
-        raise ValueError(f"{', '.join(given)}: {e}" if given else str(e)) from None
+    given = [f"--{name} {getattr(args, name)}" for name in ("width", "height") if getattr(args, name)]
+    check_view_pixels(width, height, 1, given, None if settings is None else settings.product or settings.path)
 
 
 def _render_one(args, path: Path, output: Path, progress) -> list[Path]:
