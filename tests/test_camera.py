@@ -540,9 +540,10 @@ def test_bad_camera_values_raise():
         (lambda: wrt.Camera.orthographic((0, 0, 5), (0, 0, 0), horizontal_aperture=3),
          r"Camera.orthographic\(\) works horizontal_aperture out from height"),
         (lambda: wrt.Camera.orthographic((0, 0, 5), (0, 0, 0), projection="perspective"),
-         r"Camera.orthographic\(\) makes orthographic cameras only, not projection='perspective'"),
+         r"Camera.orthographic\(\) makes orthographic cameras only, not projection='perspective': use Camera.look_at"),
+        # A projection spelt right was met with "(did you mean 'orthographic'?)", itself, before the way to make one.
         (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 0), projection="orthographic"),
-         r"Camera.look_at\(\) makes perspective cameras only, not projection='orthographic'"),
+         r"Camera.look_at\(\) makes perspective cameras only, not projection='orthographic': use Camera.orthographic"),
         (lambda: wrt.Camera.look_at((0, 0, 5), (0, 0, 0), to_world=np.eye(4)),
          r"Camera.look_at\(\) works to_world out from eye, target and up"),
         (lambda: wrt.Camera(fit="expand"), r"not 'expand' \(did you mean 'expandAperture'\?\)"),

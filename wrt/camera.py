@@ -487,7 +487,8 @@ def _check_keywords(method: str, kwargs: dict, own: str, fixed: dict | None = No
                             f"{did_you_mean(name, [own, *fields])}")
         if fixed and name in fixed and not (isinstance(value, str) and value == fixed[name]):
             other = "Camera.orthographic" if fixed[name] == "perspective" else "Camera.look_at"
-            meant = did_you_mean(value, ("perspective", "orthographic")) if isinstance(value, str) else ""
+            projections = ("perspective", "orthographic")  # a hint for a misspelt one; a right one is not echoed
+            meant = did_you_mean(value, projections) if isinstance(value, str) and value not in projections else ""
             raise ValueError(f"Camera.{method}() makes {fixed[name]} cameras only, not {name}={value!r}{meant}: use "
                              f"{other}() or Camera()")
 
