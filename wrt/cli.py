@@ -888,9 +888,10 @@ def _add_preview(sub) -> None:
     p = sub.add_parser(
         "preview",
         help="show a USD scene, its camera, BVH and rays in a 3D view (pyvista)",
-        description="Show the scene as wrt reads it, the camera frustum and, on request, BVH boxes, sample camera "
-        "rays and the rendered image, in an interactive pyvista window. With -o, or when there is no display, "
-        "the view is rendered off-screen to a PNG instead. Needs pyvista: pip install 'wrt[preview]'.",
+        description="Show the scene as wrt reads it, the camera frustum with its near clipping plane, the scene's "
+        "lights and, on request, BVH boxes, sample camera rays and the rendered image, in an interactive pyvista "
+        "window. With -o, or when there is no display, the view is rendered off-screen to a PNG instead. Needs "
+        "pyvista: pip install 'wrt[preview]'.",
         formatter_class=HelpFormatter,
     )
     p.add_argument("scene", nargs="?", type=_non_empty,
