@@ -327,8 +327,9 @@ def _add_render(sub) -> None:
                    "worker per GPU, else per CPU core; each worker renders on its own device. Needs wrt[dask]")
     p.add_argument("--workers", type=positive_int, help="with --dask and no ADDRESS: LocalCluster worker count; "
                    "default: one per GPU, else per CPU core")
-    p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder (depth, z, normal, "
-                   "geometric_normal, albedo, prim, instance, material, cost, coverage)", type=_non_empty)
+    p.add_argument("--aov-dir", help="also write every AOV as NAME.npy into this folder, with several scenes into "
+                   "its subfolder STEM/ (depth, z, normal, geometric_normal, albedo, prim, instance, material, cost, "
+                   "coverage)", type=_non_empty)
     p.add_argument("--products", metavar="DIR", help="write every RenderProduct of the stage's RenderSettings into "
                    "DIR instead of one image, each at its own camera and resolution, its RenderVars (color, depth, "
                    "normal, primId, ...) as channels: DIR/<file name of productName>, PNG for a beauty alone, else "
