@@ -617,7 +617,8 @@ def preview(
     show_text: bool = True,
     show_lights: bool = True,
 ):
-    """A ``pyvista.Plotter`` showing the scene, the camera frustum and, on request, BVH boxes, rays and the image.
+    """A ``pyvista.Plotter`` showing the scene, the camera frustum with its near clipping plane, the scene's lights
+    and, on request, BVH boxes, rays and the image.
 
     Nothing is shown yet: call ``.show()`` (a window, or inline in a notebook) or ``.screenshot(path)``.
 
