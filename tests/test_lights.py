@@ -1445,3 +1445,25 @@ def test_an_instanced_light_scaled_past_float32_is_skipped_alone_with_a_warning_
     assert len(messages) == 1 and "/Inst/Proto/Lamp[1]" in messages[0], [str(w.message) for w in caught]
     assert [light.path for light in scene.lights] == ["/Inst/Proto/Lamp[0]"]
     np.testing.assert_allclose(image, 0.5, rtol=2e-2)  # the kept lamp fills the quad's hemisphere: albedo * L
+
+
+def test_a_light_too_large_for_float32_is_named_with_the_value_past_it_not_its_area(tmp_path):
+    """Since lights are sampled in lengths scaled per light (8f7db73) a light is skipped for a size past 8.5e37, or a
+    point sphere for an intensity past float32, not for its area; the warning still gave the area ('area 1e+38' for a
+    RectLight 1e38 x 1 whose area fits float32, 'area 1.26e+61' for a point sphere of radius 1e30). It gives the
+    authored width, and the point sphere's intensity pi r^2 L, each worked out here in float64."""
+    path = tmp_path / "large.usda"
+    path.write_text('#usda 1.0\ndef RectLight "Long"\n{\n    float inputs:width = 1e38\n'
+                    '    float inputs:height = 1\n}\n'
+                    'def SphereLight "Point"\n{\n    float inputs:radius = 1e20\n    bool treatAsPoint = 1\n}\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    assert scene.lights == []
+    (message,) = [str(w.message) for w in caught if "to fit in float32 were skipped" in str(w.message)]
+    stage = Usd.Stage.Open(str(path))
+    width = UsdLux.RectLight(stage.GetPrimAtPath("/Long")).GetWidthAttr().Get()
+    radius = UsdLux.SphereLight(stage.GetPrimAtPath("/Point")).GetRadiusAttr().Get()
+    intensity = UsdLux.SphereLight(stage.GetPrimAtPath("/Point")).GetIntensityAttr().Get()
+    assert f"size {width:.3g}: 1" in message and f"intensity {np.pi * radius**2 * intensity:.3g}: 1" in message
+    assert "area" not in message, message

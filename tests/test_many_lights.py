@@ -141,10 +141,12 @@ def test_placed_lights_are_the_lights_read_one_by_one(tmp_path, monkeypatch):
     monkeypatch.setattr(wrt.usd_point_instancer, "placed_lights", read_one_by_one)
     one_by_one, expected_messages = load(tmp_path / "lamps.usda")
     assert messages == expected_messages
-    # The instance scaled by 1e30 of each area light passes float32 in area: skipped, named, both ways alike.
+    # The instance scaled by 1e30: its area lights, 1e29 wide or less, fit float32's lengths (sampled in lengths
+    # scaled per light since 8f7db73, they are kept); its point sphere's intensity pi r^2 L does not: skipped and
+    # named, both ways alike.
     huge = [m for m in messages if "to fit in float32 were skipped" in m]
-    assert len(huge) == 1 and "5 prim(s)" in huge[0] and "/Lamps/Protos/Lamp/Bulb[6]" in huge[0], huge
-    assert len(placed.lights) == len(one_by_one.lights) == 7 * 40 - 5
+    assert len(huge) == 1 and "1 prim(s)" in huge[0] and "/Lamps/Protos/Lamp/Point[6]" in huge[0], huge
+    assert len(placed.lights) == len(one_by_one.lights) == 7 * 40 - 1
     assert [light.path for light in placed.lights] == [light.path for light in one_by_one.lights]
     for a, b in zip(placed.lights, one_by_one.lights):
         assert_identical(a, b)
@@ -158,7 +160,7 @@ def test_placed_lights_are_the_lights_read_one_by_one(tmp_path, monkeypatch):
     author_by_hand(tmp_path / "by_hand.usda", even)
     by_hand, _ = load(tmp_path / "by_hand.usda")
     bulbs = [light for light in placed.lights if "/Bulb[" in light.path]
-    assert len(bulbs) == len(by_hand.lights) == 39
+    assert len(bulbs) == len(by_hand.lights) == 40  # the bulb scaled by 1e30 too
     for a, b in zip(bulbs, by_hand.lights):
         if a.frame is None and not a.treat_as_point:  # round spheres, where float64 rounding does not move radiance
             assert_same_light(a, b)

@@ -250,7 +250,7 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         result = _tiny_normalized(result, prim, skip)
         if result is not None and not fits_float32(result):
             skip("lights too large (a size past 8.5e37, or a point sphere's intensity past 3.4e38) to fit in float32 "
-                 "were skipped", prim, f"area {result.area:.3g}")
+                 "were skipped", prim, _past_float32(result))
             result = None
         if shaping is not None:
             result = _shaped(result, shaping, m, prim, skip)
@@ -323,14 +323,31 @@ def fits_float32(light) -> bool:
     if isinstance(light, CylinderLight) and light.drawn_as_line:
         length = float(np.linalg.norm(light.world_shape()[0]))
         return length < FLOAT32_MAX and bool(np.all(np.abs(light.line_intensity) < FLOAT32_MAX))
-    return _lengths_fit(light)
+    return _largest_length(light) < LARGEST_LIGHT_LENGTH
+
+
+def _past_float32(light) -> str:
+    """What of ``light``, which :func:`fits_float32` refused, passes float32, for the warning: a point sphere's
+    intensity, a line light's length or intensity, else the largest length placing it (its area was named, which
+    need not fit)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        if isinstance(light, SphereLight) and light.drawn_as_point:
+            # SphereLight.intensity in float64: the float32 one is inf here (normalized ones, color / 4, all fit).
+            color = np.abs(np.asarray(light.color, np.float64))
+            scale = light.area / 4.0 if light.ellipsoid() is not None else math.pi * light.world_radius**2
+            return f"intensity {float(np.max(color)) * scale:.3g}"
+        if isinstance(light, CylinderLight) and light.drawn_as_line:
+            return (f"length {float(np.linalg.norm(light.world_shape()[0])):.3g}, intensity "
+                    f"{float(np.max(np.abs(light.line_intensity))):.3g}")
+    return f"size {_largest_length(light):.3g}"
 
 
 LARGEST_LIGHT_LENGTH = FLOAT32_MAX / 4.0
 
 
-def _lengths_fit(light) -> bool:
-    """:func:`fits_float32` for an area light: its placing lengths below :data:`LARGEST_LIGHT_LENGTH`."""
+def _largest_length(light) -> float:
+    """The largest magnitude among the lengths that place a sphere, rect, disk or cylinder light (NaN where one is
+    NaN), which :func:`fits_float32` keeps below :data:`LARGEST_LIGHT_LENGTH`."""
     if isinstance(light, SphereLight):
         m = light.ellipsoid()
         lengths = [light.position, [light.world_radius]] + ([] if m is None else [m])
@@ -343,8 +360,8 @@ def _lengths_fit(light) -> bool:
         m = light.tube()
         lengths = [*light.world_shape()[:1], [light.world_shape()[1]], light_axes(light.to_world)[3]]
         lengths += [] if m is None else [m]
-    with np.errstate(invalid="ignore"):
-        return all(bool(np.all(np.abs(np.asarray(x, np.float64)) < LARGEST_LIGHT_LENGTH)) for x in lengths)
+    magnitudes = [np.abs(np.asarray(x, np.float64)).ravel() for x in lengths]
+    return float(np.max(np.concatenate(magnitudes)))  # a NaN propagates: it fits nothing
 
 
 def _area_underflowed(light) -> bool:
