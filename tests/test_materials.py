@@ -1320,6 +1320,35 @@ def test_mdl_and_materialx_materials_fall_back_to_their_base_colour(tmp_path):
     np.testing.assert_allclose(img.rgb[4, 30], (0.2, 0.7, 0.1), rtol=1e-6)  # textured: displayColor
 
 
+def test_a_material_falling_back_to_its_base_colour_is_lambertian_at_grazing_views(tmp_path):
+    """An OmniPBR material drawn as "a Lambertian surface of its diffuse_color_constant" (its warning's words) looks
+    the same from every direction, as Lambert's law has it: seen at 82 degrees from its normal it shows what it
+    shows head-on. The white grazing reflectance of UsdPreviewSurface's specular workflow (b5de5e2) also reached
+    this fallback, whose Material kept the default ``specular_edge`` of 1: a white Fresnel rim, and 2% less red
+    at the grazing view."""
+    stage, path = new_stage(tmp_path)
+    quad = add_quad(stage, "/Quad", size=40.0)
+    material = UsdShade.Material.Define(stage, "/Looks/X")
+    shader = UsdShade.Shader.Define(stage, "/Looks/X/Surface")
+    shader.SetSourceAsset(Sdf.AssetPath("OmniPBR.mdl"), "mdl")
+    shader.SetSourceAssetSubIdentifier("OmniPBR", "mdl")
+    shader.CreateInput("diffuse_color_constant", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.8, 0.5, 0.2))
+    material.CreateSurfaceOutput("mdl").ConnectToSource(shader.ConnectableAPI(), "out")
+    bind(quad, material)
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert any("falls back to a Lambertian surface" in m for m in messages), messages
+    scene.lights = [wrt.DistantLight(direction=(0.0, 0.0, -1.0), color=np.ones(3, np.float32), angle=0.0)]
+    views = {}
+    for name, eye in (("head-on", (0.0, 0.0, 5.0)), ("grazing", (0.0, -5.0, 5.0 * np.tan(np.radians(8.0))))):
+        cam = wrt.Camera.orthographic(eye=eye, target=(0, 0, 0), up=(0, 0, 1) if name == "grazing" else (0, 1, 0),
+                                      height=0.5)
+        views[name] = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="whitted").rgb
+    np.testing.assert_allclose(views["head-on"], np.broadcast_to(np.float32([0.8, 0.5, 0.2]) / np.pi, (4, 4, 3)),
+                               rtol=1e-3)  # albedo E / pi
+    np.testing.assert_allclose(views["grazing"], views["head-on"], rtol=1e-5)
+
+
 def test_materialx_preview_surface_in_a_render_context_is_read(tmp_path):
     """A material whose only surface output is ``outputs:mtlx:surface`` to MaterialX's UsdPreviewSurface node (as
     pablode's MaterialX cornell box is written) is read like a UsdPreviewSurface: it was grey and did not emit."""

@@ -1082,7 +1082,9 @@ class MaterialReader:
             value_text = ", ".join(f"{c:.3g}" for c in value)
             self.skip(f"material {path}: {what}; it falls back to a Lambertian surface of its {name} ({value_text})",
                       prim)
-            return Material(path=path, diffuse_color=value, use_specular_workflow=True, roughness=1.0)
+            # specularColor 0 and no grazing edge (specular_edge 0, as the fallback surface): no specular lobe
+            return Material(path=path, diffuse_color=value, use_specular_workflow=True, roughness=1.0,
+                            specular_edge=0.0)
         self._check_displacement(material)
         mat = Material(path=path)
         for name in SLOTS:
