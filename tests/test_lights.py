@@ -1414,6 +1414,21 @@ def test_a_wide_light_lights_as_the_plane_it_nears(tmp_path, width):
     np.testing.assert_allclose(image, 0.5, rtol=2e-2)  # 1 spp of solid-angle sampling: noise below 1%
 
 
+@pytest.mark.parametrize("radius", [1.0e19, 1.0e30])
+def test_a_sphere_light_whose_area_passes_float32_lights_as_its_solid_angle_says(tmp_path, radius):
+    """A SphereLight of radius 1e19 or 1e30 (area past float32; kept since 8f7db73) twice its radius above the quad:
+    it fills a cone of half-angle 30 degrees over it, irradiance pi L sin^2(30) = pi L / 4, so the grey quad (albedo
+    0.5) shows 0.125 L. The light table cast the sphere's unused area to float32, and numpy's 'overflow encountered
+    in cast' stopped the render where warnings are errors."""
+    path = tmp_path / "sphere.usda"
+    path.write_text(giant_light_stage(f'def SphereLight "Big"\n{{\n    float inputs:radius = {radius:g}\n'
+                                      f'    double3 xformOp:translate = (0, 0, {2.0 * radius:g})\n'
+                                      '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}'))
+    scene, image, messages, caught = _render_without_runtime_warnings(path)
+    assert not messages and [light.path for light in scene.lights] == ["/Big"], [str(w.message) for w in caught]
+    np.testing.assert_allclose(image.mean(), 0.125, rtol=2e-2)
+
+
 @pytest.mark.parametrize("width", ["1e15", "1e28"])
 def test_an_instanced_light_scaled_past_float32_is_skipped_alone_with_a_warning_naming_it(tmp_path, width):
     """A PointInstancer's RectLight whose instance scale makes its size pass float32 (1e28 wide, scaled by 1e10) is

@@ -93,7 +93,8 @@ class DeviceLights:
     normal: wp.array[wp.vec3]  # (num_analytic) rect, disk: unit emitting normal
     params: wp.array[wp.vec4]  # (radius | cos of half angle | ellipsoid's |det|^(1/3), solid angle of cone |
     # rect, disk, cylinder: their length scale's power of two ``down`` (light_scales), area (times down^2 for rect,
-    # disk, cylinder: in float32 range at any scene scale) | 1 - cos, right-angled axes);
+    # disk, cylinder, and a sphere's its radius' power of two: in float32 range at any scene scale) | 1 - cos,
+    # right-angled axes);
     # triangles: (1: radiance times the material's emission, 1: camera rays see the radiance, 1: a mesh light's, 0)
     prims: wp.array[wp.int32]  # triangle id of LIGHT_TRIANGLE entries
     instances: wp.array[wp.int32]  # instance that draws a LIGHT_TRIANGLE entry's (prototype) triangle, -1: world

@@ -397,8 +397,11 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
                      4.0 * math.pi * luminance_np(i))
             elif light.ellipsoid() is None:
                 L = light.radiance
-                _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero, (light.world_radius, 0, light.area, 0), 0,
-                     math.pi * light.area * luminance_np(L))
+                # The area times down^2, as the other area lights' (unread: the cone's solid angle stands for it; in
+                # world units, past a radius of 5e18, its float32 cast overflowed behind numpy's warning)
+                down = length_scale([light.world_radius])
+                _add(h, LIGHT_SPHERE, L, light.position, zero, zero, zero,
+                     (light.world_radius, 0, light.area * down**2, 0), 0, math.pi * light.area * luminance_np(L))
             else:
                 m, L, area = light.ellipsoid(), light.radiance, light.area
                 g = abs(float(np.linalg.det(m))) ** (1.0 / 3.0)  # for its pdf (wrt.affine_lights.ellipsoid_pdf)
