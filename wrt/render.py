@@ -90,10 +90,10 @@ def check_view_pixels(width: int, height: int, n_views: int, given: list, settin
     try:
         check_pixels(width, height, n_views)
     except ValueError as e:
-        given = list(given)
+        parts = [" ".join(given)] if given else []  # "--width 8 --height 9", as typed
         if settings_name is not None and len(given) < 2:
-            given.append(f"{'aspect' if given else 'resolution'} of {settings_name}")
-        raise ValueError(f"{', '.join(given)}: {e}" if given else str(e)) from None
+            parts.append(f"{'aspect' if given else 'resolution'} of {settings_name}")
+        raise ValueError(f"{', '.join(parts)}: {e}" if parts else str(e)) from None
 
 
 def _check_renderer_pixels(scene: Scene, width: int, height: int, n_views: int, asked: tuple) -> None:
