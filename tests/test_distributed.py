@@ -3,6 +3,7 @@
 import faulthandler
 import json
 import os
+import signal
 import sys
 import threading
 import time
@@ -316,10 +317,10 @@ def test_bench_dask_ctrl_c_keeps_the_finished_rows_of_a_group_cut_short(tmp_path
         while not hold.exists() and time.monotonic() < deadline:
             time.sleep(0.05)
         time.sleep(2.0)  # the first row, sent by the worker when it finished, reaches this process meanwhile
-        import _thread
-
-        _thread.interrupt_main()
-        time.sleep(1.0)
+        # A real SIGINT, as a terminal sends it: it wakes the main thread from a blocking wait, where
+        # _thread.interrupt_main() only sets a flag that waits for the main thread's next bytecode.
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5.0)  # the worker holds its second row until the interrupted run has stopped
         hold.unlink(missing_ok=True)  # the worker may go on: the run has stopped
 
     presser = threading.Thread(target=press_ctrl_c, daemon=True)
