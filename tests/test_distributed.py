@@ -323,11 +323,17 @@ def test_bench_dask_ctrl_c_keeps_the_finished_rows_of_a_group_cut_short(tmp_path
         time.sleep(5.0)  # the worker holds its second row until the interrupted run has stopped
         hold.unlink(missing_ok=True)  # the worker may go on: the run has stopped
 
-    presser = threading.Thread(target=press_ctrl_c, daemon=True)
-    presser.start()
-    with pytest.raises(KeyboardInterrupt):
-        run_grid(grid, tmp_path / "dask", progress=False, dask=True)
-    presser.join()
+    # Python's own handler, as in a terminal: a shell that starts pytest in the background hands it SIGINT ignored
+    # (CI scripts do; this test then failed there only), and the simulated Ctrl-C would be ignored with it.
+    outer = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        presser = threading.Thread(target=press_ctrl_c, daemon=True)
+        presser.start()
+        with pytest.raises(KeyboardInterrupt):
+            run_grid(grid, tmp_path / "dask", progress=False, dask=True)
+        presser.join()
+    finally:
+        signal.signal(signal.SIGINT, outer)
     written = {}
     for name in ("plain", "dask"):
         jsonl = tmp_path / name / "rows.jsonl"
