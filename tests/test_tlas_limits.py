@@ -135,6 +135,25 @@ def test_a_shape_whose_canonical_ray_overflows_gives_no_hit_outside_the_limits(k
     assert not wrt.trace(scene, origins, directions, t_min=t_min, t_max=t_max).hit.any()
 
 
+def aimed_rays(rng, world, indices, n: int, scale: float):
+    """``n`` float32 rays from 1.5 to 6 ``scale`` away aimed well inside random triangles of ``world[indices]`` (a
+    third of them along a world axis, give or take 1e-3), with their float64 closest hits ``t, row`` and ``clear``,
+    the rays whose hit lies more than 0.02 inside its triangle."""
+    aim = rng.integers(0, len(indices), n)
+    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
+    away = rng.normal(size=(n, 3))
+    axis = rng.integers(0, 3, n // 3)
+    away[: n // 3] = rng.normal(scale=1e-3, size=(n // 3, 3))
+    away[np.arange(n // 3), axis] = rng.choice([-1.0, 1.0], n // 3)
+    away *= rng.uniform(1.5, 6, (n, 1)) / np.linalg.norm(away, axis=1, keepdims=True)
+    origins = (targets + away * scale).astype(np.float32)
+    directions = (-away).astype(np.float32)
+    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
+    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
+    clear = (row >= 0) & (barycentric_margins(world, indices, o64, d64, t, row) > 0.02)
+    return origins, directions, t, row, clear
+
+
 @pytest.mark.parametrize("scale", [1.0e36, 5.0e36, 5.0e-39, 3.0e-39])
 def test_instances_scaled_past_2_to_100_hit_as_their_float64_triangles(scale):
     """Octahedra (half of them turned) scaled by 1e36 to 3e-39 (each within float32, as are their inverses), rays
@@ -152,19 +171,7 @@ def test_instances_scaled_past_2_to_100_hit_as_their_float64_triangles(scale):
     to_world[:, :3, 3] = rng.uniform(-2, 2, (n_instances, 3)) * scale
     scene = octahedra_scene(to_world)
     world, indices = octahedra_triangles(to_world[:, :3, :3], to_world[:, :3, 3])
-    aim = rng.integers(0, len(indices), n)
-    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
-    away = rng.normal(size=(n, 3))
-    axis = rng.integers(0, 3, n // 3)
-    away[: n // 3] = rng.normal(scale=1e-3, size=(n // 3, 3))
-    away[np.arange(n // 3), axis] = rng.choice([-1.0, 1.0], n // 3)
-    away *= rng.uniform(1.5, 6, (n, 1)) / np.linalg.norm(away, axis=1, keepdims=True)
-    origins = (targets + away * scale).astype(np.float32)
-    directions = (-away).astype(np.float32)
-    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
-    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
-    margin = barycentric_margins(world, indices, o64, d64, t, row)
-    clear = (row >= 0) & (margin > 0.02)
+    origins, directions, t, row, clear = aimed_rays(rng, world, indices, n, scale)
     assert clear.sum() > 0.5 * n
     hits = wrt.trace(scene, origins, directions)
     np.testing.assert_array_equal(hits.prim[clear], row[clear])
@@ -229,18 +236,7 @@ def test_an_unused_point_does_not_change_an_instance_scaled_past_2_to_100(unused
     expected = np.minimum(1 - np.frexp(largest)[1], 125 - np.frexp(size)[1])
     np.testing.assert_array_equal(instance_exponents(scene), expected)
     world, indices = octahedra_triangles(to_world[:, :3, :3] * size, to_world[:, :3, 3])
-    aim = rng.integers(0, len(indices), n)
-    targets = np.einsum("nk,nkj->nj", rng.dirichlet([4, 4, 4], n), world[indices[aim]])
-    away = rng.normal(size=(n, 3))
-    axis = rng.integers(0, 3, n // 3)
-    away[: n // 3] = rng.normal(scale=1e-3, size=(n // 3, 3))
-    away[np.arange(n // 3), axis] = rng.choice([-1.0, 1.0], n // 3)
-    away *= rng.uniform(1.5, 6, (n, 1)) / np.linalg.norm(away, axis=1, keepdims=True)
-    origins = (targets + away * scale).astype(np.float32)  # within 1.2e38
-    directions = (-away).astype(np.float32)
-    o64, d64 = origins.astype(np.float64), directions.astype(np.float64)
-    t, row = closest_hits_numpy(world, indices, o64, d64, np.zeros(n), np.full(n, np.inf))
-    clear = (row >= 0) & (barycentric_margins(world, indices, o64, d64, t, row) > 0.02)
+    origins, directions, t, row, clear = aimed_rays(rng, world, indices, n, scale)
     assert clear.sum() > 0.5 * n
     hits = wrt.trace(scene, origins, directions)
     np.testing.assert_array_equal(hits.prim[clear], row[clear])
