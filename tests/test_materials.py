@@ -194,6 +194,18 @@ def test_inputs_past_float32_keep_their_defaults(tmp_path):
     np.testing.assert_allclose(img.rgb, 0.18)
 
 
+def define_surface(stage, path: str, context: str, kind: str):
+    """Material ``path`` and its shader ``Surface``: an MDL ``kind`` (``context`` "mdl") or a node of id ``kind``."""
+    material = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, f"{path}/Surface")
+    if context == "mdl":
+        shader.SetSourceAsset(Sdf.AssetPath(f"{kind}.mdl"), "mdl")
+        shader.SetSourceAssetSubIdentifier(kind, "mdl")
+    else:
+        shader.CreateIdAttr(kind)
+    return material, shader
+
+
 def test_colours_and_materialx_inputs_past_float32_do_not_stop_the_load(tmp_path):
     """A primvar reader's fallback, an OmniPBR base colour and MaterialX standard_surface inputs authored as doubles
     beyond float32's range are read as not finite: the stage loads and renders finite pixels (each stopped the load
@@ -213,13 +225,7 @@ def test_colours_and_materialx_inputs_past_float32_do_not_stop_the_load(tmp_path
     for k, (context, kind, inputs) in enumerate([
             ("mdl", "OmniPBR", {"diffuse_color_constant": Gf.Vec3d(1e39, 0.0, 0.0)}),
             ("mtlx", "ND_standard_surface_surfaceshader", {"base": 1e300, "specular_IOR": 1e300})], start=1):
-        material = UsdShade.Material.Define(stage, f"/Looks/X{k}")
-        shader = UsdShade.Shader.Define(stage, f"/Looks/X{k}/Surface")
-        if context == "mdl":
-            shader.SetSourceAsset(Sdf.AssetPath(f"{kind}.mdl"), "mdl")
-            shader.SetSourceAssetSubIdentifier(kind, "mdl")
-        else:
-            shader.CreateIdAttr(kind)
+        material, shader = define_surface(stage, f"/Looks/X{k}", context, kind)
         for name, value in inputs.items():
             shader.CreateInput(name, Sdf.ValueTypeNames.Double3 if isinstance(value, Gf.Vec3d)
                                else Sdf.ValueTypeNames.Double).Set(value)
@@ -1296,13 +1302,7 @@ def test_mdl_and_materialx_materials_fall_back_to_their_base_colour(tmp_path):
     for k, (context, kind, inputs) in enumerate(looks):
         quad = add_quad(stage, f"/Quad{k}", center=(3 * k, 0, 0))
         quad.CreateDisplayColorPrimvar().Set([Gf.Vec3f(0.2, 0.7, 0.1)])
-        material = UsdShade.Material.Define(stage, f"/Looks/X{k}")
-        shader = UsdShade.Shader.Define(stage, f"/Looks/X{k}/Surface")
-        if context == "mdl":
-            shader.SetSourceAsset(Sdf.AssetPath(f"{kind}.mdl"), "mdl")
-            shader.SetSourceAssetSubIdentifier(kind, "mdl")
-        else:
-            shader.CreateIdAttr(kind)
+        material, shader = define_surface(stage, f"/Looks/X{k}", context, kind)
         for name, value in inputs.items():
             value_type = {Gf.Vec3f: Sdf.ValueTypeNames.Color3f, float: Sdf.ValueTypeNames.Float}.get(
                 type(value), Sdf.ValueTypeNames.Asset)
