@@ -91,6 +91,20 @@ def albedo_at_instances(scene, accel="wrt", integrator="whitted"):
     return albedo, img
 
 
+def test_face_varying_display_color_is_one_per_instance(tmp_path):
+    """faceVarying on an instancer is one value per instance, as vertex and varying are (UsdGeomPointInstancer's
+    primvar rules; Hydra makes it an instance primvar): it was ignored with a warning, all instances grey. The
+    oracle is USD's flattened primvar."""
+    path = instancer_stage(tmp_path / "pi.usda", interpolation="faceVarying")
+    stage = Usd.Stage.Open(path)
+    flattened = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI")).GetPrimvar("displayColor").ComputeFlattened()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = wrt.load_usd(path)
+    albedo, _ = albedo_at_instances(scene)
+    np.testing.assert_allclose(albedo, np.asarray(flattened, np.float64), atol=1e-6)
+
+
 @pytest.mark.parametrize("accel", ["wrt", "warp"])
 @pytest.mark.parametrize("gprim", [False, True])
 def test_vertex_display_color_colours_each_instance(tmp_path, accel, gprim):
@@ -165,7 +179,7 @@ def test_indexed_display_color_is_flattened(tmp_path):
     [
         (RGB[:2], "vertex", r"vertex with 2 values, expected 3 \(one per instance\)"),
         (RGB + RGB[:1], "varying", r"varying with 4 values, expected 3"),
-        (RGB, "uniform", r"other than constant, vertex or varying.*uniform"),
+        (RGB, "uniform", r"other than constant, vertex, varying or faceVarying.*uniform"),
         (RGB, "constant", r"constant with 3 values, expected 1"),
     ],
 )

@@ -18,6 +18,7 @@ from .resources import check_host_memory
 from .scene import Mesh
 from .subdivision import REFINED_QUAD_BYTES, BilinearRefinement, Refinement, refined_quads
 from .subdivision_fvar import FACE_VARYING_MODES, FALLBACK_FACE_VARYING_MODE
+from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Context
 from .usd_values import value_at
 
@@ -106,10 +107,12 @@ class MeshReading:
         face_materials = self._face_materials(prim, n_faces, ctx)
         uv_set = self.materials.uv_set(face_materials, prim)
         uv_source = None if uv_set is None else (uv_set, self.materials.st_fallback(face_materials, uv_set))
-        if uv_set is not None and self.inherited_primvars.lookup(prim, uv_set) is None:
+        found = None if uv_set is None else self.inherited_primvars.lookup(prim, uv_set)
+        if uv_set is not None and (found is None or found is PER_INSTANCE):  # (invalid primvars compare equal)
             # Neither the mesh nor a prim above it (up to its content's root) has it: a native instance's constant
-            # one stands in (Content.want_uvs), as the walk of its proxies finds it; without one the fallback st is
-            # read, and named in a warning once no instance hands one down (Content.uv_misses).
+            # one stands in (Content.want_uvs), as the walk of its proxies finds it, or the st a PointInstancer gives
+            # each instance (one above it too: Storm reads that instance primvar where the mesh has none); without
+            # one the fallback st is read, and named in a warning once no instance hands one down (Content.uv_misses).
             ctx.content.want_uvs([uv_set])
             outer = dict(ctx.outer_uv or ()).get(uv_set)
             if outer is None:

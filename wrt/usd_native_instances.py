@@ -183,12 +183,12 @@ class NativeInstanceReading:
         found = []
         for name in names:
             primvar = self.inherited_primvars.lookup(prim, name)
-            if primvar is None:
+            if primvar is None or primvar is PER_INSTANCE:  # (a PointInstancer's st of each instance is handed down)
                 ctx.content.want_uvs([name])
                 st = above.get(name)
             elif primvar and primvar.GetInterpolation() == UsdGeom.Tokens.constant:
                 st = self._first_st(primvar)
-            else:  # blocked (or a PointInstancer's per-instance one, which Hydra does not hand on as st)
+            else:  # blocked
                 st = None
             if st is not None:
                 found.append((name, st))

@@ -1,5 +1,6 @@
 """``UsdGeom.PointInstancer`` instances: prototypes, ``protoIndices``, positions, orientations and scales (moved by
-velocities as USD moves them), the visibility mask, and per-instance ``displayColor`` and ``displayOpacity``."""
+velocities as USD moves them), the visibility mask, and per-instance ``displayColor``, ``displayOpacity`` and texture
+coordinates (``st``)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from .usd_primvars import finite_colors, unit_opacities
 from .usd_values import held_value, spun_rotations, value_at
 
 MISSING_PROTOTYPE = "missing"  # a prototypes target that names no prim (its instances are skipped)
+MAX_INSTANCE_UVS = 64  # distinct st a PointInstancer gives the instances of one prototype (a copy of it each)
 
 
 class PointInstancerReading:
@@ -33,6 +35,7 @@ class PointInstancerReading:
         if m is None:
             return
         colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
+        uvs_by_name = {}  # texture-coordinate primvar -> (n, 2) st of the instances (NaN: none), or None
         opacities = self._instance_opacities(prim, n, read)
         keep = self._instance_mask(prim, pi, n)
         if keep is None:
@@ -84,17 +87,21 @@ class PointInstancerReading:
             # colour does (below); the instance opacities the others get reach prims without one past a non-constant
             # one above them (Context.blocked_opaque), as instance colours do: prototypes are read apart for each.
             target_opacities = None if beneath and self._constant_primvar(prim, "displayOpacity") else opacities
-            key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.proxy,
-                   ctx.outer_widths, target_opacities is not None, ctx.outer_uv)
             parent = target.GetParent()
-            content = self._content(key, target, parent, ctx.outer_bindings, purpose, outer_color=ctx.outer_color,
-                                    outer_widths=ctx.outer_widths, proxy=ctx.proxy,
-                                    instance_opacity=target_opacities is not None, outer_uv=ctx.outer_uv)
+
+            def read_with(outer_uv, target=target, parent=parent, purpose=purpose, opaque=target_opacities is None):
+                key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.proxy,
+                       ctx.outer_widths, not opaque, outer_uv)
+                return key, self._content(key, target, parent, ctx.outer_bindings, purpose,
+                                          outer_color=ctx.outer_color, outer_widths=ctx.outer_widths, proxy=ctx.proxy,
+                                          instance_opacity=not opaque, outer_uv=outer_uv)
+
+            key, content = read_with(ctx.outer_uv)
             # The prototype's prims walk up through this instancer's ancestors: what they lack, this content lacks.
             ctx.content.outer_purposes |= content.outer_purposes
             ctx.content.wants_widths |= content.wants_widths
-            ctx.content.want_uvs(content.outer_uvs)
-            ctx.content.uv_misses += content.uv_misses  # (an instancer hands down no st of its own)
+            uv_groups = self._instance_uv_groups(prim, n, read, content.outer_uvs, beneath, rows, ctx, uvs_by_name)
+            ctx.content.want_uvs([name for name in content.outer_uvs if uvs_by_name.get(name) is None])
             ctx.content.want_colors(content.outer_colors)
             name = self._instance_color_name(prim, content.outer_colors)
             if name is not None and beneath and self._constant_primvar(prim, name):
@@ -105,8 +112,12 @@ class PointInstancerReading:
             if name not in colors_by_name:
                 colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
             looks = instance_looks(colors_by_name[name], target_opacities)
-            ctx.content.instances.append((key, to_space[rows], str(prim.GetPath()), rows.astype(np.int32),
-                                          None if looks is None else looks[rows]))
+            for outer_uv, uv_rows in uv_groups:
+                # Each distinct st the instancer gives is a copy of the prototype read with it (Context.outer_uv).
+                group_key, group_content = (key, content) if outer_uv == ctx.outer_uv else read_with(outer_uv)
+                ctx.content.uv_misses += group_content.uv_misses
+                ctx.content.instances.append((group_key, to_space[uv_rows], str(prim.GetPath()),
+                                              uv_rows.astype(np.int32), None if looks is None else looks[uv_rows]))
 
     def _read_placed_lights(self, world: Content):
         """Appends to the scene one light per instance of each UsdLux light kept inside a PointInstancer's prototype
@@ -355,6 +366,57 @@ class PointInstancerReading:
         # NaN here would mean "no colour" (Instances.colors) and inf would shade as inf.
         return np.broadcast_to(finite_colors(np.array(values[:, :3], np.float32), prim, name, self._skip), (n, 3))
 
+    def _instance_uv_groups(self, prim: Usd.Prim, n: int, read, wanted: list[str], beneath: bool, rows: np.ndarray,
+                            ctx: Context, uvs_by_name: dict) -> list[tuple]:
+        """``[(outer_uv, rows), ...]``: the instances ``rows`` of one prototype of PointInstancer ``prim`` by the
+        texture coordinates handed to its meshes that lack the primvars ``wanted``: the instancer's st of each
+        (:meth:`_instance_uvs`, kept in ``uvs_by_name``) over what ``ctx.outer_uv`` hands down for the others. Storm
+        reads such an instance primvar in the material's primvar reader (``HdGet_st()`` where the mesh has none): one
+        palette texel per instance. Each distinct st is a copy of the prototype, so past :data:`MAX_INSTANCE_UVS` of
+        them all read the reader's fallback, with a warning."""
+        for name in wanted:
+            if name not in uvs_by_name:
+                uvs_by_name[name] = self._instance_uvs(prim, n, read, name, beneath)
+        names = [name for name in wanted if uvs_by_name[name] is not None]
+        if not names:
+            return [(ctx.outer_uv, rows)]
+        st = np.concatenate([uvs_by_name[name][rows] for name in names], axis=1)
+        st[~np.isfinite(st)] = np.inf  # none (named in a warning): one value, so that np.unique keys one group
+        distinct, group = np.unique(st, axis=0, return_inverse=True)
+        if len(distinct) > MAX_INSTANCE_UVS:
+            self._skip(f"PointInstancer texture coordinates of more than {MAX_INSTANCE_UVS} distinct values per "
+                       "prototype were ignored (each is a copy of the prototype): the textures there show their "
+                       "fallback", prim, f"{', '.join(names)}: {len(distinct)} distinct st for {len(rows)} instances")
+            return [(tuple(entry for entry in ctx.outer_uv or () if entry[0] not in names) or None, rows)]
+        groups = []
+        for k, values in enumerate(distinct):
+            outer = dict(ctx.outer_uv or ())
+            for j, name in enumerate(names):
+                outer.pop(name, None)  # the instancer's st is nearer than one handed down from above
+                if np.isfinite(values[2 * j:2 * j + 2]).all():
+                    outer[name] = (float(values[2 * j]), float(values[2 * j + 1]))
+            groups.append((tuple(sorted(outer.items())) or None, rows[group.reshape(-1) == k]))
+        return groups
+
+    def _instance_uvs(self, prim: Usd.Prim, n: int, read, name: str, beneath: bool) -> np.ndarray | None:
+        """``(n, 2)`` float64 st of each of the ``n`` instances of PointInstancer ``prim`` from its texture-coordinate
+        primvar ``name`` (the first two components; NaN where not finite, with a warning), or None without a usable
+        one (see :meth:`_instance_values`). A constant one reaches the prototypes beneath the instancer by
+        inheritance instead, read with their geometry, as a constant colour does."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
+        if not primvar.HasValue() or (beneath and primvar.GetInterpolation() == UsdGeom.Tokens.constant):
+            return None
+        values = self._instance_values(prim, n, read, name, (2, 3, 4))
+        if values is None:
+            return None
+        values = np.array(np.broadcast_to(values[:, :2], (n, 2)))
+        bad = ~np.isfinite(values).all(axis=1)
+        if bad.any():
+            self._skip("PointInstancer texture coordinates that are not finite were read as none: the textures there "
+                       "show their fallback", prim, f"{name}, {int(bad.sum())} of {n} instances")
+            values[bad] = np.nan
+        return values
+
     def _instance_opacities(self, prim: Usd.Prim, n: int, read) -> np.ndarray | None:
         """``(n,)`` float32 ``displayOpacity`` of each of the ``n`` instances of PointInstancer ``prim`` (see
         :meth:`_instance_values`; NaN read as 1 and values clamped to [0, 1], as on meshes), or None without one."""
@@ -387,9 +449,12 @@ class PointInstancerReading:
                 return None
             values = values[indices]
         interpolation = primvar.GetInterpolation()
-        expected = {"constant": (1, "1"), "vertex": (n, "one per instance"), "varying": (n, "one per instance")}
+        # faceVarying is one per instance too (UsdGeomPointInstancer's primvar rules; Hydra makes it an instance
+        # primvar, as it does vertex and varying): it was ignored with a warning.
+        per_instance = (n, "one per instance")
+        expected = {"constant": (1, "1"), "vertex": per_instance, "varying": per_instance, "faceVarying": per_instance}
         if interpolation not in expected:
-            self._skip(f"PointInstancer {name} of an interpolation other than constant, vertex or varying "
+            self._skip(f"PointInstancer {name} of an interpolation other than constant, vertex, varying or faceVarying "
                        "was ignored", prim, interpolation)
             return None
         if len(values) != expected[interpolation][0]:
