@@ -109,7 +109,7 @@ from .primitives import DEFAULT_SEGMENTS, MAX_SEGMENTS, Shape
 from .render_settings import RenderSettings, read_render_settings
 from .scene import Mesh, Scene
 from .subdivision import MAX_REFINE_LEVEL
-from .usd_ancestors import ComputedPurposes, InheritedPrimvars
+from .usd_ancestors import ComputedPurposes, InheritedPrimvars, PurposeVisibilities
 from .usd_attributes import AttributeReading
 from .usd_bake import MeshBaking
 from .usd_bindings import CollectionsInside
@@ -331,6 +331,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         # for all its loads (neither answer depends on the time).
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
+        self.purpose_visibilities = PurposeVisibilities()  # UsdGeomVisibilityAPI's opinions, each prim's answer kept
+        self.prototype_purposes = {}  # native prototype path -> the purposes authored in it (purpose visibility)
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.prototype_lights = {}  # native prototype path -> its UsdLux lights, for hidden instances
         self.shown_prototypes = {}  # native prototype path -> (abstract, the path it is named by) (_prototype_name)
@@ -415,8 +417,9 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # drawn, as USD computes purpose through instance proxies.
             if self._visible(prim, ctx.stop):
                 purpose = self._purpose(prim, ctx)
+                self._warn_purpose_visibility_above(prim, purpose)
                 self._read_native_instance(prim, ctx, None if purpose in self.purposes else purpose)
-                if prim.IsA(UsdGeom.Gprim) and purpose in self.purposes:
+                if prim.IsA(UsdGeom.Gprim) and self._rendered(prim, ctx):
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.
                     self._read_geometry(prim, ctx)

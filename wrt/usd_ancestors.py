@@ -129,6 +129,40 @@ class ComputedPurposes:
         return (img.GetPurposeAttr().Get() if img else None) or UsdGeom.Tokens.default_
 
 
+def _purpose_visibility_on(purpose: str):
+    """The ``own`` of the upward search for ``purpose``'s visibility opinion (``renderVisibility``, ...)."""
+    name = purpose + "Visibility"
+
+    def own(p: Usd.Prim):
+        # As ComputeEffectiveVisibility reads them: on imageable prims with UsdGeomVisibilityAPI applied only.
+        if p.HasAPI(UsdGeom.VisibilityAPI) and UsdGeom.Imageable(p):
+            attr = p.GetAttribute(name)
+            if attr and attr.HasAuthoredValue() and token_typed(attr) and attr.Get():
+                return attr.Get()
+        return KEEP_LOOKING
+
+    return own
+
+
+class PurposeVisibilities:
+    """``hidden(prim, purpose)``: the nearest authored opinion of ``UsdGeomVisibilityAPI`` for ``purpose`` (render,
+    proxy or guide) on ``prim`` or an ancestor is ``invisible``, as ``ComputeEffectiveVisibility(purpose)`` finds it
+    where overall visibility is not invisible (``visible`` or ``inherited`` nearer re-opens); each prim's answer
+    kept. The opinions are uniform: the answer does not depend on the time. A guide with no opinion stays drawn
+    where the render settings include guides (the schema's fallback, ``invisible``, is not applied)."""
+
+    def __init__(self):
+        self.memos = {}  # purpose -> AncestorMemo of the search from a prim upwards
+
+    def hidden(self, prim: Usd.Prim, purpose: str) -> bool:
+        if purpose not in (UsdGeom.Tokens.render, UsdGeom.Tokens.proxy, UsdGeom.Tokens.guide):
+            return False
+        memo = self.memos.get(purpose)
+        if memo is None:
+            memo = self.memos[purpose] = AncestorMemo(_purpose_visibility_on(purpose))
+        return memo(prim) == UsdGeom.Tokens.invisible
+
+
 def _binds_here(p: Usd.Prim):
     """True when ``p`` authors a material binding relationship (direct or collection, any purpose)."""
     if any(name == "material:binding" or name.startswith("material:binding:") for name in p.GetAuthoredPropertyNames()):

@@ -75,6 +75,29 @@ class Visibility:
         return None if purpose in self.purposes else purpose
 
     def _rendered(self, prim: Usd.Prim, ctx: Context) -> bool:
-        """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own)."""
-        return self._visible(prim, ctx.stop) and self._purpose(prim, ctx) in self.purposes
+        """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own), and not
+        hidden for that purpose by ``UsdGeomVisibilityAPI`` (:class:`wrt.usd_ancestors.PurposeVisibilities`)."""
+        if not self._visible(prim, ctx.stop):
+            return False
+        purpose = self._purpose(prim, ctx)
+        return purpose in self.purposes and not self.purpose_visibilities.hidden(prim, purpose)
+
+    def _warn_purpose_visibility_above(self, instance: Usd.Prim, purpose: str):
+        """Names native ``instance`` (of computed ``purpose``) where an opinion on it or above it hides a drawn
+        purpose that the instance or a prim in its prototype has: a prototype is read once for all its instances,
+        from its own root down, so such an opinion does not reach the prims inside."""
+        hidden = [p for p in self.purposes if self.purpose_visibilities.hidden(instance, p)]
+        if not hidden:
+            return
+        prototype = instance.GetPrototype()
+        inside = self.prototype_purposes.get(prototype.GetPath()) if prototype else set()
+        if inside is None:
+            inside = self.prototype_purposes[prototype.GetPath()] = {
+                p.GetAttribute("purpose").Get() for p in Usd.PrimRange(prototype)
+                if p.GetAttribute("purpose").HasAuthoredValue()}
+        hidden = [p for p in hidden if p == purpose or p in inside]
+        if hidden:
+            self._skip("purpose visibility (renderVisibility, proxyVisibility, guideVisibility) authored on or above "
+                       "native instances is not applied to the prims inside them", instance,
+                       ", ".join(f"{purpose}Visibility = invisible" for purpose in hidden))
 
