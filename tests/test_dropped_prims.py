@@ -104,7 +104,35 @@ def test_instances_of_a_prototype_inside_itself_are_skipped(tmp_path):
     assert len(scene.instances) == len(expected.instances) > 0
     np.testing.assert_array_equal(scene.instances.to_world, expected.instances.to_world)
     assert [p.path for p in scene.prototypes] == [p.path for p in expected.prototypes]
-    assert any("instance of itself" in m and "/P/Protos/A/Inner" in m for m in messages), messages
+    assert any("holds the instancer itself" in m and "/P/Protos/A/Inner" in m for m in messages), messages
+
+
+@pytest.mark.parametrize("target", ["/World", "/World/PI"])
+def test_a_prototype_holding_its_own_instancer_draws_none_of_its_instances(tmp_path, target):
+    """A PointInstancer whose prototype is itself or an ancestor of it would place copies of itself without end
+    (a cycle USD cannot compute): those instances are skipped with a warning naming the instancer and the prototype,
+    and the stage loads as the same stage with them hidden through USD's own invisibleIds. Targeting an ancestor
+    drew every instance one level deep (the prototype without the instancer's own instances), arbitrary."""
+    path = write(tmp_path, KEPT + f"""
+def Xform "World" {{
+    def Sphere "S" {{}}
+    def PointInstancer "PI" {{
+        int[] protoIndices = [0, 0]
+        point3f[] positions = [(0, 5, 0), (3, 5, 0)]
+        rel prototypes = [<{target}>]
+        def Cube "C" {{}}
+    }}
+}}
+""")
+    scene, messages = load_warned(path)
+    stage = Usd.Stage.Open(path)
+    UsdGeom.PointInstancer(stage.GetPrimAtPath("/World/PI")).GetInvisibleIdsAttr().Set([0, 1])
+    stage.GetRootLayer().Export(str(tmp_path / "hidden.usda"))
+    expected = wrt.load_usd(tmp_path / "hidden.usda")
+    assert len(scene.instances) == len(expected.instances) == 0
+    assert [s.path for s in scene.shapes] == [s.path for s in expected.shapes] == ["/World/S"]
+    assert any("holds the instancer itself" in m and f"({target}, 2 of 2 instances" in m and m.endswith("/World/PI")
+               for m in messages), messages
 
 
 @pytest.mark.parametrize("op", ["double3 xformOp:translate = (1e39, 0, 0)", "double3 xformOp:translate = (nan, 0, 0)",

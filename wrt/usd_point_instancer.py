@@ -73,6 +73,13 @@ class PointInstancerReading:
                 self._skip("instances of PointInstancer prototypes that are class prims (or under one) were skipped, "
                            "as Hydra skips them", prim, str(path))
                 continue
+            if prim.GetPath().HasPrefix(target.GetPath()):
+                # The prototype is the instancer or an ancestor of it: each instance holds the instancer again, without
+                # end (a cycle USD cannot compute). Its instances were drawn one level deep (the prototype without the
+                # instancer's own instances, skipped below as an instance of itself), which is arbitrary.
+                self._skip("PointInstancer instances of a prototype that holds the instancer itself (the instancer or "
+                           "an ancestor of it: a cycle) were skipped", prim, f"{path}, {len(rows)} of {n} instances")
+                continue
             if any(k[:2] == ("pi", str(target.GetPath())) for k in self.reading):
                 # A prototype being read that holds an instancer of itself would hold itself without end (the other
                 # prototypes' instances, and this one's at the levels above, are drawn): it stopped the whole load.
