@@ -394,6 +394,69 @@ def test_nested_instancing_resolves_to_one_level(tmp_path):
     np.testing.assert_allclose(scene.instances.to_world, expected, atol=1e-9)
 
 
+@pytest.mark.parametrize("inner_proto", ["/World/Outer/Protos/P/Inner/Q", "/Lib/Q"])
+def test_nested_point_instancers_compose_usds_instance_transforms(tmp_path, inner_proto):
+    """A PointInstancer inside another's prototype (each with its own transform, oriented and scaled instances, and
+    prototypes with their own transforms; the inner prototype beside the instancer or under a moved /Lib, whose
+    transform no instance takes): every world triangle is where USD's ComputeInstanceTransformsAtTime of each level,
+    composed by hand with the inner instancer's transform relative to the outer prototype (XformCache), puts it."""
+    path = str(tmp_path / "nested_pi.usda")
+    stage = Usd.Stage.CreateNew(path)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    world.AddTranslateOp().Set((1, 2, 3))
+    world.AddRotateYOp().Set(25)
+    lib = UsdGeom.Xform.Define(stage, "/Lib")
+    lib.AddTranslateOp().Set((100, 0, 0))
+    lib.MakeInvisible()
+    outer = UsdGeom.PointInstancer.Define(stage, "/World/Outer")
+    outer.AddRotateZOp().Set(30)
+    outer.AddScaleOp().Set((2, 2, 2))
+    proto = UsdGeom.Xform.Define(stage, "/World/Outer/Protos/P")
+    proto.AddTranslateOp().Set((1, 0, 0))
+    proto.AddRotateYOp().Set(20)
+    inner = UsdGeom.PointInstancer.Define(stage, "/World/Outer/Protos/P/Inner")
+    inner.AddTranslateOp().Set((0, 1, 0))
+    inner.AddRotateXOp().Set(45)
+    shape = octahedron(stage, inner_proto)
+    shape.AddTranslateOp().Set((0, 0, 0.5))
+    shape.AddScaleOp().Set((0.5, 0.25, 0.5))
+    rng = np.random.default_rng(7)
+    for pi, n in ((outer, 2), (inner, 3)):
+        quats = rng.normal(size=(n, 4))
+        quats /= np.linalg.norm(quats, axis=1, keepdims=True)
+        pi.CreateProtoIndicesAttr([0] * n)
+        pi.CreatePositionsAttr([Gf.Vec3f(*p) for p in rng.uniform(-5, 5, (n, 3))])
+        pi.CreateOrientationsAttr([Gf.Quath(float(q[3]), *map(float, q[:3])) for q in quats])
+        pi.CreateScalesAttr([Gf.Vec3f(*s) for s in rng.uniform(0.5, 2, (n, 3))])
+    outer.CreatePrototypesRel().SetTargets([proto.GetPath()])
+    inner.CreatePrototypesRel().SetTargets([shape.GetPath()])
+    stage.Save()
+
+    t = Usd.TimeCode.Default()
+    cache = UsdGeom.XformCache(t)
+    inner_in_proto = (np.array(cache.GetLocalToWorldTransform(inner.GetPrim()))
+                      @ np.linalg.inv(np.array(cache.GetLocalToWorldTransform(proto.GetPrim()))))
+    outer_world = np.array(cache.GetLocalToWorldTransform(outer.GetPrim()))
+    points = np.c_[np.array(shape.GetPointsAttr().Get(), np.float64), np.ones(6)]
+    faces = np.array(shape.GetFaceVertexIndicesAttr().Get()).reshape(-1, 3)
+    expected = []  # row vectors, as Gf composes them: most local first
+    for m_outer in outer.ComputeInstanceTransformsAtTime(t, t):
+        for m_inner in inner.ComputeInstanceTransformsAtTime(t, t):
+            world_points = points @ np.array(m_inner) @ inner_in_proto @ np.array(m_outer) @ outer_world
+            expected.append(world_points[faces][:, :, :3])
+    expected = np.concatenate(expected)
+    got_points, got_indices = load(path).triangles()
+    got = got_points[got_indices].astype(np.float64)
+
+    def canonical(tris):  # each triangle as its corners in a fixed order, the triangles sorted
+        tris = np.round(tris, 4)
+        tris = np.array([tri[np.lexsort(tri.T[::-1])] for tri in tris]).reshape(len(tris), 9)
+        return tris[np.lexsort(tris.T[::-1])]
+
+    assert got.shape == expected.shape == (2 * 3 * 8, 3, 3)
+    np.testing.assert_allclose(canonical(got), canonical(expected), atol=2e-4)
+
+
 def write_instancer(tmp_path, proto_indices=(0, 0, 0), targets=("/PI/Proto",), positions=3, scales=None) -> str:
     path = str(tmp_path / "bad.usda")
     stage = Usd.Stage.CreateNew(path)
