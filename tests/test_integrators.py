@@ -396,10 +396,10 @@ def test_bad_integrator_options():
             wrt.render(scene, width=4, height=4, device="cpu", batch=batch)
 
 
-def specular_albedo(f0, roughness, n=400):
+def specular_albedo(f0, roughness, n=400, f90=1.0):
     """Directional albedo at normal view of a single-scattering GGX lobe of Schlick reflectance ``f0`` (grazing
-    reflectance 1, as UsdPreviewSurface has for a dielectric and the specular workflow), by midpoint quadrature over
-    the hemisphere."""
+    reflectance ``f90``: 1 as UsdPreviewSurface has for a dielectric and the specular workflow), by midpoint
+    quadrature over the hemisphere."""
     theta = (np.arange(n) + 0.5) / n * (np.pi / 2)
     phi = (np.arange(2 * n) + 0.5) / (2 * n) * (2 * np.pi)
     t, p = np.meshgrid(theta, phi, indexing="ij")
@@ -408,7 +408,6 @@ def specular_albedo(f0, roughness, n=400):
     h = wi + wo
     h /= np.linalg.norm(h, axis=-1, keepdims=True)
     cos_i, cos_h, cos_vh = wi[..., 2], h[..., 2], h @ wo
-    f90 = 1.0
     fresnel = f0 + (f90 - f0) * (1 - cos_vh) ** 5
     a = max(roughness**2, 4e-4)
     d = a * a / (np.pi * (cos_h**2 * (a * a - 1) + 1) ** 2)
@@ -611,6 +610,46 @@ def test_whitted_reflects_the_dome_in_a_specular_workflow_mirror(roughness):
     path = wrt.render(scene, camera=cam, width=4, height=4, spp=64, device="cpu", integrator="path").rgb
     assert whitted.max() <= 1.0 + 1e-6
     assert whitted.mean() == pytest.approx(path.mean(), rel=0.05)
+
+
+def whitted_dome_expectations():
+    """``(inputs, expected)``: UsdPreviewSurface inputs (metallic workflow, ior 1.5: a dielectric's F0 0.04 and F90
+    1) and what they reflect at normal view of a uniform white dome, from float64 quadrature of the GGX lobes
+    (:func:`specular_albedo`) or Schlick's F at normal incidence, F0, for a mirror. A metal's multiple scattering adds
+    below 0.002 at roughness 0.3 (1 - E = 0.009)."""
+    plastic = specular_albedo(0.04, 0.3)
+    f0 = 0.5 * 0.04 + 0.5 * 0.6  # half metal: mix(0.04, diffuseColor, metallic); F90 mix(1, diffuseColor, metallic)
+    half_metal = specular_albedo(f0, 0.3, f90=0.5 + 0.5 * 0.6)
+    coat, below = specular_albedo(0.04, 0.1), specular_albedo(0.04, 0.4)
+    colour = np.array([0.9, 0.5, 0.2])
+    f0_colour = 0.5 * 0.04 + 0.5 * colour
+    return [
+        ({"diffuse_color": 0.0, "roughness": 0.3}, plastic),
+        ({"diffuse_color": 0.6, "roughness": 0.0}, 0.04 + 0.96 * 0.6),
+        ({"diffuse_color": 0.6, "metallic": 0.5, "roughness": 0.3}, half_metal + (1 - half_metal) * 0.5 * 0.6),
+        ({"diffuse_color": 0.5, "roughness": 0.4, "clearcoat": 1.0, "clearcoat_roughness": 0.1},
+         coat + (1 - coat) * (below + (1 - below) * 0.5)),
+        ({"diffuse_color": 0.5, "roughness": 0.4, "clearcoat": 1.0, "clearcoat_roughness": 0.0},
+         0.04 + 0.96 * (below + (1 - below) * 0.5)),
+        ({"diffuse_color": tuple(colour), "metallic": 0.5, "roughness": 0.0},
+         f0_colour + (1 - f0_colour) * 0.5 * colour),
+    ]
+
+
+@pytest.mark.parametrize("inputs, expected", whitted_dome_expectations(),
+                         ids=["plastic", "smooth_plastic", "half_metal", "coat", "smooth_coat", "smooth_half_metal"])
+def test_whitted_reflects_a_white_dome_by_the_whole_bsdf_albedo(inputs, expected):
+    """A plane of UsdPreviewSurface under a uniform white dome, seen straight down: Whitted shows the BSDF's
+    directional albedo, as the path tracer converges to (a dielectric's specular lobe, a half metal, a clearcoat, a
+    smooth one's mirror ray). Its dome term took the diffuse albedo whole and the rough lobe times ``metallic``, and a
+    smooth lobe's mirror ray was weighted by ``metallic`` too: a black plastic showed 0 (0.040), the half metal
+    0.459 (0.522), a clearcoat none of its reflection, a smooth white-ish plastic 0.6 (0.616)."""
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), material=0)
+    scene = wrt.Scene(meshes=[plane], materials=[Material(**inputs)],
+                      lights=[DomeLight(color=np.ones(3, np.float32))])
+    cam = wrt.Camera.orthographic(eye=(0, 0, 3), target=(0, 0, 0), height=1.0)
+    img = wrt.render(scene, camera=cam, width=4, height=4, spp=2, device="cpu", integrator="whitted")
+    np.testing.assert_allclose(img.rgb.reshape(-1, 3).mean(axis=0), np.broadcast_to(expected, 3), rtol=0.01)
 
 
 @pytest.mark.parametrize("integrator, spp", [("whitted", 4), ("path", 128)])
