@@ -1196,3 +1196,38 @@ def test_default_camera_of_a_z_up_stage_is_the_y_up_one_turned_with_the_robot(tm
     d = rays["Z"][1].reshape(12, 16, 3)
     assert (np.diff(d[:, 8, 2]) < 0).all()  # down the image is down +Z
     assert (np.diff(d[6, :, 0]) > 0).all()  # right in the image is along +X: not mirrored
+
+
+def edge_renderer(rows: int) -> tuple[wrt.Renderer, np.ndarray]:
+    """A renderer of an orthographic view, 4 pixels of 1 unit across and ``rows`` down, of a glowing half-plane
+    ``x < -0.7`` (radiance 1, reflecting nothing) over black, and each column's exact share of the half-plane's
+    area: its pixels' coverage, 1, 0.3, 0 and 0 (the second column's centre, x = -0.5, lies outside it)."""
+    glow = wrt.Material(diffuse_color=0.0, use_specular_workflow=True, specular_color=0.0, specular_edge=0.0,
+                        emissive_color=1.0)
+    half_plane = wrt.Mesh("/half", [[-50, -1000, 0], [-0.7, -1000, 0], [-0.7, 1000, 0], [-50, 1000, 0]],
+                          [[0, 1, 2], [0, 2, 3]], [0, 0], material_ids=[0, 0])
+    scene = wrt.Scene(meshes=[half_plane], materials=[glow])
+    cam = wrt.Camera.orthographic(eye=(0, 0, 4), target=(0, 0, 0), up=(0, 1, 0), height=float(rows))
+    left = np.arange(4) - 2.0  # the columns' left edges
+    return (wrt.Renderer(scene, camera=cam, width=4, height=rows, device="cpu", integrator="whitted"),
+            np.clip(-0.7 - left, 0.0, 1.0))
+
+
+@pytest.mark.parametrize("spp", [2, 8])
+def test_every_sample_of_several_spreads_over_the_pixel(spp):
+    """Anti-aliasing of a straight edge: with several samples per pixel each pixel shows its exact area coverage
+    (within 3 standard deviations of the mean of its column's samples). Sample 0 went through the pixel centre,
+    a point sample weighing 1 / spp: the edge column, 0.3 covered with its centre outside, showed 0.15 at 2 spp and
+    0.27 at 8. One sample per pixel still goes through the centre (0 there), and so do the AOVs' rays."""
+    rows = 256
+    renderer, exact = edge_renderer(rows)
+    one = renderer.render(spp=1, seed=2)
+    np.testing.assert_array_equal(one.rgb[..., 0].mean(axis=0), (exact >= 0.5).astype(np.float32))
+    img = renderer.render(spp=spp, seed=2)
+    sigma = np.sqrt(exact * (1.0 - exact) / (rows * spp))
+    np.testing.assert_allclose(img.rgb[..., 0].mean(axis=0), exact, atol=3.0 * sigma.max())
+    np.testing.assert_allclose(img.aovs["coverage"].mean(axis=0), exact, atol=3.0 * sigma.max())
+    np.testing.assert_array_equal(img.aovs["prim"], one.aovs["prim"])  # through the pixel centres
+    np.testing.assert_array_equal(img.aovs["depth"], one.aovs["depth"])
+    renderer.render(spp=1, seed=2)  # a progressive render from one sample is that of all of them at once
+    np.testing.assert_array_equal(renderer.render(spp=spp - 1, seed=2, resume=True).rgb, img.rgb)

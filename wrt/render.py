@@ -43,6 +43,9 @@ from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
 from .scene import Scene, dataclass_parts, parts_changed
 from .shade import (
+    FIRST_AT_CENTRE,
+    FIRST_ON_LENS,
+    FIRST_SPREAD,
     MAX_CULL_PASSES,
     MAX_SHADOW_HOLE_PASSES,
     DeviceSurfaces,
@@ -819,7 +822,8 @@ class Renderer:
     def render(
         self, spp: int = 1, seed: int = 0, *, batch: int | None = None, progress: bool = False, resume: bool = False
     ) -> Image:
-        """Renders ``spp`` samples per pixel and returns the :class:`Image`; AOVs come from sample 0.
+        """Renders ``spp`` samples per pixel and returns the :class:`Image`; AOVs come from a ray through each
+        pixel's centre, as the colour of an image of one sample does (several spread all over the pixel).
 
         Args:
             spp: samples per pixel (the quick-look integrators ``normals``, ``depth`` and ``albedo`` use one).
@@ -852,6 +856,13 @@ class Renderer:
         if (state["samples"] if resuming else 0) + spp > MAX_SPP:
             raise ValueError(f"spp must be at most 2^31 - 1 samples per pixel in all, got {spp}"
                              + (f" after {state['samples']}" if resuming else ""))
+        # An image of several samples spreads sample 0 over the pixel too (_start_and_trace); one of a single sample
+        # takes it through the pixel centre. Adding to that one, its sample is drawn again, spread, so that the image
+        # stays that of one render of all the samples.
+        spread = (state["samples"] if resuming else 0) + spp > 1
+        if resuming and state["spread"] != spread:
+            spp += state["samples"]
+            resuming = False
         n_pixels = self.width * self.height * len(self.cameras)
         batch = samples_per_launch(n_pixels, spp, batch)
         n = n_pixels * batch
@@ -877,7 +888,7 @@ class Renderer:
                 while first < total:
                     count = min(batch, total - first)
                     w = self._wavefront.view(n_pixels * count)
-                    self._start_and_trace(w, first, seed, aovs)
+                    self._start_and_trace(w, first, seed, aovs, spread)
                     wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, count],
                               outputs=[image, dropped])
                     aovs.add_covered()
@@ -888,7 +899,8 @@ class Renderer:
             # resume=True continues from them. Recorded only at the end, a resumed render interrupted midway left
             # its extra samples in the sums under the old count, and the next resume came out too bright.
             bar.close()
-            self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": first}
+            self._progressive = {"seed": seed, "sum": image, "dropped": dropped, "aovs": aovs, "samples": first,
+                                 "spread": spread}
         self.dropped_samples = int(dropped.numpy()[0])
         return self._mean_image(image, total, aovs)
 
@@ -961,24 +973,27 @@ class Renderer:
         _, image, _, aovs = self._frame
         return self._mean_image(image, 1, aovs)
 
-    def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, lens_first: int) -> None:
+    def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
         wp.launch(
             start_paths_kernel,
             w.n,
-            inputs=[self._cams, self._lenses, self.width, self.height, first_sample, seed, lens_first],
+            inputs=[self._cams, self._lenses, self.width, self.height, first_sample, seed, first],
             outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.views],
         )
 
-    def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs):
-        # Behind a thin lens every colour sample samples the lens: sample 0 through its centre, the AOVs' ray, made
-        # the colour's mean a blend of the blur and a sharp pinhole image (weight 1 / spp). The AOV rays are then
-        # traced apart, once. The quick looks' image is their AOVs: their one sample stays the AOV ray.
-        lens_first = int(self._thin_lens and self.integrator not in QUICK_LOOKS)
-        if lens_first and aovs is not None and not aovs.done:
+    def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs, spread: bool = False):
+        # Colour samples of an image of several (``spread``) are all spread over the pixel and the lens, and behind a
+        # thin lens every colour sample samples the lens: sample 0 through the centres, the AOVs' ray, was a point
+        # sample of weight 1 / spp and blended a sharp pinhole image into the blur (shade.camera_sample). The AOV
+        # rays are then traced apart, once. The quick looks' image is their AOVs: their one sample stays the AOV ray.
+        first = FIRST_AT_CENTRE
+        if self.integrator not in QUICK_LOOKS:
+            first = FIRST_SPREAD if spread else (FIRST_ON_LENS if self._thin_lens else FIRST_AT_CENTRE)
+        if first != FIRST_AT_CENTRE and aovs is not None and not aovs.done:
             v = w.view(aovs.n)
-            self._start_paths(v, first_sample, seed, 0)
+            self._start_paths(v, first_sample, seed, FIRST_AT_CENTRE)
             self._intersect(v, aovs, camera_rays=True, count_covered=False)
-        self._start_paths(w, first_sample, seed, lens_first)
+        self._start_paths(w, first_sample, seed, first)
         if self.integrator == "path":
             self._trace_paths(w, aovs)
         elif self.integrator == "whitted":

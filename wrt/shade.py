@@ -32,10 +32,11 @@ Conventions:
   (:mod:`wrt.light_links`).
   Glass (``opacity < 1`` without a threshold) is not a hole and blocks them: a unidirectional path tracer gets its
   light through refraction.
-- Sample 0 of every pixel goes through the pixel centre, and its AOV ray through the lens centre too; later samples
-  jitter both (deterministic in ``seed``, pixel and sample index). AOVs come from sample 0. Behind a thin lens the
-  colour's sample 0 samples the lens as the others do (``lens_first``; its AOV ray is then traced apart): through
-  the lens centre it blended a sharp pinhole image into the blur at weight ``1 / spp``.
+- The AOVs come from a ray through each pixel's centre and the lens centre. Colour samples jitter both
+  (deterministic in ``seed``, pixel and sample index), sample 0 too in an image of several samples, whose AOV ray is
+  then traced apart (:func:`camera_sample`): through the pixel centre it was a point sample of weight ``1 / spp``
+  (an edge pixel off by that share of its coverage), and through the lens centre it blended a sharp pinhole image
+  into the blur. An image of one sample takes sample 0 through the pixel centre (over the lens behind a thin lens).
 """
 
 import warp as wp
@@ -427,6 +428,11 @@ def shading_point(
     return h
 
 
+FIRST_AT_CENTRE = wp.constant(0)  # camera_sample: sample 0 through the pixel centre and the lens centre
+FIRST_ON_LENS = wp.constant(1)  # sample 0 through the pixel centre, over the lens
+FIRST_SPREAD = wp.constant(2)  # sample 0 spread over the pixel and the lens, as every other sample
+
+
 @wp.func
 def camera_sample(
     cam: DeviceCamera,
@@ -436,15 +442,18 @@ def camera_sample(
     height: int,
     pixel: int,
     sample: int,
-    lens_first: int,
+    first: int,
     state: wp.uint32,
 ):
     """Camera ray of ``sample`` at ``pixel``: origin, unit direction, ``t`` range and the advanced RNG state.
 
-    Sample 0 goes through the pixel centre and, unless ``lens_first`` is 1, the lens centre (the AOV ray); others
-    are jittered over the pixel and, with ``lens_radius > 0``, over the thin lens focused at ``focus_distance``
-    (measured along the view axis). With ``lens_first`` 1 sample 0 samples the lens too, so that every colour
-    sample does (the colour's mean is the thin lens's blur, with no pinhole image blended in).
+    Samples are jittered over the pixel and, with ``lens_radius > 0``, over the thin lens focused at
+    ``focus_distance`` (measured along the view axis). Sample 0 goes as ``first`` says: through the pixel centre and
+    the lens centre (``FIRST_AT_CENTRE``: the AOVs' ray, and a one-sample image's colour through a pinhole), through
+    the pixel centre and over the lens (``FIRST_ON_LENS``: a one-sample image behind a thin lens, which shows its
+    blur), or as the others (``FIRST_SPREAD``: an image of several samples, whose mean is then the pixel's area
+    average; through the centre, sample 0 was a point sample of weight ``1 / spp``, and a pixel that an edge crossed
+    away from its centre was off by that share: 0.15 for 0.3 at 2 spp).
     """
     i = pixel // width
     j = pixel - i * width
@@ -453,16 +462,16 @@ def camera_sample(
     lx = float(0.5)
     ly = float(0.5)
     thin_lens = lens_radius > 0.0 and cam.orthographic == 0
-    if sample > 0:
+    if sample > 0 or first == FIRST_SPREAD:
         sx, state = rand01(state)
         sy, state = rand01(state)
         lx, state = rand01(state)
         ly, state = rand01(state)
-    elif thin_lens and lens_first == 1:  # (a pinhole's sample 0 draws nothing: its images stay as they were)
+    elif thin_lens and first == FIRST_ON_LENS:  # (a pinhole's sample 0 at the centre draws nothing)
         lx, state = rand01(state)
         ly, state = rand01(state)
     o, ray = film_ray(cam, (float(j) + sx) / float(width), (float(i) + sy) / float(height))
-    if thin_lens and (sample > 0 or lens_first == 1):
+    if thin_lens and (sample > 0 or first != FIRST_AT_CENTRE):
         # Lens and focus plane are in camera space; ray keeps advancing one unit of camera-space depth per unit.
         focus = o + focus_distance * ray
         lens = sample_concentric_disk(lx, ly) * lens_radius
@@ -486,7 +495,7 @@ def start_paths_kernel(
     height: int,
     first_sample: int,
     seed: int,
-    lens_first: int,
+    first: int,
     # outputs
     origins: wp.array[wp.vec3],
     directions: wp.array[wp.vec3],
@@ -503,8 +512,8 @@ def start_paths_kernel(
     """Starts one path per (sample, view, pixel): entry ``i`` is pixel ``i % (V W H)`` of sample
     ``first_sample + i // (V W H)``, and that pixel is pixel ``p % (W H)`` of view (camera) ``p // (W H)``.
 
-    ``lenses[view]`` is (lens radius, focus distance); ``lens_first``: 1 where sample 0 samples the lens (a colour
-    path), 0 where it goes through the lens centre (the AOV ray) (:func:`camera_sample`). The random stream depends
+    ``lenses[view]`` is (lens radius, focus distance); ``first``: where sample 0 goes (:func:`camera_sample`:
+    ``FIRST_AT_CENTRE`` for the AOV ray). The random stream depends
     on the pixel within its view, not on the view, so view ``k`` of a batch is exactly the image a render of camera
     ``k`` alone gives.
     """
@@ -517,8 +526,7 @@ def start_paths_kernel(
     pixel = p - view * n_view
     state = path_rng(seed, pixel, sample)
     lens = lenses[view]
-    o, d, t0, t1, state = camera_sample(cams[view], lens[0], lens[1], width, height, pixel, sample, lens_first,
-                                         state)
+    o, d, t0, t1, state = camera_sample(cams[view], lens[0], lens[1], width, height, pixel, sample, first, state)
     origins[i] = o
     directions[i] = d
     t_mins[i] = t0
