@@ -3,15 +3,15 @@
 At every hit: emission; direct light from every light with a shadow ray each (area and soft lights get one random
 point per sample, so their shadows soften as ``spp`` grows; all emissive triangles together count as one light);
 the dome light as an unoccluded term: the dome's mean radiance times the directional albedo of the BSDF's diffuse
-lobe and of its rough specular and clearcoat lobes (with multiple scattering, as the path tracer's BSDF has them; a
-white surface of any metallic and roughness reflects 1), exact for an unoccluded surface under a constant dome (use
-``path`` for occluded sky light). Then one continuation ray: the mirror direction for the smooth lobes (roughness
-below ``DELTA_ROUGHNESS``: a metal's, a dielectric's or a specular workflow's specular lobe, weight ``F``, and a
-smooth clearcoat, each as :func:`wrt.bsdf.sample_bsdf` weights it) and for glass (``opacity < 1``: reflection or
-Snell refraction, chosen with probability proportional to their Fresnel weights; a thin-walled sheet's transmission
-goes straight on, see :mod:`wrt.bsdf`). Other surfaces end the ray: a rough lobe takes its light from the light
-sampling above, and a mirror ray from it would add the same lights a second time. ``max_depth`` bounds the number
-of mirror/refraction bounces.
+lobe and of its rough specular and clearcoat lobes (with multiple scattering, as the path tracer's BSDF has them),
+what ``path`` converges to for an unoccluded surface under a constant dome (use ``path`` for occluded sky light).
+Then one continuation ray: the mirror direction for the smooth lobes (roughness below ``DELTA_ROUGHNESS``: a
+metal's, a dielectric's or a specular workflow's specular lobe, weight ``F``, and a smooth clearcoat, each as
+:func:`wrt.bsdf.sample_bsdf` weights it) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with
+probability proportional to their Fresnel weights; a thin-walled sheet's transmission goes straight on, see
+:mod:`wrt.bsdf`). Other surfaces end the ray: a rough lobe takes its light from the light sampling above, and a
+mirror ray from it would add the same lights a second time. ``max_depth`` bounds the number of mirror/refraction
+bounces.
 """
 
 import warp as wp
