@@ -243,3 +243,40 @@ def test_a_misspelt_aov_name_lists_the_names_there_are():
         with pytest.raises(KeyError, match=r"no AOV 'dpth'; this image has: .*\bdepth\b"):
             aovs["dpth"]
         assert "dpth" not in aovs and aovs.get("dpth") is None and aovs["depth"] is dict.__getitem__(aovs, "depth")
+
+
+def _pinhole_and_lens_renders(device: str):
+    """A kept Renderer of a pinhole camera, and that camera, to be given depth of field later."""
+    cam = wrt.Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
+    return wrt.Renderer(sensor_scene(), camera=cam, width=32, height=24, device=device), cam
+
+
+def test_a_frame_drawn_before_the_camera_got_depth_of_field_is_refused():
+    """launch_frame fixes, in what a CUDA graph records, whether sample 0 samples the lens. A graph recorded for a
+    pinhole camera and replayed after the camera got f_stop and focus_distance (uploaded by a render) drew sharp
+    frames without a word. frame_image now refuses such a frame (here the CPU's frame drawn before, which a replay
+    leaves as it is), and a new launch_frame draws the blur: one lens sample, as a one-sample render gives."""
+    renderer, cam = _pinhole_and_lens_renders("cpu")
+    renderer.launch_frame(seed=3)
+    cam.f_stop, cam.focus_distance = 1.4, 2.0
+    renderer.render(seed=3)  # uploads the lens into the arrays a recorded graph reads
+    with pytest.raises(RuntimeError, match=r"depth of field.*record the frame again"):
+        renderer.frame_image()
+    renderer.launch_frame(seed=3)
+    expected = wrt.render(renderer.scene, camera=cam, width=32, height=24, seed=3, device="cpu")
+    np.testing.assert_array_equal(renderer.frame_image().rgb, expected.rgb)
+
+
+def test_a_graph_recorded_before_the_camera_got_depth_of_field_is_refused_after_a_replay():
+    if not wp.is_cuda_available():
+        pytest.skip("no CUDA device")
+    renderer, cam = _pinhole_and_lens_renders("cuda:0")
+    renderer.launch_frame(seed=3)
+    with wp.ScopedCapture(device="cuda:0") as capture:
+        renderer.launch_frame(seed=3)
+    cam.f_stop, cam.focus_distance = 1.4, 2.0
+    renderer.launch_frame(seed=3)  # outside the capture: uploads the lens, draws it
+    renderer.frame_image()
+    wp.capture_launch(capture.graph)  # the old recording: sample 0 through the lens centre
+    with pytest.raises(RuntimeError, match="record the frame again"):
+        renderer.frame_image()

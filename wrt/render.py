@@ -942,7 +942,8 @@ class Renderer:
         are allocated on the first call, so make one call before capturing. :meth:`frame_image` reads the result. A
         recorded graph replays the scene's device arrays as they were: after an edit of the scene, call once outside
         a capture (it builds them again) and record again; :meth:`set_cameras` with the same camera count is
-        followed, and so is a camera edited since once a call outside the capture has uploaded it again."""
+        followed, and so is a camera edited since once a call outside the capture has uploaded it again, but for
+        depth of field switched on since: then record again (:meth:`frame_image` refuses the old recording's frame)."""
         self._follow_scene()
         self._follow_cameras()
         n_pixels = self.width * self.height * len(self.cameras)
@@ -950,13 +951,17 @@ class Renderer:
             self._check_launch(n_pixels, 1)
             self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull, self.no_holes),
                            wp.zeros(n_pixels, dtype=wp.vec3, device=self.device),
-                           wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device))
-        w, image, dropped, aovs = self._frame
+                           wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device),
+                           wp.zeros(1, dtype=wp.int32, device=self.device))
+        w, image, dropped, aovs, lens_pass = self._frame
         aovs.done = False
         self._sync_free = True
         try:
             with wp.ScopedDevice(self.device):
                 image.zero_()
+                # Whether sample 0 samples the lens is fixed when the frame is recorded as a CUDA graph; the fill is
+                # recorded with it, so frame_image can tell a replay of a frame recorded without the lens pass.
+                lens_pass.fill_(self._lens_first())
                 aovs.covered.zero_()
                 self._start_and_trace(w, 0, check_seed(seed), aovs)
                 wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, 1],
@@ -970,7 +975,13 @@ class Renderer:
         if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count, of the image size or of the scene)")
-        _, image, _, aovs = self._frame
+        _, image, _, aovs, lens_pass = self._frame
+        if int(lens_pass.numpy()[0]) < self._lens_first():
+            # A graph recorded for pinhole cameras replays sample 0 through the lens centre: a sharp image where the
+            # camera uploaded since has depth of field, drawn without a word.
+            raise RuntimeError("the frame was drawn (or recorded in a CUDA graph) before a camera got depth of field "
+                               "(f_stop and focus_distance): call launch_frame() once outside the capture, then "
+                               "record the frame again")
         return self._mean_image(image, 1, aovs)
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
@@ -981,14 +992,18 @@ class Renderer:
             outputs=[*w.rays, w.rng, w.throughput, w.radiance, w.alive, w.pdf_prev, w.prev_normal, w.views],
         )
 
+    def _lens_first(self) -> int:
+        """1 where the colour's sample 0 samples the lens (some camera has depth of field; not the quick looks)."""
+        return int(self._thin_lens and self.integrator not in QUICK_LOOKS)
+
     def _start_and_trace(self, w: _Wavefront, first_sample: int, seed: int, aovs, spread: bool = False):
         # Colour samples of an image of several (``spread``) are all spread over the pixel and the lens, and behind a
         # thin lens every colour sample samples the lens: sample 0 through the centres, the AOVs' ray, was a point
         # sample of weight 1 / spp and blended a sharp pinhole image into the blur (shade.camera_sample). The AOV
         # rays are then traced apart, once. The quick looks' image is their AOVs: their one sample stays the AOV ray.
-        first = FIRST_AT_CENTRE
-        if self.integrator not in QUICK_LOOKS:
-            first = FIRST_SPREAD if spread else (FIRST_ON_LENS if self._thin_lens else FIRST_AT_CENTRE)
+        first = FIRST_ON_LENS if self._lens_first() else FIRST_AT_CENTRE
+        if spread and self.integrator not in QUICK_LOOKS:
+            first = FIRST_SPREAD
         if first != FIRST_AT_CENTRE and aovs is not None and not aovs.done:
             v = w.view(aovs.n)
             self._start_paths(v, first_sample, seed, FIRST_AT_CENTRE)
