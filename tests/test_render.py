@@ -179,6 +179,49 @@ def test_a_clipping_range_that_holds_no_part_of_the_scene_is_warned_of(clipping,
         assert said == []
 
 
+def _sees_nothing(run) -> list[str]:
+    """The 'sees nothing' warnings that ``run()`` gives, each as often as it is shown."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run()
+    return [str(w.message) for w in caught if "sees nothing" in str(w.message)]
+
+
+def test_a_camera_that_sees_nothing_is_warned_of_once_by_every_way_of_rendering(tmp_path):
+    """Only a new Renderer warned of a camera whose clipping range holds none of the scene: one given by
+    set_cameras, or edited since, drew background without a word; render_batch of one camera twice and every frame
+    of a frame run (a Renderer each) said it again. Each way now says it once; the oracle of 'nothing seen' is the
+    render itself."""
+    from shading_helpers import quad
+
+    from wrt.animation import pending_frames, render_frames
+
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (1, 0, 0), (0, 1, 0), name="/a")])
+    seeing = wrt.Camera.look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), fov_y_deg=40, path="/Cam")
+    blind = wrt.Camera.look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), fov_y_deg=40, clipping_range=(100.0, 200.0),
+                               path="/Blind")
+    renderer = wrt.Renderer(scene, camera=seeing, width=8, height=6, device="cpu")
+    assert _sees_nothing(renderer.render) == []
+    said = _sees_nothing(lambda: [renderer.set_cameras([blind]), renderer.set_cameras([blind]), renderer.render()])
+    assert len(said) == 1 and said[0].startswith("scene: camera /Blind sees nothing: its clipping range (100, 200)")
+    assert (renderer.render().image(0).aovs["prim"] == -1).all()
+    kept = wrt.Renderer(scene, camera=seeing, width=8, height=6, device="cpu")
+    seeing.clipping_range = (100.0, 200.0)  # edited after the Renderer took it
+    assert len(_sees_nothing(lambda: [kept.render(), kept.render()])) == 1
+    assert len(_sees_nothing(lambda: wrt.render_batch(scene, [blind, blind], 8, 6, device="cpu"))) == 1
+    path = tmp_path / "blind.usda"
+    path.write_text('#usda 1.0\ndef Cube "Box"\n{\n    double size = 1\n}\ndef Camera "Cam"\n{\n'
+                    '    float2 clippingRange = (1000, 2000)\n    double3 xformOp:translate = (0, 0, 5)\n'
+                    '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n')
+    jobs = pending_frames([1.0, 2.0], tmp_path / "f_#.npy", resume=False)
+    said = _sees_nothing(lambda: render_frames(path, jobs, width=8, height=6))
+    assert len(said) == 1 and "camera /Cam sees nothing: its clipping range (1000, 2000)" in said[0]
+    frame = np.load(tmp_path / "f_2.npy")
+    assert (frame == frame[0, 0]).all()  # background only: one colour
+
+
 def test_camera_lists_and_scene_type_get_errors_that_say_what_is_wrong(room):
     """A path given where a list of cameras belongs was read one character at a time ("no camera at '/'"); one
     argument alone was told "not both"; a path as the scene failed with an AttributeError from deep inside."""

@@ -330,7 +330,7 @@ class FrameRenderer:
 def warn_frames_outside_range(path, frames) -> None:
     """One :class:`wrt.errors.TimeRangeWarning` naming the ``frames`` outside the stage's authored time range and the
     range. Every frame's load warned about its own time, so 1000 frames past the end were 1000 lines; the renders of
-    a frame range leave those out (:func:`_quiet_time_range`)."""
+    a frame range leave those out (:func:`_frame_warnings`)."""
     from .usd_stage import outside_range, stage_time_range
 
     found = stage_time_range(path)
@@ -346,11 +346,20 @@ def warn_frames_outside_range(path, frames) -> None:
 
 
 @contextlib.contextmanager
-def _quiet_time_range():
-    """Leaves out the :class:`TimeRangeWarning` of each frame's load inside (the run gave one for all of them)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", TimeRangeWarning)
-        yield
+def _frame_warnings(shown: set):
+    """Leaves out the :class:`TimeRangeWarning` of each frame's load inside (the run gave one for all of them) and
+    gives each other warning once per run, its message kept in ``shown``: every frame makes a new Renderer, whose
+    warnings (a camera that sees nothing, no light) came again at every frame, as the multi-device run does not."""
+    try:
+        with warnings.catch_warnings(record=True) as raised:
+            warnings.simplefilter("always")
+            warnings.simplefilter("ignore", TimeRangeWarning)
+            yield
+    finally:
+        for w in raised:
+            if (str(w.message), w.category) not in shown:
+                shown.add((str(w.message), w.category))
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
 
 
 def pending_frames(frames, output, resume: bool) -> list[tuple[float, Path]]:
@@ -408,10 +417,11 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
     with tqdm(total=len(jobs), unit="frame", desc="wrt frames", disable=not progress) as bar:
         if len(devices) == 1:
             renderer = FrameRenderer(path, device=devices[0], **options)
+            shown = set()
             for frame, file in jobs:
                 start = _time.perf_counter()
                 try:
-                    with _quiet_time_range():
+                    with _frame_warnings(shown):
                         written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
                 except SceneError as e:
                     rows.append(frame_error_row(frame, file, e, str(devices[0])))

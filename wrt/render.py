@@ -175,18 +175,22 @@ def resolve_camera(scene: Scene, camera) -> Camera:
     raise TypeError(f"camera must be a wrt.Camera, a prim path string or None, not {type(camera).__name__}")
 
 
-def warn_clipped_away(scene: Scene, cameras: list) -> None:
+def warn_clipped_away(scene: Scene, cameras: list, shown: set | None = None) -> None:
     """Warns of each camera whose clipping range holds no point of the scene's box (a range of (1e30, 1e31), or a
     far plane nearer than the scene): its image is background only, which was drawn without a word. A scene partly
-    inside the range is never warned of: the box's corners bound the depth of every point."""
+    inside the range is never warned of: the box's corners bound the depth of every point. A message already in
+    ``shown`` is left out, and each one given is added to it."""
+    shown = set() if shown is None else shown
     lower, upper = scene.bounds()
     for cam in cameras:
         near, far = cam.clipping_range
         nearest, farthest = cam.depth_extent(lower, upper)
-        if farthest < near or nearest > far:
-            warnings.warn(f"{scene.source or 'scene'}: {cam.label()} sees nothing: its clipping range ({near:g}, "
-                          f"{far:g}) holds no part of the scene, which lies from {nearest:g} to {farthest:g} along "
-                          "its view; the image is background only", stacklevel=user_stacklevel())
+        message = (f"{scene.source or 'scene'}: {cam.label()} sees nothing: its clipping range ({near:g}, {far:g}) "
+                   f"holds no part of the scene, which lies from {nearest:g} to {farthest:g} along its view; the "
+                   "image is background only")
+        if (farthest < near or nearest > far) and message not in shown:
+            shown.add(message)
+            warnings.warn(message, stacklevel=user_stacklevel())
 
 
 def few_paths(paths, shown: int = 6) -> str:
@@ -551,8 +555,8 @@ class Renderer:
         self._sides = self._asked_size  # the sides that size the image without render settings (set_cameras pins them)
         self._build()
         self._camera_key = self._camera_sources_key()
-        if stats["rendered_triangles"] or stats.get("rendered_shapes", 0):
-            warn_clipped_away(scene, self.cameras)
+        self._clip_warnings = set()  # each said once: set_cameras each simulation step repeated it
+        self._warn_clipped_away()
 
     def _build(self) -> None:
         """The accelerator, device scene, shading data and lights of the scene as it is now; buffers made anew."""
@@ -571,6 +575,8 @@ class Renderer:
             self.device_scene = self.scene.to_device(self.device)
             self._upload_shading()
         self._scene_generation = self.scene.cache_generation
+        stats = self.scene.stats()  # (counted here, not at each camera change: set_cameras may come every step)
+        self._draws_anything = bool(stats["rendered_triangles"] or stats.get("rendered_shapes", 0))
         self._scene_lights = tuple(dataclass_parts(self.scene.lights))
         self._dark = bool(self.scene.dark_lights)  # what decides the default lights, with the lights (_upload_shading)
         self.scene.freeze(self._scene_lights)  # a light's array edited in place went unseen, as a mesh's did
@@ -602,6 +608,14 @@ class Renderer:
                                    "outside the capture, then record the frame again")
             check_scene(self.scene)
             self._build()
+            self._warn_clipped_away()  # the scene may have moved out of a camera's clipping range
+
+    def _warn_clipped_away(self) -> None:
+        """:func:`warn_clipped_away` for the renderer's cameras, where the scene draws anything; each message once.
+        Called whenever the cameras or the scene change: a camera given by set_cameras, or edited since, that sees
+        nothing drew background without a word, where a new Renderer warned."""
+        if self._draws_anything:
+            warn_clipped_away(self.scene, self.cameras, self._clip_warnings)
 
     def _camera_sources_key(self) -> tuple:
         """What the renderer's cameras are made from, as it is now: each camera given, or the scene's camera at its
@@ -644,6 +658,7 @@ class Renderer:
         self._windows = [view_window(self.scene, c, *asked) for c in self._camera_args]
         self._camera_key = self._camera_sources_key()  # after the checks, which may convert fields (a list to_world)
         self._drop_sums("a camera changed")  # the sums are of the old view
+        self._warn_clipped_away()
 
     def _warn_unsampled(self, unsampled, shapes: int) -> None:
         """Names, in one warning, the emitters that the integrator shows but does not sample as lights: the emissive
@@ -760,6 +775,7 @@ class Renderer:
             # frame_image) with more cameras and read past the camera array with fewer.
             self._frame = None
         self._drop_sums("set_cameras was called")
+        self._warn_clipped_away()
 
     def _drop_sums(self, why: str) -> None:
         """Drops the progressive sums (of another view) and keeps ``why`` for the warning of a ``resume=True``:
