@@ -173,3 +173,28 @@ def test_resume_from_another_folder_finds_the_files_a_run_named_by_relative_path
     assert "0 of 2 scenes rendered, 2 skipped" in capsys.readouterr().err
     assert [r["cwd"] for r in rows_of(tmp_path / "out" / "render-log.jsonl")] == [str(tmp_path)] * 2 + [
         str(tmp_path / "sub")] * 2
+
+
+def test_resume_of_a_folder_per_scene_batch_reads_the_log_an_earlier_wrt_wrote_in_the_first_folder(tmp_path,
+                                                                                                    capsys):
+    """wrt before b7c6abd wrote the log of '-o out/{stem}/' into out/a/; a resume looked in out/ only, found nothing
+    and rendered every scene again without a word. It now reads (and extends) the older log, saying so; where there
+    is no log at all, it says where it looked."""
+    for name in ("a.usda", "b.usda"):
+        (tmp_path / name).write_text(STAGE)
+    argv = ["render", str(tmp_path / "a.usda"), str(tmp_path / "b.usda"), "-o", f"{tmp_path}/out/{{stem}}/", *SIZE]
+    out = tmp_path / "out"
+    assert main(argv) == 0
+    older = out / "a" / "render-log.jsonl"
+    (out / "render-log.jsonl").rename(older)  # where the earlier wrt left it
+    stamps = {p: p.stat().st_mtime_ns for p in out.rglob("*.png")}
+    capsys.readouterr()
+    assert main([*argv, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert f"reading and extending {older}" in err and "0 of 2 scenes rendered, 2 skipped" in err, err
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("*.png")} == stamps  # not written again
+    assert [r["status"] for r in rows_of(older)] == ["ok", "ok", "skipped", "skipped"]
+    older.unlink()
+    assert main([*argv, "--resume"]) == 0
+    err = capsys.readouterr().err
+    assert f"--resume: no log at {out / 'render-log.jsonl'}" in err and "2 of 2 scenes rendered" in err, err

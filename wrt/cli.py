@@ -617,6 +617,9 @@ def _finished_images(args, log: Path, jobs: list, options: dict, progress) -> di
     says why each other one that the log names is rendered again."""
     from .render_log import ResumeIndex, read_rows
 
+    if not log.exists():  # said: a mistyped --log, or a log moved, rendered everything again without a word
+        warnings.warn(f"--resume: no log at {log}, so nothing is known to be finished: every "
+                      f"{'frame' if args.frames else 'scene'} is rendered", stacklevel=2)
     index = ResumeIndex(read_rows(log))
     kinds, done = _resume_kinds(args), {}
     again = collections.defaultdict(list)  # each reason once, with its scenes or frames: 240 frames are one line
@@ -670,7 +673,7 @@ def _run_render(args) -> int:
     if not several and not args.log:
         _render_one(args, paths[0], outputs[0], progress)  # errors: one line, exit 2
         return 0
-    log = Path(args.log) if args.log else _common_folder(outputs) / "render-log.jsonl"
+    log = Path(args.log) if args.log else _batch_log(outputs, args.resume, progress)
     _check_log_path(log, outputs + ([Path(args.aov_dir)] if args.aov_dir else []), paths)
     from .render_log import append_row, mtime_ns, new_run, skipped_fields
 
@@ -848,6 +851,18 @@ def _run_frames(args, paths: list, progress) -> int:
         print(f"wrt: {counted_of(len(failures), len(rows), 'frame')} failed", file=sys.stderr)
         return 1 if len(failures) < len(rows) else EXIT_BAD_INPUT  # none rendered: bad input, as a single render
     return 0
+
+
+def _batch_log(outputs: list, resume: bool, progress) -> Path:
+    """A batch's default log: render-log.jsonl in the folder that holds every image. With ``--resume``, where that
+    one is missing and the first image's folder holds one, that one (read and extended): wrt before b7c6abd put a
+    ``-o out/{stem}/`` batch's log in out/a/, and a resume of such a batch found no log and rendered every scene."""
+    log = _common_folder(outputs) / "render-log.jsonl"
+    older = outputs[0].parent / "render-log.jsonl"
+    if resume and not log.exists() and older != log and older.is_file():
+        progress(f"--resume: no log at {log}; reading and extending {older}, where an earlier wrt wrote it")
+        return older
+    return log
 
 
 def _common_folder(outputs: list) -> Path:
