@@ -136,6 +136,9 @@ def test_a_misspelt_choice_names_the_one_meant(capsys, args, message):
         (["render", "--frames", "1:2", "--dask", "tcp://h:8786", "--workers", "3"], "--workers sizes"),
         (["render", "--frames", "1:2", "--devices", "cpu,cpu", "--dask"], "--devices or --dask, not both"),
         (["frobnicate"], "frobnicate"),
+        # Found before the frames, in load_usd's words: a folder was a failed load at every frame ('frames 1, 2: ...')
+        (["render", ".", "--frames", "1:2"], "wrt: error: .: a directory, not a USD file"),
+        (["render", "no/such.usda", "--frames", "1:2"], "wrt: error: no/such.usda: file not found"),  # 'no such file'
     ],
 )
 def test_bad_input_is_one_line_and_exit_status_2(tmp_path, capsys, monkeypatch, args, needle):

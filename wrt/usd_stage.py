@@ -190,6 +190,15 @@ def stage_up_axis(stage: Usd.Stage, source: str) -> str:
     return "Y"
 
 
+def refuse_non_file(source: str) -> None:
+    """Raises SceneError naming ``source`` where it exists and is no file: USD reads a named pipe or a terminal until
+    a writer closes it (a render that waits forever), and answers a folder with 'Cannot determine file format'.
+    Paths that do not exist pass: USD's resolver may still find them."""
+    if os.path.exists(source) and not os.path.isfile(source):
+        kind = "a directory" if os.path.isdir(source) else "a pipe or device"
+        raise SceneError(f"{kind}, not a USD file", path=source)
+
+
 def open_stage(source: str) -> Usd.Stage:
     """``Usd.Stage.Open(source)``, refusing what is no file and naming what USD cannot open; first lets go of the
     stages kept for frames whose files changed (:func:`wrt.usd_frames.release_changed`), whose layers USD would
@@ -197,11 +206,7 @@ def open_stage(source: str) -> Usd.Stage:
     from .usd_frames import release_changed  # (that module's loads open stages here)
 
     release_changed()
-    # USD reads a named pipe or a terminal until a writer closes it (a render that waits forever), and answers a folder
-    # with 'Cannot determine file format'. Paths that do not exist go on to USD: its resolver may still find them.
-    if os.path.exists(source) and not os.path.isfile(source):
-        kind = "a directory" if os.path.isdir(source) else "a pipe or device"
-        raise SceneError(f"{kind}, not a USD file", path=source)
+    refuse_non_file(source)
     try:
         source.encode("utf-8") if isinstance(source, str) else None
     except UnicodeEncodeError:  # bytes that are no UTF-8: USD failed with Python's codec error, naming no file
