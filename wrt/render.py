@@ -995,7 +995,7 @@ class Renderer:
         if int(lens_pass.numpy()[0]) < self._lens_first():
             # A graph recorded for pinhole cameras replays sample 0 through the lens centre: a sharp image where the
             # camera uploaded since has depth of field, drawn without a word.
-            raise RuntimeError("the frame was drawn (or recorded in a CUDA graph) before a camera got depth of field "
+            raise RuntimeError("the frame was drawn (or recorded in a graph) before a camera got depth of field "
                                "(f_stop and focus_distance): call launch_frame() once outside the capture, then "
                                "record the frame again")
         return self._mean_image(image, 1, aovs)
