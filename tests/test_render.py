@@ -194,6 +194,8 @@ def test_a_camera_that_sees_nothing_is_warned_of_once_by_every_way_of_rendering(
     set_cameras, or edited since, drew background without a word; render_batch of one camera twice and every frame
     of a frame run (a Renderer each) said it again. Each way now says it once; the oracle of 'nothing seen' is the
     render itself."""
+    import dataclasses
+
     from shading_helpers import quad
 
     from wrt.animation import pending_frames, render_frames
@@ -211,6 +213,12 @@ def test_a_camera_that_sees_nothing_is_warned_of_once_by_every_way_of_rendering(
     seeing.clipping_range = (100.0, 200.0)  # edited after the Renderer took it
     assert len(_sees_nothing(lambda: [kept.render(), kept.render()])) == 1
     assert len(_sees_nothing(lambda: wrt.render_batch(scene, [blind, blind], 8, 6, device="cpu"))) == 1
+    near_only = wrt.Camera.look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), clipping_range=(0.01, 50.0))
+    moved = wrt.Renderer(scene, camera=near_only, width=8, height=6, device="cpu")
+    mesh = scene.meshes[0]
+    scene.meshes[0] = dataclasses.replace(mesh, points=mesh.points + np.float32([0.0, 0.0, -500.0]))  # past far
+    said = _sees_nothing(moved.render)
+    assert len(said) == 1 and "lies from 505 to 505" in said[0], said
     path = tmp_path / "blind.usda"
     path.write_text('#usda 1.0\ndef Cube "Box"\n{\n    double size = 1\n}\ndef Camera "Cam"\n{\n'
                     '    float2 clippingRange = (1000, 2000)\n    double3 xformOp:translate = (0, 0, 5)\n'
