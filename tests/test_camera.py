@@ -1231,3 +1231,24 @@ def test_every_sample_of_several_spreads_over_the_pixel(spp):
     np.testing.assert_array_equal(img.aovs["depth"], one.aovs["depth"])
     renderer.render(spp=1, seed=2)  # a progressive render from one sample is that of all of them at once
     np.testing.assert_array_equal(renderer.render(spp=spp - 1, seed=2, resume=True).rgb, img.rgb)
+
+
+@pytest.mark.parametrize("integrator", ["normals", "path"])
+def test_orthographic_camera_of_negative_near_sees_past_a_culled_back_face_behind_its_plane(integrator):
+    """An orthographic camera at z = 0 looking down -Z with its near plane 10 behind it (clipping range (-10, 10)): a
+    single-sided quad at z = 5, behind the camera's plane and facing -Z, shows the rays (from z = 10) its back
+    face, which camera rays cull; the double-sided quad at z = 2, also behind the plane, lies beyond it along the
+    rays and fills every pixel. The culled hit lies at t = -5: the re-trace started from t plus a step of
+    ``t * 1e-6``, negative there, or 2^-125, which is no step at that t, found the culled face again at every pass,
+    and the camera drew it instead of the quad beyond it."""
+    back = [[-2, -2, 5], [-2, 2, 5], [2, 2, 5], [2, -2, 5]]  # clockwise seen from +Z, where the rays come from
+    seen = [[-2, -2, 2], [2, -2, 2], [2, 2, 2], [-2, 2, 2]]
+    scene = wrt.Scene(meshes=[
+        wrt.Mesh("/back", np.array(back, np.float32), [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32),
+                 double_sided=False),
+        wrt.Mesh("/seen", np.array(seen, np.float32), [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32)),
+    ])
+    camera = wrt.Camera.orthographic(eye=(0, 0, 0), target=(0, 0, -1), height=2.0, clipping_range=(-10.0, 10.0))
+    img = wrt.render(scene, camera=camera, width=6, height=4, device="cpu", integrator=integrator, spp=1)
+    np.testing.assert_array_equal(img.aovs["prim"] // 2, 1)  # triangles 2 and 3: the quad beyond the culled face
+    np.testing.assert_allclose(img.aovs["depth"], -2.0)  # its plane z = 2 lies 2 behind the camera's plane

@@ -33,8 +33,9 @@ def t_past(t: float):
     """The ``t_min`` that traces a ray again from just past its hit at ``t``. The step is relative to ``t`` alone
     (the watertight test measures hits from the ray origin, so t's rounding is relative): an absolute floor of 1e-9
     skipped whatever lay just behind the culled face in a scene a few micrometres across, one of 1e-30 in a scene
-    1e-30 across."""
-    return t + wp.max(t * CULL_EPSILON, CULL_LEAST_STEP)
+    1e-30 across. Relative to ``|t|``: behind an orthographic camera of negative near (``t < 0``), ``t * 1e-6`` is
+    negative, the step was 2^-125, no step at that ``t``, and every pass found the culled face again."""
+    return t + wp.max(wp.abs(t) * CULL_EPSILON, CULL_LEAST_STEP)
 
 
 @wp.func
