@@ -1252,3 +1252,21 @@ def test_orthographic_camera_of_negative_near_sees_past_a_culled_back_face_behin
     img = wrt.render(scene, camera=camera, width=6, height=4, device="cpu", integrator=integrator, spp=1)
     np.testing.assert_array_equal(img.aovs["prim"] // 2, 1)  # triangles 2 and 3: the quad beyond the culled face
     np.testing.assert_allclose(img.aovs["depth"], -2.0)  # its plane z = 2 lies 2 behind the camera's plane
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+def test_orthographic_camera_of_negative_near_sees_a_light_behind_its_plane(integrator):
+    """An orthographic camera at z = 0 looking down -Z, its near plane 10 behind it (clipping range (-10, 10)), and a
+    RectLight at z = 5, behind the camera's plane, turned to emit along +Z, towards where the rays come from: it fills
+    the view, and every pixel shows its radiance, 3 (UsdLux: intensity times colour, not normalized), as a quad there
+    is seen. Camera rays start at t = -10; the lights were intersected from the ray's origin on the camera's plane,
+    ahead of it only, and the light was not seen (black)."""
+    facing_up = np.diag([1.0, -1.0, -1.0, 1.0])  # turned half round X: local -Z, its emitting side, along world +Z
+    facing_up[2, 3] = 5.0
+    light = wrt.RectLight(to_world=facing_up, width=4.0, height=4.0, color=np.full(3, 3.0, np.float32))
+    far = [[-9, -9, -5], [9, -9, -5], [9, 9, -5], [-9, 9, -5]]
+    scene = wrt.Scene(meshes=[wrt.Mesh("/far", np.array(far, np.float32), [[0, 1, 2], [0, 2, 3]],
+                                       np.zeros(2, np.int32))], lights=[light])
+    camera = wrt.Camera.orthographic(eye=(0, 0, 0), target=(0, 0, -1), height=2.0, clipping_range=(-10.0, 10.0))
+    img = wrt.render(scene, camera=camera, width=6, height=4, device="cpu", integrator=integrator, spp=1)
+    np.testing.assert_allclose(img.rgb, 3.0, rtol=1e-6)

@@ -88,14 +88,20 @@ def lights_on_segment(
     """Radiance of every analytic area light that unit ray ``(o, d)`` passes through in ``(t_min, t_max)``;
     ``n_prev`` is the shading normal at ``o`` (zero for camera rays); ``camera`` is 1 for camera rays, else
     ``diffuse_share`` is the share of the ray's weight its diffuse lobe gave, per channel (see :func:`scattered_by`),
-    and ``group`` the link group of the surface at ``o`` (see :func:`reaches`)."""
+    and ``group`` the link group of the surface at ``o`` (see :func:`reaches`). A camera ray of an orthographic
+    camera whose near plane lies behind it has ``t_min < 0``: the lights are intersected from its start,
+    ``o + t_min d``, as :func:`intersect_light` finds only hits ahead of its origin (a light between the near plane
+    and the camera was not seen, where geometry there was); for ``t_min >= 0`` the origin is ``o`` itself."""
     total = wp.vec3(0.0)
+    behind = wp.min(t_min, 0.0)
+    start = o + behind * d
     for k in range(lights.num_analytic):
         kind = lights.kinds[k]
         area = kind == LIGHT_SPHERE or kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER
         area = area or kind == LIGHT_ELLIPSOID or kind == LIGHT_ELLIPTIC_TUBE
         if area and reaches(lights, k, camera, group):
-            t, cos_l = intersect_light(lights, k, o, d)
+            t, cos_l = intersect_light(lights, k, start, d)
+            t = t + behind
             if t > t_min and t < t_max:
                 pdf_l = lights.pmf[k] * area_light_pdf(lights, k, o, n_prev, d, t, cos_l)
                 L = wp.cw_mul(lights.radiance[k], emission_shaping(lights, k, -d))  # leaving the light towards o
