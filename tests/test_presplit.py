@@ -236,6 +236,33 @@ def test_rays_at_the_end_of_a_split_piece_hit_the_triangle():
     np.testing.assert_allclose(hits.t[row_ref == 0], t_ref[row_ref == 0], rtol=1e-6)
 
 
+def test_rays_along_a_sliver_far_from_the_origin_hit_it():
+    """A sliver 0.3 long and 3e-4 wide at z = 36660, where float32 steps are 0.004 (the sliver spans 26 of them in
+    z), cut into 32 pieces: rays along its normal at points down its middle hit it wherever a float64 test of the
+    triangle says so. Clipped in float32, the pieces' vertices were rounded at z's scale, which moved the crossing of
+    the next cut along the sliver by that error over its slope (0.006 in x, past the pad of x's scale): one piece
+    left out a stretch of the sliver, and 32 of the 770 rays there missed it."""
+    tri = np.array([[9664.15234375, -14.167632102966309, 36659.60546875],
+                    [9664.453125, -14.01892375946045, 36659.50390625],
+                    [9664.15234375, -14.167304039001465, 36659.60546875]], np.float32)
+    rng = np.random.default_rng(0)
+    filler = rng.uniform(-1, 1, (300, 1, 3)) + rng.normal(scale=0.01, size=(300, 3, 3)) + [9664.0, 0.0, 36000.0]
+    points = np.concatenate([tri[None], filler]).reshape(-1, 3).astype(np.float32)
+    indices = np.arange(len(points), dtype=np.int32).reshape(-1, 3)
+    corners = tri.astype(np.float64)
+    normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+    normal /= np.linalg.norm(normal)
+    s = np.linspace(0.0, 1.0, 2001)[:, None]
+    targets = np.hstack([1 - s, 0.5 * s, 0.5 * s]) @ corners  # down the middle, from a (and c) to b
+    origins = (targets + 5.0 * normal).astype(np.float32)
+    directions = np.tile((-normal).astype(np.float32), (len(origins), 1))
+    t_ref, row_ref = closest_hits_numpy(points, indices, origins.astype(np.float64), directions.astype(np.float64),
+                                        np.zeros(len(origins)), np.full(len(origins), np.inf))
+    assert (row_ref == 0).sum() > 500
+    hits = wrt.trace(wrt.Scene.from_triangles(points, indices), origins, directions)
+    assert np.array_equal(hits.prim, row_ref), f"{np.count_nonzero(hits.prim != row_ref)} rays missed the sliver"
+
+
 def clipped_box(tri: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple:
     """Float64 Sutherland-Hodgman: the bounds of the triangle's part inside the box ``[lo, hi]``."""
     poly = list(tri)
