@@ -1374,6 +1374,24 @@ def test_a_bvh_depth_past_the_trees_depth_says_it_draws_the_leaves(tmp_path, cap
     assert out.is_file()
 
 
+def test_near_clipping_plane_behind_an_orthographic_camera_is_drawn_where_usd_puts_it(tmp_path):
+    """An orthographic camera of clippingRange (-5, 100) sees from 5 behind its plane, where its rays start; that
+    near plane's rectangle was not drawn (only a near plane in front of the eye was), so the preview showed a box
+    from the camera's plane, leaving out what the render sees behind it. Oracle: the near corners of
+    ``Gf.Frustum``'s ``ComputeCorners``."""
+    path = tmp_path / "cameras.usda"
+    behind = CAMERAS[CAMERAS.index('def Camera "Ortho"'):].replace('"Ortho"', '"OrthoBehind"')
+    path.write_text(CAMERAS + behind.replace("{", "{\n    float2 clippingRange = (-5, 100)", 1))
+    lb, rb, lt, rt = (np.array(c) for c in usd_frustum(path, "/OrthoBehind", 60, 40).ComputeCorners()[:4])
+    scene = wrt.load_usd(path, time=5.0)
+    plotter = wrt.preview(scene, camera="/OrthoBehind", width=60, height=40, window_size=(32, 24), show_text=False)
+    try:
+        drawn = np.asarray(plotter.actors["near_plane"].mapper.dataset.points, np.float64)
+    finally:
+        plotter.close()
+    np.testing.assert_allclose(drawn, [lt, rt, rb, lb], atol=1e-5)
+
+
 @pytest.mark.parametrize("camera", ["/Persp", "/Ortho"])
 def test_near_clipping_plane_is_drawn_where_usd_puts_it(tmp_path, camera):
     """The frustum was drawn from the eye, and the near clipping plane, where rays start, was not drawn. Its

@@ -883,7 +883,8 @@ def shape_meshes(scene: Scene, segments: int = SHAPE_SEGMENTS, max_shapes: int =
 
 def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_depth: float, eye_radius: float):
     """Draws the frustum (eye to the far rectangle), the image-plane rectangle, the near clipping plane's rectangle
-    (where the near plane is not at the eye) and a dot at the eye."""
+    (where the near plane is not at the eye: in front of it, or behind an orthographic camera, which sees from
+    there) and a dot at the eye."""
     frame = np.concatenate([frustum_corners(cam, width, height, d) for d in (0.0, far, image_depth)])
     segments = [(k, 4 + k) for k in range(4)] + [(4 + k, 4 + (k + 1) % 4) for k in range(4)]
     segments += [(8 + k, 8 + (k + 1) % 4) for k in range(4)]
@@ -892,7 +893,9 @@ def _add_frustum(pv, plotter, cam: Camera, width, height, far: float, image_dept
     lines = np.hstack([np.full((len(segments), 1), 2), np.array(segments)]).ravel()
     plotter.add_mesh(pv.PolyData(frame, lines=lines), color=FRUSTUM_COLOR, line_width=2, name="frustum")
     near = clipping_depths(cam)[0]
-    if near > 0.0:  # rays start there: what lies nearer the eye is clipped away
+    # Rays start there: what lies nearer the eye is clipped away, or, behind an orthographic camera (a negative near,
+    # as USD's frustum takes it), what lies between it and the eye is seen too, which the box from the eye leaves out.
+    if near != 0.0:
         outline = np.hstack([[5], np.arange(4), [0]])
         rectangle = pv.PolyData(frustum_corners(cam, width, height, near), lines=outline)
         plotter.add_mesh(rectangle, color=FRUSTUM_COLOR, line_width=1, name="near_plane")
