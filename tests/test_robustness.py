@@ -824,21 +824,20 @@ def test_coplanar_overlaps_follow_the_tie_rule_with_every_builder(layout, np_rng
         np.testing.assert_array_equal(hits.prim, expected, err_msg=builder)
 
 
-@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
-def test_smallest_id_wins_among_overlapping_triangles_in_a_plane_across_the_ray(layout, np_rng):
-    """Decals on a floor seen from above: 300 overlapping triangles in the plane y = 0.37, rays whose largest
-    direction component is y. Every triangle under the hit point is at the same distance, so the smallest id must
-    win; t computed as big_t / det came out an ulp apart from triangle to triangle, and in most rays a larger id
-    won."""
-    n, m = 300, 400
-    centres, radii = np_rng.uniform(0, 1, (n, 1, 2)), np_rng.uniform(0.1, 0.3, (n, 1, 1))
-    angles = np_rng.uniform(0, 2 * np.pi, (n, 3))
-    xz = centres + radii * np.stack([np.cos(angles), np.sin(angles)], -1)
-    tris = np.stack([xz[..., 0], np.full((n, 3), 0.37), xz[..., 1]], -1)
-    scene = wrt.Scene.from_triangles(tris.reshape(-1, 3).astype(np.float32), np.arange(3 * n).reshape(-1, 3))
-    targets = np.stack([np_rng.uniform(0.3, 0.7, m), np.full(m, 0.37), np_rng.uniform(0.3, 0.7, m)], 1)
-    origins = targets + np_rng.normal(0, 0.3, (m, 3)) * [1, 0, 1] + [0, 1.3, 0]
-    hits = wrt.trace(scene, origins.astype(np.float32), (targets - origins).astype(np.float32), layout=layout)
+def floor_decals(rng, n: int) -> tuple[np.ndarray, wrt.Scene]:
+    """``n`` random overlapping triangles in the plane y = 0.37 over about [0, 1]^2 in x and z ("decals on a
+    floor"): their ``(n, 3, 2)`` float64 x, z corners (as stored in float32) and the scene of them."""
+    centres, radii = rng.uniform(0, 1, (n, 1, 2)), rng.uniform(0.1, 0.3, (n, 1, 1))
+    angles = rng.uniform(0, 2 * np.pi, (n, 3))
+    xz = (centres + radii * np.stack([np.cos(angles), np.sin(angles)], -1)).astype(np.float32)
+    tris = np.stack([xz[..., 0], np.full((n, 3), 0.37, np.float32), xz[..., 1]], -1)
+    return xz.astype(np.float64), wrt.Scene.from_triangles(tris.reshape(-1, 3), np.arange(3 * n).reshape(-1, 3))
+
+
+def smallest_decal_under(xz: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(winner, clear)``: the smallest id of the decals ``xz`` (``floor_decals``) under each target point on the
+    floor, and whether the target lies under at least one and clear of every decal's edges (float64 2D edge
+    functions), where the tie rule alone decides."""
 
     def edge(p, q):  # 2D edge function of every triangle at every target, float64
         return ((q[:, None, 0] - p[:, None, 0]) * (targets[None, :, 2] - p[:, None, 1])
@@ -847,9 +846,53 @@ def test_smallest_id_wins_among_overlapping_triangles_in_a_plane_across_the_ray(
     sides = np.stack([edge(xz[:, 0], xz[:, 1]), edge(xz[:, 1], xz[:, 2]), edge(xz[:, 2], xz[:, 0])])
     inside = (sides > 1e-6).all(axis=0) | (sides < -1e-6).all(axis=0)  # (n, m), clear of every edge
     on_edge = (np.abs(sides) <= 1e-6).any(axis=0) & ~inside
-    clear = inside.any(axis=0) & ~on_edge.any(axis=0)
+    return np.argmax(inside, axis=0), inside.any(axis=0) & ~on_edge.any(axis=0)
+
+
+@pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
+def test_smallest_id_wins_among_overlapping_triangles_in_a_plane_across_the_ray(layout, np_rng):
+    """Decals on a floor seen from above: 300 overlapping triangles in the plane y = 0.37, rays whose largest
+    direction component is y. Every triangle under the hit point is at the same distance, so the smallest id must
+    win; t computed as big_t / det came out an ulp apart from triangle to triangle, and in most rays a larger id
+    won."""
+    n, m = 300, 400
+    xz, scene = floor_decals(np_rng, n)
+    targets = np.stack([np_rng.uniform(0.3, 0.7, m), np.full(m, 0.37), np_rng.uniform(0.3, 0.7, m)], 1)
+    origins = targets + np_rng.normal(0, 0.3, (m, 3)) * [1, 0, 1] + [0, 1.3, 0]
+    hits = wrt.trace(scene, origins.astype(np.float32), (targets - origins).astype(np.float32), layout=layout)
+    winner, clear = smallest_decal_under(xz, targets)
     assert clear.sum() > m // 2
-    np.testing.assert_array_equal(hits.prim[clear], np.argmax(inside, axis=0)[clear])
+    np.testing.assert_array_equal(hits.prim[clear], winner[clear])
+
+
+@pytest.mark.xfail(strict=True, reason="inside the triangle test (geometry.intersect_ray_triangle, run in every "
+                   "traversal's inner loop, not changed here): only a triangle in a plane across the ray's major axis "
+                   "(az == bz == cz) takes that plane's distance as t; one in a plane x or y = const of the sheared "
+                   "frame takes its own big_t / det, an ulp or two apart from its coplanar neighbours'")
+@pytest.mark.parametrize("instanced", [False, True], ids=["flat", "instanced"])
+@pytest.mark.parametrize("layout", ["binary", "wide8"])
+def test_smallest_id_wins_among_overlapping_triangles_in_a_plane_seen_at_a_grazing_angle(layout, instanced, np_rng):
+    """The decals of the test above seen from a low camera (rays 17 degrees above the floor: a floor towards the
+    horizon, or a poster on a wall seen from the side): the floor's axis is not the ray's largest direction
+    component, so each triangle's t comes from its own big_t / det, an ulp apart from its neighbours', and of the
+    triangles under a hit point a larger id than the smallest won in 242 of the 386 clear rays, in every layout and
+    through an instance (none from more than 45 degrees above the floor). Oracle: float64 edge functions in the
+    floor's plane."""
+    n, m = 300, 400
+    xz, scene = floor_decals(np_rng, n)
+    if instanced:
+        points, indices = scene.triangles()
+        mesh = wrt.Mesh("/P/decals", points, indices, np.zeros(len(indices), np.int32))
+        scene = wrt.Scene(prototypes=[wrt.Prototype("/P", [mesh])],
+                          instances=wrt.Instances.from_transforms([0], np.eye(4)[None]))
+    targets = np.stack([np_rng.uniform(0.3, 0.7, m), np.full(m, 0.37), np_rng.uniform(0.3, 0.7, m)], 1)
+    heading = np_rng.uniform(0, 2 * np.pi, m)
+    directions = np.stack([np.cos(heading), np.full(m, -0.3), np.sin(heading)], 1)
+    origins = targets - 2.0 * directions
+    hits = wrt.trace(scene, origins.astype(np.float32), directions.astype(np.float32), layout=layout)
+    winner, clear = smallest_decal_under(xz, targets)
+    assert clear.sum() > m // 2
+    np.testing.assert_array_equal(hits.prim[clear], winner[clear])
 
 
 @pytest.mark.parametrize("layout", ["binary", "compact", "wide", "wide8"])
