@@ -9,6 +9,7 @@ is linear, and point lights draw no random numbers), and bit for bit whatever th
 import dataclasses
 import importlib
 import math
+import operator
 import warnings
 
 import numpy as np
@@ -419,3 +420,25 @@ def test_plain_lights_are_the_lights_the_reference_reader_reads(tmp_path, monkey
     for a, b in zip(fast.lights, slow.lights):
         assert_identical(a, b)
     assert fast.lights[[light.path for light in fast.lights].index("/Old")].radius == 0.25
+
+
+def test_dataclass_parts_walks_the_fields_as_dataclasses_does():
+    """:func:`wrt.scene.dataclass_parts` (field names looked up once per class) lists each light and then its fields'
+    values depth first, nested dataclasses (a shaping, a link collection) walked too, as the walk by
+    ``dataclasses.is_dataclass`` and ``fields`` on every value lists them; a class given as a value is a value."""
+    from wrt.light_shaping import Shaping
+    from wrt.scene import dataclass_parts
+
+    def reference(objects):
+        parts = []
+        for obj in objects:
+            parts.append(obj)
+            if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+                parts += reference([getattr(obj, f.name) for f in dataclasses.fields(obj)])
+        return parts
+
+    lights = [wrt.SphereLight(position=(0, 0, 1), radius=0.5, color=np.ones(3), shaping=Shaping(cone_angle=30.0),
+                              light_link=wrt.LinkCollection.excluding("/a")),
+              wrt.DistantLight(direction=(0, 0, -1), color=np.ones(3)), Shaping, 3.0, None]
+    got, expected = dataclass_parts(lights), reference(lights)
+    assert len(got) == len(expected) > 40 and all(map(operator.is_, got, expected))

@@ -624,6 +624,18 @@ def length_scale(*lengths) -> float:
     return math.ldexp(1.0, -min(max(exponent, -126), 126))
 
 
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+# The rows a light without shaping, profile, texture or shape matrix gets: shared by every light, as only stacked
+# (0.3 of 2.3 us per light went to making them anew). Read-only: a row is replaced, never edited in place.
+_NO_SHAPING, _NO_AXIS = _read_only(np.zeros(4, np.float32)), _read_only(np.zeros(3, np.float32))
+_EYE32, _EYE64 = _read_only(np.eye(3, dtype=np.float32)), _read_only(np.eye(3))
+_BOTH_LOBES = _read_only(np.ones(2, np.float32))
+
+
 def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, power):
     h.kinds.append(int(kind))
     h.radiance.append(np.asarray(radiance, np.float32))
@@ -636,14 +648,14 @@ def _add(h: HostLights, kind, radiance, position, u, v, normal, params, prim, po
     h.power.append(float(power))
     h.shadows.append(SHADOWS_ON)
     h.shadow_api.append(None)
-    h.shaping.append(np.zeros(4, np.float32))
-    h.shaping_axis.append(np.zeros(3, np.float32))
-    h.focus_tint.append(np.zeros(3, np.float32))
+    h.shaping.append(_NO_SHAPING)
+    h.shaping_axis.append(_NO_AXIS)
+    h.focus_tint.append(_NO_AXIS)
     h.ies.append(None)
-    h.ies_frame.append(np.eye(3, dtype=np.float32))
+    h.ies_frame.append(_EYE32)
     h.texture.append(None)
-    h.lobe_scale.append(np.ones(2, np.float32))
-    h.shapes.append(np.eye(3))
+    h.lobe_scale.append(_BOTH_LOBES)
+    h.shapes.append(_EYE64)
 
 
 def _add_shaping(h: HostLights, shaping: Shaping | None, axis, emits_behind: bool, x=(1.0, 0.0, 0.0),

@@ -11,7 +11,6 @@ depend on how its samples are split into launches (``batch``). ``Image.rgb`` is 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import warnings
 from collections.abc import Mapping
@@ -41,7 +40,7 @@ from .lights import check_folded_inputs, check_light_types, default_lights
 from .materials import emission_estimates, upload_materials
 from .render_settings import DEFAULT_HEIGHT, DEFAULT_WIDTH, FULL_WINDOW
 from .resources import check_memory
-from .scene import Scene, dataclass_parts, parts_changed
+from .scene import Scene, dataclass_field_names, dataclass_parts, parts_changed
 from .shade import (
     FIRST_AT_CENTRE,
     FIRST_ON_LENS,
@@ -396,7 +395,7 @@ def check_lights(lights) -> None:
     for light in lights:
         check_folded_inputs(light)  # light.intensity = 2: no field of wrt's lights
     for part in dataclass_parts(lights):
-        if dataclasses.is_dataclass(part) and not isinstance(part, type) and hasattr(part, "__post_init__"):
+        if dataclass_field_names(type(part)) is not None and hasattr(part, "__post_init__"):
             part.__post_init__()
 
 
