@@ -6,6 +6,7 @@ by field and bit for bit, warnings too), and USD itself (each light authored by 
 per instance, as ``test_point_instanced_lights`` does); images against the sum of one-light images (light transport
 is linear, and point lights draw no random numbers), and bit for bit whatever the number of lights per launch."""
 
+import copy
 import dataclasses
 import importlib
 import math
@@ -442,3 +443,16 @@ def test_dataclass_parts_walks_the_fields_as_dataclasses_does():
               wrt.DistantLight(direction=(0, 0, -1), color=np.ones(3)), Shaping, 3.0, None]
     got, expected = dataclass_parts(lights), reference(lights)
     assert len(got) == len(expected) > 40 and all(map(operator.is_, got, expected))
+
+
+def test_shallow_copies_of_a_light_made_from_lists_share_its_checked_arrays():
+    """A sun made from a tuple direction is given arrays of its own by its check; 1000 shallow copies of it checked
+    again (as a render does) keep sharing them, as copies of one made from arrays do. Before, each copy's check
+    converted the direction again: 2**18 copies held 2**18 arrays (and froze each of them with a finalizer)."""
+    sun = wrt.DistantLight(direction=(0, 0, -1), color=(1.0, 1.0, 1.0))
+    copies = [copy.copy(sun) for _ in range(1000)]
+    for light in copies:
+        light.__post_init__()
+    assert {id(light.direction) for light in copies} == {id(sun.direction)}
+    assert {id(light.color) for light in copies} == {id(sun.color)}
+    np.testing.assert_array_equal(copies[-1].direction, np.float64([0.0, 0.0, -1.0]))

@@ -234,7 +234,13 @@ def check_fields(obj, *fields: tuple) -> None:
             with np.errstate(over="ignore"):
                 finite = np.all(np.isfinite(numbers.astype(np.float32)))
             if finite and (minimum is None or np.all(numbers >= minimum)):
-                setattr(obj, name, float(numbers) if shape == () else numbers.astype(dtype))
+                if shape == ():
+                    setattr(obj, name, float(numbers))
+                    continue
+                # A new array, the object's own as the copy above is: kept by later checks, and by shallow copies
+                # of the light (2**18 copies of one sun each copied its direction at its first check).
+                obj.__dict__[f"_own_{name}"] = numbers.astype(dtype)
+                setattr(obj, name, obj.__dict__[f"_own_{name}"])
                 continue
             value = numbers.tolist()
         raise SceneError(f"{type(obj).__name__} {name} must be {need}, got {value!r}", prim=obj.path or None)
