@@ -456,3 +456,32 @@ def test_shallow_copies_of_a_light_made_from_lists_share_its_checked_arrays():
     assert {id(light.direction) for light in copies} == {id(sun.direction)}
     assert {id(light.color) for light in copies} == {id(sun.color)}
     np.testing.assert_array_equal(copies[-1].direction, np.float64([0.0, 0.0, -1.0]))
+
+
+def test_bsdf_rays_look_for_the_lights_they_can_meet_alone():
+    """A BSDF-sampled ray adds the radiance of the area lights it passes through and of the dome and soft suns it
+    escapes into; the device lists exactly those (by the lights' Python types, in order) for it to look at, and no
+    delta sun, point or line light. Before, each ray looped over every analytic light: 2**18 delta suns made the
+    many-light falloff test's 65k samples take a minute, for nothing."""
+    from wrt.light_table import build_lights
+    from wrt.lights import CylinderLight, DiskLight, DomeLight
+
+    to_world = np.eye(4)
+    lights = [wrt.DistantLight(direction=(0, 0, -1), color=np.ones(3)),
+              SphereLight(position=(0, 0, 2), radius=0.5, color=np.ones(3)),
+              wrt.DistantLight(direction=(0, 0, -1), color=np.ones(3), angle=1.0),
+              SphereLight(position=(0, 0, 2), radius=0.5, color=np.ones(3), treat_as_point=True),
+              RectLight(to_world=to_world, width=1.0, height=1.0, color=np.ones(3)),
+              CylinderLight(to_world=to_world, length=1.0, radius=0.1, color=np.ones(3), treat_as_line=True),
+              DomeLight(color=np.ones(3)),
+              DiskLight(to_world=to_world, radius=0.5, color=np.ones(3)),
+              CylinderLight(to_world=to_world, length=1.0, radius=0.1, color=np.ones(3)),
+              wrt.DistantLight(direction=(0, 0, -1), color=np.ones(3))]
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (1, 0, 0), (0, 1, 0))], lights=lights)
+    d, _ = build_lights(lights, scene, [np.zeros(3)], "cpu")
+    area = [k for k, light in enumerate(lights) if isinstance(light, (SphereLight, RectLight, DiskLight, CylinderLight))
+            and not getattr(light, "treat_as_point", False) and not getattr(light, "treat_as_line", False)]
+    sky = [k for k, light in enumerate(lights) if isinstance(light, DomeLight)
+           or isinstance(light, wrt.DistantLight) and light.angle > 0.0]
+    assert (d.num_segment_lights, d.num_sky_lights) == (len(area), len(sky)) == (4, 2)
+    assert d.segment_lights.numpy().tolist() == area and d.sky_lights.numpy().tolist() == sky

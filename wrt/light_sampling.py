@@ -129,6 +129,13 @@ class DeviceLights:
     links: DeviceLinks  # light and shadow linking of the analytic lights (wrt.light_links)
     shapes: wp.array[wp.mat33]  # (num_analytic) ellipsoid, elliptic tube: map from the unit sphere or tube
     shape_inverses: wp.array[wp.mat33]  # (num_analytic) their inverses, world to canonical
+    # What a BSDF-sampled ray can meet besides the triangles, in ascending order (at least one row): the analytic area
+    # lights it may pass through, and the dome and soft distant lights it may escape into. A loop over every analytic
+    # light per ray took 60 s for 2**18 delta suns at 65k samples, none of which a ray can meet.
+    segment_lights: wp.array[wp.int32]  # (num_segment_lights) sphere, rect, disk, cylinder, ellipsoid, elliptic tube
+    num_segment_lights: int
+    sky_lights: wp.array[wp.int32]  # (num_sky_lights) the dome, and distant lights of a cone (params[1] > 0)
+    num_sky_lights: int
 
 
 @wp.struct

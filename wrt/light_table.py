@@ -559,7 +559,25 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     d.shadow_api = wp.array(rows[:, :4], dtype=wp.vec4, device=device)
     d.shadow_fade = wp.array(rows[:, 4:], dtype=wp.vec2, device=device)
     d.shadow_api_on = 1 if tinted else 0
+    segment, sky = rays_meet(np.asarray(h.kinds, np.int32), d.params.numpy()[:num_analytic])
+    d.segment_lights, d.num_segment_lights = _index_list(segment, device), len(segment)
+    d.sky_lights, d.num_sky_lights = _index_list(sky, device), len(sky)
     return d, tris.unsampled
+
+
+def rays_meet(kinds: np.ndarray, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The indices of the analytic lights of ``kinds`` (``params``: their float32 rows as uploaded) that a ray can
+    meet, ascending: the area lights it may pass through, and the dome and the distant lights of a cone (the cone
+    as :func:`wrt.light_sampling.distant_in_cone` reads it) it may escape into. Only these can add to a BSDF-sampled
+    ray's radiance (:func:`wrt.integrators.emitters.lights_on_segment`, ``environment``)."""
+    area = np.isin(kinds, (LIGHT_SPHERE, LIGHT_RECT, LIGHT_DISK, LIGHT_CYLINDER, LIGHT_ELLIPSOID, LIGHT_ELLIPTIC_TUBE))
+    sky = (kinds == LIGHT_DOME) | ((kinds == LIGHT_DISTANT) & (params[:, 1] > 0.0))
+    return np.flatnonzero(area).astype(np.int32), np.flatnonzero(sky).astype(np.int32)
+
+
+def _index_list(indices: np.ndarray, device) -> wp.array:
+    """``indices`` on the device, one row of -1 (never read) where there are none."""
+    return wp.array(indices if len(indices) else np.full(1, -1, np.int32), dtype=wp.int32, device=device)
 
 
 def _shadow_modes(shadows: np.ndarray, links, columns: np.ndarray) -> np.ndarray:

@@ -8,14 +8,8 @@ import warp as wp
 
 from ..light_links import lit_by
 from ..light_sampling import (
-    LIGHT_CYLINDER,
-    LIGHT_DISK,
     LIGHT_DISTANT,
     LIGHT_DOME,
-    LIGHT_ELLIPSOID,
-    LIGHT_ELLIPTIC_TUBE,
-    LIGHT_RECT,
-    LIGHT_SPHERE,
     DeviceLights,
     area_light_pdf,
     distant_in_cone,
@@ -95,11 +89,9 @@ def lights_on_segment(
     total = wp.vec3(0.0)
     behind = wp.min(t_min, 0.0)
     start = o + behind * d
-    for k in range(lights.num_analytic):
-        kind = lights.kinds[k]
-        area = kind == LIGHT_SPHERE or kind == LIGHT_RECT or kind == LIGHT_DISK or kind == LIGHT_CYLINDER
-        area = area or kind == LIGHT_ELLIPSOID or kind == LIGHT_ELLIPTIC_TUBE
-        if area and reaches(lights, k, camera, group):
+    for j in range(lights.num_segment_lights):  # the area lights alone (light_table.rays_meet)
+        k = lights.segment_lights[j]
+        if reaches(lights, k, camera, group):
             t, cos_l = intersect_light(lights, k, start, d)
             t = t + behind
             if t > t_min and t < t_max:
@@ -124,7 +116,8 @@ def environment(
     """Radiance arriving along an escaped ray ``d``: the dome and the discs of soft distant lights (``camera``,
     ``diffuse_share``, ``group``: see :func:`lights_on_segment`)."""
     total = wp.vec3(0.0)
-    for k in range(lights.num_analytic):
+    for j in range(lights.num_sky_lights):  # the dome and the soft distant lights alone (light_table.rays_meet)
+        k = lights.sky_lights[j]
         kind = lights.kinds[k]
         if not reaches(lights, k, camera, group):
             continue
