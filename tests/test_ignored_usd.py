@@ -3,9 +3,12 @@ warning per kind and stage, naming the file, the attribute (or type) and the pri
 (light linking, a presence material with a cut-out threshold) is not named."""
 
 import numpy as np
+import pytest
 from PIL import Image as PilImage
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 from usda_text import load_recording_warnings
+
+import wrt
 
 
 def load_with_warnings(tmp_path, build):
@@ -168,6 +171,49 @@ def test_prims_under_a_material_are_not_drawn_and_are_named(tmp_path):
     found = about(messages, "ignored.usda", "under a Material")
     assert len(found) == 1 and found[0].endswith("2 prim(s) (/Looks/Mat/Swatch, /Looks/Mat/Lamp, /Looks/Mat/Cam: 1, "
                                                  "/Instance/Mat/Swatch: 1): /Looks/Mat, /Instance/Mat"), messages
+
+
+@pytest.mark.parametrize("holder", ["world", "instance", "hidden_instance", "instancer", "hidden_instancer"])
+def test_a_light_under_a_material_is_no_light_of_the_stage_wherever_the_material_is(tmp_path, holder):
+    """A light kept under a Material is not drawn (Hydra populates none of its descendants), and so it is no light
+    of the stage either: the stage is lit as the same stage without it is (the default lights of a stage without
+    lights), in the world and in a prototype of a native instance or a PointInstancer, drawn or hidden. Before, a
+    prototype's lamp under a material was counted among the stage's lights (Scene.dark_lights) where its instance
+    or instancer was hidden, and under any PointInstancer: no default lights, a black image. USD's own
+    ``ComputeLightList`` lists it all the same: it does not cull materials as Hydra does."""
+
+    def build(stage, lamp):
+        quad(stage, "/Floor")
+        root = "/Looks" if holder == "world" else "/Proto"
+        if holder != "world":
+            stage.CreateClassPrim(root)
+        UsdShade.Material.Define(stage, f"{root}/Mat")
+        if lamp:
+            UsdLux.SphereLight.Define(stage, f"{root}/Mat/Lamp")
+        if holder.endswith("instance"):
+            instance = stage.DefinePrim("/Inst", "Xform")
+            instance.GetReferences().AddInternalReference(root)
+            instance.SetInstanceable(True)
+            if holder == "hidden_instance":
+                UsdGeom.Imageable(instance).CreateVisibilityAttr("invisible")
+        elif holder.endswith("instancer"):
+            instancer = UsdGeom.PointInstancer.Define(stage, "/Lamps")
+            stage.DefinePrim("/Lamps/Protos/Lamp", "Xform").GetReferences().AddInternalReference(root)
+            instancer.CreatePrototypesRel().SetTargets(["/Lamps/Protos/Lamp"])
+            instancer.CreatePositionsAttr([(0.0, 0.0, 0.0)])
+            instancer.CreateProtoIndicesAttr([0])
+            if holder == "hidden_instancer":
+                instancer.CreateVisibilityAttr("invisible")
+
+    scene, _ = load_with_warnings(tmp_path, lambda stage: build(stage, True))
+    stage = Usd.Stage.Open(str(tmp_path / "ignored.usda"))
+    listed = UsdLux.LightListAPI(stage.GetPseudoRoot()).ComputeLightList(UsdLux.LightListAPI.ComputeModeIgnoreCache)
+    assert [str(path).rsplit("/", 2)[-2:] for path in listed] == [["Mat", "Lamp"]]
+    (tmp_path / "lampless").mkdir()
+    lampless, _ = load_with_warnings(tmp_path / "lampless", lambda stage: build(stage, False))
+    assert scene.lights == lampless.lights == [] and scene.dark_lights == lampless.dark_lights == []
+    np.testing.assert_array_equal(wrt.render(scene, width=4, height=4, device="cpu").rgb,
+                                  wrt.render(lampless, width=4, height=4, device="cpu").rgb)
 
 
 def test_lights_on_gprims_make_them_mesh_lights(tmp_path):

@@ -459,16 +459,24 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
 
     def _prototype_lights(self, prototype: Usd.Prim) -> list:
         """Paths relative to ``prototype`` of the UsdLux lights in it and in the instances nested in it, which
-        ``ComputeLightList`` lists under each of its instances (hidden ones too); none for an instance without a
-        prototype. Looked for once per prototype, only for hidden instances (the walk reads the others')."""
+        ``ComputeLightList`` lists under each of its instances (hidden ones too), but those under a Material; none
+        for an instance without a prototype. Looked for once per prototype, for hidden instances (the walk reads the
+        others') and for PointInstancers' prototypes (:meth:`_instancer_lights`)."""
         if not prototype:
             return []
         key = prototype.GetPath()
         if key not in self.prototype_lights:
-            self.prototype_lights[key] = [
-                p.GetPath().MakeRelativePath(key)
-                for p in Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(PROTOTYPE_PREDICATE))
-                if p.IsA(UsdLux.DistantLight) or p.HasAPI(UsdLux.LightAPI)]
+            found = []
+            it = iter(Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(PROTOTYPE_PREDICATE)))
+            for p in it:
+                if p.IsA(UsdShade.Material):
+                    # Not under a Material, as the walk counts none there (_read_prim): Hydra populates none of its
+                    # descendants, so such a light is no light of the stage. Counted here, a lamp kept under a
+                    # prototype's material left a stage without the default lights, drawn black.
+                    it.PruneChildren()
+                elif p.IsA(UsdLux.DistantLight) or p.HasAPI(UsdLux.LightAPI):
+                    found.append(p.GetPath().MakeRelativePath(key))
+            self.prototype_lights[key] = found
         return self.prototype_lights[key]
 
     def _instancer_lights(self, prim: Usd.Prim):
