@@ -806,6 +806,32 @@ def test_shadow_distance_keeps_farther_occluders_from_casting_shadows(kind, inte
     assert render_over_blocker(dataclasses.replace(light, shadow_distance=2.0), integrator, spp=4).max() == 0.0
 
 
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
+def test_shadow_api_of_a_mesh_light_tints_and_limits_its_shadows_as_a_rect_lights(integrator):
+    """ShadowAPI on a mesh light (MeshLightAPI): a 2 x 2 panel of radiance 3 facing down from z = 1 over
+    :data:`BLOCKER` lights the floor as the rect light of :func:`lights_over_a_blocker` (closed form): its shadow
+    tinted by ``shadow:color`` (``colour * unblocked`` per channel), and none cast from past ``shadow:distance``.
+    Before, a mesh light took no ShadowAPI inputs (``wrt.MeshLight`` had no such fields; USD's were named in a
+    warning and left out): its shadows were black."""
+    panel = quad((0, 0, 1.0), (0, 2.0, 0), (2.0, 0, 0), name="/panel", double_sided=False)  # faces -Z
+    plane = quad((0, 0, 0), (40, 0, 0), (0, 40, 0), name="/plane")
+    _, unblocked, _ = lights_over_a_blocker()["rect"]
+
+    def render(**shadow_api):
+        light = wrt.MeshLight("/panel", color=np.full(3, 3.0), **shadow_api)
+        img = wrt.render(wrt.Scene(meshes=[plane, BLOCKER, panel], lights=[light]),
+                         camera=top_down_camera(height=PATCH), width=RES, height=RES, spp=64, seed=1, device="cpu",
+                         integrator=integrator, max_depth=1)
+        assert np.isin(img.aovs["prim"], (0, 1)).all()  # the floor, seen past the culled blocker
+        return img.rgb
+
+    rgb = render(shadow_color=SHADOW_TINT)
+    for c in (0, 1):
+        check(rgb[..., c], SHADOW_TINT[c] * unblocked)
+    assert rgb[..., 2].max() == 0.0
+    check(render(shadow_distance=0.2).mean(axis=-1), unblocked)
+
+
 def shadow_strength(d, distance, falloff, gamma):
     """ShadowAPI's shadow strength (1: full shadow) of an occluder ``d`` from the surface point, as the schema words
     it, in float64: none past ``distance``; in the falloff zone (its last ``falloff``, at most all of it; none for

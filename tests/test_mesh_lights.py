@@ -484,3 +484,26 @@ def test_the_lights_of_an_instancer_that_draws_none_are_the_stages_lights_too(tm
     with pytest.warns(UserWarning, match=r"no light: the stage's lights give none .*: /Lamps/Protos/Lamp/Light"):
         img = wrt.render(scene, camera=top_down_camera(height=PATCH), width=2, height=2, device="cpu")
     np.testing.assert_array_equal(img.rgb, 0.0)
+
+
+def test_shadow_api_of_a_usd_mesh_light_is_read_as_a_rect_lights_is(tmp_path):
+    """ShadowAPI inputs on a mesh light are read as on a rect light (the same values, as USD's ShadowAPI gives them),
+    with no warning: wrt casts their shadows so (tests/test_lights.py renders them). Before, a mesh light's shadow
+    colour and distance were named in a warning and left out."""
+    from pxr import Usd, UsdLux
+
+    shadow = ('    color3f inputs:shadow:color = (0.5, 0.25, 0)\n    float inputs:shadow:distance = 0.4\n'
+              '    float inputs:shadow:falloff = 0.1\n    float inputs:shadow:falloffGamma = 2\n')
+    api = '(\n    prepend apiSchemas = ["ShadowAPI"]\n)'
+    scene, messages = load(tmp_path, floor(), mesh_light(api="MeshLightAPI\", \"ShadowAPI", extra=shadow),
+                           rect_light().replace('"Light"\n', f'"Rect" {api}\n').replace("}\n", shadow + "}\n", 1))
+    assert not [m for m in messages if "hadow" in m], messages
+    lights = {light.path: light for light in scene.lights}
+    stage = Usd.Stage.Open(str(tmp_path / "stage.usda"))
+    for path in ("/Light", "/Rect"):
+        api = UsdLux.ShadowAPI(stage.GetPrimAtPath(path))
+        light = lights[path]
+        np.testing.assert_array_equal(light.shadow_color, np.float32(api.GetShadowColorAttr().Get()))
+        assert (light.shadow_distance, light.shadow_falloff, light.shadow_falloff_gamma) == (
+            api.GetShadowDistanceAttr().Get(), api.GetShadowFalloffAttr().Get(), api.GetShadowFalloffGammaAttr().Get())
+    assert isinstance(lights["/Light"], wrt.MeshLight) and isinstance(lights["/Rect"], wrt.RectLight)

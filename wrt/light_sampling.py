@@ -100,8 +100,9 @@ class DeviceLights:
     instances: wp.array[wp.int32]  # instance that draws a LIGHT_TRIANGLE entry's (prototype) triangle, -1: world
     instance_emitters: wp.array[wp.int32]  # (N,) each instance's first entry, -1: none sampled (or (1,) of -1)
     shadows: wp.array[wp.int32]  # SHADOWS_ON, SHADOWS_OFF, SHADOWS_LINKED or SHADOWS_TINTED: what blocks the light
-    shadow_api: wp.array[wp.vec4]  # (num_analytic) ShadowAPI (colour, distance) of SHADOWS_TINTED lights
-    shadow_fade: wp.array[wp.vec2]  # (num_analytic) their (falloff: width of the fading zone, 0: none; its gamma)
+    shadow_api: wp.array[wp.vec4]  # ShadowAPI (colour, distance) of SHADOWS_TINTED lights: (num_analytic), (count)
+    # where the triangles of a mesh light are SHADOWS_TINTED
+    shadow_fade: wp.array[wp.vec2]  # as shadow_api: their (falloff: width of the fading zone, 0: none; its gamma)
     shadow_api_on: int  # 1 when some light is SHADOWS_TINTED (otherwise shadow_api is not read)
     shaping: wp.array[wp.vec4]  # (num_analytic) (cone angle, smooth start (radians), focus, 1); all 0: unshaped
     shaping_axis: wp.array[wp.vec3]  # (num_analytic) unit primary axis (the light's -Z) of shaped lights

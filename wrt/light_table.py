@@ -552,13 +552,22 @@ def build_lights(lights: list, scene, material_emission: list, device) -> tuple[
     modes = _shadow_modes(np.concatenate([np.int32(h.shadows).reshape(-1), tri_shadows]), links, columns)
     tinted = [k for k, row in enumerate(h.shadow_api) if row is not None]
     modes[tinted] = SHADOWS_TINTED  # (shadows on: shadow_api_row is None for a light without them)
+    # A mesh light's ShadowAPI rows go to each of its triangles, whose entries then need rows too (none otherwise:
+    # a triangle's row is kept small).
+    mesh_rows = [shadow_api_row(light) for light in mesh_lights]
+    mesh_tinted = np.array([row is not None for row in mesh_rows] + [False], bool)  # (a row for owner -1)
+    triangles_tinted = np.flatnonzero(mesh_tinted[tris.owner]) if mesh_tinted.any() else np.zeros(0, np.int64)
+    modes[num_analytic + triangles_tinted] = SHADOWS_TINTED
     d.shadows = wp.array(modes, dtype=wp.int32, device=device)
-    rows = np.zeros((max(num_analytic, 1), 6), np.float32)
+    rows = np.zeros((max(n if len(triangles_tinted) else num_analytic, 1), 6), np.float32)
     for k in tinted:
         rows[k] = h.shadow_api[k]
+    if len(triangles_tinted):
+        owner_rows = np.stack([row if row is not None else np.zeros(6, np.float32) for row in mesh_rows])
+        rows[num_analytic + triangles_tinted] = owner_rows[tris.owner[triangles_tinted]]
     d.shadow_api = wp.array(rows[:, :4], dtype=wp.vec4, device=device)
     d.shadow_fade = wp.array(rows[:, 4:], dtype=wp.vec2, device=device)
-    d.shadow_api_on = 1 if tinted else 0
+    d.shadow_api_on = 1 if tinted or len(triangles_tinted) else 0
     segment, sky = rays_meet(np.asarray(h.kinds, np.int32), d.params.numpy()[:num_analytic])
     d.segment_lights, d.num_segment_lights = _index_list(segment, device), len(segment)
     d.sky_lights, d.num_sky_lights = _index_list(sky, device), len(sky)

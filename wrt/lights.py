@@ -542,6 +542,8 @@ class MeshLight:
         light_link: the prims it lights (``collection:lightLink``, :class:`wrt.LinkCollection`); None: every prim.
         shadow_link: the prims that cast its shadows (``collection:shadowLink``); None: every prim.
         mesh: path of the meshes that emit when it is not ``path``; "": ``path``.
+        shadow_color, shadow_distance, shadow_falloff, shadow_falloff_gamma: its ShadowAPI inputs, as a
+            :class:`SphereLight`'s; every triangle of the light casts its shadows so.
     """
 
     path: str
@@ -554,6 +556,10 @@ class MeshLight:
     light_link: LinkCollection | None = None
     shadow_link: LinkCollection | None = None
     mesh: str = ""
+    shadow_color: np.ndarray | None = None
+    shadow_distance: float = -1.0
+    shadow_falloff: float = -1.0
+    shadow_falloff_gamma: float = 1.0
 
     @property
     def mesh_path(self) -> str:
@@ -563,6 +569,7 @@ class MeshLight:
     def __post_init__(self):
         check_fields(self, _COLOR, *_MULTIPLIERS)
         check_flags(self, "normalize", "shadows")
+        check_shadow_api(self)
         if type(self.mesh) is not str:  # an int or pathlib path named no mesh: "MeshLight names no mesh of the scene"
             self.mesh = prim_path(self.mesh, f"wrt.MeshLight {self.path} mesh", optional=True)
         if self.material_sync not in MATERIAL_SYNC_MODES:

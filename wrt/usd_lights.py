@@ -260,13 +260,8 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
     if result is not None:
         _read_links_and_filters(prim, light, result, skip)
         result.shadows = shadows
-        if isinstance(result, MeshLight):
-            if shadow_color is not None or shadow_distance >= 0.0:
-                skip("shadow colour and distance (ShadowAPI) on mesh lights are not supported; these lights cast "
-                     "plain shadows", prim)
-        else:
-            result.shadow_color, result.shadow_distance = shadow_color, shadow_distance
-            result.shadow_falloff, result.shadow_falloff_gamma = falloff
+        result.shadow_color, result.shadow_distance = shadow_color, shadow_distance
+        result.shadow_falloff, result.shadow_falloff_gamma = falloff
         result.diffuse, result.specular = multipliers
     return result
 
