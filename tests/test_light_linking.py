@@ -587,3 +587,36 @@ def test_an_expansion_rule_usd_does_not_define_is_read_as_usds_query_reads_it(tm
     query = collection.ComputeMembershipQuery()
     for path in ("/W/A", "/W/A/Child", "/W/B", "/W"):
         assert scene.lights[0].light_link.includes(path) == query.IsPathIncluded(Sdf.Path(path)), path
+
+
+@pytest.mark.parametrize("authored", ["nothing", "include_root_off", "expansion_rule", "excludes", "shadow_only"])
+def test_a_lights_collections_hold_the_prims_usds_query_includes_whatever_is_authored(tmp_path, authored):
+    """A light's light and shadow link collections hold, of the stage's prims, those USD's own membership query
+    includes, whatever part of the collection is authored (nothing at all: every prim, read without asking the
+    query; ``includeRoot`` off alone: none; an expansion rule alone; an exclude; the shadow collection alone)."""
+    from pxr import Usd, UsdGeom, UsdLux
+
+    stage = Usd.Stage.CreateNew(str(tmp_path / "links.usda"))
+    for k, path in enumerate(("/Quad", "/Other", "/Other/Child")):  # drawn: expressions resolve against them
+        mesh = UsdGeom.Mesh.Define(stage, path)
+        mesh.CreatePointsAttr([(k, 0, 0), (k + 1, 0, 0), (k, 1, 0)])
+        mesh.CreateFaceVertexCountsAttr([3])
+        mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    light = UsdLux.LightAPI(UsdLux.SphereLight.Define(stage, "/Lamp"))
+    link, shadow = light.GetLightLinkCollectionAPI(), light.GetShadowLinkCollectionAPI()
+    if authored == "include_root_off":
+        link.CreateIncludeRootAttr(False)
+    elif authored == "expansion_rule":
+        link.CreateExpansionRuleAttr("explicitOnly")
+    elif authored == "excludes":
+        link.CreateExcludesRel().AddTarget("/Other")
+    elif authored == "shadow_only":
+        shadow.CreateIncludeRootAttr(False)
+        shadow.CreateIncludesRel().AddTarget("/Quad")
+    stage.Save()
+    lamp = {lt.path: lt for lt in wrt.load_usd(str(tmp_path / "links.usda")).lights}["/Lamp"]
+    for collection, read in ((link, lamp.light_link), (shadow, lamp.shadow_link)):
+        query = collection.ComputeMembershipQuery()
+        for path in ("/Quad", "/Other", "/Other/Child"):
+            expected = query.IsPathIncluded(path)
+            assert (read is None or read.includes(path)) == expected, (collection.GetName(), path, expected)

@@ -236,8 +236,11 @@ def read_shaping(prim, get, skip, profiles: dict | None = None) -> Shaping | Non
     """
     from pxr import UsdLux
 
-    names = [f"{prefix}shaping:{name}" for name in SHAPING_INPUTS for prefix in ("inputs:", "")]
-    authored = any(prim.GetAttribute(n) and prim.GetAttribute(n).HasAuthoredValue() for n in names)
+    # Among the names with scene description only (a value needs some): asking each of the 14 names cost a tenth
+    # of reading a plain light.
+    names = set(prim.GetAuthoredPropertyNames()).intersection(
+        f"{prefix}shaping:{name}" for name in SHAPING_INPUTS for prefix in ("inputs:", ""))
+    authored = any(prim.GetAttribute(n).HasAuthoredValue() for n in names)
     if not (prim.HasAPI(UsdLux.ShapingAPI) or authored):
         return None
     api = UsdLux.ShapingAPI(prim)
