@@ -865,10 +865,6 @@ def test_smallest_id_wins_among_overlapping_triangles_in_a_plane_across_the_ray(
     np.testing.assert_array_equal(hits.prim[clear], winner[clear])
 
 
-@pytest.mark.xfail(strict=True, reason="inside the triangle test (geometry.intersect_ray_triangle, run in every "
-                   "traversal's inner loop, not changed here): only a triangle in a plane across the ray's major axis "
-                   "(az == bz == cz) takes that plane's distance as t; one in a plane x or y = const of the sheared "
-                   "frame takes its own big_t / det, an ulp or two apart from its coplanar neighbours'")
 @pytest.mark.parametrize("instanced", [False, True], ids=["flat", "instanced"])
 @pytest.mark.parametrize("layout", ["binary", "wide8"])
 def test_smallest_id_wins_among_overlapping_triangles_in_a_plane_seen_at_a_grazing_angle(layout, instanced, np_rng):

@@ -229,12 +229,6 @@ def test_occluded_keeps_hits_just_below_t_max(accel):
     assert not wrt.occluded(scene, origins, directions, t_max=t, accel=accel).any()
 
 
-@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES rows 74, 76: fixes that cost 3-8%): "
-                   "intersect_ray_box rounds a box's "
-                   "entry down by 2^-20 of the entry itself (geometry.ENTRY_SLACK), but the watertight test's t of a "
-                   "triangle on that box face errs by float32 epsilons of the distances to its corners (1000 here), "
-                   "so it can lie far below the entry of a ray starting near the face, and t_max just past it culls "
-                   "the box")
 @pytest.mark.parametrize("layout", ["binary", "wide8"])
 def test_hits_just_below_t_max_are_kept_for_origins_near_a_large_face(layout):
     """Rays from 1e-4 to 1 above the top face (z = 0) of a 2000-wide box, slanted (the face is not across their major
@@ -267,12 +261,6 @@ def large_flat_box() -> wrt.Scene:
     return wrt.Scene.from_triangles(corners, faces)
 
 
-@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES rows 74, 76: fixes that cost 3-8%): "
-                   "the mirror of the t_max case "
-                   "above. intersect_ray_box keeps a box only up to ROBUST_FAR_SLACK (a few ulps) past its exit, but "
-                   "the watertight test's t of a triangle on the face a ray leaves the box by errs by float32 "
-                   "epsilons of the distances to its corners (1000 here), so it can lie past that exit, and t_min at "
-                   "the hit's own t culls the box")
 @pytest.mark.parametrize("layout", ["binary", "wide8"])
 def test_t_min_at_a_hits_own_t_keeps_it_for_origins_near_the_face_they_leave_by(layout):
     """Rays from 3e-4 to 0.3 below the top face (z = 0) of the 2000-wide box, inside it, slanted up: each leaves
@@ -309,11 +297,6 @@ def fanned_cap(segments: int) -> wrt.Scene:
     return wrt.Scene.from_triangles(points.astype(np.float32), faces.astype(np.int32))
 
 
-@pytest.mark.xfail(strict=True, reason="inside the traversal (GPU_NOTES rows 74, 76: fixes that cost 3-8%): "
-                   "the watertight test's t of a sliver "
-                   "errs by float32 epsilons times its aspect (up to 7e-6 relative at 1000 segments), more than "
-                   "intersect_ray_box's slack (2^-20 on entries, a few ulps on exits) around the cap's flat boxes, "
-                   "whose entry and exit are the cap's plane: a limit one ulp past the hit's t, or at it, culls it")
 @pytest.mark.parametrize("limit", ["t_max just past t", "t_min at t"])
 def test_limits_at_a_hits_own_t_keep_it_on_a_finely_fanned_cap(limit):
     """Rays from inside a cone, 0.05 to 0.5 above its base, aimed at random points of the base: a disc fanned into
@@ -349,9 +332,6 @@ def test_ties_go_to_the_smaller_triangle_id():
     assert hits.prim.tolist() == [0, 0]
 
 
-@pytest.mark.xfail(strict=True, reason="inside the triangle test (geometry.intersect_ray_triangle, run in every "
-                   "traversal's inner loop, not changed here): big_t and det are summed in the order the corners come, "
-                   "so a twin with its corners reversed or rotated rounds its t an ulp away from the original's")
 @pytest.mark.parametrize("order", [[0, 2, 1], [1, 2, 0]], ids=["reversed", "rotated"])
 def test_ties_between_twins_in_other_corner_orders_go_to_the_smaller_id(order, np_rng):
     """A card made two-sided by a reversed copy of each face, or a face listed twice from another corner: the same
@@ -1192,10 +1172,6 @@ def test_a_hit_at_the_origin_is_t_plus_zero(accel, layout, instanced):
         assert not np.signbit(hits.t).any(), (t_min, hits.t)
 
 
-@pytest.mark.xfail(strict=True, reason="inside the triangle test (geometry.intersect_ray_triangle, run in every "
-                   "traversal's inner loop, not changed here): only a triangle in a plane across the ray's major axis "
-                   "takes that plane's distance as t (0 exactly from an origin on it); along the major axis its "
-                   "big_t / det errs by float32 epsilons of the corners' distances, either way")
 @pytest.mark.parametrize("layout, instanced", [("binary", False), ("wide8", False), ("binary", True)],
                          ids=["binary", "wide8", "binary-instanced"])
 def test_a_ray_leaving_a_face_at_a_shallow_slope_hits_it_at_t_0(layout, instanced, np_rng):

@@ -113,6 +113,19 @@ def exact_edge_functions(ax: float, ay: float, bx: float, by: float, cx: float, 
 
 
 @wp.func
+def symmetric_sum(x: float, y: float, z: float):
+    """``x + y + z`` summed smallest magnitude first: the same bits in any order of the three, and the negated bits
+    for the negated three, so a triangle and its twin with the corners rotated or reversed get the same ``t``."""
+    if wp.abs(x) > wp.abs(y):
+        x, y = y, x
+    if wp.abs(y) > wp.abs(z):
+        y, z = z, y
+    if wp.abs(x) > wp.abs(y):
+        x, y = y, x
+    return (x + y) + z
+
+
+@wp.func
 def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec3):
     """Watertight, two-sided ray-triangle test.
 
@@ -126,12 +139,20 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     az = axis_component(a, ray.kz)
     bz = axis_component(b, ray.kz)
     cz = axis_component(c, ray.kz)
-    ax = axis_component(a, ray.kx) - ray.sx * az
-    ay = axis_component(a, ray.ky) - ray.sy * az
-    bx = axis_component(b, ray.kx) - ray.sx * bz
-    by = axis_component(b, ray.ky) - ray.sy * bz
-    cx = axis_component(c, ray.kx) - ray.sx * cz
-    cy = axis_component(c, ray.ky) - ray.sy * cz
+    plane_x = axis_component(a, ray.kx)  # the corners' coordinates along kx and ky, unsheared
+    plane_y = axis_component(a, ray.ky)
+    b_x = axis_component(b, ray.kx)
+    b_y = axis_component(b, ray.ky)
+    c_x = axis_component(c, ray.kx)
+    c_y = axis_component(c, ray.ky)
+    in_plane_x = plane_x == b_x and plane_x == c_x  # the triangle lies in a plane kx = const
+    in_plane_y = plane_y == b_y and plane_y == c_y
+    ax = plane_x - ray.sx * az
+    ay = plane_y - ray.sy * az
+    bx = b_x - ray.sx * bz
+    by = b_y - ray.sy * bz
+    cx = c_x - ray.sx * cz
+    cy = c_y - ray.sy * cz
     # Scaled barycentric weights of p0, p1, p2 (2D edge functions).
     e0 = cx * by - cy * bx
     e1 = ax * cy - ay * cx
@@ -141,14 +162,14 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     hit = True
     if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
         hit = False
-    det = e0 + e1 + e2
+    det = symmetric_sum(e0, e1, e2)
     if det == 0.0:
         hit = False
     t = float(0.0)
     u = float(0.0)
     v = float(0.0)
     if hit:
-        big_t = e0 * (ray.sz * az) + e1 * (ray.sz * bz) + e2 * (ray.sz * cz)
+        big_t = symmetric_sum(e0 * (ray.sz * az), e1 * (ray.sz * bz), e2 * (ray.sz * cz))
         inv_det = 1.0 / det
         t = big_t * inv_det
         u = e1 * inv_det
@@ -156,12 +177,20 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
         if not wp.isfinite(t) or wp.abs(big_t) < MIN_NORMAL_BIG_T:
             # big_t grows as a coordinate cubed: it overflows beyond about 7e12 and turns subnormal below about
             # 1e-13; the barycentric weights stay near 1, so t is taken from them there.
-            t = ray.sz * ((e0 * inv_det) * az + u * bz + v * cz)
+            t = ray.sz * symmetric_sum((e0 * inv_det) * az, u * bz, v * cz)
         if az == bz and az == cz:
             # A triangle in a plane across the ray's major axis (a floor seen from above): t is that plane's
             # distance, the same bits for every triangle in the plane. From big_t / det it came out an ulp apart
             # from one triangle to the next, so of coplanar overlapping triangles the larger id could win the tie.
             t = ray.sz * az
+        elif in_plane_x:
+            # The same for a plane along the major axis (a floor seen at a grazing angle): its distance
+            # plane_x / d_x, with d_x = sx / sz. big_t / det put overlapping decals an ulp apart there too, and a
+            # triangle on its box's face (every one in such a plane) up to 29% off a close origin's t, where a
+            # t_max one ulp past that t culled the box.
+            t = (plane_x / ray.sx) * ray.sz
+        elif in_plane_y:
+            t = (plane_y / ray.sy) * ray.sz
     return hit, t, u, v
 
 
