@@ -139,20 +139,28 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     az = axis_component(a, ray.kz)
     bz = axis_component(b, ray.kz)
     cz = axis_component(c, ray.kz)
-    plane_x = axis_component(a, ray.kx)  # the corners' coordinates along kx and ky, unsheared
-    plane_y = axis_component(a, ray.ky)
-    b_x = axis_component(b, ray.kx)
-    b_y = axis_component(b, ray.ky)
-    c_x = axis_component(c, ray.kx)
-    c_y = axis_component(c, ray.ky)
-    in_plane_x = plane_x == b_x and plane_x == c_x  # the triangle lies in a plane kx = const
-    in_plane_y = plane_y == b_y and plane_y == c_y
-    ax = plane_x - ray.sx * az
-    ay = plane_y - ray.sy * az
-    bx = b_x - ray.sx * bz
-    by = b_y - ray.sy * bz
-    cx = c_x - ray.sx * cz
-    cy = c_y - ray.sy * cz
+    ax = axis_component(a, ray.kx)
+    ay = axis_component(a, ray.ky)
+    bx = axis_component(b, ray.kx)
+    by = axis_component(b, ray.ky)
+    cx = axis_component(c, ray.kx)
+    cy = axis_component(c, ray.ky)
+    # A triangle in a plane kx = const or ky = const (a floor seen at a grazing angle, any triangle on its box's
+    # face) gets that plane's distance as t, the same bits for every triangle in the plane, as one across the major
+    # axis does below: big_t / det put overlapping decals an ulp apart, and came up to 29% off a close origin's t,
+    # where a t_max one ulp past that t culled the box. NaN: no such plane. Divided here, where it is rare, so that
+    # only one value stays live through the edge functions (GPU_NOTES row 77).
+    plane_t = float(wp.nan)
+    if ax == bx and ax == cx:
+        plane_t = ax / ray.sx
+    elif ay == by and ay == cy:
+        plane_t = ay / ray.sy
+    ax = ax - ray.sx * az
+    ay = ay - ray.sy * az
+    bx = bx - ray.sx * bz
+    by = by - ray.sy * bz
+    cx = cx - ray.sx * cz
+    cy = cy - ray.sy * cz
     # Scaled barycentric weights of p0, p1, p2 (2D edge functions).
     e0 = cx * by - cy * bx
     e1 = ax * cy - ay * cx
@@ -162,13 +170,14 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
     hit = True
     if (e0 < 0.0 or e1 < 0.0 or e2 < 0.0) and (e0 > 0.0 or e1 > 0.0 or e2 > 0.0):
         hit = False
-    det = symmetric_sum(e0, e1, e2)
-    if det == 0.0:
+    if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:  # (of one sign, they sum to 0 only if all are 0)
         hit = False
     t = float(0.0)
     u = float(0.0)
     v = float(0.0)
     if hit:
+        # Summed smallest magnitude first: a twin with its corners rotated or reversed gets the same bits.
+        det = symmetric_sum(e0, e1, e2)
         big_t = symmetric_sum(e0 * (ray.sz * az), e1 * (ray.sz * bz), e2 * (ray.sz * cz))
         inv_det = 1.0 / det
         t = big_t * inv_det
@@ -183,14 +192,8 @@ def intersect_ray_triangle(ray: ShearedRay, p0: wp.vec3, p1: wp.vec3, p2: wp.vec
             # distance, the same bits for every triangle in the plane. From big_t / det it came out an ulp apart
             # from one triangle to the next, so of coplanar overlapping triangles the larger id could win the tie.
             t = ray.sz * az
-        elif in_plane_x:
-            # The same for a plane along the major axis (a floor seen at a grazing angle): its distance
-            # plane_x / d_x, with d_x = sx / sz. big_t / det put overlapping decals an ulp apart there too, and a
-            # triangle on its box's face (every one in such a plane) up to 29% off a close origin's t, where a
-            # t_max one ulp past that t culled the box.
-            t = (plane_x / ray.sx) * ray.sz
-        elif in_plane_y:
-            t = (plane_y / ray.sy) * ray.sz
+        elif not wp.isnan(plane_t):
+            t = plane_t * ray.sz  # (its plane / d_x, with d_x = sx / sz)
     return hit, t, u, v
 
 
