@@ -230,6 +230,24 @@ def test_a_camera_that_sees_nothing_is_warned_of_once_by_every_way_of_rendering(
     assert (frame == frame[0, 0]).all()  # background only: one colour
 
 
+def test_a_framed_camera_that_follows_a_moved_scene_is_not_warned_of(tmp_path):
+    """A Renderer without a camera frames the scene; after an edit that moves the scene, render() frames it again
+    and draws it, yet the rebuild warned with the old framing camera that it 'sees nothing'. The oracle of 'seen' is
+    the render itself: the moved quad's pixels hit it."""
+    import dataclasses
+
+    from shading_helpers import quad
+
+    scene = wrt.Scene(meshes=[quad((0, 0, 0), (1, 0, 0), (0, 1, 0), name="/a")])
+    renderer = wrt.Renderer(scene, width=8, height=6, device="cpu")
+    renderer.render()
+    mesh = scene.meshes[0]
+    scene.meshes[0] = dataclasses.replace(mesh, points=mesh.points + np.float32([0.0, 0.0, 500.0]))
+    images = []
+    assert _sees_nothing(lambda: images.append(renderer.render())) == []
+    assert (images[0].aovs["prim"] >= 0).any()
+
+
 def test_camera_lists_and_scene_type_get_errors_that_say_what_is_wrong(room):
     """A path given where a list of cameras belongs was read one character at a time ("no camera at '/'"); one
     argument alone was told "not both"; a path as the scene failed with an AttributeError from deep inside."""

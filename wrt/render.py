@@ -589,10 +589,19 @@ class Renderer:
         lower, upper = self.scene.bounds()
         return 0.1 * float(np.linalg.norm(np.asarray(upper, np.float64) - lower)) or 1.0
 
-    def _follow_scene(self) -> None:
+    def _follow(self) -> None:
+        """:meth:`_follow_scene`, then :meth:`_follow_cameras`; a rebuilt scene's clipping warnings after both: a
+        camera wrt frames follows the moved scene only in the second, and warned with its old framing that it 'sees
+        nothing' of the scene it then drew."""
+        rebuilt = self._follow_scene()
+        self._follow_cameras()
+        if rebuilt:
+            self._warn_clipped_away()  # the scene may have moved out of a camera's clipping range
+
+    def _follow_scene(self) -> bool:
         """Builds again when the scene changed since the last build (a mesh, material, light or instance array
         replaced, or ``scene.invalidate()`` after an edit in place), as a trace would: a kept Renderer drew the old
-        geometry."""
+        geometry. True where it built again."""
         self.scene.drop_stale_caches()
         # Lights are compared with their fields: a light given a new colour or intensity (light.color = ...) kept
         # shining with the old one.
@@ -607,7 +616,8 @@ class Renderer:
                                    "outside the capture, then record the frame again")
             check_scene(self.scene)
             self._build()
-            self._warn_clipped_away()  # the scene may have moved out of a camera's clipping range
+            return True
+        return False
 
     def _warn_clipped_away(self) -> None:
         """:func:`warn_clipped_away` for the renderer's cameras, where the scene draws anything; each message once.
@@ -856,8 +866,7 @@ class Renderer:
         spp, seed = int(spp), check_seed(seed)
         # By their truth, resume="false" added these samples to the previous render's without a word.
         progress, resume = flag(progress, "progress"), flag(resume, "resume")
-        self._follow_scene()  # a rebuild drops the progressive sums
-        self._follow_cameras()  # so does a camera edit
+        self._follow()  # a rebuild drops the progressive sums, and so does a camera edit
         quick_look = self.integrator in QUICK_LOOKS
         state = self._progressive
         resuming = resume and state is not None and state["seed"] == seed and not quick_look
@@ -959,8 +968,7 @@ class Renderer:
         a capture (it builds them again) and record again; :meth:`set_cameras` with the same camera count is
         followed, and so is a camera edited since once a call outside the capture has uploaded it again, but for
         depth of field switched on since: then record again (:meth:`frame_image` refuses the old recording's frame)."""
-        self._follow_scene()
-        self._follow_cameras()
+        self._follow()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
             self._check_launch(n_pixels, 1)
