@@ -97,18 +97,57 @@ def test_a_point_instancer_prototype_follows_its_own_purpose_visibility(tmp_path
     assert drawn == ["/PI/Protos/D"]
 
 
-def test_an_opinion_above_a_native_instance_is_named_in_a_warning(tmp_path):
-    """Inside a native prototype the opinions on and above its instance are not applied (wrt reads a prototype once
-    for all instances): a warning names the instance rather than drawing it silently."""
+def native_stage(tmp_path):
+    """Instances of a class /Asset (cubes of render, default and proxy purpose; one render cube under an Xform
+    whose renderVisibility = visible re-opens it) under opinions on and above them, one instance nested in another's
+    prototype, and a PointInstancer in the prototype whose prototype cube is of render purpose."""
     path = str(tmp_path / "native.usda")
     stage = Usd.Stage.CreateNew(path)
     stage.CreateClassPrim("/Asset")
     UsdGeom.Cube.Define(stage, "/Asset/R").CreatePurposeAttr("render")
-    group = UsdGeom.Xform.Define(stage, "/Group")
-    UsdGeom.VisibilityAPI.Apply(group.GetPrim()).CreateRenderVisibilityAttr("invisible")
-    instance = stage.DefinePrim("/Group/I", "Xform")
-    instance.GetReferences().AddInternalReference("/Asset")
-    instance.SetInstanceable(True)
+    UsdGeom.Cube.Define(stage, "/Asset/D")
+    UsdGeom.Cube.Define(stage, "/Asset/P").CreatePurposeAttr("proxy")
+    opened = UsdGeom.Xform.Define(stage, "/Asset/Open")
+    UsdGeom.VisibilityAPI.Apply(opened.GetPrim()).CreateRenderVisibilityAttr("visible")
+    UsdGeom.Cube.Define(stage, "/Asset/Open/R2").CreatePurposeAttr("render")
+    pi = UsdGeom.PointInstancer.Define(stage, "/Asset/PI")
+    UsdGeom.Cube.Define(stage, "/Asset/PI/Protos/R3").CreatePurposeAttr("render")
+    pi.CreatePrototypesRel().SetTargets(["/Asset/PI/Protos/R3"])
+    pi.CreateProtoIndicesAttr([0])
+    pi.CreatePositionsAttr([(0, 0, 0)])
+    stage.CreateClassPrim("/Kit")
+    nested = stage.DefinePrim("/Kit/Inner", "Xform")
+    nested.GetReferences().AddInternalReference("/Asset")
+    nested.SetInstanceable(True)
+    for name, opinion in [("/Group", "invisible"), ("/Group/Sub", "visible"), ("/Self", None), ("/Plain", None),
+                          ("/Hider", "invisible")]:
+        prim = UsdGeom.Xform.Define(stage, name).GetPrim()
+        if opinion is not None:
+            UsdGeom.VisibilityAPI.Apply(prim).CreateRenderVisibilityAttr(opinion)
+    for name, source in [("/Group/I", "/Asset"), ("/Group/Sub/I", "/Asset"), ("/Self/I", "/Asset"),
+                         ("/Plain/I", "/Asset"), ("/Hider/K", "/Kit"), ("/Plain/K", "/Kit")]:
+        instance = stage.DefinePrim(name, "Xform")
+        instance.GetReferences().AddInternalReference(source)
+        instance.SetInstanceable(True)
+    UsdGeom.VisibilityAPI.Apply(stage.GetPrimAtPath("/Self/I")).CreateRenderVisibilityAttr("invisible")
     stage.Save()
-    with pytest.warns(UserWarning, match=r"renderVisibility.*native instances.*/Group/I"):
-        wrt.load_usd(path)
+    return path, stage
+
+
+def test_opinions_on_and_above_native_instances_reach_the_prims_inside(tmp_path):
+    """USD computes a proxy's purpose visibility through its instance and the instance's ancestors; wrt read each
+    prototype once and drew every render cube of every instance (with a warning). Oracle: the instance proxies' (and
+    the PointInstancer prototype's) ComputeEffectiveVisibility."""
+    path, stage = native_stage(tmp_path)
+    predicate = Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimIsDefined & ~Usd.PrimIsAbstract)
+    expected = set()
+    for prim in stage.Traverse(predicate):
+        img = UsdGeom.Imageable(prim)
+        if prim.IsA(UsdGeom.Cube) and img.ComputePurpose() in ("default", "render") and \
+                img.ComputeEffectiveVisibility(img.ComputePurpose()) != UsdGeom.Tokens.invisible:
+            expected.add(str(prim.GetPath()))
+    assert "/Group/I/R" not in expected and "/Group/I/Open/R2" in expected and "/Self/I/PI/Protos/R3" not in expected
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = wrt.load_usd(path)
+    assert set(scene.prim_paths()) == expected

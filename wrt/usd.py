@@ -332,7 +332,6 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
         self.purpose_visibilities = PurposeVisibilities()  # UsdGeomVisibilityAPI's opinions, each prim's answer kept
-        self.prototype_purposes = {}  # native prototype path -> the purposes authored in it (purpose visibility)
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.prototype_lights = {}  # native prototype path -> its UsdLux lights, for hidden instances
         self.shown_prototypes = {}  # native prototype path -> (abstract, the path it is named by) (_prototype_name)
@@ -417,7 +416,6 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # drawn, as USD computes purpose through instance proxies.
             if self._visible(prim, ctx.stop):
                 purpose = self._purpose(prim, ctx)
-                self._warn_purpose_visibility_above(prim, purpose)
                 self._read_native_instance(prim, ctx, None if purpose in self.purposes else purpose)
                 if prim.IsA(UsdGeom.Gprim) and self._rendered(prim, ctx):
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
@@ -663,7 +661,8 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         return self.xforms.GetLocalToWorldTransform(prim) * root_world.GetInverse() * local
 
     def _content(self, key: tuple, root: Usd.Prim, space_root, outer_bindings, outer_purpose=None,
-                 outer_color=None, outer_widths=None, proxy=None, instance_opacity=False, outer_uv=None) -> Content:
+                 outer_color=None, outer_widths=None, proxy=None, instance_opacity=False, outer_uv=None,
+                 outer_hidden=frozenset()) -> Content:
         """The content of a prototype, read on first use."""
         if key not in self.contents:
             if key in self.reading:  # PointInstancers skip these first; native prototypes cannot (USD refuses cycles)
@@ -674,7 +673,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # (as UsdImaging does), so "defined" is not asked of the prototype's ancestors.
             inside = Context(content, space_root, outer_bindings, outer_purpose=outer_purpose,
                               outer_color=outer_color, outer_widths=outer_widths, proxy=proxy,
-                              instance_opacity=instance_opacity, outer_uv=outer_uv)
+                              instance_opacity=instance_opacity, outer_uv=outer_uv, outer_hidden=outer_hidden)
             self._walk(root, inside, PROTOTYPE_PREDICATE)
             self.reading.discard(key)
             self.contents[key] = content

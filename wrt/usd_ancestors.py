@@ -149,18 +149,23 @@ class PurposeVisibilities:
     proxy or guide) on ``prim`` or an ancestor is ``invisible``, as ``ComputeEffectiveVisibility(purpose)`` finds it
     where overall visibility is not invisible (``visible`` or ``inherited`` nearer re-opens); each prim's answer
     kept. The opinions are uniform: the answer does not depend on the time. A guide with no opinion stays drawn
-    where the render settings include guides (the schema's fallback, ``invisible``, is not applied)."""
+    where the render settings include guides (the schema's fallback, ``invisible``, is not applied). In a native
+    prototype, where no prim up to its root has an opinion, the walk goes on through the instance read
+    (``outer``: the purposes hidden on and above it), as USD's walk of an instance proxy does."""
 
     def __init__(self):
         self.memos = {}  # purpose -> AncestorMemo of the search from a prim upwards
 
-    def hidden(self, prim: Usd.Prim, purpose: str) -> bool:
+    def hidden(self, prim: Usd.Prim, purpose: str, outer: frozenset = frozenset()) -> bool:
         if purpose not in (UsdGeom.Tokens.render, UsdGeom.Tokens.proxy, UsdGeom.Tokens.guide):
             return False
         memo = self.memos.get(purpose)
         if memo is None:
             memo = self.memos[purpose] = AncestorMemo(_purpose_visibility_on(purpose))
-        return memo(prim) == UsdGeom.Tokens.invisible
+        found = memo(prim)
+        if found is None:  # no opinion up to the root (of the prototype, in one)
+            return purpose in outer
+        return found == UsdGeom.Tokens.invisible
 
 
 def _binds_here(p: Usd.Prim):

@@ -98,6 +98,7 @@ class Context:
         proxy=None,
         instance_opacity=False,
         outer_uv=None,
+        outer_hidden=frozenset(),
     ):
         self.content = content
         self.space_root = space_root  # transforms are relative to this prim (None: world / native prototype root)
@@ -115,6 +116,9 @@ class Context:
         # ((primvar, (s, t)), ...): constant texture coordinates inherited by a native instance, or None
         self.outer_uv = outer_uv
         self.outer_purpose = outer_purpose  # a non-rendered purpose inherited by a native instance, or None
+        # Drawn purposes that UsdGeomVisibilityAPI opinions on or above the native instance read hide: the prims
+        # inside with no opinion of their own up to the prototype root are hidden for them (Visibility._rendered)
+        self.outer_hidden = outer_hidden
         self.world = world  # the stage itself (cameras and UsdLux lights are read only here)
         # A PointInstancer's prototype whose instancer gives its instances a displayOpacity (Hydra's instance primvar)
         self.instance_opacity = instance_opacity

@@ -32,16 +32,17 @@ class NativeInstanceReading:
         # The walk of each binding purpose from a prim of the prototype goes on through the instance and its
         # ancestors (ComputeBoundMaterial on the instance proxies): what it finds there completes the walks inside.
         binding_prim = self._binding_prim(prim, ctx)
+        hidden = self._hidden_purposes(prim, ctx)
         path = str(prototype.GetPath())
         if self.materials.bindings_above.any(binding_prim) and self.collections_inside.reach(binding_prim):
             # A collection bound above holds some of its proxies and not others: its prims are resolved through
             # this instance's proxies (a copy of the prototype for it), their walks go on to the container's root.
             proxy = (path, str(binding_prim.GetPath()))
-            key = ("native", path, ctx.outer_bindings, purpose, None, proxy, None, None)
-            content = self._content(key, prototype, None, ctx.outer_bindings, purpose, proxy=proxy)
+            key = ("native", path, ctx.outer_bindings, purpose, None, proxy, None, None, hidden)
+            content = self._content(key, prototype, None, ctx.outer_bindings, purpose, proxy=proxy, outer_hidden=hidden)
             ctx.content.outer_purposes |= content.outer_purposes
         else:
-            content, key = self._shared_prototype(prototype, binding_prim, ctx, purpose)
+            content, key = self._shared_prototype(prototype, binding_prim, ctx, purpose, hidden)
         # A constant displayColor (or the colour primvar a material reads) on the instance or above it colours the
         # prototype's meshes that have none, as primvars are inherited through instance proxies (instances of one
         # prototype in different colours).
@@ -99,7 +100,8 @@ class NativeInstanceReading:
         self._read_cameras(prim, self.contents[key].cameras, ctx)
         self._read_lights(prim, self.contents[key].lights, ctx)
 
-    def _shared_prototype(self, prototype: Usd.Prim, binding_prim: Usd.Prim, ctx: Context, purpose) -> tuple:
+    def _shared_prototype(self, prototype: Usd.Prim, binding_prim: Usd.Prim, ctx: Context, purpose,
+                          hidden: frozenset) -> tuple:
         """``(content, key)`` of the prototype of native instance ``binding_prim`` (in its container's namespace,
         see :meth:`_binding_prim`), read once for all instances whose bindings change no walk inside it."""
         missing = set()  # purposes whose walk finds nothing up to the root of this instance's container
@@ -108,11 +110,11 @@ class NativeInstanceReading:
         # Read once without them; again with them where they change a walk inside: one of them is bound
         # strongerThanDescendants, or gives a purpose that some walk inside finds nothing for.
         forced = outer is not None and any(entry.stronger for entry in outer)
-        key = ("native", path, None, purpose, None, None, None, None)
-        content = None if forced else self._content(key, prototype, None, None, purpose)
+        key = ("native", path, None, purpose, None, None, None, None, hidden)
+        content = None if forced else self._content(key, prototype, None, None, purpose, outer_hidden=hidden)
         if forced or (outer is not None and any(entry.purpose in content.outer_purposes for entry in outer)):
-            key = ("native", path, outer, purpose, None, None, None, None)
-            content = self._content(key, prototype, None, outer, purpose)
+            key = ("native", path, outer, purpose, None, None, None, None, hidden)
+            content = self._content(key, prototype, None, outer, purpose, outer_hidden=hidden)
         # Purposes that neither the prototype nor this instance binds: its container's instances may.
         ctx.content.outer_purposes |= content.outer_purposes & missing
         return content, key
@@ -151,12 +153,12 @@ class NativeInstanceReading:
                 self._skip(f"instances inheriting more than {limit} {what} per prototype keep its own {what} (each is "
                            "a copy of the prototype)", prim)
                 return key
-            _, path, outer, purpose, color, proxy, widths, uv = key
+            _, path, outer, purpose, color, proxy, widths, uv, hidden = key
             color, widths = inherited.get("color", color), inherited.get("widths", widths)
             uv = inherited.get("uv", uv)
-            copy = ("native", path, outer, purpose, color, proxy, widths, uv)
+            copy = ("native", path, outer, purpose, color, proxy, widths, uv, hidden)
             self._content(copy, self.stage.GetPrimAtPath(path), None, outer, purpose, outer_color=color,
-                          outer_widths=widths, proxy=proxy, outer_uv=uv)
+                          outer_widths=widths, proxy=proxy, outer_uv=uv, outer_hidden=hidden)
             copies[value] = copy
         return copies[value]
 

@@ -98,10 +98,11 @@ class PointInstancerReading:
 
             def read_with(outer_uv, target=target, parent=parent, purpose=purpose, opaque=target_opacities is None):
                 key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.proxy,
-                       ctx.outer_widths, not opaque, outer_uv)
+                       ctx.outer_widths, not opaque, outer_uv, ctx.outer_hidden)
                 return key, self._content(key, target, parent, ctx.outer_bindings, purpose,
                                           outer_color=ctx.outer_color, outer_widths=ctx.outer_widths, proxy=ctx.proxy,
-                                          instance_opacity=not opaque, outer_uv=outer_uv)
+                                          instance_opacity=not opaque, outer_uv=outer_uv,
+                                          outer_hidden=ctx.outer_hidden)
 
             key, content = read_with(ctx.outer_uv)
             # The prototype's prims walk up through this instancer's ancestors: what they lack, this content lacks.

@@ -80,24 +80,11 @@ class Visibility:
         if not self._visible(prim, ctx.stop):
             return False
         purpose = self._purpose(prim, ctx)
-        return purpose in self.purposes and not self.purpose_visibilities.hidden(prim, purpose)
+        return purpose in self.purposes and not self.purpose_visibilities.hidden(prim, purpose, ctx.outer_hidden)
 
-    def _warn_purpose_visibility_above(self, instance: Usd.Prim, purpose: str):
-        """Names native ``instance`` (of computed ``purpose``) where an opinion on it or above it hides a drawn
-        purpose that the instance or a prim in its prototype has: a prototype is read once for all its instances,
-        from its own root down, so such an opinion does not reach the prims inside."""
-        hidden = [p for p in self.purposes if self.purpose_visibilities.hidden(instance, p)]
-        if not hidden:
-            return
-        prototype = instance.GetPrototype()
-        inside = self.prototype_purposes.get(prototype.GetPath()) if prototype else set()
-        if inside is None:
-            inside = self.prototype_purposes[prototype.GetPath()] = {
-                p.GetAttribute("purpose").Get() for p in Usd.PrimRange(prototype)
-                if p.GetAttribute("purpose").HasAuthoredValue()}
-        hidden = [p for p in hidden if p == purpose or p in inside]
-        if hidden:
-            self._skip("purpose visibility (renderVisibility, proxyVisibility, guideVisibility) authored on or above "
-                       "native instances is not applied to the prims inside them", instance,
-                       ", ".join(f"{purpose}Visibility = invisible" for purpose in hidden))
-
+    def _hidden_purposes(self, instance: Usd.Prim, ctx: Context) -> frozenset:
+        """The drawn purposes that opinions on or above native ``instance`` hide (:meth:`_rendered`), which its
+        prototype's prims without an opinion of their own inherit: USD walks an instance proxy's purpose visibility
+        on through its instance. Only those read apart, a copy of the prototype each; it was read once for all
+        instances, and an instance under renderVisibility = invisible drew its render prims, with a warning."""
+        return frozenset(p for p in self.purposes if self.purpose_visibilities.hidden(instance, p, ctx.outer_hidden))
