@@ -1,6 +1,6 @@
-"""Native instances (``instanceable`` prims): each prototype read once per outer material, purpose, inherited
-colour, inherited width of its points and curves and inherited texture coordinates, and the instance placed as one
-row of its container's instances."""
+"""Native instances (``instanceable`` prims): each prototype read once per outer material, purpose, purposes hidden
+above it (UsdGeomVisibilityAPI), inherited colour, inherited width of its points and curves and inherited texture
+coordinates, and the instance placed as one row of its container's instances."""
 
 from __future__ import annotations
 
