@@ -100,7 +100,8 @@ def test_a_point_instancer_prototype_follows_its_own_purpose_visibility(tmp_path
 def native_stage(tmp_path):
     """Instances of a class /Asset (cubes of render, default and proxy purpose; one render cube under an Xform
     whose renderVisibility = visible re-opens it) under opinions on and above them, one instance nested in another's
-    prototype, and a PointInstancer in the prototype whose prototype cube is of render purpose."""
+    prototype, a PointInstancer in the prototype whose prototype cube is of render purpose, and instances of render
+    purpose (/Group/RI, /Plain/RI, /Hider/RK), whose default cube is then of render purpose too."""
     path = str(tmp_path / "native.usda")
     stage = Usd.Stage.CreateNew(path)
     stage.CreateClassPrim("/Asset")
@@ -125,10 +126,13 @@ def native_stage(tmp_path):
         if opinion is not None:
             UsdGeom.VisibilityAPI.Apply(prim).CreateRenderVisibilityAttr(opinion)
     for name, source in [("/Group/I", "/Asset"), ("/Group/Sub/I", "/Asset"), ("/Self/I", "/Asset"),
-                         ("/Plain/I", "/Asset"), ("/Hider/K", "/Kit"), ("/Plain/K", "/Kit")]:
+                         ("/Plain/I", "/Asset"), ("/Hider/K", "/Kit"), ("/Plain/K", "/Kit"), ("/Group/RI", "/Asset"),
+                         ("/Plain/RI", "/Asset"), ("/Hider/RK", "/Kit")]:
         instance = stage.DefinePrim(name, "Xform")
         instance.GetReferences().AddInternalReference(source)
         instance.SetInstanceable(True)
+        if name.split("/")[-1].startswith("R"):  # of render purpose: the prims inside without one inherit it
+            UsdGeom.Imageable(instance).CreatePurposeAttr("render")
     UsdGeom.VisibilityAPI.Apply(stage.GetPrimAtPath("/Self/I")).CreateRenderVisibilityAttr("invisible")
     stage.Save()
     return path, stage
@@ -147,6 +151,7 @@ def test_opinions_on_and_above_native_instances_reach_the_prims_inside(tmp_path)
                 img.ComputeEffectiveVisibility(img.ComputePurpose()) != UsdGeom.Tokens.invisible:
             expected.add(str(prim.GetPath()))
     assert "/Group/I/R" not in expected and "/Group/I/Open/R2" in expected and "/Self/I/PI/Protos/R3" not in expected
+    assert "/Group/RI/D" not in expected and "/Plain/RI/D" in expected and "/Hider/RK/Inner/D" not in expected
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         scene = wrt.load_usd(path)

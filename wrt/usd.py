@@ -416,7 +416,10 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             # drawn, as USD computes purpose through instance proxies.
             if self._visible(prim, ctx.stop):
                 purpose = self._purpose(prim, ctx)
-                self._read_native_instance(prim, ctx, None if purpose in self.purposes else purpose)
+                hidden = self._hidden_purposes(prim, ctx)
+                # A drawn purpose is handed down only where it is hidden: the prims inside that inherit it are too.
+                handed = None if purpose in self.purposes and purpose not in hidden else purpose
+                self._read_native_instance(prim, ctx, handed, hidden)
                 if prim.IsA(UsdGeom.Gprim) and self._rendered(prim, ctx):
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.

@@ -23,8 +23,9 @@ _NAN = math.nan  # one NaN object, so that a NaN width or st handed down keys on
 class NativeInstanceReading:
     """Native instancing of the stage reader (``contents``, ``materials``)."""
 
-    def _read_native_instance(self, prim: Usd.Prim, ctx: Context, purpose=None):
-        """An instance of a native prototype; ``purpose``: the non-rendered purpose it inherits, if any."""
+    def _read_native_instance(self, prim: Usd.Prim, ctx: Context, purpose=None, hidden: frozenset = frozenset()):
+        """An instance of a native prototype; ``purpose``: the purpose it hands down where not drawn (or hidden), if
+        any; ``hidden``: the drawn purposes opinions on and above it hide (:meth:`_hidden_purposes`)."""
         prototype = prim.GetPrototype()
         if not prototype:
             self._skip("instances without a prototype were skipped", prim)
@@ -32,7 +33,6 @@ class NativeInstanceReading:
         # The walk of each binding purpose from a prim of the prototype goes on through the instance and its
         # ancestors (ComputeBoundMaterial on the instance proxies): what it finds there completes the walks inside.
         binding_prim = self._binding_prim(prim, ctx)
-        hidden = self._hidden_purposes(prim, ctx)
         path = str(prototype.GetPath())
         if self.materials.bindings_above.any(binding_prim) and self.collections_inside.reach(binding_prim):
             # A collection bound above holds some of its proxies and not others: its prims are resolved through
