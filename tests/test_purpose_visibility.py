@@ -156,3 +156,31 @@ def test_opinions_on_and_above_native_instances_reach_the_prims_inside(tmp_path)
         warnings.simplefilter("ignore")
         scene = wrt.load_usd(path)
     assert set(scene.prim_paths()) == expected
+
+
+def test_a_point_instancer_hidden_for_its_purpose_draws_no_instance_of_a_prototype_outside_it(tmp_path):
+    """A PointInstancer of render purpose under renderVisibility = invisible, its prototype under an invisible /Protos
+    (no purpose of its own: it takes the instancer's, as UsdImaging gives it): the instancer is invisible for its
+    purpose, as ComputeEffectiveVisibility says, and an instancer that is not drawn draws no instance; wrt drew them
+    (the prototype's own ancestors have no opinion). The one outside the opinion is drawn."""
+    path = str(tmp_path / "pi_outside.usda")
+    stage = Usd.Stage.CreateNew(path)
+    world = UsdGeom.Xform.Define(stage, "/World")
+    UsdGeom.VisibilityAPI.Apply(world.GetPrim()).CreateRenderVisibilityAttr("invisible")
+    UsdGeom.Scope.Define(stage, "/Protos").MakeInvisible()
+    instancers = {}
+    for name, proto in [("/World/PI", "/Protos/C"), ("/Shown/PI", "/Protos/V")]:
+        UsdGeom.Cube.Define(stage, proto)
+        pi = instancers[name] = UsdGeom.PointInstancer.Define(stage, name)
+        pi.CreatePurposeAttr("render")
+        pi.CreatePrototypesRel().SetTargets([proto])
+        pi.CreateProtoIndicesAttr([0])
+        pi.CreatePositionsAttr([(0, 0, 0)])
+    stage.Save()
+    expected = sorted(str(pi.GetPrototypesRel().GetTargets()[0]) for pi in instancers.values()
+                      if pi.ComputeEffectiveVisibility(pi.ComputePurpose()) != UsdGeom.Tokens.invisible)
+    assert expected == ["/Protos/V"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = wrt.load_usd(path)
+    assert sorted(scene.prim_paths()) == expected

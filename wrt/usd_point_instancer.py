@@ -50,6 +50,9 @@ class PointInstancerReading:
         # The kept instances of each prototype in index order, from one stable sort (a scan of every instance per
         # prototype took 6 s for 10000 prototypes and 1M instances).
         kept = np.flatnonzero(keep)
+        # The purposes hidden on and above the instancer hide its prototypes' prims that have no opinion of their own
+        # up to the root, as they hide a native instance's: an instancer invisible for its purpose drew its instances.
+        hidden = self._hidden_purposes(prim, ctx)
         for path, target, group in zip(targets, protos, group_rows(proto_indices[kept], len(protos))):
             rows = kept[group]
             if len(rows) == 0:
@@ -88,7 +91,7 @@ class PointInstancerReading:
                 continue
             # The prototype's space is its parent's: the root's own transform is the most local part. Its purpose,
             # where nothing in it authors one, is the one its ancestors author (_prototype_purpose).
-            purpose = self._prototype_purpose(target, prim, ctx)
+            purpose = self._prototype_purpose(target, prim, ctx, hidden)
             beneath = target.GetPath().HasPrefix(prim.GetPath())
             # A constant displayOpacity reaches the prototypes beneath the instancer by inheritance, as a constant
             # colour does (below); the instance opacities the others get reach prims without one past a non-constant
@@ -98,11 +101,11 @@ class PointInstancerReading:
 
             def read_with(outer_uv, target=target, parent=parent, purpose=purpose, opaque=target_opacities is None):
                 key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.proxy,
-                       ctx.outer_widths, not opaque, outer_uv, ctx.outer_hidden)
+                       ctx.outer_widths, not opaque, outer_uv, hidden)
                 return key, self._content(key, target, parent, ctx.outer_bindings, purpose,
                                           outer_color=ctx.outer_color, outer_widths=ctx.outer_widths, proxy=ctx.proxy,
                                           instance_opacity=not opaque, outer_uv=outer_uv,
-                                          outer_hidden=ctx.outer_hidden)
+                                          outer_hidden=hidden)
 
             key, content = read_with(ctx.outer_uv)
             # The prototype's prims walk up through this instancer's ancestors: what they lack, this content lacks.

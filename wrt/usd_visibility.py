@@ -64,15 +64,16 @@ class Visibility:
             p = p.GetParent()
         return ctx.outer_purpose or UsdGeom.Tokens.default_
 
-    def _prototype_purpose(self, root: Usd.Prim, instancer: Usd.Prim, ctx: Context):
+    def _prototype_purpose(self, root: Usd.Prim, instancer: Usd.Prim, ctx: Context, hidden: frozenset = frozenset()):
         """The purpose that prototype ``root`` of PointInstancer ``instancer`` (read in ``ctx``) inherits, when it is
-        one not drawn, else None. Purpose, unlike visibility, is inherited through the prototype's own ancestors, the
-        scope holding it too, as ``ComputePurpose`` computes it; where none of them authors one, the instancer's
-        purpose applies, as UsdImaging's instancer adapter gives it (``instanceInheritablePurpose``)."""
+        one not drawn or one of ``hidden`` (the purposes hidden on and above the instancer), else None. Purpose,
+        unlike visibility, is inherited through the prototype's own ancestors, the scope holding it too, as
+        ``ComputePurpose`` computes it; where none of them authors one, the instancer's purpose applies, as
+        UsdImaging's instancer adapter gives it (``instanceInheritablePurpose``)."""
         parent = root.GetParent()
         info = UsdGeom.Imageable(parent).ComputePurposeInfo() if parent and not parent.IsPseudoRoot() else None
         purpose = info.purpose if info is not None and info.isInheritable else self._purpose(instancer, ctx)
-        return None if purpose in self.purposes else purpose
+        return None if purpose in self.purposes and purpose not in hidden else purpose
 
     def _rendered(self, prim: Usd.Prim, ctx: Context) -> bool:
         """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own), and not
