@@ -349,3 +349,14 @@ def test_usd_shaping_out_of_its_range_is_clamped_as_the_schema_says_with_a_warni
 def test_bad_shaping_built_in_python_is_refused(make, message):
     with pytest.raises(wrt.SceneError, match=message.replace("(", r"\(")):
         make()
+
+
+@pytest.mark.parametrize("emits_behind", [True, False])
+@pytest.mark.parametrize("angle", [1e-3, 0.02, 0.1, 0.5, 30.0])
+def test_power_fraction_of_a_hard_cone_is_its_closed_form(angle, emits_behind):
+    """A hard cone of half angle ``a`` lets out ``(1 - cos a) / 2`` of a uniform sphere's power and ``sin^2 a`` of a
+    Lambertian emitter's (float64 closed forms), at any angle > 0: it was 0 below half an integration step."""
+    a = math.radians(angle)
+    expected = (1.0 - math.cos(a)) / 2.0 if emits_behind else math.sin(a) ** 2
+    got = wrt.Shaping(cone_angle=angle).power_fraction(emits_behind)
+    assert got == pytest.approx(expected, rel=1e-5)

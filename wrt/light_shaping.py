@@ -154,7 +154,9 @@ class Shaping:
         cut, start, focus = params if params is not None else (math.pi, math.pi, 0.0)
         top = math.pi if emits_behind else 0.5 * math.pi
         lo, hi = (0.0, top) if self.ies is None else self._ies_span()
-        lo, hi = max(min(lo, hi), 0.0), min(max(lo, hi), top)
+        # Nothing lies past the cut: integrating only up to it keeps a cone narrower than a step (all midpoints
+        # outside it: a power of 0) and a hard edge between two midpoints exact.
+        lo, hi = max(min(lo, hi), 0.0), min(max(lo, hi), top, cut)
         if hi <= lo:
             return 0.0
         step = (hi - lo) / PROFILE_STEPS
