@@ -1255,6 +1255,24 @@ def test_orthographic_camera_of_negative_near_sees_past_a_culled_back_face_behin
 
 
 @pytest.mark.parametrize("integrator", ["path", "whitted"])
+def test_orthographic_camera_clipping_only_behind_its_plane_sees_past_a_culled_back_face(integrator):
+    """As above, with a clipping range entirely behind the camera's plane, (-10, -1): every ray's range ends at a
+    negative ``t``. The culled face at t = -5 was re-traced, but the re-trace was marked by ``t_max > 0`` and its hit
+    never replaced the culled one: the camera drew the back face (prim 0 or 1) instead of the quad beyond it."""
+    back = [[-2, -2, 5], [-2, 2, 5], [2, 2, 5], [2, -2, 5]]  # clockwise seen from +Z, where the rays come from
+    seen = [[-2, -2, 2], [2, -2, 2], [2, 2, 2], [-2, 2, 2]]
+    scene = wrt.Scene(meshes=[
+        wrt.Mesh("/back", np.array(back, np.float32), [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32),
+                 double_sided=False),
+        wrt.Mesh("/seen", np.array(seen, np.float32), [[0, 1, 2], [0, 2, 3]], np.zeros(2, np.int32)),
+    ])
+    camera = wrt.Camera.orthographic(eye=(0, 0, 0), target=(0, 0, -1), height=2.0, clipping_range=(-10.0, -1.0))
+    img = wrt.render(scene, camera=camera, width=6, height=4, device="cpu", integrator=integrator, spp=1)
+    np.testing.assert_array_equal(img.aovs["prim"] // 2, 1)  # triangles 2 and 3: the quad beyond the culled face
+    np.testing.assert_allclose(img.aovs["depth"], -2.0)  # its plane z = 2 lies 2 behind the camera's plane
+
+
+@pytest.mark.parametrize("integrator", ["path", "whitted"])
 def test_orthographic_camera_of_negative_near_sees_a_light_behind_its_plane(integrator):
     """An orthographic camera at z = 0 looking down -Z, its near plane 10 behind it (clipping range (-10, 10)), and a
     RectLight at z = 5, behind the camera's plane, turned to emit along +Z, towards where the rays come from: it fills

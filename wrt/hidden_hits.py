@@ -26,6 +26,10 @@ CULL_EPSILON = wp.constant(1.0e-6)  # relative step past a culled back face befo
 # number times 2, so the new t_min stays normal when unit_ray scales it by 1/2 (Accelerator docstring). An absolute
 # step of 1e-30 passed over whole scenes 1e-30 across, and their camera rays saw nothing behind a culled face.
 CULL_LEAST_STEP = wp.constant(2.0**-125)
+# The t_min of a camera or bounce ray that needs no re-trace: an empty range (traced as a miss without visiting a
+# node) that no re-trace has (those start just past a finite hit). Marked by t_max > 0 before, a clipping range wholly
+# behind an orthographic camera's plane (far <= 0) never took its re-traced hit, and showed the culled back face.
+DECIDED_T_MIN = wp.constant(float("inf"))
 
 
 @wp.func
@@ -215,14 +219,14 @@ def cull_hidden_hits_kernel(
     retry_t_maxs: wp.array[float],
     retries: wp.array[wp.int32],
 ):
-    """Marks rays whose closest hit is not seen (:func:`hidden`): they are re-traced from just past it
-    (``retry_t_maxs > 0``); every other ray gets an empty range. A hit with a coincident partner (:mod:`wrt.twins`)
-    that contains the hit point and is seen there becomes a hit on that partner instead (``hit_u, hit_v, hit_prim``
-    are rewritten in place) when the hit is hidden (the re-trace from past ``t`` would skip the partner too) or, for
-    bounce rays, on the hit's back: they see a two-sided card's other face there, as camera rays do, not the back of
-    the face the tie rule reported."""
+    """Marks rays whose closest hit is not seen (:func:`hidden`): they are re-traced from just past it to their
+    ``t_max``; every other ray gets the empty range from :data:`DECIDED_T_MIN` to 0. A hit with a coincident partner
+    (:mod:`wrt.twins`) that contains the hit point and is seen there becomes a hit on that partner instead (``hit_u,
+    hit_v, hit_prim`` are rewritten in place) when the hit is hidden (the re-trace from past ``t`` would skip the
+    partner too) or, for bounce rays, on the hit's back: they see a two-sided card's other face there, as camera rays
+    do, not the back of the face the tie rule reported."""
     i = wp.tid()
-    retry_t_mins[i] = 0.0
+    retry_t_mins[i] = DECIDED_T_MIN
     retry_t_maxs[i] = 0.0
     prim = hit_prim[i]
     if prim < 0:
@@ -253,7 +257,7 @@ def cull_hidden_hits_kernel(
 
 @wp.kernel
 def merge_hits_kernel(
-    retry_t_maxs: wp.array[float],
+    retry_t_mins: wp.array[float],
     t2: wp.array[float],
     u2: wp.array[float],
     v2: wp.array[float],
@@ -268,9 +272,10 @@ def merge_hits_kernel(
     cost: wp.array[wp.vec2i],
     instance: wp.array[wp.int32],
 ):
-    """Takes the re-traced hit of every culled ray and adds its traversal cost."""
+    """Takes the re-traced hit of every culled ray (``retry_t_mins`` other than :data:`DECIDED_T_MIN`, a miss
+    where its range past the culled hit is empty) and adds its traversal cost."""
     i = wp.tid()
-    if retry_t_maxs[i] > 0.0:
+    if retry_t_mins[i] != DECIDED_T_MIN:
         t[i] = t2[i]
         u[i] = u2[i]
         v[i] = v2[i]
@@ -326,7 +331,7 @@ def intersect_visible(
         wp.launch(
             merge_hits_kernel,
             n,
-            inputs=[scratch.t_maxs, h2.t, h2.u, h2.v, h2.prim, h2.cost, h2.instance],
+            inputs=[scratch.t_mins, h2.t, h2.u, h2.v, h2.prim, h2.cost, h2.instance],
             outputs=[hits.t, hits.u, hits.v, hits.prim, hits.cost, hits.instance],
             device=scratch.device,
         )
