@@ -1508,3 +1508,23 @@ def test_a_light_too_large_for_float32_is_named_with_the_value_past_it_not_its_a
     intensity = UsdLux.SphereLight(stage.GetPrimAtPath("/Point")).GetIntensityAttr().Get()
     assert f"size {width:.3g}: 1" in message and f"intensity {np.pi * radius**2 * intensity:.3g}: 1" in message
     assert "area" not in message, message
+
+
+def test_a_light_placed_past_float32_is_named_for_its_position_not_its_size(tmp_path):
+    """A sphere light of radius 1 translated to x = 1e38 is skipped (its centre does not fit the light table), and the
+    warning named its 'size 1e+38': it names its position, read here through USD's own transform, and the size only
+    of a light whose size is past float32 (a RectLight 1e38 wide at the origin)."""
+    path = tmp_path / "far.usda"
+    path.write_text('#usda 1.0\ndef SphereLight "Far"\n{\n    float inputs:radius = 1\n'
+                    '    double3 xformOp:translate = (1e38, 0, 0)\n'
+                    '    uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n'
+                    'def RectLight "Long"\n{\n    float inputs:width = 1e38\n    float inputs:height = 1\n}\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = wrt.load_usd(path)
+    assert scene.lights == []
+    (message,) = [str(w.message) for w in caught if "to fit in float32 were skipped" in str(w.message)]
+    stage = Usd.Stage.Open(str(path))
+    x = UsdGeom.Xformable(stage.GetPrimAtPath("/Far")).ComputeLocalToWorldTransform(0.0).ExtractTranslation()[0]
+    width = UsdLux.RectLight(stage.GetPrimAtPath("/Long")).GetWidthAttr().Get()
+    assert f"position {x:.3g}: 1" in message and f"size {width:.3g}: 1" in message, message

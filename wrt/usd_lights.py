@@ -249,8 +249,8 @@ def _read_light(prim, to_world, time, up_axis: str, skip, get, textures):
         result = _read_kind(prim, m, color, normalize, path, time, up_axis, skip, get, textures)
         result = _tiny_normalized(result, prim, skip)
         if result is not None and not fits_float32(result):
-            skip("lights too large (a size past 8.5e37, or a point sphere's intensity past 3.4e38) to fit in float32 "
-                 "were skipped", prim, _past_float32(result))
+            skip("lights too large (a position or size past 8.5e37, or a point sphere's intensity past 3.4e38) to fit "
+                 "in float32 were skipped", prim, _past_float32(result))
             result = None
         if shaping is not None:
             result = _shaped(result, shaping, m, prim, skip)
@@ -323,8 +323,9 @@ def fits_float32(light) -> bool:
 
 def _past_float32(light) -> str:
     """What of ``light``, which :func:`fits_float32` refused, passes float32, for the warning: a point sphere's
-    intensity, a line light's length or intensity, else the largest length placing it (its area was named, which
-    need not fit)."""
+    intensity, a line light's length or intensity, else its position, its size or both, whichever is past
+    :data:`LARGEST_LIGHT_LENGTH` (its area was named, which need not fit; then a light placed far away was named for
+    its "size")."""
     with np.errstate(over="ignore", invalid="ignore"):
         if isinstance(light, SphereLight) and light.drawn_as_point:
             # SphereLight.intensity in float64: the float32 one is inf here (normalized ones, color / 4, all fit).
@@ -334,7 +335,10 @@ def _past_float32(light) -> str:
         if isinstance(light, CylinderLight) and light.drawn_as_line:
             return (f"length {float(np.linalg.norm(light.world_shape()[0])):.3g}, intensity "
                     f"{float(np.max(np.abs(light.line_intensity))):.3g}")
-    return f"size {_largest_length(light):.3g}"
+    position, size = (_largest(lengths) for lengths in _placing_lengths(light))
+    past = [f"{name} {value:.3g}" for name, value in (("position", position), ("size", size))
+            if not value < LARGEST_LIGHT_LENGTH]  # NaN included
+    return ", ".join(past) or f"size {size:.3g}"
 
 
 LARGEST_LIGHT_LENGTH = FLOAT32_MAX / 4.0
@@ -343,20 +347,29 @@ LARGEST_LIGHT_LENGTH = FLOAT32_MAX / 4.0
 def _largest_length(light) -> float:
     """The largest magnitude among the lengths that place a sphere, rect, disk or cylinder light (NaN where one is
     NaN), which :func:`fits_float32` keeps below :data:`LARGEST_LIGHT_LENGTH`."""
+    position, shape = _placing_lengths(light)
+    return _largest(position + shape)  # a NaN propagates: it fits nothing
+
+
+def _placing_lengths(light) -> tuple[list, list]:
+    """The lengths that place a sphere, rect, disk or cylinder light: ``(its centre, its shape)`` (edges or radius
+    vectors, axis and radius; an ellipsoid's or elliptic tube's map)."""
     if isinstance(light, SphereLight):
         m = light.ellipsoid()
-        lengths = [light.position, [light.world_radius]] + ([] if m is None else [m])
-    elif isinstance(light, RectLight):
-        lengths = [*light.edges(), light_axes(light.to_world)[3]]
-    elif isinstance(light, DiskLight):
+        return [light.position], [[light.world_radius]] + ([] if m is None else [m])
+    if isinstance(light, RectLight):
+        return [light_axes(light.to_world)[3]], [*light.edges()]
+    if isinstance(light, DiskLight):
         x, y, _, origin = light_axes(light.to_world)
-        lengths = [x * light.radius, y * light.radius, origin]
-    else:
-        m = light.tube()
-        lengths = [*light.world_shape()[:1], [light.world_shape()[1]], light_axes(light.to_world)[3]]
-        lengths += [] if m is None else [m]
-    magnitudes = [np.abs(np.asarray(x, np.float64)).ravel() for x in lengths]
-    return float(np.max(np.concatenate(magnitudes)))  # a NaN propagates: it fits nothing
+        return [origin], [x * light.radius, y * light.radius]
+    m = light.tube()
+    axis, radius = light.world_shape()
+    return [light_axes(light.to_world)[3]], [axis, [radius]] + ([] if m is None else [m])
+
+
+def _largest(lengths: list) -> float:
+    """The largest magnitude in ``lengths`` (vectors or lists of lengths; NaN where one is NaN)."""
+    return float(np.max(np.concatenate([np.abs(np.asarray(x, np.float64)).ravel() for x in lengths])))
 
 
 def _area_underflowed(light) -> bool:
