@@ -83,6 +83,11 @@ def test_help_explains_the_options():
     (["--verison"], "unrecognized arguments: --verison (did you mean '--version'?) (see 'wrt --help')"),
     (["--width", "8", "render"], "unrecognized arguments: --width; it is an option of wrt render, wrt preview: give it "
      "after the command (see 'wrt --help')"),
+    # argparse takes a unique prefix of a command's option after the command: before it, it got no hint.
+    (["--wid", "8", "render"], "unrecognized arguments: --wid; it is an option of wrt render (--width), wrt preview "
+     "(--width): give it after the command (see 'wrt --help')"),
+    (["--sp=4", "render"], "unrecognized arguments: --sp=4; it is an option of wrt render (--spp): give it after the "
+     "command (see 'wrt --help')"),
 ])
 def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsys, args, message):
     """An unknown option after a command was reported by the top parser: 'see wrt --help', which lists commands, not
@@ -92,6 +97,15 @@ def test_an_unknown_option_is_named_by_its_command_with_the_closest_option(capsy
     assert exit_info.value.code == 2
     (line,) = error_lines(capsys.readouterr().err)
     assert line.startswith("wrt: error: ") and line.endswith(message), line
+
+
+def test_the_abbreviations_the_hint_names_are_taken_after_the_command():
+    """argparse itself reads the abbreviations above as the options the hint names, given after the command."""
+    from wrt.cli import build_parser
+
+    render = build_parser().parse_args(["render", "--wid", "8", "--sp=4"])
+    assert (render.width, render.spp) == (8, 4)
+    assert build_parser().parse_args(["preview", "--wid", "8"]).width == 8
 
 
 @pytest.mark.parametrize("args, message", [

@@ -109,12 +109,11 @@ class _Parser(argparse.ArgumentParser):
             if not commands or arg in commands or arg == "--":
                 return
             name = arg.split("=")[0]
-            # Known, or argparse's unambiguous abbreviation of a known one ('--vers' for '--version').
-            known = name in self._option_string_actions or (self.allow_abbrev and name.startswith("--") and len(
-                [o for o in self._option_string_actions if o.startswith(name)]) == 1)
-            if arg.startswith("-") and not known:
-                owners = [command for command, parser in commands.items() if name in parser._option_string_actions]
-                hint = f"; it is an option of {', '.join(f'wrt {c}' for c in owners)}: give it after the command" \
+            if arg.startswith("-") and _option_named(self, name) is None:
+                # A command's option, or its abbreviation ('--wid' for render's '--width'), which argparse takes there.
+                owners = [f"wrt {command}" + ("" if option == name else f" ({option})")
+                          for command, option in ((c, _option_named(p, name)) for c, p in commands.items()) if option]
+                hint = f"; it is an option of {', '.join(owners)}: give it after the command" \
                     if owners else did_you_mean(name, self._option_string_actions)
                 self.error(f"unrecognized arguments: {arg}{hint}")
 
@@ -135,6 +134,17 @@ class _Parser(argparse.ArgumentParser):
             if isinstance(action, argparse._SubParsersAction):
                 return action.choices
         return {}
+
+
+def _option_named(parser: argparse.ArgumentParser, name: str) -> str | None:
+    """The option of ``parser`` that ``name`` selects: itself, or the one long option it abbreviates, as argparse
+    takes an unambiguous prefix ('--vers' for '--version'); None for no option, or an ambiguous prefix."""
+    if name in parser._option_string_actions:
+        return name
+    if parser.allow_abbrev and name.startswith("--"):
+        matches = [o for o in parser._option_string_actions if o.startswith(name)]
+        return matches[0] if len(matches) == 1 else None
+    return None
 
 
 def int_at_least(minimum: int, what: str, maximum: int | None = None):
