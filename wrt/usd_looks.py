@@ -10,7 +10,6 @@ from pxr import Usd, UsdGeom
 from .usd_ancestors import BLOCKED
 from .usd_contents import Context
 from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened, unit_opacities
-from .usd_values import read_time
 
 
 class LookReading:
@@ -52,7 +51,7 @@ class LookReading:
         """The flattened values of ``displayOpacity`` primvar ``primvar`` at the reader's time as float64 (maybe
         none; a constant one's first, see :func:`wrt.usd_primvars.first_of_constant`), or None when they are not an
         array of numbers."""
-        raw = flattened(primvar, read_time(primvar.GetAttr(), self.time), primvar.GetAttr().GetPrim(), self._skip)
+        raw = flattened(primvar, self.time, primvar.GetAttr().GetPrim(), self._skip)
         values = np.asarray(raw if raw is not None else [])
         if values.ndim != 1 or values.dtype.kind not in "fiu":
             return None
@@ -104,8 +103,8 @@ class LookReading:
             if primvar is None:
                 continue
             attr = primvar.GetAttr()
-            holder, time = attr.GetPrim(), read_time(attr, self.time)
-            raw = flattened(primvar, time, holder, self._skip)
+            holder = attr.GetPrim()
+            raw = flattened(primvar, self.time, holder, self._skip)
             if raw is None:  # indices out of range: dropped, with a warning
                 continue
             values = np.asarray(raw)

@@ -12,7 +12,6 @@ from pxr import Sdf, Usd, UsdGeom
 from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Context, instance_looks
 from .usd_primvars import PRIMVAR_DROPPED, flattened
-from .usd_values import read_time
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
 MAX_INHERITED_WIDTHS = 64  # distinct primvars:widths handed down by instances, per native prototype (one copy each)
@@ -169,7 +168,7 @@ class NativeInstanceReading:
         primvar = inherited.get("widths")
         if primvar is None:
             return None
-        values = flattened(primvar, read_time(primvar.GetAttr(), self.time), primvar.GetAttr().GetPrim(), self._skip)
+        values = flattened(primvar, self.time, primvar.GetAttr().GetPrim(), self._skip)
         values = np.asarray(values if values is not None else [], np.float64).reshape(-1)
         if not len(values):
             return None
@@ -201,7 +200,7 @@ class NativeInstanceReading:
         when it holds none or is no array of such vectors (dropped with a warning, as a mesh's own)."""
         attr = primvar.GetAttr()
         holder = attr.GetPrim()
-        raw = flattened(primvar, read_time(attr, self.time), holder, self._skip)
+        raw = flattened(primvar, self.time, holder, self._skip)
         values = np.asarray(raw if raw is not None else [])
         if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu":
             self._skip(f"{attr.GetName()} values that are not an array of 2-, 3- or 4-vectors were ignored", holder,

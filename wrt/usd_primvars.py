@@ -17,11 +17,13 @@ PRIMVAR_DROPPED = ("primvars that do not fit their prim (indices out of range, a
 
 def index_problem(primvar, time: Usd.TimeCode) -> str | None:
     """What is wrong with the indices of indexed ``primvar`` at ``time`` (``displayColor:indices[2] = 5 is out of
-    range for 1 values``), or None: the reason ``ComputeFlattened`` failed (it returns None, with a warning)."""
+    range for 1 values``), or None: the reason ``ComputeFlattened`` failed (it returns None, with a warning). The
+    values and the indices are each read at their :func:`read_time`, as :func:`flattened` reads them."""
     if not primvar.IsIndexed():
         return None
-    indices = np.asarray(primvar.GetIndicesAttr().Get(time) or [], np.int64).reshape(-1)
-    values = primvar.GetAttr().Get(time)
+    values_time, indices_time = read_times(primvar, time)
+    indices = np.asarray(primvar.GetIndicesAttr().Get(indices_time) or [], np.int64).reshape(-1)
+    values = primvar.GetAttr().Get(values_time)
     n = len(values) if values is not None else 0
     bad = (indices < 0) | (indices >= n)
     if not bad.any():
@@ -30,15 +32,44 @@ def index_problem(primvar, time: Usd.TimeCode) -> str | None:
     return f"{primvar.GetPrimvarName()}:indices[{i}] = {indices[i]} is out of range for {n} values"
 
 
+def read_times(primvar, time: Usd.TimeCode) -> tuple:
+    """``(values time, indices time)``: the :func:`read_time` of ``primvar``'s values and of its indices at the
+    reader's ``time``. They differ only at the default time, where one of the two has only time samples (read at
+    its first, as a mesh reads each) and the other a default value."""
+    return read_time(primvar.GetAttr(), time), read_time(primvar.GetIndicesAttr(), time)
+
+
 def flattened(primvar, time: Usd.TimeCode, prim, skip):
-    """``primvar.ComputeFlattened`` at ``time``, or None with a warning (:data:`PRIMVAR_DROPPED`) through ``skip``
-    naming ``prim`` and the index out of range where USD cannot flatten it (it returns None then, and warns)."""
-    raw = primvar.ComputeFlattened(time)
+    """``primvar``'s values flattened through its indices at the reader's ``time``, or None with a warning
+    (:data:`PRIMVAR_DROPPED`) through ``skip`` naming ``prim`` and the index out of range where USD cannot flatten
+    it (``ComputeFlattened`` returns None then, and warns). The values and the indices are each read at their
+    :func:`read_time`, as meshes read them: ``ComputeFlattened`` reads both at one time, so at the default time
+    values with only time samples were read as none (a gprim's sampled displayColor was grey), and indices with
+    only time samples made it raise, which stopped the load of the stage."""
+    values_time, indices_time = read_times(primvar, time)
+    if values_time == indices_time or not primvar.IsIndexed():
+        raw = primvar.ComputeFlattened(values_time)
+    else:
+        raw = _flattened_apart(primvar, values_time, indices_time)
     if raw is None:
         problem = index_problem(primvar, time)
         if problem is not None:
             skip(PRIMVAR_DROPPED, prim, problem)
     return raw
+
+
+def _flattened_apart(primvar, values_time: Usd.TimeCode, indices_time: Usd.TimeCode):
+    """``ComputeFlattened`` of ``primvar`` with its values read at ``values_time`` and its indices at
+    ``indices_time``: the values where there are no indices or they are not an array, None for an index out of
+    range, else the values through the indices (a numpy array)."""
+    values = primvar.GetAttr().Get(values_time)
+    indices = primvar.GetIndicesAttr().Get(indices_time)
+    if values is None or indices is None or not primvar.GetAttr().GetTypeName().isArray:
+        return values
+    indices = np.asarray(indices, np.int64).reshape(-1)
+    if ((indices < 0) | (indices >= len(values))).any():
+        return None
+    return np.asarray(values)[indices]
 
 
 def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
@@ -110,10 +141,8 @@ class FieldReader:
     def field(self, prim, primvar, sizes, components):
         """``(interpolation, (k, components) float64)`` of ``primvar`` (flattened through its indices), or None (with
         a warning) when its elementSize is not 1, an index is out of range or its length does not fit."""
-        time = read_time(primvar.GetAttr(), self.time)
-        raw = primvar.ComputeFlattened(time)
-        if raw is None and (problem := index_problem(primvar, time)) is not None:
-            self.skip(PRIMVAR_DROPPED, prim, problem)
+        raw = flattened(primvar, self.time, prim, self.skip)
+        if raw is None and index_problem(primvar, self.time) is not None:  # (dropped, with a warning)
             return None
         if primvar.GetElementSize() != 1:
             self.skip(f"{primvar.GetPrimvarName()} with elementSize != 1 was ignored", prim)
