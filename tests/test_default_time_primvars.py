@@ -1,7 +1,8 @@
 """With ``time=None`` a colour primvar whose values or indices have only time samples is read at their first sample
 (README: "any value that has only time samples ... is read at its first sample"), on every kind of prim that reads
 one: meshes, gprims, Points, curves, and the constant colour a native instance hands down to its prototype. The
-oracle is USD's own ``Primvar.ComputeFlattened`` at the first sample's time code."""
+oracle is USD's own ``Primvar.ComputeFlattened`` at the first sample's time code. And indices that USD cannot read as
+indices (authored as another type than ``int[]``) drop the primvar on every kind of prim, with a warning."""
 
 from __future__ import annotations
 
@@ -87,3 +88,40 @@ def test_a_colour_with_only_time_samples_is_read_at_its_first_sample_by_default(
         albedos.append(img.aovs["albedo"][4, 4])
     np.testing.assert_allclose(albedos[1], expected, atol=1e-5)  # read at the sample's time: USD's colour
     np.testing.assert_allclose(albedos[0], expected, atol=1e-5)  # and so with no time given
+
+
+@pytest.mark.parametrize("indices_type", ["int64[]", "float[]", "string[]"])
+@pytest.mark.parametrize("kind", ["Mesh", "Cube", "Points", "BasisCurves", "instance", "PointInstancer"])
+def test_indices_of_another_type_than_int_are_dropped_with_a_warning(tmp_path, kind, indices_type):
+    """USD reads no indices from ``primvars:displayColor:indices`` authored as another type than ``int[]``
+    (``ComputeFlattened`` fails): the primvar is dropped with a warning naming the prim and the type, the prim drawn
+    grey as if it had none. Such indices raised in ``ComputeFlattened`` and stopped the load (gprims, Points,
+    curves, instances); meshes and PointInstancers read them as indices, and ``string[]`` ones stopped the load."""
+    path = str(tmp_path / "scene.usda")
+    holder = _stage(path, "Cube" if kind == "PointInstancer" else kind, False)
+    stage = Usd.Stage.Open(path)
+    if kind == "PointInstancer":  # the Cube as the prototype of one instance, nearer the camera; its colour on the
+        # instancer
+        stage.GetPrimAtPath("/Thing").RemoveProperty("primvars:displayColor")
+        instancer = UsdGeom.PointInstancer.Define(stage, "/Instancer")
+        instancer.CreatePrototypesRel().AddTarget("/Thing")
+        instancer.CreatePositionsAttr([(0, 0, 1)])
+        instancer.CreateProtoIndicesAttr([0])
+        primvar = UsdGeom.PrimvarsAPI(instancer).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                               UsdGeom.Tokens.vertex)
+        holder = "/Instancer"
+    else:
+        primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(holder)).GetPrimvar("displayColor")
+    primvar.GetAttr().Clear()
+    primvar.Set(Vt.Vec3fArray([RED, GREEN]))
+    kinds = {"int64[]": (Sdf.ValueTypeNames.Int64Array, Vt.Int64Array([1])),
+             "float[]": (Sdf.ValueTypeNames.FloatArray, Vt.FloatArray([1.0])),
+             "string[]": (Sdf.ValueTypeNames.StringArray, Vt.StringArray(["x"]))}
+    value_type, value = kinds[indices_type]
+    stage.GetPrimAtPath(holder).CreateAttribute("primvars:displayColor:indices", value_type).Set(value)
+    stage.GetRootLayer().Save()
+    assert primvar.IsIndexed() and not primvar.GetIndices()  # USD: indexed, but it reads no indices
+    with pytest.warns(UserWarning, match=rf"(?s)displayColor:indices is {indices_type.replace('[]', '')}.*{holder}"):
+        scene = wrt.load_usd(path)
+    img = wrt.render(scene, camera="/Cam", width=8, height=8, integrator="albedo", device="cpu")
+    np.testing.assert_allclose(img.aovs["albedo"][4, 4], 0.5, atol=1e-5)  # no displayColor: the default grey

@@ -7,7 +7,7 @@ import numpy as np
 from pxr import Sdf, UsdGeom
 
 from .usd_ancestors import BLOCKED
-from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, unit_opacities
+from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, indices_type_problem, unit_opacities
 from .usd_values import value_at
 
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -154,6 +154,9 @@ class MeshPrimvarReading:
 
         # Element ids: through the primvar's indices when it is indexed, else the values themselves.
         indices = None
+        if primvar is not None and (wrong_type := indices_type_problem(primvar)) is not None:
+            self._skip(PRIMVAR_DROPPED, prim, wrong_type)
+            return None
         if primvar is not None and primvar.IsIndexed():
             raw_indices = value_at(primvar.GetIndicesAttr(), self.time)
             indices = np.asarray(raw_indices if raw_indices is not None else [], dtype=np.int64).reshape(-1)

@@ -5,7 +5,7 @@ shared by :mod:`wrt.usd_tubes` and :mod:`wrt.usd_surfaces`."""
 from __future__ import annotations
 
 import numpy as np
-from pxr import Usd
+from pxr import Sdf, Usd
 
 from .usd_problems import authored_type
 from .usd_values import read_time
@@ -21,6 +21,9 @@ def index_problem(primvar, time: Usd.TimeCode) -> str | None:
     values and the indices are each read at their :func:`read_time`, as :func:`flattened` reads them."""
     if not primvar.IsIndexed():
         return None
+    wrong_type = indices_type_problem(primvar)
+    if wrong_type is not None:
+        return wrong_type
     values_time, indices_time = read_times(primvar, time)
     indices = np.asarray(primvar.GetIndicesAttr().Get(indices_time) or [], np.int64).reshape(-1)
     values = primvar.GetAttr().Get(values_time)
@@ -30,6 +33,17 @@ def index_problem(primvar, time: Usd.TimeCode) -> str | None:
         return None
     i = int(np.argmax(bad))
     return f"{primvar.GetPrimvarName()}:indices[{i}] = {indices[i]} is out of range for {n} values"
+
+
+def indices_type_problem(primvar) -> str | None:
+    """Words for the indices of indexed ``primvar`` authored as another type than ``int[]`` (``displayColor:indices
+    is int64[], not int[]``), or None. USD reads no indices from them (``GetIndices`` fails): ``ComputeFlattened``
+    raised, which stopped the load of a stage with such a gprim, Points, curves or native instance, and a mesh read
+    them as indices (a ``string[]`` one stopped the load too)."""
+    kind = primvar.GetIndicesAttr().GetTypeName()
+    if not primvar.IsIndexed() or kind == Sdf.ValueTypeNames.IntArray:
+        return None
+    return f"{primvar.GetPrimvarName()}:indices is {kind}, not int[]"
 
 
 def read_times(primvar, time: Usd.TimeCode) -> tuple:
@@ -46,6 +60,10 @@ def flattened(primvar, time: Usd.TimeCode, prim, skip):
     :func:`read_time`, as meshes read them: ``ComputeFlattened`` reads both at one time, so at the default time
     values with only time samples were read as none (a gprim's sampled displayColor was grey), and indices with
     only time samples made it raise, which stopped the load of the stage."""
+    wrong_type = indices_type_problem(primvar)
+    if wrong_type is not None:
+        skip(PRIMVAR_DROPPED, prim, wrong_type)
+        return None
     values_time, indices_time = read_times(primvar, time)
     if values_time == indices_time or not primvar.IsIndexed():
         raw = primvar.ComputeFlattened(values_time)
@@ -186,4 +204,4 @@ class FieldReader:
 
 
 __all__ = ["CONSTANT_OF_SEVERAL", "PRIMVAR_DROPPED", "FieldReader", "finite_colors", "first_of_constant", "flattened",
-           "index_problem", "unit_opacities"]
+           "index_problem", "indices_type_problem", "unit_opacities"]
