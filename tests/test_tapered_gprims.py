@@ -463,3 +463,20 @@ def test_a_capsule_fills_the_extent_usd_computes_for_it(tmp_path, radii, axis):
     local = to_local(path, corners @ shape.to_world[:3, :3].T + shape.to_world[:3, 3])
     np.testing.assert_allclose(local.min(axis=0), np.array(extent[0]), atol=1e-6)
     np.testing.assert_allclose(local.max(axis=0), np.array(extent[1]), atol=1e-6)
+
+
+@pytest.mark.parametrize("radii", [(0.0, 1.0), (1.0, 0.0)], ids=["point at the bottom", "point at the top"])
+def test_a_capsule_whose_point_end_lies_on_its_sphere_tessellates_to_usds_extent(tmp_path, radii):
+    """A ``Capsule_1`` ending in a point (one radius 0) whose height is tiny beside its radius: the point lies on
+    the sphere tangent to the cone there (the tangent latitude rounds to the pole), so the shape is that sphere, as
+    USD's extent has it. Tessellated, its profile held two poles in a row, which the lathe joined with a ring of
+    triangles to points past the end of the array: ``load_usd(tessellate_gprims=True)`` raised an IndexError."""
+    path = write_stage(tmp_path / "g.usda", "Capsule_1", 1e-9, *radii)
+    stage = Usd.Stage.Open(path)
+    extent = np.array(UsdGeom.Boundable.ComputeExtentFromPlugins(UsdGeom.Boundable(stage.GetPrimAtPath("/G")),
+                                                                Usd.TimeCode.Default()))
+    points, _ = load(path, tessellate_gprims=64).triangles()
+    local = to_local(path, np.asarray(points, np.float64))
+    size = np.linalg.norm(extent[1] - extent[0])
+    np.testing.assert_allclose(local.min(axis=0), extent[0], atol=1e-6 * size)
+    np.testing.assert_allclose(local.max(axis=0), extent[1], atol=1e-6 * size)

@@ -734,6 +734,8 @@ def tessellate(shape: Shape, segments: int = DEFAULT_SEGMENTS):
             a, b = index[k], index[k + 1]
             i = np.arange(segments)
             j = (i + 1) % segments
+            if r0 == 0.0 and r1 == 0.0:  # two poles in a row (a tapered capsule whose point end lies on its sphere)
+                continue
             if r0 == 0.0:
                 triangles.append(np.stack([np.full(segments, a), b + j, b + i], 1))
             elif r1 == 0.0:
