@@ -2,7 +2,8 @@
 (README: "any value that has only time samples ... is read at its first sample"), on every kind of prim that reads
 one: meshes, gprims, Points, curves, and the constant colour a native instance hands down to its prototype. The
 oracle is USD's own ``Primvar.ComputeFlattened`` at the first sample's time code. And indices that USD cannot read as
-indices (authored as another type than ``int[]``) drop the primvar on every kind of prim, with a warning."""
+indices (authored as another type than ``int[]``), and colours authored as quaternions, drop the primvar on every
+kind of prim, with a warning."""
 
 from __future__ import annotations
 
@@ -122,6 +123,36 @@ def test_indices_of_another_type_than_int_are_dropped_with_a_warning(tmp_path, k
     stage.GetRootLayer().Save()
     assert primvar.IsIndexed() and not primvar.GetIndices()  # USD: indexed, but it reads no indices
     with pytest.warns(UserWarning, match=rf"(?s)displayColor:indices is {indices_type.replace('[]', '')}.*{holder}"):
+        scene = wrt.load_usd(path)
+    img = wrt.render(scene, camera="/Cam", width=8, height=8, integrator="albedo", device="cpu")
+    np.testing.assert_allclose(img.aovs["albedo"][4, 4], 0.5, atol=1e-5)  # no displayColor: the default grey
+
+
+@pytest.mark.parametrize("kind", ["Mesh", "Cube", "Points", "BasisCurves", "instance", "PointInstancer"])
+def test_a_display_color_of_quaternions_is_dropped_with_a_warning_on_every_prim(tmp_path, kind):
+    """A ``quatf[]`` displayColor is no array of colours (USD's type is ``GfQuatf``, not a vector), whatever numpy
+    makes of it: every prim drops it with a warning naming the type and draws the default grey, as meshes did. Other
+    prims took its four numbers as an rgba (the identity quaternion as black) without a word."""
+    path = str(tmp_path / "scene.usda")
+    holder = _stage(path, "Cube" if kind == "PointInstancer" else kind, False)
+    stage = Usd.Stage.Open(path)
+    if kind == "PointInstancer":  # the Cube as the prototype of one instance, nearer the camera
+        stage.GetPrimAtPath(holder).RemoveProperty("primvars:displayColor")
+        instancer = UsdGeom.PointInstancer.Define(stage, "/Instancer")
+        instancer.CreatePrototypesRel().AddTarget(holder)
+        instancer.CreatePositionsAttr([(0, 0, 1)])
+        instancer.CreateProtoIndicesAttr([0])
+        holder = "/Instancer"
+    stage.GetRootLayer().Save()
+    layer = Sdf.Layer.FindOrOpen(path)
+    spec = layer.GetPrimAtPath(holder)
+    if "primvars:displayColor" in spec.properties:
+        del spec.properties["primvars:displayColor"]
+    colour = Sdf.AttributeSpec(spec, "primvars:displayColor", Sdf.ValueTypeNames.QuatfArray)
+    colour.default = Vt.QuatfArray([Gf.Quatf(1.0)])  # the identity: (0, 0, 0) imaginary, 1 real
+    colour.SetInfo("interpolation", UsdGeom.Tokens.constant)
+    layer.Save()
+    with pytest.warns(UserWarning, match=rf"(?s)quatf\[\].*{holder}"):
         scene = wrt.load_usd(path)
     img = wrt.render(scene, camera="/Cam", width=8, height=8, integrator="albedo", device="cpu")
     np.testing.assert_allclose(img.aovs["albedo"][4, 4], 0.5, atol=1e-5)  # no displayColor: the default grey

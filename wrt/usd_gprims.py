@@ -20,7 +20,7 @@ from .primitives import (
 from .scene import Mesh
 from .tubes import width_axis
 from .usd_contents import Content, Context, instance_looks
-from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened
+from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened, quaternion_typed
 from .usd_problems import BEYOND_FLOAT32
 from .usd_values import value_at
 from .usd_xforms import affine_part
@@ -80,7 +80,8 @@ class GprimReading:
             self._skip(PRIMVAR_DROPPED, prim, f"{name} has 0 values; {interpolation} interpolation needs some")
             return None
         values = np.asarray(raw)
-        if values.ndim != 2 or values.shape[1] not in (3, 4) or values.dtype.kind not in "fiu":
+        if (values.ndim != 2 or values.shape[1] not in (3, 4) or values.dtype.kind not in "fiu"
+                or quaternion_typed(primvar.GetAttr(), t)):
             self._skip(f"{name} values that are not an array of 3-vectors were ignored", prim,
                        f"{self._authored_type(primvar.GetAttr())} holding {type(raw).__name__}")
             return None

@@ -9,7 +9,7 @@ from pxr import Usd, UsdGeom
 
 from .usd_ancestors import BLOCKED
 from .usd_contents import Context
-from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened, unit_opacities
+from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened, quaternion_typed, unit_opacities
 
 
 class LookReading:
@@ -111,7 +111,8 @@ class LookReading:
             if values.size == 0:
                 self._skip(PRIMVAR_DROPPED, holder, f"{attr.GetName()} has 0 values; constant interpolation needs 1")
                 continue
-            if values.ndim != 2 or values.shape[1] not in (3, 4) or values.dtype.kind not in "fiu":
+            if (values.ndim != 2 or values.shape[1] not in (3, 4) or values.dtype.kind not in "fiu"
+                    or quaternion_typed(attr, self.time)):
                 self._skip(f"{attr.GetName()} values that are not an array of 3-vectors were ignored", holder,
                            f"{self._authored_type(attr)} holding {type(raw).__name__}")
                 continue

@@ -12,7 +12,7 @@ from .light_links import part_path
 from .usd_contents import Content, Context, instance_looks, placed_indices, placements
 from .usd_lights import read_light, sphere_inputs
 from .usd_placed_lights import placed_lights
-from .usd_primvars import finite_colors, indices_type_problem, unit_opacities
+from .usd_primvars import finite_colors, indices_type_problem, quaternion_typed, unit_opacities
 from .usd_values import held_value, spun_rotations, value_at
 
 MISSING_PROTOTYPE = "missing"  # a prototypes target that names no prim (its instances are skipped)
@@ -449,7 +449,8 @@ class PointInstancerReading:
         if values.ndim == 1:  # an array of numbers
             values = values[:, None]
         unreadable = f"PointInstancer {name} that cannot be read was ignored"
-        if values.ndim != 2 or values.shape[1] not in widths or primvar.GetElementSize() != 1:
+        if (values.ndim != 2 or values.shape[1] not in widths or primvar.GetElementSize() != 1
+                or quaternion_typed(primvar.GetAttr(), self.time)):
             self._skip(unreadable, prim, f"{primvar.GetTypeName()} of elementSize {primvar.GetElementSize()}")
             return None
         if (wrong_type := indices_type_problem(primvar)) is not None:

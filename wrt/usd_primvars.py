@@ -90,6 +90,14 @@ def _flattened_apart(primvar, values_time: Usd.TimeCode, indices_time: Usd.TimeC
     return np.asarray(values)[indices]
 
 
+def quaternion_typed(attr: Usd.Attribute, time: Usd.TimeCode) -> bool:
+    """Whether ``attr`` is authored as quaternions (``quatf[]``, ``quatd[]``, ``quath[]``): numpy reads them as
+    4-vectors (the imaginary part first), which a colour took as its rgb without a word (the identity's is black);
+    a mesh drops such a colour primvar as no array of 3- or 4-vectors, and so do the other readers."""
+    authored = Sdf.ValueTypeNames.Find(authored_type(attr, time))
+    return "Quat" in (authored or attr.GetTypeName()).cppTypeName
+
+
 def finite_colors(values: np.ndarray, prim, name: str, skip) -> np.ndarray:
     """``values`` (rows of colour primvar ``name``), the rows that are not finite replaced by grey 0.5 with a warning
     through ``skip`` naming ``prim``: NaN or inf would render as a wrong colour; gprims fall back to grey too."""
@@ -182,7 +190,7 @@ class FieldReader:
             values = np.zeros((0, components))
         elif values.dtype.kind in "fiu":
             values = values.astype(np.float64).reshape(len(values) if values.ndim else 1, -1)
-        if values.dtype.kind not in "fiu" or values.shape[1] not in shape:
+        if values.dtype.kind not in "fiu" or values.shape[1] not in shape or quaternion_typed(attr, self.time):
             self.skip(f"{name} values that are not an array of {components}-vectors were ignored", prim,
                       f"{authored_type(attr, self.time)} holding {type(raw).__name__}")
             return None
@@ -204,4 +212,5 @@ class FieldReader:
 
 
 __all__ = ["CONSTANT_OF_SEVERAL", "PRIMVAR_DROPPED", "FieldReader", "finite_colors", "first_of_constant", "flattened",
-           "index_problem", "indices_type_problem", "unit_opacities"]
+           "index_problem", "indices_type_problem", "quaternion_typed",
+           "unit_opacities"]
