@@ -445,10 +445,14 @@ class PointInstancerReading:
         and what was expected, when it cannot be used: another type, interpolation, or a length other than ``n``."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
         raw = read(primvar.GetAttr(), self.time)
-        values = np.asarray(raw if raw is not None else [], np.float64)
+        unreadable = f"PointInstancer {name} that cannot be read was ignored"
+        try:
+            values = np.asarray(raw if raw is not None else [], np.float64)
+        except (TypeError, ValueError):  # no numbers (strings, tokens, asset paths): it stopped the load
+            self._skip(unreadable, prim, f"{primvar.GetTypeName()} holding {type(raw).__name__}")
+            return None
         if values.ndim == 1:  # an array of numbers
             values = values[:, None]
-        unreadable = f"PointInstancer {name} that cannot be read was ignored"
         if (values.ndim != 2 or values.shape[1] not in widths or primvar.GetElementSize() != 1
                 or quaternion_typed(primvar.GetAttr(), self.time)):
             self._skip(unreadable, prim, f"{primvar.GetTypeName()} of elementSize {primvar.GetElementSize()}")

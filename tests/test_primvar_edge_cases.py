@@ -1,12 +1,14 @@
-"""With ``time=None`` a colour primvar whose values or indices have only time samples is read at their first sample
-(README: "any value that has only time samples ... is read at its first sample"), on every kind of prim that reads
-one: meshes, gprims, Points, curves, and the constant colour a native instance hands down to its prototype. The
-oracle is USD's own ``Primvar.ComputeFlattened`` at the first sample's time code. And indices that USD cannot read as
-indices (authored as another type than ``int[]``), and colours authored as quaternions, drop the primvar on every
-kind of prim, with a warning."""
+"""Primvar edge cases on every kind of prim that reads one (meshes, gprims, Points, curves, native instances,
+PointInstancers). With ``time=None`` a colour primvar whose values or indices have only time samples is read at their
+first sample (README: "any value that has only time samples ... is read at its first sample"); the oracle is USD's own
+``Primvar.ComputeFlattened`` at the first sample's time code. Indices that USD cannot read as indices (authored as
+another type than ``int[]``), colours authored as quaternions and PointInstancer opacities that hold no numbers drop
+the primvar with a warning: none stops the load.
+"""
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -156,3 +158,32 @@ def test_a_display_color_of_quaternions_is_dropped_with_a_warning_on_every_prim(
         scene = wrt.load_usd(path)
     img = wrt.render(scene, camera="/Cam", width=8, height=8, integrator="albedo", device="cpu")
     np.testing.assert_allclose(img.aovs["albedo"][4, 4], 0.5, atol=1e-5)  # no displayColor: the default grey
+
+
+@pytest.mark.parametrize("value_type", ["string[]", "token[]", "asset[]", "string"])
+def test_a_point_instancers_opacity_that_holds_no_numbers_is_dropped_with_a_warning(tmp_path, value_type):
+    """A PointInstancer's ``displayOpacity`` authored with values that are no numbers (strings, tokens, asset paths)
+    is dropped with a warning naming the instancer and the type, its instance drawn opaque in the default grey:
+    converting them to floats raised, and the load of the whole stage stopped with SceneError."""
+    path = str(tmp_path / "scene.usda")
+    holder = _stage(path, "Cube", False)
+    stage = Usd.Stage.Open(path)
+    stage.GetPrimAtPath(holder).RemoveProperty("primvars:displayColor")
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Instancer")
+    instancer.CreatePrototypesRel().AddTarget(holder)
+    instancer.CreatePositionsAttr([(0, 0, 1)])  # nearer the camera than the prototype itself
+    instancer.CreateProtoIndicesAttr([0])
+    kinds = {"string[]": (Sdf.ValueTypeNames.StringArray, Vt.StringArray(["half"])),
+             "token[]": (Sdf.ValueTypeNames.TokenArray, Vt.TokenArray(["half"])),
+             "asset[]": (Sdf.ValueTypeNames.AssetArray, Sdf.AssetPathArray([Sdf.AssetPath("half.png")])),
+             "string": (Sdf.ValueTypeNames.String, "half")}
+    value_type_name, value = kinds[value_type]
+    opacity = instancer.GetPrim().CreateAttribute("primvars:displayOpacity", value_type_name)
+    opacity.Set(value)
+    opacity.SetMetadata("interpolation", UsdGeom.Tokens.constant)
+    stage.GetRootLayer().Save()
+    with pytest.warns(UserWarning, match=rf"(?s)PointInstancer displayOpacity.*{re.escape(value_type)}.*/Instancer"):
+        scene = wrt.load_usd(path)
+    img = wrt.render(scene, camera="/Cam", width=8, height=8, integrator="albedo", device="cpu")
+    np.testing.assert_allclose(img.aovs["albedo"][4, 4], 0.5, atol=1e-5)
+    assert img.aovs["coverage"][4, 4] == 1.0  # opaque
