@@ -313,6 +313,25 @@ def Scope "Render" {
 
 
 
+
+@pytest.mark.parametrize("authored", ['string includedPurposes = "guide"', "asset includedPurposes = @guide@",
+                                      'string materialBindingPurposes = "full"', "int[] includedPurposes = [1]"])
+def test_purposes_that_are_no_array_of_tokens_raise_a_scene_error_naming_them(tmp_path, authored):
+    """``includedPurposes`` and ``materialBindingPurposes`` are ``token[]`` in USD's schema; authored as a ``string``
+    the purposes were its letters (``"guide"`` drew no guide prim, without a word), as an ``asset`` the load stopped
+    with a TypeError. Like the settings' other values of the wrong type, a SceneError names the file, the prim and
+    the attribute."""
+    from pxr import Usd
+
+    stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS + "\n        uniform " + authored)
+    name = authored.split()[1]
+    opened = Usd.Stage.Open(str(stage))
+    definition = opened.GetPrimAtPath("/Render/Settings").GetPrimDefinition()
+    assert str(definition.GetSchemaAttributeSpec(name).typeName) == "token[]"  # USD's type, which is not authored
+    with pytest.raises(wrt.SceneError, match=rf"stage.usda.*/Render/Settings.*{name} must be an array of tokens"):
+        wrt.load_usd(stage)
+
+
 def test_blocked_settings_values_are_the_schemas_fallbacks(tmp_path):
     """A value block (``= None``) on the settings is no value: the schema's fallback, as USD's prim definition gives
     it, as where nothing is authored; on a product, the settings' value, which it does not override. A blocked

@@ -300,13 +300,15 @@ def read_render_settings(stage, source: str, path: str | None = None, time=None)
     path = str(path)
     settings = UsdRender.Settings(prim)
     base = _read_base(settings, time, authored_only=False)
-    included = [str(t) for t in value_or_fallback(settings.GetIncludedPurposesAttr(), time) or []]
+    where = dict(path=source, prim=path)
+    included = _tokens(settings.GetIncludedPurposesAttr(), value_or_fallback(settings.GetIncludedPurposesAttr(), time),
+                       where)
     base["included_purposes"] = ("default", *(t for t in included if t != "default"))  # default: always drawn
     binding_purposes = settings.GetMaterialBindingPurposesAttr()
     if binding_purposes.HasAuthoredValue():
-        base["material_binding_purposes"] = tuple(str(t) for t in value_at(binding_purposes, time) or [])
+        base["material_binding_purposes"] = _tokens(binding_purposes, value_at(binding_purposes, time), where)
     base["rendering_color_space"] = str(value_at(settings.GetRenderingColorSpaceAttr(), time) or "")
-    _check_values(base, dict(path=source, prim=path))
+    _check_values(base, where)
     _warn_color_space(base["rendering_color_space"], f"{name}: {path}")
     products = []
     for prim in _targets(stage, settings.GetProductsRel(), UsdRender.Product, f"{name}: {path}"):
@@ -409,6 +411,19 @@ def _read_base(schema, time, authored_only: bool) -> dict:
             value = str(value)
         values[field] = value
     return values
+
+
+def _tokens(attr, value, where: dict) -> tuple:
+    """``value`` of token-array attribute ``attr`` (``includedPurposes``, ``materialBindingPurposes``) as a tuple of
+    str (none for no value), or SceneError (``where``: file and prim) naming it when it is no array of tokens or
+    strings: a ``string`` one was read letter by letter ("render" as the purposes r, e, n, d, ...), and one that
+    cannot be iterated (an ``asset``) stopped the load with a TypeError."""
+    if value is None:
+        return ()
+    items = list(value) if not isinstance(value, (str, bytes)) and hasattr(value, "__iter__") else None
+    if items is None or not all(isinstance(item, str) for item in items):
+        raise SceneError(f"{attr.GetName()} must be an array of tokens, got {value!r}", **where)
+    return tuple(items)
 
 
 def _is_number(value) -> bool:
