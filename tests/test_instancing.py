@@ -2411,3 +2411,37 @@ def test_an_unused_nan_or_inf_point_leaves_the_prototype_box_check_on(unused):
         scene.check_instance_boxes()
     with pytest.raises(ValueError, match=message):
         check_finite_transforms(scene)
+
+
+@pytest.mark.parametrize("name, value_type, values", [
+    ("invisibleIds", "int[]", [1]), ("invisibleIds", "float[]", [1.0]), ("invisibleIds", "string[]", ["x"]),
+    ("ids", "int[]", [7, 8, 9]), ("ids", "float[]", [7.0, 8.0, 9.0]), ("ids", "string[]", ["7", "8", "9"])])
+def test_ids_of_another_type_than_int64_are_ignored_as_usds_mask_ignores_them(tmp_path, name, value_type, values):
+    """``invisibleIds`` and ``ids`` are ``int64[]``: ``ComputeMaskAtTime`` (Hydra's mask) reads no values from one of
+    another type, so it hides nothing (invisibleIds), or names the instances by index (ids). wrt read them as ids
+    anyway (an int[] invisibleIds hid an instance USD draws; float ids hid none where USD hides one by index), and
+    letters stopped the load with SceneError; now they are ignored with a warning naming the instancer and type."""
+    path = str(tmp_path / "ids.usda")
+    stage = Usd.Stage.CreateNew(path)
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    UsdGeom.Cube.Define(stage, "/PI/P")
+    pi.CreatePrototypesRel().AddTarget("/PI/P")
+    pi.CreatePositionsAttr([(0, 0, 0), (3, 0, 0), (6, 0, 0)])
+    pi.CreateProtoIndicesAttr([0, 0, 0])
+    if name == "ids":
+        pi.CreateInvisibleIdsAttr(Vt.Int64Array([1]))  # by index (USD, as ids are unread): the middle one
+    stage.GetRootLayer().Save()
+    layer = Sdf.Layer.FindOrOpen(path)
+    types = {"int[]": (Sdf.ValueTypeNames.IntArray, Vt.IntArray),
+             "float[]": (Sdf.ValueTypeNames.FloatArray, Vt.FloatArray),
+             "string[]": (Sdf.ValueTypeNames.StringArray, Vt.StringArray)}
+    value_type_name, array = types[value_type]
+    Sdf.AttributeSpec(layer.GetPrimAtPath("/PI"), name, value_type_name).default = array(values)
+    layer.Save()
+    stage = Usd.Stage.Open(path)
+    mask = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).ComputeMaskAtTime(Usd.TimeCode.Default())
+    expected = [0.0, 6.0] if name == "ids" else [0.0, 3.0, 6.0]
+    assert [x for x, keep in zip([0.0, 3.0, 6.0], mask or [True] * 3) if keep] == expected  # USD's mask
+    with pytest.warns(UserWarning, match=rf"(?s){name} of another type than int64\[\].*/PI"):
+        scene = wrt.load_usd(path)
+    np.testing.assert_allclose(sorted(scene.instances.to_world[:, 0, 3]), expected)

@@ -327,12 +327,12 @@ class PointInstancerReading:
         # default-time rule, as positions are: ComputeMaskAtTime read the ids (or protoIndices, without ids) at
         # invisibleIds' time, so at the default time a still invisibleIds beside sampled ids found none and hid nothing.
         inactive = prim.GetMetadata("inactiveIds")
-        invisible = value_at(pi.GetInvisibleIdsAttr(), self.time)
+        invisible = self._ids_array(prim, pi.GetInvisibleIdsAttr(), "hide no instance")
         named = np.union1d(np.asarray(inactive.explicitItems if inactive else [], np.int64),
                            np.asarray(invisible if invisible is not None else [], np.int64).reshape(-1))
         if len(named) == 0:
             return keep
-        ids = value_at(pi.GetIdsAttr(), self.time)
+        ids = self._ids_array(prim, pi.GetIdsAttr(), "name no instance: instances are named by index")
         if ids is None:  # unauthored, or blocked at this time: instances are named by index
             ids = np.arange(n)
         shown = ~np.isin(np.asarray(ids, np.int64).reshape(-1), named)
@@ -348,6 +348,18 @@ class PointInstancerReading:
             return None
         keep &= shown
         return keep
+
+    def _ids_array(self, prim: Usd.Prim, attr: Usd.Attribute, meaning: str):
+        """``attr`` (``invisibleIds`` or ``ids``) at the reader's time, or None where it has no value or is of another
+        type than ``int64[]`` (with a warning saying what that ``meaning``s): ``ComputeMaskAtTime`` reads no values
+        from an ``int[]``, ``float[]`` or ``string[]`` one (Hydra's mask), where wrt read them as ids (invisibleIds
+        hid instances USD draws), and letters stopped the load with SceneError."""
+        raw = value_at(attr, self.time)
+        if raw is not None and not isinstance(raw, Vt.Int64Array):
+            self._skip(f"PointInstancer {attr.GetName()} of another type than int64[] were ignored, as USD ignores "
+                       f"them: they {meaning}", prim, f"{attr.GetName()} is {self._authored_type(attr)}")
+            return None
+        return raw
 
     @staticmethod
     def _constant_primvar(prim: Usd.Prim, name: str) -> bool:
