@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import glob
 import os
+import re
 import warnings
 
 import numpy as np
@@ -20,7 +21,7 @@ pxr = pytest.importorskip("pxr")
 import warp.examples  # noqa: E402
 from binding_oracle import compare, face_material, material_key, rendered_rows  # noqa: E402
 from binding_stages import preview_material, tint_material, write_stage  # noqa: E402
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade  # noqa: E402
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt  # noqa: E402
 
 import wrt  # noqa: E402
 
@@ -290,3 +291,36 @@ def test_material_binding_purposes_walk_through_an_instance(tmp_path):
     want = UsdShade.MaterialBindingAPI(proxy).ComputeBoundMaterial(UsdShade.Tokens.preview)[0].GetPath()
     assert str(want) == "/Looks/Outer"
     assert drawn == {("/World/I/Mesh", 0): "/Looks/Outer"}
+
+
+@pytest.mark.parametrize("value_type", ["int64[]", "float[]", "string", "string[]"])
+def test_a_materialbind_subset_whose_indices_are_not_int_binds_no_face(tmp_path, value_type):
+    """A ``materialBind`` subset's ``indices`` are ``int[]``; USD reads none from another type (its own
+    ``GetUnassignedIndices`` leaves every face unassigned), so the subset binds no face and the mesh keeps its own
+    look, with a warning naming the subset and the type. wrt read them as faces (``float[] [0.5]`` and ``string "0"``
+    as face 0), and ``string[]`` ones stopped the load with SceneError."""
+    path = str(tmp_path / "subset.usda")
+    stage = Usd.Stage.CreateNew(path)
+    mesh = UsdGeom.Mesh.Define(stage, "/M")
+    mesh.CreatePointsAttr([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([3, 3])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 0, 2, 3])
+    subset = UsdGeom.Subset.Define(stage, "/M/Red")
+    subset.CreateElementTypeAttr(UsdGeom.Tokens.face)
+    subset.CreateFamilyNameAttr(UsdShade.Tokens.materialBind)
+    UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(preview_material(stage, "/Looks/Red", (0.9, 0.1, 0.1)))
+    stage.GetRootLayer().Save()
+    types = {"int64[]": (Sdf.ValueTypeNames.Int64Array, Vt.Int64Array([0])),
+             "float[]": (Sdf.ValueTypeNames.FloatArray, Vt.FloatArray([0.5])),
+             "string": (Sdf.ValueTypeNames.String, "0"),
+             "string[]": (Sdf.ValueTypeNames.StringArray, Vt.StringArray(["x"]))}
+    value_type_name, value = types[value_type]
+    layer = Sdf.Layer.FindOrOpen(path)
+    Sdf.AttributeSpec(layer.GetPrimAtPath("/M/Red"), "indices", value_type_name).default = value
+    layer.Save()
+    stage = Usd.Stage.Open(path)
+    red = UsdGeom.Subset(stage.GetPrimAtPath("/M/Red"))
+    assert list(UsdGeom.Subset.GetUnassignedIndices([red], 2, Usd.TimeCode.Default())) == [0, 1]  # USD: no face
+    with pytest.warns(UserWarning, match=rf"(?s)indices are not int\[\].*indices is {re.escape(value_type)}.*/M/Red"):
+        scene = wrt.load_usd(path)
+    assert (scene.triangle_materials() == 0).all()  # every face of the mesh's own (default) look

@@ -930,7 +930,9 @@ class MaterialReader:
         own binding, its subsets ignored with a warning). A ``materialBind`` subset's faces take the subset's
         material (its walk passes through the mesh: a subset that binds nothing has the mesh's). ``outer``,
         ``missing``: see :meth:`bound`."""
-        from pxr import UsdGeom, UsdShade
+        from pxr import UsdGeom, UsdShade, Vt
+
+        from .usd_problems import authored_type
 
         material, _ = self.bound(prim, outer, missing)
         faces = np.full(n_faces, self.material_index(material) if material else -1, np.int32)
@@ -950,7 +952,14 @@ class MaterialReader:
                 self.skip("materialBind subsets whose elementType is not face were ignored", subset.GetPrim(),
                           f"elementType = {element_type!r}")
                 continue
-            indices = value_at(UsdGeom.Subset(subset.GetPrim()).GetIndicesAttr(), self.time)
+            indices_attr = UsdGeom.Subset(subset.GetPrim()).GetIndicesAttr()
+            indices = value_at(indices_attr, self.time)
+            if indices is not None and not isinstance(indices, Vt.IntArray):
+                # USD reads no indices from them (GetUnassignedIndices leaves every face unassigned): wrt read them
+                # as faces (a float[] or a string "0"), and letters stopped the load with SceneError.
+                self.skip("materialBind subsets whose indices are not int[] were ignored, as USD reads none from them",
+                          subset.GetPrim(), f"indices is {authored_type(indices_attr, self.time)}")
+                continue
             indices = np.asarray(indices if indices is not None else [], np.int64).reshape(-1)
             # Faces the mesh has not got: they were dropped without a word.
             outside = (indices < 0) | (indices >= n_faces)
