@@ -227,6 +227,14 @@ def test_curves_are_no_longer_skipped_and_move_with_time(tmp_path):
         (nurbs_body("N", CIRCLE, 3, CIRCLE_KNOTS[:-1] + [float("nan")]), "curve 0: knot 11 is nan"),
         ('def HermiteCurves "N"\n{\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n'
          '    vector3f[] tangents = [(1, 0, 0)]\n}\n', "tangents must be 2 3-vectors, not 1"),
+        # Values of another type are named by the type authored, not the schema's (a string[] knots was "1 of
+        # double[]"), and one that is no array (a string) raised "len() of unsized object" naming no attribute.
+        ('def HermiteCurves "N"\n{\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n'
+         '    string tangents = "x"\n}\n', "tangents must be 2 3-vectors, not one string value"),
+        (nurbs_body("N", CIRCLE, 3, CIRCLE_KNOTS).replace("double[] knots", 'string knots = "x"\n    double[] unused'),
+         "knots must be numbers, not one string value"),
+        (nurbs_body("N", CIRCLE, 3, CIRCLE_KNOTS).replace("int[] order = [3]", 'string[] order = ["3"]'),
+         r"order must be integers, not 1 of string\[\]"),
         ('def HermiteCurves "N"\n{\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0)]\n'
          "}\n", "tangents has no value; 2 points need one each"),
         ('def HermiteCurves "N"\n{\n    int[] curveVertexCounts = [1, 1]\n'

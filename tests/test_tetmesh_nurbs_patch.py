@@ -327,3 +327,19 @@ def test_bad_nurbs_patches_raise_naming_the_prim(tmp_path, change, message):
     with pytest.raises(SceneError, match=message) as e:
         load(path)
     assert path in str(e.value) and "/P" in str(e.value)
+
+
+@pytest.mark.parametrize("authored, named", [('string[] tetVertexIndices = ["x"]', "tetVertexIndices must be int4"
+                                              r"\[\], not string\[\]"),
+                                             ('int uVertexCount = 2\n    int vVertexCount = 2\n    string uOrder = "x"',
+                                              "uOrder must be an int, not string")])
+def test_values_of_another_type_are_named_by_the_type_authored(tmp_path, authored, named):
+    """A TetMesh's ``tetVertexIndices`` or a NurbsPatch's ``uOrder`` of another type raises SceneError naming the
+    type the file authors: the message named the schema's ("tetVertexIndices must be int4[], not int4[]", "uOrder
+    must be an int, not int")."""
+    kind = "TetMesh" if "tet" in authored else "NurbsPatch"
+    path = tmp_path / "bad.usda"
+    path.write_text(f'#usda 1.0\ndef {kind} "Bad"\n{{\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), '
+                    f"(1, 1, 0)]\n    {authored}\n}}\n")
+    with pytest.raises(wrt.SceneError, match=rf"bad.usda.*/Bad.*{named}"):
+        wrt.load_usd(str(path))

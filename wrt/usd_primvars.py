@@ -156,6 +156,11 @@ class FieldReader:
         self.skip = skip
         self.error = error
 
+    def authored(self, attr: Usd.Attribute) -> str:
+        """The type ``attr`` is authored with (a schema attribute's type name is the schema's whatever the file
+        holds: messages named it, "uOrder must be an int, not int" for a ``string uOrder``)."""
+        return authored_type(attr, self.time)
+
     def check_weights(self, prim, attr, weights: np.ndarray) -> None:
         """Raises SceneError naming the first of NURBS ``pointWeights`` ``weights`` (of ``attr``) that is not a
         positive number."""

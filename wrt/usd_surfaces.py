@@ -62,11 +62,11 @@ class SurfaceReader(FieldReader):
         """
         attr = UsdGeom.TetMesh(prim).GetTetVertexIndicesAttr()
         raw = value_at(attr, self.time)
-        if raw is None or len(raw) == 0:
+        if raw is None or (hasattr(raw, "__len__") and len(raw) == 0):  # (an asset path has no length)
             return None
         tets = np.asarray(raw)
         if tets.ndim != 2 or tets.shape[1] != 4 or tets.dtype.kind not in "iu":
-            raise self.error(f"tetVertexIndices must be int4[], not {attr.GetTypeName()}", prim, attr)
+            raise self.error(f"tetVertexIndices must be int4[], not {self.authored(attr)}", prim, attr)
         tets = tets.astype(np.int64)
         self._check_finite(prim, points)
         bad = ((tets < 0) | (tets >= len(points))).any(axis=1)
@@ -178,7 +178,7 @@ class SurfaceReader(FieldReader):
         """An ``int`` attribute's value (0 when it has none)."""
         value = value_at(attr, self.time)
         if value is not None and not isinstance(value, (int, np.integer)):
-            raise self.error(f"{attr.GetName()} must be an int, not {attr.GetTypeName()}", prim, attr)
+            raise self.error(f"{attr.GetName()} must be an int, not {self.authored(attr)}", prim, attr)
         return int(value or 0)
 
 

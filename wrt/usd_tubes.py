@@ -283,15 +283,17 @@ class TubeReader(FieldReader):
             SceneError: a value of another type or shape (naming the attribute and what it needs).
         """
         raw = value_at(attr, self.time)
-        if raw is None or len(raw) == 0:
+        if raw is None or (hasattr(raw, "__len__") and len(raw) == 0):  # (an asset path has no length)
             return None
         values = np.asarray(raw)
         fits = values.ndim == len(shape) and all(want in (None, got) for want, got in zip(shape, values.shape))
         if values.dtype.kind not in ("iu" if dtype == np.int64 else "fiu") or not fits:
             length = f"{shape[0]} " if shape[0] is not None else ""
             what = "integers" if dtype == np.int64 else "numbers" if len(shape) == 1 else f"{shape[1]}-vectors"
-            raise self.error(f"{attr.GetName()} must be {length}{what}, not {len(values)} of {attr.GetTypeName()}",
-                             prim, attr)
+            # The authored type: the schema's named a string[] knots "double[]"; a value that is no array (a
+            # string) stopped the load with "len() of unsized object".
+            got = f"{len(values)} of {self.authored(attr)}" if values.ndim else f"one {self.authored(attr)} value"
+            raise self.error(f"{attr.GetName()} must be {length}{what}, not {got}", prim, attr)
         return values.astype(dtype)
 
     def _token(self, prim, attr, name):
