@@ -332,11 +332,18 @@ def test_bad_nurbs_patches_raise_naming_the_prim(tmp_path, change, message):
 @pytest.mark.parametrize("authored, named", [('string[] tetVertexIndices = ["x"]', "tetVertexIndices must be int4"
                                               r"\[\], not string\[\]"),
                                              ('int uVertexCount = 2\n    int vVertexCount = 2\n    string uOrder = "x"',
-                                              "uOrder must be an int, not string")])
+                                              "uOrder must be an int, not string"),
+                                             ('int uVertexCount = 2\n    int vVertexCount = 2\n    int uOrder = 2\n'
+                                              '    string uKnots = "x"', "uKnots must be numbers, not string"),
+                                             ('int uVertexCount = 2\n    int vVertexCount = 2\n    int uOrder = 2\n'
+                                              '    int vOrder = 2\n    double[] uKnots = [0, 0, 1, 1]\n'
+                                              '    double[] vKnots = [0, 0, 1, 1]\n    string[] pointWeights = ["x"]',
+                                              r"pointWeights must be numbers, not string\[\]")])
 def test_values_of_another_type_are_named_by_the_type_authored(tmp_path, authored, named):
-    """A TetMesh's ``tetVertexIndices`` or a NurbsPatch's ``uOrder`` of another type raises SceneError naming the
-    type the file authors: the message named the schema's ("tetVertexIndices must be int4[], not int4[]", "uOrder
-    must be an int, not int")."""
+    """A TetMesh's ``tetVertexIndices`` or a NurbsPatch's ``uOrder``, knots or ``pointWeights`` of another type raises
+    SceneError naming the attribute and the type the file authors: the message named the schema's type
+    ("tetVertexIndices must be int4[], not int4[]", "uOrder must be an int, not int"), and string knots or weights
+    raised "could not convert string to float", naming no attribute."""
     kind = "TetMesh" if "tet" in authored else "NurbsPatch"
     path = tmp_path / "bad.usda"
     path.write_text(f'#usda 1.0\ndef {kind} "Bad"\n{{\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0), '

@@ -106,9 +106,12 @@ class SurfaceReader(FieldReader):
             ("v", patch.GetVOrderAttr(), patch.GetVKnotsAttr(), patch.GetVRangeAttr(), nv),
         ):
             order = self._int(prim, order_attr)
-            knots = np.asarray(value_at(knots_attr, self.time) or [], np.float64).reshape(-1)
+            knots = self._numbers(prim, knots_attr)
+            knots = knots if knots is not None else np.zeros(0)
             why = check_knots(knots, order, count)
-            span = value_at(range_attr, self.time) if why is None else None
+            span = self._numbers(prim, range_attr) if why is None else None
+            if span is not None and len(span) != 2:
+                raise self.error(f"{range_attr.GetName()} must be 2 numbers, not {len(span)}", prim, range_attr)
             lo, hi = (float(span[0]), float(span[1])) if span is not None else (None, None)
             if why is None and span is not None:
                 why = check_range(knots, order, count, lo, hi)
@@ -118,14 +121,14 @@ class SurfaceReader(FieldReader):
                 lo, hi = float(knots[order - 1]), float(knots[count])
             directions.append((knots, order, count, lo, hi))
         weights_attr = patch.GetPointWeightsAttr()
-        raw = value_at(weights_attr, self.time)
-        weights = np.ones(len(points)) if raw is None or len(raw) == 0 else np.asarray(raw, np.float64).reshape(-1)
+        raw = self._numbers(prim, weights_attr)
+        weights = np.ones(len(points)) if raw is None or len(raw) == 0 else raw
         if len(weights) != len(points):
             raise self.error(f"pointWeights has {len(weights)} values for {len(points)} points", prim, weights_attr)
         self.check_weights(prim, weights_attr, weights)
         self._check_finite(prim, points)
         counts = value_at(patch.GetTrimCurveCountsAttr(), self.time)
-        if counts is not None and len(counts):
+        if counts is not None and (not hasattr(counts, "__len__") or len(counts)):
             self.skip("NurbsPatch trim curves (trimCurve:*) are not applied; the untrimmed surface is drawn", prim)
 
         # Steps per span from the pilot grid, then the grid itself.
@@ -173,6 +176,18 @@ class SurfaceReader(FieldReader):
             i = int(np.argmax(bad))
             raise self.error(f"points[{i}] = {tuple(points[i].tolist())} is not finite", prim,
                              UsdGeom.PointBased(prim).GetPointsAttr())
+
+    def _numbers(self, prim, attr) -> np.ndarray | None:
+        """``attr``'s value as float64 numbers, flattened (None where it has none), or SceneError naming it and the
+        type authored where it holds no numbers: a ``string`` or ``string[]`` knots, range or pointWeights raised
+        "could not convert string to float", naming no attribute (and a string "1.5" would have passed)."""
+        raw = value_at(attr, self.time)
+        if raw is None:
+            return None
+        values = np.asarray(raw)
+        if values.dtype.kind not in "fiu":
+            raise self.error(f"{attr.GetName()} must be numbers, not {self.authored(attr)}", prim, attr)
+        return values.astype(np.float64).reshape(-1)
 
     def _int(self, prim, attr) -> int:
         """An ``int`` attribute's value (0 when it has none)."""
