@@ -860,3 +860,51 @@ def test_a_tiling_past_float32_warns_only_in_wrts_words(tmp_path):
         wrt.load_usd(path)
     assert [w.category for w in caught] == [UserWarning], [str(w.message) for w in caught]
     assert "/Looks/Tiles" in str(caught[0].message) and "float32" in str(caught[0].message)
+
+
+@pytest.mark.parametrize("node_id", ["ND_image_color3", "ND_tiledimage_color3"])
+def test_closest_filtertype_reads_the_texel_under_each_point(tmp_path, node_id):
+    """An image node's ``filtertype`` ``closest`` (MaterialX's nearest-texel filter: pixel art, id and mask maps,
+    Maya's file nodes with filtering off) reads the one texel whose square holds ``st``, wrapped by the address mode.
+    It was filtered bilinearly without a word: between texel centres the colours blended. The oracle: texel
+    ``(floor(s w) mod w, floor((1 - t) h) mod h)`` of the image, at the ``st`` of each pixel centre."""
+    texels = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]], [[255, 255, 0], [0, 255, 255], [255, 0, 255]]])
+    png = write_png(tmp_path / "pixels.png", texels)
+    stage, path = new_stage(tmp_path, "closest.usda")
+    bind(add_quad(stage, "/Quad", st_range=2.0), mtlx_material(stage, "/Looks/Pixels")[0])
+    shader = UsdShade.Shader.Get(stage, "/Looks/Pixels/Surface")
+    image = UsdShade.Shader.Define(stage, "/Looks/Pixels/Image")
+    image.CreateIdAttr(node_id)
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
+    shader.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    res = 12
+    centres = (np.arange(res) + 0.5) / res * 2.0  # st over [0, 2]^2 (periodic: the image twice each way)
+    s, t = np.meshgrid(centres, centres[::-1])  # row 0 at the top: t near 2
+    h, w = texels.shape[:2]
+    expected = texels[np.floor((2.0 - t) * h).astype(int) % h, np.floor(s * w).astype(int) % w] / 255.0
+    np.testing.assert_allclose(albedo(scene, res), expected, atol=1e-3)
+
+
+@pytest.mark.parametrize("filtertype, note", [("cubic", "filtertype cubic is read as linear"),
+                                              ("box", "filtertype 'box' is none of closest, linear or cubic")])
+def test_a_filtertype_other_than_closest_or_linear_is_named_and_read_as_linear(tmp_path, filtertype, note):
+    """``cubic`` (which wrt does not filter with) and a token MaterialX does not define are named in the material's
+    warning, with the image node, and read as ``linear``: bilinear blends of the two texels."""
+    png = write_png(tmp_path / "pair.png", [[[255, 0, 0], [0, 0, 255]]])
+    stage, path = new_stage(tmp_path, f"{filtertype}.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Pair")[0])
+    image = UsdShade.Shader.Define(stage, "/Looks/Pair/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set(filtertype)
+    UsdShade.Shader.Get(stage, "/Looks/Pair/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Pair/Image" in m and note in m for m in messages), messages
+    row = albedo(scene, 4)[1]  # s at 1/8, 3/8, 5/8, 7/8: a quarter texel from the centres (periodic at the edges)
+    np.testing.assert_allclose(row, [[0.75, 0, 0.25], [0.75, 0, 0.25], [0.25, 0, 0.75], [0.25, 0, 0.75]], atol=1e-3)

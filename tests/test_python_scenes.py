@@ -889,6 +889,7 @@ def test_a_material_color_primvar_or_textures_of_another_type_is_refused(kwargs,
     ("transform", np.full((3, 3), np.nan), r"transform must be a \(3, 3\) matrix of finite numbers"),
     ("st_fallback", (np.nan, 0.0), r"st_fallback must be 2 finite numbers"),
     ("uv_set", 3, r"uv_set must be a str"),
+    ("filter", "nearest", r"filter must be one of linear, closest, got 'nearest'"),
 ])
 def test_texture_input_fields_of_a_wrong_type_shape_or_value_are_refused_naming_the_material(field, value, words):
     """A TextureInput built in Python went unchecked: a NaN ``scale``, ``bias`` or ``transform`` rendered the texture

@@ -56,6 +56,8 @@ from .bsdf import Surface
 from .errors import SceneError, check_fields, did_you_mean, eight_bit_colors, flag, int32_problem
 from .microfacet_albedo import GgxAlbedo, ggx_albedo_tables
 from .textures import (
+    FILTER_CLOSEST,
+    FILTER_MODES,
     HALF_MAX,
     PACK_TEXELS,
     UDIM_FIRST,
@@ -64,6 +66,7 @@ from .textures import (
     WRAP_MODES,
     TextureError,
     load_image,
+    nearest_texel,
     outside_to_fallback,
     pack_images,
     sample_image,
@@ -140,6 +143,8 @@ class TextureInput(CountsAssignments):
             ``UDIM_FIRST + u + 10 v`` at row ``u + 10 v``, -1 where that tile has no file.
         fallback: ``(4,)`` the texel where a UDIM texture has no tile (``st`` on a missing tile or outside the 10 x 10
             tiles), before ``scale`` and ``bias`` as every texel.
+        filter: ``"linear"`` (bilinear between texel centres) or ``"closest"`` (the one texel whose square holds
+            ``st``: MaterialX's ``filtertype`` ``closest``).
     """
 
     image: int
@@ -152,6 +157,7 @@ class TextureInput(CountsAssignments):
     st_fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2, np.float32))
     tiles: np.ndarray | None = None
     fallback: np.ndarray = dataclasses.field(default_factory=lambda: np.array(TEXTURE_FALLBACK, np.float32))
+    filter: str = "linear"
 
     def check(self, where: str = "TextureInput") -> None:
         """Raises ``ValueError`` (``TypeError`` for a ``uv_set`` that is no name) starting with ``where`` for a field
@@ -180,6 +186,9 @@ class TextureInput(CountsAssignments):
             bad = [mode for mode in wrap if isinstance(mode, str) and mode not in WRAP_MODES]
             raise ValueError(f"{where}: wrap must be (wrapS, wrapT), each one of {', '.join(WRAP_MODES)}, got "
                              f"{self.wrap!r}{did_you_mean(bad[0], WRAP_MODES) if bad else ''}")
+        if not isinstance(self.filter, str) or self.filter not in FILTER_MODES:
+            raise ValueError(f"{where}: filter must be one of {', '.join(FILTER_MODES)}, got {self.filter!r}"
+                             f"{did_you_mean(self.filter, FILTER_MODES)}")
         if self.uv_set is not None and not isinstance(self.uv_set, str):
             raise TypeError(f"{where}: uv_set must be a str, a primvar name such as 'st', or None (a constant st), "
                             f"got {type(self.uv_set).__name__} {self.uv_set!r}")
@@ -398,6 +407,7 @@ class DeviceMaterials:
     tex_image: wp.array[wp.int32]  # (B,) image of each texture binding
     tex_channel: wp.array[wp.int32]  # (B,) 0..3 one channel, 4 rgb
     tex_wrap: wp.array[wp.vec2i]  # (B,) wrapS, wrapT codes (textures.WRAP_MODES)
+    tex_filter: wp.array[wp.int32]  # (B,) filter codes (textures.FILTER_MODES)
     tex_scale: wp.array[wp.vec4]  # (B,)
     tex_bias: wp.array[wp.vec4]  # (B,)
     tex_transform: wp.array[wp.mat33]  # (B,) st transform
@@ -491,6 +501,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     image = np.zeros(b, np.int32)
     channel = np.full(b, 4, np.int32)
     wrap = np.zeros((b, 2), np.int32)
+    filters = np.zeros(b, np.int32)
     scale = np.ones((b, 4), np.float32)
     bias = np.zeros((b, 4), np.float32)
     transform = np.tile(np.eye(3, dtype=np.float32), (b, 1, 1))
@@ -501,6 +512,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
         image[k] = tex.image
         channel[k] = CHANNELS[tex.channel]
         wrap[k] = (WRAP_MODES[tex.wrap[0]], WRAP_MODES[tex.wrap[1]])
+        filters[k] = FILTER_MODES[tex.filter]
         scale[k] = tex.scale
         bias[k] = tex.bias
         transform[k] = tex.transform
@@ -519,6 +531,7 @@ def upload_materials(materials: list[Material], textures: list[np.ndarray], devi
     d.tex_image = wp.array(image, dtype=wp.int32, device=device)
     d.tex_channel = wp.array(channel, dtype=wp.int32, device=device)
     d.tex_wrap = wp.array(wrap, dtype=wp.vec2i, device=device)
+    d.tex_filter = wp.array(filters, dtype=wp.int32, device=device)
     d.tex_scale = wp.array(scale, dtype=wp.vec4, device=device)
     d.tex_bias = wp.array(bias, dtype=wp.vec4, device=device)
     d.tex_transform = wp.array(transform, dtype=wp.mat33, device=device)
@@ -543,7 +556,8 @@ def select_channel(c: wp.vec4, ch: int):
 
 @wp.func
 def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
-    """The value of texture binding ``b`` at ``st``: ``texel * scale + bias``, one channel broadcast or RGBA.
+    """The value of texture binding ``b`` at ``st``: ``texel * scale + bias``, one channel broadcast or RGBA; the
+    texel filtered bilinearly, or the nearest one for the ``closest`` filter.
 
     A UDIM binding reads the tile under the transformed ``st``, at ``st`` minus the tile's corner, clamped at the
     tile's edges (bilinear filtering never mixes in a neighbouring tile, whatever ``wrapS``/``wrapT`` say); where that
@@ -566,7 +580,10 @@ def lookup_binding(mats: DeviceMaterials, b: int, st: wp.vec2):
         wrap = wp.vec2i(WRAP_CLAMP, WRAP_CLAMP)
     c = mats.tex_fallback[b]
     if k >= 0 and wp.isfinite(uv[0]) and wp.isfinite(uv[1]) and not outside_to_fallback(uv, wrap):
-        c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
+        if mats.tex_filter[b] == FILTER_CLOSEST:
+            c = nearest_texel(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
+        else:
+            c = sample_image(mats.texels, mats.image_offsets[k], mats.image_sizes[k], uv, wrap)
     c = wp.cw_mul(c, mats.tex_scale[b]) + mats.tex_bias[b]
     return select_channel(c, mats.tex_channel[b])
 

@@ -55,7 +55,8 @@ output. An image node becomes a :class:`wrt.materials.TextureInput`: ``file`` (f
 colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` decoded, ``lin_rec709``/``raw`` and other
 linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
-the node's ``default`` outside [0, 1], black without one), ``uvtiling``/``uvoffset``/``realworldimagesize``/
+the node's ``default`` outside [0, 1], black without one), ``filtertype`` (``closest``: the nearest texel; ``linear``
+and ``cubic``: bilinear), ``uvtiling``/``uvoffset``/``realworldimagesize``/
 ``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
 (the mesh's ``st``) or a reader of :data:`TEXCOORD_READERS` (the primvar named by ``geomprop`` or ``varname``; its
 ``default`` or ``fallback`` where the mesh lacks it), or a constant ``texcoord`` (read there on every point). Where the
@@ -454,6 +455,7 @@ class _Graph:
             wrap = tuple(modes.get(str(reader._constant(node, key) or "periodic"), "repeat")
                          for key in ("uaddressmode", "vaddressmode"))
         channel = "r" if node_id.endswith("_float") else "rgb"
+        texture_filter = self._filter(node)
         transform = self._tiling(node) if tiled else np.eye(3, dtype=np.float32)
         uv_set, st_fallback, constant_st = self._texcoord(node)
         if constant_st is not None:
@@ -464,7 +466,22 @@ class _Graph:
             return fallback, None
         return fallback, TextureInput(image=image, channel=channel, wrap=wrap, transform=transform, uv_set=uv_set,
                                       st_fallback=st_fallback, tiles=tiles,
-                                      fallback=four_components(fallback, TEXTURE_FALLBACK))
+                                      fallback=four_components(fallback, TEXTURE_FALLBACK), filter=texture_filter)
+
+    def _filter(self, node) -> str:
+        """wrt's texture filter for image node ``node``'s ``filtertype``: ``closest`` reads the nearest texel, as
+        MaterialX and Storm (a nearest sampler) read it; ``linear`` (the default) and ``cubic`` filter bilinearly,
+        ``cubic`` named in a note. Another value is noted and read as ``linear``. ``closest`` was filtered
+        bilinearly without a word: a pixel-art or id map blended its texels."""
+        token = str(self.reader._constant(node, "filtertype") or "linear")
+        if token == "closest":
+            return "closest"
+        if token == "cubic":
+            self.notes.append(f"{node.GetPath()}: filtertype cubic is read as linear (bilinear)")
+        elif token != "linear":
+            self.notes.append(f"{node.GetPath()}: filtertype {token!r} is none of closest, linear or cubic; it is "
+                              "read as linear")
+        return "linear"
 
     def _color_space(self, file_input) -> str:
         """wrt's colour space (``auto``, ``sRGB`` or ``raw``) for an image's ``file`` input

@@ -6,7 +6,8 @@ Conventions, stated once:
 - Images are kept as ``(H, W, 4)`` float32 linear RGBA, row 0 at the top; on the device they are packed into one
   ``wp.vec4h`` (half float) array with per-image offsets.
 - Texture coordinates follow USD: ``st = (0, 0)`` is the bottom-left corner of the image, ``(1, 1)`` the top-right.
-  Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping).
+  Texel centres sit at half-integer positions; lookups are bilinear (no mip-mapping), or of the one texel whose
+  square holds ``st`` for the ``closest`` filter (:data:`FILTER_MODES`).
 - ``sourceColorSpace``: ``"sRGB"`` decodes RGB with the sRGB transfer function (alpha stays linear); ``"raw"``
   keeps values; ``"auto"`` follows a PNG's ``gAMA``/``sRGB`` chunk (:func:`tagged_srgb`), else means sRGB for
   8-bit RGB/RGBA images and 16-bit RGB/RGBA PNGs (Hydra's stb_image reader hands PNGs over as 8-bit samples) and
@@ -38,6 +39,9 @@ WRAP_MIRROR = wp.constant(1)
 WRAP_CLAMP = wp.constant(2)
 WRAP_BLACK = wp.constant(3)
 WRAP_FALLBACK = wp.constant(4)  # the texture's fallback outside [0, 1] (its binding's, see wrt.materials)
+# Texture filters: bilinear between texel centres, or the one texel under st (MaterialX's filtertype "closest")
+FILTER_MODES = {"linear": 0, "closest": 1}
+FILTER_CLOSEST = wp.constant(1)
 HALF_MAX = 65504.0  # largest finite float16: brighter texels are clamped to it
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"  # first 8 bytes of every PNG file
 PACK_TEXELS = 1 << 20  # texels converted to float16 at a time by pack_images
@@ -519,3 +523,19 @@ def sample_image(texels: wp.array[wp.vec4h], offset: int, size: wp.vec2i, st: wp
     c01 = fetch_texel(texels, offset, size, x0, y0 + 1, wrap)
     c11 = fetch_texel(texels, offset, size, x0 + 1, y0 + 1, wrap)
     return (c00 * (1.0 - fx) + c10 * fx) * (1.0 - fy) + (c01 * (1.0 - fx) + c11 * fx) * fy
+
+
+@wp.func
+def nearest_texel(texels: wp.array[wp.vec4h], offset: int, size: wp.vec2i, st: wp.vec2, wrap: wp.vec2i):
+    """The texel whose square holds texture coordinate ``st`` (column ``floor(s w)``, row ``floor((1 - t) h)`` from
+    the top, wrapped), as GL's nearest filter and MaterialX's ``filtertype`` ``closest`` read it; ``black`` gives
+    transparent black outside the unit square, as :func:`sample_image` does."""
+    if outside_unit(st[0], wrap[0]) or outside_unit(st[1], wrap[1]):
+        return wp.vec4(0.0)
+    x = st[0] * float(size[0])
+    y = (1.0 - st[1]) * float(size[1])
+    if not (wp.isfinite(x) and wp.isfinite(y)):
+        return wp.vec4(0.0)
+    x = wp.clamp(x, -1.0e8, 1.0e8)  # huge coordinates would overflow int
+    y = wp.clamp(y, -1.0e8, 1.0e8)
+    return fetch_texel(texels, offset, size, int(wp.floor(x)), int(wp.floor(y)), wrap)
