@@ -908,3 +908,24 @@ def test_a_filtertype_other_than_closest_or_linear_is_named_and_read_as_linear(t
     assert any("/Looks/Pair/Image" in m and note in m for m in messages), messages
     row = albedo(scene, 4)[1]  # s at 1/8, 3/8, 5/8, 7/8: a quarter texel from the centres (periodic at the edges)
     np.testing.assert_allclose(row, [[0.75, 0, 0.25], [0.75, 0, 0.25], [0.25, 0, 0.75], [0.25, 0, 0.75]], atol=1e-3)
+
+
+def test_an_address_mode_materialx_does_not_define_is_named_and_read_as_periodic(tmp_path):
+    """``uaddressmode`` ``repeat`` (UsdUVTexture's token, not one of MaterialX's constant, clamp, periodic or
+    mirror) is read as periodic, as Storm reads it, and named in the material's warning with the node and the
+    token; it was read so without a word. The image (red, blue) over st in [0, 2]: periodic shows it twice."""
+    png = write_png(tmp_path / "pair.png", [[[255, 0, 0], [0, 0, 255]]])
+    stage, path = new_stage(tmp_path, "address.usda")
+    bind(add_quad(stage, "/Quad", st_range=2.0), mtlx_material(stage, "/Looks/Pair")[0])
+    image = UsdShade.Shader.Define(stage, "/Looks/Pair/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("uaddressmode", Sdf.ValueTypeNames.String).Set("repeat")
+    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
+    UsdShade.Shader.Get(stage, "/Looks/Pair/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Pair/Image" in m and "uaddressmode 'repeat'" in m for m in messages), messages
+    row = albedo(scene, 4)[0]  # s at 1/4, 3/4, 5/4, 7/4: texel 0, 1, then 0, 1 again
+    np.testing.assert_allclose(row, [[1, 0, 0], [0, 0, 1], [1, 0, 0], [0, 0, 1]], atol=1e-3)

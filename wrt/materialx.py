@@ -452,8 +452,7 @@ class _Graph:
             # "constant" gives the node's default outside [0, 1]: its fallback where authored, else the default's own
             # default, 0 in every channel (black).
             modes = {**ADDRESS_MODES, "constant": "black" if default is None else "fallback"}
-            wrap = tuple(modes.get(str(reader._constant(node, key) or "periodic"), "repeat")
-                         for key in ("uaddressmode", "vaddressmode"))
+            wrap = tuple(self._address_mode(node, key, modes) for key in ("uaddressmode", "vaddressmode"))
         channel = "r" if node_id.endswith("_float") else "rgb"
         texture_filter = self._filter(node)
         transform = self._tiling(node) if tiled else np.eye(3, dtype=np.float32)
@@ -467,6 +466,16 @@ class _Graph:
         return fallback, TextureInput(image=image, channel=channel, wrap=wrap, transform=transform, uv_set=uv_set,
                                       st_fallback=st_fallback, tiles=tiles,
                                       fallback=four_components(fallback, TEXTURE_FALLBACK), filter=texture_filter)
+
+    def _address_mode(self, node, key: str, modes: dict) -> str:
+        """wrt's wrap mode for image node ``node``'s ``uaddressmode`` or ``vaddressmode`` (``key``; unauthored:
+        periodic) by ``modes``; a token MaterialX does not define (UsdUVTexture's ``repeat`` or ``black``) is named in
+        a note and read as periodic, as Storm reads it. It was read so without a word."""
+        token = str(self.reader._constant(node, key) or "periodic")
+        if token not in modes:
+            self.notes.append(f"{node.GetPath()}: {key} {token!r} is none of constant, clamp, periodic or mirror; it "
+                              "is read as periodic")
+        return modes.get(token, "repeat")
 
     def _filter(self, node) -> str:
         """wrt's texture filter for image node ``node``'s ``filtertype``: ``closest`` reads the nearest texel, as
