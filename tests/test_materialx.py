@@ -929,3 +929,91 @@ def test_an_address_mode_materialx_does_not_define_is_named_and_read_as_periodic
     assert any("/Looks/Pair/Image" in m and "uaddressmode 'repeat'" in m for m in messages), messages
     row = albedo(scene, 4)[0]  # s at 1/4, 3/4, 5/4, 7/4: texel 0, 1, then 0, 1 again
     np.testing.assert_allclose(row, [[1, 0, 0], [0, 0, 1], [1, 0, 0], [0, 0, 1]], atol=1e-3)
+
+
+def place2d_oracle(st, pivot, scale, rotate, offset, order):
+    """MaterialX's ``NG_place2d_vector2`` (stdlib_ng.mtlx) in float64: ``order`` 0 (SRT) ``rot((st - pivot) / scale)
+    - offset + pivot``, 1 (TRS) ``rot(st - pivot - offset) / scale + pivot``; ``rotate2d`` by ``a`` degrees is
+    ``(x cos a + y sin a, -x sin a + y cos a)``."""
+    a = np.radians(rotate)
+
+    def rot(v):
+        return np.stack([v[..., 0] * np.cos(a) + v[..., 1] * np.sin(a), -v[..., 0] * np.sin(a) + v[..., 1] * np.cos(a)],
+                        axis=-1)
+
+    if order == 0:
+        return rot((st - pivot) / scale) - offset + pivot
+    return rot(st - pivot - offset) / scale + pivot
+
+
+@pytest.mark.parametrize("order", [0, 1])
+def test_a_place2d_node_maps_the_texture_coordinates(tmp_path, order):
+    """An ``ND_place2d_vector2`` between an image node and its texture coordinates (as Maya's MaterialX export
+    writes every file texture) moves the image by its pivot, scale, rotate, offset and operationorder, as MaterialX's
+    node graph defines it; its own ``texcoord`` (here a ``geompropvalue`` of primvar ``uv``) is read. It was named
+    as unsupported and primvar ``st`` read, unplaced. Oracle: the texel under each pixel centre's placed st."""
+    texels = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]], [[255, 255, 0], [0, 255, 255], [255, 0, 255]]])
+    png = write_png(tmp_path / "pixels.png", texels)
+    stage, path = new_stage(tmp_path, f"place{order}.usda")
+    quad = add_quad(stage, "/Quad")
+    primvars = UsdGeom.PrimvarsAPI(quad)
+    primvars.CreatePrimvar("uv", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        primvars.GetPrimvar("st").Get())
+    primvars.RemovePrimvar("st")
+    bind(quad, mtlx_material(stage, "/Looks/Placed")[0])
+    reader = UsdShade.Shader.Define(stage, "/Looks/Placed/Uv")
+    reader.CreateIdAttr("ND_geompropvalue_vector2")
+    reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("uv")
+    place = UsdShade.Shader.Define(stage, "/Looks/Placed/Place")
+    place.CreateIdAttr("ND_place2d_vector2")
+    place.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(reader.ConnectableAPI(), "out")
+    inputs = {"pivot": (0.5, 0.25), "scale": (0.4, 1.6), "rotate": 30.0, "offset": (0.2, -0.35)}
+    for name, value in inputs.items():
+        type_name = Sdf.ValueTypeNames.Float if name == "rotate" else Sdf.ValueTypeNames.Float2
+        place.CreateInput(name, type_name).Set(value)
+    place.CreateInput("operationorder", Sdf.ValueTypeNames.Int).Set(order)
+    image = UsdShade.Shader.Define(stage, "/Looks/Placed/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
+    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(place.ConnectableAPI(), "out")
+    UsdShade.Shader.Get(stage, "/Looks/Placed/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                    ).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    res = 16
+    centres = (np.arange(res) + 0.5) / res
+    s, t = np.meshgrid(centres, centres[::-1])
+    st = place2d_oracle(np.stack([s, t], axis=-1), np.array(inputs["pivot"]), np.array(inputs["scale"]),
+                        inputs["rotate"], np.array(inputs["offset"]), order)
+    h, w = texels.shape[:2]
+    expected = texels[np.floor((1.0 - st[..., 1]) * h).astype(int) % h, np.floor(st[..., 0] * w).astype(int) % w]
+    got = albedo(scene, res)
+    # A pixel centre within float32 rounding of a texel edge may fall either side of it.
+    near_edge = np.any(np.abs(np.round(st * (w, h)) - st * (w, h)) < 1e-4, axis=-1)
+    np.testing.assert_allclose(got[~near_edge], expected[~near_edge] / 255.0, atol=1e-3)
+
+
+def test_a_place2d_input_fed_by_a_node_is_named_and_the_node_ignored(tmp_path):
+    """A ``place2d`` whose ``offset`` comes from another node (wrt folds constants only) is named in the material's
+    warning, with the input, and the image read at its unplaced texture coordinates: texel 0 then texel 1."""
+    png = write_png(tmp_path / "pair.png", [[[255, 0, 0], [0, 0, 255]]])
+    stage, path = new_stage(tmp_path, "fed.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Fed")[0])
+    offset = UsdShade.Shader.Define(stage, "/Looks/Fed/Offset")
+    offset.CreateIdAttr("ND_texcoord_vector2")
+    place = UsdShade.Shader.Define(stage, "/Looks/Fed/Place")
+    place.CreateIdAttr("ND_place2d_vector2")
+    place.CreateInput("offset", Sdf.ValueTypeNames.Float2).ConnectToSource(offset.ConnectableAPI(), "out")
+    image = UsdShade.Shader.Define(stage, "/Looks/Fed/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
+    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(place.ConnectableAPI(), "out")
+    UsdShade.Shader.Get(stage, "/Looks/Fed/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                 ).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert any("/Looks/Fed/Place: offset comes from a node; the place2d is ignored" in m for m in messages), messages
+    np.testing.assert_allclose(albedo(scene, 2), [[[1, 0, 0], [0, 0, 1]]] * 2, atol=1e-3)

@@ -56,7 +56,8 @@ colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` deco
 linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 the node's ``default`` outside [0, 1], black without one), ``filtertype`` (``closest``: the nearest texel; ``linear``
-and ``cubic``: bilinear), ``uvtiling``/``uvoffset``/``realworldimagesize``/
+and ``cubic``: bilinear), ``place2d`` nodes of constants before its ``texcoord`` (:meth:`_Graph._place2d`),
+``uvtiling``/``uvoffset``/``realworldimagesize``/
 ``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
 (the mesh's ``st``) or a reader of :data:`TEXCOORD_READERS` (the primvar named by ``geomprop`` or ``varname``; its
 ``default`` or ``fallback`` where the mesh lacks it), or a constant ``texcoord`` (read there on every point). Where the
@@ -150,6 +151,9 @@ NORMAL_MAP_NODE = re.compile(r"^ND_normalmap(_float|_vector2)?$")  # 1.38's, and
 TEXCOORD_READERS = {"ND_geompropvalue_vector2": ("geomprop", "default"),
                     "ND_UsdPrimvarReader_vector2": ("varname", "fallback"),
                     "UsdPrimvarReader_float2": ("varname", "fallback")}
+PLACE2D_ID = "ND_place2d_vector2"  # moves an image's texture coordinates: pivot, scale, rotate, offset, order
+PLACE2D_INPUTS = (("pivot", (0.0, 0.0)), ("scale", (1.0, 1.0)), ("rotate", (0.0,)), ("offset", (0.0, 0.0)),
+                  ("operationorder", (0.0,)))  # stdlib_defs.mtlx's defaults
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
 COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
 
@@ -456,7 +460,9 @@ class _Graph:
         channel = "r" if node_id.endswith("_float") else "rgb"
         texture_filter = self._filter(node)
         transform = self._tiling(node) if tiled else np.eye(3, dtype=np.float32)
-        uv_set, st_fallback, constant_st = self._texcoord(node)
+        uv_set, st_fallback, constant_st, placement = self._texcoord(node)
+        with np.errstate(over="ignore", invalid="ignore"):  # past float32's range: inf, named below
+            transform = (np.asarray(transform, np.float64) @ placement).astype(np.float32)
         if constant_st is not None:
             transform = constant_st_transform(transform, constant_st)
         if not np.all(np.isfinite(transform)):  # finite tiling and sizes whose product passes float32's range
@@ -518,13 +524,64 @@ class _Graph:
         with np.errstate(over="ignore"):  # past float32's range: inf, named in the note (_image)
             return m.astype(np.float32)
 
-    def _texcoord(self, node) -> tuple[str | None, np.ndarray, np.ndarray | None]:
-        """``(primvar, st_fallback, constant)`` of an image node's ``texcoord``: the primvar it reads (``st`` unless
-        a ``geompropvalue`` or primvar reader names another), the ``(2,)`` st of a mesh without it (the
-        ``geompropvalue``'s ``default``, a reader's ``fallback``; zero otherwise), and None; or, for a ``texcoord``
-        authored as a constant, ``(None, zero, (2,) constant)``: the image is read there on every point."""
+    def _texcoord(self, node) -> tuple[str | None, np.ndarray, np.ndarray | None, np.ndarray]:
+        """:meth:`_texcoord_source` of image node ``node``'s ``texcoord``, and the ``(3, 3)`` float64 map of the
+        ``place2d`` nodes between them (:meth:`_place2d`; identity without one), the image's nearest first."""
+        placement = np.eye(3)
+        found, holder = self.reader._producer(node, "texcoord"), node
+        for _ in range(8):  # a short chain of place2d nodes
+            if found is None or found[0] != "shader" or (found[1].GetShaderId() or "") != PLACE2D_ID:
+                break
+            holder = found[1]
+            placement = placement @ self._place2d(holder)
+            found = self.reader._producer(holder, "texcoord")  # unconnected: UV0, st (defaultgeomprop)
+        return (*self._texcoord_source(found, holder), placement)
+
+    def _place2d(self, place) -> np.ndarray:
+        """``(3, 3)`` float64 map of ``place2d`` node ``place``, as MaterialX's ``NG_place2d_vector2`` computes it with
+        ``rotate2d``'s turn by ``a`` degrees, ``(x cos a + y sin a, -x sin a + y cos a)``: ``operationorder`` 0 (SRT)
+        ``rot((st - pivot) / scale) - offset + pivot``, 1 (TRS) ``rot(st - pivot - offset) / scale + pivot``. An
+        input fed by a node, a scale with a zero or another order is named in a note and the node ignored (identity);
+        a value that is not finite numbers of its type keeps its default, with a note. Such nodes were named as
+        unsupported and the image read unplaced."""
+        values = {}
+        for name, default in PLACE2D_INPUTS:
+            found = self.reader._producer(place, name)
+            if found is not None and found[0] != "value":
+                self.notes.append(f"{place.GetPath()}: {name} comes from a node; the place2d is ignored")
+                return np.eye(3)
+            value = None if found is None else _array(found[1], None)
+            if found is not None and (value is None or value.size != len(default)):
+                self.notes.append(f"{place.GetPath()}: {name} is not {len(default)} finite number(s); its default is "
+                                  "used")
+                value = None
+            values[name] = np.asarray(default if value is None else value, np.float64).reshape(-1)
+        pivot, scale, offset = values["pivot"], values["scale"], values["offset"]
+        order = values["operationorder"][0]
+        if np.any(scale == 0.0) or order not in (0.0, 1.0):
+            self.notes.append(f"{place.GetPath()}: a scale of zero or an operationorder other than 0 or 1; the place2d "
+                              "is ignored")
+            return np.eye(3)
+
+        def affine(linear=np.eye(2), shift=(0.0, 0.0)):
+            m = np.eye(3)
+            m[:2, :2], m[:2, 2] = linear, shift
+            return m
+
+        a = math.radians(values["rotate"][0])
+        turn = affine(np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]))
+        shrink = affine(np.diag(1.0 / scale))
+        if order == 0:
+            return affine(shift=pivot - offset) @ turn @ shrink @ affine(shift=-pivot)
+        return affine(shift=pivot) @ shrink @ turn @ affine(shift=-pivot - offset)
+
+    def _texcoord_source(self, found, node) -> tuple[str | None, np.ndarray, np.ndarray | None]:
+        """``(primvar, st_fallback, constant)`` of what feeds a ``texcoord`` (``found``, ``MaterialReader._producer``
+        of ``node``'s): the primvar it reads (``st`` unless a ``geompropvalue`` or primvar reader names another), the
+        ``(2,)`` st of a mesh without it (the ``geompropvalue``'s ``default``, a reader's ``fallback``; zero
+        otherwise), and None; or, for a ``texcoord`` authored as a constant, ``(None, zero, (2,) constant)``: the
+        image is read there on every point."""
         no_fallback = np.zeros(2, np.float32)
-        found = self.reader._producer(node, "texcoord")
         if found is None:
             return "st", no_fallback, None  # MaterialX's default texcoord: the first set, which is USD's st
         if found[0] == "value":
