@@ -3,7 +3,9 @@ and sample layouts Pillow reads in ways that need help (16-bit TIFF colour, tran
 colour space chunks ``auto`` follows, EXIF orientation (ignored), EXR channel subsets and names, and damaged files
 or files of no colour channel (a warning and the fallback)."""
 
+import re
 import struct
+import warnings
 
 import numpy as np
 import pytest
@@ -458,3 +460,24 @@ def test_a_32_bit_bmp_reads_its_fourth_byte_as_alpha(tmp_path, top_down, alpha_u
     if not alpha_used:
         expected[..., 3] = 1.0
     np.testing.assert_allclose(load_image(str(path), "raw"), expected, atol=1e-6)
+
+
+@pytest.mark.parametrize("make, says", [
+    (lambda path: path.write_bytes(b""), "the file is empty"),
+    (lambda path: path.write_text("not an image"), "no image reader wrt has (Pillow, OpenEXR, Radiance) knows"),
+    (lambda path: path.mkdir(), "it is a folder"),
+])
+def test_an_unreadable_texture_s_warning_says_what_is_wrong_in_plain_words(tmp_path, make, says):
+    """The warning for a texture that cannot be read names the file and says why, in words a user can act on.
+    An empty file said "cannot convert 'NoneType' object to bytes", a file of no image format "cannot identify image
+    file <_io.BytesIO object at 0x7f...>" (a memory address, different at each load) and a folder said "cannot
+    open" its path twice."""
+    make(tmp_path / "odd.png")
+    path = textured_stage(tmp_path, str(tmp_path / "odd.png"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        wrt.load_usd(path)
+    (message,) = [str(w.message) for w in caught if "odd.png" in str(w.message)]
+    assert says in message, message
+    assert not re.search(r"NoneType|BytesIO|0x[0-9a-f]{6}", message), message
+    assert message.count("cannot open") <= 1, message

@@ -70,12 +70,17 @@ def srgb_to_linear(x: np.ndarray) -> np.ndarray:
 
 def read_asset_bytes(resolved_path: str) -> bytes:
     """The bytes of a resolved USD asset path, including files packed inside ``.usdz`` archives."""
+    import os
+
     from pxr import Ar
 
+    if os.path.isdir(resolved_path):
+        raise TextureError(f"cannot open {resolved_path}: it is a folder")
     asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved_path))
     if asset is None:
         raise TextureError(f"cannot open {resolved_path}")
-    return bytes(asset.GetBuffer())
+    buffer = asset.GetBuffer()  # None for an empty file
+    return b"" if buffer is None else bytes(buffer)
 
 
 def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
@@ -86,8 +91,12 @@ def load_image(resolved_path: str, color_space: str = "auto") -> np.ndarray:
     """
     try:
         data = read_asset_bytes(resolved_path)
+    except TextureError:
+        raise
     except Exception as e:  # noqa: BLE001 - Ar raises Tf errors of various kinds
         raise TextureError(f"cannot open {resolved_path}: {e}") from None
+    if not data:  # Pillow's words for it were "cannot identify image file <_io.BytesIO object at 0x...>"
+        raise TextureError(f"cannot read image {resolved_path}: the file is empty")
     from .radiance_hdr import is_radiance, read_radiance  # it imports TextureError from here
 
     name = resolved_path.lower().rstrip("]")
@@ -169,6 +178,9 @@ def _read_pillow_samples(data: bytes, name: str) -> tuple[np.ndarray, bool, bool
             key = img.info.get("transparency") if rawmode == "RGB;16B" else None  # a 16-bit RGB PNG's tRNS
             return _read_16bit(data, rawmode, key), img.format == "PNG" and rawmode != "LA;16B", tagged
         img.load()
+    except PilImage.UnidentifiedImageError:  # its words name a BytesIO object at a memory address
+        raise TextureError(f"cannot read image {name}: no image reader wrt has (Pillow, OpenEXR, Radiance) knows its "
+                           "format") from None
     except Exception as e:  # noqa: BLE001 - Pillow raises many kinds
         raise TextureError(f"cannot read image {name}: {e}") from None
     mode = img.mode
