@@ -1017,3 +1017,66 @@ def test_a_place2d_input_fed_by_a_node_is_named_and_the_node_ignored(tmp_path):
     scene, messages = load(path)
     assert any("/Looks/Fed/Place: offset comes from a node; the place2d is ignored" in m for m in messages), messages
     np.testing.assert_allclose(albedo(scene, 2), [[[1, 0, 0], [0, 0, 1]]] * 2, atol=1e-3)
+
+
+def rotate2d_oracle(v, degrees):
+    """MaterialX's ``rotate2d`` (mx_rotate_vector2): ``(x cos a + y sin a, -x sin a + y cos a)``."""
+    a = np.radians(degrees)
+    return np.stack([v[..., 0] * np.cos(a) + v[..., 1] * np.sin(a), -v[..., 0] * np.sin(a) + v[..., 1] * np.cos(a)],
+                    axis=-1)
+
+
+# Chains of vector2 math nodes between ND_texcoord_vector2 and an image: (node id, input the chain enters, other
+# input's name and constant) from the texcoord on, and the map they compute (float64 oracle).
+TEXCOORD_CHAINS = {
+    "tile, shift, turn": ([("ND_multiply_vector2", "in1", "in2", (2.5, 1.5)),
+                           ("ND_subtract_vector2FA", "in1", "in2", 0.3),
+                           ("ND_rotate2d_vector2", "in", "amount", 40.0)],
+                          lambda st: rotate2d_oracle(st * (2.5, 1.5) - 0.3, 40.0)),
+    "divide, add, flip": ([("ND_divide_vector2", "in1", "in2", (0.5, 0.25)),
+                           ("ND_add_vector2", "in2", "in1", (0.1, 0.7)),
+                           ("ND_subtract_vector2", "in2", "in1", (1.0, 1.0)),
+                           ("ND_multiply_vector2FA", "in1", "in2", 0.75)],
+                          lambda st: ((1.0, 1.0) - ((0.1, 0.7) + st / (0.5, 0.25))) * 0.75),
+}
+
+
+@pytest.mark.parametrize("chain", list(TEXCOORD_CHAINS))
+def test_vector2_math_of_constants_on_texture_coordinates_maps_them(tmp_path, chain):
+    """``multiply``, ``divide``, ``add``, ``subtract`` (their ``FA`` forms too) and ``rotate2d`` nodes between the
+    ``texcoord`` node and an image, each with a constant beside the coordinates (tiling and shifting, as node editors
+    wire them), map the coordinates as MaterialX defines those nodes. They were named as unsupported and primvar st
+    read unmapped. Oracle: the texel under each pixel centre's mapped st (closest filter, periodic)."""
+    nodes, oracle = TEXCOORD_CHAINS[chain]
+    texels = np.array([[[255, 0, 0], [0, 255, 0], [0, 0, 255]], [[255, 255, 0], [0, 255, 255], [255, 0, 255]]])
+    png = write_png(tmp_path / "pixels.png", texels)
+    stage, path = new_stage(tmp_path, "math.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Math")[0])
+    source = UsdShade.Shader.Define(stage, "/Looks/Math/Texcoord")
+    source.CreateIdAttr("ND_texcoord_vector2")
+    for k, (node_id, chain_input, other_input, constant) in enumerate(nodes):
+        node = UsdShade.Shader.Define(stage, f"/Looks/Math/Node{k}")
+        node.CreateIdAttr(node_id)
+        node.CreateInput(chain_input, Sdf.ValueTypeNames.Float2).ConnectToSource(source.ConnectableAPI(), "out")
+        scalar = isinstance(constant, float)
+        node.CreateInput(other_input, Sdf.ValueTypeNames.Float if scalar else Sdf.ValueTypeNames.Float2).Set(
+            constant if scalar else Gf.Vec2f(*constant))
+        source = node
+    image = UsdShade.Shader.Define(stage, "/Looks/Math/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
+    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(source.ConnectableAPI(), "out")
+    UsdShade.Shader.Get(stage, "/Looks/Math/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    res = 16
+    centres = (np.arange(res) + 0.5) / res
+    s, t = np.meshgrid(centres, centres[::-1])
+    st = oracle(np.stack([s, t], axis=-1))
+    h, w = texels.shape[:2]
+    expected = texels[np.floor((1.0 - st[..., 1]) * h).astype(int) % h, np.floor(st[..., 0] * w).astype(int) % w]
+    near_edge = np.any(np.abs(np.round(st * (w, h)) - st * (w, h)) < 1e-4, axis=-1)
+    np.testing.assert_allclose(albedo(scene, res)[~near_edge], expected[~near_edge] / 255.0, atol=1e-3)

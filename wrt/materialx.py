@@ -56,7 +56,8 @@ colour space from the attribute's ``colorSpace`` metadata: ``srgb_texture`` deco
 linear spaces kept, none: sRGB for 8-bit colour images; ``float`` and ``vector`` nodes read their data linear, as
 MaterialX colour-manages colour types only), ``uaddressmode``/``vaddressmode`` (periodic, mirror, clamp; constant reads
 the node's ``default`` outside [0, 1], black without one), ``filtertype`` (``closest``: the nearest texel; ``linear``
-and ``cubic``: bilinear), ``place2d`` nodes of constants before its ``texcoord`` (:meth:`_Graph._place2d`),
+and ``cubic``: bilinear), ``place2d`` nodes and vector2 math of constants before its ``texcoord``
+(:meth:`_Graph._texcoord`),
 ``uvtiling``/``uvoffset``/``realworldimagesize``/
 ``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
 (the mesh's ``st``) or a reader of :data:`TEXCOORD_READERS` (the primvar named by ``geomprop`` or ``varname``; its
@@ -154,6 +155,11 @@ TEXCOORD_READERS = {"ND_geompropvalue_vector2": ("geomprop", "default"),
 PLACE2D_ID = "ND_place2d_vector2"  # moves an image's texture coordinates: pivot, scale, rotate, offset, order
 PLACE2D_INPUTS = (("pivot", (0.0, 0.0)), ("scale", (1.0, 1.0)), ("rotate", (0.0,)), ("offset", (0.0, 0.0)),
                   ("operationorder", (0.0,)))  # stdlib_defs.mtlx's defaults
+# Vector2 math nodes read on texture coordinates, with a constant beside them: node -> (inputs the coordinates may
+# enter by, the other input's default). (ND_<op>_vector2, and ND_<op>_vector2FA whose other input is one float.)
+TEXCOORD_MATH = {"multiply": (("in1", "in2"), 1.0), "divide": (("in1",), 1.0), "add": (("in1", "in2"), 0.0),
+                 "subtract": (("in1", "in2"), 0.0), "rotate2d": (("in",), 0.0)}
+TEXCOORD_MATH_ID = re.compile(r"^ND_(multiply|divide|add|subtract|rotate2d)_vector2(FA)?$")
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
 COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
 
@@ -526,16 +532,57 @@ class _Graph:
 
     def _texcoord(self, node) -> tuple[str | None, np.ndarray, np.ndarray | None, np.ndarray]:
         """:meth:`_texcoord_source` of image node ``node``'s ``texcoord``, and the ``(3, 3)`` float64 map of the
-        ``place2d`` nodes between them (:meth:`_place2d`; identity without one), the image's nearest first."""
+        ``place2d`` nodes (:meth:`_place2d`) and vector2 math of constants (:meth:`_texcoord_math`) between them
+        (identity without one), the image's nearest first."""
         placement = np.eye(3)
         found, holder = self.reader._producer(node, "texcoord"), node
-        for _ in range(8):  # a short chain of place2d nodes
-            if found is None or found[0] != "shader" or (found[1].GetShaderId() or "") != PLACE2D_ID:
+        for _ in range(16):  # a short chain of such nodes
+            if found is None or found[0] != "shader":
+                break
+            node_id = found[1].GetShaderId() or ""
+            if node_id == PLACE2D_ID:
+                holder = found[1]
+                placement = placement @ self._place2d(holder)
+                found = self.reader._producer(holder, "texcoord")  # unconnected: UV0, st (defaultgeomprop)
+                continue
+            math_node = TEXCOORD_MATH_ID.match(node_id)
+            mapped = self._texcoord_math(found[1], math_node.group(1)) if math_node else None
+            if mapped is None:
                 break
             holder = found[1]
-            placement = placement @ self._place2d(holder)
-            found = self.reader._producer(holder, "texcoord")  # unconnected: UV0, st (defaultgeomprop)
+            placement, found = placement @ mapped[0], mapped[1]
         return (*self._texcoord_source(found, holder), placement)
+
+    def _texcoord_math(self, node, op: str):
+        """``(map, source)`` of a vector2 math node ``node`` (``op``: a key of :data:`TEXCOORD_MATH`) that reads
+        texture coordinates through one input (``source``: :meth:`MaterialReader._producer` of that input) and a
+        constant through the other: the ``(3, 3)`` float64 affine map it applies, as MaterialX defines the node
+        (``rotate2d`` as :meth:`_place2d`'s turn); None (the caller names the node as unsupported) where neither or
+        both inputs are fed by nodes, or the constant is not finite numbers."""
+        inputs, default = TEXCOORD_MATH[op]
+        names = ("in",) if op == "rotate2d" else ("in1", "in2")
+        found = {name: self.reader._producer(node, name) for name in (*names, "amount")}
+        fed = [name for name in names if found[name] is not None and found[name][0] == "shader"]
+        if len(fed) != 1 or fed[0] not in inputs:
+            return None
+        other = "amount" if op == "rotate2d" else next(name for name in names if name != fed[0])
+        value = default if found[other] is None else _array(found[other][1], None)
+        if value is None or np.size(value) not in (1, 2):
+            return None
+        c = np.resize(np.asarray(value, np.float64), 2)
+        m = np.eye(3)
+        if op == "rotate2d":
+            a = math.radians(c[0])
+            m[:2, :2] = [[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]
+        elif op in ("multiply", "divide"):
+            if op == "divide" and np.any(c == 0.0):
+                return None
+            m[:2, :2] = np.diag(c if op == "multiply" else 1.0 / c)
+        elif op == "add" or fed[0] == "in1":  # st + c, st - c
+            m[:2, 2] = c if op == "add" else -c
+        else:  # c - st
+            m[:2, :2], m[:2, 2] = -np.eye(2), c
+        return m, found[fed[0]]
 
     def _place2d(self, place) -> np.ndarray:
         """``(3, 3)`` float64 map of ``place2d`` node ``place``, as MaterialX's ``NG_place2d_vector2`` computes it with
