@@ -1080,3 +1080,53 @@ def test_vector2_math_of_constants_on_texture_coordinates_maps_them(tmp_path, ch
     expected = texels[np.floor((1.0 - st[..., 1]) * h).astype(int) % h, np.floor(st[..., 0] * w).astype(int) % w]
     near_edge = np.any(np.abs(np.round(st * (w, h)) - st * (w, h)) < 1e-4, axis=-1)
     np.testing.assert_allclose(albedo(scene, res)[~near_edge], expected[~near_edge] / 255.0, atol=1e-3)
+
+
+# base_color chains on an image (colour3 or float, read raw): (nodes from the image on: id, input the chain enters,
+# other input and its constant or None), and the colour they give of a texel (float64 oracle).
+OFFSET_CHAINS = {
+    "scale and shift": ("ND_image_color3", [("ND_multiply_color3FA", "in1", "in2", 0.5),
+                                            ("ND_add_color3", "in2", "in1", (0.1, 0.2, 0.3))],
+                        lambda c: c * 0.5 + (0.1, 0.2, 0.3)),
+    "invert": ("ND_image_color3", [("ND_invert_color3", "in", None, None)], lambda c: 1.0 - c),
+    "invert by an amount": ("ND_image_color3", [("ND_invert_color3FA", "in", "amount", 0.9)], lambda c: 0.9 - c),
+    "subtract from": ("ND_image_color3", [("ND_subtract_color3", "in2", "in1", (0.9, 0.8, 0.7))],
+                      lambda c: (0.9, 0.8, 0.7) - c),
+    "grey plus grey": ("ND_image_float", [("ND_convert_float_color3", "in", None, None),
+                                          ("ND_add_color3FA", "in1", "in2", 0.2),
+                                          ("ND_subtract_color3FA", "in1", "in2", 0.05)],
+                       lambda c: c[..., :1] + 0.15),
+}
+
+
+@pytest.mark.parametrize("chain", list(OFFSET_CHAINS))
+def test_an_image_plus_minus_or_inverted_by_constants_is_folded_into_its_bias(tmp_path, chain):
+    """``add``, ``subtract`` (the image on either side) and ``invert`` (``amount - in``, as gloss maps are turned
+    into roughness) of an image and constants fold into the texture's scale and bias, as ``multiply`` already did:
+    they were named as unfoldable and the input kept its constant (base_color 0.8). Oracle: the nodes' formulas on
+    each texel (pixel centres on texel centres)."""
+    image_id, nodes, oracle = OFFSET_CHAINS[chain]
+    texels = np.array([[[200, 30, 90], [10, 250, 128]], [[64, 160, 220], [255, 0, 40]]])
+    png = write_png(tmp_path / "colours.png", texels)
+    stage, path = new_stage(tmp_path, "offset.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Offset")[0])
+    source = UsdShade.Shader.Define(stage, "/Looks/Offset/Image")
+    source.CreateIdAttr(image_id)
+    source.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    source.GetInput("file").GetAttr().SetColorSpace("raw")
+    for k, (node_id, chain_input, other_input, constant) in enumerate(nodes):
+        node = UsdShade.Shader.Define(stage, f"/Looks/Offset/Node{k}")
+        node.CreateIdAttr(node_id)
+        node.CreateInput(chain_input, Sdf.ValueTypeNames.Color3f).ConnectToSource(source.ConnectableAPI(), "out")
+        if other_input is not None:
+            scalar = isinstance(constant, float)
+            node.CreateInput(other_input, Sdf.ValueTypeNames.Float if scalar else Sdf.ValueTypeNames.Color3f).Set(
+                constant if scalar else Gf.Vec3f(*constant))
+        source = node
+    UsdShade.Shader.Get(stage, "/Looks/Offset/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                    ).ConnectToSource(source.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    expected = np.broadcast_to(oracle(texels / 255.0), texels.shape)
+    np.testing.assert_allclose(albedo(scene, 2), np.maximum(expected, 0.0), atol=2e-3)

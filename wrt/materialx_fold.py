@@ -14,7 +14,9 @@ node (``ND_<node>_*``)  output                                          of a tex
                        add 0, 4 from 3 add 1 (alpha); fewer drop the   channel broadcast, already)
                        last
 ``multiply``           ``in1 (0) * in2 (1)``, per channel               times a constant: its ``scale``
-``add``, ``subtract``  ``in1 (0) +/- in2 (0)``                          --
+``add``, ``subtract``  ``in1 (0) +/- in2 (0)``                          plus or minus a constant: its ``bias``
+                                                                        (a constant minus it: ``scale`` negated)
+``invert``             ``amount (1) - in (0)``                          as ``subtract``
 ``mix``                ``fg (0) * mix + bg (0) * (1 - mix)``            the chosen one where ``mix`` is 0 or 1
 ``extract``            channel ``index`` (0) of ``in``                  a texture's channel
 ``separate2/3/4``      the output's channel of ``in`` (``outr``,        a texture's channel
@@ -38,7 +40,8 @@ import numpy as np
 
 from .materials import CHANNELS, PrimvarInput, TextureInput
 
-FOLDABLE = re.compile(r"^ND_(multiply|add|subtract|mix|constant|convert|extract|separate[234]|combine3|dot)_(\w+)$")
+FOLDABLE = re.compile(r"^ND_(multiply|add|subtract|invert|mix|constant|convert|extract|separate[234]|combine3|dot)_"
+                      r"(\w+)$")
 SEPARATE_CHANNELS = {"outr": 0, "outg": 1, "outb": 2, "outa": 3, "outx": 0, "outy": 1, "outz": 2, "outw": 3}
 # Channels of each type; a nodedef name ends in its types (ND_mix_color3_color3, ND_multiply_color3FA: in2 a float).
 TYPE_SIZES = {"float": 1, "integer": 1, "boolean": 1, "vector2": 2, "color3": 3, "vector3": 3, "color4": 4,
@@ -142,14 +145,46 @@ def _fold(reader, node, leaf, depth: int, memo: dict, output: str) -> Folded:
             raise Unfoldable(node)
         mix = _sized(amount.value, size)
         return Folded(_sized(fg.value, size) * mix + _sized(bg.value, size) * (1.0 - mix))
-    a, b = arg("in1", 0.0), arg("in2", 1.0 if op == "multiply" else 0.0)
+    if op == "invert":
+        op, a, b = "subtract", arg("amount", 1.0), arg("in", 0.0)  # amount - in
+    else:
+        a, b = arg("in1", 0.0), arg("in2", 1.0 if op == "multiply" else 0.0)
     if a.source is None and b.source is None:
         a_value, b_value = _sized(a.value, size), _sized(b.value, size)
         return Folded({"multiply": a_value * b_value, "add": a_value + b_value, "subtract": a_value - b_value}[op])
-    if op != "multiply" or (a.source is not None and b.source is not None):
+    if a.source is not None and b.source is not None:
         raise Unfoldable(node)
-    varying, factor = (a, b.value) if a.source is not None else (b, a.value)
-    return _scaled(node, varying, factor)
+    varying, constant = (a, b.value) if a.source is not None else (b, a.value)
+    if op == "multiply":
+        return _scaled(node, varying, constant)
+    if op == "subtract" and varying is a:
+        return _offset(node, varying, -constant, False, size)
+    return _offset(node, varying, constant, op == "subtract", size)  # c + texture, c - texture
+
+
+def _offset(node, varying: Folded, offset: np.ndarray, negate: bool, size: int) -> Folded:
+    """``offset -/+ varying`` (``negate``: minus) for a texture ``varying`` and a constant ``offset`` (1 or N
+    channels) of a node of ``size`` channels: the texture's bias (and its scale negated). A colour3 node leaves the
+    texture's alpha as it is. A primvar (no bias), a texture read as one channel plus a colour whose channels differ
+    (its one bias cannot tint it), or a bias past float32's range cannot be folded (``node`` is named)."""
+    source = varying.source
+    if not isinstance(source, TextureInput):
+        raise Unfoldable(node)
+    one_channel = CHANNELS[source.channel] < 4  # read and broadcast
+    if one_channel and np.ptp(_sized(offset, 3)) > 0:
+        raise Unfoldable(node)
+    n = max(varying.value.size, offset.size)
+    value = _sized(offset, n) + (-1.0 if negate else 1.0) * _sized(varying.value, n)
+    sign = np.full(4, -1.0 if negate else 1.0)
+    shift = _sized(offset, 4)
+    if size == 3 and not one_channel:  # colour3: no alpha of its own
+        sign[3], shift[3] = 1.0, 0.0
+    with np.errstate(over="ignore", invalid="ignore"):  # checked below
+        source.scale = (source.scale * sign).astype(np.float32)
+        source.bias = (source.bias * sign + shift).astype(np.float32)
+    if not (np.all(np.isfinite(source.scale)) and np.all(np.isfinite(source.bias))):
+        raise Unfoldable(node)
+    return Folded(value, source)
 
 
 def _sized(value: np.ndarray, size: int) -> np.ndarray:
