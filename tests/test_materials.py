@@ -614,6 +614,28 @@ def test_mesh_without_the_primvar_reads_the_readers_fallback(tmp_path, mesh_st):
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
+@pytest.mark.parametrize("tessellate", [False, True])
+@pytest.mark.parametrize("gprim", ["Cube", "Sphere"])
+def test_a_gprim_reads_its_texture_at_the_readers_fallback_st(tmp_path, gprim, tessellate):
+    """A gprim has no texture coordinates (Storm's generated meshes carry no st), so its textures read at the
+    UsdPrimvarReader_float2's ``fallback`` st, as on a mesh without the primvar. Drawn analytically it read st =
+    (0, 0), the image's bottom-left texel, whatever the fallback: unlike the same gprim tessellated."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
+        Gf.Vec2f(0.75, 0.25))  # the grey block's middle
+    stage.RemovePrim("/Quad")
+    shape = getattr(UsdGeom, gprim).Define(stage, "/Shape")
+    shape.CreateSizeAttr(1.0) if gprim == "Cube" else shape.CreateRadiusAttr(0.5)
+    bind(shape, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    stage.Save()
+    scene = wrt.load_usd(path, tessellate_gprims=tessellate)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=0.5)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
+    np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
+
+
 @pytest.mark.parametrize("on", ["mesh", "instance"])
 def test_an_empty_constant_st_is_named_as_empty_and_reads_the_readers_fallback(tmp_path, on):
     """``texCoord2f[] primvars:st = []`` (constant) on a native instance, handed down to its prototype's mesh, was

@@ -1393,16 +1393,28 @@ class Scene:
 
     def corner_uvs(self) -> np.ndarray:
         """``(T, 3, 2)`` float32 texture coordinates per triangle corner (geometry order; zero where a mesh has
-        none)."""
+        none), then one row per analytic shape: the ``st_fallback`` of its material's texture, as a mesh without
+        ``uvs`` (:meth:`_st_fallbacks`); shapes have no texture coordinates (nor have Storm's meshes of gprims), and
+        they read st = (0, 0) whatever the primvar reader's fallback said."""
         key = ("corner_uvs",)
         if key not in self._cache:
             meshes = self._geometry_meshes()
             fallbacks = self._st_fallbacks(meshes)
             parts = [m.uvs if m.uvs is not None else np.broadcast_to(fallbacks.get(id(m), np.zeros(2, np.float32)),
                                                                      (len(m.indices), 3, 2)) for m in meshes]
-            parts += [np.zeros((len(self._geometry_shapes()), 3, 2), np.float32)]
+            textured = self._first_textures()
+            shape_st = [textured[s.material_id].st_fallback if 0 <= s.material_id < len(textured)
+                        and textured[s.material_id] is not None else np.zeros(2, np.float32)
+                        for s in self._geometry_shapes()]
+            parts += [np.broadcast_to(np.asarray(shape_st, np.float32).reshape(-1, 1, 2), (len(shape_st), 3, 2))]
             self._cache[key] = np.concatenate(parts or [np.zeros((0, 3, 2), np.float32)]).astype(np.float32)
         return self._cache[key]
+
+    def _first_textures(self) -> list:
+        """Per material, its first texture read through texture coordinates (a :class:`wrt.materials.TextureInput`
+        whose ``uv_set`` is not None), or None."""
+        return [next((t for t in getattr(m, "textures", {}).values() if t.uv_set is not None), None)
+                for m in self.materials]
 
     def _st_fallbacks(self, meshes: list) -> dict:
         """``id(mesh) -> (2,) st`` for the meshes without ``uvs`` whose materials read a texture through texture
@@ -1411,8 +1423,7 @@ class Scene:
         the fallback said, without the loader's warning, which names them here too."""
         from .materials import used_materials
 
-        textured = [next((t for t in getattr(m, "textures", {}).values() if t.uv_set is not None), None)
-                    for m in self.materials]
+        textured = self._first_textures()
         if not any(t is not None for t in textured):
             return {}
         found, named = {}, []
