@@ -1130,3 +1130,30 @@ def test_an_image_plus_minus_or_inverted_by_constants_is_folded_into_its_bias(tm
     assert not messages, messages
     expected = np.broadcast_to(oracle(texels / 255.0), texels.shape)
     np.testing.assert_allclose(albedo(scene, 2), np.maximum(expected, 0.0), atol=2e-3)
+
+
+def test_a_multiply_whose_other_input_is_unauthored_takes_that_inputs_default(tmp_path):
+    """``ND_multiply_vector2`` with the coordinates on ``in2`` and ``in1`` unauthored multiplies them by in1's
+    default, (0, 0), as MaterialX defines the node: every point reads st (0, 0), the bottom-left texel (blue); taking
+    in2's default, 1, read the image unmapped."""
+    png = write_png(tmp_path / "corners.png", CORNERS)
+    stage, path = new_stage(tmp_path, "zero.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Zero")[0])
+    texcoord = UsdShade.Shader.Define(stage, "/Looks/Zero/Texcoord")
+    texcoord.CreateIdAttr("ND_texcoord_vector2")
+    times = UsdShade.Shader.Define(stage, "/Looks/Zero/Times")
+    times.CreateIdAttr("ND_multiply_vector2")
+    times.CreateInput("in2", Sdf.ValueTypeNames.Float2).ConnectToSource(texcoord.ConnectableAPI(), "out")
+    image = UsdShade.Shader.Define(stage, "/Looks/Zero/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("filtertype", Sdf.ValueTypeNames.String).Set("closest")
+    image.CreateInput("texcoord", Sdf.ValueTypeNames.Float2).ConnectToSource(times.ConnectableAPI(), "out")
+    for key in ("uaddressmode", "vaddressmode"):  # st (0, 0) is on the image's edge: keep it in the bottom row
+        image.CreateInput(key, Sdf.ValueTypeNames.String).Set("clamp")
+    UsdShade.Shader.Get(stage, "/Looks/Zero/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                  ).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    assert not messages, messages
+    np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([0, 0, 1], (2, 2, 3)), atol=1e-3)

@@ -156,9 +156,10 @@ PLACE2D_ID = "ND_place2d_vector2"  # moves an image's texture coordinates: pivot
 PLACE2D_INPUTS = (("pivot", (0.0, 0.0)), ("scale", (1.0, 1.0)), ("rotate", (0.0,)), ("offset", (0.0, 0.0)),
                   ("operationorder", (0.0,)))  # stdlib_defs.mtlx's defaults
 # Vector2 math nodes read on texture coordinates, with a constant beside them: node -> (inputs the coordinates may
-# enter by, the other input's default). (ND_<op>_vector2, and ND_<op>_vector2FA whose other input is one float.)
-TEXCOORD_MATH = {"multiply": (("in1", "in2"), 1.0), "divide": (("in1",), 1.0), "add": (("in1", "in2"), 0.0),
-                 "subtract": (("in1", "in2"), 0.0), "rotate2d": (("in",), 0.0)}
+# enter by, each input's default: stdlib_defs.mtlx's). (ND_<op>_vector2, and ND_<op>_vector2FA whose in2 is a float.)
+TEXCOORD_MATH = {"multiply": (("in1", "in2"), {"in1": 0.0, "in2": 1.0}), "divide": (("in1",), {"in2": 1.0}),
+                 "add": (("in1", "in2"), {"in1": 0.0, "in2": 0.0}),
+                 "subtract": (("in1", "in2"), {"in1": 0.0, "in2": 0.0}), "rotate2d": (("in",), {"amount": 0.0})}
 TEXCOORD_MATH_ID = re.compile(r"^ND_(multiply|divide|add|subtract|rotate2d)_vector2(FA)?$")
 ADDRESS_MODES = {"periodic": "repeat", "mirror": "mirror", "clamp": "clamp", "constant": "black"}
 COLOR_SPACES = {"": "auto", "srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}  # colorSpace -> wrt's
@@ -559,14 +560,14 @@ class _Graph:
         constant through the other: the ``(3, 3)`` float64 affine map it applies, as MaterialX defines the node
         (``rotate2d`` as :meth:`_place2d`'s turn); None (the caller names the node as unsupported) where neither or
         both inputs are fed by nodes, or the constant is not finite numbers."""
-        inputs, default = TEXCOORD_MATH[op]
+        inputs, defaults = TEXCOORD_MATH[op]
         names = ("in",) if op == "rotate2d" else ("in1", "in2")
         found = {name: self.reader._producer(node, name) for name in (*names, "amount")}
         fed = [name for name in names if found[name] is not None and found[name][0] == "shader"]
         if len(fed) != 1 or fed[0] not in inputs:
             return None
         other = "amount" if op == "rotate2d" else next(name for name in names if name != fed[0])
-        value = default if found[other] is None else _array(found[other][1], None)
+        value = defaults[other] if found[other] is None else _array(found[other][1], None)
         if value is None or np.size(value) not in (1, 2):
             return None
         c = np.resize(np.asarray(value, np.float64), 2)
