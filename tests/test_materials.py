@@ -636,6 +636,33 @@ def test_a_gprim_reads_its_texture_at_the_readers_fallback_st(tmp_path, gprim, t
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
+@pytest.mark.parametrize("tessellate", [False, True])
+@pytest.mark.parametrize("holder", ["/Group/Shape", "/Group"])
+def test_a_gprim_reads_its_texture_at_its_constant_st(tmp_path, holder, tessellate):
+    """A constant ``st`` primvar on a gprim, or inherited from a prim above it, is where its textures read (as
+    Storm hands constant primvars to the meshes it makes of gprims, and as a mesh reads one): here (0.25, 0.75),
+    CHECKER's top-left block, red, not the reader's fallback (0.75, 0.25). It was ignored."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
+        Gf.Vec2f(0.75, 0.25))
+    stage.RemovePrim("/Quad")
+    UsdGeom.Xform.Define(stage, "/Group")
+    shape = UsdGeom.Sphere.Define(stage, "/Group/Shape")
+    shape.CreateRadiusAttr(0.5)
+    bind(shape, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    UsdGeom.PrimvarsAPI(stage.GetPrimAtPath(holder)).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.constant).Set([(0.25, 0.75)])
+    stage.Save()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # read without a word
+        scene = wrt.load_usd(path, tessellate_gprims=tessellate)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=0.5)
+    img = wrt.render(scene, camera=cam, width=4, height=4, device="cpu", integrator="albedo").rgb
+    np.testing.assert_allclose(img, np.broadcast_to([1.0, 0.0, 0.0], img.shape), atol=2e-3)
+
+
 @pytest.mark.parametrize("on", ["mesh", "instance"])
 def test_an_empty_constant_st_is_named_as_empty_and_reads_the_readers_fallback(tmp_path, on):
     """``texCoord2f[] primvars:st = []`` (constant) on a native instance, handed down to its prototype's mesh, was

@@ -140,6 +140,8 @@ def test_shape_params_color_and_opacity_on_a_gpu_are_read_as_a_meshs_arrays_are(
     ("color", np.ones((2, 3)), "3 finite numbers or None"),
     ("opacity", "0.5", r"a number in \[0, 1\] or None"), ("opacity", True, r"a number in \[0, 1\] or None"),
     ("opacity", [0.5, 0.5], r"a number in \[0, 1\] or None"),
+    ("st", "ab", "2 finite numbers or None"), ("st", [0.5, 0.5, 0.5], "2 finite numbers or None"),
+    ("st", [np.nan, 0.5], "2 finite numbers or None"),
 ])
 def test_shape_params_color_or_opacity_that_are_no_real_numbers_are_refused_naming_the_shape(name, value, need):
     """Text, bools, complex values or a wrong count failed with numpy's message naming no shape (``could not convert

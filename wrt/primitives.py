@@ -467,6 +467,8 @@ class Shape(CountsAssignments):
         double_sided: the gprim's ``doubleSided``: when False camera rays pass through its back (as for meshes).
         opacity: its ``displayOpacity`` in [0, 1] with the default material (as ``Mesh.opacities``), or None
             (opaque).
+        st: ``(2,)`` float32 texture coordinate its material's textures read at every point (a constant ``st``
+            primvar of the gprim or inherited), or None: their ``st_fallback`` (shapes have no texture coordinates).
     """
 
     path: str
@@ -477,6 +479,7 @@ class Shape(CountsAssignments):
     material_id: int = -1
     double_sided: bool = False
     opacity: float | None = None
+    st: np.ndarray | None = None
 
     def __post_init__(self):
         path = prim_path(self.path, f"wrt.Shape {self.kind!r}")
@@ -525,6 +528,11 @@ class Shape(CountsAssignments):
             self.opacity = float(self._real_numbers("opacity", 1, "a number in [0, 1] or None")[0])
             if not 0.0 <= self.opacity <= 1.0:  # NaN too: it would mean "none" on the device
                 raise ValueError(f"shape {self.path}: opacity must be in [0, 1] or None, got {self.opacity!r}")
+        if self.st is not None:
+            st = self._real_numbers("st", 2, "2 finite numbers or None").astype(np.float32)
+            if not np.isfinite(st).all():
+                raise ValueError(f"shape {self.path}: st must be 2 finite numbers or None, got {st.tolist()}")
+            self.st = st
         mark_checked(self)
 
     def _params_problem(self) -> str | None:

@@ -1393,9 +1393,9 @@ class Scene:
 
     def corner_uvs(self) -> np.ndarray:
         """``(T, 3, 2)`` float32 texture coordinates per triangle corner (geometry order; zero where a mesh has
-        none), then one row per analytic shape: the ``st_fallback`` of its material's texture, as a mesh without
-        ``uvs`` (:meth:`_st_fallbacks`); shapes have no texture coordinates (nor have Storm's meshes of gprims), and
-        they read st = (0, 0) whatever the primvar reader's fallback said."""
+        none), then one row per analytic shape: its ``st``, else the ``st_fallback`` of its material's texture, as a
+        mesh without ``uvs`` (:meth:`_st_fallbacks`); shapes have no texture coordinates (nor have Storm's meshes of
+        gprims), and they read st = (0, 0) whatever the primvar reader's fallback said."""
         key = ("corner_uvs",)
         if key not in self._cache:
             meshes = self._geometry_meshes()
@@ -1403,9 +1403,9 @@ class Scene:
             parts = [m.uvs if m.uvs is not None else np.broadcast_to(fallbacks.get(id(m), np.zeros(2, np.float32)),
                                                                      (len(m.indices), 3, 2)) for m in meshes]
             textured = self._first_textures()
-            shape_st = [textured[s.material_id].st_fallback if 0 <= s.material_id < len(textured)
-                        and textured[s.material_id] is not None else np.zeros(2, np.float32)
-                        for s in self._geometry_shapes()]
+            shape_st = [s.st if s.st is not None else textured[s.material_id].st_fallback
+                        if 0 <= s.material_id < len(textured) and textured[s.material_id] is not None
+                        else np.zeros(2, np.float32) for s in self._geometry_shapes()]
             parts += [np.broadcast_to(np.asarray(shape_st, np.float32).reshape(-1, 1, 2), (len(shape_st), 3, 2))]
             self._cache[key] = np.concatenate(parts or [np.zeros((0, 3, 2), np.float32)]).astype(np.float32)
         return self._cache[key]

@@ -55,12 +55,36 @@ class GprimReading:
             material_id=material_id,
             double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
             opacity=self._one_opacity(prim, False, ctx.keep_opaque, ctx.blocked_opaque) if material_id < 0 else None,
+            st=self._gprim_st(prim, material_id),
         )
         # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them (skipped).
         if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
             self._skip(BEYOND_FLOAT32, prim)
             return None
         return shape
+
+    def _gprim_st(self, prim: Usd.Prim, material_id: int) -> np.ndarray | None:
+        """``(2,)`` texture coordinate of gprim ``prim`` for the primvar its material's textures read: its own or an
+        inherited constant one (the first two numbers of its first value), as Storm hands constant primvars to the
+        meshes it makes of gprims; None without one (the reader's fallback is read), and, with a warning, for one of
+        another interpolation (wrt has no texture coordinates over a gprim) or that is not 2-, 3- or 4-vectors of
+        finite numbers. It was ignored: the texture showed at the fallback."""
+        uv_set = self.materials.uv_set(np.array([material_id]), prim) if material_id >= 0 else None
+        primvar = self.inherited_primvars.find(prim, uv_set) if uv_set else None
+        if not (primvar and primvar.HasValue()):
+            return None
+        if primvar.GetInterpolation() != UsdGeom.Tokens.constant:
+            self._skip("gprims read only a constant texture-coordinate primvar; their textures show at the primvar "
+                       "reader's fallback st", prim, f"{uv_set}: {primvar.GetInterpolation()}")
+            return None
+        values = np.asarray(primvar.ComputeFlattened(self.time) if primvar.IsIndexed() else value_at(
+            primvar.GetAttr(), self.time))
+        if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu" or not len(values) \
+                or not np.all(np.abs(values[0, :2]) <= np.finfo(np.float32).max):
+            self._skip("a gprim's texture-coordinate primvar that is not 2-, 3- or 4-vectors of finite numbers was "
+                       "ignored; its textures show at the primvar reader's fallback st", prim, uv_set)
+            return None
+        return values[0, :2].astype(np.float32)
 
     def _gprim_colors(self, prim: Usd.Prim, primvar: UsdGeom.Primvar) -> np.ndarray | None:
         """``(k, 3)`` float64 values of colour primvar ``primvar`` of gprim ``prim``, whose mean colours it, or None
@@ -196,6 +220,7 @@ class GprimReading:
             double_sided=shape.double_sided,
             material_ids=None if shape.material_id < 0 else np.full(n, shape.material_id, np.int32),
             opacities=None if shape.opacity is None else np.full((n, 3), shape.opacity, np.float32),
+            uvs=None if shape.st is None else np.broadcast_to(shape.st, (n, 3, 2)),
         )
 
     def _read_tubes(self, prim: Usd.Prim, ctx: Context):
