@@ -663,6 +663,39 @@ def test_a_gprim_reads_its_texture_at_its_constant_st(tmp_path, holder, tessella
     np.testing.assert_allclose(img, np.broadcast_to([1.0, 0.0, 0.0], img.shape), atol=2e-3)
 
 
+@pytest.mark.parametrize("tessellate", [False, True])
+def test_native_instances_hand_their_constant_st_to_prototype_gprims(tmp_path, tessellate):
+    """Two native instances of one prototype holding a textured Sphere, each with its own constant ``st`` (a palette
+    texel per instance), show their own texel on the sphere, as they do on a prototype's mesh: CHECKER's top-left
+    block (red) at (0.25, 0.75) and its top-right one (green) at (0.75, 0.75). The gprim read the reader's fallback,
+    (0.75, 0.25), grey, in both."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
+        Gf.Vec2f(0.75, 0.25))
+    stage.RemovePrim("/Quad")
+    proto = stage.DefinePrim("/Proto")
+    proto.SetSpecifier(Sdf.SpecifierClass)
+    ball = UsdGeom.Sphere.Define(stage, "/Proto/Ball")
+    ball.CreateRadiusAttr(0.5)
+    bind(ball, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    for name, x, st in (("Left", -0.75, (0.25, 0.75)), ("Right", 0.75, (0.75, 0.75))):
+        inst = UsdGeom.Xform.Define(stage, f"/{name}")
+        inst.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        inst.GetPrim().GetInherits().AddInherit("/Proto")
+        inst.GetPrim().SetInstanceable(True)
+        UsdGeom.PrimvarsAPI(inst).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                                UsdGeom.Tokens.constant).Set([st])
+    stage.Save()
+    scene = wrt.load_usd(path, tessellate_gprims=tessellate)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=0.5)
+    for x, colour in ((-0.75, [1.0, 0.0, 0.0]), (0.75, [0.0, 1.0, 0.0])):
+        cam = wrt.Camera.orthographic(eye=(x, 0, 5), target=(x, 0, 0), height=0.5)
+        img = wrt.render(scene, camera=cam, width=2, height=2, device="cpu", integrator="albedo").rgb
+        np.testing.assert_allclose(img, np.broadcast_to(colour, img.shape), atol=2e-3)
+
+
 @pytest.mark.parametrize("on", ["mesh", "instance"])
 def test_an_empty_constant_st_is_named_as_empty_and_reads_the_readers_fallback(tmp_path, on):
     """``texCoord2f[] primvars:st = []`` (constant) on a native instance, handed down to its prototype's mesh, was

@@ -19,6 +19,7 @@ from .primitives import (
 )
 from .scene import Mesh
 from .tubes import width_axis
+from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Content, Context, instance_looks
 from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened, quaternion_typed
 from .usd_problems import BEYOND_FLOAT32
@@ -55,7 +56,7 @@ class GprimReading:
             material_id=material_id,
             double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
             opacity=self._one_opacity(prim, False, ctx.keep_opaque, ctx.blocked_opaque) if material_id < 0 else None,
-            st=self._gprim_st(prim, material_id),
+            st=self._gprim_st(prim, material_id, ctx),
         )
         # As for mesh points: a box past float32 made the scene's bounds infinite and the render refuse them (skipped).
         if not np.abs(world_boxes(*shape.local_bounds(), to_world[None])).max() <= np.finfo(np.float32).max:
@@ -63,15 +64,23 @@ class GprimReading:
             return None
         return shape
 
-    def _gprim_st(self, prim: Usd.Prim, material_id: int) -> np.ndarray | None:
+    def _gprim_st(self, prim: Usd.Prim, material_id: int, ctx: Context) -> np.ndarray | None:
         """``(2,)`` texture coordinate of gprim ``prim`` for the primvar its material's textures read: its own or an
         inherited constant one (the first two numbers of its first value), as Storm hands constant primvars to the
-        meshes it makes of gprims; None without one (the reader's fallback is read), and, with a warning, for one of
-        another interpolation (wrt has no texture coordinates over a gprim) or that is not 2-, 3- or 4-vectors of
-        finite numbers. It was ignored: the texture showed at the fallback."""
+        meshes it makes of gprims; where neither it nor a prim above it has one, the one a native instance or a
+        PointInstancer hands down (``ctx.outer_uv``, as to a mesh: :meth:`Content.want_uvs`); None without any (the
+        reader's fallback is read), and, with a warning, for one of another interpolation (wrt has no texture
+        coordinates over a gprim) or that is not 2-, 3- or 4-vectors of finite numbers. It was ignored: the texture
+        showed at the fallback."""
         uv_set = self.materials.uv_set(np.array([material_id]), prim) if material_id >= 0 else None
-        primvar = self.inherited_primvars.find(prim, uv_set) if uv_set else None
-        if not (primvar and primvar.HasValue()):
+        if not uv_set:
+            return None
+        primvar = self.inherited_primvars.lookup(prim, uv_set)
+        if primvar is None or primvar is PER_INSTANCE:  # (invalid primvars compare equal)
+            ctx.content.want_uvs([uv_set])
+            outer = dict(ctx.outer_uv or ()).get(uv_set)
+            return None if outer is None else np.asarray(outer, np.float32).reshape(-1)[:2]
+        if not primvar.HasValue():  # BLOCKED: a non-constant one above
             return None
         if primvar.GetInterpolation() != UsdGeom.Tokens.constant:
             self._skip("gprims read only a constant texture-coordinate primvar; their textures show at the primvar "
