@@ -1713,3 +1713,29 @@ def test_texture_transforms_past_float32_warn_only_in_wrts_words(tmp_path, case)
         wrt.load_usd(path)
     assert [w.category for w in caught] == [UserWarning], [str(w.message) for w in caught]
     assert "float32" in str(caught[0].message)
+
+
+@pytest.mark.parametrize("source", ["ND_texcoord_vector2", "ND_geompropvalue_vector2"])
+def test_materialx_texcoord_nodes_feed_a_materialx_usd_uv_texture(tmp_path, source):
+    """MaterialX's own texture-coordinate nodes feeding an ``ND_UsdUVTexture``'s ``st`` (through its
+    ``ND_UsdTransform2d``), as MaterialX graphs wire them: ``texcoord`` reads ``st`` (UV0) and ``geompropvalue`` the
+    primvar it names (here ``uv``; the mesh has no ``st``), as for a MaterialX image node. They were named as
+    unsupported shaders and primvar ``st`` read: the geompropvalue's texture showed at the fallback st."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = materialx_preview_stage(tmp_path, png, None, source)
+    stage = Usd.Stage.Open(path)
+    reader = UsdShade.Shader.Get(stage, "/Looks/Mx/Reader")
+    reader.GetPrim().RemoveProperty("inputs:varname")
+    reader.SetShaderId(source)
+    if source == "ND_geompropvalue_vector2":
+        reader.CreateInput("geomprop", Sdf.ValueTypeNames.String).Set("uv")
+        primvars = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Quad"))
+        primvars.CreatePrimvar("uv", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+            primvars.GetPrimvar("st").Get())
+        primvars.RemovePrimvar("st")
+    stage.Save()
+    scene, messages = load_with_messages(path)
+    assert not messages, messages
+    img = albedo_of(scene, res=8)  # st over [0, 2]^2 (the transform's scale 2), periodic
+    texels = np.array([[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [128 / 255] * 3]])  # 2x2 blocks, rows from the top
+    np.testing.assert_allclose(img, np.tile(np.repeat(np.repeat(texels, 2, 0), 2, 1), (2, 2, 1)), atol=2e-3)

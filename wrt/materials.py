@@ -1452,6 +1452,16 @@ class MaterialReader:
             if node_id.startswith(ST_READER_PREFIXES):
                 varname = self._constant(node, "varname")
                 return (str(varname) if varname else "st"), transform, self._st_fallback(node, material_path)
+            if node_id == "ND_texcoord_vector2":  # MaterialX's UV0, USD's st
+                index = self._constant(node, "index")
+                if index not in (None, 0):
+                    self.skip(f"material {material_path}: a texcoord node's index other than 0 is read as primvar st",
+                              node.GetPrim(), detail=f"index = {index}")
+                return "st", transform, no_fallback
+            if node_id == "ND_geompropvalue_vector2":  # MaterialX's primvar reader: geomprop, default
+                geomprop = self._constant(node, "geomprop")
+                return (str(geomprop) if geomprop else "st"), transform, self._st_fallback(node, material_path,
+                                                                                          "default")
             if node_id in TRANSFORM2D_IDS:
                 rotation, scale, translation = (self._transform2d_input(node, name, default, material_path)
                                                 for name, default in TRANSFORM2D_DEFAULTS)
@@ -1490,10 +1500,10 @@ class MaterialReader:
                       "primvar is read", shader.GetPrim(), detail=f"{name} = {value}")
         return st
 
-    def _st_fallback(self, reader, material_path: str) -> np.ndarray:
-        """``(2,)`` float32 ``fallback`` of texture-coordinate reader ``reader``: zero when unauthored; one that is not
-        two finite numbers is zero too, with a warning."""
-        value = self._constant(reader, "fallback")
+    def _st_fallback(self, reader, material_path: str, name: str = "fallback") -> np.ndarray:
+        """``(2,)`` float32 ``fallback`` (``name``: MaterialX's geompropvalue's ``default``) of texture-coordinate
+        reader ``reader``: zero when unauthored; one that is not two finite numbers is zero too, with a warning."""
+        value = self._constant(reader, name)
         if value is None:
             return np.zeros(2, np.float32)
         v = two_finite_numbers(value)
