@@ -887,6 +887,42 @@ def test_load_usd_refuses_a_time_that_is_no_number(tmp_path):
     for time in (2, 2.0, np.float32(2.0), np.int64(2), Usd.TimeCode(2.0)):
         np.testing.assert_allclose(load_usd(path, time=time).meshes[0].points[:, 2], expected)
 
+def test_earliest_time_reads_the_first_samples_unmoved_by_velocities(tmp_path):
+    """``time=Usd.TimeCode.EarliestTime()`` is USD's time code for "the first authored sample" (``Get`` there reads
+    it): wrt reads the stage there as USD does at that first sample. Velocities and angular velocities moved the
+    points and instances by ``dt = -DBL_MAX / timeCodesPerSecond`` seconds: the mesh was refused as not finite
+    (a SceneError), the instances dropped, with numpy's overflow warning and a warning that the time is outside the
+    stage's range."""
+    from composed_stages import unmatched, usd_triangles
+
+    stage, path = make_stage(tmp_path)
+    stage.SetStartTimeCode(0)
+    stage.SetEndTimeCode(10)
+    mesh = define_mesh(stage)
+    instancer = UsdGeom.PointInstancer.Define(stage, "/Instancer")
+    define_mesh(stage, "/Instancer/Prototype")
+    instancer.CreatePrototypesRel().SetTargets(["/Instancer/Prototype"])
+    instancer.CreateProtoIndicesAttr(Vt.IntArray([0, 0]))
+    for t in (0.0, 10.0):
+        mesh.GetPointsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(*p) + Gf.Vec3f(t, 0, 0) for p in POINTS]), t)
+        mesh.CreateVelocitiesAttr().Set(Vt.Vec3fArray([Gf.Vec3f(24, 0, 0)] * len(POINTS)), t)
+        instancer.CreatePositionsAttr().Set(Vt.Vec3fArray([Gf.Vec3f(0, 5, t), Gf.Vec3f(3, 5, t)]), t)
+        instancer.CreateVelocitiesAttr().Set(Vt.Vec3fArray([Gf.Vec3f(0, 0, 24)] * 2), t)
+        instancer.CreateOrientationsAttr().Set(Vt.QuathArray([Gf.Quath(1, 0, 0, 0)] * 2), t)
+        instancer.CreateAngularVelocitiesAttr().Set(Vt.Vec3fArray([Gf.Vec3f(0, 0, 90)] * 2), t)
+    stage.Save()
+    assert list(mesh.GetPointsAttr().Get(Usd.TimeCode.EarliestTime())) == list(mesh.GetPointsAttr().Get(0.0))
+    expected, _ = usd_triangles(stage, Usd.TimeCode(0.0))  # USD at the first sample, the time EarliestTime stands for
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = load_usd(path, time=Usd.TimeCode.EarliestTime())
+    points, indices = scene.triangles()
+    got = np.asarray(points, np.float64)[indices]
+    assert len(expected) == 3 * 5  # the mesh and two instances of it, of 5 triangles each
+    extra, missing = unmatched(got, expected, 1e-6)
+    assert (len(got), extra, missing) == (len(expected), [], [])
+
+
 def test_time_default_wins_over_samples(tmp_path):
     stage, path = make_stage(tmp_path)
     mesh = define_mesh(stage)

@@ -210,7 +210,7 @@ def load_stage_at(path, time, tessellate_gprims, refine_level, variants, render_
         # usd-core hangs in time-sample queries on such stages; wrt never makes them, but say what was found.
         warnings.warn(f"{os.path.basename(source)}: timeCodesPerSecond = {stage.GetTimeCodesPerSecond():g} is invalid; "
                       "time samples are read only at their authored time codes", stacklevel=user_stacklevel())
-    if not time_code.IsDefault():
+    if not (time_code.IsDefault() or time_code.IsEarliestTime()):  # EarliestTime: the first samples, no time
         check_time_in_range(stage, source, time_code.GetValue())
     segments = _gprim_segments(tessellate_gprims)
     _check_refine_level(refine_level)

@@ -69,7 +69,8 @@ def moved_positions(positions: Usd.Attribute, velocities: Usd.Attribute, acceler
     ``UsdGeomPointInstancer::ComputeInstanceTransformsAtTime``): the sample at or before ``time`` plus
     ``v dt + a dt^2 / 2``, ``dt = (time - sample time) / timeCodesPerSecond`` in seconds. Velocities are used only
     when their samples bracket ``time`` at the same times as the positions' and they have one entry per position
-    (accelerations likewise against the velocities); otherwise, or at the default time, returns None and the caller
+    (accelerations likewise against the velocities); otherwise, or at the default time or ``EarliestTime`` (the
+    first samples as they are), returns None and the caller
     reads the positions as they are (interpolated between samples). A rate of the wrong length is ignored, as USD
     ignores it (with a warning): ``wrong_lengths`` gets one ``"3 velocities for 2 positions"`` for each.
 
@@ -128,8 +129,8 @@ def _with_rate(base: Usd.Attribute, rate: Usd.Attribute, time: Usd.TimeCode, tim
     usable derivative of ``base`` at ``time`` as USD checks it (both time-sampled, bracketing ``time`` with the same
     samples, one rate entry per base entry; ``base`` entries ``width`` wide), else None. A rate whose length is
     not the base's is told to ``wrong_lengths``, as USD warns about that one (the other checks are silent)."""
-    if time.IsDefault() or not (time_codes_per_second > 0) or not rate.HasAuthoredValue():
-        return None
+    if time.IsDefault() or time.IsEarliestTime() or not (time_codes_per_second > 0) or not rate.HasAuthoredValue():
+        return None  # EarliestTime reads the first samples as they are: -DBL_MAX is no time to move them by
     t = time.GetValue()
     sample, bracket = _bracket(base, t)
     if sample is None or _bracket(rate, t) != (sample, bracket):
