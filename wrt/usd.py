@@ -417,9 +417,11 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             if self._visible(prim, ctx.stop):
                 purpose = self._purpose(prim, ctx)
                 hidden = self._hidden_purposes(prim, ctx)
-                # A drawn purpose is handed down only where it is hidden: the prims inside that inherit it are too.
-                handed = None if purpose in self.purposes and purpose not in hidden else purpose
-                self._read_native_instance(prim, ctx, handed, hidden)
+                # A drawn purpose is handed down where it is hidden (the prims inside that inherit it are too), or
+                # where an opinion gives it: a PointInstancer inside whose prototypes author none draws them by it,
+                # not by its own (_prototype_purpose).
+                drawn = purpose in self.purposes and purpose not in hidden
+                self._read_native_instance(prim, ctx, self._authored_purpose(prim, ctx) if drawn else purpose, hidden)
                 if prim.IsA(UsdGeom.Gprim) and self._rendered(prim, ctx):
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.

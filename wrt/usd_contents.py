@@ -115,7 +115,8 @@ class Context:
         self.outer_widths = outer_widths  # constant primvars:widths inherited by a native instance (float), or None
         # ((primvar, (s, t)), ...): constant texture coordinates inherited by a native instance, or None
         self.outer_uv = outer_uv
-        # a purpose inherited by a native instance that is not drawn, or drawn but hidden (outer_hidden), or None
+        # The purpose inherited by a native instance: a non-rendered one, or a rendered one hidden there (outer_hidden)
+        # or that an opinion gives (a PointInstancer inside draws its prototypes by it), else None
         self.outer_purpose = outer_purpose
         # Drawn purposes that UsdGeomVisibilityAPI opinions on or above the native instance read hide: the prims
         # inside with no opinion of their own up to the prototype root are hidden for them (Visibility._rendered)

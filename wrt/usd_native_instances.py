@@ -23,8 +23,9 @@ class NativeInstanceReading:
     """Native instancing of the stage reader (``contents``, ``materials``)."""
 
     def _read_native_instance(self, prim: Usd.Prim, ctx: Context, purpose=None, hidden: frozenset = frozenset()):
-        """An instance of a native prototype; ``purpose``: the purpose it hands down where not drawn (or hidden), if
-        any; ``hidden``: the drawn purposes opinions on and above it hide (:meth:`_hidden_purposes`)."""
+        """An instance of a native prototype; ``purpose``: the purpose it hands down where not drawn (or hidden), or
+        where an opinion gives it (``Context.outer_purpose``), else None; ``hidden``: the drawn purposes opinions on
+        and above it hide (:meth:`_hidden_purposes`)."""
         prototype = prim.GetPrototype()
         if not prototype:
             self._skip("instances without a prototype were skipped", prim)

@@ -68,12 +68,32 @@ class Visibility:
         """The purpose that prototype ``root`` of PointInstancer ``instancer`` (read in ``ctx``) inherits, when it is
         one not drawn or one of ``hidden`` (the purposes hidden on and above the instancer), else None. Purpose,
         unlike visibility, is inherited through the prototype's own ancestors, the scope holding it too, as
-        ``ComputePurpose`` computes it; where none of them authors one, the instancer's purpose applies, as
-        UsdImaging's instancer adapter gives it (``instanceInheritablePurpose``)."""
+        ``ComputePurpose`` computes it; inside a native prototype, on through the instance and its ancestors
+        (``ctx.outer_purpose``: USD computes it on the instance proxies); where none of them authors one, the
+        instancer's purpose applies, as UsdImaging's instancer adapter gives it (``instanceInheritablePurpose``)."""
         parent = root.GetParent()
         info = UsdGeom.Imageable(parent).ComputePurposeInfo() if parent and not parent.IsPseudoRoot() else None
-        purpose = info.purpose if info is not None and info.isInheritable else self._purpose(instancer, ctx)
+        if info is not None and info.isInheritable:
+            purpose = info.purpose
+        elif parent and parent.IsInPrototype() and ctx.outer_purpose is not None:
+            purpose = ctx.outer_purpose
+        else:
+            purpose = self._purpose(instancer, ctx)
         return None if purpose in self.purposes and purpose not in hidden else purpose
+
+    def _authored_purpose(self, prim: Usd.Prim, ctx: Context):
+        """The purpose an opinion gives ``prim`` (its own or an ancestor's, through the native instances it is in:
+        ``ctx.outer_purpose``), or None where none does and the schema's fallback applies."""
+        if ctx.stop is None and ctx.outer_purpose is None:
+            info = UsdGeom.Imageable(prim).ComputePurposeInfo()
+            return info.purpose if info.isInheritable else None
+        p = prim
+        while p and p != ctx.stop and not p.IsPseudoRoot():
+            img = UsdGeom.Imageable(p)
+            if img and img.GetPurposeAttr().HasAuthoredValue():
+                return self._purpose(prim, ctx)
+            p = p.GetParent()
+        return ctx.outer_purpose
 
     def _rendered(self, prim: Usd.Prim, ctx: Context) -> bool:
         """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own), and not
