@@ -332,6 +332,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
         self.computed_purposes = ComputedPurposes() if placement_memo is None else placement_memo.purposes
         self.inherited_primvars = InheritedPrimvars() if placement_memo is None else placement_memo.primvars
         self.purpose_visibilities = PurposeVisibilities()  # UsdGeomVisibilityAPI's opinions, each prim's answer kept
+        self.prototype_instancers = {}  # native prototype path -> whether a PointInstancer is in it
         self.prototype_cameras = {}  # native prototype path -> its cameras for hidden instances (_prototype_cameras)
         self.prototype_lights = {}  # native prototype path -> its UsdLux lights, for hidden instances
         self.shown_prototypes = {}  # native prototype path -> (abstract, the path it is named by) (_prototype_name)
@@ -417,11 +418,7 @@ class _StageReader(ProblemReport, Visibility, AttributeReading, LookReading, Mes
             if self._visible(prim, ctx.stop):
                 purpose = self._purpose(prim, ctx)
                 hidden = self._hidden_purposes(prim, ctx)
-                # A drawn purpose is handed down where it is hidden (the prims inside that inherit it are too), or
-                # where an opinion gives it: a PointInstancer inside whose prototypes author none draws them by it,
-                # not by its own (_prototype_purpose).
-                drawn = purpose in self.purposes and purpose not in hidden
-                self._read_native_instance(prim, ctx, self._authored_purpose(prim, ctx) if drawn else purpose, hidden)
+                self._read_native_instance(prim, ctx, self._instance_purpose(prim, ctx, purpose, hidden), hidden)
                 if prim.IsA(UsdGeom.Gprim) and self._rendered(prim, ctx):
                     # A prototype holds only the instance's descendants (its root has no type and no properties):
                     # an instanceable mesh or gprim keeps its geometry on the instance prim, drawn as a prim of its own.

@@ -81,6 +81,24 @@ class Visibility:
             purpose = self._purpose(instancer, ctx)
         return None if purpose in self.purposes and purpose not in hidden else purpose
 
+    def _instance_purpose(self, instance: Usd.Prim, ctx: Context, purpose: str, hidden: frozenset):
+        """The purpose native ``instance`` (of computed ``purpose``) hands down to its prototype's prims
+        (``Context.outer_purpose``): one not drawn, or one of ``hidden`` (the prims inside that inherit it are hidden
+        too); a drawn one that an opinion gives, where a PointInstancer in the prototype may draw its prototypes by
+        it (:meth:`_prototype_purpose`); else None, so that one read of the prototype serves the instances with and
+        without such an opinion."""
+        if purpose not in self.purposes or purpose in hidden:
+            return purpose
+        prototype = instance.GetPrototype()
+        if not prototype:  # skipped by the reader, with a warning
+            return None
+        key = prototype.GetPath()
+        if key not in self.prototype_instancers:
+            self.prototype_instancers[key] = any(
+                p.IsA(UsdGeom.PointInstancer)
+                for p in Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)))
+        return self._authored_purpose(instance, ctx) if self.prototype_instancers[key] else None
+
     def _authored_purpose(self, prim: Usd.Prim, ctx: Context):
         """The purpose an opinion gives ``prim`` (its own or an ancestor's, through the native instances it is in:
         ``ctx.outer_purpose``), or None where none does and the schema's fallback applies."""
