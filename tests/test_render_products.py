@@ -816,3 +816,64 @@ def test_png_alpha_is_straight_so_it_composites_as_the_premultiplied_exr(tmp_pat
     np.testing.assert_allclose(over_white_png, over_white_exr, atol=0.01)
     for edge in (10, 13):  # the straight colour of an edge pixel is the quad's, as inside it
         np.testing.assert_allclose(colour[:, edge], colour[:, 11], atol=0.01)
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_camera_depth_is_camera_space_depth_under_a_sheared_and_scaled_camera(tmp_path, projection):
+    """RenderVar ``cameraDepth`` is Hydra's: minus the z of the hit by the view matrix (the inverse of the camera's
+    whole transform), the ``Peye`` beside it, -z. Under a sheared and scaled parent it was wrt's ``z`` AOV (world
+    units along the world view axis), 2.5 to 3 times it here. Oracle: float64 hits of each pixel centre's
+    camera-space ray moved by pxr's ComputeLocalToWorldTransform, through pxr's inverse of it."""
+    from pxr import Gf, Usd, UsdGeom, UsdRender
+
+    path = str(tmp_path / "sheared.usda")
+    stage = Usd.Stage.CreateNew(path)
+    parent = Gf.Matrix4d(-1.0, 0.0, 0.0, 0.0, 0.5, 2.0, 0.0, 0.0, 0.0, 0.3, 3.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    UsdGeom.Xform.Define(stage, "/P").AddTransformOp().Set(parent)
+    cam = UsdGeom.Camera.Define(stage, "/P/Cam")
+    cam.AddTranslateOp().Set(Gf.Vec3d(1.0, 2.0, 3.0))
+    cam.AddRotateXYZOp().Set(Gf.Vec3f(10.0, 20.0, 30.0))
+    cam.CreateProjectionAttr(projection)
+    cam.CreateHorizontalApertureAttr(36.0)
+    cam.CreateVerticalApertureAttr(24.0)
+    cam.CreateHorizontalApertureOffsetAttr(3.0)
+    m = cam.ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+    # A tilted plane in front of the camera, placed in the world by the camera's transform.
+    corners = [m.Transform(Gf.Vec3d(x, y, -6.0 + 0.1 * x + 0.05 * y))
+               for x, y in ((-20, -20), (20, -20), (20, 20), (-20, 20))]
+    plane = UsdGeom.Mesh.Define(stage, "/Plane")
+    plane.CreatePointsAttr(corners)
+    plane.CreateFaceVertexCountsAttr([4])
+    plane.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    plane.CreateSubdivisionSchemeAttr("none")
+    plane.CreateDoubleSidedAttr(True)
+    settings = UsdRender.Settings.Define(stage, "/Render/Settings")
+    settings.CreateCameraRel().SetTargets(["/P/Cam"])
+    width, height = 6, 4
+    settings.CreateResolutionAttr(Gf.Vec2i(width, height))
+    shot = UsdRender.Product.Define(stage, "/Render/Shot")
+    shot.CreateProductNameAttr("shot.exr")
+    settings.CreateProductsRel().SetTargets([shot.GetPath()])
+    for name in ("cameraDepth", "Peye"):
+        var = UsdRender.Var.Define(stage, f"/Render/Vars/{name}")
+        var.CreateSourceNameAttr(name)
+        shot.GetOrderedVarsRel().AddTarget(var.GetPath())
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/Settings")
+    stage.Save()
+
+    exr = read_exr(wrt.render_products(load(path), tmp_path / "out", device="cpu")["/Render/Shot"])
+    a, b, c = (np.array(p) for p in corners[:3])
+    normal = np.cross(b - a, c - a)
+    view = m.GetInverse()
+    expected = np.zeros((height, width, 3))
+    for i in range(height):
+        for j in range(width):
+            x = ((j + 0.5) / width - 0.5) * 36.0 + 3.0  # the film: the apertures, of the image's aspect
+            y = (0.5 - (i + 0.5) / height) * 24.0
+            near = (0.0, 0.0, 0.0) if projection == "perspective" else (0.1 * x, 0.1 * y, 0.0)
+            far = (x / 50.0, y / 50.0, -1.0) if projection == "perspective" else (0.1 * x, 0.1 * y, -1.0)
+            o, p = np.array(m.Transform(Gf.Vec3d(*near))), np.array(m.Transform(Gf.Vec3d(*far)))
+            hit = o + np.dot(a - o, normal) / np.dot(p - o, normal) * (p - o)  # float64, in the world
+            expected[i, j] = view.Transform(Gf.Vec3d(*hit))
+    np.testing.assert_allclose(np.stack([exr[f"Peye.{c}"] for c in "XYZ"], -1), expected, atol=1e-4)
+    np.testing.assert_allclose(exr["cameraDepth"], -expected[..., 2], rtol=1e-5)

@@ -52,7 +52,9 @@ BEAUTY = "rgb"  # Image.rgb: the integrator's image, linear radiance
 SOURCES = {
     "color": BEAUTY, "Ci": BEAUTY, "lpe:C.*": BEAUTY,  # Hydra's beauty, RenderMan's, Hydra's LPE spelling
     "depth": "depth",  # wrt's depth: distance along the camera ray (not Hydra's [0, 1] depth buffer)
-    "cameraDepth": "z", "z": "z",  # distance along the camera's viewing axis
+    # Hydra's cameraDepth: camera-space depth, -Peye.z; wrt's z: world distance along the view axis (the two differ
+    # under a scaled or sheared camera).
+    "cameraDepth": "cameraDepth", "z": "z",
     "P": "P",  # world-space position of the camera ray's hit (0 on a miss)
     "Peye": "Peye",  # the same in camera space
     "normal": "normal", "N": "normal",  # world-space shading normal
@@ -179,10 +181,21 @@ def _values(kind: str, image, camera, scene) -> np.ndarray:
         value = aovs["normal"] @ np.asarray(camera.to_world[:3, :3], np.float64)
         length = np.linalg.norm(value, axis=-1, keepdims=True)
         return np.divide(value, length, out=np.zeros_like(value), where=length > 0)
-    if kind in ("P", "Peye"):
+    linear = np.asarray(camera.to_world[:3, :3], np.float64)
+    if kind == "cameraDepth" and np.allclose(linear.T @ linear, np.eye(3), rtol=0.0, atol=1e-9):
+        return aovs["z"]  # a rigid camera: camera space is world units, and z is its depth already
+    if kind in ("P", "Peye", "cameraDepth"):
         # The hit along the ray the renderer cast through the pixel centre (its sample 0, whose depth the AOV is).
         origins, directions = camera_rays(scene, camera, shape[1], shape[0])
         hit = (aovs["prim"] >= 0).reshape(-1, 1)
+        if kind == "cameraDepth":  # along the ray from its origin, as the z AOV, to keep its digits far out
+            axis = -np.linalg.inv(linear)[2]  # camera-space depth per world unit of displacement
+            eye = camera.to_world[:3, 3].astype(np.float32).astype(np.float64)  # the rays' eye (see Peye)
+            along = (origins.astype(np.float64) - eye) @ axis
+            rate = directions.astype(np.float64) @ axis  # unit directions
+            with np.errstate(invalid="ignore"):  # inf * 0 on a miss, replaced
+                depth = along + aovs["depth"].reshape(-1).astype(np.float64) * rate
+            return np.where(hit[:, 0], depth, np.inf).reshape(shape)  # a miss: inf, as the z AOV
         depth = np.where(hit, aovs["depth"].reshape(-1, 1), 0.0)
         points = origins.astype(np.float64) + depth * directions
         if kind == "Peye":  # by the whole inverse transform, as Hydra's view matrix
