@@ -304,7 +304,8 @@ class Image:
     Attributes:
         rgb: ``(H, W, 3)`` float32 linear radiance (``path``, ``whitted``) or the quick look of the integrator;
             row 0 is the top of the image.
-        aovs: per-pixel data of the camera ray through each pixel centre (sample 0), all ``(H, W, ...)``:
+        aovs: per-pixel data of the camera ray through each pixel centre and the lens centre (the AOV ray, not a
+            colour sample of an image of several samples), all ``(H, W, ...)``:
 
             - ``"depth"`` float32 distance along the ray (``inf`` on a miss; negative for a hit behind the plane of
               an orthographic camera whose near clip is negative);
@@ -321,7 +322,7 @@ class Image:
               mesh lights of ``noMaterialResponse``, whose surface has none);
             - ``"cost"`` ``(H, W, 2)`` int32 BVH nodes visited and triangles tested by the ray (0 for
               ``accel="warp"``), including re-traces past culled back faces and cut-out holes;
-            - ``"coverage"`` float32 share of the pixel's samples (all of them, not sample 0 alone) whose camera
+            - ``"coverage"`` float32 share of the pixel's samples (all of them, not the AOV ray alone) whose camera
               ray hit something: the alpha of the antialiased ``rgb``, whose misses add the background.
         pixel_aspect_ratio: width / height of one pixel on the film (UsdRender's ``pixelAspectRatio``; not 1 under
             render settings of non-square pixels), which ``.exr`` files state in their header.

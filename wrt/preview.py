@@ -3,8 +3,10 @@
 A preview shows what wrt will trace before any GPU time is spent: the meshes as ``Scene`` holds them (world
 space, one colour per triangle from its material or ``displayColor``), the outlines of its lights
 (:mod:`wrt.preview_lights`), the frustum of the render camera, the BVH's boxes
-at one depth or its leaves, and a few camera rays from the eye to their closest hits (through :mod:`wrt.trace`, exactly
-as the renderer's first sample casts them). Optionally the wrt-rendered image hangs on the frustum's image plane.
+at one depth or its leaves, and a few camera rays from the eye to their closest hits (through :mod:`wrt.trace`, as
+the renderer casts its AOV rays, through the pixel and lens centres; the colour samples of an image of several
+samples, sample 0 included, are spread over the pixel and the lens). Optionally the wrt-rendered image hangs on the
+frustum's image plane.
 
 pyvista is optional (``pip install 'wrt[preview]'``) and imported only inside the functions that need it, so
 ``import wrt`` stays light. On Linux without an X display, plotting is off-screen: :func:`offscreen_backend`
@@ -568,7 +570,8 @@ def view_depths(cam: Camera, width: int, height: int, vectors) -> np.ndarray:
 
 def sample_rays(scene: Scene, cam: Camera, width: int, height: int, n: int, builder="sah", device="cpu"):
     """``n`` camera rays through an even grid of the ``width x height`` film, traced as the renderer traces
-    its first sample (same kernel, same ``[near, far]`` range, same accelerator).
+    its AOV rays (same kernel, same ``[near, far]`` range, same accelerator; the colour samples of an image of several
+    samples are spread over the pixel, and behind a thin lens over the lens).
 
     Returns:
         ``origins`` ``(n, 3)``, unit ``directions`` ``(n, 3)`` (float32, world space), ``t`` ``(n,)`` float32

@@ -36,8 +36,9 @@ def shape_normals_kernel(
 def camera_rays(scene: Scene, camera=None, width: int | None = None, height: int | None = None, *,
                 t_range: bool = False) -> tuple[np.ndarray, ...]:
     """One ray through the centre of each pixel of the image :func:`wrt.render` makes of ``scene`` with these
-    arguments, row-major from the top-left, exactly as the renderer casts its first sample: the stage's render
-    settings choose what is not given (camera, resolution, conform policy, data window: see
+    arguments, row-major from the top-left, exactly as the renderer casts its AOV rays (through the pixel and lens
+    centres; the colour samples of an image of several samples are spread over the pixel and the lens): the stage's
+    render settings choose what is not given (camera, resolution, conform policy, data window: see
     :func:`wrt.render.resolve_view`), so there are fewer than ``width * height`` rays under a data window.
 
     The renderer keeps only hits inside the camera's clipping range and clipping planes. With ``t_range`` the

@@ -1047,7 +1047,7 @@ class Renderer:
         """Closest hits of the current rays past the holes of cut-outs (for camera rays: past culled back faces too);
         of camera rays, the samples that hit are counted for the coverage AOV (added by
         :meth:`_AovBuffers.add_covered`; not for the AOV rays traced apart, ``count_covered`` False), and the first
-        time, the AOVs of sample 0 are written."""
+        time, the AOVs are written (of the AOV rays: sample 0 only where it goes through the pixel and lens centres)."""
         passes = None
         if self._sync_free:
             passes = CAPTURE_CULL_PASSES if self.no_holes else MAX_CULL_PASSES
@@ -1232,8 +1232,8 @@ def finish_image(rgb, aovs: dict, integrator: str, scene: Scene) -> Image:
 
 
 class _AovBuffers:
-    """Device buffers of the sample-0 AOVs of every pixel, and the count of its samples whose camera ray hit
-    something (``covered``, from which the ``coverage`` AOV is made)."""
+    """Device buffers of the AOVs of every pixel (of its ray through the pixel and lens centres), and the count of its
+    samples whose camera ray hit something (``covered``, from which the ``coverage`` AOV is made)."""
 
     SPEC: ClassVar[dict] = {
         "depth": float,
