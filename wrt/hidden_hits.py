@@ -352,7 +352,10 @@ def start_shadow_holes_kernel(
     retries: wp.array[wp.int32],
 ):
     """Blocked shadow rays keep their range, to look for their closest hit (it may be a hole), and are counted in
-    ``retries``; the others get an empty one (``retry_t_maxs = 0``: decided)."""
+    ``retries``; the others get an empty one (``retry_t_maxs = 0``: decided). Unlike camera rays (whose ``t_max`` is
+    a clipping range's far, <= 0 for one wholly behind an orthographic camera: :data:`DECIDED_T_MIN`), 0 never
+    marks a live ray: every query takes hits in ``[t_min, t_max)`` and shadow rays start at ``t_min = 0``, so a
+    blocked one has ``t_max > 0``, and its passes move only ``t_min``."""
     i = wp.tid()
     retry_t_mins[i] = 0.0
     retry_t_maxs[i] = 0.0
