@@ -618,6 +618,48 @@ def Sphere "Ball"
         render_frames(path, pending_frames([9.0], tmp_path / "g_#.npy", resume=False), **SIZE)
 
 
+def blind_at_frame_2(tmp_path) -> Path:
+    """A ball and a camera that moves past its far clip at frame 2 only: that frame warns that it sees nothing."""
+    path = tmp_path / "blind.usda"
+    path.write_text("""#usda 1.0
+(
+    startTimeCode = 1
+    endTimeCode = 3
+)
+def Sphere "Ball"
+{
+}
+def Camera "Cam"
+{
+    double3 xformOp:translate.timeSamples = { 1: (0, 0, 6), 2: (0, 0, 2000000), 3: (0, 0, 6) }
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+""")
+    return path
+
+
+@pytest.mark.parametrize("where", ["serial", "two devices"])
+def test_a_warning_the_callers_filters_make_an_error_fails_its_frame(tmp_path, where):
+    """Under the caller's warnings-as-errors (``-W error``), a frame's warning was recorded under an 'always' filter,
+    the frame written, and the warning raised after it, ending the run: frame 2 wrote its file and frame 3 never
+    rendered. It is that frame's error row now, as under those filters a render of that frame alone raises it."""
+    path = blind_at_frame_2(tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(UserWarning) as alone:
+            wrt.render(wrt.load_usd(path, time=2), **SIZE)
+        jobs = pending_frames(parse_frames("1:3"), tmp_path / "out" / "f_#.npy", resume=False)
+        rows = render_frames(path, jobs, devices=["cpu"] if where == "serial" else ["cpu", "cpu"], **SIZE)
+    assert sorted(row["frame"] for row in rows) == [1.0, 2.0, 3.0]
+    failed = [row for row in rows if "error" in row]
+    assert len(failed) == 1 and failed[0]["frame"] == 2.0 and failed[0]["output"] == str(jobs[1][1])
+    assert failed[0]["error"] == f"UserWarning: {str(alone.value).splitlines()[0]}"
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["f_1.npy", "f_3.npy"]
+    for frame in (1, 3):
+        fresh = wrt.render(wrt.load_usd(path, time=frame), **SIZE)
+        np.testing.assert_array_equal(np.load(tmp_path / "out" / f"f_{frame}.npy"), fresh.rgb)
+
+
 def test_cli_frames_name_the_frames_that_failed_and_exit_1(tmp_path, capsys):
     from wrt.cli import main
 

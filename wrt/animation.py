@@ -349,10 +349,17 @@ def warn_frames_outside_range(path, frames) -> None:
 def _frame_warnings(shown: set):
     """Leaves out the :class:`TimeRangeWarning` of each frame's load inside (the run gave one for all of them) and
     gives each other warning once per run, its message kept in ``shown``: every frame makes a new Renderer, whose
-    warnings (a camera that sees nothing, no light) came again at every frame, as the multi-device run does not."""
+    warnings (a camera that sees nothing, no light) came again at every frame, as the multi-device run does not.
+
+    The caller's filters still decide inside, only those that show a warning now and then showing it every time (to
+    be recorded): one they make an error raises where it is given, failing the frame. Under an "always" filter for
+    all, a user's ``-W error`` raised it after the frame, its file written, from here, ending the run."""
+    raised = []
     try:
         with warnings.catch_warnings(record=True) as raised:
-            warnings.simplefilter("always")
+            warnings.filters[:] = [("always" if f[0] in ("default", "module", "once") else f[0], *f[1:])
+                                   for f in warnings.filters]
+            warnings.simplefilter("always", append=True)  # the last resort, which is "default" outside
             warnings.simplefilter("ignore", TimeRangeWarning)
             yield
     finally:
@@ -423,7 +430,7 @@ def render_frames(path, jobs, *, devices=("cpu",), spp=1, seed=0, exposure=0.0, 
                 try:
                     with _frame_warnings(shown):
                         written = renderer.render(frame, spp=spp, seed=seed).save(file, exposure=exposure)
-                except SceneError as e:
+                except (SceneError, Warning) as e:  # a Warning: one the caller's filters make an error
                     rows.append(frame_error_row(frame, file, e, str(devices[0])))
                 except KeyboardInterrupt:  # as a batch of scenes logs the scene cut short; the frame wrote no file
                     rows.append(frame_interrupted_row(frame, file, str(devices[0]), _time.perf_counter() - start))
@@ -494,11 +501,13 @@ class LogRows(list):
             append_row(self.log, strict_json(row if self.log_row is None else self.log_row(row)))
 
 
-def frame_error_row(frame: float, file, error: SceneError, device: str | None = None) -> dict:
+def frame_error_row(frame: float, file, error: SceneError | Warning, device: str | None = None) -> dict:
     """The log row of a frame that failed: ``frame``, ``output`` (the file it did not write), ``error``
-    (``"SceneError: "`` and the first line of the message, as the rows of a batch of scenes), ``device`` (where it
-    ran, as rendered frames' rows name it; left out when unknown) and ``finished_at``."""
-    row = {"frame": float(frame), "output": str(file), "error": f"SceneError: {str(error).splitlines()[0]}"}
+    (``"SceneError: "``, or the class of a warning the caller's filters made an error, and the first line of the
+    message, as the rows of a batch of scenes), ``device`` (where it ran, as rendered frames' rows name it; left out
+    when unknown) and ``finished_at``."""
+    kind = "SceneError" if isinstance(error, SceneError) else type(error).__name__
+    row = {"frame": float(frame), "output": str(file), "error": f"{kind}: {str(error).splitlines()[0]}"}
     if device is not None:
         row["device"] = str(device)
     return dict(row, finished_at=_time.time())
@@ -548,11 +557,16 @@ def _frame_writer(jobs, rows: list):
     files = {float(frame): Path(file) for frame, file in jobs}
 
     def write(result: dict) -> None:
-        file = files[result["row"]["frame"]]
+        row = result["row"]
+        file = files[row["frame"]]
+        try:
+            for message in result.get("warnings", ()):
+                warnings.warn(message, stacklevel=2)  # shown here once, however many workers and frames raised it
+        except Warning as e:  # the caller's filters make it an error: the frame failed, as in a serial run
+            rows.append(frame_error_row(row["frame"], file, e, row.get("device")))
+            return
         write_atomically(file, lambda partial: partial.write_bytes(result["data"]))
-        rows.append(dict(result["row"], output=str(file)))
-        for message in result.get("warnings", ()):
-            warnings.warn(message, stacklevel=2)  # shown here once, however many workers and frames raised it
+        rows.append(dict(row, output=str(file)))
 
     return write
 
