@@ -145,6 +145,40 @@ TRIANGLE = """{
 }"""
 
 
+def test_a_prototypes_material_bound_from_outside_too_is_one_material(tmp_path):
+    """A Material inside a native instance's prototype, bound inside it and by a mesh outside through an instance
+    proxy's path, was read twice (keyed by the prototype's path, then by the proxy's): two entries in
+    ``Scene.materials`` and two material ids in the AOV for what USD binds as one prim of the prototype."""
+    asset = Usd.Stage.CreateNew(str(tmp_path / "asset.usda"))
+    asset.SetDefaultPrim(UsdGeom.Xform.Define(asset, "/A").GetPrim())
+    geo = octahedron(asset, "/A/Geo")
+    material = UsdShade.Material.Define(asset, "/A/Looks/Red")
+    shader = UsdShade.Shader.Define(asset, "/A/Looks/Red/S")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.9, 0.1, 0.1))
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(geo.GetPrim()).Bind(material)
+    asset.Save()
+    stage = Usd.Stage.CreateNew(str(tmp_path / "scene.usda"))
+    for k, x in enumerate((-2.5, 0.0)):
+        inst = stage.DefinePrim(f"/World/I{k}", "Xform")
+        inst.GetReferences().AddReference("./asset.usda")
+        inst.SetInstanceable(True)
+        UsdGeom.Xformable(inst).AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+    outside = octahedron(stage, "/World/Outside")
+    outside.AddTranslateOp().Set(Gf.Vec3d(2.5, 0, 0))
+    UsdShade.MaterialBindingAPI.Apply(outside.GetPrim()).Bind(UsdShade.Material(stage.GetPrimAtPath("/World/I0/Looks/Red")))
+    UsdGeom.Camera.Define(stage, "/Cam").AddTranslateOp().Set(Gf.Vec3d(0, 0, 10))
+    stage.Save()
+    bound = [UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(p)).ComputeBoundMaterial()[0].GetPrim()
+             for p in ("/World/I0/Geo", "/World/I1/Geo", "/World/Outside")]
+    in_prototype = {str((p.GetPrimInPrototype() if p.IsInstanceProxy() else p).GetPath()) for p in bound}
+    scene = load(tmp_path / "scene.usda")
+    assert len(scene.materials) == len(in_prototype) == 1
+    ids = wrt.render(scene, camera="/Cam", width=60, height=20, integrator="albedo").aovs["material"][10]
+    assert {int(ids[j]) for j in (15, 30, 45)} == {0}  # the two instances and the outside mesh
+
+
 def test_overs_inside_a_native_prototype_are_not_drawn_as_in_a_plain_reference(tmp_path):
     """A mesh defined under an ``over`` inside a referenced asset is not drawn (it is not defined), instanced or not:
     the instance drew it (its prototype was walked as a PointInstancer's is, where "defined" is not asked of the

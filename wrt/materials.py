@@ -872,7 +872,7 @@ class MaterialReader:
         self.materials: list[Material] = []
         self.textures: list[np.ndarray] = []
         self.texture_paths: list[str] = []
-        self._by_path: dict[str, int] = {}  # material prim path -> index into materials, -1 for the default
+        self._by_path: dict[str, int] = {}  # material prim path (in its prototype) -> index, -1 for the default
         self._images: dict[tuple[str, str], int] = {}  # (resolved path, colour space) -> image index, -1 unreadable
         self._udim: dict[tuple, np.ndarray] = {}  # (UDIM pattern, its layer, colour space) -> TextureInput.tiles
 
@@ -1050,8 +1050,11 @@ class MaterialReader:
     # Materials
 
     def material_index(self, material) -> int:
-        """Index of ``material`` (a ``UsdShade.Material``) in :attr:`materials`, reading it on first use."""
-        path = str(material.GetPath())
+        """Index of ``material`` (a ``UsdShade.Material``) in :attr:`materials`, reading it on first use. An instance
+        proxy's is its prim in the prototype: a material inside a native instance, bound inside it (read in the
+        prototype) and from a mesh outside (through the proxy's path), was read and listed twice."""
+        prim = material.GetPrim()
+        path = str((prim.GetPrimInPrototype() if prim.IsInstanceProxy() else prim).GetPath())
         if path not in self._by_path:
             mat = self._kept_or_read(material)
             if mat is None:
