@@ -910,6 +910,27 @@ def test_a_filtertype_other_than_closest_or_linear_is_named_and_read_as_linear(t
     np.testing.assert_allclose(row, [[0.75, 0, 0.25], [0.75, 0, 0.25], [0.25, 0, 0.75], [0.25, 0, 0.75]], atol=1e-3)
 
 
+@pytest.mark.parametrize("layer", ["diffuse", ""])
+def test_an_image_layer_is_named_as_not_read(tmp_path, layer):
+    """An image node's ``layer`` (which layer of a multi-layer EXR to read) was ignored without a word: wrt reads the
+    file's unnamed layer. A layer authored and not empty is named in the material's warning, with the node; an empty
+    one (MaterialX's default: the file's default layer) is what wrt reads, and says nothing."""
+    png = write_png(tmp_path / "red.png", [[[255, 0, 0]]])
+    stage, path = new_stage(tmp_path, "layer.usda")
+    bind(add_quad(stage, "/Quad"), mtlx_material(stage, "/Looks/Layered")[0])
+    image = UsdShade.Shader.Define(stage, "/Looks/Layered/Image")
+    image.CreateIdAttr("ND_image_color3")
+    image.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(png))
+    image.CreateInput("layer", Sdf.ValueTypeNames.String).Set(layer)
+    UsdShade.Shader.Get(stage, "/Looks/Layered/Surface").CreateInput("base_color", Sdf.ValueTypeNames.Color3f
+                                                                     ).ConnectToSource(image.ConnectableAPI(), "out")
+    stage.Save()
+    scene, messages = load(path)
+    named = [m for m in messages if "/Looks/Layered/Image" in m and "layer 'diffuse'" in m]
+    assert (len(named) == 1, len(messages)) == ((True, 1) if layer else (False, 0)), messages
+    np.testing.assert_allclose(albedo(scene, 2), np.broadcast_to([1.0, 0, 0], (2, 2, 3)), atol=1e-3)  # still read
+
+
 def test_an_address_mode_materialx_does_not_define_is_named_and_read_as_periodic(tmp_path):
     """``uaddressmode`` ``repeat`` (UsdUVTexture's token, not one of MaterialX's constant, clamp, periodic or
     mirror) is read as periodic, as Storm reads it, and named in the material's warning with the node and the

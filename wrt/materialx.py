@@ -62,7 +62,9 @@ and ``cubic``: bilinear), ``place2d`` nodes and vector2 math of constants before
 ``realworldtilesize`` of ``tiledimage`` as the texture transform, and texture coordinates from ``ND_texcoord_vector2``
 (the mesh's ``st``) or a reader of :data:`TEXCOORD_READERS` (the primvar named by ``geomprop`` or ``varname``; its
 ``default`` or ``fallback`` where the mesh lacks it), or a constant ``texcoord`` (read there on every point). Where the
-file cannot be read, the node's ``default`` is used (MaterialX's, 0 in every channel, when the node has none).
+file cannot be read, the node's ``default`` is used (MaterialX's, 0 in every channel, when the node has none). A
+``layer`` (of a multi-layer EXR) is not chosen (the file's unnamed layer is read: :func:`wrt.textures.exr_rgba`);
+a note names the node and the layer.
 ``base_color`` may also come from a mesh's colour primvar: an ``ND_UsdPrimvarReader_color3``/``vector3`` or
 ``ND_geompropvalue_color3``/``vector3`` node (:class:`wrt.materials.PrimvarInput`; its ``fallback`` or ``default`` where
 the mesh lacks it). Math and channel nodes between an input and these sources (``multiply``, ``add``, ``mix``,
@@ -451,6 +453,10 @@ class _Graph:
         if not file_input:
             self.notes.append(f"image node {node.GetPath()} has no file; {_format(fallback)} is used")
             return fallback, None
+        layer = self.reader._constant(node, "layer")
+        if layer:  # a multi-layer EXR's layer, which was ignored without a word (textures.exr_rgba picks its own)
+            self.notes.append(f"{node.GetPath()}: layer {str(layer)!r} is not chosen; the file's unnamed layer is read "
+                              "(else its one layer of colour channels)")
         # MaterialX colour-manages colour types only: float and vector images (masks, normal maps) are data.
         color_space = self._color_space(file_input) if node_id.endswith(("_color3", "_color4")) else "raw"
         image, tiles = reader.file_images(node, color_space, self.path)
