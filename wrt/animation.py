@@ -357,9 +357,10 @@ def _frame_warnings(shown: set):
     raised = []
     try:
         with warnings.catch_warnings(record=True) as raised:
-            warnings.filters[:] = [("always" if f[0] in ("default", "module", "once") else f[0], *f[1:])
-                                   for f in warnings.filters]
-            warnings.simplefilter("always", append=True)  # the last resort, which is "default" outside
+            now_and_then = ("default", "module", "once")
+            warnings.filters[:] = [("always" if f[0] in now_and_then else f[0], *f[1:]) for f in warnings.filters]
+            last = warnings.defaultaction  # for a warning no filter matches
+            warnings.simplefilter("always" if last in now_and_then else last, append=True)
             warnings.simplefilter("ignore", TimeRangeWarning)
             yield
     finally:
