@@ -1,6 +1,7 @@
 """Materials from USD: UsdPreviewSurface inputs, binding rules (subsets, collections, purpose), fallbacks for other
 shaders, UsdUVTexture lookups (colour spaces, wrap modes, UsdTransform2d), cut-outs and doubleSided culling."""
 
+import math
 import re
 import struct
 import warnings
@@ -694,6 +695,37 @@ def test_native_instances_hand_their_constant_st_to_prototype_gprims(tmp_path, t
         cam = wrt.Camera.orthographic(eye=(x, 0, 5), target=(x, 0, 0), height=0.5)
         img = wrt.render(scene, camera=cam, width=2, height=2, device="cpu", integrator="albedo").rgb
         np.testing.assert_allclose(img, np.broadcast_to(colour, img.shape), atol=2e-3)
+
+
+@pytest.mark.parametrize("st", [math.nan, 1e39])
+@pytest.mark.parametrize("tessellate", [False, True])
+def test_a_non_finite_st_handed_to_a_prototype_gprim_reads_the_fallback_st(tmp_path, tessellate, st):
+    """A native instance handing down a constant ``st`` that is no finite float32 (NaN, or 1e39 past float32) to its
+    prototype's textured Sphere: the gprim shows the texture at the primvar reader's fallback st, (0.75, 0.25),
+    CHECKER's bottom-right block (grey 128, read raw), as for a non-finite ``st`` of its own, with a warning. The
+    load stopped with SceneError ('st must be 2 finite numbers or None')."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
+        Gf.Vec2f(0.75, 0.25))
+    stage.RemovePrim("/Quad")
+    proto = stage.DefinePrim("/Proto")
+    proto.SetSpecifier(Sdf.SpecifierClass)
+    ball = UsdGeom.Sphere.Define(stage, "/Proto/Ball")
+    ball.CreateRadiusAttr(0.5)
+    bind(ball, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    inst = UsdGeom.Xform.Define(stage, "/Inst")
+    inst.GetPrim().GetInherits().AddInherit("/Proto")
+    inst.GetPrim().SetInstanceable(True)
+    UsdGeom.PrimvarsAPI(inst).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                            UsdGeom.Tokens.constant).Set([(st, st)])
+    stage.Save()
+    with pytest.warns(UserWarning, match="st"):
+        scene = wrt.load_usd(path, tessellate_gprims=tessellate)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=0.5)
+    img = wrt.render(scene, camera=cam, width=2, height=2, device="cpu", integrator="albedo").rgb
+    np.testing.assert_allclose(img, np.full(img.shape, CHECKER[7, 7, 0] / 255.0), atol=2e-3)
 
 
 @pytest.mark.parametrize("on", ["mesh", "instance"])

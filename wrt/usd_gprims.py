@@ -79,7 +79,17 @@ class GprimReading:
         if primvar is None or primvar is PER_INSTANCE:  # (invalid primvars compare equal)
             ctx.content.want_uvs([uv_set])
             outer = dict(ctx.outer_uv or ()).get(uv_set)
-            return None if outer is None else np.asarray(outer, np.float32).reshape(-1)[:2]
+            if outer is None:
+                return None
+            with np.errstate(over="ignore"):  # past float32: inf, named below
+                st = np.asarray(outer, np.float64).reshape(-1)[:2].astype(np.float32)
+            if not np.isfinite(st).all():
+                # A NaN st handed down (named by the instance) or one past float32: Shape takes finite ones only,
+                # and the load stopped with SceneError; as for a gprim's own such st, the reader's fallback is read.
+                self._skip("a texture-coordinate primvar handed down to a gprim that is not finite numbers (in "
+                           "float32) was ignored; its textures show at the primvar reader's fallback st", prim, uv_set)
+                return None
+            return st
         if not primvar.HasValue():  # BLOCKED: a non-constant one above
             return None
         if primvar.GetInterpolation() != UsdGeom.Tokens.constant:
