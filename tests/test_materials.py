@@ -664,6 +664,46 @@ def test_a_gprim_reads_its_texture_at_its_constant_st(tmp_path, holder, tessella
     np.testing.assert_allclose(img, np.broadcast_to([1.0, 0.0, 0.0], img.shape), atol=2e-3)
 
 
+@pytest.mark.parametrize("case", ["sampled values", "sampled indices", "int64 indices"])
+def test_a_gprims_indexed_constant_st_is_read_as_other_primvars_are(tmp_path, case):
+    """An indexed constant ``st`` on a textured Sphere read with ``time=None``: values or indices with only time
+    samples are read at their first sample, as USD's ``ComputeFlattened`` gives them there (0.25, 0.75: CHECKER's
+    top-left block, red); indices authored as ``int64[]``, from which USD reads none, drop the primvar with a warning
+    and the reader's fallback (0.75, 0.25) is read (grey 128). The first was ignored as 'not 2-, 3- or 4-vectors',
+    the other two stopped the load with SceneError ('No indices authored for indexed primvar')."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
+        Gf.Vec2f(0.75, 0.25))
+    stage.RemovePrim("/Quad")
+    ball = UsdGeom.Sphere.Define(stage, "/Ball")
+    ball.CreateRadiusAttr(0.5)
+    bind(ball, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    primvar = UsdGeom.PrimvarsAPI(ball).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray,
+                                                      UsdGeom.Tokens.constant)
+    values = [(0.75, 0.75), (0.25, 0.75)]
+    primvar.Set(values, 1.0) if case == "sampled values" else primvar.Set(values)
+    if case == "int64 indices":
+        ball.GetPrim().CreateAttribute("primvars:st:indices", Sdf.ValueTypeNames.Int64Array).Set(Vt.Int64Array([1]))
+    else:
+        primvar.CreateIndicesAttr().Set(Vt.IntArray([1]), 1.0 if case == "sampled indices" else Usd.TimeCode.Default())
+    stage.Save()
+    if case == "int64 indices":
+        with pytest.warns(UserWarning, match="int64"):
+            scene = wrt.load_usd(path)
+        s, t = 0.75, 0.25  # the reader's fallback
+    else:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # read without a word
+            scene = wrt.load_usd(path)
+        s, t = primvar.ComputeFlattened(1.0)[0]  # USD's own, at the first sample
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=0.5)
+    img = wrt.render(scene, camera=cam, width=2, height=2, device="cpu", integrator="albedo").rgb
+    texel = CHECKER[int((1.0 - t) * CHECKER.shape[0]), int(s * CHECKER.shape[1])] / 255.0
+    np.testing.assert_allclose(img, np.broadcast_to(texel, img.shape), atol=2e-3)
+
+
 @pytest.mark.parametrize("tessellate", [False, True])
 def test_native_instances_hand_their_constant_st_to_prototype_gprims(tmp_path, tessellate):
     """Two native instances of one prototype holding a textured Sphere, each with its own constant ``st`` (a palette

@@ -21,7 +21,14 @@ from .scene import Mesh
 from .tubes import width_axis
 from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Content, Context, instance_looks
-from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, flattened, quaternion_typed
+from .usd_primvars import (
+    PRIMVAR_DROPPED,
+    finite_colors,
+    first_of_constant,
+    flattened,
+    index_problem,
+    quaternion_typed,
+)
 from .usd_problems import BEYOND_FLOAT32
 from .usd_values import value_at
 from .usd_xforms import affine_part
@@ -96,8 +103,13 @@ class GprimReading:
             self._skip("gprims read only a constant texture-coordinate primvar; their textures show at the primvar "
                        "reader's fallback st", prim, f"{uv_set}: {primvar.GetInterpolation()}")
             return None
-        values = np.asarray(primvar.ComputeFlattened(self.time) if primvar.IsIndexed() else value_at(
-            primvar.GetAttr(), self.time))
+        # Flattened as other primvars are (values and indices each at their first sample with time=None; indices
+        # USD reads none from dropped with a warning): ComputeFlattened at the reader's time ignored sampled values
+        # and raised on sampled or int64[] indices, which stopped the load.
+        raw = flattened(primvar, self.time, prim, self._skip)
+        if raw is None and index_problem(primvar, self.time) is not None:
+            return None  # (dropped, with a warning)
+        values = np.asarray(raw)
         if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu" or not len(values) \
                 or not np.all(np.abs(values[0, :2]) <= np.finfo(np.float32).max):
             self._skip("a gprim's texture-coordinate primvar that is not 2-, 3- or 4-vectors of finite numbers was "
