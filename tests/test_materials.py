@@ -704,6 +704,45 @@ def test_a_gprims_indexed_constant_st_is_read_as_other_primvars_are(tmp_path, ca
     np.testing.assert_allclose(img, np.broadcast_to(texel, img.shape), atol=2e-3)
 
 
+@pytest.mark.parametrize("geometry", ["Sphere", "Mesh"])
+@pytest.mark.parametrize("on", ["own", "instance"])
+def test_an_st_authored_as_quaternions_reads_the_fallback_st(tmp_path, on, geometry):
+    """A constant ``st`` authored as ``quatf[]`` (no texture-coordinate type: numpy reads a quaternion as a 4-vector,
+    imaginary part first), on the textured prim itself or on a native instance handing it down, is dropped with a
+    warning and the reader's fallback (0.75, 0.25) is read, CHECKER's grey block, as a mesh drops its own: a gprim's
+    own and any instance's were read as st (0.75, 0.75), the green block, without a word."""
+    png = write_png(tmp_path / "checker.png", CHECKER)
+    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
+    stage = Usd.Stage.Open(path)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
+        Gf.Vec2f(0.75, 0.25))
+    stage.RemovePrim("/Quad")
+    root = "/Proto" if on == "instance" else "/Group"
+    stage.DefinePrim(root).SetSpecifier(Sdf.SpecifierClass if on == "instance" else Sdf.SpecifierDef)
+    if geometry == "Sphere":
+        geo = UsdGeom.Sphere.Define(stage, f"{root}/Geo")
+        geo.CreateRadiusAttr(0.5)
+    else:
+        geo = UsdGeom.Mesh.Define(stage, f"{root}/Geo")
+        geo.CreatePointsAttr([(-0.5, -0.5, 0), (0.5, -0.5, 0), (0.5, 0.5, 0), (-0.5, 0.5, 0)])
+        geo.CreateFaceVertexCountsAttr([4])
+        geo.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    bind(geo, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+    holder = geo.GetPrim()
+    if on == "instance":
+        holder = stage.DefinePrim("/Inst", "Xform")
+        holder.GetInherits().AddInherit("/Proto")
+        holder.SetInstanceable(True)
+    UsdGeom.PrimvarsAPI(holder).CreatePrimvar("st", Sdf.ValueTypeNames.QuatfArray, UsdGeom.Tokens.constant).Set(
+        [Gf.Quatf(0.25, 0.75, 0.75, 0.75)])
+    stage.Save()
+    with pytest.warns(UserWarning, match="quatf"):
+        scene = wrt.load_usd(path)
+    cam = wrt.Camera.orthographic(eye=(0, 0, 5), target=(0, 0, 0), height=0.5)
+    img = wrt.render(scene, camera=cam, width=2, height=2, device="cpu", integrator="albedo").rgb
+    np.testing.assert_allclose(img, np.full(img.shape, CHECKER[7, 7, 0] / 255.0), atol=2e-3)  # (0.75, 0.25): grey
+
+
 @pytest.mark.parametrize("tessellate", [False, True])
 def test_native_instances_hand_their_constant_st_to_prototype_gprims(tmp_path, tessellate):
     """Two native instances of one prototype holding a textured Sphere, each with its own constant ``st`` (a palette

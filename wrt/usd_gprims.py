@@ -110,10 +110,13 @@ class GprimReading:
         if raw is None and index_problem(primvar, self.time) is not None:
             return None  # (dropped, with a warning)
         values = np.asarray(raw)
+        # Quaternions (quatf[]) read as 4-vectors, imaginary part first; a mesh drops them, as it drops a colour.
         if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu" or not len(values) \
+                or quaternion_typed(primvar.GetAttr(), self.time) \
                 or not np.all(np.abs(values[0, :2]) <= np.finfo(np.float32).max):
             self._skip("a gprim's texture-coordinate primvar that is not 2-, 3- or 4-vectors of finite numbers was "
-                       "ignored; its textures show at the primvar reader's fallback st", prim, uv_set)
+                       "ignored; its textures show at the primvar reader's fallback st", prim,
+                       f"{uv_set}: {self._authored_type(primvar.GetAttr())}")
             return None
         return values[0, :2].astype(np.float32)
 

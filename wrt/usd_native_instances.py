@@ -11,7 +11,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Context, instance_looks
-from .usd_primvars import PRIMVAR_DROPPED, flattened
+from .usd_primvars import PRIMVAR_DROPPED, flattened, quaternion_typed
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
 MAX_INHERITED_WIDTHS = 64  # distinct primvars:widths handed down by instances, per native prototype (one copy each)
@@ -203,7 +203,8 @@ class NativeInstanceReading:
         holder = attr.GetPrim()
         raw = flattened(primvar, self.time, holder, self._skip)
         values = np.asarray(raw if raw is not None else [])
-        if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu":
+        if values.ndim != 2 or values.shape[1] not in (2, 3, 4) or values.dtype.kind not in "fiu" \
+                or quaternion_typed(attr, self.time):  # (read as 4-vectors; a mesh drops its own)
             self._skip(f"{attr.GetName()} values that are not an array of 2-, 3- or 4-vectors were ignored", holder,
                        f"{self._authored_type(attr)} holding {type(raw).__name__}")
             return None
