@@ -29,11 +29,11 @@ def closest_hits(bvh, points, indices, layout, origins, directions):
     tree = convert_layout(bvh, layout).to_device(points, indices, "cpu")
     kernel = trace_bvh_kernel if layout == "binary" else layout_kernels(layout)[0]
     n = len(origins)
-    rays = [wp.array(origins, dtype=wp.vec3), wp.array(directions, dtype=wp.vec3), wp.zeros(n, dtype=float),
-            wp.full(n, np.inf, dtype=float)]
+    rays = [wp.array(origins, dtype=wp.vec3, device="cpu"), wp.array(directions, dtype=wp.vec3, device="cpu"),
+            wp.zeros(n, dtype=float, device="cpu"), wp.full(n, np.inf, dtype=float, device="cpu")]
     hits = HitBuffer(n, "cpu")
     wp.launch(kernel, n, inputs=[tree, *rays], outputs=hits.outputs, device="cpu")
-    blocked = wp.zeros(n, dtype=wp.int32)
+    blocked = wp.zeros(n, dtype=wp.int32, device="cpu")
     occluded = occluded_bvh_kernel if layout == "binary" else layout_kernels(layout)[1]
     wp.launch(occluded, n, inputs=[tree, *rays], outputs=[blocked], device="cpu")
     return [a.numpy() for a in (hits.t, hits.u, hits.v, hits.prim)], hits.cost.numpy(), blocked.numpy()
