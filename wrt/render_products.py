@@ -185,7 +185,7 @@ def _values(kind: str, image, camera, scene) -> np.ndarray:
     if kind == "cameraDepth" and np.allclose(linear.T @ linear, np.eye(3), rtol=0.0, atol=1e-9):
         return aovs["z"]  # a rigid camera: camera space is world units, and z is its depth already
     if kind in ("P", "Peye", "cameraDepth"):
-        # The hit along the ray the renderer cast through the pixel centre (its sample 0, whose depth the AOV is).
+        # The hit along the ray the renderer cast through the pixel centre (its AOV ray, whose depth the AOV is).
         origins, directions = camera_rays(scene, camera, shape[1], shape[0])
         hit = (aovs["prim"] >= 0).reshape(-1, 1)
         if kind == "cameraDepth":  # along the ray from its origin, as the z AOV, to keep its digits far out
