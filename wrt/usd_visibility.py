@@ -1,7 +1,9 @@
-"""Which prims the stage reader draws: visibility (each prim's answer kept, per stop) and purpose, computed from a
-native instance's or PointInstancer prototype's root down as USD computes them through instance proxies (a
-PointInstancer prototype's visibility from its root down, as UsdImaging takes it; its purpose through its ancestors
-too)."""
+"""Which prims the stage reader draws: visibility (each prim's answer kept, per stop), purpose and
+UsdGeomVisibilityAPI's purpose visibility (``renderVisibility`` ... hiding a drawn purpose other than default, as
+``ComputeEffectiveVisibility(purpose)``), computed from a native instance's or PointInstancer prototype's root down
+as USD computes them through instance proxies (a PointInstancer prototype's visibility from its root down, as
+UsdImaging takes it; its purpose through its ancestors too; the purposes hidden on and above an instance or
+instancer reach its prototype's prims that have no opinion of their own)."""
 
 from __future__ import annotations
 
