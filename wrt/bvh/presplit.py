@@ -14,9 +14,10 @@ partition references instead of triangles, and ``prim_ids`` maps each leaf slot 
 triangle may sit in several leaves. Traversal is unchanged: a ray may test a triangle twice, which gives the same
 ``t`` and id (the tie rule keeps the first), and any-hit answers do not change.
 
-Every reference box contains the part of its triangle in its half-box (the clipped bound is widened against rounding
-by fractions of the triangle's corners and extent, then clamped to the half-box, whose split planes are exact), so
-the references together cover the triangle and no ray that hits it misses all its boxes.
+Every reference box contains the part of its triangle in its half-box (the clipping runs in double precision, in
+which the float corners and planes are exact; the clipped bound is rounded to float and widened against rounding by
+fractions of the triangle's corners and extent, then clamped to the half-box, whose split planes are exact), so the
+references together cover the triangle and no ray that hits it misses all its boxes.
 """
 
 from __future__ import annotations
