@@ -994,7 +994,11 @@ class Renderer:
             self._sync_free = False
 
     def frame_image(self):
-        """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay)."""
+        """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay).
+
+        Raises:
+            RuntimeError: no frame was launched since the camera count, the image size or the scene changed, or the
+                frame was drawn (or its graph recorded) before a camera got depth of field: record it again."""
         if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count, of the image size or of the scene)")
