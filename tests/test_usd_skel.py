@@ -235,6 +235,25 @@ def test_skinned_meshes_match_usd_bake_skinning(tmp_path, time):
     assert np.abs(by_path["/Root/Bar"].points[by_path["/Root/Bar"].indices] - later).max() > 0.2
 
 
+def test_influences_whose_indices_have_only_time_samples_are_read_at_their_first_sample(tmp_path):
+    """Joint indices and weights stored as indexed primvars whose ``:indices`` have only a time sample (at 1, the
+    animation's first) are posed at ``time=None`` as BakeSkinning poses them at time 1. ``ComputeFlattened`` at the
+    default time raised on them, and the bar was drawn unposed with a warning."""
+    path = write(tmp_path, skel_root())
+    stage = Usd.Stage.Open(path)
+    for name in ("skel:jointIndices", "skel:jointWeights"):
+        primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Root/Bar")).GetPrimvar(name)
+        values = list(primvar.Get())
+        pairs = [tuple(values[i:i + 2]) for i in range(0, len(values), 2)]  # elementSize 2: an index per pair
+        distinct = sorted(set(pairs))
+        primvar.Set(primvar.GetTypeName().type.pythonClass([v for pair in distinct for v in pair]))
+        primvar.CreateIndicesAttr().Set([distinct.index(pair) for pair in pairs], Usd.TimeCode(1))
+    stage.Save()
+    expected, _ = world_triangles(baked(path), "/Root/Bar", Usd.TimeCode(1))
+    mesh = {m.path: m for m in loaded(path, None).meshes}["/Root/Bar"]
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=2e-6)
+
+
 def test_skinned_meshes_inside_instances_are_posed(tmp_path):
     """A SkelRoot inside a native prototype is posed once, in the prototype's space, and placed by each instance."""
     instances = "\n".join(

@@ -27,12 +27,14 @@ def index_problem(primvar, time: Usd.TimeCode) -> str | None:
     values_time, indices_time = read_times(primvar, time)
     indices = np.asarray(primvar.GetIndicesAttr().Get(indices_time) or [], np.int64).reshape(-1)
     values = primvar.GetAttr().Get(values_time)
-    n = len(values) if values is not None else 0
+    element = max(primvar.GetElementSize(), 1)
+    n = len(values) // element if values is not None else 0
     bad = (indices < 0) | (indices >= n)
     if not bad.any():
         return None
     i = int(np.argmax(bad))
-    return f"{primvar.GetPrimvarName()}:indices[{i}] = {indices[i]} is out of range for {n} values"
+    what = "values" if element == 1 else f"elements of {element} values"
+    return f"{primvar.GetPrimvarName()}:indices[{i}] = {indices[i]} is out of range for {n} {what}"
 
 
 def indices_type_problem(primvar) -> str | None:
@@ -79,15 +81,17 @@ def flattened(primvar, time: Usd.TimeCode, prim, skip):
 def _flattened_apart(primvar, values_time: Usd.TimeCode, indices_time: Usd.TimeCode):
     """``ComputeFlattened`` of ``primvar`` with its values read at ``values_time`` and its indices at
     ``indices_time``: the values where there are no indices or they are not an array, None for an index out of
-    range, else the values through the indices (a numpy array)."""
+    range, else the values through the indices (a numpy array). An index picks a run of ``elementSize`` values, as
+    in ``ComputeFlattened`` (a skinned mesh's jointIndices and jointWeights have several per point)."""
     values = primvar.GetAttr().Get(values_time)
     indices = primvar.GetIndicesAttr().Get(indices_time)
     if values is None or indices is None or not primvar.GetAttr().GetTypeName().isArray:
         return values
     indices = np.asarray(indices, np.int64).reshape(-1)
-    if ((indices < 0) | (indices >= len(values))).any():
+    element = max(primvar.GetElementSize(), 1)
+    if ((indices < 0) | (indices >= len(values) // element)).any():
         return None
-    return np.asarray(values)[indices]
+    return np.asarray(values)[(indices[:, None] * element + np.arange(element)).reshape(-1)]
 
 
 def quaternion_typed(attr: Usd.Attribute, time: Usd.TimeCode) -> bool:

@@ -35,6 +35,7 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from .usd_ancestors import KEEP_LOOKING, AncestorMemo
+from .usd_primvars import flattened
 from .usd_values import read_time
 
 _ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
@@ -259,9 +260,13 @@ class _Influences:
 
     def __init__(self, query: UsdSkel.SkinningQuery, xforms, time: Usd.TimeCode):
         # Each attribute read at its own time, as points are (read_time: its first sample at the default time when it
-        # has samples only); ComputeJointInfluences and GetGeomBindTransform read all at one time.
+        # has samples only), values and indices of an indexed primvar each on its own (flattened):
+        # ComputeJointInfluences, GetGeomBindTransform and ComputeFlattened read all at one time, and raised at the
+        # default time on indices with only time samples.
         primvars = query.GetJointIndicesPrimvar(), query.GetJointWeightsPrimvar()
-        self.indices, self.weights = (p.ComputeFlattened(read_time(p.GetAttr(), time)) for p in primvars)
+        indices, weights = (flattened(p, time, query.GetPrim(), _refuse) for p in primvars)
+        self.indices = None if indices is None else Vt.IntArray.FromNumpy(np.ascontiguousarray(indices, np.int32))
+        self.weights = None if weights is None else Vt.FloatArray.FromNumpy(np.ascontiguousarray(weights, np.float32))
         self.per_point = query.GetNumInfluencesPerComponent()
         rigid = query.GetInterpolation() == "constant"
         if (self.indices is None or self.weights is None or len(self.indices) != len(self.weights)
@@ -333,6 +338,11 @@ class _Influences:
     def rigid_transform(self) -> np.ndarray:
         """``(4, 4)`` row-vector transform of a rigidly bound mesh (constant influences) into the skeleton's space."""
         return np.array(UsdSkel.SkinTransform(self.method, self.bind, self.xforms, self.indices, self.weights))
+
+
+def _refuse(reason, prim, detail):
+    """The ``skip`` of :func:`flattened` for joint influences: an index out of range fails the mesh's skinning."""
+    raise ValueError(detail)
 
 
 def _misfit(shapes, shape: int, sub: int, point_indices, offsets, n_points: int, with_normals: bool) -> str | None:
