@@ -332,6 +332,23 @@ def test_purposes_that_are_no_array_of_tokens_raise_a_scene_error_naming_them(tm
         wrt.load_usd(stage)
 
 
+@pytest.mark.parametrize("name", ["includedPurposes", "materialBindingPurposes"])
+def test_purposes_authored_as_a_string_array_raise_a_scene_error_naming_them(tmp_path, name):
+    """A ``string[]`` of purposes reads in Python as the same words, but it is not the schema's ``token[]``: USD's
+    typed read (``Get<VtTokenArray>``, as UsdImaging reads the settings) fails on it and gives the schema's fallback,
+    so ``"guide"`` in it draws no guide prim in USD's renderers. wrt took the words; now a SceneError names it, as
+    for the other types that are no token array."""
+    from pxr import Sdf, Usd
+
+    stage = write_stage(tmp_path, settings=DEFAULT_SETTINGS + f'\n        uniform string[] {name} = ["guide"]')
+    opened = Usd.Stage.Open(str(stage))
+    attr = opened.GetPrimAtPath("/Render/Settings").GetAttribute(name)
+    assert list(attr.Get()) == ["guide"]  # what Python's untyped read gives
+    assert attr.GetPropertyStack()[0].typeName == Sdf.ValueTypeNames.StringArray  # not the schema's token[]
+    with pytest.raises(wrt.SceneError, match=rf"stage.usda.*/Render/Settings.*{name} must be an array of tokens"):
+        wrt.load_usd(stage)
+
+
 def test_blocked_settings_values_are_the_schemas_fallbacks(tmp_path):
     """A value block (``= None``) on the settings is no value: the schema's fallback, as USD's prim definition gives
     it, as where nothing is authored; on a product, the settings' value, which it does not override. A blocked

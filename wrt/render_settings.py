@@ -417,10 +417,16 @@ def _tokens(attr, value, where: dict) -> tuple:
     """``value`` of token-array attribute ``attr`` (``includedPurposes``, ``materialBindingPurposes``) as a tuple of
     str (none for no value), or SceneError (``where``: file and prim) naming it when it is no array of tokens or
     strings: a ``string`` one was read letter by letter ("render" as the purposes r, e, n, d, ...), and one that
-    cannot be iterated (an ``asset``) stopped the load with a TypeError."""
+    cannot be iterated (an ``asset``) stopped the load with a TypeError. A ``string[]`` reads as the same words in
+    Python, but USD's typed read (``Get<VtTokenArray>``, UsdImaging's) fails on it and gives the schema's fallback."""
+    from pxr import Sdf
+
     if value is None:
         return ()
     items = list(value) if not isinstance(value, (str, bytes)) and hasattr(value, "__iter__") else None
+    stack = attr.GetPropertyStack()  # the strongest spec holds the authored type; GetTypeName gives the schema's
+    if stack and stack[0].typeName == Sdf.ValueTypeNames.StringArray:
+        raise SceneError(f"{attr.GetName()} must be an array of tokens, got string[] {list(items)!r}", **where)
     if items is None or not all(isinstance(item, str) for item in items):
         raise SceneError(f"{attr.GetName()} must be an array of tokens, got {value!r}", **where)
     return tuple(items)
