@@ -1357,6 +1357,31 @@ def test_bad_camera(tmp_path):
         wrt.render(scene, camera="/Cam", width=4, height=4, device="cpu")
 
 
+@pytest.mark.parametrize("shutter, moving, warned", [
+    ("0, 0.5", True, True), ("-0.25, 0.25", True, True), ("0, 0.5", False, False), ("0.5, 0.5", True, False),
+    (None, True, False)])
+def test_a_shutter_interval_on_a_moving_stage_is_warned_of_as_no_motion_blur(tmp_path, shutter, moving, warned):
+    """wrt renders an instant (no motion blur): a camera whose ``shutter:open`` and ``shutter:close`` differ, on a
+    stage with time samples, is named in a warning; a static stage, or an empty interval, says nothing."""
+    from pxr import Usd, UsdGeom
+
+    shutter_lines = "" if shutter is None else (
+        "    double shutter:open = {}\n    double shutter:close = {}\n".format(*shutter.split(", ")))
+    motion = ('    double3 xformOp:translate.timeSamples = { 1: (0, 0, 0), 2: (1, 0, 0) }\n'
+              '    uniform token[] xformOpOrder = ["xformOp:translate"]\n') if moving else ""
+    path = write_usda(tmp_path, 'def Camera "Cam"\n{\n' + shutter_lines + motion + "}\n")
+    stage = Usd.Stage.Open(path)
+    camera = UsdGeom.Camera(stage.GetPrimAtPath("/Cam"))  # the interval as USD reads it
+    interval = camera.GetShutterCloseAttr().Get() - camera.GetShutterOpenAttr().Get()
+    assert (interval != 0.0 and moving) == warned
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = load_usd(path)
+    said = [str(w.message) for w in caught if "motion blur" in str(w.message)]
+    assert "/Cam" in scene.cameras
+    assert len(said) == warned and all("/Cam" in m and "shutter" in m for m in said)
+
+
 def test_wrongly_typed_normals_are_ignored(tmp_path):
     body = mesh_usda(extra='int[] normals = [1, 2, 3, 4, 5, 6, 7] (interpolation = "vertex")')
     with pytest.warns(UserWarning, match="normals"):

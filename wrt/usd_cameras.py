@@ -22,6 +22,8 @@ from .usd_values import value_at, value_or_fallback
 from .usd_xforms import affine_part
 
 UNUSABLE_CAMERA = "cameras wrt cannot use were skipped (rendering one by its path raises this reason)"
+NO_MOTION_BLUR = ("cameras with a shutter interval on a stage with time samples render an instant: wrt has no motion "
+                  "blur (shutter:open and shutter:close are not read)")
 
 
 class CameraReading:
@@ -120,7 +122,28 @@ class CameraReading:
             exposure_scale=_exposure_scale(camera, number),
         )
         loaded.path = str(prim.GetPath())  # for messages at render time, e.g. a singular transform
+        self._warn_of_shutter(camera, prim)
         return loaded
+
+    def _warn_of_shutter(self, camera: UsdGeom.Camera, prim: Usd.Prim):
+        """Names ``camera`` (:data:`NO_MOTION_BLUR`) when its shutter interval is not empty and the stage's layers
+        hold time samples at two times or more, where something may move; a static stage says nothing."""
+        try:
+            interval = (float(value_or_fallback(camera.GetShutterCloseAttr(), self.time))
+                        - float(value_or_fallback(camera.GetShutterOpenAttr(), self.time)))
+        except (TypeError, ValueError):  # not read anyway
+            return
+        if interval == 0.0 or not np.isfinite(interval):
+            return
+        if getattr(self, "_stage_has_motion", None) is None:  # once per load, and only for such a camera
+            times = set()
+            for layer in self.stage.GetUsedLayers():
+                times.update(layer.ListAllTimeSamples())
+                if len(times) > 1:
+                    break
+            self._stage_has_motion = len(times) > 1
+        if self._stage_has_motion:
+            self._skip(NO_MOTION_BLUR, prim, f"shutter {interval:g} frames")
 
 
 def _elements(attr: Usd.Attribute, found) -> list:
