@@ -961,3 +961,24 @@ def test_a_stage_of_lights_no_camera_ray_sees_warns_nothing_to_render(tmp_path, 
     with pytest.warns(UserWarning, match=rf"lights\.usda: nothing to render \(no triangles, and {why}\)"):
         img = wrt.render(scene, width=4, height=4, device="cpu", integrator=integrator)
     assert (img.aovs["prim"] == -1).all()
+
+
+def test_default_lights_show_a_white_lambertian_surface_as_one(tmp_path):
+    """README: under the default lights (headlight E = 0.8 pi, dome of radiance 0.2) an unoccluded white Lambertian
+    surface facing the camera is 0.8 + 0.2 = 1.0 under whitted; a white UsdPreviewSurface (ior 1.5, roughness 0.5,
+    as USD's schema falls back to) adds its specular lobe, so it shows more than 1."""
+    from wrt.materials import Material
+
+    camera = wrt.Camera.look_at((0, 0, 5), (0, 0, 0), fov_y_deg=30.0)
+    shown = []
+    for extra in (dict(specular_edge=0.0, ior=1.0), {}):
+        corners = [[-20, -20, 0], [20, -20, 0], [20, 20, 0], [-20, 20, 0]]
+        quad = wrt.Scene.from_triangles(corners, [[0, 1, 2], [0, 2, 3]])
+        quad.materials = [Material(diffuse_color=np.ones(3, np.float32), **extra)]
+        quad.meshes[0].material_ids = np.zeros(2, np.int32)
+        image = wrt.render(quad, camera=camera, width=8, height=8, device="cpu")
+        shown.append(float(image.rgb[3:5, 3:5].mean()))
+    # Analytic: albedo 1 / pi times the headlight's E = 0.8 pi (along the view, which faces the quad) and the
+    # dome's 0.2 pi over the open hemisphere.
+    assert shown[0] == pytest.approx(0.8 + 0.2, rel=1e-4)
+    assert shown[1] > shown[0] + 0.05
