@@ -637,18 +637,25 @@ def test_a_gprim_reads_its_texture_at_the_readers_fallback_st(tmp_path, gprim, t
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
-@pytest.mark.parametrize("tessellate", [False, True])
-@pytest.mark.parametrize("holder", ["/Group/Shape", "/Group"])
-def test_a_gprim_reads_its_texture_at_its_constant_st(tmp_path, holder, tessellate):
-    """A constant ``st`` primvar on a gprim, or inherited from a prim above it, is where its textures read (as
-    Storm hands constant primvars to the meshes it makes of gprims, and as a mesh reads one): here (0.25, 0.75),
-    CHECKER's top-left block, red, not the reader's fallback (0.75, 0.25). It was ignored."""
+def grey_fallback_stage(tmp_path) -> tuple:
+    """``(path, stage)``: the CHECKER stage without its quad, its st reader's fallback at (0.75, 0.25), the middle of
+    CHECKER's grey block (read raw), for the tests of where a gprim's or an instance's st comes from."""
     png = write_png(tmp_path / "checker.png", CHECKER)
     path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
     stage = Usd.Stage.Open(path)
     UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
         Gf.Vec2f(0.75, 0.25))
     stage.RemovePrim("/Quad")
+    return path, stage
+
+
+@pytest.mark.parametrize("tessellate", [False, True])
+@pytest.mark.parametrize("holder", ["/Group/Shape", "/Group"])
+def test_a_gprim_reads_its_texture_at_its_constant_st(tmp_path, holder, tessellate):
+    """A constant ``st`` primvar on a gprim, or inherited from a prim above it, is where its textures read (as
+    Storm hands constant primvars to the meshes it makes of gprims, and as a mesh reads one): here (0.25, 0.75),
+    CHECKER's top-left block, red, not the reader's fallback (0.75, 0.25). It was ignored."""
+    path, stage = grey_fallback_stage(tmp_path)
     UsdGeom.Xform.Define(stage, "/Group")
     shape = UsdGeom.Sphere.Define(stage, "/Group/Shape")
     shape.CreateRadiusAttr(0.5)
@@ -671,12 +678,7 @@ def test_a_gprims_indexed_constant_st_is_read_as_other_primvars_are(tmp_path, ca
     top-left block, red); indices authored as ``int64[]``, from which USD reads none, drop the primvar with a warning
     and the reader's fallback (0.75, 0.25) is read (grey 128). The first was ignored as 'not 2-, 3- or 4-vectors',
     the other two stopped the load with SceneError ('No indices authored for indexed primvar')."""
-    png = write_png(tmp_path / "checker.png", CHECKER)
-    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
-    stage = Usd.Stage.Open(path)
-    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
-        Gf.Vec2f(0.75, 0.25))
-    stage.RemovePrim("/Quad")
+    path, stage = grey_fallback_stage(tmp_path)
     ball = UsdGeom.Sphere.Define(stage, "/Ball")
     ball.CreateRadiusAttr(0.5)
     bind(ball, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
@@ -711,12 +713,7 @@ def test_an_st_authored_as_quaternions_reads_the_fallback_st(tmp_path, on, geome
     imaginary part first), on the textured prim itself or on a native instance handing it down, is dropped with a
     warning and the reader's fallback (0.75, 0.25) is read, CHECKER's grey block, as a mesh drops its own: a gprim's
     own and any instance's were read as st (0.75, 0.75), the green block, without a word."""
-    png = write_png(tmp_path / "checker.png", CHECKER)
-    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
-    stage = Usd.Stage.Open(path)
-    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
-        Gf.Vec2f(0.75, 0.25))
-    stage.RemovePrim("/Quad")
+    path, stage = grey_fallback_stage(tmp_path)
     root = "/Proto" if on == "instance" else "/Group"
     stage.DefinePrim(root).SetSpecifier(Sdf.SpecifierClass if on == "instance" else Sdf.SpecifierDef)
     if geometry == "Sphere":
@@ -749,12 +746,7 @@ def test_native_instances_hand_their_constant_st_to_prototype_gprims(tmp_path, t
     texel per instance), show their own texel on the sphere, as they do on a prototype's mesh: CHECKER's top-left
     block (red) at (0.25, 0.75) and its top-right one (green) at (0.75, 0.75). The gprim read the reader's fallback,
     (0.75, 0.25), grey, in both."""
-    png = write_png(tmp_path / "checker.png", CHECKER)
-    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
-    stage = Usd.Stage.Open(path)
-    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
-        Gf.Vec2f(0.75, 0.25))
-    stage.RemovePrim("/Quad")
+    path, stage = grey_fallback_stage(tmp_path)
     proto = stage.DefinePrim("/Proto")
     proto.SetSpecifier(Sdf.SpecifierClass)
     ball = UsdGeom.Sphere.Define(stage, "/Proto/Ball")
@@ -783,12 +775,7 @@ def test_a_non_finite_st_handed_to_a_prototype_gprim_reads_the_fallback_st(tmp_p
     prototype's textured Sphere: the gprim shows the texture at the primvar reader's fallback st, (0.75, 0.25),
     CHECKER's bottom-right block (grey 128, read raw), as for a non-finite ``st`` of its own, with a warning. The
     load stopped with SceneError ('st must be 2 finite numbers or None')."""
-    png = write_png(tmp_path / "checker.png", CHECKER)
-    path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
-    stage = Usd.Stage.Open(path)
-    UsdShade.Shader(stage.GetPrimAtPath("/Looks/Tex/St")).CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set(
-        Gf.Vec2f(0.75, 0.25))
-    stage.RemovePrim("/Quad")
+    path, stage = grey_fallback_stage(tmp_path)
     proto = stage.DefinePrim("/Proto")
     proto.SetSpecifier(Sdf.SpecifierClass)
     ball = UsdGeom.Sphere.Define(stage, "/Proto/Ball")
