@@ -289,3 +289,40 @@ def test_a_graph_recorded_before_the_camera_got_depth_of_field_is_refused_after_
     expected = wrt.render(renderer.scene, camera=cam, width=32, height=24, seed=3, device=device).rgb
     np.testing.assert_array_equal(renderer.frame_image().rgb, expected)
     np.testing.assert_array_equal(drawn, expected)
+
+
+@pytest.mark.parametrize("device", ["cpu", "cuda:0"])
+def test_a_graph_recorded_before_a_scene_edit_is_refused_after_its_replay_and_its_buffers_kept(device):
+    """A scene edit's rebuild (at the next launch_frame outside a capture) dropped the BVH, device scene and frame
+    buffers a recorded graph holds raw pointers to: a CUDA replay launched kernels on freed memory, and frame_image
+    then read the new buffers, the last frame drawn outside the graph, without a word. The recorded frame's objects
+    are kept until the next recording, and frame_image refuses the old graph's frame; a new recording replays the
+    edited scene as a fresh render draws it."""
+    if device != "cpu" and not wp.is_cuda_available():
+        pytest.skip("no CUDA device")
+    import dataclasses
+    import gc
+    import weakref
+
+    scene = sensor_scene()
+    cams = ring_of_cameras(2)
+    renderer = wrt.Renderer(scene, cameras=cams, width=32, height=24, device=device)
+    renderer.launch_frame(seed=3)
+    with wp.ScopedCapture(device=device) as capture:
+        renderer.launch_frame(seed=3)
+    recorded = [weakref.ref(renderer.accel), weakref.ref(renderer.device_scene), weakref.ref(renderer._frame[0])]
+    mesh = scene.meshes[0]
+    scene.meshes[0] = dataclasses.replace(mesh, points=mesh.points + np.float32([0.0, 0.5, 0.0]))
+    renderer.launch_frame(seed=3)  # outside the capture: builds the edited scene again
+    gc.collect()
+    assert all(ref() is not None for ref in recorded)  # what the old graph reads is still there
+    wp.capture_launch(capture.graph)
+    with pytest.raises(RuntimeError, match=r"recorded before the scene changed.*record the frame again"):
+        renderer.frame_image()
+    with wp.ScopedCapture(device=device) as capture:
+        renderer.launch_frame(seed=3)
+    wp.capture_launch(capture.graph)
+    expected = wrt.render_batch(scene, cams, 32, 24, seed=3, device=device).rgb.numpy()
+    np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
+    gc.collect()
+    assert all(ref() is None for ref in recorded)  # released at the next recording

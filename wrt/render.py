@@ -552,6 +552,12 @@ class Renderer:
         # scene edit's rebuild after a set_cameras) keeps it; it said nothing then.
         self._sums_dropped, self._progressive = None, None
         self._sides = self._asked_size  # the sides that size the image without render settings (set_cameras pins them)
+        # launch_frame's buffers are numbered as made; each frame writes its number here, into one array that outlives
+        # them, so that frame_image can tell a replayed graph recorded with buffers dropped since (a scene edit's
+        # rebuild, a new size or camera count): it drew into those, and frame_image showed the last frame drawn here.
+        self._frames_made = 0
+        self._frame_number = wp.zeros(1, dtype=wp.int32, device=self.device)
+        self._recorded = ()  # what the last recorded frame's graph reads (launch_frame)
         self._build()
         self._camera_key = self._camera_sources_key()
         self._clip_warnings = set()  # each said once: set_cameras each simulation step repeated it
@@ -965,18 +971,27 @@ class Renderer:
         stops once no ray needs another (:func:`wrt.hidden_hits.repeat_passes`); outside one, all of them run. Buffers
         are allocated on the first call, so make one call before capturing. :meth:`frame_image` reads the result. A
         recorded graph replays the scene's device arrays as they were: after an edit of the scene, call once outside
-        a capture (it builds them again) and record again; :meth:`set_cameras` with the same camera count is
-        followed, and so is a camera edited since once a call outside the capture has uploaded it again, but for
-        depth of field switched on since: then record again (:meth:`frame_image` refuses the old recording's frame)."""
+        a capture (it builds them again) and record again (the arrays the last recording reads are kept until the
+        next recording, and :meth:`frame_image` refuses the old graph's frame); :meth:`set_cameras` with the same
+        camera count is followed, and so is a camera edited since once a call outside the capture has uploaded it
+        again, but for depth of field switched on since: then record again (:meth:`frame_image` refuses the old
+        recording's frame)."""
         self._follow()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
             self._check_launch(n_pixels, 1)
+            self._frames_made += 1
             self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull, self.no_holes),
                            wp.zeros(n_pixels, dtype=wp.vec3, device=self.device),
                            wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device),
                            wp.zeros(1, dtype=wp.int32, device=self.device))
         w, image, dropped, aovs, lens_pass = self._frame
+        if wp.get_device(self.device).is_capturing:
+            # A graph holds raw pointers: a rebuild after a scene edit dropped the BVH, device scene and frame buffers
+            # it was recorded with, and its replay launched kernels on freed memory. They are kept (every attribute as
+            # it is now, but render's own buffers) until the next recording.
+            self._recorded = tuple(value for name, value in vars(self).items()
+                                   if name not in ("_recorded", "_wavefront", "_progressive"))
         aovs.done = False
         self._sync_free = True
         try:
@@ -985,6 +1000,7 @@ class Renderer:
                 # Whether sample 0 samples the lens is fixed when the frame is recorded as a CUDA graph; the fill is
                 # recorded with it, so frame_image can tell a replay of a frame recorded without the lens pass.
                 lens_pass.fill_(self._lens_first())
+                self._frame_number.fill_(self._frames_made)  # recorded too: a replay of an older frame writes its own
                 aovs.covered.zero_()
                 self._start_and_trace(w, 0, check_seed(seed), aovs)
                 wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, 1],
@@ -997,12 +1013,18 @@ class Renderer:
         """The :class:`Image` (or :class:`BatchImage`) of the last :meth:`launch_frame` (or of its graph's replay).
 
         Raises:
-            RuntimeError: no frame was launched since the camera count, the image size or the scene changed, or the
-                frame was drawn (or its graph recorded) before a camera got depth of field: record it again."""
+            RuntimeError: no frame was launched since the camera count, the image size or the scene changed, the
+                frame is a replay of a graph recorded before such a change, or the frame was drawn (or its graph
+                recorded) before a camera got depth of field: record it again."""
         if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count, of the image size or of the scene)")
         _, image, _, aovs, lens_pass = self._frame
+        if int(self._frame_number.numpy()[0]) != self._frames_made:
+            # A graph recorded before the buffers were made anew replayed into the old ones (kept: launch_frame).
+            raise RuntimeError("the frame was recorded before the scene changed (or the image size or camera count): "
+                               "its graph draws the old scene into buffers no longer read; call launch_frame() once "
+                               "outside the capture, then record the frame again")
         if int(lens_pass.numpy()[0]) < self._lens_first():
             # A graph recorded for pinhole cameras replays sample 0 through the lens centre: a sharp image where the
             # camera uploaded since has depth of field, drawn without a word.
