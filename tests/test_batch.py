@@ -317,7 +317,7 @@ def test_a_graph_recorded_before_a_scene_edit_is_refused_after_its_replay_and_it
     gc.collect()
     assert all(ref() is not None for ref in recorded)  # what the old graph reads is still there
     wp.capture_launch(capture.graph)
-    with pytest.raises(RuntimeError, match=r"recorded before the scene changed.*record the frame again"):
+    with pytest.raises(RuntimeError, match=r"before the scene changed.*record the frame again"):
         renderer.frame_image()
     with wp.ScopedCapture(device=device) as capture:
         renderer.launch_frame(seed=3)
@@ -326,3 +326,20 @@ def test_a_graph_recorded_before_a_scene_edit_is_refused_after_its_replay_and_it
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
     gc.collect()
     assert all(ref() is None for ref in recorded)  # released at the next recording
+
+
+def test_a_graph_replayed_after_a_scene_edit_with_no_launch_since_is_refused():
+    """Replayed right after the edit (no launch_frame outside the capture to build again), the graph drew the old
+    scene with the arrays it was recorded with, and frame_image returned that image as the frame: now refused."""
+    import dataclasses
+
+    scene = sensor_scene()
+    renderer = wrt.Renderer(scene, cameras=ring_of_cameras(2), width=32, height=24, device="cpu")
+    renderer.launch_frame(seed=3)
+    with wp.ScopedCapture(device="cpu") as capture:
+        renderer.launch_frame(seed=3)
+    mesh = scene.meshes[0]
+    scene.meshes[0] = dataclasses.replace(mesh, points=mesh.points + np.float32([0.0, 0.5, 0.0]))
+    wp.capture_launch(capture.graph)
+    with pytest.raises(RuntimeError, match=r"before the scene changed.*record the frame again"):
+        renderer.frame_image()

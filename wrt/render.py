@@ -608,6 +608,17 @@ class Renderer:
         """Builds again when the scene changed since the last build (a mesh, material, light or instance array
         replaced, or ``scene.invalidate()`` after an edit in place), as a trace would: a kept Renderer drew the old
         geometry. True where it built again."""
+        if self._scene_changed():
+            if wp.get_device(self.device).is_capturing:  # a build's uploads cannot be recorded into a CUDA graph
+                raise RuntimeError("the scene changed since the renderer was built: call launch_frame() once "
+                                   "outside the capture, then record the frame again")
+            check_scene(self.scene)
+            self._build()
+            return True
+        return False
+
+    def _scene_changed(self) -> bool:
+        """Whether the scene changed since the last build (:meth:`_follow_scene`)."""
         self.scene.drop_stale_caches()
         # Lights are compared with their fields: a light given a new colour or intensity (light.color = ...) kept
         # shining with the old one.
@@ -616,14 +627,8 @@ class Renderer:
             check_folded_inputs(light)
         # scene.dark_lights set alone (the last light listed as hidden) kept or left out the default lights wrongly.
         dark = bool(self.scene.dark_lights) != self._dark
-        if self.scene.cache_generation != self._scene_generation or parts_changed(self._scene_lights, lights) or dark:
-            if wp.get_device(self.device).is_capturing:  # a build's uploads cannot be recorded into a CUDA graph
-                raise RuntimeError("the scene changed since the renderer was built: call launch_frame() once "
-                                   "outside the capture, then record the frame again")
-            check_scene(self.scene)
-            self._build()
-            return True
-        return False
+        edited = self.scene.cache_generation != self._scene_generation
+        return edited or parts_changed(self._scene_lights, lights) or dark
 
     def _warn_clipped_away(self) -> None:
         """:func:`warn_clipped_away` for the renderer's cameras, where the scene draws anything; each message once.
@@ -1020,11 +1025,12 @@ class Renderer:
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count, of the image size or of the scene)")
         _, image, _, aovs, lens_pass = self._frame
-        if int(self._frame_number.numpy()[0]) != self._frames_made:
-            # A graph recorded before the buffers were made anew replayed into the old ones (kept: launch_frame).
-            raise RuntimeError("the frame was recorded before the scene changed (or the image size or camera count): "
-                               "its graph draws the old scene into buffers no longer read; call launch_frame() once "
-                               "outside the capture, then record the frame again")
+        if self._scene_changed() or int(self._frame_number.numpy()[0]) != self._frames_made:
+            # A graph recorded before the buffers were made anew replayed into the old ones (kept: launch_frame); one
+            # replayed after a scene edit with no launch_frame outside a capture since drew the old scene.
+            raise RuntimeError("the frame was recorded (or drawn) before the scene changed (or the image size or "
+                               "camera count): it shows the old scene; call launch_frame() once outside the capture, "
+                               "then record the frame again")
         if int(lens_pass.numpy()[0]) < self._lens_first():
             # A graph recorded for pinhole cameras replays sample 0 through the lens centre: a sharp image where the
             # camera uploaded since has depth of field, drawn without a word.
