@@ -577,18 +577,16 @@ class _Graph:
         if value is None or np.size(value) not in (1, 2):
             return None
         c = np.resize(np.asarray(value, np.float64), 2)
-        m = np.eye(3)
         if op == "rotate2d":
-            a = math.radians(c[0])
-            m[:2, :2] = [[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]
+            m = _turn(c[0])
         elif op in ("multiply", "divide"):
             if op == "divide" and np.any(c == 0.0):
                 return None
-            m[:2, :2] = np.diag(c if op == "multiply" else 1.0 / c)
+            m = _affine(np.diag(c if op == "multiply" else 1.0 / c))
         elif op == "add" or fed[0] == "in1":  # st + c, st - c
-            m[:2, 2] = c if op == "add" else -c
+            m = _affine(shift=c if op == "add" else -c)
         else:  # c - st
-            m[:2, :2], m[:2, 2] = -np.eye(2), c
+            m = _affine(-np.eye(2), c)
         return m, found[fed[0]]
 
     def _place2d(self, place) -> np.ndarray:
@@ -616,18 +614,10 @@ class _Graph:
             self.notes.append(f"{place.GetPath()}: a scale of zero or an operationorder other than 0 or 1; the place2d "
                               "is ignored")
             return np.eye(3)
-
-        def affine(linear=np.eye(2), shift=(0.0, 0.0)):
-            m = np.eye(3)
-            m[:2, :2], m[:2, 2] = linear, shift
-            return m
-
-        a = math.radians(values["rotate"][0])
-        turn = affine(np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]))
-        shrink = affine(np.diag(1.0 / scale))
+        turn, shrink = _turn(values["rotate"][0]), _affine(np.diag(1.0 / scale))
         if order == 0:
-            return affine(shift=pivot - offset) @ turn @ shrink @ affine(shift=-pivot)
-        return affine(shift=pivot) @ shrink @ turn @ affine(shift=-pivot - offset)
+            return _affine(shift=pivot - offset) @ turn @ shrink @ _affine(shift=-pivot)
+        return _affine(shift=pivot) @ shrink @ turn @ _affine(shift=-pivot - offset)
 
     def _texcoord_source(self, found, node) -> tuple[str | None, np.ndarray, np.ndarray | None]:
         """``(primvar, st_fallback, constant)`` of what feeds a ``texcoord`` (``found``, ``MaterialReader._producer``
@@ -676,6 +666,20 @@ def file_color_space(file_input) -> tuple[str, str | None]:
     if name in COLOR_SPACES:
         return COLOR_SPACES[name], None
     return "raw", name
+
+
+def _affine(linear=np.eye(2), shift=(0.0, 0.0)) -> np.ndarray:
+    """The ``(3, 3)`` float64 map of texture coordinates ``st -> linear @ st + shift``."""
+    m = np.eye(3)
+    m[:2, :2], m[:2, 2] = linear, shift
+    return m
+
+
+def _turn(degrees: float) -> np.ndarray:
+    """MaterialX's ``rotate2d`` of texture coordinates by ``degrees``, ``(x cos a + y sin a, -x sin a + y cos a)``,
+    as a :func:`_affine` map (``place2d`` turns them so too)."""
+    a = math.radians(degrees)
+    return _affine(np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]))
 
 
 def _multiply(texture, factor: float, apply: bool = True) -> bool:
