@@ -57,14 +57,20 @@ class Visibility:
         one a native instance inherited (``ctx.outer_purpose``), else default."""
         if ctx.stop is None and ctx.outer_purpose is None:
             return self.computed_purposes.purpose(prim)  # ComputePurpose, each ancestor's answer kept
+        own = self._nearest_purpose(prim, ctx)
+        return own if own is not None else ctx.outer_purpose or UsdGeom.Tokens.default_
+
+    def _nearest_purpose(self, prim: Usd.Prim, ctx: Context):
+        """The purpose authored on ``prim`` or its nearest ancestor below ``ctx.stop`` that authors one (as
+        ``ComputePurpose`` reads it), or None where none does."""
         p = prim
         while p and p != ctx.stop and not p.IsPseudoRoot():
             img = UsdGeom.Imageable(p)
             attr = img.GetPurposeAttr() if img else None
             if attr is not None and attr.HasAuthoredValue():
-                return attr.Get() if token_typed(attr) else UsdGeom.Tokens.default_  # as ComputePurpose reads it
+                return attr.Get() if token_typed(attr) else UsdGeom.Tokens.default_
             p = p.GetParent()
-        return ctx.outer_purpose or UsdGeom.Tokens.default_
+        return None
 
     def _prototype_purpose(self, root: Usd.Prim, instancer: Usd.Prim, ctx: Context, hidden: frozenset = frozenset()):
         """The purpose that prototype ``root`` of PointInstancer ``instancer`` (read in ``ctx``) inherits, when it is
@@ -107,13 +113,8 @@ class Visibility:
         if ctx.stop is None and ctx.outer_purpose is None:
             info = UsdGeom.Imageable(prim).ComputePurposeInfo()
             return info.purpose if info.isInheritable else None
-        p = prim
-        while p and p != ctx.stop and not p.IsPseudoRoot():
-            img = UsdGeom.Imageable(p)
-            if img and img.GetPurposeAttr().HasAuthoredValue():
-                return self._purpose(prim, ctx)
-            p = p.GetParent()
-        return ctx.outer_purpose
+        own = self._nearest_purpose(prim, ctx)
+        return own if own is not None else ctx.outer_purpose
 
     def _rendered(self, prim: Usd.Prim, ctx: Context) -> bool:
         """Visible (below ``ctx.stop``) with a purpose drawn (default or render, or the render settings' own), and not
