@@ -19,7 +19,7 @@ from typing import ClassVar
 import numpy as np
 import warp as wp
 
-from .camera import APERTURE_UNIT, Camera, DeviceCamera, frame_scene
+from .camera import APERTURE_UNIT, CAMERA_FIELDS, Camera, DeviceCamera, frame_scene
 from .errors import SceneError, did_you_mean, flag, user_stacklevel
 from .hidden_hits import CullScratch, intersect_visible, occluded_through_holes
 from .image import Image, depth_grey
@@ -557,6 +557,11 @@ class Renderer:
         # rebuild, a new size or camera count): it drew into those, and frame_image showed the last frame drawn here.
         self._frames_made = 0
         self._frame_number = wp.zeros(1, dtype=wp.int32, device=self.device)
+        # Each camera upload is numbered, its number kept on the device beside the cameras; a frame copies it (in
+        # what a graph records), so that frame_image can tell a frame drawn before the cameras last changed: a frame
+        # drawn, then set_cameras (or an edited camera that render() uploaded), returned the old poses without a word.
+        self._camera_uploads = 0
+        self._camera_upload_number = wp.zeros(1, dtype=wp.int32, device=self.device)
         self._recorded = ()  # what the last recorded frame's graph reads (launch_frame)
         self._build()
         self._camera_key = self._camera_sources_key()
@@ -651,6 +656,26 @@ class Renderer:
             framed = ("framed", self.scene.cache_generation, self.scene.up_axis)
             key.append(framed if source is None else (id(source), source.snapshot()))
         return tuple(key)
+
+    def _camera_changes(self) -> str:
+        """What changed in the cameras since they were uploaded (:meth:`_camera_sources_key`), in words for an
+        error (``camera /Cam (to_world, focal_length)``, ``cameras[1] of 2 (f_stop)``), or ``""`` where nothing did."""
+        now = self._camera_sources_key()
+        if now == self._camera_key:
+            return ""
+        parts = ["the render settings"] if now[0] != self._camera_key[0] else []
+        for k, (arg, old, new) in enumerate(zip(self._camera_args, self._camera_key[1:], now[1:])):
+            if old == new:
+                continue
+            source = camera_source(self.scene, arg)
+            name = f"cameras[{k}] of {len(self._camera_args)}" if self.batched else (
+                source.label() if source is not None else "the camera wrt frames the scene with")
+            if source is None or old[0] == "framed" or old[0] != new[0]:  # framed anew, or another camera
+                parts.append(name if source is None else f"{name} (replaced)")
+            else:
+                fields = [f for f, a, b in zip(CAMERA_FIELDS, old[1], new[1]) if not a == b]
+                parts.append(f"{name} ({', '.join(fields)})")
+        return " and ".join(parts) or "the cameras"
 
     def _settings_view(self) -> tuple | None:
         """The fields of the scene's render settings that choose the image (None without settings)."""
@@ -832,6 +857,8 @@ class Renderer:
         else:
             self._cams, self._lenses = cams, lenses
         self.cameras, self.camera = cameras, cameras[0]
+        self._camera_uploads += 1
+        self._camera_upload_number.fill_(self._camera_uploads)
         self._thin_lens = any(radius > 0.0 for radius, _ in lens_list)  # some camera has depth of field
         # Read now, as the pose and lens are: a camera changed after this is uploaded again at the next render
         # (_follow_cameras), and a scale made NaN after its check would have darkened the image silently.
@@ -989,8 +1016,9 @@ class Renderer:
             self._frame = (_Wavefront(n_pixels, self.device, self.nothing_to_cull, self.no_holes),
                            wp.zeros(n_pixels, dtype=wp.vec3, device=self.device),
                            wp.zeros(1, dtype=wp.int32, device=self.device), _AovBuffers(n_pixels, self.device),
+                           wp.zeros(1, dtype=wp.int32, device=self.device),
                            wp.zeros(1, dtype=wp.int32, device=self.device))
-        w, image, dropped, aovs, lens_pass = self._frame
+        w, image, dropped, aovs, lens_pass, cameras_drawn = self._frame
         if wp.get_device(self.device).is_capturing:
             # A graph holds raw pointers: a rebuild after a scene edit dropped the BVH, device scene and frame buffers
             # it was recorded with, and its replay launched kernels on freed memory. They are kept (every attribute as
@@ -1006,6 +1034,7 @@ class Renderer:
                 # recorded with it, so frame_image can tell a replay of a frame recorded without the lens pass.
                 lens_pass.fill_(self._lens_first())
                 self._frame_number.fill_(self._frames_made)  # recorded too: a replay of an older frame writes its own
+                wp.copy(cameras_drawn, self._camera_upload_number)  # the upload a replay reads, as the replay runs
                 aovs.covered.zero_()
                 self._start_and_trace(w, 0, check_seed(seed), aovs)
                 wp.launch(accumulate_samples_kernel, n_pixels, inputs=[w.radiance, n_pixels, 1],
@@ -1020,23 +1049,37 @@ class Renderer:
         Raises:
             RuntimeError: no frame was launched since the camera count, the image size or the scene changed, the
                 frame is a replay of a graph recorded before such a change, or the frame was drawn (or its graph
-                recorded) before a camera got depth of field: record it again."""
+                recorded) before a camera got depth of field: record it again. Also where a camera was edited since
+                the cameras were uploaded (the error names it and its fields: a graph replays the uploaded view),
+                and where the frame was drawn before the last upload (:meth:`set_cameras`, or an edited camera that
+                :meth:`render` uploaded) with no replay since."""
         if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count, of the image size or of the scene)")
-        _, image, _, aovs, lens_pass = self._frame
+        _, image, _, aovs, lens_pass, cameras_drawn = self._frame
         if self._scene_changed() or int(self._frame_number.numpy()[0]) != self._frames_made:
             # A graph recorded before the buffers were made anew replayed into the old ones (kept: launch_frame); one
             # replayed after a scene edit with no launch_frame outside a capture since drew the old scene.
             raise RuntimeError("the frame was recorded (or drawn) before the scene changed (or the image size or "
                                "camera count): it shows the old scene; call launch_frame() once outside the capture, "
                                "then record the frame again")
+        changed = self._camera_changes()
+        if changed:
+            # The graph reads the cameras as last uploaded: a camera moved (or given a new fov, lens or film) since
+            # replayed the old view without a word.
+            raise RuntimeError(f"{changed} changed since the cameras were uploaded: the frame (or its graph's replay) "
+                               "shows the old view; call launch_frame() once outside the capture (it uploads them), "
+                               "then replay")
         if int(lens_pass.numpy()[0]) < self._lens_first():
             # A graph recorded for pinhole cameras replays sample 0 through the lens centre: a sharp image where the
             # camera uploaded since has depth of field, drawn without a word.
             raise RuntimeError("the frame was drawn (or recorded in a graph) before a camera got depth of field "
                                "(f_stop and focus_distance): call launch_frame() once outside the capture, then "
                                "record the frame again")
+        if int(cameras_drawn.numpy()[0]) != self._camera_uploads:  # new poses uploaded after the frame was drawn
+            raise RuntimeError("the frame was drawn (or its graph replayed) before the cameras last changed "
+                               "(set_cameras, or a camera edit that render() uploaded): it shows the old view; replay "
+                               "the graph or call launch_frame() again")
         return self._mean_image(image, 1, aovs)
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:

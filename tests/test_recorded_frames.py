@@ -1,0 +1,74 @@
+"""Renderer.launch_frame / frame_image and their graph replays (Warp records CPU graphs too) after an edit: the frame
+equals a fresh render of the edited settings, or frame_image refuses it, saying what changed."""
+
+
+import numpy as np
+import pytest
+import warp as wp
+
+import wrt
+from wrt.procedural import ring_of_cameras, sensor_scene
+
+
+def _lens_camera() -> wrt.Camera:
+    cam = wrt.Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
+    cam.f_stop, cam.focus_distance = 1.4, 5.0
+    return cam
+
+
+def _move(cam):
+    cam.to_world[0, 3] += 0.5
+
+
+def _zoom(cam):
+    cam.focal_length *= 1.5
+
+
+def _widen_film(cam):  # a Renderer given the width alone takes the height from the film's aspect
+    cam.vertical_aperture *= 0.5
+
+
+def _refocus(cam):
+    cam.focus_distance = 2.0
+
+
+EDITS = {"to_world": _move, "focal_length": _zoom, "vertical_aperture": _widen_film, "focus_distance": _refocus}
+
+
+@pytest.mark.parametrize("field", EDITS)
+def test_a_camera_edited_after_the_recording_is_refused_until_uploaded(field):
+    """The graph reads the cameras as last uploaded: a camera moved, zoomed, given a new film (a new image size) or
+    refocused after the recording replayed its old view, and frame_image returned it without a word. Now it names
+    the edit; once launch_frame() has uploaded the camera, a new recording replays what a fresh render draws."""
+    scene, cam = sensor_scene(), _lens_camera()
+    height = None if field == "vertical_aperture" else 6
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=height, device="cpu")
+    renderer.launch_frame(seed=3)
+    with wp.ScopedCapture(device="cpu") as capture:
+        renderer.launch_frame(seed=3)
+    EDITS[field](cam)
+    wp.capture_launch(capture.graph)
+    with pytest.raises(RuntimeError, match=rf"^camera \({field}\) changed since the cameras were uploaded"):
+        renderer.frame_image()
+    renderer.launch_frame(seed=3)  # outside the capture: uploads the camera
+    with wp.ScopedCapture(device="cpu") as capture:
+        renderer.launch_frame(seed=3)
+    wp.capture_launch(capture.graph)
+    fresh = wrt.render(scene, camera=cam, width=8, height=height, seed=3, device="cpu")
+    np.testing.assert_array_equal(renderer.frame_image().rgb, fresh.rgb)
+
+
+def test_a_frame_drawn_before_set_cameras_is_refused_until_drawn_again():
+    """A frame drawn, then set_cameras with as many cameras (uploaded into the arrays a graph reads): frame_image
+    returned the old poses, with nothing replayed since. Refused now; a replay draws the new cameras."""
+    scene, cams = sensor_scene(), ring_of_cameras(4)
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    renderer.launch_frame(seed=3)
+    with wp.ScopedCapture(device="cpu") as capture:
+        renderer.launch_frame(seed=3)
+    renderer.set_cameras(cams[2:])
+    with pytest.raises(RuntimeError, match=r"drawn \(or its graph replayed\) before the cameras last changed"):
+        renderer.frame_image()
+    wp.capture_launch(capture.graph)
+    expected = wrt.render_batch(scene, cams[2:], 8, 6, seed=3, device="cpu").rgb.numpy()
+    np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
