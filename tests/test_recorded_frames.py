@@ -2,6 +2,10 @@
 equals a fresh render of the edited settings, or frame_image refuses it, saying what changed."""
 
 
+import dataclasses
+import gc
+import weakref
+
 import numpy as np
 import pytest
 import warp as wp
@@ -72,3 +76,32 @@ def test_a_frame_drawn_before_set_cameras_is_refused_until_drawn_again():
     wp.capture_launch(capture.graph)
     expected = wrt.render_batch(scene, cams[2:], 8, 6, seed=3, device="cpu").rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
+
+
+def test_a_graph_older_than_the_last_recording_keeps_what_it_reads_and_its_frame_is_refused():
+    """The Renderer kept what the last recorded graph reads until the next recording only: a graph recorded before
+    a scene edit and a second recording replayed kernels on the freed BVH and frame buffers (README: "must not be
+    replayed"). Each graph now keeps its own for as long as it lives; its replay's frame is refused, the newer
+    graph's replay still draws what a fresh render does, and dropping the old graph frees what it kept."""
+    scene, cams = sensor_scene(), ring_of_cameras(2)
+    renderer = wrt.Renderer(scene, cameras=cams, width=8, height=6, device="cpu")
+    renderer.launch_frame(seed=3)
+    with wp.ScopedCapture(device="cpu") as old:
+        renderer.launch_frame(seed=3)
+    kept = [weakref.ref(renderer.accel), weakref.ref(renderer.device_scene), weakref.ref(renderer._frame[0])]
+    mesh = scene.meshes[0]
+    scene.meshes[0] = dataclasses.replace(mesh, points=mesh.points + np.float32([0.0, 0.5, 0.0]))
+    renderer.launch_frame(seed=3)  # builds the edited scene again
+    with wp.ScopedCapture(device="cpu") as new:
+        renderer.launch_frame(seed=3)
+    gc.collect()
+    assert all(ref() is not None for ref in kept)  # the old graph's BVH, scene and buffers
+    wp.capture_launch(old.graph)
+    with pytest.raises(RuntimeError, match=r"before the scene changed.*record the frame again"):
+        renderer.frame_image()
+    wp.capture_launch(new.graph)
+    expected = wrt.render_batch(scene, cams, 8, 6, seed=3, device="cpu").rgb.numpy()
+    np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
+    del old
+    gc.collect()
+    assert all(ref() is None for ref in kept)

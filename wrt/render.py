@@ -383,6 +383,20 @@ def launch_per_path(kernel, n: int, inputs: list, outputs: list, device) -> None
     run_in_chunks(work, n, resolve_threads(None, device), [kernel])  # one piece on a GPU
 
 
+def capturing_graph(device) -> wp.Graph | None:
+    """The :class:`wp.Graph` that ``device`` is recording now, or None: Warp keeps a CUDA capture's graph per stream
+    (``Device.captures``) and a CPU capture's in its runtime, and has no public call that returns it."""
+    device = wp.get_device(device)
+    if device.is_cuda:
+        return device.captures.get(device.stream)
+    try:
+        from warp._src import context as warp_context
+    except ImportError:  # another Warp layout: the caller keeps what the graph reads itself
+        return None
+    graph = getattr(getattr(warp_context, "runtime", None), "_apic_graph", None)
+    return graph if graph is not None and graph.device == device else None
+
+
 def check_lights(lights) -> None:
     """Runs the constructor's checks of each light (and of its shaping and link collections) again: a field assigned
     after construction (``light.color = (nan, 1, 1)``, ``light.radius = -1``, a step's new value) lit the scene
@@ -562,7 +576,7 @@ class Renderer:
         # drawn, then set_cameras (or an edited camera that render() uploaded), returned the old poses without a word.
         self._camera_uploads = 0
         self._camera_upload_number = wp.zeros(1, dtype=wp.int32, device=self.device)
-        self._recorded = ()  # what the last recorded frame's graph reads (launch_frame)
+        self._recorded = ()  # what the last recorded graph reads, where Warp's graph cannot keep it (launch_frame)
         self._build()
         self._camera_key = self._camera_sources_key()
         self._clip_warnings = set()  # each said once: set_cameras each simulation step repeated it
@@ -1003,8 +1017,8 @@ class Renderer:
         stops once no ray needs another (:func:`wrt.hidden_hits.repeat_passes`); outside one, all of them run. Buffers
         are allocated on the first call, so make one call before capturing. :meth:`frame_image` reads the result. A
         recorded graph replays the scene's device arrays as they were: after an edit of the scene, call once outside
-        a capture (it builds them again) and record again (the arrays the last recording reads are kept until the
-        next recording, and :meth:`frame_image` refuses the old graph's frame); :meth:`set_cameras` with the same
+        a capture (it builds them again) and record again (each recorded graph keeps the arrays it reads for as long as
+        it lives, and :meth:`frame_image` refuses an old graph's frame); :meth:`set_cameras` with the same
         camera count is followed, and so is a camera edited since once a call outside the capture has uploaded it
         again, but for depth of field switched on since: then record again (:meth:`frame_image` refuses the old
         recording's frame)."""
@@ -1022,9 +1036,14 @@ class Renderer:
         if wp.get_device(self.device).is_capturing:
             # A graph holds raw pointers: a rebuild after a scene edit dropped the BVH, device scene and frame buffers
             # it was recorded with, and its replay launched kernels on freed memory. They are kept (every attribute as
-            # it is now, but render's own buffers) until the next recording.
-            self._recorded = tuple(value for name, value in vars(self).items()
-                                   if name not in ("_recorded", "_wavefront", "_progressive"))
+            # it is now, but render's own buffers) by the graph itself, for as long as it lives: kept by the renderer
+            # until the next recording only, a graph older than that replayed on freed memory.
+            recorded = tuple(value for name, value in vars(self).items()
+                             if name not in ("_recorded", "_wavefront", "_progressive"))
+            graph = capturing_graph(self.device)
+            if graph is not None:
+                graph.__dict__.setdefault("wrt_recorded", []).append(recorded)
+            self._recorded = recorded if graph is None else ()  # where Warp's graph cannot be found: the last one's
         aovs.done = False
         self._sync_free = True
         try:
