@@ -783,6 +783,41 @@ def test_worker_warnings_reach_the_caller_once(tmp_path):
     assert len(messages) == 1 and "/M" in messages[0]
 
 
+def test_a_worker_frames_warning_reaches_the_caller_in_its_own_class(tmp_path, monkeypatch):
+    """The frames of several devices (or of a Dask cluster) sent their warnings back as words and the caller warned
+    each as a UserWarning: a filter of the warning's own class (``-W error::RuntimeWarning``) caught it in a run on
+    one device only. The worker's task, run here as a worker runs it, now hands each back in its class, as the run
+    on one device shows it."""
+    from wrt import animation
+
+    stage = tmp_path / "tri.usda"
+    stage.write_text('#usda 1.0\ndef Mesh "M"\n{\n    int[] faceVertexCounts = [3]\n'
+                     '    int[] faceVertexIndices = [0, 1, 2]\n'
+                     '    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n}\n')
+    render = FrameRenderer.render
+
+    def render_with_a_runtime_warning(self, *args, **kwargs):
+        warnings.warn("a frame's own RuntimeWarning", RuntimeWarning)
+        return render(self, *args, **kwargs)
+
+    monkeypatch.setattr(FrameRenderer, "render", render_with_a_runtime_warning)
+    monkeypatch.setattr(animation, "_WORKER_RENDERERS", {})
+    size = {"width": 8, "height": 6}
+    shown = {}
+    for run in ("serial", "worker"):
+        file = tmp_path / f"{run}_1.npy"
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            if run == "serial":
+                render_frames(stage, [(1.0, file)], **size)
+            else:
+                job = animation._task(os.fspath(stage), 1.0, file, 1, 0, 0.0, size)
+                animation._frame_writer([(1.0, file)], [])(animation.render_frame_task(job))
+        shown[run] = [w.category for w in caught if "own RuntimeWarning" in str(w.message)]
+    assert shown["serial"] == [RuntimeWarning]
+    assert shown["worker"] == shown["serial"]
+
+
 def sigint_is_ignored(answers):
     import signal
 

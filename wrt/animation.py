@@ -561,8 +561,10 @@ def _frame_writer(jobs, rows: list):
         row = result["row"]
         file = files[row["frame"]]
         try:
-            for message in result.get("warnings", ()):
-                warnings.warn(message, stacklevel=2)  # shown here once, however many workers and frames raised it
+            for message, category in result.get("warnings", ()):
+                # Shown here once, however many workers and frames raised it, in its own class: all came back as
+                # UserWarning, which the caller's filters of another class (ignore, error) then missed.
+                warnings.warn(message, warning_class(category), stacklevel=2)
         except Warning as e:  # the caller's filters make it an error: the frame failed, as in a serial run
             rows.append(frame_error_row(row["frame"], file, e, row.get("device")))
             return
@@ -610,8 +612,9 @@ def render_frame_task(job: dict) -> dict:
 
     Returns:
         ``{"data": file bytes, "row": the frame's log row with "device" and "seconds" (render and encode),
-        "warnings": the messages of the warnings the frame raised}``: the client shows them in its own words, once,
-        where each worker printed them to its own log in Python's format, glued to the client's progress bar.
+        "warnings": ``(message, "module:ClassName")`` of each warning the frame raised}``: the client shows them
+        in its own words, once, each in its own class (:func:`warning_class`), where each worker printed them to its
+        own log in Python's format, glued to the client's progress bar.
     """
     import tempfile
 
@@ -635,7 +638,24 @@ def render_frame_task(job: dict) -> dict:
         written = image.save(Path(tmp) / f"frame{job['suffix']}", exposure=job["exposure"])
         data = Path(written).read_bytes()
     row = dict(renderer.log[-1], device=device, seconds=_time.perf_counter() - start, finished_at=_time.time())
-    return {"data": data, "row": row, "warnings": list(dict.fromkeys(str(w.message) for w in raised))}
+    named = ((str(w.message), f"{w.category.__module__}:{w.category.__qualname__}") for w in raised)
+    return {"data": data, "row": row, "warnings": list(dict.fromkeys(named))}
+
+
+def warning_class(name: str) -> type[Warning]:
+    """The warning class ``module:qualname`` names (a worker's frame sends its warnings' classes so, in words: a
+    class the client cannot import would have failed the whole result's unpickling); ``UserWarning`` where there is
+    no such warning class."""
+    import importlib
+
+    module, _, qualname = name.partition(":")
+    try:
+        found = importlib.import_module(module)
+        for part in qualname.split("."):
+            found = getattr(found, part)
+    except (ImportError, AttributeError, ValueError):
+        return UserWarning
+    return found if isinstance(found, type) and issubclass(found, Warning) else UserWarning
 
 
 def render_frames_on_dask(path, jobs, *, address=None, n_workers=None, spp=1, seed=0, exposure=0.0, progress=False,
