@@ -982,3 +982,22 @@ def test_default_lights_show_a_white_lambertian_surface_as_one(tmp_path):
     # dome's 0.2 pi over the open hemisphere.
     assert shown[0] == pytest.approx(0.8 + 0.2, rel=1e-4)
     assert shown[1] > shown[0] + 0.05
+
+
+@pytest.mark.parametrize("name,value", [("integrator", "pth"), ("integrator", "ao"), ("max_depth", -1),
+                                        ("ao_radius", float("nan")), ("width", 4), ("height", 3)])
+def test_a_renderer_setting_assigned_after_construction_is_refused_naming_a_new_renderer(name, value):
+    """Renderer's settings were plain attributes, baked into its buffers, camera structs and recorded graphs:
+    ``integrator = "pth"`` drew black, ``max_depth = -1`` read past a buffer, ``ao_radius = nan`` drew white and
+    ``width = 4`` drew the 8-pixel-wide camera's rays into a 4-pixel image, each without a word. An assignment is
+    refused, saying to make a new Renderer, and the renderer still draws what a fresh one of its settings does."""
+    from wrt.procedural import sensor_scene
+
+    scene = sensor_scene()
+    cam = wrt.Camera.look_at((0.0, 1.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device="cpu", integrator="ao")
+    with pytest.raises(AttributeError, match=rf"^Renderer\.{name} cannot be assigned .*make a new wrt\.Renderer"):
+        setattr(renderer, name, value)
+    fresh = wrt.Renderer(scene, camera=cam, width=8, height=6, device="cpu", integrator="ao")
+    assert getattr(renderer, name) == getattr(fresh, name)
+    np.testing.assert_array_equal(renderer.render(seed=1).rgb, fresh.render(seed=1).rgb)

@@ -397,6 +397,19 @@ def capturing_graph(device) -> wp.Graph | None:
     return graph if graph is not None and graph.device == device else None
 
 
+def fixed_setting(name: str, made_by: str) -> property:
+    """A :class:`Renderer` attribute read as any other but refused when assigned, naming what to do instead: each is
+    baked into the buffers, the camera structs, the lights or a recorded graph, so that ``renderer.integrator =
+    "pth"`` drew a black image, ``renderer.max_depth = -1`` read past a buffer, ``renderer.ao_radius = nan`` drew
+    white and ``renderer.width = 4`` drew the old camera's rays into a narrower image, all without a word."""
+
+    def refuse(self, value):
+        raise AttributeError(f"Renderer.{name} cannot be assigned ({name}={value!r}): {made_by}; make a new "
+                             f"wrt.Renderer(scene, {name}=...) instead (it reuses the scene's BVH)")
+
+    return property(lambda self: getattr(self, f"_{name}"), refuse, doc=f"{made_by} (read-only).")
+
+
 def check_lights(lights) -> None:
     """Runs the constructor's checks of each light (and of its shaping and link collections) again: a field assigned
     after construction (``light.color = (nan, 1, 1)``, ``light.radius = -1``, a step's new value) lit the scene
@@ -489,12 +502,24 @@ class Renderer:
         ao_radius: occlusion distance of ``ao`` in scene units; default a tenth of the scene's bounding-box
             diagonal, measured again whenever the renderer builds again for an edited scene.
 
+    The settings (``integrator``, ``max_depth``, ``ao_radius``, ``width``, ``height``) are read-only attributes
+    (:func:`fixed_setting`): make a new Renderer for others; it reuses the scene's BVH.
+
     Each render follows the cameras as a new Renderer would take them: a :class:`Camera` given and edited since (a
     field set, ``to_world`` edited in place), the scene's camera at the path given replaced or edited, the camera
     wrt makes to frame a stage without cameras after a scene edit, and render settings replaced; the image takes the
     size a new Renderer would (a camera's new aspect where one side was not given, the settings' new resolution or
     data window).
     """
+
+    integrator = fixed_setting("integrator", "the integrator is chosen when the Renderer is made")
+    max_depth = fixed_setting("max_depth", "the bounce limit is chosen when the Renderer is made")
+    ao_radius = fixed_setting("ao_radius", "the occlusion distance is the one given when the Renderer was made, "
+                              "else the scene's (measured again after each scene edit)")
+    width = fixed_setting("width", "the image width is the one given when the Renderer was made, else the render "
+                          "settings' or the camera's (followed at each render)")
+    height = fixed_setting("height", "the image height is the one given when the Renderer was made, else the render "
+                           "settings' or the camera's (followed at each render)")
 
     def __init__(
         self,
@@ -539,13 +564,13 @@ class Renderer:
             isinstance(ao_radius, (int, float, np.integer, np.floating)) and math.isfinite(ao_radius) and ao_radius > 0
         )):
             raise ValueError(f"ao_radius must be a positive number, got {ao_radius!r}")
-        self.width, self.height = int(width), int(height)
+        self._width, self._height = int(width), int(height)
         self.cameras = [view[0] for view in views]
         self.camera = self.cameras[0]
         self.batched = cameras is not None
         self.device = resolve_device(device)
-        self.integrator = integrator
-        self.max_depth = int(max_depth)
+        self._integrator = integrator
+        self._max_depth = int(max_depth)
         self._asked_ao_radius = ao_radius  # None: the scene's, measured again at each build (_build)
         self.timers = {}
         stats = scene.stats()
@@ -593,7 +618,7 @@ class Renderer:
             check_lights(self.scene.lights)
         # The default ao_radius follows the scene as the BVH does: a kept Renderer kept the radius of the scene it was
         # made for, and after a mesh was added far away its ao image differed from a fresh render's.
-        self.ao_radius = float(self._asked_ao_radius or self._scene_ao_radius())
+        self._ao_radius = float(self._asked_ao_radius or self._scene_ao_radius())
         with wp.ScopedTimer("build", print=False, dict=self.timers, synchronize=True):
             self.accel = get_accelerator(self.scene, *self._accel_options, self.device)
             self.device_scene = self.scene.to_device(self.device)
@@ -847,11 +872,11 @@ class Renderer:
         """:meth:`_upload_cameras` for images of ``size``, the renderer's size from then on (its buffers made anew
         where it changed); nothing changes when a camera is refused."""
         old = (self.width, self.height)
-        self.width, self.height = size
+        self._width, self._height = size
         try:
             self._upload_cameras(cameras, batched)
         except Exception:
-            self.width, self.height = old
+            self._width, self._height = old
             raise
         if size != old:
             self._wavefront = self._frame = None  # sized for the old image
