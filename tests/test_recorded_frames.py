@@ -105,3 +105,18 @@ def test_a_graph_older_than_the_last_recording_keeps_what_it_reads_and_its_frame
     del old
     gc.collect()
     assert all(ref() is None for ref in kept)
+
+
+def test_a_batch_frame_image_keeps_its_aovs_when_the_next_frame_is_drawn():
+    """frame_image's BatchImage had views of the frame's AOV buffers (its rgb a new array): the next frame (a graph's
+    replay, a launch_frame) rewrote the AOVs of an image already returned, whose depth then was another frame's."""
+    scene, cams = sensor_scene(), ring_of_cameras(4)
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    renderer.launch_frame(seed=3)
+    first = renderer.frame_image()
+    renderer.set_cameras(cams[2:])
+    renderer.launch_frame(seed=3)
+    expected = wrt.render_batch(scene, cams[:2], 8, 6, seed=3, device="cpu")
+    for name in ("depth", "prim", "normal", "coverage"):
+        np.testing.assert_array_equal(first.aovs[name].numpy(), expected.aovs[name].numpy())
+    np.testing.assert_array_equal(first.rgb.numpy(), expected.rgb.numpy())

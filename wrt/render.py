@@ -1124,7 +1124,7 @@ class Renderer:
             raise RuntimeError("the frame was drawn (or its graph replayed) before the cameras last changed "
                                "(set_cameras, or a camera edit that render() uploaded): it shows the old view; replay "
                                "the graph or call launch_frame() again")
-        return self._mean_image(image, 1, aovs)
+        return self._mean_image(image, 1, aovs, kept_buffers=True)
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
         wp.launch(
@@ -1298,10 +1298,12 @@ class Renderer:
         radiance = self.integrator in ("path", "whitted")
         return self._exposures if radiance else [1.0] * len(self._exposures)
 
-    def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers):
-        """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel."""
+    def _mean_image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers, kept_buffers: bool = False):
+        """The :class:`Image` (one camera) or :class:`BatchImage` of the sums of ``samples`` samples per pixel;
+        ``kept_buffers``: ``aovs`` are buffers that later launches write again (:meth:`launch_frame`'s), which a
+        :class:`BatchImage` then copies."""
         if self.batched:
-            return self._batch_image(image_sum, samples, aovs)
+            return self._batch_image(image_sum, samples, aovs, kept_buffers)
         return self._image(image_sum, samples, aovs)
 
     def _image(self, image_sum: wp.array, samples: int, aovs: _AovBuffers) -> Image:
@@ -1312,11 +1314,14 @@ class Renderer:
         image.window = self._windows[0]
         return image
 
-    def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers):
+    def _batch_image(self, image_sum: wp.array, total: int, aovs: _AovBuffers, kept_buffers: bool = False):
         from .batch import BatchImage
 
         n, h, w = len(self.cameras), self.height, self.width
-        arrays = {name: a.reshape((n, h, w)) for name, a in aovs.device_arrays(total).items()}
+        arrays = aovs.device_arrays(total)
+        if kept_buffers:  # a frame's AOVs were views of its buffers: the next frame rewrote an image returned before
+            arrays = {name: wp.clone(a) if name in aovs.arrays else a for name, a in arrays.items()}
+        arrays = {name: a.reshape((n, h, w)) for name, a in arrays.items()}
         if self.integrator in ("normals", "depth", "albedo"):  # quick looks are made on the host, as for one camera
             host = {name: a.numpy() for name, a in arrays.items()}
             rgb = np.stack([finish_image(None, {k: v[i] for k, v in host.items()}, self.integrator, self.scene).rgb
