@@ -120,3 +120,21 @@ def test_a_batch_frame_image_keeps_its_aovs_when_the_next_frame_is_drawn():
     for name in ("depth", "prim", "normal", "coverage"):
         np.testing.assert_array_equal(first.aovs[name].numpy(), expected.aovs[name].numpy())
     np.testing.assert_array_equal(first.rgb.numpy(), expected.rgb.numpy())
+
+
+def test_set_cameras_inside_a_capture_is_refused():
+    """set_cameras inside a capture recorded its uploads: every replay copied the poses given then (from an array
+    freed since) over the cameras set later, and drew those. Refused; the renderer keeps its cameras, and a graph
+    recorded without it replays the cameras set outside."""
+    scene, cams = sensor_scene(), ring_of_cameras(6)
+    renderer = wrt.Renderer(scene, cameras=cams[:2], width=8, height=6, device="cpu")
+    renderer.launch_frame(seed=3)
+    with pytest.raises(RuntimeError, match=r"set_cameras\(\) cannot be recorded in a graph"):
+        with wp.ScopedCapture(device="cpu"):
+            renderer.set_cameras(cams[2:4])
+    with wp.ScopedCapture(device="cpu") as capture:
+        renderer.launch_frame(seed=3)
+    renderer.set_cameras(cams[4:6])
+    wp.capture_launch(capture.graph)
+    expected = wrt.render_batch(scene, cams[4:6], 8, 6, seed=3, device="cpu").rgb.numpy()
+    np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)

@@ -831,6 +831,11 @@ class Renderer:
         """Renders from ``cameras`` (a list, tuple or generator; any length) from now on, e.g. new poses each
         simulation step; the BVH, materials and lights stay (a default headlight turns with each camera). The image
         keeps its size, unless the render settings were replaced since the last render: then it takes theirs."""
+        if wp.get_device(self.device).is_capturing:
+            # The uploads would be recorded: every replay copied the poses given then (from an array freed since)
+            # over those set later, and the frame was refused as drawn before the cameras last changed.
+            raise RuntimeError("set_cameras() cannot be recorded in a graph: call it outside the capture (a replay "
+                               "draws the cameras set last)")
         # Without render settings the size is the one made (a side not given took the first camera's aspect then);
         # with them, the size asked for, which each stage camera's data window crops again.
         asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
