@@ -138,3 +138,22 @@ def test_set_cameras_inside_a_capture_is_refused():
     wp.capture_launch(capture.graph)
     expected = wrt.render_batch(scene, cams[4:6], 8, 6, seed=3, device="cpu").rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
+
+
+@pytest.mark.parametrize("call", ["render", "frame_image", "image_so_far"])
+def test_a_call_that_reads_back_is_refused_inside_a_capture(call):
+    """render() inside a capture recorded its launches and read back buffers they had not written: an image of
+    garbage (a mean of 5e32 on the CPU); frame_image()'s and image_so_far()'s coverage kernels were only recorded,
+    their coverage garbage. Each is refused naming the call; afterwards the renderer draws as a fresh one."""
+    scene = sensor_scene()
+    cam = wrt.Camera.look_at((0.0, 1.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
+    renderer = wrt.Renderer(scene, camera=cam, width=8, height=6, device="cpu")
+    renderer.render(seed=1)
+    renderer.launch_frame(seed=1)
+    with pytest.raises(RuntimeError, match=rf"^{call}\(\) cannot be recorded in a graph"):
+        with wp.ScopedCapture(device="cpu"):
+            getattr(renderer, call)()
+    fresh = wrt.render(scene, camera=cam, width=8, height=6, seed=1, device="cpu")
+    for image in (renderer.render(seed=1), renderer.frame_image(), renderer.image_so_far()):
+        np.testing.assert_array_equal(image.rgb, fresh.rgb)
+        np.testing.assert_array_equal(image.aovs["coverage"], fresh.aovs["coverage"])

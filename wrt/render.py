@@ -831,11 +831,9 @@ class Renderer:
         """Renders from ``cameras`` (a list, tuple or generator; any length) from now on, e.g. new poses each
         simulation step; the BVH, materials and lights stay (a default headlight turns with each camera). The image
         keeps its size, unless the render settings were replaced since the last render: then it takes theirs."""
-        if wp.get_device(self.device).is_capturing:
-            # The uploads would be recorded: every replay copied the poses given then (from an array freed since)
-            # over those set later, and the frame was refused as drawn before the cameras last changed.
-            raise RuntimeError("set_cameras() cannot be recorded in a graph: call it outside the capture (a replay "
-                               "draws the cameras set last)")
+        # The uploads would be recorded: every replay copied the poses given then (from an array freed since) over
+        # those set later, and the frame was refused as drawn before the cameras last changed.
+        self._outside_capture("set_cameras()", "call it outside the capture (a replay draws the cameras set last)")
         # Without render settings the size is the one made (a side not given took the first camera's aspect then);
         # with them, the size asked for, which each stage camera's data window crops again.
         asked = self._asked_size if self.scene.render_settings is not None else (self.width, self.height)
@@ -865,6 +863,11 @@ class Renderer:
             self._frame = None
         self._drop_sums("set_cameras was called")
         self._warn_clipped_away()
+
+    def _outside_capture(self, call: str, instead: str) -> None:
+        """Raises RuntimeError, naming ``call`` and what to do ``instead``, inside a graph capture on the device."""
+        if wp.get_device(self.device).is_capturing:
+            raise RuntimeError(f"{call} cannot be recorded in a graph: {instead}")
 
     def _drop_sums(self, why: str) -> None:
         """Drops the progressive sums (of another view) and keeps ``why`` for the warning of a ``resume=True``:
@@ -941,6 +944,8 @@ class Renderer:
             resume: progressive rendering: add ``spp`` samples to those of the previous call (same ``seed``) and
                 return the mean of all of them, exactly the image one call with the total would give.
         """
+        # It reads back between bounces: recorded, its image was of launches not yet run (garbage on the CPU).
+        self._outside_capture("render()", "record launch_frame() instead and read frame_image() after a replay")
         if isinstance(spp, bool) or not isinstance(spp, (int, np.integer)) or spp < 1:
             raise ValueError(f"spp must be a positive integer, got {spp!r}")
         if batch is not None and (isinstance(batch, bool) or not isinstance(batch, (int, np.integer)) or batch < 1):
@@ -1032,6 +1037,7 @@ class Renderer:
     def image_so_far(self):
         """The mean of the samples the last :meth:`render` finished, also when it was interrupted (Ctrl-C), so that
         a long render stopped early still gives its picture; None before the first finished launch."""
+        self._outside_capture("image_so_far()", "call it after the capture")  # its kernels would only be recorded
         samples = self.samples_so_far
         if samples == 0:
             return None
@@ -1102,6 +1108,8 @@ class Renderer:
                 the cameras were uploaded (the error names it and its fields: a graph replays the uploaded view),
                 and where the frame was drawn before the last upload (:meth:`set_cameras`, or an edited camera that
                 :meth:`render` uploaded) with no replay since."""
+        # Its coverage (and a batch's mean) kernels would only be recorded: their arrays held garbage.
+        self._outside_capture("frame_image()", "call it after the capture, after a replay")
         if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count, of the image size or of the scene)")
