@@ -1056,8 +1056,10 @@ class Renderer:
         a capture (it builds them again) and record again (each recorded graph keeps the arrays it reads for as long as
         it lives, and :meth:`frame_image` refuses an old graph's frame); :meth:`set_cameras` with the same
         camera count is followed, and so is a camera edited since once a call outside the capture has uploaded it
-        again, but for depth of field switched on since: then record again (:meth:`frame_image` refuses the old
-        recording's frame)."""
+        again (until then :meth:`frame_image` refuses the frame, naming the camera and the fields edited), but for
+        depth of field switched on since: then record again (:meth:`frame_image` refuses the old recording's
+        frame). Only this call can be recorded: :meth:`render`, :meth:`frame_image`, :meth:`image_so_far` and
+        :meth:`set_cameras` raise inside a capture."""
         self._follow()
         n_pixels = self.width * self.height * len(self.cameras)
         if self._frame is None:
