@@ -157,3 +157,17 @@ def test_a_call_that_reads_back_is_refused_inside_a_capture(call):
     for image in (renderer.render(seed=1), renderer.frame_image(), renderer.image_so_far()):
         np.testing.assert_array_equal(image.rgb, fresh.rgb)
         np.testing.assert_array_equal(image.aovs["coverage"], fresh.aovs["coverage"])
+
+
+def test_a_batch_camera_edited_after_the_frame_is_named_by_its_index():
+    """In a batch the refusal names the edited camera by its index (each camera made in Python is just "camera")."""
+    scene, cams = sensor_scene(), ring_of_cameras(2)
+    renderer = wrt.Renderer(scene, cameras=cams, width=8, height=6, device="cpu")
+    renderer.launch_frame(seed=3)
+    cams[1].focal_length *= 2.0
+    cams[1].exposure_scale = 2.0
+    with pytest.raises(RuntimeError, match=r"^cameras\[1\] of 2 \(focal_length, exposure_scale\) changed since"):
+        renderer.frame_image()
+    renderer.launch_frame(seed=3)
+    expected = wrt.render_batch(scene, cams, 8, 6, seed=3, device="cpu").rgb.numpy()
+    np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
