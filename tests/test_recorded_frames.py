@@ -171,3 +171,20 @@ def test_a_batch_camera_edited_after_the_frame_is_named_by_its_index():
     renderer.launch_frame(seed=3)
     expected = wrt.render_batch(scene, cams, 8, 6, seed=3, device="cpu").rgb.numpy()
     np.testing.assert_array_equal(renderer.frame_image().rgb.numpy(), expected)
+
+
+def test_a_scene_camera_replaced_or_removed_after_the_frame_is_named_by_its_path():
+    """A renderer of a camera path names it in the refusal: replaced in scene.cameras, or gone from it (that was
+    called "the camera wrt frames the scene with", a camera the renderer never drew)."""
+    scene = sensor_scene()
+    cam = wrt.Camera.look_at((0.0, 0.0, 6.0), (0.0, 0.0, 0.0), fov_y_deg=40.0)
+    cam.path = "/Cam"
+    scene.cameras["/Cam"] = cam
+    renderer = wrt.Renderer(scene, camera="/Cam", width=8, height=6, device="cpu")
+    renderer.launch_frame(seed=3)
+    scene.cameras["/Cam"] = dataclasses.replace(cam, focal_length=80.0)
+    with pytest.raises(RuntimeError, match=r"^camera /Cam \(replaced\) changed since the cameras were uploaded"):
+        renderer.frame_image()
+    del scene.cameras["/Cam"]
+    with pytest.raises(RuntimeError, match=r"^camera /Cam \(gone from scene.cameras\) changed since"):
+        renderer.frame_image()

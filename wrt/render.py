@@ -707,10 +707,12 @@ class Renderer:
             if old == new:
                 continue
             source = camera_source(self.scene, arg)
-            name = f"cameras[{k}] of {len(self._camera_args)}" if self.batched else (
-                source.label() if source is not None else "the camera wrt frames the scene with")
-            if source is None or old[0] == "framed" or old[0] != new[0]:  # framed anew, or another camera
-                parts.append(name if source is None else f"{name} (replaced)")
+            name = (f"cameras[{k}] of {len(self._camera_args)}" if self.batched else source.label() if source
+                    else f"camera {arg}" if isinstance(arg, str) else "the camera wrt frames the scene with")
+            if source is None:  # framed anew, or a path that names no camera now
+                parts.append(f"{name} (gone from scene.cameras)" if isinstance(arg, str) else name)
+            elif old[0] == "framed" or old[0] != new[0]:
+                parts.append(f"{name} (replaced)")
             else:
                 fields = [f for f, a, b in zip(CAMERA_FIELDS, old[1], new[1]) if not a == b]
                 parts.append(f"{name} ({', '.join(fields)})")
