@@ -188,3 +188,28 @@ def test_a_scene_camera_replaced_or_removed_after_the_frame_is_named_by_its_path
     del scene.cameras["/Cam"]
     with pytest.raises(RuntimeError, match=r"^camera /Cam \(gone from scene.cameras\) changed since"):
         renderer.frame_image()
+
+
+def test_frame_image_counts_the_frames_dropped_samples():
+    """Non-finite samples (here sums past float32's range under a dome of 1e38) are counted in dropped_samples, which
+    frame_image left at the last render()'s count, of other samples; the frame's own count was never reset, so it
+    grew with every frame and replay. frame_image now gives the frame's count, a fresh one-sample render's."""
+    from wrt.lights import DomeLight
+
+    quad = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float32)
+    scene = wrt.Scene.from_triangles(quad, [[0, 1, 2], [0, 2, 3]])
+    scene.lights = [DomeLight(color=np.full(3, 1e38, np.float32))]
+    cam = wrt.Camera.look_at((0, 0, 4), (0, 0, 0), fov_y_deg=60)
+    options = {"camera": cam, "width": 8, "height": 8, "integrator": "path", "device": "cpu"}
+    fresh = wrt.Renderer(scene, **options)
+    fresh.render(spp=1, seed=3)
+    assert fresh.dropped_samples > 0
+    renderer = wrt.Renderer(scene, **options)
+    renderer.render(spp=8, seed=3)
+    renderer.launch_frame(seed=3)
+    with wp.ScopedCapture(device="cpu") as capture:
+        renderer.launch_frame(seed=3)
+    for _ in range(2):
+        wp.capture_launch(capture.graph)
+        renderer.frame_image()
+        assert renderer.dropped_samples == fresh.dropped_samples

@@ -585,7 +585,7 @@ class Renderer:
                               "background only")
         self._accel_options = (accel, builder)
         self._sync_free = False  # launch every bounce, read nothing back (launch_frame)
-        self.dropped_samples = 0  # non-finite samples left out of the last render
+        self.dropped_samples = 0  # non-finite samples left out of the last render (or frame that frame_image read)
         self._camera_args = [camera] if cameras is None else cameras  # as given: followed at each render
         # Why the last sums were dropped, for resume's warning (None: never): a later drop with no sums left (a
         # scene edit's rebuild after a set_cameras) keeps it; it said nothing then.
@@ -1089,6 +1089,7 @@ class Renderer:
         try:
             with wp.ScopedDevice(self.device):
                 image.zero_()
+                dropped.zero_()  # the frame's own count (frame_image reads it), recorded too: replays do not add up
                 # Whether sample 0 samples the lens is fixed when the frame is recorded as a CUDA graph; the fill is
                 # recorded with it, so frame_image can tell a replay of a frame recorded without the lens pass.
                 lens_pass.fill_(self._lens_first())
@@ -1117,7 +1118,7 @@ class Renderer:
         if self._frame is None:  # also after set_cameras changed the camera count, or the scene was rebuilt
             raise RuntimeError("frame_image() needs a launch_frame() first (since the last change of the camera "
                                "count, of the image size or of the scene)")
-        _, image, _, aovs, lens_pass, cameras_drawn = self._frame
+        _, image, dropped, aovs, lens_pass, cameras_drawn = self._frame
         if self._scene_changed() or int(self._frame_number.numpy()[0]) != self._frames_made:
             # A graph recorded before the buffers were made anew replayed into the old ones (kept: launch_frame); one
             # replayed after a scene edit with no launch_frame outside a capture since drew the old scene.
@@ -1141,6 +1142,8 @@ class Renderer:
             raise RuntimeError("the frame was drawn (or its graph replayed) before the cameras last changed "
                                "(set_cameras, or a camera edit that render() uploaded): it shows the old view; replay "
                                "the graph or call launch_frame() again")
+        # The frame's count: dropped_samples kept the last render()'s, of other samples, without a word.
+        self.dropped_samples = int(dropped.numpy()[0])
         return self._mean_image(image, 1, aovs, kept_buffers=True)
 
     def _start_paths(self, w: _Wavefront, first_sample: int, seed: int, first: int) -> None:
