@@ -326,6 +326,54 @@ def test_influences_usd_refuses_are_named_and_the_mesh_posed_as_bake_skinning_po
     np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=1e-5)
 
 
+UNUSABLE_INFLUENCES = {  # joint influences UsdSkel's typed reads fail on: (text of skel_root(), its replacement)
+    "float[] indices": ("int[] primvars:skel:jointIndices = [1, 0", "float[] primvars:skel:jointIndices = [1, 0"),
+    "int64[] indices": ("int[] primvars:skel:jointIndices = [1, 0", "int64[] primvars:skel:jointIndices = [1, 0"),
+    "double[] weights": ("float[] primvars:skel:jointWeights = [1.0", "double[] primvars:skel:jointWeights = [1.0"),
+}
+
+
+def indexed_influences(path: str, indices_type=Sdf.ValueTypeNames.IntArray, first=None) -> None:
+    """The bar's jointIndices and jointWeights of ``path`` stored as indexed primvars (their distinct pairs, an index
+    per point), the indices authored as ``indices_type``; ``first``: the weights' first index, when given."""
+    stage = Usd.Stage.Open(path)
+    for name in ("skel:jointIndices", "skel:jointWeights"):
+        primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Root/Bar")).GetPrimvar(name)
+        values = list(primvar.Get())
+        pairs = [tuple(values[i:i + 2]) for i in range(0, len(values), 2)]  # elementSize 2: an index per pair
+        distinct = sorted(set(pairs))
+        primvar.Set(primvar.GetTypeName().type.pythonClass([v for pair in distinct for v in pair]))
+        indices = [distinct.index(pair) for pair in pairs]
+        if first is not None and name == "skel:jointWeights":
+            indices[0] = first
+        holder = primvar.GetAttr().GetPrim()
+        holder.CreateAttribute(f"primvars:{name}:indices", indices_type).Set(indices_type.type.pythonClass(indices))
+    stage.Save()
+
+
+@pytest.mark.parametrize("case", [*UNUSABLE_INFLUENCES, "int64[] :indices", "an index out of range"])
+def test_influences_usd_cannot_read_are_named_and_the_mesh_posed_as_bake_skinning_poses_it(tmp_path, case):
+    """BakeSkinning leaves a bar whose jointIndices are not int[] (or jointWeights not float[]), or whose indexed
+    influences it cannot flatten, unskinned, its blend shapes applied. wrt cast the values of another type to int32
+    and float32 through numpy and skinned the bar without a word (6.2 from BakeSkinning's points), and drew a bar of
+    unusable indices unposed, without its blend shapes (0.22 from them)."""
+    body = skel_root()
+    if case in UNUSABLE_INFLUENCES:
+        old, new = UNUSABLE_INFLUENCES[case]
+        assert body.count(old) == 1
+        body = body.replace(old, new)
+    path = write(tmp_path, body)
+    if case == "int64[] :indices":
+        indexed_influences(path, Sdf.ValueTypeNames.Int64Array)
+    elif case == "an index out of range":
+        indexed_influences(path, first=99)
+    with pytest.warns(UserWarning, match=r"joint influences that UsdSkel cannot use .* not skinned.*: /Root/Bar$"):
+        scene = load_usd(path, time=5.0)
+    mesh = {m.path: m for m in scene.meshes}["/Root/Bar"]
+    expected, _ = world_triangles(baked(path), "/Root/Bar", Usd.TimeCode(5.0))
+    np.testing.assert_allclose(mesh.points[mesh.indices], expected, atol=1e-5)
+
+
 RIGID_INDEX = 'int[] primvars:skel:jointIndices = [1] (\n            interpolation = "constant"'
 BAD_RIGID = {  # a rigid binding that cannot pose the quad: (replacement of RIGID_INDEX, what the warning says)
     "joint out of range": (RIGID_INDEX.replace("[1]", "[5]"), r"jointIndices\[0\] = 5 is out of range"),

@@ -35,14 +35,16 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from .usd_ancestors import KEEP_LOOKING, AncestorMemo
-from .usd_primvars import flattened
+from .usd_primvars import flattened, index_problem
+from .usd_problems import authored_type
 from .usd_values import read_time
 
 _ANIMATED = ("translations", "rotations", "scales", "blendShapeWeights")  # SkelAnimation attributes read per time
 FAILED = "UsdSkel skinning failed; these meshes are drawn in their unposed points"  # warning reason
 REFUSED_INFLUENCES = ("UsdSkel joint influences that UsdSkel cannot use (an elementSize of 0 or that differs, an "
-                      "interpolation that differs, weights that are not numbers) were ignored, as UsdSkel ignores "
-                      "them; these meshes are not skinned (blend shapes still apply)")  # warning reason
+                      "interpolation that differs, weights that are not numbers, indices not authored as int[] or "
+                      "weights not as float[], indexed ones that cannot be flattened) were ignored, as UsdSkel "
+                      "ignores them; these meshes are not skinned (blend shapes still apply)")  # warning reason
 BAD_SHAPE = "UsdSkel blend shapes that do not fit their mesh were left out; the rest of its pose applies"  # reason
 UNPAIRED_SHAPES = ("UsdSkel skel:blendShapes and skel:blendShapeTargets differ in length; the entries past the "
                    "shorter list were left out (USD leaves out every blend shape of the mesh); the rest of its pose "
@@ -146,6 +148,10 @@ class SkelPoser:
             if prim.GetAttribute("primvars:skel:jointIndices").HasAuthoredValue():  # UsdSkel printed, naming no mesh
                 self.skip(REFUSED_INFLUENCES, prim)
             return points, normals, prim  # blend shapes only: still in the mesh's own space
+        unusable = _unusable_influences(query, self.time)
+        if unusable is not None:  # BakeSkinning applies the blend shapes alone
+            self.skip(REFUSED_INFLUENCES, prim, unusable)
+            return points, normals, prim
         if isinstance(xforms, str):
             raise ValueError(xforms)
         skin = _Influences(query, xforms, self.time)
@@ -340,8 +346,26 @@ class _Influences:
         return np.array(UsdSkel.SkinTransform(self.method, self.bind, self.xforms, self.indices, self.weights))
 
 
+def _unusable_influences(query: UsdSkel.SkinningQuery, time: Usd.TimeCode) -> str | None:
+    """Words for joint influences UsdSkel's typed reads fail on (``primvars:skel:jointIndices is float[], not int[]``;
+    jointWeights: float[]), or whose indices it cannot flatten (:func:`wrt.usd_primvars.index_problem`), or None.
+    BakeSkinning leaves such a mesh unskinned, its blend shapes applied. wrt cast values of another type to int32 and
+    float32 through numpy and skinned the mesh without a word, and drew a mesh of unusable indices unposed, without
+    its blend shapes."""
+    for primvar, wanted in ((query.GetJointIndicesPrimvar(), Sdf.ValueTypeNames.IntArray),
+                            (query.GetJointWeightsPrimvar(), Sdf.ValueTypeNames.FloatArray)):
+        authored = authored_type(primvar.GetAttr(), time)
+        if Sdf.ValueTypeNames.Find(authored) != wanted:
+            return f"{primvar.GetAttr().GetName()} is {authored}, not {wanted}"
+        problem = index_problem(primvar, time)
+        if problem is not None:
+            return problem
+    return None
+
+
 def _refuse(reason, prim, detail):
-    """The ``skip`` of :func:`flattened` for joint influences: an index out of range fails the mesh's skinning."""
+    """The ``skip`` of :func:`flattened` for joint influences: an index it cannot flatten fails the mesh's skinning
+    (:func:`_unusable_influences` leaves such meshes unskinned first)."""
     raise ValueError(detail)
 
 
