@@ -850,6 +850,9 @@ def test_load_usd_names_a_time_or_path_of_the_wrong_kind(tmp_path):
     stage.Save()
     with pytest.raises(ValueError, match="^time must be a finite time code or None, got nan$"):
         load_usd(path, time=float("nan"))
+    for infinite in (math.inf, -math.inf):  # a time code of one: velocities moved points to inf, blaming the mesh
+        with pytest.raises(ValueError, match=f"^time must be a finite time code or None, got {infinite}$"):
+            load_usd(path, time=Usd.TimeCode(infinite))
     for time, shown in (("x", "str 'x'"), ([1], r"list \[1\]")):
         with pytest.raises(TypeError, match=f"^time must be a number, a Usd.TimeCode or None, got {shown}$"):
             load_usd(path, time=time)

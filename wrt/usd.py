@@ -253,11 +253,15 @@ def _time_code(time) -> Usd.TimeCode:
 
     Raises:
         TypeError: ``time`` is not None, a ``Usd.TimeCode`` or a real number.
-        ValueError: ``time`` is NaN or infinite.
+        ValueError: ``time`` is NaN or infinite (a number or a ``Usd.TimeCode``).
     """
     if time is None:
         return Usd.TimeCode.Default()
     if isinstance(time, Usd.TimeCode):
+        # USD keeps an infinite time code (a NaN one is the default time); velocities moved the points to inf, and
+        # the load failed naming a mesh's points, with numpy's overflow warning. EarliestTime (-DBL_MAX) is finite.
+        if not (time.IsDefault() or math.isfinite(time.GetValue())):
+            raise ValueError(f"time must be a finite time code or None, got {time}")
         return time
     if isinstance(time, (bool, np.bool_)) or not isinstance(time, numbers.Real):
         raise TypeError(f"time must be a number, a Usd.TimeCode or None, got {type(time).__name__} {time!r}")
