@@ -120,12 +120,17 @@ def test_prototypes_beside_a_point_instancer_take_the_purpose_a_native_instance_
     :func:`write_stage`: two triangles missing at every time)."""
     for purpose in ("guide", "default"):
         (tmp_path / f"{purpose}.usda").write_text(ASSET % purpose)
+    # The guide asset one level further down, as an instance inside the instance's prototype.
+    (tmp_path / "nested.usda").write_text('#usda 1.0\n(\n    defaultPrim = "Wrap"\n)\n\ndef Xform "Wrap"\n{\n'
+                                          '    def Xform "Inner" (\n        instanceable = true\n'
+                                          '        prepend references = @./guide.usda@\n    )\n    {\n    }\n}\n')
     root = tmp_path / "root.usda"
     prims = []
     for k, (name, asset, instanceable, purpose) in enumerate((
             ("GuideInstanced", "guide", True, "default"), ("GuideReferenced", "guide", False, "default"),
             ("GuideBare", "guide", True, None), ("DefaultProxy", "default", True, "proxy"),
-            ("DefaultBare", "default", True, None), ("GuideRender", "guide", True, "render"))):
+            ("DefaultBare", "default", True, None), ("GuideRender", "guide", True, "render"),
+            ("GuideNested", "nested", True, "default"))):
         own = f'\n    uniform token purpose = "{purpose}"' if purpose else ""
         place = (f'\n    double3 xformOp:translate = (0, {10 * k}, 0)'
                  '\n    uniform token[] xformOpOrder = ["xformOp:translate"]')
@@ -135,6 +140,6 @@ def test_prototypes_beside_a_point_instancer_take_the_purpose_a_native_instance_
     stage = Usd.Stage.Open(str(root))
     expected, _ = usd_triangles(stage, Usd.TimeCode.Default())
     got = world_triangles(str(root))
-    assert len(expected) == 2 * 4  # two instances of one triangle under each of the four drawn (apart)
+    assert len(expected) == 2 * 5  # two instances of one triangle under each of the five drawn (apart)
     extra, missing = unmatched(got, expected, EXACT)
     assert (len(got), extra, missing) == (len(expected), [], [])

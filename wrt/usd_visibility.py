@@ -100,12 +100,18 @@ class Visibility:
         prototype = instance.GetPrototype()
         if not prototype:  # skipped by the reader, with a warning
             return None
+        return self._authored_purpose(instance, ctx) if self._holds_instancer(prototype) else None
+
+    def _holds_instancer(self, prototype: Usd.Prim) -> bool:
+        """Whether native ``prototype`` holds a PointInstancer, in it or in the prototype of an instance in it, each
+        prototype's answer kept. Walked through instance proxies, every nested prototype was walked again for each
+        instance of it: a stage of three levels of 40 nested instances loaded 8 times slower."""
         key = prototype.GetPath()
         if key not in self.prototype_instancers:
             self.prototype_instancers[key] = any(
-                p.IsA(UsdGeom.PointInstancer)
-                for p in Usd.PrimRange(prototype, Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)))
-        return self._authored_purpose(instance, ctx) if self.prototype_instancers[key] else None
+                p.IsA(UsdGeom.PointInstancer) or (p.IsInstance() and self._holds_instancer(p.GetPrototype()))
+                for p in Usd.PrimRange(prototype, Usd.PrimAllPrimsPredicate))
+        return self.prototype_instancers[key]
 
     def _authored_purpose(self, prim: Usd.Prim, ctx: Context):
         """The purpose an opinion gives ``prim`` (its own or an ancestor's, through the native instances it is in:
