@@ -833,6 +833,45 @@ def test_an_empty_constant_st_is_named_as_empty_and_reads_the_readers_fallback(t
     np.testing.assert_allclose(img, np.full(img.shape, 128 / 255), atol=2e-3)  # CHECKER's bottom-right block
 
 
+@pytest.mark.parametrize("on", ["mesh", "instance"])
+def test_an_st_of_doubles_past_float32_is_named_as_not_finite(tmp_path, on):
+    """A ``texCoord2d[]`` st of 1e39 (finite in double, past float32) on a textured mesh, or on a native instance
+    handing it down to its prototype's mesh: the mesh's float32 texture coordinates hold inf there, as they hold an
+    authored inf, named in the same warning ("not finite"). Only numpy's "overflow encountered in cast", naming
+    nothing, was given. The oracle of the coordinates: the same stage authoring inf."""
+    def load(value, folder):
+        folder.mkdir()
+        path, stage = grey_fallback_stage(folder)
+        root = "/Proto" if on == "instance" else "/Group"
+        stage.DefinePrim(root).SetSpecifier(Sdf.SpecifierClass if on == "instance" else Sdf.SpecifierDef)
+        geo = UsdGeom.Mesh.Define(stage, f"{root}/Geo")
+        geo.CreatePointsAttr([(-0.5, -0.5, 0), (0.5, -0.5, 0), (0.5, 0.5, 0), (-0.5, 0.5, 0)])
+        geo.CreateFaceVertexCountsAttr([4])
+        geo.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        bind(geo, UsdShade.Material(stage.GetPrimAtPath("/Looks/Tex")))
+        holder, values = geo.GetPrim(), [(value, 0.25), (0.75, -value), (0.75, 0.25), (0.75, 0.25)]
+        if on == "instance":
+            holder, values = stage.DefinePrim("/Inst", "Xform"), values[:2]
+            holder.GetInherits().AddInherit("/Proto")
+            holder.SetInstanceable(True)
+        UsdGeom.PrimvarsAPI(holder).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2dArray, UsdGeom.Tokens.vertex
+                                                  if on == "mesh" else UsdGeom.Tokens.constant).Set(values[:4])
+        stage.Save()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            scene = wrt.load_usd(path)
+        mesh = scene.meshes[0] if scene.meshes else scene.prototypes[0].meshes[0]
+        return mesh.uvs, [f"{w.category.__name__}: {w.message}" for w in caught]
+
+    uvs, messages = load(1e39, tmp_path / "past")
+    expected, expected_messages = load(math.inf, tmp_path / "inf")
+    np.testing.assert_array_equal(uvs, expected)
+    assert np.isinf(uvs).any()
+    assert [m for m in messages if "texture coordinates that are not finite were read as none" in m], messages
+    assert not [m for m in messages if "overflow" in m], messages
+    assert [m.split(".usda: ", 1)[-1] for m in messages] == [m.split(".usda: ", 1)[-1] for m in expected_messages]
+
+
 @pytest.mark.parametrize("between", [None, "constant", "vertex"])
 def test_a_mesh_without_st_reads_a_constant_st_of_an_ancestor(tmp_path, between):
     """A mesh without the texture-coordinate primvar its texture reads takes a constant one of its nearest ancestor

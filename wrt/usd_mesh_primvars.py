@@ -7,7 +7,14 @@ import numpy as np
 from pxr import Sdf, UsdGeom
 
 from .usd_ancestors import BLOCKED
-from .usd_primvars import PRIMVAR_DROPPED, finite_colors, first_of_constant, indices_type_problem, unit_opacities
+from .usd_primvars import (
+    PRIMVAR_DROPPED,
+    finite_colors,
+    first_of_constant,
+    indices_type_problem,
+    past_float32_as_inf,
+    unit_opacities,
+)
 from .usd_values import value_at
 
 _INTERPOLATIONS = ("constant", "uniform", "varying", "vertex", "faceVarying")
@@ -96,8 +103,9 @@ class MeshPrimvarReading:
             found = self._read_primvar(prim, primvar.GetAttr(), primvar.GetInterpolation(), primvar, topology,
                                        components=width)
             if found is not None:
-                found = found[0][:, :2], found[1]
-                # Kept as they are: texture lookups read the fallback wherever st is not finite.
+                # Kept as they are (a double past float32 as the inf the float32 st holds): texture lookups read the
+                # fallback wherever st is not finite.
+                found = past_float32_as_inf(found[0][:, :2]), found[1]
                 bad = int(np.count_nonzero(~np.isfinite(found[0]).all(axis=1)))
                 if bad:
                     self._skip("texture coordinates that are not finite were read as none: the textures there show "

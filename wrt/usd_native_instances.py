@@ -11,7 +11,7 @@ from pxr import Sdf, Usd, UsdGeom
 
 from .usd_ancestors import PER_INSTANCE
 from .usd_contents import Context, instance_looks
-from .usd_primvars import PRIMVAR_DROPPED, flattened, quaternion_typed
+from .usd_primvars import PRIMVAR_DROPPED, flattened, past_float32_as_inf, quaternion_typed
 
 MAX_INHERITED_COLORS = 64  # distinct displayColors handed down by instances, per native prototype (one copy each)
 MAX_INHERITED_WIDTHS = 64  # distinct primvars:widths handed down by instances, per native prototype (one copy each)
@@ -211,9 +211,10 @@ class NativeInstanceReading:
         if not len(values):  # st = []: an array of vectors, empty (it was named as no array of them), as a mesh's own
             self._skip(PRIMVAR_DROPPED, holder, f"{attr.GetName()} has 0 values; constant interpolation needs 1")
             return None
-        if not np.isfinite(values[0, :2]).all():  # as a mesh's own (MeshPrimvarReading._read_uvs)
+        st = past_float32_as_inf(values[0, :2])  # (a double past float32: inf, as the mesh's float32 st holds it)
+        if not np.isfinite(st).all():  # as a mesh's own (MeshPrimvarReading._read_uvs)
             self._skip("texture coordinates that are not finite were read as none: the textures there show their "
                        "fallback", holder, f"{primvar.GetPrimvarName()}, constant, handed down to a prototype")
         # NaN as the one object: otherwise each instance's NaN st, a new float, was a new value (and a new copy of
         # the prototype) until the copies ran out, past which instances read the reader's fallback st instead.
-        return tuple(_NAN if math.isnan(v) else v for v in (float(values[0, 0]), float(values[0, 1])))
+        return tuple(_NAN if math.isnan(v) else v for v in st.tolist())

@@ -94,6 +94,13 @@ def _flattened_apart(primvar, values_time: Usd.TimeCode, indices_time: Usd.TimeC
     return np.asarray(values)[(indices[:, None] * element + np.arange(element)).reshape(-1)]
 
 
+def past_float32_as_inf(values) -> np.ndarray:
+    """Float64 ``values`` with those past float32's range made +-inf, as the cast to float32 makes them (with numpy's
+    "overflow encountered in cast", which names nothing): the checks for values that are not finite then see them."""
+    values = np.asarray(values, np.float64)
+    return np.where(np.abs(values) > np.finfo(np.float32).max, np.copysign(np.inf, values), values)
+
+
 def quaternion_typed(attr: Usd.Attribute, time: Usd.TimeCode) -> bool:
     """Whether ``attr`` is authored as quaternions (``quatf[]``, ``quatd[]``, ``quath[]``): numpy reads them as
     4-vectors (the imaginary part first), which a colour took as its rgb without a word (the identity's is black);
