@@ -26,10 +26,11 @@ FALLBACK = (0.25, 0.75)  # the reader's fallback st: the red block's middle
 FALLBACK_TEXEL = CHECKER[int((1.0 - FALLBACK[1]) * 8), int(FALLBACK[0] * 8)] / 255
 
 
-def instancer_st_stage(tmp_path, interpolation="vertex", beneath=False, values=STS, indices=None, n=3, native=False):
-    """A PointInstancer of ``n`` textured quads without st at x = ``XS``, with ``primvars:st`` of ``values``; its
-    prototype under it (``beneath``) or under an invisible /Protos, the quad itself or (``native``) a native instance
-    of a class /Asset holding it."""
+def instancer_st_stage(tmp_path, interpolation="vertex", beneath=False, values=STS, indices=None, n=3, native=False,
+                       type_name=Sdf.ValueTypeNames.TexCoord2fArray):
+    """A PointInstancer of ``n`` textured quads without st at x = ``XS``, with ``primvars:st`` of ``values`` (of
+    ``type_name``); its prototype under it (``beneath``) or under an invisible /Protos, the quad itself or
+    (``native``) a native instance of a class /Asset holding it."""
     png = write_png(tmp_path / "checker.png", CHECKER)
     path = textured_stage(tmp_path, png, wrap="clamp", color_space="raw")
     stage = Usd.Stage.Open(path)
@@ -52,7 +53,7 @@ def instancer_st_stage(tmp_path, interpolation="vertex", beneath=False, values=S
     pi.CreateProtoIndicesAttr([0] * n)
     pi.CreatePositionsAttr([(XS[k % 3], 3.0 * (k // 3), 0.0) for k in range(n)])
     if values is not None:
-        primvar = UsdGeom.PrimvarsAPI(pi).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, interpolation)
+        primvar = UsdGeom.PrimvarsAPI(pi).CreatePrimvar("st", type_name, interpolation)
         primvar.Set(values)
         if indices is not None:
             primvar.SetIndices(Vt.IntArray(indices))
@@ -61,14 +62,15 @@ def instancer_st_stage(tmp_path, interpolation="vertex", beneath=False, values=S
 
 
 def expected_texels(path, n=3):
-    """``(n, 3)`` CHECKER texel at the st USD gives each instance of /PI (constant: the one value to all), else at
-    the reader's fallback."""
+    """``(n, 3)`` CHECKER texel at the st USD gives each instance of /PI (constant: the one value to all), else (none,
+    or one that is not finite in float32) at the reader's fallback."""
     stage = Usd.Stage.Open(path)
     primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI")).GetPrimvar("st")
     flattened = primvar.ComputeFlattened() if primvar and primvar.HasValue() else None
     sts = [FALLBACK] * n if flattened is None else [flattened[0 if len(flattened) == 1 else k] for k in range(n)]
-    return np.array([CHECKER[int((1.0 - t) * 8), int(s * 8)] / 255 if np.isfinite([s, t]).all() else FALLBACK_TEXEL
-                     for s, t in sts])
+    finite = [bool(np.all(np.abs([s, t]) <= np.finfo(np.float32).max)) for s, t in sts]
+    return np.array([CHECKER[int((1.0 - t) * 8), int(s * 8)] / 255 if ok else FALLBACK_TEXEL
+                     for (s, t), ok in zip(sts, finite)])
 
 
 def albedo_of_instances(scene, n=3):
@@ -137,8 +139,14 @@ def test_too_many_distinct_st_warn_naming_the_instancer(tmp_path, monkeypatch):
     np.testing.assert_allclose(albedo_of_instances(scene), [FALLBACK_TEXEL] * 3, atol=2e-3)
 
 
-def test_non_finite_instance_st_reads_the_fallback_with_a_warning(tmp_path):
-    path = instancer_st_stage(tmp_path, values=[STS[0], (float("nan"), 0.5), STS[2]])
+@pytest.mark.parametrize("value", [float("nan"), 1e39])
+def test_non_finite_instance_st_reads_the_fallback_with_a_warning(tmp_path, value):
+    """An instance st of NaN, or of a double past float32 (1e39, finite in double), reads the reader's fallback st
+    with a warning naming the instancer. 1e39 was handed down as it was: the mesh's float32 st held inf there, the
+    texture showed its own fallback (black), and only numpy's "overflow encountered in cast" was said."""
+    path = instancer_st_stage(tmp_path, values=[STS[0], (value, 0.5), STS[2]],
+                              type_name=Sdf.ValueTypeNames.TexCoord2dArray)
     scene, messages = load_quietly(path)
     assert [m for m in messages if "not finite" in m and m.endswith("/PI")], messages
+    assert not [m for m in messages if "overflow" in m], messages
     np.testing.assert_allclose(albedo_of_instances(scene), expected_texels(path), atol=2e-3)

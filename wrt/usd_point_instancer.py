@@ -12,7 +12,7 @@ from .light_links import part_path
 from .usd_contents import Content, Context, instance_looks, placed_indices, placements
 from .usd_lights import read_light, sphere_inputs
 from .usd_placed_lights import placed_lights
-from .usd_primvars import finite_colors, indices_type_problem, quaternion_typed, unit_opacities
+from .usd_primvars import finite_colors, indices_type_problem, past_float32_as_inf, quaternion_typed, unit_opacities
 from .usd_values import held_value, spun_rotations, value_at
 
 MISSING_PROTOTYPE = "missing"  # a prototypes target that names no prim (its instances are skipped)
@@ -423,8 +423,8 @@ class PointInstancerReading:
 
     def _instance_uvs(self, prim: Usd.Prim, n: int, read, name: str, beneath: bool) -> np.ndarray | None:
         """``(n, 2)`` float64 st of each of the ``n`` instances of PointInstancer ``prim`` from its texture-coordinate
-        primvar ``name`` (the first two components; NaN where not finite, with a warning), or None without a usable
-        one (see :meth:`_instance_values`). A constant one reaches the prototypes beneath the instancer by
+        primvar ``name`` (the first two components; NaN where not finite in float32, with a warning), or None without
+        a usable one (see :meth:`_instance_values`). A constant one reaches the prototypes beneath the instancer by
         inheritance instead, read with their geometry, as a constant colour does."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
         if not primvar.HasValue() or (beneath and primvar.GetInterpolation() == UsdGeom.Tokens.constant):
@@ -432,7 +432,8 @@ class PointInstancerReading:
         values = self._instance_values(prim, n, read, name, (2, 3, 4))
         if values is None:
             return None
-        values = np.array(np.broadcast_to(values[:, :2], (n, 2)))
+        # A double past float32 is none too: handed down as it was, the mesh's float32 st held inf there.
+        values = np.array(np.broadcast_to(past_float32_as_inf(values[:, :2]), (n, 2)))
         bad = ~np.isfinite(values).all(axis=1)
         if bad.any():
             self._skip("PointInstancer texture coordinates that are not finite were read as none: the textures there "
