@@ -660,6 +660,34 @@ def test_a_warning_the_callers_filters_make_an_error_fails_its_frame(tmp_path, w
         np.testing.assert_array_equal(np.load(tmp_path / "out" / f"f_{frame}.npy"), fresh.rgb)
 
 
+def test_a_frame_warning_keeps_its_category_over_devices(tmp_path, monkeypatch):
+    """A worker's warning reaches the client's filters with its own category, as in a serial run: the client gave
+    every one as a UserWarning, so ``-W error::RuntimeWarning`` failed the frame serially and not over devices (and
+    a filter ignoring a category did not silence it). The worker's task is run here, in-process; the oracle is the
+    serial run's row under the same filter."""
+    from wrt.animation import _frame_writer, _task, render_frame_task
+
+    original = FrameRenderer.render
+
+    def render(self, frame, **kwargs):
+        image = original(self, frame, **kwargs)
+        warnings.warn(f"frame {frame:g} drew a NaN", RuntimeWarning)  # as numpy's, a warning of its own category
+        return image
+
+    monkeypatch.setattr(FrameRenderer, "render", render)
+    path = blind_at_frame_2(tmp_path)
+    jobs = pending_frames([1.0], tmp_path / "out" / "f_#.npy", resume=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        serial = render_frames(path, jobs, devices=["cpu"], **SIZE)
+        result = render_frame_task(_task(str(path), 1.0, jobs[0][1], 1, 0, 0.0, SIZE))
+        rows = []
+        _frame_writer(jobs, rows)(result)
+    assert serial[0]["error"] == "RuntimeWarning: frame 1 drew a NaN"
+    assert [row.get("error") for row in rows] == [serial[0]["error"]]
+    assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
+
+
 def test_cli_frames_name_the_frames_that_failed_and_exit_1(tmp_path, capsys):
     from wrt.cli import main
 
