@@ -620,8 +620,10 @@ def test_whitted_warns_about_emitters_it_cannot_sample(tmp_path):
 def test_coarse_textured_dome_is_unbiased(tmp_path):
     """A 2 x 8 lat-long dome, upper row 1 and lower row 0, over a white plane facing up: the path tracer's irradiance
     estimate converges to the filtered dome's (1 down to 45 degrees above the horizon, then falling linearly to 0.5 at
-    it), 0.5 + (1/2 - 2/pi (pi/8 - 1/4)) = 0.9092, and whitted's ambient (albedo times the dome's mean) is 0.5. The
-    pdf took the Jacobian at the texel centre and the mean the centre's sin(theta): 4% and 11% too much."""
+    it), 0.5 + (1/2 - 2/pi (pi/8 - 1/4)) = 0.9092, and so does whitted's ambient term (the dome's irradiance as
+    spherical harmonics: exact for a dome of two colours split at the horizon; the dome's mean, 0.5, lit the plane
+    before). The pdf took the Jacobian at the texel centre and the mean the centre's sin(theta): 4% and 11% too
+    much."""
     from PIL import Image as PilImage
 
     texels = np.zeros((2, 8), np.uint8)
@@ -642,7 +644,7 @@ def test_coarse_textured_dome_is_unbiased(tmp_path):
     estimate = np.mean([renderer.render(spp=4096, seed=k).rgb[0, 0, 0] for k in range(4)])
     expected = 0.5 + (0.5 - 2 / np.pi * (np.pi / 8 - 0.25))
     assert abs(estimate - expected) < 0.01, estimate
-    np.testing.assert_allclose(wrt.render(scene, width=1, height=1).rgb[0, 0], 0.5, rtol=1e-4)
+    np.testing.assert_allclose(wrt.render(scene, width=1, height=1).rgb[0, 0], expected, rtol=1e-4)
 
 
 def test_mesh_light_is_read_as_a_light_and_still_drawn(tmp_path):

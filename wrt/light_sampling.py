@@ -120,7 +120,8 @@ class DeviceLights:
     dome_textured: int  # 1 when the dome has a texture (a lat-long image in texels, described by texture[dome])
     dome_row_cdf: wp.array[float]  # (H + 1) marginal CDF over rows of filtered luminance * sin(theta)
     dome_col_cdf: wp.array[float]  # (H (W + 1)) CDF over columns in each row, row y's from y (W + 1)
-    dome_mean: wp.vec3  # radiance averaged over the sphere
+    dome_sh: wp.array[wp.vec3]  # (9,) the dome's irradiance over pi, E(n) / pi, as spherical harmonics of bands 0-2 in
+    # the dome's frame (wrt.dome_irradiance; zero without a dome)
     texture: wp.array[wp.vec3i]  # (num_analytic) (offset into texels, width, height) of a rect or dome light's
     # texture; width 0: none
     texels: wp.array[wp.vec3]  # the rect and dome lights' textures, row-major from the top row, one after the other

@@ -2,9 +2,10 @@
 
 At every hit: emission; direct light from every light with a shadow ray each (area and soft lights get one random
 point per sample, so their shadows soften as ``spp`` grows; all emissive triangles together count as one light);
-the dome light as an unoccluded term: the dome's mean radiance times the directional albedo of the BSDF's diffuse
-lobe and of its rough specular and clearcoat lobes (with multiple scattering, as the path tracer's BSDF has them),
-what ``path`` converges to for an unoccluded surface under a constant dome (use ``path`` for occluded sky light).
+the dome light as an unoccluded term: the dome's irradiance over pi (:mod:`wrt.dome_irradiance`) at the shading
+normal times the directional albedo of the BSDF's diffuse lobe, and about the mirror direction times that of its rough
+specular and clearcoat lobes (with multiple scattering, as the path tracer's BSDF has them), what ``path`` converges
+to for an unoccluded surface under a constant dome (use ``path`` for occluded sky light).
 Then one continuation ray: the mirror direction for the smooth lobes (roughness below ``DELTA_ROUGHNESS``: a
 metal's, a dielectric's or a specular workflow's specular lobe, weight ``F``, and a smooth clearcoat, each as
 :func:`wrt.bsdf.sample_bsdf` weights it) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with
@@ -26,9 +27,11 @@ from ..bsdf import (
     lobe_albedos,
     mirror_reflection,
     opaque_fraction,
+    reflect,
     surface_albedo,
     unreflected,
 )
+from ..dome_irradiance import sh_irradiance
 from ..geometry import offset_ray_origin
 from ..hidden_hits import CullScratch
 from ..light_links import link_group, lit_by
@@ -76,6 +79,14 @@ def dome_albedos(s: Surface, lobes: LobeAlbedos):
     if s.clearcoat > 0.0 and s.clearcoat_roughness >= DELTA_ROUGHNESS:
         specular += wp.vec3(lobes.coat)
     return diffuse, specular
+
+
+@wp.func
+def dome_irradiance(lights: DeviceLights, n: wp.vec3):
+    """The unoccluded dome's irradiance over pi at a surface facing world direction ``n``: what a white Lambertian
+    surface reflects of it (:mod:`wrt.dome_irradiance`). The dome's mean radiance lit every surface alike: a floor
+    under a blue sky over brown ground showed their average."""
+    return sh_irradiance(lights.dome_sh, wp.normalize(lights.dome_to_local * n))
 
 
 @wp.kernel
@@ -137,8 +148,11 @@ def shade_whitted_kernel(
         lobes = lobe_albedos(s, mats.ggx_albedo, wp.max(wp.dot(h.ns, -d), 0.0))
         diffuse, specular = dome_albedos(s, lobes)
         scale = lights.lobe_scale[lights.dome]  # the dome's diffuse and specular multipliers
-        ambient = diffuse * scale[0] + specular * scale[1]
-        L += wp.cw_mul(wp.cw_mul(T, ambient), lights.dome_mean) * opaque_fraction(s)
+        # The rough lobes see the cosine-filtered dome about the mirror direction (exact for a constant dome).
+        wr = reflect(-d, h.ns)
+        ambient = wp.cw_mul(diffuse * scale[0], dome_irradiance(lights, h.ns))
+        ambient += wp.cw_mul(specular * scale[1], dome_irradiance(lights, wr))
+        L += wp.cw_mul(T, ambient) * opaque_fraction(s)
     radiance[i] = L
 
 
