@@ -4,9 +4,10 @@ closed form say. Oracles: float64 quadrature of the bilinearly filtered texture 
 
 import numpy as np
 import pytest
-from shading_helpers import dome_integral, quad
+from shading_helpers import dome_integral, linear_weights, quad
 
 import wrt
+from wrt.dome_irradiance import irradiance_coefficients
 from wrt.lights import DomeLight
 from wrt.materials import Material
 
@@ -73,3 +74,29 @@ def test_whitted_reflects_the_sky_in_a_rough_white_metal_floor(roughness):
     np.testing.assert_allclose(floor_radiance(metal, "whitted", spp=1), expected, rtol=0.02)
     path = floor_radiance(metal, "path", spp=64)
     np.testing.assert_allclose(path, expected, rtol=0.03)
+
+
+def test_irradiance_coefficients_are_the_filtered_domes_harmonics_times_the_cosines_bands(np_rng):
+    """The nine coefficients of a random 6 x 12 dome against a float64 midpoint quadrature of the bilinearly filtered
+    texture (longitude wrapping, latitude clamped) times the real harmonics written out from (x, y, z), and the
+    clamped cosine's band factors 1, 2/3, 1/4 (Ramamoorthi and Hanrahan 2001)."""
+    hgt, wid, n = 6, 12, 240
+    texture = np_rng.random((hgt, wid, 3))
+    theta = (np.arange(n) + 0.5) / n * np.pi
+    phi = (np.arange(2 * n) + 0.5) / (2 * n) * 2 * np.pi
+    wy = linear_weights(theta / np.pi * hgt, hgt)
+    wx = linear_weights((0.5 - phi / (2 * np.pi)) * wid, wid, wrap=True)
+    radiance = np.einsum("tr,rck,pc->tpk", wy, texture, wx)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    x, y, z = np.sin(t) * np.sin(p), np.cos(t), np.sin(t) * np.cos(p)  # longitude phi from +Z towards +X
+    harmonics = [0.5 / np.sqrt(np.pi) + 0 * x, *(np.sqrt(3 / (4 * np.pi)) * np.array([x, y, z])),
+                 *(0.5 * np.sqrt(15 / np.pi) * np.array([x * y, y * z, x * z])),
+                 0.25 * np.sqrt(5 / np.pi) * (3 * y * y - 1), 0.25 * np.sqrt(15 / np.pi) * (z * z - x * x)]
+    weight = np.sin(t) * (np.pi / n) ** 2
+    projected = np.array([np.einsum("tpk,tp->k", radiance, h * weight) for h in harmonics])
+    bands = np.array([1.0] + [2 / 3] * 3 + [0.25] * 5)[:, None]
+    colour = np.array([0.5, 2.0, 1.0])
+    np.testing.assert_allclose(irradiance_coefficients(colour, texture), projected * bands * colour, atol=1e-4)
+    constant = irradiance_coefficients(colour)  # a constant dome: c_0 Y_0 is its radiance, nothing else
+    np.testing.assert_allclose(constant[0] * 0.5 / np.sqrt(np.pi), colour, rtol=1e-12)
+    assert not constant[1:].any()

@@ -24,6 +24,7 @@ NORMS = (0.28209479177387814, 0.4886025119029199, 0.4886025119029199, 0.48860251
 BAND_OF = (0, 1, 1, 1, 2, 2, 2, 2, 2)
 COSINE_BANDS = (1.0, 2.0 / 3.0, 0.25)  # the clamped cosine's factor on each band, over pi
 GAUSS_POINTS = 8  # Gauss-Legendre points per latitude interval between texel centres
+ROWS_PER_CHUNK = 256  # texel rows converted to float64 at a time
 
 
 @wp.func
@@ -78,7 +79,12 @@ def _project(texels: np.ndarray) -> np.ndarray:
     dphi = 2.0 * np.pi / wid
     modes = np.stack([np.ones(wid), np.sin(phi), np.cos(phi), np.sin(2 * phi), np.cos(2 * phi)], -1)
     hat = np.sinc(np.array([0.0, 1.0, 1.0, 2.0, 2.0]) * dphi / (2.0 * np.pi)) ** 2  # np.sinc(x) = sin(pi x) / (pi x)
-    rows = np.stack([texels[..., c].astype(np.float64) @ modes for c in range(3)], 1) * (hat * dphi)  # (H, 3, 5)
+    rows = np.empty((hgt, 3, 5))
+    for start in range(0, hgt, ROWS_PER_CHUNK):  # float64 a few rows at a time: an 8k dome's channel alone is 256 MB
+        chunk = texels[start:start + ROWS_PER_CHUNK]
+        for c in range(3):
+            rows[start:start + ROWS_PER_CHUNK, c] = chunk[..., c].astype(np.float64) @ modes
+    rows *= hat * dphi
     # Latitude: quadrature points between the row centres (and the poles) and the two rows each blends (clamped beyond
     # the first and last centres).
     edges = np.concatenate([[0.0], (np.arange(hgt) + 0.5) / hgt * np.pi, [np.pi]])
