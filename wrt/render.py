@@ -1257,7 +1257,7 @@ class Renderer:
                 shade_whitted_kernel,
                 w.n,
                 [ds, surf, mats, lights, bounce, *hit, w.origins, w.directions, w.t_mins, w.throughput, w.link_groups],
-                [w.radiance, w.alive],
+                [w.radiance, w.alive, w.rng],
                 self.device,
             )
             self._light_whitted(w, hit)

@@ -3,9 +3,10 @@
 At every hit: emission; direct light from every light with a shadow ray each (area and soft lights get one random
 point per sample, so their shadows soften as ``spp`` grows; all emissive triangles together count as one light);
 the dome light as an unoccluded term: the dome's irradiance over pi (:mod:`wrt.dome_irradiance`) at the shading
-normal times the directional albedo of the BSDF's diffuse lobe, and about the mirror direction times that of its rough
-specular and clearcoat lobes (with multiple scattering, as the path tracer's BSDF has them), what ``path`` converges
-to for an unoccluded surface under a constant dome (use ``path`` for occluded sky light).
+normal times the directional albedo of the BSDF's diffuse lobe, and what its rough specular and clearcoat lobes (with
+multiple scattering, as the path tracer's BSDF has them) reflect of it: a constant dome's radiance times their albedo,
+a textured dome's estimated from one dome and one BSDF direction per sample (:func:`glossy_dome`); what ``path``
+converges to for an unoccluded surface (use ``path`` for occluded sky light).
 Then one continuation ray: the mirror direction for the smooth lobes (roughness below ``DELTA_ROUGHNESS``: a
 metal's, a dielectric's or a specular workflow's specular lobe, weight ``F``, and a smooth clearcoat, each as
 :func:`wrt.bsdf.sample_bsdf` weights it) and for glass (``opacity < 1``: reflection or Snell refraction, chosen with
@@ -23,11 +24,13 @@ from ..bsdf import (
     Surface,
     dielectric_interface,
     eval_bsdf_lobes,
+    eval_opaque,
     is_glass,
     lobe_albedos,
     mirror_reflection,
     opaque_fraction,
     reflect,
+    sample_bsdf,
     surface_albedo,
     unreflected,
 )
@@ -35,12 +38,22 @@ from ..dome_irradiance import sh_irradiance
 from ..geometry import offset_ray_origin
 from ..hidden_hits import CullScratch
 from ..light_links import link_group, lit_by
-from ..light_sampling import DeviceLights, hit_emitter, lit_bsdf, sample_light_in_view, shadow_fades, shadow_tint
+from ..light_sampling import (
+    DeviceLights,
+    dome_pdf,
+    dome_radiance,
+    hit_emitter,
+    lit_bsdf,
+    sample_light,
+    sample_light_in_view,
+    shadow_fades,
+    shadow_tint,
+)
 from ..materials import DeviceMaterials, eval_surface
 from ..microfacet_albedo import GgxAlbedo
-from ..sampling import luminance, max_component, rand01, sample_cdf
+from ..sampling import luminance, max_component, power_heuristic, rand01, sample_cdf
 from ..scene import DeviceScene
-from ..shade import DeviceSurfaces, shading_point
+from ..shade import DeviceSurfaces, HitPoint, shading_point
 from .emitters import environment, lights_on_segment, surface_emission
 from .path import aim_shadow_ray, clear_shadow_ray
 
@@ -89,6 +102,74 @@ def dome_irradiance(lights: DeviceLights, n: wp.vec3):
     return sh_irradiance(lights.dome_sh, wp.normalize(lights.dome_to_local * n))
 
 
+@wp.func
+def has_glossy_lobe(s: Surface):
+    """Whether the opaque BSDF has a non-delta specular lobe: a rough specular lobe (with its multiple scattering)
+    or a rough clearcoat."""
+    return s.roughness >= DELTA_ROUGHNESS or (s.clearcoat > 0.0 and s.clearcoat_roughness >= DELTA_ROUGHNESS)
+
+
+@wp.func
+def glossy_lobes(lobes: LobeAlbedos):
+    """``lobes`` with the diffuse lobe's selection weight moved to the others: :func:`wrt.bsdf.sample_bsdf` then draws
+    from the specular, multiple-scattering and clearcoat lobes alone, and :func:`wrt.bsdf.eval_opaque` returns the
+    density of those draws (the BSDF values do not read the weights). All weights 0 where those lobes have none."""
+    out = LobeAlbedos()
+    out.spec = lobes.spec
+    out.spec_ms = lobes.spec_ms
+    out.ms_color = lobes.ms_color
+    out.loss_o = lobes.loss_o
+    out.average_loss = lobes.average_loss
+    out.ms_total = lobes.ms_total
+    out.coat = lobes.coat
+    w = lobes.weights
+    glossy = w[1] + w[2] + w[3]
+    out.weights = wp.vec4(0.0)
+    if glossy > 0.0:
+        out.weights = wp.vec4(0.0, w[1] / glossy, w[2] / glossy, w[3] / glossy)
+    return out
+
+
+@wp.func
+def glossy_dome(
+    lights: DeviceLights,
+    scene: DeviceScene,
+    surf: DeviceSurfaces,
+    mats: DeviceMaterials,
+    s: Surface,
+    lobes: LobeAlbedos,
+    h: HitPoint,
+    wo: wp.vec3,
+    state: wp.uint32,
+):
+    """``(radiance, state)``: the unoccluded textured dome reflected by the opaque BSDF's non-delta specular lobes
+    (before ``opaque_fraction``), estimated from one direction drawn from the dome and one from those lobes, weighted
+    by the power heuristic: it converges to what ``path`` gives for an unoccluded surface, where a glossy lobe's
+    reflection of the dome's irradiance blurred sharp skies as a diffuse surface does."""
+    u1, state = rand01(state)
+    u2, state = rand01(state)
+    u3, state = rand01(state)
+    u4, state = rand01(state)
+    u5, state = rand01(state)
+    total = wp.vec3(0.0)
+    glossy = glossy_lobes(lobes)
+    if glossy.weights[1] + glossy.weights[2] + glossy.weights[3] <= 0.0:
+        return total, state
+    ls = sample_light(lights, scene, mats, surf.uvs, surf.materials, surf.double_sided, lights.dome, h.p, h.ns, u1,
+                      u2)
+    if ls.pdf > 0.0:
+        _, f_s, p_bsdf = eval_opaque(s, mats.ggx_albedo, glossy, h.ns, h.ng, wo, ls.wi)
+        total += wp.cw_mul(f_s, ls.value) * (wp.dot(h.ns, ls.wi) * power_heuristic(ls.pdf, p_bsdf))
+    # u0 = 0: the opaque part, not glass; a delta lobe drawn is left to the mirror ray.
+    b = sample_bsdf(s, mats.ggx_albedo, glossy, h.ns, h.ng, wo, h.front, 0.0, u3, u4, u5)
+    if b.delta == 0 and b.transmitted == 0 and b.pdf > 0.0:
+        _, f_s, p_bsdf = eval_opaque(s, mats.ggx_albedo, glossy, h.ns, h.ng, wo, b.wi)
+        if p_bsdf > 0.0:
+            weight = power_heuristic(p_bsdf, dome_pdf(lights, b.wi, h.ns))
+            total += wp.cw_mul(f_s, dome_radiance(lights, b.wi)) * (wp.dot(h.ns, b.wi) / p_bsdf * weight)
+    return total, state
+
+
 @wp.kernel
 def shade_whitted_kernel(
     scene: DeviceScene,
@@ -109,9 +190,11 @@ def shade_whitted_kernel(
     # outputs
     radiance: wp.array[wp.vec3],
     alive: wp.array[wp.int32],
+    rng: wp.array[wp.uint32],
 ):
     """Emission, light passed through, the environment of escaped rays and the dome term; the paths left alive
-    (``alive = 1``) are those whose hit gets direct lighting and a continuation."""
+    (``alive = 1``) are those whose hit gets direct lighting and a continuation. Random numbers are drawn only for
+    the glossy lobes under a textured dome (:func:`glossy_dome`)."""
     i = wp.tid()
     if alive[i] == 0:
         return
@@ -148,10 +231,14 @@ def shade_whitted_kernel(
         lobes = lobe_albedos(s, mats.ggx_albedo, wp.max(wp.dot(h.ns, -d), 0.0))
         diffuse, specular = dome_albedos(s, lobes)
         scale = lights.lobe_scale[lights.dome]  # the dome's diffuse and specular multipliers
-        # The rough lobes see the cosine-filtered dome about the mirror direction (exact for a constant dome).
-        wr = reflect(-d, h.ns)
         ambient = wp.cw_mul(diffuse * scale[0], dome_irradiance(lights, h.ns))
-        ambient += wp.cw_mul(specular * scale[1], dome_irradiance(lights, wr))
+        if lights.dome_textured == 1 and has_glossy_lobe(s) and opaque_fraction(s) > 0.0:
+            glossy, state = glossy_dome(lights, scene, surf, mats, s, lobes, h, -d, rng[i])
+            rng[i] = state
+            ambient += glossy * scale[1]
+        else:
+            # A constant dome: its irradiance about the mirror direction is its radiance, times the lobes' albedo.
+            ambient += wp.cw_mul(specular * scale[1], dome_irradiance(lights, reflect(-d, h.ns)))
         L += wp.cw_mul(T, ambient) * opaque_fraction(s)
     radiance[i] = L
 
