@@ -337,6 +337,16 @@ def test_point_instancer_opacity_per_instance_and_on_the_prototype(tmp_path, ref
     np.testing.assert_allclose(render(scene), 0.5 * opaque + 0.5 * empty, rtol=1e-4, atol=1e-6)
 
 
+def test_point_instancer_uniform_opacity_is_every_instances(tmp_path, references):
+    """A ``uniform`` displayOpacity on the instancer applies its entire value to each instance, as a ``constant`` one
+    does (UsdGeomPointInstancer's primvar rules): it was ignored with a warning, both strips opaque."""
+    opaque, empty = references
+    scene, messages = stage_with(
+        tmp_path, lambda stage: opacity_primvar(instancer(stage), [0.25], UsdGeom.Tokens.uniform))
+    assert not [m for m in messages if "displayOpacity" in m], messages
+    np.testing.assert_allclose(render(scene), 0.25 * opaque + 0.75 * empty, rtol=1e-4, atol=1e-6)
+
+
 def test_point_instancer_opacity_of_the_wrong_length_is_named(tmp_path, references):
     """Three values for two instances: ignored (the strips opaque) with a warning naming the instancer and what was
     expected."""

@@ -1,7 +1,8 @@
 """Per-instance displayColor on PointInstancers: a ``primvars:displayColor`` authored on the instancer (``constant``
-for all instances, ``vertex``/``varying`` one per instance) colours the prototype meshes and gprims that have no
-displayColor of their own, read by instance id at shading time (no prototype copy per colour), with both
-accelerators and every integrator; masked instances keep their colours, unusable primvars are named in a warning.
+or ``uniform`` for all instances, ``vertex``/``varying``/``faceVarying`` one per instance) colours the prototype
+meshes and gprims that have no displayColor of their own, read by instance id at shading time (no prototype copy per
+colour), with both accelerators and every integrator; masked instances keep their colours, unusable primvars are
+named in a warning.
 """
 
 from __future__ import annotations
@@ -139,6 +140,27 @@ def test_constant_display_color_colours_every_instance(tmp_path):
     np.testing.assert_allclose(albedo, [(0.2, 0.4, 0.8)] * 3, atol=1e-6)
 
 
+@pytest.mark.parametrize("beneath", [False, True])
+def test_uniform_display_color_colours_every_instance_as_constant_does(tmp_path, beneath):
+    """UsdGeomPointInstancer's primvar rules: a ``constant`` or ``uniform`` primvar on the instancer applies its
+    entire value to each instance (Hydra's instancer data source makes both constant). A uniform displayColor was
+    ignored with a warning, every instance grey. The oracle is USD's flattened value."""
+    path = instancer_stage(tmp_path / "pi.usda", colors=[(0.2, 0.4, 0.8)], interpolation="uniform")
+    if beneath:  # the prototype under the instancer, where a constant one would reach it by inheritance
+        stage = Usd.Stage.Open(path)
+        Sdf.CopySpec(stage.GetRootLayer(), "/Protos", stage.GetRootLayer(), "/PI/Protos")
+        stage.RemovePrim("/Protos")
+        UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).GetPrototypesRel().SetTargets(["/PI/Protos/Shape"])
+        stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(path)
+    flattened = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI")).GetPrimvar("displayColor").ComputeFlattened()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = wrt.load_usd(path)
+    albedo, _ = albedo_at_instances(scene)
+    np.testing.assert_allclose(albedo, np.repeat(np.asarray(flattened, np.float64), 3, axis=0), atol=1e-6)
+
+
 @pytest.mark.parametrize("interpolation", ["constant", "vertex"])
 def test_a_non_constant_primvar_inside_a_prototype_beneath_the_instancer_blocks_its_constant_colour(tmp_path,
                                                                                                      interpolation):
@@ -179,7 +201,7 @@ def test_indexed_display_color_is_flattened(tmp_path):
     [
         (RGB[:2], "vertex", r"vertex with 2 values, expected 3 \(one per instance\)"),
         (RGB + RGB[:1], "varying", r"varying with 4 values, expected 3"),
-        (RGB, "uniform", r"other than constant, vertex, varying or faceVarying.*uniform"),
+        (RGB, "uniform", r"uniform with 3 values, expected 1"),
         (RGB, "constant", r"constant with 3 values, expected 1"),
     ],
 )

@@ -120,10 +120,14 @@ def test_indexed_per_instance_st_is_flattened(tmp_path):
     assert len(scene.prototypes) == 2  # instances of one st share a copy
 
 
-def test_a_constant_st_on_the_instancer_reaches_prototypes_outside_it(tmp_path):
-    """As a constant displayColor on the instancer does (wrt.usd_point_instancer): every instance reads it."""
-    path = instancer_st_stage(tmp_path, "constant", values=STS[:1])
-    scene, _ = load_quietly(path)
+@pytest.mark.parametrize("interpolation, beneath", [("constant", False), ("uniform", False), ("uniform", True)])
+def test_a_constant_or_uniform_st_on_the_instancer_reaches_every_instance(tmp_path, interpolation, beneath):
+    """As a constant displayColor on the instancer does (wrt.usd_point_instancer): every instance reads it. A uniform
+    one is the same (UsdGeomPointInstancer's primvar rules: its entire value applies to each instance); it was
+    ignored with a warning, and every instance read the fallback."""
+    path = instancer_st_stage(tmp_path, interpolation, beneath, values=STS[:1])
+    scene, messages = load_quietly(path)
+    assert not [m for m in messages if "PointInstancer st" in m], messages
     np.testing.assert_allclose(albedo_of_instances(scene), expected_texels(path), atol=2e-3)
 
 

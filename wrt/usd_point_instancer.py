@@ -453,9 +453,10 @@ class PointInstancerReading:
 
     def _instance_values(self, prim: Usd.Prim, n: int, read, name: str, widths: tuple) -> np.ndarray | None:
         """``(1 or n, k)`` float64 values of PointInstancer ``prim``'s primvar ``name``, ``k`` one of ``widths`` (an
-        array of numbers has ``k = 1``): ``constant`` gives one value to all, ``vertex`` or ``varying`` one
-        per instance (after its ``indices``), read by ``read`` as the positions are. None, with a warning naming it
-        and what was expected, when it cannot be used: another type, interpolation, or a length other than ``n``."""
+        array of numbers has ``k = 1``): ``constant`` or ``uniform`` gives one value to all, ``vertex``, ``varying`` or
+        ``faceVarying`` one per instance (after its ``indices``), read by ``read`` as the positions are. None, with a
+        warning naming it and what was expected, when it cannot be used: another type, interpolation, or a length
+        other than ``n``."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
         raw = read(primvar.GetAttr(), self.time)
         unreadable = f"PointInstancer {name} that cannot be read was ignored"
@@ -481,13 +482,15 @@ class PointInstancerReading:
                 return None
             values = values[indices]
         interpolation = primvar.GetInterpolation()
-        # faceVarying is one per instance too (UsdGeomPointInstancer's primvar rules; Hydra makes it an instance
-        # primvar, as it does vertex and varying): it was ignored with a warning.
+        # UsdGeomPointInstancer's primvar rules: constant or uniform, the whole value applies to each instance (Hydra's
+        # instancer data source makes both constant; uniform was ignored with a warning); vertex, varying and
+        # faceVarying, one value per instance (Hydra makes them instance primvars; faceVarying was ignored too).
         per_instance = (n, "one per instance")
-        expected = {"constant": (1, "1"), "vertex": per_instance, "varying": per_instance, "faceVarying": per_instance}
+        expected = {"constant": (1, "1"), "uniform": (1, "1, for all instances"), "vertex": per_instance,
+                    "varying": per_instance, "faceVarying": per_instance}
         if interpolation not in expected:
-            self._skip(f"PointInstancer {name} of an interpolation other than constant, vertex, varying or faceVarying "
-                       "was ignored", prim, interpolation)
+            self._skip(f"PointInstancer {name} of an interpolation other than constant, uniform, vertex, varying or "
+                       "faceVarying was ignored", prim, interpolation)
             return None
         if len(values) != expected[interpolation][0]:
             count, meaning = expected[interpolation]
