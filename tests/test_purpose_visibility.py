@@ -184,3 +184,89 @@ def test_a_point_instancer_hidden_for_its_purpose_draws_no_instance_of_a_prototy
         warnings.simplefilter("ignore")
         scene = wrt.load_usd(path)
     assert sorted(scene.prim_paths()) == expected
+
+
+# case -> opinions on its /Cases/<case> PointInstancer (PI), the prototypes scope (Protos, invisible in every case),
+# the prototype root Xform (Root) and the Xform (Inner) over the cube without a purpose: (purpose, renderVisibility)
+PROTOTYPE_CASES = {
+    "ScopeRender": {"Protos": ("render", "invisible")},
+    "ScopeRenderRootHides": {"Protos": ("render", None), "Root": (None, "invisible")},
+    "InstancerRender": {"PI": ("render", None), "Protos": (None, "invisible")},
+    "InstancerRenderInnerHides": {"PI": ("render", None), "Inner": (None, "invisible")},
+    "Reopened": {"Protos": ("render", "invisible"), "Inner": (None, "visible")},
+    "InstancerRenderOnly": {"PI": ("render", None)},
+    "ScopeProxy": {"Protos": ("proxy", None)},
+    "Plain": {},
+}
+
+
+def test_a_purpose_inherited_from_above_a_prototype_meets_the_purpose_visibility_inside_and_above_it(tmp_path):
+    """A PointInstancer prototype's cube without a purpose inherits render from the prototypes scope or the
+    instancer, and renderVisibility = invisible on the scope, the prototype root or an Xform inside hides it, as
+    ``ComputeEffectiveVisibility('render')`` says; wrt read the prototype with its prims of default purpose, which no
+    purpose visibility hides, and drew them (unless the opinion sat on or above the instancer). The scope is invisible
+    in every case, the common authoring pattern: its prototypes are still instanced, so the oracle is USD's answer
+    with the scope made visible in a session layer."""
+    path = str(tmp_path / "inherited_purpose.usda")
+    stage = Usd.Stage.CreateNew(path)
+    for case, opinions in PROTOTYPE_CASES.items():
+        base = f"/Cases/{case}/PI"
+        pi = UsdGeom.PointInstancer.Define(stage, base)
+        prims = {"PI": pi, "Protos": UsdGeom.Scope.Define(stage, f"{base}/Protos"),
+                 "Root": UsdGeom.Xform.Define(stage, f"{base}/Protos/Root"),
+                 "Inner": UsdGeom.Xform.Define(stage, f"{base}/Protos/Root/Inner")}
+        UsdGeom.Cube.Define(stage, f"{base}/Protos/Root/Inner/Cube")
+        prims["Protos"].MakeInvisible()
+        for name, (purpose, render_visibility) in opinions.items():
+            if purpose is not None:
+                prims[name].CreatePurposeAttr(purpose)
+            if render_visibility is not None:
+                UsdGeom.VisibilityAPI.Apply(prims[name].GetPrim()).CreateRenderVisibilityAttr(render_visibility)
+        pi.CreatePrototypesRel().SetTargets([f"{base}/Protos/Root"])
+        pi.CreateProtoIndicesAttr([0])
+        pi.CreatePositionsAttr([(0, 0, 0)])
+    stage.Save()
+    with Usd.EditContext(stage, stage.GetSessionLayer()):
+        for case in PROTOTYPE_CASES:
+            UsdGeom.Imageable(stage.GetPrimAtPath(f"/Cases/{case}/PI/Protos")).MakeVisible()
+    expected = set()
+    for case in PROTOTYPE_CASES:
+        img = UsdGeom.Imageable(stage.GetPrimAtPath(f"/Cases/{case}/PI/Protos/Root/Inner/Cube"))
+        purpose = img.ComputePurpose()
+        if purpose in ("default", "render") and img.ComputeEffectiveVisibility(purpose) != UsdGeom.Tokens.invisible:
+            expected.add(str(img.GetPath()))
+    assert {p.split("/")[2] for p in expected} == {"Reopened", "InstancerRenderOnly", "Plain"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = wrt.load_usd(path)
+    assert set(scene.prim_paths()) == expected
+
+
+def test_an_instance_purpose_meets_the_purpose_visibility_inside_its_prototype(tmp_path):
+    """Native instances of render purpose of a class whose Xform has renderVisibility = invisible over a cube without
+    a purpose: the cube's instance proxies inherit render and are hidden, as their ComputeEffectiveVisibility says;
+    wrt read the prototype with the cube of default purpose and drew it in every instance. An instance of default
+    purpose draws it."""
+    path = str(tmp_path / "native_inner.usda")
+    stage = Usd.Stage.CreateNew(path)
+    stage.CreateClassPrim("/Asset")
+    hider = UsdGeom.Xform.Define(stage, "/Asset/Hider")
+    UsdGeom.VisibilityAPI.Apply(hider.GetPrim()).CreateRenderVisibilityAttr("invisible")
+    UsdGeom.Cube.Define(stage, "/Asset/Hider/Cube")
+    for name in ("/R0", "/R1", "/D"):
+        instance = UsdGeom.Xform.Define(stage, name)
+        instance.GetPrim().GetReferences().AddInternalReference("/Asset")
+        instance.GetPrim().SetInstanceable(True)
+        if name.startswith("/R"):
+            instance.CreatePurposeAttr("render")
+    stage.Save()
+    expected = set()
+    for prim in stage.Traverse(Usd.TraverseInstanceProxies()):
+        img = UsdGeom.Imageable(prim)
+        if prim.IsA(UsdGeom.Cube) and img.ComputeEffectiveVisibility(img.ComputePurpose()) != "invisible":
+            expected.add(str(prim.GetPath()))
+    assert expected == {"/D/Hider/Cube"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = wrt.load_usd(path)
+    assert set(scene.prim_paths()) == expected

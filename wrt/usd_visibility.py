@@ -74,7 +74,9 @@ class Visibility:
 
     def _prototype_purpose(self, root: Usd.Prim, instancer: Usd.Prim, ctx: Context, hidden: frozenset = frozenset()):
         """The purpose that prototype ``root`` of PointInstancer ``instancer`` (read in ``ctx``) inherits, when it is
-        one not drawn or one of ``hidden`` (the purposes hidden on and above the instancer), else None. Purpose,
+        one not drawn, one of ``hidden`` (the purposes hidden on and above the instancer) or a drawn one other than
+        default (its prims without a purpose of their own are of it, so that the UsdGeomVisibilityAPI opinions for it
+        in the prototype and above it reach them: read of default purpose, none did), else None. Purpose,
         unlike visibility, is inherited through the prototype's own ancestors, the scope holding it too, as
         ``ComputePurpose`` computes it; inside a native prototype, on through the instance and its ancestors
         (``ctx.outer_purpose``: USD computes it on the instance proxies); where none of them authors one, the
@@ -87,31 +89,35 @@ class Visibility:
             purpose = ctx.outer_purpose
         else:
             purpose = self._purpose(instancer, ctx)
-        return None if purpose in self.purposes and purpose not in hidden else purpose
+        drawn = purpose in self.purposes and purpose not in hidden
+        return None if drawn and purpose == UsdGeom.Tokens.default_ else purpose
 
     def _instance_purpose(self, instance: Usd.Prim, ctx: Context, purpose: str, hidden: frozenset):
         """The purpose native ``instance`` (of computed ``purpose``) hands down to its prototype's prims
         (``Context.outer_purpose``): one not drawn, or one of ``hidden`` (the prims inside that inherit it are hidden
         too); a drawn one that an opinion gives, where a PointInstancer in the prototype may draw its prototypes by
-        it (:meth:`_prototype_purpose`); else None, so that one read of the prototype serves the instances with and
-        without such an opinion."""
+        it (:meth:`_prototype_purpose`) or a UsdGeomVisibilityAPI opinion in it may hide the prims that inherit it
+        (read of default purpose, they were drawn); else None, so that one read of the prototype serves the instances
+        with and without such an opinion."""
         if purpose not in self.purposes or purpose in hidden:
             return purpose
         prototype = instance.GetPrototype()
         if not prototype:  # skipped by the reader, with a warning
             return None
-        return self._authored_purpose(instance, ctx) if self._holds_instancer(prototype) else None
+        return self._authored_purpose(instance, ctx) if self._reads_purpose(prototype) else None
 
-    def _holds_instancer(self, prototype: Usd.Prim) -> bool:
-        """Whether native ``prototype`` holds a PointInstancer, in it or in the prototype of an instance in it, each
-        prototype's answer kept. Walked through instance proxies, every nested prototype was walked again for each
-        instance of it: a stage of three levels of 40 nested instances loaded 8 times slower."""
+    def _reads_purpose(self, prototype: Usd.Prim) -> bool:
+        """Whether native ``prototype`` holds a PointInstancer or a UsdGeomVisibilityAPI prim, in it or in the
+        prototype of an instance in it, each prototype's answer kept. Walked through instance proxies, every nested
+        prototype was walked again for each instance of it: a stage of three levels of 40 nested instances loaded 8
+        times slower."""
         key = prototype.GetPath()
-        if key not in self.prototype_instancers:
-            self.prototype_instancers[key] = any(
-                p.IsA(UsdGeom.PointInstancer) or (p.IsInstance() and self._holds_instancer(p.GetPrototype()))
+        if key not in self.purpose_readers:
+            self.purpose_readers[key] = any(
+                p.IsA(UsdGeom.PointInstancer) or p.HasAPI(UsdGeom.VisibilityAPI)
+                or (p.IsInstance() and self._reads_purpose(p.GetPrototype()))
                 for p in Usd.PrimRange(prototype, Usd.PrimAllPrimsPredicate))
-        return self.prototype_instancers[key]
+        return self.purpose_readers[key]
 
     def _authored_purpose(self, prim: Usd.Prim, ctx: Context):
         """The purpose an opinion gives ``prim`` (its own or an ancestor's, through the native instances it is in:
