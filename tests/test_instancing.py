@@ -638,6 +638,31 @@ def test_orientations_or_scales_shorter_than_proto_indices_are_ignored_with_a_wa
     assert [m.path for m in scene.meshes] == ["/Other"]
 
 
+@pytest.mark.parametrize("orientationsf", ["empty", "empty_first_sample"])
+def test_orientations_are_read_where_orientationsf_is_empty_as_usd_picks_them(tmp_path, orientationsf):
+    """USD reads ``orientationsf`` only where its value at the earliest time is a non-empty array
+    (``UsesOrientationsf``), else ``orientations``: wrt took any authored ``orientationsf``, an empty one (which
+    exporters write beside the ``quath[]`` they fill) too, and drew every instance unrotated. The oracle is
+    ``ComputeInstanceTransformsAtTime``."""
+    path = write_instancer(tmp_path, proto_indices=(0, 0, 0), positions=3)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI"))
+    pi.CreateOrientationsAttr(Vt.QuathArray([Gf.Quath(0.6, 0.8, 0, 0), Gf.Quath(0.6, 0, 0.8, 0),
+                                             Gf.Quath(0, 0, 0.6, 0.8)]))
+    if orientationsf == "empty":
+        pi.CreateOrientationsfAttr(Vt.QuatfArray())
+    else:  # empty at its first sample, filled later: USD reads orientations at every time
+        pi.CreateOrientationsfAttr().Set(Vt.QuatfArray(), 1)
+        pi.GetOrientationsfAttr().Set(Vt.QuatfArray([Gf.Quatf(1, 0, 0, 0)] * 3), 2)
+    stage.Save()
+    for time in (None, 2):
+        scene = load(path, time=time)
+        t = Usd.TimeCode.Default() if time is None else Usd.TimeCode(time)
+        expected = np.array([np.array(m).T for m in pi.ComputeInstanceTransformsAtTime(t, t)])
+        assert expected.shape == (3, 4, 4) and not np.allclose(expected[:, :3, :3], np.eye(3))
+        np.testing.assert_allclose(scene.instances.to_world, expected, atol=1e-6)
+
+
 def test_invisible_and_inactive_ids_hide_instances_by_id_as_usd_masks_them(tmp_path):
     """``ids`` name the instances that ``invisibleIds`` and ``inactiveIds`` hide (not their indices), as
     ``ComputeMaskAtTime`` computes it (``ids`` of another length than ``protoIndices``: see the test below)."""

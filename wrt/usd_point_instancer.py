@@ -221,7 +221,7 @@ class PointInstancerReading:
             return array[:n] if default is not None else array  # positions: the caller checks the length
 
         positions_attr, scales_attr = pi.GetPositionsAttr(), pi.GetScalesAttr()
-        orient_attr = pi.GetOrientationsfAttr() if pi.GetOrientationsfAttr().HasValue() else pi.GetOrientationsAttr()
+        orient_attr = _orientations_attr(pi)
         # ComputeInstanceTransformsAtTime reads each as its schema type only (point3f[], quath[] or quatf[], float3[]):
         # positions of another (float[], double3[]) give no instances, orientations or scales of another are none. A
         # float[] raised SceneError; a double3[] or float4[] one was read as if of the schema's type.
@@ -498,6 +498,16 @@ class PointInstancerReading:
                        f"{interpolation} with {len(values)} values, expected {count} ({meaning})")
             return None
         return values
+
+
+def _orientations_attr(pi: UsdGeom.PointInstancer) -> Usd.Attribute:
+    """The orientations attribute of ``pi`` that USD reads (``UsesOrientationsf``): ``orientationsf`` where its value
+    at the earliest time is a non-empty array, else ``orientations`` at every time. Any authored ``orientationsf``
+    was taken: an empty one, which exporters write beside the ``quath[]`` they fill, left every instance unrotated."""
+    orientationsf = pi.GetOrientationsfAttr()
+    earliest = orientationsf.Get(Usd.TimeCode.EarliestTime()) if orientationsf.HasValue() else None
+    filled = earliest is not None and hasattr(earliest, "__len__") and len(earliest) > 0  # (a scalar: mistyped)
+    return orientationsf if filled else pi.GetOrientationsAttr()
 
 
 def _value_if_any(attr: Usd.Attribute, time: Usd.TimeCode, read):
