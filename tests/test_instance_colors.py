@@ -161,6 +161,28 @@ def test_uniform_display_color_colours_every_instance_as_constant_does(tmp_path,
     np.testing.assert_allclose(albedo, np.repeat(np.asarray(flattened, np.float64), 3, axis=0), atol=1e-6)
 
 
+@pytest.mark.parametrize("interpolation", ["constant", "uniform"])
+@pytest.mark.parametrize("beneath", [False, True])
+def test_a_constant_display_color_of_several_values_gives_every_instance_its_first(tmp_path, interpolation, beneath):
+    """A constant (or uniform) displayColor of several values on the instancer (what a primvar authored without an
+    interpolation reads as) applies its whole value to each instance, which a prototype's gprim reads as its first,
+    with a warning, as UsdImaging reads a constant displayColor: so it did beneath the instancer, by inheritance, but
+    where the prototypes lie elsewhere it was ignored (every instance grey). The oracle is USD's flattened value."""
+    path = instancer_stage(tmp_path / "pi.usda", colors=RGB, interpolation=interpolation)
+    if beneath:
+        stage = Usd.Stage.Open(path)
+        Sdf.CopySpec(stage.GetRootLayer(), "/Protos", stage.GetRootLayer(), "/PI/Protos")
+        stage.RemovePrim("/Protos")
+        UsdGeom.PointInstancer(stage.GetPrimAtPath("/PI")).GetPrototypesRel().SetTargets(["/PI/Protos/Shape"])
+        stage.GetRootLayer().Save()
+    stage = Usd.Stage.Open(path)
+    flattened = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI")).GetPrimvar("displayColor").ComputeFlattened()
+    with pytest.warns(UserWarning, match=r"constant primvars holding several values were read as their first value"):
+        scene = wrt.load_usd(path)
+    albedo, _ = albedo_at_instances(scene)
+    np.testing.assert_allclose(albedo, [flattened[0]] * 3, atol=1e-6)
+
+
 @pytest.mark.parametrize("interpolation", ["constant", "vertex"])
 def test_a_non_constant_primvar_inside_a_prototype_beneath_the_instancer_blocks_its_constant_colour(tmp_path,
                                                                                                      interpolation):
@@ -201,8 +223,8 @@ def test_indexed_display_color_is_flattened(tmp_path):
     [
         (RGB[:2], "vertex", r"vertex with 2 values, expected 3 \(one per instance\)"),
         (RGB + RGB[:1], "varying", r"varying with 4 values, expected 3"),
-        (RGB, "uniform", r"uniform with 3 values, expected 1"),
-        (RGB, "constant", r"constant with 3 values, expected 1"),
+        ([], "uniform", r"uniform with 0 values, expected 1"),
+        ([], "constant", r"constant with 0 values, expected 1"),
     ],
 )
 def test_an_unusable_display_color_warns_naming_the_instancer_and_is_ignored(tmp_path, colors, interpolation,

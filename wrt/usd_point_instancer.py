@@ -12,7 +12,14 @@ from .light_links import part_path
 from .usd_contents import Content, Context, instance_looks, placed_indices, placements
 from .usd_lights import read_light, sphere_inputs
 from .usd_placed_lights import placed_lights
-from .usd_primvars import finite_colors, indices_type_problem, past_float32_as_inf, quaternion_typed, unit_opacities
+from .usd_primvars import (
+    finite_colors,
+    first_of_constant,
+    indices_type_problem,
+    past_float32_as_inf,
+    quaternion_typed,
+    unit_opacities,
+)
 from .usd_values import held_value, spun_rotations, value_at
 
 MISSING_PROTOTYPE = "missing"  # a prototypes target that names no prim (its instances are skipped)
@@ -492,6 +499,11 @@ class PointInstancerReading:
             self._skip(f"PointInstancer {name} of an interpolation other than constant, uniform, vertex, varying or "
                        "faceVarying was ignored", prim, interpolation)
             return None
+        if interpolation in ("constant", "uniform") and len(values) > 1:
+            # The whole value applies to each instance, which a prototype's gprim reads as a constant primvar of
+            # several values: its first, with a warning, as UsdImaging reads it (and as it read the instancer's
+            # constant one inherited beneath it). Where the prototypes lay elsewhere it was ignored.
+            values = first_of_constant(values, prim, str(primvar.GetAttr().GetName()), self._skip)
         if len(values) != expected[interpolation][0]:
             count, meaning = expected[interpolation]
             self._skip(f"PointInstancer {name} of the wrong length was ignored", prim,
