@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 import pytest
-from pxr import Usd, UsdGeom
+from pxr import Sdf, Usd, UsdGeom
 from usda_text import floats, fmt, load, load_recording_warnings, preview_material, trace, write
 
 import wrt
@@ -796,3 +796,38 @@ def test_light_api_on_points_and_curves_is_named_not_ignored(tmp_path):
                                          r": /Dots, /Hair"):
         scene = wrt.load_usd(path)
     assert scene.lights == [] and scene.instances  # the spheres and the tube are drawn (as instanced shapes)
+
+
+@pytest.mark.parametrize("interpolation, beneath", [("vertex", True), ("vertex", False), ("constant", False),
+                                                    ("uniform", True)])
+def test_a_point_instancer_widths_primvar_sizes_the_points_of_each_instance(tmp_path, interpolation, beneath):
+    """UsdGeomPointInstancer's primvar rules: a ``primvars:widths`` on the instancer applies to each instance at the
+    root of its prototype (its whole value for constant or uniform, one value per instance for vertex), as a constant
+    one there would, sizing the prototype's points that have no widths of their own. Only a constant one beneath the
+    instancer did (by inheritance); the others were dropped without a word, every point drawn 1 wide. The oracle is
+    USD's flattened primvar and ``ComputeInstanceTransformsAtTime``."""
+    stage = Usd.Stage.CreateNew(str(tmp_path / "widths.usda"))
+    root = "/PI/Protos" if beneath else "/Protos"
+    UsdGeom.Scope.Define(stage, root).MakeInvisible()
+    UsdGeom.Points.Define(stage, f"{root}/Cloud").CreatePointsAttr([(0, 0, 0), (1, 0, 0)])
+    pi = UsdGeom.PointInstancer.Define(stage, "/PI")
+    pi.CreatePrototypesRel().SetTargets([f"{root}/Cloud"])
+    pi.CreateProtoIndicesAttr([0, 0, 0])
+    pi.CreatePositionsAttr([(0, 0, 0), (10, 0, 0), (20, 0, 0)])
+    widths = [0.5, 0.2, 0.5] if interpolation == "vertex" else [0.3]
+    UsdGeom.PrimvarsAPI(pi).CreatePrimvar("widths", Sdf.ValueTypeNames.FloatArray, interpolation).Set(widths)
+    stage.Save()
+    flattened = np.asarray(UsdGeom.PrimvarsAPI(pi).GetPrimvar("widths").ComputeFlattened(), np.float64)
+    t = Usd.TimeCode.Default()
+    expected = {}
+    for i, m in enumerate(pi.ComputeInstanceTransformsAtTime(t, t)):
+        for point in ((0, 0, 0), (1, 0, 0)):
+            centre = tuple(np.round(np.array(m).T @ np.array([*point, 1.0]), 6)[:3])
+            expected[centre] = flattened[i if len(flattened) > 1 else 0] / 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene = wrt.load_usd(str(tmp_path / "widths.usda"))
+    spheres = scene.instances.to_world
+    drawn = {tuple(np.round(m[:3, 3], 6)): float(np.linalg.norm(m[:3, 0])) for m in spheres}
+    assert drawn.keys() == expected.keys()
+    np.testing.assert_allclose([drawn[c] for c in expected], list(expected.values()), rtol=1e-6)

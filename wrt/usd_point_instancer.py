@@ -4,6 +4,8 @@ coordinates (``st``)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, Vt
 
@@ -24,6 +26,7 @@ from .usd_values import held_value, spun_rotations, value_at
 
 MISSING_PROTOTYPE = "missing"  # a prototypes target that names no prim (its instances are skipped)
 MAX_INSTANCE_UVS = 64  # distinct st a PointInstancer gives the instances of one prototype (a copy of it each)
+MAX_INSTANCE_WIDTHS = 64  # distinct primvars:widths a PointInstancer gives the instances of one prototype, likewise
 
 
 class PointInstancerReading:
@@ -43,6 +46,7 @@ class PointInstancerReading:
             return
         colors_by_name = {}  # colour primvar -> (n, 3) colours of the instances, or None
         uvs_by_name = {}  # texture-coordinate primvar -> (n, 2) st of the instances (NaN: none), or None
+        widths_by_name = {}  # "widths" -> (n,) primvars:widths of the instances, or None (read once, when wanted)
         opacities = self._instance_opacities(prim, n, read)
         keep = self._instance_mask(prim, pi, n)
         if keep is None:
@@ -106,18 +110,21 @@ class PointInstancerReading:
             target_opacities = None if beneath and self._constant_primvar(prim, "displayOpacity") else opacities
             parent = target.GetParent()
 
-            def read_with(outer_uv, target=target, parent=parent, purpose=purpose, opaque=target_opacities is None):
+            def read_with(outer_uv, outer_widths=ctx.outer_widths, target=target, parent=parent, purpose=purpose,
+                          opaque=target_opacities is None):
                 key = ("pi", str(target.GetPath()), ctx.outer_bindings, ctx.outer_color, purpose, ctx.proxy,
-                       ctx.outer_widths, not opaque, outer_uv, hidden)
+                       outer_widths, not opaque, outer_uv, hidden)
                 return key, self._content(key, target, parent, ctx.outer_bindings, purpose,
-                                          outer_color=ctx.outer_color, outer_widths=ctx.outer_widths, proxy=ctx.proxy,
+                                          outer_color=ctx.outer_color, outer_widths=outer_widths, proxy=ctx.proxy,
                                           instance_opacity=not opaque, outer_uv=outer_uv,
                                           outer_hidden=hidden)
 
             key, content = read_with(ctx.outer_uv)
             # The prototype's prims walk up through this instancer's ancestors: what they lack, this content lacks.
             ctx.content.outer_purposes |= content.outer_purposes
-            ctx.content.wants_widths |= content.wants_widths
+            if content.wants_widths and "widths" not in widths_by_name:
+                widths_by_name["widths"] = self._instance_widths(prim, n, read, beneath)
+            ctx.content.wants_widths |= content.wants_widths and widths_by_name.get("widths") is None
             uv_groups = self._instance_uv_groups(prim, n, read, content.outer_uvs, beneath, rows, ctx, uvs_by_name)
             ctx.content.want_uvs([name for name in content.outer_uvs if uvs_by_name.get(name) is None])
             ctx.content.want_colors(content.outer_colors)
@@ -130,12 +137,16 @@ class PointInstancerReading:
             if name not in colors_by_name:
                 colors_by_name[name] = None if name is None else self._instance_colors(prim, n, read, name)
             looks = instance_looks(colors_by_name[name], target_opacities)
+            widths = widths_by_name.get("widths") if content.wants_widths else None
             for outer_uv, uv_rows in uv_groups:
-                # Each distinct st the instancer gives is a copy of the prototype read with it (Context.outer_uv).
-                group_key, group_content = (key, content) if outer_uv == ctx.outer_uv else read_with(outer_uv)
-                ctx.content.uv_misses += group_content.uv_misses
-                ctx.content.instances.append((group_key, to_space[uv_rows], str(prim.GetPath()),
-                                              uv_rows.astype(np.int32), None if looks is None else looks[uv_rows]))
+                for outer_widths, group in self._instance_width_groups(prim, widths, uv_rows, ctx):
+                    # Each distinct st or width the instancer gives is a copy of the prototype read with it
+                    # (Context.outer_uv, Context.outer_widths).
+                    same = (outer_uv, outer_widths) == (ctx.outer_uv, ctx.outer_widths)
+                    group_key, group_content = (key, content) if same else read_with(outer_uv, outer_widths)
+                    ctx.content.uv_misses += group_content.uv_misses
+                    ctx.content.instances.append((group_key, to_space[group], str(prim.GetPath()),
+                                                  group.astype(np.int32), None if looks is None else looks[group]))
 
     def _read_placed_lights(self, world: Content):
         """Appends to the scene one light per instance of each UsdLux light kept inside a PointInstancer's prototype
@@ -447,6 +458,34 @@ class PointInstancerReading:
                        "show their fallback", prim, f"{name}, {int(bad.sum())} of {n} instances")
             values[bad] = np.nan
         return values
+
+    def _instance_widths(self, prim: Usd.Prim, n: int, read, beneath: bool) -> np.ndarray | None:
+        """``(n,)`` float64 ``primvars:widths`` of each of the ``n`` instances of PointInstancer ``prim`` (see
+        :meth:`_instance_values`), or None without a usable one. As UsdGeomPointInstancer's primvar rules have it,
+        each instance's is a constant widths at the root of its prototype, sizing its points and curves that have no
+        widths primvar of their own; a constant one reaches the prototypes beneath the instancer by inheritance
+        instead, read with their geometry. Only that one was read: the others were dropped without a word."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("widths")
+        if not primvar.HasValue() or (beneath and primvar.GetInterpolation() == UsdGeom.Tokens.constant):
+            return None
+        values = self._instance_values(prim, n, read, "widths", (1,))
+        return None if values is None else np.broadcast_to(values[:, 0], (n,))
+
+    def _instance_width_groups(self, prim: Usd.Prim, widths, rows: np.ndarray, ctx: Context) -> list[tuple]:
+        """``[(outer_widths, rows), ...]``: the instances ``rows`` of one prototype of PointInstancer ``prim`` by the
+        width (``widths``, from :meth:`_instance_widths`, or None: ``ctx.outer_widths`` for all) handed to its points
+        and curves without widths, each distinct one a copy of the prototype: past :data:`MAX_INSTANCE_WIDTHS` of
+        them they keep ``ctx.outer_widths``, with a warning."""
+        if widths is None:
+            return [(ctx.outer_widths, rows)]
+        distinct, group = np.unique(widths[rows], return_inverse=True)  # (NaNs as one: drawn as none, named)
+        if len(distinct) > MAX_INSTANCE_WIDTHS:
+            self._skip(f"PointInstancer widths of more than {MAX_INSTANCE_WIDTHS} distinct values per prototype were "
+                       "ignored (each is a copy of the prototype)", prim,
+                       f"{len(distinct)} distinct widths for {len(rows)} instances")
+            return [(ctx.outer_widths, rows)]
+        # One NaN object, so that the content read with it is found again (NaN != NaN).
+        return [(math.nan if math.isnan(w) else float(w), rows[group.reshape(-1) == k]) for k, w in enumerate(distinct)]
 
     def _instance_opacities(self, prim: Usd.Prim, n: int, read) -> np.ndarray | None:
         """``(n,)`` float32 ``displayOpacity`` of each of the ``n`` instances of PointInstancer ``prim`` (see
