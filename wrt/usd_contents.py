@@ -115,8 +115,9 @@ class Context:
         self.outer_widths = outer_widths  # constant primvars:widths inherited by a native instance (float), or None
         # ((primvar, (s, t)), ...): constant texture coordinates inherited by a native instance, or None
         self.outer_uv = outer_uv
-        # The purpose inherited by a native instance: a non-rendered one, or a rendered one hidden there (outer_hidden)
-        # or that an opinion gives (a PointInstancer inside draws its prototypes by it), else None
+        # The purpose inherited by a native instance or a PointInstancer prototype: a non-rendered one, or a rendered
+        # one hidden there (outer_hidden) or that an opinion gives (a PointInstancer inside draws its prototypes by it,
+        # a UsdGeomVisibilityAPI opinion inside hides the prims that inherit it), else None
         self.outer_purpose = outer_purpose
         # Drawn purposes that UsdGeomVisibilityAPI opinions on or above the native instance read hide: the prims
         # inside with no opinion of their own up to the prototype root are hidden for them (Visibility._rendered)
