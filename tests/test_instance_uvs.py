@@ -120,7 +120,8 @@ def test_indexed_per_instance_st_is_flattened(tmp_path):
     assert len(scene.prototypes) == 2  # instances of one st share a copy
 
 
-@pytest.mark.parametrize("interpolation, beneath", [("constant", False), ("uniform", False), ("uniform", True)])
+@pytest.mark.parametrize("interpolation, beneath", [("constant", False), ("constant", True), ("uniform", False),
+                                                    ("uniform", True)])
 def test_a_constant_or_uniform_st_on_the_instancer_reaches_every_instance(tmp_path, interpolation, beneath):
     """As a constant displayColor on the instancer does (wrt.usd_point_instancer): every instance reads it. A uniform
     one is the same (UsdGeomPointInstancer's primvar rules: its entire value applies to each instance); it was
