@@ -183,6 +183,27 @@ def test_a_constant_display_color_of_several_values_gives_every_instance_its_fir
     np.testing.assert_allclose(albedo, [flattened[0]] * 3, atol=1e-6)
 
 
+@pytest.mark.parametrize("interpolation, indices", [("vertex", None), ("vertex", [2, 0, 1]), ("constant", None)])
+def test_a_display_color_of_element_size_two_gives_each_instance_the_first_of_its_element(tmp_path, interpolation,
+                                                                                          indices):
+    """UsdGeomPointInstancer's primvar rules: of a per-instance primvar of elementSize ``k`` the ``k`` values of each
+    element go to one instance (its constant value there, of which a prototype's gprim reads the first, with a
+    warning); a constant one's whole value goes to every instance. It was ignored with a warning, every instance
+    grey. The oracle is USD's flattened primvar, whose indices pick whole elements."""
+    colors = RGB + [(1.0, 1.0, 0.0), (0.0, 1.0, 1.0), (1.0, 0.0, 1.0)] if interpolation == "vertex" else RGB[:2]
+    path = instancer_stage(tmp_path / "pi.usda", colors=colors, interpolation=interpolation, indices=indices)
+    stage = Usd.Stage.Open(path)
+    primvar = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/PI")).GetPrimvar("displayColor")
+    primvar.SetElementSize(2)
+    stage.Save()
+    flattened = np.asarray(primvar.ComputeFlattened(), np.float64).reshape(-1, 2, 3)
+    expected = flattened[:, 0] if interpolation == "vertex" else np.repeat(flattened[:, 0], 3, axis=0)
+    with pytest.warns(UserWarning, match=r"constant primvars holding several values were read as their first value"):
+        scene = wrt.load_usd(path)
+    albedo, _ = albedo_at_instances(scene)
+    np.testing.assert_allclose(albedo, expected, atol=1e-6)
+
+
 @pytest.mark.parametrize("interpolation", ["constant", "vertex"])
 def test_a_non_constant_primvar_inside_a_prototype_beneath_the_instancer_blocks_its_constant_colour(tmp_path,
                                                                                                      interpolation):

@@ -15,6 +15,7 @@ from .usd_contents import Content, Context, instance_looks, placed_indices, plac
 from .usd_lights import read_light, sphere_inputs
 from .usd_placed_lights import placed_lights
 from .usd_primvars import (
+    CONSTANT_OF_SEVERAL,
     finite_colors,
     first_of_constant,
     indices_type_problem,
@@ -500,9 +501,10 @@ class PointInstancerReading:
     def _instance_values(self, prim: Usd.Prim, n: int, read, name: str, widths: tuple) -> np.ndarray | None:
         """``(1 or n, k)`` float64 values of PointInstancer ``prim``'s primvar ``name``, ``k`` one of ``widths`` (an
         array of numbers has ``k = 1``): ``constant`` or ``uniform`` gives one value to all, ``vertex``, ``varying`` or
-        ``faceVarying`` one per instance (after its ``indices``), read by ``read`` as the positions are. None, with a
-        warning naming it and what was expected, when it cannot be used: another type, interpolation, or a length
-        other than ``n``."""
+        ``faceVarying`` one element (``elementSize`` values) per instance (after its ``indices``, which pick whole
+        elements), read by ``read`` as the positions are; of several values for one instance the first, with a
+        warning. None, with a warning naming it and what was expected, when it cannot be used: another type,
+        interpolation, or a length other than ``n``."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
         raw = read(primvar.GetAttr(), self.time)
         unreadable = f"PointInstancer {name} that cannot be read was ignored"
@@ -513,20 +515,23 @@ class PointInstancerReading:
             return None
         if values.ndim == 1:  # an array of numbers
             values = values[:, None]
-        if (values.ndim != 2 or values.shape[1] not in widths or primvar.GetElementSize() != 1
+        size = primvar.GetElementSize()
+        if (values.ndim != 2 or values.shape[1] not in widths or size < 1 or len(values) % size
                 or quaternion_typed(primvar.GetAttr(), self.time)):
-            self._skip(unreadable, prim, f"{primvar.GetTypeName()} of elementSize {primvar.GetElementSize()}")
+            self._skip(unreadable, prim, f"{primvar.GetTypeName()} of elementSize {size} holding {len(values)} values")
             return None
         if (wrong_type := indices_type_problem(primvar)) is not None:
             self._skip(unreadable, prim, wrong_type)
             return None
+        elements = values.reshape(-1, size, values.shape[1])  # an element: the elementSize values one index picks
         if primvar.IsIndexed():  # flattened as ComputeFlattened does, at the same time as the values
             raw = read(primvar.GetIndicesAttr(), self.time)
             indices = np.asarray(raw if raw is not None else [], np.int64).reshape(-1)
-            if np.any((indices < 0) | (indices >= len(values))):
-                self._skip(unreadable, prim, f"indices out of range for {len(values)} values")
+            if np.any((indices < 0) | (indices >= len(elements))):
+                self._skip(unreadable, prim, f"indices out of range for {len(elements)} elements")
                 return None
-            values = values[indices]
+            elements = elements[indices]
+        values = elements.reshape(-1, values.shape[1])
         interpolation = primvar.GetInterpolation()
         # UsdGeomPointInstancer's primvar rules: constant or uniform, the whole value applies to each instance (Hydra's
         # instancer data source makes both constant; uniform was ignored with a warning); vertex, varying and
@@ -543,6 +548,11 @@ class PointInstancerReading:
             # several values: its first, with a warning, as UsdImaging reads it (and as it read the instancer's
             # constant one inherited beneath it). Where the prototypes lay elsewhere it was ignored.
             values = first_of_constant(values, prim, str(primvar.GetAttr().GetName()), self._skip)
+        elif interpolation in expected and size > 1:
+            # Each instance's element (its elementSize values) is its constant value there, read likewise: the first
+            # of each. An elementSize other than 1 was ignored with a warning.
+            self._skip(CONSTANT_OF_SEVERAL, prim, f"{primvar.GetAttr().GetName()} of elementSize {size}")
+            values = elements[:, 0]
         if len(values) != expected[interpolation][0]:
             count, meaning = expected[interpolation]
             self._skip(f"PointInstancer {name} of the wrong length was ignored", prim,
