@@ -123,7 +123,7 @@ def test_indexed_per_instance_st_is_flattened(tmp_path):
 @pytest.mark.parametrize("interpolation, beneath", [("constant", False), ("constant", True), ("uniform", False),
                                                     ("uniform", True)])
 def test_a_constant_or_uniform_st_on_the_instancer_reaches_every_instance(tmp_path, interpolation, beneath):
-    """As a constant displayColor on the instancer does (wrt.usd_point_instancer): every instance reads it. A uniform
+    """As a constant displayColor on the instancer does (wrt.usd_instancer_primvars): every instance reads it. A uniform
     one is the same (UsdGeomPointInstancer's primvar rules: its entire value applies to each instance); it was
     ignored with a warning, and every instance read the fallback."""
     path = instancer_st_stage(tmp_path, interpolation, beneath, values=STS[:1])
@@ -135,7 +135,7 @@ def test_a_constant_or_uniform_st_on_the_instancer_reaches_every_instance(tmp_pa
 def test_too_many_distinct_st_warn_naming_the_instancer(tmp_path, monkeypatch):
     """Past the cap of copies per prototype the instances read the reader's fallback, with a warning naming the
     instancer and the count, not a silent mix."""
-    import wrt.usd_point_instancer as reader
+    import wrt.usd_instancer_primvars as reader
 
     monkeypatch.setattr(reader, "MAX_INSTANCE_UVS", 2)
     path = instancer_st_stage(tmp_path)

@@ -87,7 +87,7 @@ and purpose), :mod:`wrt.usd_ancestors` (inherited primvars, purposes and binding
 :mod:`wrt.usd_attributes` (checked attribute reads), :mod:`wrt.usd_meshes`,
 :mod:`wrt.usd_mesh_primvars` and :mod:`wrt.usd_bake` (meshes), :mod:`wrt.usd_gprims` (gprims, points and curves),
 :mod:`wrt.usd_looks` (colours and opacities), :mod:`wrt.usd_contents`, :mod:`wrt.usd_native_instances` and
-:mod:`wrt.usd_point_instancer` (instancing), :mod:`wrt.usd_cameras`.
+:mod:`wrt.usd_point_instancer` and :mod:`wrt.usd_instancer_primvars` (instancing), :mod:`wrt.usd_cameras`.
 """
 
 from __future__ import annotations
