@@ -332,9 +332,10 @@ def test_inverse_linear_of_unevenly_scaled_turned_matrices_is_their_float64_inve
     to_world = np.tile(np.eye(4), (len(linear), 1, 1))
     to_world[:, :3, :3] = linear
     # Those that instances and shapes may have: invert_transforms refuses the ones too uneven for float32 (they are
-    # thickened or skipped with a warning instead).
+    # thickened or skipped with a warning instead): a scale followed by a turn, whose float32 inverse misses by more
+    # than FLOAT32_INVERSE_TOLERANCE, or one past float32's range.
     to_world = to_world[invert_transforms(to_world)[1]]
-    assert len(to_world) >= 14
+    assert len(to_world) >= 9
     world_to_local = np.linalg.inv(to_world)[:, :3, :]
     m = world_to_local.astype(np.float32)
     out = wp.zeros(len(m), dtype=wp.mat33, device="cpu")

@@ -40,6 +40,15 @@ SINGULAR_RELATIVE_DET = 1e-13
 ZERO_SCALE_SKIPPED = "instances with a singular transform (a zero scale) were skipped"
 NO_FLOAT32_INVERSE_SKIPPED = ("instances whose transform cannot be inverted reliably in float32 (an extremely large, "
                               "small or uneven scale) were skipped")
+# How far the float32 inverse of an instance's (or shape's) linear part L, as the devices hold it, may miss inverting
+# it: max |inverse32 @ L - I|. Rays are taken into local space through that inverse, so it is the error of the local
+# coordinates of the instance's own points, relative to its size. Its entries are rounded at the scale of the largest
+# (1 / the thinnest scale), which along a turned thin axis mixes into the others: about 1e-8 over the thickness (up to
+# 0.05 at 1e-6, traced as float32 holds it), so a card scaled by 1e-10 between two turns was missed by 1,943 of 1,986
+# rays (1e-8: 415 of 1,993), while one of 1e-14, singular up to rounding, was thickened and drawn. Beyond it,
+# invert_transforms says no inverse, and thicken_flat_transforms thickens the flat ones as it thickens zero scales (at
+# FLAT_THICKNESS the error is at most 4e-4); an axis-aligned scale of 1e-12 inverts exactly enough (3e-8) and stays.
+FLOAT32_INVERSE_TOLERANCE = 2.0**-4
 # The thickness, relative to its largest scale, that thicken_flat_transforms gives an instance flattened by a zero
 # scale. Rays move into an instance's space through its float32 inverse, whose rounding grows as one over the
 # thickness: at 1e-6, 20 of 148 rays through a squashed instance hit or missed unlike its flattened copy; at 1e-5, 1;
@@ -336,7 +345,8 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(world_to_local (N, 3, 4) float64, ok (N,) bool)``: the affine inverses; ``ok`` is False (and the row zero)
     where the linear part is singular or the inverse is not finite in float32, as the devices hold it (a zero scale,
     or one of 1e-45: its float64 inverse is finite, but a float32 one sent every ray to inf and the instance
-    vanished without the warning singular ones get)."""
+    vanished without the warning singular ones get), or where that float32 inverse does not invert it to within
+    :data:`FLOAT32_INVERSE_TOLERANCE` (a scale of 1e-10 between two turns: see there)."""
     linear = to_world[:, :3, :3]
     # The inverse is the adjugate over the determinant, both from the rows' cross products: numpy's batched LAPACK
     # inv and det took 2.6 s for a million instances (points of a UsdGeom.Points prim, PointInstancer instances).
@@ -358,8 +368,10 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         inv = adjugate[ok] / det[ok, None, None]
         out[ok, :, :3] = inv
         out[ok, :, 3] = -np.einsum("nij,nj->ni", inv, to_world[ok, :3, 3])
-        with np.errstate(over="ignore"):
+        with np.errstate(over="ignore", invalid="ignore"):
             good = np.isfinite(out[ok].astype(np.float32)).reshape(int(ok.sum()), -1).all(axis=1)
+            product = out[ok, :, :3].astype(np.float32).astype(np.float64) @ linear[ok]
+            good &= np.abs(product - np.eye(3)).max(axis=(1, 2)) <= FLOAT32_INVERSE_TOLERANCE
         bad = np.flatnonzero(ok)[~good]
         ok[bad] = False
         out[bad] = 0.0
