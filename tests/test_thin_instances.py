@@ -16,14 +16,17 @@ OCTAHEDRON = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], 
 FACES = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
 
 
-def squashed(thickness: float) -> np.ndarray:
-    """A column-vector transform that scales by ``(1, 1, thickness)`` between two turns, placed off the origin."""
+def squashed(thickness: float, part: str = "whole") -> np.ndarray:
+    """A column-vector transform that scales by ``(1, 1, thickness)`` between two turns, placed off the origin
+    (``part="whole"``); or its first turn and placement (``"turn"``), or its scale and second turn (``"squash"``),
+    whose product it is."""
     rng = np.random.default_rng(7)
     turn, other = (np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(2))
-    to_world = np.eye(4)
-    to_world[:3, :3] = turn @ np.diag([1.0, 1.0, thickness]) @ other
-    to_world[:3, 3] = [0.5, -0.25, 0.125]
-    return to_world
+    first, second = np.eye(4), np.eye(4)
+    first[:3, :3] = turn
+    first[:3, 3] = [0.5, -0.25, 0.125]
+    second[:3, :3] = np.diag([1.0, 1.0, thickness]) @ other
+    return {"whole": first @ second, "turn": first, "squash": second}[part]
 
 
 def thin_axis(to_world: np.ndarray) -> np.ndarray:
@@ -92,14 +95,18 @@ def test_an_instance_squashed_thin_along_a_turned_axis_is_hit_as_its_float64_sur
 
 @pytest.mark.parametrize("thickness", [1e-8, 1e-10, 1e-12])
 def test_a_sphere_squashed_thin_along_a_turned_axis_is_hit_as_its_float64_surface(thickness):
-    """An analytic sphere squashed into a disc of ``thickness`` along a turned axis, as a shape of its own and in an
-    instance: rays aimed inside the disc hit it at the ``t`` of its float64 ellipsoid (the ray taken into the unit
-    sphere's space by the float64 inverse). None hit at 1e-10 or 1e-12."""
+    """An analytic sphere squashed into a disc of ``thickness`` along a turned axis, as a shape of its own, in an
+    instance, and squashed by its own transform but turned by its instance's: rays aimed inside the disc hit it at
+    the ``t`` of its float64 ellipsoid (the ray taken into the unit sphere's space by the float64 inverse). None hit
+    at 1e-10 or 1e-12."""
     rng = np.random.default_rng(4)
     to_world = squashed(thickness)
     disc = Shape("/Disc", "sphere", to_world)
     placed = wrt.Scene(prototypes=[Prototype("/P", shapes=[Shape("/P/Disc", "sphere", np.eye(4))])],
                        instances=Instances.from_transforms([0], to_world[None]))
+    # A disc squashed along a turned axis of its own (which float32 inverts well enough), turned by its instance.
+    turned = wrt.Scene(prototypes=[Prototype("/P", shapes=[Shape("/P/Disc", "sphere", squashed(thickness, "squash"))])],
+                       instances=Instances.from_transforms([0], squashed(thickness, "turn")[None]))
     n = 400
     radial = rng.normal(size=(n, 3))
     radial[:, 2] = 0.0
@@ -114,7 +121,7 @@ def test_a_sphere_squashed_thin_along_a_turned_axis_is_hit_as_its_float64_surfac
     middle = -(o * d).sum(1) / dd
     nearest = o + middle[:, None] * d
     t = middle - np.sqrt((1.0 - (nearest * nearest).sum(1)) / dd)
-    for name, scene in [("shape", wrt.Scene(shapes=[disc])), ("instance", placed)]:
+    for name, scene in [("shape", wrt.Scene(shapes=[disc])), ("instance", placed), ("turned by an instance", turned)]:
         hits = wrt.trace(scene, origins, directions)
         label = f"{name}: {np.count_nonzero(~hits.hit)} of {n} rays missed"
         assert hits.hit.all(), label

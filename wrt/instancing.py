@@ -41,13 +41,13 @@ ZERO_SCALE_SKIPPED = "instances with a singular transform (a zero scale) were sk
 NO_FLOAT32_INVERSE_SKIPPED = ("instances whose transform cannot be inverted reliably in float32 (an extremely large, "
                               "small or uneven scale) were skipped")
 # How far the float32 inverse of an instance's (or shape's) linear part L, as the devices hold it, may miss inverting
-# it: max |inverse32 @ L - I|. Rays are taken into local space through that inverse, so it is the error of the local
-# coordinates of the instance's own points, relative to its size. Its entries are rounded at the scale of the largest
-# (1 / the thinnest scale), which along a turned thin axis mixes into the others: about 1e-8 over the thickness (up to
-# 0.05 at 1e-6, traced as float32 holds it), so a card scaled by 1e-10 between two turns was missed by 1,943 of 1,986
-# rays (1e-8: 415 of 1,993), while one of 1e-14, singular up to rounding, was thickened and drawn. Beyond it,
-# invert_transforms says no inverse, and thicken_flat_transforms thickens the flat ones as it thickens zero scales (at
-# FLAT_THICKNESS the error is at most 4e-4); an axis-aligned scale of 1e-12 inverts exactly enough (3e-8) and stays.
+# it (float32_inverse_errors): rays are taken into local space through that inverse, so its error is that of the
+# local coordinates of the instance's own points, relative to its size. Its entries are rounded at the scale of the
+# largest (1 / the thinnest scale), which between two turns mixes into every local direction: about 1e-8 over the
+# thickness (up to 0.05 at 1e-6, traced as float32 holds it), so a card scaled by 1e-10 between two turns was missed
+# by 1,943 of 1,986 rays (1e-8: 415 of 1,993), while one of 1e-14, singular up to rounding, was thickened and drawn.
+# Beyond it, invert_transforms says no inverse, and thicken_flat_transforms thickens the flat ones as it thickens zero
+# scales (at FLAT_THICKNESS the error is at most 4e-4); a thin scale before or after one turn stays as it is.
 FLOAT32_INVERSE_TOLERANCE = 2.0**-4
 # The thickness, relative to its largest scale, that thicken_flat_transforms gives an instance flattened by a zero
 # scale. Rays move into an instance's space through its float32 inverse, whose rounding grows as one over the
@@ -370,12 +370,29 @@ def invert_transforms(to_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         out[ok, :, 3] = -np.einsum("nij,nj->ni", inv, to_world[ok, :3, 3])
         with np.errstate(over="ignore", invalid="ignore"):
             good = np.isfinite(out[ok].astype(np.float32)).reshape(int(ok.sum()), -1).all(axis=1)
-            product = out[ok, :, :3].astype(np.float32).astype(np.float64) @ linear[ok]
-            good &= np.abs(product - np.eye(3)).max(axis=(1, 2)) <= FLOAT32_INVERSE_TOLERANCE
+            good &= float32_inverse_errors(out[ok, :, :3], linear[ok]) <= FLOAT32_INVERSE_TOLERANCE
         bad = np.flatnonzero(ok)[~good]
         ok[bad] = False
         out[bad] = 0.0
     return out, ok
+
+
+def float32_inverse_errors(inverse: np.ndarray, linear: np.ndarray) -> np.ndarray:
+    """``(N,)`` how far the float32 rounding of each ``(N, 3, 3)`` float64 ``inverse`` misses inverting its
+    ``linear`` part, in the local directions that matter (see :data:`FLOAT32_INVERSE_TOLERANCE`): the largest entry
+    of ``P (inverse32 @ linear - I) P``, ``P`` the projection off the local direction that ``linear`` shrinks most.
+    Along that direction the error is harmless: a ray that meets the squashed instance runs nearly along it in local
+    space, so there it only moves a hit along its ray (a scale of 1e-10 after a turn errs by 600 there, and rays hit
+    it as exactly as an unturned one); it is looked at (an SVD) only where the whole error is too large."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        error = inverse.astype(np.float32).astype(np.float64) @ linear - np.eye(3)
+        largest = np.abs(error).max(axis=(1, 2)) if len(error) else np.zeros(0)
+        rows = np.flatnonzero(~(largest <= FLOAT32_INVERSE_TOLERANCE) & np.isfinite(linear).all(axis=(1, 2)))
+        if len(rows):
+            thin = np.linalg.svd(linear[rows])[2][:, 2]  # the right singular vector of the smallest scale
+            off = np.eye(3) - thin[:, :, None] * thin[:, None, :]
+            largest[rows] = np.abs(off @ error[rows] @ off).max(axis=(1, 2))
+    return largest
 
 
 def singular_transforms(to_world: np.ndarray) -> np.ndarray:

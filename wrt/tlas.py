@@ -60,7 +60,7 @@ from .bvh.traverse import (
 from .bvh.turns import waits
 from .floats import FLOAT32_MAX, largest_magnitude, next_up, unit_scales
 from .geometry import box_origins, intersect_ray_box, ray_can_hit, safe_inverse
-from .instancing import device_transforms, invert_transforms, world_boxes
+from .instancing import device_transforms, invert_transforms, thicken_flat_transforms, world_boxes
 from .primitives import SHAPE_CAPSULE, SHAPE_TAPERED, intersect_shape, local_boxes, shape_uv
 from .scene import Scene
 from .trace import Accelerator, HitBuffer, accelerator_build_options, check_finite_transforms
@@ -561,6 +561,15 @@ class InstancedAccelerator(Accelerator):
         shape_to_world = np.concatenate(shape_to_world or [np.zeros((0, 4, 4))])
         shape_rows = np.concatenate(shape_rows or [np.zeros(0)]).astype(np.int32)
         shape_to_local, shape_ok = invert_transforms(shape_to_world)
+        if not shape_ok.all():
+            # A shape squashed along an axis of its own, turned by its instance, is squashed along a turned axis,
+            # which float32 cannot invert (instancing.FLOAT32_INVERSE_TOLERANCE): thickened, as such an instance or
+            # shape is by itself (it was missed by every ray).
+            refused = np.flatnonzero(~shape_ok)
+            thick, thickened = thicken_flat_transforms(shape_to_world[refused])
+            refused = refused[thickened]
+            shape_to_world[refused] = thick[thickened]
+            shape_to_local[refused], shape_ok[refused] = invert_transforms(shape_to_world[refused])
         warn_shapes_too_small(scene, shape_to_local, shape_ok, shape_rows - n_tri)
         # Every entry's box at once, from its shape's canonical box: a Python step per entry made the first trace of
         # 1M PointInstancer spheres take 44 s (7 s now), and the TLAS is rebuilt every animated frame.
