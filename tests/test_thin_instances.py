@@ -121,7 +121,13 @@ def test_a_sphere_squashed_thin_along_a_turned_axis_is_hit_as_its_float64_surfac
     middle = -(o * d).sum(1) / dd
     nearest = o + middle[:, None] * d
     t = middle - np.sqrt((1.0 - (nearest * nearest).sum(1)) / dd)
-    for name, scene in [("shape", wrt.Scene(shapes=[disc])), ("instance", placed), ("turned by an instance", turned)]:
+    # The same disc (a ball is the same after any turn) squashed along an axis and turned once: float32 inverts that
+    # well enough along every direction but the thin one, and it is traced as it is (a stricter check refused it).
+    flat = np.diag([1.0, 1.0, thickness, 1.0])
+    upright = wrt.Scene(prototypes=[Prototype("/P", shapes=[Shape("/P/Disc", "sphere", flat)])],
+                        instances=Instances.from_transforms([0], squashed(thickness, "turn")[None]))
+    for name, scene in [("shape", wrt.Scene(shapes=[disc])), ("instance", placed), ("turned by an instance", turned),
+                        ("turned once", upright)]:
         hits = wrt.trace(scene, origins, directions)
         label = f"{name}: {np.count_nonzero(~hits.hit)} of {n} rays missed"
         assert hits.hit.all(), label
