@@ -1,6 +1,6 @@
 """Instances and analytic shapes squashed thin along a turned axis (a card made by scaling a mesh by 1e-9 and turning
-it), against float64 ray casting of their world surface: Moller-Trumbore on the float64 world triangles, and the
-float64 ray-ellipsoid solution for a squashed sphere."""
+it), against float64 ray casting of their world surface: Moller-Trumbore on the float64 world triangles
+(``test_instancing.closest_hits_numpy``), and the float64 ray-ellipsoid solution for a squashed sphere."""
 
 from __future__ import annotations
 
@@ -46,23 +46,6 @@ def rays_at(aims: np.ndarray, normal: np.ndarray, rng) -> tuple[np.ndarray, np.n
     return origins.astype(np.float32), (aims - origins).astype(np.float32)
 
 
-def float64_closest(corners: np.ndarray, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(t, triangle)`` of the nearest hit at ``t >= 0`` of each ray on the ``(T, 3, 3)`` triangles (float64
-    Moller-Trumbore); ``(inf, -1)`` on a miss."""
-    o, d = origins.astype(np.float64), directions.astype(np.float64)
-    p0, e1, e2 = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    pv = np.cross(d[:, None], e2[None])
-    det = np.einsum("nmk,mk->nm", pv, e1)
-    tv = o[:, None] - p0[None]
-    qv = np.cross(tv, e1[None])
-    u = np.einsum("nmk,nmk->nm", tv, pv) / det
-    v = np.einsum("nk,nmk->nm", d, qv) / det
-    t = np.einsum("mk,nmk->nm", e2, qv) / det
-    t = np.where((u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0), t, np.inf)
-    best = t.min(axis=1)
-    return best, np.where(np.isfinite(best), t.argmin(axis=1), -1)
-
-
 @pytest.mark.parametrize("thickness", [1e-8, 1e-10, 1e-12])
 def test_an_instance_squashed_thin_along_a_turned_axis_is_hit_as_its_float64_surface(thickness):
     """An octahedron instance squashed to ``thickness`` along a turned axis: rays aimed well inside its faces hit
@@ -71,6 +54,8 @@ def test_an_instance_squashed_thin_along_a_turned_axis_is_hit_as_its_float64_sur
     transform (its entries reach 1 / thickness, and their rounding mixed the thin axis into the others): rays taken
     into its space missed it (1,943 of 1,986 at 1e-10; 415 of 1,993 at 1e-8), while a thinner one (1e-14, singular
     up to rounding) was drawn, thickened."""
+    from test_instancing import closest_hits_numpy  # float64 Moller-Trumbore
+
     rng = np.random.default_rng(3)
     to_world = squashed(thickness)
     proto = Prototype("/Card", [Mesh("/Card/mesh", OCTAHEDRON.astype(np.float32), FACES, np.arange(8))])
@@ -81,7 +66,8 @@ def test_an_instance_squashed_thin_along_a_turned_axis_is_hit_as_its_float64_sur
     weights = 0.2 + 0.4 * rng.dirichlet([1, 1, 1], n)  # at least 0.2 from every edge
     aims = np.einsum("nk,nkj->nj", weights, corners[faces])
     origins, directions = rays_at(aims, thin_axis(to_world), rng)
-    t, face = float64_closest(corners, origins, directions)
+    t, face = closest_hits_numpy(corners.reshape(-1, 3), np.arange(3 * len(corners)).reshape(-1, 3), origins,
+                                 directions, np.zeros(n), np.full(n, np.inf))
     assert (face >= 0).all()
     for accel, layout in [("wrt", "binary"), ("wrt", "wide8"), ("warp", "binary")]:
         hits = wrt.trace(scene, origins, directions, accel=accel, layout=layout)
