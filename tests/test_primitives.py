@@ -266,18 +266,24 @@ def test_zero_size_gprims_are_skipped_with_a_warning_naming_them(tmp_path):
     assert scene.shapes == []
 
 
-def test_a_gprim_size_of_the_wrong_type_skips_it_with_a_warning_naming_it(tmp_path):
+def test_a_gprim_size_of_the_wrong_type_is_the_schemas_fallback_with_a_warning_naming_it(tmp_path):
     """A string radius stopped the whole load with "cannot read this prim (could not convert string to float)",
-    naming no attribute; it is skipped as a NaN one is, the rest of the stage drawn."""
+    naming no attribute, and was then skipped; USD's typed read passes it over for the schema's fallback, so
+    ``BBoxCache`` (and usdview) has a sphere of radius 1 and a cube of size 2 there, and so does wrt."""
     path = tmp_path / "mistyped.usda"
     path.write_text('#usda 1.0\ndef Sphere "Ball"\n{\n    string radius = "big"\n}\n'
                     'def Cube "Box"\n{\n    token size = "small"\n}\ndef Sphere "Kept"\n{\n}\n')
     with pytest.warns(UserWarning) as caught:
         scene = wrt.load_usd(path)
-    found = [str(w.message) for w in caught if "non-finite size" in str(w.message)]
-    assert len(found) == 1 and "radius = 'big'" in found[0] and "size = 'small'" in found[0], found
+    found = [str(w.message) for w in caught if "another type than the schema's" in str(w.message)]
+    assert len(found) == 1 and "string radius = 'big'" in found[0] and "token size = 'small'" in found[0], found
     assert "/Ball" in found[0] and "/Box" in found[0]
-    assert [shape.path for shape in scene.shapes] == ["/Kept"]
+    stage = Usd.Stage.Open(str(path))
+    cache = UsdGeom.BBoxCache(Usd.TimeCode.Default(), [UsdGeom.Tokens.default_])
+    assert [shape.path for shape in scene.shapes] == ["/Ball", "/Box", "/Kept"]
+    for shape in scene.shapes:
+        box = cache.ComputeWorldBound(stage.GetPrimAtPath(shape.path)).ComputeAlignedRange()
+        np.testing.assert_allclose(np.diag(shape.to_world)[:3], np.array(box.GetMax()), err_msg=shape.path)
 
 
 NESTED_KITS = """#usda 1.0

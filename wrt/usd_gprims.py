@@ -30,7 +30,7 @@ from .usd_primvars import (
     quaternion_typed,
 )
 from .usd_problems import BEYOND_FLOAT32
-from .usd_values import value_at
+from .usd_values import schema_typed_value, value_at
 from .usd_xforms import affine_part
 
 
@@ -164,7 +164,11 @@ class GprimReading:
             self._skip("gprims with a zero, negative or non-finite size were skipped", prim, detail)
 
         def number(attr, name, zero_ok=False):
-            value = value_at(attr, t)
+            value, wrong = schema_typed_value(attr, t)
+            if wrong is not None:
+                self._skip("gprim sizes authored with another type than the schema's were read as USD reads them (a "
+                           "weaker opinion of the schema's type, else the schema's fallback), as usdview draws them",
+                           prim, f"{wrong} {name} = {value_at(attr, t)!r}")
             try:
                 value = float(value) if value is not None else float("nan")
             except (TypeError, ValueError):  # authored with a wrong type: a string radius stopped the whole load

@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 from pxr import Sdf, Usd
 
+from .usd_problems import property_stack
+
 HAS_SPLINES = hasattr(Usd.Attribute, "HasSpline")  # usd-core before 25.05 has no attribute splines
 
 
@@ -32,6 +34,40 @@ def value_or_fallback(attr: Usd.Attribute, time: Usd.TimeCode):
     if value is None:
         value = attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
     return value
+
+
+def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode):
+    """``(value, wrong)``: ``attr`` at ``time`` (by :func:`value_or_fallback`'s rule) as USD's typed readers read
+    it, and the type it is authored with where that is not the schema's (else None).
+
+    USD's ``Get<T>`` with the schema's ``T``, which ``UsdGeom.Camera.GetCamera``, ``ComputeExtent``,
+    ``BBoxCache`` and UsdImaging use, does not convert: an opinion of another value type (``float radius`` where the
+    schema says ``double``, ``int size``, ``double focalLength``, ``point3d[] points``) is passed over, for the next
+    weaker default of the schema's type at the default time, else the schema's fallback (none for ``points``); its
+    time samples give the fallback. Python's ``Get`` hands any type back, so wrt drew a ``float radius = 3`` sphere
+    of radius 3 that usdview draws of radius 1. Roles are no types here: ``float3[] points`` is ``point3f[]``.
+    """
+    at = read_time(attr, time)
+    value = attr.Get(at)
+    want = attr.GetTypeName().type  # a schema attribute's type name is the schema's whatever the layers author
+    wrong = None
+    fallback = attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
+    for spec in property_stack(attr, at):
+        samples = not at.IsDefault() and spec.layer.GetNumTimeSamplesForPath(spec.path) > 0
+        if not (samples or spec.HasDefaultValue()):
+            continue  # an opinion of no value (metadata, a connection)
+        if Sdf.ValueTypeNames.Find(str(spec.typeName)).type == want:
+            if wrong is None:
+                break  # the value read is of the schema's type
+            default = spec.default
+            return (fallback if default is None or isinstance(default, Sdf.ValueBlock) else default), wrong
+        if wrong is None:
+            wrong = str(spec.typeName)
+        if samples:  # time samples of another type: USD's typed read fails, its readers use the fallback
+            return fallback, wrong
+    if wrong is not None:
+        return fallback, wrong
+    return (fallback if value is None else value), None
 
 
 def read_time(attr: Usd.Attribute, time: Usd.TimeCode) -> Usd.TimeCode:
