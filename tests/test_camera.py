@@ -1045,33 +1045,39 @@ def Cube "Box"
     assert resolve_view(scene)[0] is scene.cameras["/Good"]
 
 
-MISTYPED_CAMERAS = {  # camera -> an attribute authored with another type than the schema's, and the reason
-    "/Range": ("float clippingRange = 3", "camera clippingRange must be 2 numbers, got 3.0"),
-    "/Range3": ("float3 clippingRange = (1, 2, 3)", "camera clippingRange must be 2 numbers, got Gf.Vec3f"),
-    "/Planes": ("float[] clippingPlanes = [1, 2]", "camera clippingPlanes must be 4 numbers, got 1.0"),
-    "/Focal": ("float2 focalLength = (1, 2)", "camera focalLength must be 1 number, got Gf.Vec2f"),
+MISTYPED_CAMERAS = {  # camera -> an attribute authored with another type than the schema's
+    "/Range": "float clippingRange = 3",
+    "/Range3": "float3 clippingRange = (1, 2, 3)",
+    "/Planes": "float[] clippingPlanes = [1, 2]",
+    "/Focal": "float2 focalLength = (1, 2)",
 }
 
 
 def test_a_camera_attribute_of_another_type_is_named_and_a_type_error_is_not_a_skipped_camera(tmp_path, monkeypatch):
-    """A camera attribute authored with another type (a float clippingRange, a float[] clippingPlanes) is skipped
-    with a reason naming the attribute ("cannot unpack non-iterable float object", "too many values to unpack"
-    named none); the TypeError those raised was caught broadly, so a TypeError from wrt itself (here a Camera that
-    raises one) became "camera skipped" too: it now propagates."""
-    body = "".join(f'def Camera "{p[1:]}"\n{{\n    {authored}\n}}\n' for p, (authored, _) in MISTYPED_CAMERAS.items())
+    """A camera attribute authored with another type (a float clippingRange, a float[] clippingPlanes) raised
+    "cannot unpack non-iterable float object" and then skipped the camera; ``GetCamera`` reads the schema's
+    fallback there, and so does wrt, naming the attribute in a warning. The TypeError those raised was caught
+    broadly, so a TypeError from wrt itself (here a Camera that raises one) became "camera skipped" too: it now
+    propagates."""
+    body = "".join(f'def Camera "{p[1:]}"\n{{\n    {authored}\n}}\n' for p, authored in MISTYPED_CAMERAS.items())
     path = tmp_path / "mistyped.usda"
     path.write_text("#usda 1.0\n" + body + 'def Camera "Good"\n{\n}\n')
-    with pytest.warns(UserWarning, match="cameras wrt cannot use were skipped"):
+    with pytest.warns(UserWarning, match="camera values authored with another type than the schema's") as caught:
         scene = wrt.load_usd(path)
-    assert list(scene.cameras) == ["/Good"]
-    for camera, (_, reason) in MISTYPED_CAMERAS.items():
-        assert scene.skipped_cameras[camera].startswith(reason), scene.skipped_cameras[camera]
+    assert list(scene.cameras) == [*MISTYPED_CAMERAS, "/Good"]
+    message = next(str(w.message) for w in caught if "another type" in str(w.message))
+    assert all(authored in message for authored in MISTYPED_CAMERAS.values()), message
+    stage = Usd.Stage.Open(str(path))
+    for name, loaded in scene.cameras.items():
+        gf = UsdGeom.Camera(stage.GetPrimAtPath(name)).GetCamera(Usd.TimeCode.Default())
+        assert loaded.focal_length == gf.focalLength and len(loaded.clipping_planes) == len(gf.clippingPlanes)
+        np.testing.assert_allclose(loaded.clipping_range, (gf.clippingRange.min, gf.clippingRange.max), rtol=1e-6)
 
     def broken(**kwargs):
         raise TypeError("a bug in wrt")
 
     monkeypatch.setattr(wrt.usd_cameras, "Camera", broken)
-    with pytest.raises(wrt.SceneError, match=r"/Good: cannot read this prim \(a bug in wrt\)"):  # as any prim's bug
+    with pytest.raises(wrt.SceneError, match=r"/Range: cannot read this prim \(a bug in wrt\)"):  # as any prim's bug
         wrt.load_usd(path)
 
 

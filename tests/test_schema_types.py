@@ -85,3 +85,68 @@ def test_gprim_sizes_of_another_type_than_the_schemas_are_read_as_bbox_cache_rea
     for name in ("5 prim(s)", "/FloatRadius", "float radius = 3", "int size = 5", "half height = 4",
                  "float radius = 7", "float radius = 0.25"):
         assert name in wrong[0]
+
+
+CAMERAS = """#usda 1.0
+(
+    subLayers = [@./weak.usda@]
+)
+def Camera "Mistyped" {
+    double focalLength = 35
+    int horizontalAperture = 36
+    double verticalAperture = 24
+    double horizontalApertureOffset = 2
+    double2 clippingRange = (0.5, 50)
+    double fStop = 2.8
+    float focusDistance = 10
+}
+def Camera "Samples" {
+    double focalLength.timeSamples = {1: 24}
+    float horizontalAperture.timeSamples = {1: 30}
+}
+def Camera "Weaker" {
+    double focalLength = 35
+}
+def Camera "Shapes" {
+    float clippingRange = 3
+    float[] clippingPlanes = [1, 2]
+    float2 focalLength = (1, 2)
+}
+"""
+
+CAMERAS_WEAKER = """#usda 1.0
+over "Weaker" {
+    float focalLength = 20
+}
+"""
+
+
+@pytest.mark.parametrize("time", [None, 1.0])
+def test_camera_values_of_another_type_than_the_schemas_are_read_as_get_camera_reads_them(tmp_path, time):
+    """``double focalLength = 35`` is a 50 mm lens to ``GetCamera`` (and to usdview), a ``double`` over a weaker
+    layer's ``float`` the weaker value at the default time (at a time code, the fallback); wrt read 35. A ``float
+    clippingRange = 3`` (or a ``float[] clippingPlanes``) skipped the camera, which ``GetCamera`` reads with the
+    fallback there."""
+    (tmp_path / "weak.usda").write_text(CAMERAS_WEAKER)
+    path = tmp_path / "cameras.usda"
+    path.write_text(CAMERAS)
+    stage = Usd.Stage.Open(str(path))
+    scene, messages = _load(path, time=time)
+    assert sorted(scene.cameras) == ["/Mistyped", "/Samples", "/Shapes", "/Weaker"]
+    for name, loaded in scene.cameras.items():
+        # time=None reads defaults at the default time, and values that have only samples at the first one
+        usd_time = Usd.TimeCode(time) if time is not None else (
+            Usd.TimeCode.EarliestTime() if name == "/Samples" else Usd.TimeCode.Default())
+        gf = UsdGeom.Camera(stage.GetPrimAtPath(name)).GetCamera(usd_time)
+        np.testing.assert_allclose(
+            [loaded.focal_length, loaded.horizontal_aperture, loaded.vertical_aperture,
+             loaded.horizontal_aperture_offset, loaded.vertical_aperture_offset, loaded.f_stop, loaded.focus_distance,
+             *loaded.clipping_range, len(loaded.clipping_planes)],
+            [gf.focalLength, gf.horizontalAperture, gf.verticalAperture, gf.horizontalApertureOffset,
+             gf.verticalApertureOffset, gf.fStop, gf.focusDistance, gf.clippingRange.min, gf.clippingRange.max,
+             len(gf.clippingPlanes)], rtol=1e-6, err_msg=name)
+    wrong = [m for m in messages if "another type than the schema's" in m]
+    assert len(wrong) == 1, messages
+    for words in ("4 prim(s)", "double focalLength = 35", "int horizontalAperture = 36", "double2 clippingRange",
+                  "float clippingRange = 3", "float[] clippingPlanes"):
+        assert words in wrong[0], wrong[0]

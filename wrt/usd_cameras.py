@@ -18,7 +18,7 @@ from .camera import Camera
 from .errors import SceneError
 from .usd_contents import PROTOTYPE_PREDICATE, Context
 from .usd_stage import tf_message
-from .usd_values import value_at, value_or_fallback
+from .usd_values import schema_typed_value, value_or_fallback
 from .usd_xforms import affine_part
 
 UNUSABLE_CAMERA = "cameras wrt cannot use were skipped (rendering one by its path raises this reason)"
@@ -70,10 +70,15 @@ class CameraReading:
         camera = UsdGeom.Camera(prim)
         time = self.time
 
+        mistyped = []
+
         def value(attr):
             # A blocked value (= None) is the schema's fallback, as GetCamera reads it: a blocked projection was the
-            # token 'None' (perspective with a warning), other blocked values skipped the camera.
-            found = value_or_fallback(attr, time)
+            # token 'None' (perspective with a warning), other blocked values skipped the camera. So is a value of
+            # another type than the schema's (double focalLength = 35: a 50 mm lens to GetCamera, 35 to wrt).
+            found, wrong = schema_typed_value(attr, time)
+            if wrong is not None:
+                mistyped.append(wrong)
             if found is None:  # (every attribute read here has a fallback)
                 raise ValueError(f"camera {attr.GetName()} has no value (blocked)")
             return found
@@ -94,7 +99,7 @@ class CameraReading:
 
         near, far = numbers(camera.GetClippingRangeAttr(), value(camera.GetClippingRangeAttr()), 2)
         planes_attr = camera.GetClippingPlanesAttr()
-        planes = [numbers(planes_attr, plane, 4) for plane in _elements(planes_attr, value_at(planes_attr, time))]
+        planes = [numbers(planes_attr, plane, 4) for plane in _elements(planes_attr, value(planes_attr))]
         projection = str(value(camera.GetProjectionAttr()))
         if projection != UsdGeom.Tokens.orthographic:
             if projection != UsdGeom.Tokens.perspective:  # as UsdGeom.Camera.GetCamera reads it
@@ -122,6 +127,9 @@ class CameraReading:
             exposure_scale=_exposure_scale(camera, number),
         )
         loaded.path = str(prim.GetPath())  # for messages at render time, e.g. a singular transform
+        if mistyped:
+            self._skip("camera values authored with another type than the schema's were read as GetCamera reads them "
+                       "(a weaker opinion of the schema's type, else the schema's fallback)", prim, ", ".join(mistyped))
         self._warn_of_shutter(camera, prim)
         return loaded
 

@@ -168,7 +168,7 @@ class GprimReading:
             if wrong is not None:
                 self._skip("gprim sizes authored with another type than the schema's were read as USD reads them (a "
                            "weaker opinion of the schema's type, else the schema's fallback), as usdview draws them",
-                           prim, f"{wrong} {name} = {value_at(attr, t)!r}")
+                           prim, wrong)
             try:
                 value = float(value) if value is not None else float("nan")
             except (TypeError, ValueError):  # authored with a wrong type: a string radius stopped the whole load

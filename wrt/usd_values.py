@@ -38,14 +38,16 @@ def value_or_fallback(attr: Usd.Attribute, time: Usd.TimeCode):
 
 def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode):
     """``(value, wrong)``: ``attr`` at ``time`` (by :func:`value_or_fallback`'s rule) as USD's typed readers read
-    it, and the type it is authored with where that is not the schema's (else None).
+    it, and where the value authored is of another type than the schema's, words for it (``"float radius = 3"``;
+    else None).
 
     USD's ``Get<T>`` with the schema's ``T``, which ``UsdGeom.Camera.GetCamera``, ``ComputeExtent``,
     ``BBoxCache`` and UsdImaging use, does not convert: an opinion of another value type (``float radius`` where the
-    schema says ``double``, ``int size``, ``double focalLength``, ``point3d[] points``) is passed over, for the next
-    weaker default of the schema's type at the default time, else the schema's fallback (none for ``points``); its
-    time samples give the fallback. Python's ``Get`` hands any type back, so wrt drew a ``float radius = 3`` sphere
-    of radius 3 that usdview draws of radius 1. Roles are no types here: ``float3[] points`` is ``point3f[]``.
+    schema says ``double``, ``int size``, ``double focalLength``, ``point3d[] points``) is passed over at the default
+    time, for the next weaker default of the schema's type, else the schema's fallback (none for ``points``); at a
+    time (its samples, or a default read at a time) USD's read fails on it and its readers use the fallback.
+    Python's ``Get`` hands any type back, so wrt drew a ``float radius = 3`` sphere of radius 3 that usdview draws
+    of radius 1. Roles are no types here: ``float3[] points`` is ``point3f[]``.
     """
     at = read_time(attr, time)
     value = attr.Get(at)
@@ -62,8 +64,9 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode):
             default = spec.default
             return (fallback if default is None or isinstance(default, Sdf.ValueBlock) else default), wrong
         if wrong is None:
-            wrong = str(spec.typeName)
-        if samples:  # time samples of another type: USD's typed read fails, its readers use the fallback
+            shown = repr(value) if isinstance(value, str) else str(value)  # Gf, Vt: (1, 2, 3), [1, 2]
+            wrong = f"{spec.typeName} {attr.GetName()} = {shown}"
+        if not at.IsDefault():  # at a time USD's typed read fails on it: its readers use the fallback
             return fallback, wrong
     if wrong is not None:
         return fallback, wrong
