@@ -150,3 +150,63 @@ def test_camera_values_of_another_type_than_the_schemas_are_read_as_get_camera_r
     for words in ("4 prim(s)", "double focalLength = 35", "int horizontalAperture = 36", "double2 clippingRange",
                   "float clippingRange = 3", "float[] clippingPlanes"):
         assert words in wrong[0], wrong[0]
+
+
+POINTS = """#usda 1.0
+def Mesh "Double" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3d[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+}
+def Mesh "Half" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    half3[] points = [(0, 0, 1), (1, 0, 1), (0, 1, 1)]
+}
+def Mesh "Float3" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    float3[] points = [(0, 0, 2), (1, 0, 2), (0, 1, 2)]
+}
+def Mesh "Sampled" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    double3[] points.timeSamples = {1: [(0, 0, 3), (1, 0, 3), (0, 1, 3)]}
+}
+def Points "Dots" {
+    point3d[] points = [(0, 0, 4)]
+    float[] widths = [0.5]
+}
+def Points "Kept" {
+    point3f[] points = [(0, 0, 5)]
+    float[] widths = [0.5]
+}
+def BasisCurves "Hair" {
+    uniform token type = "linear"
+    int[] curveVertexCounts = [2]
+    point3d[] points = [(0, 0, 6), (1, 0, 6)]
+    float[] widths = [0.1]
+}
+"""
+
+
+@pytest.mark.parametrize("time", [None, 1.0])
+def test_points_of_another_type_than_point3f_are_none_as_compute_points_at_time_reads_them(tmp_path, time):
+    """USD reads no points from ``point3d[] points`` (``ComputePointsAtTime`` warns "no positions", ``BBoxCache``
+    has an empty box, usdview draws nothing); wrt drew them. Such a prim is skipped with a warning naming the type,
+    and a ``float3[]`` (the same type as ``point3f[]``) is drawn."""
+    path = tmp_path / "points.usda"
+    path.write_text(POINTS)
+    stage = Usd.Stage.Open(str(path))
+    scene, messages = _load(path, time=time)
+    usd_time = Usd.TimeCode.Default() if time is None else Usd.TimeCode(time)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        read = sorted(str(p.GetPath()) for p in stage.Traverse()
+                      if len(UsdGeom.PointBased(p).ComputePointsAtTime(usd_time, usd_time)) > 0)
+    assert read == ["/Float3", "/Kept"]
+    assert sorted(scene.prim_paths()) == read
+    wrong = [m for m in messages if "another type than the schema's" in m]
+    assert len(wrong) == 1, messages
+    for words in ("5 prim(s)", "point3d[] points", "half3[] points", "double3[] points"):
+        assert words in wrong[0], wrong[0]

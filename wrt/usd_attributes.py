@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from .usd_values import moved_positions, value_at
+from .usd_values import moved_positions, schema_typed_value, value_at
 
 
 class AttributeReading:
@@ -44,9 +44,20 @@ class AttributeReading:
             raise self._error(f"{attr.GetName()} must be int[], not {self._authored_type(attr)}", prim, attr)
         return array.astype(np.int64)
 
+    def _typed_points(self, prim: Usd.Prim, attr: Usd.Attribute) -> bool:
+        """Whether ``points`` ``attr`` of ``prim`` is authored as the schema's ``point3f[]`` (or ``float3[]``, the
+        same type); else a warning naming the type: USD reads no points from a ``point3d[]`` or ``half3[]`` one
+        (``ComputePointsAtTime``: "no positions"; ``BBoxCache``: an empty box; usdview draws nothing), which wrt
+        drew."""
+        _, wrong = schema_typed_value(attr, self.time)
+        if wrong is not None:
+            self._skip("prims whose points are authored with another type than the schema's point3f[] were "
+                       "skipped, as USD reads no points from them", prim, wrong)
+        return wrong is None
+
     def _point_array(self, prim: Usd.Prim) -> np.ndarray | None:
         """``(n, 3)`` float64 ``points`` of a point-based prim (moved by its velocities where they apply), ``(0, 3)``
-        when it has none, or None (with a warning) when they are not an array of 3-vectors."""
+        when it has none, or None (with a warning) when they are not an array of 3-vectors or not ``point3f[]``."""
         schema = UsdGeom.PointBased(prim)
         raw = self._moved(schema, schema.GetPointsAttr())
         if raw is None:
@@ -57,6 +68,8 @@ class AttributeReading:
         if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind != "f":
             self._skip(f"{prim.GetTypeName()} prims whose points are not an array of 3-vectors were skipped", prim,
                        f"{self._authored_type(schema.GetPointsAttr())} holding {type(raw).__name__}")
+            return None
+        if not self._typed_points(prim, schema.GetPointsAttr()):
             return None
         return points.astype(np.float64)
 

@@ -223,6 +223,8 @@ class MeshReading:
                 f"{self._authored_type(mesh.GetPointsAttr())} holding {type(raw_points).__name__}",
             )
             return None
+        if not self._typed_points(prim, mesh.GetPointsAttr()):
+            return None
         points = points.astype(np.float64)
 
         # Check the topology before using it.

@@ -52,6 +52,8 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode):
     at = read_time(attr, time)
     value = attr.Get(at)
     want = attr.GetTypeName().type  # a schema attribute's type name is the schema's whatever the layers author
+    if want.pythonClass is not None and type(value) is want.pythonClass:
+        return value, None  # a Gf or Vt value is of one C++ type: no walk over the specs (a mesh's points)
     wrong = None
     fallback = attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
     for spec in property_stack(attr, at):
@@ -65,6 +67,7 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode):
             return (fallback if default is None or isinstance(default, Sdf.ValueBlock) else default), wrong
         if wrong is None:
             shown = repr(value) if isinstance(value, str) else str(value)  # Gf, Vt: (1, 2, 3), [1, 2]
+            shown = shown if len(shown) <= 40 else shown[:36] + " ..."  # a mesh's points
             wrong = f"{spec.typeName} {attr.GetName()} = {shown}"
         if not at.IsDefault():  # at a time USD's typed read fails on it: its readers use the fallback
             return fallback, wrong
