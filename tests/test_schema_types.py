@@ -210,3 +210,62 @@ def test_points_of_another_type_than_point3f_are_none_as_compute_points_at_time_
     assert len(wrong) == 1, messages
     for words in ("5 prim(s)", "point3d[] points", "half3[] points", "double3[] points"):
         assert words in wrong[0], wrong[0]
+
+
+TOKENS = """#usda 1.0
+def Cylinder "StringAxis" {
+    string axis = "X"
+    double height = 4
+}
+def Mesh "StringOrientation" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    string orientation = "leftHanded"
+    uniform token subdivisionScheme = "none"
+    int doubleSided = 1
+}
+def Sphere "IntDoubleSided" {
+    int doubleSided = 1
+    string orientation = "leftHanded"
+}
+def Mesh "StringScheme" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 5), (1, 0, 5), (0, 1, 5)]
+    uniform string subdivisionScheme = "none"
+}
+"""
+
+
+def test_tokens_and_switches_of_another_type_are_the_schemas_fallbacks(tmp_path):
+    """``string axis = "X"`` is the fallback axis Z to ``ComputeExtent`` (``Get<TfToken>`` passes the string over),
+    and so a ``string orientation = "leftHanded"`` is rightHanded, an ``int doubleSided = 1`` single-sided and a
+    ``string subdivisionScheme = "none"`` catmullClark (smooth) to USD's typed readers and Hydra: wrt read the text
+    and the integer, drawing the cylinder along X, flipping the triangle and showing its back."""
+    path = tmp_path / "tokens.usda"
+    path.write_text(TOKENS)
+    stage = Usd.Stage.Open(str(path))
+    scene, messages = _load(path, tessellate_gprims=64)
+    meshes = {mesh.path: mesh for mesh in scene.meshes}
+    extent = UsdGeom.Boundable.ComputeExtentFromPlugins(UsdGeom.Boundable(stage.GetPrimAtPath("/StringAxis")),
+                                                        Usd.TimeCode.Default())
+    np.testing.assert_allclose(meshes["/StringAxis"].points.min(0), np.array(extent[0]), atol=1e-3)
+    np.testing.assert_allclose(meshes["/StringAxis"].points.max(0), np.array(extent[1]), atol=1e-3)
+    fallback = stage.GetPrimAtPath("/StringOrientation").GetPrimDefinition().GetAttributeFallbackValue
+    assert (fallback("orientation"), fallback("doubleSided")) == ("rightHanded", False)
+    triangle = meshes["/StringOrientation"]
+    p0, p1, p2 = triangle.points[triangle.indices[0]].astype(np.float64)
+    assert np.cross(p1 - p0, p2 - p0)[2] > 0  # rightHanded: counter-clockwise seen from +Z is the front
+    assert triangle.double_sided is False and meshes["/IntDoubleSided"].double_sided is False
+    sphere = meshes["/IntDoubleSided"]
+    corners = sphere.points[sphere.indices].astype(np.float64)
+    fronts = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert (np.einsum("ij,ij->i", fronts, corners.mean(1)) > 0).all()  # outwards, as rightHanded
+    assert triangle.normals is None  # subdivisionScheme "none": face normals
+    assert meshes["/StringScheme"].normals is not None  # catmullClark: smooth normals of the cage
+    wrong = [m for m in messages if "another type than the schema's" in m]
+    assert len(wrong) == 1, messages
+    for words in ("4 prim(s)", "string axis = 'X'", "string orientation = 'leftHanded'", "int doubleSided = 1",
+                  "string subdivisionScheme = 'none'"):
+        assert words in wrong[0], wrong[0]

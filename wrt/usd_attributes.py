@@ -44,12 +44,23 @@ class AttributeReading:
             raise self._error(f"{attr.GetName()} must be int[], not {self._authored_type(attr)}", prim, attr)
         return array.astype(np.int64)
 
-    def _typed_points(self, prim: Usd.Prim, attr: Usd.Attribute) -> bool:
-        """Whether ``points`` ``attr`` of ``prim`` is authored as the schema's ``point3f[]`` (or ``float3[]``, the
-        same type); else a warning naming the type: USD reads no points from a ``point3d[]`` or ``half3[]`` one
-        (``ComputePointsAtTime``: "no positions"; ``BBoxCache``: an empty box; usdview draws nothing), which wrt
-        drew."""
-        _, wrong = schema_typed_value(attr, self.time)
+    def _typed(self, prim: Usd.Prim, attr: Usd.Attribute, time: Usd.TimeCode | None = None):
+        """``attr`` of ``prim`` as USD's typed readers read it (:func:`wrt.usd_values.schema_typed_value`), with a
+        warning naming a value authored with another type than the schema's: a ``string orientation =
+        "leftHanded"`` is rightHanded to USD and Hydra, an ``int doubleSided = 1`` single-sided, a ``float radius =
+        3`` sphere of radius 1; wrt read the text and the number."""
+        value, wrong = schema_typed_value(attr, self.time if time is None else time)
+        if wrong is not None:
+            self._skip("values authored with another type than the schema's were read as USD's typed readers read "
+                       "them (a weaker opinion of the schema's type, else the schema's fallback)", prim, wrong)
+        return value
+
+    def _typed_points(self, prim: Usd.Prim, attr: Usd.Attribute, read) -> bool:
+        """Whether ``points`` ``attr`` of ``prim`` (``read``: the value read from it, not None) is authored as the
+        schema's ``point3f[]`` (or ``float3[]``, the same type); else a warning naming the type: USD reads no points
+        from a ``point3d[]`` or ``half3[]`` one (``ComputePointsAtTime``: "no positions"; ``BBoxCache``: an empty
+        box; usdview draws nothing), which wrt drew."""
+        _, wrong = schema_typed_value(attr, self.time, read)
         if wrong is not None:
             self._skip("prims whose points are authored with another type than the schema's point3f[] were "
                        "skipped, as USD reads no points from them", prim, wrong)
@@ -69,14 +80,14 @@ class AttributeReading:
             self._skip(f"{prim.GetTypeName()} prims whose points are not an array of 3-vectors were skipped", prim,
                        f"{self._authored_type(schema.GetPointsAttr())} holding {type(raw).__name__}")
             return None
-        if not self._typed_points(prim, schema.GetPointsAttr()):
+        if not self._typed_points(prim, schema.GetPointsAttr(), raw):
             return None
         return points.astype(np.float64)
 
     def _left_handed(self, prim: Usd.Prim, gprim: UsdGeom.Gprim, t: Usd.TimeCode) -> bool:
         """Whether ``orientation`` is leftHanded. Any other token is read as USD's fallback, rightHanded, and named
         in a warning: USD does not check allowed tokens, so a misspelt leftHanded would flip every face unseen."""
-        value = value_at(gprim.GetOrientationAttr(), t)
+        value = self._typed(prim, gprim.GetOrientationAttr(), t)
         if value not in (UsdGeom.Tokens.rightHanded, UsdGeom.Tokens.leftHanded):
             self._skip("orientation is neither rightHanded nor leftHanded; read as rightHanded", prim, repr(value))
         return value == UsdGeom.Tokens.leftHanded

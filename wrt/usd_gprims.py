@@ -30,7 +30,6 @@ from .usd_primvars import (
     quaternion_typed,
 )
 from .usd_problems import BEYOND_FLOAT32
-from .usd_values import schema_typed_value, value_at
 from .usd_xforms import affine_part
 
 
@@ -61,7 +60,7 @@ class GprimReading:
             params=params,
             color=color,
             material_id=material_id,
-            double_sided=bool(value_at(gprim.GetDoubleSidedAttr(), t)),
+            double_sided=bool(self._typed(prim, gprim.GetDoubleSidedAttr(), t)),
             opacity=self._one_opacity(prim, False, ctx.keep_opaque, ctx.blocked_opaque) if material_id < 0 else None,
             st=self._gprim_st(prim, material_id, ctx),
         )
@@ -164,11 +163,7 @@ class GprimReading:
             self._skip("gprims with a zero, negative or non-finite size were skipped", prim, detail)
 
         def number(attr, name, zero_ok=False):
-            value, wrong = schema_typed_value(attr, t)
-            if wrong is not None:
-                self._skip("gprim sizes authored with another type than the schema's were read as USD reads them (a "
-                           "weaker opinion of the schema's type, else the schema's fallback), as usdview draws them",
-                           prim, wrong)
+            value = self._typed(prim, attr, t)
             try:
                 value = float(value) if value is not None else float("nan")
             except (TypeError, ValueError):  # authored with a wrong type: a string radius stopped the whole load
@@ -181,7 +176,7 @@ class GprimReading:
 
         def axis_of(schema):
             # Any other token ("x", say) used to be read as Z without a word; USD computes no extent for it.
-            axis = str(value_at(schema.GetAxisAttr(), t) or "Z")
+            axis = str(self._typed(prim, schema.GetAxisAttr(), t) or "Z")
             if axis not in ("X", "Y", "Z"):
                 self._skip("gprims with an axis other than X, Y or Z were skipped", prim, f"axis = {axis!r}")
                 return None
@@ -290,7 +285,7 @@ class GprimReading:
                                            outer_widths=ctx.outer_widths)
         axis = width_axis(m.T[:3, :3])
         color = constant if constant is not None else color
-        double_sided = bool(value_at(UsdGeom.Gprim(prim).GetDoubleSidedAttr(), self.time))
+        double_sided = bool(self._typed(prim, UsdGeom.Gprim(prim).GetDoubleSidedAttr()))
         path = str(prim.GetPath())
         for group in groups:
             shape = Shape(path, group.kind, np.eye(4), group.params, color if group.colors is None else None,

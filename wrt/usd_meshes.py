@@ -188,7 +188,7 @@ class MeshReading:
         if surface is None:
             return None
         cage = (np.full(len(surface.triangles), 3), surface.triangles.reshape(-1)) if surface.smooth else None
-        double_sided = bool(value_at(gprim.GetDoubleSidedAttr(), self.time))
+        double_sided = bool(self._typed(prim, gprim.GetDoubleSidedAttr()))
         colors = {} if surface.colors is None else {color_names[0]: surface.colors}
         default = face_materials is None or face_materials[0] < 0
         opacity = self._one_opacity(prim, True, ctx.keep_opaque, ctx.blocked_opaque) if default else None
@@ -223,7 +223,7 @@ class MeshReading:
                 f"{self._authored_type(mesh.GetPointsAttr())} holding {type(raw_points).__name__}",
             )
             return None
-        if not self._typed_points(prim, mesh.GetPointsAttr()):
+        if not self._typed_points(prim, mesh.GetPointsAttr(), raw_points):
             return None
         points = points.astype(np.float64)
 
@@ -282,7 +282,7 @@ class MeshReading:
         opacities = self._read_opacities(prim, topology, keep_opaque, blocked_opaque) if default_faces else None
         smooth = normals is None and scheme in SMOOTH_SCHEMES
         cage = polygons if smooth else None  # its normals are made in _read_mesh, after any posing and refining
-        double_sided = bool(value_at(mesh.GetDoubleSidedAttr(), t))
+        double_sided = bool(self._typed(prim, mesh.GetDoubleSidedAttr(), t))
         return LocalMesh(points, vertex_ids, face_ids, flip, normals, colors, double_sided, uvs, cage, refinement,
                           opacities)
 
@@ -290,7 +290,7 @@ class MeshReading:
         """The mesh's ``subdivisionScheme``; a token other than the four USD allows is warned about and read as
         ``catmullClark``, USD's fallback (USD does not check allowed tokens; Storm smooths such a mesh and
         OpenSubdiv refines it as Catmull-Clark). It was drawn flat, silently: a typo turned smooth shading off."""
-        scheme = value_at(mesh.GetSubdivisionSchemeAttr(), self.time)
+        scheme = self._typed(prim, mesh.GetSubdivisionSchemeAttr())
         if scheme is None:  # blocked: the fallback
             return "catmullClark"
         if scheme not in SUBDIVISION_SCHEMES:

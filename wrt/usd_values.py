@@ -36,7 +36,7 @@ def value_or_fallback(attr: Usd.Attribute, time: Usd.TimeCode):
     return value
 
 
-def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode):
+def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
     """``(value, wrong)``: ``attr`` at ``time`` (by :func:`value_or_fallback`'s rule) as USD's typed readers read
     it, and where the value authored is of another type than the schema's, words for it (``"float radius = 3"``;
     else None).
@@ -47,33 +47,40 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode):
     time, for the next weaker default of the schema's type, else the schema's fallback (none for ``points``); at a
     time (its samples, or a default read at a time) USD's read fails on it and its readers use the fallback.
     Python's ``Get`` hands any type back, so wrt drew a ``float radius = 3`` sphere of radius 3 that usdview draws
-    of radius 1. Roles are no types here: ``float3[] points`` is ``point3f[]``.
+    of radius 1. Roles are no types here: ``float3[] points`` is ``point3f[]``. ``read``: the value the caller
+    read already (a mesh's points, not read twice), or None.
     """
     at = read_time(attr, time)
-    value = attr.Get(at)
+    value = attr.Get(at) if read is None else read
     want = attr.GetTypeName().type  # a schema attribute's type name is the schema's whatever the layers author
-    if want.pythonClass is not None and type(value) is want.pythonClass:
-        return value, None  # a Gf or Vt value is of one C++ type: no walk over the specs (a mesh's points)
+    if type(value) is (want.pythonClass or _PYTHON_TYPES.get(want.typeName)):
+        return value, None  # a Gf, Vt or bool value is of one C++ type: no walk over the specs (a mesh's points)
+
+    def fallback():
+        return attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
+
+    if value is None:  # blocked, or nothing authored
+        return fallback(), None
     wrong = None
-    fallback = attr.GetPrim().GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
     for spec in property_stack(attr, at):
         samples = not at.IsDefault() and spec.layer.GetNumTimeSamplesForPath(spec.path) > 0
         if not (samples or spec.HasDefaultValue()):
             continue  # an opinion of no value (metadata, a connection)
-        if Sdf.ValueTypeNames.Find(str(spec.typeName)).type == want:
+        if spec.typeName.type == want:
             if wrong is None:
-                break  # the value read is of the schema's type
+                return value, None  # the value read is of the schema's type
             default = spec.default
-            return (fallback if default is None or isinstance(default, Sdf.ValueBlock) else default), wrong
+            return (fallback() if default is None or isinstance(default, Sdf.ValueBlock) else default), wrong
         if wrong is None:
             shown = repr(value) if isinstance(value, str) else str(value)  # Gf, Vt: (1, 2, 3), [1, 2]
             shown = shown if len(shown) <= 40 else shown[:36] + " ..."  # a mesh's points
             wrong = f"{spec.typeName} {attr.GetName()} = {shown}"
         if not at.IsDefault():  # at a time USD's typed read fails on it: its readers use the fallback
-            return fallback, wrong
-    if wrong is not None:
-        return fallback, wrong
-    return (fallback if value is None else value), None
+            return fallback(), wrong
+    return (value, None) if wrong is None else (fallback(), wrong)
+
+
+_PYTHON_TYPES = {"bool": bool}  # C++ types whose Python values no other C++ type gives (float: float and double)
 
 
 def read_time(attr: Usd.Attribute, time: Usd.TimeCode) -> Usd.TimeCode:
