@@ -885,7 +885,7 @@ def test_shadow_falloff_fades_the_shadow_of_each_of_many_lights():
 def test_usd_shadow_inputs_that_are_no_numbers_read_as_fallbacks_with_a_warning(tmp_path):
     """A shadow distance authored as text, a negative shadow colour or a negative falloff gamma (the schema's
     validator asks for >= 0) is read as the schema's fallback (any distance, black, 1), named in a warning with its
-    light; the light is kept."""
+    light (the text as an input of another type than the schema's); the light is kept."""
 
     def build(stage):
         odd = UsdLux.DiskLight.Define(stage, "/Odd")
@@ -895,9 +895,10 @@ def test_usd_shadow_inputs_that_are_no_numbers_read_as_fallbacks_with_a_warning(
         shadow.CreateShadowFalloffGammaAttr(-2.0)
 
     with pytest.warns(UserWarning, match=r"ShadowAPI inputs that are not finite numbers.*inputs:shadow:color = "
-                                         r"\(0\.5, -0\.2.*inputs:shadow:distance = 'far'.*"
-                                         r"inputs:shadow:falloffGamma = -2\.0: 1\): /Odd$"):
-        scene = wrt.load_usd(write_stage(tmp_path, build))
+                                         r"\(0\.5, -0\.2.*inputs:shadow:falloffGamma = -2\.0: 1\): /Odd$"):
+        with pytest.warns(UserWarning, match=r"another type than the schema's.*\(string inputs:shadow:distance = "
+                                             r"'far': 1\): /Odd$"):
+            scene = wrt.load_usd(write_stage(tmp_path, build))
     (light,) = scene.lights
     assert light.shadow_color is None and light.shadow_distance == -1.0 and light.shadow_falloff_gamma == 1.0
 
@@ -1279,23 +1280,32 @@ def DiskLight "Cold"
 """
 
 
-def test_a_light_input_of_the_wrong_type_skips_that_light_with_a_warning_naming_it(tmp_path):
-    """A string intensity or a token colour stopped the whole load with "cannot read this prim", naming no input; a
-    colour temperature that is not enabled is not read, whatever its type."""
+def test_a_light_input_of_the_wrong_type_is_the_schemas_fallback_with_a_warning_naming_it(tmp_path):
+    """A string intensity or a token colour stopped the whole load with "cannot read this prim", naming no input,
+    and then skipped the light; USD's typed readers pass such a value over for the schema's fallback (intensity 1,
+    white, 6500 K), and so does wrt, naming it. A colour temperature that is not enabled is not read."""
     path = tmp_path / "mistyped.usda"
     path.write_text(MISTYPED_LIGHTS)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = wrt.load_usd(path)
-    messages = [str(w.message) for w in caught if "not a number were skipped" in str(w.message)]
+    messages = [str(w.message) for w in caught if "another type than the schema's" in str(w.message)]
     assert len(messages) == 1, messages
-    for name, shown in (("/Words", "inputs:intensity = 'bright'"), ("/Named", "inputs:color = 'red'"),
-                        ("/Hot", "inputs:colorTemperature = 'warm'")):
-        assert name in messages[0] and shown in messages[0]
-    assert [light.path for light in scene.lights] == ["/Cold"]
+    for name, shown in (("/Words", "string inputs:intensity = 'bright'"), ("/Named", "token inputs:color = 'red'"),
+                        ("/Hot", "string inputs:colorTemperature = 'warm'")):
+        assert name in messages[0] and shown in messages[0], messages[0]
+    assert "/Cold" not in messages[0]
+    assert [light.path for light in scene.lights] == ["/Words", "/Named", "/Hot", "/Cold"]
     stage = Usd.Stage.Open(str(path))
+    fallback = Usd.SchemaRegistry().FindConcretePrimDefinition("DistantLight").GetAttributeFallbackValue
+    np.testing.assert_allclose(scene.lights[1].color, fallback("inputs:intensity") * np.ones(3), rtol=1e-6)
+    hot = UsdLux.RectLight(stage.GetPrimAtPath("/Hot"))
+    rect = hot.GetPrim().GetPrimDefinition().GetAttributeFallbackValue
+    blackbody = UsdLux.BlackbodyTemperatureAsRgb(rect("inputs:colorTemperature"))
+    np.testing.assert_allclose(scene.lights[2].color, np.array(blackbody) * rect("inputs:intensity"), rtol=1e-5)
+    assert hot.GetColorTemperatureAttr().Get() == "warm"  # (Python's untyped read hands the text back)
     intensity = UsdLux.DiskLight(stage.GetPrimAtPath("/Cold")).GetIntensityAttr().Get()
-    np.testing.assert_allclose(scene.lights[0].color, intensity)
+    np.testing.assert_allclose(scene.lights[3].color, intensity)
 
 
 def test_a_blocked_light_input_is_the_schemas_fallback(tmp_path):

@@ -269,3 +269,46 @@ def test_tokens_and_switches_of_another_type_are_the_schemas_fallbacks(tmp_path)
     for words in ("4 prim(s)", "string axis = 'X'", "string orientation = 'leftHanded'", "int doubleSided = 1",
                   "string subdivisionScheme = 'none'"):
         assert words in wrong[0], wrong[0]
+
+
+LIGHTS = """#usda 1.0
+def SphereLight "Ball" {
+    double inputs:radius = 3
+}
+def RectLight "Panel" {
+    double inputs:width = 3
+    int inputs:height = 4
+}
+def DiskLight "Disk" {
+    half inputs:radius = 2
+}
+def CylinderLight "Tube" {
+    double inputs:length = 5
+    float inputs:radius = 0.25
+}
+"""
+
+
+def test_light_sizes_of_another_type_than_the_schemas_are_read_as_compute_extent_reads_them(tmp_path):
+    """``double inputs:radius = 3`` is a SphereLight of radius 0.5 to USD (its extent, from ``Get<float>``, and
+    Hydra's typed reads); wrt lit the scene with a light of radius 3. Each light's size is the one its extent
+    (``ComputeExtentFromPlugins``) has."""
+    path = tmp_path / "lights.usda"
+    path.write_text(LIGHTS)
+    stage = Usd.Stage.Open(str(path))
+    scene, messages = _load(path)
+    lights = {light.path: light for light in scene.lights}
+    default = Usd.TimeCode.Default()
+    half = {name: np.array(UsdGeom.Boundable.ComputeExtentFromPlugins(UsdGeom.Boundable(stage.GetPrimAtPath(name)),
+                                                                      default)[1], np.float64)
+            for name in lights}
+    np.testing.assert_allclose(lights["/Ball"].radius, half["/Ball"][0], rtol=1e-6)
+    np.testing.assert_allclose([lights["/Panel"].width, lights["/Panel"].height], 2 * half["/Panel"][:2], rtol=1e-6)
+    np.testing.assert_allclose(lights["/Disk"].radius, half["/Disk"][0], rtol=1e-6)
+    np.testing.assert_allclose([lights["/Tube"].length, lights["/Tube"].radius],
+                               [2 * half["/Tube"][0], half["/Tube"][1]], rtol=1e-6)
+    wrong = [m for m in messages if "another type than the schema's" in m]
+    assert len(wrong) == 1, messages
+    for words in ("4 prim(s)", "double inputs:radius = 3", "int inputs:height = 4", "half inputs:radius = 2",
+                  "double inputs:length = 5"):
+        assert words in wrong[0], wrong[0]

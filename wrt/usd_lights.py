@@ -48,22 +48,30 @@ def read_light(prim, xforms, time, up_axis: str, skip, to_world=None, textures=N
         textures: a :class:`LightTextures` kept over one load: each texture file is read once, and the lights that
             name it share its image; None: read here.
     """
-    get, legacy = input_reader(prim, time)
+    get, legacy, mistyped = input_reader(prim, time)
     if to_world is None:
         to_world = np.array(xforms.GetLocalToWorldTransform(prim), dtype=np.float64).T  # column-vector convention
     result = _read_light(prim, to_world, time, up_axis, skip, get, LightTextures() if textures is None else textures)
     if legacy:
         skip("light attributes without the inputs: prefix (UsdLux's names before it had one) were read as their "
              "inputs: attributes", prim, ", ".join(legacy))
+    if mistyped:
+        skip("light inputs authored with another type than the schema's were read as USD's typed readers read them "
+             "(a weaker opinion of the schema's type, else the schema's fallback)", prim, ", ".join(mistyped))
     return result
 
 
 def input_reader(prim, time):
-    """``(get, legacy)``: ``get(attr, default)`` reads a light input of ``prim`` at ``time`` (``default`` where it
-    has no value), and ``legacy`` lists the names it read without their ``inputs:`` prefix, for one warning."""
-    from .usd_values import read_time
+    """``(get, legacy, mistyped)``: ``get(attr, default)`` reads a light input of ``prim`` at ``time`` (``default``
+    where it has no value), ``legacy`` lists the names it read without their ``inputs:`` prefix, for one warning,
+    and ``mistyped`` the inputs it read authored with another type than the schema's (``double inputs:radius =
+    3``), which it reads as USD's typed readers do (:func:`wrt.usd_values.schema_typed_value`: a SphereLight of
+    radius 0.5 to its extent and to Hydra, of radius 3 to wrt before); bool switches are :func:`flag`'s."""
+    from pxr import Sdf
 
-    legacy = []
+    from .usd_values import read_time, schema_typed_value
+
+    legacy, mistyped = [], []
     # Names with scene description: an old name with an authored value is one of them (a schema's fallback is none).
     authored = set(prim.GetAuthoredPropertyNames())
 
@@ -84,6 +92,11 @@ def input_reader(prim, time):
                 attr, has_value = old, True
         if not attr:
             return default
+        if has_value and attr.GetTypeName() != Sdf.ValueTypeNames.Bool:
+            value, wrong = schema_typed_value(attr, time)
+            if wrong is not None and wrong not in mistyped:
+                mistyped.append(wrong)
+            return default if value is None else value
         # value_at(attr, time), its HasAuthoredValue known: read_time only where it can matter.
         value = attr.Get(read_time(attr, time) if has_value else time)
         if value is None:  # a value block (= None) resolves to the schema's fallback, as USD's value resolution says:
@@ -91,7 +104,7 @@ def input_reader(prim, time):
             value = prim.GetPrimDefinition().GetAttributeFallbackValue(attr.GetName())
         return default if value is None else value
 
-    return get, legacy
+    return get, legacy, mistyped
 
 
 def sphere_inputs(prim, time) -> tuple[float, bool]:
@@ -99,7 +112,7 @@ def sphere_inputs(prim, time) -> tuple[float, bool]:
     it reads the prim first)."""
     from pxr import UsdLux
 
-    get, _ = input_reader(prim, time)
+    get, *_ = input_reader(prim, time)
     light = UsdLux.SphereLight(prim)
     return float(get(light.GetRadiusAttr(), 0.5)), flag(get, light.GetTreatAsPointAttr(), False)
 
