@@ -1149,6 +1149,22 @@ def test_a_composition_error_is_reported_once_naming_the_prim_and_the_asset(tmp_
     assert result.stderr.count("an unrelated USD warning") == 1, result.stderr
 
 
+def test_a_missing_sublayer_is_reported_once(tmp_path):
+    """USD words a composition error at the root without the "In </>: " its other reports start with, so its own
+    line for a missing subLayer still printed beside wrt's warning: the same error twice."""
+    import subprocess
+    import sys
+
+    path = write_usda(tmp_path, mesh_usda("Kept"), layer_meta="subLayers = [@./gone_layer.usda@]")
+    script = tmp_path / "load.py"
+    script.write_text("import sys\nimport wrt\nwrt.load_usd(sys.argv[1])\n")
+    result = subprocess.run([sys.executable, str(script), path], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    reports = [line for line in result.stderr.splitlines() if "gone_layer.usda" in line]
+    assert len(reports) == 1 and "1 composition error(s)" in reports[0], result.stderr
+    assert f"/: Could not load sublayer @{tmp_path}/gone_layer.usda@" in reports[0], reports[0]
+
+
 def test_composition_errors_past_those_the_warning_names_are_still_printed_once(tmp_path):
     """Twelve missing references: the warning names eight and counts the rest, whose USD lines still print (held
     back, they would be read nowhere); each of the twelve assets appears on stderr exactly once."""

@@ -95,7 +95,9 @@ def warn_composition_errors(stage: Usd.Stage, source: str, trap=None) -> None:
     )
     if trap is not None:
         # Only the errors the warning names: USD's own lines for the rest still print, so none goes unread.
-        reported = {f"In <{prim}>: {text}" for prim, text in named}  # how UsdStage::_ReportErrors words them
+        # How UsdStage::_ReportErrors words them: "In </World/Chair>: Could not open asset ..."; one at the root (a
+        # missing subLayer) without the "In </>: ", so its line printed beside the warning.
+        reported = {f"In <{prim}>: {text}" for prim, text in named} | {text for prim, text in named if prim == "/"}
         trap.EraseMatching(lambda d: d.sourceFunction.endswith("UsdStage::_ReportErrors")
                            and any(d.commentary.startswith(r) for r in reported))
 
