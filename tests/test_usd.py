@@ -1086,8 +1086,13 @@ def test_bad_points(tmp_path, kwargs, fragments):
         # Float holes were cast with numpy: 1e30 raised OverflowError, 1.5 hid face 1.
         ("int[] faceVertexCounts = [4, 5]", "int[] faceVertexCounts = [4, 5]\n    float[] holeIndices = [1e30]",
          ["holeIndices must be int[], not float[]"]),
+        # Integers of another type: numpy took them as int[], while USD's typed read gets no value from them.
+        ("int[] faceVertexCounts = [4, 5]", "int64[] faceVertexCounts = [4, 5]",
+         ["faceVertexCounts must be int[], not int64[]"]),
+        ("int[] faceVertexIndices", "uint[] faceVertexIndices", ["faceVertexIndices must be int[], not uint[]"]),
     ],
-    ids=["float-indices", "string-counts", "scalar-counts", "int2-counts", "float-holes"],
+    ids=["float-indices", "string-counts", "scalar-counts", "int2-counts", "float-holes", "int64-counts",
+         "uint-indices"],
 )
 def test_mistyped_topology(tmp_path, old, new, fragments):
     text = mesh_usda("Bad")
@@ -1095,6 +1100,18 @@ def test_mistyped_topology(tmp_path, old, new, fragments):
     body = 'def Xform "World"\n{\n' + text.replace(old, new) + "}\n"
     err = expect_scene_error(write_usda(tmp_path, body), "/World/Bad", *fragments)
     assert err.prim == "/World/Bad"
+
+
+def test_int64_face_counts_are_no_faces_to_usd_and_an_error_to_wrt(tmp_path):
+    """USD reads no faces from ``int64[] faceVertexCounts`` (``GetFaceCount``, which reads them as ``int[]``, says
+    0; usdview draws nothing there), where wrt drew the faces numpy read from them; it now refuses them as it
+    refuses other topology of another type than ``int[]``."""
+    text = mesh_usda("Bad").replace("int[] faceVertexCounts", "int64[] faceVertexCounts")
+    path = write_usda(tmp_path, 'def Xform "World"\n{\n' + text + "}\n")
+    stage = Usd.Stage.Open(path)
+    mesh = UsdGeom.Mesh(stage.GetPrimAtPath("/World/Bad"))
+    assert mesh.GetFaceCount() == 0 and len(mesh.GetFaceVertexCountsAttr().Get()) > 0
+    expect_scene_error(path, "/World/Bad", "faceVertexCounts must be int[], not int64[]")
 
 
 @pytest.mark.parametrize(

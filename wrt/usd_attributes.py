@@ -5,7 +5,7 @@ prim."""
 from __future__ import annotations
 
 import numpy as np
-from pxr import Usd, UsdGeom
+from pxr import Usd, UsdGeom, Vt
 
 from .usd_values import moved_positions, schema_typed_value, value_at
 
@@ -33,14 +33,15 @@ class AttributeReading:
         """``(N,)`` int64 value of an ``int[]`` topology attribute at the read time (empty when it has none).
 
         Raises:
-            SceneError: the value authored is not a 1-D array of integers (``float[]`` would be truncated and
-                ``string[] ["3"]`` parsed by numpy without a word).
+            SceneError: the value authored is not ``int[]`` (``float[]`` would be truncated and ``string[] ["3"]``
+                parsed by numpy without a word; ``int64[]`` and ``uint[]``, which numpy took as integers, are no
+                faces to USD, whose typed read gets no value from them: ``GetFaceCount`` 0, usdview draws nothing).
         """
         value = value_at(attr, self.time)
         if value is None:
             return np.zeros(0, np.int64)
         array = np.asarray(value)
-        if array.ndim != 1 or array.dtype.kind not in "iu":
+        if array.ndim != 1 or array.dtype.kind not in "iu" or not isinstance(value, Vt.IntArray):
             raise self._error(f"{attr.GetName()} must be int[], not {self._authored_type(attr)}", prim, attr)
         return array.astype(np.int64)
 
