@@ -312,3 +312,52 @@ def test_light_sizes_of_another_type_than_the_schemas_are_read_as_compute_extent
     for words in ("4 prim(s)", "double inputs:radius = 3", "int inputs:height = 4", "half inputs:radius = 2",
                   "double inputs:length = 5"):
         assert words in wrong[0], wrong[0]
+
+
+ORDERS = """#usda 1.0
+(
+    subLayers = [@./weak.usda@]
+)
+def Mesh "StringOrder" {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    double3 xformOp:translate = (5, 0, 0)
+    uniform string[] xformOpOrder = ["xformOp:translate"]
+}
+def Xform "OverWeaker" {
+    double3 xformOp:translate = (0, 5, 0)
+    float xformOp:rotateZ = 90
+    uniform string[] xformOpOrder = ["xformOp:translate", "xformOp:rotateZ"]
+    def Mesh "Child" {
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+        point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+    }
+}
+"""
+
+ORDERS_WEAKER = """#usda 1.0
+over "OverWeaker" {
+    uniform token[] xformOpOrder = ["xformOp:rotateZ"]
+}
+"""
+
+
+def test_an_xform_op_order_of_another_type_than_token_is_read_as_xform_cache_reads_it(tmp_path):
+    """``uniform string[] xformOpOrder`` names no op to USD (``GetOrderedXformOps`` is empty, the cache's transform
+    the identity), or over a weaker layer's ``token[]`` the weaker order; wrt applied the ops the text names."""
+    (tmp_path / "weak.usda").write_text(ORDERS_WEAKER)
+    path = tmp_path / "orders.usda"
+    path.write_text(ORDERS)
+    stage = Usd.Stage.Open(str(path))
+    scene, messages = _load(path)
+    cache = UsdGeom.XformCache()
+    assert sorted(mesh.path for mesh in scene.meshes) == ["/OverWeaker/Child", "/StringOrder"]
+    for mesh in scene.meshes:
+        prim = stage.GetPrimAtPath(mesh.path)
+        local = np.array(UsdGeom.Mesh(prim).GetPointsAttr().Get(), np.float64)
+        world = np.c_[local, np.ones(len(local))] @ np.array(cache.GetLocalToWorldTransform(prim))
+        np.testing.assert_allclose(mesh.points, world[:, :3], atol=1e-6, err_msg=mesh.path)
+    wrong = [m for m in messages if "xformOpOrder" in m and "another type" in m]
+    assert len(wrong) == 1 and "/StringOrder" in wrong[0] and "/OverWeaker" in wrong[0], messages

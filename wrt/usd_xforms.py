@@ -26,9 +26,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pxr import Gf, Sdf, Tf, Usd, UsdGeom
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, Vt
 
-from .usd_values import HAS_SPLINES, read_time
+from .usd_values import HAS_SPLINES, read_time, schema_typed_value
 
 DEFAULT = Usd.TimeCode.Default()
 PROJECTIVE = "world transform is projective; its last column was ignored"
@@ -40,6 +40,8 @@ VALUELESS_OP = ("transform ops declared with no value (no default, no time sampl
                 "reads them")
 SINGULAR_INVERSE = ("inverted transform ops that have no inverse (a zero scale, a singular matrix) were left out (the "
                     "identity), as USD leaves out a singular !invert!xformOp:transform")
+MISTYPED_ORDER = ("xformOpOrder authored with another type than the schema's token[] was read as USD reads it (a "
+                  "weaker token[] opinion, else no ops: the identity)")
 OPS_BEFORE_RESET = "ops before a !resetXformStack! that is not first in xformOpOrder were ignored, as USD ignores them"
 RESET = "!resetXformStack!"  # UsdGeom.XformOpTypes.resetXformStack
 INVERT = "!invert!"  # the prefix of an inverted op's name in xformOpOrder
@@ -125,7 +127,12 @@ class Xforms:
         identity) and named to ``warn``."""
         if not prim.IsA(UsdGeom.Xformable):
             return Gf.Matrix4d(1.0), False
-        order = [str(name) for name in UsdGeom.Xformable(prim).GetXformOpOrderAttr().Get() or []]
+        attr = UsdGeom.Xformable(prim).GetXformOpOrderAttr()
+        order = attr.Get()
+        if order and not isinstance(order, Vt.TokenArray):  # a string[]: USD's typed read passes it over
+            order, wrong = schema_typed_value(attr, DEFAULT)
+            self._warn(MISTYPED_ORDER, prim, wrong)
+        order = [str(name) for name in order or []]
         resets = RESET in order
         if resets:
             last = len(order) - 1 - order[::-1].index(RESET)
@@ -188,6 +195,8 @@ class Xforms:
         order = prim.GetAttribute(XFORM_OP_ORDER).Get()
         if not order:
             return False
+        if not isinstance(order, Vt.TokenArray):  # a string[], which names no op to USD: _local reads it as USD does
+            return True
         # Not asked whether prim is Xformable: one that is not (an xformOpOrder on a Scope, which USD ignores) and
         # is malformed is only resolved op by op, as the identity (_local).
         try:
