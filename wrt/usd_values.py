@@ -45,7 +45,8 @@ def schema_typed_value(attr: Usd.Attribute, time: Usd.TimeCode, read=None):
     ``BBoxCache`` and UsdImaging use, does not convert: an opinion of another value type (``float radius`` where the
     schema says ``double``, ``int size``, ``double focalLength``, ``point3d[] points``) is passed over at the default
     time, for the next weaker default of the schema's type, else the schema's fallback (none for ``points``); at a
-    time (its samples, or a default read at a time) USD's read fails on it and its readers use the fallback.
+    time (its samples, or a default read at a time) USD's read fails on it: ``GetCamera`` keeps its fallbacks,
+    ``ComputeExtent`` computes no extent, and wrt reads the schema's fallback.
     Python's ``Get`` hands any type back, so wrt drew a ``float radius = 3`` sphere of radius 3 that usdview draws
     of radius 1. Roles are no types here: ``float3[] points`` is ``point3f[]``. ``read``: the value the caller
     read already (a mesh's points, not read twice), or None.
