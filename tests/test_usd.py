@@ -1212,14 +1212,6 @@ def test_stage_without_composition_errors_does_not_warn(tmp_path):
     assert [m.path for m in scene.meshes] == ["/World"]
 
 
-def test_topology_of_other_integer_types_reads_as_int(tmp_path):
-    """int64[] and uint[] hold exact integers, so they are read rather than refused."""
-    text = mesh_usda().replace("int[] faceVertexCounts", "int64[] faceVertexCounts")
-    text = text.replace("int[] faceVertexIndices", "uint[] faceVertexIndices")
-    (mesh,) = load(write_usda(tmp_path, text)).meshes
-    assert len(mesh.indices) == 5  # the quad and the pentagon: 2 + 3 triangles
-
-
 @pytest.mark.parametrize(
     "name, interpolation, count, fragment",
     [
